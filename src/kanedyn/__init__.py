@@ -1,0 +1,30 @@
+"""kanedyn: multibody dynamics by Kane's method.
+
+Public API (see the README and ``docs/``)::
+
+    import kanedyn as kd
+    eom = kd.kane(system)                     # or KanesMethod-style keywords
+    model = eom.numeric(constants={...})
+    res = kd.simulate(model, (0, 10), y0)
+"""
+
+from ._eom import EquationsOfMotion
+from ._errors import (ConstraintError, KanedynError, KinematicsError,
+                      MissingValueError, ModelError)
+from ._formulation import FORMULATIONS, formulate, kane
+from ._numeric import NumericModel
+
+__version__ = "0.1.0"
+
+__all__ = [
+    "kane",
+    "formulate",
+    "FORMULATIONS",
+    "EquationsOfMotion",
+    "NumericModel",
+    "KanedynError",
+    "ModelError",
+    "KinematicsError",
+    "ConstraintError",
+    "MissingValueError",
+]

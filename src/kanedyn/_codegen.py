@@ -1,0 +1,112 @@
+"""Python source generated from a straight-line program.
+
+The generated function evaluates only the intermediates its outputs need, one
+assignment per intermediate, with scalar ``math`` functions, and returns NumPy
+arrays.  Its arguments are ``(t, y, p, r)``: time, state, constants and
+specified inputs, each an indexable sequence.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import sympy as sm
+from sympy.printing.pycode import PythonCodePrinter
+
+from ._errors import KanedynError
+
+__all__ = ["CodegenError", "generate_python", "compile_python"]
+
+
+class CodegenError(KanedynError, ValueError):
+    """An expression cannot be turned into code."""
+
+
+class _Printer(PythonCodePrinter):
+    def __init__(self, names):
+        super().__init__({"fully_qualified_modules": True, "standard": "python3",
+                          "strict": True})
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        try:
+            return self._names[expr]
+        except KeyError:
+            raise CodegenError(f"symbol {expr} has no value in the generated code") \
+                from None
+
+    _print_Dummy = _print_Symbol
+
+
+def generate_python(program, name, arguments, outputs, origin=None):
+    """Source of a function ``name(t, y, p, r)``.
+
+    Parameters
+    ----------
+    program : Program
+    name : str
+    arguments : dict
+        ``{"y": [symbols], "p": [symbols], "r": [symbols]}``: which symbol is
+        which entry of each argument.
+    outputs : list of (shape, list of expressions)
+        Returned in order; shape ``()`` is a scalar, ``(n,)`` a vector,
+        ``(n, m)`` a matrix (row-major expression list).
+    origin : callable, optional
+        ``origin(expr)`` describes where an expression came from (for errors).
+
+    Returns
+    -------
+    str
+    """
+    names = {program.t: "t"}
+    lines = [f"def {name}(t, y, p, r):"]
+    for arg, symbols in arguments.items():
+        for i, s in enumerate(symbols):
+            local = f"_{arg}{i}"
+            names[s] = local
+            lines.append(f"    {local} = {arg}[{i}]")
+    printer = _Printer(names)
+    flat = [e for _, exprs in outputs for e in exprs]
+    for k, s in enumerate(program.needed(flat)):
+        local = f"_z{k}"
+        try:
+            code = printer.doprint(program.definition(s))
+        except CodegenError as exc:
+            raise CodegenError(f"{exc} (in the intermediate {s.name}"
+                               f"{origin(s) if origin else ''})") from None
+        except Exception as exc:  # printer cannot handle the expression
+            raise CodegenError(
+                f"cannot generate code for {program.definition(s)} (intermediate "
+                f"{s.name}): {exc}") from None
+        names[s] = local
+        lines.append(f"    {local} = {code}")
+    results = []
+    for k, (shape, exprs) in enumerate(outputs):
+        codes = [printer.doprint(sm.sympify(e)) for e in exprs]
+        if shape == ():
+            lines.append(f"    _out{k} = {codes[0]}")
+        elif len(shape) == 1:
+            lines.append(f"    _out{k} = _array([{', '.join(codes)}], dtype=float)"
+                         if codes else f"    _out{k} = _zeros(0)")
+        else:
+            rows, cols = shape
+            if rows * cols == 0:
+                lines.append(f"    _out{k} = _zeros(({rows}, {cols}))")
+            else:
+                body = ", ".join("[" + ", ".join(codes[i * cols:(i + 1) * cols]) + "]"
+                                 for i in range(rows))
+                lines.append(f"    _out{k} = _array([{body}], dtype=float)")
+        results.append(f"_out{k}")
+    lines.append(f"    return ({', '.join(results)}{',' if len(results) == 1 else ''})")
+    return "\n".join(lines) + "\n"
+
+
+_NAMESPACE = {"math": math, "_array": np.array, "_zeros": np.zeros}
+
+
+def compile_python(source, name):
+    """Execute generated source and return the function called ``name``."""
+    namespace = dict(_NAMESPACE)
+    exec(compile(source, f"<kanedyn:{name}>", "exec"), namespace)
+    return namespace[name]

@@ -1,0 +1,365 @@
+r"""The frozen result of a formulation: :class:`EquationsOfMotion`.
+
+Internally the equations live in a straight-line program (named intermediates).
+The SymPy-convention matrices (``mass_matrix``, ``forcing``, ``*_full``) are
+explicit expressions in the model's own symbols, built on first access and
+cached: they are a compatibility view, potentially large for big systems.  The
+numerical path (:meth:`EquationsOfMotion.numeric`) never builds them.
+
+Conventions (identical to SymPy's ``KanesMethod``)::
+
+    mass_matrix_full * [q'; u'] = forcing_full
+
+    mass_matrix = [k_d; k_dnh]          (o x o)
+    forcing     = [f_r~ - n_r~; -f_dnh] (o)
+
+with :math:`k_d = M_{ind} + A_r^T M_{dep}`, :math:`A_r = -B_{dep}^{-1} B_{ind}`
+from the velocity constraints :math:`B u + b = 0` and the acceleration
+constraints :math:`k_{dnh}\,\dot u + f_{dnh} = 0`.
+"""
+
+from __future__ import annotations
+
+from functools import cached_property
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._symbols import name_of
+
+__all__ = ["EquationsOfMotion"]
+
+
+class EquationsOfMotion:
+    """Equations of motion of a multibody system; immutable.
+
+    Created by :func:`kanedyn.kane` (or another formulation); do not construct
+    directly.
+
+    Attributes
+    ----------
+    frame : sympy.physics.mechanics.ReferenceFrame
+        The inertial frame.
+    q_ind, q_dep, u_ind, u_dep, u_aux : tuple of sympy dynamic symbols
+        Independent and dependent generalized coordinates and speeds, and
+        auxiliary speeds.
+    method : str
+        Name of the formulation that produced the equations (``"kane"``).
+    bodies, loads : tuple
+        The SymPy bodies and loads the equations were derived from.
+    """
+
+    _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
+               "qdot", "kinematic_matrices", "mass", "active", "remainder",
+               "vel_B", "vel_f", "acc_K", "acc_f", "config", "aux_K", "aux_f",
+               "kinetic", "potential", "body_terms", "method")
+
+    def __init__(self):
+        raise TypeError("EquationsOfMotion is created by kanedyn.kane(...)")
+
+    @classmethod
+    def _from_derivation(cls, **fields):
+        missing = set(cls._FIELDS) - set(fields)
+        if missing:
+            raise TypeError(f"missing fields {sorted(missing)}")
+        self = object.__new__(cls)
+        for name in cls._FIELDS:
+            object.__setattr__(self, "_" + name, fields[name])
+        spec = fields["spec"]
+        for name in ("frame", "q_ind", "q_dep", "u_ind", "u_dep", "u_aux", "bodies",
+                     "loads"):
+            object.__setattr__(self, name, getattr(spec, name))
+        object.__setattr__(self, "method", fields["method"])
+        return self
+
+    def __setattr__(self, name, value):
+        raise AttributeError("EquationsOfMotion is immutable")
+
+    def __delattr__(self, name):
+        raise AttributeError("EquationsOfMotion is immutable")
+
+    def __repr__(self):
+        return (f"<EquationsOfMotion ({self.method}): {len(self.q)} coordinates "
+                f"({len(self.q_dep)} dependent), {len(self.u)} speeds "
+                f"({len(self.u_dep)} dependent), {len(self.u_aux)} auxiliary, "
+                f"{len(self._program)} intermediates>")
+
+    # ------------------------------------------------------------- symbols
+    @property
+    def q(self):
+        """Generalized coordinates, independent then dependent."""
+        return self.q_ind + self.q_dep
+
+    @property
+    def u(self):
+        """Generalized speeds, independent then dependent."""
+        return self.u_ind + self.u_dep
+
+    @property
+    def state(self):
+        """The state vector ``[q, u]`` (as dynamic symbols)."""
+        return self.q + self.u
+
+    @property
+    def state_names(self):
+        return tuple(name_of(s) for s in self.state)
+
+    @property
+    def kd_eqs(self):
+        """The kinematic differential equations as given."""
+        return self._spec.kd_eqs
+
+    def _all_outputs(self):
+        out = list(self._qdot)
+        for row in self._mass:
+            out.extend(row)
+        out.extend(self._active)
+        out.extend(self._remainder)
+        for row in self._vel_B:
+            out.extend(row)
+        out.extend(self._vel_f)
+        for row in self._acc_K:
+            out.extend(row)
+        out.extend(self._acc_f)
+        out.extend(self._config)
+        return out
+
+    def _leaf_symbols(self, exprs):
+        prog = self._program
+        found = set()
+        for e in exprs:
+            found |= prog.deps(e)
+        return found
+
+    @cached_property
+    def constants(self):
+        """Constant symbols the equations of motion depend on, sorted by name."""
+        leaves = self._leaf_symbols(self._all_outputs())
+        table = self._table
+        consts = [s for s in leaves if not table.is_dynamic(s) and s != table.t
+                  and s not in table.qdot_raw]
+        return tuple(sorted(consts, key=str))
+
+    @cached_property
+    def specified(self):
+        """Specified inputs (functions of time, and derivatives) the equations need."""
+        leaves = self._leaf_symbols(self._all_outputs())
+        table = self._table
+        return tuple(ext for ext, int_ in table.specified.items() if int_ in leaves)
+
+    # ---------------------------------------------------- explicit views
+    def _explicit(self, expr):
+        return self._table.external(self._program.expand(expr))
+
+    def _explicit_matrix(self, rows):
+        rows = [list(r) for r in rows]
+        if not rows:
+            return sm.Matrix()
+        return sm.Matrix([[self._explicit(e) for e in row] for row in rows])
+
+    def kindiffdict(self):
+        """Mapping ``{q': expression in u}`` (as SymPy's ``kindiffdict``)."""
+        t = self._table.t
+        return {q.diff(t): self._explicit(e) for q, e in zip(self.q, self._qdot)}
+
+    @cached_property
+    def _ars(self):
+        """Compact :math:`A_r = -B_{dep}^{-1} B_{ind}` (m x p)."""
+        p = len(self.u_ind)
+        if not self.u_dep:
+            return sm.Matrix(0, p, [])
+        B = sm.Matrix(self._vel_B)
+        sol = -B[:, p:].LUsolve(B[:, :p])
+        return sol.applyfunc(lambda e: self._program.let(e, "Ar"))
+
+    def _reduced(self, rows):
+        """``rows[ind] + A_r^T rows[dep]`` for an o-row matrix."""
+        rows = sm.Matrix(rows)
+        p = len(self.u_ind)
+        if not self.u_dep:
+            return rows
+        return rows[:p, :] + self._ars.T * rows[p:, :]
+
+    @cached_property
+    def _compact_mass_matrix(self):
+        k_d = self._reduced([list(r) for r in self._mass])
+        if self.u_dep:
+            k_d = k_d.col_join(sm.Matrix(self._acc_K))
+        return k_d
+
+    @cached_property
+    def _compact_forcing(self):
+        f = sm.Matrix([a - n for a, n in zip(self._active, self._remainder)])
+        f = self._reduced(f)
+        if self.u_dep:
+            f = f.col_join(-sm.Matrix(self._acc_f))
+        return f
+
+    @cached_property
+    def mass_matrix(self):
+        """Mass matrix of the dynamic (and acceleration-constraint) equations, o x o."""
+        return self._explicit_matrix(self._compact_mass_matrix.tolist())
+
+    @cached_property
+    def forcing(self):
+        """Forcing vector matching :attr:`mass_matrix`, o x 1."""
+        return self._explicit_matrix(self._compact_forcing.tolist())
+
+    @cached_property
+    def mass_matrix_kin(self):
+        """Coefficient matrix of q' in the kinematic equations (identity if explicit)."""
+        n = len(self.q)
+        if self._explicit_kinematics:
+            return sm.eye(n)
+        K, _, _ = self._kinematic_matrices
+        return self._table.external_matrix(K)
+
+    @cached_property
+    def forcing_kin(self):
+        """Right-hand side of the kinematic equations."""
+        if self._explicit_kinematics:
+            return sm.Matrix([self._explicit(e) for e in self._qdot])
+        _, Ku, f = self._kinematic_matrices
+        return self._table.external_matrix(-(Ku * sm.Matrix(self._table.u) + f))
+
+    @cached_property
+    def mass_matrix_full(self):
+        """Block-diagonal ``[[mass_matrix_kin, 0], [0, mass_matrix]]``."""
+        n, o = len(self.q), len(self.u)
+        return self.mass_matrix_kin.row_join(sm.zeros(n, o)).col_join(
+            sm.zeros(o, n).row_join(self.mass_matrix))
+
+    @cached_property
+    def forcing_full(self):
+        """``[forcing_kin; forcing]``."""
+        return self.forcing_kin.col_join(self.forcing)
+
+    @cached_property
+    def generalized_active_forces(self):
+        r"""Generalized active forces :math:`\tilde F_r` (reduced as SymPy's ``fr``)."""
+        return self._explicit_matrix(self._reduced(
+            sm.Matrix(self._active)).tolist())
+
+    @cached_property
+    def generalized_inertia_forces(self):
+        r"""Generalized inertia forces :math:`\tilde F^*_r` (SymPy's ``frstar``)."""
+        t = self._table.t
+        udot = sm.Matrix(self._table.udot)
+        frstar = -(sm.Matrix([list(r) for r in self._mass]) * udot
+                   + sm.Matrix(self._remainder))
+        frstar = self._reduced(frstar)
+        out = self._explicit_matrix(frstar.tolist())
+        del t
+        return out
+
+    @cached_property
+    def auxiliary_equations(self):
+        r"""Auxiliary equations :math:`F_a + F^*_a = 0`, one per auxiliary speed.
+
+        They contain the accelerations :math:`\dot u` and the constraint-force
+        symbols the auxiliary speeds expose.
+        """
+        if not self.u_aux:
+            raise ValueError("no auxiliary speeds (u_auxiliary) were given, so there "
+                             "are no auxiliary equations")
+        udot = sm.Matrix(self._table.udot)
+        rows = sm.Matrix(self._aux_K) * udot + sm.Matrix(self._aux_f)
+        return self._explicit_matrix(rows.tolist())
+
+    @cached_property
+    def partial_velocities(self):
+        """Partial velocities and angular velocities, per body.
+
+        Returns
+        -------
+        dict
+            ``{body name: (velocities, angular_velocities)}``, each a list of
+            SymPy ``Vector`` in the inertial frame, one per speed of
+            ``u + u_aux``.
+        """
+        N = self.frame
+        out = {}
+        for terms in self._body_terms:
+            vs = [self._as_vector(v) for v in terms.partial_velocities]
+            ws = [self._as_vector(w) for w in terms.partial_angular_velocities]
+            out[terms.body.name] = (vs, ws)
+        del N
+        return out
+
+    def _as_vector(self, comps):
+        N = self.frame
+        x, y, z = (self._explicit(c) for c in comps)
+        return x * N.x + y * N.y + z * N.z
+
+    @cached_property
+    def kinetic_energy(self):
+        """Kinetic energy, explicit."""
+        return self._explicit(self._kinetic)
+
+    @cached_property
+    def potential_energy(self):
+        """Potential energy if the model declared one, else ``None``."""
+        return None if self._potential is None else self._explicit(self._potential)
+
+    # --------------------------------------------------------- inspection
+    def operation_counts(self):
+        """Operation counts of the compact (shared-intermediate) equations.
+
+        Returns
+        -------
+        dict
+            ``mass_matrix``, ``forcing``, ``both`` (counted jointly, shared
+            intermediates once) and ``intermediates``.
+        """
+        prog = self._program
+        M = [e for row in self._mass for e in row]
+        F = list(self._active) + list(self._remainder) + list(self._qdot)
+        return {"mass_matrix": prog.count_ops(M), "forcing": prog.count_ops(F),
+                "both": prog.count_ops(M + F), "intermediates": len(prog.needed(M + F))}
+
+    def to_latex(self, explicit=None, max_ops=400):
+        r"""LaTeX of the kinematic and dynamic equations.
+
+        Parameters
+        ----------
+        explicit : bool, optional
+            Print explicit expressions (default when they are small) or the
+            compact form with its intermediates listed.
+        max_ops : int
+            Size above which ``explicit=None`` chooses the compact form.
+        """
+        from ._latex import equations_latex
+        return equations_latex(self, explicit=explicit, max_ops=max_ops)
+
+    def _repr_latex_(self):
+        return "$\\displaystyle " + self.to_latex() + "$"
+
+    # ------------------------------------------------------------ numerics
+    def numeric(self, constants=None, specified=None, backend="numpy", **options):
+        """Numerical model: ``rhs(t, y)``, mass matrix, constraints, energies.
+
+        Parameters
+        ----------
+        constants : dict
+            ``{symbol or name: value}`` for every symbol in :attr:`constants`.
+        specified : dict, optional
+            Values of the specified inputs in :attr:`specified`: a number, a
+            SymPy expression in ``t`` (substituted exactly, derivatives included),
+            a callable ``f(t)`` or a callable ``f(t, y)``.
+        backend : {"numpy"}
+            Code generator.
+
+        Returns
+        -------
+        NumericModel
+        """
+        from ._numeric import build_numeric_model
+        return build_numeric_model(self, constants or {}, specified or {}, backend,
+                                   **options)
+
+    def linearize(self, op_point=None, A_and_B=True, constants=None, specified=None,
+                  **kwargs):
+        """Linearize about an operating point; see :func:`kanedyn.linearize`."""
+        from ._linearize import linearize_symbolic
+        return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,
+                                  constants=constants, specified=specified, **kwargs)

@@ -1,0 +1,122 @@
+"""The formulation registry: ``formulate(model, method=...)``.
+
+Every formulation takes the same model description (a
+``sympy.physics.mechanics.System`` or KanesMethod keywords) and returns an
+:class:`EquationsOfMotion`.  Kane's method is the reference; later formulations
+register themselves here under their own names.
+"""
+
+from __future__ import annotations
+
+from ._errors import ModelError
+from ._input import parse_model
+from ._progress import as_progress
+
+__all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
+
+FORMULATIONS = {}
+
+
+def register_formulation(name, derive):
+    """Register ``derive(spec, progress=..., **options) -> EquationsOfMotion``."""
+    FORMULATIONS[name] = derive
+
+
+def formulate(*args, method="kane", progress=False, **kwargs):
+    """Equations of motion of a model by the named formulation.
+
+    Parameters
+    ----------
+    *args, **kwargs
+        A ``sympy.physics.mechanics.System``, or the keywords of
+        :func:`kanedyn.kane`.
+    method : str
+        A key of :data:`FORMULATIONS`.
+    progress : bool
+        Print progress of long derivations to stderr.
+
+    Returns
+    -------
+    EquationsOfMotion
+    """
+    try:
+        derive = FORMULATIONS[method]
+    except KeyError:
+        raise ModelError(f"unknown formulation {method!r}; available: "
+                         f"{', '.join(sorted(FORMULATIONS))}") from None
+    options = {k: kwargs.pop(k) for k in ("explicit_kinematics",) if k in kwargs}
+    spec = parse_model(*args, **kwargs)
+    return derive(spec, progress=as_progress(progress), **options)
+
+
+def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
+    r"""Kane's equations of motion, derived by kanedyn.
+
+    Parameters
+    ----------
+    system : sympy.physics.mechanics.System, optional
+        A complete model (joints, bodies, loads, constraints).  Alternatively
+        give the keywords below, as for SymPy's ``KanesMethod``.
+    frame : ReferenceFrame
+        The inertial frame.
+    q_ind, u_ind : sequence of dynamicsymbols
+        Independent generalized coordinates and speeds.
+    kd_eqs : sequence of expressions
+        Kinematic differential equations ``f(q', u, q, t) = 0``, linear in q'
+        and u.
+    q_dep, u_dep : sequence of dynamicsymbols, optional
+        Dependent coordinates and speeds (aliases ``q_dependent``,
+        ``u_dependent``).
+    configuration_constraints : sequence of expressions, optional
+        Holonomic constraints ``f(q, t) = 0``, one per dependent coordinate.
+    velocity_constraints : sequence of expressions, optional
+        ``f(u, q, t) = 0``, one per dependent speed, including the time
+        derivatives of the configuration constraints.  Derived from the
+        configuration constraints when omitted.
+    acceleration_constraints : sequence of expressions, optional
+        Defaults to the time derivative of the velocity constraints.
+    u_auxiliary : sequence of dynamicsymbols, optional
+        Auxiliary speeds that expose constraint forces
+        (:attr:`EquationsOfMotion.auxiliary_equations`).
+    bodies : sequence of RigidBody or Particle
+    loads : sequence of Force, Torque or (Point | ReferenceFrame, Vector)
+        (alias ``forcelist``).
+    potential_energy : expression, optional
+        Used only to report total energy; defaults to the sum of the bodies'
+        ``potential_energy`` attributes.
+    explicit_kinematics : bool
+        As in SymPy: ``mass_matrix_full`` has an identity kinematic block.
+    progress : bool
+        Print progress of long derivations to stderr.
+
+    Returns
+    -------
+    EquationsOfMotion
+
+    Examples
+    --------
+    >>> import sympy as sm, sympy.physics.mechanics as me, kanedyn as kd
+    >>> q, u = me.dynamicsymbols('q u')
+    >>> m, l, g = sm.symbols('m l g')
+    >>> N, A = me.ReferenceFrame('N'), me.ReferenceFrame('A')
+    >>> A.orient_axis(N, N.z, q)
+    >>> A.set_ang_vel(N, u * N.z)
+    >>> O = me.Point('O'); O.set_vel(N, 0)
+    >>> P = O.locatenew('P', l * A.x); P.v2pt_theory(O, N, A)
+    l*u(t)*A.y
+    >>> bob = me.Particle('bob', P, m)
+    >>> eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+    ...               bodies=[bob], loads=[(P, -m * g * N.y)])
+    >>> eom.mass_matrix
+    Matrix([[l**2*m]])
+    """
+    return formulate(*args, method="kane", progress=progress,
+                     explicit_kinematics=explicit_kinematics, **kwargs)
+
+
+def _register_builtin():
+    from ._kane import derive_kane
+    register_formulation("kane", derive_kane)
+
+
+_register_builtin()

@@ -1,0 +1,217 @@
+"""Normalize what a user hands to :func:`kanedyn.kane` into a :class:`ModelSpec`.
+
+Accepted are the keywords of SymPy's ``KanesMethod`` / ``kanes_equations`` (with
+SymPy's own spellings ``q_dependent``, ``u_dependent`` and ``forcelist`` as
+aliases) or a ``sympy.physics.mechanics.System``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import sympy as sm
+import sympy.physics.mechanics as me
+from sympy.physics.mechanics.loads import _parse_load
+
+from ._errors import ModelError
+from ._symbols import name_of
+
+__all__ = ["ModelSpec", "parse_model"]
+
+_ALIASES = {"q_dependent": "q_dep", "u_dependent": "u_dep", "forcelist": "loads",
+            "inertial_frame": "frame"}
+_KEYWORDS = ("frame", "q_ind", "u_ind", "kd_eqs", "q_dep", "u_dep",
+             "configuration_constraints", "velocity_constraints",
+             "acceleration_constraints", "u_auxiliary", "bodies", "loads")
+
+
+@dataclass(frozen=True)
+class ModelSpec:
+    """A validated model description (SymPy objects, external symbols)."""
+
+    frame: me.ReferenceFrame
+    q_ind: tuple
+    q_dep: tuple
+    u_ind: tuple
+    u_dep: tuple
+    u_aux: tuple
+    kd_eqs: tuple
+    configuration_constraints: tuple
+    velocity_constraints: tuple | None
+    acceleration_constraints: tuple | None
+    bodies: tuple
+    loads: tuple  # of sympy.physics.mechanics Force / Torque
+    potential_energy: sm.Expr | None
+
+    @property
+    def q(self):
+        return self.q_ind + self.q_dep
+
+    @property
+    def u(self):
+        return self.u_ind + self.u_dep
+
+
+def _as_tuple(value, role):
+    if value is None:
+        return ()
+    if isinstance(value, (sm.Basic, me.Vector)) and not isinstance(value, sm.MatrixBase):
+        return (value,)
+    try:
+        return tuple(value)
+    except TypeError:
+        raise ModelError(f"{role} must be a sequence, got {value!r}") from None
+
+
+def _check_unique(groups):
+    seen = {}
+    for role, group in groups:
+        for s in group:
+            if s in seen:
+                where = role if seen[s] == role else f"{seen[s]} and {role}"
+                raise ModelError(f"{name_of(s)} is given twice (in {where})")
+            seen[s] = role
+
+
+def parse_model(*args, **kwargs):
+    """Build a :class:`ModelSpec` from a ``System`` or KanesMethod keywords."""
+    potential = kwargs.pop("potential_energy", None)
+    if args and isinstance(args[0], me.System):
+        if len(args) > 1:
+            raise ModelError("kane(system) takes no further positional arguments")
+        if kwargs:
+            raise ModelError(
+                f"kane(system) takes the model from the System; do not also pass "
+                f"{sorted(kwargs)}")
+        return _from_system(args[0], potential)
+    if kwargs:
+        leftover = set(kwargs) - set(_KEYWORDS) - set(_ALIASES)
+        if leftover:
+            raise ModelError(f"unknown keyword argument(s) {sorted(leftover)}; "
+                             f"kane() accepts {', '.join(_KEYWORDS)}")
+    for alias, name in _ALIASES.items():
+        if alias in kwargs:
+            if name in kwargs:
+                raise ModelError(f"give either {alias} or {name}, not both")
+            kwargs[name] = kwargs.pop(alias)
+    for name, value in zip(("frame", "q_ind", "u_ind", "kd_eqs"), args):
+        if name in kwargs:
+            raise ModelError(f"{name} given both positionally and as a keyword")
+        kwargs[name] = value
+    if len(args) > 4:
+        raise ModelError("kane() takes at most 4 positional arguments "
+                         "(frame, q_ind, u_ind, kd_eqs); pass the rest as keywords")
+    return _build(potential=potential, **kwargs)
+
+
+def _from_system(system, potential):
+    loads = tuple(system.loads) + tuple(
+        load for act in system.actuators for load in act.to_loads())
+    vel = system.velocity_constraints
+    return _build(
+        frame=system.frame, q_ind=system.q_ind, q_dep=system.q_dep,
+        u_ind=system.u_ind, u_dep=system.u_dep, u_auxiliary=system.u_aux,
+        kd_eqs=system.kdes,
+        configuration_constraints=system.holonomic_constraints,
+        velocity_constraints=vel if len(vel) else None,
+        bodies=system.bodies, loads=loads, potential=potential)
+
+
+def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=None,
+           configuration_constraints=None, velocity_constraints=None,
+           acceleration_constraints=None, u_auxiliary=None, bodies=None, loads=None,
+           potential=None):
+    if not isinstance(frame, me.ReferenceFrame):
+        raise ModelError(f"frame must be the inertial sympy ReferenceFrame, got {frame!r}")
+    q_ind = _as_tuple(q_ind, "q_ind")
+    q_dep = _as_tuple(q_dep, "q_dep")
+    u_ind = _as_tuple(u_ind, "u_ind")
+    u_dep = _as_tuple(u_dep, "u_dep")
+    u_aux = _as_tuple(u_auxiliary, "u_auxiliary")
+    if not q_ind and not q_dep:
+        raise ModelError("no generalized coordinates given (q_ind)")
+    if not u_ind:
+        raise ModelError("no independent generalized speeds given (u_ind)")
+    _check_unique([("q_ind", q_ind), ("q_dep", q_dep)])
+    _check_unique([("u_ind", u_ind), ("u_dep", u_dep), ("u_auxiliary", u_aux)])
+
+    kd_eqs = tuple(sm.sympify(e) for e in _as_tuple(kd_eqs, "kd_eqs"))
+    q = q_ind + q_dep
+    if len(kd_eqs) != len(q):
+        raise ModelError(
+            f"there are {len(q)} generalized coordinates but {len(kd_eqs)} kinematic "
+            "differential equations (kd_eqs); give one equation per coordinate")
+    _check_kd_symbols(kd_eqs, q, u_ind + u_dep, u_aux)
+
+    config = tuple(sm.sympify(e) for e in _as_tuple(configuration_constraints,
+                                                    "configuration_constraints"))
+    if len(config) != len(q_dep):
+        raise ModelError(
+            f"there are {len(q_dep)} dependent coordinates (q_dep) but {len(config)} "
+            "configuration constraints; their numbers must match")
+    vel = velocity_constraints
+    if vel is not None:
+        vel = tuple(sm.sympify(e) for e in _as_tuple(vel, "velocity_constraints"))
+        if not vel:
+            vel = None
+    n_vel = len(vel) if vel is not None else len(config)
+    if n_vel != len(u_dep):
+        source = "velocity constraints" if vel is not None else (
+            "velocity constraints (derived from the configuration constraints)")
+        raise ModelError(
+            f"there are {len(u_dep)} dependent speeds (u_dep) but {n_vel} {source}; "
+            "give one velocity constraint per dependent speed")
+    acc = acceleration_constraints
+    if acc is not None:
+        acc = tuple(sm.sympify(e) for e in _as_tuple(acc, "acceleration_constraints"))
+        if len(acc) != len(u_dep):
+            raise ModelError(
+                f"there are {len(u_dep)} dependent speeds but {len(acc)} acceleration "
+                "constraints")
+
+    bodies = _as_tuple(bodies, "bodies")
+    if not bodies:
+        raise ModelError("no bodies given: pass bodies=[...] (RigidBody or Particle)")
+    for b in bodies:
+        if not isinstance(b, (me.RigidBody, me.Particle)):
+            raise ModelError(f"bodies must be RigidBody or Particle objects; got {b!r}")
+    parsed_loads = []
+    for load in _as_tuple(loads, "loads"):
+        try:
+            parsed = _parse_load(load)
+        except (TypeError, ValueError) as exc:
+            raise ModelError(f"cannot read load {load!r}: {exc}") from None
+        if not isinstance(parsed.vector, me.Vector):
+            raise ModelError(f"the load on {parsed.location} is not a Vector: "
+                             f"{parsed.vector!r}")
+        parsed_loads.append(parsed)
+
+    if potential is None:
+        total = sum((sm.sympify(getattr(b, "potential_energy", 0)) for b in bodies),
+                    sm.S.Zero)
+        potential = total if total != 0 else None
+    return ModelSpec(frame, q_ind, q_dep, u_ind, u_dep, u_aux, kd_eqs, config, vel, acc,
+                     bodies, tuple(parsed_loads),
+                     sm.sympify(potential) if potential is not None else None)
+
+
+def _check_kd_symbols(kd_eqs, q, u, u_aux):
+    """Every dynamic symbol of the kinematic equations must be declared."""
+    from sympy.physics.vector import dynamicsymbols as ds
+    t = ds._t
+    declared = set(q) | set(u) | {s.diff(t) for s in q}
+    for i, eq in enumerate(kd_eqs):
+        found = me.find_dynamicsymbols(eq)
+        extra = [s for s in found if s not in declared and s not in u_aux]
+        if extra:
+            names = ", ".join(sorted(name_of(s) for s in extra))
+            raise ModelError(
+                f"kinematic differential equation {i} ({eq}) contains {names}, which "
+                "is neither a generalized coordinate, its derivative, nor a "
+                "generalized speed; add the missing speed to u_ind or u_dep")
+    used = set().union(*(me.find_dynamicsymbols(eq) for eq in kd_eqs))
+    missing_q = [s for s in q if s.diff(t) not in used]
+    if missing_q:
+        raise ModelError(
+            "no kinematic differential equation contains the derivative of "
+            + ", ".join(name_of(s) for s in missing_q))

@@ -1,0 +1,351 @@
+r"""Kane's method on a straight-line program.
+
+For generalized speeds :math:`u_1..u_o` (independent then dependent) and every
+body :math:`k` with mass centre velocity :math:`v_k`, angular velocity
+:math:`\omega_k`, central inertia :math:`I_k` (inertial components):
+
+.. math::
+
+    V_{kr} = \partial v_k/\partial u_r,\quad W_{kr} = \partial\omega_k/\partial u_r
+
+    F_r = \sum_{\text{loads}} F\cdot V_{Pr} + T\cdot W_{Br}
+
+    M_{rs} = \sum_k m_k V_{kr}\cdot V_{ks} + W_{kr}\cdot I_k W_{ks}
+
+    n_r = \sum_k (m_k \bar a_k + \dot m_k v_k)\cdot V_{kr}
+          + (I_k\bar\alpha_k + \omega_k\times I_k\omega_k
+             + C_k \dot I_k^{B} C_k^T\omega_k)\cdot W_{kr}
+
+where :math:`\bar a_k, \bar\alpha_k` are the accelerations with :math:`\dot u=0`.
+Kane's equations :math:`F_r + F_r^* = 0` with :math:`F_r^* = -(M\dot u + n)_r`
+are kept *unreduced* (one row per speed); dependent speeds are eliminated
+numerically at evaluation time through the constraint Jacobian
+:math:`A_r = -B_{dep}^{-1}B_{ind}`, never by symbolic inversion.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._errors import ModelError
+from ._kinematics import Kinematics, add, cross, dot
+from ._program import SAMPLE_SEEDS, Program, random_sampler
+from ._progress import NO_PROGRESS
+from ._symbols import SymbolTable, name_of
+
+__all__ = ["derive_kane", "BodyTerms"]
+
+
+class BodyTerms:
+    """Kinematic quantities of one body or particle (inertial components).
+
+    Attributes
+    ----------
+    body : RigidBody or Particle
+    velocity, omega : tuple of 3 expressions
+        Mass-centre velocity and angular velocity (zeros for a particle).
+    partial_velocities, partial_angular_velocities : list of 3-tuples
+        One per speed in ``u + u_aux`` order.
+    """
+
+    __slots__ = ("body", "velocity", "omega", "partial_velocities",
+                 "partial_angular_velocities")
+
+    def __init__(self, body, velocity, omega, partial_velocities,
+                 partial_angular_velocities):
+        self.body = body
+        self.velocity = velocity
+        self.omega = omega
+        self.partial_velocities = partial_velocities
+        self.partial_angular_velocities = partial_angular_velocities
+
+
+def _solve_kinematics(spec, table, prog):
+    """Solve the kinematic differential equations for q' (named intermediates)."""
+    eqs = sm.Matrix([table.internal(e, f"kinematic differential equation {i} ({e})")
+                     for i, e in enumerate(spec.kd_eqs)])
+    eqs = eqs.xreplace({ua: 0 for ua in table.u_aux})
+    qd = sm.Matrix(table.qdot_raw)
+    u = sm.Matrix(table.u)
+    K = eqs.jacobian(qd)
+    Ku = eqs.jacobian(u)
+    f = eqs.xreplace({s: 0 for s in list(qd) + list(u)})
+    bad = set(table.qdot_raw) | set(table.u)
+    for i in range(len(eqs)):
+        nonlinear = (K.row(i).free_symbols | Ku.row(i).free_symbols) & bad
+        if nonlinear:
+            names = ", ".join(sorted(table.external(s).__str__() for s in nonlinear))
+            raise ModelError(
+                f"kinematic differential equation {i} ({spec.kd_eqs[i]}) is nonlinear "
+                f"in {names}; it must be linear in q' and in the generalized speeds, "
+                "so that it can be solved for q'")
+    rhs = -(Ku * u + f)
+    sample = random_sampler(7)
+    values = {s: float(sample(s).real) for s in K.free_symbols}
+    K_num = K.xreplace({s: sm.Float(v) for s, v in values.items()})
+    import numpy as np
+    try:
+        K_num = np.array(K_num.evalf(), dtype=float)
+        singular = np.linalg.matrix_rank(K_num) < K.shape[0]
+    except TypeError:
+        singular = False
+    if singular:
+        empty = [name_of(spec.q[j]) for j in range(K.shape[1]) if not any(K[:, j])]
+        detail = (f"; no equation contains the derivative of {', '.join(empty)}"
+                  if empty else "")
+        raise ModelError(
+            "the kinematic differential equations cannot be solved for q': the matrix "
+            f"of coefficients of q' is singular{detail}")
+    if K.is_diagonal():
+        sol = [rhs[i] / K[i, i] for i in range(K.shape[0])]
+    else:
+        sol = list(K.LUsolve(rhs))
+    qdot = tuple(prog.let(e, f"qd_{name_of(q)}") for e, q in zip(sol, spec.q))
+    return qdot, (K, Ku, f)
+
+
+def _drop_workless(prog, table, fr, load_terms):
+    """Remove force magnitudes whose coefficients in ``fr`` vanish identically.
+
+    A constraint force exposed through an auxiliary speed does no work on the
+    real motion, so its coefficient in every real generalized active force is
+    zero, though usually not visibly so (dot products of rotated unit
+    vectors).  Coefficients are tested at random points; symbols that drop out
+    are set to zero, so the equations of motion do not ask for their values.
+    """
+    dynamic = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
+    candidates = set()
+    for vec, _ in load_terms:
+        for c in vec:
+            candidates |= prog.deps(c)
+    candidates -= dynamic
+    candidates = sorted((c for c in candidates if not prog.is_intermediate(c)), key=str)
+    if not candidates or not fr:
+        return fr
+    zero = {}
+    for sym in candidates:
+        coeffs = [prog.diff(e, sym) for e in fr]
+        if all(c == 0 for c in coeffs):
+            zero[sym] = 0
+            continue
+        vanishes = True
+        for seed in SAMPLE_SEEDS:
+            scale = 1.0 + max(abs(v) for v in prog.shadow(fr, seed))
+            vals = prog.shadow(coeffs, seed)
+            if any(not abs(v) <= 1e-9 * scale for v in vals):
+                vanishes = False
+                break
+        if vanishes:
+            zero[sym] = 0
+    if not zero:
+        return fr
+    return [prog.let(prog.subs(e, zero), "Fr") for e in fr]
+
+
+def _inertia_terms(kin, body, where):
+    """Central inertia in body-frame and inertial components."""
+    prog = kin.prog
+    frame = body.frame
+    I_B = body.central_inertia.to_matrix(frame)
+    I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
+    C = kin.dcm(frame)
+    I_N = [[None] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i, 3):
+            value = sum(C[i, a] * I_B[a, b] * C[j, b]
+                        for a in range(3) for b in range(3) if I_B[a, b] != 0)
+            I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
+    return I_B, I_N, C
+
+
+def _matvec(A, x):
+    return tuple(sum(A[i][j] * x[j] for j in range(3)) for i in range(3))
+
+
+def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
+    """Kane's equations for a :class:`ModelSpec`; returns an EquationsOfMotion."""
+    from ._eom import EquationsOfMotion
+
+    table = SymbolTable(spec.q, spec.u, spec.u_aux)
+    prog = Program(table.t)
+    for s in table.q:
+        prog.declare(s)
+    for s in table.u + table.u_aux + table.udot:
+        prog.declare(s)
+    table.on_new_specified = lambda s, nxt: prog.declare(s, nxt)
+
+    progress.stage("kinematic differential equations")
+    qdot, kin_matrices = _solve_kinematics(spec, table, prog)
+    for s, value in zip(table.q, qdot):
+        prog.set_derivative(s, value)
+    table.set_qdot(qdot)
+
+    kin = Kinematics(prog, table, spec.frame, spec.bodies)
+    speeds = table.u + table.u_aux
+    o, s_aux = len(table.u), len(table.u_aux)
+    aux_zero = {ua: 0 for ua in table.u_aux}
+
+    def partials(vec):
+        return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec)
+                for ur in speeds]
+
+    # ---------------------------------------------------------- bodies
+    body_terms = []
+    inertial_forces = []  # (body terms, force, torque) with udot = 0
+    mass_contrib = []  # (terms, m, I_N)
+    n_bodies = len(spec.bodies)
+    for k, body in enumerate(spec.bodies):
+        progress.update(f"kinematics of {body.name} ({k + 1}/{n_bodies})",
+                        (k + 1) / n_bodies)
+        where = f"body {body.name}"
+        m = prog.let(kin.internal(body.mass, f"mass of {body.name}"), f"m_{body.name}")
+        if isinstance(body, me.RigidBody):
+            point = body.masscenter
+            v = kin.velocity(point)
+            w = kin.angular_velocity(body.frame)
+        else:
+            point = body.masscenter
+            v = kin.velocity(point)
+            w = (sm.S.Zero,) * 3
+        terms = BodyTerms(body, tuple(prog.subs(c, aux_zero) for c in v),
+                          tuple(prog.subs(c, aux_zero) for c in w),
+                          partials(v), partials(w))
+        body_terms.append(terms)
+        v0, w0 = terms.velocity, terms.omega
+        a0 = kin.dt_vector(v0)
+        mdot = kin.dt(m)
+        force = kin.let_vector(add(tuple(m * c for c in a0),
+                                   tuple(mdot * c for c in v0)), f"Fi_{body.name}")
+        if isinstance(body, me.RigidBody):
+            I_B, I_N, C = _inertia_terms(kin, body, where)
+            alpha0 = kin.dt_vector(w0)
+            H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
+            torque = add(_matvec(I_N, alpha0), cross(w0, H))
+            I_B_dot = I_B.applyfunc(kin.dt)
+            if any(I_B_dot):
+                wB = C.T * sm.Matrix(w0)
+                extra = C * (I_B_dot * wB)
+                torque = add(torque, tuple(extra))
+            torque = kin.let_vector(torque, f"Ti_{body.name}")
+        else:
+            I_N = None
+            H = (sm.S.Zero,) * 3
+            torque = (sm.S.Zero,) * 3
+        inertial_forces.append((terms, force, torque))
+        mass_contrib.append((terms, m, I_N, H))
+    progress.done()
+
+    # ----------------------------------------------------------- loads
+    progress.stage("generalized active forces")
+    load_terms = []
+    for load in spec.loads:
+        loc = load.location
+        where = f"load on {loc}"
+        vec = kin.let_vector(kin.vector(load.vector, where), "F")
+        if isinstance(loc, me.ReferenceFrame):
+            base = kin.angular_velocity(loc)
+        else:
+            base = kin.velocity(loc)
+        load_terms.append((vec, partials(base)))
+
+    fr = []
+    for r in range(o + s_aux):
+        total = [dot(vec, parts[r]) for vec, parts in load_terms]
+        fr.append(sm.Add(*total))
+
+    # ------------------------------------------- mass matrix, remainder
+    progress.stage("mass matrix and forcing")
+    n_all = o + s_aux
+    mass = [[[] for _ in range(o)] for _ in range(n_all)]
+    for terms, m, I_N, H in mass_contrib:
+        V = terms.partial_velocities
+        W = terms.partial_angular_velocities
+        active_v = [r for r in range(n_all) if any(c != 0 for c in V[r])]
+        active_w = [r for r in range(n_all) if any(c != 0 for c in W[r])]
+        mV = {s: kin.let_vector(tuple(m * c for c in V[s]), "mV")
+              for s in active_v if s < o}
+        IW = {s: kin.let_vector(_matvec(I_N, W[s]), "IW")
+              for s in active_w if s < o} if I_N is not None else {}
+        for r in active_v:
+            for s, mv in mV.items():
+                if s >= r or r >= o:
+                    mass[r][s].append(dot(V[r], mv))
+        for r in active_w:
+            for s, iw in IW.items():
+                if s >= r or r >= o:
+                    mass[r][s].append(dot(W[r], iw))
+    mass_rows = []
+    for r in range(n_all):
+        row = []
+        for s in range(o):
+            if r < o and s < r:
+                row.append(mass_rows[s][r])  # symmetric part of the real speeds
+            else:
+                row.append(prog.let(sm.Add(*mass[r][s]), f"M_{r}_{s}"))
+        mass_rows.append(row)
+
+    nonmm = []
+    for r in range(n_all):
+        total = []
+        for terms, force, torque in inertial_forces:
+            total.append(dot(force, terms.partial_velocities[r]))
+            total.append(dot(torque, terms.partial_angular_velocities[r]))
+        nonmm.append(sm.Add(*total))
+
+    fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}") for r, e in enumerate(fr)]
+    fr[:o] = _drop_workless(prog, table, fr[:o], load_terms)
+    nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}") for r, e in enumerate(nonmm)]
+
+    # ----------------------------------------------------- constraints
+    progress.stage("constraints")
+    config = tuple(prog.let(table.internal(c, f"configuration constraint {i} ({c})"),
+                            f"h_{i}")
+                   for i, c in enumerate(spec.configuration_constraints))
+    if spec.velocity_constraints is not None:
+        vel = [prog.subs(table.internal(c, f"velocity constraint {i} ({c})"), aux_zero)
+               for i, c in enumerate(spec.velocity_constraints)]
+    else:
+        vel = [kin.dt(c) for c in config]
+    u_zero = {s: 0 for s in table.u}
+    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel)
+    vel_f = tuple(prog.let(prog.subs(c, u_zero), "b") for c in vel)
+    if spec.acceleration_constraints is not None:
+        acc = [prog.subs(table.internal(c, f"acceleration constraint {i} ({c})",
+                                        allow_udot=True), aux_zero)
+               for i, c in enumerate(spec.acceleration_constraints)]
+        acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
+                      for c in acc)
+        acc_f = tuple(prog.let(prog.subs(c, {ud: 0 for ud in table.udot}), "fa")
+                      for c in acc)
+    else:
+        acc_K = vel_B
+        acc_f = tuple(prog.let(kin.dt(c), "fa") for c in vel)
+
+    # ------------------------------------------------------- energies
+    ke = []
+    for terms, m, I_N, H in mass_contrib:
+        v = terms.velocity
+        ke.append(m * dot(v, v) / 2)
+        if I_N is not None:
+            ke.append(dot(terms.omega, H) / 2)
+    kinetic = prog.let(sm.Add(*ke), "KE")
+    potential = None
+    if spec.potential_energy is not None:
+        potential = prog.let(table.internal(spec.potential_energy, "potential energy"),
+                             "PE")
+
+    # ------------------------------------------------------ auxiliary
+    aux_K = tuple(tuple(-mass_rows[o + a][s] for s in range(o)) for a in range(s_aux))
+    aux_f = tuple(prog.let(fr[o + a] - nonmm[o + a], f"aux_{a}") for a in range(s_aux))
+
+    progress.stage(f"done: {len(prog)} intermediates")
+    return EquationsOfMotion._from_derivation(
+        spec=spec, program=prog, table=table, kinematics=kin,
+        explicit_kinematics=explicit_kinematics,
+        qdot=qdot, kinematic_matrices=kin_matrices,
+        mass=tuple(tuple(row) for row in mass_rows[:o]),
+        active=tuple(fr[:o]), remainder=tuple(nonmm[:o]),
+        vel_B=vel_B, vel_f=vel_f, acc_K=acc_K, acc_f=acc_f, config=config,
+        aux_K=aux_K, aux_f=aux_f, kinetic=kinetic, potential=potential,
+        body_terms=tuple(body_terms), method="kane")

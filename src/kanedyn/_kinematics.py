@@ -1,0 +1,341 @@
+r"""Kinematics of frames and points as named intermediates, in inertial components.
+
+For every reference frame ``F`` reached from the inertial frame ``N`` the
+direction cosine matrix :math:`{}^N C^F` (``F`` components to ``N`` components)
+and the angular velocity :math:`{}^N\omega^F` are built recursively from the
+parent frame's, one small expression per entry.  Point velocities follow the
+relations the user wrote (positions, ``set_vel``, ``v2pt_theory``):
+
+* a point without a stored velocity in ``N`` gets
+  :math:`v_P = v_O + {}^N\!\frac{d}{dt} r^{OP}` along the chain of positions to
+  the nearest point whose velocity is known (SymPy's own rule);
+* a point with a stored velocity keeps it as the definition, but where the
+  stored expression is large (``v2pt_theory`` expands direction cosines
+  symbolically) kanedyn tries the compact forms :math:`v_O + \omega^F\times r^{OP}`
+  and :math:`v_O + \dot r^{OP}` and adopts one that is *identical* to the stored
+  expression.  Identity is established by evaluating both at random points
+  (randomized polynomial identity testing), never assumed.
+
+Accelerations and partial velocities are not built here: they are the program's
+time derivatives and partial derivatives of these velocities.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._errors import KinematicsError
+from ._program import SAMPLE_SEEDS, fast_eval
+
+__all__ = ["Kinematics", "cross", "dot"]
+
+_ZERO3 = (sm.S.Zero,) * 3
+_SMALL = 60  # stored velocities with at most this many nodes are used as they are
+
+
+def cross(a, b):
+    return (a[1] * b[2] - a[2] * b[1],
+            a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0])
+
+
+def dot(a, b):
+    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+
+
+def add(a, b):
+    return tuple(x + y for x, y in zip(a, b))
+
+
+def _is_zero_vector(vec):
+    return vec == me.Vector(0) or all(m == sm.zeros(3, 1) for m, _ in vec.args)
+
+
+def _small(expr, limit):
+    """True when ``expr`` has at most ``limit`` nodes (stops counting early)."""
+    count = 0
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        count += 1
+        if count > limit:
+            return False
+        stack.extend(e.args)
+    return True
+
+
+def _close(a, b, tol=1e-9):
+    scale = 1.0 + max(abs(x) for x in list(a) + list(b))
+    return all(abs(x - y) <= tol * scale for x, y in zip(a, b))
+
+
+def _bfs_parents(start, neighbours):
+    """Breadth-first search; returns {node: parent} over everything reachable."""
+    parents = {start: None}
+    queue = deque([start])
+    while queue:
+        node = queue.popleft()
+        for nb in neighbours(node):
+            if nb not in parents:
+                parents[nb] = node
+                queue.append(nb)
+    return parents
+
+
+class Kinematics:
+    """Frames and points of a model, as intermediates of a :class:`Program`.
+
+    Parameters
+    ----------
+    program : Program
+    table : SymbolTable
+    frame : sympy.physics.mechanics.ReferenceFrame
+        The inertial frame ``N``; all vectors are returned in its components.
+    bodies : sequence
+        The model's bodies (used to know which frame a mass centre is fixed in).
+    """
+
+    def __init__(self, program, table, frame, bodies=()):
+        self.prog = program
+        self.table = table
+        self.N = frame
+        self._dcm = {frame: sm.ImmutableMatrix.eye(3)}
+        self._omega = {frame: _ZERO3}
+        self._vel = {}
+        self._resolving = set()
+        self._pending_hints = []
+        self._dcm_parent = _bfs_parents(frame, lambda f: f._dcm_dict.keys())
+        self._omega_parent = _bfs_parents(frame, lambda f: f._ang_vel_dict.keys())
+        self._body_frame = {}
+        for b in bodies:
+            if isinstance(b, me.RigidBody):
+                self._body_frame.setdefault(b.masscenter, b.frame)
+
+    # ------------------------------------------------------------ conversion
+    def internal(self, expr, where):
+        return self.table.internal(expr, where)
+
+    def vector(self, vec, where):
+        """Inertial components of a SymPy ``Vector`` (not named)."""
+        if vec == 0 or vec == me.Vector(0):
+            return _ZERO3
+        if not isinstance(vec, me.Vector):
+            raise KinematicsError(f"{where} is not a sympy.physics.vector Vector: {vec!r}")
+        out = [sm.S.Zero] * 3
+        for measures, frame in vec.args:
+            comps = [self.internal(m, where) for m in measures]
+            if all(c == 0 for c in comps):
+                continue
+            C = self.dcm(frame)
+            for i in range(3):
+                out[i] += sum(C[i, j] * comps[j] for j in range(3) if comps[j] != 0)
+        return tuple(out)
+
+    def let_vector(self, vec, name):
+        return tuple(self.prog.let(c, f"{name}_{a}") for c, a in zip(vec, "xyz"))
+
+    # ---------------------------------------------------------------- frames
+    def dcm(self, frame):
+        """Matrix mapping ``frame`` components to inertial components."""
+        found = self._dcm.get(frame)
+        if found is not None:
+            return found
+        if frame not in self._dcm_parent:
+            raise KinematicsError(
+                f"the orientation of frame {frame} relative to the inertial frame "
+                f"{self.N} is not defined; orient it (e.g. {frame}.orient_axis("
+                f"{self.N}, ...)) directly or through other frames")
+        path = []
+        f = frame
+        while f not in self._dcm:
+            path.append(f)
+            f = self._dcm_parent[f]
+        for f in reversed(path):
+            parent = self._dcm_parent[f]
+            local = parent._dcm_dict[f]  # parent.dcm(f): f components -> parent's
+            local = local.applyfunc(lambda e: self.internal(e, f"orientation of {f}"))
+            product = self._dcm[parent] * local
+            C = self.prog.let_matrix(product, f"C_{f}_")
+            self._dcm[f] = C
+            self._pending_hints.append(f)
+        return self._dcm[frame]
+
+    def angular_velocity(self, frame):
+        r"""Inertial components of :math:`{}^N\omega^F` (named intermediates)."""
+        found = self._omega.get(frame)
+        if found is not None:
+            return found
+        if frame not in self._omega_parent:
+            raise KinematicsError(
+                f"the angular velocity of frame {frame} in the inertial frame "
+                f"{self.N} is not defined; orient {frame} or call {frame}.set_ang_vel")
+        path = []
+        f = frame
+        while f not in self._omega:
+            path.append(f)
+            f = self._omega_parent[f]
+        for f in reversed(path):
+            parent = self._omega_parent[f]
+            local = self.vector(f._ang_vel_dict[parent],
+                                f"angular velocity of {f} in {parent}")
+            self._omega[f] = self.let_vector(add(self._omega[parent], local), f"w_{f}")
+        return self._omega[frame]
+
+    def _flush_hints(self):
+        r"""Record :math:`\dot C = \tilde\omega C` for every new rotation matrix."""
+        while self._pending_hints:
+            f = self._pending_hints.pop()
+            C = self._dcm[f]
+            w = self.angular_velocity(f)
+            for j in range(3):
+                col = (C[0, j], C[1, j], C[2, j])
+                rate = cross(w, col)
+                for i in range(3):
+                    if col[i].is_Symbol:
+                        self.prog.hint_dt(col[i], rate[i])
+
+    def dt(self, expr):
+        r"""Time derivative with :math:`\dot u = 0` (see :meth:`Program.dt`)."""
+        self._flush_hints()
+        return self.prog.dt(expr)
+
+    def dt_vector(self, vec):
+        self._flush_hints()
+        return tuple(self.prog.dt(c) for c in vec)
+
+    # ---------------------------------------------------------------- points
+    def velocity(self, point):
+        """Inertial components of the velocity of ``point`` in ``N``."""
+        found = self._vel.get(point)
+        if found is not None:
+            return found
+        if point in self._resolving:
+            raise KinematicsError(
+                f"the velocity of point {point} in {self.N} depends on itself through "
+                "the positions and velocities given; check set_pos/set_vel calls")
+        self._resolving.add(point)
+        try:
+            stored = point._vel_dict.get(self.N)
+            if stored is not None:
+                vel = self._from_stored(point, stored)
+            else:
+                vel = self._from_positions(point)
+        finally:
+            self._resolving.discard(point)
+        self._vel[point] = vel
+        return vel
+
+    def _relative_position(self, point, other):
+        """Inertial components of the position of ``point`` from ``other`` (named)."""
+        vec = self.vector(point._pos_dict[other], f"position of {point} from {other}")
+        return self.let_vector(vec, f"r_{other}_{point}")
+
+    def _from_positions(self, point):
+        N = self.N
+        parents = {point: None}
+        queue = deque([point])
+        target = None
+        while queue and target is None:
+            node = queue.popleft()
+            for nb in node._pos_dict:
+                if nb in parents:
+                    continue
+                parents[nb] = node
+                if N in nb._vel_dict or nb in self._vel:
+                    target = nb
+                    break
+                queue.append(nb)
+        if target is None:
+            raise KinematicsError(
+                f"the velocity of point {point} in {N} cannot be found: it has no "
+                f"velocity set in {N} and no chain of positions (set_pos/locatenew) "
+                f"leads to a point whose velocity in {N} is known; call "
+                f"{point}.set_vel({N}, ...) or locate it relative to such a point")
+        vel = self.velocity(target)
+        node = target
+        while node is not point:
+            child = parents[node]
+            r = self._relative_position(child, node)
+            vel = self.let_vector(add(vel, self.dt_vector(r)), f"v_{child}")
+            if child is not point:
+                self._vel.setdefault(child, vel)
+            node = child
+        return vel
+
+    def _from_stored(self, point, stored):
+        if _is_zero_vector(stored):
+            return _ZERO3
+        where = f"velocity of {point} in {self.N}"
+        small = all(_small(m, _SMALL) for measures, _ in stored.args for m in measures)
+        if not small:
+            compact = self._recognize(point, stored)
+            if compact is not None:
+                return compact
+        return self.let_vector(self.vector(stored, where), f"v_{point}")
+
+    def _stored_values(self, stored, seed):
+        """Inertial components of a SymPy vector at random point ``seed``.
+
+        Evaluated directly on the (external) SymPy expression, so that large
+        stored velocities need not be converted when a compact form is found.
+        """
+        leaf_values = {}
+
+        def value_of(node):
+            if node not in leaf_values:
+                internal = self.table.internal(node, "a stored velocity")
+                leaf_values[node] = self.prog.shadow([internal], seed)[0]
+            return leaf_values[node]
+
+        memo = {}
+        out = [0j, 0j, 0j]
+        for measures, frame in stored.args:
+            x = [fast_eval(m, value_of, memo) for m in measures]
+            C = self.prog.shadow(list(self.dcm(frame)), seed)
+            for i in range(3):
+                out[i] += sum(C[3 * i + j] * x[j] for j in range(3))
+        return out
+
+    def _candidates(self, point):
+        """Compact velocity expressions that ``point``'s stored velocity may equal."""
+        N = self.N
+        for other in point._pos_dict:
+            if other in self._resolving:
+                continue
+            try:
+                v_other = self.velocity(other)
+            except KinematicsError:
+                continue
+            r = self._relative_position(point, other)
+            frames = []
+            for p in (point, other):
+                frames.extend(f for f, v in p._vel_dict.items()
+                              if f is not N and _is_zero_vector(v))
+                if p in self._body_frame:
+                    frames.append(self._body_frame[p])
+            frames.extend(f for _, f in point._pos_dict[other].args)
+            yield add(v_other, self.dt_vector(r))
+            seen = set()
+            for f in frames:
+                if f in seen or f is N:
+                    continue
+                seen.add(f)
+                try:
+                    w = self.angular_velocity(f)
+                except KinematicsError:
+                    continue
+                yield add(v_other, cross(w, r))
+
+    def _recognize(self, point, stored):
+        self._flush_hints()
+        target = [self._stored_values(stored, seed) for seed in SAMPLE_SEEDS]
+        if any(any(c != c for c in vals) for vals in target):  # nan: cannot test
+            return None
+        for cand in self._candidates(point):
+            if all(_close(self.prog.shadow(cand, seed), vals)
+                   for seed, vals in zip(SAMPLE_SEEDS, target)):
+                return self.let_vector(cand, f"v_{point}")
+        return None

@@ -1,0 +1,479 @@
+r"""Numerical models generated from :class:`EquationsOfMotion`.
+
+A :class:`NumericModel` evaluates, for a state ``y = [q, u]`` (independent
+before dependent, in the order of ``eom.q`` and ``eom.u``):
+
+* ``rhs(t, y)``: :math:`[\dot q; \dot u]`, with :math:`\dot u` from the
+  numerically assembled and solved system
+
+  .. math::
+
+      \begin{bmatrix} M_{ind} + A_r^T M_{dep} \\ K_a \end{bmatrix}\dot u =
+      \begin{bmatrix} f_{ind} + A_r^T f_{dep} \\ -f_a \end{bmatrix},\qquad
+      A_r = -B_{dep}^{-1} B_{ind},
+
+  where :math:`M, f` are Kane's unreduced mass matrix and forcing, :math:`B`
+  the velocity-constraint matrix and :math:`K_a\dot u + f_a = 0` the
+  acceleration constraints;
+* mass matrix and forcing in SymPy's convention, constraint residuals,
+  constraint forces (auxiliary speeds), kinetic and potential energy.
+
+Models are picklable: they carry their generated source and recompile it.
+"""
+
+from __future__ import annotations
+
+import inspect
+import numbers
+
+import numpy as np
+import sympy as sm
+
+from ._codegen import compile_python, generate_python
+from ._errors import ConstraintError, MissingValueError, ModelError
+from ._symbols import name_of
+
+__all__ = ["NumericModel", "build_numeric_model"]
+
+
+# ------------------------------------------------------------------ inputs
+def _match_key(key, candidates, what):
+    """Find the candidate a user key refers to (symbol, dynamic symbol or name)."""
+    if isinstance(key, str):
+        found = [c for c in candidates if name_of(c) == key or str(c) == key]
+        if len(found) == 1:
+            return found[0]
+        if len(found) > 1:
+            raise ModelError(f"the {what} name {key!r} is ambiguous: {found}")
+        return None
+    key = sm.sympify(key)
+    return key if key in candidates else None
+
+
+def _resolve_constants(eom, constants, needed):
+    values = {}
+    known = set(eom.constants)
+    for key, value in constants.items():
+        sym = _match_key(key, eom.constants, "constant")
+        if sym is None:
+            raise ModelError(
+                f"{key} is not a constant of this model; its constants are "
+                f"{', '.join(map(str, eom.constants)) or '(none)'}")
+        try:
+            values[sym] = float(value)
+        except (TypeError, ValueError):
+            raise ModelError(f"the value of constant {sym} must be a number, "
+                             f"got {value!r}") from None
+    missing = [s for s in needed if s in known and s not in values]
+    if missing:
+        raise MissingValueError(
+            "missing value(s) for constant(s) " + ", ".join(map(str, missing))
+            + "; pass them in constants={...}")
+    return values
+
+
+def _callable_arity(func):
+    try:
+        params = [p for p in inspect.signature(func).parameters.values()
+                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
+                  and p.default is p.empty]
+        return 2 if len(params) >= 2 else 1
+    except (TypeError, ValueError):
+        return 1
+
+
+class _Input:
+    """Provider of one specified input: constant, f(t) or f(t, y)."""
+
+    __slots__ = ("name", "value", "arity")
+
+    def __init__(self, name, value):
+        self.name = name
+        if isinstance(value, numbers.Number):
+            self.value, self.arity = float(value), 0
+        elif callable(value):
+            self.value, self.arity = value, _callable_arity(value)
+        else:
+            raise ModelError(f"specified input {name}: give a number, a SymPy "
+                             f"expression in t, or a callable, not {value!r}")
+
+    def __call__(self, t, y):
+        if self.arity == 0:
+            return self.value
+        if self.arity == 1:
+            return self.value(t)
+        return self.value(t, y)
+
+    def __getstate__(self):
+        return (self.name, self.value, self.arity)
+
+    def __setstate__(self, state):
+        self.name, self.value, self.arity = state
+
+
+def _resolve_specified(eom, specified):
+    """Split user inputs into exact substitutions and runtime providers."""
+    table = eom._table
+    t = table.t
+    needed = list(eom.specified)
+    substitutions = {}  # internal symbol -> expression (internal)
+    providers = {}  # external -> value
+    for key, value in specified.items():
+        if isinstance(key, str):
+            matches = [s for s in table.specified if name_of(s) == key]
+            if not matches:
+                raise ModelError(f"{key!r} is not a specified input of this model; "
+                                 f"its inputs are {', '.join(map(name_of, needed))}")
+            key = matches[0]
+        key = sm.sympify(key)
+        if key not in table.specified:
+            raise ModelError(f"{key} is not a specified input of this model; its "
+                             f"inputs are {', '.join(map(name_of, needed)) or '(none)'}")
+        if isinstance(value, sm.Basic) and not isinstance(value, sm.Number):
+            expr = sm.sympify(value)
+            if isinstance(key, sm.Derivative):
+                raise ModelError(f"give the SymPy expression for {key.expr}, not for "
+                                 f"its derivative {key}")
+            for ext, int_ in table.specified.items():
+                base = ext.expr if isinstance(ext, sm.Derivative) else ext
+                if base == key:
+                    order = len(ext.variables) if isinstance(ext, sm.Derivative) else 0
+                    substitutions[int_] = table.internal(
+                        expr.diff(t, order) if order else expr, f"input {key}")
+        else:
+            providers[key] = value
+    runtime = []
+    for ext in needed:
+        if table.specified[ext] in substitutions:
+            continue
+        if ext not in providers:
+            raise MissingValueError(
+                f"missing value for the specified input {ext}; pass it in "
+                "specified={...} (a number, a SymPy expression in t, or a callable "
+                "of t or of (t, y))")
+        runtime.append((table.specified[ext], _Input(str(ext), providers[ext])))
+    return substitutions, runtime
+
+
+# ------------------------------------------------------------------- model
+class NumericModel:
+    """Compiled numerical functions of a set of equations of motion.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        Names of the entries of ``y``: coordinates then speeds.
+    n_q, n_u : int
+        Numbers of coordinates and speeds (including dependent ones).
+    constants : dict
+        ``{name: value}`` of the constants used.
+    """
+
+    def __init__(self, data):
+        self._data = data
+        self._compile()
+
+    # state and pickling
+    def __getstate__(self):
+        return self._data
+
+    def __setstate__(self, data):
+        self._data = data
+        self._compile()
+
+    def _compile(self):
+        d = self._data
+        self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
+        self._p = np.asarray(d["p"], dtype=float)
+        self._inputs = d["inputs"]
+        for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
+                    "aux_names", "input_names", "has_potential"):
+            setattr(self, key, d[key])
+
+    def __repr__(self):
+        return (f"<NumericModel: {self.n_q} coordinates, {self.n_u} speeds, "
+                f"backend={self._data['backend']!r}>")
+
+    # ------------------------------------------------------------ basics
+    @property
+    def n_states(self):
+        return self.n_q + self.n_u
+
+    @property
+    def n_q_ind(self):
+        return self.n_q - self.n_q_dep
+
+    @property
+    def n_u_ind(self):
+        return self.n_u - self.n_u_dep
+
+    def index(self, name):
+        """Position of a state (by name or dynamic symbol) in ``y``."""
+        key = name if isinstance(name, str) else name_of(name)
+        try:
+            return self.state_names.index(key)
+        except ValueError:
+            raise KeyError(f"{name} is not a state of this model; states are "
+                           f"{', '.join(self.state_names)}") from None
+
+    def _r(self, t, y):
+        return [inp(t, y) for _, inp in self._inputs] if self._inputs else ()
+
+    def _check_y(self, y):
+        y = np.asarray(y, dtype=float)
+        if y.shape != (self.n_states,):
+            raise ValueError(f"the state must have {self.n_states} entries "
+                             f"({', '.join(self.state_names)}), got shape {y.shape}")
+        return y
+
+    # ---------------------------------------------------------- dynamics
+    def _dynamics(self, t, y):
+        return self._fn["dynamics"](t, y, self._p, self._r(t, y))
+
+    def _assemble(self, mass, force, vel_B, acc_K, acc_f):
+        """Reduced o x o system in SymPy's convention."""
+        m = self.n_u_dep
+        if m == 0:
+            return mass, force
+        p = self.n_u - m
+        Ar = -np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
+        M = np.vstack([mass[:p] + Ar.T @ mass[p:], acc_K])
+        f = np.concatenate([force[:p] + Ar.T @ force[p:], -acc_f])
+        return M, f
+
+    def rhs(self, t, y):
+        """State derivative :math:`[\\dot q, \\dot u]` (a new array each call)."""
+        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
+        return np.concatenate([qd, np.linalg.solve(M, f)])
+
+    __call__ = rhs
+
+    def mass_matrix(self, t, y):
+        """SymPy-convention ``mass_matrix`` (o x o) at a state."""
+        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        return self._assemble(mass, force, vel_B, acc_K, acc_f)[0]
+
+    def forcing(self, t, y):
+        """SymPy-convention ``forcing`` (o) at a state."""
+        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        return self._assemble(mass, force, vel_B, acc_K, acc_f)[1]
+
+    def mass_matrix_full(self, t, y):
+        """``[[I, 0], [0, mass_matrix]]`` (explicit kinematic equations)."""
+        n = self.n_q
+        out = np.zeros((self.n_states, self.n_states))
+        out[:n, :n] = np.eye(n)
+        out[n:, n:] = self.mass_matrix(t, y)
+        return out
+
+    def forcing_full(self, t, y):
+        """``[q', forcing]``."""
+        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        return np.concatenate([qd, self._assemble(mass, force, vel_B, acc_K, acc_f)[1]])
+
+    # -------------------------------------------------------- constraints
+    def _constraint_terms(self, t, y):
+        return self._fn["constraints"](t, y, self._p, self._r(t, y))
+
+    def constraint_residuals(self, t, y):
+        """Configuration then velocity constraint residuals (zero when satisfied)."""
+        h, _, vel_B, vel_b = self._constraint_terms(t, y)
+        u = np.asarray(y)[self.n_q:]
+        return np.concatenate([h, vel_B @ u + vel_b])
+
+    def consistent_state(self, t, y, tol=1e-12, max_iterations=50):
+        """State with dependent coordinates and speeds satisfying the constraints.
+
+        Dependent coordinates are found by Newton's method with the independent
+        ones fixed; dependent speeds by solving the velocity constraints.
+
+        Raises
+        ------
+        ConstraintError
+            When the constraint Jacobian is singular or Newton does not converge.
+        """
+        y = self._check_y(y).copy()
+        n, l, m = self.n_q, self.n_q_dep, self.n_u_dep
+        names = self.state_names
+        if l:
+            dep = slice(n - l, n)
+            for _ in range(max_iterations):
+                h, J, _, _ = self._constraint_terms(t, y)
+                if np.max(np.abs(h)) <= tol:
+                    break
+                Jd = J[:, dep]
+                if np.linalg.matrix_rank(Jd) < l:
+                    raise ConstraintError(
+                        "the configuration constraints cannot be solved for the "
+                        f"dependent coordinates {', '.join(names[n - l:n])}: their "
+                        f"Jacobian is singular at {self._describe(y[:n], names[:n])}")
+                y[dep] -= np.linalg.solve(Jd, h)
+                if not np.all(np.isfinite(y)):
+                    break
+            else:
+                h = self._constraint_terms(t, y)[0]
+            if not np.max(np.abs(h)) <= max(tol, 1e-9):
+                raise ConstraintError(
+                    "could not satisfy the configuration constraints (residual "
+                    f"{np.max(np.abs(h)):.3g}) by adjusting "
+                    f"{', '.join(names[n - l:n])}; give initial values closer to a "
+                    "consistent configuration")
+        if m:
+            _, _, B, b = self._constraint_terms(t, y)
+            o = self.n_u
+            p = o - m
+            Bd = B[:, p:]
+            if np.linalg.matrix_rank(Bd) < m:
+                raise ConstraintError(
+                    "the velocity constraints cannot be solved for the dependent "
+                    f"speeds {', '.join(names[n + p:])}: the constraint Jacobian "
+                    f"with respect to them is singular at "
+                    f"{self._describe(y[:n], names[:n])}")
+            y[n + p:] = np.linalg.solve(Bd, -(B[:, :p] @ y[n:n + p] + b))
+        return y
+
+    @staticmethod
+    def _describe(values, names):
+        return "(" + ", ".join(f"{k}={v:.6g}" for k, v in zip(names, values)) + ")"
+
+    # ---------------------------------------------------------- energies
+    def kinetic_energy(self, t, y):
+        return float(self._fn["energy"](t, y, self._p, self._r(t, y))[0])
+
+    def potential_energy(self, t, y):
+        """Potential energy, or ``nan`` when the model declares none."""
+        return float(self._fn["energy"](t, y, self._p, self._r(t, y))[1])
+
+    def total_energy(self, t, y):
+        ke, pe = self._fn["energy"](t, y, self._p, self._r(t, y))
+        return float(ke + pe)
+
+    # -------------------------------------------------- constraint forces
+    def auxiliary(self, t, y):
+        """Constraint forces exposed by auxiliary speeds, ``{name: value}``.
+
+        The auxiliary equations are linear in the unknown force symbols (those
+        without a given value); they are solved with :math:`\\dot u` from
+        :meth:`rhs`.
+        """
+        if "auxiliary" not in self._fn:
+            raise ValueError("this model has no auxiliary speeds, hence no "
+                             "constraint-force outputs")
+        k = len(self.aux_names)
+        ud = self.rhs(t, y)[self.n_q:]
+        r = list(self._r(t, y))
+        fn = self._fn["auxiliary"]
+        K, f0 = fn(t, y, self._p, r + [0.0] * k)
+        base = K @ ud + f0
+        if k == 0:
+            return {}
+        G = np.empty((len(base), k))
+        for j in range(k):
+            lam = [0.0] * k
+            lam[j] = 1.0
+            G[:, j] = fn(t, y, self._p, r + lam)[1] - f0
+        sol = np.linalg.solve(G, -base)
+        return dict(zip(self.aux_names, sol))
+
+    # --------------------------------------------------------- linearize
+    def linearize(self, y, t=0.0, r=None):
+        """Numerical linearization about a state; see :func:`kanedyn.linearize`."""
+        from ._linearize import linearize_numeric
+        return linearize_numeric(self, y, t=t, r=r)
+
+
+def build_numeric_model(eom, constants, specified, backend="numpy"):
+    """Generate and compile the numerical functions of ``eom``."""
+    if backend not in ("numpy",):
+        raise ModelError(f"unknown backend {backend!r}; available: 'numpy'")
+    prog = eom._program
+    table = eom._table
+    substitutions, runtime = _resolve_specified(eom, specified)
+
+    def sub(e):
+        return prog.subs(e, substitutions) if substitutions else e
+
+    def flat(rows):
+        return [sub(e) for row in rows for e in row]
+
+    n, o = len(eom.q), len(eom.u)
+    m, l = len(eom.u_dep), len(eom.q_dep)
+    force = [a - b for a, b in zip(eom._active, eom._remainder)]
+    dynamics = [((n,), [sub(e) for e in eom._qdot]),
+                ((o, o), flat(eom._mass)),
+                ((o,), [sub(e) for e in force]),
+                ((m, o), flat(eom._vel_B)),
+                ((m, o), flat(eom._acc_K)),
+                ((m,), [sub(e) for e in eom._acc_f])]
+    hol_jac = [prog.diff(h, q) for h in eom._config for q in table.q]
+    constraint_outputs = [((l,), [sub(e) for e in eom._config]),
+                          ((l, n), [sub(e) for e in hol_jac]),
+                          ((m, o), flat(eom._vel_B)),
+                          ((m,), [sub(e) for e in eom._vel_f])]
+    potential = eom._potential if eom._potential is not None else sm.nan
+    energy = [((), [sub(eom._kinetic)]), ((), [sub(potential)])]
+
+    main = [e for _, exprs in dynamics + constraint_outputs + energy for e in exprs]
+    leaves = set()
+    for e in main:
+        leaves |= prog.deps(e)
+    needed_consts = [s for s in eom.constants if s in leaves]
+    extra = {s for s in leaves if not table.is_dynamic(s) and s != table.t
+             and s not in eom.constants}
+    # constants introduced by exact input substitutions
+    values = _resolve_constants(eom, constants, needed_consts)
+    for s in sorted(extra, key=str):
+        raise MissingValueError(f"missing value for {s}, which appears in a "
+                                "specified input expression")
+    const_syms = sorted(values, key=str)
+
+    y_syms = list(table.q) + list(table.u)
+    r_syms = [s for s, _ in runtime]
+    args = {"y": y_syms, "p": const_syms, "r": r_syms}
+    sources = {
+        "dynamics": generate_python(prog, "dynamics", args, dynamics),
+        "constraints": generate_python(prog, "constraints", args, constraint_outputs),
+        "energy": generate_python(prog, "energy", args, energy),
+    }
+
+    aux_names = ()
+    if eom.u_aux:
+        aux_exprs = flat(eom._aux_K) + [sub(e) for e in eom._aux_f]
+        aux_leaves = set()
+        for e in aux_exprs:
+            aux_leaves |= prog.deps(e)
+        unknowns = [s for s in aux_leaves
+                    if s not in values and s not in r_syms and s not in y_syms
+                    and s != table.t and s not in table.u_aux
+                    and s not in set(table.udot)]
+        unknowns.sort(key=lambda s: name_of(table.external(s)))
+        aux_names = tuple(name_of(table.external(s)) for s in unknowns)
+        s_aux = len(eom.u_aux)
+        if len(unknowns) != s_aux:
+            raise ModelError(
+                f"the {s_aux} auxiliary equation(s) contain {len(unknowns)} symbol(s) "
+                f"without a value ({', '.join(aux_names) or 'none'}); there must be "
+                "exactly one unknown constraint-force magnitude per auxiliary speed, "
+                "so give values for the others in constants={...}")
+        aux_args = {"y": y_syms, "p": const_syms, "r": r_syms + unknowns}
+        sources["auxiliary"] = generate_python(
+            prog, "auxiliary", aux_args,
+            [((s_aux, o), flat(eom._aux_K)), ((s_aux,), [sub(e) for e in eom._aux_f])])
+
+    data = {
+        "backend": backend,
+        "sources": sources,
+        "p": [values[s] for s in const_syms],
+        "constants": {str(s): values[s] for s in const_syms},
+        "inputs": runtime,
+        "input_names": tuple(inp.name for _, inp in runtime),
+        "n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m,
+        "state_names": eom.state_names,
+        "aux_names": aux_names,
+        "has_potential": eom._potential is not None,
+        "linearization": None,
+    }
+    model = NumericModel(data)
+    model._eom = eom  # not pickled; enables lazily generated extras (linearization)
+    return model

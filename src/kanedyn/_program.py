@@ -1,0 +1,451 @@
+r"""Straight-line programs of named intermediates.
+
+A :class:`Program` holds an ordered list of assignments ``z_k = f_k(...)`` where
+each right-hand side is a small SymPy expression in earlier intermediates, *base
+variables* (coordinates, speeds, time, specified inputs) and constants.  Nothing
+is ever expanded: a rotation matrix entry of body 10 refers to the entries of
+body 9, and so on.  This is what keeps derivation fast and the generated code
+small (the approach of Autolev and MotionGenesis).
+
+The program differentiates itself in forward mode:
+
+* :meth:`Program.diff` gives :math:`\partial e / \partial x` for a base variable
+  ``x`` by the chain rule over the intermediates ``e`` depends on;
+* :meth:`Program.dt` gives the time derivative with every generalized speed held
+  fixed, :math:`\dot e|_{\dot u = 0} = \sum_j \partial e/\partial q_j\,\dot q_j +
+  \partial e/\partial t + \dots`; the part proportional to :math:`\dot u` is
+  obtained from :meth:`diff` with respect to the speeds (partial velocities).
+
+Identical right-hand sides are stored once (hash-consing), which eliminates most
+common subexpressions while the program is built.
+"""
+
+from __future__ import annotations
+
+import cmath
+import math
+import random
+
+import sympy as sm
+from sympy.core.function import AppliedUndef
+
+__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler"]
+
+SAMPLE_SEEDS = (101, 202)  # random points used for identity tests
+
+_ZERO = sm.S.Zero
+_ONE = sm.S.One
+
+
+def _is_trivial(expr):
+    """True for expressions not worth a name: atoms and ``number * atom``."""
+    if expr.is_Atom:
+        return True
+    if expr.is_Mul and len(expr.args) == 2:
+        a, b = expr.args
+        return a.is_Number and b.is_Atom
+    return False
+
+
+class Program:
+    """An ordered set of named intermediates with forward differentiation.
+
+    Parameters
+    ----------
+    t : sympy.Symbol
+        The time symbol.
+
+    Notes
+    -----
+    Base variables are declared with :meth:`declare` together with their time
+    derivative.  Symbols that are neither base variables nor intermediates are
+    constants: their derivatives are zero.
+    """
+
+    def __init__(self, t):
+        self.t = t
+        self._defs = {}  # intermediate -> right-hand side
+        self._index = {}  # intermediate -> position
+        self._order = []
+        self._cons = {}  # right-hand side -> intermediate (hash-consing)
+        self._parents = {}  # intermediate -> frozenset of intermediates in its rhs
+        self._deps = {}  # intermediate -> frozenset of leaf symbols it depends on
+        self._base_dt = {t: _ONE}  # base variable -> time derivative
+        self._dt_hint = {}  # intermediate -> known time derivative (expression)
+        self._dt = {}
+        self._diff = {}  # var -> {intermediate: derivative}
+        self._subs = {}  # frozenset(mapping) -> {intermediate: substituted}
+        self._explicit = {}
+        self._shadow = {}  # seed -> {symbol: value}
+        self._samplers = {}
+
+    # ------------------------------------------------------------------ build
+    def declare(self, symbol, derivative=_ZERO):
+        """Declare ``symbol`` a base variable whose time derivative is ``derivative``.
+
+        ``derivative`` may be a callable returning the expression; it is called
+        the first time the derivative is needed.
+        """
+        self._base_dt[symbol] = derivative if callable(derivative) else sm.sympify(derivative)
+
+    def set_derivative(self, symbol, derivative):
+        """Change the time derivative of a declared base variable."""
+        if symbol not in self._base_dt:
+            raise KeyError(f"{symbol} is not a base variable of this program")
+        self._base_dt[symbol] = sm.sympify(derivative)
+        self._dt.clear()
+
+    def _base_derivative(self, symbol):
+        value = self._base_dt.get(symbol, _ZERO)
+        if callable(value):
+            value = self._base_dt[symbol] = sm.sympify(value())
+        return value
+
+    def is_base(self, symbol):
+        return symbol in self._base_dt
+
+    def is_intermediate(self, symbol):
+        return symbol in self._defs
+
+    def let(self, expr, name="z"):
+        """Return a name for ``expr``: a new or existing intermediate, or ``expr``.
+
+        Atoms and ``number * atom`` are returned unchanged.
+        """
+        expr = sm.sympify(expr)
+        if _is_trivial(expr):
+            return expr
+        found = self._cons.get(expr)
+        if found is not None:
+            return found
+        sym = sm.Dummy(name)
+        free = expr.free_symbols
+        parents = frozenset(s for s in free if s in self._defs)
+        deps = set(s for s in free if s not in self._defs)
+        for p in parents:
+            deps |= self._deps[p]
+        self._defs[sym] = expr
+        self._index[sym] = len(self._order)
+        self._order.append(sym)
+        self._cons[expr] = sym
+        self._parents[sym] = parents
+        self._deps[sym] = frozenset(deps)
+        return sym
+
+    def let_matrix(self, matrix, name="z"):
+        """Name every entry of ``matrix``; returns an immutable matrix of names."""
+        matrix = sm.Matrix(matrix)
+        rows, cols = matrix.shape
+        out = [self.let(matrix[i, j], f"{name}{i}{j}" if cols > 1 else f"{name}{i}")
+               for i in range(rows) for j in range(cols)]
+        return sm.ImmutableMatrix(rows, cols, out)
+
+    def hint_dt(self, symbol, derivative):
+        """Record a known time derivative of an intermediate (first one wins)."""
+        if symbol in self._defs and symbol not in self._dt_hint:
+            self._dt_hint[symbol] = sm.sympify(derivative)
+
+    def definition(self, symbol):
+        return self._defs[symbol]
+
+    def __len__(self):
+        return len(self._order)
+
+    # ---------------------------------------------------------------- queries
+    def deps(self, expr):
+        """Leaf symbols (base variables and constants) ``expr`` depends on."""
+        out = set()
+        for s in sm.sympify(expr).free_symbols:
+            d = self._deps.get(s)
+            if d is not None:
+                out |= d
+            else:
+                out.add(s)
+        return frozenset(out)
+
+    def _varying(self):
+        """Base variables whose time derivative is not identically zero."""
+        return frozenset(s for s, d in self._base_dt.items() if callable(d) or d != 0)
+
+    def _free_intermediates(self, expr):
+        return [s for s in expr.free_symbols if s in self._defs]
+
+    def needed(self, exprs, stop=None, leaf=None):
+        """Intermediates ``exprs`` depend on, in definition order.
+
+        ``stop(symbol)`` returning True leaves that symbol out; ``leaf(symbol)``
+        returning True keeps it but does not follow its parents.
+        """
+        seen = set()
+        stack = []
+        for e in exprs:
+            stack.extend(self._free_intermediates(sm.sympify(e)))
+        while stack:
+            s = stack.pop()
+            if s in seen or (stop is not None and stop(s)):
+                continue
+            seen.add(s)
+            if leaf is None or not leaf(s):
+                stack.extend(p for p in self._parents[s] if p not in seen)
+        return sorted(seen, key=self._index.__getitem__)
+
+    # ------------------------------------------------------------ derivatives
+    def _chain(self, expr, derivative_of):
+        """Total derivative of ``expr`` given derivatives of its free symbols."""
+        return total_derivative(expr, derivative_of)
+
+    def diff(self, expr, var, name=None):
+        r"""Partial derivative :math:`\partial\,\mathrm{expr}/\partial\,\mathrm{var}`.
+
+        ``var`` is any leaf symbol (base variable or constant).  The result is an expression in
+        intermediates (new ones are created for the derivatives of old ones).
+        """
+        expr = sm.sympify(expr)
+        if var not in self.deps(expr):
+            return _ZERO
+        memo = self._diff.setdefault(var, {})
+        todo = self.needed([expr], stop=lambda s: s in memo or var not in self._deps[s])
+        tag = name or f"d{var}"
+
+        def d_of(s):
+            if s == var:
+                return _ONE
+            if s in self._defs:
+                return memo.get(s, _ZERO)
+            return _ZERO
+
+        for s in todo:
+            memo[s] = self.let(self._chain(self._defs[s], d_of), f"{s.name}_{tag}")
+        return self._chain(expr, d_of)
+
+    def jacobian(self, exprs, variables):
+        """Matrix of partial derivatives, ``len(exprs) x len(variables)``."""
+        return sm.Matrix([[self.diff(e, v) for v in variables] for e in exprs])
+
+    def dt(self, expr):
+        r"""Time derivative of ``expr`` with :math:`\dot u` held at zero.
+
+        Base variables contribute their declared derivatives; intermediates with
+        a recorded hint (:meth:`hint_dt`) use it.
+        """
+        expr = sm.sympify(expr)
+        varying = self._varying()
+        if not (self.deps(expr) & varying):
+            return _ZERO
+        memo = self._dt
+        todo = self.needed([expr], stop=lambda s: s in memo or not (self._deps[s] & varying),
+                           leaf=self._dt_hint.__contains__)
+
+        def d_of(s):
+            if s in self._defs:
+                return memo.get(s, _ZERO)
+            return self._base_derivative(s)
+
+        for s in todo:
+            hint = self._dt_hint.get(s)
+            value = hint if hint is not None else self._chain(self._defs[s], d_of)
+            memo[s] = self.let(value, f"{s.name}_dt")
+        return self._chain(expr, d_of)
+
+    # ----------------------------------------------------------- substitution
+    def subs(self, expr, mapping):
+        """Replace leaf symbols by values throughout the program.
+
+        Intermediates that depend on a replaced variable get substituted copies;
+        the others are shared.
+        """
+        expr = sm.sympify(expr)
+        mapping = {k: sm.sympify(v) for k, v in mapping.items()}
+        if not mapping or not (self.deps(expr) & set(mapping)):
+            return expr
+        key = frozenset(mapping.items())
+        memo = self._subs.setdefault(key, {})
+        targets = set(mapping)
+        todo = self.needed(
+            [expr], stop=lambda s: s in memo or not (self._deps[s] & targets))
+        for s in todo:
+            local = dict(mapping)
+            local.update((p, memo[p]) for p in self._parents[s] if p in memo)
+            memo[s] = self.let(self._defs[s].xreplace(local), s.name)
+        local = dict(mapping)
+        local.update((s, memo[s]) for s in self._free_intermediates(expr) if s in memo)
+        return expr.xreplace(local)
+
+    def expand(self, expr):
+        """The explicit expression: every intermediate replaced by its value."""
+        expr = sm.sympify(expr)
+        memo = self._explicit
+        for s in self.needed([expr], stop=lambda s: s in memo):
+            memo[s] = self._defs[s].xreplace({p: memo[p] for p in self._parents[s]})
+        return expr.xreplace({s: memo[s] for s in self._free_intermediates(expr)})
+
+    # --------------------------------------------------------------- numerics
+    def shadow(self, exprs, seed):
+        """Evaluate ``exprs`` numerically at the random point number ``seed``.
+
+        Every leaf symbol gets a reproducible value in [0.5, 1.5) at each
+        point; intermediate values are cached.  Used for randomized identity
+        tests.  Returns a list of complex numbers (``nan`` where evaluation
+        failed).
+        """
+        values = self._shadow.setdefault(seed, {})
+        sample = self._samplers.get(seed)
+        if sample is None:
+            sample = self._samplers[seed] = random_sampler(seed)
+
+        def value_of(s):
+            if s not in values:
+                values[s] = sample(s)
+            return values[s]
+
+        exprs = [sm.sympify(e) for e in exprs]
+        for s in self.needed(exprs, stop=lambda s: s in values):
+            values[s] = _evaluate(self._defs[s], value_of)
+        return [_evaluate(e, value_of) for e in exprs]
+
+    # ----------------------------------------------------------------- sizes
+    def count_ops(self, exprs):
+        """Operations in ``exprs`` and all intermediates they need."""
+        exprs = [sm.sympify(e) for e in exprs]
+        total = sum(sm.count_ops(self._defs[s]) for s in self.needed(exprs))
+        return int(total + sum(sm.count_ops(e) for e in exprs))
+
+
+_DERIVATIVES = {
+    sm.sin: lambda a: sm.cos(a),
+    sm.cos: lambda a: -sm.sin(a),
+    sm.tan: lambda a: 1 + sm.tan(a) ** 2,
+    sm.exp: lambda a: sm.exp(a),
+    sm.log: lambda a: 1 / a,
+    sm.asin: lambda a: 1 / sm.sqrt(1 - a ** 2),
+    sm.acos: lambda a: -1 / sm.sqrt(1 - a ** 2),
+    sm.atan: lambda a: 1 / (1 + a ** 2),
+    sm.sinh: lambda a: sm.cosh(a),
+    sm.cosh: lambda a: sm.sinh(a),
+    sm.tanh: lambda a: 1 - sm.tanh(a) ** 2,
+}
+
+
+def total_derivative(expr, derivative_of):
+    r"""Total derivative :math:`\sum_s \partial e/\partial s\; ds` in one pass.
+
+    ``derivative_of(symbol)`` gives :math:`ds` for every free symbol (``0``
+    for constants).  Common node types are differentiated directly; others
+    fall back to SymPy's ``diff``.
+    """
+    if expr.is_Symbol:
+        return derivative_of(expr)
+    if expr.is_Number or expr.is_NumberSymbol:
+        return _ZERO
+    if expr.is_Add:
+        return sm.Add(*[total_derivative(a, derivative_of) for a in expr.args])
+    if expr.is_Mul:
+        args = expr.args
+        terms = []
+        for i, a in enumerate(args):
+            da = total_derivative(a, derivative_of)
+            if da is _ZERO or da == 0:
+                continue
+            terms.append(sm.Mul(*(args[:i] + (da,) + args[i + 1:])))
+        return sm.Add(*terms)
+    if expr.is_Pow:
+        base, exponent = expr.args
+        db = total_derivative(base, derivative_of)
+        if exponent.is_Number:
+            if db is _ZERO or db == 0:
+                return _ZERO
+            return exponent * base ** (exponent - 1) * db
+        de = total_derivative(exponent, derivative_of)
+        return expr * (de * sm.log(base) + exponent * db / base)
+    rule = _DERIVATIVES.get(expr.func)
+    if rule is not None:
+        (a,) = expr.args
+        da = total_derivative(a, derivative_of)
+        if da is _ZERO or da == 0:
+            return _ZERO
+        return rule(a) * da
+    if expr.func is sm.atan2:
+        y, x = expr.args
+        dy = total_derivative(y, derivative_of)
+        dx = total_derivative(x, derivative_of)
+        return (x * dy - y * dx) / (x ** 2 + y ** 2)
+    terms = []
+    for s in expr.free_symbols:
+        ds = derivative_of(s)
+        if ds is _ZERO or ds == 0:
+            continue
+        terms.append(expr.diff(s) * ds)
+    return sm.Add(*terms)
+
+
+def _evaluate(expr, value_of):
+    """Numerical (complex) value of a SymPy expression; ``nan`` on failure."""
+    try:
+        return complex(fast_eval(expr, value_of, {}))
+    except (TypeError, ValueError, ZeroDivisionError, OverflowError):
+        return complex("nan")
+
+
+_FUNCS = {
+    sm.sin: cmath.sin, sm.cos: cmath.cos, sm.tan: cmath.tan, sm.exp: cmath.exp,
+    sm.log: cmath.log, sm.asin: cmath.asin, sm.acos: cmath.acos,
+    sm.atan: cmath.atan, sm.sinh: cmath.sinh, sm.cosh: cmath.cosh,
+    sm.tanh: cmath.tanh, sm.Abs: abs,
+    sm.sign: lambda x: complex((x.real > 0) - (x.real < 0)),
+    sm.atan2: lambda y, x: complex(math.atan2(y.real, x.real)),
+}
+
+
+def fast_eval(expr, value_of, memo):
+    """Evaluate a SymPy expression tree with complex floats.
+
+    ``value_of(node)`` gives the value of symbols and other leaves (applied
+    undefined functions, derivatives).  Shared subtrees are evaluated once
+    (``memo``).  Unknown node types fall back to SymPy's ``evalf``.
+    """
+    found = memo.get(expr)
+    if found is not None:
+        return found
+    if expr.is_Symbol:
+        value = value_of(expr)
+    elif expr.is_Number:
+        value = complex(expr)
+    elif expr.is_Add:
+        value = sum(fast_eval(a, value_of, memo) for a in expr.args)
+    elif expr.is_Mul:
+        value = 1
+        for a in expr.args:
+            value *= fast_eval(a, value_of, memo)
+    elif expr.is_Pow:
+        base = fast_eval(expr.args[0], value_of, memo)
+        e = expr.args[1]
+        if e.is_Integer:
+            value = base ** int(e)
+        else:
+            value = base ** fast_eval(e, value_of, memo)
+    elif expr.func in _FUNCS:
+        value = _FUNCS[expr.func](*(fast_eval(a, value_of, memo) for a in expr.args))
+    elif expr.is_NumberSymbol:
+        value = complex(expr.evalf())
+    elif isinstance(expr, (AppliedUndef, sm.Derivative)):
+        value = value_of(expr)
+    else:
+        subs = {s: fast_eval(s, value_of, memo) for s in expr.free_symbols}
+        value = complex(expr.xreplace({k: sm.Float(v.real) + sm.I * sm.Float(v.imag)
+                                       for k, v in subs.items()}).evalf())
+    value = complex(value)
+    memo[expr] = value
+    return value
+
+
+def random_sampler(seed):
+    """A sampler giving each symbol a reproducible value in [0.5, 1.5)."""
+    rng = random.Random(seed)
+    cache = {}
+
+    def sample(symbol):
+        if symbol not in cache:
+            cache[symbol] = complex(rng.uniform(0.5, 1.5))
+        return cache[symbol]
+
+    return sample
