@@ -13,6 +13,8 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError,
                       MissingValueError, ModelError)
 from ._formulation import FORMULATIONS, formulate, kane
 from ._numeric import NumericModel
+from ._results import SimulationResult
+from ._simulate import simulate
 
 __version__ = "0.1.0"
 
@@ -22,6 +24,8 @@ __all__ = [
     "FORMULATIONS",
     "EquationsOfMotion",
     "NumericModel",
+    "simulate",
+    "SimulationResult",
     "KanedynError",
     "ModelError",
     "KinematicsError",

@@ -187,7 +187,7 @@ class NumericModel:
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
-                    "aux_names", "input_names", "has_potential"):
+                    "aux_names", "input_names", "has_potential", "has_loads"):
             setattr(self, key, d[key])
 
     def __repr__(self):
@@ -307,7 +307,9 @@ class NumericModel:
                     raise ConstraintError(
                         "the configuration constraints cannot be solved for the "
                         f"dependent coordinates {', '.join(names[n - l:n])}: their "
-                        f"Jacobian is singular at {self._describe(y[:n], names[:n])}")
+                        f"Jacobian is singular at {self._describe(y[:n], names[:n])}; "
+                        "give starting values of the dependent coordinates closer to "
+                        "a consistent configuration")
                 y[dep] -= np.linalg.solve(Jd, h)
                 if not np.all(np.isfinite(y)):
                     break
@@ -472,8 +474,10 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
         "state_names": eom.state_names,
         "aux_names": aux_names,
         "has_potential": eom._potential is not None,
-        "linearization": None,
+        "has_loads": bool(eom.loads),
     }
     model = NumericModel(data)
-    model._eom = eom  # not pickled; enables lazily generated extras (linearization)
+    # not pickled: the equations and exact input substitutions, for linearization
+    model._eom = eom
+    model._substitutions = substitutions
     return model

@@ -1,0 +1,213 @@
+"""Simulation results: states, constraint residuals, energy, constraint forces."""
+
+from __future__ import annotations
+
+import csv
+from pathlib import Path
+
+import numpy as np
+
+from ._symbols import name_of
+
+__all__ = ["SimulationResult"]
+
+
+class _SegmentedSolution:
+    """Continuous solution made of consecutive ``OdeSolution`` pieces."""
+
+    def __init__(self, pieces):
+        self.pieces = pieces
+        self.breaks = np.array([p.t_min for p in pieces[1:]])
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        scalar = t.ndim == 0
+        t = np.atleast_1d(t)
+        idx = np.searchsorted(self.breaks, t, side="right")
+        out = np.empty((self.pieces[0](t[0]).shape[0], t.size))
+        for k in np.unique(idx):
+            sel = idx == k
+            out[:, sel] = self.pieces[k](t[sel])
+        return out[:, 0] if scalar else out
+
+
+class SimulationResult:
+    """What a simulation computed; immutable.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Output times, s.
+    y : ndarray, shape (n_states, N)
+        States at the output times (``solve_ivp`` layout).
+    state_names : tuple of str
+    success : bool
+    status : int
+        0: reached the end; 1: a terminal event; -1: failure.
+    message : str
+    t_events, y_events : list of ndarray
+        Per user event, as in ``solve_ivp``.
+    sol : callable or None
+        Continuous solution when ``dense_output=True``.
+    constraint_residuals : ndarray, shape (n_constraints, N)
+        Configuration then velocity constraint residuals.
+    kinetic_energy : ndarray, shape (N,)
+    energy : ndarray or None
+        Total energy (kinetic + potential) where the model defines it, or the
+        kinetic energy of a model without loads; else ``None``.
+    constraint_forces : dict
+        ``{name: ndarray (N,)}`` when requested.
+    projections : int
+        Number of constraint-drift projections.
+    initial_state : ndarray
+        The (consistent) initial state actually used.
+    nfev, njev, nlu : int
+        Counts summed over integration segments.
+    """
+
+    @classmethod
+    def build(cls, model, t, y, status, message, t_events, y_events, dense_segments,
+              counters, projections, initial_state, constraint_forces, method):
+        self = object.__new__(cls)
+        d = self.__dict__
+        d.update(model=model, t=t, y=y, status=status, message=message,
+                 success=status >= 0, t_events=t_events, y_events=y_events,
+                 projections=projections, initial_state=initial_state, method=method,
+                 state_names=model.state_names, **counters)
+        d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
+        n_c = model.n_q_dep + model.n_u_dep
+        res = np.zeros((n_c, t.size))
+        ke = np.full(t.size, np.nan)
+        pe = np.full(t.size, np.nan)
+        for k in range(t.size):
+            yk = y[:, k]
+            if not np.all(np.isfinite(yk)):
+                continue
+            if n_c:
+                res[:, k] = model.constraint_residuals(t[k], yk)
+            ke[k] = model.kinetic_energy(t[k], yk)
+            if model.has_potential:
+                pe[k] = model.potential_energy(t[k], yk)
+        d["constraint_residuals"] = res
+        d["kinetic_energy"] = ke
+        if model.has_potential:
+            d["potential_energy"] = pe
+            d["energy"] = ke + pe
+        else:
+            d["potential_energy"] = None
+            d["energy"] = ke.copy() if not model.has_loads else None
+        forces = {}
+        if constraint_forces:
+            names = model.aux_names
+            values = np.full((len(names), t.size), np.nan)
+            for k in range(t.size):
+                if np.all(np.isfinite(y[:, k])):
+                    out = model.auxiliary(t[k], y[:, k])
+                    values[:, k] = [out[nm] for nm in names]
+            forces = dict(zip(names, values))
+        d["constraint_forces"] = forces
+        return self
+
+    def __setattr__(self, name, value):
+        raise AttributeError("SimulationResult is immutable")
+
+    def __repr__(self):
+        return (f"<SimulationResult: {self.t.size} points, t={self.t[0] if self.t.size else 0:g}"
+                f"..{self.t[-1] if self.t.size else 0:g}, success={self.success}, "
+                f"message={self.message!r}>")
+
+    # ------------------------------------------------------------- access
+    def __getitem__(self, key):
+        """A state history by name or dynamic symbol, or a named output."""
+        name = key if isinstance(key, str) else name_of(key)
+        if name in self.state_names:
+            return self.y[self.state_names.index(name)]
+        if name in self.constraint_forces:
+            return self.constraint_forces[name]
+        if name in ("energy", "kinetic_energy", "potential_energy"):
+            value = getattr(self, name)
+            if value is None:
+                raise KeyError(f"{name} is not defined for this model")
+            return value
+        raise KeyError(f"{key} is neither a state ({', '.join(self.state_names)}) nor "
+                       "a computed output of this result")
+
+    def keys(self):
+        return list(self.state_names) + list(self.constraint_forces)
+
+    @property
+    def constraint_residual(self):
+        """Largest absolute constraint residual at each output time."""
+        if self.constraint_residuals.shape[0] == 0:
+            return np.zeros(self.t.size)
+        return np.max(np.abs(self.constraint_residuals), axis=0)
+
+    def energy_drift(self):
+        """Largest relative change of :attr:`energy` from its initial value."""
+        if self.energy is None or self.t.size == 0:
+            return None
+        e = self.energy[np.isfinite(self.energy)]
+        scale = max(abs(e[0]), np.max(np.abs(self.kinetic_energy[np.isfinite(
+            self.kinetic_energy)])), 1e-300)
+        return float(np.max(np.abs(e - e[0])) / scale)
+
+    def summary(self):
+        """Dictionary of headline numbers (for reports and the CLI)."""
+        out = {"success": self.success, "status": self.status, "message": self.message,
+               "points": int(self.t.size), "t_end": float(self.t[-1]) if self.t.size else None,
+               "rhs_evaluations": int(self.nfev), "projections": int(self.projections),
+               "max_constraint_residual": float(np.max(self.constraint_residual))
+               if self.t.size else None,
+               "energy_drift": self.energy_drift()}
+        return out
+
+    # ------------------------------------------------------------- output
+    def _columns(self):
+        cols = {"t": self.t}
+        for i, name in enumerate(self.state_names):
+            cols[name] = self.y[i]
+        for name, values in self.constraint_forces.items():
+            cols[name] = values
+        cols["kinetic_energy"] = self.kinetic_energy
+        if self.energy is not None:
+            cols["energy"] = self.energy
+        if self.constraint_residuals.shape[0]:
+            cols["constraint_residual"] = self.constraint_residual
+        return cols
+
+    def to_csv(self, path):
+        """Write time, states and computed outputs as CSV; returns the path."""
+        path = Path(path)
+        cols = self._columns()
+        with path.open("w", newline="") as fh:
+            writer = csv.writer(fh)
+            writer.writerow(list(cols))
+            for row in zip(*cols.values()):
+                writer.writerow([repr(float(v)) for v in row])
+        return path
+
+    def to_npz(self, path):
+        """Write all arrays to a compressed ``.npz`` file; returns the path."""
+        path = Path(path)
+        arrays = self._columns()
+        arrays["y"] = self.y
+        arrays["state_names"] = np.array(self.state_names)
+        arrays["constraint_residuals"] = self.constraint_residuals
+        np.savez_compressed(path, **arrays)
+        return path
+
+    def plot(self, states=None, path=None, extras=True):
+        """Plot state histories (and residual/energy panels); returns the Figure.
+
+        Parameters
+        ----------
+        states : sequence of str, optional
+            Which states to plot (default: all, coordinates and speeds in two
+            panels).
+        path : str or Path, optional
+            Save the figure there.
+        extras : bool
+            Add panels for constraint residual and energy when available.
+        """
+        from ._plotting import plot_result
+        return plot_result(self, states=states, path=path, extras=extras)

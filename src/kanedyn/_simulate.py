@@ -1,0 +1,208 @@
+r"""Simulation on SciPy's ``solve_ivp`` with constraint handling.
+
+* Initial conditions are made consistent: dependent coordinates by Newton's
+  method, dependent speeds from the velocity constraints.
+* Constraint drift is projected away: a terminal event fires when the largest
+  constraint residual exceeds ``projection_tol``; the state is projected back
+  (same partition as above) and integration restarts from there.
+* A failure (non-finite derivative, singular matrix, step-size collapse) ends
+  the run with ``success=False`` and a message; everything computed up to that
+  point is returned.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ._errors import MissingValueError
+from ._progress import as_progress
+from ._results import SimulationResult
+
+__all__ = ["simulate"]
+
+
+def _initial_state(model, y0, t0):
+    names = model.state_names
+    if isinstance(y0, dict):
+        y = np.zeros(model.n_states)
+        given = set()
+        for key, value in y0.items():
+            idx = model.index(key)
+            y[idx] = float(value)
+            given.add(idx)
+        n, l, o, m = model.n_q, model.n_q_dep, model.n_u, model.n_u_dep
+        independent = list(range(n - l)) + list(range(n, n + o - m))
+        missing = [names[i] for i in independent if i not in given]
+        if missing:
+            raise MissingValueError("missing initial value(s) for " + ", ".join(missing))
+    else:
+        y = np.asarray(y0, dtype=float)
+        if y.shape != (model.n_states,):
+            raise ValueError(
+                f"y0 must have {model.n_states} entries ({', '.join(names)}), "
+                f"got shape {y.shape}")
+        bad = [names[i] for i in np.flatnonzero(~np.isfinite(y))]
+        if bad:
+            raise ValueError("initial values are not finite for " + ", ".join(bad))
+    if model.n_q_dep or model.n_u_dep:
+        y = model.consistent_state(t0, y)
+    return y
+
+
+class _Integrand:
+    """``rhs`` wrapper: counts, progress, and non-finite results as data."""
+
+    def __init__(self, model, t_span, progress):
+        self.model = model
+        self.failure = None
+        self.progress = progress
+        self.t0, self.t1 = t_span
+        self.n = model.n_states
+
+    def __call__(self, t, y):
+        try:
+            out = self.model.rhs(t, y)
+        except np.linalg.LinAlgError as exc:
+            if self.failure is None:
+                self.failure = f"singular system at t={t:.6g} ({exc})"
+            return np.full(self.n, np.nan)
+        if not np.all(np.isfinite(out)):
+            if self.failure is None:
+                bad = [self.model.state_names[i] for i in np.flatnonzero(~np.isfinite(out))]
+                self.failure = (f"non-finite derivative of {', '.join(bad)} at "
+                                f"t={t:.6g}")
+        if self.progress.enabled and self.t1 != self.t0:
+            self.progress.update("simulating", (t - self.t0) / (self.t1 - self.t0))
+        return out
+
+
+def _drift_event(model, tol):
+    def drift(t, y):
+        return tol - np.max(np.abs(model.constraint_residuals(t, y)))
+    drift.terminal = True
+    drift.direction = -1
+    return drift
+
+
+def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
+             events=None, dense_output=False, project=True, projection_tol=None,
+             constraint_forces=False, progress=False, **options):
+    """Integrate a :class:`NumericModel` with SciPy's ``solve_ivp``.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t_span : (float, float)
+        Start and end time, s.
+    y0 : array_like or dict
+        Initial state ``[q, u]``, or ``{symbol or name: value}`` giving at
+        least every independent coordinate and speed.  Dependent values are
+        starting guesses; they are corrected to satisfy the constraints.
+    method : str or OdeSolver
+        Any ``solve_ivp`` method (``"RK45"``, ``"DOP853"``, ``"Radau"``,
+        ``"BDF"``, ``"LSODA"``, ...).
+    t_eval : array_like, optional
+        Output times; default: the integrator's steps.
+    rtol, atol : float
+        Integration tolerances.
+    events : callable or list of callables, optional
+        ``event(t, y)`` functions with optional ``terminal`` and ``direction``
+        attributes, exactly as for ``solve_ivp``.
+    dense_output : bool
+        Keep a continuous solution (``result.sol(t)``).
+    project : bool
+        Project constraint drift back onto the constraint manifold (systems
+        with dependent coordinates or speeds).
+    projection_tol : float, optional
+        Residual that triggers a projection; default ``max(100 * atol, 1e-10)``.
+    constraint_forces : bool
+        Evaluate the constraint forces exposed by auxiliary speeds at every
+        output time (``result["T"]`` etc.).
+    progress : bool
+        Show progress on stderr.
+    **options
+        Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).
+
+    Returns
+    -------
+    SimulationResult
+    """
+    t0, t1 = (float(v) for v in t_span)
+    progress = as_progress(progress)
+    y_init = _initial_state(model, y0, t0)
+    user_events = [] if events is None else (
+        list(events) if isinstance(events, (list, tuple)) else [events])
+    constrained = (model.n_q_dep + model.n_u_dep) > 0
+    tol = projection_tol if projection_tol is not None else max(100 * atol, 1e-10)
+    all_events = list(user_events)
+    if constrained and project:
+        all_events.append(_drift_event(model, tol))
+    t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+
+    integrand = _Integrand(model, (t0, t1), progress)
+    ts, ys, segments = [], [], []
+    t_events = [[] for _ in user_events]
+    y_events = [[] for _ in user_events]
+    counters = {"nfev": 0, "njev": 0, "nlu": 0}
+    projections = 0
+    t_start, y_start = t0, y_init
+    status, message = 0, "the integration reached the end of the interval"
+    first = True
+    while True:
+        seg_eval = None
+        if t_eval is not None:
+            keep = (t_eval >= t_start) if first else (t_eval > t_start)
+            seg_eval = t_eval[keep & (t_eval <= t1)]
+        sol = solve_ivp(integrand, (t_start, t1), y_start, method=method,
+                        t_eval=seg_eval, events=all_events or None,
+                        dense_output=dense_output, rtol=rtol, atol=atol, **options)
+        for key in counters:
+            counters[key] += getattr(sol, key, 0)
+        seg_t, seg_y = sol.t, sol.y
+        if not first and t_eval is None and seg_t.size and seg_t[0] == t_start:
+            seg_t, seg_y = seg_t[1:], seg_y[:, 1:]
+        ts.append(seg_t)
+        ys.append(seg_y)
+        if dense_output and sol.sol is not None:
+            segments.append(sol.sol)
+        for i in range(len(user_events)):
+            if sol.t_events is not None and len(sol.t_events[i]):
+                t_events[i].extend(sol.t_events[i])
+                y_events[i].extend(sol.y_events[i])
+        first = False
+        if sol.status == -1 or integrand.failure is not None:
+            status = -1
+            message = integrand.failure or sol.message
+            if integrand.failure and sol.status != -1:
+                message += " (the integrator continued; results after it are unreliable)"
+            break
+        if sol.status == 1:
+            fired_user = [i for i, ev in enumerate(user_events)
+                          if getattr(ev, "terminal", False) and len(sol.t_events[i])
+                          and sol.t_events[i][-1] == sol.t[-1]]
+            if fired_user or not (constrained and project):
+                status = 1
+                message = "a termination event occurred"
+                break
+            # drift event: project and restart
+            t_start = float(sol.t_events[-1][-1])
+            y_start = model.consistent_state(t_start, sol.y_events[-1][-1])
+            projections += 1
+            if t_eval is None:
+                ts[-1], ys[-1] = ts[-1][:-1], ys[-1][:, :-1]
+                ts.append(np.array([t_start]))
+                ys.append(y_start[:, None])
+            continue
+        break
+    progress.done()
+    t = np.concatenate(ts) if ts else np.zeros(0)
+    y = np.concatenate(ys, axis=1) if ys else np.zeros((model.n_states, 0))
+    return SimulationResult.build(
+        model=model, t=t, y=y, status=status, message=message,
+        t_events=[np.asarray(v) for v in t_events],
+        y_events=[np.asarray(v).reshape(-1, model.n_states) for v in y_events],
+        dense_segments=segments if dense_output else None, counters=counters,
+        projections=projections, initial_state=y_init,
+        constraint_forces=constraint_forces,
+        method=method if isinstance(method, str) else getattr(method, "__name__", str(method)))
