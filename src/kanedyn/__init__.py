@@ -15,6 +15,7 @@ from ._formulation import FORMULATIONS, formulate, kane
 from ._numeric import NumericModel
 from ._results import SimulationResult
 from ._simulate import simulate
+from . import models
 
 __version__ = "0.1.0"
 
@@ -26,6 +27,7 @@ __all__ = [
     "NumericModel",
     "simulate",
     "SimulationResult",
+    "models",
     "KanedynError",
     "ModelError",
     "KinematicsError",

@@ -26,7 +26,7 @@ class CodegenError(KanedynError, ValueError):
 class _Printer(PythonCodePrinter):
     def __init__(self, names):
         super().__init__({"fully_qualified_modules": True, "standard": "python3",
-                          "strict": True})
+                          "strict": True, "order": "none"})
         self._names = names
 
     def _print_Symbol(self, expr):

@@ -299,11 +299,10 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
-    config = tuple(prog.let(table.internal(c, f"configuration constraint {i} ({c})"),
-                            f"h_{i}")
+    config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
                    for i, c in enumerate(spec.configuration_constraints))
     if spec.velocity_constraints is not None:
-        vel = [prog.subs(table.internal(c, f"velocity constraint {i} ({c})"), aux_zero)
+        vel = [prog.subs(kin.scalar(c, f"velocity constraint {i}", "vc"), aux_zero)
                for i, c in enumerate(spec.velocity_constraints)]
     else:
         vel = [kin.dt(c) for c in config]
@@ -311,8 +310,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel)
     vel_f = tuple(prog.let(prog.subs(c, u_zero), "b") for c in vel)
     if spec.acceleration_constraints is not None:
-        acc = [prog.subs(table.internal(c, f"acceleration constraint {i} ({c})",
-                                        allow_udot=True), aux_zero)
+        acc = [prog.subs(prog.let_tree(table.internal(
+                   c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
                for i, c in enumerate(spec.acceleration_constraints)]
         acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
                       for c in acc)
@@ -332,7 +331,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     kinetic = prog.let(sm.Add(*ke), "KE")
     potential = None
     if spec.potential_energy is not None:
-        potential = prog.let(table.internal(spec.potential_energy, "potential energy"),
+        potential = prog.let(kin.scalar(spec.potential_energy, "potential energy", "pe"),
                              "PE")
 
     # ------------------------------------------------------ auxiliary

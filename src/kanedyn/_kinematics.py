@@ -118,6 +118,13 @@ class Kinematics:
     def internal(self, expr, where):
         return self.table.internal(expr, where)
 
+    def scalar(self, expr, where, name="s"):
+        """Internal form of a user expression; large ones become programs."""
+        value = self.table.internal(expr, where)
+        if not _small(value, _SMALL):
+            value = self.prog.let_tree(value, name)
+        return value
+
     def vector(self, vec, where):
         """Inertial components of a SymPy ``Vector`` (not named)."""
         if vec == 0 or vec == me.Vector(0):
@@ -126,7 +133,7 @@ class Kinematics:
             raise KinematicsError(f"{where} is not a sympy.physics.vector Vector: {vec!r}")
         out = [sm.S.Zero] * 3
         for measures, frame in vec.args:
-            comps = [self.internal(m, where) for m in measures]
+            comps = [self.scalar(m, where) for m in measures]
             if all(c == 0 for c in comps):
                 continue
             C = self.dcm(frame)

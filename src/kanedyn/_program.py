@@ -132,6 +132,36 @@ class Program:
         self._deps[sym] = frozenset(deps)
         return sym
 
+    def let_tree(self, expr, name="z", threshold=8):
+        """Name the subexpressions of a large expression, bottom up.
+
+        Every subtree of at least ``threshold`` operations, and every function
+        application, becomes an intermediate; identical subtrees are named
+        once.  Large expressions from SymPy (expanded direction cosines) thus
+        become compact programs.
+        """
+        expr = sm.sympify(expr)
+        memo = {}
+
+        def visit(e):
+            found = memo.get(e)
+            if found is not None:
+                return found
+            if e.is_Atom:
+                out = (e, 0)
+            else:
+                parts = [visit(a) for a in e.args]
+                new_args = [p for p, _ in parts]
+                new = e if all(a is b for a, b in zip(new_args, e.args)) else e.func(*new_args)
+                size = 1 + sum(k for _, k in parts)
+                if size >= threshold or e.is_Function:
+                    new, size = self.let(new, name), 0
+                out = (new, size)
+            memo[e] = out
+            return out
+
+        return visit(expr)[0]
+
     def let_matrix(self, matrix, name="z"):
         """Name every entry of ``matrix``; returns an immutable matrix of names."""
         matrix = sm.Matrix(matrix)

@@ -1,0 +1,56 @@
+"""Built-in models, usable from Python and from the CLI (``kanedyn list``).
+
+>>> import kanedyn as kd
+>>> definition = kd.models.build("pendulum")
+>>> eom = definition.derive()
+>>> model = definition.numeric(eom)
+"""
+
+from __future__ import annotations
+
+from .._errors import ModelError
+from ._base import ModelDefinition
+from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
+from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
+
+__all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
+           "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
+           "rolling_disk", "whipple_bicycle", "MEIJAARD_2007"]
+
+#: name -> (builder, {option: type})
+REGISTRY = {
+    "pendulum": (pendulum, {"tension": bool}),
+    "n-link-pendulum-on-cart": (n_link_pendulum_on_cart, {"n": int}),
+    "chain3d": (chain3d, {"n": int}),
+    "rolling-disk": (rolling_disk, {"normal_force": bool}),
+    "chaplygin-sleigh": (chaplygin_sleigh, {"lateral_force": bool}),
+    "four-bar": (four_bar, {}),
+    "whipple-bicycle": (whipple_bicycle, {}),
+}
+
+
+def available():
+    """``[(name, title)]`` of the built-in models."""
+    return [(name, builder().title) for name, (builder, _) in REGISTRY.items()]
+
+
+def build(name, **options):
+    """A fresh :class:`ModelDefinition` of the named built-in model.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`REGISTRY` (``kanedyn list``).
+    **options
+        Model options, e.g. ``n=8`` for ``chain3d``.
+    """
+    try:
+        builder, allowed = REGISTRY[name]
+    except KeyError:
+        raise ModelError(f"unknown model {name!r}; available: "
+                         f"{', '.join(REGISTRY)}") from None
+    unknown = set(options) - set(allowed)
+    if unknown:
+        raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
+                         f"its options: {sorted(allowed) or 'none'}")
+    return builder(**options)
