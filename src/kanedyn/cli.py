@@ -1,0 +1,288 @@
+"""The ``kanedyn`` command line.
+
+::
+
+    kanedyn list
+    kanedyn derive MODEL [--latex] [--set name=value ...]
+    kanedyn run MODEL [--t-end T] [--out DIR] [--set name=value ...]
+    kanedyn demo [--out DIR]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import sympy as sm
+
+from . import __version__
+from ._errors import KanedynError
+from ._progress import Progress
+from ._symbols import name_of
+from .models import REGISTRY, build
+
+__all__ = ["main"]
+
+
+def _parse_sets(model_name, pairs):
+    """Split ``name=value`` pairs into model options, constants and initial values."""
+    _, option_types = REGISTRY[model_name]
+    options, rest = {}, {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise KanedynError(f"--set expects name=value, got {pair!r}")
+        key, value = (s.strip() for s in pair.split("=", 1))
+        if key in option_types:
+            kind = option_types[key]
+            if kind is bool:
+                if value.lower() not in ("true", "false", "1", "0", "yes", "no"):
+                    raise KanedynError(f"option {key} of {model_name} is true or false, "
+                                       f"got {value!r}")
+                options[key] = value.lower() in ("true", "1", "yes")
+            else:
+                options[key] = kind(value)
+        else:
+            try:
+                rest[key] = float(sm.sympify(value))
+            except (TypeError, ValueError, sm.SympifyError):
+                raise KanedynError(f"--set {key}: {value!r} is not a number") from None
+    return options, rest
+
+
+def _split_values(definition, model, values):
+    constants, initial = {}, {}
+    const_names = {str(s) for s in definition.constants}
+    for key, value in values.items():
+        if key in const_names:
+            constants[key] = value
+        elif key in model.state_names:
+            initial[key] = value
+        else:
+            raise KanedynError(
+                f"--set {key}: not an option, parameter or state of {definition.name}; "
+                f"parameters: {', '.join(sorted(const_names))}; states: "
+                f"{', '.join(model.state_names)}")
+    return constants, initial
+
+
+def cmd_list(args):
+    print(f"{'model':26s} options        description")
+    for name, (builder, options) in REGISTRY.items():
+        opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items()) or "-"
+        print(f"{name:26s} {opts:14s} {builder().title}")
+    return 0
+
+
+def cmd_derive(args):
+    options, values = _parse_sets(args.model, args.set)
+    if values:
+        raise KanedynError("derive takes only model options with --set "
+                           f"(got {', '.join(values)})")
+    definition = build(args.model, **options)
+    progress = Progress(enabled=not args.quiet)
+    t0 = time.perf_counter()
+    eom = definition.derive(progress=progress)
+    elapsed = time.perf_counter() - t0
+    counts = eom.operation_counts()
+    print(f"# {definition.title}")
+    print(f"# derived in {elapsed:.3f} s: {eom!r}")
+    print(f"# operations: mass matrix {counts['mass_matrix']}, forcing "
+          f"{counts['forcing']}, jointly {counts['both']}")
+    print(f"# states: {', '.join(eom.state_names)}")
+    print(f"# constants: {', '.join(map(str, eom.constants))}")
+    if eom.specified:
+        print(f"# specified inputs: {', '.join(map(str, eom.specified))}")
+    if args.latex:
+        print(eom.to_latex(explicit=args.explicit))
+    else:
+        compact = not args.explicit and eom._program.count_ops(
+            list(eom._compact_mass_matrix) + list(eom._compact_forcing)) > 400
+        if compact:
+            print(eom.to_latex(explicit=False))
+        else:
+            for qd, rhs in eom.kindiffdict().items():
+                print(f"{name_of(qd)} = {rhs}")
+            print("mass_matrix =")
+            sm.pprint(eom.mass_matrix, use_unicode=False, wrap_line=False)
+            print("forcing =")
+            sm.pprint(eom.forcing, use_unicode=False, wrap_line=False)
+    return 0
+
+
+def _write_run(definition, eom, model, res, out, progress):
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = res.to_csv(out / f"{definition.name}.csv")
+    fig = res.plot(path=out / f"{definition.name}.png")
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    summary = res.summary()
+    summary.update(model=definition.name, constants=model.constants,
+                   initial_state=dict(zip(model.state_names,
+                                          map(float, res.initial_state))))
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    progress.stage(f"wrote {csv_path}, {out / (definition.name + '.png')}, "
+                   f"{out / 'summary.json'}")
+    return summary
+
+
+def cmd_run(args):
+    options, values = _parse_sets(args.model, args.set)
+    definition = build(args.model, **options)
+    progress = Progress(enabled=not args.quiet)
+    progress.stage(f"deriving {definition.title}")
+    eom = definition.derive(progress=progress)
+    probe = definition.numeric(eom)
+    constants, initial = _split_values(definition, probe, values)
+    model = definition.numeric(eom, constants=constants) if constants else probe
+    y0 = definition.initial(model, initial)
+    t_end = args.t_end if args.t_end is not None else definition.t_end
+    progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
+    res = _simulate(model, t_end, y0, args, progress, bool(model.aux_names))
+    summary = _write_run(definition, eom, model, res, Path(args.out), progress)
+    _print_summary(summary)
+    return 0 if res.success else 1
+
+
+def _simulate(model, t_end, y0, args, progress, forces):
+    from ._simulate import simulate
+    t_eval = np.linspace(0.0, t_end, max(2, int(args.points)))
+    return simulate(model, (0.0, t_end), y0, method=args.method, rtol=args.rtol,
+                    atol=args.atol, t_eval=t_eval, progress=progress,
+                    constraint_forces=forces)
+
+
+def _print_summary(summary):
+    drift = summary["energy_drift"]
+    print(f"success: {summary['success']} ({summary['message']})")
+    print(f"points: {summary['points']}, t_end: {summary['t_end']:g} s, "
+          f"rhs evaluations: {summary['rhs_evaluations']}")
+    print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
+                                         else f"{drift:.3e}"))
+    print(f"max constraint residual: {summary['max_constraint_residual']:.3e} "
+          f"({summary['projections']} projections)")
+
+
+def cmd_demo(args):
+    """Derive the Whipple bicycle, map its stability against speed, ride it."""
+    from ._plotting import pyplot
+    from .models._bicycle_analysis import (eigenvalues_vs_speed, stability_speeds,
+                                           upright_state)
+
+    out = Path(args.out)
+    out.mkdir(parents=True, exist_ok=True)
+    progress = Progress(enabled=not args.quiet)
+    definition = build("whipple-bicycle")
+    progress.stage("deriving the nonlinear Whipple bicycle (Kane's method)")
+    t0 = time.perf_counter()
+    eom = definition.derive(progress=progress)
+    t_derive = time.perf_counter() - t0
+    model = definition.numeric(eom)
+    print(f"Whipple bicycle: {len(eom.q)} coordinates ({len(eom.q_dep)} dependent), "
+          f"{len(eom.u)} speeds ({len(eom.u_dep)} dependent); derived in "
+          f"{t_derive:.2f} s")
+
+    progress.stage("linearizing about upright straight running, v = 0..10 m/s")
+    speeds = np.linspace(0.0, 10.0, 41)
+    eigs = eigenvalues_vs_speed(model, speeds)
+    print("\n  v [m/s]   eigenvalues of the lean/steer dynamics [1/s]")
+    for v, ev in zip(speeds[::4], eigs[::4]):
+        print(f"  {v:6.2f}   " + "  ".join(f"{z.real:9.4f}{z.imag:+9.4f}j" for z in ev))
+    weave, capsize = stability_speeds(model)
+    print(f"\nself-stable speed range: {weave:.10f} < v < {capsize:.10f} m/s")
+    print("published (Meijaard et al. 2007): 4.29238253634111 < v < 6.02426201538837")
+
+    plt = pyplot()
+    fig, ax = plt.subplots(figsize=(7, 4.5))
+    for k in range(4):
+        ax.plot(speeds, eigs[:, k].real, "k.", ms=3)
+        ax.plot(speeds, np.abs(eigs[:, k].imag), "b.", ms=2)
+    ax.axvspan(weave, capsize, color="g", alpha=0.15, label="self-stable")
+    ax.set_ylim(-10, 10)
+    ax.set_xlabel("forward speed v [m/s]")
+    ax.set_ylabel("eigenvalues: real (black), |imag| (blue) [1/s]")
+    ax.grid(True, alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out / "bicycle_eigenvalues.png", dpi=120)
+    plt.close(fig)
+
+    progress.stage("simulating a self-stable ride at 5 m/s after a push (lean rate 0.5 rad/s)")
+    from ._simulate import simulate
+    y0 = upright_state(model, 5.0)
+    y0[model.index("u4")] = 0.5
+    y0 = model.consistent_state(0.0, y0)
+    t_end = args.t_end
+    res = simulate(model, (0.0, t_end), y0, rtol=1e-8, atol=1e-8,
+                   t_eval=np.linspace(0.0, t_end, 501), progress=progress)
+    res.to_csv(out / "bicycle_ride.csv")
+    fig = res.plot(states=["q4", "q7", "u4", "u7"], path=out / "bicycle_ride.png")
+    plt.close(fig)
+    lean, steer = res["q4"], res["q7"]
+    tail = res.t >= res.t[-1] - 1.0
+    print(f"ride: success={res.success}; max |lean| {np.max(np.abs(lean)):.4f} rad; "
+          f"|lean| over the last second <= {np.max(np.abs(lean[tail])):.2e} rad, "
+          f"|steer| <= {np.max(np.abs(steer[tail])):.2e} rad")
+    print(f"energy drift {res.energy_drift():.2e}, max constraint residual "
+          f"{np.max(res.constraint_residual):.2e}")
+    print(f"wrote {out / 'bicycle_eigenvalues.png'}, {out / 'bicycle_ride.png'}, "
+          f"{out / 'bicycle_ride.csv'}")
+    return 0 if res.success else 1
+
+
+def _parser():
+    parser = argparse.ArgumentParser(
+        prog="kanedyn", description="Multibody dynamics by Kane's method.")
+    parser.add_argument("--version", action="version", version=f"kanedyn {__version__}")
+    sub = parser.add_subparsers(dest="command", required=True)
+
+    p = sub.add_parser("list", help="list the built-in models")
+    p.set_defaults(func=cmd_list)
+
+    p = sub.add_parser("derive", help="derive and print a model's equations of motion")
+    p.add_argument("model", choices=list(REGISTRY))
+    p.add_argument("--latex", action="store_true", help="print LaTeX")
+    p.add_argument("--explicit", action="store_true",
+                   help="explicit expressions even for large models")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option, e.g. n=8")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_derive)
+
+    p = sub.add_parser("run", help="derive, simulate, write CSV, plots and a summary")
+    p.add_argument("model", choices=list(REGISTRY))
+    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
+    p.add_argument("--out", default="kanedyn-out", help="output directory")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option (n=4), parameter (m=2) or initial value (q1=0.3)")
+    p.add_argument("--method", default="RK45", help="solve_ivp method")
+    p.add_argument("--rtol", type=float, default=1e-8)
+    p.add_argument("--atol", type=float, default=1e-8)
+    p.add_argument("--points", type=int, default=501, help="output points")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("demo", help="the Whipple bicycle: stability against speed "
+                                    "and a self-stable ride")
+    p.add_argument("--out", default="kanedyn-out", help="output directory")
+    p.add_argument("--t-end", type=float, default=5.0, help="ride length [s]")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_demo)
+    return parser
+
+
+def main(argv=None):
+    parser = _parser()
+    args = parser.parse_args(argv)
+    try:
+        return args.func(args)
+    except KanedynError as exc:
+        print(f"kanedyn: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())
