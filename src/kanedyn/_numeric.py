@@ -50,15 +50,17 @@ def _match_key(key, candidates, what):
     return key if key in candidates else None
 
 
-def _resolve_constants(eom, constants, needed):
+def _resolve_constants(candidates, constants, needed):
+    """Values of the ``needed`` constants; keys must be among ``candidates``."""
     values = {}
-    known = set(eom.constants)
+    candidates = sorted(candidates, key=str)
+    known = set(candidates)
     for key, value in constants.items():
-        sym = _match_key(key, eom.constants, "constant")
+        sym = _match_key(key, candidates, "constant")
         if sym is None:
             raise ModelError(
                 f"{key} is not a constant of this model; its constants are "
-                f"{', '.join(map(str, eom.constants)) or '(none)'}")
+                f"{', '.join(map(str, candidates)) or '(none)'}")
         try:
             values[sym] = float(value)
         except (TypeError, ValueError):
@@ -112,7 +114,12 @@ class _Input:
 
 
 def _resolve_specified(eom, specified):
-    """Split user inputs into exact substitutions and runtime providers."""
+    """Split user inputs into exact substitutions and runtime providers.
+
+    Returns ``(substitutions, providers)``: ``{internal: expression}`` and
+    ``{internal: _Input}`` for every input given; the inputs the equations of
+    motion need must be among them.
+    """
     table = eom._table
     t = table.t
     needed = list(eom.specified)
@@ -141,18 +148,23 @@ def _resolve_specified(eom, specified):
                     substitutions[int_] = table.internal(
                         expr.diff(t, order) if order else expr, f"input {key}")
         else:
-            providers[key] = value
-    runtime = []
+            providers[table.specified[key]] = _Input(str(key), value)
     for ext in needed:
-        if table.specified[ext] in substitutions:
-            continue
-        if ext not in providers:
+        int_ = table.specified[ext]
+        if int_ not in substitutions and int_ not in providers:
             raise MissingValueError(
                 f"missing value for the specified input {ext}; pass it in "
                 "specified={...} (a number, a SymPy expression in t, or a callable "
                 "of t or of (t, y))")
-        runtime.append((table.specified[ext], _Input(str(ext), providers[ext])))
-    return substitutions, runtime
+    return substitutions, providers
+
+
+def _singular(block, full, rtol=1e-12):
+    """True when ``block`` is singular relative to the scale of ``full``."""
+    if block.size == 0:
+        return False
+    scale = max(np.max(np.abs(full)), 1e-300)
+    return np.linalg.svd(block, compute_uv=False)[-1] <= rtol * scale * max(block.shape)
 
 
 # ------------------------------------------------------------------- model
@@ -291,30 +303,27 @@ class NumericModel:
         Raises
         ------
         ConstraintError
-            When the constraint Jacobian is singular or Newton does not converge.
+            When the constraint Jacobian with respect to the dependent
+            variables is singular, or Newton's method does not converge.
         """
         y = self._check_y(y).copy()
         n, l, m = self.n_q, self.n_q_dep, self.n_u_dep
         names = self.state_names
         if l:
             dep = slice(n - l, n)
-            for _ in range(max_iterations):
+            for _ in range(max_iterations + 1):
                 h, J, _, _ = self._constraint_terms(t, y)
-                if np.max(np.abs(h)) <= tol:
-                    break
-                Jd = J[:, dep]
-                if np.linalg.matrix_rank(Jd) < l:
+                if _singular(J[:, dep], J):
                     raise ConstraintError(
                         "the configuration constraints cannot be solved for the "
                         f"dependent coordinates {', '.join(names[n - l:n])}: their "
                         f"Jacobian is singular at {self._describe(y[:n], names[:n])}; "
                         "give starting values of the dependent coordinates closer to "
-                        "a consistent configuration")
-                y[dep] -= np.linalg.solve(Jd, h)
-                if not np.all(np.isfinite(y)):
+                        "a consistent configuration, or choose other dependent "
+                        "coordinates")
+                if np.max(np.abs(h)) <= tol or not np.all(np.isfinite(h)):
                     break
-            else:
-                h = self._constraint_terms(t, y)[0]
+                y[dep] -= np.linalg.solve(J[:, dep], h)
             if not np.max(np.abs(h)) <= max(tol, 1e-9):
                 raise ConstraintError(
                     "could not satisfy the configuration constraints (residual "
@@ -323,10 +332,9 @@ class NumericModel:
                     "consistent configuration")
         if m:
             _, _, B, b = self._constraint_terms(t, y)
-            o = self.n_u
-            p = o - m
+            p = self.n_u - m
             Bd = B[:, p:]
-            if np.linalg.matrix_rank(Bd) < m:
+            if _singular(Bd, B):
                 raise ConstraintError(
                     "the velocity constraints cannot be solved for the dependent "
                     f"speeds {', '.join(names[n + p:])}: the constraint Jacobian "
@@ -391,7 +399,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
         raise ModelError(f"unknown backend {backend!r}; available: 'numpy'")
     prog = eom._program
     table = eom._table
-    substitutions, runtime = _resolve_specified(eom, specified)
+    substitutions, providers = _resolve_specified(eom, specified)
 
     def sub(e):
         return prog.subs(e, substitutions) if substitutions else e
@@ -415,19 +423,27 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
                           ((m,), [sub(e) for e in eom._vel_f])]
     potential = eom._potential if eom._potential is not None else sm.nan
     energy = [((), [sub(eom._kinetic)]), ((), [sub(potential)])]
+    energy_leaves = set()
+    for _, exprs in energy:
+        for e in exprs:
+            energy_leaves |= prog.deps(e)
+    unknown_inputs = {s for s in energy_leaves
+                      if s in table.specified.values() and s not in providers}
+    if unknown_inputs:  # energy needs inputs the dynamics do not: report nan
+        energy = [((), [sm.nan]), ((), [sm.nan])]
 
     main = [e for _, exprs in dynamics + constraint_outputs + energy for e in exprs]
     leaves = set()
     for e in main:
         leaves |= prog.deps(e)
-    needed_consts = [s for s in eom.constants if s in leaves]
-    extra = {s for s in leaves if not table.is_dynamic(s) and s != table.t
-             and s not in eom.constants}
-    # constants introduced by exact input substitutions
-    values = _resolve_constants(eom, constants, needed_consts)
-    for s in sorted(extra, key=str):
-        raise MissingValueError(f"missing value for {s}, which appears in a "
-                                "specified input expression")
+    runtime = [(s, inp) for s, inp in providers.items() if s in leaves]
+    # constants: the equations' own and those of exact input expressions
+    candidates = set(eom.constants)
+    for value in substitutions.values():
+        candidates |= {s for s in value.free_symbols
+                       if not table.is_dynamic(s) and s != table.t}
+    needed_consts = sorted((s for s in candidates if s in leaves), key=str)
+    values = _resolve_constants(candidates, constants, needed_consts)
     const_syms = sorted(values, key=str)
 
     y_syms = list(table.q) + list(table.u)

@@ -250,7 +250,9 @@ class Program:
 
     def jacobian(self, exprs, variables):
         """Matrix of partial derivatives, ``len(exprs) x len(variables)``."""
-        return sm.Matrix([[self.diff(e, v) for v in variables] for e in exprs])
+        exprs, variables = list(exprs), list(variables)
+        return sm.Matrix(len(exprs), len(variables),
+                         [self.diff(e, v) for e in exprs for v in variables])
 
     def dt(self, expr):
         r"""Time derivative of ``expr`` with :math:`\dot u` held at zero.
@@ -353,6 +355,8 @@ _DERIVATIVES = {
     sm.sinh: lambda a: sm.cosh(a),
     sm.cosh: lambda a: sm.sinh(a),
     sm.tanh: lambda a: 1 - sm.tanh(a) ** 2,
+    sm.Abs: lambda a: sm.sign(a),  # all quantities are real
+    sm.sign: lambda a: _ZERO,
 }
 
 

@@ -1,0 +1,95 @@
+"""Straight-line programs: derivatives and substitutions equal SymPy's on explicit forms."""
+
+import math
+
+import pytest
+import sympy as sm
+
+from kanedyn._program import Program, fast_eval, total_derivative
+
+
+@pytest.fixture()
+def program():
+    t = sm.Symbol("t")
+    prog = Program(t)
+    q1, q2, u1, u2, k = sm.symbols("q1 q2 u1 u2 k")
+    for q, u in ((q1, u1), (q2, u2)):
+        prog.declare(q, u)  # q' = u
+        prog.declare(u)     # u' held at zero
+    c = prog.let(sm.cos(q1), "c")
+    s = prog.let(sm.sin(q2), "s")
+    a = prog.let(c * s + k * q1 ** 2, "a")
+    b = prog.let(a * u1 + sm.exp(a) * u2 + t * q2, "b")
+    return prog, (q1, q2, u1, u2, k, t), (a, b)
+
+
+def test_hash_consing_and_trivial_values(program):
+    prog, (q1, q2, *_), (a, b) = program
+    assert prog.let(sm.cos(q1)) == prog.let(sm.cos(q1))
+    assert prog.let(q1) is q1
+    assert prog.let(3 * q1) == 3 * q1
+
+
+def test_diff_matches_explicit(program):
+    prog, (q1, q2, u1, u2, k, t), (a, b) = program
+    explicit_b = prog.expand(b)
+    for var in (q1, q2, u1, u2, k):
+        got = prog.expand(prog.diff(b, var))
+        assert sm.simplify(got - explicit_b.diff(var)) == 0
+
+
+def test_dt_holds_speeds_fixed(program):
+    prog, (q1, q2, u1, u2, k, t), (a, b) = program
+    explicit_b = prog.expand(b)
+    expected = explicit_b.diff(t) + explicit_b.diff(q1) * u1 + explicit_b.diff(q2) * u2
+    assert sm.simplify(prog.expand(prog.dt(b)) - expected) == 0
+
+
+def test_subs_and_hint(program):
+    prog, (q1, q2, u1, u2, k, t), (a, b) = program
+    assert sm.simplify(prog.expand(prog.subs(b, {u1: 0, k: 2}))
+                       - prog.expand(b).subs({u1: 0, k: 2})) == 0
+    # a recorded time derivative is used instead of the chain rule
+    x = prog.let(sm.sin(q1) * u2 + 1, "x")
+    marker = sm.Symbol("marker")
+    prog.hint_dt(x, marker)
+    assert prog.dt(2 * x) == 2 * marker
+
+
+def test_let_tree_shares_repeated_subtrees():
+    prog = Program(sm.Symbol("t"))
+    q = sm.symbols("q0:4")
+    big = sm.cos(q[0] + q[1]) * sm.sin(q[2] * q[3] + q[0]) + sm.cos(q[0] + q[1]) ** 2
+    compact = prog.let_tree(big, "w", threshold=3)
+    assert sm.simplify(prog.expand(compact) - big) == 0
+    defs = [prog.definition(s) for s in prog.needed([compact])]
+    assert sum(1 for d in defs if d.func == sm.cos) == 1
+
+
+def test_total_derivative_special_functions():
+    x, y = sm.symbols("x y", real=True)
+    dx, dy = sm.symbols("dx dy")
+    for e in (sm.atan2(y, x), sm.tan(x * y), sm.log(x) * sm.asin(y / 3),
+              sm.sqrt(x ** 2 + y ** 2), sm.Abs(x - y), x ** y):
+        got = total_derivative(e, lambda s: {x: dx, y: dy}.get(s, 0))
+        expected = e.diff(x) * dx + e.diff(y) * dy
+        vals = {x: 0.7, y: 1.9, dx: 0.3, dy: -1.1}
+        assert float(got.subs(vals)) == pytest.approx(float(expected.subs(vals)), rel=1e-12)
+
+
+def test_fast_eval_agrees_with_evalf():
+    x, y = sm.symbols("x y")
+    e = sm.sin(x) ** 2 * sm.exp(-y) + sm.sqrt(x * y) / (1 + sm.atan2(y, x)) + sm.pi
+    vals = {x: 0.3, y: 2.2}
+    got = fast_eval(e, lambda s: vals[s], {})
+    assert got.real == pytest.approx(float(e.subs(vals).evalf()), rel=1e-14)
+    assert math.isclose(got.imag, 0.0, abs_tol=1e-15)
+
+
+def test_shadow_values_are_consistent(program):
+    prog, _, (a, b) = program
+    first = prog.shadow([b], 1)[0]
+    again = prog.shadow([b, a], 1)[0]
+    other = prog.shadow([b], 2)[0]
+    assert first == again
+    assert first != other
