@@ -29,6 +29,8 @@ from ._symbols import name_of
 
 __all__ = ["EquationsOfMotion"]
 
+_SIMPLIFY_OPS = 60  # explicit expressions up to this size are trigsimp'ed
+
 
 class EquationsOfMotion:
     """Equations of motion of a multibody system; immutable.
@@ -149,7 +151,15 @@ class EquationsOfMotion:
 
     # ---------------------------------------------------- explicit views
     def _explicit(self, expr):
-        return self._table.external(self._program.expand(expr))
+        """Explicit expression in the model's symbols.
+
+        Small results are passed through ``trigsimp`` (inertial components
+        leave ``sin**2 + cos**2`` patterns that it removes cheaply).
+        """
+        value = self._program.expand(expr)
+        if (value.has(sm.sin) or value.has(sm.cos)) and sm.count_ops(value) <= _SIMPLIFY_OPS:
+            value = sm.trigsimp(value)
+        return self._table.external(value)
 
     def _explicit_matrix(self, rows):
         rows = [list(r) for r in rows]
@@ -243,14 +253,10 @@ class EquationsOfMotion:
     @cached_property
     def generalized_inertia_forces(self):
         r"""Generalized inertia forces :math:`\tilde F^*_r` (SymPy's ``frstar``)."""
-        t = self._table.t
         udot = sm.Matrix(self._table.udot)
         frstar = -(sm.Matrix([list(r) for r in self._mass]) * udot
                    + sm.Matrix(self._remainder))
-        frstar = self._reduced(frstar)
-        out = self._explicit_matrix(frstar.tolist())
-        del t
-        return out
+        return self._explicit_matrix(self._reduced(frstar).tolist())
 
     @cached_property
     def auxiliary_equations(self):
@@ -277,13 +283,11 @@ class EquationsOfMotion:
             SymPy ``Vector`` in the inertial frame, one per speed of
             ``u + u_aux``.
         """
-        N = self.frame
         out = {}
         for terms in self._body_terms:
             vs = [self._as_vector(v) for v in terms.partial_velocities]
             ws = [self._as_vector(w) for w in terms.partial_angular_velocities]
             out[terms.body.name] = (vs, ws)
-        del N
         return out
 
     def _as_vector(self, comps):
