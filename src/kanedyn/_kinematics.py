@@ -308,33 +308,36 @@ class Kinematics:
 
     def _candidates(self, point):
         """Compact velocity expressions that ``point``'s stored velocity may equal."""
-        N = self.N
         for other in point._pos_dict:
             if other in self._resolving:
                 continue
             try:
                 v_other = self.velocity(other)
+                r = self._relative_position(point, other)
             except KinematicsError:
                 continue
-            r = self._relative_position(point, other)
-            frames = []
-            for p in (point, other):
-                frames.extend(f for f, v in p._vel_dict.items()
-                              if f is not N and _is_zero_vector(v))
-                if p in self._body_frame:
-                    frames.append(self._body_frame[p])
-            frames.extend(f for _, f in point._pos_dict[other].args)
             yield add(v_other, self.dt_vector(r))
-            seen = set()
-            for f in frames:
-                if f in seen or f is N:
-                    continue
-                seen.add(f)
+            for frame in self._candidate_frames(point, other):
                 try:
-                    w = self.angular_velocity(f)
+                    w = self.angular_velocity(frame)
                 except KinematicsError:
                     continue
                 yield add(v_other, cross(w, r))
+
+    def _candidate_frames(self, point, other):
+        """Frames in which both points may be fixed (``v2pt_theory``), likeliest first."""
+        frames = []
+        for p in (point, other):
+            frames.extend(f for f, v in p._vel_dict.items()
+                          if f is not self.N and _is_zero_vector(v))
+            if p in self._body_frame:
+                frames.append(self._body_frame[p])
+        frames.extend(f for _, f in point._pos_dict[other].args)
+        seen = set()
+        for f in frames:
+            if f not in seen and f is not self.N:
+                seen.add(f)
+                yield f
 
     def _recognize(self, point, stored):
         self._flush_hints()
