@@ -143,3 +143,31 @@ def test_kane_from_system_with_joints():
     # hanging straight down at rest is an equilibrium; a displaced one is not
     assert np.max(np.abs(model.rhs(0.0, [0.0, 0.0, 0.0, 0.0]))) < 1e-12
     assert abs(model.rhs(0.0, [0.3, 0.0, 0.0, 0.0])[2]) > 1.0
+
+
+def test_implicit_kinematics_full_matrices():
+    """explicit_kinematics=False keeps the coefficient matrix of q' (rolling disk)."""
+    d = kd.models.build("rolling-disk")
+    eom_implicit = kd.kane(explicit_kinematics=False, **d.kane_args)
+    eom_explicit = d.derive()
+    assert eom_explicit.mass_matrix_kin == sm.eye(5)
+    K = eom_implicit.mass_matrix_kin
+    assert K != sm.eye(5)
+    model = d.numeric(eom_explicit)
+    y = model.consistent_state(0.0, d.initial(model) + 0.1)
+    values = dict(zip(eom_implicit.state, y))
+    values.update(d.constants)
+    K_num = np.array(K.xreplace(values).evalf(), dtype=float)
+    f_num = np.array(eom_implicit.forcing_kin.xreplace(values).evalf(), dtype=float).ravel()
+    np.testing.assert_allclose(np.linalg.solve(K_num, f_num), model.rhs(0.0, y)[:5],
+                               rtol=1e-12, atol=1e-12)
+
+
+def test_latex_output():
+    d = kd.models.build("pendulum")
+    eom = d.derive()
+    explicit = eom.to_latex()
+    assert r"l^{2} m" in explicit and r"\dot{u}" in explicit
+    assert eom._repr_latex_().startswith("$\\displaystyle")
+    compact = kd.models.build("chain3d", n=4).derive().to_latex()
+    assert "z_{0}" in compact and r"\dot{q}" in compact

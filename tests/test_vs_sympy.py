@@ -480,3 +480,39 @@ def test_constraint_force_values(name, option, force, states):
         assert abs(expected) > 1e-3
         worst = max(worst, relative_error(model.auxiliary(0.0, y)[force], expected))
     assert worst <= RTOL
+
+
+# ------------------------------------- generalized forces, partial velocities
+def test_generalized_forces_and_partial_velocities():
+    """fr, frstar (reduced with the dependent speeds) and partial velocities.
+
+    Evaluated at a consistent four-bar state, with random values for u'.
+    """
+    ours = kd.models.build("four-bar")
+    theirs = kd.models.build("four-bar")
+    eom = ours.derive()
+    km = sympy_kane(theirs.kane_args)
+    model = ours.numeric(eom)
+    y = model.consistent_state(0.0, ours.initial(model))
+    rng = np.random.default_rng(5)
+    values = dict(zip(list(km.q) + list(km.u), y))
+    values.update({u.diff(T): v for u, v in zip(km.u, rng.normal(size=len(km.u)))})
+    values.update(ours.constants)
+
+    def num(matrix):
+        return np.array([float(sm.sympify(e).xreplace(values)) for e in matrix])
+
+    fr, frstar = km.kanes_equations(theirs.kane_args["bodies"], theirs.kane_args["loads"])
+    assert relative_error(num(eom.generalized_active_forces), num(fr)) < RTOL
+    assert relative_error(num(eom.generalized_inertia_forces), num(frstar)) < RTOL
+
+    N = ours.kane_args["frame"]
+    for body_ours, body_theirs in zip(ours.kane_args["bodies"], theirs.kane_args["bodies"]):
+        vs, ws = eom.partial_velocities[body_ours.name]
+        ref_v = me.partial_velocity([body_theirs.masscenter.vel(theirs.kane_args["frame"])],
+                                    km.u, theirs.kane_args["frame"])[0]
+        for ours_v, ref in zip(vs, ref_v):
+            ref_n = [ref.dot(theirs.kane_args["frame"].x), ref.dot(theirs.kane_args["frame"].y)]
+            got = [ours_v.dot(N.x), ours_v.dot(N.y)]
+            assert relative_error(num(got), num(ref_n)) < RTOL
+        assert len(ws) == len(km.u)

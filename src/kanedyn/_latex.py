@@ -33,7 +33,7 @@ def equations_latex(eom, explicit=None, max_ops=400):
     def show(e):
         return vlatex(table.external(sm.sympify(e).xreplace(names)))
 
-    lines = [r"\dot q &= " + vlatex(sm.Matrix(
+    lines = [vlatex(qdot) + " &= " + vlatex(sm.Matrix(
         [table.external(sm.sympify(e).xreplace(names)) for e in eom._qdot]))]
     lines += [f"{vlatex(names[s])} &= {show(prog.definition(s))}" for s in needed]
     lines.append(vlatex(compact_M.xreplace(names).applyfunc(table.external))

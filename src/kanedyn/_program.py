@@ -115,6 +115,8 @@ class Program:
         expr = sm.sympify(expr)
         if _is_trivial(expr):
             return expr
+        if expr.is_Mul and expr.args[0].is_Number and expr.args[0].is_negative:
+            return -self.let(-expr, name)  # -sin(q) shares the name of sin(q)
         found = self._cons.get(expr)
         if found is not None:
             return found
