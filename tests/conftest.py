@@ -1,6 +1,8 @@
 """Shared fixtures: models that are expensive to derive are built once per session."""
 
 import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
 
 import kanedyn as kd
 
@@ -11,3 +13,23 @@ def bicycle():
     definition = kd.models.build("whipple-bicycle")
     eom = definition.derive()
     return definition, eom, definition.numeric(eom)
+
+
+@pytest.fixture()
+def circle_particle():
+    """A particle on a circle of radius L under gravity, both Cartesian
+    coordinates kept: q2 and u2 dependent.  Returns ``(eom, (q1, q2, u1, u2,
+    m, g, L))``."""
+    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
+    m, g, L = sm.symbols("m g L", positive=True)
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q1 * N.x + q2 * N.y)
+    P.set_vel(N, u1 * N.x + u2 * N.y)
+    eom = kd.kane(frame=N, q_ind=[q1], u_ind=[u1], q_dep=[q2], u_dep=[u2],
+                  kd_eqs=[q1.diff() - u1, q2.diff() - u2],
+                  configuration_constraints=[q1 ** 2 + q2 ** 2 - L ** 2],
+                  velocity_constraints=[q1 * u1 + q2 * u2],
+                  bodies=[me.Particle("p", P, m)], loads=[(P, -m * g * N.y)])
+    return eom, (q1, q2, u1, u2, m, g, L)

@@ -96,25 +96,8 @@ def test_missing_coordinate_equation():
                 bodies=[me.Particle("p", P, m)])
 
 
-def circle_particle():
-    """A particle on a circle, both Cartesian coordinates kept (q2 dependent)."""
-    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
-    m, g, L = sm.symbols("m g L")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q1 * N.x + q2 * N.y)
-    P.set_vel(N, u1 * N.x + u2 * N.y)
-    eom = kd.kane(frame=N, q_ind=[q1], u_ind=[u1], q_dep=[q2], u_dep=[u2],
-                  kd_eqs=[q1.diff() - u1, q2.diff() - u2],
-                  configuration_constraints=[q1 ** 2 + q2 ** 2 - L ** 2],
-                  velocity_constraints=[q1 * u1 + q2 * u2],
-                  bodies=[me.Particle("p", P, m)], loads=[(P, -m * g * N.y)])
-    return eom, (q1, q2, u1, u2, m, g, L)
-
-
-def test_singular_constraint_jacobian_at_initial_state():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_singular_constraint_jacobian_at_initial_state(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     model = eom.numeric(constants={m: 1, g: 9.81, L: 1})
     # q1 = L puts the particle where q2 = 0: d(constraint)/d(q2) = 2 q2 = 0
     with pytest.raises(kd.ConstraintError, match="dependent coordinates q2"):
@@ -123,20 +106,20 @@ def test_singular_constraint_jacobian_at_initial_state():
         model.consistent_state(0.0, [1.0, 1e-30, 0.0, 0.0])
 
 
-def test_missing_constants_are_named():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_missing_constants_are_named(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     with pytest.raises(kd.MissingValueError, match="L.*g|g.*L"):
         eom.numeric(constants={m: 1.0})
 
 
-def test_unknown_constant_is_rejected():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_unknown_constant_is_rejected(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     with pytest.raises(kd.ModelError, match="mass"):
         eom.numeric(constants={m: 1.0, g: 9.81, L: 1.0, "mass": 2.0})
 
 
-def test_missing_initial_values_are_named():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_missing_initial_values_are_named(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     model = eom.numeric(constants={m: 1, g: 9.81, L: 1})
     with pytest.raises(kd.MissingValueError, match="u1"):
         kd.simulate(model, (0, 1), {q1: 0.5, q2: -0.8})
@@ -159,8 +142,8 @@ def test_auxiliary_unknowns_must_match():
     assert model.aux_names == ("T",)
 
 
-def test_inconsistent_y_shape_for_rhs_helpers():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_inconsistent_y_shape_for_rhs_helpers(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     model = eom.numeric(constants={m: 1, g: 9.81, L: 1})
     with pytest.raises(ValueError, match="4 entries"):
         model.consistent_state(0.0, np.zeros(3))

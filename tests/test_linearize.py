@@ -3,36 +3,18 @@
 import numpy as np
 import pytest
 import sympy as sm
-import sympy.physics.mechanics as me
 
 import kanedyn as kd
 
 
-def circle_particle():
-    """A particle on a circle of radius L under gravity, q2 and u2 dependent."""
-    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
-    m, g, L = sm.symbols("m g L", positive=True)
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q1 * N.x + q2 * N.y)
-    P.set_vel(N, u1 * N.x + u2 * N.y)
-    eom = kd.kane(frame=N, q_ind=[q1], u_ind=[u1], q_dep=[q2], u_dep=[u2],
-                  kd_eqs=[q1.diff() - u1, q2.diff() - u2],
-                  configuration_constraints=[q1 ** 2 + q2 ** 2 - L ** 2],
-                  velocity_constraints=[q1 * u1 + q2 * u2],
-                  bodies=[me.Particle("p", P, m)], loads=[(P, -m * g * N.y)])
-    return eom, (q1, q2, u1, u2, m, g, L)
-
-
 @pytest.mark.parametrize("phi", [0.0, 0.3, -0.8])
-def test_off_equilibrium_operating_point(phi):
+def test_off_equilibrium_operating_point(phi, circle_particle):
     """x = L sin(phi) as the coordinate: d(x'')/dx = -(g/L) cos(2 phi) / cos(phi).
 
     Away from phi = 0 the particle accelerates; the accelerations and the
     constraint force at the operating point enter the linearization.
     """
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     expected = -(9.81 / 1.3) * np.cos(2 * phi) / np.cos(phi)
     A, B, r = eom.linearize(op_point={q1: 1.3 * np.sin(phi), q2: -1.0, u1: 0.0},
                             constants={m: 0.7, g: 9.81, L: 1.3})
@@ -40,8 +22,8 @@ def test_off_equilibrium_operating_point(phi):
     assert B.shape == (2, 0) and r == []
 
 
-def test_symbolic_linearization_matches_numeric():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_symbolic_linearization_matches_numeric(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     phi = 0.3
     A, _, _ = eom.linearize(op_point={q1: L * sm.sin(phi), q2: -L * sm.cos(phi),
                                       u1: 0, u2: 0})
@@ -54,7 +36,7 @@ def test_pendulum_symbolic():
     d = kd.models.build("pendulum")
     eom = d.derive()
     q, u = d.symbols["q"], d.symbols["u"]
-    m, l, g = d.symbols["m"], d.symbols["l"], d.symbols["g"]
+    l, g = d.symbols["l"], d.symbols["g"]
     A, B, r = eom.linearize(op_point={q: 0, u: 0})
     assert sm.simplify(A - sm.Matrix([[0, 1], [-g / l, 0]])) == sm.zeros(2, 2)
 
@@ -76,8 +58,8 @@ def test_cart_pendulum_input_matrix():
     assert r == ["F"]
 
 
-def test_operating_point_must_be_complete_and_consistent():
-    eom, (q1, q2, u1, u2, m, g, L) = circle_particle()
+def test_operating_point_must_be_complete_and_consistent(circle_particle):
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
     with pytest.raises(kd.MissingValueError, match="u1"):
         eom.linearize(op_point={q1: 0.1, q2: -1.0}, constants={m: 1, g: 1, L: 1})
     model = eom.numeric(constants={m: 1, g: 1, L: 1})

@@ -23,7 +23,6 @@ from __future__ import annotations
 from functools import cached_property
 
 import sympy as sm
-import sympy.physics.mechanics as me
 
 from ._symbols import name_of
 

@@ -258,7 +258,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     progress.stage("mass matrix and forcing")
     n_all = o + s_aux
     mass = [[[] for _ in range(o)] for _ in range(n_all)]
-    for terms, m, I_N, H in mass_contrib:
+    for terms, m, I_N, _ in mass_contrib:
         V = terms.partial_velocities
         W = terms.partial_angular_velocities
         active_v = [r for r in range(n_all) if any(c != 0 for c in V[r])]

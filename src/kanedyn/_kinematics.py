@@ -163,7 +163,8 @@ class Kinematics:
         for f in reversed(path):
             parent = self._dcm_parent[f]
             local = parent._dcm_dict[f]  # parent.dcm(f): f components -> parent's
-            local = local.applyfunc(lambda e: self.internal(e, f"orientation of {f}"))
+            where = f"orientation of {f}"
+            local = local.applyfunc(lambda e, where=where: self.internal(e, where))
             product = self._dcm[parent] * local
             C = self.prog.let_matrix(product, f"C_{f}_")
             self._dcm[f] = C

@@ -27,7 +27,7 @@ import numpy as np
 import sympy as sm
 
 from ._codegen import compile_python, generate_python
-from ._errors import ConstraintError, MissingValueError
+from ._errors import ConstraintError
 from ._symbols import name_of
 
 __all__ = ["linearize_numeric", "linearize_symbolic", "linearization_terms"]
@@ -312,21 +312,7 @@ def linearize_symbolic(eom, op_point=None, A_and_B=True, constants=None, specifi
 
 def _linearize_with_constants(eom, op, constants, specified, t):
     model = eom.numeric(constants=constants, specified=specified)
-    names = model.state_names
-    y = np.zeros(model.n_states)
-    given = set()
-    for key, value in op.items():
-        idx = model.index(key)
-        y[idx] = float(value)
-        given.add(idx)
-    n, l, o, m = model.n_q, model.n_q_dep, model.n_u, model.n_u_dep
-    independent = list(range(n - l)) + list(range(n, n + o - m))
-    missing = [names[i] for i in independent if i not in given]
-    if missing:
-        raise MissingValueError("the operating point gives no value for "
-                                + ", ".join(missing))
-    if l or m:
-        y = model.consistent_state(t, y)
+    y = model.state(op, t, what="operating-point value")
     return linearize_numeric(model, y, t=t)
 
 

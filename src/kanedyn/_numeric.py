@@ -228,11 +228,46 @@ class NumericModel:
             raise KeyError(f"{name} is not a state of this model; states are "
                            f"{', '.join(self.state_names)}") from None
 
+    def state(self, values, t=0.0, what="initial value"):
+        """A consistent state array from an array or ``{symbol or name: value}``.
+
+        A dict must give every independent coordinate and speed; dependent
+        entries (given or zero) are starting guesses, completed from the
+        constraints as in :meth:`consistent_state`.
+
+        Raises
+        ------
+        MissingValueError
+            When independent values are missing (``what`` names them in the
+            message, e.g. "initial value").
+        """
+        names = self.state_names
+        if isinstance(values, dict):
+            y = np.zeros(self.n_states)
+            given = set()
+            for key, value in values.items():
+                idx = self.index(key)
+                y[idx] = float(value)
+                given.add(idx)
+            n, l, o, m = self.n_q, self.n_q_dep, self.n_u, self.n_u_dep
+            independent = list(range(n - l)) + list(range(n, n + o - m))
+            missing = [names[i] for i in independent if i not in given]
+            if missing:
+                raise MissingValueError(f"missing {what}(s) for " + ", ".join(missing))
+        else:
+            y = self._check_y(values)
+            bad = [names[i] for i in np.flatnonzero(~np.isfinite(y))]
+            if bad:
+                raise ValueError(f"{what}s are not finite for " + ", ".join(bad))
+        if self.n_q_dep or self.n_u_dep:
+            y = self.consistent_state(t, y)
+        return y
+
     def _r(self, t, y):
         return [inp(t, y) for _, inp in self._inputs] if self._inputs else ()
 
     def _check_y(self, y):
-        y = np.asarray(y, dtype=float)
+        y = np.array(y, dtype=float)
         if y.shape != (self.n_states,):
             raise ValueError(f"the state must have {self.n_states} entries "
                              f"({', '.join(self.state_names)}), got shape {y.shape}")
@@ -306,7 +341,7 @@ class NumericModel:
             When the constraint Jacobian with respect to the dependent
             variables is singular, or Newton's method does not converge.
         """
-        y = self._check_y(y).copy()
+        y = self._check_y(y)
         n, l, m = self.n_q, self.n_q_dep, self.n_u_dep
         names = self.state_names
         if l:

@@ -15,39 +15,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ._errors import MissingValueError
 from ._progress import as_progress
 from ._results import SimulationResult
 
 __all__ = ["simulate"]
-
-
-def _initial_state(model, y0, t0):
-    names = model.state_names
-    if isinstance(y0, dict):
-        y = np.zeros(model.n_states)
-        given = set()
-        for key, value in y0.items():
-            idx = model.index(key)
-            y[idx] = float(value)
-            given.add(idx)
-        n, l, o, m = model.n_q, model.n_q_dep, model.n_u, model.n_u_dep
-        independent = list(range(n - l)) + list(range(n, n + o - m))
-        missing = [names[i] for i in independent if i not in given]
-        if missing:
-            raise MissingValueError("missing initial value(s) for " + ", ".join(missing))
-    else:
-        y = np.asarray(y0, dtype=float)
-        if y.shape != (model.n_states,):
-            raise ValueError(
-                f"y0 must have {model.n_states} entries ({', '.join(names)}), "
-                f"got shape {y.shape}")
-        bad = [names[i] for i in np.flatnonzero(~np.isfinite(y))]
-        if bad:
-            raise ValueError("initial values are not finite for " + ", ".join(bad))
-    if model.n_q_dep or model.n_u_dep:
-        y = model.consistent_state(t0, y)
-    return y
 
 
 class _Integrand:
@@ -130,7 +101,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     """
     t0, t1 = (float(v) for v in t_span)
     progress = as_progress(progress)
-    y_init = _initial_state(model, y0, t0)
+    y_init = model.state(y0, t0)
     user_events = [] if events is None else (
         list(events) if isinstance(events, (list, tuple)) else [events])
     constrained = (model.n_q_dep + model.n_u_dep) > 0
