@@ -311,14 +311,22 @@ class EquationsOfMotion:
         Returns
         -------
         dict
-            ``mass_matrix``, ``forcing``, ``both`` (counted jointly, shared
-            intermediates once) and ``intermediates``.
+            ``mass_matrix``, ``forcing`` (generalized active and inertia
+            forces, kinematic equations), ``both`` (the two counted jointly,
+            shared intermediates once), ``constraints`` (constraint matrices
+            and residual terms), ``all`` (everything the right-hand side
+            evaluates, jointly) and ``intermediates`` (of ``all``).
         """
         prog = self._program
         M = [e for row in self._mass for e in row]
         F = list(self._active) + list(self._remainder) + list(self._qdot)
+        C = ([e for row in self._vel_B for e in row] + list(self._vel_f)
+             + [e for row in self._acc_K for e in row] + list(self._acc_f))
+        everything = M + F + C
         return {"mass_matrix": prog.count_ops(M), "forcing": prog.count_ops(F),
-                "both": prog.count_ops(M + F), "intermediates": len(prog.needed(M + F))}
+                "both": prog.count_ops(M + F), "constraints": prog.count_ops(C),
+                "all": prog.count_ops(everything),
+                "intermediates": len(prog.needed(everything))}
 
     def to_latex(self, explicit=None, max_ops=400):
         r"""LaTeX of the kinematic and dynamic equations.

@@ -1,0 +1,458 @@
+"""Derivation speed, equation size and right-hand-side speed: kanedyn vs SymPy.
+
+Every number in the printed table is measured in the same run, on the same
+machine, for both tools, so the ratios are what matters (design rule 15).
+
+For each model (the 3D chain of ``n`` rigid bodies, n = 2 .. ``--max-n``, and
+the Whipple bicycle) the script measures
+
+* derivation time: SymPy's ``KanesMethod(...)`` + ``kanes_equations(bodies,
+  loads)`` + reading ``mass_matrix_full`` and ``forcing_full``, against
+  :func:`kanedyn.kane` (which returns the equations in compact form, ready for
+  numerics), and kanedyn's derivation plus numerical code generation;
+* SymPy's ``lambdify`` time of ``[mass_matrix_full, forcing_full]``;
+* operation counts (``sympy.count_ops``): SymPy's explicit matrices, the same
+  after a joint ``sympy.cse``, and kanedyn's compact form
+  (:meth:`kanedyn.EquationsOfMotion.operation_counts`);
+* microseconds per right-hand-side call: SymPy's lambdified matrices followed
+  by ``numpy.linalg.solve`` (the usual PyDy path) against kanedyn's
+  ``model.rhs(t, y)`` with the numpy backend, and the relative difference of
+  the two results at the same state.
+
+Usage::
+
+    python benchmarks/bench_derivation.py              # full run, several minutes
+    python benchmarks/bench_derivation.py --max-n 5 --no-bicycle   # quick look
+    python benchmarks/bench_derivation.py --markdown   # table as markdown
+
+Progress goes to stderr, the table to stdout.
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime
+import gc
+import os
+import platform
+import statistics
+import subprocess
+import sys
+import time
+import timeit
+import warnings
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+from sympy.core.cache import clear_cache
+
+import kanedyn as kd
+
+#: Relative difference of the two right-hand sides above which a row is flagged.
+DISAGREEMENT = 1e-6
+
+
+# ----------------------------------------------------------------- helpers
+def machine_info():
+    """One line describing the machine and the versions measured.
+
+    Returns
+    -------
+    str
+    """
+    cpu = platform.processor() or ""
+    try:
+        with open("/proc/cpuinfo") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("model name"):
+                    cpu = line.split(":", 1)[1].strip()
+                    break
+    except OSError:
+        pass
+    load = ", ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "?"
+    return (f"{datetime.date.today().isoformat()} | {platform.platform()} | "
+            f"CPU {cpu or 'unknown'} ({os.cpu_count()} logical, load {load}) | "
+            f"Python {platform.python_version()} | SymPy {sm.__version__} | "
+            f"NumPy {np.__version__} | kanedyn {kd.__version__}{source_revision()}")
+
+
+def source_revision():
+    """`` (git <hash>)`` of the kanedyn checkout, or ``""`` outside a git tree."""
+    try:
+        out = subprocess.run(["git", "describe", "--always", "--dirty"],
+                             cwd=os.path.dirname(kd.__file__), capture_output=True,
+                             text=True, timeout=10, check=False)
+    except (OSError, subprocess.SubprocessError):
+        return ""
+    return f" (git {out.stdout.strip()})" if out.returncode == 0 and out.stdout.strip() else ""
+
+
+def fresh_start():
+    """Empty SymPy's global cache and collect garbage before a timing.
+
+    Both tools build on SymPy; clearing its cache keeps one derivation from
+    profiting from expressions built by an earlier one.
+    """
+    clear_cache()
+    gc.collect()
+
+
+def microseconds_per_call(func, repeat=7):
+    """Median time of one call of ``func()`` in microseconds.
+
+    Parameters
+    ----------
+    func : callable
+        Called without arguments.
+    repeat : int
+        Number of timing runs; each runs ``func`` enough times to last at
+        least 0.2 s (``timeit.Timer.autorange``).
+
+    Returns
+    -------
+    float
+    """
+    timer = timeit.Timer(func)
+    number, _ = timer.autorange()
+    runs = timer.repeat(repeat=repeat, number=number)
+    return statistics.median(runs) / number * 1e6
+
+
+def benchmark_state(definition, model, seed=0):
+    """A generic, consistent state: the model's initial state, perturbed.
+
+    The independent coordinates and speeds are moved by up to 0.2 (rad,
+    rad/s, m or m/s) so that no velocity-dependent term vanishes; dependent
+    ones are then completed from the constraints.
+
+    Returns
+    -------
+    numpy.ndarray
+        ``y = [q, u]`` in the order of ``model.state_names``.
+    """
+    rng = np.random.default_rng(seed)
+    y = definition.initial(model)
+    independent = np.r_[0:model.n_q_ind, model.n_q:model.n_q + model.n_u_ind]
+    y[independent] += rng.uniform(-0.2, 0.2, independent.size)
+    return model.consistent_state(0.0, y)
+
+
+# ---------------------------------------------------------------- kanedyn
+def kanedyn_derivation(name, options, repeat=3):
+    """Time :func:`kanedyn.kane` and its numerical code generation.
+
+    Each repetition builds a fresh model, so nothing is reused.
+
+    Parameters
+    ----------
+    name : str
+        Built-in model name (``kanedyn list``).
+    options : dict
+        Model options, e.g. ``{"n": 8}``.
+    repeat : int
+        Number of repetitions; medians are reported.
+
+    Returns
+    -------
+    dict
+        ``derive_s`` (median of ``kd.kane``), ``codegen_s`` (median of
+        ``kd.kane`` + ``numeric``), and ``definition``, ``eom``, ``model`` of the
+        last repetition.
+    """
+    derive, total = [], []
+    for _ in range(repeat):
+        definition = kd.models.build(name, **options)
+        fresh_start()
+        start = time.perf_counter()
+        eom = kd.kane(**definition.kane_args)
+        derived = time.perf_counter()
+        model = definition.numeric(eom)  # eom.numeric(constants=definition.constants)
+        done = time.perf_counter()
+        derive.append(derived - start)
+        total.append(done - start)
+    return {"derive_s": statistics.median(derive), "codegen_s": statistics.median(total),
+            "definition": definition, "eom": eom, "model": model}
+
+
+def kanedyn_operation_counts(eom):
+    """Operation counts of kanedyn's compact equations.
+
+    Returns
+    -------
+    tuple of int
+        ``(mass_matrix, forcing, all)``; each counts the intermediates it
+        needs; ``all`` is everything the right-hand side evaluates (mass
+        matrix, forcing and, for constrained models, the constraint matrices),
+        with shared intermediates counted once.
+    """
+    counts = eom.operation_counts()
+    return counts["mass_matrix"], counts["forcing"], counts["all"]
+
+
+# ------------------------------------------------------------------ SymPy
+def sympy_derivation(name, options):
+    """Time SymPy's ``KanesMethod`` on a freshly built model.
+
+    The time covers constructing ``KanesMethod``, ``kanes_equations(bodies,
+    loads)`` and reading ``mass_matrix_full`` and ``forcing_full``.
+
+    Returns
+    -------
+    dict
+        ``derive_s``, ``kane`` (the ``KanesMethod``), ``mass_matrix_full``,
+        ``forcing_full`` and ``definition``.
+    """
+    definition = kd.models.build(name, **options)
+    args = definition.kane_args
+    fresh_start()
+    with warnings.catch_warnings():
+        # SymPy warns that a point's velocity could be found along several
+        # paths (the bicycle); the warning is about SymPy's own bookkeeping.
+        warnings.simplefilter("ignore", UserWarning)
+        start = time.perf_counter()
+        kane = me.KanesMethod(
+            args["frame"], args["q_ind"], args["u_ind"], kd_eqs=args["kd_eqs"],
+            q_dependent=args.get("q_dep") or None,
+            u_dependent=args.get("u_dep") or None,
+            configuration_constraints=args.get("configuration_constraints") or None,
+            velocity_constraints=args.get("velocity_constraints") or None)
+        kane.kanes_equations(args["bodies"], args["loads"])
+        mass, forcing = kane.mass_matrix_full, kane.forcing_full
+        elapsed = time.perf_counter() - start
+    return {"derive_s": elapsed, "kane": kane, "mass_matrix_full": mass,
+            "forcing_full": forcing, "definition": definition}
+
+
+def sympy_operation_counts(mass, forcing):
+    """Operation counts of SymPy's explicit matrices, without and with CSE.
+
+    Parameters
+    ----------
+    mass, forcing : sympy.Matrix
+        ``mass_matrix_full`` and ``forcing_full``.
+
+    Returns
+    -------
+    tuple of int
+        ``(mass_matrix, forcing, after_cse)``; ``after_cse`` counts the
+        replacements and reduced expressions of one joint ``sympy.cse``.
+    """
+    n_mass, n_forcing = sm.count_ops(mass), sm.count_ops(forcing)
+    replacements, reduced = sm.cse([mass, forcing])
+    after_cse = (sum(sm.count_ops(expr) for _, expr in replacements)
+                 + sum(sm.count_ops(expr) for expr in reduced))
+    return int(n_mass), int(n_forcing), int(after_cse)
+
+
+def sympy_rhs(sympy_result):
+    """The PyDy-style right-hand side from SymPy's matrices.
+
+    ``lambdify([q + u, constants], [M_full, F_full], cse=True)``, then
+    ``numpy.linalg.solve``.
+
+    Returns
+    -------
+    rhs : callable
+        ``rhs(t, y) -> ydot``.
+    seconds : float
+        Time taken by ``lambdify``.
+    """
+    kane, definition = sympy_result["kane"], sympy_result["definition"]
+    constants = list(definition.constants)
+    values = np.array([float(definition.constants[c]) for c in constants])
+    state = list(kane.q) + list(kane.u)
+    start = time.perf_counter()
+    matrices = sm.lambdify([state, constants], [sympy_result["mass_matrix_full"],
+                                                sympy_result["forcing_full"]], cse=True)
+    seconds = time.perf_counter() - start
+
+    def rhs(t, y):
+        mass, forcing = matrices(y, values)
+        return np.linalg.solve(mass, forcing).ravel()
+
+    return rhs, seconds
+
+
+# -------------------------------------------------------------- one model
+def benchmark_model(name, options, args, log):
+    """All measurements of one model; returns one table row (a dict)."""
+    label = name + "".join(f" {k}={v}" for k, v in options.items())
+    ours = kanedyn_derivation(name, options, repeat=args.repeat)
+    log(f"{label}: kanedyn derive {ours['derive_s']:.3f} s")
+    theirs = sympy_derivation(name, options)
+    log(f"{label}: SymPy derive {theirs['derive_s']:.2f} s")
+
+    row = {"model": name, "n": options.get("n", "-"),
+           "sympy_s": theirs["derive_s"], "kanedyn_s": ours["derive_s"],
+           "codegen_s": ours["codegen_s"],
+           "ops_kanedyn": kanedyn_operation_counts(ours["eom"])}
+    row["ops_sympy"] = sympy_operation_counts(theirs["mass_matrix_full"],
+                                              theirs["forcing_full"])
+    log(f"{label}: operation counts done")
+
+    model, eom = ours["model"], ours["eom"]
+    state_sympy = [str(s) for s in list(theirs["kane"].q) + list(theirs["kane"].u)]
+    if state_sympy != [str(s) for s in eom.state]:
+        raise RuntimeError(f"{label}: state orders differ: {state_sympy} "
+                           f"vs {[str(s) for s in eom.state]}")
+    y = benchmark_state(ours["definition"], model)
+    row["rhs_kanedyn_us"] = microseconds_per_call(lambda: model.rhs(0.0, y))
+    n = options.get("n", 0)
+    if args.skip_sympy_rhs or n > args.sympy_rhs_max_n:
+        row["rhs_sympy_us"] = row["lambdify_s"] = row["rhs_diff"] = None
+    else:
+        rhs, row["lambdify_s"] = sympy_rhs(theirs)
+        row["rhs_sympy_us"] = microseconds_per_call(lambda: rhs(0.0, y))
+        ours_ydot, theirs_ydot = model.rhs(0.0, y), rhs(0.0, y)
+        row["rhs_diff"] = float(np.max(np.abs(ours_ydot - theirs_ydot))
+                                / max(np.max(np.abs(ours_ydot)), 1e-300))
+    log(f"{label}: right-hand sides done")
+    return row
+
+
+# ------------------------------------------------------------------ table
+COLUMNS = ("model", "n", "SymPy derive s", "kanedyn derive s", "speed-up",
+           "kanedyn derive+codegen s", "SymPy lambdify s", "ops M/F SymPy",
+           "ops SymPy+CSE", "ops M/F (joint) kanedyn", "RHS µs SymPy lambdify+solve",
+           "RHS µs kanedyn numpy", "RHS speed-up", "RHS rel. diff")
+
+
+def format_count(count):
+    """``1,234``; ``56.8k``; ``2.61M``."""
+    if count < 10_000:
+        return f"{count:,}"
+    if count < 1_000_000:
+        return f"{count / 1e3:.1f}k"
+    return f"{count / 1e6:.2f}M"
+
+
+def format_seconds(seconds):
+    """Three significant digits."""
+    return f"{seconds:.3g}" if seconds < 100 else f"{seconds:.0f}"
+
+
+def row_cells(row):
+    """The table cells of one row, as strings (column order of :data:`COLUMNS`)."""
+    m, f, joint = row["ops_kanedyn"]
+    sm_m, sm_f, sm_cse = row["ops_sympy"]
+    measured = row["rhs_sympy_us"] is not None
+    if measured:
+        wrong = " (!)" if row["rhs_diff"] > DISAGREEMENT else ""
+        lambdify = format_seconds(row["lambdify_s"])
+        rhs_sympy = f"{row['rhs_sympy_us']:.0f}{wrong}"
+        rhs_ratio = f"{row['rhs_sympy_us'] / row['rhs_kanedyn_us']:.2f}x"
+        rhs_diff = f"{row['rhs_diff']:.1e}"
+    else:
+        lambdify = rhs_sympy = "skipped"
+        rhs_ratio = rhs_diff = "-"
+    return [row["model"], str(row["n"]), format_seconds(row["sympy_s"]),
+            format_seconds(row["kanedyn_s"]), f"{row['sympy_s'] / row['kanedyn_s']:.0f}x",
+            format_seconds(row["codegen_s"]), lambdify,
+            f"{format_count(sm_m)}/{format_count(sm_f)}", format_count(sm_cse),
+            f"{format_count(m)}/{format_count(f)} ({format_count(joint)})",
+            rhs_sympy, f"{row['rhs_kanedyn_us']:.0f}", rhs_ratio, rhs_diff]
+
+
+def format_table(rows, markdown=False):
+    """The results as a plain-text or markdown table.
+
+    Parameters
+    ----------
+    rows : list of dict
+        From :func:`benchmark_model`.
+    markdown : bool
+        Markdown table instead of aligned plain text.
+
+    Returns
+    -------
+    str
+    """
+    body = [row_cells(row) for row in rows]
+    if markdown:
+        lines = ["| " + " | ".join(COLUMNS) + " |",
+                 "|" + "|".join("---" if i < 2 else "--:" for i in range(len(COLUMNS))) + "|"]
+        lines += ["| " + " | ".join(cells) + " |" for cells in body]
+        return "\n".join(lines)
+    widths = [max([len(title)] + [len(cells[i]) for cells in body])
+              for i, title in enumerate(COLUMNS)]
+
+    def line(cells):
+        return "  ".join(cell.ljust(w) if i < 2 else cell.rjust(w)
+                         for i, (cell, w) in enumerate(zip(cells, widths)))
+    out = [line(COLUMNS), line(["-" * w for w in widths])]
+    return "\n".join(out + [line(cells) for cells in body])
+
+
+NOTES = """\
+Notes:
+- speed-up = SymPy derive s / kanedyn derive s; RHS speed-up = SymPy µs / kanedyn µs.
+- SymPy derive: KanesMethod(...) + kanes_equations(bodies, loads) + mass_matrix_full
+  and forcing_full, one run. kanedyn: kd.kane(...), median of {repeat} runs, each on a
+  freshly built model; derive+codegen adds eom.numeric(constants=...). SymPy's
+  global cache is cleared before every derivation.
+- ops: sympy.count_ops. SymPy: mass_matrix_full / forcing_full as explicit trees;
+  SymPy+CSE: replacements + reduced expressions of one joint sympy.cse of both.
+  kanedyn: compact form, M / F each with the intermediates it needs, (joint):
+  everything the right-hand side evaluates, shared intermediates counted once;
+  for constrained models this includes the constraint matrices from which the
+  dependent speeds are eliminated numerically (SymPy's counts include its
+  symbolic elimination).
+- RHS: median over 7 timeit repeats at one generic consistent state. SymPy:
+  lambdify([q + u, constants], [M_full, F_full], cse=True) then numpy.linalg.solve.
+  RHS rel. diff = max|ydot_SymPy - ydot_kanedyn| / max|ydot_kanedyn|; (!) marks
+  a difference above {limit:g}: the two tools disagree at that state.{skipped}"""
+
+
+# ------------------------------------------------------------------- main
+def main(argv=None):
+    """Run the benchmark and print the table.
+
+    Parameters
+    ----------
+    argv : list of str, optional
+        Command-line arguments (default ``sys.argv[1:]``).
+    """
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--max-n", type=int, default=10,
+                        help="largest 3D chain, bodies (default 10; smallest is 2)")
+    parser.add_argument("--bicycle", action=argparse.BooleanOptionalAction, default=True,
+                        help="include the Whipple bicycle (default: yes)")
+    parser.add_argument("--skip-sympy-rhs", action="store_true",
+                        help="do not lambdify SymPy's equations (RHS timing of kanedyn only)")
+    parser.add_argument("--sympy-rhs-max-n", type=int, default=10**6, metavar="N",
+                        help="lambdify SymPy's equations only for chains up to N bodies "
+                             "(default: all)")
+    parser.add_argument("--repeat", type=int, default=3,
+                        help="repetitions of kanedyn's derivation (median; default 3)")
+    parser.add_argument("--markdown", action="store_true", help="print a markdown table")
+    args = parser.parse_args(argv)
+
+    def log(message):
+        print(message, file=sys.stderr, flush=True)
+
+    header = "kanedyn vs SymPy KanesMethod: " + machine_info()  # before code can change
+    # Warm up both tools (imports, first-call caches) on a tiny model.
+    kd.kane(**kd.models.build("chain3d", n=2).kane_args)
+    sympy_derivation("chain3d", {"n": 2})
+
+    cases = [("chain3d", {"n": n}) for n in range(2, args.max_n + 1)]
+    if args.bicycle:
+        cases.append(("whipple-bicycle", {}))
+    rows = [benchmark_model(name, options, args, log) for name, options in cases]
+
+    skipped = ""
+    if args.skip_sympy_rhs:
+        skipped = "\n- SymPy's RHS was not measured (--skip-sympy-rhs)."
+    elif any(row["rhs_sympy_us"] is None for row in rows):
+        skipped = (f"\n- SymPy's RHS was measured for chains up to n = "
+                   f"{args.sympy_rhs_max_n} only (lambdify of larger ones is slow).")
+    print(header)
+    print()
+    print(format_table(rows, markdown=args.markdown))
+    print()
+    print(NOTES.format(repeat=args.repeat, limit=DISAGREEMENT, skipped=skipped))
+
+
+if __name__ == "__main__":
+    main()
