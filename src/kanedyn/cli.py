@@ -91,7 +91,8 @@ def cmd_derive(args):
     print(f"# {definition.title}")
     print(f"# derived in {elapsed:.3f} s: {eom!r}")
     print(f"# operations: mass matrix {counts['mass_matrix']}, forcing "
-          f"{counts['forcing']}, jointly {counts['both']}")
+          f"{counts['forcing']}, constraints {counts['constraints']}, all jointly "
+          f"{counts['all']} ({counts['intermediates']} intermediates)")
     print(f"# states: {', '.join(eom.state_names)}")
     print(f"# constants: {', '.join(map(str, eom.constants))}")
     if eom.specified:
@@ -106,10 +107,15 @@ def cmd_derive(args):
         else:
             for qd, rhs in eom.kindiffdict().items():
                 print(f"{name_of(qd)} = {rhs}")
-            print("mass_matrix =")
-            sm.pprint(eom.mass_matrix, use_unicode=False, wrap_line=False)
-            print("forcing =")
-            sm.pprint(eom.forcing, use_unicode=False, wrap_line=False)
+            print("# mass_matrix * u' = forcing, with u' = "
+                  f"[{', '.join(name_of(u) + chr(39) for u in eom.u)}]")
+            M, F = eom.mass_matrix, eom.forcing
+            for i in range(M.rows):
+                for j in range(M.cols):
+                    if M[i, j] != 0:
+                        print(f"mass_matrix[{i}, {j}] = {sm.sstr(M[i, j])}")
+            for i in range(F.rows):
+                print(f"forcing[{i}] = {sm.sstr(F[i])}")
     return 0
 
 
@@ -282,6 +288,9 @@ def main(argv=None):
     except KanedynError as exc:
         print(f"kanedyn: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # output piped into e.g. head, which closed early
+        sys.stderr.close()
+        return 0
 
 
 if __name__ == "__main__":
