@@ -25,12 +25,13 @@ numerically at evaluation time through the constraint Jacobian
 
 from __future__ import annotations
 
+import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 
 from ._errors import ModelError
 from ._kinematics import Kinematics, add, cross, dot
-from ._program import SAMPLE_SEEDS, Program, random_sampler
+from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
 from ._progress import NO_PROGRESS
 from ._symbols import SymbolTable, name_of
 
@@ -75,22 +76,15 @@ def _solve_kinematics(spec, table, prog):
     for i in range(len(eqs)):
         nonlinear = (K.row(i).free_symbols | Ku.row(i).free_symbols) & bad
         if nonlinear:
-            names = ", ".join(sorted(table.external(s).__str__() for s in nonlinear))
+            names = ", ".join(sorted(str(table.external(s)) for s in nonlinear))
             raise ModelError(
                 f"kinematic differential equation {i} ({spec.kd_eqs[i]}) is nonlinear "
                 f"in {names}; it must be linear in q' and in the generalized speeds, "
                 "so that it can be solved for q'")
     rhs = -(Ku * u + f)
-    sample = random_sampler(7)
-    values = {s: float(sample(s).real) for s in K.free_symbols}
-    K_num = K.xreplace({s: sm.Float(v) for s, v in values.items()})
-    import numpy as np
-    try:
-        K_num = np.array(K_num.evalf(), dtype=float)
-        singular = np.linalg.matrix_rank(K_num) < K.shape[0]
-    except TypeError:
-        singular = False
-    if singular:
+    sample, memo = random_sampler(7), {}
+    K_num = np.array([[fast_eval(e, sample, memo).real for e in row] for row in K.tolist()])
+    if np.all(np.isfinite(K_num)) and np.linalg.matrix_rank(K_num) < K.shape[0]:
         empty = [name_of(spec.q[j]) for j in range(K.shape[1]) if not any(K[:, j])]
         detail = (f"; no equation contains the derivative of {', '.join(empty)}"
                   if empty else "")

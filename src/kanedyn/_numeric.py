@@ -472,11 +472,18 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
     for e in main:
         leaves |= prog.deps(e)
     runtime = [(s, inp) for s, inp in providers.items() if s in leaves]
-    # constants: the equations' own and those of exact input expressions
+    aux_exprs = flat(eom._aux_K) + [sub(e) for e in eom._aux_f]
+    aux_leaves = set()
+    for e in aux_exprs:
+        aux_leaves |= prog.deps(e)
+    # constants: the equations' own, those of exact input expressions and of
+    # the auxiliary equations (those left without a value there are unknowns)
     candidates = set(eom.constants)
     for value in substitutions.values():
         candidates |= {s for s in value.free_symbols
                        if not table.is_dynamic(s) and s != table.t}
+    candidates |= {s for s in aux_leaves if not table.is_dynamic(s) and s != table.t
+                   and s not in table.udot}
     needed_consts = sorted((s for s in candidates if s in leaves), key=str)
     values = _resolve_constants(candidates, constants, needed_consts)
     const_syms = sorted(values, key=str)
@@ -492,10 +499,6 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
 
     aux_names = ()
     if eom.u_aux:
-        aux_exprs = flat(eom._aux_K) + [sub(e) for e in eom._aux_f]
-        aux_leaves = set()
-        for e in aux_exprs:
-            aux_leaves |= prog.deps(e)
         unknowns = [s for s in aux_leaves
                     if s not in values and s not in r_syms and s not in y_syms
                     and s != table.t and s not in table.u_aux
