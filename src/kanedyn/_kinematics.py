@@ -120,10 +120,11 @@ class Kinematics:
 
     def scalar(self, expr, where, name="s"):
         """Internal form of a user expression; large ones become programs."""
-        value = self.table.internal(expr, where)
-        if not _small(value, _SMALL):
-            value = self.prog.let_tree(value, name)
-        return value
+        expr = sm.sympify(expr)
+        if _small(expr, _SMALL):
+            return self.table.internal(expr, where)
+        return self.prog.let_tree(expr, name,
+                                  leaf=lambda node: self.table.internal(node, where))
 
     def vector(self, vec, where):
         """Inertial components of a SymPy ``Vector`` (not named)."""

@@ -134,13 +134,16 @@ class Program:
         self._deps[sym] = frozenset(deps)
         return sym
 
-    def let_tree(self, expr, name="z", threshold=8):
+    def let_tree(self, expr, name="z", threshold=8, leaf=None):
         """Name the subexpressions of a large expression, bottom up.
 
         Every subtree of at least ``threshold`` operations, and every function
         application, becomes an intermediate; identical subtrees are named
-        once.  Large expressions from SymPy (expanded direction cosines) thus
-        become compact programs.
+        once, and each distinct node is visited once (SymPy shares
+        subexpressions, so walking the tree instead would be exponential).
+        Large expressions from SymPy (expanded direction cosines) thus become
+        compact programs.  ``leaf(node)``, if given, replaces applied
+        undefined functions and derivatives (e.g. ``q(t)``).
         """
         expr = sm.sympify(expr)
         memo = {}
@@ -149,7 +152,9 @@ class Program:
             found = memo.get(e)
             if found is not None:
                 return found
-            if e.is_Atom:
+            if leaf is not None and isinstance(e, (AppliedUndef, sm.Derivative)):
+                out = (leaf(e), 0)
+            elif e.is_Atom:
                 out = (e, 0)
             else:
                 parts = [visit(a) for a in e.args]
