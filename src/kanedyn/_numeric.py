@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import inspect
 import numbers
+import warnings
 
 import numpy as np
 import sympy as sm
@@ -33,7 +34,9 @@ from ._codegen import compile_python, generate_python
 from ._errors import ConstraintError, MissingValueError, ModelError
 from ._symbols import name_of
 
-__all__ = ["NumericModel", "build_numeric_model"]
+__all__ = ["NumericModel", "build_numeric_model", "BACKENDS"]
+
+BACKENDS = ("numpy", "c")
 
 
 # ------------------------------------------------------------------ inputs
@@ -195,9 +198,18 @@ class NumericModel:
 
     def _compile(self):
         d = self._data
-        self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
+        if d["backend"] == "c":
+            from ._cbackend import load_module
+            module = load_module(d["c_source"])
+            self._fn = {name: getattr(module, name)
+                        for name in ("dynamics", "constraints", "energy", "auxiliary")
+                        if hasattr(module, name)}
+            self._c = module.Model(self._p, self._input_values if self._inputs else None)
+            self.rhs = self._c.rhs  # the compiled entry point, called directly
+        else:
+            self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
                     "aux_names", "input_names", "has_potential", "has_loads"):
             setattr(self, key, d[key])
@@ -265,6 +277,9 @@ class NumericModel:
 
     def _r(self, t, y):
         return [inp(t, y) for _, inp in self._inputs] if self._inputs else ()
+
+    def _input_values(self, t, y):
+        return [inp(t, y) for _, inp in self._inputs]
 
     def _check_y(self, y):
         y = np.array(y, dtype=float)
@@ -430,8 +445,9 @@ class NumericModel:
 
 def build_numeric_model(eom, constants, specified, backend="numpy"):
     """Generate and compile the numerical functions of ``eom``."""
-    if backend not in ("numpy",):
-        raise ModelError(f"unknown backend {backend!r}; available: 'numpy'")
+    if backend not in BACKENDS:
+        raise ModelError(f"unknown backend {backend!r}; available: "
+                         f"{', '.join(repr(b) for b in BACKENDS)}")
     prog = eom._program
     table = eom._table
     substitutions, providers = _resolve_specified(eom, specified)
@@ -491,11 +507,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
     y_syms = list(table.q) + list(table.u)
     r_syms = [s for s, _ in runtime]
     args = {"y": y_syms, "p": const_syms, "r": r_syms}
-    sources = {
-        "dynamics": generate_python(prog, "dynamics", args, dynamics),
-        "constraints": generate_python(prog, "constraints", args, constraint_outputs),
-        "energy": generate_python(prog, "energy", args, energy),
-    }
+    functions = {"dynamics": (args, dynamics), "constraints": (args, constraint_outputs),
+                 "energy": (args, energy)}
 
     aux_names = ()
     if eom.u_aux:
@@ -513,13 +526,27 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
                 "exactly one unknown constraint-force magnitude per auxiliary speed, "
                 "so give values for the others in constants={...}")
         aux_args = {"y": y_syms, "p": const_syms, "r": r_syms + unknowns}
-        sources["auxiliary"] = generate_python(
-            prog, "auxiliary", aux_args,
-            [((s_aux, o), flat(eom._aux_K)), ((s_aux,), [sub(e) for e in eom._aux_f])])
+        functions["auxiliary"] = (aux_args, [((s_aux, o), flat(eom._aux_K)),
+                                             ((s_aux,), [sub(e) for e in eom._aux_f])])
+
+    sizes = {"n_q": n, "n_u": o, "n_u_dep": m, "n_p": len(const_syms), "n_r": len(r_syms)}
+    sources = c_source = None
+    if backend == "c":
+        from ._cbackend import CompilerError, compiler_command, generate_c
+        if compiler_command() is None:
+            warnings.warn(f"{CompilerError('no C compiler found (set $CC or install gcc or clang)')}"
+                          "; using the numpy backend instead", RuntimeWarning, stacklevel=3)
+            backend = "numpy"
+        else:
+            c_source = generate_c(prog, functions, sizes)
+    if backend == "numpy":
+        sources = {name: generate_python(prog, name, a, outs)
+                   for name, (a, outs) in functions.items()}
 
     data = {
         "backend": backend,
         "sources": sources,
+        "c_source": c_source,
         "p": [values[s] for s in const_syms],
         "constants": {str(s): values[s] for s in const_syms},
         "inputs": runtime,

@@ -1,0 +1,416 @@
+"""C source shared by every generated extension module.
+
+The generated part defines the ``KD_*`` sizes and the evaluation functions
+``kd_eval_dynamics``, ``kd_eval_constraints``, ``kd_eval_energy`` and
+``kd_eval_auxiliary``; this runtime adds the linear algebra, the assembly of
+the reduced system (dependent speeds eliminated numerically), and the Python
+entry points.  Entry points use ``METH_FASTCALL`` and read NumPy buffers
+directly: a ``ctypes`` call alone would cost more than the whole evaluation.
+"""
+
+HEADER = r"""
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
+#include <numpy/arrayobject.h>
+#include <math.h>
+#include <string.h>
+
+static inline double kd_sign(double x) { return (double)((x > 0) - (x < 0)); }
+static inline double kd_powi(double x, long n) {
+    double result = 1.0, base = x;
+    unsigned long k = n < 0 ? (unsigned long)(-n) : (unsigned long)n;
+    while (k) { if (k & 1UL) result *= base; base *= base; k >>= 1; }
+    return n < 0 ? 1.0 / result : result;
+}
+"""
+
+RUNTIME = r"""
+static PyObject *kd_linalg_error = NULL;
+
+/* Solve A x = B in place (A: n x n row-major, B: n x nrhs row-major) by LU with
+   partial pivoting.  Returns 0, or 1 if A is singular. */
+static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
+    for (int k = 0; k < n; ++k) {
+        int piv = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i) {
+            double v = fabs(A[i * n + k]);
+            if (v > big) { big = v; piv = i; }
+        }
+        if (!(big > 0.0)) return 1;
+        if (piv != k) {
+            for (int j = 0; j < n; ++j) {
+                double tmp = A[k * n + j]; A[k * n + j] = A[piv * n + j]; A[piv * n + j] = tmp;
+            }
+            for (int j = 0; j < nrhs; ++j) {
+                double tmp = B[k * nrhs + j]; B[k * nrhs + j] = B[piv * nrhs + j];
+                B[piv * nrhs + j] = tmp;
+            }
+        }
+        double inv = 1.0 / A[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            double factor = A[i * n + k] * inv;
+            if (factor == 0.0) continue;
+            for (int j = k + 1; j < n; ++j) A[i * n + j] -= factor * A[k * n + j];
+            for (int j = 0; j < nrhs; ++j) B[i * nrhs + j] -= factor * B[k * nrhs + j];
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        double inv = 1.0 / A[k * n + k];
+        for (int j = 0; j < nrhs; ++j) {
+            double s = B[k * nrhs + j];
+            for (int i = k + 1; i < n; ++i) s -= A[k * n + i] * B[i * nrhs + j];
+            B[k * nrhs + j] = s * inv;
+        }
+    }
+    return 0;
+}
+
+/* Solve A x = b for symmetric positive definite A (Cholesky, lower triangle of
+   A used and overwritten).  Returns 0, or 1 if A is not positive definite. */
+static int kd_cholesky_solve(int n, double *A, double *b) {
+    for (int j = 0; j < n; ++j) {
+        double d = A[j * n + j];
+        for (int k = 0; k < j; ++k) d -= A[j * n + k] * A[j * n + k];
+        if (!(d > 0.0)) return 1;
+        d = sqrt(d);
+        A[j * n + j] = d;
+        double inv = 1.0 / d;
+        for (int i = j + 1; i < n; ++i) {
+            double s = A[i * n + j];
+            for (int k = 0; k < j; ++k) s -= A[i * n + k] * A[j * n + k];
+            A[i * n + j] = s * inv;
+        }
+    }
+    for (int i = 0; i < n; ++i) {
+        double s = b[i];
+        for (int k = 0; k < i; ++k) s -= A[i * n + k] * b[k];
+        b[i] = s / A[i * n + i];
+    }
+    for (int i = n - 1; i >= 0; --i) {
+        double s = b[i];
+        for (int k = i + 1; k < n; ++k) s -= A[k * n + i] * b[k];
+        b[i] = s / A[i * n + i];
+    }
+    return 0;
+}
+
+#define KD_NX (KD_NQ + KD_NU)
+#define KD_NUI (KD_NU - KD_NUDEP)
+#define KD_SZ(x) ((x) > 0 ? (x) : 1)
+
+/* The state derivative [q', u'] at (t, y).  Returns 0, or 1 if the system is
+   singular. */
+static int kd_rhs_core(double t, const double *y, const double *p, const double *r,
+                       double *w, double *out) {
+    double qd[KD_SZ(KD_NQ)], M[KD_SZ(KD_NU * KD_NU)], f[KD_SZ(KD_NU)];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], Ka[KD_SZ(KD_NUDEP * KD_NU)], fa[KD_SZ(KD_NUDEP)];
+    kd_eval_dynamics(t, y, p, r, w, qd, M, f, B, Ka, fa);
+    memcpy(out, qd, KD_NQ * sizeof(double));
+    double *ud = out + KD_NQ;
+#if KD_NUDEP == 0
+    double L[KD_SZ(KD_NU * KD_NU)];
+    memcpy(L, M, sizeof(double) * KD_NU * KD_NU);
+    memcpy(ud, f, sizeof(double) * KD_NU);
+    if (kd_cholesky_solve(KD_NU, L, ud) != 0) {
+        memcpy(ud, f, sizeof(double) * KD_NU);
+        if (kd_lu_solve(KD_NU, M, ud, 1) != 0) return 1;
+    }
+#else
+    /* Ar = -Bdep^-1 Bind (m x p); the reduced rows M[:p] + Ar^T M[p:] */
+    double Bd[KD_NUDEP * KD_NUDEP], X[KD_SZ(KD_NUDEP * KD_NUI)];
+    for (int i = 0; i < KD_NUDEP; ++i) {
+        for (int j = 0; j < KD_NUDEP; ++j) Bd[i * KD_NUDEP + j] = B[i * KD_NU + KD_NUI + j];
+        for (int j = 0; j < KD_NUI; ++j) X[i * KD_NUI + j] = B[i * KD_NU + j];
+    }
+    if (kd_lu_solve(KD_NUDEP, Bd, X, KD_NUI) != 0) return 1;
+    double S[KD_NU * KD_NU];
+    for (int i = 0; i < KD_NUI; ++i) {
+        for (int j = 0; j < KD_NU; ++j) {
+            double s = M[i * KD_NU + j];
+            for (int k = 0; k < KD_NUDEP; ++k) s -= X[k * KD_NUI + i] * M[(KD_NUI + k) * KD_NU + j];
+            S[i * KD_NU + j] = s;
+        }
+        double s = f[i];
+        for (int k = 0; k < KD_NUDEP; ++k) s -= X[k * KD_NUI + i] * f[KD_NUI + k];
+        ud[i] = s;
+    }
+    for (int i = 0; i < KD_NUDEP; ++i) {
+        for (int j = 0; j < KD_NU; ++j) S[(KD_NUI + i) * KD_NU + j] = Ka[i * KD_NU + j];
+        ud[KD_NUI + i] = -fa[i];
+    }
+    if (kd_lu_solve(KD_NU, S, ud, 1) != 0) return 1;
+#endif
+    return 0;
+}
+
+/* ------------------------------------------------------------ arguments */
+static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what) {
+    PyArrayObject *arr;
+    if (PyArray_CheckExact(obj)) {
+        arr = (PyArrayObject *)obj;
+        if (PyArray_TYPE(arr) == NPY_DOUBLE && PyArray_IS_C_CONTIGUOUS(arr)
+                && PyArray_SIZE(arr) == n && PyArray_NDIM(arr) == 1) {
+            *keep = NULL;
+            return (const double *)PyArray_DATA(arr);
+        }
+    }
+    arr = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+    if (arr == NULL) return NULL;
+    if (PyArray_SIZE(arr) != n) {
+        PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", what,
+                     (Py_ssize_t)n, (Py_ssize_t)PyArray_SIZE(arr));
+        Py_DECREF(arr);
+        return NULL;
+    }
+    *keep = (PyObject *)arr;
+    return (const double *)PyArray_DATA(arr);
+}
+
+static int kd_inputs(PyObject *inputs, double t, PyObject *y, double *r) {
+#if KD_NR > 0
+    PyObject *args[2];
+    args[0] = PyFloat_FromDouble(t);
+    if (args[0] == NULL) return -1;
+    args[1] = y;
+    PyObject *res = PyObject_Vectorcall(inputs, args, 2, NULL);
+    Py_DECREF(args[0]);
+    if (res == NULL) return -1;
+    PyObject *seq = PySequence_Fast(res, "specified inputs must be a sequence");
+    Py_DECREF(res);
+    if (seq == NULL) return -1;
+    if (PySequence_Fast_GET_SIZE(seq) != KD_NR) {
+        PyErr_SetString(PyExc_ValueError, "wrong number of specified input values");
+        Py_DECREF(seq);
+        return -1;
+    }
+    for (int i = 0; i < KD_NR; ++i) {
+        r[i] = PyFloat_AsDouble(PySequence_Fast_GET_ITEM(seq, i));
+        if (r[i] == -1.0 && PyErr_Occurred()) { Py_DECREF(seq); return -1; }
+    }
+    Py_DECREF(seq);
+#endif
+    return 0;
+}
+
+static PyObject *kd_new_vector(npy_intp n, double **data) {
+    PyObject *out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
+    return out;
+}
+
+static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
+    npy_intp dims[2] = {rows, cols};
+    PyObject *out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
+    return out;
+}
+
+/* ---------------------------------------------------------- Model type */
+typedef struct {
+    PyObject_HEAD
+    double p[KD_SZ(KD_NP)];
+    PyObject *inputs;
+    double *work;
+} KdModel;
+
+static void KdModel_dealloc(KdModel *self) {
+    Py_XDECREF(self->inputs);
+    PyMem_Free(self->work);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static int KdModel_init(KdModel *self, PyObject *args, PyObject *kwds) {
+    PyObject *pobj, *inputs = Py_None, *keep = NULL;
+    if (!PyArg_ParseTuple(args, "O|O", &pobj, &inputs)) return -1;
+    const double *p = kd_vector(pobj, KD_NP, &keep, "p");
+    if (p == NULL) return -1;
+    for (int i = 0; i < KD_NP; ++i) self->p[i] = p[i];
+    Py_XDECREF(keep);
+    if (KD_NR > 0 && inputs == Py_None) {
+        PyErr_SetString(PyExc_ValueError, "this model needs a callable for its inputs");
+        return -1;
+    }
+    Py_INCREF(inputs);
+    Py_XSETREF(self->inputs, inputs);
+    if (self->work == NULL) {
+        self->work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW));
+        if (self->work == NULL) { PyErr_NoMemory(); return -1; }
+    }
+    return 0;
+}
+
+static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t nargs) {
+    if (nargs != 2) {
+        PyErr_SetString(PyExc_TypeError, "rhs(t, y) takes exactly 2 arguments");
+        return NULL;
+    }
+    double t = PyFloat_AsDouble(args[0]);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    PyObject *keep = NULL;
+    const double *y = kd_vector(args[1], KD_NX, &keep, "the state y");
+    if (y == NULL) return NULL;
+    double r[KD_SZ(KD_NR)];
+    if (kd_inputs(self->inputs, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
+    double *out;
+    PyObject *result = kd_new_vector(KD_NX, &out);
+    if (result != NULL && kd_rhs_core(t, y, self->p, r, self->work, out) != 0) {
+        Py_DECREF(result);
+        result = NULL;
+        PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
+    }
+    Py_XDECREF(keep);
+    return result;
+}
+
+/* rhs_batch(t, Y[, P]): Y (k, nx), t scalar or (k,), P (k, np) or None. */
+static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *const *args, Py_ssize_t nargs) {
+    if (nargs < 2 || nargs > 3) {
+        PyErr_SetString(PyExc_TypeError, "rhs_batch(t, Y[, P]) takes 2 or 3 arguments");
+        return NULL;
+    }
+    PyArrayObject *Y = (PyArrayObject *)PyArray_FROMANY(args[1], NPY_DOUBLE, 2, 2,
+                                                         NPY_ARRAY_IN_ARRAY);
+    if (Y == NULL) return NULL;
+    npy_intp k = PyArray_DIM(Y, 0);
+    if (PyArray_DIM(Y, 1) != KD_NX) {
+        PyErr_Format(PyExc_ValueError, "Y must have shape (k, %d)", KD_NX);
+        Py_DECREF(Y);
+        return NULL;
+    }
+    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 0, 1,
+                                                         NPY_ARRAY_IN_ARRAY);
+    if (T == NULL) { Py_DECREF(Y); return NULL; }
+    int t_scalar = PyArray_NDIM(T) == 0;
+    if (!t_scalar && PyArray_DIM(T, 0) != k) {
+        PyErr_SetString(PyExc_ValueError, "t must be a scalar or have one entry per state");
+        Py_DECREF(Y); Py_DECREF(T);
+        return NULL;
+    }
+    PyArrayObject *P = NULL;
+    if (nargs == 3 && args[2] != Py_None) {
+        P = (PyArrayObject *)PyArray_FROMANY(args[2], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+        if (P == NULL) { Py_DECREF(Y); Py_DECREF(T); return NULL; }
+        if (PyArray_DIM(P, 0) != k || PyArray_DIM(P, 1) != KD_NP) {
+            PyErr_Format(PyExc_ValueError, "P must have shape (k, %d)", KD_NP);
+            Py_DECREF(Y); Py_DECREF(T); Py_DECREF(P);
+            return NULL;
+        }
+    }
+    double *out;
+    PyObject *result = kd_new_matrix(k, KD_NX, &out);
+    const double *ydata = (const double *)PyArray_DATA(Y);
+    const double *tdata = (const double *)PyArray_DATA(T);
+    double r[KD_SZ(KD_NR)];
+    for (npy_intp i = 0; result != NULL && i < k; ++i) {
+        double ti = t_scalar ? tdata[0] : tdata[i];
+        const double *pi = P ? (const double *)PyArray_DATA(P) + i * KD_NP : self->p;
+        if (KD_NR > 0) {
+            npy_intp dims[1] = {KD_NX};
+            PyObject *row = PyArray_SimpleNewFromData(1, dims, NPY_DOUBLE,
+                                                      (void *)(ydata + i * KD_NX));
+            int bad = row == NULL || kd_inputs(self->inputs, ti, row, r) != 0;
+            Py_XDECREF(row);
+            if (bad) { Py_DECREF(result); result = NULL; break; }
+        }
+        if (kd_rhs_core(ti, ydata + i * KD_NX, pi, r, self->work, out + i * KD_NX) != 0) {
+            for (int j = 0; j < KD_NX; ++j) out[i * KD_NX + j] = NAN;
+        }
+    }
+    Py_DECREF(Y); Py_DECREF(T); Py_XDECREF(P);
+    return result;
+}
+
+static PyObject *KdModel_set_parameters(KdModel *self, PyObject *const *args, Py_ssize_t nargs) {
+    if (nargs != 1) {
+        PyErr_SetString(PyExc_TypeError, "set_parameters(p) takes 1 argument");
+        return NULL;
+    }
+    PyObject *keep = NULL;
+    const double *p = kd_vector(args[0], KD_NP, &keep, "p");
+    if (p == NULL) return NULL;
+    for (int i = 0; i < KD_NP; ++i) self->p[i] = p[i];
+    Py_XDECREF(keep);
+    Py_RETURN_NONE;
+}
+
+/* -------------------------------------------- functions of (t, y, p, r) */
+typedef struct { const double *y, *p, *r; PyObject *keep[3]; double t; double *work; } KdArgs;
+
+static int kd_parse(PyObject *const *args, Py_ssize_t nargs, npy_intp nr, KdArgs *a) {
+    a->keep[0] = a->keep[1] = a->keep[2] = NULL;
+    a->work = NULL;
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "takes exactly 4 arguments (t, y, p, r)");
+        return -1;
+    }
+    a->t = PyFloat_AsDouble(args[0]);
+    if (a->t == -1.0 && PyErr_Occurred()) return -1;
+    static const double empty[1] = {0.0};
+    if ((a->y = kd_vector(args[1], KD_NX, &a->keep[0], "y")) == NULL) return -1;
+    a->p = empty;
+    a->r = empty;
+    if (KD_NP > 0 && (a->p = kd_vector(args[2], KD_NP, &a->keep[1], "p")) == NULL) return -1;
+    if (nr > 0 && (a->r = kd_vector(args[3], nr, &a->keep[2], "r")) == NULL) return -1;
+    a->work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW));
+    if (a->work == NULL) { PyErr_NoMemory(); return -1; }
+    return 0;
+}
+
+static void kd_release(KdArgs *a) {
+    for (int i = 0; i < 3; ++i) Py_XDECREF(a->keep[i]);
+    PyMem_Free(a->work);
+}
+"""
+
+FOOTER = r"""
+static PyMethodDef KdModel_methods[] = {
+    {"rhs", (PyCFunction)(void (*)(void))KdModel_rhs, METH_FASTCALL,
+     "rhs(t, y): the state derivative (a new array)"},
+    {"rhs_batch", (PyCFunction)(void (*)(void))KdModel_rhs_batch, METH_FASTCALL,
+     "rhs_batch(t, Y[, P]): state derivatives of many states (rows of Y)"},
+    {"set_parameters", (PyCFunction)(void (*)(void))KdModel_set_parameters, METH_FASTCALL,
+     "set_parameters(p): replace the constants"},
+    {NULL, NULL, 0, NULL}
+};
+
+static PyTypeObject KdModelType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "kanedyn_generated.Model",
+    .tp_basicsize = sizeof(KdModel),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)KdModel_init,
+    .tp_dealloc = (destructor)KdModel_dealloc,
+    .tp_methods = KdModel_methods,
+};
+
+static PyMethodDef kd_functions[] = {
+    KD_FUNCTION_TABLE
+    {NULL, NULL, 0, NULL}
+};
+
+static struct PyModuleDef kd_module = {
+    PyModuleDef_HEAD_INIT, KD_MODULE_NAME_STR, NULL, -1, kd_functions
+};
+
+PyMODINIT_FUNC KD_INIT_FUNCTION(void) {
+    import_array();
+    if (PyType_Ready(&KdModelType) < 0) return NULL;
+    PyObject *module = PyModule_Create(&kd_module);
+    if (module == NULL) return NULL;
+    Py_INCREF(&KdModelType);
+    if (PyModule_AddObject(module, "Model", (PyObject *)&KdModelType) < 0) {
+        Py_DECREF(&KdModelType);
+        Py_DECREF(module);
+        return NULL;
+    }
+    PyObject *linalg = PyImport_ImportModule("numpy.linalg");
+    if (linalg == NULL) { Py_DECREF(module); return NULL; }
+    kd_linalg_error = PyObject_GetAttrString(linalg, "LinAlgError");
+    Py_DECREF(linalg);
+    if (kd_linalg_error == NULL) { Py_DECREF(module); return NULL; }
+    return module;
+}
+"""

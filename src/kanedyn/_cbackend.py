@@ -1,0 +1,377 @@
+"""The compiled backend: C from a straight-line program, built into an extension.
+
+Code generation
+    Every intermediate is one C statement.  Large programs are split into
+    functions of at most ``CHUNK`` statements (compilers slow down
+    superlinearly on huge functions); values crossing a split go through a
+    work array.
+
+Build and cache
+    The module is compiled with the system C compiler on first use and cached
+    on disk under a name derived from the SHA-256 of its source and build
+    settings (``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` or
+    ``~/.cache/kanedyn``).  Builds happen in a private temporary directory and
+    are published with an atomic rename, so several processes may build the
+    same module at once; every entry carries a checksum and an entry that
+    fails it (or fails to load) is rebuilt.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import threading
+from pathlib import Path
+
+import numpy as np
+import sympy as sm
+from sympy.printing.c import C99CodePrinter
+
+from . import _c_runtime
+from ._codegen import CodegenError
+from ._errors import KanedynError
+
+__all__ = ["CompilerError", "generate_c", "load_module", "compiler_command", "CHUNK"]
+
+CHUNK = 2500  # statements per generated C function
+NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
+_LOADED = {}  # hash -> module, per process
+_LOCK = threading.Lock()
+
+
+class CompilerError(KanedynError, RuntimeError):
+    """No usable C compiler, or compilation failed."""
+
+
+# ------------------------------------------------------------------ printing
+class _CPrinter(C99CodePrinter):
+    def __init__(self, names):
+        super().__init__({"strict": True, "order": "none"})
+        self._names = names
+
+    def _print_Symbol(self, expr):
+        try:
+            return self._names[expr]
+        except KeyError:
+            raise CodegenError(f"symbol {expr} has no value in the generated code") \
+                from None
+
+    _print_Dummy = _print_Symbol
+
+    def _print_Pow(self, expr):
+        base, exp = expr.args
+        b = self.parenthesize(base, 60)  # tighter than multiplication
+        if exp.is_Integer:
+            n = int(exp)
+            if n == 2:
+                return f"({b}*{b})"
+            if n == 3:
+                return f"({b}*{b}*{b})"
+            if n == -1:
+                return f"(1.0/{b})"
+            if n == -2:
+                return f"(1.0/({b}*{b}))"
+            return f"kd_powi({self._print(base)}, {n})"
+        if exp == sm.S.Half:
+            return f"sqrt({self._print(base)})"
+        if exp == -sm.S.Half:
+            return f"(1.0/sqrt({self._print(base)}))"
+        return f"pow({self._print(base)}, {self._print(exp)})"
+
+    def _print_sign(self, expr):
+        return f"kd_sign({self._print(expr.args[0])})"
+
+
+def _print_c(printer, expr, what):
+    try:
+        return printer.doprint(sm.sympify(expr))
+    except CodegenError:
+        raise
+    except Exception as exc:  # noqa: BLE001  (the printer raises several kinds)
+        raise CodegenError(
+            f"the C backend cannot generate code for {expr} ({what}): {exc}; the "
+            "numpy backend (backend='numpy') can evaluate it") from None
+
+
+# ---------------------------------------------------------------- functions
+def _function_source(program, name, arguments, outputs, origin):
+    """C source of ``kd_eval_<name>`` and the number of work slots it needs."""
+    base = {program.t: "t"}
+    for arg, symbols in arguments.items():
+        for i, s in enumerate(symbols):
+            base[s] = f"{arg}[{i}]"
+    flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+    needed = program.needed(flat)
+    index = {s: k for k, s in enumerate(needed)}
+    chunks = [needed[i:i + CHUNK] for i in range(0, len(needed), CHUNK)] or [[]]
+    chunk_of = {s: c for c, members in enumerate(chunks) for s in members}
+    # the last chunk (len(chunks) = the output part) using each intermediate
+    last_use = {}
+    for s in needed:
+        for parent in program._parents[s]:
+            last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
+    for e in flat:
+        for s in e.free_symbols:
+            if s in index:
+                last_use[s] = len(chunks)
+    split = len(chunks) > 1  # decided before any statement is emitted
+    params = ("double t, const double *restrict y, const double *restrict p, "
+              "const double *restrict r, double *restrict w")
+    lines = []
+    stored = set()
+    for c, members in enumerate(chunks):
+        names = dict(base)
+        for s in needed:
+            if s in stored and chunk_of[s] < c:
+                names[s] = f"w[{index[s]}]"
+        body = []
+        for s in members:
+            names[s] = f"z{index[s]}"
+            code = _print_c(_CPrinter(names), program.definition(s),
+                            f"intermediate {s.name}{origin(s)}")
+            body.append(f"    const double z{index[s]} = {code};")
+            if split and last_use.get(s, c) > c:
+                body.append(f"    w[{index[s]}] = z{index[s]};")
+                stored.add(s)
+        if split:
+            lines.append(f"static void kd_{name}_part{c}({params}) {{")
+            lines.extend(body or ["    (void)w;"])
+            lines.append("}")
+        else:
+            chunk_body = body
+    out_params = ", ".join(f"double *restrict o{k}" for k in range(len(outputs)))
+    lines.append(f"static void kd_eval_{name}({params}{', ' if outputs else ''}{out_params}) {{")
+    names = dict(base)
+    if split:
+        for c in range(len(chunks)):
+            lines.append(f"    kd_{name}_part{c}(t, y, p, r, w);")
+        for s in stored:
+            names[s] = f"w[{index[s]}]"
+    else:
+        lines.extend(chunk_body)
+        for s in needed:
+            names[s] = f"z{index[s]}"
+    printer = _CPrinter(names)
+    for k, (shape, exprs) in enumerate(outputs):
+        for j, e in enumerate(exprs):
+            code = _print_c(printer, e, f"output {j} of {name}")
+            lines.append(f"    o{k}[{j}] = {code};")
+    lines.append("    (void)t; (void)y; (void)p; (void)r; (void)w;")
+    lines.append("}")
+    work = len(needed) if split else 0
+    return "\n".join(lines), work
+
+
+def _wrapper_source(name, outputs, nr):
+    """Module-level Python function ``name(t, y, p, r)`` returning a tuple of arrays."""
+    lines = [f"static PyObject *kd_py_{name}(PyObject *self, PyObject *const *args, "
+             "Py_ssize_t nargs) {",
+             "    KdArgs a;",
+             f"    if (kd_parse(args, nargs, {nr}, &a) != 0) {{ kd_release(&a); return NULL; }}",
+             f"    PyObject *result = PyTuple_New({len(outputs)});",
+             "    if (result == NULL) { kd_release(&a); return NULL; }"]
+    ptrs = []
+    for k, (shape, _) in enumerate(outputs):
+        lines.append(f"    double *d{k} = NULL, s{k}[1];")
+        if shape == ():
+            lines.append(f"    d{k} = s{k};")
+            ptrs.append(f"d{k}")
+            continue
+        if len(shape) == 1:
+            make = f"kd_new_vector({shape[0]}, &d{k})"
+        else:
+            make = f"kd_new_matrix({shape[0]}, {shape[1]}, &d{k})"
+        lines.append(f"    PyObject *a{k} = {make};")
+        lines.append(f"    if (a{k} == NULL) {{ Py_DECREF(result); kd_release(&a); return NULL; }}")
+        lines.append(f"    PyTuple_SET_ITEM(result, {k}, a{k});")
+        ptrs.append(f"d{k}")
+    call_args = ", ".join(["a.t", "a.y", "a.p", "a.r", "a.work"] + ptrs)
+    lines.append(f"    kd_eval_{name}({call_args});")
+    for k, (shape, _) in enumerate(outputs):
+        if shape == ():
+            lines.append(f"    PyTuple_SET_ITEM(result, {k}, PyFloat_FromDouble(s{k}[0]));")
+    lines += ["    kd_release(&a);", "    return result;", "}"]
+    return "\n".join(lines)
+
+
+def generate_c(program, functions, sizes, origin=None):
+    """C source template of an extension module (see :func:`load_module`).
+
+    Parameters
+    ----------
+    program : Program
+    functions : dict
+        ``{name: (arguments, outputs)}`` as for :func:`kanedyn._codegen.generate_python`;
+        must contain ``"dynamics"`` with the six outputs of the right-hand side.
+    sizes : dict
+        ``n_q, n_u, n_u_dep, n_p, n_r`` (inputs of the dynamics).
+    origin : callable, optional
+        ``origin(symbol)`` describes where an intermediate came from.
+    """
+    origin = origin or (lambda s: "")
+    parts, work = [], 0
+    for name, (arguments, outputs) in functions.items():
+        src, w = _function_source(program, name, arguments, outputs, origin)
+        parts.append(src)
+        work = max(work, w)
+    defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
+               f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
+               f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}",
+               f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
+               f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}"]
+    wrappers = []
+    table = []
+    for name, (arguments, outputs) in functions.items():
+        wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
+        table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
+                     'METH_FASTCALL, NULL},')
+    defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
+    return "\n".join([_c_runtime.HEADER, *defines, *parts, _c_runtime.RUNTIME,
+                      *wrappers, _c_runtime.FOOTER])
+
+
+# ------------------------------------------------------------ build, cache
+def cache_dir():
+    """Directory of compiled modules."""
+    env = os.environ.get("KANEDYN_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "kanedyn"
+
+
+def compiler_command():
+    """The C compiler command as a list, or ``None`` when none is available."""
+    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
+    parts = shlex.split(cc)
+    if not parts or shutil.which(parts[0]) is None:
+        return None
+    return parts
+
+
+_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
+
+
+def _build_key(source, command):
+    digest = hashlib.sha256()
+    for part in (source, " ".join(command + _FLAGS), sys.version, np.__version__,
+                 sysconfig.get_config_var("EXT_SUFFIX") or ""):
+        digest.update(part.encode())
+        digest.update(b"\0")
+    return digest.hexdigest()[:24]
+
+
+def _checksum(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _load(name, path):
+    loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+    spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def load_module(template, timeout=600):
+    """Compile (or fetch from the cache) and import a generated module.
+
+    Parameters
+    ----------
+    template : str
+        C source in which :data:`NAME_TOKEN` stands for the module name (the
+        name is derived from the source's hash).
+
+    Raises
+    ------
+    CompilerError
+        No compiler, or compilation failed (with the compiler's message).
+    """
+    command = compiler_command()
+    if command is None:
+        raise CompilerError("no C compiler found (set $CC or install gcc/clang)")
+    key = _build_key(template, command)
+    name = f"_kd_{key}"
+    with _LOCK:
+        module = _LOADED.get(key)
+        if module is not None:
+            return module
+        directory = cache_dir()
+        directory.mkdir(parents=True, exist_ok=True)
+        so_path = directory / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
+        manifest = directory / f"{name}.json"
+        with _FileLock(directory / f"{name}.lock"):
+            module = _try_cached(name, so_path, manifest)
+            if module is None:
+                _build(template.replace(NAME_TOKEN, name), command, so_path, manifest,
+                       directory, timeout)
+                module = _load(name, so_path)
+        _LOADED[key] = module
+        return module
+
+
+class _FileLock:
+    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.handle = None
+
+    def __enter__(self):
+        self.handle = open(self.path, "a+")  # noqa: SIM115
+        try:
+            import fcntl
+            fcntl.flock(self.handle, fcntl.LOCK_EX)
+        except ImportError:  # pragma: no cover  (non-POSIX)
+            pass
+        return self
+
+    def __exit__(self, *exc):
+        self.handle.close()  # closing releases the lock
+
+
+def _try_cached(name, so_path, manifest):
+    if not (so_path.exists() and manifest.exists()):
+        return None
+    try:
+        recorded = json.loads(manifest.read_text())["sha256"]
+        if recorded != _checksum(so_path):
+            raise ValueError("checksum mismatch")
+        return _load(name, so_path)
+    except Exception:  # noqa: BLE001  corrupt or stale entry: rebuild it
+        for path in (so_path, manifest):
+            try:
+                path.unlink()
+            except OSError:
+                pass
+        return None
+
+
+def _build(source, command, so_path, manifest, directory, timeout):
+    includes = [sysconfig.get_paths()["include"], np.get_include()]
+    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp:
+        c_path = Path(tmp) / "module.c"
+        c_path.write_text(source)
+        out_path = Path(tmp) / so_path.name
+        cmd = (command + _FLAGS + [f"-I{d}" for d in includes]
+               + [str(c_path), "-o", str(out_path), "-lm"])
+        try:
+            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
+        except (OSError, subprocess.TimeoutExpired) as exc:
+            raise CompilerError(f"could not run the C compiler: {exc}") from None
+        if proc.returncode != 0:
+            raise CompilerError("the C compiler failed:\n" + proc.stderr[-4000:])
+        checksum = _checksum(out_path)
+        os.replace(out_path, so_path)
+        tmp_manifest = Path(tmp) / "manifest.json"
+        tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": len(source)}))
+        os.replace(tmp_manifest, manifest)
