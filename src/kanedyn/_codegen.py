@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 import sympy as sm
+from sympy.printing.numpy import NumPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
 from ._errors import KanedynError
@@ -39,7 +40,26 @@ class _Printer(PythonCodePrinter):
     _print_Dummy = _print_Symbol
 
 
-def generate_python(program, name, arguments, outputs, origin=None):
+class _VectorPrinter(NumPyPrinter):
+    """Prints NumPy calls, so that every intermediate is an array of states."""
+
+    def __init__(self, names):
+        super().__init__({"fully_qualified_modules": True, "strict": True, "order": "none"})
+        self._names = names
+
+    _print_Symbol = _Printer._print_Symbol
+    _print_Dummy = _Printer._print_Symbol
+
+
+def _stack(values, shape, k):
+    """Array of shape ``shape + (k,)`` from entries that are scalars or (k,) arrays."""
+    out = np.empty((len(values), k))
+    for i, v in enumerate(values):
+        out[i] = v
+    return out.reshape(tuple(shape) + (k,))
+
+
+def generate_python(program, name, arguments, outputs, origin=None, vectorized=False):
     """Source of a function ``name(t, y, p, r)``.
 
     Parameters
@@ -54,6 +74,10 @@ def generate_python(program, name, arguments, outputs, origin=None):
         ``(n, m)`` a matrix (row-major expression list).
     origin : callable, optional
         ``origin(expr)`` describes where an expression came from (for errors).
+    vectorized : bool
+        Generate NumPy code for many states at once: ``y`` has shape
+        ``(n_states, k)``, ``p`` and ``r`` entries are scalars or ``(k,)``
+        arrays, and every output gets a trailing axis of length ``k``.
 
     Returns
     -------
@@ -61,12 +85,14 @@ def generate_python(program, name, arguments, outputs, origin=None):
     """
     names = {program.t: "t"}
     lines = [f"def {name}(t, y, p, r):"]
+    if vectorized:
+        lines.append("    _k = y.shape[1]")
     for arg, symbols in arguments.items():
         for i, s in enumerate(symbols):
             local = f"_{arg}{i}"
             names[s] = local
             lines.append(f"    {local} = {arg}[{i}]")
-    printer = _Printer(names)
+    printer = _VectorPrinter(names) if vectorized else _Printer(names)
     flat = [e for _, exprs in outputs for e in exprs]
     for k, s in enumerate(program.needed(flat)):
         local = f"_z{k}"
@@ -84,7 +110,9 @@ def generate_python(program, name, arguments, outputs, origin=None):
     results = []
     for k, (shape, exprs) in enumerate(outputs):
         codes = [printer.doprint(sm.sympify(e)) for e in exprs]
-        if shape == ():
+        if vectorized:
+            lines.append(f"    _out{k} = _stack([{', '.join(codes)}], {tuple(shape)}, _k)")
+        elif shape == ():
             lines.append(f"    _out{k} = {codes[0]}")
         elif len(shape) == 1:
             lines.append(f"    _out{k} = _array([{', '.join(codes)}], dtype=float)"
@@ -102,7 +130,8 @@ def generate_python(program, name, arguments, outputs, origin=None):
     return "\n".join(lines) + "\n"
 
 
-_NAMESPACE = {"math": math, "_array": np.array, "_zeros": np.zeros}
+_NAMESPACE = {"math": math, "numpy": np, "_array": np.array, "_zeros": np.zeros,
+              "_stack": _stack}
 
 
 def compile_python(source, name):

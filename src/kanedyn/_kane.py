@@ -30,6 +30,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from ._errors import ModelError
+from ._composite import composite_equations
 from ._kinematics import Kinematics, add, cross, dot
 from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
 from ._progress import NO_PROGRESS
@@ -99,7 +100,7 @@ def _solve_kinematics(spec, table, prog):
     return qdot, (K, Ku, f)
 
 
-def _drop_workless(prog, table, fr, load_terms):
+def _drop_workless(prog, table, fr, loads):
     """Remove force magnitudes whose coefficients in ``fr`` vanish identically.
 
     A constraint force exposed through an auxiliary speed does no work on the
@@ -110,7 +111,7 @@ def _drop_workless(prog, table, fr, load_terms):
     """
     dynamic = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
     candidates = set()
-    for vec, _ in load_terms:
+    for _, vec, _ in loads:
         for c in vec:
             candidates |= prog.deps(c)
     candidates -= dynamic
@@ -157,6 +158,70 @@ def _matvec(A, x):
     return tuple(sum(A[i][j] * x[j] for j in range(3)) for i in range(3))
 
 
+def _inertia_remainder(kin, body, m, terms):
+    """Inertia force and torque with u' = 0; central inertia and angular momentum.
+
+    Returns ``(force, torque, I_N, H)`` in inertial components; ``I_N`` is
+    ``None`` and ``H`` zero for a particle.
+    """
+    v0, w0 = terms.velocity, terms.omega
+    a0 = kin.dt_vector(v0)
+    mdot = kin.dt(m)
+    force = kin.let_vector(add(tuple(m * c for c in a0), tuple(mdot * c for c in v0)),
+                           f"Fi_{body.name}")
+    if not isinstance(body, me.RigidBody):
+        zero = (sm.S.Zero,) * 3
+        return force, zero, None, zero
+    I_B, I_N, C = _inertia_terms(kin, body, f"body {body.name}")
+    alpha0 = kin.dt_vector(w0)
+    H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
+    torque = add(_matvec(I_N, alpha0), cross(w0, H))
+    I_B_dot = I_B.applyfunc(kin.dt)
+    if any(I_B_dot):  # inertia changing in the body frame
+        torque = add(torque, tuple(C * (I_B_dot * (C.T * sm.Matrix(w0)))))
+    return force, kin.let_vector(torque, f"Ti_{body.name}"), I_N, H
+
+
+def _generic_rows(kin, rows, o, body_terms, masses, inertias, inertial, loads):
+    r"""Mass-matrix rows, active and remainder forces as body-by-body sums.
+
+    Row ``r`` (a real or auxiliary speed) of
+    :math:`M_{rs} = \sum_k m_k V_{kr}\cdot V_{ks} + W_{kr}\cdot I_k W_{ks}`
+    for the real speeds ``s``, and the matching generalized forces.
+    """
+    rows = list(rows)
+    mass = {r: [[] for _ in range(o)] for r in rows}
+    for terms, m, I_N in zip(body_terms, masses, inertias):
+        V = terms.partial_velocities
+        W = terms.partial_angular_velocities
+        mV = {s: kin.let_vector(tuple(m * c for c in V[s]), "mV")
+              for s in range(o) if any(c != 0 for c in V[s])}
+        IW = {s: kin.let_vector(_matvec(I_N, W[s]), "IW")
+              for s in range(o) if I_N is not None and any(c != 0 for c in W[s])}
+        for r in rows:
+            # real rows: upper triangle only (mirrored below)
+            first = r if r < o else 0
+            if any(c != 0 for c in V[r]):
+                for s, mv in mV.items():
+                    if s >= first:
+                        mass[r][s].append(dot(V[r], mv))
+            if any(c != 0 for c in W[r]):
+                for s, iw in IW.items():
+                    if s >= first:
+                        mass[r][s].append(dot(W[r], iw))
+    out = []
+    for r in rows:
+        row = [sm.Add(*mass[r][s]) for s in range(o)]
+        if r < o:
+            for s in range(r):
+                row[s] = out[s][r]  # symmetric
+        out.append(row)
+    active = [sm.Add(*[dot(vec, parts[r]) for _, vec, parts in loads]) for r in rows]
+    remainder = [sm.Add(*[dot(f, t.partial_velocities[r]) + dot(tq, t.partial_angular_velocities[r])
+                          for t, (f, tq) in zip(body_terms, inertial)]) for r in rows]
+    return out, active, remainder
+
+
 def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     """Kane's equations for a :class:`ModelSpec`; returns an EquationsOfMotion."""
     from ._eom import EquationsOfMotion
@@ -185,111 +250,55 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
                 for ur in speeds]
 
     # ---------------------------------------------------------- bodies
-    body_terms = []
-    inertial_forces = []  # (body terms, force, torque) with udot = 0
-    mass_contrib = []  # (terms, m, I_N)
+    body_terms, masses, inertias, inertial, hs = [], [], [], [], []
     n_bodies = len(spec.bodies)
     for k, body in enumerate(spec.bodies):
         progress.update(f"kinematics of {body.name} ({k + 1}/{n_bodies})",
                         (k + 1) / n_bodies)
-        where = f"body {body.name}"
         m = prog.let(kin.internal(body.mass, f"mass of {body.name}"), f"m_{body.name}")
-        if isinstance(body, me.RigidBody):
-            point = body.masscenter
-            v = kin.velocity(point)
-            w = kin.angular_velocity(body.frame)
-        else:
-            point = body.masscenter
-            v = kin.velocity(point)
-            w = (sm.S.Zero,) * 3
+        v = kin.velocity(body.masscenter)
+        rigid = isinstance(body, me.RigidBody)
+        w = kin.angular_velocity(body.frame) if rigid else (sm.S.Zero,) * 3
         terms = BodyTerms(body, tuple(prog.subs(c, aux_zero) for c in v),
                           tuple(prog.subs(c, aux_zero) for c in w),
                           partials(v), partials(w))
+        force, torque, I_N, H = _inertia_remainder(kin, body, m, terms)
         body_terms.append(terms)
-        v0, w0 = terms.velocity, terms.omega
-        a0 = kin.dt_vector(v0)
-        mdot = kin.dt(m)
-        force = kin.let_vector(add(tuple(m * c for c in a0),
-                                   tuple(mdot * c for c in v0)), f"Fi_{body.name}")
-        if isinstance(body, me.RigidBody):
-            I_B, I_N, C = _inertia_terms(kin, body, where)
-            alpha0 = kin.dt_vector(w0)
-            H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
-            torque = add(_matvec(I_N, alpha0), cross(w0, H))
-            I_B_dot = I_B.applyfunc(kin.dt)
-            if any(I_B_dot):
-                wB = C.T * sm.Matrix(w0)
-                extra = C * (I_B_dot * wB)
-                torque = add(torque, tuple(extra))
-            torque = kin.let_vector(torque, f"Ti_{body.name}")
-        else:
-            I_N = None
-            H = (sm.S.Zero,) * 3
-            torque = (sm.S.Zero,) * 3
-        inertial_forces.append((terms, force, torque))
-        mass_contrib.append((terms, m, I_N, H))
+        masses.append(m)
+        inertias.append(I_N)
+        inertial.append((force, torque))
+        hs.append(H)
     progress.done()
 
     # ----------------------------------------------------------- loads
     progress.stage("generalized active forces")
-    load_terms = []
+    loads = []
     for load in spec.loads:
         loc = load.location
-        where = f"load on {loc}"
-        vec = kin.let_vector(kin.vector(load.vector, where), "F")
-        if isinstance(loc, me.ReferenceFrame):
-            base = kin.angular_velocity(loc)
-        else:
-            base = kin.velocity(loc)
-        load_terms.append((vec, partials(base)))
-
-    fr = []
-    for r in range(o + s_aux):
-        total = [dot(vec, parts[r]) for vec, parts in load_terms]
-        fr.append(sm.Add(*total))
+        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), "F")
+        base = (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
+                else kin.velocity(loc))
+        loads.append((loc, vec, partials(base)))
 
     # ------------------------------------------- mass matrix, remainder
     progress.stage("mass matrix and forcing")
-    n_all = o + s_aux
-    mass = [[[] for _ in range(o)] for _ in range(n_all)]
-    for terms, m, I_N, _ in mass_contrib:
-        V = terms.partial_velocities
-        W = terms.partial_angular_velocities
-        active_v = [r for r in range(n_all) if any(c != 0 for c in V[r])]
-        active_w = [r for r in range(n_all) if any(c != 0 for c in W[r])]
-        mV = {s: kin.let_vector(tuple(m * c for c in V[s]), "mV")
-              for s in active_v if s < o}
-        IW = {s: kin.let_vector(_matvec(I_N, W[s]), "IW")
-              for s in active_w if s < o} if I_N is not None else {}
-        for r in active_v:
-            for s, mv in mV.items():
-                if s >= r or r >= o:
-                    mass[r][s].append(dot(V[r], mv))
-        for r in active_w:
-            for s, iw in IW.items():
-                if s >= r or r >= o:
-                    mass[r][s].append(dot(W[r], iw))
-    mass_rows = []
-    for r in range(n_all):
-        row = []
-        for s in range(o):
-            if r < o and s < r:
-                row.append(mass_rows[s][r])  # symmetric part of the real speeds
-            else:
-                row.append(prog.let(sm.Add(*mass[r][s]), f"M_{r}_{s}"))
-        mass_rows.append(row)
-
-    nonmm = []
-    for r in range(n_all):
-        total = []
-        for terms, force, torque in inertial_forces:
-            total.append(dot(force, terms.partial_velocities[r]))
-            total.append(dot(torque, terms.partial_angular_velocities[r]))
-        nonmm.append(sm.Add(*total))
-
-    fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}") for r, e in enumerate(fr)]
-    fr[:o] = _drop_workless(prog, table, fr[:o], load_terms)
-    nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}") for r, e in enumerate(nonmm)]
+    structured = composite_equations(kin, spec.bodies, body_terms, masses, inertias,
+                                     inertial, loads, o)
+    if structured is not None:
+        mass, active, remainder = structured
+        rows = range(o, o + s_aux)  # auxiliary rows: body by body
+    else:
+        mass, active, remainder = [], [], []
+        rows = range(o + s_aux)
+    g_mass, g_active, g_remainder = _generic_rows(
+        kin, rows, o, body_terms, masses, inertias, inertial, loads)
+    mass_rows = [[prog.let(e, f"M_{r}_{s}") for s, e in enumerate(row)]
+                 for r, row in enumerate(list(mass) + g_mass)]
+    fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}")
+          for r, e in enumerate(list(active) + g_active)]
+    fr[:o] = _drop_workless(prog, table, fr[:o], loads)
+    nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}")
+             for r, e in enumerate(list(remainder) + g_remainder)]
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
@@ -317,11 +326,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
 
     # ------------------------------------------------------- energies
     ke = []
-    for terms, m, I_N, H in mass_contrib:
-        v = terms.velocity
-        ke.append(m * dot(v, v) / 2)
-        if I_N is not None:
-            ke.append(dot(terms.omega, H) / 2)
+    for terms, m, H in zip(body_terms, masses, hs):
+        ke.append(m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2)
     kinetic = prog.let(sm.Add(*ke), "KE")
     potential = None
     if spec.potential_energy is not None:

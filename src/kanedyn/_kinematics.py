@@ -105,6 +105,7 @@ class Kinematics:
         self._dcm = {frame: sm.ImmutableMatrix.eye(3)}
         self._omega = {frame: _ZERO3}
         self._vel = {}
+        self._position_trees = {}
         self._resolving = set()
         self._pending_hints = []
         self._dcm_parent = _bfs_parents(frame, lambda f: f._dcm_dict.keys())
@@ -216,6 +217,30 @@ class Kinematics:
         return tuple(self.prog.dt(c) for c in vec)
 
     # ---------------------------------------------------------------- points
+    def position(self, point, origin):
+        """Inertial components of the position of ``point`` from ``origin``.
+
+        Follows the positions given with ``set_pos``/``locatenew``; returns
+        ``None`` when no chain of positions connects the two points.  Results
+        are built from the positions of the points on the way (shared).
+        """
+        tree = self._position_trees.get(origin)
+        if tree is None:
+            tree = self._position_trees[origin] = (
+                _bfs_parents(origin, lambda p: p._pos_dict.keys()), {origin: _ZERO3})
+        parents, memo = tree
+        if point not in parents:
+            return None
+        path = []
+        p = point
+        while p not in memo:
+            path.append(p)
+            p = parents[p]
+        for p in reversed(path):
+            rel = self._relative_position(p, parents[p])
+            memo[p] = self.let_vector(add(memo[parents[p]], rel), f"p_{p}")
+        return memo[point]
+
     def velocity(self, point):
         """Inertial components of the velocity of ``point`` in ``N``."""
         found = self._vel.get(point)

@@ -162,6 +162,20 @@ def _resolve_specified(eom, specified):
     return substitutions, providers
 
 
+def _batched_solve(A, B):
+    """Solve stacked systems; stacks whose matrix is singular give ``nan``."""
+    try:
+        return np.linalg.solve(A, B)
+    except np.linalg.LinAlgError:
+        out = np.full(np.broadcast_shapes(A.shape[:-2], B.shape[:-2]) + B.shape[-2:], np.nan)
+        for i in range(A.shape[0]):
+            try:
+                out[i] = np.linalg.solve(A[i], B[i])
+            except np.linalg.LinAlgError:
+                pass
+        return out
+
+
 def _singular(block, full, rtol=1e-12):
     """True when ``block`` is singular relative to the scale of ``full``."""
     if block.size == 0:
@@ -207,7 +221,8 @@ class NumericModel:
                         for name in ("dynamics", "constraints", "energy", "auxiliary")
                         if hasattr(module, name)}
             self._c = module.Model(self._p, self._input_values if self._inputs else None)
-            self.rhs = self._c.rhs  # the compiled entry point, called directly
+            self.rhs = self._c.rhs  # the compiled entry points, called directly
+            self.rhs_batch = self._c.rhs_batch
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
@@ -310,6 +325,50 @@ class NumericModel:
         return np.concatenate([qd, np.linalg.solve(M, f)])
 
     __call__ = rhs
+
+    def rhs_batch(self, t, Y, P=None):
+        """State derivatives of many states (and parameter sets) at once.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (k,)
+        Y : array_like, shape (k, n_states)
+            One state per row.
+        P : array_like, shape (k, n_constants), optional
+            One set of constants per row (in the order of :attr:`constants`);
+            default: the model's constants for every row.
+
+        Returns
+        -------
+        ndarray, shape (k, n_states)
+            Rows whose system is singular are ``nan``.
+        """
+        Y = np.asarray(Y, dtype=float)
+        if Y.ndim != 2 or Y.shape[1] != self.n_states:
+            raise ValueError(f"Y must have shape (k, {self.n_states})")
+        k = Y.shape[0]
+        t = np.asarray(t, dtype=float)
+        p = self._p if P is None else np.asarray(P, dtype=float).T
+        if P is not None and p.shape != (len(self._p), k):
+            raise ValueError(f"P must have shape (k, {len(self._p)})")
+        r = ()
+        if self._inputs:
+            ts = np.broadcast_to(t, (k,))
+            r = np.array([self._input_values(ts[i], Y[i]) for i in range(k)]).T
+        qd, mass, force, vel_B, acc_K, acc_f = self._fn["dynamics_batch"](t, Y.T, p, r)
+        mass = np.moveaxis(mass, -1, 0)
+        force = force.T
+        m = self.n_u_dep
+        if m:
+            vel_B, acc_K = np.moveaxis(vel_B, -1, 0), np.moveaxis(acc_K, -1, 0)
+            pi = self.n_u - m
+            X = _batched_solve(vel_B[:, :, pi:], vel_B[:, :, :pi])
+            XT = np.swapaxes(X, 1, 2)
+            mass = np.concatenate([mass[:, :pi] - XT @ mass[:, pi:], acc_K], axis=1)
+            force = np.concatenate([force[:, :pi] - (XT @ force[:, pi:, None])[..., 0],
+                                    -acc_f.T], axis=1)
+        ud = _batched_solve(mass, force[..., None])[..., 0]
+        return np.concatenate([qd.T, ud], axis=1)
 
     def mass_matrix(self, t, y):
         """SymPy-convention ``mass_matrix`` (o x o) at a state."""
@@ -542,6 +601,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
     if backend == "numpy":
         sources = {name: generate_python(prog, name, a, outs)
                    for name, (a, outs) in functions.items()}
+        sources["dynamics_batch"] = generate_python(prog, "dynamics_batch", args, dynamics,
+                                                    vectorized=True)
 
     data = {
         "backend": backend,

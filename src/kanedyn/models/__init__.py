@@ -21,7 +21,7 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
 REGISTRY = {
     "pendulum": (pendulum, {"tension": bool}),
     "n-link-pendulum-on-cart": (n_link_pendulum_on_cart, {"n": int}),
-    "chain3d": (chain3d, {"n": int}),
+    "chain3d": (chain3d, {"n": int, "style": str}),
     "rolling-disk": (rolling_disk, {"normal_force": bool}),
     "chaplygin-sleigh": (chaplygin_sleigh, {"lateral_force": bool}),
     "four-bar": (four_bar, {}),

@@ -100,17 +100,25 @@ def n_link_pendulum_on_cart(n=3):
                     "functions, give specified={F: ...} in Python).")
 
 
-def chain3d(n=5):
+def chain3d(n=5, style="v2pt"):
     """A chain of ``n`` rigid links joined by revolute joints of alternating axes.
 
     Joint ``k`` turns link ``k`` relative to its parent about the parent's z
     axis (even k) or x axis (odd k); links have length ``l``, mass ``m`` at
     the link centre and central inertia ``diag(I_xx, I_yy, I_zz)``; gravity
-    acts along ``-N.z``.  This is the derivation benchmark of kanedyn (it is
-    written with ``v2pt_theory`` as SymPy users write it).
+    acts along ``-N.z``.  This is the derivation benchmark of kanedyn.
+
+    ``style="v2pt"`` writes it as SymPy users do, with ``v2pt_theory`` and an
+    explicit potential energy; SymPy then multiplies out direction cosines
+    while the model is built, which becomes impractical beyond some 30 links.
+    ``style="positions"`` gives positions only (velocities are derived by
+    kanedyn) and no potential energy.
     """
     if n < 1:
         raise ValueError("n must be at least 1")
+    if style not in ("v2pt", "positions"):
+        raise ValueError(f"style must be 'v2pt' or 'positions', not {style!r}")
+    v2pt = style == "v2pt"
     q = me.dynamicsymbols(f"q1:{n + 1}")
     u = me.dynamicsymbols(f"u1:{n + 1}")
     m, l, g, Ixx, Iyy, Izz = sm.symbols("m l g I_xx I_yy I_zz", positive=True)
@@ -125,21 +133,23 @@ def chain3d(n=5):
         F.orient_axis(parent, axis, q[i])
         F.set_ang_vel(parent, u[i] * axis)
         C = joint.locatenew(f"C{i + 1}", l / 2 * F.y)
-        C.v2pt_theory(joint, N, F)
         nxt = joint.locatenew(f"P{i + 1}", l * F.y)
-        nxt.v2pt_theory(joint, N, F)
+        if v2pt:
+            C.v2pt_theory(joint, N, F)
+            nxt.v2pt_theory(joint, N, F)
+            heights.append(C.pos_from(O).dot(N.z))
         bodies.append(me.RigidBody(f"link{i + 1}", C, F, m,
                                    (me.inertia(F, Ixx, Iyy, Izz), C)))
         loads.append((C, -m * g * N.z))
         kd_eqs.append(q[i].diff() - u[i])
-        heights.append(C.pos_from(O).dot(N.z))
         parent, joint = F, nxt
     init = {qi: 0.3 for qi in q}
     init.update({ui: 0.0 for ui in u})
     return ModelDefinition(
         name="chain3d", title=f"3D chain of {n} links, revolute joints of alternating axes",
         kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u), kd_eqs=kd_eqs,
-                       bodies=bodies, loads=loads, potential_energy=m * g * sm.Add(*heights)),
+                       bodies=bodies, loads=loads,
+                       potential_energy=m * g * sm.Add(*heights) if v2pt else None),
         constants={m: 1.0, l: 0.5, g: 9.81, Ixx: 0.025, Iyy: 0.005, Izz: 0.025},
         initial_state=init, t_end=5.0,
         symbols=dict(q=q, u=u, m=m, l=l, g=g, N=N),

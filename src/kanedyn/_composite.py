@@ -1,0 +1,223 @@
+r"""Composite-rigid-body assembly of Kane's mass matrix and forcing.
+
+Take every body's partial twist about one common point :math:`O`,
+
+.. math::
+
+    S_{kr} = (W_{kr},\; V_{kr} - W_{kr}\times p_k),
+
+where :math:`p_k` is the position of body :math:`k`'s mass centre from
+:math:`O`.  In a tree of joints a speed :math:`u_r` moves every body it moves
+rigidly, so :math:`S_{kr} = S_r` on its support :math:`B_r` (the bodies it
+moves) and the supports of two speeds are nested or disjoint.  Then
+
+.. math::
+
+    M_{rs} = S_r^T\, \mathcal{I}(B_r\cap B_s)\, S_s,\qquad
+    f_r = S_r^T\, \mathcal{W}(B_r),
+
+with :math:`\mathcal{I}(B) = \sum_{k\in B} \mathcal{I}_k^O` the composite
+spatial inertia about :math:`O` and :math:`\mathcal{W}(B)` the summed wrenches
+about :math:`O`.  Composites are accumulated from the smallest support up, so
+the mass matrix costs :math:`O(n^2)` operations and the forcing :math:`O(n)`,
+against :math:`O(n^3)` and :math:`O(n^2)` for the body-by-body sums.
+
+Nothing is assumed: the structure is detected from the equations themselves
+(supports from the partial velocities, equality of the :math:`S_{kr}` by the
+randomized identity test) and the generic sums are used when it is absent.
+"""
+
+from __future__ import annotations
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._kinematics import add, cross, dot
+from ._program import SAMPLE_SEEDS
+
+__all__ = ["composite_equations"]
+
+
+def _nonzero(vec):
+    return any(c != 0 for c in vec)
+
+
+def _close(a, b, tol=1e-9):
+    scale = 1.0 + max(abs(x) for x in list(a) + list(b))
+    return all(abs(x - y) <= tol * scale for x, y in zip(a, b))
+
+
+def _supports(body_terms, o):
+    """``B_r``: indices of the bodies each real speed moves."""
+    return [frozenset(k for k, t in enumerate(body_terms)
+                      if _nonzero(t.partial_velocities[r])
+                      or _nonzero(t.partial_angular_velocities[r]))
+            for r in range(o)]
+
+
+def _nested(supports):
+    unique = set(supports)
+    for a in unique:
+        for b in unique:
+            inter = a & b
+            if inter and inter != a and inter != b:
+                return False
+    return True
+
+
+def _rigid(prog, body_terms, positions, supports):
+    """Whether S_kr is the same for every body k of each support B_r."""
+    for seed in SAMPLE_SEEDS:
+        pos = [prog.shadow(p, seed) for p in positions]
+        for r, support in enumerate(supports):
+            ref = None
+            for k in sorted(support):
+                W = prog.shadow(body_terms[k].partial_angular_velocities[r], seed)
+                V = prog.shadow(body_terms[k].partial_velocities[r], seed)
+                p = pos[k]
+                S = list(W) + [V[i] - (W[(i + 1) % 3] * p[(i + 2) % 3]
+                                       - W[(i + 2) % 3] * p[(i + 1) % 3]) for i in range(3)]
+                if any(v != v for v in S):  # nan: cannot decide
+                    return False
+                if ref is None:
+                    ref = S
+                elif not _close(S, ref):
+                    return False
+    return True
+
+
+class _Composite:
+    """Composite quantities of nested supports, accumulated smallest first."""
+
+    def __init__(self, supports):
+        order = sorted(set(supports), key=len)
+        self.order = order
+        self.children = {}
+        for i, b in enumerate(order):
+            smaller = [c for c in order[:i] if c < b]
+            maximal = [c for c in smaller if not any(c < d for d in smaller)]
+            self.children[b] = maximal
+        self.own = {b: b - frozenset().union(*self.children[b]) for b in order}
+
+    def accumulate(self, kin, per_body, name):
+        """``{support: sum over its bodies}`` of tuples of expressions (named)."""
+        total = {}
+        for b in self.order:
+            parts = [total[c] for c in self.children[b]] + [per_body[k] for k in sorted(self.own[b])]
+            summed = tuple(sm.Add(*vals) for vals in zip(*parts))
+            total[b] = tuple(kin.prog.let(v, name) for v in summed)
+        return total
+
+
+def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loads, o):
+    """Mass matrix, active and inertia-remainder forces of the real speeds.
+
+    Parameters
+    ----------
+    kin : Kinematics
+    bodies : sequence of RigidBody or Particle
+    body_terms : sequence of BodyTerms
+    masses : sequence of expressions
+    inertias : sequence of 3x3 nested lists (inertial components) or None
+    inertial : sequence of (force, torque)
+        Inertia-remainder force and torque of each body (u' = 0).
+    loads : sequence of (location, vector, partials)
+    o : int
+        Number of real speeds.
+
+    Returns
+    -------
+    (mass, active, remainder) or None
+        ``mass`` o x o rows, ``active`` and ``remainder`` lists of length o;
+        ``None`` when the system lacks the structure (then use the generic sums).
+    """
+    prog = kin.prog
+    if not bodies or o == 0:
+        return None
+    origin = bodies[0].masscenter
+    positions = [kin.position(b.masscenter, origin) for b in bodies]
+    if any(p is None for p in positions):
+        return None
+    supports = _supports(body_terms, o)
+    if any(not b for b in supports) or not _nested(supports):
+        return None
+    if not _rigid(prog, body_terms, positions, supports):
+        return None
+
+    # representative spatial partial twists S_r = (W, V^O)
+    S = []
+    for r, support in enumerate(supports):
+        k = min(support)
+        W = body_terms[k].partial_angular_velocities[r]
+        V = body_terms[k].partial_velocities[r]
+        VO = tuple(a - b for a, b in zip(V, cross(W, positions[k])))
+        S.append(kin.let_vector(W, f"SW{r}") + kin.let_vector(VO, f"SV{r}"))
+
+    # spatial inertias about O: rotational J (6 entries), first moment h, mass
+    per_body = []
+    for k, (m, I, p) in enumerate(zip(masses, inertias, positions)):
+        pp = dot(p, p)
+        J = []
+        for i in range(3):
+            for j in range(i, 3):
+                value = m * ((pp if i == j else 0) - p[i] * p[j])
+                if I is not None:
+                    value += I[i][j]
+                J.append(value)
+        per_body.append(tuple(J) + tuple(m * c for c in p) + (m,))
+    tree = _Composite(supports)
+    composite = tree.accumulate(kin, per_body, "IC")
+
+    def apply(IC, s):
+        """IC S_s: (J W + h x V, W x h + m V)."""
+        J00, J01, J02, J11, J12, J22, hx, hy, hz, m = IC
+        J = ((J00, J01, J02), (J01, J11, J12), (J02, J12, J22))
+        W, V = S[s][:3], S[s][3:]
+        h = (hx, hy, hz)
+        ang = add(tuple(sum(J[i][j] * W[j] for j in range(3)) for i in range(3)), cross(h, V))
+        lin = add(cross(W, h), tuple(m * c for c in V))
+        return kin.let_vector(ang, f"Fa{s}") + kin.let_vector(lin, f"Fl{s}")
+
+    F = [apply(composite[supports[s]], s) for s in range(o)]
+    mass = [[None] * o for _ in range(o)]
+    for r in range(o):
+        for s in range(r, o):
+            br, bs = supports[r], supports[s]
+            if bs <= br:
+                value = dot(S[r][:3], F[s][:3]) + dot(S[r][3:], F[s][3:])
+            elif br <= bs:
+                value = dot(S[s][:3], F[r][:3]) + dot(S[s][3:], F[r][3:])
+            else:
+                value = sm.S.Zero
+            mass[r][s] = mass[s][r] = prog.let(value, f"M_{r}_{s}")
+
+    # wrenches about O: (moment, force); loads at mass centres or on body frames
+    by_point = {b.masscenter: k for k, b in enumerate(bodies)}
+    by_frame = {b.frame: k for k, b in enumerate(bodies) if isinstance(b, me.RigidBody)}
+    applied = [[(sm.S.Zero,) * 3, (sm.S.Zero,) * 3] for _ in bodies]
+    generic = []
+    for location, vec, parts in loads:
+        if isinstance(location, me.ReferenceFrame) and location in by_frame:
+            k = by_frame[location]
+            applied[k][0] = add(applied[k][0], vec)
+        elif not isinstance(location, me.ReferenceFrame) and location in by_point:
+            k = by_point[location]
+            applied[k][1] = add(applied[k][1], vec)
+        else:
+            generic.append((vec, parts))
+
+    def wrench(k, torque, force):
+        return add(torque, cross(positions[k], force)) + tuple(force)
+
+    active_sums = tree.accumulate(
+        kin, [wrench(k, t, f) for k, (t, f) in enumerate(applied)], "Wa")
+    inertial_sums = tree.accumulate(
+        kin, [wrench(k, t, f) for k, (f, t) in enumerate(inertial)], "Wi")
+    active, remainder = [], []
+    for r in range(o):
+        Wa, Wi = active_sums[supports[r]], inertial_sums[supports[r]]
+        value = dot(S[r][:3], Wa[:3]) + dot(S[r][3:], Wa[3:])
+        value += sm.Add(*[dot(vec, parts[r]) for vec, parts in generic])
+        active.append(value)
+        remainder.append(dot(S[r][:3], Wi[:3]) + dot(S[r][3:], Wi[3:]))
+    return mass, active, remainder
