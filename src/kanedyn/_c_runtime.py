@@ -372,6 +372,9 @@ static PyMethodDef KdModel_methods[] = {
      "rhs_batch(t, Y[, P]): state derivatives of many states (rows of Y)"},
     {"set_parameters", (PyCFunction)(void (*)(void))KdModel_set_parameters, METH_FASTCALL,
      "set_parameters(p): replace the constants"},
+    {"integrate", (PyCFunction)KdModel_integrate, METH_VARARGS,
+     "integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events, "
+     "project_tol, dense): the compiled integration loop"},
     {NULL, NULL, 0, NULL}
 };
 

@@ -36,7 +36,7 @@ import numpy as np
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
-from . import _c_runtime
+from . import _c_integrator, _c_runtime
 from ._codegen import CodegenError
 from ._errors import KanedynError
 
@@ -161,7 +161,7 @@ def _function_source(program, name, arguments, outputs, origin):
         for s in needed:
             names[s] = f"z{index[s]}"
     printer = _CPrinter(names)
-    for k, (shape, exprs) in enumerate(outputs):
+    for k, (_, exprs) in enumerate(outputs):
         for j, e in enumerate(exprs):
             code = _print_c(printer, e, f"output {j} of {name}")
             lines.append(f"    o{k}[{j}] = {code};")
@@ -213,7 +213,7 @@ def generate_c(program, functions, sizes, origin=None):
         ``{name: (arguments, outputs)}`` as for :func:`kanedyn._codegen.generate_python`;
         must contain ``"dynamics"`` with the six outputs of the right-hand side.
     sizes : dict
-        ``n_q, n_u, n_u_dep, n_p, n_r`` (inputs of the dynamics).
+        ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r`` (inputs of the dynamics).
     origin : callable, optional
         ``origin(symbol)`` describes where an intermediate came from.
     """
@@ -224,6 +224,7 @@ def generate_c(program, functions, sizes, origin=None):
         parts.append(src)
         work = max(work, w)
     defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
+               f"#define KD_NQDEP {sizes['n_q_dep']}",
                f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
                f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
@@ -236,7 +237,7 @@ def generate_c(program, functions, sizes, origin=None):
                      'METH_FASTCALL, NULL},')
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     return "\n".join([_c_runtime.HEADER, *defines, *parts, _c_runtime.RUNTIME,
-                      *wrappers, _c_runtime.FOOTER])
+                      _c_integrator.INTEGRATOR, *wrappers, _c_runtime.FOOTER])
 
 
 # ------------------------------------------------------------ build, cache

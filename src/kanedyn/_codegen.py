@@ -12,7 +12,7 @@ import math
 
 import numpy as np
 import sympy as sm
-from sympy.printing.numpy import NumPyPrinter
+from sympy.printing.numpy import SciPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
 from ._errors import KanedynError
@@ -25,6 +25,8 @@ class CodegenError(KanedynError, ValueError):
 
 
 class _Printer(PythonCodePrinter):
+    """Scalar Python with ``math``; functions ``math`` lacks come from SciPy."""
+
     def __init__(self, names):
         super().__init__({"fully_qualified_modules": True, "standard": "python3",
                           "strict": True, "order": "none"})
@@ -39,9 +41,21 @@ class _Printer(PythonCodePrinter):
 
     _print_Dummy = _print_Symbol
 
+    def _print_not_supported(self, expr):
+        return _SciPyFallback(self._names).doprint(expr)
 
-class _VectorPrinter(NumPyPrinter):
-    """Prints NumPy calls, so that every intermediate is an array of states."""
+
+class _SciPyFallback(SciPyPrinter):
+    def __init__(self, names):
+        super().__init__({"fully_qualified_modules": True, "strict": True, "order": "none"})
+        self._names = names
+
+    _print_Symbol = _Printer._print_Symbol
+    _print_Dummy = _Printer._print_Symbol
+
+
+class _VectorPrinter(SciPyPrinter):
+    """Prints NumPy (and SciPy) calls: every intermediate is an array of states."""
 
     def __init__(self, names):
         super().__init__({"fully_qualified_modules": True, "strict": True, "order": "none"})
@@ -130,8 +144,16 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
     return "\n".join(lines) + "\n"
 
 
-_NAMESPACE = {"math": math, "numpy": np, "_array": np.array, "_zeros": np.zeros,
-              "_stack": _stack}
+class _LazySciPy:
+    """``scipy`` for generated code, imported on first attribute access."""
+
+    def __getattr__(self, name):
+        import scipy.special
+        return getattr(scipy, name)
+
+
+_NAMESPACE = {"math": math, "numpy": np, "scipy": _LazySciPy(), "_array": np.array,
+              "_zeros": np.zeros, "_stack": _stack}
 
 
 def compile_python(source, name):

@@ -155,7 +155,7 @@ def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loa
 
     # spatial inertias about O: rotational J (6 entries), first moment h, mass
     per_body = []
-    for k, (m, I, p) in enumerate(zip(masses, inertias, positions)):
+    for m, I, p in zip(masses, inertias, positions):
         pp = dot(p, p)
         J = []
         for i in range(3):

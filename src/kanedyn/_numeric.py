@@ -588,7 +588,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
         functions["auxiliary"] = (aux_args, [((s_aux, o), flat(eom._aux_K)),
                                              ((s_aux,), [sub(e) for e in eom._aux_f])])
 
-    sizes = {"n_q": n, "n_u": o, "n_u_dep": m, "n_p": len(const_syms), "n_r": len(r_syms)}
+    sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),
+             "n_r": len(r_syms)}
     sources = c_source = None
     if backend == "c":
         from ._cbackend import CompilerError, compiler_command, generate_c

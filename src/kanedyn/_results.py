@@ -74,7 +74,10 @@ class SimulationResult:
                  success=status >= 0, t_events=t_events, y_events=y_events,
                  projections=projections, initial_state=initial_state, method=method,
                  state_names=model.state_names, **counters)
-        d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
+        if dense_segments is None or callable(dense_segments):
+            d["sol"] = dense_segments
+        else:
+            d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
         n_c = model.n_q_dep + model.n_u_dep
         res = np.zeros((n_c, t.size))
         ke = np.full(t.size, np.nan)

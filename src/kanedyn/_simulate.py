@@ -56,9 +56,13 @@ def _drift_event(model, tol):
     return drift
 
 
+COMPILED_METHODS = ("RK45", "Rosenbrock23")
+_COMPILED_OPTIONS = {"max_step", "first_step"}
+
+
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
              events=None, dense_output=False, project=True, projection_tol=None,
-             constraint_forces=False, progress=False, **options):
+             constraint_forces=False, progress=False, backend=None, **options):
     """Integrate a :class:`NumericModel` with SciPy's ``solve_ivp``.
 
     Parameters
@@ -92,6 +96,11 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         output time (``result["T"]`` etc.).
     progress : bool
         Show progress on stderr.
+    backend : {None, "scipy", "c"}
+        ``"c"``: the compiled integration loop of a ``backend="c"`` model
+        (methods ``"RK45"``, the same algorithm as SciPy's, and
+        ``"Rosenbrock23"``, for stiff problems); ``"scipy"``: ``solve_ivp``.
+        Default: the compiled loop where it applies, else ``solve_ivp``.
     **options
         Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).
 
@@ -105,11 +114,16 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     user_events = [] if events is None else (
         list(events) if isinstance(events, (list, tuple)) else [events])
     constrained = (model.n_q_dep + model.n_u_dep) > 0
-    tol = projection_tol if projection_tol is not None else max(100 * atol, 1e-10)
+    tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
+    t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    if _use_compiled(model, method, backend, options):
+        progress.stage(f"integrating with the compiled {method} loop")
+        return _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                  user_events, dense_output, tol if constrained and project
+                                  else 0.0, constraint_forces, options)
     all_events = list(user_events)
     if constrained and project:
         all_events.append(_drift_event(model, tol))
-    t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
 
     integrand = _Integrand(model, (t0, t1), progress)
     ts, ys, segments = [], [], []
@@ -177,3 +191,82 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         projections=projections, initial_state=y_init,
         constraint_forces=constraint_forces,
         method=method if isinstance(method, str) else getattr(method, "__name__", str(method)))
+
+
+def _use_compiled(model, method, backend, options):
+    """Whether to run the compiled loop (raises if asked for and impossible)."""
+    compiled = getattr(model, "_c", None) is not None
+    reasons = []
+    if not compiled:
+        reasons.append("the model was not built with backend='c'")
+    if method not in COMPILED_METHODS:
+        reasons.append(f"method {method!r} is not one of {', '.join(COMPILED_METHODS)}")
+    unsupported = set(options) - _COMPILED_OPTIONS
+    if unsupported:
+        reasons.append(f"option(s) {', '.join(sorted(unsupported))} are solve_ivp-only")
+    if backend == "c" and reasons:
+        raise ValueError("the compiled integration loop cannot be used: " + "; ".join(reasons))
+    if backend == "scipy":
+        if method == "Rosenbrock23":
+            raise ValueError("method 'Rosenbrock23' is only available in the compiled "
+                             "loop (a model with backend='c' and backend='c' here)")
+        return False
+    if backend not in (None, "c", "scipy"):
+        raise ValueError(f"backend must be None, 'scipy' or 'c', not {backend!r}")
+    if method == "Rosenbrock23" and reasons:
+        raise ValueError("method 'Rosenbrock23' needs the compiled loop: " + "; ".join(reasons))
+    return not reasons
+
+
+class _CompiledDense:
+    """Continuous solution of the compiled loop (one polynomial per step)."""
+
+    def __init__(self, th, y_old, q, method):
+        self.t_old = th[:, 0]
+        self.h = th[:, 1]
+        self.y_old = y_old
+        self.q = q.reshape(len(th), -1, 4)
+        self.method = method
+
+    def __call__(self, t):
+        t = np.asarray(t, dtype=float)
+        scalar = t.ndim == 0
+        t = np.atleast_1d(t)
+        forward = self.h[0] >= 0 if len(self.h) else True
+        if forward:
+            k = np.clip(np.searchsorted(self.t_old, t, side="right") - 1, 0, len(self.h) - 1)
+        else:
+            k = np.clip(np.searchsorted(-self.t_old, -t, side="right") - 1, 0, len(self.h) - 1)
+        x = (t - self.t_old[k]) / self.h[k]
+        q = self.q[k]  # (m, n, 4)
+        if self.method == "RK45":
+            powers = np.stack([x, x ** 2, x ** 3, x ** 4], axis=-1)  # (m, 4)
+            delta = np.einsum("mnj,mj->mn", q, powers)
+        else:
+            d = 1.0 / (2.0 + np.sqrt(2.0))
+            a = x * (1 - x) / (1 - 2 * d)
+            b = x * (x - 2 * d) / (1 - 2 * d)
+            delta = q[:, :, 0] * a[:, None] + q[:, :, 1] * b[:, None]
+        y = (self.y_old[k] + self.h[k][:, None] * delta).T
+        return y[:, 0] if scalar else y
+
+
+def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events, dense,
+                       project_tol, constraint_forces, options):
+    atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
+    out = model._c.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
+                             float(options.get("max_step", np.inf)),
+                             float(options.get("first_step") or 0.0), method,
+                             events if events else None, float(project_tol), bool(dense))
+    status = out["status"]
+    message = out["message"]
+    dense_sol = None
+    if dense and len(out["dense_th"]):
+        dense_sol = _CompiledDense(out["dense_th"], out["dense_y"], out["dense_q"], method)
+    counters = {"nfev": out["nfev"], "njev": out["njev"], "nlu": out["nlu"]}
+    return SimulationResult.build(
+        model=model, t=out["t"], y=out["y"].T.copy(), status=status, message=message,
+        t_events=list(out["t_events"]), y_events=list(out["y_events"]),
+        dense_segments=dense_sol, counters=counters, projections=out["projections"],
+        initial_state=y_init, constraint_forces=constraint_forces,
+        method=f"{method} (compiled)")

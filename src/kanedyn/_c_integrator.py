@@ -1,0 +1,622 @@
+"""C source of the compiled integration loop (part of every generated module).
+
+Two methods, both with SciPy's ``solve_ivp`` conventions for tolerances,
+output times and events:
+
+``RK45``
+    Explicit Dormand-Prince 5(4) with the step-size control, initial step
+    selection and quartic dense output of SciPy's ``RK45`` (safety factor 0.9,
+    step factors within [0.2, 10], RMS error norm of
+    ``err / (atol + max(|y|, |y_new|) rtol)``).
+``Rosenbrock23``
+    A linearly implicit (Rosenbrock) 2(3) pair for stiff problems, the
+    modified Rosenbrock formula of Shampine & Reichelt (1997), with a
+    finite-difference Jacobian and its own continuous extension.
+
+Event functions are Python callables ``event(t, y)`` with optional
+``terminal`` and ``direction`` attributes; zeros are located with Brent's
+method on the continuous extension.  Constraint drift is projected away after
+any accepted step whose largest constraint residual exceeds ``project_tol``.
+"""
+
+INTEGRATOR = r"""
+/* ------------------------------------------------------------------------
+   Compiled integration loop
+   ------------------------------------------------------------------------ */
+typedef struct { double *data; npy_intp n, cap; } KdBuf;
+
+static int kd_buf_push(KdBuf *b, const double *x, npy_intp k) {
+    if (b->n + k > b->cap) {
+        npy_intp cap = b->cap ? 2 * b->cap : 1024;
+        while (cap < b->n + k) cap *= 2;
+        double *d = (double *)PyMem_Realloc(b->data, sizeof(double) * cap);
+        if (d == NULL) { PyErr_NoMemory(); return -1; }
+        b->data = d; b->cap = cap;
+    }
+    memcpy(b->data + b->n, x, sizeof(double) * k);
+    b->n += k;
+    return 0;
+}
+
+static PyObject *kd_buf_array(KdBuf *b, npy_intp rows, npy_intp cols) {
+    npy_intp dims[2] = {rows, cols};
+    PyObject *a = PyArray_SimpleNew(cols < 0 ? 1 : 2, dims, NPY_DOUBLE);
+    if (a != NULL && b->n) memcpy(PyArray_DATA((PyArrayObject *)a), b->data, sizeof(double) * b->n);
+    return a;
+}
+
+static double kd_rms(const double *x, const double *scale, int n) {
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) { double v = x[i] / scale[i]; s += v * v; }
+    return sqrt(s / n);
+}
+
+typedef struct {
+    KdModel *model;
+    PyObject *events;        /* sequence of callables or NULL */
+    int n_events;
+    long nfev, njev, nlu;
+    int method;              /* 0 RK45, 1 Rosenbrock23 */
+    int singular;            /* the equations were singular at t_singular */
+    double t_singular;
+    double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
+    /* continuous extension of the last step */
+    double t_old, h;
+    double y_old[KD_NX];
+    double Q[KD_NX * 4];     /* RK45: y = y_old + h Q [x, x^2, x^3, x^4]; R23: Q[:,0]=k1, Q[:,1]=k2 */
+} KdIntegrator;
+
+static const double kd_r23_d = 0.29289321881345248; /* 1 / (2 + sqrt(2)) */
+static const double kd_r23_e32 = 7.4142135623730950; /* 6 + sqrt(2) */
+
+static void kd_dense(const KdIntegrator *ig, double t, double *out) {
+    double x = (t - ig->t_old) / ig->h;
+    if (ig->method == 0) {
+        double p1 = x, p2 = x * x, p3 = p2 * x, p4 = p3 * x;
+        for (int i = 0; i < KD_NX; ++i) {
+            const double *q = ig->Q + 4 * i;
+            out[i] = ig->y_old[i] + ig->h * (q[0] * p1 + q[1] * p2 + q[2] * p3 + q[3] * p4);
+        }
+    } else {
+        double d = kd_r23_d;
+        double a = x * (1.0 - x) / (1.0 - 2.0 * d), b = x * (x - 2.0 * d) / (1.0 - 2.0 * d);
+        for (int i = 0; i < KD_NX; ++i)
+            out[i] = ig->y_old[i] + ig->h * (a * ig->Q[4 * i] + b * ig->Q[4 * i + 1]);
+    }
+}
+
+/* values of the specified inputs at (t, y) for a raw state vector */
+static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
+    if (KD_NR == 0) return 0;
+    npy_intp dims[1] = {KD_NX};
+    PyObject *ya = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    if (ya == NULL) return -1;
+    memcpy(PyArray_DATA((PyArrayObject *)ya), y, sizeof(double) * KD_NX);
+    int bad = kd_inputs(model->inputs, t, ya, r);
+    Py_DECREF(ya);
+    return bad;
+}
+
+static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
+    ig->nfev++;
+    double r[KD_SZ(KD_NR)];
+    if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
+    if (kd_rhs_core(t, y, ig->model->p, r, ig->model->work, out) != 0) {
+        for (int i = 0; i < KD_NX; ++i) out[i] = NAN;  /* the step is rejected */
+        if (!ig->singular) { ig->singular = 1; ig->t_singular = t; }
+    }
+    return 0;
+}
+
+/* event value g(t, y); -1 on a Python error */
+static int kd_event(KdIntegrator *ig, int k, double t, const double *y, double *g) {
+    npy_intp dims[1] = {KD_NX};
+    PyObject *ya = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
+    if (ya == NULL) return -1;
+    memcpy(PyArray_DATA((PyArrayObject *)ya), y, sizeof(double) * KD_NX);
+    PyObject *args[2];
+    args[0] = PyFloat_FromDouble(t);
+    args[1] = ya;
+    PyObject *fn = PySequence_Fast_GET_ITEM(ig->events, k);
+    PyObject *res = args[0] ? PyObject_Vectorcall(fn, args, 2, NULL) : NULL;
+    Py_XDECREF(args[0]);
+    Py_DECREF(ya);
+    if (res == NULL) return -1;
+    *g = PyFloat_AsDouble(res);
+    Py_DECREF(res);
+    if (*g == -1.0 && PyErr_Occurred()) return -1;
+    return 0;
+}
+
+/* Brent's method for event k on the continuous extension in [a, b]. */
+static int kd_event_root(KdIntegrator *ig, int k, double a, double b, double fa, double fb,
+                         double *root) {
+    const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
+    double y[KD_NX];
+    double c = a, fc = fa, d = b - a, e = d;
+    for (int iter = 0; iter < 200; ++iter) {
+        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
+        if (fabs(fc) < fabs(fb)) { a = b; b = c; c = a; fa = fb; fb = fc; fc = fa; }
+        double tol = 2 * eps * fabs(b) + 0.5 * (xtol + rtol * fabs(b));
+        double m = 0.5 * (c - b);
+        if (fabs(m) <= tol || fb == 0.0) { *root = b; return 0; }
+        if (fabs(e) >= tol && fabs(fa) > fabs(fb)) {
+            double s = fb / fa, p, q;
+            if (a == c) { p = 2 * m * s; q = 1 - s; }
+            else {
+                double qq = fa / fc, rr = fb / fc;
+                p = s * (2 * m * qq * (qq - rr) - (b - a) * (rr - 1));
+                q = (qq - 1) * (rr - 1) * (s - 1);
+            }
+            if (p > 0) q = -q; else p = -p;
+            if (2 * p < fmin(3 * m * q - fabs(tol * q), fabs(e * q))) { e = d; d = p / q; }
+            else { d = m; e = m; }
+        } else { d = m; e = m; }
+        a = b; fa = fb;
+        b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
+        kd_dense(ig, b, y);
+        if (kd_event(ig, k, b, y, &fb) != 0) return -1;
+    }
+    *root = b;
+    return 0;
+}
+
+/* largest constraint residual (-1 on a Python error in the inputs) */
+static double kd_residual(KdModel *model, double t, const double *y) {
+#if KD_NQDEP + KD_NUDEP > 0
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
+    if (kd_inputs_at(model, t, y, r) != 0) return -1.0;
+    kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
+    double worst = 0.0;
+    for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
+    for (int i = 0; i < KD_NUDEP; ++i) {
+        double s = b[i];
+        for (int j = 0; j < KD_NU; ++j) s += B[i * KD_NU + j] * y[KD_NQ + j];
+        worst = fmax(worst, fabs(s));
+    }
+    return worst;
+#else
+    (void)model; (void)t; (void)y;
+    return 0.0;
+#endif
+}
+
+/* dependent coordinates by Newton, dependent speeds from the velocity
+   constraints: 0, 1 if singular, -1 on a Python error */
+static int kd_project(KdModel *model, double t, double *y) {
+#if KD_NQDEP + KD_NUDEP > 0
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
+    const double *p = model->p;
+    double *w = model->work;
+    if (kd_inputs_at(model, t, y, r) != 0) return -1;
+    for (int it = 0; it < 50 && KD_NQDEP > 0; ++it) {
+        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
+        double worst = 0.0;
+        for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
+        if (worst <= 1e-12) break;
+        double Jd[KD_SZ(KD_NQDEP * KD_NQDEP)];
+        for (int i = 0; i < KD_NQDEP; ++i)
+            for (int j = 0; j < KD_NQDEP; ++j) Jd[i * KD_NQDEP + j] = J[i * KD_NQ + KD_NQ - KD_NQDEP + j];
+        if (kd_lu_solve(KD_NQDEP, Jd, h, 1) != 0) return 1;
+        for (int i = 0; i < KD_NQDEP; ++i) y[KD_NQ - KD_NQDEP + i] -= h[i];
+    }
+    if (KD_NUDEP > 0) {
+        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
+        double Bd[KD_SZ(KD_NUDEP * KD_NUDEP)], rhs[KD_SZ(KD_NUDEP)];
+        for (int i = 0; i < KD_NUDEP; ++i) {
+            double s = b[i];
+            for (int j = 0; j < KD_NUI; ++j) s += B[i * KD_NU + j] * y[KD_NQ + j];
+            rhs[i] = -s;
+            for (int j = 0; j < KD_NUDEP; ++j) Bd[i * KD_NUDEP + j] = B[i * KD_NU + KD_NUI + j];
+        }
+        if (kd_lu_solve(KD_NUDEP, Bd, rhs, 1) != 0) return 1;
+        for (int i = 0; i < KD_NUDEP; ++i) y[KD_NQ + KD_NUI + i] = rhs[i];
+    }
+#else
+    (void)model; (void)t; (void)y;
+#endif
+    return 0;
+}
+
+/* Dormand-Prince 5(4) coefficients (the values SciPy's RK45 uses) */
+static const double kd_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+static const double kd_A[7][6] = {
+    {0, 0, 0, 0, 0, 0},
+    {1.0 / 5, 0, 0, 0, 0, 0},
+    {3.0 / 40, 9.0 / 40, 0, 0, 0, 0},
+    {44.0 / 45, -56.0 / 15, 32.0 / 9, 0, 0, 0},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0, 0},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656, 0},
+    {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
+static const double kd_E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920,
+                               17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+static const double kd_P[7][4] = {
+    {1, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
+    {0, 0, 0, 0},
+    {0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
+    {0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
+    {0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
+    {0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
+    {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
+
+/* one attempted RK45 step of size h from (t, y, f): y_new, f_new (= K[6]), error norm */
+static int kd_rk45_try(KdIntegrator *ig, double t, const double *y, const double *f, double h,
+                       double rtol, const double *atol, double K[7][KD_NX], double *y_new,
+                       double *err_norm) {
+    double ytmp[KD_NX];
+    memcpy(K[0], f, sizeof(double) * KD_NX);
+    for (int s = 1; s < 7; ++s) {
+        for (int i = 0; i < KD_NX; ++i) {
+            double acc = 0.0;
+            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
+            ytmp[i] = y[i] + h * acc;
+        }
+        if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
+        if (kd_f(ig, t + kd_C[s] * h, ytmp, K[s]) != 0) return -1;
+    }
+    double err[KD_NX], scale[KD_NX];
+    for (int i = 0; i < KD_NX; ++i) {
+        double e = 0.0;
+        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+        err[i] = e * h;
+        scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
+    }
+    *err_norm = kd_rms(err, scale, KD_NX);
+    return 0;
+}
+
+/* Jacobian df/dy (row-major) and df/dt by forward differences */
+static int kd_jacobian(KdIntegrator *ig, double t, const double *y, const double *f,
+                       double *J, double *T) {
+    const double sqrt_eps = 1.4901161193847656e-08;
+    double yp[KD_NX], fp[KD_NX];
+    memcpy(yp, y, sizeof(double) * KD_NX);
+    for (int j = 0; j < KD_NX; ++j) {
+        double dj = sqrt_eps * fmax(fabs(y[j]), 1e-5);
+        yp[j] = y[j] + dj;
+        dj = yp[j] - y[j];
+        if (kd_f(ig, t, yp, fp) != 0) return -1;
+        for (int i = 0; i < KD_NX; ++i) J[i * KD_NX + j] = (fp[i] - f[i]) / dj;
+        yp[j] = y[j];
+    }
+    double dt = sqrt_eps * fmax(fabs(t), 1e-5);
+    if (kd_f(ig, t + dt, y, fp) != 0) return -1;
+    for (int i = 0; i < KD_NX; ++i) T[i] = (fp[i] - f[i]) / dt;
+    ig->njev++;
+    return 0;
+}
+
+/* one attempted Rosenbrock 2(3) step; k1, k2 kept for the continuous extension */
+static int kd_r23_try(KdIntegrator *ig, double t, const double *y, const double *f, double h,
+                      const double *J, const double *T, double rtol, const double *atol,
+                      double *y_new, double *f_new, double *k1, double *k2, double *err_norm,
+                      int *singular) {
+    const double d = kd_r23_d, e32 = kd_r23_e32;
+    double *W = ig->W, *LU = ig->LU;
+    const size_t bytes = sizeof(double) * KD_NX * KD_NX;
+    double k3[KD_NX], f1[KD_NX], ytmp[KD_NX], b[KD_NX];
+    for (int i = 0; i < KD_NX; ++i)
+        for (int j = 0; j < KD_NX; ++j) W[i * KD_NX + j] = (i == j) - h * d * J[i * KD_NX + j];
+    *singular = 0;
+    ig->nlu++;
+    memcpy(LU, W, bytes);
+    for (int i = 0; i < KD_NX; ++i) k1[i] = f[i] + h * d * T[i];
+    if (kd_lu_solve(KD_NX, LU, k1, 1) != 0) { *singular = 1; return 0; }
+    for (int i = 0; i < KD_NX; ++i) ytmp[i] = y[i] + 0.5 * h * k1[i];
+    if (kd_f(ig, t + 0.5 * h, ytmp, f1) != 0) return -1;
+    memcpy(LU, W, bytes);
+    for (int i = 0; i < KD_NX; ++i) k2[i] = f1[i] - k1[i];
+    if (kd_lu_solve(KD_NX, LU, k2, 1) != 0) { *singular = 1; return 0; }
+    for (int i = 0; i < KD_NX; ++i) { k2[i] += k1[i]; y_new[i] = y[i] + h * k2[i]; }
+    if (kd_f(ig, t + h, y_new, f_new) != 0) return -1;
+    memcpy(LU, W, bytes);
+    for (int i = 0; i < KD_NX; ++i)
+        b[i] = f_new[i] - e32 * (k2[i] - f1[i]) - 2.0 * (k1[i] - f[i]) + h * d * T[i];
+    if (kd_lu_solve(KD_NX, LU, b, 1) != 0) { *singular = 1; return 0; }
+    memcpy(k3, b, sizeof(b));
+    double err[KD_NX], scale[KD_NX];
+    for (int i = 0; i < KD_NX; ++i) {
+        err[i] = h / 6.0 * (k1[i] - 2.0 * k2[i] + k3[i]);
+        scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
+    }
+    *err_norm = kd_rms(err, scale, KD_NX);
+    return 0;
+}
+
+/* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
+             project_tol, dense) -> dict */
+static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
+    double t0, t1, rtol, max_step, first_step, project_tol;
+    PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj;
+    int dense;
+    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp", &t0, &t1, &y0obj, &tevalobj, &rtol, &atolobj,
+                          &max_step, &first_step, &method_obj, &events, &project_tol, &dense))
+        return NULL;
+    const char *method_name = PyUnicode_AsUTF8(method_obj);
+    if (method_name == NULL) return NULL;
+    KdIntegrator ig;
+    memset(&ig, 0, sizeof(ig));
+    ig.model = self;
+    if (strcmp(method_name, "RK45") == 0) ig.method = 0;
+    else if (strcmp(method_name, "Rosenbrock23") == 0) ig.method = 1;
+    else { PyErr_Format(PyExc_ValueError, "unknown compiled method %s", method_name); return NULL; }
+
+    PyObject *keep_y = NULL, *keep_a = NULL;
+    const double *y0 = kd_vector(y0obj, KD_NX, &keep_y, "y0");
+    if (y0 == NULL) return NULL;
+    double atol[KD_NX];
+    const double *av = kd_vector(atolobj, KD_NX, &keep_a, "atol");
+    if (av == NULL) { Py_XDECREF(keep_y); return NULL; }
+    memcpy(atol, av, sizeof(atol));
+    Py_XDECREF(keep_a);
+
+    PyArrayObject *teval = NULL;
+    if (tevalobj != Py_None) {
+        teval = (PyArrayObject *)PyArray_FROMANY(tevalobj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+        if (teval == NULL) { Py_XDECREF(keep_y); return NULL; }
+    }
+    const double *te = teval ? (const double *)PyArray_DATA(teval) : NULL;
+    npy_intp n_teval = teval ? PyArray_SIZE(teval) : 0, next_eval = 0;
+
+    /* events */
+    PyObject *evseq = NULL;
+    if (events != Py_None) {
+        evseq = PySequence_Fast(events, "events must be a sequence");
+        if (evseq == NULL) { Py_XDECREF(keep_y); Py_XDECREF(teval); return NULL; }
+        ig.n_events = (int)PySequence_Fast_GET_SIZE(evseq);
+    }
+    ig.events = evseq;
+    double *ev_dir = (double *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(double));
+    int *ev_term = (int *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(int));
+    double *g_old = (double *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(double));
+    double *g_new = (double *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(double));
+    KdBuf *ev_t = (KdBuf *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(KdBuf));
+    KdBuf *ev_y = (KdBuf *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(KdBuf));
+    KdBuf out_t = {0}, out_y = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
+    PyObject *result = NULL;
+    double *J = NULL;
+    int status = 0, failed = 0;
+    long projections = 0;
+    const char *message = "the integration reached the end of the interval";
+    if (!ev_dir || !ev_term || !g_old || !g_new || !ev_t || !ev_y) { PyErr_NoMemory(); goto done; }
+    for (int k = 0; k < ig.n_events; ++k) {
+        PyObject *fn = PySequence_Fast_GET_ITEM(evseq, k);
+        PyObject *a = PyObject_GetAttrString(fn, "direction");
+        if (a) { ev_dir[k] = PyFloat_AsDouble(a); Py_DECREF(a); if (PyErr_Occurred()) goto done; }
+        else PyErr_Clear();
+        a = PyObject_GetAttrString(fn, "terminal");
+        if (a) { ev_term[k] = PyObject_IsTrue(a); Py_DECREF(a); if (ev_term[k] < 0) goto done; }
+        else PyErr_Clear();
+    }
+
+    double dir = t1 >= t0 ? 1.0 : -1.0;
+    double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
+    double T[KD_NX], k1[KD_NX], k2[KD_NX];
+    J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
+    if (J == NULL) { PyErr_NoMemory(); goto done; }
+    ig.W = J + KD_NX * KD_NX;
+    ig.LU = ig.W + KD_NX * KD_NX;
+    memcpy(y, y0, sizeof(y));
+    if (kd_f(&ig, t, y, f) != 0) goto done;
+    for (int k = 0; k < ig.n_events; ++k)
+        if (kd_event(&ig, k, t, y, &g_old[k]) != 0) goto done;
+    if (te == NULL) {
+        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+    } else {
+        while (next_eval < n_teval && te[next_eval] == t) {
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+            next_eval++;
+        }
+    }
+
+    /* initial step (Hairer, Norsett & Wanner; SciPy's select_initial_step) */
+    double h_abs;
+    double interval = fabs(t1 - t0);
+    int err_order = ig.method == 0 ? 4 : 2;
+    if (first_step > 0) h_abs = first_step;
+    else if (interval == 0.0) h_abs = 0.0;
+    else {
+        double scale[KD_NX], tmp[KD_NX], y1[KD_NX], f1[KD_NX];
+        for (int i = 0; i < KD_NX; ++i) scale[i] = atol[i] + fabs(y[i]) * rtol;
+        double d0 = kd_rms(y, scale, KD_NX), d1 = kd_rms(f, scale, KD_NX), h0;
+        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        h0 = fmin(h0, interval);
+        for (int i = 0; i < KD_NX; ++i) y1[i] = y[i] + h0 * dir * f[i];
+        if (kd_f(&ig, t + h0 * dir, y1, f1) != 0) goto done;
+        for (int i = 0; i < KD_NX; ++i) tmp[i] = f1[i] - f[i];
+        double d2 = kd_rms(tmp, scale, KD_NX) / h0, h1;
+        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+        else h1 = pow(0.01 / fmax(d1, d2), 1.0 / (err_order + 1));
+        h_abs = fmin(fmin(100 * h0, h1), fmin(interval, max_step));
+    }
+    double exponent = -1.0 / (err_order + 1);
+    double max_factor = ig.method == 0 ? 10.0 : 5.0;
+
+    while (dir * (t1 - t) > 0) {
+        double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
+        if (h_abs > max_step) h_abs = max_step;
+        else if (h_abs < min_step) h_abs = min_step;
+        int accepted = 0, rejected = 0;
+        double h = 0.0, t_new = t, err_norm = 0.0;
+        if (ig.method == 1 && kd_jacobian(&ig, t, y, f, J, T) != 0) goto done;
+        while (!accepted) {
+            if (h_abs < min_step) {
+                failed = 1;
+                status = -1;
+                message = "Required step size is less than spacing between numbers.";
+                break;
+            }
+            h = h_abs * dir;
+            t_new = t + h;
+            if (dir * (t_new - t1) > 0) t_new = t1;
+            h = t_new - t;
+            h_abs = fabs(h);
+            if (ig.method == 0) {
+                if (kd_rk45_try(&ig, t, y, f, h, rtol, atol, K, y_new, &err_norm) != 0) goto done;
+                memcpy(f_new, K[6], sizeof(f_new));
+            } else {
+                int singular;
+                if (kd_r23_try(&ig, t, y, f, h, J, T, rtol, atol, y_new, f_new, k1, k2,
+                               &err_norm, &singular) != 0) goto done;
+                if (singular) err_norm = INFINITY;
+            }
+            if (err_norm < 1) {
+                double factor = err_norm == 0 ? max_factor
+                                              : fmin(max_factor, 0.9 * pow(err_norm, exponent));
+                if (rejected) factor = fmin(1.0, factor);
+                h_abs *= factor;
+                accepted = 1;
+            } else {
+                double factor = 0.9 * pow(err_norm, exponent);
+                if (!(factor > 0.2)) factor = 0.2;   /* also for nan */
+                h_abs *= factor;
+                rejected = 1;
+            }
+        }
+        if (failed) break;
+        /* continuous extension of this step */
+        ig.t_old = t; ig.h = h;
+        memcpy(ig.y_old, y, sizeof(y));
+        if (ig.method == 0) {
+            for (int i = 0; i < KD_NX; ++i)
+                for (int j = 0; j < 4; ++j) {
+                    double s = 0.0;
+                    for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
+                    ig.Q[4 * i + j] = s;
+                }
+        } else {
+            for (int i = 0; i < KD_NX; ++i) { ig.Q[4 * i] = k1[i]; ig.Q[4 * i + 1] = k2[i]; }
+        }
+        /* events */
+        double t_stop = t_new;
+        int terminate = 0;
+        for (int k = 0; k < ig.n_events; ++k)
+            if (kd_event(&ig, k, t_new, y_new, &g_new[k]) != 0) goto done;
+        if (ig.n_events) {
+            /* roots of the active events in time order, up to the first terminal one */
+            double roots[64];
+            int which[64], n_roots = 0;
+            for (int k = 0; k < ig.n_events && n_roots < 64; ++k) {
+                int up = g_old[k] <= 0 && g_new[k] >= 0, down = g_old[k] >= 0 && g_new[k] <= 0;
+                int active = (up && ev_dir[k] > 0) || (down && ev_dir[k] < 0)
+                             || ((up || down) && ev_dir[k] == 0);
+                if (!active) continue;
+                double root;
+                if (kd_event_root(&ig, k, t, t_new, g_old[k], g_new[k], &root) != 0) goto done;
+                roots[n_roots] = root; which[n_roots] = k; n_roots++;
+            }
+            for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
+                for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
+                    double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
+                    int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
+                }
+            for (int a = 0; a < n_roots; ++a) {
+                double ye[KD_NX];
+                kd_dense(&ig, roots[a], ye);
+                int k = which[a];
+                if (kd_buf_push(&ev_t[k], &roots[a], 1) || kd_buf_push(&ev_y[k], ye, KD_NX)) goto done;
+                if (ev_term[k]) { terminate = 1; t_stop = roots[a]; break; }
+            }
+        }
+        /* outputs */
+        if (te != NULL) {
+            while (next_eval < n_teval && dir * (te[next_eval] - t_stop) <= 0) {
+                if (dir * (te[next_eval] - t) > 0) {
+                    double ye[KD_NX];
+                    kd_dense(&ig, te[next_eval], ye);
+                    if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX))
+                        goto done;
+                }
+                next_eval++;
+            }
+        }
+        if (terminate) {
+            kd_dense(&ig, t_stop, y_new);
+            t_new = t_stop;
+        }
+        if (dense) {
+            double head[2] = {t, h};
+            if (kd_buf_push(&dn_t, head, 2) || kd_buf_push(&dn_y, y, KD_NX)
+                || kd_buf_push(&dn_q, ig.Q, KD_NX * 4)) goto done;
+        }
+        int finite = 1;
+        for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
+        t = t_new;
+        memcpy(y, y_new, sizeof(y));
+        memcpy(f, f_new, sizeof(f));
+        memcpy(g_old, g_new, sizeof(double) * KD_SZ(ig.n_events));
+        /* constraint drift */
+        double residual = finite && project_tol > 0 ? kd_residual(self, t, y) : 0.0;
+        if (residual < 0) goto done;
+        if (residual > project_tol) {
+            int proj = kd_project(self, t, y);
+            if (proj < 0) goto done;
+            if (proj != 0) {
+                status = -1; failed = 1;
+                message = "the constraints could not be satisfied by projection (singular "
+                          "constraint Jacobian)";
+            } else {
+                projections++;
+                if (kd_f(&ig, t, y, f) != 0) goto done;
+                for (int k = 0; k < ig.n_events; ++k)
+                    if (kd_event(&ig, k, t, y, &g_old[k]) != 0) goto done;
+            }
+        }
+        if (te == NULL) {
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+        }
+        if (failed) break;
+        if (terminate) { status = 1; message = "A termination event occurred."; break; }
+    }
+
+    if (failed && ig.singular) {
+        static char text[160];
+        snprintf(text, sizeof(text), "singular equations of motion at t=%.6g (the "
+                 "integrator could not step past it)", ig.t_singular);
+        message = text;
+    }
+    result = PyDict_New();
+    if (result == NULL) goto done;
+    npy_intp n_out = out_t.n;
+    PyObject *item;
+#define KD_SET(key, value) do { item = (value); \
+        if (item == NULL || PyDict_SetItemString(result, key, item) < 0) { Py_XDECREF(item); \
+            Py_CLEAR(result); goto done; } Py_DECREF(item); } while (0)
+    KD_SET("t", kd_buf_array(&out_t, n_out, -1));
+    KD_SET("y", kd_buf_array(&out_y, n_out, KD_NX));
+    KD_SET("status", PyLong_FromLong(status));
+    KD_SET("message", PyUnicode_FromString(message));
+    KD_SET("nfev", PyLong_FromLong(ig.nfev));
+    KD_SET("njev", PyLong_FromLong(ig.njev));
+    KD_SET("nlu", PyLong_FromLong(ig.nlu));
+    KD_SET("projections", PyLong_FromLong(projections));
+    PyObject *tl = PyList_New(ig.n_events), *yl = PyList_New(ig.n_events);
+    if (tl == NULL || yl == NULL) { Py_XDECREF(tl); Py_XDECREF(yl); Py_CLEAR(result); goto done; }
+    for (int k = 0; k < ig.n_events; ++k) {
+        PyList_SET_ITEM(tl, k, kd_buf_array(&ev_t[k], ev_t[k].n, -1));
+        PyList_SET_ITEM(yl, k, kd_buf_array(&ev_y[k], ev_t[k].n, KD_NX));
+    }
+    KD_SET("t_events", tl);
+    KD_SET("y_events", yl);
+    if (dense) {
+        npy_intp steps = dn_t.n / 2;
+        KD_SET("dense_th", kd_buf_array(&dn_t, steps, 2));
+        KD_SET("dense_y", kd_buf_array(&dn_y, steps, KD_NX));
+        KD_SET("dense_q", kd_buf_array(&dn_q, steps, KD_NX * 4));
+    }
+#undef KD_SET
+done:
+    for (int k = 0; ev_t && ev_y && k < ig.n_events; ++k) {
+        PyMem_Free(ev_t[k].data); PyMem_Free(ev_y[k].data);
+    }
+    PyMem_Free(ev_t); PyMem_Free(ev_y); PyMem_Free(ev_dir); PyMem_Free(ev_term);
+    PyMem_Free(g_old); PyMem_Free(g_new);
+    PyMem_Free(out_t.data); PyMem_Free(out_y.data);
+    PyMem_Free(dn_t.data); PyMem_Free(dn_y.data); PyMem_Free(dn_q.data);
+    PyMem_Free(J);
+    Py_XDECREF(evseq); Py_XDECREF(teval); Py_XDECREF(keep_y);
+    return result;
+}
+"""

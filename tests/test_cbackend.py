@@ -1,0 +1,295 @@
+"""The compiled backend: consistency with NumPy, the build cache, the compiled loop."""
+
+import multiprocessing
+import os
+import pickle
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+from scipy.integrate import solve_ivp
+
+import kanedyn as kd
+from kanedyn import _cbackend
+from kanedyn._codegen import CodegenError
+
+pytestmark = pytest.mark.skipif(_cbackend.compiler_command() is None,
+                                reason="no C compiler")
+
+MODELS = [("pendulum", {"tension": True}), ("n-link-pendulum-on-cart", {"n": 3}),
+          ("chain3d", {"n": 4}), ("chaplygin-sleigh", {"lateral_force": True}),
+          ("four-bar", {}), ("rolling-disk", {"normal_force": True}),
+          ("whipple-bicycle", {})]
+
+
+def states(definition, model, count=3, seed=3):
+    rng = np.random.default_rng(seed)
+    out = []
+    for _ in range(count):
+        y = definition.initial(model) + rng.uniform(-0.2, 0.2, model.n_states)
+        if model.n_q_dep or model.n_u_dep:
+            y = model.consistent_state(0.0, y)
+        out.append(y)
+    return out
+
+
+def relative(a, b):
+    a, b = np.atleast_1d(np.asarray(a, float)), np.atleast_1d(np.asarray(b, float))
+    return 0.0 if b.size == 0 else float(np.max(np.abs(a - b)) / max(np.max(np.abs(b)), 1e-300))
+
+
+@pytest.mark.parametrize("name, options", MODELS)
+def test_numpy_and_c_agree(name, options):
+    d = kd.models.build(name, **options)
+    eom = d.derive()
+    fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    for y in states(d, slow):
+        pairs = [(fast.rhs(0.3, y), slow.rhs(0.3, y)),
+                 (fast.mass_matrix(0.3, y), slow.mass_matrix(0.3, y)),
+                 (fast.forcing(0.3, y), slow.forcing(0.3, y)),
+                 (fast.constraint_residuals(0.3, y), slow.constraint_residuals(0.3, y)),
+                 (fast.kinetic_energy(0.3, y), slow.kinetic_energy(0.3, y))]
+        if slow.has_potential:
+            pairs.append((fast.potential_energy(0.3, y), slow.potential_energy(0.3, y)))
+        if slow.aux_names:
+            pairs.append((list(fast.auxiliary(0.3, y).values()),
+                          list(slow.auxiliary(0.3, y).values())))
+        for a, b in pairs:
+            assert relative(a, b) < 1e-12
+
+
+def test_split_functions_agree(monkeypatch):
+    """Programs split into many C functions (values passed through memory)."""
+    monkeypatch.setattr(_cbackend, "CHUNK", 7)
+    d = kd.models.build("whipple-bicycle")
+    eom = d.derive()
+    fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    for y in states(d, slow):
+        assert relative(fast.rhs(0.0, y), slow.rhs(0.0, y)) < 1e-12
+
+
+def test_fresh_arrays_and_solve_ivp():
+    """Each call returns a new array, so solve_ivp integrates correctly."""
+    d = kd.models.build("chain3d", n=3)
+    eom = d.derive()
+    fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    y = np.array([0.1, -np.pi / 2 + 0.2, 0.1, 0.0, 0.0, 0.0])  # swinging, not chaotic
+    first = fast.rhs(0.0, y)
+    keep = first.copy()
+    first[:] = 0.0
+    np.testing.assert_array_equal(fast.rhs(0.0, y), keep)
+    a = solve_ivp(fast.rhs, (0, 1), y, rtol=1e-10, atol=1e-10)
+    b = solve_ivp(slow.rhs, (0, 1), y, rtol=1e-10, atol=1e-10)
+    assert a.t.size == b.t.size
+    np.testing.assert_allclose(a.y, b.y, rtol=0, atol=1e-8)  # step choices differ by rounding
+
+
+def test_batch_states_and_parameters():
+    d = kd.models.build("n-link-pendulum-on-cart", n=2)
+    eom = d.derive()
+    for backend in ("c", "numpy"):
+        model = d.numeric(eom, backend=backend, specified={d.symbols["F"]: 0.3})
+        Y = np.array(states(d, model, count=5))
+        np.testing.assert_allclose(model.rhs_batch(0.1, Y),
+                                   [model.rhs(0.1, y) for y in Y], rtol=1e-13, atol=1e-13)
+        names = list(model.constants)
+        P = np.tile([model.constants[n] for n in names], (5, 1))
+        P[:, names.index("g")] = np.linspace(1.0, 20.0, 5)
+        batch = model.rhs_batch(0.1, Y, P)
+        for i in range(5):
+            single = d.numeric(eom, backend="numpy", constants={"g": P[i, names.index("g")]},
+                               specified={d.symbols["F"]: 0.3})
+            np.testing.assert_allclose(batch[i], single.rhs(0.1, Y[i]), rtol=1e-12, atol=1e-12)
+
+
+def test_pickled_c_model():
+    d = kd.models.build("four-bar")
+    model = d.numeric(backend="c")
+    clone = pickle.loads(pickle.dumps(model))
+    y = model.consistent_state(0.0, d.initial(model))
+    np.testing.assert_array_equal(clone.rhs(0.0, y), model.rhs(0.0, y))
+
+
+# ---------------------------------------------------------------- the cache
+def _build_in_process(cache):
+    os.environ["KANEDYN_CACHE_DIR"] = cache
+    d = kd.models.build("chain3d", n=3)
+    model = d.numeric(backend="c")
+    return model.rhs(0.0, d.initial(model)).tolist()
+
+
+def test_concurrent_builds(tmp_path):
+    """Several processes building the same module at once all succeed."""
+    context = multiprocessing.get_context("spawn")
+    with context.Pool(3) as pool:
+        results = pool.map(_build_in_process, [str(tmp_path)] * 3)
+    assert results[0] == results[1] == results[2]
+    assert len(list(tmp_path.glob("_kd_*.json"))) == 1
+    assert not list(tmp_path.glob("build-*"))  # temporary directories removed
+
+
+def test_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_cbackend, "_LOADED", {})
+    d = kd.models.build("pendulum")
+    eom = d.derive()
+    expected = d.numeric(eom, backend="c").rhs(0.0, [0.4, 0.1])
+    (library,) = tmp_path.glob("_kd_*.so")
+    library.unlink()  # a new file: the library this process has mapped stays intact
+    library.write_bytes(b"not a shared library")
+    monkeypatch.setattr(_cbackend, "_LOADED", {})
+    np.testing.assert_array_equal(d.numeric(eom, backend="c").rhs(0.0, [0.4, 0.1]), expected)
+
+
+def test_without_compiler_falls_back_to_numpy(monkeypatch):
+    monkeypatch.setenv("CC", "/nonexistent/cc")
+    d = kd.models.build("pendulum")
+    with pytest.warns(RuntimeWarning, match="no C compiler"):
+        model = d.numeric(backend="c")
+    assert repr(model).endswith("backend='numpy'>")
+    assert np.isfinite(model.rhs(0.0, [0.3, 0.0])).all()
+
+
+def particle_with_force(force_of_q):
+    q, u = me.dynamicsymbols("q u")
+    k = sm.symbols("k")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("p", P, 1)], loads=[(P, force_of_q(q, k) * N.x)])
+    return eom, k
+
+
+def test_unsupported_piecewise_is_reported():
+    """A Piecewise that does not cover every case has no C form."""
+    eom, k = particle_with_force(lambda q, k: sm.Piecewise((-k * q, q > 0), (0, q < -1)))
+    with pytest.raises(CodegenError, match=r"q > 0.*numpy") as info:
+        eom.numeric(constants={k: 2.0}, backend="c")
+    assert "intermediate" in str(info.value) or "output" in str(info.value)
+    model = eom.numeric(constants={k: 2.0})  # where it is defined, numpy evaluates it
+    np.testing.assert_allclose(model.rhs(0.0, [0.5, 0.0]), [0.0, -1.0])
+    np.testing.assert_allclose(model.rhs(0.0, [-2.0, 0.0]), [0.0, 0.0])
+
+
+def test_unsupported_function_is_reported():
+    """A Bessel function: not in C's math library; the numpy backend uses SciPy."""
+    from scipy.special import jv
+    eom, k = particle_with_force(lambda q, k: -k * sm.besselj(1, q))
+    with pytest.raises(CodegenError, match="besselj"):
+        eom.numeric(constants={k: 2.0}, backend="c")
+    model = eom.numeric(constants={k: 2.0})
+    np.testing.assert_allclose(model.rhs(0.0, [0.7, 0.0]), [0.0, -2.0 * jv(1, 0.7)])
+    np.testing.assert_allclose(model.rhs_batch(0.0, [[0.7, 0.0], [0.2, 0.0]])[:, 1],
+                               -2.0 * jv(1, np.array([0.7, 0.2])))
+
+
+# --------------------------------------------------------- compiled loop
+@pytest.fixture(scope="module")
+def chain5():
+    d = kd.models.build("chain3d", n=5)
+    eom = d.derive()
+    y0 = np.array([0.2, -np.pi / 2 + 0.3, 0.2, -0.2, 0.1, 0, 0, 0, 0, 0])
+    return d, eom, y0
+
+
+def test_compiled_rk45_is_scipys_rk45(chain5):
+    """Same algorithm: the same steps (up to rounding in the error estimate, which
+    cancels) and states that agree to the integration tolerance."""
+    d, eom, y0 = chain5
+    model = d.numeric(eom, backend="c")
+    ours = kd.simulate(model, (0, 10), y0, rtol=1e-8, atol=1e-8, backend="c")
+    theirs = solve_ivp(model.rhs, (0, 10), y0, rtol=1e-8, atol=1e-8)
+    assert ours.method == "RK45 (compiled)"
+    assert abs(ours.t.size - theirs.t.size) <= 2
+    assert abs(ours.nfev - theirs.nfev) <= 12
+    n = min(ours.t.size, theirs.t.size)
+    np.testing.assert_allclose(ours.t[:n], theirs.t[:n], rtol=0, atol=1e-8)
+    np.testing.assert_allclose(ours.y[:, -1], theirs.y[:, -1], rtol=0, atol=1e-8)
+    # the first steps coincide (same initial step, stages and step control) up to
+    # rounding, which the error estimate amplifies (it cancels to ~1e-8)
+    assert ours.t[1] == theirs.t[1]
+    np.testing.assert_allclose(ours.t[:5], theirs.t[:5], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(ours.y[:, :5], theirs.y[:, :5], rtol=0, atol=1e-10)
+
+
+def test_compiled_output_events_dense(chain5):
+    d, eom, y0 = chain5
+    model = d.numeric(eom, backend="c")
+
+    def crossing(t, y):
+        return y[1] + np.pi / 2
+    crossing.direction = -1.0
+
+    def stop(t, y):
+        return t - 7.5
+    stop.terminal = True
+
+    t_eval = np.linspace(0, 10, 101)
+    ours = kd.simulate(model, (0, 10), y0, rtol=1e-10, atol=1e-10, t_eval=t_eval,
+                       events=[crossing, stop], dense_output=True)
+    ref = kd.simulate(model, (0, 10), y0, rtol=1e-10, atol=1e-10, t_eval=t_eval,
+                      events=[crossing, stop], dense_output=True, backend="scipy")
+    assert ours.status == ref.status == 1
+    np.testing.assert_allclose(ours.t, ref.t)
+    np.testing.assert_allclose(ours.y, ref.y, atol=1e-8)
+    np.testing.assert_allclose(ours.t_events[0], ref.t_events[0], atol=1e-9)
+    assert len(ours.t_events[0]) >= 2 and ours.t_events[1][0] == pytest.approx(7.5)
+    for t in (0.05, 3.3, 7.4):
+        np.testing.assert_allclose(ours.sol(t), ref.sol(t), atol=1e-8)
+
+
+def test_compiled_projection_keeps_constraints():
+    d = kd.models.build("four-bar")
+    model = d.numeric(backend="c")
+    res = kd.simulate(model, (0, 5), d.initial(model), rtol=1e-6, atol=1e-6,
+                      projection_tol=1e-7)
+    assert res.success and res.projections > 0
+    assert np.max(res.constraint_residual) <= 1e-7
+
+
+def test_rosenbrock_on_a_stiff_problem():
+    q, u = me.dynamicsymbols("q u")
+    k, c = sm.symbols("k c")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    P.set_vel(N, u * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("p", P, 1)], loads=[(P, (-k * q - c * u) * N.x)])
+    model = eom.numeric(constants={k: 1e4, c: 1e3}, backend="c")
+    ours = kd.simulate(model, (0, 2), [1.0, 0.0], method="Rosenbrock23", rtol=1e-6,
+                       atol=1e-9)
+    ref = solve_ivp(model.rhs, (0, 2), [1.0, 0.0], method="Radau", rtol=1e-12, atol=1e-14)
+    assert ours.success and ours.njev > 0
+    assert ours.t.size < 1000  # an explicit method would need ~1e5 steps here
+    np.testing.assert_allclose(ours.y[:, -1], ref.y[:, -1], atol=1e-8)
+
+
+def test_compiled_failure_returns_what_was_computed():
+    d = kd.models.build("n-link-pendulum-on-cart", n=1)
+    F = d.symbols["F"]
+    model = d.numeric(backend="c", specified={F: lambda t: 0.0 if t < 1.0 else np.nan})
+    res = kd.simulate(model, (0, 3), d.initial(model))
+    assert res.method == "RK45 (compiled)"
+    assert not res.success and res.status == -1
+    assert 0.9 < res.t[-1] <= 1.0 + 1e-9
+    assert np.all(np.isfinite(res.y))
+
+
+def test_backend_choice_errors():
+    d = kd.models.build("pendulum")
+    numpy_model = d.numeric()
+    with pytest.raises(ValueError, match="backend='c'"):
+        kd.simulate(numpy_model, (0, 1), [0.3, 0.0], backend="c")
+    with pytest.raises(ValueError, match="Rosenbrock23"):
+        kd.simulate(numpy_model, (0, 1), [0.3, 0.0], method="Rosenbrock23")
+    c_model = d.numeric(backend="c")
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        res = kd.simulate(c_model, (0, 1), [0.3, 0.0], method="DOP853")
+    assert res.method == "DOP853" and res.success
