@@ -138,11 +138,22 @@ def _drop_workless(prog, table, fr, loads):
     return [prog.let(prog.subs(e, zero), "Fr") for e in fr]
 
 
+def _dyadic_matrix(dyadic, frame):
+    """Components of a dyadic in ``frame`` (read directly when it is expressed there)."""
+    axes = {frame.x: 0, frame.y: 1, frame.z: 2}
+    if all(v1 in axes and v2 in axes for _, v1, v2 in dyadic.args):
+        out = sm.zeros(3, 3)
+        for coef, v1, v2 in dyadic.args:
+            out[axes[v1], axes[v2]] += coef
+        return out
+    return dyadic.to_matrix(frame)
+
+
 def _inertia_terms(kin, body, where):
     """Central inertia in body-frame and inertial components."""
     prog = kin.prog
     frame = body.frame
-    I_B = body.central_inertia.to_matrix(frame)
+    I_B = _dyadic_matrix(body.central_inertia, frame)
     I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
     C = kin.dcm(frame)
     I_N = [[None] * 3 for _ in range(3)]
@@ -190,6 +201,8 @@ def _generic_rows(kin, rows, o, body_terms, masses, inertias, inertial, loads):
     for the real speeds ``s``, and the matching generalized forces.
     """
     rows = list(rows)
+    if not rows:
+        return [], [], []
     mass = {r: [[] for _ in range(o)] for r in rows}
     for terms, m, I_N in zip(body_terms, masses, inertias):
         V = terms.partial_velocities
