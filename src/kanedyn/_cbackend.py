@@ -40,7 +40,8 @@ from . import _c_integrator, _c_runtime
 from ._codegen import CodegenError
 from ._errors import KanedynError
 
-__all__ = ["CompilerError", "generate_c", "load_module", "compiler_command", "CHUNK"]
+__all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
+           "CHUNK"]
 
 CHUNK = 2500  # statements per generated C function
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
@@ -110,15 +111,18 @@ def _function_source(program, name, arguments, outputs, origin):
         for i, s in enumerate(symbols):
             base[s] = f"{arg}[{i}]"
     flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
-    needed = program.needed(flat)
+    assignments, flat = program.listing(flat)
+    needed = [s for s, _ in assignments]
+    definition = dict(assignments)
     index = {s: k for k, s in enumerate(needed)}
     chunks = [needed[i:i + CHUNK] for i in range(0, len(needed), CHUNK)] or [[]]
     chunk_of = {s: c for c, members in enumerate(chunks) for s in members}
     # the last chunk (len(chunks) = the output part) using each intermediate
     last_use = {}
     for s in needed:
-        for parent in program._parents[s]:
-            last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
+        for parent in definition[s].free_symbols:
+            if parent in index:
+                last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
     for e in flat:
         for s in e.free_symbols:
             if s in index:
@@ -136,7 +140,7 @@ def _function_source(program, name, arguments, outputs, origin):
         body = []
         for s in members:
             names[s] = f"z{index[s]}"
-            code = _print_c(_CPrinter(names), program.definition(s),
+            code = _print_c(_CPrinter(names), definition[s],
                             f"intermediate {s.name}{origin(s)}")
             body.append(f"    const double z{index[s]} = {code};")
             if split and last_use.get(s, c) > c:
@@ -161,9 +165,11 @@ def _function_source(program, name, arguments, outputs, origin):
         for s in needed:
             names[s] = f"z{index[s]}"
     printer = _CPrinter(names)
+    position = 0
     for k, (_, exprs) in enumerate(outputs):
-        for j, e in enumerate(exprs):
-            code = _print_c(printer, e, f"output {j} of {name}")
+        for j in range(len(exprs)):
+            code = _print_c(printer, flat[position], f"output {j} of {name}")
+            position += 1
             lines.append(f"    o{k}[{j}] = {code};")
     lines.append("    (void)t; (void)y; (void)p; (void)r; (void)w;")
     lines.append("}")
@@ -201,6 +207,33 @@ def _wrapper_source(name, outputs, nr):
             lines.append(f"    PyTuple_SET_ITEM(result, {k}, PyFloat_FromDouble(s{k}[0]));")
     lines += ["    kd_release(&a);", "    return result;", "}"]
     return "\n".join(lines)
+
+
+CODEGEN_VERSION = "kanedyn-c-1"  # change when generated code changes meaning
+
+
+def fingerprint(program, functions, sizes):
+    """Deterministic text identifying what a module computes (its cache key).
+
+    The C source itself is not deterministic across processes (SymPy's common
+    subexpression elimination iterates over hash-ordered sets), so the key is
+    the program before elimination, printed with positional names.
+    """
+    parts = [CODEGEN_VERSION, repr(sorted(sizes.items()))]
+    for name, (arguments, outputs) in functions.items():
+        names = {program.t: sm.Symbol("t")}
+        for arg, symbols in arguments.items():
+            parts.append(f"{arg}:{len(symbols)}")
+            names.update((s, sm.Symbol(f"{arg}{i}")) for i, s in enumerate(symbols))
+        flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+        needed = program.needed(flat)
+        names.update((s, sm.Symbol(f"z{k}")) for k, s in enumerate(needed))
+        parts.append(f"function {name}")
+        parts.extend(str(program.definition(s).xreplace(names)) for s in needed)
+        for shape, exprs in outputs:
+            parts.append(repr(shape))
+            parts.extend(str(sm.sympify(e).xreplace(names)) for e in exprs)
+    return "\n".join(parts)
 
 
 def generate_c(program, functions, sizes, origin=None):
@@ -283,14 +316,17 @@ def _load(name, path):
     return module
 
 
-def load_module(template, timeout=600):
+def load_module(key_text, make_template, timeout=600):
     """Compile (or fetch from the cache) and import a generated module.
 
     Parameters
     ----------
-    template : str
-        C source in which :data:`NAME_TOKEN` stands for the module name (the
-        name is derived from the source's hash).
+    key_text : str
+        What the module computes (:func:`fingerprint`); its hash names the
+        module and its cache entry.
+    make_template : callable
+        ``make_template() -> str``: the C source, in which :data:`NAME_TOKEN`
+        stands for the module name; called only when the module is not cached.
 
     Raises
     ------
@@ -300,7 +336,7 @@ def load_module(template, timeout=600):
     command = compiler_command()
     if command is None:
         raise CompilerError("no C compiler found (set $CC or install gcc/clang)")
-    key = _build_key(template, command)
+    key = _build_key(key_text, command)
     name = f"_kd_{key}"
     with _LOCK:
         module = _LOADED.get(key)
@@ -313,8 +349,8 @@ def load_module(template, timeout=600):
         with _FileLock(directory / f"{name}.lock"):
             module = _try_cached(name, so_path, manifest)
             if module is None:
-                _build(template.replace(NAME_TOKEN, name), command, so_path, manifest,
-                       directory, timeout)
+                _build(make_template().replace(NAME_TOKEN, name), command, so_path,
+                       manifest, directory, timeout)
                 module = _load(name, so_path)
         _LOADED[key] = module
         return module

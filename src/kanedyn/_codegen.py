@@ -11,7 +11,6 @@ from __future__ import annotations
 import math
 
 import numpy as np
-import sympy as sm
 from sympy.printing.numpy import SciPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
@@ -108,22 +107,25 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
             lines.append(f"    {local} = {arg}[{i}]")
     printer = _VectorPrinter(names) if vectorized else _Printer(names)
     flat = [e for _, exprs in outputs for e in exprs]
-    for k, s in enumerate(program.needed(flat)):
+    assignments, flat = program.listing(flat)
+    for k, (s, expr) in enumerate(assignments):
         local = f"_z{k}"
         try:
-            code = printer.doprint(program.definition(s))
+            code = printer.doprint(expr)
         except CodegenError as exc:
             raise CodegenError(f"{exc} (in the intermediate {s.name}"
                                f"{origin(s) if origin else ''})") from None
         except Exception as exc:  # printer cannot handle the expression
             raise CodegenError(
-                f"cannot generate code for {program.definition(s)} (intermediate "
-                f"{s.name}): {exc}") from None
+                f"cannot generate code for {expr} (intermediate {s.name}): {exc}") from None
         names[s] = local
         lines.append(f"    {local} = {code}")
     results = []
+    position = 0
     for k, (shape, exprs) in enumerate(outputs):
-        codes = [printer.doprint(sm.sympify(e)) for e in exprs]
+        count = len(exprs)
+        codes = [printer.doprint(e) for e in flat[position:position + count]]
+        position += count
         if vectorized:
             lines.append(f"    _out{k} = _stack([{', '.join(codes)}], {tuple(shape)}, _k)")
         elif shape == ():

@@ -315,7 +315,9 @@ class EquationsOfMotion:
             forces, kinematic equations), ``both`` (the two counted jointly,
             shared intermediates once), ``constraints`` (constraint matrices
             and residual terms), ``all`` (everything the right-hand side
-            evaluates, jointly) and ``intermediates`` (of ``all``).
+            evaluates, jointly), ``all_cse`` (``all`` after the joint common
+            subexpression elimination the code generators apply) and
+            ``intermediates`` (of ``all``).
         """
         prog = self._program
         M = [e for row in self._mass for e in row]
@@ -326,6 +328,7 @@ class EquationsOfMotion:
         return {"mass_matrix": prog.count_ops(M), "forcing": prog.count_ops(F),
                 "both": prog.count_ops(M + F), "constraints": prog.count_ops(C),
                 "all": prog.count_ops(everything),
+                "all_cse": prog.count_ops(everything, cse=True),
                 "intermediates": len(prog.needed(everything))}
 
     def to_latex(self, explicit=None, max_ops=400):

@@ -198,25 +198,38 @@ class NumericModel:
         ``{name: value}`` of the constants used.
     """
 
-    def __init__(self, data):
+    def __init__(self, data, module=None):
         self._data = data
-        self._compile()
+        self._compile(module)
 
     # state and pickling
     def __getstate__(self):
-        return self._data
+        data = self._data
+        if data["backend"] == "c" and data["c_source"] is None:
+            # carry the C source, so that another machine can build the module
+            data = dict(data, c_source=self._module_source())
+        return data
 
     def __setstate__(self, data):
         self._data = data
         self._compile()
 
-    def _compile(self):
+    def _module_source(self):
+        from ._cbackend import generate_c
+        eom = getattr(self, "_eom", None)
+        if eom is None:
+            raise ValueError("cannot pickle: the model's equations are not available")
+        return generate_c(eom._program, self._functions, self._sizes)
+
+    def _compile(self, module=None):
         d = self._data
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
         if d["backend"] == "c":
-            from ._cbackend import load_module
-            module = load_module(d["c_source"])
+            if module is None:
+                from ._cbackend import load_module
+                source = d["c_source"]
+                module = load_module(d["c_key"], lambda: source)
             self._fn = {name: getattr(module, name)
                         for name in ("dynamics", "constraints", "energy", "auxiliary")
                         if hasattr(module, name)}
@@ -590,15 +603,18 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
 
     sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),
              "n_r": len(r_syms)}
-    sources = c_source = None
+    sources = c_key = c_module = None
     if backend == "c":
-        from ._cbackend import CompilerError, compiler_command, generate_c
+        from ._cbackend import (CompilerError, compiler_command, fingerprint, generate_c,
+                                load_module)
         if compiler_command() is None:
             warnings.warn(f"{CompilerError('no C compiler found (set $CC or install gcc or clang)')}"
                           "; using the numpy backend instead", RuntimeWarning, stacklevel=3)
             backend = "numpy"
         else:
-            c_source = generate_c(prog, functions, sizes)
+            c_key = fingerprint(prog, functions, sizes)
+            # generated only when the module is not in the cache
+            c_module = load_module(c_key, lambda: generate_c(prog, functions, sizes))
     if backend == "numpy":
         sources = {name: generate_python(prog, name, a, outs)
                    for name, (a, outs) in functions.items()}
@@ -608,7 +624,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
     data = {
         "backend": backend,
         "sources": sources,
-        "c_source": c_source,
+        "c_key": c_key,
+        "c_source": None,  # filled in when pickled (see __getstate__)
         "p": [values[s] for s in const_syms],
         "constants": {str(s): values[s] for s in const_syms},
         "inputs": runtime,
@@ -619,8 +636,10 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
         "has_potential": eom._potential is not None,
         "has_loads": bool(eom.loads),
     }
-    model = NumericModel(data)
+    model = NumericModel(data, module=c_module)
     # not pickled: the equations and exact input substitutions, for linearization
+    # (and the function specifications, to regenerate C source when pickling)
     model._eom = eom
     model._substitutions = substitutions
+    model._functions, model._sizes = functions, sizes
     return model

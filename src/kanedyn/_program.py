@@ -23,6 +23,7 @@ common subexpressions while the program is built.
 from __future__ import annotations
 
 import cmath
+import itertools
 import math
 import random
 
@@ -342,12 +343,55 @@ class Program:
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
 
-    # ----------------------------------------------------------------- sizes
-    def count_ops(self, exprs):
-        """Operations in ``exprs`` and all intermediates they need."""
+    # --------------------------------------------------------------- listing
+    def listing(self, exprs, cse=True):
+        """The straight-line code computing ``exprs``: assignments and outputs.
+
+        With ``cse``, common subexpressions of all definitions and outputs are
+        eliminated jointly (SymPy's ``cse``) and the new temporaries are placed
+        right before their first use, after everything they refer to.
+
+        Returns
+        -------
+        assignments : list of (Symbol, Expr)
+            In evaluation order.
+        outputs : list of Expr
+            ``exprs`` in terms of the assigned symbols.
+        """
         exprs = [sm.sympify(e) for e in exprs]
-        total = sum(sm.count_ops(self._defs[s]) for s in self.needed(exprs))
-        return int(total + sum(sm.count_ops(e) for e in exprs))
+        needed = self.needed(exprs)
+        if not cse or not needed:
+            return [(s, self._defs[s]) for s in needed], exprs
+        defs = [self._defs[s] for s in needed]
+        temporaries = (sm.Dummy(f"c{i}") for i in itertools.count())
+        replacements, reduced = sm.cse(defs + exprs, symbols=temporaries, order="none")
+        nodes = dict(replacements)
+        nodes.update(zip(needed, reduced[:len(needed)]))
+        ordered, done = [], set()
+        for root in list(needed) + [x for x, _ in replacements]:
+            stack = [(root, False)]
+            while stack:  # depth first: dependencies before the node
+                node, expanded = stack.pop()
+                if node in done:
+                    continue
+                if expanded:
+                    done.add(node)
+                    ordered.append((node, nodes[node]))
+                    continue
+                stack.append((node, True))
+                stack.extend((d, False) for d in nodes[node].free_symbols
+                             if d in nodes and d not in done)
+        return ordered, list(reduced[len(needed):])
+
+    # ----------------------------------------------------------------- sizes
+    def count_ops(self, exprs, cse=False):
+        """Operations in ``exprs`` and all intermediates they need.
+
+        ``cse=True`` counts after the joint elimination of :meth:`listing`.
+        """
+        assignments, outputs = self.listing(exprs, cse=cse)
+        total = sum(sm.count_ops(e) for _, e in assignments)
+        return int(total + sum(sm.count_ops(e) for e in outputs))
 
 
 _DERIVATIVES = {
