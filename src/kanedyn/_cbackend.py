@@ -104,14 +104,14 @@ def _print_c(printer, expr, what):
 
 
 # ---------------------------------------------------------------- functions
-def _function_source(program, name, arguments, outputs, origin):
+def _function_source(program, name, arguments, outputs, origin, cse):
     """C source of ``kd_eval_<name>`` and the number of work slots it needs."""
     base = {program.t: "t"}
     for arg, symbols in arguments.items():
         for i, s in enumerate(symbols):
             base[s] = f"{arg}[{i}]"
     flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
-    assignments, flat = program.listing(flat)
+    assignments, flat = program.listing(flat, cse=cse)
     needed = [s for s, _ in assignments]
     definition = dict(assignments)
     index = {s: k for k, s in enumerate(needed)}
@@ -212,14 +212,14 @@ def _wrapper_source(name, outputs, nr):
 CODEGEN_VERSION = "kanedyn-c-1"  # change when generated code changes meaning
 
 
-def fingerprint(program, functions, sizes):
+def fingerprint(program, functions, sizes, cse=True):
     """Deterministic text identifying what a module computes (its cache key).
 
     The C source itself is not deterministic across processes (SymPy's common
     subexpression elimination iterates over hash-ordered sets), so the key is
     the program before elimination, printed with positional names.
     """
-    parts = [CODEGEN_VERSION, repr(sorted(sizes.items()))]
+    parts = [CODEGEN_VERSION, repr(sorted(sizes.items())), f"cse={cse}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: sm.Symbol("t")}
         for arg, symbols in arguments.items():
@@ -236,7 +236,7 @@ def fingerprint(program, functions, sizes):
     return "\n".join(parts)
 
 
-def generate_c(program, functions, sizes, origin=None):
+def generate_c(program, functions, sizes, origin=None, cse=True):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -249,11 +249,13 @@ def generate_c(program, functions, sizes, origin=None):
         ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r`` (inputs of the dynamics).
     origin : callable, optional
         ``origin(symbol)`` describes where an intermediate came from.
+    cse : bool
+        Eliminate common subexpressions jointly first (:meth:`Program.listing`).
     """
     origin = origin or (lambda s: "")
     parts, work = [], 0
     for name, (arguments, outputs) in functions.items():
-        src, w = _function_source(program, name, arguments, outputs, origin)
+        src, w = _function_source(program, name, arguments, outputs, origin, cse)
         parts.append(src)
         work = max(work, w)
     defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",

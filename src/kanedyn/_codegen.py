@@ -72,7 +72,8 @@ def _stack(values, shape, k):
     return out.reshape(tuple(shape) + (k,))
 
 
-def generate_python(program, name, arguments, outputs, origin=None, vectorized=False):
+def generate_python(program, name, arguments, outputs, origin=None, vectorized=False,
+                    cse=False):
     """Source of a function ``name(t, y, p, r)``.
 
     Parameters
@@ -91,6 +92,8 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
         Generate NumPy code for many states at once: ``y`` has shape
         ``(n_states, k)``, ``p`` and ``r`` entries are scalars or ``(k,)``
         arrays, and every output gets a trailing axis of length ``k``.
+    cse : bool
+        Eliminate common subexpressions jointly first (:meth:`Program.listing`).
 
     Returns
     -------
@@ -107,7 +110,7 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
             lines.append(f"    {local} = {arg}[{i}]")
     printer = _VectorPrinter(names) if vectorized else _Printer(names)
     flat = [e for _, exprs in outputs for e in exprs]
-    assignments, flat = program.listing(flat)
+    assignments, flat = program.listing(flat, cse=cse)
     for k, (s, expr) in enumerate(assignments):
         local = f"_z{k}"
         try:

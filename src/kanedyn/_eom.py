@@ -360,8 +360,13 @@ class EquationsOfMotion:
             Values of the specified inputs in :attr:`specified`: a number, a
             SymPy expression in ``t`` (substituted exactly, derivatives included),
             a callable ``f(t)`` or a callable ``f(t, y)``.
-        backend : {"numpy"}
-            Code generator.
+        backend : {"numpy", "c"}
+            Code generator: interpreted NumPy code, or C compiled into an
+            extension module on first use and cached on disk (falls back to
+            "numpy" with a warning when no C compiler is available).
+        cse : bool, optional
+            Eliminate common subexpressions of the generated code jointly
+            (default: on for "c", off for "numpy").
 
         Returns
         -------

@@ -219,7 +219,7 @@ class NumericModel:
         eom = getattr(self, "_eom", None)
         if eom is None:
             raise ValueError("cannot pickle: the model's equations are not available")
-        return generate_c(eom._program, self._functions, self._sizes)
+        return generate_c(eom._program, self._functions, self._sizes, cse=self._cse)
 
     def _compile(self, module=None):
         d = self._data
@@ -515,8 +515,13 @@ class NumericModel:
         return linearize_numeric(self, y, t=t, r=r)
 
 
-def build_numeric_model(eom, constants, specified, backend="numpy"):
-    """Generate and compile the numerical functions of ``eom``."""
+def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
+    """Generate and compile the numerical functions of ``eom``.
+
+    ``cse`` (default: on for ``"c"``, whose build is cached, off for
+    ``"numpy"``, so that models are quick to create) eliminates common
+    subexpressions of the generated code jointly.
+    """
     if backend not in BACKENDS:
         raise ModelError(f"unknown backend {backend!r}; available: "
                          f"{', '.join(repr(b) for b in BACKENDS)}")
@@ -612,14 +617,16 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
                           "; using the numpy backend instead", RuntimeWarning, stacklevel=3)
             backend = "numpy"
         else:
-            c_key = fingerprint(prog, functions, sizes)
+            cse = True if cse is None else cse
+            c_key = fingerprint(prog, functions, sizes, cse)
             # generated only when the module is not in the cache
-            c_module = load_module(c_key, lambda: generate_c(prog, functions, sizes))
+            c_module = load_module(c_key, lambda: generate_c(prog, functions, sizes, cse=cse))
     if backend == "numpy":
-        sources = {name: generate_python(prog, name, a, outs)
+        cse = False if cse is None else cse
+        sources = {name: generate_python(prog, name, a, outs, cse=cse)
                    for name, (a, outs) in functions.items()}
         sources["dynamics_batch"] = generate_python(prog, "dynamics_batch", args, dynamics,
-                                                    vectorized=True)
+                                                    vectorized=True, cse=cse)
 
     data = {
         "backend": backend,
@@ -641,5 +648,5 @@ def build_numeric_model(eom, constants, specified, backend="numpy"):
     # (and the function specifications, to regenerate C source when pickling)
     model._eom = eom
     model._substitutions = substitutions
-    model._functions, model._sizes = functions, sizes
+    model._functions, model._sizes, model._cse = functions, sizes, cse
     return model
