@@ -171,3 +171,20 @@ def test_latex_output():
     assert eom._repr_latex_().startswith("$\\displaystyle")
     compact = kd.models.build("chain3d", n=4).derive().to_latex()
     assert "z_{0}" in compact and r"\dot{q}" in compact
+
+
+def test_with_constants_and_batch_after_pickling(cart):
+    d, eom = cart
+    model = d.numeric(eom)
+    y = d.initial(model) + 0.1
+    moon = model.with_constants({"g": 1.62})
+    assert moon.constants["g"] == 1.62 and model.constants["g"] == 9.81
+    direct = d.numeric(eom, constants={"g": 1.62})
+    np.testing.assert_allclose(moon.rhs(0.0, y), direct.rhs(0.0, y), rtol=1e-14)
+    with pytest.raises(KeyError, match="gravity"):
+        model.with_constants({"gravity": 1.0})
+    with pytest.raises(ValueError, match="expected"):
+        model.with_constants([1.0])
+    Y = np.array([y, y + 0.05])
+    clone = pickle.loads(pickle.dumps(model))  # before any batch call: no batch source
+    np.testing.assert_allclose(clone.rhs_batch(0.0, Y), model.rhs_batch(0.0, Y), rtol=1e-13)

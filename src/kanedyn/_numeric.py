@@ -364,11 +364,16 @@ class NumericModel:
         p = self._p if P is None else np.asarray(P, dtype=float).T
         if P is not None and p.shape != (len(self._p), k):
             raise ValueError(f"P must have shape (k, {len(self._p)})")
+        batch = self._batch_function()
+        if batch is None:  # unpickled without its equations: one state at a time
+            ts = np.broadcast_to(t, (k,))
+            models = [self] if P is None else [self.with_constants(row) for row in P]
+            return np.array([models[i % len(models)].rhs(ts[i], Y[i]) for i in range(k)])
         r = ()
         if self._inputs:
             ts = np.broadcast_to(t, (k,))
             r = np.array([self._input_values(ts[i], Y[i]) for i in range(k)]).T
-        qd, mass, force, vel_B, acc_K, acc_f = self._fn["dynamics_batch"](t, Y.T, p, r)
+        qd, mass, force, vel_B, acc_K, acc_f = batch(t, Y.T, p, r)
         mass = np.moveaxis(mass, -1, 0)
         force = force.T
         m = self.n_u_dep
@@ -382,6 +387,51 @@ class NumericModel:
                                     -acc_f.T], axis=1)
         ud = _batched_solve(mass, force[..., None])[..., 0]
         return np.concatenate([qd.T, ud], axis=1)
+
+    def _batch_function(self):
+        """The vectorized dynamics, generated (with CSE) on first use."""
+        fn = self._fn.get("dynamics_batch")
+        if fn is not None:
+            return fn
+        sources = self._data["sources"]
+        if "dynamics_batch" not in sources:
+            eom = getattr(self, "_eom", None)
+            if eom is None:
+                return None
+            args, outputs = self._functions["dynamics"]
+            sources["dynamics_batch"] = generate_python(
+                eom._program, "dynamics_batch", args, outputs, vectorized=True, cse=True)
+        fn = self._fn["dynamics_batch"] = compile_python(sources["dynamics_batch"],
+                                                         "dynamics_batch")
+        return fn
+
+    def with_constants(self, values):
+        """A copy of this model with other constants.
+
+        Parameters
+        ----------
+        values : sequence of float or dict
+            In the order of :attr:`constants`, or ``{name: value}`` for some.
+        """
+        current = dict(self.constants)
+        if isinstance(values, dict):
+            unknown = set(values) - set(current)
+            if unknown:
+                raise KeyError(f"{sorted(unknown)} are not constants of this model; its "
+                               f"constants are {', '.join(current)}")
+            current.update({k: float(v) for k, v in values.items()})
+        else:
+            values = [float(v) for v in values]
+            if len(values) != len(current):
+                raise ValueError(f"expected {len(current)} constants "
+                                 f"({', '.join(current)}), got {len(values)}")
+            current = dict(zip(current, values))
+        data = dict(self._data, p=list(current.values()), constants=current)
+        clone = NumericModel(data)
+        for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
+            if hasattr(self, attr):
+                setattr(clone, attr, getattr(self, attr))
+        return clone
 
     def mass_matrix(self, t, y):
         """SymPy-convention ``mass_matrix`` (o x o) at a state."""
@@ -480,6 +530,11 @@ class NumericModel:
     def total_energy(self, t, y):
         ke, pe = self._fn["energy"](t, y, self._p, self._r(t, y))
         return float(ke + pe)
+
+    def energies(self, t, y):
+        """``(kinetic, potential)`` energy; potential ``nan`` when undeclared."""
+        ke, pe = self._fn["energy"](t, y, self._p, self._r(t, y))
+        return float(ke), float(pe)
 
     # -------------------------------------------------- constraint forces
     def auxiliary(self, t, y):
@@ -625,8 +680,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         cse = False if cse is None else cse
         sources = {name: generate_python(prog, name, a, outs, cse=cse)
                    for name, (a, outs) in functions.items()}
-        sources["dynamics_batch"] = generate_python(prog, "dynamics_batch", args, dynamics,
-                                                    vectorized=True, cse=cse)
+        # the vectorized dynamics for rhs_batch are generated on first use
 
     data = {
         "backend": backend,

@@ -485,10 +485,15 @@ def fast_eval(expr, value_of, memo):
     """Evaluate a SymPy expression tree with complex floats.
 
     ``value_of(node)`` gives the value of symbols and other leaves (applied
-    undefined functions, derivatives).  Shared subtrees are evaluated once
-    (``memo``).  Unknown node types fall back to SymPy's ``evalf``.
+    undefined functions, derivatives).  Equal subtrees are evaluated once:
+    ``memo`` is keyed by SymPy's structural hash, so that equal subtrees that
+    are distinct objects (common in SymPy's expanded expressions) are found
+    without deep comparisons.  Unknown node types fall back to ``evalf``.
+    The values serve randomized identity tests, for which a hash collision
+    (probability ~2**-64 per lookup) is immaterial.
     """
-    found = memo.get(expr)
+    key = hash(expr)
+    found = memo.get(key)
     if found is not None:
         return found
     if expr.is_Symbol:
@@ -519,7 +524,7 @@ def fast_eval(expr, value_of, memo):
         value = complex(expr.xreplace({k: sm.Float(v.real) + sm.I * sm.Float(v.imag)
                                        for k, v in subs.items()}).evalf())
     value = complex(value)
-    memo[expr] = value
+    memo[key] = value
     return value
 
 

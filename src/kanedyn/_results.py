@@ -57,6 +57,9 @@ class SimulationResult:
         kinetic energy of a model without loads; else ``None``.
     constraint_forces : dict
         ``{name: ndarray (N,)}`` when requested.
+
+    The histories (residuals, energies, constraint forces) are computed from
+    the states on first access.
     projections : int
         Number of constraint-drift projections.
     initial_state : ndarray
@@ -78,41 +81,81 @@ class SimulationResult:
             d["sol"] = dense_segments
         else:
             d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
-        n_c = model.n_q_dep + model.n_u_dep
-        res = np.zeros((n_c, t.size))
-        ke = np.full(t.size, np.nan)
-        pe = np.full(t.size, np.nan)
-        for k in range(t.size):
-            yk = y[:, k]
-            if not np.all(np.isfinite(yk)):
-                continue
-            if n_c:
-                res[:, k] = model.constraint_residuals(t[k], yk)
-            ke[k] = model.kinetic_energy(t[k], yk)
-            if model.has_potential:
-                pe[k] = model.potential_energy(t[k], yk)
-        d["constraint_residuals"] = res
-        d["kinetic_energy"] = ke
-        if model.has_potential:
-            d["potential_energy"] = pe
-            d["energy"] = ke + pe
-        else:
-            d["potential_energy"] = None
-            d["energy"] = ke.copy() if not model.has_loads else None
-        forces = {}
-        if constraint_forces:
-            names = model.aux_names
-            values = np.full((len(names), t.size), np.nan)
-            for k in range(t.size):
-                if np.all(np.isfinite(y[:, k])):
-                    out = model.auxiliary(t[k], y[:, k])
-                    values[:, k] = [out[nm] for nm in names]
-            forces = dict(zip(names, values))
-        d["constraint_forces"] = forces
+        d["_want_forces"] = constraint_forces
         return self
+
+    # ------------------------------------------- histories, computed on demand
+    def _lazy(self, name, compute):
+        if name not in self.__dict__:
+            self.__dict__[name] = compute()
+        return self.__dict__[name]
+
+    def _finite_columns(self):
+        return np.flatnonzero(np.all(np.isfinite(self.y), axis=0))
+
+    def _energies(self):
+        """(kinetic, potential) histories, one evaluation per output time."""
+        model = self.model
+        ke = np.full(self.t.size, np.nan)
+        pe = np.full(self.t.size, np.nan)
+        for k in self._finite_columns():
+            ke[k], pe[k] = model.energies(self.t[k], self.y[:, k])
+        return ke, pe
+
+    @property
+    def constraint_residuals(self):
+        """Configuration then velocity constraint residuals, shape (n_c, N)."""
+        def compute():
+            model = self.model
+            out = np.zeros((model.n_q_dep + model.n_u_dep, self.t.size))
+            if out.shape[0]:
+                for k in self._finite_columns():
+                    out[:, k] = model.constraint_residuals(self.t[k], self.y[:, k])
+            return out
+        return self._lazy("_constraint_residuals", compute)
+
+    @property
+    def kinetic_energy(self):
+        """Kinetic energy history, shape (N,)."""
+        return self._lazy("_energy_pair", self._energies)[0]
+
+    @property
+    def potential_energy(self):
+        """Potential energy history, or ``None`` when the model declares none."""
+        if not self.model.has_potential:
+            return None
+        return self._lazy("_energy_pair", self._energies)[1]
+
+    @property
+    def energy(self):
+        """Total energy where the model defines it (see the class docstring)."""
+        if self.model.has_potential:
+            return self.kinetic_energy + self.potential_energy
+        return None if self.model.has_loads else self.kinetic_energy.copy()
+
+    @property
+    def constraint_forces(self):
+        """``{name: history}`` of the constraint forces, when requested."""
+        def compute():
+            if not self._want_forces:
+                return {}
+            model = self.model
+            names = model.aux_names
+            values = np.full((len(names), self.t.size), np.nan)
+            for k in self._finite_columns():
+                out = model.auxiliary(self.t[k], self.y[:, k])
+                values[:, k] = [out[nm] for nm in names]
+            return dict(zip(names, values))
+        return self._lazy("_constraint_forces", compute)
 
     def __setattr__(self, name, value):
         raise AttributeError("SimulationResult is immutable")
+
+    def __getstate__(self):
+        return self.__dict__
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
     def __repr__(self):
         return (f"<SimulationResult: {self.t.size} points, t={self.t[0] if self.t.size else 0:g}"
