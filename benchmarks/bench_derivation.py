@@ -181,13 +181,15 @@ def kanedyn_operation_counts(eom):
     Returns
     -------
     tuple of int
-        ``(mass_matrix, forcing, all)``; each counts the intermediates it
-        needs; ``all`` is everything the right-hand side evaluates (mass
-        matrix, forcing and, for constrained models, the constraint matrices),
-        with shared intermediates counted once.
+        ``(mass_matrix, forcing, all, all_cse)``; each counts the
+        intermediates it needs; ``all`` is everything the right-hand side
+        evaluates (mass matrix, forcing and, for constrained models, the
+        constraint matrices), with shared intermediates counted once;
+        ``all_cse`` the same after the joint common-subexpression elimination
+        of the C code generator (the number to set beside SymPy+CSE).
     """
     counts = eom.operation_counts()
-    return counts["mass_matrix"], counts["forcing"], counts["all"]
+    return counts["mass_matrix"], counts["forcing"], counts["all"], counts["all_cse"]
 
 
 # ------------------------------------------------------------------ SymPy
@@ -314,7 +316,8 @@ def benchmark_model(name, options, args, log):
 # ------------------------------------------------------------------ table
 COLUMNS = ("model", "n", "SymPy derive s", "kanedyn derive s", "speed-up",
            "kanedyn derive+codegen s", "SymPy lambdify s", "ops M/F SymPy",
-           "ops SymPy+CSE", "ops M/F (joint) kanedyn", "RHS µs SymPy lambdify+solve",
+           "ops SymPy+CSE", "ops M/F (joint) kanedyn", "ops kanedyn+CSE",
+           "RHS µs SymPy lambdify+solve",
            "RHS µs kanedyn numpy", "RHS speed-up", "RHS rel. diff")
 
 
@@ -334,7 +337,7 @@ def format_seconds(seconds):
 
 def row_cells(row):
     """The table cells of one row, as strings (column order of :data:`COLUMNS`)."""
-    m, f, joint = row["ops_kanedyn"]
+    m, f, joint, joint_cse = row["ops_kanedyn"]
     sm_m, sm_f, sm_cse = row["ops_sympy"]
     measured = row["rhs_sympy_us"] is not None
     if measured:
@@ -351,6 +354,7 @@ def row_cells(row):
             format_seconds(row["codegen_s"]), lambdify,
             f"{format_count(sm_m)}/{format_count(sm_f)}", format_count(sm_cse),
             f"{format_count(m)}/{format_count(f)} ({format_count(joint)})",
+            format_count(joint_cse),
             rhs_sympy, f"{row['rhs_kanedyn_us']:.0f}", rhs_ratio, rhs_diff]
 
 
@@ -393,6 +397,8 @@ Notes:
   global cache is cleared before every derivation.
 - ops: sympy.count_ops. SymPy: mass_matrix_full / forcing_full as explicit trees;
   SymPy+CSE: replacements + reduced expressions of one joint sympy.cse of both.
+  kanedyn+CSE: the joint count after the common-subexpression elimination the
+  C code generator applies (comparable with SymPy+CSE).
   kanedyn: compact form, M / F each with the intermediates it needs, (joint):
   everything the right-hand side evaluates, shared intermediates counted once;
   for constrained models this includes the constraint matrices from which the
