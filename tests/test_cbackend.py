@@ -169,9 +169,8 @@ def particle_with_force(force_of_q):
 def test_unsupported_piecewise_is_reported():
     """A Piecewise that does not cover every case has no C form."""
     eom, k = particle_with_force(lambda q, k: sm.Piecewise((-k * q, q > 0), (0, q < -1)))
-    with pytest.raises(CodegenError, match=r"q > 0.*numpy") as info:
+    with pytest.raises(CodegenError, match=r"q\(t\) > 0.*F_P.*numpy"):
         eom.numeric(constants={k: 2.0}, backend="c")
-    assert "intermediate" in str(info.value) or "output" in str(info.value)
     model = eom.numeric(constants={k: 2.0})  # where it is defined, numpy evaluates it
     np.testing.assert_allclose(model.rhs(0.0, [0.5, 0.0]), [0.0, -1.0])
     np.testing.assert_allclose(model.rhs(0.0, [-2.0, 0.0]), [0.0, 0.0])

@@ -92,19 +92,19 @@ class _CPrinter(C99CodePrinter):
         return f"kd_sign({self._print(expr.args[0])})"
 
 
-def _print_c(printer, expr, what):
+def _print_c(printer, expr, what, describe=str):
     try:
         return printer.doprint(sm.sympify(expr))
     except CodegenError:
         raise
     except Exception as exc:  # noqa: BLE001  (the printer raises several kinds)
         raise CodegenError(
-            f"the C backend cannot generate code for {expr} ({what}): {exc}; the "
-            "numpy backend (backend='numpy') can evaluate it") from None
+            f"the C backend cannot generate code for {describe(expr)} ({what}): {exc}; "
+            "the numpy backend (backend='numpy') can evaluate it") from None
 
 
 # ---------------------------------------------------------------- functions
-def _function_source(program, name, arguments, outputs, origin, cse):
+def _function_source(program, name, arguments, outputs, describe, cse):
     """C source of ``kd_eval_<name>`` and the number of work slots it needs."""
     base = {program.t: "t"}
     for arg, symbols in arguments.items():
@@ -141,7 +141,7 @@ def _function_source(program, name, arguments, outputs, origin, cse):
         for s in members:
             names[s] = f"z{index[s]}"
             code = _print_c(_CPrinter(names), definition[s],
-                            f"intermediate {s.name}{origin(s)}")
+                            f"in the intermediate {s.name}", describe)
             body.append(f"    const double z{index[s]} = {code};")
             if split and last_use.get(s, c) > c:
                 body.append(f"    w[{index[s]}] = z{index[s]};")
@@ -168,7 +168,7 @@ def _function_source(program, name, arguments, outputs, origin, cse):
     position = 0
     for k, (_, exprs) in enumerate(outputs):
         for j in range(len(exprs)):
-            code = _print_c(printer, flat[position], f"output {j} of {name}")
+            code = _print_c(printer, flat[position], f"output {j} of {name}", describe)
             position += 1
             lines.append(f"    o{k}[{j}] = {code};")
     lines.append("    (void)t; (void)y; (void)p; (void)r; (void)w;")
@@ -236,7 +236,7 @@ def fingerprint(program, functions, sizes, cse=True):
     return "\n".join(parts)
 
 
-def generate_c(program, functions, sizes, origin=None, cse=True):
+def generate_c(program, functions, sizes, describe=str, cse=True):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -247,15 +247,15 @@ def generate_c(program, functions, sizes, origin=None, cse=True):
         must contain ``"dynamics"`` with the six outputs of the right-hand side.
     sizes : dict
         ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r`` (inputs of the dynamics).
-    origin : callable, optional
-        ``origin(symbol)`` describes where an intermediate came from.
+    describe : callable, optional
+        ``describe(expr)``: text of an expression for error messages (in the
+        model's own symbols).
     cse : bool
         Eliminate common subexpressions jointly first (:meth:`Program.listing`).
     """
-    origin = origin or (lambda s: "")
     parts, work = [], 0
     for name, (arguments, outputs) in functions.items():
-        src, w = _function_source(program, name, arguments, outputs, origin, cse)
+        src, w = _function_source(program, name, arguments, outputs, describe, cse)
         parts.append(src)
         work = max(work, w)
     defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",

@@ -288,7 +288,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     loads = []
     for load in spec.loads:
         loc = load.location
-        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), "F")
+        kind = "T" if isinstance(loc, me.ReferenceFrame) else "F"
+        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), f"{kind}_{loc}")
         base = (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
                 else kin.velocity(loc))
         loads.append((loc, vec, partials(base)))

@@ -675,7 +675,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
             cse = True if cse is None else cse
             c_key = fingerprint(prog, functions, sizes, cse)
             # generated only when the module is not in the cache
-            c_module = load_module(c_key, lambda: generate_c(prog, functions, sizes, cse=cse))
+            c_module = load_module(c_key, lambda: generate_c(
+                prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
     if backend == "numpy":
         cse = False if cse is None else cse
         sources = {name: generate_python(prog, name, a, outs, cse=cse)
