@@ -8,6 +8,7 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
+from ._contact import Contact, Ellipsoid, ImplicitSurface, Plane, Sphere, Surface
 from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
                       MissingValueError, ModelError)
@@ -24,6 +25,12 @@ __all__ = [
     "formulate",
     "FORMULATIONS",
     "EquationsOfMotion",
+    "Contact",
+    "Surface",
+    "Plane",
+    "Sphere",
+    "Ellipsoid",
+    "ImplicitSurface",
     "NumericModel",
     "simulate",
     "SimulationResult",

@@ -48,12 +48,15 @@ class EquationsOfMotion:
         Name of the formulation that produced the equations (``"kane"``).
     bodies, loads : tuple
         The SymPy bodies and loads the equations were derived from.
+    contacts : tuple of Contact
+        Contacts (their forces are found at evaluation time, see
+        :meth:`NumericModel.contact_dynamics`).
     """
 
     _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
                "qdot", "kinematic_matrices", "mass", "active", "remainder",
                "vel_B", "vel_f", "acc_K", "acc_f", "config", "aux_K", "aux_f",
-               "kinetic", "potential", "body_terms", "method")
+               "kinetic", "potential", "body_terms", "contact_terms", "method")
 
     def __init__(self):
         raise TypeError("EquationsOfMotion is created by kanedyn.kane(...)")
@@ -68,7 +71,7 @@ class EquationsOfMotion:
             object.__setattr__(self, "_" + name, fields[name])
         spec = fields["spec"]
         for name in ("frame", "q_ind", "q_dep", "u_ind", "u_dep", "u_aux", "bodies",
-                     "loads"):
+                     "loads", "contacts"):
             object.__setattr__(self, name, getattr(spec, name))
         object.__setattr__(self, "method", fields["method"])
         return self
@@ -123,6 +126,10 @@ class EquationsOfMotion:
             out.extend(row)
         out.extend(self._acc_f)
         out.extend(self._config)
+        for c in self._contact_terms:
+            out.extend([c.gap, c.grad_norm, c.normal_rate, *c.normal, *c.velocity,
+                        *c.acceleration])
+            out.extend(e for row in c.jacobian for e in row)
         return out
 
     def _leaf_symbols(self, exprs):

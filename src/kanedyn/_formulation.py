@@ -81,6 +81,10 @@ def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
     bodies : sequence of RigidBody or Particle
     loads : sequence of Force, Torque or (Point | ReferenceFrame, Vector)
         (alias ``forcelist``).
+    contacts : sequence of Contact, optional
+        Points of bodies touching surfaces, with Coulomb friction: their
+        normal and friction forces are found with the accelerations at
+        evaluation time (see :func:`kanedyn.simulate`).
     potential_energy : expression, optional
         Used only to report total energy; defaults to the sum of the bodies'
         ``potential_energy`` attributes.

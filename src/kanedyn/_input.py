@@ -7,7 +7,7 @@ aliases) or a ``sympy.physics.mechanics.System``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -42,6 +42,7 @@ class ModelSpec:
     bodies: tuple
     loads: tuple  # of sympy.physics.mechanics Force / Torque
     potential_energy: sm.Expr | None
+    contacts: tuple = ()  # of kanedyn Contact
 
     @property
     def q(self):
@@ -76,6 +77,7 @@ def _check_unique(groups):
 def parse_model(*args, **kwargs):
     """Build a :class:`ModelSpec` from a ``System`` or KanesMethod keywords."""
     potential = kwargs.pop("potential_energy", None)
+    contacts = _check_contacts(kwargs.pop("contacts", None))
     if args and isinstance(args[0], me.System):
         if len(args) > 1:
             raise ModelError("kane(system) takes no further positional arguments")
@@ -83,7 +85,7 @@ def parse_model(*args, **kwargs):
             raise ModelError(
                 f"kane(system) takes the model from the System; do not also pass "
                 f"{sorted(kwargs)}")
-        return _from_system(args[0], potential)
+        return replace(_from_system(args[0], potential), contacts=contacts)
     if kwargs:
         leftover = set(kwargs) - set(_KEYWORDS) - set(_ALIASES)
         if leftover:
@@ -101,7 +103,20 @@ def parse_model(*args, **kwargs):
     if len(args) > 4:
         raise ModelError("kane() takes at most 4 positional arguments "
                          "(frame, q_ind, u_ind, kd_eqs); pass the rest as keywords")
-    return _build(potential=potential, **kwargs)
+    return replace(_build(potential=potential, **kwargs), contacts=contacts)
+
+
+def _check_contacts(contacts):
+    from ._contact import Contact
+    contacts = _as_tuple(contacts, "contacts")
+    for c in contacts:
+        if not isinstance(c, Contact):
+            raise ModelError(f"contacts must be kanedyn Contact objects, got {c!r}")
+    names = [c.name for c in contacts]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ModelError(f"contact names must be unique; repeated: {', '.join(duplicates)}")
+    return contacts
 
 
 def _from_system(system, potential):

@@ -39,6 +39,72 @@ from ._symbols import SymbolTable, name_of
 __all__ = ["derive_kane", "BodyTerms"]
 
 
+class ContactTerms:
+    """Kinematic quantities of one contact (inertial components, named).
+
+    Attributes
+    ----------
+    contact : Contact
+    gap : expression
+        The surface's gap function at the contact point (0 in contact).
+    grad_norm : expression
+        :math:`|\nabla g|` (``gap / grad_norm`` is the distance to first order).
+    normal : 3-tuple
+        Unit normal into the free side.
+    velocity : 3-tuple
+        Velocity of the point relative to the surface point it touches.
+    jacobian : list of 3-tuples
+        Partial velocities of ``velocity``, one per real speed.
+    acceleration : 3-tuple
+        Time derivative of ``velocity`` with u' = 0.
+    normal_rate : expression
+        Time derivative of ``normal . velocity`` with u' = 0.
+    """
+
+    __slots__ = ("contact", "gap", "grad_norm", "normal", "velocity", "jacobian",
+                 "acceleration", "normal_rate")
+
+    def __init__(self, **fields):
+        for name in self.__slots__:
+            setattr(self, name, fields[name])
+
+
+def _contact_terms(kin, contact, speeds, aux_zero):
+    """The :class:`ContactTerms` of one contact."""
+    from ._contact import SURFACE_COORDINATES
+
+    prog = kin.prog
+    surface = contact.surface
+    frame, origin = surface.frame, surface.origin
+    r = kin.position(contact.point, origin)
+    if r is None:
+        raise ModelError(
+            f"contact {contact.name}: the position of point {contact.point} relative to "
+            f"the surface origin {origin} is not defined; locate one from the other "
+            "(set_pos/locatenew), directly or through other points")
+    C = kin.dcm(frame)
+    local = [prog.let(sum(C[i, j] * r[i] for i in range(3)), f"rs_{j}") for j in range(3)]
+    where = f"surface {surface.name}"
+    coords = dict(zip(SURFACE_COORDINATES, local))
+    gap_expr = kin.internal(surface.gap, where)
+    gap = prog.let(gap_expr.xreplace(coords), f"gap_{contact.name}")
+    grad_local = [kin.internal(surface.gap.diff(x), where).xreplace(coords)
+                  for x in SURFACE_COORDINATES]
+    grad = [prog.let(sum(C[i, j] * grad_local[j] for j in range(3)), "grad") for i in range(3)]
+    grad_norm = prog.let(sm.sqrt(dot(grad, grad)), "gradnorm")
+    normal = tuple(prog.let(g / grad_norm, "n") for g in grad)
+    v_point = kin.velocity(contact.point)
+    v_surface = add(kin.velocity(origin), cross(kin.angular_velocity(frame), r))
+    rel = kin.let_vector(tuple(prog.subs(a - b, aux_zero) for a, b in zip(v_point, v_surface)),
+                         f"vrel_{contact.name}")
+    jacobian = [tuple(prog.diff(c, u) for c in rel) for u in speeds]
+    acceleration = kin.let_vector(kin.dt_vector(rel), "arel")
+    normal_rate = prog.let(kin.dt(dot(normal, rel)), "vn_dt")
+    return ContactTerms(contact=contact, gap=gap, grad_norm=grad_norm, normal=normal,
+                        velocity=rel, jacobian=jacobian, acceleration=acceleration,
+                        normal_rate=normal_rate)
+
+
 class BodyTerms:
     """Kinematic quantities of one body or particle (inertial components).
 
@@ -349,6 +415,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
                              "PE")
 
     # ------------------------------------------------------ auxiliary
+    contacts = tuple(_contact_terms(kin, c, table.u, aux_zero) for c in spec.contacts)
+
     aux_K = tuple(tuple(-mass_rows[o + a][s] for s in range(o)) for a in range(s_aux))
     aux_f = tuple(prog.let(fr[o + a] - nonmm[o + a], f"aux_{a}") for a in range(s_aux))
 
@@ -361,4 +429,4 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         active=tuple(fr[:o]), remainder=tuple(nonmm[:o]),
         vel_B=vel_B, vel_f=vel_f, acc_K=acc_K, acc_f=acc_f, config=config,
         aux_K=aux_K, aux_f=aux_f, kinetic=kinetic, potential=potential,
-        body_terms=tuple(body_terms), method="kane")
+        body_terms=tuple(body_terms), contact_terms=contacts, method="kane")

@@ -239,7 +239,7 @@ class NumericModel:
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
-                    "aux_names", "input_names", "has_potential", "has_loads"):
+                    "aux_names", "input_names", "has_potential", "has_loads", "contacts"):
             setattr(self, key, d[key])
 
     def __repr__(self):
@@ -563,11 +563,72 @@ class NumericModel:
         sol = np.linalg.solve(G, -base)
         return dict(zip(self.aux_names, sol))
 
+    # ------------------------------------------------------------ contacts
+    def contact_dynamics(self, t, y, modes, directions=None, stabilization=10.0):
+        """Accelerations and contact forces with the contacts in given modes.
+
+        Parameters
+        ----------
+        t : float
+        y : array_like
+        modes : sequence of {"separated", "slip", "stick"}
+            One per contact, in the order of ``eom.contacts``.
+        directions : sequence, optional
+            Slip directions for sliding contacts that have no slip velocity.
+        stabilization : float
+            Baumgarte frequency for the contact constraints, rad/s.
+
+        Returns
+        -------
+        ContactSolution
+            ``udot``, ``normal_force``, ``friction``, ``force``, ``dissipation``.
+        """
+        from ._contact_numeric import solve_modes
+        if not self.contacts:
+            raise ValueError("this model has no contacts")
+        if len(modes) != len(self.contacts):
+            raise ValueError(f"give one mode per contact ({len(self.contacts)})")
+        return solve_modes(self, t, self._check_y(y), modes, directions, stabilization)
+
     # --------------------------------------------------------- linearize
     def linearize(self, y, t=0.0, r=None):
         """Numerical linearization about a state; see :func:`kanedyn.linearize`."""
         from ._linearize import linearize_numeric
         return linearize_numeric(self, y, t=t, r=r)
+
+
+def _contact_outputs(terms, o, sub):
+    """Outputs of the generated ``contacts`` function (see ContactTerms)."""
+    if not terms:
+        return []
+    k = len(terms)
+    jac = [sub(t.jacobian[r][i]) for t in terms for i in range(3) for r in range(o)]
+    return [((k,), [sub(t.gap) for t in terms]),
+            ((k,), [sub(t.grad_norm) for t in terms]),
+            ((k, 3), [sub(c) for t in terms for c in t.normal]),
+            ((k, 3), [sub(c) for t in terms for c in t.velocity]),
+            ((3 * k, o), jac),
+            ((k, 3), [sub(c) for t in terms for c in t.acceleration]),
+            ((k,), [sub(t.normal_rate) for t in terms])]
+
+
+def _contact_coefficients(contacts, values):
+    """Numbers for each contact's friction and restitution coefficients."""
+    from ._contact import coefficient_value
+    out = []
+    for c in contacts:
+        entry = {"name": c.name, "kind": c.kind, "law": c.restitution_law}
+        for key, value in c.coefficients.items():
+            entry[key] = coefficient_value(value, values, f"contact {c.name}: {key}")
+        if entry["mu_k"] < 0 or entry["mu_s"] < 0 or entry["viscous"] < 0:
+            raise ModelError(f"contact {c.name}: friction coefficients must not be "
+                             f"negative (mu_k={entry['mu_k']}, mu_s={entry['mu_s']}, "
+                             f"viscous={entry['viscous']})")
+        if "restitution" in entry and not 0.0 <= entry["restitution"] <= 1.0:
+            raise ModelError(f"contact {c.name}: the restitution coefficient must be in "
+                             f"[0, 1], got {entry['restitution']}")
+        out.append(entry)
+    return out
 
 
 def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
@@ -606,6 +667,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
                           ((m,), [sub(e) for e in eom._vel_f])]
     potential = eom._potential if eom._potential is not None else sm.nan
     energy = [((), [sub(eom._kinetic)]), ((), [sub(potential)])]
+    contact_outputs = _contact_outputs(eom._contact_terms, o, sub)
     energy_leaves = set()
     for _, exprs in energy:
         for e in exprs:
@@ -615,7 +677,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
     if unknown_inputs:  # energy needs inputs the dynamics do not: report nan
         energy = [((), [sm.nan]), ((), [sm.nan])]
 
-    main = [e for _, exprs in dynamics + constraint_outputs + energy for e in exprs]
+    main = [e for _, exprs in dynamics + constraint_outputs + energy + contact_outputs
+            for e in exprs]
     leaves = set()
     for e in main:
         leaves |= prog.deps(e)
@@ -632,6 +695,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
                        if not table.is_dynamic(s) and s != table.t}
     candidates |= {s for s in aux_leaves if not table.is_dynamic(s) and s != table.t
                    and s not in table.udot}
+    for contact in eom.contacts:  # friction coefficients may be symbols: required
+        for value in contact.coefficients.values():
+            symbols = sm.sympify(value).free_symbols
+            candidates |= symbols
+            leaves |= symbols
     needed_consts = sorted((s for s in candidates if s in leaves), key=str)
     values = _resolve_constants(candidates, constants, needed_consts)
     const_syms = sorted(values, key=str)
@@ -641,6 +709,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
     args = {"y": y_syms, "p": const_syms, "r": r_syms}
     functions = {"dynamics": (args, dynamics), "constraints": (args, constraint_outputs),
                  "energy": (args, energy)}
+    if contact_outputs:
+        functions["contacts"] = (args, contact_outputs)
 
     aux_names = ()
     if eom.u_aux:
@@ -697,6 +767,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         "aux_names": aux_names,
         "has_potential": eom._potential is not None,
         "has_loads": bool(eom.loads),
+        "contacts": _contact_coefficients(eom.contacts, values),
     }
     model = NumericModel(data, module=c_module)
     # not pickled: the equations and exact input substitutions, for linearization

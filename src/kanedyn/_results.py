@@ -70,7 +70,8 @@ class SimulationResult:
 
     @classmethod
     def build(cls, model, t, y, status, message, t_events, y_events, dense_segments,
-              counters, projections, initial_state, constraint_forces, method):
+              counters, projections, initial_state, constraint_forces, method,
+              contacts=None):
         self = object.__new__(cls)
         d = self.__dict__
         d.update(model=model, t=t, y=y, status=status, message=message,
@@ -82,6 +83,7 @@ class SimulationResult:
         else:
             d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
         d["_want_forces"] = constraint_forces
+        d["_contacts"] = contacts
         return self
 
     # ------------------------------------------- histories, computed on demand
@@ -161,6 +163,61 @@ class SimulationResult:
         return (f"<SimulationResult: {self.t.size} points, t={self.t[0] if self.t.size else 0:g}"
                 f"..{self.t[-1] if self.t.size else 0:g}, success={self.success}, "
                 f"message={self.message!r}>")
+
+    # ------------------------------------------------------------ contacts
+    @property
+    def mode_history(self):
+        """Contact mode changes: ``ModeChange(t, contact, old, new, reason)``."""
+        return list(self._contacts["mode_history"]) if self._contacts else []
+
+    @property
+    def impacts(self):
+        """The impacts, in time order (:class:`kanedyn.Impact` records)."""
+        return list(self._contacts["impacts"]) if self._contacts else []
+
+    @property
+    def dissipated_work(self):
+        """Work of the friction forces on the relative motion (<= 0), J, shape (N,)."""
+        return self._contacts["dissipated_work"] if self._contacts else None
+
+    @property
+    def contact_forces(self):
+        """``{contact: {"normal": (N,), "friction": (N, 3), "mode": list}}``.
+
+        Normal force magnitude and friction force vector on each contact point
+        at the output times, in the contact mode in force there.
+        """
+        if not self._contacts:
+            return {}
+
+        def compute():
+            from ._contact_numeric import solve_modes
+            names = [c["name"] for c in self.model.contacts]
+            normal = np.full((len(names), self.t.size), np.nan)
+            friction = np.full((len(names), self.t.size, 3), np.nan)
+            modes = self._contacts["point_modes"]
+            dirs = self._contacts["point_directions"]
+            for k in self._finite_columns():
+                sol = solve_modes(self.model, self.t[k], self.y[:, k], modes[k], dirs[k],
+                                  self._contacts["stabilization"])
+                normal[:, k] = sol.normal_force
+                friction[:, k] = sol.friction
+            return {name: {"normal": normal[i], "friction": friction[i],
+                           "mode": [m[i] for m in modes]} for i, name in enumerate(names)}
+        return self._lazy("_contact_forces", compute)
+
+    def energy_balance(self):
+        """Energy error: change of total energy minus friction work and impact losses.
+
+        Zero (to the integration tolerance) for a model whose loads are
+        conservative and whose surfaces are fixed, shape (N,).
+        """
+        if self.energy is None:
+            raise ValueError("the model defines no total energy (give potential_energy)")
+        losses = np.zeros(self.t.size)
+        for impact in self.impacts:
+            losses[self.t > impact.t] += impact.energy_loss  # the state at t is before it
+        return self.energy - self.energy[0] - self.dissipated_work + losses
 
     # ------------------------------------------------------------- access
     def __getitem__(self, key):

@@ -116,6 +116,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     constrained = (model.n_q_dep + model.n_u_dep) > 0
     tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    if model.contacts:
+        return _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol, atol,
+                                       user_events, constraint_forces, progress, options)
     if _use_compiled(model, method, backend, options):
         progress.stage(f"integrating with the compiled {method} loop")
         return _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
@@ -270,3 +273,19 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
         dense_segments=dense_sol, counters=counters, projections=out["projections"],
         initial_state=y_init, constraint_forces=constraint_forces,
         method=f"{method} (compiled)")
+
+
+def _simulate_with_contacts(model, t_span, y_init, method, t_eval, rtol, atol, events,
+                            constraint_forces, progress, options):
+    from ._hybrid import simulate_contacts
+    progress.stage("integrating with contacts (modes, events, impacts)")
+    extra = {k: options.pop(k) for k in ("modes", "stabilization", "rest_speed")
+             if k in options}
+    t, y, status, message, extras = simulate_contacts(
+        model, t_span, y_init, method=method, t_eval=t_eval, rtol=rtol, atol=atol,
+        events=events, **extra, **options)
+    return SimulationResult.build(
+        model=model, t=t, y=y, status=status, message=message,
+        t_events=extras["t_events"], y_events=extras["y_events"], dense_segments=None,
+        counters=extras["counters"], projections=0, initial_state=y_init,
+        constraint_forces=constraint_forces, method=method, contacts=extras)

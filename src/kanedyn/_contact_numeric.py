@@ -1,0 +1,225 @@
+r"""Contact forces and accelerations for given contact modes (numerical).
+
+For contact :math:`c` with relative velocity :math:`v_c = J_c u + b_c`, unit
+normal :math:`n_c` and modes
+
+``separated``
+    no force;
+``slip``
+    normal force :math:`N_c n_c` and Coulomb friction
+    :math:`-\mu_k N_c \hat s_c` (:math:`\hat s_c` the slip direction), one
+    unknown :math:`N_c`, one equation :math:`\dot v_{n,c} = 0`;
+``stick``
+    an unknown force vector :math:`\lambda_c` and :math:`\dot v_c = 0`,
+
+Kane's equations with the contact constraints relaxed (the normal speed is
+not eliminated, so the ideal normal force appears with the partial velocities
+of the relative motion) read
+
+.. math::
+
+    M\dot u = f + \sum_c J_c^T \lambda_c,\qquad
+    \lambda_c = N_c (n_c - \mu_k \hat s_c)\ \text{(slip)},
+
+and are solved together with the contact equations (and the model's own
+velocity constraints) as one linear system in :math:`(\dot u, N, \lambda)`.
+Drift of the contact constraints is damped by Baumgarte stabilization
+:math:`\ddot d + 2\omega\dot d + \omega^2 d = 0` on the normal distance.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["SEPARATED", "SLIP", "STICK", "ContactPoint", "ContactSolution",
+           "contact_points", "solve_modes"]
+
+SEPARATED, SLIP, STICK = "separated", "slip", "stick"
+
+
+@dataclass(frozen=True)
+class ContactPoint:
+    """Kinematics of one contact at one instant (inertial components)."""
+
+    gap: float
+    grad_norm: float
+    normal: np.ndarray  # (3,)
+    velocity: np.ndarray  # (3,) relative velocity
+    jacobian: np.ndarray  # (3, o)
+    acceleration: np.ndarray  # (3,) d/dt velocity with u' = 0
+    normal_rate: float  # d/dt (n . velocity) with u' = 0
+
+    @property
+    def distance(self):
+        """Signed distance to the surface, to first order (positive: free)."""
+        return self.gap / self.grad_norm
+
+    @property
+    def normal_speed(self):
+        return float(self.normal @ self.velocity)
+
+    @property
+    def slip_velocity(self):
+        return self.velocity - self.normal_speed * self.normal
+
+
+@dataclass(frozen=True)
+class ContactSolution:
+    """Accelerations and contact forces for one set of modes.
+
+    Attributes
+    ----------
+    udot : ndarray, shape (n_u,)
+    normal_force : ndarray, shape (k,)
+        Normal force magnitude per contact (0 when separated), N.
+    friction : ndarray, shape (k, 3)
+        Friction force on the contact point, N.
+    points : list of ContactPoint
+    dissipation : float
+        Power of the friction forces on the relative motion (<= 0), W.
+    """
+
+    udot: np.ndarray
+    normal_force: np.ndarray
+    friction: np.ndarray
+    points: list
+    dissipation: float
+
+    @property
+    def force(self):
+        """Total contact force per contact (normal + friction), shape (k, 3)."""
+        normals = np.array([p.normal for p in self.points]).reshape(-1, 3)
+        return self.normal_force[:, None] * normals + self.friction
+
+
+def contact_points(model, t, y):
+    """The :class:`ContactPoint` of every contact of ``model`` at ``(t, y)``."""
+    gap, grad, normal, vel, jac, acc, rate = model._fn["contacts"](
+        t, y, model._p, model._r(t, y))
+    o = model.n_u
+    return [ContactPoint(gap=float(gap[c]), grad_norm=float(grad[c]), normal=normal[c],
+                         velocity=vel[c], jacobian=jac[3 * c:3 * c + 3].reshape(3, o),
+                         acceleration=acc[c], normal_rate=float(rate[c]))
+            for c in range(len(gap))]
+
+
+def slip_direction(point, fallback=None, tiny=1e-12):
+    """Unit slip direction; ``fallback`` when the point is not sliding."""
+    vt = point.slip_velocity
+    speed = np.linalg.norm(vt)
+    if speed > tiny * max(1.0, np.linalg.norm(point.velocity)):
+        return vt / speed
+    if fallback is None:
+        return np.zeros(3)
+    s = np.asarray(fallback, dtype=float)
+    s = s - (s @ point.normal) * point.normal
+    norm = np.linalg.norm(s)
+    return s / norm if norm > 0 else np.zeros(3)
+
+
+def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
+    """Accelerations and contact forces for given modes.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float
+    y : array_like
+    modes : sequence of {"separated", "slip", "stick"}
+        One per contact (``model.contacts``).
+    directions : sequence of array_like or None, optional
+        Slip directions to use where a sliding contact has no slip velocity
+        (at the onset of sliding).
+    stabilization : float
+        Baumgarte frequency :math:`\\omega` (critically damped), rad/s.
+
+    Returns
+    -------
+    ContactSolution
+
+    Raises
+    ------
+    numpy.linalg.LinAlgError
+        When the system is singular (e.g. redundant sticking contacts).
+    """
+    y = np.asarray(y, dtype=float)
+    o, m = model.n_u, model.n_u_dep
+    p = o - m
+    qd, mass, force, vel_B, acc_K, acc_f = model._dynamics(t, y)
+    points = contact_points(model, t, y)
+    coefficients = model.contacts
+    directions = directions or [None] * len(points)
+    force = force.copy()
+    columns, rows, rhs, layout = [], [], [], []
+    w = stabilization
+    for c, (point, mode) in enumerate(zip(points, modes)):
+        if mode == SEPARATED:
+            layout.append((mode, 0))
+            continue
+        J = point.jacobian
+        n = point.normal
+        coef = coefficients[c]
+        vt = point.slip_velocity
+        if coef["viscous"]:
+            force += J.T @ (-coef["viscous"] * vt)
+        correction = 2 * w * point.normal_speed + w * w * point.distance
+        if mode == SLIP:
+            s = slip_direction(point, directions[c])
+            columns.append(J.T @ (n - coef["mu_k"] * s))
+            rows.append(n @ J)
+            rhs.append(-(point.normal_rate + correction))
+            layout.append((mode, 1, s))
+        elif mode == STICK:
+            # constrain (and transmit force along) the directions the point can move in
+            U, sv, _ = np.linalg.svd(J, full_matrices=False)
+            Q = U[:, sv > 1e-12 * max(sv[0], 1e-300)] if sv.size else U[:, :0]
+            columns.extend((J.T @ Q).T)
+            rows.extend(Q.T @ J)
+            rhs.extend(-(Q.T @ (point.acceleration + correction * n)))
+            layout.append((mode, Q.shape[1], Q))
+        else:
+            raise ValueError(f"unknown contact mode {mode!r} for contact "
+                             f"{coefficients[c]['name']}")
+    k = len(rows)
+    G = np.array(columns).T.reshape(o, k)
+    if m:
+        X = np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
+        R = np.hstack([np.eye(p), -X.T])
+    else:
+        R = np.eye(o)
+    A = np.zeros((o + k, o + k))
+    b = np.zeros(o + k)
+    A[:p, :o] = R @ mass
+    A[:p, o:] = -(R @ G)
+    b[:p] = R @ force
+    if m:
+        A[p:o, :o] = acc_K
+        b[p:o] = -acc_f
+    if k:
+        A[o:, :o] = np.array(rows).reshape(k, o)
+        b[o:] = rhs
+    sol = np.linalg.solve(A, b)
+    udot, lam = sol[:o], sol[o:]
+    normal_force = np.zeros(len(points))
+    friction = np.zeros((len(points), 3))
+    dissipation = 0.0
+    i = 0
+    for c, (point, entry) in enumerate(zip(points, layout)):
+        mode, size = entry[0], entry[1]
+        coef = coefficients[c]
+        vt = point.slip_velocity
+        if mode == SLIP:
+            N = lam[i]
+            normal_force[c] = N
+            friction[c] = -coef["mu_k"] * N * entry[2] - coef["viscous"] * vt
+        elif mode == STICK:
+            total = entry[2] @ lam[i:i + size]
+            N = float(total @ point.normal)
+            normal_force[c] = N
+            friction[c] = total - N * point.normal - coef["viscous"] * vt
+        dissipation += float(friction[c] @ point.velocity)
+        i += size
+    return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
+                           points=points, dissipation=dissipation)

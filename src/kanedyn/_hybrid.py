@@ -1,0 +1,357 @@
+r"""Simulation of models with contacts: modes, events and impacts.
+
+Each contact is ``separated``, sliding (``slip``) or sticking (``stick``).
+Between events the equations for the current modes are integrated with
+``solve_ivp`` (see :func:`kanedyn._contact_numeric.solve_modes`), together
+with the work of the friction forces (a quadrature, for energy balances).
+Terminal events end each segment:
+
+* a separated contact's gap closes: an impact if it approaches, after which
+  it bounces or stays in contact;
+* a unilateral contact's normal force falls to zero: it separates;
+* a sliding contact's slip velocity stops: it sticks if the static friction
+  can hold it, else it slides on in the direction the forces drive it;
+* a sticking contact's friction reaches its limit :math:`\mu_s N`: it slides.
+
+After every event the modes are made consistent (forces within their
+limits) before integration resumes; every change is recorded.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+from ._contact_numeric import SEPARATED, SLIP, STICK, contact_points, solve_modes
+from ._impact import resolve_impact
+
+__all__ = ["simulate_contacts", "ModeChange"]
+
+
+class ModeChange(tuple):
+    """``(t, contact, old mode, new mode, reason)``."""
+
+    __slots__ = ()
+
+    def __new__(cls, t, contact, old, new, reason):
+        return super().__new__(cls, (float(t), contact, old, new, reason))
+
+    t = property(lambda self: self[0])
+    contact = property(lambda self: self[1])
+    old = property(lambda self: self[2])
+    new = property(lambda self: self[3])
+    reason = property(lambda self: self[4])
+
+
+class _Solver:
+    """solve_modes with a one-entry cache (rhs and events share evaluations)."""
+
+    def __init__(self, model, stabilization):
+        self.model = model
+        self.stabilization = stabilization
+        self.key = None
+        self.value = None
+
+    def __call__(self, t, y, modes, directions):
+        key = (t, y.tobytes(), tuple(modes))
+        if key != self.key:
+            self.value = solve_modes(self.model, t, y, modes, directions, self.stabilization)
+            self.key = key
+        return self.value
+
+
+def _in_contact(mode):
+    return mode != SEPARATED
+
+
+def _touching_mode(coef, point, tol):
+    """Sliding or sticking for a contact that touches (frictionless ones slide)."""
+    if coef["mu_s"] == 0 or np.linalg.norm(point.slip_velocity) > tol["slip"]:
+        return SLIP
+    return STICK
+
+
+def settle(model, solver, t, y, modes, directions, tol, reasons):
+    """Modes consistent with the state: forces within limits, gaps open.
+
+    Returns new ``(modes, directions)``; ``reasons`` collects
+    ``(contact index, old, new, reason)``.
+    """
+    modes, directions = list(modes), list(directions)
+    points = contact_points(model, t, y)
+    for c, point in enumerate(points):  # kinematic state
+        coef = model.contacts[c]
+        touching = point.distance <= tol["distance"]
+        leaving = point.normal_speed > tol["speed"]
+        if modes[c] == SEPARATED and touching and not leaving:
+            new = _touching_mode(coef, point, tol)
+            reasons.append((c, modes[c], new, "touches the surface"))
+            modes[c] = new
+        elif _in_contact(modes[c]):
+            if coef["kind"] == "unilateral" and leaving:
+                reasons.append((c, modes[c], SEPARATED, "moves away from the surface"))
+                modes[c] = SEPARATED
+            elif modes[c] == STICK and _touching_mode(coef, point, tol) == SLIP:
+                reasons.append((c, STICK, SLIP, "slips"))
+                modes[c] = SLIP
+    for _ in range(4 * len(modes) + 4):  # forces within their limits
+        solution = solver(t, y, modes, directions)
+        changed = False
+        for c, mode in enumerate(modes):
+            coef = model.contacts[c]
+            N = solution.normal_force[c]
+            if mode == SEPARATED:
+                continue
+            if coef["kind"] == "unilateral" and N < -tol["force"]:
+                reasons.append((c, mode, SEPARATED, "the normal force would pull"))
+                modes[c] = SEPARATED
+                changed = True
+                break
+            if mode == STICK:
+                ft = solution.friction[c] + coef["viscous"] * solution.points[c].slip_velocity
+                limit = coef["mu_s"] * abs(N)
+                if np.linalg.norm(ft) > limit + tol["force"]:
+                    modes[c] = SLIP
+                    directions[c] = -ft / np.linalg.norm(ft)
+                    reasons.append((c, STICK, SLIP, "static friction cannot hold it"))
+                    changed = True
+                    break
+        if not changed:
+            return modes, directions
+    raise RuntimeError("the contact modes do not settle (chattering)")
+
+
+def _events(model, solver, modes, directions, references, n_states):
+    """Terminal event functions for the current modes: (function, contact, kind)."""
+    events = []
+    for c, mode in enumerate(modes):
+        coef = model.contacts[c]
+        if mode == SEPARATED:
+            def gap(t, z, c=c):
+                return contact_points(model, t, z[:n_states])[c].distance
+            events.append((gap, c, "gap", -1))
+            continue
+        if coef["kind"] == "unilateral":
+            def normal(t, z, c=c):
+                return solver(t, z[:n_states], modes, directions).normal_force[c]
+            events.append((normal, c, "lift-off", -1))
+        if mode == SLIP and references[c] is not None and coef["mu_s"] > 0:
+            ref = references[c]  # (no event while there is no slip to stop)
+
+            def stop(t, z, c=c, ref=ref):
+                return solver(t, z[:n_states], modes, directions).points[c].slip_velocity @ ref
+            events.append((stop, c, "slip stops", -1))
+        elif mode == STICK:
+            def margin(t, z, c=c):
+                sol = solver(t, z[:n_states], modes, directions)
+                ft = sol.friction[c] + coef["viscous"] * sol.points[c].slip_velocity
+                return coef["mu_s"] * abs(sol.normal_force[c]) - np.linalg.norm(ft)
+            events.append((margin, c, "friction limit", -1))
+    out = []
+    for fn, c, kind, direction in events:
+        fn.terminal = True
+        fn.direction = direction
+        out.append((fn, c, kind))
+    return out
+
+
+def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8,
+                      atol=1e-8, events=None, modes=None, stabilization=10.0,
+                      max_segments=100000, rest_speed=None, progress=None, **options):
+    """Integrate a model with contacts (see the module docstring).
+
+    Returns ``(t, y, status, message, extras)``: output times and states
+    (``y`` shape (n_states, N)), the solve_ivp-style status and message, and
+    a dict with the mode history, impacts, per-point modes and slip
+    directions, dissipated work, event records and counters.
+    """
+    t0, t1 = (float(v) for v in t_span)
+    n = model.n_states
+    k = len(model.contacts)
+    solver = _Solver(model, stabilization)
+    scale = max(1.0, float(np.max(np.abs(y0))))
+    tol = {"distance": max(100 * atol, 1e-10), "speed": max(100 * atol, 1e-10),
+           "slip": max(100 * atol, 1e-10), "force": 1e-9}
+    rest = rest_speed if rest_speed is not None else max(1e3 * atol, 1e-6) * scale
+    names = [c["name"] for c in model.contacts]
+    user_events = [] if events is None else (
+        list(events) if isinstance(events, (list, tuple)) else [events])
+
+    y = np.array(y0, dtype=float)
+    directions = [None] * k
+    history = []
+    impacts = []
+    reasons = []
+    if modes is None:
+        modes = [SEPARATED] * k
+    modes = list(modes)
+    _check_initial(model, t0, y, modes, tol)
+    start = list(modes)
+    y, modes, directions = _resolve(model, solver, t0, y, modes, directions, tol, rest,
+                                    reasons, impacts)
+    history.extend(_changes(t0, names, start, modes, reasons))
+
+    ts, ys, point_modes, point_dirs, work = [], [], [], [], []
+    t_events = [[] for _ in user_events]
+    y_events = [[] for _ in user_events]
+    counters = {"nfev": 0, "njev": 0, "nlu": 0}
+    status, message = 0, "the integration reached the end of the interval"
+    t, dissipated = t0, 0.0
+    first = True
+    for _ in range(max_segments):
+        references = []
+        points = contact_points(model, t, y)
+        for c in range(k):
+            vt = points[c].slip_velocity
+            speed = np.linalg.norm(vt)
+            if modes[c] == SLIP and speed > tol["slip"]:
+                references.append(vt / speed)
+            elif modes[c] == SLIP and directions[c] is not None:
+                references.append(np.asarray(directions[c], dtype=float))  # slip starting
+            else:
+                references.append(None)
+        mode_events = _events(model, solver, modes, directions, references, n)
+        frozen_modes, frozen_dirs = list(modes), list(directions)
+
+        def rhs(tt, z):
+            sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
+            qd = model._dynamics(tt, z[:n])[0]
+            return np.concatenate([qd, sol.udot, [sol.dissipation]])
+
+        wrapped = [(lambda tt, z, f=f: f(tt, z[:n])) for f in user_events]
+        for w, f in zip(wrapped, user_events):
+            w.terminal = getattr(f, "terminal", False)
+            w.direction = getattr(f, "direction", 0)
+        all_events = [e for e, _, _ in mode_events] + wrapped
+        seg_eval = None
+        if t_eval is not None:
+            keep = (t_eval >= t) if first else (t_eval > t)
+            seg_eval = t_eval[keep & (t_eval <= t1)]
+        z0 = np.concatenate([y, [dissipated]])
+        try:
+            sol = solve_ivp(rhs, (t, t1), z0, method=method, t_eval=seg_eval,
+                            events=all_events or None, rtol=rtol, atol=atol, **options)
+        except np.linalg.LinAlgError as exc:
+            status, message = -1, f"singular contact equations at t={t:.6g} ({exc})"
+            break
+        for key in counters:
+            counters[key] += getattr(sol, key, 0)
+        seg_t, seg_z = sol.t, sol.y
+        if not first and t_eval is None and seg_t.size and seg_t[0] == t:
+            seg_t, seg_z = seg_t[1:], seg_z[:, 1:]
+        ts.append(seg_t)
+        ys.append(seg_z[:n])
+        work.append(seg_z[n])
+        point_modes.extend([tuple(frozen_modes)] * seg_t.size)
+        point_dirs.extend([tuple(frozen_dirs)] * seg_t.size)
+        n_mode = len(mode_events)
+        for i in range(len(user_events)):
+            if sol.t_events is not None and len(sol.t_events[n_mode + i]):
+                t_events[i].extend(sol.t_events[n_mode + i])
+                y_events[i].extend(np.asarray(sol.y_events[n_mode + i])[:, :n])
+        first = False
+        if sol.status == -1:
+            status, message = -1, sol.message
+            break
+        if sol.status == 0:
+            break
+        # a terminal event
+        t = float(sol.t[-1])
+        z = sol.y[:, -1]
+        y, dissipated = z[:n].copy(), float(z[n])
+        fired_user = [i for i in range(len(user_events))
+                      if getattr(user_events[i], "terminal", False)
+                      and len(sol.t_events[n_mode + i]) and sol.t_events[n_mode + i][-1] == t]
+        if fired_user:
+            status, message = 1, "a termination event occurred"
+            break
+        fired = [(c, kind) for i, (_, c, kind) in enumerate(mode_events)
+                 if len(sol.t_events[i]) and sol.t_events[i][-1] == t]
+        reasons = []
+        new_modes = list(modes)
+        for c, kind in fired:
+            if kind == "gap":
+                new_modes[c] = STICK  # touching; settled below (impact if approaching)
+                reasons.append((c, SEPARATED, STICK, "the gap closes"))
+            elif kind == "lift-off":
+                new_modes[c] = SEPARATED
+                reasons.append((c, modes[c], SEPARATED, "the normal force vanishes"))
+            elif kind == "slip stops":
+                point = contact_points(model, t, y)[c]
+                if np.linalg.norm(point.slip_velocity) <= tol["slip"] * 1e3:
+                    new_modes[c] = STICK
+                    reasons.append((c, SLIP, STICK, "the slip stops"))
+            elif kind == "friction limit":
+                sol_c = solver(t, y, modes, directions)
+                ft = sol_c.friction[c]
+                new_modes[c] = SLIP
+                directions[c] = -ft / max(np.linalg.norm(ft), 1e-300)
+                reasons.append((c, STICK, SLIP, "the friction reaches mu_s N"))
+        y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions, tol,
+                                            rest, reasons, impacts)
+        history.extend(_changes(t, names, modes, new_modes, reasons))
+        modes = new_modes
+        if t >= t1:
+            break
+    else:
+        status, message = -1, f"more than {max_segments} mode changes (chattering?)"
+    t_out = np.concatenate(ts) if ts else np.zeros(0)
+    y_out = np.concatenate(ys, axis=1) if ys else np.zeros((n, 0))
+    extras = {"mode_history": history, "impacts": impacts, "point_modes": point_modes,
+              "point_directions": point_dirs, "modes": tuple(modes),
+              "dissipated_work": np.concatenate(work) if work else np.zeros(0),
+              "t_events": [np.asarray(v) for v in t_events],
+              "y_events": [np.asarray(v).reshape(-1, n) for v in y_events],
+              "counters": counters, "stabilization": stabilization}
+    return t_out, y_out, status, message, extras
+
+
+def _changes(t, names, before, after, reasons):
+    """One ModeChange per contact whose mode changed, with all its reasons."""
+    out = []
+    for c, (a, b) in enumerate(zip(before, after)):
+        if a != b:
+            why = "; ".join(dict.fromkeys(r for i, _, _, r in reasons if i == c))
+            out.append(ModeChange(t, names[c], a, b, why))
+    return out
+
+
+def _check_initial(model, t, y, modes, tol):
+    """Bad initial states of contacts are errors that say what is wrong."""
+    from ._errors import ModelError
+    for c, point in enumerate(contact_points(model, t, y)):
+        coef = model.contacts[c]
+        if not point.grad_norm > 0:
+            raise ModelError(f"contact {coef['name']}: the surface normal vanishes at the "
+                             "contact point (the gap function has a zero gradient there)")
+        d = point.distance
+        if coef["kind"] == "bilateral" and abs(d) > tol["distance"]:
+            raise ModelError(f"contact {coef['name']}: the point is not on its surface at "
+                             f"the initial state: {d:.3g} m {'off' if d > 0 else 'inside'}")
+        if d < -tol["distance"]:
+            raise ModelError(f"contact {coef['name']}: the point starts {-d:.3g} m inside "
+                             "its surface")
+
+
+def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts):
+    """Impacts of approaching contacts, then consistent modes."""
+    points = contact_points(model, t, y)
+    touching = [c for c, p in enumerate(points) if p.distance <= tol["distance"]]
+    hitting = [c for c in touching if points[c].normal_speed < -tol["speed"]]
+    if hitting:
+        involved = sorted(set(hitting) | {c for c in touching if _in_contact(modes[c])})
+        # too slow to bounce again (else the bounces accumulate): plastic
+        plastic = {c: 0.0 for c in hitting if -points[c].normal_speed < rest}
+        y, record = resolve_impact(model, t, y, involved, points, plastic)
+        impacts.append(record)
+        points = contact_points(model, t, y)
+        for c in involved:
+            if points[c].normal_speed > rest:
+                new = SEPARATED
+            else:
+                new = _touching_mode(model.contacts[c], points[c], tol)
+            if new != modes[c]:
+                reasons.append((c, modes[c], new, "impact"))
+                modes[c] = new
+    modes, directions = settle(model, solver, t, y, modes, directions, tol, reasons)
+    return y, modes, directions

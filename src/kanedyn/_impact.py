@@ -1,0 +1,278 @@
+r"""Impacts in impulse-momentum form.
+
+Kane's equations integrated over an impact of vanishing duration: the
+generalized impulses equal the jump in generalized momenta,
+
+.. math::
+
+    M\,(u^+ - u^-) = \sum_c J_c^T P_c,
+
+with :math:`M` and the partial velocities :math:`J_c` at the impact
+configuration and :math:`P_c` the impulse on contact point :math:`c`.  With
+velocity constraints the jump stays on them: :math:`\Delta u = S (S^T M S)^{-1}
+S^T J^T P` with :math:`S` the null-space basis of the constraint Jacobian.  The
+relative velocity of the contact points then changes by :math:`W P` with the
+contact-space inverse inertia :math:`W = J S (S^T M S)^{-1} S^T J^T`.
+
+A single contact is resolved by integrating over the normal impulse :math:`p`
+(Darboux, Keller, Stronge): :math:`dv/dp = W(n + dP_t/dp)` with Coulomb
+friction opposing the current slip (:math:`dP_t/dp = -\mu\hat s`) or, when the
+slip has stopped and the static coefficient allows, the tangential impulse
+that keeps it stopped.  Compression ends where the normal velocity vanishes
+(normal impulse :math:`p_c`); restitution ends at :math:`p = (1 + e) p_c`
+(Poisson) or when the normal velocity reaches :math:`-e\,v_n^-` (Newton).
+Sticking, sliding and slip reversal follow from the integration.  Several
+contacts at once are resolved with Newton's law and the Coulomb cone as a
+complementarity problem in contact space, solved by projected Gauss-Seidel.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.integrate import solve_ivp
+
+__all__ = ["Impact", "resolve_impact"]
+
+
+@dataclass(frozen=True)
+class Impact:
+    """One impact: when, where, the impulses and the energy it cost.
+
+    Attributes
+    ----------
+    t : float
+    contacts : tuple of str
+        Names of the contacts that received impulses.
+    impulses : ndarray, shape (k, 3)
+        Impulse on each contact point, N s.
+    normal_impulses : ndarray, shape (k,)
+    approach_speeds : ndarray, shape (k,)
+        Normal approach speeds before the impact (>= 0), m/s.
+    separation_speeds : ndarray, shape (k,)
+        Normal separation speeds after it, m/s.
+    energy_loss : float
+        Kinetic energy before minus after (>= 0), J.
+    """
+
+    t: float
+    contacts: tuple
+    impulses: np.ndarray
+    normal_impulses: np.ndarray
+    approach_speeds: np.ndarray
+    separation_speeds: np.ndarray
+    energy_loss: float
+
+
+def _tangent_basis(n):
+    a = np.array([1.0, 0.0, 0.0]) if abs(n[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    t1 = np.cross(n, a)
+    t1 /= np.linalg.norm(t1)
+    return np.column_stack([t1, np.cross(n, t1)])
+
+
+def _impulse_response(model, t, y, jacobians):
+    """``(D, W)``: Delta u = D P and Delta v = W P for stacked contact impulses P."""
+    _, mass, _, vel_B, _, _ = model._dynamics(t, y)
+    o, m = model.n_u, model.n_u_dep
+    if m:
+        p = o - m
+        X = np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
+        S = np.vstack([np.eye(p), -X])
+    else:
+        S = np.eye(o)
+    J = np.vstack(jacobians)  # (3k, o)
+    D = S @ np.linalg.solve(S.T @ mass @ S, S.T @ J.T)
+    return D, J @ D
+
+
+def _stick_ratio(W, n, T):
+    """Tangential impulse per unit normal impulse that keeps the slip at zero.
+
+    Least squares: where the point cannot move tangentially the ratio is 0.
+    """
+    a = np.linalg.lstsq(T.T @ W @ T, -(T.T @ W @ n), rcond=1e-12)[0]
+    return T @ a, float(np.linalg.norm(a))
+
+
+def _single(W, v0, n, mu_k, mu_s, e, law):
+    """Impulse on one contact point; ``v0`` its relative velocity before.
+
+    Integrates over the normal impulse in phases (sliding, sticking), each
+    ended by the end of compression, the end of restitution or a change of
+    the friction state.
+    """
+    vn0 = float(n @ v0)
+    if vn0 >= 0:
+        return np.zeros(3)
+    T = _tangent_basis(n)
+    stick_rate, stick_ratio = _stick_ratio(W, n, T)
+    can_stick = stick_ratio <= mu_s * (1 + 1e-12)
+    scale = max(np.linalg.norm(v0), 1e-300)
+    slip_tol = 1e-9 * scale
+    p_scale = abs(vn0) / max(float(n @ W @ n), 1e-300)
+    p_bound = 1e3 * p_scale * (1 + mu_k) + 1e-300
+    newton_target = -e * vn0
+
+    def slip_start_direction():
+        """Direction in which slip grows from rest when sticking is impossible."""
+        d = -stick_rate / max(np.linalg.norm(stick_rate), 1e-300)
+        for _ in range(100):
+            g = T @ (T.T @ (W @ (n - mu_k * d)))
+            nd = g / max(np.linalg.norm(g), 1e-300)
+            if np.linalg.norm(nd - d) < 1e-15:
+                break
+            d = nd
+        return d
+
+    p, v, Pt = 0.0, np.array(v0, dtype=float), np.zeros(3)
+    pc = None  # normal impulse at the end of compression
+    for _ in range(100):  # phases
+        if pc is None:
+            stop_p = p_bound
+        elif law == "poisson":
+            stop_p = (1 + e) * pc
+        else:
+            stop_p = p_bound
+        if stop_p <= p:
+            break
+        vt = v - (n @ v) * n
+        sliding = np.linalg.norm(vt) > slip_tol
+        if not sliding and can_stick:
+            rate = W @ (n + stick_rate)  # linear in p
+            rn = float(n @ rate)
+            targets = [stop_p]
+            if pc is None and rn > 0:
+                targets.append(p - float(n @ v) / rn)
+            if pc is not None and law == "newton" and rn > 0:
+                targets.append(p + (newton_target - float(n @ v)) / rn)
+            p_next = min(x for x in targets if x >= p)
+            v = v + (p_next - p) * rate
+            Pt = Pt + (p_next - p) * stick_rate
+            p = p_next
+        else:
+            direction = vt / np.linalg.norm(vt) if sliding else slip_start_direction()
+
+            def rate(q, z):  # z = [relative velocity, tangential impulse]
+                wt = z[:3] - (n @ z[:3]) * n
+                speed = np.linalg.norm(wt)
+                d = wt / speed if speed > slip_tol else direction
+                return np.concatenate([W @ (n - mu_k * d), -mu_k * d])
+
+            events = []
+
+            def stopped(q, z):
+                return (z[:3] - (n @ z[:3]) * n) @ direction
+            stopped.terminal, stopped.direction = True, -1
+            events.append(stopped)
+            if pc is None:
+                def compressed(q, z):
+                    return n @ z[:3]
+                compressed.terminal, compressed.direction = True, 1
+                events.append(compressed)
+            elif law == "newton":
+                def restituted(q, z):
+                    return n @ z[:3] - newton_target
+                restituted.terminal, restituted.direction = True, 1
+                events.append(restituted)
+            sol = solve_ivp(rate, (p, stop_p), np.concatenate([v, Pt]), rtol=1e-12,
+                            atol=1e-14 * scale, method="DOP853", events=events)
+            p, v, Pt = sol.t[-1], sol.y[:3, -1], sol.y[3:, -1]
+        vn = float(n @ v)
+        if pc is None and vn >= -1e-14 * scale:
+            pc = p
+            if e == 0:
+                break
+            continue
+        if pc is not None and law == "newton" and vn >= newton_target - 1e-14 * scale:
+            break
+        if pc is not None and law == "poisson" and p >= (1 + e) * pc * (1 - 1e-15):
+            break
+    return p * n + Pt
+
+
+def _simultaneous(W, v0, normals, mu, e, iterations=2000, tol=1e-13):
+    """Impulses of several contacts: Newton restitution, Coulomb cone (PGS)."""
+    k = len(normals)
+    P = np.zeros(3 * k)
+    vn0 = np.array([normals[c] @ v0[3 * c:3 * c + 3] for c in range(k)])
+    targets = np.where(vn0 < 0, -e * vn0, 0.0)
+    frames = [np.column_stack([normals[c], _tangent_basis(normals[c])]) for c in range(k)]
+    for _ in range(iterations):
+        change = 0.0
+        for c in range(k):
+            sl = slice(3 * c, 3 * c + 3)
+            F = frames[c]  # columns n, t1, t2
+            v = v0[sl] + W[sl] @ P
+            local_v = F.T @ v
+            Wcc = F.T @ W[sl, sl] @ F
+            local_P = F.T @ P[sl]
+            # normal: reach the target normal velocity, impulse >= 0
+            pn = max(0.0, local_P[0] + (targets[c] - local_v[0]) / Wcc[0, 0])
+            # tangential: stop the slip, within the cone
+            pt = local_P[1:] - np.linalg.lstsq(
+                Wcc[1:, 1:], local_v[1:] + Wcc[1:, 0] * (pn - local_P[0]), rcond=1e-12)[0]
+            limit = mu[c] * pn
+            norm = np.linalg.norm(pt)
+            if norm > limit:
+                pt *= limit / norm
+            new = F @ np.concatenate([[pn], pt])
+            change = max(change, float(np.max(np.abs(new - P[sl]))))
+            P[sl] = new
+        if change <= tol * max(1.0, float(np.max(np.abs(P)))):
+            break
+    return P.reshape(k, 3)
+
+
+def resolve_impact(model, t, y, contacts, points, restitution=None):
+    """Apply an impact to the state.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float
+    y : ndarray
+        State before the impact.
+    contacts : sequence of int
+        Contacts that take part (those hitting, and those already touching).
+    points : sequence of ContactPoint
+        Contact kinematics at ``(t, y)`` (all contacts).
+    restitution : dict, optional
+        ``{contact index: coefficient}`` replacing the contacts' own.
+
+    Returns
+    -------
+    (ndarray, Impact)
+        The state after the impact and the record.
+    """
+    coefficients = [model.contacts[c] for c in contacts]
+    jac = [points[c].jacobian for c in contacts]
+    D, W = _impulse_response(model, t, y, jac)
+    v0 = np.concatenate([points[c].velocity for c in contacts])
+    normals = [points[c].normal for c in contacts]
+    restitution = restitution or {}
+    e = np.array([restitution.get(c, coef.get("restitution", 0.0))
+                  for c, coef in zip(contacts, coefficients)])
+    if len(contacts) == 1:
+        coef = coefficients[0]
+        impulses = _single(W, v0, normals[0], coef["mu_k"], coef["mu_s"], e[0],
+                           coef["law"]).reshape(1, 3)
+    else:
+        impulses = _simultaneous(W, v0, normals, np.array([c["mu_k"] for c in coefficients]), e)
+    n_q = model.n_q
+    y_new = np.array(y, dtype=float)
+    y_new[n_q:] = y[n_q:] + D @ impulses.ravel()
+    ke_before = model.energies(t, y)[0]
+    ke_after = model.energies(t, y_new)[0]
+    v1 = v0 + W @ impulses.ravel()
+    record = Impact(
+        t=float(t), contacts=tuple(model.contacts[c]["name"] for c in contacts),
+        impulses=impulses, normal_impulses=np.array(
+            [impulses[i] @ normals[i] for i in range(len(contacts))]),
+        approach_speeds=np.array([-min(0.0, normals[i] @ v0[3 * i:3 * i + 3])
+                                  for i in range(len(contacts))]),
+        separation_speeds=np.array([normals[i] @ v1[3 * i:3 * i + 3]
+                                    for i in range(len(contacts))]),
+        energy_loss=float(ke_before - ke_after))
+    return y_new, record
