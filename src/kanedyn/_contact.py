@@ -121,7 +121,7 @@ def _check_coefficient(value, name, lower=0.0, upper=None):
 
 
 class Contact:
-    """A point of a body in contact with a surface, with Coulomb friction.
+    r"""A point of a body in contact with a surface, with Coulomb friction.
 
     Parameters
     ----------
