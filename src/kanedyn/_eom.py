@@ -141,8 +141,14 @@ class EquationsOfMotion:
 
     @cached_property
     def constants(self):
-        """Constant symbols the equations of motion depend on, sorted by name."""
+        """Constant symbols the equations of motion depend on, sorted by name.
+
+        Includes the symbols of contact friction and restitution coefficients.
+        """
         leaves = self._leaf_symbols(self._all_outputs())
+        for contact in self.contacts:
+            for value in contact.coefficients.values():
+                leaves |= sm.sympify(value).free_symbols
         table = self._table
         consts = [s for s in leaves if not table.is_dynamic(s) and s != table.t
                   and s not in table.qdot_raw]

@@ -11,11 +11,14 @@ from __future__ import annotations
 from .._errors import ModelError
 from ._base import ModelDefinition
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
+from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladder,
+                              slug_ellipsoid, sphere_slug)
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
-           "rolling_disk", "whipple_bicycle", "MEIJAARD_2007"]
+           "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
+           "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -26,6 +29,12 @@ REGISTRY = {
     "chaplygin-sleigh": (chaplygin_sleigh, {"lateral_force": bool}),
     "four-bar": (four_bar, {}),
     "whipple-bicycle": (whipple_bicycle, {}),
+    "sphere-slug": (sphere_slug, {}),
+    "slug-ellipsoid": (slug_ellipsoid, {}),
+    "block-on-incline": (block_on_incline, {}),
+    "bouncing-ball": (bouncing_ball, {"restitution": float}),
+    "ladder": (ladder, {"frictionless": bool, "angle": float}),
+    "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float}),
 }
 
 
