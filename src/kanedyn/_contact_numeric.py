@@ -79,6 +79,10 @@ class ContactSolution:
     points : list of ContactPoint
     dissipation : float
         Power of the friction forces on the relative motion (<= 0), W.
+    power : float
+        Power of all contact forces on the system (:math:`\sum_c F_c \cdot
+        J_c u`), W: the dissipation plus the power a moving surface
+        delivers.
     """
 
     udot: np.ndarray
@@ -86,6 +90,7 @@ class ContactSolution:
     friction: np.ndarray
     points: list
     dissipation: float
+    power: float
 
     @property
     def force(self):
@@ -105,18 +110,36 @@ def contact_points(model, t, y):
             for c in range(len(gap))]
 
 
-def slip_direction(point, fallback=None, tiny=1e-12):
-    """Unit slip direction; ``fallback`` when the point is not sliding."""
+def slip_direction(point, reference=None, tiny=1e-12):
+    """Unit slip direction of a sliding contact.
+
+    Without a ``reference`` it is the direction of the slip velocity (zero
+    when there is none).  With one (the direction the slip had when the
+    current mode began, or the one it starts in), the slip velocity's
+    direction is used while it has a positive component along the reference
+    and the reference otherwise: the friction does not flip when the slip
+    velocity passes through zero, so the equations stay smooth up to the
+    event that stops the slip (``slip velocity . reference = 0``).
+    """
     vt = point.slip_velocity
     speed = np.linalg.norm(vt)
-    if speed > tiny * max(1.0, np.linalg.norm(point.velocity)):
+    moving = speed > tiny * max(1.0, np.linalg.norm(point.velocity))
+    if reference is None:
+        return vt / speed if moving else np.zeros(3)
+    s = np.asarray(reference, dtype=float)
+    if moving and vt @ s > 0:
         return vt / speed
-    if fallback is None:
-        return np.zeros(3)
-    s = np.asarray(fallback, dtype=float)
     s = s - (s @ point.normal) * point.normal
     norm = np.linalg.norm(s)
     return s / norm if norm > 0 else np.zeros(3)
+
+
+def _redundant(rows, rtol=1e-10):
+    """Whether the constraint rows (shape (k, n_u)) are linearly dependent."""
+    if rows.shape[0] > rows.shape[1]:
+        return True
+    sv = np.linalg.svd(rows, compute_uv=False)
+    return sv[-1] <= rtol * sv[0]
 
 
 def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
@@ -130,8 +153,9 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     modes : sequence of {"separated", "slip", "stick"}
         One per contact (``model.contacts``).
     directions : sequence of array_like or None, optional
-        Slip directions to use where a sliding contact has no slip velocity
-        (at the onset of sliding).
+        Reference slip direction per sliding contact (see
+        :func:`slip_direction`): the direction its slip starts in, or had
+        when the current mode began.
     stabilization : float
         Baumgarte frequency :math:`\\omega` (critically damped), rad/s.
 
@@ -142,7 +166,8 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     Raises
     ------
     numpy.linalg.LinAlgError
-        When the system is singular (e.g. redundant sticking contacts).
+        When the system is singular for another reason than redundant
+        contact constraints (which get the least-norm contact forces).
     """
     y = np.asarray(y, dtype=float)
     o, m = model.n_u, model.n_u_dep
@@ -200,11 +225,18 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     if k:
         A[o:, :o] = np.array(rows).reshape(k, o)
         b[o:] = rhs
-    sol = np.linalg.solve(A, b)
+    if k and _redundant(np.vstack([vel_B.reshape(m, o), A[o:, :o]])):
+        # statically indeterminate (e.g. a ladder sticking at both ends): the
+        # accelerations are determined, the contact forces are not; take the
+        # least-norm forces
+        sol = np.linalg.lstsq(A, b, rcond=None)[0]
+    else:
+        sol = np.linalg.solve(A, b)
     udot, lam = sol[:o], sol[o:]
     normal_force = np.zeros(len(points))
     friction = np.zeros((len(points), 3))
-    dissipation = 0.0
+    dissipation = power = 0.0
+    u = y[model.n_q:]
     i = 0
     for c, (point, entry) in enumerate(zip(points, layout)):
         mode, size = entry[0], entry[1]
@@ -220,6 +252,7 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
             normal_force[c] = N
             friction[c] = total - N * point.normal - coef["viscous"] * vt
         dissipation += float(friction[c] @ point.velocity)
+        power += float((normal_force[c] * point.normal + friction[c]) @ (point.jacobian @ u))
         i += size
     return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
-                           points=points, dissipation=dissipation)
+                           points=points, dissipation=dissipation, power=power)

@@ -71,6 +71,23 @@ def _touching_mode(coef, point, tol):
     return STICK
 
 
+def _free_normal_acceleration(solver, t, y, modes, directions, c):
+    """How fast contact ``c`` would leave its surface if it were free.
+
+    The normal acceleration of the free contact point less the stabilized
+    one a contact keeps (Baumgarte's :math:`-2\omega\dot d - \omega^2 d`):
+    negative when staying in contact needs a pushing normal force; zero (to
+    rounding) at the instant a normal force vanishes.
+    """
+    free = list(modes)
+    free[c] = SEPARATED
+    solution = solver(t, y, free, directions)
+    point = solution.points[c]
+    w = solver.stabilization
+    held = -(2 * w * point.normal_speed + w * w * point.distance)
+    return float(point.normal @ point.jacobian @ solution.udot + point.normal_rate - held)
+
+
 def settle(model, solver, t, y, modes, directions, tol, reasons):
     """Modes consistent with the state: forces within limits, gaps open.
 
@@ -83,7 +100,10 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
         coef = model.contacts[c]
         touching = point.distance <= tol["distance"]
         leaving = point.normal_speed > tol["speed"]
-        if modes[c] == SEPARATED and touching and not leaving:
+        if (modes[c] == SEPARATED and touching and not leaving
+                and (coef["kind"] == "bilateral"
+                     or _free_normal_acceleration(solver, t, y, modes, directions, c)
+                     < -tol["acceleration"])):
             new = _touching_mode(coef, point, tol)
             reasons.append((c, modes[c], new, "touches the surface"))
             modes[c] = new
@@ -121,22 +141,29 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
     raise RuntimeError("the contact modes do not settle (chattering)")
 
 
-def _events(model, solver, modes, directions, references, n_states):
+def _events(model, solver, points, modes, directions, n_states):
     """Terminal event functions for the current modes: (function, contact, kind)."""
     events = []
     for c, mode in enumerate(modes):
         coef = model.contacts[c]
         if mode == SEPARATED:
-            def gap(t, z, c=c):
-                return contact_points(model, t, z[:n_states])[c].distance
+            # the event function starts positive even where a contact leaves
+            # from a rounding-level penetration (else a flight shorter than
+            # one step would go unnoticed); the margin is small enough that
+            # the bounces it feeds (approach speed sqrt(2 a margin)) stay
+            # below the speed at which impacts become plastic
+            offset = max(0.0, -points[c].distance) + 1e-14
+
+            def gap(t, z, c=c, offset=offset):
+                return contact_points(model, t, z[:n_states])[c].distance + offset
             events.append((gap, c, "gap", -1))
             continue
         if coef["kind"] == "unilateral":
             def normal(t, z, c=c):
                 return solver(t, z[:n_states], modes, directions).normal_force[c]
             events.append((normal, c, "lift-off", -1))
-        if mode == SLIP and references[c] is not None and coef["mu_s"] > 0:
-            ref = references[c]  # (no event while there is no slip to stop)
+        if mode == SLIP and directions[c] is not None and coef["mu_s"] > 0:
+            ref = directions[c]  # (no event while there is no slip to stop)
 
             def stop(t, z, c=c, ref=ref):
                 return solver(t, z[:n_states], modes, directions).points[c].slip_velocity @ ref
@@ -163,7 +190,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     Returns ``(t, y, status, message, extras)``: output times and states
     (``y`` shape (n_states, N)), the solve_ivp-style status and message, and
     a dict with the mode history, impacts, per-point modes and slip
-    directions, dissipated work, event records and counters.
+    directions, the work of friction and of all contact forces, event records
+    and counters.
     """
     t0, t1 = (float(v) for v in t_span)
     n = model.n_states
@@ -171,7 +199,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     solver = _Solver(model, stabilization)
     scale = max(1.0, float(np.max(np.abs(y0))))
     tol = {"distance": max(100 * atol, 1e-10), "speed": max(100 * atol, 1e-10),
-           "slip": max(100 * atol, 1e-10), "force": 1e-9}
+           "slip": max(100 * atol, 1e-10), "force": 1e-9, "acceleration": 1e-9}
     rest = rest_speed if rest_speed is not None else max(1e3 * atol, 1e-6) * scale
     names = [c["name"] for c in model.contacts]
     user_events = [] if events is None else (
@@ -196,27 +224,24 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     y_events = [[] for _ in user_events]
     counters = {"nfev": 0, "njev": 0, "nlu": 0}
     status, message = 0, "the integration reached the end of the interval"
-    t, dissipated = t0, 0.0
+    t, dissipated, contact_work = t0, 0.0, 0.0
     first = True
     for _ in range(max_segments):
-        references = []
         points = contact_points(model, t, y)
-        for c in range(k):
-            vt = points[c].slip_velocity
-            speed = np.linalg.norm(vt)
-            if modes[c] == SLIP and speed > tol["slip"]:
-                references.append(vt / speed)
-            elif modes[c] == SLIP and directions[c] is not None:
-                references.append(np.asarray(directions[c], dtype=float))  # slip starting
-            else:
-                references.append(None)
-        mode_events = _events(model, solver, modes, directions, references, n)
+        for c in range(k):  # the reference slip directions of this segment
+            speed = np.linalg.norm(points[c].slip_velocity)
+            if modes[c] != SLIP:
+                directions[c] = None
+            elif speed > tol["slip"]:
+                directions[c] = points[c].slip_velocity / speed
+            # else: a slip that starts keeps the direction it starts in
+        mode_events = _events(model, solver, points, modes, directions, n)
         frozen_modes, frozen_dirs = list(modes), list(directions)
 
         def rhs(tt, z):
             sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
             qd = model._dynamics(tt, z[:n])[0]
-            return np.concatenate([qd, sol.udot, [sol.dissipation]])
+            return np.concatenate([qd, sol.udot, [sol.dissipation, sol.power]])
 
         wrapped = [(lambda tt, z, f=f: f(tt, z[:n])) for f in user_events]
         for w, f in zip(wrapped, user_events):
@@ -227,7 +252,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         if t_eval is not None:
             keep = (t_eval >= t) if first else (t_eval > t)
             seg_eval = t_eval[keep & (t_eval <= t1)]
-        z0 = np.concatenate([y, [dissipated]])
+        z0 = np.concatenate([y, [dissipated, contact_work]])
         try:
             sol = solve_ivp(rhs, (t, t1), z0, method=method, t_eval=seg_eval,
                             events=all_events or None, rtol=rtol, atol=atol, **options)
@@ -236,12 +261,12 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             break
         for key in counters:
             counters[key] += getattr(sol, key, 0)
-        seg_t, seg_z = sol.t, sol.y
+        seg_t, seg_z = np.asarray(sol.t, dtype=float), np.asarray(sol.y).reshape(n + 2, -1)
         if not first and t_eval is None and seg_t.size and seg_t[0] == t:
             seg_t, seg_z = seg_t[1:], seg_z[:, 1:]
         ts.append(seg_t)
         ys.append(seg_z[:n])
-        work.append(seg_z[n])
+        work.append(seg_z[n:])
         point_modes.extend([tuple(frozen_modes)] * seg_t.size)
         point_dirs.extend([tuple(frozen_dirs)] * seg_t.size)
         n_mode = len(mode_events)
@@ -255,10 +280,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             break
         if sol.status == 0:
             break
-        # a terminal event
-        t = float(sol.t[-1])
-        z = sol.y[:, -1]
-        y, dissipated = z[:n].copy(), float(z[n])
+        # a terminal event: the latest event time is where the segment ended
+        last = [(float(te[-1]), np.asarray(ye)[-1]) for te, ye in zip(sol.t_events, sol.y_events)
+                if len(te)]
+        t, z = max(last, key=lambda item: item[0])
+        y, dissipated, contact_work = z[:n].copy(), float(z[n]), float(z[n + 1])
         fired_user = [i for i in range(len(user_events))
                       if getattr(user_events[i], "terminal", False)
                       and len(sol.t_events[n_mode + i]) and sol.t_events[n_mode + i][-1] == t]
@@ -299,7 +325,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     y_out = np.concatenate(ys, axis=1) if ys else np.zeros((n, 0))
     extras = {"mode_history": history, "impacts": impacts, "point_modes": point_modes,
               "point_directions": point_dirs, "modes": tuple(modes),
-              "dissipated_work": np.concatenate(work) if work else np.zeros(0),
+              "dissipated_work": np.concatenate(work, axis=1)[0] if work else np.zeros(0),
+              "contact_work": np.concatenate(work, axis=1)[1] if work else np.zeros(0),
               "t_events": [np.asarray(v) for v in t_events],
               "y_events": [np.asarray(v).reshape(-1, n) for v in y_events],
               "counters": counters, "stabilization": stabilization}

@@ -28,6 +28,7 @@ complementarity problem in contact space, solved by projected Gauss-Seidel.
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -53,7 +54,12 @@ class Impact:
     separation_speeds : ndarray, shape (k,)
         Normal separation speeds after it, m/s.
     energy_loss : float
-        Kinetic energy before minus after (>= 0), J.
+        Energy the impulses dissipate on the relative motion of the contact
+        points, :math:`-\tfrac12\sum_c P_c\cdot(v_c^- + v_c^+)` (>= 0), J:
+        the kinetic energy lost where the surfaces are at rest.
+    kinetic_energy_jump : float
+        Kinetic energy after minus before, J (it can be positive when a
+        moving surface strikes the system).
     """
 
     t: float
@@ -63,6 +69,7 @@ class Impact:
     approach_speeds: np.ndarray
     separation_speeds: np.ndarray
     energy_loss: float
+    kinetic_energy_jump: float
 
 
 def _tangent_basis(n):
@@ -254,18 +261,32 @@ def resolve_impact(model, t, y, contacts, points, restitution=None):
     restitution = restitution or {}
     e = np.array([restitution.get(c, coef.get("restitution", 0.0))
                   for c, coef in zip(contacts, coefficients)])
-    if len(contacts) == 1:
-        coef = coefficients[0]
-        impulses = _single(W, v0, normals[0], coef["mu_k"], coef["mu_s"], e[0],
-                           coef["law"]).reshape(1, 3)
-    else:
-        impulses = _simultaneous(W, v0, normals, np.array([c["mu_k"] for c in coefficients]), e)
+    mu = np.array([c["mu_k"] for c in coefficients])
+
+    def solve(e, law):
+        if len(contacts) == 1:
+            coef = coefficients[0]
+            impulses = _single(W, v0, normals[0], coef["mu_k"], coef["mu_s"], e[0],
+                               law).reshape(1, 3)
+        else:
+            impulses = _simultaneous(W, v0, normals, mu, e)
+        v1 = v0 + W @ impulses.ravel()
+        return impulses, v1, -0.5 * float(impulses.ravel() @ (v0 + v1))
+
+    law = coefficients[0]["law"] if len(contacts) == 1 else "newton"
+    impulses, v1, loss = solve(e, law)
+    if loss < -1e-12 * max(1.0, float(abs(impulses.ravel() @ v0))):
+        # Newton's law with friction can gain energy (Kane's paradox)
+        fallback = ("poisson", e) if len(contacts) == 1 else ("newton", 0 * e)
+        names = ", ".join(model.contacts[c]["name"] for c in contacts)
+        warnings.warn(f"the impact of {names} at t={t:.6g} would gain {-loss:.3g} J under "
+                      "Newton's restitution law with friction; resolved with "
+                      f"{'Poisson restitution' if len(contacts) == 1 else 'no restitution'}"
+                      " instead", RuntimeWarning, stacklevel=2)
+        impulses, v1, loss = solve(fallback[1], fallback[0])
     n_q = model.n_q
     y_new = np.array(y, dtype=float)
     y_new[n_q:] = y[n_q:] + D @ impulses.ravel()
-    ke_before = model.energies(t, y)[0]
-    ke_after = model.energies(t, y_new)[0]
-    v1 = v0 + W @ impulses.ravel()
     record = Impact(
         t=float(t), contacts=tuple(model.contacts[c]["name"] for c in contacts),
         impulses=impulses, normal_impulses=np.array(
@@ -274,5 +295,6 @@ def resolve_impact(model, t, y, contacts, points, restitution=None):
                                   for i in range(len(contacts))]),
         separation_speeds=np.array([normals[i] @ v1[3 * i:3 * i + 3]
                                     for i in range(len(contacts))]),
-        energy_loss=float(ke_before - ke_after))
+        energy_loss=loss,
+        kinetic_energy_jump=model.energies(t, y_new)[0] - model.energies(t, y)[0])
     return y_new, record

@@ -33,6 +33,10 @@ def plot_result(result, states=None, path=None, extras=True):
         panels.append(("energy", None))
     if extras and result.constraint_forces:
         panels.append(("constraint forces", None))
+    contact_forces = result.contact_forces if extras else {}
+    if contact_forces:
+        panels.append(("normal force [N]", None))
+        panels.append(("|friction force| [N]", None))
     fig, axes = plt.subplots(len(panels), 1, sharex=True,
                              figsize=(8, 2.4 * len(panels) + 0.6), squeeze=False)
     for ax, (title, members) in zip(axes[:, 0], panels):
@@ -45,6 +49,16 @@ def plot_result(result, states=None, path=None, extras=True):
         elif title == "energy":
             ax.plot(result.t, result.energy - result.energy[0])
             title = "energy change from t0"
+        elif title.startswith("normal force"):
+            for name, forces in contact_forces.items():
+                ax.plot(result.t, forces["normal"], label=name)
+            for impact in result.impacts:
+                ax.axvline(impact.t, color="0.6", lw=0.6, ls=":")
+            ax.legend(loc="upper right", fontsize="small")
+        elif title.startswith("|friction"):
+            for name, forces in contact_forces.items():
+                ax.plot(result.t, np.linalg.norm(forces["friction"], axis=1), label=name)
+            ax.legend(loc="upper right", fontsize="small")
         else:
             for name, values in result.constraint_forces.items():
                 ax.plot(result.t, values, label=name)

@@ -11,6 +11,9 @@ from ._symbols import name_of
 
 __all__ = ["SimulationResult"]
 
+#: numeric codes of the contact modes in CSV output
+_MODE_CODES = {"separated": 0, "slip": 1, "stick": 2}
+
 
 class _SegmentedSolution:
     """Continuous solution made of consecutive ``OdeSolution`` pieces."""
@@ -206,18 +209,31 @@ class SimulationResult:
                            "mode": [m[i] for m in modes]} for i, name in enumerate(names)}
         return self._lazy("_contact_forces", compute)
 
-    def energy_balance(self):
-        """Energy error: change of total energy minus friction work and impact losses.
+    @property
+    def contact_work(self):
+        """Work of all contact forces on the system, J, shape (N,).
 
-        Zero (to the integration tolerance) for a model whose loads are
-        conservative and whose surfaces are fixed, shape (N,).
+        The friction work (:attr:`dissipated_work`) plus the work moving
+        surfaces do through the contact forces.
+        """
+        return self._contacts["contact_work"] if self._contacts else None
+
+    def energy_balance(self):
+        """Energy error of a simulation with contacts, J, shape (N,).
+
+        Change of total energy minus the work of the contact forces and the
+        kinetic energy jumps at impacts: zero to the integration tolerance
+        when the model's other loads are conservative and its kinematics do
+        not depend explicitly on time (the surfaces may move).
         """
         if self.energy is None:
             raise ValueError("the model defines no total energy (give potential_energy)")
-        losses = np.zeros(self.t.size)
+        if not self._contacts:
+            raise ValueError("this simulation has no contacts; see energy_drift()")
+        jumps = np.zeros(self.t.size)
         for impact in self.impacts:
-            losses[self.t > impact.t] += impact.energy_loss  # the state at t is before it
-        return self.energy - self.energy[0] - self.dissipated_work + losses
+            jumps[self.t > impact.t] += impact.kinetic_energy_jump  # at t: before it
+        return self.energy - self.energy[0] - self.contact_work - jumps
 
     # ------------------------------------------------------------- access
     def __getitem__(self, key):
@@ -262,6 +278,17 @@ class SimulationResult:
                "max_constraint_residual": float(np.max(self.constraint_residual))
                if self.t.size else None,
                "energy_drift": self.energy_drift()}
+        if self._contacts:
+            balance = self.energy_balance() if self.energy is not None else None
+            out.update(
+                energy_drift=None,  # not conserved: friction, impacts, moving surfaces
+                energy_balance=float(np.max(np.abs(balance[np.isfinite(balance)])))
+                if balance is not None and self.t.size else None,
+                impacts=len(self.impacts),
+                impact_energy_loss=float(sum(i.energy_loss for i in self.impacts)),
+                friction_work=float(self.dissipated_work[-1]) if self.t.size else 0.0,
+                mode_changes=[f"t={c.t:.6g} s: {c.contact} {c.old} -> {c.new} ({c.reason})"
+                              for c in self.mode_history])
         return out
 
     # ------------------------------------------------------------- output
@@ -276,10 +303,26 @@ class SimulationResult:
             cols["energy"] = self.energy
         if self.constraint_residuals.shape[0]:
             cols["constraint_residual"] = self.constraint_residual
+        for name, forces in self.contact_forces.items():
+            cols[f"mode_{name}"] = np.array([_MODE_CODES[m] for m in forces["mode"]],
+                                            dtype=float)
+            cols[f"normal_force_{name}"] = forces["normal"]
+            for i, axis in enumerate("xyz"):
+                cols[f"friction_{name}_{axis}"] = forces["friction"][:, i]
+        if self._contacts:
+            cols["friction_work"] = self.dissipated_work
+            cols["contact_work"] = self.contact_work
+            if self.energy is not None:
+                cols["energy_balance"] = self.energy_balance()
         return cols
 
     def to_csv(self, path):
-        """Write time, states and computed outputs as CSV; returns the path."""
+        """Write time, states and computed outputs as CSV; returns the path.
+
+        With contacts: per contact its mode (0 separated, 1 slip, 2 stick),
+        normal force and friction force components (inertial), and the work
+        and energy-balance histories.
+        """
         path = Path(path)
         cols = self._columns()
         with path.open("w", newline="") as fh:

@@ -166,8 +166,21 @@ def _print_summary(summary):
     print(f"success: {summary['success']} ({summary['message']})")
     print(f"points: {summary['points']}, t_end: {summary['t_end']:g} s, "
           f"rhs evaluations: {summary['rhs_evaluations']}")
-    print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
-                                         else f"{drift:.3e}"))
+    if "impacts" in summary:  # contacts
+        balance = summary["energy_balance"]
+        print(f"impacts: {summary['impacts']} (energy lost {summary['impact_energy_loss']:.4g}"
+              f" J), friction work {summary['friction_work']:.4g} J")
+        print("energy balance error: " + ("n/a (no energy defined)" if balance is None
+                                          else f"{balance:.3e} J"))
+        changes = summary["mode_changes"]
+        print(f"contact mode changes: {len(changes)}")
+        for line in changes[:12]:
+            print("  " + line)
+        if len(changes) > 12:
+            print(f"  ... ({len(changes) - 12} more in summary.json)")
+    else:
+        print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
+                                             else f"{drift:.3e}"))
     print(f"max constraint residual: {summary['max_constraint_residual']:.3e} "
           f"({summary['projections']} projections)")
 

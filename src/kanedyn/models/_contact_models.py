@@ -131,13 +131,16 @@ def _rod(N, O, length, mass, name="rod"):
     return (x, z, th), (ux, uz, w), B, G, rod
 
 
-def ladder(frictionless=False, angle=1.2):
+def ladder(frictionless=False, angle=0.9):
     """A ladder (uniform rod) sliding against a rough wall and a rough floor.
 
     The foot ``A`` touches the floor ``z = 0``, the top ``C`` the wall
     ``x = 0``; the ladder starts at rest at ``angle`` (rad) from the floor,
-    so ``theta = -angle``.  Without friction the top leaves the wall when its
-    height is 2/3 of the initial one.
+    so ``theta = -angle``.  It slides if ``tan(angle) < (1 - mu_f mu_w) /
+    (2 mu_f)`` (below 1.00 rad with the default coefficients), else it stays
+    (both ends stick).  Without friction the top leaves the wall when its
+    height is 2/3 of the initial one.  The ladder then falls and its top
+    lands on the floor (a third contact, plastic impact).
     """
     L, m, g, mu_f, mu_w = sm.symbols("L m g mu_f mu_w", positive=True)
     N = me.ReferenceFrame("N")
@@ -150,8 +153,10 @@ def ladder(frictionless=False, angle=1.2):
     foot.v2pt_theory(G, N, B)
     top.v2pt_theory(G, N, B)
     mus = (0, 0) if frictionless else (mu_f, mu_w)
-    contacts = [Contact(foot, Plane(N, O, N.z, name="floor"), mu_k=mus[0], name="floor"),
-                Contact(top, Plane(N, O, N.x, name="wall"), mu_k=mus[1], name="wall")]
+    floor = Plane(N, O, N.z, name="floor")
+    contacts = [Contact(foot, floor, mu_k=mus[0], name="floor"),
+                Contact(top, Plane(N, O, N.x, name="wall"), mu_k=mus[1], name="wall"),
+                Contact(top, floor, mu_k=mus[0], name="top-floor")]
     length = 2.0
     init = {q[0]: length / 2 * math.cos(angle), q[1]: length / 2 * math.sin(angle),
             q[2]: -angle, u[0]: 0.0, u[1]: 0.0, u[2]: 0.0}
@@ -201,10 +206,11 @@ def slug_ellipsoid():
 
     The tank (semi-axes ``a, b, c``) spins up about its ``z`` axis,
     ``psi(t) = Omega (t + tau (exp(-t/tau) - 1))``, while its centre moves as
-    ``X(t) = A sin(w t)`` along ``N.x`` (propellant in a tank, or a docking
-    spacecraft).  The slug (a particle) slides with Coulomb friction, may
-    separate when the wall accelerates away, flies, and hits the wall again
-    (restitution ``e``, friction during the impact).
+    ``X(t) = A (1 - cos(w t))`` along ``N.x`` (propellant in a tank, or a
+    docking spacecraft).  The slug (a particle) starts at rest on the wall
+    the tank accelerates into, above the equator; it is dragged along by
+    Coulomb friction, separates when the wall falls back, flies, hits the
+    wall again (restitution ``e``, friction during the impact) and slides.
     """
     m, a, b, c = sm.symbols("m a b c", positive=True)
     mu, e, Omega, tau, A, w = sm.symbols("mu e Omega tau A w", positive=True)
@@ -214,12 +220,15 @@ def slug_ellipsoid():
     Tank = me.ReferenceFrame("T")
     psi = Omega * (T + tau * (sm.exp(-T / tau) - 1))
     Tank.orient_axis(N, N.z, psi)
-    centre = O.locatenew("Oc", A * sm.sin(w * T) * N.x)
-    centre.set_vel(N, A * w * sm.cos(w * T) * N.x)
+    centre = O.locatenew("Oc", A * (1 - sm.cos(w * T)) * N.x)
+    centre.set_vel(N, A * w * sm.sin(w * T) * N.x)
     q, u, P = _free_particle(N, O)
     wall = Contact(P, Ellipsoid(Tank, centre, a, b, c, inside=True, name="tank"),
                    mu_k=mu, restitution=e, name="tank")
-    init = dict(zip(q, (0.8, 0.0, 0.0)))  # on the wall at the end of the long axis
+    values = {a: 0.8, b: 0.6, c: 0.5}
+    z0 = 0.2  # on the wall, above the equator near the end of the long axis
+    x0 = -values[a] * math.sqrt(1 - (z0 / values[c]) ** 2)
+    init = dict(zip(q, (x0, 0.0, z0)))
     init.update(dict(zip(u, (0.0, 0.0, 0.0))))
     return ModelDefinition(
         name="slug-ellipsoid",
@@ -227,8 +236,8 @@ def slug_ellipsoid():
         kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u),
                        kd_eqs=[p.diff() - v for p, v in zip(q, u)],
                        bodies=[me.Particle("slug", P, m)], contacts=[wall]),
-        constants={m: 1.0, a: 0.8, b: 0.6, c: 0.5, mu: 0.3, e: 0.5, Omega: 2.0, tau: 1.0,
-                   A: 0.3, w: 3.0},
+        constants={m: 1.0, **values, mu: 0.3, e: 0.5, Omega: 2.0, tau: 1.0, A: 0.3,
+                   w: 3.0},
         initial_state=init, t_end=8.0,
         symbols=dict(q=q, u=u, m=m, N=N, T=Tank, centre=centre, P=P),
         description="Banerjee & Lemak's example: friction that follows the computed "
