@@ -67,7 +67,7 @@ class ContactPoint:
 
 @dataclass(frozen=True)
 class ContactSolution:
-    """Accelerations and contact forces for one set of modes.
+    r"""Accelerations and contact forces for one set of modes.
 
     Attributes
     ----------

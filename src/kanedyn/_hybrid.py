@@ -72,7 +72,7 @@ def _touching_mode(coef, point, tol):
 
 
 def _free_normal_acceleration(solver, t, y, modes, directions, c):
-    """How fast contact ``c`` would leave its surface if it were free.
+    r"""How fast contact ``c`` would leave its surface if it were free.
 
     The normal acceleration of the free contact point less the stabilized
     one a contact keeps (Baumgarte's :math:`-2\omega\dot d - \omega^2 d`):

@@ -39,7 +39,7 @@ __all__ = ["Impact", "resolve_impact"]
 
 @dataclass(frozen=True)
 class Impact:
-    """One impact: when, where, the impulses and the energy it cost.
+    r"""One impact: when, where, the impulses and the energy it cost.
 
     Attributes
     ----------
