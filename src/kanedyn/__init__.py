@@ -8,7 +8,10 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from ._contact import Contact, Ellipsoid, ImplicitSurface, Plane, Sphere, Surface
+from ._contact import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
+                       Sphere, Surface)
+from ._hybrid import ModeChange
+from ._impact import Impact
 from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
                       MissingValueError, ModelError)
@@ -31,6 +34,9 @@ __all__ = [
     "Sphere",
     "Ellipsoid",
     "ImplicitSurface",
+    "SURFACE_COORDINATES",
+    "ModeChange",
+    "Impact",
     "NumericModel",
     "simulate",
     "SimulationResult",

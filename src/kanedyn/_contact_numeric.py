@@ -33,8 +33,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["SEPARATED", "SLIP", "STICK", "ContactPoint", "ContactSolution",
-           "contact_points", "solve_modes"]
+__all__ = ["SEPARATED", "SLIP", "STICK", "ContactPoint", "ContactSolution", "SlipReference",
+           "contact_points", "slip_direction", "solve_modes"]
 
 SEPARATED, SLIP, STICK = "separated", "slip", "stick"
 
@@ -110,24 +110,43 @@ def contact_points(model, t, y):
             for c in range(len(gap))]
 
 
+@dataclass(frozen=True)
+class SlipReference:
+    """Reference of a sliding contact for :func:`slip_direction`.
+
+    Attributes
+    ----------
+    direction : ndarray, shape (3,)
+        Unit vector: the slip direction when the current mode began, or the
+        one a slip starts in.
+    slow : float
+        Slip speed (m/s) below which a slip velocity turned away from
+        ``direction`` counts as stopping; ``inf``: at any speed.
+    """
+
+    direction: np.ndarray
+    slow: float = np.inf
+
+
 def slip_direction(point, reference=None, tiny=1e-12):
     """Unit slip direction of a sliding contact.
 
     Without a ``reference`` it is the direction of the slip velocity (zero
-    when there is none).  With one (the direction the slip had when the
-    current mode began, or the one it starts in), the slip velocity's
-    direction is used while it has a positive component along the reference
-    and the reference otherwise: the friction does not flip when the slip
-    velocity passes through zero, so the equations stay smooth up to the
-    event that stops the slip (``slip velocity . reference = 0``).
+    when there is none).  With one (a :class:`SlipReference` or a direction
+    vector), the slip velocity's direction is used unless the slip is slow
+    and has no positive component along the reference; then the reference
+    is: the friction does not flip when the slip velocity passes through
+    zero, and the equations stay smooth up to the event that stops the slip.
     """
     vt = point.slip_velocity
     speed = np.linalg.norm(vt)
     moving = speed > tiny * max(1.0, np.linalg.norm(point.velocity))
     if reference is None:
         return vt / speed if moving else np.zeros(3)
-    s = np.asarray(reference, dtype=float)
-    if moving and vt @ s > 0:
+    if not isinstance(reference, SlipReference):
+        reference = SlipReference(np.asarray(reference, dtype=float))
+    s = reference.direction
+    if moving and (vt @ s > 0 or speed > reference.slow):
         return vt / speed
     s = s - (s @ point.normal) * point.normal
     norm = np.linalg.norm(s)

@@ -22,7 +22,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ._contact_numeric import SEPARATED, SLIP, STICK, contact_points, solve_modes
+from ._contact_numeric import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
+                               solve_modes)
 from ._impact import resolve_impact
 
 __all__ = ["simulate_contacts", "ModeChange"]
@@ -132,7 +133,7 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
                 limit = coef["mu_s"] * abs(N)
                 if np.linalg.norm(ft) > limit + tol["force"]:
                     modes[c] = SLIP
-                    directions[c] = -ft / np.linalg.norm(ft)
+                    directions[c] = SlipReference(-ft / np.linalg.norm(ft))
                     reasons.append((c, STICK, SLIP, "static friction cannot hold it"))
                     changed = True
                     break
@@ -163,13 +164,17 @@ def _events(model, solver, points, modes, directions, n_states):
                 return solver(t, z[:n_states], modes, directions).normal_force[c]
             events.append((normal, c, "lift-off", -1))
         if mode == SLIP and directions[c] is not None and coef["mu_s"] > 0:
-            ref = directions[c]  # (no event while there is no slip to stop)
+            # zero where the slip velocity's component along the reference
+            # direction vanishes while the slip is slow (a stop), not where a
+            # fast slip has merely turned by 90 degrees (see slip_direction)
+            ref, slow = directions[c].direction, directions[c].slow
 
-            def stop(t, z, c=c, ref=ref):
-                return solver(t, z[:n_states], modes, directions).points[c].slip_velocity @ ref
+            def stop(t, z, c=c, ref=ref, slow=slow):
+                vt = solver(t, z[:n_states], modes, directions).points[c].slip_velocity
+                return max(vt @ ref, np.linalg.norm(vt) - slow)
             events.append((stop, c, "slip stops", -1))
         elif mode == STICK:
-            def margin(t, z, c=c):
+            def margin(t, z, c=c, coef=coef):
                 sol = solver(t, z[:n_states], modes, directions)
                 ft = sol.friction[c] + coef["viscous"] * sol.points[c].slip_velocity
                 return coef["mu_s"] * abs(sol.normal_force[c]) - np.linalg.norm(ft)
@@ -233,12 +238,12 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             if modes[c] != SLIP:
                 directions[c] = None
             elif speed > tol["slip"]:
-                directions[c] = points[c].slip_velocity / speed
+                directions[c] = SlipReference(points[c].slip_velocity / speed, 1e-3 * speed)
             # else: a slip that starts keeps the direction it starts in
         mode_events = _events(model, solver, points, modes, directions, n)
         frozen_modes, frozen_dirs = list(modes), list(directions)
 
-        def rhs(tt, z):
+        def rhs(tt, z, frozen_modes=frozen_modes, frozen_dirs=frozen_dirs):
             sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
             qd = model._dynamics(tt, z[:n])[0]
             return np.concatenate([qd, sol.udot, [sol.dissipation, sol.power]])
@@ -311,7 +316,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 sol_c = solver(t, y, modes, directions)
                 ft = sol_c.friction[c]
                 new_modes[c] = SLIP
-                directions[c] = -ft / max(np.linalg.norm(ft), 1e-300)
+                directions[c] = SlipReference(-ft / max(np.linalg.norm(ft), 1e-300))
                 reasons.append((c, STICK, SLIP, "the friction reaches mu_s N"))
         y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions, tol,
                                             rest, reasons, impacts)
@@ -346,7 +351,9 @@ def _changes(t, names, before, after, reasons):
 def _check_initial(model, t, y, modes, tol):
     """Bad initial states of contacts are errors that say what is wrong."""
     from ._errors import ModelError
-    for c, point in enumerate(contact_points(model, t, y)):
+    with np.errstate(invalid="ignore", divide="ignore"):  # a vanishing normal: below
+        points = contact_points(model, t, y)
+    for c, point in enumerate(points):
         coef = model.contacts[c]
         if not point.grad_norm > 0:
             raise ModelError(f"contact {coef['name']}: the surface normal vanishes at the "

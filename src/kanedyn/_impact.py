@@ -161,7 +161,7 @@ def _single(W, v0, n, mu_k, mu_s, e, law):
         else:
             direction = vt / np.linalg.norm(vt) if sliding else slip_start_direction()
 
-            def rate(q, z):  # z = [relative velocity, tangential impulse]
+            def rate(q, z, direction=direction):  # z = [relative velocity, tangential impulse]
                 wt = z[:3] - (n @ z[:3]) * n
                 speed = np.linalg.norm(wt)
                 d = wt / speed if speed > slip_tol else direction
@@ -169,7 +169,7 @@ def _single(W, v0, n, mu_k, mu_s, e, law):
 
             events = []
 
-            def stopped(q, z):
+            def stopped(q, z, direction=direction):
                 return (z[:3] - (n @ z[:3]) * n) @ direction
             stopped.terminal, stopped.direction = True, -1
             events.append(stopped)

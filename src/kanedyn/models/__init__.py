@@ -34,7 +34,8 @@ REGISTRY = {
     "block-on-incline": (block_on_incline, {}),
     "bouncing-ball": (bouncing_ball, {"restitution": float}),
     "ladder": (ladder, {"frictionless": bool, "angle": float}),
-    "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float}),
+    "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float,
+                                   "law": str}),
 }
 
 

@@ -174,8 +174,11 @@ def ladder(frictionless=False, angle=0.9):
                     "height.")
 
 
-def falling_rod(angle=0.6, restitution=0.5, mu=0.4):
-    """A rod falling tilted onto a rough floor: impact with friction at one end."""
+def falling_rod(angle=0.6, restitution=0.5, mu=0.4, law="poisson"):
+    """A rod falling tilted onto a rough floor: impacts with friction at its ends.
+
+    ``law``: the restitution law, ``"poisson"`` or ``"newton"``.
+    """
     L, m, g, e, mu_s = sm.symbols("L m g e mu", positive=True)
     N = me.ReferenceFrame("N")
     O = me.Point("O")
@@ -186,7 +189,7 @@ def falling_rod(angle=0.6, restitution=0.5, mu=0.4):
     for end in ends:
         end.v2pt_theory(G, N, B)
     contacts = [Contact(end, Plane(N, O, N.z, name="floor"), mu_k=mu_s, restitution=e,
-                        name=f"floor-{end.name}") for end in ends]
+                        restitution_law=law, name=f"floor-{end.name}") for end in ends]
     height = 0.5 + 0.5 * math.sin(angle)
     return ModelDefinition(
         name="falling-rod", title="rod falling on a rough floor: impacts with friction",
