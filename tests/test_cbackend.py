@@ -294,3 +294,32 @@ def test_backend_choice_errors():
         warnings.simplefilter("error")
         res = kd.simulate(c_model, (0, 1), [0.3, 0.0], method="DOP853")
     assert res.method == "DOP853" and res.success
+
+
+@pytest.mark.parametrize("name", ["slug-ellipsoid", "ladder", "falling-rod",
+                                  "block-on-incline"])
+def test_contact_functions_agree(name):
+    d = kd.models.build(name)
+    eom = d.derive()
+    fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    rng = np.random.default_rng(5)
+    y0 = slow.state(d.initial_state)
+    k = len(slow.contacts)
+    for modes in (["slip"] * k, ["stick"] + ["separated"] * (k - 1)):
+        y = y0 + np.concatenate([np.zeros(slow.n_q), rng.uniform(-0.5, 0.5, slow.n_u)])
+        a = fast.contact_dynamics(0.3, y, modes)
+        b = slow.contact_dynamics(0.3, y, modes)
+        for x, z in ((a.udot, b.udot), (a.normal_force, b.normal_force),
+                     (a.friction, b.friction)):
+            assert relative(x, z) < 1e-12
+
+
+def test_contact_simulation_with_the_c_backend():
+    d = kd.models.build("falling-rod")
+    eom = d.derive()
+    fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    y0 = slow.state(d.initial_state)
+    a = kd.simulate(fast, (0.0, 0.8), y0, rtol=1e-10, atol=1e-10)
+    b = kd.simulate(slow, (0.0, 0.8), y0, rtol=1e-10, atol=1e-10)
+    assert len(a.impacts) == len(b.impacts) > 3
+    assert np.allclose(a.y[:, -1], b.y[:, -1], rtol=1e-9, atol=1e-9)

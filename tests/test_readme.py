@@ -3,6 +3,8 @@
 import re
 from pathlib import Path
 
+import numpy as np
+
 ROOT = Path(__file__).resolve().parents[1]
 
 
@@ -26,3 +28,15 @@ def test_ci_runs_the_readme_test_command():
     assert len(commands) >= 2 and "kanedyn demo" in commands[0]
     ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
     assert ci == commands[1]
+
+
+def test_contacts_doc_example_runs(tmp_path, monkeypatch):
+    text = (ROOT / "docs" / "contacts.md").read_text()
+    block = re.findall(r"```python\n(.*?)```", text, re.S)[0]
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    exec(compile(block, "docs/contacts.md", "exec"), namespace)
+    res, exact = namespace["res"], namespace["exact"]
+    speed = np.linalg.norm(res.y[3:], axis=0)
+    assert np.max(np.abs(speed / exact - 1)) < 1e-8
+    assert (tmp_path / "sphere_slug.png").exists()

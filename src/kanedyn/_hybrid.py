@@ -139,7 +139,9 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
                     break
         if not changed:
             return modes, directions
-    raise RuntimeError("the contact modes do not settle (chattering)")
+    raise RuntimeError("the contact modes do not settle: no mode assignment keeps the "
+                       "normal forces pushing and the friction within its cone (Painleve's "
+                       "paradox, or chattering)")
 
 
 def _events(model, solver, points, modes, directions, n_states):
@@ -318,8 +320,12 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 new_modes[c] = SLIP
                 directions[c] = SlipReference(-ft / max(np.linalg.norm(ft), 1e-300))
                 reasons.append((c, STICK, SLIP, "the friction reaches mu_s N"))
-        y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions, tol,
-                                            rest, reasons, impacts)
+        try:
+            y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions,
+                                                tol, rest, reasons, impacts)
+        except (RuntimeError, np.linalg.LinAlgError) as exc:
+            status, message = -1, f"stopped at t={t:.6g}: {exc}"
+            break
         history.extend(_changes(t, names, modes, new_modes, reasons))
         modes = new_modes
         if t >= t1:

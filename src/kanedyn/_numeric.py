@@ -231,7 +231,8 @@ class NumericModel:
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
             self._fn = {name: getattr(module, name)
-                        for name in ("dynamics", "constraints", "energy", "auxiliary")
+                        for name in ("dynamics", "constraints", "energy", "auxiliary",
+                                     "contacts")
                         if hasattr(module, name)}
             self._c = module.Model(self._p, self._input_values if self._inputs else None)
             self.rhs = self._c.rhs  # the compiled entry points, called directly
