@@ -359,6 +359,73 @@ def test_rod_landing_flat_on_both_ends(vx, expected):
     assert impact.energy_loss > 0
 
 
+def test_surface_on_a_moving_body_gets_the_reaction():
+    """A block sliding on a free cart: momentum is conserved, the slip stops on time."""
+    m, M, mu, g, v0 = 1.0, 3.0, 0.25, 9.81, 2.0
+    xc, xb, zb = me.dynamicsymbols("x_c x_b z_b")
+    uc, ub, wb = me.dynamicsymbols("u_c u_b w_b")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    cart = O.locatenew("C", xc * N.x)
+    cart.set_vel(N, uc * N.x)
+    block = O.locatenew("B", xb * N.x + zb * N.z)
+    block.set_vel(N, ub * N.x + wb * N.z)
+    top = kd.Contact(block, kd.Plane(N, cart, N.z, name="deck"), mu_k=mu, name="deck")
+    eom = kd.kane(frame=N, q_ind=[xc, xb, zb], u_ind=[uc, ub, wb],
+                  kd_eqs=[xc.diff() - uc, xb.diff() - ub, zb.diff() - wb],
+                  bodies=[me.Particle("cart", cart, M), me.Particle("block", block, m)],
+                  loads=[(block, -m * g * N.z)], contacts=[top])
+    res = kd.simulate(eom.numeric(), (0.0, 1.5), [0, 0, 0, 0, v0, 0], **TIGHT)
+    momentum = M * res["u_c"] + m * res["u_b"]
+    assert np.max(np.abs(momentum - m * v0)) < 1e-9
+    stop = [c for c in res.mode_history if c.new == "stick"]
+    assert stop[0].t == pytest.approx(v0 / (mu * g * (1 + m / M)), rel=1e-9)
+    assert res["u_c"][-1] == pytest.approx(m * v0 / (m + M), rel=1e-9)
+    assert res["u_b"][-1] == pytest.approx(m * v0 / (m + M), rel=1e-9)
+
+
+def test_viscous_friction():
+    m, c, v0 = 2.0, 0.7, 1.5
+    x, z = me.dynamicsymbols("x z")
+    ux, uz = me.dynamicsymbols("u_x u_z")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x + z * N.z)
+    P.set_vel(N, ux * N.x + uz * N.z)
+    floor = kd.Contact(P, kd.Plane(N, O, N.z), viscous=c, name="floor")
+    eom = kd.kane(frame=N, q_ind=[x, z], u_ind=[ux, uz],
+                  kd_eqs=[x.diff() - ux, z.diff() - uz], bodies=[me.Particle("p", P, m)],
+                  loads=[(P, -m * 9.81 * N.z)], contacts=[floor])
+    t = np.linspace(0, 3, 31)
+    res = kd.simulate(eom.numeric(), (0.0, 3.0), [0, 0, v0, 0], t_eval=t, **TIGHT)
+    assert np.allclose(res["u_x"], v0 * np.exp(-c * t / m), rtol=1e-8)
+    assert np.allclose(res.contact_forces["floor"]["friction"][:, 0], -c * res["u_x"],
+                       rtol=1e-9)
+
+
+def test_bilateral_contact_pulls_and_friction_uses_the_magnitude():
+    """A particle held on the outside of a sphere: N = -m v^2/R, v = v0/(1 + mu v0 t/R)."""
+    q = me.dynamicsymbols("x y z")
+    u = me.dynamicsymbols("u_x u_y u_z")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q[0] * N.x + q[1] * N.y + q[2] * N.z)
+    P.set_vel(N, u[0] * N.x + u[1] * N.y + u[2] * N.z)
+    bead = kd.Contact(P, kd.Sphere(N, O, 1.0, inside=False), mu_k=0.2, kind="bilateral",
+                      name="shell")
+    eom = kd.kane(frame=N, q_ind=q, u_ind=u, kd_eqs=[a.diff() - b for a, b in zip(q, u)],
+                  bodies=[me.Particle("p", P, 1.0)], contacts=[bead])
+    t = np.linspace(0, 3, 31)
+    res = kd.simulate(eom.numeric(), (0.0, 3.0), [1, 0, 0, 0, 2, 0], t_eval=t, **TIGHT)
+    exact = 2.0 / (1 + 0.2 * 2.0 * t)
+    assert np.allclose(np.linalg.norm(res.y[3:], axis=0), exact, rtol=1e-8)
+    assert np.allclose(res.contact_forces["shell"]["normal"], -exact ** 2, rtol=1e-8)
+    assert [c.new for c in res.mode_history] == ["slip"]
+
+
 # ----------------------------------------------- the plain Kane form, compared
 def test_given_normal_load_form_matches_contact_form_on_a_flat_floor():
     """Friction as a load with a given normal force (mg) equals the contact form here."""

@@ -7,7 +7,7 @@ normal :math:`n_c` and modes
     no force;
 ``slip``
     normal force :math:`N_c n_c` and Coulomb friction
-    :math:`-\mu_k N_c \hat s_c` (:math:`\hat s_c` the slip direction), one
+    :math:`-\mu_k |N_c| \hat s_c` (:math:`\hat s_c` the slip direction), one
     unknown :math:`N_c`, one equation :math:`\dot v_{n,c} = 0`;
 ``stick``
     an unknown force vector :math:`\lambda_c` and :math:`\dot v_c = 0`,
@@ -19,7 +19,7 @@ of the relative motion) read
 .. math::
 
     M\dot u = f + \sum_c J_c^T \lambda_c,\qquad
-    \lambda_c = N_c (n_c - \mu_k \hat s_c)\ \text{(slip)},
+    \lambda_c = N_c n_c - \mu_k |N_c| \hat s_c\ \text{(slip)},
 
 and are solved together with the contact equations (and the model's own
 velocity constraints) as one linear system in :math:`(\dot u, N, \lambda)`.
@@ -196,7 +196,7 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     coefficients = model.contacts
     directions = directions or [None] * len(points)
     force = force.copy()
-    columns, rows, rhs, layout = [], [], [], []
+    columns, rows, rhs, layout, slip_columns = [], [], [], [], []
     w = stabilization
     for c, (point, mode) in enumerate(zip(points, modes)):
         if mode == SEPARATED:
@@ -211,7 +211,10 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         correction = 2 * w * point.normal_speed + w * w * point.distance
         if mode == SLIP:
             s = slip_direction(point, directions[c])
-            columns.append(J.T @ (n - coef["mu_k"] * s))
+            # the friction column is set below with the sign of the normal force
+            slip_columns.append((len(columns), J.T @ n, coef["mu_k"] * (J.T @ s),
+                                 coef["kind"] == "bilateral"))
+            columns.append(J.T @ n)
             rows.append(n @ J)
             rhs.append(-(point.normal_rate + correction))
             layout.append((mode, 1, s))
@@ -236,7 +239,6 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     A = np.zeros((o + k, o + k))
     b = np.zeros(o + k)
     A[:p, :o] = R @ mass
-    A[:p, o:] = -(R @ G)
     b[:p] = R @ force
     if m:
         A[p:o, :o] = acc_K
@@ -244,13 +246,26 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     if k:
         A[o:, :o] = np.array(rows).reshape(k, o)
         b[o:] = rhs
-    if k and _redundant(np.vstack([vel_B.reshape(m, o), A[o:, :o]])):
-        # statically indeterminate (e.g. a ladder sticking at both ends): the
-        # accelerations are determined, the contact forces are not; take the
-        # least-norm forces
-        sol = np.linalg.lstsq(A, b, rcond=None)[0]
-    else:
-        sol = np.linalg.solve(A, b)
+    redundant = k and _redundant(np.vstack([vel_B.reshape(m, o), A[o:, :o]]))
+    # friction -mu |N| s: the sign of N is assumed positive, and corrected for
+    # bilateral contacts whose normal force turns out to pull
+    sign = np.ones(k)
+    for _ in range(len(slip_columns) + 1):
+        for i, normal_column, friction_column, _ in slip_columns:
+            G[:, i] = normal_column - sign[i] * friction_column
+        A[:p, o:] = -(R @ G)
+        if redundant:
+            # statically indeterminate (e.g. a ladder sticking at both ends): the
+            # accelerations are determined, the contact forces are not; take
+            # the least-norm forces
+            sol = np.linalg.lstsq(A, b, rcond=None)[0]
+        else:
+            sol = np.linalg.solve(A, b)
+        flips = [i for i, _, _, bilateral in slip_columns
+                 if bilateral and sol[o + i] * sign[i] < 0]
+        if not flips:
+            break
+        sign[flips] *= -1
     udot, lam = sol[:o], sol[o:]
     normal_force = np.zeros(len(points))
     friction = np.zeros((len(points), 3))
@@ -264,7 +279,7 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         if mode == SLIP:
             N = lam[i]
             normal_force[c] = N
-            friction[c] = -coef["mu_k"] * N * entry[2] - coef["viscous"] * vt
+            friction[c] = -coef["mu_k"] * sign[i] * N * entry[2] - coef["viscous"] * vt
         elif mode == STICK:
             total = entry[2] @ lam[i:i + size]
             N = float(total @ point.normal)
