@@ -309,9 +309,10 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             elif kind == "lift-off":
                 new_modes[c] = SEPARATED
                 reasons.append((c, modes[c], SEPARATED, "the normal force vanishes"))
-            elif kind == "slip stops":
+            elif kind == "slip stops":  # or a slow slip turned away: a new reference
                 point = contact_points(model, t, y)[c]
-                if np.linalg.norm(point.slip_velocity) <= tol["slip"] * 1e3:
+                stopped = min(tol["slip"] * 1e3, 0.1 * directions[c].slow)
+                if np.linalg.norm(point.slip_velocity) <= stopped:
                     new_modes[c] = STICK
                     reasons.append((c, SLIP, STICK, "the slip stops"))
             elif kind == "friction limit":

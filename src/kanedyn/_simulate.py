@@ -15,6 +15,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from ._errors import ModelError
 from ._progress import as_progress
 from ._results import SimulationResult
 
@@ -102,7 +103,12 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         ``"Rosenbrock23"``, for stiff problems); ``"scipy"``: ``solve_ivp``.
         Default: the compiled loop where it applies, else ``solve_ivp``.
     **options
-        Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).
+        Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).  For
+        models with contacts also ``modes`` (initial mode per contact;
+        default: found from the state), ``stabilization`` (Baumgarte
+        frequency of the contact constraints, rad/s, default 10) and
+        ``rest_speed`` (approach speed below which impacts are plastic,
+        m/s; default ``max(1e3 atol, 1e-6)`` times the state's scale).
 
     Returns
     -------
@@ -117,6 +123,10 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
     if model.contacts:
+        if backend == "c" or dense_output:
+            raise ModelError("models with contacts are integrated segment by segment on "
+                             "solve_ivp: backend='c' and dense_output are not available "
+                             "for them")
         return _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol, atol,
                                        user_events, constraint_forces, progress, options)
     if _use_compiled(model, method, backend, options):
