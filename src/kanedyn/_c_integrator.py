@@ -170,11 +170,7 @@ static double kd_residual(KdModel *model, double t, const double *y) {
     kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
     double worst = 0.0;
     for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
-    for (int i = 0; i < KD_NUDEP; ++i) {
-        double s = b[i];
-        for (int j = 0; j < KD_NU; ++j) s += B[i * KD_NU + j] * y[KD_NQ + j];
-        worst = fmax(worst, fabs(s));
-    }
+    for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
     return worst;
 #else
     (void)model; (void)t; (void)y;
@@ -182,8 +178,8 @@ static double kd_residual(KdModel *model, double t, const double *y) {
 #endif
 }
 
-/* dependent coordinates by Newton, dependent speeds from the velocity
-   constraints: 0, 1 if singular, -1 on a Python error */
+/* dependent coordinates, then dependent speeds, by Newton's method: 0, 1 if
+   singular, -1 on a Python error */
 static int kd_project(KdModel *model, double t, double *y) {
 #if KD_NQDEP + KD_NUDEP > 0
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
@@ -202,17 +198,18 @@ static int kd_project(KdModel *model, double t, double *y) {
         if (kd_lu_solve(KD_NQDEP, Jd, h, 1) != 0) return 1;
         for (int i = 0; i < KD_NQDEP; ++i) y[KD_NQ - KD_NQDEP + i] -= h[i];
     }
-    if (KD_NUDEP > 0) {
+    /* dependent speeds by Newton's method on the velocity residuals b (one
+       step when they are linear in the speeds) */
+    for (int it = 0; it < 50 && KD_NUDEP > 0; ++it) {
         kd_eval_constraints(t, y, p, r, w, h, J, B, b);
-        double Bd[KD_SZ(KD_NUDEP * KD_NUDEP)], rhs[KD_SZ(KD_NUDEP)];
-        for (int i = 0; i < KD_NUDEP; ++i) {
-            double s = b[i];
-            for (int j = 0; j < KD_NUI; ++j) s += B[i * KD_NU + j] * y[KD_NQ + j];
-            rhs[i] = -s;
+        double worst = 0.0;
+        for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
+        if (worst <= 1e-13 || (it > 0 && worst <= 1e-10)) break;
+        double Bd[KD_SZ(KD_NUDEP * KD_NUDEP)];
+        for (int i = 0; i < KD_NUDEP; ++i)
             for (int j = 0; j < KD_NUDEP; ++j) Bd[i * KD_NUDEP + j] = B[i * KD_NU + KD_NUI + j];
-        }
-        if (kd_lu_solve(KD_NUDEP, Bd, rhs, 1) != 0) return 1;
-        for (int i = 0; i < KD_NUDEP; ++i) y[KD_NQ + KD_NUI + i] = rhs[i];
+        if (kd_lu_solve(KD_NUDEP, Bd, b, 1) != 0) return 1;
+        for (int i = 0; i < KD_NUDEP; ++i) y[KD_NQ + KD_NUI + i] -= b[i];
     }
 #else
     (void)model; (void)t; (void)y;

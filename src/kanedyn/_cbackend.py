@@ -209,7 +209,7 @@ def _wrapper_source(name, outputs, nr):
     return "\n".join(lines)
 
 
-CODEGEN_VERSION = "kanedyn-c-1"  # change when generated code changes meaning
+CODEGEN_VERSION = "kanedyn-c-2"  # change when generated code changes meaning
 
 
 def fingerprint(program, functions, sizes, cse=True):

@@ -55,7 +55,7 @@ class EquationsOfMotion:
 
     _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
                "qdot", "kinematic_matrices", "mass", "active", "remainder",
-               "vel_B", "vel_f", "acc_K", "acc_f", "config", "aux_K", "aux_f",
+               "vel_B", "vel_c", "acc_K", "acc_f", "config", "aux_K", "aux_f",
                "kinetic", "potential", "body_terms", "contact_terms", "method")
 
     def __init__(self):
@@ -121,7 +121,7 @@ class EquationsOfMotion:
         out.extend(self._remainder)
         for row in self._vel_B:
             out.extend(row)
-        out.extend(self._vel_f)
+        out.extend(self._vel_c)
         for row in self._acc_K:
             out.extend(row)
         out.extend(self._acc_f)
@@ -335,7 +335,7 @@ class EquationsOfMotion:
         prog = self._program
         M = [e for row in self._mass for e in row]
         F = list(self._active) + list(self._remainder) + list(self._qdot)
-        C = ([e for row in self._vel_B for e in row] + list(self._vel_f)
+        C = ([e for row in self._vel_B for e in row] + list(self._vel_c)
              + [e for row in self._acc_K for e in row] + list(self._acc_f))
         everything = M + F + C
         return {"mass_matrix": prog.count_ops(M), "forcing": prog.count_ops(F),

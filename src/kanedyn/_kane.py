@@ -389,9 +389,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
                for i, c in enumerate(spec.velocity_constraints)]
     else:
         vel = [kin.dt(c) for c in config]
-    u_zero = {s: 0 for s in table.u}
-    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel)
-    vel_f = tuple(prog.let(prog.subs(c, u_zero), "b") for c in vel)
+    vel_c = tuple(prog.let(c, "vc") for c in vel)  # residuals; may be nonlinear in u
+    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
     if spec.acceleration_constraints is not None:
         acc = [prog.subs(prog.let_tree(table.internal(
                    c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
@@ -427,6 +426,6 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         qdot=qdot, kinematic_matrices=kin_matrices,
         mass=tuple(tuple(row) for row in mass_rows[:o]),
         active=tuple(fr[:o]), remainder=tuple(nonmm[:o]),
-        vel_B=vel_B, vel_f=vel_f, acc_K=acc_K, acc_f=acc_f, config=config,
+        vel_B=vel_B, vel_c=vel_c, acc_K=acc_K, acc_f=acc_f, config=config,
         aux_K=aux_K, aux_f=aux_f, kinetic=kinetic, potential=potential,
         body_terms=tuple(body_terms), contact_terms=contacts, method="kane")

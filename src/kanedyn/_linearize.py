@@ -55,8 +55,7 @@ class _Terms:
              for r in range(o)]
         acc = [sum((eom._acc_K[c][s] * self.w[s] for s in range(o)), sm.S.Zero)
                + eom._acc_f[c] for c in range(m)]
-        vel = [sum((eom._vel_B[c][s] * u[s] for s in range(o)), sm.S.Zero)
-               + eom._vel_f[c] for c in range(m)]
+        vel = list(eom._vel_c)
         J = prog.jacobian
         self.outputs = {
             "g_q": J(eom._qdot, q), "g_u": J(eom._qdot, u), "g_r": J(eom._qdot, inputs),

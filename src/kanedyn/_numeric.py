@@ -462,10 +462,13 @@ class NumericModel:
         return self._fn["constraints"](t, y, self._p, self._r(t, y))
 
     def constraint_residuals(self, t, y):
-        """Configuration then velocity constraint residuals (zero when satisfied)."""
-        h, _, vel_B, vel_b = self._constraint_terms(t, y)
-        u = np.asarray(y)[self.n_q:]
-        return np.concatenate([h, vel_B @ u + vel_b])
+        """Configuration then velocity constraint residuals (zero when satisfied).
+
+        The velocity residuals are the constraint expressions themselves, so
+        constraints nonlinear in the speeds are measured correctly.
+        """
+        h, _, _, vel_c = self._constraint_terms(t, y)
+        return np.concatenate([h, vel_c])
 
     def consistent_state(self, t, y, tol=1e-12, max_iterations=50):
         """State with dependent coordinates and speeds satisfying the constraints.
@@ -503,17 +506,26 @@ class NumericModel:
                     f"{np.max(np.abs(h)):.3g}) by adjusting "
                     f"{', '.join(names[n - l:n])}; give initial values closer to a "
                     "consistent configuration")
-        if m:
-            _, _, B, b = self._constraint_terms(t, y)
-            p = self.n_u - m
-            Bd = B[:, p:]
-            if _singular(Bd, B):
+        if m:  # Newton's method (one step when linear in the speeds)
+            dep = slice(n + self.n_u - m, None)
+            for _ in range(max_iterations + 1):
+                _, _, B, c = self._constraint_terms(t, y)
+                Bd = B[:, dep.start - n:]
+                if _singular(Bd, B):
+                    raise ConstraintError(
+                        "the velocity constraints cannot be solved for the dependent "
+                        f"speeds {', '.join(names[dep])}: the constraint Jacobian "
+                        f"with respect to them is singular at "
+                        f"{self._describe(y[:n], names[:n])}")
+                scale = 1.0 + np.max(np.abs(y[n:]))
+                if np.max(np.abs(c)) <= tol * scale or not np.all(np.isfinite(c)):
+                    break
+                y[dep] -= np.linalg.solve(Bd, c)
+            if not np.max(np.abs(c)) <= max(tol, 1e-9) * scale:
                 raise ConstraintError(
-                    "the velocity constraints cannot be solved for the dependent "
-                    f"speeds {', '.join(names[n + p:])}: the constraint Jacobian "
-                    f"with respect to them is singular at "
-                    f"{self._describe(y[:n], names[:n])}")
-            y[n + p:] = np.linalg.solve(Bd, -(B[:, :p] @ y[n:n + p] + b))
+                    "could not satisfy the velocity constraints (residual "
+                    f"{np.max(np.abs(c)):.3g}) by adjusting {', '.join(names[dep])}; "
+                    "give initial speeds closer to a consistent motion")
         return y
 
     @staticmethod
@@ -665,7 +677,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
     constraint_outputs = [((l,), [sub(e) for e in eom._config]),
                           ((l, n), [sub(e) for e in hol_jac]),
                           ((m, o), flat(eom._vel_B)),
-                          ((m,), [sub(e) for e in eom._vel_f])]
+                          ((m,), [sub(e) for e in eom._vel_c])]
     potential = eom._potential if eom._potential is not None else sm.nan
     energy = [((), [sub(eom._kinetic)]), ((), [sub(potential)])]
     contact_outputs = _contact_outputs(eom._contact_terms, o, sub)
