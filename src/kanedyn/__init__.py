@@ -19,6 +19,8 @@ from ._formulation import FORMULATIONS, formulate, kane
 from ._numeric import NumericModel
 from ._results import SimulationResult
 from ._simulate import simulate
+from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
+                                  VectorConstraint)
 from . import models
 
 __version__ = "0.1.0"
@@ -36,6 +38,10 @@ __all__ = [
     "ImplicitSurface",
     "SURFACE_COORDINATES",
     "ModeChange",
+    "VectorConstraint",
+    "PointVelocity",
+    "AngularVelocity",
+    "OrthogonalVelocities",
     "Impact",
     "NumericModel",
     "simulate",

@@ -56,7 +56,8 @@ class EquationsOfMotion:
     _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
                "qdot", "kinematic_matrices", "mass", "active", "remainder",
                "vel_B", "vel_c", "acc_K", "acc_f", "config", "aux_K", "aux_f",
-               "kinetic", "potential", "body_terms", "contact_terms", "method")
+               "kinetic", "potential", "body_terms", "inertial", "load_vectors",
+               "identified", "multiplier_names", "contact_terms", "method")
 
     def __init__(self):
         raise TypeError("EquationsOfMotion is created by kanedyn.kane(...)")
@@ -301,6 +302,33 @@ class EquationsOfMotion:
             ws = [self._as_vector(w) for w in terms.partial_angular_velocities]
             out[terms.body.name] = (vs, ws)
         return out
+
+    @property
+    def multiplier_names(self):
+        """Names of the velocity constraints' multipliers, one per constraint.
+
+        Constraints in vector form give them their own names (the identified
+        force's); others are ``lambda_<i>``.
+        """
+        return self._multiplier_names
+
+    @cached_property
+    def identified_forces(self):
+        """Constraint forces and torques identified by vector constraints.
+
+        Returns
+        -------
+        dict
+            ``{name: [(kind, location, vector, body), ...]}``: ``kind`` is
+            "force" (``location`` the point it acts at) or "torque"
+            (``location`` the frame); ``vector`` the force or torque per unit
+            multiplier as a SymPy ``Vector`` in the inertial frame; ``body``
+            the body acted on when the constraint names it, else ``None``.
+            Reactions on frames with prescribed motion are omitted.
+        """
+        return {name: [(a.kind, a.location, self._as_vector(a.vector), a.body)
+                       for a in actions if not a.ground]
+                for name, actions in self._identified}
 
     def _as_vector(self, comps):
         N = self.frame

@@ -43,6 +43,7 @@ class ModelSpec:
     loads: tuple  # of sympy.physics.mechanics Force / Torque
     potential_energy: sm.Expr | None
     contacts: tuple = ()  # of kanedyn Contact
+    vector_constraints: tuple = ()  # of kanedyn VectorConstraint
 
     @property
     def q(self):
@@ -78,6 +79,7 @@ def parse_model(*args, **kwargs):
     """Build a :class:`ModelSpec` from a ``System`` or KanesMethod keywords."""
     potential = kwargs.pop("potential_energy", None)
     contacts = _check_contacts(kwargs.pop("contacts", None))
+    vector = _check_vector_constraints(kwargs.pop("constraints", None))
     if args and isinstance(args[0], me.System):
         if len(args) > 1:
             raise ModelError("kane(system) takes no further positional arguments")
@@ -85,7 +87,7 @@ def parse_model(*args, **kwargs):
             raise ModelError(
                 f"kane(system) takes the model from the System; do not also pass "
                 f"{sorted(kwargs)}")
-        return replace(_from_system(args[0], potential), contacts=contacts)
+        return replace(_from_system(args[0], potential, vector), contacts=contacts)
     if kwargs:
         leftover = set(kwargs) - set(_KEYWORDS) - set(_ALIASES)
         if leftover:
@@ -103,7 +105,24 @@ def parse_model(*args, **kwargs):
     if len(args) > 4:
         raise ModelError("kane() takes at most 4 positional arguments "
                          "(frame, q_ind, u_ind, kd_eqs); pass the rest as keywords")
-    return replace(_build(potential=potential, **kwargs), contacts=contacts)
+    return replace(_build(potential=potential, vector_constraints=vector, **kwargs),
+                   contacts=contacts)
+
+
+def _check_vector_constraints(constraints):
+    from ._vector_constraints import VectorConstraint
+    constraints = _as_tuple(constraints, "constraints")
+    for c in constraints:
+        if not isinstance(c, VectorConstraint):
+            raise ModelError("constraints must be kanedyn vector constraints "
+                             f"(PointVelocity, AngularVelocity, ...), got {c!r}; give "
+                             "scalar expressions as velocity_constraints")
+    names = [n for c in constraints for n in c.names]
+    duplicates = sorted({n for n in names if names.count(n) > 1})
+    if duplicates:
+        raise ModelError("constraint-force names must be unique; repeated: "
+                         + ", ".join(duplicates))
+    return constraints
 
 
 def _check_contacts(contacts):
@@ -119,7 +138,7 @@ def _check_contacts(contacts):
     return contacts
 
 
-def _from_system(system, potential):
+def _from_system(system, potential, vector_constraints=()):
     loads = tuple(system.loads) + tuple(
         load for act in system.actuators for load in act.to_loads())
     vel = system.velocity_constraints
@@ -129,13 +148,14 @@ def _from_system(system, potential):
         kd_eqs=system.kdes,
         configuration_constraints=system.holonomic_constraints,
         velocity_constraints=vel if len(vel) else None,
-        bodies=system.bodies, loads=loads, potential=potential)
+        bodies=system.bodies, loads=loads, potential=potential,
+        vector_constraints=vector_constraints)
 
 
 def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=None,
            configuration_constraints=None, velocity_constraints=None,
            acceleration_constraints=None, u_auxiliary=None, bodies=None, loads=None,
-           potential=None):
+           potential=None, vector_constraints=()):
     if not isinstance(frame, me.ReferenceFrame):
         raise ModelError(f"frame must be the inertial sympy ReferenceFrame, got {frame!r}")
     q_ind = _as_tuple(q_ind, "q_ind")
@@ -169,10 +189,16 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
         vel = tuple(sm.sympify(e) for e in _as_tuple(vel, "velocity_constraints"))
         if not vel:
             vel = None
-    n_vel = len(vel) if vel is not None else len(config)
+    n_vector = sum(len(c) for c in vector_constraints)
+    if vel is not None or n_vector:
+        n_vel = len(vel or ()) + n_vector
+        source = "velocity constraints" + (
+            f" ({len(vel or ())} given, {n_vector} from vector constraints)"
+            if n_vector else "")
+    else:
+        n_vel = len(config)
+        source = "velocity constraints (derived from the configuration constraints)"
     if n_vel != len(u_dep):
-        source = "velocity constraints" if vel is not None else (
-            "velocity constraints (derived from the configuration constraints)")
         raise ModelError(
             f"there are {len(u_dep)} dependent speeds (u_dep) but {n_vel} {source}; "
             "give one velocity constraint per dependent speed")
@@ -207,7 +233,8 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
         potential = total if total != 0 else None
     return ModelSpec(frame, q_ind, q_dep, u_ind, u_dep, u_aux, kd_eqs, config, vel, acc,
                      bodies, tuple(parsed_loads),
-                     sm.sympify(potential) if potential is not None else None)
+                     sm.sympify(potential) if potential is not None else None,
+                     vector_constraints=tuple(vector_constraints))
 
 
 def _check_kd_symbols(kd_eqs, q, u, u_aux):

@@ -36,7 +36,8 @@ from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
 from ._progress import NO_PROGRESS
 from ._symbols import SymbolTable, name_of
 
-__all__ = ["derive_kane", "BodyTerms"]
+__all__ = ["derive_kane", "BodyTerms", "body_kinematics", "load_terms",
+           "given_velocity_constraints"]
 
 
 class ContactTerms:
@@ -301,6 +302,93 @@ def _generic_rows(kin, rows, o, body_terms, masses, inertias, inertial, loads):
     return out, active, remainder
 
 
+def body_kinematics(kin, bodies, partials, aux_zero, progress=NO_PROGRESS):
+    """Velocities, partial velocities and inertia terms of every body.
+
+    Returns
+    -------
+    body_terms : list of BodyTerms
+    masses : list of expressions
+    inertias : list
+        Central inertia matrices in inertial components (``None`` for a
+        particle).
+    inertial : list of (force, torque)
+        Inertia force and torque with u' = 0 (see :func:`_inertia_remainder`).
+    momenta : list
+        Angular momenta about the mass centres.
+    """
+    prog = kin.prog
+    body_terms, masses, inertias, inertial, hs = [], [], [], [], []
+    n_bodies = len(bodies)
+    for k, body in enumerate(bodies):
+        progress.update(f"kinematics of {body.name} ({k + 1}/{n_bodies})",
+                        (k + 1) / n_bodies)
+        m = prog.let(kin.internal(body.mass, f"mass of {body.name}"), f"m_{body.name}")
+        v = kin.velocity(body.masscenter)
+        rigid = isinstance(body, me.RigidBody)
+        w = kin.angular_velocity(body.frame) if rigid else (sm.S.Zero,) * 3
+        terms = BodyTerms(body, tuple(prog.subs(c, aux_zero) for c in v),
+                          tuple(prog.subs(c, aux_zero) for c in w),
+                          partials(v), partials(w))
+        force, torque, I_N, H = _inertia_remainder(kin, body, m, terms)
+        body_terms.append(terms)
+        masses.append(m)
+        inertias.append(I_N)
+        inertial.append((force, torque))
+        hs.append(H)
+    progress.done()
+    return body_terms, masses, inertias, inertial, hs
+
+
+def load_terms(kin, loads, partials):
+    """``[(location, inertial components, partials of its velocity), ...]``."""
+    out = []
+    for load in loads:
+        loc = load.location
+        kind = "T" if isinstance(loc, me.ReferenceFrame) else "F"
+        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), f"{kind}_{loc}")
+        base = (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
+                else kin.velocity(loc))
+        out.append((loc, vec, partials(base)))
+    return out
+
+
+def vector_constraint_rows(kin, spec, aux_zero):
+    """Velocity-constraint expressions and actions of ``spec.vector_constraints``."""
+    prog = kin.prog
+    exprs, actions, names = [], [], []
+    for constraint in spec.vector_constraints:
+        for name, (expr, acts) in zip(constraint.names, constraint._rows(kin)):
+            exprs.append(prog.subs(expr, aux_zero))
+            for a in acts:
+                a.vector = tuple(prog.subs(c, aux_zero) for c in a.vector)
+            actions.append(tuple(acts))
+            names.append(name)
+    return exprs, actions, names
+
+
+def given_velocity_constraints(kin, spec, config, aux_zero):
+    """The model's velocity constraints, the forces identified and the names.
+
+    Returns ``(expressions, identified, names)``: explicit velocity
+    constraints, then those of vector constraints (when neither is given, the
+    time derivatives of the configuration constraints); ``identified`` is
+    ``((name, actions), ...)`` of the vector constraints; ``names`` has one
+    multiplier name per expression (``lambda_<i>`` for rows without an
+    identified force).
+    """
+    prog = kin.prog
+    explicit = spec.velocity_constraints
+    if explicit is None and not spec.vector_constraints:
+        vel = [kin.dt(c) for c in config]
+    else:
+        vel = [prog.subs(kin.scalar(c, f"velocity constraint {i}", "vc"), aux_zero)
+               for i, c in enumerate(explicit or ())]
+    names = [f"lambda_{i}" for i in range(len(vel))]
+    exprs, actions, vnames = vector_constraint_rows(kin, spec, aux_zero)
+    return vel + exprs, tuple(zip(vnames, actions)), tuple(names + vnames)
+
+
 def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     """Kane's equations for a :class:`ModelSpec`; returns an EquationsOfMotion."""
     from ._eom import EquationsOfMotion
@@ -328,37 +416,10 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec)
                 for ur in speeds]
 
-    # ---------------------------------------------------------- bodies
-    body_terms, masses, inertias, inertial, hs = [], [], [], [], []
-    n_bodies = len(spec.bodies)
-    for k, body in enumerate(spec.bodies):
-        progress.update(f"kinematics of {body.name} ({k + 1}/{n_bodies})",
-                        (k + 1) / n_bodies)
-        m = prog.let(kin.internal(body.mass, f"mass of {body.name}"), f"m_{body.name}")
-        v = kin.velocity(body.masscenter)
-        rigid = isinstance(body, me.RigidBody)
-        w = kin.angular_velocity(body.frame) if rigid else (sm.S.Zero,) * 3
-        terms = BodyTerms(body, tuple(prog.subs(c, aux_zero) for c in v),
-                          tuple(prog.subs(c, aux_zero) for c in w),
-                          partials(v), partials(w))
-        force, torque, I_N, H = _inertia_remainder(kin, body, m, terms)
-        body_terms.append(terms)
-        masses.append(m)
-        inertias.append(I_N)
-        inertial.append((force, torque))
-        hs.append(H)
-    progress.done()
-
-    # ----------------------------------------------------------- loads
+    body_terms, masses, inertias, inertial, hs = body_kinematics(
+        kin, spec.bodies, partials, aux_zero, progress)
     progress.stage("generalized active forces")
-    loads = []
-    for load in spec.loads:
-        loc = load.location
-        kind = "T" if isinstance(loc, me.ReferenceFrame) else "F"
-        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), f"{kind}_{loc}")
-        base = (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
-                else kin.velocity(loc))
-        loads.append((loc, vec, partials(base)))
+    loads = load_terms(kin, spec.loads, partials)
 
     # ------------------------------------------- mass matrix, remainder
     progress.stage("mass matrix and forcing")
@@ -384,11 +445,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     progress.stage("constraints")
     config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
                    for i, c in enumerate(spec.configuration_constraints))
-    if spec.velocity_constraints is not None:
-        vel = [prog.subs(kin.scalar(c, f"velocity constraint {i}", "vc"), aux_zero)
-               for i, c in enumerate(spec.velocity_constraints)]
-    else:
-        vel = [kin.dt(c) for c in config]
+    vel, identified, names = given_velocity_constraints(kin, spec, config, aux_zero)
     vel_c = tuple(prog.let(c, "vc") for c in vel)  # residuals; may be nonlinear in u
     vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
     if spec.acceleration_constraints is not None:
@@ -428,4 +485,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         active=tuple(fr[:o]), remainder=tuple(nonmm[:o]),
         vel_B=vel_B, vel_c=vel_c, acc_K=acc_K, acc_f=acc_f, config=config,
         aux_K=aux_K, aux_f=aux_f, kinetic=kinetic, potential=potential,
-        body_terms=tuple(body_terms), contact_terms=contacts, method="kane")
+        body_terms=tuple(body_terms), inertial=tuple(inertial),
+        load_vectors=tuple((loc, vec) for loc, vec, _ in loads),
+        identified=identified, multiplier_names=names,
+        contact_terms=contacts, method="kane")

@@ -240,7 +240,8 @@ class NumericModel:
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
-                    "aux_names", "input_names", "has_potential", "has_loads", "contacts"):
+                    "aux_names", "input_names", "has_potential", "has_loads", "contacts",
+                    "multiplier_names", "identified_names"):
             setattr(self, key, d[key])
 
     def __repr__(self):
@@ -576,6 +577,59 @@ class NumericModel:
         sol = np.linalg.solve(G, -base)
         return dict(zip(self.aux_names, sol))
 
+    def multipliers(self, t, y, udot=None):
+        r"""Multipliers :math:`\lambda` of the velocity constraints.
+
+        Kane's unreduced equations hold with the constraint forces added,
+        :math:`M\dot u = f + B^T\lambda` (``B`` the Jacobian of the velocity
+        constraints with respect to the speeds); :math:`\lambda` is found by
+        least squares (exact: ``B`` has full row rank).  For constraints given
+        in vector form (:class:`kanedyn.PointVelocity`, ...) each multiplier
+        is the magnitude of the identified force or torque along its
+        direction, in N or N m.
+
+        Parameters
+        ----------
+        t : float
+        y : array_like, shape (n_states,)
+        udot : array_like, shape (n_u,), optional
+            Accelerations; default: those of :meth:`rhs`.
+
+        Returns
+        -------
+        dict
+            ``{name: value}`` in the order of the velocity constraints.
+        """
+        y = self._check_y(y)
+        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        if udot is None:
+            M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
+            udot = np.linalg.solve(M, f)
+        names = self.multiplier_names
+        if not names:
+            return {}
+        lam = np.linalg.lstsq(vel_B.reshape(len(names), -1).T, mass @ udot - force,
+                              rcond=None)[0]
+        return dict(zip(names, lam))
+
+    @property
+    def constraint_force_names(self):
+        """Names of :meth:`constraint_forces`: auxiliary, then identified forces."""
+        return tuple(self.aux_names) + tuple(self.identified_names)
+
+    def constraint_forces(self, t, y):
+        """Constraint forces at a state, ``{name: value}``.
+
+        Those exposed by auxiliary speeds (:meth:`auxiliary`) and the
+        magnitudes of the forces identified by vector constraints
+        (:meth:`multipliers`).
+        """
+        out = self.auxiliary(t, y) if self.aux_names else {}
+        if self.identified_names:
+            lam = self.multipliers(t, y)
+            out.update((name, lam[name]) for name in self.identified_names)
+        return out
+
     # ------------------------------------------------------------ contacts
     def contact_dynamics(self, t, y, modes, directions=None, stabilization=10.0):
         """Accelerations and contact forces with the contacts in given modes.
@@ -781,6 +835,9 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         "has_potential": eom._potential is not None,
         "has_loads": bool(eom.loads),
         "contacts": _contact_coefficients(eom.contacts, values),
+        "multiplier_names": eom._multiplier_names,
+        "identified_names": tuple(name for name, _ in eom._identified
+                                  if name in eom._multiplier_names),
     }
     model = NumericModel(data, module=c_module)
     # not pickled: the equations and exact input substitutions, for linearization

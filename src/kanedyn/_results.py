@@ -145,10 +145,10 @@ class SimulationResult:
             if not self._want_forces:
                 return {}
             model = self.model
-            names = model.aux_names
+            names = model.constraint_force_names
             values = np.full((len(names), self.t.size), np.nan)
             for k in self._finite_columns():
-                out = model.auxiliary(self.t[k], self.y[:, k])
+                out = model.constraint_forces(self.t[k], self.y[:, k])
                 values[:, k] = [out[nm] for nm in names]
             return dict(zip(names, values))
         return self._lazy("_constraint_forces", compute)

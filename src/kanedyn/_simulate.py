@@ -93,8 +93,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     projection_tol : float, optional
         Residual that triggers a projection; default ``max(100 * atol, 1e-10)``.
     constraint_forces : bool
-        Evaluate the constraint forces exposed by auxiliary speeds at every
-        output time (``result["T"]`` etc.).
+        Evaluate the constraint forces at every output time (``result["T"]``
+        etc.): those exposed by auxiliary speeds and those identified by
+        vector constraints (see :meth:`NumericModel.constraint_forces`).
     progress : bool
         Show progress on stderr.
     backend : {None, "scipy", "c"}

@@ -147,7 +147,7 @@ def cmd_run(args):
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end
     progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
-    res = _simulate(model, t_end, y0, args, progress, bool(model.aux_names))
+    res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
     summary = _write_run(definition, eom, model, res, Path(args.out), progress)
     _print_summary(summary)
     return 0 if res.success else 1
