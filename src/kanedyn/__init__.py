@@ -16,6 +16,7 @@ from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
                       MissingValueError, ModelError)
 from ._formulation import FORMULATIONS, formulate, kane
+from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._numeric import NumericModel
 from ._results import SimulationResult
 from ._simulate import simulate
@@ -43,6 +44,8 @@ __all__ = [
     "AngularVelocity",
     "OrthogonalVelocities",
     "Impact",
+    "check_newton_euler",
+    "NewtonEulerCheck",
     "NumericModel",
     "simulate",
     "SimulationResult",
