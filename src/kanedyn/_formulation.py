@@ -81,6 +81,13 @@ def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
     bodies : sequence of RigidBody or Particle
     loads : sequence of Force, Torque or (Point | ReferenceFrame, Vector)
         (alias ``forcelist``).
+    constraints : sequence of VectorConstraint, optional
+        Velocity constraints in vector form (:class:`kanedyn.PointVelocity`,
+        :class:`kanedyn.AngularVelocity`, :class:`kanedyn.OrthogonalVelocities`),
+        each with the constraint force it identifies; they follow the
+        explicit ``velocity_constraints`` and count towards ``u_dep``.  Their
+        magnitudes: :meth:`NumericModel.constraint_forces`; a check:
+        :func:`kanedyn.check_newton_euler`.
     contacts : sequence of Contact, optional
         Points of bodies touching surfaces, with Coulomb friction: their
         normal and friction forces are found with the accelerations at

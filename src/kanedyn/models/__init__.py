@@ -13,12 +13,14 @@ from ._base import ModelDefinition
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
 from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladder,
                               slug_ellipsoid, sphere_slug)
+from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
-           "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod"]
+           "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
+           "nonholonomic_particle", "sphere_on_turntable"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -36,6 +38,8 @@ REGISTRY = {
     "ladder": (ladder, {"frictionless": bool, "angle": float}),
     "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float,
                                    "law": str}),
+    "nonholonomic-particle": (nonholonomic_particle, {}),
+    "sphere-turntable": (sphere_on_turntable, {}),
 }
 
 
