@@ -6,6 +6,7 @@
     kanedyn derive MODEL [--latex] [--set name=value ...]
     kanedyn run MODEL [--t-end T] [--out DIR] [--set name=value ...]
     kanedyn demo [--out DIR]
+    kanedyn compare nonholonomic|MODEL [--methods kane,lagrange,augmented] [--t-end T]
 """
 
 from __future__ import annotations
@@ -252,6 +253,35 @@ def cmd_demo(args):
     return 0 if res.success else 1
 
 
+def cmd_compare(args):
+    from ._compare import NONHOLONOMIC_EXAMPLES, compare_formulations
+    from ._formulation import FORMULATIONS
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in FORMULATIONS]
+    if unknown:
+        raise KanedynError(f"unknown formulation(s) {', '.join(unknown)}; available: "
+                           f"{', '.join(sorted(FORMULATIONS))}")
+    if args.target == "nonholonomic":
+        names = list(NONHOLONOMIC_EXAMPLES)
+    elif args.target in REGISTRY:
+        names = [args.target]
+    else:
+        raise KanedynError(f"compare: unknown target {args.target!r}; give 'nonholonomic' "
+                           f"or a model: {', '.join(REGISTRY)}")
+    print("Each formulation starts from the same coordinates and rates (augmented-"
+          "Lagrangean multipliers at 0),")
+    print(f"integrated at rtol={args.rtol:g}, atol={args.atol:g}. N-E: Newton-Euler "
+          "residuals of every body with the identified")
+    print("constraint forces (the equations' own multipliers, or the best least-squares "
+          "fit).")
+    for name in names:
+        cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
+                                   atol=args.atol)
+        print()
+        print(cmp.table())
+    return 0
+
+
 def _parser():
     parser = argparse.ArgumentParser(
         prog="kanedyn", description="Multibody dynamics by Kane's method.")
@@ -283,6 +313,16 @@ def _parser():
     p.add_argument("--points", type=int, default=501, help="output points")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_run)
+
+    p = sub.add_parser("compare", help="simulate models under several formulations; "
+                                       "Newton-Euler residuals side by side")
+    p.add_argument("target", help="'nonholonomic' (the nonholonomic examples) or a model")
+    p.add_argument("--methods", default="kane,lagrange,augmented",
+                   help="comma-separated formulations; the first is the reference")
+    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
+    p.add_argument("--rtol", type=float, default=1e-10)
+    p.add_argument("--atol", type=float, default=1e-12)
+    p.set_defaults(func=cmd_compare)
 
     p = sub.add_parser("demo", help="the Whipple bicycle: stability against speed "
                                     "and a self-stable ride")
