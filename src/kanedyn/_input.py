@@ -199,9 +199,10 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
         n_vel = len(config)
         source = "velocity constraints (derived from the configuration constraints)"
     if n_vel != len(u_dep):
+        listed = "".join(f"; {c!r} gives {len(c)}" for c in vector_constraints)
         raise ModelError(
             f"there are {len(u_dep)} dependent speeds (u_dep) but {n_vel} {source}; "
-            "give one velocity constraint per dependent speed")
+            f"give one velocity constraint per dependent speed{listed}")
     acc = acceleration_constraints
     if acc is not None:
         acc = tuple(sm.sympify(e) for e in _as_tuple(acc, "acceleration_constraints"))

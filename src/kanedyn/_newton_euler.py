@@ -177,6 +177,10 @@ def _wrench(kin, body, kind, location, vector):
     """Force and moment about the mass centre of ``body`` (6 components)."""
     if kind == "torque" or isinstance(location, me.ReferenceFrame):
         return (sm.S.Zero,) * 3 + tuple(vector)
+    if isinstance(body, me.Particle):
+        # a force on a particle acts at the particle (a reaction on a particle,
+        # ``relative_to=particle``, is located at the constrained point)
+        return tuple(vector) + (sm.S.Zero,) * 3
     r = kin.position(location, body.masscenter)
     if r is None:
         raise ModelError(f"the position of point {location.name} relative to the mass "

@@ -151,6 +151,7 @@ def cmd_run(args):
     res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
     summary = _write_run(definition, eom, model, res, Path(args.out), progress)
     _print_summary(summary)
+    _print_identified(model, res)
     return 0 if res.success else 1
 
 
@@ -184,6 +185,22 @@ def _print_summary(summary):
                                              else f"{drift:.3e}"))
     print(f"max constraint residual: {summary['max_constraint_residual']:.3e} "
           f"({summary['projections']} projections)")
+
+
+def _print_identified(model, res):
+    """Final identified constraint forces and the largest Newton-Euler residual."""
+    if not model.identified_names or res.t.size == 0:
+        return
+    print(f"identified constraint forces at t = {res.t[-1]:g} s: "
+          + ", ".join(f"{name} = {res[name][-1]:.6g}" for name in model.identified_names))
+    from ._newton_euler import check_newton_euler
+    try:
+        check = check_newton_euler(res)
+    except KanedynError as exc:
+        print(f"Newton-Euler check not possible: {exc}")
+        return
+    print(f"max Newton-Euler residual: {check.max:.3e} (multipliers from the "
+          f"{check.source}; inertia scale {check.inertia_scale:.3g})")
 
 
 def cmd_demo(args):

@@ -11,6 +11,8 @@ from __future__ import annotations
 from .._errors import ModelError
 from ._base import ModelDefinition
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
+from ._constraint_models import (block_wedge, knife_edge, pin_slot, rod_bead,
+                                 rolling_disk_contact)
 from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladder,
                               slug_ellipsoid, sphere_slug)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
@@ -20,7 +22,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
-           "nonholonomic_particle", "sphere_on_turntable"]
+           "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
+           "rolling_disk_contact", "block_wedge"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -40,6 +43,11 @@ REGISTRY = {
                                    "law": str}),
     "nonholonomic-particle": (nonholonomic_particle, {}),
     "sphere-turntable": (sphere_on_turntable, {}),
+    "rod-bead": (rod_bead, {}),
+    "pin-slot": (pin_slot, {}),
+    "knife-edge": (knife_edge, {}),
+    "rolling-disk-contact": (rolling_disk_contact, {}),
+    "block-wedge": (block_wedge, {}),
 }
 
 
