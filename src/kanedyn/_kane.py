@@ -130,6 +130,37 @@ class BodyTerms:
         self.partial_angular_velocities = partial_angular_velocities
 
 
+def _pivot_rows(K, q):
+    """Row order for eliminating ``K`` whose pivots vanish at no sampled point.
+
+    SymPy's LU pivots on the first entry that is not identically zero, which
+    may vanish at ordinary configurations (``sin(q)`` at ``q = 0``).  Rows are
+    chosen column by column to maximize the smallest pivot over random points
+    and the point with every coordinate zero (where such factors vanish).
+    """
+    n = K.shape[0]
+    points = []
+    for seed in SAMPLE_SEEDS[:3] + (None,):
+        sample, memo = random_sampler(seed if seed is not None else 0), {}
+        zero = {s: 0.0 for s in q} if seed is None else {}
+
+        def value_of(symbol, sample=sample, zero=zero):
+            return zero[symbol] if symbol in zero else sample(symbol)
+
+        points.append(np.array([[fast_eval(e, value_of, memo).real for e in row]
+                                for row in K.tolist()]))
+    order, rows = [], list(range(n))
+    for j in range(n):
+        best = max(rows, key=lambda i: min(abs(A[i, j]) for A in points))
+        order.append(best)
+        rows.remove(best)
+        for A in points:
+            if A[best, j] != 0:
+                for i in rows:
+                    A[i] -= A[i, j] / A[best, j] * A[best]
+    return order
+
+
 def _solve_kinematics(spec, table, prog):
     """Solve the kinematic differential equations for q' (named intermediates)."""
     eqs = sm.Matrix([table.internal(e, f"kinematic differential equation {i} ({e})")
@@ -162,7 +193,8 @@ def _solve_kinematics(spec, table, prog):
     if K.is_diagonal():
         sol = [rhs[i] / K[i, i] for i in range(K.shape[0])]
     else:
-        sol = list(K.LUsolve(rhs))
+        order = _pivot_rows(K, table.q)
+        sol = list(K.extract(order, list(range(K.shape[1]))).LUsolve(rhs.extract(order, [0])))
     qdot = tuple(prog.let(e, f"qd_{name_of(q)}") for e, q in zip(sol, spec.q))
     return qdot, (K, Ku, f)
 
