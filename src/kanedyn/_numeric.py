@@ -241,7 +241,7 @@ class NumericModel:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
                     "aux_names", "input_names", "has_potential", "has_loads", "contacts",
-                    "multiplier_names", "identified_names"):
+                    "multiplier_names", "identified_names", "multiplier_form"):
             setattr(self, key, d[key])
 
     def __repr__(self):
@@ -336,8 +336,24 @@ class NumericModel:
     def rhs(self, t, y):
         """State derivative :math:`[\\dot q, \\dot u]` (a new array each call)."""
         qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        if self.multiplier_form and self.n_u_dep:
+            return np.concatenate([qd, self._solve_kkt(mass, force, acc_K, acc_f)])
         M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
         return np.concatenate([qd, np.linalg.solve(M, f)])
+
+    def _solve_kkt(self, mass, force, acc_K, acc_f):
+        r"""Accelerations from :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; -f_a]`.
+
+        Used by formulations whose dependent speeds cannot be fixed once (the
+        coordinates' rates of a nonholonomic system): no partition of the
+        speeds, so no singularity where a partition would fail.
+        """
+        o, m = self.n_u, self.n_u_dep
+        A = np.zeros((o + m, o + m))
+        A[:o, :o] = mass
+        A[:o, o:] = -acc_K.T
+        A[o:, :o] = acc_K
+        return np.linalg.solve(A, np.concatenate([force, -acc_f]))[:o]
 
     __call__ = rhs
 
@@ -507,7 +523,14 @@ class NumericModel:
                     f"{np.max(np.abs(h)):.3g}) by adjusting "
                     f"{', '.join(names[n - l:n])}; give initial values closer to a "
                     "consistent configuration")
-        if m:  # Newton's method (one step when linear in the speeds)
+        if m and self.multiplier_form:  # the smallest change of all speeds
+            for _ in range(max_iterations + 1):
+                _, _, B, c = self._constraint_terms(t, y)
+                scale = 1.0 + np.max(np.abs(y[n:]))
+                if np.max(np.abs(c)) <= tol * scale or not np.all(np.isfinite(c)):
+                    break
+                y[n:] -= np.linalg.lstsq(B, c, rcond=None)[0]
+        elif m:  # Newton's method (one step when linear in the speeds)
             dep = slice(n + self.n_u - m, None)
             for _ in range(max_iterations + 1):
                 _, _, B, c = self._constraint_terms(t, y)
@@ -798,6 +821,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         functions["auxiliary"] = (aux_args, [((s_aux, o), flat(eom._aux_K)),
                                              ((s_aux,), [sub(e) for e in eom._aux_f])])
 
+    multiplier_form = bool(getattr(eom, "_multiplier_form", False)) and m > 0
+    if multiplier_form and backend == "c":
+        raise ModelError(f"the {eom.method!r} formulation solves for its accelerations "
+                         "and multipliers together, which the C backend does not do yet; "
+                         "use backend='numpy'")
     sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
@@ -836,6 +864,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         "has_loads": bool(eom.loads),
         "contacts": _contact_coefficients(eom.contacts, values),
         "multiplier_names": eom._multiplier_names,
+        "multiplier_form": multiplier_form,
         "identified_names": tuple(name for name, _ in eom._identified
                                   if name in eom._multiplier_names),
     }
