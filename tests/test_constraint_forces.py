@@ -189,3 +189,29 @@ def test_vector_constraints_count_towards_dependent_speeds():
         kd.kane(frame=N, q_ind=[x, z], u_ind=[ux], u_dep=[uz],
                 kd_eqs=[x.diff() - ux, z.diff() - uz], bodies=[me.Particle("p", P, 1)],
                 constraints=[uz])
+
+
+@pytest.mark.parametrize("name, t_end", [("nonholonomic-particle", 2.0), ("knife-edge", 4.0),
+                                         ("sphere-turntable", 1.0)])
+def test_only_dalembert_formulations_pass_newton_euler(name, t_end):
+    from kanedyn._compare import compare_formulations
+    cmp = compare_formulations(name, t_end=t_end, n_points=41)
+    for method in ("kane", "lagrange"):
+        check = cmp.newton_euler[method]
+        assert check.max <= 1e-10 * max(1.0, check.inertia_scale), method
+    assert cmp.newton_euler["kane"].source == "equations"
+    assert cmp.deviation["lagrange"] < 1e-7
+    augmented = cmp.newton_euler["augmented"]
+    assert augmented.source == "fit"
+    assert augmented.max > 1e-3 * augmented.inertia_scale  # no identified forces explain it
+    assert cmp.deviation["augmented"] > 1e-3
+    assert cmp.constraint_residual["augmented"] < 1e-8  # it does keep the constraint
+    assert "augmented" in cmp.table()
+
+
+def test_cli_compare(capsys):
+    from kanedyn.cli import main
+    assert main(["compare", "nonholonomic-particle", "--t-end", "1"]) == 0
+    out = capsys.readouterr().out
+    assert "augmented" in out and "lagrange" in out and "N-E force" in out
+    assert main(["compare", "nonholonomic-particle", "--methods", "kane,nonsense"]) == 2
