@@ -127,7 +127,10 @@ def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
 
 def _register_builtin():
     from ._kane import derive_kane
+    from ._lagrange import derive_augmented, derive_lagrange
     register_formulation("kane", derive_kane)
+    register_formulation("lagrange", derive_lagrange)
+    register_formulation("augmented", derive_augmented)
 
 
 _register_builtin()

@@ -85,6 +85,7 @@ class SymbolTable:
             self._int[ext.diff(t)] = int_
             self._ext[int_] = ext.diff(t)
         self._qdot_value = {}  # raw q' symbol -> its expression in u
+        self._replaced = {}  # external dynamic symbol -> why its derivatives are refused
         self.specified = {}  # external -> internal, in discovery order
         self.on_new_specified = None  # callback(internal, derivative_internal)
 
@@ -97,6 +98,47 @@ class SymbolTable:
     def qdot(self):
         """Expressions substituted for q' (after :meth:`set_qdot`)."""
         return tuple(self._qdot_value.get(s, s) for s in self.qdot_raw)
+
+    # -------------------------------------------------------------- speeds
+    def add_speeds(self, u):
+        """Append generalized speeds ``u`` (dynamic symbols); returns their internal symbols."""
+        u = tuple(u)
+        for s in u:
+            _check_dynamic(s, "u")
+            if s in self._int:
+                raise ModelError(f"{name_of(s)} is already a symbol of this model")
+        new = tuple(sm.Dummy(name_of(s)) for s in u)
+        new_dot = tuple(sm.Dummy(name_of(s) + "_dot") for s in u)
+        t = self.t
+        for ext, int_, dot in zip(u, new, new_dot):
+            self._int[ext], self._ext[int_] = int_, ext
+            self._int[ext.diff(t)], self._ext[dot] = dot, ext.diff(t)
+        self.u_ext += u
+        self.u += new
+        self.udot += new_dot
+        return new
+
+    def reorder_speeds(self, order):
+        """Put the speeds in the order ``order`` (a permutation of their indices)."""
+        order = list(order)
+        if sorted(order) != list(range(len(self.u))):
+            raise ValueError(f"{order} is not a permutation of the {len(self.u)} speeds")
+        self.u_ext = tuple(self.u_ext[i] for i in order)
+        self.u = tuple(self.u[i] for i in order)
+        self.udot = tuple(self.udot[i] for i in order)
+
+    def substitute(self, ext, expr, reason):
+        """Convert the dynamic symbol ``ext`` to the internal expression ``expr``.
+
+        Used by formulations whose speeds are not the model's own: the
+        model's speeds become functions of theirs.  Derivatives of ``ext``
+        are refused by :meth:`internal` with a message ending in ``reason``.
+        """
+        _check_dynamic(ext, "substituted symbol")
+        if ext in self._int:
+            raise ModelError(f"{name_of(ext)} already stands for a symbol of this model")
+        self._int[ext] = sm.sympify(expr)
+        self._replaced[ext] = reason
 
     # ----------------------------------------------------------- specified
     def _specified(self, func, order):
@@ -140,6 +182,9 @@ class SymbolTable:
                     and d.variables == (t,) * len(d.variables)):
                 raise ModelError(f"{where} contains the unsupported derivative {d}")
             order = len(d.variables)
+            if f in self._replaced:
+                raise ModelError(f"{where} contains {d}, a derivative of {name_of(f)}; "
+                                 f"{self._replaced[f]}")
             if f in self._int:
                 if f in self.u_aux_ext:
                     mapping[d] = sm.S.Zero
