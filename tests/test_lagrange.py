@@ -160,6 +160,9 @@ def test_pendulum_explicit_equations():
     assert sm.simplify(lag.forcing[0] + m * g * l * sm.sin(q)) == 0
     assert sm.simplify(lag.kinetic_energy - m * l**2 * w**2 / 2) == 0
     assert sm.simplify(lag.forcing_full.xreplace({w: u}) - kane.forcing_full) == sm.zeros(2, 1)
+    implicit = kd.formulate(method="lagrange", explicit_kinematics=False, **d.kane_args)
+    assert implicit.mass_matrix_kin == sm.eye(1)
+    assert implicit.forcing_kin == sm.Matrix([w])
 
 
 # --------------------------------------------------------- nonholonomic models
@@ -208,6 +211,11 @@ def test_rolling_disk_motion_matches_kane():
     rl = kd.simulate(lm, (0.0, 1.5), yl, **opts)
     assert rk.success and rl.success
     np.testing.assert_allclose(rl.y[:5, -1], rk.y[:5, -1], atol=1e-7)
+    from kanedyn._cbackend import compiler_command
+    if compiler_command() is not None:  # a fixed partition: the C backend applies
+        cm = d.numeric(lm._eom, backend="c")
+        np.testing.assert_allclose(cm.rhs(0.3, rl.y[:, 5]), lm.rhs(0.3, rl.y[:, 5]),
+                                   rtol=1e-11, atol=1e-11)
 
 
 def test_bicycle_accelerations_match_kane(bicycle):

@@ -28,7 +28,11 @@ with the velocity constraints :math:`c(q, w, t) = 0`, :math:`B = \partial
 c/\partial w`, in the same unreduced form as Kane's method (one row per
 speed; dependent speeds are eliminated numerically).  The dependent speeds
 are the rates of the dependent coordinates where those suit the constraints,
-completed by a column-pivoted QR factorization of :math:`B` at a random point.
+completed by the columns of :math:`B` whose block stays farthest from
+singular over random configurations.  Where no choice keeps the block
+nonsingular everywhere (a knife edge: the lateral constraint's coefficient
+of either planar rate vanishes at some heading), the numerical model solves
+for the accelerations and the multipliers together instead.
 
 ``method="augmented"`` applies the Euler–Lagrange equations to the augmented
 Lagrangean :math:`\tilde L = T - V + \sum_i\lambda_i f_i(q, w, t)` (the
@@ -446,6 +450,13 @@ def derive_lagrange(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     equations.  The result has the structure of Kane's (unreduced rows, one
     per speed; velocity constraints :math:`B w + b = 0` eliminated
     numerically), so every numerical tool applies unchanged.
+
+    When no partition of the rates into independent and dependent ones is
+    nonsingular at every sampled configuration (and the dependent ones are
+    not simply the rates of the model's dependent coordinates), the result is
+    marked for the multiplier form of the acceleration solve,
+    :math:`[M, -B^T; B, 0]`, which the numpy backend evaluates (the C
+    backend does not yet).
 
     Parameters
     ----------
