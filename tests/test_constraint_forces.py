@@ -215,3 +215,18 @@ def test_cli_compare(capsys):
     out = capsys.readouterr().out
     assert "augmented" in out and "lagrange" in out and "N-E force" in out
     assert main(["compare", "nonholonomic-particle", "--methods", "kane,nonsense"]) == 2
+
+
+def test_multipliers_in_the_multiplier_form():
+    """The Lagrange knife edge has no fixed partition of its rates: its multipliers
+    come from the joint solve, also at heading 0 where x' cannot be dependent."""
+    from kanedyn._compare import _initial_state
+    definition = kd.models.build("knife-edge")
+    kane = definition.numeric(definition.derive())
+    lagrange = definition.numeric(definition.derive(method="lagrange"))
+    assert lagrange.multiplier_form
+    y = kane.state(definition.initial(kane))
+    assert y[kane.index("theta")] == 0.0
+    y_l = _initial_state(lagrange, kane, y, kane.rhs(0.0, y)[:kane.n_q])
+    assert lagrange.constraint_forces(0.0, y_l)["F_lat"] == pytest.approx(
+        kane.constraint_forces(0.0, y)["F_lat"], rel=1e-12)

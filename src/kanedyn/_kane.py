@@ -140,7 +140,7 @@ def _pivot_rows(K, q):
     """
     n = K.shape[0]
     points = []
-    for seed in SAMPLE_SEEDS[:3] + (None,):
+    for seed in SAMPLE_SEEDS + (None,):
         sample, memo = random_sampler(seed if seed is not None else 0), {}
         zero = {s: 0.0 for s in q} if seed is None else {}
 
@@ -161,25 +161,36 @@ def _pivot_rows(K, q):
     return order
 
 
+def linear_parts(eqs, rates, speeds, given, name):
+    """``(K, Ku, f)`` with ``eqs = K rates + Ku speeds + f`` (kinematic equations).
+
+    ``given`` are the equations as the user wrote them and ``name(symbol)``
+    prints a symbol, for the error raised when an equation is nonlinear in
+    the rates or the speeds.
+    """
+    rates, speeds = list(rates), list(speeds)
+    K = eqs.jacobian(rates)
+    Ku = eqs.jacobian(speeds)
+    f = eqs.xreplace({s: 0 for s in rates + speeds})
+    bad = set(rates) | set(speeds)
+    for i in range(len(eqs)):
+        nonlinear = (K.row(i).free_symbols | Ku.row(i).free_symbols) & bad
+        if nonlinear:
+            names = ", ".join(sorted(name(s) for s in nonlinear))
+            raise ModelError(
+                f"kinematic differential equation {i} ({given[i]}) is nonlinear in "
+                f"{names}; it must be linear in q' and in the generalized speeds")
+    return K, Ku, f
+
+
 def _solve_kinematics(spec, table, prog):
     """Solve the kinematic differential equations for q' (named intermediates)."""
     eqs = sm.Matrix([table.internal(e, f"kinematic differential equation {i} ({e})")
                      for i, e in enumerate(spec.kd_eqs)])
     eqs = eqs.xreplace({ua: 0 for ua in table.u_aux})
-    qd = sm.Matrix(table.qdot_raw)
     u = sm.Matrix(table.u)
-    K = eqs.jacobian(qd)
-    Ku = eqs.jacobian(u)
-    f = eqs.xreplace({s: 0 for s in list(qd) + list(u)})
-    bad = set(table.qdot_raw) | set(table.u)
-    for i in range(len(eqs)):
-        nonlinear = (K.row(i).free_symbols | Ku.row(i).free_symbols) & bad
-        if nonlinear:
-            names = ", ".join(sorted(str(table.external(s)) for s in nonlinear))
-            raise ModelError(
-                f"kinematic differential equation {i} ({spec.kd_eqs[i]}) is nonlinear "
-                f"in {names}; it must be linear in q' and in the generalized speeds, "
-                "so that it can be solved for q'")
+    K, Ku, f = linear_parts(eqs, table.qdot_raw, table.u, spec.kd_eqs,
+                            lambda s: str(table.external(s)))
     rhs = -(Ku * u + f)
     sample, memo = random_sampler(7), {}
     K_num = np.array([[fast_eval(e, sample, memo).real for e in row] for row in K.tolist()])

@@ -66,7 +66,7 @@ import sympy as sm
 
 from ._errors import ModelError
 from ._kane import (_contact_terms, _pivot_rows, body_kinematics, given_velocity_constraints,
-                    load_terms)
+                    linear_parts, load_terms)
 from ._kinematics import Kinematics, dot
 from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
 from ._progress import NO_PROGRESS
@@ -141,21 +141,10 @@ def _speeds_from_rates(spec, table, prog, method):
     eqs = sm.Matrix([table.internal(sm.sympify(e).xreplace(tmp),
                                     f"kinematic differential equation {i} ({e})")
                      for i, e in enumerate(spec.kd_eqs)])
-    qd = list(table.qdot_raw)
-    us = list(tmp.values())
-    K = eqs.jacobian(qd)
-    Ku = eqs.jacobian(us)
-    f = eqs.xreplace({s: 0 for s in qd + us})
-    bad = set(qd) | set(us)
     back = dict(zip(table.qdot_raw, (s.diff(table.t) for s in spec.q)))
     back.update({v: k for k, v in tmp.items()})
-    for i in range(len(eqs)):
-        nonlinear = (K.row(i).free_symbols | Ku.row(i).free_symbols) & bad
-        if nonlinear:
-            names = ", ".join(sorted(name_of(back[s]) for s in nonlinear))
-            raise ModelError(
-                f"kinematic differential equation {i} ({spec.kd_eqs[i]}) is nonlinear "
-                f"in {names}; it must be linear in q' and in the generalized speeds")
+    K, Ku, f = linear_parts(eqs, table.qdot_raw, tmp.values(), spec.kd_eqs,
+                            lambda s: name_of(back[s]))
     sample, memo = random_sampler(7), {}
     Ku_num = np.array([[fast_eval(e, sample, memo).real for e in row] for row in Ku.tolist()])
     if not np.all(np.isfinite(Ku_num)) or np.linalg.matrix_rank(Ku_num) < Ku.shape[1]:

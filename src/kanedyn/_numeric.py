@@ -336,10 +336,14 @@ class NumericModel:
     def rhs(self, t, y):
         """State derivative :math:`[\\dot q, \\dot u]` (a new array each call)."""
         qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
+        return np.concatenate([qd, self._accelerations(mass, force, vel_B, acc_K, acc_f)])
+
+    def _accelerations(self, mass, force, vel_B, acc_K, acc_f):
+        """:math:`\\dot u` from the evaluated dynamics terms."""
         if self.multiplier_form and self.n_u_dep:
-            return np.concatenate([qd, self._solve_kkt(mass, force, acc_K, acc_f)])
+            return self._solve_kkt(mass, force, acc_K, acc_f)
         M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
-        return np.concatenate([qd, np.linalg.solve(M, f)])
+        return np.linalg.solve(M, f)
 
     def _solve_kkt(self, mass, force, acc_K, acc_f):
         r"""Accelerations from :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; -f_a]`.
@@ -523,32 +527,27 @@ class NumericModel:
                     f"{np.max(np.abs(h)):.3g}) by adjusting "
                     f"{', '.join(names[n - l:n])}; give initial values closer to a "
                     "consistent configuration")
-        if m and self.multiplier_form:  # the smallest change of all speeds
+        if m:  # Newton's method (one step when linear in the speeds)
+            # dependent speeds, or, in the multiplier form, the smallest change
+            # of all speeds
+            free = slice(n, None) if self.multiplier_form else slice(n + self.n_u - m, None)
             for _ in range(max_iterations + 1):
                 _, _, B, c = self._constraint_terms(t, y)
-                scale = 1.0 + np.max(np.abs(y[n:]))
-                if np.max(np.abs(c)) <= tol * scale or not np.all(np.isfinite(c)):
-                    break
-                y[n:] -= np.linalg.lstsq(B, c, rcond=None)[0]
-        elif m:  # Newton's method (one step when linear in the speeds)
-            dep = slice(n + self.n_u - m, None)
-            for _ in range(max_iterations + 1):
-                _, _, B, c = self._constraint_terms(t, y)
-                Bd = B[:, dep.start - n:]
-                if _singular(Bd, B):
+                Bf = B[:, free.start - n:]
+                if not self.multiplier_form and _singular(Bf, B):
                     raise ConstraintError(
                         "the velocity constraints cannot be solved for the dependent "
-                        f"speeds {', '.join(names[dep])}: the constraint Jacobian "
+                        f"speeds {', '.join(names[free])}: the constraint Jacobian "
                         f"with respect to them is singular at "
                         f"{self._describe(y[:n], names[:n])}")
                 scale = 1.0 + np.max(np.abs(y[n:]))
                 if np.max(np.abs(c)) <= tol * scale or not np.all(np.isfinite(c)):
                     break
-                y[dep] -= np.linalg.solve(Bd, c)
+                y[free] -= np.linalg.lstsq(Bf, c, rcond=None)[0]
             if not np.max(np.abs(c)) <= max(tol, 1e-9) * scale:
                 raise ConstraintError(
                     "could not satisfy the velocity constraints (residual "
-                    f"{np.max(np.abs(c)):.3g}) by adjusting {', '.join(names[dep])}; "
+                    f"{np.max(np.abs(c)):.3g}) by adjusting {', '.join(names[free])}; "
                     "give initial speeds closer to a consistent motion")
         return y
 
@@ -626,8 +625,7 @@ class NumericModel:
         y = self._check_y(y)
         qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
         if udot is None:
-            M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
-            udot = np.linalg.solve(M, f)
+            udot = self._accelerations(mass, force, vel_B, acc_K, acc_f)
         names = self.multiplier_names
         if not names:
             return {}
