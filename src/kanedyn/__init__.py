@@ -22,7 +22,7 @@ from ._results import SimulationResult
 from ._simulate import simulate
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
-from . import models
+from . import models, schemes
 
 __version__ = "0.1.0"
 
@@ -50,6 +50,7 @@ __all__ = [
     "simulate",
     "SimulationResult",
     "models",
+    "schemes",
     "KanedynError",
     "ModelError",
     "KinematicsError",

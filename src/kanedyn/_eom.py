@@ -345,6 +345,17 @@ class EquationsOfMotion:
         """Potential energy if the model declared one, else ``None``."""
         return None if self._potential is None else self._explicit(self._potential)
 
+    @property
+    def scheme(self):
+        """The constraint scheme its numerical models use by default.
+
+        A :class:`kanedyn.schemes.Scheme`: how the accelerations are found
+        from the mass matrix, forcing and constraints, and what is done about
+        constraint drift; :meth:`numeric` takes ``scheme=`` to choose another.
+        """
+        from ._schemes import Elimination
+        return getattr(self, "_scheme", None) or Elimination()
+
     # --------------------------------------------------------- inspection
     def operation_counts(self):
         """Operation counts of the compact (shared-intermediate) equations.
@@ -408,6 +419,8 @@ class EquationsOfMotion:
         cse : bool, optional
             Eliminate common subexpressions of the generated code jointly
             (default: on for "c", off for "numpy").
+        scheme : str or Scheme, optional
+            Constraint scheme (:mod:`kanedyn.schemes`); default :attr:`scheme`.
 
         Returns
         -------

@@ -10,7 +10,9 @@ from __future__ import annotations
 
 from ._errors import ModelError
 from ._input import parse_model
-from ._progress import as_progress
+from ._progress import NO_PROGRESS, as_progress
+from ._schemes import (AugmentedLagrangian, Baumgarte, IndexOne, NullSpace, Partitioning,
+                       Penalty, Projection, UdwadiaKalaba, as_scheme)
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
@@ -22,7 +24,7 @@ def register_formulation(name, derive):
     FORMULATIONS[name] = derive
 
 
-def formulate(*args, method="kane", progress=False, **kwargs):
+def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
     """Equations of motion of a model by the named formulation.
 
     Parameters
@@ -31,9 +33,36 @@ def formulate(*args, method="kane", progress=False, **kwargs):
         A ``sympy.physics.mechanics.System``, or the keywords of
         :func:`kanedyn.kane`.
     method : str
-        A key of :data:`FORMULATIONS`.
+        A key of :data:`FORMULATIONS`:
+
+        ``"kane"``
+            Kane's method (the reference).
+        ``"lagrange"``
+            Lagrange's equations with multipliers (speeds :math:`\dot q`),
+            dependent rates eliminated with a fixed partition where one
+            exists, drift projected.
+        ``"lagrange-index1"``, ``"lagrange-baumgarte"``, ``"lagrange-projection"``
+            The same equations as an index-1 DAE: plain, with Baumgarte
+            stabilization, with projection onto the constraints.
+        ``"penalty"``, ``"augmented-lagrangian"``
+            Bayo's penalty and augmented-Lagrangian formulations.
+        ``"udwadia-kalaba"``
+            Udwadia–Kalaba's explicit equations.
+        ``"partitioning"``
+            Generalized coordinate partitioning (Wehage–Haug).
+        ``"maggi"``
+            Maggi's equations (null-space projection).
+        ``"augmented"``
+            The augmented (vakonomic) Lagrangean: a different motion for
+            nonholonomic systems.
+
+        The Lagrange-based variants share one derivation and differ in their
+        constraint scheme (:mod:`kanedyn.schemes`).
     progress : bool
         Print progress of long derivations to stderr.
+    scheme : str or Scheme, optional
+        Replace the formulation's constraint scheme (e.g.
+        ``kd.schemes.Baumgarte(alpha=20.0, beta=20.0)``).
 
     Returns
     -------
@@ -46,7 +75,23 @@ def formulate(*args, method="kane", progress=False, **kwargs):
                          f"{', '.join(sorted(FORMULATIONS))}") from None
     options = {k: kwargs.pop(k) for k in ("explicit_kinematics",) if k in kwargs}
     spec = parse_model(*args, **kwargs)
-    return derive(spec, progress=as_progress(progress), **options)
+    eom = derive(spec, progress=as_progress(progress), **options)
+    if scheme is not None:
+        object.__setattr__(eom, "_scheme", as_scheme(scheme))
+    return eom
+
+
+def _with_scheme(derive, method, scheme):
+    """A formulation: ``derive``'s equations, solved with ``scheme``."""
+    def derive_with_scheme(spec, progress=NO_PROGRESS, **options):
+        eom = derive(spec, progress=progress, **options)
+        # set once, before anyone sees the result
+        object.__setattr__(eom, "_scheme", scheme)
+        object.__setattr__(eom, "method", method)
+        return eom
+    derive_with_scheme.__doc__ = (f"{derive.__name__} with the {scheme.name!r} "
+                                  "constraint scheme.")
+    return derive_with_scheme
 
 
 def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
@@ -131,6 +176,15 @@ def _register_builtin():
     register_formulation("kane", derive_kane)
     register_formulation("lagrange", derive_lagrange)
     register_formulation("augmented", derive_augmented)
+    for name, scheme in (("lagrange-index1", IndexOne()),
+                         ("lagrange-baumgarte", Baumgarte()),
+                         ("lagrange-projection", Projection()),
+                         ("penalty", Penalty()),
+                         ("augmented-lagrangian", AugmentedLagrangian()),
+                         ("udwadia-kalaba", UdwadiaKalaba()),
+                         ("partitioning", Partitioning()),
+                         ("maggi", NullSpace())):
+        register_formulation(name, _with_scheme(derive_lagrange, name, scheme))
 
 
 _register_builtin()

@@ -32,6 +32,7 @@ import sympy as sm
 
 from ._codegen import compile_python, generate_python
 from ._errors import ConstraintError, MissingValueError, ModelError
+from ._schemes import Elimination, as_scheme
 from ._symbols import name_of
 
 __all__ = ["NumericModel", "build_numeric_model", "BACKENDS"]
@@ -241,7 +242,8 @@ class NumericModel:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
                     "aux_names", "input_names", "has_potential", "has_loads", "contacts",
-                    "multiplier_names", "identified_names", "multiplier_form"):
+                    "multiplier_names", "identified_names", "multiplier_form",
+                    "scheme", "rates_are_speeds"):
             setattr(self, key, d[key])
 
     def __repr__(self):
@@ -335,29 +337,8 @@ class NumericModel:
 
     def rhs(self, t, y):
         """State derivative :math:`[\\dot q, \\dot u]` (a new array each call)."""
-        qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
-        return np.concatenate([qd, self._accelerations(mass, force, vel_B, acc_K, acc_f)])
-
-    def _accelerations(self, mass, force, vel_B, acc_K, acc_f):
-        """:math:`\\dot u` from the evaluated dynamics terms."""
-        if self.multiplier_form and self.n_u_dep:
-            return self._solve_kkt(mass, force, acc_K, acc_f)
-        M, f = self._assemble(mass, force, vel_B, acc_K, acc_f)
-        return np.linalg.solve(M, f)
-
-    def _solve_kkt(self, mass, force, acc_K, acc_f):
-        r"""Accelerations from :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; -f_a]`.
-
-        Used by formulations whose dependent speeds cannot be fixed once (the
-        coordinates' rates of a nonholonomic system): no partition of the
-        speeds, so no singularity where a partition would fail.
-        """
-        o, m = self.n_u, self.n_u_dep
-        A = np.zeros((o + m, o + m))
-        A[:o, :o] = mass
-        A[:o, o:] = -acc_K.T
-        A[o:, :o] = acc_K
-        return np.linalg.solve(A, np.concatenate([force, -acc_f]))[:o]
+        terms = self._dynamics(t, y)
+        return np.concatenate([terms[0], self.scheme.accelerations(self, t, y, terms)])
 
     __call__ = rhs
 
@@ -386,8 +367,9 @@ class NumericModel:
         p = self._p if P is None else np.asarray(P, dtype=float).T
         if P is not None and p.shape != (len(self._p), k):
             raise ValueError(f"P must have shape (k, {len(self._p)})")
-        batch = self._batch_function()
-        if batch is None:  # unpickled without its equations: one state at a time
+        batch = (self._batch_function() if type(self.scheme) is Elimination
+                 and not self.multiplier_form else None)
+        if batch is None:  # one state at a time
             ts = np.broadcast_to(t, (k,))
             models = [self] if P is None else [self.with_constants(row) for row in P]
             return np.array([models[i % len(models)].rhs(ts[i], Y[i]) for i in range(k)])
@@ -625,7 +607,8 @@ class NumericModel:
         y = self._check_y(y)
         qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
         if udot is None:
-            udot = self._accelerations(mass, force, vel_B, acc_K, acc_f)
+            udot = self.scheme.accelerations(self, t, y, (qd, mass, force, vel_B, acc_K,
+                                                           acc_f))
         names = self.multiplier_names
         if not names:
             return {}
@@ -719,8 +702,12 @@ def _contact_coefficients(contacts, values):
     return out
 
 
-def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
+def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, scheme=None):
     """Generate and compile the numerical functions of ``eom``.
+
+    ``scheme`` (default: the formulation's, :attr:`EquationsOfMotion.scheme`)
+    is the constraint scheme of :mod:`kanedyn.schemes` that turns the
+    evaluated terms into accelerations.
 
     ``cse`` (default: on for ``"c"``, whose build is cached, off for
     ``"numpy"``, so that models are quick to create) eliminates common
@@ -824,6 +811,10 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         raise ModelError(f"the {eom.method!r} formulation solves for its accelerations "
                          "and multipliers together, which the C backend does not do yet; "
                          "use backend='numpy'")
+    scheme = as_scheme(eom.scheme if scheme is None else scheme)
+    if backend == "c" and not scheme.c_backend:
+        raise ModelError(f"the C backend does not implement the {scheme.name!r} constraint "
+                         "scheme; use backend='numpy'")
     sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
@@ -863,6 +854,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
         "contacts": _contact_coefficients(eom.contacts, values),
         "multiplier_names": eom._multiplier_names,
         "multiplier_form": multiplier_form,
+        "scheme": scheme,
+        "rates_are_speeds": tuple(eom._qdot) == tuple(table.u),
         "identified_names": tuple(name for name, _ in eom._identified
                                   if name in eom._multiplier_names),
     }
@@ -872,4 +865,5 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None):
     model._eom = eom
     model._substitutions = substitutions
     model._functions, model._sizes, model._cse = functions, sizes, cse
+    scheme.prepare(model)
     return model

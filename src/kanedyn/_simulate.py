@@ -62,7 +62,7 @@ _COMPILED_OPTIONS = {"max_step", "first_step"}
 
 
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
-             events=None, dense_output=False, project=True, projection_tol=None,
+             events=None, dense_output=False, project=None, projection_tol=None,
              constraint_forces=False, progress=False, backend=None, **options):
     """Integrate a :class:`NumericModel` with SciPy's ``solve_ivp``.
 
@@ -87,9 +87,13 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         attributes, exactly as for ``solve_ivp``.
     dense_output : bool
         Keep a continuous solution (``result.sol(t)``).
-    project : bool
+    project : bool, optional
         Project constraint drift back onto the constraint manifold (systems
-        with dependent coordinates or speeds).
+        with dependent coordinates or speeds), as the model's constraint
+        scheme does it (:meth:`kanedyn.schemes.Scheme.project_state`).
+        Default: the scheme's choice (Kane's elimination, projection and
+        coordinate partitioning project; index-1, Baumgarte, penalty,
+        augmented-Lagrangian, Udwadia–Kalaba and null-space schemes do not).
     projection_tol : float, optional
         Residual that triggers a projection; default ``max(100 * atol, 1e-10)``.
     constraint_forces : bool
@@ -121,6 +125,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     user_events = [] if events is None else (
         list(events) if isinstance(events, (list, tuple)) else [events])
     constrained = (model.n_q_dep + model.n_u_dep) > 0
+    scheme = getattr(model, "scheme", None)
+    if project is None:
+        project = scheme.project if scheme is not None else True
     tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
     t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
     if model.contacts:
@@ -186,7 +193,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                 break
             # drift event: project and restart
             t_start = float(sol.t_events[-1][-1])
-            y_start = model.consistent_state(t_start, sol.y_events[-1][-1])
+            y_drift = sol.y_events[-1][-1]
+            y_start = (scheme.project_state(model, t_start, y_drift) if scheme is not None
+                       else model.consistent_state(t_start, y_drift))
             projections += 1
             if t_eval is None:
                 ts[-1], ys[-1] = ts[-1][:-1], ys[-1][:, :-1]

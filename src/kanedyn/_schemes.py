@@ -1,0 +1,465 @@
+r"""How a numerical model turns its equations into accelerations: constraint schemes.
+
+Every formulation evaluates the same terms at a state: the unreduced mass
+matrix :math:`M` (o x o) and forcing :math:`f`, and the constraints at the
+acceleration level, :math:`K\dot u + f_a = 0` (m rows).  With the constraint
+forces :math:`K^T\lambda` the equations are the index-1 system
+
+.. math::
+
+    M\dot u = f + K^T\lambda,\qquad K\dot u + f_a = 0 .
+
+The schemes below differ in how they solve it and in what they do about the
+drift of the position- and velocity-level constraints :math:`h(q) = 0`,
+:math:`c(q, u) = 0` that the integration leaves:
+
+=====================  =====================================================
+``Elimination``        dependent speeds eliminated with a fixed partition
+                       (Kane's method); drift projected onto the constraints
+                       by solving for the dependent variables
+``IndexOne``           the index-1 system solved for :math:`\dot u, \lambda`
+                       together; no stabilization
+``Baumgarte``          index 1 with :math:`K\dot u + f_a = -2\alpha c -
+                       \beta^2 P^+ h` (Baumgarte 1972)
+``Projection``         index 1; drift removed by projecting the state onto
+                       the constraints (least change of all coordinates,
+                       mass-weighted change of all speeds)
+``Penalty``            :math:`(M + \alpha K^TK)\dot u = f - \alpha K^T(f_a +
+                       2\xi\omega c + \omega^2 P^+h)` (Bayo et al. 1988)
+``AugmentedLagrangian``  the penalty system iterated on :math:`\lambda`
+                       until the constraints hold (Bayo & Ledesma 1996)
+``UdwadiaKalaba``      :math:`\dot u = a + M^{-1/2}(KM^{-1/2})^+(b - Ka)`,
+                       :math:`a = M^{-1}f` (Udwadia & Kalaba 1992)
+``Partitioning``       independent and dependent variables chosen at every
+                       evaluation by pivoted QR of the constraint Jacobian
+                       (Wehage & Haug 1982); dependent ones solved from the
+                       independent ones after drift
+``NullSpace``          Maggi's equations: :math:`N^TMN z = N^T(f - M\dot
+                       u_p)` with an orthonormal basis :math:`N` of the null
+                       space of :math:`K`
+=====================  =====================================================
+
+:math:`P^+h` maps the configuration-constraint residual onto the velocity
+constraint rows (:math:`\dot h = P c` on the constraint manifold); see
+:func:`stabilization`.
+
+A scheme is a small frozen object: ``formulate(..., method="lagrange-baumgarte")``
+picks one by name, ``eom.numeric(scheme=kd.schemes.Baumgarte(alpha=20.0))``
+chooses another for the same equations.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import scipy.linalg as sla
+
+from ._errors import ModelError
+
+__all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
+           "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
+           "SCHEMES", "as_scheme", "stabilization"]
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """Base of the constraint schemes (see the module docstring).
+
+    Class attributes
+    ----------------
+    name : str
+        Registry name.
+    project : bool
+        Whether :func:`kanedyn.simulate` projects constraint drift by default.
+    c_backend : bool
+        Whether the compiled C backend implements the scheme.
+    """
+
+    name: ClassVar[str] = "scheme"
+    project: ClassVar[bool] = False
+    c_backend: ClassVar[bool] = False
+
+    def prepare(self, model):
+        """Called once when a numerical model is built; may add functions."""
+
+    def accelerations(self, model, t, y, terms):
+        r""":math:`\dot u`, shape (n_u,), from the evaluated dynamics ``terms``.
+
+        ``terms = (qdot, mass, force, vel_B, acc_K, acc_f)`` as returned by
+        the model's generated ``dynamics`` function.
+        """
+        raise NotImplementedError
+
+    def project_state(self, model, t, y):
+        """A state on the constraints near ``y`` (after drift)."""
+        return model.consistent_state(t, y)
+
+
+def _kkt(mass, force, K, rhs):
+    r"""Solve :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; r]`."""
+    o, m = mass.shape[0], K.shape[0]
+    A = np.zeros((o + m, o + m))
+    A[:o, :o] = mass
+    A[:o, o:] = -K.T
+    A[o:, :o] = K
+    return np.linalg.solve(A, np.concatenate([force, rhs]))[:o]
+
+
+def _rate_matrix(model, t, y):
+    r""":math:`\partial\dot q/\partial u` (n x o); the identity for rate speeds.
+
+    The kinematic equations are linear in the speeds, so differences of
+    ``qdot`` with unit changes of the speeds give the columns exactly (up to
+    round-off).
+    """
+    n = model.n_q
+    if model.rates_are_speeds:
+        return np.eye(n)
+    base = model._dynamics(t, y)[0]
+    A = np.empty((n, model.n_u))
+    for j in range(model.n_u):
+        yj = np.array(y, dtype=float)
+        yj[n + j] += 1.0
+        A[:, j] = model._dynamics(t, yj)[0] - base
+    return A
+
+
+def stabilization(model, t, y, velocity_gain, position_gain):
+    r"""Baumgarte-type correction :math:`s` of the acceleration constraints.
+
+    .. math::
+
+        s = g_v\,c + g_p\,P^+h,\qquad P = J\,\frac{\partial\dot q}{\partial u}\,B^+,
+
+    with the configuration constraints :math:`h` (Jacobian :math:`J`) and the
+    velocity constraints :math:`c = Bu + b`: on the constraint manifold
+    :math:`\dot h = P c`, so :math:`\dot c = -s` gives :math:`\ddot h +
+    g_v\dot h + g_p h = 0` for the holonomic part and :math:`\dot c + g_v c =
+    0` for the rest.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float
+    y : ndarray, shape (n_states,)
+    velocity_gain, position_gain : float
+        :math:`g_v` (1/s) and :math:`g_p` (1/s²).
+
+    Returns
+    -------
+    ndarray, shape (n_u_dep,)
+    """
+    h, J, B, c = model._constraint_terms(t, y)
+    s = velocity_gain * c
+    if len(h) and position_gain:
+        P = J @ _rate_matrix(model, t, y) @ np.linalg.pinv(B)
+        s = s + position_gain * np.linalg.lstsq(P, h, rcond=None)[0]
+    return s
+
+
+@dataclass(frozen=True)
+class Elimination(Scheme):
+    """Dependent speeds eliminated numerically with the model's partition.
+
+    Kane's method as kanedyn evaluates it: the unreduced rows of the
+    dependent speeds are folded into the independent ones,
+    :math:`\\tilde M = M_i + A_r^T M_d` (:math:`A_r = -B_d^{-1}B_i`), and the
+    acceleration constraints complete the square system.  Models whose
+    formulation found no partition valid everywhere solve the index-1
+    system instead.  Drift is projected away by solving the constraints for
+    the dependent coordinates and speeds.
+    """
+
+    name: ClassVar[str] = "elimination"
+    project: ClassVar[bool] = True
+    c_backend: ClassVar[bool] = True
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, vel_B, acc_K, acc_f = terms
+        if model.multiplier_form and model.n_u_dep:
+            return _kkt(mass, force, acc_K, -acc_f)
+        M, f = model._assemble(mass, force, vel_B, acc_K, acc_f)
+        return np.linalg.solve(M, f)
+
+
+@dataclass(frozen=True)
+class IndexOne(Scheme):
+    """Lagrange's equations with multipliers as an index-1 DAE, no stabilization."""
+
+    name: ClassVar[str] = "index-1"
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, acc_K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        return _kkt(mass, force, acc_K, -acc_f)
+
+
+@dataclass(frozen=True)
+class Baumgarte(IndexOne):
+    r"""Index 1 with Baumgarte stabilization :math:`\ddot h + 2\alpha\dot h + \beta^2h = 0`.
+
+    Attributes
+    ----------
+    alpha, beta : float
+        Damping rate and natural frequency of the constraint error, 1/s.
+    """
+
+    name: ClassVar[str] = "baumgarte"
+    alpha: float = 10.0
+    beta: float = 10.0
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, acc_K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        s = stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
+        return _kkt(mass, force, acc_K, -acc_f - s)
+
+
+@dataclass(frozen=True)
+class Projection(IndexOne):
+    """Index 1; after drift the state is projected onto the constraints.
+
+    Coordinates: the least (Euclidean) change of all coordinates that
+    satisfies the configuration constraints (Gauss–Newton, minimum norm);
+    speeds: the least change in the kinetic-energy metric,
+    :math:`\\Delta u = -M^{-1}B^T(BM^{-1}B^T)^{-1}c`.
+    """
+
+    name: ClassVar[str] = "projection"
+    project: ClassVar[bool] = True
+
+    def project_state(self, model, t, y, tol=1e-12, max_iterations=50):
+        y = np.array(y, dtype=float)
+        n = model.n_q
+        for _ in range(max_iterations if model.n_q_dep else 0):
+            h, J, _, _ = model._constraint_terms(t, y)
+            if np.max(np.abs(h)) <= tol:
+                break
+            y[:n] -= np.linalg.lstsq(J, h, rcond=None)[0]
+        for _ in range(max_iterations if model.n_u_dep else 0):
+            _, _, B, c = model._constraint_terms(t, y)
+            if np.max(np.abs(c)) <= tol * (1.0 + np.max(np.abs(y[n:]))):
+                break
+            mass = model._dynamics(t, y)[1]
+            MiBt = np.linalg.solve(mass, B.T)
+            y[n:] -= MiBt @ np.linalg.solve(B @ MiBt, c)
+        return y
+
+
+def _penalty_weight(mass, K, factor):
+    """Penalty :math:`\\alpha` = factor times the ratio of the matrices' scales."""
+    KtK = K.T @ K
+    return factor * np.max(np.abs(np.diag(mass))) / max(np.max(np.abs(np.diag(KtK))), 1e-300)
+
+
+@dataclass(frozen=True)
+class Penalty(Scheme):
+    r"""Penalty formulation: the constraint forces are a stiff spring–damper.
+
+    .. math::
+
+        (M + \alpha K^TK)\dot u = f - \alpha K^T(f_a + 2\xi\omega c + \omega^2P^+h)
+
+    Attributes
+    ----------
+    factor : float
+        :math:`\alpha` relative to the scales of :math:`M` and :math:`K^TK`
+        (dimensionless).  Larger: smaller constraint error, stiffer system.
+    xi, omega : float
+        Damping ratio and natural frequency (1/s) of the constraint error.
+    """
+
+    name: ClassVar[str] = "penalty"
+    factor: float = 1e7
+    xi: float = 1.0
+    omega: float = 10.0
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        s = stabilization(model, t, y, 2.0 * self.xi * self.omega, self.omega ** 2)
+        alpha = _penalty_weight(mass, K, self.factor)
+        return np.linalg.solve(mass + alpha * K.T @ K, force - alpha * K.T @ (acc_f + s))
+
+
+@dataclass(frozen=True)
+class AugmentedLagrangian(Penalty):
+    r"""Augmented Lagrangian: the penalty system with iterated multipliers.
+
+    .. math::
+
+        (M + \alpha K^TK)\dot u_{k+1} = f + K^T\lambda_k - \alpha K^T(f_a + s),
+        \qquad \lambda_{k+1} = \lambda_k - \alpha(K\dot u_{k+1} + f_a + s),
+
+    from :math:`\lambda_0 = 0` until the acceleration constraints hold to
+    ``tol`` (relative), so a moderate :math:`\alpha` suffices.
+
+    Attributes
+    ----------
+    factor, xi, omega : float
+        As for :class:`Penalty` (default factor 1e4).
+    tol : float
+        Relative tolerance of the acceleration-constraint residual.
+    max_iterations : int
+    """
+
+    name: ClassVar[str] = "augmented-lagrangian"
+    factor: float = 1e4
+    tol: float = 1e-13
+    max_iterations: int = 50
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        s = stabilization(model, t, y, 2.0 * self.xi * self.omega, self.omega ** 2)
+        target = acc_f + s
+        alpha = _penalty_weight(mass, K, self.factor)
+        factor = sla.cho_factor(mass + alpha * K.T @ K)
+        lam = np.zeros(K.shape[0])
+        base = force - alpha * K.T @ target
+        for _ in range(self.max_iterations):
+            udot = sla.cho_solve(factor, base + K.T @ lam)
+            residual = K @ udot + target
+            lam = lam - alpha * residual
+            scale = np.max(np.abs(K @ udot), initial=0.0) + np.max(np.abs(target)) + 1e-300
+            if np.max(np.abs(residual)) <= self.tol * scale:
+                break
+        return udot
+
+
+@dataclass(frozen=True)
+class UdwadiaKalaba(Scheme):
+    r"""Udwadia–Kalaba's explicit equations.
+
+    .. math::
+
+        \dot u = a + M^{-1/2}\,(K M^{-1/2})^+\,(b - K a),\qquad a = M^{-1}f,
+        \quad b = -f_a - s,
+
+    with the Moore–Penrose inverse (redundant constraints allowed) and an
+    optional Baumgarte correction :math:`s` (gains ``alpha``, ``beta`` as
+    for :class:`Baumgarte`; default none).
+    """
+
+    name: ClassVar[str] = "udwadia-kalaba"
+    alpha: float = 0.0
+    beta: float = 0.0
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, K, acc_f = terms
+        a = np.linalg.solve(mass, force)
+        if not model.n_u_dep:
+            return a
+        b = -acc_f
+        if self.alpha or self.beta:
+            b = b - stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
+        w, V = np.linalg.eigh(mass)
+        M_inv_half = (V / np.sqrt(w)) @ V.T
+        return a + M_inv_half @ np.linalg.pinv(K @ M_inv_half) @ (b - K @ a)
+
+
+def _pivoted_partition(A, m):
+    """Column indices (dependent, independent) by QR with column pivoting."""
+    piv = sla.qr(A, mode="r", pivoting=True)[1]
+    return np.sort(piv[:m]), np.sort(piv[m:])
+
+
+@dataclass(frozen=True)
+class Partitioning(Scheme):
+    """Generalized coordinate partitioning (Wehage & Haug 1982).
+
+    At every evaluation the dependent speeds are the columns of the
+    acceleration-constraint matrix chosen by QR with column pivoting (the
+    best-conditioned block), eliminated as in :class:`Elimination`; after
+    drift the dependent coordinates (pivoted columns of the configuration
+    Jacobian) and speeds are solved from the independent ones by Newton's
+    method.
+    """
+
+    name: ClassVar[str] = "partitioning"
+    project: ClassVar[bool] = True
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, K, acc_f = terms
+        m = model.n_u_dep
+        if not m:
+            return np.linalg.solve(mass, force)
+        dep, ind = _pivoted_partition(K, m)
+        o = mass.shape[0]
+        X = -np.linalg.solve(K[:, dep], K[:, ind])      # u'_d = X u'_i + x0
+        x0 = -np.linalg.solve(K[:, dep], acc_f)
+        N = np.zeros((o, ind.size))
+        N[ind, np.arange(ind.size)] = 1.0
+        N[dep] = X
+        particular = np.zeros(o)
+        particular[dep] = x0
+        z = np.linalg.solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
+        return particular + N @ z
+
+    def project_state(self, model, t, y, tol=1e-12, max_iterations=50):
+        y = np.array(y, dtype=float)
+        n = model.n_q
+        if model.n_q_dep:
+            dep = _pivoted_partition(model._constraint_terms(t, y)[1], model.n_q_dep)[0]
+            for _ in range(max_iterations):
+                h, J, _, _ = model._constraint_terms(t, y)
+                if np.max(np.abs(h)) <= tol:
+                    break
+                y[dep] -= np.linalg.solve(J[:, dep], h)
+        if model.n_u_dep:
+            _, _, B, c = model._constraint_terms(t, y)
+            dep = _pivoted_partition(B, model.n_u_dep)[0]
+            for _ in range(max_iterations):
+                _, _, B, c = model._constraint_terms(t, y)
+                if np.max(np.abs(c)) <= tol * (1.0 + np.max(np.abs(y[n:]))):
+                    break
+                y[n + dep] -= np.linalg.solve(B[:, dep], c)
+        return y
+
+
+@dataclass(frozen=True)
+class NullSpace(Scheme):
+    r"""Maggi's equations: projection onto the null space of the constraints.
+
+    With an orthonormal basis :math:`N` of :math:`\ker K` (from the SVD) and
+    the least-norm particular solution :math:`\dot u_p = -K^+f_a`,
+
+    .. math::
+
+        \dot u = \dot u_p + N z,\qquad N^TMN\,z = N^T(f - M\dot u_p),
+
+    solved by Cholesky's factorization; no stabilization.
+    """
+
+    name: ClassVar[str] = "null-space"
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, K, acc_f = terms
+        if not model.n_u_dep:
+            return sla.cho_solve(sla.cho_factor(mass), force)
+        N = sla.null_space(K)
+        particular = -np.linalg.lstsq(K, acc_f, rcond=None)[0]
+        z = sla.cho_solve(sla.cho_factor(N.T @ mass @ N), N.T @ (force - mass @ particular))
+        return particular + N @ z
+
+
+SCHEMES = {cls.name: cls for cls in (Elimination, IndexOne, Baumgarte, Projection,
+                                     Penalty, AugmentedLagrangian, UdwadiaKalaba,
+                                     Partitioning, NullSpace)}
+
+
+def as_scheme(scheme):
+    """A :class:`Scheme` from an instance or a name of :data:`SCHEMES`."""
+    if isinstance(scheme, Scheme):
+        return scheme
+    try:
+        return SCHEMES[scheme]()
+    except (KeyError, TypeError):
+        raise ModelError(f"unknown constraint scheme {scheme!r}; available: "
+                         f"{', '.join(SCHEMES)}") from None

@@ -1,0 +1,14 @@
+"""Constraint schemes: how equations with constraints become accelerations.
+
+See :mod:`kanedyn._schemes` for the equations of each scheme; pick one by name
+in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or pass an
+instance to ``eom.numeric(scheme=...)``.
+"""
+
+from ._schemes import (SCHEMES, AugmentedLagrangian, Baumgarte, Elimination, IndexOne,
+                       NullSpace, Partitioning, Penalty, Projection, Scheme, UdwadiaKalaba,
+                       as_scheme, stabilization)
+
+__all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
+           "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace", "SCHEMES",
+           "as_scheme", "stabilization"]
