@@ -18,6 +18,7 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError,
 from ._formulation import FORMULATIONS, formulate, kane
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._numeric import NumericModel
+from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
 from ._results import SimulationResult
 from ._simulate import simulate
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
@@ -47,6 +48,9 @@ __all__ = [
     "check_newton_euler",
     "NewtonEulerCheck",
     "NumericModel",
+    "orthogonalize_speeds",
+    "OrthogonalSpeedsModel",
+    "MassMatrices",
     "simulate",
     "SimulationResult",
     "models",
