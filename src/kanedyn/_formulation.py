@@ -25,7 +25,7 @@ def register_formulation(name, derive):
 
 
 def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
-    """Equations of motion of a model by the named formulation.
+    r"""Equations of motion of a model by the named formulation.
 
     Parameters
     ----------
@@ -52,6 +52,11 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
             Generalized coordinate partitioning (Wehage–Haug).
         ``"maggi"``
             Maggi's equations (null-space projection).
+        ``"orthogonal-complement"``
+            The natural orthogonal complement (Cyril, Angeles & Misra 1991):
+            each body's Newton–Euler equations projected with its twist map
+            T_b, M = Σ_b T_bᵀ M_b T_b assembled numerically and solved by
+            Cholesky's factorization.
         ``"augmented"``
             The augmented (vakonomic) Lagrangean: a different motion for
             nonholonomic systems.
@@ -173,9 +178,11 @@ def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
 def _register_builtin():
     from ._kane import derive_kane
     from ._lagrange import derive_augmented, derive_lagrange
+    from ._orthogonal_complement import derive_orthogonal_complement
     register_formulation("kane", derive_kane)
     register_formulation("lagrange", derive_lagrange)
     register_formulation("augmented", derive_augmented)
+    register_formulation("orthogonal-complement", derive_orthogonal_complement)
     for name, scheme in (("lagrange-index1", IndexOne()),
                          ("lagrange-baumgarte", Baumgarte()),
                          ("lagrange-projection", Projection()),

@@ -1,0 +1,499 @@
+r"""The natural orthogonal complement (Angeles & Lee 1988; Cyril, Angeles & Misra 1991).
+
+Every body :math:`b` is first an unconstrained rigid body with the twist
+:math:`t_b = [\omega_b;\ v_b]` (angular velocity, mass-centre velocity,
+inertial components) and the Newton–Euler equations
+
+.. math::
+
+    M_b\,\dot t_b = w_b^A + w_b^C - W_b M_b t_b,\qquad
+    M_b = \begin{bmatrix} I_b & 0\\ 0 & m_b 1\end{bmatrix},\qquad
+    W_b M_b t_b = \begin{bmatrix}\omega_b\times I_b\omega_b\\ 0\end{bmatrix},
+
+with the applied wrench :math:`w_b^A` (moment about the mass centre, then
+force) and the unknown constraint wrench :math:`w_b^C`.  The kinematic
+constraints of the joints are :math:`t = T u`, :math:`T = [T_1; \dots; T_n]`
+(:math:`6n\times o`): the columns of :math:`T_b` are the partial angular
+velocities and partial velocities of body :math:`b`.  :math:`T` spans the
+motions the joints allow, so it is an orthogonal complement of the joint
+constraints, and the constraint wrenches do no work on it,
+:math:`T^T w^C = 0`.  With :math:`\dot t_b = T_b\dot u + \dot T_b u`,
+multiplying the stacked Newton–Euler equations by :math:`T^T` eliminates
+them:
+
+.. math::
+
+    \underbrace{\sum_b T_b^T M_b T_b}_{M}\ \dot u
+    = \underbrace{\sum_b T_b^T\left(w_b - M_b\,\dot T_b u\right) + Q}_{f},
+    \qquad w_b = w_b^A - W_b M_b t_b ,
+
+where :math:`Q` collects the generalized forces of loads that act on no
+single body (points or frames whose motion is not that of a body, e.g. a
+point with an auxiliary velocity), :math:`\sum F\cdot\partial v_P/\partial
+u`.  Closed loops and nonholonomic constraints add :math:`B u + b = 0`
+(dependent speeds :math:`u_d`); their complement :math:`N = [1; X]`,
+:math:`X = -K_d^{-1}K_i` from the acceleration constraints :math:`K\dot u +
+f_a = 0`, reduces the equations to the symmetric positive definite system
+
+.. math::
+
+    N^T M N\,\dot u_i = N^T\left(f - M\dot u_p\right),\qquad
+    \dot u_p = \begin{bmatrix}0\\ -K_d^{-1}f_a\end{bmatrix},\qquad
+    \dot u_d = X\dot u_i - K_d^{-1}f_a ,
+
+solved by Cholesky's factorization (as in Cyril et al., who integrated the
+result with Gear's BDF method: ``kd.simulate(..., method="BDF")``).
+
+What is symbolic and what is numeric
+------------------------------------
+* Symbolic (straight-line program, shared intermediates): the per-body
+  blocks :math:`T_b` (:math:`6\times o`), :math:`\dot T_b u` (6),
+  :math:`M_b` (:math:`6\times 6`, inertia in inertial components, a function
+  of :math:`q`) and :math:`w_b` (6), the generalized forces :math:`Q`, and,
+  for the :class:`EquationsOfMotion` contract, the products
+  :math:`\sum_b T_b^T(M_bT_b)` and :math:`\sum_b T_b^T(\cdot)` as named
+  intermediates (``eom.mass_matrix``, ``eom.forcing``,
+  ``eom.operation_counts()`` and the symbolic linearization use these).
+* Numeric (:class:`OrthogonalComplement`, the scheme of these equations): the
+  generated ``dynamics`` function of the numerical model evaluates only the
+  blocks and assembles :math:`M = T^T\,\mathrm{blkdiag}(M_b)\,T` and
+  :math:`f` with NumPy matrix products; the scheme eliminates the dependent
+  speeds with :math:`N` and solves by Cholesky.
+
+Coordinates, speeds, dependent speeds, velocity and vector constraints,
+potential energy and auxiliary speeds follow Kane's conventions, so
+:func:`kanedyn.simulate`, :func:`kanedyn.check_newton_euler` and
+:meth:`NumericModel.multipliers` work unchanged.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import scipy.linalg as sla
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._codegen import compile_python, generate_python
+from ._errors import ModelError
+from ._kane import (BodyTerms, _contact_terms, _drop_workless, _inertia_terms, _matvec,
+                    _solve_kinematics, given_velocity_constraints)
+from ._kinematics import Kinematics, add, cross, dot
+from ._program import SAMPLE_SEEDS, Program
+from ._progress import NO_PROGRESS
+from ._schemes import Scheme
+from ._symbols import SymbolTable
+
+__all__ = ["derive_orthogonal_complement", "OrthogonalComplement"]
+
+_ZERO3 = (sm.S.Zero,) * 3
+
+
+# ---------------------------------------------------------------- symbolic
+def _same(prog, a, b):
+    """Whether two component tuples are identical (random points, relative 1e-9)."""
+    for seed in SAMPLE_SEEDS:
+        va, vb = prog.shadow(a, seed), prog.shadow(b, seed)
+        if any(v != v for v in list(va) + list(vb)):  # nan: cannot decide
+            return False
+        scale = 1.0 + max(abs(x) for x in list(va) + list(vb))
+        if any(not abs(x - y) <= 1e-9 * scale for x, y in zip(va, vb)):
+            return False
+    return True
+
+
+def _owner(kin, bodies, location, raw):
+    """The body a load acts on: ``(index, lever arm)``, ``"ground"`` or ``None``.
+
+    A frame belongs to a rigid body whose frame it is or whose angular
+    velocity it shares; a point to the body whose mass centre it is, or a
+    rigid body in which it is fixed (:math:`v_P = v_G + \\omega\\times r`),
+    or a particle whose velocity it shares.  Velocities are compared with the
+    auxiliary speeds included.  ``"ground"``: the location does not move
+    (no generalized force); ``None``: no single body (the load's generalized
+    forces are then formed from its own partial velocities).
+    """
+    prog = kin.prog
+    if isinstance(location, me.ReferenceFrame):
+        for k, (b, _, _) in enumerate(raw):
+            if isinstance(b, me.RigidBody) and b.frame is location:
+                return k, None
+        w_loc = kin.angular_velocity(location)
+        if all(c == 0 for c in w_loc) or _same(prog, w_loc, _ZERO3):
+            return "ground"
+        for k, (b, _, w) in enumerate(raw):
+            if isinstance(b, me.RigidBody) and _same(prog, w_loc, w):
+                return k, None
+        return None
+    for k, (b, _, _) in enumerate(raw):
+        if b.masscenter is location:
+            return k, None
+    v_loc = kin.velocity(location)
+    if all(c == 0 for c in v_loc) or _same(prog, v_loc, _ZERO3):
+        return "ground"
+    for k, (b, v, w) in enumerate(raw):
+        if isinstance(b, me.RigidBody):
+            r = kin.position(location, b.masscenter)
+            if r is not None and _same(prog, v_loc, add(v, cross(w, r))):
+                return k, r
+        elif _same(prog, v_loc, v):
+            return k, None
+    return None
+
+
+class _Blocks:
+    """Per-body NOC blocks as program expressions (real speeds only).
+
+    ``T``: ``6 n_b x o`` row-major list; ``Tdu``, ``w``: ``6 n_b``; ``Mb``:
+    ``6 n_b x 6``; ``Q``: ``o``.
+    """
+
+    __slots__ = ("T", "Tdu", "Mb", "w", "Q", "n_bodies")
+
+    def __init__(self, **fields):
+        for name in self.__slots__:
+            setattr(self, name, fields[name])
+
+
+def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics=True):
+    r"""Equations of motion by the natural orthogonal complement.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+        The parsed model (see :func:`kanedyn.formulate`).
+    progress : Progress
+    explicit_kinematics : bool
+        As for :func:`kanedyn.kane`.
+
+    Returns
+    -------
+    EquationsOfMotion
+        ``method="orthogonal-complement"``; its scheme is
+        :class:`OrthogonalComplement` (numerical assembly of the per-body
+        blocks, Cholesky solution).  The symbolic fields hold
+        :math:`M = \sum_b T_b^T M_b T_b` and
+        :math:`f = \sum_b T_b^T(w_b - M_b\dot T_b u) + Q` as intermediates.
+    """
+    from ._eom import EquationsOfMotion
+
+    table = SymbolTable(spec.q, spec.u, spec.u_aux)
+    prog = Program(table.t)
+    for s in table.q:
+        prog.declare(s)
+    for s in table.u + table.u_aux + table.udot:
+        prog.declare(s)
+    table.on_new_specified = lambda s, nxt: prog.declare(s, nxt)
+
+    progress.stage("kinematic differential equations")
+    qdot, kin_matrices = _solve_kinematics(spec, table, prog)
+    for s, value in zip(table.q, qdot):
+        prog.set_derivative(s, value)
+    table.set_qdot(qdot)
+
+    kin = Kinematics(prog, table, spec.frame, spec.bodies)
+    speeds = table.u + table.u_aux
+    o, s_aux = len(table.u), len(table.u_aux)
+    n_all = o + s_aux
+    aux_zero = {ua: 0 for ua in table.u_aux}
+
+    def partials(vec):
+        return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec) for ur in speeds]
+
+    def no_aux(vec):
+        return tuple(prog.subs(c, aux_zero) for c in vec)
+
+    # ------------------------------------------------ per-body blocks
+    bodies = list(spec.bodies)
+    raw, body_terms, masses, inertias, tdu, gyro, momenta = [], [], [], [], [], [], []
+    for k, body in enumerate(bodies):
+        progress.update(f"twist map of {body.name} ({k + 1}/{len(bodies)})",
+                        (k + 1) / max(len(bodies), 1))
+        m = prog.let(kin.internal(body.mass, f"mass of {body.name}"), f"m_{body.name}")
+        rigid = isinstance(body, me.RigidBody)
+        v = kin.velocity(body.masscenter)
+        w = kin.angular_velocity(body.frame) if rigid else _ZERO3
+        raw.append((body, v, w))
+        v0, w0 = no_aux(v), no_aux(w)
+        terms = BodyTerms(body, v0, w0, partials(v), partials(w))
+        # twist rate with u' = 0: (alpha0, a0) = T_b' u
+        a0 = kin.let_vector(kin.dt_vector(v0), f"a0_{body.name}")
+        mdot = kin.dt(m)
+        rate_force = tuple(mdot * c for c in v0)  # variable mass: m' v
+        if rigid:
+            alpha0 = kin.let_vector(kin.dt_vector(w0), f"alpha0_{body.name}")
+            I_B, I_N, C = _inertia_terms(kin, body, f"body {body.name}")
+            H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
+            g_torque = cross(w0, H)  # W_b M_b t_b
+            I_B_dot = I_B.applyfunc(kin.dt)
+            if any(I_B_dot):  # inertia changing in the body frame
+                g_torque = add(g_torque, tuple(C * (I_B_dot * (C.T * sm.Matrix(w0)))))
+        else:
+            alpha0, I_N, H, g_torque = _ZERO3, None, _ZERO3, _ZERO3
+        body_terms.append(terms)
+        masses.append(m)
+        inertias.append(I_N)
+        tdu.append(alpha0 + a0)
+        gyro.append(kin.let_vector(g_torque, f"g_{body.name}")
+                    + kin.let_vector(rate_force, f"mr_{body.name}"))
+        momenta.append(H)
+    progress.done()
+
+    def T_col(k, s):
+        """Column ``s`` of T_b (6 entries: angular, then linear)."""
+        t = body_terms[k]
+        return tuple(t.partial_angular_velocities[s]) + tuple(t.partial_velocities[s])
+
+    def M_times(k, vec6):
+        """M_b times a 6-vector (inertia on the angular part, mass on the linear)."""
+        I_N = inertias[k]
+        ang = _matvec(I_N, vec6[:3]) if I_N is not None else _ZERO3
+        return tuple(ang) + tuple(masses[k] * c for c in vec6[3:])
+
+    # --------------------------------------------------- applied wrenches
+    progress.stage("wrenches")
+    wrench = [[sm.S.Zero] * 6 for _ in bodies]
+    extra = [sm.S.Zero] * n_all  # generalized forces of loads on no single body
+    load_list = []
+    for load in spec.loads:
+        loc = load.location
+        frame_load = isinstance(loc, me.ReferenceFrame)
+        kind = "T" if frame_load else "F"
+        vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), f"{kind}_{loc}")
+        load_list.append((loc, vec, None))
+        if all(c == 0 for c in vec):
+            continue
+        owner = _owner(kin, bodies, loc, raw)
+        if owner == "ground":
+            continue
+        if owner is None:
+            base = kin.angular_velocity(loc) if frame_load else kin.velocity(loc)
+            for r, part in enumerate(partials(base)):
+                extra[r] += dot(vec, part)
+            continue
+        k, lever = owner
+        moment = vec if frame_load else (cross(lever, vec) if lever is not None else _ZERO3)
+        force = _ZERO3 if frame_load else vec
+        wrench[k] = [a + b for a, b in zip(wrench[k], tuple(moment) + tuple(force))]
+    applied = [kin.let_vector(w6[:3], f"nA_{b.name}") + kin.let_vector(w6[3:], f"fA_{b.name}")
+               for w6, b in zip(wrench, bodies)]
+    extra = [prog.let(e, "Q") for e in extra]
+
+    # ----------------------------------------- symbolic products (contract)
+    progress.stage("mass matrix and forcing: sum of T_b^T M_b T_b")
+    mass_terms = [[[] for _ in range(o)] for _ in range(n_all)]
+    active_terms = [[e] for e in extra]
+    remainder_terms = [[] for _ in range(n_all)]
+    for k, body in enumerate(bodies):
+        cols = [T_col(k, s) for s in range(n_all)]
+        nonzero = [any(c != 0 for c in col) for col in cols]
+        MT = {s: kin.let_vector(M_times(k, cols[s])[:3], "MTw")
+              + kin.let_vector(M_times(k, cols[s])[3:], "MTv")
+              for s in range(o) if nonzero[s]}
+        inertia_bias = M_times(k, tdu[k])  # M_b T_b' u
+        bias = tuple(prog.let(a + g, f"bias_{body.name}")
+                     for a, g in zip(inertia_bias, gyro[k]))
+        for r in range(n_all):
+            if not nonzero[r]:
+                continue
+            first = r if r < o else 0  # real rows: upper triangle, mirrored
+            for s, mt in MT.items():
+                if s >= first:
+                    mass_terms[r][s].append(sm.Add(*[a * b for a, b in zip(cols[r], mt)]))
+            active_terms[r].append(sm.Add(*[a * b for a, b in zip(cols[r], applied[k])]))
+            remainder_terms[r].append(sm.Add(*[a * b for a, b in zip(cols[r], bias)]))
+    mass_rows = []
+    for r in range(n_all):
+        row = [prog.let(sm.Add(*mass_terms[r][s]), f"M_{r}_{s}") for s in range(o)]
+        if r < o:
+            for s in range(r):
+                row[s] = mass_rows[s][r]
+        mass_rows.append(row)
+    fr = [prog.let(prog.subs(sm.Add(*t), aux_zero), f"Fr_{r}")
+          for r, t in enumerate(active_terms)]
+    before = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
+    fr[:o] = _drop_workless(prog, table, fr[:o], load_list)
+    after = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
+    state = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
+    dropped = {s: 0 for s in before - after
+               if s not in state and not prog.is_intermediate(s)}
+    nonmm = [prog.let(prog.subs(sm.Add(*t), aux_zero), f"n_{r}")
+             for r, t in enumerate(remainder_terms)]
+
+    # numeric blocks (real speeds), workless force magnitudes removed
+    def real(e):
+        return prog.subs(prog.subs(e, aux_zero), dropped) if dropped else prog.subs(e, aux_zero)
+
+    T_flat, Tdu_flat, Mb_flat, w_flat = [], [], [], []
+    for k in range(len(bodies)):
+        cols = [T_col(k, s) for s in range(o)]
+        for i in range(6):
+            T_flat.extend(cols[s][i] for s in range(o))
+        Tdu_flat.extend(tdu[k])
+        I_N = inertias[k]
+        for i in range(6):
+            for j in range(6):
+                if i < 3 and j < 3:
+                    Mb_flat.append(I_N[i][j] if I_N is not None else sm.S.Zero)
+                else:
+                    Mb_flat.append(masses[k] if i == j and i >= 3 else sm.S.Zero)
+        w_flat.extend(prog.let(real(a - g), "w") for a, g in zip(applied[k], gyro[k]))
+    blocks = _Blocks(T=tuple(T_flat), Tdu=tuple(Tdu_flat), Mb=tuple(Mb_flat),
+                     w=tuple(w_flat), Q=tuple(prog.let(real(e), "Q") for e in extra[:o]),
+                     n_bodies=len(bodies))
+
+    # ----------------------------------------------------- constraints
+    progress.stage("constraints")
+    config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
+                   for i, c in enumerate(spec.configuration_constraints))
+    vel, identified, names = given_velocity_constraints(kin, spec, config, aux_zero)
+    vel_c = tuple(prog.let(c, "vc") for c in vel)
+    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
+    if spec.acceleration_constraints is not None:
+        acc = [prog.subs(prog.let_tree(table.internal(
+                   c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
+               for i, c in enumerate(spec.acceleration_constraints)]
+        acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
+                      for c in acc)
+        acc_f = tuple(prog.let(prog.subs(c, {ud: 0 for ud in table.udot}), "fa")
+                      for c in acc)
+    else:
+        acc_K = vel_B
+        acc_f = tuple(prog.let(kin.dt(c), "fa") for c in vel)
+
+    # ------------------------------------------------------- energies
+    ke = [m * dot(t.velocity, t.velocity) / 2 + dot(t.omega, H) / 2
+          for t, m, H in zip(body_terms, masses, momenta)]
+    kinetic = prog.let(sm.Add(*ke), "KE")
+    potential = None
+    if spec.potential_energy is not None:
+        potential = prog.let(kin.scalar(spec.potential_energy, "potential energy", "pe"),
+                             "PE")
+
+    contacts = tuple(_contact_terms(kin, c, table.u, aux_zero) for c in spec.contacts)
+    aux_K = tuple(tuple(-mass_rows[o + a][s] for s in range(o)) for a in range(s_aux))
+    aux_f = tuple(prog.let(fr[o + a] - nonmm[o + a], f"aux_{a}") for a in range(s_aux))
+    # inertia force and torque with u' = 0 (the Newton-Euler check uses them)
+    inertial = tuple((tuple(prog.let(a + g, "Fi") for a, g in
+                            zip(M_times(k, tdu[k])[3:], gyro[k][3:])),
+                      tuple(prog.let(a + g, "Ti") for a, g in
+                            zip(M_times(k, tdu[k])[:3], gyro[k][:3])))
+                     for k in range(len(bodies)))
+
+    progress.stage(f"done: {len(prog)} intermediates")
+    eom = EquationsOfMotion._from_derivation(
+        spec=spec, program=prog, table=table, kinematics=kin,
+        explicit_kinematics=explicit_kinematics,
+        qdot=qdot, kinematic_matrices=kin_matrices,
+        mass=tuple(tuple(row) for row in mass_rows[:o]),
+        active=tuple(fr[:o]), remainder=tuple(nonmm[:o]),
+        vel_B=vel_B, vel_c=vel_c, acc_K=acc_K, acc_f=acc_f, config=config,
+        aux_K=aux_K, aux_f=aux_f, kinetic=kinetic, potential=potential,
+        body_terms=tuple(body_terms), inertial=inertial,
+        load_vectors=tuple((loc, vec) for loc, vec, _ in load_list),
+        identified=identified, multiplier_names=names,
+        contact_terms=contacts, method="orthogonal-complement")
+    # set once, before anyone sees the result (as formulate does for schemes)
+    object.__setattr__(eom, "_noc_blocks", blocks)
+    object.__setattr__(eom, "_scheme", OrthogonalComplement())
+    return eom
+
+
+# ----------------------------------------------------------------- numeric
+_ASSEMBLY = '''
+def dynamics(t, y, p, r):
+    qd, T, Tdu, Mb, w, Q, B, K, fa = _noc_blocks(t, y, p, r)
+    # M_b T_b for every body at once, then M = T^T blkdiag(M_b) T
+    MT = numpy.matmul(Mb.reshape({nb}, 6, 6), T.reshape({nb}, 6, {o})).reshape({rows}, {o})
+    bias = w - numpy.matmul(Mb.reshape({nb}, 6, 6), Tdu.reshape({nb}, 6, 1)).reshape({rows})
+    return qd, T.T @ MT, T.T @ bias + Q, B, K, fa
+'''
+
+
+@dataclass(frozen=True)
+class OrthogonalComplement(Scheme):
+    r"""Numerical assembly of the natural orthogonal complement; Cholesky solve.
+
+    :meth:`prepare` replaces the numerical model's generated ``dynamics``
+    function by one that evaluates the per-body blocks :math:`T_b`,
+    :math:`\dot T_b u`, :math:`M_b`, :math:`w_b` (and :math:`Q`) and assembles
+
+    .. math::
+
+        M = T^T\,\mathrm{blkdiag}(M_b)\,T,\qquad
+        f = T^T\left(w - \mathrm{blkdiag}(M_b)\,\dot T u\right) + Q
+
+    with NumPy (so ``model.mass_matrix``, ``model.multipliers`` and the
+    Newton–Euler check see the assembled matrices).  :meth:`accelerations`
+    eliminates the dependent speeds with the complement :math:`N = [1; X]`
+    of the acceleration constraints and solves the symmetric positive
+    definite :math:`N^TMN\,\dot u_i = N^T(f - M\dot u_p)` by Cholesky's
+    factorization.  Constraint drift is projected as in Kane's elimination
+    (dependent coordinates and speeds solved from the constraints).
+
+    Only equations from ``formulate(..., method="orthogonal-complement")``
+    carry the blocks; the compiled C backend does not implement the scheme.
+    """
+
+    name: ClassVar[str] = "orthogonal-complement"
+    project: ClassVar[bool] = True
+    c_backend: ClassVar[bool] = False
+
+    def prepare(self, model):
+        eom = model._eom
+        blocks = getattr(eom, "_noc_blocks", None)
+        if blocks is None:
+            raise ModelError(
+                f"the orthogonal-complement scheme needs the per-body blocks of "
+                f"formulate(..., method='orthogonal-complement'); these equations come "
+                f"from the {eom.method!r} formulation")
+        prog = eom._program
+        subs = model._substitutions
+
+        def sub(e):
+            return prog.subs(e, subs) if subs else e
+
+        n, o, m = model.n_q, model.n_u, model.n_u_dep
+        nb = blocks.n_bodies
+        rows = 6 * nb
+        outputs = [((n,), [sub(e) for e in eom._qdot]),
+                   ((rows, o), [sub(e) for e in blocks.T]),
+                   ((rows,), [sub(e) for e in blocks.Tdu]),
+                   ((rows, 6), [sub(e) for e in blocks.Mb]),
+                   ((rows,), [sub(e) for e in blocks.w]),
+                   ((o,), [sub(e) for e in blocks.Q]),
+                   ((m, o), [sub(e) for row in eom._vel_B for e in row]),
+                   ((m, o), [sub(e) for row in eom._acc_K for e in row]),
+                   ((m,), [sub(e) for e in eom._acc_f])]
+        args = model._functions["dynamics"][0]
+        source = (generate_python(prog, "_noc_blocks", args, outputs, cse=bool(model._cse))
+                  + _ASSEMBLY.format(nb=nb, o=o, rows=rows))
+        # kept in the model's sources, so that copies and unpickled models
+        # evaluate the same assembly
+        model._data["sources"]["dynamics"] = source
+        model._fn["dynamics"] = compile_python(source, "dynamics")
+
+    def accelerations(self, model, t, y, terms):
+        _, mass, force, _, acc_K, acc_f = terms
+        m = model.n_u_dep
+        if not m:
+            return _cholesky_solve(mass, force, t)
+        p = model.n_u - m
+        K_d = acc_K[:, p:]
+        X = -np.linalg.solve(K_d, acc_K[:, :p])
+        particular = np.concatenate([np.zeros(p), -np.linalg.solve(K_d, acc_f)])
+        N = np.vstack([np.eye(p), X])
+        z = _cholesky_solve(N.T @ mass @ N, N.T @ (force - mass @ particular), t)
+        return particular + N @ z
+
+
+def _cholesky_solve(A, b, t):
+    try:
+        return sla.cho_solve(sla.cho_factor(A), b)
+    except np.linalg.LinAlgError:
+        raise np.linalg.LinAlgError(
+            f"the mass matrix of the natural orthogonal complement is not positive "
+            f"definite at t = {t:g} (a speed that moves no mass or inertia, or a "
+            "dependent-speed partition singular here)") from None
