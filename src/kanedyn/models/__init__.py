@@ -17,13 +17,14 @@ from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladd
                               slug_ellipsoid, sphere_slug)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
+from ._snake import snake
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
-           "rolling_disk_contact", "block_wedge"]
+           "rolling_disk_contact", "block_wedge", "snake"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -48,6 +49,7 @@ REGISTRY = {
     "knife-edge": (knife_edge, {}),
     "rolling-disk-contact": (rolling_disk_contact, {}),
     "block-wedge": (block_wedge, {}),
+    "snake": (snake, {"n": int}),
 }
 
 
