@@ -1,13 +1,16 @@
-"""One model, several formulations: the same motion, or not, and who is right.
+"""One model, several formulations: the same motion, or not, at what cost.
 
 :func:`compare_formulations` derives a built-in model by each method in the
 formulation registry, starts every run from the same physical state
 (coordinates and their rates; multipliers of the augmented Lagrangean at
-zero), integrates them with the same tolerances and reports, per method: how
-far the coordinates drift from the first method's, the Newton–Euler residual
-of every body with the identified constraint forces
-(:func:`kanedyn.check_newton_euler`), the velocity-constraint residual, the
-energy drift and the CPU time.
+zero), integrates them with the same integrator and tolerances and reports,
+per method: the operation counts of the generated equations, how far the
+coordinates drift from the first method's, the Newton–Euler residual of
+every body with the identified constraint forces
+(:func:`kanedyn.check_newton_euler`), the position- and velocity-level
+constraint errors over time, the energy error, and the CPU time per
+simulated second.  :func:`work_precision` adds the CPU time at equal
+accuracy, from runs at several tolerances against a tight reference.
 """
 
 from __future__ import annotations
@@ -21,7 +24,8 @@ from ._errors import ModelError
 from ._newton_euler import check_newton_euler
 from ._simulate import simulate
 
-__all__ = ["compare_formulations", "FormulationComparison", "NONHOLONOMIC_EXAMPLES"]
+__all__ = ["compare_formulations", "FormulationComparison", "work_precision",
+           "WorkPrecision", "NONHOLONOMIC_EXAMPLES"]
 
 #: Built-in models whose constraint forces are all identified, for
 #: ``kanedyn compare nonholonomic``.
@@ -46,15 +50,28 @@ class FormulationComparison:
         ``{method: max |q - q_ref|}`` over the run.
     newton_euler : dict
         ``{method: NewtonEulerCheck}``.
-    constraint_residual : dict
-        ``{method: max |velocity-constraint residual|}`` (``nan`` when it
+    position_error, velocity_error : dict
+        ``{method: ndarray (N,)}``: largest absolute configuration- and
+        velocity-constraint residual at each output time (``nan`` where it
         cannot be evaluated).
-    energy_drift : dict
-        ``{method: max |E - E(0)|}`` (``nan`` for models without an energy).
+    energy_error : dict
+        ``{method: ndarray (N,)}``: :math:`E(t) - E(0)`, J (``None`` for
+        models without an energy).
+    operations : dict
+        ``{method: dict}``: operations of everything the right-hand side
+        evaluates after joint common subexpression elimination
+        (``multiplications``, ``additions``, ``powers``, ``functions``,
+        ``total``) and the number of named intermediates.
     cpu_time : dict
-        ``{method: seconds}`` of the integration.
+        ``{method: seconds}`` of the integration (process time).
+    evaluations : dict
+        ``{method: number of right-hand-side evaluations}``.
+    projections : dict
+        ``{method: number of drift projections}``.
     messages : dict
         ``{method: the integrator's message}``.
+    integrator : str
+        The ``solve_ivp`` method used for every formulation.
     """
 
     model: str
@@ -63,31 +80,110 @@ class FormulationComparison:
     coordinates: dict
     deviation: dict
     newton_euler: dict
-    constraint_residual: dict
-    energy_drift: dict
+    position_error: dict
+    velocity_error: dict
+    energy_error: dict
+    operations: dict
     cpu_time: dict
+    evaluations: dict
+    projections: dict
     messages: dict
+    integrator: str = "RK45"
+
+    @property
+    def constraint_residual(self):
+        """``{method: max velocity-constraint residual}`` over the run."""
+        return {m: _peak(self.velocity_error[m]) for m in self.methods}
+
+    @property
+    def position_residual(self):
+        """``{method: max configuration-constraint residual}`` over the run."""
+        return {m: _peak(self.position_error[m]) for m in self.methods}
+
+    @property
+    def energy_drift(self):
+        """``{method: max |E - E(0)|}`` (``nan`` without an energy)."""
+        return {m: _peak(self.energy_error[m]) if self.energy_error[m] is not None
+                else float("nan") for m in self.methods}
+
+    @property
+    def cpu_per_second(self):
+        """``{method: CPU seconds per simulated second}``."""
+        span = float(self.t[-1] - self.t[0]) or 1.0
+        return {m: self.cpu_time[m] / span for m in self.methods}
 
     def table(self):
         """The figures as a text table."""
-        head = (f"{'method':<11} {'max|q-q_ref|':>13} {'N-E force':>10} {'N-E moment':>11} "
-                f"{'N-E rel':>9} {'constraint':>11} {'energy':>10} {'cpu [s]':>8}")
-        lines = [f"{self.model}: t = 0..{self.t[-1]:g} s "
+        lines = [f"{self.model}: t = 0..{self.t[-1]:g} s, {self.integrator} "
                  f"(reference: {self.methods[0]}; N-E multipliers: "
                  + ", ".join(f"{m} {self.newton_euler[m].source}" for m in self.methods)
-                 + ")", head]
+                 + ")",
+                 f"{'method':<21} {'mul':>6} {'add':>6} {'fun':>5} {'max|q-q_ref|':>12} "
+                 f"{'N-E force':>9} {'N-E moment':>10} {'N-E rel':>8} {'|h| max':>8} "
+                 f"{'|c| max':>8} {'|dE| max':>8} {'nfev':>6} {'proj':>4} {'cpu/s':>7}"]
+        pos, vel, drift = self.position_residual, self.constraint_residual, self.energy_drift
+        per_second = self.cpu_per_second
         for m in self.methods:
             ne = self.newton_euler[m]
+            ops = self.operations[m]
             rel = ne.max / ne.inertia_scale if ne.inertia_scale else np.nan
-            lines.append(f"{m:<11} {self.deviation[m]:13.3e} {ne.max_force:10.2e} "
-                         f"{ne.max_moment:11.2e} {rel:9.1e} "
-                         f"{self.constraint_residual[m]:11.2e} "
-                         f"{self.energy_drift[m]:10.2e} {self.cpu_time[m]:8.3f}")
+            lines.append(
+                f"{m:<21} {ops['multiplications']:6d} {ops['additions']:6d} "
+                f"{ops['functions']:5d} {self.deviation[m]:12.3e} {ne.max_force:9.2e} "
+                f"{ne.max_moment:10.2e} {rel:8.1e} {pos[m]:8.1e} {vel[m]:8.1e} "
+                f"{drift[m]:8.1e} {self.evaluations[m]:6d} {self.projections[m]:4d} "
+                f"{per_second[m]:7.3f}")
+        bad = [f"{m}: {self.messages[m]}" for m in self.methods
+               if "reached the end" not in self.messages[m]]
+        if bad:
+            lines.append("did not finish: " + "; ".join(bad))
         return "\n".join(lines)
 
+    def plot(self, path=None):
+        """Constraint errors, energy error and deviation against time.
 
-def _rate_name(q_name):
-    return q_name + "_d"
+        Parameters
+        ----------
+        path : str or Path, optional
+            Save the figure there (PNG, PDF, ... by suffix).
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from ._plotting import pyplot
+        plt = pyplot()
+        fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
+        panels = ((axes[0, 0], self.position_error, "position-level |h|"),
+                  (axes[0, 1], self.velocity_error, "velocity-level |c|"),
+                  (axes[1, 0], {m: None if v is None else np.abs(v)
+                                for m, v in self.energy_error.items()}, "|E - E(0)| [J]"),
+                  (axes[1, 1], {m: np.max(np.abs(self.coordinates[m][:, :self.t.size]
+                                                 - self.coordinates[self.methods[0]]),
+                                          axis=0, initial=0.0)
+                                for m in self.methods}, f"max |q - q_{self.methods[0]}|"))
+        for ax, series, label in panels:
+            for m in self.methods:
+                values = series[m]
+                if values is None or not np.any(np.isfinite(values)):
+                    continue
+                ax.semilogy(self.t[:values.size], np.maximum(values, 1e-17), label=m)
+            ax.set_ylabel(label)
+            ax.grid(True, which="both", alpha=0.3)
+        for ax in axes[1]:
+            ax.set_xlabel("t [s]")
+        axes[0, 0].legend(fontsize="small")
+        fig.suptitle(f"{self.model}: formulations compared ({self.integrator})")
+        fig.tight_layout()
+        if path is not None:
+            fig.savefig(path, dpi=120)
+        return fig
+
+
+def _peak(values):
+    values = np.asarray(values, dtype=float)
+    finite = values[np.isfinite(values)]
+    return float(np.max(np.abs(finite))) if finite.size else float("nan")
 
 
 def _initial_state(model, ref_model, y_ref, qdot_ref):
@@ -108,29 +204,62 @@ def _initial_state(model, ref_model, y_ref, qdot_ref):
     return model.state(y)
 
 
-def _velocity_residual(res, checkers):
-    """Largest velocity-constraint residual of a run.
+def _constraint_errors(res, checkers):
+    """Configuration- and velocity-constraint residual histories of a run.
 
-    A model without velocity constraints of its own (the augmented
-    Lagrangean's) is measured with another model whose states it contains.
+    A model without constraints of its own (the augmented Lagrangean's) is
+    measured with another model whose states it contains.
     """
-    model = res.model
-    if model.n_u_dep:
-        return float(np.max(np.abs(res.constraint_residuals[model.n_q_dep:]), initial=0.0))
+    model, N = res.model, res.t.size
+    if model.n_q_dep or model.n_u_dep:
+        r = np.abs(res.constraint_residuals)
+        l = model.n_q_dep
+        return (np.max(r[:l], axis=0, initial=0.0), np.max(r[l:], axis=0, initial=0.0))
     names = list(model.state_names)
     checker = next((c for c in checkers if set(c.state_names) <= set(names)), None)
     if checker is None:
-        return float("nan")
+        return np.zeros(N), np.zeros(N)
     idx = [names.index(n) for n in checker.state_names]
-    worst = 0.0
-    for k in range(res.t.size):
-        c = checker.constraint_residuals(res.t[k], res.y[idx, k])[checker.n_q_dep:]
-        worst = max(worst, float(np.max(np.abs(c), initial=0.0)))
-    return worst
+    pos, vel = np.full(N, np.nan), np.full(N, np.nan)
+    for k in range(N):
+        if np.all(np.isfinite(res.y[idx, k])):
+            c = np.abs(checker.constraint_residuals(res.t[k], res.y[idx, k]))
+            pos[k] = np.max(c[:checker.n_q_dep], initial=0.0)
+            vel[k] = np.max(c[checker.n_q_dep:], initial=0.0)
+    return pos, vel
+
+
+def _operations(eom):
+    counts = eom.operation_counts()
+    out = dict(counts["kinds"])
+    out["total"] = counts["all_cse"]
+    out["intermediates"] = counts["intermediates"]
+    return out
+
+
+def _models(name, methods, constants, options):
+    from . import models
+    methods = tuple(methods)
+    if not methods:
+        raise ModelError("give at least one formulation to compare")
+    definition = models.build(name, **options)
+    eoms = {m: definition.derive(method=m) for m in methods}
+    built = {m: definition.numeric(eoms[m], constants=constants) for m in methods}
+    ref = built[methods[0]]
+    y_ref = ref.state(definition.initial(ref))
+    qdot_ref = ref.rhs(0.0, y_ref)[:ref.n_q]
+    starts = {m: y_ref if m == methods[0] else _initial_state(built[m], ref, y_ref, qdot_ref)
+              for m in methods}
+    return definition, methods, eoms, built, starts
+
+
+def _coordinates(res, q_names):
+    return np.array([res[n] for n in q_names])
 
 
 def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=None,
-                         rtol=1e-10, atol=1e-12, n_points=201, **options):
+                         rtol=1e-10, atol=1e-12, n_points=201, integrator="RK45",
+                         constants=None, **options):
     """Simulate a built-in model under several formulations and compare.
 
     Parameters
@@ -145,6 +274,11 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         Integration tolerances (the same for every method).
     n_points : int
         Output times.
+    integrator : str
+        ``solve_ivp`` method for every formulation (``"BDF"`` for stiff
+        runs, as the penalty formulation may need).
+    constants : dict, optional
+        Parameter values replacing the model's defaults (``{"A": 0.0}``).
     **options
         Model options (as for :func:`kanedyn.models.build`).
 
@@ -152,39 +286,153 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
     -------
     FormulationComparison
     """
-    from . import models
-    methods = tuple(methods)
-    if not methods:
-        raise ModelError("give at least one formulation to compare")
-    definition = models.build(name, **options)
+    definition, methods, eoms, built, starts = _models(name, methods, constants, options)
     t_end = definition.t_end if t_end is None else float(t_end)
     t_eval = np.linspace(0.0, t_end, n_points)
-    built = {m: definition.numeric(definition.derive(method=m)) for m in methods}
     ref = built[methods[0]]
-    y_ref = ref.state(definition.initial(ref))
-    qdot_ref = ref.rhs(0.0, y_ref)[:ref.n_q]
     q_names = ref.state_names[:ref.n_q]
-    checkers = [mdl for mdl in built.values() if mdl.n_u_dep]
-    out = {key: {} for key in ("coordinates", "deviation", "newton_euler",
-                               "constraint_residual", "energy_drift", "cpu_time",
-                               "messages")}
+    checkers = [mdl for mdl in built.values() if mdl.n_u_dep or mdl.n_q_dep]
+    keys = ("coordinates", "deviation", "newton_euler", "position_error", "velocity_error",
+            "energy_error", "operations", "cpu_time", "evaluations", "projections",
+            "messages")
+    out = {key: {} for key in keys}
     for m in methods:
-        model = built[m]
-        y0 = y_ref if m == methods[0] else _initial_state(model, ref, y_ref, qdot_ref)
         start = time.process_time()
-        res = simulate(model, (0.0, t_end), y0, t_eval=t_eval, rtol=rtol, atol=atol)
+        res = simulate(built[m], (0.0, t_end), starts[m], t_eval=t_eval, rtol=rtol,
+                       atol=atol, method=integrator)
         out["cpu_time"][m] = time.process_time() - start
         out["messages"][m] = res.message
-        q = np.array([res[n] for n in q_names])
-        out["coordinates"][m] = q
+        out["evaluations"][m] = int(res.nfev)
+        out["projections"][m] = int(res.projections)
+        out["coordinates"][m] = _coordinates(res, q_names)
         out["newton_euler"][m] = check_newton_euler(res)
-        out["constraint_residual"][m] = _velocity_residual(res, checkers)
+        out["position_error"][m], out["velocity_error"][m] = _constraint_errors(res, checkers)
         energy = res.energy
-        out["energy_drift"][m] = (float(np.max(np.abs(energy - energy[0])))
-                                  if energy is not None else float("nan"))
+        out["energy_error"][m] = None if energy is None else energy - energy[0]
+        out["operations"][m] = _operations(eoms[m])
     q0 = out["coordinates"][methods[0]]
     for m in methods:
         q = out["coordinates"][m]
         n = min(q.shape[1], q0.shape[1])
         out["deviation"][m] = float(np.max(np.abs(q[:, :n] - q0[:, :n]), initial=0.0))
-    return FormulationComparison(model=name, methods=methods, t=t_eval, **out)
+    return FormulationComparison(model=name, methods=methods, t=t_eval,
+                                 integrator=integrator, **out)
+
+
+@dataclass(frozen=True)
+class WorkPrecision:
+    """CPU time against accuracy per method (see :func:`work_precision`).
+
+    Attributes
+    ----------
+    model : str
+    methods : tuple of str
+    tolerances : tuple of float
+        The ``rtol`` of each run (``atol = rtol * atol_ratio``).
+    error : dict
+        ``{method: ndarray (k,)}``: max |q - q_ref| over the run at each
+        tolerance (the reference: the first method at ``reference_rtol``).
+    cpu_per_second : dict
+        ``{method: ndarray (k,)}``: CPU seconds per simulated second.
+    target : float
+        The accuracy at which :attr:`at_target` compares the methods.
+    """
+
+    model: str
+    methods: tuple
+    tolerances: tuple
+    error: dict
+    cpu_per_second: dict
+    target: float
+
+    @property
+    def at_target(self):
+        """``{method: CPU s per simulated s at error = target}`` (log interpolation).
+
+        ``nan`` when no run of the method reached the target accuracy.
+        """
+        out = {}
+        for m in self.methods:
+            err, cpu = self.error[m], self.cpu_per_second[m]
+            ok = np.isfinite(err) & (err > 0)
+            err, cpu = err[ok], cpu[ok]
+            if not err.size or err.min() > self.target:
+                out[m] = float("nan")
+            elif err.max() <= self.target:
+                out[m] = float(cpu.min())
+            else:
+                order = np.argsort(err)
+                out[m] = float(np.exp(np.interp(np.log(self.target), np.log(err[order]),
+                                                np.log(cpu[order]))))
+        return out
+
+    def table(self):
+        """The figures as a text table."""
+        head = f"{'method':<21}" + "".join(f" {'rtol ' + format(t, '.0e'):>17}"
+                                           for t in self.tolerances)
+        lines = [f"{self.model}: max |q - q_ref| / CPU s per simulated s; "
+                 f"at error {self.target:.0e}: CPU s per simulated s", head + "  at target"]
+        target = self.at_target
+        for m in self.methods:
+            cells = "".join(f" {e:8.1e}/{c:8.4f}" for e, c in zip(self.error[m],
+                                                                 self.cpu_per_second[m]))
+            lines.append(f"{m:<21}{cells}  {target[m]:9.4f}")
+        return "\n".join(lines)
+
+
+def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
+                   target=1e-6, reference_rtol=1e-12, atol_ratio=1e-2, n_points=101,
+                   integrator="RK45", constants=None, **options):
+    """CPU time per simulated second at equal accuracy.
+
+    Every method runs at each tolerance; its error is the largest deviation
+    of the coordinates from a reference run of the first method at
+    ``reference_rtol`` (DOP853).  Methods that describe another motion (the
+    augmented Lagrangean on nonholonomic systems) have large errors by
+    design.
+
+    Parameters
+    ----------
+    name : str
+        A built-in model.
+    methods : sequence of str
+        Formulations; the first gives the reference.
+    tolerances : sequence of float
+        ``rtol`` of the runs.
+    t_end : float, optional
+    target : float
+        Accuracy at which :attr:`WorkPrecision.at_target` compares.
+    reference_rtol : float
+    atol_ratio : float
+        ``atol = atol_ratio * rtol``.
+    n_points : int
+    integrator : str
+    constants : dict, optional
+    **options
+        Model options.
+
+    Returns
+    -------
+    WorkPrecision
+    """
+    definition, methods, _, built, starts = _models(name, methods, constants, options)
+    t_end = definition.t_end if t_end is None else float(t_end)
+    t_eval = np.linspace(0.0, t_end, n_points)
+    ref_model = built[methods[0]]
+    q_names = ref_model.state_names[:ref_model.n_q]
+    reference = simulate(ref_model, (0.0, t_end), starts[methods[0]], t_eval=t_eval,
+                         method="DOP853", rtol=reference_rtol, atol=reference_rtol * 1e-2)
+    q_ref = _coordinates(reference, q_names)
+    error = {m: np.full(len(tolerances), np.nan) for m in methods}
+    cpu = {m: np.full(len(tolerances), np.nan) for m in methods}
+    for m in methods:
+        for k, tol in enumerate(tolerances):
+            start = time.process_time()
+            res = simulate(built[m], (0.0, t_end), starts[m], t_eval=t_eval, rtol=tol,
+                           atol=tol * atol_ratio, method=integrator)
+            cpu[m][k] = (time.process_time() - start) / t_end
+            q = _coordinates(res, q_names)
+            if res.success and q.shape == q_ref.shape:
+                error[m][k] = float(np.max(np.abs(q - q_ref)))
+    return WorkPrecision(model=name, methods=methods, tolerances=tuple(tolerances),
+                         error=error, cpu_per_second=cpu, target=float(target))

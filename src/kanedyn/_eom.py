@@ -369,7 +369,9 @@ class EquationsOfMotion:
             and residual terms), ``all`` (everything the right-hand side
             evaluates, jointly), ``all_cse`` (``all`` after the joint common
             subexpression elimination the code generators apply) and
-            ``intermediates`` (of ``all``).
+            ``intermediates`` (of ``all``), and ``kinds``: the operations of
+            ``all_cse`` by kind (``multiplications``, ``additions``,
+            ``powers``, ``functions``).
         """
         prog = self._program
         M = [e for row in self._mass for e in row]
@@ -381,6 +383,7 @@ class EquationsOfMotion:
                 "both": prog.count_ops(M + F), "constraints": prog.count_ops(C),
                 "all": prog.count_ops(everything),
                 "all_cse": prog.count_ops(everything, cse=True),
+                "kinds": prog.operation_kinds(everything, cse=True),
                 "intermediates": len(prog.needed(everything))}
 
     def to_latex(self, explicit=None, max_ops=400):

@@ -393,6 +393,28 @@ class Program:
         total = sum(sm.count_ops(e) for _, e in assignments)
         return int(total + sum(sm.count_ops(e) for e in outputs))
 
+    def operation_kinds(self, exprs, cse=False):
+        """Operations of :meth:`count_ops` by kind.
+
+        Returns
+        -------
+        dict
+            ``multiplications`` (products, quotients, negations),
+            ``additions`` (sums, differences), ``powers`` and
+            ``functions`` (calls of sin, cos, sqrt, ...).
+        """
+        assignments, outputs = self.listing(exprs, cse=cse)
+        counts = {"multiplications": 0, "additions": 0, "powers": 0, "functions": 0}
+        kinds = {"MUL": "multiplications", "DIV": "multiplications", "NEG": "multiplications",
+                 "ADD": "additions", "SUB": "additions", "POW": "powers"}
+        for e in [e for _, e in assignments] + list(outputs):
+            visual = sm.count_ops(e, visual=True)
+            for term in sm.Add.make_args(visual):
+                coeff, symbol = term.as_coeff_Mul()
+                if symbol.is_Symbol:
+                    counts[kinds.get(symbol.name, "functions")] += int(coeff)
+        return counts
+
 
 _DERIVATIVES = {
     sm.sin: lambda a: sm.cos(a),

@@ -165,7 +165,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                         dense_output=dense_output, rtol=rtol, atol=atol, **options)
         for key in counters:
             counters[key] += getattr(sol, key, 0)
-        seg_t, seg_y = sol.t, sol.y
+        # solve_ivp gives y of shape (0,) when an event ends a segment before
+        # its first output time
+        seg_t, seg_y = sol.t, np.asarray(sol.y).reshape(model.n_states, -1)
         if not first and t_eval is None and seg_t.size and seg_t[0] == t_start:
             seg_t, seg_y = seg_t[1:], seg_y[:, 1:]
         ts.append(seg_t)
