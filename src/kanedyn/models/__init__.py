@@ -17,6 +17,7 @@ from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladd
                               slug_ellipsoid, sphere_slug)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
+from ._shuttle_arm import shuttle_arm
 from ._snake import snake
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
@@ -24,7 +25,7 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
-           "rolling_disk_contact", "block_wedge", "snake"]
+           "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -50,6 +51,7 @@ REGISTRY = {
     "rolling-disk-contact": (rolling_disk_contact, {}),
     "block-wedge": (block_wedge, {}),
     "snake": (snake, {"n": int}),
+    "shuttle-arm": (shuttle_arm, {"payload": bool}),
 }
 
 

@@ -1,0 +1,220 @@
+r"""The Shuttle Remote Manipulator System (SRMS, "Canadarm") moving a payload.
+
+The system on which Cyril, Angeles & Misra (1991) demonstrated the natural
+orthogonal complement: a six-joint arm on the orbiter performing a typical
+payload manoeuvre.  The public figures, the assumptions that fill the gaps
+and the manoeuvre are described in :func:`shuttle_arm`.
+"""
+
+from __future__ import annotations
+
+import math
+
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._base import ModelDefinition
+
+__all__ = ["shuttle_arm", "quintic", "SRMS_START_DEG", "SRMS_END_DEG"]
+
+#: Joint angles at the start and end of the manoeuvre, degrees (shoulder yaw,
+#: shoulder pitch, elbow pitch, wrist pitch, wrist yaw, wrist roll).
+SRMS_START_DEG = (0.0, 15.0, -30.0, 15.0, 0.0, 0.0)
+SRMS_END_DEG = (-20.0, 35.0, -50.0, 5.0, 10.0, 30.0)
+
+# Nominal joint inertias (kg m^2): the diagonal of the mass matrix at the
+# start configuration with the default parameters, used only to scale the
+# servo gains (computed once with kanedyn; rounded).
+_J_PAYLOAD = (3.4e6, 3.5e6, 1.6e6, 3.8e5, 1.9e5, 1.7e5)
+_J_EMPTY = (3.9e4, 3.9e4, 1.1e4, 1.5e2, 58.0, 1.1)
+
+T = me.dynamicsymbols._t
+
+
+def quintic(t, start, end, duration):
+    r"""Quintic rest-to-rest profile and its rate, as SymPy expressions of ``t``.
+
+    .. math::
+
+        q(t) = q_0 + (q_1 - q_0)\,s(\tau),\quad s = 10\tau^3 - 15\tau^4 + 6\tau^5,
+        \quad \tau = \min(\max(t/T_m, 0), 1),
+
+    so the angle is constant before 0 and after :math:`T_m`; rate and
+    acceleration vanish at both ends (the clipped form needs no
+    ``Piecewise``).
+
+    Returns
+    -------
+    (angle, rate) : tuple of SymPy expressions, rad and rad/s.
+    """
+    tau = sm.Min(sm.Max(t / duration, 0), 1)
+    delta = end - start
+    angle = start + delta * tau ** 3 * (10 - 15 * tau + 6 * tau ** 2)
+    rate = 30 * delta * tau ** 2 * (1 - tau) ** 2 / duration
+    return angle, rate
+
+
+def shuttle_arm(payload=True):
+    r"""The Shuttle arm (SRMS) moving a Hubble-class payload, in orbit.
+
+    Public figures (NASA; JSC "Remote Manipulator System" fact page,
+    prime.jsc.nasa.gov/ROV/rms.html, and KSC image release KSC-05PD-0336):
+    the arm is 50 ft 3 in (15.3 m) long and 15 in (0.38 m) in diameter, weighs
+    905 lb (410 kg), and has six joints: shoulder yaw and pitch, elbow pitch,
+    wrist pitch, yaw and roll; the upper boom joins shoulder and elbow, the
+    lower boom elbow and wrist.  JAXA's SRMS summary (iss.jaxa.jp) quotes
+    end-point speeds of 60 cm/s unloaded and 6 cm/s with a payload.  The
+    payload is the Hubble Space Telescope as the SRMS deployed it on STS-31
+    (HubbleSite: 11,110 kg (24,500 lb) at launch, 13.2 m long, 4.2 m in
+    diameter).
+
+    Assumptions (not public figures, stated as such): the split of the
+    length, upper boom ``L_2 = 6.37`` m (shoulder to elbow), lower boom
+    ``L_3 = 7.06`` m (elbow to wrist pitch), wrist pitch to wrist yaw
+    ``L_4 = 0.5`` m, wrist yaw to wrist roll ``L_5 = 0.5`` m, wrist roll
+    to the end-effector tip ``L_6 = 0.83`` m (15.26 m in all, the shoulder
+    yaw and pitch axes meeting at the shoulder ``O``); the split of the
+    410 kg, shoulder housing 40, upper arm 120, lower arm 110, wrist pitch 40,
+    wrist yaw 40, wrist roll and end effector 60 kg; booms are uniform
+    thin-walled tubes of radius ``r_b = 0.19`` m (axial inertia :math:`m
+    r_b^2`, transverse :math:`m(r_b^2/2 + L^2/12)`), the other links
+    uniform solid cylinders of that radius.  The payload is a uniform solid
+    cylinder (radius ``r_p = 2.1`` m, length ``L_p = 13.2`` m), its mass
+    centre ``d_p = 2.5`` m beyond the end-effector tip along the
+    end-effector axis (a grapple fixture on its side) and its axis
+    perpendicular to the end-effector axis.  The arm is rigid (the real
+    booms and joints are flexible).
+
+    Environment: in orbit, microgravity, so no gravity and no potential
+    energy; the shoulder is fixed to the orbiter, taken as inertial.
+
+    Kinematics.  ``N``: orbiter frame (``N.z`` out of the payload bay).
+    Joint ``i`` turns frame ``A_i`` relative to its parent by ``q_i`` (rad);
+    ``u_i = q_i'`` (rad/s), so the Lagrange-based formulations apply too.
+    Shoulder yaw about ``N.z``; the pitch joints about ``-y`` of the parent
+    (positive angles raise the arm); wrist yaw about ``A_4.z``; wrist roll
+    about ``A_5.x``, the end-effector axis.  Each link lies along its
+    frame's ``x`` axis.
+
+    Manoeuvre.  Every joint follows a quintic rest-to-rest profile
+    (:func:`quintic`) from :data:`SRMS_START_DEG` to :data:`SRMS_END_DEG`
+    in ``T_m = 150`` s, an unberthing-like motion of the payload (peak
+    end-point speed about 6 cm/s with the payload), then holds; the
+    simulation runs to 200 s.  The joint drives are PD servos on the
+    profile, explicit functions of time and state (no runtime inputs):
+
+    .. math::
+
+        \tau_i = J_i\omega_c^2\,(q_{ref,i}(t) - q_i)
+                 + 2\zeta_c J_i\omega_c\,(\dot q_{ref,i}(t) - u_i),
+
+    with nominal joint inertias ``J_i`` (the mass-matrix diagonal at the
+    start, kg m^2), bandwidth ``omega_c = 0.5`` rad/s and damping ratio
+    ``zeta_c = 1``; each torque acts on the outboard link and its reaction
+    on the inboard one (the shoulder's on the orbiter), so the drive power
+    is :math:`\sum_i \tau_i u_i`.
+
+    Parameters
+    ----------
+    payload : bool
+        Carry the payload (default) or move the empty arm (the gains are
+        then scaled by the empty arm's joint inertias).
+
+    Returns
+    -------
+    ModelDefinition
+        ``symbols`` holds ``q``, ``u``, the reference angles and rates
+        ``q_ref``, ``u_ref`` (expressions in ``t``), the joint torques
+        ``torques``, the frames ``N, A``, the end-effector ``tip`` point and
+        its position ``tip_position`` (a 3x1 matrix in ``N``, m).
+    """
+    q = me.dynamicsymbols("q1:7")
+    u = me.dynamicsymbols("u1:7")
+    L2, L3, L4, L5, L6, rb = sm.symbols("L_2 L_3 L_4 L_5 L_6 r_b", positive=True)
+    m1, m2, m3, m4, m5, m6 = sm.symbols("m_1:7", positive=True)
+    J = sm.symbols("J_1:7", positive=True)
+    omega_c, zeta_c, T_m = sm.symbols("omega_c zeta_c T_m", positive=True)
+
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    A = [me.ReferenceFrame(f"A{i}") for i in range(1, 7)]
+    axes = [N.z, -A[0].y, -A[1].y, -A[2].y, A[3].z, A[4].x]
+    parents = [N] + A[:5]
+    for i, (F, parent, axis) in enumerate(zip(A, parents, axes)):
+        F.orient_axis(parent, axis, q[i])
+        F.set_ang_vel(parent, u[i] * axis)
+
+    def tube(frame, m, length):  # thin-walled tube along the frame's x axis
+        return me.inertia(frame, m * rb ** 2, m * (rb ** 2 / 2 + length ** 2 / 12),
+                          m * (rb ** 2 / 2 + length ** 2 / 12))
+
+    def cylinder(frame, m, length):  # solid cylinder along the frame's x axis
+        side = m * (3 * rb ** 2 + length ** 2) / 12
+        return me.inertia(frame, m * rb ** 2 / 2, side, side)
+
+    h1 = sm.Rational(1, 2)  # shoulder housing length along the yaw axis, m
+    housing = me.inertia(A[0], m1 * (3 * rb ** 2 + h1 ** 2) / 12,
+                         m1 * (3 * rb ** 2 + h1 ** 2) / 12, m1 * rb ** 2 / 2)
+    bodies = [me.RigidBody("shoulder", O, A[0], m1, (housing, O))]
+    joint = O
+    for i, (name, m, length, shape) in enumerate(
+            (("upper_arm", m2, L2, tube), ("lower_arm", m3, L3, tube),
+             ("wrist_pitch", m4, L4, cylinder), ("wrist_yaw", m5, L5, cylinder),
+             ("end_effector", m6, L6, cylinder)), start=1):
+        F = A[i]
+        G = joint.locatenew(f"G{i + 1}", length / 2 * F.x)
+        G.v2pt_theory(joint, N, F)
+        bodies.append(me.RigidBody(name, G, F, m, (shape(F, m, length), G)))
+        nxt = joint.locatenew(f"P{i + 1}", length * F.x)
+        nxt.v2pt_theory(joint, N, F)
+        joint = nxt
+    tip = joint
+
+    constants = {L2: 6.37, L3: 7.06, L4: 0.5, L5: 0.5, L6: 0.83, rb: 0.19,
+                 m1: 40.0, m2: 120.0, m3: 110.0, m4: 40.0, m5: 40.0, m6: 60.0,
+                 omega_c: 0.5, zeta_c: 1.0, T_m: 150.0}
+    symbols = dict(q=q, u=u, N=N, A=A, O=O, tip=tip, T_m=T_m, omega_c=omega_c,
+                   zeta_c=zeta_c, J=J)
+    if payload:
+        m_p, r_p, L_p, d_p = sm.symbols("m_p r_p L_p d_p", positive=True)
+        P = me.ReferenceFrame("P")  # payload axes: P.x along the cylinder
+        P.orient_axis(A[5], A[5].y, sm.pi / 2)
+        Gp = tip.locatenew("Gp", d_p * A[5].x)
+        Gp.v2pt_theory(tip, N, A[5])
+        side = m_p * (3 * r_p ** 2 + L_p ** 2) / 12
+        bodies.append(me.RigidBody("payload", Gp, P, m_p,
+                                   (me.inertia(P, m_p * r_p ** 2 / 2, side, side), Gp)))
+        constants.update({m_p: 11110.0, r_p: 2.1, L_p: 13.2, d_p: 2.5})
+        symbols.update(m_p=m_p, P=P, Gp=Gp)
+    constants.update(zip(J, _J_PAYLOAD if payload else _J_EMPTY))
+
+    q_ref, u_ref, torques, loads = [], [], [], []
+    for i in range(6):
+        angle, rate = quintic(T, math.radians(SRMS_START_DEG[i]),
+                              math.radians(SRMS_END_DEG[i]), T_m)
+        tau = (J[i] * omega_c ** 2 * (angle - q[i])
+               + 2 * zeta_c * J[i] * omega_c * (rate - u[i]))
+        q_ref.append(angle)
+        u_ref.append(rate)
+        torques.append(tau)
+        loads.append((A[i], tau * axes[i]))
+        if i > 0:  # reaction on the inboard link (the orbiter's is not modelled)
+            loads.append((parents[i], -tau * axes[i]))
+    symbols.update(q_ref=q_ref, u_ref=u_ref, torques=torques,
+                   tip_position=tip.pos_from(O).to_matrix(N))
+
+    initial = {qi: math.radians(a) for qi, a in zip(q, SRMS_START_DEG)}
+    initial.update({ui: 0.0 for ui in u})
+    what = "with a Hubble-class payload (11,110 kg)" if payload else "without payload"
+    return ModelDefinition(
+        name="shuttle-arm",
+        title=f"Shuttle arm (SRMS, 6 revolute joints) {what}, PD-tracked manoeuvre",
+        kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u),
+                       kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)],
+                       bodies=bodies, loads=loads),
+        constants=constants, initial_state=initial, t_end=200.0, symbols=symbols,
+        description="The system of Cyril, Angeles & Misra (1991): compare "
+                    "method='orthogonal-complement' (with BDF) and Kane's method. "
+                    "Microgravity; joint angles follow quintic profiles over T_m = "
+                    "150 s under PD servos.")
