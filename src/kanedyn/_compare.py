@@ -163,18 +163,28 @@ class FormulationComparison:
                                           axis=0, initial=0.0)
                                 for m in self.methods}, f"max |q - q_{self.methods[0]}|"))
         for ax, series, label in panels:
+            drawn = 0
             for m in self.methods:
                 values = series[m]
-                if values is None or not np.any(np.isfinite(values)):
-                    continue
+                if values is None or not np.any(np.isfinite(values) & (values > 0)):
+                    continue  # nothing to show on a log scale (e.g. the reference)
                 ax.semilogy(self.t[:values.size], np.maximum(values, 1e-17), label=m)
+                drawn += 1
+            if not drawn:
+                ax.text(0.5, 0.5, "zero or not defined for every method",
+                        transform=ax.transAxes, ha="center", va="center")
             ax.set_ylabel(label)
             ax.grid(True, which="both", alpha=0.3)
         for ax in axes[1]:
             ax.set_xlabel("t [s]")
-        axes[0, 0].legend(fontsize="small")
+        labelled = {}
+        for ax in axes.flat:
+            for handle, name in zip(*ax.get_legend_handles_labels()):
+                labelled.setdefault(name, handle)
+        fig.legend(list(labelled.values()), list(labelled), loc="lower center",
+                   ncol=min(len(labelled), 4) or 1, fontsize="small")
         fig.suptitle(f"{self.model}: formulations compared ({self.integrator})")
-        fig.tight_layout()
+        fig.tight_layout(rect=(0, 0.06, 1, 1))
         if path is not None:
             fig.savefig(path, dpi=120)
         return fig
