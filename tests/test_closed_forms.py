@@ -173,3 +173,29 @@ def test_energy_expression_is_the_models():
     explicit = float(eom.kinetic_energy.xreplace(subs))
     assert abs(explicit - model.kinetic_energy(0.0, y)) < 1e-12
     assert sm.sympify(eom.potential_energy).free_symbols
+
+
+def test_pendulum_of_prescribed_length_with_its_rate_in_a_velocity():
+    """A bob on a string of prescribed length l(t), its velocity written as the
+    time derivative of its position (so l' appears after l is known):
+    d/dt(m l^2 u) = -m g l sin q."""
+    import sympy.physics.mechanics as me
+    q, u, l = me.dynamicsymbols("q u l")
+    t = me.dynamicsymbols._t
+    m, g = sm.symbols("m g", positive=True)
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", (q, N.z))
+    A.set_ang_vel(N, u * N.z)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", -l * A.y)
+    P.set_vel(N, P.pos_from(O).dt(N))
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("bob", P, m)], loads=[(P, -m * g * N.y)])
+    length = 1 + sm.sin(3 * t) / 10
+    model = eom.numeric(constants={m: 1.0, g: 9.81}, specified={l: length})
+    for tt, qq, uu in ((0.3, 0.1, 0.2), (1.1, -0.7, 1.5)):
+        lv = float(length.subs(t, tt))
+        ld = float(length.diff(t).subs(t, tt))
+        expected = (-9.81 * lv * np.sin(qq) - 2 * ld * lv * uu) / lv**2
+        assert model.rhs(tt, [qq, uu])[1] == pytest.approx(expected, rel=1e-13)

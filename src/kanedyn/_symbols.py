@@ -185,7 +185,7 @@ class SymbolTable:
             if f in self._replaced:
                 raise ModelError(f"{where} contains {d}, a derivative of {name_of(f)}; "
                                  f"{self._replaced[f]}")
-            if f in self._int:
+            if f in self._int and f not in self.specified:  # a coordinate or speed
                 if f in self.u_aux_ext:
                     mapping[d] = sm.S.Zero
                     continue
