@@ -199,3 +199,32 @@ def test_pendulum_of_prescribed_length_with_its_rate_in_a_velocity():
         ld = float(length.diff(t).subs(t, tt))
         expected = (-9.81 * lv * np.sin(qq) - 2 * ld * lv * uu) / lv**2
         assert model.rhs(tt, [qq, uu])[1] == pytest.approx(expected, rel=1e-13)
+
+
+def test_piecewise_load_keeps_its_switching_time():
+    """A servo tracking a quintic profile that ends at T: the profile's
+    parameter T must survive the derivation (it vanishes from the equations
+    at sampled times beyond T, which is no reason to drop it)."""
+    import sympy.physics.mechanics as me
+    q, u = me.dynamicsymbols("q u")
+    t = me.dynamicsymbols._t
+    m, l, T = sm.symbols("m l T", positive=True)
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", (q, N.z))
+    A.set_ang_vel(N, u * N.z)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", l * A.x)
+    P.v2pt_theory(O, N, A)
+    s = t / T
+    profile = sm.Piecewise((0, t < 0), (10 * s**3 - 15 * s**4 + 6 * s**5, t < T), (1, True))
+    torque = -4 * (q - profile) - 2 * (u - profile.diff(t))
+    for method in ("kane", "orthogonal-complement"):
+        eom = kd.formulate(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                           bodies=[me.Particle("bob", P, m)], loads=[(A, torque * N.z)],
+                           method=method)
+        assert T in eom.constants, method
+        model = eom.numeric(constants={m: 1.0, l: 1.0, T: 2.0})
+        for tt in (0.5, 1.5, 2.5):
+            ref = float(torque.subs({t: tt, T: 2.0, q: 0.1, u: 0.2}).doit())
+            assert model.rhs(tt, [0.1, 0.2])[1] == pytest.approx(ref, rel=1e-13), method

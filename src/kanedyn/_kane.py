@@ -210,7 +210,7 @@ def _solve_kinematics(spec, table, prog):
     return qdot, (K, Ku, f)
 
 
-def _drop_workless(prog, table, fr, loads):
+def _drop_workless(prog, table, fr, loads, fr_aux=()):
     """Remove force magnitudes whose coefficients in ``fr`` vanish identically.
 
     A constraint force exposed through an auxiliary speed does no work on the
@@ -218,7 +218,13 @@ def _drop_workless(prog, table, fr, loads):
     zero, though usually not visibly so (dot products of rotated unit
     vectors).  Coefficients are tested at random points; symbols that drop out
     are set to zero, so the equations of motion do not ask for their values.
+    Only symbols that do work on the auxiliary motion (a nonzero coefficient
+    in ``fr_aux``, the auxiliary rows) are candidates: a parameter whose
+    effect merely vanishes at the sampled points (the switching time of a
+    ``Piecewise`` load) is kept.
     """
+    if not fr_aux:
+        return fr
     dynamic = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
     candidates = set()
     for _, vec, _ in loads:
@@ -226,6 +232,8 @@ def _drop_workless(prog, table, fr, loads):
             candidates |= prog.deps(c)
     candidates -= dynamic
     candidates = sorted((c for c in candidates if not prog.is_intermediate(c)), key=str)
+    candidates = [c for c in candidates
+                  if any(prog.diff(e, c) != 0 for e in fr_aux)]
     if not candidates or not fr:
         return fr
     zero = {}
@@ -480,7 +488,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
                  for r, row in enumerate(list(mass) + g_mass)]
     fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}")
           for r, e in enumerate(list(active) + g_active)]
-    fr[:o] = _drop_workless(prog, table, fr[:o], loads)
+    fr[:o] = _drop_workless(prog, table, fr[:o], loads, fr[o:])
     nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}")
              for r, e in enumerate(list(remainder) + g_remainder)]
 

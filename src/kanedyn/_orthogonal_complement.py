@@ -314,7 +314,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     fr = [prog.let(prog.subs(sm.Add(*t), aux_zero), f"Fr_{r}")
           for r, t in enumerate(active_terms)]
     before = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
-    fr[:o] = _drop_workless(prog, table, fr[:o], load_list)
+    fr[:o] = _drop_workless(prog, table, fr[:o], load_list, fr[o:])
     after = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
     state = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
     dropped = {s: 0 for s in before - after
