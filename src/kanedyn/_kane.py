@@ -440,10 +440,22 @@ def given_velocity_constraints(kin, spec, config, aux_zero):
     return vel + exprs, tuple(zip(vnames, actions)), tuple(names + vnames)
 
 
-def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
-    """Kane's equations for a :class:`ModelSpec`; returns an EquationsOfMotion."""
-    from ._eom import EquationsOfMotion
+def kane_setup(spec, progress=NO_PROGRESS):
+    """Symbol table, program, kinematic equations and kinematics of a model.
 
+    Shared by the formulations in the model's own speeds (Kane's method, the
+    natural orthogonal complement).
+
+    Returns
+    -------
+    table : SymbolTable
+    prog : Program
+    kin : Kinematics
+    qdot : tuple
+        :math:`\\dot q` in terms of the speeds.
+    kin_matrices : tuple
+        The linear parts of the kinematic differential equations.
+    """
     table = SymbolTable(spec.q, spec.u, spec.u_aux)
     prog = Program(table.t)
     for s in table.q:
@@ -457,8 +469,52 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     for s, value in zip(table.q, qdot):
         prog.set_derivative(s, value)
     table.set_qdot(qdot)
+    return table, prog, Kinematics(prog, table, spec.frame, spec.bodies), qdot, kin_matrices
 
-    kin = Kinematics(prog, table, spec.frame, spec.bodies)
+
+def constraint_terms(kin, spec, aux_zero):
+    """Configuration, velocity and acceleration constraints in the model's speeds.
+
+    Returns
+    -------
+    config, vel_c, vel_B, acc_K, acc_f : tuples of intermediates
+        Residuals :math:`h`, :math:`c` (may be nonlinear in u), :math:`B =
+        \\partial c/\\partial u` and :math:`K\\dot u + f_a = 0`.
+    identified, names
+        As :func:`given_velocity_constraints`.
+    """
+    prog, table = kin.prog, kin.table
+    config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
+                   for i, c in enumerate(spec.configuration_constraints))
+    vel, identified, names = given_velocity_constraints(kin, spec, config, aux_zero)
+    vel_c = tuple(prog.let(c, "vc") for c in vel)  # residuals; may be nonlinear in u
+    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
+    if spec.acceleration_constraints is not None:
+        acc = [prog.subs(prog.let_tree(table.internal(
+                   c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
+               for i, c in enumerate(spec.acceleration_constraints)]
+        acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
+                      for c in acc)
+        acc_f = tuple(prog.let(prog.subs(c, {ud: 0 for ud in table.udot}), "fa")
+                      for c in acc)
+    else:
+        acc_K = vel_B
+        acc_f = tuple(prog.let(kin.dt(c), "fa") for c in vel)
+    return config, vel_c, vel_B, acc_K, acc_f, identified, names
+
+
+def potential_term(kin, spec):
+    """The declared potential energy as an intermediate, or ``None``."""
+    if spec.potential_energy is None:
+        return None
+    return kin.prog.let(kin.scalar(spec.potential_energy, "potential energy", "pe"), "PE")
+
+
+def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
+    """Kane's equations for a :class:`ModelSpec`; returns an EquationsOfMotion."""
+    from ._eom import EquationsOfMotion
+
+    table, prog, kin, qdot, kin_matrices = kane_setup(spec, progress)
     speeds = table.u + table.u_aux
     o, s_aux = len(table.u), len(table.u_aux)
     aux_zero = {ua: 0 for ua in table.u_aux}
@@ -494,32 +550,15 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
-    config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
-                   for i, c in enumerate(spec.configuration_constraints))
-    vel, identified, names = given_velocity_constraints(kin, spec, config, aux_zero)
-    vel_c = tuple(prog.let(c, "vc") for c in vel)  # residuals; may be nonlinear in u
-    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
-    if spec.acceleration_constraints is not None:
-        acc = [prog.subs(prog.let_tree(table.internal(
-                   c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
-               for i, c in enumerate(spec.acceleration_constraints)]
-        acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
-                      for c in acc)
-        acc_f = tuple(prog.let(prog.subs(c, {ud: 0 for ud in table.udot}), "fa")
-                      for c in acc)
-    else:
-        acc_K = vel_B
-        acc_f = tuple(prog.let(kin.dt(c), "fa") for c in vel)
+    config, vel_c, vel_B, acc_K, acc_f, identified, names = constraint_terms(
+        kin, spec, aux_zero)
 
     # ------------------------------------------------------- energies
     ke = []
     for terms, m, H in zip(body_terms, masses, hs):
         ke.append(m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2)
     kinetic = prog.let(sm.Add(*ke), "KE")
-    potential = None
-    if spec.potential_energy is not None:
-        potential = prog.let(kin.scalar(spec.potential_energy, "potential energy", "pe"),
-                             "PE")
+    potential = potential_term(kin, spec)
 
     # ------------------------------------------------------ auxiliary
     contacts = tuple(_contact_terms(kin, c, table.u, aux_zero) for c in spec.contacts)

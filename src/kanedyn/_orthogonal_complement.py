@@ -79,12 +79,11 @@ import sympy.physics.mechanics as me
 from ._codegen import compile_python, generate_python
 from ._errors import ModelError
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, _inertia_terms, _matvec,
-                    _solve_kinematics, given_velocity_constraints)
-from ._kinematics import Kinematics, add, cross, dot
-from ._program import SAMPLE_SEEDS, Program
+                    constraint_terms, kane_setup, potential_term)
+from ._kinematics import add, cross, dot
+from ._program import SAMPLE_SEEDS
 from ._progress import NO_PROGRESS
 from ._schemes import Scheme
-from ._symbols import SymbolTable
 
 __all__ = ["derive_orthogonal_complement", "OrthogonalComplement"]
 
@@ -179,21 +178,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     """
     from ._eom import EquationsOfMotion
 
-    table = SymbolTable(spec.q, spec.u, spec.u_aux)
-    prog = Program(table.t)
-    for s in table.q:
-        prog.declare(s)
-    for s in table.u + table.u_aux + table.udot:
-        prog.declare(s)
-    table.on_new_specified = lambda s, nxt: prog.declare(s, nxt)
-
-    progress.stage("kinematic differential equations")
-    qdot, kin_matrices = _solve_kinematics(spec, table, prog)
-    for s, value in zip(table.q, qdot):
-        prog.set_derivative(s, value)
-    table.set_qdot(qdot)
-
-    kin = Kinematics(prog, table, spec.frame, spec.bodies)
+    table, prog, kin, qdot, kin_matrices = kane_setup(spec, progress)
     speeds = table.u + table.u_aux
     o, s_aux = len(table.u), len(table.u_aux)
     n_all = o + s_aux
@@ -346,31 +331,14 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
-    config = tuple(prog.let(kin.scalar(c, f"configuration constraint {i}", "h"), f"h_{i}")
-                   for i, c in enumerate(spec.configuration_constraints))
-    vel, identified, names = given_velocity_constraints(kin, spec, config, aux_zero)
-    vel_c = tuple(prog.let(c, "vc") for c in vel)
-    vel_B = tuple(tuple(prog.let(prog.diff(c, us), "B") for us in table.u) for c in vel_c)
-    if spec.acceleration_constraints is not None:
-        acc = [prog.subs(prog.let_tree(table.internal(
-                   c, f"acceleration constraint {i}", allow_udot=True), "ac"), aux_zero)
-               for i, c in enumerate(spec.acceleration_constraints)]
-        acc_K = tuple(tuple(prog.let(prog.diff(c, ud), "Ka") for ud in table.udot)
-                      for c in acc)
-        acc_f = tuple(prog.let(prog.subs(c, {ud: 0 for ud in table.udot}), "fa")
-                      for c in acc)
-    else:
-        acc_K = vel_B
-        acc_f = tuple(prog.let(kin.dt(c), "fa") for c in vel)
+    config, vel_c, vel_B, acc_K, acc_f, identified, names = constraint_terms(
+        kin, spec, aux_zero)
 
     # ------------------------------------------------------- energies
     ke = [m * dot(t.velocity, t.velocity) / 2 + dot(t.omega, H) / 2
           for t, m, H in zip(body_terms, masses, momenta)]
     kinetic = prog.let(sm.Add(*ke), "KE")
-    potential = None
-    if spec.potential_energy is not None:
-        potential = prog.let(kin.scalar(spec.potential_energy, "potential energy", "pe"),
-                             "PE")
+    potential = potential_term(kin, spec)
 
     contacts = tuple(_contact_terms(kin, c, table.u, aux_zero) for c in spec.contacts)
     aux_K = tuple(tuple(-mass_rows[o + a][s] for s in range(o)) for a in range(s_aux))
