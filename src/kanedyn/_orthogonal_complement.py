@@ -83,7 +83,7 @@ from ._kane import (BodyTerms, _contact_terms, _drop_workless, _inertia_terms, _
 from ._kinematics import add, cross, dot
 from ._program import SAMPLE_SEEDS
 from ._progress import NO_PROGRESS
-from ._schemes import Scheme
+from ._schemes import Scheme, complement_solve
 
 __all__ = ["derive_orthogonal_complement", "OrthogonalComplement"]
 
@@ -448,13 +448,8 @@ class OrthogonalComplement(Scheme):
         m = model.n_u_dep
         if not m:
             return _cholesky_solve(mass, force, t)
-        p = model.n_u - m
-        K_d = acc_K[:, p:]
-        X = -np.linalg.solve(K_d, acc_K[:, :p])
-        particular = np.concatenate([np.zeros(p), -np.linalg.solve(K_d, acc_f)])
-        N = np.vstack([np.eye(p), X])
-        z = _cholesky_solve(N.T @ mass @ N, N.T @ (force - mass @ particular), t)
-        return particular + N @ z
+        return complement_solve(mass, force, acc_K, acc_f, np.arange(model.n_u - m, model.n_u),
+                                solve=lambda A, b: _cholesky_solve(A, b, t))
 
 
 def _cholesky_solve(A, b, t):

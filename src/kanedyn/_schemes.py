@@ -60,7 +60,7 @@ from ._errors import ModelError
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
-           "SCHEMES", "as_scheme", "stabilization"]
+           "SCHEMES", "as_scheme", "stabilization", "complement_solve"]
 
 
 @dataclass(frozen=True)
@@ -88,8 +88,17 @@ class Scheme:
         r""":math:`\dot u`, shape (n_u,), from the evaluated dynamics ``terms``.
 
         ``terms = (qdot, mass, force, vel_B, acc_K, acc_f)`` as returned by
-        the model's generated ``dynamics`` function.
+        the model's generated ``dynamics`` function.  Without dependent
+        speeds :math:`M\dot u = f` is solved directly; otherwise
+        :meth:`constrained` does the scheme's work.
         """
+        _, mass, force, _, acc_K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        return self.constrained(model, t, y, mass, force, acc_K, acc_f)
+
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        r""":math:`\dot u` with the constraints :math:`K\dot u + f_a = 0` (m >= 1)."""
         raise NotImplementedError
 
     def project_state(self, model, t, y):
@@ -190,11 +199,8 @@ class IndexOne(Scheme):
 
     name: ClassVar[str] = "index-1"
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, acc_K, acc_f = terms
-        if not model.n_u_dep:
-            return np.linalg.solve(mass, force)
-        return _kkt(mass, force, acc_K, -acc_f)
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        return _kkt(mass, force, K, -acc_f)
 
 
 @dataclass(frozen=True)
@@ -211,12 +217,9 @@ class Baumgarte(IndexOne):
     alpha: float = 10.0
     beta: float = 10.0
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, acc_K, acc_f = terms
-        if not model.n_u_dep:
-            return np.linalg.solve(mass, force)
+    def constrained(self, model, t, y, mass, force, K, acc_f):
         s = stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
-        return _kkt(mass, force, acc_K, -acc_f - s)
+        return _kkt(mass, force, K, -acc_f - s)
 
 
 @dataclass(frozen=True)
@@ -278,13 +281,15 @@ class Penalty(Scheme):
     xi: float = 1.0
     omega: float = 10.0
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, K, acc_f = terms
-        if not model.n_u_dep:
-            return np.linalg.solve(mass, force)
+    def _system(self, model, t, y, mass, K, acc_f):
+        """Penalty :math:`\\alpha`, :math:`M + \\alpha K^TK` and :math:`f_a + s`."""
         s = stabilization(model, t, y, 2.0 * self.xi * self.omega, self.omega ** 2)
         alpha = _penalty_weight(mass, K, self.factor)
-        return np.linalg.solve(mass + alpha * K.T @ K, force - alpha * K.T @ (acc_f + s))
+        return alpha, mass + alpha * K.T @ K, acc_f + s
+
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        alpha, A, target = self._system(model, t, y, mass, K, acc_f)
+        return np.linalg.solve(A, force - alpha * K.T @ target)
 
 
 @dataclass(frozen=True)
@@ -313,14 +318,9 @@ class AugmentedLagrangian(Penalty):
     tol: float = 1e-13
     max_iterations: int = 50
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, K, acc_f = terms
-        if not model.n_u_dep:
-            return np.linalg.solve(mass, force)
-        s = stabilization(model, t, y, 2.0 * self.xi * self.omega, self.omega ** 2)
-        target = acc_f + s
-        alpha = _penalty_weight(mass, K, self.factor)
-        factor = sla.cho_factor(mass + alpha * K.T @ K)
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        alpha, A, target = self._system(model, t, y, mass, K, acc_f)
+        factor = sla.cho_factor(A)
         lam = np.zeros(K.shape[0])
         base = force - alpha * K.T @ target
         for _ in range(self.max_iterations):
@@ -351,17 +351,52 @@ class UdwadiaKalaba(Scheme):
     alpha: float = 0.0
     beta: float = 0.0
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, K, acc_f = terms
+    def constrained(self, model, t, y, mass, force, K, acc_f):
         a = np.linalg.solve(mass, force)
-        if not model.n_u_dep:
-            return a
         b = -acc_f
         if self.alpha or self.beta:
             b = b - stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
         w, V = np.linalg.eigh(mass)
         M_inv_half = (V / np.sqrt(w)) @ V.T
         return a + M_inv_half @ np.linalg.pinv(K @ M_inv_half) @ (b - K @ a)
+
+
+def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
+    r""":math:`\dot u` with the speeds ``dep`` eliminated through the constraints.
+
+    With :math:`\dot u_d = X\dot u_i + x_0` from :math:`K\dot u + f_a = 0`,
+    the complement :math:`N` (identity on the independent speeds, :math:`X`
+    on the dependent ones) and the particular solution :math:`\dot u_p`
+    (:math:`x_0` on the dependent speeds),
+
+    .. math::
+
+        N^TMN\,\dot u_i = N^T(f - M\dot u_p),\qquad \dot u = \dot u_p + N\dot u_i .
+
+    Parameters
+    ----------
+    mass : ndarray, shape (o, o)
+    force : ndarray, shape (o,)
+    K : ndarray, shape (m, o)
+    acc_f : ndarray, shape (m,)
+    dep : array_like of int, shape (m,)
+        Indices of the dependent speeds.
+    solve : callable
+        ``solve(A, b)`` for the reduced (symmetric) system, e.g. by Cholesky.
+
+    Returns
+    -------
+    ndarray, shape (o,)
+    """
+    o = mass.shape[0]
+    dep = np.asarray(dep)
+    ind = np.setdiff1d(np.arange(o), dep)
+    N = np.zeros((o, ind.size))
+    N[ind, np.arange(ind.size)] = 1.0
+    N[dep] = -np.linalg.solve(K[:, dep], K[:, ind])
+    particular = np.zeros(o)
+    particular[dep] = -np.linalg.solve(K[:, dep], acc_f)
+    return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
 
 
 def _pivoted_partition(A, m):
@@ -385,22 +420,8 @@ class Partitioning(Scheme):
     name: ClassVar[str] = "partitioning"
     project: ClassVar[bool] = True
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, K, acc_f = terms
-        m = model.n_u_dep
-        if not m:
-            return np.linalg.solve(mass, force)
-        dep, ind = _pivoted_partition(K, m)
-        o = mass.shape[0]
-        X = -np.linalg.solve(K[:, dep], K[:, ind])      # u'_d = X u'_i + x0
-        x0 = -np.linalg.solve(K[:, dep], acc_f)
-        N = np.zeros((o, ind.size))
-        N[ind, np.arange(ind.size)] = 1.0
-        N[dep] = X
-        particular = np.zeros(o)
-        particular[dep] = x0
-        z = np.linalg.solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
-        return particular + N @ z
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        return complement_solve(mass, force, K, acc_f, _pivoted_partition(K, K.shape[0])[0])
 
     def project_state(self, model, t, y, tol=1e-12, max_iterations=50):
         y = np.array(y, dtype=float)
@@ -439,10 +460,7 @@ class NullSpace(Scheme):
 
     name: ClassVar[str] = "null-space"
 
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, K, acc_f = terms
-        if not model.n_u_dep:
-            return sla.cho_solve(sla.cho_factor(mass), force)
+    def constrained(self, model, t, y, mass, force, K, acc_f):
         N = sla.null_space(K)
         particular = -np.linalg.lstsq(K, acc_f, rcond=None)[0]
         z = sla.cho_solve(sla.cho_factor(N.T @ mass @ N), N.T @ (force - mass @ particular))
