@@ -247,7 +247,21 @@ def _operations(eom):
     return out
 
 
-def _models(name, methods, constants, options):
+@dataclass(frozen=True)
+class _Setup:
+    """The models of one comparison, their common start and output times."""
+
+    methods: tuple
+    eoms: dict
+    built: dict
+    starts: dict
+    t_end: float
+    t_eval: np.ndarray
+    q_names: tuple
+
+
+def _models(name, methods, constants, options, t_end, n_points):
+    """Derive and build every method's model; map the reference start to each."""
     from . import models
     methods = tuple(methods)
     if not methods:
@@ -260,7 +274,10 @@ def _models(name, methods, constants, options):
     qdot_ref = ref.rhs(0.0, y_ref)[:ref.n_q]
     starts = {m: y_ref if m == methods[0] else _initial_state(built[m], ref, y_ref, qdot_ref)
               for m in methods}
-    return definition, methods, eoms, built, starts
+    t_end = definition.t_end if t_end is None else float(t_end)
+    return _Setup(methods=methods, eoms=eoms, built=built, starts=starts, t_end=t_end,
+                  t_eval=np.linspace(0.0, t_end, n_points),
+                  q_names=tuple(ref.state_names[:ref.n_q]))
 
 
 def _coordinates(res, q_names):
@@ -296,11 +313,9 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
     -------
     FormulationComparison
     """
-    definition, methods, eoms, built, starts = _models(name, methods, constants, options)
-    t_end = definition.t_end if t_end is None else float(t_end)
-    t_eval = np.linspace(0.0, t_end, n_points)
-    ref = built[methods[0]]
-    q_names = ref.state_names[:ref.n_q]
+    setup = _models(name, methods, constants, options, t_end, n_points)
+    methods, eoms, built, starts = setup.methods, setup.eoms, setup.built, setup.starts
+    t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
     checkers = [mdl for mdl in built.values() if mdl.n_u_dep or mdl.n_q_dep]
     keys = ("coordinates", "deviation", "newton_euler", "position_error", "velocity_error",
             "energy_error", "operations", "cpu_time", "evaluations", "projections",
@@ -425,12 +440,10 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
     -------
     WorkPrecision
     """
-    definition, methods, _, built, starts = _models(name, methods, constants, options)
-    t_end = definition.t_end if t_end is None else float(t_end)
-    t_eval = np.linspace(0.0, t_end, n_points)
-    ref_model = built[methods[0]]
-    q_names = ref_model.state_names[:ref_model.n_q]
-    reference = simulate(ref_model, (0.0, t_end), starts[methods[0]], t_eval=t_eval,
+    setup = _models(name, methods, constants, options, t_end, n_points)
+    methods, built, starts = setup.methods, setup.built, setup.starts
+    t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
+    reference = simulate(built[methods[0]], (0.0, t_end), starts[methods[0]], t_eval=t_eval,
                          method="DOP853", rtol=reference_rtol, atol=reference_rtol * 1e-2)
     q_ref = _coordinates(reference, q_names)
     error = {m: np.full(len(tolerances), np.nan) for m in methods}

@@ -35,7 +35,7 @@ from ._errors import ConstraintError, MissingValueError, ModelError
 from ._schemes import Elimination, as_scheme
 from ._symbols import name_of
 
-__all__ = ["NumericModel", "build_numeric_model", "BACKENDS"]
+__all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
 BACKENDS = ("numpy", "c")
 
@@ -186,7 +186,42 @@ def _singular(block, full, rtol=1e-12):
 
 
 # ------------------------------------------------------------------- model
-class NumericModel:
+class StateLayout:
+    """State bookkeeping shared by numerical models.
+
+    Needs ``n_q``, ``n_u``, ``n_q_dep``, ``n_u_dep`` and ``state_names``.
+    """
+
+    @property
+    def n_states(self):
+        return self.n_q + self.n_u
+
+    @property
+    def n_q_ind(self):
+        return self.n_q - self.n_q_dep
+
+    @property
+    def n_u_ind(self):
+        return self.n_u - self.n_u_dep
+
+    def index(self, name):
+        """Position of a state (by name or dynamic symbol) in ``y``."""
+        key = name if isinstance(name, str) else name_of(name)
+        try:
+            return self.state_names.index(key)
+        except ValueError:
+            raise KeyError(f"{name} is not a state of this model; states are "
+                           f"{', '.join(self.state_names)}") from None
+
+    def _check_y(self, y):
+        y = np.array(y, dtype=float)
+        if y.shape != (self.n_states,):
+            raise ValueError(f"the state must have {self.n_states} entries "
+                             f"({', '.join(self.state_names)}), got shape {y.shape}")
+        return y
+
+
+class NumericModel(StateLayout):
     """Compiled numerical functions of a set of equations of motion.
 
     Attributes
@@ -251,27 +286,6 @@ class NumericModel:
                 f"backend={self._data['backend']!r}>")
 
     # ------------------------------------------------------------ basics
-    @property
-    def n_states(self):
-        return self.n_q + self.n_u
-
-    @property
-    def n_q_ind(self):
-        return self.n_q - self.n_q_dep
-
-    @property
-    def n_u_ind(self):
-        return self.n_u - self.n_u_dep
-
-    def index(self, name):
-        """Position of a state (by name or dynamic symbol) in ``y``."""
-        key = name if isinstance(name, str) else name_of(name)
-        try:
-            return self.state_names.index(key)
-        except ValueError:
-            raise KeyError(f"{name} is not a state of this model; states are "
-                           f"{', '.join(self.state_names)}") from None
-
     def state(self, values, t=0.0, what="initial value"):
         """A consistent state array from an array or ``{symbol or name: value}``.
 
@@ -312,13 +326,6 @@ class NumericModel:
 
     def _input_values(self, t, y):
         return [inp(t, y) for _, inp in self._inputs]
-
-    def _check_y(self, y):
-        y = np.array(y, dtype=float)
-        if y.shape != (self.n_states,):
-            raise ValueError(f"the state must have {self.n_states} entries "
-                             f"({', '.join(self.state_names)}), got shape {y.shape}")
-        return y
 
     # ---------------------------------------------------------- dynamics
     def _dynamics(self, t, y):

@@ -24,7 +24,7 @@ import numpy as np
 
 from ._codegen import compile_python, generate_python
 from ._errors import MissingValueError, ModelError
-from ._symbols import name_of
+from ._numeric import StateLayout
 
 __all__ = ["orthogonalize_speeds", "OrthogonalSpeedsModel", "MassMatrices"]
 
@@ -81,7 +81,7 @@ def _phi(X):
     return np.tril(X, -1) + 0.5 * np.diag(np.diag(X))
 
 
-class OrthogonalSpeedsModel:
+class OrthogonalSpeedsModel(StateLayout):
     r"""A numerical model in the orthogonalized speeds :math:`u^* = L^T u`.
 
     Made by :func:`orthogonalize_speeds`; it has the numerical contract of
@@ -143,34 +143,6 @@ class OrthogonalSpeedsModel:
                 f"{self.n_u} speeds>")
 
     # ------------------------------------------------------------ basics
-    @property
-    def n_states(self):
-        return self.n_q + self.n_u
-
-    @property
-    def n_q_ind(self):
-        return self.n_q
-
-    @property
-    def n_u_ind(self):
-        return self.n_u
-
-    def index(self, name):
-        """Position of a state (by name) in ``y*``."""
-        key = name if isinstance(name, str) else name_of(name)
-        try:
-            return self.state_names.index(key)
-        except ValueError:
-            raise KeyError(f"{name} is not a state of this model; states are "
-                           f"{', '.join(self.state_names)}") from None
-
-    def _check_y(self, y):
-        y = np.array(y, dtype=float)
-        if y.shape != (self.n_states,):
-            raise ValueError(f"the state must have {self.n_states} entries "
-                             f"({', '.join(self.state_names)}), got shape {y.shape}")
-        return y
-
     def state(self, values, t=0.0, what="initial value"):
         """A state array ``y*`` from an array or ``{name: value}`` (new names).
 
