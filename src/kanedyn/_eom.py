@@ -28,7 +28,7 @@ from ._symbols import name_of
 
 __all__ = ["EquationsOfMotion"]
 
-_SIMPLIFY_OPS = 60  # explicit expressions up to this size are trigsimp'ed
+_SIMPLIFY_NODES = 120  # explicit expressions up to this many nodes are trigsimp'ed
 
 
 class EquationsOfMotion:
@@ -163,16 +163,31 @@ class EquationsOfMotion:
         return tuple(ext for ext, int_ in table.specified.items() if int_ in leaves)
 
     # ---------------------------------------------------- explicit views
+    @cached_property
+    def _explicit_memo(self):
+        """Explicit values of intermediates, in the model's dynamic symbols."""
+        return dict(self._table._ext)
+
+    @cached_property
+    def _size_memo(self):
+        return {}
+
     def _explicit(self, expr):
         """Explicit expression in the model's symbols.
 
-        Small results are passed through ``trigsimp`` (inertial components
-        leave ``sin**2 + cos**2`` patterns that it removes cheaply).
+        Every intermediate is expanded once, from its parents' explicit
+        values, and the base symbols are mapped back to the model's dynamic
+        symbols on the way (cost linear in the number of intermediates).
+        Results of at most ``_SIMPLIFY_NODES`` tree nodes are passed through
+        ``trigsimp`` (inertial components leave ``sin**2 + cos**2`` patterns
+        that it removes cheaply); their size is known before expanding.
         """
-        value = self._program.expand(expr)
-        if (value.has(sm.sin) or value.has(sm.cos)) and sm.count_ops(value) <= _SIMPLIFY_OPS:
+        prog = self._program
+        value = prog.expand(expr, memo=self._explicit_memo)
+        if (prog.tree_size(expr, memo=self._size_memo) <= _SIMPLIFY_NODES
+                and value.has(sm.sin, sm.cos)):
             value = sm.trigsimp(value)
-        return self._table.external(value)
+        return value
 
     def _explicit_matrix(self, rows):
         rows = [list(r) for r in rows]

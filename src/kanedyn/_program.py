@@ -311,13 +311,36 @@ class Program:
         local.update((s, memo[s]) for s in self._free_intermediates(expr) if s in memo)
         return expr.xreplace(local)
 
-    def expand(self, expr):
-        """The explicit expression: every intermediate replaced by its value."""
+    def expand(self, expr, memo=None):
+        """The explicit expression: every intermediate replaced by its value.
+
+        Each intermediate is expanded once, from its parents' expansions, so
+        the cost is linear in the number of intermediates (the result is a
+        SymPy expression whose equal subtrees are shared objects; as a tree it
+        can be far larger).  ``memo`` (a dict, kept by the caller) may be
+        seeded with ``{leaf symbol: replacement}`` to rewrite the leaves on
+        the way, e.g. back to the model's dynamic symbols; by default the
+        program's own memo (leaves unchanged) is used.
+        """
         expr = sm.sympify(expr)
-        memo = self._explicit
+        memo = self._explicit if memo is None else memo
         for s in self.needed([expr], stop=lambda s: s in memo):
-            memo[s] = self._defs[s].xreplace({p: memo[p] for p in self._parents[s]})
-        return expr.xreplace({s: memo[s] for s in self._free_intermediates(expr)})
+            rhs = self._defs[s]
+            memo[s] = rhs.xreplace({p: memo[p] for p in rhs.free_symbols if p in memo})
+        return expr.xreplace({p: memo[p] for p in expr.free_symbols if p in memo})
+
+    def tree_size(self, expr, memo=None):
+        """Number of nodes of ``expr`` as an explicit tree (:meth:`expand`).
+
+        Computed from the intermediates' definitions without expanding
+        (cost linear in the number of intermediates); ``memo`` may be kept by
+        the caller between calls.
+        """
+        memo = {} if memo is None else memo
+        expr = sm.sympify(expr)
+        for s in self.needed([expr], stop=lambda s: s in memo):
+            memo[s] = _node_count(self._defs[s], memo)
+        return _node_count(expr, memo)
 
     # --------------------------------------------------------------- numerics
     def shadow(self, exprs, seed):
@@ -483,6 +506,15 @@ def total_derivative(expr, derivative_of):
             continue
         terms.append(expr.diff(s) * ds)
     return sm.Add(*terms)
+
+
+def _node_count(expr, sizes):
+    """Nodes of ``expr``'s tree, symbols in ``sizes`` counting as that many."""
+    if expr.is_Symbol:
+        return sizes.get(expr, 1)
+    if expr.is_Atom:
+        return 1
+    return 1 + sum(_node_count(a, sizes) for a in expr.args)
 
 
 def _evaluate(expr, value_of):
