@@ -24,6 +24,7 @@ from functools import cached_property
 
 import sympy as sm
 
+from ._input import description_symbols
 from ._symbols import name_of
 
 __all__ = ["EquationsOfMotion"]
@@ -75,10 +76,23 @@ class EquationsOfMotion:
                      "loads", "contacts"):
             object.__setattr__(self, name, getattr(spec, name))
         object.__setattr__(self, "method", fields["method"])
+        # the description's own symbols, read now: the SymPy objects may change later
+        object.__setattr__(self, "_description_symbols", description_symbols(spec))
         return self
 
     def __setattr__(self, name, value):
         raise AttributeError("EquationsOfMotion is immutable")
+
+    def __getstate__(self):
+        """Pickled without the cached views (explicit matrices, linearization
+        terms): they are rebuilt on first use."""
+        cls = type(self)
+        return {k: v for k, v in self.__dict__.items()
+                if k != "_linearization_cache"
+                and not isinstance(getattr(cls, k, None), cached_property)}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
     def __delattr__(self, name):
         raise AttributeError("EquationsOfMotion is immutable")
@@ -154,6 +168,24 @@ class EquationsOfMotion:
         consts = [s for s in leaves if not table.is_dynamic(s) and s != table.t
                   and s not in table.qdot_raw]
         return tuple(sorted(consts, key=str))
+
+    @cached_property
+    def parameters(self):
+        """Every constant symbol of the model description, sorted by name.
+
+        The symbols of the bodies (masses, inertia dyadics, mass-centre
+        positions), of every point position and velocity and frame
+        orientation reachable from the bodies and loads, of the loads,
+        kinematic differential equations, constraints, potential energy,
+        contacts and vector constraints, and of the equations themselves.
+        :attr:`constants` is the subset the equations of motion need; a
+        parameter can drop out (the length of a link beyond the last body,
+        ``g`` for a link turning about the vertical).
+        :meth:`numeric` accepts a value for every parameter and requires one
+        for every constant.
+        """
+        found = set(self._description_symbols) | set(self.constants)
+        return tuple(sorted(found, key=str))
 
     @cached_property
     def specified(self):
@@ -425,7 +457,13 @@ class EquationsOfMotion:
         Parameters
         ----------
         constants : dict
-            ``{symbol or name: value}`` for every symbol in :attr:`constants`.
+            ``{symbol or name: value}`` for every symbol in :attr:`constants`;
+            values for the other :attr:`parameters` (symbols of the
+            description the equations do not need) are accepted and unused
+            (they do not appear in the model's ``constants``).  A name is
+            matched against the symbols' names only; a key that is no
+            parameter raises :class:`~kanedyn.ModelError` with the closest
+            names.
         specified : dict, optional
             Values of the specified inputs in :attr:`specified`: a number, a
             SymPy expression in ``t`` (substituted exactly, derivatives included),

@@ -582,14 +582,30 @@ def fast_eval(expr, value_of, memo):
     return value
 
 
+class _Sampler:
+    """Callable giving each symbol a reproducible value in [0.5, 1.5); picklable."""
+
+    __slots__ = ("rng", "cache")
+
+    def __init__(self, seed):
+        self.rng = random.Random(seed)
+        self.cache = {}
+
+    def __call__(self, symbol):
+        value = self.cache.get(symbol)
+        if value is None:
+            value = self.cache[symbol] = complex(self.rng.uniform(0.5, 1.5))
+        return value
+
+    def __getstate__(self):
+        return self.rng.getstate(), self.cache
+
+    def __setstate__(self, state):
+        self.rng = random.Random()
+        self.rng.setstate(state[0])
+        self.cache = state[1]
+
+
 def random_sampler(seed):
     """A sampler giving each symbol a reproducible value in [0.5, 1.5)."""
-    rng = random.Random(seed)
-    cache = {}
-
-    def sample(symbol):
-        if symbol not in cache:
-            cache[symbol] = complex(rng.uniform(0.5, 1.5))
-        return cache[symbol]
-
-    return sample
+    return _Sampler(seed)
