@@ -487,8 +487,32 @@ class EquationsOfMotion:
                                    **options)
 
     def linearize(self, op_point=None, A_and_B=True, constants=None, specified=None,
-                  **kwargs):
-        """Linearize about an operating point; see :func:`kanedyn.linearize`."""
+                  t=0.0, simplify=False, linear_solver="LU"):
+        r"""Linearize about an operating point, as SymPy's ``KanesMethod.linearize``.
+
+        Parameters
+        ----------
+        op_point : dict or iterable of dicts, optional
+            Values of coordinates, speeds, inputs and optionally the speeds'
+            time derivatives :math:`\dot u` (used as given, as SymPy does;
+            computed from the equations of motion when absent).
+        A_and_B : bool
+            ``True`` (kanedyn's default): ``(A, B, r)`` of
+            :math:`\delta\dot x_i = A\,\delta x_i + B\,\delta r`, with
+            :math:`x_i = [q_{ind}; u_{ind}]`.  ``False`` (SymPy's default):
+            ``(M, A, B, r)`` of the implicit form
+            :math:`M[\delta\dot q;\delta\dot u] = A\,\delta x_i + B\,\delta r`,
+            the matrices SymPy returns.
+        constants, specified : dict, optional
+            With ``constants`` the result is numerical (NumPy arrays).
+        t : float
+            Time of the operating point (numerical path).
+        simplify, linear_solver
+            SymPy's options (symbolic path).
+
+        See :func:`kanedyn._linearize.linearize_symbolic` for the details.
+        """
         from ._linearize import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,
-                                  constants=constants, specified=specified, **kwargs)
+                                  constants=constants, specified=specified, t=t,
+                                  simplify=simplify, linear_solver=linear_solver)
