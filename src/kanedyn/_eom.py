@@ -201,6 +201,11 @@ class EquationsOfMotion:
         return dict(self._table._ext)
 
     @cached_property
+    def _raw_memo(self):
+        """The same, built without SymPy's automatic simplification."""
+        return dict(self._table._ext)
+
+    @cached_property
     def _size_memo(self):
         return {}
 
@@ -209,15 +214,20 @@ class EquationsOfMotion:
 
         Every intermediate is expanded once, from its parents' explicit
         values, and the base symbols are mapped back to the model's dynamic
-        symbols on the way (cost linear in the number of intermediates).
-        Results of at most ``_SIMPLIFY_NODES`` tree nodes are passed through
-        ``trigsimp`` (inertial components leave ``sin**2 + cos**2`` patterns
-        that it removes cheaply); their size is known before expanding.
+        symbols on the way (cost linear in the number of intermediates).  The
+        size of the result is known beforehand: results of at most
+        ``_SIMPLIFY_NODES`` tree nodes are built by SymPy's evaluating
+        constructors and passed through ``trigsimp`` (inertial components
+        leave ``sin**2 + cos**2`` patterns that it removes cheaply); larger
+        ones are built unevaluated (``evaluate=False``: sums, products and
+        powers as the program writes them, several times faster; any
+        substitution or ``doit()`` evaluates them).
         """
         prog = self._program
+        if prog.tree_size(expr, memo=self._size_memo) > _SIMPLIFY_NODES:
+            return prog.expand(expr, memo=self._raw_memo, evaluate=False)
         value = prog.expand(expr, memo=self._explicit_memo)
-        if (prog.tree_size(expr, memo=self._size_memo) <= _SIMPLIFY_NODES
-                and value.has(sm.sin, sm.cos)):
+        if value.has(sm.sin, sm.cos):
             value = sm.trigsimp(value)
         return value
 

@@ -311,7 +311,7 @@ class Program:
         local.update((s, memo[s]) for s in self._free_intermediates(expr) if s in memo)
         return expr.xreplace(local)
 
-    def expand(self, expr, memo=None):
+    def expand(self, expr, memo=None, evaluate=True):
         """The explicit expression: every intermediate replaced by its value.
 
         Each intermediate is expanded once, from its parents' expansions, so
@@ -320,10 +320,17 @@ class Program:
         can be far larger).  ``memo`` (a dict, kept by the caller) may be
         seeded with ``{leaf symbol: replacement}`` to rewrite the leaves on
         the way, e.g. back to the model's dynamic symbols; by default the
-        program's own memo (leaves unchanged) is used.
+        program's own memo (leaves unchanged) is used.  With ``evaluate=False``
+        sums, products and powers are built without SymPy's automatic
+        simplification (several times faster on large expressions; the
+        values are the same); a memo must not mix the two.
         """
         expr = sm.sympify(expr)
         memo = self._explicit if memo is None else memo
+        if not evaluate:
+            for s in self.needed([expr], stop=lambda s: s in memo):
+                memo[s] = _rebuild(self._defs[s], memo)
+            return _rebuild(expr, memo)
         for s in self.needed([expr], stop=lambda s: s in memo):
             rhs = self._defs[s]
             memo[s] = rhs.xreplace({p: memo[p] for p in rhs.free_symbols if p in memo})
@@ -508,6 +515,19 @@ def total_derivative(expr, derivative_of):
     return sm.Add(*terms)
 
 
+def _rebuild(expr, values):
+    """``expr`` with symbols replaced from ``values``; sums, products and
+    powers unevaluated."""
+    if expr.is_Symbol:
+        return values.get(expr, expr)
+    if expr.is_Atom:
+        return expr
+    args = [_rebuild(a, values) for a in expr.args]
+    if expr.is_Add or expr.is_Mul or expr.is_Pow:
+        return expr.func(*args, evaluate=False)
+    return expr.func(*args)
+
+
 def _node_count(expr, sizes):
     """Nodes of ``expr``'s tree, symbols in ``sizes`` counting as that many."""
     if expr.is_Symbol:
@@ -544,16 +564,17 @@ def fast_eval(expr, value_of, memo):
     are distinct objects (common in SymPy's expanded expressions) are found
     without deep comparisons.  Unknown node types fall back to ``evalf``.
     The values serve randomized identity tests, for which a hash collision
-    (probability ~2**-64 per lookup) is immaterial.
+    (probability ~2**-64 per lookup) is immaterial; numbers, whose hashes
+    collide by design (``hash(-1) == hash(-2)``), are not memoized.
     """
+    if expr.is_Number:  # not memoized: hash(-1) == hash(-2) in CPython
+        return complex(expr)
     key = hash(expr)
     found = memo.get(key)
     if found is not None:
         return found
     if expr.is_Symbol:
         value = value_of(expr)
-    elif expr.is_Number:
-        value = complex(expr)
     elif expr.is_Add:
         value = sum(fast_eval(a, value_of, memo) for a in expr.args)
     elif expr.is_Mul:
