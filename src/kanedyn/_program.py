@@ -373,6 +373,51 @@ class Program:
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
 
+    def insensitive(self, exprs, leaves, seeds=SAMPLE_SEEDS, step=1e-20, rtol=1e-10):
+        """Leaves each expression does not depend on, by complex-step derivatives.
+
+        For every leaf in ``leaves`` that an expression formally depends on,
+        :math:`\partial e/\partial x` is evaluated at the random points
+        ``seeds`` (:meth:`shadow`) by the complex step
+        :math:`\operatorname{Im} e(x + ih)/h`; leaves whose derivative
+        vanishes (relative to the expression's size) at every point are
+        returned.  A randomized test: use the result only after checking it
+        (e.g. that substituting a value for the leaves leaves the values
+        unchanged).
+
+        Returns
+        -------
+        list of set
+            One set of leaves per expression.
+        """
+        exprs = [sm.sympify(e) for e in exprs]
+        out = [set(self.deps(e)) & set(leaves) for e in exprs]
+        for seed in seeds:
+            base = self.shadow(exprs, seed)
+            values = self._shadow[seed]
+            needed = self.needed(exprs)
+            for x in set().union(*out) if out else ():
+                if abs(values[x].imag) > 0:
+                    continue
+                moved = {x: values[x] + 1j * step}
+
+                def value_of(s, moved=moved):
+                    found = moved.get(s)
+                    return values[s] if found is None else found
+
+                for s in needed:
+                    if x in self._deps[s]:
+                        moved[s] = _evaluate(self._defs[s], value_of)
+                for k, e in enumerate(exprs):
+                    if x not in out[k]:
+                        continue
+                    value = _evaluate(e, value_of)
+                    ok = (value == value and abs(base[k].imag) == 0
+                          and abs(value.imag) / step <= rtol * max(1.0, abs(base[k])))
+                    if not ok:
+                        out[k].discard(x)
+        return out
+
     # --------------------------------------------------------------- listing
     def listing(self, exprs, cse=True):
         """The straight-line code computing ``exprs``: assignments and outputs.
@@ -555,6 +600,9 @@ _FUNCS = {
 }
 
 
+_NUMBERS = {}  # SymPy number -> complex value (keyed by equality, not by hash)
+
+
 def fast_eval(expr, value_of, memo):
     """Evaluate a SymPy expression tree with complex floats.
 
@@ -567,8 +615,11 @@ def fast_eval(expr, value_of, memo):
     (probability ~2**-64 per lookup) is immaterial; numbers, whose hashes
     collide by design (``hash(-1) == hash(-2)``), are not memoized.
     """
-    if expr.is_Number:  # not memoized: hash(-1) == hash(-2) in CPython
-        return complex(expr)
+    if expr.is_Number:  # not memoized by hash: hash(-1) == hash(-2) in CPython
+        value = _NUMBERS.get(expr)
+        if value is None:
+            value = _NUMBERS[expr] = complex(expr)
+        return value
     key = hash(expr)
     found = memo.get(key)
     if found is not None:
