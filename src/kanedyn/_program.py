@@ -374,7 +374,7 @@ class Program:
         return [_evaluate(e, value_of) for e in exprs]
 
     def insensitive(self, exprs, leaves, seeds=SAMPLE_SEEDS, step=1e-20, rtol=1e-10):
-        """Leaves each expression does not depend on, by complex-step derivatives.
+        r"""Leaves each expression does not depend on, by complex-step derivatives.
 
         For every leaf in ``leaves`` that an expression formally depends on,
         :math:`\partial e/\partial x` is evaluated at the random points
