@@ -229,8 +229,9 @@ class EquationsOfMotion:
         symbols on the way (cost linear in the number of intermediates).  The
         size of the result is known beforehand: results of at most
         ``_SIMPLIFY_NODES`` tree nodes are built by SymPy's evaluating
-        constructors and passed through ``trigsimp`` (inertial components
-        leave ``sin**2 + cos**2`` patterns that it removes cheaply); larger
+        constructors and, if they contain squares of sines or cosines, passed
+        through ``trigsimp`` (inertial components leave ``sin**2 + cos**2``
+        patterns that it removes cheaply); larger
         ones are built unevaluated (``evaluate=False``: sums, products and
         powers as the program writes them, several times faster; any
         substitution or ``doit()`` evaluates them).
@@ -239,17 +240,21 @@ class EquationsOfMotion:
         if prog.tree_size(expr, memo=self._size_memo) > _SIMPLIFY_NODES:
             return prog.expand(expr, memo=self._raw_memo, evaluate=False)
         value = prog.expand(expr, memo=self._explicit_memo)
-        if value.has(sm.sin, sm.cos):
+        if any(isinstance(p.base, (sm.sin, sm.cos)) and p.exp.is_even
+               for p in value.atoms(sm.Pow)):
             value = sm.trigsimp(value)
         return value
 
-    def _explicit_matrix(self, rows):
+    def _explicit_matrix(self, rows, reduce=False):
+        """Explicit matrix of compact ``rows``; ``reduce``: see
+        :meth:`_without_spurious_coordinates`."""
         rows = [list(r) for r in rows]
         if not rows:
             return sm.Matrix()
-        flat = self._without_spurious_coordinates([e for row in rows for e in row])
-        cols = len(rows[0])
-        return sm.Matrix(len(rows), cols, [self._explicit(e) for e in flat])
+        flat = [e for row in rows for e in row]
+        if reduce:
+            flat = self._without_spurious_coordinates(flat)
+        return sm.Matrix(len(rows), len(rows[0]), [self._explicit(e) for e in flat])
 
     def _without_spurious_coordinates(self, exprs):
         """``exprs`` with the coordinates they do not depend on set to zero.
@@ -324,7 +329,7 @@ class EquationsOfMotion:
         few dozen nodes are built unevaluated (``evaluate=False``); their
         values are the same, and any substitution evaluates them.
         """
-        return self._explicit_matrix(self._compact_mass_matrix.tolist())
+        return self._explicit_matrix(self._compact_mass_matrix.tolist(), reduce=True)
 
     @cached_property
     def forcing(self):
