@@ -19,6 +19,7 @@ its ``Point`` objects), and compares what a ported script would use:
 from __future__ import annotations
 
 import importlib.util
+import json
 import pathlib
 import pickle
 import subprocess
@@ -342,12 +343,12 @@ def test_equations_unpickle_in_another_process(tmp_path):
     path.write_bytes(pickle.dumps(eom))
     model = d.numeric(eom)
     y = model.consistent_state(0.0, d.initial(model))
-    code = ("import pickle, sys, numpy as np\n"
+    code = ("import json, pickle, sys, numpy as np\n"
             f"eom = pickle.loads(open({str(path)!r}, 'rb').read())\n"
             "c = {s: v for s, v in zip(eom.constants, sys.argv[1:])}\n"
             f"y = np.array({y.tolist()!r})\n"
-            "print(repr(eom.numeric(constants=c).rhs(0.0, y).tolist()))\n")
+            "print(json.dumps(eom.numeric(constants=c).rhs(0.0, y).tolist()))\n")
     values = [str(d.constants[s]) for s in eom.constants]
     out = subprocess.run([sys.executable, "-c", code, *values], capture_output=True,
                          text=True, check=True)
-    np.testing.assert_allclose(eval(out.stdout), model.rhs(0.0, y), rtol=0, atol=0)  # noqa: S307
+    np.testing.assert_array_equal(json.loads(out.stdout), model.rhs(0.0, y))
