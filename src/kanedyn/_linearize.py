@@ -398,6 +398,14 @@ def _split_op_point(eom, op):
     return state, accelerations
 
 
+def _as_value(value):
+    """An operating-point value as a SymPy expression; text is never parsed."""
+    if isinstance(value, str):
+        raise ValueError(f"operating-point values must be numbers or SymPy expressions, "
+                         f"not text ({value!r})")
+    return sm.sympify(value)
+
+
 def linearize_symbolic(eom, op_point=None, A_and_B=True, constants=None, specified=None,
                        t=0.0, simplify=False, linear_solver="LU"):
     r"""Linearize :class:`EquationsOfMotion` about an operating point.
@@ -463,7 +471,7 @@ def _linearize_with_constants(eom, state, accelerations, constants, specified, t
     y = model.state(state, t, what="operating-point value")
     udot = None
     if accelerations:
-        udot = _acceleration_list(eom, accelerations, lambda v: float(v))
+        udot = _acceleration_list(eom, accelerations, lambda v: float(_as_value(v)))
     return linearize_numeric(model, y, t=t, udot=udot, implicit=implicit)
 
 
@@ -493,7 +501,7 @@ def _linearize_symbolic(eom, state, accelerations, implicit, la):
         internal = table.internal(key, "operating point")
         if not internal.is_Symbol:
             raise ValueError(f"cannot use {key} as an operating-point variable")
-        mapping[internal] = table.internal(sm.sympify(value), "operating point")
+        mapping[internal] = table.internal(_as_value(value), "operating point")
     o, m = len(eom.u), len(eom.u_dep)
     memo = dict(table._ext)
 
@@ -505,7 +513,7 @@ def _linearize_symbolic(eom, state, accelerations, implicit, la):
     mass = at_op(sm.Matrix(eom._mass))
     force = at_op(sm.Matrix([a - b for a, b in zip(eom._active, eom._remainder)]))
     if accelerations:
-        given = sm.Matrix(_acceleration_list(eom, accelerations, sm.sympify))
+        given = sm.Matrix(_acceleration_list(eom, accelerations, _as_value))
         if given.rows < o:  # the dependent ones from the acceleration constraints
             p = o - m
             K, fa = v["K_a"], at_op(sm.Matrix(eom._acc_f))
