@@ -210,6 +210,10 @@ def _wrapper_source(name, outputs, nr):
 
 
 CODEGEN_VERSION = "kanedyn-c-2"  # change when generated code changes meaning
+# the runtime and integrator templates are part of every module: part of its key
+_TEMPLATES_DIGEST = hashlib.sha256("".join(
+    (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER)
+).encode()).hexdigest()[:16]
 
 
 def fingerprint(program, functions, sizes, cse=True):
@@ -219,7 +223,7 @@ def fingerprint(program, functions, sizes, cse=True):
     subexpression elimination iterates over hash-ordered sets), so the key is
     the program before elimination, printed with positional names.
     """
-    parts = [CODEGEN_VERSION, repr(sorted(sizes.items())), f"cse={cse}"]
+    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: sm.Symbol("t")}
         for arg, symbols in arguments.items():
