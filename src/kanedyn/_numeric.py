@@ -862,11 +862,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
     if backend == "c":
-        from ._cbackend import (CompilerError, compiler_command, fingerprint, generate_c,
-                                load_module)
+        from ._cbackend import (compiler_command, fingerprint, generate_c, load_module,
+                                missing_compiler_text)
         if compiler_command() is None:
-            warnings.warn(f"{CompilerError('no C compiler found (set $CC or install gcc or clang)')}"
-                          "; using the numpy backend instead", RuntimeWarning, stacklevel=3)
+            warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",
+                          RuntimeWarning, stacklevel=3)
             backend = "numpy"
         else:
             cse = True if cse is None else cse

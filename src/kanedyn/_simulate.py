@@ -532,7 +532,7 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
                              float(options.get("first_step") or 0.0), method,
                              events if events else None, float(project_tol), bool(dense))
     status = out["status"]
-    message = out["message"]
+    message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:
         message = INTERRUPTED
     elif status == -1 and "t_bad" in out:
