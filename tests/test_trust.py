@@ -98,6 +98,8 @@ def test_cli_zero_mass_ends_with_the_cause(tmp_path, capsys):
     assert "singular mass matrix" in summary["message"] and "'bob'" in summary["message"]
 
 
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
+                            "ignore:invalid value encountered:RuntimeWarning")
 def test_diverging_state_names_the_states():
     """A run whose state becomes nan says so and suggests a stiff method."""
     model = _stiff_pair().numeric(constants={"m": 1, "k": 1, "K": 1e8})
