@@ -14,6 +14,7 @@ import sympy.physics.mechanics as me
 from sympy.physics.mechanics.loads import _parse_load
 
 from ._errors import ModelError
+from ._physical import check_declared_bodies
 from ._symbols import name_of
 
 __all__ = ["ModelSpec", "parse_model", "description_symbols"]
@@ -63,6 +64,24 @@ def _as_tuple(value, role):
         return tuple(value)
     except TypeError:
         raise ModelError(f"{role} must be a sequence, got {value!r}") from None
+
+
+def _expressions(values, role):
+    """SymPy expressions ``f = 0``; an equation ``Eq(a, b)`` becomes ``a - b``."""
+    out = []
+    for i, value in enumerate(_as_tuple(values, role)):
+        if isinstance(value, str):  # never sympify text: it would run as Python
+            raise ModelError(f"{role}[{i}] is the text {value!r}; give a SymPy expression")
+        if isinstance(value, sm.Equality):
+            value = value.lhs - value.rhs
+        elif isinstance(value, sm.core.relational.Relational) or isinstance(value, bool):
+            raise ModelError(f"{role}[{i}] is {value!r}; give an expression f (meaning "
+                             "f = 0) or an equation Eq(a, b)")
+        try:
+            out.append(sm.sympify(value, strict=True))
+        except sm.SympifyError:
+            raise ModelError(f"{role}[{i}] is not a SymPy expression: {value!r}") from None
+    return tuple(out)
 
 
 def _check_unique(groups):
@@ -170,7 +189,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
     _check_unique([("q_ind", q_ind), ("q_dep", q_dep)])
     _check_unique([("u_ind", u_ind), ("u_dep", u_dep), ("u_auxiliary", u_aux)])
 
-    kd_eqs = tuple(sm.sympify(e) for e in _as_tuple(kd_eqs, "kd_eqs"))
+    kd_eqs = _expressions(kd_eqs, "kd_eqs")
     q = q_ind + q_dep
     if len(kd_eqs) != len(q):
         raise ModelError(
@@ -178,15 +197,14 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
             "differential equations (kd_eqs); give one equation per coordinate")
     _check_kd_symbols(kd_eqs, q, u_ind + u_dep, u_aux)
 
-    config = tuple(sm.sympify(e) for e in _as_tuple(configuration_constraints,
-                                                    "configuration_constraints"))
+    config = _expressions(configuration_constraints, "configuration_constraints")
     if len(config) != len(q_dep):
         raise ModelError(
             f"there are {len(q_dep)} dependent coordinates (q_dep) but {len(config)} "
             "configuration constraints; their numbers must match")
     vel = velocity_constraints
     if vel is not None:
-        vel = tuple(sm.sympify(e) for e in _as_tuple(vel, "velocity_constraints"))
+        vel = _expressions(vel, "velocity_constraints")
         if not vel:
             vel = None
     n_vector = sum(len(c) for c in vector_constraints)
@@ -205,7 +223,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
             f"give one velocity constraint per dependent speed{listed}")
     acc = acceleration_constraints
     if acc is not None:
-        acc = tuple(sm.sympify(e) for e in _as_tuple(acc, "acceleration_constraints"))
+        acc = _expressions(acc, "acceleration_constraints")
         if len(acc) != len(u_dep):
             raise ModelError(
                 f"there are {len(u_dep)} dependent speeds but {len(acc)} acceleration "
@@ -217,6 +235,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
     for b in bodies:
         if not isinstance(b, (me.RigidBody, me.Particle)):
             raise ModelError(f"bodies must be RigidBody or Particle objects; got {b!r}")
+    check_declared_bodies(bodies)
     parsed_loads = []
     for load in _as_tuple(loads, "loads"):
         try:
