@@ -44,7 +44,12 @@ BACKENDS = ("numpy", "c")
 
 # ------------------------------------------------------------------ inputs
 def _match_key(key, candidates, what):
-    """Find the candidate a user key refers to (symbol, dynamic symbol or name)."""
+    """Find the candidate a user key refers to (symbol, dynamic symbol or name).
+
+    A string is matched against the candidates' names only (never parsed);
+    any other key must be one of the candidates itself.  Returns ``None``
+    when nothing matches.
+    """
     if isinstance(key, str):
         found = [c for c in candidates if name_of(c) == key or str(c) == key]
         if len(found) == 1:
@@ -52,32 +57,60 @@ def _match_key(key, candidates, what):
         if len(found) > 1:
             raise ModelError(f"the {what} name {key!r} is ambiguous: {found}")
         return None
-    key = sm.sympify(key)
+    if not isinstance(key, sm.Basic):
+        raise ModelError(f"{what} keys must be SymPy symbols or names (str), "
+                         f"got {key!r} of type {type(key).__name__}")
     return key if key in candidates else None
 
 
-def _resolve_constants(candidates, constants, needed):
-    """Values of the ``needed`` constants; keys must be among ``candidates``."""
-    values = {}
+def _unknown_key(key, candidates, what, listing):
+    """The error for a key that names none of ``candidates``: closest names."""
+    import difflib
+    name = key if isinstance(key, str) else name_of(key)
+    names = sorted({name_of(c) for c in candidates})
+    if not isinstance(key, str) and name in names:
+        hint = (f"; the model's {name} is another symbol (other assumptions?): pass "
+                f"that symbol or the name {name!r}.")
+    else:
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else "."
+    return ModelError(f"{key} is not {what} of this model{hint} Its {listing} are "
+                      f"{', '.join(names) or '(none)'}.")
+
+
+def _resolve_constants(candidates, constants, needed, parameters=()):
+    """Values of the constants given; keys must be among ``candidates`` or
+    ``parameters``.
+
+    ``candidates`` are the symbols the numerical model may take as constants
+    (those of the equations, of exact input expressions, of auxiliary
+    equations); ``parameters`` the other symbols of the model description,
+    whose values are accepted and dropped (the equations do not need them).
+    Every symbol in ``needed`` must have a value.  Returns ``(values,
+    unused)``: ``{symbol: float}`` for the given candidates and for the given
+    other parameters (checked like the others, e.g. a body's mass, but not
+    passed to the generated code).
+    """
+    values, unused = {}, {}
     candidates = sorted(candidates, key=str)
     known = set(candidates)
+    accepted = sorted(known | set(parameters), key=str)
     for key, value in constants.items():
-        sym = _match_key(key, candidates, "constant")
+        sym = _match_key(key, accepted, "constant")
         if sym is None:
-            raise ModelError(
-                f"{key} is not a constant of this model; its constants are "
-                f"{', '.join(map(str, candidates)) or '(none)'}")
+            raise _unknown_key(key, accepted, "a parameter", "parameters")
         try:
-            values[sym] = float(value)
+            number = float(value)
         except (TypeError, ValueError):
             raise ModelError(f"the value of constant {sym} must be a number, "
                              f"got {value!r}") from None
+        (values if sym in known else unused)[sym] = number
     missing = [s for s in needed if s in known and s not in values]
     if missing:
         raise MissingValueError(
             "missing value(s) for constant(s) " + ", ".join(map(str, missing))
             + "; pass them in constants={...}")
-    return values
+    return values, unused
 
 
 def _check_mapping(values, role, expected):
@@ -150,17 +183,12 @@ def _resolve_specified(eom, specified):
     needed = list(eom.specified)
     substitutions = {}  # internal symbol -> expression (internal)
     providers = {}  # external -> value
+    known = list(table.specified)
     for key, value in specified.items():
-        if isinstance(key, str):
-            matches = [s for s in table.specified if name_of(s) == key]
-            if not matches:
-                raise ModelError(f"{key!r} is not a specified input of this model; "
-                                 f"its inputs are {', '.join(map(name_of, needed))}")
-            key = matches[0]
-        key = sm.sympify(key)
-        if key not in table.specified:
-            raise ModelError(f"{key} is not a specified input of this model; its "
-                             f"inputs are {', '.join(map(name_of, needed)) or '(none)'}")
+        found = _match_key(key, known, "specified input")
+        if found is None:
+            raise _unknown_key(key, needed or known, "a specified input", "inputs")
+        key = found
         if isinstance(value, sm.Basic) and not isinstance(value, sm.Number):
             expr = sm.sympify(value)
             if isinstance(key, sm.Derivative):
@@ -816,10 +844,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             candidates |= symbols
             leaves |= symbols
     needed_consts = sorted((s for s in candidates if s in leaves), key=str)
-    values = _resolve_constants(candidates, constants, needed_consts)
-    _check_finite(values)
+    values, unused = _resolve_constants(candidates, constants, needed_consts,
+                                        parameters=getattr(eom, "parameters", ()))
+    _check_finite({**values, **unused})
     body_parameters_ = body_parameters(eom.bodies)
-    bodies = body_values(body_parameters_, values)
+    bodies = body_values(body_parameters_, {**values, **unused})
     const_syms = sorted(values, key=str)
 
     y_syms = list(table.q) + list(table.u)
