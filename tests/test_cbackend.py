@@ -148,7 +148,7 @@ def test_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
 def test_without_compiler_falls_back_to_numpy(monkeypatch):
     monkeypatch.setenv("CC", "/nonexistent/cc")
     d = kd.models.build("pendulum")
-    with pytest.warns(RuntimeWarning, match="no C compiler"):
+    with pytest.warns(RuntimeWarning, match="CC is '/nonexistent/cc', which is not a program"):
         model = d.numeric(backend="c")
     assert repr(model).endswith("backend='numpy'>")
     assert np.isfinite(model.rhs(0.0, [0.3, 0.0])).all()
