@@ -10,8 +10,8 @@ import sympy.physics.mechanics as me
 from .._contact import Contact, Ellipsoid, Plane, Sphere
 from ._base import ModelDefinition
 
-__all__ = ["sphere_slug", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
-           "slug_ellipsoid"]
+__all__ = ["sphere_slug", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
+           "falling_rod", "slug_ellipsoid"]
 
 T = me.dynamicsymbols._t
 
@@ -89,6 +89,62 @@ def block_on_incline():
                      theta0=theta0, omega=omega, t1=t1, N=N, E=E),
         description="Slides down and stops at t = v0/(g(mu_k cos th0 - sin th0)); "
                     "slips again when sin th - mu_s cos th = omega^2 d / g.")
+
+
+def bead_in_tube():
+    r"""A bead in a square tube spinning about the vertical: two rough contacts at once.
+
+    The tube (frame ``E``) turns at the constant rate ``Omega`` about the
+    vertical ``N.z`` through ``O``; its axis is ``E.x``.  The bead (a
+    particle, mass ``m``) has coordinates ``x, y, z`` in ``E`` and their rates
+    as speeds; it rests on the floor ``z = 0`` and against the side wall
+    ``y = b`` (the wall's free side is ``y < b``), both with friction ``mu``.
+    Started at ``x0`` moving towards the axis, it is pressed against the
+    wall by the Coriolis force and by the part of the centrifugal force
+    across the tube, and slides on both; while sliding inwards (relative
+    speed :math:`v = \dot x < 0`)
+
+    .. math::
+
+        \ddot x + 2\mu\Omega\dot x - \Omega^2 x = \mu (g + \Omega^2 b),
+        \qquad N_{floor} = m g,\qquad N_{wall} = m(\Omega^2 b - 2\Omega\dot x).
+
+    It stops where :math:`\dot x = 0` and sticks if
+    :math:`\Omega^2 x \le \mu_s (g + \Omega^2 b)`; sticking, the floor
+    carries the weight, the wall normal the centripetal force across the tube
+    (:math:`m\Omega^2 b`, no jump at the stop) and the frictions together the
+    one along it (:math:`m\Omega^2 x`, inwards).
+    """
+    x, y, z = me.dynamicsymbols("x y z")
+    ux, uy, uz = me.dynamicsymbols("u_x u_y u_z")
+    m, g, mu, Omega, b = sm.symbols("m g mu Omega b", positive=True)
+    N = me.ReferenceFrame("N")
+    E = me.ReferenceFrame("E")  # the tube
+    E.orient_axis(N, N.z, Omega * T)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    r = x * E.x + y * E.y + z * E.z
+    P = O.locatenew("P", r)
+    P.set_vel(N, ux * E.x + uy * E.y + uz * E.z + (Omega * E.z).cross(r))
+    bead = me.Particle("bead", P, m)
+    bead.potential_energy = m * g * z
+    contacts = [Contact(P, Plane(E, O, E.z, name="floor"), mu_k=mu, name="floor"),
+                Contact(P, Plane(E, O.locatenew("W", b * E.y), -E.y, name="wall"), mu_k=mu,
+                        name="wall")]
+    values = {m: 1.0, g: 9.81, mu: 0.3, Omega: 1.0, b: 0.05}
+    return ModelDefinition(
+        name="bead-in-tube",
+        title="bead in a spinning square tube: floor and wall friction, slip then stick",
+        kane_args=dict(frame=N, q_ind=[x, y, z], u_ind=[ux, uy, uz],
+                       kd_eqs=[x.diff() - ux, y.diff() - uy, z.diff() - uz], bodies=[bead],
+                       loads=[(P, -m * g * N.z)], contacts=contacts),
+        constants=values, initial_state={x: 1.0, y: values[b], z: 0.0, ux: -1.0, uy: 0.0,
+                                         uz: 0.0},
+        t_end=1.0, symbols=dict(x=x, y=y, z=z, ux=ux, uy=uy, uz=uz, m=m, g=g, mu=mu,
+                                Omega=Omega, b=b, N=N, E=E, P=P),
+        description="Slides towards the axis on floor and wall, stops and sticks: the "
+                    "wall normal force m (Omega^2 b - 2 Omega x') falls to m Omega^2 b "
+                    "without a jump.")
 
 
 def bouncing_ball(restitution=0.8):
