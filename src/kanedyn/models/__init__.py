@@ -40,7 +40,7 @@ REGISTRY = {
     "sphere-slug": (sphere_slug, {}),
     "slug-ellipsoid": (slug_ellipsoid, {}),
     "block-on-incline": (block_on_incline, {}),
-    "bead-in-tube": (bead_in_tube, {}),
+    "bead-in-tube": (bead_in_tube, {"omega": float}),
     "bouncing-ball": (bouncing_ball, {"restitution": float}),
     "ladder": (ladder, {"frictionless": bool, "angle": float}),
     "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float,

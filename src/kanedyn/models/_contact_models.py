@@ -91,60 +91,62 @@ def block_on_incline():
                     "slips again when sin th - mu_s cos th = omega^2 d / g.")
 
 
-def bead_in_tube():
+def bead_in_tube(omega=1.0):
     r"""A bead in a square tube spinning about the vertical: two rough contacts at once.
 
-    The tube (frame ``E``) turns at the constant rate ``Omega`` about the
-    vertical ``N.z`` through ``O``; its axis is ``E.x``.  The bead (a
-    particle, mass ``m``) has coordinates ``x, y, z`` in ``E`` and their rates
-    as speeds; it rests on the floor ``z = 0`` and against the side wall
-    ``y = b`` (the wall's free side is ``y < b``), both with friction ``mu``.
-    Started at ``x0`` moving towards the axis, it is pressed against the
-    wall by the Coriolis force and by the part of the centrifugal force
-    across the tube, and slides on both; while sliding inwards (relative
-    speed :math:`v = \dot x < 0`)
+    The tube (frame ``E``) turns at the constant rate ``omega`` (rad/s, an
+    option: the initial state follows it) about the vertical ``N.z`` through
+    ``O``; its axis is ``E.x``.  The bead (a particle, mass ``m``) has
+    inertial coordinates ``x, y, z`` and their rates as speeds; it rests on
+    the floor ``z = 0`` and against the side wall ``y_E = b`` (the wall's free
+    side is ``y_E < b``), both with friction ``mu``.  Started at ``x_E = 1`` m
+    moving towards the axis at 1 m/s relative to the tube, it is pressed
+    against the wall by the Coriolis force and by the part of the centrifugal
+    force across the tube, and slides on both; while it slides inwards
+    (relative speed :math:`\dot x_E < 0`)
 
     .. math::
 
-        \ddot x + 2\mu\Omega\dot x - \Omega^2 x = \mu (g + \Omega^2 b),
-        \qquad N_{floor} = m g,\qquad N_{wall} = m(\Omega^2 b - 2\Omega\dot x).
+        \ddot x_E + 2\mu\Omega\dot x_E - \Omega^2 x_E = \mu (g + \Omega^2 b),
+        \qquad N_{floor} = m g,\qquad N_{wall} = m(\Omega^2 b - 2\Omega\dot x_E).
 
-    It stops where :math:`\dot x = 0` and sticks if
-    :math:`\Omega^2 x \le \mu_s (g + \Omega^2 b)`; sticking, the floor
+    It stops where :math:`\dot x_E = 0` and sticks if
+    :math:`\Omega^2 x_E \le \mu_s (g + \Omega^2 b)`; sticking, the floor
     carries the weight, the wall normal the centripetal force across the tube
     (:math:`m\Omega^2 b`, no jump at the stop) and the frictions together the
-    one along it (:math:`m\Omega^2 x`, inwards).
+    one along it (:math:`m\Omega^2 x_E`, inwards).  Faster (``omega=2.5``)
+    the slip reverses and the bead slides out, leaving the wall where
+    :math:`\dot x_E = \Omega b / 2`.  The wall does work on the bead: the
+    energy balance counts it.
     """
-    x, y, z = me.dynamicsymbols("x y z")
-    ux, uy, uz = me.dynamicsymbols("u_x u_y u_z")
-    m, g, mu, Omega, b = sm.symbols("m g mu Omega b", positive=True)
+    m, g, mu, b = sm.symbols("m g mu b", positive=True)
+    omega = float(omega)
     N = me.ReferenceFrame("N")
     E = me.ReferenceFrame("E")  # the tube
-    E.orient_axis(N, N.z, Omega * T)
+    E.orient_axis(N, N.z, omega * T)
     O = me.Point("O")
     O.set_vel(N, 0)
-    r = x * E.x + y * E.y + z * E.z
-    P = O.locatenew("P", r)
-    P.set_vel(N, ux * E.x + uy * E.y + uz * E.z + (Omega * E.z).cross(r))
+    q, u, P = _free_particle(N, O)
     bead = me.Particle("bead", P, m)
-    bead.potential_energy = m * g * z
+    bead.potential_energy = m * g * q[2]
     contacts = [Contact(P, Plane(E, O, E.z, name="floor"), mu_k=mu, name="floor"),
                 Contact(P, Plane(E, O.locatenew("W", b * E.y), -E.y, name="wall"), mu_k=mu,
                         name="wall")]
-    values = {m: 1.0, g: 9.81, mu: 0.3, Omega: 1.0, b: 0.05}
+    values = {m: 1.0, g: 9.81, mu: 0.3, b: 0.05}
+    # at t = 0 the tube frame is N: x_E = 1, y_E = b, relative velocity -1 m/s along E.x
+    init = dict(zip(q, (1.0, values[b], 0.0)))
+    init.update(dict(zip(u, (-1.0 - omega * values[b], omega * 1.0, 0.0))))
     return ModelDefinition(
         name="bead-in-tube",
         title="bead in a spinning square tube: floor and wall friction, slip then stick",
-        kane_args=dict(frame=N, q_ind=[x, y, z], u_ind=[ux, uy, uz],
-                       kd_eqs=[x.diff() - ux, y.diff() - uy, z.diff() - uz], bodies=[bead],
+        kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u),
+                       kd_eqs=[a.diff() - v for a, v in zip(q, u)], bodies=[bead],
                        loads=[(P, -m * g * N.z)], contacts=contacts),
-        constants=values, initial_state={x: 1.0, y: values[b], z: 0.0, ux: -1.0, uy: 0.0,
-                                         uz: 0.0},
-        t_end=1.0, symbols=dict(x=x, y=y, z=z, ux=ux, uy=uy, uz=uz, m=m, g=g, mu=mu,
-                                Omega=Omega, b=b, N=N, E=E, P=P),
+        constants=values, initial_state=init, t_end=1.0,
+        symbols=dict(q=q, u=u, m=m, g=g, mu=mu, b=b, omega=omega, N=N, E=E, P=P),
         description="Slides towards the axis on floor and wall, stops and sticks: the "
-                    "wall normal force m (Omega^2 b - 2 Omega x') falls to m Omega^2 b "
-                    "without a jump.")
+                    "wall normal force m (Omega^2 b - 2 Omega x_E') falls to m Omega^2 b "
+                    "without a jump; omega=2.5: reverses and leaves the wall.")
 
 
 def bouncing_ball(restitution=0.8):
