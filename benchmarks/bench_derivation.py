@@ -19,11 +19,23 @@ the Whipple bicycle) the script measures
   ``model.rhs(t, y)`` with the numpy backend, and the relative difference of
   the two results at the same state.
 
+A second table compares what code ported from SymPy reads: the explicit
+``mass_matrix_full`` and ``forcing_full``.  For two chains, the one written as
+SymPy's documentation writes models (:func:`_peers.sympy_docs_chain`:
+``orient_axis`` about alternating x/y axes, ``v2pt_theory``, full inertia
+dyadics, one set of parameters per link) and the built-in ``chain3d``, it
+times ``kd.kane`` alone and ``kd.kane`` followed by reading
+``mass_matrix_full`` and ``forcing_full``, against SymPy's ``KanesMethod`` +
+``kanes_equations`` + reading the same two matrices, and optionally
+(``--explicit-lambdify``) ``sm.lambdify(..., cse=True)`` of both tools'
+matrices.
+
 Usage::
 
     python benchmarks/bench_derivation.py              # full run, several minutes
     python benchmarks/bench_derivation.py --max-n 5 --no-bicycle   # quick look
     python benchmarks/bench_derivation.py --markdown   # table as markdown
+    python benchmarks/bench_derivation.py --explicit-only --explicit-n 3 5 8
 
 Progress goes to stderr, the table to stdout.
 """
@@ -48,6 +60,10 @@ import sympy.physics.mechanics as me
 from sympy.core.cache import clear_cache
 
 import kanedyn as kd
+
+# _peers lives next to this script (on sys.path when the script is run directly)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _peers import sympy_docs_chain  # noqa: E402
 
 #: Relative difference of the two right-hand sides above which a row is flagged.
 DISAGREEMENT = 1e-6
@@ -372,20 +388,7 @@ def format_table(rows, markdown=False):
     -------
     str
     """
-    body = [row_cells(row) for row in rows]
-    if markdown:
-        lines = ["| " + " | ".join(COLUMNS) + " |",
-                 "|" + "|".join("---" if i < 2 else "--:" for i in range(len(COLUMNS))) + "|"]
-        lines += ["| " + " | ".join(cells) + " |" for cells in body]
-        return "\n".join(lines)
-    widths = [max([len(title)] + [len(cells[i]) for cells in body])
-              for i, title in enumerate(COLUMNS)]
-
-    def line(cells):
-        return "  ".join(cell.ljust(w) if i < 2 else cell.rjust(w)
-                         for i, (cell, w) in enumerate(zip(cells, widths)))
-    out = [line(COLUMNS), line(["-" * w for w in widths])]
-    return "\n".join(out + [line(cells) for cells in body])
+    return format_rows(COLUMNS, [row_cells(row) for row in rows], markdown=markdown)
 
 
 NOTES = """\
@@ -410,6 +413,142 @@ Notes:
   a difference above {limit:g}: the two tools disagree at that state.{skipped}"""
 
 
+# ------------------------------------------------- explicit matrices (ports)
+#: Chains of the explicit-matrix comparison: name -> builder of kane() keywords.
+EXPLICIT_CHAINS = ("sympy-docs", "chain3d")
+
+
+def chain_arguments(kind, n):
+    """Fresh ``kd.kane`` / ``KanesMethod`` keywords of a chain of ``n`` links.
+
+    ``kind`` is "sympy-docs" (:func:`_peers.sympy_docs_chain`, written as
+    SymPy's documentation writes models) or "chain3d" (the built-in model).
+    """
+    if kind == "sympy-docs":
+        args = sympy_docs_chain(n)
+        args.pop("constants")
+        return args
+    return dict(kd.models.build("chain3d", n=n).kane_args)
+
+
+def kanedyn_explicit(kind, n, repeat):
+    """Median times of ``kd.kane`` and of ``kd.kane`` + reading the explicit matrices.
+
+    Returns
+    -------
+    dict
+        ``kane_s``, ``explicit_s`` (``kd.kane`` then ``mass_matrix_full`` and
+        ``forcing_full``), and ``eom`` of the last repetition.
+    """
+    kane, total = [], []
+    for _ in range(repeat):
+        args = chain_arguments(kind, n)
+        fresh_start()
+        start = time.perf_counter()
+        eom = kd.kane(**args)
+        derived = time.perf_counter()
+        _ = eom.mass_matrix_full, eom.forcing_full  # built on first access
+        done = time.perf_counter()
+        kane.append(derived - start)
+        total.append(done - start)
+    return {"kane_s": statistics.median(kane), "explicit_s": statistics.median(total),
+            "eom": eom}
+
+
+def sympy_explicit(kind, n):
+    """SymPy's ``KanesMethod`` + ``kanes_equations`` + reading the matrices; one run."""
+    args = chain_arguments(kind, n)
+    fresh_start()
+    start = time.perf_counter()
+    kane = me.KanesMethod(args["frame"], args["q_ind"], args["u_ind"],
+                          kd_eqs=args["kd_eqs"])
+    kane.kanes_equations(args["bodies"], args["loads"])
+    _ = kane.mass_matrix_full, kane.forcing_full
+    return {"explicit_s": time.perf_counter() - start, "kane": kane}
+
+
+def lambdify_seconds(q, u, mass, forcing):
+    """Time of ``sm.lambdify([q + u, parameters], [mass, forcing], cse=True)``."""
+    params = sorted((mass.free_symbols | forcing.free_symbols) - {me.dynamicsymbols._t},
+                    key=str)
+    start = time.perf_counter()
+    sm.lambdify([list(q) + list(u), params], [mass, forcing], cse=True)
+    return time.perf_counter() - start
+
+
+def benchmark_explicit(kind, n, args, log):
+    """One row of the explicit-matrix table."""
+    ours = kanedyn_explicit(kind, n, args.repeat)
+    log(f"{kind} n={n}: kanedyn kane {ours['kane_s']:.3f} s, "
+        f"+ explicit {ours['explicit_s']:.3f} s")
+    theirs = sympy_explicit(kind, n)
+    log(f"{kind} n={n}: SymPy {theirs['explicit_s']:.2f} s")
+    row = {"chain": kind, "n": n, "sympy_s": theirs["explicit_s"],
+           "kane_s": ours["kane_s"], "explicit_s": ours["explicit_s"],
+           "lambdify_sympy_s": None, "lambdify_kanedyn_s": None}
+    if args.explicit_lambdify:
+        km, eom = theirs["kane"], ours["eom"]
+        fresh_start()
+        row["lambdify_sympy_s"] = lambdify_seconds(km.q, km.u, km.mass_matrix_full,
+                                                   km.forcing_full)
+        fresh_start()
+        row["lambdify_kanedyn_s"] = lambdify_seconds(eom.q, eom.u, eom.mass_matrix_full,
+                                                     eom.forcing_full)
+        log(f"{kind} n={n}: lambdify SymPy {row['lambdify_sympy_s']:.2f} s, "
+            f"kanedyn {row['lambdify_kanedyn_s']:.2f} s")
+    return row
+
+
+EXPLICIT_COLUMNS = ("chain", "n", "SymPy KanesMethod+M/F s", "kanedyn kane s",
+                    "ratio", "kanedyn kane+M/F s", "ratio M/F",
+                    "lambdify s SymPy", "lambdify s kanedyn",
+                    "SymPy total s", "kanedyn total s", "ratio total")
+
+
+def explicit_cells(row):
+    """Cells of one explicit-matrix row (order of :data:`EXPLICIT_COLUMNS`)."""
+    cells = [row["chain"], str(row["n"]), format_seconds(row["sympy_s"]),
+             format_seconds(row["kane_s"]), f"{row['sympy_s'] / row['kane_s']:.0f}x",
+             format_seconds(row["explicit_s"]),
+             f"{row['sympy_s'] / row['explicit_s']:.0f}x"]
+    if row["lambdify_sympy_s"] is None:
+        return cells + ["-"] * 5
+    total_sympy = row["sympy_s"] + row["lambdify_sympy_s"]
+    total_ours = row["explicit_s"] + row["lambdify_kanedyn_s"]
+    return cells + [format_seconds(row["lambdify_sympy_s"]),
+                    format_seconds(row["lambdify_kanedyn_s"]), format_seconds(total_sympy),
+                    format_seconds(total_ours), f"{total_sympy / total_ours:.1f}x"]
+
+
+def format_rows(columns, body, markdown=False):
+    """``body`` (lists of cells) under ``columns``, plain text or markdown."""
+    if markdown:
+        lines = ["| " + " | ".join(columns) + " |",
+                 "|" + "|".join("---" if i < 2 else "--:" for i in range(len(columns))) + "|"]
+        return "\n".join(lines + ["| " + " | ".join(cells) + " |" for cells in body])
+    widths = [max([len(title)] + [len(cells[i]) for cells in body])
+              for i, title in enumerate(columns)]
+
+    def line(cells):
+        return "  ".join(cell.ljust(w) if i < 2 else cell.rjust(w)
+                         for i, (cell, w) in enumerate(zip(cells, widths)))
+    return "\n".join([line(columns), line(["-" * w for w in widths])]
+                     + [line(cells) for cells in body])
+
+
+EXPLICIT_NOTES = """\
+Notes (explicit matrices):
+- SymPy: KanesMethod(N, q, u, kd_eqs) + kanes_equations(bodies, loads) + reading
+  mass_matrix_full and forcing_full, one run. kanedyn: kd.kane(...) ("kane s") and
+  kd.kane(...) + reading eom.mass_matrix_full and eom.forcing_full ("kane+M/F s"),
+  median of {repeat} runs on freshly built models. ratio = SymPy s / kanedyn s.
+- sympy-docs: the chain of benchmarks/_peers.py sympy_docs_chain (orient_axis about
+  alternating x/y axes, v2pt_theory, full inertia dyadics, parameters per link);
+  chain3d: the built-in model (z/x axes, diagonal inertia, shared parameters).
+- lambdify: sm.lambdify([q + u, parameters], [M_full, F_full], cse=True) of each
+  tool's own matrices; total = derivation + reading + lambdify."""
+
+
 # ------------------------------------------------------------------- main
 def main(argv=None):
     """Run the benchmark and print the table.
@@ -432,6 +571,13 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=3,
                         help="repetitions of kanedyn's derivation (median; default 3)")
     parser.add_argument("--markdown", action="store_true", help="print a markdown table")
+    parser.add_argument("--explicit-n", type=int, nargs="*", default=[3, 5, 8], metavar="N",
+                        help="chain sizes of the explicit-matrix table (default 3 5 8; "
+                             "none to skip it)")
+    parser.add_argument("--explicit-lambdify", action="store_true",
+                        help="also time sm.lambdify of both tools' explicit matrices")
+    parser.add_argument("--explicit-only", action="store_true",
+                        help="only the explicit-matrix table")
     args = parser.parse_args(argv)
 
     def log(message):
@@ -442,6 +588,16 @@ def main(argv=None):
     kd.kane(**kd.models.build("chain3d", n=2).kane_args)
     sympy_derivation("chain3d", {"n": 2})
 
+    explicit = [benchmark_explicit(kind, n, args, log)
+                for kind in EXPLICIT_CHAINS for n in args.explicit_n]
+    if args.explicit_only:
+        print(header)
+        print()
+        print(format_rows(EXPLICIT_COLUMNS, [explicit_cells(r) for r in explicit],
+                          markdown=args.markdown))
+        print()
+        print(EXPLICIT_NOTES.format(repeat=args.repeat))
+        return
     cases = [("chain3d", {"n": n}) for n in range(2, args.max_n + 1)]
     if args.bicycle:
         cases.append(("whipple-bicycle", {}))
@@ -458,6 +614,12 @@ def main(argv=None):
     print(format_table(rows, markdown=args.markdown))
     print()
     print(NOTES.format(repeat=args.repeat, limit=DISAGREEMENT, skipped=skipped))
+    if explicit:
+        print()
+        print(format_rows(EXPLICIT_COLUMNS, [explicit_cells(r) for r in explicit],
+                          markdown=args.markdown))
+        print()
+        print(EXPLICIT_NOTES.format(repeat=args.repeat))
 
 
 if __name__ == "__main__":

@@ -93,3 +93,13 @@ def test_shadow_values_are_consistent(program):
     other = prog.shadow([b], 2)[0]
     assert first == again
     assert first != other
+
+
+def test_fast_eval_distinguishes_numbers_with_equal_hashes():
+    """hash(-1) == hash(-2) in CPython: the hash-keyed memo must not mix them
+    (it evaluated -2*x as -x in randomized identity tests)."""
+    from kanedyn._program import fast_eval
+    x, y = sm.symbols("x y")
+    values = {x: 3.0, y: 5.0}
+    expr = -x * y + 2 * x - 2 * y  # contains the numbers -1 and -2
+    assert fast_eval(expr, values.__getitem__, {}) == complex(expr.subs(values))

@@ -14,13 +14,13 @@ from ._hybrid import ModeChange
 from ._impact import Impact
 from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
-                      MissingValueError, ModelError)
+                      MissingValueError, ModelError, OptionError, SimulationInterrupted)
 from ._formulation import FORMULATIONS, formulate, kane
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._numeric import NumericModel
 from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
 from ._results import SimulationResult
-from ._simulate import simulate
+from ._simulate import TrustWarning, simulate
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
 from . import models, schemes
@@ -60,4 +60,7 @@ __all__ = [
     "KinematicsError",
     "ConstraintError",
     "MissingValueError",
+    "OptionError",
+    "SimulationInterrupted",
+    "TrustWarning",
 ]

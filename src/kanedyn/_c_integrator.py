@@ -57,8 +57,9 @@ typedef struct {
     int n_events;
     long nfev, njev, nlu;
     int method;              /* 0 RK45, 1 Rosenbrock23 */
-    int singular;            /* the equations were singular at t_singular */
+    int singular;            /* the derivative failed (singular, not finite) at t_singular */
     double t_singular;
+    double y_singular[KD_NX];
     double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
     /* continuous extension of the last step */
     double t_old, h;
@@ -101,9 +102,14 @@ static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
     ig->nfev++;
     double r[KD_SZ(KD_NR)];
     if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
-    if (kd_rhs_core(t, y, ig->model->p, r, ig->model->work, out) != 0) {
+    int bad = kd_rhs_core(t, y, ig->model->p, r, ig->model->work, out) != 0;
+    for (int i = 0; i < KD_NX && !bad; ++i) bad = !isfinite(out[i]);
+    if (bad) {
         for (int i = 0; i < KD_NX; ++i) out[i] = NAN;  /* the step is rejected */
-        if (!ig->singular) { ig->singular = 1; ig->t_singular = t; }
+        if (!ig->singular) {
+            ig->singular = 1; ig->t_singular = t;
+            memcpy(ig->y_singular, y, sizeof(double) * KD_NX);
+        }
     }
     return 0;
 }
@@ -322,6 +328,14 @@ static int kd_r23_try(KdIntegrator *ig, double t, const double *y, const double 
     return 0;
 }
 
+/* an error inside the loop: Ctrl-C (a KeyboardInterrupt raised in a Python callback
+   or by the signal check) keeps what was computed; any other error propagates */
+#define KD_FAIL do { \
+        if (PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) { \
+            PyErr_Clear(); status = -1; failed = 1; interrupted = 1; \
+            message = "interrupted"; goto finish; } \
+        goto done; } while (0)
+
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
              project_tol, dense) -> dict */
 static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
@@ -374,7 +388,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KdBuf out_t = {0}, out_y = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
     PyObject *result = NULL;
     double *J = NULL;
-    int status = 0, failed = 0;
+    int status = 0, failed = 0, interrupted = 0;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
     if (!ev_dir || !ev_term || !g_old || !g_new || !ev_t || !ev_y) { PyErr_NoMemory(); goto done; }
@@ -396,14 +410,14 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     ig.W = J + KD_NX * KD_NX;
     ig.LU = ig.W + KD_NX * KD_NX;
     memcpy(y, y0, sizeof(y));
-    if (kd_f(&ig, t, y, f) != 0) goto done;
+    if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
     for (int k = 0; k < ig.n_events; ++k)
-        if (kd_event(&ig, k, t, y, &g_old[k]) != 0) goto done;
+        if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
     if (te == NULL) {
-        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
     } else {
         while (next_eval < n_teval && te[next_eval] == t) {
-            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
             next_eval++;
         }
     }
@@ -421,7 +435,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
         h0 = fmin(h0, interval);
         for (int i = 0; i < KD_NX; ++i) y1[i] = y[i] + h0 * dir * f[i];
-        if (kd_f(&ig, t + h0 * dir, y1, f1) != 0) goto done;
+        if (kd_f(&ig, t + h0 * dir, y1, f1) != 0) KD_FAIL;
         for (int i = 0; i < KD_NX; ++i) tmp[i] = f1[i] - f[i];
         double d2 = kd_rms(tmp, scale, KD_NX) / h0, h1;
         if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
@@ -432,12 +446,13 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double max_factor = ig.method == 0 ? 10.0 : 5.0;
 
     while (dir * (t1 - t) > 0) {
+        if (PyErr_CheckSignals() != 0) KD_FAIL;  /* Ctrl-C: keep what was computed */
         double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
         if (h_abs > max_step) h_abs = max_step;
         else if (h_abs < min_step) h_abs = min_step;
         int accepted = 0, rejected = 0;
         double h = 0.0, t_new = t, err_norm = 0.0;
-        if (ig.method == 1 && kd_jacobian(&ig, t, y, f, J, T) != 0) goto done;
+        if (ig.method == 1 && kd_jacobian(&ig, t, y, f, J, T) != 0) KD_FAIL;
         while (!accepted) {
             if (h_abs < min_step) {
                 failed = 1;
@@ -451,12 +466,12 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             h = t_new - t;
             h_abs = fabs(h);
             if (ig.method == 0) {
-                if (kd_rk45_try(&ig, t, y, f, h, rtol, atol, K, y_new, &err_norm) != 0) goto done;
+                if (kd_rk45_try(&ig, t, y, f, h, rtol, atol, K, y_new, &err_norm) != 0) KD_FAIL;
                 memcpy(f_new, K[6], sizeof(f_new));
             } else {
                 int singular;
                 if (kd_r23_try(&ig, t, y, f, h, J, T, rtol, atol, y_new, f_new, k1, k2,
-                               &err_norm, &singular) != 0) goto done;
+                               &err_norm, &singular) != 0) KD_FAIL;
                 if (singular) err_norm = INFINITY;
             }
             if (err_norm < 1) {
@@ -490,7 +505,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         double t_stop = t_new;
         int terminate = 0;
         for (int k = 0; k < ig.n_events; ++k)
-            if (kd_event(&ig, k, t_new, y_new, &g_new[k]) != 0) goto done;
+            if (kd_event(&ig, k, t_new, y_new, &g_new[k]) != 0) KD_FAIL;
         if (ig.n_events) {
             /* roots of the active events in time order, up to the first terminal one */
             double roots[64];
@@ -501,7 +516,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                              || ((up || down) && ev_dir[k] == 0);
                 if (!active) continue;
                 double root;
-                if (kd_event_root(&ig, k, t, t_new, g_old[k], g_new[k], &root) != 0) goto done;
+                if (kd_event_root(&ig, k, t, t_new, g_old[k], g_new[k], &root) != 0) KD_FAIL;
                 roots[n_roots] = root; which[n_roots] = k; n_roots++;
             }
             for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
@@ -513,7 +528,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                 double ye[KD_NX];
                 kd_dense(&ig, roots[a], ye);
                 int k = which[a];
-                if (kd_buf_push(&ev_t[k], &roots[a], 1) || kd_buf_push(&ev_y[k], ye, KD_NX)) goto done;
+                if (kd_buf_push(&ev_t[k], &roots[a], 1) || kd_buf_push(&ev_y[k], ye, KD_NX)) KD_FAIL;
                 if (ev_term[k]) { terminate = 1; t_stop = roots[a]; break; }
             }
         }
@@ -524,7 +539,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                     double ye[KD_NX];
                     kd_dense(&ig, te[next_eval], ye);
                     if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX))
-                        goto done;
+                        KD_FAIL;
                 }
                 next_eval++;
             }
@@ -536,7 +551,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (dense) {
             double head[2] = {t, h};
             if (kd_buf_push(&dn_t, head, 2) || kd_buf_push(&dn_y, y, KD_NX)
-                || kd_buf_push(&dn_q, ig.Q, KD_NX * 4)) goto done;
+                || kd_buf_push(&dn_q, ig.Q, KD_NX * 4)) KD_FAIL;
         }
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
@@ -546,29 +561,30 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         memcpy(g_old, g_new, sizeof(double) * KD_SZ(ig.n_events));
         /* constraint drift */
         double residual = finite && project_tol > 0 ? kd_residual(self, t, y) : 0.0;
-        if (residual < 0) goto done;
+        if (residual < 0) KD_FAIL;
         if (residual > project_tol) {
             int proj = kd_project(self, t, y);
-            if (proj < 0) goto done;
+            if (proj < 0) KD_FAIL;
             if (proj != 0) {
                 status = -1; failed = 1;
                 message = "the constraints could not be satisfied by projection (singular "
                           "constraint Jacobian)";
             } else {
                 projections++;
-                if (kd_f(&ig, t, y, f) != 0) goto done;
+                if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
                 for (int k = 0; k < ig.n_events; ++k)
-                    if (kd_event(&ig, k, t, y, &g_old[k]) != 0) goto done;
+                    if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
             }
         }
         if (te == NULL) {
-            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) goto done;
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
         }
         if (failed) break;
         if (terminate) { status = 1; message = "A termination event occurred."; break; }
     }
 
-    if (failed && ig.singular) {
+finish:
+    if (failed && ig.singular && !interrupted) {
         static char text[160];
         snprintf(text, sizeof(text), "singular equations of motion at t=%.6g (the "
                  "integrator could not step past it)", ig.t_singular);
@@ -589,6 +605,13 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KD_SET("njev", PyLong_FromLong(ig.njev));
     KD_SET("nlu", PyLong_FromLong(ig.nlu));
     KD_SET("projections", PyLong_FromLong(projections));
+    KD_SET("interrupted", PyBool_FromLong(interrupted));
+    if (ig.singular) {
+        KD_SET("t_bad", PyFloat_FromDouble(ig.t_singular));
+        npy_intp nx = KD_NX;
+        KdBuf bad = {ig.y_singular, KD_NX, KD_NX};
+        KD_SET("y_bad", kd_buf_array(&bad, nx, -1));
+    }
     PyObject *tl = PyList_New(ig.n_events), *yl = PyList_New(ig.n_events);
     if (tl == NULL || yl == NULL) { Py_XDECREF(tl); Py_XDECREF(yl); Py_CLEAR(result); goto done; }
     for (int k = 0; k < ig.n_events; ++k) {

@@ -30,6 +30,7 @@ import sys
 import sysconfig
 import tempfile
 import threading
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -41,7 +42,7 @@ from ._codegen import CodegenError
 from ._errors import KanedynError
 
 __all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
-           "CHUNK"]
+           "missing_compiler_text", "CHUNK"]
 
 CHUNK = 2500  # statements per generated C function
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
@@ -210,6 +211,10 @@ def _wrapper_source(name, outputs, nr):
 
 
 CODEGEN_VERSION = "kanedyn-c-2"  # change when generated code changes meaning
+# the runtime and integrator templates are part of every module: part of its key
+_TEMPLATES_DIGEST = hashlib.sha256("".join(
+    (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER)
+).encode()).hexdigest()[:16]
 
 
 def fingerprint(program, functions, sizes, cse=True):
@@ -219,7 +224,7 @@ def fingerprint(program, functions, sizes, cse=True):
     subexpression elimination iterates over hash-ordered sets), so the key is
     the program before elimination, printed with positional names.
     """
-    parts = [CODEGEN_VERSION, repr(sorted(sizes.items())), f"cse={cse}"]
+    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: sm.Symbol("t")}
         for arg, symbols in arguments.items():
@@ -285,6 +290,12 @@ def cache_dir():
     return Path(base) / "kanedyn"
 
 
+def _cache_origin():
+    if os.environ.get("KANEDYN_CACHE_DIR"):
+        return "$KANEDYN_CACHE_DIR"
+    return "$XDG_CACHE_HOME/kanedyn" if os.environ.get("XDG_CACHE_HOME") else "~/.cache/kanedyn"
+
+
 def compiler_command():
     """The C compiler command as a list, or ``None`` when none is available."""
     cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
@@ -294,7 +305,17 @@ def compiler_command():
     return parts
 
 
+def missing_compiler_text():
+    """Why no compiler is available (names ``$CC`` when it is set)."""
+    cc = os.environ.get("CC")
+    if cc:
+        return f"$CC is {cc!r}, which is not a program on this machine"
+    return "no C compiler found (set $CC or install gcc or clang)"
+
+
 _FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
+_STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
+_PRIVATE = []  # this process's private cache directory, when the shared one is unusable
 
 
 def _build_key(source, command):
@@ -330,6 +351,10 @@ def load_module(key_text, make_template, timeout=600):
         ``make_template() -> str``: the C source, in which :data:`NAME_TOKEN`
         stands for the module name; called only when the module is not cached.
 
+    A cache directory that cannot be written (read-only, or a path that is a
+    file) is used read-only where it holds a valid entry; otherwise the
+    module is built in a private directory of this process, with a warning.
+
     Raises
     ------
     CompilerError
@@ -337,25 +362,72 @@ def load_module(key_text, make_template, timeout=600):
     """
     command = compiler_command()
     if command is None:
-        raise CompilerError("no C compiler found (set $CC or install gcc/clang)")
+        raise CompilerError(missing_compiler_text())
     key = _build_key(key_text, command)
     name = f"_kd_{key}"
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
     with _LOCK:
         module = _LOADED.get(key)
         if module is not None:
             return module
         directory = cache_dir()
-        directory.mkdir(parents=True, exist_ok=True)
-        so_path = directory / f"{name}{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
-        manifest = directory / f"{name}.json"
-        with _FileLock(directory / f"{name}.lock"):
-            module = _try_cached(name, so_path, manifest)
+        problem = _unwritable(directory)
+        if problem is not None:
+            module = _try_cached(name, directory / f"{name}{suffix}",
+                                 directory / f"{name}.json", repair=False)
             if module is None:
-                _build(make_template().replace(NAME_TOKEN, name), command, so_path,
-                       manifest, directory, timeout)
-                module = _load(name, so_path)
+                directory = _private_cache(f"the cache directory {directory} "
+                                           f"({_cache_origin()}) {problem}")
+        if module is None:
+            _remove_stale_builds(directory, timeout)
+            so_path = directory / f"{name}{suffix}"
+            manifest = directory / f"{name}.json"
+            with _FileLock(directory / f"{name}.lock"):
+                module = _try_cached(name, so_path, manifest)
+                if module is None:
+                    _build(make_template().replace(NAME_TOKEN, name), command, so_path,
+                           manifest, directory, timeout)
+                    module = _load(name, so_path)
         _LOADED[key] = module
         return module
+
+
+def _unwritable(directory):
+    """Why modules cannot be written to ``directory`` (``None`` when they can)."""
+    if directory.exists() and not directory.is_dir():
+        return "is a file, not a directory"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        return f"cannot be written ({exc.strerror or exc})"
+    return None
+
+
+def _private_cache(reason):
+    """This process's private cache directory (created and announced once)."""
+    if not _PRIVATE:
+        import atexit
+        path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
+        atexit.register(shutil.rmtree, path, True)
+        _PRIVATE.append(path)
+        warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
+                      "only (set KANEDYN_CACHE_DIR to a writable directory to keep them)",
+                      RuntimeWarning, stacklevel=4)
+    return _PRIVATE[0]
+
+
+def _remove_stale_builds(directory, timeout):
+    """Remove the ``build-*`` folders that killed builds left behind."""
+    import time
+    limit = time.time() - max(_STALE_BUILD, 2 * timeout)
+    for path in directory.glob("build-*"):
+        try:
+            if path.is_dir() and path.stat().st_mtime < limit:
+                shutil.rmtree(path, ignore_errors=True)
+        except OSError:
+            pass
 
 
 class _FileLock:
@@ -378,7 +450,11 @@ class _FileLock:
         self.handle.close()  # closing releases the lock
 
 
-def _try_cached(name, so_path, manifest):
+def _try_cached(name, so_path, manifest, repair=True):
+    """The cached module, if its entry is complete and passes its checksum.
+
+    A corrupt or stale entry is removed (``repair``) so that it is rebuilt.
+    """
     if not (so_path.exists() and manifest.exists()):
         return None
     try:
@@ -387,7 +463,7 @@ def _try_cached(name, so_path, manifest):
             raise ValueError("checksum mismatch")
         return _load(name, so_path)
     except Exception:  # noqa: BLE001  corrupt or stale entry: rebuild it
-        for path in (so_path, manifest):
+        for path in (so_path, manifest) if repair else ():
             try:
                 path.unlink()
             except OSError:
@@ -403,12 +479,23 @@ def _build(source, command, so_path, manifest, directory, timeout):
         out_path = Path(tmp) / so_path.name
         cmd = (command + _FLAGS + [f"-I{d}" for d in includes]
                + [str(c_path), "-o", str(out_path), "-lm"])
+        origin = " ($CC)" if os.environ.get("CC") else ""
         try:
             proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-        except (OSError, subprocess.TimeoutExpired) as exc:
-            raise CompilerError(f"could not run the C compiler: {exc}") from None
-        if proc.returncode != 0:
-            raise CompilerError("the C compiler failed:\n" + proc.stderr[-4000:])
+        except subprocess.TimeoutExpired:
+            raise CompilerError(f"the C compiler {command[0]}{origin} did not finish in "
+                                f"{timeout} s") from None
+        except OSError as exc:
+            raise CompilerError(f"could not run the C compiler {command[0]}{origin}: "
+                                f"{exc}") from None
+        if proc.returncode != 0 or not out_path.exists():
+            said = (proc.stderr or proc.stdout).strip()
+            raise CompilerError(
+                f"the C compiler {' '.join(command)}{origin} failed (exit status "
+                f"{proc.returncode})" + (":\n" + said[-4000:] if said else
+                                         " and printed nothing: it does not look like a "
+                                         "working C compiler; set $CC to gcc or clang, or "
+                                         "use backend='numpy'"))
         checksum = _checksum(out_path)
         os.replace(out_path, so_path)
         tmp_manifest = Path(tmp) / "manifest.json"

@@ -103,7 +103,8 @@ class _Composite:
         """``{support: sum over its bodies}`` of tuples of expressions (named)."""
         total = {}
         for b in self.order:
-            parts = [total[c] for c in self.children[b]] + [per_body[k] for k in sorted(self.own[b])]
+            parts = ([total[c] for c in self.children[b]]
+                     + [per_body[k] for k in sorted(self.own[b])])
             summed = tuple(sm.Add(*vals) for vals in zip(*parts))
             total[b] = tuple(kin.prog.let(v, name) for v in summed)
         return total

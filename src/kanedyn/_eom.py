@@ -3,8 +3,14 @@ r"""The frozen result of a formulation: :class:`EquationsOfMotion`.
 Internally the equations live in a straight-line program (named intermediates).
 The SymPy-convention matrices (``mass_matrix``, ``forcing``, ``*_full``) are
 explicit expressions in the model's own symbols, built on first access and
-cached: they are a compatibility view, potentially large for big systems.  The
-numerical path (:meth:`EquationsOfMotion.numeric`) never builds them.
+cached: a compatibility view for code written for SymPy's ``KanesMethod``
+(``sm.lambdify``, ``me.msubs``, ``.subs``, ``.xreplace`` work on them).
+Building them costs time linear in the number of intermediates (0.1 to 1 s for
+a 3D chain of 8 bodies, against some 30 s for SymPy's own derivation);
+their expression *trees* can be larger than SymPy's (equal subtrees are
+shared objects), so tree-walking tools such as ``sm.lambdify`` (use
+``cse=True``) or ``count_ops`` take seconds for large systems.  The numerical
+path (:meth:`EquationsOfMotion.numeric`) never builds them.
 
 Conventions (identical to SymPy's ``KanesMethod``)::
 
@@ -24,11 +30,18 @@ from functools import cached_property
 
 import sympy as sm
 
+from ._input import description_symbols
+from ._program import SAMPLE_SEEDS
 from ._symbols import name_of
 
 __all__ = ["EquationsOfMotion"]
 
-_SIMPLIFY_OPS = 60  # explicit expressions up to this size are trigsimp'ed
+_SIMPLIFY_NODES = 40  # explicit expressions up to this many nodes are trigsimp'ed
+
+
+def _same(a, b, rtol=1e-9):
+    """Equal complex values (both finite) to a relative tolerance."""
+    return a == a and b == b and abs(a - b) <= rtol * max(1.0, abs(a), abs(b))
 
 
 class EquationsOfMotion:
@@ -75,10 +88,23 @@ class EquationsOfMotion:
                      "loads", "contacts"):
             object.__setattr__(self, name, getattr(spec, name))
         object.__setattr__(self, "method", fields["method"])
+        # the description's own symbols, read now: the SymPy objects may change later
+        object.__setattr__(self, "_description_symbols", description_symbols(spec))
         return self
 
     def __setattr__(self, name, value):
         raise AttributeError("EquationsOfMotion is immutable")
+
+    def __getstate__(self):
+        """Pickled without the cached views (explicit matrices, linearization
+        terms): they are rebuilt on first use."""
+        cls = type(self)
+        return {k: v for k, v in self.__dict__.items()
+                if k != "_linearization_cache"
+                and not isinstance(getattr(cls, k, None), cached_property)}
+
+    def __setstate__(self, state):
+        self.__dict__.update(state)
 
     def __delattr__(self, name):
         raise AttributeError("EquationsOfMotion is immutable")
@@ -156,6 +182,24 @@ class EquationsOfMotion:
         return tuple(sorted(consts, key=str))
 
     @cached_property
+    def parameters(self):
+        """Every constant symbol of the model description, sorted by name.
+
+        The symbols of the bodies (masses, inertia dyadics, mass-centre
+        positions), of every point position and velocity and frame
+        orientation reachable from the bodies and loads, of the loads,
+        kinematic differential equations, constraints, potential energy,
+        contacts and vector constraints, and of the equations themselves.
+        :attr:`constants` is the subset the equations of motion need; a
+        parameter can drop out (the length of a link beyond the last body,
+        ``g`` for a link turning about the vertical).
+        :meth:`numeric` accepts a value for every parameter and requires one
+        for every constant.
+        """
+        found = set(self._description_symbols) | set(self.constants)
+        return tuple(sorted(found, key=str))
+
+    @cached_property
     def specified(self):
         """Specified inputs (functions of time, and derivatives) the equations need."""
         leaves = self._leaf_symbols(self._all_outputs())
@@ -163,22 +207,80 @@ class EquationsOfMotion:
         return tuple(ext for ext, int_ in table.specified.items() if int_ in leaves)
 
     # ---------------------------------------------------- explicit views
+    @cached_property
+    def _explicit_memo(self):
+        """Explicit values of intermediates, in the model's dynamic symbols."""
+        return dict(self._table._ext)
+
+    @cached_property
+    def _raw_memo(self):
+        """The same, built without SymPy's automatic simplification."""
+        return dict(self._table._ext)
+
+    @cached_property
+    def _size_memo(self):
+        return {}
+
     def _explicit(self, expr):
         """Explicit expression in the model's symbols.
 
-        Small results are passed through ``trigsimp`` (inertial components
-        leave ``sin**2 + cos**2`` patterns that it removes cheaply).
+        Every intermediate is expanded once, from its parents' explicit
+        values, and the base symbols are mapped back to the model's dynamic
+        symbols on the way (cost linear in the number of intermediates).  The
+        size of the result is known beforehand: results of at most
+        ``_SIMPLIFY_NODES`` tree nodes are built by SymPy's evaluating
+        constructors and, if they contain squares of sines or cosines, passed
+        through ``trigsimp`` (inertial components leave ``sin**2 + cos**2``
+        patterns that it removes cheaply); larger
+        ones are built unevaluated (``evaluate=False``: sums, products and
+        powers as the program writes them, several times faster; any
+        substitution or ``doit()`` evaluates them).
         """
-        value = self._program.expand(expr)
-        if (value.has(sm.sin) or value.has(sm.cos)) and sm.count_ops(value) <= _SIMPLIFY_OPS:
+        prog = self._program
+        if prog.tree_size(expr, memo=self._size_memo) > _SIMPLIFY_NODES:
+            return prog.expand(expr, memo=self._raw_memo, evaluate=False)
+        value = prog.expand(expr, memo=self._explicit_memo)
+        if any(isinstance(p.base, (sm.sin, sm.cos)) and p.exp.is_even
+               for p in value.atoms(sm.Pow)):
             value = sm.trigsimp(value)
-        return self._table.external(value)
+        return value
 
-    def _explicit_matrix(self, rows):
+    def _explicit_matrix(self, rows, reduce=False):
+        """Explicit matrix of compact ``rows``; ``reduce``: see
+        :meth:`_without_spurious_coordinates`."""
         rows = [list(r) for r in rows]
         if not rows:
             return sm.Matrix()
-        return sm.Matrix([[self._explicit(e) for e in row] for row in rows])
+        flat = [e for row in rows for e in row]
+        if reduce:
+            flat = self._without_spurious_coordinates(flat)
+        return sm.Matrix(len(rows), len(rows[0]), [self._explicit(e) for e in flat])
+
+    def _without_spurious_coordinates(self, exprs):
+        """``exprs`` with the coordinates they do not depend on set to zero.
+
+        The compact equations are written in the inertial frame, so an entry
+        such as a link's own mass-matrix term formally contains every
+        rotation of the chain above it, which cancel.  Coordinates an entry
+        does not depend on (complex-step derivatives at two random points)
+        are set to zero, and the result is kept where its values at the
+        random points equal the original's: explicit entries then are about
+        as small as those of a derivation in body frames.
+        """
+        prog = self._program
+        q = set(self._table.q)
+        found = prog.insensitive(exprs, q)
+        out = []
+        for e, drop in zip(exprs, found):
+            if drop:
+                reduced = e  # one coordinate at a time: shared between entries
+                for x in (s for s in self._table.q if s in drop):
+                    reduced = prog.subs(reduced, {x: 0})
+                if all(_same(a, b) for seed in SAMPLE_SEEDS
+                       for a, b in zip(prog.shadow([e], seed), prog.shadow([reduced], seed))):
+                    e = reduced
+            out.append(e)
+        return out
 
     def kindiffdict(self):
         """Mapping ``{q': expression in u}`` (as SymPy's ``kindiffdict``)."""
@@ -220,12 +322,19 @@ class EquationsOfMotion:
 
     @cached_property
     def mass_matrix(self):
-        """Mass matrix of the dynamic (and acceleration-constraint) equations, o x o."""
-        return self._explicit_matrix(self._compact_mass_matrix.tolist())
+        """Mass matrix of the dynamic (and acceleration-constraint) equations, o x o.
+
+        Explicit (SymPy's ``KanesMethod.mass_matrix``), built on first access
+        and cached; see the module notes for the cost.  Entries larger than a
+        few dozen nodes are built unevaluated (``evaluate=False``); their
+        values are the same, and any substitution evaluates them.
+        """
+        return self._explicit_matrix(self._compact_mass_matrix.tolist(), reduce=True)
 
     @cached_property
     def forcing(self):
-        """Forcing vector matching :attr:`mass_matrix`, o x 1."""
+        """Forcing vector matching :attr:`mass_matrix`, o x 1 (explicit, as
+        :attr:`mass_matrix`)."""
         return self._explicit_matrix(self._compact_forcing.tolist())
 
     @cached_property
@@ -247,14 +356,19 @@ class EquationsOfMotion:
 
     @cached_property
     def mass_matrix_full(self):
-        """Block-diagonal ``[[mass_matrix_kin, 0], [0, mass_matrix]]``."""
+        """Block-diagonal ``[[mass_matrix_kin, 0], [0, mass_matrix]]``, (n + o) x (n + o).
+
+        As SymPy's ``KanesMethod.mass_matrix_full`` (explicit; built on first
+        access, in time linear in the number of intermediates, and cached).
+        For numbers use :meth:`numeric`, or ``sm.lambdify(..., cse=True)``.
+        """
         n, o = len(self.q), len(self.u)
         return self.mass_matrix_kin.row_join(sm.zeros(n, o)).col_join(
             sm.zeros(o, n).row_join(self.mass_matrix))
 
     @cached_property
     def forcing_full(self):
-        """``[forcing_kin; forcing]``."""
+        """``[forcing_kin; forcing]``, (n + o) x 1, as SymPy's ``forcing_full``."""
         return self.forcing_kin.col_join(self.forcing)
 
     @cached_property
@@ -410,7 +524,13 @@ class EquationsOfMotion:
         Parameters
         ----------
         constants : dict
-            ``{symbol or name: value}`` for every symbol in :attr:`constants`.
+            ``{symbol or name: value}`` for every symbol in :attr:`constants`;
+            values for the other :attr:`parameters` (symbols of the
+            description the equations do not need) are accepted and unused
+            (they do not appear in the model's ``constants``).  A name is
+            matched against the symbols' names only; a key that is no
+            parameter raises :class:`~kanedyn.ModelError` with the closest
+            names.
         specified : dict, optional
             Values of the specified inputs in :attr:`specified`: a number, a
             SymPy expression in ``t`` (substituted exactly, derivatives included),
@@ -434,8 +554,32 @@ class EquationsOfMotion:
                                    **options)
 
     def linearize(self, op_point=None, A_and_B=True, constants=None, specified=None,
-                  **kwargs):
-        """Linearize about an operating point; see :func:`kanedyn.linearize`."""
+                  t=0.0, simplify=False, linear_solver="LU"):
+        r"""Linearize about an operating point, as SymPy's ``KanesMethod.linearize``.
+
+        Parameters
+        ----------
+        op_point : dict or iterable of dicts, optional
+            Values of coordinates, speeds, inputs and optionally the speeds'
+            time derivatives :math:`\dot u` (used as given, as SymPy does;
+            computed from the equations of motion when absent).
+        A_and_B : bool
+            ``True`` (kanedyn's default): ``(A, B, r)`` of
+            :math:`\delta\dot x_i = A\,\delta x_i + B\,\delta r`, with
+            :math:`x_i = [q_{ind}; u_{ind}]`.  ``False`` (SymPy's default):
+            ``(M, A, B, r)`` of the implicit form
+            :math:`M[\delta\dot q;\delta\dot u] = A\,\delta x_i + B\,\delta r`,
+            the matrices SymPy returns.
+        constants, specified : dict, optional
+            With ``constants`` the result is numerical (NumPy arrays).
+        t : float
+            Time of the operating point (numerical path).
+        simplify, linear_solver
+            SymPy's options (symbolic path).
+
+        See :func:`kanedyn._linearize.linearize_symbolic` for the details.
+        """
         from ._linearize import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,
-                                  constants=constants, specified=specified, **kwargs)
+                                  constants=constants, specified=specified, t=t,
+                                  simplify=simplify, linear_solver=linear_solver)

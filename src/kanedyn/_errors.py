@@ -10,6 +10,8 @@ __all__ = [
     "KinematicsError",
     "ConstraintError",
     "MissingValueError",
+    "OptionError",
+    "SimulationInterrupted",
 ]
 
 
@@ -34,3 +36,28 @@ class MissingValueError(KanedynError, KeyError):
 
     def __str__(self):  # KeyError quotes its message; keep it readable
         return str(self.args[0]) if self.args else ""
+
+
+class OptionError(KanedynError, ValueError):
+    """An argument or option has a value that cannot be honoured (names the option)."""
+
+
+class SimulationInterrupted(KeyboardInterrupt):
+    """Ctrl-C during a simulation; carries what was computed up to then.
+
+    Attributes
+    ----------
+    result : SimulationResult
+        The partial result (``success=False``, ``message="interrupted"``).
+
+    Examples
+    --------
+    >>> try:                                   # doctest: +SKIP
+    ...     res = kd.simulate(model, (0, 1000), y0)
+    ... except kd.SimulationInterrupted as stop:
+    ...     res = stop.result                  # everything up to the interruption
+    """
+
+    def __init__(self, result):
+        super().__init__("interrupted")
+        self.result = result

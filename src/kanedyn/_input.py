@@ -14,9 +14,10 @@ import sympy.physics.mechanics as me
 from sympy.physics.mechanics.loads import _parse_load
 
 from ._errors import ModelError
+from ._physical import check_declared_bodies
 from ._symbols import name_of
 
-__all__ = ["ModelSpec", "parse_model"]
+__all__ = ["ModelSpec", "parse_model", "description_symbols"]
 
 _ALIASES = {"q_dependent": "q_dep", "u_dependent": "u_dep", "forcelist": "loads",
             "inertial_frame": "frame"}
@@ -63,6 +64,24 @@ def _as_tuple(value, role):
         return tuple(value)
     except TypeError:
         raise ModelError(f"{role} must be a sequence, got {value!r}") from None
+
+
+def _expressions(values, role):
+    """SymPy expressions ``f = 0``; an equation ``Eq(a, b)`` becomes ``a - b``."""
+    out = []
+    for i, value in enumerate(_as_tuple(values, role)):
+        if isinstance(value, str):  # never sympify text: it would run as Python
+            raise ModelError(f"{role}[{i}] is the text {value!r}; give a SymPy expression")
+        if isinstance(value, sm.Equality):
+            value = value.lhs - value.rhs
+        elif isinstance(value, sm.core.relational.Relational) or isinstance(value, bool):
+            raise ModelError(f"{role}[{i}] is {value!r}; give an expression f (meaning "
+                             "f = 0) or an equation Eq(a, b)")
+        try:
+            out.append(sm.sympify(value, strict=True))
+        except sm.SympifyError:
+            raise ModelError(f"{role}[{i}] is not a SymPy expression: {value!r}") from None
+    return tuple(out)
 
 
 def _check_unique(groups):
@@ -170,7 +189,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
     _check_unique([("q_ind", q_ind), ("q_dep", q_dep)])
     _check_unique([("u_ind", u_ind), ("u_dep", u_dep), ("u_auxiliary", u_aux)])
 
-    kd_eqs = tuple(sm.sympify(e) for e in _as_tuple(kd_eqs, "kd_eqs"))
+    kd_eqs = _expressions(kd_eqs, "kd_eqs")
     q = q_ind + q_dep
     if len(kd_eqs) != len(q):
         raise ModelError(
@@ -178,15 +197,14 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
             "differential equations (kd_eqs); give one equation per coordinate")
     _check_kd_symbols(kd_eqs, q, u_ind + u_dep, u_aux)
 
-    config = tuple(sm.sympify(e) for e in _as_tuple(configuration_constraints,
-                                                    "configuration_constraints"))
+    config = _expressions(configuration_constraints, "configuration_constraints")
     if len(config) != len(q_dep):
         raise ModelError(
             f"there are {len(q_dep)} dependent coordinates (q_dep) but {len(config)} "
             "configuration constraints; their numbers must match")
     vel = velocity_constraints
     if vel is not None:
-        vel = tuple(sm.sympify(e) for e in _as_tuple(vel, "velocity_constraints"))
+        vel = _expressions(vel, "velocity_constraints")
         if not vel:
             vel = None
     n_vector = sum(len(c) for c in vector_constraints)
@@ -205,7 +223,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
             f"give one velocity constraint per dependent speed{listed}")
     acc = acceleration_constraints
     if acc is not None:
-        acc = tuple(sm.sympify(e) for e in _as_tuple(acc, "acceleration_constraints"))
+        acc = _expressions(acc, "acceleration_constraints")
         if len(acc) != len(u_dep):
             raise ModelError(
                 f"there are {len(u_dep)} dependent speeds but {len(acc)} acceleration "
@@ -217,6 +235,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
     for b in bodies:
         if not isinstance(b, (me.RigidBody, me.Particle)):
             raise ModelError(f"bodies must be RigidBody or Particle objects; got {b!r}")
+    check_declared_bodies(bodies)
     parsed_loads = []
     for load in _as_tuple(loads, "loads"):
         try:
@@ -258,3 +277,89 @@ def _check_kd_symbols(kd_eqs, q, u, u_aux):
         raise ModelError(
             "no kinematic differential equation contains the derivative of "
             + ", ".join(name_of(s) for s in missing_q))
+
+
+# ------------------------------------------------- symbols of a description
+class _SymbolCollector:
+    """Constant symbols reachable from SymPy mechanics objects and kanedyn's own.
+
+    Walks expressions, vectors, dyadics, bodies, points (their stored
+    positions, velocities, accelerations and the points they refer to),
+    frames (orientations, angular velocities and accelerations, and the
+    frames they refer to), loads and kanedyn's contact and constraint
+    objects (through their attributes).
+    """
+
+    def __init__(self):
+        self.symbols = set()
+        self._seen = set()
+
+    def visit(self, obj):
+        stack = [obj]
+        while stack:
+            item = stack.pop()
+            if item is None or isinstance(item, (str, bytes, bool, int, float, complex)):
+                continue
+            key = id(item)
+            if key in self._seen:
+                continue
+            self._seen.add(key)
+            stack.extend(self._children(item))
+
+    def _children(self, item):
+        if isinstance(item, sm.MatrixBase):
+            self.symbols |= item.free_symbols
+            return ()
+        if isinstance(item, sm.Basic):
+            self.symbols |= item.free_symbols
+            return ()
+        if isinstance(item, me.Vector):
+            return [part for matrix, frame in item.args for part in (matrix, frame)]
+        if isinstance(item, me.Dyadic):
+            return [part for coef, a, b in item.args for part in (coef, a, b)]
+        if isinstance(item, me.ReferenceFrame):
+            return [part for attr in ("_dcm_dict", "_ang_vel_dict", "_ang_acc_dict")
+                    for pair in getattr(item, attr, {}).items() for part in pair]
+        if isinstance(item, me.Point):
+            return [part for attr in ("_pos_dict", "_vel_dict", "_acc_dict")
+                    for pair in getattr(item, attr, {}).items() for part in pair]
+        if isinstance(item, (me.RigidBody, me.Particle)):
+            return [getattr(item, attr, None)
+                    for attr in ("mass", "masscenter", "frame", "central_inertia",
+                                 "potential_energy")]
+        if isinstance(item, dict):
+            return [part for pair in item.items() for part in pair]
+        if isinstance(item, (tuple, list, set, frozenset)):
+            return list(item)
+        if type(item).__module__.startswith("kanedyn") and hasattr(item, "__dict__"):
+            return [v for v in vars(item).values() if not callable(v)]
+        return ()
+
+
+def description_symbols(spec):
+    """Every constant symbol of a model description, sorted by name.
+
+    Collected from the bodies (masses, inertia dyadics, mass centres and
+    frames), every point position, velocity and acceleration and every frame
+    orientation and angular velocity reachable from the bodies, loads, the
+    inertial frame and kanedyn's contacts and vector constraints, the loads,
+    the kinematic differential equations, the constraints and the potential
+    energy.  Time, functions of time and the surface-coordinate placeholders
+    of contact gap functions are excluded.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+
+    Returns
+    -------
+    tuple of sympy.Symbol
+    """
+    collector = _SymbolCollector()
+    collector.visit([spec.frame, spec.bodies, spec.loads, spec.kd_eqs,
+                     spec.configuration_constraints, spec.velocity_constraints,
+                     spec.acceleration_constraints, spec.potential_energy,
+                     spec.contacts, spec.vector_constraints])
+    from ._contact import SURFACE_COORDINATES  # placeholders of gap functions
+    excluded = {me.dynamicsymbols._t, *SURFACE_COORDINATES}
+    return tuple(sorted((s for s in collector.symbols if s not in excluded), key=str))

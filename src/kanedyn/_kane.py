@@ -462,7 +462,7 @@ def kane_setup(spec, progress=NO_PROGRESS):
         prog.declare(s)
     for s in table.u + table.u_aux + table.udot:
         prog.declare(s)
-    table.on_new_specified = lambda s, nxt: prog.declare(s, nxt)
+    table.on_new_specified = prog.declare  # a method: picklable
 
     progress.stage("kinematic differential equations")
     qdot, kin_matrices = _solve_kinematics(spec, table, prog)

@@ -351,7 +351,7 @@ class _Setup:
         prog = self.prog = Program(table.t)
         for s in table.q + table.u + table.udot:
             prog.declare(s)  # w' = 0 inside dt
-        table.on_new_specified = lambda s, nxt: prog.declare(s, nxt)
+        table.on_new_specified = prog.declare  # a method: picklable
         self.u_values = _speeds_from_rates(spec, table, prog, method)
         reason = (f"the {method!r} formulation replaces the speed {{}} by an expression "
                   "in the coordinates and their rates, so only the coordinates, the "

@@ -26,12 +26,14 @@ from __future__ import annotations
 import inspect
 import numbers
 import warnings
+from collections.abc import Mapping
 
 import numpy as np
 import sympy as sm
 
 from ._codegen import compile_python, generate_python
 from ._errors import ConstraintError, MissingValueError, ModelError
+from ._physical import body_parameters, body_values
 from ._schemes import Elimination, as_scheme
 from ._symbols import name_of
 
@@ -42,7 +44,12 @@ BACKENDS = ("numpy", "c")
 
 # ------------------------------------------------------------------ inputs
 def _match_key(key, candidates, what):
-    """Find the candidate a user key refers to (symbol, dynamic symbol or name)."""
+    """Find the candidate a user key refers to (symbol, dynamic symbol or name).
+
+    A string is matched against the candidates' names only (never parsed);
+    any other key must be one of the candidates itself.  Returns ``None``
+    when nothing matches.
+    """
     if isinstance(key, str):
         found = [c for c in candidates if name_of(c) == key or str(c) == key]
         if len(found) == 1:
@@ -50,32 +57,74 @@ def _match_key(key, candidates, what):
         if len(found) > 1:
             raise ModelError(f"the {what} name {key!r} is ambiguous: {found}")
         return None
-    key = sm.sympify(key)
+    if not isinstance(key, sm.Basic):
+        raise ModelError(f"{what} keys must be SymPy symbols or names (str), "
+                         f"got {key!r} of type {type(key).__name__}")
     return key if key in candidates else None
 
 
-def _resolve_constants(candidates, constants, needed):
-    """Values of the ``needed`` constants; keys must be among ``candidates``."""
-    values = {}
+def _unknown_key(key, candidates, what, listing):
+    """The error for a key that names none of ``candidates``: closest names."""
+    import difflib
+    name = key if isinstance(key, str) else name_of(key)
+    names = sorted({name_of(c) for c in candidates})
+    if not isinstance(key, str) and name in names:
+        hint = (f"; the model's {name} is another symbol (other assumptions?): pass "
+                f"that symbol or the name {name!r}.")
+    else:
+        close = difflib.get_close_matches(name, names, n=3, cutoff=0.6)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else "."
+    return ModelError(f"{key} is not {what} of this model{hint} Its {listing} are "
+                      f"{', '.join(names) or '(none)'}.")
+
+
+def _resolve_constants(candidates, constants, needed, parameters=()):
+    """Values of the constants given; keys must be among ``candidates`` or
+    ``parameters``.
+
+    ``candidates`` are the symbols the numerical model may take as constants
+    (those of the equations, of exact input expressions, of auxiliary
+    equations); ``parameters`` the other symbols of the model description,
+    whose values are accepted and dropped (the equations do not need them).
+    Every symbol in ``needed`` must have a value.  Returns ``(values,
+    unused)``: ``{symbol: float}`` for the given candidates and for the given
+    other parameters (checked like the others, e.g. a body's mass, but not
+    passed to the generated code).
+    """
+    values, unused = {}, {}
     candidates = sorted(candidates, key=str)
     known = set(candidates)
+    accepted = sorted(known | set(parameters), key=str)
     for key, value in constants.items():
-        sym = _match_key(key, candidates, "constant")
+        sym = _match_key(key, accepted, "constant")
         if sym is None:
-            raise ModelError(
-                f"{key} is not a constant of this model; its constants are "
-                f"{', '.join(map(str, candidates)) or '(none)'}")
+            raise _unknown_key(key, accepted, "a parameter", "parameters")
         try:
-            values[sym] = float(value)
+            number = float(value)
         except (TypeError, ValueError):
             raise ModelError(f"the value of constant {sym} must be a number, "
                              f"got {value!r}") from None
+        (values if sym in known else unused)[sym] = number
     missing = [s for s in needed if s in known and s not in values]
     if missing:
         raise MissingValueError(
             "missing value(s) for constant(s) " + ", ".join(map(str, missing))
             + "; pass them in constants={...}")
-    return values
+    return values, unused
+
+
+def _check_mapping(values, role, expected):
+    """``constants=`` and ``specified=`` are mappings ``{symbol or name: value}``."""
+    if not isinstance(values, Mapping):
+        names = ", ".join(map(str, expected)) or "(none)"
+        raise ModelError(f"{role} must be a dict {{symbol or name: value}}, not a "
+                         f"{type(values).__name__}; this model's {role}: {names}")
+
+
+def _check_finite(values):
+    bad = [f"{s} = {v}" for s, v in values.items() if not np.isfinite(v)]
+    if bad:
+        raise ModelError(f"constant(s) {', '.join(bad)} not finite; give finite values")
 
 
 def _callable_arity(func):
@@ -106,9 +155,14 @@ class _Input:
     def __call__(self, t, y):
         if self.arity == 0:
             return self.value
-        if self.arity == 1:
-            return self.value(t)
-        return self.value(t, y)
+        value = self.value(t) if self.arity == 1 else self.value(t, y)
+        if isinstance(value, float):
+            return value
+        if np.ndim(value) != 0 or not isinstance(value, (numbers.Real, np.ndarray)):
+            raise ModelError(f"specified input {self.name}: its function returned "
+                             f"{type(value).__name__} {np.shape(value)} at t={t:g}; it must "
+                             "return one real number (give one input per component)")
+        return float(value)
 
     def __getstate__(self):
         return (self.name, self.value, self.arity)
@@ -129,17 +183,12 @@ def _resolve_specified(eom, specified):
     needed = list(eom.specified)
     substitutions = {}  # internal symbol -> expression (internal)
     providers = {}  # external -> value
+    known = list(table.specified)
     for key, value in specified.items():
-        if isinstance(key, str):
-            matches = [s for s in table.specified if name_of(s) == key]
-            if not matches:
-                raise ModelError(f"{key!r} is not a specified input of this model; "
-                                 f"its inputs are {', '.join(map(name_of, needed))}")
-            key = matches[0]
-        key = sm.sympify(key)
-        if key not in table.specified:
-            raise ModelError(f"{key} is not a specified input of this model; its "
-                             f"inputs are {', '.join(map(name_of, needed)) or '(none)'}")
+        found = _match_key(key, known, "specified input")
+        if found is None:
+            raise _unknown_key(key, needed or known, "a specified input", "inputs")
+        key = found
         if isinstance(value, sm.Basic) and not isinstance(value, sm.Number):
             expr = sm.sympify(value)
             if isinstance(key, sm.Derivative):
@@ -329,6 +378,8 @@ class NumericModel(StateLayout):
 
     # ---------------------------------------------------------- dynamics
     def _dynamics(self, t, y):
+        if len(y) != self.n_states:
+            self._check_y(y)  # raises, naming the states
         return self._fn["dynamics"](t, y, self._p, self._r(t, y))
 
     def _assemble(self, mass, force, vel_B, acc_K, acc_f):
@@ -437,7 +488,15 @@ class NumericModel(StateLayout):
                 raise ValueError(f"expected {len(current)} constants "
                                  f"({', '.join(current)}), got {len(values)}")
             current = dict(zip(current, values))
-        data = dict(self._data, p=list(current.values()), constants=current)
+        bad = [f"{k} = {v}" for k, v in current.items() if not np.isfinite(v)]
+        if bad:
+            raise ModelError(f"constant(s) {', '.join(bad)} not finite; give finite values")
+        symbols = {s: current[str(s)] for _, _, mass, inertia in
+                   self._data.get("body_parameters", ())
+                   for s in (mass.free_symbols | (inertia.free_symbols if inertia is not None
+                                                  else set())) if str(s) in current}
+        data = dict(self._data, p=list(current.values()), constants=current,
+                    bodies=body_values(self._data.get("body_parameters", ()), symbols))
         clone = NumericModel(data)
         for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
             if hasattr(self, attr):
@@ -723,6 +782,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     if backend not in BACKENDS:
         raise ModelError(f"unknown backend {backend!r}; available: "
                          f"{', '.join(repr(b) for b in BACKENDS)}")
+    _check_mapping(constants, "constants", eom.constants)
+    _check_mapping(specified, "specified", eom.specified)
     prog = eom._program
     table = eom._table
     substitutions, providers = _resolve_specified(eom, specified)
@@ -783,7 +844,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             candidates |= symbols
             leaves |= symbols
     needed_consts = sorted((s for s in candidates if s in leaves), key=str)
-    values = _resolve_constants(candidates, constants, needed_consts)
+    values, unused = _resolve_constants(candidates, constants, needed_consts,
+                                        parameters=getattr(eom, "parameters", ()))
+    _check_finite({**values, **unused})
+    body_parameters_ = body_parameters(eom.bodies)
+    bodies = body_values(body_parameters_, {**values, **unused})
     const_syms = sorted(values, key=str)
 
     y_syms = list(table.q) + list(table.u)
@@ -826,11 +891,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
     if backend == "c":
-        from ._cbackend import (CompilerError, compiler_command, fingerprint, generate_c,
-                                load_module)
+        from ._cbackend import (compiler_command, fingerprint, generate_c, load_module,
+                                missing_compiler_text)
         if compiler_command() is None:
-            warnings.warn(f"{CompilerError('no C compiler found (set $CC or install gcc or clang)')}"
-                          "; using the numpy backend instead", RuntimeWarning, stacklevel=3)
+            warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",
+                          RuntimeWarning, stacklevel=3)
             backend = "numpy"
         else:
             cse = True if cse is None else cse
@@ -865,6 +930,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "rates_are_speeds": tuple(eom._qdot) == tuple(table.u),
         "identified_names": tuple(name for name, _ in eom._identified
                                   if name in eom._multiplier_names),
+        "body_parameters": body_parameters_,
+        "bodies": bodies,
     }
     model = NumericModel(data, module=c_module)
     # not pickled: the equations and exact input substitutions, for linearization

@@ -311,13 +311,43 @@ class Program:
         local.update((s, memo[s]) for s in self._free_intermediates(expr) if s in memo)
         return expr.xreplace(local)
 
-    def expand(self, expr):
-        """The explicit expression: every intermediate replaced by its value."""
+    def expand(self, expr, memo=None, evaluate=True):
+        """The explicit expression: every intermediate replaced by its value.
+
+        Each intermediate is expanded once, from its parents' expansions, so
+        the cost is linear in the number of intermediates (the result is a
+        SymPy expression whose equal subtrees are shared objects; as a tree it
+        can be far larger).  ``memo`` (a dict, kept by the caller) may be
+        seeded with ``{leaf symbol: replacement}`` to rewrite the leaves on
+        the way, e.g. back to the model's dynamic symbols; by default the
+        program's own memo (leaves unchanged) is used.  With ``evaluate=False``
+        sums, products and powers are built without SymPy's automatic
+        simplification (several times faster on large expressions; the
+        values are the same); a memo must not mix the two.
+        """
         expr = sm.sympify(expr)
-        memo = self._explicit
+        memo = self._explicit if memo is None else memo
+        if not evaluate:
+            for s in self.needed([expr], stop=lambda s: s in memo):
+                memo[s] = _rebuild(self._defs[s], memo)
+            return _rebuild(expr, memo)
         for s in self.needed([expr], stop=lambda s: s in memo):
-            memo[s] = self._defs[s].xreplace({p: memo[p] for p in self._parents[s]})
-        return expr.xreplace({s: memo[s] for s in self._free_intermediates(expr)})
+            rhs = self._defs[s]
+            memo[s] = rhs.xreplace({p: memo[p] for p in rhs.free_symbols if p in memo})
+        return expr.xreplace({p: memo[p] for p in expr.free_symbols if p in memo})
+
+    def tree_size(self, expr, memo=None):
+        """Number of nodes of ``expr`` as an explicit tree (:meth:`expand`).
+
+        Computed from the intermediates' definitions without expanding
+        (cost linear in the number of intermediates); ``memo`` may be kept by
+        the caller between calls.
+        """
+        memo = {} if memo is None else memo
+        expr = sm.sympify(expr)
+        for s in self.needed([expr], stop=lambda s: s in memo):
+            memo[s] = _node_count(self._defs[s], memo)
+        return _node_count(expr, memo)
 
     # --------------------------------------------------------------- numerics
     def shadow(self, exprs, seed):
@@ -342,6 +372,51 @@ class Program:
         for s in self.needed(exprs, stop=lambda s: s in values):
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
+
+    def insensitive(self, exprs, leaves, seeds=SAMPLE_SEEDS, step=1e-20, rtol=1e-10):
+        r"""Leaves each expression does not depend on, by complex-step derivatives.
+
+        For every leaf in ``leaves`` that an expression formally depends on,
+        :math:`\partial e/\partial x` is evaluated at the random points
+        ``seeds`` (:meth:`shadow`) by the complex step
+        :math:`\operatorname{Im} e(x + ih)/h`; leaves whose derivative
+        vanishes (relative to the expression's size) at every point are
+        returned.  A randomized test: use the result only after checking it
+        (e.g. that substituting a value for the leaves leaves the values
+        unchanged).
+
+        Returns
+        -------
+        list of set
+            One set of leaves per expression.
+        """
+        exprs = [sm.sympify(e) for e in exprs]
+        out = [set(self.deps(e)) & set(leaves) for e in exprs]
+        for seed in seeds:
+            base = self.shadow(exprs, seed)
+            values = self._shadow[seed]
+            needed = self.needed(exprs)
+            for x in set().union(*out) if out else ():
+                if abs(values[x].imag) > 0:
+                    continue
+                moved = {x: values[x] + 1j * step}
+
+                def value_of(s, moved=moved):
+                    found = moved.get(s)
+                    return values[s] if found is None else found
+
+                for s in needed:
+                    if x in self._deps[s]:
+                        moved[s] = _evaluate(self._defs[s], value_of)
+                for k, e in enumerate(exprs):
+                    if x not in out[k]:
+                        continue
+                    value = _evaluate(e, value_of)
+                    ok = (value == value and abs(base[k].imag) == 0
+                          and abs(value.imag) / step <= rtol * max(1.0, abs(base[k])))
+                    if not ok:
+                        out[k].discard(x)
+        return out
 
     # --------------------------------------------------------------- listing
     def listing(self, exprs, cse=True):
@@ -485,6 +560,28 @@ def total_derivative(expr, derivative_of):
     return sm.Add(*terms)
 
 
+def _rebuild(expr, values):
+    """``expr`` with symbols replaced from ``values``; sums, products and
+    powers unevaluated."""
+    if expr.is_Symbol:
+        return values.get(expr, expr)
+    if expr.is_Atom:
+        return expr
+    args = [_rebuild(a, values) for a in expr.args]
+    if expr.is_Add or expr.is_Mul or expr.is_Pow:
+        return expr.func(*args, evaluate=False)
+    return expr.func(*args)
+
+
+def _node_count(expr, sizes):
+    """Nodes of ``expr``'s tree, symbols in ``sizes`` counting as that many."""
+    if expr.is_Symbol:
+        return sizes.get(expr, 1)
+    if expr.is_Atom:
+        return 1
+    return 1 + sum(_node_count(a, sizes) for a in expr.args)
+
+
 def _evaluate(expr, value_of):
     """Numerical (complex) value of a SymPy expression; ``nan`` on failure."""
     try:
@@ -503,6 +600,9 @@ _FUNCS = {
 }
 
 
+_NUMBERS = {}  # SymPy number -> complex value (keyed by equality, not by hash)
+
+
 def fast_eval(expr, value_of, memo):
     """Evaluate a SymPy expression tree with complex floats.
 
@@ -512,16 +612,20 @@ def fast_eval(expr, value_of, memo):
     are distinct objects (common in SymPy's expanded expressions) are found
     without deep comparisons.  Unknown node types fall back to ``evalf``.
     The values serve randomized identity tests, for which a hash collision
-    (probability ~2**-64 per lookup) is immaterial.
+    (probability ~2**-64 per lookup) is immaterial; numbers, whose hashes
+    collide by design (``hash(-1) == hash(-2)``), are not memoized.
     """
+    if expr.is_Number:  # not memoized by hash: hash(-1) == hash(-2) in CPython
+        value = _NUMBERS.get(expr)
+        if value is None:
+            value = _NUMBERS[expr] = complex(expr)
+        return value
     key = hash(expr)
     found = memo.get(key)
     if found is not None:
         return found
     if expr.is_Symbol:
         value = value_of(expr)
-    elif expr.is_Number:
-        value = complex(expr)
     elif expr.is_Add:
         value = sum(fast_eval(a, value_of, memo) for a in expr.args)
     elif expr.is_Mul:
@@ -550,14 +654,30 @@ def fast_eval(expr, value_of, memo):
     return value
 
 
+class _Sampler:
+    """Callable giving each symbol a reproducible value in [0.5, 1.5); picklable."""
+
+    __slots__ = ("rng", "cache")
+
+    def __init__(self, seed):
+        self.rng = random.Random(seed)
+        self.cache = {}
+
+    def __call__(self, symbol):
+        value = self.cache.get(symbol)
+        if value is None:
+            value = self.cache[symbol] = complex(self.rng.uniform(0.5, 1.5))
+        return value
+
+    def __getstate__(self):
+        return self.rng.getstate(), self.cache
+
+    def __setstate__(self, state):
+        self.rng = random.Random()
+        self.rng.setstate(state[0])
+        self.cache = state[1]
+
+
 def random_sampler(seed):
     """A sampler giving each symbol a reproducible value in [0.5, 1.5)."""
-    rng = random.Random(seed)
-    cache = {}
-
-    def sample(symbol):
-        if symbol not in cache:
-            cache[symbol] = complex(rng.uniform(0.5, 1.5))
-        return cache[symbol]
-
-    return sample
+    return _Sampler(seed)

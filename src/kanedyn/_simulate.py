@@ -12,41 +12,25 @@ r"""Simulation on SciPy's ``solve_ivp`` with constraint handling.
 
 from __future__ import annotations
 
+import inspect
+import numbers
+import warnings
+
 import numpy as np
 from scipy.integrate import solve_ivp
+from scipy.integrate._ivp.rk import RungeKutta
 
-from ._errors import ModelError
+from ._diagnosis import diagnose
+from ._errors import ModelError, OptionError, SimulationInterrupted
 from ._progress import as_progress
 from ._results import SimulationResult
+from ._run_guard import INTERRUPTED, Integrand, RunGuard, guarded_method, solver_class
 
-__all__ = ["simulate"]
+__all__ = ["simulate", "COMPILED_METHODS", "TrustWarning"]
 
 
-class _Integrand:
-    """``rhs`` wrapper: counts, progress, and non-finite results as data."""
-
-    def __init__(self, model, t_span, progress):
-        self.model = model
-        self.failure = None
-        self.progress = progress
-        self.t0, self.t1 = t_span
-        self.n = model.n_states
-
-    def __call__(self, t, y):
-        try:
-            out = self.model.rhs(t, y)
-        except np.linalg.LinAlgError as exc:
-            if self.failure is None:
-                self.failure = f"singular system at t={t:.6g} ({exc})"
-            return np.full(self.n, np.nan)
-        if not np.all(np.isfinite(out)):
-            if self.failure is None:
-                bad = [self.model.state_names[i] for i in np.flatnonzero(~np.isfinite(out))]
-                self.failure = (f"non-finite derivative of {', '.join(bad)} at "
-                                f"t={t:.6g}")
-        if self.progress.enabled and self.t1 != self.t0:
-            self.progress.update("simulating", (t - self.t0) / (self.t1 - self.t0))
-        return out
+class TrustWarning(RuntimeWarning):
+    """A run that ended with ``success=True`` whose result should not be trusted."""
 
 
 def _drift_event(model, tol):
@@ -59,6 +43,9 @@ def _drift_event(model, tol):
 
 COMPILED_METHODS = ("RK45", "Rosenbrock23")
 _COMPILED_OPTIONS = {"max_step", "first_step"}
+_EXPLICIT = {"RK23": 3, "RK45": 6, "DOP853": 12}  # evaluations per step
+_MAX_STALLED_PROJECTIONS = 50  # projections in a row without progress in time
+_ENERGY_GROWTH = 100.0  # energy change / initial energy scale that warrants a warning
 
 
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
@@ -70,7 +57,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     ----------
     model : NumericModel
     t_span : (float, float)
-        Start and end time, s.
+        Start and end time, s (finite; the end may lie before the start).
     y0 : array_like or dict
         Initial state ``[q, u]``, or ``{symbol or name: value}`` giving at
         least every independent coordinate and speed.  Dependent values are
@@ -79,12 +66,15 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         Any ``solve_ivp`` method (``"RK45"``, ``"DOP853"``, ``"Radau"``,
         ``"BDF"``, ``"LSODA"``, ...).
     t_eval : array_like, optional
-        Output times; default: the integrator's steps.
+        Output times within ``t_span``, ordered in the direction of
+        integration; default: the integrator's steps.
     rtol, atol : float
-        Integration tolerances.
+        Integration tolerances (``rtol > 0``; ``atol > 0``, a number or one
+        per state).
     events : callable or list of callables, optional
-        ``event(t, y)`` functions with optional ``terminal`` and ``direction``
-        attributes, exactly as for ``solve_ivp``.
+        ``event(t, y)`` functions returning one number, with optional
+        ``terminal`` and ``direction`` attributes, exactly as for
+        ``solve_ivp``.
     dense_output : bool
         Keep a continuous solution (``result.sol(t)``).
     project : bool, optional
@@ -118,18 +108,48 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     Returns
     -------
     SimulationResult
+        A run that cannot go on (a singular mass matrix, a non-finite
+        constant, input or state, a step size that collapses) ends with
+        ``success=False``, a message naming the cause, and everything computed
+        up to then.  A run with an explicit method whose energy grows by
+        orders of magnitude keeps ``success=True`` but says so in its
+        message (and warns with :class:`TrustWarning`).
+
+    Raises
+    ------
+    OptionError
+        An option the integrators cannot honour (tolerances, time span,
+        ``t_eval``, ``max_step``, events), naming it.
+    SimulationInterrupted
+        On Ctrl-C; its ``result`` holds the partial result (``success=False``,
+        ``message="interrupted"``).  A subclass of ``KeyboardInterrupt``.
     """
-    t0, t1 = (float(v) for v in t_span)
+    t0, t1 = _check_span(t_span)
+    rtol, atol = _check_tolerances(rtol, atol, model.n_states)
+    t_eval = _check_t_eval(t_eval, t0, t1)
+    _check_step_options(options, t0, t1)
+    if not (isinstance(method, str) and method == "Rosenbrock23"):
+        solver_class(method)  # refuse unknown methods before any work
     progress = as_progress(progress)
     y_init = model.state(y0, t0)
-    user_events = [] if events is None else (
-        list(events) if isinstance(events, (list, tuple)) else [events])
+    user_events = _check_events(events, t0, y_init)
     constrained = (model.n_q_dep + model.n_u_dep) > 0
     scheme = getattr(model, "scheme", None)
     if project is None:
         project = scheme.project if scheme is not None else True
     tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
-    t_eval = None if t_eval is None else np.asarray(t_eval, dtype=float)
+    common = dict(model=model, initial_state=y_init, constraint_forces=constraint_forces)
+    method_name = method if isinstance(method, str) else getattr(method, "__name__",
+                                                                  str(method))
+    cause = _initial_failure(model, t0, y_init)
+    if cause:
+        return SimulationResult.build(
+            t=np.array([t0]), y=y_init[:, None].copy(), status=-1,
+            message=f"cannot start: {cause}",
+            t_events=[np.zeros(0) for _ in user_events],
+            y_events=[np.zeros((0, model.n_states)) for _ in user_events],
+            dense_segments=None, counters={"nfev": 1, "njev": 0, "nlu": 0}, projections=0,
+            method=method_name, **common)
     if model.contacts:
         if backend == "c" or dense_output:
             raise ModelError("models with contacts are integrated segment by segment on "
@@ -139,28 +159,48 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                                        user_events, constraint_forces, progress, options)
     if _use_compiled(model, method, backend, options):
         progress.stage(f"integrating with the compiled {method} loop")
-        return _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
-                                  user_events, dense_output, tol if constrained and project
-                                  else 0.0, constraint_forces, options)
-    all_events = list(user_events)
-    if constrained and project:
-        all_events.append(_drift_event(model, tol))
+        result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                    user_events, dense_output, tol if constrained and project
+                                    else 0.0, constraint_forces, options)
+    else:
+        guard = RunGuard(model)
+        with guard.catching_interrupts():
+            result = _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                     user_events, dense_output, project and constrained,
+                                     tol, progress, guard, options, common, method_name)
+    progress.done()
+    if result.message == INTERRUPTED:
+        raise SimulationInterrupted(result)
+    return _with_trust_notes(result, _explicit_stages(method))
 
-    integrand = _Integrand(model, (t0, t1), progress)
+
+def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_events,
+                    dense_output, project, tol, progress, guard, options, common,
+                    method_name):
+    """The solve_ivp path: segments between drift projections."""
+    scheme = getattr(model, "scheme", None)
+    all_events = list(user_events)
+    drift_index = None
+    if project:
+        drift_index = len(all_events)
+        all_events.append(_drift_event(model, tol))
+    direction = 1.0 if t1 >= t0 else -1.0
+    integrand = Integrand(model, (t0, t1), progress, guard)
+    solver = guarded_method(method, guard)
     ts, ys, segments = [], [], []
     t_events = [[] for _ in user_events]
     y_events = [[] for _ in user_events]
     counters = {"nfev": 0, "njev": 0, "nlu": 0}
-    projections = 0
+    projections = stalled = 0
     t_start, y_start = t0, y_init
     status, message = 0, "the integration reached the end of the interval"
     first = True
     while True:
         seg_eval = None
         if t_eval is not None:
-            keep = (t_eval >= t_start) if first else (t_eval > t_start)
-            seg_eval = t_eval[keep & (t_eval <= t1)]
-        sol = solve_ivp(integrand, (t_start, t1), y_start, method=method,
+            ahead = direction * (t_eval - t_start)
+            seg_eval = t_eval[ahead >= 0] if first else t_eval[ahead > 0]
+        sol = solve_ivp(integrand, (t_start, t1), y_start, method=solver,
                         t_eval=seg_eval, events=all_events or None,
                         dense_output=dense_output, rtol=rtol, atol=atol, **options)
         for key in counters:
@@ -179,23 +219,29 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                 t_events[i].extend(sol.t_events[i])
                 y_events[i].extend(sol.y_events[i])
         first = False
-        if sol.status == -1 or integrand.failure is not None:
-            status = -1
-            message = integrand.failure or sol.message
-            if integrand.failure and sol.status != -1:
-                message += " (the integrator continued; results after it are unreliable)"
+        if sol.status == -1:
+            status, message = -1, guard.stop_reason or sol.message
             break
         if sol.status == 1:
+            t_end = _terminal_time(all_events, sol.t_events, direction)
             fired_user = [i for i, ev in enumerate(user_events)
                           if getattr(ev, "terminal", False) and len(sol.t_events[i])
-                          and sol.t_events[i][-1] == sol.t[-1]]
-            if fired_user or not (constrained and project):
-                status = 1
-                message = "a termination event occurred"
+                          and sol.t_events[i][-1] == t_end]
+            if fired_user or drift_index is None:
+                status, message = 1, "a termination event occurred"
                 break
-            # drift event: project and restart
-            t_start = float(sol.t_events[-1][-1])
-            y_drift = sol.y_events[-1][-1]
+            # the drift event: project and restart
+            t_drift = float(sol.t_events[drift_index][-1])
+            stalled = stalled + 1 if direction * (t_drift - t_start) <= 1e-12 * max(
+                abs(t1 - t0), 1e-300) else 0
+            if stalled > _MAX_STALLED_PROJECTIONS:
+                status = -1
+                message = (f"constraint drift returns at once after every projection at "
+                           f"t={t_drift:.6g}: the constraints cannot be kept there "
+                           "(a singular or ill-conditioned constraint Jacobian?)")
+                break
+            t_start = t_drift
+            y_drift = sol.y_events[drift_index][-1]
             y_start = (scheme.project_state(model, t_start, y_drift) if scheme is not None
                        else model.consistent_state(t_start, y_drift))
             projections += 1
@@ -205,17 +251,219 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                 ys.append(y_start[:, None])
             continue
         break
-    progress.done()
     t = np.concatenate(ts) if ts else np.zeros(0)
     y = np.concatenate(ys, axis=1) if ys else np.zeros((model.n_states, 0))
     return SimulationResult.build(
-        model=model, t=t, y=y, status=status, message=message,
+        t=t, y=y, status=status, message=message,
         t_events=[np.asarray(v) for v in t_events],
         y_events=[np.asarray(v).reshape(-1, model.n_states) for v in y_events],
         dense_segments=segments if dense_output else None, counters=counters,
-        projections=projections, initial_state=y_init,
-        constraint_forces=constraint_forces,
-        method=method if isinstance(method, str) else getattr(method, "__name__", str(method)))
+        projections=projections, method=method_name, **common)
+
+
+def _terminal_time(events, t_events, direction):
+    """Time at which a terminal event ended a solve_ivp segment."""
+    times = [t_events[i][-1] for i, ev in enumerate(events)
+             if getattr(ev, "terminal", False) and len(t_events[i])]
+    return max(times, key=lambda v: direction * v)
+
+
+# ----------------------------------------------------------------- checks
+def _check_span(t_span):
+    try:
+        t0, t1 = (float(v) for v in t_span)
+    except (TypeError, ValueError):
+        raise OptionError(f"t_span must be two numbers (start, end) in s, got "
+                          f"{t_span!r}") from None
+    if not (np.isfinite(t0) and np.isfinite(t1)):
+        raise OptionError(f"t_span must be finite, got ({t0}, {t1})")
+    return t0, t1
+
+
+def _check_tolerances(rtol, atol, n):
+    try:
+        rtol = float(rtol)
+    except (TypeError, ValueError):
+        raise OptionError(f"rtol must be a number, got {rtol!r}") from None
+    if not (np.isfinite(rtol) and rtol > 0):
+        raise OptionError(f"rtol must be a positive number, got {rtol}")
+    atol_arr = np.asarray(atol, dtype=float)
+    if atol_arr.ndim > 1 or (atol_arr.ndim == 1 and atol_arr.shape != (n,)):
+        raise OptionError(f"atol must be a number or one per state ({n}), got shape "
+                          f"{atol_arr.shape}")
+    if not np.all(np.isfinite(atol_arr)) or np.any(atol_arr <= 0):
+        raise OptionError(f"atol must be positive and finite, got {atol}")
+    return rtol, (float(atol_arr) if atol_arr.ndim == 0 else atol_arr)
+
+
+def _check_t_eval(t_eval, t0, t1):
+    if t_eval is None:
+        return None
+    t_eval = np.atleast_1d(np.asarray(t_eval, dtype=float))
+    if t_eval.ndim != 1:
+        raise OptionError(f"t_eval must be one-dimensional, got shape {t_eval.shape}")
+    if not np.all(np.isfinite(t_eval)):
+        raise OptionError("t_eval contains values that are not finite")
+    lo, hi = min(t0, t1), max(t0, t1)
+    outside = t_eval[(t_eval < lo) | (t_eval > hi)]
+    if outside.size:
+        raise OptionError(f"{outside.size} of the {t_eval.size} t_eval points lie outside "
+                          f"t_span ({t0:g}, {t1:g}), e.g. {outside[0]:g}; give output "
+                          "times within the span")
+    steps = np.diff(t_eval) * (1.0 if t1 >= t0 else -1.0)
+    if np.any(steps <= 0):
+        order = "increasing" if t1 >= t0 else "decreasing (integration runs backward)"
+        raise OptionError(f"t_eval must be strictly {order} for t_span ({t0:g}, {t1:g})")
+    return t_eval
+
+
+def _check_step_options(options, t0, t1):
+    for key in ("max_step", "first_step", "min_step"):
+        if key not in options or options[key] is None:
+            continue
+        value = options[key]
+        if not isinstance(value, numbers.Real) or np.isnan(value):
+            raise OptionError(f"{key} must be a number, got {value!r}")
+        if key == "min_step" and value < 0 or key != "min_step" and value <= 0:
+            raise OptionError(f"{key} must be positive, got {value}")
+    first = options.get("first_step")
+    if first is not None and first > abs(t1 - t0) > 0:
+        raise OptionError(f"first_step {first} is longer than t_span ({t0:g}, {t1:g})")
+
+
+def _check_events(events, t0, y0):
+    """Events as a list, each checked once at the initial state."""
+    if events is None:
+        return []
+    events = list(events) if isinstance(events, (list, tuple)) else [events]
+    for k, event in enumerate(events):
+        name = getattr(event, "__name__", None) or f"events[{k}]"
+        if not callable(event):
+            raise OptionError(f"events[{k}] is not callable: {event!r}")
+        try:
+            inspect.signature(event).bind(t0, y0)
+        except TypeError:
+            raise OptionError(f"event {name} must take (t, y), as for solve_ivp; its "
+                              f"signature is {inspect.signature(event)}") from None
+        except ValueError:  # builtins without a signature: try them
+            pass
+        value = event(t0, y0.copy())
+        if np.ndim(value) != 0:
+            raise OptionError(f"event {name} returned an array of shape {np.shape(value)} "
+                              "at the initial state; an event returns one number (give "
+                              "one event function per component)")
+        try:
+            float(value)
+        except (TypeError, ValueError):
+            raise OptionError(f"event {name} returned {value!r}, not a number") from None
+        direction = getattr(event, "direction", 0)
+        if not isinstance(direction, numbers.Real) or np.isnan(direction):
+            raise OptionError(f"event {name}: direction must be a number (-1, 0, 1), got "
+                              f"{direction!r}")
+    return events
+
+
+def _initial_failure(model, t0, y):
+    """Why the derivative at the initial state is not finite, or ``""``."""
+    try:
+        f = model.rhs(t0, y)
+    except np.linalg.LinAlgError:
+        f = None
+    if f is not None and np.all(np.isfinite(f)):
+        return ""
+    return diagnose(model, t0, y) or (
+        "the state derivative at the initial state is not finite (" + ", ".join(
+            name for name, v in zip(model.state_names, f) if not np.isfinite(v)) + ")"
+        if f is not None else "the equations are singular at the initial state")
+
+
+# ---------------------------------------------------------- trust notes
+def _explicit_stages(method):
+    """Right-hand-side evaluations per step of an explicit method, else 0."""
+    if isinstance(method, str):
+        return _EXPLICIT.get(method, 0)
+    if isinstance(method, type) and issubclass(method, RungeKutta):
+        return method.n_stages + 1
+    return 0
+
+
+def _with_trust_notes(result, stages):
+    """Say in the message (and warn) when a successful run cannot be trusted."""
+    if not result.success or not stages:
+        return result
+    note = _energy_growth_note(result, stages)
+    if not note:
+        return result
+    warnings.warn(note, TrustWarning, stacklevel=3)
+    result.__dict__["message"] = f"{result.message}; warning: {note}"
+    return result
+
+
+def _energy_growth_note(result, stages):
+    r"""A warning when an explicit run created energy on a stiff system, else ``""``.
+
+    Both must hold: the total energy changes by more than ``_ENERGY_GROWTH``
+    times the energy exchanged early in the run (the first 5 % of it), and
+    the steps were at the explicit method's stability limit,
+    :math:`\rho(\partial f/\partial y)\,h \ge 0.3` at the start or where
+    the energy changed most (mean step :math:`h`).
+    """
+    model = result.model
+    t, y = result.t, result.y
+    if t.size < 3 or not (model.has_potential or not model.has_loads):
+        return ""
+    columns = np.unique(np.linspace(0, t.size - 1, min(t.size, 2000)).astype(int))
+    ke = np.empty(columns.size)
+    pe = np.zeros(columns.size)
+    with np.errstate(all="ignore"):
+        for j, k in enumerate(columns):
+            ke[j], pe[j] = model.energies(t[k], y[:, k])
+        if not model.has_potential:
+            pe[:] = 0.0
+        energy = ke + pe
+        change = np.abs(energy - energy[0])
+    change[~np.isfinite(change)] = np.inf
+    span = abs(t[-1] - t[0])
+    early = np.abs(t[columns] - t[0]) <= 0.05 * span
+    early[:3] = True
+    scale = max(np.max(np.abs(ke[early])), np.max(np.abs(pe[early] - pe[0])))
+    if not np.isfinite(scale):
+        return ""
+    k = int(np.argmax(change))
+    growth = change[k] / scale if scale > 0 else np.inf
+    if growth < _ENERGY_GROWTH:
+        return ""
+    step = span / max(result.nfev / stages, 1.0)
+    radius = max(_spectral_radius(model, t[0], y[:, 0]),
+                 _spectral_radius(model, t[columns[k]], y[:, columns[k]]))
+    if not radius * step >= 0.3:
+        return ""
+    return (f"the total energy changed by {growth:.3g} times the energy exchanged early in "
+            f"the run (from {energy[0]:.6g} to {energy[k]:.6g} J by t={t[columns[k]]:.6g} s) "
+            f"with the explicit method {result.method} at steps of about {step:.3g} s, "
+            f"while the fastest mode's rate is {radius:.3g} 1/s: the system is stiff and "
+            "the result unreliable; use method='Radau' or 'BDF' (or 'Rosenbrock23' on a "
+            "C model) or a tighter rtol")
+
+
+def _spectral_radius(model, t, y):
+    """Largest eigenvalue magnitude of the finite-difference Jacobian (nan if none)."""
+    with np.errstate(all="ignore"):
+        if not np.all(np.isfinite(y)):
+            return np.nan
+        try:
+            f = model.rhs(t, y)
+            jac = np.empty((y.size, y.size))
+            for j in range(y.size):
+                d = 1.5e-8 * max(abs(y[j]), 1.0)
+                yp = y.copy()
+                yp[j] += d
+                jac[:, j] = (model.rhs(t, yp) - f) / d
+            if not np.all(np.isfinite(jac)):
+                return np.nan
+            return float(np.max(np.abs(np.linalg.eigvals(jac))))
+        except (np.linalg.LinAlgError, ValueError):
+            return np.nan
 
 
 def _use_compiled(model, method, backend, options):
@@ -230,16 +478,16 @@ def _use_compiled(model, method, backend, options):
     if unsupported:
         reasons.append(f"option(s) {', '.join(sorted(unsupported))} are solve_ivp-only")
     if backend == "c" and reasons:
-        raise ValueError("the compiled integration loop cannot be used: " + "; ".join(reasons))
+        raise OptionError("the compiled integration loop cannot be used: " + "; ".join(reasons))
     if backend == "scipy":
         if method == "Rosenbrock23":
-            raise ValueError("method 'Rosenbrock23' is only available in the compiled "
+            raise OptionError("method 'Rosenbrock23' is only available in the compiled "
                              "loop (a model with backend='c' and backend='c' here)")
         return False
     if backend not in (None, "c", "scipy"):
-        raise ValueError(f"backend must be None, 'scipy' or 'c', not {backend!r}")
+        raise OptionError(f"backend must be None, 'scipy' or 'c', not {backend!r}")
     if method == "Rosenbrock23" and reasons:
-        raise ValueError("method 'Rosenbrock23' needs the compiled loop: " + "; ".join(reasons))
+        raise OptionError("method 'Rosenbrock23' needs the compiled loop: " + "; ".join(reasons))
     return not reasons
 
 
@@ -284,7 +532,11 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
                              float(options.get("first_step") or 0.0), method,
                              events if events else None, float(project_tol), bool(dense))
     status = out["status"]
-    message = out["message"]
+    message = "a termination event occurred" if status == 1 else out["message"]
+    if out["interrupted"]:
+        message = INTERRUPTED
+    elif status == -1 and "t_bad" in out:
+        message = diagnose(model, out["t_bad"], out["y_bad"]) or message
     dense_sol = None
     if dense and len(out["dense_th"]):
         dense_sol = _CompiledDense(out["dense_th"], out["dense_y"], out["dense_q"], method)

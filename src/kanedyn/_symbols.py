@@ -8,6 +8,8 @@ way out (:meth:`SymbolTable.external`).
 
 from __future__ import annotations
 
+from functools import partial
+
 import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import dynamicsymbols
@@ -152,7 +154,7 @@ class SymbolTable:
         self._int[ext] = int_
         self._ext[int_] = ext
         if self.on_new_specified is not None:
-            self.on_new_specified(int_, lambda: self._specified(func, order + 1))
+            self.on_new_specified(int_, partial(self._specified, func, order + 1))
         return int_
 
     # -------------------------------------------------------------- convert

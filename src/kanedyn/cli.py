@@ -21,7 +21,8 @@ import numpy as np
 import sympy as sm
 
 from . import __version__
-from ._errors import KanedynError
+from ._errors import KanedynError, SimulationInterrupted
+from ._number_text import parse_number
 from ._progress import Progress
 from ._symbols import name_of
 from .models import REGISTRY, build
@@ -38,20 +39,33 @@ def _parse_sets(model_name, pairs):
             raise KanedynError(f"--set expects name=value, got {pair!r}")
         key, value = (s.strip() for s in pair.split("=", 1))
         if key in option_types:
-            kind = option_types[key]
-            if kind is bool:
-                if value.lower() not in ("true", "false", "1", "0", "yes", "no"):
-                    raise KanedynError(f"option {key} of {model_name} is true or false, "
-                                       f"got {value!r}")
-                options[key] = value.lower() in ("true", "1", "yes")
-            else:
-                options[key] = kind(value)
+            options[key] = _option_value(model_name, key, option_types[key], value)
         else:
-            try:
-                rest[key] = float(sm.sympify(value))
-            except (TypeError, ValueError, sm.SympifyError):
-                raise KanedynError(f"--set {key}: {value!r} is not a number") from None
+            rest[key] = _finite(parse_number(value, f"--set {key}"), key, value)
     return options, rest
+
+
+def _finite(number, key, text):
+    if not np.isfinite(number):
+        raise KanedynError(f"--set {key}: {text!r} is not a finite number")
+    return number
+
+
+def _option_value(model_name, key, kind, text):
+    """A model option from its text (never evaluated as code)."""
+    what = f"option {key} of {model_name}"
+    if kind is bool:
+        if text.lower() not in ("true", "false", "1", "0", "yes", "no"):
+            raise KanedynError(f"{what} is true or false, got {text!r}")
+        return text.lower() in ("true", "1", "yes")
+    if kind is int:
+        try:
+            return int(text)
+        except ValueError:
+            raise KanedynError(f"{what} is a whole number, got {text!r}") from None
+    if kind is float:
+        return _finite(parse_number(text, what), key, text)
+    return text
 
 
 def _split_values(definition, model, values):
@@ -148,10 +162,18 @@ def cmd_run(args):
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end
     progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
-    res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
+    try:
+        res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
+    except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
+        progress.done()
+        res = stop.result
     summary = _write_run(definition, eom, model, res, Path(args.out), progress)
     _print_summary(summary)
     _print_identified(model, res)
+    if res.message == "interrupted":
+        print(f"kanedyn: interrupted at t = {res.t[-1]:g} s; wrote the partial result",
+              file=sys.stderr)
+        return 130
     return 0 if res.success else 1
 
 
@@ -393,6 +415,9 @@ def main(argv=None):
     except BrokenPipeError:  # output piped into e.g. head, which closed early
         sys.stderr.close()
         return 0
+    except KeyboardInterrupt:
+        print("kanedyn: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

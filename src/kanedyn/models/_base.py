@@ -66,13 +66,6 @@ class ModelDefinition:
         values.update(self._constant_overrides(constants or {}))
         inputs = dict(self.specified)
         inputs.update(specified or {})
-        # parameters that drop out of the equations (g for a single link turning
-        # about the vertical) are not passed on; eom.numeric rejects unknown keys
-        used = set(eom.constants)
-        for value in inputs.values():
-            if isinstance(value, sm.Basic):
-                used |= value.free_symbols
-        values = {k: v for k, v in values.items() if k in used}
         return eom.numeric(constants=values, specified=inputs, **options)
 
     def _constant_overrides(self, overrides):

@@ -1,0 +1,209 @@
+r"""Physical plausibility of bodies: masses and inertias.
+
+A body's mass must be positive and its central inertia matrix symmetric and
+positive semidefinite; when all three principal moments are positive they
+must satisfy the triangle inequality :math:`I_1 + I_2 \ge I_3` (a solid's
+moments do).  Planar shorthand such as ``inertia(A, 0, 0, Izz)``, with a
+principal moment of zero, is accepted: only the triangle check is skipped.
+
+Checks run twice: on the numbers written into the model when it is derived
+(:func:`check_declared_bodies`), and on the values of the constants when a
+numerical model is made (:func:`body_values`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ._errors import ModelError
+
+__all__ = ["check_declared_bodies", "body_parameters", "body_values", "BodyValues"]
+
+_RTOL = 1e-9  # relative tolerance of the symmetry and triangle checks
+
+
+def _kind(body):
+    return "particle" if isinstance(body, me.Particle) else "rigid body"
+
+
+def check_declared_bodies(bodies):
+    """Refuse bodies listed twice and impossible numbers in masses and inertias.
+
+    Raises
+    ------
+    ModelError
+        Naming the body.
+    """
+    seen_ids, seen_names = set(), {}
+    for body in bodies:
+        if id(body) in seen_ids:
+            raise ModelError(f"body {body.name!r} is listed twice in bodies")
+        seen_ids.add(id(body))
+        if body.name in seen_names:
+            raise ModelError(f"two bodies are named {body.name!r}; give each body its own "
+                             "name (results and reports refer to bodies by name)")
+        seen_names[body.name] = body
+    for name, kind, mass, inertia in body_parameters(bodies):
+        m = _number(mass)
+        if m is not None:
+            _check_mass(name, kind, m, declared=True)
+        if inertia is not None and all(_number(e) is not None for e in inertia):
+            _check_inertia(name, np.array([[float(e) for e in row]
+                                           for row in inertia.tolist()]))
+
+
+def body_parameters(bodies):
+    """``[(name, kind, mass, central inertia)]`` as SymPy expressions.
+
+    The central inertia is a 3 x 3 ``sympy.Matrix`` in the body's frame
+    (``None`` for particles).  Plain SymPy data, so it pickles.
+    """
+    out = []
+    for body in bodies:
+        mass = sm.sympify(body.mass)
+        inertia = None
+        if isinstance(body, me.RigidBody):
+            try:
+                inertia = sm.Matrix(body.central_inertia.to_matrix(body.frame))
+            except (ValueError, TypeError):  # inertia point unrelated to the mass centre
+                inertia = None
+        out.append((body.name, _kind(body), mass, inertia))
+    return out
+
+
+class BodyValues:
+    """Numerical mass and principal moments of one body.
+
+    Attributes
+    ----------
+    name : str
+    kind : {"particle", "rigid body"}
+    mass : float or None
+        kg; ``None`` when it depends on more than constants.
+    moments : ndarray, shape (3,), or None
+        Principal central moments of inertia, kg m^2, ascending.
+    """
+
+    __slots__ = ("name", "kind", "mass", "moments")
+
+    def __init__(self, name, kind, mass, moments):
+        self.name, self.kind, self.mass, self.moments = name, kind, mass, moments
+
+    def __getstate__(self):
+        return (self.name, self.kind, self.mass, self.moments)
+
+    def __setstate__(self, state):
+        self.name, self.kind, self.mass, self.moments = state
+
+    @property
+    def massless(self):
+        """True when the body has no mass and no inertia to give the motion."""
+        no_mass = self.mass is not None and self.mass == 0.0
+        no_inertia = self.moments is None or bool(np.all(self.moments == 0.0))
+        return no_mass and no_inertia
+
+    def __repr__(self):
+        return f"BodyValues({self.name!r}, mass={self.mass}, moments={self.moments})"
+
+
+def body_values(parameters, values):
+    """Evaluate and check masses and inertias at given constants.
+
+    Parameters
+    ----------
+    parameters : list
+        From :func:`body_parameters`.
+    values : dict
+        ``{Symbol: float}`` of the constants.
+
+    Returns
+    -------
+    list of BodyValues
+
+    Raises
+    ------
+    ModelError
+        A negative mass, or an inertia that is not symmetric, is indefinite or
+        violates the triangle inequality; the message names the body and the
+        constants it depends on.
+    """
+    out = []
+    for name, kind, mass, inertia in parameters:
+        m = _number(mass.xreplace(values))
+        matrix = None
+        if inertia is not None:
+            entries = [_number(e) for e in inertia.xreplace(values)]
+            if all(e is not None for e in entries):
+                matrix = np.array(entries).reshape(3, 3)
+        depends = sorted({str(s) for s in _symbols_of(mass, inertia) if s in values})
+        given = f" (with {', '.join(f'{s} = {values[_by_name(values, s)]:g}' for s in depends)})" \
+            if depends else ""
+        if m is not None:
+            _check_mass(name, kind, m, given=given)
+        moments = None
+        if matrix is not None:
+            moments = _check_inertia(name, matrix, given)
+        out.append(BodyValues(name, kind, m, moments))
+    return out
+
+
+def _by_name(values, name):
+    return next(s for s in values if str(s) == name)
+
+
+def _symbols_of(mass, inertia):
+    found = set(mass.free_symbols)
+    if inertia is not None:
+        found |= inertia.free_symbols
+    return found
+
+
+def _number(expr):
+    """The float value of a constant expression, else ``None``."""
+    expr = sm.sympify(expr)
+    if expr.free_symbols or expr.has(sm.Function):
+        return None
+    try:
+        value = complex(expr)
+    except (TypeError, ValueError):
+        return None
+    return value.real if value.imag == 0 else None
+
+
+def _check_mass(name, kind, mass, declared=False, given=""):
+    """A mass must be finite and not negative; a particle declared with a mass of
+    exactly zero adds nothing but a singular mass matrix."""
+    if not np.isfinite(mass):
+        raise ModelError(f"{kind} {name!r}: its mass is {mass}{given}; give a finite mass")
+    if mass < 0:
+        raise ModelError(f"{kind} {name!r} has a negative mass, {mass:g} kg{given}")
+    if declared and mass == 0 and kind == "particle":
+        raise ModelError(f"particle {name!r} is declared with zero mass: it adds nothing to "
+                         "the equations of motion except a speed without inertia; give it "
+                         "a mass or leave it out of bodies")
+
+
+def _check_inertia(name, matrix, given=""):
+    """Principal moments of a checked central inertia matrix."""
+    scale = max(float(np.max(np.abs(matrix))), 1e-300)
+    if not np.all(np.isfinite(matrix)):
+        raise ModelError(f"rigid body {name!r}: its inertia has non-finite entries{given}")
+    if np.max(np.abs(matrix - matrix.T)) > _RTOL * scale:
+        raise ModelError(f"rigid body {name!r}: its inertia dyadic is not symmetric "
+                         f"({np.round(matrix, 6).tolist()}){given}")
+    moments = np.linalg.eigvalsh(0.5 * (matrix + matrix.T))
+    if moments[0] < -_RTOL * scale:
+        raise ModelError(f"rigid body {name!r}: its central inertia is not positive "
+                         f"semidefinite (principal moments {_fmt(moments)} kg m^2){given}")
+    moments = np.where(np.abs(moments) <= _RTOL * scale, 0.0, moments)
+    if moments[0] > 0 and moments[0] + moments[1] < moments[2] * (1 - _RTOL):
+        raise ModelError(f"rigid body {name!r}: its principal moments of inertia "
+                         f"{_fmt(moments)} kg m^2 violate the triangle inequality "
+                         f"(I1 + I2 >= I3 for every solid){given}")
+    return moments
+
+
+def _fmt(values):
+    return "(" + ", ".join(f"{v:.6g}" for v in values) + ")"

@@ -1,0 +1,166 @@
+"""What may end a run early, and how it ends without losing what was computed.
+
+A run on SciPy's ``solve_ivp`` ends early when
+
+* the right-hand side is not finite (a singular mass matrix, a ``nan``
+  constant or input): the integrand records the state and returns ``nan``;
+* Ctrl-C is pressed: while a run is under way a first SIGINT only raises a
+  flag (a second one interrupts at once, as usual).
+
+In both cases the solver, wrapped by :func:`guarded_method`, reports a failed
+step at its next step, so ``solve_ivp`` returns normally with everything it
+had accepted up to then, instead of looping on ``nan`` step sizes or
+discarding its work in an exception.
+"""
+
+from __future__ import annotations
+
+import signal
+import threading
+from contextlib import contextmanager
+
+import numpy as np
+from scipy.integrate import OdeSolver
+from scipy.integrate._ivp.ivp import METHODS as SCIPY_METHODS
+
+from ._diagnosis import diagnose
+from ._errors import OptionError
+
+__all__ = ["RunGuard", "Integrand", "guarded_method", "INTERRUPTED"]
+
+INTERRUPTED = "interrupted"
+
+
+class RunGuard:
+    """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.
+
+    Attributes
+    ----------
+    failure_state : (float, ndarray) or None
+        Time and state of the first non-finite derivative.
+    interrupted : bool
+    """
+
+    def __init__(self, model):
+        self.model = model
+        self.failure_state = None
+        self.failure_text = None
+        self.interrupted = False
+
+    def fail(self, t, y, text=None):
+        """Record the first failure at ``(t, y)`` (``text`` overrides the diagnosis)."""
+        if self.failure_state is None:
+            self.failure_state = (float(t), np.array(y, dtype=float))
+            self.failure_text = text
+
+    @property
+    def failed(self):
+        return self.failure_state is not None
+
+    @property
+    def stop_reason(self):
+        """``"interrupted"``, the failure's message, or ``None``."""
+        if self.interrupted:
+            return INTERRUPTED
+        return self.failure_message() if self.failed else None
+
+    def failure_message(self):
+        """What went wrong, in the model's names (computed once, on demand)."""
+        if self.failure_state is None:
+            return None
+        if self.failure_text is None:
+            t, y = self.failure_state
+            cause = diagnose(self.model, t, y)
+            self.failure_text = (cause or "the state derivative is not finite at "
+                                 f"t={t:.6g}")
+        return self.failure_text
+
+    @contextmanager
+    def catching_interrupts(self):
+        """Turn a first Ctrl-C into :attr:`interrupted` for the duration.
+
+        Only in the main thread, and only when SIGINT has Python's default
+        handler (a handler the user installed is left alone).
+        """
+        install = (threading.current_thread() is threading.main_thread()
+                   and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
+        if not install:
+            yield self
+            return
+
+        def on_sigint(signum, frame):
+            if self.interrupted:  # a second Ctrl-C: stop at once
+                raise KeyboardInterrupt
+            self.interrupted = True
+
+        signal.signal(signal.SIGINT, on_sigint)
+        try:
+            yield self
+        finally:
+            signal.signal(signal.SIGINT, signal.default_int_handler)
+
+
+class Integrand:
+    """``rhs`` for ``solve_ivp``: counts, progress, non-finite results recorded."""
+
+    def __init__(self, model, t_span, progress, guard):
+        self.model = model
+        self.guard = guard
+        self.progress = progress
+        self.t0, self.t1 = t_span
+        self.n = model.n_states
+
+    def __call__(self, t, y):
+        try:
+            out = self.model.rhs(t, y)
+        except np.linalg.LinAlgError:
+            self.guard.fail(t, y)
+            return np.full(self.n, np.nan)
+        if not np.all(np.isfinite(out)):
+            self.guard.fail(t, y)
+        if self.progress.enabled and self.t1 != self.t0:
+            self.progress.update("simulating", (t - self.t0) / (self.t1 - self.t0))
+        return out
+
+
+def solver_class(method):
+    """The ``OdeSolver`` class for a ``solve_ivp`` method name or class."""
+    if isinstance(method, str):
+        try:
+            return SCIPY_METHODS[method]
+        except KeyError:
+            raise OptionError(f"unknown method {method!r}; solve_ivp's methods are "
+                              f"{', '.join(SCIPY_METHODS)} (and the compiled loop adds "
+                              "'Rosenbrock23')") from None
+    if isinstance(method, type) and issubclass(method, OdeSolver):
+        return method
+    raise OptionError(f"method must be a solve_ivp method name or an OdeSolver class, "
+                      f"not {method!r}")
+
+
+def guarded_method(method, guard):
+    """An ``OdeSolver`` subclass of ``method`` that stops when ``guard`` says so.
+
+    A step reports failure (message: the guard's reason) when the run was
+    interrupted before it, or when a derivative evaluated during it was not
+    finite; an implicit method's ``ValueError`` or ``LinAlgError`` on a
+    non-finite Jacobian becomes the same failure.
+    """
+    base = solver_class(method)
+
+    class Guarded(base):
+        def _step_impl(self):
+            if guard.stop_reason is not None:
+                return False, guard.stop_reason
+            try:
+                success, message = super()._step_impl()
+            except (ValueError, np.linalg.LinAlgError):
+                if guard.failed:
+                    return False, guard.stop_reason
+                raise
+            if guard.failed:
+                return False, guard.stop_reason
+            return success, message
+
+    Guarded.__name__ = Guarded.__qualname__ = base.__name__
+    return Guarded

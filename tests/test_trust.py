@@ -1,0 +1,345 @@
+"""Trust: no code runs from user text, no hangs, nothing lost on Ctrl-C, options
+the integrators cannot honour refused, results that cannot be trusted say so."""
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+
+import kanedyn as kd
+from kanedyn._number_text import NumberTextError, parse_number
+from kanedyn.cli import main
+
+SCIPY_METHODS = ["RK45", "RK23", "DOP853", "Radau", "BDF", "LSODA"]
+
+
+@pytest.fixture(scope="module")
+def pendulum():
+    definition = kd.models.build("pendulum")
+    return definition, definition.derive()
+
+
+# ---------------------------------------------------------- 1. text is not code
+@pytest.mark.parametrize("command", ["run", "derive", "compare"])
+def test_set_value_is_never_run(command, tmp_path, capsys):
+    marker = tmp_path / "ran"
+    payload = f"m=__import__('pathlib').Path({str(marker)!r}).write_text('x') or 1"
+    argv = [command, "pendulum", "--set", payload]
+    if command == "run":
+        argv += ["--out", str(tmp_path), "--quiet"]
+    assert main(argv) == 2
+    assert not marker.exists()
+    assert "--set m:" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("text, value", [
+    ("2", 2.0), ("-1.5e-3", -1.5e-3), ("2*pi/3", 2 * np.pi / 3), ("9.81**0.5", 9.81 ** 0.5),
+    ("2^3", 8.0), ("-(1 + 2) * e", -3 * np.e), ("+4 / 8", 0.5)])
+def test_number_text_reads_arithmetic(text, value):
+    assert parse_number(text) == pytest.approx(value, rel=1e-15)
+
+
+@pytest.mark.parametrize("text", [
+    "__import__('os').system('true')", "().__class__", "open('/etc/passwd')", "x",
+    "lambda: 1", "[1]", "'1'", "True", "1 if 1 else 2", "9**9**9", "(-8)**(1/3)", "1/0",
+    "(" * 300 + "1" + ")" * 300, ""])
+def test_number_text_refuses_everything_else(text):
+    with pytest.raises(NumberTextError, match="^--set m: "):
+        parse_number(text, "--set m")
+
+
+# ------------------------------------------------------------------ 2. no hangs
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("method", SCIPY_METHODS + ["Rosenbrock23"])
+def test_zero_mass_ends_at_once_naming_the_body(pendulum, method, backend):
+    if method == "Rosenbrock23" and backend == "numpy":
+        pytest.skip("Rosenbrock23 is a method of the compiled loop")
+    definition, eom = pendulum
+    model = definition.numeric(eom, constants={"m": 0.0}, backend=backend)
+    res = kd.simulate(model, (0, 1), definition.initial(model), method=method)
+    assert not res.success and res.status == -1
+    assert "singular mass matrix" in res.message and "no inertia along u" in res.message
+    assert "particle 'bob' has mass 0 kg" in res.message
+    assert res.t.tolist() == [0.0]
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("method", SCIPY_METHODS + ["Rosenbrock23"])
+def test_input_turning_nan_ends_the_run_keeping_the_rest(method, backend):
+    if method == "Rosenbrock23" and backend == "numpy":
+        pytest.skip("Rosenbrock23 is a method of the compiled loop")
+    definition = kd.models.build("n-link-pendulum-on-cart", n=1)
+    F = definition.symbols["F"]
+    model = definition.numeric(specified={F: lambda t: np.nan if t > 0.5 else 0.0},
+                               backend=backend)
+    res = kd.simulate(model, (0, 2), definition.initial(model), method=method,
+                      t_eval=np.linspace(0, 2, 41))
+    assert not res.success
+    assert res.message.startswith("specified input(s) not finite at t=0.5")
+    assert "F(t) = nan" in res.message
+    assert 0.4 <= res.t[-1] <= 0.5 and np.all(np.isfinite(res.y))
+
+
+def test_cli_zero_mass_ends_with_the_cause(tmp_path, capsys):
+    assert main(["run", "pendulum", "--set", "m=0", "--out", str(tmp_path), "--quiet"]) == 1
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["success"] is False
+    assert "singular mass matrix" in summary["message"] and "'bob'" in summary["message"]
+
+
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
+                            "ignore:invalid value encountered:RuntimeWarning")
+def test_diverging_state_names_the_states():
+    """A run whose state becomes nan says so and suggests a stiff method."""
+    model = _stiff_pair().numeric(constants={"m": 1, "k": 1, "K": 1e8})
+    res = kd.simulate(model, (0, 10), [1, 1.001, 0, 0], rtol=0.1, atol=0.1)
+    assert not res.success and res.t[-1] < 10
+    assert "the state is not finite" in res.message and "Radau or BDF" in res.message
+
+
+# ---------------------------------------------------- 3. nothing lost on Ctrl-C
+_INTERRUPTED_RUN = textwrap.dedent("""
+    import json, os, signal, sys, threading, time
+    import kanedyn as kd
+    backend, method = sys.argv[1], sys.argv[2]
+    d = kd.models.build("n-link-pendulum-on-cart", n=2)
+    model = d.numeric(d.derive(), backend=backend)
+    threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT)).start()
+    start = time.perf_counter()
+    try:
+        kd.simulate(model, (0, 1e6), d.initial(model), method=method, rtol=1e-10,
+                    atol=1e-10)
+        print(json.dumps({"raised": False}))
+    except kd.SimulationInterrupted as stop:
+        r = stop.result
+        print(json.dumps({"raised": True, "keyboard": isinstance(stop, KeyboardInterrupt),
+                          "success": r.success, "message": r.message, "points": r.t.size,
+                          "t_end": float(r.t[-1]), "finite": bool((r.y == r.y).all()),
+                          "seconds": time.perf_counter() - start}))
+""")
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("backend, method", [("numpy", "RK45"), ("numpy", "Radau"),
+                                             ("c", "RK45"), ("c", "Rosenbrock23")])
+def test_ctrl_c_returns_the_partial_result(backend, method):
+    out = subprocess.run([sys.executable, "-c", _INTERRUPTED_RUN, backend, method],
+                         capture_output=True, text=True, timeout=240)
+    report = json.loads(out.stdout.strip().splitlines()[-1])
+    assert report["raised"] and report["keyboard"]
+    assert report["success"] is False and report["message"] == "interrupted"
+    assert report["points"] > 10 and report["t_end"] > 0 and report["finite"]
+    assert report["seconds"] < 60
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(300)
+def test_cli_writes_what_it_has_on_ctrl_c(tmp_path):
+    proc = subprocess.Popen([sys.executable, "-m", "kanedyn.cli", "run", "pendulum",
+                             "--t-end", "1e4", "--points", "100001", "--rtol", "1e-12",
+                             "--atol", "1e-12", "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    deadline = time.time() + 120
+    for line in proc.stderr:  # progress: wait until the simulation runs
+        if "simulating" in line or time.time() > deadline:
+            break
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 130, err
+    assert "interrupted" in err and "wrote the partial result" in err
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["message"] == "interrupted" and summary["points"] > 1
+    rows = (tmp_path / "pendulum.csv").read_text().splitlines()
+    assert len(rows) == summary["points"] + 1
+
+
+# --------------------------------------------- 5. inputs the integrators honour
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_backward_integration_with_output_times(pendulum, backend):
+    definition, eom = pendulum
+    model = definition.numeric(eom, backend=backend)
+    y0 = definition.initial(model)
+    forward = kd.simulate(model, (0, 2), y0, rtol=1e-11, atol=1e-11)
+    times = np.linspace(2, 0, 9)
+    back = kd.simulate(model, (2, 0), forward.y[:, -1], t_eval=times, rtol=1e-11,
+                       atol=1e-11)
+    assert back.success and back.t.tolist() == times.tolist()
+    np.testing.assert_allclose(back.y[:, -1], y0, atol=1e-8)
+
+
+# ---------------------------- 6. the C compiler and its cache, clear or warned
+_CACHE_RUN = textwrap.dedent("""
+    import warnings, sys
+    import sympy as sm, sympy.physics.mechanics as me, kanedyn as kd
+    q, u = me.dynamicsymbols("q u")
+    c = sm.symbols("c")
+    N = me.ReferenceFrame("N"); O = me.Point("O"); O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x); P.set_vel(N, u * N.x)
+    power = int(sys.argv[1])  # a different module for each power
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("p", P, 1)], loads=[(P, -c * q ** power * N.x)])
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            model = eom.numeric(constants={c: 1.0}, backend="c")
+            print("built", model.rhs(0.0, [1.0, 0.0])[1])
+        except kd.KanedynError as exc:
+            print("error", type(exc).__name__, exc)
+    for w in caught:
+        print("warning", w.category.__name__, w.message)
+""")
+
+
+def _build_in(cache, power, **env):
+    environment = dict(os.environ, KANEDYN_CACHE_DIR=str(cache), **env)
+    out = subprocess.run([sys.executable, "-c", _CACHE_RUN, str(power)], env=environment,
+                         capture_output=True, text=True, timeout=300)
+    return out.stdout
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_compiler_that_does_not_compile(tmp_path):
+    out = _build_in(tmp_path, 3, CC="/bin/false")
+    assert "error CompilerError the C compiler /bin/false ($CC) failed" in out
+    assert "does not look like a working C compiler" in out
+    out = _build_in(tmp_path, 3, CC=str(tmp_path / "no-such-cc"))
+    assert "which is not a program on this machine; using the numpy backend" in out
+    assert "built -1.0" in out
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_cache_path_that_is_a_file(tmp_path):
+    afile = tmp_path / "cache"
+    afile.write_text("not a directory")
+    out = _build_in(afile, 5)
+    assert "built -1.0" in out
+    assert f"the cache directory {afile} ($KANEDYN_CACHE_DIR) is a file" in out
+    assert afile.read_text() == "not a directory"
+
+
+def _make_read_only(path):
+    """chmod for users, the immutable flag for root; False if neither works."""
+    if os.geteuid() == 0:
+        done = subprocess.run(["chattr", "+i", str(path)], capture_output=True)
+        if done.returncode != 0:
+            return False
+    else:
+        path.chmod(0o555)
+    try:
+        (path / "probe").write_text("x")
+    except OSError:
+        return True
+    (path / "probe").unlink()
+    return False
+
+
+def _make_writable(path):
+    if os.geteuid() == 0:
+        subprocess.run(["chattr", "-i", str(path)], capture_output=True)
+    path.chmod(0o755)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_read_only_cache(tmp_path):
+    cache = tmp_path / "cache"
+    assert "built -1.0" in _build_in(cache, 7)
+    stale = cache / "build-killed"
+    stale.mkdir()
+    os.utime(stale, (time.time() - 86400, time.time() - 86400))
+    assert "built -1.0" in _build_in(cache, 7)
+    assert not stale.exists()  # a killed build's folder is cleaned away
+    if not _make_read_only(cache):
+        pytest.skip("cannot make a directory read-only here (needs chattr as root)")
+    try:
+        cached = _build_in(cache, 7)  # a valid entry is used read-only, silently
+        assert "built -1.0" in cached and "warning" not in cached
+        fresh = _build_in(cache, 9)  # a new module goes to a private cache
+        assert "built -1.0" in fresh
+        assert "cannot be written" in fresh and "for this process only" in fresh
+    finally:
+        _make_writable(cache)
+
+
+# ------------------------------------------ 9. terminal events with t_eval
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_terminal_event_with_output_times_on_a_constrained_model(backend):
+    definition = kd.models.build("four-bar")
+    model = definition.numeric(definition.derive(), backend=backend)
+    y0 = definition.initial(model)
+
+    def crank_turned(t, y):
+        return y[0] - (y0[0] + 0.3)
+    crank_turned.terminal = True
+    free = kd.simulate(model, (0, 5), y0, events=crank_turned, rtol=1e-10, atol=1e-10,
+                       projection_tol=1e-12)
+    times = np.linspace(0, 5, 11)
+    res = kd.simulate(model, (0, 5), y0, events=crank_turned, t_eval=times, rtol=1e-10,
+                      atol=1e-10, projection_tol=1e-12)
+    assert free.status == res.status == 1
+    assert free.projections > 0  # drift projections happened before the event
+    t_event = res.t_events[0][0]
+    assert t_event == pytest.approx(free.t_events[0][0], abs=1e-9)
+    assert res.t.tolist() == times[times <= t_event].tolist()
+    assert res.y_events[0][0][0] == pytest.approx(y0[0] + 0.3, abs=1e-9)
+
+
+# ----------------------------------------- 11. results that cannot be trusted
+def _stiff_pair():
+    """Two unit masses, a soft spring to ground and a very stiff one between them."""
+    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
+    m, k, K = sm.symbols("m k K")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P1, P2 = O.locatenew("P1", q1 * N.x), O.locatenew("P2", q2 * N.x)
+    P1.set_vel(N, u1 * N.x)
+    P2.set_vel(N, u2 * N.x)
+    return kd.kane(frame=N, q_ind=[q1, q2], u_ind=[u1, u2],
+                   kd_eqs=[q1.diff() - u1, q2.diff() - u2],
+                   bodies=[me.Particle("a", P1, m), me.Particle("b", P2, m)],
+                   loads=[(P1, (-k * q1 + K * (q2 - q1)) * N.x), (P2, -K * (q2 - q1) * N.x)],
+                   potential_energy=k * q1 ** 2 / 2 + K * (q2 - q1) ** 2 / 2)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_energy_created_by_an_explicit_method_on_a_stiff_system(backend):
+    eom = _stiff_pair()
+    model = eom.numeric(constants={"m": 1, "k": 1, "K": 1e5}, backend=backend)
+    with pytest.warns(kd.TrustWarning, match="the system is stiff"):
+        res = kd.simulate(model, (0, 10), [1, 1.001, 0, 0], rtol=1e-2, atol=1e-2)
+    assert res.success  # the integrator saw nothing wrong ...
+    assert "warning: the total energy changed by" in res.message  # ... kanedyn does
+    assert "method='Radau'" in res.message
+    assert np.max(np.abs(res.energy)) > 1e6 * abs(res.energy[0])
+    # at a tolerance that resolves the stiff spring, the same method is trusted
+    model = eom.numeric(constants={"m": 1, "k": 1, "K": 1e4}, backend=backend)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", kd.TrustWarning)
+        tight = kd.simulate(model, (0, 2), [1, 1.001, 0, 0], rtol=1e-8, atol=1e-8)
+    assert "warning" not in tight.message and tight.energy_drift() < 1e-5
+
+
+def test_no_warning_for_an_accurate_run_from_zero_energy(pendulum):
+    """The pendulum from horizontal has zero initial energy: no false alarm."""
+    definition, eom = pendulum
+    model = definition.numeric(eom, constants={"m": 2 * np.pi})
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", kd.TrustWarning)
+        res = kd.simulate(model, (0, 10), definition.initial(model), rtol=1e-8)
+    assert res.success and "warning" not in res.message
