@@ -333,8 +333,9 @@ def _least_friction(A, b, o, sticking, rtol=1e-10):
         x = x - Y @ (Y.T @ x)
         limits = np.array([mu * float(nQ @ x[o + i:o + i + size])
                            for i, size, _, mu, nQ in sticking])
-        floor = 1e-9 * max(float(np.max(limits)), 1e-300)
-        weights = 1.0 / np.maximum(limits, floor)
+        if not np.max(limits) > 0:
+            break
+        weights = 1.0 / np.maximum(limits, 1e-9 * np.max(limits))
     return x
 
 

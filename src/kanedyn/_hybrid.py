@@ -10,11 +10,16 @@ Terminal events end each segment:
   it bounces or stays in contact;
 * a unilateral contact's normal force falls to zero: it separates;
 * a sliding contact's slip velocity stops: it sticks if the static friction
-  can hold it, else it slides on in the direction the forces drive it;
+  can hold it, else it slides on in the direction the forces drive it (a
+  reversal, recorded as ``slip -> slip``); the slip velocity is taken free of
+  the other contacts' drift (:func:`kanedyn._contact_numeric.slip_velocities`);
 * a sticking contact's friction reaches its limit :math:`\mu_s N`: it slides.
 
 After every event the modes are made consistent (forces within their
-limits) before integration resumes; every change is recorded.
+limits) before integration resumes; every change is recorded.  The modes the
+simulation starts in are not changes.  An output at an event time belongs to
+the segment the event ends (the state before the event, the forces of the
+modes that end there).
 """
 
 from __future__ import annotations
@@ -314,7 +319,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         reasons = []
         new_modes = list(modes)
         before = list(directions)
-        stop_fired, stopping = False, set()
+        stop_fired, stopping = set(), set()
         for c, kind in fired:
             if kind == "gap":
                 new_modes[c] = STICK  # touching; settled below (impact if approaching)
@@ -323,7 +328,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 new_modes[c] = SEPARATED
                 reasons.append((c, modes[c], SEPARATED, "the normal force vanishes"))
             elif kind == "slip stops":  # or a slow slip turned away: a new reference
-                stop_fired = True
+                stop_fired.add(c)
             elif kind == "friction limit":
                 sol_c = solver(t, y, modes, directions)
                 ft = sol_c.friction[c]
@@ -334,7 +339,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         if stop_fired:
             # every sliding contact whose slip has stopped (a bead in a corner
             # stops on the floor and on the wall at once) tries to stick
-            stopping = _stopped(solver, t, y, modes, directions, tol)
+            stopping = _stopped(solver, t, y, modes, directions, tol, stop_fired)
             for c in stopping:
                 new_modes[c] = STICK
                 reasons.append((c, SLIP, STICK, "the slip stops"))
@@ -364,17 +369,22 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     return t_out, y_out, status, message, extras
 
 
-def _stopped(solver, t, y, modes, directions, tol):
+def _stopped(solver, t, y, modes, directions, tol, fired):
     """Sliding contacts whose slip has stopped at ``(t, y)``.
 
     Stopped: the slip speed, free of the other contacts' drift, is at most
     ``min(1e3 tol_slip, 0.1 slow)`` of the contact's reference (a slow slip
     that merely turned away from its reference gets a new one instead).
+    Besides the contacts whose stop event ``fired``, the ones whose slip was
+    under way when their segment began (not one that has just started from
+    rest) count.
     """
     slips = solver(t, y, modes, directions).slip_velocity
     out = set()
     for c, mode in enumerate(modes):
         if mode != SLIP or directions[c] is None:
+            continue
+        if c not in fired and not np.isfinite(directions[c].slow):
             continue
         if np.linalg.norm(slips[c]) <= min(tol["slip"] * 1e3, 0.1 * directions[c].slow):
             out.add(c)
