@@ -25,6 +25,16 @@ and are solved together with the contact equations (and the model's own
 velocity constraints) as one linear system in :math:`(\dot u, N, \lambda)`.
 Drift of the contact constraints is damped by Baumgarte stabilization
 :math:`\ddot d + 2\omega\dot d + \omega^2 d = 0` on the normal distance.
+
+The slip direction :math:`\hat s_c` is taken from the slip velocity with the
+drift of the *other* active contact constraints removed (see
+:func:`slip_velocities`): a point sliding along the corner of a floor and a
+wall slides along the corner, whatever rounding-level speed the integration
+leaves across the wall.  Where sticking contacts are redundant (their
+constraints are dependent) the accelerations are determined and the forces
+are not; the forces taken are the ones that need the least friction, each
+sticking contact using the same fraction of its static cone (see
+:func:`solve_modes`).
 """
 
 from __future__ import annotations
@@ -34,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["SEPARATED", "SLIP", "STICK", "ContactPoint", "ContactSolution", "SlipReference",
-           "contact_points", "slip_direction", "solve_modes"]
+           "contact_points", "slip_direction", "slip_velocities", "solve_modes"]
 
 SEPARATED, SLIP, STICK = "separated", "slip", "stick"
 
@@ -83,6 +93,9 @@ class ContactSolution:
         Power of all contact forces on the system (:math:`\sum_c F_c \cdot
         J_c u`), W: the dissipation plus the power a moving surface
         delivers.
+    slip_velocity : ndarray, shape (k, 3)
+        Slip velocity of each contact with the drift of the other active
+        contact constraints removed (:func:`slip_velocities`), m/s.
     """
 
     udot: np.ndarray
@@ -91,6 +104,7 @@ class ContactSolution:
     points: list
     dissipation: float
     power: float
+    slip_velocity: np.ndarray = None
 
     @property
     def force(self):
@@ -122,23 +136,49 @@ class SlipReference:
     slow : float
         Slip speed (m/s) below which a slip velocity turned away from
         ``direction`` counts as stopping; ``inf``: at any speed.
+    still : float
+        Slip speed (m/s) at or below which the slip is taken as stopped or
+        just starting: its direction is ``direction`` (which comes from the
+        forces that start the slip, or from the slip before it stops), not
+        the direction of a rounding-level velocity.
     """
 
     direction: np.ndarray
     slow: float = np.inf
+    still: float = 0.0
 
 
-def slip_direction(point, reference=None, tiny=1e-12):
+def slip_direction(point, reference=None, tiny=1e-12, velocity=None, space=None):
     """Unit slip direction of a sliding contact.
+
+    Parameters
+    ----------
+    point : ContactPoint
+    reference : SlipReference or array_like, optional
+    tiny : float
+        Relative speed below which there is no slip velocity to follow.
+    velocity : array_like, shape (3,), optional
+        The slip velocity to follow, m/s; by default the point's own
+        (:attr:`ContactPoint.slip_velocity`).  :func:`solve_modes` passes
+        the one with the other contacts' drift removed
+        (:func:`slip_velocities`).
+    space : ndarray, shape (3, 3), optional
+        Orthogonal projector onto the slip velocities the other active
+        contacts allow (:func:`slip_velocities`); by default the tangent
+        plane.  A reference direction is projected onto it: a direction
+        recorded when the slip began does not turn with a moving surface,
+        and must not point across a wall the point slides along.
 
     Without a ``reference`` it is the direction of the slip velocity (zero
     when there is none).  With one (a :class:`SlipReference` or a direction
     vector), the slip velocity's direction is used unless the slip is slow
-    and has no positive component along the reference; then the reference
-    is: the friction does not flip when the slip velocity passes through
-    zero, and the equations stay smooth up to the event that stops the slip.
+    and has no positive component along the reference, or is at most the
+    reference's ``still`` speed; then the reference is: the friction does not
+    flip when the slip velocity passes through zero, the equations stay
+    smooth up to the event that stops the slip, and a slip that starts from
+    rest goes the way the forces drive it.
     """
-    vt = point.slip_velocity
+    vt = point.slip_velocity if velocity is None else np.asarray(velocity, dtype=float)
     speed = np.linalg.norm(vt)
     moving = speed > tiny * max(1.0, np.linalg.norm(point.velocity))
     if reference is None:
@@ -146,11 +186,104 @@ def slip_direction(point, reference=None, tiny=1e-12):
     if not isinstance(reference, SlipReference):
         reference = SlipReference(np.asarray(reference, dtype=float))
     s = reference.direction
-    if moving and (vt @ s > 0 or speed > reference.slow):
+    if moving and speed > reference.still and (vt @ s > 0 or speed > reference.slow):
         return vt / speed
-    s = s - (s @ point.normal) * point.normal
+    s = s - (s @ point.normal) * point.normal if space is None else space @ s
     norm = np.linalg.norm(s)
     return s / norm if norm > 0 else np.zeros(3)
+
+
+def _constraint_rows(point, mode):
+    """Rows (of J u + b) an active contact holds and their current values."""
+    if mode == SLIP:
+        return (point.normal @ point.jacobian)[None, :], np.array([point.normal_speed])
+    return point.jacobian, np.asarray(point.velocity, dtype=float)
+
+
+def slip_velocities(points, modes, mass=None, constraints=None, rcond=1e-10):
+    r"""Slip velocities with the drift of the other active contacts removed.
+
+    The integration keeps the contact constraints only to its tolerance: a
+    bead sliding along the corner of a floor and a wall has a rounding-level
+    speed across the wall (1e-11 m/s), which would set the direction of the
+    floor friction once the slip along the corner has nearly stopped.  For
+    each sliding contact ``c`` the generalized speeds are corrected by the
+    smallest change (in the kinetic-energy metric :math:`M`) that makes the
+    *other* active contacts hold exactly (the normal speed of a sliding one,
+    the whole relative velocity of a sticking one) and keeps the model's own
+    velocity constraints:
+
+    .. math::
+
+        \delta u = -M^{-1} C^T (C M^{-1} C^T)^{+} r,
+
+    with :math:`C` those constraint rows and :math:`r` their values (zero
+    for the model's own); the slip velocity is the tangential part of
+    :math:`v_c + J_c\,\delta u`.  The slip velocities those constraints allow
+    span :math:`T_c J_c\,\mathcal{N}(C)` (:math:`T_c` the projection on the
+    tangent plane); its orthogonal projector is returned too, for the slip
+    directions taken from a reference (:func:`slip_direction`).  A contact
+    with no other active contact keeps its own slip velocity and the tangent
+    plane.
+
+    Parameters
+    ----------
+    points : list of ContactPoint
+    modes : sequence of {"separated", "slip", "stick"}
+    mass : ndarray, shape (n_u, n_u), optional
+        Mass matrix (the metric); the identity when absent or singular.
+    constraints : ndarray, shape (n_u_dep, n_u), optional
+        The model's own velocity-constraint matrix (changes keep it).
+    rcond : float
+        Relative cut-off of pseudo-inverses and ranks (redundant constraints).
+
+    Returns
+    -------
+    velocities : ndarray, shape (k, 3)
+        m/s.
+    spaces : list of (ndarray, shape (3, 3)) or None
+        Per contact, the projector onto its allowed slip velocities (``None``:
+        the tangent plane).
+    """
+    out = np.array([p.slip_velocity for p in points], dtype=float).reshape(-1, 3)
+    spaces = [None] * len(points)
+    active = [c for c, mode in enumerate(modes) if mode in (SLIP, STICK)]
+    if len(active) < 2 or not any(modes[c] == SLIP for c in active):
+        return out, spaces
+    o = points[0].jacobian.shape[1]
+    rows, values, owner = [], [], []
+    for c in active:
+        block, value = _constraint_rows(points[c], modes[c])
+        rows.append(block)
+        values.append(value)
+        owner.extend([c] * len(value))
+    if constraints is not None and len(constraints):
+        rows.append(np.asarray(constraints, dtype=float).reshape(-1, o))
+        values.append(np.zeros(rows[-1].shape[0]))
+        owner.extend([-1] * rows[-1].shape[0])
+    C = np.vstack(rows)
+    r = np.concatenate(values)
+    owner = np.array(owner)
+    try:
+        WC = np.linalg.solve(mass, C.T) if mass is not None else C.T
+    except np.linalg.LinAlgError:
+        WC = C.T
+    G = C @ WC
+    for c in active:
+        if modes[c] != SLIP:
+            continue
+        keep = owner != c
+        du = -WC[:, keep] @ (np.linalg.pinv(G[np.ix_(keep, keep)], rcond=rcond) @ r[keep])
+        point = points[c]
+        tangent = np.eye(3) - np.outer(point.normal, point.normal)
+        out[c] = tangent @ (point.velocity + point.jacobian @ du)
+        _, sv, Vt = np.linalg.svd(C[keep])
+        rank = int(np.sum(sv > rcond * sv[0])) if sv.size else 0
+        allowed = tangent @ point.jacobian @ Vt[rank:].T
+        U, sv, _ = np.linalg.svd(allowed, full_matrices=False)
+        basis = U[:, sv > rcond * max(sv[0], 1e-300)] if sv.size else U[:, :0]
+        spaces[c] = basis @ basis.T
+    return out, spaces
 
 
 def _redundant(rows, rtol=1e-10):
@@ -159,6 +292,51 @@ def _redundant(rows, rtol=1e-10):
         return True
     sv = np.linalg.svd(rows, compute_uv=False)
     return sv[-1] <= rtol * sv[0]
+
+
+def _least_friction(A, b, o, sticking, rtol=1e-10):
+    r"""A solution of the singular system ``A x = b`` with the least friction.
+
+    ``x = (u', lambda)``; the accelerations are determined, the forces of
+    redundant contacts are not.  Among the solutions (least squares where
+    rounding makes the redundant rows slightly inconsistent) take the one
+    whose sticking contacts need the least friction,
+    :math:`\sum_c |f_c|^2 / (\mu_{s,c} N_c)`: the normal forces carry what
+    they can (a bead in the corner of a floor and a wall: the floor carries
+    the weight, the wall the push across it), and the friction along a
+    common direction is shared so that every sticking contact uses the same
+    fraction of its cone (they reach their limits together).  The normal
+    forces of a first pass with equal weights give the weights of a second;
+    what remains free is taken least-norm.
+
+    ``sticking``: ``(offset in lambda, size, T Q, mu_s, n Q)`` per sticking
+    contact, ``T Q`` (3, size) mapping its multipliers to the tangential
+    force and ``n Q`` (size,) to the normal force.
+    """
+    x0 = np.linalg.lstsq(A, b, rcond=None)[0]
+    _, sv, Vt = np.linalg.svd(A)
+    Z = Vt[sv <= rtol * sv[0]].T  # null space of A, orthonormal columns
+    if not Z.shape[1] or not sticking:
+        return x0
+    weights = np.ones(len(sticking))
+    x = x0
+    for _ in range(2):
+        F = np.zeros((3 * len(sticking), A.shape[1]))
+        for j, (i, size, TQ, _, _) in enumerate(sticking):
+            F[3 * j:3 * j + 3, o + i:o + i + size] = np.sqrt(weights[j]) * TQ
+        FZ = F @ Z
+        x = x0 - Z @ (np.linalg.pinv(FZ, rcond=rtol) @ (F @ x0))
+        # what the friction leaves free: least norm (Z Z2 has orthonormal columns)
+        _, sv2, Vt2 = np.linalg.svd(FZ)
+        rank = int(np.sum(sv2 > rtol * sv2[0])) if sv2.size else 0
+        Y = Z @ Vt2[rank:].T
+        x = x - Y @ (Y.T @ x)
+        limits = np.array([mu * float(nQ @ x[o + i:o + i + size])
+                           for i, size, _, mu, nQ in sticking])
+        if not np.max(limits) > 0:
+            break
+        weights = 1.0 / np.maximum(limits, 1e-9 * np.max(limits))
+    return x
 
 
 def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
@@ -186,7 +364,8 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     ------
     numpy.linalg.LinAlgError
         When the system is singular for another reason than redundant
-        contact constraints (which get the least-norm contact forces).
+        contact constraints (whose forces are then the ones needing the
+        least friction, see :func:`_least_friction`).
     """
     y = np.asarray(y, dtype=float)
     o, m = model.n_u, model.n_u_dep
@@ -195,8 +374,9 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     points = contact_points(model, t, y)
     coefficients = model.contacts
     directions = directions or [None] * len(points)
+    slips, spaces = slip_velocities(points, modes, mass, vel_B.reshape(m, o) if m else None)
     force = force.copy()
-    columns, rows, rhs, layout, slip_columns = [], [], [], [], []
+    columns, rows, rhs, layout, slip_columns, sticking = [], [], [], [], [], []
     w = stabilization
     for c, (point, mode) in enumerate(zip(points, modes)):
         if mode == SEPARATED:
@@ -210,7 +390,7 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
             force += J.T @ (-coef["viscous"] * vt)
         correction = 2 * w * point.normal_speed + w * w * point.distance
         if mode == SLIP:
-            s = slip_direction(point, directions[c])
+            s = slip_direction(point, directions[c], velocity=slips[c], space=spaces[c])
             # the friction column is set below with the sign of the normal force
             slip_columns.append((len(columns), J.T @ n, coef["mu_k"] * (J.T @ s),
                                  coef["kind"] == "bilateral"))
@@ -222,6 +402,8 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
             # constrain (and transmit force along) the directions the point can move in
             U, sv, _ = np.linalg.svd(J, full_matrices=False)
             Q = U[:, sv > 1e-12 * max(sv[0], 1e-300)] if sv.size else U[:, :0]
+            sticking.append((len(columns), Q.shape[1], Q - np.outer(n, n @ Q),
+                             coef["mu_s"], n @ Q))
             columns.extend((J.T @ Q).T)
             rows.extend(Q.T @ J)
             rhs.extend(-(Q.T @ (point.acceleration + correction * n)))
@@ -256,9 +438,8 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         A[:p, o:] = -(R @ G)
         if redundant:
             # statically indeterminate (e.g. a ladder sticking at both ends): the
-            # accelerations are determined, the contact forces are not; take
-            # the least-norm forces
-            sol = np.linalg.lstsq(A, b, rcond=None)[0]
+            # accelerations are determined, the contact forces are not
+            sol = _least_friction(A, b, o, sticking)
         else:
             sol = np.linalg.solve(A, b)
         flips = [i for i, _, _, bilateral in slip_columns
@@ -289,4 +470,5 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         power += float((normal_force[c] * point.normal + friction[c]) @ (point.jacobian @ u))
         i += size
     return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
-                           points=points, dissipation=dissipation, power=power)
+                           points=points, dissipation=dissipation, power=power,
+                           slip_velocity=slips)

@@ -10,11 +10,16 @@ Terminal events end each segment:
   it bounces or stays in contact;
 * a unilateral contact's normal force falls to zero: it separates;
 * a sliding contact's slip velocity stops: it sticks if the static friction
-  can hold it, else it slides on in the direction the forces drive it;
+  can hold it, else it slides on in the direction the forces drive it (a
+  reversal, recorded as ``slip -> slip``); the slip velocity is taken free of
+  the other contacts' drift (:func:`kanedyn._contact_numeric.slip_velocities`);
 * a sticking contact's friction reaches its limit :math:`\mu_s N`: it slides.
 
 After every event the modes are made consistent (forces within their
-limits) before integration resumes; every change is recorded.
+limits) before integration resumes; every change is recorded.  The modes the
+simulation starts in are not changes.  An output at an event time belongs to
+the segment the event ends (the state before the event, the forces of the
+modes that end there).
 """
 
 from __future__ import annotations
@@ -133,7 +138,7 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
                 limit = coef["mu_s"] * abs(N)
                 if np.linalg.norm(ft) > limit + tol["force"]:
                     modes[c] = SLIP
-                    directions[c] = SlipReference(-ft / np.linalg.norm(ft))
+                    directions[c] = SlipReference(-ft / np.linalg.norm(ft), still=tol["slip"])
                     reasons.append((c, STICK, SLIP, "static friction cannot hold it"))
                     changed = True
                     break
@@ -168,11 +173,12 @@ def _events(model, solver, points, modes, directions, n_states):
         if mode == SLIP and directions[c] is not None and coef["mu_s"] > 0:
             # zero where the slip velocity's component along the reference
             # direction vanishes while the slip is slow (a stop), not where a
-            # fast slip has merely turned by 90 degrees (see slip_direction)
+            # fast slip has merely turned by 90 degrees (see slip_direction);
+            # the slip velocity is free of the other contacts' drift
             ref, slow = directions[c].direction, directions[c].slow
 
             def stop(t, z, c=c, ref=ref, slow=slow):
-                vt = solver(t, z[:n_states], modes, directions).points[c].slip_velocity
+                vt = solver(t, z[:n_states], modes, directions).slip_velocity[c]
                 return max(vt @ ref, np.linalg.norm(vt) - slow)
             events.append((stop, c, "slip stops", -1))
         elif mode == STICK:
@@ -217,14 +223,20 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     history = []
     impacts = []
     reasons = []
-    if modes is None:
-        modes = [SEPARATED] * k
-    modes = list(modes)
+    given = modes is not None
+    modes = list(modes) if given else [SEPARATED] * k
     _check_initial(model, t0, y, modes, tol)
     start = list(modes)
     y, modes, directions = _resolve(model, solver, t0, y, modes, directions, tol, rest,
                                     reasons, impacts)
-    history.extend(_changes(t0, names, start, modes, reasons))
+    initial = _changes(t0, names, start, modes, reasons)
+    if not given:
+        # the modes a contact starts in are not changes (a contact that starts
+        # closed does not "touch the surface" at t0); an impact at t0 is
+        hit = {names[c] for c, _, _, why in reasons if why == "impact"}
+        initial = [change for change in initial if change.contact in hit]
+    history.extend(initial)
+    initial_modes = dict(zip(names, modes))
 
     ts, ys, point_modes, point_dirs, work = [], [], [], [], []
     t_events = [[] for _ in user_events]
@@ -235,13 +247,17 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     first = True
     for _ in range(max_segments):
         points = contact_points(model, t, y)
-        for c in range(k):  # the reference slip directions of this segment
-            speed = np.linalg.norm(points[c].slip_velocity)
+        # the reference slip directions of this segment, from slip velocities
+        # free of the other contacts' drift
+        slips = solver(t, y, modes, directions).slip_velocity
+        for c in range(k):
+            speed = np.linalg.norm(slips[c])
             if modes[c] != SLIP:
                 directions[c] = None
             elif speed > tol["slip"]:
-                directions[c] = SlipReference(points[c].slip_velocity / speed, 1e-3 * speed)
+                directions[c] = SlipReference(slips[c] / speed, 1e-3 * speed, tol["slip"])
             # else: a slip that starts keeps the direction it starts in
+        solver.key = None  # the directions changed: no cached solution is valid
         mode_events = _events(model, solver, points, modes, directions, n)
         frozen_modes, frozen_dirs = list(modes), list(directions)
 
@@ -302,6 +318,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                  if len(sol.t_events[i]) and sol.t_events[i][-1] == t]
         reasons = []
         new_modes = list(modes)
+        before = list(directions)
+        stop_fired, stopping = set(), set()
         for c, kind in fired:
             if kind == "gap":
                 new_modes[c] = STICK  # touching; settled below (impact if approaching)
@@ -310,17 +328,21 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 new_modes[c] = SEPARATED
                 reasons.append((c, modes[c], SEPARATED, "the normal force vanishes"))
             elif kind == "slip stops":  # or a slow slip turned away: a new reference
-                point = contact_points(model, t, y)[c]
-                stopped = min(tol["slip"] * 1e3, 0.1 * directions[c].slow)
-                if np.linalg.norm(point.slip_velocity) <= stopped:
-                    new_modes[c] = STICK
-                    reasons.append((c, SLIP, STICK, "the slip stops"))
+                stop_fired.add(c)
             elif kind == "friction limit":
                 sol_c = solver(t, y, modes, directions)
                 ft = sol_c.friction[c]
                 new_modes[c] = SLIP
-                directions[c] = SlipReference(-ft / max(np.linalg.norm(ft), 1e-300))
+                directions[c] = SlipReference(-ft / max(np.linalg.norm(ft), 1e-300),
+                                              still=tol["slip"])
                 reasons.append((c, STICK, SLIP, "the friction reaches mu_s N"))
+        if stop_fired:
+            # every sliding contact whose slip has stopped (a bead in a corner
+            # stops on the floor and on the wall at once) tries to stick
+            stopping = _stopped(solver, t, y, modes, directions, tol, stop_fired)
+            for c in stopping:
+                new_modes[c] = STICK
+                reasons.append((c, SLIP, STICK, "the slip stops"))
         try:
             y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions,
                                                 tol, rest, reasons, impacts)
@@ -328,6 +350,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             status, message = -1, f"stopped at t={t:.6g}: {exc}"
             break
         history.extend(_changes(t, names, modes, new_modes, reasons))
+        history.extend(_restarts(t, names, stopping, new_modes, before, directions, reasons))
         modes = new_modes
         if t >= t1:
             break
@@ -337,12 +360,54 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     y_out = np.concatenate(ys, axis=1) if ys else np.zeros((n, 0))
     extras = {"mode_history": history, "impacts": impacts, "point_modes": point_modes,
               "point_directions": point_dirs, "modes": tuple(modes),
+              "initial_modes": initial_modes,
               "dissipated_work": np.concatenate(work, axis=1)[0] if work else np.zeros(0),
               "contact_work": np.concatenate(work, axis=1)[1] if work else np.zeros(0),
               "t_events": [np.asarray(v) for v in t_events],
               "y_events": [np.asarray(v).reshape(-1, n) for v in y_events],
               "counters": counters, "stabilization": stabilization}
     return t_out, y_out, status, message, extras
+
+
+def _stopped(solver, t, y, modes, directions, tol, fired):
+    """Sliding contacts whose slip has stopped at ``(t, y)``.
+
+    Stopped: the slip speed, free of the other contacts' drift, is at most
+    ``min(1e3 tol_slip, 0.1 slow)`` of the contact's reference (a slow slip
+    that merely turned away from its reference gets a new one instead).
+    Besides the contacts whose stop event ``fired``, the ones whose slip was
+    under way when their segment began (not one that has just started from
+    rest) count.
+    """
+    slips = solver(t, y, modes, directions).slip_velocity
+    out = set()
+    for c, mode in enumerate(modes):
+        if mode != SLIP or directions[c] is None:
+            continue
+        if c not in fired and not np.isfinite(directions[c].slow):
+            continue
+        if np.linalg.norm(slips[c]) <= min(tol["slip"] * 1e3, 0.1 * directions[c].slow):
+            out.add(c)
+    return out
+
+
+def _restarts(t, names, stopped, after, before, directions, reasons):
+    """A slip that stopped and slides on in another direction (a reversal).
+
+    Its mode is ``slip`` before and after, so :func:`_changes` does not see
+    it; it is recorded as ``slip -> slip`` with why it did not stick.
+    """
+    out = []
+    for c in sorted(stopped):
+        if after[c] != SLIP or directions[c] is None or before[c] is None:
+            continue
+        turn = float(directions[c].direction @ before[c].direction)
+        if turn > 1 - 1e-6:
+            continue
+        why = [r for i, old, new, r in reasons if i == c and (old, new) == (STICK, SLIP)]
+        what = "the slip stops and reverses" if turn < 0 else "the slip stops and turns"
+        out.append(ModeChange(t, names[c], SLIP, SLIP, "; ".join([what, *why])))
+    return out
 
 
 def _changes(t, names, before, after, reasons):

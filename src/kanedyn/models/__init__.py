@@ -13,8 +13,8 @@ from ._base import ModelDefinition
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
 from ._constraint_models import (block_wedge, knife_edge, pin_slot, rod_bead,
                                  rolling_disk_contact)
-from ._contact_models import (block_on_incline, bouncing_ball, falling_rod, ladder,
-                              slug_ellipsoid, sphere_slug)
+from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod,
+                              ladder, slug_ellipsoid, sphere_slug)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -23,7 +23,8 @@ from ._snake import snake
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
-           "slug_ellipsoid", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
+           "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
+           "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
            "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm"]
 
@@ -39,6 +40,7 @@ REGISTRY = {
     "sphere-slug": (sphere_slug, {}),
     "slug-ellipsoid": (slug_ellipsoid, {}),
     "block-on-incline": (block_on_incline, {}),
+    "bead-in-tube": (bead_in_tube, {"omega": float}),
     "bouncing-ball": (bouncing_ball, {"restitution": float}),
     "ladder": (ladder, {"frictionless": bool, "angle": float}),
     "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float,

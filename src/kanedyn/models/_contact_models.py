@@ -10,8 +10,8 @@ import sympy.physics.mechanics as me
 from .._contact import Contact, Ellipsoid, Plane, Sphere
 from ._base import ModelDefinition
 
-__all__ = ["sphere_slug", "block_on_incline", "bouncing_ball", "ladder", "falling_rod",
-           "slug_ellipsoid"]
+__all__ = ["sphere_slug", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
+           "falling_rod", "slug_ellipsoid"]
 
 T = me.dynamicsymbols._t
 
@@ -89,6 +89,64 @@ def block_on_incline():
                      theta0=theta0, omega=omega, t1=t1, N=N, E=E),
         description="Slides down and stops at t = v0/(g(mu_k cos th0 - sin th0)); "
                     "slips again when sin th - mu_s cos th = omega^2 d / g.")
+
+
+def bead_in_tube(omega=1.0):
+    r"""A bead in a square tube spinning about the vertical: two rough contacts at once.
+
+    The tube (frame ``E``) turns at the constant rate ``omega`` (rad/s, an
+    option: the initial state follows it) about the vertical ``N.z`` through
+    ``O``; its axis is ``E.x``.  The bead (a particle, mass ``m``) has
+    inertial coordinates ``x, y, z`` and their rates as speeds; it rests on
+    the floor ``z = 0`` and against the side wall ``y_E = b`` (the wall's free
+    side is ``y_E < b``), both with friction ``mu``.  Started at ``x_E = 1`` m
+    moving towards the axis at 1 m/s relative to the tube, it is pressed
+    against the wall by the Coriolis force and by the part of the centrifugal
+    force across the tube, and slides on both; while it slides inwards
+    (relative speed :math:`\dot x_E < 0`)
+
+    .. math::
+
+        \ddot x_E + 2\mu\Omega\dot x_E - \Omega^2 x_E = \mu (g + \Omega^2 b),
+        \qquad N_{floor} = m g,\qquad N_{wall} = m(\Omega^2 b - 2\Omega\dot x_E).
+
+    It stops where :math:`\dot x_E = 0` and sticks if
+    :math:`\Omega^2 x_E \le \mu_s (g + \Omega^2 b)`; sticking, the floor
+    carries the weight, the wall normal the centripetal force across the tube
+    (:math:`m\Omega^2 b`, no jump at the stop) and the frictions together the
+    one along it (:math:`m\Omega^2 x_E`, inwards).  Faster (``omega=2.5``)
+    the slip reverses and the bead slides out, leaving the wall where
+    :math:`\dot x_E = \Omega b / 2`.  The wall does work on the bead: the
+    energy balance counts it.
+    """
+    m, g, mu, b = sm.symbols("m g mu b", positive=True)
+    omega = float(omega)
+    N = me.ReferenceFrame("N")
+    E = me.ReferenceFrame("E")  # the tube
+    E.orient_axis(N, N.z, omega * T)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    q, u, P = _free_particle(N, O)
+    bead = me.Particle("bead", P, m)
+    bead.potential_energy = m * g * q[2]
+    contacts = [Contact(P, Plane(E, O, E.z, name="floor"), mu_k=mu, name="floor"),
+                Contact(P, Plane(E, O.locatenew("W", b * E.y), -E.y, name="wall"), mu_k=mu,
+                        name="wall")]
+    values = {m: 1.0, g: 9.81, mu: 0.3, b: 0.05}
+    # at t = 0 the tube frame is N: x_E = 1, y_E = b, relative velocity -1 m/s along E.x
+    init = dict(zip(q, (1.0, values[b], 0.0)))
+    init.update(dict(zip(u, (-1.0 - omega * values[b], omega * 1.0, 0.0))))
+    return ModelDefinition(
+        name="bead-in-tube",
+        title="bead in a spinning square tube: floor and wall friction, slip then stick",
+        kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u),
+                       kd_eqs=[a.diff() - v for a, v in zip(q, u)], bodies=[bead],
+                       loads=[(P, -m * g * N.z)], contacts=contacts),
+        constants=values, initial_state=init, t_end=1.0,
+        symbols=dict(q=q, u=u, m=m, g=g, mu=mu, b=b, omega=omega, N=N, E=E, P=P),
+        description="Slides towards the axis on floor and wall, stops and sticks: the "
+                    "wall normal force m (Omega^2 b - 2 Omega x_E') falls to m Omega^2 b "
+                    "without a jump; omega=2.5: reverses and leaves the wall.")
 
 
 def bouncing_ball(restitution=0.8):
