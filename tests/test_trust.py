@@ -113,7 +113,9 @@ _INTERRUPTED_RUN = textwrap.dedent("""
     import json, os, signal, sys, threading, time
     import kanedyn as kd
     backend, method = sys.argv[1], sys.argv[2]
-    d = kd.models.build("n-link-pendulum-on-cart", n=2)
+    d = (kd.models.build("bouncing-ball", restitution=1.0) if backend == "contacts"
+         else kd.models.build("n-link-pendulum-on-cart", n=2))
+    backend = "numpy" if backend == "contacts" else backend
     model = d.numeric(d.derive(), backend=backend)
     threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT)).start()
     start = time.perf_counter()
@@ -133,7 +135,8 @@ _INTERRUPTED_RUN = textwrap.dedent("""
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("backend, method", [("numpy", "RK45"), ("numpy", "Radau"),
-                                             ("c", "RK45"), ("c", "Rosenbrock23")])
+                                             ("c", "RK45"), ("c", "Rosenbrock23"),
+                                             ("contacts", "RK45")])
 def test_ctrl_c_returns_the_partial_result(backend, method):
     out = subprocess.run([sys.executable, "-c", _INTERRUPTED_RUN, backend, method],
                          capture_output=True, text=True, timeout=240)

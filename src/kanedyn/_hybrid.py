@@ -30,8 +30,11 @@ from scipy.integrate import solve_ivp
 from ._contact_numeric import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
                                solve_modes)
 from ._impact import resolve_impact
+from ._run_guard import INTERRUPTED, RunGuard, guarded_method
 
 __all__ = ["simulate_contacts", "ModeChange"]
+
+_MAX_STALLED_SEGMENTS = 1000  # mode changes in a row without time advancing
 
 
 class ModeChange(tuple):
@@ -197,15 +200,19 @@ def _events(model, solver, points, modes, directions, n_states):
 
 def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8,
                       atol=1e-8, events=None, modes=None, stabilization=10.0,
-                      max_segments=100000, rest_speed=None, progress=None, **options):
+                      max_segments=100000, rest_speed=None, progress=None, guard=None,
+                      **options):
     """Integrate a model with contacts (see the module docstring).
 
     Returns ``(t, y, status, message, extras)``: output times and states
     (``y`` shape (n_states, N)), the solve_ivp-style status and message, and
     a dict with the mode history, impacts, per-point modes and slip
     directions, the work of friction and of all contact forces, event records
-    and counters.
+    and counters.  ``guard`` (a :class:`kanedyn._run_guard.RunGuard`) ends the
+    run at a non-finite derivative or on Ctrl-C with what was computed.
     """
+    guard = guard if guard is not None else RunGuard(model)
+    stepper = guarded_method(method, guard)
     t0, t1 = (float(v) for v in t_span)
     n = model.n_states
     k = len(model.contacts)
@@ -245,7 +252,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     status, message = 0, "the integration reached the end of the interval"
     t, dissipated, contact_work = t0, 0.0, 0.0
     first = True
+    stalled = 0  # segments in a row that end where they start
     for _ in range(max_segments):
+        if guard.interrupted:
+            status, message = -1, INTERRUPTED
+            break
         points = contact_points(model, t, y)
         # the reference slip directions of this segment, from slip velocities
         # free of the other contacts' drift
@@ -264,7 +275,10 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         def rhs(tt, z, frozen_modes=frozen_modes, frozen_dirs=frozen_dirs):
             sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
             qd = model._dynamics(tt, z[:n])[0]
-            return np.concatenate([qd, sol.udot, [sol.dissipation, sol.power]])
+            out = np.concatenate([qd, sol.udot, [sol.dissipation, sol.power]])
+            if not np.all(np.isfinite(out)):
+                guard.fail(tt, z[:n])
+            return out
 
         wrapped = [(lambda tt, z, f=f: f(tt, z[:n])) for f in user_events]
         for w, f in zip(wrapped, user_events):
@@ -277,7 +291,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             seg_eval = t_eval[keep & (t_eval <= t1)]
         z0 = np.concatenate([y, [dissipated, contact_work]])
         try:
-            sol = solve_ivp(rhs, (t, t1), z0, method=method, t_eval=seg_eval,
+            sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
                             events=all_events or None, rtol=rtol, atol=atol, **options)
         except np.linalg.LinAlgError as exc:
             status, message = -1, f"singular contact equations at t={t:.6g} ({exc})"
@@ -299,10 +313,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 y_events[i].extend(np.asarray(sol.y_events[n_mode + i])[:, :n])
         first = False
         if sol.status == -1:
-            status, message = -1, sol.message
+            status, message = -1, guard.stop_reason or sol.message
             break
         if sol.status == 0:
             break
+        t_segment_start = t
         # a terminal event: the latest event time is where the segment ended
         last = [(float(te[-1]), np.asarray(ye)[-1]) for te, ye in zip(sol.t_events, sol.y_events)
                 if len(te)]
@@ -353,6 +368,13 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         history.extend(_restarts(t, names, stopping, new_modes, before, directions, reasons))
         modes = new_modes
         if t >= t1:
+            break
+        stalled = stalled + 1 if t - t_segment_start <= 1e-12 * max(abs(t1 - t0), 1e-300) \
+            else 0
+        if stalled > _MAX_STALLED_SEGMENTS:
+            status, message = -1, (f"the contact modes change {stalled} times at t={t:.6g} "
+                                   "without time advancing (chattering); last modes: "
+                                   + ", ".join(f"{nm} {md}" for nm, md in zip(names, modes)))
             break
     else:
         status, message = -1, f"more than {max_segments} mode changes (chattering?)"

@@ -155,9 +155,15 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
             raise ModelError("models with contacts are integrated segment by segment on "
                              "solve_ivp: backend='c' and dense_output are not available "
                              "for them")
-        return _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol, atol,
-                                       user_events, constraint_forces, progress, options)
-    if _use_compiled(model, method, backend, options):
+        if t1 < t0:
+            raise OptionError(f"models with contacts are integrated forward in time; got "
+                              f"t_span ({t0:g}, {t1:g})")
+        guard = RunGuard(model)
+        with guard.catching_interrupts():
+            result = _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol,
+                                             atol, user_events, constraint_forces, progress,
+                                             options, guard)
+    elif _use_compiled(model, method, backend, options):
         progress.stage(f"integrating with the compiled {method} loop")
         result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
                                     user_events, dense_output, tol if constrained and project
@@ -550,14 +556,14 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
 
 
 def _simulate_with_contacts(model, t_span, y_init, method, t_eval, rtol, atol, events,
-                            constraint_forces, progress, options):
+                            constraint_forces, progress, options, guard):
     from ._hybrid import simulate_contacts
     progress.stage("integrating with contacts (modes, events, impacts)")
     extra = {k: options.pop(k) for k in ("modes", "stabilization", "rest_speed")
              if k in options}
     t, y, status, message, extras = simulate_contacts(
         model, t_span, y_init, method=method, t_eval=t_eval, rtol=rtol, atol=atol,
-        events=events, **extra, **options)
+        events=events, guard=guard, **extra, **options)
     return SimulationResult.build(
         model=model, t=t, y=y, status=status, message=message,
         t_events=extras["t_events"], y_events=extras["y_events"], dense_segments=None,
