@@ -14,7 +14,7 @@ from ._hybrid import ModeChange
 from ._impact import Impact
 from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
-                      MissingValueError, ModelError)
+                      MissingValueError, ModelError, SingularConfigurationWarning)
 from ._formulation import FORMULATIONS, formulate, kane
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._numeric import NumericModel
@@ -60,4 +60,5 @@ __all__ = [
     "KinematicsError",
     "ConstraintError",
     "MissingValueError",
+    "SingularConfigurationWarning",
 ]

@@ -10,6 +10,7 @@ __all__ = [
     "KinematicsError",
     "ConstraintError",
     "MissingValueError",
+    "SingularConfigurationWarning",
 ]
 
 
@@ -34,3 +35,20 @@ class MissingValueError(KanedynError, KeyError):
 
     def __str__(self):  # KeyError quotes its message; keep it readable
         return str(self.args[0]) if self.args else ""
+
+
+class SingularConfigurationWarning(RuntimeWarning):
+    """A simulation passed near a configuration where the constraint Jacobian loses rank.
+
+    Attributes
+    ----------
+    times : tuple of float
+        Times of closest approach, s.
+    ratios : tuple of float
+        Smallest over largest singular value of the constraint Jacobian there.
+    """
+
+    def __init__(self, message, times=(), ratios=()):
+        super().__init__(message)
+        self.times = tuple(float(t) for t in times)
+        self.ratios = tuple(float(r) for r in ratios)
