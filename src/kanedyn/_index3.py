@@ -317,8 +317,10 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
             v_new = y_new[n:]
             _, mass, force, _, acc_K, acc_f = dynamics(t_new, q_new, v_new)
             weight = scheme.weight(mass, acc_K)
-            a_new = al_solve(mass, mass @ a_new, acc_K, -acc_f, weight,
-                             max_iterations=scheme.projection_iterations)
+            # as a correction: round-off then scales with it, not with the accelerations
+            a_new = a_new + al_solve(mass, np.zeros_like(a_new), acc_K,
+                                     -(acc_K @ a_new + acc_f), weight,
+                                     max_iterations=scheme.projection_iterations)
         if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(a_new))):
             status = -1
             message = f"non-finite state at t={t_new:.6g}"

@@ -559,8 +559,10 @@ class AugmentedLagrangianIndex3(Scheme):
         n = model.n_q
         _, _, B, c = model._constraint_terms(t, y)
         mass = model._dynamics(t, y)[1]
-        y[n:] = al_solve(mass, mass @ y[n:], B, B @ y[n:] - c, self.weight(mass, B),
-                         max_iterations=self.projection_iterations)
+        # as a correction: round-off then scales with it, not with the speeds (the
+        # penalized system has a condition number of about `factor`)
+        y[n:] += al_solve(mass, np.zeros(model.n_u), B, -c, self.weight(mass, B),
+                          max_iterations=self.projection_iterations)
         return y
 
     def project_state(self, model, t, y, max_iterations=50):
