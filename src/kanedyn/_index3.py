@@ -41,59 +41,12 @@ equal to the coordinate rates (Lagrange's equations, or Kane's with
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
 from scipy.optimize import brentq
 
 from ._errors import ModelError
+from ._schemes import al_solve
 
-__all__ = ["integrate_index3", "al_solve", "check_index3_model"]
-
-
-def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10):
-    r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
-
-    .. math::
-
-        (M + wC^TC)x_{k+1} = r + C^T\lambda_k + wC^Td,\qquad
-        \lambda_{k+1} = \lambda_k + w(d - Cx_{k+1}),
-
-    from :math:`\lambda_0 = 0`.  :math:`M + wC^TC` is positive definite
-    whenever :math:`M` is positive definite on the null space of :math:`C`,
-    whatever the rank of :math:`C`: with a rank-deficient or redundant
-    :math:`C` the components of :math:`d` it cannot reach are left
-    unreached (a least-squares compromise), instead of making the solve
-    singular.  Stops when :math:`\max|Cx - d| \le` ``tol`` times
-    :math:`\max|C|\max|x| + \max|d|`.
-
-    Parameters
-    ----------
-    mass : ndarray, shape (o, o)
-    rhs : ndarray, shape (o,)
-    C : ndarray, shape (m, o)
-    target : ndarray, shape (m,)
-    weight : float
-        :math:`w`, in the units of :math:`M` over those of :math:`C^TC`.
-    tol : float
-        Relative tolerance of :math:`\max|Cx - d|`.
-    max_iterations : int
-
-    Returns
-    -------
-    ndarray, shape (o,)
-    """
-    factor = sla.cho_factor(mass + weight * (C.T @ C))
-    lam = np.zeros(C.shape[0])
-    base = rhs + weight * (C.T @ target)
-    x = sla.cho_solve(factor, base)
-    size = np.max(np.abs(C), initial=0.0)
-    for _ in range(max_iterations):
-        residual = target - C @ x
-        scale = size * np.max(np.abs(x), initial=0.0) + np.max(np.abs(target), initial=0.0)
-        if np.max(np.abs(residual), initial=0.0) <= tol * scale + 1e-300:
-            break
-        lam = lam + weight * residual
-        x = sla.cho_solve(factor, base + C.T @ lam)
-    return x
+__all__ = ["check_index3_model", "integrate_index3"]
 
 
 def check_index3_model(model, name):
@@ -169,7 +122,7 @@ def _events_in_step(events, g_old, g_new, piece):
         elif b == 0.0:
             root = t_end
         else:
-            root = brentq(lambda s: event(s, piece(s)), min(t_start, t_end),
+            root = brentq(lambda s, g=event: g(s, piece(s)), min(t_start, t_end),
                           max(t_start, t_end), xtol=1e-14, rtol=4 * np.finfo(float).eps)
         roots.append((root, k, piece(root)))
     roots.sort(key=lambda r: r[0] * np.sign(piece.h))
@@ -297,7 +250,6 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     for k in range(steps):
         t_new = t0 + (k + 1) * h if k + 1 < steps else t1
         hk = t_new - t
-        quarter = hk * hk / 4.0
         v_hat = (2.0 / hk) * q + v
         a_hat = (4.0 / hk ** 2) * q + (4.0 / hk) * v + a
         q_new = q + hk * v + 0.5 * hk * hk * a
@@ -320,7 +272,9 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
             # as a correction: round-off then scales with it, not with the accelerations
             a_new = a_new + al_solve(mass, np.zeros_like(a_new), acc_K,
                                      -(acc_K @ a_new + acc_f), weight,
-                                     max_iterations=scheme.projection_iterations)
+                                     max_iterations=scheme.projection_iterations,
+                                     scale=np.max(np.abs(acc_K)) * np.max(np.abs(a_new))
+                                     + np.max(np.abs(acc_f)))
         if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(a_new))):
             status = -1
             message = f"non-finite state at t={t_new:.6g}"

@@ -65,7 +65,8 @@ from ._errors import ModelError
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
-           "AugmentedLagrangianIndex3", "SCHEMES", "as_scheme", "stabilization", "complement_solve"]
+           "AugmentedLagrangianIndex3", "SCHEMES", "as_scheme", "stabilization",
+           "complement_solve", "al_solve"]
 
 
 @dataclass(frozen=True)
@@ -329,18 +330,9 @@ class AugmentedLagrangian(Penalty):
     max_iterations: int = 50
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
-        alpha, A, target = self._system(model, t, y, mass, K, acc_f)
-        factor = sla.cho_factor(A)
-        lam = np.zeros(K.shape[0])
-        base = force - alpha * K.T @ target
-        for _ in range(self.max_iterations):
-            udot = sla.cho_solve(factor, base + K.T @ lam)
-            residual = K @ udot + target
-            lam = lam - alpha * residual
-            scale = np.max(np.abs(K @ udot), initial=0.0) + np.max(np.abs(target)) + 1e-300
-            if np.max(np.abs(residual)) <= self.tol * scale:
-                break
-        return udot
+        alpha, _, target = self._system(model, t, y, mass, K, acc_f)
+        return al_solve(mass, force, K, -target, alpha, tol=self.tol,
+                        max_iterations=self.max_iterations)
 
 
 @dataclass(frozen=True)
@@ -407,6 +399,56 @@ def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
     particular = np.zeros(o)
     particular[dep] = -np.linalg.solve(K[:, dep], acc_f)
     return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
+
+
+def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=None):
+    r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
+
+    .. math::
+
+        (M + wC^TC)x_{k+1} = r + C^T\lambda_k + wC^Td,\qquad
+        \lambda_{k+1} = \lambda_k + w(d - Cx_{k+1}),
+
+    from :math:`\lambda_0 = 0`.  :math:`M + wC^TC` is positive definite
+    whenever :math:`M` is positive definite on the null space of :math:`C`,
+    whatever the rank of :math:`C`: with a rank-deficient or redundant
+    :math:`C` the components of :math:`d` it cannot reach are left
+    unreached (a least-squares compromise), instead of making the solve
+    singular.  Stops when :math:`\max|Cx - d| \le` ``tol`` times ``scale``.
+
+    Parameters
+    ----------
+    mass : ndarray, shape (o, o)
+    rhs : ndarray, shape (o,)
+    C : ndarray, shape (m, o)
+    target : ndarray, shape (m,)
+    weight : float
+        :math:`w`, in the units of :math:`M` over those of :math:`C^TC`.
+    tol : float
+        Relative tolerance of :math:`\max|Cx - d|`.
+    max_iterations : int
+    scale : float, optional
+        Magnitude against which the residual is measured; default
+        :math:`\max|Cx| + \max|d|` at each iteration.
+
+    Returns
+    -------
+    ndarray, shape (o,)
+    """
+    factor = sla.cho_factor(mass + weight * (C.T @ C))
+    lam = np.zeros(C.shape[0])
+    base = rhs + weight * (C.T @ target)
+    x = sla.cho_solve(factor, base)
+    for _ in range(max_iterations):
+        Cx = C @ x
+        residual = target - Cx
+        size = scale if scale is not None else (np.max(np.abs(Cx), initial=0.0)
+                                                + np.max(np.abs(target), initial=0.0))
+        if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
+            break
+        lam = lam + weight * residual
+        x = sla.cho_solve(factor, base + C.T @ lam)
+    return x
 
 
 def _pivoted_partition(A, m):
@@ -548,13 +590,11 @@ class AugmentedLagrangianIndex3(Scheme):
         return 4.0 / (h * h) * _penalty_weight(mass, J, self.factor)
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
-        from ._index3 import al_solve
         return al_solve(mass, force, K, -acc_f, self.weight(mass, K),
                         max_iterations=self.projection_iterations)
 
     def project_velocities(self, model, t, y):
         """Speeds projected onto the velocity constraints in the mass metric."""
-        from ._index3 import al_solve
         y = np.array(y, dtype=float)
         n = model.n_q
         _, _, B, c = model._constraint_terms(t, y)
@@ -562,7 +602,8 @@ class AugmentedLagrangianIndex3(Scheme):
         # as a correction: round-off then scales with it, not with the speeds (the
         # penalized system has a condition number of about `factor`)
         y[n:] += al_solve(mass, np.zeros(model.n_u), B, -c, self.weight(mass, B),
-                          max_iterations=self.projection_iterations)
+                          max_iterations=self.projection_iterations,
+                          scale=np.max(np.abs(B)) * np.max(np.abs(y[n:])))
         return y
 
     def project_state(self, model, t, y, max_iterations=50):
