@@ -14,7 +14,8 @@ from ._hybrid import ModeChange
 from ._impact import Impact
 from ._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
-                      MissingValueError, ModelError, OptionError, SimulationInterrupted)
+                      MissingValueError, ModelError, OptionError, SimulationInterrupted,
+                      SingularConfigurationWarning)
 from ._formulation import FORMULATIONS, formulate, kane
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._numeric import NumericModel
@@ -63,4 +64,5 @@ __all__ = [
     "OptionError",
     "SimulationInterrupted",
     "TrustWarning",
+    "SingularConfigurationWarning",
 ]

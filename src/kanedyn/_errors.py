@@ -12,6 +12,7 @@ __all__ = [
     "MissingValueError",
     "OptionError",
     "SimulationInterrupted",
+    "SingularConfigurationWarning",
 ]
 
 
@@ -61,3 +62,20 @@ class SimulationInterrupted(KeyboardInterrupt):
     def __init__(self, result):
         super().__init__("interrupted")
         self.result = result
+
+
+class SingularConfigurationWarning(RuntimeWarning):
+    """A simulation passed near a configuration where the constraint Jacobian loses rank.
+
+    Attributes
+    ----------
+    times : tuple of float
+        Times of closest approach, s.
+    ratios : tuple of float
+        Smallest over largest singular value of the constraint Jacobian there.
+    """
+
+    def __init__(self, message, times=(), ratios=()):
+        super().__init__(message)
+        self.times = tuple(float(t) for t in times)
+        self.ratios = tuple(float(r) for r in ratios)

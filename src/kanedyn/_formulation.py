@@ -11,8 +11,8 @@ from __future__ import annotations
 from ._errors import ModelError
 from ._input import parse_model
 from ._progress import NO_PROGRESS, as_progress
-from ._schemes import (AugmentedLagrangian, Baumgarte, IndexOne, NullSpace, Partitioning,
-                       Penalty, Projection, UdwadiaKalaba, as_scheme)
+from ._schemes import (AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte, IndexOne,
+                       NullSpace, Partitioning, Penalty, Projection, UdwadiaKalaba, as_scheme)
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
@@ -52,6 +52,11 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
             Generalized coordinate partitioning (Wehage–Haug).
         ``"maggi"``
             Maggi's equations (null-space projection).
+        ``"augmented-lagrangian-index3"``
+            Bayo & Ledesma's index-3 augmented Lagrangian with mass-orthogonal
+            projections, integrated by its own fixed-step trapezoidal rule
+            (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`): passes
+            singular configurations; holonomic constraints only.
         ``"orthogonal-complement"``
             The natural orthogonal complement (Cyril, Angeles & Misra 1991):
             each body's Newton–Euler equations projected with its twist map
@@ -190,7 +195,8 @@ def _register_builtin():
                          ("augmented-lagrangian", AugmentedLagrangian()),
                          ("udwadia-kalaba", UdwadiaKalaba()),
                          ("partitioning", Partitioning()),
-                         ("maggi", NullSpace())):
+                         ("maggi", NullSpace()),
+                         ("augmented-lagrangian-index3", AugmentedLagrangianIndex3())):
         register_formulation(name, _with_scheme(derive_lagrange, name, scheme))
 
 

@@ -320,8 +320,9 @@ class NumericModel(StateLayout):
                                      "contacts")
                         if hasattr(module, name)}
             self._c = module.Model(self._p, self._input_values if self._inputs else None)
-            self.rhs = self._c.rhs  # the compiled entry points, called directly
-            self.rhs_batch = self._c.rhs_batch
+            if getattr(d["scheme"], "c_backend", True):  # else: Python rhs, compiled terms
+                self.rhs = self._c.rhs  # the compiled entry points, called directly
+                self.rhs_batch = self._c.rhs_batch
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
@@ -538,6 +539,28 @@ class NumericModel(StateLayout):
         """
         h, _, _, vel_c = self._constraint_terms(t, y)
         return np.concatenate([h, vel_c])
+
+    def constraint_conditioning(self, t, y):
+        r"""How far a state is from a singular configuration: :math:`\sigma_{\min}/\sigma_{\max}`.
+
+        The ratio of the smallest to the largest singular value of the
+        velocity-constraint matrix :math:`B = \partial c/\partial u`, which
+        holds the holonomic constraints as the time derivatives of the
+        configuration constraints: 0 where the constraints lose rank, the
+        inverse of their condition number elsewhere.  :func:`kanedyn.simulate` reports
+        the times at which a run passes below ``singular_threshold``.
+
+        Parameters
+        ----------
+        t : float
+        y : array_like, shape (n_states,)
+
+        Returns
+        -------
+        float
+        """
+        from ._singular import conditioning
+        return conditioning(self, t, self._check_y(y))
 
     def consistent_state(self, t, y, tol=1e-12, max_iterations=50):
         """State with dependent coordinates and speeds satisfying the constraints.
@@ -884,7 +907,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
                          "and multipliers together, which the C backend does not do yet; "
                          "use backend='numpy'")
     scheme = as_scheme(eom.scheme if scheme is None else scheme)
-    if backend == "c" and not scheme.c_backend:
+    if backend == "c" and not (scheme.c_backend or scheme.c_terms):
         raise ModelError(f"the C backend does not implement the {scheme.name!r} constraint "
                          "scheme; use backend='numpy'")
     sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),

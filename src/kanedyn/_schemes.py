@@ -13,31 +13,36 @@ The schemes below differ in how they solve it and in what they do about the
 drift of the position- and velocity-level constraints :math:`h(q) = 0`,
 :math:`c(q, u) = 0` that the integration leaves:
 
-=====================  =====================================================
-``Elimination``        dependent speeds eliminated with a fixed partition
-                       (Kane's method); drift projected onto the constraints
-                       by solving for the dependent variables
-``IndexOne``           the index-1 system solved for :math:`\dot u, \lambda`
-                       together; no stabilization
-``Baumgarte``          index 1 with :math:`K\dot u + f_a = -2\alpha c -
-                       \beta^2 P^+ h` (Baumgarte 1972)
-``Projection``         index 1; drift removed by projecting the state onto
-                       the constraints (least change of all coordinates,
-                       mass-weighted change of all speeds)
-``Penalty``            :math:`(M + \alpha K^TK)\dot u = f - \alpha K^T(f_a +
-                       2\xi\omega c + \omega^2 P^+h)` (Bayo et al. 1988)
-``AugmentedLagrangian``  the penalty system iterated on :math:`\lambda`
-                       until the constraints hold (Bayo & Ledesma 1996)
-``UdwadiaKalaba``      :math:`\dot u = a + M^{-1/2}(KM^{-1/2})^+(b - Ka)`,
-                       :math:`a = M^{-1}f` (Udwadia & Kalaba 1992)
-``Partitioning``       independent and dependent variables chosen at every
-                       evaluation by pivoted QR of the constraint Jacobian
-                       (Wehage & Haug 1982); dependent ones solved from the
-                       independent ones after drift
-``NullSpace``          Maggi's equations: :math:`N^TMN z = N^T(f - M\dot
-                       u_p)` with an orthonormal basis :math:`N` of the null
-                       space of :math:`K`
-=====================  =====================================================
+=============================  =====================================================
+``Elimination``                dependent speeds eliminated with a fixed partition
+                               (Kane's method); drift projected onto the constraints
+                               by solving for the dependent variables
+``IndexOne``                   the index-1 system solved for :math:`\dot u, \lambda`
+                               together; no stabilization
+``Baumgarte``                  index 1 with :math:`K\dot u + f_a = -2\alpha c -
+                               \beta^2 P^+ h` (Baumgarte 1972)
+``Projection``                 index 1; drift removed by projecting the state onto
+                               the constraints (least change of all coordinates,
+                               mass-weighted change of all speeds)
+``Penalty``                    :math:`(M + \alpha K^TK)\dot u = f - \alpha K^T(f_a +
+                               2\xi\omega c + \omega^2 P^+h)` (Bayo et al. 1988)
+``AugmentedLagrangian``        the penalty system iterated on :math:`\lambda`
+                               until the constraints hold (Bayo & Ledesma 1996)
+``UdwadiaKalaba``              :math:`\dot u = a + M^{-1/2}(KM^{-1/2})^+(b - Ka)`,
+                               :math:`a = M^{-1}f` (Udwadia & Kalaba 1992)
+``Partitioning``               independent and dependent variables chosen at every
+                               evaluation by pivoted QR of the constraint Jacobian
+                               (Wehage & Haug 1982); dependent ones solved from the
+                               independent ones after drift
+``NullSpace``                  Maggi's equations: :math:`N^TMN z = N^T(f - M\dot
+                               u_p)` with an orthonormal basis :math:`N` of the null
+                               space of :math:`K`
+``AugmentedLagrangianIndex3``  index-3 augmented Lagrangian with mass-orthogonal
+                               projections, trapezoidal rule with a fixed step
+                               (Bayo & Ledesma 1996): its own integrator, which
+                               passes singular configurations (see
+                               :mod:`kanedyn._index3`)
+=============================  =====================================================
 
 :math:`P^+h` maps the configuration-constraint residual onto the velocity
 constraint rows (:math:`\dot h = P c` on the constraint manifold); see
@@ -60,7 +65,8 @@ from ._errors import ModelError
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
-           "SCHEMES", "as_scheme", "stabilization", "complement_solve"]
+           "AugmentedLagrangianIndex3", "SCHEMES", "as_scheme", "stabilization",
+           "complement_solve", "al_solve"]
 
 
 @dataclass(frozen=True)
@@ -75,11 +81,16 @@ class Scheme:
         Whether :func:`kanedyn.simulate` projects constraint drift by default.
     c_backend : bool
         Whether the compiled C backend implements the scheme.
+    c_terms : bool
+        Whether the scheme runs in Python on the terms that the C backend's
+        compiled functions evaluate (a ``backend="c"`` model then keeps the
+        Python ``rhs`` of the scheme).
     """
 
     name: ClassVar[str] = "scheme"
     project: ClassVar[bool] = False
     c_backend: ClassVar[bool] = False
+    c_terms: ClassVar[bool] = False
 
     def prepare(self, model):
         """Called once when a numerical model is built; may add functions."""
@@ -319,18 +330,9 @@ class AugmentedLagrangian(Penalty):
     max_iterations: int = 50
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
-        alpha, A, target = self._system(model, t, y, mass, K, acc_f)
-        factor = sla.cho_factor(A)
-        lam = np.zeros(K.shape[0])
-        base = force - alpha * K.T @ target
-        for _ in range(self.max_iterations):
-            udot = sla.cho_solve(factor, base + K.T @ lam)
-            residual = K @ udot + target
-            lam = lam - alpha * residual
-            scale = np.max(np.abs(K @ udot), initial=0.0) + np.max(np.abs(target)) + 1e-300
-            if np.max(np.abs(residual)) <= self.tol * scale:
-                break
-        return udot
+        alpha, _, target = self._system(model, t, y, mass, K, acc_f)
+        return al_solve(mass, force, K, -target, alpha, tol=self.tol,
+                        max_iterations=self.max_iterations)
 
 
 @dataclass(frozen=True)
@@ -397,6 +399,56 @@ def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
     particular = np.zeros(o)
     particular[dep] = -np.linalg.solve(K[:, dep], acc_f)
     return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
+
+
+def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=None):
+    r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
+
+    .. math::
+
+        (M + wC^TC)x_{k+1} = r + C^T\lambda_k + wC^Td,\qquad
+        \lambda_{k+1} = \lambda_k + w(d - Cx_{k+1}),
+
+    from :math:`\lambda_0 = 0`.  :math:`M + wC^TC` is positive definite
+    whenever :math:`M` is positive definite on the null space of :math:`C`,
+    whatever the rank of :math:`C`: with a rank-deficient or redundant
+    :math:`C` the components of :math:`d` it cannot reach are left
+    unreached (a least-squares compromise), instead of making the solve
+    singular.  Stops when :math:`\max|Cx - d| \le` ``tol`` times ``scale``.
+
+    Parameters
+    ----------
+    mass : ndarray, shape (o, o)
+    rhs : ndarray, shape (o,)
+    C : ndarray, shape (m, o)
+    target : ndarray, shape (m,)
+    weight : float
+        :math:`w`, in the units of :math:`M` over those of :math:`C^TC`.
+    tol : float
+        Relative tolerance of :math:`\max|Cx - d|`.
+    max_iterations : int
+    scale : float, optional
+        Magnitude against which the residual is measured; default
+        :math:`\max|Cx| + \max|d|` at each iteration.
+
+    Returns
+    -------
+    ndarray, shape (o,)
+    """
+    factor = sla.cho_factor(mass + weight * (C.T @ C))
+    lam = np.zeros(C.shape[0])
+    base = rhs + weight * (C.T @ target)
+    x = sla.cho_solve(factor, base)
+    for _ in range(max_iterations):
+        Cx = C @ x
+        residual = target - Cx
+        size = scale if scale is not None else (np.max(np.abs(Cx), initial=0.0)
+                                                + np.max(np.abs(target), initial=0.0))
+        if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
+            break
+        lam = lam + weight * residual
+        x = sla.cho_solve(factor, base + C.T @ lam)
+    return x
 
 
 def _pivoted_partition(A, m):
@@ -467,9 +519,132 @@ class NullSpace(Scheme):
         return particular + N @ z
 
 
+@dataclass(frozen=True)
+class AugmentedLagrangianIndex3(Scheme):
+    r"""Index-3 augmented Lagrangian with mass-orthogonal projections (Bayo & Ledesma 1996).
+
+    A scheme with its own integrator (:mod:`kanedyn._index3`):
+    :func:`kanedyn.simulate` hands the run to it.  The configuration
+    constraints are enforced at every step of the trapezoidal rule by a
+    penalty and iterated multipliers, solved by Newton's method; velocities
+    and accelerations are then projected onto their constraints in the mass
+    metric, regularized by the penalty.  No solve divides by the smallest
+    singular value of the constraint Jacobian, so the scheme passes singular
+    configurations, and it stays on the branch the motion follows (the
+    positions come from the constraints at the next step); redundant
+    constraints are allowed.  This is how the reference solutions of the
+    IFToMM benchmark problems were computed.
+
+    It needs speeds equal to the coordinate rates and holonomic constraints
+    only.  The step is fixed, so ``rtol`` and ``atol`` of
+    :func:`kanedyn.simulate` do not apply: the error is second order in
+    ``step`` (measured in ``docs/constraints.md``).  Used through
+    :meth:`kanedyn.NumericModel.rhs` (e.g. for linearization) it gives the
+    augmented-Lagrangian accelerations of :func:`~kanedyn._index3.al_solve`,
+    without stabilization.
+
+    Attributes
+    ----------
+    step : float
+        Time step, s (the largest step not above it that divides the
+        interval is used).
+    factor : float
+        Penalty: :math:`\tfrac{h^2}{4}\alpha\,\|\Phi_q^T\Phi_q\|` is
+        ``factor`` times :math:`\|M\|` (largest diagonal entries).
+    tol : float
+        Newton tolerance on the constraint residual, relative to
+        ``1 + max|q|``; the position correction must be below ``100 tol``
+        (relative) as well.
+    max_iterations : int
+        Newton iterations per step before the run stops with a failure.
+    projection_iterations : int
+        Augmented-Lagrangian iterations of each velocity and acceleration
+        projection.
+    """
+
+    name: ClassVar[str] = "augmented-lagrangian-index3"
+    project: ClassVar[bool] = True
+    c_terms: ClassVar[bool] = True
+    step: float = 1e-3
+    factor: float = 1e6
+    tol: float = 1e-10
+    max_iterations: int = 50
+    projection_iterations: int = 10
+
+    def __post_init__(self):
+        for key in ("step", "factor", "tol"):
+            value = getattr(self, key)
+            if not (np.isfinite(value) and value > 0):
+                raise ModelError(f"{type(self).__name__}: {key} must be positive, "
+                                 f"got {value!r}")
+        for key in ("max_iterations", "projection_iterations"):
+            if int(getattr(self, key)) < 1:
+                raise ModelError(f"{type(self).__name__}: {key} must be at least 1")
+
+    def weight(self, mass, C):
+        r"""Penalty weight :math:`w` of a projection onto the rows of ``C``."""
+        return _penalty_weight(mass, C, self.factor)
+
+    def position_penalty(self, mass, J, h):
+        r"""Penalty :math:`\alpha` of the configuration constraints for a step ``h``."""
+        return 4.0 / (h * h) * _penalty_weight(mass, J, self.factor)
+
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        return al_solve(mass, force, K, -acc_f, self.weight(mass, K),
+                        max_iterations=self.projection_iterations)
+
+    def project_velocities(self, model, t, y):
+        """Speeds projected onto the velocity constraints in the mass metric."""
+        y = np.array(y, dtype=float)
+        n = model.n_q
+        _, _, B, c = model._constraint_terms(t, y)
+        mass = model._dynamics(t, y)[1]
+        # as a correction: round-off then scales with it, not with the speeds (the
+        # penalized system has a condition number of about `factor`)
+        y[n:] += al_solve(mass, np.zeros(model.n_u), B, -c, self.weight(mass, B),
+                          max_iterations=self.projection_iterations,
+                          scale=np.max(np.abs(B)) * np.max(np.abs(y[n:])))
+        return y
+
+    def project_state(self, model, t, y, max_iterations=50):
+        """Coordinates by penalty-regularized Newton steps, then speeds (mass metric)."""
+        y = np.array(y, dtype=float)
+        n = model.n_q
+        for _ in range(max_iterations if model.n_q_dep else 0):
+            h, J, _, _ = model._constraint_terms(t, y)
+            if np.max(np.abs(h)) <= self.tol * (1.0 + np.max(np.abs(y[:n]))):
+                break
+            mass = model._dynamics(t, y)[1]
+            w = _penalty_weight(mass, J, self.factor)
+            y[:n] -= np.linalg.solve(mass + w * J.T @ J, w * J.T @ h)
+        return self.project_velocities(model, t, y) if model.n_u_dep else y
+
+    def integrate(self, model, t_span, y0, method="RK45", t_eval=None, events=(),
+                  dense_output=False, constraint_forces=False, monitor=None,
+                  progress=None, **options):
+        """Run :func:`kanedyn._index3.integrate_index3` (called by :func:`kanedyn.simulate`).
+
+        ``method`` must be ``"trapezoidal"`` or :func:`kanedyn.simulate`'s
+        default; ``solve_ivp`` options are refused.
+        """
+        from ._index3 import integrate_index3
+        if method not in ("RK45", "trapezoidal"):
+            raise ValueError(f"the {self.name!r} scheme integrates with its own "
+                             f"trapezoidal rule (fixed step {self.step:g} s); method="
+                             f"{method!r} cannot be used with it")
+        if options:
+            raise ValueError(f"option(s) {', '.join(sorted(options))} do not apply to the "
+                             f"{self.name!r} scheme's fixed-step integrator; set its "
+                             "step instead (kd.schemes.AugmentedLagrangianIndex3(step=...))")
+        return integrate_index3(self, model, t_span, y0, t_eval=t_eval, events=events,
+                                dense_output=dense_output,
+                                constraint_forces=constraint_forces, monitor=monitor,
+                                progress=progress)
+
+
 SCHEMES = {cls.name: cls for cls in (Elimination, IndexOne, Baumgarte, Projection,
                                      Penalty, AugmentedLagrangian, UdwadiaKalaba,
-                                     Partitioning, NullSpace)}
+                                     Partitioning, NullSpace, AugmentedLagrangianIndex3)}
 
 
 def as_scheme(scheme):

@@ -25,6 +25,7 @@ from ._errors import ModelError, OptionError, SimulationInterrupted
 from ._progress import as_progress
 from ._results import SimulationResult
 from ._run_guard import INTERRUPTED, Integrand, RunGuard, guarded_method, solver_class
+from ._singular import DEFAULT_THRESHOLD, SingularityMonitor
 
 __all__ = ["simulate", "COMPILED_METHODS", "TrustWarning"]
 
@@ -50,7 +51,8 @@ _ENERGY_GROWTH = 100.0  # energy change / initial energy scale that warrants a w
 
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
              events=None, dense_output=False, project=None, projection_tol=None,
-             constraint_forces=False, progress=False, backend=None, **options):
+             constraint_forces=False, progress=False, backend=None,
+             singular_threshold=DEFAULT_THRESHOLD, **options):
     """Integrate a :class:`NumericModel` with SciPy's ``solve_ivp``.
 
     Parameters
@@ -97,6 +99,14 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         (methods ``"RK45"``, the same algorithm as SciPy's, and
         ``"Rosenbrock23"``, for stiff problems); ``"scipy"``: ``solve_ivp``.
         Default: the compiled loop where it applies, else ``solve_ivp``.
+    singular_threshold : float or None
+        Report the times at which the run passes near a singular
+        configuration, where the smallest over the largest singular value of
+        the constraint Jacobian (:meth:`NumericModel.constraint_conditioning`)
+        has a minimum below this value: in the result's message and by a
+        :class:`~kanedyn.SingularConfigurationWarning` (default 1e-3; ``None``:
+        do not monitor).  Schemes with their own integrator
+        (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`) are run by it.
     **options
         Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).  For
         models with contacts also ``modes`` (initial mode per contact;
@@ -163,29 +173,38 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
             result = _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol,
                                              atol, user_events, constraint_forces, progress,
                                              options, guard)
-    elif _use_compiled(model, method, backend, options):
-        progress.stage(f"integrating with the compiled {method} loop")
-        result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
-                                    user_events, dense_output, tol if constrained and project
-                                    else 0.0, constraint_forces, options)
     else:
-        guard = RunGuard(model)
-        with guard.catching_interrupts():
-            result = _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol,
-                                     user_events, dense_output, project and constrained,
-                                     tol, progress, guard, options, common, method_name)
+        monitor = SingularityMonitor(model, singular_threshold)
+        if getattr(scheme, "integrate", None) is not None:  # a scheme's own integrator
+            result = scheme.integrate(model, (t0, t1), y_init, method=method, t_eval=t_eval,
+                                      events=user_events, dense_output=dense_output,
+                                      constraint_forces=constraint_forces, monitor=monitor,
+                                      progress=progress, **options)
+        elif _use_compiled(model, method, backend, options):
+            progress.stage(f"integrating with the compiled {method} loop")
+            result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                        user_events, dense_output,
+                                        tol if constrained and project else 0.0,
+                                        constraint_forces, options, monitor)
+        else:
+            guard = RunGuard(model)
+            with guard.catching_interrupts():
+                result = _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                         user_events, dense_output, project and constrained,
+                                         tol, progress, guard, options, common, method_name,
+                                         monitor)
     progress.done()
-    if result.message == INTERRUPTED:
+    if result.message.startswith(INTERRUPTED):
         raise SimulationInterrupted(result)
     return _with_trust_notes(result, _explicit_stages(method))
 
 
 def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_events,
                     dense_output, project, tol, progress, guard, options, common,
-                    method_name):
+                    method_name, monitor):
     """The solve_ivp path: segments between drift projections."""
     scheme = getattr(model, "scheme", None)
-    all_events = list(user_events)
+    all_events = list(user_events) + monitor.events
     drift_index = None
     if project:
         drift_index = len(all_events)
@@ -224,6 +243,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
             if sol.t_events is not None and len(sol.t_events[i]):
                 t_events[i].extend(sol.t_events[i])
                 y_events[i].extend(sol.y_events[i])
+        if monitor.active and sol.t_events is not None:
+            monitor.collect(sol.t_events[len(user_events)], sol.y_events[len(user_events)])
         first = False
         if sol.status == -1:
             status, message = -1, guard.stop_reason or sol.message
@@ -259,6 +280,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         break
     t = np.concatenate(ts) if ts else np.zeros(0)
     y = np.concatenate(ys, axis=1) if ys else np.zeros((model.n_states, 0))
+    message = monitor.finish(message, t0, y_init, t[-1] if t.size else t0,
+                             y[:, -1] if t.size else None)
     return SimulationResult.build(
         t=t, y=y, status=status, message=message,
         t_events=[np.asarray(v) for v in t_events],
@@ -531,12 +554,16 @@ class _CompiledDense:
 
 
 def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events, dense,
-                       project_tol, constraint_forces, options):
+                       project_tol, constraint_forces, options, monitor):
+    # the monitor scans the steps afterwards (a Python event call per step would
+    # cost more than the compiled step itself)
+    want_dense = dense or monitor.active
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
     out = model._c.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
                              float(options.get("max_step", np.inf)),
                              float(options.get("first_step") or 0.0), method,
-                             events if events else None, float(project_tol), bool(dense))
+                             events if events else None, float(project_tol),
+                             bool(want_dense))
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:
@@ -544,8 +571,14 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
     elif status == -1 and "t_bad" in out:
         message = diagnose(model, out["t_bad"], out["y_bad"]) or message
     dense_sol = None
-    if dense and len(out["dense_th"]):
+    if want_dense and len(out["dense_th"]):
         dense_sol = _CompiledDense(out["dense_th"], out["dense_y"], out["dense_q"], method)
+        th = out["dense_th"]
+        ends = np.append(th[:, 0], th[-1, 0] + th[-1, 1])
+        monitor.scan(ends, np.vstack([out["dense_y"], dense_sol(ends[-1])]), dense_sol)
+    message = monitor.finish(message, t0, y_init, out["t"][-1] if len(out["t"]) else t0,
+                             out["y"][-1] if len(out["t"]) else None, stacklevel=4)
+    dense_sol = dense_sol if dense else None
     counters = {"nfev": out["nfev"], "njev": out["njev"], "nlu": out["nlu"]}
     return SimulationResult.build(
         model=model, t=out["t"], y=out["y"].T.copy(), status=status, message=message,

@@ -5,10 +5,11 @@ in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or pass an
 instance to ``eom.numeric(scheme=...)``.
 """
 
-from ._schemes import (SCHEMES, AugmentedLagrangian, Baumgarte, Elimination, IndexOne,
-                       NullSpace, Partitioning, Penalty, Projection, Scheme, UdwadiaKalaba,
-                       as_scheme, stabilization)
+from ._schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte,
+                       Elimination, IndexOne, NullSpace, Partitioning, Penalty, Projection,
+                       Scheme, UdwadiaKalaba, as_scheme, stabilization)
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
-           "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace", "SCHEMES",
+           "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
+           "AugmentedLagrangianIndex3", "SCHEMES",
            "as_scheme", "stabilization"]

@@ -15,6 +15,7 @@ from ._constraint_models import (block_wedge, knife_edge, pin_slot, rod_bead,
                                  rolling_disk_contact)
 from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod,
                               ladder, slug_ellipsoid, sphere_slug)
+from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -26,7 +27,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
            "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
-           "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm"]
+           "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm", "n_four_bar",
+           "n_four_bar_exact", "n_four_bar_singular_times"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -54,6 +56,7 @@ REGISTRY = {
     "block-wedge": (block_wedge, {}),
     "snake": (snake, {"n": int}),
     "shuttle-arm": (shuttle_arm, {"payload": bool}),
+    "n-four-bar": (n_four_bar, {"n": int}),
 }
 
 
