@@ -43,6 +43,10 @@ class OptionError(KanedynError, ValueError):
     """An argument or option has a value that cannot be honoured (names the option)."""
 
 
+#: the message of a run ended by Ctrl-C
+INTERRUPTED = "interrupted"
+
+
 class SimulationInterrupted(KeyboardInterrupt):
     """Ctrl-C during a simulation; carries what was computed up to then.
 
@@ -60,7 +64,7 @@ class SimulationInterrupted(KeyboardInterrupt):
     """
 
     def __init__(self, result):
-        super().__init__("interrupted")
+        super().__init__(INTERRUPTED)
         self.result = result
 
 

@@ -43,7 +43,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ._errors import ModelError
+from ._errors import INTERRUPTED, ModelError
 from ._schemes import al_solve
 
 __all__ = ["check_index3_model", "integrate_index3"]
@@ -193,7 +193,7 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
 
 
 def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_output=False,
-                     constraint_forces=False, monitor=None, progress=None):
+                     constraint_forces=False, monitor=None, progress=None, guard=None):
     """Integrate with the index-3 augmented Lagrangian; see the module docstring.
 
     Parameters
@@ -212,6 +212,8 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     constraint_forces : bool
     monitor : SingularityMonitor, optional
     progress : Progress, optional
+    guard : RunGuard, optional
+        Ends the run on Ctrl-C (message ``"interrupted"``) with what was computed.
 
     Returns
     -------
@@ -248,6 +250,9 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     status, message = 0, "the integration reached the end of the interval"
     t = t0
     for k in range(steps):
+        if guard is not None and guard.interrupted:
+            status, message = -1, INTERRUPTED
+            break
         t_new = t0 + (k + 1) * h if k + 1 < steps else t1
         hk = t_new - t
         v_hat = (2.0 / hk) * q + v

@@ -24,12 +24,9 @@ from scipy.integrate import OdeSolver
 from scipy.integrate._ivp.ivp import METHODS as SCIPY_METHODS
 
 from ._diagnosis import diagnose
-from ._errors import OptionError
+from ._errors import INTERRUPTED, OptionError
 
 __all__ = ["RunGuard", "Integrand", "guarded_method", "INTERRUPTED"]
-
-INTERRUPTED = "interrupted"
-
 
 class RunGuard:
     """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.

@@ -61,7 +61,7 @@ from typing import ClassVar
 import numpy as np
 import scipy.linalg as sla
 
-from ._errors import ModelError
+from ._errors import ModelError, OptionError
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
@@ -621,7 +621,7 @@ class AugmentedLagrangianIndex3(Scheme):
 
     def integrate(self, model, t_span, y0, method="RK45", t_eval=None, events=(),
                   dense_output=False, constraint_forces=False, monitor=None,
-                  progress=None, **options):
+                  progress=None, guard=None, **options):
         """Run :func:`kanedyn._index3.integrate_index3` (called by :func:`kanedyn.simulate`).
 
         ``method`` must be ``"trapezoidal"`` or :func:`kanedyn.simulate`'s
@@ -629,17 +629,17 @@ class AugmentedLagrangianIndex3(Scheme):
         """
         from ._index3 import integrate_index3
         if method not in ("RK45", "trapezoidal"):
-            raise ValueError(f"the {self.name!r} scheme integrates with its own "
+            raise OptionError(f"the {self.name!r} scheme integrates with its own "
                              f"trapezoidal rule (fixed step {self.step:g} s); method="
                              f"{method!r} cannot be used with it")
         if options:
-            raise ValueError(f"option(s) {', '.join(sorted(options))} do not apply to the "
+            raise OptionError(f"option(s) {', '.join(sorted(options))} do not apply to the "
                              f"{self.name!r} scheme's fixed-step integrator; set its "
                              "step instead (kd.schemes.AugmentedLagrangianIndex3(step=...))")
         return integrate_index3(self, model, t_span, y0, t_eval=t_eval, events=events,
                                 dense_output=dense_output,
                                 constraint_forces=constraint_forces, monitor=monitor,
-                                progress=progress)
+                                progress=progress, guard=guard)
 
 
 SCHEMES = {cls.name: cls for cls in (Elimination, IndexOne, Baumgarte, Projection,

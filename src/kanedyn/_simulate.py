@@ -176,10 +176,14 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     else:
         monitor = SingularityMonitor(model, singular_threshold)
         if getattr(scheme, "integrate", None) is not None:  # a scheme's own integrator
-            result = scheme.integrate(model, (t0, t1), y_init, method=method, t_eval=t_eval,
-                                      events=user_events, dense_output=dense_output,
-                                      constraint_forces=constraint_forces, monitor=monitor,
-                                      progress=progress, **options)
+            guard = RunGuard(model)
+            with guard.catching_interrupts():
+                result = scheme.integrate(model, (t0, t1), y_init, method=method,
+                                          t_eval=t_eval, events=user_events,
+                                          dense_output=dense_output,
+                                          constraint_forces=constraint_forces,
+                                          monitor=monitor, progress=progress, guard=guard,
+                                          **options)
         elif _use_compiled(model, method, backend, options):
             progress.stage(f"integrating with the compiled {method} loop")
             result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,

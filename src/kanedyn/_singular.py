@@ -41,6 +41,10 @@ __all__ = ["conditioning", "SingularityMonitor", "DEFAULT_THRESHOLD"]
 DEFAULT_THRESHOLD = 1e-3
 
 _LISTED = 8  # passages named one by one in the message
+# a change of the ratio over the central difference below this is round-off, not an
+# approach (a rigid motion keeps the ratio constant: its rate is noise of either sign,
+# which would make event roots appear and vanish between a step and its interpolant)
+_NOISE = 1e-12
 
 #: What the note of a run that passed near a singular configuration recommends.
 ADVICE = ("the constraints lose rank there, so the motion may have jumped to another "
@@ -161,8 +165,9 @@ class SingularityMonitor:
         if not np.isfinite(pair.sum()):
             return 1.0
         r_ahead, r_behind = _ratios(pair)
-        rate = (r_ahead - r_behind) / (2.0 * dt)
-        return rate if rate != 0.0 else np.finfo(float).tiny
+        if abs(r_ahead - r_behind) <= _NOISE:  # the ratio does not change: no approach
+            return 1.0
+        return (r_ahead - r_behind) / (2.0 * dt)
 
     def _rates(self, times, states):
         """:meth:`_rate` at many states at once (one stacked singular value decomposition)."""
@@ -189,7 +194,7 @@ class SingularityMonitor:
         r = _ratios(stack).reshape(2, -1)
         rate = (r[0] - r[1]) / (2.0 * dt)
         rate[~(finite.reshape(2, -1).all(axis=0) & np.isfinite(rate))] = 1.0
-        rate[rate == 0.0] = np.finfo(float).tiny
+        rate[np.abs(r[0] - r[1]) <= _NOISE] = 1.0
         rates[moving] = rate
         return rates
 
