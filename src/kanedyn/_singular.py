@@ -219,10 +219,21 @@ class SingularityMonitor:
         if not self.active or len(times) < 2:
             return
         times = np.asarray(times, dtype=float)
-        rates = self._rates(times, np.asarray(states, dtype=float))
+        states = np.asarray(states, dtype=float)
+        rates = self._rates(times, states)
         for k in np.flatnonzero((rates[:-1] < 0.0) & (rates[1:] >= 0.0)):
             a, b = sorted((times[k], times[k + 1]))
-            root = brentq(lambda t: self._rate(t, solution(t)), a, b, xtol=1e-14)
+            # a minimum inside the step lies no deeper than the ends' ratios minus
+            # their rates over half the step: refine only those that may be below
+            lowest = (min(self.ratio(times[k], states[k]), self.ratio(times[k + 1],
+                                                                        states[k + 1]))
+                      - 0.5 * (b - a) * max(abs(rates[k]), abs(rates[k + 1])))
+            if not lowest < self.threshold:
+                continue
+            try:
+                root = brentq(lambda t: self._rate(t, solution(t)), a, b, xtol=1e-14)
+            except ValueError:  # the interpolant's rate keeps its sign: take the ends
+                root = min((a, b), key=lambda t: self.ratio(t, solution(t)))
             self._record(float(root), solution(root))
 
     def collect(self, t_events, y_events):
