@@ -38,7 +38,7 @@ import time
 import numpy as np
 
 import kanedyn as kd
-from kanedyn._compare import compare_formulations, work_precision
+from kanedyn.analysis._compare import compare_formulations, work_precision
 
 METHODS = ("kane", "lagrange", "lagrange-index1", "lagrange-baumgarte",
            "lagrange-projection", "penalty", "augmented-lagrangian", "udwadia-kalaba",

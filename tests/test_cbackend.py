@@ -12,8 +12,8 @@ import sympy.physics.mechanics as me
 from scipy.integrate import solve_ivp
 
 import kanedyn as kd
-from kanedyn import _cbackend
-from kanedyn._codegen import CodegenError
+from kanedyn.numerics.backends import _c as _cbackend
+from kanedyn.numerics.backends._python import CodegenError
 
 pytestmark = pytest.mark.skipif(_cbackend.compiler_command() is None,
                                 reason="no C compiler")

@@ -194,7 +194,7 @@ def test_vector_constraints_count_towards_dependent_speeds():
 @pytest.mark.parametrize("name, t_end", [("nonholonomic-particle", 2.0), ("knife-edge", 4.0),
                                          ("sphere-turntable", 1.0)])
 def test_only_dalembert_formulations_pass_newton_euler(name, t_end):
-    from kanedyn._compare import compare_formulations
+    from kanedyn.analysis._compare import compare_formulations
     cmp = compare_formulations(name, t_end=t_end, n_points=41)
     for method in ("kane", "lagrange"):
         check = cmp.newton_euler[method]
@@ -220,7 +220,7 @@ def test_cli_compare(capsys):
 def test_multipliers_in_the_multiplier_form():
     """The Lagrange knife edge has no fixed partition of its rates: its multipliers
     come from the joint solve, also at heading 0 where x' cannot be dependent."""
-    from kanedyn._compare import _initial_state
+    from kanedyn.analysis._compare import _initial_state
     definition = kd.models.build("knife-edge")
     kane = definition.numeric(definition.derive())
     lagrange = definition.numeric(definition.derive(method="lagrange"))

@@ -16,7 +16,7 @@ import pytest
 
 import kanedyn as kd
 from kanedyn import models
-from kanedyn._contact_numeric import SlipReference
+from kanedyn.numerics._contact_dynamics import SlipReference
 
 TIGHT = dict(rtol=1e-10, atol=1e-10)
 M, G, MU, B = 1.0, 9.81, 0.3, 0.05  # the bead-in-tube defaults

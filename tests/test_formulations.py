@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 import kanedyn as kd
-from kanedyn._compare import _initial_state, compare_formulations, work_precision
+from kanedyn.analysis._compare import _initial_state, compare_formulations, work_precision
 from kanedyn.schemes import SCHEMES
 
 SCHEME_METHODS = ("lagrange-index1", "lagrange-baumgarte", "lagrange-projection",

@@ -14,7 +14,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 import kanedyn as kd
-from kanedyn._symbols import name_of
+from kanedyn.engine._symbols import name_of
 
 T = me.dynamicsymbols._t
 
@@ -211,7 +211,7 @@ def test_rolling_disk_motion_matches_kane():
     rl = kd.simulate(lm, (0.0, 1.5), yl, **opts)
     assert rk.success and rl.success
     np.testing.assert_allclose(rl.y[:5, -1], rk.y[:5, -1], atol=1e-7)
-    from kanedyn._cbackend import compiler_command
+    from kanedyn.numerics.backends._c import compiler_command
     if compiler_command() is not None:  # a fixed partition: the C backend applies
         cm = d.numeric(lm._eom, backend="c")
         np.testing.assert_allclose(cm.rhs(0.3, rl.y[:, 5]), lm.rhs(0.3, rl.y[:, 5]),
@@ -459,7 +459,7 @@ def test_augmented_mass_matrix_and_backends():
     # no dependent speeds, so nothing to project; energies still available
     assert am.n_u_dep == 0 and am.n_q_dep == 0
     assert np.isfinite(am.kinetic_energy(0.0, y))
-    from kanedyn._cbackend import compiler_command
+    from kanedyn.numerics.backends._c import compiler_command
     if compiler_command() is None:
         pytest.skip("no C compiler")
     cm = aug.numeric(constants=constants, backend="c")

@@ -5,7 +5,7 @@ import math
 import pytest
 import sympy as sm
 
-from kanedyn._program import Program, fast_eval, total_derivative
+from kanedyn.engine._program import Program, fast_eval, total_derivative
 
 
 @pytest.fixture()
@@ -98,7 +98,7 @@ def test_shadow_values_are_consistent(program):
 def test_fast_eval_distinguishes_numbers_with_equal_hashes():
     """hash(-1) == hash(-2) in CPython: the hash-keyed memo must not mix them
     (it evaluated -2*x as -x in randomized identity tests)."""
-    from kanedyn._program import fast_eval
+    from kanedyn.engine._program import fast_eval
     x, y = sm.symbols("x y")
     values = {x: 3.0, y: 5.0}
     expr = -x * y + 2 * x - 2 * y  # contains the numbers -1 and -2

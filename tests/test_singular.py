@@ -18,7 +18,7 @@ import numpy as np
 import pytest
 
 import kanedyn as kd
-from kanedyn import _cbackend
+from kanedyn.numerics.backends import _c as _cbackend
 from kanedyn.models import n_four_bar_exact, n_four_bar_singular_times
 
 needs_compiler = pytest.mark.skipif(_cbackend.compiler_command() is None,

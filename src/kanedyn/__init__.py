@@ -8,21 +8,21 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from ._contact import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
+from .modeling._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
                        Sphere, Surface)
-from ._hybrid import ModeChange
-from ._impact import Impact
-from ._eom import EquationsOfMotion
+from .simulation._hybrid import ModeChange
+from .simulation._impact import Impact
+from .formulations._eom import EquationsOfMotion
 from ._errors import (ConstraintError, KanedynError, KinematicsError,
                       MissingValueError, ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
-from ._formulation import FORMULATIONS, formulate, kane
-from ._newton_euler import NewtonEulerCheck, check_newton_euler
-from ._numeric import NumericModel
-from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
-from ._results import SimulationResult
-from ._simulate import TrustWarning, simulate
-from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
+from .formulations._registry import FORMULATIONS, formulate, kane
+from .analysis._newton_euler import NewtonEulerCheck, check_newton_euler
+from .numerics._model import NumericModel
+from .numerics._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
+from .simulation._results import SimulationResult
+from .simulation._simulate import TrustWarning, simulate
+from .modeling._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
 from . import models, schemes
 

@@ -5,7 +5,7 @@ in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or pass an
 instance to ``eom.numeric(scheme=...)``.
 """
 
-from ._schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte,
+from .numerics.schemes._schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte,
                        Elimination, IndexOne, NullSpace, Partitioning, Penalty, Projection,
                        Scheme, UdwadiaKalaba, as_scheme, stabilization)
 

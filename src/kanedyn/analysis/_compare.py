@@ -20,9 +20,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._errors import ModelError
+from .._errors import ModelError
 from ._newton_euler import check_newton_euler
-from ._simulate import simulate
+from ..simulation._simulate import simulate
 
 __all__ = ["compare_formulations", "FormulationComparison", "work_precision",
            "WorkPrecision", "NONHOLONOMIC_EXAMPLES"]
@@ -262,7 +262,7 @@ class _Setup:
 
 def _models(name, methods, constants, options, t_end, n_points):
     """Derive and build every method's model; map the reference start to each."""
-    from . import models
+    from .. import models
     methods = tuple(methods)
     if not methods:
         raise ModelError("give at least one formulation to compare")

@@ -33,11 +33,11 @@ import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._codegen import compile_python, generate_python
-from ._errors import ModelError
-from ._kane import _inertia_terms, _matvec
-from ._kinematics import add, cross
-from ._program import SAMPLE_SEEDS
+from ..numerics.backends._python import compile_python, generate_python
+from .._errors import ModelError
+from ..formulations._kane import _inertia_terms, _matvec
+from ..engine._kinematics import add, cross
+from ..engine._program import SAMPLE_SEEDS
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck"]
 
@@ -299,7 +299,7 @@ def check_newton_euler(model, t=None, y=None, *, udot=None, multipliers=None,
         When a load cannot be assigned to a body (the message names the
         point), or the model was unpickled without its equations.
     """
-    from ._results import SimulationResult
+    from ..simulation._results import SimulationResult
     if isinstance(model, SimulationResult):
         if t is not None or y is not None:
             raise ValueError("give either a SimulationResult or a model with t and y")

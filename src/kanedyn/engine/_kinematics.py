@@ -27,7 +27,7 @@ from collections import deque
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._errors import KinematicsError
+from .._errors import KinematicsError
 from ._program import SAMPLE_SEEDS, fast_eval
 
 __all__ = ["Kinematics", "cross", "dot"]

@@ -14,7 +14,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.physics.mechanics import dynamicsymbols
 
-from ._errors import ModelError
+from .._errors import ModelError
 
 __all__ = ["SymbolTable", "name_of"]
 

@@ -30,9 +30,9 @@ from functools import cached_property
 
 import sympy as sm
 
-from ._input import description_symbols
-from ._program import SAMPLE_SEEDS
-from ._symbols import name_of
+from ..modeling._spec import description_symbols
+from ..engine._program import SAMPLE_SEEDS
+from ..engine._symbols import name_of
 
 __all__ = ["EquationsOfMotion"]
 
@@ -467,7 +467,7 @@ class EquationsOfMotion:
         from the mass matrix, forcing and constraints, and what is done about
         constraint drift; :meth:`numeric` takes ``scheme=`` to choose another.
         """
-        from ._schemes import Elimination
+        from ..numerics.schemes._schemes import Elimination
         return getattr(self, "_scheme", None) or Elimination()
 
     # --------------------------------------------------------- inspection
@@ -549,7 +549,7 @@ class EquationsOfMotion:
         -------
         NumericModel
         """
-        from ._numeric import build_numeric_model
+        from ..numerics._model import build_numeric_model
         return build_numeric_model(self, constants or {}, specified or {}, backend,
                                    **options)
 
@@ -579,7 +579,7 @@ class EquationsOfMotion:
 
         See :func:`kanedyn._linearize.linearize_symbolic` for the details.
         """
-        from ._linearize import linearize_symbolic
+        from ..numerics._linearize import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,
                                   constants=constants, specified=specified, t=t,
                                   simplify=simplify, linear_solver=linear_solver)

@@ -29,12 +29,12 @@ import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._errors import ModelError
-from ._composite import composite_equations
-from ._kinematics import Kinematics, add, cross, dot
-from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
-from ._progress import NO_PROGRESS
-from ._symbols import SymbolTable, name_of
+from .._errors import ModelError
+from ..engine._composite import composite_equations
+from ..engine._kinematics import Kinematics, add, cross, dot
+from ..engine._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
+from .._progress import NO_PROGRESS
+from ..engine._symbols import SymbolTable, name_of
 
 __all__ = ["derive_kane", "BodyTerms", "body_kinematics", "load_terms",
            "given_velocity_constraints"]
@@ -72,7 +72,7 @@ class ContactTerms:
 
 def _contact_terms(kin, contact, speeds, aux_zero):
     """The :class:`ContactTerms` of one contact."""
-    from ._contact import SURFACE_COORDINATES
+    from ..modeling._contacts import SURFACE_COORDINATES
 
     prog = kin.prog
     surface = contact.surface

@@ -76,14 +76,14 @@ import scipy.linalg as sla
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._codegen import compile_python, generate_python
-from ._errors import ModelError
+from ..numerics.backends._python import compile_python, generate_python
+from .._errors import ModelError
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, _inertia_terms, _matvec,
                     constraint_terms, kane_setup, potential_term)
-from ._kinematics import add, cross, dot
-from ._program import SAMPLE_SEEDS
-from ._progress import NO_PROGRESS
-from ._schemes import Scheme, complement_solve
+from ..engine._kinematics import add, cross, dot
+from ..engine._program import SAMPLE_SEEDS
+from .._progress import NO_PROGRESS
+from ..numerics.schemes._schemes import Scheme, complement_solve
 
 __all__ = ["derive_orthogonal_complement", "OrthogonalComplement"]
 

@@ -8,10 +8,10 @@ register themselves here under their own names.
 
 from __future__ import annotations
 
-from ._errors import ModelError
-from ._input import parse_model
-from ._progress import NO_PROGRESS, as_progress
-from ._schemes import (AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte, IndexOne,
+from .._errors import ModelError
+from ..modeling._spec import parse_model
+from .._progress import NO_PROGRESS, as_progress
+from ..numerics.schemes._schemes import (AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte, IndexOne,
                        NullSpace, Partitioning, Penalty, Projection, UdwadiaKalaba, as_scheme)
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]

@@ -20,7 +20,7 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._errors import ModelError
+from .._errors import ModelError
 
 __all__ = ["Surface", "Plane", "Sphere", "Ellipsoid", "ImplicitSurface", "Contact",
            "SURFACE_COORDINATES"]

@@ -17,7 +17,7 @@ import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._errors import ModelError
+from .._errors import ModelError
 
 __all__ = ["check_declared_bodies", "body_parameters", "body_values", "BodyValues"]
 

@@ -13,9 +13,9 @@ import sympy as sm
 import sympy.physics.mechanics as me
 from sympy.physics.mechanics.loads import _parse_load
 
-from ._errors import ModelError
+from .._errors import ModelError
 from ._physical import check_declared_bodies
-from ._symbols import name_of
+from ..engine._symbols import name_of
 
 __all__ = ["ModelSpec", "parse_model", "description_symbols"]
 
@@ -145,7 +145,7 @@ def _check_vector_constraints(constraints):
 
 
 def _check_contacts(contacts):
-    from ._contact import Contact
+    from ._contacts import Contact
     contacts = _as_tuple(contacts, "contacts")
     for c in contacts:
         if not isinstance(c, Contact):
@@ -360,6 +360,6 @@ def description_symbols(spec):
                      spec.configuration_constraints, spec.velocity_constraints,
                      spec.acceleration_constraints, spec.potential_energy,
                      spec.contacts, spec.vector_constraints])
-    from ._contact import SURFACE_COORDINATES  # placeholders of gap functions
+    from ._contacts import SURFACE_COORDINATES  # placeholders of gap functions
     excluded = {me.dynamicsymbols._t, *SURFACE_COORDINATES}
     return tuple(sorted((s for s in collector.symbols if s not in excluded), key=str))

@@ -29,8 +29,8 @@ from __future__ import annotations
 
 import sympy.physics.mechanics as me
 
-from ._errors import ModelError
-from ._kinematics import add, cross, dot
+from .._errors import ModelError
+from ..engine._kinematics import add, cross, dot
 
 __all__ = ["VectorConstraint", "PointVelocity", "AngularVelocity", "OrthogonalVelocities",
            "ConstraintAction"]

@@ -37,9 +37,9 @@ import warnings
 import numpy as np
 import sympy as sm
 
-from ._codegen import compile_python, generate_python
-from ._errors import ConstraintError
-from ._symbols import name_of
+from .backends._python import compile_python, generate_python
+from .._errors import ConstraintError
+from ..engine._symbols import name_of
 
 __all__ = ["linearize_numeric", "linearize_symbolic", "linearization_terms"]
 

@@ -31,11 +31,11 @@ from collections.abc import Mapping
 import numpy as np
 import sympy as sm
 
-from ._codegen import compile_python, generate_python
-from ._errors import ConstraintError, MissingValueError, ModelError
-from ._physical import body_parameters, body_values
-from ._schemes import Elimination, as_scheme
-from ._symbols import name_of
+from .backends._python import compile_python, generate_python
+from .._errors import ConstraintError, MissingValueError, ModelError
+from ..modeling._physical import body_parameters, body_values
+from .schemes._schemes import Elimination, as_scheme
+from ..engine._symbols import name_of
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
@@ -300,7 +300,7 @@ class NumericModel(StateLayout):
         self._compile()
 
     def _module_source(self):
-        from ._cbackend import generate_c
+        from .backends._c import generate_c
         eom = getattr(self, "_eom", None)
         if eom is None:
             raise ValueError("cannot pickle: the model's equations are not available")
@@ -312,7 +312,7 @@ class NumericModel(StateLayout):
         self._inputs = d["inputs"]
         if d["backend"] == "c":
             if module is None:
-                from ._cbackend import load_module
+                from .backends._c import load_module
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
             self._fn = {name: getattr(module, name)
@@ -743,7 +743,7 @@ class NumericModel(StateLayout):
         ContactSolution
             ``udot``, ``normal_force``, ``friction``, ``force``, ``dissipation``.
         """
-        from ._contact_numeric import solve_modes
+        from ._contact_dynamics import solve_modes
         if not self.contacts:
             raise ValueError("this model has no contacts")
         if len(modes) != len(self.contacts):
@@ -774,7 +774,7 @@ def _contact_outputs(terms, o, sub):
 
 def _contact_coefficients(contacts, values):
     """Numbers for each contact's friction and restitution coefficients."""
-    from ._contact import coefficient_value
+    from ..modeling._contacts import coefficient_value
     out = []
     for c in contacts:
         entry = {"name": c.name, "kind": c.kind, "law": c.restitution_law}
@@ -914,7 +914,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
     if backend == "c":
-        from ._cbackend import (compiler_command, fingerprint, generate_c, load_module,
+        from .backends._c import (compiler_command, fingerprint, generate_c, load_module,
                                 missing_compiler_text)
         if compiler_command() is None:
             warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",

@@ -22,9 +22,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._codegen import compile_python, generate_python
-from ._errors import MissingValueError, ModelError
-from ._numeric import StateLayout
+from .backends._python import compile_python, generate_python
+from .._errors import MissingValueError, ModelError
+from ._model import StateLayout
 
 __all__ = ["orthogonalize_speeds", "OrthogonalSpeedsModel", "MassMatrices"]
 

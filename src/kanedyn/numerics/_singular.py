@@ -32,7 +32,7 @@ import warnings
 
 import numpy as np
 
-from ._errors import SingularConfigurationWarning
+from .._errors import SingularConfigurationWarning
 
 __all__ = ["conditioning", "SingularityMonitor", "DEFAULT_THRESHOLD"]
 

@@ -27,7 +27,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ._contact_numeric import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
+from ..numerics._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
                                solve_modes)
 from ._impact import resolve_impact
 from ._run_guard import INTERRUPTED, RunGuard, guarded_method
@@ -444,7 +444,7 @@ def _changes(t, names, before, after, reasons):
 
 def _check_initial(model, t, y, modes, tol):
     """Bad initial states of contacts are errors that say what is wrong."""
-    from ._errors import ModelError
+    from .._errors import ModelError
     with np.errstate(invalid="ignore", divide="ignore"):  # a vanishing normal: below
         points = contact_points(model, t, y)
     for c, point in enumerate(points):

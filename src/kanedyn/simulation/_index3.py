@@ -43,8 +43,8 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from ._errors import INTERRUPTED, ModelError
-from ._schemes import al_solve
+from .._errors import INTERRUPTED, ModelError
+from ..numerics.schemes._schemes import al_solve
 
 __all__ = ["check_index3_model", "integrate_index3"]
 

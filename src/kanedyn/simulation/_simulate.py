@@ -20,12 +20,12 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.integrate._ivp.rk import RungeKutta
 
-from ._diagnosis import diagnose
-from ._errors import ModelError, OptionError, SimulationInterrupted
-from ._progress import as_progress
+from ..numerics._diagnosis import diagnose
+from .._errors import ModelError, OptionError, SimulationInterrupted
+from .._progress import as_progress
 from ._results import SimulationResult
 from ._run_guard import INTERRUPTED, Integrand, RunGuard, guarded_method, solver_class
-from ._singular import DEFAULT_THRESHOLD, SingularityMonitor
+from ..numerics._singular import DEFAULT_THRESHOLD, SingularityMonitor
 
 __all__ = ["simulate", "COMPILED_METHODS", "TrustWarning"]
 

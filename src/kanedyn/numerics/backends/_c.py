@@ -38,8 +38,8 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
 from . import _c_integrator, _c_runtime
-from ._codegen import CodegenError
-from ._errors import KanedynError
+from ._python import CodegenError
+from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
            "missing_compiler_text", "CHUNK"]

@@ -14,7 +14,7 @@ import numpy as np
 from sympy.printing.numpy import SciPyPrinter
 from sympy.printing.pycode import PythonCodePrinter
 
-from ._errors import KanedynError
+from ..._errors import KanedynError
 
 __all__ = ["CodegenError", "generate_python", "compile_python"]
 

@@ -61,7 +61,7 @@ from typing import ClassVar
 import numpy as np
 import scipy.linalg as sla
 
-from ._errors import ModelError, OptionError
+from ..._errors import ModelError, OptionError
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
@@ -627,7 +627,7 @@ class AugmentedLagrangianIndex3(Scheme):
         ``method`` must be ``"trapezoidal"`` or :func:`kanedyn.simulate`'s
         default; ``solve_ivp`` options are refused.
         """
-        from ._index3 import integrate_index3
+        from ...simulation._index3 import integrate_index3
         if method not in ("RK45", "trapezoidal"):
             raise OptionError(f"the {self.name!r} scheme integrates with its own "
                              f"trapezoidal rule (fixed step {self.step:g} s); method="
