@@ -18,7 +18,7 @@ import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn._errors import ModelError
-from kanedyn.formulations._orthogonal_complement import OrthogonalComplement
+from kanedyn.schemes import OrthogonalComplement
 
 NOC = "orthogonal-complement"
 
@@ -76,7 +76,7 @@ def test_accelerations_equal_kane(derived, name, options):
 def test_cholesky_solves_the_reduced_system(derived, monkeypatch):
     """The scheme factors a symmetric positive definite matrix: N^T M N with
     dependent speeds (four-bar), M itself without (chain)."""
-    import kanedyn.formulations._orthogonal_complement as noc_module
+    import kanedyn.numerics.schemes._orthogonal_complement as noc_module
     calls = []
     original = noc_module.sla.cho_factor
 

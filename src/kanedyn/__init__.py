@@ -8,25 +8,18 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from .modeling._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
-                       Sphere, Surface)
-from .simulation._hybrid import ModeChange
-from .simulation._impact import Impact
-from .formulations._eom import EquationsOfMotion
-from ._errors import (ConstraintError, KanedynError, KinematicsError,
-                      MissingValueError, ModelError, OptionError, SimulationInterrupted,
-                      SingularConfigurationWarning)
-from .formulations._registry import FORMULATIONS, formulate, kane
-from .analysis._newton_euler import NewtonEulerCheck, check_newton_euler
-from .numerics._model import NumericModel
-from .numerics._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
-from .simulation._results import SimulationResult
-from .simulation._simulate import TrustWarning, simulate
-from .modeling._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
-                                  VectorConstraint)
 from . import models, schemes
-
-__version__ = "0.1.0"
+from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
+                      ModelError, OptionError, SimulationInterrupted,
+                      SingularConfigurationWarning)
+from ._version import __version__ as __version__
+from .analysis import NewtonEulerCheck, check_newton_euler
+from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
+from .modeling import (SURFACE_COORDINATES, AngularVelocity, Contact, Ellipsoid, ImplicitSurface,
+                       OrthogonalVelocities, Plane, PointVelocity, Sphere, Surface,
+                       VectorConstraint)
+from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
+from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
 
 __all__ = [
     "kane",

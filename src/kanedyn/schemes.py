@@ -1,15 +1,16 @@
 """Constraint schemes: how equations with constraints become accelerations.
 
-See :mod:`kanedyn._schemes` for the equations of each scheme; pick one by name
-in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or pass an
-instance to ``eom.numeric(scheme=...)``.
+See :mod:`kanedyn.numerics.schemes` for the equations of each scheme; pick one
+by name in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or
+pass an instance to ``eom.numeric(scheme=...)``.
 """
 
-from .numerics.schemes._schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte,
-                       Elimination, IndexOne, NullSpace, Partitioning, Penalty, Projection,
-                       Scheme, UdwadiaKalaba, as_scheme, stabilization)
+from .numerics.schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3,
+                               Baumgarte, Elimination, IndexOne, NullSpace,
+                               OrthogonalComplement, Partitioning, Penalty, Projection, Scheme,
+                               UdwadiaKalaba, as_scheme, stabilization)
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
-           "AugmentedLagrangianIndex3", "SCHEMES",
-           "as_scheme", "stabilization"]
+           "AugmentedLagrangianIndex3", "OrthogonalComplement", "SCHEMES", "as_scheme",
+           "stabilization"]

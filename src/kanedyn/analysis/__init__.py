@@ -1,0 +1,15 @@
+"""Analysis: checks, comparisons and plots of what the layers below computed.
+
+``_newton_euler``  body-by-body Newton-Euler residuals with identified forces
+``_compare``       formulations side by side; work-precision
+``_plotting``      figures of results (Matplotlib, imported lazily)
+"""
+
+from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecision,
+                       compare_formulations, work_precision)
+from ._newton_euler import NewtonEulerCheck, check_newton_euler
+from ._plotting import plot_result, pyplot
+
+__all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
+           "work_precision", "FormulationComparison", "WorkPrecision",
+           "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot"]

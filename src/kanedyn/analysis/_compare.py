@@ -22,7 +22,7 @@ import numpy as np
 
 from .._errors import ModelError
 from ._newton_euler import check_newton_euler
-from ..simulation._simulate import simulate
+from ..simulation import simulate
 
 __all__ = ["compare_formulations", "FormulationComparison", "work_precision",
            "WorkPrecision", "NONHOLONOMIC_EXAMPLES"]

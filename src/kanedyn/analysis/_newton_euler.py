@@ -33,11 +33,9 @@ import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ..numerics.backends._python import compile_python, generate_python
+from ..numerics import compile_python, generate_python
 from .._errors import ModelError
-from ..formulations._kane import _inertia_terms, _matvec
-from ..engine._kinematics import add, cross
-from ..engine._program import SAMPLE_SEEDS
+from ..engine import SAMPLE_SEEDS, add, cross, inertia_components, matvec
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck"]
 
@@ -208,10 +206,10 @@ def _build(model, loads_on):
                  for i in range(3)]
         force = tuple(m * a + f for a, f in zip(accel, force0))
         if isinstance(body, me.RigidBody):
-            _, I_N, _ = _inertia_terms(kin, body, f"body {body.name}")
+            _, I_N, _ = inertia_components(kin, body, f"body {body.name}")
             alpha = [sum((W[i] * ud for W, ud in zip(terms.partial_angular_velocities, udot)),
                          sm.S.Zero) for i in range(3)]
-            moment = add(_matvec(I_N, alpha), torque0)
+            moment = add(matvec(I_N, alpha), torque0)
         else:
             moment = (sm.S.Zero,) * 3
         inertia.append(force + tuple(moment))
@@ -299,7 +297,7 @@ def check_newton_euler(model, t=None, y=None, *, udot=None, multipliers=None,
         When a load cannot be assigned to a body (the message names the
         point), or the model was unpickled without its equations.
     """
-    from ..simulation._results import SimulationResult
+    from ..simulation import SimulationResult
     if isinstance(model, SimulationResult):
         if t is not None or y is not None:
             raise ValueError("give either a SimulationResult or a model with t and y")

@@ -20,11 +20,11 @@ from pathlib import Path
 import numpy as np
 import sympy as sm
 
-from .. import __version__
+from .._version import __version__
 from .._errors import KanedynError, SimulationInterrupted
 from .._number_text import parse_number
 from .._progress import Progress
-from ..engine._symbols import name_of
+from ..engine import name_of
 from ..models import REGISTRY, build
 
 __all__ = ["main"]
@@ -178,7 +178,7 @@ def cmd_run(args):
 
 
 def _simulate(model, t_end, y0, args, progress, forces):
-    from ..simulation._simulate import simulate
+    from ..simulation import simulate
     t_eval = np.linspace(0.0, t_end, max(2, int(args.points)))
     return simulate(model, (0.0, t_end), y0, method=args.method, rtol=args.rtol,
                     atol=args.atol, t_eval=t_eval, progress=progress,
@@ -215,7 +215,7 @@ def _print_identified(model, res):
         return
     print(f"identified constraint forces at t = {res.t[-1]:g} s: "
           + ", ".join(f"{name} = {res[name][-1]:.6g}" for name in model.identified_names))
-    from ..analysis._newton_euler import check_newton_euler
+    from ..analysis import check_newton_euler
     try:
         check = check_newton_euler(res)
     except KanedynError as exc:
@@ -227,9 +227,8 @@ def _print_identified(model, res):
 
 def cmd_demo(args):
     """Derive the Whipple bicycle, map its stability against speed, ride it."""
-    from ..analysis._plotting import pyplot
-    from ..models._bicycle_analysis import (eigenvalues_vs_speed, stability_speeds,
-                                           upright_state)
+    from ..analysis import pyplot
+    from ..models import eigenvalues_vs_speed, stability_speeds, upright_state
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -270,7 +269,7 @@ def cmd_demo(args):
     plt.close(fig)
 
     progress.stage("simulating a self-stable ride at 5 m/s after a push (lean rate 0.5 rad/s)")
-    from ..simulation._simulate import simulate
+    from ..simulation import simulate
     y0 = upright_state(model, 5.0)
     y0[model.index("u4")] = 0.5
     y0 = model.consistent_state(0.0, y0)
@@ -293,8 +292,8 @@ def cmd_demo(args):
 
 
 def cmd_compare(args):
-    from ..analysis._compare import NONHOLONOMIC_EXAMPLES, compare_formulations, work_precision
-    from ..formulations._registry import FORMULATIONS
+    from ..analysis import NONHOLONOMIC_EXAMPLES, compare_formulations, work_precision
+    from ..formulations import FORMULATIONS
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = [m for m in methods if m not in FORMULATIONS]
     if unknown:

@@ -1,0 +1,22 @@
+"""The engine: straight-line programs and the kinematics written into them.
+
+What the layers above use of it.  Nothing here knows about formulations,
+numerics or simulation; see ``docs/architecture.md``.
+
+``_program``     straight-line programs: named intermediates, forward time
+                 derivatives, random-point identity tests, listings for codegen
+``_symbols``     the table between a model's SymPy symbols and internal ones
+``_kinematics``  frames and points as intermediates: rotations, angular
+                 velocities, velocities, partial velocities, inertias
+``_composite``   composite-body sums for the mass matrix and forcing of trees
+"""
+
+from ._composite import composite_equations
+from ._kinematics import (Kinematics, add, cross, dot, dyadic_matrix, inertia_components,
+                          matvec)
+from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler, total_derivative
+from ._symbols import SymbolTable, name_of
+
+__all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_derivative",
+           "SymbolTable", "name_of", "Kinematics", "add", "cross", "dot", "matvec",
+           "dyadic_matrix", "inertia_components", "composite_equations"]

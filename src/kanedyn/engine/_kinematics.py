@@ -30,7 +30,8 @@ import sympy.physics.mechanics as me
 from .._errors import KinematicsError
 from ._program import SAMPLE_SEEDS, fast_eval
 
-__all__ = ["Kinematics", "cross", "dot"]
+__all__ = ["Kinematics", "cross", "dot", "add", "matvec", "dyadic_matrix",
+           "inertia_components"]
 
 _ZERO3 = (sm.S.Zero,) * 3
 _SMALL = 60  # stored velocities with at most this many nodes are used as they are
@@ -376,3 +377,41 @@ class Kinematics:
                    for seed, vals in zip(SAMPLE_SEEDS, target)):
                 return self.let_vector(cand, f"v_{point}")
         return None
+
+
+def dyadic_matrix(dyadic, frame):
+    """Components of a dyadic in ``frame`` (read directly when it is expressed there)."""
+    axes = {frame.x: 0, frame.y: 1, frame.z: 2}
+    if all(v1 in axes and v2 in axes for _, v1, v2 in dyadic.args):
+        out = sm.zeros(3, 3)
+        for coef, v1, v2 in dyadic.args:
+            out[axes[v1], axes[v2]] += coef
+        return out
+    return dyadic.to_matrix(frame)
+
+
+def inertia_components(kin, body, where):
+    """Central inertia of a rigid body: ``(I_B, I_N, C)``.
+
+    ``I_B`` in the body frame (3 x 3 ``sympy.Matrix`` in the kinematics' internal
+    symbols), ``I_N`` in inertial components (nested lists of named
+    intermediates), ``C`` the body frame's rotation matrix; ``where`` names the
+    body in error messages.
+    """
+    prog = kin.prog
+    frame = body.frame
+    I_B = dyadic_matrix(body.central_inertia, frame)
+    I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
+    C = kin.dcm(frame)
+    I_N = [[None] * 3 for _ in range(3)]
+    for i in range(3):
+        for j in range(i, 3):
+            value = sum(C[i, a] * I_B[a, b] * C[j, b]
+                        for a in range(3) for b in range(3) if I_B[a, b] != 0)
+            I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
+    return I_B, I_N, C
+
+
+def matvec(A, x):
+    """A 3 x 3 matrix (nested sequences) times a 3-vector, as a tuple."""
+    return tuple(sum(A[i][j] * x[j] for j in range(3)) for i in range(3))

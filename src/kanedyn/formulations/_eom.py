@@ -30,9 +30,8 @@ from functools import cached_property
 
 import sympy as sm
 
-from ..modeling._spec import description_symbols
-from ..engine._program import SAMPLE_SEEDS
-from ..engine._symbols import name_of
+from ..modeling import description_symbols
+from ..engine import SAMPLE_SEEDS, name_of
 
 __all__ = ["EquationsOfMotion"]
 
@@ -467,8 +466,8 @@ class EquationsOfMotion:
         from the mass matrix, forcing and constraints, and what is done about
         constraint drift; :meth:`numeric` takes ``scheme=`` to choose another.
         """
-        from ..numerics.schemes._schemes import Elimination
-        return getattr(self, "_scheme", None) or Elimination()
+        from ..numerics.schemes import as_scheme  # a facade of the numerics layer
+        return as_scheme(getattr(self, "_scheme", None) or "elimination")
 
     # --------------------------------------------------------- inspection
     def operation_counts(self):
@@ -549,7 +548,7 @@ class EquationsOfMotion:
         -------
         NumericModel
         """
-        from ..numerics._model import build_numeric_model
+        from ..numerics import build_numeric_model
         return build_numeric_model(self, constants or {}, specified or {}, backend,
                                    **options)
 
@@ -579,7 +578,7 @@ class EquationsOfMotion:
 
         See :func:`kanedyn._linearize.linearize_symbolic` for the details.
         """
-        from ..numerics._linearize import linearize_symbolic
+        from ..numerics import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,
                                   constants=constants, specified=specified, t=t,
                                   simplify=simplify, linear_solver=linear_solver)

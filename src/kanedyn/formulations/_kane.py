@@ -30,11 +30,10 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..engine._composite import composite_equations
-from ..engine._kinematics import Kinematics, add, cross, dot
-from ..engine._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
 from .._progress import NO_PROGRESS
-from ..engine._symbols import SymbolTable, name_of
+from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, add, composite_equations,
+                      cross, dot, fast_eval, inertia_components, matvec, name_of,
+                      random_sampler)
 
 __all__ = ["derive_kane", "BodyTerms", "body_kinematics", "load_terms",
            "given_velocity_constraints"]
@@ -72,7 +71,7 @@ class ContactTerms:
 
 def _contact_terms(kin, contact, speeds, aux_zero):
     """The :class:`ContactTerms` of one contact."""
-    from ..modeling._contacts import SURFACE_COORDINATES
+    from ..modeling import SURFACE_COORDINATES
 
     prog = kin.prog
     surface = contact.surface
@@ -256,37 +255,6 @@ def _drop_workless(prog, table, fr, loads, fr_aux=()):
     return [prog.let(prog.subs(e, zero), "Fr") for e in fr]
 
 
-def _dyadic_matrix(dyadic, frame):
-    """Components of a dyadic in ``frame`` (read directly when it is expressed there)."""
-    axes = {frame.x: 0, frame.y: 1, frame.z: 2}
-    if all(v1 in axes and v2 in axes for _, v1, v2 in dyadic.args):
-        out = sm.zeros(3, 3)
-        for coef, v1, v2 in dyadic.args:
-            out[axes[v1], axes[v2]] += coef
-        return out
-    return dyadic.to_matrix(frame)
-
-
-def _inertia_terms(kin, body, where):
-    """Central inertia in body-frame and inertial components."""
-    prog = kin.prog
-    frame = body.frame
-    I_B = _dyadic_matrix(body.central_inertia, frame)
-    I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
-    C = kin.dcm(frame)
-    I_N = [[None] * 3 for _ in range(3)]
-    for i in range(3):
-        for j in range(i, 3):
-            value = sum(C[i, a] * I_B[a, b] * C[j, b]
-                        for a in range(3) for b in range(3) if I_B[a, b] != 0)
-            I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
-    return I_B, I_N, C
-
-
-def _matvec(A, x):
-    return tuple(sum(A[i][j] * x[j] for j in range(3)) for i in range(3))
-
-
 def _inertia_remainder(kin, body, m, terms):
     """Inertia force and torque with u' = 0; central inertia and angular momentum.
 
@@ -301,10 +269,10 @@ def _inertia_remainder(kin, body, m, terms):
     if not isinstance(body, me.RigidBody):
         zero = (sm.S.Zero,) * 3
         return force, zero, None, zero
-    I_B, I_N, C = _inertia_terms(kin, body, f"body {body.name}")
+    I_B, I_N, C = inertia_components(kin, body, f"body {body.name}")
     alpha0 = kin.dt_vector(w0)
-    H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
-    torque = add(_matvec(I_N, alpha0), cross(w0, H))
+    H = kin.let_vector(matvec(I_N, w0), f"H_{body.name}")
+    torque = add(matvec(I_N, alpha0), cross(w0, H))
     I_B_dot = I_B.applyfunc(kin.dt)
     if any(I_B_dot):  # inertia changing in the body frame
         torque = add(torque, tuple(C * (I_B_dot * (C.T * sm.Matrix(w0)))))
@@ -327,7 +295,7 @@ def _generic_rows(kin, rows, o, body_terms, masses, inertias, inertial, loads):
         W = terms.partial_angular_velocities
         mV = {s: kin.let_vector(tuple(m * c for c in V[s]), "mV")
               for s in range(o) if any(c != 0 for c in V[s])}
-        IW = {s: kin.let_vector(_matvec(I_N, W[s]), "IW")
+        IW = {s: kin.let_vector(matvec(I_N, W[s]), "IW")
               for s in range(o) if I_N is not None and any(c != 0 for c in W[s])}
         for r in rows:
             # real rows: upper triangle only (mirrored below)

@@ -67,10 +67,9 @@ import sympy as sm
 from .._errors import ModelError
 from ._kane import (_contact_terms, _pivot_rows, body_kinematics, given_velocity_constraints,
                     linear_parts, load_terms)
-from ..engine._kinematics import Kinematics, dot
-from ..engine._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler
+from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, dot, fast_eval, name_of,
+                      random_sampler)
 from .._progress import NO_PROGRESS
-from ..engine._symbols import SymbolTable, name_of
 
 __all__ = ["derive_lagrange", "derive_augmented", "rate_symbols"]
 

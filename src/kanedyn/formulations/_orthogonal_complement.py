@@ -54,7 +54,8 @@ What is symbolic and what is numeric
   :math:`\sum_b T_b^T(M_bT_b)` and :math:`\sum_b T_b^T(\cdot)` as named
   intermediates (``eom.mass_matrix``, ``eom.forcing``,
   ``eom.operation_counts()`` and the symbolic linearization use these).
-* Numeric (:class:`OrthogonalComplement`, the scheme of these equations): the
+* Numeric (:class:`kanedyn.schemes.OrthogonalComplement`, the scheme of these
+  equations): the
   generated ``dynamics`` function of the numerical model evaluates only the
   blocks and assembles :math:`M = T^T\,\mathrm{blkdiag}(M_b)\,T` and
   :math:`f` with NumPy matrix products; the scheme eliminates the dependent
@@ -68,24 +69,15 @@ potential energy and auxiliary speeds follow Kane's conventions, so
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-from typing import ClassVar
-
-import numpy as np
-import scipy.linalg as sla
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ..numerics.backends._python import compile_python, generate_python
-from .._errors import ModelError
-from ._kane import (BodyTerms, _contact_terms, _drop_workless, _inertia_terms, _matvec,
-                    constraint_terms, kane_setup, potential_term)
-from ..engine._kinematics import add, cross, dot
-from ..engine._program import SAMPLE_SEEDS
+from ._kane import (BodyTerms, _contact_terms, _drop_workless, constraint_terms, kane_setup,
+                    potential_term)
+from ..engine import SAMPLE_SEEDS, add, cross, dot, inertia_components, matvec
 from .._progress import NO_PROGRESS
-from ..numerics.schemes._schemes import Scheme, complement_solve
 
-__all__ = ["derive_orthogonal_complement", "OrthogonalComplement"]
+__all__ = ["derive_orthogonal_complement"]
 
 _ZERO3 = (sm.S.Zero,) * 3
 
@@ -209,8 +201,8 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
         rate_force = tuple(mdot * c for c in v0)  # variable mass: m' v
         if rigid:
             alpha0 = kin.let_vector(kin.dt_vector(w0), f"alpha0_{body.name}")
-            I_B, I_N, C = _inertia_terms(kin, body, f"body {body.name}")
-            H = kin.let_vector(_matvec(I_N, w0), f"H_{body.name}")
+            I_B, I_N, C = inertia_components(kin, body, f"body {body.name}")
+            H = kin.let_vector(matvec(I_N, w0), f"H_{body.name}")
             g_torque = cross(w0, H)  # W_b M_b t_b
             I_B_dot = I_B.applyfunc(kin.dt)
             if any(I_B_dot):  # inertia changing in the body frame
@@ -234,7 +226,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     def M_times(k, vec6):
         """M_b times a 6-vector (inertia on the angular part, mass on the linear)."""
         I_N = inertias[k]
-        ang = _matvec(I_N, vec6[:3]) if I_N is not None else _ZERO3
+        ang = matvec(I_N, vec6[:3]) if I_N is not None else _ZERO3
         return tuple(ang) + tuple(masses[k] * c for c in vec6[3:])
 
     # --------------------------------------------------- applied wrenches
@@ -365,98 +357,5 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
         contact_terms=contacts, method="orthogonal-complement")
     # set once, before anyone sees the result (as formulate does for schemes)
     object.__setattr__(eom, "_noc_blocks", blocks)
-    object.__setattr__(eom, "_scheme", OrthogonalComplement())
+    object.__setattr__(eom, "_scheme", "orthogonal-complement")
     return eom
-
-
-# ----------------------------------------------------------------- numeric
-_ASSEMBLY = '''
-def dynamics(t, y, p, r):
-    qd, T, Tdu, Mb, w, Q, B, K, fa = _noc_blocks(t, y, p, r)
-    # M_b T_b for every body at once, then M = T^T blkdiag(M_b) T
-    MT = numpy.matmul(Mb.reshape({nb}, 6, 6), T.reshape({nb}, 6, {o})).reshape({rows}, {o})
-    bias = w - numpy.matmul(Mb.reshape({nb}, 6, 6), Tdu.reshape({nb}, 6, 1)).reshape({rows})
-    return qd, T.T @ MT, T.T @ bias + Q, B, K, fa
-'''
-
-
-@dataclass(frozen=True)
-class OrthogonalComplement(Scheme):
-    r"""Numerical assembly of the natural orthogonal complement; Cholesky solve.
-
-    :meth:`prepare` replaces the numerical model's generated ``dynamics``
-    function by one that evaluates the per-body blocks :math:`T_b`,
-    :math:`\dot T_b u`, :math:`M_b`, :math:`w_b` (and :math:`Q`) and assembles
-
-    .. math::
-
-        M = T^T\,\mathrm{blkdiag}(M_b)\,T,\qquad
-        f = T^T\left(w - \mathrm{blkdiag}(M_b)\,\dot T u\right) + Q
-
-    with NumPy (so ``model.mass_matrix``, ``model.multipliers`` and the
-    Newton–Euler check see the assembled matrices).  :meth:`accelerations`
-    eliminates the dependent speeds with the complement :math:`N = [1; X]`
-    of the acceleration constraints and solves the symmetric positive
-    definite :math:`N^TMN\,\dot u_i = N^T(f - M\dot u_p)` by Cholesky's
-    factorization.  Constraint drift is projected as in Kane's elimination
-    (dependent coordinates and speeds solved from the constraints).
-
-    Only equations from ``formulate(..., method="orthogonal-complement")``
-    carry the blocks; the compiled C backend does not implement the scheme.
-    """
-
-    name: ClassVar[str] = "orthogonal-complement"
-    project: ClassVar[bool] = True
-    c_backend: ClassVar[bool] = False
-
-    def prepare(self, model):
-        eom = model._eom
-        blocks = getattr(eom, "_noc_blocks", None)
-        if blocks is None:
-            raise ModelError(
-                f"the orthogonal-complement scheme needs the per-body blocks of "
-                f"formulate(..., method='orthogonal-complement'); these equations come "
-                f"from the {eom.method!r} formulation")
-        prog = eom._program
-        subs = model._substitutions
-
-        def sub(e):
-            return prog.subs(e, subs) if subs else e
-
-        n, o, m = model.n_q, model.n_u, model.n_u_dep
-        nb = blocks.n_bodies
-        rows = 6 * nb
-        outputs = [((n,), [sub(e) for e in eom._qdot]),
-                   ((rows, o), [sub(e) for e in blocks.T]),
-                   ((rows,), [sub(e) for e in blocks.Tdu]),
-                   ((rows, 6), [sub(e) for e in blocks.Mb]),
-                   ((rows,), [sub(e) for e in blocks.w]),
-                   ((o,), [sub(e) for e in blocks.Q]),
-                   ((m, o), [sub(e) for row in eom._vel_B for e in row]),
-                   ((m, o), [sub(e) for row in eom._acc_K for e in row]),
-                   ((m,), [sub(e) for e in eom._acc_f])]
-        args = model._functions["dynamics"][0]
-        source = (generate_python(prog, "_noc_blocks", args, outputs, cse=bool(model._cse))
-                  + _ASSEMBLY.format(nb=nb, o=o, rows=rows))
-        # kept in the model's sources, so that copies and unpickled models
-        # evaluate the same assembly
-        model._data["sources"]["dynamics"] = source
-        model._fn["dynamics"] = compile_python(source, "dynamics")
-
-    def accelerations(self, model, t, y, terms):
-        _, mass, force, _, acc_K, acc_f = terms
-        m = model.n_u_dep
-        if not m:
-            return _cholesky_solve(mass, force, t)
-        return complement_solve(mass, force, acc_K, acc_f, np.arange(model.n_u - m, model.n_u),
-                                solve=lambda A, b: _cholesky_solve(A, b, t))
-
-
-def _cholesky_solve(A, b, t):
-    try:
-        return sla.cho_solve(sla.cho_factor(A), b)
-    except np.linalg.LinAlgError:
-        raise np.linalg.LinAlgError(
-            f"the mass matrix of the natural orthogonal complement is not positive "
-            f"definite at t = {t:g} (a speed that moves no mass or inertia, or a "
-            "dependent-speed partition singular here)") from None

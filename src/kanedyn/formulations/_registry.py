@@ -9,10 +9,8 @@ register themselves here under their own names.
 from __future__ import annotations
 
 from .._errors import ModelError
-from ..modeling._spec import parse_model
 from .._progress import NO_PROGRESS, as_progress
-from ..numerics.schemes._schemes import (AugmentedLagrangian, AugmentedLagrangianIndex3, Baumgarte, IndexOne,
-                       NullSpace, Partitioning, Penalty, Projection, UdwadiaKalaba, as_scheme)
+from ..modeling import parse_model
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
@@ -87,20 +85,24 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
     spec = parse_model(*args, **kwargs)
     eom = derive(spec, progress=as_progress(progress), **options)
     if scheme is not None:
-        object.__setattr__(eom, "_scheme", as_scheme(scheme))
+        object.__setattr__(eom, "_scheme", scheme)
+        eom.scheme  # noqa: B018  (resolves the scheme now: an unknown one is refused here)
     return eom
 
 
 def _with_scheme(derive, method, scheme):
-    """A formulation: ``derive``'s equations, solved with ``scheme``."""
+    """A formulation: ``derive``'s equations, solved with the scheme named ``scheme``.
+
+    Schemes are numerics (:mod:`kanedyn.numerics.schemes`); formulations name
+    them, and the numerical model resolves the name.
+    """
     def derive_with_scheme(spec, progress=NO_PROGRESS, **options):
         eom = derive(spec, progress=progress, **options)
         # set once, before anyone sees the result
         object.__setattr__(eom, "_scheme", scheme)
         object.__setattr__(eom, "method", method)
         return eom
-    derive_with_scheme.__doc__ = (f"{derive.__name__} with the {scheme.name!r} "
-                                  "constraint scheme.")
+    derive_with_scheme.__doc__ = f"{derive.__name__} with the {scheme!r} constraint scheme."
     return derive_with_scheme
 
 
@@ -188,15 +190,15 @@ def _register_builtin():
     register_formulation("lagrange", derive_lagrange)
     register_formulation("augmented", derive_augmented)
     register_formulation("orthogonal-complement", derive_orthogonal_complement)
-    for name, scheme in (("lagrange-index1", IndexOne()),
-                         ("lagrange-baumgarte", Baumgarte()),
-                         ("lagrange-projection", Projection()),
-                         ("penalty", Penalty()),
-                         ("augmented-lagrangian", AugmentedLagrangian()),
-                         ("udwadia-kalaba", UdwadiaKalaba()),
-                         ("partitioning", Partitioning()),
-                         ("maggi", NullSpace()),
-                         ("augmented-lagrangian-index3", AugmentedLagrangianIndex3())):
+    for name, scheme in (("lagrange-index1", "index-1"),
+                         ("lagrange-baumgarte", "baumgarte"),
+                         ("lagrange-projection", "projection"),
+                         ("penalty", "penalty"),
+                         ("augmented-lagrangian", "augmented-lagrangian"),
+                         ("udwadia-kalaba", "udwadia-kalaba"),
+                         ("partitioning", "partitioning"),
+                         ("maggi", "null-space"),
+                         ("augmented-lagrangian-index3", "augmented-lagrangian-index3")):
         register_formulation(name, _with_scheme(derive_lagrange, name, scheme))
 
 

@@ -1,0 +1,21 @@
+"""Modeling: what a user hands in besides SymPy's own objects, and its checks.
+
+``_spec``                the validated model description (``ModelSpec``) from a
+                         ``System`` or ``KanesMethod`` keywords
+``_physical``            physical plausibility of masses and inertias
+``_contacts``            contacts and the surfaces they touch
+``_vector_constraints``  constraints in vector form that identify their forces
+"""
+
+from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
+                        Sphere, Surface, coefficient_value)
+from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
+from ._spec import ModelSpec, description_symbols, parse_model
+from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
+                                  VectorConstraint)
+
+__all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surface", "Plane",
+           "Sphere", "Ellipsoid", "ImplicitSurface", "SURFACE_COORDINATES",
+           "coefficient_value", "VectorConstraint", "PointVelocity", "AngularVelocity",
+           "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
+           "check_declared_bodies"]

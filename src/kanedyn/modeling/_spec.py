@@ -15,7 +15,7 @@ from sympy.physics.mechanics.loads import _parse_load
 
 from .._errors import ModelError
 from ._physical import check_declared_bodies
-from ..engine._symbols import name_of
+from ..engine import name_of
 
 __all__ = ["ModelSpec", "parse_model", "description_symbols"]
 

@@ -30,7 +30,7 @@ from __future__ import annotations
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..engine._kinematics import add, cross, dot
+from ..engine import add, cross, dot
 
 __all__ = ["VectorConstraint", "PointVelocity", "AngularVelocity", "OrthogonalVelocities",
            "ConstraintAction"]

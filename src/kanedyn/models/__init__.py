@@ -10,11 +10,11 @@ from __future__ import annotations
 
 from .._errors import ModelError
 from ._base import ModelDefinition
+from ._bicycle_analysis import eigenvalues_vs_speed, stability_speeds, upright_state
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
-from ._constraint_models import (block_wedge, knife_edge, pin_slot, rod_bead,
-                                 rolling_disk_contact)
-from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod,
-                              ladder, slug_ellipsoid, sphere_slug)
+from ._constraint_models import block_wedge, knife_edge, pin_slot, rod_bead, rolling_disk_contact
+from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod, ladder,
+                              slug_ellipsoid, sphere_slug)
 from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
@@ -28,7 +28,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
            "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm", "n_four_bar",
-           "n_four_bar_exact", "n_four_bar_singular_times"]
+           "n_four_bar_exact", "n_four_bar_singular_times",
+           "eigenvalues_vs_speed", "stability_speeds", "upright_state"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {

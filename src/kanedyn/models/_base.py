@@ -8,7 +8,7 @@ import numpy as np
 import sympy as sm
 
 from .._errors import ModelError
-from ..engine._symbols import name_of
+from ..engine import name_of
 
 __all__ = ["ModelDefinition"]
 
@@ -56,7 +56,7 @@ class ModelDefinition:
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`)."""
-        from ..formulations._registry import formulate
+        from ..formulations import formulate
         return formulate(method=method, progress=progress, **self.kane_args)
 
     def numeric(self, eom=None, constants=None, specified=None, **options):

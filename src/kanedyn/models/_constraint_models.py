@@ -15,7 +15,7 @@ import math
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ..modeling._vector_constraints import PointVelocity
+from ..modeling import PointVelocity
 from ._base import ModelDefinition
 
 __all__ = ["rod_bead", "pin_slot", "knife_edge", "rolling_disk_contact", "block_wedge"]

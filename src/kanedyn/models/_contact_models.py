@@ -7,7 +7,7 @@ import math
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ..modeling._contacts import Contact, Ellipsoid, Plane, Sphere
+from ..modeling import Contact, Ellipsoid, Plane, Sphere
 from ._base import ModelDefinition
 
 __all__ = ["sphere_slug", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",

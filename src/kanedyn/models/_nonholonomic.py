@@ -10,7 +10,7 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ..modeling._vector_constraints import PointVelocity
+from ..modeling import PointVelocity
 from ._base import ModelDefinition
 
 __all__ = ["nonholonomic_particle", "sphere_on_turntable"]

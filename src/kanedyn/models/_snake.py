@@ -15,7 +15,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..modeling._vector_constraints import PointVelocity
+from ..modeling import PointVelocity
 from ._base import ModelDefinition
 
 __all__ = ["snake"]

@@ -1,0 +1,29 @@
+"""Numerics: equations of motion become numbers.
+
+``_model``               ``NumericModel`` and ``build_numeric_model``: generated
+                         functions, state layout, constraint handling
+``backends/``            code generators: ``_python`` (NumPy) and ``_c`` (a C
+                         extension, with its runtime and integration loop)
+``schemes/``             how evaluated terms become accelerations (one module per
+                         family of constraint schemes)
+``_linearize``           exact linearization, symbolic and numeric
+``_orthogonal_speeds``   models in orthogonalized generalized speeds
+``_contact_dynamics``    accelerations and contact forces per contact mode
+``_diagnosis``           why a derivative is not finite, in the model's names
+``_singular``            distance to singular configurations, and its monitor
+"""
+
+from ._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
+                                solve_modes)
+from ._diagnosis import diagnose
+from ._linearize import linearize_numeric, linearize_symbolic
+from ._model import BACKENDS, NumericModel, build_numeric_model
+from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
+from ._singular import DEFAULT_THRESHOLD, SingularityMonitor, conditioning
+from .backends import compile_python, generate_python
+
+__all__ = ["NumericModel", "build_numeric_model", "BACKENDS", "linearize_numeric",
+           "linearize_symbolic", "MassMatrices", "OrthogonalSpeedsModel",
+           "orthogonalize_speeds", "SEPARATED", "SLIP", "STICK", "SlipReference",
+           "contact_points", "solve_modes", "diagnose", "DEFAULT_THRESHOLD",
+           "SingularityMonitor", "conditioning", "compile_python", "generate_python"]

@@ -39,7 +39,7 @@ import sympy as sm
 
 from .backends._python import compile_python, generate_python
 from .._errors import ConstraintError
-from ..engine._symbols import name_of
+from ..engine import name_of
 
 __all__ = ["linearize_numeric", "linearize_symbolic", "linearization_terms"]
 

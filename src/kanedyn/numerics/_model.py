@@ -33,9 +33,9 @@ import sympy as sm
 
 from .backends._python import compile_python, generate_python
 from .._errors import ConstraintError, MissingValueError, ModelError
-from ..modeling._physical import body_parameters, body_values
-from .schemes._schemes import Elimination, as_scheme
-from ..engine._symbols import name_of
+from ..modeling import body_parameters, body_values
+from .schemes import Elimination, as_scheme
+from ..engine import name_of
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
@@ -774,7 +774,7 @@ def _contact_outputs(terms, o, sub):
 
 def _contact_coefficients(contacts, values):
     """Numbers for each contact's friction and restitution coefficients."""
-    from ..modeling._contacts import coefficient_value
+    from ..modeling import coefficient_value
     out = []
     for c in contacts:
         entry = {"name": c.name, "kind": c.kind, "law": c.restitution_law}

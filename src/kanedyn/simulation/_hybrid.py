@@ -27,8 +27,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
-from ..numerics._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
-                               solve_modes)
+from ..numerics import SEPARATED, SLIP, STICK, SlipReference, contact_points, solve_modes
 from ._impact import resolve_impact
 from ._run_guard import INTERRUPTED, RunGuard, guarded_method
 

@@ -43,10 +43,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
-from .._errors import INTERRUPTED, ModelError
-from ..numerics.schemes._schemes import al_solve
+from .._errors import INTERRUPTED, ModelError, OptionError
+from ..numerics.schemes import al_solve
+from ._results import SimulationResult
 
-__all__ = ["check_index3_model", "integrate_index3"]
+__all__ = ["check_index3_model", "integrate_index3", "run_index3"]
 
 
 def check_index3_model(model, name):
@@ -192,6 +193,27 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
     return q, lam, False
 
 
+def run_index3(scheme, model, t_span, y0, method="RK45", t_eval=None, events=(),
+               dense_output=False, constraint_forces=False, monitor=None, progress=None,
+               guard=None, **options):
+    """:func:`integrate_index3` for :func:`kanedyn.simulate`, which hands it the run.
+
+    ``method`` must be ``"trapezoidal"`` or :func:`kanedyn.simulate`'s
+    default; ``solve_ivp`` options are refused.
+    """
+    if method not in ("RK45", "trapezoidal"):
+        raise OptionError(f"the {scheme.name!r} scheme integrates with its own trapezoidal "
+                          f"rule (fixed step {scheme.step:g} s); method={method!r} cannot be "
+                          "used with it")
+    if options:
+        raise OptionError(f"option(s) {', '.join(sorted(options))} do not apply to the "
+                          f"{scheme.name!r} scheme's fixed-step integrator; set its step "
+                          "instead (kd.schemes.AugmentedLagrangianIndex3(step=...))")
+    return integrate_index3(scheme, model, t_span, y0, t_eval=t_eval, events=events,
+                            dense_output=dense_output, constraint_forces=constraint_forces,
+                            monitor=monitor, progress=progress, guard=guard)
+
+
 def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_output=False,
                      constraint_forces=False, monitor=None, progress=None, guard=None):
     """Integrate with the index-3 augmented Lagrangian; see the module docstring.
@@ -219,7 +241,6 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     -------
     SimulationResult
     """
-    from ._results import SimulationResult
     check_index3_model(model, scheme.name)
     t0, t1 = float(t_span[0]), float(t_span[1])
     n = model.n_q

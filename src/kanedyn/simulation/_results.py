@@ -7,7 +7,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine._symbols import name_of
+from ..engine import name_of
 
 __all__ = ["SimulationResult"]
 
@@ -194,7 +194,7 @@ class SimulationResult:
             return {}
 
         def compute():
-            from ..numerics._contact_dynamics import solve_modes
+            from ..numerics import solve_modes
             names = [c["name"] for c in self.model.contacts]
             normal = np.full((len(names), self.t.size), np.nan)
             friction = np.full((len(names), self.t.size, 3), np.nan)
@@ -355,5 +355,5 @@ class SimulationResult:
         extras : bool
             Add panels for constraint residual and energy when available.
         """
-        from ..analysis._plotting import plot_result
+        from ..analysis import plot_result
         return plot_result(self, states=states, path=path, extras=extras)

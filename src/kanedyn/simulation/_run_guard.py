@@ -23,7 +23,7 @@ import numpy as np
 from scipy.integrate import OdeSolver
 from scipy.integrate._ivp.ivp import METHODS as SCIPY_METHODS
 
-from ..numerics._diagnosis import diagnose
+from ..numerics import diagnose
 from .._errors import INTERRUPTED, OptionError
 
 __all__ = ["RunGuard", "Integrand", "guarded_method", "INTERRUPTED"]

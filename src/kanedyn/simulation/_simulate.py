@@ -20,14 +20,14 @@ import numpy as np
 from scipy.integrate import solve_ivp
 from scipy.integrate._ivp.rk import RungeKutta
 
-from ..numerics._diagnosis import diagnose
+from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
+from ._index3 import run_index3
 from ._run_guard import INTERRUPTED, Integrand, RunGuard, guarded_method, solver_class
-from ..numerics._singular import DEFAULT_THRESHOLD, SingularityMonitor
 
-__all__ = ["simulate", "COMPILED_METHODS", "TrustWarning"]
+__all__ = ["simulate", "COMPILED_METHODS", "OWN_INTEGRATORS", "TrustWarning"]
 
 
 class TrustWarning(RuntimeWarning):
@@ -43,6 +43,8 @@ def _drift_event(model, tol):
 
 
 COMPILED_METHODS = ("RK45", "Rosenbrock23")
+#: integrators of schemes that bring their own (``Scheme.integrator`` -> function)
+OWN_INTEGRATORS = {"index-3 trapezoidal": run_index3}
 _COMPILED_OPTIONS = {"max_step", "first_step"}
 _EXPLICIT = {"RK23": 3, "RK45": 6, "DOP853": 12}  # evaluations per step
 _MAX_STALLED_PROJECTIONS = 50  # projections in a row without progress in time
@@ -175,15 +177,14 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                                              options, guard)
     else:
         monitor = SingularityMonitor(model, singular_threshold)
-        if getattr(scheme, "integrate", None) is not None:  # a scheme's own integrator
+        if getattr(scheme, "integrator", None) is not None:  # a scheme's own integrator
             guard = RunGuard(model)
             with guard.catching_interrupts():
-                result = scheme.integrate(model, (t0, t1), y_init, method=method,
-                                          t_eval=t_eval, events=user_events,
-                                          dense_output=dense_output,
-                                          constraint_forces=constraint_forces,
-                                          monitor=monitor, progress=progress, guard=guard,
-                                          **options)
+                result = OWN_INTEGRATORS[scheme.integrator](
+                    scheme, model, (t0, t1), y_init, method=method, t_eval=t_eval,
+                    events=user_events, dense_output=dense_output,
+                    constraint_forces=constraint_forces, monitor=monitor, progress=progress,
+                    guard=guard, **options)
         elif _use_compiled(model, method, backend, options):
             progress.stage(f"integrating with the compiled {method} loop")
             result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,

@@ -1,0 +1,3 @@
+"""The version of kanedyn."""
+
+__version__ = "0.1.0"

@@ -1,0 +1,224 @@
+"""The constraint scheme interface and the solves its siblings share."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import ClassVar
+
+import numpy as np
+import scipy.linalg as sla
+
+__all__ = ["Scheme", "stabilization", "complement_solve", "al_solve", "kkt_solve",
+           "penalty_weight"]
+
+
+@dataclass(frozen=True)
+class Scheme:
+    """Base of the constraint schemes (see the module docstring).
+
+    Class attributes
+    ----------------
+    name : str
+        Registry name.
+    project : bool
+        Whether :func:`kanedyn.simulate` projects constraint drift by default.
+    c_backend : bool
+        Whether the compiled C backend implements the scheme.
+    c_terms : bool
+        Whether the scheme runs in Python on the terms that the C backend's
+        compiled functions evaluate (a ``backend="c"`` model then keeps the
+        Python ``rhs`` of the scheme).
+    integrator : str or None
+        Name of the scheme's own integrator (one of
+        :data:`kanedyn.simulation.OWN_INTEGRATORS`), which
+        :func:`kanedyn.simulate` hands a run to; ``None``: ``solve_ivp`` or the
+        compiled loop.
+    """
+
+    name: ClassVar[str] = "scheme"
+    project: ClassVar[bool] = False
+    c_backend: ClassVar[bool] = False
+    c_terms: ClassVar[bool] = False
+    integrator: ClassVar[str | None] = None
+
+    def prepare(self, model):
+        """Called once when a numerical model is built; may add functions."""
+
+    def accelerations(self, model, t, y, terms):
+        r""":math:`\dot u`, shape (n_u,), from the evaluated dynamics ``terms``.
+
+        ``terms = (qdot, mass, force, vel_B, acc_K, acc_f)`` as returned by
+        the model's generated ``dynamics`` function.  Without dependent
+        speeds :math:`M\dot u = f` is solved directly; otherwise
+        :meth:`constrained` does the scheme's work.
+        """
+        _, mass, force, _, acc_K, acc_f = terms
+        if not model.n_u_dep:
+            return np.linalg.solve(mass, force)
+        return self.constrained(model, t, y, mass, force, acc_K, acc_f)
+
+    def constrained(self, model, t, y, mass, force, K, acc_f):
+        r""":math:`\dot u` with the constraints :math:`K\dot u + f_a = 0` (m >= 1)."""
+        raise NotImplementedError
+
+    def project_state(self, model, t, y):
+        """A state on the constraints near ``y`` (after drift)."""
+        return model.consistent_state(t, y)
+
+
+def kkt_solve(mass, force, K, rhs):
+    r"""Solve :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; r]`."""
+    o, m = mass.shape[0], K.shape[0]
+    A = np.zeros((o + m, o + m))
+    A[:o, :o] = mass
+    A[:o, o:] = -K.T
+    A[o:, :o] = K
+    return np.linalg.solve(A, np.concatenate([force, rhs]))[:o]
+
+
+def _rate_matrix(model, t, y):
+    r""":math:`\partial\dot q/\partial u` (n x o); the identity for rate speeds.
+
+    The kinematic equations are linear in the speeds, so differences of
+    ``qdot`` with unit changes of the speeds give the columns exactly (up to
+    round-off).
+    """
+    n = model.n_q
+    if model.rates_are_speeds:
+        return np.eye(n)
+    base = model._dynamics(t, y)[0]
+    A = np.empty((n, model.n_u))
+    for j in range(model.n_u):
+        yj = np.array(y, dtype=float)
+        yj[n + j] += 1.0
+        A[:, j] = model._dynamics(t, yj)[0] - base
+    return A
+
+
+def stabilization(model, t, y, velocity_gain, position_gain):
+    r"""Baumgarte-type correction :math:`s` of the acceleration constraints.
+
+    .. math::
+
+        s = g_v\,c + g_p\,P^+h,\qquad P = J\,\frac{\partial\dot q}{\partial u}\,B^+,
+
+    with the configuration constraints :math:`h` (Jacobian :math:`J`) and the
+    velocity constraints :math:`c = Bu + b`: on the constraint manifold
+    :math:`\dot h = P c`, so :math:`\dot c = -s` gives :math:`\ddot h +
+    g_v\dot h + g_p h = 0` for the holonomic part and :math:`\dot c + g_v c =
+    0` for the rest.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float
+    y : ndarray, shape (n_states,)
+    velocity_gain, position_gain : float
+        :math:`g_v` (1/s) and :math:`g_p` (1/s²).
+
+    Returns
+    -------
+    ndarray, shape (n_u_dep,)
+    """
+    h, J, B, c = model._constraint_terms(t, y)
+    s = velocity_gain * c
+    if len(h) and position_gain:
+        P = J @ _rate_matrix(model, t, y) @ np.linalg.pinv(B)
+        s = s + position_gain * np.linalg.lstsq(P, h, rcond=None)[0]
+    return s
+
+
+def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
+    r""":math:`\dot u` with the speeds ``dep`` eliminated through the constraints.
+
+    With :math:`\dot u_d = X\dot u_i + x_0` from :math:`K\dot u + f_a = 0`,
+    the complement :math:`N` (identity on the independent speeds, :math:`X`
+    on the dependent ones) and the particular solution :math:`\dot u_p`
+    (:math:`x_0` on the dependent speeds),
+
+    .. math::
+
+        N^TMN\,\dot u_i = N^T(f - M\dot u_p),\qquad \dot u = \dot u_p + N\dot u_i .
+
+    Parameters
+    ----------
+    mass : ndarray, shape (o, o)
+    force : ndarray, shape (o,)
+    K : ndarray, shape (m, o)
+    acc_f : ndarray, shape (m,)
+    dep : array_like of int, shape (m,)
+        Indices of the dependent speeds.
+    solve : callable
+        ``solve(A, b)`` for the reduced (symmetric) system, e.g. by Cholesky.
+
+    Returns
+    -------
+    ndarray, shape (o,)
+    """
+    o = mass.shape[0]
+    dep = np.asarray(dep)
+    ind = np.setdiff1d(np.arange(o), dep)
+    N = np.zeros((o, ind.size))
+    N[ind, np.arange(ind.size)] = 1.0
+    N[dep] = -np.linalg.solve(K[:, dep], K[:, ind])
+    particular = np.zeros(o)
+    particular[dep] = -np.linalg.solve(K[:, dep], acc_f)
+    return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
+
+
+def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=None):
+    r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
+
+    .. math::
+
+        (M + wC^TC)x_{k+1} = r + C^T\lambda_k + wC^Td,\qquad
+        \lambda_{k+1} = \lambda_k + w(d - Cx_{k+1}),
+
+    from :math:`\lambda_0 = 0`.  :math:`M + wC^TC` is positive definite
+    whenever :math:`M` is positive definite on the null space of :math:`C`,
+    whatever the rank of :math:`C`: with a rank-deficient or redundant
+    :math:`C` the components of :math:`d` it cannot reach are left
+    unreached (a least-squares compromise), instead of making the solve
+    singular.  Stops when :math:`\max|Cx - d| \le` ``tol`` times ``scale``.
+
+    Parameters
+    ----------
+    mass : ndarray, shape (o, o)
+    rhs : ndarray, shape (o,)
+    C : ndarray, shape (m, o)
+    target : ndarray, shape (m,)
+    weight : float
+        :math:`w`, in the units of :math:`M` over those of :math:`C^TC`.
+    tol : float
+        Relative tolerance of :math:`\max|Cx - d|`.
+    max_iterations : int
+    scale : float, optional
+        Magnitude against which the residual is measured; default
+        :math:`\max|Cx| + \max|d|` at each iteration.
+
+    Returns
+    -------
+    ndarray, shape (o,)
+    """
+    factor = sla.cho_factor(mass + weight * (C.T @ C))
+    lam = np.zeros(C.shape[0])
+    base = rhs + weight * (C.T @ target)
+    x = sla.cho_solve(factor, base)
+    for _ in range(max_iterations):
+        Cx = C @ x
+        residual = target - Cx
+        size = scale if scale is not None else (np.max(np.abs(Cx), initial=0.0)
+                                                + np.max(np.abs(target), initial=0.0))
+        if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
+            break
+        lam = lam + weight * residual
+        x = sla.cho_solve(factor, base + C.T @ lam)
+    return x
+
+
+
+
+def penalty_weight(mass, K, factor):
+    """Penalty :math:`\\alpha` = factor times the ratio of the matrices' scales."""
+    KtK = K.T @ K
+    return factor * np.max(np.abs(np.diag(mass))) / max(np.max(np.abs(np.diag(KtK))), 1e-300)
