@@ -12,7 +12,7 @@ accelerations,
 where the sums run over the applied loads on the body (moments about
 :math:`G_k`) and :math:`F_{ik}, M_{ik}` is the force and moment on body
 :math:`k` of the constraint force identified by vector constraint
-:math:`i` (:mod:`kanedyn._vector_constraints`) per unit multiplier.  The
+:math:`i` (:mod:`kanedyn.modeling._vector_constraints`) per unit multiplier.  The
 accelerations come from the equations of motion of whatever formulation
 produced the model, but the residuals are built from the bodies' kinematics
 alone (Newton's and Euler's laws), so they are an independent check: they

@@ -576,7 +576,7 @@ class EquationsOfMotion:
         simplify, linear_solver
             SymPy's options (symbolic path).
 
-        See :func:`kanedyn._linearize.linearize_symbolic` for the details.
+        See :func:`kanedyn.numerics._linearize.linearize_symbolic` for the details.
         """
         from ..numerics import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,

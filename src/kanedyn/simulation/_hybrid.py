@@ -2,7 +2,7 @@ r"""Simulation of models with contacts: modes, events and impacts.
 
 Each contact is ``separated``, sliding (``slip``) or sticking (``stick``).
 Between events the equations for the current modes are integrated with
-``solve_ivp`` (see :func:`kanedyn._contact_numeric.solve_modes`), together
+``solve_ivp`` (see :func:`kanedyn.numerics._contact_dynamics.solve_modes`), together
 with the work of the friction forces (a quadrature, for energy balances).
 Terminal events end each segment:
 
@@ -12,7 +12,7 @@ Terminal events end each segment:
 * a sliding contact's slip velocity stops: it sticks if the static friction
   can hold it, else it slides on in the direction the forces drive it (a
   reversal, recorded as ``slip -> slip``); the slip velocity is taken free of
-  the other contacts' drift (:func:`kanedyn._contact_numeric.slip_velocities`);
+  the other contacts' drift (:func:`kanedyn.numerics._contact_dynamics.slip_velocities`);
 * a sticking contact's friction reaches its limit :math:`\mu_s N`: it slides.
 
 After every event the modes are made consistent (forces within their
@@ -207,7 +207,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     (``y`` shape (n_states, N)), the solve_ivp-style status and message, and
     a dict with the mode history, impacts, per-point modes and slip
     directions, the work of friction and of all contact forces, event records
-    and counters.  ``guard`` (a :class:`kanedyn._run_guard.RunGuard`) ends the
+    and counters.  ``guard`` (a :class:`kanedyn.simulation._run_guard.RunGuard`) ends the
     run at a non-finite derivative or on Ctrl-C with what was computed.
     """
     guard = guard if guard is not None else RunGuard(model)

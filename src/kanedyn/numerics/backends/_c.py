@@ -248,8 +248,9 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
     ----------
     program : Program
     functions : dict
-        ``{name: (arguments, outputs)}`` as for :func:`kanedyn._codegen.generate_python`;
-        must contain ``"dynamics"`` with the six outputs of the right-hand side.
+        ``{name: (arguments, outputs)}`` as for
+        :func:`kanedyn.numerics.backends.generate_python`; must contain
+        ``"dynamics"`` with the six outputs of the right-hand side.
     sizes : dict
         ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r`` (inputs of the dynamics).
     describe : callable, optional

@@ -41,7 +41,7 @@ drift of the position- and velocity-level constraints :math:`h(q) = 0`,
                                projections, trapezoidal rule with a fixed step
                                (Bayo & Ledesma 1996): its own integrator, which
                                passes singular configurations (see
-                               :mod:`kanedyn._index3`)
+                               :mod:`kanedyn.simulation._index3`)
 =============================  =====================================================
 
 :math:`P^+h` maps the configuration-constraint residual onto the velocity

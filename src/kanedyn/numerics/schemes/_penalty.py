@@ -82,7 +82,7 @@ class AugmentedLagrangian(Penalty):
 class AugmentedLagrangianIndex3(Scheme):
     r"""Index-3 augmented Lagrangian with mass-orthogonal projections (Bayo & Ledesma 1996).
 
-    A scheme with its own integrator (:mod:`kanedyn._index3`):
+    A scheme with its own integrator (:mod:`kanedyn.simulation._index3`):
     :func:`kanedyn.simulate` hands the run to it.  The configuration
     constraints are enforced at every step of the trapezoidal rule by a
     penalty and iterated multipliers, solved by Newton's method; velocities
@@ -99,7 +99,7 @@ class AugmentedLagrangianIndex3(Scheme):
     :func:`kanedyn.simulate` do not apply: the error is second order in
     ``step`` (measured in ``docs/constraints.md``).  Used through
     :meth:`kanedyn.NumericModel.rhs` (e.g. for linearization) it gives the
-    augmented-Lagrangian accelerations of :func:`~kanedyn._index3.al_solve`,
+    augmented-Lagrangian accelerations of :func:`~kanedyn.numerics.schemes.al_solve`,
     without stabilization.
 
     Attributes
