@@ -1,0 +1,136 @@
+r"""A reduced elastic member: what a flexible body needs of its finite-element model.
+
+The finite-element side (:mod:`kanedyn.modeling.flexible`) produces it by
+component mode synthesis; the formulation side (:class:`kanedyn.FlexibleBody`)
+consumes it.  Everything is expressed in the body frame :math:`B` whose origin
+is the member's *reference node* (the node clamped to the frame: the root of a
+cantilever, the hub attachment of a robot link).
+
+Nodal degrees of freedom are ordered per node as
+:math:`(u_x, u_y, u_z, \theta_x, \theta_y, \theta_z)` in :math:`B` components,
+so node :math:`k` owns rows :math:`6k \ldots 6k+5`.
+
+The displacement of node :math:`k` for modal coordinates :math:`\eta` is
+
+.. math::
+
+    u_k(\eta) = \Phi_k\,\eta + \tfrac12\sum_{ij} G_{k,:,i,j}\,\eta_i\eta_j ,
+    \qquad \theta_k(\eta) = \Psi_k\,\eta ,
+
+with :math:`\Phi_k` (3 x m) and :math:`\Psi_k` (3 x m) the translational and
+rotational rows of :attr:`ReducedMember.modes`, and :math:`G` the second-order
+(foreshortening) displacement of the nodes that makes motion-induced
+(geometric) stiffening part of the kinematics (Kane, Ryan & Banerjee 1987).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..._errors import ModelError
+
+__all__ = ["ReducedMember"]
+
+
+@dataclass(frozen=True, eq=False)
+class ReducedMember:
+    """A finite-element member reduced to ``m`` modal coordinates.
+
+    Attributes
+    ----------
+    name : str
+        The member's name (errors and reports use it).
+    nodes : ndarray, shape (n, 3)
+        Reference (undeformed) node positions in the body frame, m; node
+        ``reference_node`` is at the origin of the body frame.
+    mass_matrix : ndarray or scipy.sparse matrix, shape (6n, 6n)
+        Finite-element mass matrix (consistent or lumped), kg and kg m^2,
+        symmetric positive semidefinite, with the rigid-body inertia of the
+        member (total mass, first and second moments about the reference node).
+    stiffness_matrix : ndarray or scipy.sparse matrix, shape (6n, 6n)
+        Finite-element stiffness matrix, N/m, N/rad, N m/rad.
+    modes : ndarray, shape (6n, m)
+        Displacement of every nodal degree of freedom per unit modal
+        coordinate (the reduction basis expanded to all nodes: fixed-interface
+        normal modes and static constraint modes, or free-free modes, ...);
+        zero at the reference node's degrees of freedom.
+    second_order : ndarray, shape (n, 3, m, m), or None
+        :math:`G`: second-order (foreshortening) translation of each node,
+        symmetric in the last two indices; ``None`` when unknown (members
+        imported as matrices), which rules out geometric stiffening.
+    reference_node : int
+        Index of the node clamped to the body frame.
+    interface_nodes : tuple of int
+        Nodes where joints and loads attach (kept exactly by the reduction).
+    mode_names : tuple of str
+        A name per modal coordinate (e.g. ``"bending_y_1"``, ``"constraint_3_uy"``).
+    full_frequencies, reduced_frequencies : ndarray
+        Natural frequencies, Hz, of the full model with the reference node
+        clamped and of the reduced model (for the report).
+    description : str
+        How the member was built and reduced.
+    """
+
+    name: str
+    nodes: np.ndarray
+    mass_matrix: object
+    stiffness_matrix: object
+    modes: np.ndarray
+    second_order: np.ndarray | None = None
+    reference_node: int = 0
+    interface_nodes: tuple = ()
+    mode_names: tuple = ()
+    full_frequencies: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    reduced_frequencies: np.ndarray = field(default_factory=lambda: np.zeros(0))
+    description: str = ""
+
+    def __post_init__(self):
+        n = np.shape(self.nodes)[0]
+        if np.shape(self.nodes) != (n, 3):
+            raise ModelError(f"member {self.name!r}: nodes must have shape (n, 3), got "
+                             f"{np.shape(self.nodes)}")
+        for what in ("mass_matrix", "stiffness_matrix"):
+            if np.shape(getattr(self, what)) != (6 * n, 6 * n):
+                raise ModelError(f"member {self.name!r}: {what} must be {6 * n} x {6 * n} "
+                                 f"(6 degrees of freedom per node), got "
+                                 f"{np.shape(getattr(self, what))}")
+        if np.ndim(self.modes) != 2 or np.shape(self.modes)[0] != 6 * n:
+            raise ModelError(f"member {self.name!r}: modes must have shape ({6 * n}, m), got "
+                             f"{np.shape(self.modes)}")
+        m = np.shape(self.modes)[1]
+        if self.second_order is not None and np.shape(self.second_order) != (n, 3, m, m):
+            raise ModelError(f"member {self.name!r}: second_order must have shape "
+                             f"({n}, 3, {m}, {m}), got {np.shape(self.second_order)}")
+        if not 0 <= self.reference_node < n:
+            raise ModelError(f"member {self.name!r}: reference node {self.reference_node} "
+                             f"does not exist (nodes 0..{n - 1})")
+        for k in self.interface_nodes:
+            if not 0 <= k < n:
+                raise ModelError(f"member {self.name!r}: interface node {k} does not exist "
+                                 f"(nodes 0..{n - 1})")
+        if self.mode_names and len(self.mode_names) != m:
+            raise ModelError(f"member {self.name!r}: {len(self.mode_names)} mode names for "
+                             f"{m} modes")
+
+    @property
+    def n_nodes(self):
+        return np.shape(self.nodes)[0]
+
+    @property
+    def n_modes(self):
+        return np.shape(self.modes)[1]
+
+    def modal_mass(self):
+        """:math:`\\Phi^T M \\Phi`, shape (m, m)."""
+        return np.asarray(self.modes.T @ (self.mass_matrix @ self.modes))
+
+    def modal_stiffness(self):
+        """:math:`\\Phi^T K \\Phi`, shape (m, m)."""
+        return np.asarray(self.modes.T @ (self.stiffness_matrix @ self.modes))
+
+    def node_modes(self, k):
+        """``(Phi_k, Psi_k)``: translation and rotation of node ``k`` per mode, (3, m) each."""
+        rows = self.modes[6 * k:6 * k + 6]
+        return np.asarray(rows[:3]), np.asarray(rows[3:])
