@@ -15,9 +15,9 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
 from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
-from .modeling import (SURFACE_COORDINATES, AngularVelocity, Contact, Ellipsoid, ImplicitSurface,
-                       OrthogonalVelocities, Plane, PointVelocity, Sphere, Surface,
-                       VectorConstraint)
+from .modeling import (SURFACE_COORDINATES, AngularVelocity, Contact, Ellipsoid, FlexibleBody,
+                       ImplicitSurface, OrthogonalVelocities, Plane, PointVelocity,
+                       ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
 from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
 
@@ -38,6 +38,8 @@ __all__ = [
     "PointVelocity",
     "AngularVelocity",
     "OrthogonalVelocities",
+    "FlexibleBody",
+    "ReducedMember",
     "Impact",
     "check_newton_euler",
     "NewtonEulerCheck",

@@ -31,6 +31,8 @@ import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 from .._progress import NO_PROGRESS
+from ..modeling import FlexibleBody
+from ._flexible import flexible_terms
 from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, add, composite_equations,
                       cross, dot, fast_eval, inertia_components, matvec, name_of,
                       random_sampler)
@@ -491,14 +493,17 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec)
                 for ur in speeds]
 
+    rigid = [b for b in spec.bodies if not isinstance(b, FlexibleBody)]
     body_terms, masses, inertias, inertial, hs = body_kinematics(
-        kin, spec.bodies, partials, aux_zero, progress)
+        kin, rigid, partials, aux_zero, progress)
+    flexible = [flexible_terms(kin, b, speeds, o, aux_zero) for b in spec.bodies
+                if isinstance(b, FlexibleBody)]
     progress.stage("generalized active forces")
     loads = load_terms(kin, spec.loads, partials)
 
     # ------------------------------------------- mass matrix, remainder
     progress.stage("mass matrix and forcing")
-    structured = composite_equations(kin, spec.bodies, body_terms, masses, inertias,
+    structured = composite_equations(kin, rigid, body_terms, masses, inertias,
                                      inertial, loads, o)
     if structured is not None:
         mass, active, remainder = structured
@@ -508,13 +513,17 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         rows = range(o + s_aux)
     g_mass, g_active, g_remainder = _generic_rows(
         kin, rows, o, body_terms, masses, inertias, inertial, loads)
+    mass, active, remainder = (list(mass) + g_mass, list(active) + g_active,
+                               list(remainder) + g_remainder)
+    for terms in flexible:  # flexible bodies add their own terms to every row
+        mass = [[a + b for a, b in zip(row, extra)] for row, extra in zip(mass, terms.mass)]
+        active = [a + b for a, b in zip(active, terms.active)]
+        remainder = [a + b for a, b in zip(remainder, terms.remainder)]
     mass_rows = [[prog.let(e, f"M_{r}_{s}") for s, e in enumerate(row)]
-                 for r, row in enumerate(list(mass) + g_mass)]
-    fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}")
-          for r, e in enumerate(list(active) + g_active)]
+                 for r, row in enumerate(mass)]
+    fr = [prog.let(prog.subs(e, aux_zero), f"Fr_{r}") for r, e in enumerate(active)]
     fr[:o] = _drop_workless(prog, table, fr[:o], loads, fr[o:])
-    nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}")
-             for r, e in enumerate(list(remainder) + g_remainder)]
+    nonmm = [prog.let(prog.subs(e, aux_zero), f"n_{r}") for r, e in enumerate(remainder)]
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
@@ -525,6 +534,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     ke = []
     for terms, m, H in zip(body_terms, masses, hs):
         ke.append(m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2)
+    ke.extend(terms.kinetic for terms in flexible)
     kinetic = prog.let(sm.Add(*ke), "KE")
     potential = potential_term(kin, spec)
 

@@ -7,6 +7,7 @@
 ``_vector_constraints``  constraints in vector form that identify their forces
 """
 
+from .flexible import FlexibleBody, InertiaInvariants, ReducedMember
 from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
@@ -18,4 +19,4 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "Sphere", "Ellipsoid", "ImplicitSurface", "SURFACE_COORDINATES",
            "coefficient_value", "VectorConstraint", "PointVelocity", "AngularVelocity",
            "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
-           "check_declared_bodies"]
+           "check_declared_bodies", "FlexibleBody", "InertiaInvariants", "ReducedMember"]

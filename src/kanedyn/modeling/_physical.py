@@ -55,13 +55,15 @@ def check_declared_bodies(bodies):
 
 
 def body_parameters(bodies):
-    """``[(name, kind, mass, central inertia)]`` as SymPy expressions.
+    """``[(name, kind, mass, central inertia)]`` of the rigid bodies and particles.
 
     The central inertia is a 3 x 3 ``sympy.Matrix`` in the body's frame
     (``None`` for particles).  Plain SymPy data, so it pickles.
     """
     out = []
     for body in bodies:
+        if not isinstance(body, (me.RigidBody, me.Particle)):
+            continue  # flexible bodies: their members' matrices are checked when built
         mass = sm.sympify(body.mass)
         inertia = None
         if isinstance(body, me.RigidBody):

@@ -184,12 +184,18 @@ def _resolve_specified(eom, specified):
     substitutions = {}  # internal symbol -> expression (internal)
     providers = {}  # external -> value
     known = list(table.specified)
+    given = {_match_key(key, known, "specified input") for key in specified}
     for key, value in specified.items():
         found = _match_key(key, known, "specified input")
         if found is None:
             raise _unknown_key(key, needed or known, "a specified input", "inputs")
         key = found
-        if isinstance(value, sm.Basic) and not isinstance(value, sm.Number):
+        number = isinstance(value, (numbers.Number, sm.Number))
+        derivatives_needed = any(isinstance(e, sm.Derivative) and e.expr == key
+                                 and e not in given for e in needed)
+        if isinstance(value, sm.Basic) and not number or number and derivatives_needed:
+            # an expression in t (a number, when the input's rates are needed too:
+            # they are then exactly zero)
             expr = sm.sympify(value)
             if isinstance(key, sm.Derivative):
                 raise ModelError(f"give the SymPy expression for {key.expr}, not for "
