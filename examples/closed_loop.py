@@ -142,6 +142,7 @@ def main(argv=None):
         fig.suptitle("four-bar linkage under gravity: dependent coordinates, closed loop")
         fig.tight_layout()
         fig.savefig(args.plot, dpi=120)
+        plt.close(fig)
         print(f"plot saved to {args.plot}")
 
     return {"max_constraint_residual": residual, "projection_tol": tolerance,

@@ -112,6 +112,7 @@ def main(argv=None):
         fig.suptitle("double pendulum of two uniform rods, released horizontal")
         fig.tight_layout()
         fig.savefig(args.plot, dpi=120)
+        plt.close(fig)
         print(f"plot saved to {args.plot}")
 
     return {"energy_drift": drift, "omega": omegas.tolist(),

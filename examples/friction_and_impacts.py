@@ -118,6 +118,7 @@ def main(argv=None):
                      f"e = {CONSTANTS['e']})")
         fig.tight_layout()
         fig.savefig(args.plot, dpi=120)
+        plt.close(fig)
         print(f"plot saved to {args.plot}")
 
     return {"impact_times": [i.t for i in res.impacts],

@@ -145,6 +145,7 @@ def main(argv=None):
                      f"spin > sqrt(g/3r) = {critical:.2f} rad/s")
         fig.tight_layout()
         fig.savefig(args.plot, dpi=120)
+        plt.close(fig)
         print(f"plot saved to {args.plot}")
 
     return {"spin": {case: float(v) for case, v in spins.items()},
