@@ -98,8 +98,8 @@ def main(argv=None):
     eom, s = build()
     model = eom.numeric(constants={s[name]: value for name, value in CONSTANTS.items()})
     y0 = model.state(START)               # q2, q3, u2, u3 solved from the loop closure
-    print("start on the loop: q2 = {:.9f}, q3 = {:.9f} rad; u2 = {:.9f}, u3 = {:.9f} "
-          "rad/s".format(*y0[[1, 2, 4, 5]]))
+    print("start on the loop: " + ", ".join(f"{name} = {y0[model.index(name)]:.9f}"
+                                            for name in ("q2", "q3", "u2", "u3")))
 
     t_eval = np.linspace(0.0, args.t_end, 501)
     res = kd.simulate(model, (0.0, args.t_end), y0, rtol=args.tol, atol=args.tol,

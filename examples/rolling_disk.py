@@ -109,14 +109,16 @@ def main(argv=None):
 
     # simulate from a small lean: stays up above the threshold, falls below it
     model = eom.numeric(constants={s[k]: v for k, v in CONSTANTS.items()})
+
+    def fallen(t, y):
+        """An event: the lean reaches 0.5 rad, the disk is falling over."""
+        return abs(y[model.index("theta")]) - 0.5
+    fallen.terminal = True
+
     runs = {}
     for case, spin in spins.items():
         start = upright(s, spin)
         start[s["theta"]] = 0.05
-
-        def fallen(t, y):
-            return abs(y[model.index("theta")]) - 0.5     # 0.5 rad: it is falling over
-        fallen.terminal = True
         runs[case] = kd.simulate(model, (0.0, args.t_end), start, rtol=1e-10, atol=1e-10,
                                  events=[fallen], max_step=0.01)
         lean = runs[case]["theta"]
