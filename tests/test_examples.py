@@ -1,0 +1,291 @@
+"""Every script in examples/ runs, saves its plot, and prints numbers that are right.
+
+Each example is loaded with ``runpy`` (its ``if __name__ == "__main__"``
+block does not run) and its ``main(argv)`` is called in a temporary
+directory with ``--plot``; the dictionary it returns is checked against
+references computed here, independently of the example: closed forms
+derived by hand, a minimal-coordinate model integrated with SciPy, SymPy's
+``KanesMethod``, an energy quadrature.  ``test_every_example_is_tested``
+fails when a file in ``examples/`` has no test below.
+"""
+
+import re
+import runpy
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.linalg
+import sympy as sm
+import sympy.physics.mechanics as me
+from scipy.integrate import quad, solve_ivp
+
+ROOT = Path(__file__).resolve().parents[1]
+EXAMPLES = ROOT / "examples"
+
+
+def run_example(name, argv, tmp_path, monkeypatch):
+    """``(main(argv + ["--plot", FILE]), module namespace)`` of ``examples/<name>.py``."""
+    monkeypatch.chdir(tmp_path)
+    namespace = runpy.run_path(str(EXAMPLES / f"{name}.py"), run_name=f"example_{name}")
+    plot = tmp_path / f"{name}.png"
+    out = namespace["main"](list(argv) + ["--plot", str(plot)])
+    assert plot.stat().st_size > 10_000, f"{name}: no plot saved"
+    return out, namespace
+
+
+def test_every_example_is_tested():
+    files = {path.stem for path in EXAMPLES.glob("*.py")}
+    tested = set(re.findall(r'run_example\(\s*"(\w+)"', Path(__file__).read_text()))
+    assert files, "no examples found"
+    assert files <= tested, f"examples without a test: {sorted(files - tested)}"
+    assert tested <= files, f"tests of missing examples: {sorted(tested - files)}"
+
+
+def test_every_example_has_a_docstring_and_main():
+    for path in EXAMPLES.glob("*.py"):
+        text = path.read_text()
+        assert text.startswith('"""'), f"{path.name}: no module docstring"
+        assert f"python examples/{path.name}" in text, f"{path.name}: no 'how to run'"
+        assert "def main(argv=None):" in text, f"{path.name}: no main(argv=None)"
+
+
+# ----------------------------------------------------------- double pendulum
+def test_double_pendulum(tmp_path, monkeypatch):
+    """Small oscillations of two uniform rods (mass m, length l) hanging from
+    a pivot, absolute angles: T = 1/2 q'^T M q', V = 1/2 q^T K q with
+
+        M = m l^2 [[1/3 + 1, 1/2], [1/2, 1/4 + 1/12]],   K = m g l [[3/2, 0], [0, 1/2]]
+
+    (rod A about the pivot; rod B: its centre moves at l q1' + l/2 q2', plus
+    its own rotation), so omega^2 are the eigenvalues of K v = omega^2 M v:
+    (3 -+ 6/sqrt(7)) g/l."""
+    out, ns = run_example("double_pendulum", ["--t-end", "3"], tmp_path, monkeypatch)
+    m, l, g = (ns["CONSTANTS"][k] for k in ("m", "l", "g"))
+    M = m * l ** 2 * np.array([[4 / 3, 1 / 2], [1 / 2, 1 / 3]])
+    K = m * g * l * np.array([[3 / 2, 0.0], [0.0, 1 / 2]])
+    omega = np.sqrt(scipy.linalg.eigh(K, M, eigvals_only=True))
+    np.testing.assert_allclose(out["omega"], omega, rtol=1e-10)
+    np.testing.assert_allclose(omega ** 2, np.array([3 - 6 / 7 ** 0.5, 3 + 6 / 7 ** 0.5])
+                               * g / l, rtol=1e-12)
+    assert out["success"]
+    assert out["energy_drift"] < 1e-8
+
+
+# ---------------------------------------------------------------- four-bar
+def four_bar_minimal(constants):
+    """The four-bar in its crank angle alone, by Lagrange's equation.
+
+    Position analysis in closed form (the coupler's far end is where the
+    circles about the crank tip and the rocker pivot meet, on the branch of
+    the examples' start), kinetic energy T = J(q) q'^2 / 2 and potential
+    V(q) from it, so J q'' + J'(q) q'^2 / 2 + V'(q) = 0.  Returns
+    ``rhs(t, y)`` for ``y = [q1, q1']``.
+    """
+    c = constants
+    la, lb, lc, ld = c["l_a"], c["l_b"], c["l_c"], c["l_d"]
+    q = sm.Symbol("q")
+    tip = sm.Matrix([la * sm.cos(q), la * sm.sin(q)])
+    to_pivot = sm.Matrix([ld, 0]) - tip
+    d = sm.sqrt(to_pivot.dot(to_pivot))
+    along = (lb ** 2 - lc ** 2 + d ** 2) / (2 * d)
+    across = sm.sqrt(lb ** 2 - along ** 2)
+    end = tip + along * to_pivot / d + across * sm.Matrix([-to_pivot[1], to_pivot[0]]) / d
+    q2 = sm.atan2(end[1] - tip[1], end[0] - tip[0])
+    q3 = sm.atan2(end[1], end[0] - ld)
+    coupler_centre = (tip + end) / 2
+    v = coupler_centre.diff(q)
+    J = (c["m_a"] * la ** 2 / 3 + c["m_b"] * v.dot(v) + c["m_b"] * lb ** 2 / 12
+         * q2.diff(q) ** 2 + c["m_c"] * lc ** 2 / 3 * q3.diff(q) ** 2)
+    V = c["g"] * (c["m_a"] * la / 2 * sm.sin(q) + c["m_b"] * coupler_centre[1]
+                  + c["m_c"] * lc / 2 * sm.sin(q3))
+    terms = sm.lambdify(q, [J, J.diff(q), V.diff(q)], cse=True)
+
+    def rhs(t, y):
+        J, dJ, dV = terms(y[0])
+        return [y[1], -(0.5 * dJ * y[1] ** 2 + dV) / J]
+    return rhs
+
+
+def test_closed_loop_residual_energy_and_built_in(tmp_path, monkeypatch):
+    out, _ = run_example("closed_loop", [], tmp_path, monkeypatch)
+    assert out["success"]
+    assert out["projection_tol"] == 1e-6
+    assert out["projections"] >= 1                 # the residual reached the tolerance
+    assert 0.5 * out["projection_tol"] < out["max_constraint_residual"]
+    assert out["max_constraint_residual"] < 1.5 * out["projection_tol"]
+    assert out["energy_drift"] < 1e-5
+    assert out["crank_vs_built_in"] < 1e-9
+
+
+@pytest.mark.slow
+def test_closed_loop_against_minimal_coordinates(tmp_path, monkeypatch):
+    """Over 3 s (more than a crank revolution) at rtol = atol = 1e-10 the crank
+    angle agrees to 6e-8 rad and its rate to 5e-7 rad/s."""
+    out, ns = run_example("closed_loop", ["--tol", "1e-10", "--t-end", "3"], tmp_path,
+                          monkeypatch)
+    start = ns["START"]
+    sol = solve_ivp(four_bar_minimal(ns["CONSTANTS"]), (0.0, 3.0), [start["q1"], start["u1"]],
+                    method="DOP853", rtol=1e-13, atol=1e-13, t_eval=out["t"])
+    assert np.ptp(sol.y[0]) > 2 * np.pi
+    assert np.max(np.abs(np.array(out["q1"]) - sol.y[0])) < 1e-6
+    assert np.max(np.abs(np.array(out["u1"]) - sol.y[1])) < 5e-6
+
+
+# ------------------------------------------------------------- rolling disk
+def test_rolling_disk(tmp_path, monkeypatch):
+    """The lean of a disk rolling upright at spin Omega obeys
+    (I + m r^2) theta'' + [(J/I)(J + m r^2) Omega^2 - m g r] theta = 0 (I about a
+    diameter, J about the axle); for a thin disk, I = m r^2/4 and J = m r^2/2:
+    theta'' = -(12 Omega^2 - 4 g/r)/5 theta, so the lean eigenvalues are
+    lambda^2 = (4 g/r - 12 Omega^2)/5, stable iff Omega^2 > g/(3r)."""
+    out, ns = run_example("rolling_disk", ["--t-end", "2"], tmp_path, monkeypatch)
+    r, g = ns["CONSTANTS"]["r"], ns["CONSTANTS"]["g"]
+    for case, spin in out["spin"].items():
+        expected = np.sqrt(complex((4 * g / r - 12 * spin ** 2) / 5))
+        pair = sorted(out["lean_eigenvalues"][case], key=lambda z: (z.imag, z.real))
+        np.testing.assert_allclose(pair, sorted([-expected, expected],
+                                                key=lambda z: (z.imag, z.real)),
+                                   rtol=1e-9, atol=1e-9)
+    assert out["spin"]["below"] ** 2 < g / (3 * r) < out["spin"]["above"] ** 2
+    assert out["largest_real_part"]["below"] > 1.0
+    assert abs(out["largest_real_part"]["above"]) < 1e-9
+    assert out["fell_below"] and out["success"]
+    assert out["max_lean_above"] < 0.15
+
+
+# ------------------------------------------------------ friction and impacts
+def test_friction_and_impacts(tmp_path, monkeypatch):
+    """A particle thrown horizontally at v0 from height h onto a floor with
+    restitution e and friction mu: approach speeds V_k = e^(k-1) sqrt(2 g h),
+    flights of 2 e V_k / g, each impact takes mu (1 + e) V_k off the
+    horizontal speed; the bounces end after a finite time, then the block
+    slides at mu g to rest."""
+    out, ns = run_example("friction_and_impacts", [], tmp_path, monkeypatch)
+    c, s = ns["CONSTANTS"], ns["START"]
+    m, g, mu, e = c["m"], c["g"], c["mu"], c["e"]
+    h, v0 = s["z"], s["u_x"]
+    V1 = np.sqrt(2 * g * h)
+    k = np.arange(6)
+    approach = V1 * e ** k
+    times = np.sqrt(2 * h / g) + np.concatenate([[0.0], np.cumsum(2 * e * approach[:-1] / g)])
+    np.testing.assert_allclose(out["approach_speeds"][:6], approach, rtol=1e-8)
+    np.testing.assert_allclose(out["impact_times"][:6], times, rtol=1e-9)
+    np.testing.assert_allclose(out["friction_impulses"][:6], -mu * m * (1 + e) * approach,
+                               rtol=1e-8)
+    lost = mu * (1 + e) * V1 / (1 - e)                  # speed taken off by all bounces
+    sliding = v0 - lost
+    bounce_end = np.sqrt(2 * h / g) + 2 * e * V1 / (g * (1 - e))
+    x_bounces = v0 * np.sqrt(2 * h / g) + 2 * V1 / g * (sliding * e / (1 - e)
+                                                         + lost * e ** 2 / (1 - e ** 2))
+    assert out["stop_time"] == pytest.approx(bounce_end + sliding / (mu * g), abs=1e-5)
+    assert out["final_x"] == pytest.approx(x_bounces + sliding ** 2 / (2 * mu * g), abs=1e-5)
+    assert out["energy_lost"] == pytest.approx(m * g * h + m * v0 ** 2 / 2, rel=1e-10)
+    assert -out["friction_work"] == pytest.approx(m * sliding ** 2 / 2, rel=1e-5)
+    assert out["impact_loss"] - out["friction_work"] == pytest.approx(out["energy_lost"],
+                                                                      abs=1e-9)
+    assert out["energy_balance"] < 1e-9
+    assert [(old, new) for _, old, new in out["modes"]] == [("separated", "slip"),
+                                                            ("slip", "stick")]
+    assert out["success"]
+
+
+# --------------------------------------------------------- constraint forces
+def test_constraint_forces(tmp_path, monkeypatch):
+    """Energy integral: theta'^2 = theta0'^2 + 2 g/L (cos theta - cos theta0), so
+    T = m g (3 cos theta - 2 cos theta0) + m L theta0'^2 along the motion."""
+    out, ns = run_example("constraint_forces", [], tmp_path, monkeypatch)
+    m, L, g = (ns["CONSTANTS"][k] for k in ("m", "L", "g"))
+    theta0, rate0 = ns["THETA0"], ns["RATE0"]
+    theta = np.array(out["theta"])
+    expected = m * g * (3 * np.cos(theta) - 2 * np.cos(theta0)) + m * L * rate0 ** 2
+    assert np.ptp(theta) > 3.0                          # a large swing
+    np.testing.assert_allclose(out["tension"], expected, atol=1e-7)
+    assert out["error_auxiliary"] < 1e-10 and out["error_vector"] < 1e-10
+    assert out["difference"] < 1e-6
+    assert out["newton_euler_residual"] < 1e-10
+
+
+# ------------------------------------------------------------ formulations
+def sympy_accelerations(keywords, constants, y):
+    """u' of the slider-crank from SymPy's KanesMethod at the state ``y``."""
+    kane = me.KanesMethod(keywords["frame"], q_ind=keywords["q_ind"],
+                          u_ind=keywords["u_ind"], kd_eqs=keywords["kd_eqs"],
+                          q_dependent=keywords["q_dep"],
+                          configuration_constraints=keywords["configuration_constraints"],
+                          u_dependent=keywords["u_dep"],
+                          velocity_constraints=keywords["velocity_constraints"])
+    kane.kanes_equations(keywords["bodies"], keywords["loads"])
+    states = list(keywords["q_ind"]) + list(keywords["q_dep"]) + list(keywords["u_ind"]) \
+        + list(keywords["u_dep"])
+    values = dict(zip(states, y))
+    values.update(constants)
+    M = np.array(me.msubs(kane.mass_matrix_full, values), dtype=float)
+    f = np.array(me.msubs(kane.forcing_full, values), dtype=float).ravel()
+    return np.linalg.solve(M, f)[len(keywords["kd_eqs"]):]
+
+
+@pytest.mark.slow
+def test_formulations_compared(tmp_path, monkeypatch):
+    out, ns = run_example("formulations_compared", ["--t-end", "1"], tmp_path, monkeypatch)
+    keywords, symbols = ns["slider_crank"]()
+    constants = {symbols[k]: v for k, v in ns["CONSTANTS"].items()}
+    reference = sympy_accelerations(keywords, constants, out["state"])
+    assert set(out["accelerations"]) == set(ns["METHODS"])
+    for method, accelerations in out["accelerations"].items():
+        tolerance = 1e-6 if method == "penalty" else 1e-10   # penalty: exact as 1/factor -> 0
+        np.testing.assert_allclose(accelerations, reference, rtol=tolerance,
+                                   atol=tolerance * np.max(np.abs(reference)),
+                                   err_msg=method)
+    assert 1e-10 < out["acceleration_deviation"]["penalty"] < 1e-6
+    runs = out["runs"]
+    assert all(row["success"] for row in runs.values())
+    for method in ("lagrange", "partitioning", "orthogonal-complement"):
+        assert runs[method]["crank_deviation"] < 1e-9     # projected like Kane: same motion
+    for row in runs.values():
+        assert row["crank_deviation"] < 1e-4 and row["energy_error"] < 1e-4
+    assert out["operations"]["kane"] < out["operations"]["lagrange"]
+
+
+# ------------------------------------------------------- singular positions
+def branch_singular_times(n, count, L=1.0, m=1.0, g=9.81, rate0=-1.0):
+    """Times the A02 cranks are horizontal, from the energy integral of the
+    parallelogram branch: n + 1 cranks about their pivots, n couplers
+    translating, I = m L^2 ((n+1)/3 + n), V = m g L ((n+1)/2 + n) sin theta."""
+    k = (m * g * L * ((n + 1) / 2 + n)) / (m * L ** 2 * ((n + 1) / 3 + n))
+
+    def dt(theta):
+        return 1.0 / np.sqrt(rate0 ** 2 + 2 * k * (1 - np.sin(theta)))
+    down = quad(dt, 0.0, np.pi / 2, epsabs=1e-13, epsrel=1e-13)[0]       # top -> right
+    through = 2 * quad(dt, -np.pi / 2, 0.0, epsabs=1e-13, epsrel=1e-13)[0]  # right -> left
+    return np.array([down, down + through])[:count]
+
+
+@pytest.mark.slow
+def test_singular_positions(tmp_path, monkeypatch):
+    n, t_end = 2, 1.5
+    out, _ = run_example("singular_positions", ["--n", str(n), "--t-end", str(t_end)],
+                         tmp_path, monkeypatch)
+    times = branch_singular_times(n, 2)
+    np.testing.assert_allclose(out["singular_times"], times, atol=1e-9)
+    np.testing.assert_allclose(out["kane_warned_at"][:2], times, atol=1e-6)
+    np.testing.assert_allclose(out["index3_warned_at"][:2], times, atol=1e-5)
+    assert "passed near a singular configuration" in out["kane_message"]
+    # Kane's elimination leaves the branch at the left horizontal (or stops there)
+    assert out["kane_t_end"] < t_end or out["kane_branch_error"] > 0.1
+    assert out["index3_success"]
+    assert out["index3_branch_error"] < 1e-4
+    assert out["index3_crank_spread"] < 1e-10
+
+
+# -------------------------------------------------------------- shuttle arm
+@pytest.mark.slow
+def test_shuttle_arm(tmp_path, monkeypatch):
+    """The natural orthogonal complement integrated with BDF against Kane's
+    equations integrated with DOP853 (explicit) and with BDF."""
+    out, _ = run_example("shuttle_arm", ["--t-end", "5"], tmp_path, monkeypatch)
+    assert out["success"]
+    assert out["noc_vs_kane_dop853_angles"] < 1e-8
+    assert out["noc_vs_kane_dop853_rates"] < 1e-7
+    assert out["noc_vs_kane_bdf"] < 1e-8
+    assert out["tracking_error_max"] < 0.01
