@@ -119,7 +119,7 @@ def main(argv=None):
     print(f"crank angle against the built-in four-bar: largest difference {difference:.1e} rad")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(4, 1, figsize=(8, 10), sharex=True)
         axes[0].plot(res.t, np.degrees(res["q1"]), label="crank q1 (this model)")
         axes[0].plot(ref.t, np.degrees(ref["q1"]), "k:", label="crank q1 (built-in four-bar)")

@@ -102,7 +102,7 @@ def main(argv=None):
     print(f"the two tensions differ by at most {between:.1e} N")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(2, 1, figsize=(8, 6.5), sharex=True)
         res = runs["auxiliary speed"]
         axes[0].plot(res.t, np.degrees(res["theta"]))

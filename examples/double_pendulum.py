@@ -98,7 +98,7 @@ def main(argv=None):
               f"{w_exact:.12f} rad/s closed form")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(2, 1, figsize=(8, 6), sharex=True)
         axes[0].plot(res.t, np.degrees(res["q1"]), label="q1 (upper rod)")
         axes[0].plot(res.t, np.degrees(res["q2"]), label="q2 (lower rod)")

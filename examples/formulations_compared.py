@@ -146,7 +146,7 @@ def main(argv=None):
               f"{row['energy_error']:>14.1e}{row['evaluations']:>7}{row['cpu']:>7.2f}")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(3, 1, figsize=(10, 8), sharex=True, layout="constrained")
         axes[0].plot(t_eval, np.degrees(runs["kane"]["q1"]), "k")
         axes[0].set_ylabel("crank angle q1,\nKane (deg)")

@@ -88,7 +88,7 @@ def main(argv=None):
           f"{-friction_work:.9f} J; largest energy-balance error {balance:.1e} J")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(3, 1, figsize=(8, 9))
         axes[0].plot(res["x"], res["z"])
         axes[0].set_xlabel("x (m)")

@@ -127,7 +127,7 @@ def main(argv=None):
     stable = runs["above"]
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(1, 2, figsize=(11, 4.5))
         for case, res in runs.items():
             axes[0].plot(res.t, np.degrees(res["theta"]),

@@ -93,7 +93,7 @@ def main(argv=None):
           f"motion by up to {error_i3:.2e} rad, cranks spread by {spread_i3:.2e} rad")
 
     if args.plot:
-        plt = kd.analysis.pyplot()
+        import matplotlib.pyplot as plt
         fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
         axes[0].plot(t_eval, np.degrees(theta_exact), color="0.75", lw=5,
                      label="exact branch motion")
