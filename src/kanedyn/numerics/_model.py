@@ -673,7 +673,10 @@ class NumericModel(StateLayout):
             lam = [0.0] * k
             lam[j] = 1.0
             G[:, j] = fn(t, y, self._p, r + lam)[1] - f0
-        sol = np.linalg.solve(G, -base)
+        try:
+            sol = np.linalg.solve(G, -base)
+        except np.linalg.LinAlgError:  # a state where the forces are not determined
+            sol = np.full(k, np.nan)
         return dict(zip(self.aux_names, sol))
 
     def multipliers(self, t, y, udot=None):
