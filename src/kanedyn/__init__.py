@@ -18,6 +18,7 @@ from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, Contact, Ellipsoid, ImplicitSurface,
                        OrthogonalVelocities, Plane, PointVelocity, Sphere, Surface,
                        VectorConstraint)
+from .modeling import BeamMember, FEMember, NodeMass, ReducedMember
 from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
 from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
 
@@ -38,6 +39,10 @@ __all__ = [
     "PointVelocity",
     "AngularVelocity",
     "OrthogonalVelocities",
+    "ReducedMember",
+    "BeamMember",
+    "FEMember",
+    "NodeMass",
     "Impact",
     "check_newton_euler",
     "NewtonEulerCheck",
