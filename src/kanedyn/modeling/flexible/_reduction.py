@@ -25,9 +25,9 @@ Free–free
     modes is the span of rigid motion plus free–free modes, so a floating body
     built on them has exactly the free–free frequencies.
 
-Normal modes are scaled so that their largest nodal translation is +1 m per
-unit modal coordinate (a mode without translation, such as torsion of a
-straight member: largest rotation +1 rad).  Modes of equal frequency (a
+Normal modes are scaled so that their largest nodal translation is 1 m per
+unit modal coordinate, with its largest component positive (a mode without
+translation, such as torsion of a straight member: largest rotation 1 rad).  Modes of equal frequency (a
 section with :math:`EI_y = EI_z`) are rotated within their eigenspace so that
 each bends in one plane.  Beam members name their normal modes by the part of
 the strain energy that dominates (``axial_1``, ``torsion_1``,
@@ -98,15 +98,21 @@ def _characteristic_length(nodes, reference):
 
 
 def _scale_modes(V, nodes, reference):
-    """Scale each column to a largest translation (else rotation) of +1."""
+    """Scale each column so that its largest nodal translation (else rotation) is 1.
+
+    The node whose translation vector is longest gets a translation of length
+    1 m, with its largest component positive.
+    """
     n = len(nodes)
     length = _characteristic_length(nodes, reference)
     V = V.copy()
     for j in range(V.shape[1]):
         block = V[:, j].reshape(n, 6)
-        trans, rot = block[:, :3].ravel(), block[:, 3:].ravel()
+        trans, rot = block[:, :3], block[:, 3:]
         part = trans if np.max(np.abs(trans)) >= 1e-6 * np.max(np.abs(rot)) * length else rot
-        V[:, j] /= part[np.argmax(np.abs(part))]
+        norms = np.linalg.norm(part, axis=1)
+        k = int(np.argmax(norms))
+        V[:, j] /= norms[k] * np.sign(part[k, np.argmax(np.abs(part[k]))])
     return V
 
 
