@@ -553,6 +553,20 @@ def test_bad_matrices():
         kd.FEMember.from_matrices("imp", M, K, nodes * 2).free_free(n_modes=2)
 
 
+def test_large_matrices_checked_by_inertia(monkeypatch):
+    """Beyond the dense limit, semidefiniteness comes from the pivots of a factorization."""
+    from kanedyn.modeling.flexible import _matrices
+    monkeypatch.setattr(_matrices, "_DENSE_CHECK", 10)
+    member = _uniform(6)
+    M, K, nodes = member.mass_matrix, member.stiffness_matrix, member.nodes
+    kd.FEMember.from_matrices("big", sp.csr_array(M), K, nodes)      # singular K passes
+    lowest = np.linalg.eigvalsh(M)[0]
+    shifted = M - (lowest + 0.01) * np.eye(42)                      # smallest eigenvalue -0.01
+    with pytest.raises(ModelError, match=r"'big': the mass matrix is not positive semidefinite:"
+                                         r" its smallest eigenvalue is about -0.0(099|1)[ 0-9]"):
+        kd.FEMember.from_matrices("big", shifted, K, nodes)
+
+
 def test_bad_reduction_options():
     member = _uniform(4)
     with pytest.raises(ModelError, match=r"'beam': interface node 99 does not exist \(nodes "

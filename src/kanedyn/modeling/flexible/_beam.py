@@ -256,9 +256,9 @@ def beam_element_matrices(length, *, mass_per_length, EA, GJ, EI_y, EI_z,
     --------
     >>> e = beam_element_matrices(2.0, mass_per_length=3.0, EA=1e6, GJ=1e3,
     ...                           EI_y=1e4, EI_z=1e4)
-    >>> round(e.stiffness[1, 1] * 2.0 ** 3 / 1e4, 12)   # 12 EI / L^3
+    >>> print(round(float(e.stiffness[1, 1]) * 2.0 ** 3 / 1e4, 12))   # 12 EI / L^3
     12.0
-    >>> round(e.mass[0, 0] * 6 / (3.0 * 2.0), 12)        # 2 rho A L / 6
+    >>> print(round(float(e.mass[0, 0]) * 6 / (3.0 * 2.0), 12))        # 2 rho A L / 6
     2.0
     """
     values = dict(mass_per_length=mass_per_length, EA=EA, GJ=GJ, EI_y=EI_y, EI_z=EI_z,

@@ -14,8 +14,9 @@ from ..._errors import ModelError
 
 __all__ = ["check_matrix", "read_matrix"]
 
-#: matrices up to this size get a dense eigenvalue check of semidefiniteness
-_DENSE_CHECK = 3000
+#: matrices up to this size get a dense eigenvalue check of semidefiniteness; larger
+#: ones an inertia count from a sparse factorization
+_DENSE_CHECK = 1000
 
 
 def read_matrix(member, what, path):
@@ -71,26 +72,58 @@ def check_matrix(member, what, A, n_nodes, tolerance):
         i, j = (int(v) for v in where_ij)
         raise ModelError(f"{where} is not symmetric: entries ({i}, {j}) and ({j}, {i}) differ by "
                          f"{asym:.3g} ({asym / scale:.3g} of its largest entry)")
-    lo, hi = _extreme_eigenvalues(member, what, A)
-    if lo is not None and lo < -tolerance * max(hi, 0.0):
-        raise ModelError(f"{where} is not positive semidefinite: its smallest eigenvalue is "
-                         f"{lo:.3g} ({lo / hi:.3g} of its largest, {hi:.3g})")
-    return A
-
-
-def _extreme_eigenvalues(member, what, A):
-    """Smallest and largest eigenvalue (dense up to a size, else Lanczos)."""
     if A.shape[0] <= _DENSE_CHECK:
         dense = A.toarray() if sp.issparse(A) else A
         eig = np.linalg.eigvalsh(0.5 * (dense + dense.T))
-        return float(eig[0]), float(eig[-1])
-    S = 0.5 * (A + A.T)
+        lo, hi = float(eig[0]), float(eig[-1])
+        if lo < -tolerance * max(hi, 0.0):
+            raise ModelError(f"{where} is not positive semidefinite: its smallest eigenvalue is "
+                             f"{lo:.3g} ({lo / hi:.3g} of its largest, {hi:.3g})")
+    else:
+        _check_sparse_semidefinite(where, A, tolerance)
+    return A
+
+
+def _eigenvalues_below(S, sigma):
+    """How many eigenvalues of the symmetric ``S`` lie below ``sigma`` (Sylvester's law of
+    inertia: the negative pivots of an LDL^T factorization of ``S - sigma I`` with symmetric
+    diagonal pivoting); ``None`` if the factorization needed off-diagonal pivots."""
+    shifted = sp.csc_array(S - sigma * sp.eye_array(S.shape[0], format="csc"))
     try:
-        hi = float(spla.eigsh(S, k=1, which="LA", return_eigenvectors=False)[0])
-        lo = float(spla.eigsh(S, k=1, which="SA", return_eigenvectors=False, tol=1e-8,
-                              maxiter=20 * A.shape[0])[0])
-    except spla.ArpackNoConvergence:
-        warnings.warn(f"member {member!r}: could not confirm that the {what} matrix is positive "
-                      f"semidefinite (Lanczos did not converge)", stacklevel=4)
-        return None, None
-    return lo, hi
+        lu = spla.splu(shifted, permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                       options={"SymmetricMode": True})
+    except RuntimeError:                        # exactly singular: sigma is an eigenvalue
+        return None
+    if not np.array_equal(lu.perm_r, lu.perm_c):
+        return None
+    return int(np.sum(lu.U.diagonal() < 0))
+
+
+def _check_sparse_semidefinite(where, A, tolerance):
+    """Semidefiniteness of a large sparse matrix by inertia counts (no eigensolver).
+
+    With ``g`` the Gershgorin bound of the largest eigenvalue, ``A`` passes if
+    no eigenvalue lies below ``-tolerance * g``; otherwise the smallest
+    eigenvalue is bracketed by bisection on the shift to report by how much.
+    """
+    S = sp.csc_array(0.5 * (A + A.T))
+    bound = float(np.max(np.abs(S).sum(axis=1)))
+    delta = tolerance * bound
+    count = _eigenvalues_below(S, -delta)
+    if count is None:
+        warnings.warn(f"{where}: could not confirm that it is positive semidefinite (the "
+                      f"factorization needed off-diagonal pivots)", stacklevel=5)
+        return
+    if count == 0:
+        return
+    low, high = bound, delta                    # the smallest eigenvalue is in [-low, -high]
+    while low > 1.01 * high:
+        mid = np.sqrt(low * high)
+        below = _eigenvalues_below(S, -mid)
+        if below is None:
+            break
+        low, high = (low, mid) if below else (mid, high)
+    raise ModelError(f"{where} is not positive semidefinite: its smallest eigenvalue is about "
+                     f"{-np.sqrt(low * high):.3g} ({-np.sqrt(low * high) / bound:.3g} of the "
+                     f"bound {bound:.3g} of its largest); {count} eigenvalue(s) below "
+                     f"{-delta:.3g}")

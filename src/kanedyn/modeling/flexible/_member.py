@@ -554,7 +554,7 @@ class BeamMember(FEMember):
         return A
 
     def stiffness_parts(self):
-        """The assembled stiffness split into ``axial``, ``torsion``, ``bending_xy``, ``bending_xz``.
+        """The assembled stiffness split by kind: axial, torsion, bending_xy, bending_xz.
 
         Returns
         -------

@@ -27,10 +27,10 @@ Free–free
 
 Normal modes are scaled so that their largest nodal translation is 1 m per
 unit modal coordinate, with its largest component positive (a mode without
-translation, such as torsion of a straight member: largest rotation 1 rad).  Modes of equal frequency (a
-section with :math:`EI_y = EI_z`) are rotated within their eigenspace so that
-each bends in one plane.  Beam members name their normal modes by the part of
-the strain energy that dominates (``axial_1``, ``torsion_1``,
+translation, such as torsion of a straight member: largest rotation 1 rad).
+Modes of equal frequency (a section with :math:`EI_y = EI_z`) are rotated
+within their eigenspace so that each bends in one plane.  Beam members name
+their normal modes by the part of the strain energy that dominates (``axial_1``, ``torsion_1``,
 ``bending_xy_1``, ``bending_xz_1``, ...); constraint modes are named
 ``constraint_<node>_<dof>`` with dof one of ``ux uy uz rx ry rz``.
 
