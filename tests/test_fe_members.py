@@ -450,6 +450,47 @@ def test_second_order_tip_foreshortening_of_first_mode():
                                -_exact_foreshortening(CLAMPED_FREE[1], L), rtol=1e-5)
 
 
+WRIGHT_FLAP = {0: (3.516, 22.035, 61.697), 2: (4.137, 22.615, 62.273), 4: (5.585, 24.273, 63.967),
+               6: (7.360, 26.809, 66.684), 8: (9.257, 29.995, 70.293),
+               10: (11.202, 33.640, 74.649), 12: (13.170, 37.603, 79.615)}
+
+
+def _rotating_flap(n_elements):
+    """Flap frequencies (rad/s) of a spinning cantilever from G, shape (7 speeds, 3 modes).
+
+    Spinning about body z, the beam along x carries the centrifugal loads
+    f = Omega^2 M r (r: node positions); their work through the foreshortening
+    gives the stiffness S = -sum_k f_k . G_k, and flap (along z) feels no
+    centrifugal softening.
+    """
+    member = kd.BeamMember.uniform("blade", 31.623, mass_per_length=100.0, EA=1e12, GJ=1e5,
+                                   EI_y=1e8, EI_z=1e9, polar_inertia=1e-3,
+                                   n_elements=n_elements)
+    reduced = member.craig_bampton(max_frequency=200.0)
+    flap = [j for j, name in enumerate(reduced.mode_names) if name.startswith("bending_xz")]
+    Phi = reduced.modes[:, flap]
+    G = reduced.second_order[:, :, flap][:, :, :, flap]
+    r = np.zeros(len(Phi))
+    r[0::6] = reduced.nodes[:, 0]
+    f = (member.mass_matrix @ r).reshape(-1, 6)[:, :3]
+    S = -np.einsum("kx,kxij->ij", f, G)
+    K, M = Phi.T @ member.stiffness_matrix @ Phi, Phi.T @ member.mass_matrix @ Phi
+    return np.array([np.sqrt(sla.eigh(K + omega ** 2 * S, M, eigvals_only=True)[:3])
+                     for omega in WRIGHT_FLAP])
+
+
+@pytest.mark.slow
+def test_second_order_gives_centrifugal_stiffening_of_rotating_cantilever():
+    """Wright, Smith, Thresher & Wang (1982), tabulated in Bir (2009): flap, Omega 0..12."""
+    coarse, fine, finer = (_rotating_flap(n) for n in (20, 40, 80))
+    table = np.array(list(WRIGHT_FLAP.values()))
+    assert np.abs(fine / table - 1).max() < 3e-4
+    assert np.abs(finer / table - 1).max() < 1e-4
+    # the stiffening converges as h^2 (tension piecewise constant between nodes)
+    order = np.log2((fine - coarse)[-1] / (finer - fine)[-1])
+    assert np.all((order > 1.8) & (order < 2.2)), order
+
+
 def test_second_order_of_constraint_modes_and_matrix_members():
     member = _uniform(8)
     reduced = member.craig_bampton([-1], n_modes=1)
