@@ -642,3 +642,18 @@ def test_bad_reduction_options():
         kd.BeamMember("beam", _stations(), 4, node_arcs=[0, 1, 2])
     reduced = member.reduce("guyan", interface_nodes=[-1])
     assert reduced.n_modes == 6 and member.node_at(0.75) == 2
+
+
+def test_docs_example_runs_and_prints_its_report():
+    from pathlib import Path
+    import re
+    text = (Path(__file__).resolve().parents[1] / "docs" / "flexible.md").read_text()
+    block = re.findall(r"```python\n(.*?)```", text, re.S)[0]
+    namespace = {}
+    exec(compile(block, "docs/flexible.md", "exec"), namespace)
+    report = namespace["reduced"].report()
+    printed = re.findall(r"```\n(member 'blade'.*?)```", text, re.S)[0]
+    for line in printed.splitlines():
+        if line.strip() and "..." not in line:
+            assert line in report.splitlines(), line
+
