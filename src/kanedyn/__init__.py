@@ -15,9 +15,9 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
 from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
-from .modeling import (SURFACE_COORDINATES, AngularVelocity, Contact, Ellipsoid, FlexibleBody,
-                       ImplicitSurface, OrthogonalVelocities, Plane, PointVelocity,
-                       ReducedMember, Sphere, Surface, VectorConstraint)
+from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact, Ellipsoid,
+                       FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
+                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
 from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
 
@@ -40,6 +40,9 @@ __all__ = [
     "OrthogonalVelocities",
     "FlexibleBody",
     "ReducedMember",
+    "BeamMember",
+    "FEMember",
+    "NodeMass",
     "Impact",
     "check_newton_euler",
     "NewtonEulerCheck",

@@ -5,13 +5,16 @@
 ``_physical``            physical plausibility of masses and inertias
 ``_contacts``            contacts and the surfaces they touch
 ``_vector_constraints``  constraints in vector form that identify their forces
+``flexible``             flexible members: beam elements, station tables, component
+                         mode synthesis, the reduced member, flexible bodies
 """
 
-from .flexible import FlexibleBody, InertiaInvariants, ReducedMember
 from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
+from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
+                       ReducedMember)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
 
@@ -19,4 +22,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "Sphere", "Ellipsoid", "ImplicitSurface", "SURFACE_COORDINATES",
            "coefficient_value", "VectorConstraint", "PointVelocity", "AngularVelocity",
            "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
-           "check_declared_bodies", "FlexibleBody", "InertiaInvariants", "ReducedMember"]
+           "check_declared_bodies",
+           "ReducedMember", "BeamMember", "FEMember", "NodeMass",
+           "FlexibleBody", "InertiaInvariants"]

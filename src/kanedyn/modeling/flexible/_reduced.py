@@ -134,3 +134,46 @@ class ReducedMember:
         """``(Phi_k, Psi_k)``: translation and rotation of node ``k`` per mode, (3, m) each."""
         rows = self.modes[6 * k:6 * k + 6]
         return np.asarray(rows[:3]), np.asarray(rows[3:])
+
+    def frequency_comparison(self):
+        """Full-model and reduced-model frequencies side by side.
+
+        Returns
+        -------
+        ndarray, shape (k, 3)
+            Per row: the full model's frequency (Hz, reference node clamped),
+            the reduced model's (Hz) and their relative difference
+            ``(reduced - full) / full``; ``k`` is the shorter of the two lists.
+        """
+        full = np.asarray(self.full_frequencies, float)
+        reduced = np.asarray(self.reduced_frequencies, float)
+        k = min(len(full), len(reduced))
+        out = np.empty((k, 3))
+        out[:, 0], out[:, 1] = full[:k], reduced[:k]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            out[:, 2] = (reduced[:k] - full[:k]) / full[:k]
+        return out
+
+    def report(self):
+        """A table of the reduced model's frequencies next to the full model's.
+
+        Returns
+        -------
+        str
+            The member, how it was reduced, then per mode: the full model's
+            frequency (reference node clamped), the reduced model's and their
+            relative difference; then the names of the modal coordinates.
+            ``print(member.report())`` shows it.
+        """
+        lines = [f"member {self.name!r}: {self.n_nodes} nodes, {self.n_modes} modal "
+                 f"coordinates", f"  {self.description}",
+                 f"  {'mode':>4}  {'full (Hz)':>14}  {'reduced (Hz)':>14}  {'rel. diff':>10}"]
+        for j, (full, reduced, rel) in enumerate(self.frequency_comparison(), start=1):
+            lines.append(f"  {j:>4}  {full:>14.6g}  {reduced:>14.6g}  {rel:>10.2e}")
+        extra = np.asarray(self.reduced_frequencies)[len(self.frequency_comparison()):]
+        for j, reduced in enumerate(extra, start=len(self.frequency_comparison()) + 1):
+            lines.append(f"  {j:>4}  {'':>14}  {reduced:>14.6g}  {'':>10}")
+        if self.mode_names:
+            lines.append(f"  modal coordinates: {', '.join(self.mode_names)}")
+        return "\n".join(lines)
+
