@@ -13,6 +13,7 @@ from ._base import ModelDefinition
 from ._bicycle_analysis import eigenvalues_vs_speed, stability_speeds, upright_state
 from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
 from ._constraint_models import block_wedge, knife_edge, pin_slot, rod_bead, rolling_disk_contact
+from ._flexible_models import flexible_robot, spin_up_beam
 from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod, ladder,
                               slug_ellipsoid, sphere_slug)
 from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
@@ -28,7 +29,7 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "falling_rod",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
            "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm", "n_four_bar",
-           "n_four_bar_exact", "n_four_bar_singular_times",
+           "n_four_bar_exact", "n_four_bar_singular_times", "spin_up_beam", "flexible_robot",
            "eigenvalues_vs_speed", "stability_speeds", "upright_state"]
 
 #: name -> (builder, {option: type})
@@ -58,6 +59,10 @@ REGISTRY = {
     "snake": (snake, {"n": int}),
     "shuttle-arm": (shuttle_arm, {"payload": bool}),
     "n-four-bar": (n_four_bar, {"n": int}),
+    "spin-up-beam": (spin_up_beam, {"omega_s": float, "stiffening": bool, "n_modes": int,
+                                    "n_elements": int}),
+    "flexible-robot": (flexible_robot, {"n_modes": int, "n_elements": int,
+                                        "stiffening": bool}),
 }
 
 

@@ -25,7 +25,7 @@ rotational rows of :attr:`ReducedMember.modes`, and :math:`G` the second-order
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -134,6 +134,58 @@ class ReducedMember:
         """``(Phi_k, Psi_k)``: translation and rotation of node ``k`` per mode, (3, m) each."""
         rows = self.modes[6 * k:6 * k + 6]
         return np.asarray(rows[:3]), np.asarray(rows[3:])
+
+    def keep_modes(self, which):
+        """The same member with only some of its modal coordinates.
+
+        A subset of a reduction basis is again a Ritz basis, e.g. the
+        in-plane bending modes of a beam that only bends in its plane of
+        motion (fewer states, the same answer when the others stay unexcited).
+
+        Parameters
+        ----------
+        which : sequence of str or int, or str
+            Mode names (:attr:`mode_names`) or indices to keep, in the order
+            wanted; a single string keeps every mode whose name starts with it
+            (``"bending_xy"``).
+
+        Returns
+        -------
+        ReducedMember
+            With the chosen columns of :attr:`modes` and :attr:`second_order`,
+            its reduced frequencies recomputed and no full-model frequencies
+            (which of them the subset stands for is not known).
+        """
+        names = list(self.mode_names) or [f"mode_{j + 1}" for j in range(self.n_modes)]
+        if isinstance(which, str):
+            index = [j for j, name in enumerate(names) if name.startswith(which)]
+            if not index:
+                raise ModelError(f"member {self.name!r}: no mode name starts with {which!r}; "
+                                 f"modes: {', '.join(names)}")
+        else:
+            index = []
+            for item in which:
+                if isinstance(item, str):
+                    if item not in names:
+                        raise ModelError(f"member {self.name!r}: no mode named {item!r}; "
+                                         f"modes: {', '.join(names)}")
+                    index.append(names.index(item))
+                elif isinstance(item, (int, np.integer)) and -self.n_modes <= item < self.n_modes:
+                    index.append(int(item) % self.n_modes)
+                else:
+                    raise ModelError(f"member {self.name!r}: mode {item!r} does not exist "
+                                     f"({self.n_modes} modes)")
+        if len(set(index)) != len(index):
+            raise ModelError(f"member {self.name!r}: a mode is named twice in {which!r}")
+        modes = self.modes[:, index]
+        G = None if self.second_order is None else self.second_order[:, :, index][:, :, :, index]
+        Kr, Mr = modes.T @ (self.stiffness_matrix @ modes), modes.T @ (self.mass_matrix @ modes)
+        omega2 = np.sort(np.real(np.linalg.eigvals(np.linalg.solve(Mr, Kr))))
+        kept = [names[j] for j in index]
+        frequencies = np.sqrt(np.clip(omega2, 0, None)) / (2 * np.pi)
+        return replace(self, modes=modes, second_order=G, mode_names=tuple(kept),
+                       full_frequencies=np.zeros(0), reduced_frequencies=frequencies,
+                       description=f"{self.description}; kept {', '.join(kept)}")
 
     def frequency_comparison(self):
         """Full-model and reduced-model frequencies side by side.
