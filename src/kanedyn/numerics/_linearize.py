@@ -327,6 +327,8 @@ def _compile_terms(model, eom, terms):
     subs = model._substitutions
     runtime = [s for s, _ in model._inputs]
     const_by_name = {str(s): s for s in eom.constants}
+    for value in subs.values():  # constants of exact input expressions (Omega * t)
+        const_by_name.update((str(s), s) for s in value.free_symbols)
     const_syms = [const_by_name[k] for k in model._data["constants"]]
     outputs = []
     for key in _OUTPUT_ORDER:
