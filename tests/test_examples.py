@@ -289,3 +289,40 @@ def test_shuttle_arm(tmp_path, monkeypatch):
     assert out["noc_vs_kane_dop853_rates"] < 1e-7
     assert out["noc_vs_kane_bdf"] < 1e-8
     assert out["tracking_error_max"] < 0.01
+
+
+# ---------------------------------------------------------- flexible bodies
+@pytest.mark.slow
+def test_spin_up_beam(tmp_path, monkeypatch):
+    """Kane, Ryan & Banerjee (1987), REFERENCES.md: bounded and well under 1 m with
+    geometric stiffening, nearly zero after the spin-up; tens of metres by 10 s
+    without.  At constant speed the beam, nearly straight, holds the kinetic energy
+    of a uniform rod turning about its end: rho A L^3 Omega_s^2 / 6 = 7200 J."""
+    out, _ = run_example("spin_up_beam", [], tmp_path, monkeypatch)
+    assert out["success"]
+    t, tip = out["t"], out["tip_stiffened"]
+    assert np.max(np.abs(tip)) < 1.0 and np.max(np.abs(tip[t > 15])) < 0.02
+    assert abs(out["tip_conventional"][np.searchsorted(t, 10.0)]) > 10.0
+    assert out["energy"][-1] == pytest.approx(1.2 * 10.0 ** 3 * 6.0 ** 2 / 6, rel=2e-3)
+    work = np.concatenate([[0.0], np.cumsum(np.diff(t) * 0.5 * (
+        (out["tau"] * out["hub_rate"])[1:] + (out["tau"] * out["hub_rate"])[:-1]))])
+    change = out["energy"] - out["energy"][0]
+    assert np.max(np.abs(change - work)) < 1e-5 * np.max(change)   # trapezoid's error
+    assert out["energy_balance"] < 1e-6
+
+
+@pytest.mark.slow
+def test_flexible_robot(tmp_path, monkeypatch):
+    """The torque pulse turns a rigid robot by 90 degrees and stops it; the flexible
+    robot ends close to that, vibrating; the motor's work (a trapezoid quadrature
+    here) equals the change of kinetic plus strain energy."""
+    out, _ = run_example("flexible_robot", ["--modes", "3"], tmp_path, monkeypatch)
+    assert out["success"]
+    assert np.degrees(out["theta"][-1]) == pytest.approx(90.0, abs=2.0)
+    assert abs(out["omega"][-1]) < 0.3            # rad/s: the residual vibration only
+    assert 5e-3 < np.max(np.abs(out["tip"])) < 0.1
+    t, power = out["t"], out["tau"] * out["omega"]
+    work = np.concatenate([[0.0], np.cumsum(np.diff(t) * 0.5 * (power[1:] + power[:-1]))])
+    change = out["energy"] - out["energy"][0]
+    assert np.max(np.abs(change - work)) < 1e-4 * np.max(change)
+    assert out["energy_balance"] < 1e-6
