@@ -57,7 +57,7 @@ REGISTRY = {
     "rolling-disk-contact": (rolling_disk_contact, {}),
     "block-wedge": (block_wedge, {}),
     "snake": (snake, {"n": int}),
-    "shuttle-arm": (shuttle_arm, {"payload": bool}),
+    "shuttle-arm": (shuttle_arm, {"payload": bool, "flexible_booms": bool}),
     "n-four-bar": (n_four_bar, {"n": int}),
     "spin-up-beam": (spin_up_beam, {"omega_s": float, "stiffening": bool, "n_modes": int,
                                     "n_elements": int}),

@@ -13,6 +13,7 @@ import math
 import sympy as sm
 import sympy.physics.mechanics as me
 
+from ..modeling import BeamMember, FlexibleBody
 from ._base import ModelDefinition
 
 __all__ = ["shuttle_arm", "quintic", "SRMS_START_DEG", "SRMS_END_DEG"]
@@ -54,7 +55,23 @@ def quintic(t, start, end, duration):
     return angle, rate
 
 
-def shuttle_arm(payload=True):
+def _boom_member(name, length, mass):
+    """A boom as a graphite–epoxy tube (see :func:`shuttle_arm`), 4 modal coordinates."""
+    radius, wall, E, G = 0.19, 1e-3, 1e11, 4e10
+    area, second = 2 * math.pi * radius * wall, math.pi * radius ** 3 * wall
+    per_length = mass / length
+    beam = BeamMember.uniform(name, length, mass_per_length=per_length, EA=E * area,
+                              GJ=G * 2 * second, EI_y=E * second, EI_z=E * second,
+                              polar_inertia=per_length * radius ** 2,
+                              rotary_inertia_y=per_length * radius ** 2 / 2,
+                              rotary_inertia_z=per_length * radius ** 2 / 2, n_elements=16)
+    reduced = beam.craig_bampton([-1], n_modes=4)
+    tip = beam.n_nodes - 1
+    return reduced.keep_modes(["bending_xy_1", "bending_xz_1", f"constraint_{tip}_uy",
+                               f"constraint_{tip}_uz"])
+
+
+def shuttle_arm(payload=True, flexible_booms=False):
     r"""The Shuttle arm (SRMS) moving a Hubble-class payload, in orbit.
 
     Public figures (NASA; JSC "Remote Manipulator System" fact page,
@@ -83,7 +100,19 @@ def shuttle_arm(payload=True):
     centre ``d_p = 2.5`` m beyond the end-effector tip along the
     end-effector axis (a grapple fixture on its side) and its axis
     perpendicular to the end-effector axis.  The arm is rigid (the real
-    booms and joints are flexible).
+    booms and joints are flexible) unless ``flexible_booms``.
+
+    Flexible booms (``flexible_booms=True``; assumed section, not public
+    figures): each boom a graphite–epoxy tube of radius ``r_b``, 1 mm
+    equivalent wall, ``E = 1e11`` Pa, ``G = 4e10`` Pa (``EI = 2.15e6`` N m^2,
+    ``EA = 1.19e8`` N, ``GJ = 1.72e6`` N m^2), its mass spread uniformly;
+    16 beam elements, Craig–Bampton clamped at the inboard joint with the
+    outboard joint as interface node, keeping the first clamped bending mode
+    in each plane and the two transverse constraint modes at the outboard
+    joint (4 modal coordinates per boom), stiffness-proportional Rayleigh
+    damping ``beta = 1e-3`` s; geometric stiffening on.  The next joint sits on
+    the boom's tip node and turns with its rotation.  The boom lengths are
+    then fixed numbers (the finite-element model needs them), not parameters.
 
     Environment: in orbit, microgravity, so no gravity and no potential
     energy; the shoulder is fixed to the orbiter, taken as inertial.
@@ -119,6 +148,8 @@ def shuttle_arm(payload=True):
     payload : bool
         Carry the payload (default) or move the empty arm (the gains are
         then scaled by the empty arm's joint inertias).
+    flexible_booms : bool
+        Make the upper and lower booms flexible bodies.
 
     Returns
     -------
@@ -142,8 +173,13 @@ def shuttle_arm(payload=True):
     axes = [N.z, -A[0].y, -A[1].y, -A[2].y, A[3].z, A[4].x]
     parents = [N] + A[:5]
     for i, (F, parent, axis) in enumerate(zip(A, parents, axes)):
+        if flexible_booms and i in (2, 3):
+            continue  # oriented from the boom's tip frame below
         F.orient_axis(parent, axis, q[i])
         F.set_ang_vel(parent, u[i] * axis)
+    nominal = {L2: 6.37, L3: 7.06, L4: 0.5, L5: 0.5, L6: 0.83, rb: 0.19,
+               m1: 40.0, m2: 120.0, m3: 110.0, m4: 40.0, m5: 40.0, m6: 60.0,
+               omega_c: 0.5, zeta_c: 1.0, T_m: 150.0}
 
     def tube(frame, m, length):  # thin-walled tube along the frame's x axis
         return me.inertia(frame, m * rb ** 2, m * (rb ** 2 / 2 + length ** 2 / 12),
@@ -157,12 +193,29 @@ def shuttle_arm(payload=True):
     housing = me.inertia(A[0], m1 * (3 * rb ** 2 + h1 ** 2) / 12,
                          m1 * (3 * rb ** 2 + h1 ** 2) / 12, m1 * rb ** 2 / 2)
     bodies = [me.RigidBody("shoulder", O, A[0], m1, (housing, O))]
+    booms = {}
+    if flexible_booms:  # lengths and masses as numbers: the FE model needs them
+        for symbol in (L2, L3, m2, m3):
+            del nominal[symbol]
+        L2, L3 = 6.37, 7.06
     joint = O
     for i, (name, m, length, shape) in enumerate(
             (("upper_arm", m2, L2, tube), ("lower_arm", m3, L3, tube),
              ("wrist_pitch", m4, L4, cylinder), ("wrist_yaw", m5, L5, cylinder),
              ("end_effector", m6, L6, cylinder)), start=1):
         F = A[i]
+        if flexible_booms and i in (1, 2):
+            member = _boom_member(name, length, 120.0 if i == 1 else 110.0)
+            boom = FlexibleBody(name, F, joint, member, rayleigh=(0.0, 1e-3))
+            booms[name] = boom
+            bodies.append(boom)
+            joint = boom.node_point(boom.member.n_nodes - 1)
+            tip_frame = boom.node_frame(boom.member.n_nodes - 1)
+            parents[i + 1] = tip_frame  # the next joint turns with the boom's tip
+            axes[i + 1] = -tip_frame.y
+            A[i + 1].orient_axis(tip_frame, axes[i + 1], q[i + 1])
+            A[i + 1].set_ang_vel(tip_frame, u[i + 1] * axes[i + 1])
+            continue
         G = joint.locatenew(f"G{i + 1}", length / 2 * F.x)
         G.v2pt_theory(joint, N, F)
         bodies.append(me.RigidBody(name, G, F, m, (shape(F, m, length), G)))
@@ -171,9 +224,7 @@ def shuttle_arm(payload=True):
         joint = nxt
     tip = joint
 
-    constants = {L2: 6.37, L3: 7.06, L4: 0.5, L5: 0.5, L6: 0.83, rb: 0.19,
-                 m1: 40.0, m2: 120.0, m3: 110.0, m4: 40.0, m5: 40.0, m6: 60.0,
-                 omega_c: 0.5, zeta_c: 1.0, T_m: 150.0}
+    constants = nominal
     symbols = dict(q=q, u=u, N=N, A=A, O=O, tip=tip, T_m=T_m, omega_c=omega_c,
                    zeta_c=zeta_c, J=J)
     if payload:
@@ -207,11 +258,16 @@ def shuttle_arm(payload=True):
     initial = {qi: math.radians(a) for qi, a in zip(q, SRMS_START_DEG)}
     initial.update({ui: 0.0 for ui in u})
     what = "with a Hubble-class payload (11,110 kg)" if payload else "without payload"
+    kind = "flexible booms, " if flexible_booms else ""
+    symbols.update(booms=booms)
+    modal_q = [s for boom in booms.values() for s in boom.q]
+    modal_u = [s for boom in booms.values() for s in boom.u]
+    modal_kd = [e for boom in booms.values() for e in boom.kd_eqs]
     return ModelDefinition(
         name="shuttle-arm",
-        title=f"Shuttle arm (SRMS, 6 revolute joints) {what}, PD-tracked manoeuvre",
-        kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u),
-                       kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)],
+        title=f"Shuttle arm (SRMS, 6 revolute joints, {kind}{what}), PD-tracked manoeuvre",
+        kane_args=dict(frame=N, q_ind=list(q) + modal_q, u_ind=list(u) + modal_u,
+                       kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)] + modal_kd,
                        bodies=bodies, loads=loads),
         constants=constants, initial_state=initial, t_end=200.0, symbols=symbols,
         description="The system of Cyril, Angeles & Misra (1991): compare "
