@@ -238,6 +238,7 @@ def test_deflection_scale_is_applied_and_stated(run):
     expected = nodes + 10 * (_node_positions(arm, B, res, k) - nodes)
     np.testing.assert_allclose(line.get_ydata(), expected[:, 1], atol=1e-12)
     assert "deflection drawn × 10" in fig._suptitle.get_text()
+    assert ax.get_ylabel() == "y [m], deflection × 10"
 
 
 def test_automatic_scale(run):
@@ -296,3 +297,21 @@ def test_deflection_bad_input(run, reduced):
             res.plot_deflection(arm, [0.2], scale=scale)
     with pytest.raises(OptionError, match="non-empty"):
         res.plot_deflection(arm, [])
+
+
+@pytest.mark.slow
+def test_docs_example_draws_both_figures(tmp_path, monkeypatch):
+    """The blocks of docs/flexible.md: the member, then the two figures."""
+    import re
+    from pathlib import Path
+    text = (Path(__file__).resolve().parents[1] / "docs" / "flexible.md").read_text()
+    blocks = re.findall(r"```python\n(.*?)```", text, re.S)
+    figures = [b for b in blocks if "plot_mode_shapes" in b or "plot_deflection" in b]
+    assert len(figures) == 2
+    monkeypatch.chdir(tmp_path)
+    namespace = {}
+    for block in [blocks[0], *figures]:
+        exec(compile(block, "docs/flexible.md", "exec"), namespace)
+    for name in ("mode_shapes.png", "deflection.png"):
+        assert (tmp_path / name).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert "deflection drawn ×" in namespace["fig"]._suptitle.get_text()

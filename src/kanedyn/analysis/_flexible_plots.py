@@ -425,20 +425,26 @@ def plot_deflection(result, body, times, *, scale="auto", path=None):
     shown = [a for a in others if peak[a] >= _NEGLIGIBLE * max(peak.max(), 1e-300)] or others
     tip = int(np.argmax(np.linalg.norm(nodes, axis=1)))
     plt = pyplot()
+    drawn = nodes + scale * displacement  # (T, n, 3)
+    span_h = max(np.ptp(np.concatenate([nodes[:, long_axis], drawn[..., long_axis].ravel()])),
+                 1e-300)
+    span_v = max(np.ptp(np.concatenate([nodes[:, a], drawn[..., a].ravel()])) for a in shown)
+    # panels about as tall as the drawing at equal axis scales (axes some 5 in wide)
+    height = float(np.clip(5.0 * span_v / span_h * 1.3 + 1.2, 2.0, 3.6))
     fig, axes = plt.subplots(len(shown), 1, squeeze=False,
-                             figsize=(8.0, 2.9 * len(shown) + 0.9))
+                             figsize=(8.5, height * len(shown) + 0.9))
     colors = plt.get_cmap("viridis")(np.linspace(0.0, 0.85, len(times)))
     for ax, a in zip(axes[:, 0], shown):
         h, v = long_axis, a
         ax.plot(nodes[:, h], nodes[:, v], color="0.6", lw=2.5, label="undeformed", zorder=1)
-        for k, (time, d) in enumerate(zip(times, displacement)):
-            drawn = nodes + scale * d
-            ax.plot(drawn[:, h], drawn[:, v], color=colors[k], lw=1.6, marker="o", ms=3,
+        for k, (time, d, r) in enumerate(zip(times, displacement, drawn)):
+            ax.plot(r[:, h], r[:, v], color=colors[k], lw=1.6, marker="o", ms=3,
                     label=f"t = {time:.4g} s: tip u_{_AXES[v]} = {_length_text(d[tip, v])}")
-            ax.plot(drawn[tip, h], drawn[tip, v], color=colors[k], marker="s", ms=6)
+            ax.plot(r[tip, h], r[tip, v], color=colors[k], marker="s", ms=6)
         ax.set_aspect("equal", adjustable="datalim")
         ax.set_xlabel(f"{_AXES[h]} [m] (body frame)")
-        ax.set_ylabel(f"{_AXES[v]} [m]")
+        ax.set_ylabel(f"{_AXES[v]} [m]" if scale == 1
+                      else f"{_AXES[v]} [m], deflection × {scale:g}")
         ax.set_title(f"{_AXES[h]}-{_AXES[v]} plane", fontsize="medium")
         ax.grid(True, alpha=0.3)
         ax.legend(loc="center left", bbox_to_anchor=(1.01, 0.5), fontsize="small")
