@@ -264,6 +264,19 @@ def test_deflection_between_output_times_is_interpolated(run):
     np.testing.assert_allclose(line.get_ydata(), deformed_nodes(arm, eta)[:, 1], atol=1e-12)
 
 
+def test_deflection_uses_the_dense_solution(run):
+    arm, _, res = run
+    dense = kd.simulate(res.model, (0.0, 0.5), res.initial_state, dense_output=True,
+                        rtol=1e-9, atol=1e-11)
+    t = 0.123
+    fig = dense.plot_deflection(arm, [t], scale=1)
+    rows = [dense.state_names.index(str(q.func)) for q in arm.q]
+    eta = dense.sol(t)[rows]
+    (ax,) = _panels(fig)
+    line = next(line for name, line in _lines(ax).items() if name.startswith("t = "))
+    np.testing.assert_allclose(line.get_ydata(), deformed_nodes(arm, eta)[:, 1], atol=1e-12)
+
+
 def test_linear_body_draws_no_second_order_term(run, reduced):
     arm, B, _ = run
     linear = kd.FlexibleBody("arm", B, arm.origin, reduced, stiffening=False)
@@ -297,6 +310,10 @@ def test_deflection_bad_input(run, reduced):
             res.plot_deflection(arm, [0.2], scale=scale)
     with pytest.raises(OptionError, match="non-empty"):
         res.plot_deflection(arm, [])
+    with pytest.raises(OptionError, match="finite"):
+        res.plot_deflection(arm, [0.1, float("nan")])
+    with pytest.raises(OptionError, match="times must be numbers"):
+        res.plot_deflection(arm, ["soon"])
 
 
 @pytest.mark.slow

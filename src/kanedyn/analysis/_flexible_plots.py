@@ -321,9 +321,13 @@ def _body_coordinates(result, body):
 def _modal_history(result, body, times):
     """Modal coordinates at the times asked for, shape (len(times), m)."""
     rows = _body_coordinates(result, body)
-    times = np.atleast_1d(np.asarray(times, dtype=float))
-    if times.ndim != 1 or times.size == 0:
-        raise OptionError("plot_deflection: times must be a non-empty sequence of times, s")
+    try:
+        times = np.atleast_1d(np.asarray(times, dtype=float))
+    except (TypeError, ValueError):
+        raise OptionError(f"plot_deflection: times must be numbers, s; got {times!r}") from None
+    if times.ndim != 1 or times.size == 0 or not np.all(np.isfinite(times)):
+        raise OptionError(f"plot_deflection: times must be a non-empty sequence of finite "
+                          f"times, s; got {times.tolist()}")
     finite = np.all(np.isfinite(result.y[rows]), axis=0)
     if not np.any(finite):
         raise OptionError(f"plot_deflection: the simulation has no finite state of body "
