@@ -15,9 +15,9 @@ import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn import OptionError
-from kanedyn.analysis import deformed_nodes, member_arc_length, plot_deflection
+from kanedyn.analysis import deformed_nodes, member_arc_length, plot_deflection, pyplot
 
-matplotlib = pytest.importorskip("matplotlib")
+pytest.importorskip("matplotlib")
 
 LENGTH = 1.0
 
@@ -32,7 +32,7 @@ def _arm(n_elements=5, **overrides):
 @pytest.fixture(autouse=True)
 def _close_figures():
     yield
-    matplotlib.pyplot.close("all")
+    pyplot().close("all")
 
 
 @pytest.fixture(scope="module")
