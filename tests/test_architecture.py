@@ -26,7 +26,7 @@ FACADES = {
     ("formulations._eom", "numerics"):
         "EquationsOfMotion.numeric, .linearize and .scheme: the public API puts them on "
         "the frozen equations",
-    ("simulation._results", "analysis"): "SimulationResult.plot",
+    ("simulation._results", "analysis"): "SimulationResult.plot and .plot_deflection",
 }
 
 

@@ -13,7 +13,7 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
-from .analysis import NewtonEulerCheck, check_newton_euler
+from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact, Ellipsoid,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
@@ -43,6 +43,7 @@ __all__ = [
     "BeamMember",
     "FEMember",
     "NodeMass",
+    "plot_mode_shapes",
     "Impact",
     "check_newton_euler",
     "NewtonEulerCheck",

@@ -3,13 +3,17 @@
 ``_newton_euler``  body-by-body Newton-Euler residuals with identified forces
 ``_compare``       formulations side by side; work-precision
 ``_plotting``      figures of results (Matplotlib, imported lazily)
+``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
 """
 
 from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecision,
                        compare_formulations, work_precision)
+from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
+                              plot_deflection, plot_mode_shapes)
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._plotting import plot_result, pyplot
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "work_precision", "FormulationComparison", "WorkPrecision",
-           "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot"]
+           "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot", "plot_mode_shapes",
+           "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes"]

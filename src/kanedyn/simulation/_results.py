@@ -357,3 +357,28 @@ class SimulationResult:
         """
         from ..analysis import plot_result
         return plot_result(self, states=states, path=path, extras=extras)
+
+    def plot_deflection(self, body, times, scale="auto", path=None):
+        """Draw a flexible body's deformed member at chosen times; returns the Figure.
+
+        The member in its body frame, at true proportions with the deflection
+        magnified by ``scale`` (stated on the figure when not 1), one line per
+        time, the tip deflection of each in the legend.
+
+        Parameters
+        ----------
+        body : kanedyn.FlexibleBody
+            A flexible body of the simulated model.
+        times : float or sequence of float
+            Times inside the run, s.
+        scale : float or "auto"
+            Deflection magnification; ``"auto"``: 1, 2 or 5 times a power of
+            ten so that the drawn deflection is at most about 25 % of the
+            member's length.
+        path : str or Path, optional
+            Save the figure there as PNG.
+
+        See :func:`kanedyn.analysis.plot_deflection` for the details.
+        """
+        from ..analysis import plot_deflection
+        return plot_deflection(self, body, times, scale=scale, path=path)
