@@ -264,6 +264,30 @@ def test_gravity_only_accelerates_a_translating_body(method):
         assert np.max(np.abs(a - b)) <= TOL * np.max(np.abs(a)), (method, a - b)
 
 
+def test_auxiliary_force_at_the_hub():
+    """The pivot force of the hub, exposed by an auxiliary speed, is the same by
+    Kane's method and the orthogonal complement (its magnitude does no work on
+    the real motion: the hub's real partial velocities vanish)."""
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    theta, omega, u_a = me.dynamicsymbols("theta omega u_a")
+    tau, I_h, R = sm.symbols("tau I_h R")
+    O.set_vel(N, u_a * N.x)
+    H = N.orientnew("H", "Axis", [theta, N.z])
+    H.set_ang_vel(N, omega * N.z)
+    hub = me.RigidBody("hub", O, H, 1.0, (me.inertia(H, I_h / 2, I_h / 2, I_h), O))
+    beam = _flexible("beam", H, O, {}, None)
+    model = dict(frame=N, q_ind=[theta, *beam.q], u_ind=[omega, *beam.u], u_auxiliary=[u_a],
+                 kd_eqs=[theta.diff() - omega, *beam.kd_eqs], bodies=[hub, beam],
+                 loads=[(H, tau * N.z), (O, R * N.x)])
+    kane, noc = (kd.formulate(method=m, **model).numeric(constants={tau: 0.7, I_h: 1.3})
+                 for m in ("kane", NOC))
+    for y in _states(kane, 3, seed=4):
+        assert _close(kane.rhs(0.0, y), noc.rhs(0.0, y))
+        fk, fn = kane.auxiliary(0.0, y)["R"], noc.auxiliary(0.0, y)["R"]
+        assert abs(fk) > 0.1 and abs(fk - fn) <= TOL * abs(fk)
+
+
 @pytest.mark.parametrize("method", sorted(kd.FORMULATIONS))
 def test_every_formulation_takes_or_refuses_flexible_bodies(models, method):
     """Every registered formulation either gives Kane's state derivative on a

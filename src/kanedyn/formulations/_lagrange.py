@@ -14,6 +14,13 @@ With the kinetic energy :math:`T(q, w, t)` of all bodies and the generalized
 forces :math:`Q_j = \sum F\cdot\partial v_P/\partial w_j + T\cdot\partial
 \omega_B/\partial w_j` of all loads (gravity included),
 
+A :class:`kanedyn.FlexibleBody` adds its kinetic energy
+:math:`\tfrac12 w^TM_b(\eta)w` (body-frame origin velocity, angular velocity
+and modal speeds :math:`w`, :math:`M_b` from its inertia invariants) to
+:math:`T`, and its gravity, elastic (:math:`-K\eta`) and damping
+(:math:`-D\zeta`) forces, projected with :math:`\partial w/\partial w_j`,
+to :math:`Q`; its strain energy is part of the reported potential energy.
+
 ``method="lagrange"`` (Lagrange's equations with multipliers, i.e. the
 Lagrange–d'Alembert principle) gives
 

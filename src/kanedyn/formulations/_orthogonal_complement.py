@@ -44,6 +44,18 @@ f_a = 0`, reduces the equations to the symmetric positive definite system
 solved by Cholesky's factorization (as in Cyril et al., who integrated the
 result with Gear's BDF method: ``kd.simulate(..., method="BDF")``).
 
+Flexible bodies
+---------------
+A :class:`kanedyn.FlexibleBody` is a block of its own size :math:`6 + m` in
+body-frame components :math:`w_b = (v, \omega, \zeta)` (origin velocity,
+angular velocity, modal speeds): its twist map :math:`T_b = \partial
+w_b/\partial u`, :math:`\dot T_b u = \dot w_b|_{\dot u = 0}`, the generalized
+mass :math:`M_b(\eta)` from the inertia invariants and
+:math:`w_b = F_b - \beta_b`, the applied forces (gravity, elastic, damping)
+less the velocity terms of Lagrange's equations in quasi-coordinates (see
+:mod:`kanedyn.formulations._flexible`, shared with Kane's method).  They are
+assembled like the rigid bodies' blocks.
+
 What is symbolic and what is numeric
 ------------------------------------
 * Symbolic (straight-line program, shared intermediates): the per-body
@@ -314,12 +326,18 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     fr[:o] = _drop_workless(prog, table, fr[:o], load_list, fr[o:])
     after = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
     state = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
-    dropped = {s: 0 for s in before - after
-               if s not in state and not prog.is_intermediate(s)}
+    # force magnitudes that do no work on the real motion: dropped from the real
+    # rows, or absent there from the start (a force on a body whose real partial
+    # velocities vanish, seen by the auxiliary rows only)
+    in_loads = set().union(*(prog.deps(c) for _, vec, _ in load_list for c in vec))
+    in_aux = set().union(*(prog.deps(e) for e in fr[o:]))
+    dropped = {s: 0 for s in (before | in_aux) - after
+               if s in in_loads and s not in state and not prog.is_intermediate(s)}
     nonmm = [prog.let(prog.subs(sm.Add(*t), aux_zero), f"n_{r}")
              for r, t in enumerate(remainder_terms)]
 
-    # numeric blocks (real speeds), workless force magnitudes removed
+    # numeric blocks (real speeds), workless force magnitudes removed from the
+    # applied forces
     def real(e):
         return prog.subs(prog.subs(e, aux_zero), dropped) if dropped else prog.subs(e, aux_zero)
 
@@ -336,7 +354,8 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
                     Mb_flat.append(I_N[i][j] if I_N is not None else sm.S.Zero)
                 else:
                     Mb_flat.append(masses[k] if i == j and i >= 3 else sm.S.Zero)
-        w_flat.extend(prog.let(real(a - g), "w") for a, g in zip(applied[k], gyro[k]))
+        w_flat.extend(prog.let(real(a) - prog.subs(g, aux_zero), "w")
+                      for a, g in zip(applied[k], gyro[k]))
     TF, TduF, MbF, wF = [], [], [], []
     for terms in flexible:
         block = terms.block
@@ -344,7 +363,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
             TF.extend(block.partials[s][i] for s in range(o))
         TduF.extend(block.rate)
         MbF.extend(e for row in block.mass for e in row)
-        wF.extend(prog.let(real(a - b), "wF") for a, b in zip(block.active, block.bias))
+        wF.extend(prog.let(real(a) - b, "wF") for a, b in zip(block.active, block.bias))
     blocks = _Blocks(T=tuple(T_flat), Tdu=tuple(Tdu_flat), Mb=tuple(Mb_flat),
                      w=tuple(w_flat), Q=tuple(prog.let(real(e), "Q") for e in extra[:o]),
                      n_bodies=len(bodies), TF=tuple(TF), TduF=tuple(TduF), MbF=tuple(MbF),

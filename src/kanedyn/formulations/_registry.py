@@ -81,6 +81,16 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
 
         The Lagrange-based variants share one derivation and differ in their
         constraint scheme (:mod:`kanedyn.schemes`).
+
+        Every built-in formulation takes :class:`kanedyn.FlexibleBody`
+        objects: Kane's method and the orthogonal complement through each
+        body's quasi-coordinate Newton–Euler block (twist map
+        :math:`\partial w/\partial u` of :math:`w = (v, \omega, \zeta)`,
+        generalized mass :math:`M_b(\eta)`), the Lagrange family and
+        ``"augmented"`` through its kinetic energy :math:`\tfrac12
+        w^TM_b(\eta)w` and generalized forces; they agree to round-off.  A
+        formulation registered with ``flexible_bodies=False`` refuses them
+        with a :class:`ModelError` naming the body.
     progress : bool
         Print progress of long derivations to stderr.
     scheme : str or Scheme, optional
