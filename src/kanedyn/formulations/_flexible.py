@@ -1,4 +1,4 @@
-r"""Kane's generalized forces of flexible bodies, from their inertia invariants.
+r"""Flexible bodies in the formulations, from their inertia invariants.
 
 For a :class:`kanedyn.FlexibleBody` with body-frame velocity components
 :math:`w = (v, \omega, \zeta)` (origin velocity, angular velocity, modal speeds)
@@ -7,23 +7,42 @@ quasi-coordinates give the body's inertia forces
 
 .. math::
 
-    -F^*_b = \begin{bmatrix}
-        \dot p_v + \omega\times p_v \\
-        \dot p_\omega + \omega\times p_\omega + v\times p_v \\
-        \dot p_\zeta - \partial T/\partial\eta
+    -F^*_b = M_b\dot w + \beta,\qquad
+    \beta = \dot M_b w + \begin{bmatrix}
+        \omega\times p_v \\
+        \omega\times p_\omega + v\times p_v \\
+        - \partial T/\partial\eta
     \end{bmatrix},\qquad p = M_b w ,
 
-and with the partial velocities :math:`W_r = \partial w/\partial u_r` Kane's
-:math:`F^*_r = W_r^T F^*_b`:
+and the applied forces in the same components
 
 .. math::
 
-    M_{rs} \mathrel{+}= W_r^TM_bW_s,\qquad
-    n_r \mathrel{+}= W_r^T\left(\dot p|_{\dot u=0} + g(w, p)\right),\qquad
-    F_r \mathrel{+}= W_r^T\left(M_b[:, v]\,g_B - [0; 0; K\eta + D\zeta]\right),
+    F_b = M_b[:, v]\,g_B - \begin{bmatrix}0\\ 0\\ K\eta + D\zeta\end{bmatrix},
 
-:math:`g` the gyroscopic terms above and :math:`g_B` gravity in body
-components.  :math:`M_b` is written with the body's numerical invariants
+:math:`g_B` gravity in body components.  One body's *block*
+(:func:`flexible_block`) holds :math:`w`, its twist map
+:math:`T_b = \partial w/\partial u` (the partial velocities, one column per
+speed), :math:`\dot T_b u = \dot w|_{\dot u=0}`, :math:`M_b`, :math:`\beta`
+and :math:`F_b`.  The formulations use it as follows.
+
+* Kane's method (:func:`flexible_terms`): with :math:`W_r` the columns of
+  :math:`T_b`, :math:`F^*_r = W_r^T F^*_b`:
+
+  .. math::
+
+      M_{rs} \mathrel{+}= W_r^TM_bW_s,\qquad
+      n_r \mathrel{+}= W_r^T\left(M_b\dot T_b u + \beta\right),\qquad
+      F_r \mathrel{+}= W_r^TF_b .
+
+* The natural orthogonal complement: the block joins the rigid bodies'
+  Newton–Euler blocks, :math:`M \mathrel{+}= T_b^TM_bT_b`, :math:`f
+  \mathrel{+}= T_b^T(F_b - \beta - M_b\dot T_b u)`.
+* Lagrange's equations: :math:`T` joins the kinetic energy (mass matrix and
+  velocity terms follow from its derivatives) and :math:`W_r^TF_b` the
+  generalized forces (``inertia=False``: no :math:`\beta`).
+
+:math:`M_b` is written with the body's numerical invariants
 (:class:`kanedyn.modeling.flexible.InertiaInvariants`) as a polynomial of
 second degree in :math:`\eta`, its entries named intermediates of the program.
 """
@@ -35,10 +54,49 @@ import sympy as sm
 
 from .._errors import ModelError
 from ..engine import add, cross
+from ..modeling import FlexibleBody
 
-__all__ = ["FlexibleTerms", "flexible_terms"]
+__all__ = ["FlexibleBlock", "FlexibleTerms", "flexible_block", "flexible_bodies",
+           "flexible_terms", "project"]
 
 _DROP = 1e-14  # relative size below which an invariant's entry is zero
+
+
+class FlexibleBlock:
+    r"""One flexible body's quantities in body-frame components (size :math:`6 + m`).
+
+    Attributes
+    ----------
+    body : FlexibleBody
+    w : tuple
+        :math:`(v, \omega, \zeta)`, auxiliary speeds zero.
+    partials : list of tuple
+        :math:`W_r = \partial w/\partial u_r`, one per speed (the columns of
+        the twist map :math:`T_b`).
+    mass : list of list
+        :math:`M_b(\eta)`, symmetric.
+    momentum : list
+        :math:`p = M_bw`.
+    kinetic : expression
+        :math:`\tfrac12 w^Tp`.
+    active : list
+        :math:`F_b`: gravity, elastic and damping forces.
+    rate, bias : list or None
+        :math:`\dot T_bu = \dot w|_{\dot u = 0}` and the velocity terms
+        :math:`\beta` (``None`` when built with ``inertia=False``).
+    """
+
+    __slots__ = ("body", "w", "partials", "mass", "momentum", "kinetic", "active", "rate",
+                 "bias")
+
+    def __init__(self, **fields):
+        for name in self.__slots__:
+            setattr(self, name, fields[name])
+
+    @property
+    def size(self):
+        """:math:`6 + m`."""
+        return len(self.w)
 
 
 class FlexibleTerms:
@@ -47,22 +105,47 @@ class FlexibleTerms:
     Attributes
     ----------
     body : FlexibleBody
+    block : FlexibleBlock
     mass : list of list
         Rows (every speed, auxiliary ones included) by real speeds.
     active, remainder : list
         One per speed (real then auxiliary).
     kinetic : expression
-    w : tuple
-        Body-frame velocity components :math:`(v, \\omega, \\zeta)`.
-    partials : list of tuple
-        :math:`W_r`, one per speed.
     """
 
-    __slots__ = ("body", "mass", "active", "remainder", "kinetic", "w", "partials")
+    __slots__ = ("body", "block", "mass", "active", "remainder", "kinetic")
 
     def __init__(self, **fields):
         for name in self.__slots__:
             setattr(self, name, fields[name])
+
+
+def flexible_bodies(spec):
+    """The model's flexible bodies, after checking their coordinates and speeds.
+
+    Parameters
+    ----------
+    spec : ModelSpec
+
+    Returns
+    -------
+    list of FlexibleBody
+
+    Raises
+    ------
+    ModelError
+        A body's modal coordinates or speeds are not among the model's.
+    """
+    out = [b for b in spec.bodies if isinstance(b, FlexibleBody)]
+    for body in out:
+        missing = [s for s in body.q if s not in spec.q]
+        missing += [s for s in body.u if s not in spec.u]
+        if missing:
+            raise ModelError(
+                f"flexible body {body.name}: its modal coordinates and speeds must be among "
+                f"the model's coordinates and speeds; missing {', '.join(map(str, missing))} "
+                "(add body.q to q_ind, body.u to u_ind and body.kd_eqs to kd_eqs)")
+    return out
 
 
 def _coefficient(value, scale):
@@ -93,34 +176,28 @@ def _polynomial(prog, M0, M1, M2, eta, pairs, scale, name):
     return out
 
 
-def flexible_terms(kin, body, speeds, n_real, aux_zero):
-    """Kane's terms of one flexible body (see the module docstring).
+def flexible_block(kin, body, speeds, aux_zero, inertia=True):
+    r"""The :class:`FlexibleBlock` of one body (see the module docstring).
 
     Parameters
     ----------
     kin : Kinematics
     body : FlexibleBody
+        Checked by :func:`flexible_bodies`.
     speeds : sequence
-        Internal speed symbols, real then auxiliary.
-    n_real : int
-        Number of real speeds (columns of the mass matrix).
+        Internal speed symbols for the partial velocities.
     aux_zero : dict
         Auxiliary speeds -> 0.
+    inertia : bool
+        Also form :math:`\dot T_bu` and the velocity terms :math:`\beta`.
 
     Returns
     -------
-    FlexibleTerms
+    FlexibleBlock
     """
     prog, table = kin.prog, kin.table
     where = f"flexible body {body.name}"
     inv = body.invariants
-    missing = [s for s in body.q if s not in table.q_ext]
-    missing += [s for s in body.u if s not in table.u_ext]
-    if missing:
-        raise ModelError(
-            f"{where}: its modal coordinates and speeds must be among the model's "
-            f"coordinates and speeds; missing {', '.join(map(str, missing))} (add body.q to "
-            "q_ind, body.u to u_ind and body.kd_eqs to kd_eqs)")
     eta = [table.internal(s, where) for s in body.q]
     zeta = [table.internal(s, where) for s in body.u]
     m = len(eta)
@@ -146,27 +223,15 @@ def flexible_terms(kin, body, speeds, n_real, aux_zero):
     size = 6 + m
     p = [prog.let(sm.Add(*[Mb[a][b] * w[b] for b in range(size) if Mb[a][b] != 0]),
                   f"p_{body.name}") for a in range(size)]
-    dp = [prog.subs(kin.dt(c), aux_zero) for c in p]
-    pv, pw = p[:3], p[3:6]
-    vv, ww = w[:3], w[3:6]
-    gyro = list(cross(ww, pv)) + list(add(cross(ww, pw), cross(vv, pv)))
-    dT = []
-    for i in range(m):
-        dM = [[sm.Float(inv.M1[i, a, b]) + sum(sm.Float(inv.M2[i, j, a, b]) * eta[j]
-                                               for j in range(m) if inv.M2[i, j, a, b] != 0)
-               for b in range(size)] for a in range(size)]
-        dT.append(sm.Add(*[w[a] * dM[a][b] * w[b] / 2 for a in range(size)
-                           for b in range(size) if dM[a][b] != 0]))
-    rest = [prog.let(dp[a] + (gyro[a] if a < 6 else -dT[a - 6]), f"nb_{body.name}")
-            for a in range(size)]
+    kinetic = sm.Add(*[w[a] * p[a] for a in range(size)]) / 2
 
     # active: gravity (the frame's columns of M_b times g in body components), elastic
     # and damping forces on the modal coordinates
-    active_b = [sm.S.Zero] * size
+    active = [sm.S.Zero] * size
     if body.gravity is not None:
         g_N = kin.vector(body.gravity, f"{where}: gravity")
         g_B = [sum(C[i, a] * g_N[i] for i in range(3)) for a in range(3)]
-        active_b = [sm.Add(*[Mb[a][b] * g_B[b] for b in range(3)]) for a in range(size)]
+        active = [sm.Add(*[Mb[a][b] * g_B[b] for b in range(3)]) for a in range(size)]
     K, D = inv.stiffness, body.damping
     kscale = max(np.max(np.abs(K)), np.max(np.abs(D)), 1e-300)
     for i in range(m):
@@ -174,12 +239,56 @@ def flexible_terms(kin, body, speeds, n_real, aux_zero):
                    if (c := _coefficient(K[i, j], kscale)) is not None]
         elastic += [c * w[6 + j] for j in range(m)
                     if (c := _coefficient(D[i, j], kscale)) is not None]
-        active_b[6 + i] = active_b[6 + i] - sm.Add(*elastic)
-    active_b = [prog.let(c, f"Fb_{body.name}") if c != 0 else c for c in active_b]
+        active[6 + i] = active[6 + i] - sm.Add(*elastic)
+    active = [prog.let(c, f"Fb_{body.name}") if c != 0 else c for c in active]
 
-    def project(W, vec):
-        return sm.Add(*[W[a] * vec[a] for a in range(size) if W[a] != 0 and vec[a] != 0])
+    rate = bias = None
+    if inertia:
+        rate = [prog.let(prog.subs(kin.dt(c), aux_zero), f"wd_{body.name}") for c in w]
+        # M_b' w (M_b depends on eta alone), and dT/deta with w held fixed
+        mdot = [[prog.subs(kin.dt(Mb[a][b]), aux_zero) for b in range(size)]
+                for a in range(size)]
+        dT = [sm.Add(*[w[a] * prog.diff(Mb[a][b], e) * w[b] for a in range(size)
+                       for b in range(size) if Mb[a][b] != 0]) / 2 for e in eta]
+        vv, ww, pv, pw = w[:3], w[3:6], p[:3], p[3:6]
+        gyro = list(cross(ww, pv)) + list(add(cross(ww, pw), cross(vv, pv)))
+        gyro += [-d for d in dT]
+        bias = [prog.let(sm.Add(*[mdot[a][b] * w[b] for b in range(size) if mdot[a][b] != 0])
+                         + gyro[a], f"beta_{body.name}") for a in range(size)]
+    return FlexibleBlock(body=body, w=tuple(w), partials=partials, mass=Mb, momentum=p,
+                         kinetic=kinetic, active=active, rate=rate, bias=bias)
 
+
+def project(W, vec):
+    """:math:`W^Tx` for two sequences of expressions, zeros skipped."""
+    return sm.Add(*[a * b for a, b in zip(W, vec) if a != 0 and b != 0])
+
+
+def flexible_terms(kin, body, speeds, n_real, aux_zero):
+    """Kane's terms of one flexible body (see the module docstring).
+
+    Parameters
+    ----------
+    kin : Kinematics
+    body : FlexibleBody
+        Checked by :func:`flexible_bodies`.
+    speeds : sequence
+        Internal speed symbols, real then auxiliary.
+    n_real : int
+        Number of real speeds (columns of the mass matrix).
+    aux_zero : dict
+        Auxiliary speeds -> 0.
+
+    Returns
+    -------
+    FlexibleTerms
+    """
+    prog = kin.prog
+    block = flexible_block(kin, body, speeds, aux_zero)
+    Mb, partials, size = block.mass, block.partials, block.size
+    rest = [prog.let(sm.Add(*[Mb[a][b] * block.rate[b] for b in range(size)
+                              if Mb[a][b] != 0 and block.rate[b] != 0]) + block.bias[a],
+                     f"nb_{body.name}") for a in range(size)]
     MW = {}
     for s in range(n_real):
         if any(c != 0 for c in partials[s]):
@@ -188,8 +297,7 @@ def flexible_terms(kin, body, speeds, n_real, aux_zero):
                      for a in range(size)]
     mass = [[project(partials[r], MW[s]) if s in MW else sm.S.Zero for s in range(n_real)]
             for r in range(len(speeds))]
-    active = [project(partials[r], active_b) for r in range(len(speeds))]
+    active = [project(partials[r], block.active) for r in range(len(speeds))]
     remainder = [project(partials[r], rest) for r in range(len(speeds))]
-    kinetic = sm.Add(*[w[a] * p[a] for a in range(size)]) / 2
-    return FlexibleTerms(body=body, mass=mass, active=active, remainder=remainder,
-                         kinetic=kinetic, w=tuple(w), partials=partials)
+    return FlexibleTerms(body=body, block=block, mass=mass, active=active,
+                         remainder=remainder, kinetic=block.kinetic)

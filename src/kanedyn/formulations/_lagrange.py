@@ -14,6 +14,13 @@ With the kinetic energy :math:`T(q, w, t)` of all bodies and the generalized
 forces :math:`Q_j = \sum F\cdot\partial v_P/\partial w_j + T\cdot\partial
 \omega_B/\partial w_j` of all loads (gravity included),
 
+A :class:`kanedyn.FlexibleBody` adds its kinetic energy
+:math:`\tfrac12 w^TM_b(\eta)w` (body-frame origin velocity, angular velocity
+and modal speeds :math:`w`, :math:`M_b` from its inertia invariants) to
+:math:`T`, and its gravity, elastic (:math:`-K\eta`) and damping
+(:math:`-D\zeta`) forces, projected with :math:`\partial w/\partial w_j`,
+to :math:`Q`; its strain energy is part of the reported potential energy.
+
 ``method="lagrange"`` (Lagrange's equations with multipliers, i.e. the
 Lagrange–d'Alembert principle) gives
 
@@ -65,10 +72,12 @@ import numpy as np
 import sympy as sm
 
 from .._errors import ModelError
+from ._flexible import flexible_block, flexible_bodies, project
 from ._kane import (_contact_terms, _pivot_rows, body_kinematics, given_velocity_constraints,
                     linear_parts, load_terms)
 from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, dot, fast_eval, name_of,
                       random_sampler)
+from ..modeling import FlexibleBody
 from .._progress import NO_PROGRESS
 
 __all__ = ["derive_lagrange", "derive_augmented", "rate_symbols"]
@@ -385,12 +394,18 @@ class _Setup:
         def partials(vec):
             return [tuple(prog.diff(c, s) for c in vec) for s in speeds]
 
+        flexible = flexible_bodies(self.spec)
+        rigid = [b for b in self.spec.bodies if not isinstance(b, FlexibleBody)]
         body_terms, masses, inertias, inertial, hs = body_kinematics(
-            kin, self.spec.bodies, partials, {}, progress)
+            kin, rigid, partials, {}, progress)
+        # flexible bodies: kinetic energy from the inertia invariants; gravity,
+        # elastic and damping forces projected on the rates' partial velocities
+        blocks = [flexible_block(kin, b, speeds, {}, inertia=False) for b in flexible]
         progress.stage("generalized forces")
         loads = load_terms(kin, self.spec.loads, partials)
         ke = [m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2
               for terms, m, H in zip(body_terms, masses, hs)]
+        ke.extend(block.kinetic for block in blocks)
         kinetic = prog.let(sm.Add(*ke), "KE")
 
         progress.stage("derivatives of the kinetic energy")
@@ -403,8 +418,10 @@ class _Setup:
                 mass[r][s] = mass[s][r] = prog.let(prog.diff(momenta[r], rates[s]),
                                                    f"M_{r}_{s}")
         index = {s: i for i, s in enumerate(speeds)}
-        active = [prog.let(sm.Add(*[dot(vec, parts[index[w]]) for _, vec, parts in loads]),
-                           f"Q_{r}") for r, w in enumerate(rates)]
+        active = [prog.let(sm.Add(*[dot(vec, parts[index[w]]) for _, vec, parts in loads])
+                           + sm.Add(*[project(block.partials[index[w]], block.active)
+                                      for block in blocks]), f"Q_{r}")
+                  for r, w in enumerate(rates)]
         remainder = [prog.let(kin.dt(p) - prog.diff(kinetic, self.rate_of[w]), f"n_{r}")
                      for r, (p, w) in enumerate(zip(momenta, rates))]
         return body_terms, inertial, loads, kinetic, mass, active, remainder

@@ -44,6 +44,18 @@ f_a = 0`, reduces the equations to the symmetric positive definite system
 solved by Cholesky's factorization (as in Cyril et al., who integrated the
 result with Gear's BDF method: ``kd.simulate(..., method="BDF")``).
 
+Flexible bodies
+---------------
+A :class:`kanedyn.FlexibleBody` is a block of its own size :math:`6 + m` in
+body-frame components :math:`w_b = (v, \omega, \zeta)` (origin velocity,
+angular velocity, modal speeds): its twist map :math:`T_b = \partial
+w_b/\partial u`, :math:`\dot T_b u = \dot w_b|_{\dot u = 0}`, the generalized
+mass :math:`M_b(\eta)` from the inertia invariants and
+:math:`w_b = F_b - \beta_b`, the applied forces (gravity, elastic, damping)
+less the velocity terms of Lagrange's equations in quasi-coordinates (see
+:mod:`kanedyn.formulations._flexible`, shared with Kane's method).  They are
+assembled like the rigid bodies' blocks.
+
 What is symbolic and what is numeric
 ------------------------------------
 * Symbolic (straight-line program, shared intermediates): the per-body
@@ -72,9 +84,11 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
+from ._flexible import flexible_bodies, flexible_terms
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, constraint_terms, kane_setup,
                     potential_term)
 from ..engine import SAMPLE_SEEDS, add, cross, dot, inertia_components, matvec
+from ..modeling import FlexibleBody
 from .._progress import NO_PROGRESS
 
 __all__ = ["derive_orthogonal_complement"]
@@ -137,11 +151,15 @@ def _owner(kin, bodies, location, raw):
 class _Blocks:
     """Per-body NOC blocks as program expressions (real speeds only).
 
-    ``T``: ``6 n_b x o`` row-major list; ``Tdu``, ``w``: ``6 n_b``; ``Mb``:
-    ``6 n_b x 6``; ``Q``: ``o``.
+    Rigid bodies and particles: ``T``: ``6 n_b x o`` row-major list;
+    ``Tdu``, ``w``: ``6 n_b``; ``Mb``: ``36 n_b`` (``n_b`` row-major 6 x 6
+    blocks); ``Q``: ``o``.  Flexible bodies, in body-frame components
+    :math:`(v, \\omega, \\zeta)`, block ``k`` of size ``sizes[k]`` (6 plus
+    its modes): ``TF``: ``sum(sizes) x o``; ``TduF``, ``wF``: ``sum(sizes)``;
+    ``MbF``: the row-major ``sizes[k] x sizes[k]`` blocks one after another.
     """
 
-    __slots__ = ("T", "Tdu", "Mb", "w", "Q", "n_bodies")
+    __slots__ = ("T", "Tdu", "Mb", "w", "Q", "n_bodies", "TF", "TduF", "MbF", "wF", "sizes")
 
     def __init__(self, **fields):
         for name in self.__slots__:
@@ -183,7 +201,8 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
         return tuple(prog.subs(c, aux_zero) for c in vec)
 
     # ------------------------------------------------ per-body blocks
-    bodies = list(spec.bodies)
+    flexible_list = flexible_bodies(spec)
+    bodies = [b for b in spec.bodies if not isinstance(b, FlexibleBody)]
     raw, body_terms, masses, inertias, tdu, gyro, momenta = [], [], [], [], [], [], []
     for k, body in enumerate(bodies):
         progress.update(f"twist map of {body.name} ({k + 1}/{len(bodies)})",
@@ -217,6 +236,13 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
                     + kin.let_vector(rate_force, f"mr_{body.name}"))
         momenta.append(H)
     progress.done()
+    flexible = []
+    for k, body in enumerate(flexible_list):
+        progress.update(f"twist map of flexible body {body.name} ({k + 1}/{len(flexible_list)})",
+                        (k + 1) / len(flexible_list))
+        flexible.append(flexible_terms(kin, body, speeds, o, aux_zero))
+    if flexible:
+        progress.done()
 
     def T_col(k, s):
         """Column ``s`` of T_b (6 entries: angular, then linear)."""
@@ -281,6 +307,12 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
                     mass_terms[r][s].append(sm.Add(*[a * b for a, b in zip(cols[r], mt)]))
             active_terms[r].append(sm.Add(*[a * b for a, b in zip(cols[r], applied[k])]))
             remainder_terms[r].append(sm.Add(*[a * b for a, b in zip(cols[r], bias)]))
+    for terms in flexible:  # T_b^T M_b T_b etc. of the flexible bodies' blocks
+        for r in range(n_all):
+            for s in range(r if r < o else 0, o):
+                mass_terms[r][s].append(terms.mass[r][s])
+            active_terms[r].append(terms.active[r])
+            remainder_terms[r].append(terms.remainder[r])
     mass_rows = []
     for r in range(n_all):
         row = [prog.let(sm.Add(*mass_terms[r][s]), f"M_{r}_{s}") for s in range(o)]
@@ -294,12 +326,18 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     fr[:o] = _drop_workless(prog, table, fr[:o], load_list, fr[o:])
     after = set().union(*(prog.deps(e) for e in fr[:o])) if o else set()
     state = set(table.q) | set(table.u) | set(table.u_aux) | {table.t}
-    dropped = {s: 0 for s in before - after
-               if s not in state and not prog.is_intermediate(s)}
+    # force magnitudes that do no work on the real motion: dropped from the real
+    # rows, or absent there from the start (a force on a body whose real partial
+    # velocities vanish, seen by the auxiliary rows only)
+    in_loads = set().union(*(prog.deps(c) for _, vec, _ in load_list for c in vec))
+    in_aux = set().union(*(prog.deps(e) for e in fr[o:]))
+    dropped = {s: 0 for s in (before | in_aux) - after
+               if s in in_loads and s not in state and not prog.is_intermediate(s)}
     nonmm = [prog.let(prog.subs(sm.Add(*t), aux_zero), f"n_{r}")
              for r, t in enumerate(remainder_terms)]
 
-    # numeric blocks (real speeds), workless force magnitudes removed
+    # numeric blocks (real speeds), workless force magnitudes removed from the
+    # applied forces
     def real(e):
         return prog.subs(prog.subs(e, aux_zero), dropped) if dropped else prog.subs(e, aux_zero)
 
@@ -316,10 +354,20 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
                     Mb_flat.append(I_N[i][j] if I_N is not None else sm.S.Zero)
                 else:
                     Mb_flat.append(masses[k] if i == j and i >= 3 else sm.S.Zero)
-        w_flat.extend(prog.let(real(a - g), "w") for a, g in zip(applied[k], gyro[k]))
+        w_flat.extend(prog.let(real(a) - prog.subs(g, aux_zero), "w")
+                      for a, g in zip(applied[k], gyro[k]))
+    TF, TduF, MbF, wF = [], [], [], []
+    for terms in flexible:
+        block = terms.block
+        for i in range(block.size):
+            TF.extend(block.partials[s][i] for s in range(o))
+        TduF.extend(block.rate)
+        MbF.extend(e for row in block.mass for e in row)
+        wF.extend(prog.let(real(a) - b, "wF") for a, b in zip(block.active, block.bias))
     blocks = _Blocks(T=tuple(T_flat), Tdu=tuple(Tdu_flat), Mb=tuple(Mb_flat),
                      w=tuple(w_flat), Q=tuple(prog.let(real(e), "Q") for e in extra[:o]),
-                     n_bodies=len(bodies))
+                     n_bodies=len(bodies), TF=tuple(TF), TduF=tuple(TduF), MbF=tuple(MbF),
+                     wF=tuple(wF), sizes=tuple(t.block.size for t in flexible))
 
     # ----------------------------------------------------- constraints
     progress.stage("constraints")
@@ -329,6 +377,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     # ------------------------------------------------------- energies
     ke = [m * dot(t.velocity, t.velocity) / 2 + dot(t.omega, H) / 2
           for t, m, H in zip(body_terms, masses, momenta)]
+    ke.extend(terms.kinetic for terms in flexible)
     kinetic = prog.let(sm.Add(*ke), "KE")
     potential = potential_term(kin, spec)
 

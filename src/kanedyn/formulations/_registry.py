@@ -10,16 +10,31 @@ from __future__ import annotations
 
 from .._errors import ModelError
 from .._progress import NO_PROGRESS, as_progress
-from ..modeling import parse_model
+from ..modeling import FlexibleBody, parse_model
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
 FORMULATIONS = {}
+_RIGID_ONLY = set()  # formulations that cannot take flexible bodies
 
 
-def register_formulation(name, derive):
-    """Register ``derive(spec, progress=..., **options) -> EquationsOfMotion``."""
+def register_formulation(name, derive, flexible_bodies=True):
+    """Register ``derive(spec, progress=..., **options) -> EquationsOfMotion``.
+
+    Parameters
+    ----------
+    name : str
+        The key of :data:`FORMULATIONS` (``formulate(..., method=name)``).
+    derive : callable
+    flexible_bodies : bool
+        Whether ``derive`` takes :class:`kanedyn.FlexibleBody` objects; when
+        not, :func:`formulate` refuses models with one, naming the body.
+    """
     FORMULATIONS[name] = derive
+    if flexible_bodies:
+        _RIGID_ONLY.discard(name)
+    else:
+        _RIGID_ONLY.add(name)
 
 
 def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
@@ -66,6 +81,16 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
 
         The Lagrange-based variants share one derivation and differ in their
         constraint scheme (:mod:`kanedyn.schemes`).
+
+        Every built-in formulation takes :class:`kanedyn.FlexibleBody`
+        objects: Kane's method and the orthogonal complement through each
+        body's quasi-coordinate Newton–Euler block (twist map
+        :math:`\partial w/\partial u` of :math:`w = (v, \omega, \zeta)`,
+        generalized mass :math:`M_b(\eta)`), the Lagrange family and
+        ``"augmented"`` through its kinetic energy :math:`\tfrac12
+        w^TM_b(\eta)w` and generalized forces; they agree to round-off.  A
+        formulation registered with ``flexible_bodies=False`` refuses them
+        with a :class:`ModelError` naming the body.
     progress : bool
         Print progress of long derivations to stderr.
     scheme : str or Scheme, optional
@@ -83,6 +108,13 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
                          f"{', '.join(sorted(FORMULATIONS))}") from None
     options = {k: kwargs.pop(k) for k in ("explicit_kinematics",) if k in kwargs}
     spec = parse_model(*args, **kwargs)
+    if method in _RIGID_ONLY:
+        flexible = [b.name for b in spec.bodies if isinstance(b, FlexibleBody)]
+        if flexible:
+            takes = sorted(set(FORMULATIONS) - _RIGID_ONLY)
+            raise ModelError(
+                f"the {method!r} formulation does not take flexible bodies (flexible body "
+                f"{flexible[0]!r}); use one of {', '.join(takes)}")
     eom = derive(spec, progress=as_progress(progress), **options)
     if scheme is not None:
         object.__setattr__(eom, "_scheme", scheme)

@@ -21,11 +21,18 @@ __all__ = ["OrthogonalComplement"]
 
 _ASSEMBLY = '''
 def dynamics(t, y, p, r):
-    qd, T, Tdu, Mb, w, Q, B, K, fa = _noc_blocks(t, y, p, r)
-    # M_b T_b for every body at once, then M = T^T blkdiag(M_b) T
+    qd, T, Tdu, Mb, w, Q, B, K, fa, TF, TduF, MbF, wF = _noc_blocks(t, y, p, r)
+    # M_b T_b for every rigid body at once, then M = T^T blkdiag(M_b) T
     MT = numpy.matmul(Mb.reshape({nb}, 6, 6), T.reshape({nb}, 6, {o})).reshape({rows}, {o})
     bias = w - numpy.matmul(Mb.reshape({nb}, 6, 6), Tdu.reshape({nb}, 6, 1)).reshape({rows})
-    return qd, T.T @ MT, T.T @ bias + Q, B, K, fa
+    M, f = T.T @ MT, T.T @ bias + Q
+    # flexible bodies: one block of its own size each (row offset, size, offset in MbF)
+    for start, size, at in {flexible}:
+        Mk = MbF[at:at + size * size].reshape(size, size)
+        Tk = TF[start:start + size]
+        M = M + Tk.T @ (Mk @ Tk)
+        f = f + Tk.T @ (wF[start:start + size] - Mk @ TduF[start:start + size])
+    return qd, M, f, B, K, fa
 '''
 
 
@@ -43,7 +50,9 @@ class OrthogonalComplement(Scheme):
         f = T^T\left(w - \mathrm{blkdiag}(M_b)\,\dot T u\right) + Q
 
     with NumPy (so ``model.mass_matrix``, ``model.multipliers`` and the
-    Newton–Euler check see the assembled matrices).  :meth:`accelerations`
+    Newton–Euler check see the assembled matrices); a flexible body's block
+    has its own size, :math:`6 + m` (body-frame origin velocity, angular
+    velocity and modal speeds).  :meth:`accelerations`
     eliminates the dependent speeds with the complement :math:`N = [1; X]`
     of the acceleration constraints and solves the symmetric positive
     definite :math:`N^TMN\,\dot u_i = N^T(f - M\dot u_p)` by Cholesky's
@@ -75,18 +84,27 @@ class OrthogonalComplement(Scheme):
         n, o, m = model.n_q, model.n_u, model.n_u_dep
         nb = blocks.n_bodies
         rows = 6 * nb
+        sizes = getattr(blocks, "sizes", ())
+        layout, start, at = [], 0, 0
+        for size in sizes:
+            layout.append((start, size, at))
+            start, at = start + size, at + size * size
         outputs = [((n,), [sub(e) for e in eom._qdot]),
                    ((rows, o), [sub(e) for e in blocks.T]),
                    ((rows,), [sub(e) for e in blocks.Tdu]),
-                   ((rows, 6), [sub(e) for e in blocks.Mb]),
+                   ((36 * nb,), [sub(e) for e in blocks.Mb]),
                    ((rows,), [sub(e) for e in blocks.w]),
                    ((o,), [sub(e) for e in blocks.Q]),
                    ((m, o), [sub(e) for row in eom._vel_B for e in row]),
                    ((m, o), [sub(e) for row in eom._acc_K for e in row]),
-                   ((m,), [sub(e) for e in eom._acc_f])]
+                   ((m,), [sub(e) for e in eom._acc_f]),
+                   ((start, o), [sub(e) for e in blocks.TF]),
+                   ((start,), [sub(e) for e in blocks.TduF]),
+                   ((at,), [sub(e) for e in blocks.MbF]),
+                   ((start,), [sub(e) for e in blocks.wF])]
         args = model._functions["dynamics"][0]
         source = (generate_python(prog, "_noc_blocks", args, outputs, cse=bool(model._cse))
-                  + _ASSEMBLY.format(nb=nb, o=o, rows=rows))
+                  + _ASSEMBLY.format(nb=nb, o=o, rows=rows, flexible=tuple(layout)))
         # kept in the model's sources, so that copies and unpickled models
         # evaluate the same assembly
         model._data["sources"]["dynamics"] = source
