@@ -18,9 +18,11 @@ and the applied forces in the same components
 
 .. math::
 
-    F_b = M_b[:, v]\,g_B - \begin{bmatrix}0\\ 0\\ K\eta + D\zeta\end{bmatrix},
+    F_b = \begin{bmatrix} m g_B \\ c(\eta)\times g_B \\
+        (\partial c/\partial\eta)^T g_B - K\eta - D\zeta\end{bmatrix},
 
-:math:`g_B` gravity in body components.  One body's *block*
+:math:`g_B` gravity in body components, :math:`c(\eta)` the first moment of
+mass about the origin (gravity is the gradient of its potential).  One body's *block*
 (:func:`flexible_block`) holds :math:`w`, its twist map
 :math:`T_b = \partial w/\partial u` (the partial velocities, one column per
 speed), :math:`\dot T_b u = \dot w|_{\dot u=0}`, :math:`M_b`, :math:`\beta`
@@ -176,6 +178,30 @@ def _polynomial(prog, M0, M1, M2, eta, pairs, scale, name):
     return out
 
 
+def _gravity(inv, eta, g_B):
+    r"""Gravity's forces in body components, the gradient of its potential energy.
+
+    With the first moment of mass :math:`c(\eta) = c_0 + c_1\eta +
+    \tfrac12 c_2\eta\eta` (of the interpolated displacement field) and
+    :math:`V = -g\cdot(m\,r_O + c)`: :math:`m g_B` on the origin,
+    :math:`c\times g_B` about it and :math:`(\partial c/\partial\eta)^Tg_B`
+    on the modal coordinates, so that gravity does exactly the work its
+    potential (:meth:`FlexibleBody.gravitational_energy`) loses.
+    """
+    c0, c1, c2 = inv.first_moment
+    m = len(eta)
+    gradient = [[sm.Float(c1[a, i]) + sm.Add(*[sm.Float(c2[a, i, j]) * eta[j]
+                                               for j in range(m) if c2[a, i, j] != 0])
+                 for i in range(m)] for a in range(3)]
+    c = [sm.Float(c0[a]) + sm.Add(*[(sm.Float(c1[a, i]) + sm.Add(
+        *[sm.Float(c2[a, i, j] / 2) * eta[j] for j in range(m) if c2[a, i, j] != 0]))
+        * eta[i] for i in range(m)]) for a in range(3)]
+    force = [sm.Float(inv.mass) * g for g in g_B]
+    torque = list(cross(c, g_B))
+    modal = [sm.Add(*[gradient[a][i] * g_B[a] for a in range(3)]) for i in range(m)]
+    return force + torque + modal
+
+
 def flexible_block(kin, body, speeds, aux_zero, inertia=True):
     r"""The :class:`FlexibleBlock` of one body (see the module docstring).
 
@@ -225,13 +251,12 @@ def flexible_block(kin, body, speeds, aux_zero, inertia=True):
                   f"p_{body.name}") for a in range(size)]
     kinetic = sm.Add(*[w[a] * p[a] for a in range(size)]) / 2
 
-    # active: gravity (the frame's columns of M_b times g in body components), elastic
-    # and damping forces on the modal coordinates
+    # active: gravity, elastic and damping forces on the modal coordinates
     active = [sm.S.Zero] * size
     if body.gravity is not None:
         g_N = kin.vector(body.gravity, f"{where}: gravity")
         g_B = [sum(C[i, a] * g_N[i] for i in range(3)) for a in range(3)]
-        active = [sm.Add(*[Mb[a][b] * g_B[b] for b in range(3)]) for a in range(size)]
+        active = _gravity(inv, eta, g_B)
     K, D = inv.stiffness, body.damping
     kscale = max(np.max(np.abs(K)), np.max(np.abs(D)), 1e-300)
     for i in range(m):
