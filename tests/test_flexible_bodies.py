@@ -246,3 +246,29 @@ def test_bad_flexible_body_input_is_named():
     with pytest.raises(ModelError, match="flexible body arm: its modal coordinates"):
         kd.kane(frame=N, q_ind=[body.q[0]], u_ind=[body.u[0]], kd_eqs=[body.kd_eqs[0]],
                 bodies=[body])
+
+
+# ------------------------------------------------------- Shuttle arm, flexible booms
+@pytest.mark.slow
+def test_shuttle_arm_with_flexible_booms_by_kane_and_orthogonal_complement():
+    """The two booms as flexible bodies (4 modal coordinates each): Kane's equations
+    and the natural orthogonal complement agree, state derivative and run."""
+    definition = kd.models.build("shuttle-arm", flexible_booms=True)
+    models = {method: definition.numeric(definition.derive(method=method))
+              for method in ("kane", "orthogonal-complement")}
+    kane, noc = models["kane"], models["orthogonal-complement"]
+    assert kane.n_states == noc.n_states == 2 * (6 + 8)
+    rng = np.random.default_rng(5)
+    y0 = definition.initial(kane)
+    for _ in range(3):
+        y = y0 + rng.normal(scale=0.02, size=y0.size)
+        time = rng.uniform(0.0, 150.0)
+        a, b = kane.rhs(time, y), noc.rhs(time, y)
+        assert np.max(np.abs(a - b)) <= 1e-10 * np.max(np.abs(a))
+    runs = {name: kd.simulate(model, (0.0, 5.0), y0, method="BDF", rtol=1e-9, atol=1e-11,
+                              t_eval=np.linspace(0.0, 5.0, 11))
+            for name, model in models.items()}
+    assert all(res.success for res in runs.values())
+    assert np.max(np.abs(runs["kane"].y - runs["orthogonal-complement"].y)) < 1e-7
+    # the booms bend: the modal coordinates move
+    assert np.max(np.abs(runs["kane"].y[6:14])) > 1e-8
