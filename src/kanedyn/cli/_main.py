@@ -85,10 +85,12 @@ def _split_values(definition, model, values):
 
 
 def cmd_list(args):
-    print(f"{'model':26s} options        description")
+    print(f"{'model':26s} description (options: --set NAME=VALUE)")
     for name, (builder, options) in REGISTRY.items():
-        opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items()) or "-"
-        print(f"{name:26s} {opts:14s} {builder().title}")
+        print(f"{name:26s} {builder().title}")
+        if options:
+            opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items())
+            print(f"{'':26s}   options: {opts}")
     return 0
 
 
