@@ -66,6 +66,8 @@ class FlexibleTerms:
 
 
 def _coefficient(value, scale):
+    # float() first: SymPy converts a NumPy scalar to a Float about twice as slowly
+    value = float(value)
     return sm.Float(value) if abs(value) > _DROP * scale else None
 
 
