@@ -152,29 +152,13 @@ def flexible_terms(kin, body, speeds, n_real, aux_zero):
     pv, pw = p[:3], p[3:6]
     vv, ww = w[:3], w[3:6]
     gyro = list(cross(ww, pv)) + list(add(cross(ww, pw), cross(vv, pv)))
-    # dT/deta_i = 1/2 w^T (M1_i + sum_j M2_ij eta_j) w, both symmetric in (a, b): the
-    # upper triangle, off-diagonal entries twice, entries dropped as in M_b (a zero
-    # sm.Float is not == 0 in SymPy >= 1.13, and multiplying by it is slow)
-    ww = {}
     dT = []
     for i in range(m):
-        terms = []
-        for a in range(size):
-            for b in range(a, size):
-                half = 0.5 if a == b else 1.0
-                coeffs = []
-                c = _coefficient(half * inv.M1[i, a, b], scale)
-                if c is not None:
-                    coeffs.append(c)
-                for j in range(m):
-                    c = _coefficient(half * inv.M2[i, j, a, b], scale)
-                    if c is not None:
-                        coeffs.append(c * eta[j])
-                if coeffs and w[a] != 0 and w[b] != 0:
-                    if (a, b) not in ww:
-                        ww[a, b] = w[a] * w[b]
-                    terms.append(sm.Add(*coeffs) * ww[a, b])
-        dT.append(sm.Add(*terms))
+        dM = [[sm.Float(inv.M1[i, a, b]) + sum(sm.Float(inv.M2[i, j, a, b]) * eta[j]
+                                               for j in range(m) if inv.M2[i, j, a, b] != 0)
+               for b in range(size)] for a in range(size)]
+        dT.append(sm.Add(*[w[a] * dM[a][b] * w[b] / 2 for a in range(size)
+                           for b in range(size) if dM[a][b] != 0]))
     rest = [prog.let(dp[a] + (gyro[a] if a < 6 else -dT[a - 6]), f"nb_{body.name}")
             for a in range(size)]
 
