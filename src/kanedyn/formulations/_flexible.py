@@ -151,6 +151,8 @@ def flexible_bodies(spec):
 
 
 def _coefficient(value, scale):
+    # float() first: SymPy converts a NumPy scalar to a Float about twice as slowly
+    value = float(value)
     return sm.Float(value) if abs(value) > _DROP * scale else None
 
 

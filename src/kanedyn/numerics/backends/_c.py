@@ -222,23 +222,56 @@ def fingerprint(program, functions, sizes, cse=True):
 
     The C source itself is not deterministic across processes (SymPy's common
     subexpression elimination iterates over hash-ordered sets), so the key is
-    the program before elimination, printed with positional names.
+    the program before elimination, written with positional names by
+    :func:`_structure` (a walk of the expression trees: no expression is
+    rebuilt or printed by SymPy, which for large programs took seconds).
     """
     parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}"]
     for name, (arguments, outputs) in functions.items():
-        names = {program.t: sm.Symbol("t")}
+        names = {program.t: "t"}
         for arg, symbols in arguments.items():
             parts.append(f"{arg}:{len(symbols)}")
-            names.update((s, sm.Symbol(f"{arg}{i}")) for i, s in enumerate(symbols))
+            names.update((s, f"{arg}{i}") for i, s in enumerate(symbols))
         flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
         needed = program.needed(flat)
-        names.update((s, sm.Symbol(f"z{k}")) for k, s in enumerate(needed))
+        names.update((s, f"z{k}") for k, s in enumerate(needed))
+        memo = {}
         parts.append(f"function {name}")
-        parts.extend(str(program.definition(s).xreplace(names)) for s in needed)
+        parts.extend(_structure(program.definition(s), names, memo) for s in needed)
         for shape, exprs in outputs:
             parts.append(repr(shape))
-            parts.extend(str(sm.sympify(e).xreplace(names)) for e in exprs)
+            parts.extend(_structure(sm.sympify(e), names, memo) for e in exprs)
     return "\n".join(parts)
+
+
+_ORDERLESS = (sm.Add, sm.Mul)
+
+
+def _structure(expr, names, memo):
+    """Text of an expression tree with the symbols in ``names`` renamed.
+
+    Independent of the original symbols' names: the arguments of sums and
+    products are listed in the order of their texts.  Numbers are exact
+    (a Float's binary mantissa and exponent).
+    """
+    text = memo.get(expr)
+    if text is not None:
+        return text
+    if expr in names:
+        text = names[expr]
+    elif isinstance(expr, sm.Float):
+        text = f"F{expr._mpf_!r}"
+    elif isinstance(expr, sm.Rational):
+        text = f"Q{expr.p}/{expr.q}"
+    elif not expr.args:
+        text = f"{type(expr).__name__}:{expr}"
+    else:
+        args = [_structure(a, names, memo) for a in expr.args]
+        if isinstance(expr, _ORDERLESS):
+            args.sort()
+        text = f"{type(expr).__name__}({','.join(args)})"
+    memo[expr] = text
+    return text
 
 
 def generate_c(program, functions, sizes, describe=str, cse=True):
