@@ -302,7 +302,7 @@ class FlexibleBody:
 
     # ---------------------------------------------------------- attachments
     def node_point(self, k):
-        """The point at node ``k``, moving with the member's deformation.
+        """The point at node ``k`` (``-1``: the last), moving with the member's deformation.
 
         Joints, loads, contacts and attached bodies use it like any other
         ``Point``; its position is exact in the modal coordinates (second
@@ -349,10 +349,10 @@ class FlexibleBody:
     def _node(self, k):
         n = self.member.n_nodes
         k = int(k)
-        if not 0 <= k < n:
+        if not -n <= k < n:
             raise ModelError(f"flexible body {self.name!r}: node {k} does not exist in member "
-                             f"{self.member.name!r} (nodes 0..{n - 1})")
-        return k
+                             f"{self.member.name!r} (nodes 0..{n - 1}, or -{n}..-1 from the end)")
+        return k % n
 
 
 def _matrix(a):
