@@ -64,6 +64,7 @@ import kanedyn as kd
 # _peers lives next to this script (on sys.path when the script is run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _peers import sympy_docs_chain  # noqa: E402
+from bench_numerics import cpu_name  # noqa: E402
 
 #: Relative difference of the two right-hand sides above which a row is flagged.
 DISAGREEMENT = 1e-6
@@ -77,18 +78,10 @@ def machine_info():
     -------
     str
     """
-    cpu = platform.processor() or ""
-    try:
-        with open("/proc/cpuinfo") as cpuinfo:
-            for line in cpuinfo:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_name()
     load = ", ".join(f"{x:.1f}" for x in os.getloadavg()) if hasattr(os, "getloadavg") else "?"
     return (f"{datetime.date.today().isoformat()} | {platform.platform()} | "
-            f"CPU {cpu or 'unknown'} ({os.cpu_count()} logical, load {load}) | "
+            f"CPU {cpu} ({os.cpu_count()} logical, load {load}) | "
             f"Python {platform.python_version()} | SymPy {sm.__version__} | "
             f"NumPy {np.__version__} | kanedyn {kd.__version__}{source_revision()}")
 

@@ -61,7 +61,7 @@ import kanedyn as kd
 
 # bench_numerics lives next to this script (on sys.path when run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from bench_numerics import (best_seconds, format_table, load_average, log,  # noqa: E402
+from bench_numerics import (best_seconds, cpu_name, format_table, load_average, log,  # noqa: E402
                             section, source_revision, timed, verdict)
 
 PARTS = ("robot", "chain", "spinup")
@@ -91,15 +91,7 @@ ROBOT_C_RHS_TARGET_US = 5.0
 # ----------------------------------------------------------------- helpers
 def machine_info():
     """One line describing the machine and the versions measured."""
-    cpu = platform.processor() or "unknown"
-    try:
-        with open("/proc/cpuinfo") as cpuinfo:
-            for line in cpuinfo:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_name()
     return (f"{datetime.date.today().isoformat()} | {platform.platform()} | CPU {cpu} "
             f"({os.cpu_count()} logical, load {load_average()}) | "
             f"Python {platform.python_version()} | NumPy {np.__version__} | "

@@ -102,6 +102,18 @@ def load_average():
     return ", ".join(f"{x:.1f}" for x in os.getloadavg())
 
 
+def cpu_name():
+    """The CPU's model name (``/proc/cpuinfo``), else ``platform.processor()`` or "unknown"."""
+    try:
+        with open("/proc/cpuinfo") as cpuinfo:
+            for line in cpuinfo:
+                if line.startswith("model name"):
+                    return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or "unknown"
+
+
 def machine_info():
     """One line describing the machine and the versions measured.
 
@@ -112,15 +124,7 @@ def machine_info():
     import pinocchio as pin
     import sympy
 
-    cpu = platform.processor() or "unknown"
-    try:
-        with open("/proc/cpuinfo") as cpuinfo:
-            for line in cpuinfo:
-                if line.startswith("model name"):
-                    cpu = line.split(":", 1)[1].strip()
-                    break
-    except OSError:
-        pass
+    cpu = cpu_name()
     return (f"{datetime.date.today().isoformat()} | {platform.platform()} | CPU {cpu} "
             f"({os.cpu_count()} logical, load {load_average()}) | "
             f"Python {platform.python_version()} | NumPy {np.__version__} | "

@@ -190,17 +190,10 @@ def _gravity(inv, eta, g_B):
     on the modal coordinates, so that gravity does exactly the work its
     potential (:meth:`FlexibleBody.gravitational_energy`) loses.
     """
-    c0, c1, c2 = inv.first_moment
-    m = len(eta)
-    gradient = [[sm.Float(c1[a, i]) + sm.Add(*[sm.Float(c2[a, i, j]) * eta[j]
-                                               for j in range(m) if c2[a, i, j] != 0])
-                 for i in range(m)] for a in range(3)]
-    c = [sm.Float(c0[a]) + sm.Add(*[(sm.Float(c1[a, i]) + sm.Add(
-        *[sm.Float(c2[a, i, j] / 2) * eta[j] for j in range(m) if c2[a, i, j] != 0]))
-        * eta[i] for i in range(m)]) for a in range(3)]
+    c, gradient = inv.first_moment_of(eta)
     force = [sm.Float(inv.mass) * g for g in g_B]
     torque = list(cross(c, g_B))
-    modal = [sm.Add(*[gradient[a][i] * g_B[a] for a in range(3)]) for i in range(m)]
+    modal = [sm.Add(*[gradient[a][i] * g_B[a] for a in range(3)]) for i in range(len(eta))]
     return force + torque + modal
 
 

@@ -473,6 +473,18 @@ def constraint_terms(kin, spec, aux_zero):
     return config, vel_c, vel_B, acc_K, acc_f, identified, names
 
 
+def kinetic_term(prog, body_terms, masses, momenta, flexible):
+    """The kinetic energy of rigid and flexible bodies as an intermediate.
+
+    ``m v.v / 2 + omega.H / 2`` per rigid body (``momenta``: the angular
+    momenta ``H``), plus each flexible block's ``kinetic``.
+    """
+    ke = [m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2
+          for terms, m, H in zip(body_terms, masses, momenta)]
+    ke.extend(block.kinetic for block in flexible)
+    return prog.let(sm.Add(*ke), "KE")
+
+
 def potential_term(kin, spec):
     """The declared potential energy as an intermediate, or ``None``."""
     if spec.potential_energy is None:
@@ -530,11 +542,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         kin, spec, aux_zero)
 
     # ------------------------------------------------------- energies
-    ke = []
-    for terms, m, H in zip(body_terms, masses, hs):
-        ke.append(m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2)
-    ke.extend(terms.kinetic for terms in flexible)
-    kinetic = prog.let(sm.Add(*ke), "KE")
+    kinetic = kinetic_term(prog, body_terms, masses, hs, flexible)
     potential = potential_term(kin, spec)
 
     # ------------------------------------------------------ auxiliary

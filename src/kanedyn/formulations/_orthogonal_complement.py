@@ -86,7 +86,7 @@ import sympy.physics.mechanics as me
 
 from ._flexible import flexible_bodies, flexible_terms
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, constraint_terms, kane_setup,
-                    potential_term)
+                    kinetic_term, potential_term)
 from ..engine import SAMPLE_SEEDS, add, cross, dot, inertia_components, matvec
 from ..modeling import FlexibleBody
 from .._progress import NO_PROGRESS
@@ -375,10 +375,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
         kin, spec, aux_zero)
 
     # ------------------------------------------------------- energies
-    ke = [m * dot(t.velocity, t.velocity) / 2 + dot(t.omega, H) / 2
-          for t, m, H in zip(body_terms, masses, momenta)]
-    ke.extend(terms.kinetic for terms in flexible)
-    kinetic = prog.let(sm.Add(*ke), "KE")
+    kinetic = kinetic_term(prog, body_terms, masses, momenta, flexible)
     potential = potential_term(kin, spec)
 
     contacts = tuple(_contact_terms(kin, c, table.u, aux_zero) for c in spec.contacts)

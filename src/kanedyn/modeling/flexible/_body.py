@@ -141,6 +141,29 @@ class InertiaInvariants:
         self.n_modes = m
 
 
+    def first_moment_of(self, eta):
+        r"""The first moment of mass and its gradient as SymPy expressions of ``eta``.
+
+        Parameters
+        ----------
+        eta : sequence of SymPy symbols or functions, length m
+
+        Returns
+        -------
+        c : list of 3 expressions
+            :math:`c_0 + c_1\eta + \tfrac12 c_2\eta\eta`, kg m.
+        gradient : list of 3 lists of m expressions
+            :math:`\partial c_a/\partial\eta_i = c_{1,ai} + \sum_j c_{2,aij}\eta_j`.
+        """
+        c0, c1, c2 = self.first_moment
+        m = len(eta)
+        gradient = [[sm.Float(c1[a, i]) + sm.Add(*[sm.Float(c2[a, i, j]) * eta[j]
+                                                   for j in range(m) if c2[a, i, j] != 0])
+                     for i in range(m)] for a in range(3)]
+        c = [sm.Float(c0[a]) + sm.Add(*[(sm.Float(c1[a, i]) + gradient[a][i]) * eta[i] / 2
+                                        for i in range(m)]) for a in range(3)]
+        return c, gradient
+
 def _symmetric(a):
     a = np.asarray(a, dtype=float)
     return 0.5 * (a + a.T)
@@ -263,11 +286,7 @@ class FlexibleBody:
         """
         if self.gravity is None:
             return sm.S.Zero
-        c0, c1, c2 = self.invariants.first_moment
-        eta = sm.Matrix(self.q)
-        c = [c0[a] + sum(c1[a, i] * eta[i] for i in range(len(eta)))
-             + sum(c2[a, i, j] * eta[i] * eta[j] for i in range(len(eta))
-                   for j in range(len(eta))) / 2 for a in range(3)]
+        c, _ = self.invariants.first_moment_of(self.q)
         B = self.frame
         moment = self.mass * self.origin.pos_from(point) + c[0] * B.x + c[1] * B.y + c[2] * B.z
         return -self.gravity.dot(moment)

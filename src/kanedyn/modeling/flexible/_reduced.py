@@ -28,10 +28,11 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
+import scipy.linalg as sla
 
 from ..._errors import ModelError
 
-__all__ = ["ReducedMember"]
+__all__ = ["ReducedMember", "reduced_frequencies"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -179,10 +180,8 @@ class ReducedMember:
             raise ModelError(f"member {self.name!r}: a mode is named twice in {which!r}")
         modes = self.modes[:, index]
         G = None if self.second_order is None else self.second_order[:, :, index][:, :, :, index]
-        Kr, Mr = modes.T @ (self.stiffness_matrix @ modes), modes.T @ (self.mass_matrix @ modes)
-        omega2 = np.sort(np.real(np.linalg.eigvals(np.linalg.solve(Mr, Kr))))
         kept = [names[j] for j in index]
-        frequencies = np.sqrt(np.clip(omega2, 0, None)) / (2 * np.pi)
+        frequencies = reduced_frequencies(self.stiffness_matrix, self.mass_matrix, modes)
         return replace(self, modes=modes, second_order=G, mode_names=tuple(kept),
                        full_frequencies=np.zeros(0), reduced_frequencies=frequencies,
                        description=f"{self.description}; kept {', '.join(kept)}")
@@ -229,3 +228,14 @@ class ReducedMember:
             lines.append(f"  modal coordinates: {', '.join(self.mode_names)}")
         return "\n".join(lines)
 
+
+def reduced_frequencies(K, M, modes):
+    """Natural frequencies (Hz, ascending, rigid-body zeros left out) of K, M on ``modes``."""
+    Kr = np.asarray(modes.T @ (K @ modes))
+    Mr = np.asarray(modes.T @ (M @ modes))
+    Kr, Mr = 0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T)
+    if Kr.shape[0] == 0:
+        return np.zeros(0)
+    mu = sla.eigh(Mr, Kr, eigvals_only=True)[::-1]
+    mu = mu[mu > 1e-13 * mu[0]]
+    return np.sqrt(1.0 / mu) / (2 * np.pi)

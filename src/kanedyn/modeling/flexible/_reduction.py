@@ -54,7 +54,7 @@ import scipy.sparse.linalg as spla
 from ..._errors import ModelError, OptionError
 from ._beam import PARTS, element_transformation
 from ._eigen import _use_dense, elastic_modes, lowest_modes, submatrix
-from ._reduced import ReducedMember
+from ._reduced import ReducedMember, reduced_frequencies
 
 __all__ = ["craig_bampton", "guyan", "free_free", "reduce_member", "REDUCTIONS", "DOF_NAMES",
            "second_order_displacement"]
@@ -174,17 +174,6 @@ def second_order_displacement(member, modes, reference):
     return G
 
 
-def _reduced_frequencies(K, M, modes):
-    Kr = np.asarray(modes.T @ (K @ modes))
-    Mr = np.asarray(modes.T @ (M @ modes))
-    Kr, Mr = 0.5 * (Kr + Kr.T), 0.5 * (Mr + Mr.T)
-    if Kr.shape[0] == 0:
-        return np.zeros(0)
-    mu = sla.eigh(Mr, Kr, eigvals_only=True)[::-1]
-    mu = mu[mu > 1e-13 * mu[0]]
-    return np.sqrt(1.0 / mu) / (2 * np.pi)
-
-
 def _clamped_frequencies(member, reference, count, solver):
     """Lowest ``count`` (or fewer, if no more are finite) clamped frequencies, Hz."""
     K, M = member.stiffness_matrix, member.mass_matrix
@@ -213,7 +202,7 @@ def _constraint_modes(member, interior, boundary, solver):
 
 def _finish(member, reference, interface, modes, names, description, solver):
     K, M = member.stiffness_matrix, member.mass_matrix
-    reduced = _reduced_frequencies(K, M, modes)
+    reduced = reduced_frequencies(K, M, modes)
     full = _clamped_frequencies(member, reference, max(len(reduced), 1), solver)
     nodes = member.nodes - member.nodes[reference]
     return ReducedMember(
