@@ -103,6 +103,24 @@ def test_ball_comes_to_rest_with_its_weight_on_the_floor():
     assert abs(res["z"][-1] - 0.05) < 1e-8
 
 
+def test_ball_bounces_accumulate_and_it_rests_at_the_zeno_time():
+    """Bounces with e = 0.8 after a 1 m drop accumulate at t1 (1 + e) / (1 - e),
+    t1 = sqrt(2 h / g); the run passes that instant with the ball at rest."""
+    definition, model, y0 = _model("bouncing-ball")
+    res = kd.simulate(model, (0.0, 5.0), y0, **TIGHT)
+    assert res.success, res.message
+    e, t1 = 0.8, math.sqrt(2 * 1.0 / 9.81)
+    zeno = t1 * (1 + e) / (1 - e)
+    assert len(res.impacts) > 50
+    rest = res.mode_history[-1]
+    assert (rest.old, rest.new) == ("separated", "slip")
+    assert "too slow to bounce" in rest.reason
+    # the bounces left out when the contact closes last a few microseconds
+    assert zeno - 1e-5 < rest.t <= zeno
+    assert abs(res["z"][-1] - 0.05) < 1e-8
+    assert res["u_x"][-1] == pytest.approx(0.5, rel=1e-9)  # frictionless floor
+
+
 def test_smooth_ladder_leaves_the_wall_at_two_thirds_of_its_height():
     definition, model, y0 = _model("ladder", frictionless=True, angle=1.2)
     res = kd.simulate(model, (0.0, 0.7), y0, **TIGHT)

@@ -9,6 +9,9 @@ energy balances.
   divergent without, and the drive's work equal to the change of kinetic plus strain
   energy;
 - the elastic robot: the motor's work equal to the energy change, numpy = C;
+- a beam's tip node striking a wall: the first impact at its closed-form time and
+  speed, its impulse from the momentum balance with the mode shapes, the bounces of
+  the elastic tip ending in a resting contact, and the energy balance through it all;
 - bad input named.
 """
 
@@ -209,6 +212,81 @@ def test_robot_motor_work_equals_energy_change(robot):
     assert np.degrees(res["theta"][-1]) == pytest.approx(90.0, abs=3.0)
     tip = _tip_deflection(res, definition.symbols["link"])
     assert 1e-3 < np.max(np.abs(tip)) < 0.1     # m
+
+
+# --------------------------------------------------------------- contact at a node
+@pytest.fixture(scope="module")
+def tip_against_wall():
+    """A hub (J = 0.05 kg m^2) spinning at 1 rad/s with a 1 m flexible link (two
+    in-plane bending modes) whose tip node meets a wall 0.6 m from the axis."""
+    beam = kd.BeamMember.uniform("link", 1.0, mass_per_length=0.675, EA=1.75e7,
+                                 GJ=36.5, EI_y=3650.0, EI_z=36.5, polar_inertia=1e-3,
+                                 n_elements=6)
+    member = beam.craig_bampton(n_modes=6).keep_modes(["bending_xy_1", "bending_xy_2"])
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    theta, omega = me.dynamicsymbols("theta omega")
+    B = N.orientnew("B", "Axis", [theta, N.z])
+    B.set_ang_vel(N, omega * N.z)
+    hub = me.RigidBody("hub", O, B, 1.0, (me.inertia(B, 0.025, 0.025, 0.05), O))
+    link = kd.FlexibleBody("link", B, O, member)
+    wall = kd.Plane(N, O.locatenew("W", 0.6 * N.y), -N.y, name="wall")
+    tip = kd.Contact(link.node_point(-1), wall, restitution=0.5, name="tip")
+    eom = kd.kane(frame=N, q_ind=[theta, *link.q], u_ind=[omega, *link.u],
+                  kd_eqs=[theta.diff() - omega, *link.kd_eqs], bodies=[hub, link],
+                  contacts=[tip])
+    model = eom.numeric()
+    y0 = np.zeros(model.n_states)
+    y0[model.index("omega")] = 1.0
+    times = np.linspace(0.0, 1.5, 1501)
+    res = kd.simulate(model, (0.0, 1.5), y0, t_eval=times, rtol=1e-9, atol=1e-10)
+    return model, member, res
+
+
+def test_tip_node_first_impact_matches_closed_form_and_momentum_balance(tip_against_wall):
+    model, member, res = tip_against_wall
+    assert res.success, res.message
+    first = res.impacts[0]
+    # the uniform spin excites no in-plane bending: the link turns rigidly until its
+    # tip (1 m out) reaches the wall at sin(theta) = 0.6, at 0.8 m/s along the normal
+    theta = np.arcsin(0.6)
+    assert first.t == pytest.approx(theta, abs=1e-9)
+    assert first.approach_speeds[0] == pytest.approx(np.cos(theta), rel=1e-9)
+    # the impulse from the momentum balance M du = J^T P, with the tip's normal
+    # velocity row J = -cos(theta) [L, Phi_y] from the member's mode shapes
+    Phi, _ = member.node_modes(member.n_nodes - 1)
+    J = -np.cos(theta) * np.concatenate([[1.0], Phi[1]])
+    y = np.zeros(model.n_states)
+    y[model.index("theta")], y[model.index("omega")] = theta, 1.0
+    mobility = J @ np.linalg.solve(model.mass_matrix(first.t, y), J)  # 1/kg
+    assert first.normal_impulses[0] == pytest.approx(1.5 * 0.8 / mobility, rel=1e-9)
+    assert first.energy_loss == pytest.approx(0.5 * (1 - 0.25) * 0.8**2 / mobility,
+                                              rel=1e-9)
+    assert first.separation_speeds[0] == pytest.approx(0.4, rel=1e-9)
+
+
+def test_elastic_tip_bounces_come_to_rest_on_the_wall_and_energy_balances(tip_against_wall):
+    """The elastic tip bounces ever lower on the wall (a Zeno sequence); once a bounce
+    cannot leave the surface the contact closes, presses, and lets go when the link
+    swings back; the energy lost is what the impacts dissipated."""
+    model, member, res = tip_against_wall
+    assert res.success, res.message
+    assert len(res.impacts) > 3
+    speeds = [impact.approach_speeds[0] for impact in res.impacts]
+    assert speeds[-1] < 1e-2 * speeds[0]
+    history = [(change.old, change.new, change.reason) for change in res.mode_history]
+    rest = [i for i, h in enumerate(history) if "too slow to bounce" in h[2]]
+    assert rest and history[rest[0]][:2] == ("separated", "slip")
+    assert any(h[:2] == ("slip", "separated") and "normal force vanishes" in h[2]
+               for h in history[rest[0]:])
+    forces = res.contact_forces["tip"]
+    closed = np.array([mode == "slip" for mode in forces["mode"]])
+    assert closed.sum() > 5
+    assert np.all(forces["normal"][closed] > -1e-6)  # N: the wall pushes
+    assert np.max(np.abs(res.energy_balance())) < 1e-6 * res.energy[0]
+    lost = sum(impact.energy_loss for impact in res.impacts)
+    assert res.energy[-1] == pytest.approx(res.energy[0] - lost, rel=1e-6)
 
 
 # ------------------------------------------------------------------------ bad input

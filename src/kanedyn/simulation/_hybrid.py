@@ -218,7 +218,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     solver = _Solver(model, stabilization)
     scale = max(1.0, float(np.max(np.abs(y0))))
     tol = {"distance": max(100 * atol, 1e-10), "speed": max(100 * atol, 1e-10),
-           "slip": max(100 * atol, 1e-10), "force": 1e-9, "acceleration": 1e-9}
+           "slip": max(100 * atol, 1e-10), "force": 1e-9, "acceleration": 1e-9,
+           "lift": 1e-2 * atol}
     rest = rest_speed if rest_speed is not None else max(1e3 * atol, 1e-6) * scale
     names = [c["name"] for c in model.contacts]
     user_events = [] if events is None else (
@@ -233,8 +234,9 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     modes = list(modes) if given else [SEPARATED] * k
     _check_initial(model, t0, y, modes, tol)
     start = list(modes)
+    bounces = {}  # contact -> (time, separation speed) of its last bounce
     y, modes, directions = _resolve(model, solver, t0, y, modes, directions, tol, rest,
-                                    reasons, impacts)
+                                    reasons, impacts, bounces)
     initial = _changes(t0, names, start, modes, reasons)
     if not given:
         # the modes a contact starts in are not changes (a contact that starts
@@ -359,7 +361,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 reasons.append((c, SLIP, STICK, "the slip stops"))
         try:
             y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions,
-                                                tol, rest, reasons, impacts)
+                                                tol, rest, reasons, impacts, bounces)
         except (RuntimeError, np.linalg.LinAlgError) as exc:
             status, message = -1, f"stopped at t={t:.6g}: {exc}"
             break
@@ -460,25 +462,40 @@ def _check_initial(model, t, y, modes, tol):
                              "its surface")
 
 
-def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts):
-    """Impacts of approaching contacts, then consistent modes."""
+def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts, bounces):
+    """Impacts of approaching contacts, then consistent modes.
+
+    ``bounces`` maps a contact to the time and separation speed of its last
+    bounce; it is updated here.  A contact that hits again after a flight
+    that could not have lifted it by more than ``tol["lift"]`` (separation
+    speed times flight time; a hundredth of ``atol``, below what the
+    integration resolves) is at rest on its surface: its impact is plastic,
+    like one slower than ``rest`` (else the bounces of a contact pressed onto
+    its surface at a speed the rounding of the gap keeps up, a Zeno sequence,
+    go on without end).
+    """
     points = contact_points(model, t, y)
     touching = [c for c, p in enumerate(points) if p.distance <= tol["distance"]]
     hitting = [c for c in touching if points[c].normal_speed < -tol["speed"]]
     if hitting:
         involved = sorted(set(hitting) | {c for c in touching if _in_contact(modes[c])})
-        # too slow to bounce again (else the bounces accumulate): plastic
-        plastic = {c: 0.0 for c in hitting if -points[c].normal_speed < rest}
+        # too slow to bounce again, or bouncing too little to leave: plastic
+        plastic = {c: 0.0 for c in hitting if -points[c].normal_speed < rest
+                   or (c in bounces
+                       and bounces[c][1] * (t - bounces[c][0]) <= tol["lift"])}
         y, record = resolve_impact(model, t, y, involved, points, plastic)
         impacts.append(record)
         points = contact_points(model, t, y)
         for c in involved:
             if points[c].normal_speed > rest:
                 new = SEPARATED
+                bounces[c] = (t, points[c].normal_speed)
             else:
                 new = _touching_mode(model.contacts[c], points[c], tol)
+                bounces.pop(c, None)
             if new != modes[c]:
-                reasons.append((c, modes[c], new, "impact"))
+                reasons.append((c, modes[c], new, "impact" if c not in plastic
+                                else "impact (too slow to bounce: it stays)"))
                 modes[c] = new
     modes, directions = settle(model, solver, t, y, modes, directions, tol, reasons)
     return y, modes, directions
