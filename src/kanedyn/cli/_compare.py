@@ -1,0 +1,85 @@
+"""``kanedyn compare``: one model under several formulations, side by side."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from .._errors import KanedynError
+from ..models import REGISTRY
+from ._options import parse_sets
+
+__all__ = ["add_parser", "cmd_compare"]
+
+
+def add_parser(sub):
+    """Add the ``compare`` sub-command to ``sub``."""
+    p = sub.add_parser("compare", help="simulate models under several formulations; "
+                                       "Newton-Euler residuals side by side")
+    p.add_argument("target", help="'nonholonomic' (the nonholonomic examples) or a model")
+    p.add_argument("--methods", default="kane,lagrange,augmented",
+                   help="comma-separated formulations; the first is the reference")
+    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
+    p.add_argument("--rtol", type=float, default=1e-10)
+    p.add_argument("--atol", type=float, default=1e-12)
+    p.add_argument("--integrator", default="RK45", help="solve_ivp method for every "
+                                                         "formulation (e.g. BDF)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option (n=6) or parameter (A=0)")
+    p.add_argument("--plot", action="store_true",
+                   help="save constraint-error / energy / deviation plots in --out")
+    p.add_argument("--out", default="kanedyn-out", help="output directory for --plot")
+    p.add_argument("--work-precision", action="store_true",
+                   help="also CPU time at equal accuracy (runs at rtol 1e-6, 1e-8, 1e-10)")
+    p.add_argument("--target-error", type=float, default=1e-6,
+                   help="accuracy for --work-precision [same units as q]")
+    p.set_defaults(func=cmd_compare)
+
+
+def cmd_compare(args):
+    from ..analysis import NONHOLONOMIC_EXAMPLES, compare_formulations, work_precision
+    from ..formulations import FORMULATIONS
+    methods = [m.strip() for m in args.methods.split(",") if m.strip()]
+    unknown = [m for m in methods if m not in FORMULATIONS]
+    if unknown:
+        raise KanedynError(f"unknown formulation(s) {', '.join(unknown)}; available: "
+                           f"{', '.join(sorted(FORMULATIONS))}")
+    if args.target == "nonholonomic":
+        names = list(NONHOLONOMIC_EXAMPLES)
+    elif args.target in REGISTRY:
+        names = [args.target]
+    else:
+        raise KanedynError(f"compare: unknown target {args.target!r}; give 'nonholonomic' "
+                           f"or a model: {', '.join(REGISTRY)}")
+    if args.set and len(names) > 1:
+        raise KanedynError("--set applies to one model; give a model name, not "
+                           f"{args.target!r}")
+    print("Each formulation starts from the same coordinates and rates (augmented-"
+          "Lagrangean multipliers at 0),")
+    print(f"integrated by {args.integrator} at rtol={args.rtol:g}, atol={args.atol:g}. "
+          "mul/add/fun: operations of the generated")
+    print("equations after joint CSE. N-E: Newton-Euler residuals of every body with the "
+          "identified constraint forces")
+    print("(the equations' own multipliers, or the best least-squares fit). |h|, |c|: "
+          "position- and velocity-level constraint")
+    print("errors; |dE|: energy change (meaningful on conservative runs); proj: drift "
+          "projections; cpu/s: CPU s per simulated s.")
+    out_dir = Path(args.out) if args.plot else None
+    for name in names:
+        options, constants = parse_sets(name, args.set)
+        cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
+                                   atol=args.atol, integrator=args.integrator,
+                                   constants=constants or None, **options)
+        print()
+        print(cmp.table())
+        if out_dir is not None:
+            out_dir.mkdir(parents=True, exist_ok=True)
+            path = out_dir / f"compare-{name}.png"
+            cmp.plot(path)
+            print(f"plot: {path}")
+        if args.work_precision:
+            wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
+                                integrator=args.integrator, constants=constants or None,
+                                **options)
+            print()
+            print(wp.table())
+    return 0

@@ -1,0 +1,123 @@
+"""``kanedyn run``: derive, simulate, write CSV, plots and a summary."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import KanedynError, SimulationInterrupted
+from .._progress import Progress
+from ..models import REGISTRY, build
+from ._options import parse_sets, split_values
+
+__all__ = ["add_parser", "cmd_run"]
+
+
+def add_parser(sub):
+    """Add the ``run`` sub-command to ``sub``."""
+    p = sub.add_parser("run", help="derive, simulate, write CSV, plots and a summary")
+    p.add_argument("model", choices=list(REGISTRY))
+    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
+    p.add_argument("--out", default="kanedyn-out", help="output directory")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option (n=4), parameter (m=2) or initial value (q1=0.3)")
+    p.add_argument("--method", default="RK45", help="solve_ivp method")
+    p.add_argument("--rtol", type=float, default=1e-8)
+    p.add_argument("--atol", type=float, default=1e-8)
+    p.add_argument("--points", type=int, default=501, help="output points")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_run)
+
+
+def cmd_run(args):
+    options, values = parse_sets(args.model, args.set)
+    definition = build(args.model, **options)
+    progress = Progress(enabled=not args.quiet)
+    progress.stage(f"deriving {definition.title}")
+    eom = definition.derive(progress=progress)
+    probe = definition.numeric(eom)
+    constants, initial = split_values(definition, probe, values)
+    model = definition.numeric(eom, constants=constants) if constants else probe
+    y0 = definition.initial(model, initial)
+    t_end = args.t_end if args.t_end is not None else definition.t_end
+    progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
+    try:
+        res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
+    except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
+        progress.done()
+        res = stop.result
+    summary = _write_run(definition, eom, model, res, Path(args.out), progress)
+    _print_summary(summary)
+    _print_identified(model, res)
+    if res.message == "interrupted":
+        print(f"kanedyn: interrupted at t = {res.t[-1]:g} s; wrote the partial result",
+              file=sys.stderr)
+        return 130
+    return 0 if res.success else 1
+
+
+def _write_run(definition, eom, model, res, out, progress):
+    out.mkdir(parents=True, exist_ok=True)
+    csv_path = res.to_csv(out / f"{definition.name}.csv")
+    fig = res.plot(path=out / f"{definition.name}.png")
+    import matplotlib.pyplot as plt
+    plt.close(fig)
+    summary = res.summary()
+    summary.update(model=definition.name, constants=model.constants,
+                   initial_state=dict(zip(model.state_names,
+                                          map(float, res.initial_state))))
+    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
+    progress.stage(f"wrote {csv_path}, {out / (definition.name + '.png')}, "
+                   f"{out / 'summary.json'}")
+    return summary
+
+
+def _simulate(model, t_end, y0, args, progress, forces):
+    from ..simulation import simulate
+    t_eval = np.linspace(0.0, t_end, max(2, int(args.points)))
+    return simulate(model, (0.0, t_end), y0, method=args.method, rtol=args.rtol,
+                    atol=args.atol, t_eval=t_eval, progress=progress,
+                    constraint_forces=forces)
+
+
+def _print_summary(summary):
+    drift = summary["energy_drift"]
+    print(f"success: {summary['success']} ({summary['message']})")
+    print(f"points: {summary['points']}, t_end: {summary['t_end']:g} s, "
+          f"rhs evaluations: {summary['rhs_evaluations']}")
+    if "impacts" in summary:  # contacts
+        balance = summary["energy_balance"]
+        print(f"impacts: {summary['impacts']} (energy lost {summary['impact_energy_loss']:.4g}"
+              f" J), friction work {summary['friction_work']:.4g} J")
+        print("energy balance error: " + ("n/a (no energy defined)" if balance is None
+                                          else f"{balance:.3e} J"))
+        changes = summary["mode_changes"]
+        print(f"contact mode changes: {len(changes)}")
+        for line in changes[:12]:
+            print("  " + line)
+        if len(changes) > 12:
+            print(f"  ... ({len(changes) - 12} more in summary.json)")
+    else:
+        print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
+                                             else f"{drift:.3e}"))
+    print(f"max constraint residual: {summary['max_constraint_residual']:.3e} "
+          f"({summary['projections']} projections)")
+
+
+def _print_identified(model, res):
+    """Final identified constraint forces and the largest Newton-Euler residual."""
+    if not model.identified_names or res.t.size == 0:
+        return
+    print(f"identified constraint forces at t = {res.t[-1]:g} s: "
+          + ", ".join(f"{name} = {res[name][-1]:.6g}" for name in model.identified_names))
+    from ..analysis import check_newton_euler
+    try:
+        check = check_newton_euler(res)
+    except KanedynError as exc:
+        print(f"Newton-Euler check not possible: {exc}")
+        return
+    print(f"max Newton-Euler residual: {check.max:.3e} (multipliers from the "
+          f"{check.source}; inertia scale {check.inertia_scale:.3g})")
