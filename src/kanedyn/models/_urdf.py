@@ -1,0 +1,380 @@
+"""A model definition from a URDF robot description (``kd.models.from_urdf``).
+
+Every moving joint (revolute, continuous, prismatic) gives one coordinate
+``q_<joint>`` (rad or m) and its rate ``u_<joint> = q_<joint>'``; a fixed joint
+merges its child link into the parent's body (mass, mass centre and inertia
+combined exactly, so the dynamics are those of the rigidly attached links).
+Masses, mass centres and central inertias of the bodies are parameters
+(``m_<body>``, ``cx_<body>``, ..., ``Ixx_<body>``, ...); joint origins and axes
+are numbers.  The joint efforts ``tau_<joint>`` (N m or N) are specified inputs,
+zero by default.
+"""
+
+from __future__ import annotations
+
+import re
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from .._errors import ModelError
+from ._base import ModelDefinition
+from ._urdf_parse import URDFError, Visual, parse_robot, pose_matrix
+
+__all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
+           "PINOCCHIO_GRAVITY"]
+
+#: Pinocchio's default ``model.gravity`` (linear part), m/s^2, in the base frame
+PINOCCHIO_GRAVITY = (0.0, 0.0, -9.81)
+
+_INERTIA_KEYS = (("xx", 0, 0), ("yy", 1, 1), ("zz", 2, 2), ("xy", 0, 1), ("yz", 1, 2),
+                 ("zx", 2, 0))
+
+
+@dataclass(frozen=True)
+class JointInfo:
+    """A moving joint of a URDF model, as data (limits are not enforced).
+
+    Attributes
+    ----------
+    name, type : str
+        URDF name and type (``revolute``, ``continuous``, ``prismatic``).
+    parent, child : str
+        URDF link names.
+    axis : tuple
+        Unit axis in the joint frame.
+    q, u : sympy.Function
+        The coordinate (rad or m) and its rate (rad/s or m/s).
+    effort_input : sympy.Function or None
+        The specified joint torque/force ``tau_<joint>`` (N m or N).
+    lower, upper, velocity, effort : float or None
+        ``<limit>`` values (rad or m, rad/s or m/s, N m or N); None if absent.
+    damping, friction : float or None
+        ``<dynamics>`` values (not applied).
+    mimic : tuple or None
+        ``(joint, multiplier, offset)`` of ``<mimic>``; the joint is kept
+        independent (as Pinocchio does by default).
+    line : int
+        Line of the ``<joint>`` element.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    axis: tuple
+    q: object
+    u: object
+    effort_input: object
+    lower: float | None
+    upper: float | None
+    velocity: float | None
+    effort: float | None
+    damping: float | None
+    friction: float | None
+    mimic: tuple | None
+    line: int
+
+
+@dataclass(frozen=True)
+class URDFDefinition(ModelDefinition):
+    """A :class:`ModelDefinition` read from a URDF file, with its robot data.
+
+    Attributes (besides those of :class:`ModelDefinition`)
+    -----------------------------------------------------
+    source : str
+        The URDF file.
+    joints : tuple of JointInfo
+        The moving joints, in coordinate order (depth first, file order).
+    visuals : tuple of Visual
+        Every ``<visual>`` (shape, size, mesh file, pose in its body's link frame).
+    link_bodies : dict
+        ``{link name: (body name, 4x4 pose of the link in the body's link frame)}``;
+        the body name is ``""`` for links fixed to the ground.
+    gravity : tuple
+        The gravity vector in the base frame, m/s^2.
+    base : str
+        ``"fixed"`` or ``"floating"``.
+    """
+
+    source: str = ""
+    joints: tuple = ()
+    visuals: tuple = ()
+    link_bodies: dict = field(default_factory=dict)
+    gravity: tuple = PINOCCHIO_GRAVITY
+    base: str = "fixed"
+
+    def limits(self):
+        """``{joint: (lower, upper, velocity, effort)}`` (None where not given)."""
+        return {j.name: (j.lower, j.upper, j.velocity, j.effort) for j in self.joints}
+
+
+def _identifier(name, taken, what, source):
+    ident = re.sub(r"\W", "_", name)
+    if not ident or ident[0].isdigit():
+        ident = "_" + ident
+    if ident in taken and taken[ident] != name:
+        raise URDFError(f"{source}: {what} names '{name}' and '{taken[ident]}' both "
+                        f"become the symbol name '{ident}'; rename one")
+    taken[ident] = name
+    return ident
+
+
+def _as_vector(frame, values):
+    vec = me.Vector(0)
+    for v, base in zip(values, (frame.x, frame.y, frame.z)):
+        if v != 0.0:
+            vec += sm.Float(float(v)) * base
+    return vec
+
+
+def _rotation_frame(parent, R, name):
+    """``parent`` itself when ``R`` is the identity, else a frame fixed in it."""
+    if np.allclose(R, np.eye(3), rtol=0, atol=1e-15):
+        return parent
+    frame = me.ReferenceFrame(name)
+    frame.orient_dcm(parent, sm.Matrix(R.T).applyfunc(sm.Float))
+    return frame
+
+
+def _group_mass(links):
+    """Mass, mass centre (3,) and central inertia (3, 3) of rigidly joined links.
+
+    ``links`` is ``[(Inertial or None, T)]`` with ``T`` the pose of the link frame
+    in the body's frame.
+    """
+    parts = []
+    for inertial, T in links:
+        if inertial is None:
+            continue
+        R_in = pose_matrix(inertial.xyz, inertial.rpy)
+        T_c = T @ R_in
+        R = T_c[:3, :3]
+        parts.append((inertial.mass, T_c[:3, 3], R @ inertial.inertia @ R.T))
+    mass = sum(p[0] for p in parts)
+    if mass > 0:
+        centre = sum(m * r for m, r, _ in parts) / mass
+    else:
+        centre = np.zeros(3)
+    inertia = np.zeros((3, 3))
+    for m, r, J in parts:
+        d = r - centre
+        inertia += J + m * (d @ d * np.eye(3) - np.outer(d, d))
+    return mass, centre, inertia
+
+
+def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=None,
+              efforts=True, t_end=1.0):
+    """A model definition of the robot described by a URDF file.
+
+    Parameters
+    ----------
+    path : str or path-like
+        The URDF file.
+    gravity : sequence of 3 floats, optional
+        Gravitational acceleration in the frame of the root link, m/s^2.  URDF
+        says nothing about gravity; the default ``(0, 0, -9.81)`` is Pinocchio's
+        ``model.gravity``.  Its magnitude is the parameter ``g``.
+    base : {"fixed", "floating"}, optional
+        ``"fixed"``: the root link is the ground.  ``"floating"``: the root link
+        moves freely (position of its origin ``x, y, z`` in the base frame;
+        body-fixed x-y-z angles ``phi, theta, psi``; speeds ``v_x, v_y, v_z`` of
+        its origin and ``w_x, w_y, w_z`` of its rotation, along its own axes).
+    package_dirs : list of str, optional
+        Folders that hold the packages of ``package://PKG/...`` mesh URIs.  The
+        folders above the URDF file named ``PKG`` are searched too.  A mesh that is
+        not found is an error only when it is asked for (:meth:`Visual.mesh_file`).
+    efforts : bool, optional
+        Add the joint torques/forces ``tau_<joint>`` as specified inputs (zero by
+        default; give ``specified={...}`` to :meth:`ModelDefinition.numeric`).
+    t_end : float, optional
+        Default simulation length, s.
+
+    Returns
+    -------
+    URDFDefinition
+        Ready for ``definition.derive()`` or ``kd.kane(**definition.kane_args)``;
+        joint data in ``.joints``, limits by ``.limits()``, visuals in ``.visuals``.
+
+    Raises
+    ------
+    URDFError
+        A file that cannot be read, naming the file, the element and its line.
+
+    Examples
+    --------
+    >>> import kanedyn as kd                                    # doctest: +SKIP
+    >>> robot = kd.models.from_urdf("ur5.urdf")                  # doctest: +SKIP
+    >>> model = robot.numeric()                                  # doctest: +SKIP
+    """
+    if base not in ("fixed", "floating"):
+        raise ModelError(f"base must be 'fixed' or 'floating', not {base!r}")
+    gravity = tuple(float(x) for x in gravity)
+    if len(gravity) != 3 or not all(np.isfinite(gravity)):
+        raise ModelError(f"gravity must be three finite numbers (m/s^2), not {gravity}")
+    robot = parse_robot(path, package_dirs)
+    source = robot.source
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    names, taken = {}, {}
+
+    # tree walk, depth first in file order: bodies, their links, joints
+    group = {robot.root: ("" if base == "fixed" else robot.root, np.eye(4))}
+    bodies = {}  # body name -> dict(frame, point, links)
+    order = []
+    stack = [robot.root]
+    while stack:
+        link = stack.pop()
+        children = robot.children(link)
+        for joint in children:
+            body, T_parent = group[link]
+            if joint.type == "fixed":
+                group[joint.child] = (body, T_parent @ pose_matrix(joint.xyz, joint.rpy))
+            else:
+                group[joint.child] = (joint.child, np.eye(4))
+                order.append((joint, body, T_parent))
+        stack.extend(j.child for j in reversed(children))
+    order_links = [robot.root] + [j.child for j, _, _ in order]
+
+    # kinematics
+    q_list, u_list, kd_eqs, specified, loads = [], [], [], {}, []
+    joint_infos = []
+    frame_of = {"": N}
+    point_of = {"": O}
+    if base == "floating":
+        ident = _identifier(robot.root, taken, "link", source)
+        names[robot.root] = ident
+        x, y, z, phi, theta, psi = me.dynamicsymbols("x y z phi theta psi")
+        vx, vy, vz, wx, wy, wz = me.dynamicsymbols("v_x v_y v_z w_x w_y w_z")
+        B = me.ReferenceFrame(f"F_{ident}")
+        B.orient_body_fixed(N, (phi, theta, psi), "xyz")
+        w_q = B.ang_vel_in(N)
+        B.set_ang_vel(N, wx * B.x + wy * B.y + wz * B.z)
+        P = O.locatenew(f"P_{ident}", x * N.x + y * N.y + z * N.z)
+        v = vx * B.x + vy * B.y + vz * B.z
+        P.set_vel(N, v)
+        qs = [x, y, z, phi, theta, psi]
+        us = [vx, vy, vz, wx, wy, wz]
+        kd_eqs += [qd - v.dot(e) for qd, e in zip((x.diff(), y.diff(), z.diff()),
+                                                   (N.x, N.y, N.z))]
+        kd_eqs += [w_q.dot(e) - w for e, w in zip((B.x, B.y, B.z), (wx, wy, wz))]
+        q_list += qs
+        u_list += us
+        frame_of[robot.root] = B
+        point_of[robot.root] = P
+    for joint, parent_body, T_parent in order:
+        ident = _identifier(joint.name, taken, "joint", source)
+        body_ident = _identifier(joint.child, taken, "link", source)
+        names[joint.child] = body_ident
+        q, u = me.dynamicsymbols(f"q_{ident} u_{ident}")
+        T_joint = T_parent @ pose_matrix(joint.xyz, joint.rpy)
+        P_frame = frame_of[parent_body]
+        J = _rotation_frame(P_frame, T_joint[:3, :3], f"J_{ident}")
+        axis_J = _as_vector(J, joint.axis)
+        joint_point = point_of[parent_body].locatenew(f"J_{ident}",
+                                                      _as_vector(P_frame, T_joint[:3, 3]))
+        if joint.type == "prismatic":
+            C = J
+            P = joint_point.locatenew(f"P_{body_ident}", q * axis_J)
+        else:
+            C = me.ReferenceFrame(f"F_{body_ident}")
+            C.orient_axis(J, axis_J, q)
+            C.set_ang_vel(J, u * axis_J)
+            P = joint_point
+        frame_of[joint.child] = C
+        point_of[joint.child] = P
+        q_list.append(q)
+        u_list.append(u)
+        kd_eqs.append(q.diff() - u)
+        tau = None
+        if efforts:
+            tau = me.dynamicsymbols(f"tau_{ident}")
+            specified[tau] = 0.0
+            if joint.type == "prismatic":
+                loads.append((P, tau * axis_J))
+                if parent_body != "":
+                    loads.append((joint_point, -tau * axis_J))
+            else:
+                loads.append((C, tau * axis_J))
+                if parent_body != "":
+                    loads.append((P_frame, -tau * axis_J))
+        joint_infos.append(JointInfo(
+            name=joint.name, type=joint.type, parent=joint.parent, child=joint.child,
+            axis=joint.axis, q=q, u=u, effort_input=tau, lower=joint.lower,
+            upper=joint.upper, velocity=joint.velocity, effort=joint.effort,
+            damping=joint.damping, friction=joint.friction, mimic=joint.mimic,
+            line=joint.line))
+
+    # bodies: merged mass properties as parameters
+    members = {}
+    for link in robot.links:
+        body, T = group[link]
+        members.setdefault(body, []).append((robot.links[link].inertial, T))
+    g_norm = float(np.linalg.norm(gravity))
+    g = sm.Symbol("g", nonnegative=True)
+    constants = {g: g_norm} if g_norm > 0 else {}
+    g_dir = _as_vector(N, np.array(gravity) / g_norm) if g_norm > 0 else None
+    rigid_bodies, subtree_mass = [], {}
+    for link in order_links:
+        body = group[link][0]
+        if body != link:
+            continue  # the ground (fixed base)
+        mass, centre, inertia = _group_mass(members[body])
+        subtree_mass[body] = mass + float(np.abs(inertia).sum())
+        if mass == 0 and not inertia.any():
+            continue  # a massless body: a frame only
+        ident = names[body]
+        m = sm.Symbol(f"m_{ident}", nonnegative=True)
+        c = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
+        frame = frame_of[body]
+        G = point_of[body].locatenew(f"G_{ident}", sum(
+            (ci * e for ci, e in zip(c, (frame.x, frame.y, frame.z))), me.Vector(0)))
+        constants[m] = mass
+        constants.update({ci: float(v) for ci, v in zip(c, centre)})
+        comps = {}
+        for key, i, k in _INERTIA_KEYS:
+            sym = sm.Symbol(f"I{key}_{ident}", real=True)
+            constants[sym] = float(inertia[i, k])
+            comps[key] = sym
+        dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
+                            comps["yz"], comps["zx"])
+        rigid_bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
+        if g_dir is not None and mass > 0:
+            loads.append((G, m * g * g_dir))
+    _check_masses(robot, order, group, subtree_mass, source)
+
+    visuals = []
+    for link in robot.links.values():
+        body, T = group[link.name]
+        for vis in link.visuals:
+            pose = T @ pose_matrix(vis.xyz, vis.rpy)
+            visuals.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
+    initial = {s: 0.0 for s in q_list + u_list}
+    symbols = dict(q=q_list, u=u_list, g=g, N=N, O=O,
+                   frames={link: frame_of[group[link][0]] for link in robot.links},
+                   points={link: point_of[group[link][0]] for link in robot.links})
+    return URDFDefinition(
+        name=robot.name, title=f"{robot.name} from {source} ({len(q_list)} coordinates)",
+        kane_args=dict(frame=N, q_ind=q_list, u_ind=u_list, kd_eqs=kd_eqs,
+                       bodies=rigid_bodies, loads=loads),
+        constants=constants, initial_state=initial, t_end=float(t_end),
+        specified=specified, symbols=symbols,
+        description=f"URDF robot '{robot.name}' read from {source}; {base} base.",
+        source=source, joints=tuple(joint_infos), visuals=tuple(visuals),
+        link_bodies={link: group[link] for link in robot.links}, gravity=gravity,
+        base=base)
+
+
+def _check_masses(robot, order, group, subtree_mass, source):
+    """Every moving joint must carry some mass or inertia beyond it."""
+    carried = dict(subtree_mass)
+    for joint, parent_body, _ in reversed(order):
+        carried[parent_body] = carried.get(parent_body, 0.0) + carried.get(joint.child, 0.0)
+    for joint, _, _ in order:
+        if carried.get(joint.child, 0.0) == 0.0:
+            raise URDFError(f"{source}:{joint.line}: <joint name='{joint.name}'>: "
+                            "moves only massless links (no <inertial> beyond it): its "
+                            "acceleration is undetermined")

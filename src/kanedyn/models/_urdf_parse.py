@@ -1,0 +1,475 @@
+"""Reading a URDF file into plain records, with the line of every element.
+
+The XML is read by the standard library's expat parser, which expands no
+external entities; every number is read by :func:`float` and checked to be
+finite, never evaluated.  Errors name the file, the element and its line.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import xml.parsers.expat
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+
+from .._errors import ModelError
+
+__all__ = ["URDFError", "Element", "read_xml", "Robot", "Link", "Joint", "Inertial",
+           "Visual", "parse_robot", "rpy_matrix", "pose_matrix", "SUPPORTED_JOINTS"]
+
+#: joint types that become coordinates (``fixed`` merges the child into the parent)
+SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
+_UNSUPPORTED_JOINTS = ("floating", "planar", "spherical")
+_PLAIN_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+
+
+class URDFError(ModelError):
+    """A URDF file that cannot be read; the message names file, element and line."""
+
+
+@dataclass
+class Element:
+    """One XML element: tag, attributes, children and the line it starts on."""
+
+    tag: str
+    attrib: dict
+    line: int
+    children: list = field(default_factory=list)
+
+    def find(self, tag):
+        """The first child with ``tag``, or None."""
+        return next((c for c in self.children if c.tag == tag), None)
+
+    def findall(self, tag):
+        """All children with ``tag``."""
+        return [c for c in self.children if c.tag == tag]
+
+    def label(self):
+        """``<joint name='elbow'>`` (the name attribute, when there is one)."""
+        name = self.attrib.get("name")
+        return f"<{self.tag} name='{name}'>" if name is not None else f"<{self.tag}>"
+
+
+def read_xml(path):
+    """The root :class:`Element` of the XML file ``path``.
+
+    Raises
+    ------
+    URDFError
+        When the file cannot be read or is not well-formed XML (with its line).
+    """
+    path = Path(path)
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        raise URDFError(f"{path}: cannot read the URDF file: {exc.strerror or exc}") from None
+    parser = xml.parsers.expat.ParserCreate()
+    stack, roots = [], []
+
+    def start(tag, attrib):
+        element = Element(tag, dict(attrib), parser.CurrentLineNumber)
+        (stack[-1].children if stack else roots).append(element)
+        stack.append(element)
+
+    def end(tag):
+        stack.pop()
+
+    def no_entities(*args):  # refuse entity declarations (entity expansion bombs)
+        raise URDFError(f"{path}:{parser.CurrentLineNumber}: entity declarations are not "
+                        "accepted in a URDF file")
+
+    parser.StartElementHandler = start
+    parser.EndElementHandler = end
+    parser.EntityDeclHandler = no_entities
+    try:
+        parser.Parse(data, True)
+    except xml.parsers.expat.ExpatError as exc:
+        raise URDFError(f"{path}:{exc.lineno}: not a well-formed XML file "
+                        f"({xml.parsers.expat.ErrorString(exc.code)})") from None
+    return roots[0]
+
+
+def rpy_matrix(rpy):
+    """Rotation matrix of URDF roll-pitch-yaw angles (fixed axes x, y, z), shape (3, 3)."""
+    r, p, y = rpy
+    cr, sr, cp, sp, cy, sy = (math.cos(r), math.sin(r), math.cos(p), math.sin(p),
+                              math.cos(y), math.sin(y))
+    return np.array([[cy * cp, cy * sp * sr - sy * cr, cy * sp * cr + sy * sr],
+                     [sy * cp, sy * sp * sr + cy * cr, sy * sp * cr - cy * sr],
+                     [-sp, cp * sr, cp * cr]])
+
+
+def pose_matrix(xyz, rpy):
+    """Homogeneous transform (4, 4) of a URDF ``<origin xyz rpy>``."""
+    T = np.eye(4)
+    T[:3, :3] = rpy_matrix(rpy)
+    T[:3, 3] = xyz
+    return T
+
+
+@dataclass(frozen=True)
+class Inertial:
+    """A link's ``<inertial>``: mass (kg), mass-centre pose in the link frame, inertia.
+
+    ``inertia`` (3, 3) is about the mass centre, in the frame of ``<inertial><origin>``
+    (kg m^2).
+    """
+
+    mass: float
+    xyz: tuple
+    rpy: tuple
+    inertia: np.ndarray
+
+
+@dataclass(frozen=True)
+class Visual:
+    """One ``<visual>`` of a link, kept as data for viewers.
+
+    Attributes
+    ----------
+    link : str
+        The URDF link it belongs to.
+    body : str
+        The kanedyn body that carries it (the link itself, or the link that a
+        chain of fixed joints merges it into).  Set by :func:`from_urdf`.
+    shape : str
+        ``"box"``, ``"cylinder"``, ``"sphere"`` or ``"mesh"``.
+    size : tuple
+        Box: edge lengths (x, y, z), m.  Cylinder: (radius, length), m, axis
+        along z.  Sphere: (radius,), m.  Mesh: the scale factors (x, y, z).
+    filename : str or None
+        Mesh file as written in the URDF (``package://...``, ``file://...``
+        or a path relative to the URDF file).
+    path : str or None
+        The mesh file found on disk, or None when it was not found (see
+        :meth:`mesh_file`).
+    xyz, rpy : tuple
+        ``<origin>`` of the visual in its link frame, m and rad.
+    transform : tuple
+        Pose (4x4, row-major nested tuples) of the geometry in the frame of
+        ``body``'s link (origin at that link's joint, not at the mass centre).
+    rgba : tuple or None
+        Colour of its ``<material>``, when given.
+    line : int
+        Line of the ``<visual>`` element in ``source``.
+    source : str
+        The URDF file.
+    """
+
+    link: str
+    shape: str
+    size: tuple
+    xyz: tuple
+    rpy: tuple
+    line: int
+    source: str
+    filename: str | None = None
+    path: str | None = None
+    rgba: tuple | None = None
+    body: str = ""
+    transform: tuple = ()
+
+    def mesh_file(self):
+        """The mesh file on disk; raises :class:`URDFError` if it was not found."""
+        if self.shape != "mesh":
+            raise URDFError(f"{self.source}:{self.line}: the visual of link "
+                            f"'{self.link}' is a {self.shape}, not a mesh")
+        if self.path is None:
+            raise URDFError(f"{self.source}:{self.line}: mesh '{self.filename}' of link "
+                            f"'{self.link}' not found (give package_dirs=[folder that "
+                            "holds the package] to from_urdf)")
+        return self.path
+
+
+@dataclass(frozen=True)
+class Link:
+    """A ``<link>``: name, inertial (None when massless), visuals, line."""
+
+    name: str
+    inertial: Inertial | None
+    visuals: tuple
+    line: int
+
+
+@dataclass(frozen=True)
+class Joint:
+    """A ``<joint>`` with its origin, unit axis, limits and dynamics (as data).
+
+    ``lower``/``upper`` are m or rad; ``velocity`` m/s or rad/s; ``effort`` N or
+    N m; None where the URDF gives none.  ``damping`` and ``friction`` come from
+    ``<dynamics>``; ``mimic`` is ``(joint, multiplier, offset)`` or None.  None
+    of these is applied to the dynamics.
+    """
+
+    name: str
+    type: str
+    parent: str
+    child: str
+    xyz: tuple
+    rpy: tuple
+    axis: tuple
+    line: int
+    lower: float | None = None
+    upper: float | None = None
+    velocity: float | None = None
+    effort: float | None = None
+    damping: float | None = None
+    friction: float | None = None
+    mimic: tuple | None = None
+
+
+@dataclass(frozen=True)
+class Robot:
+    """A parsed URDF: name, links and joints by name, root link, source file."""
+
+    name: str
+    links: dict
+    joints: dict
+    root: str
+    source: str
+
+    def children(self, link):
+        """Joints whose parent is ``link``, in file order."""
+        return [j for j in self.joints.values() if j.parent == link]
+
+
+class _Reader:
+    """Reads elements of one file, naming file, element and line in errors."""
+
+    def __init__(self, source, package_dirs):
+        self.source = str(source)
+        self.package_dirs = [Path(d) for d in (package_dirs or [])]
+
+    def error(self, element, message, line=None):
+        return URDFError(f"{self.source}:{line or element.line}: {element.label()}: "
+                         f"{message}")
+
+    def number(self, element, owner, key, default=None, text=None):
+        raw = element.attrib.get(key) if text is None else text
+        if raw is None:
+            if default is None:
+                raise self.error(owner, f"<{element.tag}> has no attribute '{key}'",
+                                 element.line)
+            return default
+        raw = raw.strip()
+        if not _PLAIN_NUMBER.match(raw):
+            raise self.error(owner, f"<{element.tag} {key}='{raw}'> is not a number",
+                             element.line)
+        return float(raw)
+
+    def vector(self, element, owner, key, n, default):
+        raw = element.attrib.get(key) if element is not None else None
+        if raw is None:
+            return tuple(default)
+        parts = raw.split()
+        if len(parts) != n:
+            raise self.error(owner, f"<{element.tag} {key}='{raw}'> needs {n} numbers, "
+                             f"found {len(parts)}", element.line)
+        return tuple(self.number(element, owner, key, text=p) for p in parts)
+
+    def origin(self, parent_element, owner):
+        origin = parent_element.find("origin")
+        return (self.vector(origin, owner, "xyz", 3, (0.0, 0.0, 0.0)),
+                self.vector(origin, owner, "rpy", 3, (0.0, 0.0, 0.0)))
+
+    def name(self, element):
+        name = element.attrib.get("name")
+        if not name:
+            raise URDFError(f"{self.source}:{element.line}: <{element.tag}> has no name")
+        return name
+
+    # -- links ------------------------------------------------------------------
+    def inertial(self, link_el):
+        el = link_el.find("inertial")
+        if el is None:
+            return None
+        mass_el = el.find("mass")
+        if mass_el is None:
+            raise self.error(link_el, "<inertial> has no <mass>", el.line)
+        mass = self.number(mass_el, link_el, "value")
+        if mass < 0:
+            raise self.error(link_el, f"negative mass {mass}", mass_el.line)
+        in_el = el.find("inertia")
+        if in_el is None:
+            raise self.error(link_el, "<inertial> has no <inertia>", el.line)
+        c = {k: self.number(in_el, link_el, k)
+             for k in ("ixx", "ixy", "ixz", "iyy", "iyz", "izz")}
+        inertia = np.array([[c["ixx"], c["ixy"], c["ixz"]],
+                            [c["ixy"], c["iyy"], c["iyz"]],
+                            [c["ixz"], c["iyz"], c["izz"]]])
+        eig = np.linalg.eigvalsh(inertia)
+        scale = max(np.max(np.abs(eig)), 1e-300)
+        if eig[0] < -1e-9 * scale:
+            raise self.error(link_el, "inertia is not positive semi-definite "
+                             f"(eigenvalues {', '.join(f'{e:.6g}' for e in eig)} kg m^2)",
+                             in_el.line)
+        xyz, rpy = self.origin(el, link_el)
+        return Inertial(mass, xyz, rpy, inertia)
+
+    def geometry(self, link_el, vis_el):
+        geo = vis_el.find("geometry")
+        if geo is None or not geo.children:
+            raise self.error(link_el, "<visual> has no <geometry>", vis_el.line)
+        shape = geo.children[0]
+        if shape.tag == "box":
+            if "size" not in shape.attrib:
+                self._missing(link_el, shape, "size")
+            return "box", self.vector(shape, link_el, "size", 3, None), None
+        if shape.tag == "cylinder":
+            return "cylinder", (self.number(shape, link_el, "radius"),
+                                self.number(shape, link_el, "length")), None
+        if shape.tag == "sphere":
+            return "sphere", (self.number(shape, link_el, "radius"),), None
+        if shape.tag == "mesh":
+            filename = shape.attrib.get("filename")
+            if not filename:
+                self._missing(link_el, shape, "filename")
+            return "mesh", self.vector(shape, link_el, "scale", 3, (1.0, 1.0, 1.0)), filename
+        raise self.error(link_el, f"unknown geometry <{shape.tag}> (box, cylinder, sphere "
+                         "and mesh are known)", shape.line)
+
+    def _missing(self, owner, element, key):
+        raise self.error(owner, f"<{element.tag}> has no attribute '{key}'", element.line)
+
+    def resolve_mesh(self, filename):
+        """The mesh file on disk, or None when not found."""
+        urdf_dir = Path(self.source).resolve().parent
+        candidates = []
+        if filename.startswith("package://"):
+            package, _, rest = filename[len("package://"):].partition("/")
+            candidates += [d / package / rest for d in self.package_dirs]
+            candidates += [p / rest for p in urdf_dir.parents if p.name == package]
+            if urdf_dir.name == package:
+                candidates.append(urdf_dir / rest)
+        elif filename.startswith("file://"):
+            candidates.append(Path(filename[len("file://"):]))
+        else:
+            candidates.append(urdf_dir / filename)
+        return next((str(c) for c in candidates if c.is_file()), None)
+
+    def visuals(self, link_el, name, materials):
+        out = []
+        for vis_el in link_el.findall("visual"):
+            shape, size, filename = self.geometry(link_el, vis_el)
+            xyz, rpy = self.origin(vis_el, link_el)
+            out.append(Visual(link=name, shape=shape, size=size, xyz=xyz, rpy=rpy,
+                              line=vis_el.line, source=self.source, filename=filename,
+                              path=self.resolve_mesh(filename) if filename else None,
+                              rgba=self.rgba(vis_el.find("material"), link_el, materials)))
+        return tuple(out)
+
+    def rgba(self, mat_el, owner, materials):
+        if mat_el is None:
+            return None
+        colour = mat_el.find("color")
+        if colour is not None and "rgba" in colour.attrib:
+            return self.vector(colour, owner, "rgba", 4, None)
+        return materials.get(mat_el.attrib.get("name"))
+
+    # -- joints -----------------------------------------------------------------
+    def joint(self, el):
+        name = self.name(el)
+        kind = el.attrib.get("type")
+        if kind is None:
+            raise self.error(el, "has no type")
+        if kind in _UNSUPPORTED_JOINTS:
+            raise self.error(el, f"joint type '{kind}' is not supported (supported: "
+                             f"{', '.join(SUPPORTED_JOINTS)})")
+        if kind not in SUPPORTED_JOINTS:
+            raise self.error(el, f"unknown joint type '{kind}' (supported: "
+                             f"{', '.join(SUPPORTED_JOINTS)})")
+        links = {}
+        for tag in ("parent", "child"):
+            sub = el.find(tag)
+            if sub is None or not sub.attrib.get("link"):
+                raise self.error(el, f"has no <{tag} link=...>")
+            links[tag] = sub.attrib["link"]
+        xyz, rpy = self.origin(el, el)
+        axis_el = el.find("axis")
+        axis = self.vector(axis_el, el, "xyz", 3, (1.0, 0.0, 0.0))
+        norm = math.sqrt(sum(a * a for a in axis))
+        if kind != "fixed":
+            if norm < 1e-12:
+                raise self.error(el, "joint axis is zero", axis_el.line)
+            axis = tuple(a / norm for a in axis)
+        extra = {}
+        limit = el.find("limit")
+        if limit is not None:
+            for key in ("lower", "upper", "velocity", "effort"):
+                if key in limit.attrib:
+                    extra[key] = self.number(limit, el, key)
+        dyn = el.find("dynamics")
+        if dyn is not None:
+            for key in ("damping", "friction"):
+                if key in dyn.attrib:
+                    extra[key] = self.number(dyn, el, key)
+        mimic = el.find("mimic")
+        if mimic is not None:
+            extra["mimic"] = (mimic.attrib.get("joint"),
+                              self.number(mimic, el, "multiplier", default=1.0),
+                              self.number(mimic, el, "offset", default=0.0))
+        return Joint(name=name, type=kind, parent=links["parent"], child=links["child"],
+                     xyz=xyz, rpy=rpy, axis=axis, line=el.line, **extra)
+
+
+def parse_robot(path, package_dirs=None):
+    """The :class:`Robot` of the URDF file ``path`` (checked: tree, numbers, inertias)."""
+    root = read_xml(path)
+    reader = _Reader(path, package_dirs)
+    if root.tag != "robot":
+        raise URDFError(f"{path}:{root.line}: the root element is <{root.tag}>, "
+                        "not <robot>: not a URDF file")
+    materials = {}
+    for mat in root.findall("material"):
+        colour = mat.find("color")
+        if colour is not None and "rgba" in colour.attrib and mat.attrib.get("name"):
+            materials[mat.attrib["name"]] = reader.vector(colour, mat, "rgba", 4, None)
+    links = {}
+    for el in root.findall("link"):
+        name = reader.name(el)
+        if name in links:
+            raise reader.error(el, f"a second link named '{name}' (the first is on "
+                               f"line {links[name].line})")
+        links[name] = Link(name, reader.inertial(el), reader.visuals(el, name, materials),
+                           el.line)
+    if not links:
+        raise URDFError(f"{path}:{root.line}: <robot> has no <link>")
+    joints, parent_of = {}, {}
+    for el in root.findall("joint"):
+        joint = reader.joint(el)
+        if joint.name in joints:
+            raise reader.error(el, f"a second joint named '{joint.name}' (the first is on "
+                               f"line {joints[joint.name].line})")
+        for role in ("parent", "child"):
+            if getattr(joint, role) not in links:
+                raise reader.error(el, f"its {role} link '{getattr(joint, role)}' does "
+                                   "not exist")
+        if joint.child in parent_of:
+            raise reader.error(el, f"link '{joint.child}' already has a parent joint "
+                               f"'{parent_of[joint.child].name}' (line "
+                               f"{parent_of[joint.child].line}): a link has one parent")
+        joints[joint.name] = joint
+        parent_of[joint.child] = joint
+    roots = [n for n in links if n not in parent_of]
+    if len(roots) != 1:
+        if not roots:
+            raise URDFError(f"{path}: the joints form a cycle: every link has a parent")
+        raise URDFError(f"{path}: {len(roots)} root links ("
+                        + ", ".join(f"'{n}' line {links[n].line}" for n in roots)
+                        + "); a URDF tree has one root")
+    robot = Robot(root.attrib.get("name", Path(path).stem), links, joints, roots[0],
+                  str(path))
+    seen, stack = {roots[0]}, [roots[0]]
+    while stack:
+        for j in robot.children(stack.pop()):
+            seen.add(j.child)
+            stack.append(j.child)
+    if len(seen) != len(links):  # links off the tree hang in a cycle
+        cyc = next(n for n in links if n not in seen)
+        raise reader.error(
+            Element("joint", {"name": parent_of[cyc].name}, parent_of[cyc].line),
+            f"joints form a cycle through link '{cyc}'")
+    return robot
