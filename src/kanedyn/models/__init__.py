@@ -21,6 +21,7 @@ from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
 from ._snake import snake
+from ._urdf import JointInfo, URDFDefinition, URDFError, Visual, from_urdf
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
@@ -30,7 +31,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "nonholonomic_particle", "sphere_on_turntable", "rod_bead", "pin_slot", "knife_edge",
            "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm", "n_four_bar",
            "n_four_bar_exact", "n_four_bar_singular_times", "spin_up_beam", "flexible_robot",
-           "eigenvalues_vs_speed", "stability_speeds", "upright_state"]
+           "eigenvalues_vs_speed", "stability_speeds", "upright_state",
+           "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {

@@ -256,8 +256,9 @@ class _Reader:
             return default
         raw = raw.strip()
         if not _PLAIN_NUMBER.match(raw):
-            raise self.error(owner, f"<{element.tag} {key}='{raw}'> is not a number",
-                             element.line)
+            where = f"<{element.tag} {key}='{element.attrib.get(key, raw)}'>"
+            what = f"'{raw}' is not a number" if text is not None else "is not a number"
+            raise self.error(owner, f"{where}: {what}", element.line)
         return float(raw)
 
     def vector(self, element, owner, key, n, default):

@@ -1,0 +1,424 @@
+"""URDF import (kd.models.from_urdf) against Pinocchio's URDF loader.
+
+Pinocchio's articulated-body algorithm (``aba``) gives the joint accelerations
+and its composite-rigid-body algorithm (``crba``) the joint-space mass matrix
+of the same file; kanedyn's Kane equations must give the same numbers at random
+states.  The robots are the descriptions shipped by the ``example-robot-data``
+package (written by their makers, not by us); the edge cases are small files
+written here.  State conventions: kanedyn's ``q_<joint>`` is the joint angle
+(or displacement) and ``u_<joint> = q_<joint>'``; Pinocchio's ``q`` holds
+``(cos, sin)`` of a continuous joint's angle, its ``v`` the joint rates.
+"""
+
+from __future__ import annotations
+
+import math
+import textwrap
+from importlib.metadata import PackageNotFoundError, distribution
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+from kanedyn.models import URDFError
+
+pin = pytest.importorskip("pinocchio", reason="the URDF tests compare with Pinocchio "
+                          "(pip install pin)")
+
+
+def robots_folder():
+    """The ``robots`` folder of the example-robot-data package (installed under
+    ``cmeel.prefix/share``, not as a Python module)."""
+    try:
+        dist = distribution("example-robot-data")
+    except PackageNotFoundError:
+        pytest.skip("needs example-robot-data (pip install example-robot-data)")
+    return dist.locate_file("cmeel.prefix/share/example-robot-data/robots")
+
+
+def pinocchio_state(pmodel, definition, q, u, tau=None, base=None):
+    """Pinocchio's (q, v, tau) and the v-indices of kanedyn's speeds, in order."""
+    qp, vp, tp = np.zeros(pmodel.nq), np.zeros(pmodel.nv), np.zeros(pmodel.nv)
+    index = []
+    if base is not None:  # free flyer: position, quaternion (x, y, z, w); v local
+        from scipy.spatial.transform import Rotation
+        qp[:3] = base[0][:3]
+        qp[3:7] = Rotation.from_euler("XYZ", base[0][3:]).as_quat()
+        vp[:6] = base[1]
+        index = list(range(6))
+    for k, joint in enumerate(definition.joints):
+        jm = pmodel.joints[pmodel.getJointId(joint.name)]
+        if jm.nq == 2:  # continuous: (cos, sin)
+            qp[jm.idx_q:jm.idx_q + 2] = np.cos(q[k]), np.sin(q[k])
+        else:
+            qp[jm.idx_q] = q[k]
+        vp[jm.idx_v] = u[k]
+        if tau is not None:
+            tp[jm.idx_v] = tau[k]
+        index.append(jm.idx_v)
+    return qp, vp, tp, index
+
+
+def compare_with_pinocchio(definition, pmodel, eom=None, states=4, seed=0, base=False):
+    """Max |a - a_pin| / max(1, |a_pin|) and max |M - M_pin| over random states."""
+    eom = eom if eom is not None else definition.derive()
+    pdata = pmodel.createData()
+    rng = np.random.default_rng(seed)
+    n = len(definition.joints)
+    worst_a = worst_m = 0.0
+    for _ in range(states):
+        q, u, tau = rng.uniform(-1.5, 1.5, (3, n))
+        spec = {j.effort_input: float(t) for j, t in zip(definition.joints, tau)}
+        model = definition.numeric(eom, specified=spec)
+        if base:
+            bq, bu = rng.uniform(-1, 1, (2, 6))
+            y = np.concatenate([bq, q, bu, u])
+            qp, vp, tp, index = pinocchio_state(pmodel, definition, q, u, tau, (bq, bu))
+        else:
+            y = np.concatenate([q, u])
+            qp, vp, tp, index = pinocchio_state(pmodel, definition, q, u, tau)
+        a_pin = pin.aba(pmodel, pdata, qp, vp, tp)[index]
+        a = model.rhs(0.0, y)[model.n_q_ind:]
+        worst_a = max(worst_a, np.max(np.abs(a - a_pin)) / max(1.0, np.max(np.abs(a_pin))))
+        M_pin = pin.crba(pmodel, pdata, qp)
+        M_pin = np.triu(M_pin) + np.triu(M_pin, 1).T
+        worst_m = max(worst_m, np.max(np.abs(model.mass_matrix(0.0, y)
+                                             - M_pin[np.ix_(index, index)])))
+    return worst_a, worst_m
+
+
+# -- real robots ---------------------------------------------------------------
+
+REAL = {
+    # serial arm, fixed joints at base and tool
+    "ur5": "ur_description/urdf/ur5_robot.urdf",
+    # 7 revolute + 2 prismatic finger joints (one a <mimic>, kept independent
+    # as Pinocchio does by default), a fixed hand, inertial origin offsets
+    "panda": "panda_description/urdf/panda.urdf",
+    # continuous joints, inertial offsets, fixed joints
+    "kinova": "kinova_description/robots/kinova.urdf",
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", sorted(REAL))
+def test_real_robot_matches_pinocchio(robot):
+    path = robots_folder() / REAL[robot]
+    definition = kd.models.from_urdf(path)
+    pmodel = pin.buildModelFromUrdf(str(path))
+    assert len(definition.joints) == pmodel.nv
+    worst_a, worst_m = compare_with_pinocchio(definition, pmodel)
+    assert worst_a < 1e-10, worst_a
+    assert worst_m < 1e-12, worst_m
+
+
+def test_panda_data():
+    path = robots_folder() / REAL["panda"]
+    definition = kd.models.from_urdf(path)
+    joints = {j.name: j for j in definition.joints}
+    assert [j.type for j in definition.joints].count("prismatic") == 2
+    assert joints["panda_joint1"].lower == pytest.approx(-2.8973)
+    assert joints["panda_joint1"].effort == pytest.approx(87.0)
+    assert definition.limits()["panda_joint4"][:2] == (-3.0718, -0.0698)
+    assert joints["panda_finger_joint2"].mimic == ("panda_finger_joint1", 1.0, 0.0)
+    # the hand hangs on a fixed joint: merged into link 7's body
+    assert definition.link_bodies["panda_hand"][0] == "panda_link7"
+    meshes = [v for v in definition.visuals if v.shape == "mesh"]
+    assert meshes and all(v.mesh_file().endswith(".dae") for v in meshes)
+    hand = next(v for v in meshes if v.link == "panda_hand")
+    assert hand.body == "panda_link7"
+    T = np.array(hand.transform)
+    assert T[2, 3] == pytest.approx(0.107)  # panda_joint8 origin
+
+
+# -- hand-written edge cases -----------------------------------------------------
+
+EDGE = """\
+<?xml version="1.0"?>
+<robot name="edge">
+  <material name="blue"><color rgba="0 0 0.8 1"/></material>
+  <link name="base">
+    <inertial><mass value="3.0"/>
+      <inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/></inertial>
+  </link>
+  <link name="gimbal"/>
+  <link name="arm">
+    <inertial>
+      <origin xyz="0.1 0.02 -0.3" rpy="0.3 -0.2 0.5"/>
+      <mass value="2.0"/>
+      <inertia ixx="0.05" ixy="0.001" ixz="-0.002" iyy="0.04" iyz="0.003" izz="0.02"/>
+    </inertial>
+    <visual>
+      <origin xyz="0 0 -0.2" rpy="0 0 0"/>
+      <geometry><cylinder radius="0.02" length="0.4"/></geometry>
+      <material name="blue"/>
+    </visual>
+  </link>
+  <link name="tool">
+    <inertial>
+      <origin xyz="0.05 0 0.01" rpy="0 0.4 0"/>
+      <mass value="0.5"/>
+      <inertia ixx="0.002" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.001"/>
+    </inertial>
+    <visual><geometry><box size="0.1 0.05 0.02"/></geometry></visual>
+  </link>
+  <link name="slider">
+    <inertial>
+      <origin xyz="0 0.03 0" rpy="0 0 0"/>
+      <mass value="0.7"/>
+      <inertia ixx="0.004" ixy="0.0002" ixz="0" iyy="0.005" iyz="0" izz="0.006"/>
+    </inertial>
+    <visual><origin xyz="0 0 0.1" rpy="1.5707963 0 0"/>
+      <geometry><mesh filename="package://edge_pkg/meshes/slider.stl" scale="0.001 0.001 0.001"/></geometry>
+    </visual>
+  </link>
+  <link name="wheel">
+    <inertial>
+      <origin xyz="0 0 0" rpy="0 0 0"/>
+      <mass value="0.3"/>
+      <inertia ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"/>
+    </inertial>
+    <visual><geometry><sphere radius="0.05"/></geometry></visual>
+  </link>
+  <joint name="shoulder" type="revolute">
+    <origin xyz="0 0 1" rpy="0.1 0.2 0.3"/>
+    <parent link="base"/><child link="gimbal"/>
+    <axis xyz="1 1 1"/>
+    <limit lower="-1" upper="1.5" effort="30" velocity="2"/>
+    <dynamics damping="0.1" friction="0.2"/>
+  </joint>
+  <joint name="elbow" type="revolute">
+    <origin xyz="0.05 0 0" rpy="0 0 0"/>
+    <parent link="gimbal"/><child link="arm"/>
+    <axis xyz="0 1 0"/>
+    <limit lower="-2" upper="2" effort="20" velocity="3"/>
+  </joint>
+  <joint name="tool_mount" type="fixed">
+    <origin xyz="0.2 0 -0.5" rpy="0 0.5 -0.3"/>
+    <parent link="arm"/><child link="tool"/>
+  </joint>
+  <joint name="slide" type="prismatic">
+    <origin xyz="0.1 0.1 0" rpy="0.2 0 0"/>
+    <parent link="tool"/><child link="slider"/>
+    <axis xyz="0.3 0 1"/>
+    <limit lower="0" upper="0.2" effort="100" velocity="0.5"/>
+  </joint>
+  <joint name="spin" type="continuous">
+    <origin xyz="0 0.1 0.05" rpy="0 0 0"/>
+    <parent link="slider"/><child link="wheel"/>
+    <axis xyz="0 -2 0"/>
+  </joint>
+</robot>
+"""
+
+
+@pytest.fixture(scope="module")
+def edge_file(tmp_path_factory):
+    folder = tmp_path_factory.mktemp("urdf")
+    path = folder / "edge.urdf"
+    path.write_text(EDGE)
+    mesh = folder / "pkgs" / "edge_pkg" / "meshes" / "slider.stl"
+    mesh.parent.mkdir(parents=True)
+    mesh.write_text("solid slider\nendsolid slider\n")
+    return path
+
+
+@pytest.fixture(scope="module")
+def edge(edge_file):
+    definition = kd.models.from_urdf(edge_file)
+    return definition, definition.derive()
+
+
+def test_edge_cases_match_pinocchio(edge_file, edge):
+    definition, eom = edge
+    assert [j.name for j in definition.joints] == ["shoulder", "elbow", "slide", "spin"]
+    assert definition.joints[0].axis == pytest.approx((3 ** -0.5,) * 3)
+    assert definition.joints[3].axis == pytest.approx((0.0, -1.0, 0.0))
+    worst_a, worst_m = compare_with_pinocchio(definition,
+                                              pin.buildModelFromUrdf(str(edge_file)), eom)
+    assert worst_a < 1e-10 and worst_m < 1e-12, (worst_a, worst_m)
+
+
+def test_gravity_option_matches_pinocchio(edge_file):
+    gravity = (1.0, -2.0, -3.0)
+    definition = kd.models.from_urdf(edge_file, gravity=gravity, efforts=False)
+    assert definition.gravity == gravity
+    pmodel = pin.buildModelFromUrdf(str(edge_file))
+    pmodel.gravity.linear = np.array(gravity)
+    model = definition.numeric()
+    q, u = np.array([0.3, -0.4, 0.1, 2.0]), np.array([0.5, 1.0, -0.2, 3.0])
+    qp, vp, tp, index = pinocchio_state(pmodel, definition, q, u)
+    a_pin = pin.aba(pmodel, pmodel.createData(), qp, vp, tp)[index]
+    assert np.allclose(model.rhs(0.0, np.concatenate([q, u]))[4:], a_pin, rtol=0,
+                       atol=1e-10)
+    # no gravity: a robot at rest stays at rest, and g is not a parameter
+    still = kd.models.from_urdf(edge_file, gravity=(0, 0, 0), efforts=False)
+    assert "g" not in {str(s) for s in still.constants}
+    y = np.concatenate([q, np.zeros(4)])
+    assert np.max(np.abs(still.numeric().rhs(0.0, y))) == 0.0
+
+
+def test_floating_base_matches_pinocchio(edge_file):
+    definition = kd.models.from_urdf(edge_file, base="floating")
+    assert [str(s.func) for s in definition.symbols["q"][:6]] == [
+        "x", "y", "z", "phi", "theta", "psi"]
+    pmodel = pin.buildModelFromUrdf(str(edge_file), pin.JointModelFreeFlyer())
+    worst_a, worst_m = compare_with_pinocchio(definition, pmodel, states=3, base=True)
+    assert worst_a < 1e-10 and worst_m < 1e-12, (worst_a, worst_m)
+
+
+def test_fixed_joint_merges_mass(edge):
+    definition, _ = edge
+    values = {str(s): v for s, v in definition.constants.items()}
+    assert values["m_arm"] == pytest.approx(2.5)  # arm + tool
+    assert "m_gimbal" not in values  # massless link: a frame only
+    assert definition.link_bodies["tool"][0] == "arm"
+    assert definition.link_bodies["base"][0] == ""
+
+
+def test_pendulum_closed_form(tmp_path):
+    """One revolute joint about y, mass centre a distance L below it:
+    (I_yy + m L^2) q'' = tau - m g L sin q."""
+    m, L, Iyy, g = 1.3, 0.4, 0.02, 9.81
+    path = tmp_path / "pendulum.urdf"
+    path.write_text(textwrap.dedent(f"""\
+        <robot name="p"><link name="world"/>
+          <link name="rod"><inertial><origin xyz="0 0 {-L}"/><mass value="{m}"/>
+            <inertia ixx="0.03" ixy="0" ixz="0" iyy="{Iyy}" iyz="0" izz="0.01"/>
+          </inertial></link>
+          <joint name="hinge" type="revolute"><parent link="world"/><child link="rod"/>
+            <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="5" velocity="9"/>
+          </joint></robot>"""))
+    definition = kd.models.from_urdf(path)
+    tau = definition.joints[0].effort_input
+    model = definition.numeric(specified={tau: 0.7})
+    for q in (0.0, 0.4, 2.0):
+        expected = (0.7 - m * g * L * math.sin(q)) / (Iyy + m * L ** 2)
+        assert model.rhs(0.0, np.array([q, 1.5]))[1] == pytest.approx(expected, rel=1e-13)
+
+
+def test_visuals_and_meshes(edge_file, edge):
+    definition, _ = edge
+    by_link = {v.link: v for v in definition.visuals}
+    arm = by_link["arm"]
+    assert (arm.shape, arm.size, arm.rgba) == ("cylinder", (0.02, 0.4), (0.0, 0.0, 0.8, 1.0))
+    assert arm.body == "arm" and np.array(arm.transform)[2, 3] == pytest.approx(-0.2)
+    assert (by_link["tool"].shape, by_link["tool"].size) == ("box", (0.1, 0.05, 0.02))
+    assert by_link["tool"].body == "arm"  # merged: pose in the arm's frame
+    assert np.array(by_link["tool"].transform)[:3, 3] == pytest.approx([0.2, 0, -0.5])
+    assert by_link["wheel"].size == (0.05,)
+    slider = by_link["slider"]
+    assert slider.shape == "mesh" and slider.size == (0.001,) * 3
+    assert slider.filename == "package://edge_pkg/meshes/slider.stl"
+    with pytest.raises(URDFError, match=r"edge\.urdf:\d+: mesh 'package://edge_pkg.*"
+                       "not found"):
+        slider.mesh_file()  # not found is an error only when asked for
+    found = kd.models.from_urdf(edge_file, package_dirs=[edge_file.parent / "pkgs"])
+    mesh = next(v for v in found.visuals if v.shape == "mesh")
+    assert mesh.mesh_file().endswith("pkgs/edge_pkg/meshes/slider.stl")
+
+
+def test_limits_kept_as_data(edge):
+    definition, _ = edge
+    limits = definition.limits()
+    assert limits["shoulder"] == (-1.0, 1.5, 2.0, 30.0)
+    assert limits["spin"] == (None, None, None, None)
+    shoulder = definition.joints[0]
+    assert (shoulder.damping, shoulder.friction) == (0.1, 0.2)
+
+
+# -- bad files: file, element and line named --------------------------------------
+
+def line_of(text, needle):
+    """The line (1-based) where ``needle`` (possibly several lines) starts."""
+    return text[:text.index(needle)].count("\n") + 1
+
+
+BAD = [
+    # (name, old, new, element named, line needle, message)
+    ("missing mass", '<mass value="2.0"/>', "", "<link name='arm'>",
+     '<inertial>\n      <origin xyz="0.1',
+     "has no <mass>"),
+    ("negative inertia", 'ixx="0.05"', 'ixx="-0.05"', "<link name='arm'>", 'ixx="-0.05"',
+     "not positive semi-definite"),
+    ("indefinite inertia", 'ixy="0.0002"', 'ixy="0.5"', "<link name='slider'>", 'ixy="0.5"',
+     "not positive semi-definite"),
+    ("unknown joint type", 'name="slide" type="prismatic"', 'name="slide" type="screw"',
+     "<joint name='slide'>", 'type="screw"', "unknown joint type 'screw'"),
+    ("planar joint", 'name="slide" type="prismatic"', 'name="slide" type="planar"',
+     "<joint name='slide'>", 'type="planar"', "joint type 'planar' is not supported"),
+    ("floating joint", 'name="spin" type="continuous"', 'name="spin" type="floating"',
+     "<joint name='spin'>", 'type="floating"', "not supported"),
+    ("missing child link", '<child link="wheel"/>', '<child link="whee1"/>',
+     "<joint name='spin'>", 'name="spin"', "child link 'whee1' does not exist"),
+    ("malformed number", 'xyz="0.2 0 -0.5"', 'xyz="0.2 1.0.2 -0.5"',
+     "<joint name='tool_mount'>", "1.0.2",
+     "<origin xyz='0.2 1.0.2 -0.5'>: '1.0.2' is not a number"),
+    ("zero axis", '<axis xyz="0 -2 0"/>', '<axis xyz="0 0 0"/>', "<joint name='spin'>",
+     '<axis xyz="0 0 0"/>', "joint axis is zero"),
+    ("two parents", '<parent link="slider"/><child link="wheel"/>',
+     '<parent link="slider"/><child link="arm"/>', "<joint name='spin'>", 'name="spin"',
+     "link 'arm' already has a parent joint 'elbow'"),
+    ("three numbers", 'rpy="0.1 0.2 0.3"', 'rpy="0.1 0.2"', "<joint name='shoulder'>",
+     'rpy="0.1 0.2"', "needs 3 numbers"),
+    ("massless leaf", '<mass value="0.3"/>', '<mass value="0"/>', "<joint name='spin'>",
+     'name="spin"', "moves only massless links"),
+]
+
+
+@pytest.mark.parametrize("case", BAD, ids=[c[0] for c in BAD])
+def test_bad_file_names_file_element_line(tmp_path, case):
+    _, old, new, element, needle, message = case
+    assert old in EDGE
+    text = EDGE.replace(old, new, 1)
+    if "massless" in case[0]:
+        text = text.replace('ixx="0.001" ixy="0" ixz="0" iyy="0.002" iyz="0" izz="0.001"',
+                            'ixx="0" ixy="0" ixz="0" iyy="0" iyz="0" izz="0"')
+    path = tmp_path / "bad.urdf"
+    path.write_text(text)
+    line = line_of(text, needle)
+    with pytest.raises(URDFError) as info:
+        kd.models.from_urdf(path)
+    text_of_error = str(info.value)
+    assert f"{path}:{line}: " in text_of_error, text_of_error
+    assert element in text_of_error and message in text_of_error, text_of_error
+
+
+def test_cycle(tmp_path):
+    text = EDGE.replace('<parent link="base"/><child link="gimbal"/>',
+                        '<parent link="wheel"/><child link="gimbal"/>')
+    path = tmp_path / "cycle.urdf"
+    path.write_text(text)
+    line = line_of(text, '<joint name="shoulder"')
+    with pytest.raises(URDFError, match=rf"cycle\.urdf:{line}: <joint name='shoulder'>: "
+                       "joints form a cycle through link 'gimbal'"):
+        kd.models.from_urdf(path)
+    text = text.replace("</robot>", '<joint name="loop" type="fixed"><parent link="arm"/>'
+                        '<child link="base"/></joint></robot>')
+    path.write_text(text)
+    with pytest.raises(URDFError, match=r"cycle\.urdf: the joints form a cycle"):
+        kd.models.from_urdf(path)
+
+
+def test_two_roots(tmp_path):
+    text = EDGE.replace('<link name="gimbal"/>', '<link name="gimbal"/>\n  <link name="stray"/>')
+    path = tmp_path / "roots.urdf"
+    path.write_text(text)
+    with pytest.raises(URDFError, match=r"roots\.urdf: 2 root links \('base' line 4, "
+                       r"'stray' line 9\)"):
+        kd.models.from_urdf(path)
+
+
+def test_not_xml_and_not_urdf(tmp_path):
+    path = tmp_path / "junk.urdf"
+    path.write_text("<robot name='x'>\n  <link name='a'>\n</robot>\n")
+    with pytest.raises(URDFError, match=r"junk\.urdf:3: not a well-formed XML file"):
+        kd.models.from_urdf(path)
+    path.write_text("just text\n")
+    with pytest.raises(URDFError, match=r"junk\.urdf:1: not a well-formed XML file"):
+        kd.models.from_urdf(path)
+    path.write_text("<sdf version='1.6'/>\n")
+    with pytest.raises(URDFError, match="root element is <sdf>, not <robot>"):
+        kd.models.from_urdf(path)
+    with pytest.raises(URDFError, match="cannot read the URDF file"):
+        kd.models.from_urdf(tmp_path / "missing.urdf")
