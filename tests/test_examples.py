@@ -326,3 +326,29 @@ def test_flexible_robot(tmp_path, monkeypatch):
     change = out["energy"] - out["energy"][0]
     assert np.max(np.abs(change - work)) < 1e-4 * np.max(change)
     assert out["energy_balance"] < 1e-6
+
+
+# ------------------------------------------------------------- URDF robot
+@pytest.mark.slow
+def test_urdf_robot(tmp_path, monkeypatch):
+    """The UR5 falling from rest: the joint angles after 1 s equal those of
+    Pinocchio's articulated-body algorithm (same URDF file, its default gravity
+    (0, 0, -9.81)) integrated by SciPy."""
+    pin = pytest.importorskip("pinocchio", reason="the check integrates Pinocchio's ABA")
+    pytest.importorskip("matplotlib")
+    out, _ = run_example("urdf_robot", [], tmp_path, monkeypatch)
+    assert out["success"]
+    pmodel = pin.buildModelFromUrdf(out["urdf"])
+    pdata = pmodel.createData()
+    assert pmodel.nq == pmodel.nv == len(out["final"])
+
+    def rhs(t, y):
+        q, v = y[:pmodel.nq], y[pmodel.nq:]
+        return np.concatenate([v, pin.aba(pmodel, pdata, q, v, np.zeros(pmodel.nv))])
+
+    sol = solve_ivp(rhs, (0.0, out["t_end"]), np.zeros(2 * pmodel.nq), method="DOP853",
+                    rtol=1e-11, atol=1e-11)
+    expected = {pmodel.names[pmodel.getJointId(name)]: sol.y[pmodel.joints[
+        pmodel.getJointId(name)].idx_q, -1] for name in out["final"]}
+    for name, angle in out["final"].items():
+        assert angle == pytest.approx(expected[name], abs=1e-6), name
