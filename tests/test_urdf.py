@@ -171,7 +171,9 @@ EDGE = """\
       <inertia ixx="0.004" ixy="0.0002" ixz="0" iyy="0.005" iyz="0" izz="0.006"/>
     </inertial>
     <visual><origin xyz="0 0 0.1" rpy="1.5707963 0 0"/>
-      <geometry><mesh filename="package://edge_pkg/meshes/slider.stl" scale="0.001 0.001 0.001"/></geometry>
+      <geometry>
+        <mesh filename="package://edge_pkg/meshes/slider.stl" scale="0.001 0.001 0.001"/>
+      </geometry>
     </visual>
   </link>
   <link name="wheel">

@@ -215,67 +215,103 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     if len(gravity) != 3 or not all(np.isfinite(gravity)):
         raise ModelError(f"gravity must be three finite numbers (m/s^2), not {gravity}")
     robot = parse_robot(path, package_dirs)
-    source = robot.source
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    names, taken = {}, {}
-
-    # tree walk, depth first in file order: bodies, their links, joints
-    group = {robot.root: ("" if base == "fixed" else robot.root, np.eye(4))}
-    bodies = {}  # body name -> dict(frame, point, links)
-    order = []
-    stack = [robot.root]
-    while stack:
-        link = stack.pop()
-        children = robot.children(link)
-        for joint in children:
-            body, T_parent = group[link]
-            if joint.type == "fixed":
-                group[joint.child] = (body, T_parent @ pose_matrix(joint.xyz, joint.rpy))
-            else:
-                group[joint.child] = (joint.child, np.eye(4))
-                order.append((joint, body, T_parent))
-        stack.extend(j.child for j in reversed(children))
-    order_links = [robot.root] + [j.child for j, _, _ in order]
-
-    # kinematics
-    q_list, u_list, kd_eqs, specified, loads = [], [], [], {}, []
-    joint_infos = []
-    frame_of = {"": N}
-    point_of = {"": O}
+    build = _Builder(robot, base, efforts)
+    build.walk()
     if base == "floating":
-        ident = _identifier(robot.root, taken, "link", source)
-        names[robot.root] = ident
+        build.floating_base()
+    for joint, parent_body, T_parent in build.order:
+        build.joint(joint, parent_body, T_parent)
+    build.bodies(gravity)
+    _check_masses(build.order, build.carried, robot.source)
+
+    visuals = []
+    for link in robot.links.values():
+        body, T = build.group[link.name]
+        for vis in link.visuals:
+            pose = T @ pose_matrix(vis.xyz, vis.rpy)
+            visuals.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
+    q_list, u_list = build.q, build.u
+    group = build.group
+    symbols = dict(q=q_list, u=u_list, g=build.g, N=build.N, O=build.O,
+                   frames={link: build.frame_of[group[link][0]] for link in robot.links},
+                   points={link: build.point_of[group[link][0]] for link in robot.links})
+    return URDFDefinition(
+        name=robot.name, title=f"{robot.name} from {robot.source} ({len(q_list)} coordinates)",
+        kane_args=dict(frame=build.N, q_ind=q_list, u_ind=u_list, kd_eqs=build.kd_eqs,
+                       bodies=build.rigid_bodies, loads=build.loads),
+        constants=build.constants, initial_state={s: 0.0 for s in q_list + u_list},
+        t_end=float(t_end), specified=build.specified, symbols=symbols,
+        description=f"URDF robot '{robot.name}' read from {robot.source}; {base} base.",
+        source=robot.source, joints=tuple(build.joint_infos), visuals=tuple(visuals),
+        link_bodies=dict(group), gravity=gravity, base=base)
+
+
+class _Builder:
+    """Frames, points, bodies and loads of a parsed robot, built joint by joint."""
+
+    def __init__(self, robot, base, efforts):
+        self.robot, self.base, self.efforts = robot, base, efforts
+        self.source = robot.source
+        self.N = me.ReferenceFrame("N")
+        self.O = me.Point("O")
+        self.O.set_vel(self.N, 0)
+        self.names, self.taken = {}, {}
+        self.q, self.u, self.kd_eqs, self.loads, self.joint_infos = [], [], [], [], []
+        self.specified, self.constants, self.rigid_bodies, self.carried = {}, {}, [], {}
+        self.frame_of, self.point_of = {"": self.N}, {"": self.O}
+        self.g = sm.Symbol("g", nonnegative=True)
+
+    def walk(self):
+        """``group``: link -> (body, pose in the body's link frame); ``order``: the
+        moving joints depth first in file order, with their parent body and pose."""
+        robot = self.robot
+        self.group = {robot.root: ("" if self.base == "fixed" else robot.root, np.eye(4))}
+        self.order = []
+        stack = [robot.root]
+        while stack:
+            children = robot.children(stack.pop())
+            for joint in children:
+                body, T_parent = self.group[joint.parent]
+                if joint.type == "fixed":
+                    self.group[joint.child] = (body, T_parent @ pose_matrix(joint.xyz,
+                                                                             joint.rpy))
+                else:
+                    self.group[joint.child] = (joint.child, np.eye(4))
+                    self.order.append((joint, body, T_parent))
+            stack.extend(j.child for j in reversed(children))
+
+    def floating_base(self):
+        """Six coordinates of the root link: origin position, body-fixed x-y-z angles."""
+        N, root = self.N, self.robot.root
+        ident = self.names[root] = _identifier(root, self.taken, "link", self.source)
         x, y, z, phi, theta, psi = me.dynamicsymbols("x y z phi theta psi")
         vx, vy, vz, wx, wy, wz = me.dynamicsymbols("v_x v_y v_z w_x w_y w_z")
         B = me.ReferenceFrame(f"F_{ident}")
         B.orient_body_fixed(N, (phi, theta, psi), "xyz")
         w_q = B.ang_vel_in(N)
         B.set_ang_vel(N, wx * B.x + wy * B.y + wz * B.z)
-        P = O.locatenew(f"P_{ident}", x * N.x + y * N.y + z * N.z)
+        P = self.O.locatenew(f"P_{ident}", x * N.x + y * N.y + z * N.z)
         v = vx * B.x + vy * B.y + vz * B.z
         P.set_vel(N, v)
-        qs = [x, y, z, phi, theta, psi]
-        us = [vx, vy, vz, wx, wy, wz]
-        kd_eqs += [qd - v.dot(e) for qd, e in zip((x.diff(), y.diff(), z.diff()),
-                                                   (N.x, N.y, N.z))]
-        kd_eqs += [w_q.dot(e) - w for e, w in zip((B.x, B.y, B.z), (wx, wy, wz))]
-        q_list += qs
-        u_list += us
-        frame_of[robot.root] = B
-        point_of[robot.root] = P
-    for joint, parent_body, T_parent in order:
-        ident = _identifier(joint.name, taken, "joint", source)
-        body_ident = _identifier(joint.child, taken, "link", source)
-        names[joint.child] = body_ident
+        self.kd_eqs += [qd - v.dot(e) for qd, e in zip((x.diff(), y.diff(), z.diff()),
+                                                        (N.x, N.y, N.z))]
+        self.kd_eqs += [w_q.dot(e) - w for e, w in zip((B.x, B.y, B.z), (wx, wy, wz))]
+        self.q += [x, y, z, phi, theta, psi]
+        self.u += [vx, vy, vz, wx, wy, wz]
+        self.frame_of[root], self.point_of[root] = B, P
+
+    def joint(self, joint, parent_body, T_parent):
+        """The child's frame and origin, the coordinate, the effort of one joint."""
+        ident = _identifier(joint.name, self.taken, "joint", self.source)
+        body_ident = self.names[joint.child] = _identifier(joint.child, self.taken, "link",
+                                                            self.source)
         q, u = me.dynamicsymbols(f"q_{ident} u_{ident}")
         T_joint = T_parent @ pose_matrix(joint.xyz, joint.rpy)
-        P_frame = frame_of[parent_body]
+        P_frame = self.frame_of[parent_body]
         J = _rotation_frame(P_frame, T_joint[:3, :3], f"J_{ident}")
         axis_J = _as_vector(J, joint.axis)
-        joint_point = point_of[parent_body].locatenew(f"J_{ident}",
-                                                      _as_vector(P_frame, T_joint[:3, 3]))
+        joint_point = self.point_of[parent_body].locatenew(
+            f"J_{ident}", _as_vector(P_frame, T_joint[:3, 3]))
         if joint.type == "prismatic":
             C = J
             P = joint_point.locatenew(f"P_{body_ident}", q * axis_J)
@@ -284,94 +320,67 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
             C.orient_axis(J, axis_J, q)
             C.set_ang_vel(J, u * axis_J)
             P = joint_point
-        frame_of[joint.child] = C
-        point_of[joint.child] = P
-        q_list.append(q)
-        u_list.append(u)
-        kd_eqs.append(q.diff() - u)
+        self.frame_of[joint.child], self.point_of[joint.child] = C, P
+        self.q.append(q)
+        self.u.append(u)
+        self.kd_eqs.append(q.diff() - u)
         tau = None
-        if efforts:
+        if self.efforts:
             tau = me.dynamicsymbols(f"tau_{ident}")
-            specified[tau] = 0.0
-            if joint.type == "prismatic":
-                loads.append((P, tau * axis_J))
-                if parent_body != "":
-                    loads.append((joint_point, -tau * axis_J))
-            else:
-                loads.append((C, tau * axis_J))
-                if parent_body != "":
-                    loads.append((P_frame, -tau * axis_J))
-        joint_infos.append(JointInfo(
+            self.specified[tau] = 0.0
+            # a force on the child's origin, the reaction at the joint origin of the
+            # parent (same line of action); a torque pair for revolute joints
+            action, reaction = (P, joint_point) if joint.type == "prismatic" else (C, P_frame)
+            self.loads.append((action, tau * axis_J))
+            if parent_body != "":
+                self.loads.append((reaction, -tau * axis_J))
+        self.joint_infos.append(JointInfo(
             name=joint.name, type=joint.type, parent=joint.parent, child=joint.child,
             axis=joint.axis, q=q, u=u, effort_input=tau, lower=joint.lower,
             upper=joint.upper, velocity=joint.velocity, effort=joint.effort,
             damping=joint.damping, friction=joint.friction, mimic=joint.mimic,
             line=joint.line))
 
-    # bodies: merged mass properties as parameters
-    members = {}
-    for link in robot.links:
-        body, T = group[link]
-        members.setdefault(body, []).append((robot.links[link].inertial, T))
-    g_norm = float(np.linalg.norm(gravity))
-    g = sm.Symbol("g", nonnegative=True)
-    constants = {g: g_norm} if g_norm > 0 else {}
-    g_dir = _as_vector(N, np.array(gravity) / g_norm) if g_norm > 0 else None
-    rigid_bodies, subtree_mass = [], {}
-    for link in order_links:
-        body = group[link][0]
-        if body != link:
-            continue  # the ground (fixed base)
-        mass, centre, inertia = _group_mass(members[body])
-        subtree_mass[body] = mass + float(np.abs(inertia).sum())
-        if mass == 0 and not inertia.any():
-            continue  # a massless body: a frame only
-        ident = names[body]
-        m = sm.Symbol(f"m_{ident}", nonnegative=True)
-        c = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
-        frame = frame_of[body]
-        G = point_of[body].locatenew(f"G_{ident}", sum(
-            (ci * e for ci, e in zip(c, (frame.x, frame.y, frame.z))), me.Vector(0)))
-        constants[m] = mass
-        constants.update({ci: float(v) for ci, v in zip(c, centre)})
-        comps = {}
-        for key, i, k in _INERTIA_KEYS:
-            sym = sm.Symbol(f"I{key}_{ident}", real=True)
-            constants[sym] = float(inertia[i, k])
-            comps[key] = sym
-        dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
-                            comps["yz"], comps["zx"])
-        rigid_bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
-        if g_dir is not None and mass > 0:
-            loads.append((G, m * g * g_dir))
-    _check_masses(robot, order, group, subtree_mass, source)
-
-    visuals = []
-    for link in robot.links.values():
-        body, T = group[link.name]
-        for vis in link.visuals:
-            pose = T @ pose_matrix(vis.xyz, vis.rpy)
-            visuals.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
-    initial = {s: 0.0 for s in q_list + u_list}
-    symbols = dict(q=q_list, u=u_list, g=g, N=N, O=O,
-                   frames={link: frame_of[group[link][0]] for link in robot.links},
-                   points={link: point_of[group[link][0]] for link in robot.links})
-    return URDFDefinition(
-        name=robot.name, title=f"{robot.name} from {source} ({len(q_list)} coordinates)",
-        kane_args=dict(frame=N, q_ind=q_list, u_ind=u_list, kd_eqs=kd_eqs,
-                       bodies=rigid_bodies, loads=loads),
-        constants=constants, initial_state=initial, t_end=float(t_end),
-        specified=specified, symbols=symbols,
-        description=f"URDF robot '{robot.name}' read from {source}; {base} base.",
-        source=source, joints=tuple(joint_infos), visuals=tuple(visuals),
-        link_bodies={link: group[link] for link in robot.links}, gravity=gravity,
-        base=base)
+    def bodies(self, gravity):
+        """One RigidBody per moving link and the links fixed to it; gravity loads."""
+        members = {}
+        for link, (body, T) in self.group.items():
+            members.setdefault(body, []).append((self.robot.links[link].inertial, T))
+        g_norm = float(np.linalg.norm(gravity))
+        g_dir = None
+        if g_norm > 0:
+            self.constants[self.g] = g_norm
+            g_dir = _as_vector(self.N, np.array(gravity) / g_norm)
+        heads = [self.robot.root] + [j.child for j, _, _ in self.order]
+        for body in heads:
+            if self.group[body][0] != body:
+                continue  # the ground (fixed base)
+            mass, centre, inertia = _group_mass(members[body])
+            self.carried[body] = mass + float(np.abs(inertia).sum())
+            if mass == 0 and not inertia.any():
+                continue  # a massless body: a frame only
+            ident, frame = self.names[body], self.frame_of[body]
+            m = sm.Symbol(f"m_{ident}", nonnegative=True)
+            c = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
+            G = self.point_of[body].locatenew(f"G_{ident}", sum(
+                (ci * e for ci, e in zip(c, (frame.x, frame.y, frame.z))), me.Vector(0)))
+            self.constants[m] = mass
+            self.constants.update({ci: float(v) for ci, v in zip(c, centre)})
+            comps = {}
+            for key, i, k in _INERTIA_KEYS:
+                comps[key] = sm.Symbol(f"I{key}_{ident}", real=True)
+                self.constants[comps[key]] = float(inertia[i, k])
+            dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
+                                comps["yz"], comps["zx"])
+            self.rigid_bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
+            if g_dir is not None and mass > 0:
+                self.loads.append((G, m * self.g * g_dir))
 
 
-def _check_masses(robot, order, group, subtree_mass, source):
+def _check_masses(order, carried, source):
     """Every moving joint must carry some mass or inertia beyond it."""
-    carried = dict(subtree_mass)
-    for joint, parent_body, _ in reversed(order):
+    carried = dict(carried)
+    for joint, parent_body, _ in reversed(order):  # children before parents
         carried[parent_body] = carried.get(parent_body, 0.0) + carried.get(joint.child, 0.0)
     for joint, _, _ in order:
         if carried.get(joint.child, 0.0) == 0.0:
