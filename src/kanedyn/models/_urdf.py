@@ -82,8 +82,10 @@ class JointInfo:
 class URDFDefinition(ModelDefinition):
     """A :class:`ModelDefinition` read from a URDF file, with its robot data.
 
-    Attributes (besides those of :class:`ModelDefinition`)
-    -----------------------------------------------------
+    Besides the attributes of :class:`ModelDefinition`:
+
+    Attributes
+    ----------
     source : str
         The URDF file.
     joints : tuple of JointInfo
