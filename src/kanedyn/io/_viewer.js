@@ -249,27 +249,47 @@ function build(THREE, OrbitControls, scene) {
     updaters.forEach((f) => f(k, a));
   }
 
-  // framing: everything drawn, over a few frames
+  // framing: everything drawn, over a few frames; a model that travels far
+  // compared with its own size is followed by the camera
   const bounds = new THREE.Box3(new THREE.Vector3(...scene.low), new THREE.Vector3(...scene.high));
-  for (let i = 0; i < 12; i++) {
-    setFrame(T[0] + (T[nFrames - 1] - T[0]) * i / 11);
-    bodyGroups.forEach((g) => bounds.expandByObject(g));
+  let instant = 0;
+  const centroid = (out) => {
+    out.set(0, 0, 0);
+    bodyGroups.forEach((g) => out.add(g.position));
+    return out.divideScalar(Math.max(bodyGroups.length, 1));
+  };
+  for (let i = 0; i < 24; i++) {
+    setFrame(T[0] + (T[nFrames - 1] - T[0]) * i / 23);
+    const now = new THREE.Box3();
+    bodyGroups.forEach((g) => now.expandByObject(g));
+    if (!now.isEmpty()) {
+      bounds.union(now);
+      instant = Math.max(instant, now.getSize(new THREE.Vector3()).length());
+    }
   }
-  const center = bounds.getCenter(new THREE.Vector3());
   const extent = bounds.getSize(new THREE.Vector3());
-  const radius = Math.max(0.5 * extent.length(), 1e-3);
+  const horizontal = extent.clone().addScaledVector(up, -extent.dot(up));
+  const follow = instant > 0 && horizontal.length() > 4 * instant;
+  const center = follow ? (setFrame(T[0]), centroid(new THREE.Vector3()))
+                        : bounds.getCenter(new THREE.Vector3());
+  const radius = Math.max(follow ? 0.9 * instant : 0.5 * extent.length(), 1e-3);
 
   // ground grid and axes
-  const step = niceStep(Math.max(radius, 1e-3) / 5);
+  const step = niceStep(radius / 5);
+  const whole = Math.max(0.5 * extent.length(), radius);
+  let gridLabel = String(Number(step.toPrecision(2)));
   const lowest = Math.min(...[0, 1, 2, 3, 4, 5, 6, 7].map((i) => new THREE.Vector3(
     i & 1 ? bounds.max.x : bounds.min.x, i & 2 ? bounds.max.y : bounds.min.y,
     i & 4 ? bounds.max.z : bounds.min.z).dot(up)));
   if (!floorDrawn) {
-    const span = 2 * step * Math.ceil(1.4 * radius / step);
-    const grid = new THREE.GridHelper(span, Math.round(span / step), 0x8792a0, 0xc9d0d8);
+    const gridStep = niceStep(Math.max(step, whole / 100));
+    const span = 2 * gridStep * Math.ceil(1.3 * whole / gridStep);
+    const grid = new THREE.GridHelper(span, Math.round(span / gridStep), 0x8792a0, 0xc9d0d8);
     grid.quaternion.setFromUnitVectors(yAxis, up);
-    grid.position.copy(center).addScaledVector(up, lowest - center.dot(up));
+    const middle = bounds.getCenter(new THREE.Vector3());
+    grid.position.copy(middle).addScaledVector(up, lowest - middle.dot(up));
     world.add(grid);
+    gridLabel = String(Number(gridStep.toPrecision(2)));
   }
   const axisLength = 2 * step;
   world.add(new THREE.AxesHelper(axisLength));
@@ -293,7 +313,7 @@ function build(THREE, OrbitControls, scene) {
   const upName = ["x", "y", "z"].map((c, i) => Math.abs(scene.up[i]) > 0.999 ?
     (scene.up[i] > 0 ? "+" : "-") + c : null).find((c) => c) || "tilted";
   document.getElementById("scale").textContent =
-    `grid ${step.toPrecision(2).replace(/\.?0+$/, "")} m; up: ${upName}`;
+    `grid ${gridLabel} m; up: ${upName}${follow ? "; the camera follows the model" : ""}`;
   document.getElementById("notes").innerHTML = scene.notes.map(
     (n) => `<div>${n.replace(/</g, "&lt;")}</div>`).join("");
   document.getElementById("title").textContent = scene.title;
@@ -312,7 +332,7 @@ function build(THREE, OrbitControls, scene) {
   const el = THREE.MathUtils.degToRad(22), az = THREE.MathUtils.degToRad(28);
   const direction = side.clone().multiplyScalar(Math.cos(el) * Math.cos(az))
     .addScaledVector(across, Math.cos(el) * Math.sin(az)).addScaledVector(up, Math.sin(el));
-  const distance = 1.15 * radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2));
+  const distance = 0.95 * radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2));
   camera.position.copy(center).addScaledVector(direction, distance);
   camera.near = distance / 1000; camera.far = distance * 100;
   sun.position.copy(center).addScaledVector(direction, distance).addScaledVector(up, distance);
@@ -331,6 +351,11 @@ function build(THREE, OrbitControls, scene) {
   function show(t) {
     time = Math.min(Math.max(t, t0), t1);
     setFrame(time);
+    if (follow) {
+      const target = centroid(new THREE.Vector3());
+      camera.position.add(target.clone().sub(controls.target));
+      controls.target.copy(target);
+    }
     slider.value = String(Math.round(1000 * (t1 > t0 ? (time - t0) / (t1 - t0) : 0)));
     readout.textContent = `t = ${time.toFixed(digits)} s / ${t1.toFixed(digits)} s`;
   }
@@ -371,7 +396,7 @@ function build(THREE, OrbitControls, scene) {
   let meshes = 0;
   world.traverse((o) => { if (o.isMesh) meshes += 1; });
   window.kanedynScene = Object.assign(counts, {
-    meshes, t0, t1, ready: true,
+    meshes, t0, t1, follow, ready: true,
     setTime(t) { playing = false; playButton.textContent = "Play"; show(t);
                  renderer.render(world, camera); return time; },
     get time() { return time; },

@@ -13,9 +13,10 @@ r"""The scene of a 3D animation: what is drawn, and where it is at each frame.
   semi-axes :math:`a_i^2 = \tfrac{5}{2m}(I_j + I_k - I_i)` along the principal
   axes (each at least 5 % of the largest), for a particle or a massless body
   a sphere of 3 % of the scene's size;
-* the "skeleton": segments joining the points that locate each body, from
-  the point fixed in the inertial frame that the model's positions start at
-  (a pendulum's rod, a chain's links);
+* the "skeleton": segments of constant length joining the points that
+  locate each body, from the point fixed in the inertial frame that the
+  model's positions start at (a pendulum's rod, a chain's links; not the
+  translation of a cart or of a free body);
 * flexible members deformed: their node positions at every frame
   (:func:`kanedyn.analysis.deformed_nodes` placed by the body's pose);
 * contact surfaces: planes as a finite patch around the motion, spheres and
@@ -466,8 +467,12 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
                                                    if item[1] == k][0],
              "n_nodes": int(world.shape[1]), "nodes": _rounded(world)}
             for k, world in flexible]
-    segments = [(a, b) for a, b in prog.segments
-                if np.max(np.linalg.norm(pos[:, a] - pos[:, b], axis=1)) > 1e-9 * size]
+    # links of constant length only: a translation (a cart, a free body) is no rod
+    segments = []
+    for a, b in prog.segments:
+        length = np.linalg.norm(pos[:, a] - pos[:, b], axis=1)
+        if length.max() > 1e-9 * size and np.ptp(length) <= 1e-6 * max(length.max(), size):
+            segments.append((a, b))
     seg_points = sorted({i for seg in segments for i in seg})
     where = {p: i for i, p in enumerate(seg_points)}
     skeleton = {"n_points": len(seg_points),
