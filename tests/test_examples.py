@@ -326,3 +326,22 @@ def test_flexible_robot(tmp_path, monkeypatch):
     change = out["energy"] - out["energy"][0]
     assert np.max(np.abs(change - work)) < 1e-4 * np.max(change)
     assert out["energy_balance"] < 1e-6
+
+
+# --------------------------------------------------------------- animation
+def test_animate_pendulum(tmp_path, monkeypatch):
+    """The page holds the scene; the tip's trace at every frame is the closed form
+    (l sin q, -l cos q) of a rod of length l = 0.8 m turned by q from the downward
+    vertical, and the declared shapes replace the default one."""
+    import json
+    out, _ = run_example("animate_pendulum", ["--out", "swing.html"], tmp_path, monkeypatch)
+    html = out["page"].read_text()
+    start = html.index('type="application/json">') + len('type="application/json">')
+    scene = json.loads(html[start:html.index("</script>", start)])
+    (rod,) = scene["bodies"]
+    assert [s["kind"] for s in rod["shapes"]] == ["cylinder", "sphere"]
+    q = out["result"]["q"]
+    trace = np.array(scene["traces"][0]["points"]).reshape(-1, 3)
+    np.testing.assert_allclose(trace[:, :2], 0.8 * np.column_stack([np.sin(q), -np.cos(q)]),
+                               atol=2e-6)
+    assert out["q_end"] == pytest.approx(q[-1])
