@@ -269,7 +269,7 @@ function build(THREE, OrbitControls, scene) {
   }
   const extent = bounds.getSize(new THREE.Vector3());
   const horizontal = extent.clone().addScaledVector(up, -extent.dot(up));
-  const follow = instant > 0 && horizontal.length() > 4 * instant;
+  const follow = bodyGroups.length > 1 && instant > 0 && horizontal.length() > 4 * instant;
   const center = follow ? (setFrame(T[0]), centroid(new THREE.Vector3()))
                         : bounds.getCenter(new THREE.Vector3());
   const radius = Math.max(follow ? 0.9 * instant : 0.5 * extent.length(), 1e-3);
