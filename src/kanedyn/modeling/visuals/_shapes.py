@@ -145,7 +145,8 @@ class Box(Shape):
     >>> import sympy.physics.mechanics as me
     >>> import kanedyn as kd
     >>> N = me.ReferenceFrame("N")
-    >>> body = me.RigidBody("plate", me.Point("G"), N, 1.0, (me.inertia(N, 1, 1, 1), me.Point("G")))
+    >>> G = me.Point("G")
+    >>> body = me.RigidBody("plate", G, N, 1.0, (me.inertia(N, 1, 1, 1), G))
     >>> kd.visuals.Box(body, (0.4, 0.3, 0.02))
     Box(plate, lengths=[0.4, 0.3, 0.02])
     """
