@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version"}
-PUBLIC = {"__init__", "schemes"}
+PUBLIC = {"__init__", "schemes", "visuals"}
 
 #: (importing module, imported layer): the method that needs it
 FACADES = {
@@ -27,6 +27,8 @@ FACADES = {
         "EquationsOfMotion.numeric, .linearize and .scheme: the public API puts them on "
         "the frozen equations",
     ("simulation._results", "analysis"): "SimulationResult.plot and .plot_deflection",
+    ("simulation._results", "io"):
+        "SimulationResult.animate: the public API puts the 3D animation on the result",
 }
 
 

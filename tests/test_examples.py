@@ -352,3 +352,22 @@ def test_urdf_robot(tmp_path, monkeypatch):
         pmodel.getJointId(name)].idx_q, -1] for name in out["final"]}
     for name, angle in out["final"].items():
         assert angle == pytest.approx(expected[name], abs=1e-6), name
+
+
+# --------------------------------------------------------------- animation
+def test_animate_pendulum(tmp_path, monkeypatch):
+    """The page holds the scene; the tip's trace at every frame is the closed form
+    (l sin q, -l cos q) of a rod of length l = 0.8 m turned by q from the downward
+    vertical, and the declared shapes replace the default one."""
+    import json
+    out, _ = run_example("animate_pendulum", ["--out", "swing.html"], tmp_path, monkeypatch)
+    html = out["page"].read_text()
+    start = html.index('type="application/json">') + len('type="application/json">')
+    scene = json.loads(html[start:html.index("</script>", start)])
+    (rod,) = scene["bodies"]
+    assert [s["kind"] for s in rod["shapes"]] == ["cylinder", "sphere"]
+    q = out["result"]["q"]
+    trace = np.array(scene["traces"][0]["points"]).reshape(-1, 3)
+    np.testing.assert_allclose(trace[:, :2], 0.8 * np.column_stack([np.sin(q), -np.cos(q)]),
+                               atol=2e-6)
+    assert out["q_end"] == pytest.approx(q[-1])

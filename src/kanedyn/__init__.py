@@ -8,7 +8,7 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from . import models, schemes
+from . import models, schemes, visuals
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
@@ -55,6 +55,7 @@ __all__ = [
     "SimulationResult",
     "models",
     "schemes",
+    "visuals",
     "KanedynError",
     "ModelError",
     "KinematicsError",

@@ -29,6 +29,8 @@ def add_parser(sub):
     p.add_argument("--atol", type=float, default=1e-8)
     p.add_argument("--points", type=int, default=501, help="output points")
     p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.add_argument("--animate", action="store_true",
+                   help="also write OUT/MODEL.html, a 3D animation that opens offline")
     p.set_defaults(func=cmd_run)
 
 
@@ -50,6 +52,10 @@ def cmd_run(args):
         progress.done()
         res = stop.result
     summary = _write_run(definition, eom, model, res, Path(args.out), progress)
+    if args.animate:
+        page = res.animate(Path(args.out) / f"{definition.name}.html",
+                           title=f"{definition.name}: {definition.title}")
+        progress.stage(f"wrote {page}")
     _print_summary(summary)
     _print_identified(model, res)
     if res.message == "interrupted":

@@ -7,6 +7,7 @@
 ``_vector_constraints``  constraints in vector form that identify their forces
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
+``visuals``              shapes that draw bodies in the 3D viewer
 """
 
 from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,

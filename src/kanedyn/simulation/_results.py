@@ -358,6 +358,37 @@ class SimulationResult:
         from ..analysis import plot_result
         return plot_result(self, states=states, path=path, extras=extras)
 
+    def animate(self, path, visuals=(), trace=(), up="auto", max_frames=2000, title=None):
+        """Write the motion as a 3D animation: one HTML file that needs no network.
+
+        Parameters
+        ----------
+        path : str or Path
+            The page to write (``.html``).
+        visuals : sequence of kanedyn.visuals shapes, optional
+            ``kd.visuals.Box``, ``Cylinder``, ``Sphere``, ``Mesh`` attached to
+            bodies; a body without one is drawn with the default shape (the
+            ellipsoid of equal inertia; a particle: a small sphere).
+        trace : sequence of sympy Point, optional
+            Points whose paths are drawn.
+        up : "auto", "x", "y", "z", "-x", "-y", "-z" or 3 numbers
+            The inertial direction drawn upwards; ``"auto"``: against the
+            applied forces at the start (gravity), else +z.
+        max_frames : int
+            At most this many output times become frames.
+        title : str, optional
+
+        Returns
+        -------
+        Path
+            The page written.
+
+        See :func:`kanedyn.io.animate` and ``docs/viewer.md``.
+        """
+        from ..io import animate
+        return animate(self, path, visuals=visuals, trace=trace, up=up,
+                       max_frames=max_frames, title=title)
+
     def plot_deflection(self, body, times, scale="auto", path=None):
         """Draw a flexible body's deformed member at chosen times; returns the Figure.
 

@@ -1,0 +1,135 @@
+"""The animation page: one HTML file that opens without a network.
+
+The page holds three parts, all inline:
+
+* three.js 0.187.0 (``_vendor/three``: the module build, its core and
+  OrbitControls), each gzip-compressed and base64-encoded in a
+  ``<script type="application/octet-stream">`` element; the page unpacks
+  them with the browser's ``DecompressionStream`` and imports them from
+  ``blob:`` URLs (no import map, no file next to the page);
+* the scene (:func:`kanedyn.io.scene_data`) as JSON in a
+  ``<script type="application/json">`` element, read with ``JSON.parse``;
+* the viewer's own script (``_viewer.js``).
+"""
+
+from __future__ import annotations
+
+import base64
+import gzip
+import json
+from functools import lru_cache
+from importlib import resources
+from pathlib import Path
+
+from .._errors import OptionError
+from ._viewer import DEFAULT_MAX_FRAMES, scene_data
+
+__all__ = ["animate", "page_html", "THREE_VERSION"]
+
+THREE_VERSION = "0.187.0"
+_THREE_FILES = {"kd-three-core": "three.core.js", "kd-three": "three.module.js",
+                "kd-orbit": "OrbitControls.js"}
+
+
+@lru_cache(maxsize=1)
+def _vendored():
+    """``{element id: base64 of gzip of the file}`` of the vendored three.js."""
+    folder = resources.files("kanedyn.io").joinpath("_vendor", "three")
+    out = {}
+    for key, name in _THREE_FILES.items():
+        data = folder.joinpath(name).read_bytes()
+        out[key] = base64.b64encode(gzip.compress(data, 9, mtime=0)).decode("ascii")
+    return out
+
+
+def _viewer_script():
+    return resources.files("kanedyn.io").joinpath("_viewer.js").read_text(encoding="utf-8")
+
+
+def _escape(text):
+    """Text that cannot end its ``<script>`` element early."""
+    return text.replace("</", "<\\/")
+
+
+def page_html(scene):
+    """The complete page of a scene (:func:`kanedyn.io.scene_data`), as a string."""
+    blobs = "\n".join(f'<script id="{key}" type="application/octet-stream">{value}</script>'
+                      for key, value in _vendored().items())
+    data = _escape(json.dumps(scene, separators=(",", ":"), allow_nan=False))
+    title = (scene.get("title") or "kanedyn").replace("&", "&amp;").replace("<", "&lt;")
+    return f"""<!DOCTYPE html>
+<html lang="en">
+<head>
+<meta charset="utf-8">
+<meta name="viewport" content="width=device-width, initial-scale=1">
+<meta name="generator" content="kanedyn (three.js {THREE_VERSION}, MIT licence)">
+<title>{title}</title>
+<style>
+html, body {{ margin: 0; height: 100%; overflow: hidden; background: #f4f5f7;
+  font: 14px/1.35 system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }}
+#view {{ position: absolute; inset: 0 0 56px 0; }}
+#bar {{ position: absolute; left: 0; right: 0; bottom: 0; height: 56px; display: flex;
+  align-items: center; gap: 12px; padding: 0 14px; background: #fff;
+  border-top: 1px solid #d0d4da; box-sizing: border-box; }}
+#bar button {{ width: 76px; height: 32px; font-size: 14px; }}
+#slider {{ flex: 1; }}
+#time {{ font-variant-numeric: tabular-nums; min-width: 170px; text-align: right; }}
+#info {{ position: absolute; left: 12px; top: 10px; background: rgba(255,255,255,0.85);
+  padding: 8px 12px; border-radius: 6px; max-width: 40%; }}
+#info h1 {{ font-size: 16px; margin: 0 0 4px 0; }}
+#legend span.swatch {{ display: inline-block; width: 12px; height: 12px;
+  margin-right: 6px; vertical-align: -1px; border-radius: 2px; }}
+#notes {{ color: #8a4b00; font-size: 12px; }}
+#error {{ color: #b00020; white-space: pre-wrap; }}
+</style>
+</head>
+<body>
+<div id="view"></div>
+<div id="info"><h1 id="title"></h1><div id="legend"></div><div id="scale"></div>
+<div id="notes"></div><div id="error"></div></div>
+<div id="bar">
+<button id="play" type="button">Play</button>
+<input id="slider" type="range" min="0" max="1000" step="1" value="0" aria-label="time">
+<label>speed <select id="speed">
+<option value="0.1">0.1x</option><option value="0.25">0.25x</option>
+<option value="0.5">0.5x</option><option value="1" selected>1x</option>
+<option value="2">2x</option><option value="4">4x</option></select></label>
+<span id="time"></span>
+</div>
+{blobs}
+<script id="kd-scene" type="application/json">{data}</script>
+<script type="module">
+{_viewer_script()}
+</script>
+</body>
+</html>
+"""
+
+
+def animate(result, path, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_FRAMES,
+            title=None):
+    """Write the 3D animation of a simulation as one self-contained HTML file.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    path : str or Path
+        The page to write (``.html``).
+    visuals, trace, up, max_frames, title
+        See :func:`kanedyn.io.scene_data`.
+
+    Returns
+    -------
+    Path
+        The page written.
+    """
+    path = Path(path)
+    if path.suffix.lower() not in (".html", ".htm"):
+        raise OptionError(f"the animation is an HTML page: give a path ending in .html, "
+                          f"not {str(path)!r}")
+    if not path.parent.is_dir():
+        raise OptionError(f"cannot write {path}: folder {path.parent} does not exist")
+    scene = scene_data(result, visuals=visuals, trace=trace, up=up, max_frames=max_frames,
+                       title=title)
+    path.write_text(page_html(scene), encoding="utf-8")
+    return path

@@ -1,0 +1,412 @@
+// kanedyn's animation viewer: draws the scene held as JSON in #kd-scene with three.js,
+// which the page carries gzip-compressed in #kd-three-core, #kd-three and #kd-orbit.
+// Nothing is fetched from the network.
+
+const errorBox = document.getElementById("error");
+function fail(err) {
+  console.error(err);
+  errorBox.textContent = "The animation could not be shown: " + (err && err.message || err);
+}
+
+async function unpack(id) {
+  const text = document.getElementById(id).textContent.trim();
+  const bytes = Uint8Array.from(atob(text), (c) => c.charCodeAt(0));
+  const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
+  return await new Response(stream).text();
+}
+
+function moduleURL(source) {
+  return URL.createObjectURL(new Blob([source], { type: "text/javascript" }));
+}
+
+async function loadThree() {
+  const core = moduleURL(await unpack("kd-three-core"));
+  const main = moduleURL((await unpack("kd-three")).replaceAll("'./three.core.js'",
+                                                               JSON.stringify(core)));
+  const orbit = moduleURL((await unpack("kd-orbit")).replaceAll("from 'three'",
+                                                                "from " + JSON.stringify(main)));
+  const THREE = await import(main);
+  const { OrbitControls } = await import(orbit);
+  return { THREE, OrbitControls };
+}
+
+function niceStep(x) {
+  const p = Math.pow(10, Math.floor(Math.log10(x)));
+  const m = x / p;
+  return (m < 1.5 ? 1 : m < 3.5 ? 2 : m < 7.5 ? 5 : 10) * p;
+}
+
+function decode(b64, Type) {
+  const bytes = Uint8Array.from(atob(b64), (c) => c.charCodeAt(0));
+  return new Type(bytes.buffer);
+}
+
+function build(THREE, OrbitControls, scene) {
+  const T = scene.t;
+  const nFrames = T.length;
+  const size = scene.size;
+  const view = document.getElementById("view");
+  const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
+  renderer.setPixelRatio(window.devicePixelRatio || 1);
+  view.appendChild(renderer.domElement);
+  const world = new THREE.Scene();
+  world.background = new THREE.Color(0xf4f5f7);
+  const up = new THREE.Vector3(...scene.up);
+  const camera = new THREE.PerspectiveCamera(40, 1, size * 1e-3, size * 1e3);
+  camera.up.copy(up);
+  world.add(new THREE.HemisphereLight(0xffffff, 0x8d8d8d, 2.2));
+  const sun = new THREE.DirectionalLight(0xffffff, 1.6);
+  world.add(sun);
+
+  const counts = { bodies: 0, shapes: 0, surfaces: 0, flexible: 0, traces: 0,
+                   segments: 0, frames: nFrames };
+  const updaters = [];
+  const material = (color, opacity = 1) => new THREE.MeshStandardMaterial({
+    color, roughness: 0.55, metalness: 0.05, transparent: opacity < 1, opacity,
+    side: opacity < 1 ? THREE.DoubleSide : THREE.FrontSide });
+
+  // interpolation between frames: (k, a) with t = (1 - a) T[k] + a T[k + 1]
+  function locate(t) {
+    if (t <= T[0] || nFrames === 1) return [0, 0];
+    if (t >= T[nFrames - 1]) return [nFrames - 1, 0];
+    let lo = 0, hi = nFrames - 1;
+    while (hi - lo > 1) { const mid = (lo + hi) >> 1; if (T[mid] <= t) lo = mid; else hi = mid; }
+    const span = T[lo + 1] - T[lo];
+    return [lo, span > 0 ? (t - T[lo]) / span : 0];
+  }
+  const va = new THREE.Vector3(), vb = new THREE.Vector3();
+  function vec(arr, k, a, out, stride = 3, i = 0) {
+    const o = k * stride + 3 * i;
+    out.set(arr[o], arr[o + 1], arr[o + 2]);
+    if (a > 0) {
+      const p = o + stride;
+      vb.set(arr[p], arr[p + 1], arr[p + 2]);
+      out.lerp(vb, a);
+    }
+    return out;
+  }
+  const qa = new THREE.Quaternion(), qb = new THREE.Quaternion();
+  function quat(arr, k, a, out) {
+    const o = 4 * k;
+    qa.set(arr[o], arr[o + 1], arr[o + 2], arr[o + 3]);
+    if (a > 0) {
+      qb.set(arr[o + 4], arr[o + 5], arr[o + 6], arr[o + 7]);
+      out.slerpQuaternions(qa, qb, a);
+    } else out.copy(qa);
+    return out;
+  }
+
+  // a cylinder between two points (skeleton links, flexible members)
+  const yAxis = new THREE.Vector3(0, 1, 0), dir = new THREE.Vector3();
+  function rod(radius, color) {
+    const mesh = new THREE.Mesh(new THREE.CylinderGeometry(radius, radius, 1, 12),
+                                material(color));
+    mesh.place = (p, q) => {
+      dir.subVectors(q, p);
+      const length = dir.length();
+      mesh.visible = length > 0;
+      if (!mesh.visible) return;
+      mesh.position.addVectors(p, q).multiplyScalar(0.5);
+      mesh.quaternion.setFromUnitVectors(yAxis, dir.divideScalar(length));
+      mesh.scale.set(1, length, 1);
+    };
+    return mesh;
+  }
+
+  function shapeMesh(s) {
+    let geometry;
+    if (s.kind === "box") geometry = new THREE.BoxGeometry(...s.lengths);
+    else if (s.kind === "cylinder") geometry = new THREE.CylinderGeometry(s.radius, s.radius,
+                                                                          s.length, 40);
+    else if (s.kind === "sphere") geometry = new THREE.SphereGeometry(1, 40, 20);
+    else if (s.kind === "mesh") {
+      geometry = new THREE.BufferGeometry();
+      geometry.setAttribute("position", new THREE.BufferAttribute(
+        decode(s.vertices, Float32Array), 3));
+      geometry.setIndex(new THREE.BufferAttribute(decode(s.triangles, Uint32Array), 1));
+      geometry.computeVertexNormals();
+    } else throw new Error("unknown shape kind " + s.kind);
+    const mesh = new THREE.Mesh(geometry, material(s.color, s.opacity));
+    if (s.kind === "sphere") mesh.scale.set(...s.semi_axes);
+    if (s.kind === "mesh") mesh.scale.set(...s.scale);
+    mesh.position.set(...s.offset);
+    mesh.quaternion.set(...s.quaternion);
+    if (s.kind !== "mesh") {
+      const edges = new THREE.LineSegments(new THREE.EdgesGeometry(geometry, 30),
+        new THREE.LineBasicMaterial({ color: 0x333333, transparent: true, opacity: 0.35 }));
+      mesh.add(edges);
+    }
+    return mesh;
+  }
+
+  // bodies
+  const legend = document.getElementById("legend");
+  const bodyGroups = [];
+  scene.bodies.forEach((b) => {
+    const group = new THREE.Group();
+    group.name = b.name;
+    b.shapes.forEach((s) => { group.add(shapeMesh(s)); counts.shapes += 1; });
+    if (b.oriented && b.shapes.length) {
+      const box = new THREE.Box3().setFromObject(group);
+      const triad = new THREE.AxesHelper(0.6 * box.getSize(new THREE.Vector3()).length() / 2);
+      triad.material.depthTest = false;
+      triad.renderOrder = 2;
+      group.add(triad);
+    }
+    world.add(group);
+    bodyGroups.push(group);
+    counts.bodies += 1;
+    updaters.push((k, a) => {
+      vec(b.position, k, a, group.position);
+      quat(b.quaternion, k, a, group.quaternion);
+    });
+    legend.insertAdjacentHTML("beforeend", `<div><span class="swatch" style="background:${
+      b.color}"></span>${b.name.replace(/</g, "&lt;")}${b.default_shape ? " (default shape)" : ""}</div>`);
+  });
+
+  // skeleton: the links between the points that locate the bodies
+  const sk = scene.skeleton;
+  const skRods = sk.segments.map(() => rod(0.006 * size, 0x555555));
+  skRods.forEach((r) => world.add(r));
+  counts.segments = skRods.length;
+  const pA = new THREE.Vector3(), pB = new THREE.Vector3();
+  updaters.push((k, a) => {
+    sk.segments.forEach(([i, j], n) => {
+      vec(sk.points, k, a, pA, 3 * sk.n_points, i);
+      vec(sk.points, k, a, pB, 3 * sk.n_points, j);
+      skRods[n].place(pA, pB);
+    });
+  });
+
+  // flexible members, deformed
+  scene.flexible.forEach((f) => {
+    const color = scene.bodies[f.body].color;
+    const rods = [];
+    for (let i = 0; i + 1 < f.n_nodes; i++) { rods.push(rod(0.012 * size, color)); }
+    rods.forEach((r) => world.add(r));
+    counts.flexible += 1;
+    updaters.push((k, a) => {
+      for (let i = 0; i + 1 < f.n_nodes; i++) {
+        vec(f.nodes, k, a, pA, 3 * f.n_nodes, i);
+        vec(f.nodes, k, a, pB, 3 * f.n_nodes, i + 1);
+        rods[i].place(pA, pB);
+      }
+    });
+  });
+
+  // contact surfaces
+  let floorDrawn = false;
+  scene.surfaces.forEach((s) => {
+    const group = new THREE.Group();
+    group.name = s.name;
+    if (s.kind === "plane") {
+      const n = new THREE.Vector3(...s.normal);
+      const patch = new THREE.Mesh(new THREE.PlaneGeometry(s.size, s.size),
+                                   material(0x9aa5b1, 0.35));
+      patch.quaternion.setFromUnitVectors(new THREE.Vector3(0, 0, 1), n);
+      patch.position.set(...s.center);
+      const grid = new THREE.GridHelper(s.size, Math.round(s.size / niceStep(size / 8)),
+                                        0x667080, 0xb8c0ca);
+      grid.quaternion.setFromUnitVectors(yAxis, n);
+      grid.position.copy(patch.position);
+      group.add(patch, grid);
+      if (Math.abs(n.dot(up)) > 0.999) floorDrawn = true;
+    } else {
+      const mesh = new THREE.Mesh(new THREE.SphereGeometry(1, 48, 24),
+                                  material(0x9aa5b1, s.inside ? 0.12 : 0.5));
+      mesh.scale.set(...s.semi_axes);
+      const wire = new THREE.LineSegments(new THREE.WireframeGeometry(
+        new THREE.SphereGeometry(1, 24, 12)), new THREE.LineBasicMaterial(
+        { color: 0x667080, transparent: true, opacity: 0.35 }));
+      wire.scale.copy(mesh.scale);
+      group.add(mesh, wire);
+    }
+    world.add(group);
+    counts.surfaces += 1;
+    const moving = s.position.length > 3;
+    const place = (k, a) => {
+      vec(s.position, moving ? k : 0, moving ? a : 0, group.position);
+      quat(s.quaternion, moving ? k : 0, moving ? a : 0, group.quaternion);
+    };
+    if (moving) updaters.push(place); else place(0, 0);
+  });
+
+  // traced points: the path so far
+  scene.traces.forEach((tr) => {
+    const geometry = new THREE.BufferGeometry();
+    geometry.setAttribute("position", new THREE.Float32BufferAttribute(tr.points, 3));
+    const line = new THREE.Line(geometry, new THREE.LineBasicMaterial({ color: tr.color }));
+    line.frustumCulled = false;
+    world.add(line);
+    counts.traces += 1;
+    updaters.push((k, a) => geometry.setDrawRange(0, k + 1));
+    legend.insertAdjacentHTML("beforeend", `<div><span class="swatch" style="background:${
+      tr.color}"></span>path of ${tr.name.replace(/</g, "&lt;")}</div>`);
+  });
+
+  function setFrame(t) {
+    const [k, a] = locate(t);
+    updaters.forEach((f) => f(k, a));
+  }
+
+  // framing: everything drawn, over a few frames; a model that travels far
+  // compared with its own size is followed by the camera
+  const bounds = new THREE.Box3(new THREE.Vector3(...scene.low), new THREE.Vector3(...scene.high));
+  let instant = 0;
+  const centroid = (out) => {
+    out.set(0, 0, 0);
+    bodyGroups.forEach((g) => out.add(g.position));
+    return out.divideScalar(Math.max(bodyGroups.length, 1));
+  };
+  for (let i = 0; i < 24; i++) {
+    setFrame(T[0] + (T[nFrames - 1] - T[0]) * i / 23);
+    const now = new THREE.Box3();
+    bodyGroups.forEach((g) => now.expandByObject(g));
+    if (!now.isEmpty()) {
+      bounds.union(now);
+      instant = Math.max(instant, now.getSize(new THREE.Vector3()).length());
+    }
+  }
+  const extent = bounds.getSize(new THREE.Vector3());
+  const horizontal = extent.clone().addScaledVector(up, -extent.dot(up));
+  const follow = bodyGroups.length > 1 && instant > 0 && horizontal.length() > 4 * instant;
+  const center = follow ? (setFrame(T[0]), centroid(new THREE.Vector3()))
+                        : bounds.getCenter(new THREE.Vector3());
+  const radius = Math.max(follow ? 0.9 * instant : 0.5 * extent.length(), 1e-3);
+
+  // ground grid and axes
+  const step = niceStep(radius / 5);
+  const whole = Math.max(0.5 * extent.length(), radius);
+  let gridLabel = String(Number(step.toPrecision(2)));
+  const lowest = Math.min(...[0, 1, 2, 3, 4, 5, 6, 7].map((i) => new THREE.Vector3(
+    i & 1 ? bounds.max.x : bounds.min.x, i & 2 ? bounds.max.y : bounds.min.y,
+    i & 4 ? bounds.max.z : bounds.min.z).dot(up)));
+  if (!floorDrawn) {
+    const gridStep = niceStep(Math.max(step, whole / 100));
+    const span = 2 * gridStep * Math.ceil(1.3 * whole / gridStep);
+    const grid = new THREE.GridHelper(span, Math.round(span / gridStep), 0x8792a0, 0xc9d0d8);
+    grid.quaternion.setFromUnitVectors(yAxis, up);
+    const middle = bounds.getCenter(new THREE.Vector3());
+    grid.position.copy(middle).addScaledVector(up, lowest - middle.dot(up));
+    world.add(grid);
+    gridLabel = String(Number(gridStep.toPrecision(2)));
+  }
+  const axisLength = 2 * step;
+  world.add(new THREE.AxesHelper(axisLength));
+  function label(text, position, color) {
+    const canvas = document.createElement("canvas");
+    canvas.width = 128; canvas.height = 128;
+    const ctx = canvas.getContext("2d");
+    ctx.font = "bold 96px sans-serif";
+    ctx.fillStyle = color; ctx.textAlign = "center"; ctx.textBaseline = "middle";
+    ctx.fillText(text, 64, 68);
+    const sprite = new THREE.Sprite(new THREE.SpriteMaterial({
+      map: new THREE.CanvasTexture(canvas), depthTest: false }));
+    sprite.position.copy(position);
+    sprite.scale.setScalar(0.35 * axisLength);
+    sprite.renderOrder = 3;
+    world.add(sprite);
+  }
+  label("x", new THREE.Vector3(1.2 * axisLength, 0, 0), "#d62728");
+  label("y", new THREE.Vector3(0, 1.2 * axisLength, 0), "#2ca02c");
+  label("z", new THREE.Vector3(0, 0, 1.2 * axisLength), "#1f5fd6");
+  const upName = ["x", "y", "z"].map((c, i) => Math.abs(scene.up[i]) > 0.999 ?
+    (scene.up[i] > 0 ? "+" : "-") + c : null).find((c) => c) || "tilted";
+  document.getElementById("scale").textContent =
+    `grid ${gridLabel} m; up: ${upName}${follow ? "; the camera follows the model" : ""}`;
+  document.getElementById("notes").innerHTML = scene.notes.map(
+    (n) => `<div>${n.replace(/</g, "&lt;")}</div>`).join("");
+  document.getElementById("title").textContent = scene.title;
+
+  // camera: look along the inertial axis across which the least motion happens
+  const axes = [new THREE.Vector3(1, 0, 0), new THREE.Vector3(0, 1, 0), new THREE.Vector3(0, 0, 1)];
+  const spread = [extent.x, extent.y, extent.z];
+  let best = null;
+  axes.forEach((ax, i) => {
+    if (Math.abs(ax.dot(up)) > 0.9) return;
+    if (best === null || spread[i] < spread[best]) best = i;
+  });
+  const side = best === null ? new THREE.Vector3(1, 0, 0) : axes[best].clone();
+  side.addScaledVector(up, -side.dot(up)).normalize();
+  const across = new THREE.Vector3().crossVectors(up, side).normalize();
+  const el = THREE.MathUtils.degToRad(22), az = THREE.MathUtils.degToRad(28);
+  const direction = side.clone().multiplyScalar(Math.cos(el) * Math.cos(az))
+    .addScaledVector(across, Math.cos(el) * Math.sin(az)).addScaledVector(up, Math.sin(el));
+  const distance = 0.95 * radius / Math.sin(THREE.MathUtils.degToRad(camera.fov / 2));
+  camera.position.copy(center).addScaledVector(direction, distance);
+  camera.near = distance / 1000; camera.far = distance * 100;
+  sun.position.copy(center).addScaledVector(direction, distance).addScaledVector(up, distance);
+  const controls = new OrbitControls(camera, renderer.domElement);
+  controls.target.copy(center);
+  controls.update();
+
+  // time controls
+  const slider = document.getElementById("slider");
+  const playButton = document.getElementById("play");
+  const speedSelect = document.getElementById("speed");
+  const readout = document.getElementById("time");
+  const t0 = T[0], t1 = T[nFrames - 1];
+  const digits = Math.max(2, Math.min(6, 2 - Math.floor(Math.log10(Math.max(t1 - t0, 1e-9) / 100))));
+  let time = t0, playing = false, last = null;
+  function show(t) {
+    time = Math.min(Math.max(t, t0), t1);
+    setFrame(time);
+    if (follow) {
+      const target = centroid(new THREE.Vector3());
+      camera.position.add(target.clone().sub(controls.target));
+      controls.target.copy(target);
+    }
+    slider.value = String(Math.round(1000 * (t1 > t0 ? (time - t0) / (t1 - t0) : 0)));
+    readout.textContent = `t = ${time.toFixed(digits)} s / ${t1.toFixed(digits)} s`;
+  }
+  slider.addEventListener("input", () => show(t0 + (t1 - t0) * Number(slider.value) / 1000));
+  playButton.addEventListener("click", () => {
+    playing = !playing;
+    playButton.textContent = playing ? "Pause" : "Play";
+    if (playing && time >= t1) show(t0);
+    last = null;
+  });
+  function resize() {
+    const w = view.clientWidth, h = view.clientHeight;
+    renderer.setSize(w, h, false);
+    renderer.domElement.style.width = "100%";
+    renderer.domElement.style.height = "100%";
+    camera.aspect = w / Math.max(h, 1);
+    camera.updateProjectionMatrix();
+  }
+  window.addEventListener("resize", resize);
+  resize();
+  function frame(now) {
+    if (playing) {
+      if (last !== null) {
+        let t = time + (now - last) / 1000 * Number(speedSelect.value);
+        if (t > t1) t = t0 + (t - t1) % Math.max(t1 - t0, 1e-9);
+        show(t);
+      }
+      last = now;
+    }
+    controls.update();
+    renderer.render(world, camera);
+    requestAnimationFrame(frame);
+  }
+  show(t0);
+  renderer.render(world, camera);
+  requestAnimationFrame(frame);
+
+  let meshes = 0;
+  world.traverse((o) => { if (o.isMesh) meshes += 1; });
+  window.kanedynScene = Object.assign(counts, {
+    meshes, t0, t1, follow, ready: true,
+    setTime(t) { playing = false; playButton.textContent = "Play"; show(t);
+                 renderer.render(world, camera); return time; },
+    get time() { return time; },
+  });
+}
+
+try {
+  const scene = JSON.parse(document.getElementById("kd-scene").textContent);
+  const { THREE, OrbitControls } = await loadThree();
+  build(THREE, OrbitControls, scene);
+} catch (err) {
+  fail(err);
+}
