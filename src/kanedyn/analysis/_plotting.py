@@ -128,16 +128,18 @@ def _model_units(model):
         return {}
 
 
-def _split_by_range(names, ranges):
-    """Split names into (small-range, large-range) at the widest gap above RANGE_SPLIT."""
-    order = sorted(range(len(names)), key=lambda i: ranges[i])
-    r = [max(ranges[i], 1e-300) for i in order]
-    gaps = [r[k + 1] / r[k] for k in range(len(r) - 1)]
-    if not gaps or max(gaps) <= RANGE_SPLIT or r[-1] <= 1e-12:
+def _split_by_range(names, peaks):
+    """Split names into (small, large) at the widest gap between peak magnitudes,
+    when it is wider than :data:`RANGE_SPLIT` (curves that stay at zero go with
+    the small ones)."""
+    live = [i for i in range(len(names)) if peaks[i] > 0]
+    order = sorted(live, key=lambda i: peaks[i])
+    gaps = [peaks[order[k + 1]] / peaks[order[k]] for k in range(len(order) - 1)]
+    if not gaps or max(gaps) <= RANGE_SPLIT:
         return [names]
     cut = int(np.argmax(gaps)) + 1
-    small = {names[i] for i in order[:cut]}
-    return [[n for n in names if n in small], [n for n in names if n not in small]]
+    large = {names[i] for i in order[cut:]}
+    return [[n for n in names if n not in large], [n for n in names if n in large]]
 
 
 def _state_panels(result, states, units):
@@ -159,11 +161,24 @@ def _state_panels(result, states, units):
         what = (_Q_WHAT if level == "q" else _U_WHAT).get(unit)
         what = what or ("coordinate" if level == "q" else "speed")
         label = f"{what} {unit_text([unit])}"
-        ranges = [float(np.ptp(v[np.isfinite(v)])) if np.any(np.isfinite(v)) else 0.0
-                  for v in (result[n] for n in members)]
-        for part in _split_by_range(members, ranges):
+        peaks = [float(np.max(np.abs(v[np.isfinite(v)]), initial=0.0))
+                 for v in (result[n] for n in members)]
+        for part in _split_by_range(members, peaks):
             panels.append((label, part))
     return panels
+
+
+def _state_colors(result):
+    """The same colour for the k-th coordinate and the k-th speed, in every panel."""
+    names = list(result.state_names)
+    n_q = result.model.n_q
+    levels = (names[:n_q], names[n_q:])
+    if max(len(level) for level in levels) > 20:
+        return {}  # Matplotlib's cycle per panel
+    cmap = "tab10" if max(len(level) for level in levels) <= 10 else "tab20"
+    import matplotlib
+    colors = matplotlib.colormaps[cmap].colors
+    return {name: colors[k] for level in levels for k, name in enumerate(level)}
 
 
 def _force_units(model):
@@ -202,6 +217,7 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
     model = result.model
     units = _model_units(model)
     labels = dict(labels or {})
+    colors = _state_colors(result)
     panels = [("state", label, members)
               for label, members in _state_panels(result, states, units)]
     if extras and result.constraint_residuals.shape[0]:
@@ -226,19 +242,22 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
                                                                          "multiplier")
             panels.append(("forces", f"{what} {unit_text([unit])}", members))
     contact_forces = result.contact_forces if extras else {}
-    if contact_forces:
+    if any(np.any(f["normal"] != 0) for f in contact_forces.values()):
         panels.append(("normal", "normal force [N]", None))
+    if any(np.any(f["friction"] != 0) for f in contact_forces.values()):
         panels.append(("friction", "|friction force| [N]", None))
+    impacts = [impact.t for impact in getattr(result, "impacts", ())] if extras else []
     fig, axes = plt.subplots(len(panels), 1, sharex=True, squeeze=False,
                              figsize=(9, 2.1 * len(panels) + 1.0), layout="constrained")
     for ax, (kind, ylabel, members) in zip(axes[:, 0], panels):
         if kind == "state":
             for name in members:
-                ax.plot(result.t, result[name], label=labels.get(name, name))
+                ax.plot(result.t, result[name], label=labels.get(name, name),
+                        color=colors.get(name))
         elif kind == "residual":
             lo, hi = members
             rows = np.abs(result.constraint_residuals[lo:hi])
-            series = {"max over constraints": np.max(rows, axis=0)}
+            series = {"max |residual|": np.max(rows, axis=0)}
             draw_nonnegative(ax, result.t, series)
         elif kind == "energy":
             ax.plot(result.t, energy - energy[0], color="k", label="total energy")
@@ -248,13 +267,14 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
         elif kind == "normal":
             for name, forces in contact_forces.items():
                 ax.plot(result.t, forces["normal"], label=name)
-            for impact in result.impacts:
-                ax.axvline(impact.t, color="0.6", lw=0.6, ls=":")
         elif kind == "friction":
             for name, forces in contact_forces.items():
                 ax.plot(result.t, np.linalg.norm(forces["friction"], axis=1), label=name)
+        for k, t_impact in enumerate(impacts):
+            ax.axvline(t_impact, color="0.55", lw=0.7, ls=":",
+                       label="impacts" if k == 0 and ax is axes[0, 0] else None)
         ax.set_ylabel(ylabel)
-        ax.grid(True, which="both" if ax.get_yscale() == "log" else "major", alpha=0.3)
+        ax.grid(True, alpha=0.3)
         legend_beside(ax)
     axes[-1, 0].set_xlabel("t [s]")
     fig.suptitle(_title(result, title), fontsize="medium")

@@ -270,12 +270,49 @@ def state_units(spec, declared=None):
     return out
 
 
+_DIMENSIONS = {"m": (1, 0), "rad": (0, 0), "m/s": (1, -1), "rad/s": (0, -1)}
+
+
+def _length_parameters(spec):
+    """Parameters that a position's measure number has with a pure-number coefficient."""
+    _, points = _frames_and_points(spec.frame, spec.bodies, spec.loads)
+    out = set()
+    for p in points:
+        for r in p._pos_dict.values():
+            for m in _measures(r):
+                if _nodes(m) is None:
+                    continue
+                params = [s for s in m.free_symbols if s != me.dynamicsymbols._t]
+                for var, _ in _linear_terms(m, params):
+                    out.add(var)
+    return out
+
+
+def _term_unit(term, units, lengths):
+    """Unit of one product of factors (``None``: cannot tell)."""
+    length, time, angle = 0, 0, False
+    for factor in sm.Mul.make_args(term):
+        if _dimensionless(factor):
+            continue
+        if factor in lengths:
+            length += 1
+        elif factor in units and units[factor] in _DIMENSIONS:
+            dl, dt = _DIMENSIONS[units[factor]]
+            length, time, angle = length + dl, time + dt, angle or dl == 0
+        else:
+            return None
+    return {(1, 0): "m", (1, -1): "m/s", (0, 0): "rad" if angle else None,
+            (0, -1): "rad/s"}.get((length, time))
+
+
 def constraint_units(spec, units):
     """Units of the configuration and velocity constraints (``None``: unknown).
 
-    A constraint has the unit of its terms that are a coordinate (or a speed)
-    of known unit times a pure number; it is unknown without such a term or
-    when two terms disagree.
+    A constraint has the unit of its terms: products of pure numbers (and
+    trigonometric functions), coordinates, speeds and coordinate rates of known
+    unit and length parameters (those a position has with a pure-number
+    coefficient, such as ``l`` in ``l * A.x``).  It is unknown when no term
+    tells or two terms disagree.
 
     Returns
     -------
@@ -284,19 +321,22 @@ def constraint_units(spec, units):
     """
     t = me.dynamicsymbols._t
     q, u = tuple(spec.q), tuple(spec.u)
-    qdot = {qi.diff(t): qi for qi in q}
-    named = {s: units.get(name_of(s)) for s in q + u}
+    known = {s: units.get(name_of(s)) for s in q + u}
+    known.update({qi.diff(t): speed_unit(units.get(name_of(qi))) for qi in q})
+    lengths = _length_parameters(spec)
 
-    def unit_of(expr, variables, rate):
-        found = set()
-        for var, _ in _linear_terms(expr, variables):
-            if var in qdot:
-                found.add(speed_unit(named[qdot[var]]))
-            else:
-                found.add(named[var] if not rate or var in u else speed_unit(named[var]))
-        return next(iter(found)) if len(found) == 1 else None
+    def unit_of(expr):
+        expr = sm.sympify(expr)
+        if _nodes(expr) is None:
+            return None
+        found = {_term_unit(term, known, lengths) for term in sm.Add.make_args(sm.expand(expr))
+                 if not term.is_number}
+        found.discard(None)
+        return found.pop() if len(found) == 1 else None
 
-    config = [unit_of(h, list(q), False) for h in spec.configuration_constraints]
-    velocity = [unit_of(c, list(u) + list(qdot), True)
-                for c in (spec.velocity_constraints or ())]
+    config = [unit_of(h) for h in spec.configuration_constraints]
+    if spec.velocity_constraints is None and not spec.vector_constraints:
+        velocity = [speed_unit(c) for c in config]  # the rates of the configuration's
+    else:
+        velocity = [unit_of(c) for c in (spec.velocity_constraints or ())]
     return config, velocity

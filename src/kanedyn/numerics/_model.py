@@ -370,6 +370,10 @@ class NumericModel(StateLayout):
         else:
             units = {n: eom.state_units.get(n) for n in self.state_names}
             config, velocity = eom.constraint_units
+            if len(config) != self.n_q_dep:
+                config = [None] * self.n_q_dep
+            if len(velocity) != self.n_u_dep:  # constraints in vector form among them
+                velocity = [None] * self.n_u_dep
         self._data["state_units"] = units
         self._data["constraint_units"] = (list(config), list(velocity))
 
