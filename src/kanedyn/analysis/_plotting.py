@@ -168,11 +168,13 @@ def _state_panels(result, states, units):
     return panels
 
 
-def _state_colors(result):
-    """The same colour for the k-th coordinate and the k-th speed, in every panel."""
+def _state_colors(result, states):
+    """The same colour for the k-th coordinate and the k-th speed drawn, in every panel."""
     names = list(result.state_names)
     n_q = result.model.n_q
-    levels = (names[:n_q], names[n_q:])
+    chosen = names if states is None else list(states)
+    levels = ([n for n in chosen if names.index(n) < n_q],
+              [n for n in chosen if names.index(n) >= n_q])
     if max(len(level) for level in levels) > 20:
         return {}  # Matplotlib's cycle per panel
     cmap = "tab10" if max(len(level) for level in levels) <= 10 else "tab20"
@@ -217,9 +219,9 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
     model = result.model
     units = _model_units(model)
     labels = dict(labels or {})
-    colors = _state_colors(result)
     panels = [("state", label, members)
               for label, members in _state_panels(result, states, units)]
+    colors = _state_colors(result, states)
     if extras and result.constraint_residuals.shape[0]:
         config_units, velocity_units = getattr(model, "constraint_units", ([], []))
         l = model.n_q_dep

@@ -288,31 +288,84 @@ def _length_parameters(spec):
     return out
 
 
-def _term_unit(term, units, lengths):
-    """Unit of one product of factors (``None``: cannot tell)."""
-    length, time, angle = 0, 0, False
-    for factor in sm.Mul.make_args(term):
-        if _dimensionless(factor):
-            continue
-        if factor in lengths:
-            length += 1
-        elif factor in units and units[factor] in _DIMENSIONS:
-            dl, dt = _DIMENSIONS[units[factor]]
-            length, time, angle = length + dl, time + dt, angle or dl == 0
-        else:
-            return None
+class _Dimensions:
+    """Dimensions (length and time exponents, and whether an angle enters) of
+    expressions, by a walk of the tree; ``None`` where they cannot be told.
+
+    The terms of a sum share their dimensions, so a sum takes those of the terms
+    that tell (``None`` when two terms disagree).
+    """
+
+    def __init__(self, known, lengths):
+        self.known = known  # {symbol or derivative: unit}
+        self.lengths = lengths
+        self.memo = {}
+
+    def __call__(self, e):
+        found = self.memo.get(e, False)
+        if found is False:
+            found = self.memo[e] = self._walk(e)
+        return found
+
+    def _walk(self, e):
+        if e.is_number:
+            return (0, 0, False)
+        if e in self.known:
+            unit = self.known[e]
+            if unit not in _DIMENSIONS:
+                return None
+            length, time = _DIMENSIONS[unit]
+            return (length, time, length == 0)
+        if e in self.lengths:
+            return (1, 0, False)
+        if isinstance(e, _TRIG):
+            return (0, 0, False)
+        if e.is_Mul:
+            length, time, angle = 0, 0, False
+            for factor in e.args:
+                d = self(factor)
+                if d is None:
+                    return None
+                length, time, angle = length + d[0], time + d[1], angle or d[2]
+            return (length, time, angle)
+        if e.is_Add:
+            seen = {}
+            for term in e.args:
+                d = self(term)
+                if d is not None:
+                    seen.setdefault(d[:2], False)
+                    seen[d[:2]] |= d[2]
+            if len(seen) != 1:
+                return None
+            (length, time), angle = next(iter(seen.items()))
+            return (length, time, angle)
+        if e.is_Pow and e.exp.is_Rational:
+            d = self(e.base)
+            if d is None:
+                return None
+            length, time = d[0] * e.exp, d[1] * e.exp
+            if not (length.is_integer and time.is_integer):
+                return None
+            return (int(length), int(time), d[2])
+        return None
+
+
+def _unit_name(dims):
+    if dims is None:
+        return None
+    length, time, angle = dims
     return {(1, 0): "m", (1, -1): "m/s", (0, 0): "rad" if angle else None,
-            (0, -1): "rad/s"}.get((length, time))
+            (0, -1): "rad/s" if angle else None}.get((length, time))
 
 
 def constraint_units(spec, units):
     """Units of the configuration and velocity constraints (``None``: unknown).
 
-    A constraint has the unit of its terms: products of pure numbers (and
-    trigonometric functions), coordinates, speeds and coordinate rates of known
-    unit and length parameters (those a position has with a pure-number
-    coefficient, such as ``l`` in ``l * A.x``).  It is unknown when no term
-    tells or two terms disagree.
+    A constraint has the unit of its terms: products and powers of pure
+    numbers (and trigonometric functions), coordinates, speeds and coordinate
+    rates of known unit and length parameters (those a position has with a
+    pure-number coefficient, such as ``l`` in ``l * A.x``).  It is unknown when
+    no term tells or two terms disagree.
 
     Returns
     -------
@@ -323,19 +376,13 @@ def constraint_units(spec, units):
     q, u = tuple(spec.q), tuple(spec.u)
     known = {s: units.get(name_of(s)) for s in q + u}
     known.update({qi.diff(t): speed_unit(units.get(name_of(qi))) for qi in q})
-    lengths = _length_parameters(spec)
+    dims = _Dimensions(known, _length_parameters(spec))
 
     def unit_of(expr):
-        expr = sm.sympify(expr)
-        if _nodes(expr) is None:
-            return None
-        found = {_term_unit(term, known, lengths) for term in sm.Add.make_args(sm.expand(expr))
-                 if not term.is_number}
-        found.discard(None)
-        return found.pop() if len(found) == 1 else None
+        return _unit_name(dims(sm.sympify(expr)))
 
     config = [unit_of(h) for h in spec.configuration_constraints]
-    if spec.velocity_constraints is None and not spec.vector_constraints:
+    if not spec.velocity_constraints and not spec.vector_constraints:
         velocity = [speed_unit(c) for c in config]  # the rates of the configuration's
     else:
         velocity = [unit_of(c) for c in (spec.velocity_constraints or ())]
