@@ -25,7 +25,7 @@ __all__ = ["plot_result", "pyplot", "unit_text", "log_scale_ok", "draw_nonnegati
 #: curves of one unit whose ranges differ by more than this go to separate panels
 RANGE_SPLIT = 20.0
 
-_Q_WHAT = {"rad": "angle", "m": "position"}
+_Q_WHAT = {"rad": "angle", "m": "length"}
 _U_WHAT = {"rad/s": "angular rate", "m/s": "speed"}
 
 
