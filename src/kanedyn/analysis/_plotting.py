@@ -128,18 +128,21 @@ def _model_units(model):
         return {}
 
 
-def _split_by_range(names, peaks):
-    """Split names into (small, large) at the widest gap between peak magnitudes,
-    when it is wider than :data:`RANGE_SPLIT` (curves that stay at zero go with
-    the small ones)."""
+def _split_by_range(names, peaks, depth=2):
+    """Split names at the widest gap between peak magnitudes while it is wider than
+    :data:`RANGE_SPLIT`, into at most ``depth + 1`` groups, smallest first (curves
+    that stay at zero go with the smallest)."""
     live = [i for i in range(len(names)) if peaks[i] > 0]
     order = sorted(live, key=lambda i: peaks[i])
     gaps = [peaks[order[k + 1]] / peaks[order[k]] for k in range(len(order) - 1)]
-    if not gaps or max(gaps) <= RANGE_SPLIT:
+    if depth == 0 or not gaps or max(gaps) <= RANGE_SPLIT:
         return [names]
     cut = int(np.argmax(gaps)) + 1
     large = {names[i] for i in order[cut:]}
-    return [[n for n in names if n not in large], [n for n in names if n in large]]
+    out = []
+    for part in ([n for n in names if n not in large], [n for n in names if n in large]):
+        out += _split_by_range(part, [peaks[names.index(n)] for n in part], depth - 1)
+    return out
 
 
 def _state_panels(result, states, units):
@@ -168,19 +171,48 @@ def _state_panels(result, states, units):
     return panels
 
 
+def _rate_of(model):
+    """``{speed name: coordinate name}`` where a kinematic equation reads q' = u."""
+    eom = getattr(model, "_eom", None)
+    if eom is None:
+        return {}
+    from ..engine import name_of
+    out = {}
+    for eq in eom.kd_eqs:
+        terms = eq.args if eq.is_Add else ()
+        if len(terms) != 2:
+            continue
+        rate = [a for a in terms if a.is_Derivative]
+        speed = [-a for a in terms if not a.is_Derivative]
+        if len(rate) == 1 and len(speed) == 1 and speed[0].is_Function:
+            out[name_of(speed[0])] = name_of(rate[0].expr)
+    return out
+
+
 def _state_colors(result, states):
-    """The same colour for the k-th coordinate and the k-th speed drawn, in every panel."""
+    """One colour per coordinate drawn, the same in every panel; a speed ``u = q'``
+    gets its coordinate's, other speeds the following ones."""
     names = list(result.state_names)
     n_q = result.model.n_q
     chosen = names if states is None else list(states)
-    levels = ([n for n in chosen if names.index(n) < n_q],
-              [n for n in chosen if names.index(n) >= n_q])
-    if max(len(level) for level in levels) > 20:
+    coordinates = [n for n in chosen if names.index(n) < n_q]
+    speeds = [n for n in chosen if names.index(n) >= n_q]
+    rate_of = _rate_of(result.model)
+    index = {name: k for k, name in enumerate(coordinates)}
+    free = iter(range(len(coordinates), len(coordinates) + len(speeds)))
+    unpaired = iter(range(len(speeds)))
+    for name in speeds:
+        paired = rate_of.get(name)
+        if paired in index:
+            index[name] = index[paired]
+        else:
+            index[name] = next(free) if coordinates else next(unpaired)
+    count = max(index.values(), default=0) + 1
+    if count > 20:
         return {}  # Matplotlib's cycle per panel
-    cmap = "tab10" if max(len(level) for level in levels) <= 10 else "tab20"
     import matplotlib
-    colors = matplotlib.colormaps[cmap].colors
-    return {name: colors[k] for level in levels for k, name in enumerate(level)}
+    colors = matplotlib.colormaps["tab10" if count <= 10 else "tab20"].colors
+    return {name: colors[k] for name, k in index.items()}
 
 
 def _force_units(model):
