@@ -99,7 +99,10 @@ def test_access_and_outputs(tmp_path, four_bar):
     np.testing.assert_array_equal(data["y"], res.y)
     fig = res.plot(path=tmp_path / "run.png")
     assert (tmp_path / "run.png").stat().st_size > 1000
-    assert len(fig.axes) == 4  # coordinates, speeds, residual, energy
+    labels = [ax.get_ylabel() for ax in fig.axes]
+    # angles, angular rates, the two levels of constraint residual, energy
+    assert [lb.split(" [")[-1] for lb in labels][-4:] == ["rad/s]", "m]", "m/s]", "J]"]
+    assert all(lb.startswith("angle [rad]") for lb in labels[:-4])
     summary = res.summary()
     assert summary["success"] and summary["energy_drift"] < 1e-6
 

@@ -16,7 +16,7 @@ accuracy, from runs at several tolerances against a tight reference.
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
@@ -25,7 +25,7 @@ from ._newton_euler import check_newton_euler
 from ..simulation import simulate
 
 __all__ = ["compare_formulations", "FormulationComparison", "work_precision",
-           "WorkPrecision", "NONHOLONOMIC_EXAMPLES"]
+           "WorkPrecision", "NONHOLONOMIC_EXAMPLES", "method_colors"]
 
 #: Built-in models whose constraint forces are all identified, for
 #: ``kanedyn compare nonholonomic``.
@@ -72,6 +72,10 @@ class FormulationComparison:
         ``{method: the integrator's message}``.
     integrator : str
         The ``solve_ivp`` method used for every formulation.
+    units : dict
+        ``{"coordinates": {name: unit or None}, "position": [units],
+        "velocity": [units]}``: units of the coordinates and of the
+        configuration and velocity constraints (for the plot's labels).
     """
 
     model: str
@@ -89,6 +93,7 @@ class FormulationComparison:
     projections: dict
     messages: dict
     integrator: str = "RK45"
+    units: dict = field(default_factory=dict)
 
     @property
     def constraint_residual(self):
@@ -142,6 +147,11 @@ class FormulationComparison:
     def plot(self, path=None):
         """Constraint errors, energy error and deviation against time.
 
+        One colour per method in every panel (the figure's legend); the
+        deviation from the reference method gets one panel per unit of the
+        coordinates (lengths and angles apart); logarithmic axes only where
+        the values allow them.
+
         Parameters
         ----------
         path : str or Path, optional
@@ -151,43 +161,69 @@ class FormulationComparison:
         -------
         matplotlib.figure.Figure
         """
-        from ._plotting import pyplot
+        from ._plotting import draw_nonnegative, pyplot, unit_text
         plt = pyplot()
-        fig, axes = plt.subplots(2, 2, figsize=(11, 7), sharex=True)
-        panels = ((axes[0, 0], self.position_error, "position-level |h|"),
-                  (axes[0, 1], self.velocity_error, "velocity-level |c|"),
-                  (axes[1, 0], {m: None if v is None else np.abs(v)
-                                for m, v in self.energy_error.items()}, "|E - E(0)| [J]"),
-                  (axes[1, 1], {m: np.max(np.abs(self.coordinates[m][:, :self.t.size]
-                                                 - self.coordinates[self.methods[0]]),
-                                          axis=0, initial=0.0)
-                                for m in self.methods}, f"max |q - q_{self.methods[0]}|"))
-        for ax, series, label in panels:
-            drawn = 0
-            for m in self.methods:
-                values = series[m]
-                if values is None or not np.any(np.isfinite(values) & (values > 0)):
-                    continue  # nothing to show on a log scale (e.g. the reference)
-                ax.semilogy(self.t[:values.size], np.maximum(values, 1e-17), label=m)
-                drawn += 1
-            if not drawn:
+        colors = method_colors(self.methods)
+        ref = self.methods[0]
+        q_units = self.units.get("coordinates", {})
+        names = list(q_units) or [f"q{i + 1}" for i in range(len(self.coordinates[ref]))]
+        by_unit = {}
+        for i, name in enumerate(names):
+            by_unit.setdefault(q_units.get(name), []).append(i)
+        panels = [(self.position_error, "position-level |h| "
+                   + unit_text(self.units.get("position") or [None]), False),
+                  (self.velocity_error, "velocity-level |c| "
+                   + unit_text(self.units.get("velocity") or [None]), False),
+                  ({m: None if v is None else np.abs(v) for m, v in self.energy_error.items()},
+                   "|E - E(0)| [J]", False)]
+        for unit, rows in by_unit.items():
+            what = {"rad": "angles", "m": "lengths"}.get(unit, "coordinates")
+            panels.append(({m: None if m == ref else np.max(np.abs(
+                self.coordinates[m][rows, :self.t.size]
+                - self.coordinates[ref][rows, :self.coordinates[m].shape[1]]), axis=0,
+                initial=0.0) for m in self.methods},
+                f"max |q - q_{ref}|, {what} {unit_text([unit])}", True))
+        ncols = 2
+        nrows = -(-len(panels) // ncols)
+        fig, axes = plt.subplots(nrows, ncols, figsize=(11, 3.2 * nrows + 1.0), sharex=True,
+                                 squeeze=False, layout="constrained")
+        for ax, (series, label, deviation) in zip(axes.flat, panels):
+            shown = {m: v for m, v in series.items()
+                     if v is not None and np.any(np.isfinite(v) & (v != 0))}
+            if shown:
+                draw_nonnegative(ax, self.t, shown, colors=colors)
+            else:
                 ax.text(0.5, 0.5, "zero or not defined for every method",
-                        transform=ax.transAxes, ha="center", va="center")
+                        transform=ax.transAxes, ha="center", va="center", color="0.4")
+            quiet = [m for m in self.methods if m not in shown and not (deviation and m == ref)]
+            if quiet and shown:
+                ax.text(0.99, 0.98, "zero or undefined: " + ", ".join(quiet),
+                        transform=ax.transAxes, ha="right", va="top", fontsize="x-small",
+                        color="0.4")
             ax.set_ylabel(label)
-            ax.grid(True, which="both", alpha=0.3)
-        for ax in axes[1]:
+            ax.grid(True, alpha=0.3)
+        for ax in axes.flat[len(panels):]:
+            ax.set_visible(False)
+        for ax in axes[-1]:
             ax.set_xlabel("t [s]")
-        labelled = {}
-        for ax in axes.flat:
-            for handle, name in zip(*ax.get_legend_handles_labels()):
-                labelled.setdefault(name, handle)
-        fig.legend(list(labelled.values()), list(labelled), loc="lower center",
-                   ncol=min(len(labelled), 4) or 1, fontsize="small")
-        fig.suptitle(f"{self.model}: formulations compared ({self.integrator})")
-        fig.tight_layout(rect=(0, 0.06, 1, 1))
+        for ax in axes.flat[len(panels) - ncols:len(panels)]:
+            ax.set_xlabel("t [s]")
+            ax.xaxis.set_tick_params(labelbottom=True)
+        from matplotlib.lines import Line2D
+        handles = [Line2D([], [], color=colors[m], lw=2) for m in self.methods]
+        labels = [m + (" (reference)" if m == ref else "") for m in self.methods]
+        fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 4),
+                   fontsize="small", frameon=False)
+        fig.suptitle(f"{self.model}: formulations compared ({self.integrator})",
+                     fontsize="medium")
         if path is not None:
             fig.savefig(path, dpi=120)
         return fig
+
+
+def method_colors(methods):
+    """``{method: colour}``: one colour per method, the same in every panel."""
+    return {m: f"C{i % 10}" for i, m in enumerate(methods)}
 
 
 def _peak(values):
@@ -335,13 +371,18 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         energy = res.energy
         out["energy_error"][m] = None if energy is None else energy - energy[0]
         out["operations"][m] = _operations(eoms[m])
+    ref_model = built[methods[0]]
+    checker = checkers[0] if checkers else None
+    units = {"coordinates": {n: ref_model.state_units.get(n) for n in q_names},
+             "position": list(checker.constraint_units[0]) if checker else [],
+             "velocity": list(checker.constraint_units[1]) if checker else []}
     q0 = out["coordinates"][methods[0]]
     for m in methods:
         q = out["coordinates"][m]
         n = min(q.shape[1], q0.shape[1])
         out["deviation"][m] = float(np.max(np.abs(q[:, :n] - q0[:, :n]), initial=0.0))
     return FormulationComparison(model=name, methods=methods, t=t_eval,
-                                 integrator=integrator, **out)
+                                 integrator=integrator, units=units, **out)
 
 
 @dataclass(frozen=True)
@@ -361,6 +402,9 @@ class WorkPrecision:
         ``{method: ndarray (k,)}``: CPU seconds per simulated second.
     target : float
         The accuracy at which :attr:`at_target` compares the methods.
+    error_unit : str
+        Unit of the error as an axis label shows it (``"[m, rad]"`` when the
+        coordinates mix lengths and angles, ``"[?]"`` when unknown).
     """
 
     model: str
@@ -369,6 +413,7 @@ class WorkPrecision:
     error: dict
     cpu_per_second: dict
     target: float
+    error_unit: str = "[?]"
 
     @property
     def at_target(self):
@@ -403,6 +448,56 @@ class WorkPrecision:
                                                                  self.cpu_per_second[m]))
             lines.append(f"{m:<21}{cells}  {target[m]:9.4f}")
         return "\n".join(lines)
+
+    def plot(self, path=None):
+        """Work-precision diagram: CPU time against error, log-log, a line per method.
+
+        Each point is one run, labelled with its ``rtol``; the target
+        accuracy is a vertical line.  Runs that failed or matched the
+        reference exactly (no error to place on a log axis) are left out and
+        listed on the figure.
+
+        Parameters
+        ----------
+        path : str or Path, optional
+            Save the figure there.
+
+        Returns
+        -------
+        matplotlib.figure.Figure
+        """
+        from ._plotting import legend_beside, pyplot
+        plt = pyplot()
+        colors = method_colors(self.methods)
+        fig, ax = plt.subplots(figsize=(9, 5.5), layout="constrained")
+        left_out = []
+        for m in self.methods:
+            err, cpu = np.asarray(self.error[m]), np.asarray(self.cpu_per_second[m])
+            ok = np.isfinite(err) & (err > 0) & np.isfinite(cpu) & (cpu > 0)
+            left_out += [f"{m} at rtol {tol:.0e}" for tol, good in zip(self.tolerances, ok)
+                         if not good]
+            if not np.any(ok):
+                continue
+            ax.plot(err[ok], cpu[ok], "o-", color=colors[m], label=m)
+            for tol, e, c in zip(np.asarray(self.tolerances)[ok], err[ok], cpu[ok]):
+                ax.annotate(f"{tol:.0e}", (e, c), textcoords="offset points", xytext=(4, 4),
+                            fontsize="x-small", color=colors[m])
+        ax.axvline(self.target, color="0.4", ls="--", lw=0.9,
+                   label=f"target error {self.target:.0e}")
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(f"error: max |q - q_ref| over the run {self.error_unit}")
+        ax.set_ylabel("CPU time per simulated second [s/s]")
+        ax.grid(True, which="major", alpha=0.3)
+        legend_beside(ax, title="method (points: rtol)")
+        if left_out:
+            ax.text(0.01, 0.01, "not drawn (failed or exact): " + ", ".join(left_out),
+                    transform=ax.transAxes, fontsize="x-small", color="0.4", va="bottom")
+        ax.set_title(f"{self.model}: work-precision (reference: {self.methods[0]} at a "
+                     "tight tolerance)", fontsize="medium")
+        if path is not None:
+            fig.savefig(path, dpi=120)
+        return fig
 
 
 def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
@@ -457,5 +552,8 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
             q = _coordinates(res, q_names)
             if res.success and q.shape == q_ref.shape:
                 error[m][k] = float(np.max(np.abs(q - q_ref)))
+    from ._plotting import unit_text
+    q_units = built[methods[0]].state_units
     return WorkPrecision(model=name, methods=methods, tolerances=tuple(tolerances),
-                         error=error, cpu_per_second=cpu, target=float(target))
+                         error=error, cpu_per_second=cpu, target=float(target),
+                         error_unit=unit_text([q_units.get(n) for n in q_names]))

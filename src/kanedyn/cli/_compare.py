@@ -27,9 +27,11 @@ def add_parser(sub):
                    help="model option (n=6) or parameter (A=0)")
     p.add_argument("--plot", action="store_true",
                    help="save constraint-error / energy / deviation plots in --out")
-    p.add_argument("--out", default="kanedyn-out", help="output directory for --plot")
+    p.add_argument("--out", default="kanedyn-out",
+                   help="output directory for --plot and the --work-precision diagram")
     p.add_argument("--work-precision", action="store_true",
-                   help="also CPU time at equal accuracy (runs at rtol 1e-6, 1e-8, 1e-10)")
+                   help="also CPU time at equal accuracy (runs at rtol 1e-6, 1e-8, 1e-10); "
+                        "table and diagram (work-precision-MODEL.png in --out)")
     p.add_argument("--target-error", type=float, default=1e-6,
                    help="accuracy for --work-precision [same units as q]")
     p.set_defaults(func=cmd_compare)
@@ -82,4 +84,8 @@ def cmd_compare(args):
                                 **options)
             print()
             print(wp.table())
+            Path(args.out).mkdir(parents=True, exist_ok=True)
+            path = Path(args.out) / f"work-precision-{name}.png"
+            wp.plot(path)
+            print(f"work-precision diagram: {path}")
     return 0

@@ -25,7 +25,7 @@ def add_parser(sub):
 
 def cmd_demo(args):
     """Derive the Whipple bicycle, map its stability against speed, ride it."""
-    from ..analysis import pyplot
+    from ..analysis import PUBLISHED_STABLE_SPEEDS, plot_bicycle_eigenvalues, pyplot
     from ..models import eigenvalues_vs_speed, stability_speeds, upright_state
 
     out = Path(args.out)
@@ -49,21 +49,14 @@ def cmd_demo(args):
         print(f"  {v:6.2f}   " + "  ".join(f"{z.real:9.4f}{z.imag:+9.4f}j" for z in ev))
     weave, capsize = stability_speeds(model)
     print(f"\nself-stable speed range: {weave:.10f} < v < {capsize:.10f} m/s")
-    print("published (Meijaard et al. 2007): 4.29238253634111 < v < 6.02426201538837")
+    print("published (Meijaard et al. 2007): {!r} < v < {!r}".format(
+        *PUBLISHED_STABLE_SPEEDS))
 
     plt = pyplot()
-    fig, ax = plt.subplots(figsize=(7, 4.5))
-    for k in range(4):
-        ax.plot(speeds, eigs[:, k].real, "k.", ms=3)
-        ax.plot(speeds, np.abs(eigs[:, k].imag), "b.", ms=2)
-    ax.axvspan(weave, capsize, color="g", alpha=0.15, label="self-stable")
-    ax.set_ylim(-10, 10)
-    ax.set_xlabel("forward speed v [m/s]")
-    ax.set_ylabel("eigenvalues: real (black), |imag| (blue) [1/s]")
-    ax.grid(True, alpha=0.3)
-    ax.legend()
-    fig.tight_layout()
-    fig.savefig(out / "bicycle_eigenvalues.png", dpi=120)
+    fine = np.linspace(0.0, 10.0, 201)
+    fig = plot_bicycle_eigenvalues(fine, eigenvalues_vs_speed(model, fine),
+                                   stable=(weave, capsize),
+                                   path=out / "bicycle_eigenvalues.png")
     plt.close(fig)
 
     progress.stage("simulating a self-stable ride at 5 m/s after a push (lean rate 0.5 rad/s)")
@@ -75,7 +68,11 @@ def cmd_demo(args):
     res = simulate(model, (0.0, t_end), y0, rtol=1e-8, atol=1e-8,
                    t_eval=np.linspace(0.0, t_end, 501), progress=progress)
     res.to_csv(out / "bicycle_ride.csv")
-    fig = res.plot(states=["q4", "q7", "u4", "u7"], path=out / "bicycle_ride.png")
+    fig = res.plot(states=["q4", "q7", "u4", "u7"], path=out / "bicycle_ride.png",
+                   labels={"q4": "lean q4", "q7": "steer q7", "u4": "lean rate u4",
+                           "u7": "steer rate u7"},
+                   title="Whipple bicycle: self-stable ride at 5 m/s after a push "
+                         "(lean and steer; wheel angles omitted)")
     plt.close(fig)
     lean, steer = res["q4"], res["q7"]
     tail = res.t >= res.t[-1] - 1.0

@@ -30,7 +30,7 @@ from functools import cached_property
 
 import sympy as sm
 
-from ..modeling import description_symbols
+from ..modeling import constraint_units, description_symbols, state_units
 from ..engine import SAMPLE_SEEDS, name_of
 
 __all__ = ["EquationsOfMotion"]
@@ -63,7 +63,15 @@ class EquationsOfMotion:
     contacts : tuple of Contact
         Contacts (their forces are found at evaluation time, see
         :meth:`NumericModel.contact_dynamics`).
+    name, title : str or None
+        The model's name and one-line description where a model definition
+        gave them (:meth:`kanedyn.models.ModelDefinition.derive`); plots use
+        them.
     """
+
+    name = None
+    title = None
+    _declared_units = None
 
     _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
                "qdot", "kinematic_matrices", "mass", "active", "remainder",
@@ -89,6 +97,14 @@ class EquationsOfMotion:
         object.__setattr__(self, "method", fields["method"])
         # the description's own symbols, read now: the SymPy objects may change later
         object.__setattr__(self, "_description_symbols", description_symbols(spec))
+        return self
+
+    def _label(self, name=None, title=None, units=None):
+        """Set the model's name, title and declared units (once, by a model
+        definition that derived the equations); returns ``self``."""
+        for key, value in (("name", name), ("title", title), ("_declared_units", units)):
+            if value is not None:
+                object.__setattr__(self, key, value)
         return self
 
     def __setattr__(self, name, value):
@@ -133,6 +149,19 @@ class EquationsOfMotion:
     @property
     def state_names(self):
         return tuple(name_of(s) for s in self.state)
+
+    @cached_property
+    def state_units(self):
+        """``{state name: unit or None}``: rad, m, rad/s, m/s as the kinematics
+        tell (:func:`kanedyn.modeling.state_units`), declared units first;
+        ``None`` where they do not tell."""
+        return state_units(self._spec, self._declared_units)
+
+    @cached_property
+    def constraint_units(self):
+        """Units of the configuration and velocity constraints, ``(list, list)``
+        (``None`` where unknown)."""
+        return constraint_units(self._spec, self.state_units)
 
     @property
     def kd_eqs(self):

@@ -5,6 +5,7 @@
 ``_physical``            physical plausibility of masses and inertias
 ``_contacts``            contacts and the surfaces they touch
 ``_vector_constraints``  constraints in vector form that identify their forces
+``_units``               units of coordinates and speeds read off the kinematics
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``visuals``              shapes that draw bodies in the 3D viewer
@@ -14,6 +15,7 @@ from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
+from ._units import constraint_units, speed_unit, state_units
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
@@ -23,6 +25,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "Sphere", "Ellipsoid", "ImplicitSurface", "SURFACE_COORDINATES",
            "coefficient_value", "VectorConstraint", "PointVelocity", "AngularVelocity",
            "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
-           "check_declared_bodies",
+           "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
            "FlexibleBody", "InertiaInvariants"]

@@ -42,6 +42,10 @@ class ModelDefinition:
         Named handles to symbols and objects (for tests and examples).
     description : str
         Longer text: what the model is and what it validates.
+    units : dict
+        ``{coordinate or speed: unit}`` for those whose unit the kinematics do
+        not tell (see :func:`kanedyn.modeling.state_units`); plots label their
+        axes with them.
     """
 
     name: str
@@ -53,15 +57,20 @@ class ModelDefinition:
     specified: dict = field(default_factory=dict)
     symbols: dict = field(default_factory=dict)
     description: str = ""
+    units: dict = field(default_factory=dict)
 
     def derive(self, progress=False, method="kane"):
-        """Equations of motion (:func:`kanedyn.formulate`)."""
+        """Equations of motion (:func:`kanedyn.formulate`), labelled with the
+        model's name, title and declared units."""
         from ..formulations import formulate
-        return formulate(method=method, progress=progress, **self.kane_args)
+        eom = formulate(method=method, progress=progress, **self.kane_args)
+        return eom._label(name=self.name, title=self.title, units=self.units or None)
 
     def numeric(self, eom=None, constants=None, specified=None, **options):
         """Numerical model with the default constants, updated by ``constants``."""
         eom = eom if eom is not None else self.derive()
+        if eom.name is None:
+            eom._label(name=self.name, title=self.title, units=self.units or None)
         values = dict(self.constants)
         values.update(self._constant_overrides(constants or {}))
         inputs = dict(self.specified)

@@ -287,6 +287,8 @@ class NumericModel(StateLayout):
         Numbers of coordinates and speeds (including dependent ones).
     constants : dict
         ``{name: value}`` of the constants used.
+    name, title : str or None
+        The model's name and description, when its equations carry them.
     """
 
     def __init__(self, data, module=None):
@@ -336,6 +338,44 @@ class NumericModel(StateLayout):
                     "multiplier_names", "identified_names", "multiplier_form",
                     "scheme", "rates_are_speeds"):
             setattr(self, key, d[key])
+
+    @property
+    def name(self):
+        return self._data.get("name")
+
+    @property
+    def title(self):
+        return self._data.get("title")
+
+    @property
+    def state_units(self):
+        """``{state name: unit or None}`` (see :attr:`EquationsOfMotion.state_units`);
+        found on first use from the equations (all ``None`` without them)."""
+        self._fill_units()
+        return self._data["state_units"]
+
+    @property
+    def constraint_units(self):
+        """Units of the configuration and velocity constraints, ``(list, list)``."""
+        self._fill_units()
+        return self._data["constraint_units"]
+
+    def _fill_units(self):
+        if "state_units" in self._data:
+            return
+        eom = getattr(self, "_eom", None)
+        if eom is None:
+            units = dict.fromkeys(self.state_names)
+            config, velocity = [None] * self.n_q_dep, [None] * self.n_u_dep
+        else:
+            units = {n: eom.state_units.get(n) for n in self.state_names}
+            config, velocity = eom.constraint_units
+            if len(config) != self.n_q_dep:
+                config = [None] * self.n_q_dep
+            if len(velocity) != self.n_u_dep:  # constraints in vector form among them
+                velocity = [None] * self.n_u_dep
+        self._data["state_units"] = units
+        self._data["constraint_units"] = (list(config), list(velocity))
 
     def __repr__(self):
         return (f"<NumericModel: {self.n_q} coordinates, {self.n_u} speeds, "
@@ -964,6 +1004,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
                                   if name in eom._multiplier_names),
         "body_parameters": body_parameters_,
         "bodies": bodies,
+        "name": getattr(eom, "name", None),
+        "title": getattr(eom, "title", None),
     }
     model = NumericModel(data, module=c_module)
     # not pickled: the equations and exact input substitutions, for linearization

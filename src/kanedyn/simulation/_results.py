@@ -342,21 +342,31 @@ class SimulationResult:
         np.savez_compressed(path, **arrays)
         return path
 
-    def plot(self, states=None, path=None, extras=True):
+    def plot(self, states=None, path=None, extras=True, labels=None, title=None):
         """Plot state histories (and residual/energy panels); returns the Figure.
+
+        One panel per kind and unit of state (angles [rad], positions [m],
+        angular rates [rad/s], speeds [m/s], ``[?]`` where the model does not
+        tell), curves of very different ranges in separate panels, legends
+        beside the axes; the title names the model.
 
         Parameters
         ----------
         states : sequence of str, optional
-            Which states to plot (default: all, coordinates and speeds in two
-            panels).
+            Which states to plot (default: all).
         path : str or Path, optional
             Save the figure there.
         extras : bool
-            Add panels for constraint residual and energy when available.
+            Add panels for constraint residuals, energy and forces when
+            available.
+        labels : dict, optional
+            ``{state name: legend text}`` (e.g. ``{"q4": "lean q4"}``).
+        title : str, optional
+            Instead of the model's title.
         """
         from ..analysis import plot_result
-        return plot_result(self, states=states, path=path, extras=extras)
+        return plot_result(self, states=states, path=path, extras=extras, labels=labels,
+                           title=title)
 
     def animate(self, path, visuals=(), trace=(), up="auto", max_frames=2000, title=None):
         """Write the motion as a 3D animation: one HTML file that needs no network.
