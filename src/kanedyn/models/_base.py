@@ -42,6 +42,12 @@ class ModelDefinition:
         Named handles to symbols and objects (for tests and examples).
     description : str
         Longer text: what the model is and what it validates.
+    shape_specs : tuple
+        Shapes that draw the bodies in the 3D viewer, as data:
+        ``(kind, body, {option: value})`` with ``kind`` one of ``"Box"``,
+        ``"Cylinder"``, ``"Sphere"``, ``"Mesh"`` (:mod:`kanedyn.visuals`) and
+        option values numbers or SymPy expressions in the constants; see
+        :meth:`shapes`.
     """
 
     name: str
@@ -53,6 +59,7 @@ class ModelDefinition:
     specified: dict = field(default_factory=dict)
     symbols: dict = field(default_factory=dict)
     description: str = ""
+    shape_specs: tuple = ()
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`)."""
@@ -77,6 +84,38 @@ class ModelDefinition:
                 raise ModelError(f"{key} is not a parameter of model {self.name}; "
                                  f"parameters: {', '.join(sorted(by_name))}")
             out[sym] = value
+        return out
+
+    def shapes(self, constants=None):
+        """Shapes drawing the bodies in the 3D viewer (``res.animate(visuals=...)``).
+
+        Parameters
+        ----------
+        constants : dict, optional
+            ``{Symbol or name: value}`` overriding the default constants (the
+            same as for :meth:`numeric`), so that sizes follow the parameters.
+
+        Returns
+        -------
+        list of kanedyn.visuals.Shape
+            Empty when the model declares none (the viewer then draws its
+            default shapes).
+        """
+        from ..modeling import visuals
+        values = dict(self.constants)
+        values.update(self._constant_overrides(constants or {}))
+        out = []
+        for kind, body, options in self.shape_specs:
+            opts = {}
+            for key, value in options.items():
+                if isinstance(value, sm.Basic):
+                    number = value.xreplace(values)
+                    if not number.is_number:
+                        raise ModelError(f"model {self.name}: {kind} of body {body.name}: "
+                                         f"{key} = {value} depends on more than constants")
+                    value = float(number)
+                opts[key] = value
+            out.append(getattr(visuals, kind)(body, **opts))
         return out
 
     def initial(self, model, overrides=None):
