@@ -39,6 +39,8 @@ def main(argv=None):
     parser.add_argument("--urdf", help="URDF file (default: the UR5 of example-robot-data)")
     parser.add_argument("--t-end", type=float, default=1.0, help="simulated time, s")
     parser.add_argument("--plot", metavar="FILE", help="save a plot (needs matplotlib)")
+    parser.add_argument("--animate", metavar="FILE.html",
+                        help="write a 3D animation drawn with the robot's own geometry")
     args = parser.parse_args(argv)
 
     path = args.urdf or ur5_file()
@@ -76,6 +78,10 @@ def main(argv=None):
         fig.savefig(args.plot, dpi=120)
         plt.close(fig)
         print(f"plot saved to {args.plot}")
+
+    if args.animate:                            # visuals; .dae meshes -> collision STL
+        page = res.animate(args.animate, visuals=robot.shapes(), title=robot.title)
+        print(f"animation saved to {page}")
 
     return {"final": final, "t_end": args.t_end, "urdf": str(path),
             "success": bool(res.success)}

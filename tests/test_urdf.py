@@ -20,6 +20,7 @@ import numpy as np
 import pytest
 
 import kanedyn as kd
+from kanedyn.io import scene_data
 from kanedyn.models import URDFError
 
 pin = pytest.importorskip("pinocchio", reason="the URDF tests compare with Pinocchio "
@@ -428,3 +429,101 @@ def test_not_xml_and_not_urdf(tmp_path):
         kd.models.from_urdf(path)
     with pytest.raises(URDFError, match="cannot read the URDF file"):
         kd.models.from_urdf(tmp_path / "missing.urdf")
+
+
+# -- viewer shapes of the visuals --------------------------------------------------
+
+def _pose(xyz, rpy):
+    """4x4 pose of a URDF <origin>, written out (fixed-axis roll, pitch, yaw)."""
+    from scipy.spatial.transform import Rotation
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_euler("xyz", rpy).as_matrix()
+    T[:3, 3] = xyz
+    return T
+
+
+def _turn(axis, angle):
+    from scipy.spatial.transform import Rotation
+    T = np.eye(4)
+    T[:3, :3] = Rotation.from_rotvec(angle * np.asarray(axis) / np.linalg.norm(axis)).as_matrix()
+    return T
+
+
+def test_box_visual_placed_where_the_urdf_says(tmp_path):
+    """The box of link 'tool' (fixed to 'arm', whose mass centre is off its joint),
+    with its own origin offset and rpy, drawn by the viewer at the pose that the
+    URDF's forward kinematics gives, at nonzero joint angles."""
+    box_origin = ((0.03, -0.02, 0.04), (0.3, 0.2, -0.4))
+    text = EDGE.replace('<visual><geometry><box size="0.1 0.05 0.02"/>',
+                        '<visual><origin xyz="0.03 -0.02 0.04" rpy="0.3 0.2 -0.4"/>'
+                        '<geometry><box size="0.1 0.05 0.02"/>', 1)
+    path = tmp_path / "edge_box.urdf"
+    path.write_text(text)
+    definition = kd.models.from_urdf(path)
+    shapes, notes = definition.visual_shapes()
+    # the slider's mesh is not found (no package_dirs): skipped, named, warned
+    assert [n for n in notes if "slider" in n] == [n for n in notes if n.startswith("skipped")]
+    assert len(notes) == 1 and "slider.stl" in notes[0] and "not found" in notes[0]
+    with pytest.warns(UserWarning, match="slider.stl"):
+        assert len(definition.shapes()) == len(shapes) == 3  # arm, tool, wheel
+    box = next(s for s in shapes if isinstance(s, kd.visuals.Box))
+    assert box.body.name == "arm" and box.lengths == (0.1, 0.05, 0.02)
+    arm_c = [definition.constants[sm_] for sm_ in definition.constants
+             if str(sm_) in ("cx_arm", "cy_arm", "cz_arm")]
+    assert np.linalg.norm(arm_c) > 0.1  # the mass centre is well off the joint
+
+    model = definition.numeric()
+    y0 = definition.initial(model)
+    y0[:4] = (0.7, -0.9, 0.05, 0.3)
+    y0[4:8] = (0.5, -1.0, 0.1, 2.0)
+    res = kd.simulate(model, (0.0, 0.2), y0, t_eval=[0.0, 0.1, 0.2])
+    assert res.success
+    scene = scene_data(res, visuals=shapes)
+    arm = next(b for b in scene["bodies"] if b["name"] == "arm")
+    drawn = next(s for s in arm["shapes"] if s["kind"] == "box")
+    from scipy.spatial.transform import Rotation
+    for k in range(3):
+        q1, q2 = res.y[0, k], res.y[1, k]
+        assert abs(q1) > 0.3 and abs(q2) > 0.3
+        expected = (_pose((0, 0, 1), (0.1, 0.2, 0.3)) @ _turn((1, 1, 1), q1)
+                    @ _pose((0.05, 0, 0), (0, 0, 0)) @ _turn((0, 1, 0), q2)
+                    @ _pose((0.2, 0, -0.5), (0, 0.5, -0.3)) @ _pose(*box_origin))
+        p = np.array(arm["position"]).reshape(-1, 3)[k]
+        R = Rotation.from_quat(np.array(arm["quaternion"]).reshape(-1, 4)[k]).as_matrix()
+        centre = p + R @ np.array(drawn["offset"])
+        axes = R @ Rotation.from_quat(drawn["quaternion"]).as_matrix()
+        np.testing.assert_allclose(centre, expected[:3, 3], atol=2e-6)
+        np.testing.assert_allclose(axes, expected[:3, :3], atol=2e-6)
+
+
+@pytest.mark.parametrize("robot", ["ur5", "panda"])
+def test_robot_shapes_one_per_moving_link(robot):
+    """The arms' visual meshes are Collada (.dae): each moving link is drawn by its
+    collision geometry; the base's visual (on the ground) is reported, not lost."""
+    definition = kd.models.from_urdf(robots_folder() / REAL[robot])
+    shapes, notes = definition.visual_shapes()
+    moving = {b.name for b in definition.kane_args["bodies"]}
+    assert {s.body.name for s in shapes} == moving
+    assert all(s.path.suffix == ".stl" for s in shapes if isinstance(s, kd.visuals.Mesh))
+    if robot == "ur5":
+        assert len(shapes) == 6 and all(isinstance(s, kd.visuals.Mesh) for s in shapes)
+    # every visual is drawn or named in a note
+    drawn = {v.link for v in definition.visuals if v.body in moving}
+    noted = {n.split("link '")[1].split("'")[0] for n in notes}
+    assert {v.link for v in definition.visuals} == drawn | noted
+    skipped = [n for n in notes if n.startswith("skipped")]
+    assert len(skipped) == 1 and "fixed to the ground" in skipped[0]
+    assert "'base_link'" in skipped[0] or "'panda_link0'" in skipped[0]
+
+
+def test_built_in_model_shapes():
+    ball = kd.models.bouncing_ball()
+    (sphere,) = ball.shapes()
+    assert sphere.semi_axes == (0.05,) * 3
+    assert ball.shapes({"r": 0.2})[0].semi_axes == (0.2,) * 3
+    bike = kd.models.whipple_bicycle()
+    rear, front = bike.shapes()
+    assert (rear.body.name, rear.radius) == ("rear_wheel", 0.3)
+    assert (front.body.name, front.radius) == ("front_wheel", 0.35)
+    np.testing.assert_allclose(rear.rotation[:, 1], [0, 1, 0])  # the spin axis
+    assert kd.models.pendulum().shapes() == []

@@ -54,6 +54,7 @@ def cmd_run(args):
     summary = _write_run(definition, eom, model, res, Path(args.out), progress)
     if args.animate:
         page = res.animate(Path(args.out) / f"{definition.name}.html",
+                           visuals=definition.shapes(constants),
                            title=f"{definition.name}: {definition.title}")
         progress.stage(f"wrote {page}")
     _print_summary(summary)

@@ -46,6 +46,12 @@ class ModelDefinition:
         ``{coordinate or speed: unit}`` for those whose unit the kinematics do
         not tell (see :func:`kanedyn.modeling.state_units`); plots label their
         axes with them.
+    shape_specs : tuple
+        Shapes that draw the bodies in the 3D viewer, as data:
+        ``(kind, body, {option: value})`` with ``kind`` one of ``"Box"``,
+        ``"Cylinder"``, ``"Sphere"``, ``"Mesh"`` (:mod:`kanedyn.visuals`) and
+        option values numbers or SymPy expressions in the constants; see
+        :meth:`shapes`.
     """
 
     name: str
@@ -58,6 +64,7 @@ class ModelDefinition:
     symbols: dict = field(default_factory=dict)
     description: str = ""
     units: dict = field(default_factory=dict)
+    shape_specs: tuple = ()
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the
@@ -86,6 +93,38 @@ class ModelDefinition:
                 raise ModelError(f"{key} is not a parameter of model {self.name}; "
                                  f"parameters: {', '.join(sorted(by_name))}")
             out[sym] = value
+        return out
+
+    def shapes(self, constants=None):
+        """Shapes drawing the bodies in the 3D viewer (``res.animate(visuals=...)``).
+
+        Parameters
+        ----------
+        constants : dict, optional
+            ``{Symbol or name: value}`` overriding the default constants (the
+            same as for :meth:`numeric`), so that sizes follow the parameters.
+
+        Returns
+        -------
+        list of kanedyn.visuals.Shape
+            Empty when the model declares none (the viewer then draws its
+            default shapes).
+        """
+        from ..modeling import visuals
+        values = dict(self.constants)
+        values.update(self._constant_overrides(constants or {}))
+        out = []
+        for kind, body, options in self.shape_specs:
+            opts = {}
+            for key, value in options.items():
+                if isinstance(value, sm.Basic):
+                    number = sm.sympify(value.xreplace(values))
+                    if not number.is_number:
+                        raise ModelError(f"model {self.name}: {kind} of body {body.name}: "
+                                         f"{key} = {value} depends on more than constants")
+                    value = float(number)
+                opts[key] = value
+            out.append(getattr(visuals, kind)(body, **opts))
         return out
 
     def initial(self, model, overrides=None):

@@ -172,7 +172,8 @@ def bouncing_ball(restitution=0.8):
         constants={m: 0.1, g: 9.81, r: 0.05, e: restitution, mu: 0.0},
         initial_state={x: 0.0, z: 1.05, ux: 0.5, uz: 0.0}, t_end=4.0,
         symbols=dict(x=x, z=z, ux=ux, uz=uz, m=m, g=g, r=r, e=e, N=N),
-        description="Apex heights above the floor fall by e^2 per bounce.")
+        description="Apex heights above the floor fall by e^2 per bounce.",
+        shape_specs=(("Sphere", ball, {"radius": r}),))
 
 
 def _rod(N, O, length, mass, name="rod"):

@@ -181,6 +181,9 @@ def whipple_bicycle():
                        loads=loads, potential_energy=potential),
         constants=constants, initial_state=init, t_end=5.0,
         symbols=dict(q=q, u=u, params=P, N=N),
+        shape_specs=tuple(("Cylinder", wheel, {"radius": radius, "length": 0.1 * radius,
+                                               "axis": "y"})
+                          for wheel, radius in ((bodies[0], rR), (bodies[3], rF))),
         description="Self-stable between the weave speed 4.29 m/s and the capsize "
                     "speed 6.02 m/s; the default ride starts at 5 m/s with a "
                     "small lean.")

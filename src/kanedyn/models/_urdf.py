@@ -13,6 +13,7 @@ zero by default.
 from __future__ import annotations
 
 import re
+import warnings
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -22,6 +23,7 @@ import sympy.physics.mechanics as me
 from .._errors import ModelError
 from ._base import ModelDefinition
 from ._urdf_parse import URDFError, Visual, parse_robot, pose_matrix
+from ._urdf_shapes import urdf_shapes
 
 __all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
            "PINOCCHIO_GRAVITY"]
@@ -92,6 +94,9 @@ class URDFDefinition(ModelDefinition):
         The moving joints, in coordinate order (depth first, file order).
     visuals : tuple of Visual
         Every ``<visual>`` (shape, size, mesh file, pose in its body's link frame).
+    collisions : tuple of Visual
+        Every ``<collision>``, the same records (used by :meth:`shapes` when a
+        visual mesh is of a format the viewer cannot read).
     link_bodies : dict
         ``{link name: (body name, 4x4 pose of the link in the body's link frame)}``;
         the body name is ``""`` for links fixed to the ground.
@@ -104,6 +109,7 @@ class URDFDefinition(ModelDefinition):
     source: str = ""
     joints: tuple = ()
     visuals: tuple = ()
+    collisions: tuple = ()
     link_bodies: dict = field(default_factory=dict)
     gravity: tuple = PINOCCHIO_GRAVITY
     base: str = "fixed"
@@ -111,6 +117,52 @@ class URDFDefinition(ModelDefinition):
     def limits(self):
         """``{joint: (lower, upper, velocity, effort)}`` (None where not given)."""
         return {j.name: (j.lower, j.upper, j.velocity, j.effort) for j in self.joints}
+
+    def visual_shapes(self, constants=None):
+        """The viewer shapes of the visuals, and what could not be drawn.
+
+        Parameters
+        ----------
+        constants : dict, optional
+            ``{Symbol or name: value}`` overriding the default constants (the
+            mass centres ``cx_<body>``... place the shapes).
+
+        Returns
+        -------
+        shapes : list of kanedyn.visuals.Shape
+        notes : list of str
+            One line per visual replaced by collision geometry or skipped, naming
+            the link, the file and line, and the reason.
+        """
+        values = dict(self.constants)
+        values.update(self._constant_overrides(constants or {}))
+        return urdf_shapes(self, values)
+
+    def shapes(self, constants=None):
+        """Shapes drawing the robot with its own ``<visual>`` geometry.
+
+        A visual mesh that the viewer cannot read (only ``.stl`` and ``.obj``
+        are read; e.g. a Collada ``.dae``) is replaced by the link's
+        ``<collision>`` geometry when that can be drawn.  Visuals that are still
+        not drawable (and those of links fixed to the ground or of massless
+        links, which the viewer does not draw) are skipped with a
+        :class:`UserWarning` naming each; :meth:`visual_shapes` returns the list.
+
+        Parameters
+        ----------
+        constants : dict, optional
+            Overrides of the default constants.
+
+        Returns
+        -------
+        list of kanedyn.visuals.Shape
+        """
+        shapes, notes = self.visual_shapes(constants)
+        skipped = [n for n in notes if n.startswith("skipped")]
+        if skipped:
+            warnings.warn(f"{self.source}: {len(skipped)} visual(s) not drawn:\n  "
+                          + "\n  ".join(skipped), UserWarning, stacklevel=2)
+        return shapes
 
 
 def _identifier(name, taken, what, source):
@@ -226,12 +278,13 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     build.bodies(gravity)
     _check_masses(build.order, build.carried, robot.source)
 
-    visuals = []
+    visuals, collisions = [], []
     for link in robot.links.values():
         body, T = build.group[link.name]
-        for vis in link.visuals:
-            pose = T @ pose_matrix(vis.xyz, vis.rpy)
-            visuals.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
+        for records, out in ((link.visuals, visuals), (link.collisions, collisions)):
+            for vis in records:
+                pose = T @ pose_matrix(vis.xyz, vis.rpy)
+                out.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
     q_list, u_list = build.q, build.u
     group = build.group
     symbols = dict(q=q_list, u=u_list, g=build.g, N=build.N, O=build.O,
@@ -245,6 +298,7 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
         t_end=float(t_end), specified=build.specified, symbols=symbols,
         description=f"URDF robot '{robot.name}' read from {robot.source}; {base} base.",
         source=robot.source, joints=tuple(build.joint_infos), visuals=tuple(visuals),
+        collisions=tuple(collisions),
         link_bodies=dict(group), gravity=gravity, base=base)
 
 

@@ -126,7 +126,7 @@ class Inertial:
 
 @dataclass(frozen=True)
 class Visual:
-    """One ``<visual>`` of a link, kept as data for viewers.
+    """One ``<visual>`` (or ``<collision>``) of a link, kept as data for viewers.
 
     Attributes
     ----------
@@ -154,7 +154,7 @@ class Visual:
     rgba : tuple or None
         Colour of its ``<material>``, when given.
     line : int
-        Line of the ``<visual>`` element in ``source``.
+        Line of the ``<visual>`` (or ``<collision>``) element in ``source``.
     source : str
         The URDF file.
     """
@@ -186,12 +186,13 @@ class Visual:
 
 @dataclass(frozen=True)
 class Link:
-    """A ``<link>``: name, inertial (None when massless), visuals, line."""
+    """A ``<link>``: name, inertial (None when massless), visuals, line, collisions."""
 
     name: str
     inertial: Inertial | None
     visuals: tuple
     line: int
+    collisions: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -313,7 +314,7 @@ class _Reader:
     def geometry(self, link_el, vis_el):
         geo = vis_el.find("geometry")
         if geo is None or not geo.children:
-            raise self.error(link_el, "<visual> has no <geometry>", vis_el.line)
+            raise self.error(link_el, f"<{vis_el.tag}> has no <geometry>", vis_el.line)
         shape = geo.children[0]
         if shape.tag == "box":
             if "size" not in shape.attrib:
@@ -351,9 +352,10 @@ class _Reader:
             candidates.append(urdf_dir / filename)
         return next((str(c) for c in candidates if c.is_file()), None)
 
-    def visuals(self, link_el, name, materials):
+    def visuals(self, link_el, name, materials, tag="visual"):
+        """The ``<visual>`` (or ``<collision>``, by ``tag``) elements of a link."""
         out = []
-        for vis_el in link_el.findall("visual"):
+        for vis_el in link_el.findall(tag):
             shape, size, filename = self.geometry(link_el, vis_el)
             xyz, rpy = self.origin(vis_el, link_el)
             out.append(Visual(link=name, shape=shape, size=size, xyz=xyz, rpy=rpy,
@@ -435,7 +437,7 @@ def parse_robot(path, package_dirs=None):
             raise reader.error(el, f"a second link named '{name}' (the first is on "
                                f"line {links[name].line})")
         links[name] = Link(name, reader.inertial(el), reader.visuals(el, name, materials),
-                           el.line)
+                           el.line, reader.visuals(el, name, materials, "collision"))
     if not links:
         raise URDFError(f"{path}:{root.line}: <robot> has no <link>")
     joints, parent_of = {}, {}
