@@ -15,6 +15,7 @@ run the examples.
 
 import argparse
 import ast
+import re
 import subprocess
 import sys
 import tempfile
@@ -33,11 +34,22 @@ SCALE = 0.75
 
 
 def docstring(path):
-    """The example's module docstring: (title line, first paragraph after it)."""
+    """The example's module docstring: (title, what it shows).
+
+    The title is the first paragraph; what it shows is the next one, with the
+    list that follows it when it ends with a colon (kept as a markdown list)."""
     text = ast.get_docstring(ast.parse(path.read_text())) or path.stem
-    paragraphs = [" ".join(p.split()) for p in text.split("\n\n")]
-    body = next((p for p in paragraphs[1:] if not p.startswith("Run")), "")
-    return paragraphs[0], body
+    paragraphs = [p.strip("\n") for p in text.split("\n\n")]
+    title = " ".join(paragraphs[0].split())
+    body = []
+    for paragraph in paragraphs[1:]:
+        is_item = re.match(r"\s*(\*|-|\d+\.)\s", paragraph)
+        if body and not is_item and not body[-1].rstrip().endswith(":"):
+            break
+        if paragraph.lstrip().startswith(("Run", "python ")):
+            continue
+        body.append(paragraph if is_item else " ".join(paragraph.split()))
+    return title, "\n\n".join(body)
 
 
 def render(name):
