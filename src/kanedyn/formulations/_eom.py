@@ -605,7 +605,24 @@ class EquationsOfMotion:
         simplify, linear_solver
             SymPy's options (symbolic path).
 
-        See :func:`kanedyn.numerics._linearize.linearize_symbolic` for the details.
+        Returns
+        -------
+        tuple
+            ``(A, B, r)``, or ``(M, A, B, r)`` with ``A_and_B=False``: SymPy
+            matrices and ``r`` a column matrix of the inputs (symbolic path), or
+            NumPy arrays and ``r`` a list of the inputs' names (with
+            ``constants``).  Dependent coordinates and speeds are eliminated:
+            ``A`` is square of size ``n_q - n_q_dep + n_u - n_u_dep``.
+
+        See Also
+        --------
+        kanedyn.NumericModel.linearize : the same about a numerical state.
+
+        Notes
+        -----
+        The operating point, the elimination of dependent coordinates and speeds
+        and the comparison with SymPy's ``Linearizer`` are described on the
+        documentation's linearization page (``docs/linearization.md``).
         """
         from ..numerics import linearize_symbolic
         return linearize_symbolic(self, op_point=op_point, A_and_B=A_and_B,

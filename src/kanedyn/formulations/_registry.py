@@ -14,6 +14,8 @@ from ..modeling import FlexibleBody, parse_model
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
+#: name -> ``derive(spec, progress=..., **options) -> EquationsOfMotion`` of each
+#: formulation; :func:`formulate` looks ``method`` up here.
 FORMULATIONS = {}
 _RIGID_ONLY = set()  # formulations that cannot take flexible bodies
 

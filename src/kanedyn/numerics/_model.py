@@ -801,7 +801,36 @@ class NumericModel(StateLayout):
 
     # --------------------------------------------------------- linearize
     def linearize(self, y, t=0.0, r=None):
-        """Numerical linearization about a state; see :func:`kanedyn.linearize`."""
+        r"""Linearize about the state ``y``, :math:`\delta\dot x_i = A\,\delta x_i + B\,\delta r`.
+
+        Parameters
+        ----------
+        y : array_like, shape (n_q + n_u,)
+            Operating point ``[q, u]`` (SI units); its dependent entries must
+            satisfy the constraints (:meth:`consistent_state` makes them).  It
+            need not be an equilibrium: the accelerations and constraint forces
+            at ``y`` enter the result.
+        t : float
+            Time of the operating point, s.
+        r : array_like, optional
+            Values of the specified inputs (the columns of ``B``) at the
+            operating point; by default their providers are evaluated at
+            ``(t, y)``.
+
+        Returns
+        -------
+        A : ndarray, shape (n, n)
+            With :math:`x_i = [q_{ind}; u_{ind}]` and
+            ``n = n_q - n_q_dep + n_u - n_u_dep``: dependent coordinates and
+            speeds are eliminated numerically.
+        B : ndarray, shape (n, n_r)
+        r : list of str
+            Names of the inputs, in the order of the columns of ``B``.
+
+        See Also
+        --------
+        kanedyn.EquationsOfMotion.linearize : symbolic, or SymPy's forms.
+        """
         from ._linearize import linearize_numeric
         return linearize_numeric(self, y, t=t, r=r)
 

@@ -419,7 +419,13 @@ class SimulationResult:
         path : str or Path, optional
             Save the figure there as PNG.
 
-        See :func:`kanedyn.analysis.plot_deflection` for the details.
+        Returns
+        -------
+        matplotlib.figure.Figure
+
+        See Also
+        --------
+        kanedyn.analysis.plot_deflection : the same drawing, with the details.
         """
         from ..analysis import plot_deflection
         return plot_deflection(self, body, times, scale=scale, path=path)
