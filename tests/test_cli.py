@@ -18,10 +18,22 @@ def test_list(capsys):
         assert name in out
 
 
-def test_derive_small_model_prints_explicit_equations(capsys):
-    assert main(["derive", "pendulum", "--quiet"]) == 0
+def test_derive_explicit_prints_explicit_equations(capsys):
+    assert main(["derive", "pendulum", "--quiet", "--explicit"]) == 0
     out = capsys.readouterr().out
     assert "mass_matrix[0, 0] = l**2*m" in out and "q' = u" in out
+    assert "forcing[0] = -g*l*m*sin(q)" in out and "z0" not in out
+
+
+def test_derive_prints_compact_text_by_default(capsys):
+    """Compact form (named intermediates), plain text, whatever the model's size."""
+    for argv in (["derive", "pendulum", "--quiet"],
+                 ["derive", "chain3d", "--set", "n=3", "--quiet"]):
+        assert main(argv) == 0
+        out = capsys.readouterr().out
+        assert "\\begin" not in out and "\\frac" not in out  # no LaTeX
+        assert re.search(r"^z0 = ", out, re.M) and re.search(r"^mass_matrix\[0, 0\] = ",
+                                                              out, re.M)
 
 
 def test_derive_latex_with_option(capsys):

@@ -260,7 +260,7 @@ class _Setup:
     q_names: tuple
 
 
-def _models(name, methods, constants, options, t_end, n_points):
+def _models(name, methods, constants, options, t_end, n_points, backend="numpy"):
     """Derive and build every method's model; map the reference start to each."""
     from .. import models
     methods = tuple(methods)
@@ -268,7 +268,8 @@ def _models(name, methods, constants, options, t_end, n_points):
         raise ModelError("give at least one formulation to compare")
     definition = models.build(name, **options)
     eoms = {m: definition.derive(method=m) for m in methods}
-    built = {m: definition.numeric(eoms[m], constants=constants) for m in methods}
+    built = {m: definition.numeric(eoms[m], constants=constants, backend=backend)
+             for m in methods}
     ref = built[methods[0]]
     y_ref = ref.state(definition.initial(ref))
     qdot_ref = ref.rhs(0.0, y_ref)[:ref.n_q]
@@ -286,7 +287,7 @@ def _coordinates(res, q_names):
 
 def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=None,
                          rtol=1e-10, atol=1e-12, n_points=201, integrator="RK45",
-                         constants=None, **options):
+                         constants=None, backend="numpy", **options):
     """Simulate a built-in model under several formulations and compare.
 
     Parameters
@@ -306,6 +307,8 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         runs, as the penalty formulation may need).
     constants : dict, optional
         Parameter values replacing the model's defaults (``{"A": 0.0}``).
+    backend : {"numpy", "c"}
+        Numerical backend of every formulation's model.
     **options
         Model options (as for :func:`kanedyn.models.build`).
 
@@ -313,7 +316,7 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
     -------
     FormulationComparison
     """
-    setup = _models(name, methods, constants, options, t_end, n_points)
+    setup = _models(name, methods, constants, options, t_end, n_points, backend)
     methods, eoms, built, starts = setup.methods, setup.eoms, setup.built, setup.starts
     t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
     checkers = [mdl for mdl in built.values() if mdl.n_u_dep or mdl.n_q_dep]
@@ -407,7 +410,7 @@ class WorkPrecision:
 
 def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
                    target=1e-6, reference_rtol=1e-12, atol_ratio=1e-2, n_points=101,
-                   integrator="RK45", constants=None, **options):
+                   integrator="RK45", constants=None, backend="numpy", **options):
     """CPU time per simulated second at equal accuracy.
 
     Every method runs at each tolerance; its error is the largest deviation
@@ -433,6 +436,8 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
     n_points : int
     integrator : str
     constants : dict, optional
+    backend : {"numpy", "c"}
+        Numerical backend of every formulation's model.
     **options
         Model options.
 
@@ -440,7 +445,7 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
     -------
     WorkPrecision
     """
-    setup = _models(name, methods, constants, options, t_end, n_points)
+    setup = _models(name, methods, constants, options, t_end, n_points, backend)
     methods, built, starts = setup.methods, setup.built, setup.starts
     t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
     reference = simulate(built[methods[0]], (0.0, t_end), starts[methods[0]], t_eval=t_eval,

@@ -513,6 +513,19 @@ class EquationsOfMotion:
         from ._latex import equations_latex
         return equations_latex(self, explicit=explicit, max_ops=max_ops)
 
+    def to_text(self, explicit=False):
+        """Plain text of the kinematic and dynamic equations, one per line.
+
+        Parameters
+        ----------
+        explicit : bool
+            Explicit expressions in the model's symbols instead of the compact
+            form (intermediates ``z0, z1, ...`` listed once, the equations in
+            terms of them).
+        """
+        from ._text import equations_text
+        return equations_text(self, explicit=explicit)
+
     def _repr_latex_(self):
         return "$\\displaystyle " + self.to_latex() + "$"
 

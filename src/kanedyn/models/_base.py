@@ -42,6 +42,9 @@ class ModelDefinition:
         Named handles to symbols and objects (for tests and examples).
     description : str
         Longer text: what the model is and what it validates.
+    units : dict
+        ``{Symbol: unit text}`` of constants whose unit is declared (shown by
+        ``kanedyn list MODEL``); the others are in SI units too.
     """
 
     name: str
@@ -53,6 +56,7 @@ class ModelDefinition:
     specified: dict = field(default_factory=dict)
     symbols: dict = field(default_factory=dict)
     description: str = ""
+    units: dict = field(default_factory=dict)
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`)."""
