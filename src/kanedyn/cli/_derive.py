@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 from .._errors import KanedynError
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import parse_sets
+from ._options import check_output_dir, parse_sets
 
 __all__ = ["add_parser", "cmd_derive"]
 
@@ -28,6 +29,10 @@ def add_parser(sub):
     p.add_argument("--explicit", action="store_true",
                    help="write every entry out in the model's symbols instead of the "
                         "compact form (long for large models)")
+    p.add_argument("--c", metavar="FILE", default=None,
+                   help="also write the model as a standalone C99 file (kanedyn_rhs, "
+                        "kanedyn_constraints, kanedyn_energy; the header comment documents "
+                        "the interface, states and parameters with their default values)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option, e.g. n=8")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -40,6 +45,8 @@ def cmd_derive(args):
         raise KanedynError("derive takes only model options with --set "
                            f"(got {', '.join(values)})")
     definition = build(args.model, **options)
+    if args.c is not None:
+        check_output_dir(Path(args.c).parent, option=f"--c {args.c}:")
     progress = Progress(enabled=not args.quiet)
     t0 = time.perf_counter()
     eom = definition.derive(progress=progress)
@@ -58,4 +65,8 @@ def cmd_derive(args):
         print(eom.to_latex(explicit=args.explicit))
     else:
         print(eom.to_text(explicit=args.explicit))
+    if args.c is not None:
+        path = definition.numeric(eom).export_c(args.c, title=f"{definition.name}: "
+                                                f"{definition.title}")
+        print(f"# wrote {path}")
     return 0
