@@ -341,6 +341,28 @@ class NumericModel(StateLayout):
         return (f"<NumericModel: {self.n_q} coordinates, {self.n_u} speeds, "
                 f"backend={self._data['backend']!r}>")
 
+    def _repr_html_(self):
+        """Notebook display: sizes, backend, scheme, constants and their values."""
+        from .._html import box, names, number, table
+        rows = [("backend", self._data["backend"]),
+                ("scheme", getattr(self.scheme, "name", str(self.scheme))),
+                ("coordinates q", f"{self.n_q} ({self.n_q_dep} dependent)"),
+                ("speeds u", f"{self.n_u} ({self.n_u_dep} dependent)"),
+                ("constraints", f"{self.n_q_dep} configuration, {self.n_u_dep} velocity"),
+                ("states", names(self.state_names)),
+                ("specified inputs", names(n.removesuffix("(t)") for n in self.input_names)),
+                ("constraint forces", names(self.identified_names))]
+        if self.contacts:
+            rows.append(("contacts", len(self.contacts)))
+        eom = getattr(self, "_eom", None)
+        if eom is not None:
+            rows.append(("intermediates", len(eom._program)))
+        constants = [(name, number(value)) for name, value in self.constants.items()]
+        return box(table(rows, caption="numerical model"),
+                   table(constants, caption="constants") if constants else "",
+                   title=f"NumericModel: {self.n_states} states, "
+                         f"backend {self._data['backend']!r}")
+
     # ------------------------------------------------------------ basics
     def state(self, values, t=0.0, what="initial value"):
         """A consistent state array from an array or ``{symbol or name: value}``.
