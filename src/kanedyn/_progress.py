@@ -1,4 +1,11 @@
-"""A minimal progress indicator for long derivations and simulations (stderr)."""
+"""Progress of long derivations and simulations on stderr (bars drawn by tqdm).
+
+:class:`Progress` is what the derivations and :func:`kanedyn.simulate` report
+to: ``stage(text)`` announces a step on its own line, ``update(text, fraction)``
+moves a progress bar (a ``tqdm`` bar, created on the first update of a step),
+``done()`` closes it.  ``tqdm`` is imported on the first bar only, so a
+disabled indicator costs nothing.
+"""
 
 from __future__ import annotations
 
@@ -7,57 +14,75 @@ import time
 
 __all__ = ["Progress", "NO_PROGRESS"]
 
+_BAR_FORMAT = "{desc} {percentage:5.1f}%|{bar}| {elapsed}<{remaining}"
+
 
 class Progress:
-    """Prints stages and throttled updates to ``stream`` when enabled.
+    """Prints stages and a throttled progress bar to ``stream`` when enabled.
 
     Parameters
     ----------
     enabled : bool
     stream : file-like, optional
-        Defaults to ``sys.stderr``.
+        Defaults to ``sys.stderr`` (looked up at each use).
     interval : float
-        Minimum seconds between two updates of the same stage.
+        Minimum seconds between two redraws of the bar.
     """
 
     def __init__(self, enabled=True, stream=None, interval=0.5):
         self.enabled = enabled
         self.stream = stream
         self.interval = interval
-        self._last = 0.0
+        self._last = -float("inf")
         self._t0 = time.perf_counter()
-        self._open_line = False
+        self._bar = None
+        self._pending = None  # the latest (text, fraction), drawn or not
 
-    def _write(self, text, end):
-        stream = self.stream or sys.stderr
-        stream.write(text + end)
-        stream.flush()
+    def _prefix(self):
+        return f"[kanedyn {time.perf_counter() - self._t0:6.1f}s]"
 
     def stage(self, text):
-        """Announce a new stage on its own line."""
+        """Announce a new stage on its own line (closing an open bar)."""
         if not self.enabled:
             return
-        if self._open_line:
-            self._write("", "\n")
-            self._open_line = False
-        self._write(f"[kanedyn {time.perf_counter() - self._t0:6.1f}s] {text}", "\n")
+        self.done()
+        stream = self.stream or sys.stderr
+        stream.write(f"{self._prefix()} {text}\n")
+        stream.flush()
 
     def update(self, text, fraction=None):
-        """Overwrite the current status line (throttled)."""
+        """Show ``text`` and, if given, ``fraction`` (0..1) done on the bar (throttled)."""
         if not self.enabled:
             return
+        self._pending = (text, fraction)
         now = time.perf_counter()
         if now - self._last < self.interval:
             return
         self._last = now
-        pct = f" {100 * fraction:5.1f}%" if fraction is not None else ""
-        self._write(f"\r[kanedyn {now - self._t0:6.1f}s] {text}{pct}   ", "")
-        self._open_line = True
+        self._draw()
+
+    def _draw(self):
+        text, fraction = self._pending
+        description = f"{self._prefix()} {text}"
+        if self._bar is None:
+            from tqdm import tqdm
+            self._bar = tqdm(total=1.0, desc=description, file=self.stream or sys.stderr,
+                             leave=True, bar_format=_BAR_FORMAT, mininterval=0.0,
+                             dynamic_ncols=True)
+        bar = self._bar
+        bar.set_description_str(description, refresh=False)
+        if fraction is not None:
+            bar.n = min(max(float(fraction), bar.n), 1.0)  # never backwards
+        bar.refresh()
 
     def done(self):
-        if self.enabled and self._open_line:
-            self._write("", "\n")
-            self._open_line = False
+        """Close the bar of the current step (showing its last state), if one is open."""
+        if self._bar is not None:
+            if self._pending is not None:
+                self._draw()
+            self._bar.close()
+            self._bar = None
+        self._pending = None
 
 
 NO_PROGRESS = Progress(enabled=False)

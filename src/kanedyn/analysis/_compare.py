@@ -118,26 +118,28 @@ class FormulationComparison:
         return {m: self.cpu_time[m] / span for m in self.methods}
 
     def table(self):
-        """The figures as a text table."""
-        lines = [f"{self.model}: t = 0..{self.t[-1]:g} s, {self.integrator} "
+        """The figures as a text table (a title line, then one row per method)."""
+        from tabulate import tabulate
+        title = (f"{self.model}: t = 0..{self.t[-1]:g} s, {self.integrator} "
                  f"(reference: {self.methods[0]}; N-E multipliers: "
                  + ", ".join(f"{m} {self.newton_euler[m].source}" for m in self.methods)
-                 + ")",
-                 f"{'method':<21} {'mul':>6} {'add':>6} {'fun':>5} {'max|q-q_ref|':>12} "
-                 f"{'N-E force':>9} {'N-E moment':>10} {'N-E rel':>8} {'|h| max':>8} "
-                 f"{'|c| max':>8} {'|dE| max':>8} {'nfev':>6} {'proj':>4} {'cpu/s':>7}"]
+                 + ")")
+        headers = ("method", "mul", "add", "fun", "max|q-q_ref|", "N-E force", "N-E moment",
+                   "N-E rel", "|h| max", "|c| max", "|dE| max", "nfev", "proj", "cpu/s")
         pos, vel, drift = self.position_residual, self.constraint_residual, self.energy_drift
         per_second = self.cpu_per_second
+        rows = []
         for m in self.methods:
             ne = self.newton_euler[m]
             ops = self.operations[m]
             rel = ne.max / ne.inertia_scale if ne.inertia_scale else np.nan
-            lines.append(
-                f"{m:<21} {ops['multiplications']:6d} {ops['additions']:6d} "
-                f"{ops['functions']:5d} {self.deviation[m]:12.3e} {ne.max_force:9.2e} "
-                f"{ne.max_moment:10.2e} {rel:8.1e} {pos[m]:8.1e} {vel[m]:8.1e} "
-                f"{drift[m]:8.1e} {self.evaluations[m]:6d} {self.projections[m]:4d} "
-                f"{per_second[m]:7.3f}")
+            rows.append((m, ops["multiplications"], ops["additions"], ops["functions"],
+                         self.deviation[m], ne.max_force, ne.max_moment, rel, pos[m], vel[m],
+                         drift[m], self.evaluations[m], self.projections[m], per_second[m]))
+        formats = ("", "d", "d", "d", ".3e", ".2e", ".2e", ".1e", ".1e", ".1e", ".1e", "d",
+                   "d", ".3f")
+        lines = [title, tabulate(rows, headers=headers, floatfmt=formats, intfmt="d",
+                                 missingval="nan")]
         bad = [f"{m}: {self.messages[m]}" for m in self.methods
                if "reached the end" not in self.messages[m]]
         if bad:
@@ -296,7 +298,7 @@ class _Setup:
     q_names: tuple
 
 
-def _models(name, methods, constants, options, t_end, n_points):
+def _models(name, methods, constants, options, t_end, n_points, backend="numpy"):
     """Derive and build every method's model; map the reference start to each."""
     from .. import models
     methods = tuple(methods)
@@ -304,7 +306,8 @@ def _models(name, methods, constants, options, t_end, n_points):
         raise ModelError("give at least one formulation to compare")
     definition = models.build(name, **options)
     eoms = {m: definition.derive(method=m) for m in methods}
-    built = {m: definition.numeric(eoms[m], constants=constants) for m in methods}
+    built = {m: definition.numeric(eoms[m], constants=constants, backend=backend)
+             for m in methods}
     ref = built[methods[0]]
     y_ref = ref.state(definition.initial(ref))
     qdot_ref = ref.rhs(0.0, y_ref)[:ref.n_q]
@@ -322,7 +325,7 @@ def _coordinates(res, q_names):
 
 def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=None,
                          rtol=1e-10, atol=1e-12, n_points=201, integrator="RK45",
-                         constants=None, **options):
+                         constants=None, backend="numpy", **options):
     """Simulate a built-in model under several formulations and compare.
 
     Parameters
@@ -342,6 +345,8 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         runs, as the penalty formulation may need).
     constants : dict, optional
         Parameter values replacing the model's defaults (``{"A": 0.0}``).
+    backend : {"numpy", "c"}
+        Numerical backend of every formulation's model.
     **options
         Model options (as for :func:`kanedyn.models.build`).
 
@@ -349,7 +354,7 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
     -------
     FormulationComparison
     """
-    setup = _models(name, methods, constants, options, t_end, n_points)
+    setup = _models(name, methods, constants, options, t_end, n_points, backend)
     methods, eoms, built, starts = setup.methods, setup.eoms, setup.built, setup.starts
     t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
     checkers = [mdl for mdl in built.values() if mdl.n_u_dep or mdl.n_q_dep]
@@ -437,17 +442,17 @@ class WorkPrecision:
         return out
 
     def table(self):
-        """The figures as a text table."""
-        head = f"{'method':<21}" + "".join(f" {'rtol ' + format(t, '.0e'):>17}"
-                                           for t in self.tolerances)
-        lines = [f"{self.model}: max |q - q_ref| / CPU s per simulated s; "
-                 f"at error {self.target:.0e}: CPU s per simulated s", head + "  at target"]
+        """The figures as a text table: error / CPU s per simulated s at each tolerance."""
+        from tabulate import tabulate
+        title = (f"{self.model}: max |q - q_ref| / CPU s per simulated s; "
+                 f"at error {self.target:.0e}: CPU s per simulated s")
+        headers = ["method", *(f"rtol {t:.0e}" for t in self.tolerances), "at target"]
         target = self.at_target
-        for m in self.methods:
-            cells = "".join(f" {e:8.1e}/{c:8.4f}" for e, c in zip(self.error[m],
-                                                                 self.cpu_per_second[m]))
-            lines.append(f"{m:<21}{cells}  {target[m]:9.4f}")
-        return "\n".join(lines)
+        rows = [[m, *(f"{e:.1e} / {c:.4f}" for e, c in zip(self.error[m],
+                                                          self.cpu_per_second[m])),
+                 f"{target[m]:.4f}"] for m in self.methods]
+        return title + "\n" + tabulate(rows, headers=headers, disable_numparse=True,
+                                        colalign=("left",) + ("right",) * (len(headers) - 1))
 
     def plot(self, path=None):
         """Work-precision diagram: CPU time against error, log-log, a line per method.
@@ -502,7 +507,7 @@ class WorkPrecision:
 
 def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
                    target=1e-6, reference_rtol=1e-12, atol_ratio=1e-2, n_points=101,
-                   integrator="RK45", constants=None, **options):
+                   integrator="RK45", constants=None, backend="numpy", **options):
     """CPU time per simulated second at equal accuracy.
 
     Every method runs at each tolerance; its error is the largest deviation
@@ -528,6 +533,8 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
     n_points : int
     integrator : str
     constants : dict, optional
+    backend : {"numpy", "c"}
+        Numerical backend of every formulation's model.
     **options
         Model options.
 
@@ -535,7 +542,7 @@ def work_precision(name, methods, tolerances=(1e-6, 1e-8, 1e-10), t_end=None,
     -------
     WorkPrecision
     """
-    setup = _models(name, methods, constants, options, t_end, n_points)
+    setup = _models(name, methods, constants, options, t_end, n_points, backend)
     methods, built, starts = setup.methods, setup.built, setup.starts
     t_end, t_eval, q_names = setup.t_end, setup.t_eval, setup.q_names
     reference = simulate(built[methods[0]], (0.0, t_end), starts[methods[0]], t_eval=t_eval,

@@ -2,11 +2,10 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from .._errors import KanedynError
 from ..models import REGISTRY
-from ._options import parse_sets
+from ._options import (add_backend_argument, check_output_dir, integrator_name, parse_sets,
+                       positive_float)
 
 __all__ = ["add_parser", "cmd_compare"]
 
@@ -18,11 +17,14 @@ def add_parser(sub):
     p.add_argument("target", help="'nonholonomic' (the nonholonomic examples) or a model")
     p.add_argument("--methods", default="kane,lagrange,augmented",
                    help="comma-separated formulations; the first is the reference")
-    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
-    p.add_argument("--rtol", type=float, default=1e-10)
-    p.add_argument("--atol", type=float, default=1e-12)
-    p.add_argument("--integrator", default="RK45", help="solve_ivp method for every "
-                                                         "formulation (e.g. BDF)")
+    p.add_argument("--t-end", type=positive_float, default=None,
+                   help="end time [s] (default: the model's)")
+    p.add_argument("--rtol", type=positive_float, default=1e-10, help="relative tolerance")
+    p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance")
+    p.add_argument("--integrator", type=integrator_name, default="RK45",
+                   help="integrator for every formulation: a solve_ivp method (RK45, "
+                        "DOP853, Radau, BDF, ...)")
+    add_backend_argument(p)
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=6) or parameter (A=0)")
     p.add_argument("--plot", action="store_true",
@@ -32,7 +34,9 @@ def add_parser(sub):
     p.add_argument("--work-precision", action="store_true",
                    help="also CPU time at equal accuracy (runs at rtol 1e-6, 1e-8, 1e-10); "
                         "table and diagram (work-precision-MODEL.png in --out)")
-    p.add_argument("--target-error", type=float, default=1e-6,
+    p.add_argument("--quiet", action="store_true",
+                   help="print only the tables (no explanation of the columns)")
+    p.add_argument("--target-error", type=positive_float, default=1e-6,
                    help="accuracy for --work-precision [same units as q]")
     p.set_defaults(func=cmd_compare)
 
@@ -55,6 +59,35 @@ def cmd_compare(args):
     if args.set and len(names) > 1:
         raise KanedynError("--set applies to one model; give a model name, not "
                            f"{args.target!r}")
+    out_dir = (check_output_dir(args.out) if args.plot or args.work_precision
+               else None)  # before any work
+    if not args.quiet:
+        _print_explanation(args)
+    for name in names:
+        options, constants = parse_sets(name, args.set)
+        cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
+                                   atol=args.atol, integrator=args.integrator,
+                                   constants=constants or None, backend=args.backend,
+                                   **options)
+        print()
+        print(cmp.table())
+        if out_dir is not None:
+            path = out_dir / f"compare-{name}.png"
+            cmp.plot(path)
+            print(f"plot: {path}")
+        if args.work_precision:
+            wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
+                                integrator=args.integrator, constants=constants or None,
+                                backend=args.backend, **options)
+            print()
+            print(wp.table())
+            path = out_dir / f"work-precision-{name}.png"
+            wp.plot(path)
+            print(f"work-precision diagram: {path}")
+    return 0
+
+
+def _print_explanation(args):
     print("Each formulation starts from the same coordinates and rates (augmented-"
           "Lagrangean multipliers at 0),")
     print(f"integrated by {args.integrator} at rtol={args.rtol:g}, atol={args.atol:g}. "
@@ -65,27 +98,3 @@ def cmd_compare(args):
           "position- and velocity-level constraint")
     print("errors; |dE|: energy change (meaningful on conservative runs); proj: drift "
           "projections; cpu/s: CPU s per simulated s.")
-    out_dir = Path(args.out) if args.plot else None
-    for name in names:
-        options, constants = parse_sets(name, args.set)
-        cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
-                                   atol=args.atol, integrator=args.integrator,
-                                   constants=constants or None, **options)
-        print()
-        print(cmp.table())
-        if out_dir is not None:
-            out_dir.mkdir(parents=True, exist_ok=True)
-            path = out_dir / f"compare-{name}.png"
-            cmp.plot(path)
-            print(f"plot: {path}")
-        if args.work_precision:
-            wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
-                                integrator=args.integrator, constants=constants or None,
-                                **options)
-            print()
-            print(wp.table())
-            Path(args.out).mkdir(parents=True, exist_ok=True)
-            path = Path(args.out) / f"work-precision-{name}.png"
-            wp.plot(path)
-            print(f"work-precision diagram: {path}")
-    return 0

@@ -3,25 +3,36 @@
 from __future__ import annotations
 
 import time
-
-import sympy as sm
+from pathlib import Path
 
 from .._errors import KanedynError
 from .._progress import Progress
-from ..engine import name_of
 from ..models import REGISTRY, build
-from ._options import parse_sets
+from ._options import check_output_dir, parse_sets
 
 __all__ = ["add_parser", "cmd_derive"]
 
 
 def add_parser(sub):
     """Add the ``derive`` sub-command to ``sub``."""
-    p = sub.add_parser("derive", help="derive and print a model's equations of motion")
+    p = sub.add_parser(
+        "derive", help="derive and print a model's equations of motion",
+        description="Derive a model and print, after a '#' header (title, operation "
+                    "counts, states, constants), its equations as plain text in compact "
+                    "form: the kinematic equations q' = ..., the intermediates z0, z1, "
+                    "... each defined once, and the nonzero entries of mass_matrix and "
+                    "forcing (mass_matrix * u' = forcing) in terms of them.")
     p.add_argument("model", choices=list(REGISTRY))
-    p.add_argument("--latex", action="store_true", help="print LaTeX")
+    p.add_argument("--latex", action="store_true",
+                   help="print the same equations as LaTeX (an aligned block) instead of "
+                        "plain text")
     p.add_argument("--explicit", action="store_true",
-                   help="explicit expressions even for large models")
+                   help="write every entry out in the model's symbols instead of the "
+                        "compact form (long for large models)")
+    p.add_argument("--c", metavar="FILE", default=None,
+                   help="also write the model as a standalone C99 file (kanedyn_rhs, "
+                        "kanedyn_constraints, kanedyn_energy; the header comment documents "
+                        "the interface, states and parameters with their default values)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option, e.g. n=8")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -34,6 +45,8 @@ def cmd_derive(args):
         raise KanedynError("derive takes only model options with --set "
                            f"(got {', '.join(values)})")
     definition = build(args.model, **options)
+    if args.c is not None:
+        check_output_dir(Path(args.c).parent, option=f"--c {args.c}:")
     progress = Progress(enabled=not args.quiet)
     t0 = time.perf_counter()
     eom = definition.derive(progress=progress)
@@ -51,20 +64,9 @@ def cmd_derive(args):
     if args.latex:
         print(eom.to_latex(explicit=args.explicit))
     else:
-        compact = not args.explicit and eom._program.count_ops(
-            list(eom._compact_mass_matrix) + list(eom._compact_forcing)) > 400
-        if compact:
-            print(eom.to_latex(explicit=False))
-        else:
-            for qd, rhs in eom.kindiffdict().items():
-                print(f"{name_of(qd)} = {rhs}")
-            print("# mass_matrix * u' = forcing, with u' = "
-                  f"[{', '.join(name_of(u) + chr(39) for u in eom.u)}]")
-            M, F = eom.mass_matrix, eom.forcing
-            for i in range(M.rows):
-                for j in range(M.cols):
-                    if M[i, j] != 0:
-                        print(f"mass_matrix[{i}, {j}] = {sm.sstr(M[i, j])}")
-            for i in range(F.rows):
-                print(f"forcing[{i}] = {sm.sstr(F[i])}")
+        print(eom.to_text(explicit=args.explicit))
+    if args.c is not None:
+        path = definition.numeric(eom).export_c(args.c, title=f"{definition.name}: "
+                                                f"{definition.title}")
+        print(f"# wrote {path}")
     return 0

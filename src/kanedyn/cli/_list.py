@@ -1,23 +1,86 @@
-"""``kanedyn list``: the built-in models and their options."""
+"""``kanedyn list [MODEL]``: the built-in models, or one model's options,
+parameters and states."""
 
 from __future__ import annotations
 
-from ..models import REGISTRY
+import inspect
+
+from .._errors import KanedynError
+from ..engine import name_of
+from ..models import REGISTRY, build
+from ._table import table
 
 __all__ = ["add_parser", "cmd_list"]
 
 
 def add_parser(sub):
     """Add the ``list`` sub-command to ``sub``."""
-    p = sub.add_parser("list", help="list the built-in models")
+    p = sub.add_parser(
+        "list", help="list the built-in models, or one model's options, parameters "
+                     "and states",
+        description="Without MODEL: every built-in model with its title and options. "
+                    "With MODEL: its options with their defaults, its parameters "
+                    "(constants) with their default values and units, and its states "
+                    "with their initial values (the model is derived to list them).")
+    p.add_argument("model", nargs="?", default=None,
+                   help="a built-in model (kanedyn list shows them)")
     p.set_defaults(func=cmd_list)
 
 
 def cmd_list(args):
-    print(f"{'model':26s} description (options: --set NAME=VALUE)")
-    for name, (builder, options) in REGISTRY.items():
-        print(f"{name:26s} {builder().title}")
-        if options:
+    if args.model is None:
+        rows = []
+        for name, (builder, options) in REGISTRY.items():
             opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items())
-            print(f"{'':26s}   options: {opts}")
+            rows.append((name, builder().title, opts))
+        print(table(rows, ("model", "description", "options (--set NAME=VALUE)")))
+        return 0
+    if args.model not in REGISTRY:
+        raise KanedynError(f"list: unknown model {args.model!r}; available: "
+                           f"{', '.join(REGISTRY)}")
+    _describe(args.model)
     return 0
+
+
+def option_defaults(name):
+    """``[(option, type name, default)]`` of a built-in model (from its builder)."""
+    builder, options = REGISTRY[name]
+    signature = inspect.signature(builder)
+    return [(key, kind.__name__, signature.parameters[key].default)
+            for key, kind in options.items()]
+
+
+def _describe(name):
+    definition = build(name)
+    print(f"{name}: {definition.title}")
+    options = option_defaults(name)
+    print()
+    if options:
+        print(table(options, ("option", "type", "default"), title="options (--set NAME=VALUE)"))
+    else:
+        print("options: none")
+    units = {str(k): v for k, v in definition.constant_units.items()}
+    parameters = [(key, value, units.get(key, "SI")) for key, value
+                  in definition.parameter_table()]
+    print()
+    if parameters:
+        print(table(parameters, ("parameter", "default", "unit"),
+                    title="parameters (--set NAME=VALUE)"))
+    else:
+        print("parameters: none")
+    eom = definition.derive()
+    given = {name_of(k) if not isinstance(k, str) else k: v
+             for k, v in definition.initial_state.items()}
+    dependent = {name_of(s) for s in (*eom.q_dep, *eom.u_dep)}
+    rows = []
+    for state in eom.state_names:
+        value = given.get(state, 0.0)
+        note = "dependent: completed from the constraints" if state in dependent else ""
+        rows.append((state, float(value), note))
+    print()
+    print(table(rows, ("state", "initial value", ""), title="states (--set NAME=VALUE)"))
+    if definition.specified:
+        inputs = [(name_of(k), str(v) if not callable(v) else "a function of (t, y)")
+                  for k, v in definition.specified.items()]
+        print()
+        print(table(inputs, ("specified input", "value"), title="specified inputs"))

@@ -23,8 +23,16 @@ __all__ = ["main"]
 COMMANDS = (_list, _derive, _run, _compare, _demo)
 
 
+class _Parser(argparse.ArgumentParser):
+    """An argument parser whose errors are one line on stderr (exit code 2)."""
+
+    def error(self, message):
+        self.exit(2, f"{self.prog}: error: {' '.join(message.split())} "
+                     f"(see {self.prog} --help)\n")
+
+
 def _parser():
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog="kanedyn", description="Multibody dynamics by Kane's method.")
     parser.add_argument("--version", action="version", version=f"kanedyn {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
@@ -34,12 +42,19 @@ def _parser():
 
 
 def main(argv=None):
+    """Run the ``kanedyn`` command with the arguments ``argv``; the exit code.
+
+    Bad arguments give one line on stderr and exit code 2, never a traceback.
+    """
     parser = _parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as stop:  # --help, --version, or a bad argument (reported)
+        return stop.code if isinstance(stop.code, int) else 2
     try:
         return args.func(args)
     except KanedynError as exc:
-        print(f"kanedyn: error: {exc}", file=sys.stderr)
+        print(f"kanedyn: error: {' '.join(str(exc).split())}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # output piped into e.g. head, which closed early
         sys.stderr.close()
@@ -47,10 +62,6 @@ def main(argv=None):
     except KeyboardInterrupt:
         print("kanedyn: interrupted", file=sys.stderr)
         return 130
-
-
-if __name__ == "__main__":
-    sys.exit(main())
 
 
 if __name__ == "__main__":

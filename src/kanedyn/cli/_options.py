@@ -1,9 +1,19 @@
 """Values given on the command line: model options, parameters, initial values.
 
-Nothing given on the command line is evaluated as code.
+Also the argument types and options shared by several commands (``--backend``,
+positive finite numbers, point counts, integrator names, output folders), so
+that every bad argument ends in one line on stderr and exit code 2 before any
+derivation or simulation starts.  Nothing given on the command line is
+evaluated as code.
 """
 
 from __future__ import annotations
+
+import argparse
+import math
+import os
+import tempfile
+from pathlib import Path
 
 import numpy as np
 
@@ -11,7 +21,79 @@ from .._errors import KanedynError
 from .._number_text import parse_number
 from ..models import REGISTRY
 
-__all__ = ["parse_sets", "split_values"]
+__all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument",
+           "positive_float", "point_count", "integrator_name", "check_output_dir"]
+
+#: numerical backends the commands offer (``--backend``)
+BACKENDS = ("numpy", "c")
+
+
+def add_backend_argument(parser):
+    """Add ``--backend {numpy,c}`` (default ``numpy``) to ``parser``."""
+    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
+                        help="numerical backend: numpy (default) or c (generated C, "
+                             "compiled with the system compiler and cached)")
+
+
+def positive_float(text):
+    """``type=`` of arguments that are finite numbers > 0 (times, tolerances)."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a number, got {text!r}") from None
+    if not math.isfinite(value) or value <= 0:
+        raise argparse.ArgumentTypeError(f"must be a finite number > 0, got {text!r}")
+    return value
+
+
+def point_count(text):
+    """``type=`` of ``--points``: a whole number of output times, at least 2."""
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 2:
+        raise argparse.ArgumentTypeError(f"needs at least 2 output points, got {value}")
+    return value
+
+
+def integrator_name(text):
+    """``type=`` of ``--method``/``--integrator``: a method :func:`simulate` knows."""
+    from ..simulation import METHODS
+    if text not in METHODS:
+        raise argparse.ArgumentTypeError(f"unknown integrator {text!r}; available: "
+                                         f"{', '.join(METHODS)}")
+    return text
+
+
+def check_output_dir(path, option="--out"):
+    """Create the output folder ``path`` and check that files can be written there.
+
+    Called before any derivation or simulation, so that a run is not lost for
+    want of a place to write it.
+
+    Raises
+    ------
+    KanedynError
+        Naming ``option`` and the folder, when the folder cannot be created
+        (a file on the way, no permission) or written.
+    """
+    path = Path(path)
+    for parent in (path, *path.parents):
+        if parent.exists():
+            if not parent.is_dir():
+                raise KanedynError(f"{option} {path}: {parent} is a file, not a folder")
+            break
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as exc:
+        reason = exc.strerror or str(exc)
+        raise KanedynError(f"{option} {path}: cannot write there ({reason})") from None
+    if not os.access(path, os.W_OK):
+        raise KanedynError(f"{option} {path}: the folder is not writable")
+    return path
 
 
 def parse_sets(model_name, pairs):
@@ -52,17 +134,21 @@ def _option_value(model_name, key, kind, text):
     return text
 
 
-def split_values(definition, model, values):
+def split_values(definition, eom, values):
+    """Split ``--set`` values into parameters and initial values of ``definition``.
+
+    ``eom`` is the derived model (its ``state_names``: equations or numeric model).
+    """
     constants, initial = {}, {}
     const_names = {str(s) for s in definition.constants}
     for key, value in values.items():
         if key in const_names:
             constants[key] = value
-        elif key in model.state_names:
+        elif key in eom.state_names:
             initial[key] = value
         else:
             raise KanedynError(
                 f"--set {key}: not an option, parameter or state of {definition.name}; "
                 f"parameters: {', '.join(sorted(const_names))}; states: "
-                f"{', '.join(model.state_names)}")
+                f"{', '.join(eom.state_names)}")
     return constants, initial

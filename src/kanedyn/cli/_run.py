@@ -4,14 +4,14 @@ from __future__ import annotations
 
 import json
 import sys
-from pathlib import Path
 
 import numpy as np
 
 from .._errors import KanedynError, SimulationInterrupted
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import parse_sets, split_values
+from ._options import (add_backend_argument, check_output_dir, integrator_name, parse_sets,
+                       point_count, positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_run"]
 
@@ -20,14 +20,19 @@ def add_parser(sub):
     """Add the ``run`` sub-command to ``sub``."""
     p = sub.add_parser("run", help="derive, simulate, write CSV, plots and a summary")
     p.add_argument("model", choices=list(REGISTRY))
-    p.add_argument("--t-end", type=float, default=None, help="end time [s]")
+    p.add_argument("--t-end", type=positive_float, default=None,
+                   help="end time [s] (default: the model's)")
     p.add_argument("--out", default="kanedyn-out", help="output directory")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=4), parameter (m=2) or initial value (q1=0.3)")
-    p.add_argument("--method", default="RK45", help="solve_ivp method")
-    p.add_argument("--rtol", type=float, default=1e-8)
-    p.add_argument("--atol", type=float, default=1e-8)
-    p.add_argument("--points", type=int, default=501, help="output points")
+    p.add_argument("--method", type=integrator_name, default="RK45",
+                   help="integrator: a solve_ivp method (RK45, DOP853, Radau, BDF, ...) "
+                        "or Rosenbrock23 (compiled loop, --backend c)")
+    p.add_argument("--rtol", type=positive_float, default=1e-8, help="relative tolerance")
+    p.add_argument("--atol", type=positive_float, default=1e-8, help="absolute tolerance")
+    p.add_argument("--points", type=point_count, default=501,
+                   help="output points (at least 2)")
+    add_backend_argument(p)
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.add_argument("--animate", action="store_true",
                    help="also write OUT/MODEL.html, a 3D animation that opens offline")
@@ -36,13 +41,13 @@ def add_parser(sub):
 
 def cmd_run(args):
     options, values = parse_sets(args.model, args.set)
-    definition = build(args.model, **options)
+    definition = build(args.model, **options)  # checks the options
+    out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     eom = definition.derive(progress=progress)
-    probe = definition.numeric(eom)
-    constants, initial = split_values(definition, probe, values)
-    model = definition.numeric(eom, constants=constants) if constants else probe
+    constants, initial = split_values(definition, eom, values)
+    model = definition.numeric(eom, constants=constants, backend=args.backend)
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end
     progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
@@ -51,9 +56,9 @@ def cmd_run(args):
     except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
         progress.done()
         res = stop.result
-    summary = _write_run(definition, eom, model, res, Path(args.out), progress)
+    summary = _write_run(definition, eom, model, res, out, progress)
     if args.animate:
-        page = res.animate(Path(args.out) / f"{definition.name}.html",
+        page = res.animate(out / f"{definition.name}.html",
                            visuals=definition.shapes(constants),
                            title=f"{definition.name}: {definition.title}")
         progress.stage(f"wrote {page}")

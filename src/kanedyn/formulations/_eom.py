@@ -542,6 +542,60 @@ class EquationsOfMotion:
         from ._latex import equations_latex
         return equations_latex(self, explicit=explicit, max_ops=max_ops)
 
+    def to_text(self, explicit=False):
+        """Plain text of the kinematic and dynamic equations, one per line.
+
+        Parameters
+        ----------
+        explicit : bool
+            Explicit expressions in the model's symbols instead of the compact
+            form (intermediates ``z0, z1, ...`` listed once, the equations in
+            terms of them).
+        """
+        from ._text import equations_text
+        return equations_text(self, explicit=explicit)
+
+    def _repr_html_(self):
+        """Notebook display: sizes, constants, operation count; equations of small models.
+
+        The equations are included as LaTeX (:meth:`to_latex`, typeset by the
+        notebook) when that is short (at most 4000 characters); for larger
+        models the display names :meth:`to_latex` and :meth:`to_text`.
+        """
+        import html as _html
+        from .._html import box, names, table
+        prog = self._program
+        terms = ([e for row in self._mass for e in row] + list(self._active)
+                 + list(self._remainder) + list(self._qdot)
+                 + [e for row in self._vel_B for e in row] + list(self._vel_c)
+                 + [e for row in self._acc_K for e in row] + list(self._acc_f))
+        rows = [("formulation", self.method),
+                ("coordinates q", f"{len(self.q)} ({len(self.q_dep)} dependent)"),
+                ("speeds u", f"{len(self.u)} ({len(self.u_dep)} dependent)"),
+                ("auxiliary speeds", len(self.u_aux)),
+                ("configuration constraints", len(self._config)),
+                ("velocity constraints", len(self._vel_c)),
+                ("constants", names(self.constants)),
+                ("specified inputs", names(self.specified)),
+                ("bodies", names(getattr(b, "name", b) for b in self.bodies)),
+                ("intermediates (right-hand side)", len(prog.needed(terms))),
+                ("operations (right-hand side)", prog.count_ops(terms))]
+        if self.contacts:
+            rows.append(("contacts", len(self.contacts)))
+        outputs = list(self._qdot) + list(self._compact_mass_matrix) + list(
+            self._compact_forcing)
+        latex = None
+        if len(prog.needed(outputs)) <= 200:  # else: no LaTeX built at all
+            latex = self.to_latex()
+        if latex is not None and len(latex) <= 4000:
+            equations = "$$" + _html.escape(latex, quote=False) + "$$"
+        else:
+            equations = ("<p>large equations: <code>eom.to_latex()</code> or "
+                         "<code>eom.to_text()</code> shows them in compact form</p>")
+        return box(table(rows, caption="equations of motion"), equations,
+                   title=f"EquationsOfMotion ({self.method}): {', '.join(self.state_names)}"
+                   if len(self.state_names) <= 12 else f"EquationsOfMotion ({self.method})")
+
     def _repr_latex_(self):
         return "$\\displaystyle " + self.to_latex() + "$"
 

@@ -52,6 +52,9 @@ class ModelDefinition:
         ``"Cylinder"``, ``"Sphere"``, ``"Mesh"`` (:mod:`kanedyn.visuals`) and
         option values numbers or SymPy expressions in the constants; see
         :meth:`shapes`.
+    constant_units : dict
+        ``{Symbol: unit text}`` of constants whose unit is declared (shown by
+        ``kanedyn list MODEL``); the others are in SI units too.
     """
 
     name: str
@@ -65,6 +68,7 @@ class ModelDefinition:
     description: str = ""
     units: dict = field(default_factory=dict)
     shape_specs: tuple = ()
+    constant_units: dict = field(default_factory=dict)
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the

@@ -5,6 +5,7 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
+from .._errors import ModelError
 from ._base import ModelDefinition
 
 __all__ = ["pendulum", "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh",
@@ -44,6 +45,7 @@ def pendulum(tension=False):
     return ModelDefinition(
         name="pendulum", title="simple pendulum (point mass on a massless rod)",
         kane_args=kane_args, constants={m: 1.0, l: 1.0, g: 9.81},
+        constant_units={m: "kg", l: "m", g: "m/s^2"},
         initial_state={q: sm.pi / 2, u: 0.0}, t_end=10.0, symbols=symbols,
         description="Released from the horizontal its period is 4 K(sin(pi/4)) "
                     "sqrt(l/g); with tension=True the rod tension is an output.")
@@ -57,7 +59,8 @@ def n_link_pendulum_on_cart(n=3):
     ``F(t)``.  Angles ``q1..qn`` are absolute, from the downward vertical.
     """
     if n < 1:
-        raise ValueError("n must be at least 1")
+        raise ModelError(f"n-link-pendulum-on-cart: n (the number of links) must be at "
+                         f"least 1, got n={n}")
     q = me.dynamicsymbols(f"q0:{n + 1}")
     u = me.dynamicsymbols(f"u0:{n + 1}")
     F = me.dynamicsymbols("F")
@@ -93,6 +96,7 @@ def n_link_pendulum_on_cart(n=3):
         kane_args=dict(frame=N, q_ind=list(q), u_ind=list(u), kd_eqs=kd_eqs,
                        bodies=particles, loads=loads, potential_energy=potential),
         constants={m_c: 2.0, m: 0.5, l: 0.6, g: 9.81}, initial_state=init,
+        constant_units={m_c: "kg", m: "kg", l: "m", g: "m/s^2"},
         t_end=10.0, specified={F: 0.0},
         symbols=dict(q=q, u=u, F=F, m_c=m_c, m=m, l=l, g=g, N=N),
         description="The classic benchmark of PyDy; the cart force F(t) is a "
@@ -115,9 +119,9 @@ def chain3d(n=5, style="v2pt"):
     kanedyn) and no potential energy.
     """
     if n < 1:
-        raise ValueError("n must be at least 1")
+        raise ModelError(f"chain3d: n (the number of links) must be at least 1, got n={n}")
     if style not in ("v2pt", "positions"):
-        raise ValueError(f"style must be 'v2pt' or 'positions', not {style!r}")
+        raise ModelError(f"chain3d: style must be 'v2pt' or 'positions', not {style!r}")
     v2pt = style == "v2pt"
     q = me.dynamicsymbols(f"q1:{n + 1}")
     u = me.dynamicsymbols(f"u1:{n + 1}")
@@ -151,6 +155,7 @@ def chain3d(n=5, style="v2pt"):
                        bodies=bodies, loads=loads,
                        potential_energy=m * g * sm.Add(*heights) if v2pt else None),
         constants={m: 1.0, l: 0.5, g: 9.81, Ixx: 0.025, Iyy: 0.005, Izz: 0.025},
+        constant_units={m: "kg", l: "m", g: "m/s^2", Ixx: "kg m^2", Iyy: "kg m^2", Izz: "kg m^2"},
         initial_state=init, t_end=5.0,
         symbols=dict(q=q, u=u, m=m, l=l, g=g, N=N),
         description="Derivation benchmark (SymPy's KanesMethod needs ~45 s at n=10).")
@@ -194,6 +199,7 @@ def chaplygin_sleigh(lateral_force=False):
     return ModelDefinition(
         name="chaplygin-sleigh", title="Chaplygin sleigh (knife edge, nonholonomic)",
         kane_args=kane_args, constants={m: 1.0, a: 0.2, I_C: 0.05},
+        constant_units={m: "kg", a: "m", I_C: "kg m^2"},
         initial_state={x: 0.0, y: 0.0, th: 0.0, u: -0.5, w: 1.0}, t_end=20.0,
         symbols=symbols,
         description="Closed form u(t) = U tanh(lambda t + atanh(u0/U)), "
@@ -255,6 +261,8 @@ def four_bar():
                        bodies=bodies, loads=loads, potential_energy=sm.Add(*heights)),
         constants={la: 0.3, lb: 1.0, lc: 0.8, ld: 0.9, ma: 0.5, mb: 1.2, mc: 1.0,
                    g: 9.81},
+        constant_units={la: "m", lb: "m", lc: "m", ld: "m", ma: "kg", mb: "kg", mc: "kg",
+               g: "m/s^2"},
         initial_state={q1: 1.2, u1: 2.0, q2: 0.3, q3: 1.6, u2: 0.0, u3: 0.0},
         t_end=5.0, symbols=dict(q=[q1, q2, q3], u=[u1, u2, u3], N=N),
         description="q2, q3 (and u2, u3) are dependent; the given q2, q3 are "

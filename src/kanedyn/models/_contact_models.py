@@ -8,6 +8,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from ..modeling import Contact, Ellipsoid, Plane, Sphere
+from .._errors import ModelError
 from ._base import ModelDefinition
 
 __all__ = ["sphere_slug", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
@@ -151,6 +152,7 @@ def bead_in_tube(omega=1.0):
 
 def bouncing_ball(restitution=0.8):
     """A ball (particle, radius ``r``) dropped on a floor; Newton/Poisson restitution."""
+    _check_fraction("bouncing-ball", "restitution", restitution)
     x, z = me.dynamicsymbols("x z")
     ux, uz = me.dynamicsymbols("u_x u_z")
     m, g, r, e, mu = sm.symbols("m g r e mu", positive=True)
@@ -238,6 +240,9 @@ def falling_rod(angle=0.6, restitution=0.5, mu=0.4, law="poisson"):
 
     ``law``: the restitution law, ``"poisson"`` or ``"newton"``.
     """
+    _check_fraction("falling-rod", "restitution", restitution)
+    if not mu >= 0:
+        raise ModelError(f"falling-rod: mu (the friction coefficient) must be >= 0, got {mu}")
     L, m, g, e, mu_s = sm.symbols("L m g e mu", positive=True)
     N = me.ReferenceFrame("N")
     O = me.Point("O")
@@ -304,3 +309,9 @@ def slug_ellipsoid():
         symbols=dict(q=q, u=u, m=m, N=N, T=Tank, centre=centre, P=P),
         description="Banerjee & Lemak's example: friction that follows the computed "
                     "normal force, separation, flight and impacts.")
+
+
+def _check_fraction(model, option, value):
+    """Refuse a coefficient outside [0, 1], naming the model and option."""
+    if not 0.0 <= value <= 1.0:
+        raise ModelError(f"{model}: {option} must lie in [0, 1], got {value}")

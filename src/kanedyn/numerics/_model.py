@@ -381,6 +381,28 @@ class NumericModel(StateLayout):
         return (f"<NumericModel: {self.n_q} coordinates, {self.n_u} speeds, "
                 f"backend={self._data['backend']!r}>")
 
+    def _repr_html_(self):
+        """Notebook display: sizes, backend, scheme, constants and their values."""
+        from .._html import box, names, number, table
+        rows = [("backend", self._data["backend"]),
+                ("scheme", getattr(self.scheme, "name", str(self.scheme))),
+                ("coordinates q", f"{self.n_q} ({self.n_q_dep} dependent)"),
+                ("speeds u", f"{self.n_u} ({self.n_u_dep} dependent)"),
+                ("constraints", f"{self.n_q_dep} configuration, {self.n_u_dep} velocity"),
+                ("states", names(self.state_names)),
+                ("specified inputs", names(n.removesuffix("(t)") for n in self.input_names)),
+                ("constraint forces", names(self.identified_names))]
+        if self.contacts:
+            rows.append(("contacts", len(self.contacts)))
+        eom = getattr(self, "_eom", None)
+        if eom is not None:
+            rows.append(("intermediates", len(eom._program)))
+        constants = [(name, number(value)) for name, value in self.constants.items()]
+        return box(table(rows, caption="numerical model"),
+                   table(constants, caption="constants") if constants else "",
+                   title=f"NumericModel: {self.n_states} states, "
+                         f"backend {self._data['backend']!r}")
+
     # ------------------------------------------------------------ basics
     def state(self, values, t=0.0, what="initial value"):
         """A consistent state array from an array or ``{symbol or name: value}``.
@@ -798,6 +820,69 @@ class NumericModel(StateLayout):
         if len(modes) != len(self.contacts):
             raise ValueError(f"give one mode per contact ({len(self.contacts)})")
         return solve_modes(self, t, self._check_y(y), modes, directions, stabilization)
+
+    # ------------------------------------------------------------ C export
+    def c_source(self, standalone=True, module_name="kanedyn_model", title=None):
+        """C source of this model's numerical functions.
+
+        Parameters
+        ----------
+        standalone : bool
+            ``True``: a C99 file without Python (:func:`kanedyn_rhs`,
+            ``kanedyn_constraints``, ``kanedyn_energy``; the header comment
+            documents the signatures, the order of states, parameters and
+            inputs, and the return codes), compiling with
+            ``cc -c -std=c99 -Wall -Werror``.  ``False``: the source of the
+            Python extension module the C backend builds (needs the Python
+            and NumPy headers), with the module name ``module_name``.
+        module_name : str
+            Name of the extension module (``standalone=False`` only).
+        title : str, optional
+            First line of the standalone file's header comment.
+
+        Returns
+        -------
+        str
+
+        Raises
+        ------
+        ModelError
+            When the equations are not available (a model restored by
+            unpickling), or the model's constraint scheme or formulation is
+            not what the generated right-hand side computes.
+        """
+        from .backends._c import NAME_TOKEN, generate_c
+        from .backends._c_export import standalone_c
+        eom = getattr(self, "_eom", None)
+        if eom is None:
+            raise ModelError("cannot export C: this model's equations are not available "
+                             "(a model restored from a file); export the model built by "
+                             "eom.numeric(...)")
+        if self.multiplier_form or not getattr(self.scheme, "c_backend", True):
+            raise ModelError(f"cannot export C: the right-hand side of the "
+                             f"{self.scheme.name!r} scheme ({eom.method} formulation) is "
+                             "not the generated C one; use the default scheme")
+        table = eom._table
+        cse = True if self._cse is None else self._cse
+        if not standalone:
+            if not module_name.isidentifier():
+                raise ModelError(f"module_name {module_name!r} is not a valid identifier")
+            source = generate_c(eom._program, self._functions, self._sizes,
+                                describe=lambda e: str(table.external(e)), cse=cse)
+            return source.replace(NAME_TOKEN, module_name)
+        return standalone_c(eom._program, self._functions, self._sizes, self.state_names,
+                            dict(zip(self.constants, map(float, self._p))),
+                            input_names=self.input_names,
+                            title=title or f"{self!r}", cse=cse,
+                            describe=lambda e: str(table.external(e)))
+
+    def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None):
+        """Write :meth:`c_source` to ``path``; returns the path (a ``Path``)."""
+        from pathlib import Path
+        path = Path(path)
+        path.write_text(self.c_source(standalone=standalone, module_name=module_name,
+                                      title=title))
+        return path
 
     # --------------------------------------------------------- linearize
     def linearize(self, y, t=0.0, r=None):

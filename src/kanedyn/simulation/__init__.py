@@ -13,7 +13,7 @@
 from ._hybrid import ModeChange
 from ._impact import Impact
 from ._results import SimulationResult
-from ._simulate import COMPILED_METHODS, OWN_INTEGRATORS, TrustWarning, simulate
+from ._simulate import COMPILED_METHODS, METHODS, OWN_INTEGRATORS, TrustWarning, simulate
 
 __all__ = ["simulate", "SimulationResult", "ModeChange", "Impact", "TrustWarning",
-           "COMPILED_METHODS", "OWN_INTEGRATORS"]
+           "COMPILED_METHODS", "METHODS", "OWN_INTEGRATORS"]

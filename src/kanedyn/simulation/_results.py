@@ -167,6 +167,47 @@ class SimulationResult:
                 f"..{self.t[-1] if self.t.size else 0:g}, success={self.success}, "
                 f"message={self.message!r}>")
 
+    def _repr_html_(self):
+        """Notebook display: headline numbers and a small plot of the states."""
+        from .._html import box, names, number, png, table
+        info = self.summary()
+        rows = [("success", info["success"]), ("message", self.message)]
+        if self.t.size:
+            rows.append(("t", f"{number(self.t[0])} .. {number(self.t[-1])} s"))
+        rows += [("points", info["points"]), ("rhs evaluations", info["rhs_evaluations"])]
+        if "energy_balance" in info:
+            rows.append(("energy balance error", "n/a" if info["energy_balance"] is None
+                         else f"{number(info['energy_balance'], 3)} J"))
+            rows.append(("impacts", info["impacts"]))
+        else:
+            rows.append(("energy drift (relative)", number(info["energy_drift"], 3)))
+        if self.constraint_residuals.shape[0]:
+            rows.append(("max constraint residual",
+                         number(info["max_constraint_residual"], 3)))
+            rows.append(("projections", info["projections"]))
+        final = []
+        if self.t.size:
+            limit = 16
+            final = [(name, number(self.y[i, -1])) for i, name
+                     in enumerate(self.state_names[:limit])]
+            if len(self.state_names) > limit:
+                final.append(("...", f"{len(self.state_names) - limit} more"))
+        figure = ""
+        if self.t.size > 1:
+            try:
+                fig = self.plot(extras=False)
+            except Exception as exc:  # noqa: BLE001  (a display must not fail)
+                figure = table([("plot not drawn", str(exc).splitlines()[0])])
+            else:
+                import matplotlib.pyplot as plt
+                figure = png(fig, alt=f"states of the simulation: {names(self.state_names)}")
+                plt.close(fig)
+        model = self.model
+        return box(table(rows, caption="simulation"),
+                   table(final, caption="final state") if final else "", figure,
+                   title=f"SimulationResult ({getattr(self, 'method', 'simulate')}): "
+                         f"{model.n_q} coordinates, {model.n_u} speeds")
+
     # ------------------------------------------------------------ contacts
     @property
     def mode_history(self):

@@ -25,9 +25,10 @@ from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
 from ._index3 import run_index3
-from ._run_guard import INTERRUPTED, Integrand, RunGuard, guarded_method, solver_class
+from ._run_guard import (INTERRUPTED, SCIPY_METHODS, Integrand, RunGuard, guarded_method,
+                         solver_class)
 
-__all__ = ["simulate", "COMPILED_METHODS", "OWN_INTEGRATORS", "TrustWarning"]
+__all__ = ["simulate", "COMPILED_METHODS", "METHODS", "OWN_INTEGRATORS", "TrustWarning"]
 
 
 class TrustWarning(RuntimeWarning):
@@ -43,6 +44,8 @@ def _drift_event(model, tol):
 
 
 COMPILED_METHODS = ("RK45", "Rosenbrock23")
+#: every method name ``simulate`` accepts (solve_ivp's and the compiled loop's)
+METHODS = tuple(SCIPY_METHODS) + tuple(m for m in COMPILED_METHODS if m not in SCIPY_METHODS)
 #: integrators of schemes that bring their own (``Scheme.integrator`` -> function)
 OWN_INTEGRATORS = {"index-3 trapezoidal": run_index3}
 _COMPILED_OPTIONS = {"max_step", "first_step"}

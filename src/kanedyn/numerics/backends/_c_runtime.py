@@ -8,11 +8,14 @@ entry points.  Entry points use ``METH_FASTCALL`` and read NumPy buffers
 directly: a ``ctypes`` call alone would cost more than the whole evaluation.
 """
 
-HEADER = r"""
+PYTHON_INCLUDES = r"""
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
-#include <numpy/arrayobject.h>
+#include <numpy/arrayobject.h>"""
+
+#: C headers and helpers of the generated expressions (no Python)
+PRELUDE = r"""
 #include <math.h>
 #include <string.h>
 
@@ -25,9 +28,15 @@ static inline double kd_powi(double x, long n) {
 }
 """
 
-RUNTIME = r"""
-static PyObject *kd_linalg_error = NULL;
+HEADER = PYTHON_INCLUDES + PRELUDE
 
+RUNTIME_ERRORS = r"""
+static PyObject *kd_linalg_error = NULL;
+"""
+
+#: the part of the runtime without Python: linear algebra and the right-hand
+#: side ``kd_rhs_core`` (also used by the standalone C export)
+LINALG = r"""
 /* Solve A x = B in place (A: n x n row-major, B: n x nrhs row-major) by LU with
    partial pivoting.  Returns 0, or 1 if A is singular. */
 static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
@@ -144,7 +153,9 @@ static int kd_rhs_core(double t, const double *y, const double *p, const double 
 #endif
     return 0;
 }
+"""
 
+PYTHON_GLUE = r"""
 /* ------------------------------------------------------------ arguments */
 static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what) {
     PyArrayObject *arr;
@@ -363,6 +374,8 @@ static void kd_release(KdArgs *a) {
     PyMem_Free(a->work);
 }
 """
+
+RUNTIME = RUNTIME_ERRORS + LINALG + PYTHON_GLUE
 
 FOOTER = r"""
 static PyMethodDef KdModel_methods[] = {

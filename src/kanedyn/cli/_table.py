@@ -1,0 +1,27 @@
+"""Plain-text tables of the command line (the ``tabulate`` library)."""
+
+from __future__ import annotations
+
+__all__ = ["table"]
+
+
+def table(rows, headers, title=None, floatfmt="g"):
+    """Rows as a plain-text table with aligned columns.
+
+    Parameters
+    ----------
+    rows : sequence of sequences
+    headers : sequence of str
+    title : str, optional
+        A line above the table.
+    floatfmt : str or sequence of str
+        Format of float cells (per column when a sequence).
+
+    Returns
+    -------
+    str
+    """
+    from tabulate import tabulate
+    text = tabulate(rows, headers=headers, tablefmt="simple", floatfmt=floatfmt,
+                    disable_numparse=False)
+    return f"{title}\n{text}" if title else text

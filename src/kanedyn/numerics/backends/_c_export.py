@@ -1,0 +1,193 @@
+"""Standalone C source of a numerical model: no Python, a documented interface.
+
+The file holds the same generated evaluation functions and the same
+right-hand-side assembly (``kd_rhs_core``: dependent speeds eliminated,
+Cholesky with an LU fallback) as the compiled extension module of the C
+backend, behind a small public interface::
+
+    int kanedyn_rhs(double t, const double *y, const double *p, const double *r,
+                    double *ydot);
+    int kanedyn_constraints(double t, const double *y, const double *p,
+                            const double *r, double *residual);
+    int kanedyn_energy(double t, const double *y, const double *p, const double *r,
+                       double *energy);
+
+It compiles as C99 on its own (``cc -c -std=c99 -Wall -Werror model.c``; link
+with ``-lm``).
+"""
+
+from __future__ import annotations
+
+from . import _c_runtime
+from ..._version import __version__
+from ._c import _function_source
+
+__all__ = ["standalone_c"]
+
+_PUBLIC = r"""
+/* ------------------------------------------------------------ public interface */
+const char *const kanedyn_state_names[KANEDYN_NSTATES] = {%(states)s};
+const char *const kanedyn_parameter_names[KD_SZ(KANEDYN_NP)] = {%(parameters)s};
+const double kanedyn_default_parameters[KD_SZ(KANEDYN_NP)] = {%(values)s};
+const char *const kanedyn_input_names[KD_SZ(KANEDYN_NR)] = {%(inputs)s};
+
+static double *kd_work(void) {
+#if KD_NW > 0
+    return (double *)malloc(sizeof(double) * KD_NW);
+#else
+    static double none[1];
+    return none;
+#endif
+}
+
+static void kd_free_work(double *w) {
+#if KD_NW > 0
+    free(w);
+#else
+    (void)w;
+#endif
+}
+
+int kanedyn_rhs(double t, const double *y, const double *p, const double *r, double *ydot) {
+    double *w = kd_work();
+    if (w == NULL) return 2;
+    (void)kd_lu_solve; (void)kd_cholesky_solve;  /* one of them is used per model */
+    int status = kd_rhs_core(t, y, p, r, w, ydot);
+    kd_free_work(w);
+    return status;
+}
+
+int kanedyn_constraints(double t, const double *y, const double *p, const double *r,
+                        double *residual) {
+    double *w = kd_work();
+    if (w == NULL) return 2;
+    double h[KD_SZ(KD_NQDEP)], c[KD_SZ(KD_NUDEP)];
+    kd_eval_constraints(t, y, p, r, w, h, c);
+    kd_free_work(w);
+    memcpy(residual, h, KD_NQDEP * sizeof(double));
+    memcpy(residual + KD_NQDEP, c, KD_NUDEP * sizeof(double));
+    return 0;
+}
+
+int kanedyn_energy(double t, const double *y, const double *p, const double *r,
+                   double *energy) {
+    double *w = kd_work();
+    if (w == NULL) return 2;
+    double kinetic, potential;
+    kd_eval_energy(t, y, p, r, w, &kinetic, &potential);
+    kd_free_work(w);
+    energy[0] = kinetic;
+    energy[1] = potential;
+    return 0;
+}
+"""
+
+
+def _c_string(text):
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _list(items, fallback):
+    return ", ".join(items) if items else fallback
+
+
+def standalone_c(program, functions, sizes, state_names, parameters, input_names=(),
+                 title="", describe=str, cse=True):
+    """C99 source of a model's right-hand side, constraints and energies.
+
+    Parameters
+    ----------
+    program : Program
+    functions : dict
+        The function specifications of the numerical model (``dynamics``,
+        ``constraints``, ``energy``; others are left out).
+    sizes : dict
+        ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r``.
+    state_names : sequence of str
+        Names of the entries of ``y``, in order.
+    parameters : dict
+        ``{name: default value}`` in the order of ``p``.
+    input_names : sequence of str
+        Names of the specified inputs, in the order of ``r``.
+    title : str
+        What the model is (first line of the header comment).
+    describe : callable, optional
+        Text of an expression for error messages.
+    cse : bool
+        Common subexpression elimination of the generated code.
+
+    Returns
+    -------
+    str
+    """
+    n, o = sizes["n_q"], sizes["n_u"]
+    l, m = sizes["n_q_dep"], sizes["n_u_dep"]
+    n_p, n_r = sizes["n_p"], sizes["n_r"]
+    args, dynamics = functions["dynamics"]
+    c_args, c_outputs = functions["constraints"]
+    selected = {"dynamics": (args, dynamics),
+                "constraints": (c_args, [c_outputs[0], c_outputs[3]]),
+                "energy": functions["energy"]}
+    parts, work = [], 0
+    for name, (arguments, outputs) in selected.items():
+        src, w = _function_source(program, name, arguments, outputs, describe, cse)
+        parts.append(src)
+        work = max(work, w)
+    names = list(parameters)
+    header = _header(title, state_names, parameters, input_names, sizes)
+    defines = [f"#define KD_NQ {n}", f"#define KD_NU {o}", f"#define KD_NQDEP {l}",
+               f"#define KD_NUDEP {m}", f"#define KD_NP {n_p}", f"#define KD_NR {n_r}",
+               f"#define KD_NW {work}",
+               f"#define KANEDYN_NQ {n}", f"#define KANEDYN_NU {o}",
+               f"#define KANEDYN_NQDEP {l}", f"#define KANEDYN_NUDEP {m}",
+               f"#define KANEDYN_NSTATES {n + o}", f"#define KANEDYN_NP {n_p}",
+               f"#define KANEDYN_NR {n_r}"]
+    public = _PUBLIC % {
+        "states": _list([_c_string(s) for s in state_names], '""'),
+        "parameters": _list([_c_string(s) for s in names], "NULL"),
+        "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
+        "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
+    return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", *defines,
+                      *parts, _c_runtime.LINALG, public])
+
+
+def _header(title, state_names, parameters, input_names, sizes):
+    n, o = sizes["n_q"], sizes["n_u"]
+    l, m = sizes["n_q_dep"], sizes["n_u_dep"]
+    lines = [f"{title or 'a kanedyn model'}", "",
+             f"Generated by kanedyn {__version__}: standalone C99, no Python needed.",
+             "Compile: cc -c -std=c99 -O2 model.c   (link the program with -lm)", "",
+             "Interface (every array is double, in the orders listed below):", "",
+             "  int kanedyn_rhs(double t, const double *y, const double *p,",
+             "                  const double *r, double *ydot);",
+             "      The state derivative ydot = [q', u'] (KANEDYN_NSTATES entries) at",
+             "      time t [s] and state y (KANEDYN_NSTATES entries).  Dependent speeds",
+             "      are eliminated with the velocity constraints; their derivatives come",
+             "      from the acceleration constraints (as kanedyn's model.rhs).",
+             "  int kanedyn_constraints(double t, const double *y, const double *p,",
+             "                          const double *r, double *residual);",
+             "      Constraint residuals, zero when satisfied: KANEDYN_NQDEP",
+             "      configuration constraints, then KANEDYN_NUDEP velocity constraints.",
+             "  int kanedyn_energy(double t, const double *y, const double *p,",
+             "                     const double *r, double *energy);",
+             "      energy[0] kinetic, energy[1] potential [J] (NAN when the model",
+             "      declares no potential energy).", "",
+             "  p: the KANEDYN_NP parameters (kanedyn_default_parameters holds the",
+             "     values the model was built with); r: the KANEDYN_NR specified",
+             "     inputs at time t (NULL when KANEDYN_NR is 0).",
+             "  Return codes: 0 success; 1 singular mass matrix or constraint",
+             "  Jacobian (ydot unspecified); 2 out of memory (large models use a heap",
+             "  work array).  The functions are reentrant (no global state).",
+             "  Data: kanedyn_state_names, kanedyn_parameter_names, kanedyn_input_names",
+             "  (arrays of strings; a single unused entry when a count is 0).", "",
+             f"States y (KANEDYN_NSTATES = {n + o}: {n} coordinates q, {l} of them "
+             f"dependent, then {o} speeds u, {m} of them dependent):"]
+    lines += [f"  y[{k}] = {name}" for k, name in enumerate(state_names)]
+    lines.append(f"Parameters p (KANEDYN_NP = {len(parameters)}), default values:")
+    lines += [f"  p[{k}] = {name} = {float(value)!r}"
+              for k, (name, value) in enumerate(parameters.items())]
+    lines.append(f"Specified inputs r (KANEDYN_NR = {len(input_names)}):")
+    lines += [f"  r[{k}] = {name.removesuffix('(t)')}"
+              for k, name in enumerate(input_names)] or ["  none"]
+    body = "\n".join((" * " + line).rstrip() for line in lines)
+    return "/*\n" + body.replace("*/", "* /") + "\n */"
