@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import inspect
 import numbers
+import pickle
+import sys
 import warnings
 from collections.abc import Mapping
 
@@ -165,10 +167,29 @@ class _Input:
         return float(value)
 
     def __getstate__(self):
+        if self.arity and not _by_value_pickler_active():
+            try:
+                pickle.dumps(self.value)
+            except Exception as exc:
+                raise pickle.PicklingError(
+                    f"specified input {self.name}: its function {self.value!r} cannot be "
+                    f"pickled or saved ({exc}); define it at module level (importable by "
+                    "name), or give the input as a number or a SymPy expression in t"
+                ) from None
         return (self.name, self.value, self.arity)
 
     def __setstate__(self, state):
         self.name, self.value, self.arity = state
+
+
+def _by_value_pickler_active():
+    """True inside cloudpickle (used by Dask), which pickles lambdas by value."""
+    frame = sys._getframe(2)
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("cloudpickle"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _resolve_specified(eom, specified):
@@ -504,6 +525,8 @@ class NumericModel(StateLayout):
                                                   else set())) if str(s) in current}
         data = dict(self._data, p=list(current.values()), constants=current,
                     bodies=body_values(self._data.get("body_parameters", ()), symbols))
+        if self._data.get("contact_coefficients"):
+            data["contacts"] = _contact_values(self._data["contact_coefficients"], current)
         clone = NumericModel(data)
         for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
             if hasattr(self, attr):
@@ -800,6 +823,21 @@ def _contact_coefficients(contacts, values):
     return out
 
 
+def _contact_values(coefficients, current):
+    """The contacts' numbers again, for the constants ``current`` (``{name: value}``)."""
+    out = []
+    for entry, exprs in coefficients:
+        entry = dict(entry)
+        for key, expr in exprs.items():
+            expr = sm.sympify(expr)
+            if not expr.is_number:
+                expr = expr.xreplace({s: current[str(s)] for s in expr.free_symbols
+                                      if str(s) in current})
+            entry[key] = float(expr)
+        out.append(entry)
+    return out
+
+
 def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, scheme=None):
     """Generate and compile the numerical functions of ``eom``.
 
@@ -956,6 +994,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "has_potential": eom._potential is not None,
         "has_loads": bool(eom.loads),
         "contacts": _contact_coefficients(eom.contacts, values),
+        "contact_coefficients": [({"name": c.name, "kind": c.kind, "law": c.restitution_law},
+                                  dict(c.coefficients)) for c in eom.contacts],
         "multiplier_names": eom._multiplier_names,
         "multiplier_form": multiplier_form,
         "scheme": scheme,
