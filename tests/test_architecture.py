@@ -27,6 +27,9 @@ FACADES = {
         "EquationsOfMotion.numeric, .linearize and .scheme: the public API puts them on "
         "the frozen equations",
     ("simulation._results", "analysis"): "SimulationResult.plot and .plot_deflection",
+    ("formulations._eom", "io"):
+        "EquationsOfMotion.save: the public API puts saving on the frozen equations "
+        "(the file format lives in io/_saved.py)",
 }
 
 

@@ -15,6 +15,7 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
 from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
+from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact, Ellipsoid,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
@@ -26,6 +27,8 @@ __all__ = [
     "formulate",
     "FORMULATIONS",
     "EquationsOfMotion",
+    "load",
+    "SavedFileError",
     "Contact",
     "Surface",
     "Plane",
