@@ -310,9 +310,9 @@ class NumericModel(StateLayout):
         ``{name: value}`` of the constants used.
     """
 
-    def __init__(self, data, module=None):
+    def __init__(self, data, module=None, functions=None):
         self._data = data
-        self._compile(module)
+        self._compile(module, functions)
 
     # state and pickling
     def __getstate__(self):
@@ -333,7 +333,9 @@ class NumericModel(StateLayout):
             raise ValueError("cannot pickle: the model's equations are not available")
         return generate_c(eom._program, self._functions, self._sizes, cse=self._cse)
 
-    def _compile(self, module=None):
+    def _compile(self, module=None, functions=None):
+        """Load the C module (``module``: already loaded) or compile the NumPy
+        sources (``functions``: already compiled, e.g. by the model copied)."""
         d = self._data
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
@@ -342,6 +344,7 @@ class NumericModel(StateLayout):
                 from .backends._c import load_module
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
+            self._module = module
             self._fn = {name: getattr(module, name)
                         for name in ("dynamics", "constraints", "energy", "auxiliary",
                                      "contacts")
@@ -350,6 +353,8 @@ class NumericModel(StateLayout):
             if getattr(d["scheme"], "c_backend", True):  # else: Python rhs, compiled terms
                 self.rhs = self._c.rhs  # the compiled entry points, called directly
                 self.rhs_batch = self._c.rhs_batch
+        elif functions is not None:
+            self._fn = dict(functions)
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
@@ -527,7 +532,9 @@ class NumericModel(StateLayout):
                     bodies=body_values(self._data.get("body_parameters", ()), symbols))
         if self._data.get("contact_coefficients"):
             data["contacts"] = _contact_values(self._data["contact_coefficients"], current)
-        clone = NumericModel(data)
+        # the same code: the loaded C module or the compiled NumPy functions are reused
+        clone = NumericModel(data, module=getattr(self, "_module", None),
+                             functions=None if data["backend"] == "c" else self._fn)
         for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
             if hasattr(self, attr):
                 setattr(clone, attr, getattr(self, attr))
