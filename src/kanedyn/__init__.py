@@ -20,7 +20,8 @@ from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
-from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
+from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
+                         simulate, sweep)
 
 __all__ = [
     "kane",
@@ -56,6 +57,8 @@ __all__ = [
     "MassMatrices",
     "simulate",
     "SimulationResult",
+    "sweep",
+    "SweepInterrupted",
     "models",
     "schemes",
     "KanedynError",
