@@ -140,7 +140,8 @@ def test_dask_sweep_equals_simulate_and_pendulum_period(pendulum, client, tmp_pa
     d, model = pendulum
     y0 = d.initial(model)
     y0[model.index("q")], y0[model.index("u")] = 0.01, 0.0
-    crossing = (lambda t, y: y[0])
+    def crossing(t, y):  # a local function: Dask's cloudpickle ships it by value
+        return y[0]
     crossing.terminal = True
     lengths = [0.25, 0.5, 1.0, 2.0, 4.0]
     table = kd.sweep(model, {"l": lengths}, y0, (0.0, 5.0), outputs=("final", "events"),
