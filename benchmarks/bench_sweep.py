@@ -22,23 +22,13 @@ from __future__ import annotations
 import argparse
 import logging
 import os
-import platform
 import time
 
 import numpy as np
 
 import kanedyn as kd
-
-
-def cpu_name():
-    try:
-        with open("/proc/cpuinfo") as cpuinfo:
-            for line in cpuinfo:
-                if line.startswith("model name"):
-                    return line.split(":", 1)[1].strip()
-    except OSError:
-        pass
-    return platform.processor() or "unknown"
+# bench_numerics lives next to this script (on sys.path when run directly)
+from bench_numerics import cpu_name  # noqa: E402
 
 
 def main():
