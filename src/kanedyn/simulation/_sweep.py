@@ -344,7 +344,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
         On Ctrl-C; the finished runs are saved (with ``out``) and in its
         ``table``; the message says how to resume.
     """
-    pd = _need("pandas")
+    _need("pandas")  # before any work: the table needs it
     names, values = parameter_runs(model, parameters, n=n, seed=seed)
     outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)
     bad = [o for o in outputs if o not in OUTPUTS]
@@ -405,7 +405,6 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
         else:
             table.to_parquet(tmp, index=False)
         os.replace(tmp, path)
-    assert isinstance(table, pd.DataFrame)
     return table
 
 
