@@ -29,6 +29,9 @@ FACADES = {
     ("simulation._results", "analysis"): "SimulationResult.plot and .plot_deflection",
     ("simulation._results", "io"):
         "SimulationResult.animate: the public API puts the 3D animation on the result",
+    ("formulations._eom", "io"):
+        "EquationsOfMotion.save: the public API puts saving on the frozen equations "
+        "(the file format lives in io/_saved.py)",
 }
 
 

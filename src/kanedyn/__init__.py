@@ -15,17 +15,21 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
 from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
+from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact, Ellipsoid,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
-from .simulation import Impact, ModeChange, SimulationResult, TrustWarning, simulate
+from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
+                         simulate, sweep)
 
 __all__ = [
     "kane",
     "formulate",
     "FORMULATIONS",
     "EquationsOfMotion",
+    "load",
+    "SavedFileError",
     "Contact",
     "Surface",
     "Plane",
@@ -53,6 +57,8 @@ __all__ = [
     "MassMatrices",
     "simulate",
     "SimulationResult",
+    "sweep",
+    "SweepInterrupted",
     "models",
     "schemes",
     "visuals",

@@ -635,6 +635,27 @@ class EquationsOfMotion:
         return build_numeric_model(self, constants or {}, specified or {}, backend,
                                    **options)
 
+    def save(self, path):
+        """Write these equations to a file that :func:`kanedyn.load` reads back.
+
+        A zip archive of JSON (format described in :mod:`kanedyn.io._saved`):
+        SymPy expressions are stored as trees of allow-listed classes, so
+        loading evaluates no text and runs no code from the file.  Numerical
+        models are not saved (they are rebuilt by :meth:`numeric`; pickle
+        them to ship them between processes).
+
+        Parameters
+        ----------
+        path : str or os.PathLike
+            The file to write (conventionally ``*.kdeom``).
+
+        Returns
+        -------
+        pathlib.Path
+        """
+        from ..io import save_equations  # a facade of the io layer
+        return save_equations(self, path)
+
     def linearize(self, op_point=None, A_and_B=True, constants=None, specified=None,
                   t=0.0, simplify=False, linear_solver="LU"):
         r"""Linearize about an operating point, as SymPy's ``KanesMethod.linearize``.

@@ -139,16 +139,23 @@ def body_values(parameters, values):
             entries = [_number(e) for e in inertia.xreplace(values)]
             if all(e is not None for e in entries):
                 matrix = np.array(entries).reshape(3, 3)
-        depends = sorted({str(s) for s in _symbols_of(mass, inertia) if s in values})
-        given = f" (with {', '.join(f'{s} = {values[_by_name(values, s)]:g}' for s in depends)})" \
-            if depends else ""
-        if m is not None:
-            _check_mass(name, kind, m, given=given)
-        moments = None
-        if matrix is not None:
-            moments = _check_inertia(name, matrix, given)
+        try:
+            moments = _checked(name, kind, m, matrix, "")
+        except ModelError:  # again, naming the constants the body depends on
+            depends = sorted({str(s) for s in _symbols_of(mass, inertia) if s in values})
+            shown = ", ".join(f"{s} = {values[_by_name(values, s)]:g}" for s in depends)
+            given = f" (with {shown})" if depends else ""
+            _checked(name, kind, m, matrix, given)
+            raise
         out.append(BodyValues(name, kind, m, moments))
     return out
+
+
+def _checked(name, kind, mass, matrix, given):
+    """Check a body's mass and inertia; its principal moments (or ``None``)."""
+    if mass is not None:
+        _check_mass(name, kind, mass, given=given)
+    return None if matrix is None else _check_inertia(name, matrix, given)
 
 
 def _by_name(values, name):
@@ -165,6 +172,8 @@ def _symbols_of(mass, inertia):
 def _number(expr):
     """The float value of a constant expression, else ``None``."""
     expr = sm.sympify(expr)
+    if expr.is_Number and expr.is_finite and expr.is_extended_real:
+        return float(expr)  # the common case, without evalf
     if expr.free_symbols or expr.has(sm.Function):
         return None
     try:

@@ -25,6 +25,8 @@ from __future__ import annotations
 
 import inspect
 import numbers
+import pickle
+import sys
 import warnings
 from collections.abc import Mapping
 
@@ -165,10 +167,29 @@ class _Input:
         return float(value)
 
     def __getstate__(self):
+        if self.arity and not _by_value_pickler_active():
+            try:
+                pickle.dumps(self.value)
+            except Exception as exc:
+                raise pickle.PicklingError(
+                    f"specified input {self.name}: its function {self.value!r} cannot be "
+                    f"pickled or saved ({exc}); define it at module level (importable by "
+                    "name), or give the input as a number or a SymPy expression in t"
+                ) from None
         return (self.name, self.value, self.arity)
 
     def __setstate__(self, state):
         self.name, self.value, self.arity = state
+
+
+def _by_value_pickler_active():
+    """True inside cloudpickle (used by Dask), which pickles lambdas by value."""
+    frame = sys._getframe(2)
+    while frame is not None:
+        if frame.f_globals.get("__name__", "").startswith("cloudpickle"):
+            return True
+        frame = frame.f_back
+    return False
 
 
 def _resolve_specified(eom, specified):
@@ -291,9 +312,9 @@ class NumericModel(StateLayout):
         The model's name and description, when its equations carry them.
     """
 
-    def __init__(self, data, module=None):
+    def __init__(self, data, module=None, functions=None):
         self._data = data
-        self._compile(module)
+        self._compile(module, functions)
 
     # state and pickling
     def __getstate__(self):
@@ -314,7 +335,9 @@ class NumericModel(StateLayout):
             raise ValueError("cannot pickle: the model's equations are not available")
         return generate_c(eom._program, self._functions, self._sizes, cse=self._cse)
 
-    def _compile(self, module=None):
+    def _compile(self, module=None, functions=None):
+        """Load the C module (``module``: already loaded) or compile the NumPy
+        sources (``functions``: already compiled, e.g. by the model copied)."""
         d = self._data
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
@@ -323,6 +346,7 @@ class NumericModel(StateLayout):
                 from .backends._c import load_module
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
+            self._module = module
             self._fn = {name: getattr(module, name)
                         for name in ("dynamics", "constraints", "energy", "auxiliary",
                                      "contacts")
@@ -331,6 +355,8 @@ class NumericModel(StateLayout):
             if getattr(d["scheme"], "c_backend", True):  # else: Python rhs, compiled terms
                 self.rhs = self._c.rhs  # the compiled entry points, called directly
                 self.rhs_batch = self._c.rhs_batch
+        elif functions is not None:
+            self._fn = dict(functions)
         else:
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
@@ -566,7 +592,11 @@ class NumericModel(StateLayout):
                                                   else set())) if str(s) in current}
         data = dict(self._data, p=list(current.values()), constants=current,
                     bodies=body_values(self._data.get("body_parameters", ()), symbols))
-        clone = NumericModel(data)
+        if self._data.get("contact_coefficients"):
+            data["contacts"] = _contact_values(self._data["contact_coefficients"], current)
+        # the same code: the loaded C module or the compiled NumPy functions are reused
+        clone = NumericModel(data, module=getattr(self, "_module", None),
+                             functions=None if data["backend"] == "c" else self._fn)
         for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
             if hasattr(self, attr):
                 setattr(clone, attr, getattr(self, attr))
@@ -954,6 +984,21 @@ def _contact_coefficients(contacts, values):
     return out
 
 
+def _contact_values(coefficients, current):
+    """The contacts' numbers again, for the constants ``current`` (``{name: value}``)."""
+    out = []
+    for entry, exprs in coefficients:
+        entry = dict(entry)
+        for key, expr in exprs.items():
+            expr = sm.sympify(expr)
+            if not expr.is_number:
+                expr = expr.xreplace({s: current[str(s)] for s in expr.free_symbols
+                                      if str(s) in current})
+            entry[key] = float(expr)
+        out.append(entry)
+    return out
+
+
 def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, scheme=None):
     """Generate and compile the numerical functions of ``eom``.
 
@@ -1110,6 +1155,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "has_potential": eom._potential is not None,
         "has_loads": bool(eom.loads),
         "contacts": _contact_coefficients(eom.contacts, values),
+        "contact_coefficients": [({"name": c.name, "kind": c.kind, "law": c.restitution_law},
+                                  dict(c.coefficients)) for c in eom.contacts],
         "multiplier_names": eom._multiplier_names,
         "multiplier_form": multiplier_form,
         "scheme": scheme,

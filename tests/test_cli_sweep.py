@@ -1,0 +1,61 @@
+"""``kanedyn sweep``: a grid on the command line gives the table kd.sweep gives;
+bad arguments are one-line errors with exit code 2."""
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+from kanedyn.cli import main
+from kanedyn.cli._sweep import parse_grid
+
+pd = pytest.importorskip("pandas")
+pytest.importorskip("pyarrow")
+
+
+def test_grid_syntax():
+    np.testing.assert_array_equal(parse_grid("1:2:11", "m"), np.linspace(1, 2, 11))
+    np.testing.assert_array_equal(parse_grid("0.5,1,2*pi", "l"), [0.5, 1.0, 2 * np.pi])
+
+
+def test_sweep_command_matches_the_api(tmp_path, capsys):
+    out = tmp_path / "s"
+    code = main(["sweep", "pendulum", "--grid", "l=0.5:2:3", "--grid", "q=0.1,0.2",
+                 "--out", str(out), "--t-end", "1", "--scheduler", "serial", "--quiet",
+                 "--csv"])
+    assert code == 0 and "6 runs, 0 failed" in capsys.readouterr().out
+    table = pd.read_csv(out / "results.csv")
+    d = kd.models.build("pendulum")
+    model = d.numeric(d.derive())
+    expected = kd.sweep(model, {"l": [0.5, 1.25, 2.0], "q": [0.1, 0.2]}, d.initial(model),
+                        (0.0, 1.0), outputs=("final",), scheduler="serial", progress=False)
+    np.testing.assert_allclose(table["final_q"], expected["final_q"], rtol=1e-15, atol=0)
+    assert table["l"].tolist() == [0.5, 0.5, 1.25, 1.25, 2.0, 2.0]
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["--grid", "l=1:2"], "start:stop:count"),
+    (["--grid", "l=1:2:x"], "whole number"),
+    (["--grid", "l=abc"], "'abc' is not a number"),
+    (["--grid", "l=__import__('os')"], "is not a number"),
+    (["--grid", "l=1,,2"], "empty value"),
+    (["--random", "l=1:2"], "needs --samples"),
+    (["--random", "l=2:1", "--samples", "3"], "low must be below high"),
+    (["--grid", "l=1", "--random", "m=1:2", "--samples", "2"], "not both"),
+    (["--grid", "l=1", "--t-end", "0"], "--t-end must be positive"),
+    (["--grid", "l=1", "--workers", "0"], "--workers must be at least 1"),
+    (["--grid", "l=1", "--outputs", "final,peak"], "--outputs: unknown peak"),
+    (["--grid", "length=1", "--t-end", "0.1", "--scheduler", "serial"],
+     "length: not constant"),
+    ([], "at least one --grid"),
+])
+def test_bad_arguments(tmp_path, capsys, argv, message):
+    code = main(["sweep", "pendulum", "--out", str(tmp_path / "o"), "--quiet", *argv])
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and message in err and len(err.splitlines()) == 1
+
+
+def test_unwritable_out(tmp_path, capsys):
+    blocker = tmp_path / "file"
+    blocker.write_text("x")
+    code = main(["sweep", "pendulum", "--grid", "l=1", "--out", str(blocker / "sub")])
+    assert code == 2 and "cannot write there" in capsys.readouterr().err

@@ -1,0 +1,180 @@
+"""eom.save / kd.load: round trips of built-in models (same numbers, same
+simulations, same explicit matrices), loading in another interpreter, and
+files that are damaged, tampered with or of another format."""
+
+import hashlib
+import json
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+from kanedyn.io._saved import FORMAT_VERSION
+
+CASES = {"chain": ("chain3d", {"n": 3}), "bicycle": ("whipple-bicycle", {}),
+         "contact": ("falling-rod", {}), "flexible": ("spin-up-beam", {})}
+
+
+def _state(definition, model):
+    y = definition.initial(model)
+    return model.consistent_state(0.0, y) if model.n_q_dep else y
+
+
+@pytest.fixture(scope="module")
+def saved(tmp_path_factory):
+    out = {}
+    for label, (name, options) in CASES.items():
+        d = kd.models.build(name, **options)
+        eom = d.derive()
+        path = eom.save(tmp_path_factory.mktemp(label) / f"{name}.kdeom")
+        out[label] = (d, eom, path)
+    return out
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("label", list(CASES))
+def test_round_trip_same_numbers_and_simulation(saved, label):
+    d, eom, path = saved[label]
+    loaded = kd.load(path)
+    assert isinstance(loaded, kd.EquationsOfMotion)
+    assert loaded.state_names == eom.state_names and loaded.method == eom.method
+    assert [str(s) for s in loaded.constants] == [str(s) for s in eom.constants]
+    a, b = d.numeric(eom), d.numeric(loaded)
+    rng = np.random.default_rng(3)
+    y0 = _state(d, a)
+    for y in (y0, y0 + rng.uniform(-0.05, 0.05, y0.size)):
+        np.testing.assert_array_equal(a.mass_matrix(0.2, y), b.mass_matrix(0.2, y))
+        np.testing.assert_array_equal(a.forcing(0.2, y), b.forcing(0.2, y))
+        np.testing.assert_array_equal(a.rhs(0.2, y), b.rhs(0.2, y))
+    t_end = min(d.t_end, 0.5)
+    ra = kd.simulate(a, (0.0, t_end), y0, rtol=1e-8, atol=1e-8)
+    rb = kd.simulate(b, (0.0, t_end), y0, rtol=1e-8, atol=1e-8)
+    assert ra.success and rb.success
+    np.testing.assert_array_equal(ra.t, rb.t)
+    np.testing.assert_array_equal(ra.y, rb.y)
+
+
+def test_explicit_matrices_survive(saved):
+    """The explicit SymPy views of the loaded equations equal the original's
+    (symbols are rebuilt by name and assumptions, so they are the same)."""
+    d, eom, path = saved["chain"]
+    loaded = kd.load(path)
+    assert loaded.mass_matrix == eom.mass_matrix
+    assert loaded.forcing == eom.forcing
+
+
+@pytest.mark.slow
+def test_load_in_another_interpreter(saved):
+    d, eom, path = saved["bicycle"]
+    model = d.numeric(eom)
+    y = _state(d, model)
+    code = ("import json, sys, numpy as np, kanedyn as kd\n"
+            "eom = kd.load(sys.argv[1])\n"
+            "c = dict(zip([str(s) for s in eom.constants], json.loads(sys.argv[2])))\n"
+            "m = eom.numeric(constants=c)\n"
+            "print(json.dumps([float(v).hex() for v in m.rhs(0.2, np.array(json.loads("
+            "sys.argv[3])))]))\n")
+    values = [d.constants[s] for s in eom.constants]
+    out = subprocess.run([sys.executable, "-c", code, str(path), json.dumps(values),
+                          json.dumps(y.tolist())], capture_output=True, text=True, check=True)
+    got = np.array([float.fromhex(v) for v in json.loads(out.stdout)])
+    np.testing.assert_array_equal(got, model.rhs(0.2, y))
+
+
+def test_loaded_dummies_are_fresh(saved):
+    """Intermediates are new dummy symbols: loading twice gives programs that
+    share none (no collision with symbols made in this session)."""
+    _, eom, path = saved["contact"]
+    first, second = kd.load(path), kd.load(path)
+    assert not set(first._program._order) & set(second._program._order)
+    assert not set(first._program._order) & set(eom._program._order)
+
+
+# --------------------------------------------------------------- bad files
+def _rewrite(path, out, nodes=None, manifest=None, fix_checksum=True):
+    with zipfile.ZipFile(path) as z:
+        m = json.loads(z.read("manifest.json"))
+        n = json.loads(z.read("nodes.json"))
+    if nodes is not None:
+        n = nodes(n)
+    if manifest is not None:
+        m = manifest(m)
+    text = json.dumps(n).encode()
+    if fix_checksum:
+        m["sha256"] = hashlib.sha256(text).hexdigest()
+        m["nodes"] = len(n)
+    with zipfile.ZipFile(out, "w") as z:
+        z.writestr("manifest.json", json.dumps(m))
+        z.writestr("nodes.json", text)
+    return out
+
+
+def test_not_a_file_of_ours(tmp_path):
+    bad = tmp_path / "model.kdeom"
+    bad.write_text("hello")
+    with pytest.raises(kd.SavedFileError, match=r"model\.kdeom: not a kanedyn"):
+        kd.load(bad)
+    with pytest.raises(kd.SavedFileError, match="no such file"):
+        kd.load(tmp_path / "missing.kdeom")
+
+
+def test_changed_after_writing(saved, tmp_path):
+    _, _, path = saved["contact"]
+
+    def edit(nodes):
+        nodes[5] = ["str", "changed"]
+        return nodes
+    bad = _rewrite(path, tmp_path / "edited.kdeom", nodes=edit, fix_checksum=False)
+    with pytest.raises(kd.SavedFileError, match=r"edited\.kdeom: .*checksum"):
+        kd.load(bad)
+
+
+def test_other_format_version(saved, tmp_path):
+    _, _, path = saved["contact"]
+    bad = _rewrite(path, tmp_path / "future.kdeom",
+                   manifest=lambda m: dict(m, format_version=FORMAT_VERSION + 1))
+    with pytest.raises(kd.SavedFileError, match=r"future\.kdeom: format version"):
+        kd.load(bad)
+
+
+@pytest.mark.parametrize("node, message", [
+    (["object", "os.system", []], "class os.system is not allowed"),
+    (["object", "kanedyn.numerics._model.NumericModel", []], "is not allowed"),
+    (["expr", "eval", []], "SymPy class 'eval' is not allowed"),
+    (["expr", "sin", [999999]], "points outside"),
+    (["nonsense"], "unknown kind"),
+    (["get", 0], "unknown kind"),
+    (["method", 0, "__init__"], "not allowed"),
+    (["expr", "sin", ["previous"]], "SymPy argument that is a str"),
+])
+def test_tampered_nodes_are_refused(saved, tmp_path, node, message):
+    """A file rewritten with a valid checksum but a forbidden node: the loader
+    names the file and the node and runs nothing."""
+    _, _, path = saved["contact"]
+    with zipfile.ZipFile(path) as z:
+        root = json.loads(z.read("manifest.json"))["root"]
+
+    def edit(nodes):
+        if node[-1] == ["previous"]:  # a SymPy function of a string
+            nodes.append(["str", "__import__('os').getcwd()"])
+            nodes.append(node[:-1] + [[len(nodes) - 1]])
+        else:
+            nodes.append(node)
+        # the root object's first attribute now points at the new node
+        nodes[root][2][0][1] = len(nodes) - 1
+        return nodes
+    bad = _rewrite(path, tmp_path / "tampered.kdeom", nodes=edit)
+    with pytest.raises(kd.SavedFileError, match=r"tampered\.kdeom: .*" + message):
+        kd.load(bad)
+
+
+def test_unsavable_content_is_named(tmp_path):
+    """Equations holding something a file cannot carry say what and where."""
+    d = kd.models.build("pendulum")
+    eom = d.derive()
+    object.__setattr__(eom, "_extra", lambda t: t)
+    with pytest.raises(kd.SavedFileError, match=r"cannot save the equations\._extra"):
+        eom.save(tmp_path / "x.kdeom")
