@@ -9,6 +9,7 @@ docs docs/_build/html`` (``tests/test_docs.py`` runs it with warnings as errors)
 """
 
 import inspect
+import re
 import sys
 from pathlib import Path
 
@@ -137,15 +138,20 @@ def _write(path, lines):
 
 
 def write_api_pages():
-    pages = {"kanedyn": (kanedyn, "kanedyn (``import kanedyn as kd``)"),
-             "models": (kanedyn.models, "kanedyn.models (``kd.models``): built-in models"),
-             "schemes": (kanedyn.schemes, "kanedyn.schemes (``kd.schemes``): constraint schemes")}
+    pages = {"kanedyn": (kanedyn, "kanedyn (``import kanedyn as kd``)")}
+    for name in kanedyn.__all__:   # kd.models, kd.schemes, kd.visuals, ...: a page each
+        module = getattr(kanedyn, name)
+        if inspect.ismodule(module):
+            summary = (module.__doc__ or "").strip().splitlines()[0].rstrip(".")
+            summary = re.sub(r"\s*\(.*\)$", "", summary)   # no roles in a title
+            pages[name] = (module, f"{module.__name__} (``kd.{name}``): {summary}")
     for stem, (module, title) in pages.items():
         _write(HERE / "api" / f"{stem}.rst", _module_page(module, title))
     _write(HERE / "api" / "index.rst",
            [f".. {GENERATED}", "", "API reference", "=============", "",
-            "Every public name of ``import kanedyn as kd``, of ``kd.models`` and of "
-            "``kd.schemes``, from their docstrings.", "", ".. toctree::", "   :maxdepth: 1",
+            "Every public name of ``import kanedyn as kd`` and of its modules "
+            "(``kd.models``, ``kd.schemes``, ...), from their docstrings.", "",
+            ".. toctree::", "   :maxdepth: 1",
             ""] + [f"   {stem}" for stem in pages])
 
 

@@ -41,7 +41,7 @@ def test_sweep_command_matches_the_api(tmp_path, capsys):
     (["--random", "l=1:2"], "needs --samples"),
     (["--random", "l=2:1", "--samples", "3"], "low must be below high"),
     (["--grid", "l=1", "--random", "m=1:2", "--samples", "2"], "not both"),
-    (["--grid", "l=1", "--t-end", "0"], "--t-end must be positive"),
+    (["--grid", "l=1", "--t-end", "0"], "argument --t-end: must be a finite number > 0"),
     (["--grid", "l=1", "--workers", "0"], "--workers must be at least 1"),
     (["--grid", "l=1", "--outputs", "final,peak"], "--outputs: unknown peak"),
     (["--grid", "length=1", "--t-end", "0.1", "--scheduler", "serial"],
@@ -58,4 +58,4 @@ def test_unwritable_out(tmp_path, capsys):
     blocker = tmp_path / "file"
     blocker.write_text("x")
     code = main(["sweep", "pendulum", "--grid", "l=1", "--out", str(blocker / "sub")])
-    assert code == 2 and "cannot write there" in capsys.readouterr().err
+    assert code == 2 and "is a file, not a folder" in capsys.readouterr().err

@@ -4,6 +4,7 @@ docstrings of every public name).  A docstring whose numpydoc sections, maths
 or references do not parse fails here, naming the object."""
 
 import shutil
+import inspect
 import subprocess
 import sys
 from pathlib import Path
@@ -29,7 +30,7 @@ def test_sphinx_builds_without_warnings(tmp_path):
     api = (out / "api" / "kanedyn.html").read_text()
     import kanedyn as kd
     for name in kd.__all__:       # every public name has its entry (new ones too)
-        if name not in ("models", "schemes"):
+        if not inspect.ismodule(getattr(kd, name)):    # modules have their own page
             assert f'id="kanedyn.{name}"' in api, f"kd.{name} missing from the API page"
     for module, page in ((kd.models, "models"), (kd.schemes, "schemes")):
         text = (out / "api" / f"{page}.html").read_text()
