@@ -62,7 +62,7 @@ def main(argv=None):
               kd.visuals.Sphere(rod, radius=0.05, offset=(0, -l / 2, 0), color="#c0392b")]
     page = res.animate(args.out, visuals=shapes, trace=[tip], title="a swinging rod")
     if args.plot:
-        res.plot(path=args.plot)
+        res.plot(path=args.plot, title="a swinging rod (uniform, l = 0.8 m)")
 
     q_end = res["q"][-1]
     print(f"wrote {page} ({page.stat().st_size / 1e6:.1f} MB): open it in a browser")

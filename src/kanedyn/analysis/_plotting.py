@@ -228,6 +228,10 @@ def _force_units(model):
     return out
 
 
+def _count(n, noun):
+    return f"{n} {noun}" + ("" if n == 1 else "s")
+
+
 def _title(result, title):
     model = result.model
     if title is None:
@@ -235,8 +239,9 @@ def _title(result, title):
         if text and name:
             title = f"{text} ({name})"
         else:
-            title = text or name or (f"model with {model.n_q} coordinates and "
-                                     f"{model.n_u} speeds")
+            title = text or name or (
+                f"model with {_count(model.n_q, 'coordinate')} and "
+                f"{_count(model.n_u, 'speed')}")
     method = getattr(result, "method", None)
     detail = f"{method}, " if isinstance(method, str) else ""
     detail += f"t = {result.t[0]:g} to {result.t[-1]:g} s" if result.t.size else "no output"
