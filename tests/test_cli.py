@@ -199,15 +199,16 @@ def test_list_model_shows_options_parameters_and_states(capsys):
     assert re.search(r"^n\s+int\s+3\s*$", out, re.M)  # option, type, default
     assert re.search(r"^m_c\s+2\s+kg\s*$", out, re.M)  # parameter, default, unit
     assert re.search(r"^g\s+9\.81\s+m/s\^2\s*$", out, re.M)
-    assert re.search(r"^q1\s+0\.4\s*$", out, re.M)  # state, initial value
-    assert re.search(r"^u3\s+0\s*$", out, re.M)
+    assert re.search(r"^q1\s+0\.4\s+rad\s*$", out, re.M)  # state, initial value, unit
+    assert re.search(r"^q0\s+0\s+m\s*$", out, re.M)        # the cart's position
+    assert re.search(r"^u3\s+0\s+rad/s\s*$", out, re.M)
 
 
 def test_list_model_marks_dependent_states(capsys):
     assert main(["list", "four-bar"]) == 0
     out = capsys.readouterr().out
-    assert re.search(r"^q2\s+0\.3\s+dependent", out, re.M)
-    assert re.search(r"^q1\s+1\.2\s*$", out, re.M)
+    assert re.search(r"^q2\s+0\.3\s+rad\s+dependent", out, re.M)
+    assert re.search(r"^q1\s+1\.2\s+rad\s*$", out, re.M)
 
 
 def test_compare_quiet_prints_only_the_table(capsys):

@@ -72,13 +72,16 @@ def _describe(name):
     given = {name_of(k) if not isinstance(k, str) else k: v
              for k, v in definition.initial_state.items()}
     dependent = {name_of(s) for s in (*eom.q_dep, *eom.u_dep)}
-    rows = []
-    for state in eom.state_names:
-        value = given.get(state, 0.0)
-        note = "dependent: completed from the constraints" if state in dependent else ""
-        rows.append((state, float(value), note))
+    units = eom.state_units
+    rows = [(state, float(given.get(state, 0.0)), units.get(state) or "?")
+            for state in eom.state_names]
+    header = ("state", "initial value", "unit")
+    if dependent:
+        note = "dependent: completed from the constraints"
+        rows = [row + (note if row[0] in dependent else "",) for row in rows]
+        header += ("note",)
     print()
-    print(table(rows, ("state", "initial value", ""), title="states (--set NAME=VALUE)"))
+    print(table(rows, header, title="states (--set NAME=VALUE)"))
     if definition.specified:
         inputs = [(name_of(k), str(v) if not callable(v) else "a function of (t, y)")
                   for k, v in definition.specified.items()]
