@@ -51,8 +51,14 @@ def cmd_derive(args):
     t0 = time.perf_counter()
     eom = definition.derive(progress=progress)
     elapsed = time.perf_counter() - t0
+    written = None
+    if args.c is not None:  # first: the file is there even if the printout is cut short
+        written = definition.numeric(eom).export_c(args.c, title=f"{definition.name}: "
+                                                   f"{definition.title}")
     counts = eom.operation_counts()
     print(f"# {definition.title}")
+    if written is not None:
+        print(f"# wrote {written}")
     print(f"# derived in {elapsed:.3f} s: {eom!r}")
     print(f"# operations: mass matrix {counts['mass_matrix']}, forcing "
           f"{counts['forcing']}, constraints {counts['constraints']}, all jointly "
@@ -65,8 +71,4 @@ def cmd_derive(args):
         print(eom.to_latex(explicit=args.explicit))
     else:
         print(eom.to_text(explicit=args.explicit))
-    if args.c is not None:
-        path = definition.numeric(eom).export_c(args.c, title=f"{definition.name}: "
-                                                f"{definition.title}")
-        print(f"# wrote {path}")
     return 0
