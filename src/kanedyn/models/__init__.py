@@ -17,6 +17,8 @@ from ._flexible_models import flexible_robot, spin_up_beam
 from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod, ladder,
                               slug_ellipsoid, sphere_slug)
 from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
+from ._parallel import (PLANAR_3RRR_GEOMETRY, newton_ik, planar_3rrr, planar_3rrr_ik,
+                        quintic_pose, sinusoid_pose)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -32,7 +34,9 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "rolling_disk_contact", "block_wedge", "snake", "shuttle_arm", "n_four_bar",
            "n_four_bar_exact", "n_four_bar_singular_times", "spin_up_beam", "flexible_robot",
            "eigenvalues_vs_speed", "stability_speeds", "upright_state",
-           "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual"]
+           "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
+           "planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "newton_ik",
+           "quintic_pose", "sinusoid_pose"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -65,6 +69,7 @@ REGISTRY = {
                                     "n_elements": int}),
     "flexible-robot": (flexible_robot, {"n_modes": int, "n_elements": int,
                                         "stiffening": bool}),
+    "3rrr": (planar_3rrr, {"gravity": bool}),
 }
 
 
