@@ -123,3 +123,59 @@ def test_bad_options():
         planar_3rrr_ik([0, 0, 0], elbow=(1, 0, 1))
     with pytest.raises(kd.ModelError, match="l_3"):
         planar_3rrr_ik([0, 0, 0], geometry={"l_3": 1.0})
+
+
+# ------------------------------------------------------------ Stewart platform
+from kanedyn.models import STEWART_GEOMETRY, stewart_anchors, stewart_leg_lengths  # noqa: E402
+
+
+def test_stewart_home_leg_lengths_closed_form():
+    geo = STEWART_GEOMETRY
+    # at the home pose, base anchor at angle beta and platform anchor at beta -+ 2 gamma_b
+    chord2 = (geo["R_b"] ** 2 + geo["r_p"] ** 2
+              - 2 * geo["R_b"] * geo["r_p"] * np.cos(2 * geo["gamma_b"]))
+    expected = np.sqrt(chord2 + geo["h"] ** 2)
+    home = [0, 0, geo["h"], 0, 0, 0]
+    np.testing.assert_allclose(stewart_leg_lengths(home), np.full(6, expected), rtol=1e-14)
+    definition = kd.models.build("stewart-platform")
+    model = definition.numeric(definition.derive())
+    y = model.state(definition.initial_state)
+    names = model.state_names
+    s = y[[names.index(f"s{j}") for j in range(1, 7)]]
+    np.testing.assert_allclose(s, expected, rtol=1e-14)
+    # the model's loop closures hold at a rotated pose completed by Newton, with the
+    # closed-form leg lengths
+    pose = np.array([0.02, -0.01, 0.43, 0.05, -0.04, 0.1])
+    y2 = y.copy()
+    y2[:6] = pose
+    y2 = model.consistent_state(0.0, y2)
+    s2 = y2[[names.index(f"s{j}") for j in range(1, 7)]]
+    np.testing.assert_allclose(s2, stewart_leg_lengths(pose), rtol=1e-12)
+
+
+def test_stewart_statics_equal_leg_forces():
+    geo = STEWART_GEOMETRY
+    definition = kd.models.build("stewart-platform")
+    model = definition.numeric(definition.derive(), constants={"m_c": 0.0, "m_r": 0.0})
+    y = model.state(definition.initial_state)
+    W = 10.0 * 9.81                                      # m_p g
+    # reference from the geometry alone: force and moment balance of the platform
+    A, c = stewart_anchors()
+    tips = np.array([0, 0, geo["h"]]) + c
+    e = (tips - A) / np.linalg.norm(tips - A, axis=1)[:, None]
+    balance = np.vstack([e.T, np.cross(c, e).T])         # 6 x 6: leg forces -> wrench
+    reference = np.linalg.solve(balance, [0, 0, W, 0, 0, 0])
+    cos_gamma = e[0, 2]
+    np.testing.assert_allclose(reference, W / (6 * cos_gamma), rtol=1e-12)
+    # kanedyn: generalized forces needed at rest, M u' - F = -F in the pose speeds,
+    # mapped to the legs by virtual work: J^T tau = Q with J = ds/dpose
+    Q = -model.forcing(0.0, y)[:6]
+    h = 1e-6
+    pose = y[:6]
+    J = np.empty((6, 6))
+    for k in range(6):
+        dp = np.zeros(6)
+        dp[k] = h
+        J[:, k] = (stewart_leg_lengths(pose + dp) - stewart_leg_lengths(pose - dp)) / (2 * h)
+    tau = np.linalg.solve(J.T, Q)
+    np.testing.assert_allclose(tau, reference, rtol=1e-7)

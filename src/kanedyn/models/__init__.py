@@ -17,8 +17,9 @@ from ._flexible_models import flexible_robot, spin_up_beam
 from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod, ladder,
                               slug_ellipsoid, sphere_slug)
 from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
-from ._parallel import (PLANAR_3RRR_GEOMETRY, newton_ik, planar_3rrr, planar_3rrr_ik,
-                        quintic_pose, sinusoid_pose)
+from ._parallel import (PLANAR_3RRR_GEOMETRY, STEWART_GEOMETRY, newton_ik, planar_3rrr,
+                        planar_3rrr_ik, quintic_pose, sinusoid_pose, stewart_anchors,
+                        stewart_leg_lengths, stewart_platform)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -36,7 +37,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "eigenvalues_vs_speed", "stability_speeds", "upright_state",
            "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
            "planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "newton_ik",
-           "quintic_pose", "sinusoid_pose"]
+           "quintic_pose", "sinusoid_pose", "stewart_platform", "STEWART_GEOMETRY",
+           "stewart_anchors", "stewart_leg_lengths"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -70,6 +72,7 @@ REGISTRY = {
     "flexible-robot": (flexible_robot, {"n_modes": int, "n_elements": int,
                                         "stiffening": bool}),
     "3rrr": (planar_3rrr, {"gravity": bool}),
+    "stewart-platform": (stewart_platform, {}),
 }
 
 

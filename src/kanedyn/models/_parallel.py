@@ -27,7 +27,8 @@ from .._errors import ConstraintError, ModelError
 from ._base import ModelDefinition
 
 __all__ = ["planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "quintic_pose",
-           "sinusoid_pose", "newton_ik"]
+           "sinusoid_pose", "newton_ik", "stewart_platform", "STEWART_GEOMETRY",
+           "stewart_anchors", "stewart_leg_lengths"]
 
 #: Default geometry of :func:`planar_3rrr` (m): base circumradius ``R_b``,
 #: platform circumradius ``r_p``, proximal and distal link lengths ``l_1, l_2``.
@@ -402,3 +403,200 @@ def sinusoid_pose(t, centre, amplitude, frequency, phase=0.0):
     om = 2 * np.pi * np.broadcast_to(np.asarray(frequency, dtype=float), c.shape)
     arg = om * t[:, None] + np.broadcast_to(np.asarray(phase, dtype=float), c.shape)
     return c + a * np.sin(arg), a * om * np.cos(arg), -a * om ** 2 * np.sin(arg)
+
+
+# ------------------------------------------------------- Stewart platform
+#: Default geometry of :func:`stewart_platform`: base and platform anchor
+#: circle radii ``R_b, r_p`` (m), home height ``h`` (m) of the platform centre,
+#: half spread ``gamma_b`` (rad) of the base anchor pairs, leg attachment
+#: length ``c`` (m; cylinder and piston lengths, each centred half-way).
+STEWART_GEOMETRY = {"R_b": 0.5, "r_p": 0.3, "h": 0.4, "gamma_b": np.radians(15.0),
+                    "c": 0.3}
+
+
+def stewart_anchors(geometry=None):
+    r"""Base and platform anchor points of :func:`stewart_platform`, leg by leg.
+
+    Base anchors :math:`A_j = R_b(\cos\beta_j, \sin\beta_j, 0)` at
+    :math:`\beta = 120°k \mp \gamma_b`; platform anchors (platform frame)
+    :math:`c_j = r_p(\cos\pi_j, \sin\pi_j, 0)` with :math:`\pi_j = \beta_j \mp
+    2\gamma_b` (the leg from the anchor at :math:`120°k - \gamma_b` goes to
+    :math:`120°k - 3\gamma_b`, its partner mirrors it): a symmetric platform
+    whose legs lean alike.
+
+    Returns
+    -------
+    A, c : ndarray, shape (6, 3)
+        Base anchors in ``N`` and platform anchors in the platform frame, m.
+    """
+    geo = dict(STEWART_GEOMETRY)
+    for key, value in (geometry or {}).items():
+        if key not in geo:
+            raise ModelError(f"stewart-platform: unknown geometry parameter {key!r}; "
+                             f"known: {', '.join(geo)}")
+        geo[key] = float(value)
+    gb = geo["gamma_b"]
+    beta, pi = [], []
+    for k in range(3):
+        for sign in (-1, 1):
+            beta.append(2 * np.pi * k / 3 + sign * gb)
+            pi.append(2 * np.pi * k / 3 + 3 * sign * gb)
+    beta, pi = np.array(beta), np.array(pi)
+    A = geo["R_b"] * np.stack([np.cos(beta), np.sin(beta), 0 * beta], axis=1)
+    c = geo["r_p"] * np.stack([np.cos(pi), np.sin(pi), 0 * pi], axis=1)
+    return A, c
+
+
+def _rotation_xyz(a, b, c):
+    """Rotation matrices (k, 3, 3) of body-fixed X, Y, Z angles (N components of P axes)."""
+    ca, sa, cb, sb, cc, sc = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(c), np.sin(c)
+    R = np.empty(np.shape(a) + (3, 3))
+    R[..., 0, 0] = cb * cc
+    R[..., 0, 1] = -cb * sc
+    R[..., 0, 2] = sb
+    R[..., 1, 0] = sa * sb * cc + ca * sc
+    R[..., 1, 1] = -sa * sb * sc + ca * cc
+    R[..., 1, 2] = -sa * cb
+    R[..., 2, 0] = -ca * sb * cc + sa * sc
+    R[..., 2, 1] = ca * sb * sc + sa * cc
+    R[..., 2, 2] = ca * cb
+    return R
+
+
+def stewart_leg_lengths(pose, geometry=None):
+    r"""Leg lengths of :func:`stewart_platform` at platform poses, in closed form.
+
+    :math:`s_j = |p + R(\phi)c_j - A_j|`, with :math:`p = (x, y, z)` and
+    :math:`R` the body-fixed X-Y-Z rotation of angles ``phi_x, phi_y, phi_z``.
+
+    Parameters
+    ----------
+    pose : array_like, shape (6,) or (k, 6)
+        ``x, y, z`` (m), ``phi_x, phi_y, phi_z`` (rad).
+
+    Returns
+    -------
+    ndarray, shape (6,) or (k, 6)
+        Leg lengths, m.
+    """
+    P = np.asarray(pose, dtype=float)
+    if P.shape[-1:] != (6,) or P.ndim > 2:
+        raise ValueError(f"stewart_leg_lengths: pose must have shape (6,) or (k, 6), "
+                         f"got {P.shape}")
+    A, c = stewart_anchors(geometry)
+    R = _rotation_xyz(P[..., 3], P[..., 4], P[..., 5])
+    tips = P[..., None, :3] + np.einsum("...ij,kj->...ki", R, c)
+    return np.linalg.norm(tips - A, axis=-1)
+
+
+def stewart_platform():
+    r"""A Stewart–Gough platform: six UPS legs between a fixed base and a moving platform.
+
+    Geometry (:data:`STEWART_GEOMETRY`, :func:`stewart_anchors`): base
+    anchors on a circle of radius ``R_b = 0.5 m`` in pairs at :math:`120°k \pm
+    15°`, platform anchors on a circle of radius ``r_p = 0.3 m`` at
+    :math:`120°k \pm 45°`; home pose: platform centre at height ``h = 0.4 m``
+    above the base centre, no rotation.  Leg ``j``: a universal joint at
+    :math:`A_j` (angles ``a{j}`` about ``N.x`` then ``b{j}`` about the
+    turned ``y``; the leg axis is the resulting ``z``), a prismatic joint of
+    length ``s{j}`` (m, the actuated one), a spherical joint at the platform
+    anchor.
+
+    Inertias.  Platform: mass ``m_p = 10 kg``, a uniform disc of radius
+    ``r_p``: :math:`I_{xx} = I_{yy} = m_p r_p^2/4`, :math:`I_{zz} = m_p
+    r_p^2/2`.  Each leg: a cylinder (mass ``m_c = 1.0 kg``, centre ``c/2 =
+    0.15 m`` from :math:`A_j`) and a piston (``m_r = 0.5 kg``, centre
+    ``c/2`` short of the platform anchor), both slender rods of length ``c``
+    (moments :math:`mc^2/12` about axes across the leg, none along it).
+    Gravity ``g = 9.81 m/s²`` along ``-N.z``.
+
+    Coordinates.  Independent: the pose ``x, y, z`` (m) and body-fixed X-Y-Z
+    angles ``phi_x, phi_y, phi_z`` (rad) of the platform, speeds their rates.
+    Dependent: ``a1..6, b1..6`` (rad), ``s1..6`` (m), held by the eighteen
+    loop closures :math:`A_j + s_j\hat l_j - (p + R c_j) = 0`.  The inverse
+    kinematics is explicit (:func:`stewart_leg_lengths`).
+    """
+    pose = list(me.dynamicsymbols("x y z phi_x phi_y phi_z"))
+    rates = list(me.dynamicsymbols("vx vy vz wx wy wz"))
+    a = list(me.dynamicsymbols("a1:7"))
+    b = list(me.dynamicsymbols("b1:7"))
+    s = list(me.dynamicsymbols("s1:7"))
+    da = list(me.dynamicsymbols("da1:7"))
+    db = list(me.dynamicsymbols("db1:7"))
+    ds = list(me.dynamicsymbols("ds1:7"))
+    rp, cl, mp, mc, mr, g = sm.symbols("r_p c m_p m_c m_r g", positive=True)
+    q_all, u_all = pose + a + b + s, rates + da + db + ds
+    to_u = dict(zip([q.diff() for q in q_all], u_all))
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = me.ReferenceFrame("P")
+    P.orient_body_fixed(N, pose[3:], "XYZ")
+    P.set_ang_vel(N, P.ang_vel_in(N).subs(to_u))
+    Gp = O.locatenew("Gp", pose[0] * N.x + pose[1] * N.y + pose[2] * N.z)
+    Gp.set_vel(N, rates[0] * N.x + rates[1] * N.y + rates[2] * N.z)
+    bodies = [me.RigidBody("platform", Gp, P, mp,
+                           (me.inertia(P, mp * rp ** 2 / 4, mp * rp ** 2 / 4,
+                                       mp * rp ** 2 / 2), Gp))]
+    A_num, c_num = stewart_anchors()
+    Rb = STEWART_GEOMETRY["R_b"]
+    config, velocity, centres = [], [], [Gp]
+    for j in range(6):
+        Aj = O.locatenew(f"A{j + 1}", sum((sm.nsimplify(v / Rb) * sm.Symbol("R_b") * e
+                                           for v, e in zip(A_num[j], (N.x, N.y, N.z))),
+                                          me.Vector(0)))
+        Aj.set_vel(N, 0)
+        Cj = Gp.locatenew(f"C{j + 1}", sum((sm.nsimplify(v / STEWART_GEOMETRY["r_p"]) * rp * e
+                                            for v, e in zip(c_num[j], (P.x, P.y, P.z))),
+                                           me.Vector(0)))
+        Cj.v2pt_theory(Gp, N, P)
+        L = me.ReferenceFrame(f"L{j + 1}")
+        L.orient_body_fixed(N, (a[j], b[j], 0), "XYZ")
+        L.set_ang_vel(N, L.ang_vel_in(N).subs(to_u))
+        G1 = Aj.locatenew(f"Gc{j + 1}", cl / 2 * L.z)
+        G1.v2pt_theory(Aj, N, L)
+        G2 = Aj.locatenew(f"Gr{j + 1}", (s[j] - cl / 2) * L.z)
+        G2.set_vel(N, ds[j] * L.z + me.cross(L.ang_vel_in(N), G2.pos_from(Aj)))
+        tip = Aj.locatenew(f"T{j + 1}", s[j] * L.z)
+        tip.set_vel(N, ds[j] * L.z + me.cross(L.ang_vel_in(N), tip.pos_from(Aj)))
+        for name, G, mass in (("cylinder", G1, mc), ("piston", G2, mr)):
+            moment = mass * cl ** 2 / 12
+            bodies.append(me.RigidBody(f"{name}{j + 1}", G, L, mass,
+                                       (me.inertia(L, moment, moment, 0), G)))
+            centres.append(G)
+        gap = tip.pos_from(O) - Cj.pos_from(O)
+        rate = tip.vel(N) - Cj.vel(N)
+        config += [gap.dot(e) for e in (N.x, N.y, N.z)]
+        velocity += [rate.dot(e) for e in (N.x, N.y, N.z)]
+    loads = [(G, -body.mass * g * N.z) for G, body in zip(centres, bodies)]
+    heights = sm.Add(*(body.mass * g * G.pos_from(O).dot(N.z)
+                       for G, body in zip(centres, bodies)))
+    q_dep, u_dep = a + b + s, da + db + ds
+    home = np.array([0, 0, STEWART_GEOMETRY["h"], 0, 0, 0])
+    tips = home[:3] + c_num - A_num
+    lengths = np.linalg.norm(tips, axis=1)
+    e = tips / lengths[:, None]
+    initial = {v: 0.0 for v in u_all}
+    initial.update(dict(zip(pose, home)))
+    initial.update(dict(zip(a, np.arctan2(-e[:, 1], e[:, 2]))))
+    initial.update(dict(zip(b, np.arcsin(e[:, 0]))))
+    initial.update(dict(zip(s, lengths)))
+    Rb_sym = sm.Symbol("R_b")
+    constants = {Rb_sym: Rb, rp: STEWART_GEOMETRY["r_p"], cl: STEWART_GEOMETRY["c"],
+                 mp: 10.0, mc: 1.0, mr: 0.5, g: 9.81}
+    return ModelDefinition(
+        name="stewart-platform", title="Stewart-Gough platform, six UPS legs, under gravity",
+        kane_args=dict(frame=N, q_ind=pose, u_ind=rates,
+                       kd_eqs=[q.diff() - u for q, u in zip(q_all, u_all)], q_dep=q_dep,
+                       u_dep=u_dep, configuration_constraints=config,
+                       velocity_constraints=velocity, bodies=bodies, loads=loads,
+                       potential_energy=heights),
+        constants=constants,
+        constant_units={Rb_sym: "m", rp: "m", cl: "m", mp: "kg", mc: "kg", mr: "kg",
+                        g: "m/s^2"},
+        initial_state=initial, t_end=2.0,
+        symbols=dict(pose=pose, pose_rates=rates, a=a, b=b, s=s, N=N, g=g, m_p=mp,
+                     m_c=mc, m_r=mr),
+        description="The platform pose is independent; leg angles and lengths are "
+                    "dependent (kd.models.stewart_leg_lengths gives the lengths in "
+                    "closed form).")
