@@ -208,3 +208,47 @@ def test_loads():
     body = me.RigidBody("b", P, N, 1, (me.inertia(N, 1, 1, 1), P))
     wrench = kd.ExternalWrench(body, force=3 * N.x, moment=2 * N.z)
     assert wrench.to_loads() == [(P, 3 * N.x), (N, 2 * N.z)]
+
+
+def test_ball_screw_equals_a_modelled_rotor():
+    """The transmission's reflected inertia equals a rotor body turning (2 pi/p) x."""
+    lead, J = 0.004, 5.1e-5
+    x, v = me.dynamicsymbols("x v")
+    m = sm.symbols("m", positive=True)
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x)
+    P.set_vel(N, v * N.x)
+    ratio = 2 * sm.pi / lead
+    R = N.orientnew("R", "Axis", (ratio * x, N.x))
+    R.set_ang_vel(N, ratio * v * N.x)
+    rotor = me.RigidBody("rotor", O, R, 1.0, (me.inertia(R, J, 0, 0), O))
+    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
+                  bodies=[me.Particle("block", P, m), rotor], loads=[])
+    with_rotor = eom.numeric(constants={m: 3.5})
+    plain, *_ = carriage()
+    modelled = kd.actuator_forces(with_rotor, [kd.JointActuator("s", x)], 0.0, [0.1, 0.3],
+                                  [2.5])
+    reflected = kd.actuator_forces(plain, [kd.JointActuator(
+        "s", x, transmission=kd.BallScrew(lead, J, 0.0, 0.0))], 0.0, [0.1, 0.3], [2.5])
+    assert reflected["s"] == pytest.approx(modelled["s"], rel=1e-12)
+
+
+def test_arm_round_trip_through_loads():
+    """Forward dynamics under the computed torques (as loads) gives back u'."""
+    th1, th2, w1, w2 = me.dynamicsymbols("th1 th2 w1 w2")
+    model, _, (N, A, B, O, E, H), values = two_link_arm()
+    eom0 = model._eom
+    T1, T2 = sm.symbols("T1 T2")
+    shoulder = kd.JointActuator("shoulder", th1, frame=A, reaction_frame=N, axis=N.z)
+    elbow = kd.JointActuator("elbow", th2 - th1, frame=B, reaction_frame=A, axis=N.z)
+    loads = list(eom0.loads) + shoulder.to_loads(T1) + elbow.to_loads(T2)
+    loads = [load for load in loads if load[0] is not N]  # torques on the ground do no work
+    driven = kd.kane(frame=N, q_ind=[th1, th2], u_ind=[w1, w2],
+                     kd_eqs=[th1.diff() - w1, th2.diff() - w2], bodies=list(eom0.bodies),
+                     loads=loads)
+    y, udot = np.array([0.4, -0.9, 1.1, -0.3]), np.array([0.8, -1.6])
+    out = kd.actuator_forces(model, [shoulder, elbow], 0.0, y, udot)
+    forward = driven.numeric(constants=values | {T1: out.forces[0], T2: out.forces[1]})
+    np.testing.assert_allclose(forward.rhs(0.0, y)[2:], udot, rtol=1e-10, atol=1e-12)
