@@ -251,3 +251,26 @@ def test_arm_round_trip_through_loads():
     out = kd.actuator_forces(model, [shoulder, elbow], 0.0, y, udot)
     forward = driven.numeric(constants=values | {T1: out.forces[0], T2: out.forces[1]})
     np.testing.assert_allclose(forward.rhs(0.0, y)[2:], udot, rtol=1e-10, atol=1e-12)
+
+
+def test_four_bar_rocker_dead_centre():
+    """Crank and coupler in line: the rocker stops moving, a rocker drive is singular."""
+    d, model = four_bar()
+    q1, q2, q3 = d.symbols["q"]
+    la, lb, lc, ld = 0.3, 1.0, 0.8, 0.9
+    a = np.arccos(((la + lb) ** 2 + ld ** 2 - lc ** 2) / (2 * (la + lb) * ld))
+    y = model.state(d.initial_state)
+    y[:3] = [a, a + 1e-3, 1.0]
+    y[3] = 1.0
+    amap = kd.ActuatorMap(model, [kd.JointActuator("rocker", q3)])
+    y = model.consistent_state(0.0, y)
+    y[0] = y[1] = a  # exactly in line (q2 = q1 solves the loop at this crank angle)
+    y = model.consistent_state(0.0, y)
+    out = amap.forces(0.0, y, [0.5])
+    assert not out.success and out.condition > 1e8, (out.condition, y[:3] - a)
+    assert "condition number" in out.message
+    away = y.copy()
+    away[0] = a + 0.6
+    away = model.consistent_state(0.0, away)
+    fine = amap.forces(0.0, away, [0.5])
+    assert fine.success and fine.condition < 1e3

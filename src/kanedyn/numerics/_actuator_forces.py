@@ -47,8 +47,11 @@ class ActuatorForces:
     generalized_forces : numpy.ndarray, shape (p,)
         :math:`\\tau = M\\dot u - F` on the independent speeds.
     condition : float
-        Condition number of the Jacobian (its largest over its smallest
-        singular value; ``inf`` where it loses rank).
+        Condition number of the Jacobian: the norm of the rates' Jacobian over
+        all speeds times that of the basis :math:`[I; A_r]` of admissible
+        speeds, over the smallest singular value of :math:`J` (:math:`J`'s
+        ordinary condition number without constraints; large also for a single
+        actuator at a dead centre; ``inf`` where :math:`J` loses rank).
     redundant : bool
         More actuators than independent speeds (the least-norm solution).
     success : bool
@@ -178,7 +181,15 @@ class ActuatorMap:
                              f"speed(s) and {o} in all")
         residual = mass @ udot - force
         if m:
-            Ar = -np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
+            dependent = vel_B[:, p:]
+            sv_dep = np.linalg.svd(dependent, compute_uv=False)
+            if not sv_dep[-1] > sv_dep[0] * 1e-14:
+                raise ModelError(
+                    "the velocity constraints do not determine the dependent speeds "
+                    f"({', '.join(model.state_names[model.n_q + p:])}) at this state "
+                    f"(condition number {_ratio(sv_dep):.3g}); choose other independent "
+                    "speeds or a state away from this configuration")
+            Ar = -np.linalg.solve(dependent, vel_B[:, :p])
             tau = residual[:p] + Ar.T @ residual[p:]
         else:
             Ar = np.zeros((0, p))
@@ -188,8 +199,14 @@ class ActuatorMap:
         rates = J_full @ y[model.n_q:]
         rate_dots = J_full @ udot + bias
         rhs = tau + J.T @ (masses * rate_dots)
+        # relative to the rates' Jacobian over all speeds and to the basis [I; Ar] of
+        # the admissible speeds: cond(J) without constraints, and large also for one
+        # actuator whose rate loses its dependence on the motion (a dead centre)
+        basis = np.vstack([np.eye(p), Ar])
+        scale = (np.linalg.norm(J_full, 2) * np.linalg.norm(basis, 2)
+                 if J_full.any() else 0.0)
         sv = np.linalg.svd(J, compute_uv=False)
-        condition = float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
+        condition = float(scale / sv[-1]) if sv[-1] > 0 else float("inf")
         f = np.linalg.lstsq(J.T, rhs, rcond=None)[0]
         k = len(self.names)
         redundant = k > p
@@ -207,6 +224,10 @@ class ActuatorMap:
                    for i, name in enumerate(self.names) if name in self.transmissions}
         return ActuatorForces(self.names, f, torques, rates, rate_dots, J, tau, condition,
                               redundant, not singular, message)
+
+
+def _ratio(sv):
+    return float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")
 
 
 def _free(J, bias, masses):
