@@ -116,7 +116,7 @@ def _energy_rate(model, y, udot_full, h=1e-6):
             - model.total_energy(0.0, y - h * ydot)) / (2 * h)
 
 
-@pytest.mark.parametrize("kind", ["joint", "linear"])
+@pytest.mark.parametrize("kind", ["joint", "linear", "screw"])
 def test_four_bar_power_balance(kind):
     d, model = four_bar()
     q1 = d.symbols["q"][0]
@@ -130,7 +130,8 @@ def test_four_bar_power_balance(kind):
         O = me.Point("O_leg")
         base = O.locatenew("base", -0.4 * N.y + 0.1 * N.x)
         tip = O.locatenew("tip", la * A.x)
-        act = kd.LinearActuator("leg", base, tip, N)
+        screw = kd.BallScrew(0.01, 3e-5, 1e-5, 2e-5) if kind == "screw" else None
+        act = kd.LinearActuator("leg", base, tip, N, transmission=screw)
     amap = kd.ActuatorMap(model, [act])
     rng = np.random.default_rng(11)
     y0 = model.state(d.initial_state)
@@ -145,6 +146,16 @@ def test_four_bar_power_balance(kind):
         udot_full = _udot_full(model, y, out)
         power = float(out.forces[0] * out.rates[0])
         dE = _energy_rate(model, y, udot_full)
+        if kind != "joint":  # the leg's acceleration against a difference in time
+            h = 1e-6
+            ydot = np.concatenate([model.rhs(0.0, y)[:model.n_q], udot_full])
+            ahead, behind = (amap.forces(0.0, y + s * h * ydot, udot_full).rates[0]
+                             for s in (1, -1))
+            assert out.rate_derivatives[0] == pytest.approx((ahead - behind) / (2 * h),
+                                                            rel=1e-6, abs=1e-8)
+        if kind == "screw":  # the drive train's kinetic energy m_r s'^2 / 2 changes too
+            m_r = (2 * np.pi / 0.01) ** 2 * 6e-5
+            dE += m_r * out.rates[0] * out.rate_derivatives[0]
         assert power == pytest.approx(dE, rel=1e-7, abs=1e-8)
         checked += 1
     assert checked == 6
