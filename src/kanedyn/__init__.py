@@ -16,14 +16,23 @@ from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
-from .modeling import (SURFACE_COORDINATES, AngularVelocity, BeamMember, Contact, Ellipsoid,
+from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
+                       Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
-from .numerics import MassMatrices, NumericModel, OrthogonalSpeedsModel, orthogonalize_speeds
+from .numerics import (ActuatorForces, ActuatorMap, MassMatrices, NumericModel,
+                       OrthogonalSpeedsModel, actuator_forces, orthogonalize_speeds)
 from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
                          simulate, sweep)
 
 __all__ = [
+    "JointActuator",
+    "LinearActuator",
+    "BallScrew",
+    "ExternalWrench",
+    "ActuatorMap",
+    "ActuatorForces",
+    "actuator_forces",
     "kane",
     "formulate",
     "FORMULATIONS",

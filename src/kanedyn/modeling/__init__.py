@@ -5,12 +5,15 @@
 ``_physical``            physical plausibility of masses and inertias
 ``_contacts``            contacts and the surfaces they touch
 ``_vector_constraints``  constraints in vector form that identify their forces
+``_actuators``           actuators, transmissions (ball screws), external wrenches
 ``_units``               units of coordinates and speeds read off the kinematics
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``visuals``              shapes that draw bodies in the 3D viewer
 """
 
+from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
+                         LinearActuator)
 from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
@@ -27,4 +30,5 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
            "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
-           "FlexibleBody", "InertiaInvariants"]
+           "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
+           "LinearActuator", "BallScrew", "ExternalWrench"]

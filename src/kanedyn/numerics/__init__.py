@@ -10,9 +10,11 @@
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_diagnosis``           why a derivative is not finite, in the model's names
+``_actuator_forces``     actuator forces from generalized forces by virtual work
 ``_singular``            distance to singular configurations, and its monitor
 """
 
+from ._actuator_forces import ActuatorForces, ActuatorMap, actuator_forces
 from ._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
                                 solve_modes)
 from ._diagnosis import diagnose
@@ -26,4 +28,5 @@ __all__ = ["NumericModel", "build_numeric_model", "BACKENDS", "linearize_numeric
            "linearize_symbolic", "MassMatrices", "OrthogonalSpeedsModel",
            "orthogonalize_speeds", "SEPARATED", "SLIP", "STICK", "SlipReference",
            "contact_points", "solve_modes", "diagnose", "DEFAULT_THRESHOLD",
-           "SingularityMonitor", "conditioning", "compile_python", "generate_python"]
+           "SingularityMonitor", "conditioning", "compile_python", "generate_python",
+           "ActuatorForces", "ActuatorMap", "actuator_forces"]
