@@ -179,3 +179,9 @@ def test_stewart_statics_equal_leg_forces():
         J[:, k] = (stewart_leg_lengths(pose + dp) - stewart_leg_lengths(pose - dp)) / (2 * h)
     tau = np.linalg.solve(J.T, Q)
     np.testing.assert_allclose(tau, reference, rtol=1e-7)
+    # the same by kd.ActuatorMap with a force actuator on each leg length: the
+    # rate Jacobian of the legs comes from the model's constraints (no differences)
+    legs = [kd.JointActuator(f"leg{j + 1}", s) for j, s in enumerate(definition.symbols["s"])]
+    statics = kd.ActuatorMap(model, legs).forces(0.0, y, np.zeros(6))
+    assert statics.success and not statics.redundant
+    np.testing.assert_allclose(statics.forces, reference, rtol=1e-10)
