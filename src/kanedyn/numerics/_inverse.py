@@ -145,22 +145,27 @@ def inverse_dynamics(model, t, q, u, udot):
     U[:p] = udot
     if model._data["backend"] == "c" or count == 1:
         fn = _function(model, vectorized=False)
-        out = np.empty((p, count))
+        YT = np.ascontiguousarray(Y.T)
+        RU = np.ascontiguousarray(np.vstack([R, U]).T)  # one row per point
+        out = np.empty((count, p))
         for i in range(count):
-            out[:, i] = _point(fn, model, ts[i], Y[:, i], R[:, i], U[:, i], p, m)
+            out[i] = _point(fn, model, ts[i], YT[i], RU[i], p, m)
+        out = out.T
     else:
         out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out
 
 
-def _point(fn, model, t, y, r, udot, p, m):
-    r = list(r)
-    tau, B, K, fa = fn(t, y, model._p, r + list(udot))
+def _point(fn, model, t, y, ru, p, m):
+    """One point; ``ru``: the inputs' values then all rates (dependent ones zero)."""
     if not m:
-        return tau
-    udot = udot.copy()
-    udot[p:] = np.linalg.solve(K[:, p:], -(fa + K[:, :p] @ udot[:p]))
-    tau = fn(t, y, model._p, r + list(udot))[0]
+        return fn(t, y, model._p, ru)[0]
+    tau, B, K, fa = fn(t, y, model._p, ru)
+    o = K.shape[1]
+    udot = ru[len(ru) - o:]
+    ru = ru.copy()
+    ru[len(ru) - m:] = np.linalg.solve(K[:, p:], -(fa + K[:, :p] @ udot[:p]))
+    tau = fn(t, y, model._p, ru)[0]
     Ar = -np.linalg.solve(B[:, p:], B[:, :p])
     return tau[:p] + Ar.T @ tau[p:]
 
