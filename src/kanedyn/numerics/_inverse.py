@@ -43,7 +43,7 @@ def _specification(model):
         raise ModelError(f"inverse dynamics is not available for the {eom.method!r} "
                          "formulation's multiplier form; use kd.kane")
     args, dynamics = model._functions["dynamics"]
-    o, m = model.n_u, model.n_u_dep
+    o = model.n_u
     mass, force = dynamics[1][1], dynamics[2][1]
     udot = list(eom._table.udot)
     tau = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) - force[r]
