@@ -163,3 +163,15 @@ def test_bad_shapes_name_the_argument():
         model.inverse_dynamics(0.0, np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((3, 3)))
     with pytest.raises(ValueError, match="u must"):
         model.inverse_dynamics(0.0, np.zeros((2, 3)), np.zeros((2, 4)), np.zeros((2, 4)))
+
+
+def test_trees_use_the_recursive_pass_and_loops_the_mass_matrix():
+    """The tests above cover both paths: chain3d and the cart take the engine's
+    recursive pass, the four-bar (a loop) the mass-matrix product."""
+    from kanedyn.numerics._inverse import _recursive_inertia_forces
+    for name, options, tree in [("chain3d", {"n": 3}, True),
+                                ("n-link-pendulum-on-cart", {}, True),
+                                ("four-bar", {}, False)]:
+        eom = kd.models.build(name, **options).derive()
+        rows = _recursive_inertia_forces(eom, len(eom.u), list(eom._table.udot), {})
+        assert (rows is not None) == tree, name

@@ -15,18 +15,23 @@ matrix and :math:`\dot u_{dep}` from the acceleration constraints
 :math:`K_a\dot u + f_a = 0`.  For an open chain :math:`\tau = M\dot u - f`.
 
 The function is generated code (both backends) taking :math:`\dot u` as
-inputs: :math:`M\dot u - f` is a straight-line program over the mass-matrix
-entries and the inertia remainders already held as named intermediates; no
-matrix is assembled or factorized, except the small :math:`B_{dep}` and
-:math:`K_{a,dep}` blocks of closed chains.
+inputs.  For a tree of joints derived by Kane's method the inertia forces
+:math:`M\dot u` come from the engine's recursive pass
+(:func:`kanedyn.engine.composite_inertia_forces`: spatial accelerations down
+the tree, inertia wrenches summed up it, :math:`O(n)` for a chain); otherwise
+from the product with the mass-matrix entries, which the derivation holds as
+named intermediates.  No matrix is assembled or factorized, except the small
+:math:`B_{dep}` and :math:`K_{a,dep}` blocks of closed chains.
 """
 
 from __future__ import annotations
 
 import numpy as np
 import sympy as sm
+import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from ..engine import composite_inertia_forces, inertia_components
 from .backends._python import compile_python, generate_python
 
 __all__ = ["inverse_dynamics"]
@@ -46,10 +51,32 @@ def _specification(model):
     o = model.n_u
     mass, force = dynamics[1][1], dynamics[2][1]
     udot = list(eom._table.udot)
-    tau = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) - force[r]
-           for r in range(o)]
+    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions)
+    if inertia is None:  # the product with the mass-matrix entries
+        inertia = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) for r in range(o)]
+    tau = [inertia[r] - force[r] for r in range(o)]
     inverse_args = dict(args, r=list(args["r"]) + udot)
     return inverse_args, [((o,), tau), dynamics[3], dynamics[4], dynamics[5]]
+
+
+def _recursive_inertia_forces(eom, o, rates, substitutions):
+    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``."""
+    if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
+        return None
+    bodies = list(eom.bodies)
+    if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
+            or len(bodies) != len(eom._body_terms):
+        return None
+    kin, prog = eom._kinematics, eom._program
+    masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
+              for b in bodies]
+    inertias = [inertia_components(kin, b, f"body {b.name}")[1]
+                if isinstance(b, me.RigidBody) else None for b in bodies]
+    rows = composite_inertia_forces(kin, bodies, eom._body_terms, masses, inertias,
+                                    rates, o)
+    if rows is None or not substitutions:
+        return rows
+    return [prog.subs(e, substitutions) for e in rows]
 
 
 def _function(model, vectorized):
