@@ -11,7 +11,7 @@ numerics or simulation; see ``docs/architecture.md``.
 ``_composite``   composite-body sums for the mass matrix and forcing of trees
 """
 
-from ._composite import composite_equations
+from ._composite import composite_equations, composite_inertia_forces
 from ._kinematics import (Kinematics, add, cross, dot, dyadic_matrix, inertia_components,
                           matvec)
 from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler, total_derivative
@@ -19,4 +19,5 @@ from ._symbols import SymbolTable, name_of
 
 __all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_derivative",
            "SymbolTable", "name_of", "Kinematics", "add", "cross", "dot", "matvec",
-           "dyadic_matrix", "inertia_components", "composite_equations"]
+           "dyadic_matrix", "inertia_components", "composite_equations",
+           "composite_inertia_forces"]

@@ -35,7 +35,7 @@ import sympy.physics.mechanics as me
 from ._kinematics import add, cross, dot
 from ._program import SAMPLE_SEEDS
 
-__all__ = ["composite_equations"]
+__all__ = ["composite_equations", "composite_inertia_forces"]
 
 
 def _nonzero(vec):
@@ -110,6 +110,102 @@ class _Composite:
         return total
 
 
+def _structure(kin, bodies, body_terms, o):
+    """``(positions, supports, S)`` of a tree of joints, or ``None``.
+
+    Positions of the mass centres from the first one, the supports ``B_r``
+    (nested), and the representative spatial partial twists ``S_r = (W, V^O)``.
+    """
+    prog = kin.prog
+    if not bodies or o == 0:
+        return None
+    origin = bodies[0].masscenter
+    positions = [kin.position(b.masscenter, origin) for b in bodies]
+    if any(p is None for p in positions):
+        return None
+    supports = _supports(body_terms, o)
+    if any(not b for b in supports) or not _nested(supports):
+        return None
+    if not _rigid(prog, body_terms, positions, supports):
+        return None
+    S = []
+    for r, support in enumerate(supports):
+        k = min(support)
+        W = body_terms[k].partial_angular_velocities[r]
+        V = body_terms[k].partial_velocities[r]
+        VO = tuple(a - b for a, b in zip(V, cross(W, positions[k])))
+        S.append(kin.let_vector(W, f"SW{r}") + kin.let_vector(VO, f"SV{r}"))
+    return positions, supports, S
+
+
+def _spatial_inertias(masses, inertias, positions):
+    """Spatial inertias about O: rotational J (6 entries), first moment h, mass."""
+    per_body = []
+    for m, I, p in zip(masses, inertias, positions):
+        pp = dot(p, p)
+        J = []
+        for i in range(3):
+            for j in range(i, 3):
+                value = m * ((pp if i == j else 0) - p[i] * p[j])
+                if I is not None:
+                    value += I[i][j]
+                J.append(value)
+        per_body.append(tuple(J) + tuple(m * c for c in p) + (m,))
+    return per_body
+
+
+def _apply(kin, IC, twist, tag):
+    """The wrench ``IC twist`` about O: (J W + h x V, W x h + m V)."""
+    J00, J01, J02, J11, J12, J22, hx, hy, hz, m = IC
+    J = ((J00, J01, J02), (J01, J11, J12), (J02, J12, J22))
+    W, V = twist[:3], twist[3:]
+    h = (hx, hy, hz)
+    ang = add(tuple(sum(J[i][j] * W[j] for j in range(3)) for i in range(3)), cross(h, V))
+    lin = add(cross(W, h), tuple(m * c for c in V))
+    return kin.let_vector(ang, f"Fa{tag}") + kin.let_vector(lin, f"Fl{tag}")
+
+
+def composite_inertia_forces(kin, bodies, body_terms, masses, inertias, rates, o):
+    r"""The rows :math:`(M\dot u)_r` of a tree by a recursive pass, or ``None``.
+
+    With the rates :math:`\dot u` as symbols (``rates``), each body's spatial
+    acceleration part :math:`A_k = \sum_{s:\,k\in B_s} S_s\dot u_s` is
+    accumulated from the largest support down, its inertia wrench
+    :math:`\mathcal{I}_k^O A_k` summed from the smallest support up, and
+
+    .. math:: (M\dot u)_r = S_r^T \sum_{k\in B_r}\mathcal{I}_k^O A_k,
+
+    :math:`O(n)` operations for a chain (the recursive Newton-Euler pass),
+    against :math:`O(n^2)` for the product with the mass matrix.  Arguments
+    as for :func:`composite_equations`; ``None`` without the tree structure.
+    """
+    found = _structure(kin, bodies, body_terms, o)
+    if found is None:
+        return None
+    positions, supports, S = found
+    tree = _Composite(supports)
+    zero = (sm.S.Zero,) * 6
+    parent = {}
+    for i, b in enumerate(tree.order):  # smallest first: the parent is the
+        parent[b] = next((c for c in tree.order[i + 1:] if b < c), None)  # next larger
+    accel = {}
+    for b in reversed(tree.order):  # largest first
+        own = [tuple(c * rates[s] for c in S[s]) for s in range(o) if supports[s] == b]
+        base = accel[parent[b]] if parent[b] is not None else zero
+        summed = tuple(sm.Add(*vals) for vals in zip(base, *own))
+        accel[b] = tuple(kin.prog.let(v, "Acc") for v in summed)
+    home = {}  # each body's smallest support
+    for b in tree.order:
+        for k in tree.own[b]:
+            home[k] = b
+    per_body = _spatial_inertias(masses, inertias, positions)
+    wrenches = [_apply(kin, per_body[k], accel[home[k]], f"i{k}") if k in home else zero
+                for k in range(len(bodies))]
+    sums = tree.accumulate(kin, wrenches, "Wu")
+    return [dot(S[r][:3], sums[supports[r]][:3]) + dot(S[r][3:], sums[supports[r]][3:])
+            for r in range(o)]
+
+
 def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loads, o):
     """Mass matrix, active and inertia-remainder forces of the real speeds.
 
@@ -133,53 +229,15 @@ def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loa
         ``None`` when the system lacks the structure (then use the generic sums).
     """
     prog = kin.prog
-    if not bodies or o == 0:
+    found = _structure(kin, bodies, body_terms, o)
+    if found is None:
         return None
-    origin = bodies[0].masscenter
-    positions = [kin.position(b.masscenter, origin) for b in bodies]
-    if any(p is None for p in positions):
-        return None
-    supports = _supports(body_terms, o)
-    if any(not b for b in supports) or not _nested(supports):
-        return None
-    if not _rigid(prog, body_terms, positions, supports):
-        return None
+    positions, supports, S = found
 
-    # representative spatial partial twists S_r = (W, V^O)
-    S = []
-    for r, support in enumerate(supports):
-        k = min(support)
-        W = body_terms[k].partial_angular_velocities[r]
-        V = body_terms[k].partial_velocities[r]
-        VO = tuple(a - b for a, b in zip(V, cross(W, positions[k])))
-        S.append(kin.let_vector(W, f"SW{r}") + kin.let_vector(VO, f"SV{r}"))
-
-    # spatial inertias about O: rotational J (6 entries), first moment h, mass
-    per_body = []
-    for m, I, p in zip(masses, inertias, positions):
-        pp = dot(p, p)
-        J = []
-        for i in range(3):
-            for j in range(i, 3):
-                value = m * ((pp if i == j else 0) - p[i] * p[j])
-                if I is not None:
-                    value += I[i][j]
-                J.append(value)
-        per_body.append(tuple(J) + tuple(m * c for c in p) + (m,))
+    per_body = _spatial_inertias(masses, inertias, positions)
     tree = _Composite(supports)
     composite = tree.accumulate(kin, per_body, "IC")
-
-    def apply(IC, s):
-        """IC S_s: (J W + h x V, W x h + m V)."""
-        J00, J01, J02, J11, J12, J22, hx, hy, hz, m = IC
-        J = ((J00, J01, J02), (J01, J11, J12), (J02, J12, J22))
-        W, V = S[s][:3], S[s][3:]
-        h = (hx, hy, hz)
-        ang = add(tuple(sum(J[i][j] * W[j] for j in range(3)) for i in range(3)), cross(h, V))
-        lin = add(cross(W, h), tuple(m * c for c in V))
-        return kin.let_vector(ang, f"Fa{s}") + kin.let_vector(lin, f"Fl{s}")
-
-    F = [apply(composite[supports[s]], s) for s in range(o)]
+    F = [_apply(kin, composite[supports[s]], S[s], s) for s in range(o)]
     mass = [[None] * o for _ in range(o)]
     for r in range(o):
         for s in range(r, o):

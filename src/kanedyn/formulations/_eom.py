@@ -413,6 +413,25 @@ class EquationsOfMotion:
                    + sm.Matrix(self._remainder))
         return self._explicit_matrix(self._reduced(frstar).tolist())
 
+    def inverse_dynamics(self):
+        r"""Generalized forces needed on the independent speeds, symbolically.
+
+        :math:`\tau = -(\tilde F_r + \tilde F^*_r)`, the forces that, added to
+        the generalized active forces of the independent speeds, make
+        Kane's equations hold for given :math:`q, u, \dot u`: linear in
+        :math:`\dot u` (for closed chains the dependent rates appear; they
+        follow from the acceleration constraints).  Explicit expressions, as
+        :attr:`generalized_inertia_forces`: for large systems evaluate them
+        numerically, without expanding, with
+        ``eom.numeric(...).inverse_dynamics(t, q, u, udot)``
+        (:meth:`kanedyn.NumericModel.inverse_dynamics`).
+
+        Returns
+        -------
+        sympy.Matrix, shape (len(u_ind), 1)
+        """
+        return -(self.generalized_active_forces + self.generalized_inertia_forces)
+
     @cached_property
     def auxiliary_equations(self):
         r"""Auxiliary equations :math:`F_a + F^*_a = 0`, one per auxiliary speed.

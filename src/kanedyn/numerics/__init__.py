@@ -7,6 +7,7 @@
 ``schemes/``             how evaluated terms become accelerations (one module per
                          family of constraint schemes)
 ``_linearize``           exact linearization, symbolic and numeric
+``_inverse``             inverse dynamics: the generalized forces for given rates
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_diagnosis``           why a derivative is not finite, in the model's names

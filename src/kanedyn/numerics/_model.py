@@ -625,6 +625,43 @@ class NumericModel(StateLayout):
         qd, mass, force, vel_B, acc_K, acc_f = self._dynamics(t, y)
         return np.concatenate([qd, self._assemble(mass, force, vel_B, acc_K, acc_f)[1]])
 
+    def inverse_dynamics(self, t, q, u, udot):
+        r"""Generalized forces on the independent speeds that produce ``udot``.
+
+        :math:`\tau = (M\dot u - f)_{ind} + A_r^T (M\dot u - f)_{dep}`: the
+        forces to add to the independent speeds' generalized active forces
+        so that the model moves with the accelerations ``udot`` at ``(q, u)``
+        (:math:`M\dot u - f` for an open chain).  Dependent coordinates,
+        speeds and rates are completed from the constraints; specified
+        inputs keep their given values.  Generated code taking ``udot`` as
+        inputs (see :mod:`kanedyn.numerics._inverse`).
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Times, s.
+        q : array_like, shape (n_q_ind, N) or (n_q, N), or 1-D
+            Coordinates, one column per point (as ``res.y``).
+        u : array_like, shape (n_u_ind, N) or (n_u, N), or 1-D
+            Speeds.
+        udot : array_like, shape (n_u_ind, N) or (n_u, N), or 1-D
+            Rates of the independent speeds.
+
+        Returns
+        -------
+        ndarray, shape (n_u_ind, N), or (n_u_ind,) for 1-D inputs
+            In N for translation rates in m/s, N m for angular rates in rad/s.
+
+        Examples
+        --------
+        >>> import numpy as np, kanedyn as kd
+        >>> model = kd.models.build("pendulum").numeric(
+        ...     constants={"m": 1.0, "l": 1.0, "g": 9.81})
+        >>> tau = model.inverse_dynamics(0.0, [0.0], [0.0], [0.0])  # hold it still
+        """
+        from ._inverse import inverse_dynamics
+        return inverse_dynamics(self, t, q, u, udot)
+
     # -------------------------------------------------------- constraints
     def _constraint_terms(self, t, y):
         return self._fn["constraints"](t, y, self._p, self._r(t, y))

@@ -1,0 +1,210 @@
+r"""Inverse dynamics of a :class:`NumericModel`: the generalized forces needed.
+
+For a state :math:`(q, u)` and accelerations :math:`\dot u` (independent
+speeds given, dependent ones completed from the constraints) the generalized
+forces that must act on the independent speeds for the motion to happen are
+
+.. math::
+
+    \tau = \left(M\dot u - f\right)_{ind} + A_r^T \left(M\dot u - f\right)_{dep},
+    \qquad A_r = -B_{dep}^{-1} B_{ind},
+
+with :math:`M, f` Kane's unreduced mass matrix and forcing
+(:math:`f = F_r - F^*_r|_{\dot u = 0}`), :math:`B` the velocity-constraint
+matrix and :math:`\dot u_{dep}` from the acceleration constraints
+:math:`K_a\dot u + f_a = 0`.  For an open chain :math:`\tau = M\dot u - f`.
+
+The function is generated code (both backends) taking :math:`\dot u` as
+inputs.  For a tree of joints derived by Kane's method the inertia forces
+:math:`M\dot u` come from the engine's recursive pass
+(:func:`kanedyn.engine.composite_inertia_forces`: spatial accelerations down
+the tree, inertia wrenches summed up it, :math:`O(n)` for a chain); otherwise
+from the product with the mass-matrix entries, which the derivation holds as
+named intermediates.  No matrix is assembled or factorized, except the small
+:math:`B_{dep}` and :math:`K_{a,dep}` blocks of closed chains.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from .._errors import ModelError
+from ..engine import composite_inertia_forces, inertia_components
+from .backends._python import compile_python, generate_python
+
+__all__ = ["inverse_dynamics"]
+
+
+def _specification(model):
+    """Arguments and outputs of the generated ``inverse`` function."""
+    eom = getattr(model, "_eom", None)
+    if eom is None:
+        raise ModelError("inverse dynamics needs the model's equations, which a model "
+                         "restored from a file does not carry; use the model built by "
+                         "eom.numeric(...)")
+    if model.multiplier_form:
+        raise ModelError(f"inverse dynamics is not available for the {eom.method!r} "
+                         "formulation's multiplier form; use kd.kane")
+    args, dynamics = model._functions["dynamics"]
+    o = model.n_u
+    mass, force = dynamics[1][1], dynamics[2][1]
+    udot = list(eom._table.udot)
+    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions)
+    if inertia is None:  # the product with the mass-matrix entries
+        inertia = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) for r in range(o)]
+    tau = [inertia[r] - force[r] for r in range(o)]
+    inverse_args = dict(args, r=list(args["r"]) + udot)
+    return inverse_args, [((o,), tau), dynamics[3], dynamics[4], dynamics[5]]
+
+
+def _recursive_inertia_forces(eom, o, rates, substitutions):
+    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``."""
+    if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
+        return None
+    bodies = list(eom.bodies)
+    if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
+            or len(bodies) != len(eom._body_terms):
+        return None
+    kin, prog = eom._kinematics, eom._program
+    masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
+              for b in bodies]
+    inertias = [inertia_components(kin, b, f"body {b.name}")[1]
+                if isinstance(b, me.RigidBody) else None for b in bodies]
+    rows = composite_inertia_forces(kin, bodies, eom._body_terms, masses, inertias,
+                                    rates, o)
+    if rows is None or not substitutions:
+        return rows
+    return [prog.subs(e, substitutions) for e in rows]
+
+
+def _function(model, vectorized):
+    """The generated ``inverse`` (or ``inverse_batch``) function, made on first use."""
+    key = "inverse_batch" if vectorized else "inverse"
+    fn = model._fn.get(key)
+    if fn is not None:
+        return fn
+    d = model._data
+    if d["backend"] == "c" and not vectorized:
+        from .backends._c import fingerprint, generate_c, load_module
+        args, outputs = _specification(model)
+        functions = dict(model._functions, inverse=(args, outputs))
+        table = model._eom._table
+        module = load_module(
+            fingerprint(model._eom._program, functions, model._sizes, model._cse),
+            lambda: generate_c(model._eom._program, functions, model._sizes,
+                               describe=lambda e: str(table.external(e)), cse=model._cse))
+        fn = module.inverse
+    else:
+        sources = d.setdefault("inverse_sources", {})
+        if key not in sources:
+            args, outputs = _specification(model)
+            sources[key] = generate_python(model._eom._program, key, args, outputs,
+                                           vectorized=vectorized, cse=vectorized)
+        fn = compile_python(sources[key], key)
+    model._fn[key] = fn
+    return fn
+
+
+def _rows(value, name, sizes, count):
+    """``value`` as a float array of shape ``(rows, count)``; rows in ``sizes``."""
+    a = np.asarray(value, dtype=float)
+    if a.ndim == 1:
+        a = a[:, None]
+    if a.ndim != 2 or a.shape[0] not in sizes or a.shape[1] != count:
+        raise ValueError(f"{name} must have shape (n, N) with n in {sorted(set(sizes))} "
+                         f"(one column per point, as res.y), or (n,); got {np.shape(value)}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name} has entries that are not finite")
+    return a
+
+
+def inverse_dynamics(model, t, q, u, udot):
+    r"""Generalized forces on the independent speeds that produce ``udot``.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float or array_like, shape (N,)
+        Times, s.
+    q : array_like, shape (n_q_ind, N) or (n_q, N), or 1-D for one point
+        Coordinates: independent ones, or all, the dependent ones then being
+        starting guesses for Newton's method on the configuration
+        constraints (needed for closed chains, whose dependent coordinates
+        zero is rarely close to; with independent ones only, each point
+        starts from the previous point's solution, the first from zero).
+    u : array_like, shape (n_u_ind, N) or (n_u, N), or 1-D
+        Speeds, likewise completed from the velocity constraints.
+    udot : array_like, shape (n_u_ind, N) or (n_u, N), or 1-D
+        Rates of the independent speeds (dependent entries, when given, are
+        ignored: they follow from the acceleration constraints).
+
+    Returns
+    -------
+    ndarray, shape (n_u_ind, N), or (n_u_ind,) for 1-D inputs
+        :math:`\tau`, in the units of the generalized forces of each
+        independent speed (N for a translation rate in m/s, N m for an
+        angular rate in rad/s), with the model's specified inputs at their
+        given values.
+    """
+    single = np.ndim(q) == 1 and np.ndim(u) == 1 and np.ndim(udot) == 1
+    count = 1 if np.ndim(q) == 1 else np.shape(q)[-1]
+    n, o = model.n_q, model.n_u
+    l, m = model.n_q_dep, model.n_u_dep
+    nq, p = n - l, o - m
+    q = _rows(q, "q", (nq, n), count)
+    u = _rows(u, "u", (p, o), count)
+    udot = _rows(udot, "udot", (p, o), count)[:p]
+    ts = np.broadcast_to(np.asarray(t, dtype=float), (count,))
+    Y = np.zeros((model.n_states, count))
+    Y[:q.shape[0]] = q
+    Y[n:n + u.shape[0]] = u
+    if l or m:
+        warm = q.shape[0] < n  # dependent guesses: the previous point's values
+        for i in range(count):
+            if warm and i:
+                Y[nq:n, i] = Y[nq:n, i - 1]
+            Y[:, i] = model.consistent_state(ts[i], Y[:, i])
+    R = (np.array([model._input_values(ts[i], Y[:, i]) for i in range(count)]).T
+         if model._inputs else np.zeros((0, count)))
+    U = np.zeros((o, count))
+    U[:p] = udot
+    if model._data["backend"] == "c" or count == 1:
+        fn = _function(model, vectorized=False)
+        YT = np.ascontiguousarray(Y.T)
+        RU = np.ascontiguousarray(np.vstack([R, U]).T)  # one row per point
+        out = np.empty((count, p))
+        for i in range(count):
+            out[i] = _point(fn, model, ts[i], YT[i], RU[i], p, m)
+        out = out.T
+    else:
+        out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
+    return out[:, 0] if single else out
+
+
+def _point(fn, model, t, y, ru, p, m):
+    """One point; ``ru``: the inputs' values then all rates (dependent ones zero)."""
+    if not m:
+        return fn(t, y, model._p, ru)[0]
+    tau, B, K, fa = fn(t, y, model._p, ru)
+    o = K.shape[1]
+    udot = ru[len(ru) - o:]
+    ru = ru.copy()
+    ru[len(ru) - m:] = np.linalg.solve(K[:, p:], -(fa + K[:, :p] @ udot[:p]))
+    tau = fn(t, y, model._p, ru)[0]
+    Ar = -np.linalg.solve(B[:, p:], B[:, :p])
+    return tau[:p] + Ar.T @ tau[p:]
+
+
+def _batch(fn, model, t, Y, R, U, p, m):
+    tau, B, K, fa = fn(t, Y, model._p, np.vstack([R, U]))
+    if not m:
+        return tau
+    K, B = np.moveaxis(K, -1, 0), np.moveaxis(B, -1, 0)
+    rhs = -(fa.T + (K[:, :, :p] @ U[:p].T[:, :, None])[..., 0])
+    U = U.copy()
+    U[p:] = np.linalg.solve(K[:, :, p:], rhs[..., None])[..., 0].T
+    tau = fn(t, Y, model._p, np.vstack([R, U]))[0]
+    X = np.linalg.solve(B[:, :, p:], B[:, :, :p])  # -A_r
+    return tau[:p] - (np.swapaxes(X, 1, 2) @ tau[p:].T[:, :, None])[..., 0].T

@@ -1,0 +1,177 @@
+"""Inverse dynamics of numerical models: ``model.inverse_dynamics(t, q, u, udot)``.
+
+Checked against the forward equations (``mass_matrix`` and ``forcing`` in
+SymPy's reduced convention, open and closed chains), against Pinocchio's
+recursive Newton-Euler algorithm (``rnea``) on the 3D chain, and by a round
+trip through the forward right-hand side driven by the computed torques.
+"""
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+
+import kanedyn as kd
+
+BACKENDS = ["numpy", "c"]
+
+
+def reduced_reference(model, y, udot_ind):
+    """``tau = M_red[:p] u' - f_red[:p]``, with the dependent u' from the
+    acceleration-constraint rows of the reduced mass matrix."""
+    p = model.n_u_ind
+    M, f = model.mass_matrix(0.0, y), model.forcing(0.0, y)
+    U = np.zeros(model.n_u)
+    U[:p] = udot_ind
+    if model.n_u_dep:
+        U[p:] = np.linalg.solve(M[p:, p:], f[p:] - M[p:, :p] @ U[:p])
+    return M[:p] @ U - f[:p], M, f
+
+
+def random_points(model, definition, rng, count, spread=0.3):
+    """All coordinates (dependent ones as guesses) near the model's initial
+    state, independent speeds and rates."""
+    y0 = model.state(definition.initial_state)
+    q = y0[:model.n_q, None] + spread * rng.uniform(-1, 1, (model.n_q, count))
+    u = rng.uniform(-2, 2, (model.n_u_ind, count))
+    udot = rng.uniform(-3, 3, (model.n_u_ind, count))
+    return q, u, udot
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+@pytest.mark.parametrize("name, options", [("chain3d", {"n": 3}), ("four-bar", {}),
+                                           ("n-link-pendulum-on-cart", {})])
+def test_equals_forward_mass_matrix_and_forcing(name, options, backend):
+    definition = kd.models.build(name, **options)
+    model = definition.numeric(backend=backend)
+    rng = np.random.default_rng(7)
+    q, u, udot = random_points(model, definition, rng, 6)
+    tau = model.inverse_dynamics(0.0, q, u, udot)
+    assert tau.shape == (model.n_u_ind, 6)
+    for i in range(q.shape[1]):
+        y = model.state(np.concatenate([q[:, i], u[:, i], np.zeros(model.n_u_dep)]))
+        ref, M, f = reduced_reference(model, y, udot[:, i])
+        scale = 1.0 + np.max(np.abs(ref))
+        np.testing.assert_allclose(tau[:, i], ref, rtol=0, atol=1e-12 * scale)
+        # the same point alone (1-D arrays) gives the same column
+        single = model.inverse_dynamics(0.0, q[:, i], u[:, i], udot[:, i])
+        assert single.shape == (model.n_u_ind,)
+        np.testing.assert_allclose(single, tau[:, i], rtol=0, atol=1e-13 * scale)
+        # round trip through the reduced forward equations: the forces added to
+        # the independent rows give back the rates asked for
+        p = model.n_u_ind
+        extra = np.zeros(model.n_u)
+        extra[:p] = tau[:, i]
+        back = np.linalg.solve(M, f + extra)
+        np.testing.assert_allclose(back[:p], udot[:, i], rtol=0, atol=1e-9)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_chain3d_against_pinocchio_rnea(backend):
+    pin = pytest.importorskip("pinocchio")
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from _peers import DEFAULTS, pinocchio_chain
+
+    n = 5
+    definition = kd.models.build("chain3d", n=n)
+    model = definition.numeric(constants=DEFAULTS, backend=backend)
+    assert model.state_names == tuple(f"q{k}" for k in range(1, n + 1)) + tuple(
+        f"u{k}" for k in range(1, n + 1))
+    pmodel, pdata = pinocchio_chain(n)
+    rng = np.random.default_rng(3)
+    count = 20
+    q = rng.uniform(-np.pi, np.pi, (n, count))
+    u = rng.uniform(-2, 2, (n, count))
+    udot = rng.uniform(-5, 5, (n, count))
+    tau = model.inverse_dynamics(np.linspace(0, 1, count), q, u, udot)
+    for i in range(count):
+        ref = pin.rnea(pmodel, pdata, q[:, i].copy(), u[:, i].copy(), udot[:, i].copy())
+        np.testing.assert_allclose(tau[:, i], ref, rtol=0, atol=1e-10)
+
+
+def torqued_double_pendulum():
+    """Planar double pendulum (relative angles) with joint torques T1, T2."""
+    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
+    T1, T2 = me.dynamicsymbols("T1 T2")
+    m1, m2, l1, l2, g = sm.symbols("m1 m2 l1 l2 g")
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", (q1, N.z))
+    B = A.orientnew("B", "Axis", (q2, A.z))
+    A.set_ang_vel(N, u1 * N.z)
+    B.set_ang_vel(A, u2 * A.z)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", l1 * A.x)
+    Q = P.locatenew("Q", l2 * B.x)
+    P.v2pt_theory(O, N, A)
+    Q.v2pt_theory(P, N, B)
+    I = sm.Rational(1, 12)
+    bodyA = me.RigidBody("bA", O.locatenew("GA", l1 / 2 * A.x), A, m1,
+                         (me.inertia(A, 0, I * m1 * l1**2, I * m1 * l1**2), O))
+    bodyA.masscenter.v2pt_theory(O, N, A)
+    bodyA.inertia = (me.inertia(A, 0, I * m1 * l1**2, I * m1 * l1**2), bodyA.masscenter)
+    bodyB = me.Particle("pB", Q, m2)
+    loads = [(bodyA.masscenter, -m1 * g * N.y), (Q, -m2 * g * N.y),
+             (A, (T1 - T2) * N.z), (B, T2 * N.z)]
+    eom = kd.kane(frame=N, q_ind=[q1, q2], u_ind=[u1, u2],
+                  kd_eqs=[q1.diff() - u1, q2.diff() - u2],
+                  bodies=[bodyA, bodyB], loads=loads)
+    constants = {m1: 1.3, m2: 0.7, l1: 0.9, l2: 0.6, g: 9.81}
+    return eom, constants, (T1, T2)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_round_trip_through_the_forward_rhs(backend):
+    eom, constants, (T1, T2) = torqued_double_pendulum()
+    free = eom.numeric(constants=constants, specified={T1: 0.0, T2: 0.0}, backend=backend)
+    rng = np.random.default_rng(11)
+    q, u, udot = (rng.uniform(-2, 2, (2, 8)) for _ in range(3))
+    tau = free.inverse_dynamics(0.0, q, u, udot)
+    for i in range(8):
+        driven = eom.numeric(constants=constants, backend="numpy",
+                             specified={T1: float(tau[0, i]), T2: float(tau[1, i])})
+        ydot = driven.rhs(0.0, np.concatenate([q[:, i], u[:, i]]))
+        np.testing.assert_allclose(ydot[2:], udot[:, i], rtol=0, atol=1e-10)
+        np.testing.assert_allclose(ydot[:2], u[:, i], rtol=0, atol=1e-14)
+
+
+def test_symbolic_form_matches_numeric():
+    eom, constants, (T1, T2) = torqued_double_pendulum()
+    tau_sym = eom.inverse_dynamics()
+    assert tau_sym.shape == (2, 1)
+    model = eom.numeric(constants=constants, specified={T1: 0.0, T2: 0.0})
+    q, u, udot = [0.3, -0.8], [1.1, 0.4], [-2.0, 0.5]
+    values = {**constants, T1: 0, T2: 0}
+    for s, v in zip(eom.q, q):
+        values[s] = v
+    for s, v in zip(eom.u, u):
+        values[s] = v
+    for s, v in zip(eom.u, udot):
+        values[s.diff(me.dynamicsymbols._t)] = v
+    expected = np.array(tau_sym.xreplace({k: v for k, v in values.items()
+                                          if isinstance(k, sm.Derivative)})
+                        .xreplace(values), dtype=float).ravel()
+    np.testing.assert_allclose(model.inverse_dynamics(0.0, q, u, udot), expected,
+                               rtol=1e-12, atol=1e-12)
+
+
+def test_bad_shapes_name_the_argument():
+    model = kd.models.build("chain3d", n=2).numeric()
+    with pytest.raises(ValueError, match="udot"):
+        model.inverse_dynamics(0.0, np.zeros((2, 3)), np.zeros((2, 3)), np.zeros((3, 3)))
+    with pytest.raises(ValueError, match="u must"):
+        model.inverse_dynamics(0.0, np.zeros((2, 3)), np.zeros((2, 4)), np.zeros((2, 4)))
+
+
+def test_trees_use_the_recursive_pass_and_loops_the_mass_matrix():
+    """The tests above cover both paths: chain3d and the cart take the engine's
+    recursive pass, the four-bar (a loop) the mass-matrix product."""
+    from kanedyn.numerics._inverse import _recursive_inertia_forces
+    for name, options, tree in [("chain3d", {"n": 3}, True),
+                                ("n-link-pendulum-on-cart", {}, True),
+                                ("four-bar", {}, False)]:
+        eom = kd.models.build(name, **options).derive()
+        rows = _recursive_inertia_forces(eom, len(eom.u), list(eom._table.udot), {})
+        assert (rows is not None) == tree, name
