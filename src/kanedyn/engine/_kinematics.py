@@ -55,7 +55,7 @@ def _is_zero_vector(vec):
     return vec == me.Vector(0) or all(m == sm.zeros(3, 1) for m, _ in vec.args)
 
 
-def _small(expr, limit):
+def is_small(expr, limit):
     """True when ``expr`` has at most ``limit`` nodes (stops counting early)."""
     count = 0
     stack = [expr]
@@ -123,7 +123,7 @@ class Kinematics:
     def scalar(self, expr, where, name="s"):
         """Internal form of a user expression; large ones become programs."""
         expr = sm.sympify(expr)
-        if _small(expr, _SMALL):
+        if is_small(expr, _SMALL):
             return self.table.internal(expr, where)
         return self.prog.let_tree(expr, name,
                                   leaf=lambda node: self.table.internal(node, where))
@@ -304,7 +304,7 @@ class Kinematics:
         if _is_zero_vector(stored):
             return _ZERO3
         where = f"velocity of {point} in {self.N}"
-        small = all(_small(m, _SMALL) for measures, _ in stored.args for m in measures)
+        small = all(is_small(m, _SMALL) for measures, _ in stored.args for m in measures)
         if not small:
             compact = self._recognize(point, stored)
             if compact is not None:

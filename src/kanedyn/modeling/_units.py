@@ -34,7 +34,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 from sympy.core.function import AppliedUndef
 
-from ..engine import name_of
+from ..engine import is_small, name_of
 
 __all__ = ["state_units", "constraint_units", "speed_unit"]
 
@@ -48,16 +48,6 @@ def speed_unit(unit):
         return None
     return "1/s" if unit in ("", "1") else f"{unit}/s"
 
-
-def _nodes(expr, limit=_MAX_NODES):
-    count, stack = 0, [expr]
-    while stack:
-        e = stack.pop()
-        count += 1
-        if count > limit:
-            return None
-        stack.extend(e.args)
-    return count
 
 
 def _dimensionless(coef):
@@ -151,7 +141,7 @@ class _Evidence:
 def _linear_terms(expr, variables):
     """``[(variable, coefficient)]`` of the terms of ``expr`` linear in one variable."""
     expr = sm.sympify(expr)
-    if _nodes(expr) is None:
+    if not is_small(expr, _MAX_NODES):
         return []
     out = []
     for term in sm.Add.make_args(sm.expand(expr)):
@@ -223,7 +213,7 @@ def state_units(spec, declared=None):
     qset = set(q)
 
     def scan_trig(expr):
-        if _nodes(expr) is None:
+        if not is_small(expr, _MAX_NODES):
             return
         for call in expr.atoms(*_TRIG):
             arg = call.args[0]
@@ -280,7 +270,7 @@ def _length_parameters(spec):
     for p in points:
         for r in p._pos_dict.values():
             for m in _measures(r):
-                if _nodes(m) is None:
+                if not is_small(m, _MAX_NODES):
                     continue
                 params = [s for s in m.free_symbols if s != me.dynamicsymbols._t]
                 for var, _ in _linear_terms(m, params):
