@@ -20,8 +20,10 @@ from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMemb
                        Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
-from .numerics import (ActuatorForces, ActuatorMap, MassMatrices, NumericModel,
-                       OrthogonalSpeedsModel, actuator_forces, orthogonalize_speeds)
+from .numerics import (ActuatorForces, ActuatorMap, ActuatorParts, InverseParts,
+                       MassMatrices, NumericModel, OrthogonalSpeedsModel, PowerBalance,
+                       actuator_forces, actuator_parts, inverse_parts, orthogonalize_speeds,
+                       power_balance)
 from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
                          simulate, sweep)
 
@@ -33,6 +35,12 @@ __all__ = [
     "ActuatorMap",
     "ActuatorForces",
     "actuator_forces",
+    "InverseParts",
+    "ActuatorParts",
+    "PowerBalance",
+    "inverse_parts",
+    "actuator_parts",
+    "power_balance",
     "kane",
     "formulate",
     "FORMULATIONS",

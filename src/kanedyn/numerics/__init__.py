@@ -12,6 +12,7 @@
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_diagnosis``           why a derivative is not finite, in the model's names
 ``_actuator_forces``     actuator forces from generalized forces by virtual work
+``_inverse_parts``       inverse-dynamics and actuator forces by cause and body; power
 ``_singular``            distance to singular configurations, and its monitor
 """
 
@@ -19,6 +20,8 @@ from ._actuator_forces import ActuatorForces, ActuatorMap, actuator_forces
 from ._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
                                 solve_modes)
 from ._diagnosis import diagnose
+from ._inverse_parts import (ActuatorParts, InverseParts, PowerBalance, actuator_parts,
+                             inverse_parts, power_balance)
 from ._linearize import linearize_numeric, linearize_symbolic
 from ._model import BACKENDS, NumericModel, build_numeric_model
 from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
@@ -30,4 +33,6 @@ __all__ = ["NumericModel", "build_numeric_model", "BACKENDS", "linearize_numeric
            "orthogonalize_speeds", "SEPARATED", "SLIP", "STICK", "SlipReference",
            "contact_points", "solve_modes", "diagnose", "DEFAULT_THRESHOLD",
            "SingularityMonitor", "conditioning", "compile_python", "generate_python",
-           "ActuatorForces", "ActuatorMap", "actuator_forces"]
+           "ActuatorForces", "ActuatorMap", "actuator_forces", "InverseParts",
+           "ActuatorParts", "PowerBalance", "inverse_parts", "actuator_parts",
+           "power_balance"]

@@ -225,6 +225,24 @@ class ActuatorMap:
         return ActuatorForces(self.names, f, torques, rates, rate_dots, J, tau, condition,
                               redundant, not singular, message)
 
+    def parts(self, t, q, u, udot, groups=None, gravity=None):
+        """The actuator forces along a trajectory by cause and by body group.
+
+        See :func:`kanedyn.numerics._inverse_parts.actuator_parts`; returns an
+        ``ActuatorParts`` (arrays ``(k, N)``).
+        """
+        from ._inverse_parts import actuator_parts
+        return actuator_parts(self, t, q, u, udot, groups=groups, gravity=gravity)
+
+    def power_balance(self, t, q, u, udot, gravity=None):
+        """Actuator power and the energies' rates along a trajectory.
+
+        See :func:`kanedyn.numerics._inverse_parts.power_balance`; returns a
+        ``PowerBalance``.
+        """
+        from ._inverse_parts import power_balance
+        return power_balance(self, t, q, u, udot, gravity=gravity)
+
 
 def _ratio(sv):
     return float(sv[0] / sv[-1]) if sv[-1] > 0 else float("inf")

@@ -662,6 +662,16 @@ class NumericModel(StateLayout):
         from ._inverse import inverse_dynamics
         return inverse_dynamics(self, t, q, u, udot)
 
+    def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
+        """The inverse-dynamics forces by cause and by body group.
+
+        See :func:`kanedyn.numerics._inverse_parts.inverse_parts` (arguments
+        as :meth:`inverse_dynamics`, plus ``groups = {name: [body names]}``
+        and the ``gravity`` symbol); returns an ``InverseParts``.
+        """
+        from ._inverse_parts import inverse_parts
+        return inverse_parts(self, t, q, u, udot, groups=groups, gravity=gravity)
+
     # -------------------------------------------------------- constraints
     def _constraint_terms(self, t, y):
         return self._fn["constraints"](t, y, self._p, self._r(t, y))
