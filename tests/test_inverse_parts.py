@@ -145,3 +145,4 @@ def test_stewart_power_balance(stewart):
     # the declared potential is that of the weights
     np.testing.assert_allclose(balance.potential_rate, -balance.gravity_power,
                                atol=1e-12 * scale)
+
