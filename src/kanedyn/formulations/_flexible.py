@@ -295,9 +295,12 @@ def flexible_block(kin, body, speeds, aux_zero, inertia=True):
 def inertial_block(kin, element, speeds, aux_zero, inertia=True):
     r"""The :class:`FlexibleBlock` of a generalized-inertia element.
 
-    :math:`w` the element's rates, :math:`M_b = M_w` (constant), no velocity
-    terms (:math:`\beta = 0`: :math:`\dot M_w = 0` and :math:`T` does not
-    depend on the coordinates at fixed :math:`w`) and no applied forces.
+    :math:`w` the element's rates, :math:`M_b = M_w` (constant), no applied
+    forces, and velocity terms :math:`\beta = 0` for rates that are time
+    derivatives (:math:`\dot M_w = 0`); an :class:`kanedyn.AddedMass`, whose
+    rates are body-frame components, has the gyroscopic terms of a rigid
+    body's block, :math:`\beta = (\omega\times p_v,\ \omega\times p_\omega +
+    v\times p_v)`.
 
     Parameters
     ----------
@@ -339,7 +342,8 @@ def inertial_block(kin, element, speeds, aux_zero, inertia=True):
     rate = bias = None
     if inertia:
         rate = [prog.let(prog.subs(kin.dt(c), aux_zero), f"wd_{name}") for c in w]
-        bias = list(zero)
+        bias = [prog.let(c, f"beta_{name}") if c != 0 else c
+                for c in element._bias(w, p, cross)]
     return FlexibleBlock(body=element, w=tuple(w), partials=partials, mass=Mb, momentum=p,
                          kinetic=kinetic, active=list(zero), rate=rate, bias=bias)
 

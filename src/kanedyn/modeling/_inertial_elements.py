@@ -110,6 +110,11 @@ class InertialElement:
         """Number of rates :math:`k`."""
         return self.inertia.shape[0]
 
+    def _bias(self, w, p, cross):
+        """Velocity terms :math:`\\beta` of the block (zero: the rates are time
+        derivatives and :math:`M_w` is constant)."""
+        return [0] * len(w)
+
     def _rates(self, kin):
         """The rates :math:`w` in the program's internal symbols (k expressions).
 
@@ -251,9 +256,11 @@ class AddedMass(InertialElement):
     :math:`M_w` the added-mass matrix about ``point`` in that order (as the
     added mass of a floating body is given: surge, sway, heave, roll, pitch,
     yaw).  :math:`T = \tfrac12 w^TM_ww` is the fluid's kinetic energy; the
-    element adds :math:`T_b^TM_wT_b` to the mass matrix.  It carries no
-    velocity-dependent (Munk) terms of its own beyond those of the rate
-    derivative :math:`\dot T_bu` expressed in the inertial frame.
+    element adds :math:`T_b^TM_wT_b` to the mass matrix and, since the rates
+    are components in the rotating body frame, Kirchhoff's velocity terms
+    :math:`\omega\times p_v` and :math:`\omega\times p_\omega + v\times
+    p_v` (:math:`p = M_ww`; the last one is Munk's moment) to the forcing, as
+    Lagrange's equations in quasi-coordinates give them.
 
     Parameters
     ----------
@@ -291,6 +298,12 @@ class AddedMass(InertialElement):
     def matrix(self):
         """The 6 x 6 added-mass matrix."""
         return self.inertia
+
+    def _bias(self, w, p, cross):
+        """Kirchhoff's terms: :math:`(\\omega\\times p_v,\\ \\omega\\times p_\\omega +
+        v\\times p_v)` (the rates are components in a rotating frame)."""
+        v, om, pv, pw = w[:3], w[3:], p[:3], p[3:]
+        return list(cross(om, pv)) + [a + b for a, b in zip(cross(om, pw), cross(v, pv))]
 
     def _rates(self, kin):
         if self.frame is not kin.N:
