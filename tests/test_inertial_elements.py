@@ -112,7 +112,7 @@ def test_grounded_inerter_is_added_mass():
         np.sort_complex(np.linalg.eigvals(lin_t)), rel=1e-12)
 
 
-def free_body(added):
+def free_body(added, method="kane"):
     """A free rigid body; speeds are the body-frame components of v and omega.
 
     ``added``: a 6x6 matrix as an AddedMass element, or ``(a, J)`` added to the
@@ -142,8 +142,8 @@ def free_body(added):
     else:
         bodies.append(kd.AddedMass("fluid", C, B, added, N))
     bodies.insert(0, me.RigidBody("hull", C, B, mass, (inertia, C)))
-    eom = kd.kane(frame=N, q_ind=q, u_ind=u, kd_eqs=kd_eqs, bodies=bodies,
-                  loads=[(C, -9.81 * m * N.z)])
+    eom = kd.formulate(method=method, frame=N, q_ind=q, u_ind=u, kd_eqs=kd_eqs,
+                       bodies=bodies, loads=[(C, -9.81 * m * N.z)])
     return eom.numeric(constants={m: 3.0, I1: 0.4, I2: 0.5, I3: 0.3})
 
 
@@ -167,6 +167,23 @@ def test_added_mass_on_free_body():
                                                             rel=1e-13, abs=1e-13)
         assert element.forcing(0.0, y) == pytest.approx(heavier.forcing(0.0, y),
                                                         rel=1e-12, abs=1e-12)
+
+
+def test_added_mass_kane_matches_lagrange():
+    """Kirchhoff's velocity terms: Kane's block equals Lagrange's equations of T."""
+    rng = np.random.default_rng(11)
+    R = rng.normal(size=(6, 6))
+    A = R @ R.T
+    kane, lagrange = free_body(A), free_body(A, "lagrange")
+    y = np.concatenate([0.3 * rng.normal(size=6), rng.normal(size=6)])
+    y_rates = np.concatenate([y[:6], kane.rhs(0.0, y)[:6]])  # [q, q'] for Lagrange
+    assert lagrange.kinetic_energy(0.0, y_rates) == pytest.approx(
+        kane.kinetic_energy(0.0, y), rel=1e-12)
+    times = np.linspace(0.0, 0.5, 11)
+    rk = kd.simulate(kane, (0.0, 0.5), y, t_eval=times, rtol=1e-11, atol=1e-12)
+    rl = kd.simulate(lagrange, (0.0, 0.5), y_rates, t_eval=times, rtol=1e-11, atol=1e-12)
+    assert rk.success and rl.success
+    assert np.max(np.abs(rk.y[:6] - rl.y[:6])) < 1e-9
 
 
 def test_ball_screw_carriage_effective_mass_and_energy():

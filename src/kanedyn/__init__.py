@@ -17,7 +17,8 @@ from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScrew, BeamMember,
-                       Contact, Ellipsoid, Inerter, RateInertia, ExternalWrench, JointActuator, LinearActuator,
+                       Contact, Ellipsoid, ExternalWrench, Inerter, JointActuator,
+                       LinearActuator, RateInertia,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import (ActuatorForces, ActuatorMap, MassMatrices, NumericModel,

@@ -136,6 +136,11 @@ class RateInertia(InertialElement):
         The :math:`k` rates (m/s or rad/s): expressions in the coordinates,
         speeds, coordinate derivatives and time that are linear in the
         generalized speeds once the kinematic differential equations are used.
+        Rates that are time derivatives of functions of the coordinates and
+        time (a distance, a joint angle, inertial velocity components) give
+        the same equations in every formulation; for components in a
+        rotating frame use :class:`AddedMass`, which adds the velocity terms
+        such rates need.
     inertia : array_like or scalar
         :math:`M_w`, a constant symmetric positive semi-definite (k, k)
         matrix, or a scalar for one rate; SymPy symbols allowed.
