@@ -37,10 +37,11 @@ def test_ball_screw_reflected_inertia_closed_form():
     assert out["screw"] == pytest.approx(effective * a, rel=1e-12)
     assert out.motor_torques["screw"] == pytest.approx(effective * a / ratio, rel=1e-12)
     assert float(screw.reflected_inertia) == pytest.approx(ratio ** 2 * (Jr + Jc + Js))
-    # the transmission's generalized inertia term, symbolically
-    Mt, Ft = drive.generalized_inertia([v], {x.diff(): v})
-    assert float(Mt[0, 0]) == pytest.approx(ratio ** 2 * (Jr + Jc + Js))
-    assert Ft[0] == 0
+    # the transmission as an inertial element on the rate x'
+    element = drive.inertia_element()
+    assert isinstance(element, kd.RateInertia) and element.name == "screw_drive"
+    assert float(element.inertia[0, 0]) == pytest.approx(ratio ** 2 * (Jr + Jc + Js))
+    assert kd.JointActuator("bare", x).inertia_element() is None
 
 
 def two_link_arm():

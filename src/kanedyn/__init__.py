@@ -16,8 +16,9 @@ from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
-from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
-                       Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
+from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScrew, BeamMember,
+                       Contact, Ellipsoid, ExternalWrench, Inerter, JointActuator,
+                       LinearActuator, RateInertia,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
                        Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
 from .numerics import (ActuatorForces, ActuatorMap, ActuatorParts, InverseParts,
@@ -28,6 +29,9 @@ from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted,
                          simulate, sweep)
 
 __all__ = [
+    "RateInertia",
+    "Inerter",
+    "AddedMass",
     "JointActuator",
     "LinearActuator",
     "BallScrew",

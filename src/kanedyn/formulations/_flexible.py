@@ -47,6 +47,13 @@ and :math:`F_b`.  The formulations use it as follows.
 :math:`M_b` is written with the body's numerical invariants
 (:class:`kanedyn.modeling.flexible.InertiaInvariants`) as a polynomial of
 second degree in :math:`\eta`, its entries named intermediates of the program.
+
+Generalized-inertia elements (:class:`kanedyn.RateInertia`,
+:class:`kanedyn.Inerter`, :class:`kanedyn.AddedMass`) are blocks of the same
+kind (:func:`inertial_block`): :math:`w` their rates, :math:`T_b = \partial
+w/\partial u`, :math:`M_b = M_w` constant, :math:`\beta = 0` and
+:math:`F_b = 0`.  :func:`flexible_bodies` returns both kinds and
+:func:`flexible_block` builds either.
 """
 
 from __future__ import annotations
@@ -56,10 +63,12 @@ import sympy as sm
 
 from .._errors import ModelError
 from ..engine import add, cross
-from ..modeling import FlexibleBody
+from ..modeling import FlexibleBody, InertialElement
 
-__all__ = ["FlexibleBlock", "FlexibleTerms", "flexible_block", "flexible_bodies",
-           "flexible_terms", "project"]
+__all__ = ["BLOCK_BODIES", "FlexibleBlock", "FlexibleTerms", "flexible_block",
+           "flexible_bodies", "flexible_terms", "inertial_block", "project"]
+
+BLOCK_BODIES = (FlexibleBody, InertialElement)  # bodies that reduce to a block
 
 _DROP = 1e-14  # relative size below which an invariant's entry is zero
 
@@ -123,7 +132,7 @@ class FlexibleTerms:
 
 
 def flexible_bodies(spec):
-    """The model's flexible bodies, after checking their coordinates and speeds.
+    """The model's flexible bodies and inertial elements (block bodies), checked.
 
     Parameters
     ----------
@@ -131,15 +140,17 @@ def flexible_bodies(spec):
 
     Returns
     -------
-    list of FlexibleBody
+    list of FlexibleBody or InertialElement
 
     Raises
     ------
     ModelError
         A body's modal coordinates or speeds are not among the model's.
     """
-    out = [b for b in spec.bodies if isinstance(b, FlexibleBody)]
+    out = [b for b in spec.bodies if isinstance(b, BLOCK_BODIES)]
     for body in out:
+        if not isinstance(body, FlexibleBody):
+            continue
         missing = [s for s in body.q if s not in spec.q]
         missing += [s for s in body.u if s not in spec.u]
         if missing:
@@ -216,6 +227,8 @@ def flexible_block(kin, body, speeds, aux_zero, inertia=True):
     -------
     FlexibleBlock
     """
+    if isinstance(body, InertialElement):
+        return inertial_block(kin, body, speeds, aux_zero, inertia)
     prog, table = kin.prog, kin.table
     where = f"flexible body {body.name}"
     inv = body.invariants
@@ -277,6 +290,62 @@ def flexible_block(kin, body, speeds, aux_zero, inertia=True):
                          + gyro[a], f"beta_{body.name}") for a in range(size)]
     return FlexibleBlock(body=body, w=tuple(w), partials=partials, mass=Mb, momentum=p,
                          kinetic=kinetic, active=active, rate=rate, bias=bias)
+
+
+def inertial_block(kin, element, speeds, aux_zero, inertia=True):
+    r"""The :class:`FlexibleBlock` of a generalized-inertia element.
+
+    :math:`w` the element's rates, :math:`M_b = M_w` (constant), no applied
+    forces, and velocity terms :math:`\beta = 0` for rates that are time
+    derivatives (:math:`\dot M_w = 0`); an :class:`kanedyn.AddedMass`, whose
+    rates are body-frame components, has the gyroscopic terms of a rigid
+    body's block, :math:`\beta = (\omega\times p_v,\ \omega\times p_\omega +
+    v\times p_v)`.
+
+    Parameters
+    ----------
+    kin : Kinematics
+    element : InertialElement
+    speeds : sequence
+        Internal speed symbols for the partial velocities.
+    aux_zero : dict
+        Auxiliary speeds -> 0.
+    inertia : bool
+        Also form :math:`\dot T_bu` (with :math:`\dot u = 0`).
+
+    Raises
+    ------
+    ModelError
+        A rate is not linear in the speeds (naming the element and the rate).
+    """
+    prog = kin.prog
+    where = f"{type(element).__name__} {element.name!r}"
+    name = element.name
+    w_full = [prog.let(c, f"w_{name}") for c in element._rates(kin)]
+    size = len(w_full)
+    w = [prog.subs(c, aux_zero) for c in w_full]
+    partials = [tuple(prog.subs(prog.diff(c, s), aux_zero) for c in w_full) for s in speeds]
+    for i in range(size):
+        for col in partials:
+            if col[i] != 0 and any(prog.diff(col[i], s) != 0 for s in speeds):
+                raise ModelError(f"{where}: rate {i} is not linear in the generalized "
+                                 "speeds (its partial velocities depend on the speeds)")
+    M = element.inertia
+    Mb = [[kin.internal(M[a, b], f"{where}: inertia") for b in range(size)]
+          for a in range(size)]
+    Mb = [[prog.let(e, f"Mw_{name}_{a}_{b}") if e != 0 and not e.is_Number else e
+           for b, e in enumerate(row)] for a, row in enumerate(Mb)]
+    p = [prog.let(sm.Add(*[Mb[a][b] * w[b] for b in range(size) if Mb[a][b] != 0]),
+                  f"p_{name}") for a in range(size)]
+    kinetic = sm.Add(*[w[a] * p[a] for a in range(size)]) / 2
+    zero = [sm.S.Zero] * size
+    rate = bias = None
+    if inertia:
+        rate = [prog.let(prog.subs(kin.dt(c), aux_zero), f"wd_{name}") for c in w]
+        bias = [prog.let(c, f"beta_{name}") if c != 0 else c
+                for c in element._bias(w, p, cross)]
+    return FlexibleBlock(body=element, w=tuple(w), partials=partials, mass=Mb, momentum=p,
+                         kinetic=kinetic, active=list(zero), rate=rate, bias=bias)
 
 
 def project(W, vec):

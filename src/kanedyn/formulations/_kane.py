@@ -31,8 +31,7 @@ import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 from .._progress import NO_PROGRESS
-from ..modeling import FlexibleBody
-from ._flexible import flexible_bodies, flexible_terms
+from ._flexible import BLOCK_BODIES, flexible_bodies, flexible_terms
 from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, add, composite_equations,
                       cross, dot, fast_eval, inertia_components, matvec, name_of,
                       random_sampler)
@@ -505,7 +504,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec)
                 for ur in speeds]
 
-    rigid = [b for b in spec.bodies if not isinstance(b, FlexibleBody)]
+    rigid = [b for b in spec.bodies if not isinstance(b, BLOCK_BODIES)]
     body_terms, masses, inertias, inertial, hs = body_kinematics(
         kin, rigid, partials, aux_zero, progress)
     flexible = [flexible_terms(kin, b, speeds, o, aux_zero) for b in flexible_bodies(spec)]

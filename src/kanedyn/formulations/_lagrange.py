@@ -72,12 +72,11 @@ import numpy as np
 import sympy as sm
 
 from .._errors import ModelError
-from ._flexible import flexible_block, flexible_bodies, project
+from ._flexible import BLOCK_BODIES, flexible_block, flexible_bodies, project
 from ._kane import (_contact_terms, _pivot_rows, body_kinematics, given_velocity_constraints,
                     linear_parts, load_terms)
 from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, dot, fast_eval, name_of,
                       random_sampler)
-from ..modeling import FlexibleBody
 from .._progress import NO_PROGRESS
 
 __all__ = ["derive_lagrange", "derive_augmented", "rate_symbols"]
@@ -395,7 +394,7 @@ class _Setup:
             return [tuple(prog.diff(c, s) for c in vec) for s in speeds]
 
         flexible = flexible_bodies(self.spec)
-        rigid = [b for b in self.spec.bodies if not isinstance(b, FlexibleBody)]
+        rigid = [b for b in self.spec.bodies if not isinstance(b, BLOCK_BODIES)]
         body_terms, masses, inertias, inertial, hs = body_kinematics(
             kin, rigid, partials, {}, progress)
         # flexible bodies: kinetic energy from the inertia invariants; gravity,

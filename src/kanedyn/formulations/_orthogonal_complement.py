@@ -84,11 +84,10 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._flexible import flexible_bodies, flexible_terms
+from ._flexible import BLOCK_BODIES, flexible_bodies, flexible_terms
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, constraint_terms, kane_setup,
                     kinetic_term, potential_term)
 from ..engine import SAMPLE_SEEDS, add, cross, dot, inertia_components, matvec
-from ..modeling import FlexibleBody
 from .._progress import NO_PROGRESS
 
 __all__ = ["derive_orthogonal_complement"]
@@ -202,7 +201,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
 
     # ------------------------------------------------ per-body blocks
     flexible_list = flexible_bodies(spec)
-    bodies = [b for b in spec.bodies if not isinstance(b, FlexibleBody)]
+    bodies = [b for b in spec.bodies if not isinstance(b, BLOCK_BODIES)]
     raw, body_terms, masses, inertias, tdu, gyro, momenta = [], [], [], [], [], [], []
     for k, body in enumerate(bodies):
         progress.update(f"twist map of {body.name} ({k + 1}/{len(bodies)})",

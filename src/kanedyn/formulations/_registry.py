@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from .._errors import ModelError
 from .._progress import NO_PROGRESS, as_progress
-from ..modeling import FlexibleBody, parse_model
+from ..modeling import FlexibleBody, InertialElement, parse_model
 
 __all__ = ["kane", "formulate", "FORMULATIONS", "register_formulation"]
 
@@ -111,12 +111,14 @@ def formulate(*args, method="kane", progress=False, scheme=None, **kwargs):
     options = {k: kwargs.pop(k) for k in ("explicit_kinematics",) if k in kwargs}
     spec = parse_model(*args, **kwargs)
     if method in _RIGID_ONLY:
-        flexible = [b.name for b in spec.bodies if isinstance(b, FlexibleBody)]
+        flexible = [b for b in spec.bodies if isinstance(b, (FlexibleBody, InertialElement))]
         if flexible:
             takes = sorted(set(FORMULATIONS) - _RIGID_ONLY)
+            what = ("flexible body" if isinstance(flexible[0], FlexibleBody)
+                    else type(flexible[0]).__name__)
             raise ModelError(
-                f"the {method!r} formulation does not take flexible bodies (flexible body "
-                f"{flexible[0]!r}); use one of {', '.join(takes)}")
+                f"the {method!r} formulation does not take flexible bodies or inertial "
+                f"elements ({what} {flexible[0].name!r}); use one of {', '.join(takes)}")
     eom = derive(spec, progress=as_progress(progress), **options)
     if scheme is not None:
         object.__setattr__(eom, "_scheme", scheme)

@@ -37,8 +37,8 @@ import sympy.physics.mechanics as me
 from .._errors import ModelError, OptionError
 from ..analysis import deformed_nodes
 from ..engine import name_of
-from ..modeling import (SURFACE_COORDINATES, Ellipsoid, FlexibleBody, Plane, Sphere,
-                        body_parameters)
+from ..modeling import (SURFACE_COORDINATES, Ellipsoid, FlexibleBody, InertialElement,
+                        Plane, Sphere, body_parameters)
 from ..modeling.visuals import Mesh, Shape
 from ..numerics import compile_python, generate_python
 from ._meshes import read_mesh
@@ -183,6 +183,8 @@ class _Program:
         frame_index(N)  # so that there is at least one frame
         segments = set()
         for k, body in enumerate(eom.bodies):
+            if isinstance(body, InertialElement):
+                continue  # no shape of its own
             if isinstance(body, FlexibleBody):
                 ref, frame = body.origin, body.frame
             else:

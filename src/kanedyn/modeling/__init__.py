@@ -6,6 +6,7 @@
 ``_contacts``            contacts and the surfaces they touch
 ``_vector_constraints``  constraints in vector form that identify their forces
 ``_actuators``           actuators, transmissions (ball screws), external wrenches
+``_inertial_elements``   generalized-inertia elements: rate inertia, inerter, added mass
 ``_units``               units of coordinates and speeds read off the kinematics
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
@@ -14,6 +15,7 @@
 
 from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
                          LinearActuator)
+from ._inertial_elements import AddedMass, Inerter, InertialElement, RateInertia
 from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
@@ -31,4 +33,5 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
            "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
-           "LinearActuator", "BallScrew", "ExternalWrench"]
+           "LinearActuator", "BallScrew", "ExternalWrench", "InertialElement", "RateInertia",
+           "Inerter", "AddedMass"]

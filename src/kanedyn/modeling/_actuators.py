@@ -5,8 +5,9 @@ torque does work (a joint rate, the rate of change of the distance between two
 points).  By virtual work, an actuator of force :math:`f` and rate
 :math:`\dot s = J u` contributes the generalized forces :math:`J^T f`.  Each
 object reduces itself to loads (:meth:`to_loads`) for forward simulation, and a
-transmission (:class:`BallScrew`) to a generalized inertia term on its
-actuator's rate (:meth:`Actuator.generalized_inertia`).
+transmission (:class:`BallScrew`) to an inertial element on its actuator's
+rate (:meth:`Actuator.inertia_element`, a :class:`kanedyn.RateInertia` to pass
+in ``bodies=[...]``).
 
 ``JointActuator``   a force or torque along a joint coordinate or relative rate
 ``LinearActuator``  a force along the line between two points (a prismatic leg)
@@ -18,6 +19,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from ._inertial_elements import RateInertia
 
 __all__ = ["Actuator", "JointActuator", "LinearActuator", "BallScrew", "ExternalWrench"]
 
@@ -139,28 +141,40 @@ class Actuator:
         """Mass (or inertia) of the transmission on the rate; 0 without one."""
         return 0 if self.transmission is None else self.transmission.reflected_inertia
 
-    def generalized_inertia(self, speeds, kindiffdict):
-        r"""Generalized inertia terms of the transmission on the speeds.
+    def inertia_element(self):
+        r"""The transmission's drive-train inertia as an inertial element.
 
-        With :math:`\dot s = J u` the rate and :math:`m` the reflected inertia,
-        the term adds :math:`m J^T J` to the mass matrix and
-        :math:`-m J^T \dot J u` to the forcing (SymPy's convention
-        :math:`M\dot u = F`).
+        A :class:`kanedyn.RateInertia` of the reflected inertia on the
+        actuator's rate :math:`\dot s` (kinetic energy
+        :math:`\tfrac12 m_\text{reflected}\dot s^2`), to pass in
+        ``bodies=[...]`` of :func:`kanedyn.kane`; ``None`` without a
+        transmission.
 
         Returns
         -------
-        (sympy.Matrix, sympy.Matrix)
-            Shapes (n_u, n_u) and (n_u, 1); zero without a transmission.
+        RateInertia or None
+            Named ``"<actuator name>_drive"``.
         """
-        n = len(speeds)
-        m = self.reflected_inertia
-        if m == 0:
-            return sm.zeros(n, n), sm.zeros(n, 1)
-        rate = self.rate(speeds, kindiffdict)
-        J = sm.Matrix([[rate.diff(u) for u in speeds]])
-        # d(rate)/dt is linear in u': with u' = 0 it is the J' u part
-        bias = rate.diff(_t).xreplace({u.diff(_t): sm.S.Zero for u in speeds}).xreplace(kindiffdict)
-        return m * J.T * J, -m * J.T * sm.Matrix([[bias]])
+        if self.transmission is None:
+            return None
+        return _ActuatorRate(f"{self.name}_drive", [self._time_expression()],
+                             self.transmission.reflected_inertia)
+
+
+class _ActuatorRate(RateInertia):
+    """A RateInertia on an actuator's rate.
+
+    Its one expression is the actuator's: a speed expression (the rate
+    itself) or a coordinate expression (the rate is its time derivative),
+    told apart in the model's symbols when the equations are derived.
+    """
+
+    def _rates(self, kin):
+        prog, table = kin.prog, kin.table
+        expr = kin.scalar(self.rates[0], f"{self._where}: rate", f"s_{self.name}")
+        if any(prog.diff(expr, s) != 0 for s in table.u + table.u_aux):
+            return [expr]
+        return [kin.dt(expr)]
 
 
 class JointActuator(Actuator):

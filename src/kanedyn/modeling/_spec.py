@@ -14,6 +14,7 @@ import sympy.physics.mechanics as me
 from sympy.physics.mechanics.loads import _parse_load
 
 from .._errors import ModelError
+from ._inertial_elements import InertialElement
 from .flexible import FlexibleBody
 from ._physical import check_declared_bodies
 from ..engine import name_of
@@ -232,12 +233,12 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
 
     bodies = _as_tuple(bodies, "bodies")
     if not bodies:
-        raise ModelError("no bodies given: pass bodies=[...] (RigidBody, Particle or "
-                         "FlexibleBody)")
+        raise ModelError("no bodies given: pass bodies=[...] (RigidBody, Particle, "
+                         "FlexibleBody or inertial elements)")
     for b in bodies:
-        if not isinstance(b, (me.RigidBody, me.Particle, FlexibleBody)):
-            raise ModelError(f"bodies must be RigidBody, Particle or FlexibleBody objects; "
-                             f"got {b!r}")
+        if not isinstance(b, (me.RigidBody, me.Particle, FlexibleBody, InertialElement)):
+            raise ModelError(f"bodies must be RigidBody, Particle, FlexibleBody or inertial "
+                             f"element (RateInertia, Inerter, AddedMass) objects; got {b!r}")
     check_declared_bodies(bodies)
     parsed_loads = []
     for load in _as_tuple(loads, "loads"):
