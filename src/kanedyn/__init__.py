@@ -19,7 +19,10 @@ from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
                        Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
-                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
+                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint,
+                       SpringDamper, MatrixSpringDamper, LinearMooring, CatenaryLine,
+                       CatenaryMooring, RotorThrust, ThrustCurve, NREL5MW_THRUST,
+                       kaimal_wind)
 from .numerics import (ActuatorForces, ActuatorMap, MassMatrices, NumericModel,
                        OrthogonalSpeedsModel, actuator_forces, orthogonalize_speeds)
 from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
@@ -30,6 +33,15 @@ __all__ = [
     "LinearActuator",
     "BallScrew",
     "ExternalWrench",
+    "SpringDamper",
+    "MatrixSpringDamper",
+    "LinearMooring",
+    "CatenaryLine",
+    "CatenaryMooring",
+    "RotorThrust",
+    "ThrustCurve",
+    "NREL5MW_THRUST",
+    "kaimal_wind",
     "ActuatorMap",
     "ActuatorForces",
     "actuator_forces",
