@@ -10,6 +10,8 @@
 ``_units``               units of coordinates and speeds read off the kinematics
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
+``_springs``             linear spring-dampers between points and in 6 dof
+``offshore``             mooring lines and systems, rotor thrust, turbulent wind
 ``visuals``              shapes that draw bodies in the 3D viewer
 """
 
@@ -20,6 +22,9 @@ from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface
                         Sphere, Surface, coefficient_value)
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
+from ._springs import MatrixSpringDamper, SpringDamper, rotation_vector
+from .offshore import (NREL5MW_THRUST, CatenaryLine, CatenaryMooring, LinearMooring,
+                       RotorThrust, ThrustCurve, kaimal_wind)
 from ._units import constraint_units, speed_unit, state_units
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
@@ -34,4 +39,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
            "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
            "LinearActuator", "BallScrew", "ExternalWrench", "InertialElement", "RateInertia",
-           "Inerter", "AddedMass"]
+           "Inerter", "AddedMass",
+           "SpringDamper", "MatrixSpringDamper", "rotation_vector", "LinearMooring", "CatenaryLine",
+           "CatenaryMooring", "RotorThrust", "ThrustCurve", "NREL5MW_THRUST", "kaimal_wind"]
