@@ -16,6 +16,8 @@ from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
+from .modeling import (AiryWave, Hydrostatics, IrregularSea, MorisonCylinder,
+                       jonswap_gamma, jonswap_spectrum, wave_number)
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
                        Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
@@ -30,6 +32,13 @@ __all__ = [
     "LinearActuator",
     "BallScrew",
     "ExternalWrench",
+    "AiryWave",
+    "IrregularSea",
+    "jonswap_spectrum",
+    "jonswap_gamma",
+    "wave_number",
+    "MorisonCylinder",
+    "Hydrostatics",
     "ActuatorMap",
     "ActuatorForces",
     "actuator_forces",

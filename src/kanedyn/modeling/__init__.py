@@ -10,6 +10,7 @@
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``visuals``              shapes that draw bodies in the 3D viewer
+``offshore``             floating structures: waves, Morison loads, hydrostatics
 """
 
 from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
@@ -19,6 +20,8 @@ from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
 from ._units import constraint_units, speed_unit, state_units
+from .offshore import (AiryWave, Hydrostatics, IrregularSea, MorisonCylinder,
+                       jonswap_gamma, jonswap_spectrum, wave_number)
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
@@ -31,4 +34,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
            "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
-           "LinearActuator", "BallScrew", "ExternalWrench"]
+           "LinearActuator", "BallScrew", "ExternalWrench", "AiryWave", "IrregularSea",
+           "jonswap_spectrum", "jonswap_gamma", "wave_number", "MorisonCylinder",
+           "Hydrostatics"]
