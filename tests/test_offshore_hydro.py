@@ -4,7 +4,6 @@ import math
 
 import numpy as np
 import pytest
-import sympy as sm
 import sympy.physics.mechanics as me
 from scipy.integrate import quad
 
