@@ -16,6 +16,8 @@ from ._version import __version__ as __version__
 from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
+from .modeling import (AiryWave, Hydrostatics, IrregularSea, MorisonCylinder,
+                       jonswap_gamma, jonswap_spectrum, wave_number)
 from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScrew, BeamMember,
                        Contact, Ellipsoid, ExternalWrench, Inerter, JointActuator,
                        LinearActuator, RateInertia,
@@ -48,6 +50,13 @@ __all__ = [
     "ThrustCurve",
     "NREL5MW_THRUST",
     "kaimal_wind",
+    "AiryWave",
+    "IrregularSea",
+    "jonswap_spectrum",
+    "jonswap_gamma",
+    "wave_number",
+    "MorisonCylinder",
+    "Hydrostatics",
     "ActuatorMap",
     "ActuatorForces",
     "actuator_forces",

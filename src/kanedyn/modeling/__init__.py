@@ -11,7 +11,8 @@
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``_springs``             linear spring-dampers between points and in 6 dof
-``offshore``             mooring lines and systems, rotor thrust, turbulent wind
+``offshore``             floating structures: waves, Morison loads, hydrostatics,
+                         mooring lines and systems, rotor thrust, turbulent wind
 ``visuals``              shapes that draw bodies in the 3D viewer
 """
 
@@ -23,9 +24,10 @@ from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
 from ._springs import MatrixSpringDamper, SpringDamper, rotation_vector
-from .offshore import (NREL5MW_THRUST, CatenaryLine, CatenaryMooring, LinearMooring,
-                       RotorThrust, ThrustCurve, kaimal_wind)
 from ._units import constraint_units, speed_unit, state_units
+from .offshore import (NREL5MW_THRUST, AiryWave, CatenaryLine, CatenaryMooring, Hydrostatics,
+                       IrregularSea, LinearMooring, MorisonCylinder, RotorThrust, ThrustCurve,
+                       jonswap_gamma, jonswap_spectrum, kaimal_wind, wave_number)
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
@@ -41,4 +43,7 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "LinearActuator", "BallScrew", "ExternalWrench", "InertialElement", "RateInertia",
            "Inerter", "AddedMass",
            "SpringDamper", "MatrixSpringDamper", "rotation_vector", "LinearMooring", "CatenaryLine",
-           "CatenaryMooring", "RotorThrust", "ThrustCurve", "NREL5MW_THRUST", "kaimal_wind"]
+           "CatenaryMooring", "RotorThrust", "ThrustCurve", "NREL5MW_THRUST", "kaimal_wind",
+           "AiryWave", "IrregularSea",
+           "jonswap_spectrum", "jonswap_gamma", "wave_number", "MorisonCylinder",
+           "Hydrostatics"]
