@@ -270,3 +270,34 @@ def test_floating_spar_through_kane_equilibrium_and_restoring():
     Iyy_P = Iyy + mass * zG ** 2
     # surge is not a coordinate: pitch about P with the mass centre below
     assert ydot[3] == pytest.approx(-C55 * 1e-5 / Iyy_P, rel=1e-4)
+
+
+def test_morison_added_mass_enters_the_mass_matrix():
+    """``inertia_elements()`` puts the strips' added mass into Kane's mass matrix."""
+    N, B = me.ReferenceFrame("N"), me.ReferenceFrame("B")
+    z, th = me.dynamicsymbols("z theta")
+    uz, uth = me.dynamicsymbols("u_z u_theta")
+    B.orient_axis(N, N.y, th)
+    B.set_ang_vel(N, uth * N.y)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", z * N.z)
+    P.set_vel(N, uz * N.z)
+    mor = kd.MorisonCylinder("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                             Ca=1.0, Cd=0.6, n_strips=4)
+    mass, Iyy = 7.46633e6, 4.22923e9
+    body = me.RigidBody("platform", P, B, mass, (me.inertia(B, Iyy, Iyy, 1.0), P))
+    eom = kd.kane(frame=N, q_ind=[z, th], u_ind=[uz, uth],
+                  kd_eqs=[z.diff() - uz, th.diff() - uth],
+                  bodies=[body, *mor.inertia_elements()], loads=mor.to_loads(at="origin"))
+    model = eom.numeric(specified=mor.specified())
+    M = model.mass_matrix(0.0, np.zeros(4))
+    # pitch about P: the strips' C_a rho A s^2 integrated over the wetted length
+    s = np.linspace(-120.0, 0.0, 24001)
+    D = np.interp(s, [p[0] for p in SPAR], [p[1] for p in SPAR])
+    A55 = np.trapezoid(RHO * np.pi * D ** 2 / 4 * s ** 2, s)
+    assert M[0, 0] == pytest.approx(mass, rel=1e-12)  # no heave added mass in strip theory
+    assert M[1, 1] == pytest.approx(Iyy + A55, rel=1e-6)
+    assert M[0, 1] == pytest.approx(0.0, abs=1e-6 * mass)
+    assert kd.MorisonCylinder("dry", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                              Ca=0.0, Cd=0.6, n_strips=2).inertia_elements() == []

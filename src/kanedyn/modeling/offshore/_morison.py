@@ -30,6 +30,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from ..._errors import ModelError
+from .._inertial_elements import AddedMass
 from ._member import MemberGeometry, rest_placement
 from ._waves import _LinearWaves
 
@@ -341,6 +342,20 @@ class MorisonCylinder:
             G = np.hstack([np.eye(3), -rx])
             M += self.Ca * self.rho * wA * G.T @ P @ G
         return M
+
+    def inertia_elements(self):
+        """The member's added mass as an inertial element for ``bodies=[...]``.
+
+        Returns
+        -------
+        list of AddedMass
+            One :class:`kanedyn.AddedMass` named ``<name>_added_mass`` with
+            :meth:`added_mass_matrix` about ``origin`` (empty when ``Ca`` is 0).
+        """
+        if self.Ca == 0:
+            return []
+        return [AddedMass(f"{self.name}_added_mass", self.origin, self.body_frame,
+                          self.added_mass_matrix(), self.frame)]
 
     def __repr__(self):
         return (f"MorisonCylinder({self.name!r}, n_strips={self.n_strips}, Ca={self.Ca}, "
