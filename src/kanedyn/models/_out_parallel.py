@@ -127,7 +127,8 @@ def out_parallel_ik(pose, rate=None, accel=None, geometry=None):
     ConstraintError
         When a strut cannot reach its platform anchor from its rail; the
         message names the leg, the point and by how much the strut is too
-        short (m).
+        short (m).  Also at the end of a leg's reach, where the strut is
+        perpendicular to its rail and the carriage rate is undetermined.
     """
     single = np.ndim(pose) == 1
     P = np.atleast_2d(np.asarray(pose, dtype=float))
@@ -181,6 +182,14 @@ def out_parallel_ik(pose, rate=None, accel=None, geometry=None):
         s = along - np.sqrt(L ** 2 - across ** 2)
         d = wv - s[:, None] * e                                        # C - A, length L
         de = d @ e
+        flat = np.flatnonzero(de <= 1e-12 * L)
+        if flat.size:
+            i = flat[0]
+            raise ConstraintError(
+                f"out-parallel-6dof: leg {j + 1} at point {i} (pose "
+                f"{np.array2string(P[i], precision=6)}): the strut is perpendicular to "
+                f"rail {j + 1} (at the end of its reach), so the carriage's rate is not "
+                "determined by the platform's")
         sd = np.einsum("ki,ki->k", d, vC) / de
         rel_v = vC - sd[:, None] * e
         sdd = (np.einsum("ki,ki->k", d, aC) + np.einsum("ki,ki->k", rel_v, rel_v)) / de
