@@ -87,3 +87,24 @@ def _describe(name):
                   for k, v in definition.specified.items()]
         print()
         print(table(inputs, ("specified input", "value"), title="specified inputs"))
+    if definition.actuators:
+        rows = [(a.name, a.kind, _transmission(a.transmission))
+                for a in definition.actuators]
+        print()
+        print(table(rows, ("actuator", "kind", "transmission"), title="actuators"))
+    if definition.body_groups:
+        rows = [(group, ", ".join(names)) for group, names in definition.body_groups.items()]
+        print()
+        print(table(rows, ("body group", "bodies"), title="body groups"))
+
+
+def _transmission(screw):
+    if screw is None:
+        return "none"
+    try:
+        lead, rotating = float(screw.lead), float(screw.rotating_inertia)
+        reflected = float(screw.reflected_inertia)
+    except TypeError:                       # symbolic: shown as given
+        return f"ball screw, lead {screw.lead}, J = {screw.rotating_inertia}"
+    return (f"ball screw, lead {lead:.6g} m, J_rotor + J_coupler + J_screw = {rotating:.6g} "
+            f"kg m^2 (reflected {reflected:.6g} kg)")

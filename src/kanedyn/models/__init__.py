@@ -20,6 +20,8 @@ from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
 from ._parallel import (PLANAR_3RRR_GEOMETRY, STEWART_GEOMETRY, newton_ik, planar_3rrr,
                         planar_3rrr_ik, quintic_pose, sinusoid_pose, stewart_anchors,
                         stewart_leg_lengths, stewart_platform)
+from ._out_parallel import (OUT_PARALLEL_GEOMETRY, OUT_PARALLEL_INERTIA, out_parallel_6dof,
+                            out_parallel_anchors, out_parallel_ik)
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -38,7 +40,9 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
            "planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "newton_ik",
            "quintic_pose", "sinusoid_pose", "stewart_platform", "STEWART_GEOMETRY",
-           "stewart_anchors", "stewart_leg_lengths"]
+           "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
+           "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
+           "out_parallel_ik"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -73,6 +77,7 @@ REGISTRY = {
                                         "stiffening": bool}),
     "3rrr": (planar_3rrr, {"gravity": bool}),
     "stewart-platform": (stewart_platform, {}),
+    "out-parallel-6dof": (out_parallel_6dof, {}),
 }
 
 

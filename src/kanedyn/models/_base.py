@@ -55,6 +55,15 @@ class ModelDefinition:
     constant_units : dict
         ``{Symbol: unit text}`` of constants whose unit is declared (shown by
         ``kanedyn list MODEL``); the others are in SI units too.
+    actuators : tuple
+        The model's declared actuators (:class:`~kanedyn.JointActuator`,
+        :class:`~kanedyn.LinearActuator`, with their transmissions), built on
+        the definition's own symbols, points and frames; not among its loads.
+        ``kd.ActuatorMap(model, definition.actuators)`` gives the actuator
+        forces of a motion.  Empty when the model declares none.
+    body_groups : dict
+        ``{group name: tuple of body names}``: bodies grouped for reports
+        (e.g. ``platform``, ``struts``, ``carriages``); empty when none.
     """
 
     name: str
@@ -69,6 +78,8 @@ class ModelDefinition:
     units: dict = field(default_factory=dict)
     shape_specs: tuple = ()
     constant_units: dict = field(default_factory=dict)
+    actuators: tuple = ()
+    body_groups: dict = field(default_factory=dict)
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the

@@ -24,6 +24,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ConstraintError, ModelError
+from ..modeling import JointActuator
 from ._base import ModelDefinition
 
 __all__ = ["planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "quintic_pose",
@@ -82,6 +83,9 @@ def planar_3rrr(gravity=False):
         ``symbols`` holds ``pose`` (``[x, y, phi]``), ``pose_rates``,
         ``theta``, ``psi``, ``dtheta``, ``dpsi``, ``N``, the geometry symbols
         ``R_b, r_p, l_1, l_2`` and ``anchors`` (the points :math:`C_i`).
+        ``actuators``: three :class:`~kanedyn.JointActuator` ``base1..3``,
+        torques on the proximal links about ``N.z`` (rates ``theta{i}'``);
+        ``body_groups``: ``platform``, ``proximal``, ``distal``.
     """
     if not isinstance(gravity, bool):
         raise ModelError(f"3rrr: gravity must be True or False, got {gravity!r}")
@@ -104,7 +108,7 @@ def planar_3rrr(gravity=False):
     bodies = [me.RigidBody("platform", Gp, P, mp,
                            (me.inertia(P, 0, 0, mp * rp ** 2 / 4), Gp))]
     centres = [Gp]
-    config, velocity, anchors = [], [], []
+    config, velocity, anchors, actuators = [], [], [], []
     for i in range(3):
         ca, sa = sm.cos(2 * sm.pi * i / 3 + sm.pi / 2), sm.sin(2 * sm.pi * i / 3 + sm.pi / 2)
         A = O.locatenew(f"A{i + 1}", Rb * (ca * N.x + sa * N.y))
@@ -124,6 +128,8 @@ def planar_3rrr(gravity=False):
             end.set_vel(N, tip.vel(N) + length * u * F.y)
             bodies.append(me.RigidBody(f"{name}{i + 1}", G, F, mass,
                                        (me.inertia(F, 0, 0, mass * length ** 2 / 12), G)))
+            if name == "proximal":
+                actuators.append(JointActuator(f"base{i + 1}", q, frame=F, axis=N.z))
             centres.append(G)
             tip = end
         gap = tip.pos_from(O) - C.pos_from(O)
@@ -157,6 +163,10 @@ def planar_3rrr(gravity=False):
         initial_state=initial, t_end=2.0,
         symbols=dict(pose=q_ind, pose_rates=u_ind, theta=theta, psi=psi, dtheta=dtheta,
                      dpsi=dpsi, N=N, R_b=Rb, r_p=rp, l_1=l1, l_2=l2, anchors=anchors),
+        actuators=tuple(actuators),
+        body_groups={"platform": ("platform",),
+                     "proximal": tuple(f"proximal{i}" for i in range(1, 4)),
+                     "distal": tuple(f"distal{i}" for i in range(1, 4))},
         description="The platform pose (x, y, phi) is independent; the six leg angles "
                     "are dependent, completed from the loop closures "
                     "(kd.models.planar_3rrr_ik gives them in closed form).")
@@ -515,6 +525,14 @@ def stewart_platform():
     Dependent: ``a1..6, b1..6`` (rad), ``s1..6`` (m), held by the eighteen
     loop closures :math:`A_j + s_j\hat l_j - (p + R c_j) = 0`.  The inverse
     kinematics is explicit (:func:`stewart_leg_lengths`).
+
+    Returns
+    -------
+    ModelDefinition
+        ``actuators``: six :class:`~kanedyn.JointActuator` ``leg1..6``, axial
+        forces along the leg extensions ``s{j}`` (positive pushes the platform
+        away from the base); ``body_groups``: ``platform`` and ``legs``
+        (cylinders and pistons).
     """
     pose = list(me.dynamicsymbols("x y z phi_x phi_y phi_z"))
     rates = list(me.dynamicsymbols("vx vy vz wx wy wz"))
@@ -540,7 +558,7 @@ def stewart_platform():
                                        mp * rp ** 2 / 2), Gp))]
     A_num, c_num = stewart_anchors()
     Rb = STEWART_GEOMETRY["R_b"]
-    config, velocity, centres = [], [], [Gp]
+    config, velocity, centres, actuators = [], [], [Gp], []
     for j in range(6):
         Aj = O.locatenew(f"A{j + 1}", sum((sm.nsimplify(v / Rb) * sm.Symbol("R_b") * e
                                            for v, e in zip(A_num[j], (N.x, N.y, N.z))),
@@ -564,6 +582,8 @@ def stewart_platform():
             bodies.append(me.RigidBody(f"{name}{j + 1}", G, L, mass,
                                        (me.inertia(L, moment, moment, 0), G)))
             centres.append(G)
+        actuators.append(JointActuator(f"leg{j + 1}", s[j], point=tip, reaction_point=Aj,
+                                       axis=L.z))
         gap = tip.pos_from(O) - Cj.pos_from(O)
         rate = tip.vel(N) - Cj.vel(N)
         config += [gap.dot(e) for e in (N.x, N.y, N.z)]
@@ -597,6 +617,10 @@ def stewart_platform():
         initial_state=initial, t_end=2.0,
         symbols=dict(pose=pose, pose_rates=rates, a=a, b=b, s=s, N=N, g=g, m_p=mp,
                      m_c=mc, m_r=mr),
+        actuators=tuple(actuators),
+        body_groups={"platform": ("platform",),
+                     "legs": tuple(f"{part}{j}" for j in range(1, 7)
+                                   for part in ("cylinder", "piston"))},
         description="The platform pose is independent; leg angles and lengths are "
                     "dependent (kd.models.stewart_leg_lengths gives the lengths in "
                     "closed form).")
