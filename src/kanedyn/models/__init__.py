@@ -20,6 +20,7 @@ from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
 from ._parallel import (PLANAR_3RRR_GEOMETRY, STEWART_GEOMETRY, newton_ik, planar_3rrr,
                         planar_3rrr_ik, quintic_pose, sinusoid_pose, stewart_anchors,
                         stewart_leg_lengths, stewart_platform)
+from ._oc3_tower import oc3_rna_node_mass, oc3_tower, oc3_tower_member
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -38,7 +39,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
            "planar_3rrr", "PLANAR_3RRR_GEOMETRY", "planar_3rrr_ik", "newton_ik",
            "quintic_pose", "sinusoid_pose", "stewart_platform", "STEWART_GEOMETRY",
-           "stewart_anchors", "stewart_leg_lengths"]
+           "stewart_anchors", "stewart_leg_lengths", "oc3_tower", "oc3_tower_member",
+           "oc3_rna_node_mass"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
