@@ -14,7 +14,8 @@ from scipy.optimize import brentq
 
 import kanedyn as kd
 from kanedyn.models._oc3_data import (HYDRO, MOORING, PLATFORM, RNA, SOURCES, TOWER,
-                                      TOWER_STATIONS, added_mass_matrix, all_figures, damping_matrix,
+                                      TOWER_STATIONS, added_mass_matrix, all_figures,
+                                      damping_matrix,
                                       hydrostatic_matrix, mooring_stiffness_matrix,
                                       rigid_body_mass_matrix, rna_inertia_about_cm,
                                       system_mass_matrix,
