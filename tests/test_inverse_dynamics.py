@@ -175,3 +175,29 @@ def test_trees_use_the_recursive_pass_and_loops_the_mass_matrix():
         eom = kd.models.build(name, **options).derive()
         rows = _recursive_inertia_forces(eom, len(eom.u), list(eom._table.udot), {})
         assert (rows is not None) == tree, name
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_equations_stay_as_derived(backend):
+    """The inverse function is built on an extension of the equations'
+    program: ``eom`` keeps its size and fingerprint, and a model built after
+    the inverse call computes the same as one built before."""
+    from kanedyn.numerics.backends._c import fingerprint
+    definition = kd.models.build("chain3d", n=3)
+    eom = definition.derive()
+    first = definition.numeric(eom, backend=backend)
+    size = len(eom._program)
+    key = fingerprint(eom._program, first._functions, first._sizes, first._cse)
+    listing = list(eom._program._order)
+    rng = np.random.default_rng(5)
+    q, u, udot = random_points(first, definition, rng, 4)
+    tau = first.inverse_dynamics(0.0, q, u, udot)
+    assert len(eom._program) == size
+    assert list(eom._program._order) == listing
+    assert fingerprint(eom._program, first._functions, first._sizes, first._cse) == key
+    second = definition.numeric(eom, backend=backend)
+    assert fingerprint(eom._program, second._functions, second._sizes, second._cse) == key
+    for i in range(q.shape[1]):
+        y = np.concatenate([q[:, i], u[:, i]])
+        np.testing.assert_array_equal(second.rhs(0.0, y), first.rhs(0.0, y))
+    np.testing.assert_array_equal(second.inverse_dynamics(0.0, q, u, udot), tau)

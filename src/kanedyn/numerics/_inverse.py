@@ -37,13 +37,39 @@ from .backends._python import compile_python, generate_python
 __all__ = ["inverse_dynamics"]
 
 
-def _specification(model):
-    """Arguments and outputs of the generated ``inverse`` function."""
+def _workspace(model):
+    """``(program, kinematics)`` the inverse function is built on, made on first use.
+
+    An extension (:meth:`~kanedyn.engine.Program.copy`) of the equations'
+    program and kinematics, kept by ``model``: the intermediates the inverse
+    function adds go there, so the equations (``eom``) stay as derived and
+    models built from them later are unaffected.
+    """
+    found = model.__dict__.get("_inverse_workspace")
+    if found is None:
+        eom = _equations(model)
+        prog = eom._program.copy()
+        kin = eom._kinematics.on(prog) if getattr(eom, "_kinematics", None) else None
+        found = model.__dict__["_inverse_workspace"] = (prog, kin)
+    return found
+
+
+def _equations(model):
     eom = getattr(model, "_eom", None)
     if eom is None:
         raise ModelError("inverse dynamics needs the model's equations, which a model "
                          "restored from a file does not carry; use the model built by "
                          "eom.numeric(...)")
+    return eom
+
+
+def _specification(model):
+    """Arguments and outputs of the generated ``inverse`` function.
+
+    The outputs are expressions of the program :func:`_workspace` gives (not
+    of ``model._eom._program``, which is left unchanged).
+    """
+    eom = _equations(model)
     if model.multiplier_form:
         raise ModelError(f"inverse dynamics is not available for the {eom.method!r} "
                          "formulation's multiplier form; use kd.kane")
@@ -51,7 +77,8 @@ def _specification(model):
     o = model.n_u
     mass, force = dynamics[1][1], dynamics[2][1]
     udot = list(eom._table.udot)
-    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions)
+    prog, kin = _workspace(model)
+    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions, kin)
     if inertia is None:  # the product with the mass-matrix entries
         inertia = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) for r in range(o)]
     tau = [inertia[r] - force[r] for r in range(o)]
@@ -59,15 +86,21 @@ def _specification(model):
     return inverse_args, [((o,), tau), dynamics[3], dynamics[4], dynamics[5]]
 
 
-def _recursive_inertia_forces(eom, o, rates, substitutions):
-    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``."""
+def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
+    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``.
+
+    New intermediates go to ``kin.prog`` (by default a copy of the equations'
+    program: ``eom`` itself is never extended).
+    """
     if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
         return None
     bodies = list(eom.bodies)
     if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
             or len(bodies) != len(eom._body_terms):
         return None
-    kin, prog = eom._kinematics, eom._program
+    if kin is None:
+        kin = eom._kinematics.on(eom._program.copy())
+    prog = kin.prog
     masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
               for b in bodies]
     inertias = [inertia_components(kin, b, f"body {b.name}")[1]
@@ -89,18 +122,19 @@ def _function(model, vectorized):
     if d["backend"] == "c" and not vectorized:
         from .backends._c import fingerprint, generate_c, load_module
         args, outputs = _specification(model)
+        prog = _workspace(model)[0]
         functions = dict(model._functions, inverse=(args, outputs))
         table = model._eom._table
         module = load_module(
-            fingerprint(model._eom._program, functions, model._sizes, model._cse),
-            lambda: generate_c(model._eom._program, functions, model._sizes,
+            fingerprint(prog, functions, model._sizes, model._cse),
+            lambda: generate_c(prog, functions, model._sizes,
                                describe=lambda e: str(table.external(e)), cse=model._cse))
         fn = module.inverse
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
             args, outputs = _specification(model)
-            sources[key] = generate_python(model._eom._program, key, args, outputs,
+            sources[key] = generate_python(_workspace(model)[0], key, args, outputs,
                                            vectorized=vectorized, cse=vectorized)
         fn = compile_python(sources[key], key)
     model._fn[key] = fn
