@@ -26,6 +26,8 @@ named intermediates.  No matrix is assembled or factorized, except the small
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -112,6 +114,13 @@ def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
     return [prog.subs(e, substitutions) for e in rows]
 
 
+def _generated(model):
+    """The specification, without the constraint outputs when no speed is
+    dependent (the function then returns the tuple ``(tau,)``)."""
+    args, outputs = _specification(model)
+    return args, (outputs if model.n_u_dep else outputs[:1])
+
+
 def _function(model, vectorized):
     """The generated ``inverse`` (or ``inverse_batch``) function, made on first use."""
     key = "inverse_batch" if vectorized else "inverse"
@@ -121,7 +130,7 @@ def _function(model, vectorized):
     d = model._data
     if d["backend"] == "c" and not vectorized:
         from .backends._c import fingerprint, generate_c, load_module
-        args, outputs = _specification(model)
+        args, outputs = _generated(model)
         prog = _workspace(model)[0]
         functions = dict(model._functions, inverse=(args, outputs))
         table = model._eom._table
@@ -133,7 +142,7 @@ def _function(model, vectorized):
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
-            args, outputs = _specification(model)
+            args, outputs = _generated(model)
             sources[key] = generate_python(_workspace(model)[0], key, args, outputs,
                                            vectorized=vectorized, cse=vectorized)
         fn = compile_python(sources[key], key)
@@ -182,6 +191,13 @@ def inverse_dynamics(model, t, q, u, udot):
         angular rate in rad/s), with the model's specified inputs at their
         given values.
     """
+    one = model.__dict__.get("_inverse_one")
+    if one is None:
+        one = model.__dict__["_inverse_one"] = _one_point(model)
+    if one:
+        tau = one(t, q, u, udot)
+        if tau is not None:
+            return tau
     single = np.ndim(q) == 1 and np.ndim(u) == 1 and np.ndim(udot) == 1
     count = 1 if np.ndim(q) == 1 else np.shape(q)[-1]
     n, o = model.n_q, model.n_u
@@ -217,6 +233,45 @@ def inverse_dynamics(model, t, q, u, udot):
     return out[:, 0] if single else out
 
 
+def _is_vector(x):
+    return x.ndim == 1 if type(x) is np.ndarray else np.ndim(x) == 1
+
+
+def _one_point(model):
+    """The direct call for one point of a model without dependent coordinates
+    or speeds, or ``False``.
+
+    The returned ``one(t, q, u, udot)`` fills fresh state and input vectors
+    and calls the generated function once (no shape bookkeeping for a
+    trajectory, no stacking); it returns ``None`` for anything other than a
+    scalar time and three 1-D arrays of all coordinates, speeds and rates
+    whose entries are finite, which :func:`inverse_dynamics` then checks (and
+    reports) the general way.
+    """
+    if model.n_q_dep or model.n_u_dep:
+        return False
+    fn = _function(model, vectorized=False)
+    n, o, params = model.n_q, model.n_u, model._p
+    k = len(model._inputs) if model._inputs else 0
+    inputs = model._input_values if k else None
+    scalars = (float, int, np.float64, np.float32, np.int64, np.int32)
+
+    def one(t, q, u, udot):
+        if type(t) not in scalars or not (_is_vector(q) and _is_vector(u)
+                                          and _is_vector(udot)):
+            return None
+        if len(q) != n or len(u) != o or len(udot) != o:
+            return None
+        y = np.concatenate((q, u), dtype=float)
+        ru = (np.concatenate((inputs(t, y), udot), dtype=float) if k
+              else np.asarray(udot, dtype=float))
+        if not math.isfinite(sum(y.tolist()) + sum(ru.tolist())):
+            return None  # nan or inf (or huge values): the general way
+        return fn(t, y, params, ru)[0]
+
+    return one
+
+
 def _point(fn, model, t, y, ru, p, m):
     """One point; ``ru``: the inputs' values then all rates (dependent ones zero)."""
     if not m:
@@ -232,9 +287,9 @@ def _point(fn, model, t, y, ru, p, m):
 
 
 def _batch(fn, model, t, Y, R, U, p, m):
-    tau, B, K, fa = fn(t, Y, model._p, np.vstack([R, U]))
     if not m:
-        return tau
+        return fn(t, Y, model._p, np.vstack([R, U]))[0]
+    tau, B, K, fa = fn(t, Y, model._p, np.vstack([R, U]))
     K, B = np.moveaxis(K, -1, 0), np.moveaxis(B, -1, 0)
     rhs = -(fa.T + (K[:, :, :p] @ U[:p].T[:, :, None])[..., 0])
     U = U.copy()
