@@ -273,3 +273,24 @@ def test_random_tree_against_pinocchio_rnea(random_tree, backend):
         np.testing.assert_allclose(tau[:, i], ref, rtol=0, atol=1e-10)
         one = model.inverse_dynamics(0.0, q[:, i], u[:, i], udot[:, i])
         np.testing.assert_allclose(one, ref, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_one_point_inputs_checked_like_trajectories(backend):
+    """The direct one-point call gives the trajectory call's column for lists,
+    integers and NumPy scalars, and refuses what the general way refuses."""
+    model = kd.models.build("chain3d", n=2).numeric(backend=backend)
+    q, u, udot = np.array([0.3, -0.2]), np.array([1.0, 2.0]), np.array([-1.0, 0.5])
+    ref = model.inverse_dynamics(np.array([0.0]), q[:, None], u[:, None], udot[:, None])
+    np.testing.assert_array_equal(model.inverse_dynamics(np.float64(0.0), q, u, udot),
+                                  ref[:, 0])
+    np.testing.assert_array_equal(model.inverse_dynamics(0, [0, 0], [0, 0], [0, 0]),
+                                  model.inverse_dynamics(0.0, np.zeros(2), np.zeros(2),
+                                                         np.zeros(2)))
+    for bad, name in [((np.nan, 0.0), "q"), ((0.0, np.inf), "q")]:
+        with pytest.raises(ValueError, match=f"{name} has entries that are not finite"):
+            model.inverse_dynamics(0.0, bad, u, udot)
+    with pytest.raises(ValueError, match="udot has entries that are not finite"):
+        model.inverse_dynamics(0.0, q, u, [0.0, np.nan])
+    with pytest.raises(ValueError, match="u must"):
+        model.inverse_dynamics(0.0, q, [1.0, 2.0, 3.0], udot)
