@@ -211,26 +211,74 @@ def inverse_dynamics(model, t, q, u, udot):
     Y[:q.shape[0]] = q
     Y[n:n + u.shape[0]] = u
     if l or m:
-        warm = q.shape[0] < n  # dependent guesses: the previous point's values
-        for i in range(count):
-            if warm and i:
-                Y[nq:n, i] = Y[nq:n, i - 1]
-            Y[:, i] = model.consistent_state(ts[i], Y[:, i])
+        _complete(model, ts, Y, warm=q.shape[0] < n)
     R = (np.array([model._input_values(ts[i], Y[:, i]) for i in range(count)]).T
          if model._inputs else np.zeros((0, count)))
     U = np.zeros((o, count))
     U[:p] = udot
-    if model._data["backend"] == "c" or count == 1:
+    if count == 1:
         fn = _function(model, vectorized=False)
-        YT = np.ascontiguousarray(Y.T)
-        RU = np.ascontiguousarray(np.vstack([R, U]).T)  # one row per point
-        out = np.empty((count, p))
-        for i in range(count):
-            out[i] = _point(fn, model, ts[i], YT[i], RU[i], p, m)
-        out = out.T
+        out = _point(fn, model, ts[0], Y[:, 0], np.concatenate([R[:, 0], U[:, 0]]), p, m)
+        out = out[:, None]
+    elif model._data["backend"] == "c":  # the compiled point function, stacked
+        out = _batch(_looped(_function(model, vectorized=False)), model, ts, Y, R, U, p, m)
     else:
         out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out
+
+
+def _complete(model, ts, Y, warm, tol=1e-12):
+    """Dependent coordinates and speeds of every column of ``Y``, in place.
+
+    Points whose coordinates already satisfy the configuration constraints
+    (``max |h| <= tol``, e.g. from a closed-form inverse kinematics) skip
+    Newton's method; their dependent speeds come from one batched solve of
+    the velocity constraints (linear in the speeds), the blocks checked for
+    singularity as :meth:`NumericModel.consistent_state` checks them.  Other
+    points, and any whose block is singular, go through
+    ``consistent_state`` (which names what fails).  With ``warm``, a point's
+    dependent coordinates start from the previous point's.
+    """
+    n, o, l, m = model.n_q, model.n_u, model.n_q_dep, model.n_u_dep
+    nq, count = n - l, Y.shape[1]
+    rows, blocks, residuals = [], [], []
+    for i in range(count):
+        if warm and i:
+            Y[nq:n, i] = Y[nq:n, i - 1]
+        h, _, B, c = model._constraint_terms(ts[i], Y[:, i])
+        if l and not np.max(np.abs(h)) <= tol:
+            Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
+        elif m:
+            rows.append(i)
+            blocks.append(B)
+            residuals.append(c)
+    if not rows:
+        return
+    B, c = np.array(blocks), np.array(residuals)
+    dep = B[:, :, o - m:]
+    scale = np.maximum(np.max(np.abs(B), axis=(1, 2)), 1e-300)
+    try:
+        inverse = np.linalg.inv(dep)
+        # 1/|inv|_F bounds the smallest singular value within a factor sqrt(m)
+        ok = np.all(np.isfinite(inverse), axis=(1, 2))
+        ok[ok] = 1.0 / np.linalg.norm(inverse[ok], axis=(1, 2)) > 1e-12 * scale[ok] * m
+    except np.linalg.LinAlgError:  # some block exactly singular
+        inverse, ok = None, np.zeros(len(rows), dtype=bool)
+    rows = np.asarray(rows)
+    for i in rows[~ok]:  # singular: the general way, which reports it
+        Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
+    if np.any(ok):
+        Y[n + o - m:, rows[ok]] -= (inverse[ok] @ c[ok][..., None])[..., 0].T
+
+
+def _looped(fn):
+    """``fn`` of one point applied to every column, outputs stacked with the
+    point axis last (the layout of the vectorized function)."""
+    def stacked(t, Y, params, RU):
+        YT, RT = np.ascontiguousarray(Y.T), np.ascontiguousarray(RU.T)
+        outs = [fn(t[i], YT[i], params, RT[i]) for i in range(len(t))]
+        return [np.stack([out[k] for out in outs], axis=-1) for k in range(len(outs[0]))]
+    return stacked
 
 
 def _is_vector(x):
