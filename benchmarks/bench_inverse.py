@@ -10,17 +10,29 @@ accelerations. Measured:
 - ``pinocchio.rnea(model, data, q, v, a)`` for one point;
 - the largest difference between the two, N m.
 
+Then the Stewart platform (``stewart-platform``, 6 independent and 18
+dependent coordinates) along a 1,000-point quintic rest-to-rest pose
+trajectory, compiled (C): the inverse kinematics in closed form (leg angles
+and lengths from :func:`kanedyn.models.stewart_leg_lengths`' geometry,
+vectorized over the trajectory) plus ``model.inverse_dynamics`` (dependent
+speeds and rates from the constraints), against the same forces obtained
+through the forward equations (reduced mass matrix and forcing at every point,
+``tau = M[:p] u' - f[:p]`` with the dependent rates from the acceleration
+constraint rows). Interleaved rounds, minimum of the thread CPU time
+(``time.thread_time``), spread printed.
+
 Ratios are between numbers measured in this run (design rule 15).
 
 Usage::
 
-    python benchmarks/bench_inverse.py [--sizes 5 10 30]
+    python benchmarks/bench_inverse.py [--sizes 5 10 30] [--rounds 7]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
+import time
 from pathlib import Path
 
 import numpy as np
@@ -54,9 +66,64 @@ def measure(n, points=1000, repeat=5, min_time=0.2):
     return one, batch, peer, float(np.max(np.abs(tau - ref)))
 
 
+def stewart_closed_form(P):
+    """All coordinates (24, k) of the Stewart platform at poses ``P`` (k, 6)."""
+    from kanedyn.models import stewart_anchors
+    A, c = stewart_anchors()
+    a, b, g = P[:, 3], P[:, 4], P[:, 5]
+    ca, sa, cb, sb, cg, sg = np.cos(a), np.sin(a), np.cos(b), np.sin(b), np.cos(g), np.sin(g)
+    R = np.stack([np.stack([cb * cg, -cb * sg, sb], -1),
+                  np.stack([sa * sb * cg + ca * sg, -sa * sb * sg + ca * cg, -sa * cb], -1),
+                  np.stack([-ca * sb * cg + sa * sg, ca * sb * sg + sa * cg, ca * cb], -1)],
+                 -2)  # body-fixed X-Y-Z, as the model
+    tips = P[:, None, :3] + np.einsum("kij,lj->kli", R, c) - A
+    s = np.linalg.norm(tips, axis=-1)
+    e = tips / s[..., None]
+    return np.hstack([P, np.arctan2(-e[..., 1], e[..., 2]), np.arcsin(e[..., 0]), s]).T
+
+
+def stewart(points=1000, rounds=7):
+    """Thread CPU times (s, per round) of the two ways, and their largest difference."""
+    definition = kd.models.build("stewart-platform")
+    model = definition.numeric(backend="c")
+    t = np.linspace(0.0, 2.0, points)
+    P, V, A = kd.models.quintic_pose(t, [0, 0, 0.4, 0, 0, 0],
+                                     [0.05, -0.03, 0.45, 0.1, -0.05, 0.2], 2.0)
+    p = model.n_u_ind
+
+    def inverse():
+        return model.inverse_dynamics(t, stewart_closed_form(P), V.T, A.T)
+
+    def forward():
+        Q = stewart_closed_form(P)
+        out = np.empty((p, points))
+        y = np.zeros(model.n_states)
+        for i in range(points):
+            y[:model.n_q] = Q[:, i]
+            y[model.n_q:] = 0.0
+            y[model.n_q:model.n_q + p] = V[i]
+            y = model.consistent_state(t[i], y)
+            M, f = model.mass_matrix(t[i], y), model.forcing(t[i], y)
+            ud = np.zeros(model.n_u)
+            ud[:p] = A[i]
+            ud[p:] = np.linalg.solve(M[p:, p:], f[p:] - M[p:, :p] @ ud[:p])
+            out[:, i] = M[:p] @ ud - f[:p]
+        return out
+
+    diff = float(np.max(np.abs(inverse() - forward())))
+    times = {"inverse": [], "forward": []}
+    for _ in range(rounds):
+        for name, fn in (("inverse", inverse), ("forward", forward)):
+            start = time.thread_time()
+            fn()
+            times[name].append(time.thread_time() - start)
+    return times, diff
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[5, 10, 30])
+    parser.add_argument("--rounds", type=int, default=7)
     args = parser.parse_args(argv)
     print(machine_info())
     print(f"{'n':>3}  {'kanedyn C, 1 point':>19}  {'per point of 1,000':>19}  "
@@ -65,6 +132,15 @@ def main(argv=None):
         one, batch, peer, diff = measure(n)
         print(f"{n:3d}  {one * 1e6:16.2f} us  {batch * 1e6:16.2f} us  {peer * 1e6:12.2f} us"
               f"  {one / peer:14.2f}  {diff:14.1e}")
+    times, diff = stewart(rounds=args.rounds)
+    print("\nStewart platform, 1,000-point quintic pose trajectory, C, closed-form IK "
+          "included (thread CPU time, min and spread over interleaved rounds):")
+    for name, label in (("inverse", "inverse_dynamics"),
+                        ("forward", "forward equations (M, f per point)")):
+        v = np.array(times[name]) * 1e3
+        print(f"  {label:36s} {v.min():8.1f} ms  (spread {v.max() - v.min():.1f} ms)")
+    print(f"  ratio forward / inverse {min(times['forward']) / min(times['inverse']):.1f}, "
+          f"max |difference| {diff:.1e} (N or N m)")
 
 
 if __name__ == "__main__":

@@ -2,8 +2,9 @@
 
 Checked against the forward equations (``mass_matrix`` and ``forcing`` in
 SymPy's reduced convention, open and closed chains), against Pinocchio's
-recursive Newton-Euler algorithm (``rnea``) on the 3D chain, and by a round
-trip through the forward right-hand side driven by the computed torques.
+recursive Newton-Euler algorithm (``rnea``) on the 3D chain and on a random
+tree read from a URDF file, and by a round trip through the forward
+right-hand side driven by the computed torques.
 """
 
 import numpy as np
@@ -175,3 +176,121 @@ def test_trees_use_the_recursive_pass_and_loops_the_mass_matrix():
         eom = kd.models.build(name, **options).derive()
         rows = _recursive_inertia_forces(eom, len(eom.u), list(eom._table.udot), {})
         assert (rows is not None) == tree, name
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_equations_stay_as_derived(backend):
+    """The inverse function is built on an extension of the equations'
+    program: ``eom`` keeps its size and fingerprint, and a model built after
+    the inverse call computes the same as one built before."""
+    from kanedyn.numerics.backends._c import fingerprint
+    definition = kd.models.build("chain3d", n=3)
+    eom = definition.derive()
+    first = definition.numeric(eom, backend=backend)
+    size = len(eom._program)
+    key = fingerprint(eom._program, first._functions, first._sizes, first._cse)
+    listing = list(eom._program._order)
+    rng = np.random.default_rng(5)
+    q, u, udot = random_points(first, definition, rng, 4)
+    tau = first.inverse_dynamics(0.0, q, u, udot)
+    assert len(eom._program) == size
+    assert list(eom._program._order) == listing
+    assert fingerprint(eom._program, first._functions, first._sizes, first._cse) == key
+    second = definition.numeric(eom, backend=backend)
+    assert fingerprint(eom._program, second._functions, second._sizes, second._cse) == key
+    for i in range(q.shape[1]):
+        y = np.concatenate([q[:, i], u[:, i]])
+        np.testing.assert_array_equal(second.rhs(0.0, y), first.rhs(0.0, y))
+    np.testing.assert_array_equal(second.inverse_dynamics(0.0, q, u, udot), tau)
+
+
+def random_tree_urdf(links, seed):
+    """A URDF text: ``links`` moving links on a random tree of revolute and
+    prismatic joints (random parents, origins, axes, masses, inertias and
+    inertial offsets) under a fixed base."""
+    rng = np.random.default_rng(seed)
+
+    def triple(scale):
+        return " ".join(f"{v:.6f}" for v in rng.uniform(-scale, scale, 3))
+
+    parts = ['<?xml version="1.0"?>', '<robot name="random_tree">',
+             '  <link name="base"/>']
+    for k in range(links):
+        a, b, c = rng.uniform(0.01, 0.05, 3)  # a valid inertia: principal values
+        ixy, ixz, iyz = rng.uniform(-0.002, 0.002, 3)  # + small products
+        parts.append(
+            f'  <link name="l{k}"><inertial><origin xyz="{triple(0.2)}" '
+            f'rpy="{triple(1.0)}"/><mass value="{rng.uniform(0.5, 3.0):.6f}"/>'
+            f'<inertia ixx="{b + c:.6f}" ixy="{ixy:.6f}" ixz="{ixz:.6f}" '
+            f'iyy="{a + c:.6f}" iyz="{iyz:.6f}" izz="{a + b:.6f}"/></inertial></link>')
+    for k in range(links):
+        parent = "base" if k == 0 else f"l{rng.integers(0, k)}"
+        kind = "prismatic" if rng.uniform() < 0.3 else "revolute"
+        parts.append(
+            f'  <joint name="j{k}" type="{kind}"><parent link="{parent}"/>'
+            f'<child link="l{k}"/><origin xyz="{triple(0.5)}" rpy="{triple(1.5)}"/>'
+            f'<axis xyz="{triple(1.0)}"/>'
+            '<limit lower="-3" upper="3" effort="100" velocity="10"/></joint>')
+    parts.append("</robot>")
+    return "\n".join(parts)
+
+
+@pytest.fixture(scope="module")
+def random_tree(tmp_path_factory):
+    pin = pytest.importorskip("pinocchio")
+    path = tmp_path_factory.mktemp("tree") / "random_tree.urdf"
+    path.write_text(random_tree_urdf(6, seed=2))
+    definition = kd.models.from_urdf(path)
+    return definition, definition.derive(), pin.buildModelFromUrdf(str(path))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_random_tree_against_pinocchio_rnea(random_tree, backend):
+    """A random tree (branches, revolute and prismatic joints, skewed axes,
+    offset and rotated inertias) read from one URDF file by kanedyn and by
+    Pinocchio: the inverse dynamics equals ``rnea`` to 1e-10, one point at a
+    time and a trajectory in one call."""
+    import pinocchio as pin
+    from test_urdf import pinocchio_state
+
+    definition, eom, pmodel = random_tree
+    parents = {pmodel.parents[i] for i in range(2, pmodel.njoints)}
+    assert len(parents) < pmodel.njoints - 1  # some link carries two children: a tree
+    pdata = pmodel.createData()
+    efforts = {j.effort_input: 0.0 for j in definition.joints}
+    model = definition.numeric(eom, specified=efforts, backend=backend)
+    assert model.n_u_dep == 0 and model.n_u == pmodel.nv
+    rng = np.random.default_rng(4)
+    count = 10
+    q, u, udot = rng.uniform(-1.5, 1.5, (3, model.n_q, count))
+    tau = model.inverse_dynamics(0.0, q, u, udot)
+    for i in range(count):
+        qp, vp, _, index = pinocchio_state(pmodel, definition, q[:, i], u[:, i])
+        ap = np.zeros(pmodel.nv)
+        ap[index] = udot[:, i]
+        ref = pin.rnea(pmodel, pdata, qp, vp, ap)[index]
+        np.testing.assert_allclose(tau[:, i], ref, rtol=0, atol=1e-10)
+        one = model.inverse_dynamics(0.0, q[:, i], u[:, i], udot[:, i])
+        np.testing.assert_allclose(one, ref, rtol=0, atol=1e-10)
+
+
+@pytest.mark.parametrize("backend", BACKENDS)
+def test_one_point_inputs_checked_like_trajectories(backend):
+    """The direct one-point call gives the trajectory call's column for lists,
+    integers and NumPy scalars, and refuses what the general way refuses."""
+    model = kd.models.build("chain3d", n=2).numeric(backend=backend)
+    q, u, udot = np.array([0.3, -0.2]), np.array([1.0, 2.0]), np.array([-1.0, 0.5])
+    ref = model.inverse_dynamics(np.array([0.0]), q[:, None], u[:, None], udot[:, None])
+    np.testing.assert_array_equal(model.inverse_dynamics(np.float64(0.0), q, u, udot),
+                                  ref[:, 0])
+    np.testing.assert_array_equal(model.inverse_dynamics(0, [0, 0], [0, 0], [0, 0]),
+                                  model.inverse_dynamics(0.0, np.zeros(2), np.zeros(2),
+                                                         np.zeros(2)))
+    for bad, name in [((np.nan, 0.0), "q"), ((0.0, np.inf), "q")]:
+        with pytest.raises(ValueError, match=f"{name} has entries that are not finite"):
+            model.inverse_dynamics(0.0, bad, u, udot)
+    with pytest.raises(ValueError, match="udot has entries that are not finite"):
+        model.inverse_dynamics(0.0, q, u, [0.0, np.nan])
+    with pytest.raises(ValueError, match="u must"):
+        model.inverse_dynamics(0.0, q, [1.0, 2.0, 3.0], udot)

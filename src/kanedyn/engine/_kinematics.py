@@ -116,6 +116,20 @@ class Kinematics:
             if isinstance(b, me.RigidBody):
                 self._body_frame.setdefault(b.masscenter, b.frame)
 
+    def on(self, program):
+        """These kinematics continued on ``program`` (an extension of
+        :attr:`prog`, e.g. :meth:`Program.copy`): frames and points already
+        resolved are shared, new ones are added to ``program`` only."""
+        new = Kinematics.__new__(Kinematics)
+        for name, value in vars(self).items():
+            if isinstance(value, (dict, list, set)):
+                value = type(value)(value)
+            setattr(new, name, value)
+        new._position_trees = {origin: (parents, dict(memo)) for origin, (parents, memo)
+                               in self._position_trees.items()}
+        new.prog = program
+        return new
+
     # ------------------------------------------------------------ conversion
     def internal(self, expr, where):
         return self.table.internal(expr, where)

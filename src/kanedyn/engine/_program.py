@@ -23,6 +23,7 @@ common subexpressions while the program is built.
 from __future__ import annotations
 
 import cmath
+import copy
 import itertools
 import math
 import random
@@ -81,6 +82,26 @@ class Program:
         self._samplers = {}
 
     # ------------------------------------------------------------------ build
+    def copy(self):
+        """An independent extension of this program.
+
+        The copy holds every intermediate (same symbols, same definitions) and
+        every cache; intermediates added to it later are not seen by this
+        program, whose listing, size and fingerprint stay as they are.  Random
+        samplers are copied with their state, so identity tests on either
+        program give the values they would have given on this one.
+        """
+        new = Program.__new__(Program)
+        for name, value in vars(self).items():
+            if name == "_samplers":
+                value = {k: copy.deepcopy(v) for k, v in value.items()}
+            elif isinstance(value, dict):
+                value = {k: dict(v) if isinstance(v, dict) else v for k, v in value.items()}
+            elif isinstance(value, (list, set)):
+                value = type(value)(value)
+            setattr(new, name, value)
+        return new
+
     def declare(self, symbol, derivative=_ZERO):
         """Declare ``symbol`` a base variable whose time derivative is ``derivative``.
 

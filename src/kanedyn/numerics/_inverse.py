@@ -26,6 +26,8 @@ named intermediates.  No matrix is assembled or factorized, except the small
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -37,13 +39,39 @@ from .backends._python import compile_python, generate_python
 __all__ = ["inverse_dynamics"]
 
 
-def _specification(model):
-    """Arguments and outputs of the generated ``inverse`` function."""
+def _workspace(model):
+    """``(program, kinematics)`` the inverse function is built on, made on first use.
+
+    An extension (:meth:`~kanedyn.engine.Program.copy`) of the equations'
+    program and kinematics, kept by ``model``: the intermediates the inverse
+    function adds go there, so the equations (``eom``) stay as derived and
+    models built from them later are unaffected.
+    """
+    found = model.__dict__.get("_inverse_workspace")
+    if found is None:
+        eom = _equations(model)
+        prog = eom._program.copy()
+        kin = eom._kinematics.on(prog) if getattr(eom, "_kinematics", None) else None
+        found = model.__dict__["_inverse_workspace"] = (prog, kin)
+    return found
+
+
+def _equations(model):
     eom = getattr(model, "_eom", None)
     if eom is None:
         raise ModelError("inverse dynamics needs the model's equations, which a model "
                          "restored from a file does not carry; use the model built by "
                          "eom.numeric(...)")
+    return eom
+
+
+def _specification(model):
+    """Arguments and outputs of the generated ``inverse`` function.
+
+    The outputs are expressions of the program :func:`_workspace` gives (not
+    of ``model._eom._program``, which is left unchanged).
+    """
+    eom = _equations(model)
     if model.multiplier_form:
         raise ModelError(f"inverse dynamics is not available for the {eom.method!r} "
                          "formulation's multiplier form; use kd.kane")
@@ -51,7 +79,8 @@ def _specification(model):
     o = model.n_u
     mass, force = dynamics[1][1], dynamics[2][1]
     udot = list(eom._table.udot)
-    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions)
+    prog, kin = _workspace(model)
+    inertia = _recursive_inertia_forces(eom, o, udot, model._substitutions, kin)
     if inertia is None:  # the product with the mass-matrix entries
         inertia = [sm.Add(*[mass[r * o + s] * udot[s] for s in range(o)]) for r in range(o)]
     tau = [inertia[r] - force[r] for r in range(o)]
@@ -59,15 +88,21 @@ def _specification(model):
     return inverse_args, [((o,), tau), dynamics[3], dynamics[4], dynamics[5]]
 
 
-def _recursive_inertia_forces(eom, o, rates, substitutions):
-    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``."""
+def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
+    """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``.
+
+    New intermediates go to ``kin.prog`` (by default a copy of the equations'
+    program: ``eom`` itself is never extended).
+    """
     if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
         return None
     bodies = list(eom.bodies)
     if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
             or len(bodies) != len(eom._body_terms):
         return None
-    kin, prog = eom._kinematics, eom._program
+    if kin is None:
+        kin = eom._kinematics.on(eom._program.copy())
+    prog = kin.prog
     masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
               for b in bodies]
     inertias = [inertia_components(kin, b, f"body {b.name}")[1]
@@ -79,6 +114,13 @@ def _recursive_inertia_forces(eom, o, rates, substitutions):
     return [prog.subs(e, substitutions) for e in rows]
 
 
+def _generated(model):
+    """The specification, without the constraint outputs when no speed is
+    dependent (the function then returns the tuple ``(tau,)``)."""
+    args, outputs = _specification(model)
+    return args, (outputs if model.n_u_dep else outputs[:1])
+
+
 def _function(model, vectorized):
     """The generated ``inverse`` (or ``inverse_batch``) function, made on first use."""
     key = "inverse_batch" if vectorized else "inverse"
@@ -88,19 +130,20 @@ def _function(model, vectorized):
     d = model._data
     if d["backend"] == "c" and not vectorized:
         from .backends._c import fingerprint, generate_c, load_module
-        args, outputs = _specification(model)
+        args, outputs = _generated(model)
+        prog = _workspace(model)[0]
         functions = dict(model._functions, inverse=(args, outputs))
         table = model._eom._table
         module = load_module(
-            fingerprint(model._eom._program, functions, model._sizes, model._cse),
-            lambda: generate_c(model._eom._program, functions, model._sizes,
+            fingerprint(prog, functions, model._sizes, model._cse),
+            lambda: generate_c(prog, functions, model._sizes,
                                describe=lambda e: str(table.external(e)), cse=model._cse))
         fn = module.inverse
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
-            args, outputs = _specification(model)
-            sources[key] = generate_python(model._eom._program, key, args, outputs,
+            args, outputs = _generated(model)
+            sources[key] = generate_python(_workspace(model)[0], key, args, outputs,
                                            vectorized=vectorized, cse=vectorized)
         fn = compile_python(sources[key], key)
     model._fn[key] = fn
@@ -148,6 +191,13 @@ def inverse_dynamics(model, t, q, u, udot):
         angular rate in rad/s), with the model's specified inputs at their
         given values.
     """
+    one = model.__dict__.get("_inverse_one")
+    if one is None:
+        one = model.__dict__["_inverse_one"] = _one_point(model)
+    if one:
+        tau = one(t, q, u, udot)
+        if tau is not None:
+            return tau
     single = np.ndim(q) == 1 and np.ndim(u) == 1 and np.ndim(udot) == 1
     count = 1 if np.ndim(q) == 1 else np.shape(q)[-1]
     n, o = model.n_q, model.n_u
@@ -161,26 +211,113 @@ def inverse_dynamics(model, t, q, u, udot):
     Y[:q.shape[0]] = q
     Y[n:n + u.shape[0]] = u
     if l or m:
-        warm = q.shape[0] < n  # dependent guesses: the previous point's values
-        for i in range(count):
-            if warm and i:
-                Y[nq:n, i] = Y[nq:n, i - 1]
-            Y[:, i] = model.consistent_state(ts[i], Y[:, i])
+        _complete(model, ts, Y, warm=q.shape[0] < n)
     R = (np.array([model._input_values(ts[i], Y[:, i]) for i in range(count)]).T
          if model._inputs else np.zeros((0, count)))
     U = np.zeros((o, count))
     U[:p] = udot
-    if model._data["backend"] == "c" or count == 1:
+    if count == 1:
         fn = _function(model, vectorized=False)
-        YT = np.ascontiguousarray(Y.T)
-        RU = np.ascontiguousarray(np.vstack([R, U]).T)  # one row per point
-        out = np.empty((count, p))
-        for i in range(count):
-            out[i] = _point(fn, model, ts[i], YT[i], RU[i], p, m)
-        out = out.T
+        out = _point(fn, model, ts[0], Y[:, 0], np.concatenate([R[:, 0], U[:, 0]]), p, m)
+        out = out[:, None]
+    elif model._data["backend"] == "c":  # the compiled point function, stacked
+        out = _batch(_looped(_function(model, vectorized=False)), model, ts, Y, R, U, p, m)
     else:
         out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out
+
+
+def _complete(model, ts, Y, warm, tol=1e-12):
+    """Dependent coordinates and speeds of every column of ``Y``, in place.
+
+    Points whose coordinates already satisfy the configuration constraints
+    (``max |h| <= tol``, e.g. from a closed-form inverse kinematics) skip
+    Newton's method; their dependent speeds come from one batched solve of
+    the velocity constraints (linear in the speeds), the blocks checked for
+    singularity as :meth:`NumericModel.consistent_state` checks them.  Other
+    points, and any whose block is singular, go through
+    ``consistent_state`` (which names what fails).  With ``warm``, a point's
+    dependent coordinates start from the previous point's.
+    """
+    n, o, l, m = model.n_q, model.n_u, model.n_q_dep, model.n_u_dep
+    nq, count = n - l, Y.shape[1]
+    rows, blocks, residuals = [], [], []
+    for i in range(count):
+        if warm and i:
+            Y[nq:n, i] = Y[nq:n, i - 1]
+        h, _, B, c = model._constraint_terms(ts[i], Y[:, i])
+        if l and not np.max(np.abs(h)) <= tol:
+            Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
+        elif m:
+            rows.append(i)
+            blocks.append(B)
+            residuals.append(c)
+    if not rows:
+        return
+    B, c = np.array(blocks), np.array(residuals)
+    dep = B[:, :, o - m:]
+    scale = np.maximum(np.max(np.abs(B), axis=(1, 2)), 1e-300)
+    try:
+        inverse = np.linalg.inv(dep)
+        # 1/|inv|_F bounds the smallest singular value within a factor sqrt(m)
+        ok = np.all(np.isfinite(inverse), axis=(1, 2))
+        ok[ok] = 1.0 / np.linalg.norm(inverse[ok], axis=(1, 2)) > 1e-12 * scale[ok] * m
+    except np.linalg.LinAlgError:  # some block exactly singular
+        inverse, ok = None, np.zeros(len(rows), dtype=bool)
+    rows = np.asarray(rows)
+    for i in rows[~ok]:  # singular: the general way, which reports it
+        Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
+    if np.any(ok):
+        Y[n + o - m:, rows[ok]] -= (inverse[ok] @ c[ok][..., None])[..., 0].T
+
+
+def _looped(fn):
+    """``fn`` of one point applied to every column, outputs stacked with the
+    point axis last (the layout of the vectorized function)."""
+    def stacked(t, Y, params, RU):
+        YT, RT = np.ascontiguousarray(Y.T), np.ascontiguousarray(RU.T)
+        outs = [fn(t[i], YT[i], params, RT[i]) for i in range(len(t))]
+        return [np.stack([out[k] for out in outs], axis=-1) for k in range(len(outs[0]))]
+    return stacked
+
+
+def _is_vector(x):
+    return x.ndim == 1 if type(x) is np.ndarray else np.ndim(x) == 1
+
+
+def _one_point(model):
+    """The direct call for one point of a model without dependent coordinates
+    or speeds, or ``False``.
+
+    The returned ``one(t, q, u, udot)`` fills fresh state and input vectors
+    and calls the generated function once (no shape bookkeeping for a
+    trajectory, no stacking); it returns ``None`` for anything other than a
+    scalar time and three 1-D arrays of all coordinates, speeds and rates
+    whose entries are finite, which :func:`inverse_dynamics` then checks (and
+    reports) the general way.
+    """
+    if model.n_q_dep or model.n_u_dep:
+        return False
+    fn = _function(model, vectorized=False)
+    n, o, params = model.n_q, model.n_u, model._p
+    k = len(model._inputs) if model._inputs else 0
+    inputs = model._input_values if k else None
+    scalars = (float, int, np.float64, np.float32, np.int64, np.int32)
+
+    def one(t, q, u, udot):
+        if type(t) not in scalars or not (_is_vector(q) and _is_vector(u)
+                                          and _is_vector(udot)):
+            return None
+        if len(q) != n or len(u) != o or len(udot) != o:
+            return None
+        y = np.concatenate((q, u), dtype=float)
+        ru = (np.concatenate((inputs(t, y), udot), dtype=float) if k
+              else np.asarray(udot, dtype=float))
+        if not math.isfinite(sum(y.tolist()) + sum(ru.tolist())):
+            return None  # nan or inf (or huge values): the general way
+        return fn(t, y, params, ru)[0]
+
+    return one
 
 
 def _point(fn, model, t, y, ru, p, m):
@@ -198,9 +335,9 @@ def _point(fn, model, t, y, ru, p, m):
 
 
 def _batch(fn, model, t, Y, R, U, p, m):
-    tau, B, K, fa = fn(t, Y, model._p, np.vstack([R, U]))
     if not m:
-        return tau
+        return fn(t, Y, model._p, np.vstack([R, U]))[0]
+    tau, B, K, fa = fn(t, Y, model._p, np.vstack([R, U]))
     K, B = np.moveaxis(K, -1, 0), np.moveaxis(B, -1, 0)
     rhs = -(fa.T + (K[:, :, :p] @ U[:p].T[:, :, None])[..., 0])
     U = U.copy()

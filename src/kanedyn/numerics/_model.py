@@ -33,6 +33,7 @@ from collections.abc import Mapping
 import numpy as np
 import sympy as sm
 
+from ._inverse import inverse_dynamics as _inverse_dynamics
 from .backends._python import compile_python, generate_python
 from .._errors import ConstraintError, MissingValueError, ModelError
 from ..modeling import body_parameters, body_values
@@ -659,8 +660,7 @@ class NumericModel(StateLayout):
         ...     constants={"m": 1.0, "l": 1.0, "g": 9.81})
         >>> tau = model.inverse_dynamics(0.0, [0.0], [0.0], [0.0])  # hold it still
         """
-        from ._inverse import inverse_dynamics
-        return inverse_dynamics(self, t, q, u, udot)
+        return _inverse_dynamics(self, t, q, u, udot)
 
     def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
         """The inverse-dynamics forces by cause and by body group.
