@@ -48,7 +48,7 @@ import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 from ..engine import dot, inertia_components, matvec
-from ._inverse import _rows, _specification
+from ._inverse import _rows, _specification, _workspace
 from .backends._python import compile_python, generate_python
 
 __all__ = ["InverseParts", "ActuatorParts", "PowerBalance", "inverse_parts",
@@ -175,7 +175,8 @@ def _parts_specification(model, gravity):
     """Arguments, outputs and the body and load names of the ``inverse_parts`` function."""
     args, (total, B, K, fa) = _specification(model)
     eom = model._eom
-    kin, prog, table = eom._kinematics, eom._program, eom._table
+    prog, kin = _workspace(model)
+    table = eom._table
     if eom.method != "kane" or kin is None:
         raise ModelError(f"inverse_parts needs equations derived by kd.kane, not by "
                          f"{eom.method!r}")
@@ -242,7 +243,7 @@ def _function(model, gravity):
     cache = model._data.setdefault("inverse_parts", {})
     if key not in cache:
         args, outputs, names, centres, locations = _parts_specification(model, gravity)
-        source = generate_python(model._eom._program, "inverse_parts", args, outputs,
+        source = generate_python(_workspace(model)[0], "inverse_parts", args, outputs,
                                  vectorized=True, cse=True)
         cache[key] = (source, names, centres, locations)
     source, names, centres, locations = cache[key]
