@@ -19,13 +19,25 @@ from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
                        Ellipsoid, ExternalWrench, JointActuator, LinearActuator,
                        FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
-                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint)
+                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint,
+                       VehicleMotion, CrashPulse, HalfSinePulse, HaversinePulse,
+                       TrapezoidPulse, pulse_from_delta_v, read_pulse_csv, cfc_filter,
+                       example_pulse)
 from .numerics import (ActuatorForces, ActuatorMap, MassMatrices, NumericModel,
                        OrthogonalSpeedsModel, actuator_forces, orthogonalize_speeds)
 from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
                          simulate, sweep)
 
 __all__ = [
+    "VehicleMotion",
+    "CrashPulse",
+    "HalfSinePulse",
+    "HaversinePulse",
+    "TrapezoidPulse",
+    "pulse_from_delta_v",
+    "read_pulse_csv",
+    "cfc_filter",
+    "example_pulse",
     "JointActuator",
     "LinearActuator",
     "BallScrew",

@@ -10,6 +10,8 @@
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``visuals``              shapes that draw bodies in the 3D viewer
+``vehicle``              prescribed vehicle motion: crash pulses, CSV records, CFC
+                         filters, the moving frame (``VehicleMotion``)
 """
 
 from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
@@ -21,6 +23,9 @@ from ._spec import ModelSpec, description_symbols, parse_model
 from ._units import constraint_units, speed_unit, state_units
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
+from .vehicle import (CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
+                      VehicleMotion, cfc_filter, example_pulse, pulse_from_delta_v,
+                      read_pulse_csv)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
 
@@ -31,4 +36,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
            "ReducedMember", "BeamMember", "FEMember", "NodeMass",
            "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
-           "LinearActuator", "BallScrew", "ExternalWrench"]
+           "LinearActuator", "BallScrew", "ExternalWrench", "VehicleMotion", "CrashPulse",
+           "HalfSinePulse", "HaversinePulse", "TrapezoidPulse", "pulse_from_delta_v",
+           "read_pulse_csv", "cfc_filter", "example_pulse"]
