@@ -14,6 +14,8 @@
 ``offshore``             floating structures: waves, Morison loads, hydrostatics,
                          mooring lines and systems, rotor thrust, turbulent wind
 ``visuals``              shapes that draw bodies in the 3D viewer
+``vehicle``              prescribed vehicle motion: crash pulses, CSV records, CFC
+                         filters, the moving frame (``VehicleMotion``)
 """
 
 from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
@@ -30,6 +32,9 @@ from .offshore import (NREL5MW_THRUST, AiryWave, CatenaryLine, CatenaryMooring, 
                        jonswap_gamma, jonswap_spectrum, kaimal_wind, wave_number)
 from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
                        ReducedMember)
+from .vehicle import (CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
+                      VehicleMotion, cfc_filter, example_pulse, pulse_from_delta_v,
+                      read_pulse_csv)
 from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
                                   VectorConstraint)
 
@@ -46,4 +51,6 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "CatenaryMooring", "RotorThrust", "ThrustCurve", "NREL5MW_THRUST", "kaimal_wind",
            "AiryWave", "IrregularSea",
            "jonswap_spectrum", "jonswap_gamma", "wave_number", "MorisonCylinder",
-           "Hydrostatics"]
+           "Hydrostatics", "VehicleMotion", "CrashPulse",
+           "HalfSinePulse", "HaversinePulse", "TrapezoidPulse", "pulse_from_delta_v",
+           "read_pulse_csv", "cfc_filter", "example_pulse"]
