@@ -44,7 +44,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "quintic_pose", "sinusoid_pose", "stewart_platform", "STEWART_GEOMETRY",
            "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
            "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
-           "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower", "oc3_tower_member", "oc3_rna_node_mass"]
+           "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
+           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {

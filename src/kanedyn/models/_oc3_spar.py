@@ -177,11 +177,12 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
     -------
     ModelDefinition
         ``constants``: ``m_d``, ``k_d``, ``c_d`` (with a TMD) and ``b``
-        (with the TMDI): change them through ``definition.numeric(constants=...)``.  ``symbols``: ``q``, ``u`` (lists), ``N``, ``B``, ``A``
+        (with the TMDI): change them through ``definition.numeric(constants=...)``.
+        ``symbols``: ``q``, ``u`` (lists), ``N``, ``B``, ``A``
         (nacelle frame), ``O``, ``P``, ``top``, ``hub``, ``damper``, ``tower``
         (FlexibleBody or RigidBody), ``tower_node`` (the inerter's terminal),
         ``elements`` (the force elements by name), ``s_d``, ``m_d``, ``k_d``,
-        ``c_d``, ``b``, ``potential_energy`` (SymPy, see :func:`oc3_potential`),
+        ``c_d``, ``b``, ``potential_energy`` (SymPy),
         ``options``.  ``initial_state``: the static offsets of
         :func:`oc3_static_offsets`.
     """
@@ -533,8 +534,8 @@ def oc3_settle(definition, model, y0=None, tol=1e-10):
 
     Newton-type root finding (SciPy's ``root``, hybrid method) on
     :math:`\\dot u(q, u = 0, t = 0) = 0` from ``y0`` (default: the
-    definition's initial state), for every coordinate except yaw when nothing
-    restores it.
+    definition's initial state), for every coordinate except surge, sway and
+    yaw without mooring (nothing restores them; they keep their values).
 
     Returns
     -------
@@ -551,7 +552,7 @@ def oc3_settle(definition, model, y0=None, tol=1e-10):
     n = model.n_q
     free = list(range(n))
     if definition.symbols["options"]["mooring"] == "none":
-        free.remove(5)  # yaw: no stiffness
+        free = [i for i in free if i not in (0, 1, 5)]  # surge, sway, yaw: no stiffness
 
     def residual(qf):
         y = y0.copy()
