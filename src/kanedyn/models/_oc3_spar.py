@@ -1,0 +1,570 @@
+r"""The OC3-Hywind spar floating wind turbine with a flexible tower and a TMD / TMDI.
+
+Bodies and coordinates (inertial frame ``N``: x downwind, y to port, z up,
+origin ``O`` on the still water line (SWL) at the undisplaced spar axis):
+
+* the platform, a rigid body with 6 dof: ``surge``, ``sway``, ``heave`` (the
+  displacement of the SWL reference point ``P`` on the spar axis, ``N``
+  components, m) and ``roll``, ``pitch``, ``yaw`` (rad): body-fixed z-y-x
+  (yaw, then pitch, then roll) Tait-Bryan angles of the platform frame ``B``
+  from ``N``.  The speeds are the coordinates' time derivatives.
+* the tower, from 10 m to 87.6 m above the SWL: a rigid body fixed to the
+  platform (``tower_modes=0``) or a :class:`~kanedyn.FlexibleBody` reduced by
+  Craig-Bampton to its lowest 2 or 4 bending modes (clamped to the platform;
+  :func:`~kanedyn.models.oc3_tower` without the RNA, which is a body of its own);
+* the rotor-nacelle assembly (RNA), a rigid body fixed to the tower top (the
+  top node's frame ``A``): mass, centre-of-mass offset and inertia of the
+  NREL 5-MW turbine;
+* the damper mass of a TMD (``tmdi="tmd"`` or ``"tmdi"``), a particle sliding
+  along the nacelle's fore-aft axis ``A.x`` at the tower top (coordinate
+  ``s_d``, m), held by a spring ``k_d`` and a dashpot ``c_d``; with
+  ``"tmdi"`` an inerter of inertance ``b`` joins it to the tower at a lower
+  height (its kinetic energy is :math:`\tfrac12 b \dot r^2`, with ``r`` the
+  fore-aft (``A.x``) component of the damper mass's position relative to the
+  tower point: the one-dimensional inerter of the TMDI literature;
+  a two-terminal :class:`~kanedyn.Inerter` on the nearly vertical line between
+  the two points would hardly be loaded by fore-aft motion).
+
+Forces: gravity; hydrostatics (``"linear"``: the published buoyancy-and-waterplane
+matrix about ``P`` with the published displaced volume's buoyancy, the weight
+term coming from gravity on the bodies; ``"large_angle"``:
+:class:`~kanedyn.Hydrostatics` of the spar geometry); added mass (``"sheet"``:
+the published 6 x 6 potential-flow matrix as a :class:`~kanedyn.AddedMass`;
+``"morison"``: strip theory with Ca = 1); the published additional linear
+damping (a :class:`~kanedyn.MatrixSpringDamper` with K = 0); Morison drag and
+wave excitation (:class:`~kanedyn.MorisonCylinder`, kinematics at the
+undisplaced position); mooring (``"linear"``: :meth:`~kanedyn.LinearMooring.oc3`;
+``"catenary"``: three quasi-static elastic catenary lines plus the yaw spring
+of the delta connection; ``"none"``); rotor thrust at the hub along ``A.x``
+(:class:`~kanedyn.RotorThrust` with the NREL 5-MW curve, relative wind, shaft
+tilt neglected).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from .._errors import ModelError
+from ..modeling import (NREL5MW_THRUST, AddedMass, AiryWave, CatenaryLine, CatenaryMooring,
+                        FlexibleBody, Hydrostatics, IrregularSea, LinearMooring,
+                        MatrixSpringDamper, MorisonCylinder, RateInertia, RotorThrust,
+                        jonswap_gamma, kaimal_wind, rotation_vector)
+from ._base import ModelDefinition
+from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER,
+                        added_mass_matrix, damping_matrix, hydrostatic_matrix,
+                        mooring_stiffness_matrix, rna_inertia_about_cm,
+                        tower_rigid_properties)
+from ._oc3_tower import oc3_tower
+
+__all__ = ["oc3_spar", "OC3_SPAR_OPTIONS", "spar_geometry", "oc3_settle",
+           "oc3_static_offsets", "tower_reference_mass"]
+
+T = me.dynamicsymbols._t
+
+#: option -> type, for the registry and ``kanedyn run oc3-spar --set name=value``
+OC3_SPAR_OPTIONS = {
+    "tower_modes": int, "tower_elements": int, "stiffening": bool,
+    "hydrostatics": str, "added_mass": str, "linear_damping": bool, "drag": bool,
+    "sea": str, "wave_height": float, "wave_period": float, "seed": int,
+    "mooring": str, "wind_speed": float, "turbulence": float,
+    "tmdi": str, "tmd_mass_ratio": float, "tmd_frequency": float, "tmd_damping": float,
+    "inertance_ratio": float, "inerter_height": float,
+}
+
+_CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "morison"),
+            "sea": ("still", "regular", "irregular"),
+            "mooring": ("linear", "catenary", "none"), "tmdi": ("off", "tmd", "tmdi")}
+
+_N_STRIPS = 10          # Morison strips over the wetted 120 m
+_WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
+
+
+def _v(group, key):
+    return group[key].value
+
+
+def spar_geometry():
+    """The spar's ``(s, D)`` stations along its axis from the SWL point (m, m)."""
+    return [(-_v(PLATFORM, "draft"), _v(PLATFORM, "lower_diameter")),
+            (_v(PLATFORM, "taper_bottom_z"), _v(PLATFORM, "lower_diameter")),
+            (_v(PLATFORM, "taper_top_z"), _v(PLATFORM, "upper_diameter")),
+            (_v(PLATFORM, "top_z"), _v(PLATFORM, "upper_diameter"))]
+
+
+def tower_reference_mass():
+    """Mass of the tower plus the RNA (kg): the reference of the TMD mass and inertance ratios."""
+    return _v(TOWER, "mass") + _v(RNA, "mass")
+
+
+def _check(options):
+    for key, choices in _CHOICES.items():
+        if options[key] not in choices:
+            raise ModelError(f"oc3-spar: option {key} must be one of {', '.join(choices)}, "
+                             f"got {options[key]!r}")
+    if options["tower_modes"] not in (0, 2, 4):
+        raise ModelError(f"oc3-spar: option tower_modes must be 0 (rigid tower), 2 or 4, got "
+                         f"{options['tower_modes']!r}")
+    positive = ("tower_elements", "tmd_mass_ratio", "tmd_frequency")
+    for key in positive:
+        if not options[key] > 0:
+            raise ModelError(f"oc3-spar: option {key} must be positive, got {options[key]!r}")
+    for key in ("wave_height", "wind_speed", "turbulence", "tmd_damping", "inertance_ratio"):
+        if not (math.isfinite(options[key]) and options[key] >= 0):
+            raise ModelError(f"oc3-spar: option {key} must be a finite number >= 0, got "
+                             f"{options[key]!r}")
+    if options["sea"] != "still" and not (options["wave_height"] > 0
+                                          and options["wave_period"] > 0):
+        raise ModelError(f"oc3-spar: sea={options['sea']} needs wave_height > 0 and "
+                         "wave_period > 0")
+    lo, hi = _v(TOWER, "base_z"), _v(TOWER, "top_z")
+    if not lo <= options["inerter_height"] < hi:
+        raise ModelError(f"oc3-spar: option inerter_height must lie on the tower, in "
+                         f"[{lo}, {hi}) m above the SWL, got {options['inerter_height']!r}")
+
+
+def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="linear",
+             added_mass="sheet", linear_damping=True, drag=True, sea="still", wave_height=0.0,
+             wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
+             tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
+             inertance_ratio=0.02, inerter_height=60.0):
+    r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
+
+    Parameters
+    ----------
+    tower_modes : {0, 2, 4}
+        0: rigid tower; 2 or 4: flexible tower with that many bending modes
+        (the first fore-aft and side-side, then the second ones).
+    tower_elements : int
+        Beam elements of the tower before reduction.
+    stiffening : bool
+        Geometric (gravity) stiffening of the flexible tower's modes.
+    hydrostatics : {"linear", "large_angle"}
+    added_mass : {"sheet", "morison"}
+        The published potential-flow matrix, or Morison's Ca = 1 on the strips.
+    linear_damping : bool
+        The published additional linear damping (surge, sway, heave, yaw).
+    drag : bool
+        Morison quadratic drag (Cd = 0.6) on the relative velocity.
+    sea : {"still", "regular", "irregular"}
+    wave_height, wave_period : float
+        Regular: height H and period T; irregular: Hs and Tp (JONSWAP with
+        IEC's gamma), m and s.
+    seed : int
+        Seed of the irregular sea's phases and of the turbulent wind.
+    mooring : {"linear", "catenary", "none"}
+    wind_speed : float
+        Mean wind at hub height, m/s; 0: rotor parked, no thrust.
+    turbulence : float
+        Turbulence intensity (0: steady wind), Kaimal spectrum.
+    tmdi : {"off", "tmd", "tmdi"}
+    tmd_mass_ratio : float
+        :math:`\mu = m_d / (m_{tower} + m_{RNA})` (599,718 kg).
+    tmd_frequency : float
+        Tuning frequency :math:`f_d`, Hz: :math:`k_d = m_d (2\pi f_d)^2`.
+    tmd_damping : float
+        Damping ratio :math:`\zeta_d`: :math:`c_d = 2\zeta_d m_d\,2\pi f_d`.
+    inertance_ratio : float
+        :math:`\beta = b / (m_{tower} + m_{RNA})` (``tmdi="tmdi"``).
+    inerter_height : float
+        Height above the SWL of the inerter's tower terminal (the nearest
+        tower node of the flexible tower), m.
+
+    Returns
+    -------
+    ModelDefinition
+        ``constants``: ``m_d``, ``k_d``, ``c_d`` (with a TMD) and ``b``
+        (with the TMDI): change them through ``definition.numeric(constants=...)``.
+        ``symbols``: ``q``, ``u`` (lists), ``N``, ``B``, ``A``
+        (nacelle frame), ``O``, ``P``, ``top``, ``hub``, ``damper``, ``tower``
+        (FlexibleBody or RigidBody), ``tower_node`` (the inerter's terminal),
+        ``elements`` (the force elements by name), ``s_d``, ``m_d``, ``k_d``,
+        ``c_d``, ``b``, ``potential_energy`` (SymPy),
+        ``options``.  ``initial_state``: the static offsets of
+        :func:`oc3_static_offsets`.
+    """
+    options = dict(tower_modes=tower_modes, tower_elements=tower_elements,
+                   stiffening=stiffening, hydrostatics=hydrostatics, added_mass=added_mass,
+                   linear_damping=linear_damping, drag=drag, sea=sea, wave_height=wave_height,
+                   wave_period=wave_period, seed=seed, mooring=mooring, wind_speed=wind_speed,
+                   turbulence=turbulence, tmdi=tmdi, tmd_mass_ratio=tmd_mass_ratio,
+                   tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
+                   inertance_ratio=inertance_ratio, inerter_height=inerter_height)
+    _check(options)
+    g = _v(ENVIRONMENT, "gravity")
+    rho = _v(ENVIRONMENT, "water_density")
+    depth = _v(ENVIRONMENT, "water_depth")
+
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    names = ("surge", "sway", "heave", "roll", "pitch", "yaw")
+    q6 = list(me.dynamicsymbols(" ".join(names)))
+    u6 = list(me.dynamicsymbols(" ".join(f"u_{n}" for n in names)))
+    x, y, z, phi, theta, psi = q6
+    B = me.ReferenceFrame("B")
+    B.orient_body_fixed(N, (psi, theta, phi), "zyx")
+    P = O.locatenew("P", x * N.x + y * N.y + z * N.z)
+    qd = {qi.diff(T): ui for qi, ui in zip(q6, u6)}
+    B.set_ang_vel(N, B.ang_vel_in(N).subs(qd))
+    P.set_vel(N, u6[0] * N.x + u6[1] * N.y + u6[2] * N.z)
+    q, u, kd_eqs = list(q6), list(u6), [qi.diff(T) - ui for qi, ui in zip(q6, u6)]
+    bodies, loads, potential = [], [], []
+    elements = {}
+
+    # ---------------------------------------------------------------- platform
+    m_p = _v(PLATFORM, "mass")
+    Gp = P.locatenew("G_platform", _v(PLATFORM, "cm_z") * B.z)
+    Gp.v2pt_theory(P, N, B)
+    platform = me.RigidBody("platform", Gp, B, m_p, (me.inertia(
+        B, _v(PLATFORM, "roll_inertia_cm"), _v(PLATFORM, "pitch_inertia_cm"),
+        _v(PLATFORM, "yaw_inertia_cm")), Gp))
+    bodies.append(platform)
+    loads.append((Gp, -m_p * g * N.z))
+    potential.append(m_p * g * Gp.pos_from(O).dot(N.z))
+
+    # ------------------------------------------------------------------- tower
+    base = P.locatenew("tower_base", _v(TOWER, "base_z") * B.z)
+    base.v2pt_theory(P, N, B)
+    if tower_modes == 0:
+        m_t, cm_t, I_t = tower_rigid_properties()
+        Gt = P.locatenew("G_tower", cm_t[2] * B.z)
+        Gt.v2pt_theory(P, N, B)
+        tower = me.RigidBody("tower", Gt, B, m_t, (me.inertia(B, *np.diag(I_t)), Gt))
+        loads.append((Gt, -m_t * g * N.z))
+        potential.append(m_t * g * Gt.pos_from(O).dot(N.z))
+        A = B
+        top = P.locatenew("top", _v(TOWER, "top_z") * B.z)
+        top.v2pt_theory(P, N, B)
+
+        def tower_point(height):
+            point = P.locatenew("tower_point", height * B.z)
+            point.v2pt_theory(P, N, B)
+            return point, height
+    else:
+        member = oc3_tower(tower_elements, tower_modes, rna=False)
+        tower = FlexibleBody("tower", B, base, member, stiffening=stiffening,
+                             gravity=-g * N.z)
+        q += list(tower.q)
+        u += list(tower.u)
+        kd_eqs += list(tower.kd_eqs)
+        potential.append(tower.gravitational_energy(O) + tower.strain_energy)
+        A = tower.node_frame(-1)
+        top = tower.node_point(-1)
+
+        def tower_point(height):
+            zs = member.nodes[:, 2] - member.nodes[member.reference_node, 2]
+            k = int(np.argmin(np.abs(zs + _v(TOWER, "base_z") - height)))
+            return tower.node_point(k), float(zs[k] + _v(TOWER, "base_z"))
+    bodies.append(tower)
+
+    # --------------------------------------------------------------------- RNA
+    m_rna = _v(RNA, "mass")
+    G_rna = top.locatenew("G_rna", _v(RNA, "cm_x") * A.x + _v(RNA, "cm_z") * A.z)
+    I_rna = rna_inertia_about_cm()
+    rna = me.RigidBody("rna", G_rna, A, m_rna, (me.inertia(
+        A, I_rna[0, 0], I_rna[1, 1], I_rna[2, 2], I_rna[0, 1], I_rna[1, 2], I_rna[0, 2]),
+        G_rna))
+    bodies.append(rna)
+    loads.append((G_rna, -m_rna * g * N.z))
+    potential.append(m_rna * g * G_rna.pos_from(O).dot(N.z))
+
+    # -------------------------------------------------------------- TMD / TMDI
+    m_d, k_d, c_d, b = sm.symbols("m_d k_d c_d b", nonnegative=True)
+    m_ref = tower_reference_mass()
+    md_value = tmd_mass_ratio * m_ref
+    wd = 2 * math.pi * tmd_frequency
+    constants = {m_d: md_value, k_d: md_value * wd ** 2, c_d: 2 * tmd_damping * md_value * wd,
+                 b: inertance_ratio * m_ref}
+    s_d = damper = tower_node = None
+    if tmdi != "off":
+        s_d, v_d = me.dynamicsymbols("s_d v_d")
+        q.append(s_d)
+        u.append(v_d)
+        kd_eqs.append(s_d.diff(T) - v_d)
+        damper = top.locatenew("damper", s_d * A.x)
+        bodies.append(me.Particle("tmd", damper, m_d))
+        loads += [(damper, (-k_d * s_d - c_d * v_d) * A.x - m_d * g * N.z),
+                  (top, (k_d * s_d + c_d * v_d) * A.x)]
+        potential += [m_d * g * damper.pos_from(O).dot(N.z), k_d * s_d ** 2 / 2]
+        if tmdi == "tmdi":
+            tower_node, height = tower_point(inerter_height)
+            r = damper.pos_from(tower_node).dot(A.x)
+            bodies.append(RateInertia("inerter", [r.diff(T)], b))
+            elements["inerter"] = (tower_node, height)
+
+    # ------------------------------------------------------------ hydrostatics
+    rest = dict.fromkeys(q6, 0.0)
+    if hydrostatics == "linear":
+        C = hydrostatic_matrix(weight=False)
+        hydro = MatrixSpringDamper("hydrostatics", B, P, N, C, np.zeros((6, 6)), O)
+        buoyancy = rho * g * _v(PLATFORM, "displaced_volume")
+        loads += hydro.to_loads() + [(P, buoyancy * N.z)]
+        potential.append(-buoyancy * z + _restoring_energy(C, P, O, B, N))
+    else:
+        hydro = Hydrostatics("hydrostatics", B, P, B.z, spar_geometry(), N, O, rest, rho,
+                             "large_angle", g=g)
+        loads += hydro.to_loads()
+    elements["hydrostatics"] = hydro
+
+    # ---------------------------------------------- added mass, waves, damping
+    if added_mass == "sheet":
+        bodies.append(AddedMass("added_mass", P, B, added_mass_matrix(), N))
+    waves = None
+    if sea == "regular":
+        waves = AiryWave(wave_height, wave_period, depth)
+    elif sea == "irregular":
+        waves = IrregularSea(wave_height, wave_period, jonswap_gamma(wave_height, wave_period),
+                             depth, n_components=200, seed=seed)
+    specified = {}
+    if drag or waves is not None or added_mass == "morison":
+        morison = MorisonCylinder(
+            "spar", B, P, B.z, spar_geometry(), N, O, rest, rho,
+            Ca=_v(HYDRO, "inertia_added_mass_coefficient"),
+            Cd=_v(HYDRO, "drag_coefficient") if drag else 0.0, n_strips=_N_STRIPS,
+            waves=waves)
+        elements["morison"] = morison
+        if drag or waves is not None:
+            loads += morison.to_loads()
+            specified.update(morison.specified())
+        if added_mass == "morison":
+            bodies += morison.inertia_elements()
+    if linear_damping:
+        damper_6 = MatrixSpringDamper("linear_damping", B, P, N, np.zeros((6, 6)),
+                                      damping_matrix(), O)
+        loads += damper_6.to_loads()
+        elements["linear_damping"] = damper_6
+
+    # ----------------------------------------------------------------- mooring
+    states = [*q, *u]
+    if mooring == "linear":
+        moor = LinearMooring.oc3(B, P, N, O)
+        loads += moor.to_loads()
+        potential.append(moor.vertical_load * z + _coupled_energy(moor.K, P, O, B, N))
+        elements["mooring"] = moor
+    elif mooring == "catenary":
+        moor = _catenary_mooring(B, P, N, O, g, rho)
+        loads += moor.to_loads()
+        specified.update(moor.specified(states))
+        K_yaw = np.zeros((6, 6))
+        K_yaw[5, 5] = _v(MOORING, "K66_yaw_spring")
+        yaw_spring = MatrixSpringDamper("yaw_spring", B, P, N, K_yaw, np.zeros((6, 6)), O)
+        loads += yaw_spring.to_loads()
+        potential.append(_restoring_energy(K_yaw, P, O, B, N))
+        elements["mooring"] = moor
+        elements["yaw_spring"] = yaw_spring
+
+    # ------------------------------------------------------------------- rotor
+    hub = top.locatenew("hub", -_v(ROTOR, "overhang") * A.x
+                        + (_v(ROTOR, "hub_height") - _v(TOWER, "top_z")) * A.z)
+    if wind_speed > 0:
+        wind = float(wind_speed)
+        if turbulence > 0:
+            t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
+                                   hub_height=_v(ROTOR, "hub_height"))
+            wind = _PeriodicSeries(t_w, v_w)
+        rotor = RotorThrust("rotor", hub, A.x, N, NREL5MW_THRUST, wind)
+        loads += rotor.to_loads()
+        specified.update(rotor.specified(states))
+        elements["rotor"] = rotor
+
+    initial = oc3_static_offsets(options)
+    state = {q6[names.index(key)]: value for key, value in initial.items()}
+    used = {m_d, k_d, c_d, b} if tmdi == "tmdi" else {m_d, k_d, c_d} if tmdi == "tmd" else set()
+    constants = {key: value for key, value in constants.items() if key in used}
+    what = [f"{tower_modes} tower modes" if tower_modes else "rigid tower",
+            f"{mooring} mooring", f"{sea} sea"]
+    if wind_speed > 0:
+        what.append(f"wind {wind_speed:g} m/s")
+    if tmdi != "off":
+        what.append(tmdi.upper())
+    return ModelDefinition(
+        name="oc3-spar",
+        title="OC3-Hywind spar floating wind turbine (" + ", ".join(what) + ")",
+        kane_args=dict(frame=N, q_ind=q, u_ind=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads,
+                       potential_energy=sm.Add(*potential)),
+        constants=constants, initial_state=state, t_end=60.0, specified=specified,
+        symbols=dict(q=q, u=u, N=N, B=B, A=A, O=O, P=P, top=top, hub=hub, damper=damper,
+                     tower=tower, tower_node=tower_node, elements=elements, s_d=s_d, m_d=m_d,
+                     k_d=k_d, c_d=c_d, b=b, potential_energy=sm.Add(*potential),
+                     options=options),
+        description="OC3-Hywind (Jonkman 2010) with the NREL 5-MW RNA: rigid 6-dof spar, "
+                    "tower rigid or Craig-Bampton flexible, hydrostatics, constant added "
+                    "mass, linear damping, Morison drag and waves, linear or catenary "
+                    "mooring, rotor thrust, TMD or TMDI in the nacelle "
+                    "(docs/oc3_model_card.md).",
+        units={s_d: "m"} if s_d is not None else {},
+        body_groups={"platform": ("platform",), "tower": ("tower",), "rna": ("rna",)})
+
+
+class _PeriodicSeries:
+    """A sampled series as a function of time, repeated beyond its length."""
+
+    def __init__(self, t, v):
+        self.t, self.v = np.asarray(t, float), np.asarray(v, float)
+        self.period = self.t[-1] + (self.t[1] - self.t[0])
+
+    def __call__(self, t):
+        return float(np.interp(t % self.period, self.t, self.v, period=self.period))
+
+
+def _rotation_energy(K_rr, B, N):
+    r""":math:`\tfrac12\mathrm{tr}(K'(I - R))`, :math:`K' = \mathrm{tr}(C)I - 2C`.
+
+    The potential whose torque is :math:`-\mathrm{vee}(\mathrm{skew}(R K'))`:
+    :math:`-C\theta` to first order, and exactly the moment
+    :math:`-C\,\sin\varphi\,n` of :class:`MatrixSpringDamper` for rotations
+    about one axis of ``C``'s principal axes (planar motions).
+    """
+    C = np.asarray(K_rr, float)
+    Kp = np.trace(C) * np.eye(3) - 2 * C
+    R = N.dcm(B)
+    return sm.Add(*[sm.Float(Kp[i, j]) * ((1 if i == j else 0) - R[j, i])
+                    for i in range(3) for j in range(3) if Kp[i, j] != 0]) / 2
+
+
+def _restoring_energy(K, P, O, B, N):
+    """Potential of a 6 x 6 matrix spring without translation-rotation coupling."""
+    K = np.asarray(K, float)
+    d = P.pos_from(O)
+    dv = [d.dot(e) for e in (N.x, N.y, N.z)]
+    trans = sm.Add(*[sm.Float(K[i, j]) * dv[i] * dv[j] / 2 for i in range(3)
+                     for j in range(3) if K[i, j] != 0])
+    return trans + _rotation_energy(K[3:, 3:], B, N)
+
+
+def _coupled_energy(K, P, O, B, N):
+    """Potential of the linear mooring: diagonal blocks exactly, the coupling symmetrized.
+
+    The coupling term :math:`d^T\\bar K_{tr}\\theta` (:math:`\\bar K` the
+    symmetric part) is the potential of the element's loads to first order in
+    the rotation only (see the model card: energy is conserved to
+    :math:`O(\\theta^2)` of the coupling energy with this mooring).
+    """
+    K = np.array(np.asarray(K, dtype=float))
+    Ks = (K + K.T) / 2
+    Kd = Ks.copy()
+    Kd[:3, 3:] = Kd[3:, :3] = 0
+    d = P.pos_from(O)
+    dv = [d.dot(e) for e in (N.x, N.y, N.z)]
+    th = rotation_vector(B, N)
+    tv = [th.dot(e) for e in (N.x, N.y, N.z)]
+    coupling = sm.Add(*[sm.Float(Ks[i, 3 + j]) * dv[i] * tv[j] for i in range(3)
+                        for j in range(3) if Ks[i, 3 + j] != 0])
+    return _restoring_energy(Kd, P, O, B, N) + coupling
+
+
+def _catenary_mooring(B, P, N, O, g, rho):
+    w = (_v(MOORING, "line_mass_per_length")
+         - rho * math.pi * _v(MOORING, "line_diameter") ** 2 / 4) * g
+    lines = []
+    for i in range(int(_v(MOORING, "n_lines"))):
+        a = math.pi + 2 * math.pi * i / 3     # first line upwind (-x)
+        c, s = math.cos(a), math.sin(a)
+        fair = P.locatenew(f"fairlead{i + 1}", _v(MOORING, "fairlead_radius") * (c * B.x + s * B.y)
+                           - _v(MOORING, "fairlead_depth") * B.z)
+        fair.v2pt_theory(P, N, B)
+        anchor = (_v(MOORING, "anchor_radius") * c, _v(MOORING, "anchor_radius") * s,
+                  -_v(MOORING, "anchor_depth"))
+        lines.append(CatenaryLine(anchor, fair, _v(MOORING, "unstretched_length"), w,
+                                  _v(MOORING, "line_EA"), name=f"line{i + 1}"))
+    return CatenaryMooring("mooring", lines, N, O)
+
+
+def _system_weight(options):
+    g = _v(ENVIRONMENT, "gravity")
+    mass = _v(PLATFORM, "mass") + _v(TOWER, "mass") + _v(RNA, "mass")
+    if options["tmdi"] != "off":
+        mass += options["tmd_mass_ratio"] * tower_reference_mass()
+    return mass * g
+
+
+def _catenary_vertical(heave):
+    """Total vertical mooring load (N, downward positive) of the three OC3 lines at ``heave``."""
+    g = _v(ENVIRONMENT, "gravity")
+    rho = _v(ENVIRONMENT, "water_density")
+    w = (_v(MOORING, "line_mass_per_length")
+         - rho * math.pi * _v(MOORING, "line_diameter") ** 2 / 4) * g
+    line = CatenaryLine((_v(MOORING, "anchor_radius"), 0.0, -_v(MOORING, "anchor_depth")),
+                        me.Point("fairlead"), _v(MOORING, "unstretched_length"), w,
+                        _v(MOORING, "line_EA"), name="OC3 line")
+    _, V = line.tensions((_v(MOORING, "fairlead_radius"), 0.0,
+                          heave - _v(MOORING, "fairlead_depth")))
+    return 3 * V
+
+
+def oc3_static_offsets(options):
+    """Heave (m) of static equilibrium from the vertical balance (the model's initial state).
+
+    Buoyancy of the published displaced volume plus the hydrostatic heave
+    stiffness against the weight of platform, tower, RNA (and TMD mass) and
+    the vertical mooring load: with linear mooring
+    :math:`z_0 = (\\rho g V - W - V_0)/(C_{33} + K_{33})`; with catenary
+    lines the same balance with the lines' load at the heaved fairleads
+    (SciPy's ``brentq``); without mooring :math:`(\\rho g V - W)/C_{33}`.
+    Pitch and tower deflection from the RNA's offset and the thrust are left
+    to :func:`oc3_settle` (the linear hydrostatics only; large-angle alike to
+    first order).
+
+    Returns
+    -------
+    dict
+        ``{"heave": z0}``.
+    """
+    from scipy.optimize import brentq
+    g = _v(ENVIRONMENT, "gravity")
+    rho = _v(ENVIRONMENT, "water_density")
+    buoy = rho * g * _v(PLATFORM, "displaced_volume")
+    W = _system_weight(options)
+    C33 = _v(HYDRO, "C33")
+    if options["mooring"] == "linear":
+        V0 = _catenary_vertical(0.0)
+        return {"heave": (buoy - W - V0) / (C33 + mooring_stiffness_matrix()[2, 2])}
+    if options["mooring"] == "none":
+        return {"heave": (buoy - W) / C33}
+    return {"heave": brentq(lambda zz: buoy - W - C33 * zz - _catenary_vertical(zz), -20, 20,
+                            xtol=1e-12)}
+
+
+def oc3_settle(definition, model, y0=None, tol=1e-10):
+    """Static equilibrium of the numeric model: the coordinates where all accelerations vanish.
+
+    Newton-type root finding (SciPy's ``root``, hybrid method) on
+    :math:`\\dot u(q, u = 0, t = 0) = 0` from ``y0`` (default: the
+    definition's initial state), for every coordinate except surge, sway and
+    yaw without mooring (nothing restores them; they keep their values).
+
+    Returns
+    -------
+    ndarray
+        The state ``[q, 0]``.
+
+    Raises
+    ------
+    ModelError
+        When the root finder does not converge.
+    """
+    from scipy.optimize import root
+    y0 = definition.initial(model) if y0 is None else np.array(y0, float)
+    n = model.n_q
+    free = list(range(n))
+    if definition.symbols["options"]["mooring"] == "none":
+        free = [i for i in free if i not in (0, 1, 5)]  # surge, sway, yaw: no stiffness
+
+    def residual(qf):
+        y = y0.copy()
+        y[free] = qf
+        y[n:] = 0.0
+        return model.rhs(0.0, y)[n:][free]
+
+    scale = np.ones(len(free))
+    sol = root(residual, y0[free], method="hybr", tol=tol, options={"diag": scale})
+    if not sol.success:
+        raise ModelError(f"oc3-spar: static equilibrium not found: {sol.message}")
+    y = y0.copy()
+    y[free] = sol.x
+    y[n:] = 0.0
+    return y
