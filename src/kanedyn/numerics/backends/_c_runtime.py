@@ -102,18 +102,26 @@ static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
 #if KD_SOLVE == 1
 KD_VECTORIZED static int kd_ltdl_dense(double *restrict A, double *restrict b) {
     const int n = KD_NU;
-    for (int k = n - 1; k >= 0; --k) {
-        double *restrict rk = A + k * n;
-        const double d = rk[k];
-        if (!(d > 0.0)) return 1;
-        const double inv = 1.0 / d;
-        for (int i = k - 1; i >= 0; --i) {
+    int k = n - 1;
+    for (; k >= 1; k -= 2) {  /* rows k and l = k - 1 eliminated together */
+        double *restrict rk = A + k * n, *restrict rl = A + (k - 1) * n;
+        const double dk = rk[k];
+        if (!(dk > 0.0)) return 1;
+        const double ik = 1.0 / dk, c = rk[k - 1] * ik;
+        for (int j = 0; j < k; ++j) rl[j] -= c * rk[j];
+        rk[k - 1] = c;
+        const double dl = rl[k - 1];
+        if (!(dl > 0.0)) return 1;
+        const double il = 1.0 / dl;
+        for (int i = k - 2; i >= 0; --i) {
             double *restrict ri = A + i * n;
-            const double a = rk[i] * inv;
-            for (int j = 0; j <= i; ++j) ri[j] -= a * rk[j];
-            rk[i] = a;  /* rk[j] for j < i is still unscaled */
+            const double a = rk[i] * ik, e = rl[i] * il;
+            for (int j = 0; j <= i; ++j) ri[j] -= a * rk[j] + e * rl[j];
+            rk[i] = a;  /* rk[j], rl[j] for j < i are still unscaled */
+            rl[i] = e;
         }
     }
+    if (k == 0 && !(A[0] > 0.0)) return 1;
     for (int k = n - 1; k > 0; --k) {  /* L^T z = b */
         const double *restrict rk = A + k * n;
         const double bk = b[k];
