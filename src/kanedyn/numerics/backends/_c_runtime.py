@@ -99,7 +99,8 @@ static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
 #define KD_VECTORIZED
 #endif
 
-#if KD_SOLVE == 1
+#if KD_NUDEP > 0  /* the reduced system is solved by LU */
+#elif KD_SOLVE == 1
 KD_VECTORIZED static int kd_ltdl_dense(double *restrict A, double *restrict b) {
     const int n = KD_NU;
     int k = n - 1;
