@@ -79,3 +79,69 @@ def sympy_docs_chain(n):
     return {"frame": N, "q_ind": list(q), "u_ind": list(u),
             "kd_eqs": [qk.diff() - uk for qk, uk in zip(q, u)],
             "bodies": bodies, "loads": loads, "constants": constants}
+
+
+def humanoid_links():
+    """The joints of a humanoid-like tree of 30 bodies, as data.
+
+    A fixed pelvis (the ground); a waist/spine chain of 3 joints; a neck and head
+    of 3; two arms of 6 (shoulder 3, elbow 1, wrist 2) from the top of the spine;
+    two legs of 6 (hip 3, knee 1, ankle 2) from the pelvis.  Every joint is
+    revolute and moves one new link.
+
+    Returns
+    -------
+    list of tuple
+        ``(joint, parent link, child link, origin xyz in the parent (m), axis)``,
+        parents before children.
+    """
+    joints = []
+
+    def limb(prefix, parent, origin, axes, step):
+        for k, axis in enumerate(axes):
+            child = f"{prefix}{k + 1}"
+            joints.append((f"j_{child}", parent, child, origin if k == 0 else step, axis))
+            parent = child
+        return parent
+
+    x, y, z = (1, 0, 0), (0, 1, 0), (0, 0, 1)
+    top = limb("spine", "pelvis", (0.0, 0.0, 0.1), (z, y, x), (0.0, 0.0, 0.15))
+    limb("head", top, (0.0, 0.0, 0.2), (z, y, x), (0.0, 0.0, 0.05))
+    for side, sy in (("l", 1.0), ("r", -1.0)):
+        limb(f"{side}arm", top, (0.0, 0.2 * sy, 0.15), (y, x, z, y, z, x), (0.0, 0.0, -0.12))
+        limb(f"{side}leg", "pelvis", (0.0, 0.1 * sy, -0.05), (z, x, y, y, y, x),
+             (0.0, 0.0, -0.2))
+    return joints
+
+
+def humanoid_urdf():
+    """URDF text of :func:`humanoid_links` (masses 0.5-2 kg, mass centres off the
+    joint axes, full central inertias), read by both kanedyn and Pinocchio."""
+    joints = humanoid_links()
+    links = ["pelvis"] + [child for _, _, child, _, _ in joints]
+    lines = ['<?xml version="1.0"?>', '<robot name="humanoid30">']
+    for k, name in enumerate(links):
+        m = 0.5 + 1.5 * ((7 * k) % 11) / 10.0
+        lines += [f'  <link name="{name}"><inertial>',
+                  f'    <origin xyz="0.01 {0.005 * (k % 3)} -0.06" rpy="0 0 0"/>',
+                  f'    <mass value="{m:.3f}"/>',
+                  f'    <inertia ixx="{0.01 * m:.5f}" ixy="0.0005" ixz="-0.0003" '
+                  f'iyy="{0.012 * m:.5f}" iyz="0.0002" izz="{0.006 * m:.5f}"/>',
+                  '  </inertial></link>']
+    for name, parent, child, xyz, axis in joints:
+        lines += [f'  <joint name="{name}" type="revolute">',
+                  f'    <parent link="{parent}"/><child link="{child}"/>',
+                  f'    <origin xyz="{xyz[0]} {xyz[1]} {xyz[2]}" rpy="0 0 0"/>',
+                  f'    <axis xyz="{axis[0]} {axis[1]} {axis[2]}"/>',
+                  '    <limit lower="-3.2" upper="3.2" effort="100" velocity="20"/>',
+                  '  </joint>']
+    lines.append("</robot>")
+    return "\n".join(lines)
+
+
+def pinocchio_urdf(text):
+    """(pinocchio Model, Data) of URDF text (fixed base, Pinocchio's gravity)."""
+    import pinocchio as pin
+
+    model = pin.buildModelFromXML(text)
+    return model, model.createData()

@@ -42,7 +42,7 @@ from ._python import CodegenError
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
-           "missing_compiler_text", "CHUNK"]
+           "missing_compiler_text", "CHUNK", "elimination_tree", "solver_source"]
 
 CHUNK = 2500  # statements per generated C function
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
@@ -210,7 +210,56 @@ def _wrapper_source(name, outputs, nr):
     return "\n".join(lines)
 
 
-CODEGEN_VERSION = "kanedyn-c-2"  # change when generated code changes meaning
+def elimination_tree(nonzero):
+    """Elimination tree of the ``L^T D L`` factorization (last index first).
+
+    Parameters
+    ----------
+    nonzero : numpy.ndarray of bool, shape (n, n)
+        Symmetric structure of the matrix (``True`` where an entry may be
+        nonzero).
+
+    Returns
+    -------
+    list of int
+        ``parent[k]`` (``-1`` for a root), with ``parent[k] < k``: after the
+        factorization, ``L[k, i]`` can be nonzero only for ``i`` an ancestor of
+        ``k``.  For a kinematic tree whose coordinates are numbered parents
+        first, the tree of the coordinates itself (no fill-in).
+    """
+    n = len(nonzero)
+    lower = [{j for j in range(k) if nonzero[k, j] or nonzero[j, k]} for k in range(n)]
+    parent = [-1] * n
+    for k in range(n - 1, -1, -1):
+        if lower[k]:
+            parent[k] = top = max(lower[k])
+            lower[top] |= lower[k] - {top}  # the fill-in of eliminating k
+    return parent
+
+
+def solver_source(functions, sizes):
+    """C definitions choosing the solve of ``M u' = f`` (``KD_SOLVE``).
+
+    The structural zeros of the mass matrix (entries of the ``dynamics``
+    output that are exactly zero) give its elimination tree: when that tree
+    is a single path (a dense factor), ``KD_SOLVE 1`` (dense ``L^T D L``);
+    otherwise ``KD_SOLVE 2`` and the parent array ``kd_parent`` (tree
+    ``L^T D L``, no work on the structural zeros).
+    """
+    n = sizes["n_u"]
+    if sizes["n_u_dep"] or n < 3:
+        return ["#define KD_SOLVE 1"]
+    _, outputs = functions["dynamics"]
+    shape, entries = outputs[1]
+    nonzero = np.array([not (sm.sympify(e) == 0) for e in entries], dtype=bool)
+    parent = elimination_tree(nonzero.reshape(n, n))
+    if all(parent[k] == k - 1 for k in range(n)):
+        return ["#define KD_SOLVE 1"]
+    return ["#define KD_SOLVE 2",
+            f"static const int kd_parent[{n}] = {{{', '.join(map(str, parent))}}};"]
+
+
+CODEGEN_VERSION = "kanedyn-c-3"  # change when generated code changes meaning
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER)
@@ -302,7 +351,8 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
                f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
                f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
-               f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}"]
+               f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
+               *solver_source(functions, sizes)]
     wrappers = []
     table = []
     for name, (arguments, outputs) in functions.items():

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 from . import _c_runtime
 from ..._version import __version__
-from ._c import _function_source
+from ._c import _function_source, solver_source
 
 __all__ = ["standalone_c"]
 
@@ -51,7 +51,7 @@ static void kd_free_work(double *w) {
 int kanedyn_rhs(double t, const double *y, const double *p, const double *r, double *ydot) {
     double *w = kd_work();
     if (w == NULL) return 2;
-    (void)kd_lu_solve; (void)kd_cholesky_solve;  /* one of them is used per model */
+    (void)kd_lu_solve;  /* used only by some models */
     int status = kd_rhs_core(t, y, p, r, w, ydot);
     kd_free_work(w);
     return status;
@@ -141,7 +141,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
                f"#define KANEDYN_NQ {n}", f"#define KANEDYN_NU {o}",
                f"#define KANEDYN_NQDEP {l}", f"#define KANEDYN_NUDEP {m}",
                f"#define KANEDYN_NSTATES {n + o}", f"#define KANEDYN_NP {n_p}",
-               f"#define KANEDYN_NR {n_r}"]
+               f"#define KANEDYN_NR {n_r}", *solver_source(functions, sizes)]
     public = _PUBLIC % {
         "states": _list([_c_string(s) for s in state_names], '""'),
         "parameters": _list([_c_string(s) for s in names], "NULL"),

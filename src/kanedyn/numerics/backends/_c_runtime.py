@@ -76,34 +76,97 @@ static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
     return 0;
 }
 
-/* Solve A x = b for symmetric positive definite A (Cholesky, lower triangle of
-   A used and overwritten).  Returns 0, or 1 if A is not positive definite. */
-static int kd_cholesky_solve(int n, double *A, double *b) {
-    for (int j = 0; j < n; ++j) {
-        double d = A[j * n + j];
-        for (int k = 0; k < j; ++k) d -= A[j * n + k] * A[j * n + k];
-        if (!(d > 0.0)) return 1;
-        d = sqrt(d);
-        A[j * n + j] = d;
-        double inv = 1.0 / d;
-        for (int i = j + 1; i < n; ++i) {
-            double s = A[i * n + j];
-            for (int k = 0; k < j; ++k) s -= A[i * n + k] * A[j * n + k];
-            A[i * n + j] = s * inv;
+/* M = L^T D L factorizations of the mass matrix (Featherstone's order: the
+   last coordinate first; L unit lower triangular, overwriting the strict lower
+   triangle of A, D on its diagonal), then the solve of A x = b in place.
+   Return 0, or 1 if A is not positive definite (a pivot not > 0).
+
+   kd_ltdl_dense: every entry of the lower triangle; the updates run along
+   contiguous rows (the compiler vectorizes them).
+   kd_ltdl_tree: only the entries (k, i) with i an ancestor of k in the
+   elimination tree kd_parent (-1 at a root), computed from the structural
+   zeros of the mass matrix when the module is generated; for a kinematic tree
+   with its coordinates numbered parents first, no fill-in (O(n d^2) for depth d). */
+#ifndef KD_SOLVE
+#define KD_SOLVE 1
+#endif
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__) && defined(__GLIBC__)
+/* vectorized (also for AVX2, chosen at load time) whatever the flags of the rest */
+#define KD_VECTORIZED __attribute__((optimize("O3"), target_clones("avx2", "default")))
+#elif defined(__GNUC__) && !defined(__clang__)
+#define KD_VECTORIZED __attribute__((optimize("O3")))
+#else
+#define KD_VECTORIZED
+#endif
+
+#if KD_NUDEP > 0  /* the reduced system is solved by LU */
+#elif KD_SOLVE == 1
+KD_VECTORIZED static int kd_ltdl_dense(double *restrict A, double *restrict b) {
+    const int n = KD_NU;
+    int k = n - 1;
+    for (; k >= 1; k -= 2) {  /* rows k and l = k - 1 eliminated together */
+        double *restrict rk = A + k * n, *restrict rl = A + (k - 1) * n;
+        const double dk = rk[k];
+        if (!(dk > 0.0)) return 1;
+        const double ik = 1.0 / dk, c = rk[k - 1] * ik;
+        for (int j = 0; j < k; ++j) rl[j] -= c * rk[j];
+        rk[k - 1] = c;
+        const double dl = rl[k - 1];
+        if (!(dl > 0.0)) return 1;
+        const double il = 1.0 / dl;
+        for (int i = k - 2; i >= 0; --i) {
+            double *restrict ri = A + i * n;
+            const double a = rk[i] * ik, e = rl[i] * il;
+            for (int j = 0; j <= i; ++j) ri[j] -= a * rk[j] + e * rl[j];
+            rk[i] = a;  /* rk[j], rl[j] for j < i are still unscaled */
+            rl[i] = e;
         }
     }
-    for (int i = 0; i < n; ++i) {
-        double s = b[i];
-        for (int k = 0; k < i; ++k) s -= A[i * n + k] * b[k];
-        b[i] = s / A[i * n + i];
+    if (k == 0 && !(A[0] > 0.0)) return 1;
+    for (int k = n - 1; k > 0; --k) {  /* L^T z = b */
+        const double *restrict rk = A + k * n;
+        const double bk = b[k];
+        for (int i = 0; i < k; ++i) b[i] -= rk[i] * bk;
     }
-    for (int i = n - 1; i >= 0; --i) {
-        double s = b[i];
-        for (int k = i + 1; k < n; ++k) s -= A[k * n + i] * b[k];
-        b[i] = s / A[i * n + i];
+    for (int k = 0; k < n; ++k) b[k] /= A[k * n + k];  /* D */
+    for (int k = 1; k < n; ++k) {  /* L x = z */
+        const double *restrict rk = A + k * n;
+        double s = b[k];
+        for (int i = 0; i < k; ++i) s -= rk[i] * b[i];
+        b[k] = s;
     }
     return 0;
 }
+#elif KD_SOLVE == 2
+static int kd_ltdl_tree(double *restrict A, double *restrict b) {
+    const int n = KD_NU;
+    for (int k = n - 1; k >= 0; --k) {
+        double *restrict rk = A + k * n;
+        const double d = rk[k];
+        if (!(d > 0.0)) return 1;
+        const double inv = 1.0 / d;
+        for (int i = kd_parent[k]; i >= 0; i = kd_parent[i]) {
+            double *restrict ri = A + i * n;
+            const double a = rk[i] * inv;
+            for (int j = i; j >= 0; j = kd_parent[j]) ri[j] -= a * rk[j];
+            rk[i] = a;
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {  /* L^T z = b */
+        const double *restrict rk = A + k * n;
+        const double bk = b[k];
+        for (int i = kd_parent[k]; i >= 0; i = kd_parent[i]) b[i] -= rk[i] * bk;
+    }
+    for (int k = 0; k < n; ++k) b[k] /= A[k * n + k];  /* D */
+    for (int k = 0; k < n; ++k) {  /* L x = z */
+        const double *restrict rk = A + k * n;
+        double s = b[k];
+        for (int i = kd_parent[k]; i >= 0; i = kd_parent[i]) s -= rk[i] * b[i];
+        b[k] = s;
+    }
+    return 0;
+}
+#endif
 
 #define KD_NX (KD_NQ + KD_NU)
 #define KD_NUI (KD_NU - KD_NUDEP)
@@ -119,10 +182,14 @@ static int kd_rhs_core(double t, const double *y, const double *p, const double 
     memcpy(out, qd, KD_NQ * sizeof(double));
     double *ud = out + KD_NQ;
 #if KD_NUDEP == 0
-    double L[KD_SZ(KD_NU * KD_NU)];
-    memcpy(L, M, sizeof(double) * KD_NU * KD_NU);
     memcpy(ud, f, sizeof(double) * KD_NU);
-    if (kd_cholesky_solve(KD_NU, L, ud) != 0) {
+#if KD_SOLVE == 2
+    int status = kd_ltdl_tree(M, ud);
+#else
+    int status = kd_ltdl_dense(M, ud);
+#endif
+    if (status != 0) {  /* not positive definite: M again, LU with pivoting */
+        kd_eval_dynamics(t, y, p, r, w, qd, M, f, B, Ka, fa);
         memcpy(ud, f, sizeof(double) * KD_NU);
         if (kd_lu_solve(KD_NU, M, ud, 1) != 0) return 1;
     }
