@@ -8,46 +8,119 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from . import models, schemes, visuals
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
-from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
-from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
-from .io import SavedFileError, load
-from .modeling import (AiryWave, Hydrostatics, IrregularSea, MorisonCylinder,
-                       jonswap_gamma, jonswap_spectrum, wave_number)
-from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScrew, BeamMember,
-                       Contact, Ellipsoid, ExternalWrench, Inerter, JointActuator,
-                       LinearActuator, RateInertia,
-                       FEMember, FlexibleBody, ImplicitSurface, NodeMass, OrthogonalVelocities,
-                       Plane, PointVelocity, ReducedMember, Sphere, Surface, VectorConstraint,
-                       SpringDamper, MatrixSpringDamper, LinearMooring, CatenaryLine,
-                       CatenaryMooring, RotorThrust, ThrustCurve, NREL5MW_THRUST,
-                       kaimal_wind, VehicleMotion, CrashPulse, HalfSinePulse,
-                       HaversinePulse, TrapezoidPulse, pulse_from_delta_v, read_pulse_csv,
-                       cfc_filter, example_pulse)
-from .numerics import (ActuatorForces, ActuatorMap, ActuatorParts, InverseParts,
-                       MassMatrices, NumericModel, OrthogonalSpeedsModel, PowerBalance,
-                       actuator_forces, actuator_parts, inverse_parts, orthogonalize_speeds,
-                       power_balance)
-from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted, TrustWarning,
-                         simulate, sweep)
+
+# Everything else is imported when first used (``kd.simulate``, ``from kanedyn
+# import kane``): ``import kanedyn`` stays fast and imports neither SciPy nor
+# Matplotlib.  public name -> the module that defines it
+_LAZY = {
+    'models': '.',
+    'schemes': '.',
+    'visuals': '.',
+    'NewtonEulerCheck': '.analysis',
+    'check_newton_euler': '.analysis',
+    'plot_mode_shapes': '.analysis',
+    'FORMULATIONS': '.formulations',
+    'EquationsOfMotion': '.formulations',
+    'formulate': '.formulations',
+    'kane': '.formulations',
+    'SavedFileError': '.io',
+    'load': '.io',
+    'AiryWave': '.modeling',
+    'Hydrostatics': '.modeling',
+    'IrregularSea': '.modeling',
+    'MorisonCylinder': '.modeling',
+    'jonswap_gamma': '.modeling',
+    'jonswap_spectrum': '.modeling',
+    'wave_number': '.modeling',
+    'SURFACE_COORDINATES': '.modeling',
+    'AddedMass': '.modeling',
+    'AngularVelocity': '.modeling',
+    'BallScrew': '.modeling',
+    'BeamMember': '.modeling',
+    'Contact': '.modeling',
+    'Ellipsoid': '.modeling',
+    'ExternalWrench': '.modeling',
+    'Inerter': '.modeling',
+    'JointActuator': '.modeling',
+    'LinearActuator': '.modeling',
+    'RateInertia': '.modeling',
+    'FEMember': '.modeling',
+    'FlexibleBody': '.modeling',
+    'ImplicitSurface': '.modeling',
+    'NodeMass': '.modeling',
+    'OrthogonalVelocities': '.modeling',
+    'Plane': '.modeling',
+    'PointVelocity': '.modeling',
+    'ReducedMember': '.modeling',
+    'Sphere': '.modeling',
+    'Surface': '.modeling',
+    'VectorConstraint': '.modeling',
+    'SpringDamper': '.modeling',
+    'MatrixSpringDamper': '.modeling',
+    'LinearMooring': '.modeling',
+    'CatenaryLine': '.modeling',
+    'CatenaryMooring': '.modeling',
+    'RotorThrust': '.modeling',
+    'ThrustCurve': '.modeling',
+    'NREL5MW_THRUST': '.modeling',
+    'kaimal_wind': '.modeling',
+    'ActuatorForces': '.numerics',
+    'ActuatorMap': '.numerics',
+    'ActuatorParts': '.numerics',
+    'InverseParts': '.numerics',
+    'MassMatrices': '.numerics',
+    'NumericModel': '.numerics',
+    'OrthogonalSpeedsModel': '.numerics',
+    'PowerBalance': '.numerics',
+    'actuator_forces': '.numerics',
+    'actuator_parts': '.numerics',
+    'inverse_parts': '.numerics',
+    'orthogonalize_speeds': '.numerics',
+    'power_balance': '.numerics',
+    'Impact': '.simulation',
+    'ModeChange': '.simulation',
+    'SimulationResult': '.simulation',
+    'SweepInterrupted': '.simulation',
+    'TrustWarning': '.simulation',
+    'simulate': '.simulation',
+    'sweep': '.simulation',
+    'VehicleMotion': '.modeling',
+    'CrashPulse': '.modeling',
+    'HalfSinePulse': '.modeling',
+    'HaversinePulse': '.modeling',
+    'TrapezoidPulse': '.modeling',
+    'pulse_from_delta_v': '.modeling',
+    'read_pulse_csv': '.modeling',
+    'cfc_filter': '.modeling',
+    'example_pulse': '.modeling',
+}
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    if module == ".":
+        value = importlib.import_module(f".{name}", __name__)
+    else:
+        value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = [
     "RateInertia",
     "Inerter",
     "AddedMass",
-    "VehicleMotion",
-    "CrashPulse",
-    "HalfSinePulse",
-    "HaversinePulse",
-    "TrapezoidPulse",
-    "pulse_from_delta_v",
-    "read_pulse_csv",
-    "cfc_filter",
-    "example_pulse",
     "JointActuator",
     "LinearActuator",
     "BallScrew",
@@ -124,4 +197,13 @@ __all__ = [
     "SimulationInterrupted",
     "TrustWarning",
     "SingularConfigurationWarning",
+    "VehicleMotion",
+    "CrashPulse",
+    "HalfSinePulse",
+    "HaversinePulse",
+    "TrapezoidPulse",
+    "pulse_from_delta_v",
+    "read_pulse_csv",
+    "cfc_filter",
+    "example_pulse",
 ]

@@ -5,7 +5,6 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-import numpy as np
 
 from .._progress import Progress
 from ..models import build
@@ -24,6 +23,7 @@ def add_parser(sub):
 
 
 def cmd_demo(args):
+    import numpy as np
     """Derive the Whipple bicycle, map its stability against speed, ride it."""
     from ..analysis import PUBLISHED_STABLE_SPEEDS, plot_bicycle_eigenvalues, pyplot
     from ..models import eigenvalues_vs_speed, stability_speeds, upright_state

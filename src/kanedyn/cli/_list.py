@@ -6,7 +6,6 @@ from __future__ import annotations
 import inspect
 
 from .._errors import KanedynError
-from ..engine import name_of
 from ..models import REGISTRY, build
 from ._table import table
 
@@ -32,7 +31,7 @@ def cmd_list(args):
         rows = []
         for name, (builder, options) in REGISTRY.items():
             opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items())
-            rows.append((name, builder().title, opts))
+            rows.append((name, builder.title, opts))
         print(table(rows, ("model", "description", "options (--set NAME=VALUE)")))
         return 0
     if args.model not in REGISTRY:
@@ -51,6 +50,7 @@ def option_defaults(name):
 
 
 def _describe(name):
+    from ..engine import name_of
     definition = build(name)
     print(f"{name}: {definition.title}")
     options = option_defaults(name)

@@ -15,8 +15,6 @@ import os
 import tempfile
 from pathlib import Path
 
-import numpy as np
-
 from .._errors import KanedynError
 from .._number_text import parse_number
 from ..models import REGISTRY
@@ -112,7 +110,7 @@ def parse_sets(model_name, pairs):
 
 
 def _finite(number, key, text):
-    if not np.isfinite(number):
+    if not math.isfinite(number):
         raise KanedynError(f"--set {key}: {text!r} is not a finite number")
     return number
 

@@ -5,7 +5,6 @@ from __future__ import annotations
 import json
 import sys
 
-import numpy as np
 
 from .._errors import KanedynError, SimulationInterrupted
 from .._progress import Progress
@@ -88,6 +87,7 @@ def _write_run(definition, eom, model, res, out, progress):
 
 
 def _simulate(model, t_end, y0, args, progress, forces):
+    import numpy as np
     from ..simulation import simulate
     t_eval = np.linspace(0.0, t_end, max(2, int(args.points)))
     return simulate(model, (0.0, t_end), y0, method=args.method, rtol=args.rtol,

@@ -9,9 +9,9 @@
 
 from __future__ import annotations
 
+import math
 import sys
 
-import numpy as np
 
 from .._errors import KanedynError
 from .._number_text import parse_number
@@ -57,6 +57,7 @@ def add_parser(sub):
 
 def parse_grid(text, what):
     """Values of ``start:stop:count`` or ``a,b,c`` (numbers, never evaluated as code)."""
+    import numpy as np
     if ":" in text:
         parts = text.split(":")
         if len(parts) != 3:
@@ -88,7 +89,7 @@ def parse_range(text, what):
 
 
 def _finite(value, what):
-    if not np.isfinite(value):
+    if not math.isfinite(value):
         raise KanedynError(f"{what}: values must be finite")
     return value
 

@@ -9,26 +9,72 @@
 from __future__ import annotations
 
 from .._errors import ModelError
-from ._base import ModelDefinition
-from ._bicycle_analysis import eigenvalues_vs_speed, stability_speeds, upright_state
-from ._classic import chain3d, chaplygin_sleigh, four_bar, n_link_pendulum_on_cart, pendulum
-from ._constraint_models import block_wedge, knife_edge, pin_slot, rod_bead, rolling_disk_contact
-from ._flexible_models import flexible_robot, spin_up_beam
-from ._contact_models import (bead_in_tube, block_on_incline, bouncing_ball, falling_rod, ladder,
-                              slug_ellipsoid, sphere_slug)
-from ._iftomm import n_four_bar, n_four_bar_exact, n_four_bar_singular_times
-from ._parallel import (PLANAR_3RRR_GEOMETRY, STEWART_GEOMETRY, newton_ik, planar_3rrr,
-                        planar_3rrr_ik, quintic_pose, sinusoid_pose, stewart_anchors,
-                        stewart_leg_lengths, stewart_platform)
-from ._out_parallel import (OUT_PARALLEL_GEOMETRY, OUT_PARALLEL_INERTIA, out_parallel_6dof,
-                            out_parallel_anchors, out_parallel_ik)
-from ._oc3_spar import OC3_SPAR_OPTIONS, oc3_settle, oc3_spar, oc3_static_offsets
-from ._oc3_tower import oc3_rna_node_mass, oc3_tower, oc3_tower_member
-from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
-from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
-from ._shuttle_arm import shuttle_arm
-from ._snake import snake
-from ._urdf import JointInfo, URDFDefinition, URDFError, Visual, from_urdf
+from . import _oc3_options
+
+#: public name -> the module (in this package) that defines it; imported on first use
+_LAZY = {
+    'ModelDefinition': '._base',
+    'eigenvalues_vs_speed': '._bicycle_analysis',
+    'stability_speeds': '._bicycle_analysis',
+    'upright_state': '._bicycle_analysis',
+    'chain3d': '._classic',
+    'chaplygin_sleigh': '._classic',
+    'four_bar': '._classic',
+    'n_link_pendulum_on_cart': '._classic',
+    'pendulum': '._classic',
+    'block_wedge': '._constraint_models',
+    'knife_edge': '._constraint_models',
+    'pin_slot': '._constraint_models',
+    'rod_bead': '._constraint_models',
+    'rolling_disk_contact': '._constraint_models',
+    'bead_in_tube': '._contact_models',
+    'block_on_incline': '._contact_models',
+    'bouncing_ball': '._contact_models',
+    'falling_rod': '._contact_models',
+    'ladder': '._contact_models',
+    'slug_ellipsoid': '._contact_models',
+    'sphere_slug': '._contact_models',
+    'flexible_robot': '._flexible_models',
+    'spin_up_beam': '._flexible_models',
+    'n_four_bar': '._iftomm',
+    'n_four_bar_exact': '._iftomm',
+    'n_four_bar_singular_times': '._iftomm',
+    'nonholonomic_particle': '._nonholonomic',
+    'sphere_on_turntable': '._nonholonomic',
+    'OUT_PARALLEL_GEOMETRY': '._out_parallel',
+    'OUT_PARALLEL_INERTIA': '._out_parallel',
+    'out_parallel_6dof': '._out_parallel',
+    'out_parallel_anchors': '._out_parallel',
+    'out_parallel_ik': '._out_parallel',
+    'PLANAR_3RRR_GEOMETRY': '._parallel',
+    'STEWART_GEOMETRY': '._parallel',
+    'newton_ik': '._parallel',
+    'planar_3rrr': '._parallel',
+    'planar_3rrr_ik': '._parallel',
+    'quintic_pose': '._parallel',
+    'sinusoid_pose': '._parallel',
+    'stewart_anchors': '._parallel',
+    'stewart_leg_lengths': '._parallel',
+    'stewart_platform': '._parallel',
+    'MEIJAARD_2007': '._rolling',
+    'rolling_disk': '._rolling',
+    'whipple_bicycle': '._rolling',
+    'shuttle_arm': '._shuttle_arm',
+    'snake': '._snake',
+    'JointInfo': '._urdf',
+    'URDFDefinition': '._urdf',
+    'URDFError': '._urdf',
+    'Visual': '._urdf',
+    'from_urdf': '._urdf',
+    'oc3_spar': '._oc3_spar',
+    'oc3_settle': '._oc3_spar',
+    'oc3_static_offsets': '._oc3_spar',
+    'oc3_tower': '._oc3_tower',
+    'oc3_tower_member': '._oc3_tower',
+    'oc3_rna_node_mass': '._oc3_tower',
+    'OC3_SPAR_OPTIONS': '._oc3_options',
+}
+
 
 __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
@@ -47,47 +93,136 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
            "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS"]
 
+
+class _Builder:
+    """A built-in model's builder, imported when first called.
+
+    ``title`` is the title of the model built with its default options
+    (``kanedyn list`` shows it without importing SymPy; a test checks it
+    against ``builder().title``).
+    """
+
+    def __init__(self, name):
+        self.__name__ = self.__qualname__ = name
+        self.title = _TITLES[name]
+
+    @property
+    def function(self):
+        """The builder function itself."""
+        return __getattr__(self.__name__)
+
+    @property
+    def __signature__(self):
+        import inspect
+        return inspect.signature(self.function)
+
+    @property
+    def __doc__(self):
+        return self.function.__doc__
+
+    def __call__(self, *args, **kwargs):
+        return self.function(*args, **kwargs)
+
+    def __repr__(self):
+        return f"<builder {self.__name__} of kanedyn.models>"
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
+
+#: builder -> title of the model built with its default options (kanedyn list)
+_TITLES = {
+    'pendulum': 'simple pendulum (point mass on a massless rod)',
+    'n_link_pendulum_on_cart': '3-link pendulum on a cart pushed by F(t)',
+    'chain3d': '3D chain of 5 links, revolute joints of alternating axes',
+    'rolling_disk': 'thin disk rolling without slip (nonholonomic)',
+    'chaplygin_sleigh': 'Chaplygin sleigh (knife edge, nonholonomic)',
+    'four_bar': 'planar four-bar linkage under gravity (closed loop)',
+    'whipple_bicycle': 'Whipple bicycle, benchmark parameters (Meijaard et al. 2007)',
+    'sphere_slug': 'particle sliding inside a sphere with friction, zero g',
+    'slug_ellipsoid': 'slug on the wall of a spinning, translating ellipsoidal tank (zero g)',
+    'block_on_incline': 'block on a plane whose inclination increases: stick-slip',
+    'bead_in_tube': 'bead in a spinning square tube: floor and wall friction, slip then stick',
+    'bouncing_ball': 'ball bouncing on a floor with restitution',
+    'ladder': 'ladder sliding against a rough wall and floor',
+    'falling_rod': 'rod falling on a rough floor: impacts with friction',
+    'nonholonomic_particle': "particle with z' = y x' on a spring (nonholonomic vs vakonomic)",
+    'sphere_on_turntable': 'uniform sphere rolling on a spinning turntable',
+    'rod_bead': 'bead on a uniformly turning horizontal rod (vector guide)',
+    'pin_slot': 'crank and slotted lever, joints as vector constraints',
+    'knife_edge': 'Chaplygin sleigh, knife edge as a vector constraint',
+    'rolling_disk_contact': 'rolling disk as a free body with a vector contact constraint',
+    'block_wedge': 'block on a wedge on a smooth floor (vector constraints)',
+    'snake': '5-link snake robot on passive wheels, serpenoid joint torques',
+    'shuttle_arm': ('Shuttle arm (SRMS, 6 revolute joints, with a Hubble-class payload '
+                    '(11,110 kg)), PD-tracked manoeuvre'),
+    'n_four_bar': ('IFToMM benchmark A02: 10 four-bar linkages in a row (singular '
+                   "positions; the benchmark's n is 40)"),
+    'spin_up_beam': 'spin-up of a cantilever on a hub to 6 rad/s, with geometric stiffening',
+    'flexible_robot': ('elastic one-dof robot: hub, flexible link and payload, rest-to-rest '
+                       'torque pulse'),
+    'planar_3rrr': 'planar 3-RRR parallel manipulator (horizontal)',
+    'stewart_platform': 'Stewart-Gough platform, six UPS legs, under gravity',
+    'out_parallel_6dof': ('6-dof out-parallel manipulator: ball-screw carriages on rails, struts,'
+                          ' under gravity'),
+    'oc3_spar': ('OC3-Hywind spar floating wind turbine (2 tower modes, linear'
+                 ' mooring, still sea)'),
+}
+
 #: name -> (builder, {option: type})
 REGISTRY = {
-    "pendulum": (pendulum, {"tension": bool}),
-    "n-link-pendulum-on-cart": (n_link_pendulum_on_cart, {"n": int}),
-    "chain3d": (chain3d, {"n": int, "style": str}),
-    "rolling-disk": (rolling_disk, {"normal_force": bool}),
-    "chaplygin-sleigh": (chaplygin_sleigh, {"lateral_force": bool}),
-    "four-bar": (four_bar, {}),
-    "whipple-bicycle": (whipple_bicycle, {}),
-    "sphere-slug": (sphere_slug, {}),
-    "slug-ellipsoid": (slug_ellipsoid, {}),
-    "block-on-incline": (block_on_incline, {}),
-    "bead-in-tube": (bead_in_tube, {"omega": float}),
-    "bouncing-ball": (bouncing_ball, {"restitution": float}),
-    "ladder": (ladder, {"frictionless": bool, "angle": float}),
-    "falling-rod": (falling_rod, {"angle": float, "restitution": float, "mu": float,
+    "pendulum": (_Builder("pendulum"), {"tension": bool}),
+    "n-link-pendulum-on-cart": (_Builder("n_link_pendulum_on_cart"), {"n": int}),
+    "chain3d": (_Builder("chain3d"), {"n": int, "style": str}),
+    "rolling-disk": (_Builder("rolling_disk"), {"normal_force": bool}),
+    "chaplygin-sleigh": (_Builder("chaplygin_sleigh"), {"lateral_force": bool}),
+    "four-bar": (_Builder("four_bar"), {}),
+    "whipple-bicycle": (_Builder("whipple_bicycle"), {}),
+    "sphere-slug": (_Builder("sphere_slug"), {}),
+    "slug-ellipsoid": (_Builder("slug_ellipsoid"), {}),
+    "block-on-incline": (_Builder("block_on_incline"), {}),
+    "bead-in-tube": (_Builder("bead_in_tube"), {"omega": float}),
+    "bouncing-ball": (_Builder("bouncing_ball"), {"restitution": float}),
+    "ladder": (_Builder("ladder"), {"frictionless": bool, "angle": float}),
+    "falling-rod": (_Builder("falling_rod"), {"angle": float, "restitution": float, "mu": float,
                                    "law": str}),
-    "nonholonomic-particle": (nonholonomic_particle, {}),
-    "sphere-turntable": (sphere_on_turntable, {}),
-    "rod-bead": (rod_bead, {}),
-    "pin-slot": (pin_slot, {}),
-    "knife-edge": (knife_edge, {}),
-    "rolling-disk-contact": (rolling_disk_contact, {}),
-    "block-wedge": (block_wedge, {}),
-    "snake": (snake, {"n": int}),
-    "shuttle-arm": (shuttle_arm, {"payload": bool, "flexible_booms": bool}),
-    "n-four-bar": (n_four_bar, {"n": int}),
-    "spin-up-beam": (spin_up_beam, {"omega_s": float, "stiffening": bool, "n_modes": int,
-                                    "n_elements": int}),
-    "flexible-robot": (flexible_robot, {"n_modes": int, "n_elements": int,
+    "nonholonomic-particle": (_Builder("nonholonomic_particle"), {}),
+    "sphere-turntable": (_Builder("sphere_on_turntable"), {}),
+    "rod-bead": (_Builder("rod_bead"), {}),
+    "pin-slot": (_Builder("pin_slot"), {}),
+    "knife-edge": (_Builder("knife_edge"), {}),
+    "rolling-disk-contact": (_Builder("rolling_disk_contact"), {}),
+    "block-wedge": (_Builder("block_wedge"), {}),
+    "snake": (_Builder("snake"), {"n": int}),
+    "shuttle-arm": (_Builder("shuttle_arm"), {"payload": bool, "flexible_booms": bool}),
+    "n-four-bar": (_Builder("n_four_bar"), {"n": int}),
+    "spin-up-beam": (_Builder("spin_up_beam"), {"omega_s": float, "stiffening": bool,
+                                                "n_modes": int, "n_elements": int}),
+    "flexible-robot": (_Builder("flexible_robot"), {"n_modes": int, "n_elements": int,
                                         "stiffening": bool}),
-    "3rrr": (planar_3rrr, {"gravity": bool}),
-    "stewart-platform": (stewart_platform, {}),
-    "out-parallel-6dof": (out_parallel_6dof, {}),
-    "oc3-spar": (oc3_spar, dict(OC3_SPAR_OPTIONS)),
+    "3rrr": (_Builder("planar_3rrr"), {"gravity": bool}),
+    "stewart-platform": (_Builder("stewart_platform"), {}),
+    "out-parallel-6dof": (_Builder("out_parallel_6dof"), {}),
+    "oc3-spar": (_Builder("oc3_spar"), _oc3_options.OC3_SPAR_OPTIONS),
 }
+
+
 
 
 def available():
     """``[(name, title)]`` of the built-in models."""
-    return [(name, builder().title) for name, (builder, _) in REGISTRY.items()]
+    return [(name, builder.title) for name, (builder, _) in REGISTRY.items()]
 
 
 def build(name, **options):
@@ -109,4 +244,7 @@ def build(name, **options):
     if unknown:
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
                          f"its options: {sorted(allowed) or 'none'}")
-    return builder(**options)
+    definition = builder(**options)
+    # what the model is built from: the key of its derivation cache (see numeric)
+    object.__setattr__(definition, "_origin", (name, tuple(sorted(options.items()))))
+    return definition

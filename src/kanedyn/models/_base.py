@@ -10,7 +10,10 @@ import sympy as sm
 from .._errors import ModelError
 from ..engine import name_of
 
-__all__ = ["ModelDefinition"]
+__all__ = ["ModelDefinition", "DERIVE_STATS"]
+
+#: what this process did (read by tests): ``derivations``, models derived
+DERIVE_STATS = {"derivations": 0}
 
 
 @dataclass(frozen=True)
@@ -85,11 +88,26 @@ class ModelDefinition:
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the
         model's name, title and declared units."""
         from ..formulations import formulate
+        DERIVE_STATS["derivations"] += 1
         eom = formulate(method=method, progress=progress, **self.kane_args)
         return eom._label(name=self.name, title=self.title, units=self.units or None)
 
     def numeric(self, eom=None, constants=None, specified=None, **options):
-        """Numerical model with the default constants, updated by ``constants``."""
+        """Numerical model with the default constants, updated by ``constants``.
+
+        A built-in model (from :func:`kanedyn.models.build`) with the C backend
+        and no ``eom`` or ``specified`` given is kept in a derivation cache
+        beside the compiled modules, keyed by its name and options: a second
+        process (or a second call) with the same model skips the derivation
+        and the code generation; new ``constants`` are run-time values
+        (:meth:`NumericModel.with_constants`), never a new derivation or build.
+        The symbolic equations of a model from the cache are derived again
+        only when they are asked for (linearization, pickling).
+        """
+        if eom is None and specified is None:
+            cached = _derivation_cache(self, constants, options)
+            if cached is not None:
+                return cached
         eom = eom if eom is not None else self.derive()
         if eom.name is None:
             eom._label(name=self.name, title=self.title, units=self.units or None)
@@ -160,3 +178,96 @@ class ModelDefinition:
 def gravity_potential(masses_heights):
     """Sum of ``m * g * h`` terms (helper for model potentials)."""
     return sm.Add(*[m * g * h for m, g, h in masses_heights])
+
+
+# --------------------------------------------------------------- derivation cache
+_SOURCE_STAMP = []  # this process's stamp of kanedyn's own source files
+
+
+def _source_stamp():
+    """Digest of the names, sizes and modification times of kanedyn's sources
+    (a changed model or code generator is a new cache entry)."""
+    if not _SOURCE_STAMP:
+        import hashlib
+        from pathlib import Path
+        root = Path(__file__).resolve().parents[1]
+        digest = hashlib.sha256()
+        for path in sorted(root.rglob("*.py")):
+            stat = path.stat()
+            digest.update(f"{path.relative_to(root)}:{stat.st_size}:{stat.st_mtime_ns}\n"
+                          .encode())
+        _SOURCE_STAMP.append(digest.hexdigest())
+    return _SOURCE_STAMP[0]
+
+
+def _derivation_cache(definition, constants, options):
+    """The numerical model from the derivation cache (built and stored on a miss),
+    or ``None`` when the model or its options are not cacheable."""
+    origin = getattr(definition, "_origin", None)
+    if origin is None or options.get("backend") != "c" or set(options) - {"backend"}:
+        return None
+    overrides = definition._constant_overrides(constants or {})
+    if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
+               for v in overrides.values()):
+        return None
+    import hashlib
+    import pickle
+    import sys
+
+    from .. import _version
+    from ..numerics import cache_dir, compiler_command
+    if compiler_command() is None:
+        return None
+    key = hashlib.sha256(repr((origin, _version.__version__, sys.version, sm.__version__,
+                               np.__version__, _source_stamp())).encode()).hexdigest()[:24]
+    path = cache_dir() / "derived" / f"{key}.pkl"
+
+    def derive_again():
+        return definition.numeric(definition.derive(), **options)
+
+    model = None
+    try:
+        # the cache directory is the user's own, like the compiled modules in it
+        model = pickle.loads(path.read_bytes())  # noqa: S301
+        model._rederive = derive_again
+    except Exception:  # noqa: BLE001  missing, stale or unreadable: derive it
+        model = None
+    if model is None:
+        model = definition.numeric(definition.derive(), **options)
+        _store(path, model)
+    if overrides:
+        model = model.with_constants({str(k): float(v) for k, v in overrides.items()})
+    return model
+
+
+def _store(path, model):
+    """Write ``model`` (without its C source: its module is in the cache) atomically."""
+    import os
+    import pickle
+    import tempfile
+    data = dict(model._data)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=path.parent, delete=False) as handle:
+            pickle.dump(_Cached(data), handle)
+        os.replace(handle.name, path)
+    except (OSError, pickle.PicklingError, TypeError, AttributeError):
+        pass  # a cache that cannot be written only costs time
+
+
+class _Cached:
+    """A numerical model's data, rebuilt into the model on unpickling."""
+
+    def __init__(self, data):
+        self.data = data
+
+    def __reduce__(self):
+        return (_rebuild, (self.data,))
+
+
+def _rebuild(data):
+    from ..numerics import NumericModel
+    model = NumericModel.__new__(NumericModel)
+    model._data = data
+    model._compile()
+    return model

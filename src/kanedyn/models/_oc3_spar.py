@@ -53,6 +53,7 @@ from ..modeling import (NREL5MW_THRUST, AddedMass, AiryWave, CatenaryLine, Caten
                         FlexibleBody, Hydrostatics, IrregularSea, LinearMooring,
                         MatrixSpringDamper, MorisonCylinder, RateInertia, RotorThrust,
                         jonswap_gamma, kaimal_wind, rotation_vector)
+from ._oc3_options import OC3_SPAR_OPTIONS
 from ._base import ModelDefinition
 from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER,
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
@@ -65,15 +66,6 @@ __all__ = ["oc3_spar", "OC3_SPAR_OPTIONS", "spar_geometry", "oc3_settle",
 
 T = me.dynamicsymbols._t
 
-#: option -> type, for the registry and ``kanedyn run oc3-spar --set name=value``
-OC3_SPAR_OPTIONS = {
-    "tower_modes": int, "tower_elements": int, "stiffening": bool,
-    "hydrostatics": str, "added_mass": str, "linear_damping": bool, "drag": bool,
-    "sea": str, "wave_height": float, "wave_period": float, "seed": int,
-    "mooring": str, "wind_speed": float, "turbulence": float,
-    "tmdi": str, "tmd_mass_ratio": float, "tmd_frequency": float, "tmd_damping": float,
-    "inertance_ratio": float, "inerter_height": float,
-}
 
 _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "morison"),
             "sea": ("still", "regular", "irregular"),

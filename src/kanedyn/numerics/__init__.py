@@ -26,9 +26,11 @@ from ._linearize import linearize_numeric, linearize_symbolic
 from ._model import BACKENDS, NumericModel, build_numeric_model
 from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
 from ._singular import DEFAULT_THRESHOLD, SingularityMonitor, conditioning
-from .backends import compile_python, generate_python
+from .backends import STATS as COMPILE_STATS
+from .backends import cache_dir, compile_python, compiler_command, generate_python
 
-__all__ = ["NumericModel", "build_numeric_model", "BACKENDS", "linearize_numeric",
+__all__ = ["COMPILE_STATS", "cache_dir", "compiler_command", "NumericModel",
+           "build_numeric_model", "BACKENDS", "linearize_numeric",
            "linearize_symbolic", "MassMatrices", "OrthogonalSpeedsModel",
            "orthogonalize_speeds", "SEPARATED", "SLIP", "STICK", "SlipReference",
            "contact_points", "solve_modes", "diagnose", "DEFAULT_THRESHOLD",

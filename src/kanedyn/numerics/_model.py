@@ -317,6 +317,20 @@ class NumericModel(StateLayout):
         self._data = data
         self._compile(module, functions)
 
+    #: attributes that need the symbolic equations; a model from the derivation
+    #: cache (``_rederive`` set) derives them again when one is first asked for
+    _DERIVED = ("_eom", "_substitutions", "_functions", "_sizes", "_cse")
+
+    def __getattr__(self, name):
+        if name in NumericModel._DERIVED:
+            rederive = self.__dict__.pop("_rederive", None)
+            if rederive is not None:
+                fresh = rederive()
+                for attr in NumericModel._DERIVED:
+                    setattr(self, attr, getattr(fresh, attr))
+                return self.__dict__[name]
+        raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
+
     # state and pickling
     def __getstate__(self):
         data = self._data
@@ -598,9 +612,12 @@ class NumericModel(StateLayout):
         # the same code: the loaded C module or the compiled NumPy functions are reused
         clone = NumericModel(data, module=getattr(self, "_module", None),
                              functions=None if data["backend"] == "c" else self._fn)
-        for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
-            if hasattr(self, attr):
-                setattr(clone, attr, getattr(self, attr))
+        if "_rederive" in self.__dict__:  # from the derivation cache: derived when needed
+            clone._rederive = self._rederive
+        else:
+            for attr in NumericModel._DERIVED:
+                if hasattr(self, attr):
+                    setattr(clone, attr, getattr(self, attr))
         return clone
 
     def mass_matrix(self, t, y):

@@ -6,8 +6,9 @@
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 """
 
-from ._c import CompilerError, compiler_command, fingerprint, generate_c, load_module
+from ._c import (STATS, CompilerError, cache_dir, compiler_command, fingerprint, generate_c,
+                 load_module)
 from ._python import CodegenError, compile_python, generate_python
 
 __all__ = ["compile_python", "generate_python", "CodegenError", "generate_c", "load_module",
-           "fingerprint", "compiler_command", "CompilerError"]
+           "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir"]

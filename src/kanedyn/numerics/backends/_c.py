@@ -42,7 +42,8 @@ from ._python import CodegenError
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
-           "missing_compiler_text", "CHUNK", "elimination_tree", "solver_source"]
+           "missing_compiler_text", "CHUNK", "elimination_tree", "solver_source", "STATS",
+           "cache_dir"]
 
 CHUNK = 2500  # statements per generated C function
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
@@ -555,7 +556,12 @@ def _try_cached(name, so_path, manifest, repair=True):
         return None
 
 
+#: what this process did (read by tests): ``compiles``, compiler runs
+STATS = {"compiles": 0}
+
+
 def _build(source, command, so_path, manifest, directory, timeout):
+    STATS["compiles"] += 1
     includes = [sysconfig.get_paths()["include"], np.get_include()]
     with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp:
         c_path = Path(tmp) / "module.c"

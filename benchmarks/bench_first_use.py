@@ -1,0 +1,91 @@
+"""Time to first use: a built-in model to its first compiled evaluation.
+
+For chain3d (style="positions") at n = 10, 30, 60: cold (a fresh process and
+an empty cache directory via XDG_CACHE_HOME, so the model is derived and the
+C compiled) and warm (a second fresh process, same model and cache), each the
+wall time of ``build -> numeric(backend="c") -> rhs`` inside the process
+(interpreter start-up excluded, ``import kanedyn`` included); Pinocchio's
+Model + Data construction for the same chain as the peer when installed.
+The machine is shared: run with ``--repeat`` and read the minima.
+
+    python benchmarks/bench_first_use.py [--sizes 10,30,60] [--repeat 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+CHILD = """
+import json, time
+t0 = time.perf_counter()
+import kanedyn as kd
+from kanedyn.models._base import DERIVE_STATS
+from kanedyn.numerics import COMPILE_STATS
+d = kd.models.build("chain3d", n={n}, style="positions")
+m = d.numeric(backend="c")
+m.rhs(0.0, d.initial(m))
+print(json.dumps([time.perf_counter() - t0, DERIVE_STATS["derivations"],
+                  COMPILE_STATS["compiles"]]))
+"""
+
+PEER = """
+import json, time
+import numpy as np
+import pinocchio as pin
+t0 = time.perf_counter()
+model = pin.Model()
+parent = 0
+for i in range({n}):
+    axis = pin.JointModelRZ() if i % 2 == 0 else pin.JointModelRX()
+    place = pin.SE3(np.eye(3), np.array([0.0, 0.5 if i else 0.0, 0.0]))
+    parent = model.addJoint(parent, axis, place, f"j{{i}}")
+    inertia = pin.Inertia(1.0, np.array([0.0, 0.25, 0.0]), np.diag([0.025, 0.005, 0.025]))
+    model.appendBodyToJoint(parent, inertia, pin.SE3.Identity())
+data = model.createData()
+pin.aba(model, data, np.zeros({n}), np.zeros({n}), np.zeros({n}))
+print(json.dumps([time.perf_counter() - t0]))
+"""
+
+
+def child(code, cache):
+    env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=cache)
+    env.pop("KANEDYN_CACHE_DIR", None)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env)
+    if proc.returncode != 0:
+        return None
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", default="10,30,60")
+    parser.add_argument("--repeat", type=int, default=1)
+    args = parser.parse_args(argv)
+    print("| n | cold s (min) | warm s (min) | derivations cold/warm | compiles cold/warm "
+          "| Pinocchio Model+Data s |")
+    print("|---|---|---|---|---|---|")
+    for n in (int(x) for x in args.sizes.split(",")):
+        cold, warm, counts = [], [], None
+        for _ in range(args.repeat):
+            with tempfile.TemporaryDirectory() as cache:
+                c = child(CHILD.format(n=n), cache)
+                w = child(CHILD.format(n=n), cache)
+            cold.append(c[0])
+            warm.append(w[0])
+            counts = (c[1], w[1], c[2], w[2])
+        peer = child(PEER.format(n=n), tempfile.gettempdir())
+        print(f"| {n} | {min(cold):.2f} | {min(warm):.2f} | {counts[0]}/{counts[1]} | "
+              f"{counts[2]}/{counts[3]} | {f'{peer[0]:.4f}' if peer else '-'} |", flush=True)
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,97 @@
+"""First use: lazy imports and the derivation cache (counted, never timed)."""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+
+def _run(code, cache=None):
+    env = dict(os.environ, PYTHONPATH=SRC + os.pathsep + os.environ.get("PYTHONPATH", ""))
+    env.pop("KANEDYN_CACHE_DIR", None)
+    if cache is not None:
+        env["XDG_CACHE_HOME"] = str(cache)
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def test_import_kanedyn_imports_no_plotting_or_scipy():
+    out = _run("import sys, json, kanedyn\n"
+               "print(json.dumps(sorted(m for m in ('matplotlib', 'scipy', 'sympy', 'tqdm')"
+               " if m in sys.modules)))")
+    assert out == []
+
+
+def test_lazy_names_are_the_public_api():
+    out = _run("import json, kanedyn as kd\n"
+               "missing = [n for n in kd.__all__ if not hasattr(kd, n)]\n"
+               "from kanedyn import simulate, NumericModel\n"
+               "print(json.dumps([missing, simulate.__module__, "
+               "kd.models.chain3d.__name__]))")
+    assert out[0] == []
+    assert out[1].startswith("kanedyn.simulation") and out[2] == "chain3d"
+
+
+def test_registry_titles_match_the_builders():
+    from kanedyn.models import REGISTRY
+    for name, (builder, _) in REGISTRY.items():
+        assert builder.title == builder.function().title, name
+
+
+_CHAIN = """
+import json, sys
+import kanedyn as kd
+from kanedyn.models._base import DERIVE_STATS
+from kanedyn.numerics import COMPILE_STATS
+d = kd.models.build("chain3d", n=3, style="positions")
+m = d.numeric(backend="c", constants={{"m": {mass}}})
+f = m.rhs(0.0, d.initial(m))
+print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f)]))
+"""
+
+
+@pytest.mark.slow
+def test_second_process_and_new_constants_reuse_the_cache(tmp_path):
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    derived, compiled, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    assert (derived, compiled) == (1, 1)
+    derived, compiled, again = _run(_CHAIN.format(mass=1.0), tmp_path)
+    assert (derived, compiled) == (0, 0)
+    assert again == f1
+    derived, compiled, f2 = _run(_CHAIN.format(mass=2.0), tmp_path)
+    assert (derived, compiled) == (0, 0)
+    # an independent evaluation: a fresh derivation with the numpy backend
+    import kanedyn as kd
+    d = kd.models.build("chain3d", n=3, style="positions")
+    ref = d.numeric(d.derive(), constants={"m": 2.0})
+    assert f2 == pytest.approx(list(ref.rhs(0.0, d.initial(ref))), rel=1e-12, abs=1e-12)
+    assert f2 != pytest.approx(f1)
+
+
+@pytest.mark.slow
+def test_cached_model_derives_its_equations_when_asked(tmp_path):
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    _run(_CHAIN.format(mass=1.0), tmp_path)
+    out = _run("import json, pickle, kanedyn as kd\n"
+               "from kanedyn.models._base import DERIVE_STATS\n"
+               "d = kd.models.build('chain3d', n=3, style='positions')\n"
+               "m = d.numeric(backend='c')\n"
+               "before = DERIVE_STATS['derivations']\n"
+               "m2 = pickle.loads(pickle.dumps(m))\n"
+               "print(json.dumps([before, DERIVE_STATS['derivations'], "
+               "list(m2.rhs(0.0, d.initial(m2)) - m.rhs(0.0, d.initial(m)))]))", tmp_path)
+    assert out[:2] == [0, 1]
+    assert max(abs(x) for x in out[2]) == 0.0
