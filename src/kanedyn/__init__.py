@@ -27,7 +27,8 @@ from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScre
                        CatenaryMooring, RotorThrust, ThrustCurve, NREL5MW_THRUST,
                        kaimal_wind, VehicleMotion, CrashPulse, HalfSinePulse,
                        HaversinePulse, TrapezoidPulse, pulse_from_delta_v, read_pulse_csv,
-                       cfc_filter, example_pulse)
+                       cfc_filter, example_pulse, ConeLimit, cone_contact, cone_surface,
+                       penalty_damping_for_restitution)
 from .numerics import (ActuatorForces, ActuatorMap, ActuatorParts, InverseParts,
                        MassMatrices, NumericModel, OrthogonalSpeedsModel, PowerBalance,
                        actuator_forces, actuator_parts, inverse_parts, orthogonalize_speeds,
@@ -36,6 +37,10 @@ from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted,
                          simulate, sweep)
 
 __all__ = [
+    "ConeLimit",
+    "cone_contact",
+    "cone_surface",
+    "penalty_damping_for_restitution",
     "RateInertia",
     "Inerter",
     "AddedMass",

@@ -26,6 +26,8 @@ from ._oc3_tower import oc3_rna_node_mass, oc3_tower, oc3_tower_member
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
+from ._seatbelt import (SEATBELT_DEFAULTS, SeatbeltReport, lock_events, seatbelt_motion,
+                        seatbelt_report, seatbelt_sensor, seatbelt_tilt)
 from ._snake import snake
 from ._urdf import JointInfo, URDFDefinition, URDFError, Visual, from_urdf
 
@@ -43,7 +45,9 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "quintic_pose", "sinusoid_pose", "stewart_platform", "STEWART_GEOMETRY",
            "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
            "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
-           "out_parallel_ik", "oc3_tower", "oc3_tower_member", "oc3_rna_node_mass"]
+           "out_parallel_ik", "oc3_tower", "oc3_tower_member", "oc3_rna_node_mass",
+           "seatbelt_sensor", "seatbelt_motion", "seatbelt_report", "seatbelt_tilt",
+           "lock_events", "SeatbeltReport", "SEATBELT_DEFAULTS"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
@@ -79,6 +83,10 @@ REGISTRY = {
     "3rrr": (planar_3rrr, {"gravity": bool}),
     "stewart-platform": (stewart_platform, {}),
     "out-parallel-6dof": (out_parallel_6dof, {}),
+    "seatbelt-sensor": (seatbelt_sensor, {"limit": str, "pulse": str, "peak_g": float,
+                                          "duration": float, "direction": float,
+                                          "roll_rate": float, "filter": str,
+                                          "pivot_force": bool}),
 }
 
 
