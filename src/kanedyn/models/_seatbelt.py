@@ -177,7 +177,10 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                             (me.inertia(B, I, I, 0), G))
     pendulum.potential_energy = m * g * G.pos_from(O).dot(N.z)
     loads.append((G, -m * g * N.z))
-    loads.append((B, -sy["c_p"] * B.ang_vel_in(H)))  # pivot friction (viscous)
+    # viscous pivot friction on the axis' relative turning rate (transverse part of
+    # the relative angular velocity: no torque about the axis, which has no inertia)
+    w_rel = B.ang_vel_in(H)
+    loads.append((B, -sy["c_p"] * (w_rel - w_rel.dot(B.z) * B.z)))
     tilt = sm.acos(sm.cos(q1) * sm.cos(q2))
     element, contacts = None, []
     if limit == "penalty":
@@ -190,7 +193,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         element = cone_contact(rim, H, P, -H.z, sy["theta_lim"], sy["r_c"],
                                restitution=sy["e_lim"], name="housing")
         contacts.append(element)
-    kane_args.update(bodies=[pendulum], loads=loads)
+    kane_args.update(bodies=[pendulum], loads=loads,
+                     potential_energy=pendulum.potential_energy)
     if contacts:
         kane_args["contacts"] = contacts
     used = {"m", "L", "I", "g", "c_p", "tilt_x", "tilt_y"}
@@ -221,12 +225,14 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
 
 
 def _needed_inputs(motion, pivot_force):
-    """The vehicle inputs the sensor's equations use (eom.numeric refuses others)."""
+    """The vehicle inputs the sensor's equations and energies use (eom.numeric
+    refuses others)."""
     t = me.dynamicsymbols._t
     x, y, z, yaw, pitch, roll = motion.symbols
     keys = [sm.Derivative(s, (t, k)) for s in (x, y, z) for k in (1, 2)]
     keys += [s for s in (yaw, pitch, roll)]
     keys += [sm.Derivative(s, (t, k)) for s in (yaw, pitch, roll) for k in (1, 2)]
+    keys.append(z)  # in the potential energy (the energies need x', y', z' too)
     allv = motion.specified()
     return {k: allv[k] for k in keys if k in allv}
 
