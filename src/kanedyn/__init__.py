@@ -97,6 +97,10 @@ _LAZY = {
     'read_pulse_csv': '.modeling',
     'cfc_filter': '.modeling',
     'example_pulse': '.modeling',
+    'ConeLimit': '.modeling',
+    'cone_contact': '.modeling',
+    'cone_surface': '.modeling',
+    'penalty_damping_for_restitution': '.modeling',
 }
 
 
@@ -206,4 +210,8 @@ __all__ = [
     "read_pulse_csv",
     "cfc_filter",
     "example_pulse",
+    "ConeLimit",
+    "cone_contact",
+    "cone_surface",
+    "penalty_damping_for_restitution",
 ]

@@ -11,6 +11,8 @@
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``_springs``             linear spring-dampers between points and in 6 dof
+``_limits``              constraint torque functions: a tilt limited by a cone (penalty
+                         law or unilateral contact)
 ``offshore``             floating structures: waves, Morison loads, hydrostatics,
                          mooring lines and systems, rotor thrust, turbulent wind
 ``visuals``              shapes that draw bodies in the 3D viewer
@@ -26,6 +28,8 @@ from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface
 from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
 from ._spec import ModelSpec, description_symbols, parse_model
 from ._springs import MatrixSpringDamper, SpringDamper, rotation_vector
+from ._limits import (ConeLimit, cone_contact, cone_surface, penalty_damping_for_restitution,
+                      tilt_angle)
 from ._units import constraint_units, speed_unit, state_units
 from .offshore import (NREL5MW_THRUST, AiryWave, CatenaryLine, CatenaryMooring, Hydrostatics,
                        IrregularSea, LinearMooring, MorisonCylinder, RotorThrust, ThrustCurve,
@@ -53,4 +57,5 @@ __all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surfac
            "jonswap_spectrum", "jonswap_gamma", "wave_number", "MorisonCylinder",
            "Hydrostatics", "VehicleMotion", "CrashPulse",
            "HalfSinePulse", "HaversinePulse", "TrapezoidPulse", "pulse_from_delta_v",
-           "read_pulse_csv", "cfc_filter", "example_pulse"]
+           "read_pulse_csv", "cfc_filter", "example_pulse", "ConeLimit", "cone_contact",
+           "cone_surface", "penalty_damping_for_restitution", "tilt_angle"]

@@ -73,6 +73,13 @@ _LAZY = {
     'oc3_tower_member': '._oc3_tower',
     'oc3_rna_node_mass': '._oc3_tower',
     'OC3_SPAR_OPTIONS': '._oc3_options',
+    'seatbelt_sensor': '._seatbelt',
+    'seatbelt_motion': '._seatbelt',
+    'seatbelt_report': '._seatbelt',
+    'seatbelt_tilt': '._seatbelt',
+    'lock_events': '._seatbelt',
+    'SeatbeltReport': '._seatbelt',
+    'SEATBELT_DEFAULTS': '._seatbelt',
 }
 
 
@@ -91,7 +98,9 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
            "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
            "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
-           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS"]
+           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS",
+           "seatbelt_sensor", "seatbelt_motion", "seatbelt_report", "seatbelt_tilt",
+           "lock_events", "SeatbeltReport", "SEATBELT_DEFAULTS"]
 
 
 class _Builder:
@@ -178,6 +187,8 @@ _TITLES = {
                           ' under gravity'),
     'oc3_spar': ('OC3-Hywind spar floating wind turbine (2 tower modes, linear'
                  ' mooring, still sea)'),
+    'seatbelt_sensor': ('seat-belt inertial sensor: spherical pendulum in a housing on a '
+                        'moving vehicle'),
 }
 
 #: name -> (builder, {option: type})
@@ -215,6 +226,10 @@ REGISTRY = {
     "stewart-platform": (_Builder("stewart_platform"), {}),
     "out-parallel-6dof": (_Builder("out_parallel_6dof"), {}),
     "oc3-spar": (_Builder("oc3_spar"), _oc3_options.OC3_SPAR_OPTIONS),
+    "seatbelt-sensor": (_Builder("seatbelt_sensor"),
+                        {"limit": str, "pulse": str, "peak_g": float, "duration": float,
+                         "direction": float, "roll_rate": float, "filter": str,
+                         "pivot_force": bool}),
 }
 
 

@@ -1,0 +1,377 @@
+r"""The seat-belt inertial sensor: a constrained spherical pendulum on a moving vehicle.
+
+After Allan & Townsend (Shock and Vibration 1995): the vehicle-sensitive element of
+an automatic retractor is a small pendulum hanging from a pivot in a housing fixed
+in the vehicle.  When the vehicle decelerates or tilts, the pendulum tilts in its
+housing; beyond the *lock angle* it lifts the pawl, which engages the ratchet
+wheel and locks the belt.  The housing wall limits the tilt.
+
+Coordinates.  The pendulum axis is :math:`e = -B_z`; the pendulum frame B is the
+housing frame H turned by :math:`q_1` about :math:`H_x` and then by
+:math:`q_2` about the new y axis (a two-axis gimbal; :math:`u_i = \dot q_i`).
+Zero tilt is the regular point :math:`q_1 = q_2 = 0` (the singularity of these
+angles is at :math:`q_2 = \pm 90°`, far beyond the housing wall), and the tilt
+relative to the housing is :math:`\cos\theta = \cos q_1 \cos q_2`.
+
+Body.  Mass ``m``, centre of mass at distance ``L`` from the pivot on the axis,
+central inertia ``I`` about every transverse axis and none about the axis itself
+(a slender pendulum): its spin about its own axis then carries no energy and the
+two gimbal angles describe the spherical pendulum exactly.  Its inertia about the
+pivot is :math:`J = I + mL^2` and its equivalent simple-pendulum length
+:math:`\ell = J/(mL)`.
+
+Default parameters (assumed, not from a data sheet; plausible for the die-cast
+pendulums of retractor sensors, which weigh a few grams and hang some 5-15 mm
+below their pivot): m = 5 g, L = 8 mm, I = m (4 mm)^2 = 8e-8 kg m^2, hence
+J = 4e-7 kg m^2, :math:`\ell` = 10 mm and a natural frequency of
+:math:`\sqrt{g/\ell}/2\pi` = 5.0 Hz.  Lock angle 20 deg: between the 15 deg
+static tilt at which FMVSS 209 forbids locking and the 35 deg = atan(0.7) tilt of
+a steady 0.7 g deceleration at which it demands it.  Housing wall at 30 deg,
+touched by the pendulum's rim at r = 12 mm from the pivot.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from .._errors import ModelError
+from ..modeling import (ConeLimit, CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
+                        VehicleMotion, cone_contact, example_pulse)
+from ._base import ModelDefinition
+
+__all__ = ["seatbelt_sensor", "seatbelt_motion", "lock_events", "seatbelt_tilt",
+           "seatbelt_report", "SeatbeltReport", "SEATBELT_DEFAULTS", "G0"]
+
+G0 = 9.80665
+
+#: default sensor parameters (SI units; angles in rad)
+SEATBELT_DEFAULTS = {"m": 5e-3, "L": 8e-3, "I": 8e-8, "g": G0,
+                     "theta_lock": math.radians(20.0), "theta_lim": math.radians(30.0),
+                     "r_c": 12e-3, "k_lim": 5.0, "c_lim": 1.0e-3, "p_lim": 1.0,
+                     "e_lim": 0.3, "c_p": 0.0, "tilt_x": 0.0, "tilt_y": 0.0}
+
+_SHAPES = ("halfsine", "haversine", "trapezoid", "step", "none")
+_LIMITS = ("penalty", "contact", "none")
+_EXAMPLES = ("frontal-48kmh", "oblique-30deg")
+
+
+def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
+                    roll_rate=0.0, filter=None):
+    """The vehicle motion of the sensor model (see :func:`seatbelt_sensor`).
+
+    Returns
+    -------
+    (VehicleMotion, float)
+        The motion and a default end time, s.
+    """
+    if not isinstance(pulse, (str, Path)):
+        raise ModelError(f"seatbelt-sensor: pulse must be a name or a CSV path, got {pulse!r}")
+    name = str(pulse)
+    if name in _EXAMPLES or name.lower().endswith(".csv"):
+        path = example_pulse(name) if name in _EXAMPLES else Path(name)
+        if not path.is_file():
+            raise ModelError(f"seatbelt-sensor: pulse file {path} does not exist")
+        motion = VehicleMotion.from_csv(path, filter=filter)
+        return motion, float(motion.t_range[1])
+    if name not in _SHAPES:
+        raise ModelError(f"seatbelt-sensor: unknown pulse {name!r}; give one of "
+                         f"{', '.join(_SHAPES + _EXAMPLES)} or a .csv file")
+    if filter is not None:
+        raise ModelError("seatbelt-sensor: filter applies to recorded pulses (CSV) only")
+    peak_g, duration = float(peak_g), float(duration)
+    if not (math.isfinite(duration) and duration > 0):
+        raise ModelError(f"seatbelt-sensor: duration must be positive, got {duration}")
+    if name != "none" and not (math.isfinite(peak_g) and peak_g > 0):
+        raise ModelError(f"seatbelt-sensor: peak_g must be positive, got {peak_g}")
+    if name == "halfsine":
+        shape = HalfSinePulse(peak_g, duration)
+    elif name == "haversine":
+        shape = HaversinePulse(peak_g, duration)
+    elif name == "trapezoid":  # rise and fall a quarter of the duration each
+        shape = TrapezoidPulse(peak_g, duration / 4, duration / 2, duration / 4)
+    elif name == "step":  # constant deceleration over the duration
+        shape = CrashPulse([(0.0, duration, sm.Float(peak_g * G0))], name="step")
+    else:
+        shape = CrashPulse([(0.0, duration, sm.S.Zero)], name="none")
+    motion = VehicleMotion.from_pulse(shape, direction=float(direction),
+                                      roll_rate=float(roll_rate))
+    return motion, duration + 0.1
+
+
+def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1,
+                    direction=0.0, roll_rate=0.0, filter=None, pivot_force=False):
+    """The ``seatbelt-sensor`` model: a constrained spherical pendulum in a vehicle.
+
+    Parameters
+    ----------
+    limit : {"penalty", "contact", "none"}
+        How the housing limits the tilt to ``theta_lim``: a :class:`~kanedyn.ConeLimit`
+        penalty torque (constants ``k_lim`` N m/rad^p, ``c_lim`` N m s/rad, ``p_lim``),
+        a unilateral contact with restitution ``e_lim`` of the pendulum's rim (at
+        ``r_c`` from the pivot) on a cone of the housing (:func:`~kanedyn.cone_contact`),
+        or no limit.
+    pulse : str or path
+        ``"halfsine"``, ``"haversine"``, ``"trapezoid"`` (rise and fall a quarter of
+        the duration), ``"step"`` (constant deceleration for ``duration``), ``"none"``
+        (vehicle at rest), an example pulse (``"frontal-48kmh"``, ``"oblique-30deg"``)
+        or a CSV record (:func:`kanedyn.read_pulse_csv`).
+    peak_g : float
+        Peak deceleration, g (analytic pulses).
+    duration : float
+        Pulse duration, s (analytic pulses).
+    direction : float
+        Direction of the deceleration, deg: along -(cos, sin, 0) in vehicle axes
+        (0 frontal, 90 lateral).
+    roll_rate : float
+        Constant roll rate of the vehicle about its x axis, rad/s (analytic pulses).
+    filter : str, optional
+        CFC filter of a CSV record, e.g. ``"CFC60"``.
+    pivot_force : bool
+        Expose the pivot force (N, inertial components ``R_x, R_y, R_z``) through
+        auxiliary speeds (``model.auxiliary(t, y)``).
+
+    Returns
+    -------
+    ModelDefinition
+        ``symbols`` holds the frames, points, coordinates, the ``motion``
+        (:class:`~kanedyn.VehicleMotion`), the ``limit_element`` (ConeLimit or
+        Contact or None) and ``tilt`` (expression, rad).
+    """
+    if limit not in _LIMITS:
+        raise ModelError(f"seatbelt-sensor: limit must be one of {', '.join(_LIMITS)}, "
+                         f"got {limit!r}")
+    motion, t_end = seatbelt_motion(pulse, peak_g, duration, direction, roll_rate, filter)
+    sy = {n: sm.Symbol(n, real=True) for n in SEATBELT_DEFAULTS}
+    m, L, I, g = sy["m"], sy["L"], sy["I"], sy["g"]
+    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    V, VO = motion.moving_frame(N, O)
+    H = V.orientnew("H", "Body", (sy["tilt_x"], sy["tilt_y"], 0), "XYZ")  # housing
+    P = VO.locatenew("P", 0)  # pivot, at the vehicle origin
+    P.set_vel(N, VO.vel(N))
+    B1 = H.orientnew("B1", "Axis", (q1, H.x))
+    B = B1.orientnew("B", "Axis", (q2, B1.y))
+    B.set_ang_vel(H, u1 * H.x + u2 * B1.y)
+    loads = []
+    kane_args = dict(frame=N, q_ind=[q1, q2], u_ind=[u1, u2],
+                     kd_eqs=[q1.diff() - u1, q2.diff() - u2])
+    extra = {}
+    if pivot_force:
+        ua = me.dynamicsymbols("ua_x ua_y ua_z")
+        R = me.dynamicsymbols("R_x R_y R_z")
+        P.set_vel(N, VO.vel(N) + ua[0] * N.x + ua[1] * N.y + ua[2] * N.z)
+        loads.append((P, R[0] * N.x + R[1] * N.y + R[2] * N.z))
+        kane_args["u_auxiliary"] = list(ua)
+        extra.update(ua=tuple(ua), R=tuple(R))
+    G = P.locatenew("G", -L * B.z)
+    G.v2pt_theory(P, N, B)
+    pendulum = me.RigidBody("pendulum", G, B, m,
+                            (me.inertia(B, I, I, 0), G))
+    pendulum.potential_energy = m * g * G.pos_from(O).dot(N.z)
+    loads.append((G, -m * g * N.z))
+    # viscous pivot friction on the axis' relative turning rate (transverse part of
+    # the relative angular velocity: no torque about the axis, which has no inertia)
+    w_rel = B.ang_vel_in(H)
+    loads.append((B, -sy["c_p"] * (w_rel - w_rel.dot(B.z) * B.z)))
+    tilt = sm.acos(sm.cos(q1) * sm.cos(q2))
+    element, contacts = None, []
+    if limit == "penalty":
+        element = ConeLimit(B, H, -B.z, -H.z, sy["theta_lim"], sy["k_lim"], sy["c_lim"],
+                            sy["p_lim"], name="housing")
+        loads.extend(element.to_loads()[:1])  # the housing's motion is prescribed
+    elif limit == "contact":
+        rim = P.locatenew("rim", -sy["r_c"] * B.z)
+        rim.v2pt_theory(P, N, B)
+        element = cone_contact(rim, H, P, -H.z, sy["theta_lim"], sy["r_c"],
+                               restitution=sy["e_lim"], name="housing")
+        contacts.append(element)
+    kane_args.update(bodies=[pendulum], loads=loads,
+                     potential_energy=pendulum.potential_energy)
+    if contacts:
+        kane_args["contacts"] = contacts
+    used = {"m", "L", "I", "g", "c_p", "tilt_x", "tilt_y"}
+    used |= {"penalty": {"theta_lim", "k_lim", "c_lim", "p_lim"},
+             "contact": {"theta_lim", "r_c", "e_lim"}, "none": set()}[limit]
+    constants = {sy[n]: SEATBELT_DEFAULTS[n] for n in SEATBELT_DEFAULTS if n in used}
+    units = {"m": "kg", "L": "m", "I": "kg m^2", "g": "m/s^2", "theta_lock": "rad",
+             "theta_lim": "rad", "r_c": "m", "k_lim": "N m/rad^p", "c_lim": "N m s/rad",
+             "p_lim": "1", "e_lim": "1", "c_p": "N m s/rad", "tilt_x": "rad",
+             "tilt_y": "rad"}
+    symbols = dict(q1=q1, q2=q2, u1=u1, u2=u2, N=N, V=V, H=H, B=B, P=P, G=G, O=O,
+                   motion=motion, limit_element=element, tilt=tilt, limit=limit,
+                   lock_angle=SEATBELT_DEFAULTS["theta_lock"], **sy,
+                   **extra)
+    specified = _needed_inputs(motion, pivot_force)
+    return ModelDefinition(
+        name="seatbelt-sensor",
+        title="seat-belt inertial sensor: spherical pendulum in a housing on a moving "
+              "vehicle",
+        kane_args=kane_args, constants=constants,
+        constant_units={sy[n]: units[n] for n in used},
+        initial_state={q1: 0.0, q2: 0.0, u1: 0.0, u2: 0.0}, t_end=t_end,
+        specified=specified, symbols=symbols,
+        description="After Allan & Townsend (1995). The pendulum tilts in its housing "
+                    "under the vehicle's deceleration; tilt beyond theta_lock locks the "
+                    f"belt (seatbelt_report). Pulse: {motion.source}; limit: {limit}.",
+        units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"})
+
+
+def _needed_inputs(motion, pivot_force):
+    """The vehicle inputs the sensor's equations and energies use (eom.numeric
+    refuses others)."""
+    t = me.dynamicsymbols._t
+    x, y, z, yaw, pitch, roll = motion.symbols
+    keys = [sm.Derivative(s, (t, k)) for s in (x, y, z) for k in (1, 2)]
+    keys += [s for s in (yaw, pitch, roll)]
+    keys += [sm.Derivative(s, (t, k)) for s in (yaw, pitch, roll) for k in (1, 2)]
+    keys.append(z)  # in the potential energy (the energies need x', y', z' too)
+    allv = motion.specified()
+    return {k: allv[k] for k in keys if k in allv}
+
+
+def seatbelt_tilt(y):
+    """Tilt of the pendulum relative to its housing, rad, from states ``[q1, q2, ...]``."""
+    y = np.asarray(y, float)
+    c = np.cos(y[0]) * np.cos(y[1])
+    s = np.hypot(np.sin(y[0]) * np.cos(y[1]), np.sin(y[1]))
+    return np.arctan2(s, c)
+
+
+def _lock_angle(definition, lock_angle):
+    if lock_angle is not None:
+        return float(lock_angle)
+    return float(definition.symbols["lock_angle"])
+
+
+def lock_events(definition, lock_angle=None):
+    """Events for ``kd.simulate``: the tilt crossing the lock angle (both ways).
+
+    Returns
+    -------
+    list of callables
+        ``[crossing]``: ``crossing(t, y) = tilt - lock angle`` (direction 0); pass it
+        as the first event and give ``seatbelt_report(..., events=0)``.
+    """
+    angle = _lock_angle(definition, lock_angle)
+
+    def crossing(t, y):
+        return float(seatbelt_tilt(y[:2])) - angle
+
+    crossing.terminal = False
+    crossing.direction = 0
+    return [crossing]
+
+
+@dataclass(frozen=True)
+class SeatbeltReport:
+    """Locking of the sensor over a run (times in s, angles in rad).
+
+    Attributes
+    ----------
+    locked : bool
+        The tilt exceeded the lock angle at some time.
+    lock_time : float or None
+        First time the tilt reached the lock angle.
+    lock_duration : float
+        Total time spent beyond the lock angle (an interval still open at the end
+        counts up to the end of the run).
+    intervals : tuple of (float, float)
+        Locked intervals.
+    releases : tuple of float
+        Unintended releases: times the tilt fell back below the lock angle while
+        the vehicle's acceleration still exceeded ``release_g``.
+    max_tilt : float
+    lock_angle : float
+    release_g : float
+    """
+
+    locked: bool
+    lock_time: float | None
+    lock_duration: float
+    intervals: tuple
+    releases: tuple
+    max_tilt: float
+    lock_angle: float
+    release_g: float
+
+    def summary(self):
+        if not self.locked:
+            return (f"no lock: max tilt {math.degrees(self.max_tilt):.2f} deg < lock angle "
+                    f"{math.degrees(self.lock_angle):.2f} deg")
+        text = (f"locks at t = {1e3 * self.lock_time:.2f} ms, locked for "
+                f"{1e3 * self.lock_duration:.2f} ms, max tilt "
+                f"{math.degrees(self.max_tilt):.2f} deg")
+        if self.releases:
+            text += ("; unintended release at t = "
+                     + ", ".join(f"{1e3 * t:.2f}" for t in self.releases) + " ms")
+        return text
+
+
+def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=0.7):
+    """Lock time, duration and unintended releases of a ``seatbelt-sensor`` run.
+
+    Parameters
+    ----------
+    result : SimulationResult
+    definition : ModelDefinition
+        The definition the run's model came from (its motion gives the vehicle
+        acceleration).
+    events : int, optional
+        Index in ``result.t_events`` of the :func:`lock_events` crossing; the crossing
+        times are then the event times.  Without it they are interpolated
+        linearly between the output times.
+    lock_angle : float, optional
+        rad; default: the definition's ``theta_lock``.
+    release_g : float
+        A fall below the lock angle while the vehicle's acceleration magnitude
+        exceeds this many g is an unintended release.
+
+    Returns
+    -------
+    SeatbeltReport
+    """
+    angle = _lock_angle(definition, lock_angle)
+    t = np.asarray(result.t, float)
+    tilt = seatbelt_tilt(result.y[:2])
+    over = tilt > angle
+    if events is not None:
+        times = np.sort(np.asarray(result.t_events[events], float))
+    else:
+        idx = np.nonzero(over[1:] != over[:-1])[0]
+        f = tilt - angle
+        times = t[idx] - f[idx] * (t[idx + 1] - t[idx]) / (f[idx + 1] - f[idx])
+    state = bool(over[0])
+    starts, ends = ([t[0]] if state else []), []
+    for tc in times:
+        # the side after the crossing, read from the tilt just after it
+        j = min(np.searchsorted(t, tc, side="right"), t.size - 1)
+        after = bool(tilt[j] > angle) if t[j] > tc else not state
+        if after == state:
+            continue
+        (starts if after else ends).append(float(tc))
+        state = after
+    if state:
+        ends.append(float(t[-1]))
+    intervals = tuple(zip(starts, ends))
+    motion = definition.symbols["motion"]
+    releases = []
+    for t_end in ends[:len(starts)]:
+        if t_end >= t[-1]:
+            continue
+        tq = np.clip(t_end, *motion.t_range)
+        acc = np.linalg.norm(motion.evaluate("position", 2, np.atleast_1d(tq))[:, 0])
+        if acc > release_g * G0:
+            releases.append(t_end)
+    return SeatbeltReport(
+        locked=bool(intervals), lock_time=intervals[0][0] if intervals else None,
+        lock_duration=float(sum(b - a for a, b in intervals)), intervals=intervals,
+        releases=tuple(releases), max_tilt=float(np.max(tilt)), lock_angle=angle,
+        release_g=float(release_g))
