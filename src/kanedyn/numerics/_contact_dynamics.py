@@ -96,6 +96,8 @@ class ContactSolution:
     slip_velocity : ndarray, shape (k, 3)
         Slip velocity of each contact with the drift of the other active
         contact constraints removed (:func:`slip_velocities`), m/s.
+    qdot : ndarray, shape (n_q,)
+        Coordinate rates at the same state (from the same evaluation).
     """
 
     udot: np.ndarray
@@ -105,6 +107,7 @@ class ContactSolution:
     dissipation: float
     power: float
     slip_velocity: np.ndarray = None
+    qdot: np.ndarray = None
 
     @property
     def force(self):
@@ -290,6 +293,8 @@ def _redundant(rows, rtol=1e-10):
     """Whether the constraint rows (shape (k, n_u)) are linearly dependent."""
     if rows.shape[0] > rows.shape[1]:
         return True
+    if rows.shape[0] == 1:
+        return not np.any(rows)
     sv = np.linalg.svd(rows, compute_uv=False)
     return sv[-1] <= rtol * sv[0]
 
@@ -417,25 +422,26 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         X = np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
         R = np.hstack([np.eye(p), -X.T])
     else:
-        R = np.eye(o)
+        R = None  # the identity
     A = np.zeros((o + k, o + k))
     b = np.zeros(o + k)
-    A[:p, :o] = R @ mass
-    b[:p] = R @ force
+    A[:p, :o] = mass if R is None else R @ mass
+    b[:p] = force if R is None else R @ force
     if m:
         A[p:o, :o] = acc_K
         b[p:o] = -acc_f
     if k:
         A[o:, :o] = np.array(rows).reshape(k, o)
         b[o:] = rhs
-    redundant = k and _redundant(np.vstack([vel_B.reshape(m, o), A[o:, :o]]))
+    redundant = k and _redundant(A[o:, :o] if not m else
+                                 np.vstack([vel_B.reshape(m, o), A[o:, :o]]))
     # friction -mu |N| s: the sign of N is assumed positive, and corrected for
     # bilateral contacts whose normal force turns out to pull
     sign = np.ones(k)
     for _ in range(len(slip_columns) + 1):
         for i, normal_column, friction_column, _ in slip_columns:
             G[:, i] = normal_column - sign[i] * friction_column
-        A[:p, o:] = -(R @ G)
+        A[:p, o:] = -G if R is None else -(R @ G)
         if redundant:
             # statically indeterminate (e.g. a ladder sticking at both ends): the
             # accelerations are determined, the contact forces are not
@@ -471,4 +477,4 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         i += size
     return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
                            points=points, dissipation=dissipation, power=power,
-                           slip_velocity=slips)
+                           slip_velocity=slips, qdot=qd)
