@@ -344,6 +344,69 @@ def _least_friction(A, b, o, sticking, rtol=1e-10):
     return x
 
 
+def _one_contact(model, y, modes, directions, w, qd, mass, force, points):
+    """:func:`solve_modes` for at most one active, unilateral contact (no
+    dependent speeds): the contact force by the Schur complement of the mass
+    matrix, the few small products written out.  ``None`` where it does not
+    apply (several active contacts, a bilateral one, a sticking point that
+    cannot move in every direction); the general path then solves.
+    """
+    active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
+    k = len(points)
+    slips = np.array([pt.slip_velocity for pt in points], dtype=float).reshape(-1, 3)
+    normal_force = np.zeros(k)
+    friction = np.zeros((k, 3))
+    if not active:
+        udot = np.linalg.solve(mass, force)
+        return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
+                               points=points, dissipation=0.0, power=0.0,
+                               slip_velocity=slips, qdot=qd)
+    if len(active) > 1:
+        return None
+    c = active[0]
+    coef = model.contacts[c]
+    mode = modes[c]
+    if coef["kind"] != "unilateral" or mode not in (SLIP, STICK):
+        return None
+    point = points[c]
+    J, n = point.jacobian, point.normal
+    vn = float(n @ point.velocity)
+    vt = point.velocity - vn * n
+    correction = 2 * w * vn + w * w * point.distance
+    if coef["viscous"]:
+        force = force - coef["viscous"] * (J.T @ vt)
+    if mode == SLIP:
+        reference = (directions or [None] * k)[c]
+        s = slip_direction(point, reference, velocity=slips[c])
+        column = J.T @ (n - coef["mu_k"] * s)
+        sol = np.linalg.solve(mass, np.column_stack([force, column]))
+        row = n @ J
+        denominator = float(row @ sol[:, 1])
+        if not abs(denominator) > 1e-12 * np.linalg.norm(row) * np.linalg.norm(column):
+            return None
+        N = (-(point.normal_rate + correction) - float(row @ sol[:, 0])) / denominator
+        udot = sol[:, 0] + N * sol[:, 1]
+        total = N * (n - coef["mu_k"] * s)
+    else:
+        sol = np.linalg.solve(mass, np.column_stack([force, J.T]))
+        Wc = J @ sol[:, 1:]
+        ev = np.linalg.eigvalsh(0.5 * (Wc + Wc.T))
+        if not ev[0] > 1e-10 * ev[-1]:
+            return None  # the point cannot move in some direction: general path
+        lam = np.linalg.solve(Wc, -(point.acceleration + correction * n) - J @ sol[:, 0])
+        udot = sol[:, 0] + sol[:, 1:] @ lam
+        total = lam
+    N = float(total @ n)
+    normal_force[c] = N
+    friction[c] = total - N * n - coef["viscous"] * vt
+    u = y[model.n_q:]
+    dissipation = float(friction[c] @ point.velocity)
+    power = float((N * n + friction[c]) @ (J @ u))
+    return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
+                           points=points, dissipation=dissipation, power=power,
+                           slip_velocity=slips, qdot=qd)
+
+
 def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     """Accelerations and contact forces for given modes.
 
@@ -378,6 +441,11 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     qd, mass, force, vel_B, acc_K, acc_f = model._dynamics(t, y)
     points = contact_points(model, t, y)
     coefficients = model.contacts
+    if not m:
+        fast = _one_contact(model, y, modes, directions, stabilization, qd, mass, force,
+                            points)
+        if fast is not None:
+            return fast
     directions = directions or [None] * len(points)
     slips, spaces = slip_velocities(points, modes, mass, vel_B.reshape(m, o) if m else None)
     force = force.copy()
