@@ -276,7 +276,8 @@ def _enumerated(L, w0, targets, mu, max_contacts=4):
                 norm = np.linalg.norm(vt)
                 directions[c] = vt / norm if norm > eps else None
         x = None
-        for _ in range(60):  # fixed point of the slip directions
+        converged = False
+        for _ in range(20):  # fixed point of the slip directions
             A = np.zeros((3 * k, 3 * k))
             b = np.zeros(3 * k)
             for c, state in enumerate(states):
@@ -293,10 +294,10 @@ def _enumerated(L, w0, targets, mu, max_contacts=4):
                     d = directions[c] if directions[c] is not None else np.zeros(2)
                     A[3 * c + 1:3 * c + 3, 3 * c + 1:3 * c + 3] = np.eye(2)
                     A[3 * c + 1:3 * c + 3, 3 * c] = mu[c] * d
-            x = np.linalg.lstsq(A, b, rcond=1e-12)[0]
-            if np.linalg.norm(A @ x - b) > 1e-9 * max(np.linalg.norm(b), scale * 1e-3):
-                x = None
-                break
+            guess = np.linalg.lstsq(A, b, rcond=1e-12)[0]
+            if np.linalg.norm(A @ guess - b) > 1e-9 * max(np.linalg.norm(b), scale * 1e-3):
+                break  # Newton from the last consistent guess, if any
+            x = guess
             w = w0 + L @ x
             changed = False
             for c, state in enumerate(states):
@@ -311,33 +312,137 @@ def _enumerated(L, w0, targets, mu, max_contacts=4):
                     np.linalg.norm(d - directions[c]) > 1e-14)
                 directions[c] = d
             if not changed:
+                converged = True
                 break
-        else:
-            x = None
-        if x is None:
-            continue
-        w = w0 + L @ x
-        ok = True
-        for c, state in enumerate(states):
-            pn, pt = x[3 * c], x[3 * c + 1:3 * c + 3]
-            vn, vt = w[3 * c], w[3 * c + 1:3 * c + 3]
-            if state == FREE_STATE:
-                ok = vn >= targets[c] - eps
-            elif state == STICK_STATE:
-                ok = pn >= -1e-12 * p_scale and np.linalg.norm(pt) <= mu[c] * pn * (
-                    1 + 1e-12) + 1e-12 * p_scale
-            else:
-                d = directions[c]
-                ok = (pn >= -1e-12 * p_scale and d is not None
-                      and np.linalg.norm(vt) > eps and vt @ d > 0)
-            if not ok:
-                break
-        if ok:
+        if not converged and x is not None:
+            # the directions cycle: Newton's method on the slip directions
+            x = _newton_states(L, w0, targets, mu, states, x, eps)
+        if x is not None and _consistent(L, w0, targets, mu, states, x, eps, p_scale):
             return x
+        if SLIDE_STATE in states:
+            # another root of the sliding equations (the fixed point can find
+            # one with a pulling normal impulse): Newton from the sticking
+            # solution with its tangential impulse brought onto the cone
+            # or without friction on them
+            for frictionless in (False, True):
+                start = _stick_start(L, w0, targets, mu, states, frictionless)
+                x = _newton_states(L, w0, targets, mu, states, start, eps)
+                if x is not None and _consistent(L, w0, targets, mu, states, x, eps,
+                                                 p_scale):
+                    return x
     return None
 
 
+
+def _consistent(L, w0, targets, mu, states, x, eps, p_scale):
+    """Whether impulses ``x`` satisfy the inequalities of their states."""
+    w = w0 + L @ x
+    for c, state in enumerate(states):
+        pn, pt = x[3 * c], x[3 * c + 1:3 * c + 3]
+        vn, vt = w[3 * c], w[3 * c + 1:3 * c + 3]
+        if state == FREE_STATE:
+            ok = vn >= targets[c] - eps
+        elif state == STICK_STATE:
+            ok = pn >= -1e-12 * p_scale and np.linalg.norm(pt) <= mu[c] * pn * (
+                1 + 1e-12) + 1e-12 * p_scale
+        else:
+            speed = np.linalg.norm(vt)
+            ok = (pn >= -1e-12 * p_scale and speed > eps
+                  and np.linalg.norm(pt + mu[c] * pn * vt / speed) <= 1e-9 * (
+                      abs(pn) + 1e-12 * p_scale))
+        if not ok:
+            return False
+    return True
+
+
+def _stick_start(L, w0, targets, mu, states, frictionless=False):
+    """Sticking impulses for the sliding contacts, brought onto their cones
+    (``frictionless``: without tangential impulses on them)."""
+    k = len(states)
+    A = np.zeros((3 * k, 3 * k))
+    b = np.zeros(3 * k)
+    for c, state in enumerate(states):
+        r = slice(3 * c, 3 * c + 3)
+        if state == FREE_STATE:
+            A[r, r] = np.eye(3)
+        elif state == SLIDE_STATE and frictionless:
+            A[3 * c] = L[3 * c]
+            b[3 * c] = targets[c] - w0[3 * c]
+            A[3 * c + 1:3 * c + 3, 3 * c + 1:3 * c + 3] = np.eye(2)
+        else:
+            A[r] = L[r]
+            b[r] = -w0[r]
+            b[3 * c] += targets[c]
+    x = np.linalg.lstsq(A, b, rcond=1e-12)[0]
+    for c, state in enumerate(states):
+        if state == SLIDE_STATE:
+            pt = x[3 * c + 1:3 * c + 3]
+            norm = np.linalg.norm(pt)
+            if norm > 0:
+                x[3 * c + 1:3 * c + 3] = pt * (mu[c] * abs(x[3 * c]) / norm)
+    return x
+
+
 FREE_STATE, STICK_STATE, SLIDE_STATE = 0, 1, 2
+
+
+def _state_residual(L, w0, targets, mu, states, x, eps):
+    """Residual and Jacobian of the equations of :func:`_enumerated` at ``x``."""
+    k = len(states)
+    w = w0 + L @ x
+    F = np.zeros(3 * k)
+    G = np.zeros((3 * k, 3 * k))
+    for c, state in enumerate(states):
+        r = slice(3 * c, 3 * c + 3)
+        if state == FREE_STATE:
+            F[r] = x[r]
+            G[r, r] = np.eye(3)
+        elif state == STICK_STATE:
+            F[r] = w[r] - np.array([targets[c], 0.0, 0.0])
+            G[r] = L[r]
+        else:
+            vt = w[3 * c + 1:3 * c + 3]
+            speed = np.linalg.norm(vt)
+            if speed <= eps:
+                return None, None
+            d = vt / speed
+            F[3 * c] = w[3 * c] - targets[c]
+            G[3 * c] = L[3 * c]
+            t = slice(3 * c + 1, 3 * c + 3)
+            F[t] = x[t] + mu[c] * x[3 * c] * d
+            G[t] = mu[c] * x[3 * c] * ((np.eye(2) - np.outer(d, d)) / speed) @ L[t]
+            G[t, t] += np.eye(2)
+            G[t, 3 * c] += mu[c] * d
+    return F, G
+
+
+def _newton_states(L, w0, targets, mu, states, x, eps, iterations=50):
+    """Impulses for given contact states by Newton's method from ``x``.
+
+    The equations of :func:`_enumerated` with the slip directions taken from
+    the velocities after the impact (:math:`p_t + \\mu p_n \\hat v_t = 0`),
+    linearized in the impulses; least-norm steps, halved while they do not
+    reduce the residual.  ``None`` if it does not converge or a sliding
+    contact's slip vanishes.
+    """
+    scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(w0))), 1e-300)
+    F, G = _state_residual(L, w0, targets, mu, states, x, eps)
+    for _ in range(iterations):
+        if F is None:
+            return None
+        norm = np.linalg.norm(F)
+        if norm <= 1e-13 * scale:
+            return x
+        step = np.linalg.lstsq(G, -F, rcond=1e-12)[0]
+        for _ in range(30):
+            F_new, G_new = _state_residual(L, w0, targets, mu, states, x + step, eps)
+            if F_new is not None and np.linalg.norm(F_new) < norm:
+                break
+            step = 0.5 * step
+        else:
+            return None
+        x, F, G = x + step, F_new, G_new
+    return None
 
 
 def _simultaneous(W, v0, normals, mu, e, iterations=2000, tol=1e-13):
@@ -345,7 +450,13 @@ def _simultaneous(W, v0, normals, mu, e, iterations=2000, tol=1e-13):
 
     Solved directly by :func:`_enumerated` on the small contact set; by
     projected Gauss-Seidel (iterations over the contacts) where that finds no
-    consistent state.
+    consistent state (more than four contacts, or sliding equations whose
+    Newton iterations find only a root with a pulling impulse).  The two
+    agree where each contact's tangential inverse inertia is isotropic or of
+    rank one (a ball, plane motion); otherwise the radial projection of
+    Gauss-Seidel sets the tangential impulse against :math:`W_{tt}^{-1} v_t`
+    rather than against the slip :math:`v_t` itself, which the enumeration
+    follows.
     """
     k = len(normals)
     F = _local_frames(normals)
