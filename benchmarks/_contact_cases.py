@@ -8,7 +8,6 @@ couple), then slides and rolls.
 
 from __future__ import annotations
 
-import sympy as sm
 import sympy.physics.mechanics as me
 
 import kanedyn as kd
