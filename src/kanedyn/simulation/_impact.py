@@ -21,9 +21,12 @@ slip has stopped and the static coefficient allows, the tangential impulse
 that keeps it stopped.  Compression ends where the normal velocity vanishes
 (normal impulse :math:`p_c`); restitution ends at :math:`p = (1 + e) p_c`
 (Poisson) or when the normal velocity reaches :math:`-e\,v_n^-` (Newton).
-Sticking, sliding and slip reversal follow from the integration.  Several
+Sticking, sliding and slip reversal follow from the integration (in closed
+form where the slip keeps its direction: plane motion, a ball).  Several
 contacts at once are resolved with Newton's law and the Coulomb cone as a
-complementarity problem in contact space, solved by projected Gauss-Seidel.
+complementarity problem in contact space, solved directly by enumerating the
+contacts' states (free, sticking, sliding) on the small contact set, with
+projected Gauss-Seidel as the fallback.
 """
 
 from __future__ import annotations
