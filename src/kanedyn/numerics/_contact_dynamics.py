@@ -96,6 +96,8 @@ class ContactSolution:
     slip_velocity : ndarray, shape (k, 3)
         Slip velocity of each contact with the drift of the other active
         contact constraints removed (:func:`slip_velocities`), m/s.
+    qdot : ndarray, shape (n_q,)
+        Coordinate rates at the same state (from the same evaluation).
     """
 
     udot: np.ndarray
@@ -105,6 +107,7 @@ class ContactSolution:
     dissipation: float
     power: float
     slip_velocity: np.ndarray = None
+    qdot: np.ndarray = None
 
     @property
     def force(self):
@@ -290,6 +293,8 @@ def _redundant(rows, rtol=1e-10):
     """Whether the constraint rows (shape (k, n_u)) are linearly dependent."""
     if rows.shape[0] > rows.shape[1]:
         return True
+    if rows.shape[0] == 1:
+        return not np.any(rows)
     sv = np.linalg.svd(rows, compute_uv=False)
     return sv[-1] <= rtol * sv[0]
 
@@ -339,6 +344,69 @@ def _least_friction(A, b, o, sticking, rtol=1e-10):
     return x
 
 
+def _one_contact(model, y, modes, directions, w, qd, mass, force, points):
+    """:func:`solve_modes` for at most one active, unilateral contact (no
+    dependent speeds): the contact force by the Schur complement of the mass
+    matrix, the few small products written out.  ``None`` where it does not
+    apply (several active contacts, a bilateral one, a sticking point that
+    cannot move in every direction); the general path then solves.
+    """
+    active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
+    k = len(points)
+    slips = np.array([pt.slip_velocity for pt in points], dtype=float).reshape(-1, 3)
+    normal_force = np.zeros(k)
+    friction = np.zeros((k, 3))
+    if not active:
+        udot = np.linalg.solve(mass, force)
+        return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
+                               points=points, dissipation=0.0, power=0.0,
+                               slip_velocity=slips, qdot=qd)
+    if len(active) > 1:
+        return None
+    c = active[0]
+    coef = model.contacts[c]
+    mode = modes[c]
+    if coef["kind"] != "unilateral" or mode not in (SLIP, STICK):
+        return None
+    point = points[c]
+    J, n = point.jacobian, point.normal
+    vn = float(n @ point.velocity)
+    vt = point.velocity - vn * n
+    correction = 2 * w * vn + w * w * point.distance
+    if coef["viscous"]:
+        force = force - coef["viscous"] * (J.T @ vt)
+    if mode == SLIP:
+        reference = (directions or [None] * k)[c]
+        s = slip_direction(point, reference, velocity=slips[c])
+        column = J.T @ (n - coef["mu_k"] * s)
+        sol = np.linalg.solve(mass, np.column_stack([force, column]))
+        row = n @ J
+        denominator = float(row @ sol[:, 1])
+        if not abs(denominator) > 1e-12 * np.linalg.norm(row) * np.linalg.norm(column):
+            return None
+        N = (-(point.normal_rate + correction) - float(row @ sol[:, 0])) / denominator
+        udot = sol[:, 0] + N * sol[:, 1]
+        total = N * (n - coef["mu_k"] * s)
+    else:
+        sol = np.linalg.solve(mass, np.column_stack([force, J.T]))
+        Wc = J @ sol[:, 1:]
+        ev = np.linalg.eigvalsh(0.5 * (Wc + Wc.T))
+        if not ev[0] > 1e-10 * ev[-1]:
+            return None  # the point cannot move in some direction: general path
+        lam = np.linalg.solve(Wc, -(point.acceleration + correction * n) - J @ sol[:, 0])
+        udot = sol[:, 0] + sol[:, 1:] @ lam
+        total = lam
+    N = float(total @ n)
+    normal_force[c] = N
+    friction[c] = total - N * n - coef["viscous"] * vt
+    u = y[model.n_q:]
+    dissipation = float(friction[c] @ point.velocity)
+    power = float((N * n + friction[c]) @ (J @ u))
+    return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
+                           points=points, dissipation=dissipation, power=power,
+                           slip_velocity=slips, qdot=qd)
+
+
 def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     """Accelerations and contact forces for given modes.
 
@@ -373,6 +441,11 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     qd, mass, force, vel_B, acc_K, acc_f = model._dynamics(t, y)
     points = contact_points(model, t, y)
     coefficients = model.contacts
+    if not m:
+        fast = _one_contact(model, y, modes, directions, stabilization, qd, mass, force,
+                            points)
+        if fast is not None:
+            return fast
     directions = directions or [None] * len(points)
     slips, spaces = slip_velocities(points, modes, mass, vel_B.reshape(m, o) if m else None)
     force = force.copy()
@@ -417,25 +490,26 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         X = np.linalg.solve(vel_B[:, p:], vel_B[:, :p])
         R = np.hstack([np.eye(p), -X.T])
     else:
-        R = np.eye(o)
+        R = None  # the identity
     A = np.zeros((o + k, o + k))
     b = np.zeros(o + k)
-    A[:p, :o] = R @ mass
-    b[:p] = R @ force
+    A[:p, :o] = mass if R is None else R @ mass
+    b[:p] = force if R is None else R @ force
     if m:
         A[p:o, :o] = acc_K
         b[p:o] = -acc_f
     if k:
         A[o:, :o] = np.array(rows).reshape(k, o)
         b[o:] = rhs
-    redundant = k and _redundant(np.vstack([vel_B.reshape(m, o), A[o:, :o]]))
+    redundant = k and _redundant(A[o:, :o] if not m else
+                                 np.vstack([vel_B.reshape(m, o), A[o:, :o]]))
     # friction -mu |N| s: the sign of N is assumed positive, and corrected for
     # bilateral contacts whose normal force turns out to pull
     sign = np.ones(k)
     for _ in range(len(slip_columns) + 1):
         for i, normal_column, friction_column, _ in slip_columns:
             G[:, i] = normal_column - sign[i] * friction_column
-        A[:p, o:] = -(R @ G)
+        A[:p, o:] = -G if R is None else -(R @ G)
         if redundant:
             # statically indeterminate (e.g. a ladder sticking at both ends): the
             # accelerations are determined, the contact forces are not
@@ -471,4 +545,4 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         i += size
     return ContactSolution(udot=udot, normal_force=normal_force, friction=friction,
                            points=points, dissipation=dissipation, power=power,
-                           slip_velocity=slips)
+                           slip_velocity=slips, qdot=qd)

@@ -275,8 +275,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
 
         def rhs(tt, z, frozen_modes=frozen_modes, frozen_dirs=frozen_dirs):
             sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
-            qd = model._dynamics(tt, z[:n])[0]
-            out = np.concatenate([qd, sol.udot, [sol.dissipation, sol.power]])
+            out = np.concatenate([sol.qdot, sol.udot, [sol.dissipation, sol.power]])
             if not np.all(np.isfinite(out)):
                 guard.fail(tt, z[:n])
             return out

@@ -21,13 +21,17 @@ slip has stopped and the static coefficient allows, the tangential impulse
 that keeps it stopped.  Compression ends where the normal velocity vanishes
 (normal impulse :math:`p_c`); restitution ends at :math:`p = (1 + e) p_c`
 (Poisson) or when the normal velocity reaches :math:`-e\,v_n^-` (Newton).
-Sticking, sliding and slip reversal follow from the integration.  Several
+Sticking, sliding and slip reversal follow from the integration (in closed
+form where the slip keeps its direction: plane motion, a ball).  Several
 contacts at once are resolved with Newton's law and the Coulomb cone as a
-complementarity problem in contact space, solved by projected Gauss-Seidel.
+complementarity problem in contact space, solved directly by enumerating the
+contacts' states (free, sticking, sliding) on the small contact set, with
+projected Gauss-Seidel as the fallback.
 """
 
 from __future__ import annotations
 
+import itertools
 import warnings
 from dataclasses import dataclass
 
@@ -160,32 +164,31 @@ def _single(W, v0, n, mu_k, mu_s, e, law):
             p = p_next
         else:
             direction = vt / np.linalg.norm(vt) if sliding else slip_start_direction()
-
-            def rate(q, z, direction=direction):  # z = [relative velocity, tangential impulse]
-                wt = z[:3] - (n @ z[:3]) * n
-                speed = np.linalg.norm(wt)
-                d = wt / speed if speed > slip_tol else direction
-                return np.concatenate([W @ (n - mu_k * d), -mu_k * d])
-
-            events = []
-
-            def stopped(q, z, direction=direction):
-                return (z[:3] - (n @ z[:3]) * n) @ direction
-            stopped.terminal, stopped.direction = True, -1
-            events.append(stopped)
-            if pc is None:
-                def compressed(q, z):
-                    return n @ z[:3]
-                compressed.terminal, compressed.direction = True, 1
-                events.append(compressed)
-            elif law == "newton":
-                def restituted(q, z):
-                    return n @ z[:3] - newton_target
-                restituted.terminal, restituted.direction = True, 1
-                events.append(restituted)
-            sol = solve_ivp(rate, (p, stop_p), np.concatenate([v, Pt]), rtol=1e-12,
-                            atol=1e-14 * scale, method="DOP853", events=events)
-            p, v, Pt = sol.t[-1], sol.y[:3, -1], sol.y[3:, -1]
+            constant = W @ (n - mu_k * direction)
+            drift = constant - (n @ constant) * n
+            along = float(drift @ direction)
+            if np.linalg.norm(drift - along * direction) <= 1e-13 * np.linalg.norm(constant):
+                # the slip velocity changes along its own direction (plane
+                # motion, a ball): the direction is constant until the slip
+                # stops and the velocity is linear in p; events in closed form
+                targets = [stop_p]
+                if sliding and along < 0:
+                    targets.append(p - float(vt @ direction) / along)
+                rn = float(n @ constant)
+                if pc is None and rn > 0:
+                    targets.append(p - float(n @ v) / rn)
+                if pc is not None and law == "newton" and rn > 0:
+                    targets.append(p + (newton_target - float(n @ v)) / rn)
+                p_next = min(x for x in targets if x >= p)
+                v = v + (p_next - p) * constant
+                Pt = Pt - (p_next - p) * mu_k * direction
+                p = p_next
+                vt = v - (n @ v) * n
+                if sliding and along < 0 and float(vt @ direction) <= slip_tol:
+                    v = v - (vt @ direction) * direction  # stopped exactly
+            else:
+                p, v, Pt = _slide_numerically(W, n, mu_k, direction, slip_tol, p, v, Pt, pc,
+                                              stop_p, law, newton_target, scale)
         vn = float(n @ v)
         if pc is None and vn >= -1e-14 * scale:
             pc = p
@@ -199,37 +202,305 @@ def _single(W, v0, n, mu_k, mu_s, e, law):
     return p * n + Pt
 
 
-def _simultaneous(W, v0, normals, mu, e, iterations=2000, tol=1e-13):
-    """Impulses of several contacts: Newton restitution, Coulomb cone (PGS)."""
+def _slide_numerically(W, n, mu_k, direction, slip_tol, p, v, Pt, pc, stop_p, law,
+                       newton_target, scale):
+    """One sliding phase whose slip turns: integrated over the normal impulse."""
+    def rate(q, z, direction=direction):  # z = [relative velocity, tangential impulse]
+        wt = z[:3] - (n @ z[:3]) * n
+        speed = np.linalg.norm(wt)
+        d = wt / speed if speed > slip_tol else direction
+        return np.concatenate([W @ (n - mu_k * d), -mu_k * d])
+
+    events = []
+
+    def stopped(q, z, direction=direction):
+        return (z[:3] - (n @ z[:3]) * n) @ direction
+    stopped.terminal, stopped.direction = True, -1
+    events.append(stopped)
+    if pc is None:
+        def compressed(q, z):
+            return n @ z[:3]
+        compressed.terminal, compressed.direction = True, 1
+        events.append(compressed)
+    elif law == "newton":
+        def restituted(q, z):
+            return n @ z[:3] - newton_target
+        restituted.terminal, restituted.direction = True, 1
+        events.append(restituted)
+    sol = solve_ivp(rate, (p, stop_p), np.concatenate([v, Pt]), rtol=1e-12,
+                    atol=1e-14 * scale, method="DOP853", events=events)
+    return sol.t[-1], sol.y[:3, -1], sol.y[3:, -1]
+
+
+def _local_frames(normals):
+    """Block-diagonal (3k, 3k) matrix of the contact frames (columns n, t1, t2)."""
     k = len(normals)
-    P = np.zeros(3 * k)
-    vn0 = np.array([normals[c] @ v0[3 * c:3 * c + 3] for c in range(k)])
+    F = np.zeros((3 * k, 3 * k))
+    for c, n in enumerate(normals):
+        F[3 * c:3 * c + 3, 3 * c:3 * c + 3] = np.column_stack([n, _tangent_basis(n)])
+    return F
+
+
+def _enumerated(L, w0, targets, mu, max_contacts=4):
+    r"""Impulses of simultaneous contacts by enumerating their states (direct).
+
+    In the contact frames (``L`` the (3k, 3k) inverse inertia, ``w0`` the
+    velocities before), each contact is free (no impulse), sticking (its
+    normal velocity reaches the target and its slip stops) or sliding (the
+    normal velocity reaches the target and the tangential impulse is
+    :math:`-\mu p_n \hat s`, :math:`\hat s` the slip direction after the
+    impact, found by a fixed point).  Each assignment is one linear system
+    (least norm where the impulses are indeterminate, as for a rod landing
+    flat); the first whose solution satisfies every inequality (impulses
+    pushing, within the cone, no penetration, slip along its direction) is
+    the solution of the complementarity problem the projected Gauss-Seidel
+    iteration of :func:`_simultaneous` approaches.  ``None`` when no
+    assignment is consistent or there are more than ``max_contacts``.
+    """
+    k = len(targets)
+    if k > max_contacts:
+        return None
+    scale = max(float(np.max(np.abs(w0))), float(np.max(np.abs(targets))), 1e-300)
+    eps = 1e-10 * scale
+    p_scale = scale / max(float(np.max(np.abs(np.diag(L)))), 1e-300)
+    for states in itertools.product((STICK_STATE, SLIDE_STATE, FREE_STATE), repeat=k):
+        if all(state == FREE_STATE for state in states):
+            x = np.zeros(3 * k)
+            ok = all(w0[3 * c] >= targets[c] - eps for c in range(k))
+            if ok:
+                return x
+            continue
+        if any(state == STICK_STATE and mu[c] == 0 for c, state in enumerate(states)):
+            continue  # frictionless contacts slide
+        directions = [None] * k
+        for c, state in enumerate(states):
+            if state == SLIDE_STATE:
+                vt = w0[3 * c + 1:3 * c + 3]
+                norm = np.linalg.norm(vt)
+                directions[c] = vt / norm if norm > eps else None
+        x = None
+        converged = False
+        for _ in range(20):  # fixed point of the slip directions
+            A = np.zeros((3 * k, 3 * k))
+            b = np.zeros(3 * k)
+            for c, state in enumerate(states):
+                r = slice(3 * c, 3 * c + 3)
+                if state == FREE_STATE:
+                    A[r, r] = np.eye(3)
+                elif state == STICK_STATE:
+                    A[r] = L[r]
+                    b[r] = -w0[r]
+                    b[3 * c] += targets[c]
+                else:
+                    A[3 * c] = L[3 * c]
+                    b[3 * c] = targets[c] - w0[3 * c]
+                    d = directions[c] if directions[c] is not None else np.zeros(2)
+                    A[3 * c + 1:3 * c + 3, 3 * c + 1:3 * c + 3] = np.eye(2)
+                    A[3 * c + 1:3 * c + 3, 3 * c] = mu[c] * d
+            guess = np.linalg.lstsq(A, b, rcond=1e-12)[0]
+            if np.linalg.norm(A @ guess - b) > 1e-9 * max(np.linalg.norm(b), scale * 1e-3):
+                break  # Newton from the last consistent guess, if any
+            x = guess
+            w = w0 + L @ x
+            changed = False
+            for c, state in enumerate(states):
+                if state != SLIDE_STATE:
+                    continue
+                vt = w[3 * c + 1:3 * c + 3]
+                norm = np.linalg.norm(vt)
+                if norm <= eps:
+                    continue
+                d = vt / norm
+                changed = changed or directions[c] is None or bool(
+                    np.linalg.norm(d - directions[c]) > 1e-14)
+                directions[c] = d
+            if not changed:
+                converged = True
+                break
+        if not converged and x is not None:
+            # the directions cycle: Newton's method on the slip directions
+            x = _newton_states(L, w0, targets, mu, states, x, eps)
+        if x is not None and _consistent(L, w0, targets, mu, states, x, eps, p_scale):
+            return x
+        if SLIDE_STATE in states:
+            # another root of the sliding equations (the fixed point can find
+            # one with a pulling normal impulse): Newton from the sticking
+            # solution with its tangential impulse brought onto the cone
+            # or without friction on them
+            for frictionless in (False, True):
+                start = _stick_start(L, w0, targets, mu, states, frictionless)
+                x = _newton_states(L, w0, targets, mu, states, start, eps)
+                if x is not None and _consistent(L, w0, targets, mu, states, x, eps,
+                                                 p_scale):
+                    return x
+    return None
+
+
+
+def _consistent(L, w0, targets, mu, states, x, eps, p_scale):
+    """Whether impulses ``x`` satisfy the inequalities of their states."""
+    w = w0 + L @ x
+    for c, state in enumerate(states):
+        pn, pt = x[3 * c], x[3 * c + 1:3 * c + 3]
+        vn, vt = w[3 * c], w[3 * c + 1:3 * c + 3]
+        if state == FREE_STATE:
+            ok = vn >= targets[c] - eps
+        elif state == STICK_STATE:
+            ok = pn >= -1e-12 * p_scale and np.linalg.norm(pt) <= mu[c] * pn * (
+                1 + 1e-12) + 1e-12 * p_scale
+        else:
+            speed = np.linalg.norm(vt)
+            ok = (pn >= -1e-12 * p_scale and speed > eps
+                  and np.linalg.norm(pt + mu[c] * pn * vt / speed) <= 1e-9 * (
+                      abs(pn) + 1e-12 * p_scale))
+        if not ok:
+            return False
+    return True
+
+
+def _stick_start(L, w0, targets, mu, states, frictionless=False):
+    """Sticking impulses for the sliding contacts, brought onto their cones
+    (``frictionless``: without tangential impulses on them)."""
+    k = len(states)
+    A = np.zeros((3 * k, 3 * k))
+    b = np.zeros(3 * k)
+    for c, state in enumerate(states):
+        r = slice(3 * c, 3 * c + 3)
+        if state == FREE_STATE:
+            A[r, r] = np.eye(3)
+        elif state == SLIDE_STATE and frictionless:
+            A[3 * c] = L[3 * c]
+            b[3 * c] = targets[c] - w0[3 * c]
+            A[3 * c + 1:3 * c + 3, 3 * c + 1:3 * c + 3] = np.eye(2)
+        else:
+            A[r] = L[r]
+            b[r] = -w0[r]
+            b[3 * c] += targets[c]
+    x = np.linalg.lstsq(A, b, rcond=1e-12)[0]
+    for c, state in enumerate(states):
+        if state == SLIDE_STATE:
+            pt = x[3 * c + 1:3 * c + 3]
+            norm = np.linalg.norm(pt)
+            if norm > 0:
+                x[3 * c + 1:3 * c + 3] = pt * (mu[c] * abs(x[3 * c]) / norm)
+    return x
+
+
+FREE_STATE, STICK_STATE, SLIDE_STATE = 0, 1, 2
+
+
+def _state_residual(L, w0, targets, mu, states, x, eps):
+    """Residual and Jacobian of the equations of :func:`_enumerated` at ``x``."""
+    k = len(states)
+    w = w0 + L @ x
+    F = np.zeros(3 * k)
+    G = np.zeros((3 * k, 3 * k))
+    for c, state in enumerate(states):
+        r = slice(3 * c, 3 * c + 3)
+        if state == FREE_STATE:
+            F[r] = x[r]
+            G[r, r] = np.eye(3)
+        elif state == STICK_STATE:
+            F[r] = w[r] - np.array([targets[c], 0.0, 0.0])
+            G[r] = L[r]
+        else:
+            vt = w[3 * c + 1:3 * c + 3]
+            speed = np.linalg.norm(vt)
+            if speed <= eps:
+                return None, None
+            d = vt / speed
+            F[3 * c] = w[3 * c] - targets[c]
+            G[3 * c] = L[3 * c]
+            t = slice(3 * c + 1, 3 * c + 3)
+            F[t] = x[t] + mu[c] * x[3 * c] * d
+            G[t] = mu[c] * x[3 * c] * ((np.eye(2) - np.outer(d, d)) / speed) @ L[t]
+            G[t, t] += np.eye(2)
+            G[t, 3 * c] += mu[c] * d
+    return F, G
+
+
+def _newton_states(L, w0, targets, mu, states, x, eps, iterations=50):
+    """Impulses for given contact states by Newton's method from ``x``.
+
+    The equations of :func:`_enumerated` with the slip directions taken from
+    the velocities after the impact (:math:`p_t + \\mu p_n \\hat v_t = 0`),
+    linearized in the impulses; least-norm steps, halved while they do not
+    reduce the residual.  ``None`` if it does not converge or a sliding
+    contact's slip vanishes.
+    """
+    scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(w0))), 1e-300)
+    F, G = _state_residual(L, w0, targets, mu, states, x, eps)
+    for _ in range(iterations):
+        if F is None:
+            return None
+        norm = np.linalg.norm(F)
+        if norm <= 1e-13 * scale:
+            return x
+        step = np.linalg.lstsq(G, -F, rcond=1e-12)[0]
+        for _ in range(30):
+            F_new, G_new = _state_residual(L, w0, targets, mu, states, x + step, eps)
+            if F_new is not None and np.linalg.norm(F_new) < norm:
+                break
+            step = 0.5 * step
+        else:
+            return None
+        x, F, G = x + step, F_new, G_new
+    return None
+
+
+def _simultaneous(W, v0, normals, mu, e, iterations=2000, tol=1e-13):
+    """Impulses of several contacts: Newton restitution, Coulomb cone.
+
+    Solved directly by :func:`_enumerated` on the small contact set; by
+    projected Gauss-Seidel (iterations over the contacts) where that finds no
+    consistent state (more than four contacts, or sliding equations whose
+    Newton iterations find only a root with a pulling impulse).  The two
+    agree where each contact's tangential inverse inertia is isotropic or of
+    rank one (a ball, plane motion); otherwise the radial projection of
+    Gauss-Seidel sets the tangential impulse against :math:`W_{tt}^{-1} v_t`
+    rather than against the slip :math:`v_t` itself, which the enumeration
+    follows.
+    """
+    k = len(normals)
+    F = _local_frames(normals)
+    L = F.T @ W @ F
+    w0 = F.T @ v0
+    vn0 = w0[0::3]
     targets = np.where(vn0 < 0, -e * vn0, 0.0)
-    frames = [np.column_stack([normals[c], _tangent_basis(normals[c])]) for c in range(k)]
+    x = _enumerated(L, w0, targets, np.asarray(mu, dtype=float))
+    if x is not None:
+        return (F @ x).reshape(k, 3)
+    return _gauss_seidel(L, w0, targets, mu, F, iterations, tol)
+
+
+def _gauss_seidel(L, w0, targets, mu, F, iterations, tol):
+    """Projected Gauss-Seidel over the contacts, in the contact frames."""
+    k = len(targets)
+    X = np.zeros(3 * k)
+    # the tangential blocks' least-norm inverses are the same in every sweep
+    tangential = [np.linalg.pinv(L[3 * c + 1:3 * c + 3, 3 * c + 1:3 * c + 3], rcond=1e-12)
+                  for c in range(k)]
     for _ in range(iterations):
         change = 0.0
         for c in range(k):
             sl = slice(3 * c, 3 * c + 3)
-            F = frames[c]  # columns n, t1, t2
-            v = v0[sl] + W[sl] @ P
-            local_v = F.T @ v
-            Wcc = F.T @ W[sl, sl] @ F
-            local_P = F.T @ P[sl]
+            local_v = w0[sl] + L[sl] @ X
+            Lcc = L[sl, sl]
+            local_P = X[sl]
             # normal: reach the target normal velocity, impulse >= 0
-            pn = max(0.0, local_P[0] + (targets[c] - local_v[0]) / Wcc[0, 0])
+            pn = max(0.0, local_P[0] + (targets[c] - local_v[0]) / Lcc[0, 0])
             # tangential: stop the slip, within the cone
-            pt = local_P[1:] - np.linalg.lstsq(
-                Wcc[1:, 1:], local_v[1:] + Wcc[1:, 0] * (pn - local_P[0]), rcond=1e-12)[0]
+            pt = local_P[1:] - tangential[c] @ (local_v[1:] + Lcc[1:, 0] * (pn - local_P[0]))
             limit = mu[c] * pn
             norm = np.linalg.norm(pt)
             if norm > limit:
                 pt *= limit / norm
-            new = F @ np.concatenate([[pn], pt])
-            change = max(change, float(np.max(np.abs(new - P[sl]))))
-            P[sl] = new
-        if change <= tol * max(1.0, float(np.max(np.abs(P)))):
+            new = np.concatenate([[pn], pt])
+            change = max(change, float(np.max(np.abs(F[sl, sl] @ (new - local_P)))))
+            X[sl] = new
+        if change <= tol * max(1.0, float(np.max(np.abs(X)))):
             break
-    return P.reshape(k, 3)
+    return (F @ X).reshape(k, 3)
 
 
 def resolve_impact(model, t, y, contacts, points, restitution=None):

@@ -110,6 +110,10 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         (methods ``"RK45"``, the same algorithm as SciPy's, and
         ``"Rosenbrock23"``, for stiff problems); ``"scipy"``: ``solve_ivp``.
         Default: the compiled loop where it applies, else ``solve_ivp``.
+        Models with contacts are integrated segment by segment between mode
+        changes and impacts, the compiled dynamics and contact terms of a
+        ``backend="c"`` model driving the segments (``"c"`` requires such a
+        model).
     singular_threshold : float or None
         Report the times at which the run passes near a singular
         configuration, where the smallest over the largest singular value of
@@ -172,10 +176,15 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
             dense_segments=None, counters={"nfev": 1, "njev": 0, "nlu": 0}, projections=0,
             method=method_name, **common)
     if model.contacts:
-        if backend == "c" or dense_output:
-            raise ModelError("models with contacts are integrated segment by segment on "
-                             "solve_ivp: backend='c' and dense_output are not available "
-                             "for them")
+        if dense_output:
+            raise ModelError("models with contacts are integrated segment by segment: "
+                             "dense_output is not available for them")
+        if backend == "c" and getattr(model, "_c", None) is None:
+            raise OptionError("backend='c' with contacts needs a model built with "
+                              "backend='c' (its compiled dynamics and contact terms drive "
+                              "the segments between events)")
+        if backend not in (None, "c", "scipy"):
+            raise OptionError(f"backend must be None, 'scipy' or 'c', not {backend!r}")
         if t1 < t0:
             raise OptionError(f"models with contacts are integrated forward in time; got "
                               f"t_span ({t0:g}, {t1:g})")

@@ -1,0 +1,119 @@
+"""Benchmark (not a test): contact simulations, before and after.
+
+Three runs with modes, events and impacts (``_contact_cases.py``):
+``falling-rod`` (t_end 2 s, 40 impacts, 13 of both ends at once),
+``slug-ellipsoid`` (8 s, 36 impacts, slip and flight) and ``ball-3d`` (a
+spinning ball on a rough floor, 1.5 s, 20 impacts then rolling), all with
+``kd.simulate`` at its default tolerances (rtol = atol = 1e-8).
+
+Contenders, each a worker process importing kanedyn from its own source
+tree (``--before``, by default the main checkout, against this tree):
+
+* ``before numpy`` / ``after numpy``: models built with ``backend="numpy"``;
+* ``after c``: models built with ``backend="c"``, ``simulate(backend="c")``.
+
+The workers build every model once, run each simulation once to warm up,
+then the rounds interleave the contenders (round-robin, order rotated each
+round); each measurement is the thread CPU time of one ``kd.simulate``.
+Reported: the minimum over rounds and the spread (max / min), and the
+speed-up of each contender over ``before numpy`` as a ratio of minima.  The
+workers also report the mode history and impact count, which must agree.
+
+Run: ``PYTHONPATH=src python benchmarks/bench_contacts.py [--rounds 7]
+[--before /work/main/src]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+
+_WORKER = r"""
+import json, sys, time, warnings
+sys.path.insert(0, {here!r})
+warnings.simplefilter("ignore")
+import kanedyn as kd
+from _contact_cases import CASES, build
+backend = {backend!r}
+built = {{name: build(name, backend) for name in CASES}}
+options = {{"backend": "c"}} if backend == "c" else {{}}
+for name, (model, y0, t_end) in built.items():
+    kd.simulate(model, (0, t_end), y0, **options)
+print("ready", flush=True)
+for line in sys.stdin:
+    name = line.strip()
+    model, y0, t_end = built[name]
+    start = time.thread_time()
+    res = kd.simulate(model, (0, t_end), y0, **options)
+    cpu = time.thread_time() - start
+    history = [[round(c.t, 9), c.contact, c.old, c.new] for c in res.mode_history]
+    print(json.dumps({{"cpu": cpu, "impacts": len(res.impacts), "history": history,
+                      "ok": bool(res.success)}}), flush=True)
+"""
+
+
+def _worker(src, backend):
+    env = dict(os.environ, PYTHONPATH=str(src))
+    proc = subprocess.Popen([sys.executable, "-c", _WORKER.format(here=str(HERE),
+                                                                  backend=backend)],
+                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
+                            env=env)
+    line = proc.stdout.readline()
+    if line.strip() != "ready":
+        raise RuntimeError(f"the worker on {src} ({backend}) did not start")
+    return proc
+
+
+def _ask(proc, name):
+    proc.stdin.write(name + "\n")
+    proc.stdin.flush()
+    return json.loads(proc.stdout.readline())
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--before", default="/work/main/src")
+    args = parser.parse_args()
+    sys.path.insert(0, str(HERE))
+    from _contact_cases import CASES
+    after = HERE.parent / "src"
+    contenders = {"before numpy": (args.before, "numpy"), "after numpy": (after, "numpy"),
+                  "after c": (after, "c")}
+    workers = {label: _worker(src, backend) for label, (src, backend) in contenders.items()}
+    times = {(label, name): [] for label in contenders for name in CASES}
+    outcome = {}
+    labels = list(contenders)
+    try:
+        for r in range(args.rounds):
+            order = labels[r % len(labels):] + labels[:r % len(labels)]
+            for name in CASES:
+                for label in order:
+                    answer = _ask(workers[label], name)
+                    times[label, name].append(answer["cpu"])
+                    outcome[label, name] = (answer["impacts"], answer["history"],
+                                            answer["ok"])
+    finally:
+        for proc in workers.values():
+            proc.stdin.close()
+            proc.wait()
+    print(f"thread CPU s per run, minimum of {args.rounds} interleaved rounds "
+          "(spread = max/min)")
+    for name in CASES:
+        base = min(times["before numpy", name])
+        for label in labels:
+            values = times[label, name]
+            same = outcome[label, name][:2] == outcome["before numpy", name][:2]
+            print(f"{name:15s} {label:13s} {min(values):8.4f} s  spread "
+                  f"{max(values) / min(values):5.2f}  speed-up {base / min(values):6.1f}x"
+                  f"  impacts {outcome[label, name][0]:3d}  same modes/impacts: {same}")
+
+
+if __name__ == "__main__":
+    main()
