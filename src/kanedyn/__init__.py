@@ -13,7 +13,9 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
-from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
+from .analysis import (DamperTuning, FrequencyResponse, NewtonEulerCheck, check_newton_euler,
+                       den_hartog, frequency_response, model_frequency_response,
+                       plot_frequency_responses, plot_mode_shapes, tune_damper)
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AddedMass, AngularVelocity, BallScrew, BeamMember,
@@ -32,6 +34,13 @@ from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted,
                          simulate, sweep)
 
 __all__ = [
+    "den_hartog",
+    "frequency_response",
+    "model_frequency_response",
+    "FrequencyResponse",
+    "tune_damper",
+    "DamperTuning",
+    "plot_frequency_responses",
     "RateInertia",
     "Inerter",
     "AddedMass",

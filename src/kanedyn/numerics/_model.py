@@ -597,7 +597,9 @@ class NumericModel(StateLayout):
         # the same code: the loaded C module or the compiled NumPy functions are reused
         clone = NumericModel(data, module=getattr(self, "_module", None),
                              functions=None if data["backend"] == "c" else self._fn)
-        for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse"):
+        # the linearization's Jacobians take the constants as arguments: reused too
+        for attr in ("_eom", "_substitutions", "_functions", "_sizes", "_cse",
+                     "_linearization_fn"):
             if hasattr(self, attr):
                 setattr(clone, attr, getattr(self, attr))
         return clone
