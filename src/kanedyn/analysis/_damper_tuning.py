@@ -509,7 +509,7 @@ def tune_damper(model, y, *, input, output, primary_frequency, primary_mass, mas
 
 
 def plot_frequency_responses(responses, labels, ax=None, title=None, unit="m/N",
-                             frequency_unit="Hz"):
+                             frequency_unit="Hz", legend="best"):
     """Magnitudes of several frequency responses on log axes, in one panel.
 
     Parameters
@@ -523,6 +523,8 @@ def plot_frequency_responses(responses, labels, ax=None, title=None, unit="m/N",
     unit : str
         Unit of the response (output per input), for the axis label.
     frequency_unit : {"Hz", "rad/s"}
+    legend : str
+        Matplotlib's legend location.
 
     Returns
     -------
@@ -538,10 +540,13 @@ def plot_frequency_responses(responses, labels, ax=None, title=None, unit="m/N",
     for resp, label in zip(responses, labels):
         w = resp.omega / (2 * np.pi) if frequency_unit == "Hz" else resp.omega
         ax.loglog(w, np.abs(np.reshape(resp.response, (w.size, -1))[:, 0]), label=label)
+    from matplotlib.ticker import ScalarFormatter
+    for axis in (ax.xaxis.set_major_formatter, ax.xaxis.set_minor_formatter):
+        axis(ScalarFormatter())  # 2, 3, 4 Hz rather than powers of ten
     ax.set_xlabel(f"frequency ({frequency_unit})")
     ax.set_ylabel(f"|H| ({unit})")
     if title:
         ax.set_title(title)
     ax.grid(True, which="both", alpha=0.3)
-    ax.legend()
+    ax.legend(loc=legend)
     return ax
