@@ -101,6 +101,13 @@ _LAZY = {
     'cone_contact': '.modeling',
     'cone_surface': '.modeling',
     'penalty_damping_for_restitution': '.modeling',
+    'den_hartog': '.analysis',
+    'frequency_response': '.analysis',
+    'model_frequency_response': '.analysis',
+    'FrequencyResponse': '.analysis',
+    'tune_damper': '.analysis',
+    'DamperTuning': '.analysis',
+    'plot_frequency_responses': '.analysis',
 }
 
 
@@ -214,4 +221,11 @@ __all__ = [
     "cone_contact",
     "cone_surface",
     "penalty_damping_for_restitution",
+    "den_hartog",
+    "frequency_response",
+    "model_frequency_response",
+    "FrequencyResponse",
+    "tune_damper",
+    "DamperTuning",
+    "plot_frequency_responses",
 ]

@@ -5,9 +5,13 @@
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
+``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 """
 
 from ._bicycle_plot import PUBLISHED_STABLE_SPEEDS, bicycle_modes, plot_bicycle_eigenvalues
+from ._damper_tuning import (DamperTuning, FrequencyResponse, den_hartog,
+                             frequency_response, h2_norm, model_frequency_response,
+                             plot_frequency_responses, response_peaks, tune_damper)
 from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecision,
                        compare_formulations, work_precision)
 from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
@@ -20,4 +24,7 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot", "log_scale_ok",
            "draw_nonnegative", "unit_text", "plot_mode_shapes",
            "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes",
-           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS"]
+           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
+           "den_hartog", "frequency_response", "model_frequency_response",
+           "FrequencyResponse", "response_peaks", "h2_norm", "tune_damper", "DamperTuning",
+           "plot_frequency_responses"]

@@ -618,6 +618,9 @@ class NumericModel(StateLayout):
             for attr in NumericModel._DERIVED:
                 if hasattr(self, attr):
                     setattr(clone, attr, getattr(self, attr))
+        # the linearization's Jacobians take the constants as arguments: reused too
+        if "_linearization_fn" in self.__dict__:
+            clone._linearization_fn = self._linearization_fn
         return clone
 
     def mass_matrix(self, t, y):
