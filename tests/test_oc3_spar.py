@@ -30,34 +30,59 @@ def _sheet():
     return M, K, np.sort(np.sqrt(sl.eig(K, M, right=False).real)) / (2 * np.pi)
 
 
+def _jacobians(m, y, h=1e-6):
+    """kd's mass matrix and the stiffness (minus the forcing's Jacobian in q) at ``y``."""
+    n = m.n_q
+    K = np.empty((n, n))
+    for j in range(n):
+        yp, ym = y.copy(), y.copy()
+        yp[j] += h
+        ym[j] -= h
+        K[:, j] = -(m.forcing(0.0, yp) - m.forcing(0.0, ym)) / (2 * h)
+    return m.mass_matrix(0.0, y), K
+
+
 def test_rigid_frequencies_match_the_6x6_eigenproblem(rigid):
     d, m = rigid
     M, K, f_ref = _sheet()
     y = np.zeros(m.n_states)
     # kd's mass matrix and stiffness (Jacobian of the forcing) at the reference state
-    Mk = m.mass_matrix(0.0, y)
-    h = 1e-6
-    Kk = np.empty((6, 6))
-    for j in range(6):
-        yp, ym = y.copy(), y.copy()
-        yp[j], ym[j] = h, -h
-        Kk[:, j] = -(m.forcing(0.0, yp) - m.forcing(0.0, ym)) / (2 * h)
+    Mk, Kk = _jacobians(m, y)
     assert np.allclose(Mk, M, rtol=0, atol=1e-12 * np.abs(M).max())
     f_kd = np.sort(np.sqrt(sl.eig(Kk, Mk, right=False).real)) / (2 * np.pi)
     assert np.allclose(f_kd, f_ref, rtol=1e-6, atol=0)
-    # kd's full linearization at the reference state: the 6x6 frequencies to 1e-5; the
-    # rest (6e-6 measured) is the acceleration the RNA's unbalanced weight moment
-    # (350 t x 0.414 m: 1.42 MN m) gives at that state, which the 6x6 model leaves out
-    f_lin = _frequencies(m.linearize(y)[0])
-    assert np.allclose(f_lin, f_ref, rtol=1e-5, atol=0)
-    # heave: closed form; the RNA's x offset couples heave and pitch in the mass matrix
-    heave = np.sqrt((K[2, 2]) / M[2, 2]) / (2 * np.pi)
-    assert heave == pytest.approx(np.sqrt((D.HYDRO["C33"].value + D.MOORING["K33"].value)
-                                          / (M[2, 2])) / (2 * np.pi), rel=1e-15)
-    assert np.min(np.abs(f_kd / heave - 1)) < 1e-6
     # surge/sway, heave, roll/pitch, yaw in the published ranges
     assert f_ref[0] == pytest.approx(f_ref[1], rel=1e-6) and 1 / f_ref[0] > 100
     assert 1 / f_ref[-1] == pytest.approx(8.3, rel=0.05)
+
+
+def test_rigid_linearization_at_equilibrium_balanced_rna():
+    """rna_offset=False: the undisplaced state heaved to balance is an equilibrium; kd's full linearize there
+    against scipy's generalized eigenproblem of the same 6x6 matrices, to 1e-6."""
+    d = oc3_spar(tower_modes=0, drag=False, linear_damping=False, rna_offset=False)
+    m = d.numeric(d.derive())
+    y = oc3_settle(d, m)
+    assert np.abs(m.rhs(0.0, y)).max() < 1e-12
+    assert np.abs(y[[0, 1, 3, 4, 5]]).max() < 1e-12   # only heave moves
+    parts = dict(D._parts(("platform", "tower", "rna")))
+    mass, cm, inertia = parts["rna"]
+    parts["rna"] = (mass, np.array([0.0, 0.0, cm[2]]), inertia)
+    M = sum(D.rigid_body_mass_matrix(*p) for p in parts.values()) + D.added_mass_matrix()
+    K = D.hydrostatic_matrix() + D.mooring_stiffness_matrix()
+    f_ref = np.sort(np.sqrt(sl.eig(K, M, right=False).real)) / (2 * np.pi)
+    f_lin = _frequencies(m.linearize(y)[0])
+    assert len(f_lin) == 6
+    assert np.allclose(f_lin, f_ref, rtol=1e-6, atol=0)
+    heave = np.sqrt((D.HYDRO["C33"].value + D.MOORING["K33"].value) / M[2, 2]) / (2 * np.pi)
+    assert M[2, 2] == pytest.approx(D.system_mass_properties()[0] + D.HYDRO["A33"].value,
+                                    rel=1e-15)
+    assert np.min(np.abs(f_lin / heave - 1)) < 1e-6
+    # with the published offset the undisplaced state is not an equilibrium (1.42 MN m)
+    dp = oc3_spar(tower_modes=0, drag=False, linear_damping=False)
+    mp = dp.numeric(dp.derive())
+    moment = mp.forcing(0.0, dp.initial(mp))[4]
+    assert moment == pytest.approx(D.RNA["mass"].value * D.ENVIRONMENT["gravity"].value
+                                   * D.RNA["cm_x"].value, rel=1e-3)
 
 
 def test_tmd_constants_and_options(rigid):

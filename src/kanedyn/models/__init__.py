@@ -23,7 +23,7 @@ from ._parallel import (PLANAR_3RRR_GEOMETRY, STEWART_GEOMETRY, newton_ik, plana
 from ._out_parallel import (OUT_PARALLEL_GEOMETRY, OUT_PARALLEL_INERTIA, out_parallel_6dof,
                             out_parallel_anchors, out_parallel_ik)
 from ._oc3_spar import OC3_SPAR_OPTIONS, oc3_settle, oc3_spar, oc3_static_offsets
-from ._oc3_tower import oc3_rna_node_mass, oc3_tower, oc3_tower_member
+from ._oc3_tower import oc3_rna_node_mass, oc3_tower, oc3_tower_member, oc3_tower_rna_basis
 from ._nonholonomic import nonholonomic_particle, sphere_on_turntable
 from ._rolling import MEIJAARD_2007, rolling_disk, whipple_bicycle
 from ._shuttle_arm import shuttle_arm
@@ -45,7 +45,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
            "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
            "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
-           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS"]
+           "oc3_tower_member", "oc3_rna_node_mass", "oc3_tower_rna_basis",
+           "OC3_SPAR_OPTIONS"]
 
 #: name -> (builder, {option: type})
 REGISTRY = {
