@@ -57,8 +57,9 @@ def test_rigid_frequencies_match_the_6x6_eigenproblem(rigid):
 
 
 def test_rigid_linearization_at_equilibrium_balanced_rna():
-    """rna_offset=False: the undisplaced state heaved to balance is an equilibrium; kd's full linearize there
-    against scipy's generalized eigenproblem of the same 6x6 matrices, to 1e-6."""
+    """rna_offset=False: the undisplaced state heaved to balance is an equilibrium;
+    kd's full linearize there against scipy's generalized eigenproblem of the same 6x6
+    matrices, to 1e-6."""
     d = oc3_spar(tower_modes=0, drag=False, linear_damping=False, rna_offset=False)
     m = d.numeric(d.derive())
     y = oc3_settle(d, m)
