@@ -80,6 +80,7 @@ _LAZY = {
     'lock_events': '._seatbelt',
     'SeatbeltReport': '._seatbelt',
     'SEATBELT_DEFAULTS': '._seatbelt',
+    'oc3_tower_rna_basis': '._oc3_tower',
 }
 
 
@@ -100,7 +101,8 @@ __all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
            "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
            "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS",
            "seatbelt_sensor", "seatbelt_motion", "seatbelt_report", "seatbelt_tilt",
-           "lock_events", "SeatbeltReport", "SEATBELT_DEFAULTS"]
+           "lock_events", "SeatbeltReport", "SEATBELT_DEFAULTS",
+           "oc3_tower_rna_basis"]
 
 
 class _Builder:

@@ -9,5 +9,5 @@ OC3_SPAR_OPTIONS = {
     "sea": str, "wave_height": float, "wave_period": float, "seed": int,
     "mooring": str, "wind_speed": float, "turbulence": float,
     "tmdi": str, "tmd_mass_ratio": float, "tmd_frequency": float, "tmd_damping": float,
-    "inertance_ratio": float, "inerter_height": float,
+    "inertance_ratio": float, "inerter_height": float, "rna_offset": bool,
 }

@@ -10,8 +10,11 @@ origin ``O`` on the still water line (SWL) at the undisplaced spar axis):
   from ``N``.  The speeds are the coordinates' time derivatives.
 * the tower, from 10 m to 87.6 m above the SWL: a rigid body fixed to the
   platform (``tower_modes=0``) or a :class:`~kanedyn.FlexibleBody` reduced by
-  Craig-Bampton to its lowest 2 or 4 bending modes (clamped to the platform;
-  :func:`~kanedyn.models.oc3_tower` without the RNA, which is a body of its own);
+  Craig-Bampton to its lowest 2 or 4 bending modes (clamped to the platform):
+  the fixed-base modes of the tower with the RNA lumped at its top
+  (:func:`~kanedyn.models.oc3_tower_rna_basis`), on which the member's own
+  mass and stiffness are the bare tower's (the RNA is a rigid body of its own,
+  counted once);
 * the rotor-nacelle assembly (RNA), a rigid body fixed to the tower top (the
   top node's frame ``A``): mass, centre-of-mass offset and inertia of the
   NREL 5-MW turbine;
@@ -34,6 +37,7 @@ the published 6 x 6 potential-flow matrix as a :class:`~kanedyn.AddedMass`;
 damping (a :class:`~kanedyn.MatrixSpringDamper` with K = 0); Morison drag and
 wave excitation (:class:`~kanedyn.MorisonCylinder`, kinematics at the
 undisplaced position); mooring (``"linear"``: :meth:`~kanedyn.LinearMooring.oc3`;
+``"linear-symmetric"``: its symmetric part, conservative;
 ``"catenary"``: three quasi-static elastic catenary lines plus the yaw spring
 of the delta connection; ``"none"``); rotor thrust at the hub along ``A.x``
 (:class:`~kanedyn.RotorThrust` with the NREL 5-MW curve, relative wind, shaft
@@ -59,7 +63,7 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
-from ._oc3_tower import oc3_tower
+from ._oc3_tower import oc3_tower_rna_basis
 
 __all__ = ["oc3_spar", "OC3_SPAR_OPTIONS", "spar_geometry", "oc3_settle",
            "oc3_static_offsets", "tower_reference_mass"]
@@ -69,7 +73,8 @@ T = me.dynamicsymbols._t
 
 _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "morison"),
             "sea": ("still", "regular", "irregular"),
-            "mooring": ("linear", "catenary", "none"), "tmdi": ("off", "tmd", "tmdi")}
+            "mooring": ("linear", "linear-symmetric", "catenary", "none"),
+            "tmdi": ("off", "tmd", "tmdi")}
 
 _N_STRIPS = 10          # Morison strips over the wetted 120 m
 _WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
@@ -122,7 +127,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
              added_mass="sheet", linear_damping=True, drag=True, sea="still", wave_height=0.0,
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
-             inertance_ratio=0.02, inerter_height=60.0):
+             inertance_ratio=0.02, inerter_height=60.0, rna_offset=True):
     r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
 
     Parameters
@@ -147,7 +152,10 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
         IEC's gamma), m and s.
     seed : int
         Seed of the irregular sea's phases and of the turbulent wind.
-    mooring : {"linear", "catenary", "none"}
+    mooring : {"linear", "linear-symmetric", "catenary", "none"}
+        ``"linear-symmetric"``, for energy checks: the published matrix's
+        symmetric part as a spring derived from a potential (the published
+        matrix is slightly unsymmetric and does work around closed paths).
     wind_speed : float
         Mean wind at hub height, m/s; 0: rotor parked, no thrust.
     turbulence : float
@@ -164,6 +172,12 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
     inerter_height : float
         Height above the SWL of the inerter's tower terminal (the nearest
         tower node of the flexible tower), m.
+    rna_offset : bool
+        True: the RNA's centre of mass at its published fore-aft offset
+        (-0.414 m from the tower axis).  False, a test configuration: the same
+        RNA with its centre of mass on the tower axis (inertia about the centre
+        of mass unchanged), so the undisplaced state (at the static heave) is an
+        equilibrium and heave decouples from pitch (the rigid-system checks).
 
     Returns
     -------
@@ -184,7 +198,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
                    wave_period=wave_period, seed=seed, mooring=mooring, wind_speed=wind_speed,
                    turbulence=turbulence, tmdi=tmdi, tmd_mass_ratio=tmd_mass_ratio,
                    tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
-                   inertance_ratio=inertance_ratio, inerter_height=inerter_height)
+                   inertance_ratio=inertance_ratio, inerter_height=inerter_height,
+                   rna_offset=rna_offset)
     _check(options)
     g = _v(ENVIRONMENT, "gravity")
     rho = _v(ENVIRONMENT, "water_density")
@@ -237,7 +252,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
             point.v2pt_theory(P, N, B)
             return point, height
     else:
-        member = oc3_tower(tower_elements, tower_modes, rna=False)
+        member = oc3_tower_rna_basis(tower_elements, tower_modes)
         tower = FlexibleBody("tower", B, base, member, stiffening=stiffening,
                              gravity=-g * N.z)
         q += list(tower.q)
@@ -255,7 +270,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
 
     # --------------------------------------------------------------------- RNA
     m_rna = _v(RNA, "mass")
-    G_rna = top.locatenew("G_rna", _v(RNA, "cm_x") * A.x + _v(RNA, "cm_z") * A.z)
+    cm_x = _v(RNA, "cm_x") if rna_offset else 0.0
+    G_rna = top.locatenew("G_rna", cm_x * A.x + _v(RNA, "cm_z") * A.z)
     I_rna = rna_inertia_about_cm()
     rna = me.RigidBody("rna", G_rna, A, m_rna, (me.inertia(
         A, I_rna[0, 0], I_rna[1, 1], I_rna[2, 2], I_rna[0, 1], I_rna[1, 2], I_rna[0, 2]),
@@ -336,6 +352,13 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
         moor = LinearMooring.oc3(B, P, N, O)
         loads += moor.to_loads()
         potential.append(moor.vertical_load * z + _coupled_energy(moor.K, P, O, B, N))
+        elements["mooring"] = moor
+    elif mooring == "linear-symmetric":
+        moor = LinearMooring.oc3(B, P, N, O)
+        K_sym = (moor.K + moor.K.T) / 2
+        moor_loads, moor_energy = _conservative_spring(K_sym, P, O, B, N)
+        loads += moor_loads + [(P, -moor.vertical_load * N.z)]
+        potential.append(moor.vertical_load * z + moor_energy)
         elements["mooring"] = moor
     elif mooring == "catenary":
         moor = _catenary_mooring(B, P, N, O, g, rho)
@@ -449,6 +472,41 @@ def _coupled_energy(K, P, O, B, N):
     return _restoring_energy(Kd, P, O, B, N) + coupling
 
 
+def _conservative_spring(K, P, O, B, N):
+    r"""Loads and potential of a symmetric 6 x 6 spring that does no work around closed paths.
+
+    With :math:`x = [d, \theta]` (:math:`d` the displacement of ``P`` from
+    ``O``, :math:`\theta = \tfrac12\mathrm{vee}(R - R^T)` the
+    :func:`~kanedyn.rotation_vector` of ``B`` from ``N``, ``N`` components) the
+    potential is :math:`V = \tfrac12 x^T K x`; the force at ``P`` is
+    :math:`-(Kx)_d` and the torque on ``B`` is :math:`-J^T (Kx)_\theta` with
+    :math:`\dot\theta = J\omega`, :math:`J = \tfrac12(\mathrm{tr}R\,I - R)`
+    (:math:`R` = ``N.dcm(B)``).  Linearized about the reference it is
+    :math:`-K\,\delta x`, like :class:`~kanedyn.MatrixSpringDamper`, whose
+    torque :math:`-(Kx)_\theta` differs at second order and is not
+    conservative.
+
+    Returns
+    -------
+    loads : list
+        ``[(P, force), (B, torque)]``.
+    energy : sympy.Expr
+        :math:`V`, J.
+    """
+    K = np.asarray(K, float)
+    d = P.pos_from(O)
+    th = rotation_vector(B, N)
+    x = sm.Matrix([d.dot(e) for e in (N.x, N.y, N.z)] + [th.dot(e) for e in (N.x, N.y, N.z)])
+    f = sm.Matrix(6, 1, lambda i, _: sm.Add(*[sm.Float(K[i, j]) * x[j]
+                                              for j in range(6) if K[i, j] != 0]))
+    R = N.dcm(B)
+    JT = (R.trace() * sm.eye(3) - R.T) / 2
+    torque = -(JT * f[3:, 0])
+    force = -(f[0] * N.x + f[1] * N.y + f[2] * N.z)
+    energy = sm.Add(*[x[i] * f[i] for i in range(6)]) / 2
+    return [(P, force), (B, torque[0] * N.x + torque[1] * N.y + torque[2] * N.z)], energy
+
+
 def _catenary_mooring(B, P, N, O, g, rho):
     w = (_v(MOORING, "line_mass_per_length")
          - rho * math.pi * _v(MOORING, "line_diameter") ** 2 / 4) * g
@@ -512,7 +570,7 @@ def oc3_static_offsets(options):
     buoy = rho * g * _v(PLATFORM, "displaced_volume")
     W = _system_weight(options)
     C33 = _v(HYDRO, "C33")
-    if options["mooring"] == "linear":
+    if options["mooring"] in ("linear", "linear-symmetric"):
         V0 = _catenary_vertical(0.0)
         return {"heave": (buoy - W - V0) / (C33 + mooring_stiffness_matrix()[2, 2])}
     if options["mooring"] == "none":

@@ -17,11 +17,14 @@ from __future__ import annotations
 
 from dataclasses import replace
 
+import numpy as np
+import scipy.linalg as sla
+
 from .._errors import ModelError
 from ..modeling import BeamMember, NodeMass
 from ._oc3_data import RNA, TOWER, rna_inertia_about_cm, tower_stations
 
-__all__ = ["oc3_tower_member", "oc3_tower", "oc3_rna_node_mass"]
+__all__ = ["oc3_tower_member", "oc3_tower", "oc3_rna_node_mass", "oc3_tower_rna_basis"]
 
 _PLANE_NAMES = {"bending_xz": "fore_aft", "bending_xy": "side_side"}
 
@@ -102,3 +105,39 @@ def oc3_tower(elements=20, modes=4, *, rna=True, interface_nodes=(), name="tower
         plane, _, k = n.rpartition("_")
         names.append(f"{_PLANE_NAMES[plane]}_{k}" if plane in _PLANE_NAMES else n)
     return replace(kept, mode_names=tuple(names))
+
+
+def oc3_tower_rna_basis(elements=20, modes=4, *, name="tower"):
+    """The bare tower on the fixed-base modes of the tower carrying the RNA.
+
+    The reduction basis (the ``modes`` columns, their names and second-order
+    displacements) is that of :func:`oc3_tower` with the RNA lumped at the top
+    node; the member's own mass and stiffness matrices are those of the tower
+    alone.  A model that adds the RNA as a rigid body fixed to the top node's
+    frame then has, on a held base, the reduced mass matrix
+    :math:`\\Phi^T(M_{tower} + M_{RNA})\\Phi` and stiffness :math:`\\Phi^T K\\Phi`
+    of the loaded tower: its frequencies are the tower+RNA's fixed-base FE
+    frequencies of the kept modes (the basis vectors are their eigenvectors),
+    and the RNA's mass is counted once.
+
+    Parameters
+    ----------
+    elements, modes : int
+        As :func:`oc3_tower`.
+    name : str
+
+    Returns
+    -------
+    ReducedMember
+        ``full_frequencies``: the loaded tower's (Hz); ``reduced_frequencies``:
+        the bare tower's on this basis.
+    """
+    loaded = oc3_tower(elements, modes, rna=True, name=name)
+    bare = oc3_tower_member(elements, rna=False, name=name)
+    M = bare.mass_matrix
+    V = loaded.modes
+    w2 = sla.eigh(np.asarray(V.T @ (loaded.stiffness_matrix @ V)),
+                  np.asarray(V.T @ (M @ V)), eigvals_only=True)
+    return replace(loaded, mass_matrix=M, reduced_frequencies=np.sqrt(w2) / (2 * np.pi),
+                   description=f"{loaded.description}; basis of the tower with the RNA "
+                               f"lumped at its top, mass matrix of the tower alone")
