@@ -61,25 +61,41 @@ static inline double kd_dot3(const double *a, const double *b) {
     return a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
 }
 
-/* eigenvalues (smallest, largest) of a symmetric 3 x 3 matrix (closed form) */
-static void kd_eig3(const double *A, double *lo, double *hi) {
-    double p1 = A[1] * A[1] + A[2] * A[2] + A[5] * A[5];
-    double q = (A[0] + A[4] + A[8]) / 3.0;
-    if (p1 == 0.0) {
-        *lo = fmin(A[0], fmin(A[4], A[8]));
-        *hi = fmax(A[0], fmax(A[4], A[8]));
-        return;
+/* eigenvalues ev and eigenvectors (columns of V, row-major) of a symmetric
+   3 x 3 matrix, by cyclic Jacobi rotations */
+static void kd_jacobi3(const double *S, double *ev, double *V) {
+    double A[9];
+    memcpy(A, S, sizeof(A));
+    for (int i = 0; i < 9; ++i) V[i] = (i % 4 == 0);
+    for (int sweep = 0; sweep < 50; ++sweep) {
+        double off = A[1] * A[1] + A[2] * A[2] + A[5] * A[5];
+        double diag = A[0] * A[0] + A[4] * A[4] + A[8] * A[8];
+        if (off <= 1e-40 * diag || off == 0.0) break;
+        for (int p = 0; p < 2; ++p)
+            for (int q = p + 1; q < 3; ++q) {
+                double apq = A[3 * p + q];
+                if (apq == 0.0) continue;
+                double theta = (A[3 * q + q] - A[3 * p + p]) / (2 * apq);
+                double t = (theta >= 0 ? 1.0 : -1.0) / (fabs(theta) + sqrt(theta * theta + 1));
+                double c = 1 / sqrt(t * t + 1), s = t * c;
+                for (int k = 0; k < 3; ++k) {  /* A <- A G (columns p, q) */
+                    double akp = A[3 * k + p], akq = A[3 * k + q];
+                    A[3 * k + p] = c * akp - s * akq;
+                    A[3 * k + q] = s * akp + c * akq;
+                }
+                for (int k = 0; k < 3; ++k) {  /* A <- G^T A (rows p, q) */
+                    double apk = A[3 * p + k], aqk = A[3 * q + k];
+                    A[3 * p + k] = c * apk - s * aqk;
+                    A[3 * q + k] = s * apk + c * aqk;
+                }
+                for (int k = 0; k < 3; ++k) {
+                    double vkp = V[3 * k + p], vkq = V[3 * k + q];
+                    V[3 * k + p] = c * vkp - s * vkq;
+                    V[3 * k + q] = s * vkp + c * vkq;
+                }
+            }
     }
-    double a = A[0] - q, b = A[4] - q, c = A[8] - q;
-    double p = sqrt((a * a + b * b + c * c + 2 * p1) / 6.0);
-    double B[9];
-    for (int i = 0; i < 9; ++i) B[i] = (A[i] - (i % 4 == 0 ? q : 0.0)) / p;
-    double det = B[0] * (B[4] * B[8] - B[5] * B[7]) - B[1] * (B[3] * B[8] - B[5] * B[6])
-                 + B[2] * (B[3] * B[7] - B[4] * B[6]);
-    double r = fmax(-1.0, fmin(1.0, det / 2));
-    double phi = acos(r) / 3.0;
-    *hi = q + 2 * p * cos(phi);
-    *lo = q + 2 * p * cos(phi + 2.0943951023931957);
+    for (int i = 0; i < 3; ++i) ev[i] = A[4 * i];
 }
 
 static void kd_seg_slip_dir(const KdSeg *S, int c, const double *n, const double *v,
@@ -162,30 +178,60 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
             for (int j = 0; j < KD_NU; ++j) ud[j] = X[2 * j] + N * X[2 * j + 1];
             for (int i = 0; i < 3; ++i) tot[i] = N * (n[i] - m * s[i]);
         } else {
-            double X[4 * KD_NU], Wc[9], Ws[9], lam[3], lo, hi;
-            for (int j = 0; j < KD_NU; ++j) {
-                X[4 * j] = F[j];
-                for (int i = 0; i < 3; ++i) X[4 * j + 1 + i] = J[i * KD_NU + j];
-            }
-            if (kd_lu_solve(KD_NU, A, X, 4) != 0) return 1;
-            for (int a = 0; a < 3; ++a) {
-                lam[a] = -(acc[3 * c + a] + corr * n[a]);
-                for (int j = 0; j < KD_NU; ++j) lam[a] -= J[a * KD_NU + j] * X[4 * j];
+            /* the force acts along, and the constraint holds, the directions
+               the point can move in: Q, an orthonormal basis of range(J) (the
+               eigenvectors of J J^T with nonzero eigenvalues) */
+            double JJ[9], V[9], ev[3], Q[9], X[4 * KD_NU], Wc[9], lam[3], big = 0.0;
+            int rank = 0;
+            for (int a = 0; a < 3; ++a)
                 for (int b = 0; b < 3; ++b) {
                     double sum = 0.0;
-                    for (int j = 0; j < KD_NU; ++j) sum += J[a * KD_NU + j] * X[4 * j + 1 + b];
-                    Wc[3 * a + b] = sum;
+                    for (int j = 0; j < KD_NU; ++j) sum += J[a * KD_NU + j] * J[b * KD_NU + j];
+                    JJ[3 * a + b] = sum;
+                }
+            kd_jacobi3(JJ, ev, V);
+            for (int a = 0; a < 3; ++a) big = fmax(big, ev[a]);
+            if (!(big > 0)) return 2;
+            for (int a = 0; a < 3; ++a) {
+                double rel = ev[a] / big;
+                if (rel > 1e-20 && rel < 1e-8) return 2;  /* rank unclear: reference path */
+                if (rel >= 1e-8) {
+                    for (int i = 0; i < 3; ++i) Q[3 * i + rank] = V[3 * i + a];
+                    rank++;
                 }
             }
-            for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b) Ws[3 * a + b] = 0.5 * (Wc[3 * a + b] + Wc[3 * b + a]);
-            kd_eig3(Ws, &lo, &hi);
-            if (!(lo > 1e-6 * hi)) return 2;  /* nearly degenerate: the reference path decides */
-            if (kd_lu_solve(3, Wc, lam, 1) != 0) return 2;
-            for (int j = 0; j < KD_NU; ++j)
-                ud[j] = X[4 * j] + X[4 * j + 1] * lam[0] + X[4 * j + 2] * lam[1]
-                        + X[4 * j + 3] * lam[2];
-            for (int i = 0; i < 3; ++i) tot[i] = lam[i];
+            /* X = M^-1 [F, J^T Q] */
+            for (int j = 0; j < KD_NU; ++j) {
+                X[4 * j] = F[j];
+                for (int b = 0; b < 3; ++b) {
+                    double sum = 0.0;
+                    if (b < rank) for (int i = 0; i < 3; ++i) sum += J[i * KD_NU + j] * Q[3 * i + b];
+                    X[4 * j + 1 + b] = sum;
+                }
+            }
+            if (kd_lu_solve(KD_NU, A, X, 4) != 0) return 1;
+            /* Wc = Q^T J X[:, 1:], rhs -(Q^T (acc + corr n) + Q^T J X[:, 0]) */
+            for (int a = 0; a < rank; ++a) {
+                double qa = 0.0;
+                for (int i = 0; i < 3; ++i) qa += Q[3 * i + a] * (acc[3 * c + i] + corr * n[i]);
+                lam[a] = -qa;
+                for (int j = 0; j < KD_NU; ++j) {
+                    double qj = 0.0;
+                    for (int i = 0; i < 3; ++i) qj += Q[3 * i + a] * J[i * KD_NU + j];
+                    lam[a] -= qj * X[4 * j];
+                    for (int b = 0; b < rank; ++b)
+                        Wc[rank * a + b] = (j ? Wc[rank * a + b] : 0.0) + qj * X[4 * j + 1 + b];
+                }
+            }
+            if (kd_lu_solve(rank, Wc, lam, 1) != 0) return 2;
+            for (int j = 0; j < KD_NU; ++j) {
+                ud[j] = X[4 * j];
+                for (int b = 0; b < rank; ++b) ud[j] += X[4 * j + 1 + b] * lam[b];
+            }
+            for (int i = 0; i < 3; ++i) {
+                tot[i] = 0.0;
+                for (int b = 0; b < rank; ++b) tot[i] += Q[3 * i + b] * lam[b];
+            }
         }
         double N = kd_dot3(tot, n), fr[3], Ju[3];
         o->N[c] = N;
