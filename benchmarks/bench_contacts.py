@@ -10,7 +10,15 @@ Contenders, each a worker process importing kanedyn from its own source
 tree (``--before``, by default the main checkout, against this tree):
 
 * ``before numpy`` / ``after numpy``: models built with ``backend="numpy"``;
-* ``after c``: models built with ``backend="c"``, ``simulate(backend="c")``.
+* ``after c``: models built with ``backend="c"``, ``simulate(backend="c")``
+  (the segments in the compiled contact loop, ``contact_segment``);
+* ``after c-py``: the same models with ``simulate(backend="scipy")`` (every
+  segment by ``solve_ivp`` on the Python per-mode solve, the reference path).
+
+The original "before" of issue 18 (the tree before the first contact work,
+commit ``02f89bf``) is run with ``--before`` pointing at its ``src``, e.g.
+``git archive 02f89bf src | tar -x -C /tmp/before`` then ``--before
+/tmp/before/src``.
 
 The workers build every model once, run each simulation once to warm up,
 then the rounds interleave the contenders (round-robin, order rotated each
@@ -42,7 +50,7 @@ import kanedyn as kd
 from _contact_cases import CASES, build
 backend = {backend!r}
 built = {{name: build(name, backend) for name in CASES}}
-options = {{"backend": "c"}} if backend == "c" else {{}}
+options = {{"backend": {run!r}}} if {run!r} else {{}}
 for name, (model, y0, t_end) in built.items():
     kd.simulate(model, (0, t_end), y0, **options)
 print("ready", flush=True)
@@ -58,10 +66,10 @@ for line in sys.stdin:
 """
 
 
-def _worker(src, backend):
+def _worker(src, backend, run):
     env = dict(os.environ, PYTHONPATH=str(src))
     proc = subprocess.Popen([sys.executable, "-c", _WORKER.format(here=str(HERE),
-                                                                  backend=backend)],
+                                                                  backend=backend, run=run)],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                             env=env)
     line = proc.stdout.readline()
@@ -84,9 +92,10 @@ def main():
     sys.path.insert(0, str(HERE))
     from _contact_cases import CASES
     after = HERE.parent / "src"
-    contenders = {"before numpy": (args.before, "numpy"), "after numpy": (after, "numpy"),
-                  "after c": (after, "c")}
-    workers = {label: _worker(src, backend) for label, (src, backend) in contenders.items()}
+    contenders = {"before numpy": (args.before, "numpy", None),
+                  "after numpy": (after, "numpy", None), "after c": (after, "c", "c"),
+                  "after c-py": (after, "c", "scipy")}
+    workers = {label: _worker(*spec) for label, spec in contenders.items()}
     times = {(label, name): [] for label in contenders for name in CASES}
     outcome = {}
     labels = list(contenders)

@@ -166,6 +166,7 @@ def _events(model, solver, points, modes, directions, n_states):
 
             def gap(t, z, c=c, offset=offset):
                 return contact_points(model, t, z[:n_states])[c].distance + offset
+            gap.offset = offset
             events.append((gap, c, "gap", -1))
             continue
         if coef["kind"] == "unilateral":
@@ -200,7 +201,7 @@ def _events(model, solver, points, modes, directions, n_states):
 def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8,
                       atol=1e-8, events=None, modes=None, stabilization=10.0,
                       max_segments=100000, rest_speed=None, progress=None, guard=None,
-                      **options):
+                      compiled=True, **options):
     """Integrate a model with contacts (see the module docstring).
 
     Returns ``(t, y, status, message, extras)``: output times and states
@@ -209,6 +210,10 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     directions, the work of friction and of all contact forces, event records
     and counters.  ``guard`` (a :class:`kanedyn.simulation._run_guard.RunGuard`) ends the
     run at a non-finite derivative or on Ctrl-C with what was computed.
+    ``compiled``: integrate the segments a ``backend="c"`` model's compiled
+    contact loop handles (``RK45``, no user events, no ``t_eval`` or other
+    solver options; see :func:`_compiled_segment`) in C; ``False``: always
+    the Python reference path (``solve_ivp`` on :func:`solve_modes`).
     """
     guard = guard if guard is not None else RunGuard(model)
     stepper = guarded_method(method, guard)
@@ -224,6 +229,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     names = [c["name"] for c in model.contacts]
     user_events = [] if events is None else (
         list(events) if isinstance(events, (list, tuple)) else [events])
+    segment_c = getattr(getattr(model, "_module", None), "contact_segment", None)
+    if not (compiled and segment_c is not None and method == "RK45" and not user_events
+            and t_eval is None and not options and not model.n_u_dep
+            and np.ndim(rtol) == 0 and np.ndim(atol) == 0):
+        segment_c = None
 
     y = np.array(y0, dtype=float)
     directions = [None] * k
@@ -290,9 +300,14 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             keep = (t_eval >= t) if first else (t_eval > t)
             seg_eval = t_eval[keep & (t_eval <= t1)]
         z0 = np.concatenate([y, [dissipated, contact_work]])
+        sol = None
+        if segment_c is not None:
+            sol = _compiled_segment(segment_c, model, t, t1, z0, frozen_modes, frozen_dirs,
+                                    mode_events, stabilization, rtol, atol)
         try:
-            sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
-                            events=all_events or None, rtol=rtol, atol=atol, **options)
+            if sol is None:
+                sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
+                                events=all_events or None, rtol=rtol, atol=atol, **options)
         except np.linalg.LinAlgError as exc:
             status, message = -1, f"singular contact equations at t={t:.6g} ({exc})"
             break
@@ -389,6 +404,65 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
               "y_events": [np.asarray(v).reshape(-1, n) for v in y_events],
               "counters": counters, "stabilization": stabilization}
     return t_out, y_out, status, message, extras
+
+
+_EVENT_CODES = {"gap": 0, "lift-off": 1, "slip stops": 2, "friction limit": 3}
+
+
+class _Segment:
+    """What :func:`_compiled_segment` returns: the fields of ``solve_ivp``'s
+    result that :func:`simulate_contacts` reads."""
+
+    def __init__(self, t, y, status, t_events, y_events, nfev):
+        self.t, self.y, self.status = t, y, status
+        self.t_events, self.y_events = t_events, y_events
+        self.nfev, self.njev, self.nlu = nfev, 0, 0
+        self.message = "compiled contact segment"
+
+
+def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_events,
+                      stabilization, rtol, atol):
+    """One segment in the compiled contact loop, or ``None`` (Python path).
+
+    The generated ``contact_segment`` (:mod:`kanedyn.numerics.backends._c_contact`)
+    handles no active contact or one active unilateral contact; anything
+    else, or a failure inside it (singular, not finite, step too small), is
+    left to ``solve_ivp`` on :func:`solve_modes`, which then reproduces the
+    reference behaviour (including its error handling) for that segment.
+    """
+    active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
+    if len(active) > 1 or any(model.contacts[c]["kind"] != "unilateral" for c in active):
+        return None
+    k = len(modes)
+    codes = {SEPARATED: 0, SLIP: 1, STICK: 2}
+    ref = np.zeros((k, 3))
+    slow, still, offset = np.full(k, np.inf), np.zeros(k), np.zeros(k)
+    has_ref = np.zeros(k, dtype=np.intc)
+    for c, d in enumerate(directions):
+        if d is not None:
+            has_ref[c] = 1
+            ref[c], slow[c], still[c] = d.direction, d.slow, d.still
+    ev_c = np.array([c for _, c, _ in mode_events], dtype=np.intc)
+    ev_kind = np.array([_EVENT_CODES[kind] for _, _, kind in mode_events], dtype=np.intc)
+    for fn, c, kind in mode_events:
+        if kind == "gap":
+            offset[c] = fn.offset
+    coef = model.contacts
+    spec = (np.array([codes[m] for m in modes], dtype=np.intc), has_ref, ref, slow, still,
+            offset, np.array([float(coef[c]["mu_k"]) for c in range(k)]),
+            np.array([float(coef[c]["mu_s"]) for c in range(k)]),
+            np.array([float(coef[c]["viscous"]) for c in range(k)]), float(stabilization),
+            ev_c, ev_kind)
+    status, ts, zs, event, nfev = segment_c(float(t), float(t1), z0, model._p, spec,
+                                            float(rtol), float(atol))
+    if status == 2:
+        return None
+    t_events = [np.zeros(0) for _ in mode_events]
+    y_events = [np.zeros((0, zs.shape[1])) for _ in mode_events]
+    if status == 1:
+        t_events[event] = ts[-1:]
+        y_events[event] = zs[-1:]
+    return _Segment(ts, zs.T, status, t_events, y_events, nfev)
 
 
 def _stopped(solver, t, y, modes, directions, tol, fired):

@@ -189,6 +189,8 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
             raise OptionError(f"models with contacts are integrated forward in time; got "
                               f"t_span ({t0:g}, {t1:g})")
         guard = RunGuard(model)
+        if backend == "scipy":  # the Python reference path for every segment
+            options = dict(options, compiled=False)
         with guard.catching_interrupts():
             result = _simulate_with_contacts(model, (t0, t1), y_init, method, t_eval, rtol,
                                              atol, user_events, constraint_forces, progress,

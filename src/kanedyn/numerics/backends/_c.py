@@ -37,7 +37,7 @@ import numpy as np
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
-from . import _c_integrator, _c_runtime
+from . import _c_contact, _c_integrator, _c_runtime
 from ._python import CodegenError
 from ..._errors import KanedynError
 
@@ -263,7 +263,8 @@ def solver_source(functions, sizes):
 CODEGEN_VERSION = "kanedyn-c-3"  # change when generated code changes meaning
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
-    (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER)
+    (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
+     _c_contact.CONTACT)
 ).encode()).hexdigest()[:16]
 
 
@@ -360,9 +361,15 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
         wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
                      'METH_FASTCALL, NULL},')
+    contact = []
+    if "contacts" in functions:  # the compiled contact segments (_c_contact)
+        defines.append(f"#define KD_NC {len(functions['contacts'][1][0][1])}")
+        contact.append(_c_contact.CONTACT)
+        table.append('    {"contact_segment", (PyCFunction)kd_py_contact_segment, '
+                     'METH_VARARGS, NULL},')
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     return "\n".join([_c_runtime.HEADER, *defines, *parts, _c_runtime.RUNTIME,
-                      _c_integrator.INTEGRATOR, *wrappers, _c_runtime.FOOTER])
+                      _c_integrator.INTEGRATOR, *contact, *wrappers, _c_runtime.FOOTER])
 
 
 # ------------------------------------------------------------ build, cache
