@@ -343,9 +343,9 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
 }
 
 /* ------------------------------------------------------------ batches
-   rhs_batch evaluates its rows in C, split into contiguous blocks over
-   `threads` POSIX threads (the GIL released); without POSIX threads, or when
-   a thread cannot be started, the calling thread does the remaining blocks. */
+   rhs_batch evaluates its rows in C, in blocks of KD_BATCH_BLOCK rows taken in
+   turn by `threads` POSIX threads (the GIL released); without POSIX threads, or
+   when a thread cannot be started, the calling thread does the remaining blocks. */
 #if !defined(KD_NO_THREADS) && (defined(__unix__) || defined(__APPLE__))
 #include <pthread.h>
 #include <unistd.h>
@@ -364,9 +364,29 @@ typedef struct {
     int t_scalar;
     npy_intp begin, end;
     double *out, *work;
+    npy_intp *next;  /* shared: first row not yet taken (blocks taken dynamically) */
 } KdBatchJob;
 
+#define KD_BATCH_BLOCK 64  /* rows taken at a time: a slow thread holds no one up */
+
+static void kd_batch_block(KdBatchJob *job);
+
 static void kd_batch_rows(KdBatchJob *job) {
+    for (;;) {
+#if defined(__GNUC__)
+        npy_intp first = __atomic_fetch_add(job->next, KD_BATCH_BLOCK, __ATOMIC_RELAXED);
+#else
+        npy_intp first = *job->next; *job->next += KD_BATCH_BLOCK;  /* one thread only */
+#endif
+        if (first >= job->end) return;
+        job->begin = first;
+        KdBatchJob part = *job;
+        part.end = first + KD_BATCH_BLOCK < job->end ? first + KD_BATCH_BLOCK : job->end;
+        kd_batch_block(&part);
+    }
+}
+
+static void kd_batch_block(KdBatchJob *job) {
     static const double no_inputs[1] = {0.0};
     for (npy_intp i = job->begin; i < job->end; ++i) {
         double ti = job->t_scalar ? job->t[0] : job->t[i];
@@ -405,10 +425,12 @@ static int kd_batch_run(KdBatchJob *proto, npy_intp k, int count) {
     KdBatchJob jobs[KD_MAX_THREADS];
     double *work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW) * (size_t)count);
     if (work == NULL) { PyErr_NoMemory(); return -1; }
+    npy_intp next = 0;
     for (int j = 0; j < count; ++j) {
         jobs[j] = *proto;
-        jobs[j].begin = k * j / count;
-        jobs[j].end = k * (j + 1) / count;
+        jobs[j].begin = 0;
+        jobs[j].end = k;
+        jobs[j].next = &next;
         jobs[j].work = work + (size_t)j * KD_SZ(KD_NW);
     }
     Py_BEGIN_ALLOW_THREADS
@@ -507,6 +529,9 @@ static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *args, PyObject *kwds
         int count = (int)(threads < blocks ? threads : blocks);
         if (count > KD_MAX_THREADS) count = KD_MAX_THREADS;
         if (count < 1) count = 1;
+#if !defined(__GNUC__)
+        count = 1;  /* no atomic block counter */
+#endif
         if (kd_batch_run(&proto, k, count) != 0) Py_CLEAR(result);
     }
     PyMem_Free(inputs);
