@@ -32,6 +32,7 @@ Progress goes to stderr, the tables to stdout.
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -39,6 +40,9 @@ import numpy as np
 
 import kanedyn as kd
 from kanedyn.analysis._compare import compare_formulations, work_precision
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _timing import Timing, winner  # noqa: E402
 
 METHODS = ("kane", "lagrange", "lagrange-index1", "lagrange-baumgarte",
            "lagrange-projection", "penalty", "augmented-lagrangian", "udwadia-kalaba",
@@ -54,8 +58,14 @@ def _derivation_times(n, methods):
     return out
 
 
-def measure(n, methods, t_end, target, tolerances):
-    """All figures of one snake size; ``{method: {metric: value}}``."""
+def measure(n, methods, t_end, target, tolerances, rounds=3):
+    """All figures of one snake size; ``{method: {metric: value}}``.
+
+    The work-precision runs are repeated ``rounds`` times (each round runs
+    every formulation in turn, so the contenders are interleaved); the CPU
+    time at the target is the minimum over the rounds, with its spread
+    (median / min - 1) and the :class:`_timing.Timing` in ``"cpu_timing"``.
+    """
     methods = [m for m in methods if m in kd.FORMULATIONS]
     print(f"n = {n}: derivations", file=sys.stderr, flush=True)
     derivation = _derivation_times(n, methods)
@@ -66,9 +76,14 @@ def measure(n, methods, t_end, target, tolerances):
     free = compare_formulations("snake", methods, t_end=t_end, rtol=1e-6, atol=1e-8,
                                 n_points=101, constants={"A": 0.0, "c": 0.0}, n=n)
     print(f"n = {n}: work-precision", file=sys.stderr, flush=True)
-    wp = work_precision("snake", methods, tolerances=tolerances, t_end=t_end,
-                        target=target, n=n)
-    at_target = wp.at_target
+    per_round = {m: [] for m in methods}
+    for r in range(rounds):
+        wp = work_precision("snake", methods, tolerances=tolerances, t_end=t_end,
+                            target=target, n=n)
+        for m in methods:
+            per_round[m].append(wp.at_target[m])
+        print(f"n = {n}: work-precision round {r + 1}/{rounds}", file=sys.stderr, flush=True)
+    timings = {m: Timing(m, v) for m, v in per_round.items() if np.all(np.isfinite(v))}
     energy0 = _initial_energy(n)
     rows = {}
     for m in methods:
@@ -79,7 +94,9 @@ def measure(n, methods, t_end, target, tolerances):
             "ops": ops["total"], "derive": derivation[m],
             "constraint": driven.constraint_residual[m],
             "energy": float(np.max(np.abs(e))) / energy0 if e is not None else float("nan"),
-            "cpu_equal": at_target[m],
+            "cpu_equal": timings[m].best if m in timings else float("nan"),
+            "cpu_spread": timings[m].spread if m in timings else float("nan"),
+            "cpu_timing": timings.get(m),
             "message": driven.messages[m],
         }
     return rows
@@ -123,6 +140,15 @@ def report(all_results, methods, markdown, target):
                    for n in sizes]
         out.append(("\n" if markdown else "") + "lowest: " + ", ".join(
             f"n={n} {w}" for n, w in zip(sizes, winners)))
+        if key == "cpu_equal":
+            out.append("spread (median / min - 1 over the rounds): " + "; ".join(
+                f"n={n} " + ", ".join(f"{m} {all_results[n][m]['cpu_spread']:.0%}"
+                                      for m in methods if m in all_results[n])
+                for n in sizes))
+            clear = [winner([r["cpu_timing"] for r in all_results[n].values()
+                             if r["cpu_timing"] is not None]) for n in sizes]
+            out.append("clear winner (spreads do not overlap): " + ", ".join(
+                f"n={n} {w or 'none'}" for n, w in zip(sizes, clear)))
     mults = {n: all_results[n] for n in sizes}
     detail = ["\nmultiplications / additions / function calls"]
     for m in methods:
@@ -144,10 +170,13 @@ def main(argv=None):
     parser.add_argument("--t-end", type=float, default=3.0)
     parser.add_argument("--target", type=float, default=1e-6,
                         help="coordinate error at which CPU times are compared")
+    parser.add_argument("--rounds", type=int, default=3,
+                        help="interleaved work-precision rounds (minimum and spread)")
     parser.add_argument("--markdown", action="store_true")
     args = parser.parse_args(argv)
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
-    results = {n: measure(n, methods, args.t_end, args.target, (1e-6, 1e-8, 1e-10))
+    results = {n: measure(n, methods, args.t_end, args.target, (1e-6, 1e-8, 1e-10),
+                       args.rounds)
                for n in args.n}
     print(f"Snake robot on passive wheels, t = 0..{args.t_end:g} s, numpy backend, RK45.")
     print(report(results, methods, args.markdown, args.target))

@@ -323,3 +323,40 @@ def test_contact_simulation_with_the_c_backend():
     b = kd.simulate(slow, (0.0, 0.8), y0, rtol=1e-10, atol=1e-10)
     assert len(a.impacts) == len(b.impacts) > 3
     assert np.allclose(a.y[:, -1], b.y[:, -1], rtol=1e-9, atol=1e-9)
+
+
+BATCH_MODELS = [("chain3d", {"n": 3}, {}), ("four-bar", {}, {}),  # dependent speeds
+                ("rolling-disk", {}, {}),
+                ("n-link-pendulum-on-cart", {"n": 2}, {"F": 0.3})]  # a specified input
+
+
+@pytest.mark.parametrize("name, options, inputs", BATCH_MODELS)
+def test_batch_equals_loop_on_threads(name, options, inputs):
+    """rhs_batch (C on 1, 2 and all threads; numpy) equals a loop of rhs calls."""
+    d = kd.models.build(name, **options)
+    eom = d.derive()
+    specified = {d.symbols[k]: v for k, v in inputs.items()}
+    for backend in ("c", "numpy"):
+        model = d.numeric(eom, backend=backend, specified=specified)
+        Y = np.array(states(d, model, count=70))  # > 2 x 32 rows: two threads in use
+        t = np.linspace(0.0, 1.0, len(Y))
+        loop = np.array([model.rhs(ti, y) for ti, y in zip(t, Y)])
+        for threads in (1, 2, None):
+            batch = model.rhs_batch(t, Y, threads=threads)
+            np.testing.assert_allclose(batch, loop, rtol=1e-13, atol=1e-13)
+        with pytest.raises(ValueError, match="threads"):
+            model.rhs_batch(t, Y, threads=0)
+
+
+def test_batch_threads_with_parameters_and_singular_rows():
+    d = kd.models.build("chain3d", n=2)
+    model = d.numeric(d.derive(), backend="c")
+    rng = np.random.default_rng(5)
+    Y = rng.uniform(-1, 1, (100, model.n_states))
+    P = np.tile(list(model.constants.values()), (100, 1))
+    P[:, list(model.constants).index("g")] = np.linspace(1.0, 20.0, 100)
+    one, two = model.rhs_batch(0.0, Y, P, threads=1), model.rhs_batch(0.0, Y, P, threads=2)
+    np.testing.assert_array_equal(one, two)
+    single = model.with_constants(P[57])
+    np.testing.assert_allclose(two[57], single.rhs(0.0, Y[57]), rtol=1e-13, atol=1e-13)
+    assert model.rhs_batch(0.0, Y[:0]).shape == (0, model.n_states)

@@ -510,7 +510,7 @@ class NumericModel(StateLayout):
 
     __call__ = rhs
 
-    def rhs_batch(self, t, Y, P=None):
+    def rhs_batch(self, t, Y, P=None, threads=None):
         """State derivatives of many states (and parameter sets) at once.
 
         Parameters
@@ -521,12 +521,22 @@ class NumericModel(StateLayout):
         P : array_like, shape (k, n_constants), optional
             One set of constants per row (in the order of :attr:`constants`);
             default: the model's constants for every row.
+        threads : int, optional
+            Number of threads of the C backend, which evaluates the rows in C
+            in contiguous blocks (the GIL released; at least 32 rows per
+            thread). Default ``None``: one per CPU this process may use (its
+            affinity mask). The numpy backend evaluates vectorized in one
+            thread and only checks the value.
 
         Returns
         -------
         ndarray, shape (k, n_states)
             Rows whose system is singular are ``nan``.
         """
+        if threads is not None and (isinstance(threads, bool)
+                                    or not isinstance(threads, (int, np.integer))
+                                    or threads < 1):
+            raise ValueError(f"threads must be a positive integer or None, got {threads!r}")
         Y = np.asarray(Y, dtype=float)
         if Y.ndim != 2 or Y.shape[1] != self.n_states:
             raise ValueError(f"Y must have shape (k, {self.n_states})")

@@ -342,13 +342,138 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
     return result;
 }
 
-/* rhs_batch(t, Y[, P]): Y (k, nx), t scalar or (k,), P (k, np) or None. */
-static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *const *args, Py_ssize_t nargs) {
-    if (nargs < 2 || nargs > 3) {
-        PyErr_SetString(PyExc_TypeError, "rhs_batch(t, Y[, P]) takes 2 or 3 arguments");
-        return NULL;
+/* ------------------------------------------------------------ batches
+   rhs_batch evaluates its rows in C, in blocks of KD_BATCH_BLOCK rows taken in
+   turn by `threads` POSIX threads (the GIL released); without POSIX threads, or
+   when a thread cannot be started, the calling thread does the remaining blocks. */
+#if !defined(KD_NO_THREADS) && (defined(__unix__) || defined(__APPLE__))
+#include <pthread.h>
+#include <unistd.h>
+#ifdef __linux__
+#include <sched.h>
+#endif
+#define KD_HAVE_THREADS 1
+#else
+#define KD_HAVE_THREADS 0
+#endif
+#define KD_MAX_THREADS 64
+#define KD_MIN_ROWS_PER_THREAD 32  /* fewer rows are not worth a thread */
+
+typedef struct {
+    const double *y, *t, *P, *p, *r;
+    int t_scalar;
+    npy_intp begin, end;
+    double *out, *work;
+    npy_intp *next;  /* shared: first row not yet taken (blocks taken dynamically) */
+} KdBatchJob;
+
+#define KD_BATCH_BLOCK 64  /* rows taken at a time: a slow thread holds no one up */
+
+static void kd_batch_block(KdBatchJob *job);
+
+static void kd_batch_rows(KdBatchJob *job) {
+    for (;;) {
+#if defined(__GNUC__)
+        npy_intp first = __atomic_fetch_add(job->next, KD_BATCH_BLOCK, __ATOMIC_RELAXED);
+#else
+        npy_intp first = *job->next; *job->next += KD_BATCH_BLOCK;  /* one thread only */
+#endif
+        if (first >= job->end) return;
+        job->begin = first;
+        KdBatchJob part = *job;
+        part.end = first + KD_BATCH_BLOCK < job->end ? first + KD_BATCH_BLOCK : job->end;
+        kd_batch_block(&part);
     }
-    PyArrayObject *Y = (PyArrayObject *)PyArray_FROMANY(args[1], NPY_DOUBLE, 2, 2,
+}
+
+static void kd_batch_block(KdBatchJob *job) {
+    static const double no_inputs[1] = {0.0};
+    for (npy_intp i = job->begin; i < job->end; ++i) {
+        double ti = job->t_scalar ? job->t[0] : job->t[i];
+        const double *pi = job->P ? job->P + i * KD_NP : job->p;
+        const double *ri = KD_NR > 0 ? job->r + i * KD_NR : no_inputs;
+        double *row = job->out + i * KD_NX;
+        if (kd_rhs_core(ti, job->y + i * KD_NX, pi, ri, job->work, row) != 0) {
+            for (int j = 0; j < KD_NX; ++j) row[j] = NAN;
+        }
+    }
+}
+
+#if KD_HAVE_THREADS
+static void *kd_batch_thread(void *job) {
+    kd_batch_rows((KdBatchJob *)job);
+    return NULL;
+}
+#endif
+
+/* CPUs this process may run on (its affinity mask where known), at least 1. */
+static int kd_available_cpus(void) {
+#if KD_HAVE_THREADS
+#if defined(__linux__) && defined(CPU_COUNT)
+    cpu_set_t set;
+    if (sched_getaffinity(0, sizeof(set), &set) == 0 && CPU_COUNT(&set) > 0)
+        return CPU_COUNT(&set);
+#endif
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    if (n > 0) return n > KD_MAX_THREADS ? KD_MAX_THREADS : (int)n;
+#endif
+    return 1;
+}
+
+/* rows [0, k) in `count` blocks; returns 0, or -1 (MemoryError set) */
+static int kd_batch_run(KdBatchJob *proto, npy_intp k, int count) {
+    KdBatchJob jobs[KD_MAX_THREADS];
+    double *work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW) * (size_t)count);
+    if (work == NULL) { PyErr_NoMemory(); return -1; }
+    npy_intp next = 0;
+    for (int j = 0; j < count; ++j) {
+        jobs[j] = *proto;
+        jobs[j].begin = 0;
+        jobs[j].end = k;
+        jobs[j].next = &next;
+        jobs[j].work = work + (size_t)j * KD_SZ(KD_NW);
+    }
+    Py_BEGIN_ALLOW_THREADS
+#if KD_HAVE_THREADS
+    pthread_t ids[KD_MAX_THREADS];
+    int started[KD_MAX_THREADS] = {0};
+    for (int j = 1; j < count; ++j)
+        started[j] = pthread_create(&ids[j], NULL, kd_batch_thread, &jobs[j]) == 0;
+    kd_batch_rows(&jobs[0]);
+    for (int j = 1; j < count; ++j) {
+        if (started[j]) pthread_join(ids[j], NULL);
+        else kd_batch_rows(&jobs[j]);  /* no thread: done here */
+    }
+#else
+    for (int j = 0; j < count; ++j) kd_batch_rows(&jobs[j]);
+#endif
+    Py_END_ALLOW_THREADS
+    PyMem_Free(work);
+    return 0;
+}
+
+/* rhs_batch(t, Y, P=None, threads=None): Y (k, nx), t scalar or (k,),
+   P (k, np) or None; threads: a positive int, or None for every CPU the
+   process may use (never more threads than blocks of KD_MIN_ROWS_PER_THREAD rows). */
+static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *args, PyObject *kwds) {
+    static char *kwlist[] = {"t", "Y", "P", "threads", NULL};
+    PyObject *tobj, *yobj, *pobj = Py_None, *threads_obj = Py_None;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OO|OO:rhs_batch", kwlist, &tobj, &yobj,
+                                     &pobj, &threads_obj))
+        return NULL;
+    long threads;
+    if (threads_obj == Py_None) {
+        threads = kd_available_cpus();
+    } else {
+        threads = PyLong_AsLong(threads_obj);
+        if (threads == -1 && PyErr_Occurred()) return NULL;
+        if (threads < 1) {
+            PyErr_Format(PyExc_ValueError, "threads must be a positive integer or None, got %ld",
+                         threads);
+            return NULL;
+        }
+    }
+    PyArrayObject *Y = (PyArrayObject *)PyArray_FROMANY(yobj, NPY_DOUBLE, 2, 2,
                                                          NPY_ARRAY_IN_ARRAY);
     if (Y == NULL) return NULL;
     npy_intp k = PyArray_DIM(Y, 0);
@@ -357,7 +482,7 @@ static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *const *args, Py_ssiz
         Py_DECREF(Y);
         return NULL;
     }
-    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 0, 1,
+    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(tobj, NPY_DOUBLE, 0, 1,
                                                          NPY_ARRAY_IN_ARRAY);
     if (T == NULL) { Py_DECREF(Y); return NULL; }
     int t_scalar = PyArray_NDIM(T) == 0;
@@ -367,8 +492,8 @@ static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *const *args, Py_ssiz
         return NULL;
     }
     PyArrayObject *P = NULL;
-    if (nargs == 3 && args[2] != Py_None) {
-        P = (PyArrayObject *)PyArray_FROMANY(args[2], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    if (pobj != Py_None) {
+        P = (PyArrayObject *)PyArray_FROMANY(pobj, NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
         if (P == NULL) { Py_DECREF(Y); Py_DECREF(T); return NULL; }
         if (PyArray_DIM(P, 0) != k || PyArray_DIM(P, 1) != KD_NP) {
             PyErr_Format(PyExc_ValueError, "P must have shape (k, %d)", KD_NP);
@@ -376,26 +501,40 @@ static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *const *args, Py_ssiz
             return NULL;
         }
     }
-    double *out;
-    PyObject *result = kd_new_matrix(k, KD_NX, &out);
-    const double *ydata = (const double *)PyArray_DATA(Y);
-    const double *tdata = (const double *)PyArray_DATA(T);
-    double r[KD_SZ(KD_NR)];
-    for (npy_intp i = 0; result != NULL && i < k; ++i) {
-        double ti = t_scalar ? tdata[0] : tdata[i];
-        const double *pi = P ? (const double *)PyArray_DATA(P) + i * KD_NP : self->p;
-        if (KD_NR > 0) {
+    KdBatchJob proto = {0};
+    proto.y = (const double *)PyArray_DATA(Y);
+    proto.t = (const double *)PyArray_DATA(T);
+    proto.P = P ? (const double *)PyArray_DATA(P) : NULL;
+    proto.p = self->p;
+    proto.t_scalar = t_scalar;
+    double *inputs = NULL;
+    PyObject *result = kd_new_matrix(k, KD_NX, &proto.out);
+    if (result != NULL && KD_NR > 0 && k > 0) {  /* the inputs first, with the GIL */
+        inputs = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NR) * (size_t)k);
+        if (inputs == NULL) { PyErr_NoMemory(); Py_CLEAR(result); }
+        for (npy_intp i = 0; result != NULL && i < k; ++i) {
             npy_intp dims[1] = {KD_NX};
             PyObject *row = PyArray_SimpleNewFromData(1, dims, NPY_DOUBLE,
-                                                      (void *)(ydata + i * KD_NX));
-            int bad = row == NULL || kd_inputs(self->inputs, ti, row, r) != 0;
+                                                      (void *)(proto.y + i * KD_NX));
+            int bad = row == NULL
+                || kd_inputs(self->inputs, t_scalar ? proto.t[0] : proto.t[i], row,
+                             inputs + i * KD_SZ(KD_NR)) != 0;
             Py_XDECREF(row);
-            if (bad) { Py_DECREF(result); result = NULL; break; }
+            if (bad) Py_CLEAR(result);
         }
-        if (kd_rhs_core(ti, ydata + i * KD_NX, pi, r, self->work, out + i * KD_NX) != 0) {
-            for (int j = 0; j < KD_NX; ++j) out[i * KD_NX + j] = NAN;
-        }
+        proto.r = inputs;
     }
+    if (result != NULL && k > 0) {
+        npy_intp blocks = k / KD_MIN_ROWS_PER_THREAD;
+        int count = (int)(threads < blocks ? threads : blocks);
+        if (count > KD_MAX_THREADS) count = KD_MAX_THREADS;
+        if (count < 1) count = 1;
+#if !defined(__GNUC__)
+        count = 1;  /* no atomic block counter */
+#endif
+        if (kd_batch_run(&proto, k, count) != 0) Py_CLEAR(result);
+    }
+    PyMem_Free(inputs);
     Py_DECREF(Y); Py_DECREF(T); Py_XDECREF(P);
     return result;
 }
@@ -448,8 +587,10 @@ FOOTER = r"""
 static PyMethodDef KdModel_methods[] = {
     {"rhs", (PyCFunction)(void (*)(void))KdModel_rhs, METH_FASTCALL,
      "rhs(t, y): the state derivative (a new array)"},
-    {"rhs_batch", (PyCFunction)(void (*)(void))KdModel_rhs_batch, METH_FASTCALL,
-     "rhs_batch(t, Y[, P]): state derivatives of many states (rows of Y)"},
+    {"rhs_batch", (PyCFunction)(void (*)(void))KdModel_rhs_batch,
+     METH_VARARGS | METH_KEYWORDS,
+     "rhs_batch(t, Y, P=None, threads=None): state derivatives of many states (rows of "
+     "Y), on `threads` threads (None: every CPU the process may use)"},
     {"set_parameters", (PyCFunction)(void (*)(void))KdModel_set_parameters, METH_FASTCALL,
      "set_parameters(p): replace the constants"},
     {"integrate", (PyCFunction)KdModel_integrate, METH_VARARGS,
