@@ -13,7 +13,8 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
-from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
+from .analysis import (ForwardCheck, InverseStudy, NewtonEulerCheck, check_newton_euler,
+                       inverse_study, plot_mode_shapes)
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
 from .modeling import (SURFACE_COORDINATES, AngularVelocity, BallScrew, BeamMember, Contact,
@@ -41,6 +42,9 @@ __all__ = [
     "inverse_parts",
     "actuator_parts",
     "power_balance",
+    "inverse_study",
+    "InverseStudy",
+    "ForwardCheck",
     "kane",
     "formulate",
     "FORMULATIONS",
