@@ -420,7 +420,8 @@ class InverseStudy:
         rows = -(-k // cols)
         fig, axes = plt.subplots(rows, cols, figsize=(4 * cols, 3 * rows + 0.8),
                                  sharex=True, squeeze=False)
-        shown = [p for p, arr in parts.items() if np.max(np.abs(arr)) > 0]
+        scale = 1e-9 * np.max(np.abs(self.forces))  # leave out parts at round-off
+        shown = [p for p, arr in parts.items() if np.max(np.abs(arr)) > scale]
         for i, ax in enumerate(axes.flat):
             if i >= k:
                 ax.set_visible(False)
