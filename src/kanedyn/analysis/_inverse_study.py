@@ -273,7 +273,10 @@ class InverseStudy:
 
     @property
     def power_residual(self):
-        """Largest |power-balance residual| over the largest |actuator power| (or the residual, W, at rest)."""
+        """Largest |power-balance residual| over the largest |actuator power|.
+
+        The residual itself (W) when the actuators do no work.
+        """
         scale = float(np.max(np.abs(self.power.actuator)))
         worst = float(np.max(np.abs(self.power.residual)))
         return worst / scale if scale > 0 else worst
