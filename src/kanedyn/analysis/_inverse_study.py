@@ -268,12 +268,12 @@ class InverseStudy:
     # ------------------------------------------------------------ numbers
     @property
     def peak_forces(self):
-        """``{actuator: largest |force|}`` over the trajectory."""
+        """``{actuator: largest absolute force}`` over the trajectory."""
         return {n: float(np.max(np.abs(f))) for n, f in zip(self.names, self.forces)}
 
     @property
     def power_residual(self):
-        """Largest |power-balance residual| over the largest |actuator power|.
+        """Largest absolute power-balance residual over the largest absolute actuator power.
 
         The residual itself (W) when the actuators do no work.
         """
