@@ -108,9 +108,6 @@ _LAZY = {
     'tune_damper': '.analysis',
     'DamperTuning': '.analysis',
     'plot_frequency_responses': '.analysis',
-    'inverse_study': '.analysis',
-    'InverseStudy': '.analysis',
-    'ForwardCheck': '.analysis',
 }
 
 
@@ -231,7 +228,4 @@ __all__ = [
     "tune_damper",
     "DamperTuning",
     "plot_frequency_responses",
-    "inverse_study",
-    "InverseStudy",
-    "ForwardCheck",
 ]
