@@ -106,6 +106,8 @@ _LAZY = {
     'model_frequency_response': '.analysis',
     'FrequencyResponse': '.analysis',
     'tune_damper': '.analysis',
+    'inverse_study': '.analysis',
+    'InverseStudy': '.analysis',
     'DamperTuning': '.analysis',
     'plot_frequency_responses': '.analysis',
 }
@@ -226,6 +228,8 @@ __all__ = [
     "model_frequency_response",
     "FrequencyResponse",
     "tune_damper",
+    "inverse_study",
+    "InverseStudy",
     "DamperTuning",
     "plot_frequency_responses",
 ]

@@ -6,6 +6,7 @@
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
+``_inverse_study`` actuator forces of parallel models along named trajectories
 """
 
 from ._bicycle_plot import PUBLISHED_STABLE_SPEEDS, bicycle_modes, plot_bicycle_eigenvalues
@@ -16,6 +17,7 @@ from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecisi
                        compare_formulations, work_precision)
 from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
                               plot_deflection, plot_mode_shapes)
+from ._inverse_study import TRAJECTORIES, InverseStudy, inverse_study, trajectory_offsets
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
 
@@ -27,4 +29,5 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
            "den_hartog", "frequency_response", "model_frequency_response",
            "FrequencyResponse", "response_peaks", "h2_norm", "tune_damper", "DamperTuning",
-           "plot_frequency_responses"]
+           "plot_frequency_responses", "inverse_study", "InverseStudy", "TRAJECTORIES",
+           "trajectory_offsets"]

@@ -87,7 +87,11 @@ class ActuatorMap:
     ----------
     model : NumericModel
         Built by ``eom.numeric(...)`` (its equations give the symbols); the
-        actuators' loads must not be among the model's loads.
+        actuators' loads must not be among the model's loads.  An actuator's
+        drive-train element (``actuator.inertia_element()``, named
+        ``"<actuator name>_drive"``) among the model's bodies is detected
+        (listed in ``drive_elements``) and its reflected inertia then not
+        added again: the forces are the same with or without it.
     actuators : sequence of Actuator
     max_condition : float, optional
         Condition number of the rate Jacobian above which a configuration is
@@ -128,7 +132,15 @@ class ActuatorMap:
             # d(rate)/dt is linear in u': with u' = 0 it is the J' u part
             b = r.diff(_t).xreplace({s.diff(_t): sm.S.Zero for s in u})
             bias.append(b.xreplace(kdd))
-        masses = [a.reflected_inertia for a in actuators]
+        # a drive train already among the model's bodies (``a.inertia_element()``,
+        # named "<actuator>_drive") is in M u' - F: its reflected inertia is not
+        # added a second time
+        bodies = {getattr(b, "name", None) for b in getattr(eom, "bodies", ())}
+        self.drive_elements = tuple(f"{a.name}_drive" for a in actuators
+                                    if a.transmission is not None
+                                    and f"{a.name}_drive" in bodies)
+        masses = [0 if f"{a.name}_drive" in self.drive_elements else a.reflected_inertia
+                  for a in actuators]
         qs = sm.symbols(f"q0:{len(q)}")
         us = sm.symbols(f"u0:{len(u)}")
         plain = dict(zip(q, qs)) | dict(zip(u, us)) | {_t: t}

@@ -1,0 +1,86 @@
+"""``kanedyn inverse``: actuator forces of a parallel model along a named trajectory."""
+
+from __future__ import annotations
+
+from .._errors import KanedynError
+from .._progress import Progress
+from ..models import REGISTRY, build
+from ._options import (add_backend_argument, check_output_dir, parse_sets, point_count,
+                       positive_float)
+
+__all__ = ["add_parser", "cmd_inverse"]
+
+_TRAJECTORIES = ("quintic", "sinusoid")
+
+
+def add_parser(sub):
+    """Add the ``inverse`` sub-command to ``sub``."""
+    p = sub.add_parser("inverse", help="actuator forces along a prescribed platform motion: "
+                                       "by cause, by body group, power balance")
+    p.add_argument("model", choices=list(REGISTRY))
+    p.add_argument("--trajectory", choices=_TRAJECTORIES, default="quintic",
+                   help="quintic: rest to rest from the home pose to an offset pose; "
+                        "sinusoid: about the home pose (default quintic)")
+    p.add_argument("--t-end", type=positive_float, default=None,
+                   help="duration [s] (default: the model's)")
+    p.add_argument("--points", type=point_count, default=201,
+                   help="trajectory points (at least 2)")
+    p.add_argument("--out", default=None,
+                   help="output directory for CSV files and plots (none if omitted)")
+    add_backend_argument(p)
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option or parameter (m_p=12)")
+    p.add_argument("--check", action="store_true",
+                   help="also drive the forward model with the forces (DOP853, "
+                        "rtol = atol = 1e-11) and print the largest pose error")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_inverse)
+
+
+def cmd_inverse(args):
+    """Run an inverse-dynamics study; print peak forces and the power-balance residual."""
+    import numpy as np
+
+    from ..analysis import inverse_study
+    options, values = parse_sets(args.model, args.set)
+    definition = build(args.model, **options)
+    if not definition.actuators:
+        raise KanedynError(f"model {args.model!r} declares no actuators; "
+                           "kanedyn inverse needs one that does (3rrr, stewart-platform, "
+                           "out-parallel-6dof)")
+    names = {str(s) for s in definition.constants}
+    unknown = sorted(set(values) - names)
+    if unknown:
+        raise KanedynError(f"--set {unknown[0]}: not an option or parameter of "
+                           f"{definition.name}; parameters: {', '.join(sorted(names))}")
+    out = check_output_dir(args.out) if args.out is not None else None
+    progress = Progress(enabled=not args.quiet)
+    progress.stage(f"deriving {definition.title}")
+    model = definition.numeric(definition.derive(), constants=values, backend=args.backend)
+    progress.stage(f"inverse kinematics and actuator forces, {args.trajectory} trajectory, "
+                   f"{args.points} points")
+    study = inverse_study(definition, trajectory=args.trajectory, t_end=args.t_end,
+                          points=args.points, constants=values, model=model)
+    progress.done()
+    print(f"{definition.name}: {args.trajectory} trajectory over {study.t[-1]:g} s, "
+          f"{study.t.size} points; inverse kinematics: {study.ik_method}")
+    width = max(len(n) for n in study.names)
+    print(f"  {'actuator':<{width}}  {'peak |force|':>14}  {'rms':>12}")
+    for n, u, f in zip(study.names, study.units, study.forces):
+        peak = f"{np.max(np.abs(f)):.6g} {u}"
+        rms = f"{np.sqrt(np.mean(f ** 2)):.6g} {u}"
+        print(f"  {n:<{width}}  {peak:>14}  {rms:>12}")
+    pw = study.power
+    print(f"peak actuator power {np.max(np.abs(pw.actuator)):.6g} W; power-balance "
+          f"residual {np.max(np.abs(pw.residual)):.3e} W "
+          f"({study.power_residual():.3e} of the peak)")
+    print(f"largest condition number of the actuator Jacobian: {np.max(study.condition):.4g}")
+    if args.check:
+        progress.stage("forward simulation driven by the computed forces (DOP853, 1e-11)")
+        error = study.forward_check()
+        progress.done()
+        print(f"forward check: largest pose error {error:.3e} (m, rad)")
+    if out is not None:
+        written = study.to_csv(out) + study.plot(out)
+        print("wrote " + ", ".join(str(p) for p in written))
+    return 0
