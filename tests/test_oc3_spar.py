@@ -389,25 +389,24 @@ def test_irregular_sea_seeded():
 @pytest.mark.slow
 def test_turbulent_wind_thrust_scales_with_intensity():
     """Wind 8 m/s, Kaimal turbulence 5 % and 10 % (same seed: the same series shape):
-    the thrust varies, its standard deviation over 200 s about doubles, and it is of the
+    the thrust varies, its standard deviation over 60 s about doubles, and it is of the
     order of the quasi-steady dT/dV sigma_V."""
-    opts = dict(tower_modes=0, wind_speed=8.0)
+    opts = dict(tower_modes=0, wind_speed=8.0, drag=False)
     d5 = oc3_spar(turbulence=0.05, **opts)
     eom = d5.derive()
-    t = np.linspace(0.0, 200.0, 801)
+    t = np.linspace(0.0, 60.0, 241)
     stds = []
     for ti in (0.05, 0.10):
         d = d5 if ti == 0.05 else oc3_spar(turbulence=ti, **opts)
         m = d.numeric(eom)
         y0 = oc3_settle(d, m)
-        res = kd.simulate(m, (0.0, 200.0), y0, rtol=1e-7, atol=1e-7, t_eval=t)
+        res = kd.simulate(m, (0.0, 60.0), y0, rtol=1e-6, atol=1e-6, t_eval=t)
         assert res.success
         rotor = d.symbols["elements"]["rotor"]
         (thrust,) = rotor.specified([*d.symbols["q"], *d.symbols["u"]]).values()
         T = np.array([thrust(ti_, yi) for ti_, yi in zip(res.t, res.y.T)])
-        stds.append(T[200:].std())
+        stds.append(T.std())
     slope = 2 * 0.5 * 1.225 * np.pi * 63.0 ** 2 * 0.80 * 8.0
     assert stds[0] > 0
     assert 1.8 < stds[1] / stds[0] < 2.2
     assert 0.3 < stds[0] / (slope * 0.05 * 8.0) < 1.5
-    print(stds, stds[1] / stds[0], stds[0] / (slope * 0.05 * 8.0))
