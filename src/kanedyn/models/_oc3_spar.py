@@ -39,9 +39,11 @@ wave excitation (:class:`~kanedyn.MorisonCylinder`, kinematics at the
 undisplaced position); mooring (``"linear"``: :meth:`~kanedyn.LinearMooring.oc3`;
 ``"linear-symmetric"``: its symmetric part, conservative;
 ``"catenary"``: three quasi-static elastic catenary lines plus the yaw spring
-of the delta connection; ``"none"``); rotor thrust at the hub along ``A.x``
-(:class:`~kanedyn.RotorThrust` with the NREL 5-MW curve, relative wind, shaft
-tilt neglected).
+of the delta connection; ``"none"``); rotor thrust at the hub (5.0191 m upwind
+of the tower axis, 90 m above the SWL) along the shaft tilted 5 deg,
+:math:`\cos 5^\circ A_x - \sin 5^\circ A_z`
+(:class:`~kanedyn.RotorThrust` with the NREL 5-MW curve of the free hub-height
+wind, the aerodynamic damping on the hub's velocity along the shaft).
 """
 
 from __future__ import annotations
@@ -381,7 +383,14 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
             t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
                                    hub_height=_v(ROTOR, "hub_height"))
             wind = _PeriodicSeries(t_w, v_w)
-        rotor = RotorThrust("rotor", hub, A.x, N, NREL5MW_THRUST, wind)
+        # along the shaft, downwind and (tilted) downward: hub upwind and higher
+        tilt = math.radians(_v(ROTOR, "shaft_tilt"))
+        shaft = math.cos(tilt) * A.x - math.sin(tilt) * A.z
+        # the curve is against the free hub-height wind with the tilt already in it:
+        # the whole wind speed counts (wind_direction = the shaft), the hub's velocity
+        # along the shaft is the aerodynamic damping
+        rotor = RotorThrust("rotor", hub, shaft, N, NREL5MW_THRUST, wind,
+                            wind_direction=shaft)
         loads += rotor.to_loads()
         specified.update(rotor.specified(states))
         elements["rotor"] = rotor
