@@ -5,6 +5,7 @@
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
+``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
 """
 
 from ._bicycle_plot import PUBLISHED_STABLE_SPEEDS, bicycle_modes, plot_bicycle_eigenvalues
@@ -13,6 +14,8 @@ from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecisi
 from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
                               plot_deflection, plot_mode_shapes)
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
+from ._seatbelt_studies import (PULSE_SHAPES, RegulatoryCheck, SeatbeltLockMap,
+                                regulatory_check, seatbelt_lock_map, seatbelt_study_model)
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
@@ -20,4 +23,6 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot", "log_scale_ok",
            "draw_nonnegative", "unit_text", "plot_mode_shapes",
            "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes",
-           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS"]
+           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
+           "seatbelt_lock_map", "SeatbeltLockMap", "regulatory_check", "RegulatoryCheck",
+           "seatbelt_study_model", "PULSE_SHAPES"]
