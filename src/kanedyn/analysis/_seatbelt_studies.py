@@ -289,8 +289,7 @@ def _plot_map(table, shape, lock_angle):
     ncol, nrow = len(directions), len(rates)
     fig, axes = plt.subplots(nrow, ncol, figsize=(3.2 * ncol + 1.2, 2.9 * nrow + 0.8),
                              squeeze=False, sharex=True, sharey=True)
-    cmap = plt.get_cmap("viridis_r").copy()
-    cmap.set_bad("0.85")
+    cmap = plt.get_cmap("viridis_r").with_extremes(bad="0.85")
     image = None
     for i, rate in enumerate(rates):
         for j, deg in enumerate(directions):
