@@ -7,6 +7,7 @@
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 ``_inverse_study`` actuator forces of parallel models along named trajectories
+``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
 """
 
 from ._bicycle_plot import PUBLISHED_STABLE_SPEEDS, bicycle_modes, plot_bicycle_eigenvalues
@@ -19,6 +20,8 @@ from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
                               plot_deflection, plot_mode_shapes)
 from ._inverse_study import TRAJECTORIES, InverseStudy, inverse_study, trajectory_offsets
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
+from ._seatbelt_studies import (PULSE_SHAPES, RegulatoryCheck, SeatbeltLockMap,
+                                regulatory_check, seatbelt_lock_map, seatbelt_study_model)
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
@@ -30,4 +33,6 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "den_hartog", "frequency_response", "model_frequency_response",
            "FrequencyResponse", "response_peaks", "h2_norm", "tune_damper", "DamperTuning",
            "plot_frequency_responses", "inverse_study", "InverseStudy", "TRAJECTORIES",
-           "trajectory_offsets"]
+           "trajectory_offsets",
+           "seatbelt_lock_map", "SeatbeltLockMap", "regulatory_check", "RegulatoryCheck",
+           "seatbelt_study_model", "PULSE_SHAPES"]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import sys
+from pathlib import Path
 
 
 from .._errors import KanedynError, SimulationInterrupted
@@ -24,6 +25,13 @@ def add_parser(sub):
     p.add_argument("--out", default="kanedyn-out", help="output directory")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=4), parameter (m=2) or initial value (q1=0.3)")
+    pulse = p.add_mutually_exclusive_group()
+    pulse.add_argument("--pulse", metavar="NAME",
+                       help="the model's base-motion pulse (its option 'pulse'), e.g. "
+                            "halfsine, haversine, trapezoid, step, none, frontal-48kmh")
+    pulse.add_argument("--pulse-file", metavar="CSV",
+                       help="a recorded pulse (t, ax, ay, az[, wx, wy, wz]) as the model's "
+                            "option 'pulse'")
     p.add_argument("--method", type=integrator_name, default="RK45",
                    help="integrator: a solve_ivp method (RK45, DOP853, Radau, BDF, ...) "
                         "or Rosenbrock23 (compiled loop, --backend c)")
@@ -40,6 +48,7 @@ def add_parser(sub):
 
 def cmd_run(args):
     options, values = parse_sets(args.model, args.set)
+    options.update(_pulse_option(args, options))
     definition = build(args.model, **options)  # checks the options
     out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
@@ -55,13 +64,16 @@ def cmd_run(args):
     except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
         progress.done()
         res = stop.result
-    summary = _write_run(definition, eom, model, res, out, progress)
+    report = definition.report(res, definition) if definition.report is not None else None
+    summary = _write_run(definition, eom, model, res, out, progress, report)
     if args.animate:
         page = res.animate(out / f"{definition.name}.html",
                            visuals=definition.shapes(constants),
                            title=f"{definition.name}: {definition.title}")
         progress.stage(f"wrote {page}")
     _print_summary(summary)
+    if report is not None:
+        print(f"{definition.name} report: {_report_text(report)}")
     _print_identified(model, res)
     if res.message == "interrupted":
         print(f"kanedyn: interrupted at t = {res.t[-1]:g} s; wrote the partial result",
@@ -70,7 +82,38 @@ def cmd_run(args):
     return 0 if res.success else 1
 
 
-def _write_run(definition, eom, model, res, out, progress):
+def _pulse_option(args, options):
+    """``{"pulse": value}`` from ``--pulse`` or ``--pulse-file`` (empty when neither)."""
+    name, path = getattr(args, "pulse", None), getattr(args, "pulse_file", None)
+    if name is None and path is None:
+        return {}
+    flag = "--pulse" if name is not None else "--pulse-file"
+    _, option_types = REGISTRY[args.model]
+    if "pulse" not in option_types:
+        raise KanedynError(f"{flag}: model {args.model} has no pulse option (models with "
+                           "one: " + ", ".join(m for m, (_, o) in REGISTRY.items()
+                                               if "pulse" in o) + ")")
+    if "pulse" in options:
+        raise KanedynError(f"{flag}: the pulse is also given by --set pulse=...; give it once")
+    if name is not None:
+        return {"pulse": name}
+    file = Path(path)
+    if not file.is_file():
+        raise KanedynError(f"--pulse-file {path}: no such file")
+    return {"pulse": file}
+
+
+def _report_text(report):
+    text = getattr(report, "text", None)
+    return text() if callable(text) else str(report)
+
+
+def _report_dict(report):
+    as_dict = getattr(report, "as_dict", None)
+    return as_dict() if callable(as_dict) else {"text": _report_text(report)}
+
+
+def _write_run(definition, eom, model, res, out, progress, report=None):
     out.mkdir(parents=True, exist_ok=True)
     csv_path = res.to_csv(out / f"{definition.name}.csv")
     fig = res.plot(path=out / f"{definition.name}.png")
@@ -80,6 +123,8 @@ def _write_run(definition, eom, model, res, out, progress):
     summary.update(model=definition.name, constants=model.constants,
                    initial_state=dict(zip(model.state_names,
                                           map(float, res.initial_state))))
+    if report is not None:
+        summary["report"] = _report_dict(report)
     (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
     progress.stage(f"wrote {csv_path}, {out / (definition.name + '.png')}, "
                    f"{out / 'summary.json'}")

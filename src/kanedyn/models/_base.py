@@ -67,6 +67,11 @@ class ModelDefinition:
     body_groups : dict
         ``{group name: tuple of body names}``: bodies grouped for reports
         (e.g. ``platform``, ``struts``, ``carriages``); empty when none.
+    report : callable or None
+        ``report(result, definition) -> object``: a model-specific report of a
+        run (e.g. the seat-belt sensor's lock times), with ``text()`` (one
+        line) and ``as_dict()`` (JSON-ready); ``kanedyn run`` prints it and
+        writes it to ``summary.json`` under ``"report"``.  None: no report.
     """
 
     name: str
@@ -83,6 +88,7 @@ class ModelDefinition:
     constant_units: dict = field(default_factory=dict)
     actuators: tuple = ()
     body_groups: dict = field(default_factory=dict)
+    report: object = None
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the

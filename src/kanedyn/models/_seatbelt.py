@@ -73,7 +73,7 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
     if not isinstance(pulse, (str, Path)):
         raise ModelError(f"seatbelt-sensor: pulse must be a name or a CSV path, got {pulse!r}")
     name = str(pulse)
-    if name in _EXAMPLES or name.lower().endswith(".csv"):
+    if isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith(".csv"):
         path = example_pulse(name) if name in _EXAMPLES else Path(name)
         if not path.is_file():
             raise ModelError(f"seatbelt-sensor: pulse file {path} does not exist")
@@ -221,7 +221,14 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         description="After Allan & Townsend (1995). The pendulum tilts in its housing "
                     "under the vehicle's deceleration; tilt beyond theta_lock locks the "
                     f"belt (seatbelt_report). Pulse: {motion.source}; limit: {limit}.",
-        units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"})
+        units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"},
+        report=_run_report)
+
+
+def _run_report(result, definition):
+    """The ``report`` hook of the model (``kanedyn run``): lock times from the
+    output points."""
+    return seatbelt_report(result, definition)
 
 
 def _needed_inputs(motion, pivot_force):
@@ -302,6 +309,19 @@ class SeatbeltReport:
     lock_angle: float
     release_g: float
 
+    def text(self):
+        """One line: lock time, lock duration, releases (ms) and the largest tilt (deg)."""
+        return self.summary()
+
+    def as_dict(self):
+        """JSON-ready values (s and rad, like the attributes; None when not locked)."""
+        return {"locked": self.locked, "lock_time": self.lock_time,
+                "lock_duration": self.lock_duration,
+                "intervals": [list(map(float, iv)) for iv in self.intervals],
+                "releases": [float(t) for t in self.releases],
+                "max_tilt": self.max_tilt, "lock_angle": self.lock_angle,
+                "release_g": self.release_g}
+
     def summary(self):
         if not self.locked:
             return (f"no lock: max tilt {math.degrees(self.max_tilt):.2f} deg < lock angle "
@@ -312,6 +332,8 @@ class SeatbeltReport:
         if self.releases:
             text += ("; unintended release at t = "
                      + ", ".join(f"{1e3 * t:.2f}" for t in self.releases) + " ms")
+        else:
+            text += "; no unintended release"
         return text
 
 
