@@ -12,9 +12,9 @@
 
 from ._meshes import read_mesh, read_obj, read_stl
 from ._page import animate, page_html
-from ._saved import SavedFileError, load, save_equations
+from ._saved import SavedFileError, load, load_data, save_data, save_equations
 from ._viewer import DEFAULT_MAX_FRAMES, PALETTE, quaternions, scene_data
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError"]
+           "SavedFileError", "save_data", "load_data"]
