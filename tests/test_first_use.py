@@ -95,3 +95,37 @@ def test_cached_model_derives_its_equations_when_asked(tmp_path):
                "list(m2.rhs(0.0, d.initial(m2)) - m.rhs(0.0, d.initial(m)))]))", tmp_path)
     assert out[:2] == [0, 1]
     assert max(abs(x) for x in out[2]) == 0.0
+
+
+@pytest.mark.slow
+def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(tmp_path):
+    import zipfile
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    _, _, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    entries = list((tmp_path / "kanedyn" / "derived").glob("*.kdnum"))
+    assert len(entries) == 1 and not list((tmp_path / "kanedyn" / "derived").glob("*.pkl"))
+    with zipfile.ZipFile(entries[0]) as archive:
+        manifest = json.loads(archive.read("manifest.json"))
+        nodes = archive.read("nodes.json")
+    assert manifest["format"] == "kanedyn-derived-model"
+    assert manifest["definition"]["name"] == "chain3d"
+    json.loads(nodes)  # plain JSON, no pickle
+    # a changed entry (a pickle payload in place of the nodes): refused, derived again
+    payload = b"cos\nsystem\n(S'touch " + str(tmp_path / "ran").encode() + b"'\ntR."
+    with zipfile.ZipFile(entries[0], "w") as archive:
+        archive.writestr("manifest.json", json.dumps(manifest))
+        archive.writestr("nodes.json", payload)
+    env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=str(tmp_path))
+    env.pop("KANEDYN_CACHE_DIR", None)
+    proc = subprocess.run([sys.executable, "-c", _CHAIN.format(mass=1.0)],
+                          capture_output=True, text=True, env=env, timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    derived, compiled, again = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert "cannot be used" in proc.stderr and "checksum" in proc.stderr
+    assert (derived, compiled) == (1, 0)  # derived again; the module is still cached
+    assert again == f1
+    assert not (tmp_path / "ran").exists()
+    # and stored again, usable by the next process
+    assert _run(_CHAIN.format(mass=1.0), tmp_path)[:2] == [0, 0]

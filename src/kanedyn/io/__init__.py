@@ -10,11 +10,29 @@
               evaluated on loading)
 """
 
-from ._meshes import read_mesh, read_obj, read_stl
-from ._page import animate, page_html
-from ._saved import SavedFileError, load, save_equations
-from ._viewer import DEFAULT_MAX_FRAMES, PALETTE, quaternions, scene_data
+#: public name -> the module (in this package) that defines it; imported on first use
+_LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes",
+         "animate": "._page", "page_html": "._page",
+         "SavedFileError": "._saved", "load": "._saved", "load_data": "._saved",
+         "save_data": "._saved", "save_equations": "._saved",
+         "DEFAULT_MAX_FRAMES": "._viewer", "PALETTE": "._viewer",
+         "quaternions": "._viewer", "scene_data": "._viewer"}
+
+
+def __getattr__(name):
+    module = _LAZY.get(name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    import importlib
+    value = getattr(importlib.import_module(module, __name__), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__():
+    return sorted(set(globals()) | set(__all__))
+
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError"]
+           "SavedFileError", "save_data", "load_data"]

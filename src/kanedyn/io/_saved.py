@@ -52,7 +52,8 @@ from sympy.core.function import AppliedUndef, UndefinedFunction
 from .._errors import KanedynError
 from .._version import __version__
 
-__all__ = ["SavedFileError", "save_equations", "load", "FORMAT", "FORMAT_VERSION"]
+__all__ = ["SavedFileError", "save_equations", "load", "save_data", "load_data", "FORMAT",
+           "FORMAT_VERSION"]
 
 FORMAT = "kanedyn-equations"
 FORMAT_VERSION = 1
@@ -256,20 +257,41 @@ def save_equations(eom, path):
     pathlib.Path
         The path written.
     """
+    return save_data(eom, path, what="the equations", summary=repr(eom))
+
+
+def save_data(obj, path, what="the data", format=FORMAT, **fields):
+    """Write ``obj`` (any object a saved file may carry) as a zip of JSON.
+
+    The same archive as :func:`save_equations` (``manifest.json`` and the
+    checksummed ``nodes.json``); ``format`` names the kind of content and
+    ``fields`` are extra JSON values put in the manifest.  Used for the
+    equations of motion and by the derivation cache of the built-in models.
+
+    Returns
+    -------
+    pathlib.Path
+        The path written.
+
+    Raises
+    ------
+    SavedFileError
+        ``obj`` holds something a saved file cannot carry, or the file
+        cannot be written.
+    """
     path = Path(path)
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20000))
     try:
         encoder = _Encoder()
-        root = encoder.ref(eom, "the equations")
+        root = encoder.ref(obj, what)
     finally:
         sys.setrecursionlimit(limit)
     nodes = json.dumps(encoder.nodes, separators=(",", ":")).encode("utf-8")
-    manifest = {"format": FORMAT, "format_version": FORMAT_VERSION,
+    manifest = {"format": format, "format_version": FORMAT_VERSION,
                 "kanedyn_version": __version__, "sympy_version": sm.__version__,
                 "root": root, "nodes": len(encoder.nodes),
-                "sha256": hashlib.sha256(nodes).hexdigest(),
-                "summary": repr(eom)}
+                "sha256": hashlib.sha256(nodes).hexdigest(), **fields}
     try:
         with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
             archive.writestr("manifest.json", json.dumps(manifest, indent=1))
@@ -535,25 +557,52 @@ def load(path):
         may not (the message names the file and the fault).
     """
     from ..formulations import EquationsOfMotion
+    eom, _ = load_data(path)
+    if not isinstance(eom, EquationsOfMotion):
+        raise SavedFileError(f"{path}: holds a {type(eom).__name__}, not equations of motion")
+    return eom
+
+
+def load_data(path, format=FORMAT):
+    """The object and the manifest of a file written by :func:`save_data`.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    format : str
+        The content the file must announce in its manifest.
+
+    Returns
+    -------
+    (object, dict)
+        The rebuilt object (nothing in the file is evaluated: see the module
+        notes) and the manifest.
+
+    Raises
+    ------
+    SavedFileError
+        As :func:`load`: the message names the file and the fault.
+    """
     path = Path(path)
+    kind = "kanedyn equations file" if format == FORMAT else f"{format} file"
     try:
         with zipfile.ZipFile(path) as archive:
             names = set(archive.namelist())
             if not {"manifest.json", "nodes.json"} <= names:
-                raise SavedFileError(f"{path}: not a kanedyn equations file (it lacks "
+                raise SavedFileError(f"{path}: not a {kind} (it lacks "
                                      "manifest.json or nodes.json)")
             manifest_text = archive.read("manifest.json")
             nodes_text = archive.read("nodes.json")
     except FileNotFoundError:
         raise SavedFileError(f"{path}: no such file") from None
     except (zipfile.BadZipFile, OSError) as exc:
-        raise SavedFileError(f"{path}: not a kanedyn equations file ({exc})") from None
+        raise SavedFileError(f"{path}: not a {kind} ({exc})") from None
     try:
         manifest = json.loads(manifest_text)
     except ValueError as exc:
         raise SavedFileError(f"{path}: its manifest.json is not JSON ({exc})") from None
-    if not isinstance(manifest, dict) or manifest.get("format") != FORMAT:
-        raise SavedFileError(f"{path}: not a kanedyn equations file (format "
+    if not isinstance(manifest, dict) or manifest.get("format") != format:
+        raise SavedFileError(f"{path}: not a {kind} (format "
                              f"{manifest.get('format') if isinstance(manifest, dict) else None!r})")
     version = manifest.get("format_version")
     if version != FORMAT_VERSION:
@@ -574,9 +623,7 @@ def load(path):
     limit = sys.getrecursionlimit()
     sys.setrecursionlimit(max(limit, 20000))
     try:
-        eom = decoder.get(manifest.get("root"))
+        obj = decoder.get(manifest.get("root"))
     finally:
         sys.setrecursionlimit(limit)
-    if not isinstance(eom, EquationsOfMotion):
-        raise SavedFileError(f"{path}: holds a {type(eom).__name__}, not equations of motion")
-    return eom
+    return obj, manifest

@@ -14,6 +14,7 @@ from . import _oc3_options
 #: public name -> the module (in this package) that defines it; imported on first use
 _LAZY = {
     'ModelDefinition': '._base',
+    'PendingDefinition': '._base',
     'eigenvalues_vs_speed': '._bicycle_analysis',
     'stability_speeds': '._bicycle_analysis',
     'upright_state': '._bicycle_analysis',
@@ -84,7 +85,7 @@ _LAZY = {
 }
 
 
-__all__ = ["ModelDefinition", "REGISTRY", "build", "available", "pendulum",
+__all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "build", "available", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
@@ -245,6 +246,11 @@ def available():
 def build(name, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
 
+    The definition is built when first used (a :class:`PendingDefinition`
+    standing for it): ``build(...).numeric(backend="c")`` of a model in the
+    derivation cache needs no SymPy definition at all.  Errors in option
+    values are therefore raised on first use.
+
     Parameters
     ----------
     name : str
@@ -261,7 +267,7 @@ def build(name, **options):
     if unknown:
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
                          f"its options: {sorted(allowed) or 'none'}")
-    definition = builder(**options)
-    # what the model is built from: the key of its derivation cache (see numeric)
-    object.__setattr__(definition, "_origin", (name, tuple(sorted(options.items()))))
-    return definition
+    from ._base import PendingDefinition
+    # built when first needed: a numerical model from the derivation cache needs
+    # no definition (see ModelDefinition.numeric)
+    return PendingDefinition(name, options, builder.function)

@@ -10,7 +10,7 @@ import sympy as sm
 from .._errors import ModelError
 from ..engine import name_of
 
-__all__ = ["ModelDefinition", "DERIVE_STATS"]
+__all__ = ["ModelDefinition", "PendingDefinition", "DERIVE_STATS"]
 
 #: what this process did (read by tests): ``derivations``, models derived
 DERIVE_STATS = {"derivations": 0}
@@ -206,74 +206,196 @@ def _source_stamp():
     return _SOURCE_STAMP[0]
 
 
-def _derivation_cache(definition, constants, options):
-    """The numerical model from the derivation cache (built and stored on a miss),
-    or ``None`` when the model or its options are not cacheable."""
-    origin = getattr(definition, "_origin", None)
+#: the content of a derivation-cache entry (a saved-data archive, see kanedyn.io)
+CACHE_FORMAT = "kanedyn-derived-model"
+
+
+def _cacheable(origin, constants, options):
+    """The cache key of a built-in model's numerical model, or ``None`` when the
+    model or its options are not cacheable (only ``backend="c"``, plain numbers
+    as constants, a compiler present)."""
     if origin is None or options.get("backend") != "c" or set(options) - {"backend"}:
         return None
-    overrides = definition._constant_overrides(constants or {})
     if not all(isinstance(v, (int, float)) and not isinstance(v, bool)
-               for v in overrides.values()):
+               for v in (constants or {}).values()):
         return None
     import hashlib
-    import pickle
     import sys
 
     from .. import _version
-    from ..numerics import cache_dir, compiler_command
+    from ..numerics import compiler_command
     if compiler_command() is None:
         return None
-    key = hashlib.sha256(repr((origin, _version.__version__, sys.version, sm.__version__,
-                               np.__version__, _source_stamp())).encode()).hexdigest()[:24]
-    path = cache_dir() / "derived" / f"{key}.pkl"
+    return hashlib.sha256(repr((origin, _version.__version__, sys.version, sm.__version__,
+                                np.__version__, _source_stamp())).encode()).hexdigest()[:24]
+
+
+def _cache_path(key):
+    from ..numerics import cache_dir
+    return cache_dir() / "derived" / f"{key}.kdnum"
+
+
+def _read_cache(key):
+    """``(model, manifest)`` from the cache entry ``key``, or ``None`` when there is
+    none or it cannot be used.  The entry is a zip of JSON read by
+    :func:`kanedyn.io.load_data` (nothing in it is evaluated); a damaged or
+    changed entry is reported with a warning, removed and rebuilt."""
+    import warnings
+
+    from ..io import SavedFileError, load_data
+    from ..numerics import NumericModel
+    from ..numerics.schemes import SCHEMES
+    path = _cache_path(key)
+    if not path.exists():
+        return None
+    try:
+        data, manifest = load_data(path, format=CACHE_FORMAT)
+        if not isinstance(data, dict) or data.get("backend") != "c" \
+                or data.get("scheme") not in SCHEMES \
+                or not isinstance(manifest.get("definition"), dict):
+            raise SavedFileError(f"{path}: not a derived numerical model")
+        data["scheme"] = SCHEMES[data["scheme"]]()
+        model = NumericModel(data)
+    except Exception as exc:  # noqa: BLE001  damaged, stale or unloadable: derive again
+        warnings.warn(f"derivation cache entry {path} cannot be used ({exc}); it is "
+                      "removed and the model derived again", RuntimeWarning, stacklevel=4)
+        try:
+            path.unlink()
+        except OSError:
+            pass
+        return None
+    return model, manifest["definition"]
+
+
+def _write_cache(key, definition, model):
+    """Store ``model`` (its data, without C source: the module is in the cache by
+    its own key) and what :class:`PendingDefinition` needs of ``definition``,
+    atomically; a model that cannot be stored only costs time next time."""
+    import os
+    import tempfile
+
+    from ..io import SavedFileError, save_data
+    from ..numerics.schemes import SCHEMES
+    data = dict(model._data)
+    scheme = data["scheme"]
+    if data["backend"] != "c" or SCHEMES.get(scheme.name) is not type(scheme) \
+            or scheme != type(scheme)():
+        return  # a scheme with options: not cached
+    data["scheme"] = scheme.name
+    data["c_source"] = None
+    light = {"name": definition.name, "title": definition.title,
+             "constants": sorted(str(s) for s in definition.constants),
+             "initial": [[name_of(k), float(v)] for k, v in definition.initial_state.items()]}
+    path = _cache_path(key)
+    try:
+        path.parent.mkdir(parents=True, exist_ok=True)
+        handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+        os.close(handle)
+        save_data(data, tmp, what=f"the numerical model of {definition.name}",
+                  format=CACHE_FORMAT, definition=light)
+        os.replace(tmp, path)
+    except (OSError, SavedFileError, TypeError, ValueError):
+        try:
+            os.unlink(tmp)
+        except (OSError, UnboundLocalError):
+            pass
+
+
+def _derivation_cache(definition, constants, options):
+    """The numerical model from the derivation cache (built and stored on a miss),
+    or ``None`` when the model or its options are not cacheable."""
+    overrides = definition._constant_overrides(constants or {})
+    key = _cacheable(getattr(definition, "_origin", None), overrides, options)
+    if key is None:
+        return None
 
     def derive_again():
         return definition.numeric(definition.derive(), **options)
 
-    model = None
-    try:
-        # the cache directory is the user's own, like the compiled modules in it
-        model = pickle.loads(path.read_bytes())  # noqa: S301
+    found = _read_cache(key)
+    if found is not None:
+        model = found[0]
         model._rederive = derive_again
-    except Exception:  # noqa: BLE001  missing, stale or unreadable: derive it
-        model = None
-    if model is None:
+    else:
         model = definition.numeric(definition.derive(), **options)
-        _store(path, model)
+        _write_cache(key, definition, model)
     if overrides:
         model = model.with_constants({str(k): float(v) for k, v in overrides.items()})
     return model
 
 
-def _store(path, model):
-    """Write ``model`` (without its C source: its module is in the cache) atomically."""
-    import os
-    import pickle
-    import tempfile
-    data = dict(model._data)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=path.parent, delete=False) as handle:
-            pickle.dump(_Cached(data), handle)
-        os.replace(handle.name, path)
-    except (OSError, pickle.PicklingError, TypeError, AttributeError):
-        pass  # a cache that cannot be written only costs time
+class PendingDefinition:
+    """A built-in model not built yet (what :func:`kanedyn.models.build` returns).
 
+    It behaves as its :class:`ModelDefinition`, which is built (SymPy objects
+    and all) when first needed; a numerical model with the C backend found in
+    the derivation cache needs no definition at all, so a second process with
+    the same model starts without building it.
+    """
 
-class _Cached:
-    """A numerical model's data, rebuilt into the model on unpickling."""
+    def __init__(self, name, options, builder):
+        self._origin = (name, tuple(sorted(options.items())))
+        self._builder = builder
+        self._options = dict(options)
+        self._built = None
+        self._light = None  # from a cache entry: name, title, constants, initial state
 
-    def __init__(self, data):
-        self.data = data
+    @property
+    def definition(self):
+        """The :class:`ModelDefinition`, built on first use."""
+        if self._built is None:
+            built = self._builder(**self._options)
+            object.__setattr__(built, "_origin", self._origin)
+            self._built = built
+        return self._built
 
-    def __reduce__(self):
-        return (_rebuild, (self.data,))
+    def __getattr__(self, name):
+        if name.startswith("__") or name in ("_built", "_light", "_builder", "_options",
+                                             "_origin"):
+            raise AttributeError(name)
+        return getattr(self.definition, name)
 
+    def __repr__(self):
+        return repr(self.definition)
 
-def _rebuild(data):
-    from ..numerics import NumericModel
-    model = NumericModel.__new__(NumericModel)
-    model._data = data
-    model._compile()
-    return model
+    @property
+    def name(self):
+        return self._light["name"] if self._built is None and self._light else \
+            self.definition.name
+
+    @property
+    def title(self):
+        return self._light["title"] if self._built is None and self._light else \
+            self.definition.title
+
+    def numeric(self, eom=None, constants=None, specified=None, **options):
+        """As :meth:`ModelDefinition.numeric`; from the derivation cache without
+        building the definition when the model is there."""
+        if self._built is None and eom is None and specified is None \
+                and all(isinstance(k, str) for k in (constants or {})):
+            key = _cacheable(self._origin, constants, options)
+            found = _read_cache(key) if key is not None else None
+            if found is not None:
+                model, light = found
+                if set(constants or {}) <= set(light["constants"]):
+                    self._light = light
+                    model._rederive = lambda: self.definition.numeric(
+                        self.definition.derive(), **options)
+                    if constants:
+                        model = model.with_constants({k: float(v)
+                                                      for k, v in constants.items()})
+                    return model
+        return self.definition.numeric(eom, constants=constants, specified=specified,
+                                       **options)
+
+    def initial(self, model, overrides=None):
+        """As :meth:`ModelDefinition.initial`."""
+        if self._built is None and self._light is not None \
+                and all(isinstance(k, str) for k in (overrides or {})):
+            y = np.zeros(model.n_states)
+            values = dict(self._light["initial"])
+            values.update(overrides or {})
+            for key, value in values.items():
+                y[model.index(key)] = float(value)
+            return y
+        return self.definition.initial(model, overrides)

@@ -42,11 +42,11 @@ modal coordinates and the frame.
 from __future__ import annotations
 
 import numpy as np
-import scipy.sparse as sp
 import sympy as sm
 import sympy.physics.mechanics as me
 
 from ..._errors import ModelError
+from ._lazy_scipy import sp
 from ._reduced import ReducedMember
 
 __all__ = ["FlexibleBody", "InertiaInvariants"]

@@ -28,11 +28,9 @@ and the rigid-body modes never enter the eigensolver.
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..._errors import ModelError
+from ._lazy_scipy import sla, sp, spla
 
 __all__ = ["lowest_modes", "elastic_modes", "rigid_body_modes", "submatrix", "is_sparse",
            "DENSE_LIMIT"]

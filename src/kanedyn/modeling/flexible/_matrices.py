@@ -6,11 +6,9 @@ import warnings
 from pathlib import Path
 
 import numpy as np
-import scipy.io
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..._errors import ModelError
+from ._lazy_scipy import sio, sp, spla
 
 __all__ = ["check_matrix", "read_matrix"]
 
@@ -23,7 +21,7 @@ def read_matrix(member, what, path):
     """Read a Matrix Market file (:func:`scipy.io.mmread`); errors name the member and file."""
     path = Path(path)
     try:
-        A = scipy.io.mmread(str(path))
+        A = sio.mmread(str(path))
     except (OSError, ValueError) as exc:
         raise ModelError(f"member {member!r}: cannot read the {what} matrix from {str(path)!r} "
                          f"as a Matrix Market file: {exc}") from None

@@ -15,11 +15,11 @@ from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
-import scipy.sparse as sp
 
 from ..._errors import ModelError, OptionError
 from ._beam import PARTS, beam_element, element_axes, element_transformation
 from ._eigen import DENSE_LIMIT, elastic_modes
+from ._lazy_scipy import sp
 from ._matrices import check_matrix, read_matrix
 from ._reduction import craig_bampton, free_free, guyan, reduce_member
 from ._stations import StationTable

@@ -28,9 +28,9 @@ from __future__ import annotations
 from dataclasses import dataclass, field, replace
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..._errors import ModelError
+from ._lazy_scipy import sla
 
 __all__ = ["ReducedMember", "reduced_frequencies"]
 

@@ -47,13 +47,11 @@ from __future__ import annotations
 from collections import deque
 
 import numpy as np
-import scipy.linalg as sla
-import scipy.sparse as sp
-import scipy.sparse.linalg as spla
 
 from ..._errors import ModelError, OptionError
 from ._beam import PARTS, element_transformation
 from ._eigen import _use_dense, elastic_modes, lowest_modes, submatrix
+from ._lazy_scipy import sla, sp, spla
 from ._reduced import ReducedMember, reduced_frequencies
 
 __all__ = ["craig_bampton", "guyan", "free_free", "reduce_member", "REDUCTIONS", "DOF_NAMES",

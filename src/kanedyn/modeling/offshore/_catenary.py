@@ -27,7 +27,6 @@ from the last solution; the first guess is Peyrot and Goulois's.
 """
 
 import numpy as np
-from scipy import optimize
 
 from ..._errors import ModelError
 
@@ -102,6 +101,7 @@ def solve_catenary(x, z, length, w, EA, seabed=True, guess=None, name="line"):
         xs, zs = catenary_spans(H, V, length, w, EA, seabed)
         return [(xs - x) / length, (zs - z) / length]
 
+    from scipy import optimize  # imported when first needed (start-up time)
     sol = optimize.root(residual, np.log([h0, v0]), method="hybr", options={"xtol": 1e-13})
     if not sol.success or np.max(np.abs(sol.fun)) > 1e-9:
         if guess is not None:  # a poor warm start: try the cold start once

@@ -18,7 +18,6 @@ shaft, comes out of the curve's slope.
 
 import numpy as np
 import sympy.physics.mechanics as me
-from scipy.interpolate import PchipInterpolator
 
 from ..._errors import ModelError
 from ._mooring import state_function
@@ -52,18 +51,25 @@ class ThrustCurve:
         if np.any(np.diff(v) <= 0):
             raise ModelError("ThrustCurve: speeds must be strictly increasing")
         self.speeds, self.thrusts = v, f
-        self._f = PchipInterpolator(v, f, extrapolate=False)
-        self._df = self._f.derivative()
+        self._curves = None  # the interpolant and its derivative, made on first use
+
+    def _interpolants(self):
+        if self._curves is None:
+            from scipy.interpolate import PchipInterpolator  # start-up time: when needed
+            f = PchipInterpolator(self.speeds, self.thrusts, extrapolate=False)
+            self._curves = (f, f.derivative())
+        return self._curves
 
     def __call__(self, V):
         """Thrust (N) at wind speed(s) ``V`` (m/s)."""
         V = np.clip(V, self.speeds[0], self.speeds[-1])
-        return self._f(V)
+        return self._interpolants()[0](V)
 
     def slope(self, V):
         """:math:`dT/dV` (N s/m) at ``V``: the aerodynamic damping on the hub's speed."""
         inside = (V >= self.speeds[0]) & (V <= self.speeds[-1])
-        return np.where(inside, self._df(np.clip(V, self.speeds[0], self.speeds[-1])), 0.0)
+        slope = self._interpolants()[1]
+        return np.where(inside, slope(np.clip(V, self.speeds[0], self.speeds[-1])), 0.0)
 
 
 # The NREL 5-MW steady thrust curve (N against m/s at hub height).  Below

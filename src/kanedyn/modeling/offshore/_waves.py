@@ -31,7 +31,6 @@ second order and left out).  Above the SWL linear theory says nothing; the
 import math
 
 import numpy as np
-from scipy.optimize import brentq
 
 from ..._errors import ModelError
 
@@ -83,6 +82,7 @@ def wave_number(omega, depth, g=G_STANDARD):
     k0 = w ** 2 / g
     if math.isinf(depth):
         return k0 if w.ndim else float(k0)
+    from scipy.optimize import brentq  # imported when first needed (start-up time)
     out = np.empty_like(k0)
     for i, (w_i, k_i) in enumerate(zip(w.ravel(), k0.ravel())):
         hi = k_i / math.tanh(k_i * depth)

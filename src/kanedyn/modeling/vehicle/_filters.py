@@ -20,7 +20,6 @@ zero frequency is exactly 1; the magnitude of the two passes is |H(f)|^2, -3 dB 
 from __future__ import annotations
 
 import numpy as np
-from scipy import signal
 
 from ..._errors import ModelError
 
@@ -91,6 +90,7 @@ def cfc_filter(x, dt, cfc, where="filter"):
     x = np.asarray(x, dtype=float)
     if x.shape[0] <= 9:
         raise ModelError(f"{where}: {x.shape[0]} samples are too few to filter (need > 9)")
+    from scipy import signal  # imported when first needed (start-up time)
     return signal.filtfilt(b, a, x, axis=0)
 
 
@@ -100,5 +100,6 @@ def cfc_response(frequency, dt, cfc):
     The two passes multiply the one-pass response by its conjugate: |H|^2.
     """
     b, a = cfc_coefficients(cfc, dt)
+    from scipy import signal
     _, h = signal.freqz(b, a, worN=np.atleast_1d(np.asarray(frequency, float)), fs=1 / dt)
     return 20 * np.log10(np.abs(h) ** 2)

@@ -32,8 +32,6 @@ from functools import lru_cache
 
 import numpy as np
 import sympy as sm
-from scipy.integrate import solve_ivp
-from scipy.interpolate import CubicSpline
 from sympy.physics.mechanics import Point, ReferenceFrame, dynamicsymbols
 
 from ..._errors import ModelError
@@ -211,6 +209,7 @@ class VehicleMotion:
                                  "sampling interval; resample the record first")
             acc = cfc_filter(acc, series.dt, cfc, src)
             rates = cfc_filter(rates, series.dt, cfc, src)
+        from scipy.interpolate import CubicSpline  # when first needed (start-up time)
         a_sp = CubicSpline(t, acc, axis=0)
         v0 = np.asarray(initial_velocity, float).reshape(3)
         t0 = t[0]
@@ -266,6 +265,7 @@ class VehicleMotion:
             return np.concatenate([da, acc, y[3:6]])
 
         y0 = np.concatenate([np.zeros(3), v0, np.zeros(3)])
+        from scipy.integrate import solve_ivp
         sol = solve_ivp(rhs, (t[0], t[-1]), y0, method="DOP853", rtol=1e-12,
                         atol=1e-12, max_step=float(np.min(np.diff(t))), dense_output=True)
         if not sol.success:
