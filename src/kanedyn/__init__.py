@@ -13,7 +13,8 @@ from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingVal
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
-from .analysis import NewtonEulerCheck, check_newton_euler, plot_mode_shapes
+from .analysis import (STUDIES, NewtonEulerCheck, StudyResult, check_newton_euler,
+                       plot_mode_shapes, run_study)
 from .formulations import FORMULATIONS, EquationsOfMotion, formulate, kane
 from .io import SavedFileError, load
 from .modeling import (AiryWave, Hydrostatics, IrregularSea, MorisonCylinder,
@@ -36,6 +37,9 @@ from .simulation import (Impact, ModeChange, SimulationResult, SweepInterrupted,
                          simulate, sweep)
 
 __all__ = [
+    "run_study",
+    "StudyResult",
+    "STUDIES",
     "RateInertia",
     "Inerter",
     "AddedMass",

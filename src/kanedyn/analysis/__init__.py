@@ -4,6 +4,8 @@
 ``_compare``       formulations side by side; work-precision
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
+``_studies``       the study registry (``kd.run_study``, ``kanedyn study``)
+``_oc3_studies``   studies of the oc3-spar model
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 """
 
@@ -14,10 +16,12 @@ from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
                               plot_deflection, plot_mode_shapes)
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
+from ._studies import STUDIES, Study, StudyOption, StudyResult, register_study, run_study
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "work_precision", "FormulationComparison", "WorkPrecision",
            "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot", "log_scale_ok",
            "draw_nonnegative", "unit_text", "plot_mode_shapes",
            "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes",
-           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS"]
+           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
+           "STUDIES", "Study", "StudyOption", "StudyResult", "register_study", "run_study"]

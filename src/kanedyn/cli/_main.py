@@ -8,6 +8,7 @@
     kanedyn demo [--out DIR]
     kanedyn compare nonholonomic|MODEL [--methods kane,lagrange,augmented] [--t-end T]
     kanedyn sweep MODEL --grid m=1:2:11 [--random m=1:2 --samples N] --out DIR
+    kanedyn study [NAME] [--set name=value ...] [--out DIR] [--quiet]
 """
 
 from __future__ import annotations
@@ -17,11 +18,11 @@ import sys
 
 from .._errors import KanedynError
 from .._version import __version__
-from . import _compare, _demo, _derive, _list, _run, _sweep
+from . import _compare, _demo, _derive, _list, _run, _study, _sweep
 
 __all__ = ["main"]
 
-COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep)
+COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _study)
 
 
 class _Parser(argparse.ArgumentParser):
