@@ -29,9 +29,10 @@ from .._errors import KanedynError
 from ._studies import StudyOption, register_study
 
 __all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao",
-           "decay_analysis", "den_hartog", "tune_damper_local", "force_frf"]
+           "decay_analysis", "simulated_rao"]
 
 _TOP_Z = 87.6  # tower top above the SWL, m
+_WATER_DEPTH = 320.0  # OC3 water depth, m (only the fluid kinematics use it)
 
 
 def _say(quiet, text):
@@ -152,18 +153,16 @@ def wave_input_phasor(definition, input_names, period, amplitude=1.0):
     Other inputs (thrust, wetted fractions) get 0.
     """
     from ..modeling import AiryWave, MorisonCylinder
-    from ..models import spar_geometry
-    from ..models._oc3_data import ENVIRONMENT, HYDRO
     s = definition.symbols
     old = s["elements"].get("morison")
     if old is None:
         raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
                            "water); build it with drag=True or waves")
-    wave = AiryWave(2 * amplitude, period, ENVIRONMENT["water_depth"].value)
+    wave = AiryWave(2 * amplitude, period, _WATER_DEPTH)
     rest = dict.fromkeys(s["q"][:6], 0.0)
-    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, spar_geometry(), s["N"],
-                             s["O"], rest, ENVIRONMENT["water_density"].value,
-                             Ca=HYDRO["inertia_added_mass_coefficient"].value, Cd=0.0,
+    stations = list(zip(old.geometry.s, old.geometry.D))
+    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
+                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
                              n_strips=old.n_strips, waves=wave)
     v0, a0, _ = strips.strip_kinematics(0.0)
     v1, a1, _ = strips.strip_kinematics(period / 4)
