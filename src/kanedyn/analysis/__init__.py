@@ -16,7 +16,8 @@ from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
                               plot_deflection, plot_mode_shapes)
 from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
-from ._studies import STUDIES, Study, StudyOption, StudyResult, register_study, run_study
+from ._studies import (STUDIES, Study, StudyOption, StudyResult, available_studies,
+                       register_study, run_study)
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "work_precision", "FormulationComparison", "WorkPrecision",
@@ -24,4 +25,5 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "draw_nonnegative", "unit_text", "plot_mode_shapes",
            "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes",
            "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
-           "STUDIES", "Study", "StudyOption", "StudyResult", "register_study", "run_study"]
+           "STUDIES", "available_studies", "Study", "StudyOption", "StudyResult",
+           "register_study", "run_study"]

@@ -177,7 +177,7 @@ def wave_input_phasor(definition, input_names, period, amplitude=1.0):
 
 
 def linear_rao(A, B, R_of_period, C, periods):
-    r"""Response amplitude operators :math:`|C(i\omega I - A)^{-1}B R(\omega)|` per unit wave amplitude.
+    r"""Response amplitude operators :math:`C(i\omega I - A)^{-1}B R(\omega)`, per m of wave.
 
     Returns
     -------

@@ -17,7 +17,7 @@ from pathlib import Path
 from .._errors import KanedynError
 
 __all__ = ["Study", "StudyOption", "StudyResult", "STUDIES", "register_study", "run_study",
-           "study_option_value"]
+           "study_option_value", "available_studies"]
 
 
 @dataclass(frozen=True)
@@ -150,6 +150,12 @@ def study_option_value(study_name, name, option, value):
 
 def _load_builtin():
     from . import _oc3_studies  # noqa: F401  (registers the oc3-* studies)
+
+
+def available_studies():
+    """:data:`STUDIES` with the built-in studies registered."""
+    _load_builtin()
+    return STUDIES
 
 
 def run_study(name, out=None, quiet=True, **options):

@@ -9,8 +9,7 @@
 from __future__ import annotations
 
 from .._errors import KanedynError
-from ..analysis import STUDIES, run_study
-from ..analysis._studies import _load_builtin
+from ..analysis import available_studies, run_study
 from ._options import check_output_dir
 
 __all__ = ["add_parser", "cmd_study"]
@@ -43,7 +42,7 @@ def _parse(items):
 
 def cmd_study(args):
     """List the studies, or run one and print its tables' files and summary."""
-    _load_builtin()
+    STUDIES = available_studies()
     if args.name is None:
         for name in sorted(STUDIES):
             study = STUDIES[name]
