@@ -115,6 +115,9 @@ _LAZY = {
     'InverseStudy': '.analysis',
     'DamperTuning': '.analysis',
     'plot_frequency_responses': '.analysis',
+    'run_study': '.analysis',
+    'StudyResult': '.analysis',
+    'STUDIES': '.analysis',
 }
 
 
@@ -242,4 +245,7 @@ __all__ = [
     "InverseStudy",
     "DamperTuning",
     "plot_frequency_responses",
+    "run_study",
+    "StudyResult",
+    "STUDIES",
 ]

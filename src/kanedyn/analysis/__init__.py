@@ -4,6 +4,8 @@
 ``_compare``       formulations side by side; work-precision
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
+``_studies``       the study registry (``kd.run_study``, ``kanedyn study``)
+``_oc3_studies``   studies of the oc3-spar model
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 ``_inverse_study`` actuator forces of parallel models along named trajectories
@@ -23,6 +25,8 @@ from ._newton_euler import NewtonEulerCheck, check_newton_euler
 from ._seatbelt_studies import (PULSE_SHAPES, RegulatoryCheck, SeatbeltLockMap,
                                 regulatory_check, seatbelt_lock_map, seatbelt_study_model)
 from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
+from ._studies import (STUDIES, Study, StudyOption, StudyResult, available_studies,
+                       register_study, run_study)
 
 __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "work_precision", "FormulationComparison", "WorkPrecision",
@@ -35,4 +39,6 @@ __all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
            "plot_frequency_responses", "inverse_study", "InverseStudy", "TRAJECTORIES",
            "trajectory_offsets",
            "seatbelt_lock_map", "SeatbeltLockMap", "regulatory_check", "RegulatoryCheck",
-           "seatbelt_study_model", "PULSE_SHAPES"]
+           "seatbelt_study_model", "PULSE_SHAPES",
+           "STUDIES", "available_studies", "Study", "StudyOption", "StudyResult",
+           "register_study", "run_study"]

@@ -9,6 +9,7 @@
     kanedyn compare nonholonomic|MODEL [--methods kane,lagrange,augmented] [--t-end T]
     kanedyn sweep MODEL --grid m=1:2:11 [--random m=1:2 --samples N] --out DIR
     kanedyn inverse MODEL [--trajectory quintic|sinusoid] [--t-end T] [--points N] [--out DIR]
+    kanedyn study [NAME] [--set name=value ...] [--out DIR] [--quiet]
 """
 
 from __future__ import annotations
@@ -18,11 +19,11 @@ import sys
 
 from .._errors import KanedynError
 from .._version import __version__
-from . import _compare, _demo, _derive, _inverse, _list, _run, _sweep
+from . import _compare, _demo, _derive, _inverse, _list, _run, _study, _sweep
 
 __all__ = ["main"]
 
-COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse)
+COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,456 @@
+r"""Studies of the ``oc3-spar`` model: free decay, RAOs, an irregular sea, TMD/TMDI tuning.
+
+Outputs (all linear in the state, small motions): ``surge`` (m), ``pitch``
+(rad), the tower-top fore-aft *deflection* relative to the platform,
+:math:`\delta = \sum_k \phi_{x,k}\,\eta_k` (m, from the kept tower modes),
+the tower-top fore-aft *displacement* :math:`x + z_{top}\theta + \delta`
+(m, :math:`z_{top}` = 87.6 m above the SWL), and the tower-base fore-aft
+bending moment :math:`M = \sum_k c_k\eta_k` (N m), the elastic moment of the
+finite-element stiffness at the clamped base node per unit modal coordinate.
+
+The linear models come from ``model.linearize`` at the static equilibrium
+(:func:`kanedyn.models.oc3_settle`).  The wave input of the linear model is the
+phasor of the Morison strips' fluid velocities and accelerations for a wave of
+unit amplitude (the same :class:`~kanedyn.MorisonCylinder` strips, rebuilt
+with an :class:`~kanedyn.AiryWave`); quadratic drag has no linear part at rest,
+so the linear RAO carries no drag damping.
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+import re
+import sys
+
+import numpy as np
+
+from .._errors import KanedynError
+from ._studies import StudyOption, register_study
+
+__all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao",
+           "decay_analysis", "simulated_rao"]
+
+_TOP_Z = 87.6  # tower top above the SWL, m
+_WATER_DEPTH = 320.0  # OC3 water depth, m (only the fluid kinematics use it)
+
+
+def _say(quiet, text):
+    if not quiet:
+        print(text, file=sys.stderr, flush=True)
+
+
+# ------------------------------------------------------------------ models
+@functools.lru_cache(maxsize=16)
+def _built(backend, options):
+    from ..models import oc3_settle, oc3_spar
+    d = oc3_spar(**dict(options))
+    eom = d.derive()
+    needed = {str(x) for x in eom.specified}
+    # inputs the equations do not contain (the strips' velocities without drag) are left out
+    inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
+    model = eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
+    return d, eom, model, oc3_settle(d, model)
+
+
+def _model(backend="numpy", **options):
+    """``(definition, eom, numeric model, equilibrium state)``, cached by options.
+
+    The equilibrium is found in still water (a model with waves settles at
+    its still-water twin's state).
+    """
+    key = tuple(sorted(options.items()))
+    d, eom, model, _ = _built(backend, key)
+    still = dict(options, sea="still", wave_height=0.0, turbulence=0.0)
+    if still != options:
+        _, _, m_still, y_eq = _built(backend, tuple(sorted(still.items())))
+        return d, eom, model, y_eq
+    return d, eom, model, _built(backend, key)[3]
+
+
+def _name(q):
+    from ..engine import name_of
+    return name_of(q)
+
+
+def oc3_outputs(definition, model):
+    """Output rows ``{name: c}`` with ``output = c @ y`` (shape (n_states,)) and their units.
+
+    Returns
+    -------
+    dict
+        ``{name: (row, unit, label)}`` for ``surge``, ``pitch``, ``top_deflection``,
+        ``top_displacement`` and (flexible tower) ``base_moment``.
+    """
+    n = model.n_states
+    names = list(model.state_names)
+
+    def row(entries):
+        c = np.zeros(n)
+        for key, value in entries.items():
+            c[names.index(key)] += value
+        return c
+
+    out = {"surge": (row({"surge": 1.0}), "m", "surge"),
+           "pitch": (row({"pitch": 1.0}), "rad", "pitch")}
+    tower = definition.symbols["tower"]
+    deflection = {}
+    if hasattr(tower, "member"):
+        member = tower.member
+        phi_top = member.node_modes(member.n_nodes - 1)[0][0]
+        K = member.stiffness_matrix
+        k0 = 6 * member.reference_node + 4          # rotation about body y at the base
+        base = np.asarray(K[k0:k0 + 1] @ member.modes).ravel()
+        sign = 1.0 if base @ phi_top >= 0 else -1.0
+        deflection = {_name(q): float(p) for q, p in zip(tower.q, phi_top)}
+        out["base_moment"] = (row({_name(q): sign * float(c) for q, c in zip(tower.q, base)}),
+                              "N m", "tower-base fore-aft bending moment")
+    out["top_deflection"] = (row(deflection), "m", "tower-top fore-aft deflection")
+    out["top_displacement"] = (row({"surge": 1.0, "pitch": _TOP_Z, **deflection}), "m",
+                               "tower-top fore-aft displacement")
+    return out
+
+
+def oc3_linear_system(model, y_eq):
+    """``(A, B, input names)`` of ``model`` linearized at ``y_eq`` (all states independent)."""
+    A, B, r = model.linearize(y_eq)
+    return np.asarray(A), np.asarray(B), list(r)
+
+
+@functools.lru_cache(maxsize=16)
+def _linear_cached(backend, key):
+    options = dict(key)
+    lin = dict(options, drag=False, sea="regular", wave_height=1.0, wave_period=10.0,
+               turbulence=0.0)
+    d, _, model, _ = _model(backend, **lin)
+    _, _, _, y_eq = _model(backend, **options)
+    A, B, r = oc3_linear_system(model, y_eq)
+    return d, model, y_eq, A, B, r
+
+
+def _linear(backend="numpy", **options):
+    """The linear model of ``oc3_spar(**options)`` at its still-water equilibrium.
+
+    Quadratic drag has no linear part at rest (its Jacobian there is 0/0 in
+    the generated code), so the linear twin is built with ``drag=False`` and
+    with Morison strips whose fluid kinematics are the inputs ``B``.
+
+    Returns
+    -------
+    (definition, model, y_eq, A, B, input names)
+    """
+    return _linear_cached(backend, tuple(sorted(options.items())))
+
+
+_STRIP = re.compile(r"^(?P<name>\w+)_(?P<kind>[va])(?P<c>[xyz])(?P<i>\d+)$")
+
+
+def wave_input_phasor(definition, input_names, period, amplitude=1.0):
+    r"""Complex amplitudes :math:`R` of the model's inputs for a regular wave.
+
+    The Morison strips' fluid velocity and acceleration for an Airy wave of
+    ``amplitude`` (m) and ``period`` (s) are :math:`\mathrm{Re}(R e^{i\omega t})`.
+    Other inputs (thrust, wetted fractions) get 0.
+    """
+    from ..modeling import AiryWave, MorisonCylinder
+    s = definition.symbols
+    old = s["elements"].get("morison")
+    if old is None:
+        raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
+                           "water); build it with drag=True or waves")
+    wave = AiryWave(2 * amplitude, period, _WATER_DEPTH)
+    rest = dict.fromkeys(s["q"][:6], 0.0)
+    stations = list(zip(old.geometry.s, old.geometry.D))
+    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
+                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
+                             n_strips=old.n_strips, waves=wave)
+    v0, a0, _ = strips.strip_kinematics(0.0)
+    v1, a1, _ = strips.strip_kinematics(period / 4)
+    R = np.zeros(len(input_names), complex)
+    for j, name in enumerate(input_names):
+        m = _STRIP.match(name)
+        if m and m["name"] == old.name:
+            i, c = int(m["i"]), "xyz".index(m["c"])
+            first, quarter = (v0, v1) if m["kind"] == "v" else (a0, a1)
+            R[j] = first[i, c] - 1j * quarter[i, c]
+    return R
+
+
+def linear_rao(A, B, R_of_period, C, periods):
+    r"""Response amplitude operators :math:`C(i\omega I - A)^{-1}B R(\omega)`, per m of wave.
+
+    Returns
+    -------
+    ndarray, complex, shape (len(periods), n_outputs)
+        Complex amplitudes of the outputs (rows of ``C``).
+    """
+    n = A.shape[0]
+    out = []
+    for T in periods:
+        w = 2 * math.pi / T
+        x = np.linalg.solve(1j * w * np.eye(n) - A, B @ R_of_period(T))
+        out.append(C @ x)
+    return np.array(out)
+
+
+def _state_phasor(A, B, R, period):
+    w = 2 * math.pi / period
+    return np.linalg.solve(1j * w * np.eye(A.shape[0]) - A, B @ R)
+
+
+def decay_analysis(t, x):
+    r"""Period and damping ratio of a free decay from its positive peaks (``find_peaks``).
+
+    :math:`T` is the mean spacing of the peaks; :math:`\delta` the mean
+    logarithmic decrement of successive peaks and
+    :math:`\zeta = \delta/\sqrt{4\pi^2 + \delta^2}`.
+
+    Returns
+    -------
+    (float, float, ndarray)
+        Period (s), damping ratio, indices of the peaks used; NaN when fewer
+        than two peaks are found.
+    """
+    from scipy.signal import find_peaks
+    x = np.asarray(x, float)
+    peaks, _ = find_peaks(x)
+    peaks = peaks[x[peaks] > 0]
+    if len(peaks) < 2:
+        return math.nan, math.nan, peaks
+    period = float(np.mean(np.diff(t[peaks])))
+    ratios = x[peaks[:-1]] / x[peaks[1:]]
+    ratios = ratios[ratios > 0]
+    delta = float(np.mean(np.log(ratios))) if ratios.size else math.nan
+    zeta = delta / math.sqrt(4 * math.pi ** 2 + delta ** 2)
+    return period, zeta, peaks
+
+
+def _modes_by_dof(A, model, y_eq, dofs):
+    """For each dof name the linear eigenvalue whose mode it dominates (kinetic-energy weight)."""
+    n_q = model.n_q
+    names = list(model.state_names)
+    lam, V = np.linalg.eig(A)
+    keep = lam.imag > 1e-9
+    lam, V = lam[keep], V[:, keep]
+    M = np.asarray(model.mass_matrix(0.0, y_eq))
+    w = np.sqrt(np.abs(np.diag(M)))
+    share = np.abs(V[:n_q]) * w[:, None]
+    share /= share.sum(axis=0, keepdims=True)
+    out = {}
+    for dof in dofs:
+        j = names.index(dof)
+        k = int(np.argmax(share[j]))
+        out[dof] = lam[k]
+    return out
+
+
+# ------------------------------------------------------------------ plotting
+def _pyplot():
+    from ._plotting import pyplot
+    return pyplot()
+
+
+def _save(fig, path):
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    _pyplot().close(fig)
+    return path
+
+
+# ------------------------------------------------------------------ oc3-decay
+_DECAY = {  # dof -> (state, initial offset, duration s, unit, label)
+    "surge": ("surge", 5.0, 500.0, "m", "surge"),
+    "heave": ("heave", 1.0, 150.0, "m", "heave"),
+    "pitch": ("pitch", math.radians(2.0), 150.0, "rad", "pitch"),
+    "yaw": ("yaw", math.radians(5.0), 50.0, "rad", "yaw"),
+    "tower": ("eta_tower_1", None, 20.0, "m", "tower-top fore-aft deflection"),
+}
+
+
+def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
+    from ..simulation import simulate
+    options = dict(tower_modes=tower_modes, drag=drag)
+    d, _, model, y_eq = _model(backend, **options)
+    outputs = oc3_outputs(d, model)
+    A = _linear(backend, **options)[3]
+    dofs = [k for k in _DECAY if k != "tower" or tower_modes > 0]
+    linear = _modes_by_dof(A, model, y_eq, [_DECAY[k][0] for k in dofs])
+    rows, data, series = [], {}, {}
+    for dof in dofs:
+        state, offset, duration, unit, label = _DECAY[dof]
+        y0 = y_eq.copy()
+        if dof == "tower":
+            c = outputs["top_deflection"][0]
+            j = list(model.state_names).index(state)
+            y0[j] += 0.2 / c[j]                   # 0.2 m tower-top deflection
+            signal_row = c
+        else:
+            y0[list(model.state_names).index(state)] += offset
+            signal_row = np.zeros(model.n_states)
+            signal_row[list(model.state_names).index(state)] = 1.0
+        _say(quiet, f"oc3-decay: {dof} ({duration * duration_scale:g} s)")
+        t_eval = np.linspace(0.0, duration * duration_scale, 4001)
+        res = simulate(model, (0.0, t_eval[-1]), y0, t_eval=t_eval, rtol=rtol, atol=rtol)
+        if not res.success:
+            raise KanedynError(f"oc3-decay: the {dof} decay failed: {res.message}")
+        x = signal_row @ (res.y - y_eq[:, None])
+        period, zeta, peaks = decay_analysis(res.t, x)
+        lam = linear[state]
+        f_lin = abs(lam) / (2 * math.pi)
+        zeta_lin = -lam.real / abs(lam)
+        T_damped = 2 * math.pi / lam.imag
+        rows.append((dof, round(1 / f_lin, 4), round(T_damped, 4), round(period, 4),
+                     round(zeta_lin, 5), round(zeta, 5)))
+        data[dof] = dict(period=period, zeta=zeta, linear_period=1 / f_lin,
+                         linear_damped_period=T_damped, linear_zeta=zeta_lin)
+        series[dof] = (res.t, x, peaks, unit, label)
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, axes = plt.subplots(len(series), 1, figsize=(8, 2.2 * len(series)))
+        for ax, (dof, (t, x, peaks, unit, label)) in zip(axes, series.items()):
+            ax.plot(t, x, lw=1, label=f"{label} (simulation)")
+            ax.plot(t[peaks], x[peaks], "o", ms=3, label="peaks used")
+            ax.set_ylabel(f"{dof} [{unit}]")
+            ax.set_title(f"{dof}: decay period {data[dof]['period']:.3g} s, "
+                         f"linearized {data[dof]['linear_damped_period']:.3g} s", fontsize=9)
+            ax.legend(fontsize=7, loc="upper right")
+        axes[-1].set_xlabel("time [s]")
+        fig.suptitle("oc3-spar free decay from the static equilibrium", fontsize=10)
+        figures.append(_save(fig, out / "oc3-decay.png"))
+    columns = ("dof", "linear natural period [s]", "linear damped period [s]",
+               "decay period [s]", "linear damping ratio [-]", "decay damping ratio [-]")
+    summary = "\n".join(f"{r[0]:6s}: decay {r[3]:.4g} s (zeta {r[5]:.3g}); linear "
+                        f"{r[2]:.4g} s (zeta {r[4]:.3g})" for r in rows)
+    return dict(tables={"periods": (columns, rows)}, figures=figures, summary=summary,
+                data=data)
+
+
+register_study("oc3-decay", _decay_study, {
+    "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
+    "drag": StudyOption(bool, True, "Morison quadratic drag on"),
+    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+    "duration_scale": StudyOption(float, 1.0, "scale of the decay durations "
+                                  "(surge 500 s, heave and pitch 150 s, yaw 50 s, tower 20 s)"),
+    "rtol": StudyOption(float, 1e-7, "integration tolerance (relative and absolute)"),
+}, "free decay of surge, heave, pitch, yaw and the tower fore-aft mode vs linearization")
+
+
+# ------------------------------------------------------------------ oc3-rao
+_RAO_OUT = ("surge", "pitch", "top_displacement")
+
+
+def simulated_rao(options, period, wave_height, backend="numpy", cycles=8, fit_cycles=3,
+                  rtol=1e-7):
+    """Steady-state output amplitudes per unit wave amplitude from a regular-wave simulation.
+
+    Starts from the linear steady state (to shorten the transients) and fits
+    :math:`a + b\\cos\\omega t + c\\sin\\omega t` to the last ``fit_cycles``
+    wave periods of ``cycles``.
+
+    Returns
+    -------
+    dict
+        ``{output: amplitude per m of wave amplitude}``.
+    """
+    from ..simulation import simulate
+    opts = dict(options, sea="regular", wave_height=wave_height, wave_period=period)
+    d, _, model, y_eq = _model(backend, **opts)
+    d_lin, _, _, A, B, r = _linear(backend, **options)
+    X = _state_phasor(A, B, wave_input_phasor(d_lin, r, period, wave_height / 2), period)
+    y0 = y_eq + X.real
+    t_end = cycles * period
+    t_eval = np.linspace(t_end - fit_cycles * period, t_end, 40 * fit_cycles + 1)
+    res = simulate(model, (0.0, t_end), y0, t_eval=t_eval, rtol=rtol, atol=rtol * 1e-2)
+    if not res.success:
+        raise KanedynError(f"oc3-rao: the simulation at T = {period} s failed: {res.message}")
+    w = 2 * math.pi / period
+    basis = np.column_stack([np.ones_like(res.t), np.cos(w * res.t), np.sin(w * res.t)])
+    outputs = oc3_outputs(d, model)
+    amp = {}
+    for key in _RAO_OUT:
+        sig = outputs[key][0] @ res.y
+        coef = np.linalg.lstsq(basis, sig, rcond=None)[0]
+        amp[key] = math.hypot(coef[1], coef[2]) / (wave_height / 2)
+    return amp
+
+
+def _period_list(text):
+    items = [p.strip() for p in str(text).split(",") if p.strip()]
+    try:
+        values = [float(p) for p in items]
+    except ValueError:
+        raise KanedynError(f"oc3-rao: check_periods must be a comma list of periods in s, got "
+                           f"{text!r}") from None
+    if any(not (math.isfinite(v) and v > 0) for v in values):
+        raise KanedynError(f"oc3-rao: check_periods must be positive, got {text!r}")
+    return values
+
+
+def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wave_height,
+               tower_modes, drag, backend):
+    opts = dict(tower_modes=tower_modes, drag=drag)
+    d, model, y_eq, A, B, r = _linear(backend, **opts)
+    outputs = oc3_outputs(d, model)
+    C = np.array([outputs[k][0] for k in _RAO_OUT])
+    periods = np.linspace(period_min, period_max, n_periods)
+    H = np.abs(linear_rao(A, B, lambda T: wave_input_phasor(d, r, T), C, periods))
+    dense = np.linspace(period_min, period_max, 400)
+    H_dense = np.abs(linear_rao(A, B, lambda T: wave_input_phasor(d, r, T), C, dense))
+    lam = _modes_by_dof(A, model, y_eq, ["surge", "heave", "pitch"])
+    natural = {k: 2 * math.pi / v.imag for k, v in lam.items()}
+    checks = _period_list(check_periods)
+    sim_rows, sim = [], {}
+    for T in checks:
+        _say(quiet, f"oc3-rao: simulating T = {T:g} s")
+        amp = simulated_rao(opts, T, wave_height, backend)
+        lin = np.abs(linear_rao(A, B, lambda TT: wave_input_phasor(d, r, TT), C, [T]))[0]
+        sim[T] = (amp, lin)
+        sim_rows.append((T, *[round(amp[k], 6) for k in _RAO_OUT],
+                         *[round(v, 6) for v in lin],
+                         *[round(amp[k] / v - 1, 5) for k, v in zip(_RAO_OUT, lin)]))
+    units = {"surge": "m/m", "pitch": "rad/m", "top_displacement": "m/m"}
+    columns = ("wave period [s]", *[f"{k} RAO [{units[k]}]" for k in _RAO_OUT])
+    rows = [(round(float(T), 4), *[float(f"{v:.6g}") for v in h]) for T, h in zip(periods, H)]
+    sim_cols = ("wave period [s]", *[f"{k} simulated [{units[k]}]" for k in _RAO_OUT],
+                *[f"{k} linear [{units[k]}]" for k in _RAO_OUT],
+                *[f"{k} relative difference [-]" for k in _RAO_OUT])
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, axes = plt.subplots(3, 1, figsize=(7.5, 8), sharex=True)
+        for i, (ax, key) in enumerate(zip(axes, _RAO_OUT)):
+            ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model")
+            if sim:
+                ax.plot(list(sim), [sim[T][0][key] for T in sim], "o",
+                        label=f"simulation, H = {wave_height:g} m")
+            for name, Tn in natural.items():
+                if period_min <= Tn <= period_max:
+                    ax.axvline(Tn, ls="--", lw=0.8, color="grey")
+                    ax.text(Tn, ax.get_ylim()[1] * 0.9, f" {name} {Tn:.1f} s", fontsize=7)
+            ax.set_ylabel(f"{outputs[key][2]} [{units[key]}]")
+            ax.legend(fontsize=7)
+        axes[0].set_title("oc3-spar response amplitude operators (regular waves)", fontsize=10)
+        axes[-1].set_xlabel("wave period [s]")
+        figures.append(_save(fig, out / "oc3-rao.png"))
+    summary = ("natural periods: " + ", ".join(f"{k} {v:.2f} s" for k, v in natural.items())
+               + "\n" + "\n".join(f"T = {row[0]:g} s: simulated / linear - 1 = "
+                                  + ", ".join(f"{k} {v:+.2e}" for k, v in
+                                              zip(_RAO_OUT, row[-3:])) for row in sim_rows))
+    return dict(tables={"rao": (columns, rows), "check": (sim_cols, sim_rows)},
+                figures=figures, summary=summary,
+                data={"periods": periods, "rao": H, "natural_periods": natural,
+                      "check": sim})
+
+
+register_study("oc3-rao", _rao_study, {
+    "period_min": StudyOption(float, 4.0, "shortest wave period, s"),
+    "period_max": StudyOption(float, 40.0, "longest wave period, s"),
+    "n_periods": StudyOption(int, 20, "wave periods of the linear RAO"),
+    "check_periods": StudyOption(str, "8,12,20", "wave periods (s, comma list; '' for "
+                                 "none) simulated as a check of the linear RAO"),
+    "wave_height": StudyOption(float, 0.5, "wave height of the simulated checks, m"),
+    "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
+    "drag": StudyOption(bool, True, "Morison quadratic drag in the simulations"),
+    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+}, "response amplitude operators of surge, pitch and tower-top displacement vs wave period")
