@@ -135,3 +135,25 @@ def test_cli_pulse_errors(tmp_path, capsys):
                              "--quiet"], "bad.csv", "az")
     _one_line_error(capsys, ["run", "seatbelt-sensor", "--pulse", "step", "--set",
                              "pulse=none", "--quiet"], "once")
+
+
+@pytest.mark.slow
+def test_studies_from_the_command_line(tmp_path, capsys):
+    """``kanedyn study seatbelt-regulatory`` / ``seatbelt-map`` give the Python results."""
+    assert main(["study", "seatbelt-regulatory", "--quiet", "--out", str(tmp_path / "a")]) == 0
+    assert "overall: PASS" in capsys.readouterr().out
+    assert main(["study", "seatbelt-regulatory", "--quiet", "--set", "lock_angle_deg=10",
+                 "--out", str(tmp_path / "b")]) == 0
+    assert "overall: FAIL" in capsys.readouterr().out  # the 15 deg static tilt locks
+    assert main(["study", "seatbelt-map", "--quiet", "--set", "peak_g=0.1,10",
+                 "--set", "duration=0.05", "--set", "direction=0",
+                 "--out", str(tmp_path / "m")]) == 0
+    lines = (tmp_path / "m" / "seatbelt-map_lock_map.csv").read_text().splitlines()
+    assert len(lines) == 3
+    small, large = (line.split(",") for line in lines[1:])
+    assert small[4] == "False" and large[4] == "True"
+    python = kd.seatbelt_lock_map(peak_g=[10.0], duration=[0.05], direction=[0.0])
+    assert float(large[5]) == pytest.approx(python.lock_time(10.0, 0.05), rel=1e-9)
+    assert (tmp_path / "m" / "seatbelt-map.png").stat().st_size > 10_000
+    assert main(["study", "seatbelt-map", "--set", "peak_g=ten"]) == 2
+    assert "peak_g" in capsys.readouterr().err

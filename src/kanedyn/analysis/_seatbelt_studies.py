@@ -36,6 +36,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from ._studies import StudyOption, register_study
 
 __all__ = ["seatbelt_study_model", "seatbelt_lock_map", "SeatbeltLockMap",
            "regulatory_check", "RegulatoryCheck", "PULSE_SHAPES", "DIRECTION_NAMES"]
@@ -498,3 +499,72 @@ def regulatory_check(constants=None, lock_angle=None, limit="penalty", decel_g=0
                            lock_angle=angle,
                            steady_margin=math.degrees(math.atan(decel_g) - angle),
                            interpretation=_INTERPRETATION)
+
+
+# ------------------------------------------------------------ study registry
+def _numbers(study, name, text):
+    """A comma-separated list of numbers from the command line (converted, not evaluated)."""
+    try:
+        values = tuple(float(v) for v in text.split(",") if v.strip())
+    except ValueError:
+        raise ModelError(f"study {study}: option {name} must be numbers separated by "
+                         f"commas, got {text!r}") from None
+    if not values:
+        raise ModelError(f"study {study}: option {name} needs at least one number")
+    return values
+
+
+def _lock_map_study(out, quiet, peak_g, duration, direction, roll_rate, shape, limit,
+                    backend):
+    grid = {name: _numbers("seatbelt-map", name, text)
+            for name, text in (("peak_g", peak_g), ("duration", duration),
+                               ("direction", direction), ("roll_rate", roll_rate))}
+    result = seatbelt_lock_map(**grid, shape=shape, limit=limit, backend=backend,
+                               progress=not quiet)
+    table = result.table
+    columns = ("peak [g]", "duration [s]", "direction [deg]", "roll rate [rad/s]",
+               "locked", "lock time [s]")
+    rows = tuple((float(r.peak_g), float(r.duration), float(r.direction),
+                  float(r.roll_rate), bool(r.locked),
+                  float(r.lock_time) if r.locked else None) for r in table.itertuples())
+    figures = []
+    if out is not None:
+        figures.append(result.save_figure(out / "seatbelt-map.png"))
+    locked = [r for r in rows if r[4]]
+    summary = (f"{len(locked)} of {len(rows)} pulses lock the sensor (lock angle "
+               f"{math.degrees(result.lock_angle):.1f} deg)")
+    if locked:
+        first = min(locked, key=lambda r: r[5])
+        summary += (f"; earliest lock {1e3 * first[5]:.2f} ms at {first[0]:g} g, "
+                    f"{1e3 * first[1]:g} ms, {first[2]:g} deg")
+    return dict(tables={"lock_map": (columns, rows)}, figures=figures, summary=summary,
+                data={"lock_times": {r[:4]: r[5] for r in rows}})
+
+
+def _regulatory_study(out, quiet, lock_angle_deg, limit, backend):
+    check = regulatory_check(lock_angle=math.radians(lock_angle_deg), limit=limit,
+                             backend=backend)
+    columns = ("requirement", "case", "direction [deg]", "value", "limit", "margin", "unit",
+               "passed")
+    rows = tuple((r["requirement"], r["case"], r["direction"], r["value"], r["limit"],
+                  r["margin"], r["unit"], r["passed"]) for r in check.rows)
+    return dict(tables={"regulatory": (columns, rows)}, figures=[], summary=check.text(),
+                data={"passed": check.passed})
+
+
+register_study("seatbelt-map", _lock_map_study, {
+    "peak_g": StudyOption(str, "2,5,10,20,30", "pulse peaks, g (comma list)"),
+    "duration": StudyOption(str, "0.04,0.06,0.08,0.1,0.12", "pulse durations, s"),
+    "direction": StudyOption(str, "0,30,45,90", "pulse directions from the vehicle's x, deg"),
+    "roll_rate": StudyOption(str, "0", "roll rates (rollover), rad/s"),
+    "shape": StudyOption(str, "halfsine", "pulse shape", PULSE_SHAPES),
+    "limit": StudyOption(str, "penalty", "housing limit law", ("penalty", "contact", "none")),
+    "backend": StudyOption(str, "c", "numerical backend", ("numpy", "c")),
+}, "lock time of the seat-belt sensor over pulse peak, duration, direction and roll rate")
+
+register_study("seatbelt-regulatory", _regulatory_study, {
+    "lock_angle_deg": StudyOption(float, round(math.degrees(_lock_angle(None)), 6),
+                                  "tilt at which the pawl engages, deg"),
+    "limit": StudyOption(str, "penalty", "housing limit law", ("penalty", "contact", "none")),
+    "backend": StudyOption(str, "c", "numerical backend", ("numpy", "c")),
+}, "FMVSS 209 sensitivity: lock at 0.7 g within 50 ms, no lock at a static 15 deg tilt")

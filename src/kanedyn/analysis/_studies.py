@@ -150,6 +150,7 @@ def study_option_value(study_name, name, option, value):
 
 def _load_builtin():
     from . import _oc3_studies  # noqa: F401  (registers the oc3-* studies)
+    from . import _seatbelt_studies  # noqa: F401  (registers the seatbelt-* studies)
 
 
 def available_studies():
