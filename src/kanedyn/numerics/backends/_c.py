@@ -268,7 +268,7 @@ CODEGEN_VERSION = "kanedyn-c-3"  # change when generated code changes meaning
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
-     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME, f"lanes={_c_lanes.LANES}")
+     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME)
 ).encode()).hexdigest()[:16]
 
 
@@ -281,7 +281,8 @@ def fingerprint(program, functions, sizes, cse=True):
     :func:`_structure` (a walk of the expression trees: no expression is
     rebuilt or printed by SymPy, which for large programs took seconds).
     """
-    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}"]
+    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}",
+             f"lanes={_c_lanes.LANES}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: "t"}
         for arg, symbols in arguments.items():
