@@ -340,6 +340,7 @@ def measure_batch(chain, count, repeat, min_time):
     contenders = {
         "c batch, all CPUs": lambda: mc.rhs_batch(0.0, Y),
         "c batch, 1 thread": lambda: mc.rhs_batch(0.0, Y, threads=1),
+        "c batch scalar, 1 thread": lambda: mc.rhs_batch(0.0, Y, threads=1, lanes=False),
         "c loop": lambda: [mc.rhs(0.0, y) for y in Y],
         "numpy batch": lambda: mn.rhs_batch(0.0, Y),
         "numpy loop": lambda: [mn.rhs(0.0, y) for y in Y],
@@ -353,6 +354,7 @@ def measure_batch(chain, count, repeat, min_time):
     for label, loop, model, kwargs in (
             ("c batch, all CPUs", "c loop", mc, {}),
             ("c batch, 1 thread", "c loop", mc, {"threads": 1}),
+            ("c batch scalar, 1 thread", "c loop", mc, {"threads": 1, "lanes": False}),
             ("numpy batch", "numpy loop", mn, {})):
         tb, tl = timings[label], timings[loop]
         diff = float(np.max(np.abs(model.rhs_batch(0.0, Y, **kwargs)
@@ -386,7 +388,8 @@ BATCH_NOTES = """\
 - n = {n} chain, k = {count} random states Y (shape (k, {states})); per-state time =
   minimum over {repeat} interleaved rounds / k (spread: median / min - 1, in
   brackets). Thread CPU time, except the C batch on all CPUs (wall time).
-  batch: model.rhs_batch(0.0, Y[, threads=1]); loop: [model.rhs(0.0, y) for y in Y];
+  batch: model.rhs_batch(0.0, Y[, threads=1]) (C: 4 states per SIMD op, "scalar":
+  lanes=False, one state at a time); loop: [model.rhs(0.0, y) for y in Y];
   pin.aba: [pin.aba(model, data, y[:n], y[n:], tau) for y in Y] (accelerations only).
 - Targets: numpy batch >= 20x faster per state than its rhs loop; C batch >= 3x
   faster per state than its rhs loop (all CPUs: rows in blocks over threads)."""

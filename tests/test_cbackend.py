@@ -348,6 +348,81 @@ def test_batch_equals_loop_on_threads(name, options, inputs):
             model.rhs_batch(t, Y, threads=0)
 
 
+LANE_MODELS = [("chain3d", {"n": 5}, {}), ("chain3d", {"n": 10}, {}),
+               ("n-link-pendulum-on-cart", {"n": 2}, {"F": 0.3}),  # a specified input
+               ("four-bar", {}, {})]  # dependent speeds: one row at a time
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, options, inputs", LANE_MODELS)
+def test_batch_lanes_equal_rhs(name, options, inputs):
+    """The lane-wise batch (4 states per SIMD op) equals rhs row by row, to 1e-13.
+
+    73 rows: blocks of 4 lanes and a remainder done one row at a time; t per row.
+    """
+    d = kd.models.build(name, **options)
+    specified = {d.symbols[k]: v for k, v in inputs.items()}
+    model = d.numeric(d.derive(), backend="c", specified=specified)
+    Y = np.array(states(d, model, count=73, seed=11))
+    Y[:, :model.n_q] += np.random.default_rng(2).uniform(-1.0, 1.0, (73, model.n_q))
+    if model.n_q_dep or model.n_u_dep:
+        Y = np.array([model.consistent_state(0.0, y) for y in Y])
+    t = np.linspace(0.0, 2.0, len(Y))
+    loop = np.array([model.rhs(ti, y) for ti, y in zip(t, Y)])
+    assert np.all(np.isfinite(loop))
+    scalar = model.rhs_batch(t, Y, threads=1, lanes=False)
+    np.testing.assert_array_equal(scalar, loop)
+    if model.n_u_dep:  # no lane-wise code: asked for, it is refused by name
+        with pytest.raises(ValueError, match="lanes=True.*dependent speeds"):
+            model.rhs_batch(t, Y, lanes=True)
+    for threads in (1, 2):
+        batch = model.rhs_batch(t, Y, threads=threads)
+        np.testing.assert_allclose(batch, loop, rtol=1e-13, atol=1e-13)
+
+
+def test_batch_lanes_fall_back_where_the_mass_matrix_is_not_positive():
+    """Lanes whose M is not positive definite (a negative mass) are redone by LU."""
+    d = kd.models.build("chain3d", n=2)
+    model = d.numeric(d.derive(), backend="c")
+    rng = np.random.default_rng(8)
+    Y = rng.uniform(-1, 1, (37, model.n_states))
+    P = np.tile(list(model.constants.values()), (37, 1))
+    masses = [i for i, name in enumerate(model.constants) if name.startswith("m")]
+    P[5, masses[0]] = P[18, masses[-1]] = -3.0  # rows 5 and 18: indefinite M
+    lanes = model.rhs_batch(0.0, Y, P, threads=1, lanes=True)
+    np.testing.assert_array_equal(lanes, model.rhs_batch(0.0, Y, P, threads=1, lanes=False))
+    for i in (5, 18, 30):  # M u' = f solved by numpy (with_constants refuses m < 0)
+        qd, M, f = model._fn["dynamics"](0.0, Y[i], P[i], np.zeros(0))[:3]
+        assert (np.linalg.eigvalsh(M).min() < 0) == (i != 30)
+        np.testing.assert_allclose(lanes[i, :model.n_q], qd, rtol=1e-13, atol=1e-13)
+        np.testing.assert_allclose(lanes[i, model.n_q:], np.linalg.solve(M, f), rtol=1e-11)
+
+
+def test_batch_lanes_on_a_kinematic_tree(tmp_path):
+    """The lane-wise tree L^T D L (no work on the structural zeros) equals rhs."""
+    parent = [-1, 0, 0, 1, 1]  # link k + 1 hangs from link parent[k] + 1
+    lines = ['<?xml version="1.0"?>', '<robot name="tree">']
+    for k in range(len(parent) + 1):
+        lines.append(f'<link name="l{k}"><inertial><origin xyz="0.05 {0.01 * k} 0.02"/>'
+                     f'<mass value="{1.0 + 0.1 * k}"/><inertia ixx="0.02" ixy="0.001" '
+                     'ixz="-0.002" iyy="0.03" iyz="0.0005" izz="0.025"/></inertial></link>')
+    for k, p in enumerate(parent):
+        axis = ("1 0 0", "0 1 0", "0 0 1")[k % 3]
+        lines.append(f'<joint name="j{k + 1}" type="continuous"><parent link="l{p + 1}"/>'
+                     f'<child link="l{k + 1}"/><origin xyz="0.1 {0.05 * k} -0.2"/>'
+                     f'<axis xyz="{axis}"/></joint>')
+    lines.append("</robot>")
+    (tmp_path / "tree.urdf").write_text("\n".join(lines))
+    d = kd.models.from_urdf(tmp_path / "tree.urdf", efforts=False)
+    model = d.numeric(d.derive(), backend="c")
+    assert _cbackend.solver_source(model._functions, model._sizes)[0] == "#define KD_SOLVE 2"
+    rng = np.random.default_rng(4)
+    Y = rng.uniform(-1.5, 1.5, (41, model.n_states))
+    loop = np.array([model.rhs(0.0, y) for y in Y])
+    np.testing.assert_allclose(model.rhs_batch(0.0, Y, lanes=True), loop,
+                               rtol=1e-13, atol=1e-13)
+
+
 def test_batch_threads_with_parameters_and_singular_rows():
     d = kd.models.build("chain3d", n=2)
     model = d.numeric(d.derive(), backend="c")

@@ -510,7 +510,7 @@ class NumericModel(StateLayout):
 
     __call__ = rhs
 
-    def rhs_batch(self, t, Y, P=None, threads=None):
+    def rhs_batch(self, t, Y, P=None, threads=None, lanes=None):
         """State derivatives of many states (and parameter sets) at once.
 
         Parameters
@@ -527,6 +527,12 @@ class NumericModel(StateLayout):
             thread). Default ``None``: one per CPU this process may use (its
             affinity mask). The numpy backend evaluates vectorized in one
             thread and only checks the value.
+        lanes : bool, optional
+            C backend: evaluate four rows at once, one per SIMD lane (AVX2), with
+            results equal to one row at a time. Default ``None``: where the
+            module has the lane-wise code (not for dependent speeds) and the CPU
+            its instructions; ``True`` raises ``ValueError`` where it cannot;
+            ``False``: one row at a time. The numpy backend ignores it.
 
         Returns
         -------

@@ -37,7 +37,7 @@ import numpy as np
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
-from . import _c_contact, _c_integrator, _c_runtime
+from . import _c_contact, _c_integrator, _c_lanes, _c_runtime
 from ._python import CodegenError
 from ..._errors import KanedynError
 
@@ -106,14 +106,18 @@ def _print_c(printer, expr, what, describe=str):
 
 
 # ---------------------------------------------------------------- functions
-def _function_source(program, name, arguments, outputs, describe, cse):
-    """C source of ``kd_eval_<name>`` and the number of work slots it needs."""
+def _function_source(program, name, arguments, outputs, describe, cse, listing=None):
+    """C source of ``kd_eval_<name>`` and the number of work slots it needs.
+
+    ``listing``: the result of ``program.listing`` of the flattened outputs,
+    when already computed (it is then not computed again).
+    """
     base = {program.t: "t"}
     for arg, symbols in arguments.items():
         for i, s in enumerate(symbols):
             base[s] = f"{arg}[{i}]"
     flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
-    assignments, flat = program.listing(flat, cse=cse)
+    assignments, flat = listing if listing is not None else program.listing(flat, cse=cse)
     needed = [s for s, _ in assignments]
     definition = dict(assignments)
     index = {s: k for k, s in enumerate(needed)}
@@ -264,7 +268,7 @@ CODEGEN_VERSION = "kanedyn-c-3"  # change when generated code changes meaning
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
-     _c_contact.CONTACT)
+     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME)
 ).encode()).hexdigest()[:16]
 
 
@@ -277,7 +281,8 @@ def fingerprint(program, functions, sizes, cse=True):
     :func:`_structure` (a walk of the expression trees: no expression is
     rebuilt or printed by SymPy, which for large programs took seconds).
     """
-    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}"]
+    parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}",
+             f"lanes={_c_lanes.LANES}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: "t"}
         for arg, symbols in arguments.items():
@@ -344,10 +349,20 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
         Eliminate common subexpressions jointly first (:meth:`Program.listing`).
     """
     parts, work = [], 0
+    lanes = _lanes_wanted(functions, sizes)
     for name, (arguments, outputs) in functions.items():
-        src, w = _function_source(program, name, arguments, outputs, describe, cse)
+        listing = None
+        if lanes and name == "dynamics":  # one listing for both versions
+            flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+            listing = program.listing(flat, cse=cse)
+            src, w = _c_lanes.lanes_source(program, arguments, outputs, listing, describe,
+                                           CHUNK)
+            lanes = [f"#define KD_LANES {_c_lanes.LANES}", f"#define KD_NWL {w}",
+                     _c_runtime.LANE_RUNTIME, src]
+        src, w = _function_source(program, name, arguments, outputs, describe, cse, listing)
         parts.append(src)
         work = max(work, w)
+    parts.extend(lanes or [])
     defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
                f"#define KD_NQDEP {sizes['n_q_dep']}",
                f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
@@ -370,6 +385,18 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     return "\n".join([_c_runtime.HEADER, *defines, *parts, _c_runtime.RUNTIME,
                       _c_integrator.INTEGRATOR, *contact, *wrappers, _c_runtime.FOOTER])
+
+
+def _lanes_wanted(functions, sizes):
+    """Whether the module gets the lane-wise dynamics of ``rhs_batch`` (``_c_lanes``).
+
+    Not for dependent speeds (their reduced system is solved by LU; such
+    batches go one row at a time) nor with :data:`_c_lanes.LANES` = 0.
+    """
+    if _c_lanes.LANES <= 0 or sizes.get("n_u_dep", 0) or "dynamics" not in functions:
+        return False
+    arguments, outputs = functions["dynamics"]
+    return set(arguments) <= {"y", "p", "r"} and len(outputs) >= 3
 
 
 # ------------------------------------------------------------ build, cache
