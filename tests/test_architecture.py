@@ -1,7 +1,7 @@
 """The layer order, read from the import graph of the package's source.
 
 Layers, lowest first (``docs/architecture.md``): foundation (``_errors``, ``_html``,
-``_progress``, ``_number_text``), ``engine``, ``modeling``, ``formulations``,
+``_lazy``, ``_progress``, ``_number_text``), ``engine``, ``modeling``, ``formulations``,
 ``numerics``, ``simulation``, ``models``, ``analysis``, ``io``, ``cli``; then
 the public face (``kanedyn/__init__.py``, ``kanedyn/schemes.py``).  A module
 imports only from its own layer or lower ones, and another layer only through
@@ -18,7 +18,7 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
-FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html"}
+FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy"}
 PUBLIC = {"__init__", "schemes", "visuals"}
 
 #: (importing module, imported layer): the method that needs it

@@ -8,6 +8,7 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
+from ._lazy import lazy_attributes as _lazy_attributes
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, SimulationInterrupted,
                       SingularConfigurationWarning)
@@ -121,21 +122,6 @@ _LAZY = {
 }
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    if module == ".":
-        value = importlib.import_module(f".{name}", __name__)
-    else:
-        value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
 
 
 __all__ = [
@@ -249,3 +235,5 @@ __all__ = [
     "StudyResult",
     "STUDIES",
 ]
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -10,6 +10,8 @@
               evaluated on loading)
 """
 
+from .._lazy import lazy_attributes as _lazy_attributes
+
 #: public name -> the module (in this package) that defines it; imported on first use
 _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes",
          "animate": "._page", "page_html": "._page",
@@ -19,20 +21,10 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
          "quaternions": "._viewer", "scene_data": "._viewer"}
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
 
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
            "SavedFileError", "save_data", "load_data"]
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+from .._lazy import lazy_attributes as _lazy_attributes
 from .._errors import ModelError
 from . import _oc3_options
 
@@ -139,18 +140,6 @@ class _Builder:
         return f"<builder {self.__name__} of kanedyn.models>"
 
 
-def __getattr__(name):
-    module = _LAZY.get(name)
-    if module is None:
-        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
-    import importlib
-    value = getattr(importlib.import_module(module, __name__), name)
-    globals()[name] = value
-    return value
-
-
-def __dir__():
-    return sorted(set(globals()) | set(__all__))
 
 
 #: builder -> title of the model built with its default options (kanedyn list)
@@ -271,3 +260,5 @@ def build(name, **options):
     # built when first needed: a numerical model from the derivation cache needs
     # no definition (see ModelDefinition.numeric)
     return PendingDefinition(name, options, builder.function)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
