@@ -44,7 +44,7 @@ def cmd_derive(args):
     if values:
         raise KanedynError("derive takes only model options with --set "
                            f"(got {', '.join(values)})")
-    definition = build(args.model, **options).definition  # checks the options
+    definition = build(args.model, **options)  # checks the options
     if args.c is not None:
         check_output_dir(Path(args.c).parent, option=f"--c {args.c}:")
     progress = Progress(enabled=not args.quiet)

@@ -43,7 +43,7 @@ def cmd_inverse(args):
 
     from ..analysis import inverse_study
     options, values = parse_sets(args.model, args.set)
-    definition = build(args.model, **options).definition  # checks the options
+    definition = build(args.model, **options)  # checks the options
     if not definition.actuators:
         raise KanedynError(f"model {args.model!r} declares no actuators; "
                            "kanedyn inverse needs one that does (3rrr, stewart-platform, "

@@ -49,7 +49,7 @@ def add_parser(sub):
 def cmd_run(args):
     options, values = parse_sets(args.model, args.set)
     options.update(_pulse_option(args, options))
-    definition = build(args.model, **options).definition  # checks the options
+    definition = build(args.model, **options)  # checks the options
     out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")

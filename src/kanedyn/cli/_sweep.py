@@ -134,7 +134,7 @@ def cmd_sweep(args):
     grid = _pairs(args.grid, "--grid", parse_grid)
     random = _pairs(args.random, "--random", parse_range)
     options, values = parse_sets(args.model, args.set)
-    definition = build(args.model, **options).definition  # checks the options
+    definition = build(args.model, **options)  # checks the options
     eom = definition.derive()
     probe = definition.numeric(eom)
     constants, initial = split_values(definition, probe, values)

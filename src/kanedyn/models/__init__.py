@@ -235,10 +235,11 @@ def available():
 def build(name, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
 
-    The definition is built when first used (a :class:`PendingDefinition`
-    standing for it): ``build(...).numeric(backend="c")`` of a model in the
-    derivation cache needs no SymPy definition at all.  Errors in option
-    values are therefore raised on first use.
+    A model whose compiled numerical model is in the derivation cache is built
+    when first used: a :class:`PendingDefinition` stands for it, and
+    ``build(...).numeric(backend="c")`` then needs no SymPy definition at all
+    (its ``.definition`` is the :class:`ModelDefinition`).  Any other model is
+    built here, so errors in option values are raised by this call.
 
     Parameters
     ----------
@@ -259,6 +260,8 @@ def build(name, **options):
     from ._base import PendingDefinition
     # built when first needed: a numerical model from the derivation cache needs
     # no definition (see ModelDefinition.numeric)
-    return PendingDefinition(name, options, builder.function)
+    pending = PendingDefinition(name, options, builder.function)
+    # built now unless cached: bad option values raise here
+    return pending if pending.in_cache() else pending.definition
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -358,6 +358,12 @@ class PendingDefinition:
     def __repr__(self):
         return repr(self.definition)
 
+    def in_cache(self):
+        """True when the derivation cache holds this model's C numerical model
+        (its options were then checked when the entry was written)."""
+        key = _cacheable(self._origin, None, {"backend": "c"})
+        return key is not None and _cache_path(key).exists()
+
     @property
     def name(self):
         return self._light["name"] if self._built is None and self._light else \
