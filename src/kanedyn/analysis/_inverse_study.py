@@ -137,16 +137,19 @@ class InverseStudy:
 
     # ------------------------------------------------------------ summaries
     def peak_forces(self):
-        """``{actuator: largest |force|}`` (N or N m)."""
+        """``{actuator: largest absolute force}`` (N or N m)."""
         return {n: float(np.max(np.abs(f))) for n, f in zip(self.names, self.forces)}
 
     @property
     def peak_actuator(self):
-        """Name of the actuator with the largest |force|."""
+        """Name of the actuator with the largest absolute force."""
         return self.names[int(np.argmax(np.max(np.abs(self.forces), axis=1)))]
 
     def power_residual(self):
-        """Largest |power-balance residual| over the peak |actuator power| (relative)."""
+        """Largest absolute power-balance residual over the peak absolute actuator power.
+
+        A relative number (dimensionless).
+        """
         scale = float(np.max(np.abs(self.power.actuator)))
         worst = float(np.max(np.abs(self.power.residual)))
         return worst / scale if scale > 0 else worst
