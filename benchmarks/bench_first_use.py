@@ -29,7 +29,7 @@ t0 = time.perf_counter()
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
-d = kd.models.build("chain3d", n={n}, style="positions")
+d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
 m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
 print(json.dumps([time.perf_counter() - t0, DERIVE_STATS["derivations"],

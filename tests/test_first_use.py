@@ -52,7 +52,7 @@ import json, sys
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
-d = kd.models.build("chain3d", n=3, style="positions")
+d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
 m = d.numeric(backend="c", constants={{"m": {mass}}})
 f = m.rhs(0.0, d.initial(m))
 print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f)]))

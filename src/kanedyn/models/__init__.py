@@ -232,19 +232,20 @@ def available():
     return [(name, builder.title) for name, (builder, _) in REGISTRY.items()]
 
 
-def build(name, **options):
+def build(name, lazy=False, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
-
-    A model whose compiled numerical model is in the derivation cache is built
-    when first used: a :class:`PendingDefinition` stands for it, and
-    ``build(...).numeric(backend="c")`` then needs no SymPy definition at all
-    (its ``.definition`` is the :class:`ModelDefinition`).  Any other model is
-    built here, so errors in option values are raised by this call.
 
     Parameters
     ----------
     name : str
         One of :data:`REGISTRY` (``kanedyn list``).
+    lazy : bool
+        ``True``: when the model's compiled numerical model is in the derivation
+        cache, return a :class:`PendingDefinition` that builds the definition
+        only when first needed (``build(name, lazy=True).numeric(backend="c")``
+        then needs no SymPy objects at all; its ``.definition`` is the
+        :class:`ModelDefinition`).  Otherwise, and by default, the definition
+        is built here, so errors in option values are raised by this call.
     **options
         Model options, e.g. ``n=8`` for ``chain3d``.
     """
@@ -258,10 +259,8 @@ def build(name, **options):
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
                          f"its options: {sorted(allowed) or 'none'}")
     from ._base import PendingDefinition
-    # built when first needed: a numerical model from the derivation cache needs
-    # no definition (see ModelDefinition.numeric)
     pending = PendingDefinition(name, options, builder.function)
-    # built now unless cached: bad option values raise here
-    return pending if pending.in_cache() else pending.definition
+    return pending if lazy and pending.in_cache() else pending.definition
+
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
