@@ -1197,6 +1197,12 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             backend = "numpy"
         else:
             cse = True if cse is None else cse
+            from .backends._c import speed_tree_outputs
+            found = (speed_tree_outputs(getattr(eom, "_speed_tree", None), eom._qdot, force,
+                                        sub) if m == 0 and l == 0 else None)
+            if found is not None:  # u' by an articulated-body pass (KD_SOLVE 3)
+                functions["tree"] = (args, found[0])
+                sizes["speed_tree"] = found[1]
             c_key = fingerprint(prog, functions, sizes, cse)
             # generated only when the module is not in the cache
             c_module = load_module(c_key, lambda: generate_c(
