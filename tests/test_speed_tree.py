@@ -24,6 +24,7 @@ def both_paths(definition, tmp_path, monkeypatch):
     """(articulated-body C model, straight-line C model, numpy model)."""
     eom = definition.derive()
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(_cbackend, "TREE_MIN_SPEEDS", 2)  # also for small models
     tree = definition.numeric(eom, backend="c")
     assert solver_source(tree._functions, tree._sizes)[0] == "#define KD_SOLVE 3"
     monkeypatch.setattr(_cbackend, "TREE_MIN_SPEEDS", 10**9)
@@ -90,10 +91,13 @@ def test_simulation_uses_the_same_accelerations(tmp_path, monkeypatch):
     assert np.max(np.abs(a.y[:, -1] - b.y[:, -1])) < 1e-8
 
 
-def test_speed_tree_outputs_only_for_trees():
+def test_speed_tree_outputs_only_for_trees(monkeypatch):
     assert _cbackend.speed_tree_outputs(None, (), (), lambda e: e) is None
+    monkeypatch.setattr(_cbackend, "TREE_MIN_SPEEDS", 2)
     tree = {"parent": [-1, 0], "order": [1, 0], "S": [(0,) * 6] * 2,
             "inertia": [(0,) * 10] * 2}
     found = _cbackend.speed_tree_outputs(tree, (1, 2), (3, 4), lambda e: e)
     assert found[1] == ((-1, 0), (1, 0))
     assert [shape for shape, _ in found[0]] == [(2,), (2,), (12,), (20,)]
+    monkeypatch.setattr(_cbackend, "TREE_MIN_SPEEDS", 3)  # chosen by size
+    assert _cbackend.speed_tree_outputs(tree, (1, 2), (3, 4), lambda e: e) is None
