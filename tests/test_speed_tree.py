@@ -64,6 +64,14 @@ def test_chain3d_30_articulated_and_straight_line_agree(tmp_path, monkeypatch):
 
 
 @needs_compiler
+@pytest.mark.parametrize("name", ["ladder", "shuttle-arm"])
+def test_builtin_models(tmp_path, monkeypatch, name):
+    # ladder: three speeds of one free planar body (one support, chained speeds)
+    definition = kd.models.build(name)
+    check_agree(both_paths(definition, tmp_path, monkeypatch), seed=3)
+
+
+@needs_compiler
 def test_pendulum_on_cart(tmp_path, monkeypatch):
     definition = kd.models.build("n-link-pendulum-on-cart", n=3)
     check_agree(both_paths(definition, tmp_path, monkeypatch), seed=1)
