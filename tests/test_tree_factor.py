@@ -81,6 +81,8 @@ def test_random_trees_tree_and_dense_solves_agree(tmp_path, monkeypatch, seed):
                                      efforts=False)
     eom = definition.derive()
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "cache"))
+    # M evaluated and factored (not the articulated-body pass, test_speed_tree.py)
+    monkeypatch.setattr(_cbackend, "TREE_MIN_SPEEDS", 10**9)
     tree = definition.numeric(eom, backend="c")
     assert solver_source(tree._functions, tree._sizes)[0] == "#define KD_SOLVE 2"
     reference = definition.numeric(eom, backend="numpy")

@@ -206,7 +206,8 @@ def composite_inertia_forces(kin, bodies, body_terms, masses, inertias, rates, o
             for r in range(o)]
 
 
-def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loads, o):
+def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loads, o,
+                        tree=None):
     """Mass matrix, active and inertia-remainder forces of the real speeds.
 
     Parameters
@@ -221,6 +222,10 @@ def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loa
     loads : sequence of (location, vector, partials)
     o : int
         Number of real speeds.
+    tree : list, optional
+        When given (and the structure is found), receives one dict describing
+        the mass matrix as a tree of speeds (:func:`_speed_tree`), from which
+        ``M x = b`` is solved in :math:`O(n)` by an articulated-body pass.
 
     Returns
     -------
@@ -235,7 +240,10 @@ def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loa
     positions, supports, S = found
 
     per_body = _spatial_inertias(masses, inertias, positions)
+    collect = tree
     tree = _Composite(supports)
+    if collect is not None:
+        collect.append(_speed_tree(kin, tree, supports, S, per_body))
     composite = tree.accumulate(kin, per_body, "IC")
     F = [_apply(kin, composite[supports[s]], S[s], s) for s in range(o)]
     mass = [[None] * o for _ in range(o)]
@@ -280,3 +288,37 @@ def composite_equations(kin, bodies, body_terms, masses, inertias, inertial, loa
         active.append(value)
         remainder.append(dot(S[r][:3], Wi[:3]) + dot(S[r][3:], Wi[3:]))
     return mass, active, remainder
+
+
+def _speed_tree(kin, tree, supports, S, per_body):
+    """The mass matrix as a tree of speeds (for an articulated-body solve).
+
+    Speeds sharing one support are chained in index order; the last of them
+    carries the support's own bodies.  Returns ``{"parent", "order", "S",
+    "inertia"}``: ``parent[r]`` the speed above ``r`` (``-1`` at a root),
+    ``order`` the speeds with every child before its parent, ``S[r]`` the
+    spatial partial twist (6 expressions: W, V^O), ``inertia[r]`` the summed
+    spatial inertia about O of the bodies attached at ``r`` (10 expressions:
+    J00 J01 J02 J11 J12 J22, h, m; zeros where none).  Then
+    ``M_rs = S_r^T I(B_r & B_s) S_s`` as in :func:`composite_equations`.
+    """
+    o = len(supports)
+    chains = {b: [r for r in range(o) if supports[r] == b] for b in tree.order}
+    parent_support = {}
+    for i, b in enumerate(tree.order):
+        parent_support[b] = next((c for c in tree.order[i + 1:] if b < c), None)
+    parent, order = [-1] * o, []
+    inertia = [(sm.S.Zero,) * 10 for _ in range(o)]
+    for b in tree.order:  # smallest support first: children before parents
+        chain = chains[b]
+        above = parent_support[b]
+        parent[chain[0]] = chains[above][-1] if above is not None else -1
+        for a, r in zip(chain, chain[1:]):
+            parent[r] = a
+        order.extend(reversed(chain))
+        own = [per_body[k] for k in sorted(tree.own[b])]
+        if own:
+            summed = tuple(sm.Add(*vals) for vals in zip(*own))
+            inertia[chain[-1]] = tuple(kin.prog.let(v, "IO") for v in summed)
+    return {"parent": parent, "order": order, "S": [tuple(s) for s in S],
+            "inertia": inertia}

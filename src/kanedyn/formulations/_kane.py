@@ -513,8 +513,9 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
 
     # ------------------------------------------- mass matrix, remainder
     progress.stage("mass matrix and forcing")
+    speed_tree = []
     structured = composite_equations(kin, rigid, body_terms, masses, inertias,
-                                     inertial, loads, o)
+                                     inertial, loads, o, tree=speed_tree)
     if structured is not None:
         mass, active, remainder = structured
         rows = range(o, o + s_aux)  # auxiliary rows: body by body
@@ -551,7 +552,7 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     aux_f = tuple(prog.let(fr[o + a] - nonmm[o + a], f"aux_{a}") for a in range(s_aux))
 
     progress.stage(f"done: {len(prog)} intermediates")
-    return EquationsOfMotion._from_derivation(
+    eom = EquationsOfMotion._from_derivation(
         spec=spec, program=prog, table=table, kinematics=kin,
         explicit_kinematics=explicit_kinematics,
         qdot=qdot, kinematic_matrices=kin_matrices,
@@ -563,3 +564,8 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
         load_vectors=tuple((loc, vec) for loc, vec, _ in loads),
         identified=identified, multiplier_names=names,
         contact_terms=contacts, method="kane")
+    # the mass matrix as a tree of speeds (an O(n) solve in the C backend);
+    # flexible bodies add terms outside that structure
+    tree = speed_tree[0] if speed_tree and len(rigid) == len(spec.bodies) else None
+    object.__setattr__(eom, "_speed_tree", tree)
+    return eom

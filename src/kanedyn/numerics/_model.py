@@ -1082,6 +1082,31 @@ def _contact_values(coefficients, current):
     return out
 
 
+def _speed_tree_found(eom, force, sub, values, unused):
+    """The outputs of the C backend's articulated-body pass, or ``None``.
+
+    The pass reads every body's whole spatial inertia, also components the
+    equations do not contain (a product of inertia about a fixed axis): their
+    values move from ``unused`` to ``values`` (they become inputs of the
+    generated code); without a value for one of them, ``None`` (M is formed).
+    """
+    from .backends._c import speed_tree_outputs
+    found = speed_tree_outputs(getattr(eom, "_speed_tree", None), eom._qdot, force, sub)
+    if found is None:
+        return None
+    prog, table = eom._program, eom._table
+    extra = set()
+    for _, exprs in found[0][2:]:
+        for e in exprs:
+            extra |= prog.deps(e)
+    extra = {s for s in extra if not table.is_dynamic(s) and s != table.t
+             and s not in values}
+    if not extra <= set(unused):
+        return None
+    values.update((s, unused.pop(s)) for s in extra)
+    return found
+
+
 def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, scheme=None):
     """Generate and compile the numerical functions of ``eom``.
 
@@ -1161,6 +1186,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     values, unused = _resolve_constants(candidates, constants, needed_consts,
                                         parameters=getattr(eom, "parameters", ()))
     _check_finite({**values, **unused})
+    tree_found = _speed_tree_found(eom, force, sub, values, unused) \
+        if backend == "c" and m == 0 and l == 0 else None
     body_parameters_ = body_parameters(eom.bodies)
     bodies = body_values(body_parameters_, {**values, **unused})
     const_syms = sorted(values, key=str)
@@ -1213,6 +1240,9 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             backend = "numpy"
         else:
             cse = True if cse is None else cse
+            if tree_found is not None:  # u' by an articulated-body pass (KD_SOLVE 3)
+                functions["tree"] = (args, tree_found[0])
+                sizes["speed_tree"] = tree_found[1]
             c_key = fingerprint(prog, functions, sizes, cse)
             # generated only when the module is not in the cache
             c_module = load_module(c_key, lambda: generate_c(

@@ -166,6 +166,74 @@ static int kd_ltdl_tree(double *restrict A, double *restrict b) {
     }
     return 0;
 }
+#elif KD_SOLVE == 3
+/* M x = b for M_rs = S_r^T I(B_r & B_s) S_s (a tree of speeds, kd_tparent,
+   -1 at a root; kd_torder lists every speed before its parent): an
+   articulated-body pass, O(n).  S: 6 per speed (W, V about O); IO: the spatial
+   inertia about O of the bodies attached at each speed (J00 J01 J02 J11 J12 J22,
+   h, m).  b is overwritten by x.  Returns 1 if a pivot is not > 0. */
+KD_VECTORIZED static int kd_tree_solve(const double *restrict S, const double *restrict IO,
+                                       double *restrict b) {
+    static const int sym[9] = {0, 1, 2, 1, 3, 4, 2, 4, 5};
+    double IA[KD_NU][36], pa[KD_NU][6], U[KD_NU][6], c[KD_NU], Dinv[KD_NU], A[KD_NU][6];
+    for (int r = 0; r < KD_NU; ++r) {
+        const double *g = IO + 10 * r;
+        double *Ia = IA[r];
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                Ia[i * 6 + j] = g[sym[i * 3 + j]];
+                Ia[(i + 3) * 6 + j + 3] = i == j ? g[9] : 0.0;
+            }
+        }
+        const double hx = g[6], hy = g[7], hz = g[8];
+        const double H[9] = {0.0, -hz, hy, hz, 0.0, -hx, -hy, hx, 0.0};  /* h x . */
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                Ia[i * 6 + j + 3] = H[i * 3 + j];
+                Ia[(j + 3) * 6 + i] = H[i * 3 + j];
+            }
+        }
+        for (int i = 0; i < 6; ++i) pa[r][i] = 0.0;
+    }
+    for (int k = 0; k < KD_NU; ++k) {  /* leaves to roots */
+        const int r = kd_torder[k];
+        const double *restrict s = S + 6 * r;
+        const double *restrict Ia = IA[r];
+        double d = 0.0, e = b[r];
+        for (int i = 0; i < 6; ++i) {
+            double v = 0.0;
+            for (int j = 0; j < 6; ++j) v += Ia[i * 6 + j] * s[j];
+            U[r][i] = v;
+            d += s[i] * v;
+            e -= s[i] * pa[r][i];
+        }
+        if (!(d > 0.0)) return 1;
+        const double inv = 1.0 / d;
+        Dinv[r] = inv;
+        c[r] = e;
+        const int up = kd_tparent[r];
+        if (up < 0) continue;
+        double *restrict P = IA[up];
+        for (int i = 0; i < 6; ++i) {
+            const double ui = U[r][i] * inv;
+            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[r][j];
+            pa[up][i] += pa[r][i] + ui * e;
+        }
+    }
+    for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves */
+        const int r = kd_torder[k];
+        const int up = kd_tparent[r];
+        const double *restrict s = S + 6 * r;
+        double x = c[r];
+        if (up >= 0) {
+            for (int i = 0; i < 6; ++i) x -= U[r][i] * A[up][i];
+        }
+        x *= Dinv[r];
+        for (int i = 0; i < 6; ++i) A[r][i] = (up >= 0 ? A[up][i] : 0.0) + s[i] * x;
+        b[r] = x;
+    }
+    return 0;
+}
 #endif
 
 #define KD_NX (KD_NQ + KD_NU)
@@ -178,13 +246,23 @@ static int kd_rhs_core(double t, const double *y, const double *p, const double 
                        double *w, double *out) {
     double qd[KD_SZ(KD_NQ)], M[KD_SZ(KD_NU * KD_NU)], f[KD_SZ(KD_NU)];
     double B[KD_SZ(KD_NUDEP * KD_NU)], Ka[KD_SZ(KD_NUDEP * KD_NU)], fa[KD_SZ(KD_NUDEP)];
+    double *ud = out + KD_NQ;
+#if KD_SOLVE != 3 || KD_NUDEP > 0
     kd_eval_dynamics(t, y, p, r, w, qd, M, f, B, Ka, fa);
     memcpy(out, qd, KD_NQ * sizeof(double));
-    double *ud = out + KD_NQ;
+#endif
 #if KD_NUDEP == 0
+#if KD_SOLVE == 3
+    (void)qd; (void)f; (void)B; (void)Ka; (void)fa;
+    double S[6 * KD_NU], IO[10 * KD_NU];
+    kd_eval_tree(t, y, p, r, w, out, ud, S, IO);
+    int status = kd_tree_solve(S, IO, ud);
+#else
     memcpy(ud, f, sizeof(double) * KD_NU);
+#endif
 #if KD_SOLVE == 2
     int status = kd_ltdl_tree(M, ud);
+#elif KD_SOLVE == 3
 #else
     int status = kd_ltdl_dense(M, ud);
 #endif
