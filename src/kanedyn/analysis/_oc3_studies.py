@@ -18,6 +18,7 @@ so the linear RAO carries no drag damping.
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import re
@@ -53,7 +54,7 @@ def _built(backend, options):
     return d, eom, model, oc3_settle(d, model)
 
 
-def _model(backend="numpy", **options):
+def _model(backend="c", **options):
     """``(definition, eom, numeric model, equilibrium state)``, cached by options.
 
     The equilibrium is found in still water (a model with waves settles at
@@ -128,7 +129,7 @@ def _linear_cached(backend, key):
     return d, model, y_eq, A, B, r
 
 
-def _linear(backend="numpy", **options):
+def _linear(backend="c", **options):
     """The linear model of ``oc3_spar(**options)`` at its still-water equilibrium.
 
     Quadratic drag has no linear part at rest (its Jacobian there is 0/0 in
@@ -145,6 +146,29 @@ def _linear(backend="numpy", **options):
 _STRIP = re.compile(r"^(?P<name>\w+)_(?P<kind>[va])(?P<c>[xyz])(?P<i>\d+)$")
 
 
+_STRIPS = {}
+
+
+def _unit_strips(definition):
+    """``(model strips, strip kinematics)``: the strips rebuilt once per definition (drag off)."""
+    from ..modeling import AiryWave, MorisonCylinder
+    key = id(definition)
+    if key in _STRIPS and _STRIPS[key][0] is definition:
+        return _STRIPS[key][1:]
+    s = definition.symbols
+    old = s["elements"].get("morison")
+    if old is None:
+        raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
+                           "water); build it with drag=True or waves")
+    rest = dict.fromkeys(s["q"][:6], 0.0)
+    stations = list(zip(old.geometry.s, old.geometry.D))
+    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
+                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
+                             n_strips=old.n_strips, waves=AiryWave(1.0, 10.0, _WATER_DEPTH))
+    _STRIPS[key] = (definition, old, strips._cache)
+    return old, strips._cache
+
+
 def wave_input_phasor(definition, input_names, period, amplitude=1.0):
     r"""Complex amplitudes :math:`R` of the model's inputs for a regular wave.
 
@@ -152,20 +176,13 @@ def wave_input_phasor(definition, input_names, period, amplitude=1.0):
     ``amplitude`` (m) and ``period`` (s) are :math:`\mathrm{Re}(R e^{i\omega t})`.
     Other inputs (thrust, wetted fractions) get 0.
     """
-    from ..modeling import AiryWave, MorisonCylinder
-    s = definition.symbols
-    old = s["elements"].get("morison")
-    if old is None:
-        raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
-                           "water); build it with drag=True or waves")
+    from ..modeling import AiryWave
     wave = AiryWave(2 * amplitude, period, _WATER_DEPTH)
-    rest = dict.fromkeys(s["q"][:6], 0.0)
-    stations = list(zip(old.geometry.s, old.geometry.D))
-    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
-                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
-                             n_strips=old.n_strips, waves=wave)
-    v0, a0, _ = strips.strip_kinematics(0.0)
-    v1, a1, _ = strips.strip_kinematics(period / 4)
+    old, kinematics = _unit_strips(definition)
+    kinematics = copy.copy(kinematics)     # the strips' fluid kinematics, for this wave
+    kinematics.waves, kinematics._t = wave, None
+    v0, a0, _ = (x.copy() for x in kinematics(0.0))
+    v1, a1, _ = kinematics(period / 4)
     R = np.zeros(len(input_names), complex)
     for j, name in enumerate(input_names):
         m = _STRIP.match(name)
@@ -259,38 +276,42 @@ def _save(fig, path):
 
 # ------------------------------------------------------------------ oc3-decay
 _DECAY = {  # dof -> (state, initial offset, duration s, unit, label)
-    "surge": ("surge", 5.0, 500.0, "m", "surge"),
-    "heave": ("heave", 1.0, 150.0, "m", "heave"),
-    "pitch": ("pitch", math.radians(2.0), 150.0, "rad", "pitch"),
-    "yaw": ("yaw", math.radians(5.0), 50.0, "rad", "yaw"),
-    "tower": ("eta_tower_1", None, 20.0, "m", "tower-top fore-aft deflection"),
+    "surge": ("surge", 5.0, 400.0, "m", "surge"),            # period ~125 s: 3 cycles
+    "heave": ("heave", 1.0, 120.0, "m", "heave"),            # ~31 s
+    "pitch": ("pitch", math.radians(2.0), 120.0, "rad", "pitch"),  # ~30 s
+    "yaw": ("yaw", math.radians(5.0), 40.0, "rad", "yaw"),   # ~8 s
+    "tower": (None, None, 12.0, "m", "tower-top fore-aft deflection"),  # ~2.2 s
 }
 
 
-def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
+def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol, atol):
     from ..simulation import simulate
     options = dict(tower_modes=tower_modes, drag=drag)
     d, _, model, y_eq = _model(backend, **options)
     outputs = oc3_outputs(d, model)
     A = _linear(backend, **options)[3]
     dofs = [k for k in _DECAY if k != "tower" or tower_modes > 0]
-    linear = _modes_by_dof(A, model, y_eq, [_DECAY[k][0] for k in dofs])
+    c_top = outputs["top_deflection"][0]
+    # the modal coordinate carrying most of the fore-aft tower-top deflection
+    tower_state = list(model.state_names)[int(np.argmax(np.abs(c_top)))]
+    state_of = {k: (tower_state if k == "tower" else _DECAY[k][0]) for k in dofs}
+    linear = _modes_by_dof(A, model, y_eq, [state_of[k] for k in dofs])
     rows, data, series = [], {}, {}
     for dof in dofs:
-        state, offset, duration, unit, label = _DECAY[dof]
+        _, offset, duration, unit, label = _DECAY[dof]
+        state = state_of[dof]
         y0 = y_eq.copy()
         if dof == "tower":
-            c = outputs["top_deflection"][0]
             j = list(model.state_names).index(state)
-            y0[j] += 0.2 / c[j]                   # 0.2 m tower-top deflection
-            signal_row = c
+            y0[j] += 0.2 / c_top[j]               # 0.2 m tower-top deflection
+            signal_row = c_top
         else:
             y0[list(model.state_names).index(state)] += offset
             signal_row = np.zeros(model.n_states)
             signal_row[list(model.state_names).index(state)] = 1.0
         _say(quiet, f"oc3-decay: {dof} ({duration * duration_scale:g} s)")
         t_eval = np.linspace(0.0, duration * duration_scale, 4001)
-        res = simulate(model, (0.0, t_eval[-1]), y0, t_eval=t_eval, rtol=rtol, atol=rtol)
+        res = simulate(model, (0.0, t_eval[-1]), y0, t_eval=t_eval, rtol=rtol, atol=atol)
         if not res.success:
             raise KanedynError(f"oc3-decay: the {dof} decay failed: {res.message}")
         x = signal_row @ (res.y - y_eq[:, None])
@@ -307,14 +328,14 @@ def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
     figures = []
     if out is not None:
         plt = _pyplot()
-        fig, axes = plt.subplots(len(series), 1, figsize=(8, 2.2 * len(series)))
+        fig, axes = plt.subplots(len(series), 1, figsize=(9, 2.2 * len(series)))
         for ax, (dof, (t, x, peaks, unit, label)) in zip(axes, series.items()):
             ax.plot(t, x, lw=1, label=f"{label} (simulation)")
             ax.plot(t[peaks], x[peaks], "o", ms=3, label="peaks used")
-            ax.set_ylabel(f"{dof} [{unit}]")
+            ax.set_ylabel(("tower-top\ndeflection" if dof == "tower" else dof) + f" [{unit}]")
             ax.set_title(f"{dof}: decay period {data[dof]['period']:.3g} s, "
                          f"linearized {data[dof]['linear_damped_period']:.3g} s", fontsize=9)
-            ax.legend(fontsize=7, loc="upper right")
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axes[-1].set_xlabel("time [s]")
         fig.suptitle("oc3-spar free decay from the static equilibrium", fontsize=10)
         figures.append(_save(fig, out / "oc3-decay.png"))
@@ -329,10 +350,13 @@ def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
 register_study("oc3-decay", _decay_study, {
     "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
     "drag": StudyOption(bool, True, "Morison quadratic drag on"),
-    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
     "duration_scale": StudyOption(float, 1.0, "scale of the decay durations "
-                                  "(surge 500 s, heave and pitch 150 s, yaw 50 s, tower 20 s)"),
-    "rtol": StudyOption(float, 1e-7, "integration tolerance (relative and absolute)"),
+                                  "(surge 400 s, heave and pitch 120 s, yaw 40 s, tower 12 s: "
+                                  "about 3 natural periods or more)"),
+    "rtol": StudyOption(float, 1e-6, "relative integration tolerance"),
+    "atol": StudyOption(float, 1e-6, "absolute integration tolerance (m, rad, m/s, rad/s)"),
 }, "free decay of surge, heave, pitch, yaw and the tower fore-aft mode vs linearization")
 
 
@@ -340,8 +364,8 @@ register_study("oc3-decay", _decay_study, {
 _RAO_OUT = ("surge", "pitch", "top_displacement")
 
 
-def simulated_rao(options, period, wave_height, backend="numpy", cycles=8, fit_cycles=3,
-                  rtol=1e-7):
+def simulated_rao(options, period, wave_height, backend="c", cycles=8, fit_cycles=3,
+                  rtol=1e-6):
     """Steady-state output amplitudes per unit wave amplitude from a regular-wave simulation.
 
     Starts from the linear steady state (to shorten the transients) and fits
@@ -446,11 +470,13 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
 register_study("oc3-rao", _rao_study, {
     "period_min": StudyOption(float, 4.0, "shortest wave period, s"),
     "period_max": StudyOption(float, 40.0, "longest wave period, s"),
-    "n_periods": StudyOption(int, 20, "wave periods of the linear RAO"),
-    "check_periods": StudyOption(str, "8,12,20", "wave periods (s, comma list; '' for "
+    "n_periods": StudyOption(int, 8, "wave periods of the tabulated linear RAO (the plotted "
+                             "curve is always 400 periods)"),
+    "check_periods": StudyOption(str, "10,20", "wave periods (s, comma list; '' for "
                                  "none) simulated as a check of the linear RAO"),
     "wave_height": StudyOption(float, 0.5, "wave height of the simulated checks, m"),
     "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
     "drag": StudyOption(bool, True, "Morison quadratic drag in the simulations"),
-    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
 }, "response amplitude operators of surge, pitch and tower-top displacement vs wave period")
