@@ -444,14 +444,14 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
         plt = _pyplot()
         fig, axes = plt.subplots(3, 1, figsize=(7.5, 8), sharex=True)
         for i, (ax, key) in enumerate(zip(axes, _RAO_OUT)):
-            ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model")
+            ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model (no drag)")
             if sim:
                 ax.plot(list(sim), [sim[T][0][key] for T in sim], "o",
                         label=f"simulation, H = {wave_height:g} m")
-            for name, Tn in natural.items():
+            for (name, Tn), style in zip(natural.items(), ("--", ":", "-.")):
                 if period_min <= Tn <= period_max:
-                    ax.axvline(Tn, ls="--", lw=0.8, color="grey")
-                    ax.text(Tn, ax.get_ylim()[1] * 0.9, f" {name} {Tn:.1f} s", fontsize=7)
+                    ax.axvline(Tn, ls=style, lw=0.9, color="grey",
+                               label=f"{name} natural period {Tn:.1f} s")
             ax.set_ylabel(f"{outputs[key][2]} [{units[key]}]")
             ax.legend(fontsize=7)
         axes[0].set_title("oc3-spar response amplitude operators (regular waves)", fontsize=10)
@@ -480,3 +480,111 @@ register_study("oc3-rao", _rao_study, {
     "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
                            ("numpy", "c")),
 }, "response amplitude operators of surge, pitch and tower-top displacement vs wave period")
+
+
+# ------------------------------------------------------------------ oc3-tmdi
+@functools.lru_cache(maxsize=8)
+def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes):
+    """The still-water model (no drag) with a fore-aft force ``F_top(t)`` (N) at the tower top.
+
+    Returns ``(definition, numeric model, equilibrium state)``.
+    """
+    import sympy.physics.mechanics as me
+
+    from ..models import oc3_settle, oc3_spar
+    d = oc3_spar(tower_modes=tower_modes, drag=False, sea="still", tmdi=tmdi,
+                 inertance_ratio=inertance_ratio, inerter_height=inerter_height)
+    s = d.symbols
+    force = me.dynamicsymbols("F_top")
+    d.kane_args["loads"] = list(d.kane_args["loads"]) + [(s["top"], force * s["A"].x)]
+    eom = d.derive()
+    needed = {str(x) for x in eom.specified}
+    inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
+    inputs[force] = 0.0
+    model = eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
+    y = oc3_settle(d, model)
+    model.linearize(y)  # builds the Jacobians once: copies by with_constants reuse them
+    return d, model, y
+
+
+def _tower_mode(model, y, c_top):
+    """``(omega rad/s, modal mass kg)`` of the tower fore-aft mode of the undamped model."""
+    A = np.asarray(model.linearize(y)[0])
+    lam = _modes_by_dof(A, model, y, [list(model.state_names)[int(np.argmax(np.abs(c_top)))]])
+    return abs(next(iter(lam.values())))
+
+
+def _tmdi_study(out, quiet, mass_ratio, inertance_ratio, inerter_height, tower_modes,
+                criterion, backend):
+    from ._damper_tuning import model_frequency_response, tune_damper
+    if tower_modes < 2:
+        raise KanedynError("oc3-tmdi: the tower must be flexible (tower_modes 2 or 4)")
+    M = 599718.0  # tower + RNA mass, kg: the reference mass of the model's mass ratios
+    results, curves = {}, {}
+    for kind in ("tmd", "tmdi"):
+        _say(quiet, f"oc3-tmdi: building and tuning the {kind.upper()}")
+        beta = inertance_ratio if kind == "tmdi" else 0.0
+        d, model, y = _forced_model(backend, kind, beta, inerter_height, tower_modes)
+        c_top = oc3_outputs(d, model)["top_deflection"][0]
+        if kind == "tmd":
+            wp = _tower_mode(model.with_constants({"k_d": 0.0, "c_d": 0.0}), y, c_top)
+        extra = dict(inertance="b", inertance_ratio=beta) if kind == "tmdi" else {}
+        tuning = tune_damper(model, y, input="F_top", output=c_top, primary_frequency=wp,
+                             primary_mass=M, mass_ratio=mass_ratio, damper_mass="m_d",
+                             stiffness="k_d", damping="c_d", criterion=criterion, tol=1e-6,
+                             **extra)
+        results[kind] = tuning
+        omega = wp * np.geomspace(0.5, 2.0, 1200)
+        curves[kind] = (omega, model_frequency_response(tuning.model, y, omega, "F_top",
+                                                        c_top).magnitude.ravel())
+        if kind == "tmd":
+            off = model.with_constants({"k_d": 0.0, "c_d": 0.0})
+            curves["off"] = (omega, model_frequency_response(off, y, omega, "F_top",
+                                                             c_top).magnitude.ravel())
+    without = results["tmd"].peak_without
+    columns = ("configuration", "frequency ratio f [-]", "damping ratio zeta [-]",
+               "peak |H| [m/MN]", "peak reduction [-]")
+    rows = [("no damper", "", "", round(without * 1e6, 6), 0.0)]
+    for kind, label in (("tmd", f"TMD (mu = {mass_ratio:g})"),
+                        ("tmdi", f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g}, "
+                                 f"inerter to {inerter_height:g} m)")):
+        r = results[kind]
+        rows.append((label, round(r.frequency_ratio, 5), round(r.damping_ratio, 5),
+                     round(r.peak * 1e6, 6), round(1 - r.peak / without, 5)))
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, ax = plt.subplots(figsize=(7.5, 4.5))
+        f_hz = curves["off"][0] / (2 * math.pi)
+        for key, label, style in (("off", "no damper", "-"), ("tmd", rows[1][0], "--"),
+                                  ("tmdi", rows[2][0], "-.")):
+            ax.semilogy(f_hz, curves[key][1] * 1e6, style, lw=1.3, label=label)
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel("tower-top fore-aft deflection / tower-top force [m/MN]")
+        ax.set_title(f"oc3-spar tower fore-aft FRF, dampers tuned ({criterion})", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(True, which="both", lw=0.3)
+        figures.append(_save(fig, out / "oc3-tmdi.png"))
+    summary = (f"tower fore-aft mode {wp / (2 * math.pi):.4f} Hz; peak |H| without damper "
+               f"{without * 1e6:.4g} m/MN\n" + "\n".join(
+                   f"{r[0]}: f {r[1]}, zeta {r[2]}, peak {r[3]:.4g} m/MN "
+                   f"({100 * r[4]:.1f} % lower)" for r in rows[1:]))
+    data = {"primary_frequency": wp, "peak_without": without,
+            **{f"{k}_{a}": getattr(results[k], a) for k in results
+               for a in ("peak", "frequency_ratio", "damping_ratio", "success")}}
+    return dict(tables={"tuning": (columns, rows)}, figures=figures, summary=summary,
+                data=data)
+
+
+register_study("oc3-tmdi", _tmdi_study, {
+    "mass_ratio": StudyOption(float, 0.02, "damper mass / (tower + RNA mass 599,718 kg)"),
+    "inertance_ratio": StudyOption(float, 0.02, "TMDI inertance / (tower + RNA mass)"),
+    "inerter_height": StudyOption(float, 60.0, "height of the inerter's tower end above "
+                                  "the SWL, m"),
+    "tower_modes": StudyOption(int, 2, "tower bending modes (2 or 4)"),
+    "criterion": StudyOption(str, "hinf", "tuning criterion: peak or H2 norm",
+                             ("hinf", "h2")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
+}, "TMD and TMDI of equal mass tuned on the tower fore-aft FRF (tower-top force to "
+   "deflection): peaks and reductions")
