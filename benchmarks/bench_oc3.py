@@ -24,14 +24,17 @@ def main(argv=None):
     p.add_argument("--points", type=int, default=20, help="wave periods of the RAO sweep")
     p.add_argument("--Hs", type=float, default=6.0, help="significant wave height, m")
     p.add_argument("--Tp", type=float, default=10.0, help="peak period, s")
-    p.add_argument("--wind", type=float, default=11.4, help="steady wind speed, m/s")
+    p.add_argument("--wind", type=float, default=0.0,
+                   help="steady wind speed, m/s (0: parked rotor; with wind the flexible "
+                        "tower fails to build, issue 17: use --tower-modes 0)")
+    p.add_argument("--tower-modes", type=int, default=2, help="tower bending modes")
     a = p.parse_args(argv)
     from kanedyn.analysis._oc3_studies import _linear, _model, linear_rao, oc3_outputs
     from kanedyn.analysis._oc3_studies import wave_input_phasor
     from kanedyn.simulation import simulate
 
     t0 = time.perf_counter()
-    opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=a.Hs,
+    opts = dict(tower_modes=a.tower_modes, drag=True, sea="irregular", wave_height=a.Hs,
                 wave_period=a.Tp, seed=1, wind_speed=a.wind)
     d, _, model, y_eq = _model("c", **opts)
     build = time.perf_counter() - t0
