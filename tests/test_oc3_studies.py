@@ -73,8 +73,7 @@ def test_tuned_tmd_and_tmdi_reduce_the_tower_peak():
     assert math.isfinite(d["peak_without"])
     assert d["tmd_peak"] < 0.2 * d["peak_without"]
     assert d["tmdi_peak"] < 0.2 * d["peak_without"]
-    # as measured (inerter to 60 m, beta = mu = 0.02): the TMDI's tuned peak is HIGHER
-    # than the TMD's of the same mass; its tower end moves with the same mode shape, so
-    # the inerter's relative motion is small and it mostly adds inertia to the tower
-    assert d["tmdi_peak"] > d["tmd_peak"]
+    # Sarkar & Fitzgerald (2021) in kind: the TMDI (beta = mu = 0.02, inerter to 60 m)
+    # lowers the peak more than the TMD of the same damper mass (measured 1.71 vs 2.45 m/MN)
+    assert d["tmdi_peak"] < 0.8 * d["tmd_peak"]
     assert np.isclose(d["tmd_frequency_ratio"], 0.98, atol=0.03)
