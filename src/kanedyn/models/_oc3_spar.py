@@ -380,6 +380,11 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
     # ------------------------------------------------------------------- rotor
     hub = top.locatenew("hub", -_v(ROTOR, "overhang") * A.x
                         + (_v(ROTOR, "hub_height") - _v(TOWER, "top_z")) * A.z)
+    if tower_modes:
+        # the hub's velocity in the speeds (the node frame's rates are modal-coordinate
+        # derivatives, which the rotor's numeric aerodynamic damping cannot take)
+        rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
+        hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
     if wind_speed > 0:
         wind = float(wind_speed)
         if turbulence > 0:
