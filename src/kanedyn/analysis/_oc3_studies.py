@@ -588,3 +588,88 @@ register_study("oc3-tmdi", _tmdi_study, {
                            ("numpy", "c")),
 }, "TMD and TMDI of equal mass tuned on the tower fore-aft FRF (tower-top force to "
    "deflection): peaks and reductions")
+
+
+# ------------------------------------------------------------------ oc3-sea
+# tuned by oc3-tmdi with its defaults (mu = beta = 0.02, inerter to 60 m, H-infinity):
+# (frequency ratio, damping ratio) on the tower fore-aft mode, with m_e = m_d + b
+_TUNED = {"tmd": (0.98146, 0.07888), "tmdi": (0.9658, 0.11436)}
+_TOWER_HZ = 0.4935  # tower fore-aft mode of the 2-mode model, Hz (oc3-tmdi)
+
+
+def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inertance_ratio,
+               inerter_height, backend):
+    from scipy.signal import welch
+
+    from ..simulation import simulate
+    if duration < 100:
+        raise KanedynError(f"oc3-sea: duration must be at least 100 s, got {duration}")
+    rows, spectra = [], {}
+    for kind in ("off", "tmd", "tmdi"):
+        beta = inertance_ratio if kind == "tmdi" else 0.0
+        opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=Hs,
+                    wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind)
+        if kind != "off":
+            f, zeta = _TUNED[kind]
+            scale = math.sqrt(1 + beta / mass_ratio)   # k_d = m_d w_d^2 = (m_d + b)(f w_p)^2
+            opts.update(tmd_mass_ratio=mass_ratio, tmd_frequency=f * _TOWER_HZ * scale,
+                        tmd_damping=zeta * scale)
+            if kind == "tmdi":
+                opts.update(inertance_ratio=beta, inerter_height=inerter_height)
+        _say(quiet, f"oc3-sea: {kind} ({duration:g} s)")
+        d, _, model, y_eq = _model(backend, **opts)
+        dt = 0.1
+        t_eval = np.arange(0.0, duration + dt / 2, dt)
+        res = simulate(model, (0.0, duration), y_eq, t_eval=t_eval, rtol=1e-6, atol=1e-6)
+        if not res.success:
+            raise KanedynError(f"oc3-sea: the simulation with tmdi={kind} failed: "
+                               f"{res.message}")
+        outputs = oc3_outputs(d, model)
+        keep = res.t >= min(100.0, duration / 4)          # past the start-up transient
+        top = outputs["top_displacement"][0] @ res.y[:, keep]
+        moment = outputs["base_moment"][0] @ res.y[:, keep]
+        rows.append((kind, round(float(np.mean(top)), 5), round(float(np.std(top)), 5),
+                     round(float(np.mean(moment)) / 1e6, 4),
+                     round(float(np.std(moment)) / 1e6, 4)))
+        nper = min(int(200 / dt), int(keep.sum()))
+        spectra[kind] = (welch(top, fs=1 / dt, nperseg=nper), welch(moment, fs=1 / dt,
+                                                                     nperseg=nper))
+    columns = ("tmdi", "mean tower-top displacement [m]", "std tower-top displacement [m]",
+               "mean tower-base moment [MN m]", "std tower-base moment [MN m]")
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, axes = plt.subplots(2, 1, figsize=(7.5, 7), sharex=True)
+        labels = {"off": "no damper", "tmd": f"TMD (mu = {mass_ratio:g})",
+                  "tmdi": f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g})"}
+        for kind, ((f1, p1), (f2, p2)) in spectra.items():
+            axes[0].semilogy(f1, p1, lw=1, label=labels[kind])
+            axes[1].semilogy(f2, p2 / 1e12, lw=1, label=labels[kind])
+        axes[0].set_ylabel("tower-top displacement PSD [m^2/Hz]")
+        axes[1].set_ylabel("tower-base moment PSD [(MN m)^2/Hz]")
+        axes[1].set_xlabel("frequency [Hz]")
+        axes[1].set_xlim(0, 1.0)
+        for ax in axes:
+            ax.legend(fontsize=8)
+            ax.grid(True, which="both", lw=0.3)
+        axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, seed {seed}, wind "
+                          f"{wind_speed:g} m/s, {duration:g} s (Welch)", fontsize=9)
+        figures.append(_save(fig, out / "oc3-sea.png"))
+    summary = "\n".join(f"{r[0]:5s}: std top {r[2]:.4g} m, std base moment {r[4]:.4g} MN m"
+                        for r in rows)
+    data = {r[0]: dict(std_top=r[2], std_moment=r[4] * 1e6) for r in rows}
+    return dict(tables={"std": (columns, rows)}, figures=figures, summary=summary, data=data)
+
+
+register_study("oc3-sea", _sea_study, {
+    "Hs": StudyOption(float, 6.0, "significant wave height, m"),
+    "Tp": StudyOption(float, 10.0, "JONSWAP peak period, s"),
+    "seed": StudyOption(int, 1, "seed of the sea's random phases"),
+    "wind_speed": StudyOption(float, 11.4, "steady hub-height wind, m/s (0: parked)"),
+    "duration": StudyOption(float, 600.0, "simulated time, s (the first 100 s are dropped)"),
+    "mass_ratio": StudyOption(float, 0.02, "damper mass / (tower + RNA mass)"),
+    "inertance_ratio": StudyOption(float, 0.02, "TMDI inertance / (tower + RNA mass)"),
+    "inerter_height": StudyOption(float, 60.0, "inerter's tower end above the SWL, m"),
+    "backend": StudyOption(str, "c", "numerical backend", ("numpy", "c")),
+}, "irregular sea with steady wind: std and spectra of tower-top displacement and "
+   "tower-base moment without damper, with the tuned TMD and TMDI")
