@@ -25,8 +25,7 @@ def main(argv=None):
     p.add_argument("--Hs", type=float, default=6.0, help="significant wave height, m")
     p.add_argument("--Tp", type=float, default=10.0, help="peak period, s")
     p.add_argument("--wind", type=float, default=0.0,
-                   help="steady wind speed, m/s (0: parked rotor; with wind the flexible "
-                        "tower fails to build, issue 17: use --tower-modes 0)")
+                   help="steady wind speed, m/s (0: parked rotor)")
     p.add_argument("--tower-modes", type=int, default=2, help="tower bending modes")
     a = p.parse_args(argv)
     from kanedyn.analysis._oc3_studies import _linear, _model, linear_rao, oc3_outputs

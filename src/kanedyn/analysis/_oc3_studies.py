@@ -643,8 +643,9 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
         labels = {"off": "no damper", "tmd": f"TMD (mu = {mass_ratio:g})",
                   "tmdi": f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g})"}
         for kind, ((f1, p1), (f2, p2)) in spectra.items():
-            axes[0].semilogy(f1, p1, lw=1, label=labels[kind])
-            axes[1].semilogy(f2, p2 / 1e12, lw=1, label=labels[kind])
+            band = f1 <= 1.0                       # the platform and first tower modes
+            axes[0].semilogy(f1[band], p1[band], lw=1, label=labels[kind])
+            axes[1].semilogy(f2[band], p2[band] / 1e12, lw=1, label=labels[kind])
         axes[0].set_ylabel("tower-top displacement PSD [m^2/Hz]")
         axes[1].set_ylabel("tower-base moment PSD [(MN m)^2/Hz]")
         axes[1].set_xlabel("frequency [Hz]")
