@@ -18,6 +18,7 @@ so the linear RAO carries no drag damping.
 
 from __future__ import annotations
 
+import copy
 import functools
 import math
 import re
@@ -53,7 +54,7 @@ def _built(backend, options):
     return d, eom, model, oc3_settle(d, model)
 
 
-def _model(backend="numpy", **options):
+def _model(backend="c", **options):
     """``(definition, eom, numeric model, equilibrium state)``, cached by options.
 
     The equilibrium is found in still water (a model with waves settles at
@@ -128,7 +129,7 @@ def _linear_cached(backend, key):
     return d, model, y_eq, A, B, r
 
 
-def _linear(backend="numpy", **options):
+def _linear(backend="c", **options):
     """The linear model of ``oc3_spar(**options)`` at its still-water equilibrium.
 
     Quadratic drag has no linear part at rest (its Jacobian there is 0/0 in
@@ -145,6 +146,29 @@ def _linear(backend="numpy", **options):
 _STRIP = re.compile(r"^(?P<name>\w+)_(?P<kind>[va])(?P<c>[xyz])(?P<i>\d+)$")
 
 
+_STRIPS = {}
+
+
+def _unit_strips(definition):
+    """``(model strips, strip kinematics)``: the strips rebuilt once per definition (drag off)."""
+    from ..modeling import AiryWave, MorisonCylinder
+    key = id(definition)
+    if key in _STRIPS and _STRIPS[key][0] is definition:
+        return _STRIPS[key][1:]
+    s = definition.symbols
+    old = s["elements"].get("morison")
+    if old is None:
+        raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
+                           "water); build it with drag=True or waves")
+    rest = dict.fromkeys(s["q"][:6], 0.0)
+    stations = list(zip(old.geometry.s, old.geometry.D))
+    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
+                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
+                             n_strips=old.n_strips, waves=AiryWave(1.0, 10.0, _WATER_DEPTH))
+    _STRIPS[key] = (definition, old, strips._cache)
+    return old, strips._cache
+
+
 def wave_input_phasor(definition, input_names, period, amplitude=1.0):
     r"""Complex amplitudes :math:`R` of the model's inputs for a regular wave.
 
@@ -152,20 +176,13 @@ def wave_input_phasor(definition, input_names, period, amplitude=1.0):
     ``amplitude`` (m) and ``period`` (s) are :math:`\mathrm{Re}(R e^{i\omega t})`.
     Other inputs (thrust, wetted fractions) get 0.
     """
-    from ..modeling import AiryWave, MorisonCylinder
-    s = definition.symbols
-    old = s["elements"].get("morison")
-    if old is None:
-        raise KanedynError("oc3 studies: the model has no Morison strips (drag off and still "
-                           "water); build it with drag=True or waves")
+    from ..modeling import AiryWave
     wave = AiryWave(2 * amplitude, period, _WATER_DEPTH)
-    rest = dict.fromkeys(s["q"][:6], 0.0)
-    stations = list(zip(old.geometry.s, old.geometry.D))
-    strips = MorisonCylinder(old.name, s["B"], s["P"], s["B"].z, stations, s["N"],
-                             s["O"], rest, 1025.0, Ca=1.0, Cd=0.0,
-                             n_strips=old.n_strips, waves=wave)
-    v0, a0, _ = strips.strip_kinematics(0.0)
-    v1, a1, _ = strips.strip_kinematics(period / 4)
+    old, kinematics = _unit_strips(definition)
+    kinematics = copy.copy(kinematics)     # the strips' fluid kinematics, for this wave
+    kinematics.waves, kinematics._t = wave, None
+    v0, a0, _ = (x.copy() for x in kinematics(0.0))
+    v1, a1, _ = kinematics(period / 4)
     R = np.zeros(len(input_names), complex)
     for j, name in enumerate(input_names):
         m = _STRIP.match(name)
@@ -259,38 +276,42 @@ def _save(fig, path):
 
 # ------------------------------------------------------------------ oc3-decay
 _DECAY = {  # dof -> (state, initial offset, duration s, unit, label)
-    "surge": ("surge", 5.0, 500.0, "m", "surge"),
-    "heave": ("heave", 1.0, 150.0, "m", "heave"),
-    "pitch": ("pitch", math.radians(2.0), 150.0, "rad", "pitch"),
-    "yaw": ("yaw", math.radians(5.0), 50.0, "rad", "yaw"),
-    "tower": ("eta_tower_1", None, 20.0, "m", "tower-top fore-aft deflection"),
+    "surge": ("surge", 5.0, 400.0, "m", "surge"),            # period ~125 s: 3 cycles
+    "heave": ("heave", 1.0, 120.0, "m", "heave"),            # ~31 s
+    "pitch": ("pitch", math.radians(2.0), 120.0, "rad", "pitch"),  # ~30 s
+    "yaw": ("yaw", math.radians(5.0), 40.0, "rad", "yaw"),   # ~8 s
+    "tower": (None, None, 12.0, "m", "tower-top fore-aft deflection"),  # ~2.2 s
 }
 
 
-def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
+def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol, atol):
     from ..simulation import simulate
     options = dict(tower_modes=tower_modes, drag=drag)
     d, _, model, y_eq = _model(backend, **options)
     outputs = oc3_outputs(d, model)
     A = _linear(backend, **options)[3]
     dofs = [k for k in _DECAY if k != "tower" or tower_modes > 0]
-    linear = _modes_by_dof(A, model, y_eq, [_DECAY[k][0] for k in dofs])
+    c_top = outputs["top_deflection"][0]
+    # the modal coordinate carrying most of the fore-aft tower-top deflection
+    tower_state = list(model.state_names)[int(np.argmax(np.abs(c_top)))]
+    state_of = {k: (tower_state if k == "tower" else _DECAY[k][0]) for k in dofs}
+    linear = _modes_by_dof(A, model, y_eq, [state_of[k] for k in dofs])
     rows, data, series = [], {}, {}
     for dof in dofs:
-        state, offset, duration, unit, label = _DECAY[dof]
+        _, offset, duration, unit, label = _DECAY[dof]
+        state = state_of[dof]
         y0 = y_eq.copy()
         if dof == "tower":
-            c = outputs["top_deflection"][0]
             j = list(model.state_names).index(state)
-            y0[j] += 0.2 / c[j]                   # 0.2 m tower-top deflection
-            signal_row = c
+            y0[j] += 0.2 / c_top[j]               # 0.2 m tower-top deflection
+            signal_row = c_top
         else:
             y0[list(model.state_names).index(state)] += offset
             signal_row = np.zeros(model.n_states)
             signal_row[list(model.state_names).index(state)] = 1.0
         _say(quiet, f"oc3-decay: {dof} ({duration * duration_scale:g} s)")
         t_eval = np.linspace(0.0, duration * duration_scale, 4001)
-        res = simulate(model, (0.0, t_eval[-1]), y0, t_eval=t_eval, rtol=rtol, atol=rtol)
+        res = simulate(model, (0.0, t_eval[-1]), y0, t_eval=t_eval, rtol=rtol, atol=atol)
         if not res.success:
             raise KanedynError(f"oc3-decay: the {dof} decay failed: {res.message}")
         x = signal_row @ (res.y - y_eq[:, None])
@@ -307,14 +328,14 @@ def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
     figures = []
     if out is not None:
         plt = _pyplot()
-        fig, axes = plt.subplots(len(series), 1, figsize=(8, 2.2 * len(series)))
+        fig, axes = plt.subplots(len(series), 1, figsize=(9, 2.2 * len(series)))
         for ax, (dof, (t, x, peaks, unit, label)) in zip(axes, series.items()):
             ax.plot(t, x, lw=1, label=f"{label} (simulation)")
             ax.plot(t[peaks], x[peaks], "o", ms=3, label="peaks used")
-            ax.set_ylabel(f"{dof} [{unit}]")
+            ax.set_ylabel(("tower-top\ndeflection" if dof == "tower" else dof) + f" [{unit}]")
             ax.set_title(f"{dof}: decay period {data[dof]['period']:.3g} s, "
                          f"linearized {data[dof]['linear_damped_period']:.3g} s", fontsize=9)
-            ax.legend(fontsize=7, loc="upper right")
+            ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axes[-1].set_xlabel("time [s]")
         fig.suptitle("oc3-spar free decay from the static equilibrium", fontsize=10)
         figures.append(_save(fig, out / "oc3-decay.png"))
@@ -329,10 +350,13 @@ def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol):
 register_study("oc3-decay", _decay_study, {
     "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
     "drag": StudyOption(bool, True, "Morison quadratic drag on"),
-    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
     "duration_scale": StudyOption(float, 1.0, "scale of the decay durations "
-                                  "(surge 500 s, heave and pitch 150 s, yaw 50 s, tower 20 s)"),
-    "rtol": StudyOption(float, 1e-7, "integration tolerance (relative and absolute)"),
+                                  "(surge 400 s, heave and pitch 120 s, yaw 40 s, tower 12 s: "
+                                  "about 3 natural periods or more)"),
+    "rtol": StudyOption(float, 1e-6, "relative integration tolerance"),
+    "atol": StudyOption(float, 1e-6, "absolute integration tolerance (m, rad, m/s, rad/s)"),
 }, "free decay of surge, heave, pitch, yaw and the tower fore-aft mode vs linearization")
 
 
@@ -340,8 +364,8 @@ register_study("oc3-decay", _decay_study, {
 _RAO_OUT = ("surge", "pitch", "top_displacement")
 
 
-def simulated_rao(options, period, wave_height, backend="numpy", cycles=8, fit_cycles=3,
-                  rtol=1e-7):
+def simulated_rao(options, period, wave_height, backend="c", cycles=8, fit_cycles=3,
+                  rtol=1e-6):
     """Steady-state output amplitudes per unit wave amplitude from a regular-wave simulation.
 
     Starts from the linear steady state (to shorten the transients) and fits
@@ -420,14 +444,14 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
         plt = _pyplot()
         fig, axes = plt.subplots(3, 1, figsize=(7.5, 8), sharex=True)
         for i, (ax, key) in enumerate(zip(axes, _RAO_OUT)):
-            ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model")
+            ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model (no drag)")
             if sim:
                 ax.plot(list(sim), [sim[T][0][key] for T in sim], "o",
                         label=f"simulation, H = {wave_height:g} m")
-            for name, Tn in natural.items():
+            for (name, Tn), style in zip(natural.items(), ("--", ":", "-.")):
                 if period_min <= Tn <= period_max:
-                    ax.axvline(Tn, ls="--", lw=0.8, color="grey")
-                    ax.text(Tn, ax.get_ylim()[1] * 0.9, f" {name} {Tn:.1f} s", fontsize=7)
+                    ax.axvline(Tn, ls=style, lw=0.9, color="grey",
+                               label=f"{name} natural period {Tn:.1f} s")
             ax.set_ylabel(f"{outputs[key][2]} [{units[key]}]")
             ax.legend(fontsize=7)
         axes[0].set_title("oc3-spar response amplitude operators (regular waves)", fontsize=10)
@@ -446,11 +470,207 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
 register_study("oc3-rao", _rao_study, {
     "period_min": StudyOption(float, 4.0, "shortest wave period, s"),
     "period_max": StudyOption(float, 40.0, "longest wave period, s"),
-    "n_periods": StudyOption(int, 20, "wave periods of the linear RAO"),
-    "check_periods": StudyOption(str, "8,12,20", "wave periods (s, comma list; '' for "
+    "n_periods": StudyOption(int, 8, "wave periods of the tabulated linear RAO (the plotted "
+                             "curve is always 400 periods)"),
+    "check_periods": StudyOption(str, "10,20", "wave periods (s, comma list; '' for "
                                  "none) simulated as a check of the linear RAO"),
     "wave_height": StudyOption(float, 0.5, "wave height of the simulated checks, m"),
     "tower_modes": StudyOption(int, 2, "tower bending modes (0, 2 or 4)"),
     "drag": StudyOption(bool, True, "Morison quadratic drag in the simulations"),
-    "backend": StudyOption(str, "numpy", "numerical backend", ("numpy", "c")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
 }, "response amplitude operators of surge, pitch and tower-top displacement vs wave period")
+
+
+# ------------------------------------------------------------------ oc3-tmdi
+@functools.lru_cache(maxsize=8)
+def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes):
+    """The still-water model (no drag) with a fore-aft force ``F_top(t)`` (N) at the tower top.
+
+    Returns ``(definition, numeric model, equilibrium state)``.
+    """
+    import sympy.physics.mechanics as me
+
+    from ..models import oc3_settle, oc3_spar
+    d = oc3_spar(tower_modes=tower_modes, drag=False, sea="still", tmdi=tmdi,
+                 inertance_ratio=inertance_ratio, inerter_height=inerter_height)
+    s = d.symbols
+    force = me.dynamicsymbols("F_top")
+    d.kane_args["loads"] = list(d.kane_args["loads"]) + [(s["top"], force * s["A"].x)]
+    eom = d.derive()
+    needed = {str(x) for x in eom.specified}
+    inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
+    inputs[force] = 0.0
+    model = eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
+    y = oc3_settle(d, model)
+    model.linearize(y)  # builds the Jacobians once: copies by with_constants reuse them
+    return d, model, y
+
+
+def _tower_mode(model, y, c_top):
+    """``(omega rad/s, modal mass kg)`` of the tower fore-aft mode of the undamped model."""
+    A = np.asarray(model.linearize(y)[0])
+    lam = _modes_by_dof(A, model, y, [list(model.state_names)[int(np.argmax(np.abs(c_top)))]])
+    return abs(next(iter(lam.values())))
+
+
+def _tmdi_study(out, quiet, mass_ratio, inertance_ratio, inerter_height, tower_modes,
+                criterion, backend):
+    from ._damper_tuning import model_frequency_response, tune_damper
+    if tower_modes < 2:
+        raise KanedynError("oc3-tmdi: the tower must be flexible (tower_modes 2 or 4)")
+    M = 599718.0  # tower + RNA mass, kg: the reference mass of the model's mass ratios
+    results, curves = {}, {}
+    for kind in ("tmd", "tmdi"):
+        _say(quiet, f"oc3-tmdi: building and tuning the {kind.upper()}")
+        beta = inertance_ratio if kind == "tmdi" else 0.0
+        d, model, y = _forced_model(backend, kind, beta, inerter_height, tower_modes)
+        c_top = oc3_outputs(d, model)["top_deflection"][0]
+        if kind == "tmd":
+            wp = _tower_mode(model.with_constants({"k_d": 0.0, "c_d": 0.0}), y, c_top)
+        extra = dict(inertance="b", inertance_ratio=beta) if kind == "tmdi" else {}
+        tuning = tune_damper(model, y, input="F_top", output=c_top, primary_frequency=wp,
+                             primary_mass=M, mass_ratio=mass_ratio, damper_mass="m_d",
+                             stiffness="k_d", damping="c_d", criterion=criterion, tol=1e-6,
+                             **extra)
+        results[kind] = tuning
+        omega = wp * np.geomspace(0.5, 2.0, 1200)
+        curves[kind] = (omega, model_frequency_response(tuning.model, y, omega, "F_top",
+                                                        c_top).magnitude.ravel())
+        if kind == "tmd":
+            off = model.with_constants({"k_d": 0.0, "c_d": 0.0})
+            curves["off"] = (omega, model_frequency_response(off, y, omega, "F_top",
+                                                             c_top).magnitude.ravel())
+    without = results["tmd"].peak_without
+    columns = ("configuration", "frequency ratio f [-]", "damping ratio zeta [-]",
+               "peak |H| [m/MN]", "peak reduction [-]")
+    rows = [("no damper", "", "", round(without * 1e6, 6), 0.0)]
+    for kind, label in (("tmd", f"TMD (mu = {mass_ratio:g})"),
+                        ("tmdi", f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g}, "
+                                 f"inerter to {inerter_height:g} m)")):
+        r = results[kind]
+        rows.append((label, round(r.frequency_ratio, 5), round(r.damping_ratio, 5),
+                     round(r.peak * 1e6, 6), round(1 - r.peak / without, 5)))
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, ax = plt.subplots(figsize=(7.5, 4.5))
+        f_hz = curves["off"][0] / (2 * math.pi)
+        for key, label, style in (("off", "no damper", "-"), ("tmd", rows[1][0], "--"),
+                                  ("tmdi", rows[2][0], "-.")):
+            ax.semilogy(f_hz, curves[key][1] * 1e6, style, lw=1.3, label=label)
+        ax.set_xlabel("frequency [Hz]")
+        ax.set_ylabel("tower-top fore-aft deflection / tower-top force [m/MN]")
+        ax.set_title(f"oc3-spar tower fore-aft FRF, dampers tuned ({criterion})", fontsize=10)
+        ax.legend(fontsize=8)
+        ax.grid(True, which="both", lw=0.3)
+        figures.append(_save(fig, out / "oc3-tmdi.png"))
+    summary = (f"tower fore-aft mode {wp / (2 * math.pi):.4f} Hz; peak |H| without damper "
+               f"{without * 1e6:.4g} m/MN\n" + "\n".join(
+                   f"{r[0]}: f {r[1]}, zeta {r[2]}, peak {r[3]:.4g} m/MN "
+                   f"({100 * r[4]:.1f} % lower)" for r in rows[1:]))
+    data = {"primary_frequency": wp, "peak_without": without,
+            **{f"{k}_{a}": getattr(results[k], a) for k in results
+               for a in ("peak", "frequency_ratio", "damping_ratio", "success")}}
+    return dict(tables={"tuning": (columns, rows)}, figures=figures, summary=summary,
+                data=data)
+
+
+register_study("oc3-tmdi", _tmdi_study, {
+    "mass_ratio": StudyOption(float, 0.02, "damper mass / (tower + RNA mass 599,718 kg)"),
+    "inertance_ratio": StudyOption(float, 0.02, "TMDI inertance / (tower + RNA mass)"),
+    "inerter_height": StudyOption(float, 60.0, "height of the inerter's tower end above "
+                                  "the SWL, m"),
+    "tower_modes": StudyOption(int, 2, "tower bending modes (2 or 4)"),
+    "criterion": StudyOption(str, "hinf", "tuning criterion: peak or H2 norm",
+                             ("hinf", "h2")),
+    "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
+                           ("numpy", "c")),
+}, "TMD and TMDI of equal mass tuned on the tower fore-aft FRF (tower-top force to "
+   "deflection): peaks and reductions")
+
+
+# ------------------------------------------------------------------ oc3-sea
+# tuned by oc3-tmdi with its defaults (mu = beta = 0.02, inerter to 60 m, H-infinity):
+# (frequency ratio, damping ratio) on the tower fore-aft mode, with m_e = m_d + b
+_TUNED = {"tmd": (0.98146, 0.07888), "tmdi": (0.9658, 0.11436)}
+_TOWER_HZ = 0.4935  # tower fore-aft mode of the 2-mode model, Hz (oc3-tmdi)
+
+
+def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inertance_ratio,
+               inerter_height, backend):
+    from scipy.signal import welch
+
+    from ..simulation import simulate
+    if duration < 100:
+        raise KanedynError(f"oc3-sea: duration must be at least 100 s, got {duration}")
+    rows, spectra = [], {}
+    for kind in ("off", "tmd", "tmdi"):
+        beta = inertance_ratio if kind == "tmdi" else 0.0
+        opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=Hs,
+                    wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind)
+        if kind != "off":
+            f, zeta = _TUNED[kind]
+            scale = math.sqrt(1 + beta / mass_ratio)   # k_d = m_d w_d^2 = (m_d + b)(f w_p)^2
+            opts.update(tmd_mass_ratio=mass_ratio, tmd_frequency=f * _TOWER_HZ * scale,
+                        tmd_damping=zeta * scale)
+            if kind == "tmdi":
+                opts.update(inertance_ratio=beta, inerter_height=inerter_height)
+        _say(quiet, f"oc3-sea: {kind} ({duration:g} s)")
+        d, _, model, y_eq = _model(backend, **opts)
+        dt = 0.1
+        t_eval = np.arange(0.0, duration + dt / 2, dt)
+        res = simulate(model, (0.0, duration), y_eq, t_eval=t_eval, rtol=1e-6, atol=1e-6)
+        if not res.success:
+            raise KanedynError(f"oc3-sea: the simulation with tmdi={kind} failed: "
+                               f"{res.message}")
+        outputs = oc3_outputs(d, model)
+        keep = res.t >= min(100.0, duration / 4)          # past the start-up transient
+        top = outputs["top_displacement"][0] @ res.y[:, keep]
+        moment = outputs["base_moment"][0] @ res.y[:, keep]
+        rows.append((kind, round(float(np.mean(top)), 5), round(float(np.std(top)), 5),
+                     round(float(np.mean(moment)) / 1e6, 4),
+                     round(float(np.std(moment)) / 1e6, 4)))
+        nper = min(int(200 / dt), int(keep.sum()))
+        spectra[kind] = (welch(top, fs=1 / dt, nperseg=nper), welch(moment, fs=1 / dt,
+                                                                     nperseg=nper))
+    columns = ("tmdi", "mean tower-top displacement [m]", "std tower-top displacement [m]",
+               "mean tower-base moment [MN m]", "std tower-base moment [MN m]")
+    figures = []
+    if out is not None:
+        plt = _pyplot()
+        fig, axes = plt.subplots(2, 1, figsize=(7.5, 7), sharex=True)
+        labels = {"off": "no damper", "tmd": f"TMD (mu = {mass_ratio:g})",
+                  "tmdi": f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g})"}
+        for kind, ((f1, p1), (f2, p2)) in spectra.items():
+            band = f1 <= 1.0                       # the platform and first tower modes
+            axes[0].semilogy(f1[band], p1[band], lw=1, label=labels[kind])
+            axes[1].semilogy(f2[band], p2[band] / 1e12, lw=1, label=labels[kind])
+        axes[0].set_ylabel("tower-top displacement PSD [m^2/Hz]")
+        axes[1].set_ylabel("tower-base moment PSD [(MN m)^2/Hz]")
+        axes[1].set_xlabel("frequency [Hz]")
+        axes[1].set_xlim(0, 1.0)
+        for ax in axes:
+            ax.legend(fontsize=8)
+            ax.grid(True, which="both", lw=0.3)
+        axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, seed {seed}, wind "
+                          f"{wind_speed:g} m/s, {duration:g} s (Welch)", fontsize=9)
+        figures.append(_save(fig, out / "oc3-sea.png"))
+    summary = "\n".join(f"{r[0]:5s}: std top {r[2]:.4g} m, std base moment {r[4]:.4g} MN m"
+                        for r in rows)
+    data = {r[0]: dict(std_top=r[2], std_moment=r[4] * 1e6) for r in rows}
+    return dict(tables={"std": (columns, rows)}, figures=figures, summary=summary, data=data)
+
+
+register_study("oc3-sea", _sea_study, {
+    "Hs": StudyOption(float, 6.0, "significant wave height, m"),
+    "Tp": StudyOption(float, 10.0, "JONSWAP peak period, s"),
+    "seed": StudyOption(int, 1, "seed of the sea's random phases"),
+    "wind_speed": StudyOption(float, 11.4, "steady hub-height wind, m/s (0: parked)"),
+    "duration": StudyOption(float, 600.0, "simulated time, s (the first 100 s are dropped)"),
+    "mass_ratio": StudyOption(float, 0.02, "damper mass / (tower + RNA mass)"),
+    "inertance_ratio": StudyOption(float, 0.02, "TMDI inertance / (tower + RNA mass)"),
+    "inerter_height": StudyOption(float, 60.0, "inerter's tower end above the SWL, m"),
+    "backend": StudyOption(str, "c", "numerical backend", ("numpy", "c")),
+}, "irregular sea with steady wind: std and spectra of tower-top displacement and "
+   "tower-base moment without damper, with the tuned TMD and TMDI")

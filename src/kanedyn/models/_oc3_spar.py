@@ -23,8 +23,11 @@ origin ``O`` on the still water line (SWL) at the undisplaced spar axis):
   ``s_d``, m), held by a spring ``k_d`` and a dashpot ``c_d``; with
   ``"tmdi"`` an inerter of inertance ``b`` joins it to the tower at a lower
   height (its kinetic energy is :math:`\tfrac12 b \dot r^2`, with ``r`` the
-  fore-aft (``A.x``) component of the damper mass's position relative to the
-  tower point: the one-dimensional inerter of the TMDI literature;
+  fore-aft component, along the platform's ``B.x``, of the damper mass's position
+  relative to the tower point: the one-dimensional inerter of the TMDI
+  literature, loaded by the tower's relative bending deflection (a component
+  along the nacelle's ``A.x`` would rotate with the top slope, whose lever to a
+  low tower point cancels most of that deflection);
   a two-terminal :class:`~kanedyn.Inerter` on the nearly vertical line between
   the two points would hardly be loaded by fore-aft motion).
 
@@ -302,7 +305,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
         potential += [m_d * g * damper.pos_from(O).dot(N.z), k_d * s_d ** 2 / 2]
         if tmdi == "tmdi":
             tower_node, height = tower_point(inerter_height)
-            r = damper.pos_from(tower_node).dot(A.x)
+            r = damper.pos_from(tower_node).dot(B.x)
             bodies.append(RateInertia("inerter", [r.diff(T)], b))
             elements["inerter"] = (tower_node, height)
 
@@ -377,6 +380,11 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
     # ------------------------------------------------------------------- rotor
     hub = top.locatenew("hub", -_v(ROTOR, "overhang") * A.x
                         + (_v(ROTOR, "hub_height") - _v(TOWER, "top_z")) * A.z)
+    if tower_modes:
+        # the hub's velocity in the speeds (the node frame's rates are modal-coordinate
+        # derivatives, which the rotor's numeric aerodynamic damping cannot take)
+        rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
+        hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
     if wind_speed > 0:
         wind = float(wind_speed)
         if turbulence > 0:
