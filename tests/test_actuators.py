@@ -175,7 +175,9 @@ def test_redundant_actuators_least_norm():
     model, x, v, N, O, P = carriage()
     left = kd.JointActuator("left", x)
     right = kd.JointActuator("right", 2 * v)  # a speed expression: twice the travel rate
-    out = kd.actuator_forces(model, [left, right], 0.0, [0.0, 0.0], [2.0])
+    with pytest.raises(ModelError, match="redundant=True"):  # not said: refused
+        kd.ActuatorMap(model, [left, right])
+    out = kd.actuator_forces(model, [left, right], 0.0, [0.0, 0.0], [2.0], redundant=True)
     # least norm of f1 + 2 f2 = m a = 7: f = (7/5, 14/5)
     np.testing.assert_allclose(out.forces, [7 / 5, 14 / 5], rtol=1e-12)
     assert out.redundant and out.success

@@ -96,9 +96,12 @@ class ActuatorMap:
     max_condition : float, optional
         Condition number of the rate Jacobian above which a configuration is
         reported singular (``success=False``).
+    redundant : bool, optional
+        Say ``True`` to allow more actuators than independent speeds (the
+        least-norm solution); without it such a set is refused.
     """
 
-    def __init__(self, model, actuators, max_condition=1e8):
+    def __init__(self, model, actuators, max_condition=1e8, redundant=False):
         eom = getattr(model, "_eom", None)
         if eom is None:
             raise ModelError("ActuatorMap needs a model built by eom.numeric(...) in this "
@@ -118,6 +121,10 @@ class ActuatorMap:
         self.max_condition = float(max_condition)
         p = model.n_u_ind
         k = len(actuators)
+        if k > p and not redundant:
+            raise ModelError(f"{k} actuators ({', '.join(names)}) for {p} independent "
+                             f"speed(s): the actuation is redundant; pass redundant=True "
+                             "for the least-norm actuator forces")
         if k < p:
             raise ModelError(f"{k} actuator(s) ({', '.join(names)}) cannot drive "
                              f"{p} independent speed(s) "
@@ -267,7 +274,7 @@ def _free(J, bias, masses):
     return out
 
 
-def actuator_forces(model, actuators, t, y, udot, max_condition=1e8):
+def actuator_forces(model, actuators, t, y, udot, max_condition=1e8, redundant=False):
     """Actuator forces for a motion, by virtual work (see :class:`ActuatorMap`).
 
     Parameters
@@ -278,9 +285,11 @@ def actuator_forces(model, actuators, t, y, udot, max_condition=1e8):
     y : array_like, shape (n_states,)
     udot : array_like, shape (p,) or (n_u,)
     max_condition : float, optional
+    redundant : bool, optional
+        Allow more actuators than independent speeds (see :class:`ActuatorMap`).
 
     Returns
     -------
     ActuatorForces
     """
-    return ActuatorMap(model, actuators, max_condition).forces(t, y, udot)
+    return ActuatorMap(model, actuators, max_condition, redundant).forces(t, y, udot)
