@@ -23,11 +23,11 @@ Three measurements, each a part that can be run alone (``--parts``):
    CPU times (the compiled runs interleaved in rounds), ratio and the largest
    difference of the tip deflection.
 
-There is no peer for flexible bodies in Python: SymPy's ``KanesMethod`` and
-PyDy have no flexible body, so a same-run comparison of the derivation would
-need a hand-written flexible formulation in SymPy (not done; see
-``docs/benchmarks.md``). The figures are absolute times on this machine, set
-against the project's targets.
+SymPy's ``KanesMethod`` and PyDy have no flexible body; the peer of part 1
+(``--sympy``, section 1b) is the robot written by hand in SymPy's
+``LagrangesMethod`` from the same inertia data, its right-hand side timed
+interleaved with kanedyn's. The other figures are absolute times on this
+machine, set against the project's targets.
 
 Usage::
 
