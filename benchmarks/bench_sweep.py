@@ -32,6 +32,7 @@ import time
 import numpy as np
 
 import kanedyn as kd
+from kanedyn.simulation._sweep import parameter_runs
 # bench_numerics lives next to this script (on sys.path when run directly)
 from _timing import interleaved, ratio_text, winner  # noqa: E402
 from bench_numerics import cpu_name  # noqa: E402
@@ -55,7 +56,7 @@ def main():
     model = d.numeric(backend="c")
     y0 = d.initial(model)
     params = {"g": (9.0, 10.0), "l": (0.4, 0.6)}
-    _, values = kd.simulation._sweep.parameter_runs(model, params, n=args.runs, seed=1)
+    _, values = parameter_runs(model, params, n=args.runs, seed=1)
     span = (0.0, args.t_end)
     print(f"{cpu_name()}, {os.cpu_count()} cores, load average "
           f"{os.getloadavg()[0]:.1f}; chain3d n=5, C backend; {args.runs} runs of "
