@@ -640,7 +640,7 @@ def main(argv=None):
     skipped = ""
     if args.skip_sympy_rhs:
         skipped = "\n- SymPy's RHS was not measured (--skip-sympy-rhs)."
-    elif any(row["rhs_sympy_us"] is None for row in rows):
+    elif any(row["rhs_sympy"] is None for row in rows):
         skipped = (f"\n- SymPy's RHS was measured for chains up to n = "
                    f"{args.sympy_rhs_max_n} only (lambdify of larger ones is slow).")
     print(header)
