@@ -359,6 +359,11 @@ def format_seconds(seconds):
     return f"{seconds:.3g}" if seconds < 100 else f"{seconds:.0f}"
 
 
+def times_text(ratio):
+    """``"3.4x"`` below 10, ``"68x"`` from 10 on."""
+    return f"{ratio:.1f}x" if ratio < 10 else f"{ratio:.0f}x"
+
+
 def with_spread(timing, scale=1.0, digits=None):
     """``"1.23 (4%)"``: a timing's minimum (times ``scale``) and its spread."""
     value = timing.best * scale
@@ -383,7 +388,7 @@ def row_cells(row):
         rhs_ratio = rhs_diff = rhs_winner = "-"
     return [row["model"], str(row["n"]), with_spread(row["sympy"]),
             with_spread(row["kanedyn"]),
-            f"{row['sympy'].best / row['kanedyn'].best:.0f}x", row["derive_winner"],
+            times_text(row["sympy"].best / row["kanedyn"].best), row["derive_winner"],
             with_spread(row["codegen"]), lambdify,
             f"{format_count(sm_m)}/{format_count(sm_f)}", format_count(sm_cse),
             f"{format_count(m)}/{format_count(f)} ({format_count(joint)})",
@@ -536,8 +541,8 @@ def explicit_cells(row):
     """Cells of one explicit-matrix row (order of :data:`EXPLICIT_COLUMNS`)."""
     sympy_s, kane_s, explicit_s = row["sympy"].best, row["kane"].best, row["explicit"].best
     cells = [row["chain"], str(row["n"]), with_spread(row["sympy"]),
-             with_spread(row["kane"]), f"{sympy_s / kane_s:.0f}x",
-             with_spread(row["explicit"]), f"{sympy_s / explicit_s:.0f}x", row["winner"]]
+             with_spread(row["kane"]), times_text(sympy_s / kane_s),
+             with_spread(row["explicit"]), times_text(sympy_s / explicit_s), row["winner"]]
     if row["lambdify_sympy_s"] is None:
         return cells + ["-"] * 5
     total_sympy = sympy_s + row["lambdify_sympy_s"]
