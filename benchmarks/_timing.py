@@ -69,7 +69,8 @@ def _calls_for(func, clock, min_time):
         number *= 2
 
 
-def interleaved(contenders, rounds=7, min_time=0.05, clock="thread", number=None):
+def interleaved(contenders, rounds=7, min_time=0.05, clock="thread", number=None,
+                setup=None):
     """Time ``contenders`` interleaved in rounds.
 
     Parameters
@@ -87,6 +88,11 @@ def interleaved(contenders, rounds=7, min_time=0.05, clock="thread", number=None
         own) or ``time.perf_counter``; or ``{name: clock}`` for each contender.
     number : dict, optional
         ``{name: calls per timing}`` instead of the calibration.
+    setup : dict, optional
+        ``{name: prepare}``: before each timing of that contender, untimed,
+        ``arg = prepare()`` is called, and the timing is of one call
+        ``func(arg)`` (fresh inputs per timing, e.g. a freshly built model
+        for a derivation; no calibration for that contender).
 
     Returns
     -------
@@ -101,8 +107,14 @@ def interleaved(contenders, rounds=7, min_time=0.05, clock="thread", number=None
     if rounds < 1:
         raise ValueError(f"rounds must be at least 1, got {rounds}")
     counts = {}
+    setup = setup or {}
+    for name in setup:
+        if name not in contenders:
+            raise ValueError(f"setup names {name!r}, which is not a contender")
     for name, func in contenders.items():
-        if number is not None and name in number:
+        if name in setup:
+            counts[name] = 1
+        elif number is not None and name in number:
             counts[name] = number[name]
         else:
             counts[name] = (_calls_for(func, CLOCKS[clocks[name]], min_time)
@@ -111,6 +123,12 @@ def interleaved(contenders, rounds=7, min_time=0.05, clock="thread", number=None
     for _ in range(rounds):
         for name, func in contenders.items():
             n, tick = counts[name], CLOCKS[clocks[name]]
+            if name in setup:
+                arg = setup[name]()
+                start = tick()
+                func(arg)
+                times[name].append(tick() - start)
+                continue
             start = tick()
             for _ in range(n):
                 func()

@@ -23,12 +23,14 @@ commit ``02f89bf``) is run with ``--before`` pointing at its ``src``, e.g.
 The workers build every model once, run each simulation once to warm up,
 then the rounds interleave the contenders (round-robin, order rotated each
 round); each measurement is the thread CPU time of one ``kd.simulate``.
-Reported: the minimum over rounds and the spread (max / min), and the
-speed-up of each contender over ``before numpy`` as a ratio of minima.  The
+Reported (:mod:`_timing`): the minimum over rounds and the spread
+(median / min - 1), the speed-up of each contender over ``before numpy`` as a
+ratio of minima with both spreads, and the fastest contender only where the
+ranges [min, median] do not overlap (:func:`_timing.winner`).  The
 workers also report the mode history and impact count, which must agree.
 
 Run: ``PYTHONPATH=src python benchmarks/bench_contacts.py [--rounds 7]
-[--before /work/main/src]``.
+[--before /work/main/src] [--cases ball-3d ...] [--quick]``.
 """
 
 from __future__ import annotations
@@ -49,7 +51,7 @@ warnings.simplefilter("ignore")
 import kanedyn as kd
 from _contact_cases import CASES, build
 backend = {backend!r}
-built = {{name: build(name, backend) for name in CASES}}
+built = {{name: build(name, backend) for name in {cases!r}}}
 options = {{"backend": {run!r}}} if {run!r} else {{}}
 for name, (model, y0, t_end) in built.items():
     kd.simulate(model, (0, t_end), y0, **options)
@@ -66,10 +68,10 @@ for line in sys.stdin:
 """
 
 
-def _worker(src, backend, run):
+def _worker(src, backend, run, cases):
     env = dict(os.environ, PYTHONPATH=str(src))
-    proc = subprocess.Popen([sys.executable, "-c", _WORKER.format(here=str(HERE),
-                                                                  backend=backend, run=run)],
+    code = _WORKER.format(here=str(HERE), backend=backend, run=run, cases=list(cases))
+    proc = subprocess.Popen([sys.executable, "-c", code],
                             stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True,
                             env=env)
     line = proc.stdout.readline()
@@ -88,21 +90,31 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--before", default="/work/main/src")
+    parser.add_argument("--cases", nargs="+", help="cases to run (default: all)")
+    parser.add_argument("--quick", action="store_true",
+                        help="ball-3d only, 2 rounds (a smoke run)")
     args = parser.parse_args()
     sys.path.insert(0, str(HERE))
     from _contact_cases import CASES
+    from _timing import Timing, ratio_text, winner
+    if args.quick:
+        args.cases, args.rounds = args.cases or ["ball-3d"], 2
+    cases = args.cases or list(CASES)
+    unknown = sorted(set(cases) - set(CASES))
+    if unknown:
+        parser.error(f"unknown case(s) {', '.join(unknown)}; known: {', '.join(CASES)}")
     after = HERE.parent / "src"
     contenders = {"before numpy": (args.before, "numpy", None),
                   "after numpy": (after, "numpy", None), "after c": (after, "c", "c"),
                   "after c-py": (after, "c", "scipy")}
-    workers = {label: _worker(*spec) for label, spec in contenders.items()}
-    times = {(label, name): [] for label in contenders for name in CASES}
+    workers = {label: _worker(*spec, cases) for label, spec in contenders.items()}
+    times = {(label, name): [] for label in contenders for name in cases}
     outcome = {}
     labels = list(contenders)
     try:
         for r in range(args.rounds):
             order = labels[r % len(labels):] + labels[:r % len(labels)]
-            for name in CASES:
+            for name in cases:
                 for label in order:
                     answer = _ask(workers[label], name)
                     times[label, name].append(answer["cpu"])
@@ -113,15 +125,17 @@ def main():
             proc.stdin.close()
             proc.wait()
     print(f"thread CPU s per run, minimum of {args.rounds} interleaved rounds "
-          "(spread = max/min)")
-    for name in CASES:
-        base = min(times["before numpy", name])
+          "(spread = median / min - 1); speed-up over before numpy with both spreads")
+    for name in cases:
+        timings = {label: Timing(label, times[label, name]) for label in labels}
+        base = timings["before numpy"]
         for label in labels:
-            values = times[label, name]
+            t = timings[label]
             same = outcome[label, name][:2] == outcome["before numpy", name][:2]
-            print(f"{name:15s} {label:13s} {min(values):8.4f} s  spread "
-                  f"{max(values) / min(values):5.2f}  speed-up {base / min(values):6.1f}x"
+            print(f"{name:15s} {label:13s} {t.best:8.4f} s  spread {t.spread:4.0%}  "
+                  f"speed-up {ratio_text(base, t):>24s}"
                   f"  impacts {outcome[label, name][0]:3d}  same modes/impacts: {same}")
+        print(f"{name:15s} fastest: {winner(timings) or 'none stated (spreads overlap)'}")
 
 
 if __name__ == "__main__":

@@ -33,7 +33,8 @@ matrices.
 Usage::
 
     python benchmarks/bench_derivation.py              # full run, several minutes
-    python benchmarks/bench_derivation.py --max-n 5 --no-bicycle   # quick look
+    python benchmarks/bench_derivation.py --max-n 5 --no-bicycle   # a look
+    python benchmarks/bench_derivation.py --quick      # smoke run (n <= 4)
     python benchmarks/bench_derivation.py --markdown   # table as markdown
     python benchmarks/bench_derivation.py --explicit-only --explicit-n 3 5 8
 
@@ -47,11 +48,9 @@ import datetime
 import gc
 import os
 import platform
-import statistics
 import subprocess
 import sys
 import time
-import timeit
 import warnings
 
 import numpy as np
@@ -64,6 +63,7 @@ import kanedyn as kd
 # _peers lives next to this script (on sys.path when the script is run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _peers import sympy_docs_chain  # noqa: E402
+from _timing import interleaved, winner  # noqa: E402
 from bench_numerics import cpu_name  # noqa: E402
 
 #: Relative difference of the two right-hand sides above which a row is flagged.
@@ -107,25 +107,9 @@ def fresh_start():
     gc.collect()
 
 
-def microseconds_per_call(func, repeat=7):
-    """Median time of one call of ``func()`` in microseconds.
-
-    Parameters
-    ----------
-    func : callable
-        Called without arguments.
-    repeat : int
-        Number of timing runs; each runs ``func`` enough times to last at
-        least 0.2 s (``timeit.Timer.autorange``).
-
-    Returns
-    -------
-    float
-    """
-    timer = timeit.Timer(func)
-    number, _ = timer.autorange()
-    runs = timer.repeat(repeat=repeat, number=number)
-    return statistics.median(runs) / number * 1e6
+def winner_text(timings):
+    """The clear winner's name, or ``"none"`` where the spreads overlap."""
+    return winner(timings) or "none"
 
 
 def benchmark_state(definition, model, seed=0):
@@ -148,10 +132,12 @@ def benchmark_state(definition, model, seed=0):
 
 
 # ---------------------------------------------------------------- kanedyn
-def kanedyn_derivation(name, options, repeat=3):
-    """Time :func:`kanedyn.kane` and its numerical code generation.
+def derivations(name, options, rounds=3):
+    """Time SymPy's ``KanesMethod``, :func:`kanedyn.kane` and kane + code generation.
 
-    Each repetition builds a fresh model, so nothing is reused.
+    The three are timed interleaved in ``rounds`` rounds
+    (:func:`_timing.interleaved`, thread CPU time), each timing on a freshly
+    built model with SymPy's cache cleared (untimed), so nothing is reused.
 
     Parameters
     ----------
@@ -159,29 +145,42 @@ def kanedyn_derivation(name, options, repeat=3):
         Built-in model name (``kanedyn list``).
     options : dict
         Model options, e.g. ``{"n": 8}``.
-    repeat : int
-        Number of repetitions; medians are reported.
+    rounds : int
+        Number of rounds.
 
     Returns
     -------
-    dict
-        ``derive_s`` (median of ``kd.kane``), ``codegen_s`` (median of
-        ``kd.kane`` + ``numeric``), and ``definition``, ``eom``, ``model`` of the
-        last repetition.
+    timings : dict
+        ``{"sympy", "kanedyn", "kanedyn+codegen": Timing}``, s per derivation.
+    ours : dict
+        ``definition``, ``eom``, ``model`` of the last kanedyn timing.
+    theirs : dict
+        The last SymPy result (:func:`sympy_derivation`).
     """
-    derive, total = [], []
-    for _ in range(repeat):
+    ours, theirs = {}, {}
+
+    def prepare():
         definition = kd.models.build(name, **options)
         fresh_start()
-        start = time.perf_counter()
+        return definition
+
+    def kane(definition):
+        ours.update(definition=definition, eom=kd.kane(**definition.kane_args))
+
+    def kane_codegen(definition):
         eom = kd.kane(**definition.kane_args)
-        derived = time.perf_counter()
-        model = definition.numeric(eom)  # eom.numeric(constants=definition.constants)
-        done = time.perf_counter()
-        derive.append(derived - start)
-        total.append(done - start)
-    return {"derive_s": statistics.median(derive), "codegen_s": statistics.median(total),
-            "definition": definition, "eom": eom, "model": model}
+        ours.update(definition=definition, eom=eom, model=definition.numeric(eom))
+
+    def sympy(definition):
+        theirs.update(sympy_kanes_method(definition))
+
+    timings = interleaved({"sympy": sympy, "kanedyn": kane, "kanedyn+codegen": kane_codegen},
+                          rounds=rounds, min_time=0,
+                          setup=dict.fromkeys(("sympy", "kanedyn", "kanedyn+codegen"),
+                                              prepare))
+    if "model" not in ours or ours["model"] is None:
+        ours["model"] = ours["definition"].numeric(ours["eom"])
+    return timings, ours, theirs
 
 
 def kanedyn_operation_counts(eom):
@@ -203,25 +202,38 @@ def kanedyn_operation_counts(eom):
 
 # ------------------------------------------------------------------ SymPy
 def sympy_derivation(name, options):
-    """Time SymPy's ``KanesMethod`` on a freshly built model.
-
-    The time covers constructing ``KanesMethod``, ``kanes_equations(bodies,
-    loads)`` and reading ``mass_matrix_full`` and ``forcing_full``.
+    """SymPy's ``KanesMethod`` on a freshly built model, wall time of one run.
 
     Returns
     -------
     dict
-        ``derive_s``, ``kane`` (the ``KanesMethod``), ``mass_matrix_full``,
-        ``forcing_full`` and ``definition``.
+        As :func:`sympy_kanes_method`, plus ``derive_s``.
     """
     definition = kd.models.build(name, **options)
-    args = definition.kane_args
     fresh_start()
+    start = time.perf_counter()
+    out = sympy_kanes_method(definition)
+    out["derive_s"] = time.perf_counter() - start
+    return out
+
+
+def sympy_kanes_method(definition):
+    """SymPy's ``KanesMethod`` of ``definition``: what the SymPy timing covers.
+
+    Constructing ``KanesMethod``, ``kanes_equations(bodies, loads)`` and
+    reading ``mass_matrix_full`` and ``forcing_full``.
+
+    Returns
+    -------
+    dict
+        ``kane`` (the ``KanesMethod``), ``mass_matrix_full``, ``forcing_full``
+        and ``definition``.
+    """
+    args = definition.kane_args
     with warnings.catch_warnings():
         # SymPy warns that a point's velocity could be found along several
         # paths (the bicycle); the warning is about SymPy's own bookkeeping.
         warnings.simplefilter("ignore", UserWarning)
-        start = time.perf_counter()
         kane = me.KanesMethod(
             args["frame"], args["q_ind"], args["u_ind"], kd_eqs=args["kd_eqs"],
             q_dependent=args.get("q_dep") or None,
@@ -230,9 +242,8 @@ def sympy_derivation(name, options):
             velocity_constraints=args.get("velocity_constraints") or None)
         kane.kanes_equations(args["bodies"], args["loads"])
         mass, forcing = kane.mass_matrix_full, kane.forcing_full
-        elapsed = time.perf_counter() - start
-    return {"derive_s": elapsed, "kane": kane, "mass_matrix_full": mass,
-            "forcing_full": forcing, "definition": definition}
+    return {"kane": kane, "mass_matrix_full": mass, "forcing_full": forcing,
+            "definition": definition}
 
 
 def sympy_operation_counts(mass, forcing):
@@ -289,14 +300,14 @@ def sympy_rhs(sympy_result):
 def benchmark_model(name, options, args, log):
     """All measurements of one model; returns one table row (a dict)."""
     label = name + "".join(f" {k}={v}" for k, v in options.items())
-    ours = kanedyn_derivation(name, options, repeat=args.repeat)
-    log(f"{label}: kanedyn derive {ours['derive_s']:.3f} s")
-    theirs = sympy_derivation(name, options)
-    log(f"{label}: SymPy derive {theirs['derive_s']:.2f} s")
+    times, ours, theirs = derivations(name, options, rounds=args.repeat)
+    log(f"{label}: derive kanedyn {times['kanedyn'].best:.3f} s, "
+        f"SymPy {times['sympy'].best:.2f} s")
 
     row = {"model": name, "n": options.get("n", "-"),
-           "sympy_s": theirs["derive_s"], "kanedyn_s": ours["derive_s"],
-           "codegen_s": ours["codegen_s"],
+           "sympy": times["sympy"], "kanedyn": times["kanedyn"],
+           "codegen": times["kanedyn+codegen"],
+           "derive_winner": winner_text({k: times[k] for k in ("sympy", "kanedyn")}),
            "ops_kanedyn": kanedyn_operation_counts(ours["eom"])}
     row["ops_sympy"] = sympy_operation_counts(theirs["mass_matrix_full"],
                                               theirs["forcing_full"])
@@ -308,13 +319,17 @@ def benchmark_model(name, options, args, log):
         raise RuntimeError(f"{label}: state orders differ: {state_sympy} "
                            f"vs {[str(s) for s in eom.state]}")
     y = benchmark_state(ours["definition"], model)
-    row["rhs_kanedyn_us"] = microseconds_per_call(lambda: model.rhs(0.0, y))
     n = options.get("n", 0)
     if args.skip_sympy_rhs or n > args.sympy_rhs_max_n:
-        row["rhs_sympy_us"] = row["lambdify_s"] = row["rhs_diff"] = None
+        row["rhs_kanedyn"] = interleaved({"kanedyn": lambda: model.rhs(0.0, y)},
+                                         rounds=7, min_time=0.2)["kanedyn"]
+        row["rhs_sympy"] = row["lambdify_s"] = row["rhs_diff"] = row["rhs_winner"] = None
     else:
         rhs, row["lambdify_s"] = sympy_rhs(theirs)
-        row["rhs_sympy_us"] = microseconds_per_call(lambda: rhs(0.0, y))
+        rhs_times = interleaved({"kanedyn": lambda: model.rhs(0.0, y),
+                                 "sympy": lambda: rhs(0.0, y)}, rounds=7, min_time=0.2)
+        row["rhs_kanedyn"], row["rhs_sympy"] = rhs_times["kanedyn"], rhs_times["sympy"]
+        row["rhs_winner"] = winner_text(rhs_times)
         ours_ydot, theirs_ydot = model.rhs(0.0, y), rhs(0.0, y)
         row["rhs_diff"] = float(np.max(np.abs(ours_ydot - theirs_ydot))
                                 / max(np.max(np.abs(ours_ydot)), 1e-300))
@@ -324,10 +339,10 @@ def benchmark_model(name, options, args, log):
 
 # ------------------------------------------------------------------ table
 COLUMNS = ("model", "n", "SymPy derive s", "kanedyn derive s", "speed-up",
-           "kanedyn derive+codegen s", "SymPy lambdify s", "ops M/F SymPy",
+           "faster (clear)", "kanedyn derive+codegen s", "SymPy lambdify s", "ops M/F SymPy",
            "ops SymPy+CSE", "ops M/F (joint) kanedyn", "ops kanedyn+CSE",
            "RHS µs SymPy lambdify+solve",
-           "RHS µs kanedyn numpy", "RHS speed-up", "RHS rel. diff")
+           "RHS µs kanedyn numpy", "RHS speed-up", "faster RHS (clear)", "RHS rel. diff")
 
 
 def format_count(count):
@@ -344,27 +359,42 @@ def format_seconds(seconds):
     return f"{seconds:.3g}" if seconds < 100 else f"{seconds:.0f}"
 
 
+def times_text(ratio):
+    """``"3.4x"`` below 10, ``"68x"`` from 10 on."""
+    return f"{ratio:.1f}x" if ratio < 10 else f"{ratio:.0f}x"
+
+
+def with_spread(timing, scale=1.0, digits=None):
+    """``"1.23 (4%)"``: a timing's minimum (times ``scale``) and its spread."""
+    value = timing.best * scale
+    text = format_seconds(value) if digits is None else f"{value:.{digits}f}"
+    return f"{text} ({timing.spread:.0%})"
+
+
 def row_cells(row):
     """The table cells of one row, as strings (column order of :data:`COLUMNS`)."""
     m, f, joint, joint_cse = row["ops_kanedyn"]
     sm_m, sm_f, sm_cse = row["ops_sympy"]
-    measured = row["rhs_sympy_us"] is not None
+    measured = row["rhs_sympy"] is not None
     if measured:
         wrong = " (!)" if row["rhs_diff"] > DISAGREEMENT else ""
         lambdify = format_seconds(row["lambdify_s"])
-        rhs_sympy = f"{row['rhs_sympy_us']:.0f}{wrong}"
-        rhs_ratio = f"{row['rhs_sympy_us'] / row['rhs_kanedyn_us']:.2f}x"
+        rhs_sympy = with_spread(row["rhs_sympy"], 1e6, 0) + wrong
+        rhs_ratio = f"{row['rhs_sympy'].best / row['rhs_kanedyn'].best:.2f}x"
         rhs_diff = f"{row['rhs_diff']:.1e}"
+        rhs_winner = row["rhs_winner"]
     else:
         lambdify = rhs_sympy = "skipped"
-        rhs_ratio = rhs_diff = "-"
-    return [row["model"], str(row["n"]), format_seconds(row["sympy_s"]),
-            format_seconds(row["kanedyn_s"]), f"{row['sympy_s'] / row['kanedyn_s']:.0f}x",
-            format_seconds(row["codegen_s"]), lambdify,
+        rhs_ratio = rhs_diff = rhs_winner = "-"
+    return [row["model"], str(row["n"]), with_spread(row["sympy"]),
+            with_spread(row["kanedyn"]),
+            times_text(row["sympy"].best / row["kanedyn"].best), row["derive_winner"],
+            with_spread(row["codegen"]), lambdify,
             f"{format_count(sm_m)}/{format_count(sm_f)}", format_count(sm_cse),
             f"{format_count(m)}/{format_count(f)} ({format_count(joint)})",
             format_count(joint_cse),
-            rhs_sympy, f"{row['rhs_kanedyn_us']:.0f}", rhs_ratio, rhs_diff]
+            rhs_sympy, with_spread(row["rhs_kanedyn"], 1e6, 0), rhs_ratio, rhs_winner,
+            rhs_diff]
 
 
 def format_table(rows, markdown=False):
@@ -388,9 +418,11 @@ NOTES = """\
 Notes:
 - speed-up = SymPy derive s / kanedyn derive s; RHS speed-up = SymPy µs / kanedyn µs.
 - SymPy derive: KanesMethod(...) + kanes_equations(bodies, loads) + mass_matrix_full
-  and forcing_full, one run. kanedyn: kd.kane(...), median of {repeat} runs, each on a
-  freshly built model; derive+codegen adds eom.numeric(constants=...). SymPy's
-  global cache is cleared before every derivation.
+  and forcing_full. kanedyn: kd.kane(...); derive+codegen adds
+  definition.numeric(eom). The three interleaved in {repeat} rounds, each timing on
+  a freshly built model with SymPy's global cache cleared (untimed); thread CPU
+  time, minimum (spread = median / min - 1). "faster (clear)" names a winner
+  only where the ranges [min, median] do not overlap.
 - ops: sympy.count_ops. SymPy: mass_matrix_full / forcing_full as explicit trees;
   SymPy+CSE: replacements + reduced expressions of one joint sympy.cse of both.
   kanedyn+CSE: the joint count after the common-subexpression elimination the
@@ -400,7 +432,8 @@ Notes:
   for constrained models this includes the constraint matrices from which the
   dependent speeds are eliminated numerically (SymPy's counts include its
   symbolic elimination).
-- RHS: median over 7 timeit repeats at one generic consistent state. SymPy:
+- RHS: minimum (spread) over 7 interleaved rounds of at least 0.2 s thread CPU
+  time each, at one generic consistent state. SymPy:
   lambdify([q + u, constants], [M_full, F_full], cse=True) then numpy.linalg.solve.
   RHS rel. diff = max|ydot_SymPy - ydot_kanedyn| / max|ydot_kanedyn|; (!) marks
   a difference above {limit:g}: the two tools disagree at that state.{skipped}"""
@@ -424,40 +457,48 @@ def chain_arguments(kind, n):
     return dict(kd.models.build("chain3d", n=n).kane_args)
 
 
-def kanedyn_explicit(kind, n, repeat):
-    """Median times of ``kd.kane`` and of ``kd.kane`` + reading the explicit matrices.
+def explicit_derivations(kind, n, rounds):
+    """SymPy's ``KanesMethod``, ``kd.kane``, ``kd.kane`` + the explicit matrices.
+
+    Timed interleaved in ``rounds`` rounds (:func:`_timing.interleaved`,
+    thread CPU time), each timing on freshly built arguments with SymPy's cache
+    cleared (untimed).
 
     Returns
     -------
-    dict
-        ``kane_s``, ``explicit_s`` (``kd.kane`` then ``mass_matrix_full`` and
-        ``forcing_full``), and ``eom`` of the last repetition.
+    timings : dict
+        ``{"sympy", "kane", "kane+M/F": Timing}``: SymPy's ``KanesMethod`` +
+        ``kanes_equations`` + reading ``mass_matrix_full`` and
+        ``forcing_full``; ``kd.kane``; ``kd.kane`` then the same two matrices.
+    eom, kane
+        The last kanedyn equations and SymPy ``KanesMethod``.
     """
-    kane, total = [], []
-    for _ in range(repeat):
+    last = {}
+
+    def prepare():
         args = chain_arguments(kind, n)
         fresh_start()
-        start = time.perf_counter()
+        return args
+
+    def sympy(args):
+        kane = me.KanesMethod(args["frame"], args["q_ind"], args["u_ind"],
+                              kd_eqs=args["kd_eqs"])
+        kane.kanes_equations(args["bodies"], args["loads"])
+        _ = kane.mass_matrix_full, kane.forcing_full
+        last["kane"] = kane
+
+    def kane(args):
+        last["eom"] = kd.kane(**args)
+
+    def kane_explicit(args):
         eom = kd.kane(**args)
-        derived = time.perf_counter()
         _ = eom.mass_matrix_full, eom.forcing_full  # built on first access
-        done = time.perf_counter()
-        kane.append(derived - start)
-        total.append(done - start)
-    return {"kane_s": statistics.median(kane), "explicit_s": statistics.median(total),
-            "eom": eom}
+        last["eom"] = eom
 
-
-def sympy_explicit(kind, n):
-    """SymPy's ``KanesMethod`` + ``kanes_equations`` + reading the matrices; one run."""
-    args = chain_arguments(kind, n)
-    fresh_start()
-    start = time.perf_counter()
-    kane = me.KanesMethod(args["frame"], args["q_ind"], args["u_ind"],
-                          kd_eqs=args["kd_eqs"])
-    kane.kanes_equations(args["bodies"], args["loads"])
-    _ = kane.mass_matrix_full, kane.forcing_full
-    return {"explicit_s": time.perf_counter() - start, "kane": kane}
+    names = ("sympy", "kane", "kane+M/F")
+    timings = interleaved(dict(zip(names, (sympy, kane, kane_explicit))), rounds=rounds,
+                          min_time=0, setup=dict.fromkeys(names, prepare))
+    return timings, last["eom"], last["kane"]
 
 
 def lambdify_seconds(q, u, mass, forcing):
@@ -471,16 +512,14 @@ def lambdify_seconds(q, u, mass, forcing):
 
 def benchmark_explicit(kind, n, args, log):
     """One row of the explicit-matrix table."""
-    ours = kanedyn_explicit(kind, n, args.repeat)
-    log(f"{kind} n={n}: kanedyn kane {ours['kane_s']:.3f} s, "
-        f"+ explicit {ours['explicit_s']:.3f} s")
-    theirs = sympy_explicit(kind, n)
-    log(f"{kind} n={n}: SymPy {theirs['explicit_s']:.2f} s")
-    row = {"chain": kind, "n": n, "sympy_s": theirs["explicit_s"],
-           "kane_s": ours["kane_s"], "explicit_s": ours["explicit_s"],
+    times, eom, km = explicit_derivations(kind, n, args.repeat)
+    log(f"{kind} n={n}: kanedyn kane {times['kane'].best:.3f} s, "
+        f"+ explicit {times['kane+M/F'].best:.3f} s, SymPy {times['sympy'].best:.2f} s")
+    row = {"chain": kind, "n": n, "sympy": times["sympy"], "kane": times["kane"],
+           "explicit": times["kane+M/F"],
+           "winner": winner_text({k: times[k] for k in ("sympy", "kane+M/F")}),
            "lambdify_sympy_s": None, "lambdify_kanedyn_s": None}
     if args.explicit_lambdify:
-        km, eom = theirs["kane"], ours["eom"]
         fresh_start()
         row["lambdify_sympy_s"] = lambdify_seconds(km.q, km.u, km.mass_matrix_full,
                                                    km.forcing_full)
@@ -493,21 +532,21 @@ def benchmark_explicit(kind, n, args, log):
 
 
 EXPLICIT_COLUMNS = ("chain", "n", "SymPy KanesMethod+M/F s", "kanedyn kane s",
-                    "ratio", "kanedyn kane+M/F s", "ratio M/F",
+                    "ratio", "kanedyn kane+M/F s", "ratio M/F", "faster M/F (clear)",
                     "lambdify s SymPy", "lambdify s kanedyn",
                     "SymPy total s", "kanedyn total s", "ratio total")
 
 
 def explicit_cells(row):
     """Cells of one explicit-matrix row (order of :data:`EXPLICIT_COLUMNS`)."""
-    cells = [row["chain"], str(row["n"]), format_seconds(row["sympy_s"]),
-             format_seconds(row["kane_s"]), f"{row['sympy_s'] / row['kane_s']:.0f}x",
-             format_seconds(row["explicit_s"]),
-             f"{row['sympy_s'] / row['explicit_s']:.0f}x"]
+    sympy_s, kane_s, explicit_s = row["sympy"].best, row["kane"].best, row["explicit"].best
+    cells = [row["chain"], str(row["n"]), with_spread(row["sympy"]),
+             with_spread(row["kane"]), times_text(sympy_s / kane_s),
+             with_spread(row["explicit"]), times_text(sympy_s / explicit_s), row["winner"]]
     if row["lambdify_sympy_s"] is None:
         return cells + ["-"] * 5
-    total_sympy = row["sympy_s"] + row["lambdify_sympy_s"]
-    total_ours = row["explicit_s"] + row["lambdify_kanedyn_s"]
+    total_sympy = sympy_s + row["lambdify_sympy_s"]
+    total_ours = explicit_s + row["lambdify_kanedyn_s"]
     return cells + [format_seconds(row["lambdify_sympy_s"]),
                     format_seconds(row["lambdify_kanedyn_s"]), format_seconds(total_sympy),
                     format_seconds(total_ours), f"{total_sympy / total_ours:.1f}x"]
@@ -532,9 +571,11 @@ def format_rows(columns, body, markdown=False):
 EXPLICIT_NOTES = """\
 Notes (explicit matrices):
 - SymPy: KanesMethod(N, q, u, kd_eqs) + kanes_equations(bodies, loads) + reading
-  mass_matrix_full and forcing_full, one run. kanedyn: kd.kane(...) ("kane s") and
-  kd.kane(...) + reading eom.mass_matrix_full and eom.forcing_full ("kane+M/F s"),
-  median of {repeat} runs on freshly built models. ratio = SymPy s / kanedyn s.
+  mass_matrix_full and forcing_full. kanedyn: kd.kane(...) ("kane s") and
+  kd.kane(...) + reading eom.mass_matrix_full and eom.forcing_full ("kane+M/F s").
+  The three interleaved in {repeat} rounds on freshly built models, thread CPU
+  time: minimum (spread = median / min - 1). ratio = SymPy s / kanedyn s (minima);
+  "faster (clear)" names a winner only where [min, median] do not overlap.
 - sympy-docs: the chain of benchmarks/_peers.py sympy_docs_chain (orient_axis about
   alternating x/y axes, v2pt_theory, full inertia dyadics, parameters per link);
   chain3d: the built-in model (z/x axes, diagonal inertia, shared parameters).
@@ -562,7 +603,10 @@ def main(argv=None):
                         help="lambdify SymPy's equations only for chains up to N bodies "
                              "(default: all)")
     parser.add_argument("--repeat", type=int, default=3,
-                        help="repetitions of kanedyn's derivation (median; default 3)")
+                        help="interleaved rounds of the derivations (minimum and spread; "
+                             "default 3)")
+    parser.add_argument("--quick", action="store_true",
+                        help="chains n = 2..4, no bicycle, explicit n = 3, 2 rounds")
     parser.add_argument("--markdown", action="store_true", help="print a markdown table")
     parser.add_argument("--explicit-n", type=int, nargs="*", default=[3, 5, 8], metavar="N",
                         help="chain sizes of the explicit-matrix table (default 3 5 8; "
@@ -572,6 +616,8 @@ def main(argv=None):
     parser.add_argument("--explicit-only", action="store_true",
                         help="only the explicit-matrix table")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.max_n, args.bicycle, args.explicit_n, args.repeat = 4, False, [3], 2
 
     def log(message):
         print(message, file=sys.stderr, flush=True)
@@ -599,7 +645,7 @@ def main(argv=None):
     skipped = ""
     if args.skip_sympy_rhs:
         skipped = "\n- SymPy's RHS was not measured (--skip-sympy-rhs)."
-    elif any(row["rhs_sympy_us"] is None for row in rows):
+    elif any(row["rhs_sympy"] is None for row in rows):
         skipped = (f"\n- SymPy's RHS was measured for chains up to n = "
                    f"{args.sympy_rhs_max_n} only (lambdify of larger ones is slow).")
     print(header)

@@ -19,14 +19,15 @@ Three measurements, each a part that can be run alone (``--parts``):
 3. ``spinup``: the spin-up beam of Kane, Ryan & Banerjee (1987), a cantilever
    on a hub whose angle is prescribed, 0 .. 20 s: ``kd.simulate`` with the
    compiled RK45 loop on the C backend against ``scipy.integrate.solve_ivp``
-   (RK45) driving the numpy backend's ``model.rhs``, same tolerances; wall
-   times, ratio and the largest difference of the tip deflection.
+   (RK45) driving the numpy backend's ``model.rhs``, same tolerances; thread
+   CPU times (the compiled runs interleaved in rounds), ratio and the largest
+   difference of the tip deflection.
 
-There is no peer for flexible bodies in Python: SymPy's ``KanesMethod`` and
-PyDy have no flexible body, so a same-run comparison of the derivation would
-need a hand-written flexible formulation in SymPy (not done; see
-``docs/benchmarks.md``). The figures are absolute times on this machine, set
-against the project's targets.
+SymPy's ``KanesMethod`` and PyDy have no flexible body; the peer of part 1
+(``--sympy``, section 1b) is the robot written by hand in SymPy's
+``LagrangesMethod`` from the same inertia data, its right-hand side timed
+interleaved with kanedyn's. The other figures are absolute times on this
+machine, set against the project's targets.
 
 Usage::
 
@@ -43,7 +44,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import gc
-import math
 import os
 import platform
 import shutil
@@ -61,6 +61,7 @@ import kanedyn as kd
 
 # bench_numerics lives next to this script (on sys.path when run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _timing import interleaved, ratio_text, winner  # noqa: E402
 from bench_numerics import (best_seconds, cpu_name, format_table, load_average, log,  # noqa: E402
                             section, source_revision, timed, verdict)
 
@@ -166,10 +167,19 @@ def generic_state(model, seed=0, modal=0.01, angle=0.5, speed=0.5):
     return y
 
 
-def rhs_times(models, y, repeat, min_time):
-    """µs per ``model.rhs(0.0, y)`` call for each backend, and their difference."""
-    out = {name: best_seconds(lambda m=m: m.rhs(0.0, y), repeat, min_time) * 1e6
-           for name, m in models.items()}
+def rhs_times(models, y, repeat, min_time, extra=None):
+    """µs per ``model.rhs(0.0, y)`` call for each backend, and their difference.
+
+    The backends (and ``extra``, ``{name: func}`` timed beside them) are timed
+    interleaved in ``repeat`` rounds (:func:`_timing.interleaved`, thread CPU
+    time); ``out[name]`` is the minimum in µs, ``out["timings"]`` the
+    :class:`_timing.Timing` of each.
+    """
+    contenders = {name: (lambda m=m: m.rhs(0.0, y)) for name, m in models.items()}
+    contenders.update(extra or {})
+    timings = interleaved(contenders, rounds=repeat, min_time=min_time)
+    out = {name: t.best * 1e6 for name, t in timings.items()}
+    out["timings"] = timings
     a, b = (models[k].rhs(0.0, y) for k in ("numpy", "c"))
     out["diff"] = float(np.max(np.abs(a - b)) / max(np.max(np.abs(a)), 1e-300))
     return out
@@ -246,8 +256,16 @@ def measure_robot(repeat, min_time, peer=True):
     row = {"label": "robot", "no_cse": no_cse, "member_s": min(member_s), "numpy_s": numpy_s,
            "n_states": model_c.n_states, "counts": eom.operation_counts()}
     row.update(build_times(derive, build))
-    row.update(rhs_times({"numpy": model_np, "c": model_c}, y, repeat, min_time))
-    row["sympy"] = measure_sympy_robot(member, y, model_np, repeat, min_time) if peer else None
+    row["sympy"] = measure_sympy_robot(member, y, model_np) if peer else None
+    extra = {"peer": row["sympy"].pop("rhs")} if peer else None
+    times = rhs_times({"numpy": model_np, "c": model_c}, y, repeat, min_time, extra)
+    times.pop("peer", None)
+    row.update(times)
+    if peer:
+        timings = row["timings"]
+        row["sympy"]["rhs_us"] = timings["peer"].best * 1e6
+        row["sympy"]["winner_numpy"] = winner({k: timings[k] for k in ("peer", "numpy")})
+        row["sympy"]["winner_c"] = winner({k: timings[k] for k in ("peer", "c")})
     return row
 
 
@@ -308,7 +326,7 @@ def sympy_robot(member):
             "values": np.array([ROBOT["hub_inertia"], ROBOT["payload"], ROBOT["torque"]])}
 
 
-def measure_sympy_robot(member, y, model, repeat, min_time):
+def measure_sympy_robot(member, y, model):
     """SymPy's derivation, lambdify and right-hand side for the hand-written robot.
 
     Parameters
@@ -324,8 +342,9 @@ def measure_sympy_robot(member, y, model, repeat, min_time):
     dict
         ``derive_s`` (building the energies, ``form_lagranges_equations`` and
         reading ``mass_matrix_full`` / ``forcing_full``), ``lambdify_s``,
-        ``rhs_us`` (lambdified matrices + ``numpy.linalg.solve``), ``diff``
-        (largest relative difference from kanedyn's ``model.rhs``).
+        ``rhs`` (a function of no arguments: lambdified matrices +
+        ``numpy.linalg.solve`` at ``y``, timed by the caller beside kanedyn's),
+        ``diff`` (largest relative difference from kanedyn's ``model.rhs``).
     """
     fresh_start()
 
@@ -344,23 +363,30 @@ def measure_sympy_robot(member, y, model, repeat, min_time):
         return np.linalg.solve(M, F).ravel()
     ours = model.rhs(0.0, y)
     return {"derive_s": derive_s, "derive_cpu": derive_cpu, "lambdify_s": lambdify_s,
-            "rhs_us": best_seconds(lambda: rhs(0.0, y), repeat, min_time) * 1e6,
+            "rhs": lambda: rhs(0.0, y),
             "diff": float(np.max(np.abs(rhs(0.0, y) - ours)) / np.max(np.abs(ours)))}
 
 
-PEER_COLUMNS = ("tool", "derive s (CPU)", "to numerical s", "rhs µs", "rel. diff of rhs")
+PEER_COLUMNS = ("tool", "derive s (CPU)", "to numerical s", "rhs µs (spread)",
+                "rhs vs SymPy", "faster rhs (clear)", "rel. diff of rhs")
 
 
 def peer_cells(robot):
     """Rows of the SymPy comparison: SymPy, kanedyn numpy, kanedyn C."""
-    peer = robot["sympy"]
+    peer, t = robot["sympy"], robot["timings"]
+
+    def us(name, digits):
+        return f"{t[name].best * 1e6:.{digits}f} ({t[name].spread:.0%})"
+
     return [["SymPy LagrangesMethod + lambdify",
              f"{peer['derive_s']:.2f} ({peer['derive_cpu']:.2f})",
-             f"{peer['lambdify_s']:.2f}", f"{peer['rhs_us']:.0f}", f"{peer['diff']:.1e}"],
+             f"{peer['lambdify_s']:.2f}", us("peer", 0), "1", "-", f"{peer['diff']:.1e}"],
             ["kanedyn kd.kane, numpy", f"{robot['derive_s']:.2f} ({robot['derive_cpu']:.2f})",
-             f"{robot['numpy_s']:.2f}", f"{robot['numpy']:.0f}", "0 (reference)"],
+             f"{robot['numpy_s']:.2f}", us("numpy", 0), ratio_text(t["peer"], t["numpy"]),
+             (peer["winner_numpy"] or "none").replace("peer", "SymPy"), "0 (reference)"],
             ["kanedyn kd.kane, C", f"{robot['derive_s']:.2f} ({robot['derive_cpu']:.2f})",
-             f"{robot['compile_s']:.2f}", f"{robot['c']:.2f}", f"{robot['diff']:.1e}"]]
+             f"{robot['compile_s']:.2f}", us("c", 2), ratio_text(t["peer"], t["c"]),
+             (peer["winner_c"] or "none").replace("peer", "SymPy"), f"{robot['diff']:.1e}"]]
 
 
 PEER_NOTES = """\
@@ -372,6 +398,10 @@ PEER_NOTES = """\
   parameters], [M_full, F_full], cse=True) ("to numerical s") and
   numpy.linalg.solve per call ("rhs µs", same state as above). kanedyn's derive s
   covers building its bodies and kd.kane; "to numerical s" is eom.numeric().
+- rhs µs: the three timed interleaved in rounds (thread CPU time), minimum and
+  spread (median / min - 1); "rhs vs SymPy" is SymPy's minimum / this one's with
+  both spreads; "faster rhs (clear)" names the faster of the pair (SymPy, this)
+  only where the ranges [min, median] do not overlap.
 - Writing the energies took no modelling in SymPy only because kanedyn computed
   the invariants; a SymPy user would have to derive them from the finite-element
   model first. Kane's method proper (KanesMethod) would need the generalized
@@ -445,7 +475,9 @@ def build_cells(row):
     wall_cpu = [f"{row[key + '_s']:.2f} ({row[key + '_cpu']:.2f})"
                 for key in ("derive", "compile", "total")]
     return [row["label"], str(row["n_states"]), member, *wall_cpu, f"{row['numpy_s']:.2f}",
-            f"{row['numpy']:.0f}", f"{row['c']:.2f}", f"{row['numpy'] / row['c']:.0f}x",
+            f"{row['numpy']:.0f} ({row['timings']['numpy'].spread:.0%})",
+            f"{row['c']:.2f} ({row['timings']['c'].spread:.0%})",
+            f"{row['numpy'] / row['c']:.0f}x",
             f"{row['diff']:.1e}", f"{counts['intermediates']:,}",
             f"{counts['mass_matrix']:,}/{counts['forcing']:,}", f"{counts['all_cse']:,}"]
 
@@ -460,8 +492,9 @@ BUILD_NOTES = """\
   Wall times, in parentheses CPU times (this process plus the compiler), the
   better measure on a shared machine; derive+C: best of the sums.
 - rhs: model.rhs(0.0, y) at one generic state (joint angles and speeds up to 0.5,
-  modal coordinates and speeds up to 0.01), best of {repeat} timeit runs of at least
-  {min_time:g} s. rel. diff: max|rhs_numpy - rhs_C| / max|rhs_numpy|.
+  modal coordinates and speeds up to 0.01), numpy and C interleaved in {repeat} rounds
+  of at least {min_time:g} s thread CPU time: minimum (spread = median / min - 1).
+  rel. diff: max|rhs_numpy - rhs_C| / max|rhs_numpy|.
 - ops: eom.operation_counts(): mass matrix / forcing (each with the intermediates
   it needs) and everything the right-hand side evaluates after the joint CSE of the
   C generator; intermediates: the named intermediates of the compact equations.
@@ -523,16 +556,26 @@ def measure_spinup(repeat):
             t_eval=t_eval),
     }
     repeats = {label: (1 if "numpy" in label else repeat) for label in runs}
+    results = {}
+
+    def keep(label, run):
+        def call():
+            results[label] = run()
+        return call
+    # the compiled runs interleaved in rounds, the slow numpy run once
+    fast = [label for label in runs if repeats[label] > 1]
+    timings = interleaved({label: keep(label, runs[label]) for label in fast},
+                          rounds=repeat, min_time=0)
+    timings.update(interleaved({label: keep(label, runs[label]) for label in runs
+                                if label not in fast}, rounds=1, min_time=0))
     rows, tips = [], {}
-    for label, run in runs.items():
-        best, result = math.inf, None
-        for _ in range(repeats[label]):
-            result, seconds = timed(run)
-            best = min(best, seconds)
+    for label in runs:
+        result, best = results[label], timings[label].best
         if not result.success:
             raise RuntimeError(f"spin-up, {label}: integration failed: {result.message}")
         tips[label] = tip_deflection(member, np.asarray(result.y)[:m])
-        rows.append({"label": label, "seconds": best, "nfev": int(result.nfev),
+        rows.append({"label": label, "seconds": best, "timing": timings[label],
+                     "nfev": int(result.nfev),
                      "runs": repeats[label], "method": getattr(result, "method", "RK45")})
         log(f"spin-up: {label}: {best:.3f} s, nfev {result.nfev}")
     reference = tips["solve_ivp RK45 + numpy model.rhs"]
@@ -543,17 +586,19 @@ def measure_spinup(repeat):
             "tip_end": float(reference[-1]), "n_states": model_c.n_states,
             "rhs_c_us": best_seconds(lambda: model_c.rhs(1.0, y0 + 1e-3), 5, 0.1) * 1e6,
             "rhs_np_us": best_seconds(lambda: model_np.rhs(1.0, y0 + 1e-3), 5, 0.1) * 1e6,
-            "counts": eom.operation_counts()}
+            "counts": eom.operation_counts(), "winner": winner({k: timings[k] for k in fast})}
     return rows, info
 
 
-SPIN_COLUMNS = ("integration", "wall s", "numpy solve_ivp / this", "nfev", "runs",
+SPIN_COLUMNS = ("integration", "CPU s (spread)", "numpy solve_ivp / this", "nfev", "runs",
                 "max |tip - tip_numpy| m")
 
 
 def spin_cells(row, numpy_seconds):
     """Table cells of one row of :func:`measure_spinup`."""
-    return [row["label"], f"{row['seconds']:.3f}", f"{numpy_seconds / row['seconds']:.1f}x",
+    spread = f"{row['timing'].spread:.0%}" if row["runs"] > 1 else "one run"
+    return [row["label"], f"{row['seconds']:.3f} ({spread})",
+            f"{numpy_seconds / row['seconds']:.1f}x",
             str(row["nfev"]), str(row["runs"]), f"{row['tip_diff']:.1e}"]
 
 
@@ -566,7 +611,10 @@ SPIN_NOTES = """\
   output at {samples} points (t_eval).
 - {n_states} states; right-hand side per call: C {c_us:.2f} µs, numpy {np_us:.0f} µs;
   C build (empty cache) {compile_s:.2f} s; kd.simulate reported method {method!r}.
-- wall s: best of "runs" runs (each complete, including kd.simulate's checks).
+- CPU s: thread CPU time, minimum of "runs" complete runs (kd.simulate's checks
+  included); the compiled runs interleaved in rounds (spread = median / min - 1),
+  the numpy run once. Clearly faster of the compiled two (ranges [min, median]
+  apart): {winner}.
   tip: in-plane tip deflection Phi_y eta + 1/2 eta^T G_y eta at the output points;
   difference from the numpy solve_ivp run, largest over the output points.
 - The deflection stays bounded (largest {tip_max:.3f} m, {tip_end:.2e} m at t = {t_end} s)
@@ -647,7 +695,8 @@ def run(args):
                                         compile_s=spin_info["compile_s"],
                                         method=spin_info["method"],
                                         tip_max=spin_info["tip_max"],
-                                        tip_end=spin_info["tip_end"]), md))
+                                        tip_end=spin_info["tip_end"],
+                                        winner=spin_info["winner"] or "none"), md))
     print("**Targets**" if md else "Targets\n=======")
     print()
     print(targets_summary(robot, spin_rows))

@@ -18,21 +18,22 @@ vectorized over the trajectory) plus ``model.inverse_dynamics`` (dependent
 speeds and rates from the constraints), against the same forces obtained
 through the forward equations (reduced mass matrix and forcing at every point,
 ``tau = M[:p] u' - f[:p]`` with the dependent rates from the acceleration
-constraint rows). Interleaved rounds, minimum of the thread CPU time
-(``time.thread_time``), spread printed.
+constraint rows). Every contender is timed interleaved in rounds
+(:func:`_timing.interleaved`, thread CPU time); minimum, spread
+(median / min - 1) and a winner only where the ranges [min, median] do not
+overlap (:func:`_timing.winner`) are printed.
 
 Ratios are between numbers measured in this run (design rule 15).
 
 Usage::
 
-    python benchmarks/bench_inverse.py [--sizes 5 10 30] [--rounds 7]
+    python benchmarks/bench_inverse.py [--sizes 5 10 30] [--rounds 7] [--quick]
 """
 
 from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
@@ -41,11 +42,17 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from bench_numerics import best_seconds, machine_info  # noqa: E402
+from _timing import interleaved, winner  # noqa: E402
+from bench_numerics import machine_info  # noqa: E402
 
 
-def measure(n, points=1000, repeat=5, min_time=0.2):
-    """Times per point (s) and the largest difference for the n-link chain."""
+def measure(n, points=1000, rounds=7, min_time=0.2):
+    """``{name: Timing}`` per point (s) and the largest difference for the n-link chain.
+
+    The three ways (``"one"``: one point per call, ``"batch"``: per point of a
+    ``points``-point call, ``"rnea"``) are timed interleaved in ``rounds``
+    rounds (:func:`_timing.interleaved`, thread CPU time).
+    """
     import pinocchio as pin
 
     model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
@@ -59,11 +66,12 @@ def measure(n, points=1000, repeat=5, min_time=0.2):
     ref = np.column_stack([pin.rnea(pmodel, pdata, q[:, i].copy(), u[:, i].copy(),
                                     udot[:, i].copy()) for i in range(points)])
     q0, u0, a0 = q[:, 0].copy(), u[:, 0].copy(), udot[:, 0].copy()
-    one = best_seconds(lambda: model.inverse_dynamics(0.0, q0, u0, a0), repeat, min_time)
-    batch = best_seconds(lambda: model.inverse_dynamics(t, q, u, udot), repeat,
-                         min_time) / points
-    peer = best_seconds(lambda: pin.rnea(pmodel, pdata, q0, u0, a0), repeat, min_time)
-    return one, batch, peer, float(np.max(np.abs(tau - ref)))
+    times = interleaved({"one": lambda: model.inverse_dynamics(0.0, q0, u0, a0),
+                         "batch": lambda: model.inverse_dynamics(t, q, u, udot),
+                         "rnea": lambda: pin.rnea(pmodel, pdata, q0, u0, a0)},
+                        rounds=rounds, min_time=min_time)
+    times["batch"].times = [x / points for x in times["batch"].times]
+    return times, float(np.max(np.abs(tau - ref)))
 
 
 def stewart_closed_form(P):
@@ -83,7 +91,7 @@ def stewart_closed_form(P):
 
 
 def stewart(points=1000, rounds=7):
-    """Thread CPU times (s, per round) of the two ways, and their largest difference."""
+    """``{name: Timing}`` (thread CPU s per trajectory) of the two ways, largest difference."""
     definition = kd.models.build("stewart-platform")
     model = definition.numeric(backend="c")
     t = np.linspace(0.0, 2.0, points)
@@ -111,12 +119,8 @@ def stewart(points=1000, rounds=7):
         return out
 
     diff = float(np.max(np.abs(inverse() - forward())))
-    times = {"inverse": [], "forward": []}
-    for _ in range(rounds):
-        for name, fn in (("inverse", inverse), ("forward", forward)):
-            start = time.thread_time()
-            fn()
-            times[name].append(time.thread_time() - start)
+    times = interleaved({"inverse": inverse, "forward": forward}, rounds=rounds,
+                        min_time=0)
     return times, diff
 
 
@@ -124,22 +128,36 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[5, 10, 30])
     parser.add_argument("--rounds", type=int, default=7)
+    parser.add_argument("--quick", action="store_true",
+                        help="n = 5 only, 3 rounds of 0.05 s (a smoke run)")
     args = parser.parse_args(argv)
+    min_time = 0.2
+    if args.quick:
+        args.sizes, args.rounds, min_time = [5], 3, 0.05
     print(machine_info())
-    print(f"{'n':>3}  {'kanedyn C, 1 point':>19}  {'per point of 1,000':>19}  "
-          f"{'pinocchio rnea':>15}  {'kanedyn / rnea':>14}  {'max |diff| N m':>14}")
+    print("thread CPU time per point, minimum over interleaved rounds (spread = "
+          "median / min - 1)")
+    print(f"{'n':>3}  {'kanedyn C, 1 point':>24}  {'per point of 1,000':>24}  "
+          f"{'pinocchio rnea':>22}  {'kanedyn / rnea':>14}  {'winner (1 point)':>22}  "
+          f"{'max |diff| N m':>14}")
     for n in args.sizes:
-        one, batch, peer, diff = measure(n)
-        print(f"{n:3d}  {one * 1e6:16.2f} us  {batch * 1e6:16.2f} us  {peer * 1e6:12.2f} us"
-              f"  {one / peer:14.2f}  {diff:14.1e}")
+        times, diff = measure(n, rounds=args.rounds, min_time=min_time)
+        one, batch, peer = times["one"], times["batch"], times["rnea"]
+        one.name = "kanedyn"
+        clear = winner([one, peer]) or "none (spreads overlap)"
+        print(f"{n:3d}  {one.best * 1e6:11.2f} us ({one.spread:4.0%})  "
+              f"{batch.best * 1e6:11.2f} us ({batch.spread:4.0%})  "
+              f"{peer.best * 1e6:9.2f} us ({peer.spread:4.0%})  "
+              f"{one.best / peer.best:14.2f}  {clear:>22}  {diff:14.1e}", flush=True)
     times, diff = stewart(rounds=args.rounds)
     print("\nStewart platform, 1,000-point quintic pose trajectory, C, closed-form IK "
           "included (thread CPU time, min and spread over interleaved rounds):")
     for name, label in (("inverse", "inverse_dynamics"),
                         ("forward", "forward equations (M, f per point)")):
-        v = np.array(times[name]) * 1e3
-        print(f"  {label:36s} {v.min():8.1f} ms  (spread {v.max() - v.min():.1f} ms)")
-    print(f"  ratio forward / inverse {min(times['forward']) / min(times['inverse']):.1f}, "
+        v = times[name]
+        print(f"  {label:36s} {v.best * 1e3:8.1f} ms  (spread {v.spread:.0%})")
+    print(f"  ratio forward / inverse {times['forward'].best / times['inverse'].best:.1f}, "
+          f"winner: {winner(times) or 'none (spreads overlap)'}, "
           f"max |difference| {diff:.1e} (N or N m)")
 
 

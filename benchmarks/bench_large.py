@@ -3,15 +3,18 @@
 Usage::
 
     python benchmarks/bench_large.py [--sizes 2 5 10 30 60 100] [--rounds 15]
-                                     [--no-humanoid] [--markdown] [--straight-line]
+                                     [--no-humanoid] [--markdown] [--quick]
+                                     [--straight-line]
 
 Models: the 3D chain (``kd.models.build("chain3d", n=n, style="positions")``
 against :func:`_peers.pinocchio_chain`) and a humanoid-like tree of 30 bodies
 (:func:`_peers.humanoid_urdf`, read by ``kd.models.from_urdf`` and by
 ``pinocchio.buildModelFromXML``).  Each round times kanedyn's ``model.rhs`` and
-``pin.aba`` one after the other (interleaved), each over enough calls to last
-about 20 ms of thread CPU time; the tables give the minimum over rounds of the
-CPU time per call and the spread (median / minimum - 1) of each contender.
+``pin.aba`` one after the other (interleaved, :func:`_timing.interleaved`),
+each over enough calls to last about 20 ms of thread CPU time; the tables give
+the minimum over rounds of the CPU time per call, the spread (median / minimum
+- 1) of each contender and the winner where the ranges [min, median] do not
+overlap (:func:`_timing.winner`).
 Also printed: the largest relative difference of u' from ``aba`` over 20
 random states.  The compile cache is ``$KANEDYN_CACHE_DIR`` (as set by the caller).
 
@@ -25,10 +28,8 @@ from __future__ import annotations
 
 import argparse
 import os
-import statistics
 import sys
 import tempfile
-import time
 
 import numpy as np
 
@@ -36,29 +37,7 @@ import kanedyn as kd
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _peers import humanoid_urdf, pinocchio_chain, pinocchio_urdf  # noqa: E402
-
-
-def per_call(func, number):
-    """Thread CPU seconds per call of ``func()`` over ``number`` calls."""
-    start = time.thread_time()
-    for _ in range(number):
-        func()
-    return (time.thread_time() - start) / number
-
-
-def interleaved(contenders, rounds, target=0.02):
-    """``{name: (minimum s, spread)}`` of per-call CPU times, interleaved rounds."""
-    numbers = {}
-    for name, func in contenders.items():
-        number = 1
-        while per_call(func, number) * number < target / 4:
-            number *= 2
-        numbers[name] = number * 4
-    samples = {name: [] for name in contenders}
-    for _ in range(rounds):
-        for name, func in contenders.items():
-            samples[name].append(per_call(func, numbers[name]))
-    return {name: (min(s), statistics.median(s) / min(s) - 1.0) for name, s in samples.items()}
+from _timing import interleaved, winner  # noqa: E402
 
 
 def compiled(definition, straight):
@@ -124,9 +103,11 @@ def measure(case, rounds):
                   "aba": lambda: pin.aba(pm, pd, q, v, tau)}
     if straight is not None:
         contenders["straight"] = lambda: straight.rhs(0.0, y)
-    times = interleaved(contenders, rounds)
+    times = interleaved(contenders, rounds=rounds, min_time=0.02)
+    pair = {"kanedyn": times["kanedyn"], "aba": times["aba"]}
     return {"label": label, "n": n, "ours": times["kanedyn"], "aba": times["aba"],
             "straight": times.get("straight"), "diff": worst,
+            "winner": winner(pair) or "none (spreads overlap)",
             "diff_straight": worst_straight}
 
 
@@ -136,9 +117,13 @@ def main(argv=None):
     parser.add_argument("--rounds", type=int, default=15)
     parser.add_argument("--no-humanoid", action="store_true")
     parser.add_argument("--markdown", action="store_true")
+    parser.add_argument("--quick", action="store_true",
+                        help="n = 2 and 5 only, 3 rounds, no humanoid (a smoke run)")
     parser.add_argument("--straight-line", action="store_true",
                         help="also time the straight-line mass matrix path")
     args = parser.parse_args(argv)
+    if args.quick:
+        args.sizes, args.rounds, args.no_humanoid = [2, 5], 3, True
     straight = args.straight_line
     cases = [lambda n=n: chain_case(n, straight) for n in args.sizes]
     if not args.no_humanoid:
@@ -147,19 +132,19 @@ def main(argv=None):
     extra = (f" straight-line µs (spread) {bar} ratio {bar} max rel. diff u' "
              f"from straight-line {bar}" if straight else "")
     print(f"{bar} model {bar} kanedyn rhs µs (spread) {bar} pin.aba µs (spread) "
-          f"{bar} ratio {bar} max rel. diff u' {bar}{extra}")
+          f"{bar} ratio {bar} winner {bar} max rel. diff u' {bar}{extra}")
     if args.markdown:
-        print("|---|---:|---:|---:|---:|" + ("---:|---:|---:|" if straight else ""))
+        print("|---|---:|---:|---:|---|---:|" + ("---:|---:|---:|" if straight else ""))
     for make in cases:
         row = measure(make(), args.rounds)
-        (ours, s_ours), (aba, s_aba) = row["ours"], row["aba"]
-        text = (f"{bar} {row['label']} {bar} {ours * 1e6:.2f} ({s_ours:.0%}) {bar} "
-                f"{aba * 1e6:.2f} ({s_aba:.0%}) {bar} {ours / aba:.2f} {bar} "
-                f"{row['diff']:.1e} {bar}")
+        ours, aba = row["ours"], row["aba"]
+        text = (f"{bar} {row['label']} {bar} {ours.best * 1e6:.2f} ({ours.spread:.0%}) {bar} "
+                f"{aba.best * 1e6:.2f} ({aba.spread:.0%}) {bar} {ours.best / aba.best:.2f} "
+                f"{bar} {row['winner']} {bar} {row['diff']:.1e} {bar}")
         if straight:
-            before, s_before = row["straight"]
-            text += (f" {before * 1e6:.2f} ({s_before:.0%}) {bar} {before / aba:.2f} {bar} "
-                     f"{row['diff_straight']:.1e} {bar}")
+            before = row["straight"]
+            text += (f" {before.best * 1e6:.2f} ({before.spread:.0%}) {bar} "
+                     f"{before.best / aba.best:.2f} {bar} {row['diff_straight']:.1e} {bar}")
         print(text, flush=True)
 
 
