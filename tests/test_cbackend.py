@@ -13,6 +13,7 @@ from scipy.integrate import solve_ivp
 
 import kanedyn as kd
 from kanedyn.numerics.backends import _c as _cbackend
+from kanedyn.numerics.backends import _c_build
 from kanedyn.numerics.backends._python import CodegenError
 
 pytestmark = pytest.mark.skipif(_cbackend.compiler_command() is None,
@@ -134,14 +135,14 @@ def test_concurrent_builds(tmp_path):
 
 def test_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(_cbackend, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "_LOADED", {})
     d = kd.models.build("pendulum")
     eom = d.derive()
     expected = d.numeric(eom, backend="c").rhs(0.0, [0.4, 0.1])
     (library,) = tmp_path.glob("_kd_*.so")
     library.unlink()  # a new file: the library this process has mapped stays intact
     library.write_bytes(b"not a shared library")
-    monkeypatch.setattr(_cbackend, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "_LOADED", {})
     np.testing.assert_array_equal(d.numeric(eom, backend="c").rhs(0.0, [0.4, 0.1]), expected)
 
 

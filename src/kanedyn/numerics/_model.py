@@ -358,7 +358,7 @@ class NumericModel(StateLayout):
         self._inputs = d["inputs"]
         if d["backend"] == "c":
             if module is None:
-                from .backends._c import load_module
+                from .backends._c_build import load_module
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
             self._module = module

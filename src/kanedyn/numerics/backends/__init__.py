@@ -1,7 +1,8 @@
 """Code generators for the numerical model: a family of siblings.
 
 ``_python``         NumPy source from a straight-line program (``backend="numpy"``)
-``_c``              C source, compiled into a cached extension (``backend="c"``)
+``_c``              C source of an extension module (``backend="c"``)
+``_c_build``        compiling (translation units in parallel) and caching the modules
 ``_c_runtime``      the C runtime every generated module carries
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 """

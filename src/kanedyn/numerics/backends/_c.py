@@ -6,53 +6,34 @@ Code generation
     superlinearly on huge functions); values crossing a split go through a
     work array.
 
-Build and cache
-    The module is compiled with the system C compiler on first use and cached
-    on disk under a name derived from the SHA-256 of its source and build
-    settings (``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` or
-    ``~/.cache/kanedyn``).  Builds happen in a private temporary directory and
-    are published with an atomic rename, so several processes may build the
-    same module at once; every entry carries a checksum and an entry that
-    fails it (or fails to load) is rebuilt.
+Translation units
+    The generated functions go into translation units of their own (the
+    dynamics, the lane-wise dynamics, the tree pass, the rest), separate from
+    the runtime with its Python headers; they are compiled in parallel and
+    linked (:mod:`._c_build`, which also builds and caches the module).
 """
 
 from __future__ import annotations
 
 import hashlib
-import importlib.machinery
-import importlib.util
-import json
-import os
-import shlex
-import shutil
-import subprocess
-import sys
-import sysconfig
-import tempfile
-import threading
-import warnings
-from pathlib import Path
+import re
 
 import numpy as np
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
 from . import _c_contact, _c_integrator, _c_lanes, _c_runtime
+from ._c_build import (NAME_TOKEN, STATS, UNIT_MARK, CompilerError, cache_dir,
+                       compiler_command, load_module, missing_compiler_text)
 from ._python import CodegenError
-from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
            "missing_compiler_text", "CHUNK", "elimination_tree", "solver_source", "STATS",
            "cache_dir", "speed_tree_outputs", "TREE_MIN_SPEEDS"]
 
 CHUNK = 2500  # statements per generated C function
-NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
-_LOADED = {}  # hash -> module, per process
-_LOCK = threading.Lock()
-
-
-class CompilerError(KanedynError, RuntimeError):
-    """No usable C compiler, or compilation failed."""
+#: a function of fewer characters shares a translation unit with the other small ones
+UNIT_MIN_CHARS = 20000
 
 
 # ------------------------------------------------------------------ printing
@@ -144,10 +125,10 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
             if s in stored and chunk_of[s] < c:
                 names[s] = f"w[{index[s]}]"
         body = []
+        printer = _CPrinter(names)  # reads ``names`` as it grows
         for s in members:
             names[s] = f"z{index[s]}"
-            code = _print_c(_CPrinter(names), definition[s],
-                            f"in the intermediate {s.name}", describe)
+            code = _print_c(printer, definition[s], f"in the intermediate {s.name}", describe)
             body.append(f"    const double z{index[s]} = {code};")
             if split and last_use.get(s, c) > c:
                 body.append(f"    w[{index[s]}] = z{index[s]};")
@@ -159,7 +140,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
         else:
             chunk_body = body
     out_params = ", ".join(f"double *restrict o{k}" for k in range(len(outputs)))
-    lines.append(f"static void kd_eval_{name}({params}{', ' if outputs else ''}{out_params}) {{")
+    lines.append(f"KD_GEN void kd_eval_{name}({params}{', ' if outputs else ''}{out_params}) {{")
     names = dict(base)
     if split:
         for c in range(len(chunks)):
@@ -372,7 +353,7 @@ def _structure(expr, names, memo):
     return text
 
 
-def generate_c(program, functions, sizes, describe=str, cse=True):
+def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -389,9 +370,16 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
         model's own symbols).
     cse : bool
         Eliminate common subexpressions jointly first (:meth:`Program.listing`).
+    units : bool
+        Separate translation units (joined by :data:`UNIT_MARK`): the runtime
+        with the Python headers first, then each large generated function
+        (:data:`UNIT_MIN_CHARS`) in a unit of its own and the small ones
+        together, compiled in parallel by :func:`load_module`.  ``False``: one
+        C file (what :meth:`~kanedyn.NumericModel.c_source` shows).
     """
-    parts, work = [], 0
+    generated, work = [], 0  # (source, prototype text)
     lanes = _lanes_wanted(functions, sizes)
+    lane_defines = []
     for name, (arguments, outputs) in functions.items():
         listing = None
         if lanes and name == "dynamics":  # one listing for both versions
@@ -399,17 +387,17 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
             listing = program.listing(flat, cse=cse)
             src, w = _c_lanes.lanes_source(program, arguments, outputs, listing, describe,
                                            CHUNK)
-            lanes = [f"#define KD_LANES {_c_lanes.LANES}", f"#define KD_NWL {w}",
-                     _c_runtime.LANE_RUNTIME, src]
+            lane_defines = [f"#define KD_LANES {_c_lanes.LANES}", f"#define KD_NWL {w}",
+                            _c_runtime.LANE_RUNTIME]
+            generated.append(src)
         src, w = _function_source(program, name, arguments, outputs, describe, cse, listing)
-        parts.append(src)
+        generated.append(src)
         work = max(work, w)
-    parts.extend(lanes or [])
-    defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
-               f"#define KD_NQDEP {sizes['n_q_dep']}",
-               f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
-               f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}",
-               f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
+    sizes_defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
+                     f"#define KD_NQDEP {sizes['n_q_dep']}",
+                     f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
+                     f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}"]
+    defines = [*sizes_defines, f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
     wrappers = []
@@ -425,8 +413,23 @@ def generate_c(program, functions, sizes, describe=str, cse=True):
         table.append('    {"contact_segment", (PyCFunction)kd_py_contact_segment, '
                      'METH_VARARGS, NULL},')
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
-    return "\n".join([_c_runtime.HEADER, *defines, *parts, _c_runtime.RUNTIME,
-                      _c_integrator.INTEGRATOR, *contact, *wrappers, _c_runtime.FOOTER])
+    runtime = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, *contact, *wrappers,
+               _c_runtime.FOOTER]
+    if not units:
+        return "\n".join([_c_runtime.HEADER, *defines, *lane_defines, *generated, *runtime])
+    # the runtime unit declares the generated functions; the others define them
+    prototypes = [_PROTOTYPE.search(src).group(0)[:-2] + ";" for src in generated]
+    main = "\n".join(["#define KD_GEN", _c_runtime.HEADER, *defines, *lane_defines,
+                      *prototypes, *runtime])
+    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *sizes_defines, *lane_defines]
+    large = [src for src in generated if len(src) >= UNIT_MIN_CHARS]
+    small = [src for src in generated if len(src) < UNIT_MIN_CHARS]
+    pieces = [[src] for src in large] + ([small] if small else [])
+    return UNIT_MARK.join([main] + ["\n".join(preamble + piece) for piece in pieces])
+
+
+#: the signature line of a generated entry function (``KD_GEN void kd_...(...) {``)
+_PROTOTYPE = re.compile(r"^(KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
 
 
 def _lanes_wanted(functions, sizes):
@@ -439,231 +442,3 @@ def _lanes_wanted(functions, sizes):
         return False
     arguments, outputs = functions["dynamics"]
     return set(arguments) <= {"y", "p", "r"} and len(outputs) >= 3
-
-
-# ------------------------------------------------------------ build, cache
-def cache_dir():
-    """Directory of compiled modules."""
-    env = os.environ.get("KANEDYN_CACHE_DIR")
-    if env:
-        return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "kanedyn"
-
-
-def _cache_origin():
-    if os.environ.get("KANEDYN_CACHE_DIR"):
-        return "$KANEDYN_CACHE_DIR"
-    return "$XDG_CACHE_HOME/kanedyn" if os.environ.get("XDG_CACHE_HOME") else "~/.cache/kanedyn"
-
-
-def compiler_command():
-    """The C compiler command as a list, or ``None`` when none is available."""
-    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
-    parts = shlex.split(cc)
-    if not parts or shutil.which(parts[0]) is None:
-        return None
-    return parts
-
-
-def missing_compiler_text():
-    """Why no compiler is available (names ``$CC`` when it is set)."""
-    cc = os.environ.get("CC")
-    if cc:
-        return f"$CC is {cc!r}, which is not a program on this machine"
-    return "no C compiler found (set $CC or install gcc or clang)"
-
-
-_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
-_STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
-_PRIVATE = []  # this process's private cache directory, when the shared one is unusable
-
-
-def _build_key(source, command):
-    digest = hashlib.sha256()
-    for part in (source, " ".join(command + _FLAGS), sys.version, np.__version__,
-                 sysconfig.get_config_var("EXT_SUFFIX") or ""):
-        digest.update(part.encode())
-        digest.update(b"\0")
-    return digest.hexdigest()[:24]
-
-
-def _checksum(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
-
-
-def _load(name, path):
-    loader = importlib.machinery.ExtensionFileLoader(name, str(path))
-    spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
-    return module
-
-
-def load_module(key_text, make_template, timeout=600):
-    """Compile (or fetch from the cache) and import a generated module.
-
-    Parameters
-    ----------
-    key_text : str
-        What the module computes (:func:`fingerprint`); its hash names the
-        module and its cache entry.
-    make_template : callable
-        ``make_template() -> str``: the C source, in which :data:`NAME_TOKEN`
-        stands for the module name; called only when the module is not cached.
-
-    A cache directory that cannot be written (read-only, or a path that is a
-    file) is used read-only where it holds a valid entry; otherwise the
-    module is built in a private directory of this process, with a warning.
-
-    Raises
-    ------
-    CompilerError
-        No compiler, or compilation failed (with the compiler's message).
-    """
-    command = compiler_command()
-    if command is None:
-        raise CompilerError(missing_compiler_text())
-    key = _build_key(key_text, command)
-    name = f"_kd_{key}"
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    with _LOCK:
-        module = _LOADED.get(key)
-        if module is not None:
-            return module
-        directory = cache_dir()
-        problem = _unwritable(directory)
-        if problem is not None:
-            module = _try_cached(name, directory / f"{name}{suffix}",
-                                 directory / f"{name}.json", repair=False)
-            if module is None:
-                directory = _private_cache(f"the cache directory {directory} "
-                                           f"({_cache_origin()}) {problem}")
-        if module is None:
-            _remove_stale_builds(directory, timeout)
-            so_path = directory / f"{name}{suffix}"
-            manifest = directory / f"{name}.json"
-            with _FileLock(directory / f"{name}.lock"):
-                module = _try_cached(name, so_path, manifest)
-                if module is None:
-                    _build(make_template().replace(NAME_TOKEN, name), command, so_path,
-                           manifest, directory, timeout)
-                    module = _load(name, so_path)
-        _LOADED[key] = module
-        return module
-
-
-def _unwritable(directory):
-    """Why modules cannot be written to ``directory`` (``None`` when they can)."""
-    if directory.exists() and not directory.is_dir():
-        return "is a file, not a directory"
-    try:
-        directory.mkdir(parents=True, exist_ok=True)
-        with tempfile.NamedTemporaryFile(dir=directory, prefix=".probe-"):
-            pass
-    except OSError as exc:
-        return f"cannot be written ({exc.strerror or exc})"
-    return None
-
-
-def _private_cache(reason):
-    """This process's private cache directory (created and announced once)."""
-    if not _PRIVATE:
-        import atexit
-        path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
-        atexit.register(shutil.rmtree, path, True)
-        _PRIVATE.append(path)
-        warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
-                      "only (set KANEDYN_CACHE_DIR to a writable directory to keep them)",
-                      RuntimeWarning, stacklevel=4)
-    return _PRIVATE[0]
-
-
-def _remove_stale_builds(directory, timeout):
-    """Remove the ``build-*`` folders that killed builds left behind."""
-    import time
-    limit = time.time() - max(_STALE_BUILD, 2 * timeout)
-    for path in directory.glob("build-*"):
-        try:
-            if path.is_dir() and path.stat().st_mtime < limit:
-                shutil.rmtree(path, ignore_errors=True)
-        except OSError:
-            pass
-
-
-class _FileLock:
-    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
-
-    def __init__(self, path):
-        self.path = path
-        self.handle = None
-
-    def __enter__(self):
-        self.handle = open(self.path, "a+")  # noqa: SIM115
-        try:
-            import fcntl
-            fcntl.flock(self.handle, fcntl.LOCK_EX)
-        except ImportError:  # pragma: no cover  (non-POSIX)
-            pass
-        return self
-
-    def __exit__(self, *exc):
-        self.handle.close()  # closing releases the lock
-
-
-def _try_cached(name, so_path, manifest, repair=True):
-    """The cached module, if its entry is complete and passes its checksum.
-
-    A corrupt or stale entry is removed (``repair``) so that it is rebuilt.
-    """
-    if not (so_path.exists() and manifest.exists()):
-        return None
-    try:
-        recorded = json.loads(manifest.read_text())["sha256"]
-        if recorded != _checksum(so_path):
-            raise ValueError("checksum mismatch")
-        return _load(name, so_path)
-    except Exception:  # noqa: BLE001  corrupt or stale entry: rebuild it
-        for path in (so_path, manifest) if repair else ():
-            try:
-                path.unlink()
-            except OSError:
-                pass
-        return None
-
-
-#: what this process did (read by tests): ``compiles``, compiler runs
-STATS = {"compiles": 0}
-
-
-def _build(source, command, so_path, manifest, directory, timeout):
-    STATS["compiles"] += 1
-    includes = [sysconfig.get_paths()["include"], np.get_include()]
-    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp:
-        c_path = Path(tmp) / "module.c"
-        c_path.write_text(source)
-        out_path = Path(tmp) / so_path.name
-        cmd = (command + _FLAGS + [f"-I{d}" for d in includes]
-               + [str(c_path), "-o", str(out_path), "-lm"])
-        origin = " ($CC)" if os.environ.get("CC") else ""
-        try:
-            proc = subprocess.run(cmd, capture_output=True, text=True, timeout=timeout)
-        except subprocess.TimeoutExpired:
-            raise CompilerError(f"the C compiler {command[0]}{origin} did not finish in "
-                                f"{timeout} s") from None
-        except OSError as exc:
-            raise CompilerError(f"could not run the C compiler {command[0]}{origin}: "
-                                f"{exc}") from None
-        if proc.returncode != 0 or not out_path.exists():
-            said = (proc.stderr or proc.stdout).strip()
-            raise CompilerError(
-                f"the C compiler {' '.join(command)}{origin} failed (exit status "
-                f"{proc.returncode})" + (":\n" + said[-4000:] if said else
-                                         " and printed nothing: it does not look like a "
-                                         "working C compiler; set $CC to gcc or clang, or "
-                                         "use backend='numpy'"))
-        checksum = _checksum(out_path)
-        os.replace(out_path, so_path)
-        tmp_manifest = Path(tmp) / "manifest.json"
-        tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": len(source)}))
-        os.replace(tmp_manifest, manifest)

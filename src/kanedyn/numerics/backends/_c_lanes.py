@@ -17,7 +17,7 @@ through a work array of ``W`` lanes per value.
 
 The generated function is::
 
-    static void kd_lanes_dynamics(const double *tl, const double *yl,
+    KD_GEN void kd_lanes_dynamics(const double *tl, const double *yl,
         const double *pl, const double *rl, double *w,
         double *o0, double *o1, double *o2)
 
@@ -128,10 +128,10 @@ def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500)
         names = dict(base)
         names.update((s, f"w[{slot[s]} * KD_W + l]") for s in shared)
         body = []
+        printer = _CPrinter(names)  # reads ``names`` as it grows
         for s in members:
             names[s] = f"z{index[s]}"
-            code = _print_c(_CPrinter(names), definition[s],
-                            f"in the intermediate {s.name}", describe)
+            code = _print_c(printer, definition[s], f"in the intermediate {s.name}", describe)
             body.append(f"        const double z{index[s]} = {code};")
             if s in shared:
                 body.append(f"        w[{slot[s]} * KD_W + l] = z{index[s]};")
@@ -147,7 +147,7 @@ def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500)
     names = dict(base)
     names.update((s, f"w[{slot[s]} * KD_W + l]") for s in shared)
     printer = _CPrinter(names)
-    lines.append(f"KD_LANES_FN static void kd_lanes_dynamics({params}, double *restrict o0, "
+    lines.append(f"KD_LANES_FN KD_GEN void kd_lanes_dynamics({params}, double *restrict o0, "
                  "double *restrict o1, double *restrict o2) {")
     lines.extend(calls)
     vector = all(vectorizable(e) for e in flat)

@@ -19,6 +19,12 @@ PRELUDE = r"""
 #include <math.h>
 #include <string.h>
 
+/* storage of the generated functions: static in a one-unit source; a module
+   built from several units defines KD_GEN empty first (hidden by the flags) */
+#ifndef KD_GEN
+#define KD_GEN static
+#endif
+
 static inline double kd_sign(double x) { return (double)((x > 0) - (x < 0)); }
 static inline double kd_powi(double x, long n) {
     double result = 1.0, base = x;

@@ -1,0 +1,335 @@
+"""Build and cache of the compiled backend's extension modules (no SymPy here).
+
+A module is compiled with the system C compiler on first use and cached on
+disk under a name derived from the SHA-256 of its source and build settings
+(``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` or
+``~/.cache/kanedyn``).  Builds happen in a private temporary directory and are
+published with an atomic rename, so several processes may build the same
+module at once; every entry carries a checksum and an entry that fails it (or
+fails to load) is rebuilt.
+
+A source may consist of several translation units separated by
+:data:`UNIT_MARK`: they are compiled at the same time, one compiler process
+per CPU, and linked into one module (large generated functions dominate the
+build, and a compiler works on one unit with one core).
+
+Loading a cached module needs only this module, NumPy and the standard
+library: a second process starts without importing SymPy.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib.machinery
+import importlib.util
+import json
+import os
+import shlex
+import shutil
+import subprocess
+import sys
+import sysconfig
+import tempfile
+import threading
+import time
+import warnings
+from pathlib import Path
+
+import numpy as np
+
+from ..._errors import KanedynError
+
+__all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
+           "cache_dir", "STATS", "NAME_TOKEN", "UNIT_MARK"]
+
+NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
+#: separates the translation units of a module source (see :func:`load_module`)
+UNIT_MARK = "\n/* ---- kanedyn: next translation unit ---- */\n"
+_LOADED = {}  # hash -> module, per process
+_LOCK = threading.Lock()
+
+
+class CompilerError(KanedynError, RuntimeError):
+    """No usable C compiler, or compilation failed."""
+
+
+def cache_dir():
+    """Directory of compiled modules."""
+    env = os.environ.get("KANEDYN_CACHE_DIR")
+    if env:
+        return Path(env)
+    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
+    return Path(base) / "kanedyn"
+
+
+def _cache_origin():
+    if os.environ.get("KANEDYN_CACHE_DIR"):
+        return "$KANEDYN_CACHE_DIR"
+    return "$XDG_CACHE_HOME/kanedyn" if os.environ.get("XDG_CACHE_HOME") else "~/.cache/kanedyn"
+
+
+def compiler_command():
+    """The C compiler command as a list, or ``None`` when none is available."""
+    cc = os.environ.get("CC") or sysconfig.get_config_var("CC") or "cc"
+    parts = shlex.split(cc)
+    if not parts or shutil.which(parts[0]) is None:
+        return None
+    return parts
+
+
+def missing_compiler_text():
+    """Why no compiler is available (names ``$CC`` when it is set)."""
+    cc = os.environ.get("CC")
+    if cc:
+        return f"$CC is {cc!r}, which is not a program on this machine"
+    return "no C compiler found (set $CC or install gcc or clang)"
+
+
+_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
+#: flags of one translation unit of a module built from several (linked with -shared)
+_UNIT_FLAGS = ["-O2", "-fPIC", "-fvisibility=hidden", "-std=gnu11", "-fno-math-errno", "-w"]
+_STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
+_PRIVATE = []  # this process's private cache directory, when the shared one is unusable
+
+
+def _build_key(source, command):
+    digest = hashlib.sha256()
+    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS), sys.version, np.__version__,
+                 sysconfig.get_config_var("EXT_SUFFIX") or ""):
+        digest.update(part.encode())
+        digest.update(b"\0")
+    return digest.hexdigest()[:24]
+
+
+def _checksum(path):
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def _load(name, path):
+    loader = importlib.machinery.ExtensionFileLoader(name, str(path))
+    spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
+    module = importlib.util.module_from_spec(spec)
+    loader.exec_module(module)
+    return module
+
+
+def load_module(key_text, make_template, timeout=600):
+    """Compile (or fetch from the cache) and import a generated module.
+
+    Parameters
+    ----------
+    key_text : str
+        What the module computes (:func:`fingerprint`); its hash names the
+        module and its cache entry.
+    make_template : callable
+        ``make_template() -> str``: the C source, in which :data:`NAME_TOKEN`
+        stands for the module name; called only when the module is not cached.
+
+    A cache directory that cannot be written (read-only, or a path that is a
+    file) is used read-only where it holds a valid entry; otherwise the
+    module is built in a private directory of this process, with a warning.
+
+    Raises
+    ------
+    CompilerError
+        No compiler, or compilation failed (with the compiler's message).
+    """
+    command = compiler_command()
+    if command is None:
+        raise CompilerError(missing_compiler_text())
+    key = _build_key(key_text, command)
+    name = f"_kd_{key}"
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    with _LOCK:
+        module = _LOADED.get(key)
+        if module is not None:
+            return module
+        directory = cache_dir()
+        problem = _unwritable(directory)
+        if problem is not None:
+            module = _try_cached(name, directory / f"{name}{suffix}",
+                                 directory / f"{name}.json", repair=False)
+            if module is None:
+                directory = _private_cache(f"the cache directory {directory} "
+                                           f"({_cache_origin()}) {problem}")
+        if module is None:
+            _remove_stale_builds(directory, timeout)
+            so_path = directory / f"{name}{suffix}"
+            manifest = directory / f"{name}.json"
+            with _FileLock(directory / f"{name}.lock"):
+                module = _try_cached(name, so_path, manifest)
+                if module is None:
+                    _build(make_template().replace(NAME_TOKEN, name), command, so_path,
+                           manifest, directory, timeout)
+                    module = _load(name, so_path)
+        _LOADED[key] = module
+        return module
+
+
+def _unwritable(directory):
+    """Why modules cannot be written to ``directory`` (``None`` when they can)."""
+    if directory.exists() and not directory.is_dir():
+        return "is a file, not a directory"
+    try:
+        directory.mkdir(parents=True, exist_ok=True)
+        with tempfile.NamedTemporaryFile(dir=directory, prefix=".probe-"):
+            pass
+    except OSError as exc:
+        return f"cannot be written ({exc.strerror or exc})"
+    return None
+
+
+def _private_cache(reason):
+    """This process's private cache directory (created and announced once)."""
+    if not _PRIVATE:
+        import atexit
+        path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
+        atexit.register(shutil.rmtree, path, True)
+        _PRIVATE.append(path)
+        warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
+                      "only (set KANEDYN_CACHE_DIR to a writable directory to keep them)",
+                      RuntimeWarning, stacklevel=4)
+    return _PRIVATE[0]
+
+
+def _remove_stale_builds(directory, timeout):
+    """Remove the ``build-*`` folders that killed builds left behind."""
+    import time
+    limit = time.time() - max(_STALE_BUILD, 2 * timeout)
+    for path in directory.glob("build-*"):
+        try:
+            if path.is_dir() and path.stat().st_mtime < limit:
+                shutil.rmtree(path, ignore_errors=True)
+        except OSError:
+            pass
+
+
+class _FileLock:
+    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.handle = None
+
+    def __enter__(self):
+        self.handle = open(self.path, "a+")  # noqa: SIM115
+        try:
+            import fcntl
+            fcntl.flock(self.handle, fcntl.LOCK_EX)
+        except ImportError:  # pragma: no cover  (non-POSIX)
+            pass
+        return self
+
+    def __exit__(self, *exc):
+        self.handle.close()  # closing releases the lock
+
+
+def _try_cached(name, so_path, manifest, repair=True):
+    """The cached module, if its entry is complete and passes its checksum.
+
+    A corrupt or stale entry is removed (``repair``) so that it is rebuilt.
+    """
+    if not (so_path.exists() and manifest.exists()):
+        return None
+    try:
+        recorded = json.loads(manifest.read_text())["sha256"]
+        if recorded != _checksum(so_path):
+            raise ValueError("checksum mismatch")
+        return _load(name, so_path)
+    except Exception:  # noqa: BLE001  corrupt or stale entry: rebuild it
+        for path in (so_path, manifest) if repair else ():
+            try:
+                path.unlink()
+            except OSError:
+                pass
+        return None
+
+
+#: what this process did (read by tests): ``compiles``, compiler runs
+STATS = {"compiles": 0}
+
+
+def _build(source, command, so_path, manifest, directory, timeout):
+    """Compile ``source`` (one or more units, :data:`UNIT_MARK`) into ``so_path``."""
+    STATS["compiles"] += 1
+    includes = [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
+    units = source.split(UNIT_MARK)
+    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp:
+        out_path = Path(tmp) / so_path.name
+        if len(units) == 1:
+            c_path = Path(tmp) / "module.c"
+            c_path.write_text(source)
+            _run([command + _FLAGS + includes + [str(c_path), "-o", str(out_path), "-lm"]],
+                 command, timeout)
+        else:
+            objects, jobs = [], []
+            for k, text in enumerate(units):
+                c_path, o_path = Path(tmp) / f"unit{k}.c", Path(tmp) / f"unit{k}.o"
+                c_path.write_text(text)
+                objects.append(str(o_path))
+                jobs.append((len(text), command + _UNIT_FLAGS + includes
+                             + ["-c", str(c_path), "-o", str(o_path)]))
+            jobs.sort(key=lambda job: -job[0])  # the largest first: the shortest build
+            _run([cmd for _, cmd in jobs], command, timeout)
+            _run([command + ["-shared"] + objects + ["-o", str(out_path), "-lm"]], command,
+                 timeout)
+        if not out_path.exists():
+            raise CompilerError(f"the C compiler {' '.join(command)} wrote no module")
+        checksum = _checksum(out_path)
+        os.replace(out_path, so_path)
+        tmp_manifest = Path(tmp) / "manifest.json"
+        tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": len(source),
+                                            "units": len(units)}))
+        os.replace(tmp_manifest, manifest)
+
+
+def build_jobs():
+    """Compiler processes run at once: the CPUs this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except (AttributeError, OSError):  # pragma: no cover  (not Linux)
+        return max(1, os.cpu_count() or 1)
+
+
+def _run(commands, command, timeout):
+    """Run compiler ``commands``, :func:`build_jobs` at a time; raise
+    :class:`CompilerError` with the compiler's message when one fails."""
+    origin = " ($CC)" if os.environ.get("CC") else ""
+    pending, running = list(commands), []
+    deadline = time.monotonic() + timeout
+    try:
+        while pending or running:
+            while pending and len(running) < build_jobs():
+                said = tempfile.TemporaryFile(mode="w+")
+                try:
+                    proc = subprocess.Popen(pending.pop(0), stdout=said, stderr=said)
+                except OSError as exc:
+                    said.close()
+                    raise CompilerError(f"could not run the C compiler {command[0]}{origin}: "
+                                        f"{exc}") from None
+                running.append((proc, said))
+            done = [job for job in running if job[0].poll() is not None]
+            if not done:
+                if time.monotonic() > deadline:
+                    raise CompilerError(f"the C compiler {command[0]}{origin} did not finish "
+                                        f"in {timeout} s")
+                time.sleep(0.005)
+                continue
+            for proc, said in done:
+                running.remove((proc, said))
+                said.seek(0)
+                text = said.read().strip()
+                said.close()
+                if proc.returncode != 0:
+                    raise CompilerError(
+                        f"the C compiler {' '.join(command)}{origin} failed (exit status "
+                        f"{proc.returncode})" + (":\n" + text[-4000:] if text else
+                                                 " and printed nothing: it does not look like "
+                                                 "a working C compiler; set $CC to gcc or "
+                                                 "clang, or use backend='numpy'"))
+    finally:
+        for proc, said in running:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+            said.close()
