@@ -11,6 +11,7 @@ import pytest
 
 import kanedyn as kd
 from kanedyn.numerics.backends import _c as _cbackend
+from kanedyn.numerics.backends import _c_build
 from kanedyn.numerics.backends._c import elimination_tree, solver_source
 
 needs_compiler = pytest.mark.skipif(_cbackend.compiler_command() is None,
@@ -88,7 +89,7 @@ def test_random_trees_tree_and_dense_solves_agree(tmp_path, monkeypatch, seed):
     reference = definition.numeric(eom, backend="numpy")
     # the same module with the dense factorization (its own cache: same key)
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "dense"))
-    monkeypatch.setattr(_cbackend, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "_LOADED", {})
     monkeypatch.setattr(_cbackend, "solver_source", lambda *a: ["#define KD_SOLVE 1"])
     dense = definition.numeric(eom, backend="c")
     n = tree.n_q

@@ -298,6 +298,50 @@ class StateLayout:
         return y
 
 
+class _CompiledFunctions(dict):
+    """The functions of a C model's module, ``{name: function}``.
+
+    A module built without ``"dynamics"`` (see
+    :func:`~kanedyn.numerics.backends._c.eager_functions`) gets it from the
+    module with every function, compiled (or found in the cache) when first
+    asked for.
+    """
+
+    _NAMES = ("dynamics", "constraints", "energy", "auxiliary", "contacts")
+
+    def __init__(self, model, module):
+        super().__init__((name, getattr(module, name)) for name in self._NAMES
+                         if hasattr(module, name))
+        self._model = model
+
+    def __missing__(self, name):
+        model = self.__dict__.pop("_model", None)
+        if model is None or name != "dynamics":
+            raise KeyError(name)
+        module = _full_module(model)
+        for key in self._NAMES:
+            if key not in self and hasattr(module, key):
+                self[key] = getattr(module, key)
+        return self[name]
+
+
+def _full_module(model):
+    """The C module with every function of ``model`` (its first one left M out)."""
+    from .backends._c import fingerprint, generate_c
+    from .backends._c_build import load_module
+    try:
+        eom = model._eom
+        functions, sizes, cse = model._functions, model._sizes, model._cse
+    except AttributeError:
+        raise ModelError("this C model was compiled without its mass matrix (its "
+                         "right-hand side needs none) and its equations are not "
+                         "available here (a model restored from a file): build the model "
+                         "in this process for the mass matrix or linearization") from None
+    prog, table = eom._program, eom._table
+    return load_module(fingerprint(prog, functions, sizes, cse), lambda: generate_c(
+        prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
+
+
 class NumericModel(StateLayout):
     """Compiled numerical functions of a set of equations of motion.
 
@@ -344,11 +388,12 @@ class NumericModel(StateLayout):
         self._compile()
 
     def _module_source(self):
-        from .backends._c import generate_c
+        from .backends._c import eager_functions, generate_c
         eom = getattr(self, "_eom", None)
         if eom is None:
             raise ValueError("cannot pickle: the model's equations are not available")
-        return generate_c(eom._program, self._functions, self._sizes, cse=self._cse)
+        return generate_c(eom._program, eager_functions(self._functions, self._sizes),
+                          self._sizes, cse=self._cse)
 
     def _compile(self, module=None, functions=None):
         """Load the C module (``module``: already loaded) or compile the NumPy
@@ -362,10 +407,7 @@ class NumericModel(StateLayout):
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
             self._module = module
-            self._fn = {name: getattr(module, name)
-                        for name in ("dynamics", "constraints", "energy", "auxiliary",
-                                     "contacts")
-                        if hasattr(module, name)}
+            self._fn = _CompiledFunctions(self, module)
             self._c = module.Model(self._p, self._input_values if self._inputs else None)
             if getattr(d["scheme"], "c_backend", True):  # else: Python rhs, compiled terms
                 self.rhs = self._c.rhs  # the compiled entry points, called directly
@@ -1232,8 +1274,8 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
     if backend == "c":
-        from .backends._c import (compiler_command, fingerprint, generate_c, load_module,
-                                missing_compiler_text)
+        from .backends._c import (compiler_command, eager_functions, fingerprint,
+                                  generate_c, load_module, missing_compiler_text)
         if compiler_command() is None:
             warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",
                           RuntimeWarning, stacklevel=3)
@@ -1243,10 +1285,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             if tree_found is not None:  # u' by an articulated-body pass (KD_SOLVE 3)
                 functions["tree"] = (args, tree_found[0])
                 sizes["speed_tree"] = tree_found[1]
-            c_key = fingerprint(prog, functions, sizes, cse)
+            eager = eager_functions(functions, sizes)  # M later, if ever asked for
+            c_key = fingerprint(prog, eager, sizes, cse)
             # generated only when the module is not in the cache
             c_module = load_module(c_key, lambda: generate_c(
-                prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
+                prog, eager, sizes, describe=lambda e: str(table.external(e)), cse=cse))
     if backend == "numpy":
         cse = False if cse is None else cse
         sources = {name: generate_python(prog, name, a, outs, cse=cse)

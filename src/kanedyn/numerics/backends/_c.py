@@ -27,9 +27,9 @@ from ._c_build import (NAME_TOKEN, STATS, UNIT_MARK, CompilerError, cache_dir,
                        compiler_command, load_module, missing_compiler_text)
 from ._python import CodegenError
 
-__all__ = ["CompilerError", "generate_c", "fingerprint", "load_module", "compiler_command",
-           "missing_compiler_text", "CHUNK", "elimination_tree", "solver_source", "STATS",
-           "cache_dir", "speed_tree_outputs", "TREE_MIN_SPEEDS"]
+__all__ = ["CompilerError", "generate_c", "eager_functions", "fingerprint", "load_module",
+           "compiler_command", "missing_compiler_text", "CHUNK", "elimination_tree",
+           "solver_source", "STATS", "cache_dir", "speed_tree_outputs", "TREE_MIN_SPEEDS"]
 
 CHUNK = 2500  # statements per generated C function
 #: a function of fewer characters shares a translation unit with the other small ones
@@ -362,7 +362,10 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
     functions : dict
         ``{name: (arguments, outputs)}`` as for
         :func:`kanedyn.numerics.backends.generate_python`; must contain
-        ``"dynamics"`` with the six outputs of the right-hand side.
+        ``"dynamics"`` with the six outputs of the right-hand side, or
+        ``"tree"`` (:func:`speed_tree_outputs`) without dependent speeds:
+        the right-hand side is then solved by the articulated-body pass, and
+        the module can go without M (:func:`eager_functions`).
     sizes : dict
         ``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r`` (inputs of the dynamics).
     describe : callable, optional
@@ -397,7 +400,8 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
                      f"#define KD_NQDEP {sizes['n_q_dep']}",
                      f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
                      f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}"]
-    defines = [*sizes_defines, f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
+    defines = [*sizes_defines, f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
+               f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
     wrappers = []
@@ -432,13 +436,29 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
 _PROTOTYPE = re.compile(r"^(KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
 
 
+def eager_functions(functions, sizes):
+    """The functions of the module built first: all of them, except that a model
+    whose right-hand side is solved by the articulated-body pass (``"tree"``,
+    no dependent speeds, no contacts) leaves out ``"dynamics"`` (the mass
+    matrix and its lane-wise copy: most of the build at large n), which a
+    second module with every function provides when first asked for
+    (``NumericModel.mass_matrix``, linearization)."""
+    if "tree" in functions and not sizes["n_u_dep"] and "contacts" not in functions:
+        return {name: spec for name, spec in functions.items() if name != "dynamics"}
+    return functions
+
+
 def _lanes_wanted(functions, sizes):
     """Whether the module gets the lane-wise dynamics of ``rhs_batch`` (``_c_lanes``).
 
     Not for dependent speeds (their reduced system is solved by LU; such
-    batches go one row at a time) nor with :data:`_c_lanes.LANES` = 0.
+    batches go one row at a time), nor for models solved by the articulated-body
+    pass (``"tree"``: rows of the pass cost about as much as lanes of M and its
+    factorization, 1.17x at chain3d n = 30, for twice the compile time), nor
+    with :data:`_c_lanes.LANES` = 0.
     """
-    if _c_lanes.LANES <= 0 or sizes.get("n_u_dep", 0) or "dynamics" not in functions:
+    if _c_lanes.LANES <= 0 or sizes.get("n_u_dep", 0) or "dynamics" not in functions \
+            or "tree" in functions:
         return False
     arguments, outputs = functions["dynamics"]
     return set(arguments) <= {"y", "p", "r"} and len(outputs) >= 3

@@ -43,6 +43,9 @@ static PyObject *kd_linalg_error = NULL;
 #: the part of the runtime without Python: linear algebra and the right-hand
 #: side ``kd_rhs_core`` (also used by the standalone C export)
 LINALG = r"""
+#ifndef KD_HAS_DYNAMICS
+#define KD_HAS_DYNAMICS 1  /* kd_eval_dynamics (M) is part of the program */
+#endif
 /* Solve A x = B in place (A: n x n row-major, B: n x nrhs row-major) by LU with
    partial pivoting.  Returns 0, or 1 if A is singular. */
 static int kd_lu_solve(int n, double *A, double *B, int nrhs) {
@@ -273,9 +276,13 @@ static int kd_rhs_core(double t, const double *y, const double *p, const double 
     int status = kd_ltdl_dense(M, ud);
 #endif
     if (status != 0) {  /* not positive definite: M again, LU with pivoting */
+#if KD_HAS_DYNAMICS
         kd_eval_dynamics(t, y, p, r, w, qd, M, f, B, Ka, fa);
         memcpy(ud, f, sizeof(double) * KD_NU);
         if (kd_lu_solve(KD_NU, M, ud, 1) != 0) return 1;
+#else  /* a module without M (the tree pass solves): singular */
+        return 1;
+#endif
     }
 #else
     /* Ar = -Bdep^-1 Bind (m x p); the reduced rows M[:p] + Ar^T M[p:] */
