@@ -444,8 +444,13 @@ class Program:
         """The straight-line code computing ``exprs``: assignments and outputs.
 
         With ``cse``, common subexpressions of all definitions and outputs are
-        eliminated jointly (SymPy's ``cse``) and the new temporaries are placed
-        right before their first use, after everything they refer to.
+        eliminated jointly and the new temporaries are placed right before
+        their first use, after everything they refer to.  The elimination is
+        SymPy's repeated-subtree pass (``tree_cse``, the core of ``sympy.cse``)
+        without ``sympy.cse``'s search for common factors of sums and products
+        (``opt_cse``): that search took two thirds of the time and its savings
+        (5 % fewer operations at chain3d n = 30) are found again by the C
+        compiler (the same run time of the generated right-hand side).
 
         Returns
         -------
@@ -460,7 +465,7 @@ class Program:
             return [(s, self._defs[s]) for s in needed], exprs
         defs = [self._defs[s] for s in needed]
         temporaries = (sm.Dummy(f"c{i}") for i in itertools.count())
-        replacements, reduced = sm.cse(defs + exprs, symbols=temporaries, order="none")
+        replacements, reduced = _eliminate(defs + exprs, temporaries)
         nodes = dict(replacements)
         nodes.update(zip(needed, reduced[:len(needed)]))
         ordered, done = [], set()
@@ -510,6 +515,15 @@ class Program:
                 if symbol.is_Symbol:
                     counts[kinds.get(symbol.name, "functions")] += int(coeff)
         return counts
+
+
+def _eliminate(exprs, symbols):
+    """``(replacements, reduced)`` of the repeated subtrees of ``exprs``."""
+    try:
+        from sympy.simplify.cse_main import tree_cse
+    except ImportError:  # pragma: no cover  (a SymPy without it: the full cse)
+        return sm.cse(exprs, symbols=symbols, order="none")
+    return tree_cse(exprs, symbols, opt_subs={}, order="none")
 
 
 _DERIVATIVES = {
