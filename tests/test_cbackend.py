@@ -212,10 +212,12 @@ def test_compiled_rk45_is_scipys_rk45(chain5):
     np.testing.assert_allclose(ours.t[:n], theirs.t[:n], rtol=0, atol=1e-8)
     np.testing.assert_allclose(ours.y[:, -1], theirs.y[:, -1], rtol=0, atol=1e-8)
     # the first steps coincide (same initial step, stages and step control) up to
-    # rounding, which the error estimate amplifies (it cancels to ~1e-8)
+    # rounding, which the error estimate amplifies (it cancels to ~1e-8): SciPy's
+    # own RK45 on the numpy and on the C right-hand side (which differ by 1e-14)
+    # is 5e-10 apart after four steps; a different method is ~1e-8 apart at once
     assert ours.t[1] == theirs.t[1]
     np.testing.assert_allclose(ours.t[:5], theirs.t[:5], rtol=0, atol=1e-10)
-    np.testing.assert_allclose(ours.y[:, :5], theirs.y[:, :5], rtol=0, atol=1e-10)
+    np.testing.assert_allclose(ours.y[:, :5], theirs.y[:, :5], rtol=0, atol=1e-9)
 
 
 def test_compiled_output_events_dense(chain5):

@@ -464,7 +464,10 @@ class Program:
         if not cse or not needed:
             return [(s, self._defs[s]) for s in needed], exprs
         defs = [self._defs[s] for s in needed]
-        temporaries = (sm.Dummy(f"c{i}") for i in itertools.count())
+        # numbered, not fresh: the same program gives the same listing in a process
+        # (set iteration follows the temporaries' hashes), so source made again
+        # for a pickle is the source compiled here
+        temporaries = (sm.Dummy(f"kd_cse{i}", dummy_index=i) for i in itertools.count())
         replacements, reduced = _eliminate(defs + exprs, temporaries)
         nodes = dict(replacements)
         nodes.update(zip(needed, reduced[:len(needed)]))

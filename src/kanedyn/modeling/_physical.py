@@ -68,11 +68,33 @@ def body_parameters(bodies):
         inertia = None
         if isinstance(body, me.RigidBody):
             try:
-                inertia = sm.Matrix(body.central_inertia.to_matrix(body.frame))
+                inertia = _matrix_in(body.central_inertia, body.frame)
             except (ValueError, TypeError):  # inertia point unrelated to the mass centre
                 inertia = None
         out.append((body.name, _kind(body), mass, inertia))
     return out
+
+
+def _matrix_in(dyadic, frame):
+    """The 3 x 3 matrix of ``dyadic`` in ``frame``.
+
+    A dyadic written with ``frame``'s own unit vectors (the usual inertia) is
+    read term by term; otherwise ``Dyadic.to_matrix`` expresses it (nine
+    dot products with frame changes: seconds for long chains).
+    """
+    entries = [[sm.S.Zero] * 3 for _ in range(3)]
+    for coefficient, first, second in dyadic.args:
+        parts = first.args + second.args
+        if len(first.args) != 1 or len(second.args) != 1 \
+                or any(part[1] is not frame for part in parts):
+            return sm.Matrix(dyadic.to_matrix(frame))
+        a, b = first.args[0][0], second.args[0][0]
+        for i in range(3):
+            if a[i] != 0:
+                for j in range(3):
+                    if b[j] != 0:
+                        entries[i][j] += coefficient * a[i] * b[j]
+    return sm.Matrix(entries)
 
 
 class BodyValues:

@@ -129,15 +129,16 @@ def _function(model, vectorized):
         return fn
     d = model._data
     if d["backend"] == "c" and not vectorized:
-        from .backends._c import fingerprint, generate_c, load_module
+        from .backends._c import fingerprint, generate_c_units, load_module
         args, outputs = _generated(model)
         prog = _workspace(model)[0]
         functions = dict(model._functions, inverse=(args, outputs))
         table = model._eom._table
         module = load_module(
             fingerprint(prog, functions, model._sizes, model._cse),
-            lambda: generate_c(prog, functions, model._sizes,
-                               describe=lambda e: str(table.external(e)), cse=model._cse))
+            lambda: generate_c_units(prog, functions, model._sizes,
+                                     describe=lambda e: str(table.external(e)),
+                                     cse=model._cse))
         fn = module.inverse
     else:
         sources = d.setdefault("inverse_sources", {})

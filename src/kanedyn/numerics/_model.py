@@ -327,7 +327,7 @@ class _CompiledFunctions(dict):
 
 def _full_module(model):
     """The C module with every function of ``model`` (its first one left M out)."""
-    from .backends._c import fingerprint, generate_c
+    from .backends._c import fingerprint, generate_c_units
     from .backends._c_build import load_module
     try:
         eom = model._eom
@@ -338,7 +338,7 @@ def _full_module(model):
                          "available here (a model restored from a file): build the model "
                          "in this process for the mass matrix or linearization") from None
     prog, table = eom._program, eom._table
-    return load_module(fingerprint(prog, functions, sizes, cse), lambda: generate_c(
+    return load_module(fingerprint(prog, functions, sizes, cse), lambda: generate_c_units(
         prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
 
 
@@ -1023,7 +1023,8 @@ class NumericModel(StateLayout):
             if not module_name.isidentifier():
                 raise ModelError(f"module_name {module_name!r} is not a valid identifier")
             source = generate_c(eom._program, self._functions, self._sizes,
-                                describe=lambda e: str(table.external(e)), cse=cse)
+                                describe=lambda e: str(table.external(e)), cse=cse,
+                                units=False)
             return source.replace(NAME_TOKEN, module_name)
         return standalone_c(eom._program, self._functions, self._sizes, self.state_names,
                             dict(zip(self.constants, map(float, self._p))),
@@ -1275,7 +1276,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     sources = c_key = c_module = None
     if backend == "c":
         from .backends._c import (compiler_command, eager_functions, fingerprint,
-                                  generate_c, load_module, missing_compiler_text)
+                                  generate_c_units, load_module, missing_compiler_text)
         if compiler_command() is None:
             warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",
                           RuntimeWarning, stacklevel=3)
@@ -1288,7 +1289,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             eager = eager_functions(functions, sizes)  # M later, if ever asked for
             c_key = fingerprint(prog, eager, sizes, cse)
             # generated only when the module is not in the cache
-            c_module = load_module(c_key, lambda: generate_c(
+            c_module = load_module(c_key, lambda: generate_c_units(
                 prog, eager, sizes, describe=lambda e: str(table.external(e)), cse=cse))
     if backend == "numpy":
         cse = False if cse is None else cse

@@ -27,13 +27,17 @@ from ._c_build import (NAME_TOKEN, STATS, UNIT_MARK, CompilerError, cache_dir,
                        compiler_command, load_module, missing_compiler_text)
 from ._python import CodegenError
 
-__all__ = ["CompilerError", "generate_c", "eager_functions", "fingerprint", "load_module",
-           "compiler_command", "missing_compiler_text", "CHUNK", "elimination_tree",
-           "solver_source", "STATS", "cache_dir", "speed_tree_outputs", "TREE_MIN_SPEEDS"]
+__all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
+           "fingerprint", "load_module", "compiler_command", "missing_compiler_text",
+           "CHUNK", "elimination_tree", "solver_source", "STATS", "cache_dir",
+           "speed_tree_outputs", "TREE_MIN_SPEEDS"]
 
 CHUNK = 2500  # statements per generated C function
-#: a function of fewer characters shares a translation unit with the other small ones
+#: a function (or part of one) of fewer characters shares a translation unit with
+#: the other small ones
 UNIT_MIN_CHARS = 20000
+#: separates the parts of a long generated function (each may be a unit of its own)
+PIECE_MARK = "/* ---- kanedyn: next part ---- */"
 
 
 # ------------------------------------------------------------------ printing
@@ -133,13 +137,15 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
             if split and last_use.get(s, c) > c:
                 body.append(f"    w[{index[s]}] = z{index[s]};")
                 stored.add(s)
-        if split:
-            lines.append(f"static void kd_{name}_part{c}({params}) {{")
+        if split:  # each part may go to a translation unit of its own
+            lines.append(f"KD_GEN void kd_{name}_part{c}({params}) {{")
             lines.extend(body or ["    (void)w;"])
-            lines.append("}")
+            lines.extend(["}", PIECE_MARK])
         else:
             chunk_body = body
     out_params = ", ".join(f"double *restrict o{k}" for k in range(len(outputs)))
+    if split:
+        lines.extend(f"KD_GEN void kd_{name}_part{c}({params});" for c in range(len(chunks)))
     lines.append(f"KD_GEN void kd_eval_{name}({params}{', ' if outputs else ''}{out_params}) {{")
     names = dict(base)
     if split:
@@ -287,7 +293,7 @@ def speed_tree_outputs(tree, qdot, force, sub):
     return outputs, (tuple(tree["parent"]), tuple(tree["order"]))
 
 
-CODEGEN_VERSION = "kanedyn-c-3"  # change when generated code changes meaning
+CODEGEN_VERSION = "kanedyn-c-4"  # change when generated code changes (bits, not only meaning)
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
@@ -374,16 +380,66 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
     cse : bool
         Eliminate common subexpressions jointly first (:meth:`Program.listing`).
     units : bool
-        Separate translation units (joined by :data:`UNIT_MARK`): the runtime
-        with the Python headers first, then each large generated function
-        (:data:`UNIT_MIN_CHARS`) in a unit of its own and the small ones
-        together, compiled in parallel by :func:`load_module`.  ``False``: one
-        C file (what :meth:`~kanedyn.NumericModel.c_source` shows).
+        Separate translation units (joined by :data:`UNIT_MARK`, see
+        :func:`generate_c_units`).  ``False``: one C file (what
+        :meth:`~kanedyn.NumericModel.c_source` shows).
     """
-    generated, work = [], 0  # (source, prototype text)
+    if units:
+        return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse))
+    generated = []
+    for kind, part in _module_parts(program, functions, sizes, describe, cse):
+        if kind == "function":
+            generated.append(part[0])
+        else:
+            defines, lane_defines, runtime = part
+    return "\n".join([_c_runtime.HEADER, *defines, *lane_defines, *generated, *runtime])
+
+
+def generate_c_units(program, functions, sizes, describe=str, cse=True):
+    """The translation units of a module, each yielded as soon as it is made.
+
+    Every part of a generated function of :data:`UNIT_MIN_CHARS` or more
+    characters is a unit of its own (with the C prelude, no Python headers),
+    the small ones one unit together, and the runtime with the Python entry
+    points (which declares the generated functions) comes last.  Passed to
+    :func:`load_module`, the compiler starts on the first units while the
+    later ones are still being generated.  Arguments as for :func:`generate_c`.
+    """
+    prototypes, small, small_preamble = [], [], []
+    for kind, part in _module_parts(program, functions, sizes, describe, cse):
+        if kind != "function":
+            break
+        src, preamble = part
+        prototypes += [found[:-2] + ";" for found in _PROTOTYPE.findall(src)]
+        for piece in src.split(PIECE_MARK):
+            if len(piece) >= UNIT_MIN_CHARS:
+                yield "\n".join([*preamble, piece])
+            else:
+                small.append(piece)
+                small_preamble = max(small_preamble, preamble, key=len)  # lanes: longer
+    defines, lane_defines, runtime = part
+    if small:
+        yield "\n".join([*small_preamble, *small])
+    yield "\n".join(["#define KD_GEN", _c_runtime.HEADER, *defines, *lane_defines,
+                     *prototypes, *runtime])
+
+
+def _module_parts(program, functions, sizes, describe, cse):
+    """Yield ``("function", (source, preamble))`` per generated function (the
+    largest kinds first: the tree pass, the dynamics and its lane-wise copy),
+    then ``("runtime", (defines, lane_defines, runtime))``; ``preamble``: what
+    a translation unit of the function needs before it."""
+    size_defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
+                    f"#define KD_NQDEP {sizes['n_q_dep']}",
+                    f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
+                    f"#define KD_NR {sizes['n_r']}"]
+    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *size_defines]
+    work = 0
     lanes = _lanes_wanted(functions, sizes)
     lane_defines = []
-    for name, (arguments, outputs) in functions.items():
+    first = [name for name in ("tree", "dynamics") if name in functions]
+    for name in first + [name for name in functions if name not in first]:
+        arguments, outputs = functions[name]
         listing = None
         if lanes and name == "dynamics":  # one listing for both versions
             flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
@@ -392,15 +448,12 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
                                            CHUNK)
             lane_defines = [f"#define KD_LANES {_c_lanes.LANES}", f"#define KD_NWL {w}",
                             _c_runtime.LANE_RUNTIME]
-            generated.append(src)
+            yield "function", (src, preamble + lane_defines)
         src, w = _function_source(program, name, arguments, outputs, describe, cse, listing)
-        generated.append(src)
+        yield "function", (src, preamble)
         work = max(work, w)
-    sizes_defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
-                     f"#define KD_NQDEP {sizes['n_q_dep']}",
-                     f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
-                     f"#define KD_NR {sizes['n_r']}", f"#define KD_NW {work}"]
-    defines = [*sizes_defines, f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
+    defines = [*size_defines, f"#define KD_NW {work}",
+               f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
@@ -419,21 +472,11 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     runtime = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, *contact, *wrappers,
                _c_runtime.FOOTER]
-    if not units:
-        return "\n".join([_c_runtime.HEADER, *defines, *lane_defines, *generated, *runtime])
-    # the runtime unit declares the generated functions; the others define them
-    prototypes = [_PROTOTYPE.search(src).group(0)[:-2] + ";" for src in generated]
-    main = "\n".join(["#define KD_GEN", _c_runtime.HEADER, *defines, *lane_defines,
-                      *prototypes, *runtime])
-    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *sizes_defines, *lane_defines]
-    large = [src for src in generated if len(src) >= UNIT_MIN_CHARS]
-    small = [src for src in generated if len(src) < UNIT_MIN_CHARS]
-    pieces = [[src] for src in large] + ([small] if small else [])
-    return UNIT_MARK.join([main] + ["\n".join(preamble + piece) for piece in pieces])
+    yield "runtime", (defines, lane_defines, runtime)
 
 
-#: the signature line of a generated entry function (``KD_GEN void kd_...(...) {``)
-_PROTOTYPE = re.compile(r"^(KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
+#: the signature line of a generated function (``KD_GEN void kd_...(...) {``)
+_PROTOTYPE = re.compile(r"^(?:KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
 
 
 def eager_functions(functions, sizes):

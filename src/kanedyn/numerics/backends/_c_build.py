@@ -122,8 +122,11 @@ def load_module(key_text, make_template, timeout=600):
         What the module computes (:func:`fingerprint`); its hash names the
         module and its cache entry.
     make_template : callable
-        ``make_template() -> str``: the C source, in which :data:`NAME_TOKEN`
-        stands for the module name; called only when the module is not cached.
+        ``make_template()``: the C source, in which :data:`NAME_TOKEN` stands
+        for the module name; called only when the module is not cached.  A
+        string (translation units separated by :data:`UNIT_MARK`) or an
+        iterator of units: each is compiled as soon as it comes, while the
+        next ones are made (one CPU is left to the caller until the last).
 
     A cache directory that cannot be written (read-only, or a path that is a
     file) is used read-only where it holds a valid entry; otherwise the
@@ -159,8 +162,11 @@ def load_module(key_text, make_template, timeout=600):
             with _FileLock(directory / f"{name}.lock"):
                 module = _try_cached(name, so_path, manifest)
                 if module is None:
-                    _build(make_template().replace(NAME_TOKEN, name), command, so_path,
-                           manifest, directory, timeout)
+                    template = make_template()
+                    units = (template.split(UNIT_MARK) if isinstance(template, str)
+                             else template)
+                    _build((unit.replace(NAME_TOKEN, name) for unit in units), command,
+                           so_path, manifest, directory, timeout)
                     module = _load(name, so_path)
         _LOADED[key] = module
         return module
@@ -249,37 +255,41 @@ def _try_cached(name, so_path, manifest, repair=True):
 STATS = {"compiles": 0}
 
 
-def _build(source, command, so_path, manifest, directory, timeout):
-    """Compile ``source`` (one or more units, :data:`UNIT_MARK`) into ``so_path``."""
+def _build(units, command, so_path, manifest, directory, timeout):
+    """Compile the translation units ``units`` (an iterable of C sources) and
+    link them into ``so_path``; a single unit is built in one step."""
     STATS["compiles"] += 1
     includes = [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
-    units = source.split(UNIT_MARK)
-    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp:
+    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp, \
+            _Jobs(command, timeout) as jobs:
         out_path = Path(tmp) / so_path.name
-        if len(units) == 1:
-            c_path = Path(tmp) / "module.c"
-            c_path.write_text(source)
-            _run([command + _FLAGS + includes + [str(c_path), "-o", str(out_path), "-lm"]],
-                 command, timeout)
-        else:
-            objects, jobs = [], []
-            for k, text in enumerate(units):
-                c_path, o_path = Path(tmp) / f"unit{k}.c", Path(tmp) / f"unit{k}.o"
-                c_path.write_text(text)
-                objects.append(str(o_path))
-                jobs.append((len(text), command + _UNIT_FLAGS + includes
-                             + ["-c", str(c_path), "-o", str(o_path)]))
-            jobs.sort(key=lambda job: -job[0])  # the largest first: the shortest build
-            _run([cmd for _, cmd in jobs], command, timeout)
-            _run([command + ["-shared"] + objects + ["-o", str(out_path), "-lm"]], command,
-                 timeout)
+        paths, size = [], 0
+        for k, text in enumerate(units):
+            c_path = Path(tmp) / f"unit{k}.c"
+            c_path.write_text(text)
+            size += len(text)
+            paths.append(c_path)
+            if k == 1:  # several units: compile them separately
+                jobs.add(command + _UNIT_FLAGS + includes
+                         + ["-c", str(paths[0]), "-o", str(paths[0].with_suffix(".o"))])
+            if k >= 1:
+                jobs.add(command + _UNIT_FLAGS + includes
+                         + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
+            jobs.step(build_jobs() - 1)  # one CPU keeps making the units
+        if len(paths) == 1:
+            jobs.add(command + _FLAGS + includes + [str(paths[0]), "-o", str(out_path), "-lm"])
+        jobs.finish()
+        if len(paths) > 1:
+            jobs.add(command + ["-shared"] + [str(path.with_suffix(".o")) for path in paths]
+                     + ["-o", str(out_path), "-lm"])
+            jobs.finish()
         if not out_path.exists():
             raise CompilerError(f"the C compiler {' '.join(command)} wrote no module")
         checksum = _checksum(out_path)
         os.replace(out_path, so_path)
         tmp_manifest = Path(tmp) / "manifest.json"
-        tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": len(source),
-                                            "units": len(units)}))
+        tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": size,
+                                            "units": len(paths)}))
         os.replace(tmp_manifest, manifest)
 
 
@@ -291,44 +301,71 @@ def build_jobs():
         return max(1, os.cpu_count() or 1)
 
 
-def _run(commands, command, timeout):
-    """Run compiler ``commands``, :func:`build_jobs` at a time; raise
-    :class:`CompilerError` with the compiler's message when one fails."""
-    origin = " ($CC)" if os.environ.get("CC") else ""
-    pending, running = list(commands), []
-    deadline = time.monotonic() + timeout
-    try:
-        while pending or running:
-            while pending and len(running) < build_jobs():
-                said = tempfile.TemporaryFile(mode="w+")
-                try:
-                    proc = subprocess.Popen(pending.pop(0), stdout=said, stderr=said)
-                except OSError as exc:
-                    said.close()
-                    raise CompilerError(f"could not run the C compiler {command[0]}{origin}: "
-                                        f"{exc}") from None
-                running.append((proc, said))
-            done = [job for job in running if job[0].poll() is not None]
-            if not done:
-                if time.monotonic() > deadline:
-                    raise CompilerError(f"the C compiler {command[0]}{origin} did not finish "
-                                        f"in {timeout} s")
+class _Jobs:
+    """Compiler runs in the order added, at most :func:`build_jobs` at a time.
+
+    :meth:`step` starts what may start and collects what finished; a
+    failed run raises :class:`CompilerError` with the compiler's message, and
+    leaving the ``with`` block kills what still runs.
+    """
+
+    def __init__(self, command, timeout):
+        self.command, self.pending, self.running = command, [], []
+        self.deadline = time.monotonic() + timeout
+        self.timeout = timeout
+        self.origin = " ($CC)" if os.environ.get("CC") else ""
+
+    def add(self, cmd):
+        self.pending.append(cmd)
+
+    def step(self, limit):
+        """Collect finished runs and start waiting ones while fewer than
+        ``limit`` run; return at once."""
+        self._collect()
+        while self.pending and len(self.running) < max(1, limit):
+            self._start(self.pending.pop(0))
+
+    def finish(self):
+        """Run everything added, :func:`build_jobs` at a time, to its end."""
+        while self.pending or self.running:
+            self.step(build_jobs())
+            if self.running and not self._collect():
+                if time.monotonic() > self.deadline:
+                    raise CompilerError(f"the C compiler {self.command[0]}{self.origin} did "
+                                        f"not finish in {self.timeout} s")
                 time.sleep(0.005)
-                continue
-            for proc, said in done:
-                running.remove((proc, said))
-                said.seek(0)
-                text = said.read().strip()
-                said.close()
-                if proc.returncode != 0:
-                    raise CompilerError(
-                        f"the C compiler {' '.join(command)}{origin} failed (exit status "
-                        f"{proc.returncode})" + (":\n" + text[-4000:] if text else
-                                                 " and printed nothing: it does not look like "
-                                                 "a working C compiler; set $CC to gcc or "
-                                                 "clang, or use backend='numpy'"))
-    finally:
-        for proc, said in running:
+
+    def _start(self, cmd):
+        said = tempfile.TemporaryFile(mode="w+")
+        try:
+            proc = subprocess.Popen(cmd, stdout=said, stderr=said)
+        except OSError as exc:
+            said.close()
+            raise CompilerError(f"could not run the C compiler {self.command[0]}"
+                                f"{self.origin}: {exc}") from None
+        self.running.append((proc, said))
+
+    def _collect(self):
+        done = [job for job in self.running if job[0].poll() is not None]
+        for proc, said in done:
+            self.running.remove((proc, said))
+            said.seek(0)
+            text = said.read().strip()
+            said.close()
+            if proc.returncode != 0:
+                raise CompilerError(
+                    f"the C compiler {' '.join(self.command)}{self.origin} failed (exit "
+                    f"status {proc.returncode})" + (
+                        ":\n" + text[-4000:] if text else
+                        " and printed nothing: it does not look like a working C compiler; "
+                        "set $CC to gcc or clang, or use backend='numpy'"))
+        return bool(done)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        for proc, said in self.running:
             if proc.poll() is None:
                 proc.kill()
                 proc.wait()
