@@ -438,3 +438,40 @@ def test_batch_threads_with_parameters_and_singular_rows():
     single = model.with_constants(P[57])
     np.testing.assert_allclose(two[57], single.rhs(0.0, Y[57]), rtol=1e-13, atol=1e-13)
     assert model.rhs_batch(0.0, Y[:0]).shape == (0, model.n_states)
+
+
+# ------------------------------------------------ what the first module holds
+def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeypatch):
+    """The module built first has what rhs needs; M (a tree solved by the
+    articulated-body pass) and the lane-wise batch come in a second module, built
+    when first asked for, with the same numbers."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    rng = np.random.default_rng(5)
+    # a tree of 12 speeds: rhs by the articulated-body pass, no M in the first module
+    d = kd.models.build("chain3d", n=_cbackend.TREE_MIN_SPEEDS, style="positions")
+    eom = d.derive()
+    before = _c_build.STATS["compiles"]
+    model, reference = d.numeric(eom, backend="c"), d.numeric(eom, backend="numpy")
+    assert _c_build.STATS["compiles"] == before + 1
+    assert not hasattr(model._module, "dynamics")
+    y = rng.uniform(-1, 1, model.n_states)
+    np.testing.assert_allclose(model.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-11,
+                               atol=1e-11)
+    np.testing.assert_allclose(model.mass_matrix(0.0, y), reference.mass_matrix(0.0, y),
+                               rtol=1e-12, atol=1e-12)
+    assert _c_build.STATS["compiles"] == before + 2
+    # a dense model: no lanes first; a large batch loads them
+    d = kd.models.build("chain3d", n=4)
+    model = d.numeric(d.derive(), backend="c")
+    Y = rng.uniform(-1, 1, (model.LANES_FROM_ROWS, model.n_states))
+    loop = np.array([model.rhs(0.0, row) for row in Y])
+    with pytest.raises(ValueError, match="lanes=True"):
+        model._c.rhs_batch(0.0, Y, lanes=True)  # the first module has none
+    compiles = _c_build.STATS["compiles"]
+    np.testing.assert_array_equal(model.rhs_batch(0.0, Y[:5]), loop[:5])
+    assert _c_build.STATS["compiles"] == compiles  # a small batch: row by row
+    np.testing.assert_allclose(model.rhs_batch(0.0, Y), loop, rtol=1e-13, atol=1e-13)
+    assert _c_build.STATS["compiles"] == compiles + 1
+    np.testing.assert_allclose(model._c.rhs_batch(0.0, Y, lanes=True), loop, rtol=1e-13,
+                               atol=1e-13)

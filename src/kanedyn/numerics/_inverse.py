@@ -135,10 +135,10 @@ def _function(model, vectorized):
         functions = dict(model._functions, inverse=(args, outputs))
         table = model._eom._table
         module = load_module(
-            fingerprint(prog, functions, model._sizes, model._cse),
+            fingerprint(prog, functions, model._sizes, model._cse, lanes=False),
             lambda: generate_c_units(prog, functions, model._sizes,
                                      describe=lambda e: str(table.external(e)),
-                                     cse=model._cse))
+                                     cse=model._cse, lanes=False))
         fn = module.inverse
     else:
         sources = d.setdefault("inverse_sources", {})

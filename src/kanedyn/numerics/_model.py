@@ -375,6 +375,29 @@ class NumericModel(StateLayout):
                 return self.__dict__[name]
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
+    def _bind(self, module):
+        """Use the compiled ``module``: its Model object and entry points."""
+        self._module = module
+        self._fn = _CompiledFunctions(self, module)
+        self._c = module.Model(self._p, self._input_values if self._inputs else None)
+        if getattr(self._data["scheme"], "c_backend", True):  # else: Python rhs, C terms
+            self.rhs = self._c.rhs  # the compiled entry points, called directly
+            self.rhs_batch = (self._rhs_batch_first if self._data.get("c_lanes_later")
+                              else self._c.rhs_batch)
+
+    #: rows from which ``rhs_batch`` builds (or loads) the module with lane-wise code
+    LANES_FROM_ROWS = 64
+
+    def _rhs_batch_first(self, t, Y, P=None, threads=None, lanes=None):
+        """``rhs_batch`` of a C model whose lane-wise code is not loaded yet: a
+        batch of :attr:`LANES_FROM_ROWS` rows or more (or ``lanes=True``)
+        loads the module with every function, compiled on first use."""
+        if lanes or (lanes is None and np.ndim(Y) == 2
+                     and np.shape(Y)[0] >= self.LANES_FROM_ROWS):
+            self._data = dict(self._data, c_lanes_later=False)
+            self._bind(_full_module(self))
+        return self._c.rhs_batch(t, Y, P, threads=threads, lanes=lanes)
+
     # state and pickling
     def __getstate__(self):
         data = self._data
@@ -393,7 +416,7 @@ class NumericModel(StateLayout):
         if eom is None:
             raise ValueError("cannot pickle: the model's equations are not available")
         return generate_c(eom._program, eager_functions(self._functions, self._sizes),
-                          self._sizes, cse=self._cse)
+                          self._sizes, cse=self._cse, lanes=False)
 
     def _compile(self, module=None, functions=None):
         """Load the C module (``module``: already loaded) or compile the NumPy
@@ -406,12 +429,7 @@ class NumericModel(StateLayout):
                 from .backends._c_build import load_module
                 source = d["c_source"]
                 module = load_module(d["c_key"], lambda: source)
-            self._module = module
-            self._fn = _CompiledFunctions(self, module)
-            self._c = module.Model(self._p, self._input_values if self._inputs else None)
-            if getattr(d["scheme"], "c_backend", True):  # else: Python rhs, compiled terms
-                self.rhs = self._c.rhs  # the compiled entry points, called directly
-                self.rhs_batch = self._c.rhs_batch
+            self._bind(module)
         elif functions is not None:
             self._fn = dict(functions)
         else:
@@ -1274,9 +1292,11 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     sizes = {"n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m, "n_p": len(const_syms),
              "n_r": len(r_syms)}
     sources = c_key = c_module = None
+    lanes_later = False
     if backend == "c":
         from .backends._c import (compiler_command, eager_functions, fingerprint,
-                                  generate_c_units, load_module, missing_compiler_text)
+                                  generate_c_units, lanes_wanted, load_module,
+                                  missing_compiler_text)
         if compiler_command() is None:
             warnings.warn(f"{missing_compiler_text()}; using the numpy backend instead",
                           RuntimeWarning, stacklevel=3)
@@ -1286,11 +1306,13 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             if tree_found is not None:  # u' by an articulated-body pass (KD_SOLVE 3)
                 functions["tree"] = (args, tree_found[0])
                 sizes["speed_tree"] = tree_found[1]
-            eager = eager_functions(functions, sizes)  # M later, if ever asked for
-            c_key = fingerprint(prog, eager, sizes, cse)
+            eager = eager_functions(functions, sizes)  # M and lanes later, if asked for
+            c_key = fingerprint(prog, eager, sizes, cse, lanes=False)
             # generated only when the module is not in the cache
             c_module = load_module(c_key, lambda: generate_c_units(
-                prog, eager, sizes, describe=lambda e: str(table.external(e)), cse=cse))
+                prog, eager, sizes, describe=lambda e: str(table.external(e)), cse=cse,
+                lanes=False))
+            lanes_later = lanes_wanted(functions, sizes)
     if backend == "numpy":
         cse = False if cse is None else cse
         sources = {name: generate_python(prog, name, a, outs, cse=cse)
@@ -1301,6 +1323,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "backend": backend,
         "sources": sources,
         "c_key": c_key,
+        "c_lanes_later": lanes_later,  # rhs_batch: lanes in the module with everything
         "c_source": None,  # filled in when pickled (see __getstate__)
         "p": [values[s] for s in const_syms],
         "constants": {str(s): values[s] for s in const_syms},

@@ -30,7 +30,7 @@ from ._python import CodegenError
 __all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
            "fingerprint", "load_module", "compiler_command", "missing_compiler_text",
            "CHUNK", "elimination_tree", "solver_source", "STATS", "cache_dir",
-           "speed_tree_outputs", "TREE_MIN_SPEEDS"]
+           "speed_tree_outputs", "TREE_MIN_SPEEDS", "lanes_wanted"]
 
 CHUNK = 2500  # statements per generated C function
 #: a function (or part of one) of fewer characters shares a translation unit with
@@ -301,7 +301,7 @@ _TEMPLATES_DIGEST = hashlib.sha256("".join(
 ).encode()).hexdigest()[:16]
 
 
-def fingerprint(program, functions, sizes, cse=True):
+def fingerprint(program, functions, sizes, cse=True, lanes=True):
     """Deterministic text identifying what a module computes (its cache key).
 
     The C source itself is not deterministic across processes (SymPy's common
@@ -311,7 +311,7 @@ def fingerprint(program, functions, sizes, cse=True):
     rebuilt or printed by SymPy, which for large programs took seconds).
     """
     parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}",
-             f"lanes={_c_lanes.LANES}"]
+             f"lanes={_c_lanes.LANES if lanes_wanted(functions, sizes, lanes) else 0}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: "t"}
         for arg, symbols in arguments.items():
@@ -359,7 +359,7 @@ def _structure(expr, names, memo):
     return text
 
 
-def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
+def generate_c(program, functions, sizes, describe=str, cse=True, units=True, lanes=True):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -383,11 +383,15 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
         Separate translation units (joined by :data:`UNIT_MARK`, see
         :func:`generate_c_units`).  ``False``: one C file (what
         :meth:`~kanedyn.NumericModel.c_source` shows).
+    lanes : bool
+        Add the lane-wise dynamics of ``rhs_batch`` where it applies
+        (:func:`lanes_wanted`).
     """
     if units:
-        return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse))
+        return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse,
+                                               lanes))
     generated = []
-    for kind, part in _module_parts(program, functions, sizes, describe, cse):
+    for kind, part in _module_parts(program, functions, sizes, describe, cse, lanes):
         if kind == "function":
             generated.append(part[0])
         else:
@@ -395,7 +399,7 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True):
     return "\n".join([_c_runtime.HEADER, *defines, *lane_defines, *generated, *runtime])
 
 
-def generate_c_units(program, functions, sizes, describe=str, cse=True):
+def generate_c_units(program, functions, sizes, describe=str, cse=True, lanes=True):
     """The translation units of a module, each yielded as soon as it is made.
 
     Every part of a generated function of :data:`UNIT_MIN_CHARS` or more
@@ -406,7 +410,7 @@ def generate_c_units(program, functions, sizes, describe=str, cse=True):
     later ones are still being generated.  Arguments as for :func:`generate_c`.
     """
     prototypes, small, small_preamble = [], [], []
-    for kind, part in _module_parts(program, functions, sizes, describe, cse):
+    for kind, part in _module_parts(program, functions, sizes, describe, cse, lanes):
         if kind != "function":
             break
         src, preamble = part
@@ -424,7 +428,7 @@ def generate_c_units(program, functions, sizes, describe=str, cse=True):
                      *prototypes, *runtime])
 
 
-def _module_parts(program, functions, sizes, describe, cse):
+def _module_parts(program, functions, sizes, describe, cse, lanes):
     """Yield ``("function", (source, preamble))`` per generated function (the
     largest kinds first: the tree pass, the dynamics and its lane-wise copy),
     then ``("runtime", (defines, lane_defines, runtime))``; ``preamble``: what
@@ -435,7 +439,7 @@ def _module_parts(program, functions, sizes, describe, cse):
                     f"#define KD_NR {sizes['n_r']}"]
     preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *size_defines]
     work = 0
-    lanes = _lanes_wanted(functions, sizes)
+    lanes = lanes_wanted(functions, sizes, lanes)
     lane_defines = []
     first = [name for name in ("tree", "dynamics") if name in functions]
     for name in first + [name for name in functions if name not in first]:
@@ -480,19 +484,21 @@ _PROTOTYPE = re.compile(r"^(?:KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
 
 
 def eager_functions(functions, sizes):
-    """The functions of the module built first: all of them, except that a model
-    whose right-hand side is solved by the articulated-body pass (``"tree"``,
-    no dependent speeds, no contacts) leaves out ``"dynamics"`` (the mass
-    matrix and its lane-wise copy: most of the build at large n), which a
-    second module with every function provides when first asked for
-    (``NumericModel.mass_matrix``, linearization)."""
+    """The functions of the module built first (without the lane-wise code,
+    ``lanes=False``): all of them, except that a model whose right-hand side
+    is solved by the articulated-body pass (``"tree"``, no dependent speeds,
+    no contacts) leaves out ``"dynamics"`` (the mass matrix: most of the
+    build at large n).  A second module with every function (and the lanes,
+    :func:`lanes_wanted`) is built when first needed: ``NumericModel``'s
+    mass matrix or linearization, or a large ``rhs_batch``."""
     if "tree" in functions and not sizes["n_u_dep"] and "contacts" not in functions:
         return {name: spec for name, spec in functions.items() if name != "dynamics"}
     return functions
 
 
-def _lanes_wanted(functions, sizes):
-    """Whether the module gets the lane-wise dynamics of ``rhs_batch`` (``_c_lanes``).
+def lanes_wanted(functions, sizes, lanes=True):
+    """Whether a module of ``functions`` gets the lane-wise dynamics of
+    ``rhs_batch`` (``_c_lanes``); never with ``lanes=False``.
 
     Not for dependent speeds (their reduced system is solved by LU; such
     batches go one row at a time), nor for models solved by the articulated-body
@@ -500,8 +506,8 @@ def _lanes_wanted(functions, sizes):
     factorization, 1.17x at chain3d n = 30, for twice the compile time), nor
     with :data:`_c_lanes.LANES` = 0.
     """
-    if _c_lanes.LANES <= 0 or sizes.get("n_u_dep", 0) or "dynamics" not in functions \
-            or "tree" in functions:
+    if not lanes or _c_lanes.LANES <= 0 or sizes.get("n_u_dep", 0) \
+            or "dynamics" not in functions or "tree" in functions:
         return False
     arguments, outputs = functions["dynamics"]
     return set(arguments) <= {"y", "p", "r"} and len(outputs) >= 3
