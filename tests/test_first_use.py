@@ -79,6 +79,33 @@ def test_second_process_and_new_constants_reuse_the_cache(tmp_path):
     assert f2 != pytest.approx(f1)
 
 
+_WARM = """
+import json, sys
+import kanedyn as kd
+from kanedyn.models._base import DERIVE_STATS
+from kanedyn.numerics import COMPILE_STATS
+d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
+m = d.numeric(backend="c")
+f = m.rhs(0.0, d.initial(m))
+print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f),
+                  sorted(x for x in ("sympy", "scipy", "matplotlib") if x in sys.modules)]))
+"""
+
+
+@pytest.mark.slow
+def test_second_process_starts_without_sympy_or_scipy(tmp_path):
+    """A model in the derivation cache is read and run with neither SymPy nor
+    SciPy imported (its body parameters are read only when constants change)."""
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    first = _run(_WARM, tmp_path)
+    assert first[:2] == [1, 1] and "sympy" in first[3]
+    second = _run(_WARM, tmp_path)
+    assert second[:2] == [0, 0] and second[2] == first[2]
+    assert second[3] == []
+
+
 @pytest.mark.slow
 def test_cached_model_derives_its_equations_when_asked(tmp_path):
     from kanedyn.numerics import compiler_command

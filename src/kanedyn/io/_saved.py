@@ -46,8 +46,6 @@ import zipfile
 from pathlib import Path
 
 import numpy as np
-import sympy as sm
-from sympy.core.function import AppliedUndef, UndefinedFunction
 
 from .._errors import KanedynError
 from .._version import __version__
@@ -58,20 +56,39 @@ __all__ = ["SavedFileError", "save_equations", "load", "save_data", "load_data",
 FORMAT = "kanedyn-equations"
 FORMAT_VERSION = 1
 
-#: SymPy expression classes a file may name, rebuilt as ``cls(*args)``
-_EXPRESSIONS = {cls.__name__: cls for cls in (
-    sm.Add, sm.Mul, sm.Pow, sm.sin, sm.cos, sm.tan, sm.cot, sm.asin, sm.acos, sm.atan,
-    sm.atan2, sm.sinh, sm.cosh, sm.tanh, sm.exp, sm.log, sm.Abs, sm.sign, sm.Heaviside,
-    sm.Max, sm.Min, sm.Piecewise, sm.functions.elementary.piecewise.ExprCondPair,
-    sm.re, sm.im, sm.floor, sm.ceiling, sm.Tuple, sm.Derivative,
-    sm.StrictGreaterThan, sm.StrictLessThan, sm.GreaterThan, sm.LessThan, sm.Eq, sm.Ne,
-    sm.And, sm.Or, sm.Not)}
-_UNEVALUATED = (sm.Add, sm.Mul, sm.Pow)  # rebuilt exactly as stored (evaluate=False)
-#: named SymPy singletons
-_SINGLETONS = {name: getattr(sm.S, name) for name in (
-    "Zero", "One", "NegativeOne", "Half", "Pi", "Exp1", "ImaginaryUnit", "Infinity",
-    "NegativeInfinity", "ComplexInfinity", "NaN", "true", "false", "EulerGamma")}
-_SINGLETON_NAMES = {id(v): k for k, v in _SINGLETONS.items()}
+@functools.cache
+def _sympy_tables():
+    """SymPy's classes and singletons a file may name (SymPy imported on first use:
+    a file of numbers, such as a cached numerical model, is read without it).
+
+    Returns ``(expressions, unevaluated, singletons, singleton_names)``:
+    expression classes rebuilt as ``cls(*args)`` by name; those rebuilt exactly
+    as stored (``evaluate=False``); named singletons; their names by ``id``.
+    """
+    import sympy as sm
+    expressions = {cls.__name__: cls for cls in (
+        sm.Add, sm.Mul, sm.Pow, sm.sin, sm.cos, sm.tan, sm.cot, sm.asin, sm.acos, sm.atan,
+        sm.atan2, sm.sinh, sm.cosh, sm.tanh, sm.exp, sm.log, sm.Abs, sm.sign, sm.Heaviside,
+        sm.Max, sm.Min, sm.Piecewise, sm.functions.elementary.piecewise.ExprCondPair,
+        sm.re, sm.im, sm.floor, sm.ceiling, sm.Tuple, sm.Derivative,
+        sm.StrictGreaterThan, sm.StrictLessThan, sm.GreaterThan, sm.LessThan, sm.Eq, sm.Ne,
+        sm.And, sm.Or, sm.Not)}
+    singletons = {name: getattr(sm.S, name) for name in (
+        "Zero", "One", "NegativeOne", "Half", "Pi", "Exp1", "ImaginaryUnit", "Infinity",
+        "NegativeInfinity", "ComplexInfinity", "NaN", "true", "false", "EulerGamma")}
+    return (expressions, (sm.Add, sm.Mul, sm.Pow), singletons,
+            {id(v): k for k, v in singletons.items()})
+
+
+class _LazySymPy:
+    """The ``sympy`` module, imported on first attribute access."""
+
+    def __getattr__(self, name):
+        import sympy
+        return getattr(sympy, name)
+
+
+sm = _LazySymPy()
 #: modules whose classes may be rebuilt attribute by attribute
 _OBJECT_MODULES = ("kanedyn.engine.", "kanedyn.modeling.", "kanedyn.formulations.",
                    "sympy.physics.vector.", "sympy.physics.mechanics.")
@@ -166,7 +183,7 @@ class _Encoder:
             return ["matrix", kind, obj.rows, obj.cols, self._refs(list(obj), where)]
         if isinstance(obj, sm.Basic):
             return self._basic(obj, where)
-        if isinstance(obj, UndefinedFunction):
+        if isinstance(obj, sm.core.function.UndefinedFunction):
             return ["function", str(obj.__name__), self._assumptions(
                 obj._explicit_class_assumptions), self.ref(dict(obj._kwargs), where)]
         if isinstance(obj, types.MethodType):
@@ -189,7 +206,7 @@ class _Encoder:
         return {str(k): bool(v) for k, v in values.items() if v is not None}
 
     def _basic(self, obj, where):
-        name = _SINGLETON_NAMES.get(id(obj))
+        name = _sympy_tables()[3].get(id(obj))
         if name is not None:
             return ["singleton", name]
         if isinstance(obj, sm.Integer):
@@ -206,10 +223,10 @@ class _Encoder:
             return ["dummy", obj.name, self._assumptions(obj._assumptions_orig)]
         if type(obj) is sm.Symbol:
             return ["symbol", obj.name, self._assumptions(obj._assumptions_orig)]
-        if isinstance(obj, AppliedUndef):
+        if isinstance(obj, sm.core.function.AppliedUndef):
             return ["apply", self.ref(obj.func, where), self._refs(obj.args, where)]
         cls = type(obj)
-        if _EXPRESSIONS.get(cls.__name__) is not cls:
+        if _sympy_tables()[0].get(cls.__name__) is not cls:
             raise SavedFileError(f"cannot save {where}: SymPy class {cls.__name__} is not "
                                  "among those a saved file may hold")
         return ["expr", cls.__name__, self._refs(obj.args, where)]
@@ -424,9 +441,9 @@ class _Decoder:
 
     # SymPy
     def _singleton(self, index, name):
-        if name not in _SINGLETONS:
+        if name not in _sympy_tables()[2]:
             self.fail(index, f"unknown SymPy constant {name!r}")
-        return self._set(index, _SINGLETONS[name])
+        return self._set(index, _sympy_tables()[2][name])
 
     def _integer_(self, index, text):
         return self._set(index, sm.Integer(self._integer(text)))
@@ -463,16 +480,16 @@ class _Decoder:
 
     def _apply(self, index, func, refs):
         func = self.get(func)
-        if not isinstance(func, UndefinedFunction):
+        if not isinstance(func, sm.core.function.UndefinedFunction):
             self.fail(index, "an application of something that is not an undefined function")
         return self._set(index, func(*self._basics(index, refs)))
 
     def _expr(self, index, name, refs):
-        cls = _EXPRESSIONS.get(name)
+        cls = _sympy_tables()[0].get(name)
         if cls is None:
             self.fail(index, f"the SymPy class {name!r} is not allowed")
         args = self._basics(index, refs)
-        if cls in _UNEVALUATED or issubclass(cls, sm.Function):
+        if cls in _sympy_tables()[1] or issubclass(cls, sm.Function):
             value = cls(*args, evaluate=False)
         elif cls is sm.Derivative:
             value = sm.Derivative(*args, evaluate=False)

@@ -20,42 +20,81 @@
                          filters, the moving frame (``VehicleMotion``)
 """
 
-from ._actuators import (Actuator, BallScrew, ExternalWrench, JointActuator,
-                         LinearActuator)
-from ._inertial_elements import AddedMass, Inerter, InertialElement, RateInertia
-from ._contacts import (SURFACE_COORDINATES, Contact, Ellipsoid, ImplicitSurface, Plane,
-                        Sphere, Surface, coefficient_value)
-from ._physical import BodyValues, body_parameters, body_values, check_declared_bodies
-from ._spec import ModelSpec, description_symbols, parse_model
-from ._springs import MatrixSpringDamper, SpringDamper, rotation_vector
-from ._limits import (ConeLimit, cone_contact, cone_surface, penalty_damping_for_restitution,
-                      tilt_angle)
-from ._units import constraint_units, speed_unit, state_units
-from .offshore import (NREL5MW_THRUST, AiryWave, CatenaryLine, CatenaryMooring, Hydrostatics,
-                       IrregularSea, LinearMooring, MorisonCylinder, RotorThrust, ThrustCurve,
-                       jonswap_gamma, jonswap_spectrum, kaimal_wind, wave_number)
-from .flexible import (BeamMember, FEMember, FlexibleBody, InertiaInvariants, NodeMass,
-                       ReducedMember)
-from .vehicle import (CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
-                      VehicleMotion, cfc_filter, example_pulse, pulse_from_delta_v,
-                      read_pulse_csv)
-from ._vector_constraints import (AngularVelocity, OrthogonalVelocities, PointVelocity,
-                                  VectorConstraint)
+from .._lazy import lazy_attributes as _lazy_attributes
 
-__all__ = ["ModelSpec", "parse_model", "description_symbols", "Contact", "Surface", "Plane",
-           "Sphere", "Ellipsoid", "ImplicitSurface", "SURFACE_COORDINATES",
-           "coefficient_value", "VectorConstraint", "PointVelocity", "AngularVelocity",
-           "OrthogonalVelocities", "BodyValues", "body_parameters", "body_values",
-           "check_declared_bodies", "state_units", "constraint_units", "speed_unit",
-           "ReducedMember", "BeamMember", "FEMember", "NodeMass",
-           "FlexibleBody", "InertiaInvariants", "Actuator", "JointActuator",
-           "LinearActuator", "BallScrew", "ExternalWrench", "InertialElement", "RateInertia",
-           "Inerter", "AddedMass",
-           "SpringDamper", "MatrixSpringDamper", "rotation_vector", "LinearMooring", "CatenaryLine",
-           "CatenaryMooring", "RotorThrust", "ThrustCurve", "NREL5MW_THRUST", "kaimal_wind",
-           "AiryWave", "IrregularSea",
-           "jonswap_spectrum", "jonswap_gamma", "wave_number", "MorisonCylinder",
-           "Hydrostatics", "VehicleMotion", "CrashPulse",
-           "HalfSinePulse", "HaversinePulse", "TrapezoidPulse", "pulse_from_delta_v",
-           "read_pulse_csv", "cfc_filter", "example_pulse", "ConeLimit", "cone_contact",
-           "cone_surface", "penalty_damping_for_restitution", "tilt_angle"]
+#: public name -> the module (in this package) that defines it; imported on first use
+#: (reading a saved model needs BodyValues, not SymPy's mechanics)
+_LAZY = {
+    'Actuator': '._actuators',
+    'BallScrew': '._actuators',
+    'ExternalWrench': '._actuators',
+    'JointActuator': '._actuators',
+    'LinearActuator': '._actuators',
+    'AddedMass': '._inertial_elements',
+    'Inerter': '._inertial_elements',
+    'InertialElement': '._inertial_elements',
+    'RateInertia': '._inertial_elements',
+    'SURFACE_COORDINATES': '._contacts',
+    'Contact': '._contacts',
+    'Ellipsoid': '._contacts',
+    'ImplicitSurface': '._contacts',
+    'Plane': '._contacts',
+    'Sphere': '._contacts',
+    'Surface': '._contacts',
+    'coefficient_value': '._contacts',
+    'BodyValues': '._physical',
+    'body_parameters': '._physical',
+    'body_values': '._physical',
+    'check_declared_bodies': '._physical',
+    'ModelSpec': '._spec',
+    'description_symbols': '._spec',
+    'parse_model': '._spec',
+    'MatrixSpringDamper': '._springs',
+    'SpringDamper': '._springs',
+    'rotation_vector': '._springs',
+    'ConeLimit': '._limits',
+    'cone_contact': '._limits',
+    'cone_surface': '._limits',
+    'penalty_damping_for_restitution': '._limits',
+    'tilt_angle': '._limits',
+    'constraint_units': '._units',
+    'speed_unit': '._units',
+    'state_units': '._units',
+    'NREL5MW_THRUST': '.offshore',
+    'AiryWave': '.offshore',
+    'CatenaryLine': '.offshore',
+    'CatenaryMooring': '.offshore',
+    'Hydrostatics': '.offshore',
+    'IrregularSea': '.offshore',
+    'LinearMooring': '.offshore',
+    'MorisonCylinder': '.offshore',
+    'RotorThrust': '.offshore',
+    'ThrustCurve': '.offshore',
+    'jonswap_gamma': '.offshore',
+    'jonswap_spectrum': '.offshore',
+    'kaimal_wind': '.offshore',
+    'wave_number': '.offshore',
+    'BeamMember': '.flexible',
+    'FEMember': '.flexible',
+    'FlexibleBody': '.flexible',
+    'InertiaInvariants': '.flexible',
+    'NodeMass': '.flexible',
+    'ReducedMember': '.flexible',
+    'CrashPulse': '.vehicle',
+    'HalfSinePulse': '.vehicle',
+    'HaversinePulse': '.vehicle',
+    'TrapezoidPulse': '.vehicle',
+    'VehicleMotion': '.vehicle',
+    'cfc_filter': '.vehicle',
+    'example_pulse': '.vehicle',
+    'pulse_from_delta_v': '.vehicle',
+    'read_pulse_csv': '.vehicle',
+    'AngularVelocity': '._vector_constraints',
+    'OrthogonalVelocities': '._vector_constraints',
+    'PointVelocity': '._vector_constraints',
+    'VectorConstraint': '._vector_constraints',
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

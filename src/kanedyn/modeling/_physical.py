@@ -14,8 +14,6 @@ numerical model is made (:func:`body_values`).
 from __future__ import annotations
 
 import numpy as np
-import sympy as sm
-import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 
@@ -25,6 +23,7 @@ _RTOL = 1e-9  # relative tolerance of the symmetry and triangle checks
 
 
 def _kind(body):
+    import sympy.physics.mechanics as me
     return "particle" if isinstance(body, me.Particle) else "rigid body"
 
 
@@ -60,6 +59,8 @@ def body_parameters(bodies):
     The central inertia is a 3 x 3 ``sympy.Matrix`` in the body's frame
     (``None`` for particles).  Plain SymPy data, so it pickles.
     """
+    import sympy as sm
+    import sympy.physics.mechanics as me
     out = []
     for body in bodies:
         if not isinstance(body, (me.RigidBody, me.Particle)):
@@ -82,6 +83,7 @@ def _matrix_in(dyadic, frame):
     read term by term; otherwise ``Dyadic.to_matrix`` expresses it (nine
     dot products with frame changes: seconds for long chains).
     """
+    import sympy as sm
     entries = [[sm.S.Zero] * 3 for _ in range(3)]
     for coefficient, first, second in dyadic.args:
         parts = first.args + second.args
@@ -193,6 +195,7 @@ def _symbols_of(mass, inertia):
 
 def _number(expr):
     """The float value of a constant expression, else ``None``."""
+    import sympy as sm
     expr = sm.sympify(expr)
     if expr.is_Number and expr.is_finite and expr.is_extended_real:
         return float(expr)  # the common case, without evalf

@@ -259,7 +259,7 @@ def build(name, lazy=False, **options):
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
                          f"its options: {sorted(allowed) or 'none'}")
     from ._base import PendingDefinition
-    pending = PendingDefinition(name, options, builder.function)
+    pending = PendingDefinition(name, options, builder)  # imported when it builds
     return pending if lazy and pending.in_cache() else pending.definition
 
 

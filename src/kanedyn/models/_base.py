@@ -5,10 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-import sympy as sm
 
 from .._errors import ModelError
-from ..engine import name_of
 
 __all__ = ["ModelDefinition", "PendingDefinition", "DERIVE_STATS"]
 
@@ -149,6 +147,8 @@ class ModelDefinition:
             Empty when the model declares none (the viewer then draws its
             default shapes).
         """
+        import sympy as sm
+
         from ..modeling import visuals
         values = dict(self.constants)
         values.update(self._constant_overrides(constants or {}))
@@ -168,6 +168,7 @@ class ModelDefinition:
 
     def initial(self, model, overrides=None):
         """Initial state array for ``model`` (independent values as given)."""
+        from ..engine import name_of
         y = np.zeros(model.n_states)
         values = dict(self.initial_state)
         for key, value in (overrides or {}).items():
@@ -183,6 +184,7 @@ class ModelDefinition:
 
 def gravity_potential(masses_heights):
     """Sum of ``m * g * h`` terms (helper for model potentials)."""
+    import sympy as sm
     return sm.Add(*[m * g * h for m, g, h in masses_heights])
 
 
@@ -226,13 +228,28 @@ def _cacheable(origin, constants, options):
     from ..numerics import compiler_command
     if compiler_command() is None:
         return None
-    return hashlib.sha256(repr((origin, _version.__version__, sys.version, sm.__version__,
-                                np.__version__, _source_stamp())).encode()).hexdigest()[:24]
+    return hashlib.sha256(repr((origin, _version.__version__, sys.version,
+                                _sympy_version(), np.__version__,
+                                _source_stamp())).encode()).hexdigest()[:24]
 
 
-def _cache_path(key):
+def _sympy_version():
+    """SymPy's version, without importing SymPy (a cached model needs none)."""
+    from importlib.metadata import version
+    return version("sympy")
+
+
+def _cache_path(key, part="kdnum"):
+    """The cache entry ``key``: ``kdnum`` the numerical model without its body
+    parameters (read with no SymPy), ``kdbody`` those (SymPy expressions)."""
     from ..numerics import cache_dir
-    return cache_dir() / "derived" / f"{key}.kdnum"
+    return cache_dir() / "derived" / f"{key}.{part}"
+
+
+def _read_body_parameters(key):
+    """The body parameters stored beside the cache entry ``key``."""
+    from ..io import load_data
+    return load_data(_cache_path(key, "kdbody"), format=CACHE_FORMAT)[0]
 
 
 def _read_cache(key):
@@ -255,6 +272,10 @@ def _read_cache(key):
                 or not isinstance(manifest.get("definition"), dict):
             raise SavedFileError(f"{path}: not a derived numerical model")
         data["scheme"] = SCHEMES[data["scheme"]]()
+        if data.get("body_parameters") is None:  # beside it: read when first needed
+            if not _cache_path(key, "kdbody").exists():
+                raise SavedFileError(f"{path}: its body parameters are missing")
+            data["body_parameters"] = lambda: _read_body_parameters(key)
         model = NumericModel(data)
     except Exception as exc:  # noqa: BLE001  damaged, stale or unloadable: derive again
         warnings.warn(f"derivation cache entry {path} cannot be used ({exc}); it is "
@@ -274,6 +295,7 @@ def _write_cache(key, definition, model):
     import os
     import tempfile
 
+    from ..engine import name_of
     from ..io import SavedFileError, save_data
     from ..numerics.schemes import SCHEMES
     data = dict(model._data)
@@ -286,19 +308,25 @@ def _write_cache(key, definition, model):
     light = {"name": definition.name, "title": definition.title,
              "constants": sorted(str(s) for s in definition.constants),
              "initial": [[name_of(k), float(v)] for k, v in definition.initial_state.items()]}
-    path = _cache_path(key)
-    try:
-        path.parent.mkdir(parents=True, exist_ok=True)
-        handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-        os.close(handle)
-        save_data(data, tmp, what=f"the numerical model of {definition.name}",
-                  format=CACHE_FORMAT, definition=light)
-        os.replace(tmp, path)
-    except (OSError, SavedFileError, TypeError, ValueError):
+    body_parameters = model._body_parameters()
+    data["body_parameters"] = None  # beside the entry: SymPy, read when first needed
+    # the body parameters first: an entry is complete once its .kdnum exists
+    for part, value, manifest in (("kdbody", body_parameters, {}),
+                                  ("kdnum", data, {"definition": light})):
+        path = _cache_path(key, part)
         try:
-            os.unlink(tmp)
-        except (OSError, UnboundLocalError):
-            pass
+            path.parent.mkdir(parents=True, exist_ok=True)
+            handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
+            os.close(handle)
+            save_data(value, tmp, what=f"the numerical model of {definition.name}",
+                      format=CACHE_FORMAT, **manifest)
+            os.replace(tmp, path)
+        except (OSError, SavedFileError, TypeError, ValueError):
+            try:
+                os.unlink(tmp)
+            except (OSError, UnboundLocalError):
+                pass
+            return
 
 
 def _derivation_cache(definition, constants, options):

@@ -16,25 +16,45 @@
 ``_singular``            distance to singular configurations, and its monitor
 """
 
-from ._actuator_forces import ActuatorForces, ActuatorMap, actuator_forces
-from ._contact_dynamics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
-                                solve_modes)
-from ._diagnosis import diagnose
-from ._inverse_parts import (ActuatorParts, InverseParts, PowerBalance, actuator_parts,
-                             inverse_parts, power_balance)
-from ._linearize import linearize_numeric, linearize_symbolic
-from ._model import BACKENDS, NumericModel, build_numeric_model
-from ._orthogonal_speeds import MassMatrices, OrthogonalSpeedsModel, orthogonalize_speeds
-from ._singular import DEFAULT_THRESHOLD, SingularityMonitor, conditioning
-from .backends import STATS as COMPILE_STATS
-from .backends import cache_dir, compile_python, compiler_command, generate_python
+from .._lazy import lazy_attributes as _lazy_attributes
+from .backends._c_build import STATS as COMPILE_STATS
 
-__all__ = ["COMPILE_STATS", "cache_dir", "compiler_command", "NumericModel",
-           "build_numeric_model", "BACKENDS", "linearize_numeric",
-           "linearize_symbolic", "MassMatrices", "OrthogonalSpeedsModel",
-           "orthogonalize_speeds", "SEPARATED", "SLIP", "STICK", "SlipReference",
-           "contact_points", "solve_modes", "diagnose", "DEFAULT_THRESHOLD",
-           "SingularityMonitor", "conditioning", "compile_python", "generate_python",
-           "ActuatorForces", "ActuatorMap", "actuator_forces", "InverseParts",
-           "ActuatorParts", "PowerBalance", "inverse_parts", "actuator_parts",
-           "power_balance"]
+#: public name -> the module (in this package) that defines it; imported on first use
+#: (a numerical model read from the derivation cache needs neither SymPy nor SciPy)
+_LAZY = {
+    'ActuatorForces': '._actuator_forces',
+    'ActuatorMap': '._actuator_forces',
+    'actuator_forces': '._actuator_forces',
+    'SEPARATED': '._contact_dynamics',
+    'SLIP': '._contact_dynamics',
+    'STICK': '._contact_dynamics',
+    'SlipReference': '._contact_dynamics',
+    'contact_points': '._contact_dynamics',
+    'solve_modes': '._contact_dynamics',
+    'diagnose': '._diagnosis',
+    'ActuatorParts': '._inverse_parts',
+    'InverseParts': '._inverse_parts',
+    'PowerBalance': '._inverse_parts',
+    'actuator_parts': '._inverse_parts',
+    'inverse_parts': '._inverse_parts',
+    'power_balance': '._inverse_parts',
+    'linearize_numeric': '._linearize',
+    'linearize_symbolic': '._linearize',
+    'BACKENDS': '._model',
+    'NumericModel': '._model',
+    'build_numeric_model': '._model',
+    'MassMatrices': '._orthogonal_speeds',
+    'OrthogonalSpeedsModel': '._orthogonal_speeds',
+    'orthogonalize_speeds': '._orthogonal_speeds',
+    'DEFAULT_THRESHOLD': '._singular',
+    'SingularityMonitor': '._singular',
+    'conditioning': '._singular',
+    'cache_dir': '.backends._c_build',
+    'compiler_command': '.backends._c_build',
+    'compile_python': '.backends._python',
+    'generate_python': '.backends._python',
+}
+
+__all__ = ["COMPILE_STATS", *_LAZY]
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -31,14 +31,8 @@ import warnings
 from collections.abc import Mapping
 
 import numpy as np
-import sympy as sm
 
-from ._inverse import inverse_dynamics as _inverse_dynamics
-from .backends._python import compile_python, generate_python
 from .._errors import ConstraintError, MissingValueError, ModelError
-from ..modeling import body_parameters, body_values
-from .schemes import Elimination, as_scheme
-from ..engine import name_of
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
@@ -53,6 +47,8 @@ def _match_key(key, candidates, what):
     any other key must be one of the candidates itself.  Returns ``None``
     when nothing matches.
     """
+    import sympy as sm
+    from ..engine import name_of
     if isinstance(key, str):
         found = [c for c in candidates if name_of(c) == key or str(c) == key]
         if len(found) == 1:
@@ -68,6 +64,7 @@ def _match_key(key, candidates, what):
 
 def _unknown_key(key, candidates, what, listing):
     """The error for a key that names none of ``candidates``: closest names."""
+    from ..engine import name_of
     import difflib
     name = key if isinstance(key, str) else name_of(key)
     names = sorted({name_of(c) for c in candidates})
@@ -200,6 +197,7 @@ def _resolve_specified(eom, specified):
     ``{internal: _Input}`` for every input given; the inputs the equations of
     motion need must be among them.
     """
+    import sympy as sm
     table = eom._table
     t = table.t
     needed = list(eom.specified)
@@ -283,7 +281,11 @@ class StateLayout:
 
     def index(self, name):
         """Position of a state (by name or dynamic symbol) in ``y``."""
-        key = name if isinstance(name, str) else name_of(name)
+        if isinstance(name, str):
+            key = name
+        else:
+            from ..engine import name_of
+            key = name_of(name)
         try:
             return self.state_names.index(key)
         except ValueError:
@@ -399,7 +401,18 @@ class NumericModel(StateLayout):
         return self._c.rhs_batch(t, Y, P, threads=threads, lanes=lanes)
 
     # state and pickling
+    def _body_parameters(self):
+        """:func:`~kanedyn.modeling.body_parameters` of the model's bodies (SymPy);
+        a model read from the derivation cache reads them when first needed
+        (``data["body_parameters"]`` is then a function that returns them)."""
+        parameters = self._data.get("body_parameters", ())
+        if callable(parameters):
+            parameters = parameters()
+            self._data = dict(self._data, body_parameters=parameters)
+        return parameters
+
     def __getstate__(self):
+        self._body_parameters()  # read, not a function, in the pickle
         data = self._data
         if data["backend"] == "c" and data["c_source"] is None:
             # carry the C source, so that another machine can build the module
@@ -433,6 +446,7 @@ class NumericModel(StateLayout):
         elif functions is not None:
             self._fn = dict(functions)
         else:
+            from .backends._python import compile_python
             self._fn = {name: compile_python(src, name) for name, src in d["sources"].items()}
         for key in ("n_q", "n_u", "n_q_dep", "n_u_dep", "state_names", "constants",
                     "aux_names", "input_names", "has_potential", "has_loads", "contacts",
@@ -599,6 +613,7 @@ class NumericModel(StateLayout):
         ndarray, shape (k, n_states)
             Rows whose system is singular are ``nan``.
         """
+        from .schemes import Elimination
         if threads is not None and (isinstance(threads, bool)
                                     or not isinstance(threads, (int, np.integer))
                                     or threads < 1):
@@ -638,6 +653,7 @@ class NumericModel(StateLayout):
 
     def _batch_function(self):
         """The vectorized dynamics, generated (with CSE) on first use."""
+        from .backends._python import compile_python, generate_python
         fn = self._fn.get("dynamics_batch")
         if fn is not None:
             return fn
@@ -661,6 +677,7 @@ class NumericModel(StateLayout):
         values : sequence of float or dict
             In the order of :attr:`constants`, or ``{name: value}`` for some.
         """
+        from ..modeling import body_values
         current = dict(self.constants)
         if isinstance(values, dict):
             unknown = set(values) - set(current)
@@ -677,12 +694,12 @@ class NumericModel(StateLayout):
         bad = [f"{k} = {v}" for k, v in current.items() if not np.isfinite(v)]
         if bad:
             raise ModelError(f"constant(s) {', '.join(bad)} not finite; give finite values")
-        symbols = {s: current[str(s)] for _, _, mass, inertia in
-                   self._data.get("body_parameters", ())
+        parameters = self._body_parameters()
+        symbols = {s: current[str(s)] for _, _, mass, inertia in parameters
                    for s in (mass.free_symbols | (inertia.free_symbols if inertia is not None
                                                   else set())) if str(s) in current}
         data = dict(self._data, p=list(current.values()), constants=current,
-                    bodies=body_values(self._data.get("body_parameters", ()), symbols))
+                    bodies=body_values(parameters, symbols))
         if self._data.get("contact_coefficients"):
             data["contacts"] = _contact_values(self._data["contact_coefficients"], current)
         # the same code: the loaded C module or the compiled NumPy functions are reused
@@ -756,6 +773,7 @@ class NumericModel(StateLayout):
         ...     constants={"m": 1.0, "l": 1.0, "g": 9.81})
         >>> tau = model.inverse_dynamics(0.0, [0.0], [0.0], [0.0])  # hold it still
         """
+        from ._inverse import inverse_dynamics as _inverse_dynamics
         return _inverse_dynamics(self, t, q, u, udot)
 
     def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
@@ -1130,6 +1148,7 @@ def _contact_coefficients(contacts, values):
 
 def _contact_values(coefficients, current):
     """The contacts' numbers again, for the constants ``current`` (``{name: value}``)."""
+    import sympy as sm
     out = []
     for entry, exprs in coefficients:
         entry = dict(entry)
@@ -1179,6 +1198,12 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     ``"numpy"``, so that models are quick to create) eliminates common
     subexpressions of the generated code jointly.
     """
+    import sympy as sm
+
+    from ..engine import name_of
+    from ..modeling import body_parameters, body_values
+    from .backends._python import generate_python
+    from .schemes import as_scheme
     if backend not in BACKENDS:
         raise ModelError(f"unknown backend {backend!r}; available: "
                          f"{', '.join(repr(b) for b in BACKENDS)}")

@@ -6,7 +6,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-import scipy.linalg as sla
 
 __all__ = ["Scheme", "stabilization", "complement_solve", "al_solve", "kkt_solve",
            "penalty_weight"]
@@ -200,6 +199,7 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
     -------
     ndarray, shape (o,)
     """
+    import scipy.linalg as sla  # imported when first needed
     factor = sla.cho_factor(mass + weight * (C.T @ C))
     lam = np.zeros(C.shape[0])
     base = rhs + weight * (C.T @ target)

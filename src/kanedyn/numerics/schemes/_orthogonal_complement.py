@@ -11,10 +11,8 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-import scipy.linalg as sla
 
 from ..._errors import ModelError
-from ..backends._python import compile_python, generate_python
 from ._base import Scheme, complement_solve
 
 __all__ = ["OrthogonalComplement"]
@@ -102,6 +100,7 @@ class OrthogonalComplement(Scheme):
                    ((start,), [sub(e) for e in blocks.TduF]),
                    ((at,), [sub(e) for e in blocks.MbF]),
                    ((start,), [sub(e) for e in blocks.wF])]
+        from ..backends._python import compile_python, generate_python
         args = model._functions["dynamics"][0]
         source = (generate_python(prog, "_noc_blocks", args, outputs, cse=bool(model._cse))
                   + _ASSEMBLY.format(nb=nb, o=o, rows=rows, flexible=tuple(layout)))
@@ -120,6 +119,7 @@ class OrthogonalComplement(Scheme):
 
 
 def _cholesky_solve(A, b, t):
+    import scipy.linalg as sla  # imported when first needed
     try:
         return sla.cho_solve(sla.cho_factor(A), b)
     except np.linalg.LinAlgError:

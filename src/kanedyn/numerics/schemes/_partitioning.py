@@ -6,7 +6,6 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
-import scipy.linalg as sla
 
 from ._base import Scheme, complement_solve
 
@@ -15,6 +14,7 @@ __all__ = ["Partitioning", "NullSpace"]
 
 def _pivoted_partition(A, m):
     """Column indices (dependent, independent) by QR with column pivoting."""
+    import scipy.linalg as sla  # imported when first needed
     piv = sla.qr(A, mode="r", pivoting=True)[1]
     return np.sort(piv[:m]), np.sort(piv[m:])
 
@@ -75,6 +75,7 @@ class NullSpace(Scheme):
     name: ClassVar[str] = "null-space"
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
+        import scipy.linalg as sla  # imported when first needed
         N = sla.null_space(K)
         particular = -np.linalg.lstsq(K, acc_f, rcond=None)[0]
         z = sla.cho_solve(sla.cho_factor(N.T @ mass @ N), N.T @ (force - mass @ particular))
