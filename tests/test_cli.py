@@ -190,7 +190,7 @@ def test_help_and_version_exit_code_0(capsys):
     assert main(["--version"]) == 0
     assert main(["run", "--help"]) == 0
     out = capsys.readouterr().out
-    assert "--backend {numpy,c}" in out
+    assert "--backend {auto,numpy,c}" in out
 
 
 def test_list_model_shows_options_parameters_and_states(capsys):
@@ -231,3 +231,50 @@ def test_run_with_the_c_backend_matches_numpy(tmp_path):
         summaries[backend] = (out / "four-bar.csv").read_text().splitlines()
     last = [[float(x) for x in summaries[b][-1].split(",")] for b in ("numpy", "c")]
     assert last[0] == pytest.approx(last[1], rel=1e-7, abs=1e-9)
+
+
+# ------------------------------------------------------------ --backend auto
+def test_backend_auto_is_c_with_a_compiler_and_numpy_without(tmp_path, capsys, monkeypatch):
+    from kanedyn.numerics.backends import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler on this machine (auto is numpy; tested below)")
+    assert main(["run", "pendulum", "--t-end", "0.2", "--out", str(tmp_path / "a"),
+                 "--quiet"]) == 0
+    assert json.loads((tmp_path / "a" / "summary.json").read_text())["backend"] == "c"
+    assert "backend: c" in capsys.readouterr().out
+    monkeypatch.setenv("CC", str(tmp_path / "no-such-compiler"))
+    assert main(["run", "pendulum", "--t-end", "0.2", "--out", str(tmp_path / "b"),
+                 "--quiet"]) == 0
+    printed = capsys.readouterr().out
+    assert "backend: numpy (" in printed and "no-such-compiler" in printed
+    assert json.loads((tmp_path / "b" / "summary.json").read_text())["backend"] == "numpy"
+    # asked for by name, a missing compiler is an error naming the option
+    assert main(["run", "pendulum", "--backend", "c", "--out", str(tmp_path / "c"),
+                 "--quiet"]) == 2
+    assert "--backend c:" in capsys.readouterr().err
+    assert main(["run", "pendulum", "--backend", "numpy", "--t-end", "0.2",
+                 "--out", str(tmp_path / "d"), "--quiet"]) == 0
+    assert json.loads((tmp_path / "d" / "summary.json").read_text())["backend"] == "numpy"
+
+
+def test_backend_auto_runs_on_numpy_what_c_cannot_build(tmp_path, capsys, monkeypatch):
+    """A model the C backend cannot generate runs on numpy under auto, with a note."""
+    from kanedyn.models import ModelDefinition
+    from kanedyn.numerics.backends import CodegenError, compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler: auto is numpy without trying C")
+    numeric = ModelDefinition.numeric
+
+    def no_c(self, eom=None, backend="numpy", **options):
+        if backend == "c":
+            raise CodegenError("the C backend cannot generate code for f(x) (a test)")
+        return numeric(self, eom, backend=backend, **options)
+
+    monkeypatch.setattr(ModelDefinition, "numeric", no_c)
+    assert main(["run", "pendulum", "--t-end", "0.2", "--out", str(tmp_path / "a"),
+                 "--quiet"]) == 0
+    assert "backend: numpy (the C backend cannot build this model: the C backend " \
+           "cannot generate code for f(x)" in capsys.readouterr().out
+    assert main(["run", "pendulum", "--backend", "c", "--t-end", "0.2",
+                 "--out", str(tmp_path / "b"), "--quiet"]) == 2  # asked for: an error
+    assert "f(x)" in capsys.readouterr().err

@@ -24,7 +24,7 @@ def add_parser(sub):
     p.add_argument("--integrator", type=integrator_name, default="RK45",
                    help="integrator for every formulation: a solve_ivp method (RK45, "
                         "DOP853, Radau, BDF, ...)")
-    add_backend_argument(p)
+    add_backend_argument(p, auto="numpy: not every formulation has a C right-hand side")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=6) or parameter (A=0)")
     p.add_argument("--plot", action="store_true",
@@ -63,11 +63,13 @@ def cmd_compare(args):
                else None)  # before any work
     if not args.quiet:
         _print_explanation(args)
+    # auto is numpy here: not every formulation compared has a C right-hand side
+    backend = "numpy" if args.backend == "auto" else args.backend
     for name in names:
         options, constants = parse_sets(name, args.set)
         cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
                                    atol=args.atol, integrator=args.integrator,
-                                   constants=constants or None, backend=args.backend,
+                                   constants=constants or None, backend=backend,
                                    **options)
         print()
         print(cmp.table())
@@ -78,7 +80,7 @@ def cmd_compare(args):
         if args.work_precision:
             wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
                                 integrator=args.integrator, constants=constants or None,
-                                backend=args.backend, **options)
+                                backend=backend, **options)
             print()
             print(wp.table())
             path = out_dir / f"work-precision-{name}.png"

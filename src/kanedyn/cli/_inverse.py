@@ -5,8 +5,8 @@ from __future__ import annotations
 from .._errors import KanedynError
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, parse_sets, point_count,
-                       positive_float)
+from ._options import (add_backend_argument, check_output_dir, numeric_model, parse_sets,
+                       point_count, positive_float)
 
 __all__ = ["add_parser", "cmd_inverse"]
 
@@ -56,7 +56,7 @@ def cmd_inverse(args):
     out = check_output_dir(args.out) if args.out is not None else None
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
-    model = definition.numeric(definition.derive(), constants=values, backend=args.backend)
+    model = numeric_model(definition, definition.derive(), args.backend, values)
     progress.stage(f"inverse kinematics and actuator forces, {args.trajectory} trajectory, "
                    f"{args.points} points")
     study = inverse_study(definition, trajectory=args.trajectory, t_end=args.t_end,

@@ -20,17 +20,48 @@ from .._number_text import parse_number
 from ..models import REGISTRY
 
 __all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument",
-           "positive_float", "point_count", "integrator_name", "check_output_dir"]
+           "numeric_model", "positive_float", "point_count", "integrator_name",
+           "check_output_dir"]
 
 #: numerical backends the commands offer (``--backend``)
-BACKENDS = ("numpy", "c")
+BACKENDS = ("auto", "numpy", "c")
 
 
-def add_backend_argument(parser):
-    """Add ``--backend {numpy,c}`` (default ``numpy``) to ``parser``."""
-    parser.add_argument("--backend", choices=BACKENDS, default="numpy",
-                        help="numerical backend: numpy (default) or c (generated C, "
-                             "compiled with the system compiler and cached)")
+def add_backend_argument(parser, auto="c when a C compiler is found, else numpy"):
+    """Add ``--backend {auto,numpy,c}`` (default ``auto``, meaning ``auto``) to
+    ``parser``."""
+    parser.add_argument("--backend", choices=BACKENDS, default="auto",
+                        help=f"numerical backend: auto (default: {auto}), numpy, or c "
+                             "(generated C, compiled with the system compiler and cached)")
+
+
+def numeric_model(definition, eom, backend, constants=None, note=print):
+    """The numerical model of ``definition`` on the ``--backend`` chosen.
+
+    ``auto`` is c when a C compiler is found (the compiler is looked for here,
+    after the arguments are parsed) and numpy otherwise; a model the C backend
+    cannot generate or compile runs on numpy, with ``note(text)`` saying why.
+    An explicit ``c`` without a compiler is an error naming the option.
+    """
+    from .._errors import ModelError
+    from ..numerics.backends import CodegenError, CompilerError, compiler_command
+    from ..numerics.backends._c_build import missing_compiler_text
+    if backend == "c" and compiler_command() is None:
+        raise KanedynError(f"--backend c: {missing_compiler_text()}; use --backend numpy "
+                           "(or auto)")
+    if backend == "auto":
+        if compiler_command() is None:
+            note(f"backend: numpy ({missing_compiler_text()})")
+            backend = "numpy"
+        else:
+            try:
+                return definition.numeric(eom, constants=constants, backend="c")
+            except (CodegenError, CompilerError, ModelError) as exc:
+                # numpy where C cannot; a model error of any backend is raised again
+                model = definition.numeric(eom, constants=constants, backend="numpy")
+                note(f"backend: numpy (the C backend cannot build this model: {exc})")
+                return model
+    return definition.numeric(eom, constants=constants, backend=backend)
 
 
 def positive_float(text):

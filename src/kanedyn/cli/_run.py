@@ -10,8 +10,8 @@ from pathlib import Path
 from .._errors import KanedynError, SimulationInterrupted
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, integrator_name, parse_sets,
-                       point_count, positive_float, split_values)
+from ._options import (add_backend_argument, check_output_dir, integrator_name, numeric_model,
+                       parse_sets, point_count, positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_run"]
 
@@ -55,7 +55,7 @@ def cmd_run(args):
     progress.stage(f"deriving {definition.title}")
     eom = definition.derive(progress=progress)
     constants, initial = split_values(definition, eom, values)
-    model = definition.numeric(eom, constants=constants, backend=args.backend)
+    model = numeric_model(definition, eom, args.backend, constants)
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end
     progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
@@ -120,7 +120,7 @@ def _write_run(definition, eom, model, res, out, progress, report=None):
     import matplotlib.pyplot as plt
     plt.close(fig)
     summary = res.summary()
-    summary.update(model=definition.name, constants=model.constants,
+    summary.update(model=definition.name, backend=model.backend, constants=model.constants,
                    initial_state=dict(zip(model.state_names,
                                           map(float, res.initial_state))))
     if report is not None:
@@ -142,7 +142,8 @@ def _simulate(model, t_end, y0, args, progress, forces):
 
 def _print_summary(summary):
     drift = summary["energy_drift"]
-    print(f"success: {summary['success']} ({summary['message']})")
+    print(f"success: {summary['success']} ({summary['message']}), "
+          f"backend: {summary['backend']}")
     print(f"points: {summary['points']}, t_end: {summary['t_end']:g} s, "
           f"rhs evaluations: {summary['rhs_evaluations']}")
     if "impacts" in summary:  # contacts

@@ -16,8 +16,8 @@ import sys
 from .._errors import KanedynError
 from .._number_text import parse_number
 from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, parse_sets, positive_float,
-                       split_values)
+from ._options import (add_backend_argument, check_output_dir, numeric_model, parse_sets,
+                       positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_sweep", "parse_grid", "parse_range"]
 
@@ -138,7 +138,7 @@ def cmd_sweep(args):
     eom = definition.derive()
     probe = definition.numeric(eom)
     constants, initial = split_values(definition, probe, values)
-    model = definition.numeric(eom, constants=constants, backend=args.backend)
+    model = numeric_model(definition, eom, args.backend, constants)
     y0 = definition.initial(model, initial)
     if model.n_q_dep + model.n_u_dep:
         y0 = model.consistent_state(0.0, y0)

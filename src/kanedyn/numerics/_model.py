@@ -492,6 +492,11 @@ class NumericModel(StateLayout):
         self._data["state_units"] = units
         self._data["constraint_units"] = (list(config), list(velocity))
 
+    @property
+    def backend(self):
+        """``"numpy"`` or ``"c"``: what evaluates the model."""
+        return self._data["backend"]
+
     def __repr__(self):
         return (f"<NumericModel: {self.n_q} coordinates, {self.n_u} speeds, "
                 f"backend={self._data['backend']!r}>")
