@@ -232,6 +232,8 @@ class _LinearWaves:
         """
         x, y, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float),
                                       np.asarray(z, float))
+        if self.stretching != "wheeler":
+            return self._fixed_point_kinematics(x, y, z, t)
         theta = self._theta(x, y, t)
         cos, sin = np.cos(theta), np.sin(theta)
         if self.stretching == "none":
@@ -254,6 +256,38 @@ class _LinearWaves:
         w = (sh * sin) @ wa
         a_h = (ch * sin) @ w2a
         a_z = -(sh * cos) @ w2a
+        c, s = math.cos(self.direction), math.sin(self.direction)
+        vel = np.stack([u_h * c, u_h * s, w], axis=-1) * wet[..., None]
+        acc = np.stack([a_h * c, a_h * s, a_z], axis=-1) * wet[..., None]
+        return vel, acc
+
+    def _fixed_point_kinematics(self, x, y, z, t):
+        """:meth:`kinematics` without stretching to the surface (the depth profile
+        does not depend on t): with ``theta = base - omega t``, every per-point,
+        per-component factor is computed once for the points (the last set seen
+        is kept: Morison strips ask at the same points every time) and a call
+        is eight matrix-vector products with ``cos(omega t)``, ``sin(omega t)``."""
+        key = (x.shape, x.tobytes(), y.tobytes(), z.tobytes())
+        if getattr(self, "_fixed_key", None) != key:
+            c, s = math.cos(self.direction), math.sin(self.direction)
+            base = (x * c + y * s)[..., None] * self.wave_numbers + self.phases
+            C, S = np.cos(base), np.sin(base)
+            ch, sh = self._profiles(np.minimum(z, 0.0))
+            self._fixed = (C, S, ch * C, ch * S, sh * S, sh * C)
+            self._fixed_key = key
+        C, S, A, B, D, E = self._fixed
+        ct, st = np.cos(self.omegas * t), np.sin(self.omegas * t)
+        wa = self.omegas * self.amplitudes
+        w2a = self.omegas * wa
+        # cos(theta) = C ct + S st, sin(theta) = S ct - C st
+        u_h = A @ (wa * ct) + B @ (wa * st)
+        w = D @ (wa * ct) - E @ (wa * st)
+        a_h = B @ (w2a * ct) - A @ (w2a * st)
+        a_z = -(E @ (w2a * ct) + D @ (w2a * st))
+        if self.stretching == "none":
+            wet = z <= 0
+        else:  # vertical: wet up to the surface
+            wet = z <= C @ (self.amplitudes * ct) + S @ (self.amplitudes * st)
         c, s = math.cos(self.direction), math.sin(self.direction)
         vel = np.stack([u_h * c, u_h * s, w], axis=-1) * wet[..., None]
         acc = np.stack([a_h * c, a_h * s, a_z], axis=-1) * wet[..., None]
