@@ -166,7 +166,8 @@ def load_module(key_text, make_template, timeout=600):
                     units = (template.split(UNIT_MARK) if isinstance(template, str)
                              else template)
                     _build((unit.replace(NAME_TOKEN, name) for unit in units), command,
-                           so_path, manifest, directory, timeout)
+                           so_path, manifest, directory, timeout,
+                           single=isinstance(template, str) and UNIT_MARK not in template)
                     module = _load(name, so_path)
         _LOADED[key] = module
         return module
@@ -200,7 +201,6 @@ def _private_cache(reason):
 
 def _remove_stale_builds(directory, timeout):
     """Remove the ``build-*`` folders that killed builds left behind."""
-    import time
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
     for path in directory.glob("build-*"):
         try:
@@ -255,9 +255,10 @@ def _try_cached(name, so_path, manifest, repair=True):
 STATS = {"compiles": 0}
 
 
-def _build(units, command, so_path, manifest, directory, timeout):
-    """Compile the translation units ``units`` (an iterable of C sources) and
-    link them into ``so_path``; a single unit is built in one step."""
+def _build(units, command, so_path, manifest, directory, timeout, single=False):
+    """Compile the translation units ``units`` (an iterable of C sources), each
+    as soon as it comes, and link them into ``so_path``; a ``single`` unit is
+    built in one step."""
     STATS["compiles"] += 1
     includes = [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
     with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp, \
@@ -269,17 +270,14 @@ def _build(units, command, so_path, manifest, directory, timeout):
             c_path.write_text(text)
             size += len(text)
             paths.append(c_path)
-            if k == 1:  # several units: compile them separately
-                jobs.add(command + _UNIT_FLAGS + includes
-                         + ["-c", str(paths[0]), "-o", str(paths[0].with_suffix(".o"))])
-            if k >= 1:
+            if not single:
                 jobs.add(command + _UNIT_FLAGS + includes
                          + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
-            jobs.step(build_jobs() - 1)  # one CPU keeps making the units
-        if len(paths) == 1:
+                jobs.step(build_jobs() - 1)  # one CPU keeps making the units
+        if single:
             jobs.add(command + _FLAGS + includes + [str(paths[0]), "-o", str(out_path), "-lm"])
         jobs.finish()
-        if len(paths) > 1:
+        if not single:
             jobs.add(command + ["-shared"] + [str(path.with_suffix(".o")) for path in paths]
                      + ["-o", str(out_path), "-lm"])
             jobs.finish()
