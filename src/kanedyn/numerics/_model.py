@@ -317,8 +317,8 @@ class _CompiledFunctions(dict):
         self._model = model
 
     def __missing__(self, name):
-        model = self.__dict__.pop("_model", None)
-        if model is None or name != "dynamics":
+        model = self.__dict__.pop("_model", None) if name == "dynamics" else None
+        if model is None:
             raise KeyError(name)
         module = _full_module(model)
         for key in self._NAMES:
