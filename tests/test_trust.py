@@ -132,6 +132,13 @@ _INTERRUPTED_RUN = textwrap.dedent("""
 """)
 
 
+def _sigint_as_in_a_terminal():
+    """In the child before it starts: SIGINT at its default, as for a program run in
+    a terminal (a parent that ignores it, e.g. a shell's background job, would pass
+    the ignoring on, and Python then leaves Ctrl-C ignored)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(300)
 @pytest.mark.parametrize("backend, method", [("numpy", "RK45"), ("numpy", "Radau"),
@@ -139,7 +146,8 @@ _INTERRUPTED_RUN = textwrap.dedent("""
                                              ("contacts", "RK45")])
 def test_ctrl_c_returns_the_partial_result(backend, method):
     out = subprocess.run([sys.executable, "-c", _INTERRUPTED_RUN, backend, method],
-                         capture_output=True, text=True, timeout=240)
+                         capture_output=True, text=True, timeout=240,
+                         preexec_fn=_sigint_as_in_a_terminal)
     report = json.loads(out.stdout.strip().splitlines()[-1])
     assert report["raised"] and report["keyboard"]
     assert report["success"] is False and report["message"] == "interrupted"
@@ -149,11 +157,16 @@ def test_ctrl_c_returns_the_partial_result(backend, method):
 
 @pytest.mark.slow
 @pytest.mark.timeout(300)
-def test_cli_writes_what_it_has_on_ctrl_c(tmp_path):
+@pytest.mark.parametrize("backend, t_end", [("numpy", "1e4"), ("c", "1e7")])
+def test_cli_writes_what_it_has_on_ctrl_c(tmp_path, backend, t_end):
+    # long enough that Ctrl-C comes during the simulation, short enough that some
+    # output times are passed by then (the compiled loop integrates 1e4 s of this
+    # pendulum in well under a second)
     proc = subprocess.Popen([sys.executable, "-m", "kanedyn.cli", "run", "pendulum",
-                             "--t-end", "1e4", "--points", "100001", "--rtol", "1e-12",
-                             "--atol", "1e-12", "--out", str(tmp_path)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                             "--t-end", t_end, "--points", "100001", "--rtol", "1e-12",
+                             "--atol", "1e-12", "--backend", backend, "--out", str(tmp_path)],
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=_sigint_as_in_a_terminal)
     deadline = time.time() + 120
     for line in proc.stderr:  # progress: wait until the simulation runs
         if "simulating" in line or time.time() > deadline:
