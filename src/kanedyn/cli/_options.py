@@ -44,8 +44,8 @@ def numeric_model(definition, eom, backend, constants=None, note=print):
     An explicit ``c`` without a compiler is an error naming the option.
     """
     from .._errors import ModelError
-    from ..numerics.backends import CodegenError, CompilerError, compiler_command
-    from ..numerics.backends._c_build import missing_compiler_text
+    from ..numerics.backends import (CodegenError, CompilerError, compiler_command,
+                                     missing_compiler_text)
     if backend == "c" and compiler_command() is None:
         raise KanedynError(f"--backend c: {missing_compiler_text()}; use --backend numpy "
                            "(or auto)")

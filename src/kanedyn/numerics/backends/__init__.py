@@ -8,13 +8,15 @@
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes
-from ._c_build import STATS, CompilerError, cache_dir, compiler_command, load_module
+from ._c_build import (STATS, CompilerError, cache_dir, compiler_command, load_module,
+                       missing_compiler_text)
 
 #: names whose modules need SymPy: imported on first use
 _LAZY = {"fingerprint": "._c", "generate_c": "._c", "CodegenError": "._python",
          "compile_python": "._python", "generate_python": "._python"}
 
 __all__ = ["compile_python", "generate_python", "CodegenError", "generate_c", "load_module",
-           "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir"]
+           "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir",
+           "missing_compiler_text"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
