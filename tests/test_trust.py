@@ -7,6 +7,7 @@ import signal
 import subprocess
 import sys
 import textwrap
+import threading
 import time
 import warnings
 
@@ -359,3 +360,32 @@ def test_no_warning_for_an_accurate_run_from_zero_energy(pendulum):
         warnings.simplefilter("error", kd.TrustWarning)
         res = kd.simulate(model, (0, 10), definition.initial(model), rtol=1e-8)
     assert res.success and "warning" not in res.message
+
+
+def test_ctrl_c_while_the_outputs_are_written_finishes_them_first(tmp_path, monkeypatch,
+                                                                   capsys):
+    """A Ctrl-C after the simulation, while CSV, plot and summary are written, is held
+    until they are complete (a run that finished keeps all it computed)."""
+    import kanedyn.cli._run as run_module
+    from kanedyn.cli import main
+    if threading.current_thread() is not threading.main_thread():
+        pytest.skip("signals are delivered to the main thread only")
+    write = run_module._write_run
+
+    def ctrl_c_then_write(*args, **kwargs):
+        os.kill(os.getpid(), signal.SIGINT)  # as if pressed right now
+        return write(*args, **kwargs)
+
+    monkeypatch.setattr(run_module, "_write_run", ctrl_c_then_write)
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)  # a terminal's
+    try:
+        code = main(["run", "pendulum", "--t-end", "0.5", "--backend", "numpy",
+                     "--out", str(tmp_path), "--quiet"])
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    assert code == 130
+    assert "they were finished first" in capsys.readouterr().err
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["success"] and summary["points"] > 1
+    rows = (tmp_path / "pendulum.csv").read_text().splitlines()
+    assert len(rows) == summary["points"] + 1 and (tmp_path / "pendulum.png").exists()

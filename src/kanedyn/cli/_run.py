@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import json
+import signal
 import sys
+import threading
+from contextlib import contextmanager
 from pathlib import Path
 
 
@@ -65,12 +68,17 @@ def cmd_run(args):
         progress.done()
         res = stop.result
     report = definition.report(res, definition) if definition.report is not None else None
-    summary = _write_run(definition, eom, model, res, out, progress, report)
-    if args.animate:
-        page = res.animate(out / f"{definition.name}.html",
-                           visuals=definition.shapes(constants),
-                           title=f"{definition.name}: {definition.title}")
-        progress.stage(f"wrote {page}")
+    with _writing_first() as held:  # Ctrl-C now: the outputs are finished first
+        summary = _write_run(definition, eom, model, res, out, progress, report)
+        if args.animate:
+            page = res.animate(out / f"{definition.name}.html",
+                               visuals=definition.shapes(constants),
+                               title=f"{definition.name}: {definition.title}")
+            progress.stage(f"wrote {page}")
+    if held and res.message != "interrupted":
+        print("kanedyn: interrupted while writing the outputs; they were finished first",
+              file=sys.stderr)
+        return 130
     _print_summary(summary)
     if report is not None:
         print(f"{definition.name} report: {_report_text(report)}")
@@ -80,6 +88,29 @@ def cmd_run(args):
               file=sys.stderr)
         return 130
     return 0 if res.success else 1
+
+
+@contextmanager
+def _writing_first():
+    """Hold a first Ctrl-C until the block ends (a second one stops at once);
+    the list yielded is not empty when one came.  Only in the main thread with
+    Python's own SIGINT handler in place (a handler the user set is left)."""
+    held = []
+    if threading.current_thread() is not threading.main_thread() \
+            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+        yield held
+        return
+
+    def on_sigint(signum, frame):
+        if held:
+            raise KeyboardInterrupt
+        held.append(signum)
+
+    signal.signal(signal.SIGINT, on_sigint)
+    try:
+        yield held
+    finally:
+        signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 def _pulse_option(args, options):
