@@ -16,7 +16,6 @@ Translation units
 from __future__ import annotations
 
 import hashlib
-import re
 
 import numpy as np
 import sympy as sm
@@ -91,6 +90,16 @@ def _print_c(printer, expr, what, describe=str):
 
 
 # ---------------------------------------------------------------- functions
+_PARAMS = ("double t, const double *restrict y, const double *restrict p, "
+           "const double *restrict r, double *restrict w")
+
+
+def _signature(name, n_outputs):
+    """The declaration of the generated ``kd_eval_<name>`` with ``n_outputs`` outputs."""
+    outputs = "".join(f", double *restrict o{k}" for k in range(n_outputs))
+    return f"KD_GEN void kd_eval_{name}({_PARAMS}{outputs})"
+
+
 def _function_source(program, name, arguments, outputs, describe, cse, listing=None):
     """C source of ``kd_eval_<name>`` and the number of work slots it needs.
 
@@ -119,8 +128,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
             if s in index:
                 last_use[s] = len(chunks)
     split = len(chunks) > 1  # decided before any statement is emitted
-    params = ("double t, const double *restrict y, const double *restrict p, "
-              "const double *restrict r, double *restrict w")
+    params = _PARAMS
     lines = []
     stored = set()
     for c, members in enumerate(chunks):
@@ -143,10 +151,9 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
             lines.extend(["}", PIECE_MARK])
         else:
             chunk_body = body
-    out_params = ", ".join(f"double *restrict o{k}" for k in range(len(outputs)))
     if split:
         lines.extend(f"KD_GEN void kd_{name}_part{c}({params});" for c in range(len(chunks)))
-    lines.append(f"KD_GEN void kd_eval_{name}({params}{', ' if outputs else ''}{out_params}) {{")
+    lines.append(_signature(name, len(outputs)) + " {")
     names = dict(base)
     if split:
         for c in range(len(chunks)):
@@ -390,57 +397,66 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True, la
     if units:
         return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse,
                                                lanes))
-    generated = []
-    for kind, part in _module_parts(program, functions, sizes, describe, cse, lanes):
-        if kind == "function":
-            generated.append(part[0])
-        else:
-            defines, lane_defines, runtime = part
-    return "\n".join([_c_runtime.HEADER, *defines, *lane_defines, *generated, *runtime])
+    lanes = lanes_wanted(functions, sizes, lanes)
+    defines, runtime, _ = _runtime_parts(functions, sizes, lanes)
+    generated, work, lane_work = [], 0, 0
+    for src, _, w, lw in _function_sources(program, functions, sizes, describe, cse, lanes):
+        generated.append(src)
+        work, lane_work = max(work, w), max(lane_work, lw)
+    sizes_known = [f"#define KD_NW {work}"] + ([f"#define KD_NWL {lane_work}"] if lanes else [])
+    return "\n".join([_c_runtime.HEADER, *defines, *sizes_known,
+                      *_lane_runtime(lanes), *generated, *runtime])
 
 
 def generate_c_units(program, functions, sizes, describe=str, cse=True, lanes=True):
     """The translation units of a module, each yielded as soon as it is made.
 
-    Every part of a generated function of :data:`UNIT_MIN_CHARS` or more
-    characters is a unit of its own (with the C prelude, no Python headers),
-    the small ones one unit together, and the runtime with the Python entry
-    points (which declares the generated functions) comes last.  Passed to
-    :func:`load_module`, the compiler starts on the first units while the
-    later ones are still being generated.  Arguments as for :func:`generate_c`.
+    The runtime with the Python entry points comes first (it needs nothing of
+    the generated code but its declarations; the work-array sizes are
+    variables, ``kd_nw`` and ``kd_nwl``, defined by the last unit), so the
+    compiler works on it while the functions are generated.  Every part of a
+    generated function of :data:`UNIT_MIN_CHARS` or more characters is a
+    unit of its own (with the C prelude, no Python headers), the small ones
+    and the work sizes one last unit.  Passed to :func:`load_module`, the
+    compiler starts on each unit as soon as it comes.  Arguments as for
+    :func:`generate_c`.
     """
-    prototypes, small, small_preamble = [], [], []
-    for kind, part in _module_parts(program, functions, sizes, describe, cse, lanes):
-        if kind != "function":
-            break
-        src, preamble = part
-        prototypes += [found[:-2] + ";" for found in _PROTOTYPE.findall(src)]
+    lanes = lanes_wanted(functions, sizes, lanes)
+    defines, runtime, prototypes = _runtime_parts(functions, sizes, lanes)
+    variables = ["extern const int kd_nw, kd_nwl;", "#define KD_NW kd_nw",
+                 "#define KD_NWL kd_nwl"]
+    yield "\n".join(["#define KD_GEN", _c_runtime.HEADER, *defines, *variables,
+                     *_lane_runtime(lanes), *prototypes, *runtime])
+    small, small_preamble, work, lane_work = [], [], 0, 0
+    for src, preamble, w, lw in _function_sources(program, functions, sizes, describe, cse,
+                                                  lanes):
+        work, lane_work = max(work, w), max(lane_work, lw)
         for piece in src.split(PIECE_MARK):
             if len(piece) >= UNIT_MIN_CHARS:
                 yield "\n".join([*preamble, piece])
             else:
                 small.append(piece)
                 small_preamble = max(small_preamble, preamble, key=len)  # lanes: longer
-    defines, lane_defines, runtime = part
-    if small:
-        yield "\n".join([*small_preamble, *small])
-    yield "\n".join(["#define KD_GEN", _c_runtime.HEADER, *defines, *lane_defines,
-                     *prototypes, *runtime])
+    yield "\n".join([*(small_preamble or ["#define KD_GEN", _c_runtime.PRELUDE]), *small,
+                     f"const int kd_nw = {work}, kd_nwl = {lane_work};"])
 
 
-def _module_parts(program, functions, sizes, describe, cse, lanes):
-    """Yield ``("function", (source, preamble))`` per generated function (the
-    largest kinds first: the tree pass, the dynamics and its lane-wise copy),
-    then ``("runtime", (defines, lane_defines, runtime))``; ``preamble``: what
-    a translation unit of the function needs before it."""
-    size_defines = [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
-                    f"#define KD_NQDEP {sizes['n_q_dep']}",
-                    f"#define KD_NUDEP {sizes['n_u_dep']}", f"#define KD_NP {sizes['n_p']}",
-                    f"#define KD_NR {sizes['n_r']}"]
-    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *size_defines]
-    work = 0
-    lanes = lanes_wanted(functions, sizes, lanes)
-    lane_defines = []
+def _size_defines(sizes):
+    return [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
+            f"#define KD_NQDEP {sizes['n_q_dep']}", f"#define KD_NUDEP {sizes['n_u_dep']}",
+            f"#define KD_NP {sizes['n_p']}", f"#define KD_NR {sizes['n_r']}"]
+
+
+def _lane_runtime(lanes):
+    return [f"#define KD_LANES {_c_lanes.LANES}", _c_runtime.LANE_RUNTIME] if lanes else []
+
+
+def _function_sources(program, functions, sizes, describe, cse, lanes):
+    """Yield ``(source, preamble, work, lane work)`` per generated function, the
+    largest kinds first (the tree pass, the dynamics and its lane-wise copy);
+    ``preamble``: what a translation unit of the function needs before it;
+    ``work``: doubles of work array it needs (``lane work`` for the lanes)."""
+    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *_size_defines(sizes)]
     first = [name for name in ("tree", "dynamics") if name in functions]
     for name in first + [name for name in functions if name not in first]:
         arguments, outputs = functions[name]
@@ -450,19 +466,20 @@ def _module_parts(program, functions, sizes, describe, cse, lanes):
             listing = program.listing(flat, cse=cse)
             src, w = _c_lanes.lanes_source(program, arguments, outputs, listing, describe,
                                            CHUNK)
-            lane_defines = [f"#define KD_LANES {_c_lanes.LANES}", f"#define KD_NWL {w}",
-                            _c_runtime.LANE_RUNTIME]
-            yield "function", (src, preamble + lane_defines)
+            yield src, preamble + _lane_runtime(lanes), 0, w
         src, w = _function_source(program, name, arguments, outputs, describe, cse, listing)
-        yield "function", (src, preamble)
-        work = max(work, w)
-    defines = [*size_defines, f"#define KD_NW {work}",
+        yield src, preamble, w, 0
+
+
+def _runtime_parts(functions, sizes, lanes):
+    """``(defines, runtime, declarations)`` of a module: everything but the
+    generated functions and the work-array sizes (``KD_NW``, ``KD_NWL``)."""
+    defines = [*_size_defines(sizes),
                f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
-    wrappers = []
-    table = []
+    wrappers, table = [], []
     for name, (arguments, outputs) in functions.items():
         wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
@@ -476,11 +493,11 @@ def _module_parts(program, functions, sizes, describe, cse, lanes):
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     runtime = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, *contact, *wrappers,
                _c_runtime.FOOTER]
-    yield "runtime", (defines, lane_defines, runtime)
-
-
-#: the signature line of a generated function (``KD_GEN void kd_...(...) {``)
-_PROTOTYPE = re.compile(r"^(?:KD_LANES_FN )?KD_GEN void kd_\w+\(.*\) \{$", re.M)
+    declarations = [_signature(name, len(outputs)) + ";"
+                    for name, (_, outputs) in functions.items()]
+    if lanes:
+        declarations.append(_c_lanes.SIGNATURE + ";")
+    return defines, runtime, declarations
 
 
 def eager_functions(functions, sizes):

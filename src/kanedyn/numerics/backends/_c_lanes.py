@@ -31,10 +31,16 @@ from __future__ import annotations
 
 import sympy as sm
 
-__all__ = ["LANES", "vectorizable", "lanes_source"]
+__all__ = ["LANES", "SIGNATURE", "vectorizable", "lanes_source"]
 
 #: lanes of the vectorized batch evaluation (0: none); 4 doubles = one AVX2 register
 LANES = 4
+
+_PARAMS = ("const double *restrict tl, const double *restrict yl, "
+           "const double *restrict pl, const double *restrict rl, double *restrict w")
+#: the declaration of the generated lane-wise dynamics
+SIGNATURE = (f"KD_LANES_FN KD_GEN void kd_lanes_dynamics({_PARAMS}, double *restrict o0, "
+             "double *restrict o1, double *restrict o2)")
 
 _SIMPLE_POWERS = {sm.Integer(2), sm.Integer(3), sm.Integer(-1), sm.Integer(-2),
                   sm.S.Half, -sm.S.Half}
@@ -121,8 +127,7 @@ def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500)
     for e in flat:
         shared.update(d for d in e.free_symbols if d in index)
     slot = {s: k for k, s in enumerate(sorted(shared, key=index.get))}
-    params = ("const double *restrict tl, const double *restrict yl, "
-              "const double *restrict pl, const double *restrict rl, double *restrict w")
+    params = _PARAMS
     lines, calls = [], []
     for g, (vector, members) in enumerate(groups):
         names = dict(base)
@@ -147,8 +152,7 @@ def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500)
     names = dict(base)
     names.update((s, f"w[{slot[s]} * KD_W + l]") for s in shared)
     printer = _CPrinter(names)
-    lines.append(f"KD_LANES_FN KD_GEN void kd_lanes_dynamics({params}, double *restrict o0, "
-                 "double *restrict o1, double *restrict o2) {")
+    lines.append(SIGNATURE + " {")
     lines.extend(calls)
     vector = all(vectorizable(e) for e in flat)
     if vector:
