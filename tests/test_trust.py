@@ -118,6 +118,9 @@ _INTERRUPTED_RUN = textwrap.dedent("""
          else kd.models.build("n-link-pendulum-on-cart", n=2))
     backend = "numpy" if backend == "contacts" else backend
     model = d.numeric(d.derive(), backend=backend)
+    # a first short run: what simulate imports on first use is loaded before the
+    # Ctrl-C (under load the imports alone could take the second)
+    kd.simulate(model, (0, 0.01), d.initial(model), method=method)
     threading.Timer(1.0, os.kill, (os.getpid(), signal.SIGINT)).start()
     start = time.perf_counter()
     try:
