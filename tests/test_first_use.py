@@ -156,3 +156,24 @@ def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(tmp_path):
     assert not (tmp_path / "ran").exists()
     # and stored again, usable by the next process
     assert _run(_CHAIN.format(mass=1.0), tmp_path)[:2] == [0, 0]
+
+
+def test_a_chain_forms_only_the_partial_velocities_it_needs():
+    """The composite pass reads one speed's partials per body (the speed's
+    own body), not all n x n; inverse functions form theirs in a workspace,
+    never in the equations' program."""
+    import numpy as np
+
+    import kanedyn as kd
+    definition = kd.models.build("chain3d", n=6, style="positions")
+    eom = definition.derive()
+    formed = sum(len(t.partial_velocities._formed) + len(t.partial_angular_velocities._formed)
+                 for t in eom._body_terms)
+    assert 0 < formed <= 2 * 6
+    size = len(eom._program)
+    model = definition.numeric(eom)
+    q, u, ud = np.random.default_rng(1).normal(size=(3, 6))
+    tau = model.inverse_dynamics(0.0, q, u, ud)
+    parts = model.inverse_parts(0.0, q, u, ud)
+    assert np.max(np.abs(parts.total - tau)) <= 1e-12 * np.max(np.abs(tau))
+    assert len(eom._program) == size

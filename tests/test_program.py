@@ -103,3 +103,21 @@ def test_fast_eval_distinguishes_numbers_with_equal_hashes():
     values = {x: 3.0, y: 5.0}
     expr = -x * y + 2 * x - 2 * y  # contains the numbers -1 and -2
     assert fast_eval(expr, values.__getitem__, {}) == complex(expr.subs(values))
+
+
+def test_shadow_derivative_equals_the_symbolic_derivative(program):
+    prog, (q1, q2, u1, u2, k, t), (a, b) = program
+    exprs = [a, b, a * b]
+    for var in (q1, q2, u1, u2, k):
+        for seed in (101, 202):
+            stepped = prog.shadow_derivative(exprs, var, seed)
+            symbolic = prog.shadow([prog.diff(e, var) for e in exprs], seed)
+            for x, y in zip(stepped, symbolic):
+                assert abs(x - y.real) <= 1e-13 * max(1.0, abs(y))
+
+
+def test_shadow_derivative_refuses_non_analytic_functions(program):
+    prog, (q1, q2, u1, u2, k, t), (a, b) = program
+    c = prog.let(sm.Abs(a - 1) * u1, "c")
+    assert prog.shadow_derivative([c], q1, 101) is None
+    assert prog.shadow_derivative([b], q1, 101) is not None

@@ -32,7 +32,7 @@ from __future__ import annotations
 import sympy as sm
 import sympy.physics.mechanics as me
 
-from ._kinematics import add, cross, dot
+from ._kinematics import PartialVelocities, add, cross, dot
 from ._program import SAMPLE_SEEDS
 
 __all__ = ["composite_equations", "composite_inertia_forces"]
@@ -47,11 +47,19 @@ def _close(a, b, tol=1e-9):
     return all(abs(x - y) <= tol * scale for x, y in zip(a, b))
 
 
+def _moves(partials, r):
+    """Whether partial ``r`` is nonzero (by dependence, without forming it,
+    when ``partials`` is a :class:`PartialVelocities`)."""
+    if isinstance(partials, PartialVelocities):
+        return partials.moves(r)
+    return _nonzero(partials[r])
+
+
 def _supports(body_terms, o):
     """``B_r``: indices of the bodies each real speed moves."""
     return [frozenset(k for k, t in enumerate(body_terms)
-                      if _nonzero(t.partial_velocities[r])
-                      or _nonzero(t.partial_angular_velocities[r]))
+                      if _moves(t.partial_velocities, r)
+                      or _moves(t.partial_angular_velocities, r))
             for r in range(o)]
 
 
@@ -65,15 +73,35 @@ def _nested(supports):
     return True
 
 
+def _partial_values(prog, body_terms, bodies, r, seed):
+    """``[(W, V)]``: values of the partial (angular) velocities of speed ``r``
+    of ``bodies`` at the random point ``seed``.
+
+    By complex steps through the velocities where they can be trusted (one
+    pass over the intermediates that depend on the speed, for all bodies;
+    no partial velocity is formed), else from the partials themselves.
+    """
+    speed = getattr(body_terms[bodies[0]].partial_velocities, "speeds", None)
+    if speed is not None:
+        speed = speed[r]
+        exprs = [c for k in bodies
+                 for c in body_terms[k].omega + body_terms[k].velocity]
+        values = prog.shadow_derivative(exprs, speed, seed)
+        if values is not None:
+            return [(values[6 * i:6 * i + 3], values[6 * i + 3:6 * i + 6])
+                    for i in range(len(bodies))]
+    return [(prog.shadow(body_terms[k].partial_angular_velocities[r], seed),
+             prog.shadow(body_terms[k].partial_velocities[r], seed)) for k in bodies]
+
+
 def _rigid(prog, body_terms, positions, supports):
     """Whether S_kr is the same for every body k of each support B_r."""
     for seed in SAMPLE_SEEDS:
         pos = [prog.shadow(p, seed) for p in positions]
         for r, support in enumerate(supports):
+            ks = sorted(support)
             ref = None
-            for k in sorted(support):
-                W = prog.shadow(body_terms[k].partial_angular_velocities[r], seed)
-                V = prog.shadow(body_terms[k].partial_velocities[r], seed)
+            for k, (W, V) in zip(ks, _partial_values(prog, body_terms, ks, r, seed)):
                 p = pos[k]
                 S = list(W) + [V[i] - (W[(i + 1) % 3] * p[(i + 2) % 3]
                                        - W[(i + 2) % 3] * p[(i + 1) % 3]) for i in range(3)]

@@ -23,6 +23,7 @@ time derivatives and partial derivatives of these velocities.
 from __future__ import annotations
 
 from collections import deque
+from collections.abc import Sequence
 
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -30,8 +31,8 @@ import sympy.physics.mechanics as me
 from .._errors import KinematicsError
 from ._program import SAMPLE_SEEDS, fast_eval
 
-__all__ = ["Kinematics", "cross", "dot", "add", "matvec", "dyadic_matrix",
-           "inertia_components"]
+__all__ = ["Kinematics", "PartialVelocities", "cross", "dot", "add", "matvec",
+           "dyadic_matrix", "inertia_components"]
 
 _ZERO3 = (sm.S.Zero,) * 3
 _SMALL = 60  # stored velocities with at most this many nodes are used as they are
@@ -49,6 +50,61 @@ def dot(a, b):
 
 def add(a, b):
     return tuple(x + y for x, y in zip(a, b))
+
+
+class PartialVelocities(Sequence):
+    r"""Partial derivatives of a vector with respect to each speed, formed when
+    first read.
+
+    Item ``r`` is the 3-tuple :math:`\partial v/\partial u_r` with the
+    ``fixed`` leaves (auxiliary speeds) then set to their values; a tree of
+    joints needs few of the :math:`n^2` partial velocities of its bodies
+    (:mod:`._composite`), so they are not all formed up front.
+
+    Parameters
+    ----------
+    prog : Program
+    vector : tuple of 3 expressions
+    speeds : sequence of Symbol
+    fixed : dict
+        ``{leaf: value}`` substituted after differentiating.
+    """
+
+    __slots__ = ("prog", "vector", "speeds", "fixed", "_formed", "_leaves")
+
+    def __init__(self, prog, vector, speeds, fixed):
+        self.prog, self.vector = prog, tuple(vector)
+        self.speeds, self.fixed = tuple(speeds), dict(fixed)
+        self._formed, self._leaves = {}, None
+
+    def __len__(self):
+        return len(self.speeds)
+
+    def __getitem__(self, r):
+        if isinstance(r, slice):
+            return [self[i] for i in range(len(self))[r]]
+        r = range(len(self))[r]
+        found = self._formed.get(r)
+        if found is None:
+            prog, speed = self.prog, self.speeds[r]
+            found = self._formed[r] = tuple(prog.subs(prog.diff(c, speed), self.fixed)
+                                            for c in self.vector)
+        return found
+
+    def on(self, program):
+        """These partials continued on ``program`` (an extension of :attr:`prog`,
+        e.g. :meth:`Program.copy`): those formed are shared, new ones are
+        added to ``program`` only."""
+        new = PartialVelocities(program, self.vector, self.speeds, self.fixed)
+        new._formed, new._leaves = dict(self._formed), self._leaves
+        return new
+
+    def moves(self, r):
+        """Whether the vector depends on speed ``r`` (its partial is not zero
+        by structure), without forming the partial."""
+        if self._leaves is None:
+            self._leaves = frozenset().union(*(self.prog.deps(c) for c in self.vector))
+        return self.speeds[r] in self._leaves
 
 
 def _is_zero_vector(vec):

@@ -80,6 +80,7 @@ class Program:
         self._explicit = {}
         self._shadow = {}  # seed -> {symbol: value}
         self._samplers = {}
+        self._analytic = {}  # intermediate -> whether its definition is analytic
 
     # ------------------------------------------------------------------ build
     def copy(self):
@@ -394,6 +395,54 @@ class Program:
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
 
+    def shadow_derivative(self, exprs, var, seed, step=1e-20):
+        r"""Values of :math:`\partial e/\partial\,\mathrm{var}` at the random point ``seed``.
+
+        The complex step :math:`\operatorname{Im} e(x + ih)/h` through the
+        intermediates that depend on ``var`` (values of the others from
+        :meth:`shadow`): no symbolic derivative is formed.  Exact to rounding
+        for analytic expressions; ``None`` where it cannot be trusted (a
+        non-analytic function on the way, such as ``Abs``, or a value that is
+        not real at the point), so that the caller differentiates
+        symbolically instead.
+
+        Returns
+        -------
+        list of float or None
+            One value per expression.
+        """
+        exprs = [sm.sympify(e) for e in exprs]
+        base = self.shadow(exprs, seed)
+        values = self._shadow[seed]
+        if var not in values:  # not reached by any expression
+            return [0.0] * len(exprs)
+        moved = {var: values[var] + 1j * step}
+
+        def value_of(s):
+            found = moved.get(s)
+            return values[s] if found is None else found
+
+        for s in self.needed(exprs, stop=lambda s: var not in self._deps[s]):
+            if values[s].imag != 0 or not self._is_analytic(s):
+                return None
+            moved[s] = _evaluate(self._defs[s], value_of)
+        out = []
+        for e, value in zip(exprs, base):
+            if value.imag != 0 or not _analytic(e):
+                return None
+            moved_value = _evaluate(e, value_of)
+            if moved_value != moved_value:
+                return None
+            out.append(moved_value.imag / step)
+        return out
+
+    def _is_analytic(self, symbol):
+        known = vars(self).setdefault("_analytic", {})  # absent from older pickles
+        found = known.get(symbol)
+        if found is None:
+            found = known[symbol] = _analytic(self._defs[symbol])
+        return found
+
     def insensitive(self, exprs, leaves, seeds=SAMPLE_SEEDS, step=1e-20, rtol=1e-10):
         r"""Leaves each expression does not depend on, by complex-step derivatives.
 
@@ -596,6 +645,24 @@ def total_derivative(expr, derivative_of):
             continue
         terms.append(expr.diff(s) * ds)
     return sm.Add(*terms)
+
+
+_ANALYTIC = frozenset({sm.sin, sm.cos, sm.tan, sm.exp, sm.log, sm.asin, sm.acos, sm.atan,
+                       sm.sinh, sm.cosh, sm.tanh})
+
+
+def _analytic(expr):
+    """True when ``expr`` is built of sums, products, powers and the analytic
+    functions of :data:`_ANALYTIC` only (a complex step through it is exact)."""
+    stack = [expr]
+    while stack:
+        e = stack.pop()
+        if e.is_Atom:
+            continue
+        if not (e.is_Add or e.is_Mul or e.is_Pow or e.func in _ANALYTIC):
+            return False
+        stack.extend(e.args)
+    return True
 
 
 def _rebuild(expr, values):

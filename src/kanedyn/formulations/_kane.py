@@ -32,9 +32,9 @@ import sympy.physics.mechanics as me
 from .._errors import ModelError
 from .._progress import NO_PROGRESS
 from ._flexible import BLOCK_BODIES, flexible_bodies, flexible_terms
-from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, add, composite_equations,
-                      cross, dot, fast_eval, inertia_components, matvec, name_of,
-                      random_sampler)
+from ..engine import (SAMPLE_SEEDS, Kinematics, PartialVelocities, Program, SymbolTable, add,
+                      composite_equations, cross, dot, fast_eval, inertia_components, matvec,
+                      name_of, random_sampler)
 
 __all__ = ["derive_kane", "BodyTerms", "body_kinematics", "load_terms",
            "given_velocity_constraints"]
@@ -114,8 +114,9 @@ class BodyTerms:
     body : RigidBody or Particle
     velocity, omega : tuple of 3 expressions
         Mass-centre velocity and angular velocity (zeros for a particle).
-    partial_velocities, partial_angular_velocities : list of 3-tuples
-        One per speed in ``u + u_aux`` order.
+    partial_velocities, partial_angular_velocities : sequence of 3-tuples
+        One per speed in ``u + u_aux`` order (:class:`PartialVelocities`:
+        formed when first read).
     """
 
     __slots__ = ("body", "velocity", "omega", "partial_velocities",
@@ -128,6 +129,15 @@ class BodyTerms:
         self.omega = omega
         self.partial_velocities = partial_velocities
         self.partial_angular_velocities = partial_angular_velocities
+
+    def on(self, program):
+        """These terms with their partial velocities continued on ``program``
+        (an extension of the program they were derived in, e.g. a workspace
+        copy): partials formed later go there, not into the equations."""
+        def moved(partials):
+            return partials.on(program) if isinstance(partials, PartialVelocities) else partials
+        return BodyTerms(self.body, self.velocity, self.omega, moved(self.partial_velocities),
+                         moved(self.partial_angular_velocities))
 
 
 def _pivot_rows(K, q):
@@ -322,8 +332,11 @@ def _generic_rows(kin, rows, o, body_terms, masses, inertias, inertial, loads):
     return out, active, remainder
 
 
-def body_kinematics(kin, bodies, partials, aux_zero, progress=NO_PROGRESS):
+def body_kinematics(kin, bodies, speeds, aux_zero, progress=NO_PROGRESS):
     """Velocities, partial velocities and inertia terms of every body.
+
+    Partial velocities with respect to ``speeds`` (:class:`PartialVelocities`:
+    formed when first read), with ``aux_zero`` substituted.
 
     Returns
     -------
@@ -349,7 +362,8 @@ def body_kinematics(kin, bodies, partials, aux_zero, progress=NO_PROGRESS):
         w = kin.angular_velocity(body.frame) if rigid else (sm.S.Zero,) * 3
         terms = BodyTerms(body, tuple(prog.subs(c, aux_zero) for c in v),
                           tuple(prog.subs(c, aux_zero) for c in w),
-                          partials(v), partials(w))
+                          PartialVelocities(prog, v, speeds, aux_zero),
+                          PartialVelocities(prog, w, speeds, aux_zero))
         force, torque, I_N, H = _inertia_remainder(kin, body, m, terms)
         body_terms.append(terms)
         masses.append(m)
@@ -360,8 +374,12 @@ def body_kinematics(kin, bodies, partials, aux_zero, progress=NO_PROGRESS):
     return body_terms, masses, inertias, inertial, hs
 
 
-def load_terms(kin, loads, partials):
-    """``[(location, inertial components, partials of its velocity), ...]``."""
+def load_terms(kin, loads, speeds, aux_zero):
+    """``[(location, inertial components, partials of its velocity), ...]``.
+
+    The partials with respect to ``speeds`` (:class:`PartialVelocities`), with
+    ``aux_zero`` substituted.
+    """
     out = []
     for load in loads:
         loc = load.location
@@ -369,7 +387,7 @@ def load_terms(kin, loads, partials):
         vec = kin.let_vector(kin.vector(load.vector, f"load on {loc}"), f"{kind}_{loc}")
         base = (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
                 else kin.velocity(loc))
-        out.append((loc, vec, partials(base)))
+        out.append((loc, vec, PartialVelocities(kin.prog, base, speeds, aux_zero)))
     return out
 
 
@@ -500,16 +518,12 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     o, s_aux = len(table.u), len(table.u_aux)
     aux_zero = {ua: 0 for ua in table.u_aux}
 
-    def partials(vec):
-        return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec)
-                for ur in speeds]
-
     rigid = [b for b in spec.bodies if not isinstance(b, BLOCK_BODIES)]
     body_terms, masses, inertias, inertial, hs = body_kinematics(
-        kin, rigid, partials, aux_zero, progress)
+        kin, rigid, speeds, aux_zero, progress)
     flexible = [flexible_terms(kin, b, speeds, o, aux_zero) for b in flexible_bodies(spec)]
     progress.stage("generalized active forces")
-    loads = load_terms(kin, spec.loads, partials)
+    loads = load_terms(kin, spec.loads, speeds, aux_zero)
 
     # ------------------------------------------- mass matrix, remainder
     progress.stage("mass matrix and forcing")

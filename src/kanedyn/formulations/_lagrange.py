@@ -390,18 +390,15 @@ class _Setup:
         kin, prog, table = self.kin, self.prog, self.table
         speeds = table.u
 
-        def partials(vec):
-            return [tuple(prog.diff(c, s) for c in vec) for s in speeds]
-
         flexible = flexible_bodies(self.spec)
         rigid = [b for b in self.spec.bodies if not isinstance(b, BLOCK_BODIES)]
         body_terms, masses, inertias, inertial, hs = body_kinematics(
-            kin, rigid, partials, {}, progress)
+            kin, rigid, speeds, {}, progress)
         # flexible bodies: kinetic energy from the inertia invariants; gravity,
         # elastic and damping forces projected on the rates' partial velocities
         blocks = [flexible_block(kin, b, speeds, {}, inertia=False) for b in flexible]
         progress.stage("generalized forces")
-        loads = load_terms(kin, self.spec.loads, partials)
+        loads = load_terms(kin, self.spec.loads, speeds, {})
         ke = [m * dot(terms.velocity, terms.velocity) / 2 + dot(terms.omega, H) / 2
               for terms, m, H in zip(body_terms, masses, hs)]
         ke.extend(block.kinetic for block in blocks)

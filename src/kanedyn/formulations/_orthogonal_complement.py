@@ -87,7 +87,7 @@ import sympy.physics.mechanics as me
 from ._flexible import BLOCK_BODIES, flexible_bodies, flexible_terms
 from ._kane import (BodyTerms, _contact_terms, _drop_workless, constraint_terms, kane_setup,
                     kinetic_term, potential_term)
-from ..engine import SAMPLE_SEEDS, add, cross, dot, inertia_components, matvec
+from ..engine import SAMPLE_SEEDS, PartialVelocities, add, cross, dot, inertia_components, matvec
 from .._progress import NO_PROGRESS
 
 __all__ = ["derive_orthogonal_complement"]
@@ -194,7 +194,7 @@ def derive_orthogonal_complement(spec, progress=NO_PROGRESS, explicit_kinematics
     aux_zero = {ua: 0 for ua in table.u_aux}
 
     def partials(vec):
-        return [tuple(prog.subs(prog.diff(c, ur), aux_zero) for c in vec) for ur in speeds]
+        return PartialVelocities(prog, vec, speeds, aux_zero)
 
     def no_aux(vec):
         return tuple(prog.subs(c, aux_zero) for c in vec)

@@ -107,8 +107,8 @@ def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
               for b in bodies]
     inertias = [inertia_components(kin, b, f"body {b.name}")[1]
                 if isinstance(b, me.RigidBody) else None for b in bodies]
-    rows = composite_inertia_forces(kin, bodies, eom._body_terms, masses, inertias,
-                                    rates, o)
+    rows = composite_inertia_forces(kin, bodies, [t.on(prog) for t in eom._body_terms],
+                                    masses, inertias, rates, o)
     if rows is None or not substitutions:
         return rows
     return [prog.subs(e, substitutions) for e in rows]

@@ -192,6 +192,7 @@ def _parts_specification(model, gravity):
 
     acc_rows, vel_rows, names, centres = [], [], [], []
     for terms, (force, torque) in zip(eom._body_terms, eom._inertial):
+        terms = terms.on(prog)
         body = terms.body
         names.append(body.name)
         centres.append(body.masscenter)
