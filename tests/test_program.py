@@ -105,19 +105,22 @@ def test_fast_eval_distinguishes_numbers_with_equal_hashes():
     assert fast_eval(expr, values.__getitem__, {}) == complex(expr.subs(values))
 
 
-def test_shadow_derivative_equals_the_symbolic_derivative(program):
+def test_shadow_jacobian_equals_the_symbolic_derivatives(program):
     prog, (q1, q2, u1, u2, k, t), (a, b) = program
-    exprs = [a, b, a * b]
-    for var in (q1, q2, u1, u2, k):
-        for seed in (101, 202):
-            stepped = prog.shadow_derivative(exprs, var, seed)
+    exprs = [a, b, a * b, k]
+    variables = (q1, q2, u1, u2, k)
+    for seed in (101, 202):
+        jacobian = prog.shadow_jacobian(exprs, variables, seed)
+        assert jacobian.shape == (4, 5)
+        for j, var in enumerate(variables):
             symbolic = prog.shadow([prog.diff(e, var) for e in exprs], seed)
-            for x, y in zip(stepped, symbolic):
+            for x, y in zip(jacobian[:, j], symbolic):
                 assert abs(x - y.real) <= 1e-13 * max(1.0, abs(y))
+    assert abs(jacobian[3, 4] - 1.0) == 0 and not jacobian[3, :4].any()
 
 
-def test_shadow_derivative_refuses_non_analytic_functions(program):
+def test_shadow_jacobian_refuses_non_analytic_functions(program):
     prog, (q1, q2, u1, u2, k, t), (a, b) = program
     c = prog.let(sm.Abs(a - 1) * u1, "c")
-    assert prog.shadow_derivative([c], q1, 101) is None
-    assert prog.shadow_derivative([b], q1, 101) is not None
+    assert prog.shadow_jacobian([c], (q1,), 101) is None
+    assert prog.shadow_jacobian([b], (q1,), 101) is not None

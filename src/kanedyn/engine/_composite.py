@@ -73,35 +73,33 @@ def _nested(supports):
     return True
 
 
-def _partial_values(prog, body_terms, bodies, r, seed):
-    """``[(W, V)]``: values of the partial (angular) velocities of speed ``r``
-    of ``bodies`` at the random point ``seed``.
+def _partial_values(prog, body_terms, o, seed):
+    """``values(k, r) -> (W, V)``: the partial (angular) velocities of body
+    ``k`` and real speed ``r`` at the random point ``seed``.
 
-    By complex steps through the velocities where they can be trusted (one
-    pass over the intermediates that depend on the speed, for all bodies;
-    no partial velocity is formed), else from the partials themselves.
+    By complex steps through the velocities in all speeds at once where they
+    can be trusted (:meth:`Program.shadow_jacobian`; no partial velocity is
+    formed), else from the partials themselves.
     """
-    speed = getattr(body_terms[bodies[0]].partial_velocities, "speeds", None)
-    if speed is not None:
-        speed = speed[r]
-        exprs = [c for k in bodies
-                 for c in body_terms[k].omega + body_terms[k].velocity]
-        values = prog.shadow_derivative(exprs, speed, seed)
-        if values is not None:
-            return [(values[6 * i:6 * i + 3], values[6 * i + 3:6 * i + 6])
-                    for i in range(len(bodies))]
-    return [(prog.shadow(body_terms[k].partial_angular_velocities[r], seed),
-             prog.shadow(body_terms[k].partial_velocities[r], seed)) for k in bodies]
+    speeds = getattr(body_terms[0].partial_velocities, "speeds", None) if body_terms else None
+    if speeds is not None:
+        exprs = [c for t in body_terms for c in t.omega + t.velocity]
+        jacobian = prog.shadow_jacobian(exprs, speeds[:o], seed)
+        if jacobian is not None:
+            return lambda k, r: (jacobian[6 * k:6 * k + 3, r], jacobian[6 * k + 3:6 * k + 6, r])
+    return lambda k, r: (prog.shadow(body_terms[k].partial_angular_velocities[r], seed),
+                         prog.shadow(body_terms[k].partial_velocities[r], seed))
 
 
 def _rigid(prog, body_terms, positions, supports):
     """Whether S_kr is the same for every body k of each support B_r."""
     for seed in SAMPLE_SEEDS:
         pos = [prog.shadow(p, seed) for p in positions]
+        values = _partial_values(prog, body_terms, len(supports), seed)
         for r, support in enumerate(supports):
-            ks = sorted(support)
             ref = None
-            for k, (W, V) in zip(ks, _partial_values(prog, body_terms, ks, r, seed)):
+            for k in sorted(support):
+                W, V = values(k, r)
                 p = pos[k]
                 S = list(W) + [V[i] - (W[(i + 1) % 3] * p[(i + 2) % 3]
                                        - W[(i + 2) % 3] * p[(i + 1) % 3]) for i in range(3)]

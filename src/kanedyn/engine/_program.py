@@ -28,6 +28,7 @@ import itertools
 import math
 import random
 
+import numpy as np
 import sympy as sm
 from sympy.core.function import AppliedUndef
 
@@ -395,45 +396,55 @@ class Program:
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
 
-    def shadow_derivative(self, exprs, var, seed, step=1e-20):
-        r"""Values of :math:`\partial e/\partial\,\mathrm{var}` at the random point ``seed``.
+    def shadow_jacobian(self, exprs, variables, seed, step=1e-20):
+        r"""Values of :math:`\partial e_i/\partial x_j` at the random point ``seed``.
 
-        The complex step :math:`\operatorname{Im} e(x + ih)/h` through the
-        intermediates that depend on ``var`` (values of the others from
-        :meth:`shadow`): no symbolic derivative is formed.  Exact to rounding
-        for analytic expressions; ``None`` where it cannot be trusted (a
-        non-analytic function on the way, such as ``Abs``, or a value that is
-        not real at the point), so that the caller differentiates
-        symbolically instead.
+        Complex steps :math:`\operatorname{Im} e(x + ih\,e_j)/h` in every
+        direction at once: one pass over the intermediates that depend on
+        ``variables``, each evaluated on an array with one lane per variable
+        (values of the others from :meth:`shadow`); no symbolic derivative is
+        formed.  Exact to rounding for analytic expressions; ``None`` where it
+        cannot be trusted (a non-analytic function on the way, such as
+        ``Abs``, or a value that is not real at the point), so that the
+        caller differentiates symbolically instead.
 
         Returns
         -------
-        list of float or None
-            One value per expression.
+        numpy.ndarray or None
+            Shape ``(len(exprs), len(variables))``.
         """
         exprs = [sm.sympify(e) for e in exprs]
         base = self.shadow(exprs, seed)
         values = self._shadow[seed]
-        if var not in values:  # not reached by any expression
-            return [0.0] * len(exprs)
-        moved = {var: values[var] + 1j * step}
+        out = np.zeros((len(exprs), len(variables)))
+        moved = {}
+        for j, x in enumerate(variables):
+            if x in values:  # reached by some expression
+                if values[x].imag != 0:
+                    return None
+                moved[x] = np.full(len(variables), values[x], dtype=complex)
+                moved[x][j] += 1j * step
+        if not moved:
+            return out
+        targets = frozenset(moved)
 
         def value_of(s):
             found = moved.get(s)
             return values[s] if found is None else found
 
-        for s in self.needed(exprs, stop=lambda s: var not in self._deps[s]):
+        for s in self.needed(exprs, stop=lambda s: self._deps[s].isdisjoint(targets)):
             if values[s].imag != 0 or not self._is_analytic(s):
                 return None
-            moved[s] = _evaluate(self._defs[s], value_of)
-        out = []
-        for e, value in zip(exprs, base):
+            moved[s] = _lane_eval(self._defs[s], value_of, {})
+        for i, (e, value) in enumerate(zip(exprs, base)):
             if value.imag != 0 or not _analytic(e):
                 return None
-            moved_value = _evaluate(e, value_of)
-            if moved_value != moved_value:
+            lanes = _lane_eval(e, value_of, {})
+            if np.ndim(lanes) == 0:
+                continue  # depends on none of the variables
+            if not np.all(np.isfinite(lanes)):
                 return None
-            out.append(moved_value.imag / step)
+            out[i] = lanes.imag / step
         return out
 
     def _is_analytic(self, symbol):
@@ -647,8 +658,10 @@ def total_derivative(expr, derivative_of):
     return sm.Add(*terms)
 
 
-_ANALYTIC = frozenset({sm.sin, sm.cos, sm.tan, sm.exp, sm.log, sm.asin, sm.acos, sm.atan,
-                       sm.sinh, sm.cosh, sm.tanh})
+_LANE_FUNCS = {sm.sin: np.sin, sm.cos: np.cos, sm.tan: np.tan, sm.exp: np.exp, sm.log: np.log,
+               sm.asin: np.arcsin, sm.acos: np.arccos, sm.atan: np.arctan, sm.sinh: np.sinh,
+               sm.cosh: np.cosh, sm.tanh: np.tanh}
+_ANALYTIC = frozenset(_LANE_FUNCS)
 
 
 def _analytic(expr):
@@ -663,6 +676,32 @@ def _analytic(expr):
             return False
         stack.extend(e.args)
     return True
+
+
+def _lane_eval(expr, value_of, memo):
+    """Value of an analytic expression (:func:`_analytic`) whose leaves may be
+    arrays of complex lanes (``value_of(symbol)``); ``memo`` by node."""
+    if expr.is_Symbol:
+        return value_of(expr)
+    if expr.is_Number or expr.is_NumberSymbol:
+        return complex(expr)
+    found = memo.get(expr)
+    if found is not None:
+        return found
+    args = [_lane_eval(a, value_of, memo) for a in expr.args]
+    if expr.is_Add:
+        value = sum(args[1:], args[0])
+    elif expr.is_Mul:
+        value = args[0]
+        for a in args[1:]:
+            value = value * a
+    elif expr.is_Pow:
+        exponent = expr.args[1]
+        value = args[0] ** (int(exponent) if exponent.is_Integer else args[1])
+    else:
+        value = _LANE_FUNCS[expr.func](args[0])
+    memo[expr] = value
+    return value
 
 
 def _rebuild(expr, values):
