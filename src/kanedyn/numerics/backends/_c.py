@@ -16,6 +16,7 @@ Translation units
 from __future__ import annotations
 
 import hashlib
+import re
 
 import numpy as np
 import sympy as sm
@@ -31,7 +32,7 @@ __all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
            "CHUNK", "elimination_tree", "solver_source", "STATS", "cache_dir",
            "speed_tree_outputs", "TREE_MIN_SPEEDS", "lanes_wanted"]
 
-CHUNK = 2500  # statements per generated C function
+CHUNK = 800  # statements per generated C function
 #: a function (or part of one) of fewer characters shares a translation unit with
 #: the other small ones
 UNIT_MIN_CHARS = 20000
@@ -167,14 +168,44 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
     printer = _CPrinter(names)
     position = 0
     for k, (_, exprs) in enumerate(outputs):
+        codes = []
         for j in range(len(exprs)):
-            code = _print_c(printer, flat[position], f"output {j} of {name}", describe)
+            codes.append(_print_c(printer, flat[position], f"output {j} of {name}", describe))
             position += 1
-            lines.append(f"    o{k}[{j}] = {code};")
+        lines.extend(_output_lines(f"kd_{name}_o{k}", f"o{k}", codes))
     lines.append("    (void)t; (void)y; (void)p; (void)r; (void)w;")
     lines.append("}")
     work = len(needed) if split else 0
     return "\n".join(lines), work
+
+
+_COPY = re.compile(r"([wypr])\[(\d+)\]")
+_COPY_MIN = 16  # copies from one array in a table loop, not one statement each
+
+
+def _output_lines(table, target, codes):
+    """Statements setting ``target[j] = codes[j]``.
+
+    Plain copies of array entries (``w[5]``, ``y[3]``) from one array, when
+    there are many, become a loop over a table of index pairs: thousands of
+    single stores in one function cost the compiler's alias analysis time
+    quadratic in their number (2.8 s of gcc for the 1000 outputs of the
+    tree pass at chain3d n = 100), for no gain at run time.
+    """
+    copies = {}
+    for j, code in enumerate(codes):
+        found = _COPY.fullmatch(code)
+        if found is not None:
+            copies.setdefault(found.group(1), []).append((j, int(found.group(2))))
+    looped = {a: pairs for a, pairs in copies.items() if len(pairs) >= _COPY_MIN}
+    skip = {j for pairs in looped.values() for j, _ in pairs}
+    lines = [f"    {target}[{j}] = {code};" for j, code in enumerate(codes) if j not in skip]
+    for array, pairs in looped.items():
+        entries = ", ".join(f"{{{j}, {i}}}" for j, i in pairs)
+        lines += [f"    static const int {table}_{array}[{len(pairs)}][2] = {{{entries}}};",
+                  f"    for (int i = 0; i < {len(pairs)}; i++)",
+                  f"        {target}[{table}_{array}[i][0]] = {array}[{table}_{array}[i][1]];"]
+    return lines
 
 
 def _wrapper_source(name, outputs, nr):
@@ -300,7 +331,7 @@ def speed_tree_outputs(tree, qdot, force, sub):
     return outputs, (tuple(tree["parent"]), tuple(tree["order"]))
 
 
-CODEGEN_VERSION = "kanedyn-c-4"  # change when generated code changes (bits, not only meaning)
+CODEGEN_VERSION = "kanedyn-c-5"  # change when generated code changes (bits, not only meaning)
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
@@ -451,12 +482,19 @@ def _lane_runtime(lanes):
     return [f"#define KD_LANES {_c_lanes.LANES}", _c_runtime.LANE_RUNTIME] if lanes else []
 
 
+#: gcc's straight-line (SLP) vectorizer took a third to a half of the compile
+#: time of long generated functions for no measured gain at run time (chain3d
+#: n = 10 to 100: rhs within 2 %); loops (the runtime unit) keep it
+_STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
+                  '#pragma GCC optimize ("no-tree-slp-vectorize")\n#endif')
+
+
 def _function_sources(program, functions, sizes, describe, cse, lanes):
     """Yield ``(source, preamble, work, lane work)`` per generated function, the
     largest kinds first (the tree pass, the dynamics and its lane-wise copy);
     ``preamble``: what a translation unit of the function needs before it;
     ``work``: doubles of work array it needs (``lane work`` for the lanes)."""
-    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, *_size_defines(sizes)]
+    preamble = ["#define KD_GEN", _c_runtime.PRELUDE, _STRAIGHT_LINE, *_size_defines(sizes)]
     first = [name for name in ("tree", "dynamics") if name in functions]
     for name in first + [name for name in functions if name not in first]:
         arguments, outputs = functions[name]
