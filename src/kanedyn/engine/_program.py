@@ -111,18 +111,21 @@ class Program:
         the first time the derivative is needed.
         """
         self._base_dt[symbol] = derivative if callable(derivative) else sm.sympify(derivative)
+        self._varying_set = None
 
     def set_derivative(self, symbol, derivative):
         """Change the time derivative of a declared base variable."""
         if symbol not in self._base_dt:
             raise KeyError(f"{symbol} is not a base variable of this program")
         self._base_dt[symbol] = sm.sympify(derivative)
+        self._varying_set = None
         self._dt.clear()
 
     def _base_derivative(self, symbol):
         value = self._base_dt.get(symbol, _ZERO)
         if callable(value):
             value = self._base_dt[symbol] = sm.sympify(value())
+            self._varying_set = None
         return value
 
     def is_base(self, symbol):
@@ -225,8 +228,13 @@ class Program:
         return frozenset(out)
 
     def _varying(self):
-        """Base variables whose time derivative is not identically zero."""
-        return frozenset(s for s, d in self._base_dt.items() if callable(d) or d != 0)
+        """Base variables whose time derivative is not identically zero (kept
+        until a derivative is declared or changed)."""
+        found = vars(self).get("_varying_set")  # absent from older pickles
+        if found is None:
+            found = self._varying_set = frozenset(
+                s for s, d in self._base_dt.items() if callable(d) or d != 0)
+        return found
 
     def _free_intermediates(self, expr):
         return [s for s in expr.free_symbols if s in self._defs]
