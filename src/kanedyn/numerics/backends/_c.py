@@ -483,10 +483,12 @@ def _lane_runtime(lanes):
 
 
 #: gcc's straight-line (SLP) vectorizer took a third to a half of the compile
-#: time of long generated functions for no measured gain at run time (chain3d
-#: n = 10 to 100: rhs within 2 %); loops (the runtime unit) keep it
+#: time of long generated functions, and the second instruction scheduling
+#: another 5-10 %, for no measured gain at run time (chain3d n = 10 to 100:
+#: rhs within 2 %); the runtime unit (loops) keeps both
 _STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
-                  '#pragma GCC optimize ("no-tree-slp-vectorize")\n#endif')
+                  '#pragma GCC optimize ("no-tree-slp-vectorize", "no-schedule-insns2")\n'
+                  '#endif')
 
 
 def _function_sources(program, functions, sizes, describe, cse, lanes):
