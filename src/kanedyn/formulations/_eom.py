@@ -642,7 +642,8 @@ class EquationsOfMotion:
             "numpy" with a warning when no C compiler is available).
         cse : bool, optional
             Eliminate common subexpressions of the generated code jointly
-            (default: on for "c", off for "numpy").
+            (default: on for "c" except in the articulated-body pass of a
+            tree, where it gains nothing; off for "numpy").
         scheme : str or Scheme, optional
             Constraint scheme (:mod:`kanedyn.schemes`); default :attr:`scheme`.
 

@@ -1059,7 +1059,7 @@ class NumericModel(StateLayout):
                              f"{self.scheme.name!r} scheme ({eom.method} formulation) is "
                              "not the generated C one; use the default scheme")
         table = eom._table
-        cse = True if self._cse is None else self._cse
+        cse = self._cse  # None: the default choice (see build_numeric_model)
         if not standalone:
             if not module_name.isidentifier():
                 raise ModelError(f"module_name {module_name!r} is not a valid identifier")
@@ -1070,7 +1070,7 @@ class NumericModel(StateLayout):
         return standalone_c(eom._program, self._functions, self._sizes, self.state_names,
                             dict(zip(self.constants, map(float, self._p))),
                             input_names=self.input_names,
-                            title=title or f"{self!r}", cse=cse,
+                            title=title or f"{self!r}", cse=cse is not False,
                             describe=lambda e: str(table.external(e)))
 
     def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None):
@@ -1199,9 +1199,10 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
     is the constraint scheme of :mod:`kanedyn.schemes` that turns the
     evaluated terms into accelerations.
 
-    ``cse`` (default: on for ``"c"``, whose build is cached, off for
-    ``"numpy"``, so that models are quick to create) eliminates common
-    subexpressions of the generated code jointly.
+    ``cse`` (default: on for ``"c"``, whose build is cached, except in the
+    articulated-body pass, where it gains nothing; off for ``"numpy"``, so
+    that models are quick to create) eliminates common subexpressions of the
+    generated code jointly.
     """
     import sympy as sm
 
@@ -1332,7 +1333,6 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
                           RuntimeWarning, stacklevel=3)
             backend = "numpy"
         else:
-            cse = True if cse is None else cse
             if tree_found is not None:  # u' by an articulated-body pass (KD_SOLVE 3)
                 functions["tree"] = (args, tree_found[0])
                 sizes["speed_tree"] = tree_found[1]

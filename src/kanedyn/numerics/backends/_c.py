@@ -339,7 +339,7 @@ _TEMPLATES_DIGEST = hashlib.sha256("".join(
 ).encode()).hexdigest()[:16]
 
 
-def fingerprint(program, functions, sizes, cse=True, lanes=True):
+def fingerprint(program, functions, sizes, cse=None, lanes=True):
     """Deterministic text identifying what a module computes (its cache key).
 
     The C source itself is not deterministic across processes (SymPy's common
@@ -397,7 +397,7 @@ def _structure(expr, names, memo):
     return text
 
 
-def generate_c(program, functions, sizes, describe=str, cse=True, units=True, lanes=True):
+def generate_c(program, functions, sizes, describe=str, cse=None, units=True, lanes=True):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -415,8 +415,9 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True, la
     describe : callable, optional
         ``describe(expr)``: text of an expression for error messages (in the
         model's own symbols).
-    cse : bool
-        Eliminate common subexpressions jointly first (:meth:`Program.listing`).
+    cse : bool or None
+        Eliminate common subexpressions jointly first (:meth:`Program.listing`);
+        ``None``: in every function but the articulated-body pass.
     units : bool
         Separate translation units (joined by :data:`UNIT_MARK`, see
         :func:`generate_c_units`).  ``False``: one C file (what
@@ -439,7 +440,7 @@ def generate_c(program, functions, sizes, describe=str, cse=True, units=True, la
                       *_lane_runtime(lanes), *generated, *runtime])
 
 
-def generate_c_units(program, functions, sizes, describe=str, cse=True, lanes=True):
+def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True):
     """The translation units of a module, each yielded as soon as it is made.
 
     The runtime with the Python entry points comes first (it needs nothing of
@@ -495,20 +496,32 @@ def _function_sources(program, functions, sizes, describe, cse, lanes):
     """Yield ``(source, preamble, work, lane work)`` per generated function, the
     largest kinds first (the tree pass, the dynamics and its lane-wise copy);
     ``preamble``: what a translation unit of the function needs before it;
-    ``work``: doubles of work array it needs (``lane work`` for the lanes)."""
+    ``work``: doubles of work array it needs (``lane work`` for the lanes).
+    ``cse=None``: every function but the tree pass (:func:`_eliminates`)."""
     preamble = ["#define KD_GEN", _c_runtime.PRELUDE, _STRAIGHT_LINE, *_size_defines(sizes)]
     first = [name for name in ("tree", "dynamics") if name in functions]
     for name in first + [name for name in functions if name not in first]:
         arguments, outputs = functions[name]
+        eliminate = _eliminates(name, cse)
         listing = None
         if lanes and name == "dynamics":  # one listing for both versions
             flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
-            listing = program.listing(flat, cse=cse)
+            listing = program.listing(flat, cse=eliminate)
             src, w = _c_lanes.lanes_source(program, arguments, outputs, listing, describe,
                                            CHUNK)
             yield src, preamble + _lane_runtime(lanes), 0, w
-        src, w = _function_source(program, name, arguments, outputs, describe, cse, listing)
+        src, w = _function_source(program, name, arguments, outputs, describe, eliminate,
+                                  listing)
         yield src, preamble, w, 0
+
+
+def _eliminates(name, cse):
+    """Whether function ``name`` is listed with common subexpressions
+    eliminated: ``cse`` when given; by default (``None``) every function but
+    the articulated-body pass, whose statements are the composite sums of a
+    tree, their common parts intermediates already (measured on chain3d: the
+    same run time without, and 1.65 s less of a 7 s build at n = 100)."""
+    return cse if cse is not None else name != "tree"
 
 
 def _runtime_parts(functions, sizes, lanes):

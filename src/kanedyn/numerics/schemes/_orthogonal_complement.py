@@ -102,7 +102,7 @@ class OrthogonalComplement(Scheme):
                    ((start,), [sub(e) for e in blocks.wF])]
         from ..backends._python import compile_python, generate_python
         args = model._functions["dynamics"][0]
-        source = (generate_python(prog, "_noc_blocks", args, outputs, cse=bool(model._cse))
+        source = (generate_python(prog, "_noc_blocks", args, outputs, cse=model._cse is not False)
                   + _ASSEMBLY.format(nb=nb, o=o, rows=rows, flexible=tuple(layout)))
         # kept in the model's sources, so that copies and unpickled models
         # evaluate the same assembly
