@@ -3,6 +3,7 @@
 import multiprocessing
 import os
 import pickle
+import re
 import warnings
 
 import numpy as np
@@ -64,11 +65,13 @@ def test_numpy_and_c_agree(name, options):
 
 
 def test_split_functions_agree(monkeypatch):
-    """Programs split into many C functions (values passed through memory)."""
+    """Programs split into many C functions (values passed through memory);
+    outputs copied from the work array by a loop over an index table."""
     monkeypatch.setattr(_cbackend, "CHUNK", 7)
     d = kd.models.build("whipple-bicycle")
     eom = d.derive()
     fast, slow = d.numeric(eom, backend="c"), d.numeric(eom)
+    assert re.search(r"static const int kd_\w+_o\d+_w\[\d+\]\[2\]", fast.c_source())
     for y in states(d, slow):
         assert relative(fast.rhs(0.0, y), slow.rhs(0.0, y)) < 1e-12
 

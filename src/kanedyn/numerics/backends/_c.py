@@ -349,6 +349,7 @@ def fingerprint(program, functions, sizes, cse=None, lanes=True):
     rebuilt or printed by SymPy, which for large programs took seconds).
     """
     parts = [CODEGEN_VERSION, _TEMPLATES_DIGEST, repr(sorted(sizes.items())), f"cse={cse}",
+             f"chunk={CHUNK}",
              f"lanes={_c_lanes.LANES if lanes_wanted(functions, sizes, lanes) else 0}"]
     for name, (arguments, outputs) in functions.items():
         names = {program.t: "t"}
