@@ -82,6 +82,7 @@ class Program:
         self._shadow = {}  # seed -> {symbol: value}
         self._samplers = {}
         self._analytic = {}  # intermediate -> whether its definition is analytic
+        self._varying_set = None  # base variables with a derivative (see _varying)
 
     # ------------------------------------------------------------------ build
     def copy(self):
@@ -678,7 +679,7 @@ def _analytic(expr):
     stack = [expr]
     while stack:
         e = stack.pop()
-        if e.is_Atom:
+        if e.is_Symbol or e.is_Number or e.is_NumberSymbol or e is sm.I:
             continue
         if not (e.is_Add or e.is_Mul or e.is_Pow or e.func in _ANALYTIC):
             return False
@@ -691,7 +692,7 @@ def _lane_eval(expr, value_of, memo):
     arrays of complex lanes (``value_of(symbol)``); ``memo`` by node."""
     if expr.is_Symbol:
         return value_of(expr)
-    if expr.is_Number or expr.is_NumberSymbol:
+    if expr.is_Number or expr.is_NumberSymbol or expr is sm.I:
         return complex(expr)
     found = memo.get(expr)
     if found is not None:
