@@ -75,7 +75,7 @@ def _stages(needed, definition, index):
     return stage
 
 
-def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500):
+def lanes_source(program, arguments, outputs, listing, describe, chunk):
     """C source of ``kd_lanes_dynamics`` and its work size in values.
 
     Parameters
@@ -91,7 +91,7 @@ def lanes_source(program, arguments, outputs, listing, describe=str, chunk=2500)
     describe : callable
         Text of an expression for error messages.
     chunk : int
-        Statements per generated C function at most.
+        Statements per generated C function at most (``_c.CHUNK``).
 
     Returns
     -------
