@@ -478,3 +478,33 @@ def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeyp
     assert _c_build.STATS["compiles"] == compiles + 1
     np.testing.assert_allclose(model._c.rhs_batch(0.0, Y, lanes=True), loop, rtol=1e-13,
                                atol=1e-13)
+
+
+def test_direct_printing_matches_sympys_printer():
+    """Statements are printed without SymPy's printer where they are sums,
+    products, powers and elementary functions: the same C text (up to the
+    digits of a float literal, which name the same double, and the
+    parentheses SymPy puts around a leading rational factor), SymPy's printer
+    for anything else."""
+    a, b, c, d = sm.symbols("a b c d")
+    names = {a: "w[0]", b: "w[1]", c: "y[2]", d: "p[3]"}
+    printer = _cbackend._CPrinter(names)
+    exprs = [a * b - c * d, -2 * a * (b + c), sm.Rational(1, 2) * d * a - b, a / (b * c),
+             (a + b) ** 2, a ** -3, sm.sqrt(a + b), 1 / sm.sqrt(a), -a / sm.sqrt(b + c),
+             sm.sin(a) * sm.cos(b) - 0.25 * c, -(a + b), 2.5 * a ** 2 / b,
+             a - sm.Rational(3, 4), a ** sm.Rational(3, 2), b / a ** sm.Rational(3, 2),
+             sm.atan2(a, b), sm.Abs(a - b), sm.sign(c), a * (b - c) / (c + d) ** 2,
+             sm.exp(-a), sm.Integer(-3), (-a) ** 3, c ** -5, 0.1 * a - 1e-20 * b]
+
+    def same_value_text(text):
+        text = re.sub(r"\((\d+\.0/\d+\.0)\)", r"\1", text)
+        return re.sub(r"(?<![\w\[.])(\d+\.\d+(?:e[-+]?\d+)?)",
+                      lambda m: repr(float(m.group(1))), text)
+
+    for e in exprs:
+        direct = _cbackend._print_c(printer, e, "test")
+        assert same_value_text(direct) == same_value_text(printer.doprint(e)), e
+    unusual = sm.Piecewise((a, b > 0), (c, True))
+    assert _cbackend._print_c(printer, unusual, "test") == printer.doprint(unusual)
+    with pytest.raises(CodegenError, match="symbol x has no value"):
+        _cbackend._print_c(printer, a + sm.Symbol("x"), "test")
