@@ -504,6 +504,8 @@ def test_direct_printing_matches_sympys_printer():
     for e in exprs:
         direct = _cbackend._print_c(printer, e, "test")
         assert same_value_text(direct) == same_value_text(printer.doprint(e)), e
+    # an integer beyond C's integer literals is written as a double
+    assert _cbackend._print_c(printer, sm.Integer(10 ** 30) * a, "test") == "1e+30*w[0]"
     unusual = sm.Piecewise((a, b > 0), (c, True))
     assert _cbackend._print_c(printer, unusual, "test") == printer.doprint(unusual)
     with pytest.raises(CodegenError, match="symbol x has no value"):

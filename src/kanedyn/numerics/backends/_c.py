@@ -185,6 +185,8 @@ def _number(expr):
     """``(negative, text of the magnitude, binding)`` of a SymPy number."""
     if expr.is_Integer:
         value = int(expr)
+        if abs(value) > 2 ** 53:  # beyond C's integer literals: a double
+            return value < 0, repr(float(abs(value))), _ATOM
         return value < 0, str(abs(value)), _ATOM
     if expr.is_Rational:
         p, q = int(expr.p), int(expr.q)
