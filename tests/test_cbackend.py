@@ -480,6 +480,40 @@ def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeyp
                                atol=1e-13)
 
 
+def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
+    """The runtime unit (entry points, integrator) is compiled at -O1; at -O2
+    where it holds the lane-wise solve or the contact loop; every other unit
+    at -O2."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    compiled = []  # optimization level and first line of each compiled unit
+    add = _c_build._Jobs.add
+
+    def record(jobs, cmd):
+        if "-c" in cmd:
+            with open(cmd[cmd.index("-c") + 1]) as unit:
+                compiled.append((next(f for f in cmd if f.startswith("-O")), unit.readline()))
+        add(jobs, cmd)
+
+    def levels():
+        found = list(compiled)
+        compiled.clear()
+        return found
+
+    monkeypatch.setattr(_c_build._Jobs, "add", record)
+
+    d = kd.models.build("chain3d", n=4)
+    model = d.numeric(d.derive(), backend="c")
+    found = levels()
+    assert found[0] == ("-O1", _c_build.LIGHT_UNIT) and len(found) >= 2
+    assert all(level == "-O2" for level, _ in found[1:])
+    model.rhs_batch(0.0, np.zeros((model.LANES_FROM_ROWS, model.n_states)))  # lanes
+    assert {level for level, _ in levels()} == {"-O2"}
+    d = kd.models.build("falling-rod")
+    d.numeric(d.derive(), backend="c")
+    assert {level for level, _ in levels()} == {"-O2"}
+
+
 def test_direct_printing_matches_sympys_printer():
     """Statements are printed without SymPy's printer where they are sums,
     products, powers and elementary functions: the same C text (up to the

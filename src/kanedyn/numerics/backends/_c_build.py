@@ -40,11 +40,15 @@ import numpy as np
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "STATS", "NAME_TOKEN", "UNIT_MARK"]
+           "cache_dir", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
 UNIT_MARK = "\n/* ---- kanedyn: next translation unit ---- */\n"
+#: first line of a translation unit compiled at -O1 (not -O2): code whose speed
+#: does not depend on the optimizer's loop passes (entry points, argument
+#: parsing, the integrator's bookkeeping), where -O2 only costs compile time
+LIGHT_UNIT = "/* kanedyn: compiled at -O1 */\n"
 _LOADED = {}  # hash -> module, per process
 _LOCK = threading.Lock()
 
@@ -88,14 +92,15 @@ def missing_compiler_text():
 _FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
 #: flags of one translation unit of a module built from several (linked with -shared)
 _UNIT_FLAGS = ["-O2", "-fPIC", "-fvisibility=hidden", "-std=gnu11", "-fno-math-errno", "-w"]
+_LIGHT_FLAGS = ["-O1"] + _UNIT_FLAGS[1:]
 _STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
 _PRIVATE = []  # this process's private cache directory, when the shared one is unusable
 
 
 def _build_key(source, command):
     digest = hashlib.sha256()
-    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS), sys.version, np.__version__,
-                 sysconfig.get_config_var("EXT_SUFFIX") or ""):
+    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS + _LIGHT_FLAGS), sys.version,
+                 np.__version__, sysconfig.get_config_var("EXT_SUFFIX") or ""):
         digest.update(part.encode())
         digest.update(b"\0")
     return digest.hexdigest()[:24]
@@ -271,7 +276,8 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
             size += len(text)
             paths.append(c_path)
             if not single:
-                jobs.add(command + _UNIT_FLAGS + includes
+                flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS
+                jobs.add(command + flags + includes
                          + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
                 jobs.step(build_jobs() - 1)  # one CPU keeps making the units
         if single:
