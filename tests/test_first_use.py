@@ -31,6 +31,22 @@ def test_import_kanedyn_imports_no_plotting_or_scipy():
     assert out == []
 
 
+def test_command_line_help_and_list_import_no_sympy_scipy_or_plotting():
+    """``kanedyn --help`` and ``kanedyn list`` start without the heavy modules
+    (every sub-command imports what it runs when it runs)."""
+    for argv in (["--help"], ["list"], ["study", "--help"]):
+        out = _run("import sys, json, contextlib, io\n"
+                   "from kanedyn.cli import main\n"
+                   "with contextlib.redirect_stdout(io.StringIO()):\n"
+                   "    try:\n"
+                   f"        main({argv!r})\n"
+                   "    except SystemExit:\n"
+                   "        pass\n"
+                   "print(json.dumps(sorted(m for m in ('matplotlib', 'scipy', 'sympy')"
+                   " if m in sys.modules)))")
+        assert out == [], argv
+
+
 def test_lazy_names_are_the_public_api():
     out = _run("import json, kanedyn as kd\n"
                "missing = [n for n in kd.__all__ if not hasattr(kd, n)]\n"

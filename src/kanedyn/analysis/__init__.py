@@ -12,33 +12,59 @@
 ``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
 """
 
-from ._bicycle_plot import PUBLISHED_STABLE_SPEEDS, bicycle_modes, plot_bicycle_eigenvalues
-from ._damper_tuning import (DamperTuning, FrequencyResponse, den_hartog,
-                             frequency_response, h2_norm, model_frequency_response,
-                             plot_frequency_responses, response_peaks, tune_damper)
-from ._compare import (NONHOLONOMIC_EXAMPLES, FormulationComparison, WorkPrecision,
-                       compare_formulations, work_precision)
-from ._flexible_plots import (deformed_nodes, member_arc_length, natural_modes,
-                              plot_deflection, plot_mode_shapes)
-from ._inverse_study import TRAJECTORIES, InverseStudy, inverse_study, trajectory_offsets
-from ._newton_euler import NewtonEulerCheck, check_newton_euler
-from ._seatbelt_studies import (PULSE_SHAPES, RegulatoryCheck, SeatbeltLockMap,
-                                regulatory_check, seatbelt_lock_map, seatbelt_study_model)
-from ._plotting import draw_nonnegative, log_scale_ok, plot_result, pyplot, unit_text
-from ._studies import (STUDIES, Study, StudyOption, StudyResult, available_studies,
-                       register_study, run_study)
+from .._lazy import lazy_attributes as _lazy_attributes
 
-__all__ = ["check_newton_euler", "NewtonEulerCheck", "compare_formulations",
-           "work_precision", "FormulationComparison", "WorkPrecision",
-           "NONHOLONOMIC_EXAMPLES", "plot_result", "pyplot", "log_scale_ok",
-           "draw_nonnegative", "unit_text", "plot_mode_shapes",
-           "plot_deflection", "natural_modes", "member_arc_length", "deformed_nodes",
-           "bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS",
-           "den_hartog", "frequency_response", "model_frequency_response",
-           "FrequencyResponse", "response_peaks", "h2_norm", "tune_damper", "DamperTuning",
-           "plot_frequency_responses", "inverse_study", "InverseStudy", "TRAJECTORIES",
-           "trajectory_offsets",
-           "seatbelt_lock_map", "SeatbeltLockMap", "regulatory_check", "RegulatoryCheck",
-           "seatbelt_study_model", "PULSE_SHAPES",
-           "STUDIES", "available_studies", "Study", "StudyOption", "StudyResult",
-           "register_study", "run_study"]
+#: public name -> the module (in this package) that defines it; imported on first use
+#: (the command line lists its sub-commands without SciPy, SymPy or Matplotlib)
+_LAZY = {
+    'check_newton_euler': '._newton_euler',
+    'NewtonEulerCheck': '._newton_euler',
+    'compare_formulations': '._compare',
+    'work_precision': '._compare',
+    'FormulationComparison': '._compare',
+    'WorkPrecision': '._compare',
+    'NONHOLONOMIC_EXAMPLES': '._compare',
+    'plot_result': '._plotting',
+    'pyplot': '._plotting',
+    'log_scale_ok': '._plotting',
+    'draw_nonnegative': '._plotting',
+    'unit_text': '._plotting',
+    'plot_mode_shapes': '._flexible_plots',
+    'plot_deflection': '._flexible_plots',
+    'natural_modes': '._flexible_plots',
+    'member_arc_length': '._flexible_plots',
+    'deformed_nodes': '._flexible_plots',
+    'bicycle_modes': '._bicycle_plot',
+    'plot_bicycle_eigenvalues': '._bicycle_plot',
+    'PUBLISHED_STABLE_SPEEDS': '._bicycle_plot',
+    'den_hartog': '._damper_tuning',
+    'frequency_response': '._damper_tuning',
+    'model_frequency_response': '._damper_tuning',
+    'FrequencyResponse': '._damper_tuning',
+    'response_peaks': '._damper_tuning',
+    'h2_norm': '._damper_tuning',
+    'tune_damper': '._damper_tuning',
+    'DamperTuning': '._damper_tuning',
+    'plot_frequency_responses': '._damper_tuning',
+    'inverse_study': '._inverse_study',
+    'InverseStudy': '._inverse_study',
+    'TRAJECTORIES': '._inverse_study',
+    'trajectory_offsets': '._inverse_study',
+    'seatbelt_lock_map': '._seatbelt_studies',
+    'SeatbeltLockMap': '._seatbelt_studies',
+    'regulatory_check': '._seatbelt_studies',
+    'RegulatoryCheck': '._seatbelt_studies',
+    'seatbelt_study_model': '._seatbelt_studies',
+    'PULSE_SHAPES': '._seatbelt_studies',
+    'STUDIES': '._studies',
+    'available_studies': '._studies',
+    'Study': '._studies',
+    'StudyOption': '._studies',
+    'StudyResult': '._studies',
+    'register_study': '._studies',
+    'run_study': '._studies',
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

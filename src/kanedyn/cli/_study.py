@@ -9,7 +9,6 @@
 from __future__ import annotations
 
 from .._errors import KanedynError
-from ..analysis import available_studies, run_study
 from ._options import check_output_dir
 
 __all__ = ["add_parser", "cmd_study"]
@@ -42,6 +41,8 @@ def _parse(items):
 
 def cmd_study(args):
     """List the studies, or run one and print its tables' files and summary."""
+    from ..analysis import available_studies, run_study  # the studies import SciPy, SymPy
+
     STUDIES = available_studies()
     if args.name is None:
         for name in sorted(STUDIES):
