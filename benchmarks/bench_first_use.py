@@ -4,7 +4,8 @@ For chain3d (style="positions") at n = 10, 30, 60: cold (a fresh process and
 an empty cache directory via XDG_CACHE_HOME, so the model is derived and the
 C compiled) and warm (a second fresh process, same model and cache), each the
 wall time of ``build -> numeric(backend="c") -> rhs`` inside the process
-(interpreter start-up excluded, ``import kanedyn`` included); Pinocchio's
+(interpreter start-up excluded, ``import kanedyn`` included), and for the warm
+process also to the end of a first ``kd.simulate`` over 1 s; Pinocchio's
 Model + Data construction for the same chain as the peer when installed.
 The machine is shared: run with ``--repeat`` and read the minima.
 
@@ -32,8 +33,10 @@ from kanedyn.numerics import COMPILE_STATS
 d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
 m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
-print(json.dumps([time.perf_counter() - t0, DERIVE_STATS["derivations"],
-                  COMPILE_STATS["compiles"]]))
+t_rhs = time.perf_counter() - t0
+kd.simulate(m, (0.0, 1.0), d.initial(m))
+print(json.dumps([t_rhs, DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
+                  time.perf_counter() - t0]))
 """
 
 PEER = """
@@ -70,21 +73,23 @@ def main(argv=None):
     parser.add_argument("--sizes", default="10,30,60")
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args(argv)
-    print("| n | cold s (min) | warm s (min) | derivations cold/warm | compiles cold/warm "
-          "| Pinocchio Model+Data s |")
-    print("|---|---|---|---|---|---|")
+    print("| n | cold s (min) | warm s (min) | warm to a 1 s simulation s (min) "
+          "| derivations cold/warm | compiles cold/warm | Pinocchio Model+Data s |")
+    print("|---|---|---|---|---|---|---|")
     for n in (int(x) for x in args.sizes.split(",")):
-        cold, warm, counts = [], [], None
+        cold, warm, warm_run, counts = [], [], [], None
         for _ in range(args.repeat):
             with tempfile.TemporaryDirectory() as cache:
                 c = child(CHILD.format(n=n), cache)
                 w = child(CHILD.format(n=n), cache)
             cold.append(c[0])
             warm.append(w[0])
+            warm_run.append(w[3])
             counts = (c[1], w[1], c[2], w[2])
         peer = child(PEER.format(n=n), tempfile.gettempdir())
-        print(f"| {n} | {min(cold):.2f} | {min(warm):.2f} | {counts[0]}/{counts[1]} | "
-              f"{counts[2]}/{counts[3]} | {f'{peer[0]:.4f}' if peer else '-'} |", flush=True)
+        print(f"| {n} | {min(cold):.2f} | {min(warm):.2f} | {min(warm_run):.2f} | "
+              f"{counts[0]}/{counts[1]} | {counts[2]}/{counts[3]} | "
+              f"{f'{peer[0]:.4f}' if peer else '-'} |", flush=True)
 
 
 if __name__ == "__main__":

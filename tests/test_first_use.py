@@ -103,15 +103,18 @@ from kanedyn.numerics import COMPILE_STATS
 d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
 m = d.numeric(backend="c")
 f = m.rhs(0.0, d.initial(m))
-print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f),
+run = kd.simulate(m, (0.0, 0.5), d.initial(m))
+print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
+                  list(f) + list(run.y[:, -1]) + [run.method],
                   sorted(x for x in ("sympy", "scipy", "matplotlib") if x in sys.modules)]))
 """
 
 
 @pytest.mark.slow
 def test_second_process_starts_without_sympy_or_scipy(tmp_path):
-    """A model in the derivation cache is read and run with neither SymPy nor
-    SciPy imported (its body parameters are read only when constants change)."""
+    """A model in the derivation cache is read, evaluated and simulated on the
+    compiled loop with neither SymPy nor SciPy imported (its body parameters are
+    read only when constants change)."""
     from kanedyn.numerics import compiler_command
     if compiler_command() is None:
         pytest.skip("no C compiler")

@@ -11,13 +11,24 @@
 ``_sweep``       ``sweep``: many runs over a parameter grid or samples, on Dask
 """
 
-from ._hybrid import ModeChange
-from ._impact import Impact
-from ._results import SimulationResult
-from ._simulate import COMPILED_METHODS, METHODS, OWN_INTEGRATORS, TrustWarning, simulate
-from ._sweep import OUTPUTS as SWEEP_OUTPUTS
-from ._sweep import SweepInterrupted, sweep
+from .._lazy import lazy_attributes as _lazy_attributes
 
-__all__ = ["simulate", "SimulationResult", "ModeChange", "Impact", "TrustWarning",
-           "COMPILED_METHODS", "METHODS", "OWN_INTEGRATORS", "sweep", "SweepInterrupted",
-           "SWEEP_OUTPUTS"]
+#: public name -> the module (in this package) that defines it; imported on first use
+#: (a run on the compiled loop imports neither SciPy nor SymPy)
+_LAZY = {
+    "simulate": "._simulate",
+    "SimulationResult": "._results",
+    "ModeChange": "._hybrid",
+    "Impact": "._impact",
+    "TrustWarning": "._simulate",
+    "COMPILED_METHODS": "._simulate",
+    "METHODS": "._simulate",
+    "OWN_INTEGRATORS": "._simulate",
+    "sweep": "._sweep",
+    "SweepInterrupted": "._sweep",
+    "SWEEP_OUTPUTS": "._sweep",
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

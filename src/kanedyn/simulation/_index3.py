@@ -41,7 +41,6 @@ equal to the coordinate rates (Lagrange's equations, or Kane's with
 from __future__ import annotations
 
 import numpy as np
-from scipy.optimize import brentq
 
 from .._errors import INTERRUPTED, ModelError, OptionError
 from ..numerics.schemes import al_solve
@@ -109,6 +108,8 @@ class _Dense:
 
 def _events_in_step(events, g_old, g_new, piece):
     """Roots ``(t, k, y)`` of the active events within one step, in time order."""
+    from scipy.optimize import brentq
+
     roots = []
     for k, event in enumerate(events):
         a, b = g_old[k], g_new[k]

@@ -7,8 +7,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ..engine import name_of
-
 __all__ = ["SimulationResult"]
 
 #: numeric codes of the contact modes in CSV output
@@ -279,7 +277,11 @@ class SimulationResult:
     # ------------------------------------------------------------- access
     def __getitem__(self, key):
         """A state history by name or dynamic symbol, or a named output."""
-        name = key if isinstance(key, str) else name_of(key)
+        if isinstance(key, str):
+            name = key
+        else:  # a dynamic symbol: SymPy is loaded already
+            from ..engine import name_of
+            name = name_of(key)
         if name in self.state_names:
             return self.y[self.state_names.index(name)]
         if name in self.constraint_forces:

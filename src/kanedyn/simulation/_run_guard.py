@@ -20,13 +20,12 @@ import threading
 from contextlib import contextmanager
 
 import numpy as np
-from scipy.integrate import OdeSolver
-from scipy.integrate._ivp.ivp import METHODS as SCIPY_METHODS
 
 from ..numerics import diagnose
 from .._errors import INTERRUPTED, OptionError
 
-__all__ = ["RunGuard", "Integrand", "guarded_method", "INTERRUPTED"]
+__all__ = ["RunGuard", "Integrand", "guarded_method", "solver_class", "scipy_methods",
+           "INTERRUPTED"]
 
 class RunGuard:
     """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.
@@ -120,14 +119,23 @@ class Integrand:
         return out
 
 
+def scipy_methods():
+    """``solve_ivp``'s methods, ``{name: OdeSolver class}`` (SciPy imported here,
+    on first use)."""
+    from scipy.integrate._ivp.ivp import METHODS
+    return METHODS
+
+
 def solver_class(method):
     """The ``OdeSolver`` class for a ``solve_ivp`` method name or class."""
+    from scipy.integrate import OdeSolver
+    methods = scipy_methods()
     if isinstance(method, str):
         try:
-            return SCIPY_METHODS[method]
+            return methods[method]
         except KeyError:
             raise OptionError(f"unknown method {method!r}; solve_ivp's methods are "
-                              f"{', '.join(SCIPY_METHODS)} (and the compiled loop adds "
+                              f"{', '.join(methods)} (and the compiled loop adds "
                               "'Rosenbrock23')") from None
     if isinstance(method, type) and issubclass(method, OdeSolver):
         return method

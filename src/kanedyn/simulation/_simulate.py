@@ -17,18 +17,17 @@ import numbers
 import warnings
 
 import numpy as np
-from scipy.integrate import solve_ivp
-from scipy.integrate._ivp.rk import RungeKutta
 
 from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
 from ._index3 import run_index3
-from ._run_guard import (INTERRUPTED, SCIPY_METHODS, Integrand, RunGuard, guarded_method,
+from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_method, scipy_methods,
                          solver_class)
 
-__all__ = ["simulate", "COMPILED_METHODS", "METHODS", "OWN_INTEGRATORS", "TrustWarning"]
+__all__ = ["simulate", "COMPILED_METHODS", "METHODS",  # noqa: F822  (METHODS: __getattr__)
+           "OWN_INTEGRATORS", "TrustWarning"]
 
 
 class TrustWarning(RuntimeWarning):
@@ -44,8 +43,6 @@ def _drift_event(model, tol):
 
 
 COMPILED_METHODS = ("RK45", "Rosenbrock23")
-#: every method name ``simulate`` accepts (solve_ivp's and the compiled loop's)
-METHODS = tuple(SCIPY_METHODS) + tuple(m for m in COMPILED_METHODS if m not in SCIPY_METHODS)
 #: integrators of schemes that bring their own (``Scheme.integrator`` -> function)
 OWN_INTEGRATORS = {"index-3 trapezoidal": run_index3}
 _COMPILED_OPTIONS = {"max_step", "first_step"}
@@ -58,6 +55,16 @@ _STABILITY_LIMIT = 1.0
 # the relative error the tolerance admits per step, summed over the steps, below
 # which an integrator cannot have created a change of energy of _ENERGY_GROWTH
 _ADMITTED_ERROR = 1e-3
+
+
+def __getattr__(name):
+    """``METHODS``: every method name ``simulate`` accepts, solve_ivp's and the
+    compiled loop's (read from SciPy, imported only when asked for: a run on the
+    compiled loop needs no SciPy)."""
+    if name == "METHODS":
+        scipy_names = tuple(scipy_methods())
+        return scipy_names + tuple(m for m in COMPILED_METHODS if m not in scipy_names)
+    raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
@@ -153,7 +160,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
     _check_step_options(options, t0, t1)
-    if not (isinstance(method, str) and method == "Rosenbrock23"):
+    if not (isinstance(method, str) and method in COMPILED_METHODS):
         solver_class(method)  # refuse unknown methods before any work
     progress = as_progress(progress)
     y_init = model.state(y0, t0)
@@ -228,6 +235,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                     dense_output, project, tol, progress, guard, options, common,
                     method_name, monitor):
     """The solve_ivp path: segments between drift projections."""
+    from scipy.integrate import solve_ivp
+
     scheme = getattr(model, "scheme", None)
     all_events = list(user_events) + monitor.events
     drift_index = None
@@ -436,8 +445,10 @@ def _explicit_stages(method):
     """Right-hand-side evaluations per step of an explicit method, else 0."""
     if isinstance(method, str):
         return _EXPLICIT.get(method, 0)
-    if isinstance(method, type) and issubclass(method, RungeKutta):
-        return method.n_stages + 1
+    if isinstance(method, type):
+        from scipy.integrate._ivp.rk import RungeKutta
+        if issubclass(method, RungeKutta):
+            return method.n_stages + 1
     return 0
 
 

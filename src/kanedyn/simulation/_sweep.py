@@ -27,14 +27,13 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError, OptionError
-from ..engine import name_of
 from ._simulate import simulate
 
-__all__ = ["sweep", "SweepInterrupted", "OUTPUTS"]
+__all__ = ["sweep", "SweepInterrupted", "SWEEP_OUTPUTS"]
 
 #: the quantities a sweep can record per run (besides parameters, success,
 #: status and message, always recorded)
-OUTPUTS = {
+SWEEP_OUTPUTS = {
     "final": "final_<state>: the state at the end of the run",
     "max": "max_<state>: the largest value of each state over the run",
     "min": "min_<state>: the smallest value of each state over the run",
@@ -106,6 +105,8 @@ def parameter_runs(model, parameters, n=None, seed=None):
     """
     if not isinstance(parameters, dict) or not parameters:
         raise OptionError("parameters must be a non-empty dict {name: values}")
+    if not all(isinstance(k, str) for k in parameters):  # dynamic symbols: SymPy loaded
+        from ..engine import name_of
     names = [k if isinstance(k, str) else name_of(k) for k in parameters]
     known = set(model.constants) | set(model.state_names)
     unknown = [k for k in names if k not in known]
@@ -297,7 +298,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     outputs : sequence of str
         Quantities recorded per run besides ``run`` (the run id), the
         parameters, ``success``, ``status`` and ``message``: any of
-        :data:`OUTPUTS` (``"final"``, ``"max"``, ``"min"``, ``"events"``,
+        :data:`SWEEP_OUTPUTS` (``"final"``, ``"max"``, ``"min"``, ``"events"``,
         ``"energy"``, ``"nfev"``, ``"wall_time"``, ``"t_end"``).
     n : int, optional
         Number of random samples (then ``parameters`` gives distributions).
@@ -347,10 +348,10 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     _need("pandas")  # before any work: the table needs it
     names, values = parameter_runs(model, parameters, n=n, seed=seed)
     outputs = (outputs,) if isinstance(outputs, str) else tuple(outputs)
-    bad = [o for o in outputs if o not in OUTPUTS]
+    bad = [o for o in outputs if o not in SWEEP_OUTPUTS]
     if bad:
         raise OptionError(f"unknown output(s) {', '.join(map(repr, bad))}; available: "
-                          f"{', '.join(OUTPUTS)}")
+                          f"{', '.join(SWEEP_OUTPUTS)}")
     if table_format not in ("parquet", "csv"):
         raise OptionError(f"table_format must be 'parquet' or 'csv', not {table_format!r}")
     y0 = model.state(y0, t_span[0]) if isinstance(y0, dict) else np.array(y0, dtype=float)
