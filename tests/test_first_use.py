@@ -126,6 +126,22 @@ def test_second_process_starts_without_sympy_or_scipy(tmp_path):
 
 
 @pytest.mark.slow
+def test_command_line_run_on_the_compiled_loop_imports_no_scipy(tmp_path):
+    """``kanedyn run`` with the default integrator on the C backend neither checks
+    the method against SciPy's table nor integrates with SciPy."""
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    out = _run("import sys, json, contextlib, io\n"
+               "from kanedyn.cli import main\n"
+               "with contextlib.redirect_stdout(io.StringIO()):\n"
+               f"    code = main(['run', 'pendulum', '--out', {str(tmp_path / 'run')!r}, "
+               "'--quiet', '--backend', 'c'])\n"
+               "print(json.dumps([code, 'scipy' in sys.modules]))", tmp_path)
+    assert out == [0, False]
+
+
+@pytest.mark.slow
 def test_cached_model_derives_its_equations_when_asked(tmp_path):
     from kanedyn.numerics import compiler_command
     if compiler_command() is None:

@@ -88,6 +88,9 @@ def point_count(text):
 
 def integrator_name(text):
     """``type=`` of ``--method``/``--integrator``: a method :func:`simulate` knows."""
+    from ..simulation import COMPILED_METHODS
+    if text in COMPILED_METHODS:  # the compiled loop's: no need to read SciPy's table
+        return text
     from ..simulation import METHODS
     if text not in METHODS:
         raise argparse.ArgumentTypeError(f"unknown integrator {text!r}; available: "
