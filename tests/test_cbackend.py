@@ -480,6 +480,38 @@ def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeyp
                                atol=1e-13)
 
 
+def test_units_shared_by_two_modules_compile_once(tmp_path, monkeypatch):
+    """The second module of a model (with M) links the objects of the units it
+    shares with the first (the articulated-body pass, the energy) from the object
+    cache; a damaged cached object is compiled again, with the same numbers."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "STATS", {"compiles": 0, "units": 0, "reused": 0})
+    d = kd.models.build("chain3d", n=_cbackend.TREE_MIN_SPEEDS, style="positions")
+    eom = d.derive()
+    model, reference = d.numeric(eom, backend="c"), d.numeric(eom, backend="numpy")
+    first = dict(_c_build.STATS)
+    assert first["reused"] == 0 and first["units"] >= 3
+    y = np.random.default_rng(3).uniform(-1, 1, model.n_states)
+    np.testing.assert_allclose(model.mass_matrix(0.0, y), reference.mass_matrix(0.0, y),
+                               rtol=1e-12, atol=1e-12)
+    reused = _c_build.STATS["reused"] - first["reused"]
+    assert reused >= 2  # the pass and the energy at least; the runtime differs
+    assert _c_build.STATS["units"] - first["units"] >= 1  # M itself is new
+    # every cached object damaged, the modules gone: the rebuild compiles again
+    for path in (tmp_path / "objects").glob("*.o"):
+        path.write_bytes(b"not an object")
+    for path in tmp_path.glob("_kd_*"):
+        path.unlink()
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    before = dict(_c_build.STATS)
+    again = d.numeric(eom, backend="c")
+    assert _c_build.STATS["reused"] > before["reused"]  # tried, then compiled
+    assert _c_build.STATS["units"] - before["units"] >= first["units"]
+    np.testing.assert_allclose(again.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-11,
+                               atol=1e-11)
+
+
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
     """The runtime unit (entry points, integrator) is compiled at -O1; at -O2
     where it holds the lane-wise solve or the contact loop; every other unit

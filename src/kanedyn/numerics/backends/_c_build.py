@@ -256,37 +256,73 @@ def _try_cached(name, so_path, manifest, repair=True):
         return None
 
 
-#: what this process did (read by tests): ``compiles``, compiler runs
-STATS = {"compiles": 0}
+#: what this process did (read by tests): ``compiles``, modules built;
+#: ``units``, translation units compiled; ``reused``, units whose object was cached
+STATS = {"compiles": 0, "units": 0, "reused": 0}
 
 
 def _build(units, command, so_path, manifest, directory, timeout, single=False):
     """Compile the translation units ``units`` (an iterable of C sources), each
     as soon as it comes, and link them into ``so_path``; a ``single`` unit is
-    built in one step."""
+    built in one step.
+
+    The object of every unit is kept in ``directory/objects`` under the hash
+    of its text and flags, and a unit met again (the generated functions a
+    model's second module shares with its first, with M or the lanes added)
+    is linked from there instead of compiled.  A link that fails with reused
+    objects is done again with every unit compiled."""
     STATS["compiles"] += 1
     includes = [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
+    objects = directory / "objects"
+
+    def compile_unit(c_path, flags):
+        jobs.add(command + flags + includes
+                 + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
+
+    def link(object_paths):
+        jobs.add(command + ["-shared"] + [str(path) for path in object_paths]
+                 + ["-o", str(out_path), "-lm"])
+        jobs.finish()
+
     with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp, \
             _Jobs(command, timeout) as jobs:
         out_path = Path(tmp) / so_path.name
-        paths, size = [], 0
+        paths, size, flags, cached, reused = [], 0, [], [], []
         for k, text in enumerate(units):
             c_path = Path(tmp) / f"unit{k}.c"
             c_path.write_text(text)
             size += len(text)
             paths.append(c_path)
-            if not single:
-                flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS
-                jobs.add(command + flags + includes
-                         + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
+            if single:
+                continue
+            flags.append(_LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS)
+            cached.append(objects / f"{_build_key(text, command + flags[-1])}.o")
+            if cached[-1].exists():
+                reused.append(k)
+            else:
+                compile_unit(c_path, flags[-1])
                 jobs.step(build_jobs() - 1)  # one CPU keeps making the units
         if single:
             jobs.add(command + _FLAGS + includes + [str(paths[0]), "-o", str(out_path), "-lm"])
-        jobs.finish()
-        if not single:
-            jobs.add(command + ["-shared"] + [str(path.with_suffix(".o")) for path in paths]
-                     + ["-o", str(out_path), "-lm"])
             jobs.finish()
+        else:
+            made = [k for k in range(len(paths)) if k not in reused]
+            jobs.finish()
+            STATS["units"] += len(made)
+            STATS["reused"] += len(reused)
+            _keep_objects([(paths[k].with_suffix(".o"), cached[k]) for k in made])
+            try:
+                link([cached[k] if k in reused else paths[k].with_suffix(".o")
+                      for k in range(len(paths))])
+            except CompilerError:
+                if not reused:
+                    raise
+                for k in reused:  # a damaged object: compile those units after all
+                    cached[k].unlink(missing_ok=True)
+                    compile_unit(paths[k], flags[k])
+                jobs.finish()
+                STATS["units"] += len(reused)
+                link([path.with_suffix(".o") for path in paths])
         if not out_path.exists():
             raise CompilerError(f"the C compiler {' '.join(command)} wrote no module")
         checksum = _checksum(out_path)
@@ -295,6 +331,20 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": size,
                                             "units": len(paths)}))
         os.replace(tmp_manifest, manifest)
+
+
+def _keep_objects(pairs):
+    """Copy objects just compiled into the object cache, ``(object, cached)``
+    pairs (each published by an atomic rename: a reader never sees a partial
+    file)."""
+    try:
+        for made, cached in pairs:
+            cached.parent.mkdir(exist_ok=True)
+            part = cached.with_name(f".{cached.name}.{os.getpid()}")
+            shutil.copyfile(made, part)
+            os.replace(part, cached)
+    except OSError:  # a full disk: the module is built all the same
+        pass
 
 
 def build_jobs():
