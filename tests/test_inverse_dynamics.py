@@ -294,3 +294,13 @@ def test_one_point_inputs_checked_like_trajectories(backend):
         model.inverse_dynamics(0.0, q, u, [0.0, np.nan])
     with pytest.raises(ValueError, match="u must"):
         model.inverse_dynamics(0.0, q, [1.0, 2.0, 3.0], udot)
+    # float64 arrays (the C model's inverse_point): non-finite entries, wrong sizes,
+    # other dtypes and a bool time go the general way
+    with pytest.raises(ValueError, match="u has entries that are not finite"):
+        model.inverse_dynamics(0.0, q, np.array([np.nan, 1.0]), udot)
+    with pytest.raises(ValueError, match="udot must"):
+        model.inverse_dynamics(0.0, q, u, np.zeros(3))
+    np.testing.assert_array_equal(
+        model.inverse_dynamics(0.0, q.astype(np.float32), u, udot),
+        model.inverse_dynamics(0.0, q.astype(np.float32).astype(float), u, udot))
+    assert (model._fn.get("inverse_point") is not None) == (backend == "c")

@@ -36,7 +36,7 @@ from .._errors import ModelError
 from ..engine import composite_inertia_forces, inertia_components
 from .backends._python import compile_python, generate_python
 
-__all__ = ["inverse_dynamics"]
+__all__ = ["inverse_dynamics", "one_point"]
 
 
 def _workspace(model):
@@ -140,6 +140,7 @@ def _function(model, vectorized):
                                      describe=lambda e: str(table.external(e)),
                                      cse=model._cse, lanes=False))
         fn = module.inverse
+        model._fn["inverse_point"] = getattr(module, "inverse_point", None)
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
@@ -191,14 +192,13 @@ def inverse_dynamics(model, t, q, u, udot):
         independent speed (N for a translation rate in m/s, N m for an
         angular rate in rad/s), with the model's specified inputs at their
         given values.
+
+    Notes
+    -----
+    The general way, for trajectories and closed chains;
+    :meth:`NumericModel.inverse_dynamics` first tries the direct call of
+    :func:`one_point` for one point.
     """
-    one = model.__dict__.get("_inverse_one")
-    if one is None:
-        one = model.__dict__["_inverse_one"] = _one_point(model)
-    if one:
-        tau = one(t, q, u, udot)
-        if tau is not None:
-            return tau
     single = np.ndim(q) == 1 and np.ndim(u) == 1 and np.ndim(udot) == 1
     count = 1 if np.ndim(q) == 1 else np.shape(q)[-1]
     n, o = model.n_q, model.n_u
@@ -286,7 +286,7 @@ def _is_vector(x):
     return x.ndim == 1 if type(x) is np.ndarray else np.ndim(x) == 1
 
 
-def _one_point(model):
+def one_point(model):
     """The direct call for one point of a model without dependent coordinates
     or speeds, or ``False``.
 
@@ -295,7 +295,8 @@ def _one_point(model):
     trajectory, no stacking); it returns ``None`` for anything other than a
     scalar time and three 1-D arrays of all coordinates, speeds and rates
     whose entries are finite, which :func:`inverse_dynamics` then checks (and
-    reports) the general way.
+    reports) the general way.  A C model without specified inputs does the
+    checks and the call in C for float64 arrays (``inverse_point``).
     """
     if model.n_q_dep or model.n_u_dep:
         return False
@@ -305,7 +306,7 @@ def _one_point(model):
     inputs = model._input_values if k else None
     scalars = (float, int, np.float64, np.float32, np.int64, np.int32)
 
-    def one(t, q, u, udot):
+    def checked(t, q, u, udot):
         if type(t) not in scalars or not (_is_vector(q) and _is_vector(u)
                                           and _is_vector(udot)):
             return None
@@ -317,6 +318,14 @@ def _one_point(model):
         if not math.isfinite(sum(y.tolist()) + sum(ru.tolist())):
             return None  # nan or inf (or huge values): the general way
         return fn(t, y, params, ru)[0]
+
+    point = model._fn.get("inverse_point")  # C: the checks and the call in one step
+    if point is None:
+        return checked
+
+    def one(t, q, u, udot):
+        tau = point(t, q, u, udot, params)
+        return tau if tau is not None else checked(t, q, u, udot)
 
     return one
 

@@ -778,8 +778,15 @@ class NumericModel(StateLayout):
         ...     constants={"m": 1.0, "l": 1.0, "g": 9.81})
         >>> tau = model.inverse_dynamics(0.0, [0.0], [0.0], [0.0])  # hold it still
         """
-        from ._inverse import inverse_dynamics as _inverse_dynamics
-        return _inverse_dynamics(self, t, q, u, udot)
+        one = self.__dict__.get("_inverse_one")  # the direct call for one point
+        if one is None:
+            from ._inverse import one_point
+            one = self.__dict__["_inverse_one"] = one_point(self)
+        tau = one(t, q, u, udot) if one else None
+        if tau is None:  # a trajectory, or what the direct call leaves to the general way
+            from ._inverse import inverse_dynamics as _inverse_dynamics
+            tau = _inverse_dynamics(self, t, q, u, udot)
+        return tau
 
     def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
         """The inverse-dynamics forces by cause and by body group.

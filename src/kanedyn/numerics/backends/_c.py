@@ -460,7 +460,7 @@ CODEGEN_VERSION = "kanedyn-c-6"  # change when generated code changes (bits, not
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
-     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME)
+     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME, _c_runtime.INVERSE_POINT)
 ).encode()).hexdigest()[:16]
 
 
@@ -668,6 +668,10 @@ def _runtime_parts(functions, sizes, lanes):
         wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
                      'METH_FASTCALL, NULL},')
+    if _inverse_at_a_point(functions, sizes):
+        wrappers.append(_c_runtime.INVERSE_POINT)
+        table.append('    {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, '
+                     'METH_FASTCALL, NULL},')
     contact = []
     if "contacts" in functions:  # the compiled contact segments (_c_contact)
         defines.append(f"#define KD_NC {len(functions['contacts'][1][0][1])}")
@@ -682,6 +686,16 @@ def _runtime_parts(functions, sizes, lanes):
     if lanes:
         declarations.append(_c_lanes.SIGNATURE + ";")
     return defines, runtime, declarations
+
+
+def _inverse_at_a_point(functions, sizes):
+    """Whether the module gets ``inverse_point`` (:data:`_c_runtime.INVERSE_POINT`):
+    an ``inverse`` function returning tau alone, of a model without dependent
+    coordinates or speeds whose only run-time inputs are the rates."""
+    if "inverse" not in functions or sizes["n_q_dep"] or sizes["n_u_dep"]:
+        return False
+    arguments, outputs = functions["inverse"]
+    return len(outputs) == 1 and len(arguments.get("r", ())) == sizes["n_u"]
 
 
 def eager_functions(functions, sizes):

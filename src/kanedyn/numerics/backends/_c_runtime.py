@@ -886,6 +886,51 @@ static void kd_release(KdArgs *a) {
 }
 """
 
+#: ``inverse_point(t, q, u, udot, p)``: inverse dynamics at one point of a model
+#: without dependent coordinates or speeds and without specified inputs, for
+#: exact float64 1-D arrays of finite entries (None for anything else: the
+#: caller then takes the general way, which checks and reports)
+INVERSE_POINT = r"""
+static const double *kd_plain_vector(PyObject *obj, npy_intp n) {
+    if (!PyArray_CheckExact(obj)) return NULL;
+    PyArrayObject *arr = (PyArrayObject *)obj;
+    if (PyArray_TYPE(arr) != NPY_DOUBLE || PyArray_NDIM(arr) != 1
+            || !PyArray_IS_C_CONTIGUOUS(arr) || PyArray_SIZE(arr) != n) return NULL;
+    const double *x = (const double *)PyArray_DATA(arr);
+    for (npy_intp i = 0; i < n; ++i) if (!isfinite(x[i])) return NULL;
+    return x;
+}
+
+static PyObject *kd_py_inverse_point(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    if (nargs != 5) {
+        PyErr_SetString(PyExc_TypeError, "inverse_point(t, q, u, udot, p) takes 5 arguments");
+        return NULL;
+    }
+    PyObject *t_obj = args[0];
+    if (PyBool_Check(t_obj) || !(PyFloat_Check(t_obj) || PyLong_Check(t_obj)
+                                 || PyArray_IsScalar(t_obj, Floating)
+                                 || PyArray_IsScalar(t_obj, Integer))) Py_RETURN_NONE;
+    double t = PyFloat_AsDouble(t_obj);
+    if (t == -1.0 && PyErr_Occurred()) { PyErr_Clear(); Py_RETURN_NONE; }
+    const double *q = kd_plain_vector(args[1], KD_NQ), *u = kd_plain_vector(args[2], KD_NU);
+    const double *udot = kd_plain_vector(args[3], KD_NU);
+    if (!isfinite(t) || q == NULL || u == NULL || udot == NULL) Py_RETURN_NONE;
+    PyObject *keep = NULL;
+    static const double empty[1] = {0.0};
+    const double *p = KD_NP > 0 ? kd_vector(args[4], KD_NP, &keep, "p") : empty;
+    if (p == NULL) return NULL;
+    double y[KD_SZ(KD_NX)];
+    memcpy(y, q, sizeof(double) * KD_NQ);
+    memcpy(y + KD_NQ, u, sizeof(double) * KD_NU);
+    double *work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW)), *tau;
+    PyObject *result = work == NULL ? PyErr_NoMemory() : kd_new_vector(KD_NU, &tau);
+    if (result != NULL) kd_eval_inverse(t, y, p, udot, work, tau);
+    PyMem_Free(work);
+    Py_XDECREF(keep);
+    return result;
+}
+"""
+
 RUNTIME = RUNTIME_ERRORS + LINALG + LANE_SOLVE + PYTHON_GLUE
 
 FOOTER = r"""
