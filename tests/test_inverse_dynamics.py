@@ -304,3 +304,11 @@ def test_one_point_inputs_checked_like_trajectories(backend):
         model.inverse_dynamics(0.0, q.astype(np.float32), u, udot),
         model.inverse_dynamics(0.0, q.astype(np.float32).astype(float), u, udot))
     assert (model._fn.get("inverse_point") is not None) == (backend == "c")
+    # a trajectory (C: every point in one call, inverse_rows) gives the one-point values
+    rng = np.random.default_rng(2)
+    Q, U, A = (rng.uniform(-1, 1, (2, 7)) for _ in range(3))
+    np.testing.assert_array_equal(
+        model.inverse_dynamics(np.linspace(0, 1, 7), Q, U, A),
+        np.column_stack([model.inverse_dynamics(float(t), Q[:, i].copy(), U[:, i].copy(),
+                                                A[:, i].copy())
+                         for i, t in enumerate(np.linspace(0, 1, 7))]))

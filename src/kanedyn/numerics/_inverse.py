@@ -141,6 +141,7 @@ def _function(model, vectorized):
                                      cse=model._cse, lanes=False))
         fn = module.inverse
         model._fn["inverse_point"] = getattr(module, "inverse_point", None)
+        model._fn["inverse_rows"] = _stacked(module.inverse_rows)
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
@@ -221,8 +222,9 @@ def inverse_dynamics(model, t, q, u, udot):
         fn = _function(model, vectorized=False)
         out = _point(fn, model, ts[0], Y[:, 0], np.concatenate([R[:, 0], U[:, 0]]), p, m)
         out = out[:, None]
-    elif model._data["backend"] == "c":  # the compiled point function, stacked
-        out = _batch(_looped(_function(model, vectorized=False)), model, ts, Y, R, U, p, m)
+    elif model._data["backend"] == "c":  # the compiled point function at every point
+        _function(model, vectorized=False)
+        out = _batch(model._fn["inverse_rows"], model, ts, Y, R, U, p, m)
     else:
         out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out
@@ -272,13 +274,13 @@ def _complete(model, ts, Y, warm, tol=1e-12):
         Y[n + o - m:, rows[ok]] -= (inverse[ok] @ c[ok][..., None])[..., 0].T
 
 
-def _looped(fn):
-    """``fn`` of one point applied to every column, outputs stacked with the
-    point axis last (the layout of the vectorized function)."""
+def _stacked(rows):
+    """The compiled ``inverse_rows`` in the layout of the vectorized function:
+    arguments with one column per point, outputs with the point axis last."""
     def stacked(t, Y, params, RU):
-        YT, RT = np.ascontiguousarray(Y.T), np.ascontiguousarray(RU.T)
-        outs = [fn(t[i], YT[i], params, RT[i]) for i in range(len(t))]
-        return [np.stack([out[k] for out in outs], axis=-1) for k in range(len(outs[0]))]
+        outs = rows(np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(Y.T), params,
+                    np.ascontiguousarray(RU.T))
+        return [np.moveaxis(out, 0, -1) for out in outs]
     return stacked
 
 

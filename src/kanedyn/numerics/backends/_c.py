@@ -365,6 +365,63 @@ def _wrapper_source(name, outputs, nr):
     return "\n".join(lines)
 
 
+def _rows_wrapper_source(name, outputs, nr):
+    """Module-level Python function ``<name>_rows(t, Y, p, R)``: the function at
+    each of N points, ``t`` shape (N,), ``Y`` (N, n_x), ``R`` (N, nr); a tuple of
+    arrays with the point axis first, (N, *shape) per output."""
+    lines = [f"static PyObject *kd_py_{name}_rows(PyObject *self, PyObject *const *args, "
+             "Py_ssize_t nargs) {",
+             "    if (nargs != 4) {",
+             f'        PyErr_SetString(PyExc_TypeError, "{name}_rows(t, Y, p, R) takes 4 '
+             'arguments");',
+             "        return NULL;",
+             "    }",
+             "    static const double empty[1] = {0.0};",
+             "    PyObject *keep = NULL, *result = NULL;",
+             "    double *work = NULL;",
+             "    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 1, 1, "
+             "NPY_ARRAY_IN_ARRAY);",
+             "    PyArrayObject *Y = T == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY("
+             "args[1], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);",
+             "    PyArrayObject *R = Y == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY("
+             "args[3], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);",
+             "    if (R == NULL) goto done;",
+             "    npy_intp N = PyArray_DIM(T, 0);",
+             "    if (PyArray_DIM(Y, 0) != N || PyArray_DIM(Y, 1) != KD_NX || PyArray_DIM(R, 0) "
+             f"!= N || PyArray_DIM(R, 1) != {nr}) {{",
+             f'        PyErr_Format(PyExc_ValueError, "{name}_rows: t (N,), Y (N, %d) and R '
+             f'(N, %d) expected", (int)KD_NX, {nr});',
+             "        goto done;",
+             "    }",
+             '    const double *p = KD_NP > 0 ? kd_vector(args[2], KD_NP, &keep, "p") : empty;',
+             "    if (p == NULL) goto done;",
+             "    work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW));",
+             "    if (work == NULL) { PyErr_NoMemory(); goto done; }",
+             f"    result = PyTuple_New({len(outputs)});",
+             "    if (result == NULL) goto done;"]
+    sizes = []
+    for k, (shape, _) in enumerate(outputs):
+        dims = ", ".join(["N", *map(str, shape)])
+        sizes.append(int(np.prod(shape, dtype=int)))
+        lines += [f"    npy_intp dims{k}[{1 + len(shape)}] = {{{dims}}};",
+                  f"    PyObject *a{k} = PyArray_SimpleNew({1 + len(shape)}, dims{k}, NPY_DOUBLE);",
+                  f"    if (a{k} == NULL) {{ Py_CLEAR(result); goto done; }}",
+                  f"    PyTuple_SET_ITEM(result, {k}, a{k});",
+                  f"    double *d{k} = (double *)PyArray_DATA((PyArrayObject *)a{k});"]
+    ptrs = ", ".join(f"d{k} + i * {size}" for k, size in enumerate(sizes))
+    lines += ["    const double *t = (const double *)PyArray_DATA(T), "
+              "*y = (const double *)PyArray_DATA(Y), *r = (const double *)PyArray_DATA(R);",
+              "    for (npy_intp i = 0; i < N; ++i)",
+              f"        kd_eval_{name}(t[i], y + i * KD_NX, p, {nr} > 0 ? r + i * {nr} : empty, "
+              f"work, {ptrs});",
+              "done:",
+              "    Py_XDECREF(T); Py_XDECREF(Y); Py_XDECREF(R); Py_XDECREF(keep);",
+              "    PyMem_Free(work);",
+              "    return result;",
+              "}"]
+    return "\n".join(lines)
+
+
 def elimination_tree(nonzero):
     """Elimination tree of the ``L^T D L`` factorization (last index first).
 
@@ -456,7 +513,7 @@ def speed_tree_outputs(tree, qdot, force, sub):
     return outputs, (tuple(tree["parent"]), tuple(tree["order"]))
 
 
-CODEGEN_VERSION = "kanedyn-c-6"  # change when generated code changes (bits, not only meaning)
+CODEGEN_VERSION = "kanedyn-c-7"  # change when generated code changes (bits, not only meaning)
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
@@ -667,6 +724,11 @@ def _runtime_parts(functions, sizes, lanes):
     for name, (arguments, outputs) in functions.items():
         wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
+                     'METH_FASTCALL, NULL},')
+    if "inverse" in functions:  # a trajectory: the points in one call
+        arguments, outputs = functions["inverse"]
+        wrappers.append(_rows_wrapper_source("inverse", outputs, len(arguments.get("r", ()))))
+        table.append('    {"inverse_rows", (PyCFunction)(void (*)(void))kd_py_inverse_rows, '
                      'METH_FASTCALL, NULL},')
     if _inverse_at_a_point(functions, sizes):
         wrappers.append(_c_runtime.INVERSE_POINT)
