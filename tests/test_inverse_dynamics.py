@@ -312,3 +312,25 @@ def test_one_point_inputs_checked_like_trajectories(backend):
         np.column_stack([model.inverse_dynamics(float(t), Q[:, i].copy(), U[:, i].copy(),
                                                 A[:, i].copy())
                          for i, t in enumerate(np.linspace(0, 1, 7))]))
+
+
+def test_closed_chain_trajectory_in_compiled_calls():
+    """A C model of a closed chain completes a trajectory from the constraint
+    terms of every point in one call (``constraints_rows``) and evaluates it in
+    one more (``inverse_rows``): the same forces as point by point and as the
+    numpy backend (the 3-RRR along a pose trajectory from its inverse kinematics)."""
+    from kanedyn.models import planar_3rrr_ik, quintic_pose
+    definition = kd.models.build("3rrr")
+    eom = definition.derive()
+    fast, slow = definition.numeric(eom, backend="c"), definition.numeric(eom)
+    t = np.linspace(0.0, 2.0, 41)
+    q, u, udot = planar_3rrr_ik(*quintic_pose(t, [0.0, 0.0, 0.0], [0.08, -0.05, 0.3], 2.0))
+    p = fast.n_u_ind
+    tau = fast.inverse_dynamics(t, q.T, u[:, :p].T, udot[:, :p].T)
+    assert fast._fn.get("constraint_rows") is not None
+    np.testing.assert_allclose(tau, slow.inverse_dynamics(t, q.T, u[:, :p].T, udot[:, :p].T),
+                               rtol=1e-10, atol=1e-10)
+    fast._fn["constraint_rows"] = None  # point by point
+    np.testing.assert_allclose(tau, fast.inverse_dynamics(t, q.T, u[:, :p].T,
+                                                          udot[:, :p].T),
+                               rtol=1e-12, atol=1e-12)

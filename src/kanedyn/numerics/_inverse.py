@@ -142,6 +142,7 @@ def _function(model, vectorized):
         fn = module.inverse
         model._fn["inverse_point"] = getattr(module, "inverse_point", None)
         model._fn["inverse_rows"] = _stacked(module.inverse_rows)
+        model._fn["constraint_rows"] = getattr(module, "constraints_rows", None)
     else:
         sources = d.setdefault("inverse_sources", {})
         if key not in sources:
@@ -244,20 +245,29 @@ def _complete(model, ts, Y, warm, tol=1e-12):
     """
     n, o, l, m = model.n_q, model.n_u, model.n_q_dep, model.n_u_dep
     nq, count = n - l, Y.shape[1]
-    rows, blocks, residuals = [], [], []
-    for i in range(count):
-        if warm and i:
-            Y[nq:n, i] = Y[nq:n, i - 1]
-        h, _, B, c = model._constraint_terms(ts[i], Y[:, i])
-        if l and not np.max(np.abs(h)) <= tol:
+    every = model._fn.get("constraint_rows") if not (warm or model._inputs) else None
+    if every is not None:  # the terms at every point in one compiled call
+        H, _, B, c = every(ts, np.ascontiguousarray(Y.T), model._p, np.zeros((count, 0)))
+        off = ~(np.max(np.abs(H), axis=1, initial=0.0) <= tol) if l else np.zeros(count, bool)
+        for i in np.flatnonzero(off):
             Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
-        elif m:
-            rows.append(i)
-            blocks.append(B)
-            residuals.append(c)
-    if not rows:
+        rows = np.flatnonzero(~off) if m else []
+        B, c = B[rows], c[rows]
+    else:
+        rows, blocks, residuals = [], [], []
+        for i in range(count):
+            if warm and i:
+                Y[nq:n, i] = Y[nq:n, i - 1]
+            h, _, Bi, ci = model._constraint_terms(ts[i], Y[:, i])
+            if l and not np.max(np.abs(h)) <= tol:
+                Y[:, i] = model.consistent_state(ts[i], Y[:, i], tol=tol)
+            elif m:
+                rows.append(i)
+                blocks.append(Bi)
+                residuals.append(ci)
+        B, c = np.array(blocks), np.array(residuals)
+    if not len(rows):
         return
-    B, c = np.array(blocks), np.array(residuals)
     dep = B[:, :, o - m:]
     scale = np.maximum(np.max(np.abs(B), axis=(1, 2)), 1e-300)
     try:

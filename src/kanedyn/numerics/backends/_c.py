@@ -513,7 +513,7 @@ def speed_tree_outputs(tree, qdot, force, sub):
     return outputs, (tuple(tree["parent"]), tuple(tree["order"]))
 
 
-CODEGEN_VERSION = "kanedyn-c-7"  # change when generated code changes (bits, not only meaning)
+CODEGEN_VERSION = "kanedyn-c-8"  # change when generated code changes (bits, not only meaning)
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
@@ -725,10 +725,12 @@ def _runtime_parts(functions, sizes, lanes):
         wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
                      'METH_FASTCALL, NULL},')
-    if "inverse" in functions:  # a trajectory: the points in one call
-        arguments, outputs = functions["inverse"]
-        wrappers.append(_rows_wrapper_source("inverse", outputs, len(arguments.get("r", ()))))
-        table.append('    {"inverse_rows", (PyCFunction)(void (*)(void))kd_py_inverse_rows, '
+    # inverse dynamics of a trajectory: the function and the constraint terms at
+    # every point in one call each
+    for name in ("inverse", "constraints") if "inverse" in functions else ():
+        arguments, outputs = functions[name]
+        wrappers.append(_rows_wrapper_source(name, outputs, len(arguments.get("r", ()))))
+        table.append(f'    {{"{name}_rows", (PyCFunction)(void (*)(void))kd_py_{name}_rows, '
                      'METH_FASTCALL, NULL},')
     if _inverse_at_a_point(functions, sizes):
         wrappers.append(_c_runtime.INVERSE_POINT)
