@@ -122,13 +122,18 @@ def _generated(model):
 
 
 def _function(model, vectorized):
-    """The generated ``inverse`` (or ``inverse_batch``) function, made on first use."""
+    """The generated ``inverse`` (or ``inverse_batch``) function, made on first use.
+
+    ``inverse_batch`` takes one column per point and returns outputs with the
+    point axis last; on the C backend it is the module's ``inverse_rows``
+    (every point in one call).  A C module also brings ``inverse_point`` (see
+    :func:`one_point`) and ``constraints_rows`` (:func:`_complete`)."""
     key = "inverse_batch" if vectorized else "inverse"
     fn = model._fn.get(key)
     if fn is not None:
         return fn
     d = model._data
-    if d["backend"] == "c" and not vectorized:
+    if d["backend"] == "c":
         from .backends._c import fingerprint, generate_c_units, load_module
         args, outputs = _generated(model)
         prog = _workspace(model)[0]
@@ -139,18 +144,16 @@ def _function(model, vectorized):
             lambda: generate_c_units(prog, functions, model._sizes,
                                      describe=lambda e: str(table.external(e)),
                                      cse=model._cse, lanes=False))
-        fn = module.inverse
-        model._fn["inverse_point"] = getattr(module, "inverse_point", None)
-        model._fn["inverse_rows"] = _stacked(module.inverse_rows)
-        model._fn["constraint_rows"] = getattr(module, "constraints_rows", None)
-    else:
-        sources = d.setdefault("inverse_sources", {})
-        if key not in sources:
-            args, outputs = _generated(model)
-            sources[key] = generate_python(_workspace(model)[0], key, args, outputs,
-                                           vectorized=vectorized, cse=vectorized)
-        fn = compile_python(sources[key], key)
-    model._fn[key] = fn
+        model._fn.update(inverse=module.inverse, inverse_batch=_stacked(module.inverse_rows),
+                         inverse_point=getattr(module, "inverse_point", None),
+                         constraint_rows=getattr(module, "constraints_rows", None))
+        return model._fn[key]
+    sources = d.setdefault("inverse_sources", {})
+    if key not in sources:
+        args, outputs = _generated(model)
+        sources[key] = generate_python(_workspace(model)[0], key, args, outputs,
+                                       vectorized=vectorized, cse=vectorized)
+    fn = model._fn[key] = compile_python(sources[key], key)
     return fn
 
 
@@ -223,9 +226,6 @@ def inverse_dynamics(model, t, q, u, udot):
         fn = _function(model, vectorized=False)
         out = _point(fn, model, ts[0], Y[:, 0], np.concatenate([R[:, 0], U[:, 0]]), p, m)
         out = out[:, None]
-    elif model._data["backend"] == "c":  # the compiled point function at every point
-        _function(model, vectorized=False)
-        out = _batch(model._fn["inverse_rows"], model, ts, Y, R, U, p, m)
     else:
         out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out

@@ -728,6 +728,8 @@ def _runtime_parts(functions, sizes, lanes):
     # inverse dynamics of a trajectory: the function and the constraint terms at
     # every point in one call each
     for name in ("inverse", "constraints") if "inverse" in functions else ():
+        if name not in functions:
+            continue
         arguments, outputs = functions[name]
         wrappers.append(_rows_wrapper_source(name, outputs, len(arguments.get("r", ()))))
         table.append(f'    {{"{name}_rows", (PyCFunction)(void (*)(void))kd_py_{name}_rows, '

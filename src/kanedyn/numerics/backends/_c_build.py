@@ -11,7 +11,9 @@ fails to load) is rebuilt.
 A source may consist of several translation units separated by
 :data:`UNIT_MARK`: they are compiled at the same time, one compiler process
 per CPU, and linked into one module (large generated functions dominate the
-build, and a compiler works on one unit with one core).
+build, and a compiler works on one unit with one core).  The object of every
+unit is cached too, under the hash of its text and flags, and linked again
+wherever the same unit comes back.
 
 Loading a cached module needs only this module, NumPy and the standard
 library: a second process starts without importing SymPy.
