@@ -76,6 +76,19 @@ def test_split_functions_agree(monkeypatch):
         assert relative(fast.rhs(0.0, y), slow.rhs(0.0, y)) < 1e-12
 
 
+def test_arrays_of_other_byte_order_or_layout_are_converted():
+    """rhs reads float64 buffers directly only when they are native, aligned and
+    contiguous; a big-endian or strided state is converted first."""
+    d = kd.models.build("chain3d", n=3)
+    model = d.numeric(d.derive(), backend="c")
+    y = np.random.default_rng(4).uniform(-1, 1, model.n_states)
+    expected = model.rhs(0.0, y)
+    np.testing.assert_array_equal(model.rhs(0.0, y.astype(">f8")), expected)
+    strided = np.zeros(2 * y.size)
+    strided[::2] = y
+    np.testing.assert_array_equal(model.rhs(0.0, strided[::2]), expected)
+
+
 def test_fresh_arrays_and_solve_ivp():
     """Each call returns a new array, so solve_ivp integrates correctly."""
     d = kd.models.build("chain3d", n=3)
@@ -498,18 +511,25 @@ def test_units_shared_by_two_modules_compile_once(tmp_path, monkeypatch):
     reused = _c_build.STATS["reused"] - first["reused"]
     assert reused >= 2  # the pass and the energy at least; the runtime differs
     assert _c_build.STATS["units"] - first["units"] >= 1  # M itself is new
-    # every cached object damaged, the modules gone: the rebuild compiles again
-    for path in (tmp_path / "objects").glob("*.o"):
-        path.write_bytes(b"not an object")
-    for path in tmp_path.glob("_kd_*"):
-        path.unlink()
-    monkeypatch.setattr(_c_build, "_LOADED", {})
-    before = dict(_c_build.STATS)
-    again = d.numeric(eom, backend="c")
-    assert _c_build.STATS["reused"] > before["reused"]  # tried, then compiled
-    assert _c_build.STATS["units"] - before["units"] >= first["units"]
-    np.testing.assert_allclose(again.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-11,
-                               atol=1e-11)
+    # every cached object damaged (garbage, or empty as a crash can leave it), the
+    # modules gone: the rebuild compiles again, and keeps good objects again
+    def rebuild():
+        for path in tmp_path.glob("_kd_*"):
+            path.unlink()
+        monkeypatch.setattr(_c_build, "_LOADED", {})
+        return d.numeric(eom, backend="c")
+
+    for damage in (b"not an object", b""):
+        rebuild()
+        objects = list((tmp_path / "objects").glob("*.o"))
+        assert objects and all(path.stat().st_size > 0 for path in objects)
+        for path in objects:
+            path.write_bytes(damage)
+        before = dict(_c_build.STATS)
+        again = rebuild()
+        assert _c_build.STATS["units"] - before["units"] >= first["units"]
+        np.testing.assert_allclose(again.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-11,
+                                   atol=1e-11)
 
 
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):

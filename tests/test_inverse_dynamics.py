@@ -303,6 +303,9 @@ def test_one_point_inputs_checked_like_trajectories(backend):
     np.testing.assert_array_equal(
         model.inverse_dynamics(0.0, q.astype(np.float32), u, udot),
         model.inverse_dynamics(0.0, q.astype(np.float32).astype(float), u, udot))
+    np.testing.assert_array_equal(  # big-endian: converted, not read as native
+        model.inverse_dynamics(0.0, q.astype(">f8"), u.astype(">f8"), udot.astype(">f8")),
+        model.inverse_dynamics(0.0, q, u, udot))
     assert (model._fn.get("inverse_point") is not None) == (backend == "c")
     # a trajectory (C: every point in one call, inverse_rows) gives the one-point values
     rng = np.random.default_rng(2)
@@ -326,8 +329,18 @@ def test_closed_chain_trajectory_in_compiled_calls():
     t = np.linspace(0.0, 2.0, 41)
     q, u, udot = planar_3rrr_ik(*quintic_pose(t, [0.0, 0.0, 0.0], [0.08, -0.05, 0.3], 2.0))
     p = fast.n_u_ind
+    loop = []  # the terms point by point: not even in the first call
+    fast._constraint_terms = lambda *args: loop.append(1) or type(fast)._constraint_terms(
+        fast, *args)
     tau = fast.inverse_dynamics(t, q.T, u[:, :p].T, udot[:, :p].T)
-    assert fast._fn.get("constraint_rows") is not None
+    assert loop == []
+    del fast._constraint_terms
+    calls = []
+    every = fast._fn["constraint_rows"]
+    fast._fn["constraint_rows"] = lambda *args: calls.append(1) or every(*args)
+    np.testing.assert_array_equal(fast.inverse_dynamics(t, q.T, u[:, :p].T, udot[:, :p].T),
+                                  tau)
+    assert calls == [1]
     np.testing.assert_allclose(tau, slow.inverse_dynamics(t, q.T, u[:, :p].T, udot[:, :p].T),
                                rtol=1e-10, atol=1e-10)
     fast._fn["constraint_rows"] = None  # point by point

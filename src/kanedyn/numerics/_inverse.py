@@ -216,6 +216,7 @@ def inverse_dynamics(model, t, q, u, udot):
     Y = np.zeros((model.n_states, count))
     Y[:q.shape[0]] = q
     Y[n:n + u.shape[0]] = u
+    fn = _function(model, vectorized=count > 1)  # first: a C module brings constraint_rows
     if l or m:
         _complete(model, ts, Y, warm=q.shape[0] < n)
     R = (np.array([model._input_values(ts[i], Y[:, i]) for i in range(count)]).T
@@ -223,11 +224,10 @@ def inverse_dynamics(model, t, q, u, udot):
     U = np.zeros((o, count))
     U[:p] = udot
     if count == 1:
-        fn = _function(model, vectorized=False)
         out = _point(fn, model, ts[0], Y[:, 0], np.concatenate([R[:, 0], U[:, 0]]), p, m)
         out = out[:, None]
     else:
-        out = _batch(_function(model, vectorized=True), model, ts, Y, R, U, p, m)
+        out = _batch(fn, model, ts, Y, R, U, p, m)
     return out[:, 0] if single else out
 
 

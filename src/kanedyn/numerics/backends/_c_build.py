@@ -21,6 +21,7 @@ library: a second process starts without importing SymPy.
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -299,7 +300,7 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
                 continue
             flags.append(_LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS)
             cached.append(objects / f"{_build_key(text, command + flags[-1])}.o")
-            if cached[-1].exists():
+            if _usable(cached[-1]):
                 reused.append(k)
             else:
                 compile_unit(c_path, flags[-1])
@@ -320,10 +321,13 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
                 if not reused:
                     raise
                 for k in reused:  # a damaged object: compile those units after all
-                    cached[k].unlink(missing_ok=True)
+                    with contextlib.suppress(OSError):  # a read-only object cache
+                        cached[k].unlink(missing_ok=True)
                     compile_unit(paths[k], flags[k])
                 jobs.finish()
                 STATS["units"] += len(reused)
+                STATS["reused"] -= len(reused)
+                _keep_objects([(paths[k].with_suffix(".o"), cached[k]) for k in reused])
                 link([path.with_suffix(".o") for path in paths])
         if not out_path.exists():
             raise CompilerError(f"the C compiler {' '.join(command)} wrote no module")
@@ -335,18 +339,31 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         os.replace(tmp_manifest, manifest)
 
 
+def _usable(cached):
+    """Whether a cached object may be linked: present and not empty (a crash
+    right after publishing can leave an empty file, which a linker accepts as
+    an empty script; any other damage fails the link, and the units are then
+    compiled)."""
+    try:
+        return cached.stat().st_size > 0
+    except OSError:
+        return False
+
+
 def _keep_objects(pairs):
     """Copy objects just compiled into the object cache, ``(object, cached)``
     pairs (each published by an atomic rename: a reader never sees a partial
     file)."""
-    try:
-        for made, cached in pairs:
+    for made, cached in pairs:
+        part = cached.with_name(f".{cached.name}.{os.getpid()}")
+        try:
             cached.parent.mkdir(exist_ok=True)
-            part = cached.with_name(f".{cached.name}.{os.getpid()}")
             shutil.copyfile(made, part)
             os.replace(part, cached)
-    except OSError:  # a full disk: the module is built all the same
-        pass
+        except OSError:  # a full disk or a read-only cache: the module is built all the same
+            with contextlib.suppress(OSError):
+                part.unlink(missing_ok=True)
+            return
 
 
 def build_jobs():

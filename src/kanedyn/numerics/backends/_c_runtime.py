@@ -498,6 +498,7 @@ static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const
     if (PyArray_CheckExact(obj)) {
         arr = (PyArrayObject *)obj;
         if (PyArray_TYPE(arr) == NPY_DOUBLE && PyArray_IS_C_CONTIGUOUS(arr)
+                && PyArray_ISNOTSWAPPED(arr) && PyArray_ISALIGNED(arr)
                 && PyArray_SIZE(arr) == n && PyArray_NDIM(arr) == 1) {
             *keep = NULL;
             return (const double *)PyArray_DATA(arr);
@@ -895,7 +896,8 @@ static const double *kd_plain_vector(PyObject *obj, npy_intp n) {
     if (!PyArray_CheckExact(obj)) return NULL;
     PyArrayObject *arr = (PyArrayObject *)obj;
     if (PyArray_TYPE(arr) != NPY_DOUBLE || PyArray_NDIM(arr) != 1
-            || !PyArray_IS_C_CONTIGUOUS(arr) || PyArray_SIZE(arr) != n) return NULL;
+            || !PyArray_IS_C_CONTIGUOUS(arr) || !PyArray_ISNOTSWAPPED(arr)
+            || !PyArray_ISALIGNED(arr) || PyArray_SIZE(arr) != n) return NULL;
     const double *x = (const double *)PyArray_DATA(arr);
     for (npy_intp i = 0; i < n; ++i) if (!isfinite(x[i])) return NULL;
     return x;
