@@ -493,18 +493,23 @@ KD_LANES_FN static void kd_lanes_rows(const double *t, int t_scalar, const doubl
 
 PYTHON_GLUE = r"""
 /* ------------------------------------------------------------ arguments */
+/* The entries of obj when it is a 1-D float64 array of n entries that can be read
+   in place (native byte order, aligned, contiguous), else NULL. */
+static const double *kd_in_place(PyObject *obj, npy_intp n) {
+    if (!PyArray_CheckExact(obj)) return NULL;
+    PyArrayObject *arr = (PyArrayObject *)obj;
+    if (PyArray_TYPE(arr) != NPY_DOUBLE || PyArray_NDIM(arr) != 1
+            || !PyArray_IS_C_CONTIGUOUS(arr) || !PyArray_ISNOTSWAPPED(arr)
+            || !PyArray_ISALIGNED(arr) || PyArray_SIZE(arr) != n) return NULL;
+    return (const double *)PyArray_DATA(arr);
+}
+
 static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what) {
-    PyArrayObject *arr;
-    if (PyArray_CheckExact(obj)) {
-        arr = (PyArrayObject *)obj;
-        if (PyArray_TYPE(arr) == NPY_DOUBLE && PyArray_IS_C_CONTIGUOUS(arr)
-                && PyArray_ISNOTSWAPPED(arr) && PyArray_ISALIGNED(arr)
-                && PyArray_SIZE(arr) == n && PyArray_NDIM(arr) == 1) {
-            *keep = NULL;
-            return (const double *)PyArray_DATA(arr);
-        }
-    }
-    arr = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+    const double *x = kd_in_place(obj, n);
+    *keep = NULL;
+    if (x != NULL) return x;
+    PyArrayObject *arr = (PyArrayObject *)PyArray_FROMANY(obj, NPY_DOUBLE, 1, 1,
+                                                          NPY_ARRAY_IN_ARRAY);
     if (arr == NULL) return NULL;
     if (PyArray_SIZE(arr) != n) {
         PyErr_Format(PyExc_ValueError, "%s must have %zd entries, got %zd", what,
@@ -893,13 +898,8 @@ static void kd_release(KdArgs *a) {
 #: caller then takes the general way, which checks and reports)
 INVERSE_POINT = r"""
 static const double *kd_plain_vector(PyObject *obj, npy_intp n) {
-    if (!PyArray_CheckExact(obj)) return NULL;
-    PyArrayObject *arr = (PyArrayObject *)obj;
-    if (PyArray_TYPE(arr) != NPY_DOUBLE || PyArray_NDIM(arr) != 1
-            || !PyArray_IS_C_CONTIGUOUS(arr) || !PyArray_ISNOTSWAPPED(arr)
-            || !PyArray_ISALIGNED(arr) || PyArray_SIZE(arr) != n) return NULL;
-    const double *x = (const double *)PyArray_DATA(arr);
-    for (npy_intp i = 0; i < n; ++i) if (!isfinite(x[i])) return NULL;
+    const double *x = kd_in_place(obj, n);  /* with finite entries only */
+    for (npy_intp i = 0; x != NULL && i < n; ++i) if (!isfinite(x[i])) return NULL;
     return x;
 }
 
