@@ -532,10 +532,73 @@ def test_units_shared_by_two_modules_compile_once(tmp_path, monkeypatch):
                                    atol=1e-11)
 
 
+@pytest.mark.parametrize("name, options", [
+    ("chain3d", {"n": 4}), ("four-bar", {}), ("rolling-disk", {}),
+    ("chain3d", {"n": _cbackend.TREE_MIN_SPEEDS}),  # the articulated-body pass
+])
+def test_generic_runtime_compiles_while_the_model_is_derived(tmp_path, monkeypatch, name,
+                                                              options):
+    """A built-in model's generic runtime unit, predicted from its sizes before
+    the derivation, is what the module's build makes first (dependent
+    coordinates, dependent speeds, the tree pass alike), and the build takes
+    the running compiler over: every unit compiled once, one compiler run
+    fewer started by the build, nothing left behind."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "STATS", {"compiles": 0, "units": 0, "reused": 0})
+    prefetched, units, started = [], [], []
+    prefetch, build, start = _c_build.prefetch, _c_build._build, _c_build._Jobs._start
+
+    def record_prefetch(unit):
+        prefetched.append(unit)
+        prefetch(unit)
+
+    def record_build(made, *args, **kwargs):
+        units.extend(made)
+        return build(iter(units), *args, **kwargs)
+
+    def record_start(jobs, cmd):
+        started.extend(["-c"] if "-c" in cmd else [])
+        start(jobs, cmd)
+
+    monkeypatch.setattr(_cbackend, "prefetch", record_prefetch)
+    monkeypatch.setattr(_c_build, "_build", record_build)
+    monkeypatch.setattr(_c_build._Jobs, "_start", record_start)
+    d = kd.models.build(name, **options)
+    model = d.numeric(backend="c")
+    assert prefetched == [units[0]]
+    assert _c_build.STATS["units"] == len(units) and _c_build.STATS["reused"] == 0
+    assert len(started) == len(units) - 1
+    assert not _c_build._PREFETCHED and not list(tmp_path.glob("build-*"))
+    assert np.all(np.isfinite(model.rhs(0.0, d.initial(model))))
+
+
+def test_a_prefetched_unit_no_build_takes_is_dropped(tmp_path, monkeypatch):
+    """A prefetched unit the next build does not start with (a wrong guess) is
+    stopped when that build starts; one that finished is kept in the object
+    cache (at exit too), and a cached unit is not prefetched again."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    unit = _c_build.LIGHT_UNIT + "int kd_probe(void) { return 1; }\n"
+    _c_build.prefetch(unit)
+    ((process, _, made, cached),) = _c_build._PREFETCHED.values()
+    process.wait()
+    _c_build._drop_prefetched()  # what the process does at exit
+    assert cached.stat().st_size > 0 and not made.parent.exists()
+    _c_build.prefetch(unit)
+    assert not _c_build._PREFETCHED
+    _c_build.prefetch(unit.replace("return 1", "return 2"))
+    ((_, _, made, _),) = _c_build._PREFETCHED.values()
+    d = kd.models.build("pendulum")
+    model = d.numeric(d.derive(), backend="c")  # equations given: nothing prefetched
+    assert not _c_build._PREFETCHED and not made.parent.exists()
+    assert model.rhs(0.0, np.zeros(model.n_states)).shape == (model.n_states,)
+
+
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
-    """The runtime unit (entry points, integrator) is compiled at -O1; at -O2
-    where it holds the lane-wise solve or the contact loop; every other unit
-    at -O2."""
+    """The two runtime units (entry points, integrator; the model's solve and
+    wrappers) are compiled at -O1; at -O2 where they hold the lane-wise solve
+    or the contact loop; every other unit at -O2."""
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
     compiled = []  # optimization level and first line of each compiled unit
@@ -557,8 +620,8 @@ def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypat
     d = kd.models.build("chain3d", n=4)
     model = d.numeric(d.derive(), backend="c")
     found = levels()
-    assert found[0] == ("-O1", _c_build.LIGHT_UNIT) and len(found) >= 2
-    assert all(level == "-O2" for level, _ in found[1:])
+    assert found[:2] == [("-O1", _c_build.LIGHT_UNIT)] * 2 and len(found) >= 3
+    assert all(level == "-O2" for level, _ in found[2:])
     model.rhs_batch(0.0, np.zeros((model.LANES_FROM_ROWS, model.n_states)))  # lanes
     assert {level for level, _ in levels()} == {"-O2"}
     d = kd.models.build("falling-rod")

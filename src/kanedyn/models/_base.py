@@ -112,6 +112,8 @@ class ModelDefinition:
             cached = _derivation_cache(self, constants, options)
             if cached is not None:
                 return cached
+        if eom is None and options.get("backend") == "c":
+            self._prefetch_runtime()
         eom = eom if eom is not None else self.derive()
         if eom.name is None:
             eom._label(name=self.name, title=self.title, units=self.units or None)
@@ -120,6 +122,25 @@ class ModelDefinition:
         inputs = dict(self.specified)
         inputs.update(specified or {})
         return eom.numeric(constants=values, specified=inputs, **options)
+
+    def _prefetch_runtime(self):
+        """Start compiling the C runtime of this model's sizes while its
+        equations are derived (:func:`kanedyn.numerics.prefetch_runtime`);
+        not where the derivation decides sizes (contacts, auxiliary speeds,
+        specified inputs)."""
+        args = self.kane_args
+        if self.specified or args.get("contacts") or args.get("u_auxiliary"):
+            return
+
+        def count(*names):
+            return sum(len(args.get(name) or ()) for name in names)
+
+        from ..numerics import prefetch_runtime
+        prefetch_runtime({"n_q": count("q_ind", "q_dep", "q_dependent"),
+                          "n_u": count("u_ind", "u_dep", "u_dependent"),
+                          "n_q_dep": count("q_dep", "q_dependent"),
+                          "n_u_dep": count("u_dep", "u_dependent"),
+                          "n_p": len(self.constants), "n_r": 0})
 
     def _constant_overrides(self, overrides):
         out = {}
@@ -345,6 +366,7 @@ def _derivation_cache(definition, constants, options):
         model = found[0]
         model._rederive = derive_again
     else:
+        definition._prefetch_runtime()
         model = definition.numeric(definition.derive(), **options)
         _write_cache(key, definition, model)
     if overrides:

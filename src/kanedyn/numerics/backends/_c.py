@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import hashlib
 import re
+from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
@@ -24,13 +25,14 @@ from sympy.printing.c import C99CodePrinter
 
 from . import _c_contact, _c_integrator, _c_lanes, _c_runtime
 from ._c_build import (LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, CompilerError, cache_dir,
-                       compiler_command, load_module, missing_compiler_text)
+                       compiler_command, load_module, missing_compiler_text, prefetch)
 from ._python import CodegenError
 
 __all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
            "fingerprint", "load_module", "compiler_command", "missing_compiler_text",
            "CHUNK", "elimination_tree", "solver_source", "STATS", "cache_dir",
-           "speed_tree_outputs", "TREE_MIN_SPEEDS", "lanes_wanted"]
+           "speed_tree_outputs", "TREE_MIN_SPEEDS", "lanes_wanted", "predicted_runtime_unit",
+           "prefetch_runtime"]
 
 CHUNK = 800  # statements per generated C function
 #: a function (or part of one) of fewer characters shares a translation unit with
@@ -513,11 +515,13 @@ def speed_tree_outputs(tree, qdot, force, sub):
     return outputs, (tuple(tree["parent"]), tuple(tree["order"]))
 
 
-CODEGEN_VERSION = "kanedyn-c-8"  # change when generated code changes (bits, not only meaning)
+CODEGEN_VERSION = "kanedyn-c-9"  # change when generated code changes (bits, not only meaning)
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
-    (_c_runtime.HEADER, _c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_runtime.FOOTER,
-     _c_contact.CONTACT, _c_runtime.LANE_RUNTIME, _c_runtime.INVERSE_POINT)
+    (_c_runtime.HEADER, _c_runtime.SIZE_MACROS, _c_runtime.SHARED, _c_runtime.RUNTIME,
+     _c_integrator.INTEGRATOR, _c_contact.CONTACT, _c_runtime.RUNTIME_FOOTER,
+     _c_runtime.MODEL_SOLVE, _c_runtime.LANE_RUNTIME, _c_runtime.LANE_SOLVE,
+     _c_runtime.INVERSE_POINT, _c_runtime.MODULE_FOOTER)
 ).encode()).hexdigest()[:16]
 
 
@@ -613,27 +617,33 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
         return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse,
                                                lanes))
     lanes = lanes_wanted(functions, sizes, lanes)
-    defines, runtime, _ = _runtime_parts(functions, sizes, lanes)
+    generic, model = _runtime_parts(functions, sizes, lanes)
     generated, work, lane_work = [], 0, 0
     for src, _, w, lw in _function_sources(program, functions, sizes, describe, cse, lanes):
         generated.append(src)
         work, lane_work = max(work, w), max(lane_work, lw)
     sizes_known = [f"#define KD_NW {work}"] + ([f"#define KD_NWL {lane_work}"] if lanes else [])
-    return "\n".join([_c_runtime.HEADER, *defines, *sizes_known,
-                      *_lane_runtime(lanes), *generated, *runtime])
+    return "\n".join([_c_runtime.HEADER, *_size_defines(sizes), *generic.defines,
+                      *model.defines, *sizes_known,
+                      *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
+                      *model.declarations, *generated, *generic.body, *model.body])
 
 
 def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True):
     """The translation units of a module, each yielded as soon as it is made.
 
-    The runtime with the Python entry points comes first (it needs nothing of
-    the generated code but its declarations; the work-array sizes are
-    variables, ``kd_nw`` and ``kd_nwl``, defined by the last unit), so the
-    compiler works on it while the functions are generated; at -O1
-    (:data:`LIGHT_UNIT`) unless it holds the lane-wise solve or the contact
-    loop, whose loops the vectorizer of -O2 speeds up (the entry points and the
-    integrator run as fast at -O1: chain3d n = 3 to 30, the pendulum, within
-    3 %, and compile in 0.46 s instead of 0.68 s at n = 10).  Every part of a
+    The runtime comes first, in two units: the generic one (the Python entry
+    points, batches, the integrator: it depends on the model's sizes only,
+    see :func:`predicted_runtime_unit`) and the model's (the solve of its mass
+    matrix, its functions' wrappers and table, the module's entry point).
+    They need nothing of the generated code but its declarations (the
+    work-array sizes are variables, ``kd_nw`` and ``kd_nwl``, defined by the
+    last unit), so the compiler works on them while the functions are
+    generated; at -O1 (:data:`LIGHT_UNIT`) unless they hold the lane-wise
+    solve or the contact loop, whose loops the vectorizer of -O2 speeds up (the
+    entry points and the integrator run as fast at -O1: chain3d n = 3 to 30,
+    the pendulum, within 3 %, and compile in 0.46 s instead of 0.68 s at
+    n = 10).  Every part of a
     generated function of :data:`UNIT_MIN_CHARS` or more characters is a
     unit of its own (with the C prelude, no Python headers), the small ones
     and the work sizes one last unit.  Passed to :func:`load_module`, the
@@ -641,12 +651,9 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     :func:`generate_c`.
     """
     lanes = lanes_wanted(functions, sizes, lanes)
-    defines, runtime, prototypes = _runtime_parts(functions, sizes, lanes)
-    variables = ["extern const int kd_nw, kd_nwl;", "#define KD_NW kd_nw",
-                 "#define KD_NWL kd_nwl"]
-    light = [] if lanes or "contacts" in functions else [LIGHT_UNIT]
-    yield "\n".join([*light, "#define KD_GEN", _c_runtime.HEADER, *defines, *variables,
-                     *_lane_runtime(lanes), *prototypes, *runtime])
+    generic, model = _runtime_parts(functions, sizes, lanes)
+    yield _runtime_unit(generic, sizes, lanes)
+    yield _runtime_unit(model, sizes, lanes)
     small, small_preamble, work, lane_work = [], [], 0, 0
     for src, preamble, w, lw in _function_sources(program, functions, sizes, describe, cse,
                                                   lanes):
@@ -712,11 +719,83 @@ def _eliminates(name, cse):
     return cse if cse is not None else name != "tree"
 
 
+class _RuntimePart(NamedTuple):
+    """A runtime unit of a module before its preamble and sizes: its own
+    ``#define`` lines, the declarations of generated functions it calls, and
+    its templates."""
+    defines: list
+    declarations: list
+    body: list
+    light: bool
+    model: bool  # the model's unit (it imports NumPy's C API from the other)
+
+
+#: before everything in a runtime unit of a module built from several: shared
+#: symbols hidden (``KD_GEN`` empty), one table of NumPy's C API for the module
+_UNIT_PREAMBLE = ["#define KD_GEN", "#define PY_ARRAY_UNIQUE_SYMBOL kd_numpy_api"]
+#: the work-array sizes, defined by the last unit of a module
+_WORK_VARIABLES = ["extern const int kd_nw, kd_nwl;", "#define KD_NW kd_nw",
+                   "#define KD_NWL kd_nwl"]
+
+
+def _runtime_unit(part, sizes, lanes):
+    """Text of a runtime unit (:func:`generate_c_units`)."""
+    return "\n".join([*([LIGHT_UNIT] if part.light else []), *_UNIT_PREAMBLE,
+                      *(["#define NO_IMPORT_ARRAY"] if part.model else []),
+                      _c_runtime.HEADER, *_size_defines(sizes), *part.defines,
+                      *_WORK_VARIABLES,
+                      *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
+                      *part.declarations, *part.body])
+
+
+def _generic_part(sizes, lanes, declarations, n_contacts=0):
+    """The generic runtime of a module: what depends on its sizes (and on its
+    lanes and contacts) only.  ``declarations``: of the generated functions it
+    calls (``constraints`` with dependent coordinates or speeds; ``dynamics``
+    and ``contacts`` with contacts)."""
+    defines = [f"#define KD_NC {n_contacts}"] if n_contacts else []
+    body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR,
+            *([_c_contact.CONTACT] if n_contacts else []), _c_runtime.RUNTIME_FOOTER]
+    return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)
+
+
+#: outputs of the ``constraints`` function (built by ``build_numeric_model``)
+CONSTRAINT_OUTPUTS = 4
+
+
+def predicted_runtime_unit(sizes):
+    """The generic runtime unit of the first module of a model of ``sizes``
+    (``n_q, n_u, n_q_dep, n_u_dep, n_p, n_r``) without contacts: known before
+    the model is derived, so that it can compile meanwhile
+    (:func:`~._c_build.prefetch`).  The same text as :func:`generate_c_units`
+    makes for such a model (a guess that turns out wrong costs only the
+    compiler's time)."""
+    dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
+    declarations = [_signature("constraints", CONSTRAINT_OUTPUTS) + ";"] if dependent else []
+    return _runtime_unit(_generic_part(sizes, False, declarations), sizes, False)
+
+
+def prefetch_runtime(sizes):
+    """Start compiling the generic runtime unit of a model of ``sizes`` (see
+    :func:`predicted_runtime_unit`) before the model is derived: the compiler
+    works on it while the equations are derived, and the module's build takes
+    it over (:func:`~._c_build.prefetch`).  Nothing happens without a
+    compiler or when the unit's object is cached already."""
+    prefetch(predicted_runtime_unit(sizes))
+
+
 def _runtime_parts(functions, sizes, lanes):
-    """``(defines, runtime, declarations)`` of a module: everything but the
-    generated functions and the work-array sizes (``KD_NW``, ``KD_NWL``)."""
-    defines = [*_size_defines(sizes),
-               f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
+    """``(generic, model)``: the two runtime units of a module
+    (:class:`_RuntimePart`), everything but the generated functions and the
+    work-array sizes (``KD_NW``, ``KD_NWL``)."""
+    declarations = {name: _signature(name, len(outputs)) + ";"
+                    for name, (_, outputs) in functions.items()}
+    contacts = functions.get("contacts")
+    n_contacts = len(contacts[1][0][1]) if contacts else 0
+    calls = (["constraints"] if sizes["n_q_dep"] + sizes["n_u_dep"] else []) \
+        + (["dynamics", "contacts"] if contacts else [])
+    generic = _generic_part(sizes, lanes, [declarations[name] for name in calls], n_contacts)
+    defines = [f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
@@ -738,20 +817,14 @@ def _runtime_parts(functions, sizes, lanes):
         wrappers.append(_c_runtime.INVERSE_POINT)
         table.append('    {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, '
                      'METH_FASTCALL, NULL},')
-    contact = []
-    if "contacts" in functions:  # the compiled contact segments (_c_contact)
-        defines.append(f"#define KD_NC {len(functions['contacts'][1][0][1])}")
-        contact.append(_c_contact.CONTACT)
-        table.append('    {"contact_segment", (PyCFunction)kd_py_contact_segment, '
-                     'METH_VARARGS, NULL},')
     defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
-    runtime = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, *contact, *wrappers,
-               _c_runtime.FOOTER]
-    declarations = [_signature(name, len(outputs)) + ";"
-                    for name, (_, outputs) in functions.items()]
+    model_declarations = list(declarations.values())
     if lanes:
-        declarations.append(_c_lanes.SIGNATURE + ";")
-    return defines, runtime, declarations
+        model_declarations.append(_c_lanes.SIGNATURE + ";")
+    body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, *wrappers, _c_runtime.MODULE_FOOTER]
+    model = _RuntimePart(defines, model_declarations, body,
+                         generic.light, True)
+    return generic, model
 
 
 def _inverse_at_a_point(functions, sizes):

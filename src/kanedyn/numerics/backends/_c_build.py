@@ -13,7 +13,10 @@ A source may consist of several translation units separated by
 per CPU, and linked into one module (large generated functions dominate the
 build, and a compiler works on one unit with one core).  The object of every
 unit is cached too, under the hash of its text and flags, and linked again
-wherever the same unit comes back.
+wherever the same unit comes back.  A unit known before its module (the
+generic runtime, which depends on a model's sizes only) can be started early
+with :func:`prefetch`: the build that meets it takes the running compiler
+over.
 
 Loading a cached module needs only this module, NumPy and the standard
 library: a second process starts without importing SymPy.
@@ -21,6 +24,7 @@ library: a second process starts without importing SymPy.
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import hashlib
 import importlib.machinery
@@ -43,7 +47,7 @@ import numpy as np
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT"]
+           "cache_dir", "prefetch", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
@@ -275,12 +279,14 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
     is linked from there instead of compiled.  A link that fails with reused
     objects is done again with every unit compiled."""
     STATS["compiles"] += 1
-    includes = [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
+    includes = _includes()
     objects = directory / "objects"
 
     def compile_unit(c_path, flags):
         jobs.add(command + flags + includes
                  + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
+
+    adopted = []  # (unit, object written by the prefetched compiler)
 
     def link(object_paths):
         jobs.add(command + ["-shared"] + [str(path) for path in object_paths]
@@ -300,8 +306,13 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
                 continue
             flags.append(_LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS)
             cached.append(objects / f"{_build_key(text, command + flags[-1])}.o")
+            started = _take_prefetched(cached[-1].stem, first=k == 0)
             if _usable(cached[-1]):
                 reused.append(k)
+                _stop(started)
+            elif started is not None:  # the compiler already runs on this unit
+                jobs.running.append(started[:2])
+                adopted.append((k, started[2]))
             else:
                 compile_unit(c_path, flags[-1])
                 jobs.step(build_jobs() - 1)  # one CPU keeps making the units
@@ -311,6 +322,9 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         else:
             made = [k for k in range(len(paths)) if k not in reused]
             jobs.finish()
+            for k, made_object in adopted:
+                os.replace(made_object, paths[k].with_suffix(".o"))
+                shutil.rmtree(made_object.parent, ignore_errors=True)
             STATS["units"] += len(made)
             STATS["reused"] += len(reused)
             _keep_objects([(paths[k].with_suffix(".o"), cached[k]) for k in made])
@@ -364,6 +378,90 @@ def _keep_objects(pairs):
             with contextlib.suppress(OSError):
                 part.unlink(missing_ok=True)
             return
+
+
+_PREFETCHED = {}  # object key -> (process, its output file, object path)
+
+
+def prefetch(unit):
+    """Start compiling the translation unit ``unit`` now, before its module is
+    built: a later :func:`load_module` whose source holds the same unit (same
+    text and flags) takes the running compiler over instead of starting it.
+
+    For the generic runtime of a model, known from its sizes before it is
+    derived (:func:`~._c.predicted_runtime_unit`), so that the compiler works
+    on it while the equations are derived.  Nothing happens without a
+    compiler, with a cache directory that cannot be written, or when the
+    object is cached already; a unit that no build takes (a wrong guess) is
+    dropped when the next build starts, or when the process exits.  At most
+    one unit is prefetched at a time (a new call drops the previous one).
+    """
+    command = compiler_command()
+    if command is None or NAME_TOKEN in unit:
+        return
+    directory = cache_dir()
+    if _unwritable(directory) is not None:
+        return
+    flags = _LIGHT_FLAGS if unit.startswith(LIGHT_UNIT) else _UNIT_FLAGS
+    key = _build_key(unit, command + flags)
+    with _LOCK:
+        if key in _PREFETCHED or _usable(directory / "objects" / f"{key}.o"):
+            return
+        _drop_prefetched()
+        folder = Path(tempfile.mkdtemp(dir=directory, prefix="build-prefetch-"))
+        c_path = folder / "unit.c"
+        c_path.write_text(unit)
+        said = tempfile.TemporaryFile(mode="w+")
+        try:
+            proc = subprocess.Popen(command + flags + _includes()
+                                    + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))],
+                                    stdout=said, stderr=said)
+        except OSError:
+            said.close()
+            shutil.rmtree(folder, ignore_errors=True)
+            return
+        _PREFETCHED[key] = (proc, said, c_path.with_suffix(".o"),
+                            directory / "objects" / f"{key}.o")
+
+
+def _take_prefetched(key, first):
+    """The prefetched compile of the unit with object key ``key`` (removed from
+    the table), or ``None``; the first unit of a build drops prefetched units
+    it is not (a wrong guess would hold a CPU all through the build)."""
+    found = _PREFETCHED.pop(key, None)
+    if first and found is None:
+        _drop_prefetched()
+    return found
+
+
+def _drop_prefetched():
+    """Stop the prefetched compiles nobody took and remove their files."""
+    while _PREFETCHED:
+        _stop(_PREFETCHED.popitem()[1])
+
+
+def _stop(prefetched):
+    """Stop a prefetched compile ``(process, output file, object, its place in
+    the object cache)`` (``None``: nothing) and remove its files; an object
+    it finished is kept in the object cache."""
+    if prefetched is None:
+        return
+    proc, said, made, cached = prefetched
+    if proc.poll() is None:
+        proc.kill()
+        proc.wait()
+    elif proc.returncode == 0:
+        _keep_objects([(made, cached)])
+    said.close()
+    shutil.rmtree(made.parent, ignore_errors=True)
+
+
+atexit.register(_drop_prefetched)
+
+
+def _includes():
+    """Include options of a unit: Python's and NumPy's C headers."""
+    return [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
 
 
 def build_jobs():
