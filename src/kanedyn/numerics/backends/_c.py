@@ -760,7 +760,7 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0):
 
 
 #: outputs of the ``constraints`` function (built by ``build_numeric_model``)
-CONSTRAINT_OUTPUTS = 4
+_CONSTRAINT_OUTPUTS = 4
 
 
 def predicted_runtime_unit(sizes):
@@ -771,7 +771,7 @@ def predicted_runtime_unit(sizes):
     makes for such a model (a guess that turns out wrong costs only the
     compiler's time)."""
     dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
-    declarations = [_signature("constraints", CONSTRAINT_OUTPUTS) + ";"] if dependent else []
+    declarations = [_signature("constraints", _CONSTRAINT_OUTPUTS) + ";"] if dependent else []
     return _runtime_unit(_generic_part(sizes, False, declarations), sizes, False)
 
 
@@ -822,8 +822,7 @@ def _runtime_parts(functions, sizes, lanes):
     if lanes:
         model_declarations.append(_c_lanes.SIGNATURE + ";")
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, *wrappers, _c_runtime.MODULE_FOOTER]
-    model = _RuntimePart(defines, model_declarations, body,
-                         generic.light, True)
+    model = _RuntimePart(defines, model_declarations, body, generic.light, True)
     return generic, model
 
 
