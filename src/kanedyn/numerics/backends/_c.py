@@ -335,93 +335,39 @@ def _output_lines(table, target, codes):
     return lines
 
 
-def _wrapper_source(name, outputs, nr):
-    """Module-level Python function ``name(t, y, p, r)`` returning a tuple of arrays."""
-    lines = [f"static PyObject *kd_py_{name}(PyObject *self, PyObject *const *args, "
-             "Py_ssize_t nargs) {",
-             "    KdArgs a;",
-             f"    if (kd_parse(args, nargs, {nr}, &a) != 0) {{ kd_release(&a); return NULL; }}",
-             f"    PyObject *result = PyTuple_New({len(outputs)});",
-             "    if (result == NULL) { kd_release(&a); return NULL; }"]
-    ptrs = []
-    for k, (shape, _) in enumerate(outputs):
-        lines.append(f"    double *d{k} = NULL, s{k}[1];")
-        if shape == ():
-            lines.append(f"    d{k} = s{k};")
-            ptrs.append(f"d{k}")
-            continue
-        if len(shape) == 1:
-            make = f"kd_new_vector({shape[0]}, &d{k})"
-        else:
-            make = f"kd_new_matrix({shape[0]}, {shape[1]}, &d{k})"
-        lines.append(f"    PyObject *a{k} = {make};")
-        lines.append(f"    if (a{k} == NULL) {{ Py_DECREF(result); kd_release(&a); return NULL; }}")
-        lines.append(f"    PyTuple_SET_ITEM(result, {k}, a{k});")
-        ptrs.append(f"d{k}")
-    call_args = ", ".join(["a.t", "a.y", "a.p", "a.r", "a.work"] + ptrs)
-    lines.append(f"    kd_eval_{name}({call_args});")
-    for k, (shape, _) in enumerate(outputs):
-        if shape == ():
-            lines.append(f"    PyTuple_SET_ITEM(result, {k}, PyFloat_FromDouble(s{k}[0]));")
-    lines += ["    kd_release(&a);", "    return result;", "}"]
-    return "\n".join(lines)
+def _function_table(functions, rows):
+    """C table ``kd_function_table`` of the module's functions (``KdFunction``
+    of :data:`_c_runtime.SHARED`: the generic runtime makes each a Python
+    function ``name(t, y, p, r)`` returning a tuple of its outputs), with a
+    call of each taking its outputs as an array of pointers; ``rows``: names
+    of the functions also given at every point of a trajectory
+    (``name_rows(t, Y, p, R)``)."""
+    lines, entries = [], []
+    for name, (arguments, outputs) in functions.items():
+        if len(outputs) > _MAX_OUTPUTS or any(len(shape) > 2 for shape, _ in outputs):
+            raise CodegenError(f"function {name}: at most {_MAX_OUTPUTS} outputs of at "
+                               "most two dimensions")
+        pointers = ", ".join(f"o[{k}]" for k in range(len(outputs)))
+        lines += [f"static void kd_call_{name}(double t, const double *y, const double *p, "
+                  "const double *r, double *w, double *const *o) {",
+                  f"    kd_eval_{name}(t, y, p, r, w{', ' if outputs else ''}{pointers});",
+                  "}"]
+        shapes = "NULL"
+        if outputs:
+            shapes = f"kd_shapes_{name}"
+            dims = ", ".join(f"{{{len(shape)}, {', '.join(map(str, (*shape, 0, 0)[:2]))}}}"
+                             for shape, _ in outputs)
+            lines.append(f"static const long {shapes}[{len(outputs)}][3] = {{{dims}}};")
+        nr = len(arguments.get("r", ()))
+        for suffix, row in [("", 0)] + ([("_rows", 1)] if name in rows else []):
+            entries.append(f'    {{"{name}{suffix}", kd_call_{name}, {len(outputs)}, {nr}, '
+                           f"{row}, {shapes}}},")
+    return "\n".join([*lines, "static const KdFunction kd_function_table[] = {", *entries,
+                      "    {NULL, NULL, 0, 0, 0, NULL}", "};"])
 
 
-def _rows_wrapper_source(name, outputs, nr):
-    """Module-level Python function ``<name>_rows(t, Y, p, R)``: the function at
-    each of N points, ``t`` shape (N,), ``Y`` (N, n_x), ``R`` (N, nr); a tuple of
-    arrays with the point axis first, (N, *shape) per output."""
-    lines = [f"static PyObject *kd_py_{name}_rows(PyObject *self, PyObject *const *args, "
-             "Py_ssize_t nargs) {",
-             "    if (nargs != 4) {",
-             f'        PyErr_SetString(PyExc_TypeError, "{name}_rows(t, Y, p, R) takes 4 '
-             'arguments");',
-             "        return NULL;",
-             "    }",
-             "    static const double empty[1] = {0.0};",
-             "    PyObject *keep = NULL, *result = NULL;",
-             "    double *work = NULL;",
-             "    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 1, 1, "
-             "NPY_ARRAY_IN_ARRAY);",
-             "    PyArrayObject *Y = T == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY("
-             "args[1], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);",
-             "    PyArrayObject *R = Y == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY("
-             "args[3], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);",
-             "    if (R == NULL) goto done;",
-             "    npy_intp N = PyArray_DIM(T, 0);",
-             "    if (PyArray_DIM(Y, 0) != N || PyArray_DIM(Y, 1) != KD_NX || PyArray_DIM(R, 0) "
-             f"!= N || PyArray_DIM(R, 1) != {nr}) {{",
-             f'        PyErr_Format(PyExc_ValueError, "{name}_rows: t (N,), Y (N, %d) and R '
-             f'(N, %d) expected", (int)KD_NX, {nr});',
-             "        goto done;",
-             "    }",
-             '    const double *p = KD_NP > 0 ? kd_vector(args[2], KD_NP, &keep, "p") : empty;',
-             "    if (p == NULL) goto done;",
-             "    work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW));",
-             "    if (work == NULL) { PyErr_NoMemory(); goto done; }",
-             f"    result = PyTuple_New({len(outputs)});",
-             "    if (result == NULL) goto done;"]
-    sizes = []
-    for k, (shape, _) in enumerate(outputs):
-        dims = ", ".join(["N", *map(str, shape)])
-        sizes.append(int(np.prod(shape, dtype=int)))
-        lines += [f"    npy_intp dims{k}[{1 + len(shape)}] = {{{dims}}};",
-                  f"    PyObject *a{k} = PyArray_SimpleNew({1 + len(shape)}, dims{k}, NPY_DOUBLE);",
-                  f"    if (a{k} == NULL) {{ Py_CLEAR(result); goto done; }}",
-                  f"    PyTuple_SET_ITEM(result, {k}, a{k});",
-                  f"    double *d{k} = (double *)PyArray_DATA((PyArrayObject *)a{k});"]
-    ptrs = ", ".join(f"d{k} + i * {size}" for k, size in enumerate(sizes))
-    lines += ["    const double *t = (const double *)PyArray_DATA(T), "
-              "*y = (const double *)PyArray_DATA(Y), *r = (const double *)PyArray_DATA(R);",
-              "    for (npy_intp i = 0; i < N; ++i)",
-              f"        kd_eval_{name}(t[i], y + i * KD_NX, p, {nr} > 0 ? r + i * {nr} : empty, "
-              f"work, {ptrs});",
-              "done:",
-              "    Py_XDECREF(T); Py_XDECREF(Y); Py_XDECREF(R); Py_XDECREF(keep);",
-              "    PyMem_Free(work);",
-              "    return result;",
-              "}"]
-    return "\n".join(lines)
+#: outputs a generated function may have (``KD_MAX_OUTPUTS`` of the runtime)
+_MAX_OUTPUTS = 16
 
 
 def elimination_tree(nonzero):
@@ -727,35 +673,36 @@ class _RuntimePart(NamedTuple):
     declarations: list
     body: list
     light: bool
-    model: bool  # the model's unit (it imports NumPy's C API from the other)
+    model: bool  # the model's unit (C alone: no Python)
 
 
-#: before everything in a runtime unit of a module built from several: shared
-#: symbols hidden (``KD_GEN`` empty), one table of NumPy's C API for the module
-_UNIT_PREAMBLE = ["#define KD_GEN", "#define PY_ARRAY_UNIQUE_SYMBOL kd_numpy_api"]
 #: the work-array sizes, defined by the last unit of a module
 _WORK_VARIABLES = ["extern const int kd_nw, kd_nwl;", "#define KD_NW kd_nw",
                    "#define KD_NWL kd_nwl"]
 
 
 def _runtime_unit(part, sizes, lanes):
-    """Text of a runtime unit (:func:`generate_c_units`)."""
-    return "\n".join([*([LIGHT_UNIT] if part.light else []), *_UNIT_PREAMBLE,
-                      *(["#define NO_IMPORT_ARRAY"] if part.model else []),
-                      _c_runtime.HEADER, *_size_defines(sizes), *part.defines,
+    """Text of a runtime unit (:func:`generate_c_units`); shared symbols
+    hidden (``KD_GEN`` empty); the model's without Python's headers."""
+    return "\n".join([*([LIGHT_UNIT] if part.light else []), "#define KD_GEN",
+                      _c_runtime.PRELUDE if part.model else _c_runtime.HEADER,
+                      *_size_defines(sizes), *part.defines,
                       *_WORK_VARIABLES,
                       *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
                       *part.declarations, *part.body])
 
 
-def _generic_part(sizes, lanes, declarations, n_contacts=0):
+def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False):
     """The generic runtime of a module: what depends on its sizes (and on its
-    lanes and contacts) only.  ``declarations``: of the generated functions it
-    calls (``constraints`` with dependent coordinates or speeds; ``dynamics``
-    and ``contacts`` with contacts)."""
-    defines = [f"#define KD_NC {n_contacts}"] if n_contacts else []
+    lanes, contacts and ``inverse_point``) only.  ``declarations``: of the
+    generated functions it calls (``constraints`` with dependent coordinates
+    or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
+    ``inverse_point``)."""
+    defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
+        + (["#define KD_INVERSE_POINT 1"] if inverse_point else [])
     body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR,
-            *([_c_contact.CONTACT] if n_contacts else []), _c_runtime.RUNTIME_FOOTER]
+            *([_c_contact.CONTACT] if n_contacts else []),
+            *([_c_runtime.INVERSE_POINT] if inverse_point else []), _c_runtime.RUNTIME_FOOTER]
     return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)
 
 
@@ -792,36 +739,23 @@ def _runtime_parts(functions, sizes, lanes):
                     for name, (_, outputs) in functions.items()}
     contacts = functions.get("contacts")
     n_contacts = len(contacts[1][0][1]) if contacts else 0
+    inverse_point = _inverse_at_a_point(functions, sizes)
     calls = (["constraints"] if sizes["n_q_dep"] + sizes["n_u_dep"] else []) \
-        + (["dynamics", "contacts"] if contacts else [])
-    generic = _generic_part(sizes, lanes, [declarations[name] for name in calls], n_contacts)
+        + (["dynamics", "contacts"] if contacts else []) + (["inverse"] if inverse_point else [])
+    generic = _generic_part(sizes, lanes, [declarations[name] for name in calls], n_contacts,
+                            inverse_point)
     defines = [f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",
                f"#define KD_MODULE_NAME_STR \"{NAME_TOKEN}\"",
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
-    wrappers, table = [], []
-    for name, (arguments, outputs) in functions.items():
-        wrappers.append(_wrapper_source(name, outputs, len(arguments.get("r", ()))))
-        table.append(f'    {{"{name}", (PyCFunction)(void (*)(void))kd_py_{name}, '
-                     'METH_FASTCALL, NULL},')
-    # inverse dynamics of a trajectory: the function and the constraint terms at
-    # every point in one call each
-    for name in ("inverse", "constraints") if "inverse" in functions else ():
-        if name not in functions:
-            continue
-        arguments, outputs = functions[name]
-        wrappers.append(_rows_wrapper_source(name, outputs, len(arguments.get("r", ()))))
-        table.append(f'    {{"{name}_rows", (PyCFunction)(void (*)(void))kd_py_{name}_rows, '
-                     'METH_FASTCALL, NULL},')
-    if _inverse_at_a_point(functions, sizes):
-        wrappers.append(_c_runtime.INVERSE_POINT)
-        table.append('    {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, '
-                     'METH_FASTCALL, NULL},')
-    defines.append("#define KD_FUNCTION_TABLE \\\n" + " \\\n".join(table))
     model_declarations = list(declarations.values())
     if lanes:
         model_declarations.append(_c_lanes.SIGNATURE + ";")
-    body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, *wrappers, _c_runtime.MODULE_FOOTER]
+    # inverse dynamics of a trajectory: the function and the constraint terms at
+    # every point in one call each
+    rows = ("inverse", "constraints") if "inverse" in functions else ()
+    body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, _function_table(functions, rows),
+            _c_runtime.MODULE_FOOTER]
     model = _RuntimePart(defines, model_declarations, body, generic.light, True)
     return generic, model
 

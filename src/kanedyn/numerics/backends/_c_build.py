@@ -153,36 +153,43 @@ def load_module(key_text, make_template, timeout=600):
     if command is None:
         raise CompilerError(missing_compiler_text())
     key = _build_key(key_text, command)
-    name = f"_kd_{key}"
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
     with _LOCK:
-        module = _LOADED.get(key)
-        if module is not None:
-            return module
-        directory = cache_dir()
-        problem = _unwritable(directory)
-        if problem is not None:
-            module = _try_cached(name, directory / f"{name}{suffix}",
-                                 directory / f"{name}.json", repair=False)
-            if module is None:
-                directory = _private_cache(f"the cache directory {directory} "
-                                           f"({_cache_origin()}) {problem}")
-        if module is None:
-            _remove_stale_builds(directory, timeout)
-            so_path = directory / f"{name}{suffix}"
-            manifest = directory / f"{name}.json"
-            with _FileLock(directory / f"{name}.lock"):
-                module = _try_cached(name, so_path, manifest)
-                if module is None:
-                    template = make_template()
-                    units = (template.split(UNIT_MARK) if isinstance(template, str)
-                             else template)
-                    _build((unit.replace(NAME_TOKEN, name) for unit in units), command,
-                           so_path, manifest, directory, timeout,
-                           single=isinstance(template, str) and UNIT_MARK not in template)
-                    module = _load(name, so_path)
-        _LOADED[key] = module
+        try:
+            return _load_or_build(f"_kd_{key}", key, make_template, command, timeout)
+        finally:  # a prefetched unit is for this module: not wanted any longer
+            _drop_prefetched()
+
+
+def _load_or_build(name, key, make_template, command, timeout):
+    """The module ``name`` of :func:`load_module` (called under its lock)."""
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    module = _LOADED.get(key)
+    if module is not None:
         return module
+    directory = cache_dir()
+    problem = _unwritable(directory)
+    if problem is not None:
+        module = _try_cached(name, directory / f"{name}{suffix}",
+                             directory / f"{name}.json", repair=False)
+        if module is None:
+            directory = _private_cache(f"the cache directory {directory} "
+                                       f"({_cache_origin()}) {problem}")
+    if module is None:
+        _remove_stale_builds(directory, timeout)
+        so_path = directory / f"{name}{suffix}"
+        manifest = directory / f"{name}.json"
+        with _FileLock(directory / f"{name}.lock"):
+            module = _try_cached(name, so_path, manifest)
+            if module is None:
+                template = make_template()
+                units = (template.split(UNIT_MARK) if isinstance(template, str)
+                         else template)
+                _build((unit.replace(NAME_TOKEN, name) for unit in units), command,
+                       so_path, manifest, directory, timeout,
+                       single=isinstance(template, str) and UNIT_MARK not in template)
+                module = _load(name, so_path)
+    _LOADED[key] = module
+    return module
 
 
 def _unwritable(directory):
@@ -392,9 +399,12 @@ def prefetch(unit):
     derived (:func:`~._c.predicted_runtime_unit`), so that the compiler works
     on it while the equations are derived.  Nothing happens without a
     compiler, with a cache directory that cannot be written, or when the
-    object is cached already; a unit that no build takes (a wrong guess) is
-    dropped when the next build starts, or when the process exits.  At most
-    one unit is prefetched at a time (a new call drops the previous one).
+    object is cached already.  A unit the next :func:`load_module` does not
+    take (a wrong guess, or a module another process built meanwhile) is
+    dropped by it (at once where its build starts with another unit), or
+    when the process exits; an object it finished is kept in the object
+    cache.  At most one unit is prefetched at a time (a new call drops the
+    previous one).
     """
     command = compiler_command()
     if command is None or NAME_TOKEN in unit:

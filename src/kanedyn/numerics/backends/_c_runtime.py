@@ -10,9 +10,10 @@ directly: a ``ctypes`` call alone would cost more than the whole evaluation.
 A module built from translation units carries the runtime in two: the generic
 one (:data:`RUNTIME`, the integrator, the contact loop, :data:`RUNTIME_FOOTER`),
 which depends on the model's sizes only and can be compiled before the model
-is derived, and the model's own (:data:`MODEL_SOLVE`, :data:`LANE_SOLVE`, the
-wrappers of its functions, :data:`MODULE_FOOTER`); :data:`SHARED` declares
-what each calls of the other.
+is derived, and the model's own, in C without Python (:data:`MODEL_SOLVE`,
+:data:`LANE_SOLVE`, the table of its functions, :data:`MODULE_FOOTER`), which the
+generic unit turns into Python functions; :data:`SHARED` declares what each
+calls of the other.
 """
 
 PYTHON_INCLUDES = r"""
@@ -513,7 +514,7 @@ PYTHON_GLUE = r"""
 /* ------------------------------------------------------------ arguments */
 /* The entries of obj when it is a 1-D float64 array of n entries that can be read
    in place (native byte order, aligned, contiguous), else NULL. */
-KD_GEN const double *kd_in_place(PyObject *obj, npy_intp n) {
+static const double *kd_in_place(PyObject *obj, npy_intp n) {
     if (!PyArray_CheckExact(obj)) return NULL;
     PyArrayObject *arr = (PyArrayObject *)obj;
     if (PyArray_TYPE(arr) != NPY_DOUBLE || PyArray_NDIM(arr) != 1
@@ -522,7 +523,7 @@ KD_GEN const double *kd_in_place(PyObject *obj, npy_intp n) {
     return (const double *)PyArray_DATA(arr);
 }
 
-KD_GEN const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what) {
+static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what) {
     const double *x = kd_in_place(obj, n);
     *keep = NULL;
     if (x != NULL) return x;
@@ -565,13 +566,13 @@ static int kd_inputs(PyObject *inputs, double t, PyObject *y, double *r) {
     return 0;
 }
 
-KD_GEN PyObject *kd_new_vector(npy_intp n, double **data) {
+static PyObject *kd_new_vector(npy_intp n, double **data) {
     PyObject *out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
     if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
     return out;
 }
 
-KD_GEN PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
+static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
     npy_intp dims[2] = {rows, cols};
     PyObject *out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
     if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
@@ -882,7 +883,9 @@ static PyObject *KdModel_set_parameters(KdModel *self, PyObject *const *args, Py
 }
 
 /* -------------------------------------------- functions of (t, y, p, r) */
-KD_GEN int kd_parse(PyObject *const *args, Py_ssize_t nargs, npy_intp nr, KdArgs *a) {
+typedef struct { const double *y, *p, *r; PyObject *keep[3]; double t; double *work; } KdArgs;
+
+static int kd_parse(PyObject *const *args, Py_ssize_t nargs, npy_intp nr, KdArgs *a) {
     a->keep[0] = a->keep[1] = a->keep[2] = NULL;
     a->work = NULL;
     if (nargs != 4) {
@@ -902,16 +905,105 @@ KD_GEN int kd_parse(PyObject *const *args, Py_ssize_t nargs, npy_intp nr, KdArgs
     return 0;
 }
 
-KD_GEN void kd_release(KdArgs *a) {
+static void kd_release(KdArgs *a) {
     for (int i = 0; i < 3; ++i) Py_XDECREF(a->keep[i]);
     PyMem_Free(a->work);
 }
+
+/* A generated function as a module-level Python function; `self` is a capsule
+   of its KdFunction (the model's table).  name(t, y, p, r): a tuple of its
+   outputs (floats for shape (), else new arrays). */
+static PyObject *kd_py_function(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
+    const KdFunction *fn = (const KdFunction *)PyCapsule_GetPointer(self, NULL);
+    if (fn == NULL) return NULL;
+    KdArgs a;
+    if (kd_parse(args, nargs, fn->nr, &a) != 0) { kd_release(&a); return NULL; }
+    PyObject *result = PyTuple_New(fn->n_outputs);
+    if (result == NULL) { kd_release(&a); return NULL; }
+    double *out[KD_MAX_OUTPUTS], scalar[KD_MAX_OUTPUTS];
+    for (int k = 0; k < fn->n_outputs; ++k) {
+        const long *shape = fn->shapes[k];
+        if (shape[0] == 0) { out[k] = &scalar[k]; continue; }
+        PyObject *array = shape[0] == 1 ? kd_new_vector(shape[1], &out[k])
+                                        : kd_new_matrix(shape[1], shape[2], &out[k]);
+        if (array == NULL) { Py_DECREF(result); kd_release(&a); return NULL; }
+        PyTuple_SET_ITEM(result, k, array);
+    }
+    fn->call(a.t, a.y, a.p, a.r, a.work, out);
+    kd_release(&a);
+    for (int k = 0; k < fn->n_outputs; ++k) {
+        if (fn->shapes[k][0] != 0) continue;
+        PyObject *value = PyFloat_FromDouble(scalar[k]);
+        if (value == NULL) { Py_DECREF(result); return NULL; }
+        PyTuple_SET_ITEM(result, k, value);
+    }
+    return result;
+}
+
+/* name_rows(t, Y, p, R): the function at each of N points, t shape (N,), Y
+   (N, n_x), R (N, nr); a tuple of arrays with the point axis first, (N, *shape)
+   per output. */
+static PyObject *kd_py_function_rows(PyObject *self, PyObject *const *args,
+                                     Py_ssize_t nargs) {
+    const KdFunction *fn = (const KdFunction *)PyCapsule_GetPointer(self, NULL);
+    if (fn == NULL) return NULL;
+    if (nargs != 4) {
+        PyErr_Format(PyExc_TypeError, "%s(t, Y, p, R) takes 4 arguments", fn->name);
+        return NULL;
+    }
+    static const double empty[1] = {0.0};
+    PyObject *keep = NULL, *result = NULL;
+    double *work = NULL;
+    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 1, 1,
+                                                        NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *Y = T == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY(
+        args[1], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *R = Y == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY(
+        args[3], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    if (R == NULL) goto done;
+    npy_intp N = PyArray_DIM(T, 0);
+    if (PyArray_DIM(Y, 0) != N || PyArray_DIM(Y, 1) != KD_NX || PyArray_DIM(R, 0) != N
+            || PyArray_DIM(R, 1) != fn->nr) {
+        PyErr_Format(PyExc_ValueError, "%s: t (N,), Y (N, %d) and R (N, %d) expected",
+                     fn->name, (int)KD_NX, fn->nr);
+        goto done;
+    }
+    const double *p = KD_NP > 0 ? kd_vector(args[2], KD_NP, &keep, "p") : empty;
+    if (p == NULL) goto done;
+    work = (double *)PyMem_Malloc(sizeof(double) * KD_SZ(KD_NW));
+    if (work == NULL) { PyErr_NoMemory(); goto done; }
+    result = PyTuple_New(fn->n_outputs);
+    if (result == NULL) goto done;
+    double *data[KD_MAX_OUTPUTS], *out[KD_MAX_OUTPUTS];
+    npy_intp size[KD_MAX_OUTPUTS];
+    for (int k = 0; k < fn->n_outputs; ++k) {
+        const long *shape = fn->shapes[k];
+        npy_intp dims[3] = {N, shape[1], shape[2]};
+        size[k] = shape[0] == 0 ? 1 : shape[0] == 1 ? shape[1] : shape[1] * shape[2];
+        PyObject *array = PyArray_SimpleNew(1 + shape[0], dims, NPY_DOUBLE);
+        if (array == NULL) { Py_CLEAR(result); goto done; }
+        PyTuple_SET_ITEM(result, k, array);
+        data[k] = (double *)PyArray_DATA((PyArrayObject *)array);
+    }
+    const double *t = (const double *)PyArray_DATA(T), *y = (const double *)PyArray_DATA(Y);
+    const double *r = (const double *)PyArray_DATA(R);
+    for (npy_intp i = 0; i < N; ++i) {
+        for (int k = 0; k < fn->n_outputs; ++k) out[k] = data[k] + i * size[k];
+        fn->call(t[i], y + i * KD_NX, p, fn->nr > 0 ? r + i * fn->nr : empty, work, out);
+    }
+done:
+    Py_XDECREF(T); Py_XDECREF(Y); Py_XDECREF(R); Py_XDECREF(keep);
+    PyMem_Free(work);
+    return result;
+}
 """
+
 
 #: ``inverse_point(t, q, u, udot, p)``: inverse dynamics at one point of a model
 #: without dependent coordinates or speeds and without specified inputs, for
 #: exact float64 1-D arrays of finite entries (None for anything else: the
-#: caller then takes the general way, which checks and reports)
+#: caller then takes the general way, which checks and reports); part of the
+#: generic runtime of such a module (``KD_INVERSE_POINT``)
 INVERSE_POINT = r"""
 static const double *kd_plain_vector(PyObject *obj, npy_intp n) {
     const double *x = kd_in_place(obj, n);  /* with finite entries only */
@@ -949,20 +1041,25 @@ static PyObject *kd_py_inverse_point(PyObject *self, PyObject *const *args, Py_s
 }
 """
 
-#: declarations shared by the two runtime units of a module (after the sizes
-#: and the lane definitions): what the model's unit uses of the generic one,
-#: and the generic unit's calls into the model's (``KD_GEN``: static in a
-#: one-unit source, hidden across the units of one module otherwise)
+#: what the two runtime units of a module share (after the sizes and the lane
+#: definitions; no Python): the model's table of functions, which the generic
+#: unit turns into Python functions, and the calls of each into the other
+#: (``KD_GEN``: static in a one-unit source, hidden across the units of one
+#: module otherwise)
 SHARED = r"""
-typedef struct { const double *y, *p, *r; PyObject *keep[3]; double t; double *work; } KdArgs;
+#define KD_MAX_OUTPUTS 16
+/* a generated function with its outputs given as an array of pointers */
+typedef void (*KdCall)(double t, const double *y, const double *p, const double *r,
+                       double *w, double *const *out);
+typedef struct {
+    const char *name;     /* its Python name */
+    KdCall call;
+    int n_outputs;        /* at most KD_MAX_OUTPUTS */
+    int nr;               /* run-time inputs r it takes */
+    int rows;             /* 1: evaluated at every point of a trajectory (name_rows) */
+    const long (*shapes)[3];  /* per output: dimensions (0, 1 or 2), then the sizes */
+} KdFunction;
 KD_GEN int kd_lu_solve(int n, double *A, double *B, int nrhs);
-KD_GEN const double *kd_in_place(PyObject *obj, npy_intp n);
-KD_GEN const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const char *what);
-KD_GEN PyObject *kd_new_vector(npy_intp n, double **data);
-KD_GEN PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data);
-KD_GEN int kd_parse(PyObject *const *args, Py_ssize_t nargs, npy_intp nr, KdArgs *a);
-KD_GEN void kd_release(KdArgs *a);
-KD_GEN PyObject *kd_module_create(struct PyModuleDef *def);
 KD_GEN int kd_rhs_core(double t, const double *y, const double *p, const double *r,
                        double *w, double *out);
 #if KD_LANES > 0
@@ -970,6 +1067,8 @@ KD_LANES_FN KD_GEN void kd_lanes_rows(const double *t, int t_scalar, const doubl
                                       const double *P, const double *p, const double *r,
                                       double *out, double *restrict lw, double *w);
 #endif
+/* the module named `name` with the functions of `table` (ended by a NULL name) */
+KD_GEN void *kd_module_create(const char *name, const KdFunction *table);
 """
 
 #: the generic runtime: what depends on the model's sizes only (entry points
@@ -1009,17 +1108,49 @@ static PyMethodDef kd_runtime_functions[] = {
 #ifdef KD_NC
     {"contact_segment", (PyCFunction)kd_py_contact_segment, METH_VARARGS, NULL},
 #endif
+#ifdef KD_INVERSE_POINT
+    {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, METH_FASTCALL, NULL},
+#endif
     {NULL, NULL, 0, NULL}
 };
 
-/* the module of `def` (the model's functions) with the Model type and the
-   functions of this runtime */
-KD_GEN PyObject *kd_module_create(struct PyModuleDef *def) {
+static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, NULL, NULL, -1, NULL};
+
+/* the model's functions as Python functions of `module`, each with a capsule of
+   its entry of `table` as `self` (their method definitions live as long as the
+   process, as the module's code does) */
+static int kd_add_functions(PyObject *module, const KdFunction *table) {
+    int count = 0;
+    while (table[count].name != NULL) count++;
+    PyMethodDef *defs = (PyMethodDef *)PyMem_Calloc(KD_SZ(count), sizeof(PyMethodDef));
+    if (defs == NULL) { PyErr_NoMemory(); return -1; }
+    for (int k = 0; k < count; ++k) {
+        defs[k].ml_name = table[k].name;
+        defs[k].ml_meth = table[k].rows ? (PyCFunction)(void (*)(void))kd_py_function_rows
+                                        : (PyCFunction)(void (*)(void))kd_py_function;
+        defs[k].ml_flags = METH_FASTCALL;
+        PyObject *entry = PyCapsule_New((void *)&table[k], NULL, NULL);
+        if (entry == NULL) return -1;
+        PyObject *function = PyCFunction_NewEx(&defs[k], entry, NULL);
+        Py_DECREF(entry);
+        if (function == NULL || PyModule_AddObject(module, table[k].name, function) < 0) {
+            Py_XDECREF(function);
+            return -1;
+        }
+    }
+    return 0;
+}
+
+/* the module `name` with the Model type, the functions of this runtime and those
+   of the model's `table` */
+KD_GEN void *kd_module_create(const char *name, const KdFunction *table) {
     import_array();
     if (PyType_Ready(&KdModelType) < 0) return NULL;
-    PyObject *module = PyModule_Create(def);
+    kd_module.m_name = name;
+    kd_module.m_methods = kd_runtime_functions;
+    PyObject *module = PyModule_Create(&kd_module);
     if (module == NULL) return NULL;
-    if (PyModule_AddFunctions(module, kd_runtime_functions) < 0) {
+    if (kd_add_functions(module, table) < 0) {
         Py_DECREF(module);
         return NULL;
     }
@@ -1038,19 +1169,14 @@ KD_GEN PyObject *kd_module_create(struct PyModuleDef *def) {
 }
 """
 
-#: end of the model's unit: its functions (``KD_FUNCTION_TABLE``) and the
-#: module's entry point
+#: end of the model's unit, after its table of functions ``kd_function_table``:
+#: the module's entry point (without Python's headers: a function returning the
+#: new module, visible outside the module's file)
 MODULE_FOOTER = r"""
-static PyMethodDef kd_functions[] = {
-    KD_FUNCTION_TABLE
-    {NULL, NULL, 0, NULL}
-};
-
-static struct PyModuleDef kd_module = {
-    PyModuleDef_HEAD_INIT, KD_MODULE_NAME_STR, NULL, -1, kd_functions
-};
-
-PyMODINIT_FUNC KD_INIT_FUNCTION(void) {
-    return kd_module_create(&kd_module);
+#if defined(__GNUC__)
+__attribute__((visibility("default")))
+#endif
+void *KD_INIT_FUNCTION(void) {
+    return kd_module_create(KD_MODULE_NAME_STR, kd_function_table);
 }
 """
