@@ -1124,20 +1124,23 @@ static int kd_add_functions(PyObject *module, const KdFunction *table) {
     while (table[count].name != NULL) count++;
     PyMethodDef *defs = (PyMethodDef *)PyMem_Calloc(KD_SZ(count), sizeof(PyMethodDef));
     if (defs == NULL) { PyErr_NoMemory(); return -1; }
+    PyObject *owner = PyModule_GetNameObject(module);  /* their __module__ */
+    if (owner == NULL) return -1;
     for (int k = 0; k < count; ++k) {
         defs[k].ml_name = table[k].name;
         defs[k].ml_meth = table[k].rows ? (PyCFunction)(void (*)(void))kd_py_function_rows
                                         : (PyCFunction)(void (*)(void))kd_py_function;
         defs[k].ml_flags = METH_FASTCALL;
         PyObject *entry = PyCapsule_New((void *)&table[k], NULL, NULL);
-        if (entry == NULL) return -1;
-        PyObject *function = PyCFunction_NewEx(&defs[k], entry, NULL);
-        Py_DECREF(entry);
+        PyObject *function = entry == NULL ? NULL : PyCFunction_NewEx(&defs[k], entry, owner);
+        Py_XDECREF(entry);
         if (function == NULL || PyModule_AddObject(module, table[k].name, function) < 0) {
             Py_XDECREF(function);
+            Py_DECREF(owner);
             return -1;
         }
     }
+    Py_DECREF(owner);
     return 0;
 }
 
