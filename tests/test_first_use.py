@@ -212,3 +212,16 @@ def test_a_chain_forms_only_the_partial_velocities_it_needs():
     parts = model.inverse_parts(0.0, q, u, ud)
     assert np.max(np.abs(parts.total - tau)) <= 1e-12 * np.max(np.abs(tau))
     assert len(eom._program) == size
+
+
+def test_cache_key_reads_sympys_version_without_importing_it(monkeypatch):
+    """The derivation cache's key names SymPy's version, read from its release
+    file in a process that has not imported SymPy (a warm start imports none):
+    the same as the imported module's."""
+    import sympy
+
+    from kanedyn.models import _base
+    monkeypatch.delitem(sys.modules, "sympy")
+    read = _base._sympy_version()
+    assert "sympy" not in sys.modules
+    assert read == sympy.__version__

@@ -255,7 +255,26 @@ def _cacheable(origin, constants, options):
 
 
 def _sympy_version():
-    """SymPy's version, without importing SymPy (a cached model needs none)."""
+    """SymPy's version, without importing SymPy (a cached model needs none):
+    the imported module's, else the ``__version__ = "..."`` line of its
+    ``release.py`` (read as text, never run; reading the installed package's
+    metadata instead took 0.02-0.03 s, a fifth of a warm start)."""
+    import sys
+    module = sys.modules.get("sympy")
+    if module is not None:
+        return module.__version__
+    import importlib.util
+    import os
+    import re
+    spec = importlib.util.find_spec("sympy")
+    try:
+        with open(os.path.join(os.path.dirname(spec.origin), "release.py"),
+                  encoding="utf-8") as release:
+            found = re.search(r"^__version__\s*=\s*['\"]([^'\"]+)['\"]", release.read(), re.M)
+    except (AttributeError, TypeError, OSError):
+        found = None
+    if found is not None:
+        return found.group(1)
     from importlib.metadata import version
     return version("sympy")
 
