@@ -154,12 +154,34 @@ def test_singular_system_returns_1(tmp_path):
 
 
 def test_extension_module_source(tmp_path):
+    """The one-file source of the extension module compiles into a module
+    whose Model and functions give the compiled model's numbers."""
+    import importlib.machinery
+    import importlib.util
+    import sysconfig
+
     definition = kd.models.build("pendulum")
-    model = definition.numeric(definition.derive())
+    model = definition.numeric(definition.derive(), backend="c")
     source = model.c_source(standalone=False, module_name="my_pendulum")
     assert "#include <Python.h>" in source and "PyInit_my_pendulum" in source
     with pytest.raises(kd.ModelError, match="module_name"):
         model.c_source(standalone=False, module_name="not valid")
+    c_file = tmp_path / "my_pendulum.c"
+    c_file.write_text(source)
+    library = tmp_path / f"my_pendulum{sysconfig.get_config_var('EXT_SUFFIX') or '.so'}"
+    subprocess.run([CC, "-shared", "-fPIC", "-O1", "-std=gnu11",
+                    f"-I{sysconfig.get_paths()['include']}", f"-I{np.get_include()}",
+                    str(c_file), "-o", str(library), "-lm"], check=True)
+    loader = importlib.machinery.ExtensionFileLoader("my_pendulum", str(library))
+    module = importlib.util.module_from_spec(
+        importlib.util.spec_from_file_location("my_pendulum", str(library), loader=loader))
+    loader.exec_module(module)
+    p = np.array([model.constants[name] for name in sorted(model.constants)])
+    y = np.array([0.4, -0.3])
+    np.testing.assert_array_equal(module.Model(p).rhs(0.0, y), model.rhs(0.0, y))
+    kinetic, potential = module.energy(0.0, y, p, np.zeros(0))
+    assert kinetic == pytest.approx(model.kinetic_energy(0.0, y), rel=1e-14)
+    assert potential == pytest.approx(model.potential_energy(0.0, y), rel=1e-14)
 
 
 def test_cli_derive_writes_c(tmp_path, capsys):
