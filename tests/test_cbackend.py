@@ -573,6 +573,27 @@ def test_generic_runtime_compiles_while_the_model_is_derived(tmp_path, monkeypat
     assert np.all(np.isfinite(model.rhs(0.0, d.initial(model))))
 
 
+def test_command_line_run_compiles_the_runtime_while_deriving(tmp_path, monkeypatch, capsys):
+    """``kanedyn run`` (C backend) starts the generic runtime before deriving the
+    model, and the module's build takes that compiler run over."""
+    from kanedyn.cli import main
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "cache"))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    taken = []
+    take = _c_build._take_prefetched
+
+    def record(key, first):
+        found = take(key, first)
+        taken.append(found is not None)
+        return found
+
+    monkeypatch.setattr(_c_build, "_take_prefetched", record)
+    assert main(["run", "pendulum", "--out", str(tmp_path / "out"), "--quiet",
+                 "--backend", "c"]) == 0
+    assert "backend: c" in capsys.readouterr().out
+    assert taken[0] and not any(taken[1:])
+
+
 def test_a_prefetched_unit_no_build_takes_is_dropped(tmp_path, monkeypatch):
     """A prefetched unit the next build does not start with (a wrong guess) is
     stopped when that build starts; one that finished is kept in the object

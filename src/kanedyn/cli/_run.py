@@ -56,6 +56,8 @@ def cmd_run(args):
     out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
+    if args.backend != "numpy":
+        definition.prefetch_runtime()  # the C runtime compiles meanwhile
     eom = definition.derive(progress=progress)
     constants, initial = split_values(definition, eom, values)
     model = numeric_model(definition, eom, args.backend, constants)

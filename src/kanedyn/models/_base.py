@@ -113,7 +113,7 @@ class ModelDefinition:
             if cached is not None:
                 return cached
         if eom is None and options.get("backend") == "c":
-            self._prefetch_runtime()
+            self.prefetch_runtime()
         eom = eom if eom is not None else self.derive()
         if eom.name is None:
             eom._label(name=self.name, title=self.title, units=self.units or None)
@@ -123,11 +123,14 @@ class ModelDefinition:
         inputs.update(specified or {})
         return eom.numeric(constants=values, specified=inputs, **options)
 
-    def _prefetch_runtime(self):
-        """Start compiling the C runtime of this model's sizes while its
-        equations are derived (:func:`kanedyn.numerics.prefetch_runtime`);
-        not where the derivation decides sizes (contacts, auxiliary speeds,
-        specified inputs)."""
+    def prefetch_runtime(self):
+        """Start compiling the C runtime of this model's sizes, so that it
+        compiles while the equations are derived: for a caller that derives
+        the model (:meth:`derive`) and then asks for ``backend="c"``
+        (:meth:`numeric` does it itself when it derives).  See
+        :func:`kanedyn.numerics.prefetch_runtime`; nothing happens without a
+        compiler, or where the derivation decides the sizes (contacts,
+        auxiliary speeds, specified inputs)."""
         args = self.kane_args
         if self.specified or args.get("contacts") or args.get("u_auxiliary"):
             return
@@ -385,7 +388,7 @@ def _derivation_cache(definition, constants, options):
         model = found[0]
         model._rederive = derive_again
     else:
-        definition._prefetch_runtime()
+        definition.prefetch_runtime()
         model = definition.numeric(definition.derive(), **options)
         _write_cache(key, definition, model)
     if overrides:
