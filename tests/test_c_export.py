@@ -79,6 +79,23 @@ def test_standalone_rhs_matches_model_rhs(name, options, tmp_path):
         assert energy[0] == pytest.approx(model.kinetic_energy(t, y), rel=1e-13, abs=1e-13)
 
 
+def test_standalone_export_of_a_model_solved_by_the_tree_pass(tmp_path):
+    """A C-backend model solved by the articulated-body pass (no M in its
+    module) exports a standalone file that solves with its mass matrix: it
+    compiles under the strict flags and gives the model's rhs."""
+    from kanedyn.numerics.backends._c import TREE_MIN_SPEEDS
+    definition = kd.models.build("chain3d", n=TREE_MIN_SPEEDS, style="positions")
+    model = definition.numeric(definition.derive(), backend="c")
+    lib = _compile_library(model.c_source(), tmp_path)
+    p = np.array(list(model.constants.values()))
+    for y in _states(definition, model, np.random.default_rng(2), count=3):
+        code, ydot = _call(lib, "kanedyn_rhs", 0.0, y, p, [], model.n_states)
+        assert code == 0
+        expected = model.rhs(0.0, y)
+        np.testing.assert_allclose(ydot, expected, rtol=1e-11,
+                                   atol=1e-11 * max(1.0, np.max(np.abs(expected))))
+
+
 def test_parameters_and_inputs_are_passed(tmp_path):
     """Other parameter values and a specified input given at run time (r)."""
     definition = kd.models.build("n-link-pendulum-on-cart", n=2)

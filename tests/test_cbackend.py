@@ -4,7 +4,9 @@ import multiprocessing
 import os
 import pickle
 import re
+import time
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -616,9 +618,59 @@ def test_a_prefetched_unit_no_build_takes_is_dropped(tmp_path, monkeypatch):
     assert model.rhs(0.0, np.zeros(model.n_states)).shape == (model.n_states,)
 
 
+@pytest.mark.skipif(not os.path.isdir("/proc/self"), reason="reads /proc (Linux)")
+def test_a_dropped_prefetch_stops_the_whole_compiler(tmp_path, monkeypatch):
+    """Stopping a prefetched compile stops the compiler proper too (not only the
+    driver, whose cc1 would run on and leave its files), and no folder stays."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    sizes = {"n_q": 7, "n_u": 7, "n_q_dep": 0, "n_u_dep": 0, "n_p": 3, "n_r": 0}
+    _c_build.prefetch(_cbackend.predicted_runtime_unit(sizes))  # about 0.5 s of gcc
+    ((driver, _, made, _),) = _c_build._PREFETCHED.values()
+
+    def compiling():  # processes whose command line names the unit's folder
+        found = []
+        for cmdline in Path("/proc").glob("[0-9]*/cmdline"):
+            try:
+                if str(made.parent).encode() in cmdline.read_bytes():
+                    found.append(int(cmdline.parent.name))
+            except OSError:
+                pass  # a process that ended meanwhile
+        return found
+
+    deadline = time.monotonic() + 10
+    while set(compiling()) <= {driver.pid} and driver.poll() is None \
+            and time.monotonic() < deadline:
+        time.sleep(0.002)  # until the driver has started the compiler proper
+    _c_build._drop_prefetched()
+    assert not compiling() and not list(tmp_path.glob("prefetch-*"))
+
+
+def test_a_failing_prefetched_unit_fails_its_build_and_leaves_nothing(tmp_path, monkeypatch):
+    """A prefetched unit that does not compile fails the build that takes it
+    with the compiler's message (as if the build had compiled it), and its
+    folder is removed; the process's own prefetch folders survive the removal
+    of stale build folders."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    good = _c_build.LIGHT_UNIT + "int kd_probe_ok(void) { return 1; }\n"
+    _c_build.prefetch(good)
+    ((process, _, made, _),) = _c_build._PREFETCHED.values()
+    process.wait()
+    old = time.time() - 3 * 3600
+    os.utime(made.parent, (old, old))
+    _c_build._remove_stale_builds(tmp_path, 600)
+    assert made.parent.exists()  # this process's: kept
+    bad = _c_build.LIGHT_UNIT + "this is not C;\n"
+    _c_build.prefetch(bad)
+    with pytest.raises(_c_build.CompilerError, match="failed"):
+        _c_build.load_module("a failing prefetched unit",
+                             lambda: _c_build.UNIT_MARK.join([bad, good]))
+    assert not _c_build._PREFETCHED and not list(tmp_path.glob("prefetch-*"))
+
+
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
     """The two runtime units (entry points, integrator; the model's solve and
-    wrappers) are compiled at -O1; at -O2 where they hold the lane-wise solve
+    table) are compiled at -O1; at -O2 where they hold the lane-wise solve
     or the contact loop; every other unit at -O2."""
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
@@ -647,7 +699,9 @@ def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypat
     assert {level for level, _ in levels()} == {"-O2"}
     d = kd.models.build("falling-rod")
     d.numeric(d.derive(), backend="c")
-    assert {level for level, _ in levels()} == {"-O2"}
+    found = levels()  # the contact loop is in the generic unit, not in the model's
+    assert found[1] == ("-O1", _c_build.LIGHT_UNIT)
+    assert {level for level, _ in found[:1] + found[2:]} == {"-O2"}
 
 
 def test_direct_printing_matches_sympys_printer():

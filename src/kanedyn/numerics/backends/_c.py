@@ -337,16 +337,17 @@ def _output_lines(table, target, codes):
 
 def _function_table(functions, rows):
     """C table ``kd_function_table`` of the module's functions (``KdFunction``
-    of :data:`_c_runtime.SHARED`: the generic runtime makes each a Python
-    function ``name(t, y, p, r)`` returning a tuple of its outputs), with a
-    call of each taking its outputs as an array of pointers; ``rows``: names
+    of :data:`_c_runtime.SHARED`: the generic runtime makes each a
+    module-level Python function ``name(t, y, p, r)`` returning a tuple of its
+    outputs), with a call of each taking its outputs as an array of pointers;
+    ``rows``: names
     of the functions also given at every point of a trajectory
     (``name_rows(t, Y, p, R)``)."""
     lines, entries = [], []
     for name, (arguments, outputs) in functions.items():
-        if len(outputs) > _MAX_OUTPUTS or any(len(shape) > 2 for shape, _ in outputs):
-            raise CodegenError(f"function {name}: at most {_MAX_OUTPUTS} outputs of at "
-                               "most two dimensions")
+        if len(outputs) > _c_runtime.MAX_OUTPUTS or any(len(s) > 2 for s, _ in outputs):
+            raise CodegenError(f"function {name}: at most {_c_runtime.MAX_OUTPUTS} outputs "
+                               "of at most two dimensions")
         pointers = ", ".join(f"o[{k}]" for k in range(len(outputs)))
         lines += [f"static void kd_call_{name}(double t, const double *y, const double *p, "
                   "const double *r, double *w, double *const *o) {",
@@ -362,12 +363,10 @@ def _function_table(functions, rows):
         for suffix, row in [("", 0)] + ([("_rows", 1)] if name in rows else []):
             entries.append(f'    {{"{name}{suffix}", kd_call_{name}, {len(outputs)}, {nr}, '
                            f"{row}, {shapes}}},")
+    if len(entries) > _c_runtime.MAX_FUNCTIONS:
+        raise CodegenError(f"at most {_c_runtime.MAX_FUNCTIONS} functions in one module")
     return "\n".join([*lines, "static const KdFunction kd_function_table[] = {", *entries,
                       "    {NULL, NULL, 0, 0, 0, NULL}", "};"])
-
-
-#: outputs a generated function may have (``KD_MAX_OUTPUTS`` of the runtime)
-_MAX_OUTPUTS = 16
 
 
 def elimination_tree(nonzero):
@@ -756,7 +755,7 @@ def _runtime_parts(functions, sizes, lanes):
     rows = ("inverse", "constraints") if "inverse" in functions else ()
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, _function_table(functions, rows),
             _c_runtime.MODULE_FOOTER]
-    model = _RuntimePart(defines, model_declarations, body, generic.light, True)
+    model = _RuntimePart(defines, model_declarations, body, not lanes, True)
     return generic, model
 
 

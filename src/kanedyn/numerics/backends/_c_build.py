@@ -33,6 +33,7 @@ import json
 import os
 import shlex
 import shutil
+import signal
 import subprocess
 import sys
 import sysconfig
@@ -219,11 +220,13 @@ def _private_cache(reason):
 
 
 def _remove_stale_builds(directory, timeout):
-    """Remove the ``build-*`` folders that killed builds left behind."""
+    """Remove the ``build-*`` and ``prefetch-*`` folders that killed builds and
+    processes left behind (not this process's prefetched units)."""
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
-    for path in directory.glob("build-*"):
+    own = {made.parent for _, _, made, _ in _PREFETCHED.values()}
+    for path in [*directory.glob("build-*"), *directory.glob("prefetch-*")]:
         try:
-            if path.is_dir() and path.stat().st_mtime < limit:
+            if path not in own and path.is_dir() and path.stat().st_mtime < limit:
                 shutil.rmtree(path, ignore_errors=True)
         except OSError:
             pass
@@ -293,7 +296,7 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         jobs.add(command + flags + includes
                  + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))])
 
-    adopted = []  # (unit, object written by the prefetched compiler)
+    adopted = []  # (unit, object the prefetched compiler writes): folders removed at the end
 
     def link(object_paths):
         jobs.add(command + ["-shared"] + [str(path) for path in object_paths]
@@ -301,7 +304,7 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         jobs.finish()
 
     with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp, \
-            _Jobs(command, timeout) as jobs:
+            _Jobs(command, timeout) as jobs, _removing(adopted):
         out_path = Path(tmp) / so_path.name
         paths, size, flags, cached, reused = [], 0, [], [], []
         for k, text in enumerate(units):
@@ -317,9 +320,11 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
             if _usable(cached[-1]):
                 reused.append(k)
                 _stop(started)
-            elif started is not None:  # the compiler already runs on this unit
+            elif started is not None and started[0].poll() is None:  # compiling this unit
                 jobs.running.append(started[:2])
                 adopted.append((k, started[2]))
+            elif started is not None and _take_object(started, c_path.with_suffix(".o")):
+                pass  # compiled before it was asked for
             else:
                 compile_unit(c_path, flags[-1])
                 jobs.step(build_jobs() - 1)  # one CPU keeps making the units
@@ -331,7 +336,6 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
             jobs.finish()
             for k, made_object in adopted:
                 os.replace(made_object, paths[k].with_suffix(".o"))
-                shutil.rmtree(made_object.parent, ignore_errors=True)
             STATS["units"] += len(made)
             STATS["reused"] += len(reused)
             _keep_objects([(paths[k].with_suffix(".o"), cached[k]) for k in made])
@@ -358,6 +362,34 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": size,
                                             "units": len(paths)}))
         os.replace(tmp_manifest, manifest)
+
+
+@contextlib.contextmanager
+def _removing(adopted):
+    """Remove the folders of the prefetched units a build took over
+    (``(unit, object)`` pairs), however the build ends."""
+    try:
+        yield
+    finally:
+        for _, made in adopted:
+            shutil.rmtree(made.parent, ignore_errors=True)
+
+
+def _take_object(prefetched, target):
+    """Move the object of a prefetched compile that has finished to ``target``;
+    ``False`` (and nothing moved) when it failed or its object is gone.  Its
+    files are removed either way."""
+    proc, said, made, _ = prefetched
+    said.close()
+    try:
+        if proc.returncode != 0:
+            return False
+        os.replace(made, target)
+        return True
+    except OSError:
+        return False
+    finally:
+        shutil.rmtree(made.parent, ignore_errors=True)
 
 
 def _usable(cached):
@@ -387,7 +419,11 @@ def _keep_objects(pairs):
             return
 
 
-_PREFETCHED = {}  # object key -> (process, its output file, object path)
+#: object key -> (compiler process, its output file, the object it writes, the
+#: object's place in the object cache); this process's prefetched units
+_PREFETCHED = {}
+if hasattr(os, "register_at_fork"):  # a forked child does not own its parent's
+    os.register_at_fork(after_in_child=_PREFETCHED.clear)
 
 
 def prefetch(unit):
@@ -418,14 +454,14 @@ def prefetch(unit):
         if key in _PREFETCHED or _usable(directory / "objects" / f"{key}.o"):
             return
         _drop_prefetched()
-        folder = Path(tempfile.mkdtemp(dir=directory, prefix="build-prefetch-"))
+        folder = Path(tempfile.mkdtemp(dir=directory, prefix="prefetch-"))
         c_path = folder / "unit.c"
         c_path.write_text(unit)
         said = tempfile.TemporaryFile(mode="w+")
         try:
-            proc = subprocess.Popen(command + flags + _includes()
-                                    + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))],
-                                    stdout=said, stderr=said)
+            proc = _compiler_process(command + flags + _includes()
+                                     + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))],
+                                     said)
         except OSError:
             said.close()
             shutil.rmtree(folder, ignore_errors=True)
@@ -458,9 +494,8 @@ def _stop(prefetched):
         return
     proc, said, made, cached = prefetched
     if proc.poll() is None:
-        proc.kill()
-        proc.wait()
-    elif proc.returncode == 0:
+        _kill(proc)
+    elif proc.returncode == 0 and made.exists():
         _keep_objects([(made, cached)])
     said.close()
     shutil.rmtree(made.parent, ignore_errors=True)
@@ -472,6 +507,24 @@ atexit.register(_drop_prefetched)
 def _includes():
     """Include options of a unit: Python's and NumPy's C headers."""
     return [f"-I{d}" for d in (sysconfig.get_paths()["include"], np.get_include())]
+
+
+def _compiler_process(cmd, said):
+    """Start the compiler command ``cmd`` (output to the file ``said``) in a
+    process group of its own, so that :func:`_kill` stops its children too."""
+    return subprocess.Popen(cmd, stdout=said, stderr=said, start_new_session=True)
+
+
+def _kill(proc):
+    """Stop a compiler run and the processes it started (the driver's ``cc1``
+    and ``as`` would run on, and leave their temporary files, if only the
+    driver were killed)."""
+    if proc.poll() is None:
+        try:
+            os.killpg(proc.pid, signal.SIGKILL)
+        except (AttributeError, OSError):  # not POSIX, or already gone
+            proc.kill()
+        proc.wait()
 
 
 def build_jobs():
@@ -519,7 +572,7 @@ class _Jobs:
     def _start(self, cmd):
         said = tempfile.TemporaryFile(mode="w+")
         try:
-            proc = subprocess.Popen(cmd, stdout=said, stderr=said)
+            proc = _compiler_process(cmd, said)
         except OSError as exc:
             said.close()
             raise CompilerError(f"could not run the C compiler {self.command[0]}"
@@ -547,7 +600,5 @@ class _Jobs:
 
     def __exit__(self, *exc):
         for proc, said in self.running:
-            if proc.poll() is None:
-                proc.kill()
-                proc.wait()
+            _kill(proc)
             said.close()

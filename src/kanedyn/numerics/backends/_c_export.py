@@ -141,7 +141,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
                f"#define KANEDYN_NQ {n}", f"#define KANEDYN_NU {o}",
                f"#define KANEDYN_NQDEP {l}", f"#define KANEDYN_NUDEP {m}",
                f"#define KANEDYN_NSTATES {n + o}", f"#define KANEDYN_NP {n_p}",
-               f"#define KANEDYN_NR {n_r}", *solver_source(functions, sizes)]
+               f"#define KANEDYN_NR {n_r}", *solver_source(selected, sizes)]
     public = _PUBLIC % {
         "states": _list([_c_string(s) for s in state_names], '""'),
         "parameters": _list([_c_string(s) for s in names], "NULL"),

@@ -910,12 +910,11 @@ static void kd_release(KdArgs *a) {
     PyMem_Free(a->work);
 }
 
-/* A generated function as a module-level Python function; `self` is a capsule
-   of its KdFunction (the model's table).  name(t, y, p, r): a tuple of its
+/* The model's generated functions as module-level Python functions (the
+   entries of its table, kd_module_create).  name(t, y, p, r): a tuple of the
    outputs (floats for shape (), else new arrays). */
-static PyObject *kd_py_function(PyObject *self, PyObject *const *args, Py_ssize_t nargs) {
-    const KdFunction *fn = (const KdFunction *)PyCapsule_GetPointer(self, NULL);
-    if (fn == NULL) return NULL;
+static PyObject *kd_function_call(const KdFunction *fn, PyObject *const *args,
+                                  Py_ssize_t nargs) {
     KdArgs a;
     if (kd_parse(args, nargs, fn->nr, &a) != 0) { kd_release(&a); return NULL; }
     PyObject *result = PyTuple_New(fn->n_outputs);
@@ -943,10 +942,8 @@ static PyObject *kd_py_function(PyObject *self, PyObject *const *args, Py_ssize_
 /* name_rows(t, Y, p, R): the function at each of N points, t shape (N,), Y
    (N, n_x), R (N, nr); a tuple of arrays with the point axis first, (N, *shape)
    per output. */
-static PyObject *kd_py_function_rows(PyObject *self, PyObject *const *args,
-                                     Py_ssize_t nargs) {
-    const KdFunction *fn = (const KdFunction *)PyCapsule_GetPointer(self, NULL);
-    if (fn == NULL) return NULL;
+static PyObject *kd_function_rows(const KdFunction *fn, PyObject *const *args,
+                                  Py_ssize_t nargs) {
     if (nargs != 4) {
         PyErr_Format(PyExc_TypeError, "%s(t, Y, p, R) takes 4 arguments", fn->name);
         return NULL;
@@ -996,6 +993,20 @@ done:
     PyMem_Free(work);
     return result;
 }
+
+/* entry k of the table: plain module-level functions (their `self` the
+   module), one per table entry */
+static const KdFunction *kd_table = NULL;
+#define KD_ENTRY(k) \
+    static PyObject *kd_py_function##k(PyObject *self, PyObject *const *args, \
+                                       Py_ssize_t nargs) { \
+        (void)self; \
+        return kd_table[k].rows ? kd_function_rows(&kd_table[k], args, nargs) \
+                                : kd_function_call(&kd_table[k], args, nargs); \
+    }
+@ENTRIES@
+static PyObject *(*const kd_entries[KD_MAX_FUNCTIONS])(PyObject *, PyObject *const *,
+                                                       Py_ssize_t) = {@ENTRY_LIST@};
 """
 
 
@@ -1047,7 +1058,8 @@ static PyObject *kd_py_inverse_point(PyObject *self, PyObject *const *args, Py_s
 #: (``KD_GEN``: static in a one-unit source, hidden across the units of one
 #: module otherwise)
 SHARED = r"""
-#define KD_MAX_OUTPUTS 16
+#define KD_MAX_OUTPUTS @MAX_OUTPUTS@
+#define KD_MAX_FUNCTIONS @MAX_FUNCTIONS@
 /* a generated function with its outputs given as an array of pointers */
 typedef void (*KdCall)(double t, const double *y, const double *p, const double *r,
                        double *w, double *const *out);
@@ -1070,6 +1082,16 @@ KD_LANES_FN KD_GEN void kd_lanes_rows(const double *t, int t_scalar, const doubl
 /* the module named `name` with the functions of `table` (ended by a NULL name) */
 KD_GEN void *kd_module_create(const char *name, const KdFunction *table);
 """
+
+#: outputs of one generated function and functions of one module the runtime
+#: takes (``KD_MAX_OUTPUTS``, ``KD_MAX_FUNCTIONS``)
+MAX_OUTPUTS = 16
+MAX_FUNCTIONS = 16
+SHARED = SHARED.replace("@MAX_OUTPUTS@", str(MAX_OUTPUTS)).replace(
+    "@MAX_FUNCTIONS@", str(MAX_FUNCTIONS))
+PYTHON_GLUE = PYTHON_GLUE.replace(
+    "@ENTRIES@", "\n".join(f"KD_ENTRY({k})" for k in range(MAX_FUNCTIONS))).replace(
+    "@ENTRY_LIST@", ", ".join(f"kd_py_function{k}" for k in range(MAX_FUNCTIONS)))
 
 #: the generic runtime: what depends on the model's sizes only (entry points
 #: of the Model type, batches, the integrator; the contact loop with contacts)
@@ -1115,33 +1137,24 @@ static PyMethodDef kd_runtime_functions[] = {
 };
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, NULL, NULL, -1, NULL};
+static PyMethodDef kd_table_methods[KD_MAX_FUNCTIONS + 1];
 
-/* the model's functions as Python functions of `module`, each with a capsule of
-   its entry of `table` as `self` (their method definitions live as long as the
-   process, as the module's code does) */
+/* the functions of the model's `table` (at most KD_MAX_FUNCTIONS) added to
+   `module` */
 static int kd_add_functions(PyObject *module, const KdFunction *table) {
     int count = 0;
     while (table[count].name != NULL) count++;
-    PyMethodDef *defs = (PyMethodDef *)PyMem_Calloc(KD_SZ(count), sizeof(PyMethodDef));
-    if (defs == NULL) { PyErr_NoMemory(); return -1; }
-    PyObject *owner = PyModule_GetNameObject(module);  /* their __module__ */
-    if (owner == NULL) return -1;
-    for (int k = 0; k < count; ++k) {
-        defs[k].ml_name = table[k].name;
-        defs[k].ml_meth = table[k].rows ? (PyCFunction)(void (*)(void))kd_py_function_rows
-                                        : (PyCFunction)(void (*)(void))kd_py_function;
-        defs[k].ml_flags = METH_FASTCALL;
-        PyObject *entry = PyCapsule_New((void *)&table[k], NULL, NULL);
-        PyObject *function = entry == NULL ? NULL : PyCFunction_NewEx(&defs[k], entry, owner);
-        Py_XDECREF(entry);
-        if (function == NULL || PyModule_AddObject(module, table[k].name, function) < 0) {
-            Py_XDECREF(function);
-            Py_DECREF(owner);
-            return -1;
-        }
+    if (count > KD_MAX_FUNCTIONS) {
+        PyErr_SetString(PyExc_ImportError, "more generated functions than the runtime takes");
+        return -1;
     }
-    Py_DECREF(owner);
-    return 0;
+    kd_table = table;
+    for (int k = 0; k < count; ++k) {
+        kd_table_methods[k].ml_name = table[k].name;
+        kd_table_methods[k].ml_meth = (PyCFunction)(void (*)(void))kd_entries[k];
+        kd_table_methods[k].ml_flags = METH_FASTCALL;
+    }
+    return PyModule_AddFunctions(module, kd_table_methods);
 }
 
 /* the module `name` with the Model type, the functions of this runtime and those
