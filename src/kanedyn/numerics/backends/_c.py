@@ -577,13 +577,14 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
 def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True):
     """The translation units of a module, each yielded as soon as it is made.
 
-    The runtime comes first, in two units: the generic one (the Python entry
-    points, batches, the integrator: it depends on the model's sizes only,
-    see :func:`predicted_runtime_unit`) and the model's (the solve of its mass
-    matrix, its functions' wrappers and table, the module's entry point).
+    The runtime is in two units: the generic one (the Python entry points,
+    batches, the integrator: it depends on the model's sizes only, see
+    :func:`predicted_runtime_unit`), first, and the model's (the solve of its
+    mass matrix, the table of its functions, the module's entry point), after
+    the long parts of the functions (it compiles in a fraction of their time).
     They need nothing of the generated code but its declarations (the
     work-array sizes are variables, ``kd_nw`` and ``kd_nwl``, defined by the
-    last unit), so the compiler works on them while the functions are
+    last unit), so the compiler works on the first while the functions are
     generated; at -O1 (:data:`LIGHT_UNIT`) unless they hold the lane-wise
     solve or the contact loop, whose loops the vectorizer of -O2 speeds up (the
     entry points and the integrator run as fast at -O1: chain3d n = 3 to 30,
@@ -598,7 +599,6 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     lanes = lanes_wanted(functions, sizes, lanes)
     generic, model = _runtime_parts(functions, sizes, lanes)
     yield _runtime_unit(generic, sizes, lanes)
-    yield _runtime_unit(model, sizes, lanes)
     small, small_preamble, work, lane_work = [], [], 0, 0
     for src, preamble, w, lw in _function_sources(program, functions, sizes, describe, cse,
                                                   lanes):
@@ -609,6 +609,7 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
             else:
                 small.append(piece)
                 small_preamble = max(small_preamble, preamble, key=len)  # lanes: longer
+    yield _runtime_unit(model, sizes, lanes)  # short: after the long ones
     yield "\n".join([*(small_preamble or ["#define KD_GEN", _c_runtime.PRELUDE]), *small,
                      f"const int kd_nw = {work}, kd_nwl = {lane_work};"])
 
