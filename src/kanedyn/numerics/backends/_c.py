@@ -340,9 +340,8 @@ def _function_table(functions, rows):
     of :data:`_c_runtime.SHARED`: the generic runtime makes each a
     module-level Python function ``name(t, y, p, r)`` returning a tuple of its
     outputs), with a call of each taking its outputs as an array of pointers;
-    ``rows``: names
-    of the functions also given at every point of a trajectory
-    (``name_rows(t, Y, p, R)``)."""
+    ``rows``: names of the functions also given at every point of a
+    trajectory (``name_rows(t, Y, p, R)``)."""
     lines, entries = [], []
     for name, (arguments, outputs) in functions.items():
         if len(outputs) > _c_runtime.MAX_OUTPUTS or any(len(s) > 2 for s, _ in outputs):
@@ -569,9 +568,9 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
         work, lane_work = max(work, w), max(lane_work, lw)
     sizes_known = [f"#define KD_NW {work}"] + ([f"#define KD_NWL {lane_work}"] if lanes else [])
     return "\n".join([_c_runtime.HEADER, *_size_defines(sizes), *generic.defines,
-                      *model.defines, *sizes_known,
-                      *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
-                      *model.declarations, *generated, *generic.body, *model.body])
+                      *model.defines, *sizes_known, *_lane_runtime(lanes),
+                      _c_runtime.SIZE_MACROS, _c_runtime.SHARED, *model.declarations,
+                      *generated, *generic.body, *model.body])
 
 
 def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True):
@@ -686,8 +685,7 @@ def _runtime_unit(part, sizes, lanes):
     hidden (``KD_GEN`` empty); the model's without Python's headers."""
     return "\n".join([*([LIGHT_UNIT] if part.light else []), "#define KD_GEN",
                       _c_runtime.PRELUDE if part.model else _c_runtime.HEADER,
-                      *_size_defines(sizes), *part.defines,
-                      *_WORK_VARIABLES,
+                      *_size_defines(sizes), *part.defines, *_WORK_VARIABLES,
                       *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
                       *part.declarations, *part.body])
 

@@ -434,8 +434,9 @@ def prefetch(unit):
     For the generic runtime of a model, known from its sizes before it is
     derived (:func:`~._c.predicted_runtime_unit`), so that the compiler works
     on it while the equations are derived.  Nothing happens without a
-    compiler, with a cache directory that cannot be written, or when the
-    object is cached already.  A unit the next :func:`load_module` does not
+    compiler, with a cache directory that cannot be written, while another
+    thread builds a module, or when the object is cached already.  A unit the
+    next :func:`load_module` does not
     take (a wrong guess, or a module another process built meanwhile) is
     dropped by it (at once where its build starts with another unit), or
     when the process exits; an object it finished is kept in the object
@@ -450,7 +451,10 @@ def prefetch(unit):
         return
     flags = _LIGHT_FLAGS if unit.startswith(LIGHT_UNIT) else _UNIT_FLAGS
     key = _build_key(unit, command + flags)
-    with _LOCK:
+    if not _LOCK.acquire(blocking=False):  # another thread builds: no waiting for it
+        return
+    with contextlib.ExitStack() as held:
+        held.callback(_LOCK.release)
         if key in _PREFETCHED or _usable(directory / "objects" / f"{key}.o"):
             return
         _drop_prefetched()

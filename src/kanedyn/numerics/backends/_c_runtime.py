@@ -11,9 +11,9 @@ A module built from translation units carries the runtime in two: the generic
 one (:data:`RUNTIME`, the integrator, the contact loop, :data:`RUNTIME_FOOTER`),
 which depends on the model's sizes only and can be compiled before the model
 is derived, and the model's own, in C without Python (:data:`MODEL_SOLVE`,
-:data:`LANE_SOLVE`, the table of its functions, :data:`MODULE_FOOTER`), which the
-generic unit turns into Python functions; :data:`SHARED` declares what each
-calls of the other.
+:data:`LANE_SOLVE`, the table of its functions, which the generic unit turns
+into Python functions, and :data:`MODULE_FOOTER`); :data:`SHARED` declares what
+each calls of the other.
 """
 
 PYTHON_INCLUDES = r"""
