@@ -290,7 +290,6 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
     objects is done again with every unit compiled."""
     STATS["compiles"] += 1
     includes = _includes()
-    objects = directory / "objects"
 
     def compile_unit(c_path, flags):
         jobs.add(command + flags + includes
@@ -314,8 +313,9 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
             paths.append(c_path)
             if single:
                 continue
-            flags.append(_LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS)
-            cached.append(objects / f"{_build_key(text, command + flags[-1])}.o")
+            unit_flags, unit_object = _unit_object(text, command, directory)
+            flags.append(unit_flags)
+            cached.append(unit_object)
             started = _take_prefetched(cached[-1].stem, first=k == 0)
             if _usable(cached[-1]):
                 reused.append(k)
@@ -362,6 +362,14 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": size,
                                             "units": len(paths)}))
         os.replace(tmp_manifest, manifest)
+
+
+def _unit_object(text, command, directory):
+    """``(flags, object)`` of a translation unit: its compiler flags (-O1 for a
+    :data:`LIGHT_UNIT`) and its place in the object cache of ``directory``,
+    under the hash of its text and flags."""
+    flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS
+    return flags, directory / "objects" / f"{_build_key(text, command + flags)}.o"
 
 
 @contextlib.contextmanager
@@ -449,13 +457,11 @@ def prefetch(unit):
     directory = cache_dir()
     if _unwritable(directory) is not None:
         return
-    flags = _LIGHT_FLAGS if unit.startswith(LIGHT_UNIT) else _UNIT_FLAGS
-    key = _build_key(unit, command + flags)
+    flags, cached = _unit_object(unit, command, directory)
     if not _LOCK.acquire(blocking=False):  # another thread builds: no waiting for it
         return
-    with contextlib.ExitStack() as held:
-        held.callback(_LOCK.release)
-        if key in _PREFETCHED or _usable(directory / "objects" / f"{key}.o"):
+    try:
+        if cached.stem in _PREFETCHED or _usable(cached):
             return
         _drop_prefetched()
         folder = Path(tempfile.mkdtemp(dir=directory, prefix="prefetch-"))
@@ -470,8 +476,9 @@ def prefetch(unit):
             said.close()
             shutil.rmtree(folder, ignore_errors=True)
             return
-        _PREFETCHED[key] = (proc, said, c_path.with_suffix(".o"),
-                            directory / "objects" / f"{key}.o")
+        _PREFETCHED[cached.stem] = (proc, said, c_path.with_suffix(".o"), cached)
+    finally:
+        _LOCK.release()
 
 
 def _take_prefetched(key, first):
