@@ -668,6 +668,19 @@ def test_a_failing_prefetched_unit_fails_its_build_and_leaves_nothing(tmp_path, 
     assert not _c_build._PREFETCHED and not list(tmp_path.glob("prefetch-*"))
 
 
+def test_compiler_runs_start_costliest_first(tmp_path, monkeypatch):
+    """Waiting compiler runs start by their cost (the size of their unit),
+    the first added among equals; one at a time here, so they end in that
+    order."""
+    monkeypatch.setattr(_c_build, "build_jobs", lambda: 1)
+    log = tmp_path / "order.txt"
+    with _c_build._Jobs(["sh"], timeout=60) as jobs:
+        for name, cost in (("small", 10), ("large", 300), ("medium", 50), ("large2", 300)):
+            jobs.add(["sh", "-c", f"echo {name} >> {log}"], cost=cost)
+        jobs.finish()
+    assert log.read_text().split() == ["large", "large2", "medium", "small"]
+
+
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
     """The two runtime units (entry points, integrator; the model's solve and
     table) are compiled at -O1; at -O2 where they hold the lane-wise solve
@@ -677,11 +690,11 @@ def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypat
     compiled = []  # optimization level and first line of each compiled unit
     add = _c_build._Jobs.add
 
-    def record(jobs, cmd):
+    def record(jobs, cmd, cost=0):
         if "-c" in cmd:
             with open(cmd[cmd.index("-c") + 1]) as unit:
                 compiled.append((next(f for f in cmd if f.startswith("-O")), unit.readline()))
-        add(jobs, cmd)
+        add(jobs, cmd, cost)
 
     def levels():
         found = list(compiled)
