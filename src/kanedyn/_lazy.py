@@ -49,7 +49,6 @@ def lazy_attributes(package, table, namespace, names):
     return __getattr__, __dir__
 
 
-
 class _LoadedOnUse(types.ModuleType):
     """A module executed when one of its attributes is first read.
 
