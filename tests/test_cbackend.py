@@ -684,7 +684,8 @@ def test_compiler_runs_start_costliest_first(tmp_path, monkeypatch):
 def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypatch):
     """The two runtime units (entry points, integrator; the model's solve and
     table) are compiled at -O1; at -O2 where they hold the lane-wise solve
-    or the contact loop; every other unit at -O2."""
+    or the contact loop; the energies at -O0 (off the simulations' path, and
+    the same numbers as the numpy backend's); every other unit at -O2."""
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
     compiled = []  # optimization level and first line of each compiled unit
@@ -704,18 +705,22 @@ def test_runtime_unit_at_O1_unless_it_holds_vectorized_loops(tmp_path, monkeypat
     monkeypatch.setattr(_c_build._Jobs, "add", record)
 
     d = kd.models.build("chain3d", n=4)
-    model = d.numeric(d.derive(), backend="c")
-    light = ("-O1", _c_build.LIGHT_UNIT)
+    eom = d.derive()
+    model = d.numeric(eom, backend="c")
+    light, cold = ("-O1", _c_build.LIGHT_UNIT), ("-O0", _c_build.COLD_UNIT)
     found = levels()  # the generic runtime first, the model's unit among the others
-    assert found[0] == light and found.count(light) == 2 and len(found) >= 3
-    assert {level for level, _ in found if (level, _) != light} == {"-O2"}
+    assert found[0] == light and found.count(light) == 2 and found.count(cold) == 1
+    assert {level for level, _ in found if (level, _) not in (light, cold)} == {"-O2"}
+    y = np.random.default_rng(3).normal(size=model.n_states)
+    reference = d.numeric(eom, backend="numpy").energies(0.3, y)
+    np.testing.assert_allclose(model.energies(0.3, y), reference, rtol=1e-13)
     model.rhs_batch(0.0, np.zeros((model.LANES_FROM_ROWS, model.n_states)))  # lanes
-    assert {level for level, _ in levels()} == {"-O2"}
+    assert {level for level, _ in levels()} == {"-O2"}  # the energies' object reused
     d = kd.models.build("falling-rod")
     d.numeric(d.derive(), backend="c")
     found = levels()  # the contact loop is in the generic unit, not in the model's
-    assert found[0][0] == "-O2" and found.count(light) == 1
-    assert {level for level, _ in found if (level, _) != light} == {"-O2"}
+    assert found[0][0] == "-O2" and found.count(light) == 1 and found.count(cold) == 1
+    assert {level for level, _ in found if (level, _) not in (light, cold)} == {"-O2"}
 
 
 def test_direct_printing_matches_sympys_printer():

@@ -48,7 +48,8 @@ import numpy as np
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "prefetch", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT"]
+           "cache_dir", "prefetch", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT",
+           "COLD_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
@@ -57,6 +58,10 @@ UNIT_MARK = "\n/* ---- kanedyn: next translation unit ---- */\n"
 #: does not depend on the optimizer's loop passes (entry points, argument
 #: parsing, the integrator's bookkeeping), where -O2 only costs compile time
 LIGHT_UNIT = "/* kanedyn: compiled at -O1 */\n"
+#: first line of a translation unit compiled at -O0: code off every simulation's
+#: path (a model's energies, evaluated once per output point), where
+#: optimization costs compile time and saves next to nothing
+COLD_UNIT = "/* kanedyn: compiled at -O0 */\n"
 _LOADED = {}  # hash -> module, per process
 _LOCK = threading.Lock()
 
@@ -101,13 +106,15 @@ _FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
 #: flags of one translation unit of a module built from several (linked with -shared)
 _UNIT_FLAGS = ["-O2", "-fPIC", "-fvisibility=hidden", "-std=gnu11", "-fno-math-errno", "-w"]
 _LIGHT_FLAGS = ["-O1"] + _UNIT_FLAGS[1:]
+_COLD_FLAGS = ["-O0"] + _UNIT_FLAGS[1:]
 _STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
 _PRIVATE = []  # this process's private cache directory, when the shared one is unusable
 
 
 def _build_key(source, command):
     digest = hashlib.sha256()
-    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS + _LIGHT_FLAGS), sys.version,
+    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS + _LIGHT_FLAGS + _COLD_FLAGS),
+                 sys.version,
                  np.__version__, sysconfig.get_config_var("EXT_SUFFIX") or ""):
         digest.update(part.encode())
         digest.update(b"\0")
@@ -367,9 +374,10 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
 
 def _unit_object(text, command, directory):
     """``(flags, object)`` of a translation unit: its compiler flags (-O1 for a
-    :data:`LIGHT_UNIT`) and its place in the object cache of ``directory``,
-    under the hash of its text and flags."""
-    flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else _UNIT_FLAGS
+    :data:`LIGHT_UNIT`, -O0 for a :data:`COLD_UNIT`) and its place in the
+    object cache of ``directory``, under the hash of its text and flags."""
+    flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else \
+        _COLD_FLAGS if text.startswith(COLD_UNIT) else _UNIT_FLAGS
     return flags, directory / "objects" / f"{_build_key(text, command + flags)}.o"
 
 
