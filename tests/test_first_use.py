@@ -47,30 +47,6 @@ def test_command_line_help_and_list_import_no_sympy_scipy_or_plotting():
         assert out == [], argv
 
 
-def test_sympy_units_execute_on_first_use_and_work_under_threads():
-    """Building a model does not run SymPy's unit system; a first use of it,
-    from eight threads at once, sees the whole module in every thread."""
-    out = _run(
-        "import json, sys, threading\n"
-        "import kanedyn as kd\n"
-        "kd.models.build('pendulum')\n"
-        "ran = 'sympy.physics.units.systems.si' in sys.modules\n"
-        "from sympy.physics import units\n"
-        "seen, failed = [], []\n"
-        "def use():\n"
-        "    try:\n"
-        "        seen.append(str(units.convert_to(units.kilometer, units.meter)))\n"
-        "    except Exception as exc:\n"
-        "        failed.append(repr(exc))\n"
-        "threads = [threading.Thread(target=use) for _ in range(8)]\n"
-        "[t.start() for t in threads]\n"
-        "[t.join() for t in threads]\n"
-        "from sympy.physics.units import joule, Quantity\n"
-        "print(json.dumps([ran, sorted(set(seen)), failed, isinstance(joule, Quantity),\n"
-        "                  type(units).__name__, type(units.__spec__.loader).__name__]))")
-    assert out == [False, ["1000*meter"], [], True, "module", "SourceFileLoader"]
-
-
 def test_lazy_names_are_the_public_api():
     out = _run("import json, kanedyn as kd\n"
                "missing = [n for n in kd.__all__ if not hasattr(kd, n)]\n"

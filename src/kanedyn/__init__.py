@@ -8,7 +8,6 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
-from ._lazy import defer_sympy_units as _defer_sympy_units
 from ._lazy import lazy_attributes as _lazy_attributes
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, SimulationInterrupted,
@@ -238,4 +237,3 @@ __all__ = [
 ]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
-_defer_sympy_units()
