@@ -592,8 +592,9 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     n = 10).  Every part of a
     generated function of :data:`UNIT_MIN_CHARS` or more characters is a
     unit of its own (with the C prelude, no Python headers), the small ones
-    and the work sizes one last unit; the energies (:data:`_COLD_FUNCTIONS`)
-    are compiled at -O0, their small parts in a unit of their own.  Passed to
+    and the work sizes one last unit; the functions evaluated for outputs only
+    (:data:`_COLD_FUNCTIONS`) are compiled at -O0, their small parts in a unit
+    of their own.  Passed to
     :func:`load_module`, the compiler starts on each unit as soon as it comes.
     Arguments as for :func:`generate_c`.
     """

@@ -59,8 +59,8 @@ UNIT_MARK = "\n/* ---- kanedyn: next translation unit ---- */\n"
 #: parsing, the integrator's bookkeeping), where -O2 only costs compile time
 LIGHT_UNIT = "/* kanedyn: compiled at -O1 */\n"
 #: first line of a translation unit compiled at -O0: code off every simulation's
-#: path (a model's energies, evaluated once per output point), where
-#: optimization costs compile time and saves next to nothing
+#: path (a model's energies and constraint forces, evaluated once per output
+#: point), where optimization costs compile time and saves next to nothing
 COLD_UNIT = "/* kanedyn: compiled at -O0 */\n"
 _LOADED = {}  # hash -> module, per process
 _LOCK = threading.Lock()
@@ -116,9 +116,9 @@ _PRIVATE = []  # this process's private cache directory, when the shared one is 
 
 def _build_key(source, command):
     digest = hashlib.sha256()
-    for part in (source, " ".join(command + _FLAGS + _UNIT_FLAGS + _LIGHT_FLAGS + _COLD_FLAGS),
-                 sys.version,
-                 np.__version__, sysconfig.get_config_var("EXT_SUFFIX") or ""):
+    flags = " ".join(command + _FLAGS + _UNIT_FLAGS + _LIGHT_FLAGS + _COLD_FLAGS)
+    for part in (source, flags, sys.version, np.__version__,
+                 sysconfig.get_config_var("EXT_SUFFIX") or ""):
         digest.update(part.encode())
         digest.update(b"\0")
     return digest.hexdigest()[:24]
