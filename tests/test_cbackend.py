@@ -596,16 +596,23 @@ def test_command_line_run_compiles_the_runtime_while_deriving(tmp_path, monkeypa
     assert taken[0] and not any(taken[1:])
 
 
+def _prefetched(unit, cache, monkeypatch):
+    """Prefetch ``unit`` with the empty cache directory ``cache`` and wait for
+    its compiler; ``(object it made, its place in the object cache)``."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(cache))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    _c_build.prefetch(unit)
+    ((process, _, made, cached),) = _c_build._PREFETCHED.values()
+    process.wait()
+    return made, cached
+
+
 def test_a_prefetched_unit_no_build_takes_is_dropped(tmp_path, monkeypatch):
     """A prefetched unit the next build does not start with (a wrong guess) is
     stopped when that build starts; one that finished is kept in the object
     cache (at exit too), and a cached unit is not prefetched again."""
-    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(_c_build, "_LOADED", {})
     unit = _c_build.LIGHT_UNIT + "int kd_probe(void) { return 1; }\n"
-    _c_build.prefetch(unit)
-    ((process, _, made, cached),) = _c_build._PREFETCHED.values()
-    process.wait()
+    made, cached = _prefetched(unit, tmp_path, monkeypatch)
     _c_build._drop_prefetched()  # what the process does at exit
     assert cached.stat().st_size > 0 and not made.parent.exists()
     _c_build.prefetch(unit)
@@ -653,12 +660,8 @@ def test_a_failing_prefetched_unit_fails_its_build_and_leaves_nothing(tmp_path, 
     with the compiler's message (as if the build had compiled it), and its
     folder is removed; the process's own prefetch folders survive the removal
     of stale build folders."""
-    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
-    monkeypatch.setattr(_c_build, "_LOADED", {})
     good = _c_build.LIGHT_UNIT + "int kd_probe_ok(void) { return 1; }\n"
-    _c_build.prefetch(good)
-    ((process, _, made, _),) = _c_build._PREFETCHED.values()
-    process.wait()
+    made, _ = _prefetched(good, tmp_path, monkeypatch)
     old = time.time() - 3 * 3600
     os.utime(made.parent, (old, old))
     _c_build._remove_stale_builds(tmp_path, 600)
