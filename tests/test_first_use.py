@@ -225,3 +225,26 @@ def test_cache_key_reads_sympys_version_without_importing_it(monkeypatch):
     read = _base._sympy_version()
     assert "sympy" not in sys.modules
     assert read == sympy.__version__
+
+
+def test_the_first_use_trace_sees_every_stage_and_compiler_run():
+    """``benchmarks/trace_first_use.py`` (the breakdown in docs/benchmarks.md)
+    reads kanedyn's internals: every stage in order, and one compiler run per
+    generated unit (the runtime's prefetched) and the link, each ended."""
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    try:
+        from trace_first_use import trace
+    finally:
+        sys.path.pop(0)
+    marks, runs = trace(2)
+    stages = [stage for _, stage in marks]
+    units = [stage for stage in stages if stage.startswith("unit")]
+    assert [stage for stage in stages if not stage.startswith("unit")] == [
+        "import numpy", "import sympy", "import kanedyn, sympy.physics.mechanics",
+        "model defined", "derivation starts", "derivation ends", "code generation starts",
+        "code generation ends", "module loaded", "first rhs"]
+    assert [at for at, _ in marks] == sorted(at for at, _ in marks)
+    assert len(runs) == len(units) + 1 and runs[-1][2] == "link"
+    assert sum(what.startswith("prefetched") for _, _, what in runs) == 1
+    assert all(end is not None and end >= start for start, end, _ in runs)
+    assert "kd_eval_energy" in " ".join(units)

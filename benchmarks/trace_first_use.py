@@ -1,0 +1,129 @@
+"""Where a cold first use goes: a timeline of one fresh process.
+
+The same path as ``bench_first_use.py`` (chain3d, style="positions", an empty
+cache directory, build -> ``numeric(backend="c")`` -> first ``rhs``), with the
+clock read at every stage (the imports of NumPy, SymPy and
+``sympy.physics.mechanics``, the model's definition, the derivation, each
+translation unit as the code generation hands it over) and every compiler run's
+start and end (the prefetched generic runtime included).  Seconds from before
+``import numpy``.  The machine is shared: compare traces of one hour only.
+
+    python benchmarks/trace_first_use.py [--n 10] [--repeat 1]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+SRC = str(Path(__file__).resolve().parents[1] / "src")
+
+CHILD = """
+import json, subprocess, time
+t0 = time.perf_counter()
+marks, runs = [], []
+def mark(what):
+    marks.append((time.perf_counter() - t0, what))
+import numpy
+mark("import numpy")
+import sympy
+mark("import sympy")
+import kanedyn as kd
+import sympy.physics.mechanics
+mark("import kanedyn, sympy.physics.mechanics")
+from kanedyn.numerics.backends import _c, _c_build
+
+class Run(subprocess.Popen):
+    # a compiler run: its start, and its end when the build first sees it ended
+    def __init__(self, cmd, *args, **kwargs):
+        super().__init__(cmd, *args, **kwargs)
+        sources = [part for part in cmd if part.endswith(".c")]
+        flags = [part for part in cmd if part in ("-O0", "-O1", "-O2")]
+        what = "link" if not sources else (
+            ("prefetched " if "prefetch-" in sources[0] else "")
+            + Path(sources[0]).name + " " + " ".join(flags))
+        self.record = [time.perf_counter() - t0, None, what]
+        runs.append(self.record)
+    def poll(self):
+        code = super().poll()
+        if code is not None and self.record[1] is None:
+            self.record[1] = time.perf_counter() - t0
+        return code
+    def wait(self, *args, **kwargs):
+        code = super().wait(*args, **kwargs)
+        if self.record[1] is None:
+            self.record[1] = time.perf_counter() - t0
+        return code
+
+from pathlib import Path
+subprocess.Popen = Run
+d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
+mark("model defined")
+derive = type(d).derive
+def timed_derive(self, *args, **kwargs):
+    mark("derivation starts")
+    try:
+        return derive(self, *args, **kwargs)
+    finally:
+        mark("derivation ends")
+type(d).derive = timed_derive
+units = _c.generate_c_units
+def timed_units(*args, **kwargs):
+    mark("code generation starts")
+    for k, unit in enumerate(units(*args, **kwargs)):
+        level = "-O1" if unit.startswith(_c_build.LIGHT_UNIT) else \\
+            "-O0" if unit.startswith(_c_build.COLD_UNIT) else "-O2"
+        defined = [line.split("(")[0].split()[-1].lstrip("*") for line in unit.splitlines()
+                   if line.startswith(("KD_GEN", "static")) and line.rstrip().endswith("{{")
+                   and "kd_powi" not in line and "kd_sign" not in line]
+        mark(f"unit{{k}} generated: {{len(unit)}} characters, {{level}}, "
+             f"defines {{', '.join(defined[:2])}}{{', ...' if len(defined) > 2 else ''}}")
+        yield unit
+    mark("code generation ends")
+_c.generate_c_units = timed_units
+m = d.numeric(backend="c")
+mark("module loaded")
+m.rhs(0.0, d.initial(m))
+mark("first rhs")
+print(json.dumps([marks, runs]))
+"""
+
+
+def trace(n):
+    """``(marks, runs)`` of one cold process: ``(s, stage)`` and
+    ``[start s, end s, unit]`` per compiler run."""
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=cache)
+        env.pop("KANEDYN_CACHE_DIR", None)
+        proc = subprocess.run([sys.executable, "-c", CHILD.format(n=n)],
+                              capture_output=True, text=True, env=env)
+    if proc.returncode != 0:
+        raise SystemExit(proc.stderr[-3000:])
+    return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def main(argv=None):
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--n", type=int, default=10)
+    parser.add_argument("--repeat", type=int, default=1)
+    args = parser.parse_args(argv)
+    for k in range(args.repeat):
+        marks, runs = trace(args.n)
+        print(f"chain3d n = {args.n}, cold, trace {k + 1}")
+        for at, stage in marks:
+            print(f"  {at:6.3f} s  {stage}")
+        busy = 0.0
+        for start, end, what in sorted(runs):
+            end = end if end is not None else float("nan")
+            busy += end - start
+            print(f"  {start:6.3f} -> {end:6.3f} s  ({end - start:5.3f} s)  compiler: {what}")
+        print(f"  compiler runs: {len(runs)}, {busy:.2f} s in all (two at a time at most)")
+
+
+if __name__ == "__main__":
+    main()
