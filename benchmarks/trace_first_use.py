@@ -25,6 +25,7 @@ SRC = str(Path(__file__).resolve().parents[1] / "src")
 
 CHILD = """
 import json, subprocess, time
+from pathlib import Path
 t0 = time.perf_counter()
 marks, runs = [], []
 def mark(what):
@@ -60,7 +61,6 @@ class Run(subprocess.Popen):
             self.record[1] = time.perf_counter() - t0
         return code
 
-from pathlib import Path
 subprocess.Popen = Run
 d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
 mark("model defined")
