@@ -21,12 +21,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+# _fresh_process lives next to this script (on sys.path when the script is run directly)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _fresh_process import byte_compile_package, run_python  # noqa: E402
 
 CHILD = """
 import json, time
@@ -68,10 +68,7 @@ print(json.dumps([time.perf_counter() - t0]))
 
 
 def child(code, cache):
-    env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=cache)
-    env.pop("KANEDYN_CACHE_DIR", None)
-    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
-                          env=env)
+    proc = run_python(code, cache)
     if proc.returncode != 0:
         return None
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -82,6 +79,7 @@ def main(argv=None):
     parser.add_argument("--sizes", default="10,30,60")
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args(argv)
+    byte_compile_package()
     print("| n | cold s (min) | cold after importing NumPy and SymPy s (min) | warm s (min) "
           "| warm to a 1 s simulation s (min) | derivations cold/warm | compiles cold/warm "
           "| Pinocchio Model+Data s (after its import) |")

@@ -16,12 +16,12 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import subprocess
 import sys
 import tempfile
-from pathlib import Path
 
-SRC = str(Path(__file__).resolve().parents[1] / "src")
+# _fresh_process lives next to this script (on sys.path when the script is run directly)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from _fresh_process import byte_compile_package, run_python  # noqa: E402
 
 CHILD = """
 import json, subprocess, time
@@ -98,10 +98,7 @@ def trace(n):
     """``(marks, runs)`` of one cold process: ``(s, stage)`` and
     ``[start s, end s, unit]`` per compiler run."""
     with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=cache)
-        env.pop("KANEDYN_CACHE_DIR", None)
-        proc = subprocess.run([sys.executable, "-c", CHILD.format(n=n)],
-                              capture_output=True, text=True, env=env)
+        proc = run_python(CHILD.format(n=n), cache)
     if proc.returncode != 0:
         raise SystemExit(proc.stderr[-3000:])
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -112,6 +109,7 @@ def main(argv=None):
     parser.add_argument("--n", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args(argv)
+    byte_compile_package()
     for k in range(args.repeat):
         marks, runs = trace(args.n)
         print(f"chain3d n = {args.n}, cold, trace {k + 1}")

@@ -227,15 +227,12 @@ def test_cache_key_reads_sympys_version_without_importing_it(monkeypatch):
     assert read == sympy.__version__
 
 
-def test_the_first_use_trace_sees_every_stage_and_compiler_run():
+def test_the_first_use_trace_sees_every_stage_and_compiler_run(monkeypatch):
     """``benchmarks/trace_first_use.py`` (the breakdown in docs/benchmarks.md)
     reads kanedyn's internals: every stage in order, and one compiler run per
     generated unit (the runtime's prefetched) and the link, each ended."""
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
-    try:
-        from trace_first_use import trace
-    finally:
-        sys.path.pop(0)
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from trace_first_use import trace
     marks, runs = trace(2)
     stages = [stage for _, stage in marks]
     units = [stage for stage in stages if stage.startswith("unit")]
