@@ -2,9 +2,9 @@
 
 Runs every script in examples/ as a user would, ``python examples/NAME.py
 --plot FILE`` (with the options in ``OPTIONS``), scales its figure to about
-90 dpi and writes it as a small palette PNG, then writes docs/gallery.md from
-the examples' docstrings.  Run it after changing an example or a plot, look at
-the pictures, and commit them::
+90 dpi and writes it as a small palette PNG (an octree palette of 256 colours),
+then writes docs/gallery.md from the examples' docstrings.  Run it after
+changing an example or a plot, look at the pictures, and commit them::
 
     python docs/make_gallery.py              # every example (several minutes)
     python docs/make_gallery.py rolling_disk # some of them; gallery.md lists all
@@ -66,7 +66,10 @@ def render(name):
         with Image.open(raw) as image:
             image = image.convert("RGB")
             size = (round(image.width * SCALE), round(image.height * SCALE))
-            small = image.resize(size, Image.LANCZOS).quantize(colors=128)
+            # an octree palette of 256 keeps every curve its own colour (a median cut
+            # of 128 merged the colours of the ten curves of formulations_compared)
+            small = image.resize(size, Image.LANCZOS).quantize(
+                colors=256, method=Image.Quantize.FASTOCTREE)
             OUT.mkdir(parents=True, exist_ok=True)
             small.save(OUT / f"{name}.png", optimize=True)
     return seconds

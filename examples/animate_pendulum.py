@@ -5,8 +5,9 @@ simulation into a self-contained page (three.js inlined; a time slider,
 play/pause, speed and a camera that orbits with the mouse).  The rod is
 drawn with the shapes declared for it (``kd.visuals.Cylinder`` for the rod,
 ``kd.visuals.Sphere`` for a knob at its end) and the path of its tip is
-traced.  The example prints where the page puts the tip at the last frame
-next to the closed form ``(l sin q, -l cos q)``.
+traced.  The example prints the tip's place at the last frame by the closed
+form ``(l sin q, -l cos q)``, where the page's trace ends (its test compares
+the trace with the closed form at every frame).
 
 Run it::
 

@@ -108,7 +108,8 @@ def main(argv=None):
         axes[0].plot(res.t, np.degrees(res["theta"]))
         axes[0].set_ylabel("rod angle from\nthe downward vertical (deg)")
         axes[1].plot(res.t, m * g * np.cos(res["theta"]) + m * L * res["u"] ** 2,
-                     color="0.75", lw=5, label=r"closed form $m g\cos\theta + m L\dot\theta^2$")
+                     color="0.75", lw=5,
+                     label=r"closed form $m g\cos\theta + m L\dot{\theta}{}^{2}$")
         axes[1].plot(res.t, res["T"], label="auxiliary speed, res['T']")
         axes[1].plot(t_eval, runs["vector constraint"]["T"], "k--",
                      label="kd.PointVelocity, res['T']")

@@ -134,7 +134,7 @@ def main(argv=None):
                          label=f"spin {spins[case]:.2f} rad/s ({case} threshold)")
         axes[0].set_xlabel("t (s)")
         axes[0].set_ylabel("lean from the vertical (deg)")
-        axes[0].legend(loc="upper left")
+        axes[0].legend(loc="upper right")  # the falling disk leaves at the top left
         axes[1].plot(stable["x"], stable["y"])
         axes[1].set_xlabel("contact point x (m)")
         axes[1].set_ylabel("contact point y (m)")

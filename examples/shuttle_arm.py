@@ -104,7 +104,8 @@ def main(argv=None):
             axes[0].plot(noc.t, np.degrees(refs[:, i]), "k:", lw=0.8,
                          label="reference" if i == 5 else None)
         axes[0].set_ylabel("joint angle (deg)")
-        axes[0].legend(ncol=7, fontsize="small")
+        axes[0].legend(ncol=7, fontsize="small", loc="lower center", bbox_to_anchor=(0.5, 1.0),
+                       frameon=False)  # above the axes: the curves fill them
         axes[1].plot(noc.t, 1e3 * error)
         axes[1].set_ylabel("tip tracking error (mm)")
         axes[2].plot(noc.t, tau)

@@ -87,9 +87,9 @@ def main(argv=None):
 
     error_kane, spread_kane = off_branch(res_kane)
     error_i3, spread_i3 = off_branch(res_i3)
-    print(f"Kane, elimination: reached t = {res_kane.t[-1]:.3f} s; crank 0 off the exact "
+    print(f"Kane, elimination: output up to t = {res_kane.t[-1]:.3f} s; crank 0 off the exact "
           f"motion by up to {error_kane:.2e} rad, cranks spread by {spread_kane:.2e} rad")
-    print(f"index-3:           reached t = {res_i3.t[-1]:.3f} s; crank 0 off the exact "
+    print(f"index-3:           output up to t = {res_i3.t[-1]:.3f} s; crank 0 off the exact "
           f"motion by up to {error_i3:.2e} rad, cranks spread by {spread_i3:.2e} rad")
 
     if args.plot:

@@ -334,6 +334,12 @@ def test_report_lists_full_and_reduced_frequencies():
     assert rows.shape == (9, 3)
     assert f"{rows[0, 0]:.6g}" in text
     assert "constraint_12_rz" in text and "bending_xy_1" in text
+    kept = reduced.keep_modes("bending_xy")   # a subset: no full-model frequencies
+    text = kept.report()
+    assert "full (Hz)" not in text and "no full-model frequencies" in text
+    rows = text.splitlines()[3:3 + kept.n_modes]
+    assert [float(row.split()[1]) for row in rows] == pytest.approx(kept.reduced_frequencies,
+                                                                    rel=1e-5)
 
 
 # ------------------------------------------------------------- station tables

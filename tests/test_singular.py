@@ -134,6 +134,23 @@ def test_kane_elimination_warns_at_the_singular_positions(a02):
     assert f"{exact[0]:.6g}" in res.message
 
 
+def test_the_note_tells_close_passages_apart(a02):
+    """Two minima microseconds apart (a run stepping through a singular
+    position) are printed with the digits that tell them apart, and the
+    solver's message joins the note without a stray full stop."""
+    d, eom = a02(4)
+    model = d.numeric(eom)
+    monitor = kd.numerics.SingularityMonitor(model)
+    monitor.passages = [(1.235975785302133, 5e-8), (1.235978553954648, 7e-8), (1.56, 2e-8)]
+    y0 = d.initial(model)
+    with pytest.warns(kd.SingularConfigurationWarning):
+        message = monitor.finish("Required step size is less than spacing between numbers.",
+                                 0.0, y0, 1.56, None)
+    assert message.startswith("Required step size is less than spacing between numbers; "
+                              "passed near a singular configuration at t = 1.235976, "
+                              "1.235979, 1.56 s ")
+
+
 @needs_compiler
 def test_compiled_loop_warns_at_the_singular_positions(a02):
     d, eom = a02(1)

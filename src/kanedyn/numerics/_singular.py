@@ -282,11 +282,22 @@ class SingularityMonitor:
         ratios = [r for _, r in self.passages]
         more = len(times) - _LISTED
         note = ("passed near a singular configuration at t = "
-                + ", ".join(f"{t:.6g}" for t in times[:_LISTED])
+                + ", ".join(_distinct_text(times[:_LISTED]))
                 + (f" and {more} more time(s)" if more > 0 else "") + " s "
                 "(smallest/largest singular value of the constraint Jacobian "
                 + ", ".join(f"{r:.2g}" for r in ratios[:_LISTED])
                 + f", below {self.threshold:g}): " + (advice or ADVICE))
         warnings.warn(SingularConfigurationWarning(note, times, ratios),
                       stacklevel=stacklevel)
-        return f"{message}; {note}"
+        return f"{message.rstrip('.')}; {note}"
+
+
+def _distinct_text(times):
+    """``times`` printed with 6 significant digits, or as many more (up to 15) as
+    it takes for distinct times to read differently (two minima microseconds
+    apart)."""
+    for digits in range(6, 16):
+        texts = [f"{t:.{digits}g}" for t in times]
+        if len(set(texts)) == len(set(times)):
+            break
+    return texts

@@ -213,17 +213,26 @@ class ReducedMember:
         str
             The member, how it was reduced, then per mode: the full model's
             frequency (reference node clamped), the reduced model's and their
-            relative difference; then the names of the modal coordinates.
+            relative difference (the reduced model's alone for a subset made by
+            :meth:`keep_modes`); then the names of the modal coordinates.
             ``print(member.report())`` shows it.
         """
         lines = [f"member {self.name!r}: {self.n_nodes} nodes, {self.n_modes} modal "
-                 f"coordinates", f"  {self.description}",
-                 f"  {'mode':>4}  {'full (Hz)':>14}  {'reduced (Hz)':>14}  {'rel. diff':>10}"]
-        for j, (full, reduced, rel) in enumerate(self.frequency_comparison(), start=1):
-            lines.append(f"  {j:>4}  {full:>14.6g}  {reduced:>14.6g}  {rel:>10.2e}")
-        extra = np.asarray(self.reduced_frequencies)[len(self.frequency_comparison()):]
-        for j, reduced in enumerate(extra, start=len(self.frequency_comparison()) + 1):
-            lines.append(f"  {j:>4}  {'':>14}  {reduced:>14.6g}  {'':>10}")
+                 f"coordinates", f"  {self.description}"]
+        reduced = np.asarray(self.reduced_frequencies)
+        if len(self.full_frequencies):
+            comparison = self.frequency_comparison()
+            lines.append(f"  {'mode':>4}  {'full (Hz)':>14}  {'reduced (Hz)':>14}  "
+                         f"{'rel. diff':>10}")
+            lines += [f"  {j:>4}  {full:>14.6g}  {red:>14.6g}  {rel:>10.2e}"
+                      for j, (full, red, rel) in enumerate(comparison, start=1)]
+            lines += [f"  {j:>4}  {'':>14}  {red:>14.6g}"
+                      for j, red in enumerate(reduced[len(comparison):],
+                                              start=len(comparison) + 1)]
+        else:  # a subset of modes (keep_modes)
+            lines.append(f"  {'mode':>4}  {'reduced (Hz)':>14}  (no full-model frequencies: "
+                         f"which of them a subset of modes stands for is not known)")
+            lines += [f"  {j:>4}  {red:>14.6g}" for j, red in enumerate(reduced, start=1)]
         if self.mode_names:
             lines.append(f"  modal coordinates: {', '.join(self.mode_names)}")
         return "\n".join(lines)
