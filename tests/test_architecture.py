@@ -18,7 +18,8 @@ import pytest
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
-FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy"}
+FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
+              "_expressions"}
 PUBLIC = {"__init__", "schemes", "visuals"}
 
 #: (importing module, imported layer): the method that needs it

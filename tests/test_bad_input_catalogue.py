@@ -26,6 +26,32 @@ def _spring():
     return args, (q, u, F, m, k, N, O, P)
 
 
+def test_model_values_given_as_text_are_never_run(tmp_path):
+    """Every value of a model that SymPy would parse (and so run as Python) when
+    given as text is refused, naming it: the potential energy, a contact's
+    coefficients, a surface's size; the engine converts strictly as well."""
+    marker = tmp_path / "ran"
+    payload = f"__import__('pathlib').Path({str(marker)!r}).touch() or 1"
+    model, (_q, _u, _F, _m, _k, N, O, P) = _spring()
+    with pytest.raises(kd.ModelError, match="^potential_energy is the text"):
+        kd.kane(**model, potential_energy=payload)
+    with pytest.raises(kd.ModelError, match="^potential_energy must be a number or a SymPy "
+                                            "expression, got Vector"):
+        kd.kane(**model, potential_energy=N.x)
+    floor = kd.Plane(N, O, N.z)
+    for option in ("mu_k", "mu_s", "viscous", "restitution"):
+        with pytest.raises(kd.ModelError, match=f": {option} is the text"):
+            kd.Contact(P, floor, **{option: payload})
+    with pytest.raises(kd.ModelError, match="surface sphere: radius is the text"):
+        kd.Sphere(N, O, payload)
+    with pytest.raises(kd.ModelError, match=r"surface sphere: radius must be > 0.0, got -1"):
+        kd.Sphere(N, O, -1.0)
+    from kanedyn.engine import Program
+    with pytest.raises(sm.SympifyError):
+        Program(sm.Symbol("t")).declare(sm.Symbol("x"), payload)
+    assert not marker.exists()
+
+
 @pytest.fixture(scope="module")
 def spring():
     args, symbols = _spring()
@@ -191,6 +217,11 @@ SIMULATE_CASES = {
     "event with wrong signature": (dict(events=_event_of_y),
                                    r"event _event_of_y must take \(t, y\)"),
     "event not callable": (dict(events=[3.0]), r"events\[0\] is not callable"),
+    "misspelt tolerance": (dict(rtoll=1e-3), "unknown option 'rtoll' of simulate; did you "
+                           "mean 'rtol'"),
+    "misspelt dense output": (dict(dense_ouput=True), "did you mean 'dense_output'"),
+    "contact option without contacts": (dict(modes=["stick"]), "option 'modes' applies to "
+                                        "models with contacts only"),
 }
 
 
@@ -247,3 +278,12 @@ def test_bad_command_line(case, capsys, tmp_path):
     err = capsys.readouterr().err
     assert err.startswith("kanedyn: error: ")
     assert re.search(pattern, err), err
+
+
+@pytest.mark.parametrize("t_end", ["-3", "0", "nan"])
+def test_demo_ride_length_refused_before_any_work(t_end, capsys, tmp_path):
+    """``kanedyn demo --t-end`` is checked as ``run``'s is, before the derivation."""
+    assert main(["demo", "--t-end", t_end, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err
+    assert f"argument --t-end: must be a finite number > 0, got '{t_end}'" in err
+    assert not (tmp_path / "out").exists()

@@ -171,6 +171,30 @@ def test_tampered_nodes_are_refused(saved, tmp_path, node, message):
         kd.load(bad)
 
 
+def test_a_partial_holding_text_is_refused(saved, tmp_path):
+    """A lazy derivative (a partial of an allowed method) whose argument is text,
+    in a file with a valid checksum: refused on loading, so the text can never
+    reach SymPy's parser (which runs it as Python)."""
+    _, _, path = saved["contact"]
+    marker = tmp_path / "ran"
+    with zipfile.ZipFile(path) as z:
+        root = json.loads(z.read("manifest.json"))["root"]
+
+    def edit(nodes):
+        program = next(i for i, node in enumerate(nodes)
+                       if node[0] == "object" and node[1].endswith("_program.Program"))
+        nodes += [["method", program, "declare"],
+                  ["str", f"__import__('pathlib').Path({str(marker)!r}).touch()"],
+                  ["dict", []]]
+        nodes.append(["partial", len(nodes) - 3, [len(nodes) - 2], len(nodes) - 1])
+        nodes[root][2][0][1] = len(nodes) - 1
+        return nodes
+    bad = _rewrite(path, tmp_path / "tampered.kdeom", nodes=edit)
+    with pytest.raises(kd.SavedFileError, match=r"tampered\.kdeom: .*partial with text"):
+        kd.load(bad)
+    assert not marker.exists()
+
+
 def test_unsavable_content_is_named(tmp_path):
     """Equations holding something a file cannot carry say what and where."""
     d = kd.models.build("pendulum")

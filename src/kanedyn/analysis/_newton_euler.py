@@ -252,7 +252,7 @@ def _build(model, loads_on):
     subs = model._substitutions
 
     def sub(e):
-        return prog.subs(sm.sympify(e), subs) if subs else sm.sympify(e)
+        return prog.subs(sm.sympify(e, strict=True), subs) if subs else sm.sympify(e, strict=True)
 
     args = dict(model._functions["dynamics"][0])
     args["r"] = list(args["r"]) + list(udot)

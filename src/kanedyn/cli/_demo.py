@@ -5,9 +5,9 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
-
 from .._progress import Progress
 from ..models import build
+from ._options import positive_float
 
 __all__ = ["add_parser", "cmd_demo"]
 
@@ -17,7 +17,7 @@ def add_parser(sub):
     p = sub.add_parser("demo", help="the Whipple bicycle: stability against speed "
                                     "and a self-stable ride")
     p.add_argument("--out", default="kanedyn-out", help="output directory")
-    p.add_argument("--t-end", type=float, default=5.0, help="ride length [s]")
+    p.add_argument("--t-end", type=positive_float, default=5.0, help="ride length [s]")
     p.add_argument("--quiet", action="store_true", help="no progress output")
     p.set_defaults(func=cmd_demo)
 

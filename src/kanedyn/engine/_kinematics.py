@@ -192,7 +192,7 @@ class Kinematics:
 
     def scalar(self, expr, where, name="s"):
         """Internal form of a user expression; large ones become programs."""
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         if is_small(expr, _SMALL):
             return self.table.internal(expr, where)
         return self.prog.let_tree(expr, name,

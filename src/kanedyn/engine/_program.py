@@ -112,21 +112,22 @@ class Program:
         ``derivative`` may be a callable returning the expression; it is called
         the first time the derivative is needed.
         """
-        self._base_dt[symbol] = derivative if callable(derivative) else sm.sympify(derivative)
+        self._base_dt[symbol] = (derivative if callable(derivative)
+                                 else sm.sympify(derivative, strict=True))
         self._varying_set = None
 
     def set_derivative(self, symbol, derivative):
         """Change the time derivative of a declared base variable."""
         if symbol not in self._base_dt:
             raise KeyError(f"{symbol} is not a base variable of this program")
-        self._base_dt[symbol] = sm.sympify(derivative)
+        self._base_dt[symbol] = sm.sympify(derivative, strict=True)
         self._varying_set = None
         self._dt.clear()
 
     def _base_derivative(self, symbol):
         value = self._base_dt.get(symbol, _ZERO)
         if callable(value):
-            value = self._base_dt[symbol] = sm.sympify(value())
+            value = self._base_dt[symbol] = sm.sympify(value(), strict=True)
             self._varying_set = None
         return value
 
@@ -141,7 +142,7 @@ class Program:
 
         Atoms and ``number * atom`` are returned unchanged.
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         if _is_trivial(expr):
             return expr
         if expr.is_Mul and expr.args[0].is_Number and expr.args[0].is_negative:
@@ -174,7 +175,7 @@ class Program:
         compact programs.  ``leaf(node)``, if given, replaces applied
         undefined functions and derivatives (e.g. ``q(t)``).
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         memo = {}
 
         def visit(e):
@@ -209,7 +210,7 @@ class Program:
     def hint_dt(self, symbol, derivative):
         """Record a known time derivative of an intermediate (first one wins)."""
         if symbol in self._defs and symbol not in self._dt_hint:
-            self._dt_hint[symbol] = sm.sympify(derivative)
+            self._dt_hint[symbol] = sm.sympify(derivative, strict=True)
 
     def definition(self, symbol):
         return self._defs[symbol]
@@ -221,7 +222,7 @@ class Program:
     def deps(self, expr):
         """Leaf symbols (base variables and constants) ``expr`` depends on."""
         out = set()
-        for s in sm.sympify(expr).free_symbols:
+        for s in sm.sympify(expr, strict=True).free_symbols:
             d = self._deps.get(s)
             if d is not None:
                 out |= d
@@ -250,7 +251,7 @@ class Program:
         seen = set()
         stack = []
         for e in exprs:
-            stack.extend(self._free_intermediates(sm.sympify(e)))
+            stack.extend(self._free_intermediates(sm.sympify(e, strict=True)))
         while stack:
             s = stack.pop()
             if s in seen or (stop is not None and stop(s)):
@@ -271,7 +272,7 @@ class Program:
         ``var`` is any leaf symbol (base variable or constant).  The result is an expression in
         intermediates (new ones are created for the derivatives of old ones).
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         if var not in self.deps(expr):
             return _ZERO
         memo = self._diff.setdefault(var, {})
@@ -301,7 +302,7 @@ class Program:
         Base variables contribute their declared derivatives; intermediates with
         a recorded hint (:meth:`hint_dt`) use it.
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         varying = self._varying()
         if not (self.deps(expr) & varying):
             return _ZERO
@@ -327,8 +328,8 @@ class Program:
         Intermediates that depend on a replaced variable get substituted copies;
         the others are shared.
         """
-        expr = sm.sympify(expr)
-        mapping = {k: sm.sympify(v) for k, v in mapping.items()}
+        expr = sm.sympify(expr, strict=True)
+        mapping = {k: sm.sympify(v, strict=True) for k, v in mapping.items()}
         if not mapping or not (self.deps(expr) & set(mapping)):
             return expr
         key = frozenset(mapping.items())
@@ -358,7 +359,7 @@ class Program:
         simplification (several times faster on large expressions; the
         values are the same); a memo must not mix the two.
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         memo = self._explicit if memo is None else memo
         if not evaluate:
             for s in self.needed([expr], stop=lambda s: s in memo):
@@ -377,7 +378,7 @@ class Program:
         the caller between calls.
         """
         memo = {} if memo is None else memo
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         for s in self.needed([expr], stop=lambda s: s in memo):
             memo[s] = _node_count(self._defs[s], memo)
         return _node_count(expr, memo)
@@ -401,7 +402,7 @@ class Program:
                 values[s] = sample(s)
             return values[s]
 
-        exprs = [sm.sympify(e) for e in exprs]
+        exprs = [sm.sympify(e, strict=True) for e in exprs]
         for s in self.needed(exprs, stop=lambda s: s in values):
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
@@ -423,7 +424,7 @@ class Program:
         numpy.ndarray or None
             Shape ``(len(exprs), len(variables))``.
         """
-        exprs = [sm.sympify(e) for e in exprs]
+        exprs = [sm.sympify(e, strict=True) for e in exprs]
         base = self.shadow(exprs, seed)
         values = self._shadow[seed]
         out = np.zeros((len(exprs), len(variables)))
@@ -481,7 +482,7 @@ class Program:
         list of set
             One set of leaves per expression.
         """
-        exprs = [sm.sympify(e) for e in exprs]
+        exprs = [sm.sympify(e, strict=True) for e in exprs]
         out = [set(self.deps(e)) & set(leaves) for e in exprs]
         for seed in seeds:
             base = self.shadow(exprs, seed)
@@ -529,7 +530,7 @@ class Program:
         outputs : list of Expr
             ``exprs`` in terms of the assigned symbols.
         """
-        exprs = [sm.sympify(e) for e in exprs]
+        exprs = [sm.sympify(e, strict=True) for e in exprs]
         needed = self.needed(exprs)
         if not cse or not needed:
             return [(s, self._defs[s]) for s in needed], exprs

@@ -139,7 +139,7 @@ class SymbolTable:
         _check_dynamic(ext, "substituted symbol")
         if ext in self._int:
             raise ModelError(f"{name_of(ext)} already stands for a symbol of this model")
-        self._int[ext] = sm.sympify(expr)
+        self._int[ext] = sm.sympify(expr, strict=True)
         self._replaced[ext] = reason
 
     # ----------------------------------------------------------- specified
@@ -163,7 +163,7 @@ class SymbolTable:
 
         ``where`` names what is converted (used in error messages).
         """
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         if not expr.has(AppliedUndef):
             return expr
         t = self.t
@@ -208,7 +208,7 @@ class SymbolTable:
 
     def external(self, expr):
         """Rewrite an internal expression with the model's dynamic symbols."""
-        expr = sm.sympify(expr)
+        expr = sm.sympify(expr, strict=True)
         return expr.xreplace({s: self._ext[s] for s in expr.free_symbols if s in self._ext})
 
     def external_matrix(self, matrix):

@@ -203,7 +203,7 @@ class EquationsOfMotion:
         leaves = self._leaf_symbols(self._all_outputs())
         for contact in self.contacts:
             for value in contact.coefficients.values():
-                leaves |= sm.sympify(value).free_symbols
+                leaves |= sm.sympify(value, strict=True).free_symbols
         table = self._table
         consts = [s for s in leaves if not table.is_dynamic(s) and s != table.t
                   and s not in table.qdot_raw]

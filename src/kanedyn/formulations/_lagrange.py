@@ -145,7 +145,7 @@ def _speeds_from_rates(spec, table, prog, method):
     Must be called before ``table.set_qdot`` (q' is read as a plain symbol).
     """
     tmp = {s: sm.Dummy(name_of(s)) for s in spec.u}
-    eqs = sm.Matrix([table.internal(sm.sympify(e).xreplace(tmp),
+    eqs = sm.Matrix([table.internal(sm.sympify(e, strict=True).xreplace(tmp),
                                     f"kinematic differential equation {i} ({e})")
                      for i, e in enumerate(spec.kd_eqs)])
     back = dict(zip(table.qdot_raw, (s.diff(table.t) for s in spec.q)))
@@ -237,7 +237,8 @@ def _acceleration_constraints(spec, table, prog, kin, u_values):
             *[prog.diff(value, w) * wd for w, wd in zip(table.u, table.udot)])
     rows = []
     for i, c in enumerate(spec.acceleration_constraints):
-        expr = table.internal(sm.sympify(c).xreplace(tmp), f"acceleration constraint {i}")
+        expr = table.internal(sm.sympify(c, strict=True).xreplace(tmp),
+                              f"acceleration constraint {i}")
         rows.append(prog.let_tree(expr.xreplace(values), "ac"))
     K = tuple(tuple(prog.let(prog.diff(c, wd), "Ka") for wd in table.udot) for c in rows)
     f = tuple(prog.let(prog.subs(c, {wd: 0 for wd in table.udot}), "fa") for c in rows)

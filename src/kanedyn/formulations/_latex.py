@@ -31,10 +31,10 @@ def equations_latex(eom, explicit=None, max_ops=400):
     names = {s: sm.Symbol(f"z_{{{k}}}") for k, s in enumerate(needed)}
 
     def show(e):
-        return vlatex(table.external(sm.sympify(e).xreplace(names)))
+        return vlatex(table.external(sm.sympify(e, strict=True).xreplace(names)))
 
     lines = [vlatex(qdot) + " &= " + vlatex(sm.Matrix(
-        [table.external(sm.sympify(e).xreplace(names)) for e in eom._qdot]))]
+        [table.external(sm.sympify(e, strict=True).xreplace(names)) for e in eom._qdot]))]
     lines += [f"{vlatex(names[s])} &= {show(prog.definition(s))}" for s in needed]
     lines.append(vlatex(compact_M.xreplace(names).applyfunc(table.external))
                  + vlatex(udot) + " &= "

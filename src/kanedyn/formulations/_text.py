@@ -31,7 +31,7 @@ def equations_text(eom, explicit=False):
     names, plain = {}, {}
 
     def show(e):
-        e = sm.sympify(e)
+        e = sm.sympify(e, strict=True)
         if not explicit:
             e = table.external(e.xreplace(names))
         for f in e.atoms(sm.Derivative, AppliedUndef):  # q(t) -> q

@@ -543,8 +543,12 @@ class _Decoder:
         func = self.get(func)
         if not isinstance(func, types.MethodType):
             self.fail(index, "a partial of something that is not an allowed method")
-        return self._set(index, functools.partial(func, *self._all(refs),
-                                                  **self.get(keywords)))
+        args, keywords = self._all(refs), self.get(keywords)
+        if any(isinstance(value, (str, bytes)) for value in (*args, *keywords.values())):
+            # the allowed methods take SymPy objects and numbers; text handed to them
+            # could reach SymPy's parser, which runs it as Python
+            self.fail(index, "a partial with text among its arguments")
+        return self._set(index, functools.partial(func, *args, **keywords))
 
 
 #: node kind -> the decoder's method that rebuilds it (nothing else is called)

@@ -221,7 +221,8 @@ class _Program:
         subs = model._substitutions
 
         def sub(e):
-            return prog.subs(sm.sympify(e), subs) if subs else sm.sympify(e)
+            e = sm.sympify(e, strict=True)
+            return prog.subs(e, subs) if subs else e
 
         pos_exprs = []
         for p in points:
@@ -279,7 +280,7 @@ def _constants(model):
 
 
 def _numeric(expr, values):
-    expr = sm.sympify(expr)
+    expr = sm.sympify(expr, strict=True)
     expr = expr.subs({s: values[str(s)] for s in expr.free_symbols if str(s) in values})
     try:
         return float(expr)

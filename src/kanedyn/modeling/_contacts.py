@@ -21,6 +21,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from .._expressions import as_expression
 
 __all__ = ["Surface", "Plane", "Sphere", "Ellipsoid", "ImplicitSurface", "Contact",
            "SURFACE_COORDINATES"]
@@ -49,7 +50,7 @@ class Surface:
             raise ModelError(f"surface {name}: frame must be a ReferenceFrame, got {frame!r}")
         if not isinstance(origin, me.Point):
             raise ModelError(f"surface {name}: origin must be a Point, got {origin!r}")
-        gap = sm.sympify(gap)
+        gap = as_expression(gap, f"surface {name}: the gap function")
         if not gap.free_symbols & set(SURFACE_COORDINATES):
             raise ModelError(f"surface {name}: the gap function {gap} does not depend on "
                              "the coordinates x_s, y_s, z_s")
@@ -83,6 +84,8 @@ class Sphere(Surface):
     """
 
     def __init__(self, frame, origin, radius, inside=True, name="sphere"):
+        radius = _check_coefficient(radius, f"surface {name}: radius", lower=0.0,
+                                    strict=True)
         r = sm.sqrt(sum(c ** 2 for c in SURFACE_COORDINATES))
         super().__init__(frame, origin, radius - r if inside else r - radius, name)
         self.radius = radius
@@ -96,6 +99,8 @@ class Ellipsoid(Surface):
     """
 
     def __init__(self, frame, origin, a, b, c, inside=True, name="ellipsoid"):
+        a, b, c = (_check_coefficient(value, f"surface {name}: semi-axis {axis}", lower=0.0,
+                                      strict=True) for value, axis in zip((a, b, c), "abc"))
         x, y, z = SURFACE_COORDINATES
         level = (x / a) ** 2 + (y / b) ** 2 + (z / c) ** 2 - 1
         super().__init__(frame, origin, -level if inside else level, name)
@@ -107,15 +112,17 @@ class ImplicitSurface(Surface):
     """Any surface :math:`g(x_s, y_s, z_s) = 0` (see :class:`Surface`)."""
 
 
-def _check_coefficient(value, name, lower=0.0, upper=None):
-    """Numbers are checked now; symbols when their values are given."""
+def _check_coefficient(value, name, lower=0.0, upper=None, strict=False):
+    """Numbers are checked now (``strict``: above ``lower``, not equal to it);
+    symbols when their values are given."""
     if value is None:
         return None
-    value = sm.sympify(value)
+    value = as_expression(value, name)
     if value.is_number:
         v = float(value)
-        if v < lower or (upper is not None and v > upper):
-            bound = f"in [{lower}, {upper}]" if upper is not None else f">= {lower}"
+        if v < lower or (strict and v == lower) or (upper is not None and v > upper):
+            bound = (f"in [{lower}, {upper}]" if upper is not None
+                     else f"> {lower}" if strict else f">= {lower}")
             raise ModelError(f"{name} must be {bound}, got {v}")
     return value
 
@@ -183,10 +190,10 @@ class Contact:
 
 def coefficient_value(value, constants, what):
     """Numerical value of a coefficient given the model's constants."""
-    value = sm.sympify(value)
+    value = as_expression(value, what)
     if not value.is_number:
         value = sm.sympify(value.xreplace(
-            {s: constants[s] for s in value.free_symbols if s in constants}))
+            {s: constants[s] for s in value.free_symbols if s in constants}), strict=True)
     if not value.is_number:
         missing = ", ".join(sorted(map(str, value.free_symbols)))
         raise ModelError(f"{what} needs values for {missing}")

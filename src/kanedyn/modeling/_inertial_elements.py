@@ -167,7 +167,7 @@ class RateInertia(InertialElement):
             if isinstance(r, me.Vector) or not isinstance(r, (sm.Basic, int, float)):
                 raise ModelError(f"RateInertia {name!r}: rate {i} must be a scalar SymPy "
                                  f"expression, got {type(r).__name__}")
-        self.rates = tuple(sm.sympify(r) for r in rates)
+        self.rates = tuple(sm.sympify(r, strict=True) for r in rates)
         super().__init__(name, inertia, len(rates))
 
     def _rates(self, kin):

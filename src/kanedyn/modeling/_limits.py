@@ -33,6 +33,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from .._expressions import as_expression
 from ._contacts import SURFACE_COORDINATES, Contact, ImplicitSurface
 
 __all__ = ["ConeLimit", "cone_surface", "cone_contact", "tilt_angle",
@@ -59,7 +60,7 @@ def _unit(vector, frame, what):
 
 
 def _check_angle(value, what):
-    value = sm.sympify(value)
+    value = as_expression(value, what)
     if value.is_number and not 0.0 < float(value) < math.pi / 2:
         raise ModelError(f"{what} must lie strictly between 0 and pi/2 rad, got {float(value)}")
     return value
@@ -132,9 +133,9 @@ class ConeLimit:
         self.housing_axis = _unit(housing_axis, self.housing,
                                   f"ConeLimit {name}: housing_axis")
         self.limit = _check_angle(limit, f"ConeLimit {name}: limit")
-        self.stiffness = sm.sympify(stiffness)
-        self.damping = sm.sympify(damping)
-        self.exponent = sm.sympify(exponent)
+        self.stiffness = as_expression(stiffness, f"ConeLimit {name}: stiffness")
+        self.damping = as_expression(damping, f"ConeLimit {name}: damping")
+        self.exponent = as_expression(exponent, f"ConeLimit {name}: exponent")
         for value, what, lower, strict in ((self.stiffness, "stiffness", 0.0, True),
                                            (self.damping, "damping", 0.0, False),
                                            (self.exponent, "exponent", 1.0, False)):
@@ -230,7 +231,7 @@ def cone_surface(housing, apex, axis, limit, radius, name="cone"):
     frame = _frame_of(housing, f"cone {name}: housing")
     axis = _unit(axis, frame, f"cone {name}: axis")
     limit = _check_angle(limit, f"cone {name}: limit")
-    radius = sm.sympify(radius)
+    radius = as_expression(radius, f"cone {name}: radius")
     if radius.is_number and float(radius) <= 0:
         raise ModelError(f"cone {name}: radius must be positive, got {float(radius)}")
     x = SURFACE_COORDINATES

@@ -65,7 +65,7 @@ def body_parameters(bodies):
     for body in bodies:
         if not isinstance(body, (me.RigidBody, me.Particle)):
             continue  # flexible bodies: their members' matrices are checked when built
-        mass = sm.sympify(body.mass)
+        mass = sm.sympify(body.mass, strict=True)
         inertia = None
         if isinstance(body, me.RigidBody):
             try:
@@ -196,7 +196,7 @@ def _symbols_of(mass, inertia):
 def _number(expr):
     """The float value of a constant expression, else ``None``."""
     import sympy as sm
-    expr = sm.sympify(expr)
+    expr = sm.sympify(expr, strict=True)
     if expr.is_Number and expr.is_finite and expr.is_extended_real:
         return float(expr)  # the common case, without evalf
     if expr.free_symbols or expr.has(sm.Function):

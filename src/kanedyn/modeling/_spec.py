@@ -14,6 +14,7 @@ import sympy.physics.mechanics as me
 from sympy.physics.mechanics.loads import _parse_load
 
 from .._errors import ModelError
+from .._expressions import as_expression
 from ._inertial_elements import InertialElement
 from .flexible import FlexibleBody
 from ._physical import check_declared_bodies
@@ -72,17 +73,12 @@ def _expressions(values, role):
     """SymPy expressions ``f = 0``; an equation ``Eq(a, b)`` becomes ``a - b``."""
     out = []
     for i, value in enumerate(_as_tuple(values, role)):
-        if isinstance(value, str):  # never sympify text: it would run as Python
-            raise ModelError(f"{role}[{i}] is the text {value!r}; give a SymPy expression")
         if isinstance(value, sm.Equality):
             value = value.lhs - value.rhs
         elif isinstance(value, sm.core.relational.Relational) or isinstance(value, bool):
             raise ModelError(f"{role}[{i}] is {value!r}; give an expression f (meaning "
                              "f = 0) or an equation Eq(a, b)")
-        try:
-            out.append(sm.sympify(value, strict=True))
-        except sm.SympifyError:
-            raise ModelError(f"{role}[{i}] is not a SymPy expression: {value!r}") from None
+        out.append(as_expression(value, f"{role}[{i}]"))
     return tuple(out)
 
 
@@ -252,12 +248,14 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
         parsed_loads.append(parsed)
 
     if potential is None:
-        total = sum((sm.sympify(getattr(b, "potential_energy", 0)) for b in bodies),
-                    sm.S.Zero)
+        total = sum((as_expression(getattr(b, "potential_energy", 0),
+                                 f"the potential energy of {getattr(b, 'name', b)}")
+                     for b in bodies), sm.S.Zero)
         potential = total if total != 0 else None
     return ModelSpec(frame, q_ind, q_dep, u_ind, u_dep, u_aux, kd_eqs, config, vel, acc,
                      bodies, tuple(parsed_loads),
-                     sm.sympify(potential) if potential is not None else None,
+                     as_expression(potential, "potential_energy") if potential is not None
+                     else None,
                      vector_constraints=tuple(vector_constraints))
 
 

@@ -34,7 +34,7 @@ def _check_coefficient(value, what):
     if isinstance(value, (int, float)) and not isinstance(value, bool):
         if value < 0:
             raise ModelError(f"{what} must not be negative, got {value!r}")
-        return sm.sympify(value)
+        return sm.sympify(value, strict=True)
     if isinstance(value, sm.Basic):
         return value
     raise ModelError(f"{what} must be a number or a SymPy expression, got "

@@ -53,7 +53,7 @@ def speed_unit(unit):
 def _dimensionless(coef):
     """A nonzero number, possibly times trigonometric functions (whose values are
     pure numbers): no parameter, coordinate or time outside them."""
-    coef = sm.sympify(coef)
+    coef = sm.sympify(coef, strict=True)
     if coef == 0:
         return False
     bare = coef.replace(lambda e: isinstance(e, _TRIG), lambda e: sm.S.One)
@@ -140,7 +140,7 @@ class _Evidence:
 
 def _linear_terms(expr, variables):
     """``[(variable, coefficient)]`` of the terms of ``expr`` linear in one variable."""
-    expr = sm.sympify(expr)
+    expr = sm.sympify(expr, strict=True)
     if not is_small(expr, _MAX_NODES):
         return []
     out = []
@@ -369,7 +369,7 @@ def constraint_units(spec, units):
     dims = _Dimensions(known, _length_parameters(spec))
 
     def unit_of(expr):
-        return _unit_name(dims(sm.sympify(expr)))
+        return _unit_name(dims(sm.sympify(expr, strict=True)))
 
     config = [unit_of(h) for h in spec.configuration_constraints]
     if not spec.velocity_constraints and not spec.vector_constraints:

@@ -181,7 +181,7 @@ class ModelDefinition:
             opts = {}
             for key, value in options.items():
                 if isinstance(value, sm.Basic):
-                    number = sm.sympify(value.xreplace(values))
+                    number = sm.sympify(value.xreplace(values), strict=True)
                     if not number.is_number:
                         raise ModelError(f"model {self.name}: {kind} of body {body.name}: "
                                          f"{key} = {value} depends on more than constants")

@@ -270,7 +270,7 @@ def _ratio(sv):
 def _free(J, bias, masses):
     out = set(J.free_symbols)
     for e in (*bias, *masses):
-        out |= sm.sympify(e).free_symbols
+        out |= sm.sympify(e, strict=True).free_symbols
     return out
 
 

@@ -405,7 +405,7 @@ def _as_value(value):
     if isinstance(value, str):
         raise ValueError(f"operating-point values must be numbers or SymPy expressions, "
                          f"not text ({value!r})")
-    return sm.sympify(value)
+    return sm.sympify(value, strict=True)
 
 
 def linearize_symbolic(eom, op_point=None, A_and_B=True, constants=None, specified=None,
@@ -499,7 +499,7 @@ def _linearize_symbolic(eom, state, accelerations, implicit, la):
     table = eom._table
     mapping = {}
     for key, value in state.items():
-        key = sm.sympify(key)
+        key = sm.sympify(key, strict=True)
         internal = table.internal(key, "operating point")
         if not internal.is_Symbol:
             raise ValueError(f"cannot use {key} as an operating-point variable")

@@ -216,7 +216,7 @@ def _resolve_specified(eom, specified):
         if isinstance(value, sm.Basic) and not number or number and derivatives_needed:
             # an expression in t (a number, when the input's rates are needed too:
             # they are then exactly zero)
-            expr = sm.sympify(value)
+            expr = sm.sympify(value, strict=True)
             if isinstance(key, sm.Derivative):
                 raise ModelError(f"give the SymPy expression for {key.expr}, not for "
                                  f"its derivative {key}")
@@ -1165,7 +1165,7 @@ def _contact_values(coefficients, current):
     for entry, exprs in coefficients:
         entry = dict(entry)
         for key, expr in exprs.items():
-            expr = sm.sympify(expr)
+            expr = sm.sympify(expr, strict=True)
             if not expr.is_number:
                 expr = expr.xreplace({s: current[str(s)] for s in expr.free_symbols
                                       if str(s) in current})
@@ -1278,7 +1278,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
                    and s not in table.udot}
     for contact in eom.contacts:  # friction coefficients may be symbols: required
         for value in contact.coefficients.values():
-            symbols = sm.sympify(value).free_symbols
+            symbols = sm.sympify(value, strict=True).free_symbols
             candidates |= symbols
             leaves |= symbols
     needed_consts = sorted((s for s in candidates if s in leaves), key=str)

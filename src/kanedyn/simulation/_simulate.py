@@ -46,6 +46,11 @@ COMPILED_METHODS = ("RK45", "Rosenbrock23")
 #: integrators of schemes that bring their own (``Scheme.integrator`` -> function)
 OWN_INTEGRATORS = {"index-3 trapezoidal": run_index3}
 _COMPILED_OPTIONS = {"max_step", "first_step"}
+#: options passed on to ``solve_ivp`` (those of its methods)
+_SOLVE_IVP_OPTIONS = {"first_step", "max_step", "min_step", "jac", "jac_sparsity",
+                      "vectorized", "lband", "uband"}
+#: options of the integration of models with contacts
+_CONTACT_OPTIONS = {"modes", "stabilization", "rest_speed"}
 _EXPLICIT = {"RK23": 3, "RK45": 6, "DOP853": 12}  # evaluations per step
 _MAX_STALLED_PROJECTIONS = 50  # projections in a row without progress in time
 _ENERGY_GROWTH = 100.0  # energy change / initial energy scale that warrants a warning
@@ -130,7 +135,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         do not monitor).  Schemes with their own integrator
         (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`) are run by it.
     **options
-        Passed on to ``solve_ivp`` (``max_step``, ``first_step``, ...).  For
+        Passed on to ``solve_ivp``: ``max_step``, ``first_step``, ``min_step``,
+        ``jac``, ``jac_sparsity``, ``vectorized``, ``lband``, ``uband`` (other
+        names are refused, with the closest known ones).  For
         models with contacts also ``modes`` (initial mode per contact;
         default: found from the state), ``stabilization`` (Baumgarte
         frequency of the contact constraints, rad/s, default 10) and
@@ -159,6 +166,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     t0, t1 = _check_span(t_span)
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
+    _check_option_names(options, bool(model.contacts))
     _check_step_options(options, t0, t1)
     if not (isinstance(method, str) and method in COMPILED_METHODS):
         solver_class(method)  # refuse unknown methods before any work
@@ -378,6 +386,21 @@ def _check_t_eval(t_eval, t0, t1):
         order = "increasing" if t1 >= t0 else "decreasing (integration runs backward)"
         raise OptionError(f"t_eval must be strictly {order} for t_span ({t0:g}, {t1:g})")
     return t_eval
+
+
+def _check_option_names(options, has_contacts):
+    """Refuse options nothing reads (``rtoll=``), with the closest known names."""
+    import difflib
+    import inspect
+    known = _SOLVE_IVP_OPTIONS | (_CONTACT_OPTIONS if has_contacts else set())
+    keywords = set(inspect.signature(simulate).parameters) - {"model", "t_span", "y0",
+                                                               "options"}
+    for name in sorted(set(options) - known):
+        if name in _CONTACT_OPTIONS:
+            raise OptionError(f"option {name!r} applies to models with contacts only")
+        close = difflib.get_close_matches(name, sorted(known | keywords), n=2)
+        hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
+        raise OptionError(f"unknown option {name!r} of simulate{hint}")
 
 
 def _check_step_options(options, t0, t1):

@@ -35,6 +35,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from ..._errors import ModelError
+from ..._expressions import as_expression
 from ._member import MemberGeometry, rest_placement
 from ._waves import G_STANDARD
 
@@ -96,7 +97,9 @@ class Hydrostatics:
                              f"below s = 0 to above), got s in [{s[0]}, {s[-1]}]")
         self.body_frame, self.origin, self.axis = body_frame, origin, axis
         self.frame, self.fixed_point = frame, fixed_point
-        rest = {sm.sympify(k): sm.sympify(v) for k, v in rest_configuration.items()}
+        rest = {as_expression(k, f"{owner}: rest_configuration key"):
+                as_expression(v, f"{owner}: rest_configuration[{k}]")
+                for k, v in rest_configuration.items()}
         self._dcm0 = np.array(frame.dcm(body_frame).xreplace(rest), dtype=float)
         V, M1, _ = self.geometry.integrals(s[0], 0.0)
         self.volume, self.z_buoyancy = V, M1 / V

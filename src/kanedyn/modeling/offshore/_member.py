@@ -10,6 +10,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from ..._errors import ModelError
+from ..._expressions import as_expression
 
 __all__ = ["MemberGeometry", "rest_placement"]
 
@@ -99,7 +100,9 @@ def rest_placement(owner, origin, axis, body_frame, frame, fixed_point, rest_con
             raise ModelError(f"{owner}: axis must be a unit vector, |axis| = {float(norm)}")
     except TypeError:
         raise ModelError(f"{owner}: axis components must be numbers") from None
-    rest = {sm.sympify(k): sm.sympify(v) for k, v in rest_configuration.items()}
+    rest = {as_expression(k, f"{owner}: rest_configuration key"):
+            as_expression(v, f"{owner}: rest_configuration[{k}]")
+            for k, v in rest_configuration.items()}
 
     def numeric(mat, what):
         mat = mat.xreplace(rest)

@@ -120,7 +120,7 @@ def state_function(exprs, states, constants=None, what="expression"):
     constants = dict(constants or {})
     dummies = [sm.Dummy(str(s)) for s in states]
     mapping = dict(zip(states, dummies))
-    exprs = [sm.sympify(e).xreplace(constants).xreplace(mapping) for e in exprs]
+    exprs = [sm.sympify(e, strict=True).xreplace(constants).xreplace(mapping) for e in exprs]
     derivatives = set().union(*(e.atoms(sm.Derivative) for e in exprs))
     if derivatives:
         raise ModelError(f"{what}: contains {sorted(map(str, derivatives))}, not states; "

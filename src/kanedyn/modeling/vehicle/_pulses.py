@@ -15,6 +15,7 @@ import numpy as np
 import sympy as sm
 
 from ..._errors import ModelError
+from ..._expressions import as_expression
 
 __all__ = ["G0", "CrashPulse", "HalfSinePulse", "HaversinePulse", "TrapezoidPulse",
            "pulse_from_delta_v"]
@@ -58,7 +59,8 @@ class CrashPulse:
 
     def __init__(self, pieces, name="pulse"):
         self.name = name
-        pieces = [(float(a), float(b), sm.sympify(e)) for a, b, e in pieces]
+        pieces = [(float(a), float(b), as_expression(e, f"{name}: piece {k}"))
+                  for k, (a, b, e) in enumerate(pieces)]
         if not pieces or pieces[0][0] != 0.0:
             raise ModelError(f"{name}: the pieces must start at t = 0")
         for (a0, b0, _), (a1, _, _) in zip(pieces, pieces[1:]):

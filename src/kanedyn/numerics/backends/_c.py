@@ -203,7 +203,7 @@ def _number(expr):
 
 
 def _print_c(printer, expr, what, describe=str):
-    expr = sm.sympify(expr)
+    expr = sm.sympify(expr, strict=True)
     try:
         return _direct(expr, printer._names)[0]
     except _Unusual:
@@ -239,7 +239,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
     for arg, symbols in arguments.items():
         for i, s in enumerate(symbols):
             base[s] = f"{arg}[{i}]"
-    flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+    flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]
     assignments, flat = listing if listing is not None else program.listing(flat, cse=cse)
     needed = [s for s, _ in assignments]
     definition = dict(assignments)
@@ -417,7 +417,7 @@ def solver_source(functions, sizes):
         return ["#define KD_SOLVE 1"]
     _, outputs = functions["dynamics"]
     shape, entries = outputs[1]
-    nonzero = np.array([not (sm.sympify(e) == 0) for e in entries], dtype=bool)
+    nonzero = np.array([not (sm.sympify(e, strict=True) == 0) for e in entries], dtype=bool)
     parent = elimination_tree(nonzero.reshape(n, n))
     if all(parent[k] == k - 1 for k in range(n)):
         return ["#define KD_SOLVE 1"]
@@ -487,7 +487,7 @@ def fingerprint(program, functions, sizes, cse=None, lanes=True):
         for arg, symbols in arguments.items():
             parts.append(f"{arg}:{len(symbols)}")
             names.update((s, f"{arg}{i}") for i, s in enumerate(symbols))
-        flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+        flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]
         needed = program.needed(flat)
         names.update((s, f"z{k}") for k, s in enumerate(needed))
         memo = {}
@@ -495,7 +495,7 @@ def fingerprint(program, functions, sizes, cse=None, lanes=True):
         parts.extend(_structure(program.definition(s), names, memo) for s in needed)
         for shape, exprs in outputs:
             parts.append(repr(shape))
-            parts.extend(_structure(sm.sympify(e), names, memo) for e in exprs)
+            parts.extend(_structure(sm.sympify(e, strict=True), names, memo) for e in exprs)
     return "\n".join(parts)
 
 
@@ -661,7 +661,7 @@ def _function_sources(program, functions, sizes, describe, cse, lanes):
         eliminate = _eliminates(name, cse)
         listing = None
         if lanes and name == "dynamics":  # one listing for both versions
-            flat = [sm.sympify(e) for _, exprs in outputs for e in exprs]
+            flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]
             listing = program.listing(flat, cse=eliminate)
             src, w = _c_lanes.lanes_source(program, arguments, outputs, listing, describe,
                                            CHUNK)
