@@ -2,6 +2,7 @@
 the integrators cannot honour refused, results that cannot be trusted say so."""
 
 import json
+import re
 import os
 import signal
 import subprocess
@@ -90,6 +91,70 @@ def test_input_turning_nan_ends_the_run_keeping_the_rest(method, backend):
     assert res.message.startswith("specified input(s) not finite at t=0.5")
     assert "F(t) = nan" in res.message
     assert 0.4 <= res.t[-1] <= 0.5 and np.all(np.isfinite(res.y))
+
+
+def _lost_sensor(t):
+    if t > 0.5:
+        raise RuntimeError("sensor lost")
+    return 0.0
+
+
+def _broken_event(t, y):
+    if t > 0.5:
+        raise RuntimeError("event broke")
+    return 1.0
+
+
+@pytest.mark.timeout(120)
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("method", ["RK45", "Radau", "Rosenbrock23"])
+@pytest.mark.parametrize("culprit", ["input", "event"])
+def test_a_raising_callback_ends_the_run_keeping_the_rest(method, backend, culprit):
+    """An input's or an event's function that raises mid-run ends the run with
+    what was computed and a message naming it (the exception's type and text)."""
+    if method == "Rosenbrock23" and backend == "numpy":
+        pytest.skip("Rosenbrock23 is a method of the compiled loop")
+    definition = kd.models.build("n-link-pendulum-on-cart", n=1)
+    F = definition.symbols["F"]
+    force = _lost_sensor if culprit == "input" else 0.0
+    model = definition.numeric(specified={F: force}, backend=backend)
+    events = [_broken_event] if culprit == "event" else None
+    res = kd.simulate(model, (0, 2), definition.initial(model), method=method,
+                      t_eval=np.linspace(0, 2, 41), events=events)
+    assert not res.success and res.status == -1
+    expected = (r"specified input F\(t\): its function raised RuntimeError at t=0\.5\d*: "
+                r"sensor lost" if culprit == "input" else
+                r"event _broken_event raised RuntimeError at t=0\.5\d*: event broke")
+    assert re.match(expected, res.message), res.message
+    assert 0.45 <= res.t[-1] <= 0.5 and np.all(np.isfinite(res.y))
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_raising_input_with_contacts_keeps_the_rest(backend):
+    """The contact path ends the same way: a ball dropped from 1 m bounces at
+    0.45 s (restitution 0.5); its input fails at 1 s; the impacts before stay."""
+    z, w, F = me.dynamicsymbols("z w F")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", z * N.z)
+    P.set_vel(N, w * N.z)
+    floor = kd.Contact(P, kd.Plane(N, O, N.z), restitution=0.5)
+    eom = kd.kane(frame=N, q_ind=[z], u_ind=[w], kd_eqs=[z.diff() - w],
+                  bodies=[me.Particle("ball", P, 1)], loads=[(P, (F - 9.81) * N.z)],
+                  contacts=[floor])
+
+    def force(t):
+        if t > 1.0:
+            raise RuntimeError("sensor lost")
+        return 0.0
+    model = eom.numeric(specified={F: force}, backend=backend)
+    res = kd.simulate(model, (0, 2), [1.0, 0.0], t_eval=np.linspace(0, 2, 41), max_step=0.05)
+    assert not res.success
+    assert re.match(r"specified input F\(t\): its function raised RuntimeError at t=1\.0\d*: "
+                    r"sensor lost", res.message), res.message
+    assert res.t[-1] == pytest.approx(0.95) and res.impacts
+    assert res.impacts[0].t == pytest.approx(np.sqrt(2 / 9.81), rel=1e-6)
 
 
 def test_cli_zero_mass_ends_with_the_cause(tmp_path, capsys):

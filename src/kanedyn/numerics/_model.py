@@ -155,7 +155,11 @@ class _Input:
     def __call__(self, t, y):
         if self.arity == 0:
             return self.value
-        value = self.value(t) if self.arity == 1 else self.value(t, y)
+        try:
+            value = self.value(t) if self.arity == 1 else self.value(t, y)
+        except Exception as exc:  # named here; a run ends on it keeping what it has
+            raise ModelError(f"specified input {self.name}: its function raised "
+                             f"{type(exc).__name__} at t={t:g}: {exc}") from exc
         if isinstance(value, float):
             return value
         if np.ndim(value) != 0 or not isinstance(value, (numbers.Real, np.ndarray)):

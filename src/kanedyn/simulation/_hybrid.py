@@ -27,9 +27,10 @@ from __future__ import annotations
 import numpy as np
 from scipy.integrate import solve_ivp
 
+from .._errors import ModelError
 from ..numerics import SEPARATED, SLIP, STICK, SlipReference, contact_points, solve_modes
 from ._impact import resolve_impact
-from ._run_guard import INTERRUPTED, RunGuard, guarded_method
+from ._run_guard import INTERRUPTED, RunGuard, guarded_event, guarded_method
 
 __all__ = ["simulate_contacts", "ModeChange"]
 
@@ -284,14 +285,19 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         frozen_modes, frozen_dirs = list(modes), list(directions)
 
         def rhs(tt, z, frozen_modes=frozen_modes, frozen_dirs=frozen_dirs):
-            sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
+            try:
+                sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
+            except ModelError as exc:  # e.g. an input's function raised: its message
+                guard.fail(tt, z[:n], str(exc))
+                return np.full(len(z), np.nan)
             out = np.concatenate([sol.qdot, sol.udot, [sol.dissipation, sol.power]])
             if not np.all(np.isfinite(out)):
                 guard.fail(tt, z[:n])
             return out
 
-        wrapped = [(lambda tt, z, f=f: f(tt, z[:n])) for f in user_events]
-        for w, f in zip(wrapped, user_events):
+        guarded = [guarded_event(f, k, guard) for k, f in enumerate(user_events)]
+        wrapped = [(lambda tt, z, f=f: f(tt, z[:n])) for f in guarded]
+        for w, f in zip(wrapped, guarded):
             w.terminal = getattr(f, "terminal", False)
             w.direction = getattr(f, "direction", 0)
         all_events = [e for e, _, _ in mode_events] + wrapped
@@ -518,7 +524,6 @@ def _changes(t, names, before, after, reasons):
 
 def _check_initial(model, t, y, modes, tol):
     """Bad initial states of contacts are errors that say what is wrong."""
-    from .._errors import ModelError
     with np.errstate(invalid="ignore", divide="ignore"):  # a vanishing normal: below
         points = contact_points(model, t, y)
     for c, point in enumerate(points):

@@ -4,6 +4,8 @@ A run on SciPy's ``solve_ivp`` ends early when
 
 * the right-hand side is not finite (a singular mass matrix, a ``nan``
   constant or input): the integrand records the state and returns ``nan``;
+* a specified input's function raises (named by a ``ModelError``), or an event
+  function raises: the guard records the state and the cause;
 * Ctrl-C is pressed: while a run is under way a first SIGINT only raises a
   flag (a second one interrupts at once, as usual).
 
@@ -22,10 +24,10 @@ from contextlib import contextmanager
 import numpy as np
 
 from ..numerics import diagnose
-from .._errors import INTERRUPTED, OptionError
+from .._errors import INTERRUPTED, ModelError, OptionError
 
-__all__ = ["RunGuard", "Integrand", "guarded_method", "solver_class", "scipy_methods",
-           "INTERRUPTED"]
+__all__ = ["RunGuard", "Integrand", "guarded_event", "guarded_method", "solver_class",
+           "scipy_methods", "INTERRUPTED"]
 
 class RunGuard:
     """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.
@@ -112,11 +114,37 @@ class Integrand:
         except np.linalg.LinAlgError:
             self.guard.fail(t, y)
             return np.full(self.n, np.nan)
+        except ModelError as exc:  # e.g. an input's function raised: its message
+            self.guard.fail(t, y, str(exc))
+            return np.full(self.n, np.nan)
         if not np.all(np.isfinite(out)):
             self.guard.fail(t, y)
         if self.progress.enabled and self.t1 != self.t0:
             self.progress.update("simulating", (t - self.t0) / (self.t1 - self.t0))
         return out
+
+
+def guarded_event(event, k, guard=None):
+    """``event`` as the integrators call it (``terminal`` and ``direction`` kept),
+    naming it (the ``k``-th of the run's events) when it raises: with a ``guard``
+    (``solve_ivp``), the guard records the state and the cause and the run ends at
+    the next step; without (the compiled loop), a :class:`ModelError` with that
+    cause ends the loop, which keeps what it has."""
+    name = getattr(event, "__name__", None) or f"events[{k}]"
+
+    def value(t, y):
+        try:
+            return event(t, y)
+        except Exception as exc:
+            cause = f"event {name} raised {type(exc).__name__} at t={t:g}: {exc}"
+            if guard is None:
+                raise ModelError(cause) from exc
+            guard.fail(t, y, cause)
+            return np.nan
+
+    value.terminal = getattr(event, "terminal", False)
+    value.direction = getattr(event, "direction", 0)
+    return value
 
 
 def scipy_methods():

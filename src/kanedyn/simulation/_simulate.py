@@ -23,8 +23,8 @@ from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
 from ._index3 import run_index3
-from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_method, scipy_methods,
-                         solver_class)
+from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_event, guarded_method,
+                         scipy_methods, solver_class)
 
 __all__ = ["simulate", "COMPILED_METHODS", "METHODS",  # noqa: F822  (METHODS: __getattr__)
            "OWN_INTEGRATORS", "TrustWarning"]
@@ -148,7 +148,8 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     -------
     SimulationResult
         A run that cannot go on (a singular mass matrix, a non-finite
-        constant, input or state, a step size that collapses) ends with
+        constant, input or state, a step size that collapses, an input's or
+        event's function that raises) ends with
         ``success=False``, a message naming the cause, and everything computed
         up to then.  A run with an explicit method whose energy grows by
         orders of magnitude keeps ``success=True`` but says so in its
@@ -246,7 +247,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
     from scipy.integrate import solve_ivp
 
     scheme = getattr(model, "scheme", None)
-    all_events = list(user_events) + monitor.events
+    all_events = [guarded_event(event, k, guard) for k, event in enumerate(user_events)]
+    all_events += monitor.events
     drift_index = None
     if project:
         drift_index = len(all_events)
@@ -624,11 +626,11 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
     # cost more than the compiled step itself)
     want_dense = dense or monitor.active
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
+    events = [guarded_event(event, k) for k, event in enumerate(events or ())]
     out = model._c.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
                              float(options.get("max_step", np.inf)),
                              float(options.get("first_step") or 0.0), method,
-                             events if events else None, float(project_tol),
-                             bool(want_dense))
+                             events or None, float(project_tol), bool(want_dense))
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:

@@ -329,11 +329,22 @@ static int kd_r23_try(KdIntegrator *ig, double t, const double *y, const double 
 }
 
 /* an error inside the loop: Ctrl-C (a KeyboardInterrupt raised in a Python callback
-   or by the signal check) keeps what was computed; any other error propagates */
+   or by the signal check) keeps what was computed, and so does a ValueError of a
+   Python callback (an input's or event's failure, named by kanedyn), whose text
+   becomes the message; any other error propagates */
 #define KD_FAIL do { \
         if (PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) { \
             PyErr_Clear(); status = -1; failed = 1; interrupted = 1; \
             message = "interrupted"; goto finish; } \
+        if (PyErr_ExceptionMatches(PyExc_ValueError)) { \
+            PyObject *e_type, *e_value, *e_tb, *e_text; \
+            PyErr_Fetch(&e_type, &e_value, &e_tb); \
+            e_text = e_value ? PyObject_Str(e_value) : NULL; \
+            const char *e_utf8 = e_text ? PyUnicode_AsUTF8(e_text) : NULL; \
+            snprintf(error_text, sizeof(error_text), "%s", \
+                     e_utf8 ? e_utf8 : "a Python callback raised ValueError"); \
+            Py_XDECREF(e_text); Py_XDECREF(e_type); Py_XDECREF(e_value); Py_XDECREF(e_tb); \
+            PyErr_Clear(); status = -1; failed = 1; message = error_text; goto finish; } \
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
@@ -391,6 +402,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     int status = 0, failed = 0, interrupted = 0;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
+    char error_text[512];  /* the message of a callback's ValueError (KD_FAIL) */
     if (!ev_dir || !ev_term || !g_old || !g_new || !ev_t || !ev_y) { PyErr_NoMemory(); goto done; }
     for (int k = 0; k < ig.n_events; ++k) {
         PyObject *fn = PySequence_Fast_GET_ITEM(evseq, k);
