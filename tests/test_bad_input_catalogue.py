@@ -181,6 +181,16 @@ def test_state_of_wrong_length(spring):
         model.rhs(0.0, np.zeros(3))
 
 
+@pytest.mark.parametrize("given", ["list", "dict"])
+def test_initial_state_not_finite(spring, given):
+    """A ``nan`` initial value is refused naming the state, whether the state
+    is given as a list or by name."""
+    _, model, _ = spring
+    y0 = [np.nan, 0.0] if given == "list" else {"q": np.nan, "u": 0.0}
+    with pytest.raises(ValueError, match="^initial values are not finite for q$"):
+        kd.simulate(model, (0.0, 1.0), y0)
+
+
 # ------------------------------------------------------ simulate() options
 def _event(t, y):
     return y[0]

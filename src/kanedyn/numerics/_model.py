@@ -556,9 +556,9 @@ class NumericModel(StateLayout):
                 raise MissingValueError(f"missing {what}(s) for " + ", ".join(missing))
         else:
             y = self._check_y(values)
-            bad = [names[i] for i in np.flatnonzero(~np.isfinite(y))]
-            if bad:
-                raise ValueError(f"{what}s are not finite for " + ", ".join(bad))
+        bad = [names[i] for i in np.flatnonzero(~np.isfinite(y))]
+        if bad:
+            raise ValueError(f"{what}s are not finite for " + ", ".join(bad))
         if self.n_q_dep or self.n_u_dep:
             y = self.consistent_state(t, y)
         return y
