@@ -181,6 +181,16 @@ def test_state_of_wrong_length(spring):
         model.rhs(0.0, np.zeros(3))
 
 
+def test_input_function_without_argument_and_equations_instead_of_a_model(spring):
+    eom, _, (q, u, F, *_r) = spring
+    with pytest.raises(kd.ModelError, match=r"specified input F\(t\): its function .* takes "
+                                            r"no argument; give f\(t\) or f\(t, y\)"):
+        eom.numeric(constants={"m": 1.0, "k": 4.0}, specified={F: lambda: 1.0})
+    with pytest.raises(TypeError, match=r"simulate needs a numerical model, got "
+                                        r"EquationsOfMotion: make one with \.numeric"):
+        kd.simulate(eom, (0.0, 1.0), [1.0, 0.0])
+
+
 @pytest.mark.parametrize("given", ["list", "dict"])
 def test_initial_state_not_finite(spring, given):
     """A ``nan`` initial value is refused naming the state, whether the state

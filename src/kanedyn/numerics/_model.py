@@ -127,14 +127,21 @@ def _check_finite(values):
         raise ModelError(f"constant(s) {', '.join(bad)} not finite; give finite values")
 
 
-def _callable_arity(func):
+def _callable_arity(func, name):
+    """1 for ``f(t)``, 2 for ``f(t, y)``; a function that takes no position
+    argument at all is refused, naming the input."""
     try:
-        params = [p for p in inspect.signature(func).parameters.values()
-                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)
-                  and p.default is p.empty]
-        return 2 if len(params) >= 2 else 1
+        signature = inspect.signature(func)
     except (TypeError, ValueError):
         return 1
+    positional = [p for p in signature.parameters.values()
+                  if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    if not positional and not any(p.kind == p.VAR_POSITIONAL
+                                  for p in signature.parameters.values()):
+        raise ModelError(f"specified input {name}: its function {func!r} takes no "
+                         f"argument; give f(t) or f(t, y)")
+    required = [p for p in positional if p.default is p.empty]
+    return 2 if len(required) >= 2 else 1
 
 
 class _Input:
@@ -147,7 +154,7 @@ class _Input:
         if isinstance(value, numbers.Number):
             self.value, self.arity = float(value), 0
         elif callable(value):
-            self.value, self.arity = value, _callable_arity(value)
+            self.value, self.arity = value, _callable_arity(value, name)
         else:
             raise ModelError(f"specified input {name}: give a number, a SymPy "
                              f"expression in t, or a callable, not {value!r}")

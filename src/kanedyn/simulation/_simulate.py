@@ -164,6 +164,11 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         On Ctrl-C; its ``result`` holds the partial result (``success=False``,
         ``message="interrupted"``).  A subclass of ``KeyboardInterrupt``.
     """
+    if not (hasattr(model, "n_states") and callable(getattr(model, "rhs", None))):
+        hint = (": make one with .numeric(constants=...)" if hasattr(model, "numeric")
+                else "")
+        raise TypeError(f"simulate needs a numerical model, got {type(model).__name__}"
+                        f"{hint}")
     t0, t1 = _check_span(t_span)
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
