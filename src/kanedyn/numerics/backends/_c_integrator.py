@@ -328,23 +328,29 @@ static int kd_r23_try(KdIntegrator *ig, double t, const double *y, const double 
     return 0;
 }
 
+/* a Python callback's ValueError (an input's or event's failure, named by
+   kanedyn): its text into text[size], the error cleared; 0 for any other error */
+static int kd_callback_failure(char *text, size_t size) {
+    if (!PyErr_ExceptionMatches(PyExc_ValueError)) return 0;
+    PyObject *type, *value, *traceback;
+    PyErr_Fetch(&type, &value, &traceback);
+    PyObject *str = value ? PyObject_Str(value) : NULL;
+    const char *utf8 = str ? PyUnicode_AsUTF8(str) : NULL;
+    snprintf(text, size, "%s", utf8 ? utf8 : "a Python callback raised ValueError");
+    Py_XDECREF(str); Py_XDECREF(type); Py_XDECREF(value); Py_XDECREF(traceback);
+    PyErr_Clear();
+    return 1;
+}
+
 /* an error inside the loop: Ctrl-C (a KeyboardInterrupt raised in a Python callback
-   or by the signal check) keeps what was computed, and so does a ValueError of a
-   Python callback (an input's or event's failure, named by kanedyn), whose text
-   becomes the message; any other error propagates */
+   or by the signal check) keeps what was computed, and so does a callback's
+   ValueError, whose text becomes the message; any other error propagates */
 #define KD_FAIL do { \
         if (PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) { \
             PyErr_Clear(); status = -1; failed = 1; interrupted = 1; \
             message = "interrupted"; goto finish; } \
-        if (PyErr_ExceptionMatches(PyExc_ValueError)) { \
-            PyObject *e_type, *e_value, *e_tb, *e_text; \
-            PyErr_Fetch(&e_type, &e_value, &e_tb); \
-            e_text = e_value ? PyObject_Str(e_value) : NULL; \
-            const char *e_utf8 = e_text ? PyUnicode_AsUTF8(e_text) : NULL; \
-            snprintf(error_text, sizeof(error_text), "%s", \
-                     e_utf8 ? e_utf8 : "a Python callback raised ValueError"); \
-            Py_XDECREF(e_text); Py_XDECREF(e_type); Py_XDECREF(e_value); Py_XDECREF(e_tb); \
-            PyErr_Clear(); status = -1; failed = 1; message = error_text; goto finish; } \
+        if (kd_callback_failure(error_text, sizeof(error_text))) { \
+            status = -1; failed = 1; message = error_text; goto finish; } \
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
