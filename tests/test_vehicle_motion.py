@@ -103,6 +103,15 @@ def test_bad_csv_names_file_and_column(tmp_path, text, column, what):
     assert f"'{column}'" in msg or not column
 
 
+@pytest.mark.parametrize("encoding", ["latin-1", "utf-16"])
+def test_csv_not_utf8_is_named(tmp_path, encoding):
+    """A spreadsheet's export in another encoding (a Latin-1 unit, UTF-16)."""
+    path = tmp_path / "bad_pulse.csv"
+    path.write_text(GOOD.replace("ax [g]", "ax [m/s\u00b2]"), encoding=encoding)
+    with pytest.raises(ModelError, match=r"bad_pulse\.csv: not UTF-8 text \(byte 0x"):
+        kd.read_pulse_csv(path)
+
+
 def test_absent_rates_mean_no_rotation_and_partial_rates_are_read(tmp_path):
     series = kd.read_pulse_csv(_write(tmp_path / "a.csv", GOOD))
     assert series.rate_columns == () and not np.any(series.angular_rate)

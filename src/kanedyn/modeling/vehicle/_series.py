@@ -145,17 +145,22 @@ def read_pulse_csv(path):
         raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
     notes, rows, header, header_line = [], [], None, 0
     with handle:
-        for line_no, row in enumerate(csv.reader(handle), start=1):
-            if not row or not "".join(row).strip():
-                continue
-            if row[0].lstrip().startswith("#"):
-                notes.append(",".join(row).lstrip()[1:].strip())
-                continue
-            if header is None:
-                header, header_line = row, line_no
-                columns = _parse_header(row, source)
-                continue
-            rows.append((line_no, row))
+        try:
+            lines = handle.read().splitlines()
+        except UnicodeDecodeError as exc:
+            raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
+                             f"at offset {exc.start}); save it as UTF-8 CSV") from None
+    for line_no, row in enumerate(csv.reader(lines), start=1):
+        if not row or not "".join(row).strip():
+            continue
+        if row[0].lstrip().startswith("#"):
+            notes.append(",".join(row).lstrip()[1:].strip())
+            continue
+        if header is None:
+            header, header_line = row, line_no
+            columns = _parse_header(row, source)
+            continue
+        rows.append((line_no, row))
     if header is None:
         raise ModelError(f"{source}: no header line (need t, ax, ay, az with units)")
     data = {}
