@@ -191,6 +191,24 @@ def test_input_function_without_argument_and_equations_instead_of_a_model(spring
         kd.simulate(eom, (0.0, 1.0), [1.0, 0.0])
 
 
+def test_coordinate_left_out_of_q_ind_is_pointed_at():
+    """A function of time in the kinematics that is neither a coordinate nor
+    given is an input; when its rates appear, the message says it may be a
+    coordinate left out of q_ind."""
+    q1, q2, u1 = me.dynamicsymbols("q1 q2 u1")
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", [q1, N.z])
+    B = A.orientnew("B", "Axis", [q2, A.z])
+    A.set_ang_vel(N, u1 * N.z)
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    eom = kd.kane(frame=N, q_ind=[q1], u_ind=[u1], kd_eqs=[q1.diff() - u1],
+                  bodies=[me.Particle("p", O.locatenew("P", A.x + B.x), 1)])
+    with pytest.raises(kd.MissingValueError, match=r"missing value for the specified input "
+                       r"q2\(t\); .*; if q2\(t\) is a coordinate, list it in q_ind"):
+        eom.numeric()
+
+
 @pytest.mark.parametrize("given", ["list", "dict"])
 def test_initial_state_not_finite(spring, given):
     """A ``nan`` initial value is refused naming the state, whether the state

@@ -242,10 +242,15 @@ def _resolve_specified(eom, specified):
     for ext in needed:
         int_ = table.specified[ext]
         if int_ not in substitutions and int_ not in providers:
+            base = ext.expr if isinstance(ext, sm.Derivative) else ext
+            rates = any(isinstance(e, sm.Derivative) and e.expr == base for e in needed)
+            hint = (f"; if {base} is a coordinate, list it in q_ind or q_dep with its "
+                    "kinematic equation (a function of time that is neither is an input)"
+                    if rates else "")
             raise MissingValueError(
                 f"missing value for the specified input {ext}; pass it in "
                 "specified={...} (a number, a SymPy expression in t, or a callable "
-                "of t or of (t, y))")
+                f"of t or of (t, y)){hint}")
     return substitutions, providers
 
 
