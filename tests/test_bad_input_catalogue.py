@@ -219,6 +219,15 @@ def test_initial_state_not_finite(spring, given):
         kd.simulate(model, (0.0, 1.0), y0)
 
 
+def test_state_value_that_is_not_a_number(spring):
+    eom, model, _ = spring
+    with pytest.raises(ValueError, match="^initial value of q must be a number, got 'abc'$"):
+        kd.simulate(model, (0.0, 1.0), {"q": "abc", "u": 0.0})
+    with pytest.raises(ValueError, match="^operating-point value of q must be a number"):
+        eom.linearize(op_point={"q": "abc", "u": 0.0}, constants={"m": 1.0, "k": 4.0},
+                      specified={"F": 0.0})
+
+
 # ------------------------------------------------------ simulate() options
 def _event(t, y):
     return y[0]

@@ -559,7 +559,11 @@ class NumericModel(StateLayout):
             given = set()
             for key, value in values.items():
                 idx = self.index(key)
-                y[idx] = float(value)
+                try:
+                    y[idx] = float(value)
+                except (TypeError, ValueError):
+                    raise ValueError(f"{what} of {names[idx]} must be a number, got "
+                                     f"{value!r}") from None
                 given.add(idx)
             n, l, o, m = self.n_q, self.n_q_dep, self.n_u, self.n_u_dep
             independent = list(range(n - l)) + list(range(n, n + o - m))
