@@ -93,6 +93,8 @@ GOOD = "t [s],ax [g],ay [g],az [g]\n" + "".join(
     (GOOD.replace("az [g]", "az"), "az", "no unit"),
     (GOOD.replace("az [g]", "az [furlong]"), "az", "unknown unit"),
     ("t [s],ax [g],ay [g],az [g]\n0,0,0,0\n", "", "samples"),
+    (GOOD.replace(",0,0\n", ",0,0,7\n", 1), "", "line 2 has 5 cells, the header (line 1) "
+                                                  "names 4 columns"),
 ])
 def test_bad_csv_names_file_and_column(tmp_path, text, column, what):
     path = _write(tmp_path / "bad_pulse.csv", text)

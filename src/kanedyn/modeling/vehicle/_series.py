@@ -160,6 +160,9 @@ def read_pulse_csv(path):
             header, header_line = row, line_no
             columns = _parse_header(row, source)
             continue
+        if len(row) > len(header) and "".join(row[len(header):]).strip():
+            raise ModelError(f"{source}: line {line_no} has {len(row)} cells, the header "
+                             f"(line {header_line}) names {len(header)} columns")
         rows.append((line_no, row))
     if header is None:
         raise ModelError(f"{source}: no header line (need t, ax, ay, az with units)")
