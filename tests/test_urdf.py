@@ -346,6 +346,8 @@ BAD = [
     ("missing mass", '<mass value="2.0"/>', "", "<link name='arm'>",
      '<inertial>\n      <origin xyz="0.1',
      "has no <mass>"),
+    ("two masses", '<mass value="2.0"/>', '<mass value="2.0"/><mass value="3.5"/>',
+     "<link name='arm'>", '<mass value="3.5"/>', "<inertial> has 2 <mass> elements"),
     ("negative inertia", 'ixx="0.05"', 'ixx="-0.05"', "<link name='arm'>", 'ixx="-0.05"',
      "not positive semi-definite"),
     ("indefinite inertia", 'ixy="0.0002"', 'ixy="0.5"', "<link name='slider'>", 'ixy="0.5"',

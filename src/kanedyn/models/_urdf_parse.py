@@ -244,6 +244,15 @@ class _Reader:
         self.source = str(source)
         self.package_dirs = [Path(d) for d in (package_dirs or [])]
 
+    def one(self, parent, tag, owner):
+        """The ``<tag>`` child of ``parent``, or None; a second one is refused (which
+        of them counts would be a guess)."""
+        found = parent.findall(tag)
+        if len(found) > 1:
+            raise self.error(owner, f"<{parent.tag}> has {len(found)} <{tag}> elements; "
+                             "give one", found[1].line)
+        return found[0] if found else None
+
     def error(self, element, message, line=None):
         return URDFError(f"{self.source}:{line or element.line}: {element.label()}: "
                          f"{message}")
@@ -273,7 +282,7 @@ class _Reader:
         return tuple(self.number(element, owner, key, text=p) for p in parts)
 
     def origin(self, parent_element, owner):
-        origin = parent_element.find("origin")
+        origin = self.one(parent_element, "origin", owner)
         return (self.vector(origin, owner, "xyz", 3, (0.0, 0.0, 0.0)),
                 self.vector(origin, owner, "rpy", 3, (0.0, 0.0, 0.0)))
 
@@ -285,16 +294,16 @@ class _Reader:
 
     # -- links ------------------------------------------------------------------
     def inertial(self, link_el):
-        el = link_el.find("inertial")
+        el = self.one(link_el, "inertial", link_el)
         if el is None:
             return None
-        mass_el = el.find("mass")
+        mass_el = self.one(el, "mass", link_el)
         if mass_el is None:
             raise self.error(link_el, "<inertial> has no <mass>", el.line)
         mass = self.number(mass_el, link_el, "value")
         if mass < 0:
             raise self.error(link_el, f"negative mass {mass}", mass_el.line)
-        in_el = el.find("inertia")
+        in_el = self.one(el, "inertia", link_el)
         if in_el is None:
             raise self.error(link_el, "<inertial> has no <inertia>", el.line)
         c = {k: self.number(in_el, link_el, k)
@@ -312,7 +321,7 @@ class _Reader:
         return Inertial(mass, xyz, rpy, inertia)
 
     def geometry(self, link_el, vis_el):
-        geo = vis_el.find("geometry")
+        geo = self.one(vis_el, "geometry", link_el)
         if geo is None or not geo.children:
             raise self.error(link_el, f"<{vis_el.tag}> has no <geometry>", vis_el.line)
         shape = geo.children[0]
@@ -358,16 +367,17 @@ class _Reader:
         for vis_el in link_el.findall(tag):
             shape, size, filename = self.geometry(link_el, vis_el)
             xyz, rpy = self.origin(vis_el, link_el)
+            material = self.one(vis_el, "material", link_el)
             out.append(Visual(link=name, shape=shape, size=size, xyz=xyz, rpy=rpy,
                               line=vis_el.line, source=self.source, filename=filename,
                               path=self.resolve_mesh(filename) if filename else None,
-                              rgba=self.rgba(vis_el.find("material"), link_el, materials)))
+                              rgba=self.rgba(material, link_el, materials)))
         return tuple(out)
 
     def rgba(self, mat_el, owner, materials):
         if mat_el is None:
             return None
-        colour = mat_el.find("color")
+        colour = self.one(mat_el, "color", owner)
         if colour is not None and "rgba" in colour.attrib:
             return self.vector(colour, owner, "rgba", 4, None)
         return materials.get(mat_el.attrib.get("name"))
@@ -386,12 +396,12 @@ class _Reader:
                              f"{', '.join(SUPPORTED_JOINTS)})")
         links = {}
         for tag in ("parent", "child"):
-            sub = el.find(tag)
+            sub = self.one(el, tag, el)
             if sub is None or not sub.attrib.get("link"):
                 raise self.error(el, f"has no <{tag} link=...>")
             links[tag] = sub.attrib["link"]
         xyz, rpy = self.origin(el, el)
-        axis_el = el.find("axis")
+        axis_el = self.one(el, "axis", el)
         axis = self.vector(axis_el, el, "xyz", 3, (1.0, 0.0, 0.0))
         norm = math.sqrt(sum(a * a for a in axis))
         if kind != "fixed":
@@ -399,17 +409,17 @@ class _Reader:
                 raise self.error(el, "joint axis is zero", axis_el.line)
             axis = tuple(a / norm for a in axis)
         extra = {}
-        limit = el.find("limit")
+        limit = self.one(el, "limit", el)
         if limit is not None:
             for key in ("lower", "upper", "velocity", "effort"):
                 if key in limit.attrib:
                     extra[key] = self.number(limit, el, key)
-        dyn = el.find("dynamics")
+        dyn = self.one(el, "dynamics", el)
         if dyn is not None:
             for key in ("damping", "friction"):
                 if key in dyn.attrib:
                     extra[key] = self.number(dyn, el, key)
-        mimic = el.find("mimic")
+        mimic = self.one(el, "mimic", el)
         if mimic is not None:
             extra["mimic"] = (mimic.attrib.get("joint"),
                               self.number(mimic, el, "multiplier", default=1.0),
@@ -427,7 +437,7 @@ def parse_robot(path, package_dirs=None):
                         "not <robot>: not a URDF file")
     materials = {}
     for mat in root.findall("material"):
-        colour = mat.find("color")
+        colour = reader.one(mat, "color", mat)
         if colour is not None and "rgba" in colour.attrib and mat.attrib.get("name"):
             materials[mat.attrib["name"]] = reader.vector(colour, mat, "rgba", 4, None)
     links = {}
