@@ -307,6 +307,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             seg_eval = t_eval[keep & (t_eval <= t1)]
         z0 = np.concatenate([y, [dissipated, contact_work]])
         sol = None
+        guard.last_step = None  # a step of an earlier segment may lie past its end
         if segment_c is not None:
             sol = _compiled_segment(segment_c, model, t, t1, z0, frozen_modes, frozen_dirs,
                                     mode_events, stabilization, rtol, atol)
@@ -335,6 +336,15 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         first = False
         if sol.status == -1:
             status, message = -1, guard.stop_reason or sol.message
+            last = guard.last_step
+            if (t_eval is not None and last is not None and np.all(np.isfinite(last[1]))
+                    and last[0] > max((seg[-1] for seg in ts if seg.size), default=t)):
+                # sparse outputs: keep the state the solver accepted last
+                ts.append(np.array([last[0]]))
+                ys.append(last[1][:n, None])
+                work.append(last[1][n:, None])
+                point_modes.append(tuple(frozen_modes))
+                point_dirs.append(tuple(frozen_dirs))
             break
         if sol.status == 0:
             break

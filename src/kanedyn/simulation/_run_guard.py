@@ -44,6 +44,7 @@ class RunGuard:
         self.failure_state = None
         self.failure_text = None
         self.interrupted = False
+        self.last_step = None  # (t, y) the solver accepted last
 
     def fail(self, t, y, text=None):
         """Record the first failure at ``(t, y)`` (``text`` overrides the diagnosis)."""
@@ -193,6 +194,8 @@ def guarded_method(method, guard):
                 raise
             if guard.failed:
                 return False, guard.stop_reason
+            if success:
+                guard.last_step = (self.t, self.y.copy())
             return success, message
 
     Guarded.__name__ = Guarded.__qualname__ = base.__name__

@@ -274,6 +274,7 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         if t_eval is not None:
             ahead = direction * (t_eval - t_start)
             seg_eval = t_eval[ahead >= 0] if first else t_eval[ahead > 0]
+        guard.last_step = None  # a step of an earlier segment may lie past its end
         sol = solve_ivp(integrand, (t_start, t1), y_start, method=solver,
                         t_eval=seg_eval, events=all_events or None,
                         dense_output=dense_output, rtol=rtol, atol=atol, **options)
@@ -327,6 +328,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                 ys.append(y_start[:, None])
             continue
         break
+    if status == -1 and t_eval is not None:
+        _keep_last_step(ts, ys, guard.last_step, direction)
     t = np.concatenate(ts) if ts else np.zeros(0)
     y = np.concatenate(ys, axis=1) if ys else np.zeros((model.n_states, 0))
     message = monitor.finish(message, t0, y_init, t[-1] if t.size else t0,
@@ -337,6 +340,19 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         y_events=[np.asarray(v).reshape(-1, model.n_states) for v in y_events],
         dense_segments=segments if dense_output else None, counters=counters,
         projections=projections, method=method_name, **common)
+
+
+def _keep_last_step(ts, ys, last_step, direction):
+    """A run that ended early with output times keeps the state the solver
+    accepted last when it lies beyond the last output time (a run with sparse
+    outputs would otherwise lose everything after the last of them)."""
+    if last_step is None or not np.all(np.isfinite(last_step[1])):
+        return
+    t_last = max((seg[-1] for seg in ts if seg.size), key=lambda t: direction * t,
+                 default=None)
+    if t_last is None or direction * (last_step[0] - t_last) > 0:
+        ts.append(np.array([last_step[0]]))
+        ys.append(np.asarray(last_step[1])[:, None])
 
 
 def _terminal_time(events, t_events, direction):

@@ -602,6 +602,13 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     }
 
 finish:
+    if (failed && te != NULL && t != t0) {
+        /* ended early with output times: keep the state accepted last when it lies
+           beyond the last output (sparse outputs would lose everything after it) */
+        int keep = out_t.n == 0 || dir * (t - out_t.data[out_t.n - 1]) > 0;
+        for (int i = 0; i < KD_NX && keep; ++i) if (!isfinite(y[i])) keep = 0;
+        if (keep && (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX))) goto done;
+    }
     if (failed && ig.singular && !interrupted) {
         static char text[160];
         snprintf(text, sizeof(text), "singular equations of motion at t=%.6g (the "
