@@ -298,6 +298,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         first = False
         if sol.status == -1:
             status, message = -1, guard.stop_reason or sol.message
+            if t_eval is not None:  # the solver failed: its last step is on the path
+                _keep_last_step(ts, ys, guard.last_step, direction)
             break
         if sol.status == 1:
             t_end = _terminal_time(all_events, sol.t_events, direction)
@@ -328,8 +330,6 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                 ys.append(y_start[:, None])
             continue
         break
-    if status == -1 and t_eval is not None:
-        _keep_last_step(ts, ys, guard.last_step, direction)
     t = np.concatenate(ts) if ts else np.zeros(0)
     y = np.concatenate(ys, axis=1) if ys else np.zeros((model.n_states, 0))
     message = monitor.finish(message, t0, y_init, t[-1] if t.size else t0,

@@ -405,7 +405,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KdBuf out_t = {0}, out_y = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
     PyObject *result = NULL;
     double *J = NULL;
-    int status = 0, failed = 0, interrupted = 0;
+    int status = 0, failed = 0, interrupted = 0, keep_last = 1;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
     char error_text[512];  /* the message of a callback's ValueError (KD_FAIL) */
@@ -582,9 +582,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (residual < 0) KD_FAIL;
         if (residual > project_tol) {
             int proj = kd_project(self, t, y);
-            if (proj < 0) KD_FAIL;
+            if (proj < 0) { keep_last = 0; KD_FAIL; }
             if (proj != 0) {
-                status = -1; failed = 1;
+                status = -1; failed = 1; keep_last = 0;  /* y half projected */
                 message = "the constraints could not be satisfied by projection (singular "
                           "constraint Jacobian)";
             } else {
@@ -602,7 +602,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     }
 
 finish:
-    if (failed && te != NULL && t != t0) {
+    if (failed && keep_last && te != NULL && t != t0) {
         /* ended early with output times: keep the state accepted last when it lies
            beyond the last output (sparse outputs would lose everything after it) */
         int keep = out_t.n == 0 || dir * (t - out_t.data[out_t.n - 1]) > 0;
