@@ -76,8 +76,7 @@ units = _c.generate_c_units
 def timed_units(*args, **kwargs):
     mark("code generation starts")
     for k, unit in enumerate(units(*args, **kwargs)):
-        level = "-O1" if unit.startswith(_c_build.LIGHT_UNIT) else \\
-            "-O0" if unit.startswith(_c_build.COLD_UNIT) else "-O2"
+        level = _c_build.unit_flags(unit)[0]
         defined = [line.split("(")[0].split()[-1].lstrip("*") for line in unit.splitlines()
                    if line.startswith(("KD_GEN", "static")) and line.rstrip().endswith("{{")
                    and "kd_powi" not in line and "kd_sign" not in line]

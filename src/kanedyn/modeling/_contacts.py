@@ -84,8 +84,7 @@ class Sphere(Surface):
     """
 
     def __init__(self, frame, origin, radius, inside=True, name="sphere"):
-        radius = _check_coefficient(radius, f"surface {name}: radius", lower=0.0,
-                                    strict=True)
+        radius = _check_coefficient(radius, f"surface {name}: radius", positive=True)
         r = sm.sqrt(sum(c ** 2 for c in SURFACE_COORDINATES))
         super().__init__(frame, origin, radius - r if inside else r - radius, name)
         self.radius = radius
@@ -99,8 +98,8 @@ class Ellipsoid(Surface):
     """
 
     def __init__(self, frame, origin, a, b, c, inside=True, name="ellipsoid"):
-        a, b, c = (_check_coefficient(value, f"surface {name}: semi-axis {axis}", lower=0.0,
-                                      strict=True) for value, axis in zip((a, b, c), "abc"))
+        a, b, c = (_check_coefficient(value, f"surface {name}: semi-axis {axis}", positive=True)
+                   for value, axis in zip((a, b, c), "abc"))
         x, y, z = SURFACE_COORDINATES
         level = (x / a) ** 2 + (y / b) ** 2 + (z / c) ** 2 - 1
         super().__init__(frame, origin, -level if inside else level, name)
@@ -112,17 +111,17 @@ class ImplicitSurface(Surface):
     """Any surface :math:`g(x_s, y_s, z_s) = 0` (see :class:`Surface`)."""
 
 
-def _check_coefficient(value, name, lower=0.0, upper=None, strict=False):
-    """Numbers are checked now (``strict``: above ``lower``, not equal to it);
+def _check_coefficient(value, name, lower=0.0, upper=None, positive=False):
+    """Numbers are checked now (``positive``: above ``lower``, not equal to it);
     symbols when their values are given."""
     if value is None:
         return None
     value = as_expression(value, name)
     if value.is_number:
         v = float(value)
-        if v < lower or (strict and v == lower) or (upper is not None and v > upper):
+        if v < lower or (positive and v == lower) or (upper is not None and v > upper):
             bound = (f"in [{lower}, {upper}]" if upper is not None
-                     else f"> {lower}" if strict else f">= {lower}")
+                     else f"> {lower}" if positive else f">= {lower}")
             raise ModelError(f"{name} must be {bound}, got {v}")
     return value
 

@@ -416,11 +416,11 @@ def _check_option_names(options, has_contacts):
     import difflib
     import inspect
     known = _SOLVE_IVP_OPTIONS | (_CONTACT_OPTIONS if has_contacts else set())
-    keywords = set(inspect.signature(simulate).parameters) - {"model", "t_span", "y0",
-                                                               "options"}
     for name in sorted(set(options) - known):
         if name in _CONTACT_OPTIONS:
             raise OptionError(f"option {name!r} applies to models with contacts only")
+        keywords = set(inspect.signature(simulate).parameters) - {"model", "t_span", "y0",
+                                                                   "options"}
         close = difflib.get_close_matches(name, sorted(known | keywords), n=2)
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise OptionError(f"unknown option {name!r} of simulate{hint}")

@@ -140,16 +140,13 @@ def read_pulse_csv(path):
     """
     source = str(path)
     try:
-        handle = open(Path(path), newline="", encoding="utf-8")
+        lines = Path(path).read_text(encoding="utf-8").splitlines()
     except OSError as exc:
         raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
+                         f"at offset {exc.start}); save it as UTF-8 CSV") from None
     notes, rows, header, header_line = [], [], None, 0
-    with handle:
-        try:
-            lines = handle.read().splitlines()
-        except UnicodeDecodeError as exc:
-            raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
-                             f"at offset {exc.start}); save it as UTF-8 CSV") from None
     for line_no, row in enumerate(csv.reader(lines), start=1):
         if not row or not "".join(row).strip():
             continue

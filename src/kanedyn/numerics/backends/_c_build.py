@@ -48,8 +48,8 @@ import numpy as np
 from ..._errors import KanedynError
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "prefetch", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT",
-           "COLD_UNIT"]
+           "cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN", "UNIT_MARK",
+           "LIGHT_UNIT", "COLD_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
@@ -375,12 +375,18 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
         os.replace(tmp_manifest, manifest)
 
 
-def _unit_object(text, command, directory):
-    """``(flags, object)`` of a translation unit: its compiler flags (-O1 for a
-    :data:`LIGHT_UNIT`, -O0 for a :data:`COLD_UNIT`) and its place in the
-    object cache of ``directory``, under the hash of its text and flags."""
-    flags = _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else \
+def unit_flags(text):
+    """The compiler flags of a translation unit: -O1 for a :data:`LIGHT_UNIT`,
+    -O0 for a :data:`COLD_UNIT`, else -O2 (the optimization level first)."""
+    return _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else \
         _COLD_FLAGS if text.startswith(COLD_UNIT) else _UNIT_FLAGS
+
+
+def _unit_object(text, command, directory):
+    """``(flags, object)`` of a translation unit: its :func:`unit_flags` and its
+    place in the object cache of ``directory``, under the hash of its text and
+    flags."""
+    flags = unit_flags(text)
     return flags, directory / "objects" / f"{_build_key(text, command + flags)}.o"
 
 
