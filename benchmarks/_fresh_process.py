@@ -27,9 +27,11 @@ def byte_compile_package():
     compileall.compile_dir(str(Path(SRC) / "kanedyn"), quiet=1)
 
 
-def run_python(code, cache):
+def run_python(code, cache, quick=None):
     """Run ``code`` in a fresh interpreter with the checkout's package and the cache
-    directory ``cache`` (``XDG_CACHE_HOME``; ``KANEDYN_CACHE_DIR`` removed).
+    directory ``cache`` (``XDG_CACHE_HOME``; ``KANEDYN_CACHE_DIR`` removed);
+    ``quick=False`` turns the quick compiler off (``KANEDYN_QUICK_CC`` empty),
+    ``None`` leaves the environment's choice.
 
     Returns
     -------
@@ -38,5 +40,7 @@ def run_python(code, cache):
     """
     env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=cache)
     env.pop("KANEDYN_CACHE_DIR", None)
+    if quick is False:
+        env["KANEDYN_QUICK_CC"] = ""
     return subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           env=env)

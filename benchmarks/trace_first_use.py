@@ -4,11 +4,12 @@ The same path as ``bench_first_use.py`` (chain3d, style="positions", an empty
 cache directory, build -> ``numeric(backend="c")`` -> first ``rhs``), with the
 clock read at every stage (the imports of NumPy, SymPy and
 ``sympy.physics.mechanics``, the model's definition, the derivation, each
-translation unit as the code generation hands it over) and every compiler run's
-start and end (the prefetched generic runtime included).  Seconds from before
+translation unit as the code generation hands it over, the optimized module
+taking the quick one's place) and every compiler run's start and end (the quick
+compiler's, or the prefetched generic runtime's without it).  Seconds from before
 ``import numpy``.  The machine is shared: compare traces of one hour only.
 
-    python benchmarks/trace_first_use.py [--n 10] [--repeat 1]
+    python benchmarks/trace_first_use.py [--n 10] [--repeat 1] [--no-quick]
 """
 
 from __future__ import annotations
@@ -38,6 +39,7 @@ import kanedyn as kd
 import sympy.physics.mechanics
 mark("import kanedyn, sympy.physics.mechanics")
 from kanedyn.numerics.backends import _c, _c_build
+from kanedyn.numerics.backends._c_quick import quick_command
 
 class Run(subprocess.Popen):
     # a compiler run: its start, and its end when the build first sees it ended
@@ -46,6 +48,8 @@ class Run(subprocess.Popen):
         sources = [part for part in cmd if part.endswith(".c")]
         flags = [part for part in cmd if part in ("-O0", "-O1", "-O2")]
         what = "link" if not sources else (
+            f"quick compiler ({{Path(cmd[0]).name}}): {{len(sources)}} units"
+            if cmd[0] == (quick_command() or [None])[0] else
             ("prefetched " if "prefetch-" in sources[0] else "")
             + Path(sources[0]).name + " " + " ".join(flags))
         self.record = [time.perf_counter() - t0, None, what]
@@ -89,15 +93,20 @@ m = d.numeric(backend="c")
 mark("module loaded")
 m.rhs(0.0, d.initial(m))
 mark("first rhs")
+first = m._module
+kd.numerics.finish_compiling()
+if m._module is not first:
+    mark("optimized module in use")
 print(json.dumps([marks, runs]))
 """
 
 
-def trace(n):
+def trace(n, quick=None):
     """``(marks, runs)`` of one cold process: ``(s, stage)`` and
-    ``[start s, end s, unit]`` per compiler run."""
+    ``[start s, end s, unit]`` per compiler run; ``quick=False``: without the
+    quick compiler (see :func:`_fresh_process.run_python`)."""
     with tempfile.TemporaryDirectory() as cache:
-        proc = run_python(CHILD.format(n=n), cache)
+        proc = run_python(CHILD.format(n=n), cache, quick=quick)
     if proc.returncode != 0:
         raise SystemExit(proc.stderr[-3000:])
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -107,10 +116,12 @@ def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--n", type=int, default=10)
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--no-quick", action="store_true",
+                        help="without the quick compiler (KANEDYN_QUICK_CC empty)")
     args = parser.parse_args(argv)
     byte_compile_package()
     for k in range(args.repeat):
-        marks, runs = trace(args.n)
+        marks, runs = trace(args.n, quick=False if args.no_quick else None)
         print(f"chain3d n = {args.n}, cold, trace {k + 1}")
         for at, stage in marks:
             print(f"  {at:6.3f} s  {stage}")

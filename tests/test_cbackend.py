@@ -22,6 +22,13 @@ from kanedyn.numerics.backends._python import CodegenError
 pytestmark = pytest.mark.skipif(_cbackend.compiler_command() is None,
                                 reason="no C compiler")
 
+
+@pytest.fixture(autouse=True)
+def _optimizing_compiler_only(monkeypatch):
+    """These tests check the optimizing compiler's builds, their cache and their
+    order; models first compiled by the quick compiler are tests/test_quick_compile.py's."""
+    monkeypatch.setenv("KANEDYN_QUICK_CC", "")
+
 MODELS = [("pendulum", {"tension": True}), ("n-link-pendulum-on-cart", {"n": 3}),
           ("chain3d", {"n": 4}), ("chaplygin-sleigh", {"lateral_force": True}),
           ("four-bar", {}), ("rolling-disk", {"normal_force": True}),

@@ -71,6 +71,7 @@ from kanedyn.numerics import COMPILE_STATS
 d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
 m = d.numeric(backend="c", constants={{"m": {mass}}})
 f = m.rhs(0.0, d.initial(m))
+kd.numerics.finish_compiling()  # a module from the quick compiler: the optimized one too
 print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f)]))
 """
 
@@ -104,6 +105,7 @@ d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
 m = d.numeric(backend="c")
 f = m.rhs(0.0, d.initial(m))
 run = kd.simulate(m, (0.0, 0.5), d.initial(m))
+kd.numerics.finish_compiling()
 print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
                   list(f) + list(run.y[:, -1]) + [run.method],
                   sorted(x for x in ("sympy", "scipy", "matplotlib") if x in sys.modules)]))
@@ -230,10 +232,11 @@ def test_cache_key_reads_sympys_version_without_importing_it(monkeypatch):
 def test_the_first_use_trace_sees_every_stage_and_compiler_run(monkeypatch):
     """``benchmarks/trace_first_use.py`` (the breakdown in docs/benchmarks.md)
     reads kanedyn's internals: every stage in order, and one compiler run per
-    generated unit (the runtime's prefetched) and the link, each ended."""
+    generated unit (the runtime's prefetched) and the link, each ended (here
+    without the quick compiler; with it, test_quick_compile.py)."""
     monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
     from trace_first_use import trace
-    marks, runs = trace(2)
+    marks, runs = trace(2, quick=False)
     stages = [stage for _, stage in marks]
     units = [stage for stage in stages if stage.startswith("unit")]
     assert [stage for stage in stages if not stage.startswith("unit")] == [

@@ -23,16 +23,19 @@ Models are picklable: they carry their generated source and recompile it.
 
 from __future__ import annotations
 
+import functools
 import inspect
 import numbers
 import pickle
 import sys
 import warnings
+import weakref
 from collections.abc import Mapping
 
 import numpy as np
 
 from .._errors import ConstraintError, MissingValueError, ModelError
+from .backends._c_quick import QUICK_STATS, when_optimized
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
@@ -343,6 +346,16 @@ class _CompiledFunctions(dict):
         return self[name]
 
 
+def _move_onto(model_ref, quick, optimized):
+    """Bind the model (a weak reference) to the ``optimized`` module where it
+    still uses the ``quick`` one (not after it moved on to the module with
+    every function)."""
+    model = model_ref()
+    if model is not None and model._module is quick:
+        model._bind(optimized)
+        QUICK_STATS["swaps"] += 1
+
+
 def _full_module(model):
     """The C module with every function of ``model`` (its first one left M out)."""
     from .backends._c import fingerprint, generate_c_units
@@ -394,7 +407,8 @@ class NumericModel(StateLayout):
         raise AttributeError(f"{type(self).__name__!r} object has no attribute {name!r}")
 
     def _bind(self, module):
-        """Use the compiled ``module``: its Model object and entry points."""
+        """Use the compiled ``module``: its Model object and entry points (a
+        module from the quick compiler until its optimized build is loaded)."""
         self._module = module
         self._fn = _CompiledFunctions(self, module)
         self._c = module.Model(self._p, self._input_values if self._inputs else None)
@@ -402,6 +416,7 @@ class NumericModel(StateLayout):
             self.rhs = self._c.rhs  # the compiled entry points, called directly
             self.rhs_batch = (self._rhs_batch_first if self._data.get("c_lanes_later")
                               else self._c.rhs_batch)
+        when_optimized(module, functools.partial(_move_onto, weakref.ref(self), module))
 
     #: rows from which ``rhs_batch`` builds (or loads) the module with lane-wise code
     LANES_FROM_ROWS = 64
@@ -457,7 +472,7 @@ class NumericModel(StateLayout):
             if module is None:
                 from .backends._c_build import load_module
                 source = d["c_source"]
-                module = load_module(d["c_key"], lambda: source)
+                module = load_module(d["c_key"], lambda: source, quick=True)
             self._bind(module)
         elif functions is not None:
             self._fn = dict(functions)
@@ -1368,7 +1383,7 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
             # generated only when the module is not in the cache
             c_module = load_module(c_key, lambda: generate_c_units(
                 prog, eager, sizes, describe=lambda e: str(table.external(e)), cse=cse,
-                lanes=False))
+                lanes=False), quick=True)
             lanes_later = lanes_wanted(functions, sizes)
     if backend == "numpy":
         cse = False if cse is None else cse

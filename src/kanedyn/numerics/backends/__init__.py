@@ -3,6 +3,7 @@
 ``_python``         NumPy source from a straight-line program (``backend="numpy"``)
 ``_c``              C source of an extension module (``backend="c"``)
 ``_c_build``        compiling (translation units in parallel) and caching the modules
+``_c_quick``        a model's first module from TinyCC, the optimized one built meanwhile
 ``_c_runtime``      the C runtime every generated module carries
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 """

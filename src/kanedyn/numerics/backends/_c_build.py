@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import functools
 import hashlib
 import importlib.machinery
 import importlib.util
@@ -46,6 +47,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import KanedynError
+from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
            "cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN", "UNIT_MARK",
@@ -136,7 +138,7 @@ def _load(name, path):
     return module
 
 
-def load_module(key_text, make_template, timeout=600):
+def load_module(key_text, make_template, timeout=600, quick=False):
     """Compile (or fetch from the cache) and import a generated module.
 
     Parameters
@@ -150,6 +152,10 @@ def load_module(key_text, make_template, timeout=600):
         string (translation units separated by :data:`UNIT_MARK`) or an
         iterator of units: each is compiled as soon as it comes, while the
         next ones are made (one CPU is left to the caller until the last).
+    quick : bool
+        Whether a module that is not cached may come from the quick compiler
+        first (:mod:`._c_quick`; a caller that asks for it moves its users onto
+        the optimized module with :func:`~._c_quick.when_optimized`).
 
     A cache directory that cannot be written (read-only, or a path that is a
     file) is used read-only where it holds a valid entry; otherwise the
@@ -164,19 +170,28 @@ def load_module(key_text, make_template, timeout=600):
     if command is None:
         raise CompilerError(missing_compiler_text())
     key = _build_key(key_text, command)
+    module = _LOADED.get(key)  # no waiting for an optimized build of the same module
+    if module is not None:
+        return module
     with _LOCK:
         try:
-            return _load_or_build(f"_kd_{key}", key, make_template, command, timeout)
+            module, later = _load_or_build(f"_kd_{key}", key, make_template, command,
+                                           timeout, quick)
         finally:  # a prefetched unit is for this module: not wanted any longer
             _drop_prefetched()
+    if later is not None:  # started once the lock is free: the build takes it
+        optimize_later(module, later)
+    return module
 
 
-def _load_or_build(name, key, make_template, command, timeout):
-    """The module ``name`` of :func:`load_module` (called under its lock)."""
+def _load_or_build(name, key, make_template, command, timeout, quick=False):
+    """``(module, build)``: the module ``name`` of :func:`load_module` (called
+    under its lock) and, for a module from the quick compiler, the function
+    that builds and loads its optimized replacement (else ``None``)."""
     suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
     module = _LOADED.get(key)
     if module is not None:
-        return module
+        return module, None
     directory = cache_dir()
     problem = _unwritable(directory)
     if problem is not None:
@@ -193,13 +208,37 @@ def _load_or_build(name, key, make_template, command, timeout):
             module = _try_cached(name, so_path, manifest)
             if module is None:
                 template = make_template()
-                units = (template.split(UNIT_MARK) if isinstance(template, str)
-                         else template)
-                _build((unit.replace(NAME_TOKEN, name) for unit in units), command,
-                       so_path, manifest, directory, timeout,
-                       single=isinstance(template, str) and UNIT_MARK not in template)
+                single = isinstance(template, str) and UNIT_MARK not in template
+                units = (unit.replace(NAME_TOKEN, name) for unit in (
+                    template.split(UNIT_MARK) if isinstance(template, str) else template))
+                quick_cc = quick_command() if quick else None
+                if quick_cc is not None:
+                    units = list(units)
+                    module = compile_quick(name, units, quick_cc, _includes(), _load,
+                                           timeout)
+                if module is not None:
+                    _LOADED[key] = module
+                    return module, functools.partial(
+                        _optimized, name, key, units, command, timeout, single, directory)
+                _build(units, command, so_path, manifest, directory, timeout, single=single)
                 module = _load(name, so_path)
     _LOADED[key] = module
+    return module, None
+
+
+def _optimized(name, key, units, command, timeout, single, directory):
+    """Build (or find in the cache, built by another process meanwhile) and load
+    the module ``name`` of :func:`load_module` that a quick module stands in for
+    (in the background thread of :func:`~._c_quick.optimize_later`)."""
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    so_path, manifest = directory / f"{name}{suffix}", directory / f"{name}.json"
+    with _LOCK, _FileLock(directory / f"{name}.lock"):
+        module = _try_cached(name, so_path, manifest)
+        if module is None:
+            _build(iter(units), command, so_path, manifest, directory, timeout,
+                   single=single)
+            module = _load(name, so_path)
+        _LOADED[key] = module
     return module
 
 
@@ -448,8 +487,18 @@ def _keep_objects(pairs):
 #: object key -> (compiler process, its output file, the object it writes, the
 #: object's place in the object cache); this process's prefetched units
 _PREFETCHED = {}
-if hasattr(os, "register_at_fork"):  # a forked child does not own its parent's
-    os.register_at_fork(after_in_child=_PREFETCHED.clear)
+
+
+def _after_fork():
+    """A forked child owns neither its parent's prefetched compiles nor a lock
+    that a thread of the parent (an optimized build, :mod:`._c_quick`) held."""
+    global _LOCK
+    _PREFETCHED.clear()
+    _LOCK = threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_after_fork)
 
 
 def prefetch(unit):
@@ -461,7 +510,9 @@ def prefetch(unit):
     derived (:func:`~._c.predicted_runtime_unit`), so that the compiler works
     on it while the equations are derived.  Nothing happens without a
     compiler, with a cache directory that cannot be written, while another
-    thread builds a module, or when the object is cached already.  A unit the
+    thread builds a module, when the object is cached already, or with a
+    quick compiler (:mod:`._c_quick`: the derivation then has both CPUs to
+    itself, and the first module comes from the quick compiler).  A unit the
     next :func:`load_module` does not
     take (a wrong guess, or a module another process built meanwhile) is
     dropped by it (at once where its build starts with another unit), or
@@ -470,8 +521,8 @@ def prefetch(unit):
     previous one).
     """
     command = compiler_command()
-    if command is None or NAME_TOKEN in unit:
-        return
+    if command is None or NAME_TOKEN in unit or quick_command() is not None:
+        return  # with a quick compiler, the derivation has both CPUs to itself
     directory = cache_dir()
     if _unwritable(directory) is not None:
         return

@@ -1,0 +1,215 @@
+"""A model's first module from the quick compiler (TinyCC), the optimized one built
+meanwhile: the same numbers to the bit, every model moved onto the optimized
+module, and every way the quick path can fail leaves a working model."""
+
+import os
+import warnings
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+from kanedyn.numerics.backends import _c_build, _c_quick
+from kanedyn.numerics.backends._c_quick import QUICK_STATS
+
+QUICK_MISSING = ("TinyCC (tcc) is not installed, so every model is compiled by the "
+                 "optimizing compiler alone (install it with 'apt install tcc')")
+
+
+@pytest.fixture()
+def fresh_cache(tmp_path, monkeypatch):
+    """An empty cache directory, nothing loaded in this process, the quick
+    compiler as the environment has it (tcc on the PATH)."""
+    if _c_build.compiler_command() is None:
+        pytest.skip("no C compiler")
+    monkeypatch.delenv("KANEDYN_QUICK_CC", raising=False)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    yield tmp_path
+    _c_quick.finish_compiling()
+
+
+def needs_tcc():
+    if _c_quick.quick_command() is None:
+        pytest.skip(QUICK_MISSING)
+
+
+def cached_modules(folder):
+    return sorted(folder.glob("_kd_*.so"))
+
+
+def evaluations(definition, model, seed=7):
+    """The model's compiled functions on random states: rhs, a batch, the energy
+    or constraint residuals where it has them, and a short run of the compiled loop."""
+    rng = np.random.default_rng(seed)
+    y0 = definition.initial(model)
+    Y = y0 + rng.uniform(-0.3, 0.3, (40, model.n_states))
+    if model.n_q_dep or model.n_u_dep:
+        Y = np.array([model.consistent_state(0.0, y) for y in Y])
+    out = {"rhs": np.array([model.rhs(0.1, y) for y in Y]),
+           "batch": model.rhs_batch(0.1, Y)}
+    if model.has_potential:
+        out["energy"] = np.array([model.total_energy(0.0, y) for y in Y[:5]])
+    if model.n_q_dep or model.n_u_dep:
+        out["residuals"] = np.array([model.constraint_residuals(0.0, y) for y in Y[:5]])
+    run = kd.simulate(model, (0.0, 0.3), Y[0])
+    out["run"] = run.y
+    return out
+
+
+MODELS = [("pendulum", {}), ("n-link-pendulum-on-cart", {"n": 3}), ("chain3d", {"n": 6}),
+          ("chaplygin-sleigh", {"lateral_force": True}), ("four-bar", {}),
+          ("rolling-disk", {"normal_force": True}), ("whipple-bicycle", {})]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name, options", MODELS, ids=[m[0] for m in MODELS])
+def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, name,
+                                                                    options):
+    """The model answers at once from TinyCC's module and moves onto gcc's
+    (cached, for the next process) when it is built: rhs, batches, energies,
+    constraint residuals and the compiled loop's run are equal to the bit."""
+    needs_tcc()
+    definition = kd.models.build(name, **options)
+    before = dict(QUICK_STATS)
+    model = definition.numeric(backend="c")
+    quick = model._module
+    assert QUICK_STATS["quick"] == before["quick"] + 1
+    assert Path(quick.__file__).parent != fresh_cache  # not the cache's module
+    first = evaluations(definition, model)
+    assert _c_quick.finish_compiling(timeout=300)
+    assert model._module is not quick
+    assert Path(model._module.__file__).parent == fresh_cache
+    assert QUICK_STATS["swaps"] >= before["swaps"] + 1
+    then = evaluations(definition, model)
+    for what in first:
+        np.testing.assert_array_equal(first[what], then[what], err_msg=what)
+
+
+def test_copies_made_before_the_optimized_build_move_on_too(fresh_cache):
+    """A copy with other constants shares the quick module and moves onto the
+    optimized one with the original; its own constants are kept."""
+    needs_tcc()
+    definition = kd.models.build("chain3d", n=3)
+    model = definition.numeric(backend="c")
+    heavier = model.with_constants({"m": 2.0})
+    y = definition.initial(model) + 0.2
+    expected = heavier.rhs(0.0, y)
+    assert heavier._module is model._module
+    _c_quick.finish_compiling()
+    assert heavier._module is model._module
+    assert Path(heavier._module.__file__).parent == fresh_cache
+    np.testing.assert_array_equal(heavier.rhs(0.0, y), expected)
+    assert not np.allclose(model.rhs(0.0, y), expected)
+
+
+def test_a_second_model_of_the_same_equations_waits_for_nothing(fresh_cache):
+    """While the optimized build runs, the same module asked for again is the
+    quick one, given at once (no wait for the optimized build)."""
+    needs_tcc()
+    definition = kd.models.build("chain3d", n=3)
+    eom = definition.derive()
+    quick, compiles = QUICK_STATS["quick"], _c_build.STATS["compiles"]
+    model = definition.numeric(eom, backend="c")
+    again = definition.numeric(eom, backend="c")
+    _c_quick.finish_compiling()
+    assert QUICK_STATS["quick"] == quick + 1
+    assert _c_build.STATS["compiles"] == compiles + 1
+    assert model._module is again._module
+    assert Path(model._module.__file__).parent == fresh_cache
+
+
+@pytest.mark.parametrize("setting", ["", "none"])
+def test_quick_compiler_turned_off(fresh_cache, monkeypatch, setting):
+    monkeypatch.setenv("KANEDYN_QUICK_CC", setting)
+    before = dict(QUICK_STATS)
+    model = kd.models.build("pendulum").numeric(backend="c")
+    assert QUICK_STATS == before
+    assert Path(model._module.__file__).parent == fresh_cache
+
+
+def test_a_quick_compiler_that_fails_leaves_the_optimized_build(fresh_cache, monkeypatch):
+    """``false`` as the quick compiler: it makes no module, and the optimized
+    build runs in the foreground."""
+    monkeypatch.setenv("KANEDYN_QUICK_CC", "false")
+    before = dict(QUICK_STATS)
+    definition = kd.models.build("pendulum")
+    model = definition.numeric(backend="c")
+    assert QUICK_STATS["failed"] == before["failed"] + 1
+    assert QUICK_STATS["quick"] == before["quick"]
+    assert Path(model._module.__file__).parent == fresh_cache
+    assert np.all(np.isfinite(model.rhs(0.0, definition.initial(model))))
+
+
+def test_a_quick_compiler_that_is_not_a_program_is_named(fresh_cache, monkeypatch):
+    monkeypatch.setenv("KANEDYN_QUICK_CC", "/nonexistent/tcc-x")
+    with pytest.warns(RuntimeWarning, match=r"KANEDYN_QUICK_CC is '/nonexistent/tcc-x'"):
+        model = kd.models.build("pendulum").numeric(backend="c")
+    assert Path(model._module.__file__).parent == fresh_cache
+
+
+def test_a_failed_optimized_build_keeps_the_quick_module(fresh_cache, monkeypatch):
+    """gcc failing in the background: a warning, and the model goes on with the
+    quick module (its numbers are gcc's anyway)."""
+    needs_tcc()
+
+    def broken(*args, **kwargs):
+        raise _c_build.CompilerError("the C compiler gcc failed (exit status 1): test")
+
+    monkeypatch.setattr(_c_build, "_build", broken)
+    definition = kd.models.build("pendulum")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        model = definition.numeric(backend="c")
+        quick = model._module
+        _c_quick.finish_compiling()
+    assert any("optimized build of a compiled model failed" in str(w.message)
+               and "exit status 1" in str(w.message) for w in caught)
+    assert model._module is quick
+    assert cached_modules(fresh_cache) == []
+    run = kd.simulate(model, (0.0, 0.5), definition.initial(model))
+    assert run.success
+
+
+def test_the_first_use_trace_with_the_quick_compiler(monkeypatch):
+    """``benchmarks/trace_first_use.py``: one quick compiler run before the first
+    rhs, the optimizing compiler's runs after it, and the optimized module in use
+    at the end."""
+    needs_tcc()
+    monkeypatch.syspath_prepend(str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    from trace_first_use import trace
+    marks, runs = trace(2)
+    at = dict((stage, s) for s, stage in marks)
+    assert "optimized module in use" in at
+    quick = [run for run in runs if run[2].startswith("quick compiler")]
+    assert len(quick) == 1 and quick[0][1] <= at["first rhs"]
+    assert not any(what.startswith("prefetched") for _, _, what in runs)
+    assert sum(what == "link" for _, _, what in runs) == 1
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
+def test_a_child_forked_during_the_optimized_build_keeps_working(fresh_cache):
+    """A process forked while the optimized build runs holds none of its locks:
+    the child evaluates the model and builds another without hanging."""
+    needs_tcc()
+    definition = kd.models.build("chain3d", n=4)
+    model = definition.numeric(backend="c")
+    y = definition.initial(model) + 0.1
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: its answer through the pipe, then out at once
+        code = 1
+        try:
+            other = kd.models.build("pendulum").numeric(backend="c")
+            ok = np.all(np.isfinite(other.rhs(0.0, [0.3, 0.0])))
+            os.write(write, model.rhs(0.0, y).tobytes() if ok else b"")
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(write)
+    with os.fdopen(read, "rb") as pipe:
+        answer = np.frombuffer(pipe.read(), dtype=float)
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    np.testing.assert_array_equal(answer, model.rhs(0.0, y))
