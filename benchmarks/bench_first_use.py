@@ -11,6 +11,11 @@ NumPy and SymPy (which a script writing its model with SymPy makes first, and
 which Pinocchio's figure leaves out too: it is timed after ``import
 pinocchio``); Pinocchio's Model + Data construction for the same chain as the
 peer when installed.
+With TinyCC installed the cold process's first module comes from it (see
+``kanedyn.numerics.backends._c_quick``) and the optimized one is built meanwhile:
+the table gives the time to the first evaluation, to the optimized module in use
+(``kd.numerics.finish_compiling()`` after a 1 s simulation), and, in a cold
+process of its own, the first evaluation with the optimizing compiler alone.
 The machine is shared: run with ``--repeat`` and read the minima.
 
     python benchmarks/bench_first_use.py [--sizes 10,30,60] [--repeat 1]
@@ -34,6 +39,7 @@ t0 = time.perf_counter()
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
+from kanedyn.numerics.backends._c_quick import QUICK_STATS
 {imports}
 t_imports = time.perf_counter() - t0
 d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
@@ -41,8 +47,11 @@ m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
 t_rhs = time.perf_counter() - t0
 kd.simulate(m, (0.0, 1.0), d.initial(m))
+t_run = time.perf_counter() - t0
+kd.numerics.finish_compiling()
+t_optimized = time.perf_counter() - t0 if QUICK_STATS["quick"] else t_rhs
 print(json.dumps([t_rhs, DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
-                  time.perf_counter() - t0, t_imports]))
+                  t_run, t_imports, t_optimized, QUICK_STATS["quick"]]))
 """
 #: what a script that writes its model with SymPy imports before it (in the cold
 #: process only: the warm one imports neither)
@@ -67,8 +76,8 @@ print(json.dumps([time.perf_counter() - t0]))
 """
 
 
-def child(code, cache):
-    proc = run_python(code, cache)
+def child(code, cache, quick=None):
+    proc = run_python(code, cache, quick=quick)
     if proc.returncode != 0:
         return None
     return json.loads(proc.stdout.strip().splitlines()[-1])
@@ -80,25 +89,31 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args(argv)
     byte_compile_package()
-    print("| n | cold s (min) | cold after importing NumPy and SymPy s (min) | warm s (min) "
-          "| warm to a 1 s simulation s (min) | derivations cold/warm | compiles cold/warm "
+    print("| n | cold s | cold after importing NumPy and SymPy s | cold to the optimized "
+          "module s | cold, optimizing compiler only s | warm s | warm to a 1 s simulation s "
+          "| derivations cold/warm | compiles cold/warm | quick builds cold/warm "
           "| Pinocchio Model+Data s (after its import) |")
-    print("|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(x) for x in args.sizes.split(",")):
-        cold, after_imports, warm, warm_run, counts = [], [], [], [], None
-        for _ in range(args.repeat):
-            with tempfile.TemporaryDirectory() as cache:
-                c = child(CHILD.format(n=n, imports=MODEL_IMPORTS), cache)
-                w = child(CHILD.format(n=n, imports=""), cache)
-            cold.append(c[0])
-            after_imports.append(c[0] - c[4])
-            warm.append(w[0])
-            warm_run.append(w[3])
-            counts = (c[1], w[1], c[2], w[2])
+        cold, slow, warm = [], [], []
+        for k in range(args.repeat):  # the two kinds of cold process in turn, first by turns
+            for quick in ((None, False) if k % 2 == 0 else (False, None)):
+                with tempfile.TemporaryDirectory() as cache:
+                    c = child(CHILD.format(n=n, imports=MODEL_IMPORTS), cache, quick)
+                    if quick is False:
+                        slow.append(c)
+                        continue
+                    cold.append(c)
+                    warm.append(child(CHILD.format(n=n, imports=""), cache))
         peer = child(PEER.format(n=n), tempfile.gettempdir())
-        print(f"| {n} | {min(cold):.2f} | {min(after_imports):.2f} | {min(warm):.2f} | "
-              f"{min(warm_run):.2f} | "
-              f"{counts[0]}/{counts[1]} | {counts[2]}/{counts[3]} | "
+
+        def least(rows, k):
+            return f"{min(row[k] for row in rows):.2f}"
+
+        print(f"| {n} | {least(cold, 0)} | {min(c[0] - c[4] for c in cold):.2f} | "
+              f"{least(cold, 5)} | {least(slow, 0)} | {least(warm, 0)} | {least(warm, 3)} | "
+              f"{cold[-1][1]}/{warm[-1][1]} | {cold[-1][2]}/{warm[-1][2]} | "
+              f"{cold[-1][6]}/{warm[-1][6]} | "
               f"{f'{peer[0]:.4f}' if peer else '-'} |", flush=True)
 
 

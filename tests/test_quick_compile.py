@@ -3,6 +3,8 @@ meanwhile: the same numbers to the bit, every model moved onto the optimized
 module, and every way the quick path can fail leaves a working model."""
 
 import os
+import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -213,3 +215,71 @@ def test_a_child_forked_during_the_optimized_build_keeps_working(fresh_cache):
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
     np.testing.assert_array_equal(answer, model.rhs(0.0, y))
+
+
+def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tmp_path,
+                                                                 monkeypatch):
+    """The optimized build points the quick module's code at its own (``_adopt``)
+    while a run goes on: a run that moves over halfway gives the numbers of a run
+    on the optimized module alone, to the bit; an entry of another model is
+    refused."""
+    needs_tcc()
+    definition = kd.models.build("chain3d", n=4)
+    model = definition.numeric(backend="c")
+    _c_quick.finish_compiling()
+    optimized = model._module
+    # a quick module of the same model that no optimized build moves over
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build: None)
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "second"))
+    replay = definition.numeric(backend="c")
+    assert Path(replay._module.__file__).name.endswith(".so")
+    assert Path(replay._module.__file__).parent.name.startswith("kanedyn-quick-")
+    moved = []
+
+    def move_over(t, y):  # an event function that never fires: it moves the code at t = 1
+        if t > 1.0 and not moved:
+            replay._module._adopt(optimized._entry)
+            moved.append(t)
+        return 1.0
+
+    y0 = definition.initial(model) + 0.2
+    run = kd.simulate(replay, (0.0, 2.0), y0, events=[move_over])
+    reference = kd.simulate(model, (0.0, 2.0), y0, events=[lambda t, y: 1.0])
+    assert moved and run.method == reference.method
+    np.testing.assert_array_equal(run.t, reference.t)
+    np.testing.assert_array_equal(run.y, reference.y)
+    other = kd.models.build("pendulum").numeric(backend="c")
+    with pytest.raises(ValueError, match="another model's"):
+        replay._module._adopt(other._module._entry)
+
+
+def test_a_long_compiled_run_lets_other_threads_work(fresh_cache):
+    """The compiled loop lets Python's other threads work every 0.02 s of a run
+    (the optimized build of a model whose quick module runs goes on meanwhile):
+    a thread that notes the time as often as it can, beside one long run without
+    Python callbacks, is never kept waiting for long (holding the interpreter all
+    through, the loop would keep it waiting for the whole run)."""
+    definition = kd.models.build("pendulum")
+    model = definition.numeric(backend="c")
+    _c_quick.finish_compiling()
+    stamps, stop = [], threading.Event()
+
+    def note():
+        while not stop.is_set():
+            stamps.append(time.perf_counter())
+            time.sleep(0)
+
+    noting = threading.Thread(target=note)
+    noting.start()
+    try:
+        start = time.perf_counter()
+        run = kd.simulate(model, (0.0, 1.0e5), [1.0, 0.0], t_eval=[0.0, 1.0e5])
+        end = time.perf_counter()
+    finally:
+        stop.set()
+        noting.join()
+    assert run.success and run.method == "RK45 (compiled)"
+    assert end - start > 0.5  # long enough to tell
+    during = [start] + [t for t in stamps if start < t < end] + [end]
+    assert max(np.diff(during)) < 0.25

@@ -25,6 +25,23 @@ INTEGRATOR = r"""
    ------------------------------------------------------------------------ */
 typedef struct { double *data; npy_intp n, cap; } KdBuf;
 
+#include <time.h>
+/* A long run lets Python's other threads work (the optimized build of this model,
+   which then points KD_RHS_CORE at its code) every KD_YIELD_SECONDS: longer than
+   the interpreter's switch interval (5 ms), so that a waiting thread has asked for
+   the interpreter by then and the release hands it over (released more often, the
+   waiting thread never gets to ask and the loop takes the interpreter back). */
+#define KD_YIELD_SECONDS 0.02
+static double kd_clock(void) {
+#if defined(CLOCK_MONOTONIC)
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+#else
+    return (double)clock() / CLOCKS_PER_SEC;
+#endif
+}
+
 static int kd_buf_push(KdBuf *b, const double *x, npy_intp k) {
     if (b->n + k > b->cap) {
         npy_intp cap = b->cap ? 2 * b->cap : 1024;
@@ -102,7 +119,7 @@ static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
     ig->nfev++;
     double r[KD_SZ(KD_NR)];
     if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
-    int bad = kd_rhs_core(t, y, ig->model->p, r, ig->model->work, out) != 0;
+    int bad = KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out) != 0;
     for (int i = 0; i < KD_NX && !bad; ++i) bad = !isfinite(out[i]);
     if (bad) {
         for (int i = 0; i < KD_NX; ++i) out[i] = NAN;  /* the step is rejected */
@@ -463,8 +480,15 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double exponent = -1.0 / (err_order + 1);
     double max_factor = ig.method == 0 ? 10.0 : 5.0;
 
+    unsigned long steps_taken = 0;
+    double next_yield = kd_clock() + KD_YIELD_SECONDS;
     while (dir * (t1 - t) > 0) {
         if (PyErr_CheckSignals() != 0) KD_FAIL;  /* Ctrl-C: keep what was computed */
+        if ((++steps_taken & 15) == 0 && kd_clock() >= next_yield) {
+            Py_BEGIN_ALLOW_THREADS
+            Py_END_ALLOW_THREADS
+            next_yield = kd_clock() + KD_YIELD_SECONDS;
+        }
         double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
         if (h_abs > max_step) h_abs = max_step;
         else if (h_abs < min_step) h_abs = min_step;

@@ -24,6 +24,7 @@ for them earlier.  A forked child keeps its quick modules.
 
 from __future__ import annotations
 
+import atexit
 import os
 import shlex
 import shutil
@@ -88,24 +89,33 @@ def compile_quick(name, units, command, includes, loader, timeout):
     """The module ``name`` built by the quick compiler from the C sources
     ``units`` (one run, a private temporary folder), loaded with ``loader(name,
     path)``; ``None`` when the compiler fails or takes longer than ``timeout``
-    seconds (counted in :data:`QUICK_STATS` ``failed``)."""
-    with tempfile.TemporaryDirectory(prefix="kanedyn-quick-") as folder:
-        paths = []
-        for k, text in enumerate(units):
-            path = Path(folder) / f"unit{k}.c"
-            path.write_text(text)
-            paths.append(str(path))
-        out = Path(folder) / f"{name}.so"
-        try:
-            run = subprocess.run(command + _QUICK_FLAGS + includes + paths
-                                 + ["-o", str(out), "-lm"],
-                                 capture_output=True, timeout=timeout)
-        except (OSError, subprocess.TimeoutExpired):
-            run = None
-        if run is None or run.returncode != 0 or not out.exists():
-            QUICK_STATS["failed"] += 1
-            return None
-        module = loader(name, out)  # mapped: the file may go with its folder
+    seconds (counted in :data:`QUICK_STATS` ``failed``).
+
+    The module's file stays until the process exits: the dynamic loader knows a
+    loaded library by its file's identity, and a file removed could lend its
+    inode to the optimized module, which would then be taken for this one."""
+    folder = Path(tempfile.mkdtemp(prefix="kanedyn-quick-"))
+    atexit.register(shutil.rmtree, folder, True)
+    paths = []
+    for k, text in enumerate(units):
+        path = folder / f"unit{k}.c"
+        path.write_text(text)
+        paths.append(str(path))
+    out = folder / f"{name}.so"
+    try:
+        run = subprocess.run(command + _QUICK_FLAGS + includes + paths
+                             + ["-o", str(out), "-lm"],
+                             capture_output=True, timeout=timeout)
+    except (OSError, subprocess.TimeoutExpired):
+        run = None
+    finally:
+        for path in paths:
+            Path(path).unlink(missing_ok=True)
+    if run is None or run.returncode != 0 or not out.exists():
+        QUICK_STATS["failed"] += 1
+        shutil.rmtree(folder, ignore_errors=True)
+        return None
+    module = loader(name, out)
     QUICK_STATS["quick"] += 1
     return module
 
@@ -126,6 +136,7 @@ def optimize_later(module, build):
                           stacklevel=2)
             return
         QUICK_STATS["optimized"] += 1
+        module._adopt(final._entry)  # runs under way move onto the optimized code too
         with _STATE:
             upgrade.final = final
             callbacks, upgrade.callbacks = upgrade.callbacks, []

@@ -511,6 +511,20 @@ KD_LANES_FN KD_GEN void kd_lanes_rows(const double *t, int t_scalar, const doubl
 """
 
 PYTHON_GLUE = r"""
+/* ------------------------------------------------------------ the model's code */
+/* The model's right-hand side is called through this pointer (and its table of
+   functions through kd_table): kd_py_adopt points both at the optimized build of
+   the same model, which returns the same numbers, even while an integration
+   runs on them. */
+typedef int (*KdRhsCore)(double t, const double *y, const double *p, const double *r,
+                         double *w, double *out);
+static KdRhsCore kd_rhs_now = kd_rhs_core;
+#if defined(__GNUC__)
+#define KD_RHS_CORE (__atomic_load_n(&kd_rhs_now, __ATOMIC_ACQUIRE))
+#else
+#define KD_RHS_CORE kd_rhs_now  /* an aligned pointer, stored whole */
+#endif
+
 /* ------------------------------------------------------------ arguments */
 /* The entries of obj when it is a 1-D float64 array of n entries that can be read
    in place (native byte order, aligned, contiguous), else NULL. */
@@ -627,7 +641,7 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
     if (kd_inputs(self->inputs, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
     double *out;
     PyObject *result = kd_new_vector(KD_NX, &out);
-    if (result != NULL && kd_rhs_core(t, y, self->p, r, self->work, out) != 0) {
+    if (result != NULL && KD_RHS_CORE(t, y, self->p, r, self->work, out) != 0) {
         Py_DECREF(result);
         result = NULL;
         PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
@@ -696,7 +710,7 @@ static void kd_batch_block(KdBatchJob *job) {
         const double *pi = job->P ? job->P + i * KD_NP : job->p;
         const double *ri = KD_NR > 0 ? job->r + i * KD_NR : no_inputs;
         double *row = job->out + i * KD_NX;
-        if (kd_rhs_core(ti, job->y + i * KD_NX, pi, ri, job->work, row) != 0) {
+        if (KD_RHS_CORE(ti, job->y + i * KD_NX, pi, ri, job->work, row) != 0) {
             for (int j = 0; j < KD_NX; ++j) row[j] = NAN;
         }
     }
@@ -1126,10 +1140,41 @@ static PyTypeObject KdModelType = {
     .tp_methods = KdModel_methods,
 };
 
+/* what another module of the same model takes over (kd_py_adopt): its code and
+   the sizes that must agree */
+typedef struct {
+    KdRhsCore rhs;
+    const KdFunction *table;
+    int nx, np, nr, nw, functions;
+} KdEntry;
+static KdEntry kd_entry;
+
+/* _adopt(entry): call the code of another module of the same model (its `_entry`)
+   from now on */
+static PyObject *kd_py_adopt(PyObject *self, PyObject *capsule) {
+    (void)self;
+    const KdEntry *other = (const KdEntry *)PyCapsule_GetPointer(capsule, "kanedyn.entry");
+    if (other == NULL) return NULL;
+    if (other->nx != kd_entry.nx || other->np != kd_entry.np || other->nr != kd_entry.nr
+            || other->nw != kd_entry.nw || other->functions != kd_entry.functions) {
+        PyErr_SetString(PyExc_ValueError, "_adopt: the entry is another model's");
+        return NULL;
+    }
+#if defined(__GNUC__)
+    __atomic_store_n(&kd_rhs_now, other->rhs, __ATOMIC_RELEASE);
+    __atomic_store_n(&kd_table, other->table, __ATOMIC_RELEASE);
+#else
+    kd_rhs_now = other->rhs;
+    kd_table = other->table;
+#endif
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef kd_runtime_functions[] = {
 #ifdef KD_NC
     {"contact_segment", (PyCFunction)kd_py_contact_segment, METH_VARARGS, NULL},
 #endif
+    {"_adopt", (PyCFunction)kd_py_adopt, METH_O, NULL},
 #ifdef KD_INVERSE_POINT
     {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, METH_FASTCALL, NULL},
 #endif
@@ -1149,6 +1194,7 @@ static int kd_add_functions(PyObject *module, const KdFunction *table) {
         return -1;
     }
     kd_table = table;
+    kd_entry = (KdEntry){kd_rhs_core, table, KD_NX, KD_NP, KD_NR, KD_NW, count};
     for (int k = 0; k < count; ++k) {
         kd_table_methods[k].ml_name = table[k].name;
         kd_table_methods[k].ml_meth = (PyCFunction)(void (*)(void))kd_entries[k];
@@ -1167,6 +1213,12 @@ KD_GEN void *kd_module_create(const char *name, const KdFunction *table) {
     PyObject *module = PyModule_Create(&kd_module);
     if (module == NULL) return NULL;
     if (kd_add_functions(module, table) < 0) {
+        Py_DECREF(module);
+        return NULL;
+    }
+    PyObject *entry = PyCapsule_New(&kd_entry, "kanedyn.entry", NULL);
+    if (entry == NULL || PyModule_AddObject(module, "_entry", entry) < 0) {
+        Py_XDECREF(entry);
         Py_DECREF(module);
         return NULL;
     }
