@@ -15,10 +15,12 @@ processes (a cluster) needs ``clock="wall"``.
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 
-__all__ = ["CLOCKS", "Timing", "interleaved", "winner", "ratio_text"]
+__all__ = ["CLOCKS", "Timing", "interleaved", "winner", "ratio_text",
+           "optimized_modules_only"]
 
 #: name -> clock function, seconds
 CLOCKS = {"thread": time.thread_time, "process": time.process_time,
@@ -167,3 +169,11 @@ def ratio_text(slow, fast):
     """``slow / fast`` of the minima with both spreads, e.g. ``"3.10x (spreads 2%/5%)"``."""
     return (f"{slow.best / fast.best:.2f}x (spreads {slow.spread:.0%}/"
             f"{fast.spread:.0%})")
+
+
+def optimized_modules_only():
+    """Build every C model of this process (and of the processes it starts) with
+    the optimizing compiler alone, so that the optimized modules are what is timed:
+    a model's first module from the quick compiler (TinyCC) is what
+    ``bench_first_use.py`` and ``bench_quick_module.py`` measure."""
+    os.environ["KANEDYN_QUICK_CC"] = ""

@@ -96,7 +96,8 @@ def main():
     args = parser.parse_args()
     sys.path.insert(0, str(HERE))
     from _contact_cases import CASES
-    from _timing import Timing, ratio_text, winner
+    from _timing import Timing, optimized_modules_only, ratio_text, winner
+    optimized_modules_only()
     if args.quick:
         args.cases, args.rounds = args.cases or ["ball-3d"], 2
     cases = args.cases or list(CASES)

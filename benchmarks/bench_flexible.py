@@ -61,7 +61,7 @@ import kanedyn as kd
 
 # bench_numerics lives next to this script (on sys.path when run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _timing import interleaved, ratio_text, winner  # noqa: E402
+from _timing import interleaved, optimized_modules_only, ratio_text, winner  # noqa: E402
 from bench_numerics import (best_seconds, cpu_name, format_table, load_average, log,  # noqa: E402
                             section, source_revision, timed, verdict)
 
@@ -704,6 +704,7 @@ def run(args):
 
 def main(argv=None):
     """Parse the command line and run the benchmark."""
+    optimized_modules_only()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--parts", nargs="+", choices=PARTS, default=list(PARTS),
                         help="which measurements (default: all)")

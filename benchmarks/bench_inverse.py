@@ -42,7 +42,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _timing import interleaved, winner  # noqa: E402
+from _timing import interleaved, optimized_modules_only, winner  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 
@@ -125,6 +125,7 @@ def stewart(points=1000, rounds=7):
 
 
 def main(argv=None):
+    optimized_modules_only()
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[5, 10, 30])
     parser.add_argument("--rounds", type=int, default=7)

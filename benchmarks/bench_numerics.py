@@ -58,7 +58,7 @@ import kanedyn as kd
 # _peers lives next to this script (on sys.path when the script is run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from _peers import pinocchio_chain
-from _timing import interleaved, winner
+from _timing import interleaved, optimized_modules_only, winner
 
 #: Chains of the right-hand-side comparison (60 not with --quick); the numpy
 #: backend only up to 10.
@@ -812,6 +812,7 @@ def main(argv=None):
     argv : list of str, optional
         Command-line arguments (default ``sys.argv[1:]``).
     """
+    optimized_modules_only()
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true",
                         help="3 timing runs of >= 0.05 s instead of 7 of >= 0.2 s; "

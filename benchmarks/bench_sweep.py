@@ -34,11 +34,12 @@ import numpy as np
 import kanedyn as kd
 from kanedyn.simulation._sweep import parameter_runs
 # bench_numerics lives next to this script (on sys.path when run directly)
-from _timing import interleaved, ratio_text, winner  # noqa: E402
+from _timing import interleaved, optimized_modules_only, ratio_text, winner  # noqa: E402
 from bench_numerics import cpu_name  # noqa: E402
 
 
 def main():
+    optimized_modules_only()
     parser = argparse.ArgumentParser()
     parser.add_argument("--runs", type=int, default=1000)
     parser.add_argument("--t-end", type=float, default=10.0)

@@ -133,7 +133,7 @@ def optimize_later(module, build):
         except Exception as exc:  # noqa: BLE001  reported; the quick module stays
             warnings.warn(f"the optimized build of a compiled model failed ({exc}); the "
                           "model keeps its quickly compiled module", RuntimeWarning,
-                          stacklevel=2)
+                          stacklevel=1)  # from the build's thread: no caller of the user's
             return
         QUICK_STATS["optimized"] += 1
         module._adopt(final._entry)  # runs under way move onto the optimized code too
