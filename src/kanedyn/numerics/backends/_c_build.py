@@ -104,9 +104,13 @@ def missing_compiler_text():
     return "no C compiler found (set $CC or install gcc or clang)"
 
 
-_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-w"]
+#: -ffp-contract=off: no fused multiply-adds where the target has them (aarch64), so
+#: that the quick compiler's module (:mod:`._c_quick`) gives the same numbers
+_FLAGS = ["-O2", "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno", "-ffp-contract=off",
+          "-w"]
 #: flags of one translation unit of a module built from several (linked with -shared)
-_UNIT_FLAGS = ["-O2", "-fPIC", "-fvisibility=hidden", "-std=gnu11", "-fno-math-errno", "-w"]
+_UNIT_FLAGS = ["-O2", "-fPIC", "-fvisibility=hidden", "-std=gnu11", "-fno-math-errno",
+               "-ffp-contract=off", "-w"]
 _LIGHT_FLAGS = ["-O1"] + _UNIT_FLAGS[1:]
 _COLD_FLAGS = ["-O0"] + _UNIT_FLAGS[1:]
 #: compile time per character of a unit relative to -O2 (gcc 12 on generated

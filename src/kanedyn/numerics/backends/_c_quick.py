@@ -5,11 +5,16 @@ second where gcc needs a second of CPU or more (chain3d n = 10: 0.05 s against
 1.2 s).  When it is installed, a model's first module is built with it and
 used at once, while the optimizing compiler builds the module that goes into
 the cache in a background thread; the optimized module then takes the quick
-one's place in every model bound to it (:func:`when_optimized`).  Both
-compilers translate the same C into IEEE double arithmetic with no fused
-multiply-adds (the build targets x86-64's baseline, without FMA) and the same
-libm calls, so the two modules return the same numbers: the tests compare them
-to the bit.
+one's place in every model bound to it (:func:`when_optimized`), and the quick
+module itself calls the optimized code from then on (a run under way included).
+Both compilers translate the same C into IEEE double arithmetic without fused
+multiply-adds (gcc is told ``-ffp-contract=off``; tcc never fuses) and call
+the same libm, so the two modules return the same numbers: the tests compare
+them to the bit.
+
+The optimized build holds the build lock of :mod:`._c_build` while gcc runs: a
+module that another model of the process needs meanwhile and that is not
+cached waits for it (as it would have waited for a build in the foreground).
 
 ``$KANEDYN_QUICK_CC`` chooses the quick compiler: unset, ``tcc`` when it is on
 the ``PATH``; empty (or ``none``), no quick builds; else the command of a
@@ -31,6 +36,7 @@ import shutil
 import subprocess
 import tempfile
 import threading
+import time
 import warnings
 from pathlib import Path
 
@@ -178,10 +184,11 @@ def finish_compiling(timeout=None):
     bool
         ``True`` when none runs any longer.
     """
+    deadline = None if timeout is None else time.monotonic() + timeout
     with _STATE:
         threads = [u.thread for u in _UPGRADES.values() if u.thread is not None]
     for thread in threads:
-        thread.join(timeout)
+        thread.join(None if deadline is None else max(0.0, deadline - time.monotonic()))
     return not any(thread.is_alive() for thread in threads)
 
 
