@@ -308,9 +308,10 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         z0 = np.concatenate([y, [dissipated, contact_work]])
         sol = None
         guard.last_step = None  # a step of an earlier segment may lie past its end
-        if segment_c is not None:
-            sol = _compiled_segment(segment_c, model, t, t1, z0, frozen_modes, frozen_dirs,
-                                    mode_events, stabilization, rtol, atol)
+        if segment_c is not None:  # the model's module now: an optimized one may have come
+            sol = _compiled_segment(model._module.contact_segment, model, t, t1, z0,
+                                    frozen_modes, frozen_dirs, mode_events, stabilization,
+                                    rtol, atol)
         try:
             if sol is None:
                 sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
