@@ -2,7 +2,10 @@
 meanwhile: the same numbers to the bit, every model moved onto the optimized
 module, and every way the quick path can fail leaves a working model."""
 
+import atexit
 import os
+import subprocess
+import sys
 import threading
 import time
 import warnings
@@ -10,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn.numerics.backends import _c_build, _c_quick
@@ -144,9 +149,12 @@ def test_a_quick_compiler_that_fails_leaves_the_optimized_build(fresh_cache, mon
     """``false`` as the quick compiler: it makes no module, and the optimized
     build runs in the foreground."""
     monkeypatch.setenv("KANEDYN_QUICK_CC", "false")
+    monkeypatch.setattr(_c_quick, "_WARNED", set())
     before = dict(QUICK_STATS)
     definition = kd.models.build("pendulum")
-    model = definition.numeric(backend="c")
+    with pytest.warns(RuntimeWarning, match=r"quick compiler \S*false could not build a "
+                                            r"model's module \(exit status 1\)"):
+        model = definition.numeric(backend="c")
     assert QUICK_STATS["failed"] == before["failed"] + 1
     assert QUICK_STATS["quick"] == before["quick"]
     assert Path(model._module.__file__).parent == fresh_cache
@@ -199,31 +207,61 @@ def test_the_first_use_trace_with_the_quick_compiler(monkeypatch):
     assert sum(what == "link" for _, _, what in runs) == 1
 
 
+@pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
-def test_a_child_forked_during_the_optimized_build_keeps_working(fresh_cache):
-    """A process forked while the optimized build runs holds none of its locks:
-    the child evaluates the model and builds another without hanging."""
+def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
+    """A process forked while the optimized build holds its locks: the child
+    evaluates the model and builds another without waiting for the parent's
+    locks; its exit hooks remove none of the parent's folders (the build and the
+    quick module go on); and it holds no copy of the parent's file lock, so a
+    third process loads the cached module while the child still lives."""
     needs_tcc()
+    gate, building = threading.Event(), threading.Event()
+    build = _c_build._build
+
+    def held_back(*args, **kwargs):  # the build thread, its locks held
+        building.set()
+        gate.wait(300)
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
     definition = kd.models.build("chain3d", n=4)
     model = definition.numeric(backend="c")
+    quick = model._module
+    assert building.wait(120)
     y = definition.initial(model) + 0.1
     read, write = os.pipe()
     pid = os.fork()
-    if pid == 0:  # the child: its answer through the pipe, then out at once
+    if pid == 0:  # the child: its answer through the pipe, a normal exit's hooks, a while alive
         code = 1
         try:
             other = kd.models.build("pendulum").numeric(backend="c")
             ok = np.all(np.isfinite(other.rhs(0.0, [0.3, 0.0])))
-            os.write(write, model.rhs(0.0, y).tobytes() if ok else b"")
+            answer = model.rhs(0.0, y).tobytes() if ok else b""
+            atexit._run_exitfuncs()
+            os.write(write, answer)
+            os.close(write)
+            time.sleep(10)
             code = 0
         finally:
             os._exit(code)
     os.close(write)
     with os.fdopen(read, "rb") as pipe:
         answer = np.frombuffer(pipe.read(), dtype=float)
+    np.testing.assert_array_equal(answer, model.rhs(0.0, y))
+    assert Path(quick.__file__).exists()
+    gate.set()
+    assert _c_quick.finish_compiling(timeout=300)
+    assert Path(model._module.__file__).parent == fresh_cache
+    third = subprocess.run(
+        [sys.executable, "-c", "import kanedyn as kd\n"
+         "m = kd.models.build('chain3d', n=4).numeric(backend='c')\nprint(m._module.__file__)"],
+        capture_output=True, text=True, timeout=120,
+        env=dict(os.environ, KANEDYN_CACHE_DIR=str(fresh_cache)))
+    assert third.stdout.strip() == model._module.__file__, third.stderr[-2000:]
+    assert os.waitpid(pid, os.WNOHANG) == (0, 0)  # the child lives on
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
-    np.testing.assert_array_equal(answer, model.rhs(0.0, y))
 
 
 def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tmp_path,
@@ -243,7 +281,7 @@ def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tm
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "second"))
     replay = definition.numeric(backend="c")
     assert Path(replay._module.__file__).name.endswith(".so")
-    assert Path(replay._module.__file__).parent.name.startswith("kanedyn-quick-")
+    assert Path(replay._module.__file__).parent.name.startswith("quick-")
     moved = []
 
     def move_over(t, y):  # an event function that never fires: it moves the code at t = 1
@@ -292,3 +330,98 @@ def test_a_long_compiled_run_lets_other_threads_work(fresh_cache):
     assert end - start > 0.5  # long enough to tell
     during = [start] + [t for t in stamps if start < t < end] + [end]
     assert max(np.diff(during)) < 0.25
+
+
+def test_rational_constants_are_one_correctly_rounded_literal(fresh_cache, monkeypatch):
+    """A constant p/q printed as a division is folded by TinyCC in extended
+    precision (two roundings; this one came out one bit off): printed as one
+    literal, both modules give p/q correctly rounded."""
+    needs_tcc()
+    gate = threading.Event()
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build: _c_quick.optimize_later(
+        module, lambda: gate.wait(300) and build()))
+    q, u = me.dynamicsymbols("q u")
+    mass = sm.symbols("m", positive=True)
+    frame = me.ReferenceFrame("N")
+    origin = me.Point("O")
+    origin.set_vel(frame, 0)
+    point = origin.locatenew("P", q * frame.x)
+    point.set_vel(frame, u * frame.x)
+    damping = sm.Rational(542719210271983, 10**9)
+    eom = kd.kane(frame=frame, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("p", point, mass)],
+                  loads=[(point, -damping * u * frame.x + sm.Rational(1, 3) * frame.x)])
+    model = eom.numeric(backend="c", constants={mass: 1.0})
+    quick = model.rhs(0.0, [0.0, 1.0])
+    gate.set()
+    _c_quick.finish_compiling()
+    optimized = model.rhs(0.0, [0.0, 1.0])
+    assert quick[1] == optimized[1] == -542719210271983 / 10**9 + 1 / 3
+
+
+def test_the_derivation_cache_names_only_a_module_in_the_cache(fresh_cache, monkeypatch):
+    """The derivation-cache entry of a built-in model (which names its module by
+    key) is written once the optimized module is cached, and not at all when
+    that build fails (the next process derives again, without a complaint)."""
+    needs_tcc()
+
+    def broken(*args, **kwargs):
+        raise _c_build.CompilerError("the C compiler gcc failed (exit status 1): test")
+
+    monkeypatch.setattr(_c_build, "_build", broken)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", RuntimeWarning)
+        kd.models.build("pendulum", lazy=True).numeric(backend="c")
+        _c_quick.finish_compiling()
+    assert list(fresh_cache.glob("derived/*.kdnum")) == []
+    monkeypatch.undo()
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(fresh_cache))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    kd.models.build("pendulum", lazy=True).numeric(backend="c")
+    _c_quick.finish_compiling()
+    assert len(list(fresh_cache.glob("derived/*.kdnum"))) == 1
+
+
+def test_the_quick_module_lives_in_the_cache_directory(fresh_cache):
+    """Written where modules are run from (a temporary directory mounted
+    noexec would not load it), in a quick-* folder removed at exit or, left by a
+    killed process, with the stale builds."""
+    needs_tcc()
+    model = kd.models.build("pendulum").numeric(backend="c")
+    folder = Path(model._module.__file__).parent
+    assert folder.parent == fresh_cache and folder.name.startswith("quick-")
+    _c_quick.finish_compiling()
+
+
+def test_a_quick_module_that_does_not_load_leaves_the_optimized_build(fresh_cache,
+                                                                      monkeypatch):
+    needs_tcc()
+    load = _c_build._load
+
+    def refuses_quick(name, path):
+        if "quick-" in str(path):
+            raise ImportError(f"{path}: failed to map segment from shared object")
+        return load(name, path)
+
+    monkeypatch.setattr(_c_build, "_load", refuses_quick)
+    monkeypatch.setattr(_c_quick, "_WARNED", set())
+    with pytest.warns(RuntimeWarning, match="quick compiler .* could not build .*failed to map"):
+        model = kd.models.build("pendulum").numeric(backend="c")
+    assert Path(model._module.__file__).parent == fresh_cache
+
+
+def test_no_quick_modules_where_extensions_share_their_symbols(monkeypatch):
+    """TinyCC ignores symbol visibility: with RTLD_GLOBAL, two quick modules'
+    functions would resolve to one another's."""
+    needs_tcc()
+    monkeypatch.setattr(sys, "getdlopenflags", lambda: os.RTLD_NOW | os.RTLD_GLOBAL)
+    assert _c_quick.quick_command() is None
+
+
+def test_a_quick_compiler_setting_that_is_no_command_is_named(fresh_cache, monkeypatch):
+    monkeypatch.setenv("KANEDYN_QUICK_CC", 'tcc "')
+    monkeypatch.setattr(_c_quick, "_WARNED", set())
+    with pytest.warns(RuntimeWarning, match=r"KANEDYN_QUICK_CC is 'tcc \"', which is not a "
+                                            r"command \(No closing quotation\)"):
+        model = kd.models.build("pendulum").numeric(backend="c")
+    assert Path(model._module.__file__).parent == fresh_cache

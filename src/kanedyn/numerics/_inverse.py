@@ -144,10 +144,11 @@ def _function(model, vectorized):
             lambda: generate_c_units(prog, functions, model._sizes,
                                      describe=lambda e: str(table.external(e)),
                                      cse=model._cse, lanes=False))
-        model._fn.update(inverse=module.inverse, inverse_batch=_stacked(module.inverse_rows),
+        functions = model._fn  # the same dict throughout (the model may move meanwhile)
+        functions.update(inverse=module.inverse, inverse_batch=_stacked(module.inverse_rows),
                          inverse_point=getattr(module, "inverse_point", None),
                          constraint_rows=getattr(module, "constraints_rows", None))
-        return model._fn[key]
+        return functions[key]
     sources = d.setdefault("inverse_sources", {})
     if key not in sources:
         args, outputs = _generated(model)

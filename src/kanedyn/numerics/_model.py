@@ -28,6 +28,7 @@ import inspect
 import numbers
 import pickle
 import sys
+import threading
 import warnings
 import weakref
 from collections.abc import Mapping
@@ -346,14 +347,20 @@ class _CompiledFunctions(dict):
         return self[name]
 
 
+#: held while a model binds a module: the build thread's move onto an optimized
+#: module (:func:`_move_onto`) against the model's own binds
+_BINDING = threading.RLock()
+
+
 def _move_onto(model_ref, quick, optimized):
     """Bind the model (a weak reference) to the ``optimized`` module where it
     still uses the ``quick`` one (not after it moved on to the module with
     every function)."""
     model = model_ref()
-    if model is not None and model._module is quick:
-        model._bind(optimized)
-        QUICK_STATS["swaps"] += 1
+    with _BINDING:
+        if model is not None and model._module is quick:
+            model._bind(optimized)
+            QUICK_STATS["swaps"] += 1
 
 
 def _full_module(model):
@@ -409,6 +416,12 @@ class NumericModel(StateLayout):
     def _bind(self, module):
         """Use the compiled ``module``: its Model object and entry points (a
         module from the quick compiler until its optimized build is loaded)."""
+        with _BINDING:
+            self._bind_now(module)
+        when_optimized(module, functools.partial(_move_onto, weakref.ref(self), module))
+
+    def _bind_now(self, module):
+        """:meth:`_bind` under the binding lock."""
         self._module = module
         self._fn = _CompiledFunctions(self, module)
         self._c = module.Model(self._p, self._input_values if self._inputs else None)
@@ -416,7 +429,6 @@ class NumericModel(StateLayout):
             self.rhs = self._c.rhs  # the compiled entry points, called directly
             self.rhs_batch = (self._rhs_batch_first if self._data.get("c_lanes_later")
                               else self._c.rhs_batch)
-        when_optimized(module, functools.partial(_move_onto, weakref.ref(self), module))
 
     #: rows from which ``rhs_batch`` builds (or loads) the module with lane-wise code
     LANES_FROM_ROWS = 64
@@ -427,8 +439,10 @@ class NumericModel(StateLayout):
         loads the module with every function, compiled on first use."""
         if lanes or (lanes is None and np.ndim(Y) == 2
                      and np.shape(Y)[0] >= self.LANES_FROM_ROWS):
-            self._data = dict(self._data, c_lanes_later=False)
-            self._bind(_full_module(self))
+            full = _full_module(self)
+            with _BINDING:
+                self._data = dict(self._data, c_lanes_later=False)
+                self._bind(full)
         return self._c.rhs_batch(t, Y, P, threads=threads, lanes=lanes)
 
     # state and pickling

@@ -192,8 +192,14 @@ def _number(expr):
             return value < 0, repr(float(abs(value))), _ATOM
         return value < 0, str(abs(value)), _ATOM
     if expr.is_Rational:
+        # one correctly rounded literal (Python's division of integers), not p.0/q.0:
+        # a compiler folding that division in extended precision rounds twice
+        # (TinyCC does, about one constant in 10,000), and p itself may not be exact
         p, q = int(expr.p), int(expr.q)
-        return p < 0, f"{abs(p)}.0/{q}.0", _PRODUCT
+        try:
+            return p < 0, repr(abs(p) / q), _ATOM
+        except OverflowError:
+            raise _Unusual from None
     if expr.is_Float:
         value = float(expr)
         if value != value or abs(value) == float("inf"):

@@ -175,6 +175,8 @@ def load_module(key_text, make_template, timeout=600, quick=False):
         raise CompilerError(missing_compiler_text())
     key = _build_key(key_text, command)
     module = _LOADED.get(key)  # no waiting for an optimized build of the same module
+    if module is None and _LOCK.locked():  # a build runs (in the background, perhaps):
+        module = _cached_meanwhile(key)     # a cached module need not wait for it
     if module is not None:
         return module
     with _LOCK:
@@ -185,6 +187,20 @@ def load_module(key_text, make_template, timeout=600, quick=False):
             _drop_prefetched()
     if later is not None:  # started once the lock is free: the build takes it
         optimize_later(module, later)
+    return module
+
+
+def _cached_meanwhile(key):
+    """The cached module of ``key`` loaded without the build lock (and recorded),
+    or ``None``: read only, an entry being written or damaged is left to the
+    build path."""
+    directory = cache_dir()
+    name = f"_kd_{key}"
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    module = _try_cached(name, directory / f"{name}{suffix}", directory / f"{name}.json",
+                         repair=False)
+    if module is not None:
+        module = _LOADED.setdefault(key, module)
     return module
 
 
@@ -219,7 +235,7 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                 if quick_cc is not None:
                     units = list(units)
                     module = compile_quick(name, units, quick_cc, _includes(), _load,
-                                           timeout)
+                                           directory, timeout)
                 if module is not None:
                     _LOADED[key] = module
                     return module, functools.partial(
@@ -273,11 +289,12 @@ def _private_cache(reason):
 
 
 def _remove_stale_builds(directory, timeout):
-    """Remove the ``build-*`` and ``prefetch-*`` folders that killed builds and
-    processes left behind (not this process's prefetched units)."""
+    """Remove the ``build-*``, ``prefetch-*`` and ``quick-*`` folders that killed
+    builds and processes left behind (not this process's prefetched units)."""
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
     own = {made.parent for _, _, made, _ in _PREFETCHED.values()}
-    for path in [*directory.glob("build-*"), *directory.glob("prefetch-*")]:
+    for path in [*directory.glob("build-*"), *directory.glob("prefetch-*"),
+                 *directory.glob("quick-*")]:
         try:
             if path not in own and path.is_dir() and path.stat().st_mtime < limit:
                 shutil.rmtree(path, ignore_errors=True)
@@ -299,10 +316,17 @@ class _FileLock:
             fcntl.flock(self.handle, fcntl.LOCK_EX)
         except ImportError:  # pragma: no cover  (non-POSIX)
             pass
+        _HELD.add(self.handle)
         return self
 
     def __exit__(self, *exc):
+        _HELD.discard(self.handle)
         self.handle.close()  # closing releases the lock
+
+
+#: the files of the locks this process holds (a forked child closes its copies,
+#: which would otherwise keep the parent's lock for as long as the child lives)
+_HELD = set()
 
 
 def _try_cached(name, so_path, manifest, repair=True):
@@ -356,8 +380,10 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
                  + ["-o", str(out_path), "-lm"])
         jobs.finish()
 
-    with tempfile.TemporaryDirectory(dir=directory, prefix="build-") as tmp, \
-            _Jobs(command, timeout) as jobs, _removing(adopted):
+    # removed by this thread when the build ends (not by an exit hook, which a
+    # child forked during a build in the background would run on its parent's folder)
+    tmp = tempfile.mkdtemp(dir=directory, prefix="build-")
+    with _removing_folder(tmp), _Jobs(command, timeout) as jobs, _removing(adopted):
         out_path = Path(tmp) / so_path.name
         paths, size, flags, cached, reused = [], 0, [], [], []
         for k, text in enumerate(units):
@@ -434,6 +460,15 @@ def _unit_object(text, command, directory):
 
 
 @contextlib.contextmanager
+def _removing_folder(folder):
+    """Remove ``folder`` however the block ends."""
+    try:
+        yield
+    finally:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+@contextlib.contextmanager
 def _removing(adopted):
     """Remove the folders of the prefetched units a build took over
     (``(unit, object)`` pairs), however the build ends."""
@@ -494,11 +529,15 @@ _PREFETCHED = {}
 
 
 def _after_fork():
-    """A forked child owns neither its parent's prefetched compiles nor a lock
-    that a thread of the parent (an optimized build, :mod:`._c_quick`) held."""
+    """A forked child owns neither its parent's prefetched compiles nor the locks
+    that a thread of the parent (an optimized build, :mod:`._c_quick`) held: the
+    thread lock is made anew, the files of file locks are closed."""
     global _LOCK
     _PREFETCHED.clear()
     _LOCK = threading.Lock()
+    for handle in list(_HELD):
+        handle.close()
+    _HELD.clear()
 
 
 if hasattr(os, "register_at_fork"):

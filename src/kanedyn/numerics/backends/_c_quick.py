@@ -24,7 +24,12 @@ foreground, as without a quick compiler.
 
 The process waits for the optimized builds still running when it exits (the
 cache then holds them for the next process); :func:`finish_compiling` waits
-for them earlier.  A forked child keeps its quick modules.
+for them earlier.  A forked child keeps its quick modules for its whole life:
+call :func:`finish_compiling` before starting a pool of forked workers.  The
+quick module is written to a ``quick-*`` folder of the cache directory (where
+the optimized modules are run from too, so a system temporary directory
+mounted ``noexec`` does not matter).  Constants are printed as single
+correctly rounded literals, so that no compiler folds a division of two.
 """
 
 from __future__ import annotations
@@ -34,6 +39,7 @@ import os
 import shlex
 import shutil
 import subprocess
+import sys
 import tempfile
 import threading
 import time
@@ -41,7 +47,7 @@ import warnings
 from pathlib import Path
 
 __all__ = ["quick_command", "compile_quick", "optimize_later", "when_optimized",
-           "finish_compiling", "QUICK_STATS"]
+           "when_cached", "finish_compiling", "QUICK_STATS"]
 
 #: what this process did (read by tests): ``quick``, modules built by the quick
 #: compiler; ``failed``, units it could not translate (an optimized build ran
@@ -72,86 +78,131 @@ class _Upgrade:
 
 def quick_command():
     """The quick compiler's command as a list, or ``None`` (see the module
-    docstring); a ``$KANEDYN_QUICK_CC`` naming no program is reported once
-    (a warning) and not used."""
+    docstring); a ``$KANEDYN_QUICK_CC`` that is not a command of a program is
+    reported once (a warning) and not used.  ``None`` too where Python loads
+    extension modules with ``RTLD_GLOBAL``: TinyCC ignores symbol visibility, so
+    the functions of two quick modules would resolve to one another's."""
+    if sys.getdlopenflags() & getattr(os, "RTLD_GLOBAL", 0):
+        return None
     value = os.environ.get("KANEDYN_QUICK_CC")
     if value is None:
         found = shutil.which("tcc")
         return [found] if found else None
-    parts = shlex.split(value)
+    try:
+        parts = shlex.split(value)
+    except ValueError as exc:
+        _warn_once(value, f"$KANEDYN_QUICK_CC is {value!r}, which is not a command ({exc}); "
+                          "models are compiled by the optimizing compiler only")
+        return None
     if not parts or parts == ["none"]:
         return None
     if shutil.which(parts[0]) is None:
-        if value not in _WARNED:
-            _WARNED.add(value)
-            warnings.warn(f"$KANEDYN_QUICK_CC is {value!r}, which is not a program on this "
-                          "machine; models are compiled by the optimizing compiler only",
-                          RuntimeWarning, stacklevel=4)
+        _warn_once(value, f"$KANEDYN_QUICK_CC is {value!r}, which is not a program on this "
+                          "machine; models are compiled by the optimizing compiler only")
         return None
     return parts
 
 
-def compile_quick(name, units, command, includes, loader, timeout):
-    """The module ``name`` built by the quick compiler from the C sources
-    ``units`` (one run, a private temporary folder), loaded with ``loader(name,
-    path)``; ``None`` when the compiler fails or takes longer than ``timeout``
-    seconds (counted in :data:`QUICK_STATS` ``failed``).
+def _warn_once(what, text):
+    """Warn with ``text`` the first time ``what`` goes wrong in this process."""
+    if what not in _WARNED:
+        _WARNED.add(what)
+        warnings.warn(text, RuntimeWarning, stacklevel=5)
 
-    The module's file stays until the process exits: the dynamic loader knows a
-    loaded library by its file's identity, and a file removed could lend its
-    inode to the optimized module, which would then be taken for this one."""
-    folder = Path(tempfile.mkdtemp(prefix="kanedyn-quick-"))
-    atexit.register(shutil.rmtree, folder, True)
+
+def compile_quick(name, units, command, includes, loader, directory, timeout):
+    """The module ``name`` built by the quick compiler from the C sources
+    ``units`` (one run, in a ``quick-*`` folder of the cache ``directory``,
+    where modules may be run from), loaded with ``loader(name, path)`` and
+    registered for :func:`optimize_later`; ``None`` when the compiler fails,
+    takes longer than ``timeout`` seconds or makes a module that does not load
+    (counted in :data:`QUICK_STATS` ``failed``; the first failure of a process
+    is reported with a warning).
+
+    The module's file stays until the process that made it exits: the dynamic
+    loader knows a loaded library by its file's identity, and a file removed
+    could lend its inode to the optimized module, which would then be taken for
+    this one.  A folder left by a killed process is removed with the stale
+    builds of :mod:`._c_build`."""
+    folder = Path(tempfile.mkdtemp(prefix="quick-", dir=directory))
+    atexit.register(_remove_own, folder, os.getpid())
     paths = []
     for k, text in enumerate(units):
         path = folder / f"unit{k}.c"
         path.write_text(text)
         paths.append(str(path))
     out = folder / f"{name}.so"
+    problem, module = None, None
     try:
         run = subprocess.run(command + _QUICK_FLAGS + includes + paths
                              + ["-o", str(out), "-lm"],
-                             capture_output=True, timeout=timeout)
-    except (OSError, subprocess.TimeoutExpired):
-        run = None
+                             capture_output=True, text=True, timeout=timeout)
+        if run.returncode != 0:
+            said = (run.stderr or run.stdout).strip()[-500:]
+            problem = f"exit status {run.returncode}" + (f": {said}" if said else "")
+        else:
+            module = loader(name, out)
+    except (OSError, ImportError, subprocess.TimeoutExpired) as exc:
+        problem = str(exc)
     finally:
         for path in paths:
             Path(path).unlink(missing_ok=True)
-    if run is None or run.returncode != 0 or not out.exists():
+    if module is None:
         QUICK_STATS["failed"] += 1
         shutil.rmtree(folder, ignore_errors=True)
+        _warn_once("failed", f"the quick compiler {command[0]} could not build a model's "
+                             f"module ({problem or 'no module written'}); such modules are built "
+                             "by the optimizing compiler alone")
         return None
-    module = loader(name, out)
     QUICK_STATS["quick"] += 1
+    with _STATE:
+        _UPGRADES[module] = _Upgrade()
     return module
 
 
+def _remove_own(folder, pid):
+    """Remove ``folder`` at exit, in the process that made it only (not in a
+    forked child, whose parent still runs its module from there)."""
+    if os.getpid() == pid:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
 def optimize_later(module, build):
-    """Build the optimized replacement of the quick ``module`` in a background
-    thread: ``build()`` returns it (and may take locks; the caller must not
-    hold them while it waits for the thread).  A build that fails leaves the
-    quick module in place, with a warning."""
-    upgrade = _Upgrade()
+    """Build the optimized replacement of the quick ``module`` (from
+    :func:`compile_quick`) in a background thread: ``build()`` returns it (and
+    may take locks; the caller must not hold them while it waits for the
+    thread).  The quick module then runs the optimized code and the callbacks
+    of :func:`when_optimized` are called.  A build that fails leaves the quick
+    module in place, with a warning.  While the interpreter shuts down (a model
+    built in an ``atexit`` function) the build runs at once, in this thread."""
+    with _STATE:
+        upgrade = _UPGRADES.setdefault(module, _Upgrade())
 
     def run():
         try:
             final = build()
+            module._adopt(final._entry)  # runs under way move onto the optimized code too
         except Exception as exc:  # noqa: BLE001  reported; the quick module stays
             warnings.warn(f"the optimized build of a compiled model failed ({exc}); the "
                           "model keeps its quickly compiled module", RuntimeWarning,
                           stacklevel=1)  # from the build's thread: no caller of the user's
             return
         QUICK_STATS["optimized"] += 1
-        module._adopt(final._entry)  # runs under way move onto the optimized code too
         with _STATE:
             upgrade.final = final
             callbacks, upgrade.callbacks = upgrade.callbacks, []
         for callback in callbacks:
-            callback(final)
+            try:
+                callback(final)
+            except Exception as exc:  # noqa: BLE001  the other callbacks still run
+                warnings.warn(f"moving a compiled model onto its optimized module failed "
+                              f"({exc!r}); it keeps its quickly compiled module",
+                              RuntimeWarning, stacklevel=1)
 
+    if not threading.main_thread().is_alive():  # shutting down: no thread would be joined
+        run()
+        return
     upgrade.thread = threading.Thread(target=run, name="kanedyn-optimized-build")
-    with _STATE:
-        _UPGRADES[module] = upgrade
     upgrade.thread.start()
 
 
@@ -160,14 +211,26 @@ def when_optimized(module, callback):
     ``module`` is loaded (from the build's thread; at once when it is loaded
     already); nothing for a module that is not a quick one, or whose optimized
     build failed."""
+    _when(module, callback, at_once_if_final=False)
+
+
+def when_cached(module, callback):
+    """Call ``callback(module in the cache)`` once ``module`` is in the cache:
+    at once for a module that is not a quick one (``None`` included), else as
+    :func:`when_optimized` (never if its optimized build fails)."""
+    _when(module, callback, at_once_if_final=True)
+
+
+def _when(module, callback, at_once_if_final):
     with _STATE:
-        upgrade = _UPGRADES.get(module)
-        if upgrade is None:
-            return
-        if upgrade.final is None:
+        upgrade = _UPGRADES.get(module) if module is not None else None
+        if upgrade is not None and upgrade.final is None:
             upgrade.callbacks.append(callback)
             return
-    callback(upgrade.final)
+    if upgrade is not None:
+        callback(upgrade.final)
+    elif at_once_if_final:
+        callback(module)
 
 
 def finish_compiling(timeout=None):

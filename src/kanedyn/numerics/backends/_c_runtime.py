@@ -1143,6 +1143,7 @@ static PyTypeObject KdModelType = {
 /* what another module of the same model takes over (kd_py_adopt): its code and
    the sizes that must agree */
 typedef struct {
+    const char *name;  /* the module's name: the hash of what it computes */
     KdRhsCore rhs;
     const KdFunction *table;
     int nx, np, nr, nw, functions;
@@ -1155,7 +1156,8 @@ static PyObject *kd_py_adopt(PyObject *self, PyObject *capsule) {
     (void)self;
     const KdEntry *other = (const KdEntry *)PyCapsule_GetPointer(capsule, "kanedyn.entry");
     if (other == NULL) return NULL;
-    if (other->nx != kd_entry.nx || other->np != kd_entry.np || other->nr != kd_entry.nr
+    if (strcmp(other->name, kd_entry.name) != 0 || other->nx != kd_entry.nx
+            || other->np != kd_entry.np || other->nr != kd_entry.nr
             || other->nw != kd_entry.nw || other->functions != kd_entry.functions) {
         PyErr_SetString(PyExc_ValueError, "_adopt: the entry is another model's");
         return NULL;
@@ -1194,7 +1196,8 @@ static int kd_add_functions(PyObject *module, const KdFunction *table) {
         return -1;
     }
     kd_table = table;
-    kd_entry = (KdEntry){kd_rhs_core, table, KD_NX, KD_NP, KD_NR, KD_NW, count};
+    kd_entry = (KdEntry){kd_entry.name, kd_rhs_core, table, KD_NX, KD_NP, KD_NR, KD_NW,
+                         count};
     for (int k = 0; k < count; ++k) {
         kd_table_methods[k].ml_name = table[k].name;
         kd_table_methods[k].ml_meth = (PyCFunction)(void (*)(void))kd_entries[k];
@@ -1209,6 +1212,7 @@ KD_GEN void *kd_module_create(const char *name, const KdFunction *table) {
     import_array();
     if (PyType_Ready(&KdModelType) < 0) return NULL;
     kd_module.m_name = name;
+    kd_entry.name = name;
     kd_module.m_methods = kd_runtime_functions;
     PyObject *module = PyModule_Create(&kd_module);
     if (module == NULL) return NULL;
