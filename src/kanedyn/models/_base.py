@@ -393,9 +393,7 @@ def _derivation_cache(definition, constants, options):
         # the entry names a module by its key: written once that module is in the
         # cache (now, or when the optimized build of a quick module is: never if
         # that build fails or the process ends first)
-        from ..numerics.backends._c_quick import when_cached
-        when_cached(getattr(model, "_module", None),
-                    lambda _: _write_cache(key, definition, model))
+        model._when_cached(lambda: _write_cache(key, definition, model))
     if overrides:
         model = model.with_constants({str(k): float(v) for k, v in overrides.items()})
     return model

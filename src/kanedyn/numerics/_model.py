@@ -36,7 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._errors import ConstraintError, MissingValueError, ModelError
-from .backends._c_quick import QUICK_STATS, when_optimized
+from .backends._c_quick import QUICK_STATS, when_cached, when_optimized
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
 
@@ -429,6 +429,12 @@ class NumericModel(StateLayout):
             self.rhs = self._c.rhs  # the compiled entry points, called directly
             self.rhs_batch = (self._rhs_batch_first if self._data.get("c_lanes_later")
                               else self._c.rhs_batch)
+
+    def _when_cached(self, callback):
+        """Call ``callback()`` once this model's compiled module is in the cache:
+        at once, or (a module from the quick compiler) when its optimized build
+        is, never if that fails; at once for the numpy backend."""
+        when_cached(getattr(self, "_module", None), lambda _: callback())
 
     #: rows from which ``rhs_batch`` builds (or loads) the module with lane-wise code
     LANES_FROM_ROWS = 64

@@ -81,6 +81,9 @@ class _CPrinter(C99CodePrinter):
     def _print_sign(self, expr):
         return f"kd_sign({self._print(expr.args[0])})"
 
+    def _print_Rational(self, expr):
+        return _number_literal(expr)
+
 
 class _Unusual(Exception):
     """An expression the direct printer leaves to SymPy's."""
@@ -184,6 +187,18 @@ def _operand(expr, names, binding):
     return text if own >= binding else f"({text})"
 
 
+def _number_literal(rational):
+    """A SymPy rational as one correctly rounded double literal (Python's division
+    of integers), not ``p.0/q.0``: a compiler that folds that division in extended
+    precision rounds twice (TinyCC does, about one constant in 10,000), and ``p``
+    itself may not be exact."""
+    try:
+        return repr(int(rational.p) / int(rational.q))
+    except OverflowError:
+        raise CodegenError(f"the constant {rational} is beyond the range of a double") \
+            from None
+
+
 def _number(expr):
     """``(negative, text of the magnitude, binding)`` of a SymPy number."""
     if expr.is_Integer:
@@ -192,14 +207,7 @@ def _number(expr):
             return value < 0, repr(float(abs(value))), _ATOM
         return value < 0, str(abs(value)), _ATOM
     if expr.is_Rational:
-        # one correctly rounded literal (Python's division of integers), not p.0/q.0:
-        # a compiler folding that division in extended precision rounds twice
-        # (TinyCC does, about one constant in 10,000), and p itself may not be exact
-        p, q = int(expr.p), int(expr.q)
-        try:
-            return p < 0, repr(abs(p) / q), _ATOM
-        except OverflowError:
-            raise _Unusual from None
+        return expr.p < 0, _number_literal(abs(expr)), _ATOM
     if expr.is_Float:
         value = float(expr)
         if value != value or abs(value) == float("inf"):
