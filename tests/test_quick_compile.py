@@ -425,3 +425,20 @@ def test_a_quick_compiler_setting_that_is_no_command_is_named(fresh_cache, monke
                                             r"command \(No closing quotation\)"):
         model = kd.models.build("pendulum").numeric(backend="c")
     assert Path(model._module.__file__).parent == fresh_cache
+
+
+def test_a_model_built_while_the_interpreter_exits(tmp_path):
+    """Built in an exit hook (no thread would be joined any longer): the optimized
+    build runs at once, the model moves onto it, and no quick-* folder is left."""
+    needs_tcc()
+    code = ("import atexit\nimport kanedyn as kd\n"
+            "def late():\n"
+            "    m = kd.models.build('pendulum').numeric(backend='c')\n"
+            "    print(m._module.__file__, m.rhs(0.0, [0.3, 0.0])[1])\n"
+            "atexit.register(late)\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300, env=dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path)))
+    path, value = run.stdout.split()
+    assert Path(path).parent == tmp_path, run.stderr[-2000:]
+    assert float(value) == pytest.approx(-9.81 * np.sin(0.3), rel=1e-12)
+    assert list(tmp_path.glob("quick-*")) == []

@@ -70,10 +70,11 @@ class _Upgrade:
     """The optimized build of one quick module: its thread, the optimized module
     once loaded, and the callbacks waiting for it."""
 
-    def __init__(self):
+    def __init__(self, folder=None):
         self.thread = None
         self.final = None
         self.callbacks = []
+        self.folder = folder  # of the quick module's file
 
 
 def quick_command():
@@ -156,7 +157,7 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
         return None
     QUICK_STATS["quick"] += 1
     with _STATE:
-        _UPGRADES[module] = _Upgrade()
+        _UPGRADES[module] = _Upgrade(folder)
     return module
 
 
@@ -201,6 +202,8 @@ def optimize_later(module, build):
 
     if not threading.main_thread().is_alive():  # shutting down: no thread would be joined
         run()
+        if upgrade.folder is not None:  # exit hooks registered now would not run
+            shutil.rmtree(upgrade.folder, ignore_errors=True)
         return
     upgrade.thread = threading.Thread(target=run, name="kanedyn-optimized-build")
     upgrade.thread.start()
