@@ -190,15 +190,18 @@ def load_module(key_text, make_template, timeout=600, quick=False):
     return module
 
 
+def _entry(directory, name):
+    """``(module file, manifest)`` of the cache entry of the module ``name``."""
+    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
+    return directory / f"{name}{suffix}", directory / f"{name}.json"
+
+
 def _cached_meanwhile(key):
     """The cached module of ``key`` loaded without the build lock (and recorded),
     or ``None``: read only, an entry being written or damaged is left to the
     build path."""
-    directory = cache_dir()
     name = f"_kd_{key}"
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    module = _try_cached(name, directory / f"{name}{suffix}", directory / f"{name}.json",
-                         repair=False)
+    module = _try_cached(name, *_entry(cache_dir(), name), repair=False)
     if module is not None:
         module = _LOADED.setdefault(key, module)
     return module
@@ -208,22 +211,19 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
     """``(module, build)``: the module ``name`` of :func:`load_module` (called
     under its lock) and, for a module from the quick compiler, the function
     that builds and loads its optimized replacement (else ``None``)."""
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
     module = _LOADED.get(key)
     if module is not None:
         return module, None
     directory = cache_dir()
     problem = _unwritable(directory)
     if problem is not None:
-        module = _try_cached(name, directory / f"{name}{suffix}",
-                             directory / f"{name}.json", repair=False)
+        module = _try_cached(name, *_entry(directory, name), repair=False)
         if module is None:
             directory = _private_cache(f"the cache directory {directory} "
                                        f"({_cache_origin()}) {problem}")
     if module is None:
         _remove_stale_builds(directory, timeout)
-        so_path = directory / f"{name}{suffix}"
-        manifest = directory / f"{name}.json"
+        so_path, manifest = _entry(directory, name)
         with _FileLock(directory / f"{name}.lock"):
             module = _try_cached(name, so_path, manifest)
             if module is None:
@@ -250,8 +250,7 @@ def _optimized(name, key, units, command, timeout, single, directory):
     """Build (or find in the cache, built by another process meanwhile) and load
     the module ``name`` of :func:`load_module` that a quick module stands in for
     (in the background thread of :func:`~._c_quick.optimize_later`)."""
-    suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
-    so_path, manifest = directory / f"{name}{suffix}", directory / f"{name}.json"
+    so_path, manifest = _entry(directory, name)
     with _LOCK, _FileLock(directory / f"{name}.lock"):
         module = _try_cached(name, so_path, manifest)
         if module is None:
