@@ -4,6 +4,7 @@ module, and every way the quick path can fail leaves a working model."""
 
 import atexit
 import os
+import pickle
 import subprocess
 import sys
 import threading
@@ -81,8 +82,8 @@ def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, 
     needs_tcc()
     gate = threading.Event()  # gcc's build waits for it
 
-    def held_back(module, build):
-        _c_quick.optimize_later(module, lambda: gate.wait(300) and build())
+    def held_back(module, build, fetch):
+        _c_quick.optimize_later(module, lambda: gate.wait(300) and build(), fetch)
 
     monkeypatch.setattr(_c_build, "optimize_later", held_back)
     definition = kd.models.build(name, **options)
@@ -207,6 +208,24 @@ def test_the_first_use_trace_with_the_quick_compiler(monkeypatch):
     assert sum(what == "link" for _, _, what in runs) == 1
 
 
+def chain_with_its_build_held_back(monkeypatch):
+    """``(gate, definition, model)``: chain3d n = 4 on its quick module, its
+    optimized build started and waiting (its locks held) until ``gate`` is set."""
+    gate, building = threading.Event(), threading.Event()
+    build = _c_build._build
+
+    def held_back(*args, **kwargs):  # the build thread
+        building.set()
+        gate.wait(300)
+        return build(*args, **kwargs)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
+    definition = kd.models.build("chain3d", n=4)
+    model = definition.numeric(backend="c")
+    assert building.wait(120)
+    return gate, definition, model
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
 def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
@@ -216,19 +235,8 @@ def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
     quick module go on); and it holds no copy of the parent's file lock, so a
     third process loads the cached module while the child still lives."""
     needs_tcc()
-    gate, building = threading.Event(), threading.Event()
-    build = _c_build._build
-
-    def held_back(*args, **kwargs):  # the build thread, its locks held
-        building.set()
-        gate.wait(300)
-        return build(*args, **kwargs)
-
-    monkeypatch.setattr(_c_build, "_build", held_back)
-    definition = kd.models.build("chain3d", n=4)
-    model = definition.numeric(backend="c")
+    gate, definition, model = chain_with_its_build_held_back(monkeypatch)
     quick = model._module
-    assert building.wait(120)
     y = definition.initial(model) + 0.1
     read, write = os.pipe()
     pid = os.fork()
@@ -264,6 +272,53 @@ def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
     assert os.waitstatus_to_exitcode(status) == 0
 
 
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
+def test_a_child_forked_during_the_optimized_build_moves_onto_it(fresh_cache, monkeypatch):
+    """A worker forked while the optimized build runs (a pool of forked workers)
+    takes the optimized module from the cache once its parent has written it:
+    the model it inherited, a copy it unpickled and a copy with new constants
+    move onto it, and give the parent's numbers to the bit."""
+    needs_tcc()
+    gate, definition, model = chain_with_its_build_held_back(monkeypatch)
+    quick = model._module
+    y = definition.initial(model) + 0.1
+    ready_read, ready_write = os.pipe()
+    read, write = os.pipe()
+    pid = os.fork()
+    if pid == 0:  # the child: copies made before the parent's build ends, then a wait
+        code = 1
+        try:
+            copies = [model, pickle.loads(pickle.dumps(model)),
+                      model.with_constants({"m": 2.0})]
+            before = [copy._module is quick for copy in copies]
+            os.write(ready_write, b"r")
+            done = _c_quick.finish_compiling(timeout=120)
+            report = {"before": before, "done": done,
+                      "moved": [copy._module is not quick for copy in copies],
+                      "cached": [str(Path(copy._module.__file__).parent) for copy in copies],
+                      "same module": len({id(copy._module) for copy in copies}) == 1,
+                      "rhs": model.rhs(0.0, y).tolist()}
+            os.write(write, pickle.dumps(report))
+            code = 0
+        finally:
+            os._exit(code)
+    os.close(ready_write)
+    os.close(write)
+    assert os.read(ready_read, 1) == b"r"
+    gate.set()
+    with os.fdopen(read, "rb") as pipe:
+        report = pickle.loads(pipe.read())
+    _, status = os.waitpid(pid, 0)
+    assert os.waitstatus_to_exitcode(status) == 0
+    assert _c_quick.finish_compiling(timeout=300)
+    assert report["before"] == [True, True, True]
+    assert report["done"] and report["moved"] == [True, True, True]
+    assert report["cached"] == [str(fresh_cache)] * 3 and report["same module"]
+    assert model._module is not quick
+    assert np.array(report["rhs"]).tobytes() == model.rhs(0.0, y).tobytes()
+
+
 def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tmp_path,
                                                                  monkeypatch):
     """The optimized build points the quick module's code at its own (``_adopt``)
@@ -276,7 +331,7 @@ def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tm
     _c_quick.finish_compiling()
     optimized = model._module
     # a quick module of the same model that no optimized build moves over
-    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build: None)
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, fetch: None)
     monkeypatch.setattr(_c_build, "_LOADED", {})
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "second"))
     replay = definition.numeric(backend="c")
@@ -338,8 +393,8 @@ def test_rational_constants_are_one_correctly_rounded_literal(fresh_cache, monke
     literal, both modules give p/q correctly rounded."""
     needs_tcc()
     gate = threading.Event()
-    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build: _c_quick.optimize_later(
-        module, lambda: gate.wait(300) and build()))
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, fetch: (
+        _c_quick.optimize_later(module, lambda: gate.wait(300) and build(), fetch)))
     q, u = me.dynamicsymbols("q u")
     mass = sm.symbols("m", positive=True)
     frame = me.ReferenceFrame("N")

@@ -26,6 +26,7 @@ from __future__ import annotations
 import functools
 import inspect
 import numbers
+import os
 import pickle
 import sys
 import threading
@@ -350,6 +351,17 @@ class _CompiledFunctions(dict):
 #: held while a model binds a module: the build thread's move onto an optimized
 #: module (:func:`_move_onto`) against the model's own binds
 _BINDING = threading.RLock()
+
+
+def _binding_anew():
+    """A forked child: the binding lock made anew (a build thread of the parent,
+    which the child does not have, may have held it)."""
+    global _BINDING
+    _BINDING = threading.RLock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_binding_anew)
 
 
 def _move_onto(model_ref, quick, optimized):

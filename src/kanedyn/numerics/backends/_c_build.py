@@ -186,7 +186,7 @@ def load_module(key_text, make_template, timeout=600, quick=False):
         finally:  # a prefetched unit is for this module: not wanted any longer
             _drop_prefetched()
     if later is not None:  # started once the lock is free: the build takes it
-        optimize_later(module, later)
+        optimize_later(module, *later)
     return module
 
 
@@ -208,9 +208,11 @@ def _cached_meanwhile(key):
 
 
 def _load_or_build(name, key, make_template, command, timeout, quick=False):
-    """``(module, build)``: the module ``name`` of :func:`load_module` (called
-    under its lock) and, for a module from the quick compiler, the function
-    that builds and loads its optimized replacement (else ``None``)."""
+    """``(module, later)``: the module ``name`` of :func:`load_module` (called
+    under its lock) and, for a module from the quick compiler, the functions
+    that build and load its optimized replacement and that load it once another
+    process built it (the arguments of :func:`~._c_quick.optimize_later`; else
+    ``None``)."""
     module = _LOADED.get(key)
     if module is not None:
         return module, None
@@ -238,8 +240,10 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                                            directory, timeout)
                 if module is not None:
                     _LOADED[key] = module
-                    return module, functools.partial(
-                        _optimized, name, key, units, command, timeout, single, directory)
+                    return module, (
+                        functools.partial(_optimized, name, key, units, command, timeout,
+                                          single, directory),
+                        functools.partial(_built_elsewhere, name, key, directory))
                 _build(units, command, so_path, manifest, directory, timeout, single=single)
                 module = _load(name, so_path)
     _LOADED[key] = module
@@ -257,6 +261,19 @@ def _optimized(name, key, units, command, timeout, single, directory):
             _build(iter(units), command, so_path, manifest, directory, timeout,
                    single=single)
             module = _load(name, so_path)
+        _LOADED[key] = module
+    return module
+
+
+def _built_elsewhere(name, key, directory):
+    """The module ``name`` of :func:`load_module` from the cache once the process
+    that builds it (the parent of a forked child, :func:`_optimized`) has
+    written it: its file lock is waited for, not the build lock of this process;
+    ``None`` when that build left no valid entry."""
+    so_path, manifest = _entry(directory, name)
+    with _FileLock(directory / f"{name}.lock"):
+        module = _try_cached(name, so_path, manifest, repair=False)
+    if module is not None:
         _LOADED[key] = module
     return module
 

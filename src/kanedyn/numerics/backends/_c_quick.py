@@ -24,8 +24,10 @@ foreground, as without a quick compiler.
 
 The process waits for the optimized builds still running when it exits (the
 cache then holds them for the next process); :func:`finish_compiling` waits
-for them earlier.  A forked child keeps its quick modules for its whole life:
-call :func:`finish_compiling` before starting a pool of forked workers.  The
+for them earlier.  A child forked while an optimized build runs (a pool of
+forked workers) takes the optimized module from the cache once its parent
+has written it: a daemon thread of the child waits for the build's file lock,
+then loads the module and moves the child's models onto it as above.  The
 quick module is written to a ``quick-*`` folder of the cache directory (where
 the optimized modules are run from too, so a system temporary directory
 mounted ``noexec`` does not matter).  Constants are printed as single
@@ -68,13 +70,15 @@ _WARNED = set()
 
 class _Upgrade:
     """The optimized build of one quick module: its thread, the optimized module
-    once loaded, and the callbacks waiting for it."""
+    once loaded, the callbacks waiting for it, and how a forked child fetches
+    the module its parent builds."""
 
     def __init__(self, folder=None):
         self.thread = None
         self.final = None
         self.callbacks = []
         self.folder = folder  # of the quick module's file
+        self.fetch = None  # () -> the optimized module built by another process, or None
 
 
 def quick_command():
@@ -168,45 +172,56 @@ def _remove_own(folder, pid):
         shutil.rmtree(folder, ignore_errors=True)
 
 
-def optimize_later(module, build):
+def optimize_later(module, build, fetch=None):
     """Build the optimized replacement of the quick ``module`` (from
     :func:`compile_quick`) in a background thread: ``build()`` returns it (and
     may take locks; the caller must not hold them while it waits for the
     thread).  The quick module then runs the optimized code and the callbacks
     of :func:`when_optimized` are called.  A build that fails leaves the quick
-    module in place, with a warning.  While the interpreter shuts down (a model
-    built in an ``atexit`` function) the build runs at once, in this thread."""
+    module in place, with a warning.  ``fetch()``, when given, returns the
+    optimized module once this process has built it (or ``None``): a child
+    forked during the build calls it (see :func:`_catch_up_after_fork`).  While
+    the interpreter shuts down (a model built in an ``atexit`` function) the
+    build runs at once, in this thread."""
     with _STATE:
+        _at_fork_once()
         upgrade = _UPGRADES.setdefault(module, _Upgrade())
-
-    def run():
-        try:
-            final = build()
-            module._adopt(final._entry)  # runs under way move onto the optimized code too
-        except Exception as exc:  # noqa: BLE001  reported; the quick module stays
-            warnings.warn(f"the optimized build of a compiled model failed ({exc}); the "
-                          "model keeps its quickly compiled module", RuntimeWarning,
-                          stacklevel=1)  # from the build's thread: no caller of the user's
-            return
-        QUICK_STATS["optimized"] += 1
-        with _STATE:
-            upgrade.final = final
-            callbacks, upgrade.callbacks = upgrade.callbacks, []
-        for callback in callbacks:
-            try:
-                callback(final)
-            except Exception as exc:  # noqa: BLE001  the other callbacks still run
-                warnings.warn(f"moving a compiled model onto its optimized module failed "
-                              f"({exc!r}); it keeps its quickly compiled module",
-                              RuntimeWarning, stacklevel=1)
-
+        upgrade.fetch = fetch
     if not threading.main_thread().is_alive():  # shutting down: no thread would be joined
-        run()
+        _upgrade(module, upgrade, build)
         if upgrade.folder is not None:  # exit hooks registered now would not run
             shutil.rmtree(upgrade.folder, ignore_errors=True)
         return
-    upgrade.thread = threading.Thread(target=run, name="kanedyn-optimized-build")
+    upgrade.thread = threading.Thread(target=_upgrade, args=(module, upgrade, build),
+                                      name="kanedyn-optimized-build")
     upgrade.thread.start()
+
+
+def _upgrade(module, upgrade, obtain):
+    """Point the quick ``module`` at the code of the optimized module that
+    ``obtain()`` returns (``None``: none came; the quick module stays) and call
+    the callbacks waiting for it."""
+    try:
+        final = obtain()
+        if final is None:
+            return
+        module._adopt(final._entry)  # runs under way move onto the optimized code too
+    except Exception as exc:  # noqa: BLE001  reported; the quick module stays
+        warnings.warn(f"the optimized build of a compiled model failed ({exc}); the "
+                      "model keeps its quickly compiled module", RuntimeWarning,
+                      stacklevel=1)  # from the build's thread: no caller of the user's
+        return
+    QUICK_STATS["optimized"] += 1
+    with _STATE:
+        upgrade.final = final
+        callbacks, upgrade.callbacks = upgrade.callbacks, []
+    for callback in callbacks:
+        try:
+            callback(final)
+        except Exception as exc:  # noqa: BLE001  the other callbacks still run
+            warnings.warn(f"moving a compiled model onto its optimized module failed "
+                          f"({exc!r}); it keeps its quickly compiled module",
+                          RuntimeWarning, stacklevel=1)
 
 
 def when_optimized(module, callback):
@@ -258,13 +273,33 @@ def finish_compiling(timeout=None):
     return not any(thread.is_alive() for thread in threads)
 
 
-def _forget_after_fork():
-    """A forked child has none of its parent's build threads: its quick modules
-    stay."""
+def _catch_up_after_fork():
+    """A forked child has none of its parent's build threads: for each quick
+    module whose optimized build was under way, a daemon thread of the child
+    waits for the parent to cache the optimized module and then moves the
+    child onto it (the child's exit does not wait for it); a quick module
+    without ``fetch`` stays."""
     global _STATE
     _STATE = threading.Lock()
-    _UPGRADES.clear()
+    for module, upgrade in list(_UPGRADES.items()):
+        if upgrade.final is not None:
+            continue
+        upgrade.thread = None
+        if upgrade.fetch is None:
+            del _UPGRADES[module]
+            continue
+        upgrade.thread = threading.Thread(target=_upgrade, args=(module, upgrade, upgrade.fetch),
+                                          name="kanedyn-optimized-fetch", daemon=True)
+        upgrade.thread.start()
 
 
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_forget_after_fork)
+def _at_fork_once():
+    """Register :func:`_catch_up_after_fork` (at the first optimized build: after
+    the fork handlers of the modules that use this one, so that a child's
+    locks are made anew before its threads start)."""
+    if not _FORK_HOOK and hasattr(os, "register_at_fork"):
+        os.register_at_fork(after_in_child=_catch_up_after_fork)
+        _FORK_HOOK.append(True)
+
+
+_FORK_HOOK = []
