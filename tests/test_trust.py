@@ -262,19 +262,59 @@ def test_cli_writes_what_it_has_on_ctrl_c(tmp_path, backend, t_end):
                              "--atol", "1e-12", "--backend", backend, "--out", str(tmp_path)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
                             preexec_fn=_sigint_as_in_a_terminal)
+    said = []  # stderr so far, read by a thread while the run goes on
+    reader = threading.Thread(target=lambda: [said.append(line) for line in proc.stderr])
+    reader.start()
+    # wait until the simulation's time advances: an ETA in the progress (the compiled
+    # loop prints none: its start), then until some output times are passed
+    running = r"simulating .*<\d" if backend == "numpy" else "the compiled RK45 loop"
     deadline = time.time() + 120
-    for line in proc.stderr:  # progress: wait until the simulation runs
-        if "simulating" in line or time.time() > deadline:
-            break
-    time.sleep(1.0)
+    while (not any(re.search(running, line) for line in list(said))
+           and time.time() < deadline and proc.poll() is None):
+        time.sleep(0.05)
+    time.sleep(0.5)
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=120)
+    proc.stdout.read()  # stderr is the reader's
+    proc.wait(timeout=120)
+    reader.join()
+    err = "".join(said)
     assert proc.returncode == 130, err
     assert "interrupted" in err and "wrote the partial result" in err
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["message"] == "interrupted" and summary["points"] > 1
     rows = (tmp_path / "pendulum.csv").read_text().splitlines()
     assert len(rows) == summary["points"] + 1
+
+
+def test_cli_interrupted_before_the_first_output_time(tmp_path, monkeypatch, capsys):
+    """Ctrl-C before the solver accepted a step (here: in its first evaluation
+    under the run's guard): an empty result is written and reported as such,
+    exit status 130."""
+    from kanedyn.cli import _run
+    simulate = _run._simulate
+
+    def interrupted_at_once(model, *args):
+        rhs, pressed = model.rhs, []
+
+        def first_evaluation_interrupted(t, y):
+            if not pressed and signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+                pressed.append(t)  # once: a second Ctrl-C would stop at once
+                signal.raise_signal(signal.SIGINT)  # the run's guard turns it into a stop
+            return rhs(t, y)
+
+        model.rhs = first_evaluation_interrupted
+        return simulate(model, *args)
+
+    monkeypatch.setattr(_run, "_simulate", interrupted_at_once)
+    code = main(["run", "pendulum", "--backend", "numpy", "--out", str(tmp_path)])
+    out, err = capsys.readouterr()
+    assert code == 130, err
+    assert "interrupted before the first output time; wrote the partial result" in err
+    assert "points: 0, t_end: none reached" in out
+    assert "max constraint residual: n/a (no output points)" in out
+    summary = json.loads((tmp_path / "summary.json").read_text())
+    assert summary["points"] == 0 and summary["t_end"] is None
+    assert (tmp_path / "pendulum.csv").read_text().splitlines()[1:] == []
 
 
 # --------------------------------------------- 5. inputs the integrators honour

@@ -86,8 +86,9 @@ def cmd_run(args):
         print(f"{definition.name} report: {_report_text(report)}")
     _print_identified(model, res)
     if res.message == "interrupted":
-        print(f"kanedyn: interrupted at t = {res.t[-1]:g} s; wrote the partial result",
-              file=sys.stderr)
+        reached = (f"at t = {res.t[-1]:g} s" if res.t.size
+                   else "before the first output time")
+        print(f"kanedyn: interrupted {reached}; wrote the partial result", file=sys.stderr)
         return 130
     return 0 if res.success else 1
 
@@ -177,7 +178,8 @@ def _print_summary(summary):
     drift = summary["energy_drift"]
     print(f"success: {summary['success']} ({summary['message']}), "
           f"backend: {summary['backend']}")
-    print(f"points: {summary['points']}, t_end: {summary['t_end']:g} s, "
+    reached = "none reached" if summary["t_end"] is None else f"{summary['t_end']:g} s"
+    print(f"points: {summary['points']}, t_end: {reached}, "
           f"rhs evaluations: {summary['rhs_evaluations']}")
     if "impacts" in summary:  # contacts
         balance = summary["energy_balance"]
@@ -194,8 +196,10 @@ def _print_summary(summary):
     else:
         print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
                                              else f"{drift:.3e}"))
-    print(f"max constraint residual: {summary['max_constraint_residual']:.3e} "
-          f"({summary['projections']} projections)")
+    residual = summary["max_constraint_residual"]
+    print("max constraint residual: " + ("n/a (no output points)" if residual is None
+                                         else f"{residual:.3e}")
+          + f" ({summary['projections']} projections)")
 
 
 def _print_identified(model, res):
