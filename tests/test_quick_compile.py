@@ -3,6 +3,7 @@ meanwhile: the same numbers to the bit, every model moved onto the optimized
 module, and every way the quick path can fail leaves a working model."""
 
 import atexit
+import json
 import os
 import pickle
 import subprocess
@@ -497,3 +498,83 @@ def test_a_model_built_while_the_interpreter_exits(tmp_path):
     assert Path(path).parent == tmp_path, run.stderr[-2000:]
     assert float(value) == pytest.approx(-9.81 * np.sin(0.3), rel=1e-12)
     assert list(tmp_path.glob("quick-*")) == []
+
+
+#: forks right after the model's first module, the optimized build under way:
+#: ``pool``, a pool of forked workers that first wait for it; ``fork``, three
+#: children forked at once that wait for it
+_FORKED_AT_ONCE = """
+import json, multiprocessing, os, sys
+import kanedyn as kd
+definition = kd.models.build("chain3d", n=4)
+model = definition.numeric(backend="c")
+quick = model._module
+y = definition.initial(model) + 0.1
+
+def report():
+    return [model._module is not quick, model.rhs(0.0, y).tolist()]
+
+def task(k):
+    return report()
+
+if sys.argv[1] == "pool":
+    with multiprocessing.get_context("fork").Pool(
+            2, initializer=kd.numerics.finish_compiling) as pool:
+        children = pool.map_async(task, range(6), chunksize=1).get(timeout=120)
+else:
+    pipes = []
+    for _ in range(3):
+        read, write = os.pipe()
+        if os.fork() == 0:
+            done = kd.numerics.finish_compiling(timeout=60)
+            os.write(write, json.dumps(report() if done else "waiting").encode())
+            os._exit(0)
+        os.close(write)
+        pipes.append(read)
+    children = [json.loads(os.fdopen(read).read()) for read in pipes]
+kd.numerics.finish_compiling()
+print(json.dumps({"children": children, "parent": report()}))
+"""
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
+@pytest.mark.parametrize("how", ["pool", "fork"])
+def test_workers_forked_at_once_move_onto_the_optimized_module(tmp_path, how):
+    """Forks right after ``numeric(backend="c")``, while the optimized build opens
+    its lock file and starts its compilers: no child holds the parent's lock or
+    the pipe on which the parent waits for a compiler's start, so a pool whose
+    workers wait for the optimized module finishes, and every worker (every
+    child forked at once) runs the optimized module, with the parent's numbers."""
+    needs_tcc()
+    for attempt in range(2):  # fresh caches: a build under way at each fork
+        run = subprocess.run([sys.executable, "-c", _FORKED_AT_ONCE, how], capture_output=True,
+                             text=True, timeout=300, env=dict(
+                                 os.environ, KANEDYN_CACHE_DIR=str(tmp_path / f"{attempt}")))
+        assert run.returncode == 0, run.stderr[-3000:]
+        report = json.loads(run.stdout.strip().splitlines()[-1])
+        assert report["parent"][0]
+        assert report["children"] == [report["parent"]] * len(report["children"])
+
+
+@pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
+def test_a_child_removes_none_of_its_parents_folders(tmp_path):
+    """A child that exits normally (its parent's exit hooks inherited) leaves the
+    parent's private cache directory (the cache directory given is a file) and
+    quick-* folder in place."""
+    (tmp_path / "a-file").write_text("not a directory")
+    code = ("import os, sys, warnings\nimport kanedyn as kd\n"
+            "from kanedyn.numerics.backends import _c_build\n"
+            "warnings.simplefilter('ignore')\n"
+            "model = kd.models.build('pendulum').numeric(backend='c')\n"
+            "folders = [_c_build._PRIVATE[0], *_c_build._PRIVATE[0].glob('quick-*')]\n"
+            "pid = os.fork()\n"
+            "if pid == 0:\n"
+            "    sys.exit(0)\n"
+            "os.waitpid(pid, 0)\n"
+            "print(len(folders), all(folder.exists() for folder in folders))\n")
+    run = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         timeout=300,
+                         env=dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "a-file")))
+    assert run.stdout.split() == ["2" if _c_quick.quick_command() else "1", "True"], \
+        run.stderr[-2000:]

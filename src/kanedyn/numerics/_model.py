@@ -26,7 +26,6 @@ from __future__ import annotations
 import functools
 import inspect
 import numbers
-import os
 import pickle
 import sys
 import threading
@@ -37,6 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._errors import ConstraintError, MissingValueError, ModelError
+from .backends._c_fork import after_fork_in_child
 from .backends._c_quick import QUICK_STATS, when_cached, when_optimized
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
@@ -360,8 +360,7 @@ def _binding_anew():
     _BINDING = threading.RLock()
 
 
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_binding_anew)
+after_fork_in_child(_binding_anew)
 
 
 def _move_onto(model_ref, quick, optimized):

@@ -35,7 +35,6 @@ import os
 import shlex
 import shutil
 import signal
-import subprocess
 import sys
 import sysconfig
 import tempfile
@@ -47,6 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import KanedynError
+from ._c_fork import FileLock, after_fork_in_child, remove_at_exit, spawn
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
@@ -226,7 +226,7 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
     if module is None:
         _remove_stale_builds(directory, timeout)
         so_path, manifest = _entry(directory, name)
-        with _FileLock(directory / f"{name}.lock"):
+        with FileLock(directory / f"{name}.lock"):
             module = _try_cached(name, so_path, manifest)
             if module is None:
                 template = make_template()
@@ -243,7 +243,7 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                     return module, (
                         functools.partial(_optimized, name, key, units, command, timeout,
                                           single, directory),
-                        functools.partial(_built_elsewhere, name, key, directory))
+                        functools.partial(_from_the_cache, name, key, directory))
                 _build(units, command, so_path, manifest, directory, timeout, single=single)
                 module = _load(name, so_path)
     _LOADED[key] = module
@@ -254,25 +254,26 @@ def _optimized(name, key, units, command, timeout, single, directory):
     """Build (or find in the cache, built by another process meanwhile) and load
     the module ``name`` of :func:`load_module` that a quick module stands in for
     (in the background thread of :func:`~._c_quick.optimize_later`)."""
+    def build(so_path, manifest):
+        _build(iter(units), command, so_path, manifest, directory, timeout, single=single)
+
+    with _LOCK:
+        return _from_the_cache(name, key, directory, build)
+
+
+def _from_the_cache(name, key, directory, build=None):
+    """The module ``name`` loaded from its cache entry in ``directory`` under
+    the entry's file lock, after ``build(module file, manifest)`` where there
+    is none, and recorded as the module of ``key``.  Without ``build``: read
+    only, ``None`` where there is no valid entry (a forked child waiting for
+    the module its parent builds: the file lock is waited for, not the build
+    lock of this process)."""
     so_path, manifest = _entry(directory, name)
-    with _LOCK, _FileLock(directory / f"{name}.lock"):
-        module = _try_cached(name, so_path, manifest)
-        if module is None:
-            _build(iter(units), command, so_path, manifest, directory, timeout,
-                   single=single)
+    with FileLock(directory / f"{name}.lock"):
+        module = _try_cached(name, so_path, manifest, repair=build is not None)
+        if module is None and build is not None:
+            build(so_path, manifest)
             module = _load(name, so_path)
-        _LOADED[key] = module
-    return module
-
-
-def _built_elsewhere(name, key, directory):
-    """The module ``name`` of :func:`load_module` from the cache once the process
-    that builds it (the parent of a forked child, :func:`_optimized`) has
-    written it: its file lock is waited for, not the build lock of this process;
-    ``None`` when that build left no valid entry."""
-    so_path, manifest = _entry(directory, name)
-    with _FileLock(directory / f"{name}.lock"):
-        module = _try_cached(name, so_path, manifest, repair=False)
     if module is not None:
         _LOADED[key] = module
     return module
@@ -294,9 +295,8 @@ def _unwritable(directory):
 def _private_cache(reason):
     """This process's private cache directory (created and announced once)."""
     if not _PRIVATE:
-        import atexit
         path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
-        atexit.register(shutil.rmtree, path, True)
+        remove_at_exit(path)
         _PRIVATE.append(path)
         warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
                       "only (set KANEDYN_CACHE_DIR to a writable directory to keep them)",
@@ -316,33 +316,6 @@ def _remove_stale_builds(directory, timeout):
                 shutil.rmtree(path, ignore_errors=True)
         except OSError:
             pass
-
-
-class _FileLock:
-    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
-
-    def __init__(self, path):
-        self.path = path
-        self.handle = None
-
-    def __enter__(self):
-        self.handle = open(self.path, "a+")  # noqa: SIM115
-        try:
-            import fcntl
-            fcntl.flock(self.handle, fcntl.LOCK_EX)
-        except ImportError:  # pragma: no cover  (non-POSIX)
-            pass
-        _HELD.add(self.handle)
-        return self
-
-    def __exit__(self, *exc):
-        _HELD.discard(self.handle)
-        self.handle.close()  # closing releases the lock
-
-
-#: the files of the locks this process holds (a forked child closes its copies,
-#: which would otherwise keep the parent's lock for as long as the child lives)
-_HELD = set()
 
 
 def _try_cached(name, so_path, manifest, repair=True):
@@ -545,19 +518,14 @@ _PREFETCHED = {}
 
 
 def _after_fork():
-    """A forked child owns neither its parent's prefetched compiles nor the locks
-    that a thread of the parent (an optimized build, :mod:`._c_quick`) held: the
-    thread lock is made anew, the files of file locks are closed."""
+    """A forked child owns neither its parent's prefetched compiles nor the build
+    lock that a thread of the parent (an optimized build, :mod:`._c_quick`) held."""
     global _LOCK
     _PREFETCHED.clear()
     _LOCK = threading.Lock()
-    for handle in list(_HELD):
-        handle.close()
-    _HELD.clear()
 
 
-if hasattr(os, "register_at_fork"):
-    os.register_at_fork(after_in_child=_after_fork)
+after_fork_in_child(_after_fork)
 
 
 def prefetch(unit):
@@ -651,7 +619,7 @@ def _includes():
 def _compiler_process(cmd, said):
     """Start the compiler command ``cmd`` (output to the file ``said``) in a
     process group of its own, so that :func:`_kill` stops its children too."""
-    return subprocess.Popen(cmd, stdout=said, stderr=said, start_new_session=True)
+    return spawn(cmd, stdout=said, stderr=said, start_new_session=True)
 
 
 def _kill(proc):

@@ -36,7 +36,6 @@ correctly rounded literals, so that no compiler folds a division of two.
 
 from __future__ import annotations
 
-import atexit
 import os
 import shlex
 import shutil
@@ -47,6 +46,8 @@ import threading
 import time
 import warnings
 from pathlib import Path
+
+from ._c_fork import after_fork_in_child, remove_at_exit, spawn
 
 __all__ = ["quick_command", "compile_quick", "optimize_later", "when_optimized",
            "when_cached", "finish_compiling", "QUICK_STATS"]
@@ -77,6 +78,7 @@ class _Upgrade:
         self.thread = None
         self.final = None
         self.callbacks = []
+        self.cache_callbacks = []  # of when_cached: the building process's own
         self.folder = folder  # of the quick module's file
         self.fetch = None  # () -> the optimized module built by another process, or None
 
@@ -130,7 +132,7 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     this one.  A folder left by a killed process is removed with the stale
     builds of :mod:`._c_build`."""
     folder = Path(tempfile.mkdtemp(prefix="quick-", dir=directory))
-    atexit.register(_remove_own, folder, os.getpid())
+    remove_at_exit(folder)
     paths = []
     for k, text in enumerate(units):
         path = folder / f"unit{k}.c"
@@ -139,11 +141,15 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     out = folder / f"{name}.so"
     problem, module = None, None
     try:
-        run = subprocess.run(command + _QUICK_FLAGS + includes + paths
-                             + ["-o", str(out), "-lm"],
-                             capture_output=True, text=True, timeout=timeout)
+        run = spawn(command + _QUICK_FLAGS + includes + paths + ["-o", str(out), "-lm"],
+                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+        try:
+            said = run.communicate(timeout=timeout)[0].strip()[-500:]
+        except subprocess.TimeoutExpired:
+            run.kill()
+            run.communicate()
+            raise
         if run.returncode != 0:
-            said = (run.stderr or run.stdout).strip()[-500:]
             problem = f"exit status {run.returncode}" + (f": {said}" if said else "")
         else:
             module = loader(name, out)
@@ -165,13 +171,6 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     return module
 
 
-def _remove_own(folder, pid):
-    """Remove ``folder`` at exit, in the process that made it only (not in a
-    forked child, whose parent still runs its module from there)."""
-    if os.getpid() == pid:
-        shutil.rmtree(folder, ignore_errors=True)
-
-
 def optimize_later(module, build, fetch=None):
     """Build the optimized replacement of the quick ``module`` (from
     :func:`compile_quick`) in a background thread: ``build()`` returns it (and
@@ -184,7 +183,6 @@ def optimize_later(module, build, fetch=None):
     the interpreter shuts down (a model built in an ``atexit`` function) the
     build runs at once, in this thread."""
     with _STATE:
-        _at_fork_once()
         upgrade = _UPGRADES.setdefault(module, _Upgrade())
         upgrade.fetch = fetch
     if not threading.main_thread().is_alive():  # shutting down: no thread would be joined
@@ -214,7 +212,8 @@ def _upgrade(module, upgrade, obtain):
     QUICK_STATS["optimized"] += 1
     with _STATE:
         upgrade.final = final
-        callbacks, upgrade.callbacks = upgrade.callbacks, []
+        callbacks = upgrade.callbacks + upgrade.cache_callbacks
+        upgrade.callbacks, upgrade.cache_callbacks = [], []
     for callback in callbacks:
         try:
             callback(final)
@@ -243,7 +242,7 @@ def _when(module, callback, at_once_if_final):
     with _STATE:
         upgrade = _UPGRADES.get(module) if module is not None else None
         if upgrade is not None and upgrade.final is None:
-            upgrade.callbacks.append(callback)
+            (upgrade.cache_callbacks if at_once_if_final else upgrade.callbacks).append(callback)
             return
     if upgrade is not None:
         callback(upgrade.final)
@@ -277,14 +276,15 @@ def _catch_up_after_fork():
     """A forked child has none of its parent's build threads: for each quick
     module whose optimized build was under way, a daemon thread of the child
     waits for the parent to cache the optimized module and then moves the
-    child onto it (the child's exit does not wait for it); a quick module
-    without ``fetch`` stays."""
+    child onto it (the child's exit does not wait for it; what waits for the
+    module to be cached is left to the parent); a quick module without
+    ``fetch`` stays."""
     global _STATE
     _STATE = threading.Lock()
     for module, upgrade in list(_UPGRADES.items()):
         if upgrade.final is not None:
             continue
-        upgrade.thread = None
+        upgrade.cache_callbacks = []
         if upgrade.fetch is None:
             del _UPGRADES[module]
             continue
@@ -293,13 +293,4 @@ def _catch_up_after_fork():
         upgrade.thread.start()
 
 
-def _at_fork_once():
-    """Register :func:`_catch_up_after_fork` (at the first optimized build: after
-    the fork handlers of the modules that use this one, so that a child's
-    locks are made anew before its threads start)."""
-    if not _FORK_HOOK and hasattr(os, "register_at_fork"):
-        os.register_at_fork(after_in_child=_catch_up_after_fork)
-        _FORK_HOOK.append(True)
-
-
-_FORK_HOOK = []
+after_fork_in_child(_catch_up_after_fork, starts_threads=True)

@@ -1,0 +1,100 @@
+"""Builds and forks: nothing a forked child inherits is left half made.
+
+The optimized build of a model runs in a background thread (:mod:`._c_quick`)
+while the main thread may fork (a pool of forked workers started right after
+``numeric(backend="c")``).  A fork copies the process at one instant, so:
+
+* a lock file is opened and recorded in :data:`_HELD` (or closed and forgotten)
+  in one step that a fork waits for: a child closes its copies of every lock
+  file of its parent, whose lock it would otherwise hold for its whole life;
+* a compiler is started (:func:`spawn`) in one step that a fork waits for:
+  a child forked while ``subprocess`` starts one would hold the pipe on which
+  the parent waits for the compiler's ``exec``, and the parent's build would
+  wait for the child;
+* folders are removed at exit by the process that made them only
+  (:func:`remove_at_exit`), not by a child that exits;
+* the modules using these call their hooks in a child
+  (:func:`after_fork_in_child`): first those that make locks anew, then those
+  that start threads.
+
+The step a fork waits for never waits itself (a file lock is waited for
+after it), so a fork waits for milliseconds at most.
+"""
+
+from __future__ import annotations
+
+import atexit
+import os
+import shutil
+import subprocess
+import threading
+
+__all__ = ["FileLock", "spawn", "remove_at_exit", "after_fork_in_child"]
+
+_GUARD = threading.Lock()  # held by the steps a fork waits for
+#: the files of the lock files this process holds
+_HELD = set()
+_RESETS, _STARTS = [], []  # hooks in a child: locks made anew, then threads started
+
+
+class FileLock:
+    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
+
+    def __init__(self, path):
+        self.path = path
+        self.handle = None
+
+    def __enter__(self):
+        with _GUARD:
+            self.handle = open(self.path, "a+")  # noqa: SIM115
+            _HELD.add(self.handle)
+        try:
+            import fcntl
+            fcntl.flock(self.handle, fcntl.LOCK_EX)
+        except ImportError:  # pragma: no cover  (non-POSIX)
+            pass
+        return self
+
+    def __exit__(self, *exc):
+        with _GUARD:
+            _HELD.discard(self.handle)
+            self.handle.close()  # closing releases the lock
+
+
+def spawn(command, **options):
+    """``subprocess.Popen(command, **options)``, started in a step a fork waits for."""
+    with _GUARD:
+        return subprocess.Popen(command, **options)
+
+
+def remove_at_exit(folder):
+    """Remove ``folder`` when this process exits (not when a child forked from
+    it does: the parent may still use it)."""
+    atexit.register(_remove_own, folder, os.getpid())
+
+
+def _remove_own(folder, pid):
+    if os.getpid() == pid:
+        shutil.rmtree(folder, ignore_errors=True)
+
+
+def after_fork_in_child(hook, *, starts_threads=False):
+    """Call ``hook()`` in every child forked from now on, after the child has
+    closed its copies of the parent's lock files; hooks that start threads run
+    after all the others (the locks those threads take are then new)."""
+    (_STARTS if starts_threads else _RESETS).append(hook)
+
+
+def _in_child():
+    global _GUARD
+    _GUARD = threading.Lock()
+    for handle in list(_HELD):
+        handle.close()
+    _HELD.clear()
+    for hook in _RESETS + _STARTS:
+        hook()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(before=lambda: _GUARD.acquire(), after_in_parent=lambda: _GUARD.release(),
+                        after_in_child=_in_child)
