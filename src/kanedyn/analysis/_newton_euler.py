@@ -193,6 +193,11 @@ def _build(model, loads_on):
         raise ModelError("the Newton-Euler check needs the model's equations, which an "
                          "unpickled NumericModel does not carry; rebuild it with "
                          "eom.numeric(...)")
+    for body in eom.bodies:
+        if not isinstance(body, (me.RigidBody, me.Particle)):
+            raise ModelError(f"the Newton-Euler check covers rigid bodies and particles; "
+                             f"body {body.name!r} is a {type(body).__name__}, whose elastic "
+                             "motion it has no residual for")
     prog, table, kin = eom._program, eom._table, eom._kinematics
     owners = _Owners(eom, loads_on)
     bodies = list(eom.bodies)
@@ -295,7 +300,8 @@ def check_newton_euler(model, t=None, y=None, *, udot=None, multipliers=None,
     ------
     ModelError
         When a load cannot be assigned to a body (the message names the
-        point), or the model was unpickled without its equations.
+        point), the model has a flexible body, or the model was unpickled
+        without its equations.
     """
     from ..simulation import SimulationResult
     if isinstance(model, SimulationResult):
@@ -338,7 +344,11 @@ def check_newton_euler(model, t=None, y=None, *, udot=None, multipliers=None,
     scale = 0.0
     for j in range(n):
         tj, yj = ts[j], Y[:, j]
-        ud = UD[:, j] if udot is not None else model.rhs(tj, yj)[model.n_q:]
+        try:
+            ud = UD[:, j] if udot is not None else model.rhs(tj, yj)[model.n_q:]
+        except np.linalg.LinAlgError as exc:
+            raise ModelError(f"no accelerations to check at t={tj:g}: the equations of "
+                             f"motion are singular there ({exc})") from None
         r = list(model._r(tj, yj)) + list(ud)
         inertia, applied, units = fn(tj, yj, model._p, r)
         units = units.reshape(len(names), nb, 6)

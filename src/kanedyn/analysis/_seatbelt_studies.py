@@ -296,16 +296,21 @@ def _plot_map(table, shape, lock_angle):
         for j, deg in enumerate(directions):
             ax = axes[i, j]
             grid = np.full((len(ds), len(gs)), np.nan)
+            failed = np.zeros(grid.shape, dtype=bool)  # no answer: not "no lock"
             part = table[(table.direction == deg) & (table.roll_rate == rate)]
             for _, row in part.iterrows():
-                grid[ds.index(row.duration), gs.index(row.peak_g)] = (
-                    row.lock_time * 1e3 if row.locked else np.nan)
+                cell = ds.index(row.duration), gs.index(row.peak_g)
+                grid[cell] = row.lock_time * 1e3 if row.locked else np.nan
+                failed[cell] = not row.success
             image = ax.imshow(np.ma.masked_invalid(grid), origin="lower", aspect="auto",
                               cmap=cmap, norm=norm)
             small = len(gs) * len(ds) <= 64
             for a in range(len(ds)):
                 for b in range(len(gs)):
-                    if not np.isfinite(grid[a, b]):
+                    if failed[a, b]:
+                        ax.text(b, a, "run\nfailed", ha="center", va="center", fontsize=7,
+                                color="tab:red")
+                    elif not np.isfinite(grid[a, b]):
                         ax.text(b, a, "no\nlock", ha="center", va="center", fontsize=7,
                                 color="0.3")
                     elif small:
@@ -322,7 +327,7 @@ def _plot_map(table, shape, lock_angle):
             if j == 0:
                 ax.set_ylabel("pulse duration [ms]")
     bar = fig.colorbar(image, ax=axes.ravel().tolist(), shrink=0.9)
-    bar.set_label("lock time [ms] (grey: no lock)")
+    bar.set_label("lock time [ms] (grey: no lock, or the run failed)")
     fig.suptitle(f"Seat-belt sensor: lock time under {shape} pulses "
                  f"(lock angle {math.degrees(lock_angle):g}°)", fontsize=10)
     plt.close(fig)
@@ -523,10 +528,11 @@ def _lock_map_study(out, quiet, peak_g, duration, direction, roll_rate, shape, l
                                progress=not quiet)
     table = result.table
     columns = ("peak [g]", "duration [s]", "direction [deg]", "roll rate [rad/s]",
-               "locked", "lock time [s]")
+               "locked", "lock time [s]", "run")
     rows = tuple((float(r.peak_g), float(r.duration), float(r.direction),
                   float(r.roll_rate), bool(r.locked),
-                  float(r.lock_time) if r.locked else None) for r in table.itertuples())
+                  float(r.lock_time) if r.locked else None,
+                  "ok" if r.success else f"failed: {r.message}") for r in table.itertuples())
     figures = []
     if out is not None:
         figures.append(result.save_figure(out / "seatbelt-map.png"))
@@ -537,6 +543,10 @@ def _lock_map_study(out, quiet, peak_g, duration, direction, roll_rate, shape, l
         first = min(locked, key=lambda r: r[5])
         summary += (f"; earliest lock {1e3 * first[5]:.2f} ms at {first[0]:g} g, "
                     f"{1e3 * first[1]:g} ms, {first[2]:g} deg")
+    failed = [r for r in rows if r[6] != "ok"]
+    if failed:
+        summary += (f"; {len(failed)} of {len(rows)} runs failed and say nothing about "
+                    f"locking (first: {failed[0][6][len('failed: '):]})")
     return dict(tables={"lock_map": (columns, rows)}, figures=figures, summary=summary,
                 data={"lock_times": {r[:4]: r[5] for r in rows}})
 

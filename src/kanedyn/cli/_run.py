@@ -69,7 +69,8 @@ def cmd_run(args):
     except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
         progress.done()
         res = stop.result
-    report = definition.report(res, definition) if definition.report is not None else None
+    report = (definition.report(res, definition)  # of the output points: none, no report
+              if definition.report is not None and res.t.size else None)
     with _writing_first() as held:  # Ctrl-C now: the outputs are finished first
         summary = _write_run(definition, eom, model, res, out, progress, report)
         if args.animate:

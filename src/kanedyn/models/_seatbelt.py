@@ -362,6 +362,9 @@ def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=
     """
     angle = _lock_angle(definition, lock_angle)
     t = np.asarray(result.t, float)
+    if t.size == 0:
+        raise ModelError(f"the run has no output point (it stopped: {result.message}): "
+                         "there is nothing to report on the sensor's locking")
     tilt = seatbelt_tilt(result.y[:2])
     over = tilt > angle
     if events is not None:

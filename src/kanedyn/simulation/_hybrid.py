@@ -45,6 +45,9 @@ class ModeChange(tuple):
     def __new__(cls, t, contact, old, new, reason):
         return super().__new__(cls, (float(t), contact, old, new, reason))
 
+    def __getnewargs__(self):  # pickling: the five fields, not one tuple
+        return tuple(self)
+
     t = property(lambda self: self[0])
     contact = property(lambda self: self[1])
     old = property(lambda self: self[2])
@@ -264,10 +267,25 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     status, message = 0, "the integration reached the end of the interval"
     t, dissipated, contact_work = t0, 0.0, 0.0
     first = True
+    boundary = None  # (t, state with the work integrals, modes, directions) of the last event
     stalled = 0  # segments in a row that end where they start
+    def keep_point(tt, z, frozen_modes, frozen_dirs):
+        """Keep the state ``z`` (with the two work integrals) at ``tt`` as an
+        output point of sparse outputs, when it is later than the last one kept
+        (a run that stops between output times loses nothing it computed)."""
+        if (t_eval is not None and np.all(np.isfinite(z))
+                and tt > max((seg[-1] for seg in ts if seg.size), default=-np.inf)):
+            ts.append(np.array([tt]))
+            ys.append(np.asarray(z[:n], dtype=float)[:, None])
+            work.append(np.asarray(z[n:], dtype=float)[:, None])
+            point_modes.append(tuple(frozen_modes))
+            point_dirs.append(tuple(frozen_dirs))
+
     for _ in range(max_segments):
         if guard.interrupted:
             status, message = -1, INTERRUPTED
+            if boundary is not None:  # where the last segment ended (before its impacts,
+                keep_point(*boundary)    # as an output point at an impact's time is)
             break
         points = contact_points(model, t, y)
         # the reference slip directions of this segment, from slip velocities
@@ -337,15 +355,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         first = False
         if sol.status == -1:
             status, message = -1, guard.stop_reason or sol.message
-            last = guard.last_step
-            if (t_eval is not None and last is not None and np.all(np.isfinite(last[1]))
-                    and last[0] > max((seg[-1] for seg in ts if seg.size), default=t)):
-                # sparse outputs: keep the state the solver accepted last
-                ts.append(np.array([last[0]]))
-                ys.append(last[1][:n, None])
-                work.append(last[1][n:, None])
-                point_modes.append(tuple(frozen_modes))
-                point_dirs.append(tuple(frozen_dirs))
+            if guard.last_step is not None:  # the state the solver accepted last
+                keep_point(*guard.last_step, frozen_modes, frozen_dirs)
             break
         if sol.status == 0:
             break
@@ -354,6 +365,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         last = [(float(te[-1]), np.asarray(ye)[-1]) for te, ye in zip(sol.t_events, sol.y_events)
                 if len(te)]
         t, z = max(last, key=lambda item: item[0])
+        boundary = (t, z, frozen_modes, frozen_dirs)
         y, dissipated, contact_work = z[:n].copy(), float(z[n]), float(z[n + 1])
         fired_user = [i for i in range(len(user_events))
                       if getattr(user_events[i], "terminal", False)

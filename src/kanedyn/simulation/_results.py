@@ -261,18 +261,23 @@ class SimulationResult:
         """Energy error of a simulation with contacts, J, shape (N,).
 
         Change of total energy minus the work of the contact forces and the
-        kinetic energy jumps at impacts: zero to the integration tolerance
-        when the model's other loads are conservative and its kinematics do
-        not depend explicitly on time (the surfaces may move).
+        kinetic energy jumps at impacts, from the first output time on: zero
+        to the integration tolerance when the model's other loads are
+        conservative and its kinematics do not depend explicitly on time (the
+        surfaces may move).  Empty for a run that has no output point.
         """
         if self.energy is None:
             raise ValueError("the model defines no total energy (give potential_energy)")
         if not self._contacts:
             raise ValueError("this simulation has no contacts; see energy_drift()")
+        if self.t.size == 0:
+            return np.zeros(0)
         jumps = np.zeros(self.t.size)
-        for impact in self.impacts:
-            jumps[self.t > impact.t] += impact.kinetic_energy_jump  # at t: before it
-        return self.energy - self.energy[0] - self.contact_work - jumps
+        for impact in self.impacts:  # a point at an impact's time is the state before it
+            if impact.t >= self.t[0]:
+                jumps[self.t > impact.t] += impact.kinetic_energy_jump
+        work = self.contact_work - self.contact_work[0]  # from the first output time
+        return self.energy - self.energy[0] - work - jumps
 
     # ------------------------------------------------------------- access
     def __getitem__(self, key):

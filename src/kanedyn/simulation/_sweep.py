@@ -164,13 +164,16 @@ def _run_one(model, run, names, values, y0, t_span, outputs, options):
 
 
 def _outputs(row, res, outputs, model):
+    """The ``outputs`` of the run ``res`` into ``row`` (``nan`` where a run that
+    stopped before its first output time has no value; its message says why)."""
     names = res.state_names
+    states = res.y if res.t.size else np.full((len(names), 1), np.nan)
     if "final" in outputs:
-        row.update((f"final_{s}", float(v)) for s, v in zip(names, res.y[:, -1]))
+        row.update((f"final_{s}", float(v)) for s, v in zip(names, states[:, -1]))
     if "max" in outputs:
-        row.update((f"max_{s}", float(v)) for s, v in zip(names, res.y.max(axis=1)))
+        row.update((f"max_{s}", float(v)) for s, v in zip(names, states.max(axis=1)))
     if "min" in outputs:
-        row.update((f"min_{s}", float(v)) for s, v in zip(names, res.y.min(axis=1)))
+        row.update((f"min_{s}", float(v)) for s, v in zip(names, states.min(axis=1)))
     if "events" in outputs:
         for k, times in enumerate(res.t_events or ()):
             row[f"event{k}_count"] = int(len(times))
@@ -182,7 +185,7 @@ def _outputs(row, res, outputs, model):
     if "nfev" in outputs:
         row["rhs_evaluations"] = int(res.nfev)
     if "t_end" in outputs:
-        row["t_end"] = float(res.t[-1])
+        row["t_end"] = float(res.t[-1]) if res.t.size else float("nan")
 
 
 def run_batch(model, batch, names, y0, t_span, outputs, options):
