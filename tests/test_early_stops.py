@@ -151,3 +151,11 @@ def test_the_lock_map_study_tells_failed_runs_from_no_lock(tmp_path, monkeypatch
         in study.summary
     rows = study.csv_files[0].read_text().splitlines()
     assert rows[0].endswith(",run") and all("failed: cannot start" in row for row in rows[1:])
+
+
+def test_a_result_of_one_output_time_is_drawn_as_points():
+    definition = kd.models.build("pendulum")
+    model = definition.numeric(backend="numpy")
+    res = kd.simulate(model, (0.0, 1.0), definition.initial(model), t_eval=[0.5])
+    lines = [line for ax in res.plot().axes for line in ax.get_lines()]
+    assert len(lines) == 3 and all(line.get_marker() == "o" for line in lines)

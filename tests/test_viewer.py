@@ -196,6 +196,32 @@ def test_cli_run_animate(tmp_path):
     assert (out / "pendulum.html").stat().st_size > 100_000
 
 
+@pytest.mark.slow
+def test_inputs_the_positions_need_beyond_the_equations(tmp_path):
+    """The seat-belt sensor's equations take the vehicle's accelerations only; its
+    housing's place needs the displacement too: refused by name without it, and
+    with it (``animation_inputs``) the pendulum goes with the vehicle."""
+    definition = kd.models.build("seatbelt-sensor")
+    model = definition.numeric(backend="numpy")
+    res = kd.simulate(model, (0.0, 0.1), definition.initial(model),
+                      t_eval=np.linspace(0.0, 0.1, 11))
+    with pytest.raises(kd.ModelError, match=r"need V_x, V_y.*animate\(\.\.\., inputs="):
+        scene_data(res)
+    scene = scene_data(res, inputs=definition.animation_inputs)
+    (pendulum,) = scene["bodies"]
+    position = np.array(pendulum["position"]).reshape(-1, 3)
+    (x, y) = [np.array([definition.animation_inputs[s](t) for t in res.t])
+              for s in definition.symbols["motion"].symbols[:2]]
+    assert np.ptp(x) > 0.1  # the vehicle travels (m) ...
+    length = definition.constants[definition.symbols["L"]]
+    assert np.all(np.hypot(position[:, 0] - x, position[:, 1] - y) <= length)  # ... with it
+    with pytest.raises(kd.OptionError, match="must be a function of t or a number"):
+        scene_data(res, inputs={definition.symbols["motion"].symbols[0]: "0"})
+    assert main(["run", "seatbelt-sensor", "--t-end", "0.05", "--quiet", "--animate",
+                 "--backend", "numpy", "--out", str(tmp_path)]) == 0
+    assert (tmp_path / "seatbelt-sensor.html").exists()
+
+
 # ------------------------------------------------------------- in Chromium
 def _browser_pages(paths, times):
     """Load each page from file:// in headless Chromium; screenshots at ``times``."""

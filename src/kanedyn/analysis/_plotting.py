@@ -309,6 +309,9 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
         elif kind == "friction":
             for name, forces in contact_forces.items():
                 ax.plot(result.t, np.linalg.norm(forces["friction"], axis=1), label=name)
+        for line in ax.get_lines():
+            if len(line.get_xdata()) == 1:  # one output time: a line would draw nothing
+                line.set_marker("o")
         for k, t_impact in enumerate(impacts):
             ax.axvline(t_impact, color="0.55", lw=0.7, ls=":",
                        label="impacts" if k == 0 and ax is axes[0, 0] else None)

@@ -76,7 +76,8 @@ def cmd_run(args):
         if args.animate:
             page = res.animate(out / f"{definition.name}.html",
                                visuals=definition.shapes(constants),
-                               title=f"{definition.name}: {definition.title}")
+                               title=f"{definition.name}: {definition.title}",
+                               inputs=definition.animation_inputs)
             progress.stage(f"wrote {page}")
     if held and res.message != "interrupted":
         print("kanedyn: interrupted while writing the outputs; they were finished first",

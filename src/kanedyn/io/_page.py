@@ -107,7 +107,7 @@ html, body {{ margin: 0; height: 100%; overflow: hidden; background: #f4f5f7;
 
 
 def animate(result, path, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_FRAMES,
-            title=None):
+            title=None, inputs=None):
     """Write the 3D animation of a simulation as one self-contained HTML file.
 
     Parameters
@@ -115,7 +115,7 @@ def animate(result, path, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MA
     result : SimulationResult
     path : str or Path
         The page to write (``.html``).
-    visuals, trace, up, max_frames, title
+    visuals, trace, up, max_frames, title, inputs
         See :func:`kanedyn.io.scene_data`.
 
     Returns
@@ -130,6 +130,6 @@ def animate(result, path, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MA
     if not path.parent.is_dir():
         raise OptionError(f"cannot write {path}: folder {path.parent} does not exist")
     scene = scene_data(result, visuals=visuals, trace=trace, up=up, max_frames=max_frames,
-                       title=title)
+                       title=title, inputs=inputs)
     path.write_text(page_html(scene), encoding="utf-8")
     return path

@@ -30,6 +30,8 @@ in one vectorized function generated once per model and kept on it.
 
 from __future__ import annotations
 
+import numbers
+
 import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -160,7 +162,7 @@ def _skeleton(kin, anchor, point):
 class _Program:
     """The generated function of a model's poses, and what its outputs are."""
 
-    def __init__(self, model, trace):
+    def __init__(self, model, trace, inputs):
         eom = getattr(model, "_eom", None)
         if eom is None:
             raise ModelError("the animation needs the model's equations, which an unpickled "
@@ -244,19 +246,25 @@ class _Program:
         for _, exprs in outputs:
             for e in exprs:
                 leaves |= prog.deps(e)
-        unknown = sorted(name_of(table.external(s)) for s in leaves - known)
+        given = {table.external(s): s for s in leaves - known if table.external(s) in inputs}
+        self.extra = list(given)  # inputs the positions need beyond the model's: given
+        unknown = sorted(name_of(table.external(s)) for s in leaves - known - set(given.values()))
         if unknown:
             raise ModelError(f"the positions of the animation need {', '.join(unknown)}, "
-                             "which the numerical model has no value for")
+                             "which the numerical model has no value for (give them with "
+                             "animate(..., inputs={symbol: function of t}))")
+        args["r"] = list(args["r"]) + list(given.values())
         # (n, 3, 3) outputs are written as (n*3, 3): reshape after the call
         outputs[1] = ((3 * len(frames), 3), dcm_exprs)
         source = generate_python(prog, "viewer_poses", args, outputs, vectorized=True)
         self.function = compile_python(source, "viewer_poses")
 
-    def __call__(self, model, t, Y):
+    def __call__(self, model, t, Y, inputs):
         k = len(t)
         r = [np.array([model._r(t[j], Y[:, j])[i] for j in range(k)])
              for i in range(len(model._inputs))] if model._inputs else []
+        r += [np.array([float(inputs[symbol](tj)) for tj in t]) if callable(inputs[symbol])
+              else np.full(k, float(inputs[symbol])) for symbol in self.extra]
         pos, dcm, force = self.function(t, Y, model._p, r)
         pos = np.broadcast_to(pos, (len(self.points), 3, k))
         dcm = np.broadcast_to(dcm, (3 * len(self.frames), 3, k))
@@ -266,11 +274,11 @@ class _Program:
         return pos, dcm, force
 
 
-def _program(model, trace):
+def _program(model, trace, inputs):
     cache = model.__dict__.setdefault("_viewer_programs", {})
-    key = tuple(id(p) for p in trace)
+    key = (tuple(id(p) for p in trace), tuple(sorted(map(str, inputs))))
     if key not in cache:
-        cache[key] = _Program(model, trace)
+        cache[key] = _Program(model, trace, inputs)
     return cache[key]
 
 
@@ -384,7 +392,7 @@ def _up(up, force):
 
 
 def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_FRAMES,
-               title=None):
+               title=None, inputs=None):
     """The animation's scene as JSON-ready data.
 
     Parameters
@@ -402,6 +410,10 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
         At most this many of the result's output times become frames
         (evenly by index); the page interpolates between frames.
     title : str, optional
+    inputs : dict, optional
+        ``{specified symbol: function of t, or number}``: inputs that the
+        positions need but the equations of motion do not (a vehicle's
+        displacement when only its accelerations drive the model).
 
     Returns
     -------
@@ -416,9 +428,14 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
             raise OptionError(f"visuals must be kanedyn.visuals shapes (Box, Cylinder, "
                               f"Sphere, Mesh), got {v!r}")
     trace = tuple(trace or ())
-    prog = _program(model, trace)
+    inputs = dict(inputs or {})
+    for symbol, value in inputs.items():
+        if not (callable(value) or isinstance(value, numbers.Real)):
+            raise OptionError(f"inputs[{symbol}] must be a function of t or a number, "
+                              f"not {value!r}")
+    prog = _program(model, trace, inputs)
     t, Y = _frames(result, max_frames)
-    pos, dcm, force = prog(model, t, Y)
+    pos, dcm, force = prog(model, t, Y, inputs)
     values = _constants(model)
 
     # the size of the scene: where the reference points and traced points go

@@ -70,6 +70,12 @@ class ModelDefinition:
         run (e.g. the seat-belt sensor's lock times), with ``text()`` (one
         line) and ``as_dict()`` (JSON-ready); ``kanedyn run`` prints it and
         writes it to ``summary.json`` under ``"report"``.  None: no report.
+    animation_inputs : dict
+        ``{specified symbol: function of t}`` for inputs that the bodies'
+        positions need but the equations of motion do not (the seat-belt
+        sensor's vehicle displacement: only its accelerations drive the
+        model); ``SimulationResult.animate(inputs=...)`` takes them, and
+        ``kanedyn run --animate`` passes them.  Empty when none.
     """
 
     name: str
@@ -87,6 +93,7 @@ class ModelDefinition:
     actuators: tuple = ()
     body_groups: dict = field(default_factory=dict)
     report: object = None
+    animation_inputs: dict = field(default_factory=dict)
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the

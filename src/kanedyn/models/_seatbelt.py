@@ -210,6 +210,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                    lock_angle=SEATBELT_DEFAULTS["theta_lock"], **sy,
                    **extra)
     specified = _needed_inputs(motion, pivot_force)
+    # the housing's place needs the vehicle's displacement, which no equation does
+    displacement = {s: v for s, v in motion.specified().items() if s in motion.symbols[:3]}
     return ModelDefinition(
         name="seatbelt-sensor",
         title="seat-belt inertial sensor: spherical pendulum in a housing on a moving "
@@ -222,7 +224,7 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                     "under the vehicle's deceleration; tilt beyond theta_lock locks the "
                     f"belt (seatbelt_report). Pulse: {motion.source}; limit: {limit}.",
         units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"},
-        report=_run_report)
+        report=_run_report, animation_inputs=displacement)
 
 
 def _run_report(result, definition):

@@ -416,7 +416,8 @@ class SimulationResult:
         return plot_result(self, states=states, path=path, extras=extras, labels=labels,
                            title=title)
 
-    def animate(self, path, visuals=(), trace=(), up="auto", max_frames=2000, title=None):
+    def animate(self, path, visuals=(), trace=(), up="auto", max_frames=2000, title=None,
+                inputs=None):
         """Write the motion as a 3D animation: one HTML file that needs no network.
 
         Parameters
@@ -435,6 +436,11 @@ class SimulationResult:
         max_frames : int
             At most this many output times become frames.
         title : str, optional
+        inputs : dict, optional
+            ``{specified symbol: function of t, or number}`` for inputs that
+            the bodies' positions need but the equations of motion do not
+            (a vehicle's displacement, when only its accelerations drive the
+            model; ``ModelDefinition.animation_inputs`` of a built-in model).
 
         Returns
         -------
@@ -445,7 +451,7 @@ class SimulationResult:
         """
         from ..io import animate
         return animate(self, path, visuals=visuals, trace=trace, up=up,
-                       max_frames=max_frames, title=title)
+                       max_frames=max_frames, title=title, inputs=inputs)
 
     def plot_deflection(self, body, times, scale="auto", path=None):
         """Draw a flexible body's deformed member at chosen times; returns the Figure.
