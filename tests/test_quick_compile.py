@@ -84,7 +84,7 @@ def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, 
     gate = threading.Event()  # gcc's build waits for it
 
     def held_back(module, build, fetch):
-        _c_quick.optimize_later(module, lambda: gate.wait(300) and build(), fetch)
+        _c_quick.optimize_later(module, lambda **locked: gate.wait(300) and build(**locked), fetch)
 
     monkeypatch.setattr(_c_build, "optimize_later", held_back)
     definition = kd.models.build(name, **options)
@@ -395,7 +395,7 @@ def test_rational_constants_are_one_correctly_rounded_literal(fresh_cache, monke
     needs_tcc()
     gate = threading.Event()
     monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, fetch: (
-        _c_quick.optimize_later(module, lambda: gate.wait(300) and build(), fetch)))
+        _c_quick.optimize_later(module, lambda **lock: gate.wait(300) and build(**lock), fetch)))
     q, u = me.dynamicsymbols("q u")
     mass = sm.symbols("m", positive=True)
     frame = me.ReferenceFrame("N")

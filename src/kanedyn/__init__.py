@@ -8,6 +8,7 @@ Public API (see the README and ``docs/``)::
     res = kd.simulate(model, (0, 10), y0)
 """
 
+from . import _fork  # noqa: F401  its fork hooks registered first (see its docstring)
 from ._lazy import lazy_attributes as _lazy_attributes
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, SimulationInterrupted,

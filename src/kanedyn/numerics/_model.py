@@ -36,7 +36,7 @@ from collections.abc import Mapping
 import numpy as np
 
 from .._errors import ConstraintError, MissingValueError, ModelError
-from .backends._c_fork import after_fork_in_child
+from .._fork import after_fork_in_child
 from .backends._c_quick import QUICK_STATS, when_cached, when_optimized
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]

@@ -4,7 +4,6 @@
 ``_c``              C source of an extension module (``backend="c"``)
 ``_c_build``        compiling (translation units in parallel) and caching the modules
 ``_c_quick``        a model's first module from TinyCC, the optimized one built meanwhile
-``_c_fork``         lock files, compiler starts and exit hooks safe for forked children
 ``_c_runtime``      the C runtime every generated module carries
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 """

@@ -46,7 +46,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import KanedynError
-from ._c_fork import FileLock, after_fork_in_child, remove_at_exit, spawn
+from ..._fork import FileLock, after_fork_in_child, remove_at_exit, spawn
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
@@ -250,26 +250,29 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
     return module, None
 
 
-def _optimized(name, key, units, command, timeout, single, directory):
+def _optimized(name, key, units, command, timeout, single, directory, when_locked=None):
     """Build (or find in the cache, built by another process meanwhile) and load
     the module ``name`` of :func:`load_module` that a quick module stands in for
-    (in the background thread of :func:`~._c_quick.optimize_later`)."""
+    (in the background thread of :func:`~._c_quick.optimize_later`, which learns
+    from ``when_locked()`` that the entry's file lock is held)."""
     def build(so_path, manifest):
         _build(iter(units), command, so_path, manifest, directory, timeout, single=single)
 
     with _LOCK:
-        return _from_the_cache(name, key, directory, build)
+        return _from_the_cache(name, key, directory, build, when_locked)
 
 
-def _from_the_cache(name, key, directory, build=None):
+def _from_the_cache(name, key, directory, build=None, when_locked=None):
     """The module ``name`` loaded from its cache entry in ``directory`` under
-    the entry's file lock, after ``build(module file, manifest)`` where there
-    is none, and recorded as the module of ``key``.  Without ``build``: read
-    only, ``None`` where there is no valid entry (a forked child waiting for
-    the module its parent builds: the file lock is waited for, not the build
-    lock of this process)."""
+    the entry's file lock (then ``when_locked()`` is called), after
+    ``build(module file, manifest)`` where there is none, and recorded as the
+    module of ``key``.  Without ``build``: read only, ``None`` where there is
+    no valid entry (a forked child waiting for the module its parent builds:
+    the file lock is waited for, not the build lock of this process)."""
     so_path, manifest = _entry(directory, name)
     with FileLock(directory / f"{name}.lock"):
+        if when_locked is not None:
+            when_locked()
         module = _try_cached(name, so_path, manifest, repair=build is not None)
         if module is None and build is not None:
             build(so_path, manifest)

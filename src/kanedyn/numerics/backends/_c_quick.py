@@ -47,7 +47,7 @@ import time
 import warnings
 from pathlib import Path
 
-from ._c_fork import after_fork_in_child, remove_at_exit, spawn
+from ..._fork import after_fork_in_child, remove_at_exit, spawn
 
 __all__ = ["quick_command", "compile_quick", "optimize_later", "when_optimized",
            "when_cached", "finish_compiling", "QUICK_STATS"]
@@ -65,6 +65,8 @@ QUICK_STATS = {"quick": 0, "failed": 0, "optimized": 0, "swaps": 0}
 _QUICK_FLAGS = ["-shared", "-fPIC", "-w", "-D_COMPLEX_H", "-D_Complex="]
 
 _STATE = threading.Lock()  # guards _UPGRADES
+#: s: longest wait of optimize_later for its build to hold the entry's file lock
+_LOCKED_WITHIN = 0.2
 _UPGRADES = {}  # quick module -> _Upgrade
 _WARNED = set()
 
@@ -141,14 +143,17 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     out = folder / f"{name}.so"
     problem, module = None, None
     try:
-        run = spawn(command + _QUICK_FLAGS + includes + paths + ["-o", str(out), "-lm"],
-                    stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
-        try:
-            said = run.communicate(timeout=timeout)[0].strip()[-500:]
-        except subprocess.TimeoutExpired:
-            run.kill()
-            run.communicate()
-            raise
+        with open(folder / "said.txt", "w+") as output:  # a file: no pipe a fork could hold
+            run = spawn(command + _QUICK_FLAGS + includes + paths + ["-o", str(out), "-lm"],
+                        stdout=output, stderr=subprocess.STDOUT)
+            try:
+                run.wait(timeout=timeout)
+            except BaseException:  # a timeout or Ctrl-C: the compiler does not run on
+                run.kill()
+                run.wait()
+                raise
+            output.seek(0)
+            said = output.read().strip()[-500:]
         if run.returncode != 0:
             problem = f"exit status {run.returncode}" + (f": {said}" if said else "")
         else:
@@ -173,9 +178,11 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
 
 def optimize_later(module, build, fetch=None):
     """Build the optimized replacement of the quick ``module`` (from
-    :func:`compile_quick`) in a background thread: ``build()`` returns it (and
-    may take locks; the caller must not hold them while it waits for the
-    thread).  The quick module then runs the optimized code and the callbacks
+    :func:`compile_quick`) in a background thread: ``build(when_locked=f)``
+    returns it and calls ``f()`` once it holds the cache entry's file lock,
+    which this function waits for (briefly: a child forked after it returns
+    then waits for the module; ``build`` may take locks, which the caller must
+    not hold).  The quick module then runs the optimized code and the callbacks
     of :func:`when_optimized` are called.  A build that fails leaves the quick
     module in place, with a warning.  ``fetch()``, when given, returns the
     optimized module once this process has built it (or ``None``): a child
@@ -190,9 +197,14 @@ def optimize_later(module, build, fetch=None):
         if upgrade.folder is not None:  # exit hooks registered now would not run
             shutil.rmtree(upgrade.folder, ignore_errors=True)
         return
-    upgrade.thread = threading.Thread(target=_upgrade, args=(module, upgrade, build),
-                                      name="kanedyn-optimized-build")
+    locked = threading.Event()
+    upgrade.thread = threading.Thread(
+        target=_upgrade, args=(module, upgrade, lambda: build(when_locked=locked.set)),
+        name="kanedyn-optimized-build")
     upgrade.thread.start()
+    # a child forked from now on finds the build's file lock held and waits for the
+    # module (not longer: another process may hold that lock, building it)
+    locked.wait(_LOCKED_WITHIN)
 
 
 def _upgrade(module, upgrade, obtain):

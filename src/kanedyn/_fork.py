@@ -1,8 +1,9 @@
 """Builds and forks: nothing a forked child inherits is left half made.
 
-The optimized build of a model runs in a background thread (:mod:`._c_quick`)
-while the main thread may fork (a pool of forked workers started right after
-``numeric(backend="c")``).  A fork copies the process at one instant, so:
+The optimized build of a model runs in a background thread
+(:mod:`kanedyn.numerics.backends._c_quick`) while the main thread may fork (a
+pool of forked workers started right after ``numeric(backend="c")``).  A fork
+copies the process at one instant, so:
 
 * a lock file is opened and recorded in :data:`_HELD` (or closed and forgotten)
   in one step that a fork waits for: a child closes its copies of every lock
@@ -17,21 +18,27 @@ while the main thread may fork (a pool of forked workers started right after
   (:func:`after_fork_in_child`): first those that make locks anew, then those
   that start threads.
 
-The step a fork waits for never waits itself (a file lock is waited for
-after it), so a fork waits for milliseconds at most.
+The steps a fork waits for never wait themselves (a file lock is waited for
+after its step), so a fork waits for milliseconds at most; a fork from the
+thread inside such a step (a signal handler that forks) does not wait for it.
+The fork hooks are registered when kanedyn is imported, so that a fork hook of
+the user's, registered later, runs before the fork waits (one that waits for
+the optimized build, :func:`kanedyn.numerics.finish_compiling`, then finds the
+build free to go on; a hook registered before kanedyn was imported runs after
+it, and must not wait for the build).  This module imports nothing heavy:
+``import kanedyn`` loads it.
 """
 
 from __future__ import annotations
 
 import atexit
 import os
-import shutil
-import subprocess
 import threading
 
 __all__ = ["FileLock", "spawn", "remove_at_exit", "after_fork_in_child"]
 
-_GUARD = threading.Lock()  # held by the steps a fork waits for
+_GUARD = threading.RLock()  # held by the steps a fork waits for (re-entered by a fork
+#                             from the thread that holds it)
 #: the files of the lock files this process holds
 _HELD = set()
 _RESETS, _STARTS = [], []  # hooks in a child: locks made anew, then threads started
@@ -53,6 +60,9 @@ class FileLock:
             fcntl.flock(self.handle, fcntl.LOCK_EX)
         except ImportError:  # pragma: no cover  (non-POSIX)
             pass
+        except BaseException:  # e.g. Ctrl-C while waiting: not held, not kept
+            self.__exit__()
+            raise
         return self
 
     def __exit__(self, *exc):
@@ -63,6 +73,7 @@ class FileLock:
 
 def spawn(command, **options):
     """``subprocess.Popen(command, **options)``, started in a step a fork waits for."""
+    import subprocess
     with _GUARD:
         return subprocess.Popen(command, **options)
 
@@ -75,6 +86,7 @@ def remove_at_exit(folder):
 
 def _remove_own(folder, pid):
     if os.getpid() == pid:
+        import shutil
         shutil.rmtree(folder, ignore_errors=True)
 
 
@@ -87,7 +99,7 @@ def after_fork_in_child(hook, *, starts_threads=False):
 
 def _in_child():
     global _GUARD
-    _GUARD = threading.Lock()
+    _GUARD = threading.RLock()
     for handle in list(_HELD):
         handle.close()
     _HELD.clear()
