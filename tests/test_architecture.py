@@ -1,8 +1,8 @@
 """The layer order, read from the import graph of the package's source.
 
 Layers, lowest first (``docs/architecture.md``): foundation (``_errors``, ``_html``,
-``_lazy``, ``_progress``, ``_number_text``), ``engine``, ``modeling``, ``formulations``,
-``numerics``, ``simulation``, ``models``, ``analysis``, ``io``, ``cli``; then
+``_lazy``, ``_progress``, ``_number_text``, ``_fork``, ...), ``engine``, ``modeling``,
+``formulations``, ``numerics``, ``simulation``, ``models``, ``analysis``, ``io``, ``cli``; then
 the public face (``kanedyn/__init__.py``, ``kanedyn/schemes.py``).  A module
 imports only from its own layer or lower ones, and another layer only through
 that layer's package (its ``__init__``) or a sub-package's.  The only imports
@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
-              "_expressions"}
+              "_expressions", "_fork"}
 PUBLIC = {"__init__", "schemes", "visuals"}
 
 #: (importing module, imported layer): the method that needs it
