@@ -159,3 +159,29 @@ def test_a_result_of_one_output_time_is_drawn_as_points():
     res = kd.simulate(model, (0.0, 1.0), definition.initial(model), t_eval=[0.5])
     lines = [line for ax in res.plot().axes for line in ax.get_lines()]
     assert len(lines) == 3 and all(line.get_marker() == "o" for line in lines)
+
+
+def test_an_input_or_event_that_raises_at_the_start():
+    """An input's function that raises at t0: a "cannot start" result naming it
+    (as for a value that is not finite); an event that raises there: an error
+    naming the event."""
+    definition = kd.models.build("n-link-pendulum-on-cart")
+    (force,) = definition.specified
+
+    def broken(t, y=None):
+        raise RuntimeError("no data")
+
+    model = definition.numeric(specified={force: broken}, backend="numpy")
+    y0 = definition.initial(model)
+    res = kd.simulate(model, (0.0, 1.0), y0)
+    assert not res.success and res.t.size == 1
+    assert res.message.startswith("cannot start: specified input F(t): its function raised "
+                                  "RuntimeError at t=0: no data")
+
+    def contact_check(t, y):
+        raise RuntimeError("no sensor")
+
+    steady = definition.numeric(specified={force: 0.0}, backend="numpy")
+    with pytest.raises(kd.ModelError, match="event contact_check raised RuntimeError at the "
+                                            "initial state \\(t=0\\): no sensor"):
+        kd.simulate(steady, (0.0, 1.0), y0, events=[contact_check])

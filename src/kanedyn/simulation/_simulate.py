@@ -456,7 +456,11 @@ def _check_events(events, t0, y0):
                               f"signature is {inspect.signature(event)}") from None
         except ValueError:  # builtins without a signature: try them
             pass
-        value = event(t0, y0.copy())
+        try:
+            value = event(t0, y0.copy())
+        except Exception as exc:
+            raise ModelError(f"event {name} raised {type(exc).__name__} at the initial state "
+                             f"(t={t0:g}): {exc}") from exc
         if np.ndim(value) != 0:
             raise OptionError(f"event {name} returned an array of shape {np.shape(value)} "
                               "at the initial state; an event returns one number (give "
@@ -478,6 +482,8 @@ def _initial_failure(model, t0, y):
         f = model.rhs(t0, y)
     except np.linalg.LinAlgError:
         f = None
+    except ModelError as exc:  # e.g. an input's function raised: its message
+        return str(exc)
     if f is not None and np.all(np.isfinite(f)):
         return ""
     return diagnose(model, t0, y) or (
