@@ -37,8 +37,9 @@ import threading
 
 __all__ = ["FileLock", "spawn", "remove_at_exit", "after_fork_in_child"]
 
-_GUARD = threading.RLock()  # held by the steps a fork waits for (re-entered by a fork
-#                             from the thread that holds it)
+#: held by the steps a fork waits for (re-entrant: a fork from the thread inside such
+#: a step, e.g. from a signal handler, does not wait for itself)
+_GUARD = threading.RLock()
 #: the files of the lock files this process holds
 _HELD = set()
 _RESETS, _STARTS = [], []  # hooks in a child: locks made anew, then threads started

@@ -543,10 +543,10 @@ def _lock_map_study(out, quiet, peak_g, duration, direction, roll_rate, shape, l
         first = min(locked, key=lambda r: r[5])
         summary += (f"; earliest lock {1e3 * first[5]:.2f} ms at {first[0]:g} g, "
                     f"{1e3 * first[1]:g} ms, {first[2]:g} deg")
-    failed = [r for r in rows if r[6] != "ok"]
-    if failed:
+    failed = table[~table.success]
+    if len(failed):
         summary += (f"; {len(failed)} of {len(rows)} runs failed and say nothing about "
-                    f"locking (first: {failed[0][6][len('failed: '):]})")
+                    f"locking (first: {failed.message.iloc[0]})")
     return dict(tables={"lock_map": (columns, rows)}, figures=figures, summary=summary,
                 data={"lock_times": {r[:4]: r[5] for r in rows}})
 

@@ -269,6 +269,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     first = True
     boundary = None  # (t, state with the work integrals, modes, directions) of the last event
     stalled = 0  # segments in a row that end where they start
+
     def keep_point(tt, z, frozen_modes, frozen_dirs):
         """Keep the state ``z`` (with the two work integrals) at ``tt`` as an
         output point of sparse outputs, when it is later than the last one kept
