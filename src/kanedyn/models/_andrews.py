@@ -75,13 +75,12 @@ def andrews_squeezer():
     w = list(me.dynamicsymbols(["d" + name for name in _NAMES]))
     beta, theta, gamma, phi, delta, omega, epsilon = q
     wbeta, wtheta, wgamma, wphi, wdelta, womega, wepsilon = w
-    length = {name: sm.Symbol(name, positive=True) for name in _LENGTHS}
-    length["xa"], length["ya"], length["xb"] = (sm.Symbol(s, real=True)
-                                                for s in ("xa", "ya", "xb"))
+    # lengths and coordinates of the fixed points, m (three of those are negative)
+    L = {name: sm.Symbol(name, real=True) if name in ("xa", "ya", "xb")
+         else sm.Symbol(name, positive=True) for name in _LENGTHS}
     masses = sm.symbols("m1:8", positive=True)
     inertias = sm.symbols("i1:8", positive=True)
     c0, mom = sm.symbols("c0 mom", real=True)
-    L = length
     N = me.ReferenceFrame("N")
     O = me.Point("O")
     O.set_vel(N, 0)
@@ -102,8 +101,9 @@ def andrews_squeezer():
         P.v2pt_theory(base, N, frame_)
         return P
 
-    A, B, C = fixed("A", L["xa"], L["ya"]), fixed("B", L["xb"], L["yb"]), \
-        fixed("C", L["xc"], L["yc"])
+    A = fixed("A", L["xa"], L["ya"])
+    B = fixed("B", L["xb"], L["yb"])
+    C = fixed("C", L["xc"], L["yc"])
     F1 = frame("F1", beta, wbeta)
     F2 = frame("F2", beta + theta, wbeta + wtheta)
     F3 = frame("F3", gamma, wgamma)
@@ -145,8 +145,8 @@ def andrews_squeezer():
     constants.update({c0: 4530.0, mom: 0.033})
     units = {sym: "m" for sym in L.values()}
     units.update({m: "kg" for m in masses})
-    units.update({i: "kg*m^2" for i in inertias})
-    units.update({c0: "N/m", mom: "N*m"})
+    units.update({i: "kg m^2" for i in inertias})
+    units.update({c0: "N/m", mom: "N m"})
     initial = dict(zip(q, ANDREWS_INITIAL))
     initial.update({rate: 0.0 for rate in w})
     return ModelDefinition(
