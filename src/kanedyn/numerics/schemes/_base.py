@@ -211,7 +211,8 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
         Corrections at most.
     scale : float, optional
         Magnitude against which the residual is measured; default
-        :math:`\max(|C||x| + |d|)` (what rounding leaves in :math:`Cx - d`).
+        :math:`\|C\|_\infty\max|x| + \max|d|` (what rounding leaves in
+        :math:`Cx - d`).
 
     Returns
     -------
@@ -227,8 +228,9 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
         x = x + sla.cho_solve(factor, rhs + C.T @ lam - mass @ x
                               + weight * (C.T @ residual))
         residual = target - C @ x
-        size = scale if scale is not None else np.max(np.abs(C) @ np.abs(x)
-                                                      + np.abs(target), initial=0.0)
+        size = scale if scale is not None else (
+            np.linalg.norm(C, np.inf) * np.max(np.abs(x), initial=0.0)
+            + np.max(np.abs(target), initial=0.0))
         if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
             break
     return x
