@@ -1,11 +1,12 @@
 r"""Andrews' squeezing mechanism: seven planar bodies, six loop-closure constraints.
 
-The seven-body mechanism of Manning and Schiehlen that Hairer & Wanner (*Solving
-Ordinary Differential Equations II*, section VII.7) and the IVP test set
-(problem "andrews") use to test solvers of index-3 DAEs: a crank turned by a
-constant torque drives, through three closed loops, two arms held by a stiff
-spring.  Its inertias span five orders of magnitude and its constraint
-Jacobian is badly scaled, which makes it a hard case for penalty methods.
+The seven-body mechanism that Hairer & Wanner (*Solving Ordinary Differential
+Equations II*, section VII.7) and the IVP test set (problem "andrews") use to
+test solvers of index-3 DAEs: a crank turned by a constant torque drives,
+through three closed loops, arms held by a stiff spring.  Small inertias
+(mass-matrix entries of 8e-7 to 7e-5 kg m²) against a spring of 4530 N/m:
+within the test's 0.03 s the crank makes 2.5 turns and the accelerations
+reach 5.7e5 rad/s².
 """
 
 from __future__ import annotations
