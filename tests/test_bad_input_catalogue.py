@@ -370,6 +370,11 @@ def _robot_file(tmp_path, inertia=_UNIT_INERTIA, mass="1", mesh=None):
     return path
 
 
+def _load_robot(**file_options):
+    """The action of loading :func:`_robot_file` with ``file_options``."""
+    return lambda tmp_path: kd.models.from_urdf(_robot_file(tmp_path, **file_options))
+
+
 def _mesh_outside(tmp_path, name):
     """``mesh_file()`` of a visual that names ``secret.obj`` beside the URDF's folder."""
     secret = tmp_path / "secret.obj"
@@ -395,22 +400,19 @@ BAD_FILE_CASES = {
             "\n0.002,", '\n"' + "9" * 140_000 + '",', 1))),
         kd.ModelError, r"pulse\.csv: line 4: a cell longer than 131072 characters"),
     "URDF inertia of 1e308": (
-        lambda tmp: kd.models.from_urdf(_robot_file(
-            tmp, 'ixx="1e308" ixy="1e308" ixz="0" iyy="1e308" iyz="0" izz="1"')),
+        _load_robot(inertia='ixx="1e308" ixy="1e308" ixz="0" iyy="1e308" iyz="0" izz="1"'),
         kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: inertia beyond the range "
                              r"of floating point \(principal moments 0, 1, inf kg m\^2\)"),
     "URDF number 1e999": (
-        lambda tmp: kd.models.from_urdf(_robot_file(tmp, mass="1e999")),
+        _load_robot(mass="1e999"),
         kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: <mass value='1e999'>: "
                              "'1e999' is beyond the range of floating point"),
     "URDF triangle inequality": (
-        lambda tmp: kd.models.from_urdf(_robot_file(
-            tmp, 'ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="5"')),
+        _load_robot(inertia='ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="5"'),
         kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: the central inertia of its "
                              r"body violates the triangle inequality I1 \+ I2 >= I3 by 3 kg"),
     "URDF inertia indefinite beyond round-off": (
-        lambda tmp: kd.models.from_urdf(_robot_file(
-            tmp, 'ixx="1" ixy="1.001" ixz="0" iyy="1" iyz="0" izz="1"')),
+        _load_robot(inertia='ixx="1" ixy="1.001" ixz="0" iyy="1" iyz="0" izz="1"'),
         kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: inertia is not positive "
                              r"semi-definite by 0\.001 kg m\^2 .*: more than round-off"),
     "URDF mesh named by ../": (
