@@ -207,11 +207,11 @@ def read_pulse_csv(path):
             raise ModelError(f"{source}: column {name!r}: angular rate "
                              f"{np.max(np.abs(data[name])):.4g} rad/s is above "
                              f"{MAX_RATE:g} rad/s; check the unit in the header")
-    _warn_speed_change(t, np.column_stack([data[n] for n in _ACC]), columns["t"][1],
-                       source)
+    acceleration = np.column_stack([data[n] for n in _ACC])
+    _warn_speed_change(t, acceleration, columns["t"][1], source)
     zeros = np.zeros_like(t)
     return PulseSeries(
-        t=t, acceleration=np.column_stack([data[n] for n in _ACC]),
+        t=t, acceleration=acceleration,
         angular_rate=np.column_stack([data.get(n, zeros) for n in _RATE]),
         source=source, rate_columns=tuple(n for n in _RATE if n in data),
         notes=tuple(notes))
