@@ -334,3 +334,148 @@ def test_demo_ride_length_refused_before_any_work(t_end, capsys, tmp_path):
     err = capsys.readouterr().err
     assert f"argument --t-end: must be a finite number > 0, got '{t_end}'" in err
     assert not (tmp_path / "out").exists()
+
+
+# ---- issue 33, item 7: Disk full and bad files
+# (pulse records, URDF files, output paths, kinematics, the viewer page)
+_GOOD_PULSE = "t [s],ax [g],ay [g],az [g]\n" + "".join(
+    f"{i * 1e-3},{-5 * np.sin(i / 3)},0,0\n" for i in range(10))
+
+
+def _pulse_file(tmp_path, text=_GOOD_PULSE, encoding="utf-8"):
+    path = tmp_path / "pulse.csv"
+    path.write_text(text, encoding=encoding)
+    return path
+
+
+_UNIT_INERTIA = 'ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"'
+
+
+def _robot_file(tmp_path, inertia=_UNIT_INERTIA, mass="1", mesh=None):
+    """A URDF robot of one moving link 'arm' (its <inertia> on line 4, a mesh on 5)."""
+    visual = (f'<visual><geometry><mesh filename="{mesh}"/></geometry></visual>'
+              if mesh else "")
+    path = tmp_path / "robot" / "robot.urdf"
+    path.parent.mkdir(exist_ok=True)
+    path.write_text(f"""<robot name="r">
+  <link name="base"><inertial><mass value="9"/><inertia {_UNIT_INERTIA}/></inertial></link>
+  <link name="arm">
+    <inertial><mass value="{mass}"/><inertia {inertia}/></inertial>
+    {visual}
+  </link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/></joint>
+</robot>
+""")
+    return path
+
+
+def _load_robot(**file_options):
+    """The action of loading :func:`_robot_file` with ``file_options``."""
+    return lambda tmp_path: kd.models.from_urdf(_robot_file(tmp_path, **file_options))
+
+
+def _mesh_outside(tmp_path, name):
+    """``mesh_file()`` of a visual that names ``secret.obj`` beside the URDF's folder."""
+    secret = tmp_path / "secret.obj"
+    secret.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    filename = {"..": "../secret.obj", "absolute": str(secret),
+                "file://": f"file://{secret}"}[name]
+    (visual,) = kd.models.from_urdf(_robot_file(tmp_path, mesh=filename)).visuals
+    return visual.mesh_file()
+
+
+def _origin_without_velocity():
+    q, u = me.dynamicsymbols("q u")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")  # its velocity is never set
+    P = O.locatenew("P", q * N.x)
+    return kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                   bodies=[me.Particle("bob", P, 1.0)])
+
+
+BAD_FILE_CASES = {
+    "pulse cell over 128 KB": (
+        lambda tmp: kd.read_pulse_csv(_pulse_file(tmp, _GOOD_PULSE.replace(
+            "\n0.002,", '\n"' + "9" * 140_000 + '",', 1))),
+        kd.ModelError, r"pulse\.csv: line 4: a cell longer than 131072 characters"),
+    "URDF inertia of 1e308": (
+        _load_robot(inertia='ixx="1e308" ixy="1e308" ixz="0" iyy="1e308" iyz="0" izz="1"'),
+        kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: inertia beyond the range "
+                             r"of floating point \(principal moments 0, 1, inf kg m\^2\)"),
+    "URDF number 1e999": (
+        _load_robot(mass="1e999"),
+        kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: <mass value='1e999'>: "
+                             "'1e999' is beyond the range of floating point"),
+    "URDF triangle inequality": (
+        _load_robot(inertia='ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="5"'),
+        kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: the central inertia of its "
+                             r"body violates the triangle inequality I1 \+ I2 >= I3 by 3 kg"),
+    "URDF inertia indefinite beyond round-off": (
+        _load_robot(inertia='ixx="1" ixy="1.001" ixz="0" iyy="1" iyz="0" izz="1"'),
+        kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: inertia is not positive "
+                             r"semi-definite by 0\.001 kg m\^2 .*: more than round-off"),
+    "URDF mesh named by ../": (
+        lambda tmp: _mesh_outside(tmp, ".."), kd.models.URDFError,
+        r"robot\.urdf:5: mesh '\.\./secret\.obj' of link 'arm' is not read: .*secret\.obj is "
+        r"outside the folders meshes are read from"),
+    "URDF mesh named by an absolute path": (
+        lambda tmp: _mesh_outside(tmp, "absolute"), kd.models.URDFError,
+        r"robot\.urdf:5: mesh '/.*secret\.obj' of link 'arm' is not read: .*give mesh_dirs="),
+    "URDF mesh named by file://": (
+        lambda tmp: _mesh_outside(tmp, "file://"), kd.models.URDFError,
+        r"robot\.urdf:5: mesh 'file:///.*secret\.obj' of link 'arm' is not read"),
+    "inertia entries of 1e308": (
+        lambda tmp: kd.kane(**_rigid(lambda A: me.inertia(A, 1e308, 1e308, 1e308, 1e308))),
+        kd.ModelError, r"rigid body 'plate': its principal moments of inertia are beyond "
+                       r"the range of floating point \(entries up to 1e\+308 kg m\^2\)"),
+    "origin without a velocity": (
+        lambda tmp: _origin_without_velocity(), kd.KinematicsError,
+        r"velocity of point P in N cannot be found: .* likely the chain's origin O: "
+        r"O\.set_vel\(N, 0\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BAD_FILE_CASES))
+def test_bad_files_and_paths(case, tmp_path):
+    action, error, pattern = BAD_FILE_CASES[case]
+    with pytest.raises(error, match=pattern):
+        action(tmp_path)
+
+
+@pytest.mark.parametrize("argv, pattern", [
+    (["demo", "--out", "{file}"], r"--out .*given\.txt: .*given\.txt is a file, not a folder"),
+    (["derive", "pendulum", "--c", "{folder}", "--quiet"],
+     r"--c .*: is a folder; give the name of a file"),
+], ids=["demo --out an existing file", "derive --c a folder"])
+def test_output_paths_that_cannot_be_written(argv, pattern, capsys, tmp_path):
+    (tmp_path / "given.txt").write_text("kept")
+    argv = [a.format(file=tmp_path / "given.txt", folder=tmp_path) for a in argv]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("kanedyn: error: ") and err.count("\n") == 1, err
+    assert re.search(pattern, err), err
+    assert (tmp_path / "given.txt").read_text() == "kept"
+
+
+def test_accepted_or_warned_of(tmp_path):
+    """Inputs that are read correctly, or read with a warning naming the file."""
+    # a byte-order mark, as spreadsheet programs write: read as without one
+    plain = kd.read_pulse_csv(_pulse_file(tmp_path))
+    marked = kd.read_pulse_csv(_pulse_file(tmp_path, encoding="utf-8-sig"))
+    np.testing.assert_array_equal(marked.acceleration, plain.acceleration)
+    # a 49 ms half-sine of 20 g (6.1 m/s) with its times in ms labelled [s]
+    in_ms = "t [s],ax [g],ay [g],az [g]\n" + "".join(
+        f"{i},{-20 * np.sin(np.pi * i / 49)},0,0\n" for i in range(50))
+    with pytest.warns(UserWarning, match=r"pulse\.csv: the accelerations imply a speed change "
+                      r"of 6116 m/s .* above 100 m/s; if the times are in milliseconds"):
+        kd.read_pulse_csv(_pulse_file(tmp_path, in_ms))
+    # an inertia that is zero to round-off (iCub's head): accepted, named
+    with pytest.warns(UserWarning, match=r"robot\.urdf:4: <link name='arm'>: inertia is not "
+                      r"positive semi-definite by 2\.41e-35 kg m\^2"):
+        kd.models.from_urdf(_robot_file(tmp_path, 'ixx="0" ixy="0" ixz="2.40741e-35" '
+                                                  'iyy="0" iyz="0" izz="0"'))
+    # a body named '<!--<script>': the page's scene data cannot end its <script>
+    from kanedyn.io import page_html
+    html = page_html({"title": "t", "bodies": [{"name": "<!--<script>"}]})
+    assert '"name":"\\u003c!--\\u003cscript\\u003e"' in html and "<!--<script>" not in html

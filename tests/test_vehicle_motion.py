@@ -114,6 +114,55 @@ def test_csv_not_utf8_is_named(tmp_path, encoding):
         kd.vehicle.read_pulse_csv(path)
 
 
+def test_byte_order_mark_of_a_spreadsheet_is_skipped(tmp_path):
+    """Spreadsheet programs save "CSV UTF-8" with a byte-order mark before the header."""
+    path = tmp_path / "excel.csv"
+    path.write_text(GOOD, encoding="utf-8-sig")
+    assert path.read_bytes().startswith(b"\xef\xbb\xbf")
+    series = kd.read_pulse_csv(path)
+    plain = kd.read_pulse_csv(_write(tmp_path / "plain.csv", GOOD))
+    np.testing.assert_array_equal(series.t, plain.t)
+    np.testing.assert_array_equal(series.acceleration, plain.acceleration)
+
+
+def test_huge_cell_is_named_with_its_line(tmp_path):
+    """A cell over the csv module's field limit (131,072 characters)."""
+    lines = GOOD.splitlines()
+    lines.insert(3, '"' + "9" * 140_000 + '",0,0,0')
+    path = _write(tmp_path / "huge.csv", "\n".join(lines) + "\n")
+    with pytest.raises(ModelError, match=r"huge\.csv: line 4: a cell longer than 131072 "
+                                         "characters"):
+        kd.read_pulse_csv(path)
+
+
+def _half_sine_text(time_unit, scale, dt=1e-4, duration=0.1, peak_g=20.0):
+    """A half-sine pulse sampled every ``dt`` s, times written in s * ``scale``."""
+    t = np.arange(round(duration / dt) + 1) * dt
+    a = -peak_g * np.sin(np.pi * t / duration)
+    return f"t [{time_unit}],ax [g],ay [g],az [g]\n" + "".join(
+        f"{float(ti * scale)!r},{float(ai)!r},0,0\n" for ti, ai in zip(t, a))
+
+
+def test_times_in_milliseconds_labelled_seconds_are_warned_of(tmp_path):
+    """A 49 ms pulse written in ms under 't [s]' lasts 49 s: its speed change, 1000
+    times the real one, is far above any vehicle test's; the same record labelled
+    correctly, and the example pulses, give no warning."""
+    wrong = _write(tmp_path / "wrong.csv", _half_sine_text("s", 1e3, duration=0.049))
+    with pytest.warns(UserWarning, match=r"wrong\.csv: the accelerations imply a speed "
+                      r"change of 6\d{3} m/s .* over 49 s, above 100 m/s; if the times are "
+                      r"in milliseconds, write 't \[ms\]' \(the speed change is then 6\.\d+"):
+        series = kd.read_pulse_csv(wrong)
+    assert series.t[-1] == pytest.approx(49.0)  # read as written, only warned of
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for text in (_half_sine_text("ms", 1e3, duration=0.049),  # 6.1 m/s
+                     _half_sine_text("s", 1.0, duration=0.15, peak_g=45)):  # 42 m/s
+            kd.read_pulse_csv(_write(tmp_path / "right.csv", text))
+        for name in ("frontal-48kmh", "oblique-30deg"):
+            kd.read_pulse_csv(kd.example_pulse(name))
+
+
 def test_absent_rates_mean_no_rotation_and_partial_rates_are_read(tmp_path):
     series = kd.vehicle.read_pulse_csv(_write(tmp_path / "a.csv", GOOD))
     assert series.rate_columns == () and not np.any(series.angular_rate)
