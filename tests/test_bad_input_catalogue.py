@@ -396,7 +396,7 @@ def _origin_without_velocity():
 
 BAD_FILE_CASES = {
     "pulse cell over 128 KB": (
-        lambda tmp: kd.read_pulse_csv(_pulse_file(tmp, _GOOD_PULSE.replace(
+        lambda tmp: kd.vehicle.read_pulse_csv(_pulse_file(tmp, _GOOD_PULSE.replace(
             "\n0.002,", '\n"' + "9" * 140_000 + '",', 1))),
         kd.ModelError, r"pulse\.csv: line 4: a cell longer than 131072 characters"),
     "URDF inertia of 1e308": (
@@ -461,15 +461,15 @@ def test_output_paths_that_cannot_be_written(argv, pattern, capsys, tmp_path):
 def test_accepted_or_warned_of(tmp_path):
     """Inputs that are read correctly, or read with a warning naming the file."""
     # a byte-order mark, as spreadsheet programs write: read as without one
-    plain = kd.read_pulse_csv(_pulse_file(tmp_path))
-    marked = kd.read_pulse_csv(_pulse_file(tmp_path, encoding="utf-8-sig"))
+    plain = kd.vehicle.read_pulse_csv(_pulse_file(tmp_path))
+    marked = kd.vehicle.read_pulse_csv(_pulse_file(tmp_path, encoding="utf-8-sig"))
     np.testing.assert_array_equal(marked.acceleration, plain.acceleration)
     # a 49 ms half-sine of 20 g (6.1 m/s) with its times in ms labelled [s]
     in_ms = "t [s],ax [g],ay [g],az [g]\n" + "".join(
         f"{i},{-20 * np.sin(np.pi * i / 49)},0,0\n" for i in range(50))
     with pytest.warns(UserWarning, match=r"pulse\.csv: the accelerations imply a speed change "
                       r"of 6116 m/s .* above 100 m/s; if the times are in milliseconds"):
-        kd.read_pulse_csv(_pulse_file(tmp_path, in_ms))
+        kd.vehicle.read_pulse_csv(_pulse_file(tmp_path, in_ms))
     # an inertia that is zero to round-off (iCub's head): accepted, named
     with pytest.warns(UserWarning, match=r"robot\.urdf:4: <link name='arm'>: inertia is not "
                       r"positive semi-definite by 2\.41e-35 kg m\^2"):

@@ -119,8 +119,8 @@ def test_byte_order_mark_of_a_spreadsheet_is_skipped(tmp_path):
     path = tmp_path / "excel.csv"
     path.write_text(GOOD, encoding="utf-8-sig")
     assert path.read_bytes().startswith(b"\xef\xbb\xbf")
-    series = kd.read_pulse_csv(path)
-    plain = kd.read_pulse_csv(_write(tmp_path / "plain.csv", GOOD))
+    series = kd.vehicle.read_pulse_csv(path)
+    plain = kd.vehicle.read_pulse_csv(_write(tmp_path / "plain.csv", GOOD))
     np.testing.assert_array_equal(series.t, plain.t)
     np.testing.assert_array_equal(series.acceleration, plain.acceleration)
 
@@ -132,7 +132,7 @@ def test_huge_cell_is_named_with_its_line(tmp_path):
     path = _write(tmp_path / "huge.csv", "\n".join(lines) + "\n")
     with pytest.raises(ModelError, match=r"huge\.csv: line 4: a cell longer than 131072 "
                                          "characters"):
-        kd.read_pulse_csv(path)
+        kd.vehicle.read_pulse_csv(path)
 
 
 def _half_sine_text(time_unit, scale, dt=1e-4, duration=0.1, peak_g=20.0):
@@ -151,16 +151,16 @@ def test_times_in_milliseconds_labelled_seconds_are_warned_of(tmp_path):
     with pytest.warns(UserWarning, match=r"wrong\.csv: the accelerations imply a speed "
                       r"change of 6\d{3} m/s .* over 49 s, above 100 m/s; if the times are "
                       r"in milliseconds, write 't \[ms\]' \(the speed change is then 6\.\d+"):
-        series = kd.read_pulse_csv(wrong)
+        series = kd.vehicle.read_pulse_csv(wrong)
     assert series.t[-1] == pytest.approx(49.0)  # read as written, only warned of
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         for text in (_half_sine_text("ms", 1e3, duration=0.049),  # 6.1 m/s
                      _half_sine_text("s", 1.0, duration=0.15, peak_g=45)):  # 42 m/s
-            kd.read_pulse_csv(_write(tmp_path / "right.csv", text))
+            kd.vehicle.read_pulse_csv(_write(tmp_path / "right.csv", text))
         for name in ("frontal-48kmh", "oblique-30deg"):
-            kd.read_pulse_csv(kd.example_pulse(name))
+            kd.vehicle.read_pulse_csv(kd.vehicle.example_pulse(name))
 
 
 def test_absent_rates_mean_no_rotation_and_partial_rates_are_read(tmp_path):
