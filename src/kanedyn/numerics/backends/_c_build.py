@@ -221,7 +221,7 @@ def _cached_meanwhile(key):
     """The cached module of ``key`` loaded without the build lock (and recorded),
     or ``None``: read only, an entry being written or damaged is left to the
     build path."""
-    directory, unusable, _ = _shared_cache()
+    directory, unusable, _ = _shared_cache(writing=False)
     if unusable is not None:
         return None
     name = f"_kd_{key}"
@@ -374,13 +374,13 @@ def _unwritten(directory, exc):
                          "with room")
 
 
-def _shared_cache():
+def _shared_cache(writing=True):
     """``(directory, unusable, unwritable)``: the cache directory of
     :func:`cache_dir` (its path with symbolic links resolved, created with mode
     0700 where missing), why nothing may be loaded from it (it is a file,
     cannot be created, or another user could change it; ``None``: modules may
     be loaded from it) and why modules cannot be written to it (``None``: they
-    can)."""
+    can; not looked at without ``writing``)."""
     directory = Path(os.path.realpath(cache_dir()))
     if directory.exists() and not directory.is_dir():
         return directory, "is a file, not a directory", None
@@ -392,7 +392,8 @@ def _shared_cache():
         return directory, (f"could be changed by another user, who could make this "
                            f"process run their code: {untrusted}, or set KANEDYN_CACHE_DIR "
                            "to a directory of your own; nothing is loaded from it"), None
-    return directory, None, _FULL.get(directory) or _unwritable(directory)
+    return directory, None, (_FULL.get(directory) or _unwritable(directory)) if writing \
+        else None
 
 
 def _cache_problem(problem):
@@ -405,7 +406,7 @@ def trusted_cache_dir():
     path resolved, created with mode 0700 where missing) when no user but this
     one and root can change it or a directory above it (it may be read only),
     else this process's private directory (a warning names the problem)."""
-    directory, unusable, _ = _shared_cache()
+    directory, unusable, _ = _shared_cache(writing=False)
     return directory if unusable is None else _private_cache(_cache_problem(unusable))
 
 
