@@ -140,6 +140,7 @@ def _refused_and_safe(world, out):
 
 
 @needs_root
+@pytest.mark.slow
 def test_a_module_planted_by_another_user_in_a_directory_all_can_write(world, place):
     """The reported case: a cache directory of the victim that everyone can
     write (as for a team's shared cache); another user plants a module there."""
@@ -156,6 +157,7 @@ def test_a_module_planted_by_another_user_in_a_directory_all_can_write(world, pl
 
 
 @needs_root
+@pytest.mark.slow
 def test_a_cache_directory_of_another_user(world, place):
     """The cache directory names a folder another user made (in a sticky folder
     all can write, as /tmp): refused, naming its owner and the fix."""
@@ -172,6 +174,7 @@ def test_a_cache_directory_of_another_user(world, place):
 
 
 @needs_root
+@pytest.mark.slow
 def test_a_directory_above_the_cache_that_another_user_owns(world, place):
     """The victim's own cache directory, inside a folder of the other user (who
     could rename it and put one of theirs in its place): refused, naming that
@@ -190,6 +193,7 @@ def test_a_directory_above_the_cache_that_another_user_owns(world, place):
 
 
 @needs_root
+@pytest.mark.slow
 def test_an_entry_of_another_user_in_a_trusted_directory(world, place):
     """A module and manifest owned by another user in the victim's own 0700
     directory: not loaded, reported, removed and built again (root's own)."""
@@ -211,6 +215,7 @@ def test_an_entry_of_another_user_in_a_trusted_directory(world, place):
     assert stat.S_IMODE(so_path.stat().st_mode) == 0o600
 
 
+@pytest.mark.slow
 def test_an_entry_others_can_write(world, place):
     """This user's own module, but writable by everyone: not loaded."""
     cache = place / "cache"
@@ -226,6 +231,7 @@ def test_an_entry_others_can_write(world, place):
 
 
 @needs_root
+@pytest.mark.slow
 def test_objects_planted_by_another_user_are_not_linked(world, place):
     """Cached objects of the module's own units, each with the payload linked
     in (``ld -r``: the module would link and load) and given to another user:
@@ -248,6 +254,7 @@ def test_objects_planted_by_another_user_are_not_linked(world, place):
     assert "'reused': 0" in out
 
 
+@pytest.mark.slow
 def test_created_with_private_modes(world, place):
     """Directories 0700 and files 0600, whatever the umask (here 002, which
     made everything group-writable)."""
@@ -338,7 +345,7 @@ def test_rules_of_trust(tmp_path, monkeypatch):
 
 
 @needs_root
-def test_group_of_this_user_alone(tmp_path):
+def test_group_of_this_user_alone():
     """Root's group has root alone as a member; nogroup has others (nobody)."""
     from kanedyn._trusted_files import _private_group
     assert _private_group(0)

@@ -24,6 +24,7 @@ is trusted.
 
 from __future__ import annotations
 
+import errno
 import functools
 import os
 import stat
@@ -67,6 +68,8 @@ def trusted_directory(path):
     while not os.path.lexists(existing) and existing != existing.parent:
         missing.append(existing)
         existing = existing.parent
+    if missing and not os.path.isdir(existing):
+        raise NotADirectoryError(errno.ENOTDIR, os.strerror(errno.ENOTDIR), str(existing))
     problem = _untrusted_chain(existing, path)
     if problem is not None:
         return problem
@@ -102,10 +105,10 @@ def open_trusted(path):
         | getattr(os, "O_CLOEXEC", 0) | getattr(os, "O_BINARY", 0)
     try:
         handle = os.open(path, flags)
-    except OSError as exc:
+    except OSError:
         if os.path.islink(path):  # O_NOFOLLOW: ELOOP (or EMLINK on some systems)
             raise UntrustedFile(f"{path} is a symbolic link") from None
-        raise exc from None
+        raise
     try:
         problem = _why(path, os.fstat(handle), what="entry")
         if problem is not None:

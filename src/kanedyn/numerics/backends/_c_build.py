@@ -62,8 +62,8 @@ from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, open_trusted, truste
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN", "UNIT_MARK",
-           "LIGHT_UNIT", "COLD_UNIT"]
+           "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
+           "UNIT_MARK", "LIGHT_UNIT", "COLD_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
@@ -248,21 +248,21 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
             return module, None
     if unusable is not None or unwritable is not None:
         directory = _private_cache(_cache_problem(unusable or unwritable))
-    made = []  # the units, made once: a build that finds no room is done again elsewhere
+    units, single = None, False  # made once: a build that finds no room is done again
 
     def load_or_build(directory):
+        nonlocal units, single
         _remove_stale_builds(directory, timeout)
         so_path, manifest = _entry(directory, name)
         with FileLock(directory / f"{name}.lock"):
             module = _try_cached(name, so_path, manifest)
             if module is not None:
                 return module, None
-            if not made:
+            if units is None:
                 template = make_template()
-                made.append(isinstance(template, str) and UNIT_MARK not in template)
-                made.append(_Replayable(unit.replace(NAME_TOKEN, name) for unit in (
-                    template.split(UNIT_MARK) if isinstance(template, str) else template)))
-            single, units = made
+                single = isinstance(template, str) and UNIT_MARK not in template
+                units = _Replayable(unit.replace(NAME_TOKEN, name) for unit in (
+                    template.split(UNIT_MARK) if isinstance(template, str) else template))
             quick_cc = quick_command() if quick else None
             if quick_cc is not None:
                 units = list(units)
@@ -348,8 +348,9 @@ def _with_room(directory, work):
         if _PRIVATE and directory == _PRIVATE[0]:
             raise _unwritten(directory, exc) from None
         _FULL[directory] = f"could not be written ({_what_failed(exc)})"
+        full = isinstance(exc, _NoSpace) or exc.errno in (errno.ENOSPC, errno.EDQUOT)
         private = _private_cache(f"the cache directory {directory} {_FULL[directory]}",
-                                 "free some space there to keep them")
+                                 "free some space there to keep them" if full else None)
     try:
         return work(private)
     except (OSError, _NoSpace) as exc:
@@ -421,11 +422,11 @@ def _unwritable(directory):
     return None
 
 
-def _private_cache(reason, keep="set KANEDYN_CACHE_DIR to a writable directory of your own "
-                                "to keep them"):
+def _private_cache(reason, keep=None):
     """This process's private cache directory (created and announced once:
     ``reason`` why the shared one is not used, ``keep`` what keeps the modules
-    for the next process)."""
+    for the next process, by default a ``$KANEDYN_CACHE_DIR`` of one's own)."""
+    keep = keep or "set KANEDYN_CACHE_DIR to a writable directory of your own to keep them"
     if not _PRIVATE:
         try:
             path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
