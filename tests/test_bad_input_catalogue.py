@@ -1,7 +1,12 @@
 """The catalogue of bad input: each kind gets its exception type and a message
 that names the culprit (body, symbol, option, file).  Runs in seconds."""
 
+import errno
+import hashlib
+import json
+import os
 import re
+import warnings
 
 import numpy as np
 import pytest
@@ -10,6 +15,7 @@ import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn.cli import main
+from kanedyn.numerics.backends import CompilerError
 
 
 def _spring():
@@ -479,3 +485,204 @@ def test_accepted_or_warned_of(tmp_path):
     from kanedyn.io import page_html
     html = page_html({"title": "t", "bodies": [{"name": "<!--<script>"}]})
     assert '"name":"\\u003c!--\\u003cscript\\u003e"' in html and "<!--<script>" not in html
+
+
+# ---- issue 33, item 2: a cache no one else can plant code in
+# (and from item 7, a cache build on a full disk).  Each case makes the bad cache
+# in tmp_path and returns a call; the call warns (the cache or the entry is not
+# used) or raises, naming the path with its owner and mode.  The behaviour with a
+# second user and a real full disk: tests/test_cache_safety.py.
+_ROOT = hasattr(os, "geteuid") and os.geteuid() == 0
+_NOBODY = 65534
+
+
+def _cache_at(path, monkeypatch, mode=0o700):
+    path.mkdir(parents=True, exist_ok=True)
+    path.chmod(mode)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(path))
+    return path
+
+
+def _module_entry(cache, mode=0o600, owner=None, what="so"):
+    """A module and manifest (of the right checksum) in ``cache``; ``what``
+    (``so`` or ``json``) gets ``mode`` and ``owner``."""
+    from kanedyn.numerics.backends import _c_build
+    so_path, manifest = _c_build._entry(cache, "_kd_planted")
+    so_path.write_bytes(b"\x7fELF not a module")
+    manifest.write_text(json.dumps({"sha256": hashlib.sha256(so_path.read_bytes()).hexdigest()}))
+    bad = so_path if what == "so" else manifest
+    bad.chmod(mode)
+    if owner is not None:
+        os.chown(bad, owner, owner)
+    return lambda: _c_build._try_cached("_kd_planted", so_path, manifest), bad
+
+
+def _symlinked_entry(cache):
+    call, so_path = _module_entry(cache)
+    target = cache.parent / "elsewhere.so"
+    so_path.rename(target)
+    so_path.symlink_to(target)
+    return call, so_path
+
+
+def _object(cache, folder_mode=0o700, mode=0o600, owner=None, folder_owner=None):
+    from kanedyn.numerics.backends import _c_build
+    (cache / "objects").mkdir(mode=folder_mode)
+    (cache / "objects").chmod(folder_mode)
+    cached = cache / "objects" / "planted.o"
+    cached.write_bytes(b"object")
+    cached.chmod(mode)
+    if owner is not None:
+        os.chown(cached, owner, owner)
+    if folder_owner is not None:
+        os.chown(cache / "objects", folder_owner, folder_owner)
+    return lambda: _c_build._usable(cached)
+
+
+def _derived(cache, mode=0o600, owner=None, folder_mode=0o700):
+    from kanedyn.models._base import _load_entry
+    folder = cache / "derived"
+    folder.mkdir(mode=folder_mode)
+    folder.chmod(folder_mode)
+    entry = folder / "planted.kdnum"
+    entry.write_bytes(b"PK")
+    entry.chmod(mode)
+    if owner is not None:
+        os.chown(entry, owner, owner)
+    return lambda: _load_entry(entry)
+
+
+def _no_room(tmp_path, monkeypatch, private_too):
+    """A build that meets ENOSPC writing the shared cache (injected at the
+    write; tests/test_cache_safety.py fills a real tmpfs)."""
+    from kanedyn.numerics.backends import _c_build
+    cache = _cache_at(tmp_path / "cache", monkeypatch)
+
+    def work(directory):
+        if directory == cache or private_too:
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC), str(directory / "unit0.c"))
+        return "built"
+    return lambda: _c_build._with_room(cache, work)
+
+
+_WORLD = r"can be written by every user \(owner \w+ \(uid \d+\), mode d?[-rwxt]+\)"
+#: name -> (needs root, make(tmp_path, monkeypatch) -> call, exception or warning, pattern)
+CACHE_CASES = {
+    "cache directory all can write": (
+        False, lambda tmp, mp: (_cache_at(tmp / "c", mp, 0o777), _trusted())[1],
+        RuntimeWarning, r"the cache directory \S+/c \(\$KANEDYN_CACHE_DIR\) could be changed "
+                        r"by another user, who could make this process run their code: \S+/c "
+                        + _WORLD + r"; fix: `chmod o-w \S+/c`, or set KANEDYN_CACHE_DIR"),
+    "cache directory its group can write": (
+        True, lambda tmp, mp: (_chgrp(_cache_at(tmp / "c", mp, 0o770), _NOBODY), _trusted())[1],
+        RuntimeWarning, r"\S+/c can be written by the users of group nogroup \(gid 65534\) "
+                        r"\(owner root \(uid 0\), mode drwxrwx---\); fix: `chmod g-w \S+/c`"),
+    "cache directory of another user": (
+        True, lambda tmp, mp: (_chown(_cache_at(tmp / "c", mp), _NOBODY), _trusted())[1],
+        RuntimeWarning, r"\S+/c is owned by another user \(owner nobody \(uid 65534\), mode "
+                        r"drwx------\); fix: `chown root \S+/c`"),
+    "a folder above the cache all can write": (
+        False, lambda tmp, mp: (_cache_at(tmp / "open", mp, 0o777),
+                                _cache_at(tmp / "open" / "c", mp), _trusted())[2],
+        RuntimeWarning, r"\S+/open " + _WORLD + r"; fix: `chmod o-w \S+/open`"),
+    "a folder above the cache of another user": (
+        True, lambda tmp, mp: (_chown(_cache_at(tmp / "theirs", mp, 0o755), _NOBODY),
+                               _cache_at(tmp / "theirs" / "c", mp), _trusted())[2],
+        RuntimeWarning, r"\S+/theirs is owned by another user \(owner nobody"),
+    "module all can write": (
+        False, lambda tmp, mp: _module_entry(_cache_at(tmp / "c", mp), mode=0o666)[0],
+        RuntimeWarning, r"\S+/c/_kd_planted\S*\.so can be written by every user \(owner "
+                        r"\w+ \(uid \d+\), mode -rw-rw-rw-\): not loaded \(the cache loads "
+                        r"only files of this user or root that no one else can write\); it "
+                        r"is removed and built again"),
+    "module of another user": (
+        True, lambda tmp, mp: _module_entry(_cache_at(tmp / "c", mp), owner=_NOBODY)[0],
+        RuntimeWarning, r"_kd_planted\S*\.so is owned by another user \(owner nobody \(uid "
+                        r"65534\), mode -rw-------\): not loaded"),
+    "manifest of another user": (
+        True, lambda tmp, mp: _module_entry(_cache_at(tmp / "c", mp), owner=_NOBODY,
+                                            what="json")[0],
+        RuntimeWarning, r"_kd_planted\.json is owned by another user .*: not loaded"),
+    "module that is a symbolic link": (
+        False, lambda tmp, mp: _symlinked_entry(_cache_at(tmp / "c", mp))[0],
+        RuntimeWarning, r"_kd_planted\S*\.so is a symbolic link: not loaded"),
+    "cached object of another user": (
+        True, lambda tmp, mp: _object(_cache_at(tmp / "c", mp), owner=_NOBODY),
+        RuntimeWarning, r"objects/planted\.o is owned by another user .*: not loaded"),
+    "cached object all can write": (
+        False, lambda tmp, mp: _object(_cache_at(tmp / "c", mp), mode=0o646),
+        RuntimeWarning, r"objects/planted\.o can be written by every user .*: not loaded"),
+    "object folder all can write": (
+        False, lambda tmp, mp: _object(_cache_at(tmp / "c", mp), folder_mode=0o777),
+        RuntimeWarning, r"c/objects can be written by every user .*: not loaded"),
+    "object folder of another user": (
+        True, lambda tmp, mp: _object(_cache_at(tmp / "c", mp), folder_owner=_NOBODY),
+        RuntimeWarning, r"c/objects is owned by another user .*: not loaded"),
+    "derivation entry of another user": (
+        True, lambda tmp, mp: _derived(_cache_at(tmp / "c", mp), owner=_NOBODY),
+        kd.SavedFileError, r"derived/planted\.kdnum is owned by another user \(owner nobody "
+                              r"\(uid 65534\), mode -rw-------\): not read \(the cache reads "
+                              r"only files of this user or root"),
+    "derivation entry all can write": (
+        False, lambda tmp, mp: _derived(_cache_at(tmp / "c", mp), mode=0o666),
+        kd.SavedFileError, r"derived/planted\.kdnum can be written by every user"),
+    "derivation folder all can write": (
+        False, lambda tmp, mp: _derived(_cache_at(tmp / "c", mp), folder_mode=0o777),
+        kd.SavedFileError, r"c/derived can be written by every user .*: not read"),
+    "lock file that is a symbolic link": (
+        False, lambda tmp, mp: _linked_lock(tmp),
+        OSError, r"Too many levels of symbolic links|symbolic link"),
+    "full disk under the cache": (
+        False, lambda tmp, mp: _no_room(tmp, mp, private_too=False),
+        RuntimeWarning, r"the cache directory \S+/cache could not be written \(\S+/cache/"
+                        r"unit0\.c: No space left on device\); compiled modules are built in "
+                        r"\S+ for this process only \(free some space there to keep them\)"),
+    "full disk everywhere": (
+        False, lambda tmp, mp: _no_room(tmp, mp, private_too=True),
+        CompilerError,
+        r"a compiled module could not be built in \S+kanedyn-cache-\S+ \(\S+/unit0\.c: No space "
+        r"left on device\); free some space there or set KANEDYN_CACHE_DIR"),
+}
+
+
+def _trusted():
+    from kanedyn.numerics.backends import trusted_cache_dir
+    return trusted_cache_dir
+
+
+def _chown(path, uid):
+    os.chown(path, uid, -1)
+    return path
+
+
+def _chgrp(path, gid):
+    os.chown(path, -1, gid)
+    return path
+
+
+def _linked_lock(tmp):
+    from kanedyn._fork import FileLock
+    (tmp / "x.lock").symlink_to(tmp / "elsewhere")
+
+    def take():
+        with FileLock(tmp / "x.lock"):
+            pass
+    return take
+
+
+@pytest.mark.parametrize("case", sorted(CACHE_CASES))
+def test_cache_that_others_could_change(case, tmp_path, monkeypatch):
+    from kanedyn.numerics.backends import _c_build
+    root_only, make, fault, pattern = CACHE_CASES[case]
+    if root_only and not _ROOT:
+        pytest.skip("needs root: files of a second user (chown to uid 65534)")
+    for name, fresh in (("_PRIVATE", []), ("_FULL", {}), ("_REFUSED", set())):
+        monkeypatch.setattr(_c_build, name, fresh)
+    call = make(tmp_path, monkeypatch)
+    if issubclass(fault, Warning):
+        with pytest.warns(fault, match=pattern):
+            call()
+    else:
+        with pytest.raises(fault, match=pattern), warnings.catch_warnings():
+            warnings.simplefilter("ignore", RuntimeWarning)  # the cache not used: a case above
+            call()
