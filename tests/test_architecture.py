@@ -19,7 +19,7 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
-              "_expressions", "_fork"}
+              "_expressions", "_fork", "_signals"}
 PUBLIC = {"__init__", "schemes", "visuals"}
 
 #: (importing module, imported layer): the method that needs it

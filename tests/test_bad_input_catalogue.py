@@ -334,3 +334,24 @@ def test_demo_ride_length_refused_before_any_work(t_end, capsys, tmp_path):
     err = capsys.readouterr().err
     assert f"argument --t-end: must be a finite number > 0, got '{t_end}'" in err
     assert not (tmp_path / "out").exists()
+
+
+# ---- issue 33, items 3-4 (and item 7's run --out on a full disk): interruptions, memory
+def test_run_out_on_a_full_disk(tmp_path, monkeypatch, capsys):
+    """The disk fills up while ``kanedyn run`` writes its CSV: one line naming the
+    file and the cause, and no file cut short (the CSV is written under a
+    temporary name and renamed when complete)."""
+    import errno
+    import os
+
+    def fills_up(self, path):
+        with open(path, "w") as fh:
+            fh.write("t,theta,omega\n0.0,")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(kd.SimulationResult, "to_csv", fills_up)
+    argv = ["run", "pendulum", "--t-end", "0.1", "--backend", "numpy", "--out", str(tmp_path),
+            "--quiet"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"kanedyn: error: cannot write {tmp_path / 'pendulum.csv'}: No space left on device")
+    assert not list(tmp_path.iterdir())

@@ -229,10 +229,12 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                     guard=guard, **options)
         elif _use_compiled(model, method, backend, options):
             progress.stage(f"integrating with the compiled {method} loop")
-            result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
-                                        user_events, dense_output,
-                                        tol if constrained and project else 0.0,
-                                        constraint_forces, options, monitor)
+            guard = RunGuard(model)
+            with guard.catching_interrupts():
+                result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                            user_events, dense_output,
+                                            tol if constrained and project else 0.0,
+                                            constraint_forces, options, monitor, guard)
         else:
             guard = RunGuard(model)
             with guard.catching_interrupts():
@@ -241,8 +243,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                                          tol, progress, guard, options, common, method_name,
                                          monitor)
     progress.done()
-    if result.message.startswith(INTERRUPTED):
-        raise SimulationInterrupted(result)
+    if guard.interrupted or result.message.startswith(INTERRUPTED):
+        # a signal after the last step too: the complete result on the exception
+        raise SimulationInterrupted(result, guard.signum)
     return _with_trust_notes(result, _explicit_stages(method), float(np.max(rtol)))
 
 
@@ -650,7 +653,7 @@ class _CompiledDense:
 
 
 def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events, dense,
-                       project_tol, constraint_forces, options, monitor):
+                       project_tol, constraint_forces, options, monitor, guard):
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
     events = [guarded_event(event, k) for k, event in enumerate(events or ())]
     # the loop looks for singular configurations as it goes (memory: the minima found)
@@ -659,7 +662,7 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
                              float(options.get("first_step") or 0.0), method,
                              events or None, float(project_tol), bool(dense),
                              monitor.threshold if monitor.active else 0.0,
-                             monitor.displacement)
+                             monitor.displacement, guard.stop_flag)
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:

@@ -618,6 +618,20 @@ static int kd_callback_failure(char *text, size_t size) {
     return 1;
 }
 
+/* the stop flag of a run (RunGuard.stop_flag of kanedyn.simulation._run_guard): a
+   1-entry int32 array that the run's signal handler sets to 1, read where a loop
+   checks for signals, between its steps; None: a flag that stays 0 */
+static const volatile npy_int32 *kd_stop_flag(PyObject *obj) {
+    static const npy_int32 never = 0;
+    if (obj == NULL || obj == Py_None) return &never;
+    if (!PyArray_Check(obj) || PyArray_TYPE((PyArrayObject *)obj) != NPY_INT32
+            || PyArray_SIZE((PyArrayObject *)obj) != 1) {
+        PyErr_SetString(PyExc_TypeError, "stop must be a 1-entry int32 array or None");
+        return NULL;
+    }
+    return (const volatile npy_int32 *)PyArray_DATA((PyArrayObject *)obj);
+}
+
 /* an error inside the loop: Ctrl-C (a KeyboardInterrupt raised in a Python callback
    or by the signal check) keeps what was computed, and so does a callback's
    ValueError, whose text becomes the message; any other error propagates */
@@ -630,19 +644,22 @@ static int kd_callback_failure(char *text, size_t size) {
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
-             project_tol, dense[, singular_threshold, displacement]) -> dict
-   (singular_threshold 0, the default: no search for singular configurations) */
+             project_tol, dense[, singular_threshold, displacement, stop]) -> dict
+   (singular_threshold 0, the default: no search for singular configurations;
+   stop: see kd_stop_flag) */
 static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double t0, t1, rtol, max_step, first_step, project_tol;
-    PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj;
+    PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj, *stopobj = NULL;
     int dense;
     KdMonitor mon;
     memset(&mon, 0, sizeof(mon));
     mon.displacement = 1e-7;
-    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|dd", &t0, &t1, &y0obj, &tevalobj, &rtol, &atolobj,
-                          &max_step, &first_step, &method_obj, &events, &project_tol, &dense,
-                          &mon.threshold, &mon.displacement))
+    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddO", &t0, &t1, &y0obj, &tevalobj, &rtol,
+                          &atolobj, &max_step, &first_step, &method_obj, &events, &project_tol,
+                          &dense, &mon.threshold, &mon.displacement, &stopobj))
         return NULL;
+    const volatile npy_int32 *stop = kd_stop_flag(stopobj);
+    if (stop == NULL) return NULL;
     const int monitoring = KD_NUDEP > 0 && mon.threshold > 0.0;
     const char *method_name = PyUnicode_AsUTF8(method_obj);
     if (method_name == NULL) return NULL;
@@ -752,6 +769,10 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double next_yield = kd_clock() + KD_YIELD_SECONDS;
     while (dir * (t1 - t) > 0) {
         if (PyErr_CheckSignals() != 0) KD_FAIL;  /* Ctrl-C: keep what was computed */
+        if (*stop) {  /* the run's guard took the signal */
+            status = -1; failed = 1; interrupted = 1; message = "interrupted";
+            break;
+        }
         if ((++steps_taken & 15) == 0 && kd_clock() >= next_yield) {
             Py_BEGIN_ALLOW_THREADS
             Py_END_ALLOW_THREADS
