@@ -2,8 +2,10 @@
 
 Ctrl-C or SIGTERM during the simulation ends it with what it computed, which is
 written as for a finished run; the exit status is then 128 + the signal's number
-(130, 143).  A first signal while the outputs are written is held until they are
-complete; a second stops at once, leaving the files completed by then.  Every
+(130, 143).  The data (CSV and summary) is written first and always completed;
+a signal while it is written is held.  Then the plot (and the page): a first
+signal is held until they are complete, a second (counting one that ended the
+simulation) stops them at once; a third stops anything at once.  Every
 file is written under a temporary name in the output folder and renamed when
 complete, so that a file of the folder is never cut short (a full disk gives
 an error naming the file, and an earlier file of that name stays as it was).
@@ -80,24 +82,25 @@ def cmd_run(args):
         res, stopped_by = stop.result, stop.signum
     report = (definition.report(res, definition)  # of the output points: none, no report
               if definition.report is not None and res.t.size else None)
-    held, written = [], []  # a signal while writing: the outputs are finished first
+    writing, written = _Writing(stopped_by), []
     try:
-        with holding(lambda signum: _hold_once(held, signum)):
-            summary = _write_run(definition, eom, model, res, out, progress, report, written)
+        with holding(writing.on_signal):
+            summary = _write_run(definition, eom, model, res, out, progress, report, written,
+                                 writing.pictures)
             if args.animate:
                 page = _written(out / f"{definition.name}.html", written, lambda part: res.animate(
                     part, visuals=definition.shapes(constants),
                     title=f"{definition.name}: {definition.title}",
                     inputs=definition.animation_inputs))
                 progress.stage(f"wrote {page}")
-    except Stopped as stop:  # a second signal while writing
-        print(f"kanedyn: stopped by {signal_name(stop.signum)} while writing the outputs; "
-              f"complete: {', '.join(written) or 'none'}", file=sys.stderr)
+    except Stopped as stop:  # signals while writing: the files completed stay
+        print(f"kanedyn: {_interrupted(stopped_by or stop.signum)}; stopped while writing "
+              f"the outputs, complete: {', '.join(written) or 'none'}", file=sys.stderr)
         return exit_status(stopped_by or stop.signum)
-    if held and stopped_by is None:
-        print(f"kanedyn: {_interrupted(held[0])} while writing the outputs; they were "
+    if writing.first is not None and stopped_by is None:
+        print(f"kanedyn: {_interrupted(writing.first)} while writing the outputs; they were "
               "finished first", file=sys.stderr)
-        return exit_status(held[0])
+        return exit_status(writing.first)
     _print_summary(summary)
     if report is not None:
         print(f"{definition.name} report: {_report_text(report)}")
@@ -111,11 +114,31 @@ def cmd_run(args):
     return 0 if res.success else 1
 
 
-def _hold_once(held, signum):
-    """A first stop signal is held (noted in ``held``); a second stops at once."""
-    if held:
-        raise Stopped(signum)
-    held.append(signum)
+class _Writing:
+    """Stop signals while the outputs are written (see the module's text).
+
+    Attributes
+    ----------
+    first : int or None
+        The first signal, counting the one that ended the simulation.
+    """
+
+    def __init__(self, stopped_by):
+        self.first = stopped_by
+        self.count = 0 if stopped_by is None else 1
+        self._pictures = False
+
+    def on_signal(self, signum):
+        self.count += 1
+        self.first = self.first or signum
+        if self.count >= 3 or (self._pictures and self.count >= 2):
+            raise Stopped(signum)
+
+    def pictures(self):
+        """The data is written; now the pictures (stopped at once after two signals)."""
+        self._pictures = True
+        if self.count >= 2:
+            raise Stopped(self.first)
 
 
 def _interrupted(signum):
@@ -174,9 +197,10 @@ def _report_dict(report):
     return as_dict() if callable(as_dict) else {"text": _report_text(report)}
 
 
-def _write_run(definition, eom, model, res, out, progress, report=None, written=None):
-    """CSV and summary, then the plot (the data first: a second signal during the
-    plot keeps them); the names of the files completed go into ``written``."""
+def _write_run(definition, eom, model, res, out, progress, report=None, written=None,
+               pictures=None):
+    """CSV and summary, then the plot (``pictures()`` called between them); the names
+    of the files completed go into ``written``."""
     written = [] if written is None else written
     try:
         out.mkdir(parents=True, exist_ok=True)
@@ -192,6 +216,8 @@ def _write_run(definition, eom, model, res, out, progress, report=None, written=
         summary["report"] = _report_dict(report)
     text = json.dumps(summary, indent=2, default=float)
     _written(out / "summary.json", written, lambda part: part.write_text(text))
+    if pictures is not None:
+        pictures()
     import matplotlib.pyplot as plt
     figures = []
     try:
