@@ -34,20 +34,29 @@ needs_compiler = pytest.mark.skipif(_cbackend.compiler_command() is None,
 SRC = str(Path(kd.__file__).resolve().parents[1])
 
 
-def signal_at_call(n, *signums):
-    """A user event that sends ``signums`` (one after the other) at its ``n``-th call
-    under the run's guard; ``calls`` counts the calls."""
+def signalling_at(n, *signums):
+    """``tick(t)``: lists its calls under the run's guard (``tick.calls``) and sends
+    ``signums``, one after the other, during the ``n``-th."""
     calls = []
 
-    def event(t, y):
+    def tick(t):
         if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
             calls.append(t)
             if len(calls) == n:
                 for signum in signums:
                     signal.raise_signal(signum)
-        return 1.0
 
-    event.calls = calls
+    tick.calls = calls
+    return tick
+
+
+def signal_at_call(n, *signums):
+    """A user event that sends ``signums`` at its ``n``-th call under the run's guard."""
+    tick = signalling_at(n, *signums)
+
+    def event(t, y):
+        tick(t)
+        return 1.0
     return event
 
 
@@ -96,16 +105,12 @@ def test_a_signal_after_the_last_step_still_stops_the_script(four_bar, backend):
 def evaluations_signalling_at(model, n, *signums):
     """``model.rhs`` counting its calls, sending ``signums`` during its ``n``-th call
     under the run's guard (in the middle of a step); the calls after it are listed."""
-    rhs, calls, after = model.rhs, [], []
+    rhs, tick, after = model.rhs, signalling_at(n, *signums), []
 
     def counting(t, y):
-        if signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-            calls.append(t)
-            if len(calls) == n:
-                for signum in signums:
-                    signal.raise_signal(signum)
-            elif len(calls) > n:
-                after.append(t)
+        tick(t)
+        if len(tick.calls) > n:
+            after.append(t)
         return rhs(t, y)
     model.rhs = counting
     return after

@@ -24,7 +24,7 @@ import threading
 from contextlib import contextmanager
 
 __all__ = ["STOP_SIGNALS", "Stopped", "stop_at_once", "holding", "taking_over",
-           "exit_status", "signal_name", "last_received"]
+           "exit_status", "signal_name", "interruption", "last_received"]
 
 #: the signals that stop a run, where the platform has them
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM")
@@ -52,6 +52,12 @@ def signal_name(signum):
         return signal.Signals(signum).name
     except ValueError:
         return f"signal {signum}"
+
+
+def interruption(signum):
+    """``"interrupted"`` for Ctrl-C, ``"interrupted by SIGTERM"`` (and so on)."""
+    name = signal_name(signum)
+    return "interrupted" if name == "SIGINT" else f"interrupted by {name}"
 
 
 def exit_status(signum):

@@ -15,10 +15,11 @@
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 
 from .._errors import KanedynError
-from .._signals import exit_status, last_received, signal_name, taking_over
+from .._signals import exit_status, interruption, last_received, taking_over
 from .._version import __version__
 from . import _compare, _demo, _derive, _inverse, _list, _run, _study, _sweep
 
@@ -68,11 +69,9 @@ def main(argv=None):
             sys.stderr.close()
             return 0
         except KeyboardInterrupt as stop:
-            signum = getattr(stop, "signum", None) or last_received()
-            name = signal_name(signum) if signum else "SIGINT"
-            print("kanedyn: interrupted" + ("" if name == "SIGINT" else f" by {name}"),
-                  file=sys.stderr)
-            return exit_status(signum) if signum else 130
+            signum = getattr(stop, "signum", None) or last_received() or signal.SIGINT
+            print(f"kanedyn: {interruption(signum)}", file=sys.stderr)
+            return exit_status(signum)
         # a command that reports a Ctrl-C (130) itself: the status of the signal that came
         received = last_received()
         return exit_status(received) if code == 130 and received else code

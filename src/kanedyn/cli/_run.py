@@ -21,7 +21,7 @@ from pathlib import Path
 
 from .._errors import KanedynError, SimulationInterrupted
 from .._progress import Progress
-from .._signals import Stopped, exit_status, holding, signal_name
+from .._signals import Stopped, exit_status, holding, interruption
 from ..models import REGISTRY, build
 from ._options import (add_backend_argument, check_output_dir, integrator_name, numeric_model,
                        parse_sets, point_count, positive_float, split_values)
@@ -88,17 +88,18 @@ def cmd_run(args):
             summary = _write_run(definition, eom, model, res, out, progress, report, written,
                                  writing.pictures)
             if args.animate:
-                page = _written(out / f"{definition.name}.html", written, lambda part: res.animate(
-                    part, visuals=definition.shapes(constants),
-                    title=f"{definition.name}: {definition.title}",
-                    inputs=definition.animation_inputs))
+                page = _written(out / f"{definition.name}.html", written,
+                                lambda part: res.animate(
+                                    part, visuals=definition.shapes(constants),
+                                    title=f"{definition.name}: {definition.title}",
+                                    inputs=definition.animation_inputs))
                 progress.stage(f"wrote {page}")
     except Stopped as stop:  # signals while writing: the files completed stay
-        print(f"kanedyn: {_interrupted(stopped_by or stop.signum)}; stopped while writing "
+        print(f"kanedyn: {interruption(stopped_by or stop.signum)}; stopped while writing "
               f"the outputs, complete: {', '.join(written) or 'none'}", file=sys.stderr)
         return exit_status(stopped_by or stop.signum)
     if writing.first is not None and stopped_by is None:
-        print(f"kanedyn: {_interrupted(writing.first)} while writing the outputs; they were "
+        print(f"kanedyn: {interruption(writing.first)} while writing the outputs; they were "
               "finished first", file=sys.stderr)
         return exit_status(writing.first)
     _print_summary(summary)
@@ -108,7 +109,7 @@ def cmd_run(args):
     if stopped_by is not None:
         reached = (f"at t = {res.t[-1]:g} s" if res.t.size
                    else "before the first output time")
-        print(f"kanedyn: {_interrupted(stopped_by)} {reached}; wrote the partial result",
+        print(f"kanedyn: {interruption(stopped_by)} {reached}; wrote the partial result",
               file=sys.stderr)
         return exit_status(stopped_by)
     return 0 if res.success else 1
@@ -139,12 +140,6 @@ class _Writing:
         self._pictures = True
         if self.count >= 2:
             raise Stopped(self.first)
-
-
-def _interrupted(signum):
-    """``"interrupted"`` (Ctrl-C), ``"interrupted by SIGTERM"``."""
-    name = signal_name(signum)
-    return "interrupted" if name == "SIGINT" else f"interrupted by {name}"
 
 
 def _written(path, written, write):
@@ -197,11 +192,9 @@ def _report_dict(report):
     return as_dict() if callable(as_dict) else {"text": _report_text(report)}
 
 
-def _write_run(definition, eom, model, res, out, progress, report=None, written=None,
-               pictures=None):
+def _write_run(definition, eom, model, res, out, progress, report, written, pictures):
     """CSV and summary, then the plot (``pictures()`` called between them); the names
     of the files completed go into ``written``."""
-    written = [] if written is None else written
     try:
         out.mkdir(parents=True, exist_ok=True)
     except OSError as exc:
@@ -216,8 +209,7 @@ def _write_run(definition, eom, model, res, out, progress, report=None, written=
         summary["report"] = _report_dict(report)
     text = json.dumps(summary, indent=2, default=float)
     _written(out / "summary.json", written, lambda part: part.write_text(text))
-    if pictures is not None:
-        pictures()
+    pictures()
     import matplotlib.pyplot as plt
     figures = []
     try:

@@ -210,9 +210,10 @@ class SingularityMonitor:
         The first and last states count as well when the ratio there is below
         the threshold (a run that starts at, or stops near, a singular
         position); ``y0`` or ``y_end`` ``None``: not counted (the compiled
-        loop counts them itself).  ``stacklevel`` as for :func:`warnings.warn`, counted from
-        this method (3: the caller of the function that calls it); ``advice``
-        replaces the closing sentence of the note (what to do about it).
+        loop counts them itself).  ``stacklevel`` as for :func:`warnings.warn`,
+        counted from this method (3: the caller of the function that calls
+        it); ``advice`` replaces the closing sentence of the note (what to do
+        about it).
 
         Returns
         -------

@@ -454,7 +454,7 @@ class _Segment:
 
 
 def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_events,
-                      stabilization, rtol, atol, stop_flag=None):
+                      stabilization, rtol, atol, stop_flag):
     """One segment in the compiled contact loop, or ``None`` (Python path).
 
     The generated ``contact_segment`` (:mod:`kanedyn.numerics.backends._c_contact`)
@@ -462,6 +462,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
     else, or a failure inside it (singular, not finite, step too small), is
     left to ``solve_ivp`` on :func:`solve_modes`, which then reproduces the
     reference behaviour (including its error handling) for that segment.
+    ``stop_flag`` is the run guard's: a stop signal ends the segment after its
+    step, with what it has (a failure, as ``solve_ivp`` reports one).
     """
     active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
     if len(active) > 1 or any(model.contacts[c]["kind"] != "unilateral" for c in active):
@@ -495,7 +497,7 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
     if status == 1:
         t_events[event] = ts[-1:]
         y_events[event] = zs[-1:]
-    # 3: stopped (the run's guard says why), as solve_ivp's -1
+    # 3: stopped (the run's guard says why)
     return _Segment(ts, zs.T, -1 if status == 3 else status, t_events, y_events, nfev)
 
 

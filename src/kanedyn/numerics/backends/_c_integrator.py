@@ -262,14 +262,14 @@ static int kd_project(KdModel *model, double t, double *y) {
    rho = sigma_min / sigma_max of the velocity-constraint matrix B = dc/du below
    a threshold.  Each accepted step is screened with what the drift check
    computed anyway: by Weyl's inequality no singular value moves by more than
-   |B(t) - B(t_end)| <= 2 |B_b - B_a|_F within the step (B varying smoothly along
-   an accepted step), so with sigma_min >= lo and sigma_max <= |B|_F at an end
-   the ratio stays above (lo - 2d) / (|B|_F + 2d).  Only a step whose bound is
-   below the threshold is examined: the rate of rho along the motion at its ends
-   (a central difference along q', as SingularityMonitor._rate), a change of
-   sign from falling to rising whose dip may reach below the threshold, and
-   Brent's method on the continuous extension for the minimum.  Memory: the
-   minima found.
+   |B(t) - B(t_end)| within the step, taken to be at most 2 d, d = |B_b - B_a|_F
+   (B is smooth along an accepted step); with sigma_min >= lo and sigma_max <=
+   |B|_F at an end, the ratio stays above (lo - 2d) / (|B|_F + 2d).  Only a
+   step whose bound is below the threshold is examined: the rate of rho along
+   the motion at its ends (a central difference along q', as
+   SingularityMonitor._rate), a change of sign from falling to rising whose dip
+   may reach below the threshold, and Brent's method on the continuous
+   extension for the minimum.  Memory: the minima found.
    ------------------------------------------------------------------------ */
 #define KD_NOISE 1e-12  /* a change of rho below this is round-off (as _NOISE) */
 #define KD_SCREEN 2.0   /* the factor on |B_b - B_a|_F of the screen */
