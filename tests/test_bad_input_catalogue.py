@@ -686,3 +686,24 @@ def test_cache_that_others_could_change(case, tmp_path, monkeypatch):
         with pytest.raises(fault, match=pattern), warnings.catch_warnings():
             warnings.simplefilter("ignore", RuntimeWarning)  # the cache not used: a case above
             call()
+
+
+# ---- issue 33, items 3-4 (and item 7's run --out on a full disk): interruptions, memory
+def test_run_out_on_a_full_disk(tmp_path, monkeypatch, capsys):
+    """The disk fills up while ``kanedyn run`` writes its CSV: one line naming the
+    file and the cause, and no file cut short (the CSV is written under a
+    temporary name and renamed when complete)."""
+    import errno
+    import os
+
+    def fills_up(self, path):
+        with open(path, "w") as fh:
+            fh.write("t,theta,omega\n0.0,")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+    monkeypatch.setattr(kd.SimulationResult, "to_csv", fills_up)
+    argv = ["run", "pendulum", "--t-end", "0.1", "--backend", "numpy", "--out", str(tmp_path),
+            "--quiet"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err.strip() == (
+        f"kanedyn: error: cannot write {tmp_path / 'pendulum.csv'}: No space left on device")
+    assert not list(tmp_path.iterdir())

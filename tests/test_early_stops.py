@@ -12,6 +12,10 @@ import kanedyn as kd
 from kanedyn.cli import main
 
 
+# Ctrl-C reaches the runs as in a terminal, whatever the disposition inherited
+pytestmark = pytest.mark.usefixtures("terminal_signals")
+
+
 def ctrl_c_at_call(n):
     """A user event that presses Ctrl-C once, at its ``n``-th call under the run's
     guard (which turns a first SIGINT into a stop with the partial result)."""
