@@ -148,7 +148,7 @@ def test_other_format_version(saved, tmp_path):
     (["nonsense"], "unknown kind"),
     (["get", 0], "unknown kind"),
     (["method", 0, "__init__"], "not allowed"),
-    (["expr", "sin", ["previous"]], "SymPy argument that is a str"),
+    (["expr", "sin", ["previous"]], "argument 0 of sin is a str, not an expression"),
 ])
 def test_tampered_nodes_are_refused(saved, tmp_path, node, message):
     """A file rewritten with a valid checksum but a forbidden node: the loader
@@ -180,18 +180,26 @@ def test_a_partial_holding_text_is_refused(saved, tmp_path):
     with zipfile.ZipFile(path) as z:
         root = json.loads(z.read("manifest.json"))["root"]
 
-    def edit(nodes):
-        program = next(i for i, node in enumerate(nodes)
-                       if node[0] == "object" and node[1].endswith("_program.Program"))
-        nodes += [["method", program, "declare"],
-                  ["str", f"__import__('pathlib').Path({str(marker)!r}).touch()"],
-                  ["dict", []]]
-        nodes.append(["partial", len(nodes) - 3, [len(nodes) - 2], len(nodes) - 1])
-        nodes[root][2][0][1] = len(nodes) - 1
-        return nodes
-    bad = _rewrite(path, tmp_path / "tampered.kdeom", nodes=edit)
-    with pytest.raises(kd.SavedFileError, match=r"tampered\.kdeom: .*partial with text"):
-        kd.load(bad)
+    def edit(owner, method):
+        def rewrite(nodes):
+            found = next(i for i, node in enumerate(nodes)
+                         if node[0] == "object" and node[1].endswith(owner))
+            nodes += [["method", found, method],
+                      ["str", f"__import__('pathlib').Path({str(marker)!r}).touch()"],
+                      ["int", "1"], ["dict", []]]
+            n = len(nodes)
+            nodes.append(["partial", n - 4, [n - 3, n - 2], n - 1])
+            nodes[root][2][0][1] = len(nodes) - 1
+            return nodes
+        return rewrite
+    for owner, method, message in (
+            ("_symbols.SymbolTable", "_specified", r"a partial of SymbolTable\._specified "
+             "whose argument 0 is a str, not a SymPy expression"),
+            ("_program.Program", "declare", r"a partial of Program\.declare, which a file "
+             "may hold as a method only")):
+        bad = _rewrite(path, tmp_path / "tampered.kdeom", nodes=edit(owner, method))
+        with pytest.raises(kd.SavedFileError, match=r"tampered\.kdeom: node \d+: " + message):
+            kd.load(bad)
     assert not marker.exists()
 
 
@@ -200,5 +208,6 @@ def test_unsavable_content_is_named(tmp_path):
     d = kd.models.build("pendulum")
     eom = d.derive()
     object.__setattr__(eom, "_extra", lambda t: t)
-    with pytest.raises(kd.SavedFileError, match=r"cannot save the equations\._extra"):
+    with pytest.raises(kd.SavedFileError, match=r"cannot save the equations\._extra: "
+                                                "EquationsOfMotion has no attribute '_extra'"):
         eom.save(tmp_path / "x.kdeom")
