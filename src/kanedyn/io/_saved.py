@@ -265,7 +265,7 @@ class _Encoder:
             problem = spec.problem(value, set())
             if problem is not None:
                 raise SavedFileError(f"cannot save {where}: its {type(obj).__name__} field "
-                                     f"{field!r} holds {problem}")
+                                     f"{field!r} {problem}")
         return ["namedtuple", name, self._refs(obj, where)]
 
     def _object(self, obj, where):
@@ -288,7 +288,7 @@ class _Encoder:
                                      f"attribute {key!r} that a saved file may hold")
             problem = spec.problem(value, self._checked)
             if problem is not None:
-                raise SavedFileError(f"cannot save {where}.{key}: it holds {problem}")
+                raise SavedFileError(f"cannot save {where}.{key}: it {problem}")
         return ["object", name, [[str(k), self.ref(v, f"{where}.{k}")]
                                  for k, v in state.items()]]
 
@@ -749,7 +749,7 @@ class _Decoder:
             for field, value, spec in zip(cls._fields, values, specs):
                 problem = spec.problem(value, set())
                 if problem is not None:
-                    raise Refused(f"{cls.__name__} field {field!r} holds {problem}")
+                    raise Refused(f"{cls.__name__} field {field!r} {problem}")
             return cls(*values)
         return _NO_SHELL, self._refs(index, refs), finish
 
@@ -788,7 +788,7 @@ class _Decoder:
                 self._tick()
             problem = spec.problem(value, memo)
             if problem is not None:
-                self.fail(index, f"{cls} attribute {key!r} holds {problem}")
+                self.fail(index, f"{cls} attribute {key!r} {problem}")
 
     def _method_of(self, owner, name):
         path = schema.class_path(type(owner))
@@ -821,7 +821,7 @@ class _Decoder:
                 problem = spec.problem(arg, set())
                 if problem is not None:  # text could reach SymPy's parser
                     raise Refused(f"a partial of {owner}.{func.__name__} whose argument {i} "
-                                  f"is {problem}")
+                                  f"{problem}")
             return functools.partial(method, *args)
         return _NO_SHELL, [self._ref(index, func), *refs, self._ref(index, keywords)], finish
 

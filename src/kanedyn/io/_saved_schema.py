@@ -102,8 +102,9 @@ class Spec:
         self.text = text
 
     def problem(self, value, memo):
-        """``None`` when ``value`` fits; otherwise a short description of the
-        misfit.  ``memo`` holds ``(id(container), id(spec))`` already checked
+        """``None`` when ``value`` fits; otherwise the misfit, worded to follow
+        the value's name (``"is a str, not a SymPy expression"``, ``"has item
+        2 that is ..."``).  ``memo`` holds ``(id(container), id(spec))`` already checked
         (a container shared by many objects is checked once)."""
         raise NotImplementedError
 
@@ -123,7 +124,7 @@ class _Exact(Spec):
         self.types = types_
 
     def problem(self, value, memo):
-        return None if type(value) in self.types else f"{_found(value)}, not {self.text}"
+        return None if type(value) in self.types else f"is {_found(value)}, not {self.text}"
 
 
 class _Test(Spec):
@@ -136,7 +137,7 @@ class _Test(Spec):
         self.test = test
 
     def problem(self, value, memo):
-        return None if self.test(value) else f"{_found(value)}, not {self.text}"
+        return None if self.test(value) else f"is {_found(value)}, not {self.text}"
 
 
 class _Instance(Spec):
@@ -147,7 +148,7 @@ class _Instance(Spec):
         self.paths = frozenset(paths)
 
     def problem(self, value, memo):
-        return None if is_kind(value, self.paths) else f"{_found(value)}, not {self.text}"
+        return None if is_kind(value, self.paths) else f"is {_found(value)}, not {self.text}"
 
 
 class _Items(Spec):
@@ -161,7 +162,7 @@ class _Items(Spec):
 
     def problem(self, value, memo):
         if type(value) is not self.kind:
-            return f"{_found(value)}, not {self.text}"
+            return f"is {_found(value)}, not {self.text}"
         key = (id(value), id(self))
         if key in memo:
             return None
@@ -169,7 +170,7 @@ class _Items(Spec):
             found = self.item.problem(item, memo)
             if found is not None:
                 where = f"item {i}" if self.kind in (tuple, list) else "an item"
-                return f"{where} of the {self.kind.__name__} is {found}"
+                return f"has {where} that {found}"
         memo.add(key)
         return None
 
@@ -185,11 +186,11 @@ class _Fields(Spec):
 
     def problem(self, value, memo):
         if type(value) is not tuple or len(value) != len(self.items):
-            return f"{_found(value)}, not {self.text}"
+            return f"is {_found(value)}, not {self.text}"
         for i, (item, spec) in enumerate(zip(value, self.items)):
             found = spec.problem(item, memo)
             if found is not None:
-                return f"item {i} of the tuple is {found}"
+                return f"has item {i} that {found}"
         return None
 
 
@@ -202,16 +203,17 @@ class _Dict(Spec):
 
     def problem(self, value, memo):
         if type(value) is not dict:
-            return f"{_found(value)}, not {self.text}"
+            return f"is {_found(value)}, not {self.text}"
         mark = (id(value), id(self))
         if mark in memo:
             return None
         for k, v in value.items():
             found = self.key.problem(k, memo)
-            if found is None:
-                found = self.value.problem(v, memo)
             if found is not None:
-                return f"an entry of the dict is {found}"
+                return f"has a key that {found}"
+            found = self.value.problem(v, memo)
+            if found is not None:
+                return f"has a value that {found}"
         memo.add(mark)
         return None
 
@@ -224,12 +226,14 @@ class _Either(Spec):
         self.options = options
 
     def problem(self, value, memo):
-        found = None
+        deeper = None  # the misfit inside an option of the right type, if any
         for option in self.options:
             found = option.problem(value, memo)
             if found is None:
                 return None
-        return found if len(self.options) == 1 else f"{_found(value)}, not {self.text}"
+            if not found.startswith("is "):
+                deeper = found
+        return deeper or f"is {_found(value)}, not {self.text}"
 
 
 class _Method(Spec):
@@ -244,7 +248,7 @@ class _Method(Spec):
     def problem(self, value, memo):
         ok = (type(value) is types.MethodType and value.__name__ == self.name
               and class_path(type(value.__self__)) == self.path)
-        return None if ok else f"{_found(value)}, not {self.text}"
+        return None if ok else f"is {_found(value)}, not {self.text}"
 
 
 class _Partial(Spec):
@@ -259,7 +263,7 @@ class _Partial(Spec):
 
     def problem(self, value, memo):
         if type(value) is not functools.partial:
-            return f"{_found(value)}, not {self.text}"
+            return f"is {_found(value)}, not {self.text}"
         return self.method.problem(value.func, memo)
 
 
@@ -373,7 +377,8 @@ OBJECTS = {
         "_dcm_parent": _Dict(FRAME, _optional(FRAME)),
         "_omega_parent": _Dict(FRAME, _optional(FRAME)), "_body_frame": _Dict(POINT, FRAME)},
     _ENGINE + "_kinematics.PartialVelocities": {
-        "prog": PROGRAM, "vector": EXPRS, "speeds": EXPRS, "fixed": _Dict(EXPR, EXPR),
+        "prog": PROGRAM, "vector": EXPRS, "speeds": EXPRS,
+        "fixed": _Dict(EXPR, _Either(EXPR, INT, FLOAT)),
         "_formed": _Dict(INT, EXPRS), "_leaves": _optional(_Items(frozenset, EXPR))},
     # kanedyn's model description
     _MODELING + "_spec.ModelSpec": {
