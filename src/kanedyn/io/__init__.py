@@ -6,8 +6,12 @@
 ``_page``     the self-contained page (three.js inlined from ``_vendor/three``)
               and :func:`animate`
 ``_saved``    ``eom.save(path)`` and :func:`load`: equations of motion in a zip of
-              JSON whose SymPy expressions are stored as trees (nothing is
-              evaluated on loading)
+              JSON whose SymPy expressions are stored as trees; reading runs
+              nothing from the file and is bounded in size and time
+``_saved_sympy``  the SymPy classes a saved file may name, each rebuilt on
+              arguments checked by kind without computing
+``_saved_schema`` the other objects a saved file may hold: per class, its
+              attributes and their types (or its constructor's fields)
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes

@@ -74,7 +74,8 @@ import numpy as np
 from .._errors import KanedynError
 from .._version import __version__
 from . import _saved_schema as schema
-from ._saved_sympy import ASSUMPTIONS, SINGLETONS, Refused, build_expression, expression_rules
+from ._saved_sympy import (ASSUMPTIONS, SINGLETONS, Refused, build_expression, described,
+                           expression_rules)
 
 __all__ = ["SavedFileError", "save_equations", "load", "save_data", "load_data", "FORMAT",
            "FORMAT_VERSION", "LIMITS"]
@@ -442,7 +443,7 @@ class _Decoder:
         if it has one, is registered first."""
         node = self.nodes[index]
         if type(node) is not list or not node or type(node[0]) is not str:
-            self.fail(index, f"not a node but a {type(node).__name__}")
+            self.fail(index, f"not a node but {described(node)}")
         handler = self._handlers.get(node[0])
         if handler is None:
             self.fail(index, f"unknown kind {node[0][:40]!r}")
@@ -522,7 +523,7 @@ class _Decoder:
                 schema.class_path(cls) in schema.OBJECTS):
             self._key_types.add(cls)
             return 1
-        self.fail(index, f"a {cls.__name__} used as a dict key or set member")
+        self.fail(index, f"{described(value)} used as a dict key or set member")
 
     # -------------------------------------------------- scalars, containers
     def _none(self, index):
@@ -648,7 +649,8 @@ class _Decoder:
         if man < 0 or (man and bc != man.bit_length()):
             raise ValueError("the mantissa does not match its bit count")
         mpf = (sign, man, exp, bc)
-        return self._done(self._intern(("real", mpf, prec), lambda: sm.Float._new(mpf, prec)))
+        return self._done(self._intern(  # zero=False: a Float 0.0 stays one (not 0)
+            ("real", mpf, prec), lambda: sm.Float._new(mpf, prec, zero=False)))
 
     def _flags(self, assumptions):
         if type(assumptions) is not dict or not all(
@@ -703,7 +705,7 @@ class _Decoder:
         _, matrix, expr, _ = schema.sympy_classes() or (None, (), (), None)
         for a in args:
             if not isinstance(a, expr) or isinstance(a, matrix):
-                raise Refused(f"a SymPy argument that is a {type(a).__name__}")
+                raise Refused(f"a SymPy argument that is {described(a)}")
 
     def _expr(self, index, name, refs):
         name = self._text(name)

@@ -35,6 +35,8 @@ import types
 
 import numpy as np
 
+from ._saved_sympy import described
+
 __all__ = ["Spec", "OBJECTS", "NAMED_TUPLES", "METHODS", "resolve", "storage",
            "class_path", "is_kind", "is_sympy", "sympy_classes"]
 
@@ -112,10 +114,6 @@ class Spec:
         return f"<{self.text}>"
 
 
-def _found(value):
-    return f"a {type(value).__name__}"
-
-
 class _Exact(Spec):
     __slots__ = ("types",)
 
@@ -124,7 +122,7 @@ class _Exact(Spec):
         self.types = types_
 
     def problem(self, value, memo):
-        return None if type(value) in self.types else f"is {_found(value)}, not {self.text}"
+        return None if type(value) in self.types else f"is {described(value)}, not {self.text}"
 
 
 class _Test(Spec):
@@ -137,7 +135,7 @@ class _Test(Spec):
         self.test = test
 
     def problem(self, value, memo):
-        return None if self.test(value) else f"is {_found(value)}, not {self.text}"
+        return None if self.test(value) else f"is {described(value)}, not {self.text}"
 
 
 class _Instance(Spec):
@@ -148,7 +146,7 @@ class _Instance(Spec):
         self.paths = frozenset(paths)
 
     def problem(self, value, memo):
-        return None if is_kind(value, self.paths) else f"is {_found(value)}, not {self.text}"
+        return None if is_kind(value, self.paths) else f"is {described(value)}, not {self.text}"
 
 
 class _Items(Spec):
@@ -162,7 +160,7 @@ class _Items(Spec):
 
     def problem(self, value, memo):
         if type(value) is not self.kind:
-            return f"is {_found(value)}, not {self.text}"
+            return f"is {described(value)}, not {self.text}"
         key = (id(value), id(self))
         if key in memo:
             return None
@@ -186,7 +184,7 @@ class _Fields(Spec):
 
     def problem(self, value, memo):
         if type(value) is not tuple or len(value) != len(self.items):
-            return f"is {_found(value)}, not {self.text}"
+            return f"is {described(value)}, not {self.text}"
         for i, (item, spec) in enumerate(zip(value, self.items)):
             found = spec.problem(item, memo)
             if found is not None:
@@ -203,7 +201,7 @@ class _Dict(Spec):
 
     def problem(self, value, memo):
         if type(value) is not dict:
-            return f"is {_found(value)}, not {self.text}"
+            return f"is {described(value)}, not {self.text}"
         mark = (id(value), id(self))
         if mark in memo:
             return None
@@ -233,7 +231,7 @@ class _Either(Spec):
                 return None
             if not found.startswith("is "):
                 deeper = found
-        return deeper or f"is {_found(value)}, not {self.text}"
+        return deeper or f"is {described(value)}, not {self.text}"
 
 
 class _Method(Spec):
@@ -248,7 +246,7 @@ class _Method(Spec):
     def problem(self, value, memo):
         ok = (type(value) is types.MethodType and value.__name__ == self.name
               and class_path(type(value.__self__)) == self.path)
-        return None if ok else f"is {_found(value)}, not {self.text}"
+        return None if ok else f"is {described(value)}, not {self.text}"
 
 
 class _Partial(Spec):
@@ -263,7 +261,7 @@ class _Partial(Spec):
 
     def problem(self, value, memo):
         if type(value) is not functools.partial:
-            return f"is {_found(value)}, not {self.text}"
+            return f"is {described(value)}, not {self.text}"
         return self.method.problem(value.func, memo)
 
 
@@ -393,7 +391,8 @@ OBJECTS = {
         "name": STR, "point": POINT, "surface": SURFACE, "mu_k": EXPR, "mu_s": EXPR,
         "viscous": EXPR, "restitution": _optional(EXPR), "kind": STR, "restitution_law": STR},
     _MODELING + "_contacts.Plane": _SURFACE,
-    _MODELING + "_contacts.ImplicitSurface": _SURFACE,
+    _MODELING + "_contacts.ImplicitSurface": {  # a cone (modeling._limits) adds its shape
+        **_SURFACE, "axis": VECTOR, "limit": EXPR, "radius": EXPR},
     _MODELING + "_contacts.Sphere": {**_SURFACE, "radius": EXPR, "inside": BOOL},
     _MODELING + "_contacts.Ellipsoid": {**_SURFACE, "axes": EXPRS, "inside": BOOL},
     _MODELING + "_inertial_elements.RateInertia": {**_INERTIAL, "rates": EXPRS},
@@ -444,9 +443,8 @@ OBJECTS = {
         "velocity": EXPRS, "jacobian": _list(EXPRS), "acceleration": EXPRS,
         "normal_rate": EXPR},
     _FORMULATIONS + "_orthogonal_complement._Blocks": {
-        "T": _list(EXPR), "Tdu": _list(EXPR), "Mb": _list(EXPR), "w": _list(EXPR),
-        "Q": _list(EXPR), "n_bodies": INT, "TF": _list(EXPR), "TduF": _list(EXPR),
-        "MbF": _list(EXPR), "wF": _list(EXPR), "sizes": _list(INT)},
+        "T": EXPRS, "Tdu": EXPRS, "Mb": EXPRS, "w": EXPRS, "Q": EXPRS, "n_bodies": INT,
+        "TF": EXPRS, "TduF": EXPRS, "MbF": EXPRS, "wF": EXPRS, "sizes": _tuple(INT)},
     _FORMULATIONS + "_eom.EquationsOfMotion": {
         "_spec": _Instance("a ModelSpec", _MODELING + "_spec.ModelSpec"),
         "_program": PROGRAM, "_table": TABLE,
@@ -468,7 +466,7 @@ OBJECTS = {
         "contacts": _tuple(CONTACT), "method": STR, "_description_symbols": EXPRS,
         "_speed_tree": _optional(_Dict(STR, _list(_Either(INT, EXPRS)))),
         "name": _optional(STR), "title": _optional(STR),
-        "_declared_units": _optional(_Dict(EXPR, STR)),
+        "_declared_units": _optional(_Dict(_Either(STR, EXPR), STR)),
         "_noc_blocks": _Instance("NOC blocks", _FORMULATIONS + "_orthogonal_complement._Blocks"),
         "_scheme": STR, "_multiplier_form": BOOL},
 }

@@ -29,7 +29,8 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["ASSUMPTIONS", "SINGLETONS", "Refused", "expression_rules", "build_expression"]
+__all__ = ["ASSUMPTIONS", "SINGLETONS", "Refused", "expression_rules", "build_expression",
+           "described"]
 
 #: SymPy's singletons a file may name (``S.<name>``)
 SINGLETONS = ("Zero", "One", "NegativeOne", "Half", "Pi", "Exp1", "ImaginaryUnit",
@@ -39,6 +40,12 @@ SINGLETONS = ("Zero", "One", "NegativeOne", "Half", "Pi", "Exp1", "ImaginaryUnit
 
 class Refused(Exception):
     """A node whose arguments do not fit its class (the decoder names file and node)."""
+
+
+def described(value):
+    """``"a Mul"``, ``"an Integer"``: the type of ``value``, for messages."""
+    name = type(value).__name__
+    return f"{'an' if name[:1].lower() in 'aeiou' else 'a'} {name}"
 
 
 @functools.cache
@@ -82,8 +89,8 @@ class _Rule:
         for i, arg in enumerate(args):
             kind = self.kinds[i] if i < len(self.kinds) else self.rest
             if not kind.fits(arg):
-                raise Refused(f"argument {i} of {self.cls.__name__} is a "
-                              f"{type(arg).__name__}, not {kind.text}")
+                raise Refused(f"argument {i} of {self.cls.__name__} is {described(arg)}, "
+                              f"not {kind.text}")
         if self.distinct and len(set(args)) != n:
             raise Refused(f"{self.cls.__name__} with repeated arguments")
 
