@@ -20,7 +20,7 @@ from .._lazy import lazy_attributes as _lazy_attributes
 _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes",
          "animate": "._page", "page_html": "._page",
          "SavedFileError": "._saved", "load": "._saved", "load_data": "._saved",
-         "save_data": "._saved", "save_equations": "._saved",
+         "save_data": "._saved", "save_equations": "._saved", "SAVED_FILE_LIMITS": "._saved",
          "DEFAULT_MAX_FRAMES": "._viewer", "PALETTE": "._viewer",
          "quaternions": "._viewer", "scene_data": "._viewer"}
 
@@ -29,6 +29,6 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError", "save_data", "load_data"]
+           "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

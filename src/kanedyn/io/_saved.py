@@ -41,11 +41,11 @@ build them again with :meth:`~kanedyn.EquationsOfMotion.numeric`.  Dummy
 symbols (the program's intermediates) are created afresh on loading, so
 loaded equations never collide with symbols of the loading session.
 
-Reading is bounded (:data:`LIMITS`): the archive's size, the uncompressed
-size of each member (read in chunks, the sizes its headers claim not
-trusted), the number of nodes and of JSON containers, the nesting depth of
-the graph (rebuilt without recursion), the digits of an integer, and the
-time the whole read may take (``timeout``).
+Reading is bounded (:data:`SAVED_FILE_LIMITS`): the archive's size, the
+uncompressed size of each member (read in chunks, the sizes its headers
+claim not trusted), the number of nodes and of JSON containers, the nesting
+depth of the graph (rebuilt without recursion), the digits of an integer,
+and the time the whole read may take (``timeout``).
 
 A file that is not such an archive, has another format or a newer version,
 does not match its checksum, exceeds a limit, or holds an unknown class, a
@@ -78,15 +78,16 @@ from ._saved_sympy import (ASSUMPTIONS, SINGLETONS, Refused, build_expression, d
                            expression_rules)
 
 __all__ = ["SavedFileError", "save_equations", "load", "save_data", "load_data", "FORMAT",
-           "FORMAT_VERSION", "LIMITS"]
+           "FORMAT_VERSION", "SAVED_FILE_LIMITS"]
 
 FORMAT = "kanedyn-equations"
 FORMAT_VERSION = 1
 
-#: What reading a file may take at most; a file beyond any limit is refused.
-#: (The largest built-in model's equations, the Stewart platform's, are a
-#: 0.1 MB archive of 0.5 MB and 12,000 nodes; a 20-link 3D chain's 1.2 MB.)
-LIMITS = {
+#: What reading a file may take at most; a file beyond any limit is refused
+#: (raise one to read a larger file you trust).  For scale: the largest
+#: built-in model's equations, the Stewart platform's, are a 0.1 MB archive of
+#: 0.5 MB and 12,000 nodes; a 20-link 3D chain's are 1.2 MB.
+SAVED_FILE_LIMITS = {
     "file_bytes": 32 << 20,      # the archive on disk
     "member_bytes": 32 << 20,    # nodes.json, uncompressed
     "manifest_bytes": 1 << 20,   # manifest.json, uncompressed
@@ -413,9 +414,9 @@ class _Decoder:
                 if child in self._open:
                     self.fail(index, f"it refers back to node {child} through a "
                                      f"{self.nodes[child][0]!r}, which cannot hold a cycle")
-                if len(stack) >= LIMITS["depth"]:
-                    self.fail(index, f"the objects are nested more than {LIMITS['depth']} "
-                                     "deep")
+                if len(stack) >= SAVED_FILE_LIMITS["depth"]:
+                    self.fail(index, "the objects are nested more than "
+                                     f"{SAVED_FILE_LIMITS['depth']} deep")
                 stack.append(self._start(child))
                 break
             else:
@@ -492,11 +493,11 @@ class _Decoder:
 
     @staticmethod
     def _integer(text):
-        """An integer written as decimal digits (at most ``LIMITS["digits"]``)."""
+        """An integer written as decimal digits (at most ``SAVED_FILE_LIMITS["digits"]``)."""
         digits = text[1:] if type(text) is str and text[:1] == "-" else text
-        if type(digits) is not str or not 0 < len(digits) <= LIMITS["digits"] \
+        if type(digits) is not str or not 0 < len(digits) <= SAVED_FILE_LIMITS["digits"] \
                 or not (digits.isascii() and digits.isdigit()):
-            raise ValueError(f"an integer of at most {LIMITS['digits']} digits expected")
+            raise ValueError(f"an integer of at most {SAVED_FILE_LIMITS['digits']} digits expected")
         return int(text)  # digits only: int() of a str parses no code
 
     def _key(self, index, value, sizes):
@@ -641,13 +642,15 @@ class _Decoder:
         return self._done(self._intern(("rational", p, q), lambda: sm.Rational(p, q)))
 
     def _real(self, index, sign, man, exp, bc, prec):
-        bits = 4 * LIMITS["digits"]
+        bits = 4 * SAVED_FILE_LIMITS["digits"]
         if sign not in (0, 1) or type(sign) is not int:
             raise ValueError("a sign of 0 or 1 expected")
         man, exp = self._integer(man), self._integer(exp)
         bc, prec = self._whole(bc, -2, bits), self._whole(prec, 1, bits)
         if man < 0 or (man and bc != man.bit_length()):
             raise ValueError("the mantissa does not match its bit count")
+        if abs(exp) > 1 << 20:  # 2**(2**20) is about 1e315652
+            raise ValueError("a binary exponent beyond 2**20")
         mpf = (sign, man, exp, bc)
         return self._done(self._intern(  # zero=False: a Float 0.0 stays one (not 0)
             ("real", mpf, prec), lambda: sm.Float._new(mpf, prec, zero=False)))
@@ -684,7 +687,7 @@ class _Decoder:
         name, flags = self._text(name), self._flags(assumptions)
 
         def finish(values):
-            if values[0] != {}:
+            if type(values[0]) is not dict or values[0]:
                 raise Refused("an undefined function with keyword data")
             key = ("function", name, frozenset(flags.items()))
             return self._intern(key, lambda: sm.Function(name, **flags))
@@ -720,8 +723,8 @@ class _Decoder:
     def _matrix(self, index, kind, rows, cols, refs):
         if kind not in ("immutable", "mutable"):
             raise ValueError("a matrix is 'immutable' or 'mutable'")
-        refs = self._refs(index, refs)
-        rows, cols = self._whole(rows, 0, len(refs)), self._whole(cols, 0, len(refs))
+        refs, most = self._refs(index, refs), SAVED_FILE_LIMITS["nodes"]
+        rows, cols = self._whole(rows, 0, most), self._whole(cols, 0, most)
         if rows * cols != len(refs):
             raise ValueError(f"{len(refs)} entries for a {rows} x {cols} matrix")
 
@@ -815,7 +818,7 @@ class _Decoder:
             if specs is None:
                 raise Refused(f"a partial of {owner}.{func.__name__}, which a file may hold "
                               "as a method only")
-            if keywords != {} or len(args) != len(specs):
+            if type(keywords) is not dict or keywords or len(args) != len(specs):
                 raise Refused(f"a partial of {owner}.{func.__name__} with {len(args)} "
                               f"arguments and {len(keywords)} keywords (it takes "
                               f"{len(specs)} arguments)")
@@ -846,7 +849,7 @@ def load(path, timeout=None):
     ----------
     path : str or os.PathLike
     timeout : float, optional
-        Seconds the whole read may take (default ``LIMITS["timeout"]``, 60 s).
+        Seconds the whole read may take (default ``SAVED_FILE_LIMITS["timeout"]``, 60 s).
 
     Returns
     -------
@@ -897,12 +900,12 @@ def _members(path, kind, deadline):
     """``(manifest bytes, nodes bytes)`` of the archive, within the limits."""
     try:
         size = path.stat().st_size
-        if size > LIMITS["file_bytes"]:
+        if size > SAVED_FILE_LIMITS["file_bytes"]:
             raise SavedFileError(f"{path}: {size} bytes, more than the "
-                                 f"{LIMITS['file_bytes']} a saved file may have")
+                                 f"{SAVED_FILE_LIMITS['file_bytes']} a saved file may have")
         with path.open("rb") as handle:
             end = getattr(zipfile, "_EndRecData", lambda _: None)(handle)
-            if end is not None and end[zipfile._ECD_ENTRIES_TOTAL] > LIMITS["members"]:
+            if end is not None and end[zipfile._ECD_ENTRIES_TOTAL] > SAVED_FILE_LIMITS["members"]:
                 raise SavedFileError(f"{path}: not a {kind} (it has "
                                      f"{end[zipfile._ECD_ENTRIES_TOTAL]} members)")
             with zipfile.ZipFile(handle) as archive:
@@ -910,10 +913,10 @@ def _members(path, kind, deadline):
                 if not {"manifest.json", "nodes.json"} <= names:
                     raise SavedFileError(f"{path}: not a {kind} (it lacks "
                                          "manifest.json or nodes.json)")
-                return (_read_member(archive, "manifest.json", LIMITS["manifest_bytes"], path,
-                                     deadline),
-                        _read_member(archive, "nodes.json", LIMITS["member_bytes"], path,
-                                     deadline))
+                return tuple(_read_member(archive, name, SAVED_FILE_LIMITS[limit], path,
+                                          deadline)
+                             for name, limit in (("manifest.json", "manifest_bytes"),
+                                                 ("nodes.json", "member_bytes")))
     except FileNotFoundError:
         raise SavedFileError(f"{path}: no such file") from None
     except (zipfile.BadZipFile, OSError, EOFError, RuntimeError, NotImplementedError,
@@ -941,7 +944,7 @@ def load_data(path, format=FORMAT, timeout=None):
     format : str
         The content the file must announce in its manifest.
     timeout : float, optional
-        Seconds the whole read may take (default ``LIMITS["timeout"]``).
+        Seconds the whole read may take (default ``SAVED_FILE_LIMITS["timeout"]``).
 
     Returns
     -------
@@ -955,7 +958,7 @@ def load_data(path, format=FORMAT, timeout=None):
         As :func:`load`: the message names the file and the fault.
     """
     path = Path(path)
-    timeout = LIMITS["timeout"] if timeout is None else float(timeout)
+    timeout = SAVED_FILE_LIMITS["timeout"] if timeout is None else float(timeout)
     deadline = time.monotonic() + timeout
     kind = "kanedyn equations file" if format == FORMAT else f"{format} file"
     manifest_text, nodes_text = _members(path, kind, deadline)
@@ -973,16 +976,16 @@ def load_data(path, format=FORMAT, timeout=None):
         raise SavedFileError(f"{path}: nodes.json does not match the checksum in its "
                              "manifest: the file was changed or damaged after it was written")
     containers = nodes_text.count(b"[") + nodes_text.count(b"{")
-    if containers > LIMITS["containers"]:
+    if containers > SAVED_FILE_LIMITS["containers"]:
         raise SavedFileError(f"{path}: nodes.json holds {containers} lists, more than the "
-                             f"{LIMITS['containers']} a saved file may hold")
+                             f"{SAVED_FILE_LIMITS['containers']} a saved file may hold")
     nodes = _json(nodes_text, path, "nodes.json")
     del nodes_text
     count = manifest.get("nodes")
     if not isinstance(nodes, list) or len(nodes) != count:
         raise SavedFileError(f"{path}: nodes.json does not hold the {str(count)[:20]} "
                              "nodes its manifest announces")
-    if len(nodes) > LIMITS["nodes"]:
+    if len(nodes) > SAVED_FILE_LIMITS["nodes"]:
         raise SavedFileError(f"{path}: {len(nodes)} nodes, more than the "
-                             f"{LIMITS['nodes']} a saved file may hold")
+                             f"{SAVED_FILE_LIMITS['nodes']} a saved file may hold")
     return _Decoder(nodes, path, deadline, timeout).decode(manifest.get("root")), manifest
