@@ -402,36 +402,40 @@ class _Decoder:
     # ------------------------------------------------------------- the walk
     def decode(self, root):
         root = self._ref(-1, root)
+        values, opened, deepest = self.values, self._open, SAVED_FILE_LIMITS["depth"]
         stack = [self._start(root)]
+        finished = 0
         while stack:
             frame = stack[-1]
-            index, refs = frame[0], frame[1]
-            while frame[2] < len(refs):
-                child = refs[frame[2]]
-                frame[2] += 1
-                if child in self.values:
+            index, refs, position = frame[0], frame[1], frame[2]
+            while position < len(refs):
+                child = refs[position]
+                position += 1
+                if child in values:
                     continue
-                if child in self._open:
+                if child in opened:
                     self.fail(index, f"it refers back to node {child} through a "
                                      f"{self.nodes[child][0]!r}, which cannot hold a cycle")
-                if len(stack) >= SAVED_FILE_LIMITS["depth"]:
-                    self.fail(index, "the objects are nested more than "
-                                     f"{SAVED_FILE_LIMITS['depth']} deep")
+                if len(stack) >= deepest:
+                    self.fail(index, f"the objects are nested more than {deepest} deep")
+                frame[2] = position
                 stack.append(self._start(child))
                 break
             else:
                 stack.pop()
-                self._tick()
+                finished += 1
+                if not finished % 64:
+                    self._tick()
                 try:
-                    value = frame[3]([self.values[r] for r in refs])
+                    value = frame[3]([values[r] for r in refs])
                 except SavedFileError:
                     raise
                 except _CAUGHT as exc:
                     self._malformed(index, exc)
-                self.values[index] = value
-                self._open.discard(index)
+                values[index] = value
+                opened.discard(index)
         self._check_schemas()
-        return self.values[root]
+        return values[root]
 
     def _malformed(self, index, exc):
         if isinstance(exc, Refused):
@@ -469,7 +473,11 @@ class _Decoder:
     def _refs(self, index, refs):
         if type(refs) is not list:
             raise TypeError("a list of references expected")
-        return [self._ref(index, r) for r in refs]
+        count = len(self.nodes)
+        for r in refs:
+            if type(r) is not int or not 0 <= r < count:
+                self._ref(index, r)  # raises, naming it
+        return refs
 
     @staticmethod
     def _done(value):

@@ -74,20 +74,15 @@ def sympy_classes():
     return _SYMPY[0]
 
 
-_IS_SYMPY = {}  # type -> whether its instances are SymPy objects other than matrices
+@functools.lru_cache(maxsize=4096)  # bounded: SymPy makes a class per function name
+def _is_sympy_type(cls, basic, matrix):
+    return issubclass(cls, basic) and not issubclass(cls, matrix)
 
 
 def is_sympy(value):
     """Whether ``value`` is a SymPy object other than a matrix."""
-    cls = type(value)
-    found = _IS_SYMPY.get(cls)
-    if found is None:
-        classes = sympy_classes()
-        if classes is None:
-            return False
-        found = _IS_SYMPY[cls] = issubclass(cls, classes[0]) and not issubclass(
-            cls, classes[1])
-    return found
+    classes = sympy_classes()
+    return classes is not None and _is_sympy_type(type(value), classes[0], classes[1])
 
 
 def _is_matrix(value):
@@ -106,26 +101,15 @@ class Spec:
     def problem(self, value, memo):
         """``None`` when ``value`` fits; otherwise the misfit, worded to follow
         the value's name (``"is a str, not a SymPy expression"``, ``"has item
-        2 that is ..."``).  ``memo`` holds ``(id(container), id(spec))`` already checked
-        (a container shared by many objects is checked once)."""
+        2 that is ..."``).  ``memo`` holds the ``(id(container), id(spec))``
+        already checked (a container shared by many objects is checked once)."""
         raise NotImplementedError
 
     def __repr__(self):
         return f"<{self.text}>"
 
 
-class _Exact(Spec):
-    __slots__ = ("types",)
-
-    def __init__(self, text, *types_):
-        super().__init__(text)
-        self.types = types_
-
-    def problem(self, value, memo):
-        return None if type(value) in self.types else f"is {described(value)}, not {self.text}"
-
-
-class _Test(Spec):
+class _Leaf(Spec):
     """A value for which ``test(value)`` holds."""
 
     __slots__ = ("test",)
@@ -138,82 +122,94 @@ class _Test(Spec):
         return None if self.test(value) else f"is {described(value)}, not {self.text}"
 
 
-class _Instance(Spec):
-    __slots__ = ("paths",)
+def _exact(text, *types_):
+    return _Leaf(text, lambda value: type(value) in types_)
 
-    def __init__(self, text, *paths):
+
+def _instance(text, *paths):
+    paths = frozenset(paths)
+    return _Leaf(text, lambda value: is_kind(value, paths))
+
+
+class _Container(Spec):
+    """A container of type ``kind`` whose parts fit their specs (checked once
+    per container and spec, however many objects share it)."""
+
+    __slots__ = ("kind",)
+
+    def __init__(self, text, kind):
         super().__init__(text)
-        self.paths = frozenset(paths)
+        self.kind = kind
+
+    def _fits(self, value):
+        return type(value) is self.kind
+
+    def _parts(self, value):
+        """``(spec, part, what the part is)`` of each part of ``value``."""
+        raise NotImplementedError
 
     def problem(self, value, memo):
-        return None if is_kind(value, self.paths) else f"is {described(value)}, not {self.text}"
-
-
-class _Items(Spec):
-    """A tuple, list, set or frozenset (``kind``) of items fitting ``item``."""
-
-    __slots__ = ("kind", "item")
-
-    def __init__(self, kind, item):
-        super().__init__(f"a {kind.__name__} of {item.text}")
-        self.kind, self.item = kind, item
-
-    def problem(self, value, memo):
-        if type(value) is not self.kind:
+        if not self._fits(value):
             return f"is {described(value)}, not {self.text}"
         key = (id(value), id(self))
         if key in memo:
             return None
-        for i, item in enumerate(value):
-            found = self.item.problem(item, memo)
+        for spec, part, where in self._parts(value):
+            found = spec.problem(part, memo)
             if found is not None:
-                where = f"item {i}" if self.kind in (tuple, list) else "an item"
                 return f"has {where} that {found}"
         memo.add(key)
         return None
 
 
-class _Fields(Spec):
+class _Items(_Container):
+    """A tuple, list, set or frozenset (``kind``) of items fitting ``item``."""
+
+    __slots__ = ("item",)
+
+    def __init__(self, kind, item):
+        super().__init__(f"a {kind.__name__} of {item.text}", kind)
+        self.item = item
+
+    def problem(self, value, memo):
+        test = getattr(self.item, "test", None)  # most items are leaves: one pass
+        if test is not None and type(value) is self.kind and all(map(test, value)):
+            return None
+        return super().problem(value, memo)
+
+    def _parts(self, value):
+        ordered = self.kind in (tuple, list)
+        return ((self.item, v, f"item {i}" if ordered else "an item")
+                for i, v in enumerate(value))
+
+
+class _Fields(_Container):
     """A tuple of exactly these items."""
 
     __slots__ = ("items",)
 
     def __init__(self, *items):
-        super().__init__("(" + ", ".join(i.text for i in items) + ")")
+        super().__init__("(" + ", ".join(i.text for i in items) + ")", tuple)
         self.items = items
 
-    def problem(self, value, memo):
-        if type(value) is not tuple or len(value) != len(self.items):
-            return f"is {described(value)}, not {self.text}"
-        for i, (item, spec) in enumerate(zip(value, self.items)):
-            found = spec.problem(item, memo)
-            if found is not None:
-                return f"has item {i} that {found}"
-        return None
+    def _fits(self, value):
+        return type(value) is tuple and len(value) == len(self.items)
+
+    def _parts(self, value):
+        return ((spec, v, f"item {i}") for i, (spec, v) in enumerate(zip(self.items, value)))
 
 
-class _Dict(Spec):
+class _Dict(_Container):
     __slots__ = ("key", "value")
 
     def __init__(self, key, value):
-        super().__init__(f"a dict of {key.text} to {value.text}")
+        super().__init__(f"a dict of {key.text} to {value.text}", dict)
         self.key, self.value = key, value
 
-    def problem(self, value, memo):
-        if type(value) is not dict:
-            return f"is {described(value)}, not {self.text}"
-        mark = (id(value), id(self))
-        if mark in memo:
-            return None
+    def _parts(self, value):
         for k, v in value.items():
-            found = self.key.problem(k, memo)
-            if found is not None:
-                return f"has a key that {found}"
-            found = self.value.problem(v, memo)
-            if found is not None:
-                return f"has a value that {found}"
-        memo.add(mark)
-        return None
+            yield self.key, k, "a key"
+            yield self.value, v, "a value"
 
 
 class _Either(Spec):
@@ -234,35 +230,18 @@ class _Either(Spec):
         return deeper or f"is {described(value)}, not {self.text}"
 
 
-class _Method(Spec):
-    """A bound method ``owner.name`` (owner of the class ``path``)."""
-
-    __slots__ = ("path", "name")
-
-    def __init__(self, path, name):
-        super().__init__(f"the method {path.rpartition('.')[2]}.{name}")
-        self.path, self.name = path, name
-
-    def problem(self, value, memo):
-        ok = (type(value) is types.MethodType and value.__name__ == self.name
-              and class_path(type(value.__self__)) == self.path)
-        return None if ok else f"is {described(value)}, not {self.text}"
+def _method(path, name):
+    """A bound method ``owner.name``, its owner of the class ``path``."""
+    return _Leaf(f"the method {path.rpartition('.')[2]}.{name}", lambda value: (
+        type(value) is types.MethodType and value.__name__ == name
+        and class_path(type(value.__self__)) == path))
 
 
-class _Partial(Spec):
-    """``functools.partial`` of an allowed method (its arguments are checked
-    when the decoder builds it, see :data:`METHODS`)."""
-
-    __slots__ = ("method",)
-
-    def __init__(self, method):
-        super().__init__(f"a partial of {method.text}")
-        self.method = method
-
-    def problem(self, value, memo):
-        if type(value) is not functools.partial:
-            return f"is {described(value)}, not {self.text}"
-        return self.method.problem(value.func, memo)
+def _partial(method):
+    """``functools.partial`` of ``method`` (its arguments are checked when the
+    decoder builds it, see :data:`METHODS`)."""
+    return _Leaf(f"a partial of {method.text}", lambda value: (
+        type(value) is functools.partial and method.test(value.func)))
 
 
 # ---------------------------------------------------------------- the specs
@@ -278,41 +257,41 @@ def _optional(spec):
     return _Either(NONE, spec)
 
 
-NONE = _Exact("None", type(None))
-BOOL = _Exact("a boolean", bool)
-INT = _Exact("a whole number", int)
-FLOAT = _Exact("a float", float)
-STR = _Exact("a string", str)
-COMPLEX = _Exact("a complex number", complex)
-ARRAY = _Exact("a NumPy array", np.ndarray)
-EXPR = _Test("a SymPy expression", is_sympy)
-MATRIX = _Test("a SymPy matrix", _is_matrix)
-RANDOM = _Exact("a random-number generator", __import__("random").Random)
+NONE = _exact("None", type(None))
+BOOL = _exact("a boolean", bool)
+INT = _exact("a whole number", int)
+FLOAT = _exact("a float", float)
+STR = _exact("a string", str)
+COMPLEX = _exact("a complex number", complex)
+ARRAY = _exact("a NumPy array", np.ndarray)
+EXPR = _Leaf("a SymPy expression", is_sympy)
+MATRIX = _Leaf("a SymPy matrix", _is_matrix)
+RANDOM = _exact("a random-number generator", __import__("random").Random)
 EXPRS = _tuple(EXPR)
 STRS = _tuple(STR)
 
 _VECTOR = "sympy.physics.vector."
 _MECHANICS = "sympy.physics.mechanics."
-FRAME = _Instance("a ReferenceFrame", _VECTOR + "frame.ReferenceFrame")
-POINT = _Instance("a Point", _VECTOR + "point.Point")
-VECTOR = _Instance("a Vector", _VECTOR + "vector.Vector")
-DYADIC = _Instance("a Dyadic", _VECTOR + "dyadic.Dyadic")
-RIGID_OR_PARTICLE = _Instance("a RigidBody or Particle", _MECHANICS + "rigidbody.RigidBody",
+FRAME = _instance("a ReferenceFrame", _VECTOR + "frame.ReferenceFrame")
+POINT = _instance("a Point", _VECTOR + "point.Point")
+VECTOR = _instance("a Vector", _VECTOR + "vector.Vector")
+DYADIC = _instance("a Dyadic", _VECTOR + "dyadic.Dyadic")
+RIGID_OR_PARTICLE = _instance("a RigidBody or Particle", _MECHANICS + "rigidbody.RigidBody",
                               _MECHANICS + "particle.Particle")
 _ENGINE = "kanedyn.engine."
 _MODELING = "kanedyn.modeling."
 _FORMULATIONS = "kanedyn.formulations."
-PROGRAM = _Instance("a Program", _ENGINE + "_program.Program")
-TABLE = _Instance("a SymbolTable", _ENGINE + "_symbols.SymbolTable")
-BODY = _Instance("a body (RigidBody, Particle, FlexibleBody or inertial element)",
+PROGRAM = _instance("a Program", _ENGINE + "_program.Program")
+TABLE = _instance("a SymbolTable", _ENGINE + "_symbols.SymbolTable")
+BODY = _instance("a body (RigidBody, Particle, FlexibleBody or inertial element)",
                  _MECHANICS + "rigidbody.RigidBody", _MECHANICS + "particle.Particle",
                  _MODELING + "flexible._body.FlexibleBody",
                  _MODELING + "_inertial_elements.InertialElement")
-LOAD = _Instance("a Force or Torque", _MECHANICS + "loads.Force", _MECHANICS + "loads.Torque")
-CONTACT = _Instance("a Contact", _MODELING + "_contacts.Contact")
-SURFACE = _Instance("a contact surface", _MODELING + "_contacts.Surface")
-PARTIALS = _Instance("a PartialVelocities", _ENGINE + "_kinematics.PartialVelocities")
-ACTION = _Instance("a ConstraintAction", _MODELING + "_vector_constraints.ConstraintAction")
+LOAD = _instance("a Force or Torque", _MECHANICS + "loads.Force", _MECHANICS + "loads.Torque")
+CONTACT = _instance("a Contact", _MODELING + "_contacts.Contact")
+SURFACE = _instance("a contact surface", _MODELING + "_contacts.Surface")
+PARTIALS = _instance("a PartialVelocities", _ENGINE + "_kinematics.PartialVelocities")
+ACTION = _instance("a ConstraintAction", _MODELING + "_vector_constraints.ConstraintAction")
 
 _SURFACE = {"frame": FRAME, "origin": POINT, "gap": EXPR, "name": STR}
 _INERTIAL = {"name": STR, "inertia": MATRIX}
@@ -341,7 +320,7 @@ OBJECTS = {
     _MECHANICS + "rigidbody.RigidBody": {
         "_name": STR, "_mass": EXPR, "_masscenter": POINT, "_potential_energy": EXPR,
         "points": _list(POINT), "_frame": FRAME,
-        "_inertia": _Instance("an Inertia", _MECHANICS + "inertia.Inertia"),
+        "_inertia": _instance("an Inertia", _MECHANICS + "inertia.Inertia"),
         "_central_inertia": DYADIC},
     # kanedyn's engine
     _ENGINE + "_program.Program": {
@@ -349,14 +328,14 @@ OBJECTS = {
         "_order": _list(EXPR), "_cons": _Dict(EXPR, EXPR),
         "_parents": _Dict(EXPR, _Items(frozenset, EXPR)),
         "_deps": _Dict(EXPR, _Items(frozenset, EXPR)),
-        "_base_dt": _Dict(EXPR, _Either(EXPR, _Partial(_Method(
+        "_base_dt": _Dict(EXPR, _Either(EXPR, _partial(_method(
             _ENGINE + "_symbols.SymbolTable", "_specified")))),
         "_dt_hint": _Dict(EXPR, EXPR), "_dt": _Dict(EXPR, EXPR),
         "_diff": _Dict(EXPR, _Dict(EXPR, EXPR)),
         "_subs": _Dict(_Items(frozenset, _Fields(EXPR, EXPR)), _Dict(EXPR, EXPR)),
         "_explicit": _Dict(EXPR, EXPR),
         "_shadow": _Dict(INT, _Dict(EXPR, COMPLEX)),
-        "_samplers": _Dict(INT, _Instance("a sampler", _ENGINE + "_program._Sampler")),
+        "_samplers": _Dict(INT, _instance("a sampler", _ENGINE + "_program._Sampler")),
         "_analytic": _Dict(EXPR, BOOL), "_varying_set": _optional(_Items(frozenset, EXPR))},
     _ENGINE + "_program._Sampler": {"rng": RANDOM, "cache": _Dict(EXPR, COMPLEX)},
     _ENGINE + "_symbols.SymbolTable": {
@@ -365,7 +344,7 @@ OBJECTS = {
         "_int": _Dict(EXPR, EXPR), "_ext": _Dict(EXPR, EXPR),
         "_qdot_value": _Dict(EXPR, EXPR), "_replaced": _Dict(EXPR, STR),
         "specified": _Dict(EXPR, EXPR),
-        "on_new_specified": _optional(_Method(_ENGINE + "_program.Program", "declare"))},
+        "on_new_specified": _optional(_method(_ENGINE + "_program.Program", "declare"))},
     _ENGINE + "_kinematics.Kinematics": {
         "prog": PROGRAM, "table": TABLE, "N": FRAME, "_dcm": _Dict(FRAME, MATRIX),
         "_omega": _Dict(FRAME, EXPRS), "_vel": _Dict(POINT, EXPRS),
@@ -385,7 +364,7 @@ OBJECTS = {
         "velocity_constraints": _optional(EXPRS), "acceleration_constraints": _optional(EXPRS),
         "bodies": _tuple(BODY), "loads": _tuple(LOAD), "potential_energy": _optional(EXPR),
         "contacts": _tuple(CONTACT),
-        "vector_constraints": _tuple(_Instance(
+        "vector_constraints": _tuple(_instance(
             "a vector constraint", _MODELING + "_vector_constraints.VectorConstraint"))},
     _MODELING + "_contacts.Contact": {
         "name": STR, "point": POINT, "surface": SURFACE, "mu_k": EXPR, "mu_s": EXPR,
@@ -418,9 +397,9 @@ OBJECTS = {
         "bodies": _tuple(_optional(RIGID_OR_PARTICLE))},
     _MODELING + "flexible._body.FlexibleBody": {
         "name": STR, "frame": FRAME, "origin": POINT,
-        "member": _Instance("a ReducedMember", _MODELING + "flexible._reduced.ReducedMember"),
+        "member": _instance("a ReducedMember", _MODELING + "flexible._reduced.ReducedMember"),
         "q": EXPRS, "u": EXPRS, "stiffening": BOOL, "gravity": _optional(VECTOR),
-        "invariants": _Instance("an InertiaInvariants",
+        "invariants": _instance("an InertiaInvariants",
                                 _MODELING + "flexible._body.InertiaInvariants"),
         "damping": ARRAY, "_points": _Dict(INT, POINT), "_frames": _Dict(INT, FRAME)},
     _MODELING + "flexible._body.InertiaInvariants": {
@@ -446,20 +425,20 @@ OBJECTS = {
         "T": EXPRS, "Tdu": EXPRS, "Mb": EXPRS, "w": EXPRS, "Q": EXPRS, "n_bodies": INT,
         "TF": EXPRS, "TduF": EXPRS, "MbF": EXPRS, "wF": EXPRS, "sizes": _tuple(INT)},
     _FORMULATIONS + "_eom.EquationsOfMotion": {
-        "_spec": _Instance("a ModelSpec", _MODELING + "_spec.ModelSpec"),
+        "_spec": _instance("a ModelSpec", _MODELING + "_spec.ModelSpec"),
         "_program": PROGRAM, "_table": TABLE,
-        "_kinematics": _Instance("a Kinematics", _ENGINE + "_kinematics.Kinematics"),
+        "_kinematics": _instance("a Kinematics", _ENGINE + "_kinematics.Kinematics"),
         "_explicit_kinematics": BOOL, "_qdot": EXPRS, "_kinematic_matrices": _tuple(MATRIX),
         "_mass": _tuple(EXPRS), "_active": EXPRS, "_remainder": EXPRS,
         "_vel_B": _tuple(EXPRS), "_vel_c": EXPRS, "_acc_K": _tuple(EXPRS), "_acc_f": EXPRS,
         "_config": EXPRS, "_aux_K": _tuple(EXPRS), "_aux_f": EXPRS, "_kinetic": EXPR,
         "_potential": _optional(EXPR),
-        "_body_terms": _tuple(_Instance("a BodyTerms", _FORMULATIONS + "_kane.BodyTerms")),
+        "_body_terms": _tuple(_instance("a BodyTerms", _FORMULATIONS + "_kane.BodyTerms")),
         "_inertial": _tuple(_tuple(EXPRS)),
         "_load_vectors": _tuple(_Fields(_Either(POINT, FRAME), EXPRS)),
         "_identified": _tuple(_Fields(STR, _tuple(ACTION))),
         "_multiplier_names": STRS,
-        "_contact_terms": _tuple(_Instance("a ContactTerms",
+        "_contact_terms": _tuple(_instance("a ContactTerms",
                                            _FORMULATIONS + "_kane.ContactTerms")),
         "_method": STR, "frame": FRAME, "q_ind": EXPRS, "q_dep": EXPRS, "u_ind": EXPRS,
         "u_dep": EXPRS, "u_aux": EXPRS, "bodies": _tuple(BODY), "loads": _tuple(LOAD),
@@ -467,7 +446,7 @@ OBJECTS = {
         "_speed_tree": _optional(_Dict(STR, _list(_Either(INT, EXPRS)))),
         "name": _optional(STR), "title": _optional(STR),
         "_declared_units": _optional(_Dict(_Either(STR, EXPR), STR)),
-        "_noc_blocks": _Instance("NOC blocks", _FORMULATIONS + "_orthogonal_complement._Blocks"),
+        "_noc_blocks": _instance("NOC blocks", _FORMULATIONS + "_orthogonal_complement._Blocks"),
         "_scheme": STR, "_multiplier_form": BOOL},
 }
 
