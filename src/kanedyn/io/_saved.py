@@ -387,9 +387,10 @@ class _Decoder:
         self.values = {}  # index -> value, or the shell being filled
         self._open = set()  # indices whose children are being rebuilt
         self._interned = {}  # SymPy nodes by content: equal trees are one object
-        self._checks = []  # (index, class name, attribute, value, spec)
+        self._checks = []  # (index, class name, specs, attributes, values) per object
         self._handlers = {kind: getattr(self, name) for kind, name in _KINDS.items()}
         self._key_types = {type(None), bool, int, float, str, complex, frozenset}
+        self._started = 0  # nodes started: the clock is read every 64
 
     def fail(self, index, text):
         raise SavedFileError(f"{self.path}: node {index}: {text}")
@@ -403,8 +404,7 @@ class _Decoder:
     def decode(self, root):
         root = self._ref(-1, root)
         values, opened, deepest = self.values, self._open, SAVED_FILE_LIMITS["depth"]
-        stack = [self._start(root)]
-        finished = 0
+        stack = [frame for frame in [self._start(root)] if frame is not None]
         while stack:
             frame = stack[-1]
             index, refs, position = frame[0], frame[1], frame[2]
@@ -418,14 +418,13 @@ class _Decoder:
                                      f"{self.nodes[child][0]!r}, which cannot hold a cycle")
                 if len(stack) >= deepest:
                     self.fail(index, f"the objects are nested more than {deepest} deep")
-                frame[2] = position
-                stack.append(self._start(child))
-                break
+                started = self._start(child)
+                if started is not None:
+                    frame[2] = position
+                    stack.append(started)
+                    break
             else:
                 stack.pop()
-                finished += 1
-                if not finished % 64:
-                    self._tick()
                 try:
                     value = frame[3]([values[r] for r in refs])
                 except SavedFileError:
@@ -444,8 +443,12 @@ class _Decoder:
                          f"({type(exc).__name__}: {str(exc)[:300]})")
 
     def _start(self, index):
-        """``[index, child indices, next child, finish]`` of a node; its shell,
-        if it has one, is registered first."""
+        """``[index, child indices, next child, finish]`` of a node (its shell,
+        if it has one, registered first), or ``None`` for a node without
+        children, whose value is registered at once."""
+        self._started += 1
+        if not self._started % 64:
+            self._tick()
         node = self.nodes[index]
         if type(node) is not list or not node or type(node[0]) is not str:
             self.fail(index, f"not a node but {described(node)}")
@@ -458,6 +461,9 @@ class _Decoder:
             raise
         except _CAUGHT as exc:
             self._malformed(index, exc)
+        if finish is None:  # see _done
+            self.values[index] = shell
+            return None
         if shell is not _NO_SHELL:
             self.values[index] = shell
         self._open.add(index)
@@ -481,8 +487,8 @@ class _Decoder:
 
     @staticmethod
     def _done(value):
-        """A node without children whose value is ``value``."""
-        return _NO_SHELL, [], lambda _: value
+        """A node without children whose value is ``value`` (no ``finish``)."""
+        return value, (), None
 
     @staticmethod
     def _text(value):
@@ -790,18 +796,19 @@ class _Decoder:
                     state[key] = value
                 else:
                     slot.__set__(obj, value)  # a member descriptor: stores, runs nothing
-                self._checks.append((index, cls.__name__, key, value, specs[key]))
+            self._checks.append((index, cls.__name__, specs, keys, values))
             return obj
         return obj, self._refs(index, [p[1] for p in attributes]), finish
 
     def _check_schemas(self):
         memo = set()
-        for i, (index, cls, key, value, spec) in enumerate(self._checks):
-            if not i % 256:
+        for i, (index, cls, specs, keys, values) in enumerate(self._checks):
+            if not i % 64:
                 self._tick()
-            problem = spec.problem(value, memo)
-            if problem is not None:
-                self.fail(index, f"{cls} attribute {key!r} {problem}")
+            for key, value in zip(keys, values):
+                problem = specs[key].problem(value, memo)
+                if problem is not None:
+                    self.fail(index, f"{cls} attribute {key!r} {problem}")
 
     def _method_of(self, owner, name):
         path = schema.class_path(type(owner))
