@@ -118,6 +118,19 @@ def test_every_built_in_model_round_trips(tmp_path):
         assert _signature(again) == _signature(first), name
 
 
+def test_every_class_a_file_may_hold_exists_and_is_filled_past_its_descriptors():
+    """Each class of the reader's tables is found in this version of kanedyn
+    and SymPy, and every attribute its schema names is stored in the instance
+    (dict or slot), never through a property, setter or other descriptor."""
+    from kanedyn.io import _saved_schema as schema
+    for path in (*schema.OBJECTS, *schema.NAMED_TUPLES):
+        assert isinstance(schema.resolve(path), type), path
+    for path in schema.OBJECTS:
+        assert set(schema.storage(path)) == set(schema.OBJECTS[path])
+    for (path, name) in schema.METHODS:
+        assert callable(vars(schema.resolve(path))[name])
+
+
 # --------------------------------------------------------------- bad files
 def _rewrite(path, out, nodes=None, manifest=None, fix_checksum=True):
     with zipfile.ZipFile(path) as z:

@@ -2,7 +2,7 @@
 
 A saved file stores an expression as a tree of nodes, each naming a class
 from :func:`expression_rules` and referring to its arguments.  Rebuilding a
-node must never compute: an evaluating constructor can take without bound
+node must never compute: an evaluating constructor can run without bound
 (``Max(9**10**4000, 9)`` compares the two numbers; ``And`` and
 ``ExprCondPair`` simplify their arguments; ``Derivative`` walks its whole
 expression for its free symbols, which on a shared tree is exponential in
