@@ -64,16 +64,24 @@ def _load_all(cases):
     child = subprocess.Popen([sys.executable, "-c", _CHILD], stdin=subprocess.PIPE,
                              stdout=subprocess.PIPE, text=True, env=env)
     lines = queue.Queue()
-    threading.Thread(target=lambda: [lines.put(x) for x in child.stdout], daemon=True).start()
+
+    def read():
+        for line in child.stdout:
+            lines.put(line)
+        lines.put(None)  # the child ended
+    threading.Thread(target=read, daemon=True).start()
     out = []
     try:
         for label, path, fmt in cases:
             child.stdin.write(json.dumps([str(path), fmt]) + "\n")
             child.stdin.flush()
             try:
-                out.append(tuple(json.loads(lines.get(timeout=BOUND))))
+                line = lines.get(timeout=BOUND)
             except queue.Empty:
                 pytest.fail(f"loading {label} ({path}) did not end within {BOUND} s")
+            if line is None:
+                pytest.fail(f"the child process died loading {label} ({path})")
+            out.append(tuple(json.loads(line)))
     finally:
         child.kill()
         child.wait()
@@ -100,8 +108,9 @@ def test_no_setter_runs(tmp_path, cls, attribute, saved_archive):
 
 
 def test_text_where_sympy_belongs_is_refused_by_attribute(tmp_path, saved_archive):
-    """Text in a body's own mass slot is refused naming file, node, class and
-    attribute (SymPy would sympify it, that is run it, when the mass is read)."""
+    """Text in a body's own mass slot (which its ``mass`` property returns as
+    it is, to code that converts it) is refused naming file, node, class and
+    attribute."""
     marker = tmp_path / "ran"
     path = saved_archive(tmp_path / "typed.kdeom", [
         ["object", "sympy.physics.mechanics.particle.Particle", [["_mass", 1]]],
