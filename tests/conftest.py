@@ -1,5 +1,9 @@
 """Shared fixtures: models that are expensive to derive are built once per session."""
 
+import hashlib
+import json
+import zipfile
+
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -48,3 +52,21 @@ def terminal_signals():
     yield
     for s, handler in previous.items():
         signal.signal(s, handler)
+
+
+def _write_saved(path, nodes, root=0, fmt="kanedyn-equations", **manifest):
+    text = json.dumps(nodes, separators=(",", ":")).encode()
+    fields = {"format": fmt, "format_version": 1, "kanedyn_version": "0", "root": root,
+              "nodes": len(nodes), "sha256": hashlib.sha256(text).hexdigest(), **manifest}
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as z:
+        z.writestr("manifest.json", json.dumps(fields))
+        z.writestr("nodes.json", text)
+    return path
+
+
+@pytest.fixture()
+def saved_archive():
+    """``write(path, nodes, root=0, fmt="kanedyn-equations", **manifest)``: a
+    saved-data archive (``kd.load``'s format) of crafted nodes, with the
+    correct checksum (which anyone can compute); returns ``path``."""
+    return _write_saved

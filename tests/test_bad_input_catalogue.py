@@ -8,6 +8,9 @@ import os
 import re
 import warnings
 
+
+import zipfile
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -16,6 +19,9 @@ import sympy.physics.mechanics as me
 import kanedyn as kd
 from kanedyn.cli import main
 from kanedyn.numerics.backends import CompilerError
+
+
+from kanedyn.io import load_data
 
 
 def _spring():
@@ -707,3 +713,104 @@ def test_run_out_on_a_full_disk(tmp_path, monkeypatch, capsys):
     assert capsys.readouterr().err.strip() == (
         f"kanedyn: error: cannot write {tmp_path / 'pendulum.csv'}: No space left on device")
     assert not list(tmp_path.iterdir())
+
+
+# ---- issue 33, item 1: kd.load runs no code and always ends
+_PARTICLE = "sympy.physics.mechanics.particle.Particle"
+_CODE = "__import__('os').system('false')"
+SAVED_FILE_CASES = {
+    # label: (nodes of the file, root 0; the message after "<file>: ")
+    "a body's property setter (it sympifies text)": (
+        [["object", _PARTICLE, [["mass", 1]]], ["str", _CODE]],
+        "node 0: Particle has no attribute 'mass' that a saved file may hold"),
+    "code as text in a body's mass": (
+        [["object", _PARTICLE, [["_mass", 1]]], ["str", _CODE]],
+        "node 0: Particle attribute '_mass' is a str, not a SymPy expression"),
+    "an attribute no schema names": (
+        [["object", "sympy.physics.vector.point.Point", [["evil", 1]]], ["none"]],
+        "node 0: Point has no attribute 'evil' that a saved file may hold"),
+    "text deep in a container of expressions": (
+        [["object", "kanedyn.engine._program.Program", [["_defs", 1]]],
+         ["dict", [[2, 3]]], ["symbol", "x", {}], ["str", _CODE]],
+        "node 0: Program attribute '_defs' has a value that is a str, not a SymPy "
+        "expression"),
+    "an integer of 4000 digits": ([["expr", "Max", [1, 2]], ["integer", "9" * 4000],
+                                   ["integer", "9"]],
+                                  "node 1: .*an integer of at most 1000 digits"),
+    "a condition that is a number": ([["expr", "And", [1, 1]], ["integer", "2"]],
+                                     "node 0: argument 0 of And is an Integer, not a "
+                                     "condition"),
+    "a derivative by an expression": (
+        [["expr", "Derivative", [1, 3]], ["symbol", "x", {}], ["integer", "1"],
+         ["expr", "Tuple", [4, 2]], ["expr", "sin", [1]]],
+        r"node 0: argument 1 of Derivative is a Tuple, not a \(variable, order\) pair"),
+    "an assumption SymPy does not know": ([["symbol", "x", {"__class__": True}]],
+                                          "node 0: .*'__class__' is not a SymPy "
+                                          "assumption"),
+    "a tuple of 2**70 items as a key": (
+        [["dict", [[72, 1]]], ["int", "1"], ["tuple", [1]]]
+        + [["tuple", [k, k]] for k in range(2, 72)],
+        "node 0: a tuple of more than 64 items used as a key"),
+    "a Vector as a dict key": (
+        [["dict", [[1, 2]]], ["object", "sympy.physics.vector.vector.Vector", [["args", 2]]],
+         ["list", []]], "node 0: a Vector used as a dict key or set member"),
+    "objects nested 20000 deep": ([["list", [k + 1]] for k in range(20000)] + [["none"]],
+                                  "node 4999: the objects are nested more than 5000 deep"),
+    "a cycle through a tuple": ([["tuple", [0]]], "node 0: it refers back to node 0"),
+    "an array of Python objects": ([["array", "object", [1], "AA=="]],
+                                   "node 0: an array of type 'object'"),
+    "a random state of the wrong size": ([["random", 3, ["1"], None]],
+                                         "node 0: .*the state of a Mersenne Twister"),
+    "a node that is not a list": ([{"kind": "list"}], "node 0: not a node but a dict"),
+}
+
+
+@pytest.mark.timeout(120)  # each is refused at once; a regression fails, not hangs
+@pytest.mark.parametrize("case", sorted(SAVED_FILE_CASES))
+def test_bad_saved_file(case, tmp_path, saved_archive):
+    nodes, message = SAVED_FILE_CASES[case]
+    path = saved_archive(tmp_path / "model.kdeom", nodes)
+    with pytest.raises(kd.SavedFileError, match=r"model\.kdeom: " + message):
+        load_data(path)
+
+
+def _zip_bomb(path, size, compression=zipfile.ZIP_DEFLATED, members=()):
+    with zipfile.ZipFile(path, "w", compression=compression) as archive:
+        archive.writestr("manifest.json", "{}")
+        with archive.open("nodes.json", "w", force_zip64=True) as member:
+            for _ in range(size >> 20):
+                member.write(b" " * (1 << 20))
+        for name in members:
+            archive.writestr(name, "")
+    return path
+
+
+def _sparse(path, size):
+    with path.open("wb") as handle:
+        handle.truncate(size)
+    return path
+
+
+SAVED_ARCHIVE_CASES = {
+    "a zip bomb (64 MiB of spaces)": (lambda p: _zip_bomb(p, 64 << 20), {},
+                                      "nodes.json is 67108864 bytes uncompressed, more "
+                                      "than the 33554432"),
+    "a member compressed by bzip2": (lambda p: _zip_bomb(p, 1 << 20, zipfile.ZIP_BZIP2), {},
+                                     "manifest.json is compressed by a method kanedyn does "
+                                     "not write"),
+    "an archive of 40 members": (lambda p: _zip_bomb(p, 0, members=[f"m{i}" for i in
+                                                                    range(38)]), {},
+                                 r"not a kanedyn equations file \(it has 40 members\)"),
+    "a file of 40 MiB": (lambda p: _sparse(p, 40 << 20), {},
+                         "41943040 bytes, more than the 33554432 a saved file may have"),
+    "a read over its time limit": (lambda p: kd.models.build("pendulum").derive().save(p),
+                                   {"timeout": 0}, "reading took longer than its time limit"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SAVED_ARCHIVE_CASES))
+def test_bad_saved_archive(case, tmp_path):
+    make, options, message = SAVED_ARCHIVE_CASES[case]
+    path = make(tmp_path / "model.kdeom")
+    with pytest.raises(kd.SavedFileError, match=r"model\.kdeom: " + message):
+        load_data(path, **options)

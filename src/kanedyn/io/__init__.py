@@ -6,8 +6,12 @@
 ``_page``     the self-contained page (three.js inlined from ``_vendor/three``)
               and :func:`animate`
 ``_saved``    ``eom.save(path)`` and :func:`load`: equations of motion in a zip of
-              JSON whose SymPy expressions are stored as trees (nothing is
-              evaluated on loading)
+              JSON whose SymPy expressions are stored as trees; reading runs
+              nothing from the file and is bounded in size and time
+``_saved_sympy``  the SymPy classes a saved file may name, each rebuilt on
+              arguments checked by kind without computing
+``_saved_schema`` the other objects a saved file may hold: per class, its
+              attributes and their types (or its constructor's fields)
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes
@@ -16,7 +20,7 @@ from .._lazy import lazy_attributes as _lazy_attributes
 _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes",
          "animate": "._page", "page_html": "._page",
          "SavedFileError": "._saved", "load": "._saved", "load_data": "._saved",
-         "save_data": "._saved", "save_equations": "._saved",
+         "save_data": "._saved", "save_equations": "._saved", "SAVED_FILE_LIMITS": "._saved",
          "DEFAULT_MAX_FRAMES": "._viewer", "PALETTE": "._viewer",
          "quaternions": "._viewer", "scene_data": "._viewer"}
 
@@ -25,6 +29,6 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError", "save_data", "load_data"]
+           "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

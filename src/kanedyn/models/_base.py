@@ -327,8 +327,9 @@ def _read_body_parameters(key):
 def _read_cache(key):
     """``(model, manifest)`` from the cache entry ``key``, or ``None`` when there is
     none or it cannot be used.  The entry is a zip of JSON read by
-    :func:`kanedyn.io.load_data` (nothing in it is evaluated); a damaged or
-    changed entry is reported with a warning, removed and rebuilt."""
+    :func:`kanedyn.io.load_data` (nothing in it is evaluated or run); an entry
+    that is damaged, changed, or carries source code (which would be compiled)
+    is reported with a warning, removed and rebuilt."""
     import os
     import warnings
 
@@ -344,6 +345,10 @@ def _read_cache(key):
                 or data.get("scheme") not in SCHEMES \
                 or not isinstance(manifest.get("definition"), dict):
             raise SavedFileError(f"{path}: not a derived numerical model")
+        if data.get("c_source") is not None or data.get("sources") is not None:
+            # an entry names its module by key and never carries code: code in one
+            # would be compiled and run
+            raise SavedFileError(f"{path}: a derivation cache entry carrying source code")
         data["scheme"] = SCHEMES[data["scheme"]]()
         if data.get("body_parameters") is None:  # beside it: read when first needed
             if not _cache_path(key, "kdbody").exists():
