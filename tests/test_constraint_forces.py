@@ -109,7 +109,24 @@ def test_nonholonomic_particle_newton_euler():
     res = kd.simulate(model, (0, 3), model.state(definition.initial(model)), **TOL)
     check = kd.check_newton_euler(res)
     assert check.max < 1e-12
+    assert check.unidentified == ()
     assert np.ptp(res.energy) < 1e-8
+
+
+def test_forces_of_scalar_constraints_are_named_in_the_check():
+    """The four-bar's loop is closed by scalar equations: their forces are in the
+    residuals, and the check and the comparison say so instead of showing a bare
+    residual of the size of the forces."""
+    from kanedyn.analysis import compare_formulations
+    definition = kd.models.build("four-bar")
+    model = definition.numeric()
+    y = model.state(definition.initial(model))
+    check = kd.check_newton_euler(model, 0.0, y)
+    assert check.unidentified == ("lambda_0", "lambda_1")
+    assert check.max > 1e-2 * check.inertia_scale
+    assert "forces of lambda_0, lambda_1" in check.table()
+    table = compare_formulations("four-bar", methods=("kane", "lagrange"), t_end=0.1).table()
+    assert "N-E residuals hold the forces of lambda_0, lambda_1" in table
 
 
 def test_unidentified_forces_show_in_the_residual():

@@ -140,6 +140,11 @@ class FormulationComparison:
                    "d", ".3f")
         lines = [title, tabulate(rows, headers=headers, floatfmt=formats, intfmt="d",
                                  missingval="nan")]
+        unidentified = sorted({n for m in self.methods for n in self.newton_euler[m].unidentified})
+        if unidentified:
+            lines.append(f"N-E residuals hold the forces of {', '.join(unidentified)}: "
+                         "constraints given as scalar equations identify no force on a body "
+                         "(write them as kd.VectorConstraint to check them)")
         bad = [f"{m}: {self.messages[m]}" for m in self.methods
                if "reached the end" not in self.messages[m]]
         if bad:

@@ -64,6 +64,10 @@ class NewtonEulerCheck:
     inertia_scale : float
         Largest component of :math:`m a_G` and of the moment of the inertia
         forces met (N, N m): a scale for the residuals.
+    unidentified : tuple of str
+        Multipliers of constraints given as scalar equations, whose forces no
+        vector constraint identifies: the residuals hold those forces (they
+        measure them, not an error of the motion).
     """
 
     t: np.ndarray
@@ -73,6 +77,7 @@ class NewtonEulerCheck:
     multipliers: dict
     source: str
     inertia_scale: float
+    unidentified: tuple = ()
 
     @property
     def max_force(self):
@@ -99,6 +104,9 @@ class NewtonEulerCheck:
         """The per-body maxima as text."""
         lines = [f"Newton-Euler residuals (multipliers: {self.source}; "
                  f"inertia scale {self.inertia_scale:.3g})",
+                 *([f"  they hold the forces of {', '.join(self.unidentified)}: constraints "
+                    "given as scalar equations identify no force on a body"]
+                   if self.unidentified else []),
                  f"  {'body':<16} {'force [N]':>12} {'moment [N m]':>14}"]
         for name, (f, m) in self.per_body().items():
             lines.append(f"  {name:<16} {f:12.3e} {m:14.3e}")
@@ -370,4 +378,6 @@ def check_newton_euler(model, t=None, y=None, *, udot=None, multipliers=None,
     return NewtonEulerCheck(t=ts, bodies=tuple(b.name for b in model._eom.bodies),
                             force_residual=force_res, moment_residual=moment_res,
                             multipliers=dict(zip(names, lam_out)), source=source,
-                            inertia_scale=scale)
+                            inertia_scale=scale,
+                            unidentified=tuple(name for name in model._eom.multiplier_names
+                                               if name not in names))
