@@ -7,9 +7,11 @@ A run on SciPy's ``solve_ivp`` ends early when
 * a specified input's function raises (named by a ``ModelError``), or an event
   function raises: the guard records the state and the cause;
 * Ctrl-C is pressed: while a run is under way a first SIGINT only raises a
-  flag (a second one interrupts at once, as usual).
+  flag (a second one interrupts at once, as usual);
+* the run's time limit (``simulate(..., timeout=...)``) has passed, checked at
+  every step.
 
-In both cases the solver, wrapped by :func:`guarded_method`, reports a failed
+In each case the solver, wrapped by :func:`guarded_method`, reports a failed
 step at its next step, so ``solve_ivp`` returns normally with everything it
 had accepted up to then, instead of looping on ``nan`` step sizes or
 discarding its work in an exception.
@@ -19,6 +21,7 @@ from __future__ import annotations
 
 import signal
 import threading
+import time
 from contextlib import contextmanager
 
 import numpy as np
@@ -27,7 +30,13 @@ from ..numerics import diagnose
 from .._errors import INTERRUPTED, ModelError, OptionError
 
 __all__ = ["RunGuard", "Integrand", "guarded_event", "guarded_method", "solver_class",
-           "scipy_methods", "INTERRUPTED"]
+           "scipy_methods", "time_limit_message", "INTERRUPTED"]
+
+
+def time_limit_message(timeout, t):
+    """The message of a run stopped by its time limit (``timeout`` s) at ``t``."""
+    where = f" at t={t:.6g} s" if np.isfinite(t) else " before its first step"
+    return f"the time limit of {timeout:g} s of computing (timeout=) was reached{where}"
 
 class RunGuard:
     """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.
@@ -37,19 +46,25 @@ class RunGuard:
     failure_state : (float, ndarray) or None
         Time and state of the first non-finite derivative.
     interrupted : bool
+    on_step : callable or None
+        Called after every accepted step with ``(t_old, y_old, f_old, t, y, f)``
+        (``f``: the derivative there, ``None`` where the solver keeps none).
     """
 
-    def __init__(self, model):
+    def __init__(self, model, timeout=None):
         self.model = model
         self.failure_state = None
         self.failure_text = None
         self.interrupted = False
         self.last_step = None  # (t, y) the solver accepted last
+        self.on_step = None
+        self.timeout = timeout
+        self.deadline = None if timeout is None else time.monotonic() + timeout
 
     def fail(self, t, y, text=None):
         """Record the first failure at ``(t, y)`` (``text`` overrides the diagnosis)."""
         if self.failure_state is None:
-            self.failure_state = (float(t), np.array(y, dtype=float))
+            self.failure_state = (float(t), None if y is None else np.array(y, dtype=float))
             self.failure_text = text
 
     @property
@@ -58,9 +73,14 @@ class RunGuard:
 
     @property
     def stop_reason(self):
-        """``"interrupted"``, the failure's message, or ``None``."""
+        """``"interrupted"``, the failure's message (a time limit that has passed
+        is one), or ``None``."""
         if self.interrupted:
             return INTERRUPTED
+        if not self.failed and self.deadline is not None \
+                and time.monotonic() >= self.deadline:
+            t, y = self.last_step or (np.nan, None)
+            self.fail(t, y, time_limit_message(self.timeout, t))
         return self.failure_message() if self.failed else None
 
     def failure_message(self):
@@ -186,6 +206,8 @@ def guarded_method(method, guard):
         def _step_impl(self):
             if guard.stop_reason is not None:
                 return False, guard.stop_reason
+            before = (self.t, self.y.copy(), getattr(self, "f", None)) \
+                if guard.on_step is not None else None
             try:
                 success, message = super()._step_impl()
             except (ValueError, np.linalg.LinAlgError):
@@ -196,6 +218,8 @@ def guarded_method(method, guard):
                 return False, guard.stop_reason
             if success:
                 guard.last_step = (self.t, self.y.copy())
+                if guard.on_step is not None:
+                    guard.on_step(*before, self.t, self.y, getattr(self, "f", None))
             return success, message
 
     Guarded.__name__ = Guarded.__qualname__ = base.__name__

@@ -725,7 +725,7 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     lanes, contacts and ``inverse_point``) only.  ``declarations``: of the
     generated functions it calls (``constraints`` with dependent coordinates
     or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
-    ``inverse_point``)."""
+    ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
         + (["#define KD_INVERSE_POINT 1"] if inverse_point else [])
     body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR,
@@ -734,8 +734,10 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)
 
 
-#: outputs of the ``constraints`` function (built by ``build_numeric_model``)
+#: outputs of the ``constraints`` and ``energy`` functions (built by
+#: ``build_numeric_model``)
 _CONSTRAINT_OUTPUTS = 4
+_ENERGY_OUTPUTS = 2
 
 
 def predicted_runtime_unit(sizes):
@@ -747,6 +749,7 @@ def predicted_runtime_unit(sizes):
     compiler's time)."""
     dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
     declarations = [_signature("constraints", _CONSTRAINT_OUTPUTS) + ";"] if dependent else []
+    declarations.append(_signature("energy", _ENERGY_OUTPUTS) + ";")
     return _runtime_unit(_generic_part(sizes, False, declarations), sizes, False)
 
 
@@ -769,7 +772,8 @@ def _runtime_parts(functions, sizes, lanes):
     n_contacts = len(contacts[1][0][1]) if contacts else 0
     inverse_point = _inverse_at_a_point(functions, sizes)
     calls = (["constraints"] if sizes["n_q_dep"] + sizes["n_u_dep"] else []) \
-        + (["dynamics", "contacts"] if contacts else []) + (["inverse"] if inverse_point else [])
+        + (["dynamics", "contacts"] if contacts else []) + (["inverse"] if inverse_point else []) \
+        + ["energy"]  # the work the integration loop sums (_c_integrator)
     generic = _generic_part(sizes, lanes, [declarations[name] for name in calls], n_contacts,
                             inverse_point)
     defines = [f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",

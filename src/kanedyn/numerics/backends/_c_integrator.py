@@ -17,6 +17,16 @@ Event functions are Python callables ``event(t, y)`` with optional
 ``terminal`` and ``direction`` attributes; zeros are located with Brent's
 method on the continuous extension.  Constraint drift is projected away after
 any accepted step whose largest constraint residual exceeds ``project_tol``.
+
+Every accepted step also adds to the work of what the stored energy does not
+hold (``kanedyn.simulation._energy_check``): the power :math:`dE/dt` along the
+right-hand side, a central difference at the step's end (half width
+``KD_POWER_STEP`` times the step), summed by the trapezoidal rule.  The loop
+returns at the output times the work and the work of the positive power alone
+(``"work"``, shape (n, 2)), and as the work's error estimate the largest drift
+of its sum from parabolas through the ends of consecutive steps
+(``"work_error"``).  A time limit (``timeout`` s of computing, 0: none) ends
+the loop as a failure that keeps what was computed (``"timed_out"``).
 """
 
 INTEGRATOR = r"""
@@ -113,6 +123,41 @@ static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
     int bad = kd_inputs(model->inputs, t, ya, r);
     Py_DECREF(ya);
     return bad;
+}
+
+/* the half width of the power's central difference: this fraction of the step */
+#define KD_POWER_STEP 1e-4
+
+/* kinetic plus declared potential energy (a potential of NAN: none declared) */
+static int kd_stored_energy(KdModel *model, double t, const double *y, double *e) {
+    double r[KD_SZ(KD_NR)], kinetic, potential;
+    if (kd_inputs_at(model, t, y, r) != 0) return -1;
+    kd_eval_energy(t, y, model->p, r, model->work, &kinetic, &potential);
+    *e = kinetic + (isnan(potential) ? 0.0 : potential);
+    return 0;
+}
+
+/* dE/dt along f at (t, y): the central difference over (t - delta, t + delta), the
+   times kept within [t_lo, t_hi] (inputs may be defined on the time span only; at its
+   ends the quotient then holds half of dE/dt's explicit time part, for one step) */
+static int kd_power(KdModel *model, double t, const double *y, const double *f, double delta,
+                    double t_lo, double t_hi, double *power) {
+    double ahead[KD_NX], behind[KD_NX], e1, e0;
+    delta = fabs(delta);
+    for (int i = 0; i < KD_NX; ++i) { ahead[i] = y[i] + delta * f[i]; behind[i] = y[i] - delta * f[i]; }
+    if (kd_stored_energy(model, fmin(t + delta, t_hi), ahead, &e1) != 0
+        || kd_stored_energy(model, fmax(t - delta, t_lo), behind, &e0) != 0) return -1;
+    *power = (e1 - e0) / (2 * delta);
+    return 0;
+}
+
+/* the work, and the work of the positive power alone, at t inside the step from
+   t_old (h long; work[2] at its start, the power p_old to p_new), the power linear in it */
+static void kd_work_at(double t, double t_old, double h, const double *work, double p_old,
+                       double p_new, double *out) {
+    double s = t - t_old, a = fmax(p_old, 0.0), b = fmax(p_new, 0.0);
+    out[0] = work[0] + s * p_old + 0.5 * s * s * (p_new - p_old) / h;
+    out[1] = work[1] + s * a + 0.5 * s * s * (b - a) / h;
 }
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
@@ -371,14 +416,16 @@ static int kd_callback_failure(char *text, size_t size) {
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
-             project_tol, dense) -> dict */
+             project_tol, dense[, timeout]) -> dict */
 static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
-    double t0, t1, rtol, max_step, first_step, project_tol;
+    double t0, t1, rtol, max_step, first_step, project_tol, timeout = 0.0;
     PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj;
     int dense;
-    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp", &t0, &t1, &y0obj, &tevalobj, &rtol, &atolobj,
-                          &max_step, &first_step, &method_obj, &events, &project_tol, &dense))
+    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|d", &t0, &t1, &y0obj, &tevalobj, &rtol,
+                          &atolobj, &max_step, &first_step, &method_obj, &events,
+                          &project_tol, &dense, &timeout))
         return NULL;
+    double deadline = timeout > 0 ? kd_clock() + timeout : 0.0;
     const char *method_name = PyUnicode_AsUTF8(method_obj);
     if (method_name == NULL) return NULL;
     KdIntegrator ig;
@@ -419,10 +466,18 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double *g_new = (double *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(double));
     KdBuf *ev_t = (KdBuf *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(KdBuf));
     KdBuf *ev_y = (KdBuf *)PyMem_Calloc(KD_SZ(ig.n_events), sizeof(KdBuf));
-    KdBuf out_t = {0}, out_y = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
+    KdBuf out_t = {0}, out_y = {0}, out_w = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
     PyObject *result = NULL;
     double *J = NULL;
-    int status = 0, failed = 0, interrupted = 0, keep_last = 1;
+    int status = 0, failed = 0, interrupted = 0, timed_out = 0, keep_last = 1;
+    /* the work (kd_power) and that of the positive power alone, at t; the power at the
+       ends of the step taken last (p_start: the power at (t, y) is known, not after a
+       projection); the drift of the trapezoidal sum from parabolas through three steps'
+       ends, and its largest value (work_error, the work's error estimate) */
+    double work[2] = {0.0, 0.0}, work_old[2], p_old = 0.0, p_new = 0.0, t_prev = 0.0;
+    double p_prev = 0.0;
+    double drift = 0.0, work_error = 0.0;
+    int p_start = 0, has_prev = 0;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
     char error_text[512];  /* the message of a callback's ValueError (KD_FAIL) */
@@ -437,7 +492,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         else PyErr_Clear();
     }
 
-    double dir = t1 >= t0 ? 1.0 : -1.0;
+    double dir = t1 >= t0 ? 1.0 : -1.0, t_lo = fmin(t0, t1), t_hi = fmax(t0, t1);
     double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
     double T[KD_NX], k1[KD_NX], k2[KD_NX];
     J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
@@ -449,10 +504,12 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     for (int k = 0; k < ig.n_events; ++k)
         if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
     if (te == NULL) {
-        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
+        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
+            || kd_buf_push(&out_w, work, 2)) KD_FAIL;
     } else {
         while (next_eval < n_teval && te[next_eval] == t) {
-            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
+                || kd_buf_push(&out_w, work, 2)) KD_FAIL;
             next_eval++;
         }
     }
@@ -484,10 +541,18 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double next_yield = kd_clock() + KD_YIELD_SECONDS;
     while (dir * (t1 - t) > 0) {
         if (PyErr_CheckSignals() != 0) KD_FAIL;  /* Ctrl-C: keep what was computed */
-        if ((++steps_taken & 15) == 0 && kd_clock() >= next_yield) {
-            Py_BEGIN_ALLOW_THREADS
-            Py_END_ALLOW_THREADS
-            next_yield = kd_clock() + KD_YIELD_SECONDS;
+        if ((++steps_taken & 15) == 0) {
+            double now = kd_clock();
+            if (deadline > 0 && now >= deadline) {
+                status = -1; failed = 1; timed_out = 1;
+                message = "the time limit was reached";
+                break;
+            }
+            if (now >= next_yield) {
+                Py_BEGIN_ALLOW_THREADS
+                Py_END_ALLOW_THREADS
+                next_yield = kd_clock() + KD_YIELD_SECONDS;
+            }
         }
         double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
         if (h_abs > max_step) h_abs = max_step;
@@ -530,6 +595,22 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             }
         }
         if (failed) break;
+        /* the work over this step, and the drift of its trapezoidal rule from the
+           parabola through the ends of this step and the one before */
+        if (!p_start) {
+            if (kd_power(self, t, y, f, KD_POWER_STEP * h, t_lo, t_hi, &p_old) != 0) KD_FAIL;
+            has_prev = 0;
+        }
+        if (kd_power(self, t_new, y_new, f_new, KD_POWER_STEP * h, t_lo, t_hi, &p_new) != 0)
+            KD_FAIL;
+        if (has_prev) {
+            double a = t_prev - t;
+            double gamma = ((p_new - p_old) / h - (p_prev - p_old) / a) / (h - a);
+            drift += gamma * h * h * h / 6.0;
+            work_error = fmax(work_error, fabs(drift));
+        }
+        t_prev = t; p_prev = p_old; has_prev = 1;
+        memcpy(work_old, work, sizeof(work));
         /* continuous extension of this step */
         ig.t_old = t; ig.h = h;
         memcpy(ig.y_old, y, sizeof(y));
@@ -579,9 +660,11 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             while (next_eval < n_teval && dir * (te[next_eval] - t_stop) <= 0) {
                 if (dir * (te[next_eval] - t) > 0) {
                     double ye[KD_NX];
+                    double we[2];
+                    kd_work_at(te[next_eval], t, h, work_old, p_old, p_new, we);
                     kd_dense(&ig, te[next_eval], ye);
-                    if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX))
-                        KD_FAIL;
+                    if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX)
+                        || kd_buf_push(&out_w, we, 2)) KD_FAIL;
                 }
                 next_eval++;
             }
@@ -597,6 +680,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         }
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
+        kd_work_at(t_new, t, h, work_old, p_old, p_new, work);
+        p_old = p_new;
+        p_start = !terminate;
         t = t_new;
         memcpy(y, y_new, sizeof(y));
         memcpy(f, f_new, sizeof(f));
@@ -613,13 +699,15 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                           "constraint Jacobian)";
             } else {
                 projections++;
+                p_start = 0;  /* a new state: its power at the next step */
                 if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
                 for (int k = 0; k < ig.n_events; ++k)
                     if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
             }
         }
         if (te == NULL) {
-            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)) KD_FAIL;
+            if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
+                || kd_buf_push(&out_w, work, 2)) KD_FAIL;
         }
         if (failed) break;
         if (terminate) { status = 1; message = "A termination event occurred."; break; }
@@ -631,7 +719,8 @@ finish:
            beyond the last output (sparse outputs would lose everything after it) */
         int keep = out_t.n == 0 || dir * (t - out_t.data[out_t.n - 1]) > 0;
         for (int i = 0; i < KD_NX && keep; ++i) if (!isfinite(y[i])) keep = 0;
-        if (keep && (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX))) goto done;
+        if (keep && (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
+                     || kd_buf_push(&out_w, work, 2))) goto done;
     }
     if (failed && ig.singular && !interrupted) {
         static char text[160];
@@ -655,6 +744,9 @@ finish:
     KD_SET("nlu", PyLong_FromLong(ig.nlu));
     KD_SET("projections", PyLong_FromLong(projections));
     KD_SET("interrupted", PyBool_FromLong(interrupted));
+    KD_SET("timed_out", PyBool_FromLong(timed_out));
+    KD_SET("work", kd_buf_array(&out_w, out_w.n / 2, 2));
+    KD_SET("work_error", PyFloat_FromDouble(work_error));
     if (ig.singular) {
         KD_SET("t_bad", PyFloat_FromDouble(ig.t_singular));
         npy_intp nx = KD_NX;
@@ -682,7 +774,7 @@ done:
     }
     PyMem_Free(ev_t); PyMem_Free(ev_y); PyMem_Free(ev_dir); PyMem_Free(ev_term);
     PyMem_Free(g_old); PyMem_Free(g_new);
-    PyMem_Free(out_t.data); PyMem_Free(out_y.data);
+    PyMem_Free(out_t.data); PyMem_Free(out_y.data); PyMem_Free(out_w.data);
     PyMem_Free(dn_t.data); PyMem_Free(dn_y.data); PyMem_Free(dn_q.data);
     PyMem_Free(J);
     Py_XDECREF(evseq); Py_XDECREF(teval); Py_XDECREF(keep_y);
