@@ -1,15 +1,23 @@
 """kd.sweep: runs equal single simulations, the pendulum's period across a
 grid, failed runs as rows, resuming (a deleted part, Ctrl-C, another sweep's
-folder), and a worker process killed during a sweep on a real local cluster."""
+folder), a worker process killed during a sweep on a real local cluster, a
+time limit per run (serially and on the cluster; a run stuck in an input's
+function is abandoned), and scheduler addresses checked before use (a
+malformed one, a closed port, an HTTP server, a worker)."""
 
+import http.server
 import math
+import re
 import os
 import signal
+import socket
 import threading
 import time
 
 import numpy as np
 import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn.simulation import _sweep
@@ -120,6 +128,162 @@ def test_resume_after_a_lost_part_and_ctrl_c(pendulum, tmp_path, monkeypatch):
         kd.sweep(model, grid, y0, (0, 2), out=other, scheduler="serial", progress=False)
 
 
+# ------------------------------------------------------ time limits
+def _spring(force):
+    """A particle on a spring along N.x (constants m, k; input F = ``force(t, y)``)
+    and its initial state (q = 0.1)."""
+    q, u, F = me.dynamicsymbols("q u F")
+    m, k = sm.symbols("m k")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    P.set_vel(N, u * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("bob", P, m)], loads=[(P, (F - k * q) * N.x)],
+                  potential_energy=k * q ** 2 / 2)
+    return eom, {"m": 1.0, "k": 1.0}, {F: force}
+
+
+def _no_force(t, y):
+    return 0.0
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_run_over_its_time_limit_is_a_row_and_the_sweep_goes_on(backend):
+    """k = 1e10 over 100 s takes minutes (about 1e8 steps); with timeout=2 its
+    integration stops at the limit, the row keeps what it computed and says why,
+    and the soft run (k = 1) succeeds.  Hang guard: the sweep must return
+    within 60 s (it took minutes without the limit)."""
+    eom, constants, inputs = _spring(_no_force)
+    model = eom.numeric(constants=constants, specified=inputs, backend=backend)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"k": [1.0, 1e10]}, [0.1, 0.0], (0.0, 100.0), outputs=("final", "t_end"),
+        scheduler="serial", progress=False, timeout=2.0, rtol=1e-10, atol=1e-10)),
+        daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), "the sweep did not stop at the runs' time limit"
+    soft, stiff = box["table"].itertuples()
+    assert soft.success and soft.t_end == 100.0
+    assert not stiff.success and "time limit of 2 s" in stiff.message
+    assert 0.0 < stiff.t_end < 100.0 and np.isfinite(stiff.final_q)  # what it computed
+
+
+def test_the_time_limit_of_simulate_keeps_what_was_computed():
+    """simulate(timeout=...) on both integrators: success=False, the message
+    names the limit, the result ends where the run got to."""
+    eom, constants, inputs = _spring(_no_force)
+    for backend in ("numpy", "c"):
+        model = eom.numeric(constants=dict(constants, k=1e10), specified=inputs,
+                            backend=backend)
+        res = kd.simulate(model, (0.0, 100.0), [0.1, 0.0], timeout=0.5, rtol=1e-10,
+                          atol=1e-10, t_eval=np.linspace(0.0, 100.0, 11))
+        assert not res.success and res.message.startswith("the time limit of 0.5 s")
+        assert res.t.size >= 1 and res.t[-1] < 100.0
+
+
+def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
+    """An input's function that never returns (here: until released) holds no
+    sweep: after twice the limit plus the grace the run is a row saying so, the
+    other runs are rows as usual.  Hang guard: 60 s (without the limit the
+    sweep never returned)."""
+    monkeypatch.setattr(_sweep, "GRACE", 0.5)
+    release = threading.Event()
+
+    def stuck_beyond(t, y):  # the run that starts at q = 0.2 waits forever
+        if y[0] > 0.15:
+            release.wait(120)
+        return 0.0
+    eom, constants, inputs = _spring(stuck_beyond)
+    model = eom.numeric(constants=constants, specified=inputs)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"q": [0.1, 0.2, 0.12]}, [0.1, 0.0], (0.0, 1.0), outputs=("final",),
+        scheduler="serial", progress=False, timeout=1.0)), daemon=True)
+    thread.start()
+    thread.join(60)
+    release.set()
+    assert not thread.is_alive(), "a stuck input function held the sweep"
+    table = box["table"]
+    assert table["success"].tolist() == [True, False, True]
+    assert "did not return within" in table["message"][1]
+    assert "abandoned" in table["message"][1] and np.isnan(table["final_q"][1])
+
+
+def test_bad_time_limits(pendulum):
+    d, model = pendulum
+    for bad in (0, -1.0, float("nan"), float("inf"), "10"):
+        with pytest.raises(kd.OptionError, match="timeout .*must be a positive number"):
+            kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1), scheduler="serial",
+                     progress=False, timeout=bad)
+        with pytest.raises(kd.OptionError, match="timeout must be a positive number"):
+            kd.simulate(model, (0, 1), d.initial(model), timeout=bad)
+
+
+# --------------------------------------------------- scheduler addresses
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture()
+def http_address():
+    """``tcp://`` address of an HTTP server on loopback (not a Dask scheduler)."""
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _QuietHandler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def _closed_port():
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _within(seconds, call):
+    """``call()``'s exception, waiting at most ``seconds`` (a hang guard: the bug
+    took minutes)."""
+    box = {}
+
+    def run():
+        try:
+            call()
+        except Exception as exc:  # noqa: BLE001
+            box["error"] = exc
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"no answer within {seconds} s"
+    return box.get("error")
+
+
+def test_scheduler_addresses_are_checked_before_use(pendulum, http_address):
+    """Malformed, unknown scheme, nothing listening, an HTTP server: one-line
+    OptionErrors within seconds (an HTTP server kept Client() waiting over 180
+    s), before any run; the library's sweep refuses them too."""
+    d, model = pendulum
+    cases = {"garbage": "is not a Dask scheduler address .*missing port",
+             "tcp://127.0.0.1": "missing port",
+             "foo://x:1": "unknown scheme 'foo'",
+             f"tcp://127.0.0.1:{_closed_port()}": "no Dask scheduler answered within",
+             http_address: "accepted the connection but did not answer"}
+    for address, pattern in cases.items():
+        error = _within(30, lambda: _sweep.check_scheduler(address))
+        assert isinstance(error, kd.OptionError) and re.search(pattern, str(error)), error
+        assert "\n" not in str(error)
+    error = _within(30, lambda: kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1),
+                                         scheduler=http_address, progress=False))
+    assert isinstance(error, kd.OptionError) and http_address in str(error)
+    with pytest.raises(kd.OptionError, match="not int"):
+        _sweep.check_scheduler(8786)
+    assert _sweep.check_scheduler("serial") == "serial" and _sweep.check_scheduler(None) is None
+
+
 # ---------------------------------------------------------- on Dask
 @pytest.fixture(scope="module")
 def client():
@@ -192,3 +356,41 @@ def test_worker_killed_mid_sweep(client, tmp_path):
     assert table["run"].is_unique and table["success"].all()
     assert len(pd.read_parquet(out / "results.parquet")) == n_runs
     assert killed["pid"] not in client.run(os.getpid).values()
+
+
+def _sleep_beyond(t, y):  # shipped by value to the workers: the run from q = 0.2 hangs
+    if y[0] > 0.15:
+        time.sleep(600)
+    return 0.0
+
+
+@pytest.mark.slow
+def test_time_limits_on_a_cluster(client):
+    """On two worker processes: a run over its limit is a row naming it, a run
+    stuck in its input's function is abandoned on its worker, the others
+    succeed.  Hang guard: 120 s (the stuck run never returned)."""
+    client.run(lambda: setattr(_sweep, "GRACE", 0.5))  # the workers' grace
+    eom, constants, inputs = _spring(_sleep_beyond)
+    model = eom.numeric(constants=constants, specified=inputs)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"k": [1.0, 1e10], "q": [0.1, 0.2]}, [0.1, 0.0], (0.0, 100.0),
+        outputs=("t_end",), client=client, batch_size=1, progress=False, timeout=2.0,
+        rtol=1e-10, atol=1e-10)), daemon=True)
+    thread.start()
+    thread.join(120)
+    assert not thread.is_alive(), "the sweep on the cluster did not return"
+    rows = {(row.k, row.q): row for row in box["table"].itertuples()}
+    assert rows[1.0, 0.1].success and rows[1.0, 0.1].t_end == 100.0
+    assert "time limit of 2 s" in rows[1e10, 0.1].message and rows[1e10, 0.1].t_end < 100
+    for stuck in (rows[1.0, 0.2], rows[1e10, 0.2]):
+        assert not stuck.success and "abandoned" in stuck.message
+
+
+@pytest.mark.slow
+def test_a_real_scheduler_passes_the_check_and_a_worker_does_not(client):
+    address = client.scheduler.address
+    assert _sweep.check_scheduler(address) == address
+    worker = sorted(client.scheduler_info()["workers"])[0]
+    with pytest.raises(kd.OptionError, match="is a Worker, not a scheduler"):
+        _sweep.check_scheduler(worker)

@@ -29,6 +29,7 @@ _LAZY = {
     "sweep": "._sweep",
     "SweepInterrupted": "._sweep",
     "SWEEP_OUTPUTS": "._sweep",
+    "check_scheduler": "._sweep",
 }
 
 __all__ = list(_LAZY)

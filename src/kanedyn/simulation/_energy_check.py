@@ -100,10 +100,10 @@ class WorkTracker:
     def __init__(self, model, t_span):
         self.model = model
         self.span = t_span
-        self.t, self.w, self.p = [], [], []  # self.w: [work, work of the positive power]
+        self.t, self.w, self.p = [], [], []
         self.y_end = None
         self.piece = 0  # index of the record that starts the current piece
-        self.drift = self.error = 0.0
+        self.drift = self.error = self.flow = 0.0
         self.broken = False  # an evaluation failed: no work history
 
     def step(self, t_a, y_a, f_a, t_b, y_b, f_b):
@@ -126,17 +126,16 @@ class WorkTracker:
                 gamma = ((p_b - p_a) / h - (self.p[-2] - p_a) / a) / (h - a)
                 self.drift += gamma * h ** 3 / 6
                 self.error = max(self.error, abs(self.drift))
-        p_a = self.p[-1]
-        self.w.append((self.w[-1][0] + 0.5 * h * (p_a + p_b),
-                       self.w[-1][1] + 0.5 * h * (max(p_a, 0.0) + max(p_b, 0.0))))
+        self.w.append(self.w[-1] + 0.5 * h * (self.p[-1] + p_b))
+        self.flow += 0.5 * abs(h) * (abs(self.p[-1]) + abs(p_b))
         self.t.append(t_b)
         self.p.append(p_b)
         self.y_end = y_b
 
     def _restart(self, t, y, f, h):
-        work = (0.0, 0.0)
+        work = 0.0
         if self.t:
-            work = tuple(self._work_at(np.array([t]))[0])
+            work = float(self._work_at(np.array([t]))[0])
             keep = int(np.searchsorted(np.sign(h) * np.array(self.t), np.sign(h) * t))
             del self.t[keep:], self.w[keep:], self.p[keep:]
         f = self.model.rhs(t, y) if f is None else f
@@ -146,24 +145,22 @@ class WorkTracker:
         self.p.append(power(self.model, t, y, f, _DIFFERENCE * h, self.span))
 
     def _work_at(self, times):
-        """The work and that of the positive power at ``times``, shape (n, 2)."""
         t, w, p = (np.array(v) for v in (self.t, self.w, self.p))
         times = np.asarray(times, dtype=float)
         if t.size < 2:
-            return np.tile(w[0], (times.size, 1))
+            return np.full(times.shape, w[0])
         sign = 1.0 if t[-1] >= t[0] else -1.0
         k = np.clip(np.searchsorted(sign * t, sign * times, side="right") - 1, 0, t.size - 2)
-        s = (times - t[k])[:, None]
-        p = np.column_stack([p, np.maximum(p, 0.0)])
-        return w[k] + s * p[k] + 0.5 * s * s * (p[k + 1] - p[k]) / (t[k + 1] - t[k])[:, None]
+        s = times - t[k]
+        return w[k] + s * p[k] + 0.5 * s * s * (p[k + 1] - p[k]) / (t[k + 1] - t[k])
 
     def history(self, times):
-        """``(work, error)``: the work and the work of the positive power alone
-        at ``times``, shape (n, 2), and the work's error estimate, J (the power
-        linear within a step); ``None`` when an evaluation failed."""
+        """``(work, error, flow)``: the work at ``times`` (the power linear within
+        a step), its error estimate and the work of the power's magnitude over
+        the run, J; ``None`` when an evaluation failed."""
         if self.broken or not self.t:
             return None
-        return self._work_at(times), self.error
+        return self._work_at(times), self.error, self.flow
 
 
 def with_energy_note(result, method):
@@ -196,61 +193,58 @@ def energy_note(result, method):
     with np.errstate(all="ignore"):
         for j, k in enumerate(columns):
             energy[j], potential[j] = stored_energy(result.model, t[k], y[:, k])
-    values, error = np.asarray(work[0], dtype=float)[columns], float(work[1])
+    values = np.asarray(work[0], dtype=float)[columns]
+    error, flow = float(work[1]), float(work[2])
     if not np.all(np.isfinite(energy)):
         k = int(np.argmin(np.isfinite(energy)))
         return (f"the stored energy left the finite range at t={t[columns[k]]:.6g} s "
                 f"({energy[k]} J){_advice(method)}")
-    if not (np.all(np.isfinite(values)) and np.isfinite(error)):
+    if not (np.all(np.isfinite(values)) and np.isfinite(error) and np.isfinite(flow)):
         return ""
-    high, low = balance_ratios(energy, potential, values[:, 0], values[:, 1], error)
+    high, low = balance_ratios(energy, potential, values, error, flow)
     k_high, k_low = int(np.argmax(high)), int(np.argmin(low))
     if high[k_high] > ENERGY_FACTOR:
-        k = k_high
-        how = (f"more than {ENERGY_FACTOR:g} times what its initial energy and all the "
-               f"positive work done on it could give ({energy[0]:.6g} J + "
-               f"{values[k, 1]:.6g} J)")
+        k, how = k_high, "more"
     elif low[k_low] < 1 / ENERGY_FACTOR:
-        k = k_low
-        how = (f"less than 1/{ENERGY_FACTOR:g} of what its initial energy and the work "
-               f"done on it leave ({energy[0]:.6g} J {'+' if values[k, 0] >= 0 else '-'} "
-               f"{abs(values[k, 0]):.6g} J)")
+        k, how = k_low, "less"
     else:
         return ""
     return (f"the energy balance fails: at t={t[columns[k]]:.6g} s the model stores "
-            f"{energy[k]:.6g} J, {how}, counted from its lowest potential energy "
-            f"(docs/trust.md){_advice(method)}")
+            f"{energy[k]:.6g} J where its initial energy and the work done on it give "
+            f"{energy[0] + values[k]:.6g} J ({energy[0]:.6g} J "
+            f"{'+' if values[k] >= 0 else '-'} {abs(values[k]):.6g} J), {how} than "
+            f"{ENERGY_FACTOR:g} times off (docs/trust.md){_advice(method)}")
 
 
-def balance_ratios(energy, potential, work, positive_work, error):
+def balance_ratios(energy, potential, work, error, flow):
     """The two ratios of the module docstring at each judged point.
 
     Parameters
     ----------
-    energy, potential : ndarray, shape (n,)
-        Stored and potential energy at the judged points (the first: the
-        start of the run), J.
-    work, positive_work : ndarray, shape (n,)
-        The work done on the model up to there, and the work of its positive
-        power alone, J.
+    energy, potential, work : ndarray, shape (n,)
+        Stored energy, potential energy and the work done on the model up to
+        each judged point (the first: the start of the run), J.
     error : float
         The work's error estimate, J.
+    flow : float
+        The work of the power's magnitude over the run, J.
 
     Returns
     -------
     high, low : ndarray, shape (n,)
-        The stored energy over the most the sources could have given, and
-        over the least the balance leaves (a run is flagged where
-        ``high > ENERGY_FACTOR`` or ``low < 1 / ENERGY_FACTOR``).
+        The stored energy over the most and over the least the balance allows
+        (a run is flagged where ``high > ENERGY_FACTOR`` or
+        ``low < 1 / ENERGY_FACTOR``).
     """
     floor = np.min(potential)
     stored = energy - floor
     allowed = energy[0] + work - floor
-    most = energy[0] + positive_work - floor
+    margin = WORK_ERROR_FACTOR * error
     scale = max(np.max(allowed), stored[0], 1e-9 * np.max(np.abs(energy)), 1e-300)
+    above = max(scale, flow)
+    high = (stored + above) / (np.maximum(allowed + margin, 0.0) + above)
     pad = PADDING * scale
-    high = (stored + pad) / (np.maximum(most, 0.0) + pad)
-    low = (stored + pad) / (np.maximum(allowed - WORK_ERROR_FACTOR * error, 0.0) + pad)
+    low = (stored + pad) / (np.maximum(allowed - margin, 0.0) + pad)
     return high, low
 
 

@@ -73,8 +73,8 @@ class SimulationResult:
     def build(cls, model, t, y, status, message, t_events, y_events, dense_segments,
               counters, projections, initial_state, constraint_forces, method,
               contacts=None, work=None):
-        """``work``: ``(values at the output times, estimated error)`` of the work
-        the integrator summed for the energy check
+        """``work``: ``(values at the output times, estimated error, flow)`` of the
+        work the integrator summed for the energy check
         (:mod:`kanedyn.simulation._energy_check`), J, where it did."""
         self = object.__new__(cls)
         d = self.__dict__

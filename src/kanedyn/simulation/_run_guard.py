@@ -35,7 +35,7 @@ __all__ = ["RunGuard", "Integrand", "guarded_event", "guarded_method", "solver_c
 
 def time_limit_message(timeout, t):
     """The message of a run stopped by its time limit (``timeout`` s) at ``t``."""
-    where = f" at t={t:.6g} s" if np.isfinite(t) else " before its first step"
+    where = f" at t={t:.6g} s" if np.isfinite(t) else ""
     return f"the time limit of {timeout:g} s of computing (timeout=) was reached{where}"
 
 class RunGuard:

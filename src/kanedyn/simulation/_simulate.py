@@ -590,7 +590,7 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
         t_events=list(out["t_events"]), y_events=list(out["y_events"]),
         dense_segments=dense_sol, counters=counters, projections=out["projections"],
         initial_state=y_init, constraint_forces=constraint_forces,
-        method=f"{method} (compiled)", work=(out["work"], out["work_error"]))
+        method=f"{method} (compiled)", work=(out["work"], out["work_error"], out["work_flow"]))
 
 
 def _simulate_with_contacts(model, t_span, y_init, method, t_eval, rtol, atol, events,

@@ -22,10 +22,10 @@ Every accepted step also adds to the work of what the stored energy does not
 hold (``kanedyn.simulation._energy_check``): the power :math:`dE/dt` along the
 right-hand side, a central difference at the step's end (half width
 ``KD_POWER_STEP`` times the step), summed by the trapezoidal rule.  The loop
-returns at the output times the work and the work of the positive power alone
-(``"work"``, shape (n, 2)), and as the work's error estimate the largest drift
-of its sum from parabolas through the ends of consecutive steps
-(``"work_error"``).  A time limit (``timeout`` s of computing, 0: none) ends
+returns the work at the output times (``"work"``), as its error estimate the
+largest drift of its sum from parabolas through the ends of consecutive steps
+(``"work_error"``), and the work of the power's magnitude, the energy that
+flowed in and out (``"work_flow"``).  A time limit (``timeout`` s of computing, 0: none) ends
 the loop as a failure that keeps what was computed (``"timed_out"``).
 """
 
@@ -151,13 +151,12 @@ static int kd_power(KdModel *model, double t, const double *y, const double *f, 
     return 0;
 }
 
-/* the work, and the work of the positive power alone, at t inside the step from
-   t_old (h long; work[2] at its start, the power p_old to p_new), the power linear in it */
-static void kd_work_at(double t, double t_old, double h, const double *work, double p_old,
-                       double p_new, double *out) {
-    double s = t - t_old, a = fmax(p_old, 0.0), b = fmax(p_new, 0.0);
-    out[0] = work[0] + s * p_old + 0.5 * s * s * (p_new - p_old) / h;
-    out[1] = work[1] + s * a + 0.5 * s * s * (b - a) / h;
+/* the work at t inside the step from t_old (h long; w_old at its start, the power
+   p_old to p_new), the power linear in it */
+static double kd_work_at(double t, double t_old, double h, double w_old, double p_old,
+                         double p_new) {
+    double s = t - t_old;
+    return w_old + s * p_old + 0.5 * s * s * (p_new - p_old) / h;
 }
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
@@ -470,13 +469,12 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     PyObject *result = NULL;
     double *J = NULL;
     int status = 0, failed = 0, interrupted = 0, timed_out = 0, keep_last = 1;
-    /* the work (kd_power) and that of the positive power alone, at t; the power at the
-       ends of the step taken last (p_start: the power at (t, y) is known, not after a
-       projection); the drift of the trapezoidal sum from parabolas through three steps'
-       ends, and its largest value (work_error, the work's error estimate) */
-    double work[2] = {0.0, 0.0}, work_old[2], p_old = 0.0, p_new = 0.0, t_prev = 0.0;
-    double p_prev = 0.0;
-    double drift = 0.0, work_error = 0.0;
+    /* the work (kd_power) at t; the power at the ends of the step taken last (p_start:
+       the power at (t, y) is known, not after a projection); the drift of the
+       trapezoidal sum from parabolas through three steps' ends, and its largest value
+       (work_error, the work's error estimate); the work of |power| (work_flow) */
+    double work = 0.0, work_old = 0.0, p_old = 0.0, p_new = 0.0, t_prev = 0.0, p_prev = 0.0;
+    double drift = 0.0, work_error = 0.0, work_flow = 0.0;
     int p_start = 0, has_prev = 0;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
@@ -505,11 +503,11 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
     if (te == NULL) {
         if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
-            || kd_buf_push(&out_w, work, 2)) KD_FAIL;
+            || kd_buf_push(&out_w, &work, 1)) KD_FAIL;
     } else {
         while (next_eval < n_teval && te[next_eval] == t) {
             if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
-                || kd_buf_push(&out_w, work, 2)) KD_FAIL;
+                || kd_buf_push(&out_w, &work, 1)) KD_FAIL;
             next_eval++;
         }
     }
@@ -610,7 +608,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             work_error = fmax(work_error, fabs(drift));
         }
         t_prev = t; p_prev = p_old; has_prev = 1;
-        memcpy(work_old, work, sizeof(work));
+        work_old = work;
+        work_flow += 0.5 * fabs(h) * (fabs(p_old) + fabs(p_new));
         /* continuous extension of this step */
         ig.t_old = t; ig.h = h;
         memcpy(ig.y_old, y, sizeof(y));
@@ -660,11 +659,10 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             while (next_eval < n_teval && dir * (te[next_eval] - t_stop) <= 0) {
                 if (dir * (te[next_eval] - t) > 0) {
                     double ye[KD_NX];
-                    double we[2];
-                    kd_work_at(te[next_eval], t, h, work_old, p_old, p_new, we);
+                    double we = kd_work_at(te[next_eval], t, h, work_old, p_old, p_new);
                     kd_dense(&ig, te[next_eval], ye);
                     if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX)
-                        || kd_buf_push(&out_w, we, 2)) KD_FAIL;
+                        || kd_buf_push(&out_w, &we, 1)) KD_FAIL;
                 }
                 next_eval++;
             }
@@ -680,7 +678,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         }
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
-        kd_work_at(t_new, t, h, work_old, p_old, p_new, work);
+        work = kd_work_at(t_new, t, h, work_old, p_old, p_new);
         p_old = p_new;
         p_start = !terminate;
         t = t_new;
@@ -707,7 +705,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         }
         if (te == NULL) {
             if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
-                || kd_buf_push(&out_w, work, 2)) KD_FAIL;
+                || kd_buf_push(&out_w, &work, 1)) KD_FAIL;
         }
         if (failed) break;
         if (terminate) { status = 1; message = "A termination event occurred."; break; }
@@ -720,7 +718,7 @@ finish:
         int keep = out_t.n == 0 || dir * (t - out_t.data[out_t.n - 1]) > 0;
         for (int i = 0; i < KD_NX && keep; ++i) if (!isfinite(y[i])) keep = 0;
         if (keep && (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_y, y, KD_NX)
-                     || kd_buf_push(&out_w, work, 2))) goto done;
+                     || kd_buf_push(&out_w, &work, 1))) goto done;
     }
     if (failed && ig.singular && !interrupted) {
         static char text[160];
@@ -745,8 +743,9 @@ finish:
     KD_SET("projections", PyLong_FromLong(projections));
     KD_SET("interrupted", PyBool_FromLong(interrupted));
     KD_SET("timed_out", PyBool_FromLong(timed_out));
-    KD_SET("work", kd_buf_array(&out_w, out_w.n / 2, 2));
+    KD_SET("work", kd_buf_array(&out_w, out_w.n, -1));
     KD_SET("work_error", PyFloat_FromDouble(work_error));
+    KD_SET("work_flow", PyFloat_FromDouble(work_flow));
     if (ig.singular) {
         KD_SET("t_bad", PyFloat_FromDouble(ig.t_singular));
         npy_intp nx = KD_NX;
