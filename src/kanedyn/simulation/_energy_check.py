@@ -12,9 +12,10 @@ potential, and supports moved in time,
 :math:`P` needs no knowledge of the forces: it is the rate of change of
 :math:`E` along the model's own right-hand side :math:`f`, a central
 difference at the end of every step the integrator accepts (so output times,
-however sparse, do not alias it), and :math:`W` is its trapezoidal sum over
-the steps.  The error of that sum is estimated by its drift from parabolas
-through the ends of consecutive steps (largest over the run, :math:`U`).  On
+however sparse, do not alias it), and :math:`W` is its integral along the
+parabola through the ends of each step and of the one before.  Its error is
+estimated by the drift of the trapezoidal rule from it (largest over the run,
+:math:`U`).  On
 the compiled loop the same is computed in C (``_c_integrator.py``); on
 ``solve_ivp`` by :class:`WorkTracker`, which the guarded solver calls after
 every step.
@@ -91,16 +92,21 @@ def power(model, t, y, f, delta, span):
 class WorkTracker:
     """The work :math:`W` of the module docstring, step by step on ``solve_ivp``.
 
-    :meth:`step` is the guard's ``on_step``: it records, per accepted step,
-    the time, :math:`W` and :math:`P` at its end.  A step that does not start
-    where the last one ended (a restart after a drift projection, whose time
-    lies inside the last step) starts a new piece there.
+    :meth:`step` is the guard's ``on_step``.  Per accepted step it records the
+    time, :math:`W` and :math:`P` at its end, and the power over the step,
+    :math:`P = P_0 + \beta s + \gamma s^2`: the parabola through the ends of
+    this step and of the one before (the line on a piece's first step), along
+    which :math:`W` is integrated.  A step that does not start where the last
+    one ended (a restart after a drift projection, whose time lies inside the
+    last step) starts a new piece there.
     """
 
     def __init__(self, model, t_span):
         self.model = model
         self.span = t_span
-        self.t, self.w, self.p = [], [], []
+        # per record: time, work and power; the power's coefficients over the
+        # step that ends there (zeros where a piece starts)
+        self.t, self.w, self.p, self.beta, self.gamma = [], [], [], [], []
         self.y_end = None
         self.piece = 0  # index of the record that starts the current piece
         self.drift = self.error = self.flow = 0.0
@@ -121,15 +127,19 @@ class WorkTracker:
             except Exception:  # noqa: BLE001  (the run reports its own failures)
                 self.broken = True
                 return
+            p_a, gamma = self.p[-1], 0.0
             if len(self.t) - 1 > self.piece:  # a step before this one in the piece
-                a, p_a = self.t[-2] - t_a, self.p[-1]
+                a = self.t[-2] - t_a
                 gamma = ((p_b - p_a) / h - (self.p[-2] - p_a) / a) / (h - a)
-                self.drift += gamma * h ** 3 / 6
+                self.drift += gamma * h ** 3 / 6  # the trapezoidal rule minus the parabola
                 self.error = max(self.error, abs(self.drift))
-        self.w.append(self.w[-1] + 0.5 * h * (self.p[-1] + p_b))
-        self.flow += 0.5 * abs(h) * (abs(self.p[-1]) + abs(p_b))
+            beta = (p_b - p_a) / h - gamma * h
+        self.w.append(self.w[-1] + h * (p_a + h * (beta / 2 + h * gamma / 3)))
+        self.flow += 0.5 * abs(h) * (abs(p_a) + abs(p_b))
         self.t.append(t_b)
         self.p.append(p_b)
+        self.beta.append(beta)
+        self.gamma.append(gamma)
         self.y_end = y_b
 
     def _restart(self, t, y, f, h):
@@ -137,27 +147,29 @@ class WorkTracker:
         if self.t:
             work = float(self._work_at(np.array([t]))[0])
             keep = int(np.searchsorted(np.sign(h) * np.array(self.t), np.sign(h) * t))
-            del self.t[keep:], self.w[keep:], self.p[keep:]
+            for record in (self.t, self.w, self.p, self.beta, self.gamma):
+                del record[keep:]
         f = self.model.rhs(t, y) if f is None else f
         self.piece = len(self.t)
-        self.t.append(t)
-        self.w.append(work)
-        self.p.append(power(self.model, t, y, f, _DIFFERENCE * h, self.span))
+        for record, value in ((self.t, t), (self.w, work), (self.beta, 0.0), (self.gamma, 0.0),
+                              (self.p, power(self.model, t, y, f, _DIFFERENCE * h, self.span))):
+            record.append(value)
 
     def _work_at(self, times):
-        t, w, p = (np.array(v) for v in (self.t, self.w, self.p))
+        t, w, p, beta, gamma = (np.array(v) for v in (self.t, self.w, self.p, self.beta,
+                                                       self.gamma))
         times = np.asarray(times, dtype=float)
         if t.size < 2:
             return np.full(times.shape, w[0])
         sign = 1.0 if t[-1] >= t[0] else -1.0
         k = np.clip(np.searchsorted(sign * t, sign * times, side="right") - 1, 0, t.size - 2)
         s = times - t[k]
-        return w[k] + s * p[k] + 0.5 * s * s * (p[k + 1] - p[k]) / (t[k + 1] - t[k])
+        return w[k] + s * (p[k] + s * (beta[k + 1] / 2 + s * gamma[k + 1] / 3))
 
     def history(self, times):
-        """``(work, error, flow)``: the work at ``times`` (the power linear within
-        a step), its error estimate and the work of the power's magnitude over
-        the run, J; ``None`` when an evaluation failed."""
+        """``(work, error, flow)``: the work at ``times``, its error estimate
+        and the work of the power's magnitude over the run, J; ``None`` when an
+        evaluation failed."""
         if self.broken or not self.t:
             return None
         return self._work_at(times), self.error, self.flow

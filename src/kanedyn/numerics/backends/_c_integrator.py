@@ -21,11 +21,11 @@ any accepted step whose largest constraint residual exceeds ``project_tol``.
 Every accepted step also adds to the work of what the stored energy does not
 hold (``kanedyn.simulation._energy_check``): the power :math:`dE/dt` along the
 right-hand side, a central difference at the step's end (half width
-``KD_POWER_STEP`` times the step), summed by the trapezoidal rule.  The loop
-returns the work at the output times (``"work"``), as its error estimate the
-largest drift of its sum from parabolas through the ends of consecutive steps
-(``"work_error"``), and the work of the power's magnitude, the energy that
-flowed in and out (``"work_flow"``).  A time limit (``timeout`` s of computing, 0: none) ends
+``KD_POWER_STEP`` times the step), integrated along the parabola through the
+ends of the step and of the one before.  The loop returns the work at the
+output times (``"work"``), as its error estimate the largest drift of the
+trapezoidal rule's sum from it (``"work_error"``), and the work of the power's
+magnitude, the energy that flowed in and out (``"work_flow"``).  A time limit (``timeout`` s of computing, 0: none) ends
 the loop as a failure that keeps what was computed (``"timed_out"``).
 """
 
@@ -151,12 +151,12 @@ static int kd_power(KdModel *model, double t, const double *y, const double *f, 
     return 0;
 }
 
-/* the work at t inside the step from t_old (h long; w_old at its start, the power
-   p_old to p_new), the power linear in it */
-static double kd_work_at(double t, double t_old, double h, double w_old, double p_old,
-                         double p_new) {
+/* the work at t inside the step from t_old (w_old at its start), where the power is
+   p_old + beta s + gamma s^2 (s = t - t_old) */
+static double kd_work_at(double t, double t_old, double w_old, double p_old, double beta,
+                         double gamma) {
     double s = t - t_old;
-    return w_old + s * p_old + 0.5 * s * s * (p_new - p_old) / h;
+    return w_old + s * (p_old + s * (beta / 2.0 + s * gamma / 3.0));
 }
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
@@ -470,10 +470,12 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double *J = NULL;
     int status = 0, failed = 0, interrupted = 0, timed_out = 0, keep_last = 1;
     /* the work (kd_power) at t; the power at the ends of the step taken last (p_start:
-       the power at (t, y) is known, not after a projection); the drift of the
-       trapezoidal sum from parabolas through three steps' ends, and its largest value
-       (work_error, the work's error estimate); the work of |power| (work_flow) */
+       the power at (t, y) is known, not after a projection), the power over it
+       p_old + beta s + gamma s^2; the drift of the trapezoidal sum from that parabolic
+       one, and its largest value (work_error, the work's error estimate); the work of
+       |power| (work_flow) */
     double work = 0.0, work_old = 0.0, p_old = 0.0, p_new = 0.0, t_prev = 0.0, p_prev = 0.0;
+    double beta = 0.0, gamma = 0.0;
     double drift = 0.0, work_error = 0.0, work_flow = 0.0;
     int p_start = 0, has_prev = 0;
     long projections = 0;
@@ -593,20 +595,22 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             }
         }
         if (failed) break;
-        /* the work over this step, and the drift of its trapezoidal rule from the
-           parabola through the ends of this step and the one before */
+        /* the work over this step: the power integrated along the parabola through the
+           ends of this step and the one before (the line on a piece's first step) */
         if (!p_start) {
             if (kd_power(self, t, y, f, KD_POWER_STEP * h, t_lo, t_hi, &p_old) != 0) KD_FAIL;
             has_prev = 0;
         }
         if (kd_power(self, t_new, y_new, f_new, KD_POWER_STEP * h, t_lo, t_hi, &p_new) != 0)
             KD_FAIL;
-        if (has_prev) {
+        gamma = 0.0;
+        if (has_prev) {  /* the power: the parabola through this step's ends and t_prev */
             double a = t_prev - t;
-            double gamma = ((p_new - p_old) / h - (p_prev - p_old) / a) / (h - a);
-            drift += gamma * h * h * h / 6.0;
+            gamma = ((p_new - p_old) / h - (p_prev - p_old) / a) / (h - a);
+            drift += gamma * h * h * h / 6.0;  /* trapezoidal rule minus parabola */
             work_error = fmax(work_error, fabs(drift));
         }
+        beta = (p_new - p_old) / h - gamma * h;
         t_prev = t; p_prev = p_old; has_prev = 1;
         work_old = work;
         work_flow += 0.5 * fabs(h) * (fabs(p_old) + fabs(p_new));
@@ -659,7 +663,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             while (next_eval < n_teval && dir * (te[next_eval] - t_stop) <= 0) {
                 if (dir * (te[next_eval] - t) > 0) {
                     double ye[KD_NX];
-                    double we = kd_work_at(te[next_eval], t, h, work_old, p_old, p_new);
+                    double we = kd_work_at(te[next_eval], t, work_old, p_old, beta, gamma);
                     kd_dense(&ig, te[next_eval], ye);
                     if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX)
                         || kd_buf_push(&out_w, &we, 1)) KD_FAIL;
@@ -678,7 +682,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         }
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
-        work = kd_work_at(t_new, t, h, work_old, p_old, p_new);
+        work = kd_work_at(t_new, t, work_old, p_old, beta, gamma);
         p_old = p_new;
         p_start = !terminate;
         t = t_new;

@@ -1,0 +1,182 @@
+"""A run whose energy is off by orders of magnitude is never a silent success.
+
+The stiff spring of issue 33 (k = 1e8, m = 1, x0 = 1, rtol = atol = 1e-2):
+RK45 with first_step=0.5, max_step=10 grows its energy 3e24-fold, RK23 and
+DOP853 lose all but 3e-11 and 2e-7 of it; each is flagged (message and
+TrustWarning) on both backends, with and without output times, while the
+same runs at a tight tolerance are not.  The work the integrators sum for the
+check is compared with the work of the input and the damper computed
+independently (SciPy on a hand-written right-hand side), and a driven, damped
+stiff spring is judged with that work in the balance.
+"""
+
+import warnings
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+from scipy.integrate import solve_ivp
+
+import kanedyn as kd
+from kanedyn.simulation import _energy_check
+
+K_STIFF = 1e8
+AMPLITUDE, FREQUENCY = 3.0, 7.0  # the input force F = A sin(w t), N and rad/s
+
+
+def _force(t):
+    return AMPLITUDE * np.sin(FREQUENCY * t)
+
+
+@pytest.fixture(scope="module")
+def spring():
+    """A particle on a spring and a damper along N.x, driven by F(t); the
+    spring's potential energy declared.  Constants m, k, c."""
+    q, u, F = me.dynamicsymbols("q u F")
+    m, k, c = sm.symbols("m k c")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    P.set_vel(N, u * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("bob", P, m)], loads=[(P, (F - k * q - c * u) * N.x)],
+                  potential_energy=k * q ** 2 / 2)
+    return eom, F
+
+
+def _model(spring, backend, k=K_STIFF, c=0.0, driven=False):
+    eom, F = spring
+    return eom.numeric(constants={"m": 1.0, "k": k, "c": c},
+                       specified={F: _force if driven else 0.0}, backend=backend)
+
+
+def _energy(res, k):
+    """Kinetic plus spring energy from the states (m = 1), J."""
+    return 0.5 * res.y[1] ** 2 + 0.5 * k * res.y[0] ** 2
+
+
+#: (backend, method, options, output times, the energy's growth at the end is
+#: "more" or "less" than the balance allows)
+WRONG = {
+    "RK45 long steps, compiled": ("c", "RK45", dict(first_step=0.5, max_step=10), None,
+                                  "more"),
+    "RK45 long steps, compiled, two outputs": ("c", "RK45", dict(first_step=0.5, max_step=10),
+                                               [0.0, 1.0], "more"),
+    "RK45 long steps, numpy, two outputs": ("numpy", "RK45", dict(first_step=0.5, max_step=10),
+                                            [0.0, 1.0], "more"),
+    "RK23": ("numpy", "RK23", {}, None, "less"),
+    "RK23, output times": ("numpy", "RK23", {}, np.linspace(0.0, 1.0, 5), "less"),
+    "DOP853, output times": ("numpy", "DOP853", {}, [0.0, 0.5, 1.0], "less"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(WRONG))
+def test_the_stiff_spring_off_either_way_is_flagged(spring, case):
+    backend, method, options, t_eval, direction = WRONG[case]
+    model = _model(spring, backend)
+    with pytest.warns(kd.TrustWarning, match="the energy balance fails"):
+        res = kd.simulate(model, (0.0, 1.0), [1.0, 0.0], method=method, rtol=1e-2,
+                          atol=1e-2, t_eval=t_eval, **options)
+    assert res.success  # the integrator saw nothing wrong ...
+    assert "warning: the energy balance fails" in res.message  # ... kanedyn does
+    assert "method='Radau'" in res.message  # the stiff methods suggested
+    growth = _energy(res, K_STIFF)[-1] / _energy(res, K_STIFF)[0]  # independent of kanedyn
+    assert growth > 1e20 if direction == "more" else growth < 1e-6
+
+
+@pytest.mark.parametrize("backend, method", [("c", "RK45"), ("numpy", "DOP853")])
+@pytest.mark.parametrize("t_eval", [None, np.linspace(0.0, 0.2, 7)])
+def test_accurate_runs_are_not_flagged(spring, backend, method, t_eval):
+    """The same spring, and the same driven with a damper, at rtol = 1e-9."""
+    for c, driven in ((0.0, False), (2.0, True)):
+        model = _model(spring, backend, c=c, driven=driven)
+        with warnings.catch_warnings():
+            warnings.simplefilter("error", kd.TrustWarning)
+            res = kd.simulate(model, (0.0, 0.2), [1.0, 0.0], method=method, rtol=1e-9,
+                              atol=1e-9, t_eval=t_eval)
+        assert res.success and "warning" not in res.message
+
+
+def _independent_work(k, c, t_end, times):
+    """The work of the input and the damper, int (F u - c u^2) dt, J, at
+    ``times``: SciPy on the equations written by hand, the work a fourth state."""
+    def rhs(t, z):
+        q, u, _ = z
+        force = _force(t)
+        return [u, force - k * q - c * u, force * u - c * u * u]
+    sol = solve_ivp(rhs, (0.0, t_end), [1.0, 0.0, 0.0], method="DOP853", rtol=1e-12,
+                    atol=1e-12, dense_output=True)
+    return sol.sol(times)[2]
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("sparse", [False, True])
+def test_the_work_in_the_balance_is_that_of_the_input_and_the_damper(spring, backend,
+                                                                      sparse):
+    """The work summed step by step during the run (what the check judges
+    against) equals the work of F(t) and of the damper computed independently,
+    at every output time, sparse ones too; the balance closes."""
+    k, c = 400.0, 1.5
+    model = _model(spring, backend, k=k, c=c, driven=True)
+    t_eval = np.linspace(0.0, 10.0, 6) if sparse else None
+    res = kd.simulate(model, (0.0, 10.0), [1.0, 0.0], rtol=1e-10, atol=1e-10, t_eval=t_eval)
+    work, error = res._work[:2]
+    expected = _independent_work(k, c, 10.0, res.t)
+    scale = np.max(_energy(res, k))
+    np.testing.assert_allclose(work, expected, rtol=0, atol=1e-5 * scale)
+    assert np.max(np.abs(work - expected)) <= error  # the error estimate holds
+    balance = _energy(res, k) - _energy(res, k)[0] - work
+    assert np.max(np.abs(balance)) < 1e-5 * scale and abs(expected[-1]) > 0.1 * scale
+
+
+@pytest.mark.parametrize("backend, method, direction", [
+    ("c", "RK45", "more"), ("numpy", "RK45", "more"), ("numpy", "RK23", "less")])
+@pytest.mark.parametrize("t_eval", [None, [0.0, 1.0]])
+def test_a_driven_damped_stiff_spring_is_judged_with_the_work(spring, backend, method,
+                                                              direction, t_eval):
+    """Inputs and dissipation in the balance: the stiff spring with a damper
+    (c = 2) and F(t), at rtol = 1e-2, flagged either way."""
+    model = _model(spring, backend, c=2.0, driven=True)
+    with pytest.warns(kd.TrustWarning, match="the energy balance fails"):
+        res = kd.simulate(model, (0.0, 1.0), [1.0, 0.0], method=method, rtol=1e-2,
+                          atol=1e-2, t_eval=t_eval, first_step=0.5, max_step=10)
+    growth = _energy(res, K_STIFF)[-1] / _energy(res, K_STIFF)[0]
+    assert res.success and (growth > 1e20 if direction == "more" else growth < 1e-3)
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_state_beyond_the_finite_range_is_flagged(backend):
+    """A free particle at 1e155 m/s: the state is finite, its kinetic energy
+    (5e309 J) is not; the run is no silent success."""
+    q, u = me.dynamicsymbols("q u")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    P.set_vel(N, u * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("p", P, 1)])
+    model = eom.numeric(backend=backend)
+    with pytest.warns(kd.TrustWarning, match="left the finite range"):
+        res = kd.simulate(model, (0.0, 1.0), [0.0, 1e155])
+    assert res.success and "stored energy left the finite range at t=0 s (inf J)" in res.message
+
+
+def test_the_judged_ratios():
+    """The factor either way, on numbers: a run that keeps its energy, one that
+    gains a hundredfold, one that loses all but a thousandth, and one whose
+    work is mostly a flow in and out (no flag for an error below it)."""
+    zero = np.zeros(3)
+    high, low = _energy_check.balance_ratios(np.array([1.0, 1.0, 1.0]), zero, zero, 0.0, 0.0)
+    assert np.allclose(high, 1) and np.allclose(low, 1)
+    high, _ = _energy_check.balance_ratios(np.array([1.0, 30.0, 100.0]), zero, zero, 0.0, 0.0)
+    assert high[-1] > _energy_check.ENERGY_FACTOR
+    _, low = _energy_check.balance_ratios(np.array([1.0, 0.5, 1e-3]), zero, zero, 0.0, 0.0)
+    assert low[-1] < 1 / _energy_check.ENERGY_FACTOR
+    # 30 J stored where the work says -20 J (a damper burning what an explicit
+    # method pumps into a stiff mode), 100 J having flowed through the work
+    high, _ = _energy_check.balance_ratios(np.array([0.0, 30.0]), zero[:2],
+                                           np.array([0.0, -20.0]), 0.0, 100.0)
+    assert high[-1] < _energy_check.ENERGY_FACTOR
