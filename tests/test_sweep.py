@@ -221,7 +221,7 @@ def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
 def test_bad_time_limits(pendulum):
     d, model = pendulum
     for bad in (0, -1.0, float("nan"), float("inf"), "10"):
-        with pytest.raises(kd.OptionError, match="timeout .*must be a positive number"):
+        with pytest.raises(kd.OptionError, match="timeout must be a positive number"):
             kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1), scheduler="serial",
                      progress=False, timeout=bad)
         with pytest.raises(kd.OptionError, match="timeout must be a positive number"):
@@ -288,6 +288,21 @@ def test_scheduler_addresses_are_checked_before_use(pendulum, http_address):
     with pytest.raises(kd.OptionError, match="not int"):
         _sweep.check_scheduler(8786)
     assert _sweep.check_scheduler("serial") == "serial" and _sweep.check_scheduler(None) is None
+
+
+def test_a_scheduler_without_workers_is_refused(pendulum, monkeypatch):
+    """Its tasks would never run: after the wait for a worker, a one-line error."""
+    distributed = pytest.importorskip("distributed")
+    import logging
+    monkeypatch.setattr(_sweep, "_WORKER_WAIT_SECONDS", 1.0)
+    d, model = pendulum
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None,
+                                  silence_logs=logging.ERROR) as cluster:
+        address = cluster.scheduler_address
+        error = _within(60, lambda: kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1),
+                                             scheduler=address, progress=False))
+    assert isinstance(error, kd.OptionError)
+    assert f"the Dask scheduler {address} has no workers" in str(error)
 
 
 # ---------------------------------------------------------- on Dask

@@ -15,29 +15,35 @@ difference at the end of every step the integrator accepts (so output times,
 however sparse, do not alias it), and :math:`W` is its integral along the
 parabola through the ends of each step and of the one before.  Its error is
 estimated by the drift of the trapezoidal rule from it (largest over the run,
-:math:`U`).  On
-the compiled loop the same is computed in C (``_c_integrator.py``); on
-``solve_ivp`` by :class:`WorkTracker`, which the guarded solver calls after
-every step.
+:math:`U`).  On the compiled loop the same is computed in C
+(``_c_integrator.py``); on ``solve_ivp`` by :class:`WorkTracker`, which the
+guarded solver calls after every step.
 
-A run is judged at its output times by the energy it stores against the
-energy the balance allows, both counted from the lowest potential energy
-:math:`V_{min}` at those times (the kinetic energy, never negative, gives them
-a natural zero) and padded by :data:`PADDING` times the largest energy the
-balance allows, :math:`S` (so that a run that should come to rest is judged
-against the run's scale, not against zero):
+A run is judged at its output times (at most :data:`_JUDGED_POINTS` of them)
+by the energy it stores against the energy the balance allows, both counted
+from the lowest potential energy :math:`V_{min}` at those times (the kinetic
+energy, never negative, gives them a natural zero), with a margin of
+:math:`kU` (:data:`WORK_ERROR_FACTOR`) for the work's error.  It is flagged
+when either ratio leaves its side of :math:`F` (:data:`ENERGY_FACTOR`):
 
-.. math:: \frac{E(t) - V_{min} + pS}{E(t_0) + W(t) + kU - V_{min} + pS} > F
-          \quad\text{or}\quad
-          \frac{E(t) - V_{min} + pS}{\max(E(t_0) + W(t) - kU - V_{min}, 0) + pS} < \frac1F
+.. math:: \frac{E(t) - V_{min} + \bar S}{\max(E(t_0) + W(t) + kU - V_{min}, 0) + \bar S}
+          > F, \qquad
+          \frac{E(t) - V_{min} + pS}{\max(E(t_0) + W(t) - kU - V_{min}, 0) + pS}
+          < \frac1F,
 
-(:math:`F` = :data:`ENERGY_FACTOR`, :math:`k` = :data:`WORK_ERROR_FACTOR`)
-flags the run: it keeps ``success=True`` but its message says so and a
-:class:`TrustWarning` is issued, whatever the method and its step options.
-So is a successful run whose state or energy is not finite.  Where
-conservative forces are given as loads without a potential, :math:`W`
-carries their whole exchange of energy, its error estimate grows with it, and
-the check is correspondingly weaker.
+with :math:`S` the largest energy the balance allows during the run,
+:math:`\bar S = \max(S, \int |P|\,dt)` (a gain is judged against the energy
+that flowed in and out through the work as well: an explicit method at its
+stability limit on a stiffly damped model pumps energy into a stiff mode that
+the damper burns, which makes the work, not the stored energy, wrong) and
+:math:`p` = :data:`PADDING` (a loss is judged where the balance leaves
+something to lose).  A flagged run keeps ``success=True``; its message says so
+and a :class:`TrustWarning` is issued, whatever the method and its step
+options.  So is a successful run whose state is not finite or whose stored
+energy overflows (a stored energy that is not defined, ``nan`` where an input
+it needs is not given, is not judged).  Where conservative forces are given as
+loads without a potential, :math:`W` carries their whole exchange of energy,
+its error estimate grows with it, and the check is correspondingly weaker.
 """
 
 from __future__ import annotations
@@ -52,8 +58,8 @@ __all__ = ["ENERGY_FACTOR", "PADDING", "WORK_ERROR_FACTOR", "TrustWarning", "Wor
 #: the factor by which the stored energy may differ from what the energy balance
 #: allows before a run is flagged, either way (the evidence: docs/trust.md)
 ENERGY_FACTOR = 10.0
-#: the padding of both energies, as a fraction of the largest energy the balance
-#: allows during the run
+#: the padding of both energies where a loss is judged, as a fraction of the
+#: largest energy the balance allows during the run
 PADDING = 0.05
 #: the margin given to the work for its quadrature error, in multiples of the
 #: error estimate
@@ -90,7 +96,7 @@ def power(model, t, y, f, delta, span):
 
 
 class WorkTracker:
-    """The work :math:`W` of the module docstring, step by step on ``solve_ivp``.
+    r"""The work :math:`W` of the module docstring, step by step on ``solve_ivp``.
 
     :meth:`step` is the guard's ``on_step``.  Per accepted step it records the
     time, :math:`W` and :math:`P` at its end, and the power over the step,
@@ -207,25 +213,26 @@ def energy_note(result, method):
             energy[j], potential[j] = stored_energy(result.model, t[k], y[:, k])
     values = np.asarray(work[0], dtype=float)[columns]
     error, flow = float(work[1]), float(work[2])
-    if not np.all(np.isfinite(energy)):
-        k = int(np.argmin(np.isfinite(energy)))
+    if np.any(np.isinf(energy)):
+        k = int(np.argmax(np.isinf(energy)))
         return (f"the stored energy left the finite range at t={t[columns[k]]:.6g} s "
                 f"({energy[k]} J){_advice(method)}")
+    if not np.all(np.isfinite(energy)):  # not defined (an input it needs is not given)
+        return ""
     if not (np.all(np.isfinite(values)) and np.isfinite(error) and np.isfinite(flow)):
         return ""
     high, low = balance_ratios(energy, potential, values, error, flow)
     k_high, k_low = int(np.argmax(high)), int(np.argmin(low))
     if high[k_high] > ENERGY_FACTOR:
-        k, how = k_high, "more"
+        k = k_high
     elif low[k_low] < 1 / ENERGY_FACTOR:
-        k, how = k_low, "less"
+        k = k_low
     else:
         return ""
     return (f"the energy balance fails: at t={t[columns[k]]:.6g} s the model stores "
-            f"{energy[k]:.6g} J where its initial energy and the work done on it give "
-            f"{energy[0] + values[k]:.6g} J ({energy[0]:.6g} J "
-            f"{'+' if values[k] >= 0 else '-'} {abs(values[k]):.6g} J), {how} than "
-            f"{ENERGY_FACTOR:g} times off (docs/trust.md){_advice(method)}")
+            f"{energy[k]:.6g} J, where its initial energy ({energy[0]:.6g} J) and the work "
+            f"done on it ({values[k]:+.6g} J) give {energy[0] + values[k]:.6g} J: off by "
+            f"more than a factor of {ENERGY_FACTOR:g} (docs/trust.md){_advice(method)}")
 
 
 def balance_ratios(energy, potential, work, error, flow):

@@ -166,7 +166,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     t0, t1 = _check_span(t_span)
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
-    timeout = _check_timeout(timeout)
+    timeout = check_timeout(timeout)
     _check_option_names(options, bool(model.contacts))
     _check_step_options(options, t0, t1)
     if not (isinstance(method, str) and method in COMPILED_METHODS):
@@ -360,7 +360,9 @@ def _terminal_time(events, t_events, direction):
 
 
 # ----------------------------------------------------------------- checks
-def _check_timeout(timeout):
+def check_timeout(timeout):
+    """``timeout`` (s) as a float, or ``None``; anything but a positive finite
+    number is refused."""
     if timeout is None:
         return None
     if not isinstance(timeout, numbers.Real) or not 0 < timeout < np.inf:

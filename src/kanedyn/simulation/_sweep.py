@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError, OptionError
-from ._simulate import simulate
+from ._simulate import check_timeout, simulate
 
 __all__ = ["sweep", "SweepInterrupted", "SWEEP_OUTPUTS", "check_scheduler", "GRACE"]
 
@@ -434,10 +434,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
                           f"{', '.join(SWEEP_OUTPUTS)}")
     if table_format not in ("parquet", "csv"):
         raise OptionError(f"table_format must be 'parquet' or 'csv', not {table_format!r}")
-    if timeout is not None and not (isinstance(timeout, numbers.Real)
-                                    and 0 < timeout < math.inf):
-        raise OptionError(f"timeout (the time limit of each run) must be a positive number "
-                          f"of seconds, got {timeout!r}")
+    timeout = check_timeout(timeout)
     y0 = model.state(y0, t_span[0]) if isinstance(y0, dict) else np.array(y0, dtype=float)
     if y0.shape != (model.n_states,):
         raise OptionError(f"y0 must have {model.n_states} entries "
