@@ -190,6 +190,29 @@ def test_the_time_limit_of_simulate_keeps_what_was_computed(backend):
     assert res.t[-1] < 100.0 and np.all(np.isfinite(res.y))
 
 
+@pytest.mark.parametrize("case", ["index-3 integrator", "contact loop"])
+def test_the_time_limit_of_the_other_integrators(case):
+    """The index-3 integrator (four-bar, steps of 1e-5 s over 100 s) and the
+    contact loop (a ball bouncing for 1e6 s) take minutes: timeout=1 ends them
+    with what they computed (hang guard: 60 s)."""
+    if case == "contact loop":
+        d = kd.models.build("bouncing-ball")
+        model, t_end = d.numeric(), 1e6
+    else:
+        d = kd.models.build("four-bar")
+        model = d.numeric(scheme=kd.schemes.AugmentedLagrangianIndex3(step=1e-5))
+        t_end = 100.0
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("res", kd.simulate(
+        model, (0.0, t_end), d.initial(model), timeout=1.0)), daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), f"the {case} did not stop at its time limit"
+    res = box["res"]
+    assert not res.success and res.message.startswith("the time limit of 1 s")
+    assert 0 < res.t[-1] < t_end
+
+
 def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
     """An input's function that never returns (here: until released) holds no
     sweep: after twice the limit plus the grace the run is a row saying so, the

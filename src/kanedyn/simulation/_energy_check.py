@@ -68,7 +68,7 @@ WORK_ERROR_FACTOR = 4.0
 #: integrator's step (``KD_POWER_STEP`` of the compiled loop)
 _DIFFERENCE = 1e-4
 #: at most this many output times are judged (evenly spread, first and last kept)
-_JUDGED_POINTS = 4000
+_JUDGED_POINTS = 2000
 _EXPLICIT = ("RK23", "RK45", "DOP853")
 
 

@@ -124,8 +124,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`) are run by it.
     timeout : float, optional
         Wall-clock seconds after which the integration stops, checked at every
-        step (both integrators): the run then ends with ``success=False``, a
-        message naming the limit, and everything computed up to then.
+        step (every 16 steps of the compiled loop): the run then ends with
+        ``success=False``, a message naming the limit, and everything computed
+        up to then.
     **options
         Passed on to ``solve_ivp``: ``max_step``, ``first_step``, ``min_step``,
         ``jac``, ``jac_sparsity``, ``vectorized``, ``lband``, ``uband`` (other
