@@ -217,3 +217,21 @@ def test_built_in_models_are_not_flagged(name):
         assert high.max() < 4 and low.min() > 1 / 4, (method, tol, high.max(), low.min())
         if tol == 1e-8:
             assert high.max() < 1.05 and low.min() > 1 / 1.05
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("t_eval", [None, np.linspace(0.0, 5.0, 11)])
+def test_the_work_across_constraint_projections(circle_particle, backend, t_eval):
+    """A particle on a circle with both coordinates kept, gravity a load
+    without a declared potential: the work summed over the run, across the
+    drift projections, is gravity's, -m g (y(t) - y(0)), in closed form (to
+    1e-4 of m g L at rtol = 1e-9: the parabolas' error, within the estimate)."""
+    eom, (q1, q2, u1, u2, m, g, L) = circle_particle
+    model = eom.numeric(constants={m: 2.0, g: 9.81, L: 1.5}, backend=backend)
+    res = kd.simulate(model, (0.0, 5.0), {q1: 1.2, q2: -0.9, u1: 0.0}, rtol=1e-9, atol=1e-9,
+                      t_eval=t_eval, projection_tol=1e-9)
+    assert res.success and res.projections > 0
+    gravity = -2.0 * 9.81 * (res["q2"] - res["q2"][0])
+    work, error = res._work[:2]
+    np.testing.assert_allclose(work, gravity, rtol=0, atol=1e-4 * 2.0 * 9.81 * 1.5)
+    assert np.max(np.abs(work - gravity)) <= error  # the error estimate holds

@@ -111,7 +111,7 @@ class WorkTracker:
         self.model = model
         self.span = t_span
         # per record: time, work and power; the power's coefficients over the
-        # step that ends there (zeros where a piece starts)
+        # step that ends there (from the record before)
         self.t, self.w, self.p, self.beta, self.gamma = [], [], [], [], []
         self.y_end = None
         self.piece = 0  # index of the record that starts the current piece
@@ -149,15 +149,19 @@ class WorkTracker:
         self.y_end = y_b
 
     def _restart(self, t, y, f, h):
-        work = 0.0
+        """A new piece at ``(t, y)``; the step that ran past ``t`` ends there (its
+        power's coefficients kept for the times before ``t``)."""
+        work = beta = gamma = 0.0
         if self.t:
             work = float(self._work_at(np.array([t]))[0])
             keep = int(np.searchsorted(np.sign(h) * np.array(self.t), np.sign(h) * t))
+            if keep < len(self.t):
+                beta, gamma = self.beta[keep], self.gamma[keep]
             for record in (self.t, self.w, self.p, self.beta, self.gamma):
                 del record[keep:]
         f = self.model.rhs(t, y) if f is None else f
         self.piece = len(self.t)
-        for record, value in ((self.t, t), (self.w, work), (self.beta, 0.0), (self.gamma, 0.0),
+        for record, value in ((self.t, t), (self.w, work), (self.beta, beta), (self.gamma, gamma),
                               (self.p, power(self.model, t, y, f, _DIFFERENCE * h, self.span))):
             record.append(value)
 

@@ -38,8 +38,10 @@ def time_limit_message(timeout, t):
     where = f" at t={t:.6g} s" if np.isfinite(t) else ""
     return f"the time limit of {timeout:g} s of computing (timeout=) was reached{where}"
 
+
 class RunGuard:
-    """Reasons to stop a run: the first non-finite evaluation, or Ctrl-C.
+    """Reasons to stop a run: the first non-finite evaluation, Ctrl-C, or the
+    time limit (``timeout`` s from the guard's making).
 
     Attributes
     ----------

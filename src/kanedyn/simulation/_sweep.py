@@ -12,8 +12,8 @@ runs already saved; the folder also gets the combined table.
 
 No sweep waits forever: a scheduler address is checked before use (it must
 answer as a Dask scheduler within seconds, :func:`check_scheduler`), and with a
-time limit per run (``timeout``) each run's integration stops at it (checked at
-every step) and becomes a failed row; a run stuck in a function of the
+time limit per run (``timeout``) each run's integration stops at it (checked as
+it goes) and becomes a failed row; a run stuck in a function of the
 model (an input's or an event's) is abandoned on its thread after twice the
 limit plus :data:`GRACE` seconds, and its row says so.
 """
@@ -398,8 +398,8 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     progress : bool
         Show a progress bar (tqdm) on stderr.
     timeout : float, optional
-        Time limit of each run, s: its integration stops there (checked at
-        every step, :func:`kanedyn.simulate`'s ``timeout``) and the run is a
+        Time limit of each run, s: its integration stops there (checked as
+        it goes, :func:`kanedyn.simulate`'s ``timeout``) and the run is a
         row with ``success=False``, a message naming the limit and the
         outputs of what it computed.  A run that does not return (stuck in a
         function of the model) is abandoned after twice the limit plus
