@@ -147,6 +147,8 @@ def test_a_driven_damped_stiff_spring_is_judged_with_the_work(spring, backend, m
     assert res.success and (growth > 1e20 if direction == "more" else growth < 1e-3)
 
 
+@pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
+                            "ignore:invalid value encountered:RuntimeWarning")
 @pytest.mark.parametrize("backend", ["numpy", "c"])
 def test_a_state_beyond_the_finite_range_is_flagged(backend):
     """A free particle at 1e155 m/s: the state is finite, its kinetic energy
@@ -207,6 +209,7 @@ def test_built_in_models_are_not_flagged(name):
     for method, tol in (("RK45", 1e-8), ("RK45", 1e-3), ("Rosenbrock23", 1e-3)):
         with warnings.catch_warnings():
             warnings.simplefilter("error", kd.TrustWarning)
+            warnings.simplefilter("ignore", kd.SingularConfigurationWarning)  # n-four-bar
             res = kd.simulate(model, (0.0, definition.t_end), definition.initial(model),
                               method=method, rtol=tol, atol=tol, t_eval=t_eval)
         if not res.success:  # n-four-bar stops at its singular position: not judged
