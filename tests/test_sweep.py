@@ -214,31 +214,46 @@ def test_the_time_limit_of_the_other_integrators(case):
 
 
 def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
-    """An input's function that never returns (here: until released) holds no
-    sweep: after twice the limit plus the grace the run is a row saying so, the
-    other runs are rows as usual.  Hang guard: 60 s (without the limit the
-    sweep never returned)."""
+    """An input's function that never returns holds no sweep: after twice the
+    limit plus the grace the run is a row saying so, the other runs are rows as
+    usual.  The abandoned run's thread is asked to stop: one looping in Python
+    ends (within 30 s, a hang guard), one blocked in a call (here until
+    released) stays until the call returns.  Hang guard of the sweep: 60 s
+    (without the limit it never returned)."""
     monkeypatch.setattr(_sweep, "GRACE", 0.5)
     release = threading.Event()
 
-    def stuck_beyond(t, y):  # the run that starts at q = 0.2 waits forever
+    def stuck_beyond(t, y):  # q = 0.2 waits in a call, q = -0.2 loops in Python
         if y[0] > 0.15:
             release.wait(120)
+        while y[0] < -0.15:
+            pass
         return 0.0
     eom, constants, inputs = _spring(stuck_beyond)
     model = eom.numeric(constants=constants, specified=inputs)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
-        model, {"q": [0.1, 0.2, 0.12]}, [0.1, 0.0], (0.0, 1.0), outputs=("final",),
+        model, {"q": [0.1, 0.2, -0.2, 0.12]}, [0.1, 0.0], (0.0, 1.0), outputs=("final",),
         scheduler="serial", progress=False, timeout=1.0)), daemon=True)
     thread.start()
     thread.join(60)
-    release.set()
-    assert not thread.is_alive(), "a stuck input function held the sweep"
-    table = box["table"]
-    assert table["success"].tolist() == [True, False, True]
-    assert "did not return within" in table["message"][1]
-    assert "abandoned" in table["message"][1] and np.isnan(table["final_q"][1])
+    try:
+        assert not thread.is_alive(), "a stuck input function held the sweep"
+        table = box["table"]
+        assert table["success"].tolist() == [True, False, False, True]
+        for k in (1, 2):
+            assert "did not return within" in table["message"][k]
+            assert "abandoned" in table["message"][k] and np.isnan(table["final_q"][k])
+
+        def alive(run):
+            return any(t.name == f"kanedyn sweep run {run}" for t in threading.enumerate())
+        deadline = time.monotonic() + 30
+        while alive(2) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not alive(2), "the run looping in Python was not stopped"
+        assert alive(1)  # blocked in a call: until it returns
+    finally:
+        release.set()
 
 
 def test_bad_time_limits(pendulum):

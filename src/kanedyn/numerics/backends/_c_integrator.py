@@ -25,8 +25,9 @@ right-hand side, a central difference at the step's end (half width
 ends of the step and of the one before.  The loop returns the work at the
 output times (``"work"``), as its error estimate the largest drift of the
 trapezoidal rule's sum from it (``"work_error"``), and the work of the power's
-magnitude, the energy that flowed in and out (``"work_flow"``).  A time limit (``timeout`` s of computing, 0: none) ends
-the loop as a failure that keeps what was computed (``"timed_out"``).
+magnitude, the energy that flowed in and out (``"work_flow"``).  A time limit
+(``timeout`` s of computing, 0: none; checked every 16 steps) ends the loop as
+a failure that keeps what was computed (``"timed_out"``).
 """
 
 INTEGRATOR = r"""
