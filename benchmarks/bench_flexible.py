@@ -149,10 +149,10 @@ def beam_member(name, data, n_modes=N_MODES):
     -------
     ReducedMember
     """
-    member = kd.BeamMember.uniform(name, data["length"],
-                                   mass_per_length=data["mass_per_length"], EA=data["EA"],
-                                   GJ=data["GJ"], EI_y=data["EI_y"], EI_z=data["EI_z"],
-                                   n_elements=data["n_elements"])
+    member = kd.flexible.BeamMember.uniform(name, data["length"],
+                                            mass_per_length=data["mass_per_length"], EA=data["EA"],
+                                            GJ=data["GJ"], EI_y=data["EI_y"], EI_z=data["EI_z"],
+                                            n_elements=data["n_elements"])
     return member.craig_bampton(n_modes=n_modes)
 
 
@@ -483,7 +483,7 @@ def build_cells(row):
 
 
 BUILD_NOTES = """\
-- member s: kd.BeamMember.uniform(...) and .craig_bampton(n_modes={modes}) ({elements}
+- member s: kd.flexible.BeamMember.uniform(...) and .craig_bampton(n_modes={modes}) ({elements}
   Euler–Bernoulli elements; in-plane EI_z, out-of-plane stiff, so the {modes} modes bend
   in the plane). derive s: building the frames, bodies (kd.FlexibleBody, node points
   and frames) and kd.kane(...), SymPy's cache cleared first; best of {repeat}.

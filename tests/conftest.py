@@ -33,3 +33,18 @@ def circle_particle():
                   velocity_constraints=[q1 * u1 + q2 * u2],
                   bodies=[me.Particle("p", P, m)], loads=[(P, -m * g * N.y)])
     return eom, (q1, q2, u1, u2, m, g, L)
+
+
+@pytest.fixture()
+def terminal_signals():
+    """SIGINT and SIGTERM as a program run from a terminal has them, for the test:
+    Python's Ctrl-C handler and SIGTERM's default action (a shell that starts the
+    tests in the background passes SIGINT on ignored, and kanedyn leaves an ignored
+    signal alone).  Tests that deliver these signals use it."""
+    import signal
+    previous = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    signal.signal(signal.SIGINT, signal.default_int_handler)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    yield
+    for s, handler in previous.items():
+        signal.signal(s, handler)

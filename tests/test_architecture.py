@@ -3,7 +3,8 @@
 Layers, lowest first (``docs/architecture.md``): foundation (``_errors``, ``_html``,
 ``_lazy``, ``_progress``, ``_number_text``, ``_fork``, ...), ``engine``, ``modeling``,
 ``formulations``, ``numerics``, ``simulation``, ``models``, ``analysis``, ``io``, ``cli``; then
-the public face (``kanedyn/__init__.py``, ``kanedyn/schemes.py``).  A module
+the public face (``kanedyn/__init__.py`` and the modules beside it: ``schemes``, ``visuals``
+and the domain modules ``offshore``, ``vehicle``, ``flexible``, ``studies``).  A module
 imports only from its own layer or lower ones, and another layer only through
 that layer's package (its ``__init__``) or a sub-package's.  The only imports
 that run upward are the facade methods of frozen results listed in
@@ -19,8 +20,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
-              "_expressions", "_fork"}
-PUBLIC = {"__init__", "schemes", "visuals"}
+              "_expressions", "_fork", "_signals", "_trusted_files"}
+PUBLIC = {"__init__", "schemes", "visuals", "offshore", "vehicle", "flexible", "studies"}
 
 #: (importing module, imported layer): the method that needs it
 FACADES = {

@@ -154,10 +154,20 @@ def test_output_folder_under_a_file_is_refused_before_the_simulation(tmp_path, c
     blocker.write_text("not a folder")
     for argv in (["run", "pendulum", "--out", str(blocker / "out"), "--quiet"],
                  ["run", "pendulum", "--out", str(blocker), "--quiet"],
-                 ["compare", "pendulum", "--plot", "--out", str(blocker / "x")]):
-        assert main(argv) == 2
+                 ["compare", "pendulum", "--plot", "--out", str(blocker / "x")],
+                 ["demo", "--out", str(blocker), "--quiet"],
+                 ["demo", "--out", str(blocker / "out"), "--quiet"],
+                 ["sweep", "pendulum", "--grid", "m=1,2", "--out", str(blocker), "--quiet"],
+                 ["inverse", "stewart-platform", "--out", str(blocker), "--quiet"],
+                 ["study", "seatbelt-regulatory", "--out", str(blocker), "--quiet"],
+                 ["derive", "pendulum", "--c", str(blocker / "model.c"), "--quiet"]):
+        assert main(argv) == 2, argv
         err = capsys.readouterr().err.strip().splitlines()
-        assert len(err) == 1 and "--out" in err[0] and "file.txt" in err[0]
+        assert len(err) == 1 and ("--out" in err[0] or "--c" in err[0]), err
+        assert f"{blocker} is a file, not a folder" in err[0], err
+    assert main(["derive", "pendulum", "--c", str(tmp_path), "--quiet"]) == 2
+    assert capsys.readouterr().err == (f"kanedyn: error: --c {tmp_path}: is a folder; give "
+                                       "the name of a file\n")
 
 
 @pytest.mark.skipif(not hasattr(os, "geteuid") or os.geteuid() == 0,

@@ -12,6 +12,10 @@ import kanedyn as kd
 from kanedyn.cli import main
 
 
+# Ctrl-C reaches the runs as in a terminal, whatever the disposition inherited
+pytestmark = pytest.mark.usefixtures("terminal_signals")
+
+
 def ctrl_c_at_call(n):
     """A user event that presses Ctrl-C once, at its ``n``-th call under the run's
     guard (which turns a first SIGINT into a stop with the partial result)."""
@@ -145,8 +149,8 @@ def test_the_lock_map_study_tells_failed_runs_from_no_lock(tmp_path, monkeypatch
     lock_map = _seatbelt_studies.seatbelt_lock_map
     monkeypatch.setattr(_seatbelt_studies, "seatbelt_lock_map", lambda **options: lock_map(
         constants={"m": 0.0, "I": 0.0}, **options))  # no inertia: no run can start
-    study = kd.run_study("seatbelt-map", out=tmp_path, quiet=True, peak_g="5,20",
-                         duration="0.06", direction="0", backend="numpy")
+    study = kd.studies.run_study("seatbelt-map", out=tmp_path, quiet=True, peak_g="5,20",
+                                 duration="0.06", direction="0", backend="numpy")
     assert "2 of 2 runs failed and say nothing about locking (first: cannot start" \
         in study.summary
     rows = study.csv_files[0].read_text().splitlines()

@@ -26,6 +26,26 @@ def test_velocity_of_point_cannot_be_found():
                 bodies=[me.Particle("p", P, m), me.Particle("lost", lost, m)])
 
 
+def test_missing_origin_velocity_names_the_origin():
+    """The velocity of O is never set: the error names O, where the chain of
+    positions starts, not P, the point whose velocity was asked for."""
+    q, u = me.dynamicsymbols("q u")
+    m = sm.symbols("m")
+    N = me.ReferenceFrame("N")
+    A = N.orientnew("A", "Axis", [q, N.z])
+    A.set_ang_vel(N, u * N.z)
+    O = me.Point("O")  # no O.set_vel(N, 0)
+    J = O.locatenew("J", A.x)
+    P = J.locatenew("P", A.y)
+    O.locatenew("C", N.y)  # a branch of the chain
+    with pytest.raises(kd.KinematicsError, match=r"^the velocity of point P in N cannot be "
+                       r"found: no point of its chain of positions \(set_pos/locatenew: P, J, "
+                       r"O, C\) has a velocity in N; set the velocity of the one fixed in N, "
+                       r"likely the chain's origin O: O.set_vel\(N, 0\)$"):
+        kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                bodies=[me.Particle("bob", P, m)])
+
+
 def test_frame_not_oriented():
     q, u, m, N, O, P = particle_on_line()
     loose = me.ReferenceFrame("Loose")

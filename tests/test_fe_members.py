@@ -33,7 +33,7 @@ def _uniform(n, **overrides):
     props = dict(mass_per_length=RHO_A, EA=1e9, GJ=1e9, EI_y=1e6 * EI, EI_z=EI,
                  polar_inertia=1e-6)
     props.update(overrides)
-    return kd.BeamMember.uniform("beam", L, n_elements=n, **props)
+    return kd.flexible.BeamMember.uniform("beam", L, n_elements=n, **props)
 
 
 def _beta(frequency):
@@ -134,9 +134,9 @@ def test_bending_frequencies_converge_at_h4(supports, roots):
 def test_both_bending_planes_axial_and_torsion_modes():
     """All four kinds of mode of a clamped-free beam, mixed in one spectrum."""
     ra, ei_y, ei_z, ea, gj, j = 2.0, 9.0, 1.0, 400.0, 30.0, 0.05
-    member = kd.BeamMember.uniform("mixed", 1.0, mass_per_length=ra, EA=ea, GJ=gj, EI_y=ei_y,
-                                   EI_z=ei_z, polar_inertia=j, n_elements=64,
-                                   direction=(1.0, 2.0, -0.5), reference_vector=(0, 0, 1))
+    member = kd.flexible.BeamMember.uniform("mixed", 1.0, mass_per_length=ra, EA=ea, GJ=gj,
+                                            EI_y=ei_y, EI_z=ei_z, polar_inertia=j, n_elements=64,
+                                            direction=(1.0, 2.0, -0.5), reference_vector=(0, 0, 1))
     w = lambda roots, ei: np.array(roots) ** 2 * np.sqrt(ei / ra)       # noqa: E731
     rod = (2 * np.arange(1, 4) - 1) * np.pi / 2
     expected = {"bending_xy": w(CLAMPED_FREE, ei_z), "bending_xz": w(CLAMPED_FREE, ei_y),
@@ -158,8 +158,8 @@ def test_axial_and_torsion_converge_at_h2():
     errors = []
     ns = [4, 8, 16, 32]
     for n in ns:
-        member = kd.BeamMember.uniform("rod", 1.0, mass_per_length=ra, EA=ea, GJ=gj,
-                                       EI_y=1e9, EI_z=1e9, polar_inertia=j, n_elements=n)
+        member = kd.flexible.BeamMember.uniform("rod", 1.0, mass_per_length=ra, EA=ea, GJ=gj,
+                                                EI_y=1e9, EI_z=1e9, polar_inertia=j, n_elements=n)
         f = 2 * np.pi * member.natural_frequencies(4, supports={})
         exact = np.sort(np.r_[np.pi * np.arange(1, 4) * np.sqrt(ea / ra),
                               np.pi * np.arange(1, 4) * np.sqrt(gj / j)])[:4]
@@ -178,7 +178,7 @@ def test_rotary_inertia_and_timoshenko_against_simply_supported_closed_forms():
                  rotary_inertia_y=ri, rotary_inertia_z=ri)
     # Rayleigh beam: omega^2 = EI k^4 / (rho A + rho I k^2); Hermite elements, h^4
     rayleigh = np.sqrt(ei * k ** 4 / (ra + ri * k ** 2))
-    errors = [2 * np.pi * kd.BeamMember.uniform("r", length, n_elements=n, **props)
+    errors = [2 * np.pi * kd.flexible.BeamMember.uniform("r", length, n_elements=n, **props)
               .natural_frequencies(3, supports=supports) / rayleigh - 1 for n in (8, 16, 32)]
     assert np.max(np.abs(errors[-1])) < 1e-5
     assert _orders(np.array(errors)[:, 0], [8, 16, 32])[1] == pytest.approx(4, abs=0.1)
@@ -187,8 +187,8 @@ def test_rotary_inertia_and_timoshenko_against_simply_supported_closed_forms():
     b = -(ra * (ei * k ** 2 + kga) + ri * kga * k ** 2)
     c = kga * k ** 2 * (ei * k ** 2 + kga) - kga ** 2 * k ** 2
     timoshenko = np.sqrt((-b - np.sqrt(b * b - 4 * a * c)) / (2 * a))
-    member = kd.BeamMember.uniform("t", length, n_elements=64, shear_stiffness_y=kga,
-                                   shear_stiffness_z=100 * kga, **props)
+    member = kd.flexible.BeamMember.uniform("t", length, n_elements=64, shear_stiffness_y=kga,
+                                            shear_stiffness_z=100 * kga, **props)
     f = 2 * np.pi * member.natural_frequencies(3, supports=supports)
     np.testing.assert_allclose(f, timoshenko, rtol=5e-4)
     assert np.all(f < 0.97 * rayleigh)               # shear matters for this stubby beam
@@ -202,11 +202,11 @@ def test_member_along_any_direction_and_polyline():
     np.testing.assert_allclose(tilted.natural_frequencies(6, supports={0: "all"}), f0,
                                rtol=1e-10)
     axis = np.array([1, -2, 2]) / 3
-    line = kd.BeamMember("poly", {"arc": [0, L], "mass_per_length": [RHO_A] * 2,
-                                  "EA": [50.0] * 2, "GJ": [3.0] * 2, "EI_y": [7.0] * 2,
-                                  "EI_z": [EI] * 2, "polar_inertia": [0.01] * 2},
-                         polyline=np.outer(np.linspace(0, L, 9), axis),
-                         reference_vector=(0, 0, 1))
+    line = kd.flexible.BeamMember("poly", {"arc": [0, L], "mass_per_length": [RHO_A] * 2,
+                                           "EA": [50.0] * 2, "GJ": [3.0] * 2, "EI_y": [7.0] * 2,
+                                           "EI_z": [EI] * 2, "polar_inertia": [0.01] * 2},
+                                  polyline=np.outer(np.linspace(0, L, 9), axis),
+                                  reference_vector=(0, 0, 1))
     np.testing.assert_allclose(line.natural_frequencies(6, supports={0: "all"}), f0, rtol=1e-10)
     np.testing.assert_allclose(line.nodes, tilted.nodes, atol=1e-14)
     # first mode bends in the plane of the axis and the local y axis
@@ -224,7 +224,7 @@ def _tapered(n=24, **options):
                 "EI_y": [9e3, 5e3, 2e3, 0.8e3], "EI_z": [3e3, 2e3, 1e3, 0.5e3],
                 "rotary_inertia_y": [0.02, 0.015, 0.01, 0.005],
                 "rotary_inertia_z": [0.01, 0.008, 0.006, 0.004]}
-    return kd.BeamMember("blade", stations, n, **options)
+    return kd.flexible.BeamMember("blade", stations, n, **options)
 
 
 def test_craig_bampton_upper_bounds_decrease_monotonically():
@@ -319,7 +319,7 @@ def test_sparse_solver_agrees_with_dense():
     free_d = member.free_free(n_modes=4, solver="dense")
     free_s = member.free_free(n_modes=4, solver="sparse")
     np.testing.assert_allclose(free_s.modes, free_d.modes, atol=1e-8)
-    stored = kd.BeamMember("blade", member.stations, 40, sparse=True)
+    stored = kd.flexible.BeamMember("blade", member.stations, 40, sparse=True)
     assert sp.issparse(stored.mass_matrix)
     np.testing.assert_allclose(stored.craig_bampton([20, -1], n_modes=6).modes, dense.modes,
                                atol=1e-8)
@@ -364,9 +364,9 @@ def _shooting_frequencies(arc, ei, ra, guesses):
 def test_tapered_cantilever_against_shooting_solution():
     st = _tapered(2).stations.columns
     # shooting has no rotary inertia: compare the member without it
-    plain = kd.BeamMember("plain", {k: v for k, v in st.items()
-                                    if not k.endswith("inertia") and not k.startswith("rotary")},
-                          32)
+    kept = {k: v for k, v in st.items()
+            if not k.endswith("inertia") and not k.startswith("rotary")}
+    plain = kd.flexible.BeamMember("plain", kept, 32)
     reduced = plain.craig_bampton(n_modes=6)
     omega = 2 * np.pi * reduced.full_frequencies[:6]
     names = reduced.mode_names
@@ -402,7 +402,7 @@ def test_station_interpolation_and_rigid_body_inertia():
 
 def test_tip_mass_against_frequency_equation():
     ratio = 0.7
-    member = _uniform(32, node_masses=[kd.NodeMass(-1, ratio * RHO_A * L)])
+    member = _uniform(32, node_masses=[kd.flexible.NodeMass(-1, ratio * RHO_A * L)])
 
     def equation(b):
         return (1 + np.cos(b) * np.cosh(b)
@@ -416,7 +416,7 @@ def test_tip_mass_against_frequency_equation():
     np.testing.assert_allclose(_beta(reduced.full_frequencies[:3]), roots, rtol=2e-6)
     assert roots[0] < CLAMPED_FREE[0]
     # an offset mass couples translation and rotation: its inertia about the node
-    offset = kd.NodeMass(0, 2.0, inertia=(0.1, 0.2, 0.3), offset=(0.0, 0.5, 0.0)).matrix()
+    offset = kd.flexible.NodeMass(0, 2.0, inertia=(0.1, 0.2, 0.3), offset=(0.0, 0.5, 0.0)).matrix()
     assert offset[5, 5] == pytest.approx(0.3 + 2.0 * 0.25)
     assert offset[0, 5] == pytest.approx(-2.0 * 0.5)  # u_x of the mass = u_x - 0.5 theta_z
 
@@ -469,9 +469,9 @@ def _rotating_flap(n_elements):
     gives the stiffness S = -sum_k f_k . G_k, and flap (along z) feels no
     centrifugal softening.
     """
-    member = kd.BeamMember.uniform("blade", 31.623, mass_per_length=100.0, EA=1e12, GJ=1e5,
-                                   EI_y=1e8, EI_z=1e9, polar_inertia=1e-3,
-                                   n_elements=n_elements)
+    member = kd.flexible.BeamMember.uniform("blade", 31.623, mass_per_length=100.0, EA=1e12, GJ=1e5,
+                                            EI_y=1e8, EI_z=1e9, polar_inertia=1e-3,
+                                            n_elements=n_elements)
     reduced = member.craig_bampton(max_frequency=200.0)
     flap = [j for j, name in enumerate(reduced.mode_names) if name.startswith("bending_xz")]
     Phi = reduced.modes[:, flap]
@@ -507,8 +507,8 @@ def test_second_order_of_constraint_modes_and_matrix_members():
     assert 0.5 * G[-1, 0, j, j] == pytest.approx(-exact, rel=1e-12)   # cubic: exact
     k = reduced.mode_names.index("constraint_8_ux")
     assert np.all(G[:, :, k, :] == 0)                  # axial stretch does not foreshorten
-    imported = kd.FEMember.from_matrices("imported", member.mass_matrix,
-                                         member.stiffness_matrix, member.nodes)
+    imported = kd.flexible.FEMember.from_matrices("imported", member.mass_matrix,
+                                                  member.stiffness_matrix, member.nodes)
     assert imported.craig_bampton([-1], n_modes=1).second_order is None
 
 
@@ -522,7 +522,7 @@ def test_from_matrices_dense_sparse_and_matrix_market(tmp_path):
     sources = {"dense": (M, K), "sparse": (sp.csr_array(M), sp.csc_matrix(K)),
                "file": (tmp_path / "m.mtx", str(tmp_path / "k.mtx"))}
     for label, (m, k) in sources.items():
-        imported = kd.FEMember.from_matrices(label, m, k, member.nodes)
+        imported = kd.flexible.FEMember.from_matrices(label, m, k, member.nodes)
         reduced = imported.craig_bampton([5, -1], n_modes=4)
         np.testing.assert_allclose(reduced.modes, direct.modes, atol=1e-10, err_msg=label)
         np.testing.assert_allclose(reduced.full_frequencies, direct.full_frequencies,
@@ -543,8 +543,8 @@ def test_lumped_mass_matrix_without_rotary_inertia():
     for k in range(41):
         share = RHO_A * L / 40 * (0.5 if k in (0, 40) else 1)
         lumped[6 * k:6 * k + 3, 6 * k:6 * k + 3] = share * np.eye(3)
-    imported = kd.FEMember.from_matrices("lumped", lumped, member.stiffness_matrix,
-                                         member.nodes)
+    imported = kd.flexible.FEMember.from_matrices("lumped", lumped, member.stiffness_matrix,
+                                                  member.nodes)
     f = imported.natural_frequencies(3, supports={0: "all"})
     np.testing.assert_allclose(_beta(f), CLAMPED_FREE, rtol=2e-3)
     with pytest.raises(ModelError, match="'lumped'.*only 120 with a finite frequency"):
@@ -572,7 +572,7 @@ def test_bad_station_tables(changes, message):
     table = _stations(**changes)
     table = {k: v for k, v in table.items() if v is not None}
     with pytest.raises(ModelError, match=message):
-        kd.BeamMember("tower", table, 4)
+        kd.flexible.BeamMember("tower", table, 4)
 
 
 def test_bad_matrices():
@@ -582,22 +582,22 @@ def test_bad_matrices():
     bad[3, 10] += 1e-3
     with pytest.raises(ModelError, match=r"'imp': the mass matrix is not symmetric: entries "
                                          r"\(3, 10\) and \(10, 3\) differ by 0.001"):
-        kd.FEMember.from_matrices("imp", bad, K, nodes)
+        kd.flexible.FEMember.from_matrices("imp", bad, K, nodes)
     indefinite = K - 1e-3 * np.abs(K).max() * np.eye(30)
     with pytest.raises(ModelError, match=r"'imp': the stiffness matrix is not positive "
                                          r"semidefinite: its smallest eigenvalue is -"):
-        kd.FEMember.from_matrices("imp", M, indefinite, nodes)
+        kd.flexible.FEMember.from_matrices("imp", M, indefinite, nodes)
     with pytest.raises(ModelError, match=r"'imp': the mass matrix is not positive semidef"):
-        kd.FEMember.from_matrices("imp", sp.csr_array(M - 0.1 * np.eye(30)), K, nodes)
+        kd.flexible.FEMember.from_matrices("imp", sp.csr_array(M - 0.1 * np.eye(30)), K, nodes)
     with pytest.raises(ModelError, match=r"'imp': the mass matrix is 30 x 30 but 6 nodes have "
                                          r"36 degrees of freedom"):
-        kd.FEMember.from_matrices("imp", M, K, np.vstack([nodes, [[9, 9, 9]]]))
+        kd.flexible.FEMember.from_matrices("imp", M, K, np.vstack([nodes, [[9, 9, 9]]]))
     with pytest.raises(ModelError, match=r"'imp': the stiffness matrix must be square"):
-        kd.FEMember.from_matrices("imp", M, K[:, :-1], nodes)
+        kd.flexible.FEMember.from_matrices("imp", M, K[:, :-1], nodes)
     with pytest.raises(ModelError, match=r"'imp': cannot read the mass matrix from 'nope.mtx'"):
-        kd.FEMember.from_matrices("imp", "nope.mtx", K, nodes)
+        kd.flexible.FEMember.from_matrices("imp", "nope.mtx", K, nodes)
     with pytest.raises(ModelError, match=r"'imp': .*rigid-body motion free of strain"):
-        kd.FEMember.from_matrices("imp", M, K, nodes * 2).free_free(n_modes=2)
+        kd.flexible.FEMember.from_matrices("imp", M, K, nodes * 2).free_free(n_modes=2)
 
 
 def test_large_matrices_checked_by_inertia(monkeypatch):
@@ -606,12 +606,12 @@ def test_large_matrices_checked_by_inertia(monkeypatch):
     monkeypatch.setattr(_matrices, "_DENSE_CHECK", 10)
     member = _uniform(6)
     M, K, nodes = member.mass_matrix, member.stiffness_matrix, member.nodes
-    kd.FEMember.from_matrices("big", sp.csr_array(M), K, nodes)      # singular K passes
+    kd.flexible.FEMember.from_matrices("big", sp.csr_array(M), K, nodes)      # singular K passes
     lowest = np.linalg.eigvalsh(M)[0]
     shifted = M - (lowest + 0.01) * np.eye(42)                      # smallest eigenvalue -0.01
     with pytest.raises(ModelError, match=r"'big': the mass matrix is not positive semidefinite:"
                                          r" its smallest eigenvalue is about -0.0(099|1)[ 0-9]"):
-        kd.FEMember.from_matrices("big", shifted, K, nodes)
+        kd.flexible.FEMember.from_matrices("big", shifted, K, nodes)
 
 
 def test_bad_reduction_options():
@@ -643,9 +643,9 @@ def test_bad_reduction_options():
     with pytest.raises(ModelError, match=r"'beam': no node at arc 0.7 m"):
         member.node_at(0.7)
     with pytest.raises(ModelError, match=r"member 'beam': the node mass at node -1 has mass -2"):
-        _uniform(4, node_masses=[kd.NodeMass(-1, -2.0)])
+        _uniform(4, node_masses=[kd.flexible.NodeMass(-1, -2.0)])
     with pytest.raises(OptionError, match=r"'beam': give exactly one of n_elements, node_arcs"):
-        kd.BeamMember("beam", _stations(), 4, node_arcs=[0, 1, 2])
+        kd.flexible.BeamMember("beam", _stations(), 4, node_arcs=[0, 1, 2])
     reduced = member.reduce("guyan", interface_nodes=[-1])
     assert reduced.n_modes == 6 and member.node_at(0.75) == 2
 

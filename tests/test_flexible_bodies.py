@@ -60,8 +60,8 @@ def test_rotating_cantilever_flap_frequencies_match_wright_table():
     linearization of Kane's nonlinear equations about the undeformed state, so the
     centrifugal stiffening is the geometric stiffening of the flexible body.
     """
-    member = kd.BeamMember.uniform("blade", 31.623, mass_per_length=100.0, EA=1e12, GJ=1e5,
-                                   EI_y=1e8, EI_z=1e9, polar_inertia=1e-3, n_elements=20)
+    member = kd.flexible.BeamMember.uniform("blade", 31.623, mass_per_length=100.0, EA=1e12, GJ=1e5,
+                                            EI_y=1e8, EI_z=1e9, polar_inertia=1e-3, n_elements=20)
     flap = member.craig_bampton(n_modes=8).keep_modes("bending_xz")  # lag is 10x stiffer
     assert flap.mode_names == tuple(f"bending_xz_{j}" for j in range(1, 6))
     N = me.ReferenceFrame("N")
@@ -120,8 +120,8 @@ def test_hub_beam_frequency_equation_limits():
 def test_hub_beam_frequencies_match_the_frequency_equation(ratio):
     """The linearized one-dof robot (no payload, no motor stiffness, hub radius 0)."""
     L, rho_A, EI = 1.0, 0.675, 36.5
-    member = kd.BeamMember.uniform("link", L, mass_per_length=rho_A, EA=1e7, GJ=EI,
-                                   EI_y=EI, EI_z=EI, polar_inertia=1e-3, n_elements=16)
+    member = kd.flexible.BeamMember.uniform("link", L, mass_per_length=rho_A, EA=1e7, GJ=EI,
+                                            EI_y=EI, EI_z=EI, polar_inertia=1e-3, n_elements=16)
     link = member.craig_bampton(n_modes=16).keep_modes([f"bending_xy_{j}" for j in range(1, 6)])
     N = me.ReferenceFrame("N")
     O = me.Point("O")
@@ -219,9 +219,9 @@ def test_robot_motor_work_equals_energy_change(robot):
 def tip_against_wall():
     """A hub (J = 0.05 kg m^2) spinning at 1 rad/s with a 1 m flexible link (two
     in-plane bending modes) whose tip node meets a wall 0.6 m from the axis."""
-    beam = kd.BeamMember.uniform("link", 1.0, mass_per_length=0.675, EA=1.75e7,
-                                 GJ=36.5, EI_y=3650.0, EI_z=36.5, polar_inertia=1e-3,
-                                 n_elements=6)
+    beam = kd.flexible.BeamMember.uniform("link", 1.0, mass_per_length=0.675, EA=1.75e7,
+                                          GJ=36.5, EI_y=3650.0, EI_z=36.5, polar_inertia=1e-3,
+                                          n_elements=6)
     member = beam.craig_bampton(n_modes=6).keep_modes(["bending_xy_1", "bending_xy_2"])
     N = me.ReferenceFrame("N")
     O = me.Point("O")
@@ -291,8 +291,8 @@ def test_elastic_tip_bounces_come_to_rest_on_the_wall_and_energy_balances(tip_ag
 
 # ------------------------------------------------------------------------ bad input
 def _member(n_modes=2):
-    beam = kd.BeamMember.uniform("bar", 1.0, mass_per_length=1.0, EA=1e6, GJ=10.0,
-                                 EI_y=10.0, EI_z=10.0, polar_inertia=1e-3, n_elements=4)
+    beam = kd.flexible.BeamMember.uniform("bar", 1.0, mass_per_length=1.0, EA=1e6, GJ=10.0,
+                                          EI_y=10.0, EI_z=10.0, polar_inertia=1e-3, n_elements=4)
     return beam.craig_bampton(n_modes=n_modes)
 
 
@@ -311,8 +311,8 @@ def test_bad_flexible_body_input_is_named():
         kd.FlexibleBody("arm", N, O, member, modal_damping=[0.01])
     with pytest.raises(ModelError, match="give rayleigh or modal_damping, not both"):
         kd.FlexibleBody("arm", N, O, member, rayleigh=(0, 1e-3), modal_damping=[0, 0])
-    imported = kd.FEMember.from_matrices("imported", member.mass_matrix,
-                                         member.stiffness_matrix, member.nodes)
+    imported = kd.flexible.FEMember.from_matrices("imported", member.mass_matrix,
+                                                  member.stiffness_matrix, member.nodes)
     with pytest.raises(ModelError, match="no second-order .* stiffening=False"):
         kd.FlexibleBody("arm", N, O, imported.craig_bampton(n_modes=2))
     with pytest.raises(ModelError, match="member 'bar': no mode named 'twist_1'"):

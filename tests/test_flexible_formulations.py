@@ -25,8 +25,8 @@ TOL = 1e-10
 
 
 def _member(n_modes=2):
-    beam = kd.BeamMember.uniform("arm", 2.0, mass_per_length=3.0, EA=1e6, GJ=2e3,
-                                 EI_y=4e3, EI_z=2e3, polar_inertia=1e-3, n_elements=3)
+    beam = kd.flexible.BeamMember.uniform("arm", 2.0, mass_per_length=3.0, EA=1e6, GJ=2e3,
+                                          EI_y=4e3, EI_z=2e3, polar_inertia=1e-3, n_elements=3)
     return beam.craig_bampton(n_modes=n_modes)
 
 

@@ -26,7 +26,7 @@ def _arm(n_elements=5, **overrides):
     props = dict(mass_per_length=2.0, EA=1e7, GJ=1e3, EI_y=40.0, EI_z=20.0,
                  polar_inertia=1e-4)
     props.update(overrides)
-    return kd.BeamMember.uniform("arm", LENGTH, n_elements=n_elements, **props)
+    return kd.flexible.BeamMember.uniform("arm", LENGTH, n_elements=n_elements, **props)
 
 
 @pytest.fixture(autouse=True)
@@ -77,7 +77,7 @@ def _translations(member, shape):
 # ------------------------------------------------------------- mode shapes
 def test_uncoupled_natural_modes_are_the_basis_columns(reduced):
     """Without interface nodes the fixed-interface modes are the natural modes."""
-    fig = kd.plot_mode_shapes(reduced)
+    fig = kd.flexible.plot_mode_shapes(reduced)
     panels = _panels(fig)
     assert len(panels) == 3
     arc = np.linspace(0.0, LENGTH, reduced.n_nodes)
@@ -109,7 +109,7 @@ def test_natural_modes_of_a_complete_basis_are_the_full_models():
     reduced = member.craig_bampton(interface_nodes=[-1], n_modes=18)
     full_hz, full_modes = member.natural_modes(24, supports={0: "all"})
     modes = [1, 2, 3, 6]
-    fig = kd.plot_mode_shapes(reduced, modes=modes)
+    fig = kd.flexible.plot_mode_shapes(reduced, modes=modes)
     panels = _panels(fig)
     assert len(panels) == len(modes)
     for ax, number in zip(panels, modes):
@@ -138,7 +138,7 @@ def test_natural_modes_of_a_complete_basis_are_the_full_models():
 def test_coordinate_shapes_are_the_columns_of_the_basis():
     reduced = _arm(n_elements=4).craig_bampton(interface_nodes=[-1], n_modes=2)
     names = ["constraint_4_uy", 1]
-    fig = kd.plot_mode_shapes(reduced, modes=names, kind="coordinates")
+    fig = kd.flexible.plot_mode_shapes(reduced, modes=names, kind="coordinates")
     panels = _panels(fig)
     for ax, j in zip(panels, [reduced.mode_names.index("constraint_4_uy"), 0]):
         expected = _translations(reduced, reduced.modes[:, j])
@@ -157,7 +157,7 @@ def test_coordinate_shapes_are_the_columns_of_the_basis():
 
 def test_mode_shapes_saved_as_png(reduced, tmp_path):
     path = tmp_path / "modes.png"
-    kd.plot_mode_shapes(reduced, modes=2, path=path)
+    kd.flexible.plot_mode_shapes(reduced, modes=2, path=path)
     assert path.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
@@ -170,25 +170,25 @@ def test_mode_shapes_saved_as_png(reduced, tmp_path):
 ])
 def test_mode_shapes_bad_modes(reduced, modes, words):
     with pytest.raises(OptionError) as info:
-        kd.plot_mode_shapes(reduced, modes=modes)
+        kd.flexible.plot_mode_shapes(reduced, modes=modes)
     for word in words:
         assert word in str(info.value)
 
 
 def test_mode_shapes_bad_input(reduced):
     with pytest.raises(OptionError, match="no mode named 'twist_1'.*bending_xy_1"):
-        kd.plot_mode_shapes(reduced, modes="twist_1", kind="coordinates")
+        kd.flexible.plot_mode_shapes(reduced, modes="twist_1", kind="coordinates")
     with pytest.raises(OptionError, match="kind must be one of natural, coordinates"):
-        kd.plot_mode_shapes(reduced, kind="normal")
+        kd.flexible.plot_mode_shapes(reduced, kind="normal")
     with pytest.raises(OptionError, match="ReducedMember.*BeamMember"):
-        kd.plot_mode_shapes(_arm())
+        kd.flexible.plot_mode_shapes(_arm())
 
 
 def test_arc_length_follows_a_bent_member():
-    member = kd.BeamMember("bent", {"arc": [0.0, 2.0], "mass_per_length": [1.0, 1.0],
-                                    "EA": [1e6, 1e6], "GJ": [1e3, 1e3], "EI_y": [1e3, 1e3],
-                                    "EI_z": [1e3, 1e3]},
-                           polyline=[[0, 0, 0], [1, 0, 0], [1, 1, 0]])
+    member = kd.flexible.BeamMember("bent", {"arc": [0.0, 2.0], "mass_per_length": [1.0, 1.0],
+                                             "EA": [1e6, 1e6], "GJ": [1e3, 1e3], "EI_y": [1e3, 1e3],
+                                             "EI_z": [1e3, 1e3]},
+                                    polyline=[[0, 0, 0], [1, 0, 0], [1, 1, 0]])
     assert np.allclose(member_arc_length(member), [0.0, 1.0, 2.0])
 
 

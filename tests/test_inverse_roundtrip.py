@@ -28,7 +28,7 @@ pytestmark = pytest.mark.slow
     ("out-parallel-6dof", "sinusoid", 2.0),
 ])
 def test_forces_drive_the_platform_along_the_prescription(name, trajectory, t_end):
-    study = kd.inverse_study(name, trajectory=trajectory, t_end=t_end, points=21)
+    study = kd.studies.inverse_study(name, trajectory=trajectory, t_end=t_end, points=21)
     assert study.power_residual() < 1e-12
     error = study.forward_check()
     assert error < 1e-7, f"{name}: pose error {error:.3e}"

@@ -47,7 +47,7 @@ def planar_node_mass(plane):
     rz = RNA["cm_z"].value
     Jc = J - m * rz ** 2
     inertia = np.diag([Jc, Jc, 1e3])
-    return kd.NodeMass(-1, m, inertia=inertia, offset=(0.0, 0.0, rz))
+    return kd.flexible.NodeMass(-1, m, inertia=inertia, offset=(0.0, 0.0, rz))
 
 
 def shooting_frequency(plane, tip=True, f_start=0.05):
@@ -157,8 +157,8 @@ def test_tower_sections_reproduce_the_mass_per_length_at_the_ends():
 def test_first_bending_frequency_against_shooting(plane, tip):
     reference = shooting_frequency(plane, tip)
     nm = (planar_node_mass(plane),) if tip else ()
-    member = kd.BeamMember("tower", tower_stations(), n_elements=40, direction=(0, 0, 1),
-                           node_masses=nm)
+    member = kd.flexible.BeamMember("tower", tower_stations(), n_elements=40, direction=(0, 0, 1),
+                                    node_masses=nm)
     fe = full_first(member)[plane]
     assert fe == pytest.approx(reference, rel=1e-6)
     if tip:   # the real RNA (x offset, product of inertia) changes it by less than 0.1 %
@@ -174,8 +174,9 @@ def test_element_convergence_is_fourth_order(plane):
     reference = shooting_frequency(plane)
     errors = []
     for n in (10, 20, 40):
-        member = kd.BeamMember("tower", tower_stations(), n_elements=n, direction=(0, 0, 1),
-                               node_masses=(planar_node_mass(plane),))
+        member = kd.flexible.BeamMember("tower", tower_stations(), n_elements=n,
+                                        direction=(0, 0, 1),
+                                        node_masses=(planar_node_mass(plane),))
         errors.append(full_first(member)[plane] / reference - 1)
     errors = np.array(errors)
     assert np.all(errors > 0)                                   # consistent mass: upper bounds

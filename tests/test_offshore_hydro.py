@@ -17,20 +17,21 @@ SPAR = [(-120.0, 9.4), (-12.0, 9.4), (-4.0, 6.5), (10.0, 6.5)]  # OC3 data sheet
 # ------------------------------------------------------------------ waves
 def test_dispersion_limits_and_residual():
     w = 0.7
-    assert kd.wave_number(w, np.inf) == pytest.approx(w ** 2 / G, rel=1e-15)
-    assert kd.wave_number(w, 1e4) == pytest.approx(w ** 2 / G, rel=1e-12)
+    assert kd.offshore.wave_number(w, np.inf) == pytest.approx(w ** 2 / G, rel=1e-15)
+    assert kd.offshore.wave_number(w, 1e4) == pytest.approx(w ** 2 / G, rel=1e-12)
     h, w_small = 1.0, 1e-4
-    assert kd.wave_number(w_small, h) == pytest.approx(w_small / math.sqrt(G * h), rel=1e-8)
+    assert kd.offshore.wave_number(w_small, h) == pytest.approx(w_small / math.sqrt(G * h),
+                                                                rel=1e-8)
     ws = np.array([0.05, 0.3, 1.0, 3.0])
-    k = kd.wave_number(ws, 20.0)
+    k = kd.offshore.wave_number(ws, 20.0)
     np.testing.assert_allclose(G * k * np.tanh(k * 20.0), ws ** 2, rtol=1e-13)
     with pytest.raises(ModelError, match="omega"):
-        kd.wave_number(-1.0, 10.0)
+        kd.offshore.wave_number(-1.0, 10.0)
 
 
 @pytest.mark.parametrize("depth", [30.0, 320.0, np.inf])
 def test_airy_kinematics_satisfy_potential_flow(depth):
-    wave = kd.AiryWave(height=2.0, period=9.0, depth=depth, phase=0.3)
+    wave = kd.offshore.AiryWave(height=2.0, period=9.0, depth=depth, phase=0.3)
     x, z, t, d = 17.0, -8.0, 2.3, 1e-4
     vel = wave.velocity
     # continuity (Laplace) and irrotationality, central differences
@@ -57,9 +58,9 @@ def test_airy_kinematics_satisfy_potential_flow(depth):
 
 def test_wheeler_stretching():
     h = 50.0
-    plain = kd.AiryWave(4.0, 8.0, h, stretching="none")
-    wheeler = kd.AiryWave(4.0, 8.0, h, stretching="wheeler")
-    vertical = kd.AiryWave(4.0, 8.0, h, stretching="vertical")
+    plain = kd.offshore.AiryWave(4.0, 8.0, h, stretching="none")
+    wheeler = kd.offshore.AiryWave(4.0, 8.0, h, stretching="wheeler")
+    vertical = kd.offshore.AiryWave(4.0, 8.0, h, stretching="vertical")
     x, t = 3.0, 0.4
     eta = plain.elevation(x, t)
     assert eta > 1.0  # near a crest
@@ -79,25 +80,26 @@ def test_jonswap_spectrum_moments_and_peak():
     Hs, Tp = 6.0, 10.0
     wp = 2 * math.pi / Tp
     for gamma, tol in ((1.0, 1e-9), (3.3, 3e-3)):
-        m0 = sum(quad(lambda w: kd.jonswap_spectrum(w, Hs, Tp, gamma), a, b, limit=200)[0]
+        m0 = sum(quad(lambda w: kd.offshore.jonswap_spectrum(w, Hs, Tp, gamma), a, b, limit=200)[0]
                  for a, b in ((0, wp), (wp, 10 * wp), (10 * wp, np.inf)))
         assert m0 == pytest.approx(Hs ** 2 / 16, rel=tol)
     w = np.linspace(0.5 * wp, 2 * wp, 200001)
-    assert w[np.argmax(kd.jonswap_spectrum(w, Hs, Tp, 3.3))] == pytest.approx(wp, rel=1e-4)
-    assert kd.jonswap_gamma(6.0, 8.0) == 5.0 and kd.jonswap_gamma(1.0, 10.0) == 1.0
+    assert w[np.argmax(kd.offshore.jonswap_spectrum(w, Hs, Tp, 3.3))] == pytest.approx(wp, rel=1e-4)
+    assert kd.offshore.jonswap_gamma(6.0, 8.0) == 5.0
+    assert kd.offshore.jonswap_gamma(1.0, 10.0) == 1.0
     with pytest.raises(ModelError, match="gamma"):
-        kd.jonswap_spectrum(1.0, Hs, Tp, 9.0)
+        kd.offshore.jonswap_spectrum(1.0, Hs, Tp, 9.0)
 
 
 def test_irregular_sea_statistics_and_seed():
     Hs, Tp = 6.0, 10.0
-    sea = kd.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=7)
+    sea = kd.offshore.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=7)
     t = np.arange(0.0, sea.repeat_period, 0.5)
     eta = np.array([sea.elevation(0.0, ti) for ti in t])
     assert eta.std() == pytest.approx(Hs / 4, rel=0.02)
     assert abs(eta.mean()) < 0.01 * Hs
-    same = kd.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=7)
-    other = kd.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=8)
+    same = kd.offshore.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=7)
+    other = kd.offshore.IrregularSea(Hs, Tp, 3.3, depth=320.0, n_components=200, seed=8)
     e_same = np.array([same.elevation(0.0, ti) for ti in t[:50]])
     e_other = np.array([other.elevation(0.0, ti) for ti in t[:50]])
     np.testing.assert_array_equal(e_same, eta[:50])
@@ -109,7 +111,7 @@ def _fixed_member(stations, **kw):
     N = me.ReferenceFrame("N")
     O = me.Point("O")
     O.set_vel(N, 0)
-    return kd.MorisonCylinder("m", N, O, N.z, stations, N, O, {}, **kw), N
+    return kd.offshore.MorisonCylinder("m", N, O, N.z, stations, N, O, {}, **kw), N
 
 
 def _total_force(member, N, t, at="origin"):
@@ -122,7 +124,7 @@ def _total_force(member, N, t, at="origin"):
 @pytest.mark.parametrize("depth", [200.0, 320.0])
 def test_morison_inertia_matches_depth_integral(depth):
     D, draft, Ca = 9.4, 120.0, 1.0
-    wave = kd.AiryWave(height=0.5, period=12.0, depth=depth)
+    wave = kd.offshore.AiryWave(height=0.5, period=12.0, depth=depth)
     member, N = _fixed_member([(-draft, D), (0.0, D)], rho=RHO, Ca=Ca, Cd=0.6,
                               n_strips=6, waves=wave)
     k, w, a, h = wave.k, wave.omega, wave.height / 2, depth
@@ -159,8 +161,8 @@ def test_morison_moving_body_relative_velocity_and_added_mass():
     P = O.locatenew("P", x * N.x)
     P.set_vel(N, ux * N.x)
     Cd, D, L = 1.0, 2.0, 10.0
-    m = kd.MorisonCylinder("s", B, P, B.z, [(-L, D), (0.0, D)], N, O, {x: 0, th: 0},
-                           rho=RHO, Ca=1.0, Cd=Cd, n_strips=5)
+    m = kd.offshore.MorisonCylinder("s", B, P, B.z, [(-L, D), (0.0, D)], N, O, {x: 0, th: 0},
+                                    rho=RHO, Ca=1.0, Cd=Cd, n_strips=5)
     values = {sym: f(0.0) for sym, f in m.specified().items()}
     (_, F), (_, M) = m.to_loads(at="origin")
     subs = {**values, x: 0, th: 0, ux: 2.0, uth: 0}
@@ -183,8 +185,8 @@ def _spar(form, stations=SPAR):
     O = me.Point("O")
     O.set_vel(N, 0)
     P = O.locatenew("P", z * N.z)
-    hs = kd.Hydrostatics("spar", B, P, B.z, stations, N, O, {z: 0, th: 0}, rho=RHO,
-                         form=form)
+    hs = kd.offshore.Hydrostatics("spar", B, P, B.z, stations, N, O, {z: 0, th: 0}, rho=RHO,
+                                  form=form)
     return hs, N, z, th
 
 
@@ -251,10 +253,10 @@ def test_floating_spar_through_kane_equilibrium_and_restoring():
     O.set_vel(N, 0)
     P = O.locatenew("P", z * N.z)
     P.set_vel(N, uz * N.z)
-    hs = kd.Hydrostatics("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
-                         form="large_angle")
-    mor = kd.MorisonCylinder("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
-                             Ca=1.0, Cd=0.6, n_strips=4)
+    hs = kd.offshore.Hydrostatics("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                                  form="large_angle")
+    mor = kd.offshore.MorisonCylinder("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                                      Ca=1.0, Cd=0.6, n_strips=4)
     mass, zG, Iyy = hs.volume * RHO, -89.9155, 4.22923e9
     G_pt = P.locatenew("G", zG * B.z)
     G_pt.v2pt_theory(P, N, B)
@@ -283,8 +285,8 @@ def test_morison_added_mass_enters_the_mass_matrix():
     O.set_vel(N, 0)
     P = O.locatenew("P", z * N.z)
     P.set_vel(N, uz * N.z)
-    mor = kd.MorisonCylinder("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
-                             Ca=1.0, Cd=0.6, n_strips=4)
+    mor = kd.offshore.MorisonCylinder("spar", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                                      Ca=1.0, Cd=0.6, n_strips=4)
     mass, Iyy = 7.46633e6, 4.22923e9
     body = me.RigidBody("platform", P, B, mass, (me.inertia(B, Iyy, Iyy, 1.0), P))
     eom = kd.kane(frame=N, q_ind=[z, th], u_ind=[uz, uth],
@@ -299,5 +301,5 @@ def test_morison_added_mass_enters_the_mass_matrix():
     assert M[0, 0] == pytest.approx(mass, rel=1e-12)  # no heave added mass in strip theory
     assert M[1, 1] == pytest.approx(Iyy + A55, rel=1e-6)
     assert M[0, 1] == pytest.approx(0.0, abs=1e-6 * mass)
-    assert kd.MorisonCylinder("dry", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
-                              Ca=0.0, Cd=0.6, n_strips=2).inertia_elements() == []
+    assert kd.offshore.MorisonCylinder("dry", B, P, B.z, SPAR, N, O, {z: 0, th: 0}, rho=RHO,
+                                       Ca=0.0, Cd=0.6, n_strips=2).inertia_elements() == []

@@ -143,17 +143,17 @@ def test_catenary_elastic_matches_quadrature(EA):
 
 def test_catenary_line_warm_start_and_bad_span():
     N = me.ReferenceFrame("N")
-    line = kd.CatenaryLine([853.87, 0, -320], me.Point("F"), 902.2, W_OC3, EA_OC3,
-                           name="l1")
+    line = kd.offshore.CatenaryLine([853.87, 0, -320], me.Point("F"), 902.2, W_OC3, EA_OC3,
+                                    name="l1")
     first = line.tensions([5.2, 0, -70])
     again = line.tensions([5.2 + 1e-3, 0, -70])
     assert again[0] == pytest.approx(first[0], rel=1e-3)
     far = line.tensions([-200.0, 0, -70])  # farther than the unstretched line reaches
     assert np.hypot(*far) > 50 * np.hypot(*first)  # held by stretching, EA strain
     with pytest.raises(kd.ModelError, match="'l2'.*length"):
-        kd.CatenaryLine([0, 0, -320], me.Point("F"), -1.0, W_OC3, EA_OC3, name="l2")
+        kd.offshore.CatenaryLine([0, 0, -320], me.Point("F"), -1.0, W_OC3, EA_OC3, name="l2")
     with pytest.raises(kd.ModelError, match="fairlead must be a Point"):
-        kd.CatenaryLine([0, 0, -320], N, 1.0, W_OC3, EA_OC3)
+        kd.offshore.CatenaryLine([0, 0, -320], N, 1.0, W_OC3, EA_OC3)
 
 
 def oc3_mooring():
@@ -162,12 +162,12 @@ def oc3_mooring():
     lines, fairleads = [], []
     for i, a in enumerate(np.radians([180.0, 60.0, -60.0])):
         c, s = np.cos(a), np.sin(a)
-        lines.append(kd.CatenaryLine([d["anchor_radius"] * c, d["anchor_radius"] * s,
-                                      -d["anchor_depth"]], me.Point(f"F{i}"), d["length"],
-                                     d["weight_in_water"], d["EA"]))
+        lines.append(kd.offshore.CatenaryLine([d["anchor_radius"] * c, d["anchor_radius"] * s,
+                                               -d["anchor_depth"]], me.Point(f"F{i}"), d["length"],
+                                              d["weight_in_water"], d["EA"]))
         fairleads.append([d["fairlead_radius"] * c, d["fairlead_radius"] * s,
                           -d["fairlead_depth"]])
-    return kd.CatenaryMooring("oc3", lines, N, O), np.array(fairleads)
+    return kd.offshore.CatenaryMooring("oc3", lines, N, O), np.array(fairleads)
 
 
 def test_oc3_line_weight_and_vertical_load():
@@ -221,10 +221,10 @@ def test_catenary_mooring_as_runtime_inputs_and_linear_mooring():
         F = P.locatenew(f"F{i}", d["fairlead_radius"] * (c * B.x + s * B.y)
                         - d["fairlead_depth"] * B.z)
         F.v2pt_theory(P, N, B)
-        lines.append(kd.CatenaryLine([d["anchor_radius"] * c, d["anchor_radius"] * s,
-                                      -d["anchor_depth"]], F, d["length"],
-                                     d["weight_in_water"], d["EA"]))
-    mooring = kd.CatenaryMooring("oc3", lines, N, O)
+        lines.append(kd.offshore.CatenaryLine([d["anchor_radius"] * c, d["anchor_radius"] * s,
+                                               -d["anchor_depth"]], F, d["length"],
+                                              d["weight_in_water"], d["EA"]))
+    mooring = kd.offshore.CatenaryMooring("oc3", lines, N, O)
     mass = 8.0e6
     body = rigid(B, G_, (mass, (4e9, 4e9, 2e8)))
     eom = kd.kane(frame=N, q_ind=q, u_ind=u, kd_eqs=kde, bodies=[body],
@@ -236,13 +236,13 @@ def test_catenary_mooring_as_runtime_inputs_and_linear_mooring():
     assert model.rhs(0.0, y)[8] == pytest.approx(vertical / mass, rel=1e-9)
     y[0] = 5.0  # surge: the lines pull back
     assert model.rhs(0.0, y)[6] < 0
-    linear = kd.LinearMooring.oc3(B, P, N, reference=O)
+    linear = kd.offshore.LinearMooring.oc3(B, P, N, reference=O)
     assert float(linear.vertical_load) == pytest.approx(-vertical, rel=1e-9)
 
 
 # ------------------------------------------------------------------ rotor and wind
 def test_thrust_curve_rated_and_interpolation():
-    curve = kd.NREL5MW_THRUST
+    curve = kd.offshore.NREL5MW_THRUST
     assert curve(11.4) == pytest.approx(800e3, rel=0.02)
     area = np.pi * 63.0 ** 2
     assert curve(7.5) == pytest.approx(0.5 * 1.225 * area * 0.8 * 7.5 ** 2, rel=0.01)
@@ -257,10 +257,10 @@ def test_aerodynamic_damping_sign_and_runtime_thrust():
     O = me.Point("O")
     hub = O.locatenew("hub", x * N.x)
     hub.set_vel(N, ux * N.x)
-    rotor = kd.RotorThrust("r", hub, N.x, N, kd.NREL5MW_THRUST, wind=8.0)
+    rotor = kd.offshore.RotorThrust("r", hub, N.x, N, kd.offshore.NREL5MW_THRUST, wind=8.0)
     thrust = rotor.specified([x, ux])[rotor.symbol]
     at_rest = thrust(0.0, [0.0, 0.0])
-    assert at_rest == pytest.approx(kd.NREL5MW_THRUST(8.0))
+    assert at_rest == pytest.approx(kd.offshore.NREL5MW_THRUST(8.0))
     assert thrust(0.0, [0.0, 0.5]) < at_rest < thrust(0.0, [0.0, -0.5])
     dv = 1e-4
     slope = (thrust(0.0, [0.0, -dv]) - thrust(0.0, [0.0, dv])) / (2 * dv)
@@ -272,11 +272,11 @@ def test_aerodynamic_damping_sign_and_runtime_thrust():
 
 
 def test_kaimal_wind_mean_intensity_and_seed():
-    t, v = kd.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=7)
+    t, v = kd.offshore.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=7)
     assert v.mean() == pytest.approx(11.4, rel=0.01)
     assert v.std() / v.mean() == pytest.approx(0.15, rel=0.03)
-    _, v2 = kd.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=7)
-    _, v3 = kd.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=8)
+    _, v2 = kd.offshore.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=7)
+    _, v3 = kd.offshore.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=8)
     np.testing.assert_array_equal(v, v2)
     assert not np.allclose(v, v3)
     assert t[1] - t[0] == 0.25 and t.size == 14400

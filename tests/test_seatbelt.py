@@ -129,7 +129,7 @@ def test_energy_change_equals_pivot_work():
 
 @pytest.mark.slow
 def test_csv_sampled_pulse_agrees_with_analytic(tmp_path):
-    pulse = kd.HalfSinePulse(3.0, 0.1)
+    pulse = kd.vehicle.HalfSinePulse(3.0, 0.1)
     t = np.arange(0, 2001) * 1e-4
     acc = np.array([-1.0, 0.0, 0.0])[None, :] * pulse.acceleration(t)[:, None]
     path = tmp_path / "halfsine.csv"

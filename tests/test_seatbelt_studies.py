@@ -23,9 +23,9 @@ pytest.importorskip("pandas")
 
 @pytest.mark.slow
 def test_lock_map_on_a_tiny_grid(tmp_path):
-    lock_map = kd.seatbelt_lock_map(peak_g=[0.1, 2.0, 10.0, 20.0], duration=[0.05],
-                                    direction=[0.0, 90.0], roll_rate=[0.0], t_end=0.1,
-                                    out=tmp_path)
+    lock_map = kd.studies.seatbelt_lock_map(peak_g=[0.1, 2.0, 10.0, 20.0], duration=[0.05],
+                                            direction=[0.0, 90.0], roll_rate=[0.0], t_end=0.1,
+                                            out=tmp_path)
     table = lock_map.table
     assert table.success.all() and len(table) == 8
     frontal = table[table.direction == 0].sort_values("peak_g")
@@ -67,7 +67,7 @@ def test_study_pulses_match_the_vehicle_pulses():
 
 @pytest.mark.slow
 def test_regulatory_check_passes_defaults_and_fails_a_too_sensitive_sensor():
-    check = kd.regulatory_check(directions=(0.0, 90.0))
+    check = kd.studies.regulatory_check(directions=(0.0, 90.0))
     assert check.passed, check.text()
     static = [r for r in check.rows if r["case"] == "static"]
     # plumb equilibrium: the tilt in the housing is the housing's, 15 deg
@@ -78,14 +78,14 @@ def test_regulatory_check_passes_defaults_and_fails_a_too_sensitive_sensor():
     assert len(locks) == 4 and all(r["stays_locked"] for r in locks)
     assert check.steady_margin == pytest.approx(math.degrees(math.atan(0.7)) - 20.0)
     # lock angle 10 deg: locks under 0.7 g, but also at the 15 deg static tilt
-    bad = kd.regulatory_check(lock_angle=math.radians(10.0), directions=(0.0, 90.0))
+    bad = kd.studies.regulatory_check(lock_angle=math.radians(10.0), directions=(0.0, 90.0))
     assert not bad.passed
     assert all(not r["passed"] for r in bad.rows if r["case"] == "static")
     assert all(r["passed"] for r in bad.rows if r["case"] != "static")
     assert "FAIL" in bad.text() and "**fail**" in bad.markdown()
     json.dumps(bad.as_dict())
     # lock angle 36 deg (beyond the 30 deg wall and atan(0.7)): never locks at 0.7 g
-    dull = kd.regulatory_check(lock_angle=math.radians(36.0), directions=(0.0,))
+    dull = kd.studies.regulatory_check(lock_angle=math.radians(36.0), directions=(0.0,))
     assert not dull.passed
     assert all(not r["passed"] for r in dull.rows if r["case"] != "static")
 
@@ -152,7 +152,7 @@ def test_studies_from_the_command_line(tmp_path, capsys):
     assert len(lines) == 3
     small, large = (line.split(",") for line in lines[1:])
     assert small[4] == "False" and large[4] == "True"
-    python = kd.seatbelt_lock_map(peak_g=[10.0], duration=[0.05], direction=[0.0])
+    python = kd.studies.seatbelt_lock_map(peak_g=[10.0], duration=[0.05], direction=[0.0])
     assert float(large[5]) == pytest.approx(python.lock_time(10.0, 0.05), rel=1e-9)
     assert (tmp_path / "m" / "seatbelt-map.png").stat().st_size > 10_000
     assert main(["study", "seatbelt-map", "--set", "peak_g=ten"]) == 2

@@ -222,17 +222,6 @@ def test_index3_formulation_events_and_dense_output(a02):
     np.testing.assert_allclose(res.sol(res.t[5:-1:7]), res.y[:, 5:-1:7], atol=1e-12)
 
 
-def test_index3_accelerations_agree_with_the_other_schemes():
-    """Used as a right-hand side it gives the constrained accelerations."""
-    d = kd.models.build("four-bar")
-    lagrange = d.derive(method="lagrange")
-    reference = d.numeric(lagrange)
-    model = d.numeric(lagrange, scheme=kd.schemes.AugmentedLagrangianIndex3())
-    y = reference.state(d.initial(d.numeric(d.derive())))  # speeds are rates: same layout
-    np.testing.assert_allclose(model.rhs(0.2, y), reference.rhs(0.2, y), rtol=1e-10,
-                               atol=1e-10)
-
-
 def test_index3_refuses_what_it_cannot_do(a02):
     d = kd.models.build("chaplygin-sleigh")
     model = d.numeric(d.derive(), scheme="augmented-lagrangian-index3")

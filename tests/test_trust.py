@@ -286,6 +286,7 @@ def test_cli_writes_what_it_has_on_ctrl_c(tmp_path, backend, t_end):
     assert len(rows) == summary["points"] + 1
 
 
+@pytest.mark.usefixtures("terminal_signals")
 def test_cli_interrupted_before_the_first_output_time(tmp_path, monkeypatch, capsys):
     """Ctrl-C before the solver accepted a step (here: in its first evaluation
     under the run's guard): an empty result is written and reported as such,

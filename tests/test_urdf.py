@@ -13,6 +13,7 @@ written here.  State conventions: kanedyn's ``q_<joint>`` is the joint angle
 from __future__ import annotations
 
 import math
+import re
 import textwrap
 from importlib.metadata import PackageNotFoundError, distribution
 
@@ -334,6 +335,80 @@ def test_limits_kept_as_data(edge):
     assert (shoulder.damping, shoulder.friction) == (0.1, 0.2)
 
 
+def test_link_breaking_the_triangle_inequality_inside_a_body_is_accepted(tmp_path):
+    """A link's own inertia that no solid has (the tool's: 0.0005 + 0.0005 < 0.003,
+    as real files have for sensor mounts) merged into a body whose inertia a solid
+    has: the dynamics are the body's, as Pinocchio computes them."""
+    text = EDGE.replace('ixx="0.002" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.001"',
+                        'ixx="0.0005" ixy="0" ixz="0" iyy="0.0005" iyz="0" izz="0.003"')
+    path = tmp_path / "tool.urdf"
+    path.write_text(text)
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        definition = kd.models.from_urdf(path)
+    worst_a, worst_m = compare_with_pinocchio(definition, pin.buildModelFromUrdf(str(path)))
+    assert worst_a < 1e-10 and worst_m < 1e-12, (worst_a, worst_m)
+
+
+def test_round_off_inertias_are_accepted_with_a_warning(tmp_path):
+    """Inertias that miss a solid's by less than 1e-6 of the robot's largest principal
+    moment (1 kg m^2, the base's): the tool's (eigenvalue -1e-8, merged into the arm's
+    body, which stays a solid's) and the wheel's (a body of its own, eigenvalue -1e-8:
+    replaced by the nearest solid's, which changes one principal moment by 1e-8)."""
+    tool = ('ixx="0.002" ixy="0" ixz="0" iyy="0.003" iyz="0" izz="0.001"',
+            'ixx="0.002" ixy="0" ixz="0" iyy="0.001" iyz="0.00100001" izz="0.001"')
+    wheel = ('ixx="0.001" ixy="0" ixz="0" iyy="0.002"',
+             'ixx="0.001" ixy="0" ixz="0.00100001" iyy="0.002"')
+    text = EDGE.replace(*tool).replace(*wheel)
+    path = tmp_path / "round_off.urdf"
+    path.write_text(text)
+    with pytest.warns(UserWarning) as record:
+        definition = kd.models.from_urdf(path)
+    (message,) = [str(w.message) for w in record]
+    assert message.startswith(f"{path}: 3 inertia(s) not a solid's by round-off only, up to "
+                              "1e-06 kg m^2 (1e-06 of the largest principal moment")
+    for link, needle in (("tool", tool[1]), ("wheel", wheel[1])):
+        assert (f"{path}:{line_of(text, needle)}: <link name='{link}'>: inertia is not "
+                "positive semi-definite by 1e-08 kg m^2") in message
+    assert (f"{path}:{line_of(text, wheel[1])}: <link name='wheel'>: the central inertia of "
+            "its body is not positive semi-definite by 1e-08 kg m^2") in message
+    assert "replaced by the nearest inertia of a solid" in message
+    values = {str(s): v for s, v in definition.constants.items()}
+    wheel_inertia = np.array([[values[f"I{a}{b}_wheel" if f"I{a}{b}_wheel" in values
+                                      else f"I{b}{a}_wheel"] for b in "xyz"] for a in "xyz"])
+    moments = np.linalg.eigvalsh(wheel_inertia)
+    assert moments == pytest.approx([0.0, 0.002, 0.00200001], abs=1e-15)
+    worst_a, worst_m = compare_with_pinocchio(definition, pin.buildModelFromUrdf(str(path)))
+    assert worst_a < 1e-7 and worst_m < 2e-8, (worst_a, worst_m)  # the 1e-8 changed
+
+
+# Robots of example-robot-data that Pinocchio loads and whose files hold inertias that
+# are not positive semi-definite by round-off: the head of iCub (+-2.4e-35 kg m^2) and
+# others, Tiago's antennas (eigenvalue -3.5e-8 on 1e-6 kg); with the bound on the
+# accelerations (Tiago's mass matrix has a condition number of 4.6e6: solving
+# kanedyn's M with Pinocchio's forces gives the same difference)
+ROUND_OFF = {
+    "icub_reduced": ("icub_description/robots/icub_reduced.urdf", "head", 1e-10),
+    "tiago_no_hand": ("tiago_description/robots/tiago_no_hand.urdf",
+                      "base_antenna_left_link", 1e-9),
+}
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("robot", sorted(ROUND_OFF))
+def test_robots_with_round_off_inertias_match_pinocchio(robot):
+    relative, link, bound = ROUND_OFF[robot]
+    path = robots_folder() / relative
+    with pytest.warns(UserWarning, match=rf"round-off only(.|\n)*{path}:\d+: <link "
+                      rf"name='{link}'>: inertia is not positive semi-definite"):
+        definition = kd.models.from_urdf(path)
+    pmodel = pin.buildModelFromUrdf(str(path))
+    assert len(definition.joints) == pmodel.nv
+    worst_a, worst_m = compare_with_pinocchio(definition, pmodel)
+    assert worst_a < bound and worst_m < 1e-12, (worst_a, worst_m)
+
+
 # -- bad files: file, element and line named --------------------------------------
 
 def line_of(text, needle):
@@ -372,6 +447,21 @@ BAD = [
      'rpy="0.1 0.2"', "needs 3 numbers"),
     ("massless leaf", '<mass value="0.3"/>', '<mass value="0"/>', "<joint name='spin'>",
      'name="spin"', "moves only massless links"),
+    ("number out of range", '<mass value="2.0"/>', '<mass value="1e999"/>',
+     "<link name='arm'>", '<mass value="1e999"/>',
+     "<mass value='1e999'>: '1e999' is beyond the range of floating point"),
+    ("inertia out of range", 'ixx="0.05" ixy="0.001" ixz="-0.002" iyy="0.04"',
+     'ixx="1e308" ixy="1e308" ixz="-0.002" iyy="1e308"',
+     "<link name='arm'>", 'ixx="1e308"', "inertia beyond the range of floating point "
+     "(principal moments"),
+    ("triangle inequality", 'ixx="0.001" ixy="0" ixz="0" iyy="0.002"',
+     'ixx="0.001" ixy="0" ixz="0" iyy="0.007"', "<link name='wheel'>", 'iyy="0.007"',
+     "the central inertia of its body violates the triangle inequality I1 + I2 >= I3 by "
+     "0.005 kg m^2 (principal moments 0.001, 0.001, 0.007 kg m^2): more than round-off, "
+     "which is up to 1e-06 kg m^2 (1e-06 of the largest principal moment"),
+    ("indefinite beyond round-off", 'ixx="0.001" ixy="0" ixz="0" iyy="0.002"',
+     'ixx="0.001" ixy="0" ixz="0.0010011" iyy="0.002"', "<link name='wheel'>",
+     'ixz="0.0010011"', "inertia is not positive semi-definite by 1.1e-06 kg m^2"),
 ]
 
 
@@ -516,6 +606,73 @@ def test_robot_shapes_one_per_moving_link(robot):
     skipped = [n for n in notes if n.startswith("skipped")]
     assert len(skipped) == 1 and "fixed to the ground" in skipped[0]
     assert "'base_link'" in skipped[0] or "'panda_link0'" in skipped[0]
+
+
+def _mesh_robot(path, filenames):
+    """One moving link 'arm' with a visual mesh per file name; the lines of the visuals."""
+    visuals = "".join(f'    <visual><geometry><mesh filename="{name}"/></geometry></visual>\n'
+                      for name in filenames)
+    text = f"""<robot name="r">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><mass value="1"/><inertia ixx="1" ixy="0" ixz="0" iyy="1" iyz="0" izz="1"/>
+    </inertial>
+{visuals}  </link>
+  <joint name="j" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 0 1"/></joint>
+</robot>
+"""
+    path.write_text(text)
+    return {name: line_of(text, f'filename="{name}"') for name in filenames}
+
+
+def test_meshes_outside_the_allowed_folders_are_not_read(tmp_path):
+    """A URDF file names meshes by '..', an absolute path, a file:// URI, a symbolic
+    link and a package:// URI that climbs out of its package: none is read (so none
+    reaches the viewer's page) unless the user names a folder that holds it."""
+    secret = tmp_path / "secret.obj"  # another file of the user's
+    secret.write_text("v 0 0 0\nv 7 0 0\nv 7 7 0\nf 1 2 3\n")
+    robot = tmp_path / "robot"
+    (robot / "meshes").mkdir(parents=True)
+    (robot / "pkgs" / "pkg").mkdir(parents=True)
+    (robot / "meshes" / "ok.obj").write_text(secret.read_text())
+    (robot / "link.obj").symlink_to(secret)
+    outside = ["../secret.obj", str(secret), f"file://{secret}", "link.obj",
+               "package://pkg/../../../secret.obj"]
+    path = robot / "r.urdf"
+    lines = _mesh_robot(path, ["meshes/ok.obj", *outside])
+    definition = kd.models.from_urdf(path, package_dirs=[robot / "pkgs"])
+    by_name = {v.filename: v for v in definition.visuals}
+    assert by_name["meshes/ok.obj"].mesh_file() == str(robot / "meshes" / "ok.obj")
+    for name in outside:
+        vis = by_name[name]
+        assert vis.path is None and f"{secret} is outside the folders" in vis.refused
+        with pytest.raises(URDFError, match=rf"r\.urdf:{lines[name]}: mesh '{re.escape(name)}' "
+                           r"of link 'arm' is not read: .* give mesh_dirs="):
+            vis.mesh_file()
+    with pytest.warns(UserWarning, match=r"5 visual\(s\) not drawn") as record:
+        shapes = definition.shapes()
+    assert [s.path for s in shapes] == [robot / "meshes" / "ok.obj"]
+    assert str(record[0].message).count("not read: ") == 5
+
+    allowed = kd.models.from_urdf(path, package_dirs=[robot / "pkgs"], mesh_dirs=[tmp_path])
+    assert {v.filename for v in allowed.visuals if v.path == str(secret)} == set(outside)
+
+
+def test_package_uri_found_in_the_ros_package_above_the_urdf(tmp_path):
+    """package://PKG/... is looked for in a folder PKG above the URDF only when that
+    folder is a ROS package (holds a package.xml)."""
+    urdf = tmp_path / "mypkg" / "urdf"
+    (tmp_path / "mypkg" / "meshes").mkdir(parents=True)
+    urdf.mkdir()
+    (tmp_path / "mypkg" / "meshes" / "arm.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    path = urdf / "r.urdf"
+    _mesh_robot(path, ["package://mypkg/meshes/arm.obj"])
+    (vis,) = kd.models.from_urdf(path).visuals
+    assert vis.path is None and vis.refused == ""  # not a package: not looked in
+    (tmp_path / "mypkg" / "package.xml").write_text("<package/>")
+    (vis,) = kd.models.from_urdf(path).visuals
+    assert vis.mesh_file() == str(tmp_path / "mypkg" / "meshes" / "arm.obj")
 
 
 def test_built_in_model_shapes():

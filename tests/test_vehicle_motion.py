@@ -14,16 +14,16 @@ from kanedyn.modeling.vehicle._filters import cfc_coefficients
 # ------------------------------------------------------------------ pulses
 def test_half_sine_48kmh_reference():
     # REFERENCES.md: 48 km/h in 100 ms as a half-sine has a peak of 21.36 g
-    p = kd.pulse_from_delta_v(48 / 3.6, 0.1)
+    p = kd.vehicle.pulse_from_delta_v(48 / 3.6, 0.1)
     assert p.peak_g == pytest.approx(21.36, abs=0.005)
     assert p.delta_v == pytest.approx(48 / 3.6, rel=1e-12)
 
 
 @pytest.mark.parametrize("pulse, dv, peak", [
-    (kd.HalfSinePulse(20, 0.08), 2 * 20 * G0 * 0.08 / np.pi, 20),
-    (kd.HaversinePulse(30, 0.1), 30 * G0 * 0.1 / 2, 30),
-    (kd.TrapezoidPulse(25, 0.01, 0.04, 0.03), 25 * G0 * (0.005 + 0.04 + 0.015), 25),
-    (kd.pulse_from_delta_v(10.0, 0.12, "haversine"), 10.0, 2 * 10 / 0.12 / G0),
+    (kd.vehicle.HalfSinePulse(20, 0.08), 2 * 20 * G0 * 0.08 / np.pi, 20),
+    (kd.vehicle.HaversinePulse(30, 0.1), 30 * G0 * 0.1 / 2, 30),
+    (kd.vehicle.TrapezoidPulse(25, 0.01, 0.04, 0.03), 25 * G0 * (0.005 + 0.04 + 0.015), 25),
+    (kd.vehicle.pulse_from_delta_v(10.0, 0.12, "haversine"), 10.0, 2 * 10 / 0.12 / G0),
 ])
 def test_pulse_delta_v_peak_and_displacement(pulse, dv, peak):
     assert pulse.delta_v == pytest.approx(dv, rel=1e-12)
@@ -39,9 +39,9 @@ def test_pulse_delta_v_peak_and_displacement(pulse, dv, peak):
 
 def test_bad_pulse_parameters_are_named():
     with pytest.raises(ModelError, match="duration"):
-        kd.HalfSinePulse(20, -0.1)
+        kd.vehicle.HalfSinePulse(20, -0.1)
     with pytest.raises(ModelError, match="shape"):
-        kd.pulse_from_delta_v(10, 0.1, "square")
+        kd.vehicle.pulse_from_delta_v(10, 0.1, "square")
 
 
 # ------------------------------------------------------------------ records
@@ -54,7 +54,7 @@ def _sampled(pulse, path, direction=np.array([-1.0, 0, 0]), rate=None, dt=1e-4, 
 
 
 def test_csv_round_trip_reproduces_delta_v(tmp_path):
-    p = kd.HalfSinePulse(20, 0.1)
+    p = kd.vehicle.HalfSinePulse(20, 0.1)
     path = tmp_path / "halfsine.csv"
     _sampled(p, path)
     m = kd.VehicleMotion.from_csv(path)
@@ -66,10 +66,10 @@ def test_csv_round_trip_reproduces_delta_v(tmp_path):
 
 
 def test_example_pulses_are_as_described():
-    front = kd.VehicleMotion.from_csv(kd.example_pulse("frontal-48kmh"))
+    front = kd.VehicleMotion.from_csv(kd.vehicle.example_pulse("frontal-48kmh"))
     assert front.velocity_change()[0] == pytest.approx(-48 / 3.6, rel=1e-6)
     assert 30 < front.peak_acceleration() / G0 < 40
-    series = kd.read_pulse_csv(kd.example_pulse("oblique-30deg"))
+    series = kd.vehicle.read_pulse_csv(kd.vehicle.example_pulse("oblique-30deg"))
     assert series.rate_columns == ("wx", "wy", "wz")
     assert np.max(series.angular_rate[:, 2]) == pytest.approx(0.5, rel=1e-12)
 
@@ -99,7 +99,7 @@ GOOD = "t [s],ax [g],ay [g],az [g]\n" + "".join(
 def test_bad_csv_names_file_and_column(tmp_path, text, column, what):
     path = _write(tmp_path / "bad_pulse.csv", text)
     with pytest.raises(ModelError) as err:
-        kd.read_pulse_csv(path)
+        kd.vehicle.read_pulse_csv(path)
     msg = str(err.value)
     assert "bad_pulse.csv" in msg and what in msg
     assert f"'{column}'" in msg or not column
@@ -111,14 +111,63 @@ def test_csv_not_utf8_is_named(tmp_path, encoding):
     path = tmp_path / "bad_pulse.csv"
     path.write_text(GOOD.replace("ax [g]", "ax [m/s\u00b2]"), encoding=encoding)
     with pytest.raises(ModelError, match=r"bad_pulse\.csv: not UTF-8 text \(byte 0x"):
-        kd.read_pulse_csv(path)
+        kd.vehicle.read_pulse_csv(path)
+
+
+def test_byte_order_mark_of_a_spreadsheet_is_skipped(tmp_path):
+    """Spreadsheet programs save "CSV UTF-8" with a byte-order mark before the header."""
+    path = tmp_path / "excel.csv"
+    path.write_text(GOOD, encoding="utf-8-sig")
+    assert path.read_bytes().startswith(b"\xef\xbb\xbf")
+    series = kd.vehicle.read_pulse_csv(path)
+    plain = kd.vehicle.read_pulse_csv(_write(tmp_path / "plain.csv", GOOD))
+    np.testing.assert_array_equal(series.t, plain.t)
+    np.testing.assert_array_equal(series.acceleration, plain.acceleration)
+
+
+def test_huge_cell_is_named_with_its_line(tmp_path):
+    """A cell over the csv module's field limit (131,072 characters)."""
+    lines = GOOD.splitlines()
+    lines.insert(3, '"' + "9" * 140_000 + '",0,0,0')
+    path = _write(tmp_path / "huge.csv", "\n".join(lines) + "\n")
+    with pytest.raises(ModelError, match=r"huge\.csv: line 4: a cell longer than 131072 "
+                                         "characters"):
+        kd.vehicle.read_pulse_csv(path)
+
+
+def _half_sine_text(time_unit, scale, dt=1e-4, duration=0.1, peak_g=20.0):
+    """A half-sine pulse sampled every ``dt`` s, times written in s * ``scale``."""
+    t = np.arange(round(duration / dt) + 1) * dt
+    a = -peak_g * np.sin(np.pi * t / duration)
+    return f"t [{time_unit}],ax [g],ay [g],az [g]\n" + "".join(
+        f"{float(ti * scale)!r},{float(ai)!r},0,0\n" for ti, ai in zip(t, a))
+
+
+def test_times_in_milliseconds_labelled_seconds_are_warned_of(tmp_path):
+    """A 49 ms pulse written in ms under 't [s]' lasts 49 s: its speed change, 1000
+    times the real one, is far above any vehicle test's; the same record labelled
+    correctly, and the example pulses, give no warning."""
+    wrong = _write(tmp_path / "wrong.csv", _half_sine_text("s", 1e3, duration=0.049))
+    with pytest.warns(UserWarning, match=r"wrong\.csv: the accelerations imply a speed "
+                      r"change of 6\d{3} m/s .* over 49 s, above 100 m/s; if the times are "
+                      r"in milliseconds, write 't \[ms\]' \(the speed change is then 6\.\d+"):
+        series = kd.vehicle.read_pulse_csv(wrong)
+    assert series.t[-1] == pytest.approx(49.0)  # read as written, only warned of
+    import warnings
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        for text in (_half_sine_text("ms", 1e3, duration=0.049),  # 6.1 m/s
+                     _half_sine_text("s", 1.0, duration=0.15, peak_g=45)):  # 42 m/s
+            kd.vehicle.read_pulse_csv(_write(tmp_path / "right.csv", text))
+        for name in ("frontal-48kmh", "oblique-30deg"):
+            kd.vehicle.read_pulse_csv(kd.vehicle.example_pulse(name))
 
 
 def test_absent_rates_mean_no_rotation_and_partial_rates_are_read(tmp_path):
-    series = kd.read_pulse_csv(_write(tmp_path / "a.csv", GOOD))
+    series = kd.vehicle.read_pulse_csv(_write(tmp_path / "a.csv", GOOD))
     assert series.rate_columns == () and not np.any(series.angular_rate)
     text = GOOD.replace("az [g]\n", "az [g],wz [deg/s]\n").replace(",0,0\n", ",0,0,90\n")
-    series = kd.read_pulse_csv(_write(tmp_path / "b.csv", text))
+    series = kd.vehicle.read_pulse_csv(_write(tmp_path / "b.csv", text))
     assert series.rate_columns == ("wz",)
     assert np.allclose(series.angular_rate[:, 2], np.pi / 2)
 
@@ -147,25 +196,25 @@ def test_cfc_filter_is_phaseless_and_keeps_constants():
     dt = 1e-4
     t = np.arange(0, 0.4, dt)
     x = np.sin(2 * np.pi * 20 * t) * np.exp(-((t - 0.2) / 0.05) ** 2)
-    y = kd.cfc_filter(x, dt, "CFC180")
+    y = kd.vehicle.cfc_filter(x, dt, "CFC180")
     # symmetric input about 0.2 s stays symmetric (no phase lag): peak time unchanged
     assert abs(np.argmax(y) - np.argmax(x)) <= 1
     # a time-reversed record gives the time-reversed result (up to the start-up
     # transients of the two passes, 1e-9 of the amplitude for this record)
-    assert np.allclose(kd.cfc_filter(x[::-1], dt, 180)[::-1], y, atol=1e-8)
+    assert np.allclose(kd.vehicle.cfc_filter(x[::-1], dt, 180)[::-1], y, atol=1e-8)
     # and a one-pass filter would not: it lags by about a millisecond
     from scipy.signal import lfilter
     one = lfilter(*cfc_coefficients(180, dt), x)
     assert np.argmax(one) - np.argmax(x) >= 5
-    assert np.allclose(kd.cfc_filter(np.full(500, 3.0), dt, 60), 3.0, atol=1e-12)
+    assert np.allclose(kd.vehicle.cfc_filter(np.full(500, 3.0), dt, 60), 3.0, atol=1e-12)
     with pytest.raises(ModelError, match="CFC60"):
-        kd.cfc_filter(x, 1 / 300, 60)
+        kd.vehicle.cfc_filter(x, 1 / 300, 60)
     with pytest.raises(ModelError, match="CFC90"):
-        kd.cfc_filter(x, dt, "CFC90")
+        kd.vehicle.cfc_filter(x, dt, "CFC90")
 
 
 def test_filtered_example_removes_ringing_keeps_delta_v():
-    path = kd.example_pulse("frontal-48kmh")
+    path = kd.vehicle.example_pulse("frontal-48kmh")
     raw = kd.VehicleMotion.from_csv(path)
     filtered = kd.VehicleMotion.from_csv(path, filter="CFC60")
     assert filtered.peak_acceleration() < raw.peak_acceleration()
@@ -174,7 +223,7 @@ def test_filtered_example_removes_ringing_keeps_delta_v():
 
 # ------------------------------------------------------------------ the moving frame
 def test_point_fixed_in_vehicle_follows_the_pulse():
-    p = kd.HalfSinePulse(20, 0.1)
+    p = kd.vehicle.HalfSinePulse(20, 0.1)
     motion = kd.VehicleMotion.from_pulse(p, direction=30, roll_rate=2.0)
     N, O = ReferenceFrame("N"), Point("O")
     V, VO = motion.moving_frame(N, O)
@@ -198,12 +247,12 @@ def test_point_fixed_in_vehicle_follows_the_pulse():
 
 
 def test_record_with_yaw_rate_gives_the_records_angular_velocity():
-    motion = kd.VehicleMotion.from_csv(kd.example_pulse("oblique-30deg"))
+    motion = kd.VehicleMotion.from_csv(kd.vehicle.example_pulse("oblique-30deg"))
     N, O = ReferenceFrame("N"), Point("O")
     V, _ = motion.moving_frame(N, O)
     values = motion.specified()
     w = V.ang_vel_in(N).to_matrix(V)
-    series = kd.read_pulse_csv(kd.example_pulse("oblique-30deg"))
+    series = kd.vehicle.read_pulse_csv(kd.vehicle.example_pulse("oblique-30deg"))
     for k in (200, 900, 1500):
         tk = series.t[k]
         subs = {key: f(tk) for key, f in values.items()}
@@ -228,7 +277,7 @@ def _pendulum(motion, g=9.81):
 
 @pytest.mark.slow
 def test_pendulum_driven_by_pulse_and_by_its_csv_agree(tmp_path):
-    p = kd.HalfSinePulse(5, 0.1)
+    p = kd.vehicle.HalfSinePulse(5, 0.1)
     path = tmp_path / "p.csv"
     _sampled(p, path, end=0.2)
     results = []
@@ -255,7 +304,7 @@ def test_pendulum_driven_by_pulse_and_by_its_csv_agree(tmp_path):
 
 
 def test_specified_needs_the_frame_and_exact_needs_a_pulse(tmp_path):
-    motion = kd.VehicleMotion.from_csv(kd.example_pulse("frontal-48kmh"))
+    motion = kd.VehicleMotion.from_csv(kd.vehicle.example_pulse("frontal-48kmh"))
     with pytest.raises(ModelError, match="moving_frame"):
         motion.specified()
     motion.moving_frame(ReferenceFrame("N"), Point("O"))

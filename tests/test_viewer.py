@@ -38,8 +38,9 @@ def _run(name, t_end, points=101, **options):
     return definition, res
 
 
-def _compound_pendulum(a=0.3, b=0.1, c=0.05, m=2.0, l=0.8):
-    """A rigid body on a pivot about N.z; its inertia is a solid ellipsoid's (a, b, c)."""
+def _compound_pendulum(a=0.3, b=0.1, c=0.05, m=2.0, l=0.8, name="rod", centre="G"):
+    """A rigid body on a pivot about N.z; its inertia is a solid ellipsoid's (a, b, c);
+    ``name`` of the body, ``centre`` of its mass centre."""
     q, u = me.dynamicsymbols("q u")
     g = sm.symbols("g")
     N, A = me.ReferenceFrame("N"), me.ReferenceFrame("A")
@@ -47,11 +48,11 @@ def _compound_pendulum(a=0.3, b=0.1, c=0.05, m=2.0, l=0.8):
     A.set_ang_vel(N, u * N.z)
     O = me.Point("O")
     O.set_vel(N, 0)
-    G = O.locatenew("G", -l / 2 * A.y)
+    G = O.locatenew(centre, -l / 2 * A.y)
     G.v2pt_theory(O, N, A)
     inertia = me.inertia(A, m * (b**2 + c**2) / 5, m * (a**2 + c**2) / 5,
                          m * (a**2 + b**2) / 5)
-    body = me.RigidBody("rod", G, A, m, (inertia, G))
+    body = me.RigidBody(name, G, A, m, (inertia, G))
     eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u], bodies=[body],
                   loads=[(G, -m * g * N.y)])
     model = eom.numeric(constants={g: 9.81})
@@ -189,6 +190,32 @@ def test_page_is_self_contained(tmp_path):
         res.animate(tmp_path / "run.png")
 
 
+#: a body name, a point name and a title that end the scene's <script> early (the
+#: first broke the page silently), or would run script if put into HTML as markup
+HOSTILE = ("<!--<script>", "</script><script>window.kdRan=1</script>&amp;<!--",
+           '<img src=x onerror="window.kdRan=2">&amp; \u2028')
+
+
+def _hostile_page(tmp_path):
+    """A compound pendulum whose body and traced point bear hostile names."""
+    res, _, G, _, _ = _compound_pendulum(name=HOSTILE[0], centre=HOSTILE[1])
+    return res.animate(tmp_path / "hostile.html", trace=[G], title=HOSTILE[2])
+
+
+def test_names_cannot_break_out_of_the_scene_script(tmp_path):
+    """The scene's JSON holds no '<', '>' or '&' (nor U+2028/9), so no name can end
+    its <script> element or start a comment in it, and it reads back unchanged."""
+    html = _hostile_page(tmp_path).read_text(encoding="utf-8")
+    start = html.index('<script id="kd-scene" type="application/json">')
+    data = html[start:].split(">", 1)[1].split("</script>", 1)[0]
+    assert not any(c in data for c in "<>&\u2028\u2029")
+    import json
+    scene = json.loads(data)
+    assert scene["bodies"][0]["name"] == HOSTILE[0]
+    assert scene["traces"][0]["name"] == HOSTILE[1] and scene["title"] == HOSTILE[2]
+    assert "<title>&lt;img src=x onerror=&quot;window.kdRan=2&quot;&gt;&amp;amp;" in html
+
+
 def test_cli_run_animate(tmp_path):
     out = tmp_path / "out"
     assert main(["run", "pendulum", "--t-end", "1", "--points", "21", "--quiet",
@@ -223,8 +250,9 @@ def test_inputs_the_positions_need_beyond_the_equations(tmp_path):
 
 
 # ------------------------------------------------------------- in Chromium
-def _browser_pages(paths, times):
-    """Load each page from file:// in headless Chromium; screenshots at ``times``."""
+def _browser_pages(paths, times, probe=None):
+    """Load each page from file:// in headless Chromium; screenshots at ``times``
+    (and the value of the JavaScript expression ``probe``, when given)."""
     sync_api = pytest.importorskip("playwright.sync_api",
                                    reason="the browser test needs playwright (the test extra)")
     out = []
@@ -246,7 +274,8 @@ def _browser_pages(paths, times):
                 for t in times:
                     page.evaluate(f"window.kanedynScene.setTime({t})")
                     shots.append(page.screenshot())
-                out.append((errors, counts, shots))
+                out.append((errors, counts, shots) if probe is None
+                           else (errors, counts, shots, page.evaluate(probe)))
                 page.close()
         finally:
             browser.close()
@@ -288,3 +317,24 @@ def test_pages_in_headless_chromium(tmp_path):
     assert changed.mean() < 0.2  # ... and only they: the view itself stayed
     rows, cols = np.nonzero(changed)
     assert np.ptp(cols) > 50  # the bob swung sideways across the picture
+
+
+@pytest.mark.slow
+@pytest.mark.skipif(CHROMIUM is None, reason="no chromium executable found (Debian: "
+                    "apt-get install chromium); the page is not tested in a browser")
+def test_hostile_names_shown_as_text_in_chromium(tmp_path):
+    """The page of a body named '<!--<script>' (which used to stay blank) loads,
+    shows each name as text, and runs no script from them."""
+    page = _hostile_page(tmp_path)
+    ((errors, counts, _, probe),) = _browser_pages([page], times=[0.0], probe="""({
+        ran: window.kdRan === undefined ? null : window.kdRan,
+        legend: [...document.querySelectorAll('#legend > div')].map((d) => d.textContent),
+        title: document.getElementById('title').textContent,
+        documentTitle: document.title,
+        images: document.images.length})""")
+    assert errors == []
+    assert (counts["bodies"], counts["traces"]) == (1, 1)
+    assert probe == {"ran": None, "legend": [f"{HOSTILE[0]} (default shape)",
+                                             f"path of {HOSTILE[1]}"],
+                     "title": HOSTILE[2], "documentTitle": HOSTILE[2],
+                     "images": 0}

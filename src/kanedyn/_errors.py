@@ -4,6 +4,8 @@ Every error names the symbol, body, point or file at fault, so that a user can
 find the offending line of their model without a debugger.
 """
 
+import signal
+
 __all__ = [
     "KanedynError",
     "ModelError",
@@ -48,12 +50,15 @@ INTERRUPTED = "interrupted"
 
 
 class SimulationInterrupted(KeyboardInterrupt):
-    """Ctrl-C during a simulation; carries what was computed up to then.
+    """Ctrl-C (or SIGTERM) during a simulation; carries what was computed up to then.
 
     Attributes
     ----------
     result : SimulationResult
-        The partial result (``success=False``, ``message="interrupted"``).
+        The partial result (``success=False``, ``message="interrupted"``), or
+        the complete one when the signal came after the last step.
+    signum : int
+        The signal (``signal.SIGINT`` for Ctrl-C, ``signal.SIGTERM``).
 
     Examples
     --------
@@ -63,9 +68,10 @@ class SimulationInterrupted(KeyboardInterrupt):
     ...     res = stop.result                  # everything up to the interruption
     """
 
-    def __init__(self, result):
+    def __init__(self, result, signum=None):
         super().__init__(INTERRUPTED)
         self.result = result
+        self.signum = signal.SIGINT if signum is None else signum
 
 
 class SingularConfigurationWarning(RuntimeWarning):

@@ -46,7 +46,9 @@ _RESETS, _STARTS = [], []  # hooks in a child: locks made anew, then threads sta
 
 
 class FileLock:
-    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere)."""
+    """Exclusive advisory lock on a file (POSIX ``flock``; a no-op elsewhere),
+    created with mode 0600; a symbolic link in its place is not followed (an
+    :class:`OSError`)."""
 
     def __init__(self, path):
         self.path = path
@@ -54,7 +56,7 @@ class FileLock:
 
     def __enter__(self):
         with _GUARD:
-            self.handle = open(self.path, "a+")  # noqa: SIM115
+            self.handle = open(self.path, "a+", opener=_private_no_link)  # noqa: SIM115
             _HELD.add(self.handle)
         try:
             import fcntl
@@ -70,6 +72,10 @@ class FileLock:
         with _GUARD:
             _HELD.discard(self.handle)
             self.handle.close()  # closing releases the lock
+
+
+def _private_no_link(path, flags):
+    return os.open(path, flags | getattr(os, "O_NOFOLLOW", 0), 0o600)
 
 
 def spawn(command, **options):

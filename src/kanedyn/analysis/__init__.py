@@ -4,7 +4,7 @@
 ``_compare``       formulations side by side; work-precision
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
-``_studies``       the study registry (``kd.run_study``, ``kanedyn study``)
+``_studies``       the study registry (``kd.studies.run_study``, ``kanedyn study``)
 ``_oc3_studies``   studies of the oc3-spar model
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning

@@ -202,7 +202,7 @@ def plot_mode_shapes(member, modes=None, *, kind="natural", path=None):
     Parameters
     ----------
     member : ReducedMember
-        The reduced member (``kd.BeamMember(...).craig_bampton(...)`` etc.).
+        The reduced member (``kd.flexible.BeamMember(...).craig_bampton(...)`` etc.).
     modes : int, str or sequence, optional
         The modes to draw, numbered from 1 as in ``member.report()``
         (``kind="coordinates"`` also takes names from ``member.mode_names``);

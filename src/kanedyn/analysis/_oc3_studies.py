@@ -11,8 +11,8 @@ finite-element stiffness at the clamped base node per unit modal coordinate.
 The linear models come from ``model.linearize`` at the static equilibrium
 (:func:`kanedyn.models.oc3_settle`).  The wave input of the linear model is the
 phasor of the Morison strips' fluid velocities and accelerations for a wave of
-unit amplitude (the same :class:`~kanedyn.MorisonCylinder` strips, rebuilt
-with an :class:`~kanedyn.AiryWave`); quadratic drag has no linear part at rest,
+unit amplitude (the same :class:`~kanedyn.offshore.MorisonCylinder` strips, rebuilt
+with an :class:`~kanedyn.offshore.AiryWave`); quadratic drag has no linear part at rest,
 so the linear RAO carries no drag damping.
 """
 

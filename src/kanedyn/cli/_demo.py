@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from .._progress import Progress
 from ..models import build
-from ._options import positive_float
+from ._options import check_output_dir, positive_float
 
 __all__ = ["add_parser", "cmd_demo"]
 
@@ -23,13 +22,13 @@ def add_parser(sub):
 
 
 def cmd_demo(args):
-    import numpy as np
     """Derive the Whipple bicycle, map its stability against speed, ride it."""
+    import numpy as np
+
     from ..analysis import PUBLISHED_STABLE_SPEEDS, plot_bicycle_eigenvalues, pyplot
     from ..models import eigenvalues_vs_speed, stability_speeds, upright_state
 
-    out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
     definition = build("whipple-bicycle")
     progress.stage("deriving the nonlinear Whipple bicycle (Kane's method)")

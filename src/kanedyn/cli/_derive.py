@@ -3,12 +3,11 @@
 from __future__ import annotations
 
 import time
-from pathlib import Path
 
 from .._errors import KanedynError
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import check_output_dir, parse_sets
+from ._options import check_output_file, parse_sets
 
 __all__ = ["add_parser", "cmd_derive"]
 
@@ -46,7 +45,7 @@ def cmd_derive(args):
                            f"(got {', '.join(values)})")
     definition = build(args.model, **options)  # checks the options
     if args.c is not None:
-        check_output_dir(Path(args.c).parent, option=f"--c {args.c}:")
+        check_output_file(args.c, "--c")
     progress = Progress(enabled=not args.quiet)
     t0 = time.perf_counter()
     eom = definition.derive(progress=progress)

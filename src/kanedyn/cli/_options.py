@@ -21,7 +21,7 @@ from ..models import REGISTRY
 
 __all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument",
            "numeric_model", "positive_float", "point_count", "integrator_name",
-           "check_output_dir"]
+           "check_output_dir", "check_output_file"]
 
 #: numerical backends the commands offer (``--backend``)
 BACKENDS = ("auto", "numpy", "c")
@@ -125,6 +125,22 @@ def check_output_dir(path, option="--out"):
         raise KanedynError(f"{option} {path}: cannot write there ({reason})") from None
     if not os.access(path, os.W_OK):
         raise KanedynError(f"{option} {path}: the folder is not writable")
+    return path
+
+
+def check_output_file(path, option):
+    """Check that the file ``path`` can be written: not a folder, in a folder that
+    :func:`check_output_dir` accepts (created if need be).
+
+    Raises
+    ------
+    KanedynError
+        Naming ``option`` and the path.
+    """
+    path = Path(path)
+    if path.is_dir():
+        raise KanedynError(f"{option} {path}: is a folder; give the name of a file")
+    check_output_dir(path.parent, option=f"{option} {path}:")
     return path
 
 

@@ -1,17 +1,27 @@
-"""``kanedyn run``: derive, simulate, write CSV, plots and a summary."""
+"""``kanedyn run``: derive, simulate, write CSV, plots and a summary.
+
+Ctrl-C or SIGTERM during the simulation ends it with what it computed, which is
+written as for a finished run; the exit status is then 128 + the signal's number
+(130, 143).  The data (CSV and summary) is written first and always completed;
+a signal while it is written is held.  Then the plot (and the page): a first
+signal is held until they are complete, a second (counting one that ended the
+simulation) stops them at once; a third stops anything at once.  Every
+file is written under a temporary name in the output folder and renamed when
+complete, so that a file of the folder is never cut short (a full disk gives
+an error naming the file, and an earlier file of that name stays as it was).
+"""
 
 from __future__ import annotations
 
 import json
-import signal
+import os
 import sys
-import threading
-from contextlib import contextmanager
 from pathlib import Path
 
 
 from .._errors import KanedynError, SimulationInterrupted
 from .._progress import Progress
+from .._signals import Stopped, exit_status, holding, interruption
 from ..models import REGISTRY, build
 from ._options import (add_backend_argument, check_output_dir, integrator_name, numeric_model,
                        parse_sets, point_count, positive_float, split_values)
@@ -64,58 +74,91 @@ def cmd_run(args):
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end
     progress.stage(f"simulating 0..{t_end:g} s ({args.method}, rtol={args.rtol:g})")
+    stopped_by = None  # the signal that ended the simulation
     try:
         res = _simulate(model, t_end, y0, args, progress, bool(model.constraint_force_names))
-    except SimulationInterrupted as stop:  # Ctrl-C: write what was computed
+    except SimulationInterrupted as stop:  # Ctrl-C, SIGTERM: write what was computed
         progress.done()
-        res = stop.result
+        res, stopped_by = stop.result, stop.signum
     report = (definition.report(res, definition)  # of the output points: none, no report
               if definition.report is not None and res.t.size else None)
-    with _writing_first() as held:  # Ctrl-C now: the outputs are finished first
-        summary = _write_run(definition, eom, model, res, out, progress, report)
-        if args.animate:
-            page = res.animate(out / f"{definition.name}.html",
-                               visuals=definition.shapes(constants),
-                               title=f"{definition.name}: {definition.title}",
-                               inputs=definition.animation_inputs)
-            progress.stage(f"wrote {page}")
-    if held and res.message != "interrupted":
-        print("kanedyn: interrupted while writing the outputs; they were finished first",
-              file=sys.stderr)
-        return 130
+    writing, written = _Writing(stopped_by), []
+    try:
+        with holding(writing.on_signal):
+            summary = _write_run(definition, eom, model, res, out, progress, report, written,
+                                 writing.pictures)
+            if args.animate:
+                page = _written(out / f"{definition.name}.html", written,
+                                lambda part: res.animate(
+                                    part, visuals=definition.shapes(constants),
+                                    title=f"{definition.name}: {definition.title}",
+                                    inputs=definition.animation_inputs))
+                progress.stage(f"wrote {page}")
+    except Stopped as stop:  # signals while writing: the files completed stay
+        print(f"kanedyn: {interruption(stopped_by or stop.signum)}; stopped while writing "
+              f"the outputs, complete: {', '.join(written) or 'none'}", file=sys.stderr)
+        return exit_status(stopped_by or stop.signum)
+    if writing.first is not None and stopped_by is None:
+        print(f"kanedyn: {interruption(writing.first)} while writing the outputs; they were "
+              "finished first", file=sys.stderr)
+        return exit_status(writing.first)
     _print_summary(summary)
     if report is not None:
         print(f"{definition.name} report: {_report_text(report)}")
     _print_identified(model, res)
-    if res.message == "interrupted":
+    if stopped_by is not None:
         reached = (f"at t = {res.t[-1]:g} s" if res.t.size
                    else "before the first output time")
-        print(f"kanedyn: interrupted {reached}; wrote the partial result", file=sys.stderr)
-        return 130
+        print(f"kanedyn: {interruption(stopped_by)} {reached}; wrote the partial result",
+              file=sys.stderr)
+        return exit_status(stopped_by)
     return 0 if res.success else 1
 
 
-@contextmanager
-def _writing_first():
-    """Hold a first Ctrl-C until the block ends (a second one stops at once);
-    the list yielded is not empty when one came.  Only in the main thread with
-    Python's own SIGINT handler in place (a handler the user set is left)."""
-    held = []
-    if threading.current_thread() is not threading.main_thread() \
-            or signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
-        yield held
-        return
+class _Writing:
+    """Stop signals while the outputs are written (see the module's text).
 
-    def on_sigint(signum, frame):
-        if held:
-            raise KeyboardInterrupt
-        held.append(signum)
+    Attributes
+    ----------
+    first : int or None
+        The first signal, counting the one that ended the simulation.
+    """
 
-    signal.signal(signal.SIGINT, on_sigint)
+    def __init__(self, stopped_by):
+        self.first = stopped_by
+        self.count = 0 if stopped_by is None else 1
+        self._pictures = False
+
+    def on_signal(self, signum):
+        self.count += 1
+        self.first = self.first or signum
+        if self.count >= 3 or (self._pictures and self.count >= 2):
+            raise Stopped(signum)
+
+    def pictures(self):
+        """The data is written; now the pictures (stopped at once after two signals)."""
+        self._pictures = True
+        if self.count >= 2:
+            raise Stopped(self.first)
+
+
+def _written(path, written, write):
+    """``write(part)`` to a temporary name beside ``path``, then renamed to ``path``;
+    its name added to ``written``.  A write that fails (a full disk) or is stopped
+    leaves no file behind and ``path`` as it was; an ``OSError`` becomes an error
+    naming the file."""
+    part = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
     try:
-        yield held
-    finally:
-        signal.signal(signal.SIGINT, signal.default_int_handler)
+        write(part)
+        os.replace(part, path)
+    except OSError as exc:
+        part.unlink(missing_ok=True)
+        raise KanedynError(f"cannot write {path}: {exc.strerror or exc}") from None
+    except BaseException:
+        part.unlink(missing_ok=True)
+        raise
+    written.append(path.name)
+    return path
 
 
 def _pulse_option(args, options):
@@ -149,21 +192,34 @@ def _report_dict(report):
     return as_dict() if callable(as_dict) else {"text": _report_text(report)}
 
 
-def _write_run(definition, eom, model, res, out, progress, report=None):
-    out.mkdir(parents=True, exist_ok=True)
-    csv_path = res.to_csv(out / f"{definition.name}.csv")
-    fig = res.plot(path=out / f"{definition.name}.png")
-    import matplotlib.pyplot as plt
-    plt.close(fig)
+def _write_run(definition, eom, model, res, out, progress, report, written, pictures):
+    """CSV and summary, then the plot (``pictures()`` called between them); the names
+    of the files completed go into ``written``."""
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise KanedynError(f"cannot create the output folder {out}: "
+                           f"{exc.strerror or exc}") from None
+    csv_path = _written(out / f"{definition.name}.csv", written, res.to_csv)
     summary = res.summary()
     summary.update(model=definition.name, backend=model.backend, constants=model.constants,
                    initial_state=dict(zip(model.state_names,
                                           map(float, res.initial_state))))
     if report is not None:
         summary["report"] = _report_dict(report)
-    (out / "summary.json").write_text(json.dumps(summary, indent=2, default=float))
-    progress.stage(f"wrote {csv_path}, {out / (definition.name + '.png')}, "
-                   f"{out / 'summary.json'}")
+    text = json.dumps(summary, indent=2, default=float)
+    _written(out / "summary.json", written, lambda part: part.write_text(text))
+    pictures()
+    import matplotlib.pyplot as plt
+    figures = []
+    try:
+        _written(out / f"{definition.name}.png", written,
+                 lambda part: figures.append(res.plot(path=part)))
+    finally:
+        for fig in figures:
+            plt.close(fig)
+    progress.stage(f"wrote {csv_path}, {out / 'summary.json'}, "
+                   f"{out / (definition.name + '.png')}")
     return summary
 
 

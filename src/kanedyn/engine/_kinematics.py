@@ -129,6 +129,35 @@ def _close(a, b, tol=1e-9):
     return all(abs(x - y) <= tol * scale for x, y in zip(a, b))
 
 
+def _chain_origin(point):
+    """The point a chain of ``locatenew`` calls most likely starts from.
+
+    Each point's first stored position is to the point it was located from, and
+    an origin's to the first point located from it; following first positions
+    from ``point`` ends in that pair, origin last.
+    """
+    seen = []
+    while point not in seen:
+        seen.append(point)
+        point = next(iter(point._pos_dict))
+    return seen[-1]
+
+
+def _no_velocity_text(point, connected, N):
+    """Why the velocity of ``point`` cannot be found: no point of ``connected`` (the
+    points its positions lead to, ``point`` first) has one in ``N``."""
+    start = f"the velocity of point {point} in {N} cannot be found: "
+    if len(connected) == 1:
+        return (start + f"it has no velocity set in {N} and is located from no other "
+                f"point; call {point}.set_vel({N}, ...) or locate it (locatenew/set_pos) "
+                f"from a point whose velocity in {N} is known")
+    origin = _chain_origin(point)
+    shown = ", ".join(map(str, connected[:8])) + (", ..." if len(connected) > 8 else "")
+    return (start + f"no point of its chain of positions (set_pos/locatenew: {shown}) "
+            f"has a velocity in {N}; set the velocity of the one fixed in {N}, likely the "
+            f"chain's origin {origin}: {origin}.set_vel({N}, 0)")
+
+
 def _bfs_parents(start, neighbours):
     """Breadth-first search; returns {node: parent} over everything reachable."""
     parents = {start: None}
@@ -354,11 +383,7 @@ class Kinematics:
                     break
                 queue.append(nb)
         if target is None:
-            raise KinematicsError(
-                f"the velocity of point {point} in {N} cannot be found: it has no "
-                f"velocity set in {N} and no chain of positions (set_pos/locatenew) "
-                f"leads to a point whose velocity in {N} is known; call "
-                f"{point}.set_vel({N}, ...) or locate it relative to such a point")
+            raise KinematicsError(_no_velocity_text(point, list(parents), N))
         vel = self.velocity(target)
         node = target
         while node is not point:

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import base64
 import gzip
+import html
 import json
 from functools import lru_cache
 from importlib import resources
@@ -24,7 +25,7 @@ from pathlib import Path
 from .._errors import OptionError
 from ._viewer import DEFAULT_MAX_FRAMES, scene_data
 
-__all__ = ["animate", "page_html", "THREE_VERSION"]
+__all__ = ["animate", "page_html", "script_json", "THREE_VERSION"]
 
 THREE_VERSION = "0.187.0"
 _THREE_FILES = {"kd-three-core": "three.core.js", "kd-three": "three.module.js",
@@ -46,17 +47,30 @@ def _viewer_script():
     return resources.files("kanedyn.io").joinpath("_viewer.js").read_text(encoding="utf-8")
 
 
-def _escape(text):
-    """Text that cannot end its ``<script>`` element early."""
-    return text.replace("</", "<\\/")
+#: characters of JSON text written as ``\\uXXXX`` escapes inside the page's
+#: ``<script>``: no ``<`` (``</script>`` or ``<!--`` would end the element early or
+#: swallow the rest of the page), ``>`` and ``&`` (markup), and the line separators
+#: that end a line of JavaScript
+_SCRIPT_UNSAFE = {ord(c): f"\\u{ord(c):04x}" for c in "<>&\u2028\u2029"}
+
+
+def script_json(value):
+    """``value`` as JSON that can stand inside a ``<script>`` element as it is.
+
+    Names of bodies, points and files are the user's text; every character that
+    the HTML parser or JavaScript could read as more than a string is escaped,
+    and ``JSON.parse`` gives the text back unchanged.
+    """
+    return json.dumps(value, separators=(",", ":"), allow_nan=False).translate(
+        _SCRIPT_UNSAFE)
 
 
 def page_html(scene):
     """The complete page of a scene (:func:`kanedyn.io.scene_data`), as a string."""
     blobs = "\n".join(f'<script id="{key}" type="application/octet-stream">{value}</script>'
                       for key, value in _vendored().items())
-    data = _escape(json.dumps(scene, separators=(",", ":"), allow_nan=False))
-    title = (scene.get("title") or "kanedyn").replace("&", "&amp;").replace("<", "&lt;")
+    data = script_json(scene)
+    title = html.escape(scene.get("title") or "kanedyn")
     return f"""<!DOCTYPE html>
 <html lang="en">
 <head>

@@ -139,8 +139,15 @@ function build(THREE, OrbitControls, scene) {
     return mesh;
   }
 
-  // bodies
+  // bodies; names are the user's text: set as text, never parsed as HTML
   const legend = document.getElementById("legend");
+  function legendEntry(color, text) {
+    const entry = legend.appendChild(document.createElement("div"));
+    const swatch = entry.appendChild(document.createElement("span"));
+    swatch.className = "swatch";
+    swatch.style.background = color;
+    entry.appendChild(document.createTextNode(text));
+  }
   const bodyGroups = [];
   scene.bodies.forEach((b) => {
     const group = new THREE.Group();
@@ -160,8 +167,7 @@ function build(THREE, OrbitControls, scene) {
       vec(b.position, k, a, group.position);
       quat(b.quaternion, k, a, group.quaternion);
     });
-    legend.insertAdjacentHTML("beforeend", `<div><span class="swatch" style="background:${
-      b.color}"></span>${b.name.replace(/</g, "&lt;")}${b.default_shape ? " (default shape)" : ""}</div>`);
+    legendEntry(b.color, b.name + (b.default_shape ? " (default shape)" : ""));
   });
 
   // skeleton: the links between the points that locate the bodies
@@ -240,8 +246,7 @@ function build(THREE, OrbitControls, scene) {
     world.add(line);
     counts.traces += 1;
     updaters.push((k, a) => geometry.setDrawRange(0, k + 1));
-    legend.insertAdjacentHTML("beforeend", `<div><span class="swatch" style="background:${
-      tr.color}"></span>path of ${tr.name.replace(/</g, "&lt;")}</div>`);
+    legendEntry(tr.color, "path of " + tr.name);
   });
 
   function setFrame(t) {
@@ -314,8 +319,8 @@ function build(THREE, OrbitControls, scene) {
     (scene.up[i] > 0 ? "+" : "-") + c : null).find((c) => c) || "tilted";
   document.getElementById("scale").textContent =
     `grid ${gridLabel} m; up: ${upName}${follow ? "; the camera follows the model" : ""}`;
-  document.getElementById("notes").innerHTML = scene.notes.map(
-    (n) => `<div>${n.replace(/</g, "&lt;")}</div>`).join("");
+  const notes = document.getElementById("notes");
+  scene.notes.forEach((n) => { notes.appendChild(document.createElement("div")).textContent = n; });
   document.getElementById("title").textContent = scene.title;
 
   // camera: look along the inertial axis across which the least motion happens

@@ -46,6 +46,8 @@ _LAZY = {
     'body_parameters': '._physical',
     'body_values': '._physical',
     'check_declared_bodies': '._physical',
+    'inertia_violation': '._physical',
+    'principal_moments': '._physical',
     'ModelSpec': '._spec',
     'description_symbols': '._spec',
     'parse_model': '._spec',

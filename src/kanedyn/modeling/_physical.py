@@ -17,7 +17,8 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["check_declared_bodies", "body_parameters", "body_values", "BodyValues"]
+__all__ = ["check_declared_bodies", "body_parameters", "body_values", "BodyValues",
+           "principal_moments", "inertia_violation"]
 
 _RTOL = 1e-9  # relative tolerance of the symmetry and triangle checks
 
@@ -221,24 +222,75 @@ def _check_mass(name, kind, mass, declared=False, given=""):
                          "a mass or leave it out of bodies")
 
 
+def principal_moments(matrix):
+    """Principal moments of a 3 x 3 inertia matrix, ascending, shape (3,), kg m^2.
+
+    The matrix is symmetrized and scaled to a largest entry of 1 before its
+    eigenvalues are computed, so that entries near the largest float (1e308) do
+    not overflow; a moment beyond that range comes back as ``inf``.
+    """
+    matrix = np.asarray(matrix, dtype=float)
+    scale = float(np.max(np.abs(matrix)))
+    if scale == 0.0:
+        return np.zeros(3)
+    unit = matrix / scale
+    with np.errstate(over="ignore"):
+        return np.linalg.eigvalsh(0.5 * (unit + unit.T)) * scale
+
+
+def inertia_violation(moments):
+    """By how much principal moments break a solid's rules beyond round-off.
+
+    Parameters
+    ----------
+    moments : array_like, shape (3,)
+        Ascending principal moments (:func:`principal_moments`), kg m^2, finite.
+
+    Returns
+    -------
+    amount : float
+        kg m^2: minus the smallest moment when it is negative, else the amount by
+        which ``I3`` exceeds ``I1 + I2`` (checked only when all three are positive:
+        planar shorthand such as ``inertia(A, 0, 0, Izz)`` passes); 0.0 when
+        neither rule is broken by more than 1e-9 of the largest moment.
+    rule : str or None
+        ``"not positive semidefinite"``, ``"triangle inequality"`` or None.
+    """
+    moments = np.asarray(moments, dtype=float)
+    scale = float(np.max(np.abs(moments)))
+    if moments[0] < -_RTOL * scale:
+        return float(-moments[0]), "not positive semidefinite"
+    moments = np.where(np.abs(moments) <= _RTOL * scale, 0.0, moments)
+    with np.errstate(over="ignore"):  # I1 + I2 may pass 1e308: no violation then
+        if moments[0] > 0 and moments[0] + moments[1] < moments[2] * (1 - _RTOL):
+            return float(moments[2] - moments[0] - moments[1]), "triangle inequality"
+    return 0.0, None
+
+
 def _check_inertia(name, matrix, given=""):
     """Principal moments of a checked central inertia matrix."""
     scale = max(float(np.max(np.abs(matrix))), 1e-300)
     if not np.all(np.isfinite(matrix)):
         raise ModelError(f"rigid body {name!r}: its inertia has non-finite entries{given}")
-    if np.max(np.abs(matrix - matrix.T)) > _RTOL * scale:
+    with np.errstate(over="ignore"):
+        asymmetry = np.max(np.abs(matrix - matrix.T))
+    if asymmetry > _RTOL * scale:
         raise ModelError(f"rigid body {name!r}: its inertia dyadic is not symmetric "
                          f"({np.round(matrix, 6).tolist()}){given}")
-    moments = np.linalg.eigvalsh(0.5 * (matrix + matrix.T))
-    if moments[0] < -_RTOL * scale:
+    moments = principal_moments(matrix)
+    if not np.all(np.isfinite(moments)):
+        raise ModelError(f"rigid body {name!r}: its principal moments of inertia are "
+                         f"beyond the range of floating point (entries up to {scale:.6g} "
+                         f"kg m^2){given}")
+    _, rule = inertia_violation(moments)
+    if rule == "not positive semidefinite":
         raise ModelError(f"rigid body {name!r}: its central inertia is not positive "
                          f"semidefinite (principal moments {_fmt(moments)} kg m^2){given}")
-    moments = np.where(np.abs(moments) <= _RTOL * scale, 0.0, moments)
-    if moments[0] > 0 and moments[0] + moments[1] < moments[2] * (1 - _RTOL):
+    if rule is not None:
         raise ModelError(f"rigid body {name!r}: its principal moments of inertia "
                          f"{_fmt(moments)} kg m^2 violate the triangle inequality "
                          f"(I1 + I2 >= I3 for every solid){given}")
-    return moments
+    return np.where(np.abs(moments) <= _RTOL * scale, 0.0, moments)
 
 
 def _fmt(values):

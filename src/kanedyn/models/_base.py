@@ -291,15 +291,37 @@ def _sympy_version():
 
 def _cache_path(key, part="kdnum"):
     """The cache entry ``key``: ``kdnum`` the numerical model without its body
-    parameters (read with no SymPy), ``kdbody`` those (SymPy expressions)."""
-    from ..numerics import cache_dir
-    return cache_dir() / "derived" / f"{key}.{part}"
+    parameters (read with no SymPy), ``kdbody`` those (SymPy expressions); in
+    the cache directory this process trusts
+    (:func:`~kanedyn.numerics.backends.trusted_cache_dir`)."""
+    from ..numerics.backends import trusted_cache_dir
+    return trusted_cache_dir() / "derived" / f"{key}.{part}"
+
+
+def _load_entry(path):
+    """``load_data`` of the derivation-cache file ``path`` once it and its
+    folder are found to be this user's or root's and writable by no one else
+    (:mod:`kanedyn._trusted_files`; else a :class:`~kanedyn.io.SavedFileError`
+    naming the owner and mode: nothing another user wrote is decoded)."""
+    from .._trusted_files import UntrustedFile, open_trusted, untrusted_entry
+    from ..io import SavedFileError, load_data
+    try:
+        problem = untrusted_entry(path.parent)
+        if problem is None:
+            open_trusted(path).close()
+    except UntrustedFile as exc:
+        problem = str(exc)
+    except OSError:  # missing: load_data says so
+        problem = None
+    if problem is not None:
+        raise SavedFileError(f"{problem}: not read (the cache reads only files of this "
+                             "user or root that no one else can write)")
+    return load_data(path, format=CACHE_FORMAT)
 
 
 def _read_body_parameters(key):
     """The body parameters stored beside the cache entry ``key``."""
-    from ..io import load_data
-    return load_data(_cache_path(key, "kdbody"), format=CACHE_FORMAT)[0]
+    return _load_entry(_cache_path(key, "kdbody"))[0]
 
 
 def _read_cache(key):
@@ -307,16 +329,17 @@ def _read_cache(key):
     none or it cannot be used.  The entry is a zip of JSON read by
     :func:`kanedyn.io.load_data` (nothing in it is evaluated); a damaged or
     changed entry is reported with a warning, removed and rebuilt."""
+    import os
     import warnings
 
-    from ..io import SavedFileError, load_data
+    from ..io import SavedFileError
     from ..numerics import NumericModel
     from ..numerics.schemes import SCHEMES
     path = _cache_path(key)
-    if not path.exists():
+    if not os.path.lexists(path):
         return None
     try:
-        data, manifest = load_data(path, format=CACHE_FORMAT)
+        data, manifest = _load_entry(path)
         if not isinstance(data, dict) or data.get("backend") != "c" \
                 or data.get("scheme") not in SCHEMES \
                 or not isinstance(manifest.get("definition"), dict):
@@ -345,6 +368,7 @@ def _write_cache(key, definition, model):
     import os
     import tempfile
 
+    from .._trusted_files import untrusted_entry
     from ..engine import name_of
     from ..io import SavedFileError, save_data
     from ..numerics.schemes import SCHEMES
@@ -365,7 +389,9 @@ def _write_cache(key, definition, model):
                                   ("kdnum", data, {"definition": light})):
         path = _cache_path(key, part)
         try:
-            path.parent.mkdir(parents=True, exist_ok=True)
+            path.parent.mkdir(mode=0o700, exist_ok=True)
+            if untrusted_entry(path.parent) is not None:
+                return  # another user's folder: nothing is written there
             handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
             os.close(handle)
             save_data(value, tmp, what=f"the numerical model of {definition.name}",

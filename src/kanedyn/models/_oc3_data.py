@@ -214,7 +214,7 @@ def _tube(fraction):
 
 
 def tower_stations(*, polar_inertia=True):
-    """The station table of the tower for :class:`~kanedyn.BeamMember` (axis along body z).
+    """The station table of the tower for :class:`~kanedyn.flexible.BeamMember` (axis along body z).
 
     Parameters
     ----------

@@ -34,18 +34,18 @@ origin ``O`` on the still water line (SWL) at the undisplaced spar axis):
 Forces: gravity; hydrostatics (``"linear"``: the published buoyancy-and-waterplane
 matrix about ``P`` with the published displaced volume's buoyancy, the weight
 term coming from gravity on the bodies; ``"large_angle"``:
-:class:`~kanedyn.Hydrostatics` of the spar geometry); added mass (``"sheet"``:
+:class:`~kanedyn.offshore.Hydrostatics` of the spar geometry); added mass (``"sheet"``:
 the published 6 x 6 potential-flow matrix as a :class:`~kanedyn.AddedMass`;
 ``"morison"``: strip theory with Ca = 1); the published additional linear
 damping (a :class:`~kanedyn.MatrixSpringDamper` with K = 0); Morison drag and
-wave excitation (:class:`~kanedyn.MorisonCylinder`, kinematics at the
-undisplaced position); mooring (``"linear"``: :meth:`~kanedyn.LinearMooring.oc3`;
+wave excitation (:class:`~kanedyn.offshore.MorisonCylinder`, kinematics at the
+undisplaced position); mooring (``"linear"``: :meth:`~kanedyn.offshore.LinearMooring.oc3`;
 ``"linear-symmetric"``: its symmetric part, conservative;
 ``"catenary"``: three quasi-static elastic catenary lines plus the yaw spring
 of the delta connection; ``"none"``); rotor thrust at the hub (5.0191 m upwind
 of the tower axis, 90 m above the SWL) along the shaft tilted 5 deg,
 :math:`\cos 5^\circ A_x - \sin 5^\circ A_z`
-(:class:`~kanedyn.RotorThrust` with the NREL 5-MW curve of the free hub-height
+(:class:`~kanedyn.offshore.RotorThrust` with the NREL 5-MW curve of the free hub-height
 wind, the aerodynamic damping on the hub's velocity along the shaft).
 """
 

@@ -5,7 +5,7 @@ axis), z up along the tower, x downwind (fore-aft), y to port (side-side).
 Node 0 is the base (the reference node, clamped), the last node the tower top
 (87.6 m above SWL).  Euler-Bernoulli beam elements with the station table's
 properties interpolated linearly (:func:`~kanedyn.models._oc3_data.tower_stations`);
-the RNA is a rigid mass at the top node (:class:`~kanedyn.NodeMass`: mass,
+the RNA is a rigid mass at the top node (:class:`~kanedyn.flexible.NodeMass`: mass,
 offset of its centre of mass, inertia about it).
 
 Mode names: the member's local y axis is body y, so ``bending_xz`` modes
@@ -30,7 +30,7 @@ _PLANE_NAMES = {"bending_xz": "fore_aft", "bending_xy": "side_side"}
 
 
 def oc3_rna_node_mass(node=-1):
-    """The RNA as a :class:`~kanedyn.NodeMass` at ``node`` (default: the tower top).
+    """The RNA as a :class:`~kanedyn.flexible.NodeMass` at ``node`` (default: the tower top).
 
     Mass 350,000 kg, centre of mass at (-0.414, 0, 1.967) m from the tower top,
     inertia about it from the published inertia about the tower top.

@@ -120,7 +120,7 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         ``"halfsine"``, ``"haversine"``, ``"trapezoid"`` (rise and fall a quarter of
         the duration), ``"step"`` (constant deceleration for ``duration``), ``"none"``
         (vehicle at rest), an example pulse (``"frontal-48kmh"``, ``"oblique-30deg"``)
-        or a CSV record (:func:`kanedyn.read_pulse_csv`).
+        or a CSV record (:func:`kanedyn.vehicle.read_pulse_csv`).
     peak_g : float
         Peak deceleration, g (analytic pulses).
     duration : float

@@ -21,8 +21,10 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from ..modeling import inertia_violation, principal_moments
 from ._base import ModelDefinition
-from ._urdf_parse import URDFError, Visual, parse_robot, pose_matrix
+from ._urdf_parse import (URDFError, Visual, inertia_text, parse_robot, pose_matrix,
+                          round_off_text)
 from ._urdf_shapes import urdf_shapes
 
 __all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
@@ -219,8 +221,18 @@ def _group_mass(links):
     return mass, centre, inertia
 
 
+def _nearest_solid(inertia):
+    """The nearest central inertia (3, 3) of a solid: negative principal moments set
+    to zero and the largest lowered to the sum of the others."""
+    moments, axes = np.linalg.eigh(inertia)
+    solid = np.maximum(moments, 0.0)
+    if inertia_violation(solid)[1] is not None:  # the triangle inequality
+        solid[2] = solid[0] + solid[1]
+    return axes @ np.diag(solid) @ axes.T
+
+
 def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=None,
-              efforts=True, t_end=1.0):
+              mesh_dirs=None, efforts=True, t_end=1.0):
     """A model definition of the robot described by a URDF file.
 
     Parameters
@@ -238,8 +250,17 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
         its origin and ``w_x, w_y, w_z`` of its rotation, along its own axes).
     package_dirs : list of str, optional
         Folders that hold the packages of ``package://PKG/...`` mesh URIs.  The
-        folders above the URDF file named ``PKG`` are searched too.  A mesh that is
-        not found is an error only when it is asked for (:meth:`Visual.mesh_file`).
+        folders above the URDF file named ``PKG`` that hold a ``package.xml`` (a
+        ROS package) are searched too.
+    mesh_dirs : list of str, optional
+        Folders from which mesh files may be read besides the URDF's own folder,
+        those of ``package_dirs`` and, for ``package://PKG/...``, the ROS package
+        ``PKG`` above the URDF.  A mesh file outside all of them (a path with
+        ``..``, an absolute path, a ``file://`` URI, symbolic links resolved) is
+        not read: a URDF file handed to you cannot make the viewer embed other
+        files of yours in its page.  A mesh that is refused or not found is an
+        error only when it is asked for (:meth:`Visual.mesh_file`);
+        :meth:`URDFDefinition.shapes` skips it with a warning.
     efforts : bool, optional
         Add the joint torques/forces ``tau_<joint>`` as specified inputs (zero by
         default; give ``specified={...}`` to :meth:`ModelDefinition.numeric`).
@@ -257,6 +278,14 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     URDFError
         A file that cannot be read, naming the file, the element and its line.
 
+    Warns
+    -----
+    UserWarning
+        Naming the links whose inertia is not a solid's by round-off only (up to
+        ``INERTIA_RTOL = 1e-6`` of the largest principal moment of the robot's
+        links): accepted, and where a body's merged inertia is still not a solid's
+        it is replaced by the nearest one.
+
     Examples
     --------
     >>> import kanedyn as kd                                    # doctest: +SKIP
@@ -268,7 +297,7 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     gravity = tuple(float(x) for x in gravity)
     if len(gravity) != 3 or not all(np.isfinite(gravity)):
         raise ModelError(f"gravity must be three finite numbers (m/s^2), not {gravity}")
-    robot = parse_robot(path, package_dirs)
+    robot = parse_robot(path, package_dirs, mesh_dirs)
     build = _Builder(robot, base, efforts)
     build.walk()
     if base == "floating":
@@ -277,6 +306,7 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
         build.joint(joint, parent_body, T_parent)
     build.bodies(gravity)
     _check_masses(build.order, build.carried, robot.source)
+    _warn_inertias(robot, build.adjusted)
 
     visuals, collisions = [], []
     for link in robot.links.values():
@@ -316,6 +346,7 @@ class _Builder:
         self.specified, self.constants, self.rigid_bodies, self.carried = {}, {}, [], {}
         self.frame_of, self.point_of = {"": self.N}, {"": self.O}
         self.g = sm.Symbol("g", nonnegative=True)
+        self.adjusted = []  # notes on the bodies whose inertia was moved to a solid's
 
     def walk(self):
         """``group``: link -> (body, pose in the body's link frame); ``order``: the
@@ -397,6 +428,27 @@ class _Builder:
             damping=joint.damping, friction=joint.friction, mimic=joint.mimic,
             line=joint.line))
 
+    def solid(self, body, inertia):
+        """The central inertia of ``body`` (links merged), checked to be a solid's: as it
+        is, or, when it misses by round-off only (``robot.inertia_tolerance``), the
+        nearest solid's (noted in ``adjusted``)."""
+        moments = principal_moments(inertia)
+        amount, rule = inertia_violation(moments)
+        if rule is None:
+            return inertia
+        links = [name for name, (head, _) in self.group.items() if head == body]
+        link = self.robot.links[body]
+        line = link.inertial.line if len(links) == 1 else link.line  # its <inertia>
+        where = (f"{self.source}:{line}: <link name='{body}'>: the central inertia of its "
+                 "body" + (f" (links {', '.join(links)} merged by fixed joints)"
+                           if len(links) > 1 else "") + " " + inertia_text(amount, rule,
+                                                                           moments))
+        if amount > self.robot.inertia_tolerance:
+            raise URDFError(f"{where}: more than round-off, which is up to "
+                            + round_off_text(self.robot.inertia_tolerance))
+        self.adjusted.append(f"{where}: replaced by the nearest inertia of a solid")
+        return _nearest_solid(inertia)
+
     def bodies(self, gravity):
         """One RigidBody per moving link and the links fixed to it; gravity loads."""
         members = {}
@@ -411,7 +463,15 @@ class _Builder:
         for body in heads:
             if self.group[body][0] != body:
                 continue  # the ground (fixed base)
-            mass, centre, inertia = _group_mass(members[body])
+            with np.errstate(over="ignore", invalid="ignore"):
+                mass, centre, inertia = _group_mass(members[body])
+            if not (np.isfinite(mass) and np.all(np.isfinite(centre))
+                    and np.all(np.isfinite(inertia))):
+                link = self.robot.links[body]
+                raise URDFError(f"{self.source}:{link.line}: <link name='{body}'>: the mass, "
+                                "mass centre or inertia of the links it carries is beyond "
+                                "the range of floating point")
+            inertia = self.solid(body, inertia)
             self.carried[body] = mass + float(np.abs(inertia).sum())
             if mass == 0 and not inertia.any():
                 continue  # a massless body: a frame only
@@ -431,6 +491,16 @@ class _Builder:
             self.rigid_bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
             if g_dir is not None and mass > 0:
                 self.loads.append((G, m * self.g * g_dir))
+
+
+def _warn_inertias(robot, adjusted):
+    """One warning naming the links and bodies whose inertia is not a solid's only
+    by round-off (accepted; a body's replaced by the nearest solid's)."""
+    notes = robot.inertia_notes + tuple(adjusted)
+    if notes:
+        warnings.warn(f"{robot.source}: {len(notes)} inertia(s) not a solid's by "
+                      f"round-off only, up to {round_off_text(robot.inertia_tolerance)}, "
+                      "accepted:\n  " + "\n  ".join(notes), UserWarning, stacklevel=3)
 
 
 def _check_masses(order, carried, source):

@@ -3,6 +3,12 @@
 The XML is read by the standard library's expat parser, which expands no
 external entities; every number is read by :func:`float` and checked to be
 finite, never evaluated.  Errors name the file, the element and its line.
+
+A link's central inertia must be positive semi-definite; one that misses by
+round-off, up to :data:`INERTIA_RTOL` of the largest principal moment among the
+robot's links, is accepted and listed in :attr:`Robot.inertia_notes`.  (The
+triangle inequality is checked on the bodies, links merged by fixed joints,
+by :func:`~kanedyn.models.from_urdf`.)
 """
 
 from __future__ import annotations
@@ -16,13 +22,19 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError
+from ..modeling import inertia_violation, principal_moments
 
 __all__ = ["URDFError", "Element", "read_xml", "Robot", "Link", "Joint", "Inertial",
-           "Visual", "parse_robot", "rpy_matrix", "pose_matrix", "SUPPORTED_JOINTS"]
+           "Visual", "parse_robot", "rpy_matrix", "pose_matrix", "SUPPORTED_JOINTS",
+           "INERTIA_RTOL", "check_inertias", "inertia_text", "round_off_text"]
 
 #: joint types that become coordinates (``fixed`` merges the child into the parent)
 SUPPORTED_JOINTS = ("revolute", "continuous", "prismatic", "fixed")
 _UNSUPPORTED_JOINTS = ("floating", "planar", "spherical")
+#: an inertia that is not a solid's (a negative principal moment, or I1 + I2 < I3) by
+#: at most this fraction of the largest principal moment among the robot's links is
+#: taken as round-off in the file: accepted, with a warning
+INERTIA_RTOL = 1e-6
 _PLAIN_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
 
 
@@ -115,13 +127,14 @@ class Inertial:
     """A link's ``<inertial>``: mass (kg), mass-centre pose in the link frame, inertia.
 
     ``inertia`` (3, 3) is about the mass centre, in the frame of ``<inertial><origin>``
-    (kg m^2).
+    (kg m^2); ``line`` is the line of its ``<inertia>`` element.
     """
 
     mass: float
     xyz: tuple
     rpy: tuple
     inertia: np.ndarray
+    line: int = 0
 
 
 @dataclass(frozen=True)
@@ -144,8 +157,11 @@ class Visual:
         Mesh file as written in the URDF (``package://...``, ``file://...``
         or a path relative to the URDF file).
     path : str or None
-        The mesh file found on disk, or None when it was not found (see
-        :meth:`mesh_file`).
+        The mesh file found on disk (symbolic links resolved), or None when it was
+        not found or is refused (see :meth:`mesh_file`).
+    refused : str
+        Why a mesh file that exists is not read: it lies outside the folders
+        meshes are read from (see :func:`~kanedyn.models.from_urdf`); "" otherwise.
     xyz, rpy : tuple
         ``<origin>`` of the visual in its link frame, m and rad.
     transform : tuple
@@ -171,12 +187,16 @@ class Visual:
     rgba: tuple | None = None
     body: str = ""
     transform: tuple = ()
+    refused: str = ""
 
     def mesh_file(self):
         """The mesh file on disk; raises :class:`URDFError` if it was not found."""
         if self.shape != "mesh":
             raise URDFError(f"{self.source}:{self.line}: the visual of link "
                             f"'{self.link}' is a {self.shape}, not a mesh")
+        if self.refused:
+            raise URDFError(f"{self.source}:{self.line}: mesh '{self.filename}' of link "
+                            f"'{self.link}' is not read: {self.refused}")
         if self.path is None:
             raise URDFError(f"{self.source}:{self.line}: mesh '{self.filename}' of link "
                             f"'{self.link}' not found (give package_dirs=[folder that "
@@ -224,13 +244,21 @@ class Joint:
 
 @dataclass(frozen=True)
 class Robot:
-    """A parsed URDF: name, links and joints by name, root link, source file."""
+    """A parsed URDF: name, links and joints by name, root link, source file.
+
+    ``inertia_notes`` lists the links whose inertia was accepted as round-off (one
+    line each, naming file, line and link), ``inertia_tolerance`` (kg m^2) is how
+    far from a solid's an inertia may be to count as round-off
+    (:data:`INERTIA_RTOL` of the largest principal moment of the links).
+    """
 
     name: str
     links: dict
     joints: dict
     root: str
     source: str
+    inertia_notes: tuple = ()
+    inertia_tolerance: float = 0.0
 
     def children(self, link):
         """Joints whose parent is ``link``, in file order."""
@@ -240,9 +268,10 @@ class Robot:
 class _Reader:
     """Reads elements of one file, naming file, element and line in errors."""
 
-    def __init__(self, source, package_dirs):
+    def __init__(self, source, package_dirs, mesh_dirs):
         self.source = str(source)
         self.package_dirs = [Path(d) for d in (package_dirs or [])]
+        self.mesh_dirs = [Path(d) for d in (mesh_dirs or [])]
 
     def one(self, parent, tag, owner):
         """The ``<tag>`` child of ``parent``, or None; a second one is refused (which
@@ -269,7 +298,12 @@ class _Reader:
             where = f"<{element.tag} {key}='{element.attrib.get(key, raw)}'>"
             what = f"'{raw}' is not a number" if text is not None else "is not a number"
             raise self.error(owner, f"{where}: {what}", element.line)
-        return float(raw)
+        value = float(raw)
+        if not math.isfinite(value):
+            where = f"<{element.tag} {key}='{element.attrib.get(key, raw)}'>"
+            raise self.error(owner, f"{where}: '{raw}' is beyond the range of floating "
+                             "point", element.line)
+        return value
 
     def vector(self, element, owner, key, n, default):
         raw = element.attrib.get(key) if element is not None else None
@@ -311,14 +345,8 @@ class _Reader:
         inertia = np.array([[c["ixx"], c["ixy"], c["ixz"]],
                             [c["ixy"], c["iyy"], c["iyz"]],
                             [c["ixz"], c["iyz"], c["izz"]]])
-        eig = np.linalg.eigvalsh(inertia)
-        scale = max(np.max(np.abs(eig)), 1e-300)
-        if eig[0] < -1e-9 * scale:
-            raise self.error(link_el, "inertia is not positive semi-definite "
-                             f"(eigenvalues {', '.join(f'{e:.6g}' for e in eig)} kg m^2)",
-                             in_el.line)
         xyz, rpy = self.origin(el, link_el)
-        return Inertial(mass, xyz, rpy, inertia)
+        return Inertial(mass, xyz, rpy, inertia, in_el.line)
 
     def geometry(self, link_el, vis_el):
         geo = self.one(vis_el, "geometry", link_el)
@@ -346,20 +374,33 @@ class _Reader:
         raise self.error(owner, f"<{element.tag}> has no attribute '{key}'", element.line)
 
     def resolve_mesh(self, filename):
-        """The mesh file on disk, or None when not found."""
+        """``(path, refused)``: the mesh file on disk (None when not found or refused)
+        and, for a file found outside the folders meshes are read from, why it is
+        not read ("" otherwise)."""
         urdf_dir = Path(self.source).resolve().parent
-        candidates = []
+        roots = [urdf_dir, *self.package_dirs, *self.mesh_dirs]
         if filename.startswith("package://"):
-            package, _, rest = filename[len("package://"):].partition("/")
-            candidates += [d / package / rest for d in self.package_dirs]
-            candidates += [p / rest for p in urdf_dir.parents if p.name == package]
-            if urdf_dir.name == package:
-                candidates.append(urdf_dir / rest)
+            package, _, rest = filename[len("package://"):].lstrip("/").partition("/")
+            candidates = [d / package / rest for d in self.package_dirs]
+            for folder in (urdf_dir, *urdf_dir.parents):  # the ROS package it is in
+                if folder.name == package and (folder / "package.xml").is_file():
+                    candidates.append(folder / rest)
+                    roots.append(folder)
         elif filename.startswith("file://"):
-            candidates.append(Path(filename[len("file://"):]))
+            candidates = [Path(filename[len("file://"):])]
         else:
-            candidates.append(urdf_dir / filename)
-        return next((str(c) for c in candidates if c.is_file()), None)
+            candidates = [urdf_dir / filename]
+        found = [c.resolve() for c in candidates if c.is_file()]
+        roots = [root.resolve() for root in roots]
+        for path in found:
+            if any(path.is_relative_to(root) for root in roots):
+                return str(path), ""
+        if found:
+            return None, (f"{found[0]} is outside the folders meshes are read from (the "
+                          "URDF's, package_dirs, mesh_dirs, and for package://PKG a "
+                          "folder PKG above the URDF that holds a package.xml): give "
+                          "mesh_dirs=[its folder] to from_urdf to read it")
+        return None, ""
 
     def visuals(self, link_el, name, materials, tag="visual"):
         """The ``<visual>`` (or ``<collision>``, by ``tag``) elements of a link."""
@@ -368,9 +409,10 @@ class _Reader:
             shape, size, filename = self.geometry(link_el, vis_el)
             xyz, rpy = self.origin(vis_el, link_el)
             material = self.one(vis_el, "material", link_el)
+            path, refused = self.resolve_mesh(filename) if filename else (None, "")
             out.append(Visual(link=name, shape=shape, size=size, xyz=xyz, rpy=rpy,
                               line=vis_el.line, source=self.source, filename=filename,
-                              path=self.resolve_mesh(filename) if filename else None,
+                              path=path, refused=refused,
                               rgba=self.rgba(material, link_el, materials)))
         return tuple(out)
 
@@ -428,10 +470,66 @@ class _Reader:
                      xyz=xyz, rpy=rpy, axis=axis, line=el.line, **extra)
 
 
-def parse_robot(path, package_dirs=None):
-    """The :class:`Robot` of the URDF file ``path`` (checked: tree, numbers, inertias)."""
+def inertia_text(amount, rule, moments):
+    """``is not positive semi-definite by 3.5e-08 kg m^2 (principal moments ...)``."""
+    what = ("is not positive semi-definite" if rule == "not positive semidefinite"
+            else "violates the triangle inequality I1 + I2 >= I3")
+    return (f"{what} by {amount:.3g} kg m^2 (principal moments "
+            + ", ".join(f"{m:.6g}" for m in moments) + " kg m^2)")
+
+
+def round_off_text(tolerance):
+    """``3.5e-07 kg m^2 (1e-06 of the largest principal moment of the robot's links)``."""
+    return (f"{tolerance:.3g} kg m^2 ({INERTIA_RTOL:g} of the largest principal moment "
+            "of the robot's links)")
+
+
+def check_inertias(links, source):
+    """Check the links' central inertias against :data:`INERTIA_RTOL`.
+
+    Returns
+    -------
+    notes : tuple of str
+        One line per link whose inertia is not positive semi-definite by round-off
+        only (accepted), naming file, line and link.
+    tolerance : float
+        kg m^2: :data:`INERTIA_RTOL` times the largest principal moment of the links.
+
+    Raises
+    ------
+    URDFError
+        An inertia whose principal moments overflow, or that is not positive
+        semi-definite by more than ``tolerance``.
+    """
+    moments = {}
+    for link in links.values():
+        if link.inertial is not None:
+            found = moments[link.name] = principal_moments(link.inertial.inertia)
+            if not np.all(np.isfinite(found)):
+                raise URDFError(f"{source}:{link.inertial.line}: <link name='{link.name}'>: "
+                                "inertia beyond the range of floating point (principal "
+                                "moments " + ", ".join(f"{m:.6g}" for m in found) + " kg m^2)")
+    scale = max((float(np.max(np.abs(m))) for m in moments.values()), default=0.0)
+    tolerance = INERTIA_RTOL * scale
+    notes = []
+    for name, found in moments.items():
+        amount, rule = inertia_violation(found)
+        if rule != "not positive semidefinite":  # the triangle: checked on the bodies
+            continue
+        where = (f"{source}:{links[name].inertial.line}: <link name='{name}'>: inertia "
+                 + inertia_text(amount, rule, found))
+        if amount > tolerance:
+            raise URDFError(f"{where}: more than round-off, which is up to "
+                            + round_off_text(tolerance))
+        notes.append(where)
+    return tuple(notes), tolerance
+
+
+def parse_robot(path, package_dirs=None, mesh_dirs=None):
+    """The :class:`Robot` of the URDF file ``path`` (checked: tree, numbers, inertias);
+    mesh files are looked for as :func:`~kanedyn.models.from_urdf` says."""
     root = read_xml(path)
-    reader = _Reader(path, package_dirs)
+    reader = _Reader(path, package_dirs, mesh_dirs)
     if root.tag != "robot":
         raise URDFError(f"{path}:{root.line}: the root element is <{root.tag}>, "
                         "not <robot>: not a URDF file")
@@ -450,6 +548,7 @@ def parse_robot(path, package_dirs=None):
                            el.line, reader.visuals(el, name, materials, "collision"))
     if not links:
         raise URDFError(f"{path}:{root.line}: <robot> has no <link>")
+    inertia_notes, inertia_tolerance = check_inertias(links, str(path))
     joints, parent_of = {}, {}
     for el in root.findall("joint"):
         joint = reader.joint(el)
@@ -474,7 +573,7 @@ def parse_robot(path, package_dirs=None):
                         + ", ".join(f"'{n}' line {links[n].line}" for n in roots)
                         + "); a URDF tree has one root")
     robot = Robot(root.attrib.get("name", Path(path).stem), links, joints, roots[0],
-                  str(path))
+                  str(path), inertia_notes, inertia_tolerance)
     seen, stack = {roots[0]}, [roots[0]]
     while stack:
         for j in robot.children(stack.pop()):

@@ -28,6 +28,8 @@ def _not_drawable(vis):
     """Why the viewer cannot draw ``vis`` (None when it can)."""
     if vis.shape != "mesh":
         return None
+    if vis.refused:
+        return f"not read: {vis.refused}"
     if vis.path is None:
         return "the mesh file was not found (give package_dirs=... to from_urdf)"
     if Path(vis.path).suffix.lower() not in MESH_FORMATS:

@@ -21,13 +21,18 @@ singular position; :math:`1/\rho` is the condition number of the constraints.
 closest approach: an event function is the rate of change of :math:`\rho`
 along the motion (a central difference along :math:`\dot q`), and a root where
 it turns from negative to positive is a local minimum of :math:`\rho`, however
-narrow the dip and however long the integrator's step.  Minima below the
+narrow the dip and however long the integrator's step.  The compiled
+integration loop does the same in C as it goes (its steps cost less than a
+Python event call): it screens each step with a bound on :math:`\rho` from the
+constraint matrix at its ends, and examines only the steps that may dip below
+the threshold, so that a run keeps only the minima it found.  Minima below the
 threshold are reported in the result's message and by a
 :class:`~kanedyn.SingularConfigurationWarning`.
 """
 
 from __future__ import annotations
 
+import bisect
 import warnings
 
 import numpy as np
@@ -112,6 +117,10 @@ class SingularityMonitor:
     displacement : float
         Largest change of a coordinate in the central difference that gives
         the rate of the ratio (rad or m).
+    direction : {1.0, -1.0}
+        The direction of integration in time: a minimum is where the rate
+        turns from negative to positive forward in time, from positive to
+        negative backward.
 
     Attributes
     ----------
@@ -119,10 +128,10 @@ class SingularityMonitor:
         The event function to add to the integrator's events (empty when the
         monitor is off or the model has no constraints).
     passages : list of (float, float)
-        ``(t, ratio)`` of every minimum found below the threshold.
+        ``(t, ratio)`` of every minimum found below the threshold, in time order.
     """
 
-    def __init__(self, model, threshold=DEFAULT_THRESHOLD, displacement=1e-7):
+    def __init__(self, model, threshold=DEFAULT_THRESHOLD, displacement=1e-7, direction=1.0):
         if threshold is not None and not 0.0 < float(threshold) < 1.0:
             raise ValueError(f"singular_threshold must be between 0 and 1 (a ratio of "
                              f"singular values) or None, got {threshold!r}")
@@ -135,7 +144,9 @@ class SingularityMonitor:
 
         def approach(t, y):
             return self._rate(t, y)
-        approach.direction = 1.0  # the ratio stops falling and starts rising: a minimum
+        # the ratio stops falling and starts rising: a minimum (events see the
+        # function's values in the order of integration)
+        approach.direction = 1.0 if direction >= 0 else -1.0
         approach.terminal = False
         self.events = [approach] if active else []
 
@@ -169,73 +180,6 @@ class SingularityMonitor:
             return 1.0
         return (r_ahead - r_behind) / (2.0 * dt)
 
-    def _rates(self, times, states):
-        """:meth:`_rate` at many states at once (one stacked singular value decomposition)."""
-        model = self.model
-        n = model.n_q
-        if getattr(model, "rates_are_speeds", False):
-            qdot = states[:, n:]
-        else:
-            qdot = np.array([model._dynamics(t, y)[0] for t, y in zip(times, states)])
-        speed = np.max(np.abs(qdot), axis=1)
-        moving = np.isfinite(speed) & (speed > 0.0)
-        rates = np.ones(len(times))
-        if not moving.any():
-            return rates
-        dt = self.displacement / speed[moving]
-        q, v, tm = states[moving, :n], states[moving, n:], times[moving]
-        step = dt[:, None] * qdot[moving]
-        pairs = [_velocity_matrix(model, t, np.concatenate([q_k, v_k]))
-                 for sign in (1.0, -1.0)
-                 for t, q_k, v_k in zip(tm + sign * dt, q + sign * step, v)]
-        stack = np.array(pairs)
-        finite = np.isfinite(stack.sum(axis=(1, 2)))
-        stack[~finite] = 0.0
-        r = _ratios(stack).reshape(2, -1)
-        rate = (r[0] - r[1]) / (2.0 * dt)
-        rate[~(finite.reshape(2, -1).all(axis=0) & np.isfinite(rate))] = 1.0
-        rate[np.abs(r[0] - r[1]) <= _NOISE] = 1.0
-        rates[moving] = rate
-        return rates
-
-    def scan(self, times, states, solution):
-        """Find the minima of a finished run from its steps and continuous solution.
-
-        The batch form of the event function, for integrators whose steps
-        are cheaper than a Python event call (the compiled loop): the rate
-        of the ratio is evaluated at all step ends at once, and each change
-        of sign from negative to positive is refined by Brent's method on
-        ``solution``.
-
-        Parameters
-        ----------
-        times : ndarray, shape (k,)
-            Step ends, in the direction of integration.
-        states : ndarray, shape (k, n_states)
-        solution : callable
-            ``solution(t)``: the state at time ``t``, shape (n_states,).
-        """
-        from scipy.optimize import brentq
-        if not self.active or len(times) < 2:
-            return
-        times = np.asarray(times, dtype=float)
-        states = np.asarray(states, dtype=float)
-        rates = self._rates(times, states)
-        for k in np.flatnonzero((rates[:-1] < 0.0) & (rates[1:] >= 0.0)):
-            a, b = sorted((times[k], times[k + 1]))
-            # a minimum inside the step lies no deeper than the ends' ratios minus
-            # their rates over half the step: refine only those that may be below
-            lowest = (min(self.ratio(times[k], states[k]), self.ratio(times[k + 1],
-                                                                        states[k + 1]))
-                      - 0.5 * (b - a) * max(abs(rates[k]), abs(rates[k + 1])))
-            if not lowest < self.threshold:
-                continue
-            try:
-                root = brentq(lambda t: self._rate(t, solution(t)), a, b, xtol=1e-14)
-            except ValueError:  # the interpolant's rate keeps its sign: take the ends
-                root = min((a, b), key=lambda t: self.ratio(t, solution(t)))
-            self._record(float(root), solution(root))
-
     def collect(self, t_events, y_events):
         """Record the minima among event roots ``t_events`` (states ``y_events``)."""
         t_events = np.atleast_1d(np.asarray(t_events, dtype=float))
@@ -250,21 +194,26 @@ class SingularityMonitor:
         r = self.ratio(t, y)
         if not (np.isfinite(r) and r < self.threshold):
             return
-        for k, (s, r_s) in enumerate(self.passages):
-            if abs(t - s) <= 1e-6 * max(1.0, abs(t)):
-                if r < r_s:
-                    self.passages[k] = (t, r)
-                return
-        self.passages.append((t, r))
+        k = bisect.bisect_left(self.passages, t, key=lambda passage: passage[0])
+        for near in (k - 1, k):  # the neighbours in time
+            if 0 <= near < len(self.passages):
+                s, r_s = self.passages[near]
+                if abs(t - s) <= 1e-6 * max(1.0, abs(t)):
+                    if r < r_s:
+                        self.passages[near] = (t, r)
+                    return
+        self.passages.insert(k, (t, r))
 
     def finish(self, message, t0, y0, t_end, y_end, stacklevel=3, advice=None):
         """The run's message with the passages added; warns when there are any.
 
         The first and last states count as well when the ratio there is below
         the threshold (a run that starts at, or stops near, a singular
-        position).  ``stacklevel`` as for :func:`warnings.warn`, counted from
-        this method (3: the caller of the function that calls it); ``advice``
-        replaces the closing sentence of the note (what to do about it).
+        position); ``y0`` or ``y_end`` ``None``: not counted (the compiled
+        loop counts them itself).  ``stacklevel`` as for :func:`warnings.warn`,
+        counted from this method (3: the caller of the function that calls
+        it); ``advice`` replaces the closing sentence of the note (what to do
+        about it).
 
         Returns
         -------
@@ -272,12 +221,12 @@ class SingularityMonitor:
         """
         if not self.active:
             return message
-        self._record(float(t0), np.asarray(y0, dtype=float))
+        if y0 is not None:
+            self._record(float(t0), np.asarray(y0, dtype=float))
         if y_end is not None and np.all(np.isfinite(y_end)):
             self._record(float(t_end), np.asarray(y_end, dtype=float))
         if not self.passages:
             return message
-        self.passages.sort()
         times = [t for t, _ in self.passages]
         ratios = [r for _, r in self.passages]
         more = len(times) - _LISTED

@@ -304,6 +304,9 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         frozen_modes, frozen_dirs = list(modes), list(directions)
 
         def rhs(tt, z, frozen_modes=frozen_modes, frozen_dirs=frozen_dirs):
+            if guard.hurried:  # a second stop signal: no more evaluations
+                guard.skipped = True
+                return np.full(len(z), np.nan)
             try:
                 sol = solver(tt, z[:n], frozen_modes, frozen_dirs)
             except ModelError as exc:  # e.g. an input's function raised: its message
@@ -330,7 +333,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         if segment_c is not None:  # the model's module now: an optimized one may have come
             sol = _compiled_segment(model._module.contact_segment, model, t, t1, z0,
                                     frozen_modes, frozen_dirs, mode_events, stabilization,
-                                    rtol, atol)
+                                    rtol, atol, guard.stop_flag)
         try:
             if sol is None:
                 sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
@@ -451,7 +454,7 @@ class _Segment:
 
 
 def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_events,
-                      stabilization, rtol, atol):
+                      stabilization, rtol, atol, stop_flag):
     """One segment in the compiled contact loop, or ``None`` (Python path).
 
     The generated ``contact_segment`` (:mod:`kanedyn.numerics.backends._c_contact`)
@@ -459,6 +462,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
     else, or a failure inside it (singular, not finite, step too small), is
     left to ``solve_ivp`` on :func:`solve_modes`, which then reproduces the
     reference behaviour (including its error handling) for that segment.
+    ``stop_flag`` is the run guard's: a stop signal ends the segment after its
+    step, with what it has (a failure, as ``solve_ivp`` reports one).
     """
     active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
     if len(active) > 1 or any(model.contacts[c]["kind"] != "unilateral" for c in active):
@@ -484,7 +489,7 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
             np.array([float(coef[c]["viscous"]) for c in range(k)]), float(stabilization),
             ev_c, ev_kind)
     status, ts, zs, event, nfev = segment_c(float(t), float(t1), z0, model._p, spec,
-                                            float(rtol), float(atol))
+                                            float(rtol), float(atol), stop_flag)
     if status == 2:
         return None
     t_events = [np.zeros(0) for _ in mode_events]
@@ -492,7 +497,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
     if status == 1:
         t_events[event] = ts[-1:]
         y_events[event] = zs[-1:]
-    return _Segment(ts, zs.T, status, t_events, y_events, nfev)
+    # 3: stopped (the run's guard says why)
+    return _Segment(ts, zs.T, -1 if status == 3 else status, t_events, y_events, nfev)
 
 
 def _stopped(solver, t, y, modes, directions, tol, fired):

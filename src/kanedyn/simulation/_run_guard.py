@@ -6,12 +6,19 @@ A run on SciPy's ``solve_ivp`` ends early when
   constant or input): the integrand records the state and returns ``nan``;
 * a specified input's function raises (named by a ``ModelError``), or an event
   function raises: the guard records the state and the cause;
-* Ctrl-C is pressed: while a run is under way a first SIGINT only raises a
-  flag (a second one interrupts at once, as usual);
+* Ctrl-C is pressed or SIGTERM arrives (:mod:`kanedyn._signals`): while a run
+  is under way a first stop signal only raises a flag, and the run ends at the
+  end of its step; a second makes every further evaluation of the equations
+  return ``nan``, so that the run ends as soon as the evaluation under way
+  returns; a third raises ``KeyboardInterrupt`` at once (what is under way is
+  lost: the way out of an evaluation that never returns).  The compiled loops
+  read the flag (:attr:`RunGuard.stop_flag`) where they check for signals,
+  between their steps;
 * the run's time limit (``simulate(..., timeout=...)``) has passed, checked at
-  every step.
+  every step (the compiled loops check :attr:`RunGuard.deadline` next to the
+  stop flag).
 
-In each case the solver, wrapped by :func:`guarded_method`, reports a failed
+In these cases the solver, wrapped by :func:`guarded_method`, reports a failed
 step at its next step, so ``solve_ivp`` returns normally with everything it
 had accepted up to then, instead of looping on ``nan`` step sizes or
 discarding its work in an exception.
@@ -19,8 +26,6 @@ discarding its work in an exception.
 
 from __future__ import annotations
 
-import signal
-import threading
 import time
 from contextlib import contextmanager
 
@@ -28,6 +33,7 @@ import numpy as np
 
 from ..numerics import diagnose
 from .._errors import INTERRUPTED, ModelError, OptionError
+from .._signals import Stopped, holding
 
 __all__ = ["RunGuard", "Integrand", "guarded_event", "guarded_method", "solver_class",
            "scipy_methods", "time_limit_message", "INTERRUPTED"]
@@ -40,14 +46,21 @@ def time_limit_message(timeout, t):
 
 
 class RunGuard:
-    """Reasons to stop a run: the first non-finite evaluation, Ctrl-C, or the
-    time limit (``timeout`` s from the guard's making).
+    """Reasons to stop a run: the first non-finite evaluation, a stop signal, or
+    the time limit (``timeout`` s from the guard's making).
 
     Attributes
     ----------
     failure_state : (float, ndarray) or None
         Time and state of the first non-finite derivative.
-    interrupted : bool
+    signum : int or None
+        The first stop signal received during the run (SIGINT, SIGTERM).
+    stops : int
+        Stop signals received.
+    stop_flag : ndarray of int32, shape (1,)
+        1 once a stop signal came: what compiled loops read between their steps.
+    deadline : float or None
+        ``time.monotonic()`` at which the time limit passes.
     on_step : callable or None
         Called after every accepted step with ``(t_old, y_old, f_old, t, y, f)``
         (``f``: the derivative there, ``None`` where the solver keeps none).
@@ -57,11 +70,24 @@ class RunGuard:
         self.model = model
         self.failure_state = None
         self.failure_text = None
-        self.interrupted = False
+        self.signum = None
+        self.stops = 0
+        self.stop_flag = np.zeros(1, dtype=np.int32)
+        self.skipped = False  # an evaluation returned nan unevaluated (hurried)
         self.last_step = None  # (t, y) the solver accepted last
         self.on_step = None
         self.timeout = timeout
         self.deadline = None if timeout is None else time.monotonic() + timeout
+
+    @property
+    def interrupted(self):
+        """A stop signal came: end the run at the end of the step."""
+        return self.signum is not None
+
+    @property
+    def hurried(self):
+        """A second one came: end it as soon as the evaluation under way returns."""
+        return self.stops >= 2
 
     def fail(self, t, y, text=None):
         """Record the first failure at ``(t, y)`` (``text`` overrides the diagnosis)."""
@@ -96,29 +122,20 @@ class RunGuard:
                                  f"t={t:.6g}")
         return self.failure_text
 
+    def _on_signal(self, signum):
+        self.stops += 1
+        if self.signum is None:
+            self.signum = signum
+            self.stop_flag[0] = 1
+        if self.stops >= 3:
+            raise Stopped(signum)
+
     @contextmanager
     def catching_interrupts(self):
-        """Turn a first Ctrl-C into :attr:`interrupted` for the duration.
-
-        Only in the main thread, and only when SIGINT has Python's default
-        handler (a handler the user installed is left alone).
-        """
-        install = (threading.current_thread() is threading.main_thread()
-                   and signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-        if not install:
+        """Turn stop signals into :attr:`interrupted` for the duration (see the
+        module's text; :mod:`kanedyn._signals` says which signals, when)."""
+        with holding(self._on_signal):
             yield self
-            return
-
-        def on_sigint(signum, frame):
-            if self.interrupted:  # a second Ctrl-C: stop at once
-                raise KeyboardInterrupt
-            self.interrupted = True
-
-        signal.signal(signal.SIGINT, on_sigint)
-        try:
-            yield self
-        finally:
-            signal.signal(signal.SIGINT, signal.default_int_handler)
 
 
 class Integrand:
@@ -132,6 +149,9 @@ class Integrand:
         self.n = model.n_states
 
     def __call__(self, t, y):
+        if self.guard.hurried:  # a second stop signal: no more evaluations
+            self.guard.skipped = True
+            return np.full(self.n, np.nan)
         try:
             out = self.model.rhs(t, y)
         except np.linalg.LinAlgError:
@@ -199,8 +219,9 @@ def guarded_method(method, guard):
 
     A step reports failure (message: the guard's reason) when the run was
     interrupted before it, or when a derivative evaluated during it was not
-    finite; an implicit method's ``ValueError`` or ``LinAlgError`` on a
-    non-finite Jacobian becomes the same failure.
+    finite or not evaluated (a second stop signal); an implicit method's
+    ``ValueError`` or ``LinAlgError`` on a non-finite Jacobian becomes the same
+    failure.
     """
     base = solver_class(method)
 
@@ -213,10 +234,10 @@ def guarded_method(method, guard):
             try:
                 success, message = super()._step_impl()
             except (ValueError, np.linalg.LinAlgError):
-                if guard.failed:
+                if guard.failed or guard.skipped:
                     return False, guard.stop_reason
                 raise
-            if guard.failed:
+            if guard.failed or guard.skipped:
                 return False, guard.stop_reason
             if success:
                 guard.last_step = (self.t, self.y.copy())

@@ -213,7 +213,8 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                                              atol, user_events, constraint_forces, progress,
                                              options, guard)
     else:
-        monitor = SingularityMonitor(model, singular_threshold)
+        monitor = SingularityMonitor(model, singular_threshold,
+                                     direction=1.0 if t1 >= t0 else -1.0)
         if getattr(scheme, "integrator", None) is not None:  # a scheme's own integrator
             guard = RunGuard(model, timeout)
             with guard.catching_interrupts():
@@ -224,10 +225,12 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                     guard=guard, **options)
         elif _use_compiled(model, method, backend, options):
             progress.stage(f"integrating with the compiled {method} loop")
-            result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
-                                        user_events, dense_output,
-                                        tol if constrained and project else 0.0,
-                                        constraint_forces, options, monitor, timeout)
+            guard = RunGuard(model, timeout)
+            with guard.catching_interrupts():
+                result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
+                                            user_events, dense_output,
+                                            tol if constrained and project else 0.0,
+                                            constraint_forces, options, monitor, guard)
         else:
             guard = RunGuard(model, timeout)
             with guard.catching_interrupts():
@@ -236,8 +239,9 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                                          tol, progress, guard, options, common, method_name,
                                          monitor)
     progress.done()
-    if result.message.startswith(INTERRUPTED):
-        raise SimulationInterrupted(result)
+    if guard.interrupted or result.message.startswith(INTERRUPTED):
+        # a signal after the last step too: the complete result on the exception
+        raise SimulationInterrupted(result, guard.signum)
     return with_energy_note(result, method_name)
 
 
@@ -278,9 +282,10 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                         dense_output=dense_output, rtol=rtol, atol=atol, **options)
         for key in counters:
             counters[key] += getattr(sol, key, 0)
-        # solve_ivp gives y of shape (0,) when an event ends a segment before
-        # its first output time
-        seg_t, seg_y = sol.t, np.asarray(sol.y).reshape(model.n_states, -1)
+        # solve_ivp gives t and y as empty lists when a segment ends before its
+        # first output time
+        seg_t = np.asarray(sol.t, dtype=float)
+        seg_y = np.asarray(sol.y, dtype=float).reshape(model.n_states, -1)
         if not first and t_eval is None and seg_t.size and seg_t[0] == t_start:
             seg_t, seg_y = seg_t[1:], seg_y[:, 1:]
         ts.append(seg_t)
@@ -559,34 +564,29 @@ class _CompiledDense:
 
 
 def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events, dense,
-                       project_tol, constraint_forces, options, monitor, timeout):
-    # the monitor scans the steps afterwards (a Python event call per step would
-    # cost more than the compiled step itself)
-    want_dense = dense or monitor.active
+                       project_tol, constraint_forces, options, monitor, guard):
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
     events = [guarded_event(event, k) for k, event in enumerate(events or ())]
+    # the loop looks for singular configurations as it goes (memory: the minima found)
     out = model._c.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
                              float(options.get("max_step", np.inf)),
                              float(options.get("first_step") or 0.0), method,
-                             events or None, float(project_tol), bool(want_dense),
-                             float(timeout or 0.0))
+                             events or None, float(project_tol), bool(dense),
+                             monitor.threshold if monitor.active else 0.0,
+                             monitor.displacement, guard.stop_flag, float(guard.timeout or 0.0))
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:
         message = INTERRUPTED
     elif out["timed_out"]:
-        message = time_limit_message(timeout, out["t"][-1] if len(out["t"]) else np.nan)
+        message = time_limit_message(guard.timeout, out["t"][-1] if len(out["t"]) else np.nan)
     elif status == -1 and "t_bad" in out:
         message = diagnose(model, out["t_bad"], out["y_bad"]) or message
+    monitor.collect(out["singular_t"], out["singular_y"])  # the first and last state too
+    message = monitor.finish(message, t0, None, t1, None, stacklevel=4)
     dense_sol = None
-    if want_dense and len(out["dense_th"]):
+    if dense and len(out["dense_th"]):
         dense_sol = _CompiledDense(out["dense_th"], out["dense_y"], out["dense_q"], method)
-        th = out["dense_th"]
-        ends = np.append(th[:, 0], th[-1, 0] + th[-1, 1])
-        monitor.scan(ends, np.vstack([out["dense_y"], dense_sol(ends[-1])]), dense_sol)
-    message = monitor.finish(message, t0, y_init, out["t"][-1] if len(out["t"]) else t0,
-                             out["y"][-1] if len(out["t"]) else None, stacklevel=4)
-    dense_sol = dense_sol if dense else None
     counters = {"nfev": out["nfev"], "njev": out["njev"], "nlu": out["nlu"]}
     return SimulationResult.build(
         model=model, t=out["t"], y=out["y"].T.copy(), status=status, message=message,

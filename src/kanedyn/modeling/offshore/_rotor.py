@@ -72,15 +72,15 @@ class ThrustCurve:
         return np.where(inside, slope(np.clip(V, self.speeds[0], self.speeds[-1])), 0.0)
 
 
-# The NREL 5-MW steady thrust curve (N against m/s at hub height).  Below
-# rated, T = 1/2 rho A C_T V^2 with rho = 1.225 kg/m^3, A = pi 63^2 m^2 and
-# C_T = 0.80 (the variable-speed region runs at a near-constant tip-speed ratio
-# and C_T; Jonkman et al. 2009, NREL/TP-500-38060, sec. 7 and fig. 9-3): it
-# gives 794 kN at the rated 11.4 m/s, the ~800 kN peak of fig. 9-3.  Above
-# rated the blades pitch and the thrust falls; the values from 12 m/s up are
-# approximate readings of fig. 9-3 (about +-10 %), to be replaced by a
-# computed curve (OpenFAST steady runs) when one is at hand.
 _BELOW = np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 11.4])
+#: The NREL 5-MW steady thrust curve (N against m/s at hub height).  Below
+#: rated, T = 1/2 rho A C_T V^2 with rho = 1.225 kg/m^3, A = pi 63^2 m^2 and
+#: C_T = 0.80 (the variable-speed region runs at a near-constant tip-speed ratio
+#: and C_T; Jonkman et al. 2009, NREL/TP-500-38060, sec. 7 and fig. 9-3): it
+#: gives 794 kN at the rated 11.4 m/s, the ~800 kN peak of fig. 9-3.  Above
+#: rated the blades pitch and the thrust falls; the values from 12 m/s up are
+#: approximate readings of fig. 9-3 (about +-10 %), to be replaced by a
+#: computed curve (OpenFAST steady runs) when one is at hand.
 NREL5MW_THRUST = ThrustCurve(
     np.concatenate([_BELOW, [12.0, 13.0, 14.0, 16.0, 18.0, 20.0, 22.0, 25.0]]),
     np.concatenate([0.5 * _RHO_AIR * _AREA * 0.80 * _BELOW ** 2,

@@ -146,7 +146,7 @@ class VehicleMotion:
         Parameters
         ----------
         pulse : CrashPulse
-            E.g. ``kd.HalfSinePulse(20, 0.1)`` (peak in g, duration in s).
+            E.g. ``kd.vehicle.HalfSinePulse(20, 0.1)`` (peak in g, duration in s).
         direction : float or (3,) array_like
             Direction of the vehicle's acceleration in N (= vehicle axes at t = 0):
             a vector (normalized here), or an angle in degrees: the acceleration
@@ -158,8 +158,9 @@ class VehicleMotion:
             Velocity of the origin before the pulse, m/s, N components.
         """
         if not isinstance(pulse, CrashPulse):
-            raise ModelError(f"from_pulse: {pulse!r} is not a pulse (kd.HalfSinePulse, "
-                             "kd.HaversinePulse, kd.TrapezoidPulse, kd.pulse_from_delta_v)")
+            raise ModelError(f"from_pulse: {pulse!r} is not a pulse (kd.vehicle.HalfSinePulse, "
+                             "kd.vehicle.HaversinePulse, kd.vehicle.TrapezoidPulse, "
+                             "kd.vehicle.pulse_from_delta_v)")
         if np.ndim(direction) == 0:
             ang = np.radians(float(direction))
             e = -np.array([np.cos(ang), np.sin(ang), 0.0])
@@ -241,7 +242,7 @@ class VehicleMotion:
         Parameters
         ----------
         path : str or pathlib.Path
-            The file (format: :func:`kanedyn.read_pulse_csv`).
+            The file (format: :func:`kanedyn.vehicle.read_pulse_csv`).
         filter : None or str or int
             None (no filtering) or a channel frequency class ``"CFC60"``,
             ``"CFC180"``, ``"CFC600"``, ``"CFC1000"`` (SAE J211/1), applied to all

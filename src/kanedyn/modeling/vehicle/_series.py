@@ -12,17 +12,25 @@ File format (comma separated, read with :mod:`csv`, never evaluated):
   rotation about that axis; a column that is present must have a number on every row;
 * other columns are ignored.
 
-Refused, with the file, the column and where possible the line: a missing column or
-unit, an unknown unit, an empty cell, text or NaN, time that does not increase
-strictly, fewer than :data:`MIN_SAMPLES` samples, an acceleration above
-:data:`MAX_G` g or an angular rate above :data:`MAX_RATE` rad/s (units that cannot
-be right).
+A UTF-8 byte-order mark (which spreadsheet programs write) is skipped.  Refused, with
+the file, the column and where possible the line: a missing column or unit, an
+unknown unit, an empty cell, text or NaN, time that does not increase strictly, fewer
+than :data:`MIN_SAMPLES` samples, an acceleration above :data:`MAX_G` g or an angular
+rate above :data:`MAX_RATE` rad/s (units that cannot be right), a cell longer than
+the :mod:`csv` module's field limit (131,072 characters) or text that is not CSV.
+
+A record whose accelerations imply a speed change above :data:`MAX_SPEED_CHANGE`
+(the largest ``|integral of a dt|`` from the first sample on; crash and sled tests
+stay below about 35 m/s) is read, with a :class:`UserWarning`: a time column in
+milliseconds labelled ``[s]`` makes a 0.1 s pulse last 100 s and its speed change a
+thousand times too large.
 """
 
 from __future__ import annotations
 
 import csv
 import re
+import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -32,7 +40,7 @@ from ..._errors import ModelError
 from ._pulses import G0
 
 __all__ = ["PulseSeries", "read_pulse_csv", "write_pulse_csv", "MAX_G", "MAX_RATE",
-           "MIN_SAMPLES"]
+           "MIN_SAMPLES", "MAX_SPEED_CHANGE"]
 
 #: accelerations above this (in g) are refused as wrong units or a broken channel
 MAX_G = 1000.0
@@ -40,6 +48,8 @@ MAX_G = 1000.0
 MAX_RATE = 1000.0
 #: fewer samples than this are refused
 MIN_SAMPLES = 4
+#: a speed change above this (m/s, 360 km/h) implied by the accelerations is warned of
+MAX_SPEED_CHANGE = 100.0
 
 _UNITS = {
     "t": {"s": 1.0, "ms": 1e-3},
@@ -139,15 +149,15 @@ def read_pulse_csv(path):
         Naming the file and the column (and line) at fault.
     """
     source = str(path)
-    try:
-        lines = Path(path).read_text(encoding="utf-8").splitlines()
+    try:  # utf-8-sig: the byte-order mark that spreadsheet programs write is skipped
+        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
     except OSError as exc:
         raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
     except UnicodeDecodeError as exc:
         raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
                          f"at offset {exc.start}); save it as UTF-8 CSV") from None
     notes, rows, header, header_line = [], [], None, 0
-    for line_no, row in enumerate(csv.reader(lines), start=1):
+    for line_no, row in _csv_rows(lines, source):
         if not row or not "".join(row).strip():
             continue
         if row[0].lstrip().startswith("#"):
@@ -197,12 +207,47 @@ def read_pulse_csv(path):
             raise ModelError(f"{source}: column {name!r}: angular rate "
                              f"{np.max(np.abs(data[name])):.4g} rad/s is above "
                              f"{MAX_RATE:g} rad/s; check the unit in the header")
+    acceleration = np.column_stack([data[n] for n in _ACC])
+    _warn_speed_change(t, acceleration, columns["t"][1], source)
     zeros = np.zeros_like(t)
     return PulseSeries(
-        t=t, acceleration=np.column_stack([data[n] for n in _ACC]),
+        t=t, acceleration=acceleration,
         angular_rate=np.column_stack([data.get(n, zeros) for n in _RATE]),
         source=source, rate_columns=tuple(n for n in _RATE if n in data),
         notes=tuple(notes))
+
+
+def _csv_rows(lines, source):
+    """``(line number, cells)`` of the CSV text ``lines``; a cell over the csv module's
+    field limit or text it cannot read is refused, naming the line."""
+    reader = csv.reader(lines)
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            line = reader.line_num
+            if "field limit" in str(exc):
+                raise ModelError(f"{source}: line {line}: a cell longer than "
+                                 f"{csv.field_size_limit()} characters; not a pulse "
+                                 "record") from None
+            raise ModelError(f"{source}: line {line}: not readable as CSV ({exc})") from None
+        yield reader.line_num, row
+
+
+def _warn_speed_change(t, acceleration, time_factor, source):
+    """Warn when the accelerations (m/s^2, shape (n, 3)) imply a speed change above
+    :data:`MAX_SPEED_CHANGE`: a sign of a time column in the wrong unit."""
+    steps = 0.5 * (acceleration[1:] + acceleration[:-1]) * np.diff(t)[:, None]
+    speed = float(np.max(np.linalg.norm(np.cumsum(steps, axis=0), axis=1)))
+    if speed <= MAX_SPEED_CHANGE:
+        return
+    hint = ("if the times are in milliseconds, write 't [ms]' (the speed change is then "
+            f"{speed / 1000:.3g} m/s)" if time_factor == 1.0 else "check the unit of 't'")
+    warnings.warn(f"{source}: the accelerations imply a speed change of {speed:.4g} m/s "
+                  f"({3.6 * speed:.4g} km/h) over {t[-1] - t[0]:.4g} s, above "
+                  f"{MAX_SPEED_CHANGE:g} m/s; {hint}", UserWarning, stacklevel=3)
 
 
 def write_pulse_csv(path, t, acceleration, angular_rate=None, notes=(),

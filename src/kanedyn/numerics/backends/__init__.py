@@ -10,7 +10,7 @@
 
 from ..._lazy import lazy_attributes as _lazy_attributes
 from ._c_build import (STATS, CompilerError, cache_dir, compiler_command, load_module,
-                       missing_compiler_text)
+                       missing_compiler_text, trusted_cache_dir)
 
 #: names whose modules need SymPy: imported on first use
 _LAZY = {"fingerprint": "._c", "generate_c": "._c", "CodegenError": "._python",
@@ -18,6 +18,6 @@ _LAZY = {"fingerprint": "._c", "generate_c": "._c", "CodegenError": "._python",
 
 __all__ = ["compile_python", "generate_python", "CodegenError", "generate_c", "load_module",
            "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir",
-           "missing_compiler_text"]
+           "trusted_cache_dir", "missing_compiler_text"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -6,7 +6,16 @@ disk under a name derived from the SHA-256 of its source and build settings
 ``~/.cache/kanedyn``).  Builds happen in a private temporary directory and are
 published with an atomic rename, so several processes may build the same
 module at once; every entry carries a checksum and an entry that fails it (or
-fails to load) is rebuilt.
+fails to load) is rebuilt.  The checksum detects damage, not who wrote the
+entry: nothing is loaded from a cache directory that another user could
+change (:mod:`kanedyn._trusted_files`: the directory and every one above it
+owned by this user or root and writable by no one else; the process then
+builds in a private directory, with a warning), nor any entry in it that is
+not this user's or root's or that others can write (a warning; it is removed
+and built again).  Directories are created with mode 0700, files 0600.  A
+build that cannot write the cache (a full disk) is done again in the private
+directory, with a warning; where that fails too, :class:`CompilerError` names
+the path.
 
 A source may consist of several translation units separated by
 :data:`UNIT_MARK`: they are compiled at the same time, one compiler process
@@ -26,6 +35,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import errno
 import functools
 import hashlib
 import importlib.machinery
@@ -47,11 +57,13 @@ import numpy as np
 
 from ..._errors import KanedynError
 from ..._fork import FileLock, after_fork_in_child, remove_at_exit, spawn
+from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, open_trusted, trusted_directory,
+                               untrusted_entry)
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
-           "cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN", "UNIT_MARK",
-           "LIGHT_UNIT", "COLD_UNIT"]
+           "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
+           "UNIT_MARK", "LIGHT_UNIT", "COLD_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)
@@ -72,8 +84,12 @@ class CompilerError(KanedynError, RuntimeError):
     """No usable C compiler, or compilation failed."""
 
 
+class _NoSpace(CompilerError):
+    """The compiler could not write its output: no space left (or over quota)."""
+
+
 def cache_dir():
-    """Directory of compiled modules."""
+    """The cache directory asked for (the one used is :func:`trusted_cache_dir`)."""
     env = os.environ.get("KANEDYN_CACHE_DIR")
     if env:
         return Path(env)
@@ -118,6 +134,9 @@ _COLD_FLAGS = ["-O0"] + _UNIT_FLAGS[1:]
 _EFFORT = {"-O2": 1.0, "-O1": 0.6, "-O0": 0.3}
 _STALE_BUILD = 3600.0  # s: a build-* folder this old was left by a killed build
 _PRIVATE = []  # this process's private cache directory, when the shared one is unusable
+#: cache directory -> why a build could not write it (a full disk): read only from then on
+_FULL = {}
+_REFUSED = set()  # cache entries refused (reported once each)
 
 
 def _build_key(source, command):
@@ -130,8 +149,10 @@ def _build_key(source, command):
     return digest.hexdigest()[:24]
 
 
-def _checksum(path):
-    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+def _checksum(handle):
+    """SHA-256 of what the binary file ``handle`` holds (damage detection only:
+    whoever can write a module can write its checksum)."""
+    return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
 def _load(name, path):
@@ -200,8 +221,11 @@ def _cached_meanwhile(key):
     """The cached module of ``key`` loaded without the build lock (and recorded),
     or ``None``: read only, an entry being written or damaged is left to the
     build path."""
+    directory, unusable, _ = _shared_cache(writing=False)
+    if unusable is not None:
+        return None
     name = f"_kd_{key}"
-    module = _try_cached(name, *_entry(cache_dir(), name), repair=False)
+    module = _try_cached(name, *_entry(directory, name), repair=False)
     if module is not None:
         module = _LOADED.setdefault(key, module)
     return module
@@ -216,38 +240,45 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
     module = _LOADED.get(key)
     if module is not None:
         return module, None
-    directory = cache_dir()
-    problem = _unwritable(directory)
-    if problem is not None:
+    directory, unusable, unwritable = _shared_cache()
+    if unusable is None and unwritable is not None:
         module = _try_cached(name, *_entry(directory, name), repair=False)
-        if module is None:
-            directory = _private_cache(f"the cache directory {directory} "
-                                       f"({_cache_origin()}) {problem}")
-    if module is None:
+        if module is not None:
+            _LOADED[key] = module
+            return module, None
+    if unusable is not None or unwritable is not None:
+        directory = _private_cache(_cache_problem(unusable or unwritable))
+    units, single = None, False  # made once: a build that finds no room is done again
+
+    def load_or_build(directory):
+        nonlocal units, single
         _remove_stale_builds(directory, timeout)
         so_path, manifest = _entry(directory, name)
         with FileLock(directory / f"{name}.lock"):
             module = _try_cached(name, so_path, manifest)
-            if module is None:
+            if module is not None:
+                return module, None
+            if units is None:
                 template = make_template()
                 single = isinstance(template, str) and UNIT_MARK not in template
-                units = (unit.replace(NAME_TOKEN, name) for unit in (
+                units = _Replayable(unit.replace(NAME_TOKEN, name) for unit in (
                     template.split(UNIT_MARK) if isinstance(template, str) else template))
-                quick_cc = quick_command() if quick else None
-                if quick_cc is not None:
-                    units = list(units)
-                    module = compile_quick(name, units, quick_cc, _includes(), _load,
-                                           directory, timeout)
-                if module is not None:
-                    _LOADED[key] = module
-                    return module, (
-                        functools.partial(_optimized, name, key, units, command, timeout,
-                                          single, directory),
-                        functools.partial(_from_the_cache, name, key, directory))
-                _build(units, command, so_path, manifest, directory, timeout, single=single)
-                module = _load(name, so_path)
+            quick_cc = quick_command() if quick else None
+            if quick_cc is not None:
+                units = list(units)
+                module = compile_quick(name, units, quick_cc, _includes(), _load,
+                                       directory, timeout)
+            if module is not None:
+                return module, (
+                    functools.partial(_optimized, name, key, units, command, timeout,
+                                      single, directory),
+                    functools.partial(_from_the_cache, name, key, directory))
+            _build(units, command, so_path, manifest, timeout, single=single)
+            return _load(name, so_path), None
+
+    module, later = _with_room(directory, load_or_build)
     _LOADED[key] = module
-    return module, None
+    return module, later
 
 
 def _optimized(name, key, units, command, timeout, single, directory, when_locked=None):
@@ -256,10 +287,11 @@ def _optimized(name, key, units, command, timeout, single, directory, when_locke
     (in the background thread of :func:`~._c_quick.optimize_later`, which learns
     from ``when_locked()`` that the entry's file lock is held)."""
     def build(so_path, manifest):
-        _build(iter(units), command, so_path, manifest, directory, timeout, single=single)
+        _build(iter(units), command, so_path, manifest, timeout, single=single)
 
     with _LOCK:
-        return _from_the_cache(name, key, directory, build, when_locked)
+        return _with_room(directory, lambda place: _from_the_cache(name, key, place, build,
+                                                                   when_locked))
 
 
 def _from_the_cache(name, key, directory, build=None, when_locked=None):
@@ -282,12 +314,107 @@ def _from_the_cache(name, key, directory, build=None, when_locked=None):
     return module
 
 
-def _unwritable(directory):
-    """Why modules cannot be written to ``directory`` (``None`` when they can)."""
-    if directory.exists() and not directory.is_dir():
-        return "is a file, not a directory"
+class _Replayable:
+    """The items of an iterator, which each iteration yields from the first:
+    those an earlier one took, then the ones it takes on."""
+
+    def __init__(self, items):
+        self.items, self.taken = iter(items), []
+
+    def __iter__(self):
+        k = 0
+        while True:
+            if k == len(self.taken):
+                try:
+                    self.taken.append(next(self.items))
+                except StopIteration:
+                    return
+            yield self.taken[k]
+            k += 1
+
+
+def _with_room(directory, work):
+    """``work(directory)``; where it cannot write the shared cache ``directory``
+    (a full disk, a quota, a directory removed meanwhile) ``work(private
+    directory)`` (with a warning, and ``directory`` read only from then on).
+
+    Raises
+    ------
+    CompilerError
+        The private directory cannot be written either (naming the path)."""
     try:
-        directory.mkdir(parents=True, exist_ok=True)
+        return work(directory)
+    except (OSError, _NoSpace) as exc:
+        if _PRIVATE and directory == _PRIVATE[0]:
+            raise _unwritten(directory, exc) from None
+        _FULL[directory] = f"could not be written ({_what_failed(exc)})"
+        full = isinstance(exc, _NoSpace) or exc.errno in (errno.ENOSPC, errno.EDQUOT)
+        private = _private_cache(f"the cache directory {directory} {_FULL[directory]}",
+                                 "free some space there to keep them" if full else None)
+    try:
+        return work(private)
+    except (OSError, _NoSpace) as exc:
+        raise _unwritten(private, exc) from None
+
+
+def _what_failed(exc):
+    """What a failed write ``exc`` (an :class:`OSError`, or :class:`_NoSpace`:
+    the compiler's line that says so) says, with the path it names."""
+    if isinstance(exc, _NoSpace):
+        return next(line.strip() for line in str(exc).splitlines()
+                    if any(words in line for words in _NO_SPACE))
+    if exc.filename is not None:
+        return f"{exc.filename}: {exc.strerror or exc}"
+    return str(exc.strerror or exc)
+
+
+def _unwritten(directory, exc):
+    return CompilerError(f"a compiled module could not be built in {directory} "
+                         f"({_what_failed(exc)}); free some space there or set "
+                         "KANEDYN_CACHE_DIR (TMPDIR for a private directory) to a disk "
+                         "with room")
+
+
+def _shared_cache(writing=True):
+    """``(directory, unusable, unwritable)``: the cache directory of
+    :func:`cache_dir` (its path with symbolic links resolved, created with mode
+    0700 where missing), why nothing may be loaded from it (it is a file,
+    cannot be created, or another user could change it; ``None``: modules may
+    be loaded from it) and why modules cannot be written to it (``None``: they
+    can; not looked at without ``writing``)."""
+    directory = Path(os.path.realpath(cache_dir()))
+    if directory.exists() and not directory.is_dir():
+        return directory, "is a file, not a directory", None
+    try:
+        untrusted = trusted_directory(directory)
+    except OSError as exc:
+        return directory, f"cannot be written ({exc.strerror or exc})", None
+    if untrusted is not None:
+        return directory, (f"could be changed by another user, who could make this "
+                           f"process run their code: {untrusted}, or set KANEDYN_CACHE_DIR "
+                           "to a directory of your own; nothing is loaded from it"), None
+    return directory, None, (_FULL.get(directory) or _unwritable(directory)) if writing \
+        else None
+
+
+def _cache_problem(problem):
+    """``problem`` of :func:`_shared_cache`, with the cache directory named."""
+    return f"the cache directory {cache_dir()} ({_cache_origin()}) {problem}"
+
+
+def trusted_cache_dir():
+    """The directory this process keeps its caches in: :func:`cache_dir` (its
+    path resolved, created with mode 0700 where missing) when no user but this
+    one and root can change it or a directory above it (it may be read only),
+    else this process's private directory (a warning names the problem)."""
+    directory, unusable, _ = _shared_cache(writing=False)
+    return directory if unusable is None else _private_cache(_cache_problem(unusable))
+
+
+def _unwritable(directory):
+    """Why modules cannot be written to the existing ``directory`` (``None``
+    when they can)."""
+    try:
         with tempfile.NamedTemporaryFile(dir=directory, prefix=".probe-"):
             pass
     except OSError as exc:
@@ -295,15 +422,22 @@ def _unwritable(directory):
     return None
 
 
-def _private_cache(reason):
-    """This process's private cache directory (created and announced once)."""
+def _private_cache(reason, keep=None):
+    """This process's private cache directory (created and announced once:
+    ``reason`` why the shared one is not used, ``keep`` what keeps the modules
+    for the next process, by default a ``$KANEDYN_CACHE_DIR`` of one's own)."""
+    keep = keep or "set KANEDYN_CACHE_DIR to a writable directory of your own to keep them"
     if not _PRIVATE:
-        path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
+        try:
+            path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
+        except OSError as exc:
+            raise CompilerError(f"{reason}, and no private directory can be made in "
+                                f"{tempfile.gettempdir()} ({exc.strerror or exc}); set "
+                                "KANEDYN_CACHE_DIR to a directory of your own") from None
         remove_at_exit(path)
         _PRIVATE.append(path)
         warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
-                      "only (set KANEDYN_CACHE_DIR to a writable directory to keep them)",
-                      RuntimeWarning, stacklevel=4)
+                      f"only ({keep})", RuntimeWarning, stacklevel=4)
     return _PRIVATE[0]
 
 
@@ -322,18 +456,25 @@ def _remove_stale_builds(directory, timeout):
 
 
 def _try_cached(name, so_path, manifest, repair=True):
-    """The cached module, if its entry is complete and passes its checksum.
+    """The cached module, if its entry is complete, this user's or root's and
+    writable by no one else (:func:`~kanedyn._trusted_files.open_trusted`), and
+    passes its checksum.
 
-    A corrupt or stale entry is removed (``repair``) so that it is rebuilt.
+    A corrupt, stale or untrusted entry is removed (``repair``) so that it is
+    rebuilt; an untrusted one is reported.
     """
-    if not (so_path.exists() and manifest.exists()):
+    if not (os.path.lexists(so_path) and os.path.lexists(manifest)):
         return None
     try:
-        recorded = json.loads(manifest.read_text())["sha256"]
-        if recorded != _checksum(so_path):
-            raise ValueError("checksum mismatch")
+        with open_trusted(manifest) as handle:
+            recorded = json.loads(handle.read())["sha256"]
+        with open_trusted(so_path) as handle:
+            if recorded != _checksum(handle):
+                raise ValueError("checksum mismatch")
         return _load(name, so_path)
-    except Exception:  # noqa: BLE001  corrupt or stale entry: rebuild it
+    except Exception as exc:  # noqa: BLE001  corrupt or stale entry: rebuild it
+        if isinstance(exc, UntrustedFile):
+            _refuse(str(exc), repair)
         for path in (so_path, manifest) if repair else ():
             try:
                 path.unlink()
@@ -342,23 +483,34 @@ def _try_cached(name, so_path, manifest, repair=True):
         return None
 
 
+def _refuse(problem, removed):
+    """Report (once) a cache entry that is not loaded: ``problem`` names it."""
+    if problem not in _REFUSED:
+        _REFUSED.add(problem)
+        warnings.warn(f"{problem}: not loaded (the cache loads only files of this user or "
+                      "root that no one else can write)" + (
+                          "; it is removed and built again" if removed else ""),
+                      RuntimeWarning, stacklevel=2)
+
+
 #: what this process did (read by tests): ``compiles``, modules built;
 #: ``units``, translation units compiled; ``reused``, units whose object was cached
 STATS = {"compiles": 0, "units": 0, "reused": 0}
 
 
-def _build(units, command, so_path, manifest, directory, timeout, single=False):
+def _build(units, command, so_path, manifest, timeout, single=False):
     """Compile the translation units ``units`` (an iterable of C sources), each
-    as soon as it comes, and link them into ``so_path``; a ``single`` unit is
-    built in one step.
+    as soon as it comes, and link them into ``so_path`` (with its ``manifest``,
+    both mode 0600); a ``single`` unit is built in one step.
 
-    The object of every unit is kept in ``directory/objects`` under the hash
+    The object of every unit is kept in ``objects`` beside ``so_path`` under the hash
     of its text and flags, and a unit met again (the generated functions a
     model's second module shares with its first, with M or the lanes added)
     is linked from there instead of compiled.  A link that fails with reused
     objects is done again with every unit compiled."""
     STATS["compiles"] += 1
     includes = _includes()
+    directory = so_path.parent
 
     def compile_unit(c_path, flags):
         jobs.add(command + flags + includes
@@ -414,8 +566,8 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
             try:
                 link([cached[k] if k in reused else paths[k].with_suffix(".o")
                       for k in range(len(paths))])
-            except CompilerError:
-                if not reused:
+            except CompilerError as exc:
+                if not reused or isinstance(exc, _NoSpace):
                     raise
                 for k in reused:  # a damaged object: compile those units after all
                     with contextlib.suppress(OSError):  # a read-only object cache
@@ -428,12 +580,22 @@ def _build(units, command, so_path, manifest, directory, timeout, single=False):
                 link([path.with_suffix(".o") for path in paths])
         if not out_path.exists():
             raise CompilerError(f"the C compiler {' '.join(command)} wrote no module")
-        checksum = _checksum(out_path)
+        with open(out_path, "rb") as made_module:
+            checksum = _checksum(made_module)
+        _private_mode(out_path)
         os.replace(out_path, so_path)
         tmp_manifest = Path(tmp) / "manifest.json"
         tmp_manifest.write_text(json.dumps({"sha256": checksum, "source_bytes": size,
                                             "units": len(paths)}))
+        _private_mode(tmp_manifest)
         os.replace(tmp_manifest, manifest)
+
+
+def _private_mode(path):
+    """Make the file ``path`` readable and writable by its owner alone (where
+    the file system cannot, a file others can write is refused when read)."""
+    with contextlib.suppress(OSError):
+        os.chmod(path, PRIVATE_FILE)
 
 
 def unit_flags(text):
@@ -492,11 +654,16 @@ def _usable(cached):
     """Whether a cached object may be linked: present and not empty (a crash
     right after publishing can leave an empty file, which a linker accepts as
     an empty script; any other damage fails the link, and the units are then
-    compiled)."""
+    compiled), and it and its folder this user's or root's and writable by no
+    one else (else reported, and compiled again)."""
     try:
-        return cached.stat().st_size > 0
+        problem = untrusted_entry(cached.parent) or untrusted_entry(cached)
+        if problem is None:
+            return cached.lstat().st_size > 0 and cached.is_file()
     except OSError:
         return False
+    _refuse(problem, removed=False)
+    return False
 
 
 def _keep_objects(pairs):
@@ -506,8 +673,11 @@ def _keep_objects(pairs):
     for made, cached in pairs:
         part = cached.with_name(f".{cached.name}.{os.getpid()}")
         try:
-            cached.parent.mkdir(exist_ok=True)
+            cached.parent.mkdir(mode=0o700, exist_ok=True)
+            if untrusted_entry(cached.parent) is not None:
+                return  # another user's folder: nothing is written there
             shutil.copyfile(made, part)
+            _private_mode(part)
             os.replace(part, cached)
         except OSError:  # a full disk or a read-only cache: the module is built all the same
             with contextlib.suppress(OSError):
@@ -539,7 +709,8 @@ def prefetch(unit):
     For the generic runtime of a model, known from its sizes before it is
     derived (:func:`~._c.predicted_runtime_unit`), so that the compiler works
     on it while the equations are derived.  Nothing happens without a
-    compiler, with a cache directory that cannot be written, while another
+    compiler, with a cache directory that cannot be written (or trusted: see
+    :func:`_shared_cache`), while another
     thread builds a module, when the object is cached already, or with a
     quick compiler (:mod:`._c_quick`: the derivation then has both CPUs to
     itself, and the first module comes from the quick compiler).  A unit the
@@ -553,8 +724,8 @@ def prefetch(unit):
     command = compiler_command()
     if command is None or NAME_TOKEN in unit or quick_command() is not None:
         return  # with a quick compiler, the derivation has both CPUs to itself
-    directory = cache_dir()
-    if _unwritable(directory) is not None:
+    directory, unusable, unwritable = _shared_cache()
+    if unusable is not None or unwritable is not None:
         return
     flags, cached = _unit_object(unit, command, directory)
     if not _LOCK.acquire(blocking=False):  # another thread builds: no waiting for it
@@ -563,17 +734,20 @@ def prefetch(unit):
         if cached.stem in _PREFETCHED or _usable(cached):
             return
         _drop_prefetched()
-        folder = Path(tempfile.mkdtemp(dir=directory, prefix="prefetch-"))
-        c_path = folder / "unit.c"
-        c_path.write_text(unit)
-        said = tempfile.TemporaryFile(mode="w+")
+        folder, said = None, None
         try:
+            folder = Path(tempfile.mkdtemp(dir=directory, prefix="prefetch-"))
+            c_path = folder / "unit.c"
+            c_path.write_text(unit)
+            said = tempfile.TemporaryFile(mode="w+")
             proc = _compiler_process(command + flags + _includes()
                                      + ["-c", str(c_path), "-o", str(c_path.with_suffix(".o"))],
                                      said)
-        except OSError:
-            said.close()
-            shutil.rmtree(folder, ignore_errors=True)
+        except OSError:  # a full disk, say: the build compiles the unit
+            if said is not None:
+                said.close()
+            if folder is not None:
+                shutil.rmtree(folder, ignore_errors=True)
             return
         _PREFETCHED[cached.stem] = (proc, said, c_path.with_suffix(".o"), cached)
     finally:
@@ -621,8 +795,16 @@ def _includes():
 
 def _compiler_process(cmd, said):
     """Start the compiler command ``cmd`` (output to the file ``said``) in a
-    process group of its own, so that :func:`_kill` stops its children too."""
-    return spawn(cmd, stdout=said, stderr=said, start_new_session=True)
+    process group of its own, so that :func:`_kill` stops its children too;
+    in the C locale, so that a full disk is recognised in what it says
+    (:data:`_NO_SPACE`)."""
+    return spawn(cmd, stdout=said, stderr=said, start_new_session=True,
+                 env=dict(os.environ, LC_ALL="C"))
+
+
+#: what a compiler (and its assembler and linker) says, in the C locale, when it
+#: cannot write for lack of space: the C library's texts of ENOSPC and EDQUOT
+_NO_SPACE = tuple(os.strerror(code) for code in (errno.ENOSPC, errno.EDQUOT))
 
 
 def _kill(proc):
@@ -704,7 +886,9 @@ class _Jobs:
             text = said.read().strip()
             said.close()
             if proc.returncode != 0:
-                raise CompilerError(
+                fault = _NoSpace if any(words in text for words in _NO_SPACE) \
+                    else CompilerError
+                raise fault(
                     f"the C compiler {' '.join(self.command)}{self.origin} failed (exit "
                     f"status {proc.returncode})" + (
                         ":\n" + text[-4000:] if text else

@@ -1,6 +1,6 @@
 r"""C source of the compiled contact segments (part of modules with contacts).
 
-``contact_segment(t0, t1, z0, p, spec, rtol, atol)`` integrates one segment
+``contact_segment(t0, t1, z0, p, spec, rtol, atol[, stop])`` integrates one segment
 of a contact simulation (:func:`kanedyn.simulation._hybrid.simulate_contacts`)
 with the contact modes fixed: the state ``z = (q, u, dissipated work, contact
 work)``, SciPy's ``RK45`` (same coefficients, error norm, step control and
@@ -29,9 +29,10 @@ gap events), ``mu_k``, ``mu_s``, ``viscous``, ``stabilization`` (float),
 force vanishes, 2 slip stops, 3 friction reaches its limit).
 
 Returns ``(status, t, z, event, nfev)``: status 0 (reached ``t1``), 1 (the
-event with index ``event`` ended the segment at ``t[-1]``) or 2 (not
-handled here); ``t`` (N,) and ``z`` (N, n + 2) the accepted steps from
-``t0`` (and the event point).
+event with index ``event`` ended the segment at ``t[-1]``), 2 (not handled
+here) or 3 (stopped between two steps by the stop flag ``stop`` of the run's
+guard, or by a ``KeyboardInterrupt`` at the signal check: what it has); ``t`` (N,) and ``z`` (N, n + 2) the
+accepted steps from ``t0`` (and the event point).
 """
 
 CONTACT = r"""
@@ -340,11 +341,13 @@ static int kd_seg_array(PyObject *obj, npy_intp n, int integer, void *out) {
 
 static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
     double t0, t1, rtol, atol;
-    PyObject *z0obj, *pobj, *spec;
+    PyObject *z0obj, *pobj, *spec, *stopobj = NULL;
     (void)self;
-    if (!PyArg_ParseTuple(args, "ddOOO!dd", &t0, &t1, &z0obj, &pobj, &PyTuple_Type, &spec,
-                          &rtol, &atol))
+    if (!PyArg_ParseTuple(args, "ddOOO!dd|O", &t0, &t1, &z0obj, &pobj, &PyTuple_Type, &spec,
+                          &rtol, &atol, &stopobj))
         return NULL;
+    const volatile npy_int32 *stop = kd_stop_flag(stopobj);
+    if (stop == NULL) return NULL;
     if (PyTuple_GET_SIZE(spec) != 12) {
         PyErr_SetString(PyExc_ValueError, "contact_segment: spec must have 12 entries");
         return NULL;
@@ -410,7 +413,13 @@ static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
         h_abs = fmin(fmin(100 * h0, h1), interval);
     }
     while (t < t1) {
-        if (PyErr_CheckSignals() != 0) goto done;
+        if (PyErr_CheckSignals() != 0) {
+            if (!PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) goto done;
+            PyErr_Clear();  /* stopped (Ctrl-C): what it has */
+            status = 3;
+            goto finish;
+        }
+        if (*stop) { status = 3; goto finish; }
         double min_step = 10 * fabs(nextafter(t, INFINITY) - t);
         if (h_abs < min_step) h_abs = min_step;
         int accepted = 0, rejected = 0;

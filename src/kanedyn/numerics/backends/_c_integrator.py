@@ -18,6 +18,13 @@ Event functions are Python callables ``event(t, y)`` with optional
 method on the continuous extension.  Constraint drift is projected away after
 any accepted step whose largest constraint residual exceeds ``project_tol``.
 
+Singular configurations (:class:`kanedyn.numerics.SingularityMonitor`) are
+looked for as the run goes, with a ``singular_threshold``: each step is
+screened with bounds on the singular values of the velocity-constraint matrix
+at its ends (the matrix of the drift check), and only a step that may dip below
+the threshold is examined and its minimum refined, so that a run keeps the
+minima it found and nothing of the steps it took.
+
 Every accepted step also adds to the work of what the stored energy does not
 hold (``kanedyn.simulation._energy_check``): the power :math:`dE/dt` along the
 right-hand side, a central difference at the step's end (half width
@@ -25,9 +32,12 @@ right-hand side, a central difference at the step's end (half width
 ends of the step and of the one before.  The loop returns the work at the
 output times (``"work"``), as its error estimate the largest drift of the
 trapezoidal rule's sum from it (``"work_error"``), and the work of the power's
-magnitude, the energy that flowed in and out (``"work_flow"``).  A time limit
-(``timeout`` s of computing, 0: none; checked every 16 steps) ends the loop as
-a failure that keeps what was computed (``"timed_out"``).
+magnitude, the energy that flowed in and out (``"work_flow"``).
+
+The loop ends early, keeping what was computed, when the run's stop flag is
+raised (a stop signal, read at every step: ``"interrupted"``) or its time limit
+has passed (``timeout`` s of computing, 0: none; checked every 16 steps, next to
+the stop flag: ``"timed_out"``).
 """
 
 INTEGRATOR = r"""
@@ -196,9 +206,13 @@ static int kd_event(KdIntegrator *ig, int k, double t, const double *y, double *
     return 0;
 }
 
-/* Brent's method for event k on the continuous extension in [a, b]. */
-static int kd_event_root(KdIntegrator *ig, int k, double a, double b, double fa, double fb,
-                         double *root) {
+/* a function of the state along the continuous extension: g(t, y) into *g, -1 on
+   a Python error */
+typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
+
+/* Brent's method for a zero of fn on the continuous extension in [a, b]. */
+static int kd_brent(KdIntegrator *ig, KdAlongFn fn, void *ctx, double a, double b, double fa,
+                    double fb, double *root) {
     const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
     double y[KD_NX];
     double c = a, fc = fa, d = b - a, e = d;
@@ -223,17 +237,22 @@ static int kd_event_root(KdIntegrator *ig, int k, double a, double b, double fa,
         a = b; fa = fb;
         b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
         kd_dense(ig, b, y);
-        if (kd_event(ig, k, b, y, &fb) != 0) return -1;
+        if (fn(ig, ctx, b, y, &fb) != 0) return -1;
     }
     *root = b;
     return 0;
 }
 
-/* largest constraint residual (-1 on a Python error in the inputs) */
-static double kd_residual(KdModel *model, double t, const double *y) {
+static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, double *g) {
+    return kd_event(ig, *(const int *)ctx, t, y, g);
+}
+
+/* largest constraint residual (-1 on a Python error in the inputs); the
+   velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
+static double kd_residual(KdModel *model, double t, const double *y, double *B) {
 #if KD_NQDEP + KD_NUDEP > 0
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
-    double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
+    double b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
     if (kd_inputs_at(model, t, y, r) != 0) return -1.0;
     kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
     double worst = 0.0;
@@ -241,7 +260,7 @@ static double kd_residual(KdModel *model, double t, const double *y) {
     for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
     return worst;
 #else
-    (void)model; (void)t; (void)y;
+    (void)model; (void)t; (void)y; (void)B;
     return 0.0;
 #endif
 }
@@ -284,6 +303,249 @@ static int kd_project(KdModel *model, double t, double *y) {
 #endif
     return 0;
 }
+
+/* ------------------------------------------------------------------------
+   Singular configurations, found as the run goes (the compiled form of
+   kanedyn.numerics.SingularityMonitor): local minima along the motion of
+   rho = sigma_min / sigma_max of the velocity-constraint matrix B = dc/du below
+   a threshold.  Each accepted step is screened with what the drift check
+   computed anyway: by Weyl's inequality no singular value moves by more than
+   |B(t) - B(t_end)| within the step, taken to be at most 2 d, d = |B_b - B_a|_F
+   (B is smooth along an accepted step); with sigma_min >= lo and sigma_max <=
+   |B|_F at an end, the ratio stays above (lo - 2d) / (|B|_F + 2d).  Only a
+   step whose bound is below the threshold is examined: the rate of rho along
+   the motion at its ends (a central difference along q', as
+   SingularityMonitor._rate), a change of sign from falling to rising whose dip
+   may reach below the threshold, and Brent's method on the continuous
+   extension for the minimum.  Memory: the minima found.
+   ------------------------------------------------------------------------ */
+#define KD_NOISE 1e-12  /* a change of rho below this is round-off (as _NOISE) */
+#define KD_SCREEN 2.0   /* the factor on |B_b - B_a|_F of the screen */
+typedef struct {
+    double threshold, displacement;  /* threshold 0: off */
+    double dir;                      /* direction of integration */
+    KdBuf t, y;                      /* minima found: times and states */
+    long examined;                   /* steps the screen did not clear */
+    double t_at, y_at[KD_NX];        /* the start of the current step */
+#if KD_NUDEP > 0
+    double B[KD_NUDEP * KD_NU];      /* B there */
+    double lo, fro;                  /* sigma_min >= lo, sigma_max <= fro there */
+    int known;                       /* the rate there computed */
+    double rate, ratio;              /* the rate there; the ratio (nan: not yet) */
+#endif
+} KdMonitor;
+
+#if KD_NUDEP > 0
+/* sigma_min / sigma_max of B (m x o, m <= o) by one-sided Jacobi rotations of its
+   rows (singular values to high relative accuracy); 0 for B = 0, nan if not finite */
+static double kd_sv_ratio(const double *B) {
+    const int m = KD_NUDEP, o = KD_NU;
+    double A[KD_NUDEP * KD_NU], norm2[KD_NUDEP];
+    for (int i = 0; i < m * o; ++i) { if (!isfinite(B[i])) return NAN; A[i] = B[i]; }
+    for (int sweep = 0; sweep < 60; ++sweep) {
+        int rotated = 0;
+        for (int i = 0; i < m; ++i) {  /* the rows' squared norms, updated by the rotations */
+            double s = 0.0;
+            for (int k = 0; k < o; ++k) s += A[i * o + k] * A[i * o + k];
+            norm2[i] = s;
+        }
+        for (int i = 0; i < m - 1; ++i)
+            for (int j = i + 1; j < m; ++j) {
+                double *a = A + i * o, *b = A + j * o, gamma = 0.0;
+                for (int k = 0; k < o; ++k) gamma += a[k] * b[k];
+                if (gamma == 0.0 || fabs(gamma) <= 1e-15 * sqrt(norm2[i] * norm2[j])) continue;
+                double zeta = (norm2[j] - norm2[i]) / (2.0 * gamma);
+                double tn = (zeta >= 0 ? 1.0 : -1.0) / (fabs(zeta) + sqrt(1.0 + zeta * zeta));
+                double c = 1.0 / sqrt(1.0 + tn * tn), s = c * tn;
+                for (int k = 0; k < o; ++k) {
+                    double x = a[k], z = b[k];
+                    a[k] = c * x - s * z; b[k] = s * x + c * z;
+                }
+                norm2[i] -= tn * gamma; norm2[j] += tn * gamma;
+                rotated = 1;
+            }
+        if (!rotated) break;
+    }
+    double smin = INFINITY, smax = 0.0;
+    for (int i = 0; i < m; ++i) {
+        double s = 0.0;
+        for (int k = 0; k < o; ++k) s += A[i * o + k] * A[i * o + k];
+        s = sqrt(s);
+        smin = fmin(smin, s); smax = fmax(smax, s);
+    }
+    return smax > 0.0 ? smin / smax : 0.0;
+}
+
+/* cheap bounds sigma_min(B) >= *lo and sigma_max(B) <= *fro = |B|_F: with G = B B^T
+   = L L^T (Cholesky), lambda_min(G) >= 1 / trace(G^-1) = 1 / |L^-1|_F^2, less the
+   round-off of forming and factoring G; *lo = 0 where G is not positive definite */
+static void kd_sv_bounds(const double *B, double *lo, double *fro) {
+    const int m = KD_NUDEP, o = KD_NU;
+    double G[KD_NUDEP * KD_NUDEP], norm2 = 0.0;
+    for (int k = 0; k < m * o; ++k) norm2 += B[k] * B[k];
+    *fro = sqrt(norm2);
+    *lo = 0.0;
+    if (!(norm2 > 0.0) || !isfinite(norm2)) return;
+    for (int i = 0; i < m; ++i)
+        for (int j = 0; j <= i; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < o; ++k) s += B[i * o + k] * B[j * o + k];
+            G[i * m + j] = s;
+        }
+    for (int j = 0; j < m; ++j) {  /* L in the lower triangle of G */
+        double d = G[j * m + j];
+        for (int k = 0; k < j; ++k) d -= G[j * m + k] * G[j * m + k];
+        if (!(d > 0.0)) return;
+        d = sqrt(d);
+        G[j * m + j] = d;
+        for (int i = j + 1; i < m; ++i) {
+            double s = G[i * m + j];
+            for (int k = 0; k < j; ++k) s -= G[i * m + k] * G[j * m + k];
+            G[i * m + j] = s / d;
+        }
+    }
+    double trace = 0.0, x[KD_NUDEP];
+    for (int c = 0; c < m; ++c) {  /* column c of L^-1 by forward substitution */
+        for (int i = 0; i < m; ++i) {
+            double s = i == c ? 1.0 : 0.0;
+            for (int k = c; k < i; ++k) s -= G[i * m + k] * x[k];
+            x[i] = i < c ? 0.0 : s / G[i * m + i];
+            if (i >= c) trace += x[i] * x[i];
+        }
+    }
+    double lambda = 1.0 / trace - 2.0 * (KD_NU + KD_NUDEP + 2) * 2.220446049250313e-16 * norm2;
+    *lo = lambda > 0.0 ? sqrt(lambda) : 0.0;
+}
+
+/* B = dc/du at (t, y); -1 on a Python error (inputs) */
+static int kd_constraint_matrix(KdModel *model, double t, const double *y, double *B) {
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_NUDEP], r[KD_SZ(KD_NR)];
+    if (kd_inputs_at(model, t, y, r) != 0) return -1;
+    kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
+    return 0;
+}
+
+/* the rate of rho along the motion at (t, y), times the direction of integration
+   (a minimum: from negative to positive in the order of the steps); 1/s, never
+   exactly zero: d rho/dt taken as 1 at rest or where rho does not change.  f:
+   the derivative there, or NULL (then the kinematic rates are evaluated; the
+   right-hand side writes q' before its solve, which may fail this close to a
+   singular position). */
+static int kd_monitor_rate(KdIntegrator *ig, KdMonitor *mon, double t, const double *y,
+                           const double *f, double *rate) {
+    double qd[KD_NQ];
+    if (f != NULL) memcpy(qd, f, sizeof(qd));
+    else {
+        double r[KD_SZ(KD_NR)], out[KD_NX];
+        if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
+        (void)KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out);
+        memcpy(qd, out, sizeof(qd));
+    }
+    double speed = 0.0;
+    for (int i = 0; i < KD_NQ; ++i) speed = fmax(speed, fabs(qd[i]));
+    *rate = mon->dir;
+    if (!(speed > 0.0) || !isfinite(speed)) return 0;
+    double dt = mon->displacement / speed, ahead[KD_NX], behind[KD_NX];
+    double Ba[KD_NUDEP * KD_NU], Bb[KD_NUDEP * KD_NU];
+    memcpy(ahead, y, sizeof(ahead)); memcpy(behind, y, sizeof(behind));
+    for (int i = 0; i < KD_NQ; ++i) { ahead[i] += dt * qd[i]; behind[i] -= dt * qd[i]; }
+    if (kd_constraint_matrix(ig->model, t + dt, ahead, Ba) != 0
+            || kd_constraint_matrix(ig->model, t - dt, behind, Bb) != 0) return -1;
+    double ra = kd_sv_ratio(Ba), rb = kd_sv_ratio(Bb);
+    if (!isfinite(ra) || !isfinite(rb) || fabs(ra - rb) <= KD_NOISE) return 0;
+    double g = (ra - rb) / (2.0 * dt);
+    if (isfinite(g)) *rate = mon->dir * g;
+    return 0;
+}
+
+static int kd_monitor_rate_at(KdIntegrator *ig, void *ctx, double t, const double *y, double *g) {
+    return kd_monitor_rate(ig, (KdMonitor *)ctx, t, y, NULL, g);
+}
+
+/* the start of a step at (t, y): the first state, or one projected */
+static int kd_monitor_start(KdIntegrator *ig, KdMonitor *mon, double t, const double *y) {
+    if (kd_constraint_matrix(ig->model, t, y, mon->B) != 0) return -1;
+    kd_sv_bounds(mon->B, &mon->lo, &mon->fro);
+    mon->t_at = t;
+    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    mon->known = 0;
+    mon->ratio = NAN;
+    return 0;
+}
+
+/* the start of the current step counts as a minimum when its ratio is below the
+   threshold: called for the first state and the last (a run that starts at, or
+   stops near, a singular position) */
+static int kd_monitor_here(KdMonitor *mon) {
+    if (mon->lo >= mon->threshold * mon->fro) return 0;  /* ratio >= lo / fro */
+    if (kd_sv_ratio(mon->B) < mon->threshold
+            && (kd_buf_push(&mon->t, &mon->t_at, 1) || kd_buf_push(&mon->y, mon->y_at, KD_NX)))
+        return -1;
+    return 0;
+}
+
+/* the step of ig's continuous extension, accepted up to (t, y) (derivative f
+   there, or NULL; B there, or NULL to evaluate it): screen it, find a minimum in
+   it, and make its end the start of the next step.  -1 on a Python error. */
+static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const double *y,
+                           const double *f, const double *B_end) {
+    double B[KD_NUDEP * KD_NU], lo, fro, d = 0.0;
+    if (B_end != NULL) memcpy(B, B_end, sizeof(B));
+    else if (kd_constraint_matrix(ig->model, t, y, B) != 0) return -1;
+    kd_sv_bounds(B, &lo, &fro);
+    for (int k = 0; k < KD_NUDEP * KD_NU; ++k) d += (B[k] - mon->B[k]) * (B[k] - mon->B[k]);
+    d = KD_SCREEN * sqrt(d);
+    double bound = fmax((mon->lo - d) / (mon->fro + d), (lo - d) / (fro + d));
+    int known = 0;
+    double rate = 1.0, ratio = NAN;
+    if (!(bound >= mon->threshold)) {  /* also for nan */
+        mon->examined++;
+        if (!mon->known) {
+            if (kd_monitor_rate(ig, mon, ig->t_old, ig->y_old, NULL, &mon->rate) != 0) return -1;
+            mon->known = 1;
+        }
+        if (kd_monitor_rate(ig, mon, t, y, f, &rate) != 0) return -1;
+        known = 1;
+        /* a minimum inside the step lies no deeper than the ends' ratios minus
+           their rates over half the step: refine only those that may be below */
+        int turns = mon->rate < 0.0 && rate >= 0.0;
+        if (turns && isnan(mon->ratio)) mon->ratio = kd_sv_ratio(mon->B);
+        if (turns) ratio = kd_sv_ratio(B);
+        double lowest = fmin(mon->ratio, ratio)
+                        - 0.5 * fabs(t - ig->t_old) * fmax(fabs(mon->rate), fabs(rate));
+        if (turns && lowest < mon->threshold) {
+            double root, yr[KD_NX], Br[KD_NUDEP * KD_NU];
+            if (kd_brent(ig, kd_monitor_rate_at, mon, ig->t_old, t, mon->rate, rate, &root) != 0)
+                return -1;
+            kd_dense(ig, root, yr);
+            if (kd_constraint_matrix(ig->model, root, yr, Br) != 0) return -1;
+            if (kd_sv_ratio(Br) < mon->threshold
+                    && (kd_buf_push(&mon->t, &root, 1) || kd_buf_push(&mon->y, yr, KD_NX)))
+                return -1;
+        }
+    }
+    memcpy(mon->B, B, sizeof(B));
+    mon->t_at = t;
+    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    mon->lo = lo; mon->fro = fro;
+    mon->known = known; mon->rate = rate; mon->ratio = ratio;
+    return 0;
+}
+#else
+static int kd_monitor_start(KdIntegrator *ig, KdMonitor *mon, double t, const double *y) {
+    (void)ig; (void)mon; (void)t; (void)y;
+    return 0;
+}
+static int kd_monitor_here(KdMonitor *mon) {
+    (void)mon;
+    return 0;
+}
+static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const double *y,
+                           const double *f, const double *B_end) {
+    (void)ig; (void)mon; (void)t; (void)y; (void)f; (void)B_end;
+    return 0;
+}
+#endif
 
 /* Dormand-Prince 5(4) coefficients (the values SciPy's RK45 uses) */
 static const double kd_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
@@ -404,6 +666,20 @@ static int kd_callback_failure(char *text, size_t size) {
     return 1;
 }
 
+/* the stop flag of a run (RunGuard.stop_flag of kanedyn.simulation._run_guard): a
+   1-entry int32 array that the run's signal handler sets to 1, read where a loop
+   checks for signals, between its steps; None: a flag that stays 0 */
+static const volatile npy_int32 *kd_stop_flag(PyObject *obj) {
+    static const npy_int32 never = 0;
+    if (obj == NULL || obj == Py_None) return &never;
+    if (!PyArray_Check(obj) || PyArray_TYPE((PyArrayObject *)obj) != NPY_INT32
+            || PyArray_SIZE((PyArrayObject *)obj) != 1) {
+        PyErr_SetString(PyExc_TypeError, "stop must be a 1-entry int32 array or None");
+        return NULL;
+    }
+    return (const volatile npy_int32 *)PyArray_DATA((PyArrayObject *)obj);
+}
+
 /* an error inside the loop: Ctrl-C (a KeyboardInterrupt raised in a Python callback
    or by the signal check) keeps what was computed, and so does a callback's
    ValueError, whose text becomes the message; any other error propagates */
@@ -416,16 +692,24 @@ static int kd_callback_failure(char *text, size_t size) {
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
-             project_tol, dense[, timeout]) -> dict */
+             project_tol, dense[, singular_threshold, displacement, stop, timeout]) -> dict
+   (singular_threshold 0, the default: no search for singular configurations;
+   stop: see kd_stop_flag; timeout: seconds of computing, 0, the default: none) */
 static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double t0, t1, rtol, max_step, first_step, project_tol, timeout = 0.0;
-    PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj;
+    PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj, *stopobj = NULL;
     int dense;
-    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|d", &t0, &t1, &y0obj, &tevalobj, &rtol,
-                          &atolobj, &max_step, &first_step, &method_obj, &events,
-                          &project_tol, &dense, &timeout))
+    KdMonitor mon;
+    memset(&mon, 0, sizeof(mon));
+    mon.displacement = 1e-7;
+    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddOd", &t0, &t1, &y0obj, &tevalobj, &rtol,
+                          &atolobj, &max_step, &first_step, &method_obj, &events, &project_tol,
+                          &dense, &mon.threshold, &mon.displacement, &stopobj, &timeout))
         return NULL;
+    const volatile npy_int32 *stop = kd_stop_flag(stopobj);
+    if (stop == NULL) return NULL;
     double deadline = timeout > 0 ? kd_clock() + timeout : 0.0;
+    const int monitoring = KD_NUDEP > 0 && mon.threshold > 0.0;
     const char *method_name = PyUnicode_AsUTF8(method_obj);
     if (method_name == NULL) return NULL;
     KdIntegrator ig;
@@ -494,6 +778,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     }
 
     double dir = t1 >= t0 ? 1.0 : -1.0, t_lo = fmin(t0, t1), t_hi = fmax(t0, t1);
+    mon.dir = dir;
     double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
     double T[KD_NX], k1[KD_NX], k2[KD_NX];
     J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
@@ -502,6 +787,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     ig.LU = ig.W + KD_NX * KD_NX;
     memcpy(y, y0, sizeof(y));
     if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
+    if (monitoring && (kd_monitor_start(&ig, &mon, t, y) != 0 || kd_monitor_here(&mon) != 0))
+        KD_FAIL;
     for (int k = 0; k < ig.n_events; ++k)
         if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
     if (te == NULL) {
@@ -542,7 +829,11 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double next_yield = kd_clock() + KD_YIELD_SECONDS;
     while (dir * (t1 - t) > 0) {
         if (PyErr_CheckSignals() != 0) KD_FAIL;  /* Ctrl-C: keep what was computed */
-        if ((++steps_taken & 15) == 0) {
+        if (*stop) {  /* the run's guard took the signal */
+            status = -1; failed = 1; interrupted = 1; message = "interrupted";
+            break;
+        }
+        if ((++steps_taken & 15) == 0) {  /* the time limit, and a moment for other threads */
             double now = kd_clock();
             if (deadline > 0 && now >= deadline) {
                 status = -1; failed = 1; timed_out = 1;
@@ -643,7 +934,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                              || ((up || down) && ev_dir[k] == 0);
                 if (!active) continue;
                 double root;
-                if (kd_event_root(&ig, k, t, t_new, g_old[k], g_new[k], &root) != 0) KD_FAIL;
+                if (kd_brent(&ig, kd_event_at, &k, t, t_new, g_old[k], g_new[k], &root) != 0)
+                    KD_FAIL;
                 roots[n_roots] = root; which[n_roots] = k; n_roots++;
             }
             for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
@@ -690,9 +982,15 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         memcpy(y, y_new, sizeof(y));
         memcpy(f, f_new, sizeof(f));
         memcpy(g_old, g_new, sizeof(double) * KD_SZ(ig.n_events));
-        /* constraint drift */
-        double residual = finite && project_tol > 0 ? kd_residual(self, t, y) : 0.0;
+        /* constraint drift, then singular configurations in the step (the
+           matrix B of the drift check: no evaluation of its own) */
+        double B_end[KD_SZ(KD_NUDEP * KD_NU)];
+        int checked = finite && project_tol > 0;
+        double residual = checked ? kd_residual(self, t, y, B_end) : 0.0;
         if (residual < 0) KD_FAIL;
+        if (monitoring && finite
+                && kd_monitor_step(&ig, &mon, t, y, terminate ? NULL : f,
+                                   checked ? B_end : NULL) != 0) KD_FAIL;
         if (residual > project_tol) {
             int proj = kd_project(self, t, y);
             if (proj < 0) { keep_last = 0; KD_FAIL; }
@@ -704,6 +1002,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                 projections++;
                 p_start = 0;  /* a new state: its power at the next step */
                 if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
+                if (monitoring && kd_monitor_start(&ig, &mon, t, y) != 0) KD_FAIL;
                 for (int k = 0; k < ig.n_events; ++k)
                     if (kd_event(&ig, k, t, y, &g_old[k]) != 0) KD_FAIL;
             }
@@ -717,6 +1016,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     }
 
 finish:
+    /* the last state the search reached (that of a projection that failed: the
+       state before it) */
+    if (monitoring && mon.t_at != t0 && kd_monitor_here(&mon) != 0) goto done;
     if (failed && keep_last && te != NULL && t != t0) {
         /* ended early with output times: keep the state accepted last when it lies
            beyond the last output (sparse outputs would lose everything after it) */
@@ -765,6 +1067,9 @@ finish:
     }
     KD_SET("t_events", tl);
     KD_SET("y_events", yl);
+    KD_SET("singular_t", kd_buf_array(&mon.t, mon.t.n, -1));
+    KD_SET("singular_y", kd_buf_array(&mon.y, mon.t.n, KD_NX));
+    KD_SET("singular_examined", PyLong_FromLong(mon.examined));
     if (dense) {
         npy_intp steps = dn_t.n / 2;
         KD_SET("dense_th", kd_buf_array(&dn_t, steps, 2));
@@ -780,6 +1085,7 @@ done:
     PyMem_Free(g_old); PyMem_Free(g_new);
     PyMem_Free(out_t.data); PyMem_Free(out_y.data); PyMem_Free(out_w.data);
     PyMem_Free(dn_t.data); PyMem_Free(dn_y.data); PyMem_Free(dn_q.data);
+    PyMem_Free(mon.t.data); PyMem_Free(mon.y.data);
     PyMem_Free(J);
     Py_XDECREF(evseq); Py_XDECREF(teval); Py_XDECREF(keep_y);
     return result;

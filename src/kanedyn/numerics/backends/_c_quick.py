@@ -124,25 +124,25 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     ``units`` (one run, in a ``quick-*`` folder of the cache ``directory``,
     where modules may be run from), loaded with ``loader(name, path)`` and
     registered for :func:`optimize_later`; ``None`` when the compiler fails,
-    takes longer than ``timeout`` seconds or makes a module that does not load
-    (counted in :data:`QUICK_STATS` ``failed``; the first failure of a process
-    is reported with a warning).
+    takes longer than ``timeout`` seconds, makes a module that does not load or
+    cannot write its folder (a full disk; counted in :data:`QUICK_STATS`
+    ``failed``; the first failure of a process is reported with a warning).
+    The folder is made with mode 0700 (:func:`tempfile.mkdtemp`).
 
     The module's file stays until the process that made it exits: the dynamic
     loader knows a loaded library by its file's identity, and a file removed
     could lend its inode to the optimized module, which would then be taken for
     this one.  A folder left by a killed process is removed with the stale
     builds of :mod:`._c_build`."""
-    folder = Path(tempfile.mkdtemp(prefix="quick-", dir=directory))
-    remove_at_exit(folder)
-    paths = []
-    for k, text in enumerate(units):
-        path = folder / f"unit{k}.c"
-        path.write_text(text)
-        paths.append(str(path))
-    out = folder / f"{name}.so"
-    problem, module = None, None
+    problem, module, folder, paths = None, None, None, []
     try:
+        folder = Path(tempfile.mkdtemp(prefix="quick-", dir=directory))
+        remove_at_exit(folder)
+        for k, text in enumerate(units):
+            path = folder / f"unit{k}.c"
+            paths.append(str(path))
+            path.write_text(text)
+        out = folder / f"{name}.so"
         with open(folder / "said.txt", "w+") as output:  # a file: no pipe a fork could hold
             run = spawn(command + _QUICK_FLAGS + includes + paths + ["-o", str(out), "-lm"],
                         stdout=output, stderr=subprocess.STDOUT)
@@ -165,7 +165,8 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
             Path(path).unlink(missing_ok=True)
     if module is None:
         QUICK_STATS["failed"] += 1
-        shutil.rmtree(folder, ignore_errors=True)
+        if folder is not None:
+            shutil.rmtree(folder, ignore_errors=True)
         _warn_once("failed", f"the quick compiler {command[0]} could not build a model's "
                              f"module ({problem or 'no module written'}); such modules are built "
                              "by the optimizing compiler alone")

@@ -178,7 +178,24 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
     whatever the rank of :math:`C`: with a rank-deficient or redundant
     :math:`C` the components of :math:`d` it cannot reach are left
     unreached (a least-squares compromise), instead of making the solve
-    singular.  Stops when :math:`\max|Cx - d| \le` ``tol`` times ``scale``.
+    singular.
+
+    Each iterate is computed as a correction of the last, from the residuals
+    of the two equations themselves,
+
+    .. math::
+
+        x_{k+1} = x_k + (M + wC^TC)^{-1}\big(r + C^T\lambda_k - Mx_k
+        + wC^T(d - Cx_k)\big),
+
+    the same iterate in exact arithmetic.  Solved for :math:`x` itself, the
+    penalized system (condition number about :math:`w\|C^TC\|/\|M\|`) leaves
+    a round-off of that many machine epsilons in :math:`x`, whatever the
+    number of iterations; as a correction, its round-off scales with the
+    correction, and what remains is set by the residuals, i.e. by the
+    conditioning of the constrained problem, as in a direct solve.  At least
+    one correction is made; the iteration stops when :math:`\max|Cx - d| \le`
+    ``tol`` times ``scale``.
 
     Parameters
     ----------
@@ -191,9 +208,11 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
     tol : float
         Relative tolerance of :math:`\max|Cx - d|`.
     max_iterations : int
+        Corrections at most.
     scale : float, optional
         Magnitude against which the residual is measured; default
-        :math:`\max|Cx| + \max|d|` at each iteration.
+        :math:`\|C\|_\infty\max|x| + \max|d|` (what rounding leaves in
+        :math:`Cx - d`).
 
     Returns
     -------
@@ -201,21 +220,20 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
     """
     import scipy.linalg as sla  # imported when first needed
     factor = sla.cho_factor(mass + weight * (C.T @ C))
+    x = sla.cho_solve(factor, rhs + weight * (C.T @ target))
     lam = np.zeros(C.shape[0])
-    base = rhs + weight * (C.T @ target)
-    x = sla.cho_solve(factor, base)
+    residual = target - C @ x
     for _ in range(max_iterations):
-        Cx = C @ x
-        residual = target - Cx
-        size = scale if scale is not None else (np.max(np.abs(Cx), initial=0.0)
-                                                + np.max(np.abs(target), initial=0.0))
+        lam = lam + weight * residual
+        x = x + sla.cho_solve(factor, rhs + C.T @ lam - mass @ x
+                              + weight * (C.T @ residual))
+        residual = target - C @ x
+        size = scale if scale is not None else (
+            np.linalg.norm(C, np.inf) * np.max(np.abs(x), initial=0.0)
+            + np.max(np.abs(target), initial=0.0))
         if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
             break
-        lam = lam + weight * residual
-        x = sla.cho_solve(factor, base + C.T @ lam)
     return x
-
-
 
 
 def penalty_weight(mass, K, factor):

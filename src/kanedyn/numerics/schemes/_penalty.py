@@ -100,7 +100,9 @@ class AugmentedLagrangianIndex3(Scheme):
     ``step`` (measured in ``docs/constraints.md``).  Used through
     :meth:`kanedyn.NumericModel.rhs` (e.g. for linearization) it gives the
     augmented-Lagrangian accelerations of :func:`~kanedyn.numerics.schemes.al_solve`,
-    without stabilization.
+    without stabilization: at a consistent state, those of the other schemes
+    to round-off (``al_solve`` iterates by corrections, so the penalty's
+    condition number does not reach them).
 
     Attributes
     ----------

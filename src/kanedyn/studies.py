@@ -1,0 +1,42 @@
+"""Studies: ready-made analyses of the built-in models and their drivers (``kd.studies``).
+
+``run_study(name)`` runs a registered study as ``kanedyn study NAME`` does
+(``oc3-decay``, ``oc3-rao``, ``oc3-sea``, ``oc3-tmdi``: ``docs/offshore.md``;
+``seatbelt-map``, ``seatbelt-regulatory``: ``docs/seatbelt.md``); the functions
+behind some of them are public too::
+
+    run_study             run a registered study, write its tables and figures
+    StudyResult           what a study produced: tables, figures, CSV files, a summary
+    STUDIES               name -> study, with its options
+    seatbelt_lock_map     the seat-belt sensor's lock time over a grid of pulses
+    SeatbeltLockMap       its table over severity, direction and roll rate
+    regulatory_check      the sensor against the FMVSS 209 sensitivity requirements
+    RegulatoryCheck       its pass/fail verdicts
+    seatbelt_study_model  the compiled sensor model both of them run
+    inverse_study         actuator forces of a parallel model along a named trajectory
+                          (``kanedyn inverse``; ``docs/inverse_dynamics.md``)
+    InverseStudy          its forces taken apart, with the power balance
+
+These names were at ``kd.`` before: that spelling still gives the same object,
+with a DeprecationWarning naming the new one.
+"""
+
+from ._lazy import lazy_attributes as _lazy_attributes
+
+#: public name -> the module that defines it (relative to ``kanedyn``); imported on first use
+_LAZY = {
+    "run_study": ".analysis",
+    "StudyResult": ".analysis",
+    "STUDIES": ".analysis",
+    "seatbelt_lock_map": ".analysis",
+    "SeatbeltLockMap": ".analysis",
+    "regulatory_check": ".analysis",
+    "RegulatoryCheck": ".analysis",
+    "seatbelt_study_model": ".analysis",
+    "inverse_study": ".analysis",
+    "InverseStudy": ".analysis",
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
