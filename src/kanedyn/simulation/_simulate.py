@@ -21,7 +21,7 @@ from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
-from ._energy_check import WorkTracker, with_energy_note
+from ._energy_check import Balance, WorkTracker, with_energy_note
 from ._index3 import run_index3
 from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_event, guarded_method,
                          scipy_methods, solver_class, time_limit_message)
@@ -311,6 +311,9 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                           and sol.t_events[i][-1] == t_end]
             if fired_user or drift_index is None:
                 status, message = 1, "a termination event occurred"
+                k = next(i for i, times in enumerate(sol.t_events)
+                         if len(times) and times[-1] == t_end)
+                tracker.stop(t_end, sol.y_events[k][-1])
                 break
             # the drift event: project and restart
             t_drift = float(sol.t_events[drift_index][-1])
@@ -342,7 +345,7 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         t_events=[np.asarray(v) for v in t_events],
         y_events=[np.asarray(v).reshape(-1, model.n_states) for v in y_events],
         dense_segments=segments if dense_output else None, counters=counters,
-        projections=projections, method=method_name, work=tracker.history(t), **common)
+        projections=projections, method=method_name, balance=tracker.history(), **common)
 
 
 def _keep_last_step(ts, ys, last_step, direction):
@@ -593,7 +596,15 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
         t_events=list(out["t_events"]), y_events=list(out["y_events"]),
         dense_segments=dense_sol, counters=counters, projections=out["projections"],
         initial_state=y_init, constraint_forces=constraint_forces,
-        method=f"{method} (compiled)", work=(out["work"], out["work_error"], out["work_flow"]))
+        method=f"{method} (compiled)", balance=_compiled_balance(out))
+
+
+def _compiled_balance(out):
+    """The energy balance the compiled loop sampled (rows: t, P, E, V, W)."""
+    b = out["balance"]
+    if not len(b):
+        return None
+    return Balance(b[:, 0], b[:, 2], b[:, 3], b[:, 4], out["work_error"], out["work_flow"])
 
 
 def _simulate_with_contacts(model, t_span, y_init, method, t_eval, rtol, atol, events,

@@ -659,10 +659,10 @@ _STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
 #: (constraint forces), evaluated for outputs only, once per output point
 #: (chain3d n = 10: the energies in 0.04 s of gcc instead of 0.09-0.14 s; an
 #: evaluation 1.6 microseconds slower at n = 60).  The integration loop
-#: evaluates the energies twice a step for the energy check (``_c_integrator``):
-#: cold, that doubles the loop's time where the right-hand side is cheapest
-#: (chain3d n = 5, by the articulated-body pass: 2.6 ms instead of 1.3 ms for
-#: 5 s) and adds 10 % on the Whipple bicycle (0.66 ms instead of 0.60 ms)
+#: evaluates the energies twice every four steps for the energy check
+#: (``_c_integrator``).  Evaluated at every step, at -O2 instead, they left the
+#: loop as slow (chain3d n = 5, pendulum, four-bar, Whipple bicycle: the same
+#: time within 4 %): what they cost is their sines and cosines
 _COLD_FUNCTIONS = ("energy", "auxiliary")
 
 
