@@ -168,36 +168,41 @@ class WorkTracker:
     def _records(self):
         return self.t, self.w, self.p, self.e, self.v, self.beta, self.gamma
 
+    def _safely(self, work, *args):
+        """``work(*args)``; an evaluation that fails leaves the run without a
+        balance (the run reports its own failures)."""
+        with np.errstate(all="ignore"):
+            try:
+                work(*args)
+            except Exception:  # noqa: BLE001
+                self.broken = True
+
     def step(self, t_a, y_a, f_a, t_b, y_b, f_b):
         """Add the step from ``(t_a, y_a)`` to ``(t_b, y_b)`` (``f``: the
         derivatives there, ``None`` where the solver keeps none)."""
-        if self.broken or t_b == t_a:
-            return
-        with np.errstate(all="ignore"):
-            try:
-                last = self.end or ((self.t[-1], self.y_record) if self.t else None)
-                if last is None or last[0] != t_a or not np.array_equal(last[1], y_a):
-                    self._end_panel()
-                    self._start(t_a, y_a, f_a, t_b - t_a)
-                self.end = (t_b, y_b, f_b, t_b - t_a)
-                self.steps += 1
-                if self.steps >= (_PANEL_STEPS if len(self.t) - 1 > self.piece else 1):
-                    self._end_panel()
-            except Exception:  # noqa: BLE001  (the run reports its own failures)
-                self.broken = True
+        if not self.broken and t_b != t_a:
+            self._safely(self._step, t_a, y_a, f_a, t_b, y_b, f_b)
+
+    def _step(self, t_a, y_a, f_a, t_b, y_b, f_b):
+        last = self.end or ((self.t[-1], self.y_record) if self.t else None)
+        if last is None or last[0] != t_a or not np.array_equal(last[1], y_a):
+            self._end_panel()
+            self._start(t_a, y_a, f_a, t_b - t_a)
+        self.end = (t_b, y_b, f_b, t_b - t_a)
+        self.steps += 1
+        if self.steps >= (_PANEL_STEPS if len(self.t) - 1 > self.piece else 1):
+            self._end_panel()
 
     def stop(self, t, y):
         """The run ends at ``(t, y)``, inside the last step (a terminal event)."""
-        if self.broken or not self.t:
-            return
+        if not self.broken and self.t:
+            self._safely(self._stop, t, y)
+
+    def _stop(self, t, y):
         h = self.end[3] if self.end else t - self.t[-1]
-        with np.errstate(all="ignore"):
-            try:
-                self._end_panel()
-                if t != self.t[-1]:
-                    self._start(t, y, None, h)
-            except Exception:  # noqa: BLE001  (the run reports its own failures)
-                self.broken = True
+        self._end_panel()
+        if t != self.t[-1]:
+            self._start(t, y, None, h)
 
     def _end_panel(self):
         """End the open panel at the last step's end (nothing if none is open)."""
@@ -251,12 +256,8 @@ class WorkTracker:
     def history(self):
         """The run's :class:`Balance` (its open panel ended at the last step),
         or ``None`` when an evaluation failed."""
-        if not self.broken and self.steps:
-            with np.errstate(all="ignore"):
-                try:
-                    self._end_panel()
-                except Exception:  # noqa: BLE001  (the run reports its own failures)
-                    self.broken = True
+        if not self.broken:
+            self._safely(self._end_panel)
         if self.broken or not self.t:
             return None
         return Balance(np.array(self.t), np.array(self.e), np.array(self.v), np.array(self.w),

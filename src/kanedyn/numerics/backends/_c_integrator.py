@@ -160,13 +160,13 @@ static int kd_stored_energy(KdModel *model, double t, const double *y, double *e
 /* a sample of the energy balance at a state of the run */
 typedef struct { double t, power, energy, potential, work; } KdSample;
 
-/* the sample at (t, y), derivative f there, work w: dE/dt along f, the central
-   difference over (t - delta, t + delta), the times kept within [t_lo, t_hi] (inputs
-   may be defined on the time span only; at its ends the quotient then holds half of
-   dE/dt's explicit time part, for one step); the energies there, the means of the two
-   (to delta^2) */
+/* the sample at (t, y), derivative f there (its work left as it is): dE/dt along f,
+   the central difference over (t - delta, t + delta), the times kept within
+   [t_lo, t_hi] (inputs may be defined on the time span only; at its ends the quotient
+   then holds half of dE/dt's explicit time part, for one step); the energies there,
+   the means of the two (to delta^2) */
 static int kd_sample(KdModel *model, double t, const double *y, const double *f, double delta,
-                     double t_lo, double t_hi, double w, KdSample *out) {
+                     double t_lo, double t_hi, KdSample *out) {
     double ahead[KD_NX], behind[KD_NX], e1, e0, v1, v0;
     delta = fabs(delta);
     for (int i = 0; i < KD_NX; ++i) { ahead[i] = y[i] + delta * f[i]; behind[i] = y[i] - delta * f[i]; }
@@ -176,16 +176,7 @@ static int kd_sample(KdModel *model, double t, const double *y, const double *f,
     out->power = (e1 - e0) / (2 * delta);
     out->energy = 0.5 * (e1 + e0);
     out->potential = 0.5 * (v1 + v0);
-    out->work = w;
     return 0;
-}
-
-/* the work at t inside the panel from t_old (w_old at its start), where the power is
-   p_old + beta s + gamma s^2 (s = t - t_old) */
-static double kd_work_at(double t, double t_old, double w_old, double p_old, double beta,
-                         double gamma) {
-    double s = t - t_old;
-    return w_old + s * (p_old + s * (beta / 2.0 + s * gamma / 3.0));
 }
 
 /* accepted steps in a panel (a piece's first panel: one), and the most samples kept
@@ -203,7 +194,7 @@ typedef struct {
     double t_prev, p_prev;  /* the start of the panel before it */
     double drift;           /* the trapezoidal sum minus the parabolic one */
     double error, flow;     /* the largest |drift| (work_error); the work of |power| */
-    KdBuf kept;             /* samples kept: every stride-th, 5 doubles each */
+    KdBuf kept;             /* samples kept: every stride-th, a KdSample's 5 doubles each */
     long seen, stride;
     KdSample last;          /* the sample taken last */
 } KdWork;
@@ -226,19 +217,20 @@ static int kd_keep(KdWork *w, const KdSample *s) {
 /* a piece of the solution starts at (t, y), derivative f */
 static int kd_work_start(KdModel *model, KdWork *w, double t, const double *y, const double *f,
                          double delta) {
-    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, w->a.work, &w->a) != 0) return -1;
+    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, &w->a) != 0) return -1;
     w->known = 1; w->has_prev = 0;
     return kd_keep(w, &w->a);
 }
 
 /* the open panel ends at (t, y), derivative f, where the next one starts: the power
    over it is the parabola through its ends and the start of the panel before (the
-   line on a piece's first panel), the work integrated along it */
+   line on a piece's first panel), p_a + beta s + gamma s^2 (s from its start), the
+   work integrated along it */
 static int kd_work_end(KdModel *model, KdWork *w, double t, const double *y, const double *f,
                        double delta) {
     KdSample b;
     double h = t - w->a.t, gamma = 0.0;
-    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, 0.0, &b) != 0) return -1;
+    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, &b) != 0) return -1;
     if (w->has_prev) {
         double a = w->t_prev - w->a.t;
         gamma = ((b.power - w->a.power) / h - (w->p_prev - w->a.power) / a) / (h - a);
@@ -247,7 +239,7 @@ static int kd_work_end(KdModel *model, KdWork *w, double t, const double *y, con
     }
     double beta = (b.power - w->a.power) / h - gamma * h;
     w->flow += 0.5 * fabs(h) * (fabs(w->a.power) + fabs(b.power));
-    b.work = kd_work_at(t, w->a.t, w->a.work, w->a.power, beta, gamma);
+    b.work = w->a.work + h * (w->a.power + h * (beta / 2.0 + h * gamma / 3.0));
     w->t_prev = w->a.t; w->p_prev = w->a.power; w->has_prev = 1;
     w->a = b;
     w->steps = 0;
