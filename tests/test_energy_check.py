@@ -31,19 +31,12 @@ def _force(t):
 
 
 @pytest.fixture(scope="module")
-def spring():
+def spring(line_particle):
     """A particle on a spring and a damper along N.x, driven by F(t); the
     spring's potential energy declared.  Constants m, k, c."""
-    q, u, F = me.dynamicsymbols("q u F")
+    F = me.dynamicsymbols("F")
     m, k, c = sm.symbols("m k c")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q * N.x)
-    P.set_vel(N, u * N.x)
-    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
-                  bodies=[me.Particle("bob", P, m)], loads=[(P, (F - k * q - c * u) * N.x)],
-                  potential_energy=k * q ** 2 / 2)
+    eom, _q, _u = line_particle(m, lambda q, u: F - k * q - c * u, lambda q: k * q ** 2 / 2)
     return eom, F
 
 
@@ -157,17 +150,10 @@ def test_a_driven_damped_stiff_spring_is_judged_with_the_work(spring, backend, m
 @pytest.mark.filterwarnings("ignore:overflow encountered:RuntimeWarning",
                             "ignore:invalid value encountered:RuntimeWarning")
 @pytest.mark.parametrize("backend", ["numpy", "c"])
-def test_a_state_beyond_the_finite_range_is_flagged(backend):
+def test_a_state_beyond_the_finite_range_is_flagged(line_particle, backend):
     """A free particle at 1e155 m/s: the state is finite, its kinetic energy
     (5e309 J) is not; the run is no silent success."""
-    q, u = me.dynamicsymbols("q u")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q * N.x)
-    P.set_vel(N, u * N.x)
-    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
-                  bodies=[me.Particle("p", P, 1)])
+    eom, _q, _u = line_particle(1)
     model = eom.numeric(backend=backend)
     with pytest.warns(kd.TrustWarning, match="left the finite range"):
         res = kd.simulate(model, (0.0, 1.0), [0.0, 1e155])

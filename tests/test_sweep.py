@@ -129,19 +129,12 @@ def test_resume_after_a_lost_part_and_ctrl_c(pendulum, tmp_path, monkeypatch):
 
 
 # ------------------------------------------------------ time limits
-def _spring(force):
-    """A particle on a spring along N.x (constants m, k; input F = ``force(t, y)``)
-    and its initial state (q = 0.1)."""
-    q, u, F = me.dynamicsymbols("q u F")
+def _spring(line_particle, force):
+    """A particle on a spring along N.x (the equations, constants m, k, and the
+    input F = ``force(t, y)``)."""
+    F = me.dynamicsymbols("F")
     m, k = sm.symbols("m k")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q * N.x)
-    P.set_vel(N, u * N.x)
-    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
-                  bodies=[me.Particle("bob", P, m)], loads=[(P, (F - k * q) * N.x)],
-                  potential_energy=k * q ** 2 / 2)
+    eom, _q, _u = line_particle(m, lambda q, u: F - k * q, lambda q: k * q ** 2 / 2)
     return eom, {"m": 1.0, "k": 1.0}, {F: force}
 
 
@@ -150,12 +143,12 @@ def _no_force(t, y):
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
-def test_a_run_over_its_time_limit_is_a_row_and_the_sweep_goes_on(backend):
+def test_a_run_over_its_time_limit_is_a_row_and_the_sweep_goes_on(line_particle, backend):
     """k = 1e10 over 100 s takes minutes (about 1e8 steps); with timeout=2 its
     integration stops at the limit, the row keeps what it computed and says why,
     and the soft run (k = 1) succeeds.  Hang guard: the sweep must return
     within 60 s (it took minutes without the limit)."""
-    eom, constants, inputs = _spring(_no_force)
+    eom, constants, inputs = _spring(line_particle, _no_force)
     model = eom.numeric(constants=constants, specified=inputs, backend=backend)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
@@ -172,11 +165,11 @@ def test_a_run_over_its_time_limit_is_a_row_and_the_sweep_goes_on(backend):
 
 
 @pytest.mark.parametrize("backend", ["numpy", "c"])
-def test_the_time_limit_of_simulate_keeps_what_was_computed(backend):
+def test_the_time_limit_of_simulate_keeps_what_was_computed(line_particle, backend):
     """simulate(timeout=...) on both integrators: success=False, the message
     names the limit, the result ends where the run got to (hang guard: 60 s;
     the run takes minutes without the limit)."""
-    eom, constants, inputs = _spring(_no_force)
+    eom, constants, inputs = _spring(line_particle, _no_force)
     model = eom.numeric(constants=dict(constants, k=1e10), specified=inputs, backend=backend)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("res", kd.simulate(
@@ -213,7 +206,7 @@ def test_the_time_limit_of_the_other_integrators(case):
     assert 0 < res.t[-1] < t_end
 
 
-def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
+def test_a_run_stuck_in_an_input_function_is_abandoned(line_particle, monkeypatch):
     """An input's function that never returns holds no sweep: after twice the
     limit plus the grace the run is a row saying so, the other runs are rows as
     usual.  The abandoned run's thread is asked to stop: one looping in Python
@@ -229,7 +222,7 @@ def test_a_run_stuck_in_an_input_function_is_abandoned(monkeypatch):
         while y[0] < -0.15:
             pass
         return 0.0
-    eom, constants, inputs = _spring(stuck_beyond)
+    eom, constants, inputs = _spring(line_particle, stuck_beyond)
     model = eom.numeric(constants=constants, specified=inputs)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
@@ -424,12 +417,12 @@ def _sleep_beyond(t, y):  # shipped by value to the workers: the run from q = 0.
 
 
 @pytest.mark.slow
-def test_time_limits_on_a_cluster(client):
+def test_time_limits_on_a_cluster(line_particle, client):
     """On two worker processes: a run over its limit is a row naming it, a run
     stuck in its input's function is abandoned on its worker, the others
     succeed.  Hang guard: 120 s (the stuck run never returned)."""
     client.run(lambda: setattr(_sweep, "GRACE", 0.5))  # the workers' grace
-    eom, constants, inputs = _spring(_sleep_beyond)
+    eom, constants, inputs = _spring(line_particle, _sleep_beyond)
     model = eom.numeric(constants=constants, specified=inputs)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
