@@ -183,21 +183,45 @@ def test_the_time_limit_of_simulate_keeps_what_was_computed(line_particle, backe
     assert res.t[-1] < 100.0 and np.all(np.isfinite(res.y))
 
 
-@pytest.mark.parametrize("case", ["index-3 integrator", "contact loop"])
+def _oscillator_above_a_floor():
+    """A particle on a spring along N.x (k = 1e6 N/m, m = 1 kg) 1 m above a floor
+    it never reaches: one compiled contact segment, no contact active, for as
+    long as the run lasts.  The model and its initial state."""
+    x, z = me.dynamicsymbols("x z")
+    ux, uz = me.dynamicsymbols("u_x u_z")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x + z * N.z)
+    P.set_vel(N, ux * N.x + uz * N.z)
+    eom = kd.kane(frame=N, q_ind=[x, z], u_ind=[ux, uz],
+                  kd_eqs=[x.diff() - ux, z.diff() - uz], bodies=[me.Particle("p", P, 1.0)],
+                  loads=[(P, -1e6 * x * N.x)], potential_energy=5e5 * x ** 2,
+                  contacts=[kd.Contact(P, kd.Plane(N, O, N.z), name="floor")])
+    return eom.numeric(backend="c"), [1.0, 1.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("case", ["index-3 integrator", "contact loop",
+                                  "compiled contact segment"])
 def test_the_time_limit_of_the_other_integrators(case):
-    """The index-3 integrator (four-bar, steps of 1e-5 s over 100 s) and the
-    contact loop (a ball bouncing for 1e6 s) take minutes: timeout=1 ends them
+    """The index-3 integrator (four-bar, steps of 1e-5 s over 100 s), the
+    contact loop (a ball bouncing for 1e6 s) and a compiled contact segment (a
+    stiff oscillator above a floor for 1e6 s: 1e8 periods; it held the
+    interpreter and ran to its end) take minutes or more: timeout=1 ends them
     with what they computed (hang guard: 60 s)."""
     if case == "contact loop":
         d = kd.models.build("bouncing-ball")
         model, t_end = d.numeric(), 1e6
+        y0 = d.initial(model)
+    elif case == "compiled contact segment":
+        (model, y0), t_end = _oscillator_above_a_floor(), 1e6
     else:
         d = kd.models.build("four-bar")
         model = d.numeric(scheme=kd.schemes.AugmentedLagrangianIndex3(step=1e-5))
-        t_end = 100.0
+        t_end, y0 = 100.0, d.initial(model)
     box = {}
     thread = threading.Thread(target=lambda: box.setdefault("res", kd.simulate(
-        model, (0.0, t_end), d.initial(model), timeout=1.0)), daemon=True)
+        model, (0.0, t_end), y0, timeout=1.0)), daemon=True)
     thread.start()
     thread.join(60)
     assert not thread.is_alive(), f"the {case} did not stop at its time limit"

@@ -15,8 +15,8 @@ A run on SciPy's ``solve_ivp`` ends early when
   read the flag (:attr:`RunGuard.stop_flag`) where they check for signals,
   between their steps;
 * the run's time limit (``simulate(..., timeout=...)``) has passed, checked at
-  every step (the compiled loops check :attr:`RunGuard.deadline` next to the
-  stop flag).
+  every step (the compiled loops every 16 steps, next to the stop flag, given
+  :meth:`RunGuard.seconds_left`).
 
 In these cases the solver, wrapped by :func:`guarded_method`, reports a failed
 step at its next step, so ``solve_ivp`` returns normally with everything it
@@ -78,6 +78,13 @@ class RunGuard:
         self.on_step = None
         self.timeout = timeout
         self.deadline = None if timeout is None else time.monotonic() + timeout
+
+    def seconds_left(self):
+        """Seconds before the time limit, for a compiled loop (0.0: no limit; one
+        that has passed, the least time, 1e-9 s)."""
+        if self.deadline is None:
+            return 0.0
+        return max(self.deadline - time.monotonic(), 1e-9)
 
     @property
     def interrupted(self):

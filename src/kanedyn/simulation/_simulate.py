@@ -124,7 +124,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`) are run by it.
     timeout : float, optional
         Wall-clock seconds after which the integration stops, checked at every
-        step (every 16 steps of the compiled loop): the run then ends with
+        step (every 16 steps of the compiled loops): the run then ends with
         ``success=False``, a message naming the limit, and everything computed
         up to then.
     **options
@@ -576,7 +576,7 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
                              float(options.get("first_step") or 0.0), method,
                              events or None, float(project_tol), bool(dense),
                              monitor.threshold if monitor.active else 0.0,
-                             monitor.displacement, guard.stop_flag, float(guard.timeout or 0.0))
+                             monitor.displacement, guard.stop_flag, guard.seconds_left())
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:

@@ -69,6 +69,21 @@ static double kd_clock(void) {
 #endif
 }
 
+/* what a loop does between its steps besides reading the stop flag, every 16th call
+   (count: the loop's): 1 once the deadline (kd_clock's time, 0: none) has passed;
+   otherwise a moment for Python's other threads every KD_YIELD_SECONDS */
+static int kd_pause(unsigned long *count, double deadline, double *next_yield) {
+    if ((++*count & 15) != 0) return 0;
+    double now = kd_clock();
+    if (deadline > 0 && now >= deadline) return 1;
+    if (now >= *next_yield) {
+        Py_BEGIN_ALLOW_THREADS
+        Py_END_ALLOW_THREADS
+        *next_yield = kd_clock() + KD_YIELD_SECONDS;
+    }
+    return 0;
+}
+
 static int kd_buf_push(KdBuf *b, const double *x, npy_intp k) {
     if (b->n + k > b->cap) {
         npy_intp cap = b->cap ? 2 * b->cap : 1024;
@@ -905,18 +920,10 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             status = -1; failed = 1; interrupted = 1; message = "interrupted";
             break;
         }
-        if ((++steps_taken & 15) == 0) {  /* the time limit, and a moment for other threads */
-            double now = kd_clock();
-            if (deadline > 0 && now >= deadline) {
-                status = -1; failed = 1; timed_out = 1;
-                message = "the time limit was reached";
-                break;
-            }
-            if (now >= next_yield) {
-                Py_BEGIN_ALLOW_THREADS
-                Py_END_ALLOW_THREADS
-                next_yield = kd_clock() + KD_YIELD_SECONDS;
-            }
+        if (kd_pause(&steps_taken, deadline, &next_yield)) {  /* the time limit */
+            status = -1; failed = 1; timed_out = 1;
+            message = "the time limit was reached";
+            break;
         }
         double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
         if (h_abs > max_step) h_abs = max_step;
