@@ -19,6 +19,26 @@ def bicycle():
     return definition, eom, definition.numeric(eom)
 
 
+@pytest.fixture(scope="session")
+def line_particle():
+    """``build(mass, force=None, potential=None)``: the equations of a particle
+    'bob' of ``mass`` at q N.x, its speed u along N.x, under ``force(q, u)``
+    along N.x, with ``potential(q)`` declared; returns ``(eom, q, u)``."""
+    def build(mass, force=None, potential=None):
+        q, u = me.dynamicsymbols("q u")
+        N = me.ReferenceFrame("N")
+        O = me.Point("O")
+        O.set_vel(N, 0)
+        P = O.locatenew("P", q * N.x)
+        P.set_vel(N, u * N.x)
+        eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                      bodies=[me.Particle("bob", P, mass)],
+                      loads=[(P, force(q, u) * N.x)] if force is not None else [],
+                      potential_energy=potential(q) if potential is not None else None)
+        return eom, q, u
+    return build
+
+
 @pytest.fixture()
 def circle_particle():
     """A particle on a circle of radius L under gravity, both Cartesian

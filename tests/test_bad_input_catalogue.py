@@ -814,3 +814,97 @@ def test_bad_saved_archive(case, tmp_path):
     path = make(tmp_path / "model.kdeom")
     with pytest.raises(kd.SavedFileError, match=r"model\.kdeom: " + message):
         load_data(path, **options)
+
+
+# ---- issue 33, items 5 and 6: no hangs (time limits, scheduler addresses); energy
+# off by orders of magnitude is never a silent success
+TIME_LIMIT_CASES = {
+    "timeout of zero": 0, "negative timeout": -1.0, "nan timeout": float("nan"),
+    "infinite timeout": float("inf"), "timeout as text": "10",
+}
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+@pytest.mark.parametrize("case", sorted(TIME_LIMIT_CASES))
+def test_bad_time_limit(spring, case, backend):
+    eom, model, (q, u, F, *_r) = spring
+    model = _c_spring(eom, F) if backend == "c" else model
+    with pytest.raises(kd.OptionError, match="timeout must be a positive number of seconds"):
+        kd.simulate(model, (0.0, 1.0), [1.0, 0.0], timeout=TIME_LIMIT_CASES[case])
+
+
+def _http_server():
+    """An HTTP server on loopback (answers HTTP, never Dask); its tcp:// address."""
+    import http.server
+    import threading
+
+    class Quiet(http.server.SimpleHTTPRequestHandler):
+        def log_message(self, *args):
+            pass
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), Quiet)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    return server, f"tcp://127.0.0.1:{server.server_address[1]}"
+
+
+SCHEDULER_CASES = {
+    "no port": ("garbage", r"scheduler 'garbage' is not a Dask scheduler address \(missing "
+                           r"port number"),
+    "host without port": ("tcp://127.0.0.1", "is not a Dask scheduler address"),
+    "unknown scheme": ("foo://x:1", "unknown scheme 'foo'"),
+    "port that is not a number": ("tcp://host:port", "is not a Dask scheduler address"),
+    "not text": (8786, "scheduler must be an address"),
+    "an HTTP server": (None, "no Dask scheduler answered within 1 s .*accepted the "
+                             "connection but did not answer"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(SCHEDULER_CASES))
+def test_bad_scheduler(spring, case, monkeypatch, capsys, tmp_path):
+    """In kd.sweep and in ``kanedyn sweep --scheduler``: one line within seconds,
+    before any run (an HTTP server kept both waiting over 180 s; ``garbage``
+    gave a traceback)."""
+    pytest.importorskip("distributed")
+    pytest.importorskip("pandas")
+    from kanedyn.simulation import _sweep
+    monkeypatch.setattr(_sweep, "_CONNECT_SECONDS", 1.0)
+    address, pattern = SCHEDULER_CASES[case]
+    server = None
+    if address is None:
+        server, address = _http_server()
+    try:
+        _eom, model, _symbols = spring
+        with pytest.raises(kd.OptionError, match=pattern):
+            kd.sweep(model, {"k": [1.0]}, [1.0, 0.0], (0.0, 1.0), scheduler=address,
+                     progress=False)
+        if isinstance(address, str):
+            assert main(["sweep", "pendulum", "--grid", "l=1", "--quiet", "--scheduler",
+                         address, "--out", str(tmp_path / "o")]) == 2
+            err = capsys.readouterr().err
+            assert err.startswith("kanedyn: error: ") and len(err.splitlines()) == 1
+            assert re.search(pattern, err), err
+    finally:
+        if server is not None:
+            server.shutdown()
+            server.server_close()
+
+
+def test_run_timeout_refused_on_the_command_line(capsys, tmp_path):
+    for value, why in (("0", "must be a finite number > 0"), ("-2", "must be a finite"),
+                       ("nan", "must be a finite"), ("soon", "expected a number, got 'soon'")):
+        assert main(["sweep", "pendulum", "--grid", "l=1", "--run-timeout", value,
+                     "--out", str(tmp_path / "o")]) == 2
+        assert f"argument --run-timeout: {why}" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_energy_off_by_orders_of_magnitude(backend):
+    """The stiff spring of the issue (k = 1e8, rtol = atol = 1e-2, RK45 with
+    first_step=0.5, max_step=10, two output times: silent before) grows its
+    energy 3e24-fold: flagged, with the stiff methods suggested."""
+    args, (q, u, F, m, k, *_r) = _spring()
+    eom = kd.kane(**args, potential_energy=k * q ** 2 / 2)
+    model = eom.numeric(constants={"m": 1.0, "k": 1e8}, specified={F: 0.0}, backend=backend)
+    with pytest.warns(kd.TrustWarning, match="the energy balance fails.*method='Radau'"):
+        res = kd.simulate(model, (0.0, 1.0), [1.0, 0.0], rtol=1e-2, atol=1e-2,
+                          t_eval=[0.0, 1.0], first_step=0.5, max_step=10)
+    assert res.success and "warning: the energy balance fails" in res.message

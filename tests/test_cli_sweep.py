@@ -1,5 +1,9 @@
 """``kanedyn sweep``: a grid on the command line gives the table kd.sweep gives;
-bad arguments are one-line errors with exit code 2."""
+bad arguments (a scheduler that is not one among them) are one-line errors
+with exit code 2; a run over --run-timeout is a failed row."""
+
+import http.server
+import threading
 
 import numpy as np
 import pytest
@@ -43,6 +47,10 @@ def test_sweep_command_matches_the_api(tmp_path, capsys):
     (["--grid", "l=1", "--random", "m=1:2", "--samples", "2"], "not both"),
     (["--grid", "l=1", "--t-end", "0"], "argument --t-end: must be a finite number > 0"),
     (["--grid", "l=1", "--workers", "0"], "--workers must be at least 1"),
+    (["--grid", "l=1", "--run-timeout", "0"], "argument --run-timeout: must be a finite number"),
+    (["--grid", "l=1", "--scheduler", "garbage"],
+     "scheduler 'garbage' is not a Dask scheduler address (missing port"),
+    (["--grid", "l=1", "--scheduler", "tcp://:x"], "is not a Dask scheduler address"),
     (["--grid", "l=1", "--outputs", "final,peak"], "--outputs: unknown peak"),
     (["--grid", "length=1", "--t-end", "0.1", "--scheduler", "serial"],
      "length: not constant"),
@@ -59,3 +67,50 @@ def test_unwritable_out(tmp_path, capsys):
     blocker.write_text("x")
     code = main(["sweep", "pendulum", "--grid", "l=1", "--out", str(blocker / "sub")])
     assert code == 2 and "is a file, not a folder" in capsys.readouterr().err
+
+
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+def _main_within(seconds, argv):
+    """``main(argv)``'s exit code, waiting at most ``seconds`` (a hang guard)."""
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("code", main(argv)), daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"kanedyn {' '.join(argv)} did not return in {seconds} s"
+    return box["code"]
+
+
+def test_an_http_server_as_scheduler_is_a_one_line_error(tmp_path, capsys):
+    """An HTTP server accepts the connection and never answers as Dask: the
+    sweep stopped only after more than 180 s with a traceback; now a one-line
+    error (hang guard: 60 s), before the model is derived."""
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _QuietHandler)
+    threading.Thread(target=server.serve_forever, daemon=True).start()
+    address = f"tcp://127.0.0.1:{server.server_address[1]}"
+    try:
+        code = _main_within(60, ["sweep", "pendulum", "--grid", "l=1", "--out",
+                                 str(tmp_path / "o"), "--quiet", "--scheduler", address])
+    finally:
+        server.shutdown()
+        server.server_close()
+    err = capsys.readouterr().err.strip()
+    assert code == 2 and len(err.splitlines()) == 1
+    assert f"scheduler {address}: no Dask scheduler answered" in err
+
+
+def test_run_timeout(tmp_path, capsys):
+    """A pendulum run of 1e6 s on the numpy backend takes minutes: with
+    --run-timeout 1 it is a failed row naming the limit (hang guard: 120 s)."""
+    out = tmp_path / "t"
+    code = _main_within(120, ["sweep", "pendulum", "--grid", "l=1", "--t-end", "1e6",
+                              "--backend", "numpy", "--scheduler", "serial", "--quiet",
+                              "--csv", "--outputs", "t_end", "--run-timeout", "1",
+                              "--out", str(out)])
+    assert code == 1 and "1 runs, 1 failed" in capsys.readouterr().out
+    row = pd.read_csv(out / "results.csv").iloc[0]
+    assert not row["success"] and "time limit of 1 s" in row["message"]
+    assert 0 < row["t_end"] < 1e6

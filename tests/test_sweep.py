@@ -1,15 +1,23 @@
 """kd.sweep: runs equal single simulations, the pendulum's period across a
 grid, failed runs as rows, resuming (a deleted part, Ctrl-C, another sweep's
-folder), and a worker process killed during a sweep on a real local cluster."""
+folder), a worker process killed during a sweep on a real local cluster, a
+time limit per run (serially and on the cluster; a run stuck in an input's
+function is abandoned), and scheduler addresses checked before use (a
+malformed one, a closed port, an HTTP server, a worker)."""
 
+import http.server
 import math
+import re
 import os
 import signal
+import socket
 import threading
 import time
 
 import numpy as np
 import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn.simulation import _sweep
@@ -120,6 +128,238 @@ def test_resume_after_a_lost_part_and_ctrl_c(pendulum, tmp_path, monkeypatch):
         kd.sweep(model, grid, y0, (0, 2), out=other, scheduler="serial", progress=False)
 
 
+# ------------------------------------------------------ time limits
+def _spring(line_particle, force):
+    """A particle on a spring along N.x (the equations, constants m, k, and the
+    input F = ``force(t, y)``)."""
+    F = me.dynamicsymbols("F")
+    m, k = sm.symbols("m k")
+    eom, _q, _u = line_particle(m, lambda q, u: F - k * q, lambda q: k * q ** 2 / 2)
+    return eom, {"m": 1.0, "k": 1.0}, {F: force}
+
+
+def _no_force(t, y):
+    return 0.0
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_a_run_over_its_time_limit_is_a_row_and_the_sweep_goes_on(line_particle, backend):
+    """k = 1e10 over 100 s takes minutes (about 1e8 steps); with timeout=2 its
+    integration stops at the limit, the row keeps what it computed and says why,
+    and the soft run (k = 1) succeeds.  Hang guard: the sweep must return
+    within 60 s (it took minutes without the limit)."""
+    eom, constants, inputs = _spring(line_particle, _no_force)
+    model = eom.numeric(constants=constants, specified=inputs, backend=backend)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"k": [1.0, 1e10]}, [0.1, 0.0], (0.0, 100.0), outputs=("final", "t_end"),
+        scheduler="serial", progress=False, timeout=2.0, rtol=1e-10, atol=1e-10)),
+        daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), "the sweep did not stop at the runs' time limit"
+    soft, stiff = box["table"].itertuples()
+    assert soft.success and soft.t_end == 100.0
+    assert not stiff.success and "time limit of 2 s" in stiff.message
+    assert 0.0 < stiff.t_end < 100.0 and np.isfinite(stiff.final_q)  # what it computed
+
+
+@pytest.mark.parametrize("backend", ["numpy", "c"])
+def test_the_time_limit_of_simulate_keeps_what_was_computed(line_particle, backend):
+    """simulate(timeout=...) on both integrators: success=False, the message
+    names the limit, the result ends where the run got to (hang guard: 60 s;
+    the run takes minutes without the limit)."""
+    eom, constants, inputs = _spring(line_particle, _no_force)
+    model = eom.numeric(constants=dict(constants, k=1e10), specified=inputs, backend=backend)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("res", kd.simulate(
+        model, (0.0, 100.0), [0.1, 0.0], timeout=0.5, rtol=1e-10, atol=1e-10,
+        t_eval=np.linspace(0.0, 100.0, 11))), daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), "simulate did not stop at its time limit"
+    res = box["res"]
+    assert not res.success and res.message.startswith("the time limit of 0.5 s")
+    assert res.t[-1] < 100.0 and np.all(np.isfinite(res.y))
+
+
+def _oscillator_above_a_floor():
+    """A particle on a spring along N.x (k = 1e6 N/m, m = 1 kg) 1 m above a floor
+    it never reaches: one compiled contact segment, no contact active, for as
+    long as the run lasts.  The model and its initial state."""
+    x, z = me.dynamicsymbols("x z")
+    ux, uz = me.dynamicsymbols("u_x u_z")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x + z * N.z)
+    P.set_vel(N, ux * N.x + uz * N.z)
+    eom = kd.kane(frame=N, q_ind=[x, z], u_ind=[ux, uz],
+                  kd_eqs=[x.diff() - ux, z.diff() - uz], bodies=[me.Particle("p", P, 1.0)],
+                  loads=[(P, -1e6 * x * N.x)], potential_energy=5e5 * x ** 2,
+                  contacts=[kd.Contact(P, kd.Plane(N, O, N.z), name="floor")])
+    return eom.numeric(backend="c"), [1.0, 1.0, 0.0, 0.0]
+
+
+@pytest.mark.parametrize("case", ["index-3 integrator", "contact loop",
+                                  "compiled contact segment"])
+def test_the_time_limit_of_the_other_integrators(case):
+    """The index-3 integrator (four-bar, steps of 1e-5 s over 100 s), the
+    contact loop (a ball bouncing for 1e6 s) and a compiled contact segment (a
+    stiff oscillator above a floor for 1e6 s: 1e8 periods; it held the
+    interpreter and ran to its end) take minutes or more: timeout=1 ends them
+    with what they computed (hang guard: 60 s)."""
+    if case == "contact loop":
+        d = kd.models.build("bouncing-ball")
+        model, t_end = d.numeric(), 1e6
+        y0 = d.initial(model)
+    elif case == "compiled contact segment":
+        (model, y0), t_end = _oscillator_above_a_floor(), 1e6
+    else:
+        d = kd.models.build("four-bar")
+        model = d.numeric(scheme=kd.schemes.AugmentedLagrangianIndex3(step=1e-5))
+        t_end, y0 = 100.0, d.initial(model)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("res", kd.simulate(
+        model, (0.0, t_end), y0, timeout=1.0)), daemon=True)
+    thread.start()
+    thread.join(60)
+    assert not thread.is_alive(), f"the {case} did not stop at its time limit"
+    res = box["res"]
+    assert not res.success and res.message.startswith("the time limit of 1 s")
+    assert 0 < res.t[-1] < t_end
+
+
+def test_a_run_stuck_in_an_input_function_is_abandoned(line_particle, monkeypatch):
+    """An input's function that never returns holds no sweep: after twice the
+    limit plus the grace the run is a row saying so, the other runs are rows as
+    usual.  The abandoned run's thread is asked to stop: one looping in Python
+    ends (within 30 s, a hang guard), one blocked in a call (here until
+    released) stays until the call returns.  Hang guard of the sweep: 60 s
+    (without the limit it never returned)."""
+    monkeypatch.setattr(_sweep, "GRACE", 0.5)
+    release = threading.Event()
+
+    def stuck_beyond(t, y):  # q = 0.2 waits in a call, q = -0.2 loops in Python
+        if y[0] > 0.15:
+            release.wait(120)
+        while y[0] < -0.15:
+            pass
+        return 0.0
+    eom, constants, inputs = _spring(line_particle, stuck_beyond)
+    model = eom.numeric(constants=constants, specified=inputs)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"q": [0.1, 0.2, -0.2, 0.12]}, [0.1, 0.0], (0.0, 1.0), outputs=("final",),
+        scheduler="serial", progress=False, timeout=1.0)), daemon=True)
+    thread.start()
+    thread.join(60)
+    try:
+        assert not thread.is_alive(), "a stuck input function held the sweep"
+        table = box["table"]
+        assert table["success"].tolist() == [True, False, False, True]
+        for k in (1, 2):
+            assert "did not return within" in table["message"][k]
+            assert "abandoned" in table["message"][k] and np.isnan(table["final_q"][k])
+
+        def alive(run):
+            return any(t.name == f"kanedyn sweep run {run}" for t in threading.enumerate())
+        deadline = time.monotonic() + 30
+        while alive(2) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not alive(2), "the run looping in Python was not stopped"
+        assert alive(1)  # blocked in a call: until it returns
+    finally:
+        release.set()
+
+
+def test_bad_time_limits(pendulum):
+    d, model = pendulum
+    for bad in (0, -1.0, float("nan"), float("inf"), "10"):
+        with pytest.raises(kd.OptionError, match="timeout must be a positive number"):
+            kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1), scheduler="serial",
+                     progress=False, timeout=bad)
+        with pytest.raises(kd.OptionError, match="timeout must be a positive number"):
+            kd.simulate(model, (0, 1), d.initial(model), timeout=bad)
+
+
+# --------------------------------------------------- scheduler addresses
+class _QuietHandler(http.server.SimpleHTTPRequestHandler):
+    def log_message(self, *args):
+        pass
+
+
+@pytest.fixture()
+def http_address():
+    """``tcp://`` address of an HTTP server on loopback (not a Dask scheduler)."""
+    server = http.server.ThreadingHTTPServer(("127.0.0.1", 0), _QuietHandler)
+    thread = threading.Thread(target=server.serve_forever, daemon=True)
+    thread.start()
+    yield f"tcp://127.0.0.1:{server.server_address[1]}"
+    server.shutdown()
+    server.server_close()
+
+
+def _closed_port():
+    with socket.socket() as sock:
+        sock.bind(("127.0.0.1", 0))
+        return sock.getsockname()[1]
+
+
+def _within(seconds, call):
+    """``call()``'s exception, waiting at most ``seconds`` (a hang guard: the bug
+    took minutes)."""
+    box = {}
+
+    def run():
+        try:
+            call()
+        except Exception as exc:  # noqa: BLE001
+            box["error"] = exc
+    thread = threading.Thread(target=run, daemon=True)
+    thread.start()
+    thread.join(seconds)
+    assert not thread.is_alive(), f"no answer within {seconds} s"
+    return box.get("error")
+
+
+def test_scheduler_addresses_are_checked_before_use(pendulum, http_address):
+    """Malformed, unknown scheme, nothing listening, an HTTP server: one-line
+    OptionErrors within seconds (an HTTP server kept Client() waiting over 180
+    s), before any run; the library's sweep refuses them too."""
+    d, model = pendulum
+    cases = {"garbage": "is not a Dask scheduler address .*missing port",
+             "tcp://127.0.0.1": "missing port",
+             "foo://x:1": "unknown scheme 'foo'",
+             f"tcp://127.0.0.1:{_closed_port()}": "no Dask scheduler answered within",
+             http_address: "accepted the connection but did not answer"}
+    for address, pattern in cases.items():
+        error = _within(30, lambda: _sweep.check_scheduler(address))
+        assert isinstance(error, kd.OptionError) and re.search(pattern, str(error)), error
+        assert "\n" not in str(error)
+    error = _within(30, lambda: kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1),
+                                         scheduler=http_address, progress=False))
+    assert isinstance(error, kd.OptionError) and http_address in str(error)
+    with pytest.raises(kd.OptionError, match="not int"):
+        _sweep.check_scheduler(8786)
+    assert _sweep.check_scheduler("serial") == "serial" and _sweep.check_scheduler(None) is None
+
+
+def test_a_scheduler_without_workers_is_refused(pendulum, monkeypatch):
+    """Its tasks would never run: after the wait for a worker, a one-line error."""
+    distributed = pytest.importorskip("distributed")
+    import logging
+    monkeypatch.setattr(_sweep, "_WORKER_WAIT_SECONDS", 1.0)
+    d, model = pendulum
+    with distributed.LocalCluster(n_workers=0, processes=False, dashboard_address=None,
+                                  silence_logs=logging.ERROR) as cluster:
+        address = cluster.scheduler_address
+        error = _within(60, lambda: kd.sweep(model, {"l": 1.0}, d.initial(model), (0, 1),
+                                             scheduler=address, progress=False))
+    assert isinstance(error, kd.OptionError)
+    assert f"the Dask scheduler {address} has no workers" in str(error)
+
+
 # ---------------------------------------------------------- on Dask
 @pytest.fixture(scope="module")
 def client():
@@ -192,3 +432,41 @@ def test_worker_killed_mid_sweep(client, tmp_path):
     assert table["run"].is_unique and table["success"].all()
     assert len(pd.read_parquet(out / "results.parquet")) == n_runs
     assert killed["pid"] not in client.run(os.getpid).values()
+
+
+def _sleep_beyond(t, y):  # shipped by value to the workers: the run from q = 0.2 hangs
+    if y[0] > 0.15:
+        time.sleep(600)
+    return 0.0
+
+
+@pytest.mark.slow
+def test_time_limits_on_a_cluster(line_particle, client):
+    """On two worker processes: a run over its limit is a row naming it, a run
+    stuck in its input's function is abandoned on its worker, the others
+    succeed.  Hang guard: 120 s (the stuck run never returned)."""
+    client.run(lambda: setattr(_sweep, "GRACE", 0.5))  # the workers' grace
+    eom, constants, inputs = _spring(line_particle, _sleep_beyond)
+    model = eom.numeric(constants=constants, specified=inputs)
+    box = {}
+    thread = threading.Thread(target=lambda: box.setdefault("table", kd.sweep(
+        model, {"k": [1.0, 1e10], "q": [0.1, 0.2]}, [0.1, 0.0], (0.0, 100.0),
+        outputs=("t_end",), client=client, batch_size=1, progress=False, timeout=2.0,
+        rtol=1e-10, atol=1e-10)), daemon=True)
+    thread.start()
+    thread.join(120)
+    assert not thread.is_alive(), "the sweep on the cluster did not return"
+    rows = {(row.k, row.q): row for row in box["table"].itertuples()}
+    assert rows[1.0, 0.1].success and rows[1.0, 0.1].t_end == 100.0
+    assert "time limit of 2 s" in rows[1e10, 0.1].message and rows[1e10, 0.1].t_end < 100
+    for stuck in (rows[1.0, 0.2], rows[1e10, 0.2]):
+        assert not stuck.success and "abandoned" in stuck.message
+
+
+@pytest.mark.slow
+def test_a_real_scheduler_passes_the_check_and_a_worker_does_not(client):
+    address = client.scheduler.address
+    assert _sweep.check_scheduler(address) == address
+    worker = sorted(client.scheduler_info()["workers"])[0]
+    with pytest.raises(kd.OptionError, match="is a Worker, not a scheduler"):
+        _sweep.check_scheduler(worker)

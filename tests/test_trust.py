@@ -475,10 +475,10 @@ def _stiff_pair():
 def test_energy_created_by_an_explicit_method_on_a_stiff_system(backend):
     eom = _stiff_pair()
     model = eom.numeric(constants={"m": 1, "k": 1, "K": 1e5}, backend=backend)
-    with pytest.warns(kd.TrustWarning, match="the system is stiff"):
+    with pytest.warns(kd.TrustWarning, match="the energy balance fails"):
         res = kd.simulate(model, (0, 10), [1, 1.001, 0, 0], rtol=1e-2, atol=1e-2)
     assert res.success  # the integrator saw nothing wrong ...
-    assert "warning: the total energy changed by" in res.message  # ... kanedyn does
+    assert "warning: the energy balance fails" in res.message  # ... kanedyn does
     assert "method='Radau'" in res.message
     assert np.max(np.abs(res.energy)) > 1e6 * abs(res.energy[0])
     # at a tolerance that resolves the stiff spring, the same method is trusted

@@ -4,7 +4,7 @@
 
     kanedyn sweep pendulum --grid l=0.5:2:7 --grid q=0.1,0.2 --out sweep-out
     kanedyn sweep chain3d --set n=5 --random g=9:10 --samples 100 --seed 1 --out s2 \\
-        --backend c --workers 2
+        --backend c --workers 2 --run-timeout 60
 """
 
 from __future__ import annotations
@@ -38,6 +38,9 @@ def add_parser(sub):
                    help="Dask scheduler address (tcp://host:8786), or 'serial' (no Dask); "
                         "default: a local cluster")
     p.add_argument("--workers", type=int, default=2, help="local cluster worker processes")
+    p.add_argument("--run-timeout", type=positive_float, default=None, metavar="SECONDS",
+                   help="time limit of each run: a run stopped there is a failed row "
+                        "(default: none)")
     p.add_argument("--t-end", type=positive_float, default=None,
                    help="end time of each run [s]")
     add_backend_argument(p)
@@ -121,6 +124,9 @@ def _check(args):
     if args.batch_size is not None and args.batch_size < 1:
         raise KanedynError(f"--batch-size must be at least 1, got {args.batch_size}")
     check_output_dir(args.out)
+    if args.scheduler is not None:  # an address that answers as a Dask scheduler
+        from ..simulation import check_scheduler
+        args.scheduler = check_scheduler(args.scheduler)
 
 
 def cmd_sweep(args):
@@ -149,7 +155,8 @@ def cmd_sweep(args):
                       table_format="csv" if args.csv else "parquet",
                       scheduler=args.scheduler, n_workers=args.workers,
                       batch_size=args.batch_size, progress=not args.quiet,
-                      method=args.method, rtol=args.rtol, atol=args.atol)
+                      timeout=args.run_timeout, method=args.method, rtol=args.rtol,
+                      atol=args.atol)
     except SweepInterrupted as stop:
         print(f"kanedyn: {stop}", file=sys.stderr)
         return 130

@@ -2,8 +2,10 @@
 
 ``_simulate``    ``simulate``: checks, dispatch to solve_ivp, the compiled loop, a
                  scheme's own integrator or the contact loop; drift projection
-``_run_guard``   what ends a run early (non-finite derivative, Ctrl-C) without
-                 losing what was computed
+``_run_guard``   what ends a run early (non-finite derivative, Ctrl-C, the time
+                 limit) without losing what was computed
+``_energy_check`` whether a run's energy balance holds (the stored energy against
+                 the work done on the model); ``TrustWarning``
 ``_hybrid``      contact modes, events and impacts, segment by segment
 ``_impact``      the impulse-momentum form of impacts with friction
 ``_index3``      the fixed-step integrator of the index-3 augmented Lagrangian
@@ -20,13 +22,14 @@ _LAZY = {
     "SimulationResult": "._results",
     "ModeChange": "._hybrid",
     "Impact": "._impact",
-    "TrustWarning": "._simulate",
+    "TrustWarning": "._energy_check",
     "COMPILED_METHODS": "._simulate",
     "METHODS": "._simulate",
     "OWN_INTEGRATORS": "._simulate",
     "sweep": "._sweep",
     "SweepInterrupted": "._sweep",
     "SWEEP_OUTPUTS": "._sweep",
+    "check_scheduler": "._sweep",
 }
 
 __all__ = list(_LAZY)

@@ -333,7 +333,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         if segment_c is not None:  # the model's module now: an optimized one may have come
             sol = _compiled_segment(model._module.contact_segment, model, t, t1, z0,
                                     frozen_modes, frozen_dirs, mode_events, stabilization,
-                                    rtol, atol, guard.stop_flag)
+                                    rtol, atol, guard)
         try:
             if sol is None:
                 sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
@@ -454,7 +454,7 @@ class _Segment:
 
 
 def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_events,
-                      stabilization, rtol, atol, stop_flag):
+                      stabilization, rtol, atol, guard):
     """One segment in the compiled contact loop, or ``None`` (Python path).
 
     The generated ``contact_segment`` (:mod:`kanedyn.numerics.backends._c_contact`)
@@ -462,8 +462,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
     else, or a failure inside it (singular, not finite, step too small), is
     left to ``solve_ivp`` on :func:`solve_modes`, which then reproduces the
     reference behaviour (including its error handling) for that segment.
-    ``stop_flag`` is the run guard's: a stop signal ends the segment after its
-    step, with what it has (a failure, as ``solve_ivp`` reports one).
+    ``guard``: the run's; a stop signal or its time limit ends the segment
+    after its step, with what it has (a failure, as ``solve_ivp`` reports one).
     """
     active = [c for c, mode in enumerate(modes) if mode != SEPARATED]
     if len(active) > 1 or any(model.contacts[c]["kind"] != "unilateral" for c in active):
@@ -489,7 +489,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
             np.array([float(coef[c]["viscous"]) for c in range(k)]), float(stabilization),
             ev_c, ev_kind)
     status, ts, zs, event, nfev = segment_c(float(t), float(t1), z0, model._p, spec,
-                                            float(rtol), float(atol), stop_flag)
+                                            float(rtol), float(atol), guard.stop_flag,
+                                            guard.seconds_left())
     if status == 2:
         return None
     t_events = [np.zeros(0) for _ in mode_events]

@@ -42,7 +42,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .._errors import INTERRUPTED, ModelError, OptionError
+from .._errors import ModelError, OptionError
 from ..numerics.schemes import al_solve
 from ._results import SimulationResult
 
@@ -236,7 +236,8 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     monitor : SingularityMonitor, optional
     progress : Progress, optional
     guard : RunGuard, optional
-        Ends the run on Ctrl-C (message ``"interrupted"``) with what was computed.
+        Ends the run on Ctrl-C (message ``"interrupted"``) or at its time limit
+        with what was computed.
 
     Returns
     -------
@@ -272,8 +273,8 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
     status, message = 0, "the integration reached the end of the interval"
     t = t0
     for k in range(steps):
-        if guard is not None and guard.interrupted:
-            status, message = -1, INTERRUPTED
+        if guard is not None and guard.stop_reason is not None:  # Ctrl-C, the time limit
+            status, message = -1, guard.stop_reason
             break
         t_new = t0 + (k + 1) * h if k + 1 < steps else t1
         hk = t_new - t

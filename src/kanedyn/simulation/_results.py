@@ -72,7 +72,9 @@ class SimulationResult:
     @classmethod
     def build(cls, model, t, y, status, message, t_events, y_events, dense_segments,
               counters, projections, initial_state, constraint_forces, method,
-              contacts=None):
+              contacts=None, balance=None):
+        """``balance``: the energy balance the integrator sampled for the energy
+        check (:class:`kanedyn.simulation._energy_check.Balance`), where it did."""
         self = object.__new__(cls)
         d = self.__dict__
         d.update(model=model, t=t, y=y, status=status, message=message,
@@ -85,6 +87,7 @@ class SimulationResult:
             d["sol"] = _SegmentedSolution(dense_segments) if dense_segments else None
         d["_want_forces"] = constraint_forces
         d["_contacts"] = contacts
+        d["_balance"] = balance
         return self
 
     # ------------------------------------------- histories, computed on demand

@@ -13,7 +13,10 @@ A run on SciPy's ``solve_ivp`` ends early when
   returns; a third raises ``KeyboardInterrupt`` at once (what is under way is
   lost: the way out of an evaluation that never returns).  The compiled loops
   read the flag (:attr:`RunGuard.stop_flag`) where they check for signals,
-  between their steps.
+  between their steps;
+* the run's time limit (``simulate(..., timeout=...)``) has passed, checked at
+  every step (the compiled loops every 16 steps, next to the stop flag, given
+  :meth:`RunGuard.seconds_left`).
 
 In these cases the solver, wrapped by :func:`guarded_method`, reports a failed
 step at its next step, so ``solve_ivp`` returns normally with everything it
@@ -23,6 +26,7 @@ discarding its work in an exception.
 
 from __future__ import annotations
 
+import time
 from contextlib import contextmanager
 
 import numpy as np
@@ -32,10 +36,18 @@ from .._errors import INTERRUPTED, ModelError, OptionError
 from .._signals import Stopped, holding
 
 __all__ = ["RunGuard", "Integrand", "guarded_event", "guarded_method", "solver_class",
-           "scipy_methods", "INTERRUPTED"]
+           "scipy_methods", "time_limit_message", "INTERRUPTED"]
+
+
+def time_limit_message(timeout, t):
+    """The message of a run stopped by its time limit (``timeout`` s) at ``t``."""
+    where = f" at t={t:.6g} s" if np.isfinite(t) else ""
+    return f"the time limit of {timeout:g} s of computing (timeout=) was reached{where}"
+
 
 class RunGuard:
-    """Reasons to stop a run: the first non-finite evaluation, or a stop signal.
+    """Reasons to stop a run: the first non-finite evaluation, a stop signal, or
+    the time limit (``timeout`` s from the guard's making).
 
     Attributes
     ----------
@@ -47,9 +59,14 @@ class RunGuard:
         Stop signals received.
     stop_flag : ndarray of int32, shape (1,)
         1 once a stop signal came: what compiled loops read between their steps.
+    deadline : float or None
+        ``time.monotonic()`` at which the time limit passes.
+    on_step : callable or None
+        Called after every accepted step with ``(t_old, y_old, f_old, t, y, f)``
+        (``f``: the derivative there, ``None`` where the solver keeps none).
     """
 
-    def __init__(self, model):
+    def __init__(self, model, timeout=None):
         self.model = model
         self.failure_state = None
         self.failure_text = None
@@ -58,6 +75,16 @@ class RunGuard:
         self.stop_flag = np.zeros(1, dtype=np.int32)
         self.skipped = False  # an evaluation returned nan unevaluated (hurried)
         self.last_step = None  # (t, y) the solver accepted last
+        self.on_step = None
+        self.timeout = timeout
+        self.deadline = None if timeout is None else time.monotonic() + timeout
+
+    def seconds_left(self):
+        """Seconds before the time limit, for a compiled loop (0.0: no limit; one
+        that has passed, the least time, 1e-9 s)."""
+        if self.deadline is None:
+            return 0.0
+        return max(self.deadline - time.monotonic(), 1e-9)
 
     @property
     def interrupted(self):
@@ -72,7 +99,7 @@ class RunGuard:
     def fail(self, t, y, text=None):
         """Record the first failure at ``(t, y)`` (``text`` overrides the diagnosis)."""
         if self.failure_state is None:
-            self.failure_state = (float(t), np.array(y, dtype=float))
+            self.failure_state = (float(t), None if y is None else np.array(y, dtype=float))
             self.failure_text = text
 
     @property
@@ -81,9 +108,14 @@ class RunGuard:
 
     @property
     def stop_reason(self):
-        """``"interrupted"``, the failure's message, or ``None``."""
+        """``"interrupted"``, the failure's message (a time limit that has passed
+        is one), or ``None``."""
         if self.interrupted:
             return INTERRUPTED
+        if not self.failed and self.deadline is not None \
+                and time.monotonic() >= self.deadline:
+            t, y = self.last_step or (np.nan, None)
+            self.fail(t, y, time_limit_message(self.timeout, t))
         return self.failure_message() if self.failed else None
 
     def failure_message(self):
@@ -204,6 +236,8 @@ def guarded_method(method, guard):
         def _step_impl(self):
             if guard.stop_reason is not None:
                 return False, guard.stop_reason
+            before = (self.t, self.y.copy(), getattr(self, "f", None)) \
+                if guard.on_step is not None else None
             try:
                 success, message = super()._step_impl()
             except (ValueError, np.linalg.LinAlgError):
@@ -214,6 +248,8 @@ def guarded_method(method, guard):
                 return False, guard.stop_reason
             if success:
                 guard.last_step = (self.t, self.y.copy())
+                if guard.on_step is not None:
+                    guard.on_step(*before, self.t, self.y, getattr(self, "f", None))
             return success, message
 
     Guarded.__name__ = Guarded.__qualname__ = base.__name__

@@ -14,7 +14,6 @@ from __future__ import annotations
 
 import inspect
 import numbers
-import warnings
 
 import numpy as np
 
@@ -22,16 +21,13 @@ from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from ._results import SimulationResult
+from ._energy_check import Balance, WorkTracker, with_energy_note
 from ._index3 import run_index3
 from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_event, guarded_method,
-                         scipy_methods, solver_class)
+                         scipy_methods, solver_class, time_limit_message)
 
 __all__ = ["simulate", "COMPILED_METHODS", "METHODS",  # noqa: F822  (METHODS: __getattr__)
-           "OWN_INTEGRATORS", "TrustWarning"]
-
-
-class TrustWarning(RuntimeWarning):
-    """A run that ended with ``success=True`` whose result should not be trusted."""
+           "OWN_INTEGRATORS"]
 
 
 def _drift_event(model, tol):
@@ -51,15 +47,7 @@ _SOLVE_IVP_OPTIONS = {"first_step", "max_step", "min_step", "jac", "jac_sparsity
                       "vectorized", "lband", "uband"}
 #: options of the integration of models with contacts
 _CONTACT_OPTIONS = {"modes", "stabilization", "rest_speed"}
-_EXPLICIT = {"RK23": 3, "RK45": 6, "DOP853": 12}  # evaluations per step
 _MAX_STALLED_PROJECTIONS = 50  # projections in a row without progress in time
-_ENERGY_GROWTH = 100.0  # energy change / initial energy scale that warrants a warning
-# spectral radius times mean step from which an explicit method works at its
-# stability limit (Dormand-Prince's region reaches about 3.3 along the real axis)
-_STABILITY_LIMIT = 1.0
-# the relative error the tolerance admits per step, summed over the steps, below
-# which an integrator cannot have created a change of energy of _ENERGY_GROWTH
-_ADMITTED_ERROR = 1e-3
 
 
 def __getattr__(name):
@@ -75,7 +63,7 @@ def __getattr__(name):
 def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1e-8,
              events=None, dense_output=False, project=None, projection_tol=None,
              constraint_forces=False, progress=False, backend=None,
-             singular_threshold=DEFAULT_THRESHOLD, **options):
+             singular_threshold=DEFAULT_THRESHOLD, timeout=None, **options):
     """Integrate a :class:`NumericModel` with SciPy's ``solve_ivp``.
 
     Parameters
@@ -134,6 +122,11 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         :class:`~kanedyn.SingularConfigurationWarning` (default 1e-3; ``None``:
         do not monitor).  Schemes with their own integrator
         (:class:`kanedyn.schemes.AugmentedLagrangianIndex3`) are run by it.
+    timeout : float, optional
+        Wall-clock seconds after which the integration stops, checked at every
+        step (every 16 steps of the compiled loops): the run then ends with
+        ``success=False``, a message naming the limit, and everything computed
+        up to then.
     **options
         Passed on to ``solve_ivp``: ``max_step``, ``first_step``, ``min_step``,
         ``jac``, ``jac_sparsity``, ``vectorized``, ``lband``, ``uband`` (other
@@ -149,11 +142,13 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     SimulationResult
         A run that cannot go on (a singular mass matrix, a non-finite
         constant, input or state, a step size that collapses, an input's or
-        event's function that raises) ends with
+        event's function that raises, the time limit) ends with
         ``success=False``, a message naming the cause, and everything computed
-        up to then.  A run with an explicit method whose energy grows by
-        orders of magnitude keeps ``success=True`` but says so in its
-        message (and warns with :class:`TrustWarning`).
+        up to then.  A run whose stored energy differs from what the work done
+        on the model allows by more than a factor of 10 (either way), or whose
+        state leaves the finite range, keeps ``success=True`` but says so in
+        its message (and warns with :class:`TrustWarning`; see
+        ``docs/trust.md``).
 
     Raises
     ------
@@ -172,6 +167,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     t0, t1 = _check_span(t_span)
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
+    timeout = check_timeout(timeout)
     _check_option_names(options, bool(model.contacts))
     _check_step_options(options, t0, t1)
     if not (isinstance(method, str) and method in COMPILED_METHODS):
@@ -209,7 +205,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         if t1 < t0:
             raise OptionError(f"models with contacts are integrated forward in time; got "
                               f"t_span ({t0:g}, {t1:g})")
-        guard = RunGuard(model)
+        guard = RunGuard(model, timeout)
         if backend == "scipy":  # the Python reference path for every segment
             options = dict(options, compiled=False)
         with guard.catching_interrupts():
@@ -220,7 +216,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         monitor = SingularityMonitor(model, singular_threshold,
                                      direction=1.0 if t1 >= t0 else -1.0)
         if getattr(scheme, "integrator", None) is not None:  # a scheme's own integrator
-            guard = RunGuard(model)
+            guard = RunGuard(model, timeout)
             with guard.catching_interrupts():
                 result = OWN_INTEGRATORS[scheme.integrator](
                     scheme, model, (t0, t1), y_init, method=method, t_eval=t_eval,
@@ -229,14 +225,14 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
                     guard=guard, **options)
         elif _use_compiled(model, method, backend, options):
             progress.stage(f"integrating with the compiled {method} loop")
-            guard = RunGuard(model)
+            guard = RunGuard(model, timeout)
             with guard.catching_interrupts():
                 result = _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol,
                                             user_events, dense_output,
                                             tol if constrained and project else 0.0,
                                             constraint_forces, options, monitor, guard)
         else:
-            guard = RunGuard(model)
+            guard = RunGuard(model, timeout)
             with guard.catching_interrupts():
                 result = _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol,
                                          user_events, dense_output, project and constrained,
@@ -246,7 +242,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     if guard.interrupted or result.message.startswith(INTERRUPTED):
         # a signal after the last step too: the complete result on the exception
         raise SimulationInterrupted(result, guard.signum)
-    return _with_trust_notes(result, _explicit_stages(method), float(np.max(rtol)))
+    return with_energy_note(result, method_name)
 
 
 def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_events,
@@ -264,6 +260,8 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         all_events.append(_drift_event(model, tol))
     direction = 1.0 if t1 >= t0 else -1.0
     integrand = Integrand(model, (t0, t1), progress, guard)
+    tracker = WorkTracker(model, (t0, t1))
+    guard.on_step = tracker.step
     solver = guarded_method(method, guard)
     ts, ys, segments = [], [], []
     t_events = [[] for _ in user_events]
@@ -313,6 +311,9 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
                           and sol.t_events[i][-1] == t_end]
             if fired_user or drift_index is None:
                 status, message = 1, "a termination event occurred"
+                k = next(i for i, times in enumerate(sol.t_events)
+                         if len(times) and times[-1] == t_end)
+                tracker.stop(t_end, sol.y_events[k][-1])
                 break
             # the drift event: project and restart
             t_drift = float(sol.t_events[drift_index][-1])
@@ -344,7 +345,7 @@ def _simulate_scipy(model, t0, t1, y_init, method, t_eval, rtol, atol, user_even
         t_events=[np.asarray(v) for v in t_events],
         y_events=[np.asarray(v).reshape(-1, model.n_states) for v in y_events],
         dense_segments=segments if dense_output else None, counters=counters,
-        projections=projections, method=method_name, **common)
+        projections=projections, method=method_name, balance=tracker.history(), **common)
 
 
 def _keep_last_step(ts, ys, last_step, direction):
@@ -368,6 +369,16 @@ def _terminal_time(events, t_events, direction):
 
 
 # ----------------------------------------------------------------- checks
+def check_timeout(timeout):
+    """``timeout`` (s) as a float, or ``None``; anything but a positive finite
+    number is refused."""
+    if timeout is None:
+        return None
+    if not isinstance(timeout, numbers.Real) or not 0 < timeout < np.inf:
+        raise OptionError(f"timeout must be a positive number of seconds, got {timeout!r}")
+    return float(timeout)
+
+
 def _check_span(t_span):
     try:
         t0, t1 = (float(v) for v in t_span)
@@ -497,103 +508,6 @@ def _initial_failure(model, t0, y):
         if f is not None else "the equations are singular at the initial state")
 
 
-# ---------------------------------------------------------- trust notes
-def _explicit_stages(method):
-    """Right-hand-side evaluations per step of an explicit method, else 0."""
-    if isinstance(method, str):
-        return _EXPLICIT.get(method, 0)
-    if isinstance(method, type):
-        from scipy.integrate._ivp.rk import RungeKutta
-        if issubclass(method, RungeKutta):
-            return method.n_stages + 1
-    return 0
-
-
-def _with_trust_notes(result, stages, rtol):
-    """Say in the message (and warn) when a successful run cannot be trusted."""
-    if not result.success or not stages:
-        return result
-    note = _energy_growth_note(result, stages, rtol)
-    if not note:
-        return result
-    warnings.warn(note, TrustWarning, stacklevel=3)
-    result.__dict__["message"] = f"{result.message}; warning: {note}"
-    return result
-
-
-def _energy_growth_note(result, stages, rtol):
-    r"""A warning when an explicit run created energy on a stiff system, else ``""``.
-
-    All must hold: the total energy changes by more than ``_ENERGY_GROWTH``
-    times the energy exchanged early in the run (the first 5 % of it); the
-    steps were at the explicit method's stability limit,
-    :math:`\rho(\partial f/\partial y)\,h \ge 1` at the start or where
-    the energy changed most (mean step :math:`h`); and the tolerance admits
-    enough error to create it, ``rtol`` times the number of steps at least
-    ``_ADMITTED_ERROR`` (a driven system at a tight tolerance, such as a beam
-    spun up by a prescribed hub motion, gains its energy from the drive).
-    """
-    model = result.model
-    t, y = result.t, result.y
-    if t.size < 3 or not (model.has_potential or not model.has_loads):
-        return ""
-    columns = np.unique(np.linspace(0, t.size - 1, min(t.size, 2000)).astype(int))
-    ke = np.empty(columns.size)
-    pe = np.zeros(columns.size)
-    with np.errstate(all="ignore"):
-        for j, k in enumerate(columns):
-            ke[j], pe[j] = model.energies(t[k], y[:, k])
-        if not model.has_potential:
-            pe[:] = 0.0
-        energy = ke + pe
-        change = np.abs(energy - energy[0])
-    change[~np.isfinite(change)] = np.inf
-    span = abs(t[-1] - t[0])
-    early = np.abs(t[columns] - t[0]) <= 0.05 * span
-    early[:3] = True
-    scale = max(np.max(np.abs(ke[early])), np.max(np.abs(pe[early] - pe[0])))
-    if not np.isfinite(scale):
-        return ""
-    k = int(np.argmax(change))
-    growth = change[k] / scale if scale > 0 else np.inf
-    if growth < _ENERGY_GROWTH:
-        return ""
-    steps = max(result.nfev / stages, 1.0)
-    if rtol * steps < _ADMITTED_ERROR:
-        return ""
-    step = span / steps
-    radius = max(_spectral_radius(model, t[0], y[:, 0]),
-                 _spectral_radius(model, t[columns[k]], y[:, columns[k]]))
-    if not radius * step >= _STABILITY_LIMIT:
-        return ""
-    return (f"the total energy changed by {growth:.3g} times the energy exchanged early in "
-            f"the run (from {energy[0]:.6g} to {energy[k]:.6g} J by t={t[columns[k]]:.6g} s) "
-            f"with the explicit method {result.method} at steps of about {step:.3g} s, "
-            f"while the fastest mode's rate is {radius:.3g} 1/s: the system is stiff and "
-            "the result unreliable; use method='Radau' or 'BDF' (or 'Rosenbrock23' on a "
-            "C model) or a tighter rtol")
-
-
-def _spectral_radius(model, t, y):
-    """Largest eigenvalue magnitude of the finite-difference Jacobian (nan if none)."""
-    with np.errstate(all="ignore"):
-        if not np.all(np.isfinite(y)):
-            return np.nan
-        try:
-            f = model.rhs(t, y)
-            jac = np.empty((y.size, y.size))
-            for j in range(y.size):
-                d = 1.5e-8 * max(abs(y[j]), 1.0)
-                yp = y.copy()
-                yp[j] += d
-                jac[:, j] = (model.rhs(t, yp) - f) / d
-            if not np.all(np.isfinite(jac)):
-                return np.nan
-            return float(np.max(np.abs(np.linalg.eigvals(jac))))
-        except (np.linalg.LinAlgError, ValueError):
-            return np.nan
-
-
 def _use_compiled(model, method, backend, options):
     """Whether to run the compiled loop (raises if asked for and impossible)."""
     compiled = getattr(model, "_c", None) is not None
@@ -662,11 +576,13 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
                              float(options.get("first_step") or 0.0), method,
                              events or None, float(project_tol), bool(dense),
                              monitor.threshold if monitor.active else 0.0,
-                             monitor.displacement, guard.stop_flag)
+                             monitor.displacement, guard.stop_flag, guard.seconds_left())
     status = out["status"]
     message = "a termination event occurred" if status == 1 else out["message"]
     if out["interrupted"]:
         message = INTERRUPTED
+    elif out["timed_out"]:
+        message = time_limit_message(guard.timeout, out["t"][-1] if len(out["t"]) else np.nan)
     elif status == -1 and "t_bad" in out:
         message = diagnose(model, out["t_bad"], out["y_bad"]) or message
     monitor.collect(out["singular_t"], out["singular_y"])  # the first and last state too
@@ -680,7 +596,15 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
         t_events=list(out["t_events"]), y_events=list(out["y_events"]),
         dense_segments=dense_sol, counters=counters, projections=out["projections"],
         initial_state=y_init, constraint_forces=constraint_forces,
-        method=f"{method} (compiled)")
+        method=f"{method} (compiled)", balance=_compiled_balance(out))
+
+
+def _compiled_balance(out):
+    """The energy balance the compiled loop sampled (rows: t, P, E, V, W)."""
+    b = out["balance"]
+    if not len(b):
+        return None
+    return Balance(b[:, 0], b[:, 2], b[:, 3], b[:, 4], out["work_error"], out["work_flow"])
 
 
 def _simulate_with_contacts(model, t_span, y_init, method, t_eval, rtol, atol, events,

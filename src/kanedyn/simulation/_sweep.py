@@ -9,6 +9,13 @@ so nothing is derived again there), and several runs share one task.  With
 an output folder, each finished task writes its rows as a Parquet part
 file, so an interrupted sweep, or one whose worker died, resumes from the
 runs already saved; the folder also gets the combined table.
+
+No sweep waits forever: a scheduler address is checked before use (it must
+answer as a Dask scheduler within seconds, :func:`check_scheduler`), and with a
+time limit per run (``timeout``) each run's integration stops at it (checked as
+it goes) and becomes a failed row; a run stuck in a function of the
+model (an input's or an event's) is abandoned on its thread after twice the
+limit plus :data:`GRACE` seconds, and its row says so.
 """
 
 from __future__ import annotations
@@ -21,15 +28,16 @@ import math
 import numbers
 import os
 import sys
+import threading
 import time
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import ModelError, OptionError
-from ._simulate import simulate
+from ._simulate import check_timeout, simulate
 
-__all__ = ["sweep", "SweepInterrupted", "SWEEP_OUTPUTS"]
+__all__ = ["sweep", "SweepInterrupted", "SWEEP_OUTPUTS", "check_scheduler", "GRACE"]
 
 #: the quantities a sweep can record per run (besides parameters, success,
 #: status and message, always recorded)
@@ -46,6 +54,13 @@ SWEEP_OUTPUTS = {
 
 _PART = "part-{:07d}.parquet"
 _MANIFEST = "sweep.json"
+#: seconds a scheduler has to answer as one before a sweep is refused
+_CONNECT_SECONDS = 5.0
+#: seconds a scheduler without workers is given to get one
+_WORKER_WAIT_SECONDS = 10.0
+#: seconds beyond twice its time limit after which a run that has not returned
+#: (stuck in a function of the model) is abandoned
+GRACE = 5.0
 
 
 class SweepInterrupted(KeyboardInterrupt):
@@ -141,8 +156,7 @@ def parameter_runs(model, parameters, n=None, seed=None):
 
 def _run_one(model, run, names, values, y0, t_span, outputs, options):
     """One row: the run's parameters, success and message, and its outputs."""
-    row = {"run": int(run)}
-    row.update(zip(names, (float(v) for v in values)))
+    row = _parameters_row(run, names, values)
     start = time.perf_counter()
     try:
         constants = {k: v for k, v in zip(names, values) if k in model.constants}
@@ -188,13 +202,67 @@ def _outputs(row, res, outputs, model):
         row["t_end"] = float(res.t[-1]) if res.t.size else float("nan")
 
 
-def run_batch(model, batch, names, y0, t_span, outputs, options):
-    """Rows of a batch of runs ``[(run id, values), ...]`` (one Dask task)."""
+def _parameters_row(run, names, values):
+    return dict({"run": int(run)}, **{name: float(v) for name, v in zip(names, values)})
+
+
+def run_batch(model, batch, names, y0, t_span, outputs, options, timeout=None):
+    """Rows of a batch of runs ``[(run id, values), ...]`` (one Dask task);
+    ``timeout``: the time limit of each run, s (see :func:`sweep`)."""
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a worker has no one to warn; messages are rows
-        return [_run_one(model, run, names, values, y0, t_span, outputs, options)
-                for run, values in batch]
+        if timeout is None:
+            return [_run_one(model, run, names, values, y0, t_span, outputs, options)
+                    for run, values in batch]
+        options = dict(options, timeout=timeout)
+        return [_run_limited(model, run, names, values, y0, t_span, outputs, options,
+                             timeout) for run, values in batch]
+
+
+def _run_limited(model, run, names, values, y0, t_span, outputs, options, timeout):
+    """:func:`_run_one` on a thread of its own, abandoned (and asked to stop) when
+    it has not returned after twice its time limit plus :data:`GRACE` s: its
+    integration stops at the limit, so only a function of the model that does
+    not return (an input's, an event's) holds it."""
+    box = {}
+
+    def target():
+        try:
+            box["row"] = _run_one(model, run, names, values, y0, t_span, outputs, options)
+        except _Abandoned:  # _ask_to_stop reached it
+            pass
+    thread = threading.Thread(target=target, daemon=True, name=f"kanedyn sweep run {run}")
+    start = time.perf_counter()
+    thread.start()
+    thread.join(2 * timeout + GRACE)
+    if "row" in box:
+        return box["row"]
+    _ask_to_stop(thread)
+    row = _parameters_row(run, names, values)
+    row.update(success=False, status=-1, message=(
+        f"the time limit of {timeout:g} s was reached and the run did not return within "
+        f"{timeout + GRACE:g} s more (stuck in a function of the model, an input's or an "
+        "event's?); it was abandoned"))
+    if "wall_time" in outputs:
+        row["wall_time"] = time.perf_counter() - start
+    return row
+
+
+class _Abandoned(BaseException):
+    """Raised in the thread of an abandoned run (not an ``Exception``: a run
+    catches those)."""
+
+
+def _ask_to_stop(thread):
+    """Raise :class:`_Abandoned` in ``thread`` when it next runs Python code (a
+    loop in Python stops; a call that blocks in C keeps the thread until it
+    returns).  Best effort, through CPython's ``PyThreadState_SetAsyncExc``."""
+    import ctypes
+    set_exception = getattr(getattr(ctypes, "pythonapi", None), "PyThreadState_SetAsyncExc",
+                            None)
+    if set_exception is not None and thread.ident is not None:
+        set_exception(ctypes.c_ulong(thread.ident), ctypes.py_object(_Abandoned))
 
 
 # ------------------------------------------------------------- storage
@@ -278,7 +346,7 @@ def _table(rows, out, names):
 # --------------------------------------------------------------- sweep
 def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=None,
           out=None, table_format="parquet", scheduler=None, client=None, n_workers=2,
-          batch_size=None, progress=True, **options):
+          batch_size=None, progress=True, timeout=None, **options):
     """Simulate ``model`` over a grid or random samples of its parameters.
 
     Parameters
@@ -316,9 +384,10 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     table_format : {"parquet", "csv"}
         Format of the combined table in ``out``.
     scheduler : str, optional
-        Address of a Dask scheduler (``"tcp://host:8786"``).  Default: a
-        local cluster of ``n_workers`` processes, closed at the end;
-        ``"serial"``: no Dask, the runs one after another in this process.
+        Address of a Dask scheduler (``"tcp://host:8786"``), checked before
+        use (:func:`check_scheduler`).  Default: a local cluster of
+        ``n_workers`` processes, closed at the end; ``"serial"``: no Dask, the
+        runs one after another in this process.
     client : distributed.Client, optional
         An existing Dask client to use (then ``scheduler`` is ignored).
     n_workers : int
@@ -328,6 +397,13 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
         runs each).
     progress : bool
         Show a progress bar (tqdm) on stderr.
+    timeout : float, optional
+        Time limit of each run, s: its integration stops there (checked as
+        it goes, :func:`kanedyn.simulate`'s ``timeout``) and the run is a
+        row with ``success=False``, a message naming the limit and the
+        outputs of what it computed.  A run that does not return (stuck in a
+        function of the model) is abandoned after twice the limit plus
+        :data:`GRACE` s: a row with that message.  Default: no limit.
     **options
         Passed on to :func:`kanedyn.simulate` (``rtol``, ``atol``,
         ``method``, ``events``, ``backend``, ``max_step``, ...).
@@ -343,7 +419,8 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     ModelError
         A parameter name that is neither a constant nor a state of the model.
     OptionError
-        Bad options, or an output folder that holds another sweep.
+        Bad options, an output folder that holds another sweep, or a
+        scheduler that does not answer as one.
     SweepInterrupted
         On Ctrl-C; the finished runs are saved (with ``out``) and in its
         ``table``; the message says how to resume.
@@ -357,6 +434,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
                           f"{', '.join(SWEEP_OUTPUTS)}")
     if table_format not in ("parquet", "csv"):
         raise OptionError(f"table_format must be 'parquet' or 'csv', not {table_format!r}")
+    timeout = check_timeout(timeout)
     y0 = model.state(y0, t_span[0]) if isinstance(y0, dict) else np.array(y0, dtype=float)
     if y0.shape != (model.n_states,):
         raise OptionError(f"y0 must have {model.n_states} entries "
@@ -364,6 +442,8 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     t_span = tuple(float(t) for t in t_span)
     if len(t_span) != 2:
         raise OptionError("t_span must be (start, end)")
+    if client is None:
+        scheduler = check_scheduler(scheduler)
     fingerprint = _fingerprint(model, names, values, y0, t_span, outputs, options)
     done = set()
     if out is not None:
@@ -376,7 +456,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     tqdm = _need("tqdm").tqdm
     bar = tqdm(total=len(values), initial=len(done), unit="run", disable=not progress,
                desc="sweep", file=sys.stderr)
-    args = (names, y0, t_span, outputs, options)
+    args = (names, y0, t_span, outputs, options, timeout)
 
     def finished(batch_rows):
         if out is not None:
@@ -412,6 +492,98 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     return table
 
 
+def check_scheduler(scheduler):
+    """``scheduler`` of :func:`sweep`, checked before use.
+
+    ``None`` (a local cluster), ``"serial"`` and Dask cluster objects are
+    returned as they are; an address must be well formed and answer, within
+    a few seconds, as a Dask scheduler.
+
+    Raises
+    ------
+    OptionError
+        One line naming the address and what is wrong with it: malformed (no
+        port, an unknown scheme), nothing listening, no answer (something
+        other than Dask listens there), or a Dask server that is not a
+        scheduler.
+    """
+    if scheduler is None or scheduler == "serial":
+        return scheduler
+    if not isinstance(scheduler, str):
+        if hasattr(scheduler, "scheduler_address"):  # a Dask cluster object
+            return scheduler
+        raise OptionError(f"scheduler must be an address ('tcp://host:8786'), 'serial' or "
+                          f"a Dask cluster, not {type(scheduler).__name__}")
+    _need("distributed")
+    from distributed.comm import parse_address, parse_host_port
+    from distributed.comm.registry import backends
+    address = scheduler.strip()
+    try:
+        scheme, location = parse_address(address)
+        if scheme not in backends:
+            raise ValueError(f"unknown scheme {scheme!r}; known: {', '.join(sorted(backends))}")
+        if scheme != "inproc":
+            parse_host_port(location)
+    except ValueError as exc:
+        raise OptionError(f"scheduler {scheduler!r} is not a Dask scheduler address ({exc}); "
+                          "give tcp://host:port, or 'serial'") from None
+    reply, error = _identity(address, _CONNECT_SECONDS)
+    if error is not None:
+        why = ("it accepted the connection but did not answer: is something other than "
+               "a Dask scheduler listening there?" if isinstance(error, TimeoutError)
+               else f"{type(error).__name__}: {error}".rstrip(": "))
+        raise OptionError(f"scheduler {address}: no Dask scheduler answered within "
+                          f"{_CONNECT_SECONDS:g} s ({why})")
+    kind = reply.get("type") if isinstance(reply, dict) else None
+    if kind != "Scheduler":
+        raise OptionError(f"scheduler {address}: the Dask server there is a {kind or 'server'}, "
+                          "not a scheduler")
+    return address
+
+
+def _identity(address, seconds):
+    """``(reply, error)`` of the Dask server at ``address`` asked who it is,
+    within ``seconds``: an ``OSError`` when no connection was made in 80 % of
+    them, a ``TimeoutError`` when a connection made got no answer (on a thread
+    of its own with its own event loop, so that this works where an event loop
+    runs already, as in a notebook)."""
+    from distributed.core import rpc
+    import asyncio
+    box = {}
+
+    async def ask():
+        server = rpc(address, timeout=0.8 * seconds)
+        try:
+            return await server.identity()
+        finally:
+            await server.close_rpc()
+
+    def run():
+        try:
+            box["reply"] = asyncio.run(asyncio.wait_for(ask(), seconds))
+        except Exception as exc:  # noqa: BLE001  (reported as the reason)
+            box["error"] = exc
+
+    thread = threading.Thread(target=run, daemon=True, name="kanedyn scheduler check")
+    thread.start()
+    thread.join(seconds + 2.0)
+    if thread.is_alive():
+        return None, TimeoutError()
+    return box.get("reply"), box.get("error")
+
+
+def _wait_for_a_worker(client, scheduler):
+    """A scheduler without workers would keep the sweep waiting: give it
+    :data:`_WORKER_WAIT_SECONDS` to get one, then refuse."""
+    try:
+        client.wait_for_workers(1, timeout=_WORKER_WAIT_SECONDS)
+    except TimeoutError:
+        client.close()
+        raise OptionError(f"the Dask scheduler {scheduler} has no workers (none joined within "
+                          f"{_WORKER_WAIT_SECONDS:g} s); start some with `dask worker "
+                          f"{scheduler}`") from None
+
+
 def _on_dask(model, batches, args, finished, scheduler, client, n_workers):
     """Submit the batches to a Dask cluster; ``finished(rows)`` for each result.
 
@@ -428,11 +600,13 @@ def _on_dask(model, batches, args, finished, scheduler, client, n_workers):
                 dashboard_address=None, silence_logs=logging.ERROR)
             scheduler = own_cluster
         try:
-            client = own_client = distributed.Client(scheduler)
+            client = own_client = distributed.Client(scheduler, timeout=_CONNECT_SECONDS)
         except OSError as exc:
             if own_cluster is not None:
                 own_cluster.close()
             raise OptionError(f"cannot reach the Dask scheduler {scheduler}: {exc}") from None
+        if own_cluster is None:
+            _wait_for_a_worker(client, scheduler)
     futures = {}
     try:
         shipped = client.scatter(model, broadcast=True, hash=False)
@@ -454,10 +628,8 @@ def _on_dask(model, batches, args, finished, scheduler, client, n_workers):
                         shipped = client.scatter(model, broadcast=True, hash=False)
                     pending.add(submit(batch, attempt + 1))
                     continue
-                names = args[0]
-                rows = [dict({"run": int(run)}, **dict(zip(names, map(float, values))),
-                             success=False, status=-1,
-                             message=f"task failed: {type(exc).__name__}: {exc}")
+                rows = [dict(_parameters_row(run, args[0], values), success=False,
+                             status=-1, message=f"task failed: {type(exc).__name__}: {exc}")
                         for run, values in batch]
             finished(rows)
     finally:

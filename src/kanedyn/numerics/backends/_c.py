@@ -658,7 +658,11 @@ _STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
 #: (:data:`~._c_build.COLD_UNIT`): the energies and the auxiliary equations
 #: (constraint forces), evaluated for outputs only, once per output point
 #: (chain3d n = 10: the energies in 0.04 s of gcc instead of 0.09-0.14 s; an
-#: evaluation 1.6 microseconds slower at n = 60)
+#: evaluation 1.6 microseconds slower at n = 60).  The integration loop
+#: evaluates the energies twice every four steps for the energy check
+#: (``_c_integrator``).  Evaluated at every step, at -O2 instead, they left the
+#: loop as slow (chain3d n = 5, pendulum, four-bar, Whipple bicycle: the same
+#: time within 4 %): what they cost is their sines and cosines
 _COLD_FUNCTIONS = ("energy", "auxiliary")
 
 
@@ -725,7 +729,7 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     lanes, contacts and ``inverse_point``) only.  ``declarations``: of the
     generated functions it calls (``constraints`` with dependent coordinates
     or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
-    ``inverse_point``)."""
+    ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
         + (["#define KD_INVERSE_POINT 1"] if inverse_point else [])
     body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR,
@@ -734,8 +738,10 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)
 
 
-#: outputs of the ``constraints`` function (built by ``build_numeric_model``)
+#: outputs of the ``constraints`` and ``energy`` functions (built by
+#: ``build_numeric_model``)
 _CONSTRAINT_OUTPUTS = 4
+_ENERGY_OUTPUTS = 2
 
 
 def predicted_runtime_unit(sizes):
@@ -747,6 +753,7 @@ def predicted_runtime_unit(sizes):
     compiler's time)."""
     dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
     declarations = [_signature("constraints", _CONSTRAINT_OUTPUTS) + ";"] if dependent else []
+    declarations.append(_signature("energy", _ENERGY_OUTPUTS) + ";")
     return _runtime_unit(_generic_part(sizes, False, declarations), sizes, False)
 
 
@@ -769,7 +776,8 @@ def _runtime_parts(functions, sizes, lanes):
     n_contacts = len(contacts[1][0][1]) if contacts else 0
     inverse_point = _inverse_at_a_point(functions, sizes)
     calls = (["constraints"] if sizes["n_q_dep"] + sizes["n_u_dep"] else []) \
-        + (["dynamics", "contacts"] if contacts else []) + (["inverse"] if inverse_point else [])
+        + (["dynamics", "contacts"] if contacts else []) + (["inverse"] if inverse_point else []) \
+        + ["energy"]  # the work the integration loop sums (_c_integrator)
     generic = _generic_part(sizes, lanes, [declarations[name] for name in calls], n_contacts,
                             inverse_point)
     defines = [f"#define KD_HAS_DYNAMICS {int('dynamics' in functions)}",

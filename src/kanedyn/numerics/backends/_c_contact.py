@@ -1,6 +1,6 @@
 r"""C source of the compiled contact segments (part of modules with contacts).
 
-``contact_segment(t0, t1, z0, p, spec, rtol, atol[, stop])`` integrates one segment
+``contact_segment(t0, t1, z0, p, spec, rtol, atol[, stop, timeout])`` integrates one segment
 of a contact simulation (:func:`kanedyn.simulation._hybrid.simulate_contacts`)
 with the contact modes fixed: the state ``z = (q, u, dissipated work, contact
 work)``, SciPy's ``RK45`` (same coefficients, error norm, step control and
@@ -31,8 +31,10 @@ force vanishes, 2 slip stops, 3 friction reaches its limit).
 Returns ``(status, t, z, event, nfev)``: status 0 (reached ``t1``), 1 (the
 event with index ``event`` ended the segment at ``t[-1]``), 2 (not handled
 here) or 3 (stopped between two steps by the stop flag ``stop`` of the run's
-guard, or by a ``KeyboardInterrupt`` at the signal check: what it has); ``t`` (N,) and ``z`` (N, n + 2) the
-accepted steps from ``t0`` (and the event point).
+guard, by a ``KeyboardInterrupt`` at the signal check, or by its time limit,
+``timeout`` s of computing, 0: none, checked every 16 steps: what it has); ``t``
+(N,) and ``z`` (N, n + 2) the accepted steps from ``t0`` (and the event point).
+Like the integration loop it lets Python's other threads work between its steps.
 """
 
 CONTACT = r"""
@@ -340,14 +342,17 @@ static int kd_seg_array(PyObject *obj, npy_intp n, int integer, void *out) {
 }
 
 static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
-    double t0, t1, rtol, atol;
+    double t0, t1, rtol, atol, timeout = 0.0;
     PyObject *z0obj, *pobj, *spec, *stopobj = NULL;
     (void)self;
-    if (!PyArg_ParseTuple(args, "ddOOO!dd|O", &t0, &t1, &z0obj, &pobj, &PyTuple_Type, &spec,
-                          &rtol, &atol, &stopobj))
+    if (!PyArg_ParseTuple(args, "ddOOO!dd|Od", &t0, &t1, &z0obj, &pobj, &PyTuple_Type, &spec,
+                          &rtol, &atol, &stopobj, &timeout))
         return NULL;
     const volatile npy_int32 *stop = kd_stop_flag(stopobj);
     if (stop == NULL) return NULL;
+    double deadline = timeout > 0 ? kd_clock() + timeout : 0.0;
+    double next_yield = kd_clock() + KD_YIELD_SECONDS;
+    unsigned long steps_taken = 0;
     if (PyTuple_GET_SIZE(spec) != 12) {
         PyErr_SetString(PyExc_ValueError, "contact_segment: spec must have 12 entries");
         return NULL;
@@ -419,7 +424,7 @@ static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
             status = 3;
             goto finish;
         }
-        if (*stop) { status = 3; goto finish; }
+        if (*stop || kd_pause(&steps_taken, deadline, &next_yield)) { status = 3; goto finish; }
         double min_step = 10 * fabs(nextafter(t, INFINITY) - t);
         if (h_abs < min_step) h_abs = min_step;
         int accepted = 0, rejected = 0;

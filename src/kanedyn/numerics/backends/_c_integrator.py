@@ -24,6 +24,26 @@ screened with bounds on the singular values of the velocity-constraint matrix
 at its ends (the matrix of the drift check), and only a step that may dip below
 the threshold is examined and its minimum refined, so that a run keeps the
 minima it found and nothing of the steps it took.
+
+The loop also samples the energy balance (``kanedyn.simulation._energy_check``):
+where a panel of ``KD_WORK_PANEL`` accepted steps ends (a piece of the solution
+starts with a panel of one step; a projection, a terminal event and the end of
+the run end a piece), the power :math:`dE/dt` along the right-hand side, a
+central difference (half width ``KD_POWER_STEP`` times the step), whose two
+energies give the stored and the potential energy there (their mean), and the
+work of what the stored energy does not hold, the power integrated along the
+parabola through the ends of the panel and of the one before.  It returns at
+most ``KD_KEPT_SAMPLES`` samples (every second one dropped when full, the last
+kept; ``"balance"``: rows of time, power, stored and potential energy, work),
+the work's error estimate, the largest drift of the trapezoidal rule's sum
+from it (``"work_error"``), and the work of the power's magnitude, the energy
+that flowed in and out (``"work_flow"``).  Sampling every step instead cost
+8-19 % of the loop's time (``docs/benchmarks.md``).
+
+The loop ends early, keeping what was computed, when the run's stop flag is
+raised (a stop signal, read at every step: ``"interrupted"``) or its time limit
+has passed (``timeout`` s of computing, 0: none; checked every 16 steps, next to
+the stop flag: ``"timed_out"``).
 """
 
 INTEGRATOR = r"""
@@ -47,6 +67,21 @@ static double kd_clock(void) {
 #else
     return (double)clock() / CLOCKS_PER_SEC;
 #endif
+}
+
+/* what a loop does between its steps besides reading the stop flag, every 16th call
+   (count: the loop's): 1 once the deadline (kd_clock's time, 0: none) has passed;
+   otherwise a moment for Python's other threads every KD_YIELD_SECONDS */
+static int kd_pause(unsigned long *count, double deadline, double *next_yield) {
+    if ((++*count & 15) != 0) return 0;
+    double now = kd_clock();
+    if (deadline > 0 && now >= deadline) return 1;
+    if (now >= *next_yield) {
+        Py_BEGIN_ALLOW_THREADS
+        Py_END_ALLOW_THREADS
+        *next_yield = kd_clock() + KD_YIELD_SECONDS;
+    }
+    return 0;
 }
 
 static int kd_buf_push(KdBuf *b, const double *x, npy_intp k) {
@@ -120,6 +155,110 @@ static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
     int bad = kd_inputs(model->inputs, t, ya, r);
     Py_DECREF(ya);
     return bad;
+}
+
+/* the half width of the power's central difference: this fraction of the step */
+#define KD_POWER_STEP 1e-4
+
+/* the stored energy, kinetic plus declared potential, and the potential (0 where none
+   is declared: the function's NAN) */
+static int kd_stored_energy(KdModel *model, double t, const double *y, double *e,
+                            double *potential) {
+    double r[KD_SZ(KD_NR)], kinetic;
+    if (kd_inputs_at(model, t, y, r) != 0) return -1;
+    kd_eval_energy(t, y, model->p, r, model->work, &kinetic, potential);
+    if (isnan(*potential)) *potential = 0.0;
+    *e = kinetic + *potential;
+    return 0;
+}
+
+/* a sample of the energy balance at a state of the run */
+typedef struct { double t, power, energy, potential, work; } KdSample;
+
+/* the sample at (t, y), derivative f there (its work left as it is): dE/dt along f,
+   the central difference over (t - delta, t + delta), the times kept within
+   [t_lo, t_hi] (inputs may be defined on the time span only; at its ends the quotient
+   then holds half of dE/dt's explicit time part, for one step); the energies there,
+   the means of the two (to delta^2) */
+static int kd_sample(KdModel *model, double t, const double *y, const double *f, double delta,
+                     double t_lo, double t_hi, KdSample *out) {
+    double ahead[KD_NX], behind[KD_NX], e1, e0, v1, v0;
+    delta = fabs(delta);
+    for (int i = 0; i < KD_NX; ++i) { ahead[i] = y[i] + delta * f[i]; behind[i] = y[i] - delta * f[i]; }
+    if (kd_stored_energy(model, fmin(t + delta, t_hi), ahead, &e1, &v1) != 0
+        || kd_stored_energy(model, fmax(t - delta, t_lo), behind, &e0, &v0) != 0) return -1;
+    out->t = t;
+    out->power = (e1 - e0) / (2 * delta);
+    out->energy = 0.5 * (e1 + e0);
+    out->potential = 0.5 * (v1 + v0);
+    return 0;
+}
+
+/* accepted steps in a panel (a piece's first panel: one), and the most samples kept
+   (_PANEL_STEPS and _KEPT_SAMPLES of kanedyn.simulation._energy_check) */
+#define KD_WORK_PANEL 4
+#define KD_KEPT_SAMPLES 2048
+
+/* the energy balance summed by the loop, panel by panel */
+typedef struct {
+    double t_lo, t_hi;      /* the time span (kd_sample) */
+    int known;              /* the open panel's start sampled (0: a piece starts) */
+    int has_prev;           /* a panel before it in the piece */
+    int steps;              /* accepted steps in the open panel */
+    KdSample a;             /* the open panel's start */
+    double t_prev, p_prev;  /* the start of the panel before it */
+    double drift;           /* the trapezoidal sum minus the parabolic one */
+    double error, flow;     /* the largest |drift| (work_error); the work of |power| */
+    KdBuf kept;             /* samples kept: every stride-th, a KdSample's 5 doubles each */
+    long seen, stride;
+    KdSample last;          /* the sample taken last */
+} KdWork;
+
+/* keep a sample: every stride-th of them, the stride doubled (every other one dropped)
+   when KD_KEPT_SAMPLES are kept */
+static int kd_keep(KdWork *w, const KdSample *s) {
+    w->last = *s;
+    if (w->seen++ % w->stride != 0) return 0;
+    if (w->kept.n == 5 * KD_KEPT_SAMPLES) {
+        for (npy_intp k = 1; k < KD_KEPT_SAMPLES / 2; ++k)
+            memcpy(w->kept.data + 5 * k, w->kept.data + 10 * k, 5 * sizeof(double));
+        w->kept.n = 5 * (KD_KEPT_SAMPLES / 2);
+        w->stride *= 2;
+        if ((w->seen - 1) % w->stride != 0) return 0;
+    }
+    return kd_buf_push(&w->kept, (const double *)s, 5);
+}
+
+/* a piece of the solution starts at (t, y), derivative f */
+static int kd_work_start(KdModel *model, KdWork *w, double t, const double *y, const double *f,
+                         double delta) {
+    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, &w->a) != 0) return -1;
+    w->known = 1; w->has_prev = 0;
+    return kd_keep(w, &w->a);
+}
+
+/* the open panel ends at (t, y), derivative f, where the next one starts: the power
+   over it is the parabola through its ends and the start of the panel before (the
+   line on a piece's first panel), p_a + beta s + gamma s^2 (s from its start), the
+   work integrated along it */
+static int kd_work_end(KdModel *model, KdWork *w, double t, const double *y, const double *f,
+                       double delta) {
+    KdSample b;
+    double h = t - w->a.t, gamma = 0.0;
+    if (kd_sample(model, t, y, f, delta, w->t_lo, w->t_hi, &b) != 0) return -1;
+    if (w->has_prev) {
+        double a = w->t_prev - w->a.t;
+        gamma = ((b.power - w->a.power) / h - (w->p_prev - w->a.power) / a) / (h - a);
+        w->drift += gamma * h * h * h / 6.0;
+        w->error = fmax(w->error, fabs(w->drift));
+    }
+    double beta = (b.power - w->a.power) / h - gamma * h;
+    w->flow += 0.5 * fabs(h) * (fabs(w->a.power) + fabs(b.power));
+    b.work = w->a.work + h * (w->a.power + h * (beta / 2.0 + h * gamma / 3.0));
+    w->t_prev = w->a.t; w->p_prev = w->a.power; w->has_prev = 1;
+    w->a = b;
+    w->steps = 0;
+    return kd_keep(w, &b);
 }
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
@@ -644,22 +783,26 @@ static const volatile npy_int32 *kd_stop_flag(PyObject *obj) {
         goto done; } while (0)
 
 /* integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events,
-             project_tol, dense[, singular_threshold, displacement, stop]) -> dict
+             project_tol, dense[, singular_threshold, displacement, stop, timeout, energy])
+             -> dict
    (singular_threshold 0, the default: no search for singular configurations;
-   stop: see kd_stop_flag) */
+   stop: see kd_stop_flag; timeout: seconds of computing, 0, the default: none;
+   energy false: no work summed, "work" all zero: what the energy check costs) */
 static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
-    double t0, t1, rtol, max_step, first_step, project_tol;
+    double t0, t1, rtol, max_step, first_step, project_tol, timeout = 0.0;
     PyObject *y0obj, *tevalobj, *atolobj, *events, *method_obj, *stopobj = NULL;
-    int dense;
+    int dense, energy = 1;
     KdMonitor mon;
     memset(&mon, 0, sizeof(mon));
     mon.displacement = 1e-7;
-    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddO", &t0, &t1, &y0obj, &tevalobj, &rtol,
+    if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddOdp", &t0, &t1, &y0obj, &tevalobj, &rtol,
                           &atolobj, &max_step, &first_step, &method_obj, &events, &project_tol,
-                          &dense, &mon.threshold, &mon.displacement, &stopobj))
+                          &dense, &mon.threshold, &mon.displacement, &stopobj, &timeout,
+                          &energy))
         return NULL;
     const volatile npy_int32 *stop = kd_stop_flag(stopobj);
     if (stop == NULL) return NULL;
+    double deadline = timeout > 0 ? kd_clock() + timeout : 0.0;
     const int monitoring = KD_NUDEP > 0 && mon.threshold > 0.0;
     const char *method_name = PyUnicode_AsUTF8(method_obj);
     if (method_name == NULL) return NULL;
@@ -704,7 +847,10 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KdBuf out_t = {0}, out_y = {0}, dn_t = {0}, dn_y = {0}, dn_q = {0};
     PyObject *result = NULL;
     double *J = NULL;
-    int status = 0, failed = 0, interrupted = 0, keep_last = 1;
+    int status = 0, failed = 0, interrupted = 0, timed_out = 0, keep_last = 1;
+    KdWork work;
+    memset(&work, 0, sizeof(work));
+    work.stride = 1;
     long projections = 0;
     const char *message = "the integration reached the end of the interval";
     char error_text[512];  /* the message of a callback's ValueError (KD_FAIL) */
@@ -721,6 +867,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
 
     double dir = t1 >= t0 ? 1.0 : -1.0;
     mon.dir = dir;
+    work.t_lo = fmin(t0, t1); work.t_hi = fmax(t0, t1);
     double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
     double T[KD_NX], k1[KD_NX], k2[KD_NX];
     J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
@@ -773,10 +920,10 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             status = -1; failed = 1; interrupted = 1; message = "interrupted";
             break;
         }
-        if ((++steps_taken & 15) == 0 && kd_clock() >= next_yield) {
-            Py_BEGIN_ALLOW_THREADS
-            Py_END_ALLOW_THREADS
-            next_yield = kd_clock() + KD_YIELD_SECONDS;
+        if (kd_pause(&steps_taken, deadline, &next_yield)) {  /* the time limit */
+            status = -1; failed = 1; timed_out = 1;
+            message = "the time limit was reached";
+            break;
         }
         double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
         if (h_abs > max_step) h_abs = max_step;
@@ -870,8 +1017,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                 if (dir * (te[next_eval] - t) > 0) {
                     double ye[KD_NX];
                     kd_dense(&ig, te[next_eval], ye);
-                    if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX))
-                        KD_FAIL;
+                    if (kd_buf_push(&out_t, &te[next_eval], 1) || kd_buf_push(&out_y, ye, KD_NX)) KD_FAIL;
                 }
                 next_eval++;
             }
@@ -879,6 +1025,18 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (terminate) {
             kd_dense(&ig, t_stop, y_new);
             t_new = t_stop;
+        }
+        /* the energy balance, sampled where a piece starts and where a panel ends (a
+           terminal event ends the last one: the derivative there evaluated) */
+        if (energy) {
+            if (!work.known && kd_work_start(self, &work, t, y, f, KD_POWER_STEP * h) != 0)
+                KD_FAIL;
+            if (++work.steps >= (work.has_prev ? KD_WORK_PANEL : 1) || terminate
+                    || dir * (t1 - t_new) <= 0) {
+                if (terminate && kd_f(&ig, t_new, y_new, f_new) != 0) KD_FAIL;
+                if (kd_work_end(self, &work, t_new, y_new, f_new, KD_POWER_STEP * h) != 0)
+                    KD_FAIL;
+            }
         }
         if (dense) {
             double head[2] = {t, h};
@@ -901,6 +1059,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                 && kd_monitor_step(&ig, &mon, t, y, terminate ? NULL : f,
                                    checked ? B_end : NULL) != 0) KD_FAIL;
         if (residual > project_tol) {
+            /* the piece ends: its open panel with it, at the state before the projection */
+            if (work.steps > 0 && kd_work_end(self, &work, t, y, f, KD_POWER_STEP * h) != 0)
+                KD_FAIL;
             int proj = kd_project(self, t, y);
             if (proj < 0) { keep_last = 0; KD_FAIL; }
             if (proj != 0) {
@@ -909,6 +1070,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                           "constraint Jacobian)";
             } else {
                 projections++;
+                work.known = 0;  /* a new piece: its power at the next step */
                 if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
                 if (monitoring && kd_monitor_start(&ig, &mon, t, y) != 0) KD_FAIL;
                 for (int k = 0; k < ig.n_events; ++k)
@@ -923,6 +1085,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     }
 
 finish:
+    /* the sample taken last, if the stride left it out */
+    if (work.seen > 0 && (work.seen - 1) % work.stride != 0
+            && kd_buf_push(&work.kept, (const double *)&work.last, 5) != 0) goto done;
     /* the last state the search reached (that of a projection that failed: the
        state before it) */
     if (monitoring && mon.t_at != t0 && kd_monitor_here(&mon) != 0) goto done;
@@ -955,6 +1120,10 @@ finish:
     KD_SET("nlu", PyLong_FromLong(ig.nlu));
     KD_SET("projections", PyLong_FromLong(projections));
     KD_SET("interrupted", PyBool_FromLong(interrupted));
+    KD_SET("timed_out", PyBool_FromLong(timed_out));
+    KD_SET("balance", kd_buf_array(&work.kept, work.kept.n / 5, 5));
+    KD_SET("work_error", PyFloat_FromDouble(work.error));
+    KD_SET("work_flow", PyFloat_FromDouble(work.flow));
     if (ig.singular) {
         KD_SET("t_bad", PyFloat_FromDouble(ig.t_singular));
         npy_intp nx = KD_NX;
@@ -985,7 +1154,7 @@ done:
     }
     PyMem_Free(ev_t); PyMem_Free(ev_y); PyMem_Free(ev_dir); PyMem_Free(ev_term);
     PyMem_Free(g_old); PyMem_Free(g_new);
-    PyMem_Free(out_t.data); PyMem_Free(out_y.data);
+    PyMem_Free(out_t.data); PyMem_Free(out_y.data); PyMem_Free(work.kept.data);
     PyMem_Free(dn_t.data); PyMem_Free(dn_y.data); PyMem_Free(dn_q.data);
     PyMem_Free(mon.t.data); PyMem_Free(mon.y.data);
     PyMem_Free(J);
