@@ -279,7 +279,7 @@ def _why(path, info, what, source=None, advice=None):
         return None
     mode = info.st_mode
     source = path if source is None else source
-    access = None
+    acls = ()
     if what == "link":
         fault, fix = "is a symbolic link of another user", None
     elif stat.S_ISLNK(mode):
@@ -294,16 +294,16 @@ def _why(path, info, what, source=None, advice=None):
         return None  # others may add entries there, not rename or remove this user's
     else:
         access = _acl(source, _ACCESS_ACL)
-        found = _writer(path, mode, info.st_gid, access)
-        if found is None and what != "above" and stat.S_ISDIR(mode):
-            default = _acl(source, _DEFAULT_ACL)
-            found = None if default is None else _writer(path, mode, info.st_gid, default,
-                                                         default=True)
-        if found is None:
+        default = _acl(source, _DEFAULT_ACL) if what != "above" and stat.S_ISDIR(mode) \
+            else None
+        acls = (access, default)
+        found = _writer(path, mode, info.st_gid, access) or (
+            default and _writer(path, mode, info.st_gid, default, default=True))
+        if not found:
             return None
         fault, fix = found
     text = (f"{path} {fault} (owner {_user(info.st_uid)}, mode {stat.filemode(mode)}"
-            f"{'+' if access else ''})")
+            f"{'+' if any(acls) else ''})")  # as ls shows a file with an ACL
     if what == "entry":
         return text
     if fix is not None:

@@ -2,20 +2,23 @@
 
 A module is compiled with the system C compiler on first use and cached on
 disk under a name derived from the SHA-256 of its source and build settings
-(``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` or
-``~/.cache/kanedyn``).  Builds happen in a private temporary directory and are
-published with an atomic rename, so several processes may build the same
-module at once; every entry carries a checksum and an entry that fails it (or
-fails to load) is rebuilt.  The checksum detects damage, not who wrote the
-entry: nothing is loaded from a cache directory that another user could
-change (:mod:`kanedyn._trusted_files`: the directory and every one above it
-owned by this user or root and writable by no one else; the process then
-builds in a private directory, with a warning), nor any entry in it that is
-not this user's or root's or that others can write (a warning; it is removed
-and built again).  Directories are created with mode 0700, files 0600.  A
-build that cannot write the cache (a full disk) is done again in the private
-directory, with a warning; where that fails too, :class:`CompilerError` names
-the path.
+(:func:`cache_dir`: ``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn``
+or ``~/.cache/kanedyn``; without a home directory, none).  Builds happen in a
+private temporary directory and are published with an atomic rename, so
+several processes may build the same module at once; every entry carries a
+checksum and an entry that fails it (or fails to load) is rebuilt.  The
+checksum detects damage, not who wrote the entry: nothing is loaded from a
+cache directory that another user could change (:mod:`kanedyn._trusted_files`:
+the directory and every one on the way to it owned by this user or root and
+writable by no one else, by mode and ACL, symbolic links of others refused;
+the process then builds in a private directory, made where no one else can
+change it, with a warning), nor any entry in it that is not this user's or
+root's or that others can write (a warning; it is removed and built again).
+A module is loaded through the descriptor it was checked on, a cached object
+linked from a copy read from its.  Directories are created with mode 0700,
+files 0600.  A build that cannot write the cache (a full disk) is done again
+in the private directory, with a warning; where that fails too,
+:class:`CompilerError` names the path.
 
 A source may consist of several translation units separated by
 :data:`UNIT_MARK`: they are compiled at the same time, one compiler process
