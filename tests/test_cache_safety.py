@@ -542,10 +542,11 @@ PyMODINIT_FUNC PyInit_%(name)s(void) {
 
 
 def test_modules_loaded_one_after_another_are_each_their_own(tmp_path):
-    """Modules loaded through their descriptors one after another: the dynamic
-    loader knows a library by the path asked for (``/proc/self/fd/N``), so a
-    descriptor number used again would hand the first library out for the
-    second; each module is its own."""
+    """Modules loaded through their descriptors one after another (each closed
+    once loaded, so the next one gets the same number): the dynamic loader
+    knows a library by the text of the path asked for, and the same
+    ``/proc/self/fd/N`` would hand the first library out for the second; each
+    module is its own."""
     import sysconfig
 
     from kanedyn.numerics.backends import _c_build

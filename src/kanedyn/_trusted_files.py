@@ -31,7 +31,7 @@ this process's effective user or by root and no other user can write it.
   open descriptor (``fstat``; the ACL read from it too).  A module is loaded
   through that descriptor (:func:`descriptor_path`, ``/proc/self/fd/N`` on
   Linux): what the dynamic loader maps is the file that was checked, whoever
-  renames what afterwards.
+  renames what in between.
 
 Where the platform has no file owners (Windows), everything is trusted; where
 Python cannot read ACLs (macOS, BSD) or the file system keeps other kinds (NFSv4),
@@ -43,6 +43,7 @@ from __future__ import annotations
 
 import errno
 import functools
+import itertools
 import os
 import stat
 import struct
@@ -178,16 +179,28 @@ def open_trusted(path):
 
 def descriptor_path(handle):
     """A path that opens the very file the open file ``handle`` holds, whatever
-    has been renamed since (``/proc/self/fd/N``), or ``None`` where the system
-    has none (not Linux, or no ``/proc``).
+    has been renamed since (``/proc/self/fd/N``), spelled as no earlier call in
+    this process spelled it; ``None`` where the system has none (not Linux, or
+    no ``/proc``), or after 65536 calls.
 
-    The dynamic loader knows a library by the path it was asked for: a second
-    library asked for by the same ``/proc/self/fd/N`` would be taken for the
-    first, so the descriptor of a library loaded that way must stay open as
-    long as the process runs."""
+    The dynamic loader (and Python's table of extension modules) knows a
+    library by the text of the path it was loaded from, and a descriptor's
+    number is used again once it is closed: a second library asked for by the
+    same text would be taken for the first.  So the separators of the path
+    carry a count (``/proc/./self/fd/N`` is the second spelling), and the
+    descriptor may be closed once the library is loaded."""
     if not _proc_fd():
         return None
-    return f"/proc/self/fd/{handle.fileno()}"
+    count, separators = next(_SPELLINGS), []
+    for _ in range(4):
+        count, digit = divmod(count, 16)
+        separators.append("/" + "./" * digit)
+    if count:
+        return None
+    return "{}proc{}self{}fd{}{}".format(*separators, handle.fileno())
+
+
+_SPELLINGS = itertools.count()  # calls of descriptor_path in this process
 
 
 @functools.lru_cache(maxsize=None)

@@ -14,8 +14,8 @@ writable by no one else, by mode and ACL, symbolic links of others refused;
 the process then builds in a private directory, made where no one else can
 change it, with a warning), nor any entry in it that is not this user's or
 root's or that others can write (a warning; it is removed and built again).
-A module is loaded through the descriptor it was checked on, a cached object
-linked from a copy read from its.  Directories are created with mode 0700,
+A module is loaded through the descriptor it was checked on, and a cached
+object linked from a copy read through the one it was checked on.  Directories are created with mode 0700,
 files 0600.  A build that cannot write the cache (a full disk) is done again
 in the private directory, with a warning; where that fails too,
 :class:`CompilerError` names the path.
@@ -187,11 +187,6 @@ def _checksum(handle):
     return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
-#: open files of the modules loaded through their descriptors (:func:`_load`): kept
-#: open as long as the process runs, so that no later module gets their numbers
-_LOADED_FROM = []
-
-
 def _load(name, path, handle=None):
     """Import the extension module ``name`` from the cache file ``path``, which
     :func:`~kanedyn._trusted_files.open_trusted` checks (``handle``: already
@@ -208,16 +203,13 @@ def _load(name, path, handle=None):
     """
     if handle is None:
         handle = open_trusted(path)
-    via = descriptor_path(handle)
-    if via is None:  # not Linux: by its path, which the directory rules protect
-        handle.close()
-        via = str(path)
-    else:  # once the loader has been asked for it, kept (see _LOADED_FROM)
-        _LOADED_FROM.append(handle)
-    loader = importlib.machinery.ExtensionFileLoader(name, via)
-    spec = importlib.util.spec_from_file_location(name, via, loader=loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
+    with handle:  # closed once loaded: the library's mapping holds the file
+        # elsewhere than Linux by its path, which the directory rules protect
+        via = descriptor_path(handle) or str(path)
+        loader = importlib.machinery.ExtensionFileLoader(name, via)
+        spec = importlib.util.spec_from_file_location(name, via, loader=loader)
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
     module.__file__ = str(path)
     return module
 
