@@ -6,6 +6,7 @@ import hashlib
 import json
 import os
 import re
+import struct
 import warnings
 
 
@@ -509,9 +510,10 @@ def _cache_at(path, monkeypatch, mode=0o700):
     return path
 
 
-def _module_entry(cache, mode=0o600, owner=None, what="so"):
+def _module_entry(cache, mode=0o600, owner=None, what="so", acl=False):
     """A module and manifest (of the right checksum) in ``cache``; ``what``
-    (``so`` or ``json``) gets ``mode`` and ``owner``."""
+    (``so`` or ``json``) gets ``mode`` and ``owner`` (and with ``acl``, an ACL
+    entry that lets nobody write it)."""
     from kanedyn.numerics.backends import _c_build
     so_path, manifest = _c_build._entry(cache, "_kd_planted")
     so_path.write_bytes(b"\x7fELF not a module")
@@ -520,7 +522,51 @@ def _module_entry(cache, mode=0o600, owner=None, what="so"):
     bad.chmod(mode)
     if owner is not None:
         os.chown(bad, owner, owner)
+    if acl:
+        _with_acl(bad)
     return lambda: _c_build._try_cached("_kd_planted", so_path, manifest), bad
+
+
+def _with_acl(path, default=False):
+    """``setfacl -m u:nobody:rw[x]`` (``-d``: the default ACL), written as the
+    kernel stores it (no setfacl needed); skips where there are no ACLs."""
+    perm = 7 if path.is_dir() else 6
+    entries = [(0x01, perm, 0xFFFFFFFF), (0x02, perm, _NOBODY), (0x04, 0, 0xFFFFFFFF),
+               (0x10, perm, 0xFFFFFFFF), (0x20, 0, 0xFFFFFFFF)]
+    try:
+        os.setxattr(path, f"system.posix_acl_{'default' if default else 'access'}",
+                    struct.pack("<I", 2) + b"".join(struct.pack("<HHI", *e) for e in entries))
+    except (AttributeError, OSError) as exc:
+        pytest.skip(f"no POSIX ACLs here ({exc})")
+    return path
+
+
+def _linked_cache(tmp, monkeypatch):
+    """KANEDYN_CACHE_DIR names a link of nobody's to a folder of this user's."""
+    mine = tmp / "mine"
+    mine.mkdir(mode=0o700)
+    (tmp / "link").symlink_to(mine)
+    os.chown(tmp / "link", _NOBODY, _NOBODY, follow_symlinks=False)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp / "link"))
+
+
+def _homeless(monkeypatch):
+    """No KANEDYN_CACHE_DIR, XDG_CACHE_HOME or HOME, and no entry in the user
+    database (a container's ``--user 12345``)."""
+    import pwd
+    for name in ("KANEDYN_CACHE_DIR", "XDG_CACHE_HOME", "HOME"):
+        monkeypatch.delenv(name, raising=False)
+    monkeypatch.setattr(pwd, "getpwuid", {}.__getitem__)
+    return _trusted()
+
+
+def _loose_tmp(cache, tmp, monkeypatch):
+    """The cache refused, and $TMPDIR a folder all can write (no sticky bit)."""
+    import tempfile
+    (tmp / "tmp").mkdir()
+    (tmp / "tmp").chmod(0o777)
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp / "tmp"))
+    return _trusted()
 
 
 def _symlinked_entry(cache):
@@ -586,7 +632,34 @@ CACHE_CASES = {
     "cache directory of another user": (
         True, lambda tmp, mp: (_chown(_cache_at(tmp / "c", mp), _NOBODY), _trusted())[1],
         RuntimeWarning, r"\S+/c is owned by another user \(owner nobody \(uid 65534\), mode "
-                        r"drwx------\); fix: `chown root \S+/c`"),
+                        r"drwx------\); set KANEDYN_CACHE_DIR to a directory of your own; "
+                        r"nothing is loaded from it"),
+    "cache directory group root can write": (
+        True, lambda tmp, mp: (_chgrp(_cache_at(tmp / "c", mp, 0o770), 0), _trusted())[1],
+        RuntimeWarning, r"\S+/c can be written by the users of group root \(gid 0\) \(owner "
+                        r"root \(uid 0\), mode drwxrwx---\); fix: `chmod g-w \S+/c`"),
+    "cache directory another user can write through an ACL": (
+        False, lambda tmp, mp: (_with_acl(_cache_at(tmp / "c", mp)), _trusted())[1],
+        RuntimeWarning, r"\S+/c can be written by nobody \(uid 65534\) through an access "
+                        r"control list entry \(owner \w+ \(uid \d+\), mode drwxrwx---\+\); "
+                        r"fix: `setfacl -x u:65534 \S+/c`"),
+    "cache directory with a default ACL": (
+        False, lambda tmp, mp: (_with_acl(_cache_at(tmp / "c", mp), default=True),
+                                _trusted())[1],
+        RuntimeWarning, r"\S+/c lets nobody \(uid 65534\) write what is created in it \(a "
+                        r"default access control list\) .*; fix: `setfacl -k \S+/c`"),
+    "cache directory named by another user's link": (
+        True, lambda tmp, mp: (_linked_cache(tmp, mp), _trusted())[1],
+        RuntimeWarning, r"\S+/link is a symbolic link of another user \(owner nobody \(uid "
+                        r"65534\), mode lrwxrwxrwx\); set KANEDYN_CACHE_DIR to a directory of "
+                        r"your own"),
+    "no home directory and no cache directory set": (
+        False, lambda tmp, mp: _homeless(mp),
+        RuntimeWarning, r"there is no cache directory: KANEDYN_CACHE_DIR is not set, nor "
+                        r"XDG_CACHE_HOME to an absolute path, and the home directory is unknown"),
+    "a temporary directory all can write": (
+        False, lambda tmp, mp: _loose_tmp(_cache_at(tmp / "c", mp, 0o777), tmp, mp),
+        RuntimeWarning, r"temporary directory passed over: \S+/tmp " + _WORLD),
     "a folder above the cache all can write": (
         False, lambda tmp, mp: (_cache_at(tmp / "open", mp, 0o777),
                                 _cache_at(tmp / "open" / "c", mp), _trusted())[2],
@@ -595,6 +668,11 @@ CACHE_CASES = {
         True, lambda tmp, mp: (_chown(_cache_at(tmp / "theirs", mp, 0o755), _NOBODY),
                                _cache_at(tmp / "theirs" / "c", mp), _trusted())[2],
         RuntimeWarning, r"\S+/theirs is owned by another user \(owner nobody"),
+    "module another user can write through an ACL": (
+        False, lambda tmp, mp: _module_entry(_cache_at(tmp / "c", mp), acl=True)[0],
+        RuntimeWarning, r"_kd_planted\S*\.so can be written by nobody \(uid 65534\) through "
+                        r"an access control list entry \(owner \w+ \(uid \d+\), mode "
+                        r"-rw-rw----\+\): not loaded"),
     "module all can write": (
         False, lambda tmp, mp: _module_entry(_cache_at(tmp / "c", mp), mode=0o666)[0],
         RuntimeWarning, r"\S+/c/_kd_planted\S*\.so can be written by every user \(owner "

@@ -10,21 +10,26 @@ only and are skipped otherwise, saying so.
 """
 
 import contextlib
+import grp
 import hashlib
 import json
 import os
+import pwd
 import shutil
 import stat
+import struct
 import subprocess
 import sys
 import tempfile
 import textwrap
+import time
 from pathlib import Path
 
 import pytest
 
 from kanedyn import _fork
-from kanedyn._trusted_files import open_trusted, trusted_directory, untrusted_entry
+from kanedyn._trusted_files import (UntrustedFile, _private_group, open_trusted,
+                                    trusted_directory, untrusted_entry)
 
 OTHER = 65534  # nobody / nogroup
 ROOT = os.geteuid() == 0 if hasattr(os, "geteuid") else False
@@ -160,7 +165,8 @@ def test_a_module_planted_by_another_user_in_a_directory_all_can_write(world, pl
 @pytest.mark.slow
 def test_a_cache_directory_of_another_user(world, place):
     """The cache directory names a folder another user made (in a sticky folder
-    all can write, as /tmp): refused, naming its owner and the fix."""
+    all can write, as /tmp): refused, naming its owner, and advising a cache
+    of one's own (not to take the other user's folder over with chown)."""
     sticky = place / "sticky"
     sticky.mkdir()
     sticky.chmod(0o1777)
@@ -169,8 +175,8 @@ def test_a_cache_directory_of_another_user(world, place):
     out = _victim(theirs)
     _refused_and_safe(world, out)
     assert (f"{theirs} is owned by another user (owner nobody (uid {OTHER}), mode drwxr-xr-x); "
-            f"fix: `chown root {theirs}`, or set KANEDYN_CACHE_DIR to a directory of your own"
-            in out)
+            "set KANEDYN_CACHE_DIR to a directory of your own; nothing is loaded from it" in out)
+    assert "chown" not in out
 
 
 @needs_root
@@ -318,38 +324,371 @@ def test_a_derivation_cache_entry_of_another_user_is_not_read(tmp_path):
 # ------------------------------------------------------------------ the rules
 def test_rules_of_trust(tmp_path, monkeypatch):
     """The checks themselves: a sticky folder all can write is fine above the
-    cache, not as the cache; group-writable only for a group of this user alone."""
+    cache, not as the cache; group-writable only for this user's private group;
+    a symbolic link of this user is followed and the path returned resolved."""
     sticky = tmp_path / "sticky"
     sticky.mkdir()
     sticky.chmod(0o1777)
-    assert trusted_directory(sticky / "a" / "b") is None
+    assert trusted_directory(sticky / "a" / "b") == (sticky / "a" / "b", None)
     assert stat.S_IMODE((sticky / "a").stat().st_mode) == 0o700
-    assert "can be written by every user" in trusted_directory(sticky)
+    assert "can be written by every user" in trusted_directory(sticky)[1]
     loose = tmp_path / "loose"
     loose.mkdir()
     loose.chmod(0o777)
-    assert f"{loose} can be written by every user" in trusted_directory(loose / "cache")
+    assert f"{loose} can be written by every user" in trusted_directory(loose / "cache")[1]
     assert not (loose / "cache").exists()  # nothing is made under a folder not trusted
     link = tmp_path / "link"
     link.symlink_to(tmp_path / "sticky" / "a")
     assert "is a symbolic link" in untrusted_entry(link)
     with pytest.raises(OSError, match="is a symbolic link"):
         open_trusted(link)
+    assert trusted_directory(link / ".." / "a" / "b") == (sticky / "a" / "b", None)
     own = tmp_path / "own"
     own.mkdir()
     own.chmod(0o770)
     monkeypatch.setattr("kanedyn._trusted_files._private_group", lambda gid: True)
-    assert trusted_directory(own) is None
+    assert trusted_directory(own) == (own, None)
     monkeypatch.setattr("kanedyn._trusted_files._private_group", lambda gid: False)
-    assert "can be written by the users of group" in trusted_directory(own)
+    assert "can be written by the users of group" in trusted_directory(own)[1]
+
+
+def test_group_root_is_never_private():
+    """Group 0 is never taken for a private group, though /etc/group lists no
+    other member (processes of other users can hold it: ``docker --group-add
+    0``, OpenShift), nor a group with other members (nogroup)."""
+    _private_group.cache_clear()
+    assert not _private_group(0)
+    assert not _private_group(OTHER)
+
+
+_ALICE = pwd.struct_passwd(("alice", "x", 5000, 5000, "", "/home/alice", "/bin/sh"))
+
+
+@pytest.mark.parametrize("group, others, private", [
+    (grp.struct_group(("alice", "x", 5000, [])), [], True),
+    (grp.struct_group(("alice", "x", 5000, ["alice"])), [], True),
+    (grp.struct_group(("alice", "x", 5000, ["bob"])), [], False),
+    (grp.struct_group(("staff", "x", 5000, [])), [], False),
+    (grp.struct_group(("alice", "x", 5000, [])),
+     [pwd.struct_passwd(("bob", "x", 5001, 5000, "", "/home/bob", "/bin/sh"))], False),
+], ids=["upg", "upg-listing-its-user", "another-member", "not-named-as-the-user",
+        "another-users-primary-group"])
+def test_private_group_of_a_directory_service_user(group, others, private, monkeypatch):
+    """A user from LDAP or sssd (known to ``getpwuid``, not listed by
+    ``getpwall``: sssd's default) whose primary group is named as the user and
+    has no other member: a private group (their umask 002 makes folders
+    group-writable, which must not cost a warning every run); any other member,
+    another name, or another user's primary group: not."""
+    monkeypatch.setattr(os, "geteuid", lambda: 5000)
+    monkeypatch.setattr(pwd, "getpwuid", {5000: _ALICE}.__getitem__)
+    monkeypatch.setattr(pwd, "getpwall", lambda: others)
+    monkeypatch.setattr(grp, "getgrgid", lambda gid: group)
+    _private_group.cache_clear()
+    try:
+        assert _private_group(5000) is private
+    finally:
+        _private_group.cache_clear()
+
+
+# ------------------------------------------------------------------ ACLs
+# POSIX ACLs are written as the kernel stores them (the extended attribute
+# system.posix_acl_access or _default), so no setfacl is needed; where the file
+# system has none, the tests are skipped.
+_USER_OBJ, _USER, _GROUP_OBJ, _GROUP, _MASK, _OTHER = 0x01, 0x02, 0x04, 0x08, 0x10, 0x20
+
+
+def _set_acl(path, users=(), mask=7, default=False, owner=7, group=0, other=0):
+    """Give ``path`` an ACL: ``users`` (uid, permissions) entries besides the
+    owner's, group and others'."""
+    entries = [(_USER_OBJ, owner, 0xFFFFFFFF)] + [(_USER, perm, uid) for uid, perm in users] \
+        + [(_GROUP_OBJ, group, 0xFFFFFFFF), (_MASK, mask, 0xFFFFFFFF),
+           (_OTHER, other, 0xFFFFFFFF)]
+    data = struct.pack("<I", 2) + b"".join(struct.pack("<HHI", *entry) for entry in entries)
+    try:
+        os.setxattr(path, f"system.posix_acl_{'default' if default else 'access'}", data)
+    except (AttributeError, OSError) as exc:
+        pytest.skip(f"no POSIX ACLs here ({exc})")
+
+
+def test_an_acl_that_lets_another_user_write(tmp_path):
+    """``setfacl -m u:nobody:rwx`` on the cache directory (the mode shows only
+    the ACL's mask, drwxrwx---): refused, naming the user and the fix.  An ACL
+    that lets them only read, or whose mask takes the writing away, is not."""
+    cache = tmp_path / "cache"
+    cache.mkdir(mode=0o700)
+    _set_acl(cache, users=[(OTHER, 7)])
+    directory, problem = trusted_directory(cache)
+    assert problem == (f"{cache} can be written by nobody (uid {OTHER}) through an access "
+                       f"control list entry (owner {_me()}, mode drwxrwx---+); fix: "
+                       f"`setfacl -x u:{OTHER} {cache}`")
+    _set_acl(cache, users=[(OTHER, 5)])
+    assert trusted_directory(cache) == (cache, None)
+    _set_acl(cache, users=[(OTHER, 7)], mask=5)
+    assert trusted_directory(cache) == (cache, None)
+    module = cache / "module.so"
+    module.write_bytes(b"module")
+    module.chmod(0o600)
+    _set_acl(module, users=[(OTHER, 6)], owner=6)
+    with pytest.raises(UntrustedFile, match=r"module\.so can be written by nobody \(uid "
+                                            r"65534\) through an access control list entry"):
+        open_trusted(module)
+
+
+def test_a_default_acl_on_the_cache_directory(tmp_path):
+    """A default ACL that would let another user write what is created in the
+    cache directory: refused.  A cache directory that kanedyn creates below a
+    folder with such a default ACL does not keep what it would inherit, and is
+    used."""
+    parent = tmp_path / "parent"
+    parent.mkdir(mode=0o755)
+    _set_acl(parent, users=[(OTHER, 7)], default=True, group=5, other=5)
+    directory, problem = trusted_directory(parent)
+    assert problem == (f"{parent} lets nobody (uid {OTHER}) write what is created in it (a "
+                       f"default access control list) (owner {_me()}, mode drwxr-xr-x+); fix: "
+                       f"`setfacl -k {parent}`")
+    assert trusted_directory(parent / "cache") == (parent / "cache", None)
+    assert not [name for name in os.listxattr(parent / "cache") if "posix_acl" in name]
+    assert stat.S_IMODE((parent / "cache").stat().st_mode) == 0o700
+
+
+def _me():
+    return f"{pwd.getpwuid(os.geteuid()).pw_name} (uid {os.geteuid()})"
 
 
 @needs_root
-def test_group_of_this_user_alone():
-    """Root's group has root alone as a member; nogroup has others (nobody)."""
-    from kanedyn._trusted_files import _private_group
-    assert _private_group(0)
-    assert not _private_group(OTHER)
+@pytest.mark.slow
+def test_a_module_planted_through_an_acl(world, place):
+    """The reported case (P1-1): root's cache directory, shared with nobody by
+    an ACL; nobody plants a module with the right checksum.  Not loaded."""
+    cache = place / "cache"
+    cache.mkdir(mode=0o700)
+    _set_acl(cache, users=[(OTHER, 7)])
+    _plant_as_other(world, cache, make_dir=False)
+    out = _victim(cache)
+    _refused_and_safe(world, out)
+    assert (f"{cache} can be written by nobody (uid {OTHER}) through an access control list "
+            "entry (owner root (uid 0), mode drwxrwx---+)") in out
+
+
+@needs_root
+@pytest.mark.slow
+def test_a_module_planted_by_a_user_holding_group_root(world, place):
+    """The reported case (P1-2): root's cache directory writable by group root
+    (mode 0770, root:root), which /etc/group lists no member of; nobody runs
+    with group 0 as a supplementary group and plants a module.  Not loaded."""
+    cache = place / "cache"
+    cache.mkdir()
+    cache.chmod(0o770)
+    os.chown(cache, 0, 0)
+    manifest = world["so"].split(".")[0] + ".json"
+    subprocess.run(["sh", "-c", f"cp {world['payload']} {cache / world['so']} && printf '%s' "
+                    f"'{json.dumps({'sha256': world['sha256']})}' > {cache / manifest}"],
+                   user=OTHER, group=OTHER, extra_groups=[0], check=True, timeout=60)
+    out = _victim(cache)
+    _refused_and_safe(world, out)
+    assert (f"{cache} can be written by the users of group root (gid 0) (owner root (uid 0), "
+            f"mode drwxrwx---); fix: `chmod g-w {cache}`") in out
+
+
+# ------------------------------------------------------ the file checked is loaded
+_SWAPPED = textwrap.dedent("""
+    import os, sys
+    from pathlib import Path
+    from kanedyn.numerics.backends import _c_build
+    cache, name, payload = Path(sys.argv[1]), sys.argv[2], sys.argv[3]
+    so_path, manifest = _c_build._entry(cache, name)
+    checksum = _c_build._checksum
+
+    def checksum_then_swap(handle):  # what another user's rename would do at that moment
+        found = checksum(handle)
+        os.replace(payload, so_path)
+        return found
+    _c_build._checksum = checksum_then_swap
+    module = _c_build._try_cached(name, so_path, manifest, repair=False)
+    print("loaded", module is not None and hasattr(module, "Model"), module.__file__)
+""")
+
+
+@pytest.mark.slow
+def test_the_module_loaded_is_the_file_checked(world, place):
+    """The module file is replaced by another (the payload) right after its
+    owner, mode and checksum were checked, before the dynamic loader opens it
+    (the window that P1-1's exploit raced for): what is loaded is the file
+    checked, through its open descriptor, and the payload never runs."""
+    if not os.path.isdir("/proc/self/fd"):
+        pytest.skip("no /proc/self/fd: modules are loaded by path (the directory rules "
+                    "protect them)")
+    cache = place / "cache"
+    shutil.copytree(world["good"], cache)
+    swapped_in = place / "payload.so"
+    shutil.copy(world["payload"], swapped_in)
+    name = world["so"].split(".")[0]
+    done = subprocess.run([sys.executable, "-c", _SWAPPED, str(cache), name, str(swapped_in)],
+                          env=_environment(cache), capture_output=True, text=True, timeout=120)
+    assert not world["marker"].exists(), "the planted code ran"
+    assert f"loaded True {cache / world['so']}" in done.stdout, done.stdout + done.stderr
+    assert (cache / world["so"]).read_bytes() == world["payload"].read_bytes()  # swapped
+
+
+_MODULE_C = """
+#include <Python.h>
+static struct PyModuleDef def = {PyModuleDef_HEAD_INIT, "%(name)s", NULL, -1, NULL};
+PyMODINIT_FUNC PyInit_%(name)s(void) {
+    PyObject *m = PyModule_Create(&def);
+    if (m) PyModule_AddStringConstant(m, "which", "%(name)s");
+    return m;
+}
+"""
+
+
+def test_modules_loaded_one_after_another_are_each_their_own(tmp_path):
+    """Modules loaded through their descriptors one after another (each closed
+    once loaded, so the next one gets the same number): the dynamic loader
+    knows a library by the text of the path asked for, and the same
+    ``/proc/self/fd/N`` would hand the first library out for the second; each
+    module is its own."""
+    import sysconfig
+
+    from kanedyn.numerics.backends import _c_build
+    cc = shutil.which("tcc") or shutil.which("cc") or shutil.which("gcc")
+    if cc is None:
+        pytest.skip("no C compiler")
+    tag = f"{os.getpid()}_{tmp_path.name}".replace("-", "_")
+    names = [f"_kd_fd_test_{k}_{tag}" for k in range(3)]
+    for name in names:
+        (tmp_path / f"{name}.c").write_text(_MODULE_C % {"name": name})
+        subprocess.run([cc, "-shared", "-fPIC", "-w", f"-I{sysconfig.get_paths()['include']}",
+                        str(tmp_path / f"{name}.c"), "-o", str(tmp_path / f"{name}.so")],
+                       check=True, capture_output=True)
+        (tmp_path / f"{name}.so").chmod(0o600)
+    assert [_c_build._load(name, tmp_path / f"{name}.so").which for name in names] == names
+
+
+# ------------------------------------------------------------ symbolic links
+@needs_root
+@pytest.mark.slow
+def test_a_cache_directory_named_through_another_users_link(world, place):
+    """The reported case (P1-3): KANEDYN_CACHE_DIR names a symbolic link that
+    another user made in a sticky folder, pointing at a folder of root's:
+    refused (as the kernel's fs.protected_symlinks would), and nothing in
+    root's folder is written or removed."""
+    sticky = place / "sticky"
+    sticky.mkdir()
+    sticky.chmod(0o1777)
+    precious = place / "rootdata"
+    precious.mkdir(mode=0o700)
+    old = precious / "build-2019"
+    old.mkdir()
+    (old / "results.csv").write_text("years of work\n")
+    os.utime(old, (time.time() - 7200, time.time() - 7200))
+    link = sticky / "kdcache-root"
+    subprocess.run(["ln", "-s", str(precious), str(link)], user=OTHER, group=OTHER,
+                   extra_groups=[], check=True, timeout=60)
+    out = _victim(link)
+    assert "built -1.0" in out, out
+    assert (f"the cache directory {link} ($KANEDYN_CACHE_DIR) could be changed by another "
+            f"user, who could make this process run their code: {link} is a symbolic link "
+            f"of another user (owner nobody (uid {OTHER}), mode lrwxrwxrwx); set "
+            "KANEDYN_CACHE_DIR to a directory of your own") in out
+    assert sorted(p.name for p in precious.iterdir()) == ["build-2019"]
+    assert (old / "results.csv").read_text() == "years of work\n"
+
+
+def test_stale_builds_removed_are_kanedyns_alone(tmp_path):
+    """The cleanup of folders that killed builds left: only folders named as
+    kanedyn names them (``tempfile.mkdtemp``'s build-XXXXXXXX) that hold only
+    files kanedyn writes there; a user's build-2019 with results, or a build
+    folder holding something else, is left as it is."""
+    from kanedyn.numerics.backends import _c_build
+    stale = Path(tempfile.mkdtemp(prefix="build-", dir=tmp_path))
+    (stale / "unit0.c").write_text("int x;")
+    (stale / "unit0.o").write_bytes(b"")
+    users = tmp_path / "build-2019"
+    users.mkdir()
+    (users / "results.csv").write_text("years of work\n")
+    mixed = Path(tempfile.mkdtemp(prefix="quick-", dir=tmp_path))
+    (mixed / "notes.txt").write_text("mine\n")
+    fresh = Path(tempfile.mkdtemp(prefix="build-", dir=tmp_path))
+    for folder in (stale, users, mixed):
+        os.utime(folder, (time.time() - 7200, time.time() - 7200))
+    _c_build._remove_stale_builds(tmp_path, timeout=1)
+    assert not stale.exists()
+    assert (users / "results.csv").exists() and (mixed / "notes.txt").exists()
+    assert fresh.exists()  # a build under way
+
+
+# --------------------------------------------------- where the cache is, if anywhere
+def _no_cache_settings(monkeypatch):
+    for name in ("KANEDYN_CACHE_DIR", "XDG_CACHE_HOME", "HOME"):
+        monkeypatch.delenv(name, raising=False)
+
+
+@pytest.mark.parametrize("home", [None, "", "relative/home"], ids=["unset", "empty", "relative"])
+def test_no_home_directory_gives_a_private_cache(home, monkeypatch):
+    """HOME unset, empty or relative, and a user id with no entry in the user
+    database (``docker run --user 12345``): no cache directory, a private one
+    with a warning, never a traceback (P2-6)."""
+    from kanedyn.numerics.backends import _c_build
+    _no_cache_settings(monkeypatch)
+    if home is not None:
+        monkeypatch.setenv("HOME", home)
+
+    def no_entry(uid):
+        raise KeyError(f"getpwuid(): uid not found: {uid}")
+    monkeypatch.setattr(pwd, "getpwuid", no_entry)
+    monkeypatch.setattr(_c_build, "_PRIVATE", [])
+    assert _c_build.cache_dir() is None
+    with pytest.warns(RuntimeWarning, match=r"^there is no cache directory: KANEDYN_CACHE_DIR is "
+                      r"not set, nor XDG_CACHE_HOME to an absolute path, and the home directory "
+                      r"is unknown .*; compiled modules are built in \S+kanedyn-cache-\S+ for "
+                      r"this process only"):
+        private = _c_build.trusted_cache_dir()
+    assert private == _c_build._PRIVATE[0]
+    assert stat.S_IMODE(private.stat().st_mode) == 0o700
+
+
+def test_where_the_cache_is(tmp_path, monkeypatch):
+    """A relative XDG_CACHE_HOME is ignored (the XDG specification), as is an
+    empty or relative HOME (the user database's home is used)."""
+    from kanedyn.numerics.backends import _c_build
+    _no_cache_settings(monkeypatch)
+    database_home = pwd.getpwuid(os.getuid()).pw_dir
+    monkeypatch.setenv("HOME", str(tmp_path))
+    assert _c_build.cache_dir() == tmp_path / ".cache" / "kanedyn"
+    monkeypatch.setenv("XDG_CACHE_HOME", "relative")
+    assert _c_build.cache_dir() == tmp_path / ".cache" / "kanedyn"
+    assert _c_build._cache_origin() == "~/.cache/kanedyn"
+    monkeypatch.setenv("XDG_CACHE_HOME", str(tmp_path / "xdg"))
+    assert _c_build.cache_dir() == tmp_path / "xdg" / "kanedyn"
+    monkeypatch.delenv("XDG_CACHE_HOME")
+    for home in ("", "relative"):
+        monkeypatch.setenv("HOME", home)
+        assert _c_build.cache_dir() == Path(database_home) / ".cache" / "kanedyn"
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", "relative/cache")
+    assert _c_build.cache_dir() == Path("relative/cache")
+
+
+def test_the_private_directory_is_made_where_no_one_else_can_change_it(tmp_path, monkeypatch):
+    """The private directory (where modules are built when the shared cache is
+    not used) is not made in a temporary directory that other users can
+    change (P3-12): there it is made in /tmp (sticky) instead, and the warning
+    says why; it is 0700 and checked."""
+    from kanedyn.numerics.backends import _c_build
+    loose = tmp_path / "loose-tmp"
+    loose.mkdir()
+    loose.chmod(0o777)
+    monkeypatch.setattr(tempfile, "tempdir", str(loose))
+    monkeypatch.setattr(_c_build, "_PRIVATE", [])
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(loose / "cache"))
+    with pytest.warns(RuntimeWarning) as caught:
+        private = _c_build.trusted_cache_dir()
+    assert loose not in private.parents
+    assert stat.S_IMODE(private.stat().st_mode) == 0o700
+    assert trusted_directory(private) == (private, None)
+    (text,) = [str(w.message) for w in caught]
+    assert text.endswith(f"; temporary directory passed over: {loose} can be written by every "
+                         f"user (owner {_me()}, mode drwxrwxrwx); fix: `chmod o-w {loose}`")
+    assert not list(loose.iterdir())
 
 
 # ------------------------------------------------------------------ full disk

@@ -2,11 +2,13 @@
 the integrators cannot honour refused, results that cannot be trusted say so."""
 
 import json
+import pathlib
 import re
 import os
 import signal
 import subprocess
 import sys
+import tempfile
 import textwrap
 import threading
 import time
@@ -413,8 +415,7 @@ def _make_writable(path):
 def test_read_only_cache(tmp_path):
     cache = tmp_path / "cache"
     assert "built -1.0" in _build_in(cache, 7)
-    stale = cache / "build-killed"
-    stale.mkdir()
+    stale = pathlib.Path(tempfile.mkdtemp(prefix="build-", dir=cache))  # as a build names it
     os.utime(stale, (time.time() - 86400, time.time() - 86400))
     assert "built -1.0" in _build_in(cache, 7)
     assert not stale.exists()  # a killed build's folder is cleaned away

@@ -59,9 +59,11 @@ what make a file from elsewhere safe to read.
 from __future__ import annotations
 
 import base64
+import contextlib
 import functools
 import hashlib
 import json
+import os
 import random
 import sys
 import time
@@ -911,14 +913,15 @@ def _read_member(archive, name, limit, path, deadline):
     return b"".join(chunks)
 
 
-def _members(path, kind, deadline):
-    """``(manifest bytes, nodes bytes)`` of the archive, within the limits."""
+def _members(path, kind, deadline, opened=None):
+    """``(manifest bytes, nodes bytes)`` of the archive (read from the binary
+    file ``opened`` where given), within the limits."""
     try:
-        size = path.stat().st_size
+        size = path.stat().st_size if opened is None else os.fstat(opened.fileno()).st_size
         if size > SAVED_FILE_LIMITS["file_bytes"]:
             raise SavedFileError(f"{path}: {size} bytes, more than the "
                                  f"{SAVED_FILE_LIMITS['file_bytes']} a saved file may have")
-        with path.open("rb") as handle:
+        with path.open("rb") if opened is None else contextlib.nullcontext(opened) as handle:
             end = getattr(zipfile, "_EndRecData", lambda _: None)(handle)
             if end is not None and end[zipfile._ECD_ENTRIES_TOTAL] > SAVED_FILE_LIMITS["members"]:
                 raise SavedFileError(f"{path}: not a {kind} (it has "
@@ -950,7 +953,7 @@ def _json(text, path, member):
         raise SavedFileError(f"{path}: {member} is not JSON ({str(exc)[:200]})") from None
 
 
-def load_data(path, format=FORMAT, timeout=None):
+def load_data(path, format=FORMAT, timeout=None, opened=None):
     """The object and the manifest of a file written by :func:`save_data`.
 
     Parameters
@@ -960,6 +963,9 @@ def load_data(path, format=FORMAT, timeout=None):
         The content the file must announce in its manifest.
     timeout : float, optional
         Seconds the whole read may take (default ``SAVED_FILE_LIMITS["timeout"]``).
+    opened : binary file, optional
+        The file ``path`` already open, read instead of opening ``path`` again
+        (the derivation cache reads the descriptor it checked the owner of).
 
     Returns
     -------
@@ -976,7 +982,7 @@ def load_data(path, format=FORMAT, timeout=None):
     timeout = SAVED_FILE_LIMITS["timeout"] if timeout is None else float(timeout)
     deadline = time.monotonic() + timeout
     kind = "kanedyn equations file" if format == FORMAT else f"{format} file"
-    manifest_text, nodes_text = _members(path, kind, deadline)
+    manifest_text, nodes_text = _members(path, kind, deadline, opened)
     manifest = _json(manifest_text, path, "manifest.json")
     if not isinstance(manifest, dict) or manifest.get("format") != format:
         found = manifest.get("format") if isinstance(manifest, dict) else None

@@ -302,13 +302,15 @@ def _load_entry(path):
     """``load_data`` of the derivation-cache file ``path`` once it and its
     folder are found to be this user's or root's and writable by no one else
     (:mod:`kanedyn._trusted_files`; else a :class:`~kanedyn.io.SavedFileError`
-    naming the owner and mode: nothing another user wrote is decoded)."""
+    naming the owner and mode: nothing another user wrote is decoded), read
+    from the descriptor it was checked on."""
     from .._trusted_files import UntrustedFile, open_trusted, untrusted_entry
     from ..io import SavedFileError, load_data
+    opened = None
     try:
         problem = untrusted_entry(path.parent)
         if problem is None:
-            open_trusted(path).close()
+            opened = open_trusted(path)
     except UntrustedFile as exc:
         problem = str(exc)
     except OSError:  # missing: load_data says so
@@ -316,7 +318,10 @@ def _load_entry(path):
     if problem is not None:
         raise SavedFileError(f"{problem}: not read (the cache reads only files of this "
                              "user or root that no one else can write)")
-    return load_data(path, format=CACHE_FORMAT)
+    if opened is None:
+        return load_data(path, format=CACHE_FORMAT)
+    with opened:
+        return load_data(path, format=CACHE_FORMAT, opened=opened)
 
 
 def _read_body_parameters(key):

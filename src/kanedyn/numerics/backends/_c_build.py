@@ -2,20 +2,23 @@
 
 A module is compiled with the system C compiler on first use and cached on
 disk under a name derived from the SHA-256 of its source and build settings
-(``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` or
-``~/.cache/kanedyn``).  Builds happen in a private temporary directory and are
-published with an atomic rename, so several processes may build the same
-module at once; every entry carries a checksum and an entry that fails it (or
-fails to load) is rebuilt.  The checksum detects damage, not who wrote the
-entry: nothing is loaded from a cache directory that another user could
-change (:mod:`kanedyn._trusted_files`: the directory and every one above it
-owned by this user or root and writable by no one else; the process then
-builds in a private directory, with a warning), nor any entry in it that is
-not this user's or root's or that others can write (a warning; it is removed
-and built again).  Directories are created with mode 0700, files 0600.  A
-build that cannot write the cache (a full disk) is done again in the private
-directory, with a warning; where that fails too, :class:`CompilerError` names
-the path.
+(:func:`cache_dir`: ``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn``
+or ``~/.cache/kanedyn``; without a home directory, none).  Builds happen in a
+private temporary directory and are published with an atomic rename, so
+several processes may build the same module at once; every entry carries a
+checksum and an entry that fails it (or fails to load) is rebuilt.  The
+checksum detects damage, not who wrote the entry: nothing is loaded from a
+cache directory that another user could change (:mod:`kanedyn._trusted_files`:
+the directory and every one on the way to it owned by this user or root and
+writable by no one else, by mode and ACL, symbolic links of others refused;
+the process then builds in a private directory, made where no one else can
+change it, with a warning), nor any entry in it that is not this user's or
+root's or that others can write (a warning; it is removed and built again).
+A module is loaded through the descriptor it was checked on, and a cached
+object linked from a copy read through the one it was checked on.  Directories are created with mode 0700,
+files 0600.  A build that cannot write the cache (a full disk) is done again
+in the private directory, with a warning; where that fails too,
+:class:`CompilerError` names the path.
 
 A source may consist of several translation units separated by
 :data:`UNIT_MARK`: they are compiled at the same time, one compiler process
@@ -42,9 +45,11 @@ import importlib.machinery
 import importlib.util
 import json
 import os
+import re
 import shlex
 import shutil
 import signal
+import stat
 import sys
 import sysconfig
 import tempfile
@@ -57,8 +62,8 @@ import numpy as np
 
 from ..._errors import KanedynError
 from ..._fork import FileLock, after_fork_in_child, remove_at_exit, spawn
-from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, open_trusted, trusted_directory,
-                               untrusted_entry)
+from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, open_trusted,
+                               private_directory, trusted_directory, untrusted_entry)
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
@@ -89,18 +94,45 @@ class _NoSpace(CompilerError):
 
 
 def cache_dir():
-    """The cache directory asked for (the one used is :func:`trusted_cache_dir`)."""
+    """The cache directory asked for (the one used is :func:`trusted_cache_dir`):
+    ``$KANEDYN_CACHE_DIR``, else ``$XDG_CACHE_HOME/kanedyn`` where that is an
+    absolute path (a relative one is ignored, as the XDG specification says),
+    else ``.cache/kanedyn`` in the home directory (``$HOME`` where it is an
+    absolute path, else the user database's); ``None`` when there is none."""
     env = os.environ.get("KANEDYN_CACHE_DIR")
     if env:
         return Path(env)
-    base = os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache"
-    return Path(base) / "kanedyn"
+    if os.path.isabs(os.environ.get("XDG_CACHE_HOME", "")):
+        return Path(os.environ["XDG_CACHE_HOME"]) / "kanedyn"
+    home = _home()
+    return None if home is None else Path(home) / ".cache" / "kanedyn"
+
+
+def _home():
+    """This user's home directory, or ``None``: ``$HOME`` where it is an
+    absolute path, else the user database's entry (none for a user id without
+    one, as a container started with ``--user 12345`` has)."""
+    home = os.environ.get("HOME", "")
+    if os.path.isabs(home):
+        return home
+    try:
+        import pwd
+    except ImportError:  # not POSIX
+        home = os.path.expanduser("~")
+    else:
+        try:
+            home = pwd.getpwuid(os.getuid()).pw_dir
+        except KeyError:  # no entry for this user id
+            return None
+    return home if os.path.isabs(home) else None
 
 
 def _cache_origin():
     if os.environ.get("KANEDYN_CACHE_DIR"):
         return "$KANEDYN_CACHE_DIR"
-    return "$XDG_CACHE_HOME/kanedyn" if os.environ.get("XDG_CACHE_HOME") else "~/.cache/kanedyn"
+    if os.path.isabs(os.environ.get("XDG_CACHE_HOME", "")):
+        return "$XDG_CACHE_HOME/kanedyn"
+    return "~/.cache/kanedyn"
 
 
 def compiler_command():
@@ -155,11 +187,30 @@ def _checksum(handle):
     return hashlib.file_digest(handle, "sha256").hexdigest()
 
 
-def _load(name, path):
-    loader = importlib.machinery.ExtensionFileLoader(name, str(path))
-    spec = importlib.util.spec_from_file_location(name, str(path), loader=loader)
-    module = importlib.util.module_from_spec(spec)
-    loader.exec_module(module)
+def _load(name, path, handle=None):
+    """Import the extension module ``name`` from the cache file ``path``, which
+    :func:`~kanedyn._trusted_files.open_trusted` checks (``handle``: already
+    opened by it): loaded through that descriptor where the system allows
+    (:func:`~kanedyn._trusted_files.descriptor_path`), so that the file mapped is
+    the file checked; ``__file__`` names ``path``.
+
+    Raises
+    ------
+    UntrustedFile
+        Another user could have written it (nothing is loaded).
+    ImportError
+        It does not load.
+    """
+    if handle is None:
+        handle = open_trusted(path)
+    with handle:  # closed once loaded: the library's mapping holds the file
+        # elsewhere than Linux by its path, which the directory rules protect
+        via = descriptor_path(handle) or str(path)
+        loader = importlib.machinery.ExtensionFileLoader(name, via)
+        spec = importlib.util.spec_from_file_location(name, via, loader=loader)
+        module = importlib.util.module_from_spec(spec)
+        loader.exec_module(module)
+    module.__file__ = str(path)
     return module
 
 
@@ -377,29 +428,42 @@ def _unwritten(directory, exc):
 
 def _shared_cache(writing=True):
     """``(directory, unusable, unwritable)``: the cache directory of
-    :func:`cache_dir` (its path with symbolic links resolved, created with mode
-    0700 where missing), why nothing may be loaded from it (it is a file,
-    cannot be created, or another user could change it; ``None``: modules may
-    be loaded from it) and why modules cannot be written to it (``None``: they
-    can; not looked at without ``writing``)."""
-    directory = Path(os.path.realpath(cache_dir()))
-    if directory.exists() and not directory.is_dir():
-        return directory, "is a file, not a directory", None
+    :func:`cache_dir` (followed and checked by
+    :func:`~kanedyn._trusted_files.trusted_directory`: its path with symbolic
+    links resolved, created with mode 0700 where missing), why nothing may be
+    loaded from it (there is none, it is a file, cannot be created, or another
+    user could change it; ``None``: modules may be loaded from it) and why
+    modules cannot be written to it (``None``: they can; not looked at without
+    ``writing``)."""
+    requested = cache_dir()
+    if requested is None:
+        return None, _NO_HOME, None
+    if os.path.exists(requested) and not os.path.isdir(requested):
+        return requested, "is a file, not a directory", None
     try:
-        untrusted = trusted_directory(directory)
+        directory, untrusted = trusted_directory(
+            requested, advice="set KANEDYN_CACHE_DIR to a directory of your own")
     except OSError as exc:
-        return directory, f"cannot be written ({exc.strerror or exc})", None
+        return requested, f"cannot be written ({exc.strerror or exc})", None
     if untrusted is not None:
         return directory, (f"could be changed by another user, who could make this "
-                           f"process run their code: {untrusted}, or set KANEDYN_CACHE_DIR "
-                           "to a directory of your own; nothing is loaded from it"), None
+                           f"process run their code: {untrusted}; nothing is loaded from "
+                           "it"), None
     return directory, None, (_FULL.get(directory) or _unwritable(directory)) if writing \
         else None
 
 
+_NO_HOME = ("there is no cache directory: KANEDYN_CACHE_DIR is not set, nor XDG_CACHE_HOME "
+            "to an absolute path, and the home directory is unknown ($HOME is not an "
+            "absolute path and the user database has no entry for this user)")
+
+
 def _cache_problem(problem):
     """``problem`` of :func:`_shared_cache`, with the cache directory named."""
-    return f"the cache directory {cache_dir()} ({_cache_origin()}) {problem}"
+    requested = cache_dir()
+    if requested is None:
+        return problem
+    return f"the cache directory {requested} ({_cache_origin()}) {problem}"
 
 
 def trusted_cache_dir():
@@ -429,28 +493,51 @@ def _private_cache(reason, keep=None):
     keep = keep or "set KANEDYN_CACHE_DIR to a writable directory of your own to keep them"
     if not _PRIVATE:
         try:
-            path = Path(tempfile.mkdtemp(prefix="kanedyn-cache-"))
+            path, passed_over = private_directory("kanedyn-cache-")
         except OSError as exc:
-            raise CompilerError(f"{reason}, and no private directory can be made in "
-                                f"{tempfile.gettempdir()} ({exc.strerror or exc}); set "
+            raise CompilerError(f"{reason}, and no private directory can be made ({exc}); set "
                                 "KANEDYN_CACHE_DIR to a directory of your own") from None
         remove_at_exit(path)
         _PRIVATE.append(path)
         warnings.warn(f"{reason}; compiled modules are built in {path} for this process "
-                      f"only ({keep})", RuntimeWarning, stacklevel=4)
+                      f"only ({keep})" + "".join(f"; temporary directory passed over: {problem}"
+                                                for problem in passed_over),
+                      RuntimeWarning, stacklevel=4)
     return _PRIVATE[0]
+
+
+#: the folders a build, a prefetched unit and a quick build make in the cache
+#: (:func:`tempfile.mkdtemp`'s names), and the files they hold: all that
+#: :func:`_remove_stale_builds` removes
+_WORK_FOLDER = re.compile(r"(build|prefetch|quick)-[a-z0-9_]{8}")
+_WORK_FILE = re.compile(r"unit\d*\.[co]|manifest\.json|said\.txt|_kd_[0-9a-f]{24}\..*")
 
 
 def _remove_stale_builds(directory, timeout):
     """Remove the ``build-*``, ``prefetch-*`` and ``quick-*`` folders that killed
-    builds and processes left behind (not this process's prefetched units)."""
+    builds and processes left behind in the trusted cache ``directory`` (not
+    this process's prefetched units): only folders of this user with the names
+    kanedyn gives them, and only where they hold nothing but files with the
+    names kanedyn writes there (anything else is left as it is)."""
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
     own = {made.parent for _, _, made, _ in _PREFETCHED.values()}
-    for path in [*directory.glob("build-*"), *directory.glob("prefetch-*"),
-                 *directory.glob("quick-*")]:
+    try:
+        found = os.listdir(directory)
+    except OSError:
+        return
+    for folder in (directory / name for name in found if _WORK_FOLDER.fullmatch(name)):
         try:
-            if path not in own and path.is_dir() and path.stat().st_mtime < limit:
-                shutil.rmtree(path, ignore_errors=True)
+            info = folder.lstat()
+            if folder in own or not stat.S_ISDIR(info.st_mode) \
+                    or info.st_uid != os.geteuid() or info.st_mtime >= limit:
+                continue
+            names = os.listdir(folder)
+            if not all(_WORK_FILE.fullmatch(name) for name in names):
+                continue
+            for name in names:
+                if not stat.S_ISDIR((folder / name).lstat().st_mode):
+                    (folder / name).unlink()
+            folder.rmdir()
         except OSError:
             pass
 
@@ -468,10 +555,14 @@ def _try_cached(name, so_path, manifest, repair=True):
     try:
         with open_trusted(manifest) as handle:
             recorded = json.loads(handle.read())["sha256"]
-        with open_trusted(so_path) as handle:
+        handle = open_trusted(so_path)
+        try:
             if recorded != _checksum(handle):
                 raise ValueError("checksum mismatch")
-        return _load(name, so_path)
+        except BaseException:
+            handle.close()
+            raise
+        return _load(name, so_path, handle)  # the file checked, through its descriptor
     except Exception as exc:  # noqa: BLE001  corrupt or stale entry: rebuild it
         if isinstance(exc, UntrustedFile):
             _refuse(str(exc), repair)
@@ -541,7 +632,7 @@ def _build(units, command, so_path, manifest, timeout, single=False):
             flags.append(unit_flags)
             cached.append(unit_object)
             started = _take_prefetched(cached[-1].stem, first=k == 0)
-            if _usable(cached[-1]):
+            if _reuse(cached[-1], c_path.with_suffix(".o")):
                 reused.append(k)
                 _stop(started)
             elif started is not None and started[0].poll() is None:  # compiling this unit
@@ -564,8 +655,7 @@ def _build(units, command, so_path, manifest, timeout, single=False):
             STATS["reused"] += len(reused)
             _keep_objects([(paths[k].with_suffix(".o"), cached[k]) for k in made])
             try:
-                link([cached[k] if k in reused else paths[k].with_suffix(".o")
-                      for k in range(len(paths))])
+                link([path.with_suffix(".o") for path in paths])
             except CompilerError as exc:
                 if not reused or isinstance(exc, _NoSpace):
                     raise
@@ -650,20 +740,46 @@ def _take_object(prefetched, target):
         shutil.rmtree(made.parent, ignore_errors=True)
 
 
-def _usable(cached):
-    """Whether a cached object may be linked: present and not empty (a crash
-    right after publishing can leave an empty file, which a linker accepts as
-    an empty script; any other damage fails the link, and the units are then
-    compiled), and it and its folder this user's or root's and writable by no
-    one else (else reported, and compiled again)."""
+def _cached_object(cached):
+    """The cached object ``cached`` opened for reading where it may be linked:
+    present and not empty (a crash right after publishing can leave an empty
+    file, which a linker accepts as an empty script; any other damage fails the
+    link, and the units are then compiled), and it and its folder this user's
+    or root's and writable by no one else (else reported, and ``None``)."""
     try:
-        problem = untrusted_entry(cached.parent) or untrusted_entry(cached)
+        problem = untrusted_entry(cached.parent)
         if problem is None:
-            return cached.lstat().st_size > 0 and cached.is_file()
+            handle = open_trusted(cached)
+            if os.fstat(handle.fileno()).st_size > 0:
+                return handle
+            handle.close()
+            return None
+    except UntrustedFile as exc:
+        problem = str(exc)
     except OSError:
-        return False
+        return None
     _refuse(problem, removed=False)
-    return False
+    return None
+
+
+def _usable(cached):
+    """Whether the cached object ``cached`` may be linked (:func:`_cached_object`)."""
+    handle = _cached_object(cached)
+    if handle is not None:
+        handle.close()
+    return handle is not None
+
+
+def _reuse(cached, target):
+    """Copy the cached object ``cached``, where it may be linked, from the
+    descriptor it was checked on to ``target`` in the build's folder (the
+    linker reads that copy: the file checked); ``False`` where it may not."""
+    handle = _cached_object(cached)
+    if handle is None:
+        return False
+    with handle, open(target, "wb") as copy:
+        shutil.copyfileobj(handle, copy)
+    return True
 
 
 def _keep_objects(pairs):

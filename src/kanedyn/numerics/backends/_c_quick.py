@@ -48,6 +48,7 @@ import warnings
 from pathlib import Path
 
 from ..._fork import after_fork_in_child, remove_at_exit, spawn
+from ..._trusted_files import PRIVATE_FILE
 
 __all__ = ["quick_command", "compile_quick", "optimize_later", "when_optimized",
            "when_cached", "finish_compiling", "QUICK_STATS"]
@@ -123,7 +124,8 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
     """The module ``name`` built by the quick compiler from the C sources
     ``units`` (one run, in a ``quick-*`` folder of the cache ``directory``,
     where modules may be run from), loaded with ``loader(name, path)`` and
-    registered for :func:`optimize_later`; ``None`` when the compiler fails,
+    registered for :func:`optimize_later` (mode 0600, checked and loaded as a
+    cached module is); ``None`` when the compiler fails,
     takes longer than ``timeout`` seconds, makes a module that does not load or
     cannot write its folder (a full disk; counted in :data:`QUICK_STATS`
     ``failed``; the first failure of a process is reported with a warning).
@@ -157,6 +159,7 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
         if run.returncode != 0:
             problem = f"exit status {run.returncode}" + (f": {said}" if said else "")
         else:
+            os.chmod(out, PRIVATE_FILE)  # whatever the umask: the loader checks it
             module = loader(name, out)
     except (OSError, ImportError, subprocess.TimeoutExpired) as exc:
         problem = str(exc)
