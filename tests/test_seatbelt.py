@@ -194,7 +194,7 @@ def test_report_finds_intervals_and_unintended_release():
     # over on (5.5, 45.5) ms, (85.5, 125.5) ms and from 165.5 ms to the end
     tilt = lock + 0.1 * np.sin(2 * np.pi * (t - 0.0055) / 0.08)
     y = np.vstack([np.zeros_like(t), -tilt, 0 * t, 0 * t])
-    rep = seatbelt_report(SimpleNamespace(t=t, y=y), d)
+    rep = seatbelt_report(SimpleNamespace(t=t, y=y, success=True, message=""), d)
     assert rep.locked and rep.lock_time == pytest.approx(0.0055, abs=1e-5)
     assert np.array(rep.intervals) == pytest.approx(
         np.array([[0.0055, 0.0455], [0.0855, 0.1255], [0.1655, 0.2]]), abs=1e-5)

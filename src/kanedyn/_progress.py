@@ -4,7 +4,9 @@
 to: ``stage(text)`` announces a step on its own line, ``update(text, fraction)``
 moves a progress bar (a ``tqdm`` bar, created on the first update of a step),
 ``done()`` closes it.  ``tqdm`` is imported on the first bar only, so a
-disabled indicator costs nothing.
+disabled indicator costs nothing.  A stream that cannot be written (a full
+disk under a log file, a closed pipe) ends the progress output, never the work
+it reports on: the indicator then disables itself.
 """
 
 from __future__ import annotations
@@ -47,8 +49,11 @@ class Progress:
             return
         self.done()
         stream = self.stream or sys.stderr
-        stream.write(f"{self._prefix()} {text}\n")
-        stream.flush()
+        try:
+            stream.write(f"{self._prefix()} {text}\n")
+            stream.flush()
+        except OSError:
+            self._stream_failed()
 
     def update(self, text, fraction=None):
         """Show ``text`` and, if given, ``fraction`` (0..1) done on the bar (throttled)."""
@@ -59,7 +64,10 @@ class Progress:
         if now - self._last < self.interval:
             return
         self._last = now
-        self._draw()
+        try:
+            self._draw()
+        except OSError:
+            self._stream_failed()
 
     def _draw(self):
         text, fraction = self._pending
@@ -78,9 +86,20 @@ class Progress:
     def done(self):
         """Close the bar of the current step (showing its last state), if one is open."""
         if self._bar is not None:
-            if self._pending is not None:
-                self._draw()
-            self._bar.close()
+            try:
+                if self._pending is not None:
+                    self._draw()
+                self._bar.close()
+            except OSError:
+                self._stream_failed()
+            self._bar = None
+        self._pending = None
+
+    def _stream_failed(self):
+        """The stream cannot be written: no more progress output (the work goes on)."""
+        self.enabled = False
+        if self._bar is not None:
+            self._bar.disable = True  # its close (and finalizer) write nothing then
             self._bar = None
         self._pending = None
 
