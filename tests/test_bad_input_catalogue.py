@@ -702,10 +702,12 @@ def test_run_out_on_a_full_disk(tmp_path, monkeypatch, capsys):
     import errno
     import os
 
-    def fills_up(self, path):
-        with open(path, "w") as fh:
+    from kanedyn._output_files import replacing
+
+    def fills_up(self, path):  # the writer as it is, and the disk full half way
+        with replacing(path) as fh:
             fh.write("t,theta,omega\n0.0,")
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     monkeypatch.setattr(kd.SimulationResult, "to_csv", fills_up)
     argv = ["run", "pendulum", "--t-end", "0.1", "--backend", "numpy", "--out", str(tmp_path),
             "--quiet"]

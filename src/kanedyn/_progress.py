@@ -48,12 +48,11 @@ class Progress:
         if not self.enabled:
             return
         self.done()
-        stream = self.stream or sys.stderr
-        try:
+
+        def line(stream):
             stream.write(f"{self._prefix()} {text}\n")
             stream.flush()
-        except OSError:
-            self._stream_failed()
+        self._writing(line)
 
     def update(self, text, fraction=None):
         """Show ``text`` and, if given, ``fraction`` (0..1) done on the bar (throttled)."""
@@ -64,19 +63,15 @@ class Progress:
         if now - self._last < self.interval:
             return
         self._last = now
-        try:
-            self._draw()
-        except OSError:
-            self._stream_failed()
+        self._writing(self._draw)
 
-    def _draw(self):
+    def _draw(self, stream):
         text, fraction = self._pending
         description = f"{self._prefix()} {text}"
         if self._bar is None:
             from tqdm import tqdm
-            self._bar = tqdm(total=1.0, desc=description, file=self.stream or sys.stderr,
-                             leave=True, bar_format=_BAR_FORMAT, mininterval=0.0,
-                             dynamic_ncols=True)
+            self._bar = tqdm(total=1.0, desc=description, file=stream, leave=True,
+                             bar_format=_BAR_FORMAT, mininterval=0.0, dynamic_ncols=True)
         bar = self._bar
         bar.set_description_str(description, refresh=False)
         if fraction is not None:
@@ -86,17 +81,24 @@ class Progress:
     def done(self):
         """Close the bar of the current step (showing its last state), if one is open."""
         if self._bar is not None:
-            try:
+            def close(stream):
                 if self._pending is not None:
-                    self._draw()
+                    self._draw(stream)
                 self._bar.close()
-            except OSError:
-                self._stream_failed()
+            self._writing(close)
             self._bar = None
         self._pending = None
 
-    def _stream_failed(self):
-        """The stream cannot be written: no more progress output (the work goes on)."""
+    def _writing(self, write):
+        """``write(stream)``; a stream that cannot be written (or none: stderr
+        closed) ends the progress output, not the work it reports on."""
+        stream = self.stream or sys.stderr
+        if stream is not None:
+            try:
+                write(stream)
+                return
+            except OSError:
+                pass
         self.enabled = False
         if self._bar is not None:
             self._bar.disable = True  # its close (and finalizer) write nothing then

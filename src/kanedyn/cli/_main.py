@@ -89,7 +89,8 @@ def _command(args):
     with taking_over(), guarded():
         try:
             code = args.func(args)
-            sys.stdout.flush()  # a stdout that cannot be written: reported here
+            if sys.stdout is not None:  # a stdout that cannot be written: reported here
+                sys.stdout.flush()
         except KanedynError as exc:
             print(f"kanedyn: error: {' '.join(str(exc).split())}", file=sys.stderr)
             return 2, None

@@ -76,9 +76,11 @@ def _to_devnull(stream):
 @contextmanager
 def guarded():
     """``sys.stdout`` and ``sys.stderr`` guarded for the block (see the module's text)."""
-    out, err = sys.stdout, sys.stderr
-    sys.stdout = _Guarded(out, "standard output", report=True)
-    sys.stderr = _Guarded(err, "standard error", report=False)
+    out, err = sys.stdout, sys.stderr  # None where the descriptor was closed: left so
+    if out is not None:
+        sys.stdout = _Guarded(out, "standard output", report=True)
+    if err is not None:
+        sys.stderr = _Guarded(err, "standard error", report=False)
     try:
         yield
     finally:
