@@ -13,6 +13,7 @@ to guard against hangs (what took minutes before), never measured.
 
 import json
 import os
+import re
 import resource
 import signal
 import subprocess
@@ -155,6 +156,24 @@ def test_the_index3_integrator_keeps_what_it_has(four_bar):
     res = stop.value.result
     assert stop.value.signum == signal.SIGINT and res.message == "interrupted"
     assert res.t.size > 100 and 0.0 < res.t[-1] < 1.0 and np.all(np.isfinite(res.y))
+
+
+@pytest.mark.usefixtures("terminal_signals")
+def test_the_index3_integrator_with_output_times_keeps_the_state_reached(four_bar):
+    """With output times far apart, the state of the last step is kept as on the
+    other paths (the result held t = 0 only, though the run had reached t = 13 s)."""
+    d, _ = four_bar
+    model = d.numeric(d.derive(method="lagrange"),
+                      scheme=kd.schemes.AugmentedLagrangianIndex3(step=1e-3))
+    y0 = model.state(d.initial(d.numeric(d.derive())))
+    with pytest.raises(kd.SimulationInterrupted) as stop:
+        kd.simulate(model, (0.0, 100.0), y0, t_eval=[0.0, 50.0, 100.0],
+                    events=[signal_at_call(300, signal.SIGINT)])
+    res = stop.value.result
+    assert res.message == "interrupted" and res.t[0] == 0.0 and res.t.size == 2
+    assert 0.2 < res.t[-1] < 1.0 and np.all(np.isfinite(res.y))
+    # the state kept is the run's own: on the constraints, as every step's is
+    assert np.max(np.abs(res.constraint_residuals[:, -1])) < 1e-8
 
 
 _SIGTERM_RUN = textwrap.dedent("""
@@ -305,6 +324,68 @@ def test_the_four_bar_command_writes_what_it_has(tmp_path, backend, signals):
     assert len(rows) == summary["points"] + 1
     assert (tmp_path / "four-bar.png").exists() == complete
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no parts left
+
+
+def _shell(script, tmp_path):
+    """``bash -c script`` in a session of its own (as a terminal's foreground job),
+    SIGINT and SIGTERM at their default actions; its stderr is read as it comes."""
+    proc = subprocess.Popen(["bash", "-c", script], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env=dict(os.environ, PYTHONPATH=SRC), cwd=tmp_path,
+                            preexec_fn=_terminal_child)
+    said = []
+    reader = threading.Thread(target=lambda: [said.append(line) for line in proc.stderr])
+    reader.start()
+    deadline = time.time() + 180  # until the simulated time advances (an ETA shown)
+    while (not any(re.search(r"simulating .*<\d", line) for line in list(said))
+           and time.time() < deadline and proc.poll() is None):
+        time.sleep(0.05)
+    time.sleep(1.0)
+    return proc, said, reader
+
+
+_KANEDYN = f"{sys.executable} -m kanedyn.cli run pendulum --t-end 1e7 --backend numpy"
+# (its stdout, the summary, to /dev/null: the shell's is what the tests read)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_ctrl_c_stops_a_shell_loop_over_runs(tmp_path):
+    """Ctrl-C (SIGINT to the foreground job) on a shell loop over ``kanedyn run``:
+    the run writes what it has and ends by the signal, so the shell stops the
+    loop too (the run exited with status 130, and bash went on to the next
+    iteration)."""
+    proc, said, reader = _shell(f'for i in 1 2 3; do echo "start $i"; {_KANEDYN} '
+                                f'--out run$i >/dev/null; echo "status $?"; done', tmp_path)
+    os.killpg(proc.pid, signal.SIGINT)  # what the terminal does
+    try:
+        proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:  # the loop went on: stopped here
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    out = proc.stdout.read()
+    reader.join()
+    assert out == "start 1\n", "".join(said)[-2000:]
+    assert proc.returncode == -signal.SIGINT
+    summary = json.loads((tmp_path / "run1" / "summary.json").read_text())
+    assert summary["message"] == "interrupted"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_the_shell_reports_143_for_a_run_ended_by_sigterm(tmp_path):
+    """SIGTERM to the run alone (what ``kill`` and ``timeout`` do): the shell sees a
+    death by SIGTERM and reports 143, after the run wrote what it has."""
+    proc, said, reader = _shell(f"{_KANEDYN} --out run >/dev/null & echo \"pid $!\"; wait $!; "
+                                "echo \"status $?\"", tmp_path)
+    pid = int(proc.stdout.readline().split()[1])
+    os.kill(pid, signal.SIGTERM)
+    out = proc.stdout.read()
+    proc.wait(timeout=120)
+    reader.join()
+    assert out == "status 143\n", "".join(said)[-2000:]
+    assert "interrupted by SIGTERM at t = " in "".join(said)
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["points"] >= 1
 
 
 def signalling_twice(monkeypatch, method):
