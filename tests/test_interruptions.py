@@ -226,6 +226,33 @@ def test_sigterm_stops_a_run_as_ctrl_c_does(name, backend):
     assert report["calls"] < 1000  # stopped at the end of the step, not run on
 
 
+_UNCAUGHT_STOP = textwrap.dedent("""
+    import sys
+    import kanedyn as kd
+    d = kd.models.build("four-bar")
+    model = d.numeric(d.derive(), backend="numpy")
+    print("running", flush=True)
+    kd.simulate(model, (0.0, 1e9), d.initial(model))
+""")
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_script_that_does_not_catch_the_stop_ends_by_the_signal(signum):
+    """A user's script with no ``try`` around kd.simulate: the traceback of
+    SimulationInterrupted, then the process ends by the signal (not status 1),
+    so that a shell loop stops and a scheduler sees the signal."""
+    proc = subprocess.Popen([sys.executable, "-c", _UNCAUGHT_STOP], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=SRC), preexec_fn=_terminal_child)
+    assert proc.stdout.readline() == "running\n"
+    time.sleep(0.5)
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == -signum, err[-2000:]
+    assert "kanedyn._errors.SimulationInterrupted: interrupted" in err
+
+
 _RESTING_BALL = textwrap.dedent("""
     import json, sys, time
     import kanedyn as kd

@@ -28,7 +28,8 @@ import threading
 from contextlib import contextmanager
 
 __all__ = ["STOP_SIGNALS", "Stopped", "stop_at_once", "holding", "taking_over",
-           "exit_status", "signal_name", "interruption", "last_received", "end_by"]
+           "exit_status", "signal_name", "interruption", "last_received", "end_by",
+           "end_by_signal_if_uncaught"]
 
 #: the signals that stop a run, where the platform has them
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM")
@@ -87,6 +88,30 @@ def end_by(signum):
     if hasattr(signal, "pthread_sigmask"):
         signal.pthread_sigmask(signal.SIG_UNBLOCK, {signum})
     signal.raise_signal(signum)
+
+
+def end_by_signal_if_uncaught():
+    """Make a script that lets a stop exception reach its top end by the signal.
+
+    Python ends by SIGINT only for an uncaught exception that is exactly
+    ``KeyboardInterrupt``; a :class:`kanedyn.SimulationInterrupted` (its
+    subclass) or one of SIGTERM would end the script with status 1, and a shell
+    loop or a batch scheduler would not see the signal.  Installed once, on the
+    first stop, and only over Python's own ``sys.excepthook`` (not in an
+    interactive session, nor over a hook of the user's or of IPython): the
+    traceback is printed as before, then the process ends by the exception's
+    ``signum``.
+    """
+    if sys.excepthook is not sys.__excepthook__ or sys.flags.interactive or hasattr(sys, "ps1"):
+        return
+
+    def report_then_end(kind, value, traceback):
+        sys.__excepthook__(kind, value, traceback)
+        signum = getattr(value, "signum", None)
+        if isinstance(value, KeyboardInterrupt) and signum in STOP_SIGNALS:
+            end_by(signum)
+
+    sys.excepthook = report_then_end
 
 
 def last_received():
