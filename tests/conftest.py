@@ -1,7 +1,9 @@
 """Shared fixtures: models that are expensive to derive are built once per session."""
 
+import contextlib
 import hashlib
 import json
+import subprocess
 import zipfile
 
 import pytest
@@ -72,6 +74,39 @@ def terminal_signals():
     yield
     for s, handler in previous.items():
         signal.signal(s, handler)
+
+
+@pytest.fixture()
+def small_disk(tmp_path):
+    """``mount(size="2m")``: a file system of its own (a tmpfs of ``size``) at a new
+    folder under ``tmp_path``, unmounted when the test ends; ``mount.fill(disk)``
+    fills it to the last block.  Skips, saying why, where mounting is refused
+    (not root, a container without the right)."""
+    mounted = []
+
+    def mount(size="2m"):
+        where = tmp_path / ("disk" if not mounted else f"disk{len(mounted)}")
+        where.mkdir()
+        try:
+            done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size},mode=0700",
+                                   "tmpfs", str(where)], capture_output=True, text=True)
+        except OSError as exc:
+            pytest.skip(f"cannot mount a tmpfs here ({exc})")
+        if done.returncode != 0:
+            pytest.skip(f"cannot mount a tmpfs here ({done.stderr.strip()})")
+        mounted.append(where)
+        return where
+
+    def fill(disk):
+        with open(disk / "filler", "wb", buffering=0) as filler, \
+                contextlib.suppress(OSError):
+            while filler.write(b"\0" * 4096):
+                pass
+
+    mount.fill = fill
+    yield mount
+    for where in mounted:
+        subprocess.run(["umount", "-l", str(where)], check=False)
 
 
 def _write_saved(path, nodes, root=0, fmt="kanedyn-equations", **manifest):

@@ -780,10 +780,12 @@ def test_run_out_on_a_full_disk(tmp_path, monkeypatch, capsys):
     import errno
     import os
 
-    def fills_up(self, path):
-        with open(path, "w") as fh:
+    from kanedyn._output_files import replacing
+
+    def fills_up(self, path):  # the writer as it is, and the disk full half way
+        with replacing(path) as fh:
             fh.write("t,theta,omega\n0.0,")
-        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
     monkeypatch.setattr(kd.SimulationResult, "to_csv", fills_up)
     argv = ["run", "pendulum", "--t-end", "0.1", "--backend", "numpy", "--out", str(tmp_path),
             "--quiet"]
@@ -986,3 +988,84 @@ def test_energy_off_by_orders_of_magnitude(backend):
         res = kd.simulate(model, (0.0, 1.0), [1.0, 0.0], rtol=1e-2, atol=1e-2,
                           t_eval=[0.0, 1.0], first_step=0.5, max_step=10)
     assert res.success and "warning: the energy balance fails" in res.message
+
+
+# ---- issue 33, review: outputs and signals
+EMPTY_OUTPUT_CASES = {
+    "run --out ''": ["run", "pendulum", "--quiet", "--out", ""],
+    "demo --out ''": ["demo", "--quiet", "--out", ""],
+    "sweep --out ''": ["sweep", "pendulum", "--grid", "m=1:2:2", "--quiet", "--out", ""],
+    "compare --plot --out ''": ["compare", "pendulum", "--plot", "--quiet", "--out", ""],
+    "inverse --out ''": ["inverse", "3rrr", "--quiet", "--out", ""],
+    "study --out ''": ["study", "seatbelt-regulatory", "--quiet", "--out", ""],
+    "derive --c ''": ["derive", "pendulum", "--quiet", "--c", ""],
+}
+
+
+@pytest.mark.parametrize("case", sorted(EMPTY_OUTPUT_CASES))
+def test_an_empty_output_name_is_refused(case, capsys, tmp_path, monkeypatch):
+    """``--out ""`` wrote into the current folder without a word."""
+    monkeypatch.chdir(tmp_path)
+    argv = EMPTY_OUTPUT_CASES[case]
+    assert main(argv) == 2
+    option = argv[-2]
+    assert capsys.readouterr().err == (f"kanedyn: error: {option}: the name is empty; give a "
+                                       "folder or file name (. for the current folder)\n")
+    assert not list(tmp_path.iterdir())
+
+
+def _result():
+    d = kd.models.build("pendulum")
+    model = d.numeric(backend="numpy")
+    return kd.simulate(model, (0.0, 0.1), d.initial(model))
+
+
+OUTPUT_FILE_CASES = {
+    "a CSV into a folder that does not exist": (
+        lambda tmp: _result().to_csv(tmp / "missing" / "run.csv"),
+        "missing/run.csv: No such file or directory"),
+    "a CSV named as an existing folder": (
+        lambda tmp: _result().to_csv(tmp), ": Is a directory"),
+    "a C file on a full device": (
+        lambda tmp: _result().model.export_c("/dev/full"), "/dev/full: No space left on device"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OUTPUT_FILE_CASES))
+def test_output_files_that_cannot_be_written(case, tmp_path):
+    """A file the library cannot write: OutputFileError (an OSError) naming it and the
+    cause, and nothing left behind (a plain OSError, or a file cut short)."""
+    if "/dev/full" in case and not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    write, message = OUTPUT_FILE_CASES[case]
+    before = sorted(tmp_path.iterdir())
+    with pytest.raises(kd.OutputFileError, match="^cannot write .*" + re.escape(message)):
+        write(tmp_path)
+    assert sorted(tmp_path.iterdir()) == before
+
+
+def test_derive_c_on_a_full_device(capsys):
+    """derive --c /dev/full: a traceback before; written as a device (never replaced)."""
+    if not os.path.exists("/dev/full"):
+        pytest.skip("no /dev/full")
+    assert main(["derive", "pendulum", "--quiet", "--c", "/dev/full"]) == 2
+    assert capsys.readouterr().err == ("kanedyn: error: cannot write /dev/full: No space "
+                                       "left on device\n")
+
+
+class _FullStream:
+    """A stream on a full disk: every write fails."""
+
+    def write(self, text):
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    def flush(self):
+        pass
+
+
+def test_standard_output_on_a_full_disk(monkeypatch, capsys):
+    """kanedyn list > /dev/full: a traceback before."""
+    monkeypatch.setattr("sys.stdout", _FullStream())
+    assert main(["list"]) == 2
+    assert capsys.readouterr().err == ("kanedyn: error: cannot write to standard output: "
+                                       "No space left on device\n")

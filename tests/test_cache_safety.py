@@ -9,7 +9,6 @@ uid) or a file system of their own (a small tmpfs, for a full disk) run as root
 only and are skipped otherwise, saying so.
 """
 
-import contextlib
 import grp
 import hashlib
 import json
@@ -692,42 +691,20 @@ def test_the_private_directory_is_made_where_no_one_else_can_change_it(tmp_path,
 
 
 # ------------------------------------------------------------------ full disk
-@contextlib.contextmanager
-def _small_disk(where, size="2m"):
-    """A tmpfs of ``size`` mounted at ``where`` (skips where mounting is not allowed)."""
-    where.mkdir()
-    done = subprocess.run(["mount", "-t", "tmpfs", "-o", f"size={size},mode=0700", "tmpfs",
-                           str(where)], capture_output=True, text=True)
-    if done.returncode != 0:
-        pytest.skip(f"cannot mount a tmpfs here ({done.stderr.strip()})")
-    try:
-        yield where
-    finally:
-        subprocess.run(["umount", "-l", str(where)], check=False)
-
-
-def _fill(disk):
-    """Fill the file system of ``disk`` to the last block."""
-    with open(disk / "filler", "wb") as filler, contextlib.suppress(OSError):
-        while True:
-            filler.write(b"\0" * 65536)
-            filler.flush()
-
-
 @needs_root
 @pytest.mark.slow
 @pytest.mark.parametrize("quick", ["", "tcc"])
-def test_full_disk_builds_in_a_private_directory(tmp_path, quick):
+def test_full_disk_builds_in_a_private_directory(quick, small_disk):
     """The cache directory exists, its disk is full: the module is built in a
     private directory, with a warning naming the cache and what failed (with
     TinyCC, its quick build fails first, as reported)."""
     if quick and shutil.which("tcc") is None:
         pytest.skip("TinyCC is not installed")
-    with _small_disk(tmp_path / "disk") as disk:
-        cache = disk / "cache"
-        cache.mkdir(mode=0o700)
-        _fill(disk)
-        out = _victim(cache, KANEDYN_QUICK_CC=quick)
+    disk = small_disk()
+    cache = disk / "cache"
+    cache.mkdir(mode=0o700)
+    small_disk.fill(disk)
+    out = _victim(cache, KANEDYN_QUICK_CC=quick)
     assert "built -1.0" in out, out
     assert f"the cache directory {cache} could not be written (" in out
     assert "No space left on device); compiled modules are built in" in out
@@ -736,20 +713,20 @@ def test_full_disk_builds_in_a_private_directory(tmp_path, quick):
 
 @needs_root
 @pytest.mark.slow
-def test_full_disk_under_the_compiler(tmp_path):
+def test_full_disk_under_the_compiler(tmp_path, small_disk):
     """The disk fills while the linker writes the module (a compiler command
     that fills it before linking): the linker's failure is recognised as a full
     disk and the module built in a private directory."""
-    with _small_disk(tmp_path / "disk") as disk:
-        cache = disk / "cache"
-        cache.mkdir(mode=0o700)
-        filling_cc = tmp_path / "filling-cc"
-        filling_cc.write_text(
-            "#!/bin/sh\n"
-            f'case "$*" in *-shared*) cat /dev/zero > {disk}/filler 2>/dev/null;; esac\n'
-            f'exec {shutil.which("cc") or "gcc"} "$@"\n')
-        filling_cc.chmod(0o755)
-        out = _victim(cache, CC=str(filling_cc))
+    disk = small_disk()
+    cache = disk / "cache"
+    cache.mkdir(mode=0o700)
+    filling_cc = tmp_path / "filling-cc"
+    filling_cc.write_text(
+        "#!/bin/sh\n"
+        f'case "$*" in *-shared*) cat /dev/zero > {disk}/filler 2>/dev/null;; esac\n'
+        f'exec {shutil.which("cc") or "gcc"} "$@"\n')
+    filling_cc.chmod(0o755)
+    out = _victim(cache, CC=str(filling_cc))
     assert "built -1.0" in out, out
     assert f"the cache directory {cache} could not be written (" in out
     assert "final link failed: No space left on device); compiled modules are built in" in out
@@ -757,16 +734,16 @@ def test_full_disk_under_the_compiler(tmp_path):
 
 @needs_root
 @pytest.mark.slow
-def test_full_disk_everywhere_is_a_clear_error(tmp_path):
+def test_full_disk_everywhere_is_a_clear_error(small_disk):
     """The cache's disk is full and so is the compiler's temporary directory
     ($TMPDIR; Python's then falls back to /tmp): a CompilerError naming the
     private directory and the file that could not be written, not an OSError
     traceback."""
-    with _small_disk(tmp_path / "disk") as disk:
-        cache = disk / "cache"
-        cache.mkdir(mode=0o700)
-        _fill(disk)
-        out = _victim(cache, TMPDIR=str(disk))
+    disk = small_disk()
+    cache = disk / "cache"
+    cache.mkdir(mode=0o700)
+    small_disk.fill(disk)
+    out = _victim(cache, TMPDIR=str(disk))
     assert f"the cache directory {cache} could not be written" in out
     assert "error CompilerError a compiled module could not be built in " in out
     assert f"error writing to {disk}/" in out and ": No space left on device); free some " \

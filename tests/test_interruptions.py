@@ -13,6 +13,7 @@ to guard against hangs (what took minutes before), never measured.
 
 import json
 import os
+import re
 import resource
 import signal
 import subprocess
@@ -157,6 +158,24 @@ def test_the_index3_integrator_keeps_what_it_has(four_bar):
     assert res.t.size > 100 and 0.0 < res.t[-1] < 1.0 and np.all(np.isfinite(res.y))
 
 
+@pytest.mark.usefixtures("terminal_signals")
+def test_the_index3_integrator_with_output_times_keeps_the_state_reached(four_bar):
+    """With output times far apart, the state of the last step is kept as on the
+    other paths (the result held t = 0 only, though the run had reached t = 13 s)."""
+    d, _ = four_bar
+    model = d.numeric(d.derive(method="lagrange"),
+                      scheme=kd.schemes.AugmentedLagrangianIndex3(step=1e-3))
+    y0 = model.state(d.initial(d.numeric(d.derive())))
+    with pytest.raises(kd.SimulationInterrupted) as stop:
+        kd.simulate(model, (0.0, 100.0), y0, t_eval=[0.0, 50.0, 100.0],
+                    events=[signal_at_call(300, signal.SIGINT)])
+    res = stop.value.result
+    assert res.message == "interrupted" and res.t[0] == 0.0 and res.t.size == 2
+    assert 0.2 < res.t[-1] < 1.0 and np.all(np.isfinite(res.y))
+    # the state kept is the run's own: on the constraints, as every step's is
+    assert np.max(np.abs(res.constraint_residuals[:, -1])) < 1e-8
+
+
 _SIGTERM_RUN = textwrap.dedent("""
     import json, signal, sys
     import kanedyn as kd
@@ -205,6 +224,33 @@ def test_sigterm_stops_a_run_as_ctrl_c_does(name, backend):
     assert report["message"] == "interrupted"
     assert len(report["t"]) == 2 and 0.0 < report["t"][-1] < 1000.0
     assert report["calls"] < 1000  # stopped at the end of the step, not run on
+
+
+_UNCAUGHT_STOP = textwrap.dedent("""
+    import sys
+    import kanedyn as kd
+    d = kd.models.build("four-bar")
+    model = d.numeric(d.derive(), backend="numpy")
+    print("running", flush=True)
+    kd.simulate(model, (0.0, 1e9), d.initial(model))
+""")
+
+
+@pytest.mark.timeout(300)
+@pytest.mark.parametrize("signum", [signal.SIGINT, signal.SIGTERM])
+def test_a_script_that_does_not_catch_the_stop_ends_by_the_signal(signum):
+    """A user's script with no ``try`` around kd.simulate: the traceback of
+    SimulationInterrupted, then the process ends by the signal (not status 1),
+    so that a shell loop stops and a scheduler sees the signal."""
+    proc = subprocess.Popen([sys.executable, "-c", _UNCAUGHT_STOP], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True,
+                            env=dict(os.environ, PYTHONPATH=SRC), preexec_fn=_terminal_child)
+    assert proc.stdout.readline() == "running\n"
+    time.sleep(0.5)
+    proc.send_signal(signum)
+    _, err = proc.communicate(timeout=240)
+    assert proc.returncode == -signum, err[-2000:]
+    assert "kanedyn._errors.SimulationInterrupted: interrupted" in err
 
 
 _RESTING_BALL = textwrap.dedent("""
@@ -277,22 +323,22 @@ def _run_cli(argv, signals, delay, tmp_path):
 
 @pytest.mark.slow
 @pytest.mark.timeout(600)
-@pytest.mark.parametrize("backend, signals, status", [
-    pytest.param("c", [signal.SIGINT], 130, marks=needs_compiler),
-    pytest.param("c", [signal.SIGTERM], 143, marks=needs_compiler),
-    pytest.param("c", [signal.SIGINT, signal.SIGINT], 130, marks=needs_compiler),
-    ("numpy", [signal.SIGTERM], 143), ("numpy", [signal.SIGINT, signal.SIGINT], 130)])
-def test_the_four_bar_command_writes_what_it_has(tmp_path, backend, signals, status):
+@pytest.mark.parametrize("backend, signals", [
+    pytest.param("c", [signal.SIGINT], marks=needs_compiler),
+    pytest.param("c", [signal.SIGTERM], marks=needs_compiler),
+    pytest.param("c", [signal.SIGINT, signal.SIGINT], marks=needs_compiler),
+    ("numpy", [signal.SIGTERM]), ("numpy", [signal.SIGINT, signal.SIGINT])])
+def test_the_four_bar_command_writes_what_it_has(tmp_path, backend, signals):
     """``kanedyn run four-bar`` stopped 8 s into a long run, by Ctrl-C, SIGTERM or
     Ctrl-C twice: CSV and summary of the partial result, and its plot unless the
-    second Ctrl-C came while it was drawn; exit status 130 or 143 (before: the
-    compiled run searched its steps for singular positions for minutes after
-    Ctrl-C: 45 s to 95 s after 8 s of running; a second exited writing nothing;
-    SIGTERM killed it with nothing written).  The bound of 30 s guards against
-    that hang only."""
+    second Ctrl-C came while it was drawn; then the process ends by the first
+    signal (a shell shows 130 or 143; before: the compiled run searched its steps
+    for singular positions for minutes after Ctrl-C: 45 s to 95 s after 8 s of
+    running; a second exited writing nothing; SIGTERM killed it with nothing
+    written).  The bound of 30 s guards against that hang only."""
     code, err, took = _run_cli(["run", "four-bar", "--t-end", "1e7", "--backend", backend],
                                signals, 8.0, tmp_path)
-    assert code == status, err[-3000:]
+    assert code == -signals[0], err[-3000:]
     assert took < 30
     complete = "wrote the partial result" in err
     assert complete or (len(signals) == 2 and "stopped while writing the outputs, complete: "
@@ -305,6 +351,68 @@ def test_the_four_bar_command_writes_what_it_has(tmp_path, backend, signals, sta
     assert len(rows) == summary["points"] + 1
     assert (tmp_path / "four-bar.png").exists() == complete
     assert not [p for p in tmp_path.iterdir() if p.name.startswith(".")]  # no parts left
+
+
+def _shell(script, tmp_path):
+    """``bash -c script`` in a session of its own (as a terminal's foreground job),
+    SIGINT and SIGTERM at their default actions; its stderr is read as it comes."""
+    proc = subprocess.Popen(["bash", "-c", script], stdout=subprocess.PIPE,
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            env=dict(os.environ, PYTHONPATH=SRC), cwd=tmp_path,
+                            preexec_fn=_terminal_child)
+    said = []
+    reader = threading.Thread(target=lambda: [said.append(line) for line in proc.stderr])
+    reader.start()
+    deadline = time.time() + 180  # until the simulated time advances (an ETA shown)
+    while (not any(re.search(r"simulating .*<\d", line) for line in list(said))
+           and time.time() < deadline and proc.poll() is None):
+        time.sleep(0.05)
+    time.sleep(1.0)
+    return proc, said, reader
+
+
+_KANEDYN = f"{sys.executable} -m kanedyn.cli run pendulum --t-end 1e7 --backend numpy"
+# (its stdout, the summary, to /dev/null: the shell's is what the tests read)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_ctrl_c_stops_a_shell_loop_over_runs(tmp_path):
+    """Ctrl-C (SIGINT to the foreground job) on a shell loop over ``kanedyn run``:
+    the run writes what it has and ends by the signal, so the shell stops the
+    loop too (the run exited with status 130, and bash went on to the next
+    iteration)."""
+    proc, said, reader = _shell(f'for i in 1 2 3; do echo "start $i"; {_KANEDYN} '
+                                f'--out run$i >/dev/null; echo "status $?"; done', tmp_path)
+    os.killpg(proc.pid, signal.SIGINT)  # what the terminal does
+    try:
+        proc.wait(timeout=60)
+    except subprocess.TimeoutExpired:  # the loop went on: stopped here
+        os.killpg(proc.pid, signal.SIGKILL)
+        proc.wait()
+    out = proc.stdout.read()
+    reader.join()
+    assert out == "start 1\n", "".join(said)[-2000:]
+    assert proc.returncode == -signal.SIGINT
+    summary = json.loads((tmp_path / "run1" / "summary.json").read_text())
+    assert summary["message"] == "interrupted"
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(600)
+def test_the_shell_reports_143_for_a_run_ended_by_sigterm(tmp_path):
+    """SIGTERM to the run alone (what ``kill`` and ``timeout`` do): the shell sees a
+    death by SIGTERM and reports 143, after the run wrote what it has."""
+    proc, said, reader = _shell(f"{_KANEDYN} --out run >/dev/null & echo \"pid $!\"; wait $!; "
+                                "echo \"status $?\"", tmp_path)
+    pid = int(proc.stdout.readline().split()[1])
+    os.kill(pid, signal.SIGTERM)
+    out = proc.stdout.read()
+    proc.wait(timeout=120)
+    reader.join()
+    assert out == "status 143\n", "".join(said)[-2000:]
+    assert "interrupted by SIGTERM at t = " in "".join(said)
+    assert json.loads((tmp_path / "run" / "summary.json").read_text())["points"] >= 1
 
 
 def signalling_twice(monkeypatch, method):

@@ -194,13 +194,78 @@ def test_report_finds_intervals_and_unintended_release():
     # over on (5.5, 45.5) ms, (85.5, 125.5) ms and from 165.5 ms to the end
     tilt = lock + 0.1 * np.sin(2 * np.pi * (t - 0.0055) / 0.08)
     y = np.vstack([np.zeros_like(t), -tilt, 0 * t, 0 * t])
-    rep = seatbelt_report(SimpleNamespace(t=t, y=y), d)
+    rep = seatbelt_report(SimpleNamespace(t=t, y=y, success=True, message=""), d)
     assert rep.locked and rep.lock_time == pytest.approx(0.0055, abs=1e-5)
     assert np.array(rep.intervals) == pytest.approx(
         np.array([[0.0055, 0.0455], [0.0855, 0.1255], [0.1655, 0.2]]), abs=1e-5)
     # a release at 45.5 ms (the 1 g step still on), none at 125.5 ms (it ended at 100)
     assert rep.releases == pytest.approx((0.0455,), abs=1e-5)
     assert rep.lock_duration == pytest.approx(0.1145, abs=1e-4)
+
+
+@pytest.fixture(scope="module")
+def default_sensor():
+    d = kd.models.build("seatbelt-sensor")
+    return d, d.numeric(backend="numpy")
+
+
+@pytest.mark.usefixtures("terminal_signals")
+def test_the_report_of_an_interrupted_run_says_so_and_interpolates_nothing(default_sensor):
+    """Ctrl-C at t = 0.1 s of a run whose output points are 20 s apart: the result
+    holds t = 0 and the state reached.  The report says the run is partial, and
+    that the lock lies between those two times (it said "locks at t = 66.69 ms",
+    interpolated across them; the lock is at 15.18 ms, which the 501 points of
+    the default run resolve)."""
+    import signal
+    d, model = default_sensor
+
+    def ctrl_c_at(t, y):  # under the run's guard (Ctrl-C taken over)
+        if t > 0.1 and signal.getsignal(signal.SIGINT) is not signal.default_int_handler:
+            signal.raise_signal(signal.SIGINT)
+        return 1.0
+    with pytest.raises(kd.SimulationInterrupted) as stop:
+        kd.simulate(model, (0.0, 1e4), d.initial(model), t_eval=np.linspace(0, 1e4, 501),
+                    events=[ctrl_c_at])
+    res = stop.value.result
+    assert res.t.size == 2 and 0.1 < res.t[-1] < 0.11
+    report = seatbelt_report(res, d)
+    assert not report.complete and report.stopped == "interrupted"
+    assert report.locked and report.lock_time is None
+    assert report.lock_between == (0.0, res.t[-1])
+    reached = f"{1e3 * res.t[-1]:.2f}"
+    assert report.summary().startswith(
+        f"partial run (stopped at t = {reached} ms: interrupted): locks between t = 0.00 "
+        f"and {reached} ms (the output points do not resolve it")
+    assert report.as_dict()["complete"] is False
+    full = kd.simulate(model, (0.0, d.t_end), d.initial(model),
+                       t_eval=np.linspace(0.0, d.t_end, 501))
+    report = seatbelt_report(full, d)
+    assert report.complete and report.lock_between is None
+    assert report.lock_time == pytest.approx(0.015176, abs=1e-6)
+
+
+def test_lock_times_from_output_points_far_apart(default_sensor):
+    """A complete run with 51 output points: the lock lies between two of them 13 deg
+    of tilt apart; the report gives those times, not an interpolation (15.00 ms,
+    the events' time being 15.18 ms).  With the lock events the times are the
+    events' at any number of points, and so is the time locked (it read the side
+    of each crossing from the next output point: 184.82 ms with 3 points, 137.59
+    with 501)."""
+    d, model = default_sensor
+    reports = {}
+    for n in (3, 51, 501):
+        res = kd.simulate(model, (0.0, d.t_end), d.initial(model), events=lock_events(d),
+                          t_eval=np.linspace(0.0, d.t_end, n))
+        reports[n] = seatbelt_report(res, d), seatbelt_report(res, d, events=0)
+    coarse = reports[51][0]
+    assert coarse.lock_time is None and coarse.lock_between == pytest.approx((0.012, 0.016))
+    assert "locks between t = 12.00 and 16.00 ms" in coarse.summary()
+    assert reports[501][0].lock_time == pytest.approx(0.015176, abs=1e-6)
+    for n in (3, 51):
+        exact = reports[n][1]
+        assert exact.lock_between is None
+        assert exact.lock_time == pytest.approx(reports[501][1].lock_time, rel=1e-9)
+        assert exact.lock_duration == pytest.approx(reports[501][1].lock_duration, rel=1e-9)
 
 
 def test_options_are_checked():

@@ -280,7 +280,7 @@ def test_cli_writes_what_it_has_on_ctrl_c(tmp_path, backend, t_end):
     proc.wait(timeout=120)
     reader.join()
     err = "".join(said)
-    assert proc.returncode == 130, err
+    assert proc.returncode == -signal.SIGINT, err  # ended by the signal: 130 in a shell
     assert "interrupted" in err and "wrote the partial result" in err
     summary = json.loads((tmp_path / "summary.json").read_text())
     assert summary["message"] == "interrupted" and summary["points"] > 1

@@ -23,7 +23,7 @@ analysis, saved files and errors.  Modules hold the rest::
 from . import _fork  # noqa: F401  its fork hooks registered first (see its docstring)
 from ._lazy import lazy_attributes as _lazy_attributes
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
-                      ModelError, OptionError, SimulationInterrupted,
+                      ModelError, OptionError, OutputFileError, SimulationInterrupted,
                       SingularConfigurationWarning)
 from ._version import __version__ as __version__
 
@@ -166,6 +166,7 @@ __all__ = [
     "ConstraintError",
     "MissingValueError",
     "OptionError",
+    "OutputFileError",
     "SimulationInterrupted",
     "TrustWarning",
     "SingularConfigurationWarning",

@@ -4,6 +4,7 @@ Every error names the symbol, body, point or file at fault, so that a user can
 find the offending line of their model without a debugger.
 """
 
+import os
 import signal
 
 __all__ = [
@@ -13,6 +14,7 @@ __all__ = [
     "ConstraintError",
     "MissingValueError",
     "OptionError",
+    "OutputFileError",
     "SimulationInterrupted",
     "SingularConfigurationWarning",
 ]
@@ -43,6 +45,23 @@ class MissingValueError(KanedynError, KeyError):
 
 class OptionError(KanedynError, ValueError):
     """An argument or option has a value that cannot be honoured (names the option)."""
+
+
+class OutputFileError(KanedynError, OSError):
+    """A file could not be written (a full disk, no permission, no such folder).
+
+    An ``OSError`` (``errno``, ``strerror``; ``filename`` is the file that was to
+    be written, not a temporary name); the message names both: ``cannot write
+    out/run.csv: No space left on device``.  Nothing of the file is left behind,
+    and an earlier file of that name is as it was.
+    """
+
+    def __init__(self, path, cause):
+        super().__init__(getattr(cause, "errno", None), getattr(cause, "strerror", None)
+                         or str(cause), os.fspath(path))
+
+    def __str__(self):
+        return f"cannot write {self.filename}: {self.strerror}"
 
 
 #: the message of a run ended by Ctrl-C

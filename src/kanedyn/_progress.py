@@ -4,7 +4,9 @@
 to: ``stage(text)`` announces a step on its own line, ``update(text, fraction)``
 moves a progress bar (a ``tqdm`` bar, created on the first update of a step),
 ``done()`` closes it.  ``tqdm`` is imported on the first bar only, so a
-disabled indicator costs nothing.
+disabled indicator costs nothing.  A stream that cannot be written (a full
+disk under a log file, a closed pipe) ends the progress output, never the work
+it reports on: the indicator then disables itself.
 """
 
 from __future__ import annotations
@@ -46,9 +48,11 @@ class Progress:
         if not self.enabled:
             return
         self.done()
-        stream = self.stream or sys.stderr
-        stream.write(f"{self._prefix()} {text}\n")
-        stream.flush()
+
+        def line(stream):
+            stream.write(f"{self._prefix()} {text}\n")
+            stream.flush()
+        self._writing(line)
 
     def update(self, text, fraction=None):
         """Show ``text`` and, if given, ``fraction`` (0..1) done on the bar (throttled)."""
@@ -59,16 +63,15 @@ class Progress:
         if now - self._last < self.interval:
             return
         self._last = now
-        self._draw()
+        self._writing(self._draw)
 
-    def _draw(self):
+    def _draw(self, stream):
         text, fraction = self._pending
         description = f"{self._prefix()} {text}"
         if self._bar is None:
             from tqdm import tqdm
-            self._bar = tqdm(total=1.0, desc=description, file=self.stream or sys.stderr,
-                             leave=True, bar_format=_BAR_FORMAT, mininterval=0.0,
-                             dynamic_ncols=True)
+            self._bar = tqdm(total=1.0, desc=description, file=stream, leave=True,
+                             bar_format=_BAR_FORMAT, mininterval=0.0, dynamic_ncols=True)
         bar = self._bar
         bar.set_description_str(description, refresh=False)
         if fraction is not None:
@@ -78,9 +81,27 @@ class Progress:
     def done(self):
         """Close the bar of the current step (showing its last state), if one is open."""
         if self._bar is not None:
-            if self._pending is not None:
-                self._draw()
-            self._bar.close()
+            def close(stream):
+                if self._pending is not None:
+                    self._draw(stream)
+                self._bar.close()
+            self._writing(close)
+            self._bar = None
+        self._pending = None
+
+    def _writing(self, write):
+        """``write(stream)``; a stream that cannot be written (or none: stderr
+        closed) ends the progress output, not the work it reports on."""
+        stream = self.stream or sys.stderr
+        if stream is not None:
+            try:
+                write(stream)
+                return
+            except OSError:
+                pass
+        self.enabled = False
+        if self._bar is not None:
+            self._bar.disable = True  # its close (and finalizer) write nothing then
             self._bar = None
         self._pending = None
 

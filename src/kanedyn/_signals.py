@@ -13,18 +13,23 @@ job that a shell starts in the background) or that the user gave a handler of
 their own is left alone.
 
 :func:`stop_at_once` is the command line's handler of SIGTERM outside those
-blocks: it stops the command as Ctrl-C does, and the command exits with
-128 + the signal's number (143).  Imports nothing heavy.
+blocks: it stops the command as Ctrl-C does.  When the command has written what
+it has, the ``kanedyn`` program ends by the signal (:func:`end_by`), as a program
+that kept the signal's default action would: a shell then reports 130 or 143
+(128 + the signal's number), stops a loop over such commands, and ``timeout``
+and batch schedulers see a death by the signal.  Imports nothing heavy.
 """
 
 from __future__ import annotations
 
 import signal
+import sys
 import threading
 from contextlib import contextmanager
 
 __all__ = ["STOP_SIGNALS", "Stopped", "stop_at_once", "holding", "taking_over",
-           "exit_status", "signal_name", "interruption", "last_received"]
+           "exit_status", "signal_name", "interruption", "last_received", "end_by",
+           "end_by_signal_if_uncaught"]
 
 #: the signals that stop a run, where the platform has them
 STOP_SIGNALS = tuple(getattr(signal, name) for name in ("SIGINT", "SIGTERM")
@@ -63,6 +68,50 @@ def interruption(signum):
 def exit_status(signum):
     """The exit status of a program stopped by ``signum``: 128 + its number."""
     return 128 + int(signum)
+
+
+def end_by(signum):
+    """End the process by ``signum``, as its default action does.
+
+    stdout and stderr are flushed first (a stream that cannot be written is
+    left as it is), the default action restored and the signal raised in this
+    thread.  Returns only where the signal does not end the process.  For the
+    end of a program (the command line), never a library's call: nothing else
+    of the process runs after it (no ``finally``, no exit hook not run yet).
+    """
+    for stream in (sys.stdout, sys.stderr):
+        try:
+            stream.flush()
+        except (AttributeError, OSError, ValueError):
+            pass
+    signal.signal(signum, signal.SIG_DFL)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, {signum})
+    signal.raise_signal(signum)
+
+
+def end_by_signal_if_uncaught():
+    """Make a script that lets a stop exception reach its top end by the signal.
+
+    Python ends by SIGINT only for an uncaught exception that is exactly
+    ``KeyboardInterrupt``; a :class:`kanedyn.SimulationInterrupted` (its
+    subclass) or one of SIGTERM would end the script with status 1, and a shell
+    loop or a batch scheduler would not see the signal.  Installed once, on the
+    first stop, and only over Python's own ``sys.excepthook`` (not in an
+    interactive session, nor over a hook of the user's or of IPython): the
+    traceback is printed as before, then the process ends by the exception's
+    ``signum``.
+    """
+    if sys.excepthook is not sys.__excepthook__ or sys.flags.interactive or hasattr(sys, "ps1"):
+        return
+
+    def report_then_end(kind, value, traceback):
+        sys.__excepthook__(kind, value, traceback)
+        signum = getattr(value, "signum", None)
+        if isinstance(value, KeyboardInterrupt) and signum in STOP_SIGNALS:
+            end_by(signum)
+
+    sys.excepthook = report_then_end
 
 
 def last_received():

@@ -16,6 +16,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._output_files import save_figure
+
 from ._plotting import pyplot
 
 __all__ = ["bicycle_modes", "plot_bicycle_eigenvalues", "PUBLISHED_STABLE_SPEEDS"]
@@ -133,5 +135,5 @@ def plot_bicycle_eigenvalues(speeds, eigenvalues, stable=None, published=PUBLISH
     ax.set_title(title or "Whipple bicycle: lean and steer eigenvalues against speed",
                  fontsize="medium")
     if path is not None:
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
     return fig

@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import ModelError
+from .._output_files import save_figure
 from ._newton_euler import check_newton_euler
 from ..simulation import simulate
 
@@ -224,7 +225,7 @@ class FormulationComparison:
         fig.suptitle(f"{self.model}: formulations compared ({self.integrator})",
                      fontsize="medium")
         if path is not None:
-            fig.savefig(path, dpi=120)
+            save_figure(fig, path, dpi=120)
         return fig
 
 
@@ -506,7 +507,7 @@ class WorkPrecision:
         ax.set_title(f"{self.model}: work-precision (reference: {self.methods[0]} at a "
                      "tight tolerance)", fontsize="medium")
         if path is not None:
-            fig.savefig(path, dpi=120)
+            save_figure(fig, path, dpi=120)
         return fig
 
 

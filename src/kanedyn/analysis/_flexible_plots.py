@@ -32,6 +32,7 @@ import numpy as np
 import scipy.linalg as sla
 
 from .._errors import OptionError
+from .._output_files import save_figure
 from ..engine import name_of
 from ..modeling import FlexibleBody, ReducedMember
 from ._plotting import pyplot
@@ -300,7 +301,7 @@ def plot_mode_shapes(member, modes=None, *, kind="natural", path=None):
     fig.suptitle(heading, fontsize="medium")
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
     return fig
 
 
@@ -459,5 +460,5 @@ def plot_deflection(result, body, times, *, scale="auto", path=None):
                  + ("\n" + "; ".join(notes) if notes else ""), fontsize="medium")
     fig.tight_layout()
     if path is not None:
-        fig.savefig(path, dpi=120, bbox_inches="tight")
+        save_figure(fig, path, dpi=120, bbox_inches="tight")
     return fig

@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import KanedynError, ModelError
+from .._output_files import replacing, save_figure
 
 __all__ = ["InverseStudy", "inverse_study", "TRAJECTORIES", "trajectory_offsets"]
 
@@ -202,7 +203,7 @@ class InverseStudy:
         paths = []
         for name, (header, data) in tables.items():
             path = out / name
-            with open(path, "w", newline="") as fh:
+            with replacing(path, newline="") as fh:
                 writer = csv.writer(fh)
                 writer.writerow(header)
                 writer.writerows([[repr(float(x)) for x in row] for row in data])
@@ -278,7 +279,7 @@ class InverseStudy:
 
 def _save(plt, fig, path):
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 

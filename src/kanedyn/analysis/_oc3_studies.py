@@ -27,6 +27,7 @@ import sys
 import numpy as np
 
 from .._errors import KanedynError
+from .._output_files import save_figure
 from ._studies import StudyOption, register_study
 
 __all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao",
@@ -269,7 +270,7 @@ def _pyplot():
 
 def _save(fig, path):
     fig.tight_layout()
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     _pyplot().close(fig)
     return path
 

@@ -19,6 +19,8 @@ import math
 
 import numpy as np
 
+from .._output_files import save_figure
+
 __all__ = ["plot_result", "pyplot", "unit_text", "log_scale_ok", "draw_nonnegative",
            "legend_beside", "RANGE_SPLIT"]
 
@@ -321,5 +323,5 @@ def plot_result(result, states=None, path=None, extras=True, labels=None, title=
     axes[-1, 0].set_xlabel("t [s]")
     fig.suptitle(_title(result, title), fontsize="medium")
     if path is not None:
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
     return fig

@@ -36,6 +36,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
+from .._output_files import replacing, save_figure
 from ._studies import StudyOption, register_study
 
 __all__ = ["seatbelt_study_model", "seatbelt_lock_map", "SeatbeltLockMap",
@@ -166,13 +167,13 @@ class SeatbeltLockMap:
 
     def to_csv(self, path):
         """Write :attr:`table` as CSV; returns the path."""
-        self.table.to_csv(path, index=False)
+        with replacing(path, newline="") as handle:
+            self.table.to_csv(handle, index=False)
         return path
 
     def save_figure(self, path, dpi=120):
         """Write :attr:`figure` (PNG, SVG, PDF by the suffix); returns the path."""
-        self.figure.savefig(path, dpi=dpi, bbox_inches="tight")
-        return path
+        return save_figure(self.figure, path, dpi=dpi, bbox_inches="tight")
 
     def lock_time(self, peak_g, duration, direction=0.0, roll_rate=0.0):
         """Lock time of one grid point, s (NaN: no lock)."""

@@ -15,6 +15,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from .._errors import KanedynError
+from .._output_files import replacing
 
 __all__ = ["Study", "StudyOption", "StudyResult", "STUDIES", "register_study", "run_study",
            "study_option_value", "available_studies"]
@@ -210,7 +211,7 @@ def run_study(name, out=None, quiet=True, **options):
     if folder is not None:
         for key, (cols, rows) in tables.items():
             path = folder / f"{name}_{key}.csv"
-            with open(path, "w", newline="") as handle:
+            with replacing(path, newline="") as handle:
                 writer = csv.writer(handle)
                 writer.writerow(cols)
                 writer.writerows(rows)

@@ -15,13 +15,15 @@
 from __future__ import annotations
 
 import argparse
+import atexit
 import signal
 import sys
 
 from .._errors import KanedynError
-from .._signals import exit_status, interruption, last_received, taking_over
+from .._signals import end_by, exit_status, interruption, last_received, taking_over
 from .._version import __version__
 from . import _compare, _demo, _derive, _inverse, _list, _run, _study, _sweep
+from ._streams import guarded
 
 __all__ = ["main"]
 
@@ -49,32 +51,61 @@ def _parser():
 def main(argv=None):
     """Run the ``kanedyn`` command with the arguments ``argv``; the exit code.
 
-    Bad arguments give one line on stderr and exit code 2, never a traceback.
-    SIGTERM stops a command as Ctrl-C does (a simulation keeps what it computed,
-    ``kanedyn run`` and ``sweep`` write it); the exit code is then 128 + the
-    signal's number: 130 for Ctrl-C, 143 for SIGTERM.
+    Bad arguments give one line on stderr and exit code 2, never a traceback;
+    so does a file or stdout that cannot be written (a full disk).  SIGTERM
+    stops a command as Ctrl-C does (a simulation keeps what it computed,
+    ``kanedyn run`` and ``sweep`` write it).  The exit code is then 128 + the
+    signal's number, 130 for Ctrl-C and 143 for SIGTERM; called without
+    ``argv``, as the ``kanedyn`` program is, the process instead ends by the
+    signal once the command has written what it has (at exit, after the
+    process's exit hooks), so that a shell stops a loop over such commands and
+    reports the same 130 or 143.
     """
+    if argv is None:  # the program: registered first of the command's exit hooks,
+        atexit.unregister(_end_by_signal)  # so that it runs after the others
+        atexit.register(_end_by_signal)
     parser = _parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as stop:  # --help, --version, or a bad argument (reported)
         return stop.code if isinstance(stop.code, int) else 2
-    with taking_over():
+    code, signum = _command(args)
+    if signum is not None and argv is None:
+        _ENDING["signum"] = signum
+    return code
+
+
+_ENDING = {"signum": None}  # the signal the program ends by (main without argv)
+
+
+def _end_by_signal():
+    if _ENDING["signum"] is not None:
+        end_by(_ENDING["signum"])
+
+
+def _command(args):
+    """Run the command of ``args``: ``(exit code, the stop signal that ended it or
+    None)``."""
+    with taking_over(), guarded():
         try:
             code = args.func(args)
+            if sys.stdout is not None:  # a stdout that cannot be written: reported here
+                sys.stdout.flush()
         except KanedynError as exc:
             print(f"kanedyn: error: {' '.join(str(exc).split())}", file=sys.stderr)
-            return 2
+            return 2, None
         except BrokenPipeError:  # output piped into e.g. head, which closed early
             sys.stderr.close()
-            return 0
+            return 0, None
         except KeyboardInterrupt as stop:
             signum = getattr(stop, "signum", None) or last_received() or signal.SIGINT
             print(f"kanedyn: {interruption(signum)}", file=sys.stderr)
-            return exit_status(signum)
-        # a command that reports a Ctrl-C (130) itself: the status of the signal that came
+            return exit_status(signum), signum
+        # a command that reports a stop signal itself (sweep: 130 for either)
         received = last_received()
-        return exit_status(received) if code == 130 and received else code
+        if received and code in (130, exit_status(received)):
+            return exit_status(received), received
+        return code, None
 
 
 if __name__ == "__main__":

@@ -107,9 +107,11 @@ def check_output_dir(path, option="--out"):
     Raises
     ------
     KanedynError
-        Naming ``option`` and the folder, when the folder cannot be created
+        Naming ``option`` and the folder, when the name is empty (``--out ""``,
+        which would mean the current folder), or the folder cannot be created
         (a file on the way, no permission) or written.
     """
+    _not_empty(path, option)
     path = Path(path)
     for parent in (path, *path.parents):
         if parent.exists():
@@ -137,11 +139,19 @@ def check_output_file(path, option):
     KanedynError
         Naming ``option`` and the path.
     """
+    _not_empty(path, option)
     path = Path(path)
     if path.is_dir():
         raise KanedynError(f"{option} {path}: is a folder; give the name of a file")
     check_output_dir(path.parent, option=f"{option} {path}:")
     return path
+
+
+def _not_empty(path, option):
+    """An empty name (``--out ""``) is refused: Path("") is the current folder."""
+    if not str(path):
+        raise KanedynError(f"{option}: the name is empty; give a folder or file name "
+                           "(. for the current folder)")
 
 
 def parse_sets(model_name, pairs):

@@ -6,20 +6,20 @@ written as for a finished run; the exit status is then 128 + the signal's number
 a signal while it is written is held.  Then the plot (and the page): a first
 signal is held until they are complete, a second (counting one that ended the
 simulation) stops them at once; a third stops anything at once.  Every
-file is written under a temporary name in the output folder and renamed when
-complete, so that a file of the folder is never cut short (a full disk gives
-an error naming the file, and an earlier file of that name stays as it was).
+file is written under a new name in the output folder and renamed when
+complete (:mod:`kanedyn._output_files`), so that a file of the folder is never
+cut short (a full disk gives an error naming the file, and an earlier file of
+that name stays as it was).
 """
 
 from __future__ import annotations
 
 import json
-import os
 import sys
 from pathlib import Path
 
-
 from .._errors import KanedynError, SimulationInterrupted
+from .._output_files import replacing
 from .._progress import Progress
 from .._signals import Stopped, exit_status, holding, interruption
 from ..models import REGISTRY, build
@@ -89,8 +89,8 @@ def cmd_run(args):
                                  writing.pictures)
             if args.animate:
                 page = _written(out / f"{definition.name}.html", written,
-                                lambda part: res.animate(
-                                    part, visuals=definition.shapes(constants),
+                                lambda path: res.animate(
+                                    path, visuals=definition.shapes(constants),
                                     title=f"{definition.name}: {definition.title}",
                                     inputs=definition.animation_inputs))
                 progress.stage(f"wrote {page}")
@@ -143,20 +143,10 @@ class _Writing:
 
 
 def _written(path, written, write):
-    """``write(part)`` to a temporary name beside ``path``, then renamed to ``path``;
-    its name added to ``written``.  A write that fails (a full disk) or is stopped
-    leaves no file behind and ``path`` as it was; an ``OSError`` becomes an error
-    naming the file."""
-    part = path.with_name(f".{path.stem}.part{os.getpid()}{path.suffix}")
-    try:
-        write(part)
-        os.replace(part, path)
-    except OSError as exc:
-        part.unlink(missing_ok=True)
-        raise KanedynError(f"cannot write {path}: {exc.strerror or exc}") from None
-    except BaseException:
-        part.unlink(missing_ok=True)
-        raise
+    """``write(path)`` (a writer of the library, which writes through
+    :func:`~kanedyn._output_files.replacing`: complete or not at all); the
+    name added to ``written`` when it is complete."""
+    write(path)
     written.append(path.name)
     return path
 
@@ -208,13 +198,17 @@ def _write_run(definition, eom, model, res, out, progress, report, written, pict
     if report is not None:
         summary["report"] = _report_dict(report)
     text = json.dumps(summary, indent=2, default=float)
-    _written(out / "summary.json", written, lambda part: part.write_text(text))
+
+    def write_summary(path):
+        with replacing(path) as handle:
+            handle.write(text)
+    _written(out / "summary.json", written, write_summary)
     pictures()
     import matplotlib.pyplot as plt
     figures = []
     try:
         _written(out / f"{definition.name}.png", written,
-                 lambda part: figures.append(res.plot(path=part)))
+                 lambda path: figures.append(res.plot(path=path)))
     finally:
         for fig in figures:
             plt.close(fig)

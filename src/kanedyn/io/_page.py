@@ -23,6 +23,7 @@ from importlib import resources
 from pathlib import Path
 
 from .._errors import OptionError
+from .._output_files import replacing
 from ._viewer import DEFAULT_MAX_FRAMES, scene_data
 
 __all__ = ["animate", "page_html", "script_json", "THREE_VERSION"]
@@ -145,5 +146,6 @@ def animate(result, path, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MA
         raise OptionError(f"cannot write {path}: folder {path.parent} does not exist")
     scene = scene_data(result, visuals=visuals, trace=trace, up=up, max_frames=max_frames,
                        title=title, inputs=inputs)
-    path.write_text(page_html(scene), encoding="utf-8")
+    with replacing(path) as handle:
+        handle.write(page_html(scene))
     return path

@@ -74,6 +74,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import KanedynError
+from .._output_files import replacing
 from .._version import __version__
 from . import _saved_schema as schema
 from ._saved_sympy import (ASSUMPTIONS, SINGLETONS, Refused, build_expression, described,
@@ -328,13 +329,14 @@ def save_equations(eom, path):
     return save_data(eom, path, what="the equations", summary=repr(eom))
 
 
-def save_data(obj, path, what="the data", format=FORMAT, **fields):
+def save_data(obj, path, what="the data", format=FORMAT, permissions=None, **fields):
     """Write ``obj`` (any object a saved file may carry) as a zip of JSON.
 
     The same archive as :func:`save_equations` (``manifest.json`` and the
     checksummed ``nodes.json``); ``format`` names the kind of content and
     ``fields`` are extra JSON values put in the manifest.  Used for the
-    equations of motion and by the derivation cache of the built-in models.
+    equations of motion and by the derivation cache of the built-in models
+    (which asks for ``permissions=0o600``; default: those of a new file).
 
     Returns
     -------
@@ -344,8 +346,10 @@ def save_data(obj, path, what="the data", format=FORMAT, **fields):
     Raises
     ------
     SavedFileError
-        ``obj`` holds something a saved file cannot carry, or the file
-        cannot be written.
+        ``obj`` holds something a saved file cannot carry.
+    OutputFileError
+        The file cannot be written (see :func:`kanedyn._output_files.replacing`:
+        nothing is left behind, an earlier file is as it was).
     """
     path = Path(path)
     limit = sys.getrecursionlimit()
@@ -360,12 +364,10 @@ def save_data(obj, path, what="the data", format=FORMAT, **fields):
                 "kanedyn_version": __version__, "sympy_version": sm.__version__,
                 "root": root, "nodes": len(encoder.nodes),
                 "sha256": hashlib.sha256(nodes).hexdigest(), **fields}
-    try:
-        with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_DEFLATED) as archive:
-            archive.writestr("manifest.json", json.dumps(manifest, indent=1))
-            archive.writestr("nodes.json", nodes)
-    except OSError as exc:
-        raise SavedFileError(f"cannot write {path}: {exc.strerror or exc}") from None
+    with replacing(path, "wb", permissions=permissions) as handle, \
+            zipfile.ZipFile(handle, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        archive.writestr("manifest.json", json.dumps(manifest, indent=1))
+        archive.writestr("nodes.json", nodes)
     return path
 
 

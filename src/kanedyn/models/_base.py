@@ -375,9 +375,6 @@ def _write_cache(key, definition, model):
     """Store ``model`` (its data, without C source: the module is in the cache by
     its own key) and what :class:`PendingDefinition` needs of ``definition``,
     atomically; a model that cannot be stored only costs time next time."""
-    import os
-    import tempfile
-
     from .._trusted_files import untrusted_entry
     from ..engine import name_of
     from ..io import SavedFileError, save_data
@@ -402,17 +399,10 @@ def _write_cache(key, definition, model):
             path.parent.mkdir(mode=0o700, exist_ok=True)
             if untrusted_entry(path.parent) is not None:
                 return  # another user's folder: nothing is written there
-            handle, tmp = tempfile.mkstemp(dir=path.parent, suffix=".tmp")
-            os.close(handle)
-            save_data(value, tmp, what=f"the numerical model of {definition.name}",
-                      format=CACHE_FORMAT, **manifest)
-            os.replace(tmp, path)
+            save_data(value, path, what=f"the numerical model of {definition.name}",
+                      format=CACHE_FORMAT, permissions=0o600, **manifest)
         except (OSError, SavedFileError, TypeError, ValueError):
-            try:
-                os.unlink(tmp)
-            except (OSError, UnboundLocalError):
-                pass
-            return
+            return  # nothing is left of an entry not written
 
 
 def _derivation_cache(definition, constants, options):

@@ -300,6 +300,19 @@ class SeatbeltReport:
     max_tilt : float
     lock_angle : float
     release_g : float
+    complete : bool
+        The run reached its end (or a terminal event); ``False`` for a run that
+        stopped early (interrupted, failed): the report covers it up to
+        :attr:`reached` only.
+    reached : float or None
+        The last time the run computed, s.
+    lock_between : tuple of (float, float) or None
+        Where the output points do not resolve the first lock (the tilt changes
+        by more than a quarter of the lock angle between the two around it),
+        those two times, and :attr:`lock_time` is ``None``: the tilt crossed the
+        lock angle somewhere between them.
+    stopped : str
+        Why a run that is not complete stopped (its message).
     """
 
     locked: bool
@@ -310,6 +323,10 @@ class SeatbeltReport:
     max_tilt: float
     lock_angle: float
     release_g: float
+    complete: bool = True
+    reached: float | None = None
+    lock_between: tuple | None = None
+    stopped: str = ""
 
     def text(self):
         """One line: lock time, lock duration, releases (ms) and the largest tilt (deg)."""
@@ -322,21 +339,40 @@ class SeatbeltReport:
                 "intervals": [list(map(float, iv)) for iv in self.intervals],
                 "releases": [float(t) for t in self.releases],
                 "max_tilt": self.max_tilt, "lock_angle": self.lock_angle,
-                "release_g": self.release_g}
+                "release_g": self.release_g, "complete": self.complete,
+                "reached": self.reached,
+                "lock_between": None if self.lock_between is None else list(self.lock_between),
+                "stopped": self.stopped}
 
     def summary(self):
+        partial = ("" if self.complete else
+                   f"partial run (stopped at t = {1e3 * self.reached:.2f} ms: {self.stopped}): ")
         if not self.locked:
-            return (f"no lock: max tilt {math.degrees(self.max_tilt):.2f} deg < lock angle "
-                    f"{math.degrees(self.lock_angle):.2f} deg")
-        text = (f"locks at t = {1e3 * self.lock_time:.2f} ms, locked for "
-                f"{1e3 * self.lock_duration:.2f} ms, max tilt "
-                f"{math.degrees(self.max_tilt):.2f} deg")
+            return (f"{partial}no lock: max tilt {math.degrees(self.max_tilt):.2f} deg < lock "
+                    f"angle {math.degrees(self.lock_angle):.2f} deg")
+        open_end = self.intervals[-1][1] >= self.reached
+        if self.lock_between is not None:
+            a, b = self.lock_between
+            text = (f"locks between t = {1e3 * a:.2f} and {1e3 * b:.2f} ms (the output points "
+                    "do not resolve it; give more of them, or lock_events)")
+        else:
+            duration = ("at least " if open_end and not self.complete else "") \
+                + f"{1e3 * self.lock_duration:.2f} ms"
+            text = f"locks at t = {1e3 * self.lock_time:.2f} ms, locked for {duration}"
+        text = f"{partial}{text}, max tilt {math.degrees(self.max_tilt):.2f} deg"
+        if not self.complete and open_end:
+            text += ", still locked when the run stopped"
         if self.releases:
             text += ("; unintended release at t = "
                      + ", ".join(f"{1e3 * t:.2f}" for t in self.releases) + " ms")
         else:
             text += "; no unintended release"
         return text
+
+
+#: a crossing between two output points is located by interpolation where the tilt
+#: changes between them by at most this fraction of the lock angle
+_RESOLVED_TILT_STEP = 0.25
 
 
 def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=0.7):
@@ -361,6 +397,11 @@ def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=
     Returns
     -------
     SeatbeltReport
+        Of what the run computed: a run that stopped early (``success`` false)
+        gives a report marked partial.  A first lock between output points so
+        far apart that the tilt changes by more than a quarter of the lock angle
+        between them is given as those two times (``lock_between``), not as a
+        time interpolated across them.
     """
     angle = _lock_angle(definition, lock_angle)
     t = np.asarray(result.t, float)
@@ -370,21 +411,30 @@ def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=
     tilt = seatbelt_tilt(result.y[:2])
     over = tilt > angle
     if events is not None:
-        times = np.sort(np.asarray(result.t_events[events], float))
+        times = np.asarray(result.t_events[events], float)
+        order = np.argsort(times, kind="stable")
+        times = times[order]
+        q1, q2, u1, u2 = np.asarray(result.y_events[events], float).reshape(
+            times.size, result.y.shape[0])[order, :4].T
+        # the side after each crossing: where the tilt goes (cos(tilt) = cos q1 cos q2)
+        sides = np.sin(q1) * np.cos(q2) * u1 + np.cos(q1) * np.sin(q2) * u2 > 0
     else:
         idx = np.nonzero(over[1:] != over[:-1])[0]
         f = tilt - angle
         times = t[idx] - f[idx] * (t[idx + 1] - t[idx]) / (f[idx + 1] - f[idx])
+        sides = over[idx + 1]
     state = bool(over[0])
     starts, ends = ([t[0]] if state else []), []
-    for tc in times:
-        # the side after the crossing, read from the tilt just after it
-        j = min(np.searchsorted(t, tc, side="right"), t.size - 1)
-        after = bool(tilt[j] > angle) if t[j] > tc else not state
-        if after == state:
+    lock_between = None
+    for k, (tc, after) in enumerate(zip(times, sides)):
+        if after == state:  # a crossing found twice (at the end of a segment and the next)
             continue
+        if after and not starts and events is None:
+            i = idx[k]
+            if abs(tilt[i + 1] - tilt[i]) > _RESOLVED_TILT_STEP * angle:
+                lock_between = (float(t[i]), float(t[i + 1]))
         (starts if after else ends).append(float(tc))
-        state = after
+        state = bool(after)
     if state:
         ends.append(float(t[-1]))
     intervals = tuple(zip(starts, ends))
@@ -398,7 +448,9 @@ def seatbelt_report(result, definition, events=None, lock_angle=None, release_g=
         if acc > release_g * G0:
             releases.append(t_end)
     return SeatbeltReport(
-        locked=bool(intervals), lock_time=intervals[0][0] if intervals else None,
+        locked=bool(intervals),
+        lock_time=intervals[0][0] if intervals and lock_between is None else None,
         lock_duration=float(sum(b - a for a, b in intervals)), intervals=intervals,
         releases=tuple(releases), max_tilt=float(np.max(tilt)), lock_angle=angle,
-        release_g=float(release_g))
+        release_g=float(release_g), complete=bool(result.success), reached=float(t[-1]),
+        lock_between=lock_between, stopped="" if result.success else result.message)

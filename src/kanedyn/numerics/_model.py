@@ -37,6 +37,7 @@ import numpy as np
 
 from .._errors import ConstraintError, MissingValueError, ModelError
 from .._fork import after_fork_in_child
+from .._output_files import replacing
 from .backends._c_quick import QUICK_STATS, when_cached, when_optimized
 
 __all__ = ["NumericModel", "StateLayout", "build_numeric_model", "BACKENDS"]
@@ -1147,11 +1148,16 @@ class NumericModel(StateLayout):
                             describe=lambda e: str(table.external(e)))
 
     def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None):
-        """Write :meth:`c_source` to ``path``; returns the path (a ``Path``)."""
+        """Write :meth:`c_source` to ``path``; returns the path (a ``Path``).
+
+        Raises :class:`~kanedyn.OutputFileError` when it cannot be written (nothing
+        is left behind, an earlier file is as it was).
+        """
         from pathlib import Path
         path = Path(path)
-        path.write_text(self.c_source(standalone=standalone, module_name=module_name,
-                                      title=title))
+        source = self.c_source(standalone=standalone, module_name=module_name, title=title)
+        with replacing(path) as handle:
+            handle.write(source)
         return path
 
     # --------------------------------------------------------- linearize

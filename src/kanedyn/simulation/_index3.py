@@ -337,6 +337,11 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
             break
     if progress is not None:
         progress.done()
+    if status == -1 and t != t0 and (not out_t or (t - out_t[-1]) * np.sign(h) > 0):
+        # ended early (Ctrl-C, a step that failed): the state of the last step
+        # taken is kept, as the other integrators keep theirs
+        out_t.append(t)
+        out_y.append(np.concatenate([q, v]))
     t_out = np.asarray(out_t, dtype=float)
     y_out = np.array(out_y, dtype=float).T.reshape(model.n_states, -1)
     if monitor is not None:

@@ -7,6 +7,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .._output_files import replacing
+
 __all__ = ["SimulationResult"]
 
 #: numeric codes of the contact modes in CSV output
@@ -376,7 +378,7 @@ class SimulationResult:
         """
         path = Path(path)
         cols = self._columns()
-        with path.open("w", newline="") as fh:
+        with replacing(path, newline="") as fh:
             writer = csv.writer(fh)
             writer.writerow(list(cols))
             for row in zip(*cols.values()):
@@ -386,11 +388,14 @@ class SimulationResult:
     def to_npz(self, path):
         """Write all arrays to a compressed ``.npz`` file; returns the path."""
         path = Path(path)
+        if path.suffix != ".npz":  # as numpy.savez_compressed names it
+            path = path.with_name(path.name + ".npz")
         arrays = self._columns()
         arrays["y"] = self.y
         arrays["state_names"] = np.array(self.state_names)
         arrays["constraint_residuals"] = self.constraint_residuals
-        np.savez_compressed(path, **arrays)
+        with replacing(path, "wb") as handle:
+            np.savez_compressed(handle, **arrays)
         return path
 
     def plot(self, states=None, path=None, extras=True, labels=None, title=None):

@@ -20,6 +20,7 @@ import numpy as np
 from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
+from .._signals import end_by_signal_if_uncaught
 from ._results import SimulationResult
 from ._energy_check import Balance, WorkTracker, with_energy_note
 from ._index3 import run_index3
@@ -241,6 +242,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     progress.done()
     if guard.interrupted or result.message.startswith(INTERRUPTED):
         # a signal after the last step too: the complete result on the exception
+        end_by_signal_if_uncaught()
         raise SimulationInterrupted(result, guard.signum)
     return with_energy_note(result, method_name)
 

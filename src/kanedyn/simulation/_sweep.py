@@ -26,7 +26,6 @@ import json
 import logging
 import math
 import numbers
-import os
 import sys
 import threading
 import time
@@ -35,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError, OptionError
+from .._output_files import replacing
 from ._simulate import check_timeout, simulate
 
 __all__ = ["sweep", "SweepInterrupted", "SWEEP_OUTPUTS", "check_scheduler", "GRACE"]
@@ -309,9 +309,8 @@ def _open_folder(out, fingerprint):
                               f"{', '.join(differ)} differ); use another folder, or "
                               "delete it to start again")
     else:
-        tmp = manifest.with_suffix(".tmp")
-        tmp.write_text(json.dumps(fingerprint, indent=1))
-        os.replace(tmp, manifest)
+        with replacing(manifest) as handle:
+            handle.write(json.dumps(fingerprint, indent=1))
     done = set()
     for part in sorted(out.glob("part-*.parquet")):
         done.update(int(r) for r in pd.read_parquet(part, columns=["run"])["run"])
@@ -321,10 +320,8 @@ def _open_folder(out, fingerprint):
 def _write_part(out, rows):
     pd = _need("pandas")
     first = min(r["run"] for r in rows)
-    path = out / _PART.format(first)
-    tmp = path.with_suffix(".tmp")
-    pd.DataFrame(rows).to_parquet(tmp, index=False)
-    os.replace(tmp, path)  # a part is there completely or not at all
+    with replacing(out / _PART.format(first), "wb") as handle:  # all of it or nothing
+        pd.DataFrame(rows).to_parquet(handle, index=False)
 
 
 def _table(rows, out, names):
@@ -482,13 +479,12 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     bar.close()
     table = _table(rows, out, names)
     if out is not None:
-        path = out / f"results.{table_format}"
-        tmp = path.with_suffix(".tmp")
-        if table_format == "csv":
-            table.to_csv(tmp, index=False)
-        else:
-            table.to_parquet(tmp, index=False)
-        os.replace(tmp, path)
+        with replacing(out / f"results.{table_format}",
+                       "w" if table_format == "csv" else "wb", newline="") as handle:
+            if table_format == "csv":
+                table.to_csv(handle, index=False)
+            else:
+                table.to_parquet(handle, index=False)
     return table
 
 

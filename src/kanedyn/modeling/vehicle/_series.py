@@ -37,6 +37,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import ModelError
+from ..._output_files import replacing
 from ._pulses import G0
 
 __all__ = ["PulseSeries", "read_pulse_csv", "write_pulse_csv", "MAX_G", "MAX_RATE",
@@ -274,7 +275,7 @@ def write_pulse_csv(path, t, acceleration, angular_rate=None, notes=(),
         w = np.asarray(angular_rate, float) / _UNITS["w"][rate_unit]
         cols += [w[:, i] for i in range(3)]
         header += [f"{n} [{rate_unit}]" for n in _RATE]
-    with open(Path(path), "w", newline="", encoding="utf-8") as handle:
+    with replacing(path, newline="") as handle:
         for note in notes:
             handle.write(f"# {note}\n")
         writer = csv.writer(handle)
