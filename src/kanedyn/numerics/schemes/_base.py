@@ -165,6 +165,9 @@ def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
     return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
 
 
+_EPS = np.finfo(float).eps
+
+
 def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
     r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
 
@@ -206,7 +209,10 @@ def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
     that is below one machine epsilon of ``scale`` (further corrections would
     change nothing), when a correction is no smaller than the last (the
     round-off of the residuals is reached; it is not applied), or after
-    ``max_iterations`` corrections.
+    ``max_iterations`` corrections.  The first correction has no rate to go
+    by (:math:`\rho = 1/2` is taken), except with :math:`r = 0`: the first
+    solve is then itself a correction (from :math:`x = 0` with the
+    multiplier step :math:`wd`) and gives the rate.
 
     Parameters
     ----------
@@ -228,14 +234,13 @@ def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
     ndarray, shape (o,)
     """
     import scipy.linalg as sla  # imported when first needed
+    # unchecked: non-finite terms give non-finite x, as np.linalg.solve does elsewhere
     factor = sla.cho_factor(mass + weight * (C.T @ C), check_finite=False)
     g = rhs + weight * (C.T @ target)
     x = sla.cho_solve(factor, g, check_finite=False)
     lam = np.zeros(C.shape[0])
     residual = target - C @ x
-    # with r = 0, x is itself the first correction (from x = 0, lambda = 0, the
-    # multiplier step being w d) and shrinks as the others do
-    last = np.inf if np.any(rhs) else float(x @ g)
+    last = np.inf if np.any(rhs) else float(x @ g)  # with r = 0, x is a correction
     for _ in range(max_iterations):
         lam = lam + weight * residual
         g = rhs + C.T @ (lam + weight * residual) - mass @ x
@@ -244,7 +249,6 @@ def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
         if not 0.0 < size < last:  # no smaller than the last: round-off reached
             break
         x = x + step
-        # still to come; with no rate known yet (the first correction, r != 0) its size
         rho = np.sqrt(size / last) if last < np.inf else 0.5
         to_come = np.max(np.abs(step)) * rho / (1.0 - rho)
         if to_come <= _EPS * (scale if scale is not None else np.max(np.abs(x))):
@@ -252,9 +256,6 @@ def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
         residual = target - C @ x
         last = size
     return x
-
-
-_EPS = np.finfo(float).eps
 
 
 def penalty_weight(mass, K, factor):
