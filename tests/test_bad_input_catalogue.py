@@ -1069,3 +1069,84 @@ def test_standard_output_on_a_full_disk(monkeypatch, capsys):
     assert main(["list"]) == 2
     assert capsys.readouterr().err == ("kanedyn: error: cannot write to standard output: "
                                        "No space left on device\n")
+
+
+# ---- issue 33, review: files and formulations
+# (pulse files that are no regular file or too large, URDF mesh names the file system
+# refuses and numbers in other digits, a public name asked of the wrong module)
+def _mesh_of(tmp_path, filename, before=lambda robot: None):
+    """``mesh_file()`` of the mesh ``filename`` of :func:`_robot_file` (line 5);
+    ``before(folder)`` prepares the robot's folder."""
+    (tmp_path / "robot").mkdir()
+    before(tmp_path / "robot")
+    (visual,) = kd.models.from_urdf(_robot_file(tmp_path, mesh=filename)).visuals
+    return visual.mesh_file()
+
+
+def _named_pipe(tmp_path):
+    if not hasattr(os, "mkfifo"):
+        pytest.skip("no named pipes here")
+    os.mkfifo(tmp_path / "pulse.csv")
+    return tmp_path / "pulse.csv"
+
+
+REVIEW_CASES = {
+    "pulse file that is /dev/zero": (
+        lambda tmp: kd.vehicle.read_pulse_csv("/dev/zero"), kd.ModelError,
+        r"^/dev/zero: a character device, not a regular file; give a CSV file$"),
+    "pulse file that is a named pipe": (
+        lambda tmp: kd.vehicle.read_pulse_csv(_named_pipe(tmp)), kd.ModelError,
+        r"pulse\.csv: a named pipe, not a regular file"),
+    "pulse file that is a folder": (
+        lambda tmp: kd.vehicle.read_pulse_csv(tmp), kd.ModelError,
+        r": a folder, not a regular file"),
+    "pulse file of 65 MiB": (
+        lambda tmp: kd.vehicle.read_pulse_csv(_sparse(tmp / "pulse.csv", 65 << 20)),
+        kd.ModelError, r"pulse\.csv: 68157440 bytes, more than the 67108864 a pulse record "
+                       r"may have \(give read_pulse_csv\(\.\.\., max_bytes=\.\.\.\)"),
+    "URDF mesh name of 5000 characters": (
+        lambda tmp: _mesh_of(tmp, "a" * 5000 + ".obj"), kd.models.URDFError,
+        r"robot\.urdf:5: mesh 'a{50}\.\.\.\(5004 characters\)' of link 'arm' is not read: "
+        r"its name cannot be looked up: File name too long$"),
+    "URDF mesh in 3000 nested folders": (
+        lambda tmp: _mesh_of(tmp, "x/" * 3000 + "y.obj"), kd.models.URDFError,
+        r"robot\.urdf:5: mesh '(x/){25}\.\.\.\(6005 characters\)' .*File name too long$"),
+    "URDF mesh under a loop of symbolic links": (
+        lambda tmp: _mesh_of(tmp, "loop/a.obj", lambda robot: (robot / "loop").symlink_to(
+            robot / "loop")), kd.models.URDFError,
+        r"robot\.urdf:5: mesh 'loop/a\.obj' of link 'arm' is not read: its name cannot be "
+        r"looked up: Too many levels of symbolic links$"),
+    "URDF mesh file: URI of another host": (
+        lambda tmp: _mesh_of(tmp, "file://server/meshes/a.obj"), kd.models.URDFError,
+        r"robot\.urdf:5: .* is not read: the file: URI names a file on the host 'server'; "
+        r"only local files are read"),
+    "URDF mass in Arabic-Indic digits": (
+        _load_robot(mass="\u0661\u0660"), kd.models.URDFError,
+        r"robot\.urdf:4: <link name='arm'>: <mass value='\u0661\u0660'>: is not a number$"),
+    "URDF inertia in full-width digits": (
+        _load_robot(inertia=_UNIT_INERTIA.replace('izz="1"', 'izz="\uff11"')),
+        kd.models.URDFError, r"robot\.urdf:4: <link name='arm'>: <inertia izz='\uff11'>: "
+                             r"is not a number$"),
+    "a public name asked of the wrong module": (
+        lambda tmp: kd.offshore.HalfSinePulse, AttributeError,
+        r"^module 'kanedyn\.offshore' has no attribute 'HalfSinePulse'; it is "
+        r"kanedyn\.vehicle\.HalfSinePulse$"),
+}
+
+
+@pytest.mark.timeout(60)  # a pipe or /dev/zero that is read would hang or fill memory
+@pytest.mark.parametrize("case", sorted(REVIEW_CASES))
+def test_review_files_and_formulations(case, tmp_path):
+    action, error, pattern = REVIEW_CASES[case]
+    with pytest.raises(error, match=pattern):
+        action(tmp_path)
+
+
+def test_review_mesh_uris_read(tmp_path):
+    """Valid URIs that were "not found": file://localhost/... and percent-encoded
+    paths, still read only inside the allowed folders."""
+    def mesh(robot):
+        (robot / "my mesh.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    folder = tmp_path / "robot"
+    name = f"file://localhost{folder}/my%20mesh.obj"
+    assert _mesh_of(tmp_path, name, mesh) == str(folder / "my mesh.obj")

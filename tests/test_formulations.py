@@ -8,7 +8,7 @@ the coordinates' rates, with Kane's right-hand side directly.  The penalty
 formulation is exact only as its penalty grows: its error is checked to fall
 like 1/alpha; the augmented-Lagrangian iteration is not an approximation: it
 gives the accelerations and multipliers of a direct solve to round-off
-(Andrews' squeezer, the Whipple bicycle, the four-bar, the N four-bar).
+(every constrained built-in model).
 Along a motion the schemes differ in how they treat drift; the
 position-level constraint error tells index 1 (drifts), Baumgarte (bounded),
 projection and partitioning (held at the projection tolerance) apart.
@@ -75,16 +75,48 @@ def test_all_schemes_give_the_same_accelerations(derived):
         assert err < (1e-5 if key.startswith("penalty") else 1e-11), (name, key, err)
 
 
-@pytest.mark.parametrize("name, options, speed", [
-    ("andrews-squeezer", {}, 100.0), ("whipple-bicycle", {}, 1.0), ("four-bar", {}, 1.0),
-    ("n-four-bar", {"n": 3}, 1.0)])
-def test_augmented_lagrangian_solves_are_exact(name, options, speed):
+#: every built-in model with dependent coordinates or speeds: name -> (options,
+#: spread of the random coordinates (rad or m), of the random speeds)
+CONSTRAINED = {
+    "rolling-disk": ({}, 0.4, 1.0), "four-bar": ({}, 0.4, 1.0),
+    "whipple-bicycle": ({}, 0.4, 1.0), "nonholonomic-particle": ({}, 0.4, 1.0),
+    "sphere-turntable": ({}, 0.4, 1.0), "rod-bead": ({}, 0.4, 1.0),
+    "pin-slot": ({}, 0.4, 1.0), "knife-edge": ({}, 0.4, 1.0),
+    "rolling-disk-contact": ({}, 0.4, 1.0), "block-wedge": ({}, 0.4, 1.0),
+    "snake": ({}, 0.4, 1.0), "n-four-bar": ({"n": 3}, 0.4, 1.0),
+    "andrews-squeezer": ({}, 0.4, 100.0),
+    # parallel robots: a small spread keeps the pose inside the workspace
+    "3rrr": ({}, 0.1, 1.0), "stewart-platform": ({}, 0.1, 1.0),
+    "out-parallel-6dof": ({}, 0.1, 1.0)}
+
+
+@pytest.mark.slow  # builds every model
+def test_every_constrained_built_in_model_is_checked():
+    constrained = {name for name in kd.models.REGISTRY
+                   if any(kd.models.build(name).kane_args.get(key)
+                          for key in ("q_dep", "u_dep"))}
+    assert constrained == set(CONSTRAINED)
+
+
+@pytest.mark.parametrize("name", [
+    pytest.param(name, marks=pytest.mark.slow) if name in ("stewart-platform",
+                                                           "out-parallel-6dof") else name
+    for name in CONSTRAINED])
+def test_augmented_lagrangian_solves_are_exact(name):
     """The index-3 scheme's right-hand side and the augmented Lagrangian without
-    its stabilization give the accelerations and multipliers of the direct
-    solves to round-off: ``al_solve`` computes each iterate as a correction,
-    so the condition number of the penalized system (about the penalty
-    factor, 1e6 for the index-3 scheme) does not reach them (it left 7e-9 in
-    the accelerations on Andrews' squeezer, 2e-9 on the Whipple bicycle)."""
+    its stabilization give the accelerations and multipliers of the index-1
+    solve to round-off, at six random consistent states of every constrained
+    built-in model: within 1e-13 relative, as the direct solves (elimination,
+    null space) do (the issue asks 1e-11).  ``al_solve`` computes each iterate
+    as a correction, so the condition number of the penalized system (about
+    the penalty factor, 1e6 for the index-3 scheme) does not reach them (it
+    left 7e-9 in the accelerations on Andrews' squeezer, 2e-9 on the Whipple
+    bicycle), and it stops when its corrections reach round-off, not when the
+    constraint residual is small (stopping at 1e-13 of that left up to 6.2e-12
+    here, in pin-slot's multipliers, and 1.5e-11 at other states; now at most
+    2.8e-14, on Andrews' squeezer, where the null-space solve differs by
+    2.6e-14)."""
+    options, spread, speed = CONSTRAINED[name]
     definition = kd.models.build(name, **options)
     lagrange = definition.derive(method="lagrange")
     kane = definition.numeric(definition.derive())
@@ -96,7 +128,9 @@ def test_augmented_lagrangian_solves_are_exact(name, options, speed):
               "augmented-lagrangian": definition.numeric(
                   lagrange, scheme=kd.schemes.AugmentedLagrangian(xi=0.0, omega=0.0))}
     worst = dict.fromkeys(models, 0.0)
-    for y in _random_states(definition, kane, 4, seed=5, speed=speed):
+    states = list(_random_states(definition, kane, 3, seed=5, spread=spread, speed=speed))
+    states += _random_states(definition, kane, 3, seed=6, spread=spread, speed=10 * speed)
+    for y in states:
         y_l = _initial_state(reference, kane, y, kane.rhs(0.0, y)[:kane.n_q])
         a = reference.rhs(0.0, y_l)[reference.n_q:]
         lam = np.array(list(reference.multipliers(0.0, y_l).values()))
@@ -104,8 +138,9 @@ def test_augmented_lagrangian_solves_are_exact(name, options, speed):
             b = model.rhs(0.0, y_l)[reference.n_q:]
             mu = np.array(list(model.multipliers(0.0, y_l).values()))
             worst[key] = max(worst[key], np.max(np.abs(b - a)) / np.max(np.abs(a)),
-                             np.max(np.abs(mu - lam)) / np.max(np.abs(lam)))
-    assert max(worst.values()) < 1e-11, (name, worst)
+                             np.max(np.abs(mu - lam)) / np.max(np.abs(lam), initial=1e-300)
+                             if lam.size else 0.0)
+    assert max(worst.values()) < 1e-13, (name, worst)
 
 
 def test_schemes_match_kane_where_speeds_are_rates():

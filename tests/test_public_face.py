@@ -9,7 +9,8 @@ module (``kd.offshore``, ``kd.vehicle``, ``kd.flexible``, ``kd.studies``).
   public spelling.
 - Each name that moved from ``kd.`` still works under its old spelling: the same
   object, one ``DeprecationWarning`` per name naming the new spelling, attributed
-  to the caller's line.
+  to the caller's line.  A public name asked of a module that lacks it is named
+  where it is, without loading the library.
 - The docs, README, examples, benchmarks, the library and the tests (except the
   tests of the old spellings, here) use no old spelling.
 """
@@ -27,6 +28,7 @@ from pathlib import Path
 import pytest
 
 import kanedyn as kd
+from kanedyn._lazy import NAMESPACES
 
 ROOT = Path(__file__).resolve().parents[1]
 SRC = ROOT / "src"
@@ -243,6 +245,55 @@ def test_each_old_spelling_gives_the_same_object_and_warns_once(tmp_path):
 def test_a_name_that_never_was_public_is_no_alias():
     with pytest.raises(AttributeError, match="'kanedyn' has no attribute 'cfc_response'"):
         kd.cfc_response        # in kanedyn.modeling.vehicle, never at kd.
+
+
+def _homes():
+    """``{public name: the first public module that exports it}``, in the order the
+    AttributeError of a missing name searches them."""
+    homes = {}
+    for space in NAMESPACES:
+        for name in importlib.import_module(space).__all__:
+            homes.setdefault(name, space)
+    return homes
+
+
+def test_the_namespaces_searched_are_the_public_modules():
+    assert set(NAMESPACES) == {m.__name__ for m in _modules()}
+
+
+@pytest.mark.parametrize("module", _modules(), ids=lambda m: m.__name__)
+def test_a_name_asked_of_the_wrong_module_names_its_home(module):
+    """``kd.offshore.HalfSinePulse``: "module 'kanedyn.offshore' has no attribute
+    'HalfSinePulse'; it is kanedyn.vehicle.HalfSinePulse", for every public name of
+    every other public module (an old spelling at kd. still works instead)."""
+    space = module.__name__
+    asked = 0
+    for name, home in _homes().items():
+        if home == space or name in vars(module) or (module is kd and name in kd._MOVED):
+            continue
+        with pytest.raises(AttributeError, match=rf"^module '{re.escape(space)}' has no "
+                           rf"attribute '{name}'; it is {re.escape(home)}\.{name}$"):
+            getattr(module, name)
+        asked += 1
+    assert asked > 20
+    # a name public nowhere, and a private one, are only said to be missing
+    for name in ("NoSuchThing", "_LAZY_TABLE"):
+        with pytest.raises(AttributeError, match=rf"^module '{re.escape(space)}' has no "
+                           rf"attribute '{name}'$"):
+            getattr(module, name)
+
+
+def test_the_wrong_module_is_named_without_loading_the_library():
+    code = ("import json, sys, kanedyn as kd\n"
+            "try:\n    kd.offshore.HalfSinePulse\n"
+            "except AttributeError as exc:\n    message = str(exc)\n"
+            "print(json.dumps([message, sorted(m for m in ('numpy', 'scipy', 'sympy') "
+            "if m in sys.modules)]))")
+    env = dict(os.environ, PYTHONPATH=str(SRC))
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                         env=env, timeout=120, check=True).stdout
+    assert json.loads(out) == ["module 'kanedyn.offshore' has no attribute 'HalfSinePulse'; "
+                               "it is kanedyn.vehicle.HalfSinePulse", []]
 
 
 # ------------------------------------------------------------ no old spelling in use

@@ -12,7 +12,9 @@ written here.  State conventions: kanedyn's ``q_<joint>`` is the joint angle
 
 from __future__ import annotations
 
+import errno
 import math
+import os
 import re
 import textwrap
 from importlib.metadata import PackageNotFoundError, distribution
@@ -438,6 +440,12 @@ BAD = [
     ("malformed number", 'xyz="0.2 0 -0.5"', 'xyz="0.2 1.0.2 -0.5"',
      "<joint name='tool_mount'>", "1.0.2",
      "<origin xyz='0.2 1.0.2 -0.5'>: '1.0.2' is not a number"),
+    ("Arabic-Indic digits", '<mass value="2.0"/>', '<mass value="\u0662.\u0660"/>',
+     "<link name='arm'>", '\u0662', "<mass value='\u0662.\u0660'>: is not a number"),
+    ("full-width digits", 'xyz="0.2 0 -0.5"', 'xyz="0.2 \uff10 -0.5"',
+     "<joint name='tool_mount'>", "\uff10", "'\uff10' is not a number"),
+    ("a non-ASCII space between numbers", 'xyz="0.2 0 -0.5"', 'xyz="0.2\u20030 -0.5"',
+     "<joint name='tool_mount'>", "\u2003", "needs 3 numbers, found 2"),
     ("zero axis", '<axis xyz="0 -2 0"/>', '<axis xyz="0 0 0"/>', "<joint name='spin'>",
      '<axis xyz="0 0 0"/>', "joint axis is zero"),
     ("two parents", '<parent link="slider"/><child link="wheel"/>',
@@ -673,6 +681,72 @@ def test_package_uri_found_in_the_ros_package_above_the_urdf(tmp_path):
     (tmp_path / "mypkg" / "package.xml").write_text("<package/>")
     (vis,) = kd.models.from_urdf(path).visuals
     assert vis.mesh_file() == str(tmp_path / "mypkg" / "meshes" / "arm.obj")
+
+
+def test_mesh_uris_are_decoded(tmp_path):
+    """file: URIs (RFC 8089: file:///path, file://localhost/path, file:/path) and
+    package:// URIs are percent-decoded (RFC 3986); what they name is still read only
+    from inside the allowed folders, and a file: URI of another host is not read."""
+    robot = tmp_path / "robot"
+    (robot / "pkgs" / "pkg" / "meshes").mkdir(parents=True)
+    mesh = robot / "pkgs" / "pkg" / "meshes" / "arm part#1.obj"
+    mesh.write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    (tmp_path / "secret.obj").write_text(mesh.read_text())
+    encoded = str(mesh.parent).replace("/pkgs/", "/%70kgs/") + "/arm%20part%231.obj"
+    read = [f"file://{encoded}", f"file://localhost{encoded}", f"FILE://LocalHost{encoded}",
+            f"file:{encoded}", "package://pkg/meshes/arm%20part%231.obj",
+            "package://%70kg/meshes/arm part%231.obj"]
+    refused = {f"file://{robot}/%2E%2E/secret.obj": f"{tmp_path / 'secret.obj'} is outside",
+               "package://pkg/%2E%2E/%2E%2E/%2E%2E/secret.obj": "secret.obj is outside",
+               f"file://otherhost{mesh}": "names a file on the host 'otherhost'; only local",
+               "file:meshes/a.obj": "needs an absolute path",
+               "file:///meshes/a%00.obj": "holds a NUL character",
+               "package:///meshes/a.obj": "names a package: package://PKG/path",
+               "file://[oops/a.obj": "not a valid URI"}
+    path = robot / "r.urdf"
+    _mesh_robot(path, [*read, *refused])
+    by_name = {v.filename: v for v in
+               kd.models.from_urdf(path, package_dirs=[robot / "pkgs"]).visuals}
+    for name in read:
+        assert by_name[name].mesh_file() == str(mesh), name
+    for name, why in refused.items():
+        assert by_name[name].path is None and why in by_name[name].refused, name
+
+
+@pytest.mark.parametrize("kind", ["too long", "too long a folder chain", "symbolic link loop",
+                                  "folder not searchable"])
+def test_mesh_names_the_file_system_refuses(tmp_path, kind, monkeypatch):
+    """A mesh name that the file system refuses to look up loads the robot; the mesh
+    is then not read, and asking for it names the file, the line and the cause."""
+    robot = tmp_path / "robot"
+    robot.mkdir()
+    name, cause = {"too long": ("a" * 5000 + ".obj", "File name too long"),
+                   "too long a folder chain": ("x/" * 3000 + "y.obj", "File name too long"),
+                   "symbolic link loop": ("loop/a.obj", "Too many levels of symbolic links"),
+                   "folder not searchable": ("locked/a.obj", "Permission denied")}[kind]
+    (robot / "loop").symlink_to(robot / "loop")
+    if kind == "folder not searchable":  # as root no folder is: the refusal stat() gives
+        real_stat = os.stat
+
+        def stat(path, *args, **kwargs):
+            if "locked" in str(path):
+                raise PermissionError(errno.EACCES, "Permission denied", str(path))
+            return real_stat(path, *args, **kwargs)
+        monkeypatch.setattr(os, "stat", stat)
+    path = robot / "r.urdf"
+    lines = _mesh_robot(path, ["ok.obj", name])
+    (robot / "ok.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    definition = kd.models.from_urdf(path)
+    vis = next(v for v in definition.visuals if v.filename == name)
+    assert vis.path is None and vis.refused == f"its name cannot be looked up: {cause}"
+    shown = re.escape(name[:50]) + r"\.\.\.\(\d+ characters\)" if len(name) > 100 else name
+    with pytest.raises(URDFError, match=rf"^{re.escape(str(path))}:{lines[name]}: mesh "
+                       rf"'{shown}' of link 'arm' is not read: its name cannot be looked up: "
+                       rf"{cause}$"):
+        vis.mesh_file()
+    with pytest.warns(UserWarning, match=rf"r\.urdf:{lines[name]}: link 'arm', mesh '{shown}'"
+                      rf": not read: its name cannot be looked up: {cause}"):
+        assert len(definition.shapes()) == 1
 
 
 def test_built_in_model_shapes():

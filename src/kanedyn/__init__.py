@@ -21,6 +21,7 @@ analysis, saved files and errors.  Modules hold the rest::
 """
 
 from . import _fork  # noqa: F401  its fork hooks registered first (see its docstring)
+from ._lazy import NAMESPACES as _NAMESPACES
 from ._lazy import lazy_attributes as _lazy_attributes
 from ._errors import (ConstraintError, KanedynError, KinematicsError, MissingValueError,
                       ModelError, OptionError, OutputFileError, SimulationInterrupted,
@@ -202,4 +203,5 @@ _MOVED = {
                      "seatbelt_study_model", "inverse_study", "InverseStudy"], "studies"),
 }
 
-__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__, _MOVED)
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__, _MOVED,
+                                        neighbours=_NAMESPACES)

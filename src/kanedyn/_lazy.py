@@ -1,13 +1,22 @@
 """Names of a package imported when first used (a module-level ``__getattr__``),
-and old spellings of names that moved to another module."""
+old spellings of names that moved to another module, and, for a name that a
+public namespace lacks, the namespace that has it."""
 
 import importlib
+import sys
 import warnings
 
-__all__ = ["lazy_attributes"]
+__all__ = ["lazy_attributes", "NAMESPACES"]
+
+#: the public namespaces (``kd`` and the modules of ``kd.__all__``), searched in this
+#: order for a public name that one of them lacks (``kd.offshore.HalfSinePulse``:
+#: "it is kanedyn.vehicle.HalfSinePulse"); all but the last two load their names on
+#: first use, so only a name found in none of them imports NumPy and SymPy
+NAMESPACES = ("kanedyn", "kanedyn.models", "kanedyn.offshore", "kanedyn.vehicle",
+              "kanedyn.flexible", "kanedyn.studies", "kanedyn.schemes", "kanedyn.visuals")
 
 
-def lazy_attributes(package, table, namespace, names, moved=None):
+def lazy_attributes(package, table, namespace, names, moved=None, neighbours=()):
     """``__getattr__`` and ``__dir__`` for a package whose names load on first use.
 
     Parameters
@@ -32,6 +41,10 @@ def lazy_attributes(package, table, namespace, names, moved=None):
         attributed to the caller's line that names the new spelling.  It is never
         stored in ``namespace`` (each use comes back here), so ``dir()`` does
         not list it.
+    neighbours : sequence of str, optional
+        Modules (absolute names, e.g. :data:`NAMESPACES`) whose ``__all__`` is
+        searched for a public name this module lacks: the AttributeError then
+        names where it is.
 
     Returns
     -------
@@ -64,10 +77,23 @@ def lazy_attributes(package, table, namespace, names, moved=None):
                               DeprecationWarning, stacklevel=2)
                 warned.add(name)     # after the warning: one made an error warns again
             return value
-        raise AttributeError(f"module {package!r} has no attribute {name!r}")
+        raise AttributeError(f"module {package!r} has no attribute {name!r}"
+                             + _elsewhere(package, name, neighbours),
+                             name=name, obj=sys.modules.get(package))
 
     def __dir__():
         return sorted(set(names) | {n for n in namespace if n.startswith("__")
                                     and n.endswith("__")})
 
     return __getattr__, __dir__
+
+
+def _elsewhere(package, name, neighbours):
+    """``"; it is <module>.<name>"`` for the first of ``neighbours`` that exports
+    ``name`` (a public name: private ones are never looked for), else ``""``."""
+    if name.startswith("_"):
+        return ""
+    for other in neighbours:
+        if other != package and name in getattr(importlib.import_module(other), "__all__", ()):
+            return f"; it is {other}.{name}"
+    return ""

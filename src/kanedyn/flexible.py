@@ -14,6 +14,7 @@ These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
 """
 
+from ._lazy import NAMESPACES as _NAMESPACES
 from ._lazy import lazy_attributes as _lazy_attributes
 
 #: public name -> the module that defines it (relative to ``kanedyn``); imported on first use
@@ -27,4 +28,5 @@ _LAZY = {
 
 __all__ = list(_LAZY)
 
-__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__,
+                                        neighbours=_NAMESPACES)

@@ -5,6 +5,8 @@ by name in :func:`kanedyn.formulate` (``method="lagrange-baumgarte"``, ...) or
 pass an instance to ``eom.numeric(scheme=...)``.
 """
 
+from ._lazy import NAMESPACES as _NAMESPACES
+from ._lazy import lazy_attributes as _lazy_attributes
 from .numerics.schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3,
                                Baumgarte, Elimination, IndexOne, NullSpace,
                                OrthogonalComplement, Partitioning, Penalty, Projection, Scheme,
@@ -14,3 +16,7 @@ __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Pena
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
            "AugmentedLagrangianIndex3", "OrthogonalComplement", "SCHEMES", "as_scheme",
            "stabilization"]
+
+# every name is loaded above; a missing one is named where it is
+__getattr__, __dir__ = _lazy_attributes(__name__, {}, globals(), __all__,
+                                        neighbours=_NAMESPACES)

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+from .._lazy import NAMESPACES as _NAMESPACES
 from .._lazy import lazy_attributes as _lazy_attributes
 from .._errors import ModelError
 from . import _oc3_options
@@ -268,4 +269,5 @@ def build(name, lazy=False, **options):
     return pending if lazy and pending.in_cache() else pending.definition
 
 
-__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__,
+                                        neighbours=_NAMESPACES)

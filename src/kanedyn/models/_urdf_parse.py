@@ -1,8 +1,9 @@
 """Reading a URDF file into plain records, with the line of every element.
 
 The XML is read by the standard library's expat parser, which expands no
-external entities; every number is read by :func:`float` and checked to be
-finite, never evaluated.  Errors name the file, the element and its line.
+external entities; every number is checked to be a plain decimal in ASCII
+digits, read by :func:`float` and checked to be finite, never evaluated.
+Errors name the file, the element and its line.
 
 A link's central inertia must be positive semi-definite; one that misses by
 round-off, up to :data:`INERTIA_RTOL` of the largest principal moment among the
@@ -23,6 +24,7 @@ import numpy as np
 
 from .._errors import ModelError
 from ..modeling import inertia_violation, principal_moments
+from ._urdf_meshes import resolve_mesh, shown_name
 
 __all__ = ["URDFError", "Element", "read_xml", "Robot", "Link", "Joint", "Inertial",
            "Visual", "parse_robot", "rpy_matrix", "pose_matrix", "SUPPORTED_JOINTS",
@@ -35,7 +37,10 @@ _UNSUPPORTED_JOINTS = ("floating", "planar", "spherical")
 #: at most this fraction of the largest principal moment among the robot's links is
 #: taken as round-off in the file: accepted, with a warning
 INERTIA_RTOL = 1e-6
-_PLAIN_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z")
+#: the white space of XML (what separates numbers in a list); Unicode's other spaces
+#: are not separators, as its other digits are not digits here
+_XML_SPACE = " \t\r\n"
+_PLAIN_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eE][+-]?\d+)?\Z", re.ASCII)
 
 
 class URDFError(ModelError):
@@ -155,13 +160,17 @@ class Visual:
         along z.  Sphere: (radius,), m.  Mesh: the scale factors (x, y, z).
     filename : str or None
         Mesh file as written in the URDF (``package://...``, ``file://...``
-        or a path relative to the URDF file).
+        or a path relative to the URDF file); the path of a URI is
+        percent-decoded when it is looked up.
     path : str or None
         The mesh file found on disk (symbolic links resolved), or None when it was
         not found or is refused (see :meth:`mesh_file`).
     refused : str
-        Why a mesh file that exists is not read: it lies outside the folders
-        meshes are read from (see :func:`~kanedyn.models.from_urdf`); "" otherwise.
+        Why the mesh is not read although its name was understood: the file lies
+        outside the folders meshes are read from (see
+        :func:`~kanedyn.models.from_urdf`), the file system refuses to look the
+        name up (too long, a loop of symbolic links, a folder that may not be
+        searched), or a ``file:`` URI names another host; "" otherwise.
     xyz, rpy : tuple
         ``<origin>`` of the visual in its link frame, m and rad.
     transform : tuple
@@ -194,13 +203,12 @@ class Visual:
         if self.shape != "mesh":
             raise URDFError(f"{self.source}:{self.line}: the visual of link "
                             f"'{self.link}' is a {self.shape}, not a mesh")
+        where = f"{self.source}:{self.line}: mesh '{shown_name(self.filename)}' of link"
         if self.refused:
-            raise URDFError(f"{self.source}:{self.line}: mesh '{self.filename}' of link "
-                            f"'{self.link}' is not read: {self.refused}")
+            raise URDFError(f"{where} '{self.link}' is not read: {self.refused}")
         if self.path is None:
-            raise URDFError(f"{self.source}:{self.line}: mesh '{self.filename}' of link "
-                            f"'{self.link}' not found (give package_dirs=[folder that "
-                            "holds the package] to from_urdf)")
+            raise URDFError(f"{where} '{self.link}' not found (give package_dirs=[folder "
+                            "that holds the package] to from_urdf)")
         return self.path
 
 
@@ -293,7 +301,7 @@ class _Reader:
                 raise self.error(owner, f"<{element.tag}> has no attribute '{key}'",
                                  element.line)
             return default
-        raw = raw.strip()
+        raw = raw.strip(_XML_SPACE)
         if not _PLAIN_NUMBER.match(raw):
             where = f"<{element.tag} {key}='{element.attrib.get(key, raw)}'>"
             what = f"'{raw}' is not a number" if text is not None else "is not a number"
@@ -309,7 +317,8 @@ class _Reader:
         raw = element.attrib.get(key) if element is not None else None
         if raw is None:
             return tuple(default)
-        parts = raw.split()
+        text = raw.strip(_XML_SPACE)
+        parts = re.split(f"[{_XML_SPACE}]+", text) if text else []
         if len(parts) != n:
             raise self.error(owner, f"<{element.tag} {key}='{raw}'> needs {n} numbers, "
                              f"found {len(parts)}", element.line)
@@ -373,35 +382,6 @@ class _Reader:
     def _missing(self, owner, element, key):
         raise self.error(owner, f"<{element.tag}> has no attribute '{key}'", element.line)
 
-    def resolve_mesh(self, filename):
-        """``(path, refused)``: the mesh file on disk (None when not found or refused)
-        and, for a file found outside the folders meshes are read from, why it is
-        not read ("" otherwise)."""
-        urdf_dir = Path(self.source).resolve().parent
-        roots = [urdf_dir, *self.package_dirs, *self.mesh_dirs]
-        if filename.startswith("package://"):
-            package, _, rest = filename[len("package://"):].lstrip("/").partition("/")
-            candidates = [d / package / rest for d in self.package_dirs]
-            for folder in (urdf_dir, *urdf_dir.parents):  # the ROS package it is in
-                if folder.name == package and (folder / "package.xml").is_file():
-                    candidates.append(folder / rest)
-                    roots.append(folder)
-        elif filename.startswith("file://"):
-            candidates = [Path(filename[len("file://"):])]
-        else:
-            candidates = [urdf_dir / filename]
-        found = [c.resolve() for c in candidates if c.is_file()]
-        roots = [root.resolve() for root in roots]
-        for path in found:
-            if any(path.is_relative_to(root) for root in roots):
-                return str(path), ""
-        if found:
-            return None, (f"{found[0]} is outside the folders meshes are read from (the "
-                          "URDF's, package_dirs, mesh_dirs, and for package://PKG a "
-                          "folder PKG above the URDF that holds a package.xml): give "
-                          "mesh_dirs=[its folder] to from_urdf to read it")
-        return None, ""
-
     def visuals(self, link_el, name, materials, tag="visual"):
         """The ``<visual>`` (or ``<collision>``, by ``tag``) elements of a link."""
         out = []
@@ -409,7 +389,8 @@ class _Reader:
             shape, size, filename = self.geometry(link_el, vis_el)
             xyz, rpy = self.origin(vis_el, link_el)
             material = self.one(vis_el, "material", link_el)
-            path, refused = self.resolve_mesh(filename) if filename else (None, "")
+            path, refused = (resolve_mesh(filename, self.source, self.package_dirs,
+                                          self.mesh_dirs) if filename else (None, ""))
             out.append(Visual(link=name, shape=shape, size=size, xyz=xyz, rpy=rpy,
                               line=vis_el.line, source=self.source, filename=filename,
                               path=path, refused=refused,

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from ._urdf_meshes import shown_name
+
 __all__ = ["urdf_shapes", "MESH_FORMATS"]
 
 #: mesh file suffixes the viewer reads
@@ -20,7 +22,7 @@ MESH_FORMATS = (".stl", ".obj")
 
 
 def _where(vis):
-    what = f"mesh '{vis.filename}'" if vis.shape == "mesh" else vis.shape
+    what = f"mesh '{shown_name(vis.filename)}'" if vis.shape == "mesh" else vis.shape
     return f"{vis.source}:{vis.line}: link '{vis.link}', {what}"
 
 

@@ -301,8 +301,7 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
             a_new = a_new + al_solve(mass, np.zeros_like(a_new), acc_K,
                                      -(acc_K @ a_new + acc_f), weight,
                                      max_iterations=scheme.projection_iterations,
-                                     scale=np.max(np.abs(acc_K)) * np.max(np.abs(a_new))
-                                     + np.max(np.abs(acc_f)))
+                                     scale=np.max(np.abs(a_new)))
         if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(a_new))):
             status = -1
             message = f"non-finite state at t={t_new:.6g}"

@@ -18,6 +18,10 @@ unknown unit, an empty cell, text or NaN, time that does not increase strictly, 
 than :data:`MIN_SAMPLES` samples, an acceleration above :data:`MAX_G` g or an angular
 rate above :data:`MAX_RATE` rad/s (units that cannot be right), a cell longer than
 the :mod:`csv` module's field limit (131,072 characters) or text that is not CSV.
+Refused before anything is read: what is not a regular file (a folder, a named pipe,
+a device such as ``/dev/zero``) and a file larger than :data:`MAX_BYTES` (64 MiB;
+``max_bytes=`` sets the limit).  The columns read are kept as arrays of floats as the
+rows are parsed, so memory is about the file's size and the arrays returned.
 
 A record whose accelerations imply a speed change above :data:`MAX_SPEED_CHANGE`
 (the largest ``|integral of a dt|`` from the first sample on; crash and sled tests
@@ -29,10 +33,14 @@ thousand times too large.
 from __future__ import annotations
 
 import csv
+import io
+import math
+import os
 import re
+import stat
 import warnings
+from array import array
 from dataclasses import dataclass, field
-from pathlib import Path
 
 import numpy as np
 
@@ -41,7 +49,7 @@ from ..._output_files import replacing
 from ._pulses import G0
 
 __all__ = ["PulseSeries", "read_pulse_csv", "write_pulse_csv", "MAX_G", "MAX_RATE",
-           "MIN_SAMPLES", "MAX_SPEED_CHANGE"]
+           "MIN_SAMPLES", "MAX_SPEED_CHANGE", "MAX_BYTES"]
 
 #: accelerations above this (in g) are refused as wrong units or a broken channel
 MAX_G = 1000.0
@@ -51,6 +59,10 @@ MAX_RATE = 1000.0
 MIN_SAMPLES = 4
 #: a speed change above this (m/s, 360 km/h) implied by the accelerations is warned of
 MAX_SPEED_CHANGE = 100.0
+#: files larger than this (bytes, 64 MiB) are refused unless ``max_bytes`` says more:
+#: a crash pulse (10 kHz, 0.3 s, 7 channels) is about 0.2 MB, a million rows of seven
+#: channels about 60 MB
+MAX_BYTES = 64 * 2**20
 
 _UNITS = {
     "t": {"s": 1.0, "ms": 1e-3},
@@ -131,13 +143,16 @@ def _parse_header(row, source):
     return found
 
 
-def read_pulse_csv(path):
+def read_pulse_csv(path, *, max_bytes=MAX_BYTES):
     """Read and check a vehicle motion record; see the module text for the format.
 
     Parameters
     ----------
     path : str or pathlib.Path
         The CSV file.
+    max_bytes : int, optional
+        Largest file read, bytes (default :data:`MAX_BYTES`, 64 MiB); a larger
+        file is refused before it is read.
 
     Returns
     -------
@@ -150,45 +165,20 @@ def read_pulse_csv(path):
         Naming the file and the column (and line) at fault.
     """
     source = str(path)
-    try:  # utf-8-sig: the byte-order mark that spreadsheet programs write is skipped
-        lines = Path(path).read_text(encoding="utf-8-sig").splitlines()
-    except OSError as exc:
-        raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
-    except UnicodeDecodeError as exc:
-        raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
-                         f"at offset {exc.start}); save it as UTF-8 CSV") from None
-    notes, rows, header, header_line = [], [], None, 0
-    for line_no, row in _csv_rows(lines, source):
+    rows = _csv_rows(_read_text(path, source, max_bytes), source)
+    notes, header, header_line = [], None, 0
+    for line_no, row in rows:
         if not row or not "".join(row).strip():
             continue
         if row[0].lstrip().startswith("#"):
-            notes.append(",".join(row).lstrip()[1:].strip())
+            notes.append(_note(row))
             continue
-        if header is None:
-            header, header_line = row, line_no
-            columns = _parse_header(row, source)
-            continue
-        if len(row) > len(header) and "".join(row[len(header):]).strip():
-            raise ModelError(f"{source}: line {line_no} has {len(row)} cells, the header "
-                             f"(line {header_line}) names {len(header)} columns")
-        rows.append((line_no, row))
+        header, header_line = row, line_no
+        break
     if header is None:
         raise ModelError(f"{source}: no header line (need t, ax, ay, az with units)")
-    data = {}
-    for name, (col, factor) in columns.items():
-        values = np.empty(len(rows))
-        for k, (line_no, row) in enumerate(rows):
-            cell = row[col].strip() if col < len(row) else ""
-            try:
-                value = float(cell)
-            except ValueError:
-                value = None
-            if value is None or not np.isfinite(value):
-                shown = cell if cell else "an empty cell"
-                raise ModelError(f"{source}: column {name!r}, line {line_no}: {shown!r} "
-                                 "is not a finite number")
-            values[k] = value * factor
-        data[name] = values
+    columns = _parse_header(header, source)
+    data, lines = _read_columns(rows, header, header_line, columns, notes, source)
     t = data["t"]
     if len(t) < MIN_SAMPLES:
         raise ModelError(f"{source}: {len(t)} samples below the header (line "
@@ -197,7 +187,7 @@ def read_pulse_csv(path):
     if np.any(steps <= 0):
         k = int(np.argmax(steps <= 0))
         raise ModelError(f"{source}: column 't': time does not increase at line "
-                         f"{rows[k + 1][0]} ({t[k + 1]:g} s after {t[k]:g} s)")
+                         f"{lines[k + 1]} ({t[k + 1]:g} s after {t[k]:g} s)")
     for name in _ACC:
         peak = np.max(np.abs(data[name])) / G0
         if peak > MAX_G:
@@ -218,10 +208,101 @@ def read_pulse_csv(path):
         notes=tuple(notes))
 
 
-def _csv_rows(lines, source):
-    """``(line number, cells)`` of the CSV text ``lines``; a cell over the csv module's
-    field limit or text it cannot read is refused, naming the line."""
-    reader = csv.reader(lines)
+_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
+          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+          (stat.S_ISSOCK, "a socket"))
+
+
+def _read_text(path, source, max_bytes):
+    """The UTF-8 text (a text stream) of the regular file ``path`` of at most
+    ``max_bytes`` bytes."""
+    try:  # O_NONBLOCK: opening a named pipe does not wait for a writer
+        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
+    except OSError as exc:
+        raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            kind = next((what for test, what in _KINDS if test(info.st_mode)), "not a file")
+            raise ModelError(f"{source}: {kind}, not a regular file; give a CSV file")
+        with open(fd, "rb", closefd=False) as handle:
+            data = handle.read(info.st_size + 1) if info.st_size <= max_bytes else b""
+            if info.st_size < len(data) <= max_bytes:  # it grew, or its size is not known
+                data += handle.read(max_bytes + 1 - len(data))
+    except OSError as exc:
+        raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
+    finally:
+        os.close(fd)
+    if info.st_size > max_bytes or len(data) > max_bytes:  # (or it grew while read)
+        raise ModelError(f"{source}: {max(info.st_size, len(data))} bytes, more than the "
+                         f"{max_bytes} a pulse record may have (give read_pulse_csv(..., "
+                         "max_bytes=...) to read a larger one)")
+    try:  # checked whole (to name the offset), then decoded as it is read
+        data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
+                         f"at offset {exc.start}); save it as UTF-8 CSV") from None
+    # utf-8-sig: the byte-order mark that spreadsheet programs write is skipped
+    return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8-sig", newline="")
+
+
+def _note(row):
+    return ",".join(row).lstrip()[1:].strip()
+
+
+def _read_columns(rows, header, header_line, columns, notes, source):
+    """``({column: values in SI units}, line numbers)`` of the data rows; comment
+    lines among them go to ``notes``.  Each column is kept as an array of floats."""
+    names = list(columns)
+    cells = [columns[name][0] for name in names]
+    stores = [array("d") for _ in names]
+    lines = array("q")
+    width = len(header)
+    for line_no, row in rows:
+        if not row:
+            continue
+        if row[0].lstrip().startswith("#"):
+            notes.append(_note(row))
+            continue
+        if len(row) > width and "".join(row[width:]).strip():
+            raise ModelError(f"{source}: line {line_no} has {len(row)} cells, the header "
+                             f"(line {header_line}) names {width} columns")
+        try:
+            values = [float(row[col]) for col in cells]
+        except (ValueError, IndexError):
+            if not "".join(row).strip():
+                continue
+            values = None
+        if values is None or not math.isfinite(sum(values)):
+            _refuse_cell(row, names, cells, line_no, source)
+        for store, value in zip(stores, values):
+            store.append(value)
+        lines.append(line_no)
+    data = {name: np.frombuffer(store, dtype=float) for name, store in zip(names, stores)}
+    for name, values in data.items():
+        values *= columns[name][1]
+    return data, np.frombuffer(lines, dtype=np.int64)
+
+
+def _refuse_cell(row, names, cells, line_no, source):
+    """Raise naming the first cell of ``row`` that is not a finite number; return
+    when there is none (the cells are finite, only their sum overflowed)."""
+    for name, col in zip(names, cells):
+        cell = row[col].strip() if col < len(row) else ""
+        try:
+            if math.isfinite(float(cell)):
+                continue
+        except ValueError:
+            pass
+        shown = cell if cell else "an empty cell"
+        raise ModelError(f"{source}: column {name!r}, line {line_no}: {shown!r} "
+                         "is not a finite number")
+
+
+def _csv_rows(text, source):
+    """``(line number, cells)`` of the CSV text stream ``text``; a cell over the csv
+    module's field limit or text it cannot read is refused, naming the line."""
+    reader = csv.reader(text)
     while True:
         try:
             row = next(reader)
@@ -240,8 +321,11 @@ def _csv_rows(lines, source):
 def _warn_speed_change(t, acceleration, time_factor, source):
     """Warn when the accelerations (m/s^2, shape (n, 3)) imply a speed change above
     :data:`MAX_SPEED_CHANGE`: a sign of a time column in the wrong unit."""
-    steps = 0.5 * (acceleration[1:] + acceleration[:-1]) * np.diff(t)[:, None]
-    speed = float(np.max(np.linalg.norm(np.cumsum(steps, axis=0), axis=1)))
+    velocity = acceleration[1:] + acceleration[:-1]  # trapezoids, summed in place
+    with np.errstate(over="ignore"):  # times near the float range: an infinite speed
+        velocity *= 0.5 * np.diff(t)[:, None]
+        np.cumsum(velocity, axis=0, out=velocity)
+        speed = float(np.sqrt(np.max(np.einsum("ij,ij->i", velocity, velocity))))
     if speed <= MAX_SPEED_CHANGE:
         return
     hint = ("if the times are in milliseconds, write 't [ms]' (the speed change is then "

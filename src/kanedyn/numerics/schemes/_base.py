@@ -165,7 +165,10 @@ def complement_solve(mass, force, K, acc_f, dep, solve=np.linalg.solve):
     return particular + N @ solve(N.T @ mass @ N, N.T @ (force - mass @ particular))
 
 
-def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=None):
+_EPS = np.finfo(float).eps
+
+
+def al_solve(mass, rhs, C, target, weight, max_iterations=30, scale=None):
     r"""Solve :math:`Mx = r + C^T\lambda`, :math:`Cx = d` by augmented-Lagrangian iteration.
 
     .. math::
@@ -173,7 +176,7 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
         (M + wC^TC)x_{k+1} = r + C^T\lambda_k + wC^Td,\qquad
         \lambda_{k+1} = \lambda_k + w(d - Cx_{k+1}),
 
-    from :math:`\lambda_0 = 0`.  :math:`M + wC^TC` is positive definite
+    from :math:`\lambda_0 = 0`.  :math:`A = M + wC^TC` is positive definite
     whenever :math:`M` is positive definite on the null space of :math:`C`,
     whatever the rank of :math:`C`: with a rank-deficient or redundant
     :math:`C` the components of :math:`d` it cannot reach are left
@@ -185,17 +188,31 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
 
     .. math::
 
-        x_{k+1} = x_k + (M + wC^TC)^{-1}\big(r + C^T\lambda_k - Mx_k
-        + wC^T(d - Cx_k)\big),
+        \delta_k = A^{-1}g_k,\qquad g_k = r + C^T\lambda_k - Mx_k + wC^T(d - Cx_k),
+        \qquad x_{k+1} = x_k + \delta_k,
 
     the same iterate in exact arithmetic.  Solved for :math:`x` itself, the
     penalized system (condition number about :math:`w\|C^TC\|/\|M\|`) leaves
     a round-off of that many machine epsilons in :math:`x`, whatever the
     number of iterations; as a correction, its round-off scales with the
-    correction, and what remains is set by the residuals, i.e. by the
-    conditioning of the constrained problem, as in a direct solve.  At least
-    one correction is made; the iteration stops when :math:`\max|Cx - d| \le`
-    ``tol`` times ``scale``.
+    correction.
+
+    When to stop is not a tolerance on the constraint residual :math:`Cx - d`
+    (a small residual allows a multiplier error :math:`w` times larger, and
+    the error of :math:`x` it causes in the directions :math:`C` leaves free).
+    In exact arithmetic the corrections shrink in the norm of :math:`A`,
+    :math:`\|\delta_k\|_A^2 = \delta_k^Tg_k` (at no cost), at every
+    iteration, by the factor :math:`\rho_k = \|\delta_k\|_A/\|\delta_{k-1}\|_A`
+    (the multiplier error is multiplied by :math:`(I + wCM^{-1}C^T)^{-1}`), so
+    what the corrections still to come would add is about
+    :math:`\max|\delta_k|\,\rho_k/(1 - \rho_k)`.  The iteration stops when
+    that is below one machine epsilon of ``scale`` (further corrections would
+    change nothing), when a correction is no smaller than the last (the
+    round-off of the residuals is reached; it is not applied), or after
+    ``max_iterations`` corrections.  The first correction has no rate to go
+    by (:math:`\rho = 1/2` is taken), except with :math:`r = 0`: the first
+    solve is then itself a correction (from :math:`x = 0` with the
+    multiplier step :math:`wd`) and gives the rate.
 
     Parameters
     ----------
@@ -205,34 +222,39 @@ def al_solve(mass, rhs, C, target, weight, tol=1e-13, max_iterations=10, scale=N
     target : ndarray, shape (m,)
     weight : float
         :math:`w`, in the units of :math:`M` over those of :math:`C^TC`.
-    tol : float
-        Relative tolerance of :math:`\max|Cx - d|`.
     max_iterations : int
-        Corrections at most.
+        Corrections at most (each is one solve with the factor of :math:`A`).
     scale : float, optional
-        Magnitude against which the residual is measured; default
-        :math:`\|C\|_\infty\max|x| + \max|d|` (what rounding leaves in
-        :math:`Cx - d`).
+        Magnitude of what :math:`x` is part of; default :math:`\max|x|`.  A
+        correction is negligible below one machine epsilon of it (a projection
+        that solves for a small change of the speeds gives their magnitude).
 
     Returns
     -------
     ndarray, shape (o,)
     """
     import scipy.linalg as sla  # imported when first needed
-    factor = sla.cho_factor(mass + weight * (C.T @ C))
-    x = sla.cho_solve(factor, rhs + weight * (C.T @ target))
+    # unchecked: non-finite terms give non-finite x, as np.linalg.solve does elsewhere
+    factor = sla.cho_factor(mass + weight * (C.T @ C), check_finite=False)
+    g = rhs + weight * (C.T @ target)
+    x = sla.cho_solve(factor, g, check_finite=False)
     lam = np.zeros(C.shape[0])
     residual = target - C @ x
+    last = np.inf if np.any(rhs) else float(x @ g)  # with r = 0, x is a correction
     for _ in range(max_iterations):
         lam = lam + weight * residual
-        x = x + sla.cho_solve(factor, rhs + C.T @ lam - mass @ x
-                              + weight * (C.T @ residual))
-        residual = target - C @ x
-        size = scale if scale is not None else (
-            np.linalg.norm(C, np.inf) * np.max(np.abs(x), initial=0.0)
-            + np.max(np.abs(target), initial=0.0))
-        if np.max(np.abs(residual), initial=0.0) <= tol * size + 1e-300:
+        g = rhs + C.T @ (lam + weight * residual) - mass @ x
+        step = sla.cho_solve(factor, g, check_finite=False)
+        size = float(step @ g)  # the squared A-norm of the correction
+        if not 0.0 < size < last:  # no smaller than the last: round-off reached
             break
+        x = x + step
+        rho = np.sqrt(size / last) if last < np.inf else 0.5
+        to_come = np.max(np.abs(step)) * rho / (1.0 - rho)
+        if to_come <= _EPS * (scale if scale is not None else np.max(np.abs(x))):
+            break
+        residual = target - C @ x
+        last = size
     return x
 
 

@@ -55,27 +55,25 @@ class AugmentedLagrangian(Penalty):
         (M + \alpha K^TK)\dot u_{k+1} = f + K^T\lambda_k - \alpha K^T(f_a + s),
         \qquad \lambda_{k+1} = \lambda_k - \alpha(K\dot u_{k+1} + f_a + s),
 
-    from :math:`\lambda_0 = 0` until the acceleration constraints hold to
-    ``tol`` (relative), so a moderate :math:`\alpha` suffices.
+    from :math:`\lambda_0 = 0` until the corrections reach round-off (see
+    :func:`~kanedyn.numerics.schemes.al_solve`), so a moderate :math:`\alpha`
+    suffices.
 
     Attributes
     ----------
     factor, xi, omega : float
         As for :class:`Penalty` (default factor 1e4).
-    tol : float
-        Relative tolerance of the acceleration-constraint residual.
     max_iterations : int
+        Corrections at most per evaluation.
     """
 
     name: ClassVar[str] = "augmented-lagrangian"
     factor: float = 1e4
-    tol: float = 1e-13
     max_iterations: int = 50
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
         alpha, _, target = self._system(model, t, y, mass, K, acc_f)
-        return al_solve(mass, force, K, -target, alpha, tol=self.tol,
-                        max_iterations=self.max_iterations)
+        return al_solve(mass, force, K, -target, alpha, max_iterations=self.max_iterations)
 
 
 @dataclass(frozen=True)
@@ -119,8 +117,9 @@ class AugmentedLagrangianIndex3(Scheme):
     max_iterations : int
         Newton iterations per step before the run stops with a failure.
     projection_iterations : int
-        Augmented-Lagrangian iterations of each velocity and acceleration
-        projection.
+        Augmented-Lagrangian corrections at most of each velocity and
+        acceleration projection, and of the right-hand side (each stops
+        earlier, when its corrections reach round-off).
     """
 
     name: ClassVar[str] = "augmented-lagrangian-index3"
@@ -131,7 +130,7 @@ class AugmentedLagrangianIndex3(Scheme):
     factor: float = 1e6
     tol: float = 1e-10
     max_iterations: int = 50
-    projection_iterations: int = 10
+    projection_iterations: int = 30
 
     def __post_init__(self):
         for key in ("step", "factor", "tol"):
@@ -165,7 +164,7 @@ class AugmentedLagrangianIndex3(Scheme):
         # penalized system has a condition number of about `factor`)
         y[n:] += al_solve(mass, np.zeros(model.n_u), B, -c, self.weight(mass, B),
                           max_iterations=self.projection_iterations,
-                          scale=np.max(np.abs(B)) * np.max(np.abs(y[n:])))
+                          scale=np.max(np.abs(y[n:])))
         return y
 
     def project_state(self, model, t, y, max_iterations=50):
