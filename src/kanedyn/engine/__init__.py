@@ -14,10 +14,11 @@ numerics or simulation; see ``docs/architecture.md``.
 from ._composite import composite_equations, composite_inertia_forces
 from ._kinematics import (Kinematics, PartialVelocities, add, cross, dot, dyadic_matrix,
                           inertia_components, is_small, matvec)
-from ._program import SAMPLE_SEEDS, Program, fast_eval, random_sampler, total_derivative
+from ._program import (SAMPLE_SEEDS, Program, fast_eval, kd_dpow, random_sampler,
+                       total_derivative)
 from ._symbols import SymbolTable, name_of
 
-__all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_derivative",
+__all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_derivative", "kd_dpow",
            "SymbolTable", "name_of", "Kinematics", "PartialVelocities", "add", "cross", "dot",
            "matvec", "dyadic_matrix", "inertia_components", "is_small", "composite_equations",
            "composite_inertia_forces"]

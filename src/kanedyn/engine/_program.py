@@ -33,7 +33,7 @@ import sympy as sm
 from sympy.core.function import AppliedUndef
 from sympy.core.parameters import evaluate
 
-__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler"]
+__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler", "kd_dpow"]
 
 SAMPLE_SEEDS = (101, 202)  # random points used for identity tests
 
@@ -262,22 +262,25 @@ class Program:
         return sorted(seen, key=self._index.__getitem__)
 
     # ------------------------------------------------------------ derivatives
-    def _chain(self, expr, derivative_of):
+    def _chain(self, expr, derivative_of, guarded=False):
         """Total derivative of ``expr`` given derivatives of its free symbols."""
-        return total_derivative(expr, derivative_of)
+        return total_derivative(expr, derivative_of, guarded)
 
-    def diff(self, expr, var, name=None):
+    def diff(self, expr, var, name=None, guarded=False):
         r"""Partial derivative :math:`\partial\,\mathrm{expr}/\partial\,\mathrm{var}`.
 
         ``var`` is any leaf symbol (base variable or constant).  The result is an expression in
         intermediates (new ones are created for the derivatives of old ones).
+        ``guarded``: fractional powers differentiated as :class:`kd_dpow`
+        (finite at :math:`|v| = 0`; for numerical derivatives, not for
+        equations that are saved).
         """
         expr = sm.sympify(expr, strict=True)
         if var not in self.deps(expr):
             return _ZERO
-        memo = self._diff.setdefault(var, {})
+        memo = self._diff.setdefault((var, "guarded") if guarded else var, {})
         todo = self.needed([expr], stop=lambda s: s in memo or var not in self._deps[s])
-        tag = name or f"d{var}"
+        tag = (name or f"d{var}") + ("g" if guarded else "")
 
         def d_of(s):
             if s == var:
@@ -287,14 +290,14 @@ class Program:
             return _ZERO
 
         for s in todo:
-            memo[s] = self.let(self._chain(self._defs[s], d_of), f"{s.name}_{tag}")
-        return self._chain(expr, d_of)
+            memo[s] = self.let(self._chain(self._defs[s], d_of, guarded), f"{s.name}_{tag}")
+        return self._chain(expr, d_of, guarded)
 
-    def jacobian(self, exprs, variables):
+    def jacobian(self, exprs, variables, guarded=False):
         """Matrix of partial derivatives, ``len(exprs) x len(variables)``."""
         exprs, variables = list(exprs), list(variables)
         return sm.Matrix(len(exprs), len(variables),
-                         [self.diff(e, v) for e in exprs for v in variables])
+                         [self.diff(e, v, guarded=guarded) for e in exprs for v in variables])
 
     def dt(self, expr):
         r"""Time derivative of ``expr`` with :math:`\dot u` held at zero.
@@ -623,48 +626,87 @@ _DERIVATIVES = {
 }
 
 
-def total_derivative(expr, derivative_of):
+class kd_dpow(sm.Function):  # noqa: N801  (its name is what the generated code calls)
+    r"""The derivative :math:`e\,b^{e-1}\,db` of a power :math:`b^e` (a
+    fractional :math:`e < 1`, or a parameter), that is 0 where :math:`db = 0`.
+
+    The chain rule through :math:`|v| = \sqrt{v\cdot v}` at :math:`v = 0`
+    gives :math:`0 \cdot \infty` (its factor :math:`b^{e-1}` is singular,
+    while :math:`db = 2v\cdot dv` vanishes); every product of :math:`|v|` with
+    a factor that vanishes there (quadratic drag :math:`|v|v`) is
+    differentiable at :math:`v = 0`, with this value.  Where :math:`db \neq 0`
+    at :math:`b = 0` the derivative is infinite, and so is this.  Made by
+    :meth:`Program.diff` with ``guarded=True`` (numerical derivatives, not the
+    derivation); the backends print it as a call of ``kd_dpow``.
+    """
+
+    nargs = 3
+
+    @classmethod
+    def eval(cls, base, exponent, db):
+        if db.is_zero:
+            return _ZERO
+        return None
+
+
+def total_derivative(expr, derivative_of, guarded=False):
     r"""Total derivative :math:`\sum_s \partial e/\partial s\; ds` in one pass.
 
     ``derivative_of(symbol)`` gives :math:`ds` for every free symbol (``0``
     for constants).  Common node types are differentiated directly; others
-    fall back to SymPy's ``diff``.
+    fall back to SymPy's ``diff``.  ``guarded``: the derivatives of fractional
+    powers below 1 are :class:`kd_dpow` (0 where their base's derivative is).
     """
     if expr.is_Symbol:
         return derivative_of(expr)
     if expr.is_Number or expr.is_NumberSymbol:
         return _ZERO
     if expr.is_Add:
-        return sm.Add(*[total_derivative(a, derivative_of) for a in expr.args])
+        return sm.Add(*[total_derivative(a, derivative_of, guarded) for a in expr.args])
     if expr.is_Mul:
         args = expr.args
         terms = []
         for i, a in enumerate(args):
-            da = total_derivative(a, derivative_of)
+            da = total_derivative(a, derivative_of, guarded)
             if da is _ZERO or da == 0:
                 continue
             terms.append(sm.Mul(*(args[:i] + (da,) + args[i + 1:])))
         return sm.Add(*terms)
     if expr.is_Pow:
         base, exponent = expr.args
-        db = total_derivative(base, derivative_of)
+        db = total_derivative(base, derivative_of, guarded)
         if exponent.is_Number:
             if db is _ZERO or db == 0:
                 return _ZERO
+            if guarded and not exponent.is_Integer and exponent < 1:
+                return kd_dpow(base, exponent, db)
             return exponent * base ** (exponent - 1) * db
-        de = total_derivative(exponent, derivative_of)
-        return expr * (de * sm.log(base) + exponent * db / base)
+        de = total_derivative(exponent, derivative_of, guarded)
+        if not guarded:
+            return expr * (de * sm.log(base) + exponent * db / base)
+        # a power law with a parameter as exponent (a stop's contact force,
+        # its base 0 out of contact): no division by the base
+        varying_exponent = _ZERO if de is _ZERO or de == 0 else sm.Piecewise(
+            (_ZERO, sm.Eq(base, 0)), (expr * sm.log(base) * de, True))
+        return kd_dpow(base, exponent, db) + varying_exponent
     rule = _DERIVATIVES.get(expr.func)
     if rule is not None:
         (a,) = expr.args
-        da = total_derivative(a, derivative_of)
+        da = total_derivative(a, derivative_of, guarded)
         if da is _ZERO or da == 0:
             return _ZERO
         return rule(a) * da
+    if guarded and expr.func in (sm.Max, sm.Min) and len(expr.args) == 2:
+        # the derivative of the branch taken (their mean where they meet), each
+        # branch differentiated here: SymPy's would leave its powers unguarded
+        a, b = expr.args
+        first = sm.Heaviside(a - b) if expr.func is sm.Max else sm.Heaviside(b - a)
+        return (first * total_derivative(a, derivative_of, guarded)
+                + (1 - first) * total_derivative(b, derivative_of, guarded))
     if expr.func is sm.atan2:
         y, x = expr.args
-        dy = total_derivative(y, derivative_of)
-        dx = total_derivative(x, derivative_of)
+        dy = total_derivative(y, derivative_of, guarded)
+        dx = total_derivative(x, derivative_of, guarded)
         return (x * dy - y * dx) / (x ** 2 + y ** 2)
     terms = []
     for s in expr.free_symbols:

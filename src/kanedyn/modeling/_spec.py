@@ -295,6 +295,8 @@ class _SymbolCollector:
     def __init__(self):
         self.symbols = set()
         self._seen = set()
+        self._nodes = set()  # ids of the expression nodes read (shared subtrees once;
+        # the nodes live in the description for the whole visit)
 
     def visit(self, obj):
         stack = [obj]
@@ -308,12 +310,29 @@ class _SymbolCollector:
             self._seen.add(key)
             stack.extend(self._children(item))
 
+    def _read(self, expr):
+        """Add the symbols of ``expr``, each distinct subexpression read once:
+        ``free_symbols`` walks a shared subtree as often as it is referenced,
+        which for the angular velocity of the last of 24 chained frames,
+        composed by SymPy, took 10 s (chain3d n = 30: 80 s)."""
+        stack = [expr]
+        while stack:
+            node = stack.pop()
+            if id(node) in self._nodes:  # by identity: equality walks the trees
+                continue
+            self._nodes.add(id(node))
+            if node.is_Symbol:
+                self.symbols.add(node)
+            else:
+                stack.extend(node.args)
+
     def _children(self, item):
         if isinstance(item, sm.MatrixBase):
-            self.symbols |= item.free_symbols
+            for entry in item:
+                self._read(entry)
             return ()
         if isinstance(item, sm.Basic):
-            self.symbols |= item.free_symbols
+            self._read(item)
             return ()
         if isinstance(item, me.Vector):
             return [part for matrix, frame in item.args for part in (matrix, frame)]

@@ -8,6 +8,8 @@
                          family of constraint schemes)
 ``_linearize``           exact linearization, symbolic and numeric
 ``_inverse``             inverse dynamics: the generalized forces for given rates
+``_jacobians``           exact derivatives of the right-hand side (state, inputs,
+                         constants), generated from the equations' program
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_diagnosis``           why a derivative is not finite, in the model's names
@@ -37,6 +39,8 @@ _LAZY = {
     'PowerBalance': '._inverse_parts',
     'actuator_parts': '._inverse_parts',
     'inverse_parts': '._inverse_parts',
+    'Jacobians': '._jacobians',
+    'EXACT_SCHEMES': '._jacobians',
     'power_balance': '._inverse_parts',
     'linearize_numeric': '._linearize',
     'linearize_symbolic': '._linearize',

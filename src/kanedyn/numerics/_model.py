@@ -855,6 +855,50 @@ class NumericModel(StateLayout):
             tau = _inverse_dynamics(self, t, q, u, udot)
         return tau
 
+    def jacobians(self, t, y, r=None, parameters=False):
+        r"""Exact derivatives of :meth:`rhs`: :math:`\partial f/\partial y`,
+        :math:`\partial f/\partial r` and, on request, :math:`\partial f/\partial p`.
+
+        Generated code of the derivatives of the equations' program (both
+        backends; made on first use), then one linear solve with the mass
+        matrix (and the constraint Jacobians: dependent speeds and coordinates
+        are differentiated through their elimination).  See
+        :mod:`kanedyn.numerics._jacobians`.
+
+        Parameters
+        ----------
+        t : float or array_like, shape (N,)
+            Time, s.
+        y : array_like, shape (n_states,) or (N, n_states)
+            State, or one state per row.
+        r : array_like, shape (n_inputs,), optional
+            Values of the specified inputs (``input_names``); by default their
+            providers are evaluated at ``(t, y)``.  The derivatives hold them
+            fixed: an input that is a function of the state contributes
+            nothing to ``state``.
+        parameters : bool
+            Also the derivatives with respect to the named constants
+            (:attr:`constants`), for sensitivities and identification.
+
+        Returns
+        -------
+        Jacobians
+            ``f``, ``state`` (n_states, n_states), ``inputs``, ``parameters``,
+            and the derivatives of the multipliers where the model has
+            dependent speeds; with a first axis of length N for many states.
+
+        Examples
+        --------
+        >>> import kanedyn as kd
+        >>> model = kd.models.build("pendulum").numeric(
+        ...     constants={"m": 1.0, "l": 1.0, "g": 9.81})
+        >>> J = model.jacobians(0.0, [0.1, 0.0])
+        >>> J.state.shape
+        (2, 2)
+        """
+        from ._jacobians import jacobians
+        return jacobians(self, t, y, r=r, parameters=parameters)
+
     def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
         """The inverse-dynamics forces by cause and by body group.
 

@@ -28,6 +28,7 @@ from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, Comp
                        cache_dir, compiler_command, load_module, missing_compiler_text,
                        prefetch)
 from ._python import CodegenError
+from ...engine import kd_dpow
 
 __all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
            "fingerprint", "load_module", "compiler_command", "missing_compiler_text",
@@ -81,6 +82,9 @@ class _CPrinter(C99CodePrinter):
     def _print_sign(self, expr):
         return f"kd_sign({self._print(expr.args[0])})"
 
+    def _print_kd_dpow(self, expr):
+        return f"kd_dpow({', '.join(self._print(a) for a in expr.args)})"
+
     def _print_Rational(self, expr):
         return _number_literal(expr)
 
@@ -92,7 +96,7 @@ class _Unusual(Exception):
 _CALLS = {sm.sin: "sin", sm.cos: "cos", sm.tan: "tan", sm.exp: "exp", sm.log: "log",
           sm.asin: "asin", sm.acos: "acos", sm.atan: "atan", sm.sinh: "sinh",
           sm.cosh: "cosh", sm.tanh: "tanh", sm.Abs: "fabs", sm.sign: "kd_sign",
-          sm.atan2: "atan2"}
+          sm.atan2: "atan2", kd_dpow: "kd_dpow"}
 _SUM, _PRODUCT, _ATOM = 1, 2, 3  # binding of a printed expression
 
 

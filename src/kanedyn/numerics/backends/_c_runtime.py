@@ -34,6 +34,10 @@ PRELUDE = r"""
 #endif
 
 static inline double kd_sign(double x) { return (double)((x > 0) - (x < 0)); }
+/* d(b^e) = e b^(e-1) db, 0 where db = 0 (kanedyn.engine.kd_dpow) */
+static inline double kd_dpow(double b, double e, double db) {
+    return db == 0.0 ? 0.0 : e * pow(b, e - 1.0) * db;
+}
 static inline double kd_powi(double x, long n) {
     double result = 1.0, base = x;
     unsigned long k = n < 0 ? (unsigned long)(-n) : (unsigned long)n;

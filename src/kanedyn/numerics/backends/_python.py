@@ -43,6 +43,9 @@ class _Printer(PythonCodePrinter):
     def _print_not_supported(self, expr):
         return _SciPyFallback(self._names).doprint(expr)
 
+    def _print_kd_dpow(self, expr):
+        return f"_kd_dpow({', '.join(self._print(a) for a in expr.args)})"
+
 
 class _SciPyFallback(SciPyPrinter):
     def __init__(self, names):
@@ -62,6 +65,20 @@ class _VectorPrinter(SciPyPrinter):
 
     _print_Symbol = _Printer._print_Symbol
     _print_Dummy = _Printer._print_Symbol
+
+    def _print_kd_dpow(self, expr):
+        return f"_kd_dpow_lanes({', '.join(self._print(a) for a in expr.args)})"
+
+
+def _kd_dpow(b, e, db):
+    """``kanedyn.engine.kd_dpow``: :math:`e\\,b^{e-1}db`, 0 where ``db == 0``."""
+    return 0.0 if db == 0 else e * math.pow(b, e - 1) * db
+
+
+def _kd_dpow_lanes(b, e, db):
+    """:func:`_kd_dpow` of arrays."""
+    with np.errstate(divide="ignore", invalid="ignore"):
+        return np.where(db == 0, 0.0, e * np.power(b, e - 1) * db)
 
 
 def _stack(values, shape, k):
@@ -158,7 +175,8 @@ class _LazySciPy:
 
 
 _NAMESPACE = {"math": math, "numpy": np, "scipy": _LazySciPy(), "_array": np.array,
-              "_zeros": np.zeros, "_stack": _stack}
+              "_zeros": np.zeros, "_stack": _stack, "_kd_dpow": _kd_dpow,
+              "_kd_dpow_lanes": _kd_dpow_lanes}
 
 
 def compile_python(source, name):

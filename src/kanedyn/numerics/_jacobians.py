@@ -1,0 +1,239 @@
+r"""Exact derivatives of a :class:`NumericModel`'s right-hand side.
+
+The state derivative is :math:`f = [\dot q;\ \dot u]` with :math:`\dot q =
+g(q, u, r)` and the accelerations solving the index-1 system
+
+.. math::
+
+    M\dot u - f_u - B^T\lambda = 0,\qquad K\dot u + f_a = 0,
+
+(:math:`B` the velocity-constraint matrix, :math:`K` the acceleration one,
+:math:`\lambda` the multipliers of :meth:`NumericModel.multipliers`; without
+dependent speeds only the first, with no :math:`\lambda`).  With the residuals
+:math:`E(x; w, \mu) = \tau(q, u, w) - B^T\mu` (:math:`\tau = Mw - f_u`, the
+inverse dynamics) and :math:`a(x; w) = Kw + f_a` differentiated with respect to
+any variable :math:`x` (a coordinate, a speed, an input, a constant) at
+:math:`w = \dot u`, :math:`\mu = \lambda`,
+
+.. math::
+
+    \begin{bmatrix} M & -B^T \\ K & 0 \end{bmatrix}
+    \begin{bmatrix} \partial_x\dot u \\ \partial_x\lambda \end{bmatrix}
+    = -\begin{bmatrix} \partial_x E \\ \partial_x a \end{bmatrix} .
+
+The partial derivatives :math:`\partial_x g, \partial_x E, \partial_x a` are
+generated code (both backends): forward differentiation of the equations'
+straight-line program (:meth:`kanedyn.engine.Program.jacobian`), nothing
+expanded.  For a tree derived by Kane's method :math:`\tau` is the engine's
+recursive pass (:func:`kanedyn.engine.composite_inertia_forces`, :math:`O(n)`
+for a chain), so its derivatives take :math:`O(n^2)` operations, as
+articulated-body derivatives do; otherwise :math:`\tau` is the product with the
+mass-matrix entries.  The linear solve is numerical, so dependent speeds (and
+coordinates) are differentiated through their elimination exactly.
+
+This is the derivative of the accelerations every index-1 scheme computes
+(elimination, index-1, projection, Udwadia-Kalaba, partitioning, null space,
+orthogonal complement: on any state they give the same :math:`\dot u`).  The
+schemes that add stabilization terms (Baumgarte, penalty, augmented
+Lagrangian) are refused by name.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import ModelError
+
+__all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES"]
+
+#: the constraint schemes whose accelerations are the exact index-1 ones
+EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
+                 "null-space", "orthogonal-complement")
+
+
+@dataclass(frozen=True)
+class Jacobians:
+    r"""Derivatives of the state derivative :math:`f(t, y)` at one state or many.
+
+    For many states (``y`` of shape (N, n_states)) every array has a first
+    axis of length N.
+
+    Attributes
+    ----------
+    f : ndarray, shape (n_states,)
+        The state derivative :math:`[\dot q, \dot u]` itself.
+    state : ndarray, shape (n_states, n_states)
+        :math:`\partial f/\partial y` (rows: the entries of ``f``; columns:
+        ``state_names``), the specified inputs held at their values.
+    inputs : ndarray, shape (n_states, n_inputs)
+        :math:`\partial f/\partial r`, columns ``input_names``.
+    parameters : ndarray, shape (n_states, n_constants), or None
+        :math:`\partial f/\partial p`, columns ``parameter_names`` (asked for
+        with ``parameters=True``).
+    multipliers, multipliers_inputs, multipliers_parameters : ndarray or None
+        The same derivatives of the multipliers :math:`\lambda`
+        (:meth:`NumericModel.multipliers`), shapes (m, n_states), (m,
+        n_inputs), (m, n_constants); ``None`` without dependent speeds (or
+        parameters not asked for).
+    state_names, input_names, parameter_names, multiplier_names : tuple of str
+    """
+
+    f: np.ndarray
+    state: np.ndarray
+    inputs: np.ndarray
+    parameters: np.ndarray | None
+    multipliers: np.ndarray | None
+    multipliers_inputs: np.ndarray | None
+    multipliers_parameters: np.ndarray | None
+    state_names: tuple
+    input_names: tuple
+    parameter_names: tuple
+    multiplier_names: tuple
+
+
+# ------------------------------------------------------------ generated code
+def _specification(model, parameters):
+    """``(program, arguments, outputs)`` of the generated ``jacobians`` function.
+
+    Arguments ``(t, y, p, r)`` with ``r`` = the model's inputs, then ``w``
+    (:math:`\\dot u`) and ``mu`` (:math:`\\lambda`); outputs
+    ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``).
+    """
+    import sympy as sm
+
+    from ._inverse import _recursive_inertia_forces, _workspace
+    eom = model._eom
+    args, dynamics = model._functions["dynamics"]
+    o, m = model.n_u, model.n_u_dep
+    qdot, mass, force = dynamics[0][1], dynamics[1][1], dynamics[2][1]
+    vel_B, acc_K, acc_f = dynamics[3][1], dynamics[4][1], dynamics[5][1]
+    prog, kin = _workspace(model)
+    w = list(eom._table.udot)
+    mu = [sm.Dummy(f"mu{k}") for k in range(m)]
+    inertia = _recursive_inertia_forces(eom, o, w, model._substitutions, kin)
+    if inertia is None:
+        inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) for r in range(o)]
+    E = [inertia[r] - force[r] - sm.Add(*[vel_B[c * o + r] * mu[c] for c in range(m)])
+         for r in range(o)]
+    a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
+    columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
+    outputs = []
+    for variables in columns:
+        for rows in (qdot, E, a):
+            jac = prog.jacobian(rows, variables, guarded=True)
+            outputs.append(((len(rows), len(variables)), list(jac)))
+    return prog, dict(args, r=list(args["r"]) + w + mu), outputs
+
+
+def _functions(model, parameters):
+    """``(dynamics, jacobians)``: the generated functions, made on first use and
+    kept by the model (one pair with, one without the parameter columns)."""
+    key = "jacobians_p" if parameters else "jacobians"
+    found = model.__dict__.get("_" + key)
+    if found is not None:
+        return found
+    if getattr(model, "_eom", None) is None:
+        raise ModelError("the derivatives need the model's equations, which a model "
+                         "restored from a file does not carry; build the model with "
+                         "eom.numeric(...) in this process")
+    prog, args, outputs = _specification(model, parameters)
+    if model._data["backend"] == "c":
+        from .backends._c import fingerprint, generate_c_units, load_module
+        functions = dict(model._functions, jacobians=(args, outputs))
+        functions.pop("tree", None)  # M is needed: the module with every function
+        sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
+        table = model._eom._table
+        module = load_module(
+            fingerprint(prog, functions, sizes, model._cse, lanes=False),
+            lambda: generate_c_units(prog, functions, sizes,
+                                     describe=lambda e: str(table.external(e)),
+                                     cse=model._cse, lanes=False))
+        found = (module.dynamics, module.jacobians)
+    else:
+        from .backends._python import compile_python, generate_python
+        source = generate_python(prog, key, args, outputs, cse=True)
+        found = (model._fn["dynamics"], compile_python(source, key))
+    model.__dict__["_" + key] = found
+    return found
+
+
+# ----------------------------------------------------------------- numbers
+def _check_scheme(model):
+    name = model.scheme.name
+    if model.n_u_dep and name not in EXACT_SCHEMES:
+        raise ModelError(
+            f"exact derivatives are generated for the constraint schemes "
+            f"{', '.join(EXACT_SCHEMES)}; this model's scheme {name!r} adds stabilization "
+            "terms whose derivatives are not generated: build the model with "
+            "scheme='elimination' (or another of those) for its derivatives")
+    if model.contacts:
+        raise ModelError("exact derivatives of a model with contacts are not generated "
+                         "yet (its right-hand side depends on the contact mode)")
+
+
+def _at_point(model, fns, t, y, r):
+    """The blocks of :class:`Jacobians` at one state."""
+    dynamics, derivatives = fns
+    n, o, m = model.n_q, model.n_u, model.n_u_dep
+    rt = list(model._r(t, y)) if r is None else list(r)
+    terms = dynamics(t, y, model._p, rt)
+    qd, mass, force, vel_B, acc_K, _ = terms
+    udot = model.scheme.accelerations(model, t, y, terms)
+    lam = np.linalg.lstsq(vel_B.T, mass @ udot - force, rcond=None)[0] if m else []
+    blocks = derivatives(t, y, model._p, rt + list(udot) + list(lam))
+    if m:
+        S = np.block([[mass, -vel_B.T], [acc_K, np.zeros((m, m))]])
+    out = []
+    for g_x, E_x, a_x in zip(blocks[0::3], blocks[1::3], blocks[2::3]):
+        if m:
+            solved = np.linalg.solve(S, -np.vstack([E_x, a_x])) if E_x.shape[1] else \
+                np.zeros((o + m, 0))
+            du, dlam = solved[:o], solved[o:]
+        else:
+            du = np.linalg.solve(mass, -E_x) if E_x.shape[1] else np.zeros((o, 0))
+            dlam = None
+        out.append((np.vstack([g_x.reshape(n, -1), du]), dlam))
+    return np.concatenate([qd, udot]), out
+
+
+def jacobians(model, t, y, r=None, parameters=False):
+    r"""Exact :math:`\partial f/\partial(y, r, p)` of ``model.rhs`` at ``y``.
+
+    See :meth:`NumericModel.jacobians`.
+    """
+    _check_scheme(model)
+    fns = _functions(model, parameters)
+    Y = np.asarray(y, dtype=float)
+    many = Y.ndim == 2
+    rows = Y if many else Y[None, :]
+    for row in rows:
+        model._check_y(row)
+    T = np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
+    if r is not None:
+        r = np.atleast_1d(np.asarray(r, dtype=float))
+        if r.shape[-1] != len(model.input_names):
+            raise ValueError(f"r must have {len(model.input_names)} entries "
+                             f"({', '.join(model.input_names) or 'the model has no inputs'})")
+        R = np.broadcast_to(r, (len(rows), r.shape[-1]))
+    points = [_at_point(model, fns, T[i], rows[i], None if r is None else R[i])
+              for i in range(len(rows))]
+
+    def stack(pick):
+        values = [pick(p) for p in points]
+        if values[0] is None:
+            return None
+        return np.stack(values) if many else values[0]
+
+    m = model.n_u_dep
+    return Jacobians(
+        f=stack(lambda p: p[0]),
+        state=stack(lambda p: p[1][0][0]), inputs=stack(lambda p: p[1][1][0]),
+        parameters=stack(lambda p: p[1][2][0]) if parameters else None,
+        multipliers=stack(lambda p: p[1][0][1]) if m else None,
+        multipliers_inputs=stack(lambda p: p[1][1][1]) if m else None,
+        multipliers_parameters=stack(lambda p: p[1][2][1]) if m and parameters else None,
+        state_names=tuple(model.state_names), input_names=tuple(model.input_names),
+        parameter_names=tuple(model.constants), multiplier_names=tuple(
+            model.multiplier_names or ()))

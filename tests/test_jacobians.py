@@ -1,0 +1,253 @@
+"""Exact derivatives of the right-hand side (``NumericModel.jacobians``, issue 34).
+
+Checked against what does not share their code: fourth-order central
+differences of ``model.rhs`` (and of ``with_constants`` for the parameters) on
+every built-in model, Pinocchio's ``computeABADerivatives`` on random trees and
+real robots, and SymPy's linearization of the same equations.
+"""
+
+from importlib.metadata import PackageNotFoundError, distribution
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+from test_tree_factor import random_tree_urdf
+
+import kanedyn as kd
+from kanedyn.numerics.backends import _c as _cbackend
+
+needs_compiler = pytest.mark.skipif(_cbackend.compiler_command() is None,
+                                    reason="no C compiler")
+
+
+def differences(fun, x, step=1e-4, scaled=False):
+    """Fourth-order central differences of ``fun`` at ``x``, one column per entry
+    (truncation error ~ step**4: 1e-16 of the scale here); ``scaled``: steps
+    relative to each entry (parameters: a small inertia stays positive)."""
+    x = np.asarray(x, dtype=float)
+    columns = []
+    for j in range(x.size):
+        h = step * (abs(x[j]) if scaled and x[j] else max(1.0, abs(x[j])))
+
+        def at(k):
+            z = x.copy()
+            z[j] += k * h
+            return np.asarray(fun(z), dtype=float)
+        columns.append((-at(2) + 8 * at(1) - 8 * at(-1) + at(-2)) / (12 * h))
+    return np.array(columns).T
+
+
+def relative(a, b):
+    return np.max(np.abs(a - b)) / max(1.0, np.max(np.abs(b)))
+
+
+def with_contacts(name):
+    return name in {"sphere-slug", "slug-ellipsoid", "block-on-incline", "bead-in-tube",
+                    "bouncing-ball", "ladder", "falling-rod"}
+
+
+def a_state(definition, model, seed=0):
+    """The model's initial state, moved at random where no constraint binds it."""
+    y = np.asarray(definition.initial(model), dtype=float)
+    if model.n_q_dep == 0 and model.n_u_dep == 0:
+        y = y + 0.05 * np.random.default_rng(seed).standard_normal(y.size)
+    return y
+
+
+MODELS = sorted(name for name in kd.models.REGISTRY if not with_contacts(name))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", MODELS)
+def test_every_builtin_model_matches_differences_of_its_rhs(name):
+    """State, inputs and constants, at a state of the model (off the constraint
+    manifold where the differences step: the full-state derivative)."""
+    definition = kd.models.build(name)
+    model = definition.numeric(backend="numpy")
+    y = a_state(definition, model)
+    J = model.jacobians(0.0, y, parameters=True)
+    assert J.state.shape == (y.size, y.size)
+    np.testing.assert_allclose(J.f, model.rhs(0.0, y), rtol=1e-12, atol=1e-12)
+    assert relative(J.state, differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
+    if model.input_names:
+        r0 = np.array([inp(0.0, y) for _, inp in model._inputs])
+        fr = differences(lambda r: model.jacobians(0.0, y, r=r).f, r0)
+        assert relative(J.inputs, fr) < 1e-8
+    names = list(model.constants)
+    p0 = np.array([model.constants[k] for k in names])
+    assert J.parameter_names == tuple(names) and J.parameters.shape == (y.size, len(names))
+    if names:
+        fp = differences(lambda p: model.with_constants(dict(zip(names, p))).rhs(0.0, y), p0,
+                         scaled=True)
+        assert relative(J.parameters, fp) < 1e-8
+
+
+def test_a_model_at_rest_with_quadratic_drag_and_a_power_law_stop():
+    """|v| v at v = 0 and a stop's force (theta - theta_lim)_+ ** p_lim out of
+    contact: the chain rule gave 0 * inf (a ZeroDivisionError, or nan in C);
+    the derivatives are finite and those of the differences."""
+    definition = kd.models.build("seatbelt-sensor")
+    model = definition.numeric(backend="numpy")
+    y = np.asarray(definition.initial(model), dtype=float)
+    assert not np.any(y)  # at rest
+    J = model.jacobians(0.0, y, parameters=True)
+    assert np.all(np.isfinite(J.state)) and np.all(np.isfinite(J.parameters))
+    assert relative(J.state, differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
+
+
+def test_quadratic_drag_on_a_particle_at_rest():
+    """F = -c |v| v: dF/dv = 0 at v = 0 exactly, and 2 c |v| along v elsewhere."""
+    q1, q2, u1, u2 = me.dynamicsymbols("q1 q2 u1 u2")
+    c = sm.symbols("c")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q1 * N.x + q2 * N.y)
+    P.set_vel(N, u1 * N.x + u2 * N.y)
+    speed = sm.sqrt(u1 ** 2 + u2 ** 2)
+    eom = kd.kane(frame=N, q_ind=[q1, q2], u_ind=[u1, u2],
+                  kd_eqs=[q1.diff() - u1, q2.diff() - u2],
+                  bodies=[me.Particle("p", P, 2)],
+                  loads=[(P, -c * speed * (u1 * N.x + u2 * N.y))])
+    model = eom.numeric(constants={c: 0.5}, backend="numpy")
+    J = model.jacobians(0.0, [0.0, 0.0, 0.0, 0.0])
+    np.testing.assert_array_equal(J.state[2:, 2:], 0.0)
+    J = model.jacobians(0.0, [0.0, 0.0, 3.0, 0.0])  # along x: d(-c|v|v_x/m)/dv_x = -2 c |v|/m
+    np.testing.assert_allclose(J.state[2:, 2:], [[-1.5, 0.0], [0.0, -0.75]], rtol=1e-14)
+
+
+def test_many_states_at_once():
+    definition = kd.models.build("four-bar")
+    model = definition.numeric(backend="numpy")
+    y0 = np.asarray(definition.initial(model), dtype=float)
+    res = kd.simulate(model, (0.0, 1.0), y0, t_eval=[0.0, 0.5, 1.0])
+    Y = res.y.T
+    batch = model.jacobians(res.t, Y)
+    assert batch.state.shape == (3, 6, 6) and batch.multipliers.shape == (3, 2, 6)
+    for k in range(3):
+        one = model.jacobians(res.t[k], Y[k])
+        np.testing.assert_array_equal(batch.state[k], one.state)
+        np.testing.assert_array_equal(batch.multipliers[k], one.multipliers)
+
+
+def test_the_multipliers_derivatives():
+    """d lambda / dy of the four-bar against differences of model.multipliers."""
+    definition = kd.models.build("four-bar")
+    model = definition.numeric(backend="numpy")
+    y = np.asarray(definition.initial(model), dtype=float)
+    J = model.jacobians(0.0, y)
+    assert J.multiplier_names == tuple(model.multiplier_names)
+
+    def lam(z):
+        return list(model.multipliers(0.0, z).values())
+    assert relative(J.multipliers, differences(lam, y)) < 1e-8
+
+
+@needs_compiler
+@pytest.mark.parametrize("name", ["pendulum", "four-bar", "whipple-bicycle", "chain3d",
+                                  "seatbelt-sensor", "n-link-pendulum-on-cart"])
+def test_the_c_backend_gives_the_numpy_backends_numbers(name):
+    definition = kd.models.build(name)
+    eom = definition.derive()
+    fast = definition.numeric(eom, backend="c")
+    slow = definition.numeric(eom, backend="numpy")
+    y = a_state(definition, slow, seed=3)
+    a, b = fast.jacobians(0.0, y, parameters=True), slow.jacobians(0.0, y, parameters=True)
+    for field in ("f", "state", "inputs", "parameters"):
+        assert getattr(a, field).shape == getattr(b, field).shape
+        if getattr(b, field).size:
+            assert relative(getattr(a, field), getattr(b, field)) < 1e-11, field
+
+
+def test_an_unconstrained_model_against_sympys_linearization():
+    """For a model without constraints the full-state derivative is the A of
+    the linearization about any state (here not an equilibrium): the symbolic
+    one (constants substituted afterwards) and the numerical one."""
+    definition = kd.models.build("n-link-pendulum-on-cart")
+    eom = definition.derive()
+    model = definition.numeric(eom, backend="numpy")
+    y = a_state(definition, model, seed=5)
+    J = model.jacobians(0.0, y, r=[1.5])
+    op_point = dict(zip([*eom.q, *eom.u], y)) | {eom.specified[0]: 1.5}
+    A, B, _ = eom.linearize(op_point=op_point)
+    assert relative(J.state, np.array(A.subs(definition.constants), dtype=float)) < 1e-10
+    assert relative(J.inputs, np.array(B.subs(definition.constants), dtype=float)) < 1e-10
+    A, B, _ = model.linearize(y, r=[1.5])
+    assert relative(J.state, A) < 1e-10 and relative(J.inputs, B) < 1e-10
+
+
+def test_refused_where_not_generated():
+    contact = kd.models.build("bouncing-ball")
+    with pytest.raises(kd.ModelError, match="contacts"):
+        contact.numeric(backend="numpy").jacobians(0.0, [1.0, 0.0])
+    four_bar = kd.models.build("four-bar")
+    model = four_bar.numeric(backend="numpy", scheme="baumgarte")
+    with pytest.raises(kd.ModelError, match="'baumgarte' adds stabilization terms"):
+        model.jacobians(0.0, four_bar.initial(model))
+    pendulum = kd.models.build("pendulum").numeric(backend="numpy")
+    with pytest.raises(ValueError, match="r must have 0 entries"):
+        pendulum.jacobians(0.0, [0.1, 0.0], r=[1.0])
+    with pytest.raises(ValueError, match="the state must have 2 entries"):
+        pendulum.jacobians(0.0, [0.1, 0.0, 0.0])
+
+
+# ------------------------------------------------------------------ Pinocchio
+def pinocchio():
+    return pytest.importorskip("pinocchio", reason="the derivatives are compared with "
+                               "Pinocchio's computeABADerivatives (pip install pin)")
+
+
+def pinocchio_derivatives(pmodel, definition, q, u, tau):
+    from test_urdf import pinocchio_state
+    pin = pinocchio()
+    data = pmodel.createData()
+    qp, vp, tp, index = pinocchio_state(pmodel, definition, q, u, tau)
+    dq, dv, dtau = pin.computeABADerivatives(pmodel, data, qp, vp, tp)
+    pick = np.ix_(index, index)
+    return dq[pick], dv[pick], dtau[pick]
+
+
+def compare_with_pinocchio(path, states=3, seed=0, backend="numpy"):
+    """Worst relative difference of d(u')/d(q, u, tau) over random states."""
+    definition = kd.models.from_urdf(path)
+    pmodel = pinocchio().buildModelFromUrdf(str(path))
+    model = definition.numeric(backend=backend)
+    n = len(definition.joints)
+    efforts = [model.input_names.index(str(j.effort_input)) for j in definition.joints]
+    rng = np.random.default_rng(seed)
+    worst = 0.0
+    for _ in range(states):
+        q, u, tau = rng.uniform(-1.5, 1.5, (3, n))
+        r = np.zeros(len(model.input_names))
+        r[efforts] = tau
+        J = model.jacobians(0.0, np.concatenate([q, u]), r=r)
+        dq, dv, dtau = pinocchio_derivatives(pmodel, definition, q, u, tau)
+        for mine, theirs in ((J.state[n:, :n], dq), (J.state[n:, n:], dv),
+                             (J.inputs[n:, efforts], dtau)):
+            worst = max(worst, relative(mine, theirs))
+    return worst
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_trees_match_pinocchio(tmp_path, seed):
+    rng = np.random.default_rng(seed)
+    parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]
+    path = random_tree_urdf(tmp_path / "tree.urdf", parent, seed)
+    assert compare_with_pinocchio(path, seed=seed) < 1e-9
+
+
+def robot_file(relative_path):
+    try:
+        dist = distribution("example-robot-data")
+    except PackageNotFoundError:
+        pytest.skip("needs example-robot-data (pip install example-robot-data)")
+    return dist.locate_file("cmeel.prefix/share/example-robot-data/robots/" + relative_path)
+
+
+@pytest.mark.slow
+@needs_compiler
+@pytest.mark.parametrize("robot", ["ur_description/urdf/ur5_robot.urdf",
+                                   "panda_description/urdf/panda.urdf"])
+def test_real_robots_match_pinocchio(robot):
+    assert compare_with_pinocchio(robot_file(robot), backend="c") < 1e-9
