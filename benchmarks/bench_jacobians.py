@@ -12,8 +12,9 @@ compiled (backend ``"c"``), at a random state:
 - the largest difference of :math:`\\partial\\dot u/\\partial(q, u)` between them;
 - the size of the generated derivative code (its operations, after common
   subexpressions) and the exponent of its growth with n;
-- the time of the first call in a fresh cache (generation and compilation)
-  against the first right-hand side.
+- the time of the first call (generation and compilation) against that of the
+  first right-hand side (derivation, generation, the first module), in a fresh
+  process with a fresh cache.
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
 minimum and spread (median / min - 1).  Ratios are between numbers measured in
@@ -27,10 +28,9 @@ Usage::
 from __future__ import annotations
 
 import argparse
-import os
+import json
 import sys
 import tempfile
-import time
 from pathlib import Path
 
 import numpy as np
@@ -38,27 +38,36 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
+from _fresh_process import byte_compile_package, run_python  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
 from _timing import interleaved  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 
+_FIRST_USE = """
+import time, json, numpy as np, kanedyn as kd
+from _peers import DEFAULTS
+start = time.perf_counter()
+model = kd.models.build("chain3d", n={n}).numeric(constants=DEFAULTS, backend="c")
+model.rhs(0.0, np.zeros({x}))
+rhs = time.perf_counter() - start
+start = time.perf_counter()
+model.jacobians(0.0, np.zeros({x}))
+print(json.dumps([rhs, time.perf_counter() - start]))
+"""
+
+
 def first_use(n):
-    """Seconds of the first rhs and of the first jacobians call, fresh cache."""
+    """Seconds of the first rhs (derivation, generation and the first module
+    included) and then of the first jacobians call, in a fresh process with a
+    fresh cache."""
     with tempfile.TemporaryDirectory() as cache:
-        os.environ["KANEDYN_CACHE_DIR"] = cache
-        definition = kd.models.build("chain3d", n=n)
-        eom = definition.derive()
-        y = np.zeros(2 * n)
-        start = time.perf_counter()
-        model = definition.numeric(eom, constants=DEFAULTS, backend="c")
-        model.rhs(0.0, y)
-        kd.numerics.finish_compiling()
-        rhs = time.perf_counter() - start
-        start = time.perf_counter()
-        model.jacobians(0.0, y)
-        jac = time.perf_counter() - start
-    return rhs, jac
+        code = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n" \
+            + _FIRST_USE.format(n=n, x=2 * n)
+        done = run_python(code, cache)
+        if done.returncode:
+            raise RuntimeError(done.stderr[-2000:])
+        return json.loads(done.stdout.strip().splitlines()[-1])
 
 
 def operations(n):
@@ -108,6 +117,7 @@ def main():
           "first jacobians, s | jacobians / rhs |")
     print("|---|---|---|---|---|")
     ops = []
+    byte_compile_package()
     for n in sizes:
         count = operations(n)
         ops.append(count)
