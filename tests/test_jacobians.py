@@ -251,3 +251,61 @@ def robot_file(relative_path):
                                    "panda_description/urdf/panda.urdf"])
 def test_real_robots_match_pinocchio(robot):
     assert compare_with_pinocchio(robot_file(robot), backend="c") < 1e-9
+
+
+# ------------------------------------------------------- used by simulate
+def test_stiff_methods_get_the_exact_jacobian_by_default(monkeypatch):
+    """Radau, BDF and LSODA are given ``jac``: the derivatives, not n_states
+    evaluations of the right-hand side per Jacobian; the same run as with
+    solve_ivp's differences."""
+    definition = kd.models.build("four-bar")
+    model = definition.numeric(backend="numpy")
+    y0 = definition.initial(model)
+    calls = {"rhs": 0}
+    rhs = model.rhs
+
+    def counting(t, y):
+        calls["rhs"] += 1
+        return rhs(t, y)
+    monkeypatch.setattr(model, "rhs", counting)
+    for method in ("Radau", "BDF", "LSODA"):
+        calls["rhs"] = 0
+        exact = kd.simulate(model, (0.0, 1.0), y0, method=method)
+        with_exact = calls["rhs"]
+        calls["rhs"] = 0
+        differenced = kd.simulate(model, (0.0, 1.0), y0, method=method, jac="differences")
+        assert exact.success and differenced.success
+        np.testing.assert_allclose(exact.y[:, -1], differenced.y[:, -1], atol=1e-6)
+        if method != "LSODA":  # LSODA differences inside its Fortran, unseen here
+            assert exact.njev >= 1 and exact.njev == differenced.njev
+            assert calls["rhs"] - with_exact >= model.n_states * differenced.njev
+
+
+def test_an_input_that_follows_the_state_is_in_the_jacobian():
+    """A feedback force F = -k_p q - k_d u on the cart: the integrators'
+    Jacobian is the total derivative, the input's part by differences."""
+    from kanedyn.numerics import state_jacobian
+    definition = kd.models.build("n-link-pendulum-on-cart")
+    eom = definition.derive()
+    F = eom.specified[0]
+    model = definition.numeric(eom, specified={F: lambda t, y: -40.0 * y[0] - 8.0 * y[4]},
+                               backend="numpy")
+    y = a_state(definition, model, seed=7)
+    total = state_jacobian(model)(0.0, y)
+    assert relative(total, differences(lambda z: model.rhs(0.0, z), y)) < 1e-7
+    assert relative(model.jacobians(0.0, y).state, total) > 1e-3  # the input held fixed
+
+
+def test_jac_options():
+    contact = kd.models.build("bouncing-ball")
+    model = contact.numeric(backend="numpy")
+    with pytest.raises(kd.OptionError, match="jac='exact': exact derivatives of a model "
+                                             "with contacts"):
+        kd.simulate(model, (0.0, 0.1), contact.initial(model), method="Radau", jac="exact")
+    pendulum = kd.models.build("pendulum")
+    model = pendulum.numeric(backend="numpy")
+    with pytest.raises(kd.OptionError, match="jac must be 'exact', 'differences'"):
+        kd.simulate(model, (0.0, 0.1), pendulum.initial(model), method="Radau", jac="exakt")
+    res = kd.simulate(model, (0.0, 0.1), pendulum.initial(model), method="Radau",
+                      jac=lambda t, y: np.array([[0.0, 1.0], [-9.81, 0.0]]))
+    assert res.success

@@ -41,6 +41,8 @@ _LAZY = {
     'inverse_parts': '._inverse_parts',
     'Jacobians': '._jacobians',
     'EXACT_SCHEMES': '._jacobians',
+    'derivatives_unavailable': '._jacobians',
+    'state_jacobian': '._jacobians',
     'power_balance': '._inverse_parts',
     'linearize_numeric': '._linearize',
     'linearize_symbolic': '._linearize',

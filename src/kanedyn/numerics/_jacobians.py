@@ -46,7 +46,8 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES"]
+__all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
+           "state_jacobian"]
 
 #: the constraint schemes whose accelerations are the exact index-1 ones
 EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
@@ -160,17 +161,55 @@ def _functions(model, parameters):
 
 
 # ----------------------------------------------------------------- numbers
-def _check_scheme(model):
-    name = model.scheme.name
+def derivatives_unavailable(model):
+    """Why ``model`` has no exact derivatives (text), or ``None``."""
+    name = getattr(getattr(model, "scheme", None), "name", None)
     if model.n_u_dep and name not in EXACT_SCHEMES:
-        raise ModelError(
-            f"exact derivatives are generated for the constraint schemes "
-            f"{', '.join(EXACT_SCHEMES)}; this model's scheme {name!r} adds stabilization "
-            "terms whose derivatives are not generated: build the model with "
-            "scheme='elimination' (or another of those) for its derivatives")
+        return (f"exact derivatives are generated for the constraint schemes "
+                f"{', '.join(EXACT_SCHEMES)}; this model's scheme {name!r} adds "
+                "stabilization terms whose derivatives are not generated: build the model "
+                "with scheme='elimination' (or another of those) for its derivatives")
     if model.contacts:
-        raise ModelError("exact derivatives of a model with contacts are not generated "
-                         "yet (its right-hand side depends on the contact mode)")
+        return ("exact derivatives of a model with contacts are not generated yet (its "
+                "right-hand side depends on the contact mode)")
+    if getattr(model, "_eom", None) is None or not hasattr(model, "_functions"):
+        return ("the derivatives need the model's equations, which a model restored from "
+                "a file does not carry; build the model with eom.numeric(...) in this "
+                "process")
+    return None
+
+
+def _check_scheme(model):
+    reason = derivatives_unavailable(model)
+    if reason:
+        raise ModelError(reason)
+
+
+def state_jacobian(model):
+    r"""``jac(t, y)``: the total :math:`\partial f/\partial y` of ``model.rhs``
+    for an integrator, the inputs that are functions of the state included
+    (their own derivatives by central differences, as the integrators would
+    have differenced the whole right-hand side)."""
+    _check_scheme(model)
+    fns = _functions(model, False)
+    following = [k for k, (_, inp) in enumerate(model._inputs) if inp.arity == 2]
+
+    def jac(t, y):
+        y = np.asarray(y, dtype=float)
+        (_, ((state, _), (inputs, _))) = _at_point(model, fns, t, y, None)
+        if following:
+            columns = []
+            for j in range(y.size):
+                h = 1e-7 * max(1.0, abs(y[j]))
+                up, down = y.copy(), y.copy()
+                up[j] += h
+                down[j] -= h
+                columns.append([(model._inputs[k][1](t, up) - model._inputs[k][1](t, down))
+                                / (2 * h) for k in following])
+            state = state + inputs[:, following] @ np.array(columns).T
+        return state
+
+    return jac
 
 
 def _at_point(model, fns, t, y, r):

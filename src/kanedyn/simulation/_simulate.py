@@ -17,7 +17,8 @@ import numbers
 
 import numpy as np
 
-from ..numerics import DEFAULT_THRESHOLD, SingularityMonitor, diagnose
+from ..numerics import (DEFAULT_THRESHOLD, SingularityMonitor, derivatives_unavailable,
+                        diagnose, state_jacobian)
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from .._signals import end_by_signal_if_uncaught
@@ -131,7 +132,12 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     **options
         Passed on to ``solve_ivp``: ``max_step``, ``first_step``, ``min_step``,
         ``jac``, ``jac_sparsity``, ``vectorized``, ``lband``, ``uband`` (other
-        names are refused, with the closest known ones).  For
+        names are refused, with the closest known ones).  ``jac`` is by
+        default ``"exact"``: Radau, BDF and LSODA get the model's exact
+        Jacobian (:meth:`NumericModel.jacobians`; inputs that are functions of
+        the state differenced) where the model has one;
+        ``jac="differences"`` leaves them to solve_ivp's differences; a
+        matrix or a function ``jac(t, y)`` is passed on.  For
         models with contacts also ``modes`` (initial mode per contact;
         default: found from the state), ``stabilization`` (Baumgarte
         frequency of the contact constraints, rad/s, default 10) and
@@ -171,6 +177,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     timeout = check_timeout(timeout)
     _check_option_names(options, bool(model.contacts))
     _check_step_options(options, t0, t1)
+    options = _with_jacobian(model, method, options)
     if not (isinstance(method, str) and method in COMPILED_METHODS):
         solver_class(method)  # refuse unknown methods before any work
     progress = as_progress(progress)
@@ -442,6 +449,32 @@ def _check_option_names(options, has_contacts):
         close = difflib.get_close_matches(name, sorted(known | keywords), n=2)
         hint = f"; did you mean {' or '.join(map(repr, close))}?" if close else ""
         raise OptionError(f"unknown option {name!r} of simulate{hint}")
+
+
+#: the methods of solve_ivp that use the Jacobian of the right-hand side
+_JACOBIAN_METHODS = ("Radau", "BDF", "LSODA")
+
+
+def _with_jacobian(model, method, options):
+    """``options`` with ``jac`` the model's exact Jacobian where the method uses
+    one (``jac="exact"``, the default where the model has exact derivatives) or
+    without it (``jac="differences"``: solve_ivp's own differences)."""
+    asked = "jac" in options
+    jac = options.get("jac", "exact")
+    if not isinstance(jac, str):
+        return options  # the user's matrix or function, to solve_ivp
+    if jac not in ("exact", "differences"):
+        raise OptionError(f"jac must be 'exact', 'differences', a matrix or a function "
+                          f"jac(t, y), not {jac!r}")
+    options = {k: v for k, v in options.items() if k != "jac"}
+    if jac == "differences" or method not in _JACOBIAN_METHODS:
+        return options
+    reason = derivatives_unavailable(model)
+    if reason is None:
+        options["jac"] = state_jacobian(model)
+    elif asked:
+        raise OptionError(f"jac='exact': {reason}")
+    return options
 
 
 def _check_step_options(options, t0, t1):
