@@ -599,10 +599,10 @@ def oc3_static_offsets(options):
 def oc3_settle(definition, model, y0=None, tol=1e-10):
     """Static equilibrium of the numeric model: the coordinates where all accelerations vanish.
 
-    Newton-type root finding (SciPy's ``root``, hybrid method) on
-    :math:`\\dot u(q, u = 0, t = 0) = 0` from ``y0`` (default: the
-    definition's initial state), for every coordinate except surge, sway and
-    yaw without mooring (nothing restores them; they keep their values).
+    :func:`kanedyn.equilibrium` (Newton's method on the exact derivatives)
+    from ``y0`` (default: the definition's initial state) with the speeds at
+    zero, every coordinate solved for except surge, sway and yaw without
+    mooring (nothing restores them; they keep their values).
 
     Returns
     -------
@@ -612,26 +612,16 @@ def oc3_settle(definition, model, y0=None, tol=1e-10):
     Raises
     ------
     ModelError
-        When the root finder does not converge.
+        When Newton's method does not converge.
     """
-    from scipy.optimize import root
-    y0 = definition.initial(model) if y0 is None else np.array(y0, float)
-    n = model.n_q
-    free = list(range(n))
+    from ..numerics import equilibrium
+    y = definition.initial(model) if y0 is None else np.array(y0, float)
+    y[model.n_q:] = 0.0
+    names = model.state_names
+    hold = [names[i] for i in range(model.n_q, model.n_states)]
     if definition.symbols["options"]["mooring"] == "none":
-        free = [i for i in free if i not in (0, 1, 5)]  # surge, sway, yaw: no stiffness
-
-    def residual(qf):
-        y = y0.copy()
-        y[free] = qf
-        y[n:] = 0.0
-        return model.rhs(0.0, y)[n:][free]
-
-    scale = np.ones(len(free))
-    sol = root(residual, y0[free], method="hybr", tol=tol, options={"diag": scale})
-    if not sol.success:
-        raise ModelError(f"oc3-spar: static equilibrium not found: {sol.message}")
-    y = y0.copy()
-    y[free] = sol.x
-    y[n:] = 0.0
-    return y
+        hold += [names[i] for i in (0, 1, 5)]  # surge, sway, yaw: no stiffness
+    found = equilibrium(model, y, hold=hold, tol=tol)
+    if not found.converged:
+        raise ModelError(f"oc3-spar: static equilibrium not found: {found.message}")
+    return found.y

@@ -10,6 +10,7 @@
 ``_inverse``             inverse dynamics: the generalized forces for given rates
 ``_jacobians``           exact derivatives of the right-hand side (state, inputs,
                          constants), generated from the equations' program
+``_equilibrium``         static equilibria and steady motions (Newton on them)
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_diagnosis``           why a derivative is not finite, in the model's names
@@ -42,6 +43,8 @@ _LAZY = {
     'Jacobians': '._jacobians',
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',
+    'Equilibrium': '._equilibrium',
+    'equilibrium': '._equilibrium',
     'state_jacobian': '._jacobians',
     'power_balance': '._inverse_parts',
     'linearize_numeric': '._linearize',

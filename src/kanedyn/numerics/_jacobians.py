@@ -47,7 +47,7 @@ import numpy as np
 from .._errors import ModelError
 
 __all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
-           "state_jacobian"]
+           "state_jacobian", "through_inputs"]
 
 #: the constraint schemes whose accelerations are the exact index-1 ones
 EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
@@ -78,6 +78,10 @@ class Jacobians:
         (:meth:`NumericModel.multipliers`), shapes (m, n_states), (m,
         n_inputs), (m, n_constants); ``None`` without dependent speeds (or
         parameters not asked for).
+    constraints : ndarray, shape (n_q_dep + n_u_dep, n_states)
+        :math:`\partial[h; c]/\partial y` of the constraint residuals
+        (:meth:`NumericModel.constraint_residuals`: configuration, then
+        velocity constraints).
     state_names, input_names, parameter_names, multiplier_names : tuple of str
     """
 
@@ -88,6 +92,7 @@ class Jacobians:
     multipliers: np.ndarray | None
     multipliers_inputs: np.ndarray | None
     multipliers_parameters: np.ndarray | None
+    constraints: np.ndarray
     state_names: tuple
     input_names: tuple
     parameter_names: tuple
@@ -100,7 +105,8 @@ def _specification(model, parameters):
 
     Arguments ``(t, y, p, r)`` with ``r`` = the model's inputs, then ``w``
     (:math:`\\dot u`) and ``mu`` (:math:`\\lambda`); outputs
-    ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``).
+    ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``), then ``h_y, c_y``
+    (the configuration and velocity constraints).
     """
     import sympy as sm
 
@@ -125,6 +131,10 @@ def _specification(model, parameters):
         for rows in (qdot, E, a):
             jac = prog.jacobian(rows, variables, guarded=True)
             outputs.append(((len(rows), len(variables)), list(jac)))
+    _, constraints = model._functions["constraints"]
+    for rows in (constraints[0][1], constraints[3][1]):  # h(q), c(q, u)
+        jac = prog.jacobian(rows, args["y"], guarded=True)
+        outputs.append(((len(rows), len(args["y"])), list(jac)))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
 
 
@@ -135,10 +145,6 @@ def _functions(model, parameters):
     found = model.__dict__.get("_" + key)
     if found is not None:
         return found
-    if getattr(model, "_eom", None) is None:
-        raise ModelError("the derivatives need the model's equations, which a model "
-                         "restored from a file does not carry; build the model with "
-                         "eom.numeric(...) in this process")
     prog, args, outputs = _specification(model, parameters)
     if model._data["backend"] == "c":
         from .backends._c import fingerprint, generate_c_units, load_module
@@ -163,6 +169,8 @@ def _functions(model, parameters):
 # ----------------------------------------------------------------- numbers
 def derivatives_unavailable(model):
     """Why ``model`` has no exact derivatives (text), or ``None``."""
+    if not hasattr(model, "jacobians"):
+        return f"a {type(model).__name__} has no exact derivatives"
     name = getattr(getattr(model, "scheme", None), "name", None)
     if model.n_u_dep and name not in EXACT_SCHEMES:
         return (f"exact derivatives are generated for the constraint schemes "
@@ -185,29 +193,36 @@ def _check_scheme(model):
         raise ModelError(reason)
 
 
+def through_inputs(model, t, y, inputs):
+    """The part of the total :math:`\\partial f/\\partial y` that comes through the
+    inputs that are functions of the state: ``inputs`` (:math:`\\partial
+    f/\\partial r`) times their own derivatives, by central differences (a
+    user's function); zero where no input follows the state."""
+    following = [k for k, (_, inp) in enumerate(model._inputs) if inp.arity == 2]
+    if not following:
+        return 0.0
+    columns = []
+    for j in range(y.size):
+        h = 1e-7 * max(1.0, abs(y[j]))
+        up, down = y.copy(), y.copy()
+        up[j] += h
+        down[j] -= h
+        columns.append([(model._inputs[k][1](t, up) - model._inputs[k][1](t, down)) / (2 * h)
+                        for k in following])
+    return inputs[:, following] @ np.array(columns).T
+
+
 def state_jacobian(model):
     r"""``jac(t, y)``: the total :math:`\partial f/\partial y` of ``model.rhs``
     for an integrator, the inputs that are functions of the state included
-    (their own derivatives by central differences, as the integrators would
-    have differenced the whole right-hand side)."""
+    (:func:`through_inputs`)."""
     _check_scheme(model)
     fns = _functions(model, False)
-    following = [k for k, (_, inp) in enumerate(model._inputs) if inp.arity == 2]
 
     def jac(t, y):
         y = np.asarray(y, dtype=float)
-        (_, ((state, _), (inputs, _))) = _at_point(model, fns, t, y, None)
-        if following:
-            columns = []
-            for j in range(y.size):
-                h = 1e-7 * max(1.0, abs(y[j]))
-                up, down = y.copy(), y.copy()
-                up[j] += h
-                down[j] -= h
-                columns.append([(model._inputs[k][1](t, up) - model._inputs[k][1](t, down))
-                                / (2 * h) for k in following])
-            state = state + inputs[:, following] @ np.array(columns).T
-        return state
+        _, ((state, _), (inputs, _)), _ = _at_point(model, fns, t, y, None)
+        return state + through_inputs(model, t, y, inputs)
 
     return jac
 
@@ -221,7 +236,7 @@ def _at_point(model, fns, t, y, r):
     qd, mass, force, vel_B, acc_K, _ = terms
     udot = model.scheme.accelerations(model, t, y, terms)
     lam = np.linalg.lstsq(vel_B.T, mass @ udot - force, rcond=None)[0] if m else []
-    blocks = derivatives(t, y, model._p, rt + list(udot) + list(lam))
+    *blocks, h_y, c_y = derivatives(t, y, model._p, rt + list(udot) + list(lam))
     if m:
         S = np.block([[mass, -vel_B.T], [acc_K, np.zeros((m, m))]])
     out = []
@@ -234,7 +249,7 @@ def _at_point(model, fns, t, y, r):
             du = np.linalg.solve(mass, -E_x) if E_x.shape[1] else np.zeros((o, 0))
             dlam = None
         out.append((np.vstack([g_x.reshape(n, -1), du]), dlam))
-    return np.concatenate([qd, udot]), out
+    return np.concatenate([qd, udot]), out, np.vstack([h_y, c_y])
 
 
 def jacobians(model, t, y, r=None, parameters=False):
@@ -273,6 +288,7 @@ def jacobians(model, t, y, r=None, parameters=False):
         multipliers=stack(lambda p: p[1][0][1]) if m else None,
         multipliers_inputs=stack(lambda p: p[1][1][1]) if m else None,
         multipliers_parameters=stack(lambda p: p[1][2][1]) if m and parameters else None,
+        constraints=stack(lambda p: p[2]),
         state_names=tuple(model.state_names), input_names=tuple(model.input_names),
         parameter_names=tuple(model.constants), multiplier_names=tuple(
             model.multiplier_names or ()))
