@@ -46,6 +46,7 @@ _LAZY = {
     'Equilibrium': '._equilibrium',
     'equilibrium': '._equilibrium',
     'state_jacobian': '._jacobians',
+    'through_inputs': '._jacobians',
     'power_balance': '._inverse_parts',
     'linearize_numeric': '._linearize',
     'linearize_symbolic': '._linearize',

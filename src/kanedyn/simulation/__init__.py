@@ -11,6 +11,8 @@
 ``_index3``      the fixed-step integrator of the index-3 augmented Lagrangian
 ``_results``     ``SimulationResult``
 ``_sweep``       ``sweep``: many runs over a parameter grid or samples, on Dask
+``_sensitivity`` ``sensitivity``: a run with the derivatives of its states with
+                 respect to the initial state and the constants
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes
@@ -30,6 +32,8 @@ _LAZY = {
     "SweepInterrupted": "._sweep",
     "SWEEP_OUTPUTS": "._sweep",
     "check_scheduler": "._sweep",
+    "sensitivity": "._sensitivity",
+    "Sensitivity": "._sensitivity",
 }
 
 __all__ = list(_LAZY)
