@@ -41,7 +41,8 @@ from .backends._python import compile_python, generate_python
 from .._errors import ConstraintError
 from ..engine import name_of
 
-__all__ = ["linearize_numeric", "linearize_symbolic", "linearization_terms"]
+__all__ = ["linearize_numeric", "linearize_symbolic", "linearization_terms",
+           "linearize_compiled"]
 
 
 class _Terms:
@@ -302,6 +303,56 @@ def linearize_numeric(model, y, t=0.0, r=None, udot=None, implicit=False):
     names = [name_of(s) for s in terms.inputs_ext]
     out = _assemble(v, _dims(eom, terms), _NumpyAlgebra, _names(eom), implicit=implicit)
     return (*out, names)
+
+
+def linearize_compiled(model, y, t=0.0, r=None):
+    r"""``(A, B, r)`` of :func:`linearize_numeric` from :meth:`NumericModel.jacobians`
+    (the model's backend, C where it has one), or ``None`` where that does
+    not apply (no exact derivatives, or inputs that are derivatives).
+
+    :math:`A = F P`: the rows of the independent states of the full-state
+    derivative :math:`\partial f/\partial y`, times the variations of all
+    states that keep the constraints, :math:`\delta y = P\,\delta x_i`
+    (from :math:`\partial h/\partial q` and :math:`\partial c/\partial (q, u)`).
+    """
+    from ._jacobians import derivatives_unavailable
+    eom = getattr(model, "_eom", None)
+    if derivatives_unavailable(model) or eom is None:
+        return None
+    table = eom._table
+    if any(isinstance(table.external(s), sm.Derivative) for s, _ in model._inputs):
+        return None
+    y = model._check_y(y)
+    res = model.constraint_residuals(t, y)
+    if res.size and np.max(np.abs(res)) > 1e-8:
+        raise ConstraintError(
+            "the operating point does not satisfy the constraints (largest residual "
+            f"{np.max(np.abs(res)):.3g}); use model.consistent_state(t, y) first")
+    if r is not None:
+        r = np.atleast_1d(np.asarray(r, dtype=float))
+        if r.size != len(model._inputs):
+            raise ValueError(f"r must have {len(model._inputs)} entries "
+                             f"({', '.join(model.input_names)})")
+    J = model.jacobians(t, y, r=r)
+    n, l, o, m = model.n_q, model.n_q_dep, model.n_u, model.n_u_dep
+    ni, p = n - l, o - m
+    names = _names(eom)
+    h_q, c_y = J.constraints[:l, :n], J.constraints[l:]
+    P_q = np.eye(n)[:, :ni]
+    if l:
+        _check_rank(h_q[:, ni:], l, "configuration constraints", names["q_dep"],
+                    _NumpyAlgebra)
+        P_q = np.vstack([np.eye(ni), -np.linalg.solve(h_q[:, ni:], h_q[:, :ni])])
+    P_u, P_uq = np.eye(o), np.zeros((o, ni))
+    if m:
+        c_u = c_y[:, n:]
+        _check_rank(c_u[:, p:], m, "velocity constraints", names["u_dep"], _NumpyAlgebra)
+        P_u = np.vstack([np.eye(p), -np.linalg.solve(c_u[:, p:], c_u[:, :p])])
+        P_uq = np.vstack([np.zeros((p, ni)), -np.linalg.solve(c_u[:, p:], c_y[:, :n] @ P_q)])
+    P = np.block([[P_q, np.zeros((n, p))], [P_uq, P_u]])
+    rows = list(range(ni)) + list(range(n, n + p))
+    return (J.state[rows] @ P, J.inputs[rows],
+            [name_of(table.external(s)) for s, _ in model._inputs])
 
 
 def _given_accelerations(udot, acc_K, acc_f, o, m, eom):

@@ -1235,9 +1235,17 @@ class NumericModel(StateLayout):
         See Also
         --------
         kanedyn.EquationsOfMotion.linearize : symbolic, or SymPy's forms.
+
+        Notes
+        -----
+        Computed from :meth:`jacobians` (the model's backend, C where it has
+        one) where the model has exact derivatives and no input that is a
+        derivative; otherwise from the linearization's own generated
+        Jacobians (NumPy).  Both are exact; they agree to round-off.
         """
-        from ._linearize import linearize_numeric
-        return linearize_numeric(self, y, t=t, r=r)
+        from ._linearize import linearize_compiled, linearize_numeric
+        found = linearize_compiled(self, y, t=t, r=r)
+        return found if found is not None else linearize_numeric(self, y, t=t, r=r)
 
 
 def _contact_outputs(terms, o, sub):
