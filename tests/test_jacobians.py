@@ -248,7 +248,9 @@ def robot_file(relative_path):
 @pytest.mark.slow
 @needs_compiler
 @pytest.mark.parametrize("robot", ["ur_description/urdf/ur5_robot.urdf",
-                                   "panda_description/urdf/panda.urdf"])
+                                   "panda_description/urdf/panda.urdf",
+                                   "solo_description/robots/solo12.urdf",
+                                   "talos_data/robots/talos_left_arm.urdf"])
 def test_real_robots_match_pinocchio(robot):
     assert compare_with_pinocchio(robot_file(robot), backend="c") < 1e-9
 
