@@ -331,3 +331,21 @@ def test_linearize_through_the_derivatives_agrees_with_its_own_jacobians(name):
     assert relative(A, A0) < 1e-12
     if B.size:
         assert relative(B, B0) < 1e-12
+
+
+def test_larger_models_get_the_exact_jacobian_once_it_is_built():
+    """Above EXACT_JACOBIAN_STATES states the first build costs seconds to
+    minutes: a run does not start it unasked; once built (jac="exact", or
+    model.jacobians), later runs use it."""
+    from kanedyn.numerics import derivatives_built
+    from kanedyn.simulation._simulate import EXACT_JACOBIAN_STATES
+    definition = kd.models.build("chain3d", n=11)
+    model = definition.numeric(backend="numpy")
+    assert model.n_states > EXACT_JACOBIAN_STATES
+    y0 = definition.initial(model)
+    kd.simulate(model, (0.0, 0.05), y0, method="Radau")
+    assert not derivatives_built(model)
+    asked = kd.simulate(model, (0.0, 0.05), y0, method="Radau", jac="exact")
+    assert derivatives_built(model)
+    again = kd.simulate(model, (0.0, 0.05), y0, method="Radau")
+    np.testing.assert_array_equal(asked.y, again.y)

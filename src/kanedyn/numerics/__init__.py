@@ -43,6 +43,7 @@ _LAZY = {
     'Jacobians': '._jacobians',
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',
+    'derivatives_built': '._jacobians',
     'Equilibrium': '._equilibrium',
     'equilibrium': '._equilibrium',
     'state_jacobian': '._jacobians',

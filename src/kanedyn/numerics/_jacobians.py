@@ -47,7 +47,8 @@ import numpy as np
 from .._errors import ModelError
 
 __all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
-           "state_jacobian", "through_inputs"]
+           "state_jacobian", "through_inputs",
+           "derivatives_built"]
 
 #: the constraint schemes whose accelerations are the exact index-1 ones
 EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
@@ -138,32 +139,47 @@ def _specification(model, parameters):
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
 
 
+#: changes when the generated derivatives change (part of the C cache key)
+_GENERATION = "jacobians 1"
+
+
 def _functions(model, parameters):
     """``(dynamics, jacobians)``: the generated functions, made on first use and
-    kept by the model (one pair with, one without the parameter columns)."""
+    kept by the model (one pair with, one without the parameter columns).
+
+    The C module's cache key is that of the model's own functions and this
+    generation: a module in the cache is loaded without differentiating
+    anything (the derivatives of chain3d at n = 30 take 11 s to form)."""
     key = "jacobians_p" if parameters else "jacobians"
     found = model.__dict__.get("_" + key)
     if found is not None:
         return found
-    prog, args, outputs = _specification(model, parameters)
     if model._data["backend"] == "c":
         from .backends._c import fingerprint, generate_c_units, load_module
-        functions = dict(model._functions, jacobians=(args, outputs))
-        functions.pop("tree", None)  # M is needed: the module with every function
+        functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
         sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
         table = model._eom._table
-        module = load_module(
-            fingerprint(prog, functions, sizes, model._cse, lanes=False),
-            lambda: generate_c_units(prog, functions, sizes,
-                                     describe=lambda e: str(table.external(e)),
-                                     cse=model._cse, lanes=False))
+
+        def units():
+            prog, args, outputs = _specification(model, parameters)
+            return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
+                                    describe=lambda e: str(table.external(e)),
+                                    cse=model._cse, lanes=False)
+        text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
+        module = load_module(f"{text}\n{_GENERATION} parameters={parameters}", units)
         found = (module.dynamics, module.jacobians)
     else:
         from .backends._python import compile_python, generate_python
+        prog, args, outputs = _specification(model, parameters)
         source = generate_python(prog, key, args, outputs, cse=True)
         found = (model._fn["dynamics"], compile_python(source, key))
     model.__dict__["_" + key] = found
     return found
+
+
+def derivatives_built(model):
+    """Whether ``model`` has made its derivative functions (in this process)."""
+    return "_jacobians" in model.__dict__
 
 
 # ----------------------------------------------------------------- numbers
