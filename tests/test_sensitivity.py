@@ -4,27 +4,21 @@ against a closed form and differences of whole runs."""
 import numpy as np
 import pytest
 import sympy as sm
-import sympy.physics.mechanics as me
 
 import kanedyn as kd
 
 
-def oscillator():
-    q, u = me.dynamicsymbols("q u")
+@pytest.fixture()
+def oscillator(line_particle):
+    """A mass m = 2 kg on a spring k = 50 N/m."""
     m, k = sm.symbols("m k")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", q * N.x)
-    P.set_vel(N, u * N.x)
-    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
-                  bodies=[me.Particle("p", P, m)], loads=[(P, -k * q * N.x)])
+    eom, _, _ = line_particle(m, force=lambda q, u: -k * q)
     return eom.numeric(constants={m: 2.0, k: 50.0}, backend="numpy")
 
 
-def test_an_oscillator_against_its_closed_form():
+def test_an_oscillator_against_its_closed_form(oscillator):
     """x = x0 cos(w t) + v0 sin(w t) / w, w = sqrt(k / m)."""
-    model = oscillator()
+    model = oscillator
     x0, v0, m, k = 0.3, -1.2, 2.0, 50.0
     w = np.sqrt(k / m)
     t = np.linspace(0.0, 3.0, 7)
@@ -67,8 +61,8 @@ def test_a_chain_against_differences_of_whole_runs():
         np.testing.assert_allclose(s.parameters[-1][:, k], column, rtol=1e-5, atol=1e-6)
 
 
-def test_bad_requests():
-    model = oscillator()
+def test_bad_requests(oscillator):
+    model = oscillator
     with pytest.raises(kd.OptionError, match="'c' is not a constant of this model; its "
                                              "constants are k, m"):
         kd.sensitivity(model, (0.0, 1.0), [0.1, 0.0], parameters=["c"])

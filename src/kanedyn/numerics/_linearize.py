@@ -271,12 +271,7 @@ def linearize_numeric(model, y, t=0.0, r=None, udot=None, implicit=False):
     if fn is None:
         fn = _compile_terms(model, eom, terms)
         model._linearization_fn = fn
-    y = model._check_y(y)
-    res = model.constraint_residuals(t, y)
-    if res.size and np.max(np.abs(res)) > 1e-8:
-        raise ConstraintError(
-            "the operating point does not satisfy the constraints (largest residual "
-            f"{np.max(np.abs(res)):.3g}); use model.consistent_state(t, y) first")
+    y = _operating_point(model, t, y)
     o, m = model.n_u, model.n_u_dep
     rt = list(model._r(t, y))
     if r is not None:
@@ -322,12 +317,7 @@ def linearize_compiled(model, y, t=0.0, r=None):
     table = eom._table
     if any(isinstance(table.external(s), sm.Derivative) for s, _ in model._inputs):
         return None
-    y = model._check_y(y)
-    res = model.constraint_residuals(t, y)
-    if res.size and np.max(np.abs(res)) > 1e-8:
-        raise ConstraintError(
-            "the operating point does not satisfy the constraints (largest residual "
-            f"{np.max(np.abs(res)):.3g}); use model.consistent_state(t, y) first")
+    y = _operating_point(model, t, y)
     if r is not None:
         r = np.atleast_1d(np.asarray(r, dtype=float))
         if r.size != len(model._inputs):
@@ -353,6 +343,17 @@ def linearize_compiled(model, y, t=0.0, r=None):
     rows = list(range(ni)) + list(range(n, n + p))
     return (J.state[rows] @ P, J.inputs[rows],
             [name_of(table.external(s)) for s, _ in model._inputs])
+
+
+def _operating_point(model, t, y):
+    """``y`` as an array, refused where it does not satisfy the constraints."""
+    y = model._check_y(y)
+    res = model.constraint_residuals(t, y)
+    if res.size and np.max(np.abs(res)) > 1e-8:
+        raise ConstraintError(
+            "the operating point does not satisfy the constraints (largest residual "
+            f"{np.max(np.abs(res)):.3g}); use model.consistent_state(t, y) first")
+    return y
 
 
 def _given_accelerations(udot, acc_K, acc_f, o, m, eom):
