@@ -177,9 +177,14 @@ def _functions(model, parameters):
     return found
 
 
+def _built(model):
+    """The derivative functions ``model`` has made (in this process), or ``None``."""
+    return model.__dict__.get("_jacobians") or model.__dict__.get("_jacobians_p")
+
+
 def derivatives_built(model):
     """Whether ``model`` has made its derivative functions (in this process)."""
-    return "_jacobians" in model.__dict__
+    return _built(model) is not None
 
 
 # ----------------------------------------------------------------- numbers
@@ -203,7 +208,7 @@ def derivatives_unavailable(model):
     return None
 
 
-def _check_scheme(model):
+def _check_available(model):
     reason = derivatives_unavailable(model)
     if reason:
         raise ModelError(reason)
@@ -232,12 +237,12 @@ def state_jacobian(model):
     r"""``jac(t, y)``: the total :math:`\partial f/\partial y` of ``model.rhs``
     for an integrator, the inputs that are functions of the state included
     (:func:`through_inputs`)."""
-    _check_scheme(model)
-    fns = _functions(model, False)
+    _check_available(model)
+    fns = _built(model) or _functions(model, False)
 
     def jac(t, y):
         y = np.asarray(y, dtype=float)
-        _, ((state, _), (inputs, _)), _ = _at_point(model, fns, t, y, None)
+        _, ((state, _), (inputs, _), *_), _ = _at_point(model, fns, t, y, None)
         return state + through_inputs(model, t, y, inputs)
 
     return jac
@@ -273,7 +278,7 @@ def jacobians(model, t, y, r=None, parameters=False):
 
     See :meth:`NumericModel.jacobians`.
     """
-    _check_scheme(model)
+    _check_available(model)
     fns = _functions(model, parameters)
     Y = np.asarray(y, dtype=float)
     many = Y.ndim == 2
