@@ -116,16 +116,19 @@ def main():
     print("\n| chain3d n | operations of the derivative code | first rhs, s | "
           "first jacobians, s | jacobians / rhs |")
     print("|---|---|---|---|---|")
-    ops = []
+    ops, builds = [], []
     byte_compile_package()
     for n in sizes:
         count = operations(n)
         ops.append(count)
         rhs, jac = first_use(n)
+        builds.append(jac)
         print(f"| {n} | {count} | {rhs:.2f} | {jac:.2f} | {jac / rhs:.2f} |")
     if len(sizes) > 1:
-        slope = np.polyfit(np.log(sizes), np.log(ops), 1)[0]
-        print(f"\ngrowth of the derivative code: operations ~ n^{slope:.2f}")
+        for what, values in (("operations of the derivative code", ops),
+                             ("first jacobians call", builds)):
+            slope = np.polyfit(np.log(sizes), np.log(values), 1)[0]
+            print(f"\ngrowth of the {what}: ~ n^{slope:.2f}")
 
 
 if __name__ == "__main__":
