@@ -132,3 +132,28 @@ def test_bad_requests():
         kd.equilibrium(model, y, hold="phi")
     with pytest.raises(kd.ModelError, match="nothing to solve for"):
         kd.equilibrium(model, y, hold=["theta", "w_psi", "w_theta"], moving="psi")
+
+
+@pytest.mark.slow
+def test_the_floating_turbine_offset_by_rated_thrust():
+    """OC3 spar, linear mooring, wind at 11.4 m/s (the rotor parked in its
+    thrust curve: 794 kN): the mean offset balances the thrust along the tilted
+    shaft against the published mooring stiffness in surge (to 1e-3: the
+    mooring measures the pitch by its sine), and is a state the model does not
+    leave."""
+    import math
+
+    import kanedyn.models._oc3_data as D
+    from kanedyn.models import oc3_settle, oc3_spar
+    from kanedyn.models._oc3_spar import mooring_stiffness_matrix
+    definition = oc3_spar(tower_modes=0, mooring="linear", drag=False, wind_speed=11.4)
+    model = definition.numeric(definition.derive())
+    y = oc3_settle(definition, model)
+    surge, pitch = y[model.index("surge")], y[model.index("pitch")]
+    assert 20.0 < surge < 30.0 and 0.05 < pitch < 0.15  # m and rad downwind
+    thrust = kd.offshore.NREL5MW_THRUST(11.4)
+    along = thrust * math.cos(math.radians(D.ROTOR["shaft_tilt"].value) + pitch)
+    held = mooring_stiffness_matrix()[0] @ y[:6]
+    assert abs(held - along) < 1e-3 * thrust
+    res = kd.simulate(model, (0.0, 20.0), y, rtol=1e-10, atol=1e-10)
+    assert np.max(np.abs(res.y[model.n_q:])) < 1e-6
