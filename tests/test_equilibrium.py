@@ -157,3 +157,25 @@ def test_the_floating_turbine_offset_by_rated_thrust():
     assert abs(held - along) < 1e-3 * thrust
     res = kd.simulate(model, (0.0, 20.0), y, rtol=1e-10, atol=1e-10)
     assert np.max(np.abs(res.y[model.n_q:])) < 1e-6
+
+
+# ------------------------------------------------------------ the command line
+def test_the_command_line(capsys):
+    """kanedyn equilibrium: the state and the eigenvalues (the bicycle's
+    published four at 5 m/s), exit 0; no equilibrium: exit 1, said; a state
+    that is not one: exit 2, one line."""
+    from kanedyn.cli import main
+    argv = ["equilibrium", "whipple-bicycle", "--hold", "u6", "--set", "u6=-16.66666666667",
+            "--set", "q4=0.05", "--backend", "numpy", "--quiet"]
+    for q in ("q1", "q2", "q3", "q6", "q8"):
+        argv += ["--moving", q]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    assert "whipple-bicycle: converged in" in out and "stable" in out
+    assert "-14.0784" in out and "4.46487" in out and "-0.322866" in out
+    assert main(["equilibrium", "pendulum", "--hold", "u", "--set", "u=1", "--quiet",
+                 "--backend", "numpy"]) == 1
+    assert "pendulum: NOT converged" in capsys.readouterr().out
+    assert main(["equilibrium", "pendulum", "--hold", "w", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err == ("kanedyn: error: --hold w: not a state of pendulum; states: q, u\n")

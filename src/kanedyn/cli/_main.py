@@ -22,12 +22,13 @@ import sys
 from .._errors import KanedynError
 from .._signals import end_by, exit_status, interruption, last_received, taking_over
 from .._version import __version__
-from . import _compare, _demo, _derive, _inverse, _list, _run, _study, _sweep
+from . import (_compare, _demo, _derive, _equilibrium, _inverse, _list, _run, _study,
+               _sweep)
 from ._streams import guarded
 
 __all__ = ["main"]
 
-COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study)
+COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study, _equilibrium)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -54,7 +54,8 @@ class Equilibrium:
     frequencies : ndarray, shape (n,)
         :math:`|\mathrm{Im}\,\lambda| / 2\pi`, Hz.
     damping_ratios : ndarray, shape (n,)
-        :math:`-\mathrm{Re}\,\lambda / |\lambda|` (nan for :math:`\lambda = 0`).
+        :math:`-\mathrm{Re}\,\lambda / |\lambda|` (nan for :math:`\lambda = 0`,
+        that is below :math:`10^{-10}` times the largest magnitude).
     stable : bool
         No eigenvalue has a real part above :math:`10^{-8}` times the largest
         magnitude (eigenvalues at zero, of moving coordinates and held
@@ -190,9 +191,9 @@ def equilibrium(model, y0, hold=(), moving=(), t=0.0, r=None, tol=1e-10,
         eigenvalues = np.full(model.n_q_ind + model.n_u_ind, np.nan + 0j)
     eigenvalues = eigenvalues[np.lexsort((eigenvalues.imag, eigenvalues.real))]
     magnitude = np.abs(eigenvalues)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        damping = np.where(magnitude > 0, -eigenvalues.real / magnitude, np.nan)
     scale = float(np.max(magnitude)) if converged and magnitude.size else 0.0
+    with np.errstate(invalid="ignore", divide="ignore"):  # no ratio for round-off zeros
+        damping = np.where(magnitude > 1e-10 * scale, -eigenvalues.real / magnitude, np.nan)
     stable = bool(converged and np.all(eigenvalues.real <= 1e-8 * max(scale, 1e-300)))
     return Equilibrium(y=y, converged=converged, iterations=iterations, residual=size,
                        message=message, eigenvalues=eigenvalues,
