@@ -140,7 +140,7 @@ def _specification(model, parameters):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 1"
+_GENERATION = "jacobians 2"
 
 
 def _functions(model, parameters):
@@ -167,12 +167,13 @@ def _functions(model, parameters):
                                     cse=model._cse, lanes=False)
         text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
         module = load_module(f"{text}\n{_GENERATION} parameters={parameters}", units)
-        found = (module.dynamics, module.jacobians)
+        found = (module.dynamics, module.jacobians, module.dynamics_rows,
+                 module.jacobians_rows)
     else:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
         source = generate_python(prog, key, args, outputs, cse=True)
-        found = (model._fn["dynamics"], compile_python(source, key))
+        found = (model._fn["dynamics"], compile_python(source, key), None, None)
     model.__dict__["_" + key] = found
     return found
 
@@ -250,7 +251,7 @@ def state_jacobian(model):
 
 def _at_point(model, fns, t, y, r):
     """The blocks of :class:`Jacobians` at one state."""
-    dynamics, derivatives = fns
+    dynamics, derivatives = fns[:2]
     n, o, m = model.n_q, model.n_u, model.n_u_dep
     rt = list(model._r(t, y)) if r is None else list(r)
     terms = dynamics(t, y, model._p, rt)
@@ -273,6 +274,42 @@ def _at_point(model, fns, t, y, r):
     return np.concatenate([qd, udot]), out, np.vstack([h_y, c_y])
 
 
+def _at_states(model, fns, T, Y, R):
+    """:func:`_at_point` of many states: the C functions of every row at once
+    and the linear algebra stacked (the accelerations and multipliers from the
+    index-1 system, which every exact scheme solves)."""
+    _, _, dynamics_rows, derivative_rows = fns
+    N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
+    if R is None:
+        R = np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
+    Y = np.ascontiguousarray(Y, dtype=float)
+    qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(np.ascontiguousarray(T), Y,
+                                                         model._p, R)
+    if m:
+        S = np.zeros((N, o + m, o + m))
+        S[:, :o, :o], S[:, :o, o:], S[:, o:, :o] = mass, -np.swapaxes(vel_B, 1, 2), acc_K
+        solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
+        udot, lam = solved[:, :o], solved[:, o:]
+    else:
+        S = mass
+        udot, lam = np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((N, 0))
+    *blocks, h_y, c_y = derivative_rows(np.ascontiguousarray(T), Y, model._p,
+                                        np.hstack([R, udot, lam]))
+    groups = []
+    for g_x, E_x, a_x in zip(blocks[0::3], blocks[1::3], blocks[2::3]):
+        width = E_x.shape[2]
+        if width:
+            solved = np.linalg.solve(S, -np.concatenate([E_x, a_x], axis=1))
+        else:
+            solved = np.zeros((N, o + m, 0))
+        groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),
+                       solved[:, o:] if m else None))
+    f = np.hstack([qd, udot])
+    constraints = np.concatenate([h_y, c_y], axis=1)
+    return [(f[i], [(d[i], None if dl is None else dl[i]) for d, dl in groups], constraints[i])
+            for i in range(N)]
+
+
 def jacobians(model, t, y, r=None, parameters=False):
     r"""Exact :math:`\partial f/\partial(y, r, p)` of ``model.rhs`` at ``y``.
 
@@ -292,8 +329,11 @@ def jacobians(model, t, y, r=None, parameters=False):
             raise ValueError(f"r must have {len(model.input_names)} entries "
                              f"({', '.join(model.input_names) or 'the model has no inputs'})")
         R = np.broadcast_to(r, (len(rows), r.shape[-1]))
-    points = [_at_point(model, fns, T[i], rows[i], None if r is None else R[i])
-              for i in range(len(rows))]
+    if many and fns[2] is not None:  # C: every state in one call of each function
+        points = _at_states(model, fns, T, rows, None if r is None else R)
+    else:
+        points = [_at_point(model, fns, T[i], rows[i], None if r is None else R[i])
+                  for i in range(len(rows))]
 
     def stack(pick):
         values = [pick(p) for p in points]

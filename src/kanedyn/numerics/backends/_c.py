@@ -792,8 +792,11 @@ def _runtime_parts(functions, sizes, lanes):
     if lanes:
         model_declarations.append(_c_lanes.SIGNATURE + ";")
     # inverse dynamics of a trajectory: the function and the constraint terms at
-    # every point in one call each
+    # every point in one call each; so the derivatives of many states and the
+    # dynamics they start from
     rows = ("inverse", "constraints") if "inverse" in functions else ()
+    if "jacobians" in functions:
+        rows += ("jacobians", "dynamics")
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, _function_table(functions, rows),
             _c_runtime.MODULE_FOOTER]
     model = _RuntimePart(defines, model_declarations, body, not lanes, True)
