@@ -654,8 +654,11 @@ def total_derivative(expr, derivative_of, guarded=False):
 
     ``derivative_of(symbol)`` gives :math:`ds` for every free symbol (``0``
     for constants).  Common node types are differentiated directly; others
-    fall back to SymPy's ``diff``.  ``guarded``: the derivatives of fractional
-    powers below 1 are :class:`kd_dpow` (0 where their base's derivative is).
+    fall back to SymPy's ``diff``.  ``guarded`` (numerical derivatives): the
+    derivatives of fractional powers below 1 and of powers with a parameter as
+    exponent are :class:`kd_dpow` (0 where their base's derivative is, with no
+    division by the base), and those of two-argument ``Max`` and ``Min`` are
+    taken branch by branch, so that no singular factor is left unguarded.
     """
     if expr.is_Symbol:
         return derivative_of(expr)

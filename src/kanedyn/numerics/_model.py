@@ -887,6 +887,13 @@ class NumericModel(StateLayout):
             and the derivatives of the multipliers where the model has
             dependent speeds; with a first axis of length N for many states.
 
+        Raises
+        ------
+        ModelError
+            For a model with contacts, a constraint scheme with stabilization
+            terms (Baumgarte, penalty, augmented Lagrangian) or a model restored
+            from a file, naming which.
+
         Examples
         --------
         >>> import kanedyn as kd
