@@ -371,3 +371,21 @@ def test_animate_pendulum(tmp_path, monkeypatch):
     np.testing.assert_allclose(trace[:, :2], 0.8 * np.column_stack([np.sin(q), -np.cos(q)]),
                                atol=2e-6)
     assert out["q_end"] == pytest.approx(q[-1])
+
+
+# ------------------------------------------------------------ bicycle stability
+def test_bicycle_stability(tmp_path, monkeypatch):
+    """Against Meijaard, Papadopoulos, Ruina and Schwab (2007): the weave and
+    capsize speeds and the four eigenvalues at 5 m/s (the values in
+    ../shared/REFERENCES.md); the steady motion found from a leaning guess is
+    upright."""
+    out, _ = run_example("bicycle_stability", [], tmp_path, monkeypatch)
+    assert abs(out["weave"] - 4.29238253634111) < 1e-8
+    assert abs(out["capsize"] - 6.02426201538837) < 1e-8
+    published = np.array([-14.07838969279820, -0.77534188219585 - 4.46486771378823j,
+                          -0.77534188219585 + 4.46486771378823j, -0.32286642900409])
+    assert np.max(np.abs(out["at_5"] - published)) < 1e-9
+    first = out["first"]
+    assert first.converged and first.stable
+    assert np.max(np.abs(first.y[[3, 5]])) < 1e-12  # lean q4 and steer q7
+    assert out["eigenvalues"].shape == (101, 4)
