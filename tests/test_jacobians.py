@@ -7,6 +7,7 @@ real robots, and SymPy's linearization of the same equations.
 """
 
 from importlib.metadata import PackageNotFoundError, distribution
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -354,3 +355,35 @@ def test_larger_models_get_the_exact_jacobian_once_it_is_built():
     assert derivatives_built(model)
     again = kd.simulate(model, (0.0, 0.05), y0, method="Radau")
     np.testing.assert_array_equal(asked.y, again.y)
+
+
+_RADAU_RUN = """
+import sys, kanedyn as kd
+from kanedyn.numerics import derivatives_built
+definition = kd.models.build("four-bar")
+model = definition.numeric(backend="c")
+kd.simulate(model, (0.0, 0.05), definition.initial(model), method="Radau",
+            **({{"jac": "exact"}} if sys.argv[1] == "exact" else {{}}))
+print(derivatives_built(model))
+"""
+
+
+@needs_compiler
+def test_a_c_model_never_waits_for_a_compilation_it_did_not_ask_for(tmp_path):
+    """A stiff run on C uses the exact Jacobian when its module is in the compile
+    cache (made by an earlier jac="exact"), and otherwise differences rather
+    than compile it; in fresh processes sharing a cache."""
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=str(Path(kd.__file__).resolve().parents[1]))
+
+    def run(how):
+        done = subprocess.run([sys.executable, "-c", _RADAU_RUN.format(), how], env=env,
+                              capture_output=True, text=True, timeout=600)
+        assert done.returncode == 0, done.stderr[-2000:]
+        return done.stdout.split()[-1]
+    assert run("default") == "False"  # not built, and not compiled for the run
+    assert run("exact") == "True"
+    assert run("default") == "True"  # from the cache

@@ -155,9 +155,8 @@ def _functions(model, parameters):
     if found is not None:
         return found
     if model._data["backend"] == "c":
-        from .backends._c import fingerprint, generate_c_units, load_module
-        functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
-        sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
+        from .backends._c import generate_c_units, load_module
+        text, functions, sizes = _c_key(model, parameters)
         table = model._eom._table
 
         def units():
@@ -165,10 +164,7 @@ def _functions(model, parameters):
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
-        text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
-        module = load_module(f"{text}\n{_GENERATION} parameters={parameters}", units)
-        found = (module.dynamics, module.jacobians, module.dynamics_rows,
-                 module.jacobians_rows)
+        found = _entry_points(load_module(text, units))
     else:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
@@ -178,14 +174,38 @@ def _functions(model, parameters):
     return found
 
 
+def _c_key(model, parameters):
+    """``(cache key text, functions, sizes)`` of a C model's derivative module:
+    the model's own functions (M included) and this generation."""
+    from .backends._c import fingerprint
+    functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
+    sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
+    text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
+    return f"{text}\n{_GENERATION} parameters={parameters}", functions, sizes
+
+
+def _entry_points(module):
+    return module.dynamics, module.jacobians, module.dynamics_rows, module.jacobians_rows
+
+
 def _built(model):
     """The derivative functions ``model`` has made (in this process), or ``None``."""
     return model.__dict__.get("_jacobians") or model.__dict__.get("_jacobians_p")
 
 
 def derivatives_built(model):
-    """Whether ``model`` has made its derivative functions (in this process)."""
-    return _built(model) is not None
+    """Whether ``model`` has its derivative functions at no cost of building them:
+    made in this process, or (C) in the compile cache, then loaded."""
+    if _built(model) is not None:
+        return True
+    if model._data["backend"] != "c" or derivatives_unavailable(model):
+        return False
+    from .backends._c_build import cached_module
+    module = cached_module(_c_key(model, False)[0])
+    if module is None:
+        return False
+    model.__dict__["_jacobians"] = _entry_points(module)
+    return True
 
 
 # ----------------------------------------------------------------- numbers

@@ -135,11 +135,12 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         names are refused, with the closest known ones).  ``jac="exact"``:
         Radau, BDF and LSODA get the model's exact Jacobian
         (:meth:`NumericModel.jacobians`; inputs that are functions of the
-        state differenced), the default for models of up to
-        ``EXACT_JACOBIAN_STATES`` (20) states and for those whose derivatives
-        are built; ``jac="differences"`` (otherwise the default) leaves them to
-        solve_ivp's differences; a matrix or a function ``jac(t, y)`` is passed
-        on.  For
+        state differenced), the default for NumPy models of up to
+        ``EXACT_JACOBIAN_STATES`` (20) states and for models whose derivatives
+        are built (or, on C, compiled and in the cache: a run never waits for
+        a compilation it did not ask for); ``jac="differences"`` (otherwise
+        the default) leaves them to solve_ivp's differences; a matrix or a
+        function ``jac(t, y)`` is passed on.  For
         models with contacts also ``modes`` (initial mode per contact;
         default: found from the state), ``stabilization`` (Baumgarte
         frequency of the contact constraints, rad/s, default 10) and
@@ -456,9 +457,10 @@ def _check_option_names(options, has_contacts):
 #: the methods of solve_ivp that use the Jacobian of the right-hand side
 _JACOBIAN_METHODS = ("Radau", "BDF", "LSODA")
 
-#: models of up to this many states get the exact Jacobian without asking (its
-#: first build grows fast with size: chain3d at 20 states 3-5 s, at 60 states
-#: 23 s on NumPy and 51 s on C), larger ones once their derivatives are built
+#: NumPy models of up to this many states get the exact Jacobian without asking
+#: (its first build grows fast with size: chain3d at 20 states 3 s, at 60 states
+#: 23 s); larger ones, and C models (a compilation: 5 s at 20 states, 51 s at
+#: 60), once their derivatives are built or in the compile cache
 EXACT_JACOBIAN_STATES = 20
 
 
@@ -482,7 +484,8 @@ def _with_jacobian(model, method, options):
         if asked:
             raise OptionError(f"jac='exact': {reason}")
         return options
-    if asked or model.n_states <= EXACT_JACOBIAN_STATES or derivatives_built(model):
+    small = model.n_states <= EXACT_JACOBIAN_STATES and model.backend == "numpy"
+    if asked or small or derivatives_built(model):
         options["jac"] = state_jacobian(model)
     return options
 

@@ -262,6 +262,17 @@ def load_module(key_text, make_template, timeout=600, quick=False):
     return module
 
 
+def cached_module(key_text):
+    """The module of ``key_text`` (as for :func:`load_module`) where this process
+    has it or the cache holds it (loaded read only), else ``None``: nothing is
+    built."""
+    command = compiler_command()
+    if command is None:
+        return None
+    key = _build_key(key_text, command)
+    return _LOADED.get(key) or _cached_meanwhile(key)
+
+
 def _entry(directory, name):
     """``(module file, manifest)`` of the cache entry of the module ``name``."""
     suffix = sysconfig.get_config_var("EXT_SUFFIX") or ".so"
