@@ -295,9 +295,10 @@ def _at_point(model, fns, t, y, r):
 
 
 def _at_states(model, fns, T, Y, R):
-    """:func:`_at_point` of many states: the C functions of every row at once
-    and the linear algebra stacked (the accelerations and multipliers from the
-    index-1 system, which every exact scheme solves)."""
+    """:func:`_at_point` of many states, each array with a first axis of length N:
+    the C functions of every row at once and the linear algebra stacked (the
+    accelerations and multipliers from the index-1 system, which every exact
+    scheme solves)."""
     _, _, dynamics_rows, derivative_rows = fns
     N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
     if R is None:
@@ -324,10 +325,18 @@ def _at_states(model, fns, T, Y, R):
             solved = np.zeros((N, o + m, 0))
         groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),
                        solved[:, o:] if m else None))
-    f = np.hstack([qd, udot])
-    constraints = np.concatenate([h_y, c_y], axis=1)
-    return [(f[i], [(d[i], None if dl is None else dl[i]) for d, dl in groups], constraints[i])
-            for i in range(N)]
+    return np.hstack([qd, udot]), groups, np.concatenate([h_y, c_y], axis=1)
+
+
+def _stacked(points):
+    """The results of :func:`_at_point` at many states as those of :func:`_at_states`."""
+    f, groups, constraints = zip(*points)
+    columns = []
+    for k in range(len(groups[0])):
+        d = np.stack([g[k][0] for g in groups])
+        dl = None if groups[0][k][1] is None else np.stack([g[k][1] for g in groups])
+        columns.append((d, dl))
+    return np.stack(f), columns, np.stack(constraints)
 
 
 def jacobians(model, t, y, r=None, parameters=False):
@@ -350,26 +359,22 @@ def jacobians(model, t, y, r=None, parameters=False):
                              f"({', '.join(model.input_names) or 'the model has no inputs'})")
         R = np.broadcast_to(r, (len(rows), r.shape[-1]))
     if many and fns[2] is not None:  # C: every state in one call of each function
-        points = _at_states(model, fns, T, rows, None if r is None else R)
+        f, groups, constraints = _at_states(model, fns, T, rows, None if r is None else R)
     else:
         points = [_at_point(model, fns, T[i], rows[i], None if r is None else R[i])
                   for i in range(len(rows))]
-
-    def stack(pick):
-        values = [pick(p) for p in points]
-        if values[0] is None:
-            return None
-        return np.stack(values) if many else values[0]
-
+        if many:
+            f, groups, constraints = _stacked(points)
+        else:
+            f, groups, constraints = points[0]
     m = model.n_u_dep
     return Jacobians(
-        f=stack(lambda p: p[0]),
-        state=stack(lambda p: p[1][0][0]), inputs=stack(lambda p: p[1][1][0]),
-        parameters=stack(lambda p: p[1][2][0]) if parameters else None,
-        multipliers=stack(lambda p: p[1][0][1]) if m else None,
-        multipliers_inputs=stack(lambda p: p[1][1][1]) if m else None,
-        multipliers_parameters=stack(lambda p: p[1][2][1]) if m and parameters else None,
-        constraints=stack(lambda p: p[2]),
+        f=f, state=groups[0][0], inputs=groups[1][0],
+        parameters=groups[2][0] if parameters else None,
+        multipliers=groups[0][1] if m else None,
+        multipliers_inputs=groups[1][1] if m else None,
+        multipliers_parameters=groups[2][1] if m and parameters else None,
+        constraints=constraints,
         state_names=tuple(model.state_names), input_names=tuple(model.input_names),
         parameter_names=tuple(model.constants), multiplier_names=tuple(
             model.multiplier_names or ()))
