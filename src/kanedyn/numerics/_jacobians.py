@@ -263,80 +263,66 @@ def state_jacobian(model):
 
     def jac(t, y):
         y = np.asarray(y, dtype=float)
-        _, ((state, _), (inputs, _), *_), _ = _at_point(model, fns, t, y, None)
-        return state + through_inputs(model, t, y, inputs)
+        _, ((state, _), (inputs, _), *_), _ = _evaluate(model, fns, [t], y[None, :], None)
+        return state[0] + through_inputs(model, t, y, inputs[0])
 
     return jac
 
 
-def _at_point(model, fns, t, y, r):
-    """The blocks of :class:`Jacobians` at one state."""
-    dynamics, derivatives = fns[:2]
-    n, o, m = model.n_q, model.n_u, model.n_u_dep
-    rt = list(model._r(t, y)) if r is None else list(r)
-    terms = dynamics(t, y, model._p, rt)
-    qd, mass, force, vel_B, acc_K, _ = terms
-    udot = model.scheme.accelerations(model, t, y, terms)
-    lam = np.linalg.lstsq(vel_B.T, mass @ udot - force, rcond=None)[0] if m else []
-    *blocks, h_y, c_y = derivatives(t, y, model._p, rt + list(udot) + list(lam))
-    if m:
-        S = np.block([[mass, -vel_B.T], [acc_K, np.zeros((m, m))]])
-    out = []
-    for g_x, E_x, a_x in zip(blocks[0::3], blocks[1::3], blocks[2::3]):
-        if m:
-            solved = np.linalg.solve(S, -np.vstack([E_x, a_x])) if E_x.shape[1] else \
-                np.zeros((o + m, 0))
-            du, dlam = solved[:o], solved[o:]
-        else:
-            du = np.linalg.solve(mass, -E_x) if E_x.shape[1] else np.zeros((o, 0))
-            dlam = None
-        out.append((np.vstack([g_x.reshape(n, -1), du]), dlam))
-    return np.concatenate([qd, udot]), out, np.vstack([h_y, c_y])
+def _evaluate(model, fns, T, Y, R):
+    """``(f, groups, constraints)`` at the states ``Y`` (N, n_states), each array
+    with a first axis of length N: ``groups`` holds ``(d f/d x, d lambda/d x)``
+    per column group (state, inputs, constants).
 
-
-def _at_states(model, fns, T, Y, R):
-    """:func:`_at_point` of many states, each array with a first axis of length N:
-    the C functions of every row at once and the linear algebra stacked (the
-    accelerations and multipliers from the index-1 system, which every exact
-    scheme solves)."""
-    _, _, dynamics_rows, derivative_rows = fns
+    The accelerations are those of ``model.rhs`` (the scheme's), the
+    multipliers those of :meth:`NumericModel.multipliers`; on C, for many
+    states, both from the index-1 system that every exact scheme solves, and
+    every state in one call of each generated function.  The derivatives then
+    solve the stacked index-1 systems.
+    """
+    dynamics, derivatives, dynamics_rows, derivative_rows = fns
     N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
     if R is None:
         R = np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
-    Y = np.ascontiguousarray(Y, dtype=float)
-    qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(np.ascontiguousarray(T), Y,
-                                                         model._p, R)
-    if m:
-        S = np.zeros((N, o + m, o + m))
-        S[:, :o, :o], S[:, :o, o:], S[:, o:, :o] = mass, -np.swapaxes(vel_B, 1, 2), acc_K
+    if dynamics_rows is not None and N > 1:
+        T, Y = np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(Y, dtype=float)
+        qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(T, Y, model._p, R)
+        S = _index1_matrices(mass, vel_B, acc_K)
         solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
         udot, lam = solved[:, :o], solved[:, o:]
+        *blocks, h_y, c_y = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
     else:
-        S = mass
-        udot, lam = np.linalg.solve(mass, force[..., None])[..., 0], np.zeros((N, 0))
-    *blocks, h_y, c_y = derivative_rows(np.ascontiguousarray(T), Y, model._p,
-                                        np.hstack([R, udot, lam]))
+        at = []
+        for t, y, r in zip(T, Y, R):
+            terms = dynamics(t, y, model._p, list(r))
+            udot = model.scheme.accelerations(model, t, y, terms)
+            lam = (np.linalg.lstsq(terms[3].T, terms[1] @ udot - terms[2], rcond=None)[0]
+                   if m else np.zeros(0))
+            at.append((terms, udot, lam,
+                       derivatives(t, y, model._p, list(r) + list(udot) + list(lam))))
+        qd, mass, _, vel_B, acc_K, _ = (np.stack(part) for part in zip(*(a[0] for a in at)))
+        udot = np.stack([a[1] for a in at])
+        *blocks, h_y, c_y = (np.stack(part) for part in zip(*(a[3] for a in at)))
+        S = _index1_matrices(mass, vel_B, acc_K)
     groups = []
     for g_x, E_x, a_x in zip(blocks[0::3], blocks[1::3], blocks[2::3]):
-        width = E_x.shape[2]
-        if width:
-            solved = np.linalg.solve(S, -np.concatenate([E_x, a_x], axis=1))
-        else:
-            solved = np.zeros((N, o + m, 0))
+        solved = (np.linalg.solve(S, -np.concatenate([E_x, a_x], axis=1)) if E_x.shape[2]
+                  else np.zeros((N, o + m, 0)))
         groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),
                        solved[:, o:] if m else None))
     return np.hstack([qd, udot]), groups, np.concatenate([h_y, c_y], axis=1)
 
 
-def _stacked(points):
-    """The results of :func:`_at_point` at many states as those of :func:`_at_states`."""
-    f, groups, constraints = zip(*points)
-    columns = []
-    for k in range(len(groups[0])):
-        d = np.stack([g[k][0] for g in groups])
-        dl = None if groups[0][k][1] is None else np.stack([g[k][1] for g in groups])
-        columns.append((d, dl))
-    return np.stack(f), columns, np.stack(constraints)
+def _index1_matrices(mass, vel_B, acc_K):
+    """``[[M, -B^T], [K, 0]]`` of each state (stacked), or ``M`` without
+    dependent speeds."""
+    N, o = mass.shape[:2]
+    m = vel_B.shape[1]
+    if not m:
+        return mass
+    S = np.zeros((N, o + m, o + m))
+    S[:, :o, :o], S[:, :o, o:], S[:, o:, :o] = mass, -np.swapaxes(vel_B, 1, 2), acc_K
+    return S
 
 
 def jacobians(model, t, y, r=None, parameters=False):
@@ -358,15 +344,10 @@ def jacobians(model, t, y, r=None, parameters=False):
             raise ValueError(f"r must have {len(model.input_names)} entries "
                              f"({', '.join(model.input_names) or 'the model has no inputs'})")
         R = np.broadcast_to(r, (len(rows), r.shape[-1]))
-    if many and fns[2] is not None:  # C: every state in one call of each function
-        f, groups, constraints = _at_states(model, fns, T, rows, None if r is None else R)
-    else:
-        points = [_at_point(model, fns, T[i], rows[i], None if r is None else R[i])
-                  for i in range(len(rows))]
-        if many:
-            f, groups, constraints = _stacked(points)
-        else:
-            f, groups, constraints = points[0]
+    f, groups, constraints = _evaluate(model, fns, T, rows, None if r is None else R)
+    if not many:
+        f, constraints = f[0], constraints[0]
+        groups = [(d[0], None if dl is None else dl[0]) for d, dl in groups]
     m = model.n_u_dep
     return Jacobians(
         f=f, state=groups[0][0], inputs=groups[1][0],
