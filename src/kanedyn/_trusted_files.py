@@ -53,7 +53,7 @@ from pathlib import Path
 from ._errors import KanedynError
 
 __all__ = ["UntrustedFile", "trusted_directory", "untrusted_entry", "open_trusted",
-           "private_directory", "descriptor_path", "PRIVATE_FILE"]
+           "open_entry", "private_directory", "descriptor_path", "PRIVATE_FILE"]
 
 #: mode of the files kanedyn writes into its cache (directories: 0o700)
 PRIVATE_FILE = 0o600
@@ -175,6 +175,22 @@ def open_trusted(path):
     except BaseException:
         os.close(handle)
         raise
+
+
+def open_entry(path):
+    """``(handle, problem)`` of the cache file ``path`` in a trusted folder: the
+    file opened as :func:`open_trusted` does and ``None``; ``(None, why)``
+    where it or its folder may not be trusted; ``(None, None)`` where it
+    cannot be opened (missing)."""
+    try:
+        problem = untrusted_entry(path.parent)
+        if problem is None:
+            return open_trusted(path), None
+    except UntrustedFile as exc:
+        problem = str(exc)
+    except OSError:
+        return None, None
+    return None, problem
 
 
 def descriptor_path(handle):

@@ -77,7 +77,7 @@ from .._errors import KanedynError
 from .._output_files import replacing
 from .._version import __version__
 from . import _saved_schema as schema
-from ._saved_sympy import (ASSUMPTIONS, SINGLETONS, Refused, build_expression, described,
+from ._saved_sympy import (ASSUMPTIONS, SINGLETONS, Refused, described,
                            expression_rules)
 
 __all__ = ["SavedFileError", "save_equations", "load", "save_data", "load_data", "FORMAT",
@@ -730,12 +730,16 @@ class _Decoder:
 
     def _expr(self, index, name, refs):
         name = self._text(name)
-        if name not in expression_rules():
+        rule = expression_rules().get(name)
+        if rule is None:
             self.fail(index, f"the SymPy class {name[:40]!r} is not allowed")
 
+        def build(args):
+            rule.check(args)
+            return rule.build(rule.cls, args)
+
         def finish(args):
-            return self._intern(("expr", name, *map(id, args)),
-                                lambda: build_expression(name, args))
+            return self._intern(("expr", name, *map(id, args)), lambda: build(args))
         return _NO_SHELL, self._refs(index, refs), finish
 
     def _matrix(self, index, kind, rows, cols, refs):

@@ -29,7 +29,7 @@ from __future__ import annotations
 
 import functools
 
-__all__ = ["ASSUMPTIONS", "SINGLETONS", "Refused", "expression_rules", "build_expression",
+__all__ = ["ASSUMPTIONS", "SINGLETONS", "Refused", "expression_rules",
            "described"]
 
 #: SymPy's singletons a file may name (``S.<name>``)
@@ -71,12 +71,10 @@ class _Rule:
 
     __slots__ = ("cls", "kinds", "rest", "low", "high", "build", "distinct")
 
-    def __init__(self, cls, kinds, build, rest=None, low=None, high=None, distinct=False):
+    def __init__(self, cls, kinds, build, rest=None, low=None, distinct=False):
         self.cls, self.kinds, self.rest, self.build = cls, kinds, rest, build
         self.low = len(kinds) if low is None else low
-        self.high = high if rest is None else None
-        if rest is None and high is None:
-            self.high = len(kinds)
+        self.high = None if rest is not None else len(kinds)
         self.distinct = distinct
 
     def check(self, args):
@@ -157,14 +155,3 @@ def expression_rules():
     add((sm.Tuple,), (), lambda cls, args: sm.Tuple(*args), rest=basic, low=0)
     add((sm.Derivative,), (expr,), stored, rest=count, low=2)
     return rules
-
-
-def build_expression(name, args):
-    """The expression of class ``name`` on ``args`` (SymPy objects already
-    rebuilt), exactly as stored; :class:`Refused` when the class is not
-    allowed or the arguments do not fit it."""
-    rule = expression_rules().get(name)
-    if rule is None:
-        raise Refused(f"the SymPy class {name!r} is not allowed")
-    rule.check(args)
-    return rule.build(rule.cls, args)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -304,23 +305,13 @@ def _load_entry(path):
     (:mod:`kanedyn._trusted_files`; else a :class:`~kanedyn.io.SavedFileError`
     naming the owner and mode: nothing another user wrote is decoded), read
     from the descriptor it was checked on."""
-    from .._trusted_files import UntrustedFile, open_trusted, untrusted_entry
+    from .._trusted_files import open_entry
     from ..io import SavedFileError, load_data
-    opened = None
-    try:
-        problem = untrusted_entry(path.parent)
-        if problem is None:
-            opened = open_trusted(path)
-    except UntrustedFile as exc:
-        problem = str(exc)
-    except OSError:  # missing: load_data says so
-        problem = None
+    opened, problem = open_entry(path)  # missing: load_data says so
     if problem is not None:
         raise SavedFileError(f"{problem}: not read (the cache reads only files of this "
                              "user or root that no one else can write)")
-    if opened is None:
-        return load_data(path, format=CACHE_FORMAT)
-    with opened:
+    with opened or contextlib.nullcontext():
         return load_data(path, format=CACHE_FORMAT, opened=opened)
 
 

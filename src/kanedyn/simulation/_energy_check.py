@@ -58,6 +58,7 @@ its error estimate grows with it, and the check is correspondingly weaker.
 
 from __future__ import annotations
 
+import bisect
 import warnings
 from dataclasses import dataclass
 
@@ -230,8 +231,9 @@ class WorkTracker:
         (its power's coefficients kept for the times before ``t``)."""
         work = beta = gamma = 0.0
         if self.t:
-            work = float(self._work_at(np.array([t]))[0])
-            keep = int(np.searchsorted(np.sign(h) * np.array(self.t), np.sign(h) * t))
+            work = self._work_at(t)
+            direction = float(np.sign(h))
+            keep = bisect.bisect_left(self.t, direction * t, key=lambda v: direction * v)
             if keep < len(self.t):
                 beta, gamma = self.beta[keep], self.gamma[keep]
             for record in self._records():
@@ -242,16 +244,18 @@ class WorkTracker:
         for record, value in zip(self._records(), (t, work, p, e, v, beta, gamma)):
             record.append(value)
 
-    def _work_at(self, times):
-        t, w, p, beta, gamma = (np.array(v) for v in (self.t, self.w, self.p, self.beta,
-                                                       self.gamma))
-        times = np.asarray(times, dtype=float)
-        if t.size < 2:
-            return np.full(times.shape, w[0])
+    def _work_at(self, time):
+        """The work done up to ``time``, from the power polynomial of the panel that
+        holds it (the records searched, not copied: a restart costs O(log n))."""
+        t = self.t
+        if len(t) < 2:
+            return float(self.w[0])
         sign = 1.0 if t[-1] >= t[0] else -1.0
-        k = np.clip(np.searchsorted(sign * t, sign * times, side="right") - 1, 0, t.size - 2)
-        s = times - t[k]
-        return w[k] + s * (p[k] + s * (beta[k + 1] / 2 + s * gamma[k + 1] / 3))
+        k = bisect.bisect_right(t, sign * time, key=lambda v: sign * v) - 1
+        k = min(max(k, 0), len(t) - 2)
+        s = time - t[k]
+        return float(self.w[k] + s * (self.p[k] + s * (self.beta[k + 1] / 2
+                                                        + s * self.gamma[k + 1] / 3)))
 
     def history(self):
         """The run's :class:`Balance` (its open panel ended at the last step),
@@ -351,7 +355,7 @@ def balance_ratios(energy, potential, work, error, flow):
 
 def _advice(method):
     """What to do about it, for ``method`` (a name, perhaps with " (compiled)")."""
-    name = (method or "").split()[0] if isinstance(method, str) else ""
+    name = method.split()[0] if isinstance(method, str) and method.strip() else ""
     if name in _EXPLICIT:
         return (f": the explicit method {name} did not resolve the dynamics (a stiff "
                 "system?); use method='Radau' or 'BDF' (or 'Rosenbrock23' on a C model), "

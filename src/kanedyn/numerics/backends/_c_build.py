@@ -62,8 +62,9 @@ import numpy as np
 
 from ..._errors import KanedynError
 from ..._fork import FileLock, after_fork_in_child, remove_at_exit, spawn
-from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, open_trusted,
-                               private_directory, trusted_directory, untrusted_entry)
+from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, open_entry,
+                               open_trusted, private_directory, trusted_directory,
+                               untrusted_entry)
 from ._c_quick import compile_quick, optimize_later, quick_command
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
@@ -566,14 +567,10 @@ def _try_cached(name, so_path, manifest, repair=True):
     try:
         with open_trusted(manifest) as handle:
             recorded = json.loads(handle.read())["sha256"]
-        handle = open_trusted(so_path)
-        try:
+        with open_trusted(so_path) as handle:  # the file checked, loaded through its descriptor
             if recorded != _checksum(handle):
                 raise ValueError("checksum mismatch")
-        except BaseException:
-            handle.close()
-            raise
-        return _load(name, so_path, handle)  # the file checked, through its descriptor
+            return _load(name, so_path, handle)
     except Exception as exc:  # noqa: BLE001  corrupt or stale entry: rebuild it
         if isinstance(exc, UntrustedFile):
             _refuse(str(exc), repair)
@@ -757,19 +754,12 @@ def _cached_object(cached):
     file, which a linker accepts as an empty script; any other damage fails the
     link, and the units are then compiled), and it and its folder this user's
     or root's and writable by no one else (else reported, and ``None``)."""
-    try:
-        problem = untrusted_entry(cached.parent)
-        if problem is None:
-            handle = open_trusted(cached)
-            if os.fstat(handle.fileno()).st_size > 0:
-                return handle
-            handle.close()
-            return None
-    except UntrustedFile as exc:
-        problem = str(exc)
-    except OSError:
-        return None
-    _refuse(problem, removed=False)
+    handle, problem = open_entry(cached)
+    if problem is not None:
+        _refuse(problem, removed=False)
+    if handle is None or os.fstat(handle.fileno()).st_size > 0:
+        return handle
+    handle.close()
     return None
 
 
