@@ -10,14 +10,19 @@ LSODA where the model has exact derivatives) against ``jac="differences"``
 - the spin-up beam and the flexible robot (built-in flexible models);
 - the OC3 spar (built-in, its catenary mooring).
 
+With ``--loop``, the same runs in the compiled integration loop (C backend,
+``method="Rosenbrock23"``, which evaluates a Jacobian at every step): the
+derivative module's exact Jacobian against the loop's forward differences.
+
 Measured: CPU time of the run (process time, the minimum of ``--rounds``
 interleaved rounds), the right-hand-side evaluations (counted by wrapping
-``model.rhs``, solve_ivp's ``nfev`` leaves out those of its differences), the
-Jacobians evaluated, and the largest difference between the two end states.
+``model.rhs``, solve_ivp's ``nfev`` leaves out those of its differences; the
+compiled loop counts its own), the Jacobians evaluated, and the largest
+difference between the two end states.
 
 Usage::
 
-    python benchmarks/bench_stiff_jacobians.py [--rounds 3] [--backend numpy]
+    python benchmarks/bench_stiff_jacobians.py [--rounds 3] [--backend numpy] [--loop]
 """
 
 from __future__ import annotations
@@ -65,15 +70,20 @@ def spring_chain(n=30, stiffness=1e6, damping=10.0, backend="numpy"):
     return model, np.zeros(2 * n)
 
 
-def cases(backend):
+def cases(backend, loop=False):
+    """``(title, model, y0, method, t_end)`` of each run (``loop``: every run
+    with the compiled Rosenbrock23 loop)."""
     model, y0 = spring_chain(backend=backend)
-    yield "spring chain n = 30, BDF, 1 s", model, y0, "BDF", 1.0
+    runs = [("spring chain n = 30", model, y0, "BDF", 1.0)]
     for name, method, t_end in [("spin-up-beam", "Radau", 5.0),
                                 ("flexible-robot", "BDF", 1.0),
                                 ("oc3-spar", "BDF", 60.0)]:
         definition = kd.models.build(name)
         model = definition.numeric(backend=backend)
-        yield f"{name}, {method}, {t_end:g} s", model, definition.initial(model), method, t_end
+        runs.append((name, model, definition.initial(model), method, t_end))
+    for name, model, y0, method, t_end in runs:
+        method = "Rosenbrock23" if loop else method
+        yield f"{name}, {method}, {t_end:g} s", model, y0, method, t_end
 
 
 class Counted:
@@ -100,19 +110,23 @@ def run(model, y0, method, t_end, jac):
         result = kd.simulate(model, (0.0, t_end), y0, method=method, jac=jac,
                              rtol=1e-6, atol=1e-8)
         cpu = time.process_time() - start
-    return cpu, counter.calls, result
+    # the compiled loop calls the right-hand side in C: its own count
+    return cpu, result.nfev if method == "Rosenbrock23" else counter.calls, result
 
 
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--rounds", type=int, default=3)
     parser.add_argument("--backend", default="numpy")
+    parser.add_argument("--loop", action="store_true",
+                        help="the compiled Rosenbrock23 loop (C backend)")
     args = parser.parse_args()
+    backend = "c" if args.loop else args.backend
     print(machine_info())
     print("\n| run | Jacobian | CPU, s | rhs evaluations | Jacobians | CPU differences / "
           "exact | end states differ by |")
     print("|---|---|---|---|---|---|---|")
-    for title, model, y0, method, t_end in cases(args.backend):
+    for title, model, y0, method, t_end in cases(backend, args.loop):
         run(model, y0, method, min(t_end, 1e-3), "exact")  # generates the derivative code
         best = {}
         for _ in range(args.rounds):

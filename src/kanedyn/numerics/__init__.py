@@ -44,6 +44,8 @@ _LAZY = {
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',
     'derivatives_built': '._jacobians',
+    'exact_loop': '._jacobians',
+    'inputs_follow_state': '._jacobians',
     'Equilibrium': '._equilibrium',
     'equilibrium': '._equilibrium',
     'state_jacobian': '._jacobians',

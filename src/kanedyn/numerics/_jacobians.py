@@ -47,8 +47,8 @@ import numpy as np
 from .._errors import ModelError
 
 __all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
-           "state_jacobian", "through_inputs",
-           "derivatives_built"]
+           "state_jacobian", "through_inputs", "derivatives_built", "exact_loop",
+           "inputs_follow_state"]
 
 #: the constraint schemes whose accelerations are the exact index-1 ones
 EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
@@ -164,12 +164,14 @@ def _functions(model, parameters):
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
-        found = _entry_points(load_module(text, units))
+        module = load_module(text, units)
+        model.__dict__["_" + key + "_module"] = module
+        found = _entry_points(module)
     else:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
         source = generate_python(prog, key, args, outputs, cse=True)
-        found = (model._fn["dynamics"], compile_python(source, key), None, None)
+        found = (model._fn["dynamics"], compile_python(source, key), None, None, None)
     model.__dict__["_" + key] = found
     return found
 
@@ -185,7 +187,10 @@ def _c_key(model, parameters):
 
 
 def _entry_points(module):
-    return module.dynamics, module.jacobians, module.dynamics_rows, module.jacobians_rows
+    """The C module's functions ``(dynamics, jacobians, dynamics_rows,
+    jacobians_rows, solved_jacobians)`` (the last: the whole evaluation in C)."""
+    return (module.dynamics, module.jacobians, module.dynamics_rows, module.jacobians_rows,
+            module.solved_jacobians)
 
 
 def _built(model):
@@ -205,7 +210,25 @@ def derivatives_built(model):
     if module is None:
         return False
     model.__dict__["_jacobians"] = _entry_points(module)
+    model.__dict__["_jacobians_module"] = module
     return True
+
+
+def exact_loop(model):
+    """The compiled integration loop (a generated ``Model`` object) of a C
+    ``model``'s derivative module: the same right-hand side, and the exact
+    Jacobian in its Rosenbrock method (the inputs held at their values: not for
+    inputs that are functions of the state).  Builds the derivatives if
+    needed."""
+    found = model.__dict__.get("_exact_loop")
+    if found is None:
+        if not derivatives_built(model):
+            _functions(model, False)
+        module = (model.__dict__.get("_jacobians_module")
+                  or model.__dict__["_jacobians_p_module"])
+        found = module.Model(model._p, model._input_values if model._inputs else None)
+        model.__dict__["_exact_loop"] = found
+    return found
 
 
 # ----------------------------------------------------------------- numbers
@@ -233,6 +256,12 @@ def _check_available(model):
     reason = derivatives_unavailable(model)
     if reason:
         raise ModelError(reason)
+
+
+def inputs_follow_state(model):
+    """Names of the specified inputs given as functions of the state ``(t, y)``."""
+    return [name for name, (_, inp) in zip(model.input_names, model._inputs)
+            if inp.arity == 2]
 
 
 def through_inputs(model, t, y, inputs):
@@ -280,10 +309,19 @@ def _evaluate(model, fns, T, Y, R):
     every state in one call of each generated function.  The derivatives then
     solve the stacked index-1 systems.
     """
-    dynamics, derivatives, dynamics_rows, derivative_rows = fns
+    dynamics, derivatives, dynamics_rows, derivative_rows, solved = fns
     N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
     if R is None:
-        R = np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
+        R = (np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
+             if model._inputs else np.zeros((N, 0)))
+    if solved is not None:  # C: the index-1 solve and its derivatives in one call
+        f, D, constraints = solved(np.ascontiguousarray(T, dtype=float),
+                                   np.ascontiguousarray(Y, dtype=float), model._p,
+                                   np.ascontiguousarray(R, dtype=float))
+        x, k = model.n_states, model.n_states + R.shape[1]
+        groups = [(D[:, :x, a:b], D[:, x:, a:b] if m else None)
+                  for a, b in ((0, x), (x, k), (k, D.shape[2]))]
+        return f, groups, constraints
     if dynamics_rows is not None and N > 1:
         T, Y = np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(Y, dtype=float)
         qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(T, Y, model._p, R)
@@ -337,7 +375,8 @@ def jacobians(model, t, y, r=None, parameters=False):
     rows = Y if many else Y[None, :]
     for row in rows:
         model._check_y(row)
-    T = np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
+    T = np.full(len(rows), t, dtype=float) if np.ndim(t) == 0 else \
+        np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
     if r is not None:
         r = np.atleast_1d(np.asarray(r, dtype=float))
         if r.shape[-1] != len(model.input_names):

@@ -18,7 +18,8 @@ import numbers
 import numpy as np
 
 from ..numerics import (DEFAULT_THRESHOLD, SingularityMonitor, derivatives_built,
-                        derivatives_unavailable, diagnose, state_jacobian)
+                        derivatives_unavailable, diagnose, exact_loop, inputs_follow_state,
+                        state_jacobian)
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._progress import as_progress
 from .._signals import end_by_signal_if_uncaught
@@ -43,7 +44,7 @@ def _drift_event(model, tol):
 COMPILED_METHODS = ("RK45", "Rosenbrock23")
 #: integrators of schemes that bring their own (``Scheme.integrator`` -> function)
 OWN_INTEGRATORS = {"index-3 trapezoidal": run_index3}
-_COMPILED_OPTIONS = {"max_step", "first_step"}
+_COMPILED_OPTIONS = {"max_step", "first_step", "jac"}  # jac: "exact" (Rosenbrock23)
 #: options passed on to ``solve_ivp`` (those of its methods)
 _SOLVE_IVP_OPTIONS = {"first_step", "max_step", "min_step", "jac", "jac_sparsity",
                       "vectorized", "lband", "uband"}
@@ -472,21 +473,29 @@ def _with_jacobian(model, method, options):
     asked = "jac" in options
     jac = options.get("jac", "exact")
     if not isinstance(jac, str):
+        if method == "Rosenbrock23":
+            raise OptionError("the compiled Rosenbrock23 loop takes jac='exact' or "
+                              "'differences', not a matrix or a function")
         return options  # the user's matrix or function, to solve_ivp
     if jac not in ("exact", "differences"):
         raise OptionError(f"jac must be 'exact', 'differences', a matrix or a function "
                           f"jac(t, y), not {jac!r}")
     options = {k: v for k, v in options.items() if k != "jac"}
-    if jac == "differences" or method not in _JACOBIAN_METHODS:
+    loop = method == "Rosenbrock23"  # the compiled loop's: "exact" kept, for it
+    if jac == "differences" or not (loop or method in _JACOBIAN_METHODS):
         return options
     reason = derivatives_unavailable(model)
+    if reason is None and loop and inputs_follow_state(model):
+        reason = (f"the inputs {', '.join(inputs_follow_state(model))} are functions of "
+                  "the state, whose derivatives the compiled loop does not take: use "
+                  "method='Radau' or 'BDF' (their Jacobian includes them)")
     if reason is not None:
         if asked:
             raise OptionError(f"jac='exact': {reason}")
         return options
     small = model.n_states <= EXACT_JACOBIAN_STATES and model.backend == "numpy"
     if asked or small or derivatives_built(model):
-        options["jac"] = state_jacobian(model)
+        options["jac"] = "exact" if loop else state_jacobian(model)
     return options
 
 
@@ -619,7 +628,8 @@ def _simulate_compiled(model, t0, t1, y_init, method, t_eval, rtol, atol, events
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
     events = [guarded_event(event, k) for k, event in enumerate(events or ())]
     # the loop looks for singular configurations as it goes (memory: the minima found)
-    out = model._c.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
+    loop = exact_loop(model) if options.get("jac") == "exact" else model._c
+    out = loop.integrate(t0, t1, y_init, t_eval, float(rtol), atol_vec,
                              float(options.get("max_step", np.inf)),
                              float(options.get("first_step") or 0.0), method,
                              events or None, float(project_tol), bool(dense),

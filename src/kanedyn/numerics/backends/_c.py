@@ -484,7 +484,7 @@ _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.SIZE_MACROS, _c_runtime.SHARED, _c_runtime.RUNTIME,
      _c_integrator.INTEGRATOR, _c_contact.CONTACT, _c_runtime.RUNTIME_FOOTER,
      _c_runtime.MODEL_SOLVE, _c_runtime.LANE_RUNTIME, _c_runtime.LANE_SOLVE,
-     _c_runtime.INVERSE_POINT, _c_runtime.MODULE_FOOTER)
+     _c_runtime.INVERSE_POINT, _c_runtime.JACOBIAN_SOLVE, _c_runtime.MODULE_FOOTER)
 ).encode()).hexdigest()[:16]
 
 
@@ -797,10 +797,23 @@ def _runtime_parts(functions, sizes, lanes):
     rows = ("inverse", "constraints") if "inverse" in functions else ()
     if "jacobians" in functions:
         rows += ("jacobians", "dynamics")
-    body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE, _function_table(functions, rows),
-            _c_runtime.MODULE_FOOTER]
+    if "jacobians" in functions:  # its exact derivatives solved in C (solved_jacobians)
+        defines.append(f"#define KD_JP {_parameter_columns(functions, sizes)}")
+    body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
+            *([_c_runtime.JACOBIAN_SOLVE] if "jacobians" in functions else []),
+            _function_table(functions, rows), _c_runtime.MODULE_FOOTER]
     model = _RuntimePart(defines, model_declarations, body, not lanes, True)
     return generic, model
+
+
+def _parameter_columns(functions, sizes):
+    """Columns of the constants in the outputs of the ``jacobians`` function (its
+    layout: ``g_x, E_x, a_x`` per column group, then ``h_y, c_y``; a third group,
+    the constants, when asked for)."""
+    _, outputs = functions["jacobians"]
+    if len(outputs) not in (8, 11):
+        raise CodegenError(f"jacobians: 8 or 11 outputs expected, got {len(outputs)}")
+    return sizes["n_p"] if len(outputs) == 11 else 0
 
 
 def _inverse_at_a_point(functions, sizes):

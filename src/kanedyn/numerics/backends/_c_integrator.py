@@ -120,6 +120,7 @@ typedef struct {
     double t_singular;
     double y_singular[KD_NX];
     double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
+    double *exact;           /* the module's exact derivatives: their work (heap), or NULL */
     /* continuous extension of the last step */
     double t_old, h;
     double y_old[KD_NX];
@@ -685,13 +686,26 @@ static int kd_rk45_try(KdIntegrator *ig, double t, const double *y, const double
     return 0;
 }
 
-/* Jacobian df/dy (row-major) and df/dt by forward differences */
+/* Jacobian df/dy (row-major): the module's exact derivatives where it has them
+   (kd_jacobians; the inputs do not follow the state then: the caller's choice),
+   else forward differences; df/dt by a forward difference */
 static int kd_jacobian(KdIntegrator *ig, double t, const double *y, const double *f,
                        double *J, double *T) {
     const double sqrt_eps = 1.4901161193847656e-08;
     double yp[KD_NX], fp[KD_NX];
     memcpy(yp, y, sizeof(double) * KD_NX);
-    for (int j = 0; j < KD_NX; ++j) {
+    const KdJacobianInfo *info = kd_jacobians;
+    int exact = ig->exact != NULL;
+    if (exact) {
+        double r[KD_SZ(KD_NR)];
+        if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
+        double *D = ig->exact + info->scratch, *C = D + (KD_NX + KD_NUDEP) * info->columns;
+        /* a singular system: the differences (their non-finite values reject the step) */
+        exact = info->core(t, y, ig->model->p, r, ig->model->work, ig->exact, fp, D, C) == 0;
+        for (int i = 0; i < KD_NX && exact; ++i)
+            for (int j = 0; j < KD_NX; ++j) J[i * KD_NX + j] = D[i * info->columns + j];
+    }
+    for (int j = 0; j < KD_NX && !exact; ++j) {
         double dj = sqrt_eps * fmax(fabs(y[j]), 1e-5);
         yp[j] = y[j] + dj;
         dj = yp[j] - y[j];
@@ -874,6 +888,12 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     if (J == NULL) { PyErr_NoMemory(); goto done; }
     ig.W = J + KD_NX * KD_NX;
     ig.LU = ig.W + KD_NX * KD_NX;
+    if (ig.method == 1 && kd_jacobians != NULL) {
+        const KdJacobianInfo *info = kd_jacobians;
+        ig.exact = (double *)PyMem_Malloc(sizeof(double) * (info->scratch
+            + (KD_NX + KD_NUDEP) * info->columns + info->constraint_rows * KD_NX));
+        if (ig.exact == NULL) { PyErr_NoMemory(); goto done; }
+    }
     memcpy(y, y0, sizeof(y));
     if (kd_f(&ig, t, y, f) != 0) KD_FAIL;
     if (monitoring && (kd_monitor_start(&ig, &mon, t, y) != 0 || kd_monitor_here(&mon) != 0))
@@ -1157,7 +1177,7 @@ done:
     PyMem_Free(out_t.data); PyMem_Free(out_y.data); PyMem_Free(work.kept.data);
     PyMem_Free(dn_t.data); PyMem_Free(dn_y.data); PyMem_Free(dn_q.data);
     PyMem_Free(mon.t.data); PyMem_Free(mon.y.data);
-    PyMem_Free(J);
+    PyMem_Free(J); PyMem_Free(ig.exact);
     Py_XDECREF(evseq); Py_XDECREF(teval); Py_XDECREF(keep_y);
     return result;
 }

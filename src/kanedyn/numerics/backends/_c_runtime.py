@@ -50,6 +50,8 @@ HEADER = PYTHON_INCLUDES + PRELUDE
 
 RUNTIME_ERRORS = r"""
 static PyObject *kd_linalg_error = NULL;
+/* the module's exact derivatives (kd_module_create), or NULL */
+static const KdJacobianInfo *kd_jacobians = NULL;
 """
 
 #: sizes derived from the ``KD_*`` sizes (every unit of a module)
@@ -330,6 +332,144 @@ KD_GEN int kd_rhs_core(double t, const double *y, const double *p, const double 
 #endif
     return 0;
 }
+"""
+
+#: the exact derivatives of a module with the generated ``jacobians`` function
+#: (``kanedyn.numerics._jacobians``): its outputs, ``g_x, E_x, a_x`` per column
+#: group (state, inputs, constants when ``KD_JP`` > 0), then ``h_y, c_y``, at the
+#: accelerations and multipliers of the index-1 system, and the solve of that
+#: system for the derivatives; part of the model's unit (no Python)
+JACOBIAN_SOLVE = r"""
+#define KD_NS (KD_NU + KD_NUDEP)           /* unknowns of the index-1 system */
+#define KD_JC (KD_NX + KD_NR + KD_JP)      /* derivative columns */
+#define KD_NCON (KD_NQDEP + KD_NUDEP)      /* constraint rows */
+/* scratch: the dynamics' outputs, the system and its pivots, the extended
+   inputs, the derivative blocks and the right-hand sides of the solve */
+#define KD_JAC_SCRATCH (KD_NQ + KD_NU * KD_NU + KD_NU + 2 * KD_NUDEP * KD_NU + KD_NUDEP \
+    + KD_NS * KD_NS + 2 * KD_NS + KD_NR + KD_NS + KD_NQ * KD_JC + KD_NS * KD_JC \
+    + KD_NS * KD_JC + 1)
+
+/* LU factors of A (n x n, in place) with the row of each pivot; 1 if singular */
+static int kd_lu_factor(int n, double *A, double *piv) {
+    for (int k = 0; k < n; ++k) {
+        int best = k;
+        double big = fabs(A[k * n + k]);
+        for (int i = k + 1; i < n; ++i) {
+            if (fabs(A[i * n + k]) > big) { big = fabs(A[i * n + k]); best = i; }
+        }
+        if (!(big > 0.0)) return 1;
+        piv[k] = best;
+        if (best != k) {
+            for (int j = 0; j < n; ++j) {
+                double tmp = A[k * n + j]; A[k * n + j] = A[best * n + j]; A[best * n + j] = tmp;
+            }
+        }
+        const double inv = 1.0 / A[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            const double factor = A[i * n + k] * inv;
+            A[i * n + k] = factor;
+            if (factor == 0.0) continue;
+            for (int j = k + 1; j < n; ++j) A[i * n + j] -= factor * A[k * n + j];
+        }
+    }
+    return 0;
+}
+
+/* X = A^-1 X in place from the factors of kd_lu_factor (X: n x nrhs): the row
+   exchanges (whole rows were exchanged in the factors), then L, then U */
+static void kd_lu_apply(int n, const double *A, const double *piv, double *X, int nrhs) {
+    for (int k = 0; k < n; ++k) {
+        const int p = (int)piv[k];
+        if (p == k) continue;
+        for (int j = 0; j < nrhs; ++j) {
+            double tmp = X[k * nrhs + j]; X[k * nrhs + j] = X[p * nrhs + j];
+            X[p * nrhs + j] = tmp;
+        }
+    }
+    for (int k = 0; k < n; ++k) {
+        for (int i = k + 1; i < n; ++i) {
+            const double factor = A[i * n + k];
+            if (factor == 0.0) continue;
+            for (int j = 0; j < nrhs; ++j) X[i * nrhs + j] -= factor * X[k * nrhs + j];
+        }
+    }
+    for (int k = n - 1; k >= 0; --k) {
+        const double inv = 1.0 / A[k * n + k];
+        for (int i = k + 1; i < n; ++i) {
+            const double a = A[k * n + i];
+            if (a == 0.0) continue;
+            for (int j = 0; j < nrhs; ++j) X[k * nrhs + j] -= a * X[i * nrhs + j];
+        }
+        for (int j = 0; j < nrhs; ++j) X[k * nrhs + j] *= inv;
+    }
+}
+
+/* one column group of the derivatives: g_x into the rows of q' of D, the
+   right-hand sides -[E_x; a_x] into X, both at column `at` of the KD_JC */
+static void kd_jacobian_group(const double *g, const double *E, const double *a, int cols,
+                              int at, double *D, double *X) {
+    for (int i = 0; i < KD_NQ; ++i)
+        for (int j = 0; j < cols; ++j) D[i * KD_JC + at + j] = g[i * cols + j];
+    for (int i = 0; i < KD_NU; ++i)
+        for (int j = 0; j < cols; ++j) X[i * KD_JC + at + j] = -E[i * cols + j];
+    for (int i = 0; i < KD_NUDEP; ++i)
+        for (int j = 0; j < cols; ++j) X[(KD_NU + i) * KD_JC + at + j] = -a[i * cols + j];
+}
+
+KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
+                            double *w, double *scratch, double *f, double *D, double *C) {
+    double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
+    double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
+    double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
+    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *X = EA + KD_NS * KD_JC;
+    kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
+    /* [[M, -B^T], [K, 0]] [u'; lambda] = [f; -f_a] */
+    for (int i = 0; i < KD_NS; ++i)
+        for (int j = 0; j < KD_NS; ++j) S[i * KD_NS + j] = 0.0;
+    for (int i = 0; i < KD_NU; ++i) {
+        for (int j = 0; j < KD_NU; ++j) S[i * KD_NS + j] = M[i * KD_NU + j];
+        sol[i] = fv[i];
+    }
+    for (int c = 0; c < KD_NUDEP; ++c) {
+        for (int j = 0; j < KD_NU; ++j) {
+            S[j * KD_NS + KD_NU + c] = -B[c * KD_NU + j];
+            S[(KD_NU + c) * KD_NS + j] = Ka[c * KD_NU + j];
+        }
+        sol[KD_NU + c] = -fa[c];
+    }
+    if (kd_lu_factor(KD_NS, S, piv) != 0) return 1;
+    kd_lu_apply(KD_NS, S, piv, sol, 1);
+    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
+    for (int i = 0; i < KD_NS; ++i) rx[KD_NR + i] = sol[i];
+    /* the blocks g_x, E_x, a_x of each group, each at the start of its own rows of G
+       and EA (columns of that group only), then h_y, c_y into C */
+    double *g[3], *E[3], *a[3];
+    const int cols[3] = {KD_NX, KD_NR, KD_JP};
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
+        g[k] = G + KD_NQ * at;
+        E[k] = EA + KD_NS * at;
+        a[k] = E[k] + KD_NU * cols[k];
+    }
+#if KD_JP > 0
+    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                      C, C + KD_NQDEP * KD_NX);
+#else
+    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
+                      C, C + KD_NQDEP * KD_NX);
+#endif
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, D, X);
+    kd_lu_apply(KD_NS, S, piv, X, KD_JC);
+    memcpy(D + KD_NQ * KD_JC, X, sizeof(double) * KD_NU * KD_JC);  /* the rows of u' */
+    memcpy(D + KD_NX * KD_JC, X + KD_NU * KD_JC, sizeof(double) * KD_NUDEP * KD_JC);
+    memcpy(f, qd, sizeof(double) * KD_NQ);
+    memcpy(f + KD_NQ, sol, sizeof(double) * KD_NU);
+    return 0;
+}
+
+static const KdJacobianInfo kd_jacobian_info = {kd_jacobian_core, KD_JC, KD_NCON,
+                                                KD_JAC_SCRATCH};
+#define KD_JACOBIAN_INFO (&kd_jacobian_info)
 """
 
 #: the part of the runtime without Python: linear algebra and the right-hand
@@ -1012,6 +1152,79 @@ done:
     return result;
 }
 
+/* solved_jacobians(t, Y, p, R): the exact derivatives at each of N states (a
+   module with the generated `jacobians`, KdJacobianInfo): t (N,), Y (N, n_x), R
+   (N, nr); the tuple (F (N, n_x), D (N, n_x + m, columns), C (N, n_con, n_x)) of
+   kd_jacobian_core; LinAlgError if the index-1 system is singular at a state */
+static PyObject *kd_py_solved_jacobians(PyObject *self, PyObject *const *args,
+                                        Py_ssize_t nargs) {
+    (void)self;
+    const KdJacobianInfo *info = kd_jacobians;
+    if (info == NULL) {
+        PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
+        return NULL;
+    }
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError, "solved_jacobians(t, Y, p, R) takes 4 arguments");
+        return NULL;
+    }
+    static const double empty[1] = {0.0};
+    PyObject *keep = NULL, *result = NULL, *F = NULL, *D = NULL, *C = NULL;
+    double *work = NULL;
+    PyArrayObject *T = (PyArrayObject *)PyArray_FROMANY(args[0], NPY_DOUBLE, 1, 1,
+                                                        NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *Y = T == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY(
+        args[1], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    PyArrayObject *R = Y == NULL ? NULL : (PyArrayObject *)PyArray_FROMANY(
+        args[3], NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    if (R == NULL) goto done;
+    const npy_intp N = PyArray_DIM(T, 0);
+    if (PyArray_DIM(Y, 0) != N || PyArray_DIM(Y, 1) != KD_NX || PyArray_DIM(R, 0) != N
+            || PyArray_DIM(R, 1) != KD_NR) {
+        PyErr_Format(PyExc_ValueError, "solved_jacobians: t (N,), Y (N, %d) and R (N, %d) "
+                     "expected", (int)KD_NX, (int)KD_NR);
+        goto done;
+    }
+    const double *p = KD_NP > 0 ? kd_vector(args[2], KD_NP, &keep, "p") : empty;
+    if (p == NULL) goto done;
+    const npy_intp rows = KD_NX + KD_NUDEP, ncon = info->constraint_rows;
+    npy_intp dims_f[2] = {N, KD_NX}, dims_d[3] = {N, rows, info->columns};
+    npy_intp dims_c[3] = {N, ncon, KD_NX};
+    F = PyArray_SimpleNew(2, dims_f, NPY_DOUBLE);
+    D = F == NULL ? NULL : PyArray_SimpleNew(3, dims_d, NPY_DOUBLE);
+    C = D == NULL ? NULL : PyArray_SimpleNew(3, dims_c, NPY_DOUBLE);
+    work = (double *)PyMem_Malloc(sizeof(double) * (KD_SZ(KD_NW) + info->scratch));
+    if (C == NULL || work == NULL) {
+        if (C != NULL) PyErr_NoMemory();
+        goto done;
+    }
+    const double *t = (const double *)PyArray_DATA(T), *y = (const double *)PyArray_DATA(Y);
+    const double *r = (const double *)PyArray_DATA(R);
+    double *f = (double *)PyArray_DATA((PyArrayObject *)F);
+    double *d = (double *)PyArray_DATA((PyArrayObject *)D);
+    double *c = (double *)PyArray_DATA((PyArrayObject *)C);
+    npy_intp bad = -1;
+    Py_BEGIN_ALLOW_THREADS
+    for (npy_intp i = 0; i < N && bad < 0; ++i) {
+        if (info->core(t[i], y + i * KD_NX, p, KD_NR > 0 ? r + i * KD_NR : empty, work,
+                       work + KD_SZ(KD_NW), f + i * KD_NX, d + i * rows * info->columns,
+                       c + i * ncon * KD_NX) != 0)
+            bad = i;
+    }
+    Py_END_ALLOW_THREADS
+    if (bad >= 0) {
+        PyErr_Format(kd_linalg_error, "singular matrix in the equations of motion (state "
+                     "row %zd)", (Py_ssize_t)bad);
+        goto done;
+    }
+    result = PyTuple_Pack(3, F, D, C);
+done:
+    Py_XDECREF(T); Py_XDECREF(Y); Py_XDECREF(R); Py_XDECREF(keep);
+    Py_XDECREF(F); Py_XDECREF(D); Py_XDECREF(C);
+    PyMem_Free(work);
+    return result;
+}
+
 /* entry k of the table: plain module-level functions (their `self` the
    module), one per table entry */
 static const KdFunction *kd_table = NULL;
@@ -1097,8 +1310,22 @@ KD_LANES_FN KD_GEN void kd_lanes_rows(const double *t, int t_scalar, const doubl
                                       const double *P, const double *p, const double *r,
                                       double *out, double *restrict lw, double *w);
 #endif
-/* the module named `name` with the functions of `table` (ended by a NULL name) */
-KD_GEN void *kd_module_create(const char *name, const KdFunction *table);
+/* the exact derivatives of a module with the generated `jacobians`
+   (JACOBIAN_SOLVE): the state derivative f (n_x), the derivatives D ((n_x + m) x
+   columns: rows of f, then of the multipliers; columns: state, inputs, and the
+   constants when generated) and the constraint rows C (n_con x n_x), with
+   `scratch` doubles of work; 0, or 1 if the index-1 system is singular */
+typedef int (*KdJacobianCore)(double t, const double *y, const double *p, const double *r,
+                              double *w, double *scratch, double *f, double *D, double *C);
+typedef struct {
+    KdJacobianCore core;
+    int columns, constraint_rows;
+    long scratch;
+} KdJacobianInfo;
+/* the module named `name` with the functions of `table` (ended by a NULL name);
+   `jacobians`: NULL, or the module's exact derivatives */
+KD_GEN void *kd_module_create(const char *name, const KdFunction *table,
+                              const KdJacobianInfo *jacobians);
 """
 
 #: outputs of one generated function and functions of one module the runtime
@@ -1181,6 +1408,8 @@ static PyMethodDef kd_runtime_functions[] = {
     {"contact_segment", (PyCFunction)kd_py_contact_segment, METH_VARARGS, NULL},
 #endif
     {"_adopt", (PyCFunction)kd_py_adopt, METH_O, NULL},
+    {"solved_jacobians", (PyCFunction)(void (*)(void))kd_py_solved_jacobians, METH_FASTCALL,
+     NULL},
 #ifdef KD_INVERSE_POINT
     {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, METH_FASTCALL, NULL},
 #endif
@@ -1212,8 +1441,10 @@ static int kd_add_functions(PyObject *module, const KdFunction *table) {
 
 /* the module `name` with the Model type, the functions of this runtime and those
    of the model's `table` */
-KD_GEN void *kd_module_create(const char *name, const KdFunction *table) {
+KD_GEN void *kd_module_create(const char *name, const KdFunction *table,
+                              const KdJacobianInfo *jacobians) {
     import_array();
+    kd_jacobians = jacobians;
     if (PyType_Ready(&KdModelType) < 0) return NULL;
     kd_module.m_name = name;
     kd_entry.name = name;
@@ -1249,10 +1480,13 @@ KD_GEN void *kd_module_create(const char *name, const KdFunction *table) {
 #: the module's entry point (without Python's headers: a function returning the
 #: new module, visible outside the module's file)
 MODULE_FOOTER = r"""
+#ifndef KD_JACOBIAN_INFO
+#define KD_JACOBIAN_INFO NULL
+#endif
 #if defined(__GNUC__)
 __attribute__((visibility("default")))
 #endif
 void *KD_INIT_FUNCTION(void) {
-    return kd_module_create(KD_MODULE_NAME_STR, kd_function_table);
+    return kd_module_create(KD_MODULE_NAME_STR, kd_function_table, KD_JACOBIAN_INFO);
 }
 """
