@@ -54,7 +54,8 @@ chooses another for the same equations.
 """
 
 from ..._errors import ModelError
-from ._base import Scheme, al_solve, complement_solve, kkt_solve, penalty_weight, stabilization
+from ._base import (AccelerationSystem, Scheme, al_solve, complement_solve, kkt_solve,
+                    penalty_weight, rate_matrix, stabilization)
 from ._elimination import Elimination
 from ._index_one import Baumgarte, IndexOne, Projection
 from ._orthogonal_complement import OrthogonalComplement
@@ -65,7 +66,8 @@ from ._udwadia_kalaba import UdwadiaKalaba
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "AugmentedLagrangianIndex3", "UdwadiaKalaba", "Partitioning",
            "NullSpace", "OrthogonalComplement", "SCHEMES", "as_scheme", "stabilization",
-           "complement_solve", "al_solve", "kkt_solve", "penalty_weight"]
+           "complement_solve", "al_solve", "kkt_solve", "penalty_weight", "AccelerationSystem",
+           "rate_matrix"]
 
 #: name -> scheme class
 SCHEMES = {cls.name: cls for cls in (Elimination, IndexOne, Baumgarte, Projection,
