@@ -109,8 +109,8 @@ def _specification(model, parameters):
     (:math:`\\dot u`) and ``mu`` (:math:`\\lambda`); outputs
     ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``), then ``h_y, c_y``
     (the configuration and velocity constraints), then for a stabilized
-    scheme the derivatives of its parts (:func:`_stabilization_derivatives.parts`)
-    for each column group in turn.
+    scheme the derivatives of its parts (:func:`_stabilization_derivatives.part_rows`),
+    one output per column group.
     """
     import sympy as sm
 
@@ -140,11 +140,10 @@ def _specification(model, parameters):
     for rows in (constraints[0][1], constraints[3][1]):  # h(q), c(q, u)
         jac = prog.jacobian(rows, args["y"], guarded=True)
         outputs.append(((len(rows), len(args["y"])), list(jac)))
-    parts = part_rows(prog, _parts(model), list(args["y"]), dynamics, constraints)
-    for variables in columns:
-        for rows in parts:
-            jac = prog.jacobian(rows, variables, guarded=True)
-            outputs.append(((len(rows), len(variables)), list(jac)))
+    rows = part_rows(prog, _parts(model), list(args["y"]), dynamics, constraints)
+    for variables in columns if rows else ():
+        jac = prog.jacobian(rows, variables, guarded=True)
+        outputs.append(((len(rows), len(variables)), list(jac)))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
 
 
@@ -355,15 +354,15 @@ def _evaluate(model, fns, T, Y, R):
         values = {key: np.stack([a[3][key] for a in at]) for key in at[0][3]}
         outputs = [np.stack(part) for part in zip(*(a[4] for a in at))]
         S = _index1_matrices(mass, vel_B, acc_K, values.get("alpha"))
-    count = (len(outputs) - 2) // (3 + len(names))  # column groups
+    count = (len(outputs) - 2) // (4 if names else 3)  # column groups
     blocks, (h_y, c_y) = outputs[:3 * count], outputs[3 * count:3 * count + 2]
     extra = outputs[3 * count + 2:]
     groups = []
     for k in range(count):
         g_x, E_x, a_x = blocks[3 * k:3 * k + 3]
         if names and E_x.shape[2]:
-            a_x = a_x + stab.second_row(system, names, values,
-                                        extra[k * len(names):(k + 1) * len(names)], lam)
+            a_x = a_x + stab.second_row(system, names, values, extra[k], lam,
+                                        (model.n_q_dep, o))
         solved = (np.linalg.solve(S, -np.concatenate([E_x, a_x], axis=1)) if E_x.shape[2]
                   else np.zeros((N, o + m, 0)))
         groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),

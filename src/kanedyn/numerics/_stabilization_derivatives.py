@@ -89,8 +89,9 @@ def parts(system, n_q_dep):
 
 
 def part_rows(prog, names, y_syms, dynamics, constraints):
-    """The expressions of each named part (a list of rows per name), to be
-    differentiated like the dynamics' rows.
+    """The expressions of the named parts, one after the other (one generated
+    output per column group: the C backend takes 16 outputs at most), to be
+    differentiated like the dynamics' rows; ``[]`` without parts.
 
     ``dynamics`` and ``constraints`` are the outputs of the model's generated
     functions of those names.
@@ -105,7 +106,18 @@ def part_rows(prog, names, y_syms, dynamics, constraints):
         rates = prog.jacobian(qdot, y_syms[n:], guarded=True)
         rows["G"] = [sm.Add(*[J[i * n + k] * rates[k, j] for k in range(n)])
                      for i in range(l) for j in range(o)]
-    return [rows[name] for name in names]
+    return [e for name in names for e in rows[name]]
+
+
+def _split(names, derivatives, l, m, o):
+    """``{name: derivative}`` from the stacked derivatives of :func:`part_rows`
+    (N, rows, X)."""
+    sizes = {"h": l, "c": m, "G": l * o, "B": m * o, "Md": o}
+    out, start = {}, 0
+    for name in names:
+        out[name] = derivatives[:, start:start + sizes[name]]
+        start += sizes[name]
+    return out
 
 
 def accelerations(model, system, t, y, r, terms):
@@ -148,7 +160,7 @@ def _pinv_derivative(A, Ap, dA):
             + (np.eye(cols) - Ap @ A) @ dAT @ ApT @ Ap)
 
 
-def second_row(system, names, values, derivatives, mu):
+def second_row(system, names, values, derivatives, mu, sizes):
     r""":math:`\partial s - (\mu/\alpha)\,\partial\ln\alpha`, shape (N, m, X): what
     the stabilization adds to :math:`\partial a` at N states.
 
@@ -159,19 +171,21 @@ def second_row(system, names, values, derivatives, mu):
         :func:`parts`.
     values : dict of ndarray
         Those of :func:`accelerations`, stacked (first axis N).
-    derivatives : list of ndarray
-        The generated derivatives of the parts ``names``, shapes (N, rows, X).
+    derivatives : ndarray, shape (N, rows, X)
+        The generated derivatives of the parts ``names`` (:func:`part_rows`).
     mu : ndarray, shape (N, m)
         The multipliers.
+    sizes : tuple of int
+        ``(n_q_dep, n_u)``.
     """
-    d = dict(zip(names, derivatives))
     N, m = mu.shape
-    X = derivatives[0].shape[2]
+    l, o = sizes
+    X = derivatives.shape[2]
+    d = _split(names, derivatives, l, m, o)
     out = np.zeros((N, m, X))
     if "c" in d:
         out += system.velocity_gain * d["c"]
     if "G" in d:
-        l, o = values["G"].shape[1:]
         dG = np.moveaxis(d["G"].reshape(N, l, o, X), 3, 1)
         dB = np.moveaxis(d["B"].reshape(N, m, o, X), 3, 1)
         dP = dG @ values["Bp"][:, None] + values["G"][:, None] @ _pinv_derivative(
@@ -181,7 +195,6 @@ def second_row(system, names, values, derivatives, mu):
         out += system.position_gain * np.moveaxis(dz, 1, 2)
     if system.penalty_factor is not None:
         at = np.arange(N)
-        o = values["K"].shape[2]
         dK = d["B"].reshape(N, m, o, X)[at, :, values["j"]]  # (N, m, X): column j
         dD = 2.0 * np.einsum("ni,nix->nx", values["K"][at, :, values["j"]], dK)
         dD[values["Dk"] <= 1e-300] = 0.0  # the floor of penalty_weight: a constant
