@@ -33,9 +33,19 @@ coordinates) are differentiated through their elimination exactly.
 
 This is the derivative of the accelerations every index-1 scheme computes
 (elimination, index-1, projection, Udwadia-Kalaba, partitioning, null space,
-orthogonal complement: on any state they give the same :math:`\dot u`).  The
-schemes that add stabilization terms (Baumgarte, penalty, augmented
-Lagrangian) are refused by name.
+orthogonal complement, and the index-3 augmented Lagrangian through ``rhs``:
+on any state they give the same :math:`\dot u`).  Each scheme states the
+equations its accelerations satisfy
+(:meth:`~kanedyn.numerics.schemes.Scheme.acceleration_system`).  Those that
+add stabilization terms :math:`s` to the acceleration constraints (Baumgarte,
+the augmented Lagrangian, Udwadia-Kalaba with gains) or replace them by a
+penalty (:math:`K\dot u + f_a + s + \mu/\alpha = 0`) add :math:`\partial s`
+(and the penalty's :math:`I/\alpha` and :math:`\partial\alpha`) to the
+second row, exactly, off the constraint manifold too: see
+:mod:`kanedyn.numerics._stabilization_derivatives`.  A scheme whose system
+is not known (a scheme of one's own without ``acceleration_system``), and the
+penalty on acceleration constraints given apart from the velocity
+constraints, are refused, naming the scheme.
 """
 
 from __future__ import annotations

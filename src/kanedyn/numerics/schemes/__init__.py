@@ -50,7 +50,10 @@ constraint rows (:math:`\dot h = P c` on the constraint manifold); see
 
 A scheme is a small frozen object: ``formulate(..., method="lagrange-baumgarte")``
 picks one by name, ``eom.numeric(scheme=kd.schemes.Baumgarte(alpha=20.0))``
-chooses another for the same equations.
+chooses another for the same equations.  Its ``acceleration_system()`` (an
+:class:`AccelerationSystem`: stabilization gains, penalty factor) states the
+equations its accelerations satisfy, from which
+:meth:`kanedyn.NumericModel.jacobians` differentiates them.
 """
 
 from ..._errors import ModelError
