@@ -124,9 +124,12 @@ def accelerations(model, system, t, y, r, terms):
     r"""``(udot, values)``: the accelerations the system gives at one state, with
     the inputs ``r``, and the values its derivatives need.
 
-    As the schemes compute them (:func:`~kanedyn.numerics.schemes.stabilization`,
-    then :func:`~kanedyn.numerics.schemes.kkt_solve` or the penalty's solve),
-    except that the inputs are ``r`` throughout.
+    As Baumgarte and the penalty compute them
+    (:func:`~kanedyn.numerics.schemes.stabilization`, then
+    :func:`~kanedyn.numerics.schemes.kkt_solve` or the penalty's solve), except
+    that the inputs are ``r`` throughout; for the augmented Lagrangian and
+    Udwadia-Kalaba, the index-1 solution their iteration and formula reach to
+    round-off.
     """
     from .schemes import kkt_solve, penalty_weight, rate_matrix
     _, mass, force, _, K, acc_f = terms
