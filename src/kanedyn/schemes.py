@@ -7,15 +7,15 @@ pass an instance to ``eom.numeric(scheme=...)``.
 
 from ._lazy import NAMESPACES as _NAMESPACES
 from ._lazy import lazy_attributes as _lazy_attributes
-from .numerics.schemes import (SCHEMES, AugmentedLagrangian, AugmentedLagrangianIndex3,
-                               Baumgarte, Elimination, IndexOne, NullSpace,
-                               OrthogonalComplement, Partitioning, Penalty, Projection, Scheme,
-                               UdwadiaKalaba, as_scheme, stabilization)
+from .numerics.schemes import (SCHEMES, AccelerationSystem, AugmentedLagrangian,
+                               AugmentedLagrangianIndex3, Baumgarte, Elimination, IndexOne,
+                               NullSpace, OrthogonalComplement, Partitioning, Penalty,
+                               Projection, Scheme, UdwadiaKalaba, as_scheme, stabilization)
 
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "UdwadiaKalaba", "Partitioning", "NullSpace",
            "AugmentedLagrangianIndex3", "OrthogonalComplement", "SCHEMES", "as_scheme",
-           "stabilization"]
+           "stabilization", "AccelerationSystem"]
 
 # every name is loaded above; a missing one is named where it is
 __getattr__, __dir__ = _lazy_attributes(__name__, {}, globals(), __all__,

@@ -10,6 +10,9 @@
 ``_inverse``             inverse dynamics: the generalized forces for given rates
 ``_jacobians``           exact derivatives of the right-hand side (state, inputs,
                          constants), generated from the equations' program
+``_stabilization_derivatives``
+                         what the stabilized schemes (Baumgarte, penalty, augmented
+                         Lagrangian) add to those derivatives
 ``_equilibrium``         static equilibria and steady motions (Newton on them)
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode

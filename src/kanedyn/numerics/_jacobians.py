@@ -33,9 +33,19 @@ coordinates) are differentiated through their elimination exactly.
 
 This is the derivative of the accelerations every index-1 scheme computes
 (elimination, index-1, projection, Udwadia-Kalaba, partitioning, null space,
-orthogonal complement: on any state they give the same :math:`\dot u`).  The
-schemes that add stabilization terms (Baumgarte, penalty, augmented
-Lagrangian) are refused by name.
+orthogonal complement, and the index-3 augmented Lagrangian through ``rhs``:
+on any state they give the same :math:`\dot u`).  Each scheme states the
+equations its accelerations satisfy
+(:meth:`~kanedyn.numerics.schemes.Scheme.acceleration_system`).  Those that
+add stabilization terms :math:`s` to the acceleration constraints (Baumgarte,
+the augmented Lagrangian, Udwadia-Kalaba with gains) or replace them by a
+penalty (:math:`K\dot u + f_a + s + \mu/\alpha = 0`) add :math:`\partial s`
+(and the penalty's :math:`I/\alpha` and :math:`\partial\alpha`) to the
+second row, exactly, off the constraint manifold too: see
+:mod:`kanedyn.numerics._stabilization_derivatives`.  A scheme whose system
+is not known (a scheme of one's own without ``acceleration_system``), and the
+penalty on acceleration constraints given apart from the velocity
+constraints, are refused, naming the scheme.
 """
 
 from __future__ import annotations
@@ -50,7 +60,8 @@ __all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
            "state_jacobian", "through_inputs", "derivatives_built", "exact_loop",
            "inputs_follow_state"]
 
-#: the constraint schemes whose accelerations are the exact index-1 ones
+#: the constraint schemes whose accelerations are the exact index-1 ones (Udwadia-Kalaba
+#: without its optional stabilization gains)
 EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "partitioning",
                  "null-space", "orthogonal-complement")
 
@@ -107,11 +118,14 @@ def _specification(model, parameters):
     Arguments ``(t, y, p, r)`` with ``r`` = the model's inputs, then ``w``
     (:math:`\\dot u`) and ``mu`` (:math:`\\lambda`); outputs
     ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``), then ``h_y, c_y``
-    (the configuration and velocity constraints).
+    (the configuration and velocity constraints), then for a stabilized
+    scheme the derivatives of its parts (:func:`_stabilization_derivatives.part_rows`),
+    one output per column group.
     """
     import sympy as sm
 
     from ._inverse import _recursive_inertia_forces, _workspace
+    from ._stabilization_derivatives import part_rows
     eom = model._eom
     args, dynamics = model._functions["dynamics"]
     o, m = model.n_u, model.n_u_dep
@@ -136,7 +150,24 @@ def _specification(model, parameters):
     for rows in (constraints[0][1], constraints[3][1]):  # h(q), c(q, u)
         jac = prog.jacobian(rows, args["y"], guarded=True)
         outputs.append(((len(rows), len(args["y"])), list(jac)))
+    rows = part_rows(prog, _parts(model), list(args["y"]), dynamics, constraints)
+    for variables in columns if rows else ():
+        jac = prog.jacobian(rows, variables, guarded=True)
+        outputs.append(((len(rows), len(variables)), list(jac)))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
+
+
+def _system(model):
+    """The scheme's :class:`AccelerationSystem` (``None``: not known)."""
+    scheme = getattr(model, "scheme", None)
+    method = getattr(scheme, "acceleration_system", None)
+    return method() if method is not None else None
+
+
+def _parts(model):
+    """The stabilization parts whose derivatives are generated (``()``: none)."""
+    from ._stabilization_derivatives import parts
+    return parts(_system(model), model.n_q_dep) if model.n_u_dep else ()
 
 
 #: changes when the generated derivatives change (part of the C cache key)
@@ -183,7 +214,9 @@ def _c_key(model, parameters):
     functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
     sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
     text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
-    return f"{text}\n{_GENERATION} parameters={parameters}", functions, sizes
+    parts = _parts(model)
+    stabilized = f" stabilization={','.join(parts)}" if parts else ""
+    return f"{text}\n{_GENERATION} parameters={parameters}{stabilized}", functions, sizes
 
 
 def _entry_points(module):
@@ -237,11 +270,22 @@ def derivatives_unavailable(model):
     if not hasattr(model, "jacobians"):
         return f"a {type(model).__name__} has no exact derivatives"
     name = getattr(getattr(model, "scheme", None), "name", None)
-    if model.n_u_dep and name not in EXACT_SCHEMES:
-        return (f"exact derivatives are generated for the constraint schemes "
-                f"{', '.join(EXACT_SCHEMES)}; this model's scheme {name!r} adds "
-                "stabilization terms whose derivatives are not generated: build the model "
-                "with scheme='elimination' (or another of those) for its derivatives")
+    system = _system(model)
+    if model.n_u_dep and system is None:
+        from .schemes import SCHEMES
+        return (f"this model's constraint scheme {name!r} does not say what its "
+                "accelerations satisfy (its acceleration_system() gives None), so their "
+                "derivatives are not generated: build the model with a built-in scheme "
+                f"({', '.join(SCHEMES)}), or give the scheme an acceleration_system()")
+    if (model.n_u_dep and system.penalty_factor is not None
+            and getattr(model, "_functions", None) is not None
+            and not _constraint_rows_are_velocity_rows(model)):
+        return (f"this model's scheme {name!r} penalizes the acceleration constraints, "
+                "which were given apart from the velocity constraints "
+                "(acceleration_constraints=...): the derivatives of its multipliers are "
+                "generated only where the acceleration constraints are the velocity "
+                "constraints differentiated; build the model with scheme='baumgarte', "
+                "'augmented-lagrangian' or an index-1 scheme for its derivatives")
     if model.contacts:
         return ("exact derivatives of a model with contacts are not generated yet (its "
                 "right-hand side depends on the contact mode)")
@@ -250,6 +294,13 @@ def derivatives_unavailable(model):
                 "a file does not carry; build the model with eom.numeric(...) in this "
                 "process")
     return None
+
+
+def _constraint_rows_are_velocity_rows(model):
+    """Whether the acceleration-constraint matrix K is B, that of the velocity
+    constraints (the same generated entries)."""
+    dynamics = model._functions["dynamics"][1]
+    return list(dynamics[3][1]) == list(dynamics[4][1])
 
 
 def _check_available(model):
@@ -306,15 +357,19 @@ def _evaluate(model, fns, T, Y, R):
     The accelerations are those of ``model.rhs`` (the scheme's), the
     multipliers those of :meth:`NumericModel.multipliers`; on C, for many
     states, both from the index-1 system that every exact scheme solves, and
-    every state in one call of each generated function.  The derivatives then
-    solve the stacked index-1 systems.
+    every state in one call of each generated function.  A stabilized scheme's
+    accelerations come from its :class:`AccelerationSystem`, with the inputs
+    ``R`` (:func:`_stabilization_derivatives.accelerations`).  The derivatives
+    then solve the stacked systems.
     """
+    from . import _stabilization_derivatives as stab
     dynamics, derivatives, dynamics_rows, derivative_rows, solved = fns
     N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
+    system, names = _system(model), _parts(model)
     if R is None:
         R = (np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
              if model._inputs else np.zeros((N, 0)))
-    if solved is not None:  # C: the index-1 solve and its derivatives in one call
+    if solved is not None and not names:  # C: both solves and the derivatives in one call
         f, D, constraints = solved(np.ascontiguousarray(T, dtype=float),
                                    np.ascontiguousarray(Y, dtype=float), model._p,
                                    np.ascontiguousarray(R, dtype=float))
@@ -322,28 +377,40 @@ def _evaluate(model, fns, T, Y, R):
         groups = [(D[:, :x, a:b], D[:, x:, a:b] if m else None)
                   for a, b in ((0, x), (x, k), (k, D.shape[2]))]
         return f, groups, constraints
-    if dynamics_rows is not None and N > 1:
+    values = {}
+    if dynamics_rows is not None and N > 1 and not names:
         T, Y = np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(Y, dtype=float)
         qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(T, Y, model._p, R)
         S = _index1_matrices(mass, vel_B, acc_K)
         solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
         udot, lam = solved[:, :o], solved[:, o:]
-        *blocks, h_y, c_y = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
+        outputs = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
     else:
         at = []
         for t, y, r in zip(T, Y, R):
             terms = dynamics(t, y, model._p, list(r))
-            udot = model.scheme.accelerations(model, t, y, terms)
+            if names:
+                udot, found = stab.accelerations(model, system, t, y, r, terms)
+            else:
+                udot, found = model.scheme.accelerations(model, t, y, terms), {}
             lam = (np.linalg.lstsq(terms[3].T, terms[1] @ udot - terms[2], rcond=None)[0]
                    if m else np.zeros(0))
-            at.append((terms, udot, lam,
+            at.append((terms, udot, lam, found,
                        derivatives(t, y, model._p, list(r) + list(udot) + list(lam))))
         qd, mass, _, vel_B, acc_K, _ = (np.stack(part) for part in zip(*(a[0] for a in at)))
-        udot = np.stack([a[1] for a in at])
-        *blocks, h_y, c_y = (np.stack(part) for part in zip(*(a[3] for a in at)))
-        S = _index1_matrices(mass, vel_B, acc_K)
+        udot, lam = np.stack([a[1] for a in at]), np.stack([a[2] for a in at])
+        values = {key: np.stack([a[3][key] for a in at]) for key in at[0][3]}
+        outputs = [np.stack(part) for part in zip(*(a[4] for a in at))]
+        S = _index1_matrices(mass, vel_B, acc_K, values.get("alpha"))
+    count = (len(outputs) - 2) // (4 if names else 3)  # column groups
+    blocks, (h_y, c_y) = outputs[:3 * count], outputs[3 * count:3 * count + 2]
+    extra = outputs[3 * count + 2:]
     groups = []
-    for g_x, E_x, a_x in zip(blocks[0::3], blocks[1::3], blocks[2::3]):
+    for k in range(count):
+        g_x, E_x, a_x = blocks[3 * k:3 * k + 3]
+        if names and E_x.shape[2]:
+            a_x = a_x + stab.second_row(system, names, values, extra[k], lam,
+                                        (model.n_q_dep, o))
         solved = (np.linalg.solve(S, -np.concatenate([E_x, a_x], axis=1)) if E_x.shape[2]
                   else np.zeros((N, o + m, 0)))
         groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),
@@ -351,15 +418,18 @@ def _evaluate(model, fns, T, Y, R):
     return np.hstack([qd, udot]), groups, np.concatenate([h_y, c_y], axis=1)
 
 
-def _index1_matrices(mass, vel_B, acc_K):
+def _index1_matrices(mass, vel_B, acc_K, alpha=None):
     """``[[M, -B^T], [K, 0]]`` of each state (stacked), or ``M`` without
-    dependent speeds."""
+    dependent speeds; with a penalty ``alpha`` (N,), ``I/alpha`` in the
+    lower right block."""
     N, o = mass.shape[:2]
     m = vel_B.shape[1]
     if not m:
         return mass
     S = np.zeros((N, o + m, o + m))
     S[:, :o, :o], S[:, :o, o:], S[:, o:, :o] = mass, -np.swapaxes(vel_B, 1, 2), acc_K
+    if alpha is not None:
+        S[:, o:, o:] = np.eye(m) / alpha[:, None, None]
     return S
 
 

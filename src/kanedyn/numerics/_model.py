@@ -890,9 +890,11 @@ class NumericModel(StateLayout):
         Raises
         ------
         ModelError
-            For a model with contacts, a constraint scheme with stabilization
-            terms (Baumgarte, penalty, augmented Lagrangian) or a model restored
-            from a file, naming which.
+            For a model with contacts, a constraint scheme that does not state
+            its equations (``acceleration_system()``; the built-in ones all do,
+            the stabilized ones included), the penalty scheme on acceleration
+            constraints given apart from the velocity constraints, or a model
+            restored from a file, naming which.
 
         Examples
         --------

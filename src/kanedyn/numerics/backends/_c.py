@@ -797,23 +797,24 @@ def _runtime_parts(functions, sizes, lanes):
     rows = ("inverse", "constraints") if "inverse" in functions else ()
     if "jacobians" in functions:
         rows += ("jacobians", "dynamics")
-    if "jacobians" in functions:  # its exact derivatives solved in C (solved_jacobians)
-        defines.append(f"#define KD_JP {_parameter_columns(functions, sizes)}")
+    columns = _parameter_columns(functions, sizes)
+    if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
+        defines.append(f"#define KD_JP {columns}")
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
-            *([_c_runtime.JACOBIAN_SOLVE] if "jacobians" in functions else []),
+            *([_c_runtime.JACOBIAN_SOLVE] if columns is not None else []),
             _function_table(functions, rows), _c_runtime.MODULE_FOOTER]
     model = _RuntimePart(defines, model_declarations, body, not lanes, True)
     return generic, model
 
 
 def _parameter_columns(functions, sizes):
-    """Columns of the constants in the outputs of the ``jacobians`` function (its
-    layout: ``g_x, E_x, a_x`` per column group, then ``h_y, c_y``; a third group,
-    the constants, when asked for)."""
-    _, outputs = functions["jacobians"]
-    if len(outputs) not in (8, 11):
-        raise CodegenError(f"jacobians: 8 or 11 outputs expected, got {len(outputs)}")
-    return sizes["n_p"] if len(outputs) == 11 else 0
+    """Columns of the constants in the outputs of the ``jacobians`` function whose
+    derivatives the module solves in C: its outputs ``g_x, E_x, a_x`` per column
+    group (state, inputs, and the constants when asked for), then ``h_y, c_y``.
+    ``None`` without that function, or with more outputs (a stabilized scheme's
+    parts: its derivatives are solved in NumPy)."""
+    _, outputs = functions.get("jacobians", (None, ()))
+    return {8: 0, 11: sizes["n_p"]}.get(len(outputs))
 
 
 def _inverse_at_a_point(functions, sizes):

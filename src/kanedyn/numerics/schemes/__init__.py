@@ -50,11 +50,15 @@ constraint rows (:math:`\dot h = P c` on the constraint manifold); see
 
 A scheme is a small frozen object: ``formulate(..., method="lagrange-baumgarte")``
 picks one by name, ``eom.numeric(scheme=kd.schemes.Baumgarte(alpha=20.0))``
-chooses another for the same equations.
+chooses another for the same equations.  Its ``acceleration_system()`` (an
+:class:`AccelerationSystem`: stabilization gains, penalty factor) states the
+equations its accelerations satisfy, from which
+:meth:`kanedyn.NumericModel.jacobians` differentiates them.
 """
 
 from ..._errors import ModelError
-from ._base import Scheme, al_solve, complement_solve, kkt_solve, penalty_weight, stabilization
+from ._base import (AccelerationSystem, Scheme, al_solve, complement_solve, kkt_solve,
+                    penalty_weight, rate_matrix, stabilization)
 from ._elimination import Elimination
 from ._index_one import Baumgarte, IndexOne, Projection
 from ._orthogonal_complement import OrthogonalComplement
@@ -65,7 +69,8 @@ from ._udwadia_kalaba import UdwadiaKalaba
 __all__ = ["Scheme", "Elimination", "IndexOne", "Baumgarte", "Projection", "Penalty",
            "AugmentedLagrangian", "AugmentedLagrangianIndex3", "UdwadiaKalaba", "Partitioning",
            "NullSpace", "OrthogonalComplement", "SCHEMES", "as_scheme", "stabilization",
-           "complement_solve", "al_solve", "kkt_solve", "penalty_weight"]
+           "complement_solve", "al_solve", "kkt_solve", "penalty_weight", "AccelerationSystem",
+           "rate_matrix"]
 
 #: name -> scheme class
 SCHEMES = {cls.name: cls for cls in (Elimination, IndexOne, Baumgarte, Projection,

@@ -7,8 +7,44 @@ from typing import ClassVar
 
 import numpy as np
 
-__all__ = ["Scheme", "stabilization", "complement_solve", "al_solve", "kkt_solve",
-           "penalty_weight"]
+__all__ = ["Scheme", "AccelerationSystem", "stabilization", "rate_matrix", "complement_solve",
+           "al_solve", "kkt_solve", "penalty_weight"]
+
+
+@dataclass(frozen=True)
+class AccelerationSystem:
+    r"""The equations a scheme's accelerations satisfy, as exact derivatives need them.
+
+    .. math::
+
+        M\dot u - f = K^T\mu,\qquad K\dot u + f_a + s + \mu/\alpha = 0,
+        \qquad s = g_v\,c + g_p\,P^+h
+
+    (:func:`stabilization` gives :math:`s`).  Without stabilization and
+    penalty this is the index-1 system every exact scheme solves; with
+    :math:`1/\alpha = 0` the constraints hold at the acceleration level
+    (Baumgarte, the converged augmented Lagrangian); with a finite
+    :math:`\alpha` they are a penalty (:class:`Penalty`).
+
+    Attributes
+    ----------
+    velocity_gain : float
+        :math:`g_v`, 1/s (0: none).
+    position_gain : float
+        :math:`g_p`, 1/s² (0: none).
+    penalty_factor : float or None
+        ``factor`` of :math:`\alpha` = :func:`penalty_weight` ``(M, K, factor)``;
+        ``None``: :math:`1/\alpha = 0`.
+    """
+
+    velocity_gain: float = 0.0
+    position_gain: float = 0.0
+    penalty_factor: float | None = None
+
+    @property
+    def stabilized(self):
+        """Whether the system differs from the index-1 one (a gain or a penalty)."""
+        return bool(self.velocity_gain or self.position_gain or self.penalty_factor is not None)
 
 
 @dataclass(frozen=True)
@@ -64,6 +100,12 @@ class Scheme:
         """A state on the constraints near ``y`` (after drift)."""
         return model.consistent_state(t, y)
 
+    def acceleration_system(self):
+        """The :class:`AccelerationSystem` the accelerations satisfy, or ``None``
+        where it is not known (then the model has no exact derivatives:
+        :meth:`kanedyn.NumericModel.jacobians` refuses it, naming the scheme)."""
+        return None
+
 
 def kkt_solve(mass, force, K, rhs):
     r"""Solve :math:`[M, -K^T; K, 0][\dot u; \lambda] = [f; r]`."""
@@ -75,22 +117,39 @@ def kkt_solve(mass, force, K, rhs):
     return np.linalg.solve(A, np.concatenate([force, rhs]))[:o]
 
 
-def _rate_matrix(model, t, y):
+def rate_matrix(model, t, y, r=None):
     r""":math:`\partial\dot q/\partial u` (n x o); the identity for rate speeds.
 
     The kinematic equations are linear in the speeds, so differences of
     ``qdot`` with unit changes of the speeds give the columns exactly (up to
     round-off).
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : float
+    y : ndarray, shape (n_states,)
+    r : sequence of float, shape (n_inputs,), optional
+        Values of the inputs; default: their providers at ``(t, y)``.
+
+    Returns
+    -------
+    ndarray, shape (n_q, n_u)
     """
     n = model.n_q
     if model.rates_are_speeds:
         return np.eye(n)
-    base = model._dynamics(t, y)[0]
+
+    def rates(z):
+        if r is None:
+            return model._dynamics(t, z)[0]
+        return model._fn["dynamics"](t, z, model._p, r)[0]
+    base = rates(y)
     A = np.empty((n, model.n_u))
     for j in range(model.n_u):
         yj = np.array(y, dtype=float)
         yj[n + j] += 1.0
-        A[:, j] = model._dynamics(t, yj)[0] - base
+        A[:, j] = rates(yj) - base
     return A
 
 
@@ -122,7 +181,7 @@ def stabilization(model, t, y, velocity_gain, position_gain):
     h, J, B, c = model._constraint_terms(t, y)
     s = velocity_gain * c
     if len(h) and position_gain:
-        P = J @ _rate_matrix(model, t, y) @ np.linalg.pinv(B)
+        P = J @ rate_matrix(model, t, y) @ np.linalg.pinv(B)
         s = s + position_gain * np.linalg.lstsq(P, h, rcond=None)[0]
     return s
 

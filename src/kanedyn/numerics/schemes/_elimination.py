@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._base import Scheme, kkt_solve
+from ._base import AccelerationSystem, Scheme, kkt_solve
 
 __all__ = ["Elimination"]
 
@@ -35,3 +35,6 @@ class Elimination(Scheme):
             return kkt_solve(mass, force, acc_K, -acc_f)
         M, f = model._assemble(mass, force, vel_B, acc_K, acc_f)
         return np.linalg.solve(M, f)
+
+    def acceleration_system(self):
+        return AccelerationSystem()

@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._base import Scheme, kkt_solve, stabilization
+from ._base import AccelerationSystem, Scheme, kkt_solve, stabilization
 
 __all__ = ["IndexOne", "Baumgarte", "Projection"]
 
@@ -20,6 +20,9 @@ class IndexOne(Scheme):
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
         return kkt_solve(mass, force, K, -acc_f)
+
+    def acceleration_system(self):
+        return AccelerationSystem()
 
 
 @dataclass(frozen=True)
@@ -37,8 +40,12 @@ class Baumgarte(IndexOne):
     beta: float = 10.0
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
-        s = stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
+        system = self.acceleration_system()
+        s = stabilization(model, t, y, system.velocity_gain, system.position_gain)
         return kkt_solve(mass, force, K, -acc_f - s)
+
+    def acceleration_system(self):
+        return AccelerationSystem(velocity_gain=2.0 * self.alpha, position_gain=self.beta ** 2)
 
 
 @dataclass(frozen=True)

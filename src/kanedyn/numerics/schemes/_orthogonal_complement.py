@@ -13,7 +13,7 @@ from typing import ClassVar
 import numpy as np
 
 from ..._errors import ModelError
-from ._base import Scheme, complement_solve
+from ._base import AccelerationSystem, Scheme, complement_solve
 
 __all__ = ["OrthogonalComplement"]
 
@@ -116,6 +116,9 @@ class OrthogonalComplement(Scheme):
             return _cholesky_solve(mass, force, t)
         return complement_solve(mass, force, acc_K, acc_f, np.arange(model.n_u - m, model.n_u),
                                 solve=lambda A, b: _cholesky_solve(A, b, t))
+
+    def acceleration_system(self):
+        return AccelerationSystem()
 
 
 def _cholesky_solve(A, b, t):

@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._base import Scheme, complement_solve
+from ._base import AccelerationSystem, Scheme, complement_solve
 
 __all__ = ["Partitioning", "NullSpace"]
 
@@ -36,6 +36,9 @@ class Partitioning(Scheme):
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
         return complement_solve(mass, force, K, acc_f, _pivoted_partition(K, K.shape[0])[0])
+
+    def acceleration_system(self):
+        return AccelerationSystem()
 
     def project_state(self, model, t, y, tol=1e-12, max_iterations=50):
         y = np.array(y, dtype=float)
@@ -80,3 +83,6 @@ class NullSpace(Scheme):
         particular = -np.linalg.lstsq(K, acc_f, rcond=None)[0]
         z = sla.cho_solve(sla.cho_factor(N.T @ mass @ N), N.T @ (force - mass @ particular))
         return particular + N @ z
+
+    def acceleration_system(self):
+        return AccelerationSystem()

@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from typing import ClassVar
 
 import numpy as np
 
 from ..._errors import ModelError
-from ._base import Scheme, al_solve, penalty_weight, stabilization
+from ._base import AccelerationSystem, Scheme, al_solve, penalty_weight, stabilization
 
 __all__ = ["Penalty", "AugmentedLagrangian", "AugmentedLagrangianIndex3"]
 
@@ -37,13 +37,18 @@ class Penalty(Scheme):
 
     def _system(self, model, t, y, mass, K, acc_f):
         """Penalty :math:`\\alpha`, :math:`M + \\alpha K^TK` and :math:`f_a + s`."""
-        s = stabilization(model, t, y, 2.0 * self.xi * self.omega, self.omega ** 2)
+        system = self.acceleration_system()
+        s = stabilization(model, t, y, system.velocity_gain, system.position_gain)
         alpha = penalty_weight(mass, K, self.factor)
         return alpha, mass + alpha * K.T @ K, acc_f + s
 
     def constrained(self, model, t, y, mass, force, K, acc_f):
         alpha, A, target = self._system(model, t, y, mass, K, acc_f)
         return np.linalg.solve(A, force - alpha * K.T @ target)
+
+    def acceleration_system(self):
+        return AccelerationSystem(velocity_gain=2.0 * self.xi * self.omega,
+                                  position_gain=self.omega ** 2, penalty_factor=self.factor)
 
 
 @dataclass(frozen=True)
@@ -74,6 +79,10 @@ class AugmentedLagrangian(Penalty):
     def constrained(self, model, t, y, mass, force, K, acc_f):
         alpha, _, target = self._system(model, t, y, mass, K, acc_f)
         return al_solve(mass, force, K, -target, alpha, max_iterations=self.max_iterations)
+
+    def acceleration_system(self):
+        """The converged iteration: the constraints hold (:math:`1/\\alpha = 0`)."""
+        return replace(Penalty.acceleration_system(self), penalty_factor=None)
 
 
 @dataclass(frozen=True)
@@ -153,6 +162,10 @@ class AugmentedLagrangianIndex3(Scheme):
     def constrained(self, model, t, y, mass, force, K, acc_f):
         return al_solve(mass, force, K, -acc_f, self.weight(mass, K),
                         max_iterations=self.projection_iterations)
+
+    def acceleration_system(self):
+        """The converged iteration, without stabilization: the index-1 system."""
+        return AccelerationSystem()
 
     def project_velocities(self, model, t, y):
         """Speeds projected onto the velocity constraints in the mass metric."""

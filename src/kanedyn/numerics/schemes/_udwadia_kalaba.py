@@ -7,7 +7,7 @@ from typing import ClassVar
 
 import numpy as np
 
-from ._base import Scheme, stabilization
+from ._base import AccelerationSystem, Scheme, stabilization
 
 __all__ = ["UdwadiaKalaba"]
 
@@ -33,8 +33,14 @@ class UdwadiaKalaba(Scheme):
     def constrained(self, model, t, y, mass, force, K, acc_f):
         a = np.linalg.solve(mass, force)
         b = -acc_f
-        if self.alpha or self.beta:
-            b = b - stabilization(model, t, y, 2.0 * self.alpha, self.beta ** 2)
+        system = self.acceleration_system()
+        if system.stabilized:
+            b = b - stabilization(model, t, y, system.velocity_gain, system.position_gain)
         w, V = np.linalg.eigh(mass)
         M_inv_half = (V / np.sqrt(w)) @ V.T
         return a + M_inv_half @ np.linalg.pinv(K @ M_inv_half) @ (b - K @ a)
+
+    def acceleration_system(self):
+        """That of :class:`Baumgarte` with the same gains: with constraints of full
+        rank the accelerations are those of the index-1 system (to round-off)."""
+        return AccelerationSystem(velocity_gain=2.0 * self.alpha, position_gain=self.beta ** 2)
