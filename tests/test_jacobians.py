@@ -394,3 +394,42 @@ def test_a_c_model_never_waits_for_a_compilation_it_did_not_ask_for(tmp_path):
     assert run("default") == "False"  # not built, and not compiled for the run
     assert run("exact") == "True"
     assert run("default") == "True"  # from the cache
+
+
+@needs_compiler
+@pytest.mark.parametrize("name", ["four-bar", "n-link-pendulum-on-cart"])
+def test_the_compiled_rosenbrock_loop_takes_the_exact_jacobian(name):
+    """The compiled Rosenbrock23 loop evaluates a Jacobian at every step: with
+    jac="exact" (and by default once the derivatives are built) the derivative
+    module's, solved in C, instead of n_states + 1 right-hand sides; the same run
+    to the tolerance."""
+    definition = kd.models.build(name)
+    model = definition.numeric(backend="c")
+    y0 = definition.initial(model)
+    run = dict(method="Rosenbrock23", rtol=1e-8, atol=1e-10)
+    differenced = kd.simulate(model, (0.0, 1.0), y0, jac="differences", **run)
+    exact = kd.simulate(model, (0.0, 1.0), y0, jac="exact", **run)
+    default = kd.simulate(model, (0.0, 1.0), y0, **run)  # the derivatives are built now
+    assert exact.success and differenced.success
+    np.testing.assert_allclose(exact.y[:, -1], differenced.y[:, -1], atol=1e-6)
+    np.testing.assert_array_equal(default.y, exact.y)
+    assert exact.njev > 10
+    saved = differenced.nfev - exact.nfev  # the differences' right-hand sides
+    assert saved >= 0.9 * model.n_states * differenced.njev
+
+
+@needs_compiler
+def test_the_compiled_loop_refuses_what_its_jacobian_lacks():
+    definition = kd.models.build("n-link-pendulum-on-cart")
+    eom = definition.derive()
+    F = eom.specified[0]
+    model = definition.numeric(eom, specified={F: lambda t, y: -40.0 * y[0] - 8.0 * y[4]},
+                               backend="c")
+    y0 = definition.initial(model)
+    with pytest.raises(kd.OptionError, match=r"jac='exact': the inputs F\(t\) are functions "
+                                             "of the state"):
+        kd.simulate(model, (0.0, 0.1), y0, method="Rosenbrock23", jac="exact")
+    assert kd.simulate(model, (0.0, 0.1), y0, method="Rosenbrock23").success  # differences
+    with pytest.raises(kd.OptionError, match="Rosenbrock23 loop takes jac='exact' or "
+                                             "'differences'"):
+        kd.simulate(model, (0.0, 0.1), y0, method="Rosenbrock23", jac=np.eye(model.n_states))
