@@ -124,7 +124,10 @@ def from_result(problem, result, inputs):
             raise ModelError(f"the simulation covers {span:g} s, shorter than the duration "
                              f"{T:g} s")
     times = t[0] + np.linspace(0.0, T, problem.nodes)
-    Y = np.stack([np.interp(times, t, row) for row in result.y], axis=1)
+    if getattr(result, "sol", None) is not None:  # dense output: exact between steps
+        Y = np.asarray(result.sol(times), dtype=float).T
+    else:
+        Y = np.stack([np.interp(times, t, row) for row in result.y], axis=1)
     R = _input_columns(problem, inputs or {}, times)
     return _layout(problem).join(Y, R, _parameters(problem), T)
 
