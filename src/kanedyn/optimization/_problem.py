@@ -326,8 +326,12 @@ class OptimalControlProblem:
             position = (float(time) - self.start_time) / self.duration * (N - 1)
         node = int(round(position))
         if abs(position - node) > 1e-9 * N or not 0 <= node < N:
-            raise ModelError(f"{what}: the time {time} is not a node time (nodes every "
-                             f"T/{N - 1} from t0 = {self.start_time:g})")
+            if self.free_duration:
+                raise ModelError(f"{what}: the time {time} is not a node time (nodes at "
+                                 f"t0 + k {self.duration}/{N - 1})")
+            raise ModelError(f"{what}: the time {float(time):g} s is not a node time (nodes "
+                             f"every {self.duration / (N - 1):g} s from t0 = "
+                             f"{self.start_time:g} s)")
         return node
 
     def _instance(self, value, k):
