@@ -2,7 +2,8 @@
 
 Layers, lowest first (``docs/architecture.md``): foundation (``_errors``, ``_html``,
 ``_lazy``, ``_progress``, ``_number_text``, ``_fork``, ...), ``engine``, ``modeling``,
-``formulations``, ``numerics``, ``simulation``, ``models``, ``analysis``, ``io``, ``cli``; then
+``formulations``, ``numerics``, ``simulation``, ``optimization``, ``models``, ``analysis``,
+``io``, ``cli``; then
 the public face (``kanedyn/__init__.py`` and the modules beside it: ``schemes``, ``visuals``
 and the domain modules ``offshore``, ``vehicle``, ``flexible``, ``studies``).  A module
 imports only from its own layer or lower ones, and another layer only through
@@ -18,7 +19,7 @@ import pytest
 
 PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
-         "models", "analysis", "io", "cli", "public"]
+         "optimization", "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
               "_expressions", "_fork", "_signals", "_trusted_files", "_output_files"}
 PUBLIC = {"__init__", "schemes", "visuals", "offshore", "vehicle", "flexible", "studies"}

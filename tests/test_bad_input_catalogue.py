@@ -1150,3 +1150,64 @@ def test_review_mesh_uris_read(tmp_path):
     folder = tmp_path / "robot"
     name = f"file://localhost{folder}/my%20mesh.obj"
     assert _mesh_of(tmp_path, name, mesh) == str(folder / "my mesh.obj")
+
+
+def _ocp(**changes):
+    """The spring's rest-to-rest problem of least effort, with ``changes``."""
+    model, (q, u, F, m, k, *_) = _spring()
+    numeric = kd.kane(**model).numeric(constants={m: 1.0, k: 1.0}, specified={F: 0.0})
+    options = dict(nodes=11, duration=1.0, lagrange=F ** 2, initial={q: 0, u: 0},
+                   final={q: 1, u: 0})
+    options.update({key: value(q, u, F, m, k) if callable(value) else value
+                    for key, value in changes.items()})
+    return kd.OptimalControlProblem(numeric, **options)
+
+
+#: optimal control: each a clear error naming the bound, symbol or option at fault
+OCP_CASES = {
+    "bounds with lower above upper": (
+        lambda: _ocp(bounds=lambda q, u, F, m, k: {F: (2.0, -2.0)}), kd.ModelError,
+        r"^bounds of F: the lower bound 2 is above the upper bound -2$"),
+    "initial state outside its bounds": (
+        lambda: _ocp(bounds=lambda q, u, F, m, k: {q: (0.5, 2.0)}), kd.ModelError,
+        r"^initial value q = 0 lies outside its bounds \(0\.5, 2\)$"),
+    "objective naming a symbol the model lacks": (
+        lambda: _ocp(lagrange=lambda q, u, F, m, k: F ** 2 + sm.Symbol("c") * q),
+        kd.ModelError, r"integrand \(lagrange\) names c, which is not a symbol of the model"),
+    "objective naming a function the model lacks": (
+        lambda: _ocp(lagrange=lambda q, u, F, m, k: me.dynamicsymbols("w") ** 2),
+        kd.ModelError, r"^w\(\.\.\.\) is neither a state \(q, u\) nor an input \(F\)"),
+    "objective given as text": (
+        lambda: _ocp(lagrange="F(t)**2"), kd.ModelError,
+        r"integrand \(lagrange\) is the text 'F\(t\)\*\*2'; give a number or a SymPy"),
+    "bounds on a constant that is not free": (
+        lambda: _ocp(bounds=lambda q, u, F, m, k: {m: (0.5, 2.0)}), kd.ModelError,
+        r"^bounds name the constant m, which is not free; list it in parameters="),
+    "free duration without bounds": (
+        lambda: _ocp(duration=sm.Symbol("T")), kd.ModelError,
+        r"^the free duration T needs bounds: bounds=\{T: \(lower, upper\)\}$"),
+    "instance constraint between nodes": (
+        lambda: _ocp(instance_constraints=lambda q, u, F, m, k: [
+            q.func(0.37) - 0.5]), kd.ModelError,
+        r"q\(0\.37\) - 0\.5\): the time 0\.37 s is not a node time \(nodes every 0\.1 s "
+        r"from t0 = 0 s\)$"),
+    "unknown collocation method": (
+        lambda: _ocp(method="rk4"), kd.ModelError,
+        r"^unknown collocation method 'rk4'; available: backward-euler, trapezoid, midpoint$"),
+    "guess of the wrong shape": (
+        lambda: _ocp().solve(np.zeros(7)), kd.ModelError,
+        r"^the guess must have shape \(33,\) \(states and inputs at 11 nodes, .*got \(7,\)"),
+    "straight-line guess without the inputs": (
+        lambda: _ocp().guess_line(), kd.ModelError,
+        r"^the guess needs a value for every input: missing F \(inputs=\{\.\.\.\}\)$"),
+    "no objective": (
+        lambda: _ocp(lagrange=None), kd.ModelError, r"^give an objective: lagrange="),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OCP_CASES))
+def test_optimal_control_bad_input(case):
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    make, kind, pattern = OCP_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make()

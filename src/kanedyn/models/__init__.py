@@ -190,7 +190,7 @@ _TITLES = {
 
 #: name -> (builder, {option: type})
 REGISTRY = {
-    "pendulum": (_Builder("pendulum"), {"tension": bool}),
+    "pendulum": (_Builder("pendulum"), {"tension": bool, "torque": bool}),
     "n-link-pendulum-on-cart": (_Builder("n_link_pendulum_on_cart"), {"n": int}),
     "chain3d": (_Builder("chain3d"), {"n": int, "style": str}),
     "rolling-disk": (_Builder("rolling_disk"), {"normal_force": bool}),

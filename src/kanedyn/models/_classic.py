@@ -12,12 +12,15 @@ __all__ = ["pendulum", "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh",
            "four_bar"]
 
 
-def pendulum(tension=False):
+def pendulum(tension=False, torque=False):
     """Simple pendulum: a particle on a massless rod of length ``l``.
 
     The angle ``q`` is measured from the downward vertical, ``u = q'``.  With
     ``tension=True`` an auxiliary speed along the rod exposes the rod tension
-    ``T`` (closed form :math:`T = m(g\\cos q + l u^2)`).
+    ``T`` (closed form :math:`T = m(g\\cos q + l u^2)`).  With ``torque=True``
+    a specified torque ``tau(t)`` (N m, zero by default) drives the rod at the
+    pivot: :math:`m l^2 \\ddot q = -m g l \\sin q + \\tau` (the swing-up of
+    optimal control).
     """
     q, u = me.dynamicsymbols("q u")
     m, l, g = sm.symbols("m l g", positive=True)
@@ -39,6 +42,12 @@ def pendulum(tension=False):
         loads.append((P, T * A.y))
         kane_args["u_auxiliary"] = [ua]
         symbols.update(ua=ua, T=T)
+    specified = None
+    if torque:
+        tau = me.dynamicsymbols("tau")
+        loads.append((A, tau * N.z))
+        symbols["tau"] = tau
+        specified = {tau: 0.0}
     bob = me.Particle("bob", P, m)
     bob.potential_energy = -m * g * l * sm.cos(q)
     kane_args.update(bodies=[bob], loads=loads)
@@ -47,6 +56,7 @@ def pendulum(tension=False):
         kane_args=kane_args, constants={m: 1.0, l: 1.0, g: 9.81},
         constant_units={m: "kg", l: "m", g: "m/s^2"},
         initial_state={q: sm.pi / 2, u: 0.0}, t_end=10.0, symbols=symbols,
+        specified=specified or {},
         description="Released from the horizontal its period is 4 K(sin(pi/4)) "
                     "sqrt(l/g); with tension=True the rod tension is an output.")
 

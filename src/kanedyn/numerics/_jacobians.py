@@ -443,8 +443,10 @@ def jacobians(model, t, y, r=None, parameters=False):
     Y = np.asarray(y, dtype=float)
     many = Y.ndim == 2
     rows = Y if many else Y[None, :]
-    for row in rows:
-        model._check_y(row)
+    if rows.ndim != 2 or rows.shape[1] != model.n_states:
+        model._check_y(Y if not many else Y[0])  # raises, naming the states
+        raise ValueError(f"y must have shape (N, {model.n_states}) for many states, "
+                         f"got {Y.shape}")
     T = np.full(len(rows), t, dtype=float) if np.ndim(t) == 0 else \
         np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
     if r is not None:

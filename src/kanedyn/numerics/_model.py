@@ -392,6 +392,18 @@ def _full_module(model):
         prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
 
 
+def _share_generated(model, clone):
+    """Give ``clone`` (the same equations, other constants or inputs) the code
+    ``model`` generated on first use: the linearization's Jacobians and the
+    exact derivatives take the constants and inputs as arguments (not the
+    derivative module's integration loop, ``_exact_loop``: it holds the
+    model's constants and inputs)."""
+    for attr in ("_linearization_fn", "_jacobians", "_jacobians_p", "_jacobians_module",
+                 "_jacobians_p_module"):
+        if attr in model.__dict__:
+            clone.__dict__[attr] = model.__dict__[attr]
+
+
 class NumericModel(StateLayout):
     """Compiled numerical functions of a set of equations of motion.
 
@@ -783,9 +795,50 @@ class NumericModel(StateLayout):
             for attr in NumericModel._DERIVED:
                 if hasattr(self, attr):
                     setattr(clone, attr, getattr(self, attr))
-        # the linearization's Jacobians take the constants as arguments: reused too
-        if "_linearization_fn" in self.__dict__:
-            clone._linearization_fn = self._linearization_fn
+        _share_generated(self, clone)
+        return clone
+
+    def with_inputs(self, specified):
+        """A copy of this model whose specified inputs have other providers.
+
+        The same code (the loaded C module or the compiled NumPy functions,
+        and the derivatives once built): only the values of the inputs change.
+        Optimal control uses it to simulate optimal inputs.
+
+        Parameters
+        ----------
+        specified : dict
+            ``{input symbol or name: number, f(t) or f(t, y)}`` for some of
+            :attr:`input_names` (the others keep theirs).
+
+        Raises
+        ------
+        KeyError
+            Naming an input the model does not have.
+        """
+        names = [name.removesuffix("(t)") for name in self.input_names]
+        inputs = list(self._inputs)
+        for key, value in specified.items():
+            if isinstance(key, str):
+                name = key.removesuffix("(t)")
+            else:
+                from ..engine import name_of
+                name = name_of(key)
+            if name not in names:
+                raise KeyError(f"{key} is not a specified input of this model; its inputs "
+                               f"are {', '.join(names) or 'none'}")
+            k = names.index(name)
+            inputs[k] = (inputs[k][0], _Input(self._inputs[k][1].name, value))
+        data = dict(self._data, inputs=inputs)
+        clone = NumericModel(data, module=getattr(self, "_module", None),
+                             functions=None if data["backend"] == "c" else self._fn)
+        if "_rederive" in self.__dict__:
+            clone._rederive = self._rederive
+        else:
+            for attr in NumericModel._DERIVED:
+                if hasattr(self, attr):
+                    setattr(clone, attr, getattr(self, attr))
+        _share_generated(self, clone)
         return clone
 
     def mass_matrix(self, t, y):

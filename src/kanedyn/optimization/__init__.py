@@ -1,0 +1,34 @@
+"""Optimization: optimal control by direct collocation on the exact derivatives.
+
+``_problem``       ``OptimalControlProblem``: the objective, bounds and constraints,
+                   checked when stated; ``solve``
+``_terms``         the user's SymPy expressions in the model's symbols, compiled
+                   with their gradients
+``_transcription`` the decision vector and the dynamics' defects of each
+                   collocation method (backward Euler, trapezoid, midpoint)
+``_nlp``           the nonlinear program: bounds, objective, constraints and
+                   their sparse Jacobian from ``model.jacobians``
+``_solvers``       the NLP solvers behind one interface (IPOPT through cyipopt)
+``_guess``         initial guesses: a straight line, a simulation, a solution
+``_result``        ``OptimalControlResult``, the inputs as collocated, and the
+                   check of the optimal inputs by simulation
+
+Uses numerics' derivatives and simulation's ``simulate``; no layer below
+imports it.
+"""
+
+from .._lazy import lazy_attributes as _lazy_attributes
+
+#: public name -> the module (in this package) that defines it; imported on first use
+_LAZY = {
+    "OptimalControlProblem": "._problem",
+    "OptimalControlResult": "._result",
+    "Resimulation": "._result",
+    "NLPSolution": "._solvers",
+    "SOLVERS": "._solvers",
+    "COLLOCATION_METHODS": "._transcription",
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

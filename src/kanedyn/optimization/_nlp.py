@@ -1,0 +1,277 @@
+r"""The nonlinear program of a transcribed optimal control problem.
+
+:class:`CollocationNLP` gives what an NLP solver asks for (:mod:`._solvers`):
+bounds, the objective and its gradient, the constraints, the pattern and the
+values of their sparse Jacobian.  Its constraint rows, in order:
+
+1. the dynamics' defects, ``(N - 1) * n_rows`` (:class:`._transcription.Defects`);
+2. the path constraints, N rows each, node by node;
+3. for a model with constraints, the configuration and velocity constraint
+   residuals :math:`[h(q_k);\ c(q_k, u_k)]` at every node (the dependent
+   states are then not collocated: they follow from these);
+4. the instance constraints, one row each.
+
+The dynamics and their exact derivatives (``model.jacobians`` on every stage
+point in one call) are evaluated once per decision vector and shared by the
+constraints, the Jacobian and the objective.  With a free duration the
+derivative :math:`\partial f/\partial t` of an explicitly time-dependent model
+is taken by central differences of ``f`` (the only derivative not generated;
+exactly zero for an autonomous model).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._transcription import Defects, Layout
+
+__all__ = ["CollocationNLP"]
+
+INFINITY = 1e20  # IPOPT's "no bound" beyond 1e19
+
+
+def _finite(bound):
+    return np.clip(np.asarray(bound, dtype=float), -INFINITY, INFINITY)
+
+
+class CollocationNLP:
+    """The NLP of ``problem`` (an :class:`OptimalControlProblem`)."""
+
+    def __init__(self, problem):
+        self.problem = pb = problem
+        self.layout = L = Layout(pb.nodes, len(pb.symbols.states), len(pb.symbols.inputs),
+                                 len(pb.symbols.free), pb.free_duration)
+        self.defects = Defects(pb.method, L, pb.collocated_rows)
+        self.n = L.n_variables
+        self._cache_key = None
+        self._models = {}
+        self._pattern()
+        self._bounds()
+
+    # ------------------------------------------------------------ layout
+    def _pattern(self):
+        pb, L = self.problem, self.layout
+        N, ns, nr, nf = L.nodes, L.n_states, L.n_inputs, L.n_free
+        rows, cols = [self.defects.structure[0]], [self.defects.structure[1]]
+        start = (N - 1) * len(pb.collocated_rows)
+        node = np.arange(N)[:, None]
+        # path constraints: dense in y_k, r_k, p, T
+        for _ in pb.path:
+            c = [node * ns + np.arange(ns), L.input_start + node * nr + np.arange(nr),
+                 np.broadcast_to(L.free_start + np.arange(nf), (N, nf))]
+            if L.free_duration:
+                c.append(np.full((N, 1), L.duration_index))
+            c = np.concatenate(c, axis=1)
+            rows.append(np.broadcast_to(start + node, c.shape).ravel())
+            cols.append(c.ravel())
+            start += N
+        # constraint residuals at every node: dense in y_k
+        self.n_residuals = pb.n_residuals
+        if pb.n_residuals:
+            nc = pb.n_residuals
+            r = start + node[:, :, None] * nc + np.arange(nc)[None, :, None]
+            c = (node * ns)[:, None, :] + np.arange(ns)[None, None, :]
+            shape = (N, nc, ns)
+            rows.append(np.broadcast_to(r, shape).ravel())
+            cols.append(np.broadcast_to(c, shape).ravel())
+            start += N * nc
+        # instance constraints
+        self._instance_columns = []
+        for inst in pb.instances:
+            c = [L.state_index(k, j) if kind == "state" else L.input_index(k, j)
+                 for kind, j, k in inst.at]
+            c += [L.free_start + j for j in range(nf)]
+            if L.free_duration:
+                c.append(L.duration_index)
+            self._instance_columns.append(np.array(c))
+            rows.append(np.full(len(c), start))
+            cols.append(np.array(c))
+            start += 1
+        self.m = start
+        self.structure = (np.concatenate(rows).astype(int), np.concatenate(cols).astype(int))
+
+    def _bounds(self):
+        pb, L = self.problem, self.layout
+        N = L.nodes
+        lo = np.empty(self.n)
+        hi = np.empty(self.n)
+        sb, ib = pb.state_bounds, pb.input_bounds
+        lo[:L.input_start] = np.tile(sb[:, 0], N)
+        hi[:L.input_start] = np.tile(sb[:, 1], N)
+        lo[L.input_start:L.free_start] = np.tile(ib[:, 0], N)
+        hi[L.input_start:L.free_start] = np.tile(ib[:, 1], N)
+        lo[L.free_start:L.free_start + L.n_free] = pb.free_bounds[:, 0]
+        hi[L.free_start:L.free_start + L.n_free] = pb.free_bounds[:, 1]
+        if L.free_duration:
+            lo[L.duration_index], hi[L.duration_index] = pb.duration_bounds
+        for k, values in ((0, pb.initial), (N - 1, pb.final)):
+            for j, value in values.items():
+                lo[L.state_index(k, j)] = hi[L.state_index(k, j)] = value
+        self.x_lower, self.x_upper = _finite(lo), _finite(hi)
+        g_lo = [np.zeros((N - 1) * len(pb.collocated_rows))]
+        g_hi = [np.zeros((N - 1) * len(pb.collocated_rows))]
+        for path in pb.path:
+            g_lo.append(np.full(N, path.lower))
+            g_hi.append(np.full(N, path.upper))
+        g_lo.append(np.zeros(N * pb.n_residuals))
+        g_hi.append(np.zeros(N * pb.n_residuals))
+        for inst in pb.instances:
+            g_lo.append([inst.lower])
+            g_hi.append([inst.upper])
+        self.g_lower = _finite(np.concatenate(g_lo))
+        self.g_upper = _finite(np.concatenate(g_hi))
+
+    # --------------------------------------------------------- evaluation
+    def _model(self, P):
+        pb = self.problem
+        if not len(P):
+            return pb.model
+        key = tuple(float(v) for v in P)
+        model = self._models.get(key)
+        if model is None:
+            if len(self._models) > 8:
+                self._models.clear()
+            model = pb.model.with_constants(dict(zip(pb.symbols.free, key)))
+            self._models[key] = model
+        return model
+
+    def _evaluate(self, z):
+        """Everything at ``z``, computed once per decision vector."""
+        z = np.asarray(z, dtype=float)
+        key = z.tobytes()
+        if key == self._cache_key:
+            return self._cache
+        pb, L = self.problem, self.layout
+        Y, R, P, T = L.split(z, pb.duration_value)
+        h = T / (L.nodes - 1)
+        model = self._model(P)
+        free_columns = pb.free_columns
+        evaluated, rates, lagrange = [], [], []
+        for t, Ys, Rs in self.defects.points(pb.start_time, h, Y, R):
+            J = model.jacobians(t, Ys, r=Rs, parameters=bool(L.n_free))
+            Pf = J.parameters[:, :, free_columns] if L.n_free else None
+            evaluated.append((J.f, J.state, J.inputs, Pf, J.constraints))
+            if L.free_duration:
+                rates.append(self._time_rate(model, t, Ys, Rs, T))
+            if pb.lagrange is not None:
+                lagrange.append(pb.lagrange(t, Ys, Rs, P, T))
+        node_constraints = None
+        if pb.n_residuals:
+            if any(s.node is not None for s in self.defects.stages):
+                node_constraints = evaluated[0][4]  # the first group: all nodes
+            else:
+                node_constraints = model.jacobians(self._node_times(T), Y, r=R).constraints
+        self._cache_key, self._cache = key, dict(
+            z=z, Y=Y, R=R, P=P, T=T, h=h, model=model,
+            evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
+            node_constraints=node_constraints)
+        return self._cache
+
+    @staticmethod
+    def _time_rate(model, t, Y, R, T):
+        delta = 1e-6 * max(1.0, abs(float(T)))
+        up = model.jacobians(t + delta, Y, r=R).f
+        down = model.jacobians(t - delta, Y, r=R).f
+        return (up - down) / (2 * delta)
+
+    def _node_times(self, T):
+        return self.problem.start_time + T / (self.layout.nodes - 1) * np.arange(
+            self.layout.nodes)
+
+    # ---------------------------------------------------------- objective
+    def objective(self, z):
+        e = self._evaluate(z)
+        pb = self.problem
+        value = 0.0
+        if pb.lagrange is not None:
+            value += self.defects.quadrature(e["h"], e["lagrange"])[0]
+        if pb.mayer is not None:
+            value += float(self._mayer(e)[0][0])
+        return value
+
+    def _mayer(self, e):
+        pb = self.problem
+        tf = pb.start_time + e["T"]
+        return pb.mayer(np.array([tf]), e["Y"][-1:], e["R"][-1:], e["P"], e["T"])
+
+    def gradient(self, z):
+        e = self._evaluate(z)
+        pb, L = self.problem, self.layout
+        N, ns, nr = L.nodes, L.n_states, L.n_inputs
+        gY, gR = np.zeros((N, ns)), np.zeros((N, nr))
+        gP, gT = np.zeros(L.n_free), 0.0
+        h = e["h"]
+        if pb.lagrange is not None:
+            _, parts = self.defects.quadrature(h, e["lagrange"])
+            for stage, (value, d_t, d_y, d_r, d_p, d_T) in parts:
+                w = h * stage.c
+                for o in (0, 1):
+                    a = stage.a[o]
+                    if a:
+                        gY[o:o + N - 1] += w * a * d_y
+                        gR[o:o + N - 1] += w * a * d_r
+                gP += w * d_p.sum(axis=0)
+                if L.free_duration:
+                    position = (np.arange(N - 1) + stage.position) / (N - 1)
+                    gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) \
+                        + w * d_T.sum()
+        if pb.mayer is not None:
+            _, d_t, d_y, d_r, d_p, d_T = self._mayer(e)
+            gY[-1] += d_y[0]
+            gR[-1] += d_r[0]
+            gP += d_p[0]
+            gT += d_t[0] + d_T[0]
+        return L.join(gY, gR, gP, gT)
+
+    # -------------------------------------------------------- constraints
+    def constraints(self, z):
+        e = self._evaluate(z)
+        pb = self.problem
+        parts = [self.defects.values(e["Y"], e["h"], e["evaluated"])]
+        t = self._node_times(e["T"])
+        for path in pb.path:
+            parts.append(path.term(t, e["Y"], e["R"], e["P"], e["T"])[0])
+        if pb.n_residuals:
+            model = e["model"]
+            parts.append(np.concatenate([model.constraint_residuals(tk, yk)
+                                         for tk, yk in zip(t, e["Y"])]))
+        for inst in pb.instances:
+            parts.append([inst.value(self._instance_arguments(inst, e))])
+        return np.concatenate(parts)
+
+    def _instance_arguments(self, inst, e):
+        values = [e["Y"][k, j] if kind == "state" else e["R"][k, j] for kind, j, k in inst.at]
+        return np.concatenate([values, e["P"], [e["T"]]])
+
+    def jacobian_structure(self):
+        return self.structure
+
+    def jacobian(self, z):
+        e = self._evaluate(z)
+        pb, L = self.problem, self.layout
+        N = L.nodes
+        parts = [self.defects.jacobian(e["h"], e["T"], e["evaluated"], e["rates"])]
+        t = self._node_times(e["T"])
+        for path in pb.path:
+            _, d_t, d_y, d_r, d_p, d_T = path.term(t, e["Y"], e["R"], e["P"], e["T"])
+            block = [d_y, d_r, d_p]
+            if L.free_duration:
+                block.append((d_t * np.arange(N) / (N - 1) + d_T)[:, None])
+            parts.append(np.concatenate(block, axis=1).ravel())
+        if pb.n_residuals:
+            parts.append(e["node_constraints"].ravel())
+        for inst in pb.instances:
+            grad = inst.gradient(self._instance_arguments(inst, e))
+            if not L.free_duration:
+                grad = grad[:-1]
+            parts.append(grad)
+        return np.concatenate(parts)
+
+    # ---------------------------------------------------------- reporting
+    def violation(self, z):
+        """Largest violation of a constraint or a bound at ``z``."""
+        z = np.asarray(z, dtype=float)
+        g = self.constraints(z)
+        worst = [np.max(np.maximum(self.g_lower - g, g - self.g_upper), initial=0.0),
+                 np.max(np.maximum(self.x_lower - z, z - self.x_upper), initial=0.0)]
+        return float(max(worst))

@@ -1,0 +1,466 @@
+r"""``OptimalControlProblem``: what to optimize, checked when it is stated.
+
+.. math::
+
+    \min_{y(t),\, r(t),\, p,\, T}\quad \Phi(y(t_f), r(t_f), p, t_f)
+        + \int_{t_0}^{t_f} L(t, y, r, p)\, dt
+    \quad\text{s.t.}\quad \dot y = f(t, y, r, p),\;
+    g_{lo} \le g(t, y, r, p) \le g_{hi},\; \text{bounds},\; \text{instances}
+
+with :math:`t_f = t_0 + T`.  The model's right-hand side :math:`f` and its
+exact derivatives are the numerical model's (``model.jacobians``); the
+objective and constraints are SymPy expressions in the model's symbols
+(:mod:`._terms`).
+"""
+
+from __future__ import annotations
+
+import numbers
+
+import numpy as np
+
+from .._errors import ModelError
+from ._terms import Symbols, compile_term, instance_atoms
+from ._transcription import METHODS
+
+__all__ = ["OptimalControlProblem"]
+
+
+class _Path:
+    """A path constraint ``lower <= g <= upper`` at every node."""
+
+    def __init__(self, term, lower, upper, text):
+        self.term, self.lower, self.upper, self.text = term, lower, upper, text
+
+
+class _Instance:
+    """One instance constraint: ``value(args) = 0`` with ``args`` the named
+    values (``at``: ``(kind, index, node)`` each), the free parameters, T."""
+
+    def __init__(self, at, value, gradient, text):
+        self.at, self.value, self.gradient, self.text = at, value, gradient, text
+        self.lower = self.upper = 0.0
+
+
+def _bound_pair(value, what):
+    try:
+        lower, upper = value
+    except (TypeError, ValueError):
+        raise ModelError(f"bounds of {what} must be a pair (lower, upper), got "
+                         f"{value!r}") from None
+    pair = []
+    for v, side, inf in ((lower, "lower", -np.inf), (upper, "upper", np.inf)):
+        if v is None:
+            pair.append(inf)
+            continue
+        if isinstance(v, (str, bytes)) or not isinstance(v, (numbers.Real, np.number)):
+            raise ModelError(f"{side} bound of {what} must be a number or None, got {v!r}")
+        if np.isnan(v):
+            raise ModelError(f"{side} bound of {what} is nan")
+        pair.append(float(v))
+    if pair[0] > pair[1]:
+        raise ModelError(f"bounds of {what}: the lower bound {pair[0]:g} is above the upper "
+                         f"bound {pair[1]:g}")
+    return pair
+
+
+def _name(key):
+    """The model's name of a symbol, a dynamic symbol or a name."""
+    if isinstance(key, str):
+        return key.removesuffix("(t)")
+    from sympy.core.function import AppliedUndef
+    if isinstance(key, AppliedUndef):
+        return str(key.func)
+    return str(key)
+
+
+class OptimalControlProblem:
+    r"""An optimal control problem on a numerical model, solved by direct collocation.
+
+    Parameters
+    ----------
+    model : NumericModel or EquationsOfMotion
+        The dynamics :math:`\dot y = f(t, y, r, p)`.  The specified inputs of
+        a numerical model (``model.input_names``) are the controls; the values
+        it was built with are not used.  Equations of motion are made numerical
+        here with ``constants`` and ``backend`` (their inputs become controls).
+    nodes : int
+        Number of collocation nodes N (at least 2), equally spaced.
+    duration : float or sympy.Symbol
+        :math:`T = t_f - t_0`, s; a symbol makes it free (give its bounds in
+        ``bounds``).
+    lagrange : sympy expression, optional
+        Integrand :math:`L(t, y, r, p)` of the objective.
+    mayer : sympy expression, optional
+        Terminal cost :math:`\Phi` in the states and inputs (written as
+        ``q(t)``, taken at :math:`t_f`), the free parameters and the duration
+        symbol.  At least one of ``lagrange`` and ``mayer``.
+    bounds : dict, optional
+        ``{symbol or name: (lower, upper)}`` for states and inputs (at every
+        node), free parameters and the duration symbol; ``None`` for no bound
+        on a side.
+    initial, final : dict, optional
+        ``{state: value}`` at :math:`t_0` and :math:`t_f` (independent states
+        only for a model with constraints).
+    instance_constraints : sequence of sympy expressions, optional
+        Expressions equal to zero at the solution, in states and inputs at
+        node times (``q(0) - q(T)``; with a free duration the times must be
+        fractions of its symbol, ``q(T/2)``).
+    periodic : sequence of states, optional
+        States equal at :math:`t_0` and :math:`t_f`.
+    path_constraints : sequence of (expression, lower, upper), optional
+        :math:`g(t, y, r, p)` kept within bounds at every node.
+    parameters : sequence of constants, optional
+        Constants of the model that are optimized too (their model values are
+        the initial guess).
+    method : {"trapezoid", "backward-euler", "midpoint"}
+        The collocation (see :mod:`kanedyn.optimization._transcription`).
+    start_time : float
+        :math:`t_0`, s.
+    constants : dict, optional
+        Only with equations of motion: the constants' values.
+    backend : str
+        Only with equations of motion: ``"numpy"`` or ``"c"``.
+
+    Raises
+    ------
+    ModelError
+        For every inconsistency, naming the symbol, bound or option at fault.
+
+    Notes
+    -----
+    A model with dependent coordinates or speeds (closed loops, nonholonomic
+    constraints): only the independent states are collocated; the
+    configuration and velocity constraints are imposed at every node, so the
+    dependent states follow them exactly at the nodes, and the right-hand
+    side eliminates the dependent speeds numerically as in a simulation.
+
+    Examples
+    --------
+    >>> import sympy as sm, sympy.physics.mechanics as me
+    >>> import kanedyn as kd
+    >>> x, v, F = me.dynamicsymbols("x v F")
+    >>> N = me.ReferenceFrame("N"); O = me.Point("O"); O.set_vel(N, 0)
+    >>> P = O.locatenew("P", x * N.x); P.set_vel(N, v * N.x)
+    >>> eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
+    ...               bodies=[me.Particle("P", P, 1)], loads=[(P, F * N.x)])
+    >>> ocp = kd.OptimalControlProblem(eom.numeric(specified={F: 0.0}), nodes=41,
+    ...     duration=1.0, lagrange=F**2, initial={x: 0, v: 0}, final={x: 1, v: 0})
+    >>> res = ocp.solve(ocp.guess_line(inputs={F: 0.0}))   # doctest: +SKIP
+    """
+
+    def __init__(self, model, *, nodes, duration, lagrange=None, mayer=None, bounds=None,
+                 initial=None, final=None, instance_constraints=(), periodic=(),
+                 path_constraints=(), parameters=(), method="trapezoid", start_time=0.0,
+                 constants=None, backend="numpy"):
+        model = self._numeric(model, constants, backend)
+        reason = _derivatives_unavailable(model)
+        if reason:
+            raise ModelError(f"optimal control needs the model's exact derivatives: {reason}")
+        self.model = model
+        if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2:
+            raise ModelError(f"nodes must be an integer of at least 2, got {nodes!r}")
+        self.nodes = int(nodes)
+        if method not in METHODS:
+            raise ModelError(f"unknown collocation method {method!r}; available: "
+                             f"{', '.join(METHODS)}")
+        self.method = method
+        if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real):
+            raise ModelError(f"start_time must be a number, got {start_time!r}")
+        self.start_time = float(start_time)
+        self._duration(duration)
+        import sympy.physics.mechanics as me
+        names = tuple(str(c) for c in model.constants)
+        free = tuple(self._free_parameter(p, names) for p in parameters)
+        if len(set(free)) != len(free):
+            raise ModelError(f"parameters lists a constant twice: {', '.join(free)}")
+        self.symbols = Symbols(
+            t=me.dynamicsymbols._t, states=tuple(model.state_names),
+            inputs=tuple(n.removesuffix("(t)") for n in model.input_names),
+            constants=dict(model.constants), free=free,
+            duration=self.duration if self.free_duration else None)
+        self.free_columns = [names.index(p) for p in free]
+        self._constraint_layout()
+        self._bounds(bounds or {})
+        self.initial = self._end_values(initial or {}, "initial")
+        self.final = self._end_values(final or {}, "final")
+        if lagrange is None and mayer is None:
+            raise ModelError("give an objective: lagrange= (an integrand) and/or mayer= "
+                             "(a terminal cost)")
+        self.lagrange = compile_term(lagrange, self.symbols, "the objective's integrand "
+                                     "(lagrange)")
+        self.mayer = compile_term(mayer, self.symbols, "the terminal cost (mayer)")
+        self.path = [self._path(entry, k) for k, entry in enumerate(path_constraints)]
+        self.instances = [self._instance(e, k) for k, e in enumerate(instance_constraints)]
+        self.instances += [self._periodic(s) for s in periodic]
+
+    # ------------------------------------------------------------ checks
+    @staticmethod
+    def _numeric(model, constants, backend):
+        if hasattr(model, "jacobians") and hasattr(model, "state_names"):
+            if constants is not None:
+                raise ModelError("constants= is for equations of motion; a numerical "
+                                 "model has its constants (model.with_constants(...))")
+            return model
+        if hasattr(model, "numeric") and hasattr(model, "specified"):
+            if constants is None:
+                raise ModelError("equations of motion need constants={symbol: value} to "
+                                 "become a numerical model")
+            specified = {s: 0.0 for s in model.specified
+                         if not hasattr(s, "variables")}  # values unused: the controls
+            return model.numeric(constants=constants, specified=specified, backend=backend)
+        raise ModelError(f"model must be a NumericModel or EquationsOfMotion, got "
+                         f"{type(model).__name__}")
+
+    def _duration(self, duration):
+        import sympy as sm
+        if isinstance(duration, sm.Symbol):
+            self.duration, self.free_duration, self.duration_value = duration, True, None
+            return
+        if isinstance(duration, bool) or not isinstance(duration, numbers.Real) \
+                or not np.isfinite(duration) or duration <= 0:
+            raise ModelError(f"duration must be a positive number (s) or a SymPy symbol "
+                             f"(free duration), got {duration!r}")
+        self.duration, self.free_duration = float(duration), False
+        self.duration_value = float(duration)
+
+    @staticmethod
+    def _free_parameter(p, names):
+        name = _name(p)
+        if name not in names:
+            raise ModelError(f"parameters: {p} is not a constant of the model (its "
+                             f"constants: {', '.join(names)})")
+        return name
+
+    def _constraint_layout(self):
+        m = self.model
+        n, l, o, k = m.n_q, m.n_q_dep, m.n_u, m.n_u_dep
+        self.collocated_rows = list(range(n - l)) + list(range(n, n + o - k))
+        self.dependent = [m.state_names[i] for i in range(n - l, n)] + \
+            [m.state_names[i] for i in range(n + o - k, n + o)]
+        self.n_residuals = l + k
+
+    def _bounds(self, bounds):
+        s = self.symbols
+        self.state_bounds = np.tile([-np.inf, np.inf], (len(s.states), 1))
+        self.input_bounds = np.tile([-np.inf, np.inf], (len(s.inputs), 1))
+        self.free_bounds = np.tile([-np.inf, np.inf], (len(s.free), 1))
+        self.duration_bounds = None
+        if not isinstance(bounds, dict):
+            raise ModelError(f"bounds must be a dict {{symbol: (lower, upper)}}, got "
+                             f"{type(bounds).__name__}")
+        for key, value in bounds.items():
+            name = _name(key)
+            pair = _bound_pair(value, name)
+            if self.free_duration and name == str(self.duration):
+                self.duration_bounds = pair
+            elif name in s.states:
+                self.state_bounds[s.states.index(name)] = pair
+            elif name in s.inputs:
+                self.input_bounds[s.inputs.index(name)] = pair
+            elif name in s.free:
+                self.free_bounds[s.free.index(name)] = pair
+            elif name in s.constants:
+                raise ModelError(f"bounds name the constant {name}, which is not free; list "
+                                 "it in parameters= to optimize it")
+            else:
+                raise ModelError(
+                    f"bounds name {key}, which is neither a state ({', '.join(s.states)}), "
+                    f"an input ({', '.join(s.inputs) or 'none'}), a free parameter "
+                    f"({', '.join(s.free) or 'none'}) nor the free duration")
+        if self.free_duration:
+            if self.duration_bounds is None:
+                raise ModelError(f"the free duration {self.duration} needs bounds: "
+                                 f"bounds={{{self.duration}: (lower, upper)}}")
+            if self.duration_bounds[0] <= 0:
+                raise ModelError(f"the lower bound of the duration {self.duration} must be "
+                                 f"positive, got {self.duration_bounds[0]:g}")
+
+    def _end_values(self, values, which):
+        s = self.symbols
+        out = {}
+        for key, value in values.items():
+            name = _name(key)
+            if name not in s.states:
+                raise ModelError(f"{which} state names {key}, which is not a state of the "
+                                 f"model ({', '.join(s.states)})")
+            if name in self.dependent:
+                raise ModelError(f"{which} value of {name}: a dependent state follows from "
+                                 "the constraints; give the independent states only")
+            if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)) \
+                    or not np.isfinite(value):
+                raise ModelError(f"{which} value of {name} must be a finite number, got "
+                                 f"{value!r}")
+            j = s.states.index(name)
+            lo, hi = self.state_bounds[j]
+            if not lo <= value <= hi:
+                raise ModelError(f"{which} value {name} = {value:g} lies outside its bounds "
+                                 f"({lo:g}, {hi:g})")
+            out[j] = float(value)
+        return out
+
+    def _path(self, entry, k):
+        try:
+            expr, lower, upper = entry
+        except (TypeError, ValueError):
+            raise ModelError(f"path constraint {k} must be (expression, lower, upper), got "
+                             f"{entry!r}") from None
+        lower, upper = _bound_pair((lower, upper), f"path constraint {k} ({expr})")
+        term = compile_term(expr, self.symbols, f"path constraint {k} ({expr})")
+        return _Path(term, lower, upper, str(expr))
+
+    def _node_of(self, time, what):
+        """The node index at ``time`` (a number, or a multiple of the free
+        duration's symbol)."""
+        import sympy as sm
+        N = self.nodes
+        if self.free_duration:
+            fraction = sm.nsimplify(sm.simplify((time - self.start_time) / self.duration))
+            if not fraction.is_number:
+                raise ModelError(f"{what}: the time {time} is not a fraction of the free "
+                                 f"duration {self.duration} (write q({self.duration}/2))")
+            position = float(fraction) * (N - 1)
+        else:
+            if not sm.sympify(time).is_number:
+                raise ModelError(f"{what}: the time {time} is not a number")
+            position = (float(time) - self.start_time) / self.duration * (N - 1)
+        node = int(round(position))
+        if abs(position - node) > 1e-9 * N or not 0 <= node < N:
+            if self.free_duration:
+                raise ModelError(f"{what}: the time {time} is not a node time (nodes at "
+                                 f"t0 + k {self.duration}/{N - 1})")
+            raise ModelError(f"{what}: the time {float(time):g} s is not a node time (nodes "
+                             f"every {self.duration / (N - 1):g} s from t0 = "
+                             f"{self.start_time:g} s)")
+        return node
+
+    def _instance(self, value, k):
+        import sympy as sm
+        what = f"instance constraint {k} ({value})"
+        expr, atoms = instance_atoms(value, self.symbols, what)
+        at, dummies, swap = [], [], {}
+        for atom, (kind, j, time) in atoms.items():
+            d = sm.Dummy()
+            swap[atom] = d
+            dummies.append(d)
+            at.append((kind, j, self._node_of(time, what)))
+        p = [sm.Dummy() for _ in self.symbols.free]
+        for name, d in zip(self.symbols.free, p):
+            swap.update({s: d for s in expr.free_symbols if str(s) == name})
+        T = sm.Dummy("T")
+        if self.free_duration:
+            swap[self.duration] = T
+        e = expr.xreplace(swap)
+        variables = dummies + p + [T]
+        fn = sm.lambdify(variables, [e] + [e.diff(v) for v in variables], modules="numpy")
+        return _Instance(at, lambda a: float(fn(*a)[0]),
+                         lambda a: np.array(fn(*a)[1:], dtype=float), str(value))
+
+    def _periodic(self, state):
+        s = self.symbols
+        name = _name(state)
+        if name not in s.states:
+            raise ModelError(f"periodic names {state}, which is not a state of the model "
+                             f"({', '.join(s.states)})")
+        j = s.states.index(name)
+        extra = len(s.free) + 1
+        grad = np.concatenate([[1.0, -1.0], np.zeros(extra)])
+        return _Instance([("state", j, self.nodes - 1), ("state", j, 0)],
+                         lambda a: float(a[0] - a[1]), lambda a: grad,
+                         f"{name}(tf) - {name}(t0)")
+
+    # ----------------------------------------------------------- guesses
+    @property
+    def n_variables(self):
+        """Length of the decision vector (states and inputs at every node, the
+        free parameters, the duration when free)."""
+        s = self.symbols
+        return (self.nodes * (len(s.states) + len(s.inputs)) + len(s.free)
+                + int(self.free_duration))
+
+    def node_times(self, duration=None):
+        """Times of the nodes, s (``duration`` for a free one)."""
+        T = self.duration_value if duration is None else float(duration)
+        if T is None:
+            raise ModelError("the duration is free: give node_times(duration=...)")
+        return self.start_time + T * np.linspace(0.0, 1.0, self.nodes)
+
+    def guess_line(self, start=None, end=None, inputs=None, duration=None):
+        """A decision vector: states on a straight line from ``start`` to ``end``.
+
+        Parameters
+        ----------
+        start, end : dict, optional
+            ``{state: value}``; entries not given are taken from ``initial`` and
+            ``final`` of the problem; every state needs both ends.
+        inputs : dict
+            ``{input: value}``, constant over time, for every input.
+        duration : float
+            Only (and required) for a free duration.
+        """
+        from ._guess import line
+        return line(self, start or {}, end or {}, inputs or {}, duration)
+
+    def guess_from(self, result, inputs=None):
+        """A decision vector from a ``SimulationResult`` (its states at the node
+        times; ``inputs``: ``{input: number or f(t)}`` for every input) or an
+        earlier :class:`OptimalControlResult` (states, inputs, parameters and
+        duration, interpolated onto these nodes)."""
+        from ._guess import from_result
+        return from_result(self, result, inputs)
+
+    # ------------------------------------------------------------ solve
+    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False):
+        """Solve the transcribed problem from ``guess``.
+
+        Parameters
+        ----------
+        guess : ndarray, shape (n_variables,), or OptimalControlResult
+            The decision vector (:meth:`guess_line`, :meth:`guess_from`), or a
+            previous solution of a problem with the same layout.
+        solver : str or object
+            ``"ipopt"`` (cyipopt) or an object of the solver interface
+            (:mod:`kanedyn.optimization._solvers`).
+        options : dict, optional
+            Passed to the solver (IPOPT's options: ``{"tol": 1e-10,
+            "max_iter": 500}``).
+        warm_start : bool
+            With a previous result as ``guess``: start from its multipliers too.
+
+        Returns
+        -------
+        OptimalControlResult
+            Also when the solver fails or is interrupted (Ctrl-C: the last
+            iterate), with the solver's status in ``message``.
+        """
+        from ._guess import vector
+        from ._nlp import CollocationNLP
+        from ._result import build_result
+        from ._solvers import solver_named
+        chosen = solver_named(solver)
+        x0, warm = vector(self, guess, warm_start)
+        nlp = CollocationNLP(self)
+        stop = {"signal": None}
+
+        def on_signal(signum):
+            from .._signals import Stopped
+            if stop["signal"] is not None:  # a second one: stop at once
+                raise Stopped(signum)
+            stop["signal"] = signum
+
+        from .._signals import holding
+        with holding(on_signal):
+            solution = chosen.solve(nlp, x0, options=options, warm=warm,
+                                    stop=lambda: stop["signal"] is not None)
+        return build_result(self, nlp, solution, stop["signal"])
+
+    def __repr__(self):
+        free = " free duration," if self.free_duration else ""
+        return (f"<OptimalControlProblem {self.method}, {self.nodes} nodes,{free} "
+                f"{len(self.symbols.states)} states, {len(self.symbols.inputs)} inputs, "
+                f"{len(self.symbols.free)} free parameters>")
+
+
+def _derivatives_unavailable(model):
+    from ..numerics import derivatives_unavailable
+    return derivatives_unavailable(model)

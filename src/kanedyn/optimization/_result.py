@@ -1,0 +1,222 @@
+"""``OptimalControlResult``: the optimal trajectory, the solver's account, and a
+check of the optimal inputs by simulation.
+
+The inputs between nodes are what the transcription assumed
+(:func:`input_functions`): backward Euler holds :math:`r_{k+1}` over
+:math:`(t_k, t_{k+1}]`, the midpoint rule :math:`(r_k + r_{k+1})/2`, the
+trapezoid interpolates linearly.  :meth:`OptimalControlResult.resimulate`
+integrates the model with those inputs by ``kd.simulate`` and reports how far
+the simulated states end from the collocated ones at the nodes.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._solvers import IPOPT_STATUS
+
+__all__ = ["OptimalControlResult", "Resimulation", "build_result", "input_functions"]
+
+
+class _Held:
+    """An input as the transcription saw it, a function of t (picklable)."""
+
+    def __init__(self, t, values, kind):
+        self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
+
+    def __call__(self, t):
+        t0, tf, n = self.t[0], self.t[-1], self.t.size
+        if self.kind == "linear":
+            return float(np.interp(t, self.t, self.values))
+        s = (t - t0) / (tf - t0) * (n - 1)
+        if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
+            k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
+            return float(self.values[k])
+        k = int(min(max(np.floor(s), 0), n - 2))  # midpoint: the average on [t_k, t_k+1)
+        return float(0.5 * (self.values[k] + self.values[k + 1]))
+
+
+_HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"}
+
+
+def input_functions(method, t, r, names):
+    """``{input name: f(t)}`` of the inputs as collocated by ``method``."""
+    return {name: _Held(t, row, _HOLD[method]) for name, row in zip(names, r)}
+
+
+@dataclass(frozen=True)
+class Resimulation:
+    """The optimal inputs simulated with ``kd.simulate``.
+
+    Attributes
+    ----------
+    simulation : SimulationResult
+        At the node times.
+    defect : dict
+        ``{state name: largest |simulated - collocated| over the nodes}``
+        (units of the state).
+    max_defect : float
+        The largest of them.
+    """
+
+    simulation: object
+    defect: dict
+    max_defect: float
+
+
+@dataclass(frozen=True)
+class OptimalControlResult:
+    """The solution of an :class:`OptimalControlProblem` (also a failed or
+    interrupted one: then the last iterate); immutable.
+
+    Attributes
+    ----------
+    t : ndarray, shape (N,)
+        Node times, s.
+    y : ndarray, shape (n_states, N)
+        States at the nodes (the ``SimulationResult`` layout).
+    r : ndarray, shape (n_inputs, N)
+        Inputs at the nodes.
+    state_names, input_names : tuple of str
+    parameters : dict
+        ``{name: value}`` of the free parameters.
+    duration : float
+        s.
+    objective : float
+    constraint_violation : float
+        Largest violation of a constraint (defects included) or bound.
+    success : bool
+        The solver converged (IPOPT status 0 or 1).
+    status : int
+        The solver's code (IPOPT's: 0 solved, 1 acceptable, 2 infeasible,
+        4 diverging, 5 stopped, -1 iteration limit, ...).
+    message : str
+    iterations : int
+    wall_time : float
+        Seconds in the solver.
+    method : str
+    solver : str
+    x : ndarray
+        The decision vector.
+    multipliers : dict
+        For a warm start.
+    problem : OptimalControlProblem
+    """
+
+    t: np.ndarray
+    y: np.ndarray
+    r: np.ndarray
+    state_names: tuple
+    input_names: tuple
+    parameters: dict
+    duration: float
+    objective: float
+    constraint_violation: float
+    success: bool
+    status: int
+    message: str
+    iterations: int
+    wall_time: float
+    method: str
+    solver: str
+    x: np.ndarray
+    multipliers: dict
+    problem: object
+
+    def __getitem__(self, key):
+        """A state's or an input's values at the nodes, by name or dynamic symbol."""
+        from ._problem import _name
+        name = _name(key)
+        if name in self.state_names:
+            return self.y[self.state_names.index(name)]
+        if name in self.input_names:
+            return self.r[self.input_names.index(name)]
+        raise KeyError(f"{key} is neither a state ({', '.join(self.state_names)}) nor an "
+                       f"input ({', '.join(self.input_names) or 'none'})")
+
+    def inputs(self):
+        """``{input name: f(t)}``: the inputs between the nodes as the
+        transcription assumed them."""
+        return input_functions(self.method, self.t, self.r, self.input_names)
+
+    def model(self):
+        """The numerical model with the optimal free parameters and inputs."""
+        model = self.problem.model
+        if self.parameters:
+            model = model.with_constants(self.parameters)
+        return model.with_inputs(self.inputs()) if self.input_names else model
+
+    @property
+    def trajectory(self):
+        """The collocated trajectory as a ``SimulationResult`` (``.plot()``,
+        ``.animate(...)``, ``["q"]``, ``.to_csv``)."""
+        from ..simulation import SimulationResult
+        model = self.model()
+        return SimulationResult.build(
+            model, self.t, self.y, 0 if self.success else -1, self.message, [], [], None,
+            {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
+            f"collocation ({self.method})")
+
+    def plot(self, states=None, path=None, title=None):
+        """Plot the collocated states (``SimulationResult.plot``); returns the Figure."""
+        return self.trajectory.plot(states=states, path=path,
+                                    title=title or f"optimal trajectory ({self.method}, "
+                                                   f"{self.t.size} nodes)")
+
+    def animate(self, path, **options):
+        """The collocated motion as a 3D animation (``SimulationResult.animate``)."""
+        return self.trajectory.animate(path, **options)
+
+    def resimulate(self, rtol=1e-10, atol=1e-10, method="DOP853"):
+        """Simulate the optimal inputs from the collocated initial state.
+
+        Returns
+        -------
+        Resimulation
+            The run at the node times and its largest difference from the
+            collocated states.  It shrinks with the node count at the
+            method's order.
+        """
+        from ..simulation import simulate
+        model = self.model()
+        run = simulate(model, (self.t[0], self.t[-1]), self.y[:, 0], t_eval=self.t,
+                       rtol=rtol, atol=atol, method=method, backend="scipy")
+        n = min(run.t.size, self.t.size)
+        diff = np.abs(run.y[:, :n] - self.y[:, :n])
+        defect = {name: float(np.max(d)) for name, d in zip(self.state_names, diff)}
+        if n < self.t.size:  # the run ended early: say so by an infinite defect
+            defect = {name: np.inf for name in self.state_names}
+        return Resimulation(run, defect, max(defect.values()) if defect else 0.0)
+
+    def __repr__(self):
+        return (f"<OptimalControlResult {self.method}, {self.t.size} nodes: objective "
+                f"{self.objective:.8g}, violation {self.constraint_violation:.1e}, "
+                f"{self.message}>")
+
+
+def build_result(problem, nlp, solution, interrupted):
+    from .._signals import interruption
+    L = nlp.layout
+    Y, R, P, T = L.split(solution.x, problem.duration_value)
+    violation = nlp.violation(solution.x)
+    objective = nlp.objective(solution.x)
+    meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
+    text = f"{solution.solver}: {solution.status_text} (status {solution.status}"
+    text += f": {meaning})" if meaning else ")"
+    if interrupted is not None:
+        text = (f"{interruption(interrupted)} at iteration {solution.iterations}: the last "
+                f"iterate is returned; " + text)
+    text += (f" after {solution.iterations} iterations; largest constraint violation "
+             f"{violation:.2e}")
+    t = problem.start_time + float(T) * np.linspace(0.0, 1.0, problem.nodes)
+    return OptimalControlResult(
+        t=t, y=Y.T.copy(), r=R.T.copy(), state_names=problem.symbols.states,
+        input_names=problem.symbols.inputs,
+        parameters=dict(zip(problem.symbols.free, map(float, P))), duration=float(T),
+        objective=objective, constraint_violation=violation,
+        success=solution.status in (0, 1) and interrupted is None, status=solution.status,
+        message=text, iterations=solution.iterations, wall_time=solution.wall_time,
+        method=problem.method, solver=solution.solver, x=solution.x,
+        multipliers=solution.multipliers, problem=problem)

@@ -1,0 +1,179 @@
+"""NLP solvers behind one small interface.
+
+A solver is an object with a ``name`` and ``solve(nlp, x0, options, warm,
+stop) -> NLPSolution``; :data:`SOLVERS` maps the names ``solve(solver=...)``
+accepts to them.  ``nlp`` gives ``n``, ``m``, ``x_lower``, ``x_upper``,
+``g_lower``, ``g_upper``, ``objective(x)``, ``gradient(x)``,
+``constraints(x)``, ``jacobian_structure()`` and ``jacobian(x)`` (values in
+the pattern's order).  ``stop()`` is asked once per iteration: ``True`` ends
+the solve with the current iterate.
+
+IPOPT through cyipopt was chosen by measurement (``docs/benchmarks.md``,
+``benchmarks/bench_nlp_solvers.py``): it takes the Jacobian's pattern once and
+its values per call; CasADi's IPOPT reached through ``casadi.Callback`` took
+time growing as N^3 (194 s at 3,000 variables against 0.12 s).  The Hessian
+of the Lagrangian is IPOPT's limited-memory quasi-Newton approximation
+(``hessian_approximation = "limited-memory"``): no second derivatives are
+generated.
+"""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import ModelError
+
+__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "IPOPT_STATUS"]
+
+#: IPOPT's return codes and what they mean for the user
+IPOPT_STATUS = {
+    0: "solved",
+    1: "solved to an acceptable level",
+    2: "infeasible: IPOPT found no point satisfying the constraints and bounds "
+       "(check them, or give a better initial guess)",
+    3: "the search direction became too small",
+    4: "the iterates diverged: the objective may be unbounded below (bound the "
+       "variables it decreases along)",
+    5: "stopped on request",
+    6: "a feasible point was found",
+    -1: "the maximum number of iterations was reached (options={'max_iter': ...})",
+    -2: "the restoration phase failed (the constraints may be infeasible or badly "
+        "scaled; try another initial guess)",
+    -3: "error in the step computation",
+    -4: "the maximum CPU time was reached",
+    -10: "not enough degrees of freedom (more equality constraints than variables)",
+    -11: "invalid problem definition",
+    -12: "invalid option",
+    -13: "an invalid number (nan or inf) came from the model or the objective",
+    -100: "unrecoverable exception",
+    -101: "an exception was raised outside IPOPT",
+    -102: "not enough memory",
+    -199: "IPOPT's internal error",
+}
+
+
+@dataclass(frozen=True)
+class NLPSolution:
+    """What an NLP solver returned.
+
+    Attributes
+    ----------
+    x : ndarray
+        The last iterate (the solution when ``status`` is 0 or 1).
+    objective : float
+    status : int
+        The solver's own code (IPOPT's, see :data:`IPOPT_STATUS`).
+    status_text : str
+        The solver's own status message.
+    iterations : int
+    wall_time : float
+        Seconds in the solver (callbacks included).
+    multipliers : dict
+        ``{"g": ..., "x_lower": ..., "x_upper": ...}`` for a warm start.
+    solver : str
+    """
+
+    x: np.ndarray
+    objective: float
+    status: int
+    status_text: str
+    iterations: int
+    wall_time: float
+    multipliers: dict
+    solver: str
+
+
+class Ipopt:
+    """IPOPT through cyipopt (Debian's ``coinor-libipopt-dev``; see the README).
+
+    The options kanedyn sets unless given: ``hessian_approximation =
+    "limited-memory"``, ``print_level = 0``, ``sb = "yes"``.
+    """
+
+    name = "ipopt"
+    DEFAULTS = {"hessian_approximation": "limited-memory", "print_level": 0, "sb": "yes"}
+
+    @staticmethod
+    def available():
+        """``None`` when cyipopt imports, else why not (text)."""
+        try:
+            import cyipopt  # noqa: F401
+        except ImportError as exc:
+            return (f"the IPOPT solver needs cyipopt ({exc}); install it with "
+                    "pip install 'kanedyn[optimal]' after apt-get install "
+                    "coinor-libipopt-dev pkg-config liblapack-dev libblas-dev")
+        return None
+
+    def solve(self, nlp, x0, options=None, warm=None, stop=lambda: False):
+        reason = self.available()
+        if reason:
+            raise ImportError(reason)
+        import cyipopt
+        count = [0]
+
+        class Callbacks:
+            objective = staticmethod(nlp.objective)
+            gradient = staticmethod(nlp.gradient)
+            constraints = staticmethod(nlp.constraints)
+            jacobian = staticmethod(nlp.jacobian)
+
+            def jacobianstructure(self):
+                return nlp.jacobian_structure()
+
+            def intermediate(self, alg_mod, iter_count, *rest):
+                count[0] = int(iter_count)
+                return not stop()
+
+        problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(),
+                                  lb=nlp.x_lower, ub=nlp.x_upper,
+                                  cl=nlp.g_lower, cu=nlp.g_upper)
+        merged = dict(self.DEFAULTS, **(options or {}))
+        if warm is not None:
+            merged.setdefault("warm_start_init_point", "yes")
+        for key, value in merged.items():
+            if isinstance(value, bool):
+                value = "yes" if value else "no"
+            try:
+                problem.add_option(key, value)
+            except (TypeError, ValueError) as exc:
+                raise ValueError(f"IPOPT option {key}={value!r} was refused ({exc}); see "
+                                 "IPOPT's list of options") from None
+        start = time.perf_counter()
+        if warm is not None:
+            x, info = problem.solve(x0, lagrange=warm["g"], zl=warm["x_lower"],
+                                    zu=warm["x_upper"])
+        else:
+            x, info = problem.solve(x0)
+        wall = time.perf_counter() - start
+        text = info["status_msg"]
+        if isinstance(text, bytes):
+            text = text.decode(errors="replace")
+        return NLPSolution(
+            x=np.asarray(x, dtype=float), objective=float(info["obj_val"]),
+            status=int(info["status"]), status_text=str(text).strip(),
+            iterations=count[0], wall_time=wall,
+            multipliers={"g": np.asarray(info["mult_g"]),
+                         "x_lower": np.asarray(info["mult_x_L"]),
+                         "x_upper": np.asarray(info["mult_x_U"])},
+            solver=self.name)
+
+
+#: solver name -> class
+SOLVERS = {"ipopt": Ipopt}
+
+
+def solver_named(solver):
+    """The solver object for a name of :data:`SOLVERS` or an object with ``solve``."""
+    if isinstance(solver, str):
+        try:
+            return SOLVERS[solver]()
+        except KeyError:
+            raise ModelError(f"unknown NLP solver {solver!r}; available: "
+                             f"{', '.join(SOLVERS)}") from None
+    if not hasattr(solver, "solve"):
+        raise ModelError(f"solver must be a name ({', '.join(SOLVERS)}) or an object with "
+                         f"solve(nlp, x0, options, warm, stop), not {solver!r}")
+    return solver

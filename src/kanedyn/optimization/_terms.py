@@ -1,0 +1,163 @@
+r"""The user's SymPy expressions (objective, path and instance constraints),
+read in the model's symbols and compiled with their exact gradients.
+
+An expression may name the time ``t`` (``dynamicsymbols._t``), the states and
+inputs as the dynamic symbols the model was written with (``q(t)``,
+``F(t)``), the model's constants (a free parameter is a variable, any other is
+replaced by its value), and the duration symbol of a free-duration problem.
+Anything else is refused, naming the symbol.  Nothing is parsed from text:
+expressions go through :func:`kanedyn._expressions.as_expression`.
+
+The gradient is SymPy's derivative of the (small) expression; values and
+gradients are one NumPy function (``lambdify``) evaluated on all nodes at once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import ModelError
+from .._expressions import as_expression
+
+__all__ = ["Symbols", "Term", "compile_term", "instance_atoms"]
+
+
+@dataclass(frozen=True)
+class Symbols:
+    """How the model's names map to SymPy symbols and to decision variables.
+
+    Attributes
+    ----------
+    t : sympy.Symbol
+        Time (``dynamicsymbols._t``).
+    states, inputs : tuple of str
+        The model's state names and input names (without ``(t)``).
+    constants : dict
+        ``{name: value}`` of the model's constants.
+    free : tuple of str
+        The constants that are free parameters.
+    duration : sympy.Symbol or None
+        The symbol of a free duration.
+    """
+
+    t: object
+    states: tuple
+    inputs: tuple
+    constants: dict
+    free: tuple
+    duration: object
+
+    def dynamic(self, atom):
+        """``("state" | "input", index)`` of a dynamic symbol such as ``q(t)``."""
+        name = str(atom.func)
+        if name in self.states:
+            return "state", self.states.index(name)
+        if name in self.inputs:
+            return "input", self.inputs.index(name)
+        raise ModelError(
+            f"{atom.func}(...) is neither a state ({', '.join(self.states)}) nor an input "
+            f"({', '.join(self.inputs) or 'the model has none'}) of the model")
+
+
+def _check_atoms(expr, symbols, what, instances=False):
+    """Refuse what an expression may not name; return it with the fixed
+    constants replaced by their values."""
+    import sympy as sm
+    from sympy.core.function import AppliedUndef
+    for d in expr.atoms(sm.Derivative):
+        raise ModelError(f"{what} contains the derivative {d}; write it with the "
+                         "speeds (states) instead")
+    fixed = {}
+    for s in expr.free_symbols:
+        if s == symbols.t or s == symbols.duration:
+            continue
+        name = str(s)
+        if name in symbols.free:
+            continue
+        if name in symbols.constants:
+            fixed[s] = symbols.constants[name]
+            continue
+        known = ", ".join(list(symbols.constants) + ["t"]
+                          + ([str(symbols.duration)] if symbols.duration is not None else []))
+        raise ModelError(f"{what} names {s}, which is not a symbol of the model (its "
+                         f"constants and times: {known}; states and inputs are written "
+                         "as dynamic symbols, q(t))")
+    for atom in expr.atoms(AppliedUndef):
+        symbols.dynamic(atom)  # raises for a function the model lacks
+        if atom.args != (symbols.t,) and not instances:
+            raise ModelError(f"{what} contains {atom}: states at given times belong in "
+                             "instance constraints")
+    return expr.xreplace({k: sm.Float(v) for k, v in fixed.items()})
+
+
+class Term:
+    """A scalar expression of ``(t, y, r, p, T)`` and its gradient, on many nodes.
+
+    ``__call__(t, Y, R, P, T)`` with ``t`` (K,), ``Y`` (K, n_states), ``R``
+    (K, n_inputs), ``P`` (n_free,), ``T`` (float) returns ``(value, d_t, d_y,
+    d_r, d_p, d_T)``: shapes (K,), (K,), (K, n_states), (K, n_inputs), (K,
+    n_free), (K,).
+    """
+
+    def __init__(self, expr, symbols):
+        import sympy as sm
+        from sympy.core.function import AppliedUndef
+        ns, nr, nf = len(symbols.states), len(symbols.inputs), len(symbols.free)
+        y = [sm.Dummy(f"y{k}") for k in range(ns)]
+        r = [sm.Dummy(f"r{k}") for k in range(nr)]
+        p = [sm.Dummy(f"p{k}") for k in range(nf)]
+        t, T = sm.Dummy("t"), sm.Dummy("T")
+        swap = {symbols.t: t}
+        if symbols.duration is not None:
+            swap[symbols.duration] = T
+        for name, dummy in zip(symbols.free, p):
+            swap.update({s: dummy for s in expr.free_symbols if str(s) == name})
+        for atom in expr.atoms(AppliedUndef):
+            kind, k = symbols.dynamic(atom)
+            swap[atom] = y[k] if kind == "state" else r[k]
+        e = expr.xreplace(swap)
+        variables = [t] + y + r + p + [T]
+        outputs = [e] + [e.diff(v) for v in variables]
+        self._fn = sm.lambdify(variables, outputs, modules="numpy", dummify=True)
+        self._sizes = (ns, nr, nf)
+
+    def __call__(self, t, Y, R, P, T):
+        t = np.asarray(t, dtype=float)
+        K = t.size
+        ns, nr, nf = self._sizes
+        out = self._fn(t, *Y.T, *R.T, *np.asarray(P, dtype=float), T)
+        out = [np.broadcast_to(np.asarray(o, dtype=float), (K,)) for o in out]
+        value, d_t = out[0], out[1]
+        d_y = np.stack(out[2:2 + ns], axis=1) if ns else np.zeros((K, 0))
+        d_r = np.stack(out[2 + ns:2 + ns + nr], axis=1) if nr else np.zeros((K, 0))
+        d_p = (np.stack(out[2 + ns + nr:2 + ns + nr + nf], axis=1) if nf
+               else np.zeros((K, 0)))
+        return value, d_t, d_y, d_r, d_p, out[-1]
+
+
+def compile_term(value, symbols, what):
+    """A :class:`Term` of the user's expression ``value`` (checked, see the
+    module's text); ``None`` for ``None``."""
+    if value is None:
+        return None
+    expr = _check_atoms(as_expression(value, what), symbols, what)
+    return Term(expr, symbols)
+
+
+def instance_atoms(value, symbols, what):
+    """``(expr, {atom: (kind, index, time)})`` of an instance constraint: the
+    states and inputs it names at given times (``q(0)``, ``q(T)``)."""
+    from sympy.core.function import AppliedUndef
+    expr = _check_atoms(as_expression(value, what), symbols, what, instances=True)
+    atoms = {}
+    for atom in expr.atoms(AppliedUndef):
+        if atom.args == (symbols.t,):
+            raise ModelError(f"{what} contains {atom} at the running time t; an instance "
+                             "constraint names states at given times, e.g. q(0) or q(T)")
+        kind, k = symbols.dynamic(atom)
+        atoms[atom] = (kind, k, atom.args[0])
+    if not atoms:
+        raise ModelError(f"{what} names no state or input at a given time")
+    return expr, atoms

@@ -1,0 +1,341 @@
+"""Optimal control by direct collocation (``kd.OptimalControlProblem``), checked
+against what shares none of its code:
+
+- closed forms: the rest-to-rest double integrator of least effort
+  (u = 6 - 12 t, objective 12), its minimum-time twin (T = 2), a free mass
+  (the optimum at its bound, objective 12 m^2); the convergence orders of
+  backward Euler (1) and the trapezoid (2) in the states, and of the
+  re-simulation defect;
+- opty on the same discrete problem (pendulum and cart-pole swing-ups, its
+  equations written by hand and by SymPy's KanesMethod): the same optimum;
+- the NLP's Jacobian and gradient against central differences;
+- a closed loop (a pendulum in Cartesian coordinates with its length as a
+  constraint) against the same motion in its angle.
+
+IPOPT through cyipopt is needed; without it every test here is skipped,
+saying so.
+"""
+
+import signal
+import sys
+import threading
+from pathlib import Path
+
+import numpy as np
+import pytest
+import scipy.sparse as sp
+import sympy as sm
+import sympy.physics.mechanics as me
+
+import kanedyn as kd
+
+pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (pip install "
+                    "'kanedyn[optimal]' after apt-get install coinor-libipopt-dev)")
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+TIGHT = {"tol": 1e-12, "max_iter": 500}
+
+
+def _double_integrator(backend="numpy", mass=1.0):
+    x, v, F = me.dynamicsymbols("x v F")
+    m = sm.Symbol("m")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x)
+    P.set_vel(N, v * N.x)
+    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
+                  bodies=[me.Particle("P", P, m)], loads=[(P, F * N.x)])
+    model = eom.numeric(constants={m: mass}, specified={F: 0.0}, backend=backend)
+    return model, (x, v, F, m)
+
+
+def _rest_to_rest(model, symbols, nodes, method, **extra):
+    x, v, F, _ = symbols
+    problem = kd.OptimalControlProblem(model, nodes=nodes, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0},
+                                       method=method, **extra)
+    result = problem.solve(problem.guess_line(inputs={F: 0.0}), options=TIGHT)
+    assert result.success, result.message
+    return result
+
+
+@pytest.fixture(scope="module")
+def integrator():
+    return _double_integrator()
+
+
+def _order(errors, nodes):
+    return np.log(errors[0] / errors[1]) / np.log((nodes[1] - 1) / (nodes[0] - 1))
+
+
+@pytest.mark.parametrize("method, order", [("backward-euler", 1), ("trapezoid", 2)])
+def test_rest_to_rest_closed_form_and_order(integrator, method, order):
+    """x(t) = 3t^2 - 2t^3, u = 6 - 12t, objective 12: the collocated states
+    converge at the method's order, and the objective extrapolated (Richardson,
+    the objective's order 2 for both) matches 12 to 1e-6."""
+    model, symbols = integrator
+    nodes = (201, 401)
+    results = [_rest_to_rest(model, symbols, n, method) for n in nodes]
+    errors = [np.max(np.abs(r["x"] - (3 * r.t ** 2 - 2 * r.t ** 3))) for r in results]
+    assert abs(_order(errors, nodes) - order) < 0.15, errors
+    J = [r.objective for r in results]
+    assert abs(_order([J[0] - 12, J[1] - 12], nodes) - 2) < 0.05
+    extrapolated = (4 * J[1] - J[0]) / 3  # h halved, order 2
+    assert abs(extrapolated - 12.0) < 1e-6
+    for r in results:
+        assert r.constraint_violation < 1e-9
+    # the control in the interior, away from the ends where the trapezoid's
+    # first and last values lag by O(h)
+    r = results[1]
+    inner = slice(r.t.size // 4, 3 * r.t.size // 4)
+    assert np.max(np.abs(r["F"][inner] - (6 - 12 * r.t[inner]))) < 0.1
+
+
+@pytest.mark.parametrize("method, order", [("backward-euler", 1), ("trapezoid", 2)])
+def test_resimulation_defect_shrinks_with_nodes(integrator, method, order):
+    """The optimal inputs simulated (held or interpolated as collocated) end
+    where the collocated states are, up to the method's error."""
+    model, symbols = integrator
+    nodes = (41, 81)
+    defects = [_rest_to_rest(model, symbols, n, method).resimulate().max_defect
+               for n in nodes]
+    assert abs(_order(defects, nodes) - order) < 0.2, defects
+
+
+def test_minimum_time_closed_form(integrator):
+    """|F| <= 1 from rest to rest over a distance 1: bang-bang, T = 2."""
+    model, (x, v, F, _) = integrator
+    T = sm.Symbol("T")
+    found = []
+    for nodes in (41, 81):
+        problem = kd.OptimalControlProblem(
+            model, nodes=nodes, duration=T, mayer=T, bounds={F: (-1, 1), T: (0.5, 5)},
+            initial={x: 0, v: 0}, final={x: 1, v: 0}, method="trapezoid")
+        result = problem.solve(problem.guess_line(inputs={F: 0.0}, duration=3.0),
+                               options={"tol": 1e-10})
+        assert result.success, result.message
+        found.append(result.duration)
+    assert abs(found[-1] - 2.0) < 0.02
+    assert abs(found[-1] - 2.0) <= abs(found[0] - 2.0)
+
+
+def test_free_parameter_goes_to_its_bound():
+    """The mass free in [0.5, 2]: least effort is at m = 0.5, objective 12 m^2
+    (extrapolated as above)."""
+    model, symbols = _double_integrator(mass=1.3)
+    x, v, F, m = symbols
+    results = [_rest_to_rest(model, symbols, n, "trapezoid", parameters=[m],
+                             bounds={m: (0.5, 2.0)}) for n in (201, 401)]
+    for r in results:
+        assert abs(r.parameters["m"] - 0.5) < 1e-8
+    J = [r.objective for r in results]
+    assert abs((4 * J[1] - J[0]) / 3 - 12 * 0.25) < 1e-6
+
+
+@pytest.mark.parametrize("method", ["backward-euler", "trapezoid", "midpoint"])
+@pytest.mark.parametrize("free", [False, True])
+def test_nlp_derivatives_against_differences(method, free):
+    """Jacobian of all constraint kinds and the objective's gradient (Lagrange
+    and Mayer terms, free parameters, free duration) against central
+    differences of the NLP's own functions."""
+    from kanedyn.optimization._nlp import CollocationNLP
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    t = me.dynamicsymbols._t
+    T = sm.Symbol("T")
+    duration = T if free else 2.0
+    problem = kd.OptimalControlProblem(
+        model, nodes=6, duration=duration, lagrange=tau ** 2 + q ** 2 * u + sm.sin(t) * u,
+        mayer=q ** 2 + (T if free else 0), bounds={tau: (-2, 2), **({T: (0.5, 5)} if free
+                                                                   else {})},
+        initial={q: 0, u: 0}, final={q: np.pi}, method=method, parameters=["m", "l"],
+        path_constraints=[(u ** 2 + tau * q, -5, 5)],
+        instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0)],
+        periodic=[u])
+    nlp = CollocationNLP(problem)
+    z = np.random.default_rng(0).normal(size=nlp.n)
+    if free:
+        z[-1] = 2.0
+    J = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()),
+                      shape=(nlp.m, nlp.n)).toarray()
+    J_fd, g_fd = np.zeros_like(J), np.zeros(nlp.n)
+    for i in range(nlp.n):
+        e = np.zeros(nlp.n)
+        e[i] = 1e-6
+        J_fd[:, i] = (nlp.constraints(z + e) - nlp.constraints(z - e)) / 2e-6
+        g_fd[i] = (nlp.objective(z + e) - nlp.objective(z - e)) / 2e-6
+    assert np.max(np.abs(J - J_fd)) < 1e-7
+    assert np.max(np.abs(nlp.gradient(z) - g_fd)) < 1e-7
+
+
+def _circle_pendulum():
+    """The torque-driven pendulum with the bob's Cartesian coordinates x
+    (independent) and y (dependent: x^2 + y^2 = l^2), the torque as a force
+    tau / l along the circle."""
+    x, y, vx, vy, tau = me.dynamicsymbols("x y v_x v_y tau")
+    m, g, l = sm.symbols("m g l")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x + y * N.y)
+    P.set_vel(N, vx * N.x + vy * N.y)
+    eom = kd.kane(frame=N, q_ind=[x], q_dep=[y], u_ind=[vx], u_dep=[vy],
+                  kd_eqs=[x.diff() - vx, y.diff() - vy],
+                  configuration_constraints=[x ** 2 + y ** 2 - l ** 2],
+                  velocity_constraints=[x * vx + y * vy],
+                  bodies=[me.Particle("bob", P, m)],
+                  loads=[(P, -m * g * N.y + tau / l ** 2 * (-y * N.x + x * N.y))])
+    model = eom.numeric(constants={m: 1.0, g: 9.81, l: 1.0}, specified={tau: 0.0})
+    return model, (x, y, vx, vy, tau)
+
+
+def test_closed_loop_matches_the_angle_formulation():
+    """A rest-to-rest swing to 0.5 rad in 2 s of least effort: in Cartesian
+    coordinates with the constraint at every node it reaches the optimum of
+    the angle formulation (both converge at order 2 to it), and keeps the
+    constraints at every node."""
+    model, (x, y, vx, vy, tau) = _circle_pendulum()
+    nodes, angle = 101, 0.5
+    problem = kd.OptimalControlProblem(
+        model, nodes=nodes, duration=2.0, lagrange=tau ** 2, initial={x: 0, vx: 0},
+        final={x: np.sin(angle), vx: 0}, method="trapezoid")
+    s = np.linspace(0, 1, nodes)
+    guess = problem.guess_line(start={y: -1, vy: 0}, end={y: -np.cos(angle), vy: 0},
+                               inputs={tau: 0.0})
+    closed = problem.solve(guess, options=TIGHT)
+    assert closed.success, closed.message
+    residuals = np.array([model.constraint_residuals(0.0, yk) for yk in closed.y.T])
+    assert np.max(np.abs(residuals)) < 1e-9
+
+    definition = kd.models.build("pendulum", torque=True)
+    pendulum = definition.numeric(backend="numpy")
+    q, u, tau2 = (definition.symbols[k] for k in ("q", "u", "tau"))
+    angle_problem = kd.OptimalControlProblem(
+        pendulum, nodes=nodes, duration=2.0, lagrange=tau2 ** 2, initial={q: 0, u: 0},
+        final={q: angle, u: 0}, method="trapezoid")
+    reference = angle_problem.solve(angle_problem.guess_line(inputs={tau2: 0.0}),
+                                    options=TIGHT)
+    assert abs(closed.objective - reference.objective) / reference.objective < 1e-3
+    assert np.max(np.abs(np.arcsin(closed["x"]) - reference["q"])) < 1e-3
+    del s
+
+
+# ---------------------------------------------------------------- against opty
+def _opty_or_skip():
+    return pytest.importorskip("opty", reason="the comparison needs opty (the test extra)")
+
+
+@pytest.mark.slow
+def test_pendulum_swing_up_same_optimum_as_opty():
+    """opty's gallery problem as published (501 nodes, its random guess, its
+    equations written by hand), backward Euler, the same IPOPT options: the
+    same objective to 1e-6.  (At 101 nodes both find the backward-Euler
+    problem infeasible; the midpoint rule leaves an alternating input
+    sequence free, so its optimum is not unique.)"""
+    _opty_or_skip()
+    import _ocp_peers as peers
+    method = "backward-euler"
+    nodes = 501
+    guess = np.random.default_rng(0).normal(size=3 * nodes)
+    problem, _ = peers.pendulum_kanedyn(nodes, method, backend="numpy")
+    ours = problem.solve(guess, options=peers.IPOPT_OPTIONS)
+    theirs, info, _ = peers.solve_opty(peers.pendulum_opty(nodes, method), guess, 2, 1)
+    assert ours.status in (0, 1) and info["status"] in (0, 1), (ours.message, info)
+    assert abs(ours.objective - info["obj_val"]) / abs(info["obj_val"]) < 1e-6
+
+
+@pytest.mark.slow
+def test_cart_pole_swing_up_same_optimum_as_opty():
+    """The cart-pole (opty's equations from SymPy's KanesMethod): the same
+    objective to 1e-6."""
+    _opty_or_skip()
+    import _ocp_peers as peers
+    nodes = 61
+    guess = peers.cart_pole_guess(nodes)
+    problem, _ = peers.cart_pole_kanedyn(nodes, backend="numpy")
+    ours = problem.solve(guess, options=peers.IPOPT_OPTIONS)
+    theirs, info, _ = peers.solve_opty(peers.cart_pole_opty(nodes), guess, 4, 1)
+    assert ours.status in (0, 1) and info["status"] in (0, 1), (ours.message, info)
+    assert abs(ours.objective - info["obj_val"]) / abs(info["obj_val"]) < 1e-6
+
+
+# ------------------------------------------------------- results, guesses, stops
+def test_result_table_plot_and_warm_start(integrator, tmp_path):
+    model, symbols = integrator
+    x, v, F, _ = symbols
+    result = _rest_to_rest(model, symbols, 21, "trapezoid")
+    assert isinstance(result, kd.OptimalControlResult)
+    trajectory = result.trajectory
+    assert isinstance(trajectory, kd.SimulationResult)
+    assert np.array_equal(trajectory["x"], result["x"])
+    figure = result.plot(path=tmp_path / "ocp.png")
+    assert (tmp_path / "ocp.png").stat().st_size > 0
+    del figure
+    problem = result.problem
+    again = problem.solve(result, warm_start=True, options=TIGHT)
+    assert again.success and again.iterations <= result.iterations
+    assert abs(again.objective - result.objective) < 1e-9
+    finer = kd.OptimalControlProblem(model, nodes=41, duration=1.0, lagrange=F ** 2,
+                                     initial={x: 0, v: 0}, final={x: 1, v: 0})
+    refined = finer.solve(result, options=TIGHT)  # interpolated onto 41 nodes
+    assert refined.success
+
+
+def test_guess_from_a_simulation(integrator):
+    model, (x, v, F, _) = integrator
+    pushed = model.with_inputs({F: lambda t: 6 - 12 * t})
+    run = kd.simulate(pushed, (0.0, 1.0), [0.0, 0.0], rtol=1e-10, atol=1e-10,
+                      dense_output=True)
+    problem = kd.OptimalControlProblem(model, nodes=31, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0})
+    guess = problem.guess_from(run, inputs={F: lambda t: 6 - 12 * t})
+    result = problem.solve(guess, options=TIGHT)
+    assert result.success
+    assert np.max(np.abs(guess[:62:2] - (3 * problem.node_times() ** 2
+                                         - 2 * problem.node_times() ** 3))) < 1e-8
+
+
+def test_sigint_returns_the_last_iterate():
+    """Ctrl-C during a solve: the solve stops at the next iteration and returns
+    its iterate, the message saying so."""
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(model, nodes=101, duration=10.0, lagrange=tau ** 2,
+                                       bounds={tau: (-2, 2)}, initial={q: 0, u: 0},
+                                       final={q: np.pi, u: 0}, method="backward-euler")
+    guess = problem.guess_line(inputs={tau: 0.0})
+    timer = threading.Timer(0.5, lambda: signal.raise_signal(signal.SIGINT))
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+    try:
+        timer.start()
+        result = problem.solve(guess, options={"max_iter": 100000, "tol": 1e-14})
+    finally:
+        timer.cancel()
+        signal.signal(signal.SIGINT, previous)
+    assert not result.success
+    assert result.message.startswith("interrupted at iteration")
+    assert result.status == 5
+    assert result.x.shape == guess.shape
+
+
+def test_failures_are_reported_in_the_result(integrator):
+    """An infeasible problem (the force too weak to arrive) and an unbounded one
+    come back as results whose message carries IPOPT's status."""
+    model, (x, v, F, _) = integrator
+    problem = kd.OptimalControlProblem(model, nodes=21, duration=1.0, lagrange=F ** 2,
+                                       bounds={F: (-1, 1)}, initial={x: 0, v: 0},
+                                       final={x: 1, v: 0})
+    result = problem.solve(problem.guess_line(inputs={F: 0.0}))
+    assert not result.success
+    assert result.status in (2, -2) and "infeasible" in result.message
+    unbounded = kd.OptimalControlProblem(model, nodes=11, duration=1.0, mayer=-x,
+                                         initial={x: 0, v: 0})
+    result = unbounded.solve(unbounded.guess_line(end={x: 1, v: 0}, inputs={F: 0.0}),
+                             options={"max_iter": 200})
+    assert not result.success
+    assert "IPOPT" in result.message or "ipopt" in result.message
+    assert result.status in (4, -1)
