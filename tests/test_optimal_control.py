@@ -30,7 +30,7 @@ import sympy.physics.mechanics as me
 import kanedyn as kd
 
 pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (pip install "
-                    "'kanedyn[optimal]' after apt-get install coinor-libipopt-dev)")
+                    "'kanedyn[optimal]', part of the test extra)")
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
@@ -225,7 +225,10 @@ def test_closed_loop_matches_the_angle_formulation():
 
 # ---------------------------------------------------------------- against opty
 def _opty_or_skip():
-    return pytest.importorskip("opty", reason="the comparison needs opty (the test extra)")
+    return pytest.importorskip("opty", reason=(
+        "the comparison needs opty: its pip requirement 'cyipopt' builds against a system "
+        "IPOPT, so it is not in the test extra; .ci/run installs it with pip install "
+        "--no-deps opty cython, beside the test extra's cyipopt-wheels"))
 
 
 @pytest.mark.slow

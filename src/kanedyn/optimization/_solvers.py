@@ -87,7 +87,7 @@ class NLPSolution:
 
 
 class Ipopt:
-    """IPOPT through cyipopt (Debian's ``coinor-libipopt-dev``; see the README).
+    """IPOPT through cyipopt (the ``optimal`` extra; see docs/optimal_control.md).
 
     The options kanedyn sets unless given: ``hessian_approximation =
     "limited-memory"``, ``print_level = 0``, ``sb = "yes"``.
@@ -103,8 +103,9 @@ class Ipopt:
             import cyipopt  # noqa: F401
         except ImportError as exc:
             return (f"the IPOPT solver needs cyipopt ({exc}); install it with "
-                    "pip install 'kanedyn[optimal]' after apt-get install "
-                    "coinor-libipopt-dev pkg-config liblapack-dev libblas-dev")
+                    "pip install 'kanedyn[optimal]' (on Linux x86-64 it brings IPOPT; "
+                    "elsewhere cyipopt needs an installed IPOPT, e.g. Debian's "
+                    "coinor-libipopt-dev)")
         return None
 
     def solve(self, nlp, x0, options=None, warm=None, stop=lambda: False):
