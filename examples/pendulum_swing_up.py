@@ -62,9 +62,10 @@ def plot(result, path):
     for bound, label in ((-LIMIT, f"limits +-{LIMIT:g} N m"), (LIMIT, None)):
         axes[2].axhline(bound, color="0.6", ls="--", lw=0.8, label=label)
     axes[2].set_ylabel("tau [N m]")
+    axes[2].set_ylim(-1.5 * LIMIT, 1.6 * LIMIT)  # room for the legend above the limits
     axes[2].set_xlabel("t [s]")
     for ax in axes:
-        ax.legend(loc="upper left", fontsize=8)
+        ax.legend(loc="upper right" if ax is axes[2] else "upper left", fontsize=8)
         ax.grid(alpha=0.3)
     figure.suptitle(f"Pendulum swing-up of least integral of torque^2\n{result.t.size} "
                     f"nodes, {result.method}: objective {result.objective:.4f} N^2 m^2 s",
