@@ -74,11 +74,11 @@ def plot(result, path):
     return path
 
 
-def main():
+def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, default=401)
     parser.add_argument("--plot", default="pendulum_swing_up.png")
-    args = parser.parse_args()
+    args = parser.parse_args(argv)
     result = solve(args.nodes)
     print(f"{args.nodes} nodes: {result.message}")
     print(f"objective {result.objective:.6f} N^2 m^2 s, largest constraint violation "
@@ -93,6 +93,8 @@ def main():
           + (f" (beyond 1e-2 from t = {apart:.2f} s: upright, the pendulum is unstable and "
              "an open-loop torque cannot hold it)" if apart is not None else ""))
     print(f"figure: {plot(result, args.plot)}")
+    return {"t": result.t, "q": result["q"], "u": result["u"], "tau": result["tau"],
+            "objective": result.objective, "success": result.success}
 
 
 if __name__ == "__main__":

@@ -389,3 +389,29 @@ def test_bicycle_stability(tmp_path, monkeypatch):
     assert first.converged and first.stable
     assert np.max(np.abs(first.y[[3, 5]])) < 1e-12  # lean q4 and steer q7
     assert out["eigenvalues"].shape == (101, 4)
+
+
+@pytest.mark.slow
+def test_pendulum_swing_up(tmp_path, monkeypatch):
+    """The optimum meets its own conditions, checked here by hand: the end
+    states, the torque limit, the objective as the trapezoid of tau^2, and the
+    optimal torque (linear between the nodes, as the trapezoid assumes) driving
+    the pendulum written here (m l^2 q'' = tau - m g l sin q, m = l = 1 kg, m,
+    g = 9.81) through SciPy: the same motion while it swings (first 5 s)."""
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (the test extra)")
+    out, _ = run_example("pendulum_swing_up", ["--nodes", "201"], tmp_path, monkeypatch)
+    t, q, u, tau = out["t"], out["q"], out["u"], out["tau"]
+    assert out["success"]
+    np.testing.assert_allclose([q[0], u[0], q[-1], u[-1]], [0.0, 0.0, np.pi, 0.0],
+                               atol=1e-6)
+    assert np.max(np.abs(tau)) <= 2.0 + 1e-6 and np.max(np.abs(tau)) > 1.99  # at its limit
+    assert abs(out["objective"] - np.trapezoid(tau ** 2, t)) < 1e-6 * out["objective"]
+
+    def pendulum(time, x):
+        return [x[1], np.interp(time, t, tau) - 9.81 * np.sin(x[0])]
+    early = t <= 5.0
+    run = solve_ivp(pendulum, (0.0, 5.0), [0.0, 0.0], t_eval=t[early], rtol=1e-10,
+                    atol=1e-12, max_step=t[1] - t[0])
+    # the trapezoid's error, O(h^2) at h = 0.05 s: under 1 % of each state's range
+    assert np.max(np.abs(run.y[0] - q[early])) < 1e-2 * np.ptp(q[early])
+    assert np.max(np.abs(run.y[1] - u[early])) < 1e-2 * np.ptp(u[early])
