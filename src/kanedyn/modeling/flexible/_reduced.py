@@ -383,15 +383,14 @@ def damping_matrix(member, ratios=None, rayleigh=None, modal_mass=None, what=Non
     if np.ndim(ratios) == 0:  # one number: every coordinate
         zeta = np.full(m, zeta[0])
     if zeta.shape != (m,):
-        raise ModelError(f"{what}: {ratio_name} needs {m} ratios (one per modal coordinate) "
-                         f"or one for all, got {zeta.size}")
+        raise ModelError(f"{what}: {ratio_name}: {m} ratios needed (one per modal "
+                         f"coordinate) or one number for all, got {zeta.size}")
     if not np.all(np.isfinite(zeta)) or np.any(zeta < 0):
         raise ModelError(f"{what}: {ratio_name} must be finite and not negative, got "
                          f"{ratios!r}")
     if np.any(zeta >= 1):
-        raise ModelError(f"{what}: {ratio_name} are fractions of critical (0.01 is 1 %); "
-                         f"{zeta.max():g} is critical or beyond: a percentage given as a "
-                         "fraction?")
+        raise ModelError(f"{what}: {ratio_name} are fractions of critical (0.01 is 1 %), "
+                         f"got {zeta.max():g}: critical or beyond (was a percentage given?)")
     scale = max(np.abs(M).max(initial=0.0), 1e-300), max(np.abs(K).max(initial=0.0), 1e-300)
     for matrix, name, size in ((M, "mass", scale[0]), (K, "stiffness", scale[1])):
         if np.abs(matrix - np.diag(np.diag(matrix))).max(initial=0.0) > 1e-9 * size:
