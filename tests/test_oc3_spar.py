@@ -153,12 +153,12 @@ def test_energy_symmetric_linear_mooring():
 
 @pytest.mark.slow
 def test_energy_conserved_in_free_decay():
-    """No drag, no linear or aerodynamic damping, undamped TMD with an inerter, flexible
-    tower: T + V (gravity, buoyancy, hydrostatic, strain, TMD spring; added mass and
-    inerter in T) constant.  Without mooring the declared potential is exact for this
-    planar (surge-heave-pitch) motion."""
+    """No drag, no linear, aerodynamic or tower damping, undamped TMD with an inerter,
+    flexible tower: T + V (gravity, buoyancy, hydrostatic, strain, TMD spring; added mass
+    and inerter in T) constant.  Without mooring the declared potential is exact for
+    this planar (surge-heave-pitch) motion."""
     d = oc3_spar(tower_modes=2, drag=False, linear_damping=False, tmdi="tmdi",
-                 tmd_damping=0.0, mooring="none")
+                 tmd_damping=0.0, mooring="none", tower_damping=0.0)
     m = d.numeric(d.derive())
     y0 = oc3_settle(d, m)
     y0[m.index("pitch")] += 0.05
