@@ -432,8 +432,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     state = {q6[names.index(key)]: value for key, value in initial.items()}
     used = {m_d, k_d, c_d, b} if tmdi == "tmdi" else {m_d, k_d, c_d} if tmdi == "tmd" else set()
     constants = {key: value for key, value in constants.items() if key in used}
-    what = [f"{tower_modes} tower modes, {tower_damping:g} damping ({tower_damping_reference})"
-            if tower_modes else "rigid tower",
+    what = [f"{tower_modes} tower modes, tower damping {100 * tower_damping:g} % "
+            f"({tower_damping_reference})" if tower_modes else "rigid tower",
             f"{mooring} mooring", f"{sea} sea"]
     if wind_speed > 0:
         what.append(f"wind {wind_speed:g} m/s")
