@@ -21,7 +21,8 @@ applies it so: the modal damping :math:`d_i = 2\zeta k_i/\omega_{0,i}` with
 :math:`\omega_{0,i}^2 = k_i/m_{0,i}` the kept (RNA-loaded) mode shape's Rayleigh
 quotient on the tower without the RNA.  On a held base the tower carrying the
 RNA then decays with :math:`\zeta\,\omega_i/\omega_{0,i}` of critical (0.29 % in
-the first fore-aft mode, whose frequency the RNA lowers from 1.29 to 0.376 Hz).
+the first fore-aft mode, whose shape has 1.29 Hz on the tower without the RNA and
+0.376 Hz with it).
 ``damping_reference="with_rna"`` instead gives the modes of the tower with the
 RNA ``damping`` of critical on a held base (:math:`m_i` the loaded modal mass).
 """
@@ -38,7 +39,7 @@ from ..modeling import BeamMember, NodeMass
 from ._oc3_data import RNA, TOWER, rna_inertia_about_cm, tower_stations
 
 __all__ = ["oc3_tower_member", "oc3_tower", "oc3_rna_node_mass", "oc3_tower_rna_basis",
-           "OC3_TOWER_DAMPING", "TOWER_DAMPING_REFERENCES", "tower_damping_ratios"]
+           "OC3_TOWER_DAMPING", "TOWER_DAMPING_REFERENCES"]
 
 _PLANE_NAMES = {"bending_xz": "fore_aft", "bending_xy": "side_side"}
 
@@ -84,32 +85,6 @@ def _damped(member, damping, reference, bare_mass, loaded_mass):
             raise ModelError("oc3 tower: damping_reference='with_rna' needs the RNA (rna=True)")
         mass = np.asarray(V.T @ (loaded_mass @ V))
     return member.with_damping(ratios=damping, modal_mass=mass)
-
-
-def tower_damping_ratios(member, loaded_mass):
-    r"""Damping ratios of the kept modes on a held base, from a member's damping matrix.
-
-    :math:`\zeta_i = d_{ii}/(2\sqrt{k_i m_i})` with :math:`m_i` the modal mass
-    of ``loaded_mass`` (the tower with what it carries): what a free decay of
-    mode :math:`i` of the tower clamped at its base shows when the modes are
-    uncoupled (a check, and the model card's table).
-
-    Parameters
-    ----------
-    member : ReducedMember
-        With :attr:`~kanedyn.flexible.ReducedMember.damping` (else zeros).
-    loaded_mass : array_like, shape (6n, 6n)
-        FE mass matrix of the tower and its attachments.
-
-    Returns
-    -------
-    ndarray, shape (m,)
-    """
-    V = np.asarray(member.modes)
-    m = np.diag(np.asarray(V.T @ (loaded_mass @ V)))
-    k = np.diag(member.modal_stiffness())
-    d = np.zeros(member.n_modes) if member.damping is None else np.diag(member.damping)
-    return d / (2.0 * np.sqrt(k * m))
 
 
 def oc3_rna_node_mass(node=-1):
