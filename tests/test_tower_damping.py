@@ -251,13 +251,14 @@ def test_spar_tower_mode_decays_with_the_damping_of_the_independent_8x8():
 def test_oc3_defaults_and_references():
     import inspect
 
-    from kanedyn.analysis import STUDIES
+    from kanedyn.analysis import available_studies
+    studies = available_studies()
     assert OC3_TOWER_DAMPING == D.TOWER["damping_ratio"].value == 0.01
     # one published value: the model's and every study's default
     assert inspect.signature(oc3_spar).parameters["tower_damping"].default == OC3_TOWER_DAMPING
     for name in ("oc3-decay", "oc3-rao", "oc3-tmdi", "oc3-sea"):
-        assert STUDIES[name].options["tower_damping"].default == OC3_TOWER_DAMPING
-        assert STUDIES[name].options["tower_damping_reference"].default == "isolated"
+        assert studies[name].options["tower_damping"].default == OC3_TOWER_DAMPING
+        assert studies[name].options["tower_damping_reference"].default == "isolated"
     assert oc3_tower_rna_basis(10, 2).damping is not None
     assert oc3_tower_rna_basis(10, 2, damping=0).damping is None
     a = oc3_tower_rna_basis(10, 2).damping
