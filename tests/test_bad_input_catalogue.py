@@ -11,6 +11,7 @@ import warnings
 
 
 import zipfile
+from dataclasses import replace
 
 import numpy as np
 import pytest
@@ -327,7 +328,61 @@ CLI_CASES = {
                             "derive takes only model options"),
     "unknown formulation": (["compare", "pendulum", "--methods", "kane,hamilton"],
                             "unknown formulation.*hamilton"),
+    "damping ratio given in per cent": (["run", "oc3-spar", "--set", "tower_damping=1"],
+                                        r"option tower_damping is the tower's structural "
+                                        r"damping ratio, a fraction of critical in \[0, 1\) "
+                                        r"\(0.01 is the published 1 %\), got 1.0"),
+    "negative damping ratio": (["run", "oc3-spar", "--set", "tower_damping=-0.01"],
+                               "option tower_damping .* got -0.01"),
+    "unknown damping reference": (["run", "oc3-spar", "--set",
+                                   "tower_damping_reference=loaded"],
+                                  "option tower_damping_reference must be one of isolated, "
+                                  "with_rna, got 'loaded'"),
 }
+
+
+def _flexible_bar():
+    member = kd.flexible.BeamMember.uniform("bar", 2.0, mass_per_length=1.0, EA=1e6, GJ=1e3,
+                                            EI_y=1e3, EI_z=1e3, polar_inertia=1e-3,
+                                            n_elements=2)
+    return member.craig_bampton(n_modes=2)
+
+
+#: structural damping of a flexible member: the value refused, the option named
+DAMPING_CASES = {
+    "ratio not a number": (lambda m, N, O: kd.FlexibleBody("arm", N, O, m,
+                                                           modal_damping=float("nan")),
+                           "flexible body 'arm': modal_damping must be finite and not "
+                           "negative"),
+    "ratio in per cent": (lambda m, N, O: kd.FlexibleBody("arm", N, O, m, modal_damping=2),
+                          r"flexible body 'arm': modal_damping are fractions of critical "
+                          r"\(0.01 is 1 %\), got 2"),
+    "negative Rayleigh beta": (lambda m, N, O: kd.FlexibleBody("arm", N, O, m,
+                                                               rayleigh=(0.0, -1e-3)),
+                               "flexible body 'arm': rayleigh coefficients must be finite "
+                               "and not negative"),
+    "member damping not symmetric": (lambda m, N, O: replace(m, damping=[[1.0, 2.0],
+                                                                         [0.0, 1.0]]),
+                                     "member 'bar': damping must be symmetric"),
+    "member damping that feeds energy": (lambda m, N, O: replace(m, damping=-np.eye(2)),
+                                         "member 'bar': damping must be positive "
+                                         "semidefinite"),
+    "damping given twice": (lambda m, N, O: kd.FlexibleBody(
+        "arm", N, O, m.with_damping(ratios=0.01), modal_damping=0.01),
+        "flexible body 'arm': member 'bar' carries its own damping"),
+    "OC3 tower damping in per cent": (lambda m, N, O: kd.models.oc3_tower(4, 2, damping=1),
+                                      r"oc3 tower: damping must be a fraction of critical "
+                                      r"in \[0, 1\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(DAMPING_CASES))
+def test_bad_structural_damping(case):
+    make, pattern = DAMPING_CASES[case]
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    with pytest.raises(kd.ModelError, match=pattern):
+        make(_flexible_bar(), N, O)
 
 
 @pytest.mark.parametrize("case", sorted(CLI_CASES))

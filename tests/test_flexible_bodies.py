@@ -307,7 +307,7 @@ def test_bad_flexible_body_input_is_named():
     body = kd.FlexibleBody("arm", N, O, member)
     with pytest.raises(ModelError, match="node 5 does not exist in member 'bar'"):
         body.node_point(5)
-    with pytest.raises(ModelError, match="'arm': modal_damping needs 2 non-negative"):
+    with pytest.raises(ModelError, match="'arm': modal_damping: 2 ratios needed"):
         kd.FlexibleBody("arm", N, O, member, modal_damping=[0.01])
     with pytest.raises(ModelError, match="give rayleigh or modal_damping, not both"):
         kd.FlexibleBody("arm", N, O, member, rayleigh=(0, 1e-3), modal_damping=[0, 0])

@@ -153,12 +153,12 @@ def test_energy_symmetric_linear_mooring():
 
 @pytest.mark.slow
 def test_energy_conserved_in_free_decay():
-    """No drag, no linear or aerodynamic damping, undamped TMD with an inerter, flexible
-    tower: T + V (gravity, buoyancy, hydrostatic, strain, TMD spring; added mass and
-    inerter in T) constant.  Without mooring the declared potential is exact for this
-    planar (surge-heave-pitch) motion."""
+    """No drag, no linear, aerodynamic or tower damping, undamped TMD with an inerter,
+    flexible tower: T + V (gravity, buoyancy, hydrostatic, strain, TMD spring; added mass
+    and inerter in T) constant.  Without mooring the declared potential is exact for
+    this planar (surge-heave-pitch) motion."""
     d = oc3_spar(tower_modes=2, drag=False, linear_damping=False, tmdi="tmdi",
-                 tmd_damping=0.0, mooring="none")
+                 tmd_damping=0.0, mooring="none", tower_damping=0.0)
     m = d.numeric(d.derive())
     y0 = oc3_settle(d, m)
     y0[m.index("pitch")] += 0.05
@@ -189,19 +189,21 @@ def _gravity_stiffness(L, R, V):
     return Kg
 
 
-@pytest.mark.slow
-def test_flexible_tower_fixed_base_and_coupled_frequencies():
-    """The tower's modes are those of the tower with the RNA at its top (the RNA is a
-    rigid body, its mass counted once): with the platform held, the model's tower
-    frequencies are the fixed-base FE tower+RNA frequencies; floating, the coupled
-    frequencies are those of an independently assembled 8 x 8 (6 rigid + 2 modes)."""
-    d = oc3_spar(tower_modes=2, tower_elements=10, drag=False, linear_damping=False)
-    m = d.numeric(d.derive())
-    y = np.zeros(m.n_states)
-    Mk, Kk = _jacobians(m, y)
-    L = oc3_tower(10, 2, rna=True)        # the loaded tower, RNA as a node mass
+def independent_8x8(elements, mooring=None):
+    """The floating system with 2 tower modes assembled independently of kd: mass and
+    stiffness (platform 6 + 2 modes, about the undisplaced state, gravity terms
+    included) from the FE matrices of the loaded tower (RNA as a node mass) and the
+    published 6 x 6 matrices; ``mooring``: a 6 x 6 stiffness instead of the published one.
+
+    Returns
+    -------
+    (M, K, (L, R, V))
+        ``L`` the loaded tower member, ``R`` the rigid-body modes of its nodes about
+        P, ``V`` its 2 modes.
+    """
+    L = oc3_tower(elements, 2, rna=True, damping=0.0)   # the loaded tower, RNA a node mass
     V = L.modes
-    # independent assembly: rigid-body modes of the tower nodes about P
+    # rigid-body modes of the tower nodes about P
     nodes = L.nodes + np.array([0.0, 0.0, D.TOWER["base_z"].value])
     R = np.zeros((6 * len(nodes), 6))
     for k, r in enumerate(nodes):
@@ -215,9 +217,24 @@ def test_flexible_tower_fixed_base_and_coupled_frequencies():
     Mi[6:, :6] = Mi[:6, 6:].T
     Mi[6:, 6:] = V.T @ ML @ V
     Ki = np.zeros((8, 8))
-    Ki[:6, :6] = D.hydrostatic_matrix() + D.mooring_stiffness_matrix()
+    Ki[:6, :6] = D.hydrostatic_matrix() + (D.mooring_stiffness_matrix() if mooring is None
+                                           else mooring)
     Ki[6:, 6:] = V.T @ L.stiffness_matrix @ V
     Ki += _gravity_stiffness(L, R, V)
+    return Mi, Ki, (L, R, V)
+
+
+@pytest.mark.slow
+def test_flexible_tower_fixed_base_and_coupled_frequencies():
+    """The tower's modes are those of the tower with the RNA at its top (the RNA is a
+    rigid body, its mass counted once): with the platform held, the model's tower
+    frequencies are the fixed-base FE tower+RNA frequencies; floating, the coupled
+    frequencies are those of an independently assembled 8 x 8 (6 rigid + 2 modes)."""
+    d = oc3_spar(tower_modes=2, tower_elements=10, drag=False, linear_damping=False)
+    m = d.numeric(d.derive())
+    y = np.zeros(m.n_states)
+    Mk, Kk = _jacobians(m, y)
+    Mi, Ki, (L, R, V) = independent_8x8(10)
     assert np.abs(Mk - Mi).max() < 1e-12 * np.abs(Mi).max()
     assert np.abs(Kk - Ki).max() < 1e-7 * np.abs(Ki).max()
     # platform held: the tower rows only; without the RNA's gravity terms these are

@@ -61,12 +61,15 @@ def test_simulated_rao_equals_linear_rao_for_small_waves():
     res = run_study("oc3-rao", None, n_periods=3, check_periods="10,20", wave_height=0.5,
                     drag=False)
     for T, (amp, lin) in res.data["check"].items():
-        for key, value in zip(("surge", "pitch", "top_displacement"), lin):
+        for key, value in zip(("surge", "pitch", "top_displacement", "top_deflection"), lin):
             assert amp[key] == pytest.approx(value, rel=0.03), (T, key)
 
 
 @pytest.mark.slow
 def test_tuned_tmd_and_tmdi_reduce_the_tower_peak():
+    """With the published tower damping (1 % of the isolated tower): the peak of the
+    deflection FRF without damper is 18.7 m/MN (46.2 undamped), the TMD cuts it by
+    88 %, the TMDI by 91 % (95 % and 96 % on the undamped tower)."""
     res = run_study("oc3-tmdi", None)
     d = res.data
     assert d["tmd_success"] and d["tmdi_success"]
@@ -74,6 +77,15 @@ def test_tuned_tmd_and_tmdi_reduce_the_tower_peak():
     assert d["tmd_peak"] < 0.2 * d["peak_without"]
     assert d["tmdi_peak"] < 0.2 * d["peak_without"]
     # Sarkar & Fitzgerald (2021) in kind: the TMDI (beta = mu = 0.02, inerter to 60 m)
-    # lowers the peak more than the TMD of the same damper mass (measured 1.71 vs 2.45 m/MN)
+    # lowers the peak more than the TMD of the same damper mass (measured 1.64 vs 2.29 m/MN)
     assert d["tmdi_peak"] < 0.8 * d["tmd_peak"]
     assert np.isclose(d["tmd_frequency_ratio"], 0.98, atol=0.03)
+    # the absolute tower-top displacement's peak at the tower mode falls alike
+    for kind in ("tmd", "tmdi"):
+        assert d[f"{kind}_displacement_peak"] < 0.2 * d["displacement_peak_without"]
+    # the tower's damping lowers the peak without damper: with the undamped tower (the
+    # coupled mode then damped by the platform's linear damping alone) it is higher by
+    # about the ratio of the mode's damping ratios (0.64 % / 0.26 %)
+    undamped = run_study("oc3-tmdi", None, tower_damping=0.0).data
+    assert 2.0 < undamped["peak_without"] / d["peak_without"] < 3.0
+    assert undamped["tmd_peak"] > d["tmd_peak"]

@@ -7,6 +7,13 @@ the tower-top fore-aft *displacement* :math:`x + z_{top}\theta + \delta`
 (m, :math:`z_{top}` = 87.6 m above the SWL), and the tower-base fore-aft
 bending moment :math:`M = \sum_k c_k\eta_k` (N m), the elastic moment of the
 finite-element stiffness at the clamped base node per unit modal coordinate.
+The deflection is what a damper in the nacelle acts on; the displacement is
+what the platform's slow surge and pitch dominate.
+
+Every study takes ``tower_damping`` and ``tower_damping_reference`` (the
+model's options: the published 1 % of critical of the isolated tower by
+default, see :func:`kanedyn.models.oc3_spar`); ``tower_damping=0`` gives the
+undamped tower of the studies before issue 36.
 
 The linear models come from ``model.linearize`` at the static equilibrium
 (:func:`kanedyn.models.oc3_settle`).  The wave input of the linear model is the
@@ -35,6 +42,19 @@ __all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao"
 
 _TOP_Z = 87.6  # tower top above the SWL, m
 _WATER_DEPTH = 320.0  # OC3 water depth, m (only the fluid kinematics use it)
+
+
+def _damping_options():
+    """The tower-damping options every oc3 study takes (the model's defaults)."""
+    return {
+        "tower_damping": StudyOption(float, 0.01, "structural damping ratio of the tower "
+                                     "modes, fraction of critical (0.01: the published "
+                                     "1 %; 0: undamped tower)"),
+        "tower_damping_reference": StudyOption(str, "isolated", "what tower_damping is a "
+                                               "ratio of: the modes of the tower without "
+                                               "the RNA (published, OpenFAST's) or with it",
+                                               ("isolated", "with_rna")),
+    }
 
 
 def _say(quiet, text):
@@ -285,9 +305,11 @@ _DECAY = {  # dof -> (state, initial offset, duration s, unit, label)
 }
 
 
-def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol, atol):
+def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol, atol,
+                 tower_damping, tower_damping_reference):
     from ..simulation import simulate
-    options = dict(tower_modes=tower_modes, drag=drag)
+    options = dict(tower_modes=tower_modes, drag=drag, tower_damping=tower_damping,
+                   tower_damping_reference=tower_damping_reference)
     d, _, model, y_eq = _model(backend, **options)
     outputs = oc3_outputs(d, model)
     A = _linear(backend, **options)[3]
@@ -338,7 +360,8 @@ def _decay_study(out, quiet, tower_modes, drag, backend, duration_scale, rtol, a
                          f"linearized {data[dof]['linear_damped_period']:.3g} s", fontsize=9)
             ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.01, 1.0))
         axes[-1].set_xlabel("time [s]")
-        fig.suptitle("oc3-spar free decay from the static equilibrium", fontsize=10)
+        fig.suptitle(f"oc3-spar free decay from the static equilibrium (tower damping "
+                     f"{tower_damping:g}, {tower_damping_reference})", fontsize=10)
         figures.append(_save(fig, out / "oc3-decay.png"))
     columns = ("dof", "linear natural period [s]", "linear damped period [s]",
                "decay period [s]", "linear damping ratio [-]", "decay damping ratio [-]")
@@ -358,11 +381,16 @@ register_study("oc3-decay", _decay_study, {
                                   "about 3 natural periods or more)"),
     "rtol": StudyOption(float, 1e-6, "relative integration tolerance"),
     "atol": StudyOption(float, 1e-6, "absolute integration tolerance (m, rad, m/s, rad/s)"),
+    **_damping_options(),
 }, "free decay of surge, heave, pitch, yaw and the tower fore-aft mode vs linearization")
 
 
 # ------------------------------------------------------------------ oc3-rao
-_RAO_OUT = ("surge", "pitch", "top_displacement")
+_RAO_OUT = ("surge", "pitch", "top_displacement", "top_deflection")
+#: axis labels of the outputs in the plots
+_SHORT = {"surge": "surge", "pitch": "pitch",
+          "top_displacement": "tower-top fore-aft\ndisplacement",
+          "top_deflection": "tower-top fore-aft\ndeflection (rel. platform)"}
 
 
 def simulated_rao(options, period, wave_height, backend="c", cycles=8, fit_cycles=3,
@@ -413,8 +441,9 @@ def _period_list(text):
 
 
 def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wave_height,
-               tower_modes, drag, backend):
-    opts = dict(tower_modes=tower_modes, drag=drag)
+               tower_modes, drag, backend, tower_damping, tower_damping_reference):
+    opts = dict(tower_modes=tower_modes, drag=drag, tower_damping=tower_damping,
+                tower_damping_reference=tower_damping_reference)
     d, model, y_eq, A, B, r = _linear(backend, **opts)
     outputs = oc3_outputs(d, model)
     C = np.array([outputs[k][0] for k in _RAO_OUT])
@@ -434,7 +463,8 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
         sim_rows.append((T, *[round(amp[k], 6) for k in _RAO_OUT],
                          *[round(v, 6) for v in lin],
                          *[round(amp[k] / v - 1, 5) for k, v in zip(_RAO_OUT, lin)]))
-    units = {"surge": "m/m", "pitch": "rad/m", "top_displacement": "m/m"}
+    units = {"surge": "m/m", "pitch": "rad/m", "top_displacement": "m/m",
+             "top_deflection": "m/m"}
     columns = ("wave period [s]", *[f"{k} RAO [{units[k]}]" for k in _RAO_OUT])
     rows = [(round(float(T), 4), *[float(f"{v:.6g}") for v in h]) for T, h in zip(periods, H)]
     sim_cols = ("wave period [s]", *[f"{k} simulated [{units[k]}]" for k in _RAO_OUT],
@@ -443,7 +473,7 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
     figures = []
     if out is not None:
         plt = _pyplot()
-        fig, axes = plt.subplots(3, 1, figsize=(7.5, 8), sharex=True)
+        fig, axes = plt.subplots(len(_RAO_OUT), 1, figsize=(7.5, 10), sharex=True)
         for i, (ax, key) in enumerate(zip(axes, _RAO_OUT)):
             ax.plot(dense, H_dense[:, i], lw=1.2, label="linearized model (no drag)")
             if sim:
@@ -453,15 +483,18 @@ def _rao_study(out, quiet, period_min, period_max, n_periods, check_periods, wav
                 if period_min <= Tn <= period_max:
                     ax.axvline(Tn, ls=style, lw=0.9, color="grey",
                                label=f"{name} natural period {Tn:.1f} s")
-            ax.set_ylabel(f"{outputs[key][2]} [{units[key]}]")
-            ax.legend(fontsize=7)
-        axes[0].set_title("oc3-spar response amplitude operators (regular waves)", fontsize=10)
+            ax.set_ylabel(f"{_SHORT[key]}\n[{units[key]}]", fontsize=8)
+            ax.legend(fontsize=6)
+        axes[0].set_title(f"oc3-spar response amplitude operators (regular waves; tower "
+                          f"damping {tower_damping:g}, {tower_damping_reference})",
+                          fontsize=9)
         axes[-1].set_xlabel("wave period [s]")
         figures.append(_save(fig, out / "oc3-rao.png"))
     summary = ("natural periods: " + ", ".join(f"{k} {v:.2f} s" for k, v in natural.items())
                + "\n" + "\n".join(f"T = {row[0]:g} s: simulated / linear - 1 = "
                                   + ", ".join(f"{k} {v:+.2e}" for k, v in
-                                              zip(_RAO_OUT, row[-3:])) for row in sim_rows))
+                                              zip(_RAO_OUT, row[-len(_RAO_OUT):]))
+                                  for row in sim_rows))
     return dict(tables={"rao": (columns, rows), "check": (sim_cols, sim_rows)},
                 figures=figures, summary=summary,
                 data={"periods": periods, "rao": H, "natural_periods": natural,
@@ -480,12 +513,18 @@ register_study("oc3-rao", _rao_study, {
     "drag": StudyOption(bool, True, "Morison quadratic drag in the simulations"),
     "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
                            ("numpy", "c")),
-}, "response amplitude operators of surge, pitch and tower-top displacement vs wave period")
+    **_damping_options(),
+}, "response amplitude operators of surge, pitch, tower-top displacement and tower-top "
+   "deflection (relative to the platform) vs wave period")
 
 
 # ------------------------------------------------------------------ oc3-tmdi
+_M_REF = 599718.0  # tower + RNA mass, kg: the reference mass of the model's mass ratios
+
+
 @functools.lru_cache(maxsize=8)
-def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes):
+def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes,
+                  tower_damping=0.01, tower_damping_reference="isolated"):
     """The still-water model (no drag) with a fore-aft force ``F_top(t)`` (N) at the tower top.
 
     Returns ``(definition, numeric model, equilibrium state)``.
@@ -494,7 +533,8 @@ def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes):
 
     from ..models import oc3_settle, oc3_spar
     d = oc3_spar(tower_modes=tower_modes, drag=False, sea="still", tmdi=tmdi,
-                 inertance_ratio=inertance_ratio, inerter_height=inerter_height)
+                 inertance_ratio=inertance_ratio, inerter_height=inerter_height,
+                 tower_damping=tower_damping, tower_damping_reference=tower_damping_reference)
     s = d.symbols
     force = me.dynamicsymbols("F_top")
     d.kane_args["loads"] = list(d.kane_args["loads"]) + [(s["top"], force * s["A"].x)]
@@ -509,70 +549,122 @@ def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes):
 
 
 def _tower_mode(model, y, c_top):
-    """``(omega rad/s, modal mass kg)`` of the tower fore-aft mode of the undamped model."""
+    """Natural frequency :math:`|\\lambda|` (rad/s) of the tower fore-aft mode of ``model``."""
     A = np.asarray(model.linearize(y)[0])
     lam = _modes_by_dof(A, model, y, [list(model.state_names)[int(np.argmax(np.abs(c_top)))]])
     return abs(next(iter(lam.values())))
 
 
+@functools.lru_cache(maxsize=16)
+def _tuned(backend, kind, mass_ratio, inertance_ratio, inerter_height, tower_modes, criterion,
+           tower_damping, tower_damping_reference):
+    """A TMD (``kind="tmd"``) or TMDI tuned on the tower fore-aft FRF (tower-top force to
+    tower-top deflection), H-infinity or H2.
+
+    Returns
+    -------
+    (DamperTuning, definition, equilibrium state, primary frequency rad/s)
+    """
+    from ._damper_tuning import tune_damper
+    beta = inertance_ratio if kind == "tmdi" else 0.0
+    d, model, y = _forced_model(backend, kind, beta, inerter_height, tower_modes,
+                                tower_damping, tower_damping_reference)
+    c_top = oc3_outputs(d, model)["top_deflection"][0]
+    wp = _tower_mode(model.with_constants({"k_d": 0.0, "c_d": 0.0}), y, c_top)
+    extra = dict(inertance="b", inertance_ratio=beta) if kind == "tmdi" else {}
+    tuning = tune_damper(model, y, input="F_top", output=c_top, primary_frequency=wp,
+                         primary_mass=_M_REF, mass_ratio=mass_ratio, damper_mass="m_d",
+                         stiffness="k_d", damping="c_d", criterion=criterion, tol=1e-6,
+                         **extra)
+    return tuning, d, y, wp
+
+
+def _band_peaks(model, y, omega, rows):
+    """``[(|H| peak, omega), ...]`` per output row: the largest local maximum inside the
+    grid ``omega`` of the force-to-output FRF, refined (``response_peaks``)."""
+    from ._damper_tuning import _linear_system, response_peaks
+    A, b, C, _ = _linear_system(model, y, 0.0, "F_top", rows)
+    out = []
+    for c in C:
+        peaks = response_peaks(A, b, c, omega)
+        inside = peaks[(peaks[:, 0] > omega[0]) & (peaks[:, 0] < omega[-1])]
+        best = (inside if len(inside) else peaks)[0]
+        out.append((float(best[1]), float(best[0])))
+    return out
+
+
 def _tmdi_study(out, quiet, mass_ratio, inertance_ratio, inerter_height, tower_modes,
-                criterion, backend):
-    from ._damper_tuning import model_frequency_response, tune_damper
+                criterion, backend, tower_damping, tower_damping_reference):
+    from ._damper_tuning import model_frequency_response
     if tower_modes < 2:
         raise KanedynError("oc3-tmdi: the tower must be flexible (tower_modes 2 or 4)")
-    M = 599718.0  # tower + RNA mass, kg: the reference mass of the model's mass ratios
-    results, curves = {}, {}
+    results, curves, peaks = {}, {}, {}
     for kind in ("tmd", "tmdi"):
         _say(quiet, f"oc3-tmdi: building and tuning the {kind.upper()}")
-        beta = inertance_ratio if kind == "tmdi" else 0.0
-        d, model, y = _forced_model(backend, kind, beta, inerter_height, tower_modes)
-        c_top = oc3_outputs(d, model)["top_deflection"][0]
+        tuning, d, y, wp_kind = _tuned(backend, kind, mass_ratio, inertance_ratio,
+                                       inerter_height, tower_modes, criterion, tower_damping,
+                                       tower_damping_reference)
         if kind == "tmd":
-            wp = _tower_mode(model.with_constants({"k_d": 0.0, "c_d": 0.0}), y, c_top)
-        extra = dict(inertance="b", inertance_ratio=beta) if kind == "tmdi" else {}
-        tuning = tune_damper(model, y, input="F_top", output=c_top, primary_frequency=wp,
-                             primary_mass=M, mass_ratio=mass_ratio, damper_mass="m_d",
-                             stiffness="k_d", damping="c_d", criterion=criterion, tol=1e-6,
-                             **extra)
+            wp = wp_kind
+            omega = wp * np.geomspace(0.5, 2.0, 1200)
+        outputs = oc3_outputs(d, tuning.model)
+        rows_c = np.array([outputs["top_deflection"][0], outputs["top_displacement"][0]])
         results[kind] = tuning
-        omega = wp * np.geomspace(0.5, 2.0, 1200)
-        curves[kind] = (omega, model_frequency_response(tuning.model, y, omega, "F_top",
-                                                        c_top).magnitude.ravel())
+        models = {kind: tuning.model}
         if kind == "tmd":
-            off = model.with_constants({"k_d": 0.0, "c_d": 0.0})
-            curves["off"] = (omega, model_frequency_response(off, y, omega, "F_top",
-                                                             c_top).magnitude.ravel())
-    without = results["tmd"].peak_without
+            models["off"] = tuning.model.with_constants({"k_d": 0.0, "c_d": 0.0})
+        for key, m in models.items():
+            curves[key] = model_frequency_response(m, y, omega, "F_top", rows_c).magnitude
+            # peaks on the plotted band (0.5 to 2 times the tower mode): the deflection's
+            # is the tuning's objective; the displacement's there is the tower mode's part
+            # of it (below the band the platform's surge and pitch dominate it)
+            peaks[key] = _band_peaks(m, y, omega, rows_c)
+    without = peaks["off"]
     columns = ("configuration", "frequency ratio f [-]", "damping ratio zeta [-]",
-               "peak |H| [m/MN]", "peak reduction [-]")
-    rows = [("no damper", "", "", round(without * 1e6, 6), 0.0)]
+               "peak |H| deflection [m/MN]", "deflection peak reduction [-]",
+               "peak |H| displacement [m/MN]", "displacement peak reduction [-]")
+    rows = [("no damper", "", "", round(without[0][0] * 1e6, 6), 0.0,
+             round(without[1][0] * 1e6, 6), 0.0)]
     for kind, label in (("tmd", f"TMD (mu = {mass_ratio:g})"),
                         ("tmdi", f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g}, "
                                  f"inerter to {inerter_height:g} m)")):
-        r = results[kind]
+        r, (defl, disp) = results[kind], peaks[kind]
         rows.append((label, round(r.frequency_ratio, 5), round(r.damping_ratio, 5),
-                     round(r.peak * 1e6, 6), round(1 - r.peak / without, 5)))
+                     round(defl[0] * 1e6, 6), round(1 - defl[0] / without[0][0], 5),
+                     round(disp[0] * 1e6, 6), round(1 - disp[0] / without[1][0], 5)))
+    damping_text = f"tower damping {tower_damping:g} ({tower_damping_reference})"
     figures = []
     if out is not None:
         plt = _pyplot()
-        fig, ax = plt.subplots(figsize=(7.5, 4.5))
-        f_hz = curves["off"][0] / (2 * math.pi)
+        fig, axes = plt.subplots(2, 1, figsize=(7.5, 7.5), sharex=True)
+        f_hz = omega / (2 * math.pi)
         for key, label, style in (("off", "no damper", "-"), ("tmd", rows[1][0], "--"),
                                   ("tmdi", rows[2][0], "-.")):
-            ax.semilogy(f_hz, curves[key][1] * 1e6, style, lw=1.3, label=label)
-        ax.set_xlabel("frequency [Hz]")
-        ax.set_ylabel("tower-top fore-aft deflection / tower-top force [m/MN]")
-        ax.set_title(f"oc3-spar tower fore-aft FRF, dampers tuned ({criterion})", fontsize=10)
-        ax.legend(fontsize=8)
-        ax.grid(True, which="both", lw=0.3)
+            for j, ax in enumerate(axes):
+                ax.semilogy(f_hz, curves[key][:, j] * 1e6, style, lw=1.3, label=label)
+        axes[0].set_ylabel("tower-top fore-aft deflection\n(relative to the platform)\n"
+                           "/ tower-top force [m/MN]", fontsize=8)
+        axes[1].set_ylabel("tower-top fore-aft displacement\n(absolute)\n"
+                           "/ tower-top force [m/MN]", fontsize=8)
+        axes[1].set_xlabel("frequency [Hz]")
+        axes[0].set_title(f"oc3-spar tower fore-aft FRF, dampers tuned on the deflection "
+                          f"({criterion}); {damping_text}", fontsize=9)
+        for ax in axes:
+            ax.legend(fontsize=7)
+            ax.grid(True, which="both", lw=0.3)
         figures.append(_save(fig, out / "oc3-tmdi.png"))
-    summary = (f"tower fore-aft mode {wp / (2 * math.pi):.4f} Hz; peak |H| without damper "
-               f"{without * 1e6:.4g} m/MN\n" + "\n".join(
-                   f"{r[0]}: f {r[1]}, zeta {r[2]}, peak {r[3]:.4g} m/MN "
-                   f"({100 * r[4]:.1f} % lower)" for r in rows[1:]))
-    data = {"primary_frequency": wp, "peak_without": without,
+    summary = (f"tower fore-aft mode {wp / (2 * math.pi):.4f} Hz, {damping_text}; peak |H| "
+               f"without damper: deflection {without[0][0] * 1e6:.4g} m/MN, displacement "
+               f"{without[1][0] * 1e6:.4g} m/MN\n" + "\n".join(
+                   f"{r[0]}: f {r[1]}, zeta {r[2]}, deflection peak {r[3]:.4g} m/MN "
+                   f"({100 * r[4]:.1f} % lower), displacement peak {r[5]:.4g} m/MN "
+                   f"({100 * r[6]:.1f} % lower)" for r in rows[1:]))
+    data = {"primary_frequency": wp, "peak_without": without[0][0],
+            "displacement_peak_without": without[1][0],
             **{f"{k}_{a}": getattr(results[k], a) for k in results
-               for a in ("peak", "frequency_ratio", "damping_ratio", "success")}}
+               for a in ("frequency_ratio", "damping_ratio", "success")},
+            **{f"{k}_peak": peaks[k][0][0] for k in results},
+            **{f"{k}_displacement_peak": peaks[k][1][0] for k in results}}
     return dict(tables={"tuning": (columns, rows)}, figures=figures, summary=summary,
                 data=data)
 
@@ -587,33 +679,38 @@ register_study("oc3-tmdi", _tmdi_study, {
                              ("hinf", "h2")),
     "backend": StudyOption(str, "c", "numerical backend (C: compiled once per model)",
                            ("numpy", "c")),
+    **_damping_options(),
 }, "TMD and TMDI of equal mass tuned on the tower fore-aft FRF (tower-top force to "
-   "deflection): peaks and reductions")
+   "deflection): peaks and reductions of the deflection and of the displacement")
 
 
 # ------------------------------------------------------------------ oc3-sea
-# tuned by oc3-tmdi with its defaults (mu = beta = 0.02, inerter to 60 m, H-infinity):
-# (frequency ratio, damping ratio) on the tower fore-aft mode, with m_e = m_d + b
-_TUNED = {"tmd": (0.98146, 0.07888), "tmdi": (0.9658, 0.11436)}
-_TOWER_HZ = 0.4935  # tower fore-aft mode of the 2-mode model, Hz (oc3-tmdi)
-
-
 def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inertance_ratio,
-               inerter_height, backend):
+               inerter_height, backend, tower_damping, tower_damping_reference):
     from scipy.signal import welch
 
     from ..simulation import simulate
     if duration < 100:
         raise KanedynError(f"oc3-sea: duration must be at least 100 s, got {duration}")
-    rows, spectra = [], {}
+    rows, spectra, tuned = [], {}, {}
     for kind in ("off", "tmd", "tmdi"):
         beta = inertance_ratio if kind == "tmdi" else 0.0
         opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=Hs,
-                    wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind)
+                    wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind,
+                    tower_damping=tower_damping,
+                    tower_damping_reference=tower_damping_reference)
         if kind != "off":
-            f, zeta = _TUNED[kind]
+            # tuned as oc3-tmdi tunes (H-infinity on the still-water, parked FRF of the
+            # deflection), with this study's mass and inertance ratios and tower damping
+            _say(quiet, f"oc3-sea: tuning the {kind.upper()}")
+            tuning, _, _, wp = _tuned(backend, kind, mass_ratio, inertance_ratio,
+                                      inerter_height, 2, "hinf", tower_damping,
+                                      tower_damping_reference)
+            f, zeta = tuning.frequency_ratio, tuning.damping_ratio
+            tuned[kind] = (f, zeta, wp)
             scale = math.sqrt(1 + beta / mass_ratio)   # k_d = m_d w_d^2 = (m_d + b)(f w_p)^2
-            opts.update(tmd_mass_ratio=mass_ratio, tmd_frequency=f * _TOWER_HZ * scale,
+            opts.update(tmd_mass_ratio=mass_ratio,
+                        tmd_frequency=f * wp / (2 * math.pi) * scale,
                         tmd_damping=zeta * scale)
             if kind == "tmdi":
                 opts.update(inertance_ratio=beta, inerter_height=inerter_height)
@@ -628,38 +725,51 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
         outputs = oc3_outputs(d, model)
         keep = res.t >= min(100.0, duration / 4)          # past the start-up transient
         top = outputs["top_displacement"][0] @ res.y[:, keep]
+        deflection = outputs["top_deflection"][0] @ res.y[:, keep]
         moment = outputs["base_moment"][0] @ res.y[:, keep]
         rows.append((kind, round(float(np.mean(top)), 5), round(float(np.std(top)), 5),
+                     round(float(np.mean(deflection)), 5),
+                     round(float(np.std(deflection)), 5),
                      round(float(np.mean(moment)) / 1e6, 4),
                      round(float(np.std(moment)) / 1e6, 4)))
         nper = min(int(200 / dt), int(keep.sum()))
-        spectra[kind] = (welch(top, fs=1 / dt, nperseg=nper), welch(moment, fs=1 / dt,
-                                                                     nperseg=nper))
+        spectra[kind] = [welch(x, fs=1 / dt, nperseg=nper) for x in (top, deflection, moment)]
     columns = ("tmdi", "mean tower-top displacement [m]", "std tower-top displacement [m]",
+               "mean tower-top deflection [m]", "std tower-top deflection [m]",
                "mean tower-base moment [MN m]", "std tower-base moment [MN m]")
+    damping_text = f"tower damping {tower_damping:g} ({tower_damping_reference})"
     figures = []
     if out is not None:
         plt = _pyplot()
-        fig, axes = plt.subplots(2, 1, figsize=(7.5, 7), sharex=True)
+        fig, axes = plt.subplots(3, 1, figsize=(7.5, 9), sharex=True)
         labels = {"off": "no damper", "tmd": f"TMD (mu = {mass_ratio:g})",
                   "tmdi": f"TMDI (mu = {mass_ratio:g}, beta = {inertance_ratio:g})"}
-        for kind, ((f1, p1), (f2, p2)) in spectra.items():
-            band = f1 <= 1.0                       # the platform and first tower modes
-            axes[0].semilogy(f1[band], p1[band], lw=1, label=labels[kind])
-            axes[1].semilogy(f2[band], p2[band] / 1e12, lw=1, label=labels[kind])
-        axes[0].set_ylabel("tower-top displacement PSD [m^2/Hz]")
-        axes[1].set_ylabel("tower-base moment PSD [(MN m)^2/Hz]")
-        axes[1].set_xlabel("frequency [Hz]")
-        axes[1].set_xlim(0, 1.0)
+        scales = (1.0, 1.0, 1e-12)
+        for kind, curves in spectra.items():
+            for ax, (f1, p1), scale in zip(axes, curves, scales):
+                band = f1 <= 1.0                       # the platform and first tower modes
+                ax.semilogy(f1[band], p1[band] * scale, lw=1, label=labels[kind])
+        axes[0].set_ylabel("tower-top displacement\n(absolute) PSD [m^2/Hz]", fontsize=8)
+        axes[1].set_ylabel("tower-top deflection\n(relative to the platform)\nPSD [m^2/Hz]",
+                           fontsize=8)
+        axes[2].set_ylabel("tower-base fore-aft moment\nPSD [(MN m)^2/Hz]", fontsize=8)
+        axes[2].set_xlabel("frequency [Hz]")
+        axes[2].set_xlim(0, 1.0)
         for ax in axes:
-            ax.legend(fontsize=8)
+            ax.legend(fontsize=7)
             ax.grid(True, which="both", lw=0.3)
         axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, seed {seed}, wind "
-                          f"{wind_speed:g} m/s, {duration:g} s (Welch)", fontsize=9)
+                          f"{wind_speed:g} m/s, {duration:g} s (Welch); {damping_text}",
+                          fontsize=8)
         figures.append(_save(fig, out / "oc3-sea.png"))
-    summary = "\n".join(f"{r[0]:5s}: std top {r[2]:.4g} m, std base moment {r[4]:.4g} MN m"
-                        for r in rows)
-    data = {r[0]: dict(std_top=r[2], std_moment=r[4] * 1e6) for r in rows}
+    summary = "\n".join(f"{r[0]:5s}: std top displacement {r[2]:.4g} m, std top deflection "
+                        f"{r[4]:.4g} m, std base moment {r[6]:.4g} MN m" for r in rows)
+    summary += "\n" + "\n".join(f"{k.upper()} tuned: f {v[0]:.5f}, zeta {v[1]:.5f} on the "
+                                f"{v[2] / (2 * math.pi):.4f} Hz tower mode"
+                                for k, v in tuned.items())
+    data = {r[0]: dict(std_top=r[2], std_deflection=r[4], std_moment=r[6] * 1e6)
+            for r in rows}
+    data["tuned"] = tuned
     return dict(tables={"std": (columns, rows)}, figures=figures, summary=summary, data=data)
 
 
@@ -673,5 +783,7 @@ register_study("oc3-sea", _sea_study, {
     "inertance_ratio": StudyOption(float, 0.02, "TMDI inertance / (tower + RNA mass)"),
     "inerter_height": StudyOption(float, 60.0, "inerter's tower end above the SWL, m"),
     "backend": StudyOption(str, "c", "numerical backend", ("numpy", "c")),
-}, "irregular sea with steady wind: std and spectra of tower-top displacement and "
-   "tower-base moment without damper, with the tuned TMD and TMDI")
+    **_damping_options(),
+}, "irregular sea with steady wind: std and spectra of tower-top displacement, tower-top "
+   "deflection and tower-base moment without damper, with the TMD and TMDI tuned as "
+   "oc3-tmdi tunes them")

@@ -410,7 +410,7 @@ OBJECTS = {
         "modes": ARRAY, "second_order": _optional(ARRAY), "reference_node": INT,
         "interface_nodes": _tuple(INT), "mode_names": STRS,
         "full_frequencies": _optional(ARRAY), "reduced_frequencies": _optional(ARRAY),
-        "description": STR},
+        "description": STR, "damping": _optional(ARRAY)},
     _MODELING + "_physical.BodyValues": {
         "name": STR, "kind": STR, "mass": _optional(FLOAT), "moments": _optional(ARRAY)},
     # kanedyn's equations of motion

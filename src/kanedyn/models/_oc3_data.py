@@ -146,6 +146,9 @@ TOWER = _group(
     top_thickness=(0.019, "m", "OC3", "wall thickness at the top"),
     density=(8500.0, "kg/m^3", "OC3", "effective steel density (paint, bolts, welds)"),
     youngs_modulus=(210e9, "Pa", "OC3", "Young's modulus of steel"),
+    damping_ratio=(0.01, "1", "OC3", "structural damping ratio of every tower mode, fraction "
+                   "of critical, of the isolated tower without the RNA (the 5-MW "
+                   "definition's, kept by OC3)"),
 )
 
 #: the tower's distributed properties at 11 stations: ``fraction`` of the

@@ -14,7 +14,9 @@ origin ``O`` on the still water line (SWL) at the undisplaced spar axis):
   the fixed-base modes of the tower with the RNA lumped at its top
   (:func:`~kanedyn.models.oc3_tower_rna_basis`), on which the member's own
   mass and stiffness are the bare tower's (the RNA is a rigid body of its own,
-  counted once);
+  counted once), with structural damping of ``tower_damping`` of critical in
+  every kept mode (the published 1 % of the isolated tower by default; see
+  :mod:`kanedyn.models._oc3_tower`);
 * the rotor-nacelle assembly (RNA), a rigid body fixed to the tower top (the
   top node's frame ``A``): mass, centre-of-mass offset and inertia of the
   NREL 5-MW turbine;
@@ -77,6 +79,7 @@ T = me.dynamicsymbols._t
 
 
 _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "morison"),
+            "tower_damping_reference": ("isolated", "with_rna"),
             "sea": ("still", "regular", "irregular"),
             "mooring": ("linear", "linear-symmetric", "catenary", "none"),
             "tmdi": ("off", "tmd", "tmdi")}
@@ -114,6 +117,12 @@ def _check(options):
     for key in positive:
         if not options[key] > 0:
             raise ModelError(f"oc3-spar: option {key} must be positive, got {options[key]!r}")
+    damping = options["tower_damping"]
+    if isinstance(damping, bool) or not isinstance(damping, (int, float)) \
+            or not (math.isfinite(damping) and 0 <= damping < 1):
+        raise ModelError(f"oc3-spar: option tower_damping is the tower's structural damping "
+                         f"ratio, a fraction of critical in [0, 1) (0.01 is the published "
+                         f"1 %), got {damping!r}")
     for key in ("wave_height", "wind_speed", "turbulence", "tmd_damping", "inertance_ratio"):
         if not (math.isfinite(options[key]) and options[key] >= 0):
             raise ModelError(f"oc3-spar: option {key} must be a finite number >= 0, got "
@@ -128,7 +137,8 @@ def _check(options):
                          f"[{lo}, {hi}) m above the SWL, got {options['inerter_height']!r}")
 
 
-def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="linear",
+def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0.01,
+             tower_damping_reference="isolated", hydrostatics="linear",
              added_mass="sheet", linear_damping=True, drag=True, sea="still", wave_height=0.0,
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
@@ -144,6 +154,18 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
         Beam elements of the tower before reduction.
     stiffening : bool
         Geometric (gravity) stiffening of the flexible tower's modes.
+    tower_damping : float
+        Structural damping ratio of every kept tower mode, a fraction of
+        critical: the published 1 % by default (``TOWER.damping_ratio``;
+        OC3 and the 5-MW definition), 0 for an undamped tower.  Unused by the
+        rigid tower.
+    tower_damping_reference : {"isolated", "with_rna"}
+        ``"isolated"`` (default; the published definition, as OpenFAST's
+        ElastoDyn applies it): ``tower_damping`` of critical in the modes of
+        the tower *without* the RNA, which leaves the fixed-base tower carrying
+        the RNA with 0.29 % in its first fore-aft and side-side modes (0.59 %
+        and 0.47 % in the second); ``"with_rna"``: ``tower_damping`` of
+        critical in the modes of the fixed-base tower carrying the RNA.
     hydrostatics : {"linear", "large_angle"}
     added_mass : {"sheet", "morison"}
         The published potential-flow matrix, or Morison's Ca = 1 on the strips.
@@ -198,7 +220,9 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
         :func:`oc3_static_offsets`.
     """
     options = dict(tower_modes=tower_modes, tower_elements=tower_elements,
-                   stiffening=stiffening, hydrostatics=hydrostatics, added_mass=added_mass,
+                   stiffening=stiffening, tower_damping=tower_damping,
+                   tower_damping_reference=tower_damping_reference,
+                   hydrostatics=hydrostatics, added_mass=added_mass,
                    linear_damping=linear_damping, drag=drag, sea=sea, wave_height=wave_height,
                    wave_period=wave_period, seed=seed, mooring=mooring, wind_speed=wind_speed,
                    turbulence=turbulence, tmdi=tmdi, tmd_mass_ratio=tmd_mass_ratio,
@@ -257,7 +281,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
             point.v2pt_theory(P, N, B)
             return point, height
     else:
-        member = oc3_tower_rna_basis(tower_elements, tower_modes)
+        member = oc3_tower_rna_basis(tower_elements, tower_modes, damping=tower_damping,
+                                     damping_reference=tower_damping_reference)
         tower = FlexibleBody("tower", B, base, member, stiffening=stiffening,
                              gravity=-g * N.z)
         q += list(tower.q)
@@ -407,7 +432,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, hydrostatics="l
     state = {q6[names.index(key)]: value for key, value in initial.items()}
     used = {m_d, k_d, c_d, b} if tmdi == "tmdi" else {m_d, k_d, c_d} if tmdi == "tmd" else set()
     constants = {key: value for key, value in constants.items() if key in used}
-    what = [f"{tower_modes} tower modes" if tower_modes else "rigid tower",
+    what = [f"{tower_modes} tower modes, tower damping {100 * tower_damping:g} % "
+            f"({tower_damping_reference})" if tower_modes else "rigid tower",
             f"{mooring} mooring", f"{sea} sea"]
     if wind_speed > 0:
         what.append(f"wind {wind_speed:g} m/s")

@@ -47,7 +47,7 @@ import sympy.physics.mechanics as me
 
 from ..._errors import ModelError
 from ._lazy_scipy import sp
-from ._reduced import ReducedMember
+from ._reduced import ReducedMember, damping_matrix
 
 __all__ = ["FlexibleBody", "InertiaInvariants"]
 
@@ -192,11 +192,23 @@ class FlexibleBody:
         the conventional linear modal model.
     rayleigh : (float, float), optional
         Damping :math:`D = \alpha M_\eta + \beta K_\eta`: ``(alpha, beta)`` in
-        1/s and s.
-    modal_damping : sequence of float, optional
-        Damping ratios of the modes (requires modal mass and stiffness that
-        are diagonal in the member's basis, e.g. fixed-interface normal
-        modes only); ``D = diag(2 zeta_i omega_i m_i)``.
+        1/s and s (:math:`M_\eta, K_\eta` the member's own modal mass and
+        stiffness).
+    modal_damping : float or sequence of float, optional
+        Damping ratios of the modal coordinates, fractions of critical (0.01
+        is 1 %), ``0 <= zeta < 1``; one number for all.  Requires modal mass
+        and stiffness that are diagonal in the member's basis (e.g.
+        fixed-interface normal modes only); ``D = diag(2 zeta_i sqrt(k_i m_i))``
+        with the member's *own* modal mass :math:`m_i`: the ratio of the member
+        alone.  Bodies attached to it (a payload, a rotor-nacelle mass) add
+        mass, and its modes in the assembly decay with less; to set the
+        assembly's ratios use :meth:`ReducedMember.with_damping` with
+        ``modal_mass=``.
+
+        Default (neither given, and a member without
+        :attr:`ReducedMember.damping`): **no damping**.  A member that carries
+        damping (:meth:`ReducedMember.with_damping`, the OC3 tower) keeps
+        it, and giving ``rayleigh`` or ``modal_damping`` as well is refused.
     gravity : sympy.physics.vector.Vector, optional
         A uniform gravity field acting on the body's mass (e.g. ``-g * N.z``).
 
@@ -208,6 +220,9 @@ class FlexibleBody:
         :math:`\dot\eta_i - \zeta_i`.
     invariants : InertiaInvariants
     damping : ndarray, shape (m, m)
+        :math:`D`, N s/m per unit modal speed: the generalized force
+        :math:`-D\zeta` on the modal coordinates, whose power
+        :math:`-\zeta^TD\zeta` is the energy the member dissipates.
     """
 
     def __init__(self, name, frame, origin, member, coordinates=None, speeds=None,
@@ -292,32 +307,21 @@ class FlexibleBody:
         return -self.gravity.dot(moment)
 
     def _damping(self, rayleigh, modal):
-        m = self.member.n_modes
-        if rayleigh is not None and modal is not None:
-            raise ModelError(f"flexible body {self.name!r}: give rayleigh or modal_damping, "
-                             "not both")
-        mass = self.invariants.M0[6:, 6:]
-        if rayleigh is not None:
-            alpha, beta = (float(v) for v in rayleigh)
-            if alpha < 0 or beta < 0:
-                raise ModelError(f"flexible body {self.name!r}: Rayleigh coefficients must "
-                                 f"not be negative, got {rayleigh}")
-            return alpha * mass + beta * self.invariants.stiffness
-        if modal is not None:
-            ratios = np.asarray(modal, dtype=float).ravel()
-            if ratios.shape != (m,) or np.any(ratios < 0):
-                raise ModelError(f"flexible body {self.name!r}: modal_damping needs {m} "
-                                 f"non-negative ratios, got {modal}")
-            K = self.invariants.stiffness
-            off = max(np.max(np.abs(mass - np.diag(np.diag(mass)))),
-                      np.max(np.abs(K - np.diag(np.diag(K)))))
-            if off > 1e-9 * max(np.max(np.abs(mass)), np.max(np.abs(K)), 1e-300):
-                raise ModelError(f"flexible body {self.name!r}: modal_damping needs modes "
-                                 "that diagonalize the mass and stiffness (e.g. normal modes "
-                                 "only); use rayleigh=(alpha, beta) instead")
-            mi, ki = np.diag(mass), np.diag(K)
-            return np.diag(2.0 * ratios * np.sqrt(ki * mi))
-        return np.zeros((m, m))
+        given = self.member.damping
+        if given is not None:
+            if rayleigh is not None or modal is not None:
+                raise ModelError(
+                    f"flexible body {self.name!r}: member {self.member.name!r} carries its "
+                    "own damping (ReducedMember.damping, e.g. from with_damping or the OC3 "
+                    "tower's default); give damping once: drop rayleigh/modal_damping here, "
+                    "or build the member without damping (the OC3 tower: damping=0)")
+            return np.array(given, dtype=float)
+        if rayleigh is None and modal is None:
+            return np.zeros((self.member.n_modes,) * 2)
+        # the member's modal mass and stiffness are the invariants' M0[6:, 6:] and K
+        return damping_matrix(self.member, ratios=modal, rayleigh=rayleigh,
+                              what=f"flexible body {self.name!r}",
+                              names=("modal_damping", "rayleigh"))
 
     # ---------------------------------------------------------- attachments
     def node_point(self, k):

@@ -21,6 +21,16 @@ with :math:`\Phi_k` (3 x m) and :math:`\Psi_k` (3 x m) the translational and
 rotational rows of :attr:`ReducedMember.modes`, and :math:`G` the second-order
 (foreshortening) displacement of the nodes that makes motion-induced
 (geometric) stiffening part of the kinematics (Kane, Ryan & Banerjee 1987).
+
+Structural damping
+------------------
+A member may carry a damping matrix :math:`D` on its modal coordinates (the
+dissipation function :math:`\tfrac12\dot\eta^T D\,\dot\eta`, generalized force
+:math:`-D\dot\eta`), set by :meth:`ReducedMember.with_damping` from damping
+ratios per mode or Rayleigh coefficients (:func:`damping_matrix`).  A member
+built from matrices or beam elements carries none (:attr:`ReducedMember.damping`
+is ``None``): it is undamped unless its user gives damping, here or to the
+:class:`~kanedyn.FlexibleBody` (``rayleigh=``, ``modal_damping=``).
 """
 
 from __future__ import annotations
@@ -32,12 +42,12 @@ import numpy as np
 from ..._errors import ModelError
 from ._lazy_scipy import sla
 
-__all__ = ["ReducedMember", "reduced_frequencies"]
+__all__ = ["ReducedMember", "reduced_frequencies", "damping_matrix"]
 
 
 @dataclass(frozen=True, eq=False)
 class ReducedMember:
-    """A finite-element member reduced to ``m`` modal coordinates.
+    r"""A finite-element member reduced to ``m`` modal coordinates.
 
     Attributes
     ----------
@@ -72,6 +82,13 @@ class ReducedMember:
         clamped and of the reduced model (for the report).
     description : str
         How the member was built and reduced.
+    damping : ndarray, shape (m, m), or None
+        Structural damping matrix :math:`D` of the modal coordinates (N s/m per
+        unit modal speed: generalized force :math:`-D\dot\eta`), symmetric
+        positive semidefinite; ``None`` (the default of every member kanedyn
+        builds from matrices or beam elements): no damping of the member's own,
+        a flexible body on it is undamped unless it is given ``rayleigh=`` or
+        ``modal_damping=``.  Set it with :meth:`with_damping`.
     """
 
     name: str
@@ -86,6 +103,7 @@ class ReducedMember:
     full_frequencies: np.ndarray = field(default_factory=lambda: np.zeros(0))
     reduced_frequencies: np.ndarray = field(default_factory=lambda: np.zeros(0))
     description: str = ""
+    damping: np.ndarray | None = None
 
     def __post_init__(self):
         n = np.shape(self.nodes)[0]
@@ -114,6 +132,8 @@ class ReducedMember:
         if self.mode_names and len(self.mode_names) != m:
             raise ModelError(f"member {self.name!r}: {len(self.mode_names)} mode names for "
                              f"{m} modes")
+        if self.damping is not None:
+            object.__setattr__(self, "damping", _checked_damping(self.name, self.damping, m))
 
     @property
     def n_nodes(self):
@@ -182,9 +202,56 @@ class ReducedMember:
         G = None if self.second_order is None else self.second_order[:, :, index][:, :, :, index]
         kept = [names[j] for j in index]
         frequencies = reduced_frequencies(self.stiffness_matrix, self.mass_matrix, modes)
+        damping = None if self.damping is None else self.damping[np.ix_(index, index)]
         return replace(self, modes=modes, second_order=G, mode_names=tuple(kept),
                        full_frequencies=np.zeros(0), reduced_frequencies=frequencies,
-                       description=f"{self.description}; kept {', '.join(kept)}")
+                       description=f"{self.description}; kept {', '.join(kept)}",
+                       damping=damping)
+
+    def with_damping(self, ratios=None, rayleigh=None, modal_mass=None):
+        r"""The same member carrying structural damping (:attr:`damping`).
+
+        Give exactly one of ``ratios`` and ``rayleigh`` (see
+        :func:`damping_matrix` for the formulas).  A flexible body built on
+        the result takes this damping; giving it ``rayleigh=`` or
+        ``modal_damping=`` as well is refused (the damping is given once).
+
+        Parameters
+        ----------
+        ratios : float or sequence of float, optional
+            Damping ratio :math:`\zeta_i` of each modal coordinate, as a
+            fraction of critical (0.01 is 1 %; one number: every coordinate);
+            ``0 <= zeta < 1``.  Needs a basis that diagonalizes the modal
+            stiffness and the reference modal mass (normal modes only).
+        rayleigh : (float, float), optional
+            ``(alpha, beta)`` in 1/s and s: :math:`D = \alpha M_\eta + \beta K_\eta`.
+        modal_mass : array_like, shape (m, m), optional
+            The modal mass the ratios (or ``alpha``) refer to, kg; default the
+            member's own :meth:`modal_mass`.  Give the modal mass of the member
+            *with* what is attached to it (a rotor-nacelle mass at a tower
+            top, a payload) to set the ratios of the modes of the assembly on
+            a held base: the member's own mass gives ratios of the member
+            alone.
+
+        Returns
+        -------
+        ReducedMember
+
+        Raises
+        ------
+        ModelError
+            A value that is not finite, negative, a ratio of 1 or more (a
+            percentage given as a fraction?), the wrong number of ratios, or
+            ratios on a basis that does not diagonalize the mass and stiffness.
+
+        Examples
+        --------
+        >>> damped = member.with_damping(ratios=0.01)          # doctest: +SKIP
+        >>> damped = member.with_damping(rayleigh=(0.0, 2e-3))  # doctest: +SKIP
+        """
+        D = damping_matrix(self, ratios=ratios, rayleigh=rayleigh, modal_mass=modal_mass,
+                           what=f"member {self.name!r}")
+        return replace(self, damping=D)
 
     def frequency_comparison(self):
         """Full-model and reduced-model frequencies side by side.
@@ -236,6 +303,128 @@ class ReducedMember:
         if self.mode_names:
             lines.append(f"  modal coordinates: {', '.join(self.mode_names)}")
         return "\n".join(lines)
+
+
+def damping_matrix(member, ratios=None, rayleigh=None, modal_mass=None, what=None,
+                   names=("ratios", "rayleigh")):
+    r"""The damping matrix of a member's modal coordinates, from ratios or Rayleigh coefficients.
+
+    .. math::
+
+        D = \mathrm{diag}\bigl(2\zeta_i\sqrt{k_i m_i}\bigr)
+        \quad\text{(ratios)},\qquad
+        D = \alpha M_\eta + \beta K_\eta \quad\text{(Rayleigh)},
+
+    :math:`k_i, m_i` the diagonal of the modal stiffness
+    :math:`K_\eta = \Phi^TK\Phi` and of the reference modal mass
+    :math:`M_\eta` (default :math:`\Phi^TM\Phi`).  On a held base a
+    coordinate then decays with :math:`\zeta_i` of critical when the mass it
+    moves is :math:`m_i`; stiffness-proportional damping (:math:`\alpha = 0`)
+    gives mode :math:`i` the ratio :math:`\beta\omega_i/2`.
+
+    Parameters
+    ----------
+    member : ReducedMember
+    ratios : float or sequence of float, optional
+        :math:`\zeta_i`, fractions of critical, ``0 <= zeta < 1``.
+    rayleigh : (float, float), optional
+        ``(alpha, beta)`` >= 0, in 1/s and s.
+    modal_mass : array_like, shape (m, m), optional
+        Reference modal mass, kg (default the member's own).
+    what : str, optional
+        Who is asking, for the error messages (default: the member).
+    names : (str, str)
+        The option names the error messages use for ``ratios`` and
+        ``rayleigh`` (a flexible body's ``modal_damping`` and ``rayleigh``).
+
+    Returns
+    -------
+    ndarray, shape (m, m)
+        N s/m per unit modal speed.
+
+    Raises
+    ------
+    ModelError
+        Both or neither given, values not finite or out of range, a ratios
+        count other than the member's modes, or ratios on a basis whose modal
+        stiffness or reference mass is not diagonal.
+    """
+    what = what or f"member {member.name!r}"
+    ratio_name, rayleigh_name = names
+    m = member.n_modes
+    if (ratios is None) == (rayleigh is None):
+        raise ModelError(f"{what}: give {rayleigh_name} or {ratio_name} (one of them)"
+                         if ratios is None else
+                         f"{what}: give {rayleigh_name} or {ratio_name}, not both")
+    K = _symmetric(member.modal_stiffness())
+    if modal_mass is None:
+        M = _symmetric(member.modal_mass())
+    else:
+        M = np.asarray(modal_mass, dtype=float)
+        if M.shape != (m, m) or not np.all(np.isfinite(M)):
+            raise ModelError(f"{what}: modal_mass must be a finite {m} x {m} matrix, got "
+                             f"shape {M.shape}")
+        M = _symmetric(M)
+    if rayleigh is not None:
+        try:
+            alpha, beta = (float(v) for v in rayleigh)
+        except (TypeError, ValueError):
+            raise ModelError(f"{what}: {rayleigh_name} must be two numbers (alpha in 1/s, "
+                             f"beta in s), got {rayleigh!r}") from None
+        if not (np.isfinite(alpha) and np.isfinite(beta) and alpha >= 0 and beta >= 0):
+            raise ModelError(f"{what}: {rayleigh_name} coefficients must be finite and not "
+                             f"negative (alpha in 1/s, beta in s), got {rayleigh!r}")
+        return alpha * M + beta * K
+    try:
+        zeta = np.asarray(ratios, dtype=float).ravel()
+    except (TypeError, ValueError):
+        raise ModelError(f"{what}: {ratio_name} must be numbers (fractions of critical), "
+                         f"got {ratios!r}") from None
+    if np.ndim(ratios) == 0:  # one number: every coordinate
+        zeta = np.full(m, zeta[0])
+    if zeta.shape != (m,):
+        raise ModelError(f"{what}: {ratio_name}: {m} ratios needed (one per modal "
+                         f"coordinate) or one number for all, got {zeta.size}")
+    if not np.all(np.isfinite(zeta)) or np.any(zeta < 0):
+        raise ModelError(f"{what}: {ratio_name} must be finite and not negative, got "
+                         f"{ratios!r}")
+    if np.any(zeta >= 1):
+        raise ModelError(f"{what}: {ratio_name} are fractions of critical (0.01 is 1 %), "
+                         f"got {zeta.max():g}: critical or beyond (was a percentage given?)")
+    scale = max(np.abs(M).max(initial=0.0), 1e-300), max(np.abs(K).max(initial=0.0), 1e-300)
+    for matrix, name, size in ((M, "mass", scale[0]), (K, "stiffness", scale[1])):
+        if np.abs(matrix - np.diag(np.diag(matrix))).max(initial=0.0) > 1e-9 * size:
+            raise ModelError(f"{what}: {ratio_name} need modes that diagonalize the modal "
+                             f"{name} (normal modes only, e.g. no static constraint modes); "
+                             f"use {rayleigh_name}=(alpha, beta) instead")
+    return np.diag(2.0 * zeta * np.sqrt(np.clip(np.diag(K) * np.diag(M), 0.0, None)))
+
+
+def _symmetric(a):
+    a = np.asarray(a, dtype=float)
+    return 0.5 * (a + a.T)
+
+
+def _checked_damping(name, D, m):
+    """``D`` as a float array after the checks of :attr:`ReducedMember.damping`."""
+    try:
+        D = np.array(D, dtype=float)
+    except (TypeError, ValueError):
+        raise ModelError(f"member {name!r}: damping must be a {m} x {m} matrix of numbers "
+                         "(N s/m per unit modal speed)") from None
+    if D.shape != (m, m):
+        raise ModelError(f"member {name!r}: damping must be {m} x {m} (one row per modal "
+                         f"coordinate), got shape {D.shape}")
+    if not np.all(np.isfinite(D)):
+        raise ModelError(f"member {name!r}: damping must be finite")
+    scale = max(np.abs(D).max(initial=0.0), 1e-300)
+    if np.abs(D - D.T).max(initial=0.0) > 1e-12 * scale:
+        raise ModelError(f"member {name!r}: damping must be symmetric")
+    if m and np.linalg.eigvalsh(_symmetric(D)).min() < -1e-12 * scale:
+        raise ModelError(f"member {name!r}: damping must be positive semidefinite (it "
+                         "would feed energy into the member)")
+    D.flags.writeable = False
+    return D
 
 
 def reduced_frequencies(K, M, modes):
