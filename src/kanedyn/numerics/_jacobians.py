@@ -195,7 +195,9 @@ def _functions(model, parameters):
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
-        module = load_module(text, units)
+        # first from the quick compiler where there is one: its functions move onto
+        # the optimized code (built in the background) by themselves
+        module = load_module(text, units, quick=True)
         model.__dict__["_" + key + "_module"] = module
         found = _entry_points(module)
     else:

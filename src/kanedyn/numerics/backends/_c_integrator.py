@@ -121,6 +121,7 @@ typedef struct {
     double y_singular[KD_NX];
     double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
     double *exact;           /* the module's exact derivatives: their work (heap), or NULL */
+    const KdJacobianInfo *jacobians;  /* and those derivatives (one for the whole run) */
     /* continuous extension of the last step */
     double t_old, h;
     double y_old[KD_NX];
@@ -694,7 +695,7 @@ static int kd_jacobian(KdIntegrator *ig, double t, const double *y, const double
     const double sqrt_eps = 1.4901161193847656e-08;
     double yp[KD_NX], fp[KD_NX];
     memcpy(yp, y, sizeof(double) * KD_NX);
-    const KdJacobianInfo *info = kd_jacobians;
+    const KdJacobianInfo *info = ig->jacobians;
     int exact = ig->exact != NULL;
     if (exact) {
         double r[KD_SZ(KD_NR)];
@@ -888,8 +889,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     if (J == NULL) { PyErr_NoMemory(); goto done; }
     ig.W = J + KD_NX * KD_NX;
     ig.LU = ig.W + KD_NX * KD_NX;
-    if (ig.method == 1 && kd_jacobians != NULL) {
-        const KdJacobianInfo *info = kd_jacobians;
+    if (ig.method == 1 && KD_JACOBIANS != NULL) {
+        const KdJacobianInfo *info = ig.jacobians = KD_JACOBIANS;
         ig.exact = (double *)PyMem_Malloc(sizeof(double) * (info->scratch
             + (KD_NX + KD_NUDEP) * info->columns + info->constraint_rows * KD_NX));
         if (ig.exact == NULL) { PyErr_NoMemory(); goto done; }

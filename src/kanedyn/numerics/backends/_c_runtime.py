@@ -50,8 +50,14 @@ HEADER = PYTHON_INCLUDES + PRELUDE
 
 RUNTIME_ERRORS = r"""
 static PyObject *kd_linalg_error = NULL;
-/* the module's exact derivatives (kd_module_create), or NULL */
+/* the module's exact derivatives (kd_module_create; another module's after
+   _adopt), or NULL */
 static const KdJacobianInfo *kd_jacobians = NULL;
+#if defined(__GNUC__)
+#define KD_JACOBIANS (__atomic_load_n(&kd_jacobians, __ATOMIC_ACQUIRE))
+#else
+#define KD_JACOBIANS kd_jacobians
+#endif
 """
 
 #: sizes derived from the ``KD_*`` sizes (every unit of a module)
@@ -1159,7 +1165,7 @@ done:
 static PyObject *kd_py_solved_jacobians(PyObject *self, PyObject *const *args,
                                         Py_ssize_t nargs) {
     (void)self;
-    const KdJacobianInfo *info = kd_jacobians;
+    const KdJacobianInfo *info = KD_JACOBIANS;
     if (info == NULL) {
         PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
         return NULL;
@@ -1378,6 +1384,7 @@ typedef struct {
     KdRhsCore rhs;
     const KdFunction *table;
     int nx, np, nr, nw, functions;
+    const KdJacobianInfo *jacobians;  /* its exact derivatives, or NULL */
 } KdEntry;
 static KdEntry kd_entry;
 
@@ -1396,9 +1403,11 @@ static PyObject *kd_py_adopt(PyObject *self, PyObject *capsule) {
 #if defined(__GNUC__)
     __atomic_store_n(&kd_rhs_now, other->rhs, __ATOMIC_RELEASE);
     __atomic_store_n(&kd_table, other->table, __ATOMIC_RELEASE);
+    __atomic_store_n(&kd_jacobians, other->jacobians, __ATOMIC_RELEASE);
 #else
     kd_rhs_now = other->rhs;
     kd_table = other->table;
+    kd_jacobians = other->jacobians;
 #endif
     Py_RETURN_NONE;
 }
@@ -1430,7 +1439,7 @@ static int kd_add_functions(PyObject *module, const KdFunction *table) {
     }
     kd_table = table;
     kd_entry = (KdEntry){kd_entry.name, kd_rhs_core, table, KD_NX, KD_NP, KD_NR, KD_NW,
-                         count};
+                         count, kd_jacobians};
     for (int k = 0; k < count; ++k) {
         kd_table_methods[k].ml_name = table[k].name;
         kd_table_methods[k].ml_meth = (PyCFunction)(void (*)(void))kd_entries[k];
