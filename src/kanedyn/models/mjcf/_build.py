@@ -497,6 +497,7 @@ class _Builder:
         if g_norm > 0:
             self.constants[self.g] = g_norm
             g_dir = _vector(self.N, gravity / g_norm)
+        self.members = members
         for body in self.m.bodies[1:]:
             if self.head[body.name][0] != body.name:
                 continue
@@ -527,6 +528,63 @@ class _Builder:
                     at = point.locatenew(f"Gc{k}_{ident}", _vector(frame, c_k))
                     self.loads.append((at, -sm.Float(member.gravcomp * m_k) * self.g
                                        * g_dir))
+
+    def fluid(self):
+        """MuJoCo's inertia-based fluid forces (``<option density viscosity wind>``):
+        on each body with mass, at its mass centre, along the principal axes of its
+        central inertia (the axes of its equivalent inertia box, half-sizes r):
+        quadratic drag ``-2 rho r_j r_k |v_i| v_i`` and ``-rho r_i (r_j^4 + r_k^4)
+        |w_i| w_i / 2``, viscous ``-6 pi beta r_eq v_i`` and ``-8 pi beta r_eq^3 w_i``
+        with ``r_eq`` the mean half-size; ``v`` is the mass centre's velocity less
+        the wind."""
+        option = self.m.option
+        rho, beta = option.density, option.viscosity
+        if rho <= 0 and beta <= 0:
+            return
+        wind = _vector(self.N, option.wind)
+        for head, parts in self.members.items():
+            if head == "":
+                continue
+            frame, point = self.frame_of[head], self.point_of[head]
+            for k, (mass, c, J, member) in enumerate(parts):
+                if mass < 1e-15:
+                    continue
+                if any(g.element.attrib.get("fluidshape", "none") != "none"
+                       for g in member.geoms):
+                    geom = next(g for g in member.geoms
+                                if g.element.attrib.get("fluidshape", "none") != "none")
+                    raise geom.element.error("fluidshape (the ellipsoid fluid model) is "
+                                             "not supported")
+                moments, axes = np.linalg.eigh(J)
+                r = np.sqrt(np.maximum(0.0, 1.5 / mass * (moments.sum() - 2 * moments)))
+                ident = self.names(member.name, "body", member.element)
+                box = _fixed_frame(frame, axes, f"Fl_{ident}")
+                G = point.locatenew(f"Fl_{ident}", _vector(frame, c))
+                v = G.pos_from(self.O).dt(self.N) - wind
+                w = box.ang_vel_in(self.N)
+                force, torque = me.Vector(0), me.Vector(0)
+                r_eq = r.mean()
+                for i, e in enumerate((box.x, box.y, box.z)):
+                    j, l = (i + 1) % 3, (i + 2) % 3
+                    vi, wi = v.dot(e), w.dot(e)
+                    fi = -sm.Float(2 * rho * r[j] * r[l]) * sm.Abs(vi) * vi \
+                        - sm.Float(6 * beta * math.pi * r_eq) * vi
+                    gi = -sm.Float(0.5 * rho * r[i] * (r[j] ** 4 + r[l] ** 4)) \
+                        * sm.Abs(wi) * wi - sm.Float(8 * beta * math.pi * r_eq ** 3) * wi
+                    force += fi * e
+                    torque += gi * e
+                self.loads.append((G, force.xreplace(self.qdot_to_u())))
+                self.loads.append((box, torque.xreplace(self.qdot_to_u())))
+
+    def qdot_to_u(self):
+        """``{q': u}`` of the coordinates whose rate is a speed (hinge, slide, free
+        position)."""
+        out = {}
+        for j in self.joint_infos:
+            pairs = zip(j.q[:3], j.u[:3]) if j.type == "free" else (
+                zip(j.q, j.u) if j.type in ("hinge", "slide") else ())
+            out.update({q.diff(): u for q, u in pairs})
+        return out
 
     def solid(self, body, inertia, parts):
         moments = principal_moments(inertia)
@@ -706,6 +764,7 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
         raise MJCFError(f"{model.source}: the model has no joints: nothing moves")
     build.actuators()
     build.rigid_bodies()
+    build.fluid()
     build.check_masses()
     sites = build.sites()
     loops = build.loops()
