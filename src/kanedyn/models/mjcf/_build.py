@@ -286,6 +286,7 @@ class _Builder:
                                            option.disabled else set())
         self.g = sm.Symbol("g", nonnegative=True)
         self.qpos_at, self.dof_at = 0, 0
+        self.box_axes = {}
 
     # kinematics ----------------------------------------------------------------
     def walk(self):
@@ -456,7 +457,7 @@ class _Builder:
         props = {}
         for body in self.m.bodies[1:]:
             try:
-                mass, c, J, _ = body_mass_properties(body, self.m.compiler)
+                mass, c, J, counted = body_mass_properties(body, self.m.compiler)
             except ValueError as exc:
                 geom = exc.args[0]
                 what = ("shellinertia" if geom.shellinertia
@@ -468,6 +469,12 @@ class _Builder:
                 mass, J = 0.0, np.zeros((3, 3))
             mass, J = bound(mass, J, self.m.compiler)
             props[body.name] = (mass, c, J)
+            # the axes of the equivalent inertia box (fluid forces), as MuJoCo picks
+            # them: those of <inertial diaginertia>, of a body's only geom, else the
+            # principal axes
+            self.box_axes[body.name] = (counted[0].R if len(counted) == 1 else
+                                        body.inertial.axes if body.inertial is not None
+                                        and not counted else None)
         total = self.m.compiler.settotalmass
         if total > 0:
             now = sum(p[0] for p in props.values())
@@ -480,13 +487,14 @@ class _Builder:
 
     def rigid_bodies(self):
         props = self.masses()
-        members = {}
+        members, self.own_inertia = {}, {}
         for body in self.m.bodies[1:]:
             head, T = self.head[body.name]
             mass, c, J = props[body.name]
             R = T[:3, :3]
             members.setdefault(head, []).append(
                 (mass, T[:3, :3] @ c + T[:3, 3], R @ J @ R.T, body))
+            self.own_inertia[body.name] = (J, R)
         self.carried = {}
         gravity = np.array(self.m.option.gravity, dtype=float)
         if "gravity" in self.off:
@@ -555,7 +563,12 @@ class _Builder:
                                 if g.element.attrib.get("fluidshape", "none") != "none")
                     raise geom.element.error("fluidshape (the ellipsoid fluid model) is "
                                              "not supported")
-                moments, axes = np.linalg.eigh(J)
+                J_own, R_own = self.own_inertia[member.name]
+                axes = self.box_axes[member.name]
+                if axes is None:
+                    axes = np.linalg.eigh(J_own)[1]
+                moments = np.diag(axes.T @ J_own @ axes)
+                axes = R_own @ axes
                 r = np.sqrt(np.maximum(0.0, 1.5 / mass * (moments.sum() - 2 * moments)))
                 ident = self.names(member.name, "body", member.element)
                 box = _fixed_frame(frame, axes, f"Fl_{ident}")

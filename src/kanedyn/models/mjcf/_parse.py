@@ -128,6 +128,7 @@ class Inertial:
     pos: np.ndarray
     inertia: np.ndarray
     element: object = None
+    axes: np.ndarray | None = None  # principal axes when given (diaginertia)
 
 
 @dataclass
@@ -475,8 +476,11 @@ class _Reader:
             if np.linalg.norm(d) < 1e-12:
                 raise a.error("fromto", "the two ends coincide")
             pos = (ends[3:] + ends[:3]) / 2
-            R = zaxis_matrix(d)
-            size[1 if kind in ("capsule", "cylinder") else 2] = np.linalg.norm(d) / 2
+            R = zaxis_matrix(-d)  # MuJoCo's compiled frame: z from the second end to the first
+            if kind in ("capsule", "cylinder"):
+                size[1] = np.linalg.norm(d) / 2
+            else:  # the sizes across are both the first size
+                size[1], size[2] = size[0], np.linalg.norm(d) / 2
         needed = {"sphere": 1, "capsule": 2, "cylinder": 2, "ellipsoid": 3, "box": 3}
         if kind in needed and any(s <= 0 for s in size[:needed[kind]]):
             raise el.error(f"a {kind} needs {needed[kind]} positive size(s), got size "
@@ -496,6 +500,12 @@ class _Reader:
         a = self.attrs(el, "site", childclass)
         pos, R = self.pose(a)
         size = list(a.numbers("size", (0.005,), at_least=0, at_most=3))
+        if a.has("fromto"):
+            ends = np.array(a.numbers("fromto", None, n=6))
+            d = ends[3:] - ends[:3]
+            if np.linalg.norm(d) < 1e-12:
+                raise a.error("fromto", "the two ends coincide")
+            pos, R = (ends[3:] + ends[:3]) / 2, zaxis_matrix(-d)
         return Site(name=el.attrib.get("name") or f"site{index}",
                     type=a.text("type", "sphere"), size=tuple(size), pos=pos, R=R,
                     body=body, element=el)
@@ -512,14 +522,16 @@ class _Reader:
         pos, R = self.pose(a)
         if a.has("fullinertia") and a.has("diaginertia"):
             raise el.error("gives diaginertia and fullinertia: give one")
+        axes = None
         if a.has("fullinertia"):
             xx, yy, zz, xy, xz, yz = a.numbers("fullinertia", None, n=6)
             J = np.array([[xx, xy, xz], [xy, yy, yz], [xz, yz, zz]])
         elif a.has("diaginertia"):
             J = np.diag(a.numbers("diaginertia", None, n=3))
+            axes = R
         else:
             raise el.error("has neither diaginertia nor fullinertia")
-        return Inertial(mass=mass, pos=pos, inertia=R @ J @ R.T, element=el)
+        return Inertial(mass=mass, pos=pos, inertia=R @ J @ R.T, element=el, axes=axes)
 
 
 def _compose(pose, child):
