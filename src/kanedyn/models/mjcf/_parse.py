@@ -471,6 +471,9 @@ class _Reader:
         if a.has("fromto"):
             if kind not in ("capsule", "cylinder", "box", "ellipsoid"):
                 raise a.error("fromto", f"a {kind} geom cannot be given by fromto")
+            both = [k for k in ("pos",) + ORIENTATIONS if k in el.attrib]
+            if both:
+                raise el.error(f"gives fromto and {both[0]}: give one")
             ends = np.array(a.numbers("fromto", None, n=6))
             d = ends[3:] - ends[:3]
             if np.linalg.norm(d) < 1e-12:
