@@ -52,16 +52,20 @@ def random_state(definition, rng, nv, nu):
     return qpos, rng.uniform(-1.5, 1.5, nv), rng.uniform(-1.5, 1.5, nu)
 
 
+def numeric_with_controls(definition):
+    """``(model, ctrl)``: the numerical model whose actuator inputs read ``ctrl``."""
+    ctrl = np.zeros(len(definition.actuators))
+    spec = {a.ctrl: (lambda t, k=k: float(ctrl[k])) for k, a in enumerate(definition.actuators)}
+    return definition.numeric(definition.derive(), specified=spec), ctrl
+
+
 def compare_with_mujoco(path, states=4, seed=0, disable=None, definition=None,
-                        model=None, mj=None):
+                        model=None, ctrl=None):
     """max |qacc - qacc_mujoco| / max(1, |qacc_mujoco|) over random states."""
     definition = definition or kd.models.from_mjcf(path)
-    ctrl = np.zeros(len(definition.actuators))
     if model is None:
-        spec = {a.ctrl: (lambda t, k=k: float(ctrl[k]))
-                for k, a in enumerate(definition.actuators)}
-        model = definition.numeric(definition.derive(), specified=spec)
-    mj = mj or mujoco.MjModel.from_xml_path(str(path))
+        model, ctrl = numeric_with_controls(definition)
+    mj = mujoco.MjModel.from_xml_path(str(path))
     mj.opt.disableflags |= (mujoco.mjtDisableBit.mjDSBL_CONSTRAINT if disable is None
                             else disable)
     data = mujoco.MjData(mj)
@@ -228,12 +232,14 @@ DEFAULTS = """\
 
 @pytest.fixture(scope="module")
 def edge(tmp_path_factory):
+    """``(path, definition, model, ctrl)`` of the edge-case file."""
     folder = tmp_path_factory.mktemp("edge")
     (folder / "parts").mkdir()
     (folder / "parts" / "defaults.xml").write_text(DEFAULTS)
     path = folder / "edge.xml"
     path.write_text(EDGE)
-    return path
+    definition = kd.models.from_mjcf(path)
+    return (path, definition, *numeric_with_controls(definition))
 
 
 def test_edge_cases_match_mujoco(edge):
@@ -243,11 +249,12 @@ def test_edge_cases_match_mujoco(edge):
     and an extrinsic-intrinsic Euler sequence, springs, damping, armature,
     gravity compensation, fluid forces with wind, and every actuator kind with
     control and force ranges."""
-    definition = kd.models.from_mjcf(edge)
+    path, definition, model, ctrl = edge
     assert [j.type for j in definition.joints] == ["hinge", "slide", "ball", "hinge",
                                                    "hinge", "slide", "free"]
     assert definition.body_of["welded"][0] == "slider"
-    worst = compare_with_mujoco(edge, states=6, definition=definition)
+    worst = compare_with_mujoco(path, states=6, definition=definition, model=model,
+                                ctrl=ctrl)
     assert worst < 1e-12, worst
 
 
@@ -284,8 +291,7 @@ def test_inertia_from_each_geom_shape(tmp_path):
 
 
 def test_state_mapping_round_trip(edge):
-    definition = kd.models.from_mjcf(edge)
-    model = definition.numeric(definition.derive())
+    _, definition, model, _ = edge
     rng = np.random.default_rng(3)
     qpos, qvel, _ = random_state(definition, rng, definition.nv, 0)
     y = definition.state_from_mujoco(model, qpos, qvel)
