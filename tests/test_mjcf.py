@@ -586,3 +586,16 @@ def test_mujoco_own_test_model_is_refused_at_its_first_unsupported_element():
         pytest.skip("this mujoco wheel ships no testdata/model.xml")
     with pytest.raises(MJCFError, match=r"model\.xml:\d+: <\w+.*>: .*not supported"):
         kd.models.from_mjcf(path)
+
+
+def test_docs_example_runs(tmp_path, monkeypatch):
+    """docs/mjcf.md's python block, on a copy of dm_control's cart-pole."""
+    import shutil
+
+    from test_readme import run_python_blocks
+    shutil.copy(suite_folder() / "cartpole.xml", tmp_path)
+    shutil.copytree(suite_folder() / "common", tmp_path / "common")
+    text = (Path(__file__).resolve().parents[1] / "docs" / "mjcf.md").read_text()
+    (ns,) = run_python_blocks(text, "docs/mjcf.md", tmp_path, monkeypatch)
+    assert ns["res"].success
+    assert ns["qpos"].shape == (2,) and ns["qvel"].shape == (2,)
