@@ -28,6 +28,13 @@ mujoco = pytest.importorskip("mujoco", reason="the MJCF tests compare with MuJoC
                              "(pip install mujoco)")
 
 
+@pytest.fixture(autouse=True)
+def _mujoco_log_elsewhere(tmp_path, monkeypatch):
+    """MuJoCo writes its warnings (dm_control's cheetah uses the deprecated
+    settotalmass) to MUJOCO_LOG.TXT in the working folder: a temporary one."""
+    monkeypatch.chdir(tmp_path)
+
+
 def suite_folder():
     """The folder of dm_control's control-suite MJCF files."""
     suite = pytest.importorskip("dm_control.suite", reason="needs dm-control "
