@@ -248,6 +248,13 @@ def _pose(pos, R):
     return T
 
 
+def _clamp(x, lo, hi):
+    """``x`` clamped to ``[lo, hi]``, written with absolute values (whose
+    derivatives, signs, every backend's generated code evaluates)."""
+    lo, hi = sm.Float(lo), sm.Float(hi)
+    return (lo + hi + sm.Abs(x - lo) - sm.Abs(x - hi)) / 2
+
+
 class _Names:
     """kanedyn identifiers of MJCF names (characters other than letters, digits
     and ``_`` become ``_``), checked not to clash."""
@@ -434,14 +441,12 @@ class _Builder:
             length, velocity = act.gear * joint.q[0], act.gear * joint.u[0]
             c = ctrl
             if act.ctrlrange is not None and clamp:
-                c = sm.Min(sm.Max(ctrl, sm.Float(act.ctrlrange[0])),
-                           sm.Float(act.ctrlrange[1]))
+                c = _clamp(ctrl, *act.ctrlrange)
             g0, g1, g2 = (sm.Float(x) for x in act.gain)
             b0, b1, b2 = (sm.Float(x) for x in act.bias)
             force = (g0 + g1 * length + g2 * velocity) * c + b0 + b1 * length + b2 * velocity
             if act.forcerange is not None:
-                force = sm.Min(sm.Max(force, sm.Float(act.forcerange[0])),
-                               sm.Float(act.forcerange[1]))
+                force = _clamp(force, *act.forcerange)
             self.actuator_infos.append(MJCFActuator(
                 act.name, act.type, act.joint, act.gear, ctrl, force, act.ctrlrange,
                 act.forcerange, act.element.line))
