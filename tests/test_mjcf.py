@@ -626,3 +626,54 @@ def test_clamped_controls_compile_with_their_derivatives():
         assert np.allclose(getattr(jac[0], part), getattr(jac[1], part), rtol=1e-12,
                            atol=1e-12), part
     assert np.all(jac[0].inputs == 0)  # the control is clamped: no effect at the margin
+
+
+FRAMES = """\
+<mujoco model="frames">
+  <compiler eulerseq="XYZ"/>
+  <default>
+    <default class="c"><joint axis="1 0 0" damping="0.3"/><geom density="500"/></default>
+  </default>
+  <worldbody>
+    <frame pos="0.1 0 0.2" euler="30 0 45" childclass="c">
+      <body name="a" pos="0 0.1 0" euler="10 20 30">
+        <joint name="ja" range="-30 60" ref="10" springref="20" stiffness="2"/>
+        <geom type="box" size="0.1 0.05 0.02"/>
+        <frame pos="0 0 0.1" axisangle="0 0 1 90">
+          <geom type="sphere" size="0.03" pos="0.05 0 0"/>
+          <site name="s" fromto="0 0 0 0.1 0.2 0" type="capsule" size="0.01"/>
+          <body name="b" pos="0.1 0 0">
+            <joint name="jb" type="ball" pos="0 0 0.02"/>
+            <geom type="capsule" size="0.02 0.1"/>
+          </body>
+        </frame>
+      </body>
+    </frame>
+    <body name="m" mocap="true" pos="1 0 0"><geom type="box" size="0.1 0.1 0.1"/></body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_frames_degrees_and_fixed_axis_euler(tmp_path):
+    """``<frame>`` with a childclass, MuJoCo's default degrees (orientations, hinge
+    range, ref and springref), a fixed-axis Euler sequence, a site given by
+    fromto, a mocap body (fixed here, as mj_forward leaves it)."""
+    path = _write(tmp_path, FRAMES)
+    definition = kd.models.from_mjcf(path)
+    ja = definition.joints[0]
+    assert ja.range == pytest.approx((-math.pi / 6, math.pi / 3))
+    assert (ja.ref, ja.springref) == pytest.approx((math.radians(10), math.radians(20)))
+    assert (ja.damping, ja.stiffness) == (0.3, 2.0)
+    model, ctrl = numeric_with_controls(definition)
+    assert compare_with_mujoco(path, definition=definition, model=model, ctrl=ctrl) < 1e-12
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(mj)
+    data.qpos[:] = [0.4, 0.9, 0.1, -0.3, 0.2]
+    mujoco.mj_kinematics(mj, data)
+    y = definition.state_from_mujoco(model, data.qpos, np.zeros(mj.nv))
+    site = next(s for s in definition.sites if s.name == "s")
+    values = {q: y[model.index(str(q.func))] for q in definition.symbols["q"]}
+    r = site.point.pos_from(definition.symbols["O"]).to_matrix(definition.symbols["N"])
+    assert np.allclose(np.array(r.xreplace(values), dtype=float).ravel(),
+                       data.site("s").xpos, atol=1e-14)
