@@ -677,3 +677,30 @@ def test_frames_degrees_and_fixed_axis_euler(tmp_path):
     r = site.point.pos_from(definition.symbols["O"]).to_matrix(definition.symbols["N"])
     assert np.allclose(np.array(r.xreplace(values), dtype=float).ravel(),
                        data.site("s").xpos, atol=1e-14)
+
+
+def test_geoms_and_shapes_are_where_mujoco_puts_them(edge):
+    """Every geom's pose (``MJCFGeom.transform`` in its kanedyn body's frame) at a
+    random state equals MuJoCo's ``geom_xpos`` and ``geom_xmat``; the viewer gets
+    one shape per sphere, ellipsoid, box and cylinder and three per capsule."""
+    path, definition, model, _ = edge
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(mj)
+    qpos, qvel, _ = random_state(definition, np.random.default_rng(5), mj.nv, 0)
+    data.qpos[:] = qpos
+    mujoco.mj_kinematics(mj, data)
+    y = definition.state_from_mujoco(model, qpos, qvel)
+    values = {q: y[model.index(str(q.func))] for q in definition.symbols["q"]}
+    N, O = definition.symbols["N"], definition.symbols["O"]
+    assert len(definition.geoms) == mj.ngeom
+    for k, geom in enumerate(definition.geoms):
+        frame = definition.symbols["frames"][geom.mjcf_body]
+        point = definition.symbols["points"][geom.mjcf_body]
+        R = np.array(frame.dcm(N).T.xreplace(values), dtype=float)
+        p = np.array(point.pos_from(O).to_matrix(N).xreplace(values), dtype=float).ravel()
+        T = np.array(geom.transform)
+        assert np.allclose(p + R @ T[:3, 3], data.geom_xpos[k], atol=1e-14), geom.name
+        assert np.allclose(R @ T[:3, :3], data.geom_xmat[k].reshape(3, 3), atol=1e-14)
+    kinds = [g.type for g in definition.geoms]
+    shapes, notes = definition.visual_shapes()
+    assert len(shapes) == len(kinds) + 2 * kinds.count("capsule") and not notes

@@ -27,6 +27,7 @@ from __future__ import annotations
 import math
 import re
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 import sympy as sm
@@ -124,6 +125,33 @@ class MJCFSite:
 
 
 @dataclass(frozen=True)
+class MJCFGeom:
+    """A geom, as data (for viewers and contact models).
+
+    ``body`` is the kanedyn body that carries it (``""``: the ground),
+    ``mjcf_body`` its MJCF body, ``transform`` its pose (4x4) in ``body``'s
+    frame (origin at the body's origin); ``size`` is MuJoCo's (half-sizes and
+    radii, m); ``rgba`` its own or its material's colour, or None; ``mass`` what
+    it adds to its body (0 when the body's inertia is not taken from geoms, or
+    the geom's group does not count).
+    """
+
+    name: str
+    type: str
+    size: tuple
+    body: str
+    mjcf_body: str
+    transform: tuple
+    rgba: tuple | None
+    group: int
+    contype: int
+    conaffinity: int
+    mass: float
+    line: int
+    source: str
+
+
+@dataclass(frozen=True)
 class MJCFDefinition(ModelDefinition):
     """A :class:`ModelDefinition` read from an MJCF file, with its MuJoCo data.
 
@@ -135,6 +163,8 @@ class MJCFDefinition(ModelDefinition):
         Every joint, in MuJoCo's order.
     actuators : tuple of MJCFActuator
     sites : tuple of MJCFSite
+    geoms : tuple of MJCFGeom
+        Every geom, the world's included (``body == ""``).
     equalities : tuple of str
         One line per loop-closure constraint (its kind, bodies and element line).
     body_of : dict
@@ -150,11 +180,34 @@ class MJCFDefinition(ModelDefinition):
     joints: tuple = ()
     actuators: tuple = ()
     sites: tuple = ()
+    geoms: tuple = ()
     equalities: tuple = ()
     body_of: dict = field(default_factory=dict)
     gravity: tuple = (0.0, 0.0, -9.81)
     nq: int = 0
     nv: int = 0
+
+    def visual_shapes(self, constants=None, groups=(0, 1, 2)):
+        """The viewer shapes of the geoms in ``groups``, and what was not drawn.
+
+        Returns
+        -------
+        shapes : list of kanedyn.visuals.Shape
+        notes : list of str
+            One line per geom skipped (a plane, mesh, height field or SDF; a
+            massless body), naming file, line and geom.
+        """
+        from ._shapes import mjcf_shapes
+        values = dict(self.constants)
+        values.update(self._constant_overrides(constants or {}))
+        return mjcf_shapes(self, values, groups)
+
+    def shapes(self, constants=None):
+        """Shapes drawing the model with its own geoms (groups 0 to 2, those
+        MuJoCo shows by default; fully transparent geoms left out), for
+        ``res.animate(..., visuals=definition.shapes())``; geoms of the ground
+        are not drawn."""
+        return self.visual_shapes(constants)[0]
 
     def state_from_mujoco(self, model, qpos, qvel):
         """kanedyn's state ``y`` (for ``model``) of MuJoCo's ``qpos`` and ``qvel``.
@@ -294,6 +347,7 @@ class _Builder:
         self.g = sm.Symbol("g", nonnegative=True)
         self.qpos_at, self.dof_at = 0, 0
         self.box_axes = {}
+        self.rigid_of = {}  # MJCF body (with joints) -> its RigidBody
 
     # kinematics ----------------------------------------------------------------
     def walk(self):
@@ -533,7 +587,9 @@ class _Builder:
                 self.constants[comps[key]] = float(inertia[i, k])
             dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
                                 comps["yz"], comps["zx"])
-            self.bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
+            rigid = me.RigidBody(ident, G, frame, m, (dyadic, G))
+            self.bodies.append(rigid)
+            self.rigid_of[body.name] = rigid
             if g_dir is not None and mass > 0:
                 self.loads.append((G, m * self.g * g_dir))
             for k, (m_k, c_k, _, member) in enumerate(parts):
@@ -631,6 +687,25 @@ class _Builder:
                 raise body.joints[0].element.error(
                     f"moves only massless bodies (body '{body.name}' and those below it "
                     "have no mass, inertia or armature): its acceleration is undetermined")
+
+    def geom_records(self):
+        out = []
+        lo, hi = self.m.compiler.inertiagrouprange
+        from ._inertia import geom_mass_properties, INERTIA_SHAPES
+        for body in self.m.bodies:
+            head, T = self.head[body.name]
+            geoms = body.geoms if body.index else self.m.world_geoms
+            counted = body.index and (self.m.compiler.inertiafromgeom == "true" or (
+                self.m.compiler.inertiafromgeom == "auto" and body.inertial is None))
+            for g in geoms:
+                mass = (geom_mass_properties(g)[0] if counted and lo <= g.group <= hi
+                        and g.type in INERTIA_SHAPES else 0.0)
+                rgba = g.rgba if g.rgba is not None else self.m.materials.get(g.material)
+                Tg = T @ _pose(g.pos, g.R)
+                out.append(MJCFGeom(g.name, g.type, g.size, head, body.name,
+                                    tuple(map(tuple, Tg)), rgba, g.group, g.contype,
+                                    g.conaffinity, mass, g.element.line, g.element.source))
+        return out
 
     # sites -------------------------------------------------------------------------
     def sites(self):
@@ -805,13 +880,16 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
                            for b in model.bodies},
                    points={b.name: build.point_of[build.head[b.name][0]]
                            for b in model.bodies},
-                   ctrl={a.name: a.ctrl for a in build.actuator_infos})
+                   ctrl={a.name: a.ctrl for a in build.actuator_infos},
+                   bodies=dict(build.rigid_of))
     return MJCFDefinition(
-        name=model.name, title=f"{model.name} from {model.source} ({nv} degrees of freedom)",
+        name=model.name, title=f"{model.name} from {Path(model.source).name} ({nv} degrees "
+        "of freedom)",
         kane_args=kane_args, constants=build.constants, initial_state=build.initial,
         t_end=float(t_end), specified=build.specified, symbols=symbols,
         description=f"MuJoCo model '{model.name}' read from {model.source}.",
         source=model.source, joints=tuple(build.joint_infos),
         actuators=tuple(build.actuator_infos), sites=tuple(build.site_infos),
+        geoms=tuple(build.geom_records()),
         equalities=tuple(equalities), body_of=dict(build.head), gravity=build.gravity,
         nq=nq, nv=nv)

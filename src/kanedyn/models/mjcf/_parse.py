@@ -104,6 +104,9 @@ class Geom:
     shellinertia: bool
     rgba: tuple | None
     element: object = None
+    contype: int = 1
+    conaffinity: int = 1
+    material: str | None = None
 
 
 @dataclass(frozen=True)
@@ -204,6 +207,7 @@ class Model:
     equalities: list
     world_sites: list
     world_geoms: list
+    materials: dict = field(default_factory=dict)  # name -> rgba
 
     def body(self, name):
         return next((b for b in self.bodies if b.name == name), None)
@@ -497,7 +501,9 @@ class _Reader:
         return Geom(name=el.attrib.get("name") or f"geom{index}", type=kind,
                     size=tuple(size), pos=pos, R=R, mass=mass, density=density,
                     group=int(a.number("group", 0)), shellinertia=shell == "true",
-                    rgba=rgba, element=el)
+                    rgba=rgba, element=el, contype=int(a.number("contype", 1)),
+                    conaffinity=int(a.number("conaffinity", 1)),
+                    material=a.text("material"))
 
     def site(self, el, childclass, index, body):
         a = self.attrs(el, "site", childclass)
@@ -788,7 +794,13 @@ def parse_mjcf(path):
         tendon = root.findall("tendon")[0]
         if any(t.tag in ("spatial", "fixed") for t in tendon.children):
             raise tendon.children[0].error("tendons are not supported")
+    materials = {}
+    for asset in root.findall("asset"):
+        for mat in asset.findall("material"):
+            if mat.attrib.get("name") and "rgba" in mat.attrib:
+                materials[mat.attrib["name"]] = numbers(mat, "rgba", n=4)
     return Model(name=root.attrib.get("model", "MuJoCo Model"), source=str(path),
                  compiler=reader.compiler, option=option, bodies=bodies,
                  actuators=actuators, equalities=equalities,
-                 world_sites=tree.world_sites, world_geoms=tree.world_geoms)
+                 world_sites=tree.world_sites, world_geoms=tree.world_geoms,
+                 materials=materials)
