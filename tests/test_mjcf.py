@@ -102,6 +102,8 @@ SUITE = {
     "cheetah": "cheetah.xml",
     "walker": "walker.xml",
     "hopper": "hopper.xml",
+    # two slides driven through fixed tendons
+    "point_mass": "point_mass.xml",
 }
 
 
@@ -116,6 +118,32 @@ def test_humanoid_matches_mujoco():
     """21 hinges under a free joint (27 degrees of freedom)."""
     worst = compare_with_mujoco(suite_folder() / "humanoid.xml", states=3)
     assert worst < 1e-12, worst
+
+
+@pytest.mark.slow
+def test_fish_matches_mujoco():
+    """A free body in a fluid (density 5000 kg/m^3 and viscosity), fins on hinges
+    and a ball joint-free tail, actuators through fixed tendons."""
+    worst = compare_with_mujoco(suite_folder() / "fish.xml", states=3)
+    assert worst < 1e-12, worst
+
+
+@pytest.mark.slow
+def test_manipulator_gripper_coupled_by_a_tendon_equality():
+    """dm_control's manipulator: an arm, a gripper whose two fingers a fixed-tendon
+    equality couples (a loop closure), and free objects; along kanedyn's motion
+    MuJoCo's qacc (its equality made as stiff as it allows, contacts and limits
+    off) is the same, the coupling holds."""
+    path = suite_folder() / "manipulator.xml"
+    definition = kd.models.from_mjcf(path)
+    assert definition.equalities == ("tendon coupling = polynomial of a constant "
+                                     "(line 192)",)
+    mj = mujoco.MjModel.from_xml_path(str(path))
+    mj.eq_solimp[:, :3] = [0.9999, 0.9999, 0.001]
+    mj.eq_solref[:] = [1e-4, 1.0]
+    residual, worst = _loop_run(path, t_end=0.2, definition=definition, mj=mj)[1:]
+    assert residual < 1e-9, residual
+    assert worst < 1e-9, worst
 
 
 def test_swimmer_with_fluid_forces_matches_mujoco(tmp_path):
@@ -384,15 +412,18 @@ def _stiff_mujoco(path):
                 | mujoco.mjtDisableBit.mjDSBL_REFSAFE)
 
 
-def _loop_run(path, t_end=1.5, specified=None):
-    definition = kd.models.from_mjcf(path)
+def _loop_run(path, t_end=1.5, specified=None, definition=None, mj=None):
+    definition = definition or kd.models.from_mjcf(path)
     model = definition.numeric(definition.derive(), specified=specified)
     res = kd.simulate(model, (0.0, t_end), definition.initial(model), rtol=1e-11,
                       atol=1e-11)
     assert res.success, res.message
+    step = max(1, len(res.t) // 40)  # about 40 states along the motion, and the last
     residual = max(np.max(np.abs(model.constraint_residuals(t, y)))
-                   for t, y in zip(res.t, res.y.T))
-    mj, flags = _stiff_mujoco(path)
+                   for t, y in zip(list(res.t[::step]) + [res.t[-1]],
+                                   list(res.y.T[::step]) + [res.y[:, -1]]))
+    stiff, flags = _stiff_mujoco(path)
+    mj = mj or stiff
     mj.opt.disableflags |= flags
     data = mujoco.MjData(mj)
     worst = 0.0
@@ -475,6 +506,48 @@ def test_joint_equality_couples_two_hinges(a2, tmp_path):
         assert worst < 1e-3, worst
 
 
+TENDONS = """\
+<mujoco model="tendons">
+  <compiler angle="radian"/>
+  <default><tendon damping="0.2"/></default>
+  <worldbody>
+    <body name="a" pos="0 0 1">
+      <joint name="j1" axis="0 1 0" stiffness="2 0.5 0.3" damping="0.1 0.2 0.05"
+             springref="0.2"/>
+      <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/>
+      <body name="b" pos="0.4 0 0">
+        <joint name="j2" axis="0 1 0"/>
+        <joint name="s2" type="slide" axis="1 0 0" stiffness="5" springref="0.1"/>
+        <geom type="box" size="0.1 0.03 0.02"/>
+      </body>
+    </body>
+  </worldbody>
+  <tendon>
+    <fixed name="t1" stiffness="3 0.4" springlength="0.1 0.3" armature="0.02">
+      <joint joint="j1" coef="1"/><joint joint="j2" coef="-0.5"/>
+    </fixed>
+    <fixed name="t2" stiffness="1" damping="0.3 0.1 0.02">
+      <joint joint="s2" coef="2"/><joint joint="j1" coef="0.3"/>
+    </fixed>
+  </tendon>
+  <actuator>
+    <position name="p" tendon="t1" kp="5" kv="0.5" gear="1.5"/>
+    <motor name="m" tendon="t2" gear="0.7" ctrlrange="-1 1"/>
+  </actuator>
+</mujoco>
+"""
+
+
+def test_fixed_tendons_and_polynomial_springs(tmp_path):
+    """Fixed tendons with polynomial springs (one with a dead band, one at the
+    length of the joints' spring references), polynomial damping from a default
+    class, armature, and actuators through them; joints with polynomial springs
+    and damping."""
+    path = _write(tmp_path, TENDONS)
+    worst = compare_with_mujoco(path, states=6)
+    assert worst < 1e-12, worst
+
+
 # -- refused files -------------------------------------------------------------------
 
 def _write(tmp_path, text, name="model.xml"):
@@ -503,7 +576,7 @@ BAD = {
     "number from a default class": (
         "<mujoco>\n<default>\n<joint damping='lots'/>\n</default>\n<worldbody><body>"
         "<joint name='j'/><geom size='0.1'/></body></worldbody></mujoco>",
-        r"model\.xml:3: <joint> \(a default\): damping='lots': is not a number"),
+        r"model\.xml:3: <joint> \(a default\): damping='lots': 'lots' is not a number"),
     "unknown class": (
         "<mujoco><worldbody><body>\n<joint class='stiff'/><geom size='0.1'/>"
         "</body></worldbody></mujoco>",
@@ -530,10 +603,12 @@ BAD = {
         "</mujoco>",
         r"model\.xml:2: <geom>: the mass and inertia of a mesh geom cannot be inferred "
         r"here .* give the body an <inertial>"),
-    "tendon": (
-        "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
-        "<tendon>\n<fixed name='t'><joint joint='j' coef='1'/></fixed></tendon></mujoco>",
-        r"model\.xml:2: <fixed name='t'>: tendons are not supported"),
+    "spatial tendon": (
+        "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/><site name='s'/>"
+        "</body></worldbody><tendon>\n<spatial name='t'><site site='s'/></spatial>"
+        "</tendon></mujoco>",
+        r"model\.xml:2: <spatial name='t'>: spatial tendons are not supported \(fixed "
+        r"tendons are\)"),
     "actuator of a missing joint": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
         "<actuator>\n<motor name='m' joint='k'/></actuator></mujoco>",

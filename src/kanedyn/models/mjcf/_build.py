@@ -95,8 +95,9 @@ class MJCFJoint:
 @dataclass(frozen=True)
 class MJCFActuator:
     """An actuator: ``ctrl`` is its specified input (``ctrl_<name>``), ``force`` the
-    actuator force as an expression of it (clamps included), ``generalized`` the
-    force on its joint (``gear * force``)."""
+    actuator force as an expression of it (clamps included); its joint (or, when
+    ``tendon``, each joint of that fixed tendon, times its coefficient) receives
+    ``gear * force``."""
 
     name: str
     type: str
@@ -107,6 +108,7 @@ class MJCFActuator:
     ctrlrange: tuple | None
     forcerange: tuple | None
     line: int
+    tendon: bool = False  # ``joint`` names a fixed tendon
 
 
 @dataclass(frozen=True)
@@ -301,6 +303,18 @@ def _pose(pos, R):
     return T
 
 
+def _spring(x, a, b=0.0, c=0.0):
+    """MuJoCo's polynomial spring force ``-(a x + b x^2 + c x^3)``."""
+    return -sum((sm.Float(k) * x ** p for k, p in ((a, 1), (b, 2), (c, 3)) if k),
+                sm.S.Zero)
+
+
+def _damping(v, a, b=0.0, c=0.0):
+    """MuJoCo's polynomial damping force ``-(a v + b v|v| + c v^3)``."""
+    return -sum((sm.Float(k) * term for k, term in ((a, v), (b, v * sm.Abs(v)),
+                                                      (c, v ** 3)) if k), sm.S.Zero)
+
+
 def _clamp(x, lo, hi):
     """``x`` clamped to ``[lo, hi]``, written with absolute values (whose
     derivatives, signs, every backend's generated code evaluates)."""
@@ -478,12 +492,43 @@ class _Builder:
             self.bodies.append(RateInertia(f"armature_{info.q[0].func.__name__}",
                                            list(info.u), np.eye(n) * joint.armature))
         amount = [sm.S.Zero] * n
-        if joint.damping > 0 and "damper" not in self.off:
-            amount = [a - sm.Float(joint.damping) * u for a, u in zip(amount, info.u)]
-        if joint.stiffness > 0 and "spring" not in self.off and n == 1:
-            amount[0] += -sm.Float(joint.stiffness) * (info.q[0] - joint.springref)
+        if "damper" not in self.off:
+            amount = [a + _damping(u, joint.damping, *joint.damping_terms)
+                      for a, u in zip(amount, info.u)]
+        if "spring" not in self.off and n == 1:
+            amount[0] += _spring(info.q[0] - joint.springref, joint.stiffness,
+                                 *joint.stiffness_terms)
         if any(a != 0 for a in amount):
             self.generalized_load(generalized, amount[0] if n == 1 else amount)
+
+    def tendons(self):
+        """Length, rate and passive forces of the fixed tendons."""
+        joints = {j.name: j for j in self.joint_infos}
+        self.tendon_of = {}
+        for tendon in self.m.tendons:
+            L = sum((sm.Float(c) * joints[j].q[0] for j, c in tendon.joints), sm.S.Zero)
+            Ldot = sum((sm.Float(c) * joints[j].u[0] for j, c in tendon.joints), sm.S.Zero)
+            self.tendon_of[tendon.name] = (L, Ldot, tendon.joints)
+            tid = self.names(tendon.name, "tendon", tendon.element)
+            if tendon.armature > 0:
+                self.bodies.append(RateInertia(f"armature_tendon_{tid}", [Ldot],
+                                               tendon.armature))
+            force = sm.S.Zero
+            if "spring" not in self.off and any(tendon.stiffness):
+                if tendon.springlength is None:  # the length at the spring references
+                    lo = hi = sum(c * joints[j].springref for j, c in tendon.joints)
+                else:
+                    lo, hi = tendon.springlength
+                x = L - (sm.Float(lo) if lo == hi else _clamp(L, lo, hi))
+                force += _spring(x, *tendon.stiffness)
+            if "damper" not in self.off:
+                force += _damping(Ldot, *tendon.damping)
+            if force != 0:
+                self.tendon_load(tendon.name, force)
+
+    def tendon_load(self, name, force):
+        for joint, coef in self.tendon_of[name][2]:
+            self.generalized_load(self.dofs[joint], sm.Float(coef) * force)
 
     def actuators(self):
         joints = {j.name: j for j in self.joint_infos}
@@ -491,8 +536,11 @@ class _Builder:
         for act in self.m.actuators:
             aid = self.names(act.name, "actuator", act.element)
             ctrl = me.dynamicsymbols(f"ctrl_{aid}")
-            joint = joints[act.joint]
-            length, velocity = act.gear * joint.q[0], act.gear * joint.u[0]
+            if act.tendon:
+                L, Ldot, _ = self.tendon_of[act.joint]
+            else:
+                L, Ldot = joints[act.joint].q[0], joints[act.joint].u[0]
+            length, velocity = act.gear * L, act.gear * Ldot
             c = ctrl
             if act.ctrlrange is not None and clamp:
                 c = _clamp(ctrl, *act.ctrlrange)
@@ -503,11 +551,15 @@ class _Builder:
                 force = _clamp(force, *act.forcerange)
             self.actuator_infos.append(MJCFActuator(
                 act.name, act.type, act.joint, act.gear, ctrl, force, act.ctrlrange,
-                act.forcerange, act.element.line))
+                act.forcerange, act.element.line, act.tendon))
             if not self.inputs:
                 continue
             self.specified[ctrl] = 0.0
-            if "actuation" not in self.off:
+            if "actuation" in self.off:
+                continue
+            if act.tendon:
+                self.tendon_load(act.joint, act.gear * force)
+            else:
                 self.generalized_load(self.dofs[act.joint], act.gear * force)
 
     # bodies and their mass ---------------------------------------------------------
@@ -734,18 +786,22 @@ class _Builder:
     def constraints(self):
         rows, lines = [], []
         joints = {j.name: j for j in self.joint_infos}
+        reference = {q: self.initial[q] for q in self.q}
+
+        def value(name, kind):  # a joint's coordinate or a tendon's length, less qpos0's
+            x = joints[name].q[0] if kind == "joint" else self.tendon_of[name][0]
+            return x - x.xreplace(reference)
+
         for eq in self.m.equalities:
-            if eq.type == "joint":
-                j1 = joints[eq.joint1]
-                q1 = j1.q[0] - j1.ref
+            if eq.type in ("joint", "tendon"):
+                y1 = value(eq.joint1, eq.type)
                 if eq.joint2:
-                    j2 = joints[eq.joint2]
-                    x = j2.q[0] - j2.ref
+                    x = value(eq.joint2, eq.type)
                     poly = sum(sm.Float(c) * x ** k for k, c in enumerate(eq.polycoef))
                 else:
                     poly = sm.Float(eq.polycoef[0])
-                rows.append([q1 - poly])
-                lines.append(f"joint {eq.joint1} = polynomial of "
+                rows.append([y1 - poly])
+                lines.append(f"{eq.type} {eq.joint1} = polynomial of "
                              f"{eq.joint2 or 'a constant'} (line {eq.element.line})")
                 continue
             P1, F1, T1 = self.body_pose(eq.body1)
@@ -855,6 +911,7 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
     build.walk()
     if not build.q:
         raise MJCFError(f"{model.source}: the model has no joints: nothing moves")
+    build.tendons()
     build.actuators()
     build.rigid_bodies()
     build.fluid()

@@ -86,6 +86,29 @@ class Joint:
     armature: float
     frictionloss: float
     element: object = None
+    #: the coefficients of x^2, x^3 of a polynomial spring -(a x + b x^2 + c x^3)
+    #: and of v|v|, v^3 of polynomial damping -(a v + b v|v| + c v^3)
+    stiffness_terms: tuple = (0.0, 0.0)
+    damping_terms: tuple = (0.0, 0.0)
+
+
+@dataclass(frozen=True)
+class Tendon:
+    """A fixed tendon: its length is ``sum(coef * q)`` over ``joints``
+    (``[(joint name, coef)]``); a spring ``-(a x + b x^2 + c x^3)`` of the
+    displacement ``x`` from ``springlength`` (a dead band when two values differ;
+    None: the length at the joints' spring references), polynomial damping,
+    armature, ``range`` (not enforced)."""
+
+    name: str
+    joints: tuple
+    stiffness: tuple
+    damping: tuple
+    springlength: tuple | None
+    armature: float
+    range: tuple | None
+    frictionloss: float
+    element: object = None
 
 
 @dataclass(frozen=True)
@@ -172,6 +195,7 @@ class Actuator:
     ctrlrange: tuple | None
     forcerange: tuple | None
     element: object = None
+    tendon: bool = False  # ``joint`` names a fixed tendon
 
 
 @dataclass(frozen=True)
@@ -179,8 +203,10 @@ class Equality:
     """An ``<equality>`` constraint: ``connect`` (a point of ``body1``, ``anchor`` in
     its frame, on ``body2``), ``weld`` (``body2`` fixed to ``body1`` in the pose
     ``relpose`` = (pos, quat w-first) of body2 in body1's frame, or as at the
-    reference configuration when None) or ``joint`` (``joint1 = polynomial of
-    joint2``, ``polycoef``)."""
+    reference configuration when None), ``joint`` (``joint1 = polynomial of
+    joint2``, ``polycoef``, both less their values at the reference configuration)
+    or ``tendon`` (the same of two fixed tendons' lengths, named in ``joint1``
+    and ``joint2``)."""
 
     type: str
     name: str
@@ -208,6 +234,7 @@ class Model:
     world_sites: list
     world_geoms: list
     materials: dict = field(default_factory=dict)  # name -> rgba
+    tendons: list = field(default_factory=list)
 
     def body(self, name):
         return next((b for b in self.bodies if b.name == name), None)
@@ -450,10 +477,17 @@ class _Reader:
         elif limited == "true":
             raise el.error("limited='true' without a range")
         values = {}
-        for key in ("stiffness", "damping", "armature", "frictionloss"):
+        for key in ("armature", "frictionloss"):
             values[key] = a.number(key, 0.0)
             if values[key] < 0:
                 raise a.error(key, "must not be negative")
+        for key in ("stiffness", "damping"):
+            coefs = a.numbers(key, (0.0,), at_least=1, at_most=3) + (0.0, 0.0)
+            if coefs[0] < 0:
+                raise a.error(key, "must not be negative")
+            values[key], values[f"{key}_terms"] = coefs[0], tuple(coefs[1:3])
+            if kind in ("ball", "free") and any(coefs[1:3]):
+                raise a.error(key, f"polynomial terms on a {kind} joint are not supported")
         if a.has("springdamper"):
             raise a.error("springdamper", "not supported (give stiffness and damping)")
         if a.has("actuatorfrcrange") and a.flag("actuatorfrclimited", "auto") != "false":
@@ -633,21 +667,27 @@ class _Tree:
                                         "whose parent is the world")
 
 
-def _actuator(reader, el, index, joints):
+def _actuator(reader, el, index, joints, tendons):
     a = reader.attrs(el, "actuator", None)
     name = el.attrib.get("name") or f"actuator{index}"
     kind = el.tag
-    for key in ("tendon", "site", "body", "jointinparent", "cranksite", "slidersite"):
+    for key in ("site", "body", "jointinparent", "cranksite", "slidersite"):
         if a.has(key):
-            raise el.error(f"a transmission by '{key}' is not supported (joints only)")
-    if not a.has("joint"):
-        raise el.error("has no joint (the only transmission supported)")
-    joint = a.text("joint")
-    if joint not in joints:
-        raise a.error("joint", "no joint of that name")
-    if joints[joint].type not in ("hinge", "slide"):
-        raise a.error("joint", f"an actuator of a {joints[joint].type} joint is not "
-                      "supported (hinge and slide joints)")
+            raise el.error(f"a transmission by '{key}' is not supported (joints and "
+                           "fixed tendons are)")
+    if a.has("tendon"):
+        joint = a.text("tendon")
+        if joint not in tendons:
+            raise a.error("tendon", "no fixed tendon of that name")
+    elif not a.has("joint"):
+        raise el.error("has no joint or tendon (the transmissions supported)")
+    else:
+        joint = a.text("joint")
+        if joint not in joints:
+            raise a.error("joint", "no joint of that name")
+        if joints[joint].type not in ("hinge", "slide"):
+            raise a.error("joint", f"an actuator of a {joints[joint].type} joint is not "
+                          "supported (hinge and slide joints)")
     gear = a.numbers("gear", (1.0,), at_least=1, at_most=6)[0]
     gain, bias = (1.0, 0.0, 0.0), (0.0, 0.0, 0.0)
     if kind == "position":
@@ -694,10 +734,11 @@ def _actuator(reader, el, index, joints):
             raise el.error(f"{what}limited='true' without a {key}")
     return Actuator(name=name, type=kind, joint=joint, gear=gear, gain=tuple(gain),
                     bias=tuple(bias), ctrlrange=ranges.get("ctrl"),
-                    forcerange=ranges.get("force"), element=el)
+                    forcerange=ranges.get("force"), element=el,
+                    tendon=a.has("tendon"))
 
 
-def _equality(reader, el, index, bodies, joints):
+def _equality(reader, el, index, bodies, joints, tendons):
     a = reader.attrs(el, "equality", None)
     if a.text("active", "true") == "false":
         return None
@@ -728,22 +769,79 @@ def _equality(reader, el, index, bodies, joints):
                     relpose = (rp[:3], rp[3:])
         return Equality(el.tag, name, names["body1"], names["body2"], anchor, relpose,
                         element=el)
-    if el.tag == "joint":
-        if not a.has("joint1"):
-            raise el.error("has no joint1")
+    if el.tag in ("joint", "tendon"):
+        what, table = (("joint", joints) if el.tag == "joint" else ("tendon", tendons))
+        if not a.has(f"{what}1"):
+            raise el.error(f"has no {what}1")
         found = {}
-        for key in ("joint1", "joint2"):
+        for key in (f"{what}1", f"{what}2"):
             if a.has(key):
                 found[key] = a.text(key)
-                if found[key] not in joints:
-                    raise a.error(key, "no joint of that name")
-                if joints[found[key]].type not in ("hinge", "slide"):
+                if found[key] not in table:
+                    raise a.error(key, f"no {'fixed tendon' if what == 'tendon' else what} "
+                                  "of that name")
+                if what == "joint" and joints[found[key]].type not in ("hinge", "slide"):
                     raise a.error(key, "an equality of hinge and slide joints only")
         coef = a.numbers("polycoef", (0.0, 1.0, 0.0, 0.0, 0.0), n=5)
-        return Equality("joint", name, joint1=found["joint1"],
-                        joint2=found.get("joint2", ""), polycoef=coef, element=el)
-    raise el.error(f"<{el.tag}> equality constraints are not supported (connect, weld and "
-                   "joint are)")
+        return Equality(el.tag, name, joint1=found[f"{what}1"],
+                        joint2=found.get(f"{what}2", ""), polycoef=coef, element=el)
+    raise el.error(f"<{el.tag}> equality constraints are not supported (connect, weld, "
+                   "joint and tendon are)")
+
+
+def _tendons(reader, root, joints):
+    """The fixed tendons (spatial ones are refused)."""
+    out, names = [], {}
+    for section in root.findall("tendon"):
+        for el in section.children:
+            if el.tag == "spatial":
+                raise el.error("spatial tendons are not supported (fixed tendons are)")
+            if el.tag != "fixed":
+                raise el.error(f"unknown tendon <{el.tag}>")
+            a = reader.attrs(el, "tendon", None)
+            name = el.attrib.get("name") or f"tendon{len(out)}"
+            if name in names:
+                raise el.error(f"a second tendon named '{name}'")
+            members = []
+            for j in el.children:
+                if j.tag != "joint":
+                    raise j.error("a fixed tendon holds <joint> elements only")
+                ja = _Attrs(j, {})
+                if not ja.has("joint") or ja.text("joint") not in joints:
+                    raise (ja.error("joint", "no joint of that name") if ja.has("joint")
+                           else j.error("has no joint"))
+                if joints[ja.text("joint")].type not in ("hinge", "slide"):
+                    raise ja.error("joint", "a fixed tendon of hinge and slide joints only")
+                members.append((ja.text("joint"), ja.number("coef", None)
+                                if ja.has("coef") else j.error("has no coef")))
+                if isinstance(members[-1][1], MJCFError):
+                    raise members[-1][1]
+            if not members:
+                raise el.error("a fixed tendon without joints")
+            coefs = {}
+            for key in ("stiffness", "damping"):
+                coefs[key] = a.numbers(key, (0.0,), at_least=1, at_most=3) + (0.0, 0.0)
+                if coefs[key][0] < 0:
+                    raise a.error(key, "must not be negative")
+            spring = a.numbers("springlength", (-1.0,), at_least=1, at_most=2)
+            springlength = None if spring == (-1.0,) or spring == (-1.0, -1.0) else (
+                (spring[0], spring[0]) if len(spring) == 1 else spring)
+            if springlength is not None and springlength[0] > springlength[1]:
+                raise a.error("springlength", "the two values decrease")
+            limited = a.flag("limited", "auto")
+            rng = None
+            if a.has("range") and (limited == "true" or (limited == "auto"
+                                                          and reader.compiler.autolimits)):
+                rng = a.numbers("range", None, n=2)
+            for key in ("actuatorfrcrange", "springyield"):
+                if a.has(key) and any(a.numbers(key, None, at_least=1, at_most=2)):
+                    raise a.error(key, "not supported")
+            tendon = Tendon(name, tuple(members), coefs["stiffness"][:3],
+                            coefs["damping"][:3], springlength, a.number("armature", 0.0),
+                            rng, a.number("frictionloss", 0.0), el)
+            names[name] = tendon
+            out.append(tendon)
+    return out
 
 
 def parse_mjcf(path):
@@ -771,6 +869,7 @@ def parse_mjcf(path):
                 raise j.element.error(f"a second joint named '{j.name}' (the first is on "
                                       f"line {joints[j.name].element.line})")
             joints[j.name] = j
+    tendons = {t.name: t for t in _tendons(reader, root, joints)}
     actuators, equalities = [], []
     for section in root.findall("actuator"):
         for el in section.children:
@@ -779,7 +878,7 @@ def parse_mjcf(path):
                                "velocity, damper and general without activation are)")
             if el.tag not in ACTUATOR_TYPES:
                 raise el.error(f"unknown actuator <{el.tag}>")
-            actuators.append(_actuator(reader, el, len(actuators), joints))
+            actuators.append(_actuator(reader, el, len(actuators), joints, tendons))
     names = {}
     for act in actuators:
         if act.name in names:
@@ -787,13 +886,9 @@ def parse_mjcf(path):
         names[act.name] = act
     for section in root.findall("equality"):
         for el in section.children:
-            eq = _equality(reader, el, len(equalities), seen, joints)
+            eq = _equality(reader, el, len(equalities), seen, joints, tendons)
             if eq is not None:
                 equalities.append(eq)
-    if root.findall("tendon"):
-        tendon = root.findall("tendon")[0]
-        if any(t.tag in ("spatial", "fixed") for t in tendon.children):
-            raise tendon.children[0].error("tendons are not supported")
     materials = {}
     for asset in root.findall("asset"):
         for mat in asset.findall("material"):
@@ -803,4 +898,4 @@ def parse_mjcf(path):
                  compiler=reader.compiler, option=option, bodies=bodies,
                  actuators=actuators, equalities=equalities,
                  world_sites=tree.world_sites, world_geoms=tree.world_geoms,
-                 materials=materials)
+                 materials=materials, tendons=list(tendons.values()))
