@@ -626,6 +626,11 @@ BAD = {
         "<mujoco><worldbody><body><joint/>\n<geom type='capsule' size='0.1' pos='0 0 1' "
         "fromto='0 0 0 1 0 0'/></body></worldbody></mujoco>",
         r"model\.xml:2: <geom>: gives fromto and pos: give one"),
+    "alignfree": (
+        "<mujoco>\n<compiler alignfree='true'/><worldbody><body><freejoint/>"
+        "<geom size='0.1'/></body></worldbody></mujoco>",
+        r"model\.xml:2: <compiler>: alignfree='true': free bodies moved to their inertial "
+        "frames are not supported"),
     "two orientations": (
         "<mujoco><worldbody>\n<body euler='0 0 1' quat='1 0 0 0'><joint/>"
         "<geom size='0.1'/></body></worldbody></mujoco>",

@@ -350,6 +350,9 @@ class _Reader:
             for key in ("balanceinertia", "autolimits", "alignfree"):
                 if a.has(key):
                     values[key] = _bool(a, key, "false")
+            if values.get("alignfree"):
+                raise a.error("alignfree", "free bodies moved to their inertial frames "
+                              "are not supported (their qpos would not be the body's)")
             if a.has("fusestatic") and _bool(a, "fusestatic", "false"):
                 pass  # merging bodies without joints changes nothing in the dynamics
         return Compiler(**values)
