@@ -481,6 +481,41 @@ def test_weld_to_a_swinging_arm(tmp_path):
     assert worst < 1e-3, worst
 
 
+SITES = """\
+<mujoco model="site loop">
+  <compiler angle="radian"/>
+  <default><joint type="hinge" axis="0 1 0"/><geom type="capsule" size="0.02"/></default>
+  <worldbody>
+    <body name="crank"><joint name="j1"/><geom fromto="0 0 0 0.3 0 0"/>
+      <body name="coupler" pos="0.3 0 0"><joint name="j2"/><geom fromto="0 0 0 0.4 0 0.6"/>
+        <site name="tip" pos="0.4 0 0.6"/></body></body>
+    <body name="rocker" pos="0.9 0 0"><joint name="j3"/><geom fromto="0 0 0 -0.2 0 0.6"/>
+      <site name="top" pos="-0.2 0 0.6"/></body>
+    <body name="arm" pos="0 0 1"><joint name="a"/><geom fromto="0 0 0 0.5 0 0"/>
+      <site name="hand" pos="0.5 0 0" euler="0 0.3 0"/></body>
+    <body name="carriage" pos="0.5 0 1"><joint name="x" type="slide" axis="1 0 0"/>
+      <joint name="z" type="slide" axis="0 0 1"/><joint name="b"/>
+      <geom type="box" size="0.05 0.05 0.05"/><site name="grip" euler="0 0.3 0"/></body>
+  </worldbody>
+  <equality>
+    <connect site1="tip" site2="top" solimp="0.9999 0.9999 0.001" solref="0.0001 1"/>
+    <weld site1="hand" site2="grip" solimp="0.9999 0.9999 0.001" solref="0.0001 1"/>
+  </equality>
+</mujoco>
+"""
+
+
+def test_connect_and_weld_between_sites(tmp_path):
+    """A four-bar closed by two coinciding sites and a carriage whose site frame
+    is welded to a turned site of an arm."""
+    path = _write(tmp_path, SITES)
+    definition, residual, worst = _loop_run(path, t_end=1.0)
+    assert definition.equalities == ("connect of sites tip-top (line 17)",
+                                     "weld of sites hand-grip (line 18)")
+    assert residual < 1e-9, residual
+    assert worst < 1e-3, worst
+
+
 COUPLED = """<mujoco><compiler angle="radian"/><worldbody>
   <body name="a"><joint name="j1" axis="0 1 0"/>
     <geom type="capsule" fromto="0 0 0 0.4 0 0" size="0.03"/></body>

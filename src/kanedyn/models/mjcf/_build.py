@@ -804,6 +804,11 @@ class _Builder:
                 lines.append(f"{eq.type} {eq.joint1} = polynomial of "
                              f"{eq.joint2 or 'a constant'} (line {eq.element.line})")
                 continue
+            if eq.site1:
+                rows.append(self.site_rows(eq))
+                lines.append(f"{eq.type} of sites {eq.site1}-{eq.site2} (line "
+                             f"{eq.element.line})")
+                continue
             P1, F1, T1 = self.body_pose(eq.body1)
             P2, F2, T2 = self.body_pose(eq.body2)
             a1 = T1[:3, :3] @ np.asarray(eq.anchor) + T1[:3, 3]
@@ -838,6 +843,20 @@ class _Builder:
                                    (E[1, 0] - E[0, 1]) / 2])
             lines.append(f"weld {eq.body1}-{eq.body2} (line {eq.element.line})")
         return rows, lines
+
+    def site_rows(self, eq):
+        """The two sites coincide (connect), their frames too (weld)."""
+        s1, s2 = (next(s for s in self.site_infos if s.name == n)
+                  for n in (eq.site1, eq.site2))
+        rows = list((s1.point.pos_from(self.O) - s2.point.pos_from(self.O))
+                    .to_matrix(self.N))
+        if eq.type == "weld":
+            R1, R2 = (sm.Matrix(s.frame.dcm(self.N)).T
+                      * sm.Matrix(np.array(s.transform)[:3, :3]) for s in (s1, s2))
+            E = R1.T * R2
+            rows += [(E[2, 1] - E[1, 2]) / 2, (E[0, 2] - E[2, 0]) / 2,
+                     (E[1, 0] - E[0, 1]) / 2]
+        return rows
 
     def at_reference(self, exprs):
         values = {q: self.initial[q] for q in self.q}

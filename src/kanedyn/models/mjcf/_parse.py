@@ -218,6 +218,8 @@ class Equality:
     joint2: str = ""
     polycoef: tuple = (0.0, 1.0, 0.0, 0.0, 0.0)
     element: object = None
+    site1: str = ""  # a connect or weld between two sites: they coincide
+    site2: str = ""
 
 
 @dataclass
@@ -741,15 +743,27 @@ def _actuator(reader, el, index, joints, tendons):
                     tendon=a.has("tendon"))
 
 
-def _equality(reader, el, index, bodies, joints, tendons):
+def _equality(reader, el, index, bodies, joints, tendons, sites):
     a = reader.attrs(el, "equality", None)
     if a.text("active", "true") == "false":
         return None
     name = el.attrib.get("name") or f"equality{index}"
     if el.tag in ("connect", "weld"):
         if a.has("site1") or a.has("site2"):
-            raise el.error("an equality between sites is not supported (give body1, "
-                           "body2 and anchor)")
+            found = {}
+            for key in ("site1", "site2"):
+                if not a.has(key):
+                    raise el.error(f"gives {'site2' if key == 'site1' else 'site1'} "
+                                   f"without {key}")
+                found[key] = a.text(key)
+                if found[key] not in sites:
+                    raise a.error(key, "no site of that name")
+            if el.tag == "weld" and a.has("torquescale") \
+                    and a.number("torquescale", 1.0) != 1.0:
+                raise a.error("torquescale", "not supported (a weld is rigid here)")
+            return Equality(el.tag, name, sites[found["site1"]].body,
+                            sites[found["site2"]].body, element=el, site1=found["site1"],
+                            site2=found["site2"])
         if not a.has("body1"):
             raise el.error("has no body1")
         names = {}
@@ -887,9 +901,11 @@ def parse_mjcf(path):
         if act.name in names:
             raise act.element.error(f"a second actuator named '{act.name}'")
         names[act.name] = act
+    sites = {site.name: site for b in bodies for site in b.sites}
+    sites.update({site.name: site for site in tree.world_sites})
     for section in root.findall("equality"):
         for el in section.children:
-            eq = _equality(reader, el, len(equalities), seen, joints, tendons)
+            eq = _equality(reader, el, len(equalities), seen, joints, tendons, sites)
             if eq is not None:
                 equalities.append(eq)
     materials = {}
