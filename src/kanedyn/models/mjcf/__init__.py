@@ -9,12 +9,14 @@ Modules, in the order the data flows:
               joints, geoms, sites and inertials, actuators, equality constraints
 ``_inertia``  masses and inertias of bodies, inferred from geoms as MuJoCo does
 ``_build``    the :class:`~kanedyn.models.ModelDefinition`: coordinates, bodies,
-              passive forces, actuators as inputs, loop-closure constraints
+              passive forces, fixed tendons, fluid forces, actuators as inputs,
+              loop-closure constraints; geoms and sites as data
+``_shapes``   viewer shapes of the geoms (``MJCFDefinition.shapes``)
 """
 
-from ._build import (MJCFActuator, MJCFDefinition, MJCFJoint, MJCFSite, euler_angles,
-                     from_mjcf)
+from ._build import (MJCFActuator, MJCFDefinition, MJCFGeom, MJCFJoint, MJCFSite,
+                     euler_angles, from_mjcf)
 from ._xml import MJCFError
 
 __all__ = ["from_mjcf", "MJCFDefinition", "MJCFError", "MJCFJoint", "MJCFActuator",
-           "MJCFSite", "euler_angles"]
+           "MJCFSite", "MJCFGeom", "euler_angles"]

@@ -41,7 +41,7 @@ from ._parse import parse_mjcf
 from ._xml import MJCFError
 
 __all__ = ["from_mjcf", "MJCFDefinition", "MJCFJoint", "MJCFActuator", "MJCFSite",
-           "euler_angles", "euler_rates_matrix"]
+           "MJCFGeom", "euler_angles", "euler_rates_matrix"]
 
 _INERTIA_KEYS = (("xx", 0, 0), ("yy", 1, 1), ("zz", 2, 2), ("xy", 0, 1), ("yz", 1, 2),
                  ("zx", 2, 0))
