@@ -453,6 +453,33 @@ def _mesh_outside(tmp_path, name):
     return visual.mesh_file()
 
 
+def _mjcf(text):
+    """The action of loading an MJCF file ``model.xml`` of ``text`` (in a folder
+    ``model`` beside a file ``secret.xml``)."""
+    def load(tmp_path):
+        (tmp_path / "secret.xml").write_text("<mujoco><worldbody/></mujoco>")
+        path = tmp_path / "model" / "model.xml"
+        path.parent.mkdir(exist_ok=True)
+        path.write_text(text)
+        return kd.models.from_mjcf(path)
+    return load
+
+
+_MJCF_LAUGHS = ('<?xml version="1.0"?>\n<!DOCTYPE mujoco [\n<!ENTITY a "aaaaaaaaaa">\n'
+                '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">\n'
+                '<!ENTITY c "&b;&b;&b;&b;&b;&b;&b;&b;&b;&b;">\n]>\n<mujoco>&c;</mujoco>\n')
+_MJCF_EXTERNAL = ('<?xml version="1.0"?>\n<!DOCTYPE mujoco [\n'
+                  '<!ENTITY s SYSTEM "../secret.xml">\n]>\n<mujoco>&s;</mujoco>\n')
+_MJCF_ARM = ("<mujoco>\n<default>\n<joint damping='{damping}'/>\n</default>\n<worldbody>\n"
+             "<body name='arm'>\n<joint name='j' axis='{axis}'/>\n"
+             "<geom type='capsule' size='0.02' fromto='0 0 0 0.3 0 0'/>\n"
+             "</body>\n</worldbody>\n{tail}</mujoco>\n")
+
+
+def _arm(damping="0.1", axis="0 1 0", tail=""):
+    return _MJCF_ARM.format(damping=damping, axis=axis, tail=tail)
+
+
 def _origin_without_velocity():
     q, u = me.dynamicsymbols("q u")
     N = me.ReferenceFrame("N")
@@ -493,6 +520,27 @@ BAD_FILE_CASES = {
     "URDF mesh named by file://": (
         lambda tmp: _mesh_outside(tmp, "file://"), kd.models.URDFError,
         r"robot\.urdf:5: mesh 'file:///.*secret\.obj' of link 'arm' is not read"),
+    "MJCF billion laughs": (
+        _mjcf(_MJCF_LAUGHS), kd.models.MJCFError,
+        r"model\.xml:3: entity declarations are not accepted in an MJCF file"),
+    "MJCF external entity": (
+        _mjcf(_MJCF_EXTERNAL), kd.models.MJCFError,
+        r"model\.xml:3: entity declarations are not accepted in an MJCF file"),
+    "MJCF include outside its folder": (
+        _mjcf(_arm(tail="<include file='../secret.xml'/>\n")), kd.models.MJCFError,
+        r"model\.xml:11: <include>: file '\.\./secret\.xml' is outside the folder of the "
+        r"main file"),
+    "MJCF malformed number": (
+        _mjcf(_arm(axis="0 1.0.2 0")), kd.models.MJCFError,
+        r"model\.xml:7: <joint name='j'>: axis='0 1\.0\.2 0': '1\.0\.2' is not a number"),
+    "MJCF number of a default class": (
+        _mjcf(_arm(damping="1e999")), kd.models.MJCFError,
+        r"model\.xml:3: <joint> \(a default\): damping='1e999': '1e999' is beyond the "
+        "range of floating point"),
+    "MJCF unsupported element": (
+        _mjcf(_arm(tail="<tendon>\n<spatial name='t'><site site='s'/></spatial>\n"
+                        "</tendon>\n")), kd.models.MJCFError,
+        r"model\.xml:12: <spatial name='t'>: spatial tendons are not supported"),
     "inertia entries of 1e308": (
         lambda tmp: kd.kane(**_rigid(lambda A: me.inertia(A, 1e308, 1e308, 1e308, 1e308))),
         kd.ModelError, r"rigid body 'plate': its principal moments of inertia are beyond "

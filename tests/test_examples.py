@@ -354,6 +354,33 @@ def test_urdf_robot(tmp_path, monkeypatch):
         assert angle == pytest.approx(expected[name], abs=1e-6), name
 
 
+# ------------------------------------------------------------- MJCF model
+def test_mjcf_model(tmp_path, monkeypatch):
+    """dm_control's acrobot falling from upright for 3 s: its joint angles equal
+    those of MuJoCo's own dynamics (``mj_forward``'s ``qacc``, contacts off, the
+    same file) integrated by SciPy."""
+    mujoco = pytest.importorskip("mujoco", reason="the check integrates MuJoCo's dynamics")
+    pytest.importorskip("dm_control", reason="the example reads dm_control's acrobot")
+    pytest.importorskip("matplotlib")
+    out, _ = run_example("mjcf_model", [], tmp_path, monkeypatch)
+    assert out["success"]
+    mj = mujoco.MjModel.from_xml_path(out["mjcf"])
+    mj.opt.disableflags |= mujoco.mjtDisableBit.mjDSBL_CONSTRAINT
+    data = mujoco.MjData(mj)
+
+    def rhs(t, y):
+        data.qpos[:], data.qvel[:] = y[:mj.nq], y[mj.nq:]
+        mujoco.mj_forward(mj, data)
+        return np.concatenate([data.qvel, data.qacc])
+
+    y0 = np.concatenate([out["qpos"][0], np.zeros(mj.nv)])
+    assert out["qpos"][0] == pytest.approx([0.05, 0.0])
+    sol = solve_ivp(rhs, (0.0, out["times"][-1]), y0, method="DOP853", rtol=1e-12,
+                    atol=1e-12, t_eval=out["times"])
+    assert np.max(np.abs(sol.y[:mj.nq].T - out["qpos"])) < 1e-7
+    assert out["mujoco_difference"] < 1e-7
+
+
 # --------------------------------------------------------------- animation
 def test_animate_pendulum(tmp_path, monkeypatch):
     """The page holds the scene; the tip's trace at every frame is the closed form
