@@ -80,13 +80,18 @@ def test_standalone_rhs_matches_model_rhs(name, options, tmp_path):
 
 
 def test_standalone_export_of_a_model_solved_by_the_tree_pass(tmp_path):
-    """A C-backend model solved by the articulated-body pass (no M in its
-    module) exports a standalone file that solves with its mass matrix: it
-    compiles under the strict flags and gives the model's rhs."""
+    """A C-backend model solved by the articulated-body pass exports a
+    standalone file that solves by the same pass (the mass matrix only as the
+    fallback where the pass meets a pivot that is not positive): it compiles
+    under the strict flags and gives the NumPy model's rhs."""
     from kanedyn.numerics.backends._c import TREE_MIN_SPEEDS
     definition = kd.models.build("chain3d", n=TREE_MIN_SPEEDS, style="positions")
-    model = definition.numeric(definition.derive(), backend="c")
-    lib = _compile_library(model.c_source(), tmp_path)
+    eom = definition.derive()
+    model = definition.numeric(eom, backend="c")
+    source = model.c_source()
+    assert "#define KD_SOLVE 3" in source and "kd_eval_tree(" in source
+    lib = _compile_library(source, tmp_path)
+    model = definition.numeric(eom)  # numpy backend: an independent path
     p = np.array(list(model.constants.values()))
     for y in _states(definition, model, np.random.default_rng(2), count=3):
         code, ydot = _call(lib, "kanedyn_rhs", 0.0, y, p, [], model.n_states)

@@ -2,8 +2,10 @@
 
 The file holds the same generated evaluation functions and the same
 right-hand-side assembly (``kd_rhs_core``: dependent speeds eliminated,
-Cholesky with an LU fallback) as the compiled extension module of the C
-backend, behind a small public interface::
+Cholesky with an LU fallback, or, for a tree of at least
+``TREE_MIN_SPEEDS`` speeds without dependent ones, the articulated-body pass)
+as the compiled extension module of the C backend, behind a small public
+interface::
 
     int kanedyn_rhs(double t, const double *y, const double *p, const double *r,
                     double *ydot);
@@ -128,9 +130,14 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
     selected = {"dynamics": (args, dynamics),
                 "constraints": (c_args, [c_outputs[0], c_outputs[3]]),
                 "energy": functions["energy"]}
+    if "tree" in functions and not m:  # what the module runs: the articulated-body pass
+        selected = {"tree": functions["tree"], **selected}
     parts, work = [], 0
     for name, (arguments, outputs) in selected.items():
-        src, w = _function_source(program, name, arguments, outputs, describe, cse)
+        # the tree pass's statements are its composite sums: no elimination (as in the
+        # module, see _c._eliminates)
+        src, w = _function_source(program, name, arguments, outputs, describe,
+                                  cse and name != "tree")
         parts.append(src)
         work = max(work, w)
     names = list(parameters)

@@ -1,0 +1,110 @@
+"""The standalone C export against the compiled module and Pinocchio's ``aba``, same run.
+
+``chain3d`` (the spatial chain; Pinocchio's twin from :func:`_peers.pinocchio_chain`)
+at n = 30 and 100 (``--sizes``), at a random state:
+
+- the standalone file of ``model.c_source()`` (what ``kanedyn derive MODEL
+  --c`` writes), compiled with ``cc -O2 -shared -fPIC`` and called from C in
+  a loop of 1000 calls (so no Python in the time);
+- the compiled module's ``model.rhs`` (from Python);
+- ``pinocchio.aba`` (from Python).
+
+Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
+minimum and spread (median / min - 1).  The largest difference of the state
+derivatives is printed too.
+
+Usage::
+
+    python benchmarks/bench_c_export.py [--sizes 30 100] [--rounds 7]
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import shutil
+import subprocess
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import kanedyn as kd  # noqa: E402
+from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
+from _timing import interleaved  # noqa: E402
+from bench_numerics import machine_info  # noqa: E402
+
+#: appended to the exported file: the calls timed in C
+_LOOP = r"""
+int kanedyn_bench(int calls, const double *y, const double *p, double *ydot) {
+    int status = 0;
+    for (int k = 0; k < calls; ++k) status |= kanedyn_rhs(0.0, y, p, NULL, ydot);
+    return status;
+}
+"""
+CALLS = 1000
+
+
+def exported(model, folder):
+    """The model's standalone file compiled as a library (ctypes)."""
+    source = Path(folder) / "model.c"
+    source.write_text(model.c_source() + _LOOP)
+    library = Path(folder) / "libmodel.so"
+    cc = shutil.which("cc") or shutil.which("gcc")
+    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-std=c99", str(source), "-o",
+                    str(library), "-lm"], check=True)
+    lib = ctypes.CDLL(str(library))
+    vec = ctypes.POINTER(ctypes.c_double)
+    lib.kanedyn_bench.argtypes = [ctypes.c_int, vec, vec, vec]
+    lib.kanedyn_bench.restype = ctypes.c_int
+    return lib, vec
+
+
+def measure(n, rounds, folder):
+    Path(folder).mkdir()
+    import pinocchio as pin
+
+    model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
+    pmodel, pdata = pinocchio_chain(n)
+    rng = np.random.default_rng(2)
+    y = rng.uniform(-1.5, 1.5, 2 * n)
+    q, u, tau = y[:n], y[n:], np.zeros(n)
+    p = np.array(list(model.constants.values()), dtype=float)
+    lib, vec = exported(model, folder)
+    out = np.zeros(2 * n)
+
+    def export():
+        return lib.kanedyn_bench(CALLS, y.ctypes.data_as(vec), p.ctypes.data_as(vec),
+                                 out.ctypes.data_as(vec))
+    assert export() == 0
+    difference = float(np.max(np.abs(out - model.rhs(0.0, y))))
+    times = interleaved({"export": export, "module": lambda: model.rhs(0.0, y),
+                         "pinocchio": lambda: pin.aba(pmodel, pdata, q, u, tau)},
+                        rounds=rounds)
+    times["export"].times = [t / CALLS for t in times["export"].times]
+    return times, difference
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[30, 100])
+    parser.add_argument("--rounds", type=int, default=7)
+    args = parser.parse_args()
+    print(machine_info())
+    print("\n| chain3d n | standalone export (C loop), us | compiled module rhs, us | "
+          "Pinocchio aba, us | export / module | export / Pinocchio | largest difference |")
+    print("|---|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as folder:
+        for n in args.sizes:
+            times, difference = measure(n, args.rounds, Path(folder) / str(n))
+            e, m, b = times["export"], times["module"], times["pinocchio"]
+            print(f"| {n} | {1e6 * e.best:.2f} (spread {e.spread:.0%}) | {1e6 * m.best:.2f} "
+                  f"(spread {m.spread:.0%}) | {1e6 * b.best:.2f} (spread {b.spread:.0%}) | "
+                  f"{e.best / m.best:.2f} | {e.best / b.best:.2f} | {difference:.1e} |")
+
+
+if __name__ == "__main__":
+    main()
