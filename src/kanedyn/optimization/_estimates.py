@@ -181,7 +181,10 @@ def _null_directions(J, names):
         v = Vt[i]
         big = np.flatnonzero(np.abs(v) > 0.1)
         involved += [names[j] for j in big if names[j] not in involved]
-        combos.append(" + ".join(f"{v[j]:.2f} {names[j]}" for j in big))
+        v = v if v[big[0]] > 0 else -v
+        terms = [f"{'- ' if v[j] < 0 else '+ ' if n else ''}{abs(v[j]):.2f} {names[j]}"
+                 for n, j in enumerate(big)]
+        combos.append(" ".join(terms))
     return involved, (f"the Jacobian has rank {J.shape[1] - small.size} of {J.shape[1]}: "
                       f"the outputs do not change along {'; '.join(combos)} (relative "
                       "changes)")

@@ -199,8 +199,6 @@ class _Problem:
             raise ModelError(f"{self._label(k)}: no initial state: give y0= (to identify "
                              "or to the record), the guess of the fitted ones included")
         model = self.model
-        if rec.t0 > rec.t[0]:
-            raise ModelError(f"{self._label(k)}: samples before the start time")
         if isinstance(given, dict):
             values = {}
             for key, value in given.items():
@@ -613,17 +611,21 @@ def identify(model, data, parameters=(), *, initial=(), y0=None, sigma=None, bou
     >>> round(fit.estimates["g"], 6)
     9.81
     """
-    for option, value, ok in (("level", level, lambda v: 0 < v < 1),
-                              ("rtol", rtol, lambda v: v > 0), ("atol", atol, lambda v: v > 0),
-                              ("tolerance", tolerance, lambda v: v > 0)):
+    for option, value, ok, want in (
+            ("level", level, lambda v: 0 < v < 1, "a number between 0 and 1 (0.95: 95 %)"),
+            ("rtol", rtol, lambda v: v > 0, "a positive number"),
+            ("atol", atol, lambda v: v > 0, "a positive number"),
+            ("tolerance", tolerance, lambda v: v > 0, "a positive number")):
         if isinstance(value, bool) or not isinstance(value, numbers.Real) \
                 or not math.isfinite(value) or not ok(value):
-            raise OptionError(f"identify: {option} = {value!r} is out of range")
+            raise OptionError(f"identify: {option} must be {want}, got {value!r}")
     checks = [("max_iterations", max_iterations)] + ([] if segments == "auto" else
                                                      [("segments", segments)])
     for option, value in checks:
         if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 1:
-            raise OptionError(f"identify: {option} must be an integer >= 1, got {value!r}")
+            raise OptionError(f"identify: {option} must be an integer >= 1"
+                              + (' or "auto"' if option == "segments" else "")
+                              + f", got {value!r}")
     records = as_records(data)
     problem = _Problem(model, records, parameters, initial, y0, sigma, bounds, method,
                        rtol, atol)

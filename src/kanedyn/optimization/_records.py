@@ -136,7 +136,7 @@ class MeasuredRecord:
             bad = np.flatnonzero(~np.isfinite(column))
             if bad.size:
                 raise ModelError(f"{self._where(bad[0])}, channel {channel!r}: "
-                                 f"{column[bad[0]]!r} is not a finite number "
+                                 f"{float(column[bad[0]])!r} is not a finite number "
                                  f"({bad.size} such value{'s' * (bad.size > 1)}); leave "
                                  "missing samples out of the record")
         if start is not None:
@@ -195,8 +195,8 @@ class MeasuredRecord:
                 raise ModelError(f"{source}: line {line} has {len(row)} cells; the header "
                                  f"(line {header_line}) names {width} columns")
             times.append(_cell(row, time_col, header[time_col].strip(), line, source))
-            for store, col, name in zip(data, cells, names):
-                store.append(_cell(row, col, name, line, source))
+            for store, col in zip(data, cells):
+                store.append(_cell(row, col, header[col].strip(), line, source))
             lines.append(line)
         if not times:
             raise ModelError(f"{source}: no samples below the header (line {header_line})")
@@ -284,7 +284,7 @@ def _check_time(record):
         raise ModelError(f"{where}: no samples")
     bad = np.flatnonzero(~np.isfinite(t))
     if bad.size:
-        raise ModelError(f"{record._where(bad[0])}: the time {t[bad[0]]!r} is not a finite "
+        raise ModelError(f"{record._where(bad[0])}: the time {float(t[bad[0]])!r} is not a finite "
                          "number")
     steps = np.diff(t)
     if np.any(steps <= 0):
