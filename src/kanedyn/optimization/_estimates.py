@@ -332,10 +332,11 @@ def _result(problem, x, sigma, unknown, w, level, res, counts, method, failure, 
     if failure is not None:
         success, message = False, failure
     elif res is not None and res.status <= 0:
-        success, message = False, f"least_squares did not converge: {res.message}"
+        success, message = False, f"least_squares did not converge: {res.message.rstrip('.')}"
     else:
         success = True
-        message = (f"converged: {res.message}" if res is not None else "converged")
+        message = (f"converged: {res.message.rstrip('.')}" if res is not None
+                   else "converged")
     notes = []
     if involved:
         success = False
