@@ -250,3 +250,30 @@ def test_an_interrupted_fit_returns_its_last_iterate(line_particle, terminal_sig
     fit = kd.identify(model, record, ["k"])
     assert not fit.success and fit.message.startswith("interrupted"), fit.message
     assert np.isfinite(fit.estimates["k"]) and fit.estimates["k"] != 30.0
+
+
+def test_the_command_line(tmp_path, capsys):
+    """``kanedyn identify``: the pendulum's g from a record of its angle (a run of
+    the model with g = 9.81 written by to_csv, its columns chosen with --columns)
+    starting from --set g=9; bad names are one line and exit code 2."""
+    from kanedyn.cli import main
+    definition = kd.models.build("pendulum")
+    model = definition.numeric(backend="numpy")
+    t = np.linspace(0.0, 3.0, 121)
+    run = kd.simulate(model, (0.0, 3.0), definition.initial(model), t_eval=t, rtol=1e-12,
+                      atol=1e-12)
+    path = run.to_csv(tmp_path / "swing.csv")
+    argv = ["identify", "pendulum", "--data", str(path), "--columns", "q", "--fit", "g",
+            "--set", "g=9", "--sigma", "q=1e-4", "--backend", "numpy", "--quiet"]
+    assert main(argv) == 0
+    out = capsys.readouterr().out
+    row = next(line for line in out.splitlines() if line.startswith("g "))
+    assert float(row.split()[1]) == pytest.approx(9.81, rel=1e-7)
+    assert "95 % lower" in out and "given" in out and "converged" in out
+    for bad, named in ((["--fit", "mass"], "--fit mass: not a constant of pendulum"),
+                       (["--fit", "g", "--sigma", "q=-1"], "--sigma q: '-1' is not a positive"),
+                       (["--fit", "g", "--columns", "x"], "no column 'x' in the header"),
+                       (["--fit", "g", "--level", "95"], "argument --level: a confidence")):
+        assert main(["identify", "pendulum", "--data", str(path), *bad, "--quiet"]) == 2
+        err = capsys.readouterr().err
+        assert len(err.strip().splitlines()) == 1 and named in err, err
