@@ -347,12 +347,22 @@ class _Problem:
             J = model.jacobians(rec.t[idx], Y, parameters=bool(self.n_p))
             cols = [list(model.constants).index(n) for n in self.pnames]
         preds, derivs = [], []
+        follow = None
+        if rates:  # inputs that are functions of the state (none: zeros)
+            from ..numerics import through_inputs
+            parts = [through_inputs(model, ti, yi, Ji)
+                     for ti, yi, Ji in zip(rec.t[idx], Y, J.inputs)]
+            if any(np.ndim(p) for p in parts):
+                n = model.n_states
+                follow = np.array([p if np.ndim(p) else np.zeros((n, n)) for p in parts])
         for c in self.channels[k]:
             if c.kind == "state":
                 preds.append(Y[:, c.index])
                 derivs.append(dY[:, c.index, :])
             else:
                 row = J.state[:, c.index, :]
+                if follow is not None:
+                    row = row + follow[:, c.index, :]
                 preds.append(J.f[:, c.index])
                 d = np.einsum("nj,njk->nk", row, dY)
                 if self.n_p:
@@ -420,6 +430,7 @@ class _Shooting:
     by continuity residuals."""
 
     def __init__(self, problem, segments, x0):
+        from ..simulation import simulate
         self.p = problem
         self.pieces = []
         model = problem.fitted_model(x0)
@@ -432,7 +443,6 @@ class _Shooting:
             self.pieces.append(bounds)
             m = model.with_inputs(rec.inputs) if rec.inputs else model
             y = problem.initial_state(m, k, x0)
-            from ..simulation import simulate
             run = simulate(m, (rec.t0, float(rec.t[-1])), y, t_eval=rec.t, rtol=problem.rtol,
                            atol=problem.atol, method=problem.method, backend="scipy")
             Y = run.y if run.t.size == N else np.repeat(y[:, None], N, axis=1)
