@@ -327,6 +327,9 @@ CLI_CASES = {
                             "derive takes only model options"),
     "unknown formulation": (["compare", "pendulum", "--methods", "kane,hamilton"],
                             "unknown formulation.*hamilton"),
+    "negative hub damping": (["run", "flexible-robot", "--set", "hub_damping=-1"],
+                             r"flexible-robot: hub_damping must be a finite number >= 0 "
+                             r"\(N m s/rad\), got -1"),
 }
 
 
