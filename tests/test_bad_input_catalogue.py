@@ -338,6 +338,9 @@ CLI_CASES = {
                                    "tower_damping_reference=loaded"],
                                   "option tower_damping_reference must be one of isolated, "
                                   "with_rna, got 'loaded'"),
+    "negative hub damping": (["run", "flexible-robot", "--set", "hub_damping=-1"],
+                             r"flexible-robot: hub_damping must be a finite number >= 0 "
+                             r"\(N m s/rad\), got -1"),
 }
 
 
@@ -1314,3 +1317,137 @@ def test_optimal_control_bad_input(case):
     make, kind, pattern = OCP_CASES[case]
     with pytest.raises(kind, match=pattern):
         make()
+
+
+# ------------------------------------------------ parameter identification (issue 35)
+_T = np.linspace(0.0, 1.0, 11)
+_X = np.cos(2.0 * _T)          # the spring's q with m = 1, k = 4, released at rest from 1
+
+
+def _fit(spring, data=None, parameters=("k",), **options):
+    """``kd.identify`` on the spring's model with the record of ``_X``."""
+    _eom, model, _symbols = spring
+    options.setdefault("y0", [1.0, 0.0])
+    return kd.identify(model, (_T, {"q": _X}) if data is None else data, list(parameters),
+                       **options)
+
+
+def _csv(tmp, text, name="record.csv"):
+    path = tmp / name
+    if isinstance(text, bytes):
+        path.write_bytes(text)
+    else:
+        path.write_text(text)
+    return path
+
+
+_GOOD_RECORD = "t [s],q [m]\n" + "".join(f"{t!r},{x!r}\n" for t, x in zip(
+    map(float, _T), map(float, _X)))
+
+#: kd.identify and kd.MeasuredRecord: each a clear error naming the constant, channel,
+#: sample, or the file with its line and column
+IDENTIFY_CASES = {
+    "constant the model lacks": (
+        lambda s, tmp: _fit(s, parameters=["mass"]), kd.ModelError,
+        r"^parameters: 'mass' is not a constant of the model; its constants: k, m$"),
+    "constant named twice": (
+        lambda s, tmp: _fit(s, parameters=["k", "k"]), kd.ModelError,
+        r"^parameters names k twice$"),
+    "initial value of a state the model lacks": (
+        lambda s, tmp: _fit(s, initial=["v"]), kd.ModelError,
+        r"^initial: 'v' is not a state of the model; its states: q, u$"),
+    "channel naming no output": (
+        lambda s, tmp: _fit(s, data=(_T, {"x": _X})), kd.ModelError,
+        r"^record 0: channel 'x' is not an output of the model: measured channels are "
+        r"states \(q, u\) or their rates"),
+    "times going back": (
+        lambda s, tmp: kd.MeasuredRecord(_T[::-1], {"q": _X}), kd.ModelError,
+        r"^record, sample 1 \(t = 0\.9 s\): the time goes back \(0\.9 s after 1 s\)"),
+    "a time repeated": (
+        lambda s, tmp: kd.MeasuredRecord(np.r_[_T[:3], _T[2:]], {"q": np.r_[_X[:3], _X[2:]]}),
+        kd.ModelError, r"^record, sample 3 \(t = 0\.2 s\): the time repeats"),
+    "samples before the start": (
+        lambda s, tmp: kd.MeasuredRecord(_T, {"q": _X}, start=0.5), kd.ModelError,
+        r"^record: start = 0\.5 s must be finite and not after the first sample \(0 s\)$"),
+    "NaN in the data": (
+        lambda s, tmp: kd.MeasuredRecord(_T, {"q": np.where(_T > 0.55, np.nan, _X)}),
+        kd.ModelError, r"^record, sample 6 \(t = 0\.6 s\), channel 'q': nan is not a finite "
+                       r"number \(5 such values\); leave missing samples out"),
+    "a channel shorter than the time": (
+        lambda s, tmp: kd.MeasuredRecord(_T, {"q": _X[:5]}), kd.ModelError,
+        r"^record, channel 'q': 5 values for 11 times"),
+    "too few data for the unknowns": (
+        lambda s, tmp: _fit(s, data=(_T[:2], {"q": _X[:2]}), parameters=["k", "m"]),
+        kd.ModelError, r"^too few data: 2 measured values for 2 unknowns \(k, m\)"),
+    "constants the data cannot separate": (
+        lambda s, tmp: _fit(s, parameters=["k", "m"]), kd.ModelError,
+        r"^identify: k, m cannot be identified from these data at the initial guess: the "
+        r"Jacobian has rank 1 of 2: the outputs do not change along 0\.71 k \+ 0\.71 m"),
+    "no initial state": (
+        lambda s, tmp: _fit(s, y0=None), kd.ModelError,
+        r"^record 0: no initial state: give y0="),
+    "nothing to fit": (
+        lambda s, tmp: _fit(s, parameters=[]), kd.ModelError, r"^nothing to fit"),
+    "negative noise level": (
+        lambda s, tmp: _fit(s, sigma={"q": -1.0}), kd.ModelError,
+        r"^sigma of q: a positive finite number, got -1"),
+    "noise level of a channel not measured": (
+        lambda s, tmp: _fit(s, sigma={"u": 1.0}), kd.ModelError,
+        r"^sigma names 'u', which no record measures \(q\)$"),
+    "bounds upside down": (
+        lambda s, tmp: _fit(s, bounds={"k": (5.0, 3.0)}), kd.ModelError,
+        r"^bounds of k: \(5, 3\) is not an interval$"),
+    "guess outside its bounds": (
+        lambda s, tmp: _fit(s, bounds={"k": (5.0, 6.0)}), kd.ModelError,
+        r"^the model's k = 4, the guess, lies outside its bounds \(5, 6\)$"),
+    "level in per cent": (
+        lambda s, tmp: _fit(s, level=95), kd.OptionError,
+        r"^identify: level must be a number between 0 and 1 \(0\.95: 95 %\), got 95$"),
+    "no segment": (
+        lambda s, tmp: _fit(s, segments=0), kd.OptionError,
+        r'^identify: segments must be an integer >= 1 or "auto", got 0$'),
+    "data of no known kind": (
+        lambda s, tmp: _fit(s, data=3.0), kd.ModelError,
+        r"^data must be a MeasuredRecord, a CSV file, a pair \(t, \{channel: values\}\) or "
+        r"a list of them, got float$"),
+    "CSV cell that is code": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace(
+            "0.1,", "0.1,__import__('os')#", 1))), kd.ModelError,
+        r"record\.csv: line 3, column 'q \[m\]': \"__import__\('os'\)#.*\" is not a finite "
+        r"number$"),
+    "CSV empty cell": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("\n0.2,", "\n0.2,\n#", 1))),
+        kd.ModelError, r"record\.csv: line 4, column 'q \[m\]': an empty cell is not a "
+                       r"finite number$"),
+    "CSV without a time column": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("t [s]", "s"))),
+        kd.ModelError, r"record\.csv: line 1: no time column in the header \(s, q \[m\]\); "
+                       r"name it t or time"),
+    "CSV time in hours": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("t [s]", "t [h]"))),
+        kd.ModelError, r"record\.csv: column 't \[h\]': unknown time unit 'h'; use s or ms$"),
+    "CSV column in another unit": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("q [m]", "q [mm]"))),
+        kd.ModelError, r"record\.csv: column 'q' is in 'mm'; the model's q is in 'm' "
+                       r"\(convert the column\)$"),
+    "CSV time going back": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("\n0.2,", "\n0.05,", 1))),
+        kd.ModelError, r"record\.csv, line 4: the time goes back \(0\.05 s after 0\.1 s\)"),
+    "CSV row longer than the header": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, _GOOD_RECORD.replace("\n0.1,", "\n0.1,1,", 1))),
+        kd.ModelError, r"record\.csv: line 3 has 3 cells; the header \(line 1\) names 2 "
+                       r"columns$"),
+    "CSV not UTF-8": (
+        lambda s, tmp: _fit(s, data=_csv(tmp, b"t,q\n0,\xff\n")), kd.ModelError,
+        r"record\.csv: not UTF-8 text \(byte 0xff at offset 6\)"),
+    "CSV a folder": (
+        lambda s, tmp: _fit(s, data=str(tmp)), kd.ModelError,
+        r"a folder, not a regular file; give a CSV file$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(IDENTIFY_CASES))
+def test_identification_bad_input(spring, case, tmp_path):
+    make, kind, pattern = IDENTIFY_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make(spring, tmp_path)

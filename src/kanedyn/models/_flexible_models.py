@@ -144,7 +144,24 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
                     "bounded with geometric stiffening, divergent without.")
 
 
-def flexible_robot(n_modes=4, n_elements=10, stiffening=True):
+def _damping(value):
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ModelError(f"flexible-robot: hub_damping must be a finite number >= 0 "
+                         f"(N m s/rad), got {value!r}")
+    return value
+
+
+def _payload(value):
+    value = float(value)
+    if not math.isfinite(value) or value < 0:
+        raise ModelError(f"flexible-robot: pulse_payload must be a finite mass >= 0 (kg), "
+                         f"got {value!r}")
+    return value
+
+
+def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
+                   pulse_payload=None):
     r"""The elastic one-dof robot: a motor-driven hub turning a flexible link with a payload.
 
     The robot of Meghdari & Fahimi's elastic Kane's method, with the numbers
@@ -175,13 +192,23 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True):
         Beam elements.
     stiffening : bool
         Geometric stiffening of the link.
+    hub_damping : float, optional
+        Viscous damping of the hub's bearing and motor, N m s/rad: a constant
+        ``c_h`` of that value and the torque :math:`-c_h\omega` on the hub
+        (default: none, and no such constant).
+    pulse_payload : float, optional
+        The payload mass (kg) the torque pulse is designed for: :math:`J_0`
+        of the pulse then holds this number instead of the constant ``m_p``,
+        so that the torque stays what it is when ``m_p`` changes (a record
+        whose payload differs from the design, or a fit of ``m_p``).  Default:
+        ``m_p`` itself.
 
     Returns
     -------
     ModelDefinition
         ``symbols``: ``theta``, ``omega`` (hub angle and rate), ``link``
         (FlexibleBody), ``torque`` (expression of ``t``), ``tip`` (the tip
-        node's point), ``N``, ``B``.
+        node's point), ``N``, ``B`` (and ``c_h`` with ``hub_damping``).
     """
     length, mass_per_length, EI, EA = 1.0, 0.675, 36.5, 1.75e7
     member = in_plane_member("link", length, mass_per_length=mass_per_length, EI=EI, EA=EA,
@@ -200,20 +227,29 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True):
     tip = link.node_point(member.n_nodes - 1)
     payload = me.Particle("payload", tip, m_p)
     mass = mass_per_length * length
+    design = m_p if pulse_payload is None else _payload(pulse_payload)
     J_0 = (J_h + mass * (length ** 2 / 3 + r_h * length + r_h ** 2)
-           + m_p * (r_h + length) ** 2)
+           + design * (r_h + length) ** 2)
     tau_0 = 2 * sm.pi * theta_f * J_0 / T_m ** 2
     torque = tau_0 * sm.sin(2 * sm.pi * sm.Min(T / T_m, 1))
+    loads = [(B, torque * N.z)]
+    constants = {J_h: 0.05, m_h: 1.0, r_h: 0.05, m_p: 0.1, T_m: 1.0, theta_f: math.pi / 2}
+    extra = {}
+    if hub_damping is not None:
+        c_h = sm.Symbol("c_h", nonnegative=True)
+        constants[c_h] = _damping(hub_damping)
+        loads = [(B, (torque - c_h * omega) * N.z)]
+        extra["c_h"] = c_h
     return ModelDefinition(
         name="flexible-robot",
         title="elastic one-dof robot: hub, flexible link and payload, rest-to-rest torque "
               "pulse",
         kane_args=dict(frame=N, q_ind=[theta] + list(link.q), u_ind=[omega] + list(link.u),
                        kd_eqs=[theta.diff(T) - omega] + list(link.kd_eqs),
-                       bodies=[hub, link, payload], loads=[(B, torque * N.z)]),
-        constants={J_h: 0.05, m_h: 1.0, r_h: 0.05, m_p: 0.1, T_m: 1.0, theta_f: math.pi / 2},
-        initial_state={}, t_end=3.0,
+                       bodies=[hub, link, payload], loads=loads),
+        constants=constants, initial_state={}, t_end=3.0,
         symbols=dict(theta=theta, omega=omega, link=link, torque=torque, tip=tip, N=N, B=B,
-                     member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m, theta_f=theta_f),
+                     member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m, theta_f=theta_f,
+                     **extra),
         description="Meghdari & Fahimi's elastic one-dof robot (laboratory numbers "
                     "assumed): finite elements, Craig–Bampton, Kane's method.")

@@ -12,6 +12,11 @@
 ``_guess``         initial guesses: a straight line, a simulation, a solution
 ``_result``        ``OptimalControlResult``, the inputs as collocated, and the
                    check of the optimal inputs by simulation
+``_records``       ``MeasuredRecord``: measured channels from arrays or a CSV file
+``_identify``      ``identify``: constants and initial states fitted to records
+                   (single and multiple shooting on the sensitivities)
+``_estimates``     the fit's solve and ``IdentificationResult``: estimates,
+                   covariance, confidence intervals
 
 Uses numerics' derivatives and simulation's ``simulate``; no layer below
 imports it.
@@ -27,6 +32,9 @@ _LAZY = {
     "NLPSolution": "._solvers",
     "SOLVERS": "._solvers",
     "COLLOCATION_METHODS": "._transcription",
+    "identify": "._identify",
+    "IdentificationResult": "._estimates",
+    "MeasuredRecord": "._records",
 }
 
 __all__ = list(_LAZY)
