@@ -10,6 +10,8 @@
     kanedyn sweep MODEL --grid m=1:2:11 [--random m=1:2 --samples N] --out DIR
     kanedyn inverse MODEL [--trajectory quintic|sinusoid] [--t-end T] [--points N] [--out DIR]
     kanedyn study [NAME] [--set name=value ...] [--out DIR] [--quiet]
+    kanedyn equilibrium MODEL [--hold STATE ...] [--moving COORDINATE ...]
+    kanedyn optimize [MODEL] [--problem NAME] [--nodes N] [--method M] [--bound tau=-2:2]
 """
 
 from __future__ import annotations
@@ -22,13 +24,14 @@ import sys
 from .._errors import KanedynError
 from .._signals import end_by, exit_status, interruption, last_received, taking_over
 from .._version import __version__
-from . import (_compare, _demo, _derive, _equilibrium, _inverse, _list, _run, _study,
-               _sweep)
+from . import (_compare, _demo, _derive, _equilibrium, _inverse, _list, _optimize, _run,
+               _study, _sweep)
 from ._streams import guarded
 
 __all__ = ["main"]
 
-COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study, _equilibrium)
+COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study, _equilibrium,
+            _optimize)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -180,6 +180,40 @@ class OptimalControlResult:
             {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
             f"collocation ({self.method})")
 
+    def table(self):
+        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
+        ``point`` (``node``, or ``midpoint`` for Hermite-Simpson's midpoints,
+        in time order with the nodes), every state, every input (SI units of
+        the model); one row per point."""
+        t, y, r = self.t, self.y, self.r
+        kind = np.zeros(t.size, dtype=int)
+        if self.t_mid is not None:
+            t = np.concatenate([t, self.t_mid])
+            y = np.concatenate([y, self.y_mid], axis=1)
+            r = np.concatenate([r, self.r_mid], axis=1)
+            kind = np.concatenate([kind, np.ones(self.t_mid.size, dtype=int)])
+            order = np.argsort(t, kind="stable")
+            t, y, r, kind = t[order], y[:, order], r[:, order], kind[order]
+        columns = ("t", "point", *self.state_names, *self.input_names)
+        rows = [(float(t[j]), ("node", "midpoint")[kind[j]], *map(float, y[:, j]),
+                 *map(float, r[:, j])) for j in range(t.size)]
+        return columns, rows
+
+    def to_csv(self, path):
+        """Write :meth:`table` as CSV (numbers as ``repr``); returns the path."""
+        import csv
+        from pathlib import Path
+
+        from .._output_files import replacing
+        columns, rows = self.table()
+        path = Path(path)
+        with replacing(path, newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(columns)
+            for row in rows:
+                writer.writerow([v if isinstance(v, str) else repr(v) for v in row])
+        return path
+
     def plot(self, states=None, path=None, title=None):
         """Plot the collocated states (``SimulationResult.plot``); returns the Figure."""
         return self.trajectory.plot(states=states, path=path,
