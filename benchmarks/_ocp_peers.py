@@ -170,3 +170,118 @@ def solve_opty(problem, guess_kanedyn, ns, nr, options=IPOPT_OPTIONS):
     N = problem.collocator.num_collocation_nodes
     w, info = problem.solve(to_opty(guess_kanedyn, N, ns, nr))
     return from_opty(np.asarray(w), N, ns, nr), info, len(problem.obj_value) - 1
+
+
+# ------------------------------------------- opty's gallery: upright a double pendulum
+#: opty's gallery problem "Upright a Double Pendulum"
+#: (examples-gallery/02-intermediate/plot_two_link_pendulum_on_a_cart.py): a cart
+#: (1 kg) on a track |x| <= 5 m carries two rods (1 kg, 2 m, 2 kg m^2 about their
+#: ends, the masses at the ends), both from hanging (-pi/2) to upright (pi/2) at
+#: rest, |F| <= 150 N, in the least time: opty minimizes the node interval h in
+#: (0, 1] s on 300 nodes, backward Euler; 6 states
+DOUBLE_PENDULUM_CART = {"lx": 2.0, "m1": 1.0, "m2": 1.0, "m3": 1.0, "g": 9.81,
+                        "iZZ1": 2.0, "iZZ2": 2.0, "force": 150.0, "track": 5.0,
+                        "h_max": 1.0, "nodes": 300}
+
+
+def _double_pendulum_cart():
+    """The gallery's model, as it writes it: ``(N, q, u, F, constants, bodies, loads,
+    kd_eqs)``."""
+    N, A1, A2 = sm.symbols("N A1, A2", cls=me.ReferenceFrame)
+    O, P1, P2, P3 = sm.symbols("O P1 P2 P3", cls=me.Point)
+    O.set_vel(N, 0)
+    q1, q2, q3, u1, u2, u3, F = me.dynamicsymbols("q1 q2 q3 u1 u2 u3 F")
+    lx, m1, m2, m3, g, iZZ1, iZZ2 = sm.symbols("lx, m1, m2, m3 g, iZZ1, iZZ2")
+    A1.orient_axis(N, q2, N.z)
+    A1.set_ang_vel(N, u2 * N.z)
+    A2.orient_axis(N, q3, N.z)
+    A2.set_ang_vel(N, u3 * N.z)
+    P1.set_pos(O, q1 * N.x)
+    P2.set_pos(P1, lx * A1.x)
+    P2.v2pt_theory(P1, N, A1)
+    P3.set_pos(P2, lx * A2.x)
+    P3.v2pt_theory(P2, N, A2)
+    bodies = [me.Particle("P1a", P1, m1),
+              me.RigidBody("P2a", P2, A1, m2, (me.inertia(A1, 0, 0, iZZ1), P2)),
+              me.RigidBody("P3a", P3, A2, m3, (me.inertia(A2, 0, 0, iZZ2), P3))]
+    loads = [(P1, F * N.x - m1 * g * N.y), (P2, -m2 * g * N.y), (P3, -m3 * g * N.y)]
+    kd_eqs = [q1.diff() - u1, q2.diff() - u2, q3.diff() - u3]
+    constants = dict(zip((lx, m1, m2, m3, g, iZZ1, iZZ2),
+                         (DOUBLE_PENDULUM_CART[k] for k in
+                          ("lx", "m1", "m2", "m3", "g", "iZZ1", "iZZ2"))))
+    return N, (q1, q2, q3), (u1, u2, u3), F, constants, bodies, loads, kd_eqs
+
+
+def double_pendulum_cart_kanedyn(nodes, method="backward-euler", backend="c"):
+    """``(problem, model)``: the gallery's problem with kanedyn (``kd.kane`` on the
+    gallery's objects); the objective is T / (N - 1), opty's h."""
+    import kanedyn as kd
+    N, q, u, F, constants, bodies, loads, kd_eqs = _double_pendulum_cart()
+    eom = kd.kane(frame=N, q_ind=list(q), u_ind=list(u), kd_eqs=kd_eqs, bodies=bodies,
+                  loads=loads)
+    model = eom.numeric(constants=constants, specified={F: 0.0}, backend=backend)
+    c = DOUBLE_PENDULUM_CART
+    T = sm.Symbol("T", positive=True)
+    # kanedyn needs a positive lower bound of the duration; opty's h > 0 is open
+    problem = kd.OptimalControlProblem(
+        model, nodes=nodes, duration=T, mayer=T / (nodes - 1),
+        bounds={F: (-c["force"], c["force"]), q[0]: (-c["track"], c["track"]),
+                T: (1e-9 * (nodes - 1), c["h_max"] * (nodes - 1))},
+        initial={q[0]: 0.0, q[1]: -np.pi / 2, q[2]: -np.pi / 2, u[0]: 0.0, u[1]: 0.0,
+                 u[2]: 0.0},
+        final={q[1]: np.pi / 2, q[2]: np.pi / 2, u[0]: 0.0, u[1]: 0.0, u[2]: 0.0},
+        method=method)
+    return problem, model
+
+
+def double_pendulum_cart_opty(nodes, method="backward-euler"):
+    """opty's ``Problem``, as the gallery writes it (its equations by SymPy's
+    KanesMethod)."""
+    from opty import Problem
+    N, q, u, F, constants, bodies, loads, kd_eqs = _double_pendulum_cart()
+    t = me.dynamicsymbols._t
+    KM = me.KanesMethod(N, q_ind=list(q), u_ind=list(u), kd_eqs=sm.Matrix(kd_eqs))
+    fr, frstar = KM.kanes_equations(bodies, loads=loads)
+    eom = sm.Matrix(kd_eqs).col_join(fr + frstar)
+    h = sm.symbols("h")
+    duration = (nodes - 1) * h
+    c = DOUBLE_PENDULUM_CART
+
+    def obj(free):
+        return free[-1]
+
+    def obj_grad(free):
+        grad = np.zeros_like(free)
+        grad[-1] = 1.0
+        return grad
+    initial = {q[0]: 0.0, q[1]: -np.pi / 2, q[2]: -np.pi / 2, u[0]: 0.0, u[1]: 0.0,
+               u[2]: 0.0}
+    final = {q[1]: np.pi / 2, q[2]: np.pi / 2, u[0]: 0.0, u[1]: 0.0, u[2]: 0.0}
+    instance = (tuple(x.subs({t: 0}) - v for x, v in initial.items())
+                + tuple(x.subs({t: duration}) - v for x, v in final.items()))
+    return Problem(obj, obj_grad, eom, (*q, *u), nodes, h, known_parameter_map=constants,
+                   instance_constraints=instance, time_symbol=t,
+                   bounds={F: (-c["force"], c["force"]), q[0]: (-c["track"], c["track"]),
+                           h: (0.0, c["h_max"])},
+                   integration_method=OPTY_METHODS[method])
+
+
+def double_pendulum_cart_guess(nodes):
+    """The gallery's own initial guess (kanedyn's layout): both angles on a line
+    from -pi/2 to pi/2, F = 50 N, h = 0.01 s, the rest zero."""
+    Y = np.zeros((nodes, 6))
+    Y[:, 1] = Y[:, 2] = np.linspace(-np.pi / 2, np.pi / 2, nodes)
+    return np.concatenate([Y.ravel(), np.full(nodes, 50.0), [0.01 * (nodes - 1)]])
+
+
+def duration_to_opty(z, N, ns, nr):
+    """kanedyn's vector with T last -> opty's with h = T / (N - 1) last."""
+    w = to_opty(z, N, ns, nr)
+    w[-1] = z[-1] / (N - 1)
+    return w
+
+
+def duration_from_opty(w, N, ns, nr):
+    z = from_opty(w, N, ns, nr)
+    z[-1] = w[-1] * (N - 1)
+    return z

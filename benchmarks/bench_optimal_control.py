@@ -19,15 +19,42 @@ relative difference, and the ratios opty / kanedyn.  The C module and opty's
 compiled code are built anew in a fresh temporary cache for each run of the
 script, so the first size includes compilation for both.
 
+A problem of opty's gallery with six states (``--gallery``): "Upright a
+double pendulum" (a cart and two rods from hanging to upright in the least
+time, ``_ocp_peers.DOUBLE_PENDULUM_CART``), posed as the gallery poses it
+(300 nodes, backward Euler, its own initial guess), opty's equations by
+SymPy's KanesMethod, kanedyn's by ``kd.kane`` on the same SymPy objects.
+Each is also restarted from the other's optimum, to check that both
+discrete problems have the same optima.
+
+Nodes against memory and time (``--scan``): the pendulum swing-up solved
+by each tool in a fresh child process per run, from the 501-node optimum
+interpolated, at growing node counts; the child's peak resident memory from
+``os.wait4`` (``ru_maxrss``) and its wall time from the model to the
+optimum.  A tool stops at the first node count whose run exceeds the memory
+budget (``--memory-budget``, GiB of peak resident memory) or the time
+budget (``--time-budget``, s; the child is then killed), or that IPOPT does
+not solve.  Each child's address space is capped (``RLIMIT_AS``) at three
+times the memory budget so that no run can take the machine's memory (MUMPS
+reserves far more address space than it touches: at twice the budget it
+failed to allocate its workspace at 10^6 nodes, 3.1 GiB resident).
+
 Usage::
 
     python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100]
+    python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
+    python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
+        [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 300]
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
+import resource
+import signal
+import subprocess
 import sys
 import tempfile
 import time
@@ -77,10 +104,162 @@ def compare(label, kanedyn_build, opty_build, nodes, guess, ns, nr):
     return k, o
 
 
+def double_pendulum_gallery(nodes):
+    """opty's "Upright a double pendulum", 6 states, least time, as the gallery
+    poses it; then each tool restarted from the other's optimum."""
+    N = nodes
+    guess = peers.double_pendulum_cart_guess(N)
+    start = time.perf_counter()
+    problem, _ = peers.double_pendulum_cart_kanedyn(N)
+    ours = problem.solve(guess, options=peers.IPOPT_OPTIONS)
+    k_total = time.perf_counter() - start
+    start = time.perf_counter()
+    opty_problem = peers.double_pendulum_cart_opty(N)
+    built = time.perf_counter()
+    for key, value in peers.IPOPT_OPTIONS.items():
+        opty_problem.add_option(key, value)
+    w, info = opty_problem.solve(peers.duration_to_opty(guess, N, 6, 1))
+    o_total, o_solve = time.perf_counter() - start, time.perf_counter() - built
+    o_iterations = len(opty_problem.obj_value) - 1
+    print(f"double pendulum on a cart (opty's gallery, its guess), N = {N}")
+    for name, total, solve, iterations, h, status in (
+            ("kanedyn", k_total, ours.wall_time, ours.iterations, ours.objective,
+             ours.status),
+            ("opty", o_total, o_solve, o_iterations, float(info["obj_val"]),
+             int(info["status"]))):
+        print(f"  {name:8s} model->optimum {total:8.2f} s  solve {solve:8.2f} s  iterations "
+              f"{iterations:5d}  per iteration {1e3 * solve / max(iterations, 1):7.2f} ms  "
+              f"h {h:.10g} s (duration {h * (N - 1):.6g} s)  IPOPT status {status}")
+    print(f"  opty / kanedyn: model->optimum {o_total / k_total:.2f}x, per iteration "
+          f"{(o_solve / max(o_iterations, 1)) / (ours.wall_time / max(ours.iterations, 1)):.2f}x")
+    # each from the other's optimum: the same discrete problem has both optima
+    theirs = peers.duration_from_opty(np.asarray(w), N, 6, 1)
+    again = problem.solve(theirs, options=peers.IPOPT_OPTIONS)
+    w2, info2 = opty_problem.solve(peers.duration_to_opty(ours.x, N, 6, 1))
+    print(f"  kanedyn from opty's optimum: h {again.objective:.10g} (opty's "
+          f"{float(info['obj_val']):.10g}) in {again.iterations} iterations, status "
+          f"{again.status}")
+    print(f"  opty from kanedyn's optimum: h {float(info2['obj_val']):.10g} (kanedyn's "
+          f"{ours.objective:.10g}), status {int(info2['status'])}")
+
+
+# -------------------------------------------------- nodes against memory and time
+_CHILD = """
+import json, os, resource, sys, time
+import numpy as np
+sys.path.insert(0, {bench!r})
+import _ocp_peers as peers
+tool, nodes, path = {tool!r}, {nodes}, {path!r}
+coarse = np.load(path)
+gallery = 501
+s_old, s_new = np.linspace(0, 1, gallery), np.linspace(0, 1, nodes)
+Y = coarse[:2 * gallery].reshape(gallery, 2)
+guess = np.concatenate([
+    np.stack([np.interp(s_new, s_old, Y[:, j]) for j in range(2)], axis=1).ravel(),
+    np.interp(s_new, s_old, coarse[2 * gallery:3 * gallery])])
+start = time.perf_counter()
+if tool == "kanedyn":
+    problem, model = peers.pendulum_kanedyn(nodes)
+    result = problem.solve(guess, options=peers.IPOPT_OPTIONS)
+    out = dict(objective=result.objective, status=result.status,
+               iterations=result.iterations, solve=result.wall_time)
+else:
+    problem = peers.pendulum_opty(nodes)
+    built = time.perf_counter()
+    x, info, iterations = peers.solve_opty(problem, guess, 2, 1)
+    out = dict(objective=float(info["obj_val"]), status=int(info["status"]),
+               iterations=iterations, solve=time.perf_counter() - built)
+out["total"] = time.perf_counter() - start
+print("RESULT " + json.dumps(out))
+"""
+
+
+def _limit_memory(limit_bytes):
+    def apply():
+        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+    return apply
+
+
+def scan(nodes_list, memory_gib, time_s):
+    """The pendulum swing-up at growing node counts, each run in a fresh process."""
+    tmp = Path(tempfile.mkdtemp(prefix="kd-bench-ocp-scan-"))
+    gallery_nodes = 501
+    problem, _ = peers.pendulum_kanedyn(gallery_nodes)
+    seed = problem.solve(np.random.default_rng(0).normal(size=3 * gallery_nodes),
+                         options=peers.IPOPT_OPTIONS)
+    np.save(tmp / "guess.npy", seed.x)
+    env = dict(os.environ)
+    print(f"nodes against memory and time: pendulum swing-up, budgets {memory_gib:g} GiB "
+          f"peak resident memory, {time_s:g} s model->optimum; each run a fresh process "
+          f"(address space capped at {3 * memory_gib:g} GiB)")
+    print(f"  {'tool':8s} {'nodes':>8s} {'peak GiB':>9s} {'wall s':>8s} {'solve s':>8s} "
+          f"{'iter':>5s} {'status':>6s}  objective")
+    for tool in ("kanedyn", "opty"):
+        for nodes in nodes_list:
+            row = _measured(tool, nodes, tmp / "guess.npy", memory_gib, time_s, env)
+            print(f"  {tool:8s} {nodes:8d} {row['peak_gib']:9.3f} {row['wall']:8.1f} "
+                  f"{row.get('solve', float('nan')):8.1f} {row.get('iterations', -1):5d} "
+                  f"{row.get('status', -999):6d}  {row.get('objective', float('nan')):.10g}"
+                  + (f"  FAILED: {row['failed']}" if "failed" in row else ""), flush=True)
+            over = ("failed" in row or row["peak_gib"] > memory_gib or row["wall"] > time_s
+                    or row.get("status") not in (0, 1))
+            if over:
+                print(f"  {tool}: out of budget (or not solved) at {nodes} nodes")
+                break
+
+
+def _measured(tool, nodes, guess_path, memory_gib, time_s, env):
+    """:func:`run_child` with the child's own peak resident memory, read by
+    ``os.wait4`` on the process (``ru_maxrss``, KiB on Linux)."""
+    code = _CHILD.format(bench=str(Path(__file__).resolve().parent), tool=tool,
+                         nodes=nodes, path=str(guess_path))
+    start = time.perf_counter()
+    with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
+        proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err,
+                                text=True, env=env,
+                                preexec_fn=_limit_memory(int(3 * memory_gib * 2 ** 30)))
+        deadline = start + time_s
+        killed = False
+        while True:
+            pid, status, usage = os.wait4(proc.pid, os.WNOHANG)
+            if pid:
+                break
+            if time.perf_counter() > deadline:
+                proc.send_signal(signal.SIGKILL)
+                killed = True
+                pid, status, usage = os.wait4(proc.pid, 0)
+                break
+            time.sleep(0.05)
+        proc.returncode = os.waitstatus_to_exitcode(status)
+        wall = time.perf_counter() - start
+        out.seek(0)
+        err.seek(0)
+        stdout, stderr = out.read(), err.read()
+    row = dict(tool=tool, nodes=nodes, wall=wall, peak_gib=usage.ru_maxrss / 2 ** 20)
+    line = next((x for x in stdout.splitlines() if x.startswith("RESULT ")), None)
+    if line:
+        row.update(json.loads(line[7:]))
+    if killed:
+        row["failed"] = f"killed at the time budget ({time_s:g} s)"
+    elif line is None:
+        tail = (stderr.strip().splitlines() or ["no output"])[-1]
+        row["failed"] = f"exit {proc.returncode}: {tail[:160]}"
+    return row
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--nodes", type=int, nargs="*", default=[100, 1000, 10000])
     parser.add_argument("--cart-pole", type=int, nargs="*", default=[100])
+    parser.add_argument("--gallery", type=int, nargs="*", default=[],
+                        help="opty's double pendulum on a cart at these node counts "
+                             "(the gallery's: 300)")
+    parser.add_argument("--scan", action="store_true",
+                        help="nodes against memory and time, one process per run")
+    parser.add_argument("--scan-nodes", type=int, nargs="*",
+                        default=[1000, 3000, 10000, 30000, 100000, 300000, 1000000])
+    parser.add_argument("--memory-budget", type=float, default=4.0, help="GiB")
+    parser.add_argument("--time-budget", type=float, default=300.0, help="s")
     args = parser.parse_args()
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
     import cyipopt
@@ -88,6 +267,15 @@ def main():
     print(f"opty {opty.__version__}, cyipopt {cyipopt.__version__} (IPOPT "
           f"{'.'.join(map(str, cyipopt.IPOPT_VERSION))}), kanedyn cache "
           f"{os.environ['KANEDYN_CACHE_DIR']}")
+    if not args.nodes:
+        for nodes in args.cart_pole:
+            compare("cart-pole swing-up", peers.cart_pole_kanedyn, peers.cart_pole_opty,
+                    nodes, peers.cart_pole_guess(nodes), 4, 1)
+        for nodes in args.gallery:
+            double_pendulum_gallery(nodes)
+        if args.scan:
+            scan(args.scan_nodes, args.memory_budget, args.time_budget)
+        return
     # opty's gallery problem as published: 501 nodes from its random guess
     gallery = 501
     k, _ = compare("pendulum swing-up (opty's gallery: random guess)", peers.pendulum_kanedyn,
@@ -108,6 +296,10 @@ def main():
     for nodes in args.cart_pole:
         compare("cart-pole swing-up", peers.cart_pole_kanedyn, peers.cart_pole_opty, nodes,
                 peers.cart_pole_guess(nodes), 4, 1)
+    for nodes in args.gallery:
+        double_pendulum_gallery(nodes)
+    if args.scan:
+        scan(args.scan_nodes, args.memory_budget, args.time_budget)
 
 
 if __name__ == "__main__":

@@ -1299,7 +1299,8 @@ OCP_CASES = {
         r"from t0 = 0 s\)$"),
     "unknown collocation method": (
         lambda: _ocp(method="rk4"), kd.ModelError,
-        r"^unknown collocation method 'rk4'; available: backward-euler, trapezoid, midpoint$"),
+        r"^unknown collocation method 'rk4'; available: backward-euler, trapezoid, midpoint,"
+        r" hermite-simpson$"),
     "guess of the wrong shape": (
         lambda: _ocp().solve(np.zeros(7)), kd.ModelError,
         r"^the guess must have shape \(33,\) \(states and inputs at 11 nodes, .*got \(7,\)"),

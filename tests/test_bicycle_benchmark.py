@@ -90,3 +90,20 @@ def test_upright_straight_running_is_steady(bicycle):
     y = upright_state(model, 5.0)
     assert np.max(np.abs(model.rhs(0.0, y)[model.n_q:])) < 1e-10
     assert np.max(np.abs(model.constraint_residuals(0.0, y))) < 1e-12
+
+
+def test_steer_torque_input_matches_benchmark():
+    """With ``steer_torque=True`` the input T_delta enters the lean and steer
+    accelerations as M^-1 [0, 1]^T of the benchmark (M q'' + ... = [T_phi,
+    T_delta]) at every speed; the state matrix is unchanged."""
+    import kanedyn as kd
+    model = kd.models.build("whipple-bicycle", steer_torque=True).numeric(backend="numpy")
+    assert tuple(model.input_names) == ("T_delta(t)",)
+    independent = ("q1", "q2", "q3", "q4", "q6", "q7", "q8", "u4", "u6", "u7")
+    rows = [independent.index(n) for n in ("u4", "u7")]
+    block = [independent.index(n) for n in ("q4", "q7", "u4", "u7")]
+    for v in (0.0, 3.0, 5.0, 8.0):
+        A, B, _ = model.linearize(upright_state(model, v))
+        np.testing.assert_allclose(B[rows, 0], np.linalg.solve(M, [0.0, 1.0]), rtol=1e-9)
+        assert np.max(np.abs(A[np.ix_(block, block)] - benchmark_state_matrix(v))) \
+            < 1e-9 * max(1.0, v ** 2)

@@ -16,6 +16,17 @@ behind some of them are public too::
     inverse_study         actuator forces of a parallel model along a named trajectory
                           (``kanedyn inverse``; ``docs/inverse_dynamics.md``)
     InverseStudy          its forces taken apart, with the power balance
+    flexible_robot_rest_to_rest  the elastic robot's optimal rest-to-rest rotation
+                          against its torque pulse, both simulated
+                          (``docs/optimal_control.md``)
+    RestToRest            its residual vibration, effort, time
+    bicycle_lane_change   the Whipple bicycle's lane change by steer torque
+    LaneChange            the optimum and its simulation
+    pendulum_swing_up     the pendulum's swing-up (opty's gallery problem)
+    SwingUp               the optimum and its simulation
+    OPTIMAL_PROBLEMS      model -> named optimal-control problems (``kanedyn optimize``;
+                          also studies named MODEL-PROBLEM)
+    OptimalProblem        one of them, with its defaults and options
 
 These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
@@ -36,6 +47,14 @@ _LAZY = {
     "seatbelt_study_model": ".analysis",
     "inverse_study": ".analysis",
     "InverseStudy": ".analysis",
+    "flexible_robot_rest_to_rest": ".analysis",
+    "RestToRest": ".analysis",
+    "bicycle_lane_change": ".analysis",
+    "LaneChange": ".analysis",
+    "pendulum_swing_up": ".analysis",
+    "SwingUp": ".analysis",
+    "OPTIMAL_PROBLEMS": ".analysis",
+    "OptimalProblem": ".analysis",
 }
 
 __all__ = list(_LAZY)

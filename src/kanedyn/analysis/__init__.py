@@ -10,6 +10,11 @@
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 ``_inverse_study`` actuator forces of parallel models along named trajectories
 ``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
+``_optimal_problems`` named optimal-control problems on built-in models
+                   (``kanedyn optimize``, also studies), the pendulum swing-up
+``_flexible_robot_oc`` the elastic robot's optimal rest-to-rest rotation
+                   against its torque pulse
+``_bicycle_lane_change`` the Whipple bicycle's lane change by steer torque
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes
@@ -56,6 +61,16 @@ _LAZY = {
     'RegulatoryCheck': '._seatbelt_studies',
     'seatbelt_study_model': '._seatbelt_studies',
     'PULSE_SHAPES': '._seatbelt_studies',
+    'pendulum_swing_up': '._optimal_problems',
+    'SwingUp': '._optimal_problems',
+    'OptimalProblem': '._optimal_problems',
+    'OPTIMAL_PROBLEMS': '._optimal_problems',
+    'available_problems': '._optimal_problems',
+    'optimal_problem': '._optimal_problems',
+    'flexible_robot_rest_to_rest': '._flexible_robot_oc',
+    'RestToRest': '._flexible_robot_oc',
+    'bicycle_lane_change': '._bicycle_lane_change',
+    'LaneChange': '._bicycle_lane_change',
     'STUDIES': '._studies',
     'available_studies': '._studies',
     'Study': '._studies',
@@ -63,6 +78,7 @@ _LAZY = {
     'StudyResult': '._studies',
     'register_study': '._studies',
     'run_study': '._studies',
+    'study_option_value': '._studies',
 }
 
 __all__ = list(_LAZY)

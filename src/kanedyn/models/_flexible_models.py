@@ -161,7 +161,7 @@ def _payload(value):
 
 
 def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
-                   pulse_payload=None):
+                   pulse_payload=None, torque_input=False):
     r"""The elastic one-dof robot: a motor-driven hub turning a flexible link with a payload.
 
     The robot of Meghdari & Fahimi's elastic Kane's method, with the numbers
@@ -183,6 +183,9 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
     axis) by :math:`\theta_f = 90°` in :math:`T_m = 1` s and leaves it at rest;
     the flexible link keeps vibrating after the pulse (no damping, so the
     work of the motor equals the change of kinetic plus strain energy).
+    With ``torque_input=True`` the motor torque is a specified input
+    ``tau(t)`` (N m, zero by default) instead: what optimal control chooses
+    (``kd.studies.flexible_robot_rest_to_rest``).
 
     Parameters
     ----------
@@ -202,13 +205,17 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         so that the torque stays what it is when ``m_p`` changes (a record
         whose payload differs from the design, or a fit of ``m_p``).  Default:
         ``m_p`` itself.
+    torque_input : bool
+        The motor torque is the specified input ``tau(t)``, not the pulse.
 
     Returns
     -------
     ModelDefinition
         ``symbols``: ``theta``, ``omega`` (hub angle and rate), ``link``
-        (FlexibleBody), ``torque`` (expression of ``t``), ``tip`` (the tip
-        node's point), ``N``, ``B`` (and ``c_h`` with ``hub_damping``).
+        (FlexibleBody), ``torque`` (expression of ``t``: the pulse; or the
+        input ``tau(t)``), ``pulse`` (the pulse's expression, always), ``tip``
+        (the tip node's point), ``N``, ``B``; with ``torque_input``, ``tau``;
+        with ``hub_damping``, ``c_h``.
     """
     length, mass_per_length, EI, EA = 1.0, 0.675, 36.5, 1.75e7
     member = in_plane_member("link", length, mass_per_length=mass_per_length, EI=EI, EA=EA,
@@ -231,10 +238,16 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
     J_0 = (J_h + mass * (length ** 2 / 3 + r_h * length + r_h ** 2)
            + design * (r_h + length) ** 2)
     tau_0 = 2 * sm.pi * theta_f * J_0 / T_m ** 2
-    torque = tau_0 * sm.sin(2 * sm.pi * sm.Min(T / T_m, 1))
-    loads = [(B, torque * N.z)]
+    pulse = tau_0 * sm.sin(2 * sm.pi * sm.Min(T / T_m, 1))
+    torque, specified, extra = pulse, {}, {}
     constants = {J_h: 0.05, m_h: 1.0, r_h: 0.05, m_p: 0.1, T_m: 1.0, theta_f: math.pi / 2}
-    extra = {}
+    title = "elastic one-dof robot: hub, flexible link and payload, rest-to-rest torque pulse"
+    if torque_input:  # the pulse's T_m and theta_f are then not parameters
+        tau = me.dynamicsymbols("tau")
+        torque, specified, extra = tau, {tau: 0.0}, {"tau": tau}
+        constants = {k: v for k, v in constants.items() if k not in (T_m, theta_f)}
+        title = "elastic one-dof robot: hub, flexible link and payload, motor torque tau(t)"
+    loads = [(B, torque * N.z)]
     if hub_damping is not None:
         c_h = sm.Symbol("c_h", nonnegative=True)
         constants[c_h] = _damping(hub_damping)
@@ -242,14 +255,13 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         extra["c_h"] = c_h
     return ModelDefinition(
         name="flexible-robot",
-        title="elastic one-dof robot: hub, flexible link and payload, rest-to-rest torque "
-              "pulse",
+        title=title,
         kane_args=dict(frame=N, q_ind=[theta] + list(link.q), u_ind=[omega] + list(link.u),
                        kd_eqs=[theta.diff(T) - omega] + list(link.kd_eqs),
                        bodies=[hub, link, payload], loads=loads),
-        constants=constants, initial_state={}, t_end=3.0,
-        symbols=dict(theta=theta, omega=omega, link=link, torque=torque, tip=tip, N=N, B=B,
-                     member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m, theta_f=theta_f,
-                     **extra),
+        constants=constants, initial_state={}, t_end=3.0, specified=specified,
+        symbols=dict(theta=theta, omega=omega, link=link, torque=torque, pulse=pulse, tip=tip,
+                     N=N, B=B, member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m,
+                     theta_f=theta_f, **extra),
         description="Meghdari & Fahimi's elastic one-dof robot (laboratory numbers "
                     "assumed): finite elements, Craig–Bampton, Kane's method.")

@@ -88,8 +88,8 @@ MEIJAARD_2007 = {
 }
 
 
-def whipple_bicycle():
-    """The Whipple bicycle, nonlinear, in the benchmark parametrization.
+def whipple_bicycle(steer_torque=False):
+    r"""The Whipple bicycle, nonlinear, in the benchmark parametrization.
 
     Axes: ``x`` forward, ``y`` right, ``z`` down (as Meijaard et al. 2007).
     Coordinates: rear contact ``q1, q2``; yaw ``q3``; lean ``q4``; pitch ``q5``
@@ -103,6 +103,12 @@ def whipple_bicycle():
     ``c``, steer axis tilt ``lam``; mass centres and inertia tensors in the
     rear-frame coordinates of the upright reference configuration.  Forward
     speed ``v`` corresponds to ``u6 = -v / rR``.
+
+    With ``steer_torque=True`` a specified torque ``T_delta(t)`` (N m, zero by
+    default) acts between the rear frame and the front frame about the steer
+    axis, positive in the sense of the steer angle ``q7``: the benchmark's
+    steer torque :math:`T_\delta`, the rider's input (the lane change of
+    optimal control, ``kd.studies.bicycle_lane_change``).
     """
     q = me.dynamicsymbols("q1:9")
     u = me.dynamicsymbols("u1:9")
@@ -161,6 +167,11 @@ def whipple_bicycle():
                      (me.inertia(F, P["IFxx"], P["IFyy"], P["IFxx"]), front_centre)),
     ]
     loads = [(b.masscenter, b.mass * g * N.z) for b in bodies]
+    specified, extra = {}, {}
+    if steer_torque:
+        T_delta = me.dynamicsymbols("T_delta")
+        loads += [(H, T_delta * steer_axis), (B, -T_delta * steer_axis)]
+        specified, extra = {T_delta: 0.0}, {"T_delta": T_delta}
     potential = -g * sm.Add(*[b.mass * b.masscenter.pos_from(O).dot(N.z) for b in bodies])
     kd_eqs = [qi.diff() - ui for qi, ui in zip(q, u)]
     q_ind = [q[0], q[1], q[2], q[3], q[5], q[6], q[7]]
@@ -179,8 +190,8 @@ def whipple_bicycle():
                        kd_eqs=kd_eqs, configuration_constraints=[height],
                        velocity_constraints=velocity_constraints, bodies=bodies,
                        loads=loads, potential_energy=potential),
-        constants=constants, initial_state=init, t_end=5.0,
-        symbols=dict(q=q, u=u, params=P, N=N),
+        constants=constants, initial_state=init, t_end=5.0, specified=specified,
+        symbols=dict(q=q, u=u, params=P, N=N, **extra),
         shape_specs=tuple(("Cylinder", wheel, {"radius": radius, "length": 0.1 * radius,
                                                "axis": "y"})
                           for wheel, radius in ((bodies[0], rR), (bodies[3], rF))),

@@ -17,9 +17,15 @@ __all__ = ["line", "from_result", "vector"]
 
 
 def _layout(problem):
-    s = problem.symbols
-    return Layout(problem.nodes, len(s.states), len(s.inputs), len(s.free),
-                  problem.free_duration)
+    return Layout.of(problem)
+
+
+def _midpoint_times(problem, T):
+    """Times of the N - 1 midpoints (for a layout that has them), else None."""
+    if not _layout(problem).midpoints:
+        return None
+    nodes = problem.node_times(T)
+    return 0.5 * (nodes[:-1] + nodes[1:])
 
 
 def _parameters(problem):
@@ -85,7 +91,12 @@ def line(problem, start, end, inputs, duration):
     y1 = np.array([b[k] for k in range(len(names))], dtype=float)
     Y = y0 + s * (y1 - y0)
     R = _input_columns(problem, inputs, problem.node_times(T))
-    return _layout(problem).join(Y, R, _parameters(problem), T)
+    Ym = Rm = None
+    mid = _midpoint_times(problem, T)
+    if mid is not None:
+        Ym = 0.5 * (Y[:-1] + Y[1:])
+        Rm = _input_columns(problem, inputs, mid)
+    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
 
 
 def from_result(problem, result, inputs):
@@ -98,14 +109,30 @@ def from_result(problem, result, inputs):
             raise ModelError(f"the earlier solution has the states {result.state_names}, "
                              f"this problem {problem.symbols.states}")
         T = result.duration
-        s_old = np.linspace(0.0, 1.0, result.t.size)
+        # the earlier points (its nodes, and its midpoints when it has them) in
+        # order, as fractions of its duration
+        s_old, y_old, r_old = result.t, result.y, result.r
+        if result.t_mid is not None:
+            s_old = np.concatenate([result.t, result.t_mid])
+            order = np.argsort(s_old, kind="stable")
+            s_old = s_old[order]
+            y_old = np.concatenate([result.y, result.y_mid], axis=1)[:, order]
+            r_old = np.concatenate([result.r, result.r_mid], axis=1)[:, order]
+        s_old = (s_old - result.t[0]) / T
+
+        def at(s_new):
+            Y = np.stack([np.interp(s_new, s_old, row) for row in y_old], axis=1)
+            R = np.stack([np.interp(s_new, s_old, row) for row in r_old], axis=1) \
+                if r_old.shape[0] else np.zeros((s_new.size, 0))
+            return Y, R
         s_new = np.linspace(0.0, 1.0, problem.nodes)
-        Y = np.stack([np.interp(s_new, s_old, row) for row in result.y], axis=1)
-        R = np.stack([np.interp(s_new, s_old, row) for row in result.r], axis=1) \
-            if result.r.shape[0] else np.zeros((problem.nodes, 0))
+        Y, R = at(s_new)
+        Ym = Rm = None
+        if _layout(problem).midpoints:
+            Ym, Rm = at(0.5 * (s_new[:-1] + s_new[1:]))
         P = np.array([result.parameters.get(n, problem.symbols.constants[n])
                       for n in problem.symbols.free], dtype=float)
-        return _layout(problem).join(Y, R, P, T if problem.free_duration else None)
+        return _layout(problem).join(Y, R, P, T if problem.free_duration else None, Ym, Rm)
     if not (hasattr(result, "t") and hasattr(result, "y") and hasattr(result, "state_names")):
         raise ModelError(f"guess_from takes a SimulationResult or an OptimalControlResult, "
                          f"not {type(result).__name__}")
@@ -124,12 +151,18 @@ def from_result(problem, result, inputs):
             raise ModelError(f"the simulation covers {span:g} s, shorter than the duration "
                              f"{T:g} s")
     times = t[0] + np.linspace(0.0, T, problem.nodes)
-    if getattr(result, "sol", None) is not None:  # dense output: exact between steps
-        Y = np.asarray(result.sol(times), dtype=float).T
-    else:
-        Y = np.stack([np.interp(times, t, row) for row in result.y], axis=1)
+
+    def states(at):
+        if getattr(result, "sol", None) is not None:  # dense output: exact between steps
+            return np.asarray(result.sol(at), dtype=float).T
+        return np.stack([np.interp(at, t, row) for row in result.y], axis=1)
+    Y = states(times)
     R = _input_columns(problem, inputs or {}, times)
-    return _layout(problem).join(Y, R, _parameters(problem), T)
+    Ym = Rm = None
+    if _layout(problem).midpoints:
+        mid = 0.5 * (times[:-1] + times[1:])
+        Ym, Rm = states(mid), _input_columns(problem, inputs or {}, mid)
+    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
 
 
 def vector(problem, guess, warm_start):
@@ -137,10 +170,10 @@ def vector(problem, guess, warm_start):
     from ._result import OptimalControlResult
     warm = None
     if isinstance(guess, OptimalControlResult):
-        x0 = guess.x if guess.x.size == problem.n_variables else from_result(problem, guess,
-                                                                            None)
+        same = _layout(guess.problem) == _layout(problem)
+        x0 = guess.x if same else from_result(problem, guess, None)
         if warm_start:
-            if guess.x.size != problem.n_variables or guess.multipliers["g"] is None:
+            if not same or guess.multipliers["g"] is None:
                 raise ModelError("a warm start needs a previous solution of a problem with "
                                  "the same nodes, constraints and variables")
             warm = guess.multipliers
@@ -149,10 +182,12 @@ def vector(problem, guess, warm_start):
             raise ModelError("warm_start=True needs a previous OptimalControlResult as guess")
         x0 = np.asarray(guess, dtype=float)
         if x0.shape != (problem.n_variables,):
+            mid = (f" and {problem.nodes - 1} midpoints" if _layout(problem).midpoints
+                   else "")
             raise ModelError(f"the guess must have shape ({problem.n_variables},) (states "
-                             f"and inputs at {problem.nodes} nodes, the free parameters, the "
-                             f"duration when free), got {x0.shape}; use guess_line or "
-                             "guess_from")
+                             f"and inputs at {problem.nodes} nodes{mid}, the free "
+                             f"parameters, the duration when free), got {x0.shape}; use "
+                             "guess_line or guess_from")
     if not np.all(np.isfinite(x0)):
         raise ModelError("the guess contains values that are not finite")
     return x0, warm

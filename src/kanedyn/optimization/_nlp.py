@@ -4,10 +4,12 @@ r"""The nonlinear program of a transcribed optimal control problem.
 bounds, the objective and its gradient, the constraints, the pattern and the
 values of their sparse Jacobian.  Its constraint rows, in order:
 
-1. the dynamics' defects, ``(N - 1) * n_rows`` (:class:`._transcription.Defects`);
-2. the path constraints, N rows each, node by node;
+1. the dynamics' defects, ``(N - 1) * n_rows`` (:class:`._transcription.Defects`;
+   twice as many for Hermite-Simpson, :class:`._transcription.HermiteSimpsonDefects`);
+2. the path constraints, one row per point each: the N nodes, then (with
+   Hermite-Simpson) the N - 1 midpoints;
 3. for a model with constraints, the configuration and velocity constraint
-   residuals :math:`[h(q_k);\ c(q_k, u_k)]` at every node (the dependent
+   residuals :math:`[h(q_k);\ c(q_k, u_k)]` at every point (the dependent
    states are then not collocated: they follow from these);
 4. the instance constraints, one row each.
 
@@ -23,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._transcription import Defects, Layout
+from ._transcription import Layout, defects_for
 
 __all__ = ["CollocationNLP"]
 
@@ -39,9 +41,8 @@ class CollocationNLP:
 
     def __init__(self, problem):
         self.problem = pb = problem
-        self.layout = L = Layout(pb.nodes, len(pb.symbols.states), len(pb.symbols.inputs),
-                                 len(pb.symbols.free), pb.free_duration)
-        self.defects = Defects(pb.method, L, pb.collocated_rows)
+        self.layout = L = Layout.of(pb)
+        self.defects = defects_for(pb.method, L, pb.collocated_rows)
         self.n = L.n_variables
         self._cache_key = None
         self._models = {}
@@ -51,30 +52,30 @@ class CollocationNLP:
     # ------------------------------------------------------------ layout
     def _pattern(self):
         pb, L = self.problem, self.layout
-        N, ns, nr, nf = L.nodes, L.n_states, L.n_inputs, L.n_free
+        ns, nf, K = L.n_states, L.n_free, L.n_points
         rows, cols = [self.defects.structure[0]], [self.defects.structure[1]]
-        start = (N - 1) * len(pb.collocated_rows)
-        node = np.arange(N)[:, None]
+        start = int(self.defects.structure[0].max(initial=-1)) + 1
+        point = np.arange(K)[:, None]
+        y_cols, r_cols = L.point_columns()
         # path constraints: dense in y_k, r_k, p, T
         for _ in pb.path:
-            c = [node * ns + np.arange(ns), L.input_start + node * nr + np.arange(nr),
-                 np.broadcast_to(L.free_start + np.arange(nf), (N, nf))]
+            c = [y_cols, r_cols, np.broadcast_to(L.free_start + np.arange(nf), (K, nf))]
             if L.free_duration:
-                c.append(np.full((N, 1), L.duration_index))
+                c.append(np.full((K, 1), L.duration_index))
             c = np.concatenate(c, axis=1)
-            rows.append(np.broadcast_to(start + node, c.shape).ravel())
+            rows.append(np.broadcast_to(start + point, c.shape).ravel())
             cols.append(c.ravel())
-            start += N
-        # constraint residuals at every node: dense in y_k
+            start += K
+        # constraint residuals at every point: dense in y_k
         self.n_residuals = pb.n_residuals
         if pb.n_residuals:
             nc = pb.n_residuals
-            r = start + node[:, :, None] * nc + np.arange(nc)[None, :, None]
-            c = (node * ns)[:, None, :] + np.arange(ns)[None, None, :]
-            shape = (N, nc, ns)
+            r = start + point[:, :, None] * nc + np.arange(nc)[None, :, None]
+            c = y_cols[:, None, :]
+            shape = (K, nc, ns)
             rows.append(np.broadcast_to(r, shape).ravel())
             cols.append(np.broadcast_to(c, shape).ravel())
-            start += N * nc
+            start += K * nc
         # instance constraints
         self._instance_columns = []
         for inst in pb.instances:
@@ -104,17 +105,24 @@ class CollocationNLP:
         hi[L.free_start:L.free_start + L.n_free] = pb.free_bounds[:, 1]
         if L.free_duration:
             lo[L.duration_index], hi[L.duration_index] = pb.duration_bounds
+        if L.midpoints:
+            mid_inputs = L.mid_start + (N - 1) * L.n_states
+            lo[L.mid_start:mid_inputs] = np.tile(sb[:, 0], N - 1)
+            hi[L.mid_start:mid_inputs] = np.tile(sb[:, 1], N - 1)
+            lo[mid_inputs:] = np.tile(ib[:, 0], N - 1)
+            hi[mid_inputs:] = np.tile(ib[:, 1], N - 1)
         for k, values in ((0, pb.initial), (N - 1, pb.final)):
             for j, value in values.items():
                 lo[L.state_index(k, j)] = hi[L.state_index(k, j)] = value
         self.x_lower, self.x_upper = _finite(lo), _finite(hi)
-        g_lo = [np.zeros((N - 1) * len(pb.collocated_rows))]
-        g_hi = [np.zeros((N - 1) * len(pb.collocated_rows))]
+        n_defects = int(self.defects.structure[0].max(initial=-1)) + 1
+        g_lo, g_hi = [np.zeros(n_defects)], [np.zeros(n_defects)]
+        K = L.n_points
         for path in pb.path:
-            g_lo.append(np.full(N, path.lower))
-            g_hi.append(np.full(N, path.upper))
-        g_lo.append(np.zeros(N * pb.n_residuals))
-        g_hi.append(np.zeros(N * pb.n_residuals))
+            g_lo.append(np.full(K, path.lower))
+            g_hi.append(np.full(K, path.upper))
+        g_lo.append(np.zeros(K * pb.n_residuals))
+        g_hi.append(np.zeros(K * pb.n_residuals))
         for inst in pb.instances:
             g_lo.append([inst.lower])
             g_hi.append([inst.upper])
@@ -143,11 +151,12 @@ class CollocationNLP:
             return self._cache
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
+        Ym, Rm = L.split_midpoints(z)
         h = T / (L.nodes - 1)
         model = self._model(P)
         free_columns = pb.free_columns
         evaluated, rates, lagrange = [], [], []
-        for t, Ys, Rs in self.defects.points(pb.start_time, h, Y, R):
+        for t, Ys, Rs in self.defects.points(pb.start_time, h, Y, R, Ym, Rm):
             J = model.jacobians(t, Ys, r=Rs, parameters=bool(L.n_free))
             Pf = J.parameters[:, :, free_columns] if L.n_free else None
             evaluated.append((J.f, J.state, J.inputs, Pf, J.constraints))
@@ -155,16 +164,19 @@ class CollocationNLP:
                 rates.append(self._time_rate(model, t, Ys, Rs, T))
             if pb.lagrange is not None:
                 lagrange.append(pb.lagrange(t, Ys, Rs, P, T))
-        node_constraints = None
+        point_constraints = None
         if pb.n_residuals:
-            if any(s.node is not None for s in self.defects.stages):
-                node_constraints = evaluated[0][4]  # the first group: all nodes
+            group = self.defects.point_group
+            if group is not None:  # a group that holds every point
+                point_constraints = evaluated[group][4]
             else:
-                node_constraints = model.jacobians(self._node_times(T), Y, r=R).constraints
+                point_constraints = model.jacobians(self._node_times(T), Y, r=R).constraints
+        Yp = Y if Ym is None else np.concatenate([Y, Ym])
+        Rp = R if Rm is None else np.concatenate([R, Rm])
         self._cache_key, self._cache = key, dict(
-            z=z, Y=Y, R=R, P=P, T=T, h=h, model=model,
+            z=z, Y=Y, R=R, P=P, T=T, h=h, model=model, Ym=Ym, Yp=Yp, Rp=Rp,
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
-            node_constraints=node_constraints)
+            point_constraints=point_constraints)
         return self._cache
 
     @staticmethod
@@ -178,13 +190,25 @@ class CollocationNLP:
         return self.problem.start_time + T / (self.layout.nodes - 1) * np.arange(
             self.layout.nodes)
 
+    def _point_positions(self):
+        """Where each point lies, as a fraction of the duration: nodes, then
+        midpoints."""
+        N = self.layout.nodes
+        s = np.arange(N) / (N - 1)
+        if self.layout.midpoints:
+            s = np.concatenate([s, (np.arange(N - 1) + 0.5) / (N - 1)])
+        return s
+
+    def _point_times(self, T):
+        return self.problem.start_time + T * self._point_positions()
+
     # ---------------------------------------------------------- objective
     def objective(self, z):
         e = self._evaluate(z)
         pb = self.problem
         value = 0.0
         if pb.lagrange is not None:
-            value += self.defects.quadrature(e["h"], e["lagrange"])[0]
+            value += self.defects.quadrature(e["h"], e["lagrange"])
         if pb.mayer is not None:
             value += float(self._mayer(e)[0][0])
         return value
@@ -199,42 +223,35 @@ class CollocationNLP:
         pb, L = self.problem, self.layout
         N, ns, nr = L.nodes, L.n_states, L.n_inputs
         gY, gR = np.zeros((N, ns)), np.zeros((N, nr))
+        gYm = gRm = None
+        if L.midpoints:
+            gYm, gRm = np.zeros((N - 1, ns)), np.zeros((N - 1, nr))
         gP, gT = np.zeros(L.n_free), 0.0
-        h = e["h"]
         if pb.lagrange is not None:
-            _, parts = self.defects.quadrature(h, e["lagrange"])
-            for stage, (value, d_t, d_y, d_r, d_p, d_T) in parts:
-                w = h * stage.c
-                for o in (0, 1):
-                    a = stage.a[o]
-                    if a:
-                        gY[o:o + N - 1] += w * a * d_y
-                        gR[o:o + N - 1] += w * a * d_r
-                gP += w * d_p.sum(axis=0)
-                if L.free_duration:
-                    position = (np.arange(N - 1) + stage.position) / (N - 1)
-                    gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) \
-                        + w * d_T.sum()
+            gY, gR, gYm_q, gRm_q, gP, gT = self.defects.quadrature_gradient(
+                e["h"], e["lagrange"])
+            if gYm_q is not None:
+                gYm, gRm = gYm_q, gRm_q
         if pb.mayer is not None:
             _, d_t, d_y, d_r, d_p, d_T = self._mayer(e)
             gY[-1] += d_y[0]
             gR[-1] += d_r[0]
             gP += d_p[0]
             gT += d_t[0] + d_T[0]
-        return L.join(gY, gR, gP, gT)
+        return L.join(gY, gR, gP, gT, gYm, gRm)
 
     # -------------------------------------------------------- constraints
     def constraints(self, z):
         e = self._evaluate(z)
         pb = self.problem
-        parts = [self.defects.values(e["Y"], e["h"], e["evaluated"])]
-        t = self._node_times(e["T"])
+        parts = [self.defects.values(e["Y"], e["h"], e["evaluated"], e["Ym"])]
+        t = self._point_times(e["T"])
         for path in pb.path:
-            parts.append(path.term(t, e["Y"], e["R"], e["P"], e["T"])[0])
+            parts.append(path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])[0])
         if pb.n_residuals:
             model = e["model"]
             parts.append(np.concatenate([model.constraint_residuals(tk, yk)
-                                         for tk, yk in zip(t, e["Y"])]))
+                                         for tk, yk in zip(t, e["Yp"])]))
         for inst in pb.instances:
             parts.append([inst.value(self._instance_arguments(inst, e))])
         return np.concatenate(parts)
@@ -249,17 +266,16 @@ class CollocationNLP:
     def jacobian(self, z):
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
-        N = L.nodes
         parts = [self.defects.jacobian(e["h"], e["T"], e["evaluated"], e["rates"])]
-        t = self._node_times(e["T"])
+        t = self._point_times(e["T"])
         for path in pb.path:
-            _, d_t, d_y, d_r, d_p, d_T = path.term(t, e["Y"], e["R"], e["P"], e["T"])
+            _, d_t, d_y, d_r, d_p, d_T = path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])
             block = [d_y, d_r, d_p]
             if L.free_duration:
-                block.append((d_t * np.arange(N) / (N - 1) + d_T)[:, None])
+                block.append((d_t * self._point_positions() + d_T)[:, None])
             parts.append(np.concatenate(block, axis=1).ravel())
         if pb.n_residuals:
-            parts.append(e["node_constraints"].ravel())
+            parts.append(e["point_constraints"].ravel())
         for inst in pb.instances:
             grad = inst.gradient(self._instance_arguments(inst, e))
             if not L.free_duration:

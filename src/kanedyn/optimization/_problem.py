@@ -21,7 +21,7 @@ import numpy as np
 
 from .._errors import ModelError
 from ._terms import Symbols, compile_term, instance_atoms
-from ._transcription import METHODS
+from ._transcription import COLLOCATION_METHODS, Layout
 
 __all__ = ["OptimalControlProblem"]
 
@@ -113,8 +113,11 @@ class OptimalControlProblem:
     parameters : sequence of constants, optional
         Constants of the model that are optimized too (their model values are
         the initial guess).
-    method : {"trapezoid", "backward-euler", "midpoint"}
+    method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson"}
         The collocation (see :mod:`kanedyn.optimization._transcription`).
+        ``"hermite-simpson"`` (order 4) adds the states and inputs at the
+        midpoint of every interval as variables; bounds and path constraints
+        (and a model's constraints) hold there too.
     start_time : float
         :math:`t_0`, s.
     constants : dict, optional
@@ -161,9 +164,9 @@ class OptimalControlProblem:
         if isinstance(nodes, bool) or not isinstance(nodes, (int, np.integer)) or nodes < 2:
             raise ModelError(f"nodes must be an integer of at least 2, got {nodes!r}")
         self.nodes = int(nodes)
-        if method not in METHODS:
+        if method not in COLLOCATION_METHODS:
             raise ModelError(f"unknown collocation method {method!r}; available: "
-                             f"{', '.join(METHODS)}")
+                             f"{', '.join(COLLOCATION_METHODS)}")
         self.method = method
         if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real):
             raise ModelError(f"start_time must be a number, got {start_time!r}")
@@ -373,10 +376,9 @@ class OptimalControlProblem:
     @property
     def n_variables(self):
         """Length of the decision vector (states and inputs at every node, the
-        free parameters, the duration when free)."""
-        s = self.symbols
-        return (self.nodes * (len(s.states) + len(s.inputs)) + len(s.free)
-                + int(self.free_duration))
+        free parameters, the duration when free; with Hermite-Simpson also the
+        states and inputs at the N - 1 midpoints)."""
+        return Layout.of(self).n_variables
 
     def node_times(self, duration=None):
         """Times of the nodes, s (``duration`` for a free one)."""

@@ -1,12 +1,14 @@
-"""``OptimalControlResult``: the optimal trajectory, the solver's account, and a
+r"""``OptimalControlResult``: the optimal trajectory, the solver's account, and a
 check of the optimal inputs by simulation.
 
 The inputs between nodes are what the transcription assumed
 (:func:`input_functions`): backward Euler holds :math:`r_{k+1}` over
 :math:`(t_k, t_{k+1}]`, the midpoint rule :math:`(r_k + r_{k+1})/2`, the
-trapezoid interpolates linearly.  :meth:`OptimalControlResult.resimulate`
-integrates the model with those inputs by ``kd.simulate`` and reports how far
-the simulated states end from the collocated ones at the nodes.
+trapezoid interpolates linearly, Hermite-Simpson quadratically through
+:math:`r_k`, the midpoint's :math:`\bar r_k` and :math:`r_{k+1}`.
+:meth:`OptimalControlResult.resimulate` integrates the model with those
+inputs by ``kd.simulate`` and reports how far the simulated states end from
+the collocated ones at the nodes.
 """
 
 from __future__ import annotations
@@ -21,16 +23,25 @@ __all__ = ["OptimalControlResult", "Resimulation", "build_result", "input_functi
 
 
 class _Held:
-    """An input as the transcription saw it, a function of t (picklable)."""
+    """An input as the transcription saw it, a function of t (picklable).
 
-    def __init__(self, t, values, kind):
+    ``mid``: the values at the midpoints (``"quadratic"`` only)."""
+
+    def __init__(self, t, values, kind, mid=None):
         self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
+        self.mid = None if mid is None else np.asarray(mid)
 
     def __call__(self, t):
         t0, tf, n = self.t[0], self.t[-1], self.t.size
         if self.kind == "linear":
             return float(np.interp(t, self.t, self.values))
         s = (t - t0) / (tf - t0) * (n - 1)
+        if self.kind == "quadratic":  # through r_k, rbar_k, r_k+1 on [t_k, t_k+1]
+            k = int(min(max(np.floor(s), 0), n - 2))
+            x = s - k
+            a, m, b = self.values[k], self.mid[k], self.values[k + 1]
+            return float(a * (1 - x) * (1 - 2 * x) + 4 * m * x * (1 - x)
+                         + b * x * (2 * x - 1))
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
@@ -38,12 +49,16 @@ class _Held:
         return float(0.5 * (self.values[k] + self.values[k + 1]))
 
 
-_HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"}
+_HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear",
+         "hermite-simpson": "quadratic"}
 
 
-def input_functions(method, t, r, names):
-    """``{input name: f(t)}`` of the inputs as collocated by ``method``."""
-    return {name: _Held(t, row, _HOLD[method]) for name, row in zip(names, r)}
+def input_functions(method, t, r, names, r_mid=None):
+    """``{input name: f(t)}`` of the inputs as collocated by ``method``
+    (``r_mid``: the inputs at the midpoints, for Hermite-Simpson)."""
+    mids = r_mid if r_mid is not None else [None] * len(names)
+    return {name: _Held(t, row, _HOLD[method], mid)
+            for name, row, mid in zip(names, r, mids)}
 
 
 @dataclass(frozen=True)
@@ -103,6 +118,9 @@ class OptimalControlResult:
     multipliers : dict
         For a warm start.
     problem : OptimalControlProblem
+    t_mid, y_mid, r_mid : ndarray or None
+        Hermite-Simpson only: the midpoints' times (N - 1,), states
+        (n_states, N - 1) and inputs (n_inputs, N - 1); ``None`` otherwise.
     """
 
     t: np.ndarray
@@ -124,6 +142,9 @@ class OptimalControlResult:
     x: np.ndarray
     multipliers: dict
     problem: object
+    t_mid: np.ndarray = None
+    y_mid: np.ndarray = None
+    r_mid: np.ndarray = None
 
     def __getitem__(self, key):
         """A state's or an input's values at the nodes, by name or dynamic symbol."""
@@ -139,7 +160,7 @@ class OptimalControlResult:
     def inputs(self):
         """``{input name: f(t)}``: the inputs between the nodes as the
         transcription assumed them."""
-        return input_functions(self.method, self.t, self.r, self.input_names)
+        return input_functions(self.method, self.t, self.r, self.input_names, self.r_mid)
 
     def model(self):
         """The numerical model with the optimal free parameters and inputs."""
@@ -158,6 +179,40 @@ class OptimalControlResult:
             model, self.t, self.y, 0 if self.success else -1, self.message, [], [], None,
             {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
             f"collocation ({self.method})")
+
+    def table(self):
+        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
+        ``point`` (``node``, or ``midpoint`` for Hermite-Simpson's midpoints,
+        in time order with the nodes), every state, every input (SI units of
+        the model); one row per point."""
+        t, y, r = self.t, self.y, self.r
+        kind = np.zeros(t.size, dtype=int)
+        if self.t_mid is not None:
+            t = np.concatenate([t, self.t_mid])
+            y = np.concatenate([y, self.y_mid], axis=1)
+            r = np.concatenate([r, self.r_mid], axis=1)
+            kind = np.concatenate([kind, np.ones(self.t_mid.size, dtype=int)])
+            order = np.argsort(t, kind="stable")
+            t, y, r, kind = t[order], y[:, order], r[:, order], kind[order]
+        columns = ("t", "point", *self.state_names, *self.input_names)
+        rows = [(float(t[j]), ("node", "midpoint")[kind[j]], *map(float, y[:, j]),
+                 *map(float, r[:, j])) for j in range(t.size)]
+        return columns, rows
+
+    def to_csv(self, path):
+        """Write :meth:`table` as CSV (numbers as ``repr``); returns the path."""
+        import csv
+        from pathlib import Path
+
+        from .._output_files import replacing
+        columns, rows = self.table()
+        path = Path(path)
+        with replacing(path, newline="") as handle:
+            writer = csv.writer(handle)
+            writer.writerow(columns)
+            for row in rows:
+                writer.writerow([v if isinstance(v, str) else repr(v) for v in row])
+        return path
 
     def plot(self, states=None, path=None, title=None):
         """Plot the collocated states (``SimulationResult.plot``); returns the Figure."""
@@ -200,6 +255,7 @@ def build_result(problem, nlp, solution, interrupted):
     from .._signals import interruption
     L = nlp.layout
     Y, R, P, T = L.split(solution.x, problem.duration_value)
+    Ym, Rm = L.split_midpoints(solution.x)
     violation = nlp.violation(solution.x)
     objective = nlp.objective(solution.x)
     meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
@@ -211,6 +267,9 @@ def build_result(problem, nlp, solution, interrupted):
     text += (f" after {solution.iterations} iterations; largest constraint violation "
              f"{violation:.2e}")
     t = problem.start_time + float(T) * np.linspace(0.0, 1.0, problem.nodes)
+    mid = {}
+    if Ym is not None:
+        mid = dict(t_mid=0.5 * (t[:-1] + t[1:]), y_mid=Ym.T.copy(), r_mid=Rm.T.copy())
     return OptimalControlResult(
         t=t, y=Y.T.copy(), r=R.T.copy(), state_names=problem.symbols.states,
         input_names=problem.symbols.inputs,
@@ -219,4 +278,4 @@ def build_result(problem, nlp, solution, interrupted):
         success=solution.status in (0, 1) and interrupted is None, status=solution.status,
         message=text, iterations=solution.iterations, wall_time=solution.wall_time,
         method=problem.method, solver=solution.solver, x=solution.x,
-        multipliers=solution.multipliers, problem=problem)
+        multipliers=solution.multipliers, problem=problem, **mid)

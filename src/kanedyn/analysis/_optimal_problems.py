@@ -1,0 +1,326 @@
+r"""Named optimal-control problems on the built-in models (``kanedyn optimize``).
+
+A named problem is a function that poses an
+:class:`~kanedyn.OptimalControlProblem` on a built-in model, solves it and
+checks the optimum independently, returning a frozen study result with the
+:class:`~kanedyn.OptimalControlResult` (``.result``), a ``summary`` text, named
+numbers (``data``) and ``plot(path)``.  Every such function takes the same
+keywords, which ``kanedyn optimize`` fills from its options:
+
+``nodes``, ``method``, ``duration``
+    the transcription (``None``: the problem's defaults);
+``bounds``
+    ``{state or input name: (lower, upper)}``, replacing the problem's;
+``constants``
+    ``{constant name: value}`` of the model;
+``model_options``
+    options of the built-in model (``n_modes=2``);
+``backend``
+    ``"c"``, ``"numpy"`` or ``"auto"``;
+``ipopt``
+    IPOPT's options;
+
+and its own options (:attr:`OptimalProblem.options`).
+
+:data:`OPTIMAL_PROBLEMS` maps a model's name to its problems; the modules
+that define them register them (:func:`register_problem`) and
+:func:`available_problems` imports those modules.  Here: the pendulum's
+swing-up (:func:`pendulum_swing_up`, opty's gallery problem).
+"""
+
+from __future__ import annotations
+
+import types
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .._errors import KanedynError
+from ._studies import StudyOption, register_study
+
+__all__ = ["OptimalProblem", "OPTIMAL_PROBLEMS", "register_problem", "available_problems",
+           "optimal_problem", "pendulum_swing_up", "SwingUp", "IPOPT_DEFAULTS"]
+
+#: IPOPT's options of the named problems unless given (``ipopt=``)
+IPOPT_DEFAULTS = {"tol": 1e-8, "max_iter": 3000}
+
+
+@dataclass(frozen=True)
+class OptimalProblem:
+    """A named optimal-control problem on a built-in model.
+
+    Attributes
+    ----------
+    model : str
+        The built-in model's name (``kanedyn list``).
+    name : str
+    function : callable
+        ``function(nodes=, method=, duration=, bounds=, constants=,
+        model_options=, backend=, ipopt=, **options)`` -> a study result with
+        ``result``, ``summary``, ``data`` and ``plot(path)``.
+    description : str
+        One line.
+    nodes, method, duration :
+        The defaults.
+    options : dict
+        ``{name: StudyOption}`` of the problem's own options.
+    required : dict
+        Options of the built-in model the problem needs (``{"torque": True}``:
+        the input it optimizes); the model's other options are the user's.
+    """
+
+    model: str
+    name: str
+    function: object
+    description: str
+    nodes: int
+    method: str
+    duration: float
+    options: dict = field(default_factory=dict)
+    required: dict = field(default_factory=dict)
+
+
+#: model name -> {problem name: OptimalProblem}, the first one the default
+OPTIMAL_PROBLEMS = {}
+
+
+def register_problem(problem):
+    """Add ``problem`` to :data:`OPTIMAL_PROBLEMS` (a name already taken raises),
+    and as the study ``MODEL-NAME`` (``kanedyn study``)."""
+    named = OPTIMAL_PROBLEMS.setdefault(problem.model, {})
+    if problem.name in named:
+        raise KanedynError(f"optimal-control problem {problem.model} {problem.name!r} is "
+                           "already registered")
+    named[problem.name] = problem
+    run, options = _study_of(problem)
+    register_study(f"{problem.model}-{problem.name}", run, options,
+                   f"optimal control: {problem.description}")
+    return problem
+
+
+def available_problems():
+    """:data:`OPTIMAL_PROBLEMS` with the built-in problems registered."""
+    from . import _bicycle_lane_change, _flexible_robot_oc  # noqa: F401  (register)
+    return OPTIMAL_PROBLEMS
+
+
+def optimal_problem(model, name=None):
+    """The :class:`OptimalProblem` ``name`` of ``model`` (its first by default)."""
+    problems = available_problems()
+    if model not in problems:
+        raise KanedynError(f"no optimal-control problem is defined on {model!r}; models "
+                           f"with problems: {', '.join(problems)}")
+    if name is None:
+        return next(iter(problems[model].values()))
+    if name not in problems[model]:
+        raise KanedynError(f"{model} has no optimal-control problem {name!r}; its "
+                           f"problems: {', '.join(problems[model])}")
+    return problems[model][name]
+
+
+# ------------------------------------------------------------- shared steps
+def numeric_of(definition, constants, backend):
+    """The numerical model of ``definition`` with ``constants`` (names or
+    symbols) on ``backend`` (``"auto"``: C when a compiler is found)."""
+    if backend == "auto":
+        from ..numerics.backends import compiler_command
+        backend = "c" if compiler_command() is not None else "numpy"
+    known = {str(s) for s in definition.constants}
+    unknown = sorted(str(k) for k in (constants or {}) if str(k) not in known)
+    if unknown:
+        raise KanedynError(f"{unknown[0]} is not a constant of {definition.name}; its "
+                           f"constants: {', '.join(sorted(known))}")
+    return definition.numeric(constants=dict(constants or {}), backend=backend)
+
+
+def build_model(name, model_options, required):
+    """The definition of the built-in ``name`` with ``model_options`` and the
+    options the problem ``required`` (a conflict raises)."""
+    from ..models import build
+    options = dict(model_options or {})
+    for key, value in required.items():
+        if key in options and options[key] != value:
+            raise KanedynError(f"this problem needs the model option {key}={value!r}, "
+                               f"got {key}={options[key]!r}")
+        options[key] = value
+    return build(name, **options)
+
+
+def merged_bounds(defaults, bounds, names):
+    """``defaults`` updated by the user's ``bounds`` (names checked against
+    ``names``, the model's states and inputs)."""
+    out = dict(defaults)
+    for key, pair in (bounds or {}).items():
+        key = str(key).removesuffix("(t)")
+        if key not in names:
+            raise KanedynError(f"bounds name {key}, which is neither a state nor an input "
+                               f"of the model ({', '.join(names)})")
+        out[key] = pair
+    return out
+
+
+def solve(problem, guess, ipopt):
+    """Solve with the named problems' IPOPT defaults updated by ``ipopt``."""
+    return problem.solve(guess, options=dict(IPOPT_DEFAULTS, **(ipopt or {})))
+
+
+def result_lines(result):
+    """The summary lines every named problem prints about its solve."""
+    status = "solved" if result.success else "NOT solved"
+    return [f"{status}: {result.message}",
+            f"objective {result.objective:.10g}; {result.t.size} nodes, {result.method}, "
+            f"duration {result.duration:.6g} s; {result.iterations} iterations in "
+            f"{result.wall_time:.2f} s"]
+
+
+# ----------------------------------------------- the problems as studies too
+def _study_of(problem):
+    """``kanedyn study MODEL-PROBLEM``: the named problem with its defaults,
+    writing the trajectory (nodes and midpoints) and the named numbers as
+    tables, and the figure."""
+    from ..models import REGISTRY
+    model_options = {k: kind for k, kind in REGISTRY[problem.model][1].items()
+                     if k not in problem.required}
+
+    def run(out, quiet, nodes, method, duration, backend, **options):
+        chosen = {k: options.pop(k) for k in model_options if options.get(k) is not None}
+        for k in model_options:
+            options.pop(k, None)
+        found = problem.function(nodes=nodes, method=method, duration=duration,
+                                 backend=backend, model_options=chosen, **options)
+        figures = []
+        if out is not None:
+            figures.append(found.plot(out / f"{problem.model}-{problem.name}.png"))
+        numbers = (("name", "value"), [(k, float(v)) for k, v in sorted(found.data.items())])
+        return dict(tables={"trajectory": found.result.table(), "numbers": numbers},
+                    figures=figures, summary=found.summary, data=dict(found.data))
+    from ..optimization import COLLOCATION_METHODS
+    options = {
+        "nodes": StudyOption(int, problem.nodes, "collocation nodes"),
+        "method": StudyOption(str, problem.method, "collocation", COLLOCATION_METHODS),
+        "duration": StudyOption(float, problem.duration, "duration [s]"),
+        "backend": StudyOption(str, "c", "numerical backend", ("c", "numpy", "auto")),
+        **{k: StudyOption(kind, None, f"option of the model {problem.model} (default: "
+                                      "the model's)")
+           for k, kind in model_options.items()},
+        **problem.options}
+    return run, options
+
+
+# ------------------------------------------------------ the pendulum swing-up
+@dataclass(frozen=True)
+class SwingUp:
+    """The pendulum's swing-up of least :math:`\\int\\tau^2 dt` and its check.
+
+    Attributes
+    ----------
+    result : OptimalControlResult
+    resimulation : Resimulation
+        The optimal torque simulated (DOP853, 1e-10) from the collocated
+        initial state.
+    swing_time : float
+        When (s) the collocated angle first comes within 0.1 rad of upright.
+    swing_difference : float
+        The largest difference (rad) of the simulated angle from the
+        collocated one until then.  Upright the pendulum is unstable, and an
+        open-loop torque replays the optimum there only until the
+        collocation's error grows.
+    data : mapping
+        Named numbers: ``objective``, ``peak_torque``, ``swing_time``,
+        ``swing_difference``.
+    """
+
+    result: object
+    resimulation: object
+    swing_time: float
+    swing_difference: float
+    data: types.MappingProxyType
+
+    @property
+    def summary(self):
+        r = self.result
+        lines = result_lines(r) + [
+            f"peak torque {self.data['peak_torque']:.6g} N m; final angle "
+            f"{r['q'][-1]:.8g} rad, rate {r['u'][-1]:.3g} rad/s",
+            f"check: the optimal torque simulated (DOP853) follows the collocated angle "
+            f"within {self.swing_difference:.2g} rad until it nears upright (t = "
+            f"{self.swing_time:.3g} s), where the pendulum is unstable"]
+        return "\n".join(lines)
+
+    def plot(self, path):
+        from .._output_files import save_figure
+        from ._plotting import pyplot
+        plt = pyplot()
+        r = self.result
+        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(7, 7), constrained_layout=True)
+        run = self.resimulation.simulation
+        axes[0].plot(r.t, r["q"], label="collocated")
+        axes[0].plot(run.t, run["q"], "--", label="simulated (DOP853)")
+        axes[0].axhline(np.pi, color="0.6", ls=":", lw=0.8, label="upright (pi)")
+        axes[0].axvline(self.swing_time, color="0.6", ls="-.", lw=0.8,
+                        label="within 0.1 rad of upright")
+        axes[0].set_ylabel("angle q [rad]")
+        axes[1].plot(r.t, r["u"])
+        axes[1].set_ylabel("rate u [rad/s]")
+        axes[2].plot(r.t, r["tau"])
+        axes[2].set_ylabel("torque tau [N m]")
+        axes[2].set_xlabel("t [s]")
+        axes[0].legend(fontsize=8)
+        for ax in axes:
+            ax.grid(alpha=0.3)
+        fig.suptitle(f"pendulum swing-up of least integral of tau^2: {r.t.size} nodes, "
+                     f"{r.method}, objective {r.objective:.5g} N^2 m^2 s", fontsize=10)
+        written = save_figure(fig, path, dpi=110)
+        plt.close(fig)
+        return written
+
+
+def pendulum_swing_up(*, nodes=None, method=None, duration=None, bounds=None,
+                      constants=None, model_options=None, backend="c", ipopt=None,
+                      limit=2.0):
+    r"""Swing the pendulum from hanging to upright, at rest, with the least
+    :math:`\int\tau^2 dt` and :math:`|\tau| \le` ``limit`` (opty's gallery
+    problem: 10 s, 2 N m).
+
+    The guess turns the pendulum steadily to the top, pushing gently back and
+    forth; the optimum is checked by simulating its torque (``resimulate``).
+
+    Returns
+    -------
+    SwingUp
+    """
+    spec = optimal_problem("pendulum", "swing-up")
+    nodes = nodes or spec.nodes
+    method = method or spec.method
+    duration = float(duration or spec.duration)
+    definition = build_model("pendulum", model_options, spec.required)
+    model = numeric_of(definition, constants, backend)
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    names = list(model.state_names) + ["tau"]
+    limits = merged_bounds({"tau": (-limit, limit)}, bounds, names)
+    from ..optimization import OptimalControlProblem
+    problem = OptimalControlProblem(
+        model, nodes=nodes, duration=duration, lagrange=tau ** 2, bounds=limits,
+        initial={q: 0.0, u: 0.0}, final={q: np.pi, u: 0.0}, method=method)
+    guess = problem.guess_line(start={u: np.pi / duration}, end={u: np.pi / duration},
+                               inputs={tau: lambda t: np.sin(2 * np.pi * t / duration)})
+    result = solve(problem, guess, ipopt)
+    check = result.resimulate()
+    run = check.simulation
+    near = np.flatnonzero(np.abs(result["q"] - np.pi) < 0.1)
+    k = int(near[0]) if near.size else result.t.size - 1
+    k = min(k, run.t.size - 1)
+    difference = float(np.max(np.abs(run["q"][:k + 1] - result["q"][:k + 1])))
+    data = dict(objective=result.objective, peak_torque=float(np.max(np.abs(result["tau"]))),
+                swing_time=float(result.t[k]), swing_difference=difference)
+    return SwingUp(result, check, float(result.t[k]), difference,
+                   types.MappingProxyType(data))
+
+
+register_problem(OptimalProblem(
+    model="pendulum", name="swing-up", function=pendulum_swing_up,
+    description="from hanging to upright at rest in 10 s, |tau| <= 2 N m, least "
+                "integral of tau^2 (opty's gallery problem)",
+    nodes=201, method="trapezoid", duration=10.0, required={"torque": True},
+    options={"limit": StudyOption(float, 2.0, "torque limit [N m]")}))
+

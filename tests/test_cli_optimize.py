@@ -1,0 +1,125 @@
+"""``kanedyn optimize``: in-process runs of the command (named problems, their
+options, files, exit codes)."""
+
+import csv
+
+import numpy as np
+import pytest
+
+from kanedyn.cli import main
+
+pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (the test extra)")
+
+
+def test_optimize_lists_the_problems(capsys):
+    assert main(["optimize"]) == 0
+    text = capsys.readouterr().out
+    for name in ("pendulum:", "swing-up", "flexible-robot:", "rest-to-rest", "minimum-time",
+                 "whipple-bicycle:", "lane-change", "offset=3.0"):
+        assert name in text
+
+
+def test_optimize_pendulum_bound_files_and_the_printed_objective(tmp_path, capsys):
+    """The swing-up with the torque bound replaced: the CSV holds the nodes,
+    the bound holds at each, the ends are those asked for, and the printed
+    objective is the trapezoid rule of the CSV's torque squared (what the
+    trapezoidal collocation minimizes), computed here."""
+    out, figure = tmp_path / "swing.csv", tmp_path / "swing.png"
+    code = main(["optimize", "pendulum", "--nodes", "101", "--bound", "tau=-1.8:1.8",
+                 "--output", str(out), "--plot", str(figure), "--quiet", "--backend",
+                 "numpy"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    rows = list(csv.reader(open(out)))
+    assert rows[0] == ["t", "point", "q", "u", "tau"]
+    assert len(rows) == 102 and {r[1] for r in rows[1:]} == {"node"}
+    t, q, u, tau = (np.array([float(r[k]) for r in rows[1:]]) for k in (0, 2, 3, 4))
+    assert np.max(np.abs(tau)) <= 1.8 + 1e-7 and np.max(np.abs(tau)) > 1.79
+    np.testing.assert_allclose([q[0], u[0], q[-1], u[-1]], [0, 0, np.pi, 0], atol=1e-7)
+    printed = float(text.split("objective ")[1].split(";")[0])
+    assert abs(printed - np.trapezoid(tau ** 2, t)) < 1e-6 * printed
+    assert figure.stat().st_size > 0
+    assert "follows the collocated angle" in text
+
+
+def test_optimize_hermite_simpson_csv_has_the_midpoints(tmp_path, capsys):
+    out = tmp_path / "hs.csv"
+    code = main(["optimize", "pendulum", "--nodes", "41", "--method", "hermite-simpson",
+                 "--output", str(out), "--quiet", "--backend", "numpy"])
+    assert code == 0, capsys.readouterr().out
+    rows = list(csv.reader(open(out)))[1:]
+    assert len(rows) == 81
+    assert [r[1] for r in rows[:3]] == ["node", "midpoint", "node"]
+    t = np.array([float(r[0]) for r in rows])
+    assert np.all(np.diff(t) > 0)
+
+
+def test_optimize_exit_1_when_ipopt_fails(capsys):
+    """The iteration limit reached: exit code 1, the summary says so."""
+    code = main(["optimize", "pendulum", "--nodes", "51", "--max-iter", "3", "--quiet",
+                 "--backend", "numpy"])
+    text = capsys.readouterr().out
+    assert code == 1
+    assert "NOT solved" in text and "maximum number of iterations" in text
+
+
+@pytest.mark.parametrize("argv, what", [
+    (["optimize", "four-bar"], "no optimal-control problem is defined on 'four-bar'"),
+    (["optimize", "pendulum", "--problem", "cartwheel"], "cartwheel"),
+    (["optimize", "pendulum", "--bound", "tau=2:1"], "lower bound 2 is above"),
+    (["optimize", "pendulum", "--bound", "tau2"], "NAME=LOW:HIGH"),
+    (["optimize", "pendulum", "--bound", "zz=-1:1", "--quiet"], "zz"),
+    (["optimize", "pendulum", "--set", "zz=1", "--quiet"], "--set zz"),
+    (["optimize", "pendulum", "--method", "rk4"], "rk4"),
+    (["optimize", "pendulum", "--nodes", "1"], "--nodes"),
+    (["optimize", "flexible-robot", "--set", "torque_input=false", "--quiet"],
+     "torque_input"),
+])
+def test_optimize_bad_arguments_are_one_line_exit_2(argv, what, capsys):
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and what in err, err
+
+
+@pytest.mark.slow
+def test_optimize_flexible_robot_against_the_pulse(tmp_path, capsys):
+    """The elastic robot's rest-to-rest rotation from the command line, two
+    modes: the residual vibration of the optimal torque simulated is far
+    below the pulse's (the table's row)."""
+    code = main(["optimize", "flexible-robot", "--set", "n_modes=2", "--quiet",
+                 "--plot", str(tmp_path / "robot.png")])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    row = next(line for line in text.splitlines() if "residual tip" in line)
+    optimal, pulse = map(float, row.split()[-2:])
+    assert optimal < pulse / 100
+    assert (tmp_path / "robot.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_optimize_bicycle_problem_option(capsys):
+    """--set offset=1 (a problem option) and --duration: the simulated run
+    ends 1 m aside."""
+    code = main(["optimize", "whipple-bicycle", "--set", "offset=1", "--nodes", "31",
+                 "--duration", "3", "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "lane change of 1 m at 5 m/s in 3 s" in text
+    aside = float(text.split("ends ")[1].split(" m aside")[0])
+    assert abs(aside - 1.0) < 1e-2
+
+
+@pytest.mark.slow
+def test_the_problems_are_studies_too(tmp_path, capsys):
+    """``kanedyn study whipple-bicycle-lane-change``: the problem's options and
+    the model's, the trajectory and numbers as CSV, the figure."""
+    code = main(["study", "whipple-bicycle-lane-change", "--set", "offset=1", "--set",
+                 "nodes=31", "--out", str(tmp_path), "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    rows = list(csv.reader(open(tmp_path / "whipple-bicycle-lane-change_trajectory.csv")))
+    assert rows[0][:3] == ["t", "point", "q1"] and rows[0][-1] == "T_delta"
+    assert len(rows) == 1 + 61  # 31 nodes and 30 midpoints
+    numbers = dict(csv.reader(open(tmp_path / "whipple-bicycle-lane-change_numbers.csv")))
+    assert abs(float(numbers["lateral"]) - 1.0) < 1e-2
+    assert (tmp_path / "whipple-bicycle-lane-change.png").stat().st_size > 0
