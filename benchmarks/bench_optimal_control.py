@@ -34,17 +34,19 @@ interpolated, at growing node counts; the child's peak resident memory from
 optimum.  A tool stops at the first node count whose run exceeds the memory
 budget (``--memory-budget``, GiB of peak resident memory) or the time
 budget (``--time-budget``, s; the child is then killed), or that IPOPT does
-not solve.  Each child's address space is capped (``RLIMIT_AS``) at three
-times the memory budget so that no run can take the machine's memory (MUMPS
-reserves far more address space than it touches: at twice the budget it
-failed to allocate its workspace at 10^6 nodes, 3.1 GiB resident).
+not solve.  ``--address-cap`` (GiB) caps each child's address space
+(``RLIMIT_AS``) so that no run can take the machine's memory; by default
+there is no cap: MUMPS reserves far more address space than it touches, and
+with a cap of 8 or 12 GiB it failed to allocate its workspace at 10^6 nodes
+with 3.1 GiB resident, where without one the run stayed below 4 GiB.
 
 Usage::
 
     python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100]
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
-        [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 300]
+        [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
+        [--address-cap 12]
 """
 
 from __future__ import annotations
@@ -132,15 +134,25 @@ def double_pendulum_gallery(nodes):
               f"h {h:.10g} s (duration {h * (N - 1):.6g} s)  IPOPT status {status}")
     print(f"  opty / kanedyn: model->optimum {o_total / k_total:.2f}x, per iteration "
           f"{(o_solve / max(o_iterations, 1)) / (ours.wall_time / max(ours.iterations, 1)):.2f}x")
-    # each from the other's optimum: the same discrete problem has both optima
+    # each from the other's optimum, IPOPT's "acceptable" stop turned off (it
+    # ends least-time runs early): the same discrete problem has both optima
+    strict = dict(peers.IPOPT_OPTIONS, acceptable_iter=0)
     theirs = peers.duration_from_opty(np.asarray(w), N, 6, 1)
-    again = problem.solve(theirs, options=peers.IPOPT_OPTIONS)
+    again = problem.solve(theirs, options=strict)
+    opty_problem.add_option("acceptable_iter", 0)
+    before = len(opty_problem.obj_value)  # opty appends to it across solves
     w2, info2 = opty_problem.solve(peers.duration_to_opty(ours.x, N, 6, 1))
-    print(f"  kanedyn from opty's optimum: h {again.objective:.10g} (opty's "
-          f"{float(info['obj_val']):.10g}) in {again.iterations} iterations, status "
-          f"{again.status}")
-    print(f"  opty from kanedyn's optimum: h {float(info2['obj_val']):.10g} (kanedyn's "
-          f"{ours.objective:.10g}), status {int(info2['status'])}")
+    print(f"  kanedyn from opty's optimum (acceptable_iter=0): h {again.objective:.10g} "
+          f"(opty's {float(info['obj_val']):.10g}, relative difference "
+          f"{abs(again.objective / float(info['obj_val']) - 1):.1e}) in {again.iterations} "
+          f"iterations, status {again.status}")
+    print(f"  opty from kanedyn's point (acceptable_iter=0): h {float(info2['obj_val']):.10g} "
+          f"(kanedyn's {ours.objective:.10g}), status {int(info2['status'])}, "
+          f"{len(opty_problem.obj_value) - before - 1} iterations")
+    ours_strict = problem.solve(guess, options=strict)
+    print(f"  kanedyn from the gallery's guess (acceptable_iter=0): h "
+          f"{ours_strict.objective:.10g} in {ours_strict.iterations} iterations "
+          f"({ours_strict.wall_time:.1f} s), status {ours_strict.status}")
 
 
 # -------------------------------------------------- nodes against memory and time
@@ -174,13 +186,17 @@ print("RESULT " + json.dumps(out))
 """
 
 
-def _limit_memory(limit_bytes):
+def _limit_memory(cap_gib):
+    if not cap_gib:
+        return None
+    limit = int(cap_gib * 2 ** 30)
+
     def apply():
-        resource.setrlimit(resource.RLIMIT_AS, (limit_bytes, limit_bytes))
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
     return apply
 
 
-def scan(nodes_list, memory_gib, time_s):
+def scan(nodes_list, memory_gib, time_s, address_cap=0.0):
     """The pendulum swing-up at growing node counts, each run in a fresh process."""
     tmp = Path(tempfile.mkdtemp(prefix="kd-bench-ocp-scan-"))
     gallery_nodes = 501
@@ -191,12 +207,13 @@ def scan(nodes_list, memory_gib, time_s):
     env = dict(os.environ)
     print(f"nodes against memory and time: pendulum swing-up, budgets {memory_gib:g} GiB "
           f"peak resident memory, {time_s:g} s model->optimum; each run a fresh process "
-          f"(address space capped at {3 * memory_gib:g} GiB)")
+          + (f"(address space capped at {address_cap:g} GiB)" if address_cap
+             else "(address space not capped)"))
     print(f"  {'tool':8s} {'nodes':>8s} {'peak GiB':>9s} {'wall s':>8s} {'solve s':>8s} "
           f"{'iter':>5s} {'status':>6s}  objective")
     for tool in ("kanedyn", "opty"):
         for nodes in nodes_list:
-            row = _measured(tool, nodes, tmp / "guess.npy", memory_gib, time_s, env)
+            row = _measured(tool, nodes, tmp / "guess.npy", time_s, env, address_cap)
             print(f"  {tool:8s} {nodes:8d} {row['peak_gib']:9.3f} {row['wall']:8.1f} "
                   f"{row.get('solve', float('nan')):8.1f} {row.get('iterations', -1):5d} "
                   f"{row.get('status', -999):6d}  {row.get('objective', float('nan')):.10g}"
@@ -208,7 +225,7 @@ def scan(nodes_list, memory_gib, time_s):
                 break
 
 
-def _measured(tool, nodes, guess_path, memory_gib, time_s, env):
+def _measured(tool, nodes, guess_path, time_s, env, address_cap):
     """:func:`run_child` with the child's own peak resident memory, read by
     ``os.wait4`` on the process (``ru_maxrss``, KiB on Linux)."""
     code = _CHILD.format(bench=str(Path(__file__).resolve().parent), tool=tool,
@@ -217,7 +234,7 @@ def _measured(tool, nodes, guess_path, memory_gib, time_s, env):
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err,
                                 text=True, env=env,
-                                preexec_fn=_limit_memory(int(3 * memory_gib * 2 ** 30)))
+                                preexec_fn=_limit_memory(address_cap))
         deadline = start + time_s
         killed = False
         while True:
@@ -259,7 +276,9 @@ def main():
     parser.add_argument("--scan-nodes", type=int, nargs="*",
                         default=[1000, 3000, 10000, 30000, 100000, 300000, 1000000])
     parser.add_argument("--memory-budget", type=float, default=4.0, help="GiB")
-    parser.add_argument("--time-budget", type=float, default=300.0, help="s")
+    parser.add_argument("--time-budget", type=float, default=600.0, help="s")
+    parser.add_argument("--address-cap", type=float, default=0.0,
+                        help="GiB of address space per child (0: no cap)")
     args = parser.parse_args()
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
     import cyipopt
@@ -274,7 +293,7 @@ def main():
         for nodes in args.gallery:
             double_pendulum_gallery(nodes)
         if args.scan:
-            scan(args.scan_nodes, args.memory_budget, args.time_budget)
+            scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap)
         return
     # opty's gallery problem as published: 501 nodes from its random guess
     gallery = 501
@@ -299,7 +318,7 @@ def main():
     for nodes in args.gallery:
         double_pendulum_gallery(nodes)
     if args.scan:
-        scan(args.scan_nodes, args.memory_budget, args.time_budget)
+        scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap)
 
 
 if __name__ == "__main__":
