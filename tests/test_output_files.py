@@ -118,7 +118,8 @@ _ALLOWED = {("numerics/backends/_c_quick.py", "write_text"),
             ("_html.py", "savefig"),
             ("analysis/_seatbelt_studies.py", "to_csv"),  # LockMap.to_csv
             ("cli/_demo.py", "to_csv"),  # SimulationResult.to_csv
-            ("cli/_inverse.py", "to_csv")}  # InverseStudy.to_csv
+            ("cli/_inverse.py", "to_csv"),  # InverseStudy.to_csv
+            ("cli/_optimize.py", "to_csv")}  # OptimalControlResult.to_csv (replacing)
 
 
 def _writing_mode(node):

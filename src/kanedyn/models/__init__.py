@@ -186,8 +186,8 @@ _TITLES = {
     'stewart_platform': 'Stewart-Gough platform, six UPS legs, under gravity',
     'out_parallel_6dof': ('6-dof out-parallel manipulator: ball-screw carriages on rails, struts,'
                           ' under gravity'),
-    'oc3_spar': ('OC3-Hywind spar floating wind turbine (2 tower modes, linear'
-                 ' mooring, still sea)'),
+    'oc3_spar': ('OC3-Hywind spar floating wind turbine (2 tower modes, tower damping 1 %'
+                 ' (isolated), linear mooring, still sea)'),
     'seatbelt_sensor': ('seat-belt inertial sensor: spherical pendulum in a housing on a '
                         'moving vehicle'),
 }
