@@ -14,10 +14,11 @@ from __future__ import annotations
 import math
 import re
 import xml.parsers.expat
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 from ..._errors import ModelError
+from .._urdf_parse import Element as _XMLElement
 
 __all__ = ["MJCFError", "Element", "read_mjcf", "number", "numbers"]
 
@@ -33,27 +34,11 @@ class MJCFError(ModelError):
 
 
 @dataclass
-class Element:
-    """One XML element: tag, attributes, children, the file and line it is on."""
+class Element(_XMLElement):
+    """One XML element (URDF's reader's record) and the file it is in (as shown
+    in messages: an included file's own name)."""
 
-    tag: str
-    attrib: dict
-    line: int
-    source: str
-    children: list = field(default_factory=list)
-
-    def find(self, tag):
-        """The first child with ``tag``, or None."""
-        return next((c for c in self.children if c.tag == tag), None)
-
-    def findall(self, tag):
-        """All children with ``tag``."""
-        return [c for c in self.children if c.tag == tag]
-
-    def label(self):
-        """``<joint name='elbow'>`` (the name attribute, when there is one)."""
-        name = self.attrib.get("name")
-        return f"<{self.tag} name='{name}'>" if name is not None else f"<{self.tag}>"
+    source: str = ""
 
     def where(self):
         """``model.xml:12: <joint name='elbow'>``."""
@@ -74,7 +59,7 @@ def _parse(path, shown):
     stack, roots = [], []
 
     def start(tag, attrib):
-        element = Element(tag, dict(attrib), parser.CurrentLineNumber, shown)
+        element = Element(tag, dict(attrib), parser.CurrentLineNumber, source=shown)
         (stack[-1].children if stack else roots).append(element)
         stack.append(element)
 
