@@ -312,11 +312,6 @@ def test_an_input_that_follows_the_state_is_in_the_jacobian():
 
 
 def test_jac_options():
-    contact = kd.models.build("bouncing-ball")
-    model = contact.numeric(backend="numpy")
-    with pytest.raises(kd.OptionError, match="jac='exact': exact derivatives of a model "
-                                             "with contacts"):
-        kd.simulate(model, (0.0, 0.1), contact.initial(model), method="Radau", jac="exact")
     pendulum = kd.models.build("pendulum")
     model = pendulum.numeric(backend="numpy")
     with pytest.raises(kd.OptionError, match="jac must be 'exact', 'differences'"):

@@ -16,6 +16,7 @@
 ``_equilibrium``         static equilibria and steady motions (Newton on them)
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
 ``_contact_dynamics``    accelerations and contact forces per contact mode
+``_contact_derivatives`` their exact derivatives within the modes
 ``_diagnosis``           why a derivative is not finite, in the model's names
 ``_actuator_forces``     actuator forces from generalized forces by virtual work
 ``_inverse_parts``       inverse-dynamics and actuator forces by cause and body; power
@@ -37,6 +38,7 @@ _LAZY = {
     'SlipReference': '._contact_dynamics',
     'contact_points': '._contact_dynamics',
     'solve_modes': '._contact_dynamics',
+    'segment_jacobian': '._contact_derivatives',
     'diagnose': '._diagnosis',
     'ActuatorParts': '._inverse_parts',
     'InverseParts': '._inverse_parts',

@@ -44,7 +44,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["SEPARATED", "SLIP", "STICK", "ContactPoint", "ContactSolution", "SlipReference",
-           "contact_points", "slip_direction", "slip_velocities", "solve_modes"]
+           "contact_points", "slip_choice", "slip_direction", "slip_velocities", "solve_modes"]
 
 SEPARATED, SLIP, STICK = "separated", "slip", "stick"
 
@@ -116,10 +116,11 @@ class ContactSolution:
         return self.normal_force[:, None] * normals + self.friction
 
 
-def contact_points(model, t, y):
-    """The :class:`ContactPoint` of every contact of ``model`` at ``(t, y)``."""
+def contact_points(model, t, y, inputs=None):
+    """The :class:`ContactPoint` of every contact of ``model`` at ``(t, y)``
+    (``inputs``: the specified inputs' values, by default their providers')."""
     gap, grad, normal, vel, jac, acc, rate = model._fn["contacts"](
-        t, y, model._p, model._r(t, y))
+        t, y, model._p, model._r(t, y) if inputs is None else list(inputs))
     o = model.n_u
     return [ContactPoint(gap=float(gap[c]), grad_norm=float(grad[c]), normal=normal[c],
                          velocity=vel[c], jacobian=jac[3 * c:3 * c + 3].reshape(3, o),
@@ -181,19 +182,26 @@ def slip_direction(point, reference=None, tiny=1e-12, velocity=None, space=None)
     smooth up to the event that stops the slip, and a slip that starts from
     rest goes the way the forces drive it.
     """
+    return slip_choice(point, reference, tiny, velocity, space)[0]
+
+
+def slip_choice(point, reference=None, tiny=1e-12, velocity=None, space=None):
+    """``(direction, source)``: :func:`slip_direction` (same arguments) and what
+    it followed: ``"velocity"`` (the slip velocity's direction),
+    ``"reference"`` (the reference projected) or ``"none"`` (zero)."""
     vt = point.slip_velocity if velocity is None else np.asarray(velocity, dtype=float)
     speed = np.linalg.norm(vt)
     moving = speed > tiny * max(1.0, np.linalg.norm(point.velocity))
     if reference is None:
-        return vt / speed if moving else np.zeros(3)
+        return (vt / speed, "velocity") if moving else (np.zeros(3), "none")
     if not isinstance(reference, SlipReference):
         reference = SlipReference(np.asarray(reference, dtype=float))
     s = reference.direction
     if moving and speed > reference.still and (vt @ s > 0 or speed > reference.slow):
-        return vt / speed
+        return vt / speed, "velocity"
     s = s - (s @ point.normal) * point.normal if space is None else space @ s
     norm = np.linalg.norm(s)
-    return s / norm if norm > 0 else np.zeros(3)
+    return (s / norm, "reference") if norm > 0 else (np.zeros(3), "none")
 
 
 def _constraint_rows(point, mode):
@@ -407,7 +415,7 @@ def _one_contact(model, y, modes, directions, w, qd, mass, force, points):
                            slip_velocity=slips, qdot=qd)
 
 
-def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
+def solve_modes(model, t, y, modes, directions=None, stabilization=10.0, inputs=None):
     """Accelerations and contact forces for given modes.
 
     Parameters
@@ -423,6 +431,8 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
         when the current mode began.
     stabilization : float
         Baumgarte frequency :math:`\\omega` (critically damped), rad/s.
+    inputs : array_like, shape (n_inputs,), optional
+        Values of the specified inputs; by default their providers' at ``(t, y)``.
 
     Returns
     -------
@@ -438,8 +448,12 @@ def solve_modes(model, t, y, modes, directions=None, stabilization=10.0):
     y = np.asarray(y, dtype=float)
     o, m = model.n_u, model.n_u_dep
     p = o - m
-    qd, mass, force, vel_B, acc_K, acc_f = model._dynamics(t, y)
-    points = contact_points(model, t, y)
+    if inputs is None:
+        qd, mass, force, vel_B, acc_K, acc_f = model._dynamics(t, y)
+    else:
+        qd, mass, force, vel_B, acc_K, acc_f = model._fn["dynamics"](t, y, model._p,
+                                                                     list(inputs))
+    points = contact_points(model, t, y, inputs)
     coefficients = model.contacts
     if not m:
         fast = _one_contact(model, y, modes, directions, stabilization, qd, mass, force,

@@ -95,6 +95,14 @@ class Jacobians:
         (:meth:`NumericModel.constraint_residuals`: configuration, then
         velocity constraints).
     state_names, input_names, parameter_names, multiplier_names : tuple of str
+    contact_forces : ndarray, shape (k, 3), or None
+        For a model with contacts (derivatives within given modes): the total
+        force of each contact (normal and friction, N, inertial components), as
+        :attr:`ContactSolution.force`; ``None`` without contacts.
+    contact_forces_state, contact_forces_inputs, contact_forces_parameters : ndarray or None
+        Their derivatives, shapes (k, 3, n_states), (k, 3, n_inputs), (k, 3,
+        n_constants) (the last with ``parameters=True``).
+    contact_names : tuple of str
     """
 
     f: np.ndarray
@@ -109,6 +117,11 @@ class Jacobians:
     input_names: tuple
     parameter_names: tuple
     multiplier_names: tuple
+    contact_forces: np.ndarray | None = None
+    contact_forces_state: np.ndarray | None = None
+    contact_forces_inputs: np.ndarray | None = None
+    contact_forces_parameters: np.ndarray | None = None
+    contact_names: tuple = ()
 
 
 # ------------------------------------------------------------ generated code
@@ -120,6 +133,8 @@ def _specification(model, parameters):
     ``g_y, E_y, a_y, g_r, E_r, a_r`` (and ``g_p, E_p, a_p``), then ``h_y, c_y``
     (the configuration and velocity constraints), then for a stabilized
     scheme the derivatives of its parts (:func:`_stabilization_derivatives.part_rows`),
+    or for a model with contacts those of its contact kinematics, mass matrix
+    and velocity-constraint matrix (:func:`_contact_derivatives.contact_rows`),
     one output per column group.
     """
     import sympy as sm
@@ -151,6 +166,9 @@ def _specification(model, parameters):
         jac = prog.jacobian(rows, args["y"], guarded=True)
         outputs.append(((len(rows), len(args["y"])), list(jac)))
     rows = part_rows(prog, _parts(model), list(args["y"]), dynamics, constraints)
+    if model.contacts:
+        from ._contact_derivatives import contact_rows
+        rows = contact_rows(model)
     for variables in columns if rows else ():
         jac = prog.jacobian(rows, variables, guarded=True)
         outputs.append(((len(rows), len(variables)), list(jac)))
@@ -167,6 +185,8 @@ def _system(model):
 def _parts(model):
     """The stabilization parts whose derivatives are generated (``()``: none)."""
     from ._stabilization_derivatives import parts
+    if model.contacts:  # the contact modes' solve is index-1, without stabilization
+        return ()
     return parts(_system(model), model.n_q_dep) if model.n_u_dep else ()
 
 
@@ -218,6 +238,7 @@ def _c_key(model, parameters):
     text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
     parts = _parts(model)
     stabilized = f" stabilization={','.join(parts)}" if parts else ""
+    stabilized += " contacts" if model.contacts else ""
     return f"{text}\n{_GENERATION} parameters={parameters}{stabilized}", functions, sizes
 
 
@@ -267,8 +288,11 @@ def exact_loop(model):
 
 
 # ----------------------------------------------------------------- numbers
-def derivatives_unavailable(model):
-    """Why ``model`` has no exact derivatives (text), or ``None``."""
+def derivatives_unavailable(model, modes_given=False):
+    """Why ``model`` has no exact derivatives (text), or ``None``.
+
+    A model with contacts has them within given contact modes only
+    (``modes_given``: asked for so)."""
     if not hasattr(model, "jacobians"):
         return f"a {type(model).__name__} has no exact derivatives"
     name = getattr(getattr(model, "scheme", None), "name", None)
@@ -288,9 +312,10 @@ def derivatives_unavailable(model):
                 "generated only where the acceleration constraints are the velocity "
                 "constraints differentiated; build the model with scheme='baumgarte', "
                 "'augmented-lagrangian' or an index-1 scheme for its derivatives")
-    if model.contacts:
-        return ("exact derivatives of a model with contacts are not generated yet (its "
-                "right-hand side depends on the contact mode)")
+    if model.contacts and not modes_given:
+        return ("a model with contacts has exact derivatives within given contact modes "
+                "only (model.jacobians(t, y, modes=[...]), one mode per contact): its "
+                "accelerations depend on the modes")
     if getattr(model, "_eom", None) is None or not hasattr(model, "_functions"):
         return ("the derivatives need the model's equations, which a model restored from "
                 "a file does not carry; build the model with eom.numeric(...) in this "
@@ -305,8 +330,8 @@ def _constraint_rows_are_velocity_rows(model):
     return list(dynamics[3][1]) == list(dynamics[4][1])
 
 
-def _check_available(model):
-    reason = derivatives_unavailable(model)
+def _check_available(model, modes_given=False):
+    reason = derivatives_unavailable(model, modes_given)
     if reason:
         raise ModelError(reason)
 
@@ -435,12 +460,19 @@ def _index1_matrices(mass, vel_B, acc_K, alpha=None):
     return S
 
 
-def jacobians(model, t, y, r=None, parameters=False):
-    r"""Exact :math:`\partial f/\partial(y, r, p)` of ``model.rhs`` at ``y``.
+def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None,
+              stabilization=10.0):
+    r"""Exact :math:`\partial f/\partial(y, r, p)` of ``model.rhs`` at ``y`` (of
+    :meth:`NumericModel.contact_dynamics` in ``modes`` for a model with contacts).
 
     See :meth:`NumericModel.jacobians`.
     """
-    _check_available(model)
+    if model.contacts or modes is not None:
+        from ._contact_derivatives import check_modes
+        if not model.contacts:
+            raise ModelError("modes: this model has no contacts")
+        modes = check_modes(model, modes, directions)
+    _check_available(model, modes is not None)
     fns = _functions(model, parameters)
     Y = np.asarray(y, dtype=float)
     many = Y.ndim == 2
@@ -457,10 +489,17 @@ def jacobians(model, t, y, r=None, parameters=False):
             raise ValueError(f"r must have {len(model.input_names)} entries "
                              f"({', '.join(model.input_names) or 'the model has no inputs'})")
         R = np.broadcast_to(r, (len(rows), r.shape[-1]))
-    f, groups, constraints = _evaluate(model, fns, T, rows, None if r is None else R)
+    contact = {}
+    if modes is not None:
+        f, groups, constraints, contact = _evaluate_in_modes(
+            model, fns, T, rows, None if r is None else R, modes, directions, stabilization,
+            parameters)
+    else:
+        f, groups, constraints = _evaluate(model, fns, T, rows, None if r is None else R)
     if not many:
         f, constraints = f[0], constraints[0]
         groups = [(d[0], None if dl is None else dl[0]) for d, dl in groups]
+        contact = {key: value[0] for key, value in contact.items()}
     m = model.n_u_dep
     return Jacobians(
         f=f, state=groups[0][0], inputs=groups[1][0],
@@ -471,4 +510,28 @@ def jacobians(model, t, y, r=None, parameters=False):
         constraints=constraints,
         state_names=tuple(model.state_names), input_names=tuple(model.input_names),
         parameter_names=tuple(model.constants), multiplier_names=tuple(
-            model.multiplier_names or ()))
+            model.multiplier_names or ()),
+        contact_forces=contact.get("forces"), contact_forces_state=contact.get("state"),
+        contact_forces_inputs=contact.get("inputs"),
+        contact_forces_parameters=contact.get("parameters"),
+        contact_names=tuple(c["name"] for c in model.contacts))
+
+
+def _evaluate_in_modes(model, fns, T, Y, R, modes, directions, stabilization, parameters):
+    """:func:`_evaluate` for a model with contacts in ``modes``
+    (:func:`_contact_derivatives.contact_evaluate` at each state), and the
+    contact forces with their derivatives by column group."""
+    from ._contact_derivatives import contact_evaluate
+    if R is None:
+        R = (np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(len(Y), -1)
+             if model._inputs else np.zeros((len(Y), 0)))
+    at = [contact_evaluate(model, fns[1], t, y, r, modes, directions, stabilization,
+                           parameters) for t, y, r in zip(T, Y, R)]
+    groups = [(np.stack([a["groups"][g][0] for a in at]),
+               np.stack([a["groups"][g][1] for a in at]) if model.n_u_dep else None)
+              for g in range(len(at[0]["groups"]))]
+    contact = {"forces": np.stack([a["forces"] for a in at])}
+    for g, key in enumerate(("state", "inputs", "parameters")[:len(groups)]):
+        contact[key] = np.stack([a["force_groups"][g] for a in at])
+    return (np.stack([a["f"] for a in at]), groups,
+            np.stack([a["constraints"] for a in at]), contact)

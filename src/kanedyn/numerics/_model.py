@@ -908,9 +908,14 @@ class NumericModel(StateLayout):
             tau = _inverse_dynamics(self, t, q, u, udot)
         return tau
 
-    def jacobians(self, t, y, r=None, parameters=False):
+    def jacobians(self, t, y, r=None, parameters=False, modes=None, directions=None,
+                  stabilization=10.0):
         r"""Exact derivatives of :meth:`rhs`: :math:`\partial f/\partial y`,
         :math:`\partial f/\partial r` and, on request, :math:`\partial f/\partial p`.
+
+        For a model with contacts, those of :meth:`contact_dynamics` within the
+        given contact ``modes`` (and of the contact forces); see
+        :mod:`kanedyn.numerics._contact_derivatives`.
 
         Generated code of the derivatives of the equations' program (both
         backends; made on first use), then one linear solve with the mass
@@ -932,6 +937,9 @@ class NumericModel(StateLayout):
         parameters : bool
             Also the derivatives with respect to the named constants
             (:attr:`constants`), for sensitivities and identification.
+        modes, directions, stabilization
+            For a model with contacts (required there, refused elsewhere): as
+            :meth:`contact_dynamics`.
 
         Returns
         -------
@@ -943,7 +951,8 @@ class NumericModel(StateLayout):
         Raises
         ------
         ModelError
-            For a model with contacts, a constraint scheme that does not state
+            For a model with contacts without ``modes`` (or in statically
+            indeterminate modes), a constraint scheme that does not state
             its equations (``acceleration_system()``; the built-in ones all do,
             the stabilized ones included), the penalty scheme on acceleration
             constraints given apart from the velocity constraints, or a model
@@ -959,7 +968,8 @@ class NumericModel(StateLayout):
         (2, 2)
         """
         from ._jacobians import jacobians
-        return jacobians(self, t, y, r=r, parameters=parameters)
+        return jacobians(self, t, y, r=r, parameters=parameters, modes=modes,
+                         directions=directions, stabilization=stabilization)
 
     def inverse_parts(self, t, q, u, udot, groups=None, gravity=None):
         """The inverse-dynamics forces by cause and by body group.

@@ -28,7 +28,8 @@ import numpy as np
 from scipy.integrate import solve_ivp
 
 from .._errors import ModelError
-from ..numerics import SEPARATED, SLIP, STICK, SlipReference, contact_points, solve_modes
+from ..numerics import (SEPARATED, SLIP, STICK, SlipReference, contact_points,
+                        segment_jacobian, solve_modes)
 from ._impact import resolve_impact
 from ._run_guard import INTERRUPTED, RunGuard, guarded_event, guarded_method
 
@@ -53,6 +54,25 @@ class ModeChange(tuple):
     old = property(lambda self: self[2])
     new = property(lambda self: self[3])
     reason = property(lambda self: self[4])
+
+
+def _segment_jacobian(model, rhs, modes, directions, stabilization):
+    """The exact Jacobian of a segment's integration in its ``modes``
+    (:func:`kanedyn.numerics.segment_jacobian`), or forward differences of
+    ``rhs`` at the states where the modes are statically indeterminate (their
+    forces, chosen by least friction, have no derivatives)."""
+    exact = segment_jacobian(model, modes, directions, stabilization)
+
+    def jac(t, z):
+        try:
+            return exact(t, z)
+        except ModelError:
+            f = rhs(t, z)
+            steps = np.sqrt(np.finfo(float).eps) * np.maximum(1.0, np.abs(z))
+            return np.column_stack([(rhs(t, z + h * e) - f) / h
+                                    for h, e in zip(steps, np.eye(len(z)))])
+
+    return jac
 
 
 class _Solver:
@@ -221,6 +241,9 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
     """
     guard = guard if guard is not None else RunGuard(model)
     stepper = guarded_method(method, guard)
+    exact = isinstance(options.get("jac"), str)  # "exact": per segment, in its modes
+    if exact:
+        options = {key: value for key, value in options.items() if key != "jac"}
     t0, t1 = (float(v) for v in t_span)
     n = model.n_states
     k = len(model.contacts)
@@ -336,8 +359,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                                     rtol, atol, guard)
         try:
             if sol is None:
+                jac = ({"jac": _segment_jacobian(model, rhs, frozen_modes, frozen_dirs,
+                                                 stabilization)} if exact else {})
                 sol = solve_ivp(rhs, (t, t1), z0, method=stepper, t_eval=seg_eval,
-                                events=all_events or None, rtol=rtol, atol=atol, **options)
+                                events=all_events or None, rtol=rtol, atol=atol, **options,
+                                **jac)
         except np.linalg.LinAlgError as exc:
             status, message = -1, f"singular contact equations at t={t:.6g} ({exc})"
             break

@@ -484,7 +484,8 @@ def _with_jacobian(model, method, options):
     loop = method == "Rosenbrock23"  # the compiled loop's: "exact" kept, for it
     if jac == "differences" or not (loop or method in _JACOBIAN_METHODS):
         return options
-    reason = derivatives_unavailable(model)
+    contacts = bool(model.contacts)  # exact within each segment's contact modes
+    reason = derivatives_unavailable(model, modes_given=contacts)
     if reason is None and loop and inputs_follow_state(model):
         reason = (f"the inputs {', '.join(inputs_follow_state(model))} are functions of "
                   "the state, whose derivatives the compiled loop does not take: use "
@@ -495,7 +496,7 @@ def _with_jacobian(model, method, options):
         return options
     small = model.n_states <= EXACT_JACOBIAN_STATES and model.backend == "numpy"
     if asked or small or derivatives_built(model):
-        options["jac"] = "exact" if loop else state_jacobian(model)
+        options["jac"] = "exact" if loop or contacts else state_jacobian(model)
     return options
 
 
