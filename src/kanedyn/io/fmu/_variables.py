@@ -128,7 +128,7 @@ def fmu_variables(model, y0, r0, settings, constant_units):
     for k, name in enumerate(model.state_names):
         dependent = (n - model.n_q_dep <= k < n) or k >= n + model.n_u - model.n_u_dep
         kind = "coordinate" if k < n else "speed"
-        note = " (dependent: its start value is a guess, completed from the constraints)" \
+        note = " (dependent: completed from the constraints at initialization)" \
             if dependent else ""
         add(name, "output", "continuous", "exact", y0[k], units.get(name), kind + note)
     for k, name in enumerate(model.state_names):

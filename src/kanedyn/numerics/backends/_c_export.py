@@ -36,6 +36,9 @@ from ._c import _function_source, solver_source
 
 __all__ = ["standalone_c"]
 
+#: pi for generated code that names it (``M_PI`` is POSIX, not C99)
+_PI = "#ifndef M_PI\n#define M_PI 3.14159265358979323846\n#endif"
+
 _PUBLIC = r"""
 /* ------------------------------------------------------------ public interface */
 const char *const kanedyn_state_names[KANEDYN_NSTATES] = {%(states)s};
@@ -267,7 +270,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "parameters": _list([_c_string(s) for s in names], "NULL"),
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
-    return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", *defines,
+    return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
                       *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public])
 
 
