@@ -29,10 +29,10 @@ with ``-lm``).
 
 from __future__ import annotations
 
-from . import _c_runtime
-from ._c_integrator import DORMAND_PRINCE, PROJECTION
 from ..._version import __version__
+from . import _c_runtime
 from ._c import _function_source, solver_source
+from ._c_integrator import DORMAND_PRINCE, PROJECTION
 
 __all__ = ["standalone_c"]
 
@@ -93,11 +93,17 @@ int kanedyn_project(double t, double *y, const double *p, const double *r) {
     return status;
 }
 
+/* the inputs at t: r + (t - t0) r_rate (r_rate NULL: r) */
+static void kd_inputs_along(double t, double t0, const double *r, const double *r_rate,
+                            double *ri) {
+    for (int i = 0; i < KD_NR; ++i) ri[i] = r[i] + (r_rate ? (t - t0) * r_rate[i] : 0.0);
+}
+
 /* the derivative at t along inputs r + (t - t0) r_rate: 0, 1 singular, 3 not finite */
 static int kd_derivative(double t, const double *y, const double *p, const double *r,
                          const double *r_rate, double t0, double *w, double *f) {
     double ri[KD_SZ(KD_NR)];
-    for (int i = 0; i < KD_NR; ++i) ri[i] = r[i] + (r_rate ? (t - t0) * r_rate[i] : 0.0);
+    kd_inputs_along(t, t0, r, r_rate, ri);
     if (kd_rhs_core(t, y, p, ri, w, f) != 0) return 1;
     for (int i = 0; i < KD_NX; ++i) if (!isfinite(f[i])) return 3;
     return 0;
@@ -166,7 +172,7 @@ static int kd_advance(double t0, double t1, double *y, const double *p, const do
         ++*steps;
         if (project_tol > 0.0 && KD_NQDEP + KD_NUDEP > 0) {
             double ri[KD_SZ(KD_NR)];
-            for (int i = 0; i < KD_NR; ++i) ri[i] = r[i] + (r_rate ? (t - t0) * r_rate[i] : 0.0);
+            kd_inputs_along(t, t0, r, r_rate, ri);
             if (kd_residual_at(t, y, p, ri, w, B) > project_tol) {
                 if (kd_project_at(t, y, p, ri, w) != 0) return 1;
                 if ((status = kd_derivative(t, y, p, r, r_rate, t0, w, f)) != 0) return status;
