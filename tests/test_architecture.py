@@ -35,6 +35,9 @@ FACADES = {
     ("formulations._eom", "io"):
         "EquationsOfMotion.save: the public API puts saving on the frozen equations "
         "(the file format lives in io/_saved.py)",
+    ("numerics._model", "io"):
+        "NumericModel.export_fmu: the public API puts FMU export on the numerical model "
+        "(the FMU's files and build live in io/fmu/)",
     ("models._base", "io"):
         "the derivation cache stores numerical models in the saved-file format "
         "(io/_saved.py: a zip of JSON, nothing evaluated on loading)",

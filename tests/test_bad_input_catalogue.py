@@ -338,6 +338,15 @@ CLI_CASES = {
                                    "tower_damping_reference=loaded"],
                                   "option tower_damping_reference must be one of isolated, "
                                   "with_rna, got 'loaded'"),
+    "FMU of a model with contacts": (["export", "bouncing-ball", "--fmu", "ball.fmu"],
+                                     r"cannot export an FMU of a model with contacts "
+                                     r"\(floor\)"),
+    "FMU file name without .fmu": (["export", "pendulum", "--fmu", "pendulum.zip"],
+                                   r"--fmu .*pendulum\.zip: the file name must end in \.fmu"),
+    "FMU with an unknown --set name": (["export", "pendulum", "--fmu", "p.fmu", "--set",
+                                        "mass=2"],
+                                       "--set mass: not an option, parameter or state of "
+                                       "pendulum"),
     "negative hub damping": (["run", "flexible-robot", "--set", "hub_damping=-1"],
                              r"flexible-robot: hub_damping must be a finite number >= 0 "
                              r"\(N m s/rad\), got -1"),
@@ -391,7 +400,10 @@ def test_bad_structural_damping(case):
 @pytest.mark.parametrize("case", sorted(CLI_CASES))
 def test_bad_command_line(case, capsys, tmp_path):
     argv, pattern = CLI_CASES[case]
-    extra = {"run": ["--out", str(tmp_path), "--quiet"], "derive": ["--quiet"]}
+    extra = {"run": ["--out", str(tmp_path), "--quiet"], "derive": ["--quiet"],
+             "export": ["--quiet"]}
+    if argv[0] == "export":  # the FMU's file beside the test's
+        argv = [str(tmp_path / a) if a.endswith((".fmu", ".zip")) else a for a in argv]
     assert main(argv + extra.get(argv[0], [])) == 2
     err = capsys.readouterr().err
     assert err.startswith("kanedyn: error: ")

@@ -13,6 +13,7 @@
     kanedyn equilibrium MODEL [--hold STATE ...] [--moving COORDINATE ...]
     kanedyn identify MODEL --data FILE.csv --fit NAME [--fit NAME ...] [--set name=value]
     kanedyn optimize [MODEL] [--problem NAME] [--nodes N] [--method M] [--bound tau=-2:2]
+    kanedyn export MODEL --fmu FILE.fmu [--set name=value ...]
 """
 
 from __future__ import annotations
@@ -25,14 +26,14 @@ import sys
 from .._errors import KanedynError
 from .._signals import end_by, exit_status, interruption, last_received, taking_over
 from .._version import __version__
-from . import (_compare, _demo, _derive, _equilibrium, _identify, _inverse, _list, _optimize,
-               _run, _study, _sweep)
+from . import (_compare, _demo, _derive, _equilibrium, _export, _identify, _inverse, _list,
+               _optimize, _run, _study, _sweep)
 from ._streams import guarded
 
 __all__ = ["main"]
 
 COMMANDS = (_list, _derive, _run, _compare, _demo, _sweep, _inverse, _study, _equilibrium,
-            _identify, _optimize)
+            _identify, _optimize, _export)
 
 
 class _Parser(argparse.ArgumentParser):

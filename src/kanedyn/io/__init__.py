@@ -12,6 +12,8 @@
               arguments checked by kind without computing
 ``_saved_schema`` the other objects a saved file may hold: per class, its
               attributes and their types (or its constructor's fields)
+``fmu/``      FMU export (FMI 2.0, model exchange and co-simulation) from the
+              standalone C export: :func:`export_fmu`
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes
@@ -22,13 +24,13 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
          "SavedFileError": "._saved", "load": "._saved", "load_data": "._saved",
          "save_data": "._saved", "save_equations": "._saved", "SAVED_FILE_LIMITS": "._saved",
          "DEFAULT_MAX_FRAMES": "._viewer", "PALETTE": "._viewer",
-         "quaternions": "._viewer", "scene_data": "._viewer"}
+         "quaternions": "._viewer", "scene_data": "._viewer", "export_fmu": ".fmu"}
 
 
 
 
 __all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
            "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS"]
+           "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS", "export_fmu"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

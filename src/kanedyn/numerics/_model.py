@@ -644,6 +644,11 @@ class NumericModel(StateLayout):
     def _input_values(self, t, y):
         return [inp(t, y) for _, inp in self._inputs]
 
+    def input_values(self, t, y):
+        """The specified inputs' values at ``(t, y)``, in the order of
+        :attr:`input_names`: ndarray, shape (n_r,)."""
+        return np.array(self._r(t, self._check_y(y)), dtype=float).reshape(-1)
+
     # ---------------------------------------------------------- dynamics
     def _dynamics(self, t, y):
         if len(y) != self.n_states:
@@ -1275,6 +1280,18 @@ class NumericModel(StateLayout):
         with replacing(path) as handle:
             handle.write(source)
         return path
+
+    def export_fmu(self, path, y0, **options):
+        """Write this model as an FMI 2.0 FMU (model exchange and co-simulation)
+        compiled from :meth:`c_source`; returns the path.
+
+        See :func:`kanedyn.io.export_fmu` for ``y0`` (the start state) and the
+        options (``t_end``, ``rtol``, ``atol``, ``projection_tol``,
+        ``constant_units``, ``identifier``, ``title``).  Models with contacts are
+        refused.
+        """
+        from ..io import export_fmu
+        return export_fmu(self, path, y0, **options)
 
     # --------------------------------------------------------- linearize
     def linearize(self, y, t=0.0, r=None):

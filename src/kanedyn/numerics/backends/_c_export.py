@@ -13,6 +13,15 @@ interface::
                             const double *r, double *residual);
     int kanedyn_energy(double t, const double *y, const double *p, const double *r,
                        double *energy);
+    int kanedyn_project(double t, double *y, const double *p, const double *r);
+    int kanedyn_advance(double t0, double t1, double *y, const double *p,
+                        const double *r, const double *r_rate, double rtol,
+                        double atol, double project_tol, double *step, long *steps);
+
+``kanedyn_project`` and ``kanedyn_advance`` are the compiled integration loop's
+projection onto the constraints and its Dormand-Prince 5(4) pair with SciPy's
+step-size control (the same C text for the projection and the tableau), without
+Python: what an FMU's co-simulation step runs.
 
 It compiles as C99 on its own (``cc -c -std=c99 -Wall -Werror model.c``; link
 with ``-lm``).
@@ -20,11 +29,15 @@ with ``-lm``).
 
 from __future__ import annotations
 
-from . import _c_runtime
 from ..._version import __version__
+from . import _c_runtime
 from ._c import _function_source, solver_source
+from ._c_integrator import DORMAND_PRINCE, PROJECTION
 
 __all__ = ["standalone_c"]
+
+#: pi for generated code that names it (``M_PI`` is POSIX, not C99)
+_PI = "#ifndef M_PI\n#define M_PI 3.14159265358979323846\n#endif"
 
 _PUBLIC = r"""
 /* ------------------------------------------------------------ public interface */
@@ -63,12 +76,121 @@ int kanedyn_constraints(double t, const double *y, const double *p, const double
                         double *residual) {
     double *w = kd_work();
     if (w == NULL) return 2;
-    double h[KD_SZ(KD_NQDEP)], c[KD_SZ(KD_NUDEP)];
-    kd_eval_constraints(t, y, p, r, w, h, c);
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], c[KD_SZ(KD_NUDEP)];
+    kd_eval_constraints(t, y, p, r, w, h, J, B, c);
     kd_free_work(w);
     memcpy(residual, h, KD_NQDEP * sizeof(double));
     memcpy(residual + KD_NQDEP, c, KD_NUDEP * sizeof(double));
     return 0;
+}
+
+int kanedyn_project(double t, double *y, const double *p, const double *r) {
+    double *w = kd_work();
+    if (w == NULL) return 2;
+    int status = kd_project_at(t, y, p, r, w);
+    kd_free_work(w);
+    return status;
+}
+
+/* the inputs at t: r + (t - t0) r_rate (r_rate NULL: r) */
+static void kd_inputs_along(double t, double t0, const double *r, const double *r_rate,
+                            double *ri) {
+    for (int i = 0; i < KD_NR; ++i) ri[i] = r[i] + (r_rate ? (t - t0) * r_rate[i] : 0.0);
+}
+
+/* the derivative at t along inputs r + (t - t0) r_rate: 0, 1 singular, 3 not finite */
+static int kd_derivative(double t, const double *y, const double *p, const double *r,
+                         const double *r_rate, double t0, double *w, double *f) {
+    double ri[KD_SZ(KD_NR)];
+    kd_inputs_along(t, t0, r, r_rate, ri);
+    if (kd_rhs_core(t, y, p, ri, w, f) != 0) return 1;
+    for (int i = 0; i < KD_NX; ++i) if (!isfinite(f[i])) return 3;
+    return 0;
+}
+
+/* Dormand-Prince 5(4) with the step-size control of SciPy's RK45 (safety 0.9,
+   factors within [0.2, 10], RMS norm of err / (atol + max(|y|, |y_new|) rtol)) */
+static int kd_advance(double t0, double t1, double *y, const double *p, const double *r,
+                      const double *r_rate, double rtol, double atol, double project_tol,
+                      double *step, long *steps, double *w) {
+    double f[KD_NX], K[7][KD_NX], y_new[KD_NX], ytmp[KD_NX], scale[KD_NX], err[KD_NX];
+    double B[KD_SZ(KD_NUDEP * KD_NU)];
+    double t = t0;
+    int status = kd_derivative(t, y, p, r, r_rate, t0, w, f);
+    if (status != 0 || !(t1 > t0)) return status;
+    double h = *step;
+    if (!(h > 0.0)) {  /* initial step (Hairer, Norsett & Wanner; as SciPy) */
+        for (int i = 0; i < KD_NX; ++i) scale[i] = atol + fabs(y[i]) * rtol;
+        double d0 = kd_rms(y, scale, KD_NX), d1 = kd_rms(f, scale, KD_NX);
+        double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        h0 = fmin(h0, t1 - t0);
+        for (int i = 0; i < KD_NX; ++i) ytmp[i] = y[i] + h0 * f[i];
+        if ((status = kd_derivative(t + h0, ytmp, p, r, r_rate, t0, w, K[1])) != 0) return status;
+        for (int i = 0; i < KD_NX; ++i) err[i] = K[1][i] - f[i];
+        double d2 = kd_rms(err, scale, KD_NX) / h0;
+        double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? fmax(1e-6, h0 * 1e-3)
+                                                 : pow(0.01 / fmax(d1, d2), 0.2);
+        h = fmin(100 * h0, h1);
+    }
+    while (t < t1) {
+        double min_step = 10 * (nextafter(t, INFINITY) - t);
+        int rejected = 0;
+        double err_norm, hs, factor;
+        for (;;) {  /* attempts of one step */
+            if (h < min_step) return 4;
+            hs = t + h >= t1 ? t1 - t : h;
+            memcpy(K[0], f, sizeof(double) * KD_NX);
+            for (int s = 1; s < 7; ++s) {
+                for (int i = 0; i < KD_NX; ++i) {
+                    double acc = 0.0;
+                    for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
+                    ytmp[i] = y[i] + hs * acc;
+                }
+                if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
+                status = kd_derivative(t + kd_C[s] * hs, ytmp, p, r, r_rate, t0, w, K[s]);
+                if (status != 0) return status;
+            }
+            for (int i = 0; i < KD_NX; ++i) {
+                double e = 0.0;
+                for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+                err[i] = e * hs;
+                scale[i] = atol + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
+            }
+            err_norm = kd_rms(err, scale, KD_NX);
+            if (err_norm < 1.0) break;
+            h = hs * fmax(0.2, 0.9 * pow(err_norm, -0.2));
+            rejected = 1;
+        }
+        factor = err_norm == 0.0 ? 10.0 : fmin(10.0, 0.9 * pow(err_norm, -0.2));
+        if (rejected) factor = fmin(1.0, factor);
+        int clipped = hs < h;
+        t = clipped ? t1 : t + hs;
+        h = clipped ? fmax(h, hs * factor) : hs * factor;
+        memcpy(y, y_new, sizeof(double) * KD_NX);
+        memcpy(f, K[6], sizeof(double) * KD_NX);
+        ++*steps;
+        if (project_tol > 0.0 && KD_NQDEP + KD_NUDEP > 0) {
+            double ri[KD_SZ(KD_NR)];
+            kd_inputs_along(t, t0, r, r_rate, ri);
+            if (kd_residual_at(t, y, p, ri, w, B) > project_tol) {
+                if (kd_project_at(t, y, p, ri, w) != 0) return 1;
+                if ((status = kd_derivative(t, y, p, r, r_rate, t0, w, f)) != 0) return status;
+            }
+        }
+    }
+    *step = h;
+    return 0;
+}
+
+int kanedyn_advance(double t0, double t1, double *y, const double *p, const double *r,
+                    const double *r_rate, double rtol, double atol, double project_tol,
+                    double *step, long *steps) {
+    double *w = kd_work();
+    if (w == NULL) return 2;
+    int status = kd_advance(t0, t1, y, p, r, r_rate, rtol, atol, project_tol, step, steps, w);
+    kd_free_work(w);
+    return status;
 }
 
 int kanedyn_energy(double t, const double *y, const double *p, const double *r,
@@ -128,7 +250,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
     args, dynamics = functions["dynamics"]
     c_args, c_outputs = functions["constraints"]
     selected = {"dynamics": (args, dynamics),
-                "constraints": (c_args, [c_outputs[0], c_outputs[3]]),
+                "constraints": (c_args, c_outputs),
                 "energy": functions["energy"]}
     if "tree" in functions and not m:  # what the module runs: the articulated-body pass
         selected = {"tree": functions["tree"], **selected}
@@ -154,8 +276,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "parameters": _list([_c_string(s) for s in names], "NULL"),
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
-    return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", *defines,
-                      *parts, _c_runtime.LINALG, public])
+    return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
+                      *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public])
 
 
 def _header(title, state_names, parameters, input_names, sizes):
@@ -178,13 +300,30 @@ def _header(title, state_names, parameters, input_names, sizes):
              "  int kanedyn_energy(double t, const double *y, const double *p,",
              "                     const double *r, double *energy);",
              "      energy[0] kinetic, energy[1] potential [J] (NAN when the model",
-             "      declares no potential energy).", "",
+             "      declares no potential energy).",
+             "  int kanedyn_project(double t, double *y, const double *p, const double *r);",
+             "      Projects y in place onto the constraints: the dependent coordinates,",
+             "      then the dependent speeds, by Newton's method with the independent",
+             "      ones fixed (as kanedyn's model.consistent_state).",
+             "  int kanedyn_advance(double t0, double t1, double *y, const double *p,",
+             "                      const double *r, const double *r_rate, double rtol,",
+             "                      double atol, double project_tol, double *step,",
+             "                      long *steps);",
+             "      Integrates y in place from t0 to t1 > t0 [s]: Dormand-Prince 5(4)",
+             "      with SciPy's RK45 step-size control (relative and absolute",
+             "      tolerances rtol, atol); inputs r + (t - t0) r_rate (r_rate NULL:",
+             "      held); after an accepted step whose largest constraint residual",
+             "      exceeds project_tol (0: never) the state is projected as by",
+             "      kanedyn_project.  *step: the step to try first (0: chosen), on",
+             "      return the next one; *steps is increased by the steps taken.", "",
              "  p: the KANEDYN_NP parameters (kanedyn_default_parameters holds the",
              "     values the model was built with); r: the KANEDYN_NR specified",
              "     inputs at time t (NULL when KANEDYN_NR is 0).",
              "  Return codes: 0 success; 1 singular mass matrix or constraint",
              "  Jacobian (ydot unspecified); 2 out of memory (large models use a heap",
-             "  work array).  The functions are reentrant (no global state).",
+             "  work array); 3 a derivative not finite, 4 step size too small",
+             "  (kanedyn_advance; y then holds the last accepted state).  The functions",
+             "  are reentrant (no global state).",
              "  Data: kanedyn_state_names, kanedyn_parameter_names, kanedyn_input_names",
              "  (arrays of strings; a single unused entry when a count is 0).", "",
              f"States y (KANEDYN_NSTATES = {n + o}: {n} coordinates q, {l} of them "

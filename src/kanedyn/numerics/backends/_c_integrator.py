@@ -46,7 +46,89 @@ has passed (``timeout`` s of computing, 0: none; checked every 16 steps, next to
 the stop flag: ``"timed_out"``).
 """
 
-INTEGRATOR = r"""
+#: Python-free C shared by the compiled loop and the standalone export: the
+#: constraint residual and the projection onto the constraints (needs
+#: ``kd_eval_constraints`` with its four outputs h, dh/dq, B = dc/du, c, and
+#: ``kd_lu_solve``)
+PROJECTION = r"""
+/* largest constraint residual at (t, y) (inputs r, work w); the
+   velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
+static double kd_residual_at(double t, const double *y, const double *p, const double *r,
+                             double *w, double *B) {
+#if KD_NQDEP + KD_NUDEP > 0
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_SZ(KD_NUDEP)];
+    kd_eval_constraints(t, y, p, r, w, h, J, B, b);
+    double worst = 0.0;
+    for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
+    for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
+    return worst;
+#else
+    (void)t; (void)y; (void)p; (void)r; (void)w; (void)B;
+    return 0.0;
+#endif
+}
+
+/* dependent coordinates, then dependent speeds, by Newton's method with the
+   independent ones fixed (as NumericModel.consistent_state): 0, or 1 if singular */
+static int kd_project_at(double t, double *y, const double *p, const double *r, double *w) {
+#if KD_NQDEP + KD_NUDEP > 0
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)];
+    for (int it = 0; it < 50 && KD_NQDEP > 0; ++it) {
+        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
+        double worst = 0.0;
+        for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
+        if (worst <= 1e-12) break;
+        double Jd[KD_SZ(KD_NQDEP * KD_NQDEP)];
+        for (int i = 0; i < KD_NQDEP; ++i)
+            for (int j = 0; j < KD_NQDEP; ++j) Jd[i * KD_NQDEP + j] = J[i * KD_NQ + KD_NQ - KD_NQDEP + j];
+        if (kd_lu_solve(KD_NQDEP, Jd, h, 1) != 0) return 1;
+        for (int i = 0; i < KD_NQDEP; ++i) y[KD_NQ - KD_NQDEP + i] -= h[i];
+    }
+    /* dependent speeds by Newton's method on the velocity residuals b (one
+       step when they are linear in the speeds) */
+    for (int it = 0; it < 50 && KD_NUDEP > 0; ++it) {
+        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
+        double worst = 0.0;
+        for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
+        if (worst <= 1e-13 || (it > 0 && worst <= 1e-10)) break;
+        double Bd[KD_SZ(KD_NUDEP * KD_NUDEP)];
+        for (int i = 0; i < KD_NUDEP; ++i)
+            for (int j = 0; j < KD_NUDEP; ++j) Bd[i * KD_NUDEP + j] = B[i * KD_NU + KD_NUI + j];
+        if (kd_lu_solve(KD_NUDEP, Bd, b, 1) != 0) return 1;
+        for (int i = 0; i < KD_NUDEP; ++i) y[KD_NQ + KD_NUI + i] -= b[i];
+    }
+#else
+    (void)t; (void)y; (void)p; (void)r; (void)w;
+#endif
+    return 0;
+}
+"""
+
+#: Python-free C shared by the compiled loop and the standalone export: the RMS
+#: norm of the step-size control and the Dormand-Prince 5(4) tableau
+DORMAND_PRINCE = r"""
+static double kd_rms(const double *x, const double *scale, int n) {
+    double s = 0.0;
+    for (int i = 0; i < n; ++i) { double v = x[i] / scale[i]; s += v * v; }
+    return sqrt(s / n);
+}
+
+/* Dormand-Prince 5(4) coefficients (the values SciPy's RK45 uses) */
+static const double kd_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
+static const double kd_A[7][6] = {
+    {0, 0, 0, 0, 0, 0},
+    {1.0 / 5, 0, 0, 0, 0, 0},
+    {3.0 / 40, 9.0 / 40, 0, 0, 0, 0},
+    {44.0 / 45, -56.0 / 15, 32.0 / 9, 0, 0, 0},
+    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0, 0},
+    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656, 0},
+    {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
+static const double kd_E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920,
+                               17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+"""
+
+_LOOP = r"""
 /* ------------------------------------------------------------------------
    Compiled integration loop
    ------------------------------------------------------------------------ */
@@ -102,12 +184,6 @@ static PyObject *kd_buf_array(KdBuf *b, npy_intp rows, npy_intp cols) {
     PyObject *a = PyArray_SimpleNew(cols < 0 ? 1 : 2, dims, NPY_DOUBLE);
     if (a != NULL && b->n) memcpy(PyArray_DATA((PyArrayObject *)a), b->data, sizeof(double) * b->n);
     return a;
-}
-
-static double kd_rms(const double *x, const double *scale, int n) {
-    double s = 0.0;
-    for (int i = 0; i < n; ++i) { double v = x[i] / scale[i]; s += v * v; }
-    return sqrt(s / n);
 }
 
 typedef struct {
@@ -343,58 +419,16 @@ static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, d
 /* largest constraint residual (-1 on a Python error in the inputs); the
    velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
 static double kd_residual(KdModel *model, double t, const double *y, double *B) {
-#if KD_NQDEP + KD_NUDEP > 0
-    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
-    double b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
-    if (kd_inputs_at(model, t, y, r) != 0) return -1.0;
-    kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
-    double worst = 0.0;
-    for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
-    for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
-    return worst;
-#else
-    (void)model; (void)t; (void)y; (void)B;
-    return 0.0;
-#endif
+    double r[KD_SZ(KD_NR)];
+    if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1.0;
+    return kd_residual_at(t, y, model->p, r, model->work, B);
 }
 
-/* dependent coordinates, then dependent speeds, by Newton's method: 0, 1 if
-   singular, -1 on a Python error */
+/* kd_project_at with the inputs at (t, y): 0, 1 if singular, -1 on a Python error */
 static int kd_project(KdModel *model, double t, double *y) {
-#if KD_NQDEP + KD_NUDEP > 0
-    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
-    double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)], r[KD_SZ(KD_NR)];
-    const double *p = model->p;
-    double *w = model->work;
-    if (kd_inputs_at(model, t, y, r) != 0) return -1;
-    for (int it = 0; it < 50 && KD_NQDEP > 0; ++it) {
-        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
-        double worst = 0.0;
-        for (int i = 0; i < KD_NQDEP; ++i) worst = fmax(worst, fabs(h[i]));
-        if (worst <= 1e-12) break;
-        double Jd[KD_SZ(KD_NQDEP * KD_NQDEP)];
-        for (int i = 0; i < KD_NQDEP; ++i)
-            for (int j = 0; j < KD_NQDEP; ++j) Jd[i * KD_NQDEP + j] = J[i * KD_NQ + KD_NQ - KD_NQDEP + j];
-        if (kd_lu_solve(KD_NQDEP, Jd, h, 1) != 0) return 1;
-        for (int i = 0; i < KD_NQDEP; ++i) y[KD_NQ - KD_NQDEP + i] -= h[i];
-    }
-    /* dependent speeds by Newton's method on the velocity residuals b (one
-       step when they are linear in the speeds) */
-    for (int it = 0; it < 50 && KD_NUDEP > 0; ++it) {
-        kd_eval_constraints(t, y, p, r, w, h, J, B, b);
-        double worst = 0.0;
-        for (int i = 0; i < KD_NUDEP; ++i) worst = fmax(worst, fabs(b[i]));
-        if (worst <= 1e-13 || (it > 0 && worst <= 1e-10)) break;
-        double Bd[KD_SZ(KD_NUDEP * KD_NUDEP)];
-        for (int i = 0; i < KD_NUDEP; ++i)
-            for (int j = 0; j < KD_NUDEP; ++j) Bd[i * KD_NUDEP + j] = B[i * KD_NU + KD_NUI + j];
-        if (kd_lu_solve(KD_NUDEP, Bd, b, 1) != 0) return 1;
-        for (int i = 0; i < KD_NUDEP; ++i) y[KD_NQ + KD_NUI + i] -= b[i];
-    }
-#else
-    (void)model; (void)t; (void)y;
-#endif
-    return 0;
+    double r[KD_SZ(KD_NR)];
+    if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1;
+    return kd_project_at(t, y, model->p, r, model->work);
 }
 
 /* ------------------------------------------------------------------------
@@ -640,18 +674,7 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
 }
 #endif
 
-/* Dormand-Prince 5(4) coefficients (the values SciPy's RK45 uses) */
-static const double kd_C[7] = {0.0, 1.0 / 5, 3.0 / 10, 4.0 / 5, 8.0 / 9, 1.0, 1.0};
-static const double kd_A[7][6] = {
-    {0, 0, 0, 0, 0, 0},
-    {1.0 / 5, 0, 0, 0, 0, 0},
-    {3.0 / 40, 9.0 / 40, 0, 0, 0, 0},
-    {44.0 / 45, -56.0 / 15, 32.0 / 9, 0, 0, 0},
-    {19372.0 / 6561, -25360.0 / 2187, 64448.0 / 6561, -212.0 / 729, 0, 0},
-    {9017.0 / 3168, -355.0 / 33, 46732.0 / 5247, 49.0 / 176, -5103.0 / 18656, 0},
-    {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
-static const double kd_E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920,
-                               17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+/* Dormand-Prince 5(4) dense output (SciPy's RK45's) */
 static const double kd_P[7][4] = {
     {1, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
     {0, 0, 0, 0},
@@ -1183,3 +1206,5 @@ done:
     return result;
 }
 """
+
+INTEGRATOR = DORMAND_PRINCE + PROJECTION + _LOOP

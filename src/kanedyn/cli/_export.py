@@ -1,0 +1,58 @@
+"""``kanedyn export``: a built-in model as an FMI 2.0 FMU (model exchange and
+co-simulation), compiled from its standalone C."""
+
+from __future__ import annotations
+
+from .._errors import KanedynError
+from .._progress import Progress
+from ..models import REGISTRY, build
+from ._options import check_output_file, parse_sets, positive_float, split_values
+
+__all__ = ["add_parser", "cmd_export"]
+
+
+def add_parser(sub):
+    """Add the ``export`` sub-command to ``sub``."""
+    p = sub.add_parser(
+        "export", help="write a model as an FMU (FMI 2.0, model exchange and co-simulation)",
+        description="Derive a model and write it as an FMI 2.0 FMU for model exchange and "
+                    "co-simulation: the standalone C of its equations and the FMI "
+                    "functions, compiled with the system C compiler (no Python needed to "
+                    "run it), the sources included.  States are outputs, constants "
+                    "parameters, specified inputs inputs; models with contacts are "
+                    "refused.")
+    p.add_argument("model", choices=list(REGISTRY))
+    p.add_argument("--fmu", metavar="FILE", required=True,
+                   help="the FMU to write (a name ending in .fmu)")
+    p.add_argument("--set", action="append", metavar="NAME=VALUE",
+                   help="model option (n=4), parameter (m=2: its value in the FMU) or "
+                        "initial value (q1=0.3: the state's start value)")
+    p.add_argument("--t-end", type=positive_float, default=None,
+                   help="stop time of the FMU's default experiment [s] (default: the "
+                        "model's)")
+    p.add_argument("--rtol", type=positive_float, default=1e-10,
+                   help="relative tolerance of the co-simulation step (FMU parameter "
+                        "kanedyn.rtol)")
+    p.add_argument("--atol", type=positive_float, default=1e-10,
+                   help="absolute tolerance of the co-simulation step (kanedyn.atol)")
+    p.add_argument("--quiet", action="store_true", help="no progress output")
+    p.set_defaults(func=cmd_export)
+
+
+def cmd_export(args):
+    from ..io import export_fmu
+    if not str(args.fmu).lower().endswith(".fmu"):  # before the derivation
+        raise KanedynError(f"--fmu {args.fmu}: the file name must end in .fmu")
+    options, values = parse_sets(args.model, args.set)
+    definition = build(args.model, **options)  # checks the options
+    check_output_file(args.fmu, "--fmu")
+    eom = definition.derive(progress=Progress(enabled=not args.quiet))
+    constants, initial = split_values(definition, eom, values)
+    model = definition.numeric(eom, constants=constants, backend="numpy")
+    written = export_fmu(model, args.fmu, definition.initial(model, initial),
+                         t_end=args.t_end or definition.t_end, rtol=args.rtol,
+                         atol=args.atol, constant_units=definition.constant_units,
+                         title=f"{definition.name}: {definition.title}")
+    print(f"wrote {written} ({model.n_states} states, {len(model.constants)} parameters, "
+          f"{len(model.input_names)} inputs)")
+    return 0

@@ -1,0 +1,183 @@
+"""``export_fmu``: a numerical model as an FMI 2.0 FMU (model exchange and
+co-simulation), compiled from the standalone C export; no Python needed to run it.
+
+The archive holds ``modelDescription.xml``, ``sources/model.c`` (the
+standalone export, :meth:`NumericModel.c_source`), ``sources/fmi2.c`` (the FMI
+interface) and ``binaries/<platform>/<identifier>.<so|dylib>`` built from both
+with the C compiler the C backend uses.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import platform
+import re
+import subprocess
+import tempfile
+import uuid
+import zipfile
+from pathlib import Path
+
+import numpy as np
+
+from ..._errors import ModelError, OptionError
+from ..._output_files import replacing
+from ...numerics.backends import CompilerError, compiler_command, missing_compiler_text
+from ._description import model_description
+from ._variables import fmu_variables
+from ._wrapper import wrapper_source
+
+__all__ = ["export_fmu", "FMU_SOURCES"]
+
+#: the files in ``sources/`` (compile both into one shared library)
+FMU_SOURCES = ("model.c", "fmi2.c")
+#: the binaries' folder and file suffix, per operating system
+_PLATFORMS = {"Linux": ("linux64", ".so"), "Darwin": ("darwin64", ".dylib")}
+
+
+def _platform():
+    system = platform.system()
+    if system not in _PLATFORMS or platform.architecture()[0] != "64bit":
+        raise OptionError(f"FMU export builds binaries for 64-bit Linux and macOS only "
+                          f"(this is {system}, {platform.architecture()[0]})")
+    return _PLATFORMS[system]
+
+
+def _identifier(name):
+    """A C identifier from a model's name (``four-bar`` -> ``four_bar``)."""
+    text = re.sub(r"\W", "_", name or "kanedyn_model", flags=re.ASCII)
+    return text if text[:1].isalpha() else "m_" + text
+
+
+def _check_path(path):
+    path = Path(path)
+    if path.suffix.lower() != ".fmu":
+        raise OptionError(f"the FMU file name must end in .fmu, got {str(path)!r}")
+    return path
+
+
+def _check_model(model):
+    if model.contacts:
+        names = ", ".join(c["name"] for c in model.contacts)
+        raise ModelError(f"cannot export an FMU of a model with contacts ({names}): its "
+                         "contact modes and impacts run in kanedyn's simulate, not in the "
+                         "generated C; export the model without its contacts")
+
+
+def _settings(rtol, atol, projection_tol):
+    values = {"kanedyn.rtol": rtol, "kanedyn.atol": atol,
+              "kanedyn.projection_tol": (max(100 * atol, 1e-10) if projection_tol is None
+                                         else projection_tol)}
+    for (name, value), option in zip(values.items(), ("rtol", "atol", "projection_tol")):
+        if not (isinstance(value, (int, float)) and np.isfinite(value)
+                and (value >= 0 if option == "projection_tol" else value > 0)):
+            raise OptionError(f"{option} must be a finite number "
+                              f"{'>= 0' if option == 'projection_tol' else '> 0'}, "
+                              f"got {value!r}")
+    return values
+
+
+def _check_names(layout):
+    seen = {}
+    for v in layout.variables:
+        if v.name in seen:
+            raise ModelError(f"cannot export an FMU: two variables are named {v.name!r} "
+                             f"(a {seen[v.name]} and a {v.causality}); rename one")
+        seen[v.name] = v.causality
+
+
+def _compile(sources, folder, library):
+    cc = compiler_command()
+    if cc is None:
+        raise CompilerError(f"cannot build the FMU's binary: {missing_compiler_text()}")
+    command = [*cc, "-shared", "-fPIC", "-O2", "-std=c99", "-fvisibility=hidden",
+               *[str(folder / name) for name in sources], "-o", str(library), "-lm"]
+    done = subprocess.run(command, capture_output=True, text=True)
+    if done.returncode != 0:
+        raise CompilerError(f"the C compiler failed to build the FMU's binary "
+                            f"({' '.join(command)}):\n{done.stderr[-4000:]}")
+
+
+def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_tol=None,
+               constant_units=None, identifier=None, title=None):
+    """Write ``model`` as an FMI 2.0 FMU for model exchange and co-simulation.
+
+    Parameters
+    ----------
+    model : NumericModel
+        Without contacts (refused: :class:`~kanedyn.ModelError` naming them).
+    path : str or Path
+        The file to write; its name must end in ``.fmu``.
+    y0 : array_like or dict
+        Initial state (as for :func:`kanedyn.simulate`): the start values of the
+        states, made consistent with the constraints first.
+    t_end : float, optional
+        Stop time of the FMU's default experiment [s].
+    rtol, atol : float
+        Tolerances of the co-simulation step's integration (FMI parameters
+        ``kanedyn.rtol``, ``kanedyn.atol``).
+    projection_tol : float, optional
+        Largest constraint residual before the state is projected
+        (``kanedyn.projection_tol``); default ``max(100 atol, 1e-10)``, as
+        :func:`kanedyn.simulate`.
+    constant_units : dict, optional
+        ``{constant name: unit}`` for constants whose unit is declared
+        (``ModelDefinition.constant_units``).
+    identifier : str, optional
+        The FMU's ``modelIdentifier`` (a C identifier); default from the model's
+        name.
+    title : str, optional
+        The model's description in the FMU.
+
+    Returns
+    -------
+    Path
+        ``path``.
+
+    Raises
+    ------
+    OptionError
+        A file name not ending in ``.fmu``, a bad tolerance or identifier.
+    ModelError
+        A model with contacts, or whose equations are not available.
+    CompilerError
+        No C compiler, or the build failed.
+    """
+    path = _check_path(path)
+    _check_model(model)
+    folder_name, suffix = _platform()
+    identifier = identifier or _identifier(model.name)
+    if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", identifier, flags=re.ASCII):
+        raise OptionError(f"identifier must be a C identifier, got {identifier!r}")
+    settings = _settings(rtol, atol, projection_tol)
+    y_start = model.state(y0)
+    r_start = model.input_values(0.0, y_start)
+    units = {str(k): v for k, v in (constant_units or {}).items()}
+    unknown = sorted(set(units) - set(model.constants))
+    if unknown:
+        raise OptionError(f"constant_units names {', '.join(unknown)}, which are not "
+                          f"constants of the model; its constants: "
+                          f"{', '.join(model.constants)}")
+    layout = fmu_variables(model, y_start, r_start, settings, units)
+    _check_names(layout)
+    title = title or model.title or model.name or "a kanedyn model"
+    model_c = model.c_source(title=title)
+    digest = hashlib.sha256("\n".join([model_c, repr(layout)]).encode()).digest()
+    guid = "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
+    fmi2_c = wrapper_source(layout, identifier, guid, title,
+                            model.n_q_dep + model.n_u_dep, list(settings.values()))
+    xml = model_description(layout, identifier, guid, model.name or identifier, title,
+                            FMU_SOURCES, stop_time=t_end, tolerance=rtol)
+    with tempfile.TemporaryDirectory(prefix="kanedyn-fmu-") as temporary:
+        folder = Path(temporary)
+        (folder / "model.c").write_text(model_c)
+        (folder / "fmi2.c").write_text(fmi2_c)
+        library = folder / f"{identifier}{suffix}"
+        _compile(FMU_SOURCES, folder, library)
+        with replacing(path, "wb") as handle:
+            with zipfile.ZipFile(handle, "w", zipfile.ZIP_DEFLATED) as archive:
+                archive.writestr("modelDescription.xml", xml)
+                for name in FMU_SOURCES:
+                    archive.write(folder / name, f"sources/{name}")
+                archive.write(library, f"binaries/{folder_name}/{identifier}{suffix}")
+    return path
