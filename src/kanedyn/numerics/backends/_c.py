@@ -23,7 +23,7 @@ import numpy as np
 import sympy as sm
 from sympy.printing.c import C99CodePrinter
 
-from . import _c_contact, _c_integrator, _c_lanes, _c_runtime
+from . import _c_contact, _c_ensemble, _c_integrator, _c_lanes, _c_runtime
 from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, CompilerError,
                        cache_dir, compiler_command, load_module, missing_compiler_text,
                        prefetch)
@@ -482,7 +482,8 @@ CODEGEN_VERSION = "kanedyn-c-10"  # change when generated code changes (bits, no
 # the runtime and integrator templates are part of every module: part of its key
 _TEMPLATES_DIGEST = hashlib.sha256("".join(
     (_c_runtime.HEADER, _c_runtime.SIZE_MACROS, _c_runtime.SHARED, _c_runtime.RUNTIME,
-     _c_integrator.INTEGRATOR, _c_contact.CONTACT, _c_runtime.RUNTIME_FOOTER,
+     _c_integrator.INTEGRATOR, _c_ensemble.ENSEMBLE, _c_contact.CONTACT,
+     _c_runtime.RUNTIME_FOOTER,
      _c_runtime.MODEL_SOLVE, _c_runtime.LANE_RUNTIME, _c_runtime.LANE_SOLVE,
      _c_runtime.INVERSE_POINT, _c_runtime.JACOBIAN_SOLVE, _c_runtime.MODULE_FOOTER)
 ).encode()).hexdigest()[:16]
@@ -736,7 +737,7 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
         + (["#define KD_INVERSE_POINT 1"] if inverse_point else [])
-    body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR,
+    body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_ensemble.ENSEMBLE,
             *([_c_contact.CONTACT] if n_contacts else []),
             *([_c_runtime.INVERSE_POINT] if inverse_point else []), _c_runtime.RUNTIME_FOOTER]
     return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)

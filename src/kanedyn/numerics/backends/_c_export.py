@@ -99,12 +99,14 @@ static void kd_inputs_along(double t, double t0, const double *r, const double *
     for (int i = 0; i < KD_NR; ++i) ri[i] = r[i] + (r_rate ? (t - t0) * r_rate[i] : 0.0);
 }
 
-/* the derivative at t along inputs r + (t - t0) r_rate: 0, 1 singular, 3 not finite */
-static int kd_derivative(double t, const double *y, const double *p, const double *r,
-                         const double *r_rate, double t0, double *w, double *f) {
+/* the derivative along inputs r + (t - t0) r_rate (a KdRhsFn): 0, 1 singular, 3 not finite */
+typedef struct { const double *p, *r, *r_rate; double t0; double *w; } KdAlong;
+
+static int kd_derivative(void *ctx, double t, const double *y, double *f) {
+    const KdAlong *a = (const KdAlong *)ctx;
     double ri[KD_SZ(KD_NR)];
-    kd_inputs_along(t, t0, r, r_rate, ri);
-    if (kd_rhs_core(t, y, p, ri, w, f) != 0) return 1;
+    kd_inputs_along(t, a->t0, a->r, a->r_rate, ri);
+    if (kd_rhs_core(t, y, a->p, ri, a->w, f) != 0) return 1;
     for (int i = 0; i < KD_NX; ++i) if (!isfinite(f[i])) return 3;
     return 0;
 }
@@ -114,25 +116,17 @@ static int kd_derivative(double t, const double *y, const double *p, const doubl
 static int kd_advance(double t0, double t1, double *y, const double *p, const double *r,
                       const double *r_rate, double rtol, double atol, double project_tol,
                       double *step, long *steps, double *w) {
-    double f[KD_NX], K[7][KD_NX], y_new[KD_NX], ytmp[KD_NX], scale[KD_NX], err[KD_NX];
+    double f[KD_NX], K[7][KD_NX], y_new[KD_NX], atols[KD_NX];
     double B[KD_SZ(KD_NUDEP * KD_NU)];
+    KdAlong along = {p, r, r_rate, t0, w};
+    for (int i = 0; i < KD_NX; ++i) atols[i] = atol;
     double t = t0;
-    int status = kd_derivative(t, y, p, r, r_rate, t0, w, f);
+    int status = kd_derivative(&along, t, y, f);
     if (status != 0 || !(t1 > t0)) return status;
     double h = *step;
-    if (!(h > 0.0)) {  /* initial step (Hairer, Norsett & Wanner; as SciPy) */
-        for (int i = 0; i < KD_NX; ++i) scale[i] = atol + fabs(y[i]) * rtol;
-        double d0 = kd_rms(y, scale, KD_NX), d1 = kd_rms(f, scale, KD_NX);
-        double h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-        h0 = fmin(h0, t1 - t0);
-        for (int i = 0; i < KD_NX; ++i) ytmp[i] = y[i] + h0 * f[i];
-        if ((status = kd_derivative(t + h0, ytmp, p, r, r_rate, t0, w, K[1])) != 0) return status;
-        for (int i = 0; i < KD_NX; ++i) err[i] = K[1][i] - f[i];
-        double d2 = kd_rms(err, scale, KD_NX) / h0;
-        double h1 = (d1 <= 1e-15 && d2 <= 1e-15) ? fmax(1e-6, h0 * 1e-3)
-                                                 : pow(0.01 / fmax(d1, d2), 0.2);
-        h = fmin(100 * h0, h1);
-    }
+    if (!(h > 0.0) && (status = kd_first_step(kd_derivative, &along, t, y, f, 1.0, t1 - t0,
+                                              rtol, atols, INFINITY, 4, &h)) != 0)
+        return status;
     while (t < t1) {
         double min_step = 10 * (nextafter(t, INFINITY) - t);
         int rejected = 0;
@@ -140,24 +134,9 @@ static int kd_advance(double t0, double t1, double *y, const double *p, const do
         for (;;) {  /* attempts of one step */
             if (h < min_step) return 4;
             hs = t + h >= t1 ? t1 - t : h;
-            memcpy(K[0], f, sizeof(double) * KD_NX);
-            for (int s = 1; s < 7; ++s) {
-                for (int i = 0; i < KD_NX; ++i) {
-                    double acc = 0.0;
-                    for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
-                    ytmp[i] = y[i] + hs * acc;
-                }
-                if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
-                status = kd_derivative(t + kd_C[s] * hs, ytmp, p, r, r_rate, t0, w, K[s]);
-                if (status != 0) return status;
-            }
-            for (int i = 0; i < KD_NX; ++i) {
-                double e = 0.0;
-                for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
-                err[i] = e * hs;
-                scale[i] = atol + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
-            }
-            err_norm = kd_rms(err, scale, KD_NX);
+            status = kd_dopri_attempt(kd_derivative, &along, t, y, f, hs, rtol, atols, K,
+                                      y_new, &err_norm);
+            if (status != 0) return status;
             if (err_norm < 1.0) break;
             h = hs * fmax(0.2, 0.9 * pow(err_norm, -0.2));
             rejected = 1;
@@ -175,7 +154,7 @@ static int kd_advance(double t0, double t1, double *y, const double *p, const do
             kd_inputs_along(t, t0, r, r_rate, ri);
             if (kd_residual_at(t, y, p, ri, w, B) > project_tol) {
                 if (kd_project_at(t, y, p, ri, w) != 0) return 1;
-                if ((status = kd_derivative(t, y, p, r, r_rate, t0, w, f)) != 0) return status;
+                if ((status = kd_derivative(&along, t, y, f)) != 0) return status;
             }
         }
     }

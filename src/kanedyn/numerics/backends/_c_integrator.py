@@ -126,6 +126,73 @@ static const double kd_A[7][6] = {
     {35.0 / 384, 0, 500.0 / 1113, 125.0 / 192, -2187.0 / 6784, 11.0 / 84}};
 static const double kd_E[7] = {-71.0 / 57600, 0, 71.0 / 16695, -71.0 / 1920,
                                17253.0 / 339200, -22.0 / 525, 1.0 / 40};
+
+/* the continuous extension of a Dormand-Prince step (t_old, y_old, h, Q: see
+   kd_dopri_extension): y_old + h Q [x, x^2, x^3, x^4] at x = (t - t_old) / h */
+static inline void kd_dopri_dense(const double *y_old, double t_old, double h, const double *Q,
+                                  double t, double *out) {
+    double x = (t - t_old) / h;
+    double p1 = x, p2 = x * x, p3 = p2 * x, p4 = p3 * x;
+    for (int i = 0; i < KD_NX; ++i) {
+        const double *q = Q + 4 * i;
+        out[i] = y_old[i] + h * (q[0] * p1 + q[1] * p2 + q[2] * p3 + q[3] * p4);
+    }
+}
+
+/* a right-hand side for the steppers: out = f(t, y); nonzero ends the integration */
+typedef int (*KdRhsFn)(void *ctx, double t, const double *y, double *out);
+
+/* one Dormand-Prince 5(4) attempt of step h from (t, y), f = f(t, y): the stages K
+   (K[6] = f at the new state), y_new, and the RMS norm of the error estimate
+   err / (atol + max(|y|, |y_new|) rtol) */
+static inline int kd_dopri_attempt(KdRhsFn fn, void *ctx, double t, const double *y,
+                                   const double *f, double h, double rtol,
+                                   const double *atol, double K[7][KD_NX], double *y_new,
+                                   double *err_norm) {
+    double ytmp[KD_NX], err[KD_NX], scale[KD_NX];
+    memcpy(K[0], f, sizeof(double) * KD_NX);
+    for (int s = 1; s < 7; ++s) {
+        for (int i = 0; i < KD_NX; ++i) {
+            double acc = 0.0;
+            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
+            ytmp[i] = y[i] + h * acc;
+        }
+        if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
+        int status = fn(ctx, t + kd_C[s] * h, ytmp, K[s]);
+        if (status != 0) return status;
+    }
+    for (int i = 0; i < KD_NX; ++i) {
+        double e = 0.0;
+        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+        err[i] = e * h;
+        scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
+    }
+    *err_norm = kd_rms(err, scale, KD_NX);
+    return 0;
+}
+
+/* the initial step of a method of error order err_order from (t, y), f = f(t, y),
+   towards a span of length interval > 0 in direction dir (Hairer, Norsett & Wanner;
+   SciPy's select_initial_step), at most max_step */
+static inline int kd_first_step(KdRhsFn fn, void *ctx, double t, const double *y,
+                                const double *f, double dir, double interval, double rtol,
+                                const double *atol, double max_step, int err_order,
+                                double *h_abs) {
+    double scale[KD_NX], tmp[KD_NX], y1[KD_NX], f1[KD_NX];
+    for (int i = 0; i < KD_NX; ++i) scale[i] = atol[i] + fabs(y[i]) * rtol;
+    double d0 = kd_rms(y, scale, KD_NX), d1 = kd_rms(f, scale, KD_NX), h0;
+    h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+    h0 = fmin(h0, interval);
+    for (int i = 0; i < KD_NX; ++i) y1[i] = y[i] + h0 * dir * f[i];
+    int status = fn(ctx, t + h0 * dir, y1, f1);
+    if (status != 0) return status;
+    for (int i = 0; i < KD_NX; ++i) tmp[i] = f1[i] - f[i];
+    double d2 = kd_rms(tmp, scale, KD_NX) / h0, h1;
+    if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+    else h1 = pow(0.01 / fmax(d1, d2), 1.0 / (err_order + 1));
+    *h_abs = fmin(fmin(100 * h0, h1), fmin(interval, max_step));
+    return 0;
+}
 """
 
 _LOOP = r"""
@@ -208,15 +275,10 @@ static const double kd_r23_d = 0.29289321881345248; /* 1 / (2 + sqrt(2)) */
 static const double kd_r23_e32 = 7.4142135623730950; /* 6 + sqrt(2) */
 
 static void kd_dense(const KdIntegrator *ig, double t, double *out) {
-    double x = (t - ig->t_old) / ig->h;
     if (ig->method == 0) {
-        double p1 = x, p2 = x * x, p3 = p2 * x, p4 = p3 * x;
-        for (int i = 0; i < KD_NX; ++i) {
-            const double *q = ig->Q + 4 * i;
-            out[i] = ig->y_old[i] + ig->h * (q[0] * p1 + q[1] * p2 + q[2] * p3 + q[3] * p4);
-        }
+        kd_dopri_dense(ig->y_old, ig->t_old, ig->h, ig->Q, t, out);
     } else {
-        double d = kd_r23_d;
+        double x = (t - ig->t_old) / ig->h, d = kd_r23_d;
         double a = x * (1.0 - x) / (1.0 - 2.0 * d), b = x * (x - 2.0 * d) / (1.0 - 2.0 * d);
         for (int i = 0; i < KD_NX; ++i)
             out[i] = ig->y_old[i] + ig->h * (a * ig->Q[4 * i] + b * ig->Q[4 * i + 1]);
@@ -685,29 +747,20 @@ static const double kd_P[7][4] = {
     {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
 
 /* one attempted RK45 step of size h from (t, y, f): y_new, f_new (= K[6]), error norm */
-static int kd_rk45_try(KdIntegrator *ig, double t, const double *y, const double *f, double h,
-                       double rtol, const double *atol, double K[7][KD_NX], double *y_new,
-                       double *err_norm) {
-    double ytmp[KD_NX];
-    memcpy(K[0], f, sizeof(double) * KD_NX);
-    for (int s = 1; s < 7; ++s) {
-        for (int i = 0; i < KD_NX; ++i) {
-            double acc = 0.0;
-            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
-            ytmp[i] = y[i] + h * acc;
+/* kd_f as a KdRhsFn (ctx: the KdIntegrator) */
+static int kd_f_stepper(void *ctx, double t, const double *y, double *out) {
+    return kd_f((KdIntegrator *)ctx, t, y, out);
+}
+
+/* the continuous extension of an accepted Dormand-Prince step from its stages:
+   y = y_old + h Q [x, x^2, x^3, x^4] (Q row-major, 4 per component) */
+static void kd_dopri_extension(double K[7][KD_NX], double *Q) {
+    for (int i = 0; i < KD_NX; ++i)
+        for (int j = 0; j < 4; ++j) {
+            double s = 0.0;
+            for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
+            Q[4 * i + j] = s;
         }
-        if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
-        if (kd_f(ig, t + kd_C[s] * h, ytmp, K[s]) != 0) return -1;
-    }
-    double err[KD_NX], scale[KD_NX];
-    for (int i = 0; i < KD_NX; ++i) {
-        double e = 0.0;
-        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
-        err[i] = e * h;
-        scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
-    }
-    *err_norm = kd_rms(err, scale, KD_NX);
-    return 0;
 }
 
 /* Jacobian df/dy (row-major): the module's exact derivatives where it has them
@@ -939,20 +992,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     int err_order = ig.method == 0 ? 4 : 2;
     if (first_step > 0) h_abs = first_step;
     else if (interval == 0.0) h_abs = 0.0;
-    else {
-        double scale[KD_NX], tmp[KD_NX], y1[KD_NX], f1[KD_NX];
-        for (int i = 0; i < KD_NX; ++i) scale[i] = atol[i] + fabs(y[i]) * rtol;
-        double d0 = kd_rms(y, scale, KD_NX), d1 = kd_rms(f, scale, KD_NX), h0;
-        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-        h0 = fmin(h0, interval);
-        for (int i = 0; i < KD_NX; ++i) y1[i] = y[i] + h0 * dir * f[i];
-        if (kd_f(&ig, t + h0 * dir, y1, f1) != 0) KD_FAIL;
-        for (int i = 0; i < KD_NX; ++i) tmp[i] = f1[i] - f[i];
-        double d2 = kd_rms(tmp, scale, KD_NX) / h0, h1;
-        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
-        else h1 = pow(0.01 / fmax(d1, d2), 1.0 / (err_order + 1));
-        h_abs = fmin(fmin(100 * h0, h1), fmin(interval, max_step));
-    }
+    else if (kd_first_step(kd_f_stepper, &ig, t, y, f, dir, interval, rtol, atol, max_step,
+                           err_order, &h_abs) != 0) KD_FAIL;
     double exponent = -1.0 / (err_order + 1);
     double max_factor = ig.method == 0 ? 10.0 : 5.0;
 
@@ -988,7 +1029,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             h = t_new - t;
             h_abs = fabs(h);
             if (ig.method == 0) {
-                if (kd_rk45_try(&ig, t, y, f, h, rtol, atol, K, y_new, &err_norm) != 0) KD_FAIL;
+                if (kd_dopri_attempt(kd_f_stepper, &ig, t, y, f, h, rtol, atol, K, y_new,
+                                     &err_norm) != 0) KD_FAIL;
                 memcpy(f_new, K[6], sizeof(f_new));
             } else {
                 int singular;
@@ -1014,12 +1056,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         ig.t_old = t; ig.h = h;
         memcpy(ig.y_old, y, sizeof(y));
         if (ig.method == 0) {
-            for (int i = 0; i < KD_NX; ++i)
-                for (int j = 0; j < 4; ++j) {
-                    double s = 0.0;
-                    for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
-                    ig.Q[4 * i + j] = s;
-                }
+            kd_dopri_extension(K, ig.Q);
         } else {
             for (int i = 0; i < KD_NX; ++i) { ig.Q[4 * i] = k1[i]; ig.Q[4 * i + 1] = k2[i]; }
         }

@@ -1363,6 +1363,9 @@ static PyMethodDef KdModel_methods[] = {
     {"integrate", (PyCFunction)KdModel_integrate, METH_VARARGS,
      "integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events, "
      "project_tol, dense): the compiled integration loop"},
+    {"integrate_many", (PyCFunction)KdModel_integrate_many, METH_VARARGS,
+     "integrate_many(t0, t1, Y0, P, r_times, R, t_eval, rtol, atol, max_step, first_step, "
+     "project_tol, threads, stop, timeout): many trajectories of RK45 in threads"},
     {NULL, NULL, 0, NULL}
 };
 

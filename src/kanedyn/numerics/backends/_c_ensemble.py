@@ -1,0 +1,418 @@
+"""C source of the ensemble integrator (part of every generated module).
+
+``Model.integrate_many`` integrates N trajectories of one model, each with its
+own initial state, constants and input record, with the compiled loop's RK45
+(the same attempt, initial step, step-size control, quartic continuous
+extension at the output times and projection of constraint drift: a
+trajectory's numbers are those of ``integrate`` with the same options), on
+POSIX threads without Python: the trajectories are taken one at a time by the
+threads, Python's lock released.  The inputs of a trajectory are constants or a
+record on a time grid shared by all, interpolated linearly (NumPy's ``interp``
+formula).
+
+While the threads work, the calling thread wakes every ``KD_ENS_POLL``
+seconds to take Python's signals: a Ctrl-C (or the run's stop flag) stops every
+trajectory at its next step, and what was computed is returned, as a time
+limit does.  Memory: the outputs asked for, and per thread one work array.
+"""
+
+ENSEMBLE = r"""
+/* ------------------------------------------------------------------------
+   Ensembles: many trajectories of the compiled RK45 at once, in threads
+   ------------------------------------------------------------------------ */
+#define KD_ENS_POLL 0.02  /* seconds between the calling thread's looks at signals */
+
+enum { KD_ENS_DONE = 0, KD_ENS_SMALL_STEP = 1, KD_ENS_PROJECTION = 2, KD_ENS_STOPPED = 3,
+       KD_ENS_TIMED_OUT = 4 };
+
+/* one trajectory's right-hand side: its constants, inputs and work */
+typedef struct {
+    const double *p;         /* constants (KD_NP) */
+    const double *r_times;   /* the input record's times (r_count); NULL: constant inputs */
+    const double *r_values;  /* (r_count, KD_NR), or (KD_NR) for constant inputs */
+    npy_intp r_count;
+    double *work;
+    long nfev;
+    int singular;            /* the derivative failed (singular, not finite) at t_singular */
+    double t_singular;
+} KdEnsRhs;
+
+/* the inputs at t: linear between the record's samples (np.interp's formula) */
+static void kd_ens_inputs(const KdEnsRhs *c, double t, double *r) {
+#if KD_NR > 0
+    const double *T = c->r_times, *R = c->r_values;
+    npy_intp k = c->r_count;
+    if (T == NULL || k == 1 || t <= T[0]) { memcpy(r, R, sizeof(double) * KD_NR); return; }
+    if (t >= T[k - 1]) { memcpy(r, R + (k - 1) * KD_NR, sizeof(double) * KD_NR); return; }
+    npy_intp lo = 0, hi = k - 1;  /* T[lo] <= t < T[hi] */
+    while (hi - lo > 1) {
+        npy_intp mid = lo + (hi - lo) / 2;
+        if (T[mid] <= t) lo = mid; else hi = mid;
+    }
+    for (int i = 0; i < KD_NR; ++i) {
+        const double a = R[lo * KD_NR + i], b = R[hi * KD_NR + i];
+        r[i] = t == T[lo] ? a : (b - a) / (T[hi] - T[lo]) * (t - T[lo]) + a;
+    }
+#else
+    (void)c; (void)t; (void)r;
+#endif
+}
+
+/* the trajectory's derivative (a KdRhsFn): non-finite values reject the step */
+static int kd_ens_f(void *ctx, double t, const double *y, double *out) {
+    KdEnsRhs *c = (KdEnsRhs *)ctx;
+    double r[KD_SZ(KD_NR)];
+    c->nfev++;
+    kd_ens_inputs(c, t, r);
+    int bad = KD_RHS_CORE(t, y, c->p, r, c->work, out) != 0;
+    for (int i = 0; i < KD_NX && !bad; ++i) bad = !isfinite(out[i]);
+    if (bad) {
+        for (int i = 0; i < KD_NX; ++i) out[i] = NAN;
+        if (!c->singular) { c->singular = 1; c->t_singular = t; }
+    }
+    return 0;
+}
+
+/* what every trajectory shares */
+typedef struct {
+    double t0, t1, rtol, max_step, first_step, project_tol, deadline;
+    const double *atol;           /* KD_NX */
+    const double *t_eval;         /* n_eval output times, within [t0, t1], in order */
+    npy_intp n_eval;
+    const volatile int *stop;     /* raised: every trajectory ends at its next step */
+} KdEnsSpec;
+
+/* what one trajectory did */
+typedef struct {
+    int outcome;                  /* KD_ENS_... */
+    npy_intp n_out;               /* output rows written */
+    long steps, projections;
+    double t_end;                 /* the last state accepted: its time */
+} KdEnsOutcome;
+
+/* one trajectory from y0: the output rows reached into out (n_eval x KD_NX), the
+   state accepted last into y_end (the state before a projection that failed) */
+static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double *out,
+                       double *y_end, KdEnsOutcome *o) {
+    const double dir = s->t1 >= s->t0 ? 1.0 : -1.0;
+    double t = s->t0, y[KD_NX], f[KD_NX], y_new[KD_NX], K[7][KD_NX], Q[KD_NX * 4];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], r[KD_SZ(KD_NR)], before[KD_NX];
+    npy_intp next = 0;
+    unsigned long count = 0;
+    memset(o, 0, sizeof(*o));
+    memcpy(y, y0, sizeof(y));
+    kd_ens_f(c, t, y, f);
+    while (next < s->n_eval && s->t_eval[next] == t) memcpy(out + KD_NX * next++, y, sizeof(y));
+    double interval = fabs(s->t1 - s->t0), h_abs = 0.0;
+    if (s->first_step > 0) h_abs = s->first_step;
+    else if (interval > 0)
+        kd_first_step(kd_ens_f, c, t, y, f, dir, interval, s->rtol, s->atol, s->max_step, 4,
+                      &h_abs);
+    while (dir * (s->t1 - t) > 0) {
+        if (*s->stop) { o->outcome = KD_ENS_STOPPED; break; }
+        if ((++count & 15) == 0 && s->deadline > 0 && kd_clock() >= s->deadline) {
+            o->outcome = KD_ENS_TIMED_OUT;
+            break;
+        }
+        double min_step = 10 * fabs(nextafter(t, dir * INFINITY) - t);
+        if (h_abs > s->max_step) h_abs = s->max_step;
+        else if (h_abs < min_step) h_abs = min_step;
+        int rejected = 0;
+        double h = 0.0, t_new = t, err_norm;
+        for (;;) {  /* attempts of one step: the compiled loop's control */
+            if (h_abs < min_step) { o->outcome = KD_ENS_SMALL_STEP; break; }
+            h = h_abs * dir;
+            t_new = t + h;
+            if (dir * (t_new - s->t1) > 0) t_new = s->t1;
+            h = t_new - t;
+            h_abs = fabs(h);
+            kd_dopri_attempt(kd_ens_f, c, t, y, f, h, s->rtol, s->atol, K, y_new, &err_norm);
+            if (err_norm < 1) {
+                double factor = err_norm == 0 ? 10.0 : fmin(10.0, 0.9 * pow(err_norm, -0.2));
+                if (rejected) factor = fmin(1.0, factor);
+                h_abs *= factor;
+                break;
+            }
+            double factor = 0.9 * pow(err_norm, -0.2);
+            if (!(factor > 0.2)) factor = 0.2;  /* also for nan */
+            h_abs *= factor;
+            rejected = 1;
+        }
+        if (o->outcome != KD_ENS_DONE) break;
+        kd_dopri_extension(K, Q);
+        for (; next < s->n_eval && dir * (s->t_eval[next] - t_new) <= 0; ++next)
+            kd_dopri_dense(y, t, h, Q, s->t_eval[next], out + KD_NX * next);
+        int finite = 1;
+        for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
+        t = t_new;
+        memcpy(y, y_new, sizeof(y));
+        memcpy(f, K[6], sizeof(f));
+        o->steps++;
+        if (finite && s->project_tol > 0 && KD_NQDEP + KD_NUDEP > 0) {
+            kd_ens_inputs(c, t, r);
+            if (kd_residual_at(t, y, c->p, r, c->work, B) > s->project_tol) {
+                memcpy(before, y, sizeof(y));
+                if (kd_project_at(t, y, c->p, r, c->work) != 0) {
+                    memcpy(y, before, sizeof(y));
+                    o->outcome = KD_ENS_PROJECTION;
+                    break;
+                }
+                o->projections++;
+                kd_ens_f(c, t, y, f);
+            }
+        }
+    }
+    o->n_out = next;
+    o->t_end = t;
+    memcpy(y_end, y, sizeof(y));
+}
+
+/* the trajectories' data, shared by the threads */
+typedef struct {
+    const KdEnsSpec *spec;
+    const double *Y0, *P, *p_default, *r_times, *R;
+    npy_intp r_count;             /* samples per trajectory's record (1: constants) */
+    double *out, *y_end, *t_singular;
+    KdEnsOutcome *outcomes;
+    long *nfev;
+    npy_intp n;
+    npy_intp *next;               /* the first trajectory not yet taken */
+    double *work;                 /* this thread's */
+    int *finished;                /* threads done (the calling thread waits for all) */
+#if KD_HAVE_THREADS
+    pthread_mutex_t *lock;        /* of next and finished */
+#endif
+} KdEnsJob;
+
+/* the next trajectory to integrate (n: none left); taken under the lock */
+static npy_intp kd_ens_take(KdEnsJob *job) {
+#if KD_HAVE_THREADS
+    pthread_mutex_lock(job->lock);
+#endif
+    npy_intp i = (*job->next)++;
+#if KD_HAVE_THREADS
+    pthread_mutex_unlock(job->lock);
+#endif
+    return i;
+}
+
+static void kd_ens_rows(KdEnsJob *job) {
+    for (;;) {
+        npy_intp i = kd_ens_take(job);
+        if (i >= job->n) break;
+        KdEnsRhs c;
+        memset(&c, 0, sizeof(c));
+        c.p = job->P ? job->P + i * KD_NP : job->p_default;
+        c.r_times = job->r_count > 1 ? job->r_times : NULL;
+        c.r_values = KD_NR > 0 ? job->R + i * job->r_count * KD_NR : NULL;
+        c.r_count = job->r_count;
+        c.work = job->work;
+        kd_ens_run(job->spec, &c, job->Y0 + i * KD_NX,
+                   job->out + i * job->spec->n_eval * KD_NX, job->y_end + i * KD_NX,
+                   &job->outcomes[i]);
+        job->nfev[i] = c.nfev;
+        job->t_singular[i] = c.singular ? c.t_singular : NAN;
+    }
+#if KD_HAVE_THREADS
+    pthread_mutex_lock(job->lock);
+#endif
+    ++*job->finished;
+#if KD_HAVE_THREADS
+    pthread_mutex_unlock(job->lock);
+#endif
+}
+
+/* threads done (read under the lock) */
+static int kd_ens_finished(KdEnsJob *job) {
+#if KD_HAVE_THREADS
+    pthread_mutex_lock(job->lock);
+#endif
+    int done = *job->finished;
+#if KD_HAVE_THREADS
+    pthread_mutex_unlock(job->lock);
+#endif
+    return done;
+}
+
+#if KD_HAVE_THREADS
+static void *kd_ens_thread(void *job) {
+    kd_ens_rows((KdEnsJob *)job);
+    return NULL;
+}
+#endif
+
+/* a C array of doubles as a new NumPy array of the given shape (copied) */
+static PyObject *kd_ens_array(const void *data, int nd, npy_intp *dims, int type) {
+    PyObject *a = PyArray_SimpleNew(nd, dims, type);
+    if (a != NULL)
+        memcpy(PyArray_DATA((PyArrayObject *)a), data, PyArray_NBYTES((PyArrayObject *)a));
+    return a;
+}
+
+/* integrate_many(t0, t1, Y0, P, r_times, R, t_eval, rtol, atol, max_step, first_step,
+                  project_tol, threads, stop, timeout) -> dict
+   Y0 (N, nx); P (N, np) or None (the model's constants); R (N, k, nr) inputs sampled at
+   r_times (k,), or (N, 1, nr) constants with r_times None; t_eval (m,); atol (nx,);
+   threads >= 1; stop: see kd_stop_flag; timeout: seconds, 0: none */
+static PyObject *KdModel_integrate_many(KdModel *self, PyObject *args) {
+    double t0, t1, rtol, max_step, first_step, project_tol, timeout;
+    PyObject *y0obj, *pobj, *rtobj, *robj, *tevalobj, *atolobj, *stopobj;
+    int threads;
+    if (!PyArg_ParseTuple(args, "ddOOOOOdOdddiOd", &t0, &t1, &y0obj, &pobj, &rtobj, &robj,
+                          &tevalobj, &rtol, &atolobj, &max_step, &first_step, &project_tol,
+                          &threads, &stopobj, &timeout))
+        return NULL;
+    const volatile npy_int32 *guard_stop = kd_stop_flag(stopobj);
+    if (guard_stop == NULL) return NULL;
+    PyArrayObject *Y0 = NULL, *P = NULL, *RT = NULL, *R = NULL, *TE = NULL, *AT = NULL;
+    PyObject *result = NULL;
+    double *out = NULL, *y_end = NULL, *t_singular = NULL, *work = NULL;
+    KdEnsOutcome *outcomes = NULL;
+    long *nfev = NULL;
+    Y0 = (PyArrayObject *)PyArray_FROMANY(y0obj, NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+    TE = (PyArrayObject *)PyArray_FROMANY(tevalobj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+    AT = (PyArrayObject *)PyArray_FROMANY(atolobj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+    if (Y0 == NULL || TE == NULL || AT == NULL) goto done;
+    npy_intp n = PyArray_DIM(Y0, 0), m = PyArray_SIZE(TE), k = 1;
+    if (PyArray_DIM(Y0, 1) != KD_NX || PyArray_SIZE(AT) != KD_NX) {
+        PyErr_SetString(PyExc_ValueError, "Y0 must have one state per row, atol one entry "
+                        "per state");
+        goto done;
+    }
+    if (pobj != Py_None) {
+        P = (PyArrayObject *)PyArray_FROMANY(pobj, NPY_DOUBLE, 2, 2, NPY_ARRAY_IN_ARRAY);
+        if (P == NULL) goto done;
+        if (PyArray_DIM(P, 0) != n || PyArray_DIM(P, 1) != KD_NP) {
+            PyErr_SetString(PyExc_ValueError, "P must have one row of constants per state");
+            goto done;
+        }
+    }
+    if (rtobj != Py_None) {
+        RT = (PyArrayObject *)PyArray_FROMANY(rtobj, NPY_DOUBLE, 1, 1, NPY_ARRAY_IN_ARRAY);
+        if (RT == NULL) goto done;
+        k = PyArray_SIZE(RT);
+    }
+    if (KD_NR > 0) {
+        R = (PyArrayObject *)PyArray_FROMANY(robj, NPY_DOUBLE, 3, 3, NPY_ARRAY_IN_ARRAY);
+        if (R == NULL) goto done;
+        if (PyArray_DIM(R, 0) != n || PyArray_DIM(R, 1) != k || PyArray_DIM(R, 2) != KD_NR) {
+            PyErr_SetString(PyExc_ValueError, "R must have shape (N, samples, inputs)");
+            goto done;
+        }
+    }
+    out = (double *)PyMem_RawMalloc(sizeof(double) * KD_SZ(n * m * KD_NX));
+    y_end = (double *)PyMem_RawMalloc(sizeof(double) * KD_SZ(n * KD_NX));
+    t_singular = (double *)PyMem_RawMalloc(sizeof(double) * KD_SZ(n));
+    outcomes = (KdEnsOutcome *)PyMem_RawCalloc(KD_SZ(n), sizeof(KdEnsOutcome));
+    nfev = (long *)PyMem_RawCalloc(KD_SZ(n), sizeof(long));
+    if (threads < 1) threads = 1;
+    if (threads > KD_MAX_THREADS) threads = KD_MAX_THREADS;
+    if (threads > n) threads = n > 0 ? (int)n : 1;
+    work = (double *)PyMem_RawMalloc(sizeof(double) * KD_SZ(KD_NW) * (size_t)threads);
+    if (!out || !y_end || !t_singular || !outcomes || !nfev || !work) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    for (npy_intp i = 0; i < n * m * KD_NX; ++i) out[i] = NAN;
+    volatile int stop = *guard_stop != 0;
+    int interrupted = 0, finished = 0;
+    KdEnsSpec spec = {t0, t1, rtol, max_step, first_step, project_tol,
+                      timeout > 0 ? kd_clock() + timeout : 0.0,
+                      (const double *)PyArray_DATA(AT), (const double *)PyArray_DATA(TE), m,
+                      &stop};
+    npy_intp next = 0;
+    KdEnsJob jobs[KD_MAX_THREADS];
+#if KD_HAVE_THREADS
+    pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+#endif
+    for (int j = 0; j < threads; ++j) {
+        KdEnsJob job = {&spec, (const double *)PyArray_DATA(Y0),
+                        P ? (const double *)PyArray_DATA(P) : NULL, self->p,
+                        RT ? (const double *)PyArray_DATA(RT) : NULL,
+                        R ? (const double *)PyArray_DATA(R) : NULL, k, out, y_end, t_singular,
+                        outcomes, nfev, n, &next, work + (size_t)j * KD_SZ(KD_NW), &finished
+#if KD_HAVE_THREADS
+                        , &lock
+#endif
+                        };
+        jobs[j] = job;
+    }
+#if KD_HAVE_THREADS
+    pthread_t ids[KD_MAX_THREADS];
+    int started[KD_MAX_THREADS] = {0}, running = 0;
+    Py_BEGIN_ALLOW_THREADS
+    for (int j = 0; j < threads; ++j) {
+        started[j] = pthread_create(&ids[j], NULL, kd_ens_thread, &jobs[j]) == 0;
+        running += started[j];
+    }
+    Py_END_ALLOW_THREADS
+    if (running == 0) {  /* no thread could start: this one does the work */
+        Py_BEGIN_ALLOW_THREADS
+        kd_ens_rows(&jobs[0]);
+        Py_END_ALLOW_THREADS
+    }
+    /* wait, looking at Python's signals (a Ctrl-C stops the trajectories) */
+    while (running > 0 && kd_ens_finished(&jobs[0]) < running) {
+        Py_BEGIN_ALLOW_THREADS
+        struct timespec pause = {0, (long)(KD_ENS_POLL * 1e9)};
+        nanosleep(&pause, NULL);
+        Py_END_ALLOW_THREADS
+        if (*guard_stop) stop = 1;
+        if (!stop && PyErr_CheckSignals() != 0) { stop = 1; interrupted = 1; }
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (int j = 0; j < threads; ++j) if (started[j]) pthread_join(ids[j], NULL);
+    Py_END_ALLOW_THREADS
+#else
+    Py_BEGIN_ALLOW_THREADS
+    kd_ens_rows(&jobs[0]);
+    Py_END_ALLOW_THREADS
+#endif
+    if (interrupted) {  /* a Ctrl-C: what was computed is returned, as the loop does */
+        if (!PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) goto done;
+        PyErr_Clear();
+    }
+    result = PyDict_New();
+    if (result == NULL) goto done;
+    {
+        npy_intp dims3[3] = {n, m, KD_NX}, dims2[2] = {n, KD_NX}, dims1[1] = {n};
+        long *codes = (long *)PyMem_RawMalloc(sizeof(long) * KD_SZ(n) * 5);
+        double *ends = (double *)PyMem_RawMalloc(sizeof(double) * KD_SZ(n));
+        if (codes == NULL || ends == NULL) {
+            PyMem_RawFree(codes); PyMem_RawFree(ends);
+            Py_CLEAR(result); PyErr_NoMemory(); goto done;
+        }
+        for (npy_intp i = 0; i < n; ++i) {
+            codes[i] = outcomes[i].outcome;
+            codes[n + i] = (long)outcomes[i].n_out;
+            codes[2 * n + i] = outcomes[i].steps;
+            codes[3 * n + i] = outcomes[i].projections;
+            codes[4 * n + i] = nfev[i];
+            ends[i] = outcomes[i].t_end;
+        }
+        const char *keys[] = {"outcome", "n_out", "steps", "projections", "nfev"};
+        PyObject *item;
+        int bad = 0;
+#define KD_ENS_SET(key, value) do { item = (value); \
+        if (item == NULL || PyDict_SetItemString(result, key, item) < 0) bad = 1; \
+        Py_XDECREF(item); } while (0)
+        for (int q = 0; q < 5 && !bad; ++q)
+            KD_ENS_SET(keys[q], kd_ens_array(codes + q * n, 1, dims1, NPY_LONG));
+        if (!bad) KD_ENS_SET("y", kd_ens_array(out, 3, dims3, NPY_DOUBLE));
+        if (!bad) KD_ENS_SET("y_end", kd_ens_array(y_end, 2, dims2, NPY_DOUBLE));
+        if (!bad) KD_ENS_SET("t_end", kd_ens_array(ends, 1, dims1, NPY_DOUBLE));
+        if (!bad) KD_ENS_SET("t_singular", kd_ens_array(t_singular, 1, dims1, NPY_DOUBLE));
+        if (!bad) KD_ENS_SET("interrupted", PyBool_FromLong(interrupted));
+#undef KD_ENS_SET
+        PyMem_RawFree(codes);
+        PyMem_RawFree(ends);
+        if (bad) Py_CLEAR(result);
+    }
+done:
+    Py_XDECREF(Y0); Py_XDECREF(P); Py_XDECREF(RT); Py_XDECREF(R); Py_XDECREF(TE);
+    Py_XDECREF(AT);
+    PyMem_RawFree(out); PyMem_RawFree(y_end); PyMem_RawFree(t_singular);
+    PyMem_RawFree(outcomes); PyMem_RawFree(nfev); PyMem_RawFree(work);
+    return result;
+}
+"""
