@@ -440,7 +440,7 @@ class SimulationResult:
             Points whose paths are drawn.
         up : "auto", "x", "y", "z", "-x", "-y", "-z" or 3 numbers
             The inertial direction drawn upwards; ``"auto"``: against the
-            applied forces at the start (gravity), else +z.
+            model's declared gravity, else its bodies' weights, else +z.
         max_frames : int
             At most this many output times become frames.
         title : str, optional
