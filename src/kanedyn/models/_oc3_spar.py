@@ -455,7 +455,11 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                     "mass, linear damping, Morison drag and waves, linear or catenary "
                     "mooring, rotor thrust, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
-        units={s_d: "m"} if s_d is not None else {},
+        # numeric lengths hide the units from the kinematics: the angles and the modal
+        # coordinates (modes scaled to a largest nodal translation of 1 m) declared
+        units={**{qi: "rad" for qi in q6[3:]}, **{qi: "m" for qi in q6[:3]},
+               **({qi: "m" for qi in tower.q} if tower_modes else {}),
+               **({s_d: "m"} if s_d is not None else {})},
         body_groups={"platform": ("platform",), "tower": ("tower",), "rna": ("rna",)},
         gravity=(0.0, 0.0, -g),
         shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
