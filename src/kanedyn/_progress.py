@@ -6,9 +6,10 @@ moves a progress bar (a ``tqdm`` bar, created on the first update of a step),
 ``done()`` closes it.  ``tqdm`` is imported on the first bar only, so a
 disabled indicator costs nothing.  A stream that is not a terminal (a log
 file, a pipe) gets no bar and no carriage returns: one plain line per step
-at most every ``line_interval`` seconds, and its last state when it ends.  A stream that cannot be written (a full
-disk under a log file, a closed pipe) ends the progress output, never the work
-it reports on: the indicator then disables itself.
+at most every ``line_interval`` seconds, and its last state when it ends.
+A stream that cannot be written (a full disk under a log file, a closed pipe)
+ends the progress output, never the work it reports on: the indicator then
+disables itself.
 """
 
 from __future__ import annotations

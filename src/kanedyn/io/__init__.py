@@ -29,8 +29,8 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
 
 
 
-__all__ = ["animate", "page_html", "scene_data", "up_direction", "quaternions", "read_mesh", "read_obj",
-           "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
+__all__ = ["animate", "page_html", "scene_data", "up_direction", "quaternions", "read_mesh",
+           "read_obj", "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
            "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -107,6 +107,19 @@ class ModelDefinition:
                     gravity=None if self.gravity is None
                     else tuple(float(g) for g in self.gravity))
 
+    @property
+    def state_names(self):
+        """Names of the coordinates and speeds, independent then dependent (the
+        order of ``EquationsOfMotion.state_names``), read from ``kane_args``
+        without deriving."""
+        from ..engine import name_of
+        args = self.kane_args
+
+        def names(*keys):
+            return [name_of(s) for key in keys for s in args.get(key) or ()]
+        return tuple(names("q_ind") + names("q_dep", "q_dependent")
+                     + names("u_ind") + names("u_dep", "u_dependent"))
+
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the
         model's name, title and declared units."""
