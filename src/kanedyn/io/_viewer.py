@@ -435,7 +435,10 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
     for n, (kind, k, ip, jf, _) in enumerate(prog.items):
         body = prog.bodies[k]
         color = PALETTE[n % len(PALETTE)]
-        shapes = [_shape_data(v, color) for v in by_body.get(id(body), [])]
+        declared = by_body.get(id(body), [])
+        # the legend's colour is the one drawn: a declared shape's own, if any
+        color = next((v.color for v in declared if v.color), color)
+        shapes = [_shape_data(v, color) for v in declared]
         default = False
         if not shapes:
             made = _default_shape(body, values, size)
