@@ -53,7 +53,7 @@ def test_sweep_command_matches_the_api(tmp_path, capsys):
     (["--grid", "l=1", "--scheduler", "tcp://:x"], "is not a Dask scheduler address"),
     (["--grid", "l=1", "--outputs", "final,peak"], "--outputs: unknown peak"),
     (["--grid", "length=1", "--t-end", "0.1", "--scheduler", "serial"],
-     "length: not constant"),
+     "--grid length: not a parameter or state of pendulum"),
     ([], "at least one --grid"),
 ])
 def test_bad_arguments(tmp_path, capsys, argv, message):

@@ -293,3 +293,71 @@ def test_bicycle_modes_named(bicycle, tmp_path):
     assert any(label.startswith("self-stable") for label in labels)
     assert (tmp_path / "eig.png").exists()
     pyplot().close(fig)
+
+
+# ------------------------------------------------------------ big models
+def _size_px(fig):
+    width, height = fig.get_size_inches() * 120  # the dpi res.plot saves at
+    return round(width), round(height)
+
+
+def test_oc3_spar_plot_grouped_with_units_and_noise_named():
+    """A 16-state model: coordinates left, speeds right, every unit known (the
+    angles and tower modes declared by the model), the states that stay at
+    numerical-noise level left out and named in the title, on one screen."""
+    definition = kd.models.build("oc3-spar")
+    model = definition.numeric(backend="numpy")
+    res = kd.simulate(model, (0.0, 5.0), definition.initial(model),
+                      t_eval=np.linspace(0.0, 5.0, 51))
+    fig = res.plot()
+    _check_figure(fig)
+    assert _size_px(fig)[0] <= 1600 and _size_px(fig)[1] <= 1000
+    panels = [(ax.get_ylabel(), sorted(line.get_label() for line in ax.get_lines()))
+              for ax in _panels(fig)]
+    assert not any("[?]" in label for label, _ in panels)
+    assert ("angle [rad]", ["pitch"]) in panels
+    assert ("tower modes [m]", ["eta_tower_2"]) in panels
+    assert ("tower mode rates [m/s]", ["zeta_tower_2"]) in panels
+    assert len(panels) == 9  # 4 coordinate panels, 4 speed panels, the energy
+    quiet = ("sway", "roll", "yaw", "eta_tower_1", "u_sway", "u_roll", "u_yaw",
+             "zeta_tower_1")
+    drawn = {name for _, names in panels for name in names}
+    title = fig._suptitle.get_text()
+    assert "within 1e-12 throughout" in title
+    for name in quiet:
+        assert np.max(np.abs(res[name])) <= 1e-12 and name not in drawn and name in title
+    assert {"surge", "heave", "pitch", "eta_tower_2"} <= drawn
+    # coordinates in the left column, speeds in the right
+    for ax in _panels(fig):
+        names = [line.get_label() for line in ax.get_lines()]
+        column = ax.get_subplotspec().colspan.start
+        if set(names) <= set(res.state_names):
+            assert column == (0 if names[0] in res.model.state_names[:model.n_q] else 1)
+    # asked for by name, a quiet state is drawn
+    fig2 = res.plot(states=["roll", "pitch"])
+    assert sorted(line.get_label() for ax in _panels(fig2) for line in ax.get_lines()
+                  if line.get_label() in ("roll", "pitch")) == ["pitch", "roll"]
+    pyplot().close(fig)
+    pyplot().close(fig2)
+
+
+def test_spin_up_beam_drive_torque_in_newton_metres():
+    res = _run("spin-up-beam", 1.0, n=11)
+    res = kd.simulate(res.model, (0.0, 1.0), res.initial_state,
+                      t_eval=np.linspace(0.0, 1.0, 11), constraint_forces=True)
+    fig = res.plot()
+    _check_figure(fig)
+    (torque,) = [ax for ax in _panels(fig) if "tau" in
+                 [line.get_label() for line in ax.get_lines()]]
+    assert torque.get_ylabel() == "constraint torque [N m]"
+    assert [ax.get_ylabel() for ax in _panels(fig)].count("beam modes [m]") >= 1
+    assert _size_px(fig)[0] <= 1600 and _size_px(fig)[1] <= 1000
+    pyplot().close(fig)
+
+
+def test_title_names_the_model_once():
+    fig = _run("pendulum", 0.5, n=5).plot()
+    assert fig._suptitle.get_text().splitlines()[0] == \
+        "pendulum: simple pendulum (point mass on a massless rod)"
+    assert _size_px(fig) <= (1080, 1000)
+    pyplot().close(fig)

@@ -136,6 +136,9 @@ def test_declared_shapes_and_traces():
     kinds = [s["kind"] for s in scene["bodies"][0]["shapes"]]
     assert kinds == ["box", "cylinder"] and not scene["bodies"][0]["default_shape"]
     np.testing.assert_allclose(scene["traces"][0]["points"], scene["bodies"][0]["position"])
+    # the legend's colour is the one drawn: the declared shape's, for both shapes
+    assert scene["bodies"][0]["color"] == "#336699"
+    assert [s["color"] for s in scene["bodies"][0]["shapes"]] == ["#336699"] * 2
 
 
 def test_bad_shapes_name_the_body_and_option():

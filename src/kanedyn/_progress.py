@@ -4,9 +4,12 @@
 to: ``stage(text)`` announces a step on its own line, ``update(text, fraction)``
 moves a progress bar (a ``tqdm`` bar, created on the first update of a step),
 ``done()`` closes it.  ``tqdm`` is imported on the first bar only, so a
-disabled indicator costs nothing.  A stream that cannot be written (a full
-disk under a log file, a closed pipe) ends the progress output, never the work
-it reports on: the indicator then disables itself.
+disabled indicator costs nothing.  A stream that is not a terminal (a log
+file, a pipe) gets no bar and no carriage returns: one plain line per step
+at most every ``line_interval`` seconds, and its last state when it ends.
+A stream that cannot be written (a full disk under a log file, a closed pipe)
+ends the progress output, never the work it reports on: the indicator then
+disables itself.
 """
 
 from __future__ import annotations
@@ -29,13 +32,19 @@ class Progress:
         Defaults to ``sys.stderr`` (looked up at each use).
     interval : float
         Minimum seconds between two redraws of the bar.
+    line_interval : float
+        Minimum seconds between two lines of a step on a stream that is not a
+        terminal.
     """
 
-    def __init__(self, enabled=True, stream=None, interval=0.5):
+    def __init__(self, enabled=True, stream=None, interval=0.5, line_interval=10.0):
         self.enabled = enabled
         self.stream = stream
         self.interval = interval
+        self.line_interval = line_interval
         self._last = -float("inf")
+        self._shown = None  # on a stream that is not a terminal: the last line written
+        self._fraction = 0.0
         self._t0 = time.perf_counter()
         self._bar = None
         self._pending = None  # the latest (text, fraction), drawn or not
@@ -59,13 +68,26 @@ class Progress:
         if not self.enabled:
             return
         self._pending = (text, fraction)
+        if fraction is not None:
+            self._fraction = min(max(float(fraction), self._fraction), 1.0)
         now = time.perf_counter()
-        if now - self._last < self.interval:
+        interval = self.interval if self._terminal() else self.line_interval
+        if now - self._last < interval:
             return
         self._last = now
         self._writing(self._draw)
 
+    def _terminal(self):
+        stream = self.stream or sys.stderr
+        try:
+            return bool(stream.isatty())
+        except (AttributeError, OSError, ValueError):
+            return False
+
     def _draw(self, stream):
+        if not self._terminal():
+            self._line(stream)
+            return
         text, fraction = self._pending
         description = f"{self._prefix()} {text}"
         if self._bar is None:
@@ -78,8 +100,23 @@ class Progress:
             bar.n = min(max(float(fraction), bar.n), 1.0)  # never backwards
         bar.refresh()
 
+    def _line(self, stream):
+        """A plain line of the step's state (no bar, no carriage return), not the
+        same line twice; fractions never go backwards."""
+        text, fraction = self._pending
+        if fraction is not None:
+            text = f"{text} {100 * self._fraction:5.1f}%"
+        if text != self._shown:
+            stream.write(f"{self._prefix()} {text}\n")
+            stream.flush()
+            self._shown = text
+
     def done(self):
         """Close the bar of the current step (showing its last state), if one is open."""
+        if self._shown is not None or (self._pending is not None and not self._terminal()):
+            if self._pending is not None:
+                self._writing(self._line)
+            self._shown, self._fraction, self._last = None, 0.0, -float("inf")
         if self._bar is not None:
             def close(stream):
                 if self._pending is not None:

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 from .._errors import KanedynError
-from ..models import REGISTRY
+from ..models import REGISTRY, build, unknown_model_text
 from ._options import (add_backend_argument, check_output_dir, integrator_name, parse_sets,
-                       positive_float)
+                       positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_compare"]
 
@@ -54,11 +54,18 @@ def cmd_compare(args):
     elif args.target in REGISTRY:
         names = [args.target]
     else:
-        raise KanedynError(f"compare: unknown target {args.target!r}; give 'nonholonomic' "
-                           f"or a model: {', '.join(REGISTRY)}")
+        raise KanedynError(f"compare: {unknown_model_text(args.target)} (give "
+                           f"'nonholonomic' or a model: {', '.join(REGISTRY)})")
     if args.set and len(names) > 1:
         raise KanedynError("--set applies to one model; give a model name, not "
                            f"{args.target!r}")
+    for name in names:  # every --set name checked before any derivation
+        options, constants = parse_sets(name, args.set)
+        if constants:
+            _, initial = split_values(build(name, **options), constants)
+            if initial:
+                raise KanedynError(f"--set {next(iter(initial))}: compare takes model options "
+                                   "and parameters, not initial values")
     out_dir = (check_output_dir(args.out) if args.plot or args.work_precision
                else None)  # before any work
     if not args.quiet:

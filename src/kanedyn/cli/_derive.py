@@ -6,8 +6,8 @@ import time
 
 from .._errors import KanedynError
 from .._progress import Progress
-from ..models import REGISTRY, build
-from ._options import check_output_file, parse_sets
+from ..models import build
+from ._options import add_model_argument, check_output_file, parse_sets
 
 __all__ = ["add_parser", "cmd_derive"]
 
@@ -21,7 +21,7 @@ def add_parser(sub):
                     "form: the kinematic equations q' = ..., the intermediates z0, z1, "
                     "... each defined once, and the nonzero entries of mass_matrix and "
                     "forcing (mass_matrix * u' = forcing) in terms of them.")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--latex", action="store_true",
                    help="print the same equations as LaTeX (an aligned block) instead of "
                         "plain text")

@@ -7,8 +7,9 @@ import numpy as np
 
 from .._errors import KanedynError
 from .._progress import Progress
-from ..models import REGISTRY, build
-from ._options import add_backend_argument, numeric_model, parse_sets, split_values
+from ..models import build
+from ._options import (add_backend_argument, add_model_argument, numeric_model, parse_sets,
+                       split_values)
 from ._table import table
 
 __all__ = ["add_parser", "cmd_equilibrium"]
@@ -24,7 +25,7 @@ def add_parser(sub):
                     "vanish, the --hold states keep their values. Prints the state found "
                     "and the eigenvalues of the linearization there (frequency, damping "
                     "ratio); exit code 1 when Newton's method does not converge.")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--hold", action="append", metavar="STATE", default=[],
                    help="a state kept at its value: a speed of a steady motion, or a "
                         "coordinate nothing restores (repeat for more)")
@@ -42,15 +43,15 @@ def cmd_equilibrium(args):
     from ..numerics import equilibrium
     options, values = parse_sets(args.model, args.set)
     definition = build(args.model, **options)  # checks the options
+    constants, initial = split_values(definition, values)
+    for option, names in (("--hold", args.hold), ("--moving", args.moving)):
+        unknown = [n for n in names if n not in definition.state_names]
+        if unknown:
+            raise KanedynError(f"{option} {unknown[0]}: not a state of {definition.name}; "
+                               f"states: {', '.join(definition.state_names)}")
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     eom = definition.derive(progress=progress)
-    constants, initial = split_values(definition, eom, values)
-    for option, names in (("--hold", args.hold), ("--moving", args.moving)):
-        unknown = [n for n in names if n not in eom.state_names]
-        if unknown:
-            raise KanedynError(f"{option} {unknown[0]}: not a state of {definition.name}; "
-                               f"states: {', '.join(eom.state_names)}")
     model = numeric_model(definition, eom, args.backend, constants,
                           note=lambda text: progress.stage(text))
     y0 = definition.initial(model, initial)

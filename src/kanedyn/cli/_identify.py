@@ -7,8 +7,9 @@ import math
 from .._errors import KanedynError
 from .._number_text import parse_number
 from .._progress import Progress
-from ..models import REGISTRY, build
-from ._options import add_backend_argument, numeric_model, parse_sets, split_values
+from ..models import build
+from ._options import (add_backend_argument, add_model_argument, numeric_model, parse_sets,
+                       split_values)
 from ._table import table
 
 __all__ = ["add_parser", "cmd_identify"]
@@ -51,7 +52,7 @@ def add_parser(sub):
                     "state, changed with --set; the constants' values (also --set) are "
                     "the initial guesses. Prints the estimates with their standard errors "
                     "and confidence intervals; exit code 1 when the fit fails.")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--data", action="append", metavar="FILE.csv", required=True,
                    help="a measured record (repeat for several)")
     p.add_argument("--fit", action="append", metavar="NAME", default=[],
@@ -98,6 +99,7 @@ def cmd_identify(args):
     sigma = _sigmas(args.sigma)
     columns = [c.strip() for c in args.columns.split(",")] if args.columns else None
     definition = build(args.model, **options)  # checks the options
+    constants, initial = split_values(definition, values)
     const_names = {str(s) for s in definition.constants}
     unknown = [n for n in args.fit if n not in const_names]
     if unknown:
@@ -107,7 +109,6 @@ def cmd_identify(args):
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     eom = definition.derive(progress=progress)
-    constants, initial = split_values(definition, eom, values)
     model = numeric_model(definition, eom, args.backend, constants,
                           note=lambda text: progress.stage(text))
     y0 = definition.initial(model, initial)

@@ -4,9 +4,9 @@ from __future__ import annotations
 
 from .._errors import KanedynError
 from .._progress import Progress
-from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, numeric_model, parse_sets,
-                       point_count, positive_float)
+from ..models import build
+from ._options import (add_backend_argument, add_model_argument, check_output_dir, numeric_model,
+                       parse_sets, point_count, positive_float)
 
 __all__ = ["add_parser", "cmd_inverse"]
 
@@ -17,7 +17,7 @@ def add_parser(sub):
     """Add the ``inverse`` sub-command to ``sub``."""
     p = sub.add_parser("inverse", help="actuator forces along a prescribed platform motion: "
                                        "by cause, by body group, power balance")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--trajectory", choices=_TRAJECTORIES, default="quintic",
                    help="quintic: rest to rest from the home pose to an offset pose; "
                         "sinusoid: about the home pose (default quintic)")

@@ -6,10 +6,13 @@ from __future__ import annotations
 import inspect
 
 from .._errors import KanedynError
-from ..models import REGISTRY, build
+from ..models import REGISTRY, build, unknown_model_text
 from ._table import table
 
-__all__ = ["add_parser", "cmd_list"]
+__all__ = ["add_parser", "cmd_list", "WIDTH"]
+
+#: the columns ``kanedyn list`` fits in
+WIDTH = 100
 
 
 def add_parser(sub):
@@ -17,7 +20,8 @@ def add_parser(sub):
     p = sub.add_parser(
         "list", help="list the built-in models, or one model's options, parameters "
                      "and states",
-        description="Without MODEL: every built-in model with its title and options. "
+        description="Without MODEL: every built-in model with its title (fits "
+                    f"{WIDTH} columns). "
                     "With MODEL: its options with their defaults, its parameters "
                     "(constants) with their default values and units, and its states "
                     "with their initial values (the model is derived to list them).")
@@ -28,15 +32,16 @@ def add_parser(sub):
 
 def cmd_list(args):
     if args.model is None:
-        rows = []
-        for name, (builder, options) in REGISTRY.items():
-            opts = ", ".join(f"{k}=<{t.__name__}>" for k, t in options.items())
-            rows.append((name, builder.title, opts))
-        print(table(rows, ("model", "description", "options (--set NAME=VALUE)")))
+        names = max(len(name) for name in REGISTRY)
+        rows = [(name, builder.title) for name, (builder, _) in REGISTRY.items()]
+        # two spaces between the columns
+        print(table(rows, ("model", "description"),
+                    widths=(None, WIDTH - names - 2)))
+        print("\noptions, parameters and states of a model: kanedyn list MODEL")
         return 0
     if args.model not in REGISTRY:
-        raise KanedynError(f"list: unknown model {args.model!r}; available: "
-                           f"{', '.join(REGISTRY)}")
+        raise KanedynError(f"list: {unknown_model_text(args.model)} (kanedyn list shows "
+                           "the models)")
     _describe(args.model)
     return 0
 

@@ -17,9 +17,10 @@ from pathlib import Path
 
 from .._errors import KanedynError
 from .._number_text import parse_number
-from ..models import REGISTRY
+from ..models import REGISTRY, unknown_model_text
 
-__all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument",
+__all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument", "model_name",
+           "add_model_argument",
            "numeric_model", "positive_float", "point_count", "integrator_name",
            "check_output_dir", "check_output_file"]
 
@@ -62,6 +63,21 @@ def numeric_model(definition, eom, backend, constants=None, note=print):
                 note(f"backend: numpy (the C backend cannot build this model: {exc})")
                 return model
     return definition.numeric(eom, constants=constants, backend=backend)
+
+
+def model_name(text):
+    """``type=`` of a built-in model's name: refused with the names it may stand
+    for (``bicycle``: did you mean whipple-bicycle?)."""
+    if text in REGISTRY:
+        return text
+    raise argparse.ArgumentTypeError(f"{unknown_model_text(text)} (kanedyn list shows "
+                                     "the models)")
+
+
+def add_model_argument(parser):
+    """Add the positional ``MODEL`` (a built-in model's name) to ``parser``."""
+    parser.add_argument("model", type=model_name, metavar="MODEL",
+                        help="a built-in model (kanedyn list shows them)")
 
 
 def positive_float(text):
@@ -192,21 +208,23 @@ def _option_value(model_name, key, kind, text):
     return text
 
 
-def split_values(definition, eom, values):
+def split_values(definition, values):
     """Split ``--set`` values into parameters and initial values of ``definition``.
 
-    ``eom`` is the derived model (its ``state_names``: equations or numeric model).
+    Read from the definition (its constants and ``state_names``), so that a name
+    that is neither is refused before any derivation.
     """
     constants, initial = {}, {}
     const_names = {str(s) for s in definition.constants}
+    states = definition.state_names
     for key, value in values.items():
         if key in const_names:
             constants[key] = value
-        elif key in eom.state_names:
+        elif key in states:
             initial[key] = value
         else:
             raise KanedynError(
                 f"--set {key}: not an option, parameter or state of {definition.name}; "
-                f"parameters: {', '.join(sorted(const_names))}; states: "
-                f"{', '.join(eom.state_names)}")
+                f"parameters: {', '.join(sorted(const_names)) or 'none'}; states: "
+                f"{', '.join(states)}")
     return constants, initial

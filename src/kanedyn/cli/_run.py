@@ -23,8 +23,8 @@ from .._output_files import replacing
 from .._progress import Progress
 from .._signals import Stopped, exit_status, holding, interruption
 from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, integrator_name, numeric_model,
-                       parse_sets, point_count, positive_float, split_values)
+from ._options import (add_backend_argument, add_model_argument, check_output_dir, integrator_name,
+                       numeric_model, parse_sets, point_count, positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_run"]
 
@@ -32,7 +32,7 @@ __all__ = ["add_parser", "cmd_run"]
 def add_parser(sub):
     """Add the ``run`` sub-command to ``sub``."""
     p = sub.add_parser("run", help="derive, simulate, write CSV, plots and a summary")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--t-end", type=positive_float, default=None,
                    help="end time [s] (default: the model's)")
     p.add_argument("--out", default="kanedyn-out", help="output directory")
@@ -63,13 +63,13 @@ def cmd_run(args):
     options, values = parse_sets(args.model, args.set)
     options.update(_pulse_option(args, options))
     definition = build(args.model, **options)  # checks the options
+    constants, initial = split_values(definition, values)  # ... and the other names
     out = check_output_dir(args.out)  # before any work, not after it
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     if args.backend != "numpy":
         definition.prefetch_runtime()  # the C runtime compiles meanwhile
     eom = definition.derive(progress=progress)
-    constants, initial = split_values(definition, eom, values)
     model = numeric_model(definition, eom, args.backend, constants)
     y0 = definition.initial(model, initial)
     t_end = args.t_end if args.t_end is not None else definition.t_end

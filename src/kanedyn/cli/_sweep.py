@@ -10,14 +10,15 @@
 from __future__ import annotations
 
 import math
+import shlex
 import sys
 
 
 from .._errors import KanedynError
 from .._number_text import parse_number
-from ..models import REGISTRY, build
-from ._options import (add_backend_argument, check_output_dir, numeric_model, parse_sets,
-                       positive_float, split_values)
+from ..models import build
+from ._options import (add_backend_argument, add_model_argument, check_output_dir, numeric_model,
+                       parse_sets, positive_float, split_values)
 
 __all__ = ["add_parser", "cmd_sweep", "parse_grid", "parse_range"]
 
@@ -26,7 +27,7 @@ def add_parser(sub):
     """Add the ``sweep`` sub-command to ``sub``."""
     p = sub.add_parser("sweep", help="simulate a model over a parameter grid or random "
                                      "samples (Dask), one table row per run")
-    p.add_argument("model", choices=list(REGISTRY))
+    add_model_argument(p)
     p.add_argument("--grid", action="append", metavar="NAME=VALUES",
                    help="grid values: start:stop:count or a comma list (m=1:2:11, l=0.5,1)")
     p.add_argument("--random", action="append", metavar="NAME=LOW:HIGH",
@@ -141,9 +142,16 @@ def cmd_sweep(args):
     random = _pairs(args.random, "--random", parse_range)
     options, values = parse_sets(args.model, args.set)
     definition = build(args.model, **options)  # checks the options
+    constants, initial = split_values(definition, values)
+    known = {str(s) for s in definition.constants} | set(definition.state_names)
+    for flag, names in (("--grid", grid), ("--random", random)):
+        unknown = [name for name in names if name not in known]
+        if unknown:
+            raise KanedynError(f"{flag} {unknown[0]}: not a parameter or state of "
+                               f"{definition.name}; parameters: "
+                               f"{', '.join(sorted(map(str, definition.constants))) or 'none'}"
+                               f"; states: {', '.join(definition.state_names)}")
     eom = definition.derive()
-    probe = definition.numeric(eom)
-    constants, initial = split_values(definition, probe, values)
     model = numeric_model(definition, eom, args.backend, constants)
     y0 = definition.initial(model, initial)
     if model.n_q_dep + model.n_u_dep:
@@ -158,7 +166,9 @@ def cmd_sweep(args):
                       timeout=args.run_timeout, method=args.method, rtol=args.rtol,
                       atol=args.atol)
     except SweepInterrupted as stop:
-        print(f"kanedyn: {stop}", file=sys.stderr)
+        print(f"kanedyn: sweep interrupted: {len(stop.table)} of {stop.total} runs saved in "
+              f"{stop.out}; run the same command again (with --out {shlex.quote(str(stop.out))}"
+              ") to finish it: the saved runs are skipped", file=sys.stderr)
         return 130
     failed = int((~table["success"].astype(bool)).sum())
     name = "results.csv" if args.csv else "results.parquet"

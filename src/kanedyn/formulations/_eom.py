@@ -72,6 +72,7 @@ class EquationsOfMotion:
     name = None
     title = None
     _declared_units = None
+    _declared_gravity = None
 
     _FIELDS = ("spec", "program", "table", "kinematics", "explicit_kinematics",
                "qdot", "kinematic_matrices", "mass", "active", "remainder",
@@ -99,10 +100,12 @@ class EquationsOfMotion:
         object.__setattr__(self, "_description_symbols", description_symbols(spec))
         return self
 
-    def _label(self, name=None, title=None, units=None):
-        """Set the model's name, title and declared units (once, by a model
-        definition that derived the equations); returns ``self``."""
-        for key, value in (("name", name), ("title", title), ("_declared_units", units)):
+    def _label(self, name=None, title=None, units=None, gravity=None):
+        """Set the model's name, title, declared units and gravity (3 numbers,
+        inertial components, m/s^2; once, by a model definition that derived
+        the equations); returns ``self``."""
+        for key, value in (("name", name), ("title", title), ("_declared_units", units),
+                           ("_declared_gravity", gravity)):
             if value is not None:
                 object.__setattr__(self, key, value)
         return self

@@ -2,6 +2,8 @@
 
 ``_viewer``   the scene: poses of bodies, shapes, surfaces, flexible members and
               traced points at every frame, from the model's own kinematics
+``_up``       which direction is drawn upwards: the user's, the model's gravity or
+              its weights
 ``_meshes``   STL and OBJ files read into triangle meshes
 ``_page``     the self-contained page (three.js inlined from ``_vendor/three``)
               and :func:`animate`
@@ -24,13 +26,14 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
          "SavedFileError": "._saved", "load": "._saved", "load_data": "._saved",
          "save_data": "._saved", "save_equations": "._saved", "SAVED_FILE_LIMITS": "._saved",
          "DEFAULT_MAX_FRAMES": "._viewer", "PALETTE": "._viewer",
-         "quaternions": "._viewer", "scene_data": "._viewer", "export_fmu": ".fmu"}
+         "quaternions": "._viewer", "scene_data": "._viewer", "up_direction": "._up",
+         "export_fmu": ".fmu"}
 
 
 
 
-__all__ = ["animate", "page_html", "scene_data", "quaternions", "read_mesh", "read_obj",
-           "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
+__all__ = ["animate", "page_html", "scene_data", "up_direction", "quaternions", "read_mesh",
+           "read_obj", "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
            "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS", "export_fmu"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

@@ -446,6 +446,7 @@ OBJECTS = {
         "_speed_tree": _optional(_Dict(STR, _list(_Either(INT, EXPRS)))),
         "name": _optional(STR), "title": _optional(STR),
         "_declared_units": _optional(_Dict(_Either(STR, EXPR), STR)),
+        "_declared_gravity": _optional(_tuple(FLOAT)),
         "_noc_blocks": _instance("NOC blocks", _FORMULATIONS + "_orthogonal_complement._Blocks"),
         "_scheme": STR, "_multiplier_form": BOOL},
 }

@@ -318,7 +318,8 @@ function build(THREE, OrbitControls, scene) {
   const upName = ["x", "y", "z"].map((c, i) => Math.abs(scene.up[i]) > 0.999 ?
     (scene.up[i] > 0 ? "+" : "-") + c : null).find((c) => c) || "tilted";
   document.getElementById("scale").textContent =
-    `grid ${gridLabel} m; up: ${upName}${follow ? "; the camera follows the model" : ""}`;
+    `grid ${gridLabel} m; up: ${upName} (${scene.up_note})` +
+    `${follow ? "; the camera follows the model" : ""}`;
   const notes = document.getElementById("notes");
   scene.notes.forEach((n) => { notes.appendChild(document.createElement("div")).textContent = n; });
   document.getElementById("title").textContent = scene.title;

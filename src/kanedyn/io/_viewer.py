@@ -44,6 +44,7 @@ from ..modeling import (SURFACE_COORDINATES, Ellipsoid, FlexibleBody, InertialEl
 from ..modeling.visuals import Mesh, Shape
 from ..numerics import compile_python, generate_python
 from ._meshes import read_mesh
+from ._up import up_direction
 
 __all__ = ["scene_data", "quaternions", "PALETTE", "DEFAULT_MAX_FRAMES"]
 
@@ -52,8 +53,6 @@ PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e
            "#17becf", "#bcbd22", "#7f7f7f")
 DEFAULT_MAX_FRAMES = 2000
 _PARTICLE_SIZE = 0.03  # particle sphere radius, fraction of the scene size
-_UP = {"x": (1, 0, 0), "y": (0, 1, 0), "z": (0, 0, 1),
-       "-x": (-1, 0, 0), "-y": (0, -1, 0), "-z": (0, 0, -1)}
 
 
 # ------------------------------------------------------------------ numbers
@@ -230,16 +229,7 @@ class _Program:
         for p in points:
             pos_exprs.extend(sub(e) for e in kin.position(p, anchors._of[p]))
         dcm_exprs = [sub(e) for f in frames for e in kin.dcm(f)]
-        force = [sm.S.Zero] * 3
-        for location, vec in eom._load_vectors:
-            if isinstance(location, me.Point):
-                force = [a + b for a, b in zip(force, vec)]
-        for body in eom.bodies:
-            if isinstance(body, FlexibleBody) and body.gravity is not None:
-                g = kin.vector(body.gravity, f"gravity of {body.name}")
-                force = [a + body.mass * b for a, b in zip(force, g)]
-        outputs = [((len(points), 3), pos_exprs), ((len(frames), 3, 3), dcm_exprs),
-                   ((3,), [sub(e) for e in force])]
+        outputs = [((len(points), 3), pos_exprs), ((len(frames), 3, 3), dcm_exprs)]
         args = dict(model._functions["dynamics"][0])
         known = set(args["y"]) | set(args["p"]) | set(args["r"]) | {table.t}
         leaves = set()
@@ -265,13 +255,12 @@ class _Program:
              for i in range(len(model._inputs))] if model._inputs else []
         r += [np.array([float(inputs[symbol](tj)) for tj in t]) if callable(inputs[symbol])
               else np.full(k, float(inputs[symbol])) for symbol in self.extra]
-        pos, dcm, force = self.function(t, Y, model._p, r)
+        pos, dcm = self.function(t, Y, model._p, r)
         pos = np.broadcast_to(pos, (len(self.points), 3, k))
         dcm = np.broadcast_to(dcm, (3 * len(self.frames), 3, k))
         pos = np.moveaxis(pos, -1, 0)  # (k, points, 3)
         dcm = np.moveaxis(dcm, -1, 0).reshape(k, len(self.frames), 3, 3)
-        force = np.moveaxis(np.broadcast_to(force, (3, k)), -1, 0)
-        return pos, dcm, force
+        return pos, dcm
 
 
 def _program(model, trace, inputs):
@@ -369,28 +358,6 @@ def _frames(result, max_frames):
     return t[keep], np.asarray(result.y, dtype=float)[:, keep]
 
 
-def _up(up, force):
-    if isinstance(up, str) and up != "auto":
-        if up not in _UP:
-            raise OptionError(f"up must be 'auto', one of {', '.join(_UP)} or 3 numbers, "
-                              f"not {up!r}")
-        return np.array(_UP[up], dtype=float), f"up: {up} (given)"
-    if not isinstance(up, str):
-        v = np.asarray(up, dtype=float)
-        if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v):
-            raise OptionError(f"up must be 'auto', an axis name or 3 numbers, not {up!r}")
-        return v / np.linalg.norm(v), "up: given"
-    norm = np.linalg.norm(force)
-    if not np.isfinite(norm) or norm == 0:
-        return np.array([0.0, 0.0, 1.0]), "up: +z (no applied force to tell)"
-    v = -force / norm
-    i = int(np.argmax(np.abs(v)))
-    if abs(v[i]) > np.cos(np.radians(10)):
-        v = np.zeros(3)
-        v[i] = np.sign(-force[i])
-    return v, "up: against the applied forces at the start"
-
-
 def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_FRAMES,
                title=None, inputs=None):
     """The animation's scene as JSON-ready data.
@@ -404,8 +371,8 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
         Points whose paths are drawn.
     up : "auto", "x", "y", "z", "-x", "-y", "-z" or 3 numbers
         The inertial direction shown upwards; ``"auto"``: opposite to the
-        resultant of the applied forces at the first frame (snapped to an
-        axis within 10 degrees), +z when there is none.
+        model's declared gravity, else to its weights, else +z
+        (:func:`kanedyn.io.up_direction`); ``up_note`` says which.
     max_frames : int
         At most this many of the result's output times become frames
         (evenly by index); the page interpolates between frames.
@@ -435,7 +402,7 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
                               f"not {value!r}")
     prog = _program(model, trace, inputs)
     t, Y = _frames(result, max_frames)
-    pos, dcm, force = prog(model, t, Y, inputs)
+    pos, dcm = prog(model, t, Y, inputs)
     values = _constants(model)
 
     # the size of the scene: where the reference points and traced points go
@@ -456,7 +423,7 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
     size = float(np.max(hi - lo))
     size = size if size > 1e-9 else 1.0
     center = 0.5 * (lo + hi)
-    up_vec, up_note = _up(up, force[0])
+    up_vec, up_note = up_direction(up, model._eom, values)
 
     by_body = {}
     for v in visuals:
@@ -468,7 +435,10 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
     for n, (kind, k, ip, jf, _) in enumerate(prog.items):
         body = prog.bodies[k]
         color = PALETTE[n % len(PALETTE)]
-        shapes = [_shape_data(v, color) for v in by_body.get(id(body), [])]
+        declared = by_body.get(id(body), [])
+        # the legend's colour is the one drawn: a declared shape's own, if any
+        color = next((v.color for v in declared if v.color), color)
+        shapes = [_shape_data(v, color) for v in declared]
         default = False
         if not shapes:
             made = _default_shape(body, values, size)

@@ -92,7 +92,8 @@ _LAZY = {
 }
 
 
-__all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "build", "available", "pendulum",
+__all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "build", "available",
+           "similar_models", "unknown_model_text", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
@@ -243,6 +244,23 @@ def available():
     return [(name, builder.title) for name, (builder, _) in REGISTRY.items()]
 
 
+def similar_models(name):
+    """Built-in model names like ``name`` (a mistyped one): those that contain it,
+    then the close spellings, at most three."""
+    import difflib
+    text = str(name).strip().lower().replace("_", "-")
+    found = [m for m in REGISTRY if text and text in m]
+    found += difflib.get_close_matches(text, list(REGISTRY), n=3, cutoff=0.6)
+    return list(dict.fromkeys(found))[:3]
+
+
+def unknown_model_text(name):
+    """``"unknown model 'x'; did you mean y?"`` (the suggestion when there is one)."""
+    similar = similar_models(name)
+    hint = f"; did you mean {' or '.join(similar)}?" if similar else ""
+    return f"unknown model {name!r}{hint}"
+
+
 def build(name, lazy=False, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
 
@@ -263,8 +281,8 @@ def build(name, lazy=False, **options):
     try:
         builder, allowed = REGISTRY[name]
     except KeyError:
-        raise ModelError(f"unknown model {name!r}; available: "
-                         f"{', '.join(REGISTRY)}") from None
+        raise ModelError(f"{unknown_model_text(name)} (available: "
+                         f"{', '.join(REGISTRY)})") from None
     unknown = set(options) - set(allowed)
     if unknown:
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "

@@ -77,6 +77,11 @@ class ModelDefinition:
         sensor's vehicle displacement: only its accelerations drive the
         model); ``SimulationResult.animate(inputs=...)`` takes them, and
         ``kanedyn run --animate`` passes them.  Empty when none.
+    gravity : tuple of 3 float or None
+        The gravitational acceleration in the inertial frame's components,
+        m/s^2, where the model declares it; the 3D viewer draws up against
+        it (:func:`kanedyn.io.up_direction`).  None: not declared (the
+        viewer then looks for the bodies' weights among the loads).
     """
 
     name: str
@@ -95,6 +100,25 @@ class ModelDefinition:
     body_groups: dict = field(default_factory=dict)
     report: object = None
     animation_inputs: dict = field(default_factory=dict)
+    gravity: tuple = None
+
+    def _labels(self):
+        return dict(name=self.name, title=self.title, units=self.units or None,
+                    gravity=None if self.gravity is None
+                    else tuple(float(g) for g in self.gravity))
+
+    @property
+    def state_names(self):
+        """Names of the coordinates and speeds, independent then dependent (the
+        order of ``EquationsOfMotion.state_names``), read from ``kane_args``
+        without deriving."""
+        from ..engine import name_of
+        args = self.kane_args
+
+        def names(*keys):
+            return [name_of(s) for key in keys for s in args.get(key) or ()]
+        return tuple(names("q_ind") + names("q_dep", "q_dependent")
+                     + names("u_ind") + names("u_dep", "u_dependent"))
 
     def derive(self, progress=False, method="kane"):
         """Equations of motion (:func:`kanedyn.formulate`), labelled with the
@@ -102,7 +126,7 @@ class ModelDefinition:
         from ..formulations import formulate
         DERIVE_STATS["derivations"] += 1
         eom = formulate(method=method, progress=progress, **self.kane_args)
-        return eom._label(name=self.name, title=self.title, units=self.units or None)
+        return eom._label(**self._labels())
 
     def numeric(self, eom=None, constants=None, specified=None, **options):
         """Numerical model with the default constants, updated by ``constants``.
@@ -124,7 +148,7 @@ class ModelDefinition:
             self.prefetch_runtime()
         eom = eom if eom is not None else self.derive()
         if eom.name is None:
-            eom._label(name=self.name, title=self.title, units=self.units or None)
+            eom._label(**self._labels())
         values = dict(self.constants)
         values.update(self._constant_overrides(constants or {}))
         inputs = dict(self.specified)

@@ -71,6 +71,7 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
 from ._oc3_tower import oc3_tower_rna_basis
+from ._oc3_shapes import oc3_shape_specs
 
 __all__ = ["oc3_spar", "OC3_SPAR_OPTIONS", "spar_geometry", "oc3_settle",
            "oc3_static_offsets", "tower_reference_mass"]
@@ -454,8 +455,15 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                     "mass, linear damping, Morison drag and waves, linear or catenary "
                     "mooring, rotor thrust, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
-        units={s_d: "m"} if s_d is not None else {},
-        body_groups={"platform": ("platform",), "tower": ("tower",), "rna": ("rna",)})
+        # numeric lengths hide the units from the kinematics: the angles and the modal
+        # coordinates (modes scaled to a largest nodal translation of 1 m) declared
+        units={**{qi: "rad" for qi in q6[3:]}, **{qi: "m" for qi in q6[:3]},
+               **({qi: "m" for qi in tower.q} if tower_modes else {}),
+               **({s_d: "m"} if s_d is not None else {})},
+        body_groups={"platform": ("platform",), "tower": ("tower",), "rna": ("rna",)},
+        gravity=(0.0, 0.0, -g),
+        shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
+                                    (cm_x, _v(RNA, "cm_z")), _v(TOWER, "top_z")))
 
 
 class _PeriodicSeries:

@@ -403,8 +403,12 @@ class SimulationResult:
 
         One panel per kind and unit of state (angles [rad], positions [m],
         angular rates [rad/s], speeds [m/s], ``[?]`` where the model does not
-        tell), curves of very different ranges in separate panels, legends
-        beside the axes; the title names the model.
+        tell; a flexible body's modal coordinates apart), curves of very
+        different ranges in separate panels, legends beside the axes; the
+        title names the model.  States that never exceed 1e-12 (numerical
+        noise, or at rest) are left out and named in the title unless asked
+        for by ``states``.  At most 1600 x 1000 pixels as saved: beyond four
+        panels, coordinates in a left column and speeds in a right one.
 
         Parameters
         ----------
@@ -440,7 +444,7 @@ class SimulationResult:
             Points whose paths are drawn.
         up : "auto", "x", "y", "z", "-x", "-y", "-z" or 3 numbers
             The inertial direction drawn upwards; ``"auto"``: against the
-            applied forces at the start (gravity), else +z.
+            model's declared gravity, else its bodies' weights, else +z.
         max_frames : int
             At most this many output times become frames.
         title : str, optional

@@ -70,11 +70,18 @@ class SweepInterrupted(KeyboardInterrupt):
     ----------
     table : pandas.DataFrame
         The rows of the finished runs.
+    total : int or None
+        The number of runs asked for.
+    out : Path or None
+        The folder the finished runs are saved in (run the same sweep with it
+        again to finish), or None.
     """
 
-    def __init__(self, message, table):
+    def __init__(self, message, table, total=None, out=None):
         super().__init__(message)
         self.table = table
+        self.total = total
+        self.out = out
 
 
 def _need(module):
@@ -475,7 +482,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
                  "it (saved runs are skipped)" if out is not None else
                  "kept in this exception's table (give out=... to make sweeps resumable)")
         raise SweepInterrupted(f"sweep interrupted: {len(table)} of {len(values)} runs "
-                               f"{where}", table) from None
+                               f"{where}", table, total=len(values), out=out) from None
     bar.close()
     table = _table(rows, out, names)
     if out is not None:
