@@ -29,9 +29,6 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
          "quaternions": "._viewer", "scene_data": "._viewer", "up_direction": "._up",
          "export_fmu": ".fmu"}
 
-
-
-
 __all__ = ["animate", "page_html", "scene_data", "up_direction", "quaternions", "read_mesh",
            "read_obj", "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
            "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS", "export_fmu"]
