@@ -100,19 +100,19 @@ def test_resume_after_a_lost_part_and_ctrl_c(pendulum, tmp_path, monkeypatch):
     calls = []
     original = _sweep.run_batch
 
-    def counting(model, batch, *args):
+    def counting(model, batch, *args, **kwargs):
         calls.append([run for run, _ in batch])
-        return original(model, batch, *args)
+        return original(model, batch, *args, **kwargs)
     monkeypatch.setattr(_sweep, "run_batch", counting)
     again = kd.sweep(model, grid, y0, (0, 1), out=out, batch_size=2, scheduler="serial",
                      progress=False)
     assert calls == [[4, 5]]  # only the lost runs
     pd.testing.assert_frame_equal(first, again)
 
-    def interrupted(model, batch, *args):
+    def interrupted(model, batch, *args, **kwargs):
         if batch[0][0] >= 4:
             raise KeyboardInterrupt
-        return original(model, batch, *args)
+        return original(model, batch, *args, **kwargs)
     other = tmp_path / "other"
     monkeypatch.setattr(_sweep, "run_batch", interrupted)
     with pytest.raises(kd.SweepInterrupted, match="4 of 8 runs saved in .*run the same sweep"

@@ -46,8 +46,8 @@ def cmd_export(args):
     options, values = parse_sets(args.model, args.set)
     definition = build(args.model, **options)  # checks the options
     check_output_file(args.fmu, "--fmu")
+    constants, initial = split_values(definition, values)  # names checked before deriving
     eom = definition.derive(progress=Progress(enabled=not args.quiet))
-    constants, initial = split_values(definition, eom, values)
     model = definition.numeric(eom, constants=constants, backend="numpy")
     written = export_fmu(model, args.fmu, definition.initial(model, initial),
                          t_end=args.t_end or definition.t_end, rtol=args.rtol,

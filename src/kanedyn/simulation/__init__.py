@@ -11,6 +11,7 @@
 ``_index3``      the fixed-step integrator of the index-3 augmented Lagrangian
 ``_results``     ``SimulationResult``
 ``_sweep``       ``sweep``: many runs over a parameter grid or samples, on Dask
+``_ensemble``    ``simulate_many``: many runs of a compiled model at once, in C threads
 ``_sensitivity`` ``sensitivity``: a run with the derivatives of its states with
                  respect to the initial state and the constants
 """
@@ -29,6 +30,8 @@ _LAZY = {
     "METHODS": "._simulate",
     "OWN_INTEGRATORS": "._simulate",
     "sweep": "._sweep",
+    "simulate_many": "._ensemble",
+    "EnsembleResult": "._ensemble",
     "SweepInterrupted": "._sweep",
     "SWEEP_OUTPUTS": "._sweep",
     "check_scheduler": "._sweep",

@@ -209,17 +209,92 @@ def _outputs(row, res, outputs, model):
         row["t_end"] = float(res.t[-1]) if res.t.size else float("nan")
 
 
+#: the options of ``simulate`` a sweep's runs may have to be integrated together
+_ENSEMBLE_OPTIONS = {"method", "rtol", "atol", "t_eval", "max_step", "first_step", "project",
+                     "projection_tol"}
+
+
+def _ensemble_rows(model, batch, names, y0, t_span, outputs, options, threads):
+    """The rows of ``batch`` from one :func:`simulate_many`, or ``None`` where
+    ``simulate`` would integrate the runs otherwise than the ensemble does (a
+    NumPy model, contacts, a scheme's own integrator, a method other than the
+    compiled RK45, events or other options) or the outputs need what the
+    ensemble does not keep (every step's state without ``t_eval``, events,
+    energies, each run's wall time).  The numbers are those of ``simulate``'s
+    compiled loop.  Where a run's values are refused (a negative mass), the batch
+    goes run by run (:func:`_run_one`), whose rows say which failed."""
+    from ._ensemble import simulate_many
+    kept = {"final", "nfev", "t_end"} | ({"max", "min"} if "t_eval" in options else set())
+    if (getattr(model, "_c", None) is None or model.contacts or not set(outputs) <= kept
+            or getattr(getattr(model, "scheme", None), "integrator", None) is not None
+            or not set(options) <= _ENSEMBLE_OPTIONS
+            or options.get("method", "RK45") != "RK45"):
+        return None
+    values = np.array([v for _, v in batch], dtype=float).reshape(len(batch), len(names))
+    constants = {k: values[:, j] for j, k in enumerate(names) if k in model.constants}
+    Y0 = np.tile(np.asarray(y0, dtype=float), (len(batch), 1))
+    for j, k in enumerate(names):
+        if k not in model.constants:
+            Y0[:, model.index(k)] = values[:, j]
+    try:
+        ensemble = simulate_many(model, Y0, t_span, constants=constants or None,
+                                 threads=threads,
+                                 **{k: v for k, v in options.items() if k != "method"})
+    except (ModelError, OptionError):  # a run's values: the runs one by one, failed rows
+        return None
+    rows = []
+    for i, (run, values) in enumerate(batch):
+        row = _parameters_row(run, names, values)
+        row.update(success=bool(ensemble.status[i] >= 0), status=int(ensemble.status[i]),
+                   message=ensemble.message[i])
+        _ensemble_outputs(row, ensemble, i, outputs)
+        rows.append(row)
+    return rows
+
+
+def _ensemble_outputs(row, ensemble, i, outputs):
+    """:func:`_outputs` of run ``i`` of an ensemble: its output times reached, and
+    the state accepted last where a run that ended early got beyond them (as
+    ``simulate`` keeps it)."""
+    y = ensemble.y[i]
+    reached = np.all(np.isfinite(y), axis=1)
+    t, states = ensemble.t[reached], y[reached]
+    if ensemble.status[i] < 0 and (not t.size or ensemble.t_end[i] > t[-1]) \
+            and np.all(np.isfinite(ensemble.y_end[i])) and ensemble.t_end[i] != ensemble.t[0]:
+        t = np.append(t, ensemble.t_end[i])
+        states = np.vstack([states, ensemble.y_end[i]])
+    if not t.size:
+        t, states = np.array([np.nan]), np.full((1, y.shape[1]), np.nan)
+    names = ensemble.state_names
+    if "final" in outputs:
+        row.update((f"final_{s}", float(v)) for s, v in zip(names, states[-1]))
+    if "max" in outputs:
+        row.update((f"max_{s}", float(v)) for s, v in zip(names, states.max(axis=0)))
+    if "min" in outputs:
+        row.update((f"min_{s}", float(v)) for s, v in zip(names, states.min(axis=0)))
+    if "nfev" in outputs:
+        row["rhs_evaluations"] = int(ensemble.nfev[i])
+    if "t_end" in outputs:
+        row["t_end"] = float(t[-1])
+
+
 def _parameters_row(run, names, values):
     return dict({"run": int(run)}, **{name: float(v) for name, v in zip(names, values)})
 
 
-def run_batch(model, batch, names, y0, t_span, outputs, options, timeout=None):
+def run_batch(model, batch, names, y0, t_span, outputs, options, timeout=None, threads=1):
     """Rows of a batch of runs ``[(run id, values), ...]`` (one Dask task);
-    ``timeout``: the time limit of each run, s (see :func:`sweep`)."""
+    ``timeout``: the time limit of each run, s (see :func:`sweep`).  Runs
+    :func:`~kanedyn.simulation._ensemble.simulate_many` integrates as
+    ``simulate`` would are integrated together in C, on ``threads`` threads
+    (None: every CPU; see :func:`_ensemble_rows`)."""
     import warnings
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")  # a worker has no one to warn; messages are rows
         if timeout is None:
+            rows = _ensemble_rows(model, batch, names, y0, t_span, outputs, options, threads)
+            if rows is not None:
+                return rows
             return [_run_one(model, run, names, values, y0, t_span, outputs, options)
                     for run, values in batch]
         options = dict(options, timeout=timeout)
@@ -472,7 +547,7 @@ def sweep(model, parameters, y0, t_span, outputs=("final",), *, n=None, seed=Non
     try:
         if scheduler == "serial" and client is None:
             for batch in batches:
-                finished(run_batch(model, batch, *args))
+                finished(run_batch(model, batch, *args, threads=None))
         elif batches:
             _on_dask(model, batches, args, finished, scheduler, client, workers)
     except KeyboardInterrupt:

@@ -10,8 +10,8 @@ threads, Python's lock released.  The inputs of a trajectory are constants or a
 record on a time grid shared by all, interpolated linearly (NumPy's ``interp``
 formula).
 
-While the threads work, the calling thread wakes every ``KD_ENS_POLL``
-seconds to take Python's signals: a Ctrl-C (or the run's stop flag) stops every
+While the threads work, the calling thread waits for them, waking at least
+every ``KD_ENS_POLL`` seconds to take Python's signals: a Ctrl-C (or the run's stop flag) stops every
 trajectory at its next step, and what was computed is returned, as a time
 limit does.  Memory: the outputs asked for, and per thread one work array.
 """
@@ -110,7 +110,7 @@ static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double
                       &h_abs);
     while (dir * (s->t1 - t) > 0) {
         if (*s->stop) { o->outcome = KD_ENS_STOPPED; break; }
-        if ((++count & 15) == 0 && s->deadline > 0 && kd_clock() >= s->deadline) {
+        if ((count++ & 15) == 0 && s->deadline > 0 && kd_clock() >= s->deadline) {
             o->outcome = KD_ENS_TIMED_OUT;
             break;
         }
@@ -181,6 +181,7 @@ typedef struct {
     int *finished;                /* threads done (the calling thread waits for all) */
 #if KD_HAVE_THREADS
     pthread_mutex_t *lock;        /* of next and finished */
+    pthread_cond_t *done;         /* signalled as a thread finishes */
 #endif
 } KdEnsJob;
 
@@ -218,21 +219,25 @@ static void kd_ens_rows(KdEnsJob *job) {
 #endif
     ++*job->finished;
 #if KD_HAVE_THREADS
+    pthread_cond_signal(job->done);
     pthread_mutex_unlock(job->lock);
 #endif
 }
 
-/* threads done (read under the lock) */
-static int kd_ens_finished(KdEnsJob *job) {
 #if KD_HAVE_THREADS
+/* whether all `running` threads are done, waiting up to KD_ENS_POLL s for it */
+static int kd_ens_wait(KdEnsJob *job, int running) {
+    struct timespec until;
+    clock_gettime(CLOCK_REALTIME, &until);
+    until.tv_nsec += (long)(KD_ENS_POLL * 1e9);
+    if (until.tv_nsec >= 1000000000L) { until.tv_sec += 1; until.tv_nsec -= 1000000000L; }
     pthread_mutex_lock(job->lock);
-#endif
-    int done = *job->finished;
-#if KD_HAVE_THREADS
+    if (*job->finished < running) pthread_cond_timedwait(job->done, job->lock, &until);
+    int all = *job->finished >= running;
     pthread_mutex_unlock(job->lock);
-#endif
-    return done;
+    return all;
 }
+#endif
 
 #if KD_HAVE_THREADS
 static void *kd_ens_thread(void *job) {
@@ -324,6 +329,7 @@ static PyObject *KdModel_integrate_many(KdModel *self, PyObject *args) {
     KdEnsJob jobs[KD_MAX_THREADS];
 #if KD_HAVE_THREADS
     pthread_mutex_t lock = PTHREAD_MUTEX_INITIALIZER;
+    pthread_cond_t done_cond = PTHREAD_COND_INITIALIZER;
 #endif
     for (int j = 0; j < threads; ++j) {
         KdEnsJob job = {&spec, (const double *)PyArray_DATA(Y0),
@@ -332,7 +338,7 @@ static PyObject *KdModel_integrate_many(KdModel *self, PyObject *args) {
                         R ? (const double *)PyArray_DATA(R) : NULL, k, out, y_end, t_singular,
                         outcomes, nfev, n, &next, work + (size_t)j * KD_SZ(KD_NW), &finished
 #if KD_HAVE_THREADS
-                        , &lock
+                        , &lock, &done_cond
 #endif
                         };
         jobs[j] = job;
@@ -352,11 +358,12 @@ static PyObject *KdModel_integrate_many(KdModel *self, PyObject *args) {
         Py_END_ALLOW_THREADS
     }
     /* wait, looking at Python's signals (a Ctrl-C stops the trajectories) */
-    while (running > 0 && kd_ens_finished(&jobs[0]) < running) {
+    while (running > 0) {
+        int all;
         Py_BEGIN_ALLOW_THREADS
-        struct timespec pause = {0, (long)(KD_ENS_POLL * 1e9)};
-        nanosleep(&pause, NULL);
+        all = kd_ens_wait(&jobs[0], running);
         Py_END_ALLOW_THREADS
+        if (all) break;
         if (*guard_stop) stop = 1;
         if (!stop && PyErr_CheckSignals() != 0) { stop = 1; interrupted = 1; }
     }
