@@ -218,8 +218,9 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
         specified = {}
     else:
         torque, pitch = me.dynamicsymbols("T_generator pitch_input")
-        specified = {torque: point.generator_torque if point else 0.0,
-                     pitch: point.pitch if point else 0.0}
+        specified = {torque: point.generator_torque if point else 0.0}
+        if point:     # without wind nothing depends on the pitch
+            specified[pitch] = point.pitch
     flexible = options["drivetrain"] == "flexible"
     drive = Drivetrain(A, hub, math.radians(_v(ROTOR, "shaft_tilt")),
                        _v(DRIVETRAIN, "rotor_inertia"), _v(DRIVETRAIN, "generator_inertia"),

@@ -228,8 +228,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         With ``rotor="spinning"``: ``"on"``, the baseline controller with the
         OC3 gains (generator torque and blade pitch from three controller
         states); ``"off"``, generator torque and pitch are specified inputs
-        ``T_generator`` (N m) and ``pitch_input`` (rad), held at their steady
-        values for ``wind_speed`` (0 without wind) unless given.
+        ``T_generator`` (N m) and ``pitch_input`` (rad; only with wind), held at
+        their steady values for ``wind_speed`` (torque 0 without wind) unless given.
     drivetrain : {"rigid", "flexible"}
         With ``rotor="spinning"``: ``"flexible"`` adds the low-speed shaft's
         torsional twist as a degree of freedom (published stiffness and
