@@ -205,9 +205,9 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
     dict
         ``q``, ``u``, ``kd_eqs``, ``bodies``, ``loads``, ``potential``
         (SymPy), ``specified`` (``{symbol: value}``), ``initial``
-        (``{symbol: value}``), ``symbols`` (``drivetrain``, ``controller``,
-        ``aerodynamics``, ``generator_torque``, ``pitch``,
-        ``electrical_power``, all SymPy in the states).
+        (``{symbol: value}``), ``units`` (of the states), ``symbols``
+        (``drivetrain``, ``controller``, ``aerodynamics``, ``generator_torque``,
+        ``pitch``, ``electrical_power``, all SymPy in the states).
     """
     controlled = options["controller"] == "on"
     controller = oc3_controller()
@@ -238,6 +238,9 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
         loads += aero.to_loads()
     speed = point.rotor_speed if point else 0.0
     initial = {drive.u[0]: speed}
+    if flexible and point:   # the twist that carries the steady torque
+        initial[drive.q[1]] = (_v(DRIVETRAIN, "gear_ratio") * point.generator_torque
+                               / _v(DRIVETRAIN, "shaft_stiffness"))
     if controlled:
         q += states
         kd_eqs += controller.kinematic_equations(states, drive.generator_speed)
@@ -245,8 +248,12 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
         initial.update({states[0]: _v(DRIVETRAIN, "gear_ratio") * speed, states[1]:
                         controller.steady_integral(p0), states[2]: p0})
     power = _v(DRIVETRAIN, "generator_efficiency") * torque * drive.generator_speed
+    units = {**dict.fromkeys(drive.q, "rad"), **dict.fromkeys(drive.u, "rad/s")}
+    if controlled:
+        units.update({states[0]: "rad/s", states[1]: "rad", states[2]: "rad"})
     return dict(q=q, u=u, kd_eqs=kd_eqs, bodies=list(drive.bodies), loads=loads,
                 potential=drive.potential_energy, specified=specified, initial=initial,
+                units=units,
                 symbols=dict(drivetrain=drive, controller=controller if controlled else None,
                              aerodynamics=aero, generator_torque=torque, pitch=pitch,
                              electrical_power=power))

@@ -511,7 +511,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                     "mass, linear damping, Morison drag and waves, linear or catenary "
                     "mooring, rotor thrust, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
-        units={s_d: "m"} if s_d is not None else {},
+        units={**({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
         body_groups={"platform": ("platform",), "tower": ("tower",),
                      "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
                      else ("rna",)})
