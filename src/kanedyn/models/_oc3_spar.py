@@ -49,6 +49,11 @@ of the tower axis, 90 m above the SWL) along the shaft tilted 5 deg,
 :math:`\cos 5^\circ A_x - \sin 5^\circ A_z`
 (:class:`~kanedyn.offshore.RotorThrust` with the NREL 5-MW curve of the free hub-height
 wind, the aerodynamic damping on the hub's velocity along the shaft).
+
+With ``rotor="spinning"`` the rotor azimuth (and with ``drivetrain="flexible"`` the
+low-speed shaft's twist) is a degree of freedom, the rotor's thrust and torque come from
+its performance table, and with ``controller="on"`` the baseline controller's three
+states join the coordinates (:mod:`kanedyn.models._oc3_rotor`).
 """
 
 from __future__ import annotations
@@ -376,16 +381,16 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         # derivatives, which the rotor's numeric aerodynamic damping cannot take)
         rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
         hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
-    spin = None
+    spin = wind_symbol = None
     wind = float(wind_speed)
     if wind_speed > 0 and turbulence > 0:
         t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
                                hub_height=_v(ROTOR, "hub_height"))
         wind = _PeriodicSeries(t_w, v_w)
+        wind_symbol = me.dynamicsymbols("V_wind")   # the spinning rotor's input
     if spinning:
         if not tower_modes:
             hub.v2pt_theory(top, N, A)
-        wind_symbol = me.dynamicsymbols("V_wind") if callable(wind) else None
         spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol)
         q += spin["q"]
         u += spin["u"]
@@ -420,8 +425,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     specified = {}
     if spin is not None:
         specified.update(spin["specified"])
-        if callable(wind):
-            specified[me.dynamicsymbols("V_wind")] = wind
+        if wind_symbol is not None:
+            specified[wind_symbol] = wind
     if drag or waves is not None or added_mass == "morison":
         morison = MorisonCylinder(
             "spar", B, P, B.z, spar_geometry(), N, O, rest, rho,
@@ -509,7 +514,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         description="OC3-Hywind (Jonkman 2010) with the NREL 5-MW RNA: rigid 6-dof spar, "
                     "tower rigid or Craig-Bampton flexible, hydrostatics, constant added "
                     "mass, linear damping, Morison drag and waves, linear or catenary "
-                    "mooring, rotor thrust, TMD or TMDI in the nacelle "
+                    "mooring, rotor thrust or a spinning rotor with drivetrain and "
+                    "baseline controller, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
         units={**({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
         body_groups={"platform": ("platform",), "tower": ("tower",),
