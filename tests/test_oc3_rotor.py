@@ -41,6 +41,7 @@ def test_fit_of_the_performance_table():
     for x, p in ((7.5, 0.0), (4.4, 0.26), (11.0, 0.05), (1.0, 0.0)):
         num_cp, num_ct = surface.coefficients(x, p)
         cq, ct_x = closed_form(x, p)
+        assert cq == pytest.approx(float(surface.torque_coefficient(x, p)), rel=1e-12)
         assert cq * max(x, 3.0) == pytest.approx(float(num_cp), rel=1e-12)
         assert ct_x == pytest.approx(float(num_ct), rel=1e-12)
 

@@ -159,10 +159,8 @@ def oc3_operating_point(wind_speed):
     q = 0.5 * rho * math.pi * R ** 2 * wind_speed ** 2
     law = _torque_law(controller)
 
-    def aero_torque(speed, pitch):     # Q = q R C_P / lambda, lambda inside the table
-        lam = speed * R / wind_speed
-        cp, _ = surface.coefficients(lam, pitch)
-        return q * R * float(cp) / max(lam, surface.lam_box[0])
+    def aero_torque(speed, pitch):
+        return q * R * float(surface.torque_coefficient(speed * R / wind_speed, pitch))
 
     def balance(speed, pitch=0.0):
         return aero_torque(speed, pitch) - ratio * law(ratio * speed, pitch)

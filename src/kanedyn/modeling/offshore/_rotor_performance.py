@@ -92,6 +92,11 @@ class PerformanceSurface:
         return (chebyshev.chebval2d(x, y, self.power_fit),
                 chebyshev.chebval2d(x, y, self.thrust_fit))
 
+    def torque_coefficient(self, tip_speed_ratio, pitch):
+        r""":math:`C_Q = C_P/\lambda` (array) of the fit, as :meth:`expressions` gives it."""
+        cp, _ = self.coefficients(tip_speed_ratio, pitch)
+        return cp / np.clip(tip_speed_ratio, *self.lam_box)
+
     def expressions(self, tip_speed_ratio, pitch):
         r"""``(C_Q, C_T)`` as SymPy expressions of :math:`\lambda` and pitch (rad)."""
         lam = _clamp(tip_speed_ratio, *map(float, self.lam_box))
