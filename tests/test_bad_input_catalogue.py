@@ -347,6 +347,14 @@ CLI_CASES = {
                                         "mass=2"],
                                        "--set mass: not an option, parameter or state of "
                                        "pendulum"),
+    "controller without a spinning rotor": (["run", "oc3-spar", "--set", "controller=on"],
+                                            "option controller=on needs rotor=spinning"),
+    "unknown rotor": (["run", "oc3-spar", "--set", "rotor=flexible"],
+                      "option rotor must be one of rigid, spinning, got 'flexible'"),
+    "wind past cut-out for the spinning rotor": (
+        ["run", "oc3-spar", "--set", "rotor=spinning", "--set", "wind_speed=30"],
+        "with rotor=spinning, option wind_speed must be 0 .* or from cut-in 3 to cut-out "
+        "25 m/s, got 30.0"),
     "negative hub damping": (["run", "flexible-robot", "--set", "hub_damping=-1"],
                              r"flexible-robot: hub_damping must be a finite number >= 0 "
                              r"\(N m s/rad\), got -1"),

@@ -496,3 +496,20 @@ def test_pendulum_swing_up(tmp_path, monkeypatch):
     # the trapezoid's error, O(h^2) at h = 0.05 s: under 1 % of each state's range
     assert np.max(np.abs(run.y[0] - q[early])) < 1e-2 * np.ptp(q[early])
     assert np.max(np.abs(run.y[1] - u[early])) < 1e-2 * np.ptp(u[early])
+
+
+# ------------------------------------------------------------- oc3 controller
+def test_oc3_controller(tmp_path, monkeypatch):
+    """Turbulent 18 m/s (10 %): over the second half the baseline controller holds the
+    rotor at the published rated 12.1 rpm and the electrical power at 5 MW (within 2 %,
+    integral action on the speed; constant torque makes power follow speed), the mean
+    pitch near the steady pitch of the mean wind, the spar leaning downwind."""
+    out, _ = run_example("oc3_controller", [], tmp_path, monkeypatch)
+    assert out["success"]
+    assert out["mean_rotor_rpm"] == pytest.approx(12.1, rel=0.02)
+    assert out["mean_power"] == pytest.approx(5.0e6, rel=0.02)
+    from kanedyn.models import oc3_operating_point
+    steady = oc3_operating_point(out["mean_wind"])
+    assert out["mean_pitch_deg"] == pytest.approx(np.degrees(steady.pitch), abs=1.0)
+    assert out["mean_platform_pitch_deg"] > 1.0
+    assert out["rotor_rpm"].min() > 8.0 and out["rotor_rpm"].max() < 17.0

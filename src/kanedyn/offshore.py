@@ -17,6 +17,10 @@ model is built from them and ``docs/offshore.md`` describes each::
     ThrustCurve       a steady thrust curve T(V)
     NREL5MW_THRUST    the NREL 5-MW rotor's steady thrust curve
     kaimal_wind       a seeded longitudinal wind speed series at hub height (Kaimal)
+    PerformanceSurface  a rotor's torque and thrust coefficients fitted to its Cp, Ct table
+    RotorAerodynamics   quasi-steady rotor thrust and torque from a PerformanceSurface
+    Drivetrain        the spinning rotor on a tilted shaft, gearbox, generator (shaft twist)
+    BaselineController  variable-speed, collective-pitch control as first-order states
 
 These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
@@ -41,6 +45,10 @@ _LAZY = {
     "ThrustCurve": ".modeling.offshore",
     "NREL5MW_THRUST": ".modeling.offshore",
     "kaimal_wind": ".modeling.offshore",
+    "PerformanceSurface": ".modeling.offshore",
+    "RotorAerodynamics": ".modeling.offshore",
+    "Drivetrain": ".modeling.offshore",
+    "BaselineController": ".modeling.offshore",
 }
 
 __all__ = list(_LAZY)

@@ -81,6 +81,8 @@ _LAZY = {
     'oc3_tower_member': '._oc3_tower',
     'oc3_rna_node_mass': '._oc3_tower',
     'OC3_SPAR_OPTIONS': '._oc3_options',
+    'oc3_operating_point': '._oc3_rotor',
+    'OperatingPoint': '._oc3_rotor',
     'seatbelt_sensor': '._seatbelt',
     'seatbelt_motion': '._seatbelt',
     'seatbelt_report': '._seatbelt',
@@ -110,7 +112,8 @@ __all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "build", "availab
            "stewart_anchors", "stewart_leg_lengths", "out_parallel_6dof",
            "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA", "out_parallel_anchors",
            "out_parallel_ik", "oc3_spar", "oc3_settle", "oc3_static_offsets", "oc3_tower",
-           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS",
+           "oc3_tower_member", "oc3_rna_node_mass", "OC3_SPAR_OPTIONS", "oc3_operating_point",
+           "OperatingPoint",
            "seatbelt_sensor", "seatbelt_motion", "seatbelt_report", "seatbelt_tilt",
            "lock_events", "SeatbeltReport", "SEATBELT_DEFAULTS",
            "oc3_tower_rna_basis"]

@@ -2,7 +2,8 @@ r"""OC3-Hywind spar with the NREL 5-MW turbine: the published properties as data
 
 Every figure is a :class:`Figure` (value, unit, source, meaning), grouped in
 read-only mappings: :data:`PLATFORM`, :data:`ENVIRONMENT`, :data:`HYDRO`,
-:data:`MOORING`, :data:`TOWER`, :data:`RNA`, :data:`ROTOR`, and the tower's
+:data:`MOORING`, :data:`TOWER`, :data:`RNA`, :data:`ROTOR`, :data:`DRIVETRAIN`,
+:data:`CONTROLLER` (the baseline controller; the OC3 gains), and the tower's
 distributed properties :data:`TOWER_STATIONS`.  Functions assemble the 6 x 6
 matrices of the rigid floating system about the *SWL reference point* (on the
 spar axis at the still water line; x downwind, y to port, z up; rows ordered
@@ -17,7 +18,10 @@ the OC3-Hywind system and in the project's data sheet
   mooring, tower of the floating system).
 * ``5MW`` -- J. Jonkman, S. Butterfield, W. Musial, G. Scott, *Definition of
   a 5-MW Reference Wind Turbine for Offshore System Development*,
-  NREL/TP-500-38060, 2009 (rotor and rotor-nacelle assembly).
+  NREL/TP-500-38060, 2009 (rotor and rotor-nacelle assembly; drivetrain,
+  sec. 5; baseline controller, sec. 7 and the parameters of its source code
+  in appendix A).  ``OC3`` also gives the floating turbine's detuned pitch
+  gains and region-3 constant generator torque (sec. 7 of the OC3 report).
 """
 
 from __future__ import annotations
@@ -30,7 +34,8 @@ import numpy as np
 from .._errors import ModelError
 
 __all__ = ["Figure", "SOURCES", "PLATFORM", "ENVIRONMENT", "HYDRO", "MOORING", "TOWER",
-           "TOWER_STATIONS", "RNA", "ROTOR", "tower_stations", "tower_rigid_properties",
+           "TOWER_STATIONS", "RNA", "ROTOR", "DRIVETRAIN", "CONTROLLER", "tower_stations",
+           "tower_rigid_properties",
            "rna_inertia_about_cm", "rigid_body_mass_matrix", "system_mass_matrix",
            "system_mass_properties", "hydrostatic_matrix", "added_mass_matrix",
            "damping_matrix", "mooring_stiffness_matrix", "all_figures"]
@@ -191,10 +196,53 @@ ROTOR = _group(
     shaft_tilt=(5.0, "deg", "5MW", "shaft tilt"),
     precone=(2.5, "deg", "5MW", "blade precone"),
     overhang=(5.0191, "m", "5MW", "hub overhang (upwind of the yaw axis)"),
+    air_density=(1.225, "kg/m^3", "5MW", "air density of the rotor's design and tables"),
+)
+
+DRIVETRAIN = _group(
+    rotor_inertia=(38_759_227.0, "kg m^2", "5MW",
+                   "rotor (hub and blades) inertia about the shaft: the published drivetrain "
+                   "inertia 43,784,725 cast to the low-speed shaft less 97^2 x 534.116 (sec. 7.4)"),
+    generator_inertia=(534.116, "kg m^2", "5MW", "generator inertia about the high-speed shaft"),
+    gear_ratio=(97.0, "1", "5MW", "gearbox ratio, high-speed to low-speed shaft"),
+    shaft_stiffness=(867_637_000.0, "N m/rad", "5MW",
+                     "drivetrain torsional stiffness, low-speed shaft"),
+    shaft_damping=(6_215_000.0, "N m s/rad", "5MW",
+                   "drivetrain torsional damping, low-speed shaft"),
+    generator_efficiency=(0.944, "1", "5MW", "electrical efficiency of the generator"),
+)
+
+CONTROLLER = _group(
+    filter_corner=(1.570796, "rad/s", "5MW",
+                   "corner of the one-pole generator-speed low-pass filter (0.25 Hz)"),
+    cut_in_speed=(70.16224, "rad/s", "5MW", "generator speed where region 1 1/2 begins (670 rpm)"),
+    region2_start_speed=(91.21091, "rad/s", "5MW",
+                         "generator speed where region 2 begins (871 rpm)"),
+    region25_speed=(121.6805, "rad/s", "5MW",
+                    "generator speed at the end of region 2 1/2 (99 % of 1173.7 rpm)"),
+    reference_speed=(122.9096, "rad/s", "5MW",
+                     "rated generator speed, the pitch controller's set point (1173.7 rpm)"),
+    region2_gain=(2.332287, "N m/(rad/s)^2", "5MW",
+                  "region-2 torque constant (0.0255764 N m/rpm^2)"),
+    slip=(0.10, "1", "5MW", "slip of the region-2 1/2 induction-generator line"),
+    rated_power=(5_296_610.0, "W", "5MW", "rated mechanical power"),
+    max_torque=(47_402.91, "N m", "5MW", "generator torque limit"),
+    region3_pitch=(0.01745329, "rad", "5MW",
+                   "pitch from which the torque law is in region 3 (1 deg)"),
+    kp=(0.006275604, "s", "OC3", "pitch controller proportional gain at zero pitch, detuned for "
+                               "the floating turbine (onshore 0.01882681)"),
+    ki=(0.0008965149, "1", "OC3", "pitch controller integral gain at zero pitch, detuned for the "
+                                 "floating turbine (onshore 0.008068634)"),
+    gain_doubling_pitch=(0.1099965, "rad", "5MW",
+                         "pitch where the pitch sensitivity of power doubles (6.302336 deg)"),
+    min_pitch=(0.0, "rad", "5MW", "lower pitch limit"),
+    max_pitch=(1.570796, "rad", "5MW", "upper pitch limit (90 deg)"),
+    max_pitch_rate=(0.1396263, "rad/s", "5MW", "pitch rate limit (8 deg/s)"),
 )
 
 _GROUPS = {"ENVIRONMENT": ENVIRONMENT, "PLATFORM": PLATFORM, "HYDRO": HYDRO,
-           "MOORING": MOORING, "TOWER": TOWER, "RNA": RNA, "ROTOR": ROTOR}
+           "MOORING": MOORING, "TOWER": TOWER, "RNA": RNA, "ROTOR": ROTOR,
+           "DRIVETRAIN": DRIVETRAIN, "CONTROLLER": CONTROLLER}
 
 
 def all_figures():

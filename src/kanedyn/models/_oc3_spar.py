@@ -49,6 +49,11 @@ of the tower axis, 90 m above the SWL) along the shaft tilted 5 deg,
 :math:`\cos 5^\circ A_x - \sin 5^\circ A_z`
 (:class:`~kanedyn.offshore.RotorThrust` with the NREL 5-MW curve of the free hub-height
 wind, the aerodynamic damping on the hub's velocity along the shaft).
+
+With ``rotor="spinning"`` the rotor azimuth (and with ``drivetrain="flexible"`` the
+low-speed shaft's twist) is a degree of freedom, the rotor's thrust and torque come from
+its performance table, and with ``controller="on"`` the baseline controller's three
+states join the coordinates (:mod:`kanedyn.models._oc3_rotor`).
 """
 
 from __future__ import annotations
@@ -70,6 +75,7 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
+from ._oc3_rotor import rna_inertia_pieces, spinning_rotor
 from ._oc3_tower import oc3_tower_rna_basis
 from ._oc3_shapes import oc3_shape_specs
 
@@ -83,7 +89,8 @@ _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "
             "tower_damping_reference": ("isolated", "with_rna"),
             "sea": ("still", "regular", "irregular"),
             "mooring": ("linear", "linear-symmetric", "catenary", "none"),
-            "tmdi": ("off", "tmd", "tmdi")}
+            "tmdi": ("off", "tmd", "tmdi"), "rotor": ("rigid", "spinning"),
+            "controller": ("off", "on"), "drivetrain": ("rigid", "flexible")}
 
 _N_STRIPS = 10          # Morison strips over the wetted 120 m
 _WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
@@ -132,6 +139,15 @@ def _check(options):
                                           and options["wave_period"] > 0):
         raise ModelError(f"oc3-spar: sea={options['sea']} needs wave_height > 0 and "
                          "wave_period > 0")
+    if options["rotor"] == "rigid":
+        for key, value in (("controller", "on"), ("drivetrain", "flexible")):
+            if options[key] == value:
+                raise ModelError(f"oc3-spar: option {key}={value} needs rotor=spinning (the "
+                                 "rigid rotor has no rotor speed)")
+    elif options["wind_speed"] > 0 and not 3 <= options["wind_speed"] <= 25:
+        raise ModelError(f"oc3-spar: with rotor=spinning, option wind_speed must be 0 (no "
+                         f"aerodynamic loads) or from cut-in 3 to cut-out 25 m/s, got "
+                         f"{options['wind_speed']!r}")
     lo, hi = _v(TOWER, "base_z"), _v(TOWER, "top_z")
     if not lo <= options["inerter_height"] < hi:
         raise ModelError(f"oc3-spar: option inerter_height must lie on the tower, in "
@@ -143,7 +159,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
              added_mass="sheet", linear_damping=True, drag=True, sea="still", wave_height=0.0,
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
-             inertance_ratio=0.02, inerter_height=60.0, rna_offset=True):
+             inertance_ratio=0.02, inerter_height=60.0, rna_offset=True, rotor="rigid",
+             controller="off", drivetrain="rigid"):
     r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
 
     Parameters
@@ -206,6 +223,23 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         RNA with its centre of mass on the tower axis (inertia about the centre
         of mass unchanged), so the undisplaced state (at the static heave) is an
         equilibrium and heave decouples from pitch (the rigid-system checks).
+    rotor : {"rigid", "spinning"}
+        ``"rigid"``: the rotor is part of the RNA, thrust from the steady
+        curve (above).  ``"spinning"``: the rotor azimuth is a degree of
+        freedom on the 5-deg tilted shaft, the generator turns 97 times as
+        fast, thrust and torque come from the rotor's performance table and
+        the relative wind (:mod:`kanedyn.models._oc3_rotor`); ``wind_speed``
+        0 or from 3 to 25 m/s.
+    controller : {"off", "on"}
+        With ``rotor="spinning"``: ``"on"``, the baseline controller with the
+        OC3 gains (generator torque and blade pitch from three controller
+        states); ``"off"``, generator torque and pitch are specified inputs
+        ``T_generator`` (N m) and ``pitch_input`` (rad; only with wind), held at
+        their steady values for ``wind_speed`` (torque 0 without wind) unless given.
+    drivetrain : {"rigid", "flexible"}
+        With ``rotor="spinning"``: ``"flexible"`` adds the low-speed shaft's
+        torsional twist as a degree of freedom (published stiffness and
+        damping).
 
     Returns
     -------
@@ -229,7 +263,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                    turbulence=turbulence, tmdi=tmdi, tmd_mass_ratio=tmd_mass_ratio,
                    tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
                    inertance_ratio=inertance_ratio, inerter_height=inerter_height,
-                   rna_offset=rna_offset)
+                   rna_offset=rna_offset, rotor=rotor, controller=controller,
+                   drivetrain=drivetrain)
     _check(options)
     g = _v(ENVIRONMENT, "gravity")
     rho = _v(ENVIRONMENT, "water_density")
@@ -303,11 +338,14 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     m_rna = _v(RNA, "mass")
     cm_x = _v(RNA, "cm_x") if rna_offset else 0.0
     G_rna = top.locatenew("G_rna", cm_x * A.x + _v(RNA, "cm_z") * A.z)
-    I_rna = rna_inertia_about_cm()
-    rna = me.RigidBody("rna", G_rna, A, m_rna, (me.inertia(
-        A, I_rna[0, 0], I_rna[1, 1], I_rna[2, 2], I_rna[0, 1], I_rna[1, 2], I_rna[0, 2]),
-        G_rna))
+    spinning = rotor == "spinning"
+    # with a spinning rotor the RNA keeps all but the spinning parts' inertia, in two
+    # pieces (see rna_inertia_pieces)
+    I_rna, I_axial = rna_inertia_pieces() if spinning else (rna_inertia_about_cm(), None)
+    rna = me.RigidBody("rna", G_rna, A, m_rna, (_inertia(A, I_rna), G_rna))
     bodies.append(rna)
+    if spinning:
+        bodies.append(me.RigidBody("rna_axial", G_rna, A, 0, (_inertia(A, I_axial), G_rna)))
     loads.append((G_rna, -m_rna * g * N.z))
     potential.append(m_rna * g * G_rna.pos_from(O).dot(N.z))
 
@@ -335,6 +373,33 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
             bodies.append(RateInertia("inerter", [r.diff(T)], b))
             elements["inerter"] = (tower_node, height)
 
+    # ------------------------------------------------- hub and spinning rotor
+    # (before the states are listed: the catenary lines' inputs take them)
+    hub = top.locatenew("hub", -_v(ROTOR, "overhang") * A.x
+                        + (_v(ROTOR, "hub_height") - _v(TOWER, "top_z")) * A.z)
+    if tower_modes:
+        # the hub's velocity in the speeds (the node frame's rates are modal-coordinate
+        # derivatives, which the rotor's numeric aerodynamic damping cannot take)
+        rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
+        hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
+    spin = wind_symbol = None
+    wind = float(wind_speed)
+    if wind_speed > 0 and turbulence > 0:
+        t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
+                               hub_height=_v(ROTOR, "hub_height"))
+        wind = _PeriodicSeries(t_w, v_w)
+        wind_symbol = me.dynamicsymbols("V_wind")   # the spinning rotor's input
+    if spinning:
+        if not tower_modes:
+            hub.v2pt_theory(top, N, A)
+        spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol)
+        q += spin["q"]
+        u += spin["u"]
+        kd_eqs += spin["kd_eqs"]
+        bodies += spin["bodies"]
+        loads += spin["loads"]
+        potential.append(spin["potential"])
+        elements["rotor"] = spin["symbols"]["aerodynamics"]
     # ------------------------------------------------------------ hydrostatics
     rest = dict.fromkeys(q6, 0.0)
     if hydrostatics == "linear":
@@ -359,6 +424,10 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         waves = IrregularSea(wave_height, wave_period, jonswap_gamma(wave_height, wave_period),
                              depth, n_components=200, seed=seed)
     specified = {}
+    if spin is not None:
+        specified.update(spin["specified"])
+        if wind_symbol is not None:
+            specified[wind_symbol] = wind
     if drag or waves is not None or added_mass == "morison":
         morison = MorisonCylinder(
             "spar", B, P, B.z, spar_geometry(), N, O, rest, rho,
@@ -404,33 +473,23 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         elements["yaw_spring"] = yaw_spring
 
     # ------------------------------------------------------------------- rotor
-    hub = top.locatenew("hub", -_v(ROTOR, "overhang") * A.x
-                        + (_v(ROTOR, "hub_height") - _v(TOWER, "top_z")) * A.z)
-    if tower_modes:
-        # the hub's velocity in the speeds (the node frame's rates are modal-coordinate
-        # derivatives, which the rotor's numeric aerodynamic damping cannot take)
-        rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
-        hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
-    if wind_speed > 0:
-        wind = float(wind_speed)
-        if turbulence > 0:
-            t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
-                                   hub_height=_v(ROTOR, "hub_height"))
-            wind = _PeriodicSeries(t_w, v_w)
+    if not spinning and wind_speed > 0:
         # along the shaft, downwind and (tilted) downward: hub upwind and higher
         tilt = math.radians(_v(ROTOR, "shaft_tilt"))
         shaft = math.cos(tilt) * A.x - math.sin(tilt) * A.z
         # the curve is against the free hub-height wind with the tilt already in it:
         # the whole wind speed counts (wind_direction = the shaft), the hub's velocity
         # along the shaft is the aerodynamic damping
-        rotor = RotorThrust("rotor", hub, shaft, N, NREL5MW_THRUST, wind,
-                            wind_direction=shaft)
-        loads += rotor.to_loads()
-        specified.update(rotor.specified(states))
-        elements["rotor"] = rotor
+        thrust = RotorThrust("rotor", hub, shaft, N, NREL5MW_THRUST, wind,
+                             wind_direction=shaft)
+        loads += thrust.to_loads()
+        specified.update(thrust.specified(states))
+        elements["rotor"] = thrust
 
     initial = oc3_static_offsets(options)
     state = {q6[names.index(key)]: value for key, value in initial.items()}
+    if spin is not None:
+        state.update(spin["initial"])
     used = {m_d, k_d, c_d, b} if tmdi == "tmdi" else {m_d, k_d, c_d} if tmdi == "tmd" else set()
     constants = {key: value for key, value in constants.items() if key in used}
     what = [f"{tower_modes} tower modes, tower damping {100 * tower_damping:g} % "
@@ -440,6 +499,9 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         what.append(f"wind {wind_speed:g} m/s")
     if tmdi != "off":
         what.append(tmdi.upper())
+    if spinning:
+        what.append(f"spinning rotor, controller {controller}"
+                    + (", flexible drivetrain" if drivetrain == "flexible" else ""))
     return ModelDefinition(
         name="oc3-spar",
         title="OC3-Hywind spar floating wind turbine (" + ", ".join(what) + ")",
@@ -449,12 +511,14 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         symbols=dict(q=q, u=u, N=N, B=B, A=A, O=O, P=P, top=top, hub=hub, damper=damper,
                      tower=tower, tower_node=tower_node, elements=elements, s_d=s_d, m_d=m_d,
                      k_d=k_d, c_d=c_d, b=b, potential_energy=sm.Add(*potential),
-                     options=options),
+                     options=options, rotor=spin["symbols"] if spin else None),
         description="OC3-Hywind (Jonkman 2010) with the NREL 5-MW RNA: rigid 6-dof spar, "
                     "tower rigid or Craig-Bampton flexible, hydrostatics, constant added "
                     "mass, linear damping, Morison drag and waves, linear or catenary "
-                    "mooring, rotor thrust, TMD or TMDI in the nacelle "
+                    "mooring, rotor thrust or a spinning rotor with drivetrain and "
+                    "baseline controller, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
+<<<<<<< HEAD
         # numeric lengths hide the units from the kinematics: the angles and the modal
         # coordinates (modes scaled to a largest nodal translation of 1 m) declared
         units={**{qi: "rad" for qi in q6[3:]}, **{qi: "m" for qi in q6[:3]},
@@ -464,6 +528,17 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         gravity=(0.0, 0.0, -g),
         shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
                                     (cm_x, _v(RNA, "cm_z")), _v(TOWER, "top_z")))
+=======
+        units={**({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
+        body_groups={"platform": ("platform",), "tower": ("tower",),
+                     "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
+                     else ("rna",)})
+
+
+def _inertia(A, I):
+    """The inertia dyadic of a symmetric matrix in ``A`` components."""
+    return me.inertia(A, I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[1, 2], I[0, 2])
+>>>>>>> i36-rotor
 
 
 class _PeriodicSeries:

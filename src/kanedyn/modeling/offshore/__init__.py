@@ -7,13 +7,19 @@
 ``_catenary``      the quasi-static elastic catenary of one mooring line
 ``_mooring``       linearized 6x6 mooring, catenary mooring systems
 ``_rotor``         rotor thrust from a steady curve, aerodynamic damping, Kaimal wind
+``_rotor_performance``  a rotor's torque and thrust from its Cp, Ct table (closed-form fit)
+``_drivetrain``    the spinning rotor on a tilted shaft, gearbox, generator, shaft twist
+``_baseline_controller``  variable-speed, collective-pitch control as first-order states
 """
 
+from ._baseline_controller import BaselineController
 from ._catenary import CatenaryLine, catenary_spans, solve_catenary
+from ._drivetrain import Drivetrain
 from ._hydrostatics import HYDROSTATIC_FORMS, Hydrostatics
 from ._mooring import OC3_MOORING, CatenaryMooring, LinearMooring, state_function
 from ._morison import AddedMassStrip, MorisonCylinder
 from ._rotor import NREL5MW_THRUST, RotorThrust, ThrustCurve, kaimal_spectrum, kaimal_wind
+from ._rotor_performance import PerformanceSurface, RotorAerodynamics
 from ._waves import (STRETCHING, AiryWave, IrregularSea, jonswap_gamma, jonswap_spectrum,
                      wave_number)
 
@@ -21,4 +27,5 @@ __all__ = ["AiryWave", "IrregularSea", "jonswap_spectrum", "jonswap_gamma", "wav
            "STRETCHING", "MorisonCylinder", "AddedMassStrip", "Hydrostatics",
            "HYDROSTATIC_FORMS", "CatenaryLine", "catenary_spans", "solve_catenary",
            "OC3_MOORING", "CatenaryMooring", "LinearMooring", "state_function",
-           "NREL5MW_THRUST", "RotorThrust", "ThrustCurve", "kaimal_spectrum", "kaimal_wind"]
+           "NREL5MW_THRUST", "RotorThrust", "ThrustCurve", "kaimal_spectrum", "kaimal_wind",
+           "PerformanceSurface", "RotorAerodynamics", "Drivetrain", "BaselineController"]

@@ -88,6 +88,14 @@ class _CPrinter(C99CodePrinter):
     def _print_Rational(self, expr):
         return _number_literal(expr)
 
+    # conditions folded to a constant (a Piecewise's derivative can hold them): C has no
+    # true/false without <stdbool.h>
+    def _print_BooleanTrue(self, expr):
+        return "1"
+
+    def _print_BooleanFalse(self, expr):
+        return "0"
+
 
 class _Unusual(Exception):
     """An expression the direct printer leaves to SymPy's."""
