@@ -81,11 +81,50 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
     r"""A model in orthonormal speeds on the constraint-satisfying subspace.
 
     Made by :func:`kanedyn.orthogonalize_speeds` for a model with dependent
-    speeds.  State :math:`[q, v^*]` with :math:`v^* = L^T u_i`,
-    :math:`L L^T = C^T M C` (see the module's text); ``n_u`` counts the new
-    speeds (as many as independent speeds), ``n_q_dep`` the dependent
-    coordinates, which :func:`kanedyn.simulate` keeps on the configuration
-    constraints by projecting as for the original model.
+    speeds.  With the velocity constraints :math:`B u + b = 0` split by the
+    model's partition, :math:`B = [B_i\ B_d]`, the admissible speeds are
+    :math:`u = C u_i + u_p`, :math:`C = [I;\ -B_d^{-1}B_i]`; the kinetic-energy
+    metric on them is :math:`M_r = C^T M C = L L^T` and the new speeds are
+    :math:`v^* = L^T u_i`.  Kane's reduced equations
+    :math:`M_r\dot u_i = f_r = C^T(f - M\dot u_p)` become, along the motion,
+
+    .. math::
+
+        \dot v^* = L^{-1} f_r + \dot L^T u_i ,
+
+    and the generalized constraint forces :math:`M\dot u - f = B^T\lambda`
+    lie in the orthogonal complement of the admissible subspace.  The basis
+    is the one Kane's elimination uses: smooth wherever :math:`B_d` is
+    invertible.
+
+    Attributes
+    ----------
+    state_names : tuple of str
+        Every coordinate (dependent ones included), then ``<speed>_star``
+        for each independent speed.
+    n_q, n_q_dep : int
+        Numbers of coordinates and of dependent coordinates;
+        :func:`kanedyn.simulate` keeps the latter on the configuration
+        constraints by projecting as the original model does (independent
+        coordinates and speeds kept).
+    n_u : int
+        Number of new speeds, as many as independent speeds.
+    multiplier_names : tuple of str
+        Names of the velocity constraints' multipliers (the original's).
+    original, along_motion, reference_factor
+        As for :class:`OrthogonalSpeedsModel`.
+
+    Examples
+    --------
+    >>> import numpy as np, kanedyn as kd
+    >>> d = kd.models.build("rolling-disk")
+    >>> model = d.numeric()
+    >>> ortho = kd.orthogonalize_speeds(model)
+    >>> ortho.state_names[5:]
+    ('u1_star', 'u2_star', 'u3_star')
+    >>> y = ortho.from_original(model.state(d.initial(model)))
+    >>> bool(ortho.mass_matrices(0.0, y).identity_error < 1e-12)
+    True
     """
 
     def __init__(self, original, reference_factor, sources, reference=None, time=None,
@@ -290,7 +329,11 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
         return dict(zip(names, _solve(B[:, p:].T, g[p:])))
 
     def constraint_forces(self, t, y):
-        """Constraint forces: auxiliary speeds' (original model), identified ones from :meth:`multipliers`."""
+        """Constraint forces at ``y*``, ``{name: value}``.
+
+        Those of auxiliary speeds (the original model's, at the mapped
+        state) and the identified forces' magnitudes from :meth:`multipliers`.
+        """
         o = self.original
         out = o.auxiliary(t, self.to_original(y, t)) if o.aux_names else {}
         if o.identified_names:

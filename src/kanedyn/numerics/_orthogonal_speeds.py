@@ -13,7 +13,9 @@ metric of that manifold.  With the Cholesky factorization
 the partial velocities of the new speeds are orthonormal in that metric, so
 the mass matrix in :math:`u^*` is the identity and :math:`T = \tfrac12
 |u^*|^2` (for kinetic energies quadratic in the speeds).  This module builds a
-numerical model whose state is :math:`(q, u^*)`.
+numerical model whose state is :math:`(q, u^*)`; models with dependent speeds
+are orthogonalized on their admissible speeds by
+:mod:`kanedyn.numerics._orthogonal_constrained`.
 """
 
 from __future__ import annotations
@@ -452,11 +454,19 @@ def orthogonalize_speeds(model, at=None, t=None):
     :math:`\dot q = \dot q(q, L_0^{-T} u^*)` and
     :math:`\dot u^* = L_0^T M^{-1} f`.
 
+    With dependent speeds (velocity constraints :math:`B u + b = 0`,
+    nonholonomic or the rates of configuration constraints) the new speeds
+    are orthonormal on the speeds the constraints admit,
+    :math:`u = C u_i + u_p` with :math:`C = [I;\ -B_d^{-1}B_i]`: with
+    :math:`C^T M C = L L^T`, :math:`v^* = L^T u_i` and the state is
+    :math:`[q, v^*]`; see :class:`ConstrainedOrthogonalSpeedsModel`.
+
     Parameters
     ----------
     model : NumericModel
         Made by ``eom.numeric(...)`` (either backend) in this session: its
-        equations are needed.  No dependent coordinates or speeds, no contacts.
+        equations are needed.  No contacts; dependent speeds only with
+        velocity constraints linear in the speeds.
     at : None, array_like or dict, optional
         ``None``: factor along the motion.  Otherwise the reference state
         (``n_states`` or ``n_q`` entries, or ``{name: value}`` giving every
@@ -468,18 +478,21 @@ def orthogonalize_speeds(model, at=None, t=None):
     Returns
     -------
     OrthogonalSpeedsModel
-        State ``[q, u*]`` with the speeds named ``<speed>_star``; works with
+        State ``[q, u*]`` with the speeds named ``<speed>_star`` (one per
+        independent speed, a :class:`ConstrainedOrthogonalSpeedsModel`, with
+        dependent speeds); works with
         :func:`kanedyn.simulate`; :meth:`~OrthogonalSpeedsModel.to_original`
         and :meth:`~OrthogonalSpeedsModel.from_original` map states.
 
     Raises
     ------
     ModelError
-        For dependent speeds or coordinates (the reduced equations are not
-        orthogonalized: name them in the message), contacts, a mass matrix
-        that depends on speeds or on a specified input given as a number or
-        callable (its rate would not be exact: give a SymPy expression in t),
-        or that is not positive definite at ``at``.
+        For contacts, constraints in the multiplier form, dependent
+        coordinates without dependent speeds, a mass matrix or
+        velocity-constraint matrix that depends on speeds or on a specified
+        input given as a number or callable (its rate would not be exact:
+        give a SymPy expression in t), or a mass matrix that is not positive
+        definite at ``at``.
     ValueError
         For an ``at`` of the wrong length or with non-finite values.
 
