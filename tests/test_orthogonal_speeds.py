@@ -316,11 +316,16 @@ def test_unpickled_model_is_refused(models):
 
 
 # ------------------------------------------------------------------- docs
-def test_docs_example_runs():
+@pytest.mark.parametrize("heading,agreement", [
+    ("## Orthogonalized generalized speeds", 1e-7),
+    ("### Constrained systems", 1e-10),  # the rolling disk, DOP853 at 1e-12
+])
+def test_docs_example_runs(heading, agreement):
+    """The first example under ``heading`` in docs/formulations.md runs and agrees."""
     text = (ROOT / "docs" / "formulations.md").read_text()
-    section = text.split("## Orthogonalized generalized speeds", 1)[1].split("\n## ", 1)[0]
+    section = text.split(heading, 1)[1].split("\n## ", 1)[0]
     block = re.findall(r"```python\n(.*?)```", section, re.S)[0]
     namespace = {}
     exec(compile(block, "docs/formulations.md", "exec"), namespace)
     assert namespace["identity_error"] < 1e-12
-    assert namespace["agreement"] < 1e-7
+    assert namespace["agreement"] < agreement
