@@ -256,3 +256,12 @@ def test_speed_dependent_constraint_matrix_is_refused():
                                             r"depends on u_x"):
         kd.orthogonalize_speeds(model)
 
+
+
+def test_multiplier_form_is_refused(built):
+    """Lagrange-d'Alembert on the sleigh keeps every rate a state (no partition)."""
+    definition, _, _ = built["knife-edge"]
+    model = definition.numeric(definition.derive(method="lagrange"))
+    assert model.multiplier_form
+    with pytest.raises(kd.ModelError, match="multiplier form"):
+        kd.orthogonalize_speeds(model)

@@ -56,7 +56,7 @@ class _ReducedTerms:
     ``M`` (o x o) and ``B`` (m x o) the mass and velocity-constraint
     matrices, ``C`` (o x p) the admissible basis, ``M_r = C^T M C`` and its
     factor ``L`` (p x p), ``u_ind`` the independent speeds,
-    ``y_original`` the state ``[q, u]``, ``qdot`` (n), ``force`` :math:`f`
+    ``qdot`` (n), ``force`` :math:`f`
     (o), ``particular`` :math:`\dot u_p = [0;\ -B_d^{-1} f_a]` (o), the
     accelerations the acceleration constraints :math:`B\dot u + f_a = 0`
     demand, ``f_r`` :math:`= C^T(f - M\dot u_p)` (p) and ``M_r_dot``
@@ -69,7 +69,6 @@ class _ReducedTerms:
     M_r: np.ndarray
     L: np.ndarray
     u_ind: np.ndarray
-    y_original: np.ndarray
     qdot: np.ndarray
     force: np.ndarray
     particular: np.ndarray
@@ -184,6 +183,10 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
         C = _basis(B, self.n_u)
         return M, B, C, C.T @ M @ C
 
+    def _factor_of(self, M_r):
+        """The factor of ``M_r`` along the motion, else the constant one."""
+        return np.linalg.cholesky(M_r) if self.along_motion else self.reference_factor
+
     def _mass(self, t, y):
         """The reduced metric :math:`M_r = C^T M C` (only ``y[:n_q]`` matters)."""
         return self._metric(t, y)[3]
@@ -205,7 +208,7 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
         n, p = self.n_q, self.n_u
         if inverse:
             _, B, _, M_r = self._metric(t, y)
-            L = np.linalg.cholesky(M_r) if self.along_motion else self.reference_factor
+            L = self._factor_of(M_r)
             return self._original_state(t, y[:n], self._speeds(L, y[n:]), B)
         scale = 1.0 + np.max(np.abs(y[n:]), initial=0.0)
         residual = np.max(np.abs(self.original.constraint_residuals(t, y)), initial=0.0)
@@ -234,7 +237,7 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
         y = self._check_y(y)
         n, p = self.n_q, self.n_u
         M, B, C, M_r = self._metric(t, y)
-        L = np.linalg.cholesky(M_r) if self.along_motion else self.reference_factor
+        L = self._factor_of(M_r)
         u_ind = self._speeds(L, y[n:])
         yo = self._original_state(t, y[:n], u_ind, B)
         out = self._fn["ortho_dynamics"](t, yo, self._args(), self.original._r(t, yo))
@@ -248,7 +251,7 @@ class ConstrainedOrthogonalSpeedsModel(OrthogonalSpeedsModel):
             C_dot[p:] = -_solve(B[:, p:], B_dot @ C)
             MC_dot = C_dot.T @ M @ C
             M_r_dot = MC_dot + MC_dot.T + C.T @ M_dot @ C
-        return _ReducedTerms(M=M, B=B, C=C, M_r=M_r, L=L, u_ind=u_ind, y_original=yo,
+        return _ReducedTerms(M=M, B=B, C=C, M_r=M_r, L=L, u_ind=u_ind,
                              qdot=qd, force=f, particular=particular,
                              f_r=C.T @ (f - M @ particular), M_r_dot=M_r_dot)
 
