@@ -64,7 +64,7 @@ def test_compare_nonholonomic_writes_the_figure(tmp_path, monkeypatch, capsys):
         _assert_residuals_drawn(row[1], cmp, "force")
         if cmp.model == "nonholonomic-particle":  # a particle: no moments
             assert not row[2].get_lines()
-            assert "particles only" in row[2].texts[0].get_text()
+            assert "zero at every time" in row[2].texts[0].get_text()
         else:
             _assert_residuals_drawn(row[2], cmp, "moment")
         # the augmented Lagrangean's failure shows: residuals far above the others'

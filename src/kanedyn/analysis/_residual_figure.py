@@ -63,19 +63,19 @@ def _path_panel(ax, cmp, colors, widths):
 def _residual_panel(ax, cmp, colors, widths, kind):
     """Largest ``kind`` ("force" or "moment") residual over the bodies against time."""
     series = {m: getattr(cmp.newton_euler[m], f"{kind}_history") for m in cmp.methods}
-    t = cmp.newton_euler[cmp.methods[0]].t
     unit = "N" if kind == "force" else "N m"
     ax.set_ylabel(f"N-E {kind} residual [{unit}]")
     ax.set_xlabel("t [s]")
     ax.set_title(f"largest {kind} residual over the bodies", fontsize="small")
     if not any(np.any(np.isfinite(v) & (v != 0)) for v in series.values()):
-        ax.text(0.5, 0.5, "no moment residuals (particles only)" if kind == "moment"
-                else "zero for every formulation", transform=ax.transAxes, ha="center",
-                va="center", color="0.4")
+        ax.text(0.5, 0.5, "zero at every time for every formulation\n(particles have "
+                "no moment residual)" if kind == "moment" else
+                "zero at every time for every formulation", transform=ax.transAxes,
+                ha="center", va="center", color="0.4")
         ax.set_xticks([])
         ax.set_yticks([])
         return
-    draw_nonnegative(ax, t, series, colors=colors)
+    draw_nonnegative(ax, cmp.t, series, colors=colors)  # each run's times: a prefix
     for line in ax.get_lines():
         line.set_linewidth(widths[line.get_label()])
     ax.grid(True, alpha=0.3)
