@@ -2,6 +2,7 @@
 
 ``_newton_euler``  body-by-body Newton-Euler residuals with identified forces
 ``_compare``       formulations side by side; work-precision
+``_residual_figure`` each formulation's motion beside its Newton-Euler residual
 ``_plotting``      figures of results (Matplotlib, imported lazily)
 ``_flexible_plots`` mode shapes of reduced members; deformed flexible bodies
 ``_studies``       the study registry (``kd.studies.run_study``, ``kanedyn study``)
@@ -29,6 +30,7 @@ _LAZY = {
     'FormulationComparison': '._compare',
     'WorkPrecision': '._compare',
     'NONHOLONOMIC_EXAMPLES': '._compare',
+    'plot_newton_euler_residuals': '._residual_figure',
     'plot_result': '._plotting',
     'pyplot': '._plotting',
     'log_scale_ok': '._plotting',

@@ -90,6 +90,16 @@ class NewtonEulerCheck:
         return float(np.max(np.abs(self.moment_residual), initial=0.0))
 
     @property
+    def force_history(self):
+        """Largest force-residual component over the bodies at each time, shape (N,), N."""
+        return np.max(np.abs(self.force_residual), axis=(1, 2), initial=0.0)
+
+    @property
+    def moment_history(self):
+        """Largest moment-residual component over the bodies at each time, shape (N,), N m."""
+        return np.max(np.abs(self.moment_residual), axis=(1, 2), initial=0.0)
+
+    @property
     def max(self):
         """Largest residual component (force or moment)."""
         return max(self.max_force, self.max_moment)

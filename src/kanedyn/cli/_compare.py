@@ -28,9 +28,13 @@ def add_parser(sub):
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=6) or parameter (A=0)")
     p.add_argument("--plot", action="store_true",
-                   help="save constraint-error / energy / deviation plots in --out")
+                   help="save constraint-error / energy / deviation plots and the motion "
+                        "beside the Newton-Euler residuals in --out")
     p.add_argument("--out", default="kanedyn-out",
-                   help="output directory for --plot and the --work-precision diagram")
+                   help="output directory for --plot, the --work-precision diagram and "
+                        "the figure of 'nonholonomic' (compare-nonholonomic.png: each "
+                        "formulation's motion beside its Newton-Euler residual, always "
+                        "written)")
     p.add_argument("--work-precision", action="store_true",
                    help="also CPU time at equal accuracy (runs at rtol 1e-6, 1e-8, 1e-10); "
                         "table and diagram (work-precision-MODEL.png in --out)")
@@ -42,7 +46,8 @@ def add_parser(sub):
 
 
 def cmd_compare(args):
-    from ..analysis import NONHOLONOMIC_EXAMPLES, compare_formulations, work_precision
+    from ..analysis import (NONHOLONOMIC_EXAMPLES, compare_formulations,
+                            plot_newton_euler_residuals, work_precision)
     from ..formulations import FORMULATIONS
     methods = [m.strip() for m in args.methods.split(",") if m.strip()]
     unknown = [m for m in methods if m not in FORMULATIONS]
@@ -66,24 +71,31 @@ def cmd_compare(args):
             if initial:
                 raise KanedynError(f"--set {next(iter(initial))}: compare takes model options "
                                    "and parameters, not initial values")
-    out_dir = (check_output_dir(args.out) if args.plot or args.work_precision
+    study = args.target == "nonholonomic"  # its figure is always written
+    out_dir = (check_output_dir(args.out) if args.plot or args.work_precision or study
                else None)  # before any work
     if not args.quiet:
         _print_explanation(args)
     # auto is numpy here: not every formulation compared has a C right-hand side
     backend = "numpy" if args.backend == "auto" else args.backend
+    comparisons = []
     for name in names:
         options, constants = parse_sets(name, args.set)
         cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
                                    atol=args.atol, integrator=args.integrator,
                                    constants=constants or None, backend=backend,
                                    **options)
+        comparisons.append(cmp)
         print()
         print(cmp.table())
-        if out_dir is not None:
+        if args.plot or args.work_precision:
             path = out_dir / f"compare-{name}.png"
             cmp.plot(path)
             print(f"plot: {path}")
+            if args.plot and not study:
+                path = out_dir / f"newton-euler-{name}.png"
+                plot_newton_euler_residuals([cmp], path)
+                print(f"motion and Newton-Euler residuals: {path}")
         if args.work_precision:
             wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
                                 integrator=args.integrator, constants=constants or None,
@@ -93,6 +105,11 @@ def cmd_compare(args):
             path = out_dir / f"work-precision-{name}.png"
             wp.plot(path)
             print(f"work-precision diagram: {path}")
+    if study:
+        path = out_dir / "compare-nonholonomic.png"
+        plot_newton_euler_residuals(comparisons, path)
+        print()
+        print(f"motion and Newton-Euler residuals of every example: {path}")
     return 0
 
 

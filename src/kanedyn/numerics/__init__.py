@@ -15,6 +15,8 @@
                          Lagrangian) add to those derivatives
 ``_equilibrium``         static equilibria and steady motions (Newton on them)
 ``_orthogonal_speeds``   models in orthogonalized generalized speeds
+``_orthogonal_constrained``
+                         the same on the speeds that velocity constraints admit
 ``_contact_dynamics``    accelerations and contact forces per contact mode
 ``_contact_derivatives`` their exact derivatives within the modes
 ``_diagnosis``           why a derivative is not finite, in the model's names
@@ -63,6 +65,7 @@ _LAZY = {
     'build_numeric_model': '._model',
     'MassMatrices': '._orthogonal_speeds',
     'OrthogonalSpeedsModel': '._orthogonal_speeds',
+    'ConstrainedOrthogonalSpeedsModel': '._orthogonal_constrained',
     'orthogonalize_speeds': '._orthogonal_speeds',
     'DEFAULT_THRESHOLD': '._singular',
     'SingularityMonitor': '._singular',

@@ -13,7 +13,9 @@ metric of that manifold.  With the Cholesky factorization
 the partial velocities of the new speeds are orthonormal in that metric, so
 the mass matrix in :math:`u^*` is the identity and :math:`T = \tfrac12
 |u^*|^2` (for kinetic energies quadratic in the speeds).  This module builds a
-numerical model whose state is :math:`(q, u^*)`.
+numerical model whose state is :math:`(q, u^*)`; models with dependent speeds
+are orthogonalized on their admissible speeds by
+:mod:`kanedyn.numerics._orthogonal_constrained`.
 """
 
 from __future__ import annotations
@@ -43,17 +45,23 @@ class MassMatrices:
     ----------
     original : ndarray, shape (o, o)
         :math:`M(q)`, kg, kg m or kg m^2 per entry (as the speeds).
-    orthogonalized : ndarray, shape (o, o)
-        :math:`M^* = L^{-1} M(q) L^{-T}`, dimensionless
+    orthogonalized : ndarray, shape (p, p)
+        :math:`M^* = L^{-1} M_r L^{-T}`, dimensionless
         (the identity along the motion, to round-off).
-    factor : ndarray, shape (o, o)
-        The lower-triangular :math:`L` used (:math:`L L^T = M` along the
+    factor : ndarray, shape (p, p)
+        The lower-triangular :math:`L` used (:math:`L L^T = M_r` along the
         motion; the reference factor :math:`L_0` for a fixed one).
+    reduced : ndarray, shape (p, p)
+        The metric that is factorized: :math:`M_r = C^T M C` on the speeds
+        the constraints admit (:math:`u = C u_i` plus a part fixed by the
+        constraints); :math:`M` itself (:math:`C = I`, ``p = o``) without
+        dependent speeds.
     """
 
     original: np.ndarray
     orthogonalized: np.ndarray
     factor: np.ndarray
+    reduced: np.ndarray
 
     @property
     def identity_error(self):
@@ -212,11 +220,16 @@ class OrthogonalSpeedsModel(StateLayout):
                                  "of the state(s)")
             t = 0.0
         y = np.array(y, dtype=float)
-        if y.ndim == 2 and y.shape[0] == self.n_states:
+        given, wanted = (self, self.original) if inverse else (self.original, self)
+        if y.ndim == 2 and y.shape[0] == given.n_states:
+            if not y.shape[1]:
+                return np.zeros((wanted.n_states, 0))
             ts = np.broadcast_to(np.asarray(t, dtype=float), (y.shape[1],))
             return np.column_stack([self._map(y[:, k], ts[k], inverse)
-                                    for k in range(y.shape[1])]) if y.shape[1] else y
-        y = self._check_y(y)
+                                    for k in range(y.shape[1])])
+        return self._map_one(given._check_y(y), t, inverse)
+
+    def _map_one(self, y, t, inverse):
         n = self.n_q
         L = self._factor(t, y)
         out = y.copy()
@@ -339,7 +352,7 @@ class OrthogonalSpeedsModel(StateLayout):
         y = self._check_y(y)
         M = self._mass(t, y)
         L = self._factor(t, y)
-        return MassMatrices(_frozen(M), _frozen(_congruence(L, M)), _frozen(L))
+        return MassMatrices(_frozen(M), _frozen(_congruence(L, M)), _frozen(L), _frozen(M))
 
     # ------------------------------------------ delegated to the original
     def constraint_residuals(self, t, y):
@@ -441,11 +454,19 @@ def orthogonalize_speeds(model, at=None, t=None):
     :math:`\dot q = \dot q(q, L_0^{-T} u^*)` and
     :math:`\dot u^* = L_0^T M^{-1} f`.
 
+    With dependent speeds (velocity constraints :math:`B u + b = 0`,
+    nonholonomic or the rates of configuration constraints) the new speeds
+    are orthonormal on the speeds the constraints admit,
+    :math:`u = C u_i + u_p` with :math:`C = [I;\ -B_d^{-1}B_i]`: with
+    :math:`C^T M C = L L^T`, :math:`v^* = L^T u_i` and the state is
+    :math:`[q, v^*]`; see :class:`ConstrainedOrthogonalSpeedsModel`.
+
     Parameters
     ----------
     model : NumericModel
         Made by ``eom.numeric(...)`` (either backend) in this session: its
-        equations are needed.  No dependent coordinates or speeds, no contacts.
+        equations are needed.  No contacts; dependent speeds only with
+        velocity constraints linear in the speeds.
     at : None, array_like or dict, optional
         ``None``: factor along the motion.  Otherwise the reference state
         (``n_states`` or ``n_q`` entries, or ``{name: value}`` giving every
@@ -457,18 +478,21 @@ def orthogonalize_speeds(model, at=None, t=None):
     Returns
     -------
     OrthogonalSpeedsModel
-        State ``[q, u*]`` with the speeds named ``<speed>_star``; works with
+        State ``[q, u*]`` with the speeds named ``<speed>_star`` (one per
+        independent speed, a :class:`ConstrainedOrthogonalSpeedsModel`, with
+        dependent speeds); works with
         :func:`kanedyn.simulate`; :meth:`~OrthogonalSpeedsModel.to_original`
         and :meth:`~OrthogonalSpeedsModel.from_original` map states.
 
     Raises
     ------
     ModelError
-        For dependent speeds or coordinates (the reduced equations are not
-        orthogonalized: name them in the message), contacts, a mass matrix
-        that depends on speeds or on a specified input given as a number or
-        callable (its rate would not be exact: give a SymPy expression in t),
-        or that is not positive definite at ``at``.
+        For contacts, constraints in the multiplier form, dependent
+        coordinates without dependent speeds, a mass matrix or
+        velocity-constraint matrix that depends on speeds or on a specified
+        input given as a number or callable (its rate would not be exact:
+        give a SymPy expression in t), or a mass matrix that is not positive
+        definite at ``at``.
     ValueError
         For an ``at`` of the wrong length or with non-finite values.
 
@@ -494,40 +518,32 @@ def orthogonalize_speeds(model, at=None, t=None):
     >>> bool(np.allclose(ortho.mass_matrix(0.0, y), np.eye(2), atol=1e-12))
     True
     """
-    eom = getattr(model, "_eom", None)
-    functions = getattr(model, "_functions", None)
-    if eom is None or functions is None:
-        raise ModelError("orthogonalize_speeds needs a model made by eom.numeric(...) in "
-                         "this session (an unpickled model has lost its equations)")
+    eom, functions = _equations_of(model)
     names = model.state_names
     n, o = model.n_q, model.n_u
-    if model.n_u_dep or model.n_q_dep:
-        dep = list(names[n - model.n_q_dep:n]) + list(names[n + o - model.n_u_dep:])
+    if model.n_q_dep and not model.n_u_dep:
         raise ModelError(
-            "orthogonalize_speeds does not support dependent coordinates or speeds ("
-            + ", ".join(dep) + "): the reduced mass matrix of the independent speeds "
-            "is not orthogonalized; formulate the model in independent coordinates "
-            "and speeds")
+            "orthogonalize_speeds: the model has dependent coordinates ("
+            + ", ".join(names[n - model.n_q_dep:n]) + ") but no dependent speeds; "
+            "give the velocity constraints (the rates of the configuration "
+            "constraints) with dependent speeds")
+    if model.multiplier_form:
+        raise ModelError("orthogonalize_speeds does not support constraints in the "
+                         "multiplier form (all speeds in the state); give dependent speeds")
     if model.contacts:
         raise ModelError("orthogonalize_speeds does not support contacts ("
                          + ", ".join(c["name"] for c in model.contacts) + ")")
-    prog, table = eom._program, eom._table
+    prog = eom._program
     args, outputs = functions["dynamics"]
     qdot_out, mass_out, force_out = outputs[0], outputs[1], outputs[2]
     if (qdot_out[0], mass_out[0], force_out[0]) != ((n,), (o, o), (o,)):
         raise ModelError("orthogonalize_speeds: unexpected layout of the model's dynamics "
                          "function (expected q', mass matrix, forcing first)")
     mass = mass_out[1]
-    allowed = set(table.q) | {table.t} | set(args["p"])
-    foreign = set()
-    for e in mass:
-        foreign |= prog.deps(e) - allowed
-    if foreign:
-        what = sorted(str(table.external(s)) for s in foreign)
-        raise ModelError(
-            "the mass matrix depends on " + ", ".join(what) + ", not only on the "
-            "coordinates, time and constants; its rate is needed exactly, so give "
-            "specified inputs that enter it as SymPy expressions in t")
+    refuse_speed_dependence(eom, args, mass, "the mass matrix")
+    if model.n_u_dep:
+        from ._orthogonal_constrained import orthogonalize_constrained
+        return orthogonalize_constrained(model, at, t)
     mass_args = {"y": args["y"], "p": args["p"], "r": []}
     sources = {"ortho_mass": generate_python(prog, "ortho_mass", mass_args, [mass_out])}
     if at is None:
@@ -536,20 +552,66 @@ def orthogonalize_speeds(model, at=None, t=None):
     else:
         dyn = [qdot_out, mass_out, force_out]
     sources["ortho_dynamics"] = generate_python(prog, "ortho_dynamics", args, dyn)
-    time_dependent = any(table.t in prog.deps(e) for e in mass)
+    time_dependent = depends_on_time(eom, mass)
     factor = y_ref = None
     if at is not None:
-        y_ref = _reference_state(model, at)
-        if t is None and time_dependent:
-            raise ValueError("the mass matrix depends on time: give the time t of the "
-                             "reference state")
-        t = 0.0 if t is None else float(t)
+        y_ref, t = reference_of(model, at, t, time_dependent)
         M0 = compile_python(sources["ortho_mass"], "ortho_mass")(t, y_ref, model._p, ())[0]
-        try:
-            factor = np.linalg.cholesky(M0)
-        except np.linalg.LinAlgError:
-            raise ModelError("the mass matrix is not positive definite at the reference "
-                             "configuration " + ", ".join(
-                                 f"{names[i]}={y_ref[i]:.6g}" for i in range(n))) from None
+        factor = reference_factor(M0, model, y_ref)
     return OrthogonalSpeedsModel(model, factor, sources, reference=y_ref, time=t,
                                  time_dependent=time_dependent)
+
+
+def _equations_of(model):
+    """The equations and generated functions behind ``model`` (refused if lost)."""
+    eom = getattr(model, "_eom", None)
+    functions = getattr(model, "_functions", None)
+    if eom is None or functions is None:
+        raise ModelError("orthogonalize_speeds needs a model made by eom.numeric(...) in "
+                         "this session (an unpickled model has lost its equations)")
+    return eom, functions
+
+
+def refuse_speed_dependence(eom, args, exprs, what):
+    """Raise unless ``exprs`` depend only on coordinates, time and constants.
+
+    Their rate along the motion is generated exactly (``Program.dt``), which
+    needs them free of speeds and of inputs known only numerically.
+    """
+    prog, table = eom._program, eom._table
+    allowed = set(table.q) | {table.t} | set(args["p"])
+    foreign = set()
+    for e in exprs:
+        foreign |= prog.deps(e) - allowed
+    if foreign:
+        names = sorted(str(table.external(s)) for s in foreign)
+        raise ModelError(
+            f"{what} depends on " + ", ".join(names) + ", not only on the "
+            "coordinates, time and constants; its rate is needed exactly, so give "
+            "specified inputs that enter it as SymPy expressions in t")
+
+
+def depends_on_time(eom, exprs):
+    """Whether any of ``exprs`` depends on time explicitly."""
+    prog, t = eom._program, eom._table.t
+    return any(t in prog.deps(e) for e in exprs)
+
+
+def reference_of(model, at, t, time_dependent):
+    """``(y_ref, t_ref)``: the reference state and its time (0 when time does not matter)."""
+    y_ref = _reference_state(model, at)
+    if t is None and time_dependent:
+        raise ValueError("the mass matrix depends on time: give the time t of the "
+                         "reference state")
+    return y_ref, 0.0 if t is None else float(t)
+
+
+def reference_factor(metric, model, y_ref):
+    """Cholesky factor of the metric at the reference state, or a ModelError naming it."""
+    try:
+        return np.linalg.cholesky(metric)
+    except np.linalg.LinAlgError:
+        names = model.state_names
+        raise ModelError("the mass matrix is not positive definite at the reference "
+                         "configuration " + ", ".join(
+                             f"{names[i]}={y_ref[i]:.6g}" for i in range(model.n_q))) from None
