@@ -73,10 +73,10 @@ def test_progress_to_a_file_has_no_carriage_returns(tmp_path, capsys):
 def test_interrupted_sweep_says_how_to_resume_in_cli_syntax(tmp_path, capsys, monkeypatch):
     original = _sweep.run_batch
 
-    def interrupted(model, batch, *args):
+    def interrupted(model, batch, *args, **kwargs):
         if batch[0][0] >= 2:
             raise KeyboardInterrupt
-        return original(model, batch, *args)
+        return original(model, batch, *args, **kwargs)
     monkeypatch.setattr(_sweep, "run_batch", interrupted)
     out = tmp_path / "my sweep"
     argv = ["sweep", "pendulum", "--grid", "l=0.5:2:4", "--out", str(out), "--t-end", "0.2",
