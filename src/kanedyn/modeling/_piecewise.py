@@ -20,6 +20,7 @@ is halved.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -123,28 +124,40 @@ class PiecewisePolynomial:
                 f"t in [{a:g}, {b:g}]{', extrapolated' if self.extrapolate else ''})")
 
 
-def _chebyshev_nodes(degree):
-    """``degree + 1`` Chebyshev points of the second kind on [0, 1] (ends included)."""
-    if degree == 0:
-        return np.array([0.5])
-    return 0.5 - 0.5 * np.cos(np.pi * np.arange(degree + 1) / degree)
+@functools.lru_cache(maxsize=None)
+def _interpolation(degree):
+    """``(z, to_chebyshev, to_powers)`` of degree ``degree`` on [0, 1]: the
+    Chebyshev points of the first kind (inside the interval: a function that
+    jumps at a break is sampled on one side only), the matrix taking values there
+    to Chebyshev coefficients (well conditioned), and the one taking those to
+    coefficients of powers of z (integers, exact)."""
+    from numpy.polynomial import Chebyshev, Polynomial
+    k = np.arange(degree + 1)
+    u = np.cos(np.pi * (k + 0.5) / (degree + 1))
+    to_chebyshev = np.cos(np.outer(k, np.arccos(u))) * (2.0 / (degree + 1))
+    to_chebyshev[0] *= 0.5
+    to_powers = np.zeros((degree + 1, degree + 1))
+    for j in k:
+        power = Chebyshev.basis(j, domain=[0, 1]).convert(kind=Polynomial, domain=[0, 1],
+                                                         window=[0, 1]).coef
+        to_powers[:power.size, j] = power
+    return (u + 1) / 2, to_chebyshev, to_powers
 
 
 #: where the fits are checked, on [0, 1]: none of them a node of the degrees tried
-_CHECK = (np.arange(24) + 0.5) / 24
+_CHECK = (np.arange(24) + 0.5) / 24 + 0.01
 
 
 def _fit(f, a, b, degree, rows):
     """Interpolants of degree ``degree`` of ``f`` on the intervals ``[a, b]``:
     coefficients (rows, n, degree + 1) in powers of ``t - a``, highest first, and
     the largest error of each row and interval at the check points (rows, n)."""
-    z = _chebyshev_nodes(degree)
+    z, to_chebyshev, to_powers = _interpolation(degree)
     h = b - a
     samples = np.asarray(f((a[:, None] + h[:, None] * z).ravel()), float)
     samples = samples.reshape(rows, a.size, z.size)
-    powers = np.arange(degree + 1)
-    ascending = samples @ np.linalg.inv(z[:, None] ** powers).T  # in powers of (t - a)/h
-    ascending = ascending / h[None, :, None] ** powers
+    ascending = (samples @ to_chebyshev.T) @ to_powers.T  # in powers of (t - a)/h
+    ascending = ascending / h[None, :, None] ** np.arange(degree + 1)
     coefficients = ascending[..., ::-1]
     s = h[:, None] * _CHECK
     exact = np.asarray(f((a[:, None] + s).ravel()), float).reshape(rows, a.size, _CHECK.size)
@@ -201,8 +214,11 @@ def tabulate(f, breaks, rows, names, rtol=1e-13, extrapolate=False):
         todo_a, todo_b = (np.concatenate([todo_a, middle]),
                           np.concatenate([middle, todo_b]))
     else:
-        raise ModelError(f"tabulate: {names[0]}: not within {rtol:g} of the function near "
-                         f"t = {todo_a[0]:g} s after {_MAX_HALVINGS} halvings")
+        _, error = _fit(f, todo_a[:1], todo_b[:1], MAX_DEGREE, rows)
+        row = int(np.argmax(error[:, 0] / np.maximum(scale, 1e-300)))
+        raise ModelError(f"tabulate: {names[row]}: not within {rtol:g} of its largest "
+                         f"magnitude near t = {todo_a[0]:g} s after {_MAX_HALVINGS} "
+                         "halvings (is it smooth between the breaks?)")
     pieces.sort(key=lambda piece: piece[0])
     width = max(c.shape[1] for _, _, c in pieces)
     table = np.zeros((rows, len(pieces), width))
