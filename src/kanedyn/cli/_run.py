@@ -42,9 +42,10 @@ def add_parser(sub):
     pulse.add_argument("--pulse", metavar="NAME",
                        help="the model's base-motion pulse (its option 'pulse'), e.g. "
                             "halfsine, haversine, trapezoid, step, none, frontal-48kmh")
-    pulse.add_argument("--pulse-file", metavar="CSV",
-                       help="a recorded pulse (t, ax, ay, az[, wx, wy, wz]) as the model's "
-                            "option 'pulse'")
+    pulse.add_argument("--pulse-file", metavar="RECORD",
+                       help="a recorded pulse as the model's option 'pulse': a CSV (t, ax, "
+                            "ay, az[, wx, wy, wz]) or an ISO-MME test (its folder or .mme "
+                            "file; the vehicle's channels)")
     p.add_argument("--method", type=integrator_name, default="RK45",
                    help="integrator: a solve_ivp method (RK45, DOP853, Radau, BDF, ...) "
                         "or Rosenbrock23 (compiled loop, --backend c)")
@@ -167,8 +168,8 @@ def _pulse_option(args, options):
     if name is not None:
         return {"pulse": name}
     file = Path(path)
-    if not file.is_file():
-        raise KanedynError(f"--pulse-file {path}: no such file")
+    if not (file.is_file() or file.is_dir()):
+        raise KanedynError(f"--pulse-file {path}: no such file or ISO-MME test folder")
     return {"pulse": file}
 
 

@@ -42,7 +42,7 @@ import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 from ..modeling import (ConeLimit, CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
-                        VehicleMotion, cone_contact, example_pulse)
+                        VehicleMotion, cone_contact, example_pulse, read_iso_mme)
 from ._base import ModelDefinition
 
 __all__ = ["seatbelt_sensor", "seatbelt_motion", "lock_events", "seatbelt_tilt",
@@ -73,11 +73,17 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
     if not isinstance(pulse, (str, Path)):
         raise ModelError(f"seatbelt-sensor: pulse must be a name or a CSV path, got {pulse!r}")
     name = str(pulse)
-    if isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith(".csv"):
+    if (isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith((".csv", ".mme"))
+            or Path(name).is_dir()):
         path = example_pulse(name) if name in _EXAMPLES else Path(name)
-        if not path.is_file():
+        if path.is_dir() or path.suffix.lower() == ".mme":  # an ISO-MME test
+            if not path.exists():
+                raise ModelError(f"seatbelt-sensor: ISO-MME test {path} does not exist")
+            motion = VehicleMotion.from_series(read_iso_mme(path), filter=filter)
+        elif not path.is_file():
             raise ModelError(f"seatbelt-sensor: pulse file {path} does not exist")
-        motion = VehicleMotion.from_csv(path, filter=filter)
+        else:
+            motion = VehicleMotion.from_csv(path, filter=filter)
         return motion, float(motion.t_range[1])
     if name not in _SHAPES:
         raise ModelError(f"seatbelt-sensor: unknown pulse {name!r}; give one of "
@@ -120,7 +126,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         ``"halfsine"``, ``"haversine"``, ``"trapezoid"`` (rise and fall a quarter of
         the duration), ``"step"`` (constant deceleration for ``duration``), ``"none"``
         (vehicle at rest), an example pulse (``"frontal-48kmh"``, ``"oblique-30deg"``)
-        or a CSV record (:func:`kanedyn.vehicle.read_pulse_csv`).
+        a CSV record (:func:`kanedyn.vehicle.read_pulse_csv`) or an ISO-MME test (its
+        folder or ``.mme`` file; the vehicle's channels, :func:`kanedyn.vehicle.read_iso_mme`).
     peak_g : float
         Peak deceleration, g (analytic pulses).
     duration : float
