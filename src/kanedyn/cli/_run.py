@@ -207,14 +207,22 @@ def _write_run(definition, eom, model, res, out, progress, report, written, pict
     pictures()
     import matplotlib.pyplot as plt
     figures = []
+    from ..analysis import run_figure
+    from .._output_files import save_figure
+    pictures_written = [out / f"{definition.name}.png"]
     try:
-        _written(out / f"{definition.name}.png", written,
+        _written(pictures_written[0], written,
                  lambda path: figures.append(res.plot(path=path)))
+        story = run_figure(res, definition) if res.t.size else None  # the model's own
+        if story is not None:
+            figures.append(story)
+            pictures_written.append(_written(out / f"{definition.name}_story.png", written,
+                                             lambda path: save_figure(story, path, dpi=120)))
     finally:
         for fig in figures:
             plt.close(fig)
     progress.stage(f"wrote {csv_path}, {out / 'summary.json'}, "
-                   f"{out / (definition.name + '.png')}")
+                   + ", ".join(map(str, pictures_written)))
     return summary
 
 
