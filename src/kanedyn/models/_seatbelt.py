@@ -200,7 +200,10 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         element = cone_contact(rim, H, P, -H.z, sy["theta_lim"], sy["r_c"],
                                restitution=sy["e_lim"], name="housing")
         contacts.append(element)
-    kane_args.update(bodies=[pendulum], loads=loads,
+    # the housing: a body without mass or inertia fixed in H at the pivot, so that
+    # the viewer draws it (it adds nothing to the equations)
+    housing = me.RigidBody("housing", P, H, 0, (me.inertia(H, 0, 0, 0), P))
+    kane_args.update(bodies=[pendulum, housing], loads=loads,
                      potential_energy=pendulum.potential_energy)
     if contacts:
         kane_args["contacts"] = contacts
@@ -217,6 +220,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                    lock_angle=SEATBELT_DEFAULTS["theta_lock"], **sy,
                    **extra)
     specified = _needed_inputs(motion, pivot_force)
+    shapes = _shapes(pendulum, housing, {n: sy[n] if n in used else SEATBELT_DEFAULTS[n]
+                                         for n in ("L", "r_c", "theta_lim")})
     # the housing's place needs the vehicle's displacement, which no equation does
     displacement = {s: v for s, v in motion.specified().items() if s in motion.symbols[:3]}
     return ModelDefinition(
@@ -231,7 +236,22 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                     "under the vehicle's deceleration; tilt beyond theta_lock locks the "
                     f"belt (seatbelt_report). Pulse: {motion.source}; limit: {limit}.",
         units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"},
-        report=_run_report, animation_inputs=displacement)
+        report=_run_report, animation_inputs=displacement, shape_specs=shapes)
+
+
+def _shapes(pendulum, housing, size):
+    """The sensor at its size (m): the pendulum a rod from the pivot to its rim (r_c)
+    with a 2.5 mm ball at its mass centre (L below the pivot); the housing a
+    translucent cylinder reaching the rim where it touches the wall (radius
+    r_c sin theta_lim, depth r_c cos theta_lim below the pivot)."""
+    L, r_c, wall = size["L"], size["r_c"], size["theta_lim"]
+    depth = r_c * sm.cos(wall)
+    return (("Cylinder", pendulum, {"radius": 0.6e-3, "length": r_c, "axis": "z",
+                                    "offset": (0.0, 0.0, L - r_c / 2), "color": "#4a5a6a"}),
+            ("Sphere", pendulum, {"radius": 2.5e-3, "color": "#c0392b"}),
+            ("Cylinder", housing, {"radius": r_c * sm.sin(wall), "length": depth,
+                                   "axis": "z", "offset": (0.0, 0.0, -depth / 2),
+                                   "color": "#d5dbdb", "opacity": 0.12}))
 
 
 def _run_report(result, definition):
