@@ -234,7 +234,7 @@ def test_inputs_the_positions_need_beyond_the_equations(tmp_path):
                       t_eval=np.linspace(0.0, 0.1, 11))
     with pytest.raises(kd.ModelError, match=r"need V_x, V_y.*animate\(\.\.\., inputs="):
         scene_data(res)
-    scene = scene_data(res, inputs=definition.animation_inputs)
+    scene = scene_data(res, inputs=definition.animation_inputs, visuals=definition.shapes())
     pendulum, housing = scene["bodies"]
     position = np.array(pendulum["position"]).reshape(-1, 3)
     (x, y) = [np.array([definition.animation_inputs[s](t) for t in res.t])
