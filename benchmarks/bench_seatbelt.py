@@ -14,7 +14,8 @@ does) under three pulses (``--pulses``): the example records ``frontal-48kmh``
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time,
 minimum and spread median / min - 1).  The largest state difference of the two
-runs is printed too.  ``--lock-map N`` also times ``kd.studies.seatbelt_lock_map``
+runs is printed too, and the wall time of building the definition (the motion, its
+tables) and the model (its module from the cache after the first run).  ``--lock-map N`` also times ``kd.studies.seatbelt_lock_map``
 over about N half-sine pulses (wall time, serial, one run).
 
 Run: ``PYTHONPATH=src python benchmarks/bench_seatbelt.py [--rounds 3]
@@ -40,7 +41,6 @@ from kanedyn.models import build  # noqa: E402
 def _python_inputs(definition):
     """The definition's inputs as Python callables evaluating the motion."""
     motion = definition.symbols["motion"]
-    t = motion.symbols[0].args[0]
     out = {}
     for key in definition.specified:
         base = key.expr if hasattr(key, "expr") else key
@@ -49,7 +49,6 @@ def _python_inputs(definition):
         kind, index = ("position", i) if i < 3 else ("angles", i - 3)
         out[key] = (lambda tq, kind=kind, order=order, index=index:
                     float(motion.evaluate(kind, order, tq)[index]))
-    del t
     return out
 
 
@@ -73,8 +72,10 @@ def main():
                         help="also time the lock map over about N half-sine pulses")
     args = parser.parse_args()
     for pulse in args.pulses:
-        definition = build("seatbelt-sensor", pulse=pulse)
+        start = time.perf_counter()
+        definition = build("seatbelt-sensor", pulse=pulse)  # the motion and its tables
         compiled = definition.numeric(backend="c")
+        setup = time.perf_counter() - start
         python = definition.numeric(backend="c", specified=_python_inputs(definition))
         runs = {"python inputs": _runner(python, definition),
                 "compiled inputs": _runner(compiled, definition)}
@@ -84,7 +85,8 @@ def main():
         slow, fast = timings["python inputs"], timings["compiled inputs"]
         print(f"{pulse} ({definition.t_end:g} s, {a.nfev} rhs calls): python inputs "
               f"{slow.best * 1e3:.1f} ms, compiled inputs {fast.best * 1e3:.1f} ms: "
-              f"{ratio_text(slow, fast)}; largest state difference {diff:.2e}")
+              f"{ratio_text(slow, fast)}; largest state difference {diff:.2e}; building "
+              f"the definition and the model {setup:.2f} s wall (module from the cache)")
     if args.lock_map:
         side = max(1, round(args.lock_map ** (1 / 3)))
         grid = dict(peak_g=np.linspace(1.0, 30.0, side), duration=np.linspace(0.03, 0.15, side),
