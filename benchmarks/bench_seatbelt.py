@@ -15,8 +15,9 @@ does) under three pulses (``--pulses``): the example records ``frontal-48kmh``
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time,
 minimum and spread median / min - 1).  The largest state difference of the two
 runs is printed too, and the wall time of building the definition (the motion, its
-tables) and the model (its module from the cache after the first run).  ``--lock-map N`` also times ``kd.studies.seatbelt_lock_map``
-over about N half-sine pulses (wall time, serial, one run).
+tables) and the model (its module from the cache after the first run).
+``--lock-map N`` also times ``kd.studies.seatbelt_lock_map`` over about N half-sine
+pulses (wall time, serial, one run).
 
 Run: ``PYTHONPATH=src python benchmarks/bench_seatbelt.py [--rounds 3]
 [--pulses frontal-48kmh oblique-30deg halfsine] [--lock-map 1000]``.

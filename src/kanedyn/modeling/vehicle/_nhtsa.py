@@ -123,9 +123,9 @@ def read_nhtsa_csv(path, channels, *, max_bytes=MAX_BYTES):
         notes.append(f"{target}: column {index} {header[index]!r}")
     data, lines = _read_columns(rows, header, header_line, columns, [], source)
     t = data.pop("t")
-    return series_from_channels(t, {tg: data[col] for tg, col in chosen.items()}, source, labels, notes, time_factor, lines,
-                                f"the header (line {header_line})",
-                                f"column {header[0]!r}")
+    return series_from_channels(t, {tg: data[col] for tg, col in chosen.items()}, source,
+                                labels, notes, time_factor, lines,
+                                f"the header (line {header_line})", f"column {header[0]!r}")
 
 
 def write_nhtsa_csv(path, t, channels):
