@@ -74,7 +74,7 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
         raise ModelError(f"seatbelt-sensor: pulse must be a name or a CSV path, got {pulse!r}")
     name = str(pulse)
     if (isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith((".csv", ".mme"))
-            or Path(name).is_dir()):
+            or name not in _SHAPES and Path(name).is_dir()):
         path = example_pulse(name) if name in _EXAMPLES else Path(name)
         if path.is_dir() or path.suffix.lower() == ".mme":  # an ISO-MME test
             if not path.exists():

@@ -482,7 +482,7 @@ class VehicleMotion:
 
         A record without rotation: its splines' own pieces (exact).  A pulse, and a
         record with rotation: tabulated from the closed form, or from the integrated
-        angles and the kinematics, within 1e-12 of each component's largest
+        angles and the kinematics, within 1e-13 of each component's largest
         magnitude (:func:`~kanedyn.modeling.tabulate`); a pulse's are extrapolated
         (the motion is a polynomial of degree 1 before and after it).
 

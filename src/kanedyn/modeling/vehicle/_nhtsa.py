@@ -77,7 +77,7 @@ def read_nhtsa_csv(path, channels, *, max_bytes=MAX_BYTES):
     if unknown:
         raise ModelError(f"read_nhtsa_csv({source}): channels: unknown key(s) "
                          f"{sorted(unknown)}; use " + ", ".join(_TARGETS))
-    rows = _csv_rows(_read_text(path, source, max_bytes), source)
+    rows = _csv_rows(_read_text(path, source, max_bytes, "read_nhtsa_csv"), source)
     header_line, header = next(((n, r) for n, r in rows if r and "".join(r).strip()),
                                (0, None))
     if header is None:

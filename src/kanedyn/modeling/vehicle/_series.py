@@ -270,10 +270,10 @@ def _read_bytes(path, source, max_bytes, reader="read_pulse_csv", wanted="a CSV 
     return data
 
 
-def _read_text(path, source, max_bytes):
+def _read_text(path, source, max_bytes, reader="read_pulse_csv"):
     """The UTF-8 text (a text stream) of the regular file ``path`` of at most
-    ``max_bytes`` bytes."""
-    data = _read_bytes(path, source, max_bytes)
+    ``max_bytes`` bytes (``reader``: the function reading it, in messages)."""
+    data = _read_bytes(path, source, max_bytes, reader)
     try:  # checked whole (to name the offset), then decoded as it is read
         data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
