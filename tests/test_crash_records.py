@@ -50,6 +50,13 @@ def test_iso_mme_round_trip_by_code_name_and_default(oblique, tmp_path):
                                    atol=1e-15)
         assert got.rate_columns == ("wz",)
     assert by_default.notes[0] == f"ax: {CODES['ax']} / Vehicle CG X acceleration (T0001.001)"
+    # filtered as today's records are (CFC 60), the motion is the CSV's
+    filtered = kd.VehicleMotion.from_series(by_default, filter="CFC60")
+    reference = kd.VehicleMotion.from_csv(kd.vehicle.example_pulse("oblique-30deg"),
+                                          filter="CFC60")
+    t = np.linspace(0.0, 0.15, 301)
+    np.testing.assert_allclose(filtered.evaluate("position", 2, t),
+                               reference.evaluate("position", 2, t), rtol=0, atol=1e-10)
 
 
 def test_iso_mme_hand_written_channel_and_motion(tmp_path):
