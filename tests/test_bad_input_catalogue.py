@@ -512,7 +512,25 @@ def _origin_without_velocity():
                    bodies=[me.Particle("bob", P, 1.0)])
 
 
+def _iso_mme_test(tmp_path, sample="1.5E-1"):
+    """An ISO-MME test of one vehicle channel whose fifth sample (line 15) is ``sample``."""
+    values = [0.0, -0.5, -1.0, -1.5, 0.15, -2.0]
+    mme = kd.vehicle.write_iso_mme(tmp_path / "T9", "T9", np.arange(6) * 1e-4,
+                                   [("10VEHC0000CGACXP", "vehicle x", "g", values)])
+    path = tmp_path / "T9" / "Channel" / "T9.001"
+    path.write_text(path.read_text().replace("0.15\n", f"{sample}\n"))
+    return mme
+
+
 BAD_FILE_CASES = {
+    "ISO-MME sample that is text": (
+        lambda tmp: kd.vehicle.read_iso_mme(_iso_mme_test(tmp, "0,15")), kd.ModelError,
+        r"T9\.001: channel 10VEHC0000CGACXP \(ax\), line 15: sample '0,15' is not a "
+        r"finite number"),
+    "NHTSA CSV cell that is text": (
+        lambda tmp: kd.vehicle.read_nhtsa_csv(_pulse_file(tmp, "Time (s),X ACC (G)\n0,1\n"
+                                                               "0.001,x\n"), {"ax": "X ACC"}),
+        kd.ModelError, r"pulse\.csv: column 'X ACC \(G\)', line 3: 'x' is not a finite"),
     "pulse cell over 128 KB": (
         lambda tmp: kd.vehicle.read_pulse_csv(_pulse_file(tmp, _GOOD_PULSE.replace(
             "\n0.002,", '\n"' + "9" * 140_000 + '",', 1))),

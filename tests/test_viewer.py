@@ -237,14 +237,22 @@ def test_inputs_the_positions_need_beyond_the_equations(tmp_path):
                       t_eval=np.linspace(0.0, 0.1, 11))
     with pytest.raises(kd.ModelError, match=r"need V_x, V_y.*animate\(\.\.\., inputs="):
         scene_data(res)
-    scene = scene_data(res, inputs=definition.animation_inputs)
-    (pendulum,) = scene["bodies"]
+    scene = scene_data(res, inputs=definition.animation_inputs, visuals=definition.shapes())
+    pendulum, housing = scene["bodies"]
     position = np.array(pendulum["position"]).reshape(-1, 3)
     (x, y) = [np.array([definition.animation_inputs[s](t) for t in res.t])
               for s in definition.symbols["motion"].symbols[:2]]
     assert np.ptp(x) > 0.1  # the vehicle travels (m) ...
     length = definition.constants[definition.symbols["L"]]
     assert np.all(np.hypot(position[:, 0] - x, position[:, 1] - y) <= length)  # ... with it
+    pivot = np.array(housing["position"]).reshape(-1, 3)  # the housing at the pivot
+    np.testing.assert_allclose(pivot[:, :2], np.column_stack([x, y]), atol=1e-6)  # (um)
+    # drawn at the sensor's size (rod to the 12 mm rim, housing 6 mm in radius), and
+    # the links as thick as the sensor, not its 0.4 m of travel, would have them
+    rod, ball = pendulum["shapes"]
+    assert (rod["kind"], rod["length"], ball["semi_axes"]) == ("cylinder", 0.012, [0.0025] * 3)
+    assert housing["shapes"][0]["radius"] == pytest.approx(0.006)
+    assert scene["reach"] == pytest.approx(length) and scene["size"] > 0.1
     with pytest.raises(kd.OptionError, match="must be a function of t or a number"):
         scene_data(res, inputs={definition.symbols["motion"].symbols[0]: "0"})
     assert main(["run", "seatbelt-sensor", "--t-end", "0.05", "--quiet", "--animate",

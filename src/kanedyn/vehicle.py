@@ -9,6 +9,10 @@ What drives a :class:`kanedyn.VehicleMotion` (the moving frame itself stays at
     TrapezoidPulse      a linear rise, a hold, a linear fall
     pulse_from_delta_v  a half-sine or haversine pulse from a velocity change
     read_pulse_csv      a CSV record of accelerations and angular rates, checked
+    read_iso_mme        a crash-test record in the ISO 13499 (ISO-MME) format
+    read_nhtsa_csv      a record in the CSV of the NHTSA test database's export
+    write_iso_mme       an ISO-MME test folder (from samples of your own)
+    write_nhtsa_csv     an NHTSA-style CSV (from samples of your own)
     cfc_filter          an SAE J211/1 channel-frequency-class filter (CFC 60, 180, ...)
     example_pulse       the path of a pulse record shipped with kanedyn (CSV)
 
@@ -27,6 +31,10 @@ _LAZY = {
     "TrapezoidPulse": ".modeling.vehicle",
     "pulse_from_delta_v": ".modeling.vehicle",
     "read_pulse_csv": ".modeling.vehicle",
+    "read_iso_mme": ".modeling.vehicle",
+    "read_nhtsa_csv": ".modeling.vehicle",
+    "write_iso_mme": ".modeling.vehicle",
+    "write_nhtsa_csv": ".modeling.vehicle",
     "cfc_filter": ".modeling.vehicle",
     "example_pulse": ".modeling.vehicle",
 }

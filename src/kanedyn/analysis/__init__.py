@@ -11,6 +11,8 @@
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 ``_inverse_study`` actuator forces of parallel models along named trajectories
 ``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
+``_seatbelt_plot`` the sensor's run in one figure (pulse, tilt, lock and release);
+                   the models' own figures of a run (``RUN_FIGURES``)
 ``_optimal_problems`` named optimal-control problems on built-in models
                    (``kanedyn optimize``, also studies), the pendulum swing-up
 ``_flexible_robot_oc`` the elastic robot's optimal rest-to-rest rotation
@@ -57,6 +59,9 @@ _LAZY = {
     'InverseStudy': '._inverse_study',
     'TRAJECTORIES': '._inverse_study',
     'trajectory_offsets': '._inverse_study',
+    'seatbelt_run_figure': '._seatbelt_plot',
+    'run_figure': '._seatbelt_plot',
+    'RUN_FIGURES': '._seatbelt_plot',
     'seatbelt_lock_map': '._seatbelt_studies',
     'SeatbeltLockMap': '._seatbelt_studies',
     'regulatory_check': '._seatbelt_studies',

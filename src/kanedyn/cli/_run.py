@@ -42,9 +42,10 @@ def add_parser(sub):
     pulse.add_argument("--pulse", metavar="NAME",
                        help="the model's base-motion pulse (its option 'pulse'), e.g. "
                             "halfsine, haversine, trapezoid, step, none, frontal-48kmh")
-    pulse.add_argument("--pulse-file", metavar="CSV",
-                       help="a recorded pulse (t, ax, ay, az[, wx, wy, wz]) as the model's "
-                            "option 'pulse'")
+    pulse.add_argument("--pulse-file", metavar="RECORD",
+                       help="a recorded pulse as the model's option 'pulse': a CSV (t, ax, "
+                            "ay, az[, wx, wy, wz]) or an ISO-MME test (its folder or .mme "
+                            "file; the vehicle's channels)")
     p.add_argument("--method", type=integrator_name, default="RK45",
                    help="integrator: a solve_ivp method (RK45, DOP853, Radau, BDF, ...) "
                         "or Rosenbrock23 (compiled loop, --backend c)")
@@ -167,8 +168,8 @@ def _pulse_option(args, options):
     if name is not None:
         return {"pulse": name}
     file = Path(path)
-    if not file.is_file():
-        raise KanedynError(f"--pulse-file {path}: no such file")
+    if not (file.is_file() or file.is_dir()):
+        raise KanedynError(f"--pulse-file {path}: no such file or ISO-MME test folder")
     return {"pulse": file}
 
 
@@ -206,14 +207,22 @@ def _write_run(definition, eom, model, res, out, progress, report, written, pict
     pictures()
     import matplotlib.pyplot as plt
     figures = []
+    from ..analysis import run_figure
+    from .._output_files import save_figure
+    pictures_written = [out / f"{definition.name}.png"]
     try:
-        _written(out / f"{definition.name}.png", written,
+        _written(pictures_written[0], written,
                  lambda path: figures.append(res.plot(path=path)))
+        story = run_figure(res, definition) if res.t.size else None  # the model's own
+        if story is not None:
+            figures.append(story)
+            pictures_written.append(_written(out / f"{definition.name}_story.png", written,
+                                             lambda path: save_figure(story, path, dpi=120)))
     finally:
         for fig in figures:
             plt.close(fig)
     progress.stage(f"wrote {csv_path}, {out / 'summary.json'}, "
-                   f"{out / (definition.name + '.png')}")
+                   + ", ".join(map(str, pictures_written)))
     return summary
 
 

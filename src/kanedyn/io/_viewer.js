@@ -172,7 +172,8 @@ function build(THREE, OrbitControls, scene) {
 
   // skeleton: the links between the points that locate the bodies
   const sk = scene.skeleton;
-  const skRods = sk.segments.map(() => rod(0.006 * size, 0x555555));
+  const reach = scene.reach || size;  // the model's own size (links' thickness)
+  const skRods = sk.segments.map(() => rod(0.006 * reach, 0x555555));
   skRods.forEach((r) => world.add(r));
   counts.segments = skRods.length;
   const pA = new THREE.Vector3(), pB = new THREE.Vector3();
@@ -188,7 +189,7 @@ function build(THREE, OrbitControls, scene) {
   scene.flexible.forEach((f) => {
     const color = scene.bodies[f.body].color;
     const rods = [];
-    for (let i = 0; i + 1 < f.n_nodes; i++) { rods.push(rod(0.012 * size, color)); }
+    for (let i = 0; i + 1 < f.n_nodes; i++) { rods.push(rod(0.012 * reach, color)); }
     rods.forEach((r) => world.add(r));
     counts.flexible += 1;
     updaters.push((k, a) => {

@@ -423,6 +423,12 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
     size = float(np.max(hi - lo))
     size = size if size > 1e-9 else 1.0
     center = 0.5 * (lo + hi)
+    # the model's own size (the largest extent of its bodies' points at one time):
+    # the thickness of links and default shapes of a model that travels far (a
+    # sensor on a vehicle), where the scene's size is its travel
+    own_points = sorted({item[2] for item in prog.items})
+    own = float(np.max(np.linalg.norm(np.ptp(pos[:, own_points, :], axis=1), axis=1)))
+    reach = own if 0 < 4 * own < size else size
     up_vec, up_note = up_direction(up, model._eom, values)
 
     by_body = {}
@@ -441,7 +447,7 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
         shapes = [_shape_data(v, color) for v in declared]
         default = False
         if not shapes:
-            made = _default_shape(body, values, size)
+            made = _default_shape(body, values, reach)
             if made is not None:
                 geometry, axes = made
                 shapes = [dict(geometry, offset=[0.0, 0.0, 0.0],
@@ -489,6 +495,7 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
         "up_note": up_note,
         "center": center.tolist(),
         "size": size,
+        "reach": reach,
         "low": lo.tolist(), "high": hi.tolist(),
         "origin": getattr(prog, "origin_name", None),
         "bodies": bodies,

@@ -8,6 +8,8 @@
 ``_actuators``           actuators, transmissions (ball screws), external wrenches
 ``_inertial_elements``   generalized-inertia elements: rate inertia, inerter, added mass
 ``_units``               units of coordinates and speeds read off the kinematics
+``_piecewise``           specified inputs as data: piecewise polynomials of time (the
+                         compiled module evaluates them), tabulated with a checked error
 ``flexible``             flexible members: beam elements, station tables, component
                          mode synthesis, the reduced member, flexible bodies
 ``_springs``             linear spring-dampers between points and in 6 dof
@@ -59,6 +61,8 @@ _LAZY = {
     'cone_surface': '._limits',
     'penalty_damping_for_restitution': '._limits',
     'tilt_angle': '._limits',
+    'PiecewisePolynomial': '._piecewise',
+    'tabulate': '._piecewise',
     'constraint_units': '._units',
     'speed_unit': '._units',
     'state_units': '._units',
@@ -93,6 +97,10 @@ _LAZY = {
     'VehicleMotion': '.vehicle',
     'cfc_filter': '.vehicle',
     'example_pulse': '.vehicle',
+    'read_iso_mme': '.vehicle',
+    'read_nhtsa_csv': '.vehicle',
+    'write_iso_mme': '.vehicle',
+    'write_nhtsa_csv': '.vehicle',
     'pulse_from_delta_v': '.vehicle',
     'read_pulse_csv': '.vehicle',
     'AngularVelocity': '._vector_constraints',

@@ -52,7 +52,8 @@ class ModelDefinition:
         Shapes that draw the bodies in the 3D viewer, as data:
         ``(kind, body, {option: value})`` with ``kind`` one of ``"Box"``,
         ``"Cylinder"``, ``"Sphere"``, ``"Mesh"`` (:mod:`kanedyn.visuals`) and
-        option values numbers or SymPy expressions in the constants; see
+        option values numbers or SymPy expressions in the constants (an offset a
+        tuple of them); see
         :meth:`shapes`.
     constant_units : dict
         ``{Symbol: unit text}`` of constants whose unit is declared (shown by
@@ -210,15 +211,17 @@ class ModelDefinition:
         values.update(self._constant_overrides(constants or {}))
         out = []
         for kind, body, options in self.shape_specs:
-            opts = {}
-            for key, value in options.items():
-                if isinstance(value, sm.Basic):
-                    number = sm.sympify(value.xreplace(values), strict=True)
-                    if not number.is_number:
-                        raise ModelError(f"model {self.name}: {kind} of body {body.name}: "
-                                         f"{key} = {value} depends on more than constants")
-                    value = float(number)
-                opts[key] = value
+            def number(key, value):
+                if not isinstance(value, sm.Basic):
+                    return value
+                found = sm.sympify(value.xreplace(values), strict=True)
+                if not found.is_number:
+                    raise ModelError(f"model {self.name}: {kind} of body {body.name}: "
+                                     f"{key} = {value} depends on more than constants")
+                return float(found)
+            opts = {key: (tuple(number(key, v) for v in value)
+                          if isinstance(value, tuple) else number(key, value))
+                    for key, value in options.items()}
             out.append(getattr(visuals, kind)(body, **opts))
         return out
 

@@ -42,7 +42,7 @@ import sympy.physics.mechanics as me
 
 from .._errors import ModelError
 from ..modeling import (ConeLimit, CrashPulse, HalfSinePulse, HaversinePulse, TrapezoidPulse,
-                        VehicleMotion, cone_contact, example_pulse)
+                        VehicleMotion, cone_contact, example_pulse, read_iso_mme)
 from ._base import ModelDefinition
 
 __all__ = ["seatbelt_sensor", "seatbelt_motion", "lock_events", "seatbelt_tilt",
@@ -73,11 +73,17 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
     if not isinstance(pulse, (str, Path)):
         raise ModelError(f"seatbelt-sensor: pulse must be a name or a CSV path, got {pulse!r}")
     name = str(pulse)
-    if isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith(".csv"):
+    if (isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith((".csv", ".mme"))
+            or name not in _SHAPES and Path(name).is_dir()):
         path = example_pulse(name) if name in _EXAMPLES else Path(name)
-        if not path.is_file():
+        if path.is_dir() or path.suffix.lower() == ".mme":  # an ISO-MME test
+            if not path.exists():
+                raise ModelError(f"seatbelt-sensor: ISO-MME test {path} does not exist")
+            motion = VehicleMotion.from_series(read_iso_mme(path), filter=filter)
+        elif not path.is_file():
             raise ModelError(f"seatbelt-sensor: pulse file {path} does not exist")
-        motion = VehicleMotion.from_csv(path, filter=filter)
+        else:
+            motion = VehicleMotion.from_csv(path, filter=filter)
         return motion, float(motion.t_range[1])
     if name not in _SHAPES:
         raise ModelError(f"seatbelt-sensor: unknown pulse {name!r}; give one of "
@@ -120,7 +126,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         ``"halfsine"``, ``"haversine"``, ``"trapezoid"`` (rise and fall a quarter of
         the duration), ``"step"`` (constant deceleration for ``duration``), ``"none"``
         (vehicle at rest), an example pulse (``"frontal-48kmh"``, ``"oblique-30deg"``)
-        or a CSV record (:func:`kanedyn.vehicle.read_pulse_csv`).
+        a CSV record (:func:`kanedyn.vehicle.read_pulse_csv`) or an ISO-MME test (its
+        folder or ``.mme`` file; the vehicle's channels, :func:`kanedyn.vehicle.read_iso_mme`).
     peak_g : float
         Peak deceleration, g (analytic pulses).
     duration : float
@@ -193,7 +200,10 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
         element = cone_contact(rim, H, P, -H.z, sy["theta_lim"], sy["r_c"],
                                restitution=sy["e_lim"], name="housing")
         contacts.append(element)
-    kane_args.update(bodies=[pendulum], loads=loads,
+    # the housing: a body without mass or inertia fixed in H at the pivot, so that
+    # the viewer draws it (it adds nothing to the equations)
+    housing = me.RigidBody("housing", P, H, 0, (me.inertia(H, 0, 0, 0), P))
+    kane_args.update(bodies=[pendulum, housing], loads=loads,
                      potential_energy=pendulum.potential_energy)
     if contacts:
         kane_args["contacts"] = contacts
@@ -210,6 +220,8 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                    lock_angle=SEATBELT_DEFAULTS["theta_lock"], **sy,
                    **extra)
     specified = _needed_inputs(motion, pivot_force)
+    shapes = _shapes(pendulum, housing, {n: sy[n] if n in used else SEATBELT_DEFAULTS[n]
+                                         for n in ("L", "r_c", "theta_lim")})
     # the housing's place needs the vehicle's displacement, which no equation does
     displacement = {s: v for s, v in motion.specified().items() if s in motion.symbols[:3]}
     return ModelDefinition(
@@ -224,7 +236,22 @@ def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1
                     "under the vehicle's deceleration; tilt beyond theta_lock locks the "
                     f"belt (seatbelt_report). Pulse: {motion.source}; limit: {limit}.",
         units={q1: "rad", q2: "rad", u1: "rad/s", u2: "rad/s"},
-        report=_run_report, animation_inputs=displacement)
+        report=_run_report, animation_inputs=displacement, shape_specs=shapes)
+
+
+def _shapes(pendulum, housing, size):
+    """The sensor at its size (m): the pendulum a rod from the pivot to its rim (r_c)
+    with a 2.5 mm ball at its mass centre (L below the pivot); the housing a
+    translucent cylinder reaching the rim where it touches the wall (radius
+    r_c sin theta_lim, depth r_c cos theta_lim below the pivot)."""
+    L, r_c, wall = size["L"], size["r_c"], size["theta_lim"]
+    depth = r_c * sm.cos(wall)
+    return (("Cylinder", pendulum, {"radius": 0.6e-3, "length": r_c, "axis": "z",
+                                    "offset": (0.0, 0.0, L - r_c / 2), "color": "#4a5a6a"}),
+            ("Sphere", pendulum, {"radius": 2.5e-3, "color": "#c0392b"}),
+            ("Cylinder", housing, {"radius": r_c * sm.sin(wall), "length": depth,
+                                   "axis": "z", "offset": (0.0, 0.0, -depth / 2),
+                                   "color": "#d5dbdb", "opacity": 0.12}))
 
 
 def _run_report(result, definition):

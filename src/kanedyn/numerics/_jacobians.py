@@ -282,7 +282,7 @@ def exact_loop(model):
             _functions(model, False)
         module = (model.__dict__.get("_jacobians_module")
                   or model.__dict__["_jacobians_p_module"])
-        found = module.Model(model._p, model._input_values if model._inputs else None)
+        found = model._c_model(module)
         model.__dict__["_exact_loop"] = found
     return found
 

@@ -197,6 +197,24 @@ class _Input:
         self.name, self.value, self.arity = state
 
 
+def _input_table(inputs):
+    """``(table, names)`` for a compiled module when every input of ``inputs``
+    (``[(internal, _Input)]``) is a piecewise polynomial or a number (each
+    number a piece of degree 0, extrapolated), so that the module evaluates
+    them itself (:mod:`~kanedyn.numerics.backends._c_inputs`); else None."""
+    from ..modeling import PiecewisePolynomial
+    parts, names = [], []
+    for _, inp in inputs:
+        value = inp.value
+        if inp.arity == 0:
+            value = PiecewisePolynomial([0.0, 1.0], [[value]], str(value), extrapolate=True)
+        elif not isinstance(value, PiecewisePolynomial):
+            return None
+        parts.append(value.packed())
+        names.append(f"specified input {inp.name}: {value.name}")
+    return np.concatenate(parts), tuple(names)
+
+
 def _by_value_pickler_active():
     """True inside cloudpickle (used by Dask), which pickles lambdas by value."""
     frame = sys._getframe(2)
@@ -448,11 +466,22 @@ class NumericModel(StateLayout):
         """:meth:`_bind` under the binding lock."""
         self._module = module
         self._fn = _CompiledFunctions(self, module)
-        self._c = module.Model(self._p, self._input_values if self._inputs else None)
+        self._c = self._c_model(module)
         if getattr(self._data["scheme"], "c_backend", True):  # else: Python rhs, C terms
             self.rhs = self._c.rhs  # the compiled entry points, called directly
             self.rhs_batch = (self._rhs_batch_first if self._data.get("c_lanes_later")
                               else self._c.rhs_batch)
+
+    def _c_model(self, module):
+        """The compiled ``module``'s Model of this model's constants and inputs;
+        inputs that are all piecewise polynomials (or numbers) go to it as data
+        and are evaluated in C, others through :meth:`_input_values`."""
+        if not self._inputs:
+            return module.Model(self._p, None)
+        table = _input_table(self._inputs)
+        if table is None:
+            return module.Model(self._p, self._input_values)
+        return module.Model(self._p, None, *table)
 
     def _when_cached(self, callback):
         """Call ``callback()`` once this model's compiled module is in the cache:

@@ -35,6 +35,7 @@ import sympy as sm
 from sympy.physics.mechanics import Point, ReferenceFrame, dynamicsymbols
 
 from ..._errors import ModelError
+from .._piecewise import PiecewisePolynomial, tabulate
 from ._filters import cfc_filter, parse_cfc
 from ._pulses import G0, CrashPulse
 from ._series import read_pulse_csv
@@ -42,6 +43,8 @@ from ._series import read_pulse_csv
 __all__ = ["VehicleMotion", "MotionCheck"]
 
 _NAMES = ("x", "y", "z", "yaw", "pitch", "roll")
+#: the motion's parts (kind, order) in the order of its tabulated rows
+_KEYS = tuple((kind, order) for kind in ("position", "angles") for order in range(3))
 _MAX_ORDER = 2
 
 
@@ -104,16 +107,34 @@ class MotionCheck:
         return bool(ok)
 
 
-class _Component:
-    """One specified input: component ``index`` of derivative ``order`` of ``kind``."""
+def _names(source, key):
+    """Names of the three components of ``(kind, order)`` in messages."""
+    kind, order = key
+    names = _NAMES[:3] if kind == "position" else _NAMES[3:]
+    return [f"{source}: {n}{chr(39) * order}" for n in names]
 
-    __slots__ = ("motion", "kind", "order", "index")
 
-    def __init__(self, motion, kind, order, index):
-        self.motion, self.kind, self.order, self.index = motion, kind, order, index
-
-    def __call__(self, t):
-        return float(self.motion.evaluate(self.kind, self.order, t)[self.index])
+def _record_tables(splines, v0, t0, source):
+    """The inputs of a record without rotation from its splines: position,
+    velocity and acceleration (``splines``, :class:`scipy.interpolate.PPoly` of
+    shape (3,)) plus the initial velocity ``v0`` (m/s) from ``t0``, as piecewise
+    polynomials with the splines' breaks; the angles zero."""
+    x = splines[0].x
+    tables = {}
+    for order, spline in enumerate(splines):
+        c = np.moveaxis(np.array(spline.c, float), 0, -1)  # (n, 3, k), highest power first
+        if order == 0:  # + v0 (t - t0) = v0 (t - x_i) + v0 (x_i - t0)
+            c[..., -2] += v0
+            c[..., -1] += v0 * (x[:-1, None] - t0)
+        elif order == 1:
+            c[..., -1] += v0
+        tables["position", order] = [PiecewisePolynomial(x, c[:, j], name)
+                                     for j, name in enumerate(
+                                         _names(source, ("position", order)))]
+        zero = np.zeros((1, 1))
+        tables["angles", order] = [PiecewisePolynomial(x[[0, -1]], zero, name)
+                                   for name in _names(source, ("angles", order))]
+    return tables
 
 
 class VehicleMotion:
@@ -129,13 +150,19 @@ class VehicleMotion:
         ``(x, y, z, yaw, pitch, roll)`` of the last :meth:`moving_frame`.
     """
 
-    def __init__(self, funcs, t_range, source, exact=None, pulse=None):
+    def __init__(self, funcs, t_range, source, exact=None, pulse=None, breaks=None,
+                 tables=None):
         self._funcs = funcs  # (kind, order) -> f(t array) -> (3, n)
         self.t_range = t_range
         self.source = source
         self._exact = exact  # tuple of 6 SymPy expressions in dynamicsymbols._t, or None
         self.pulse = pulse
         self.symbols = None
+        # the inputs as piecewise polynomials: given (a record's splines), or
+        # tabulated between these breaks when first asked for; breaks: times, or
+        # (times, f) with f(t) giving the rows of all _KEYS at once
+        self._breaks = breaks
+        self._tables = tables
 
     # --------------------------------------------------------------- builders
     @classmethod
@@ -193,7 +220,10 @@ class VehicleMotion:
         s = s.xreplace({pulse.t: tt})
         exact = tuple(sm.Float(v0[i]) * tt + sm.Float(e[i]) * s for i in range(3)) + (
             sm.S.Zero, sm.S.Zero, sm.Float(p) * tt if p else sm.S.Zero)
-        motion = cls(funcs, (-np.inf, np.inf), repr(pulse), exact, pulse)
+        # polynomials before the pulse and after it (degree <= 1): extrapolated exactly
+        ends = sorted({0.0, pulse.duration} | {b for _, b, _ in pulse.pieces})
+        breaks = [-1.0] + ends + [pulse.duration + 1.0]
+        motion = cls(funcs, (-np.inf, np.inf), repr(pulse), exact, pulse, breaks=breaks)
         motion._window = (0.0, pulse.duration)
         return motion
 
@@ -214,9 +244,11 @@ class VehicleMotion:
         a_sp = CubicSpline(t, acc, axis=0)
         v0 = np.asarray(initial_velocity, float).reshape(3)
         t0 = t[0]
+        tables = breaks = None
         if not np.any(rates):
             v_sp = a_sp.antiderivative(1)
             s_sp = a_sp.antiderivative(2)
+            tables = _record_tables((s_sp, v_sp, a_sp), v0, t0, src)
 
             def zeros(tq):
                 return np.zeros((3,) + np.shape(np.atleast_1d(tq)))
@@ -229,8 +261,10 @@ class VehicleMotion:
                 ("angles", 0): zeros, ("angles", 1): zeros, ("angles", 2): zeros,
             }
         else:
-            funcs = cls._rotating(series, a_sp, CubicSpline(t, rates, axis=0), v0)
-        motion = cls(funcs, (float(t[0]), float(t[-1])), src)
+            funcs, rows, steps = cls._rotating(series, a_sp, CubicSpline(t, rates, axis=0),
+                                               v0)
+            breaks = (np.union1d(t, steps), rows)
+        motion = cls(funcs, (float(t[0]), float(t[-1])), src, breaks=breaks, tables=tables)
         motion._window = motion.t_range
         motion._samples = len(t)
         return motion
@@ -298,10 +332,20 @@ class VehicleMotion:
             R = _stack(f_dcm, ang(tq))  # (3, 3, n)
             return np.einsum("ijn,nj->in", R, a_sp(tq))
 
+        def rows(tq):  # all of them, the dense output evaluated once (tabulation)
+            tq = np.atleast_1d(tq)
+            y = state(tq)
+            a, w = y[:3], w_sp(tq).T
+            R = _stack(f_dcm, a)
+            return np.concatenate([y[6:9], y[3:6], np.einsum("ijn,nj->in", R, a_sp(tq)),
+                                   a, _stack(f_rates, a, w), _stack(f_second, a, w,
+                                                                    dw_sp(tq).T)])
+
         return {("position", 0): lambda tq: state(tq)[6:9],
                 ("position", 1): lambda tq: state(tq)[3:6],
                 ("position", 2): acc,
-                ("angles", 0): ang, ("angles", 1): ang_rate, ("angles", 2): ang_acc}
+                ("angles", 0): ang, ("angles", 1): ang_rate,
+                ("angles", 2): ang_acc}, rows, dense.ts
 
     # ------------------------------------------------------------ evaluation
     def evaluate(self, kind, order, t):
@@ -423,13 +467,42 @@ class VehicleMotion:
                     out[s] = expr
             return out
         out = {}
+        tables = self.piecewise()
         for i, s in enumerate(self.symbols):
             kind, index = ("position", i) if i < 3 else ("angles", i - 3)
             for order in range(_MAX_ORDER + 1):
                 key = s if order == 0 else sm.Derivative(s, (t, order))
                 if needed is None or key in needed:
-                    out[key] = _Component(self, kind, order, index)
+                    out[key] = tables[kind, order][index]
         return out
+
+    def piecewise(self):
+        """The motion as piecewise polynomials of t, which a compiled model evaluates
+        in C (:class:`~kanedyn.modeling.PiecewisePolynomial`).
+
+        A record without rotation: its splines' own pieces (exact).  A pulse, and a
+        record with rotation: tabulated from the closed form, or from the integrated
+        angles and the kinematics, within 1e-13 of each component's largest
+        magnitude (:func:`~kanedyn.modeling.tabulate`); a pulse's are extrapolated
+        (the motion is a polynomial of degree 1 before and after it).
+
+        Returns
+        -------
+        dict
+            ``{(kind, order): [x, y, z] or [yaw, pitch, roll]}``, as
+            :meth:`evaluate`'s ``kind`` and ``order``.
+        """
+        if self._tables is None:
+            breaks, rows = (self._breaks if isinstance(self._breaks, tuple) else
+                            (self._breaks, None))
+            if rows is None:
+                def rows(t):
+                    return np.concatenate([self._funcs[key](t) for key in _KEYS])
+            names = [n for key in _KEYS for n in _names(self.source, key)]
+            found = tabulate(rows, breaks, 3 * len(_KEYS), names,
+                             extrapolate=self.pulse is not None)
+            self._tables = {key: found[3 * i:3 * i + 3] for i, key in enumerate(_KEYS)}
+        return self._tables
 
     def __repr__(self):
         return f"VehicleMotion({self.source}, t in {self.t_range})"

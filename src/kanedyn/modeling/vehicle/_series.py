@@ -48,7 +48,8 @@ from ..._errors import ModelError
 from ..._output_files import replacing
 from ._pulses import G0
 
-__all__ = ["PulseSeries", "read_pulse_csv", "write_pulse_csv", "MAX_G", "MAX_RATE",
+__all__ = ["PulseSeries", "read_pulse_csv", "write_pulse_csv", "series_from_channels",
+           "MAX_G", "MAX_RATE",
            "MIN_SAMPLES", "MAX_SPEED_CHANGE", "MAX_BYTES"]
 
 #: accelerations above this (in g) are refused as wrong units or a broken channel
@@ -179,32 +180,61 @@ def read_pulse_csv(path, *, max_bytes=MAX_BYTES):
         raise ModelError(f"{source}: no header line (need t, ax, ay, az with units)")
     columns = _parse_header(header, source)
     data, lines = _read_columns(rows, header, header_line, columns, notes, source)
-    t = data["t"]
+    t = data.pop("t")
+    labels = {name: f"column {name!r}" for name in data}
+    return series_from_channels(t, data, source, labels, notes, columns["t"][1], lines,
+                                f"the header (line {header_line})", "column 't'")
+
+
+def series_from_channels(t, channels, source, labels, notes=(), time_factor=1.0, lines=None,
+                         after="the header", time_label="time"):
+    """A checked :class:`PulseSeries` from channels already in SI units.
+
+    Parameters
+    ----------
+    t : numpy.ndarray, shape (n,)
+        Time, s.
+    channels : dict
+        ``{"ax": values, ..., "wz": values}`` (m/s^2, rad/s; shape (n,)); an
+        absent channel is zero (an absent rate: no rotation about that axis).
+    source : str
+        The file (in messages).
+    labels : dict
+        ``{channel: how messages name it}`` (e.g. ``"column 'ax'"``).
+    notes : sequence of str
+    time_factor : float
+        Seconds per unit of the file's time (for the hint of the speed-change warning).
+    lines : numpy.ndarray, shape (n,), optional
+        The file's line of each sample (messages name it), else the sample's index.
+    after, time_label : str
+        Where the samples start, and what holds the time (messages).
+    """
     if len(t) < MIN_SAMPLES:
-        raise ModelError(f"{source}: {len(t)} samples below the header (line "
-                         f"{header_line}); at least {MIN_SAMPLES} are needed")
+        raise ModelError(f"{source}: {len(t)} samples below {after}; at least "
+                         f"{MIN_SAMPLES} are needed")
     steps = np.diff(t)
     if np.any(steps <= 0):
         k = int(np.argmax(steps <= 0))
-        raise ModelError(f"{source}: column 't': time does not increase at line "
-                         f"{lines[k + 1]} ({t[k + 1]:g} s after {t[k]:g} s)")
+        where = f"line {lines[k + 1]}" if lines is not None else f"sample {k + 1}"
+        raise ModelError(f"{source}: {time_label}: time does not increase at {where} "
+                         f"({t[k + 1]:g} s after {t[k]:g} s)")
     for name in _ACC:
-        peak = np.max(np.abs(data[name])) / G0
+        peak = np.max(np.abs(channels[name])) / G0 if name in channels else 0.0
         if peak > MAX_G:
-            raise ModelError(f"{source}: column {name!r}: peak {peak:.4g} g is above "
+            raise ModelError(f"{source}: {labels[name]}: peak {peak:.4g} g is above "
                              f"{MAX_G:g} g; check the unit in the header")
     for name in _RATE:
-        if name in data and np.max(np.abs(data[name])) > MAX_RATE:
-            raise ModelError(f"{source}: column {name!r}: angular rate "
-                             f"{np.max(np.abs(data[name])):.4g} rad/s is above "
+        if name in channels and np.max(np.abs(channels[name])) > MAX_RATE:
+            raise ModelError(f"{source}: {labels[name]}: angular rate "
+                             f"{np.max(np.abs(channels[name])):.4g} rad/s is above "
                              f"{MAX_RATE:g} rad/s; check the unit in the header")
-    acceleration = np.column_stack([data[n] for n in _ACC])
-    _warn_speed_change(t, acceleration, columns["t"][1], source)
     zeros = np.zeros_like(t)
+    acceleration = np.column_stack([channels.get(n, zeros) for n in _ACC])
+    _warn_speed_change(t, acceleration, time_factor, source)
     return PulseSeries(
         t=t, acceleration=acceleration,
-        angular_rate=np.column_stack([data.get(n, zeros) for n in _RATE]),
-        source=source, rate_columns=tuple(n for n in _RATE if n in data),
+        angular_rate=np.column_stack([channels.get(n, zeros) for n in _RATE]),
+        source=source, rate_columns=tuple(n for n in _RATE if n in channels),
         notes=tuple(notes))
 
 
@@ -213,9 +243,9 @@ _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
           (stat.S_ISSOCK, "a socket"))
 
 
-def _read_text(path, source, max_bytes):
-    """The UTF-8 text (a text stream) of the regular file ``path`` of at most
-    ``max_bytes`` bytes."""
+def _read_bytes(path, source, max_bytes, reader="read_pulse_csv", wanted="a CSV file"):
+    """The bytes of the regular file ``path`` of at most ``max_bytes`` bytes
+    (``reader`` and ``wanted`` name the function reading it and what it reads)."""
     try:  # O_NONBLOCK: opening a named pipe does not wait for a writer
         fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
     except OSError as exc:
@@ -224,7 +254,7 @@ def _read_text(path, source, max_bytes):
         info = os.fstat(fd)
         if not stat.S_ISREG(info.st_mode):
             kind = next((what for test, what in _KINDS if test(info.st_mode)), "not a file")
-            raise ModelError(f"{source}: {kind}, not a regular file; give a CSV file")
+            raise ModelError(f"{source}: {kind}, not a regular file; give {wanted}")
         with open(fd, "rb", closefd=False) as handle:
             data = handle.read(info.st_size + 1) if info.st_size <= max_bytes else b""
             if info.st_size < len(data) <= max_bytes:  # it grew, or its size is not known
@@ -235,8 +265,15 @@ def _read_text(path, source, max_bytes):
         os.close(fd)
     if info.st_size > max_bytes or len(data) > max_bytes:  # (or it grew while read)
         raise ModelError(f"{source}: {max(info.st_size, len(data))} bytes, more than the "
-                         f"{max_bytes} a pulse record may have (give read_pulse_csv(..., "
+                         f"{max_bytes} a pulse record may have (give {reader}(..., "
                          "max_bytes=...) to read a larger one)")
+    return data
+
+
+def _read_text(path, source, max_bytes, reader="read_pulse_csv"):
+    """The UTF-8 text (a text stream) of the regular file ``path`` of at most
+    ``max_bytes`` bytes (``reader``: the function reading it, in messages)."""
+    data = _read_bytes(path, source, max_bytes, reader)
     try:  # checked whole (to name the offset), then decoded as it is read
         data.decode("utf-8-sig")
     except UnicodeDecodeError as exc:
@@ -332,7 +369,7 @@ def _warn_speed_change(t, acceleration, time_factor, source):
             f"{speed / 1000:.3g} m/s)" if time_factor == 1.0 else "check the unit of 't'")
     warnings.warn(f"{source}: the accelerations imply a speed change of {speed:.4g} m/s "
                   f"({3.6 * speed:.4g} km/h) over {t[-1] - t[0]:.4g} s, above "
-                  f"{MAX_SPEED_CHANGE:g} m/s; {hint}", UserWarning, stacklevel=3)
+                  f"{MAX_SPEED_CHANGE:g} m/s; {hint}", UserWarning, stacklevel=4)
 
 
 def write_pulse_csv(path, t, acceleration, angular_rate=None, notes=(),

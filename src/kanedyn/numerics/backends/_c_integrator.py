@@ -288,11 +288,13 @@ static void kd_dense(const KdIntegrator *ig, double t, double *out) {
 /* values of the specified inputs at (t, y) for a raw state vector */
 static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
     if (KD_NR == 0) return 0;
+    if (model->table != NULL)  /* in C, no state array needed */
+        return kd_pieces_eval(model->pieces, KD_NR, model->input_names, t, r);
     npy_intp dims[1] = {KD_NX};
     PyObject *ya = PyArray_SimpleNew(1, dims, NPY_DOUBLE);
     if (ya == NULL) return -1;
     memcpy(PyArray_DATA((PyArrayObject *)ya), y, sizeof(double) * KD_NX);
-    int bad = kd_inputs(model->inputs, t, ya, r);
+    int bad = kd_inputs(model, t, ya, r);
     Py_DECREF(ya);
     return bad;
 }

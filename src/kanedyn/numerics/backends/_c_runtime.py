@@ -16,6 +16,8 @@ into Python functions, and :data:`MODULE_FOOTER`); :data:`SHARED` declares what
 each calls of the other.
 """
 
+from ._c_inputs import TABLE_INPUTS
+
 PYTHON_INCLUDES = r"""
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
@@ -704,8 +706,44 @@ static const double *kd_vector(PyObject *obj, npy_intp n, PyObject **keep, const
     return (const double *)PyArray_DATA(arr);
 }
 
-static int kd_inputs(PyObject *inputs, double t, PyObject *y, double *r) {
+static PyObject *kd_new_vector(npy_intp n, double **data) {
+    PyObject *out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
+    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
+    return out;
+}
+
+static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
+    npy_intp dims[2] = {rows, cols};
+    PyObject *out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
+    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
+    return out;
+}
+
+/* ---------------------------------------------------------- Model type */
+typedef struct {
+    PyObject_HEAD
+    double p[KD_SZ(KD_NP)];
+    PyObject *inputs;  /* the inputs' Python callable, or None with a table */
+    double *work;
+    double *table;     /* inputs as polynomial pieces (kd_pieces_parse), or NULL */
+    KdPiece pieces[KD_SZ(KD_NR)];
+    PyObject *input_names;  /* with a table: tuple of the inputs' names */
+} KdModel;
+
+static void KdModel_dealloc(KdModel *self) {
+    Py_XDECREF(self->inputs);
+    Py_XDECREF(self->input_names);
+    PyMem_Free(self->work);
+    PyMem_Free(self->table);
+    Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+/* the specified inputs at (t, y): from the table in C, else from the Python callable
+   inputs(t, y) (y a NumPy array); -1 with a Python error */
+static int kd_inputs(KdModel *self, double t, PyObject *y, double *r) {
 #if KD_NR > 0
+    if (self->table != NULL) return kd_pieces_eval(self->pieces, KD_NR, self->input_names, t, r);
+    PyObject *inputs = self->inputs;
     PyObject *args[2];
     args[0] = PyFloat_FromDouble(t);
     if (args[0] == NULL) return -1;
@@ -730,43 +768,41 @@ static int kd_inputs(PyObject *inputs, double t, PyObject *y, double *r) {
     return 0;
 }
 
-static PyObject *kd_new_vector(npy_intp n, double **data) {
-    PyObject *out = PyArray_SimpleNew(1, &n, NPY_DOUBLE);
-    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
-    return out;
-}
-
-static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
-    npy_intp dims[2] = {rows, cols};
-    PyObject *out = PyArray_SimpleNew(2, dims, NPY_DOUBLE);
-    if (out != NULL) *data = (double *)PyArray_DATA((PyArrayObject *)out);
-    return out;
-}
-
-/* ---------------------------------------------------------- Model type */
-typedef struct {
-    PyObject_HEAD
-    double p[KD_SZ(KD_NP)];
-    PyObject *inputs;
-    double *work;
-} KdModel;
-
-static void KdModel_dealloc(KdModel *self) {
-    Py_XDECREF(self->inputs);
-    PyMem_Free(self->work);
-    Py_TYPE(self)->tp_free((PyObject *)self);
-}
 
 static int KdModel_init(KdModel *self, PyObject *args, PyObject *kwds) {
-    PyObject *pobj, *inputs = Py_None, *keep = NULL;
-    if (!PyArg_ParseTuple(args, "O|O", &pobj, &inputs)) return -1;
+    PyObject *pobj, *inputs = Py_None, *table = Py_None, *names = Py_None, *keep = NULL;
+    if (!PyArg_ParseTuple(args, "O|OOO", &pobj, &inputs, &table, &names)) return -1;
     const double *p = kd_vector(pobj, KD_NP, &keep, "p");
     if (p == NULL) return -1;
     for (int i = 0; i < KD_NP; ++i) self->p[i] = p[i];
     Py_XDECREF(keep);
-    if (KD_NR > 0 && inputs == Py_None) {
-        PyErr_SetString(PyExc_ValueError, "this model needs a callable for its inputs");
+    if (KD_NR > 0 && inputs == Py_None && table == Py_None) {
+        PyErr_SetString(PyExc_ValueError, "this model needs a callable or a table for "
+                        "its inputs");
         return -1;
+    }
+    PyMem_Free(self->table);
+    self->table = NULL;
+    if (KD_NR > 0 && table != Py_None) {  /* inputs(t, y) -> table(t), in C */
+        if (!PyTuple_Check(names) || PyTuple_GET_SIZE(names) != KD_NR) {
+            PyErr_SetString(PyExc_ValueError, "a table of inputs needs a tuple of their names");
+            return -1;
+        }
+        PyArrayObject *arr = (PyArrayObject *)PyArray_FROMANY(table, NPY_DOUBLE, 1, 1,
+                                                              NPY_ARRAY_IN_ARRAY);
+        if (arr == NULL) return -1;
+        npy_intp size = PyArray_SIZE(arr);
+        self->table = (double *)PyMem_Malloc(sizeof(double) * (size_t)(size > 0 ? size : 1));
+        if (self->table == NULL) { Py_DECREF(arr); PyErr_NoMemory(); return -1; }
+        memcpy(self->table, PyArray_DATA(arr), sizeof(double) * (size_t)size);
+        Py_DECREF(arr);
+        if (kd_pieces_parse(self->table, size, KD_NR, self->pieces) != 0) {
+            PyMem_Free(self->table);
+            self->table = NULL;
+            return -1;
+        }
+        Py_INCREF(names);
+        Py_XSETREF(self->input_names, names);
     }
     Py_INCREF(inputs);
     Py_XSETREF(self->inputs, inputs);
@@ -788,7 +824,7 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
     const double *y = kd_vector(args[1], KD_NX, &keep, "the state y");
     if (y == NULL) return NULL;
     double r[KD_SZ(KD_NR)];
-    if (kd_inputs(self->inputs, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
+    if (kd_inputs(self, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
     double *out;
     PyObject *result = kd_new_vector(KD_NX, &out);
     if (result != NULL && KD_RHS_CORE(t, y, self->p, r, self->work, out) != 0) {
@@ -1011,7 +1047,7 @@ static PyObject *KdModel_rhs_batch(KdModel *self, PyObject *args, PyObject *kwds
             PyObject *row = PyArray_SimpleNewFromData(1, dims, NPY_DOUBLE,
                                                       (void *)(proto.y + i * KD_NX));
             int bad = row == NULL
-                || kd_inputs(self->inputs, t_scalar ? proto.t[0] : proto.t[i], row,
+                || kd_inputs(self, t_scalar ? proto.t[0] : proto.t[i], row,
                              inputs + i * KD_SZ(KD_NR)) != 0;
             Py_XDECREF(row);
             if (bad) Py_CLEAR(result);
@@ -1346,7 +1382,7 @@ PYTHON_GLUE = PYTHON_GLUE.replace(
 
 #: the generic runtime: what depends on the model's sizes only (entry points
 #: of the Model type, batches, the integrator; the contact loop with contacts)
-RUNTIME = RUNTIME_ERRORS + LU_SOLVE + PYTHON_GLUE
+RUNTIME = RUNTIME_ERRORS + LU_SOLVE + TABLE_INPUTS + PYTHON_GLUE
 
 #: end of the generic runtime: the Model type and the module's creation
 RUNTIME_FOOTER = r"""

@@ -1,0 +1,134 @@
+"""Specified inputs as piecewise polynomials evaluated in the compiled module (issue 37).
+
+The seat-belt sensor's vehicle motion reaches the C module as data; its runs are
+compared with the path of every run before: the same model with the inputs as
+Python callables evaluating the motion (SciPy's splines, the closed-form pulse,
+the integrated angles), called from the compiled loop at every right-hand side.
+"""
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+
+import kanedyn as kd
+from kanedyn.modeling import PiecewisePolynomial, tabulate
+from kanedyn.models import build, lock_events
+
+PULSES = ("frontal-48kmh", "oblique-30deg", "halfsine")
+
+
+def _python_inputs(definition):
+    """The definition's inputs as Python callables of the motion (the old path)."""
+    motion = definition.symbols["motion"]
+    out = {}
+    for key in definition.specified:
+        base = key.expr if isinstance(key, sm.Derivative) else key
+        order = len(key.variables) if isinstance(key, sm.Derivative) else 0
+        i = motion.symbols.index(base)
+        kind, index = ("position", i) if i < 3 else ("angles", i - 3)
+        out[key] = (lambda t, kind=kind, order=order, index=index:
+                    float(motion.evaluate(kind, order, t)[index]))
+    return out
+
+
+@pytest.mark.parametrize("pulse", PULSES)
+def test_tables_match_the_motion(pulse):
+    """Every input within 1e-13 of its component's largest magnitude (a record
+    without rotation: its splines' own pieces, to rounding)."""
+    motion = build("seatbelt-sensor", pulse=pulse).symbols["motion"]
+    lo, hi = motion.t_range if np.isfinite(motion.t_range[0]) else (-0.05, 0.4)
+    t = np.linspace(lo, hi, 20011)
+    for key, tables in motion.piecewise().items():
+        exact = motion.evaluate(*key, t)
+        for row, table in zip(exact, tables):
+            assert np.max(np.abs(table(t) - row)) <= 1e-13 * max(np.max(np.abs(row)), 1e-300)
+
+
+@pytest.mark.parametrize("pulse", PULSES)
+def test_compiled_run_equals_the_python_inputs_run(pulse):
+    """Without the housing wall (a smooth problem) the run equals the old path's to
+    1e-9 of the state's size; with the wall the lock crossings do."""
+    d = build("seatbelt-sensor", pulse=pulse, limit="none")
+    compiled = d.numeric(backend="c")
+    python = d.numeric(backend="c", specified=_python_inputs(d))
+    assert compiled._c_model(compiled._module) is not None
+    t_eval = np.linspace(0.0, d.t_end, 301)
+    a, b = (kd.simulate(m, (0.0, d.t_end), d.initial(m), rtol=1e-8, atol=1e-8,
+                        t_eval=t_eval) for m in (compiled, python))
+    assert a.success and b.success
+    assert np.max(np.abs(a.y - b.y)) <= 1e-9 * max(1.0, np.max(np.abs(b.y)))
+    d = build("seatbelt-sensor", pulse=pulse)
+    crossings = []
+    for specified in (None, _python_inputs(d)):
+        m = d.numeric(backend="c", specified=specified)
+        res = kd.simulate(m, (0.0, d.t_end), d.initial(m), rtol=1e-8, atol=1e-8,
+                          events=lock_events(d))
+        crossings.append(np.asarray(res.t_events[0]))
+    assert crossings[0].size == crossings[1].size >= 1
+    assert crossings[0][0] == pytest.approx(crossings[1][0], rel=1e-9)  # the lock
+    # after the wall's kink (k = 5 N m/rad from 30 deg) the runs part more: a
+    # relative change of 1e-15 in the inputs moves the state by 4.5e-4 rad at
+    # rtol 1e-8 (measured); the releases still agree to 1e-7
+    np.testing.assert_allclose(crossings[0], crossings[1], rtol=1e-7)
+
+
+def _ramp_model():
+    """A particle driven by a spring whose anchor follows an input s(t)."""
+    q, u, s = me.dynamicsymbols("q u s")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", q * N.x)
+    P.set_vel(N, u * N.x)
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - u],
+                  bodies=[me.Particle("bob", P, 1.0)], loads=[(P, 100.0 * (s - q) * N.x)])
+    return eom, s
+
+
+def test_c_and_numpy_evaluate_a_table_alike():
+    eom, s = _ramp_model()
+    table = tabulate(lambda t: np.sin(7 * t)[None], np.linspace(0, 2, 5), 1, ["sin 7t"])[0]
+    c = eom.numeric(specified={s: table}, backend="c")
+    py = eom.numeric(specified={s: table}, backend="numpy")
+    closed = eom.numeric(specified={s: sm.sin(7 * me.dynamicsymbols._t)}, backend="numpy")
+    for t in np.linspace(0.0, 2.0, 37):
+        y = np.array([0.3 * t, -0.2])
+        np.testing.assert_allclose(c.rhs(t, y), py.rhs(t, y), rtol=1e-15, atol=1e-15)
+        # the table within 1e-13 of sin 7t at its check points (1.3e-13 between them
+        # measured); the force is 100 (s - q)
+        np.testing.assert_allclose(c.rhs(t, y), closed.rhs(t, y), rtol=0, atol=1e-10)
+    batch = c.rhs_batch(np.linspace(0.0, 2.0, 5), np.tile([0.1, 0.2], (5, 1)))
+    np.testing.assert_allclose(batch, [py.rhs(t, [0.1, 0.2]) for t in np.linspace(0, 2, 5)],
+                               rtol=1e-15, atol=1e-15)
+
+
+def test_a_time_outside_the_table_names_the_input():
+    eom, s = _ramp_model()
+    table = PiecewisePolynomial([0.0, 0.5, 1.0], [[1.0, 0.0], [1.0, 0.5]], "ramp.csv: s")
+    c = eom.numeric(specified={s: table}, backend="c")
+    assert c.rhs(1.0, [0.0, 0.0])[1] == pytest.approx(100.0)
+    with pytest.raises(ValueError, match=r"specified input s\(t\): ramp\.csv: s: defined for "
+                                         r"0 s <= t <= 1 s only \(asked at t = 1\.5 s\)"):
+        c.rhs(1.5, [0.0, 0.0])
+    res = kd.simulate(c, (0.0, 2.0), [0.0, 0.0])  # the compiled loop keeps what it had
+    assert not res.success
+    assert "specified input s(t): ramp.csv: s: defined for 0 s <= t <= 1 s only" in res.message
+    assert res.t[-1] <= 1.0 + 1e-9
+
+
+def test_piecewise_polynomial_checks_its_data():
+    with pytest.raises(kd.ModelError, match=r"x: the breaks must increase strictly"):
+        PiecewisePolynomial([0.0, 0.0, 1.0], [[1.0], [2.0]], "x")
+    with pytest.raises(kd.ModelError, match=r"x: a piecewise polynomial needs n \+ 1 breaks"):
+        PiecewisePolynomial([0.0, 1.0], [[1.0], [2.0]], "x")
+    with pytest.raises(kd.ModelError, match=r"x: breaks and coefficients must be finite"):
+        PiecewisePolynomial([0.0, 1.0], [[np.nan]], "x")
+    ok = PiecewisePolynomial([0.0, 1.0], [[2.0, 1.0]], "x", extrapolate=True)
+    assert ok(3.0) == 7.0  # 2 t + 1, continued
+
+
+def test_tabulate_refuses_what_it_cannot_reach():
+    with pytest.raises(kd.ModelError, match=r"tabulate: jump: not within 1e-13 .* near "
+                                            r"t = 0\.3"):
+        tabulate(lambda t: np.sign(t - 0.3)[None], [0.0, 1.0], 1, ["jump"])
