@@ -8,8 +8,8 @@ At each rotor speed :math:`\Omega`:
 3. for three or more blades, the multiblade coordinate transformation of the
    blade coordinates (:mod:`._mbc`): an isotropic rotor in steady motion is
    then time invariant;
-4. the azimuth's row and column removed (a cyclic coordinate: nothing depends
-   on it; ``azimuth_coupling`` says how far that holds), and with
+4. the azimuth's row and column removed (a cyclic coordinate; ``periodicity``
+   says whether the state matrix depends on it), and with
    ``constant_speed`` the rotor speed's too;
 5. the eigenvalues; the oscillatory ones (:math:`\mathrm{Im}\,\lambda > 0`) are
    the modes, followed from speed to speed by the modal assurance criterion
@@ -67,11 +67,14 @@ class CampbellDiagram:
     states : ndarray, shape (n_speeds, n_states)
         The steady motions linearized about.
     converged : ndarray of bool, shape (n_speeds,)
-    azimuth_coupling : ndarray, shape (n_speeds,)
-        Largest entry of the (transformed) state matrix's azimuth column over
-        its largest entry: 0 for a cyclic azimuth; a large value means the
-        linear system is periodic (gravity on blades, an anisotropic rotor)
-        and the frequencies are those of the azimuth linearized about only.
+    periodicity : ndarray, shape (n_speeds,)
+        Largest change of the (transformed) state matrix when the azimuth
+        is advanced by a quarter of the blade spacing, over its largest
+        entry: round-off for a time-invariant system; larger values mean the
+        linear system is periodic (gravity on the blades, an anisotropic
+        rotor, a single blade on a flexible support) and the frequencies are
+        those of the azimuth linearized about only (Floquet analysis is then
+        the exact answer).
     harmonics : tuple of int
         The multiples of the rotor speed drawn by :meth:`plot` (1P, 3P, 6P).
     """
@@ -86,7 +89,7 @@ class CampbellDiagram:
     coordinate_names: tuple
     states: np.ndarray
     converged: np.ndarray
-    azimuth_coupling: np.ndarray
+    periodicity: np.ndarray
     harmonics: tuple = (1, 3, 6)
 
     def mode(self, label):
@@ -209,12 +212,17 @@ class _Layout:
         if speed not in self.names[n_qi:]:
             raise ModelError(f"campbell: speed: {speed} is not an independent speed")
         self.blades = self._blades(rotating, n_qi)
-        removed = [self.azimuth] + ([self.names.index(speed)] if constant_speed else [])
+        self.constant_speed = bool(constant_speed)
+        if constant_speed and (model.n_q_dep or model.n_u_dep):
+            raise ModelError("campbell: constant_speed needs a model without dependent "
+                             "coordinates or speeds")
+        self.speed_row = self.names.index(speed)
+        removed = [self.azimuth] + ([self.speed_row] if constant_speed else [])
         self.kept = [i for i in range(len(self.names)) if i not in removed]
         self.coordinates = [k for k, i in enumerate(self.kept) if i < n_qi]
         coordinate_names = list(self.names[:n_qi])
         if self.blades is not None:
-            for j, q in enumerate(self.blades.T):
+            for q in self.blades.T:
                 for i, name in zip(q, multiblade_names(self.names[q[0]], len(q))):
                     coordinate_names[i] = name
         self.coordinate_names = tuple(coordinate_names[i] for i in self.kept if i < n_qi)
@@ -263,21 +271,47 @@ class _Layout:
             speeds[index] = k
         return speeds
 
-    def modes(self, model, y, t, r):
-        """Eigenvalues, coordinate shapes and azimuth coupling of the steady motion ``y``."""
+    def _driven(self, model, A, y, t):
+        r"""``A`` with the rotor speed prescribed: its equation dropped, the others solved again.
+
+        At a steady motion (:math:`\dot u^* = 0`) the speeds' rows of ``A`` are
+        :math:`M^{-1}\,\delta F`; the speed held by a drive (whose torque is
+        what the dropped equation would give) leaves :math:`M` and
+        :math:`\delta F` before solving.
+        """
+        n_qi = self.n_qi
+        M = model.mass_matrix(t, y)
+        forces = M @ A[n_qi:]
+        keep = [k for k in range(len(M)) if k != self.speed_row - n_qi]
+        driven = A.copy()
+        driven[[n_qi + k for k in keep]] = np.linalg.solve(M[np.ix_(keep, keep)], forces[keep])
+        return driven
+
+    def state_matrix(self, model, y, t, r):
+        """The linearization about ``y``: driven, in multiblade coordinates as asked."""
         A = model.linearize(y, t=t, r=r)[0]
+        if self.constant_speed:
+            A = self._driven(model, A, y, t)
         if self.blades is not None:
             rate = float(model.rhs(t, y)[self.state_azimuth])  # kinematic: no input
             A = to_multiblade(A, self.blades, self._blade_speeds(A), y[self.state_azimuth],
                               rate)
-        scale = max(float(np.max(np.abs(A))), 1e-300)
-        coupling = float(np.max(np.abs(A[:, self.azimuth]))) / scale
+        return A
+
+    def modes(self, model, y, t, r):
+        """Eigenvalues, coordinate shapes and periodicity of the steady motion ``y``."""
+        A = self.state_matrix(model, y, t, r)
+        turned = y.copy()   # a quarter of the blade spacing further on
+        turned[self.state_azimuth] += np.pi / (2 * (1 if self.blades is None
+                                                    else len(self.blades)))
+        change = np.max(np.abs(self.state_matrix(model, turned, t, r) - A))
+        periodicity = float(change) / max(float(np.max(np.abs(A))), 1e-300)
         values, vectors = np.linalg.eig(A[np.ix_(self.kept, self.kept)])
         magnitude = max(float(np.max(np.abs(values))), 1e-300) if values.size else 1.0
         oscillatory = values.imag > 1e-9 * magnitude
         shapes = vectors[self.coordinates][:, oscillatory]
         shapes = shapes / np.linalg.norm(shapes, axis=0)
-        return values[oscillatory], shapes, coupling
+        return values[oscillatory], shapes, periodicity
 
 
 def _mac(a, b):
@@ -321,7 +355,7 @@ def _tracked(speeds, rows, layout, n_modes, harmonics):
         coordinate_names=layout.coordinate_names,
         states=np.array([row[0] for row in rows]),
         converged=np.array([row[1] is not None for row in rows]),
-        azimuth_coupling=np.array([row[3] for row in rows]), harmonics=harmonics)
+        periodicity=np.array([row[3] for row in rows]), harmonics=harmonics)
 
 
 def _label(shape, layout, omega):

@@ -82,7 +82,9 @@ def multiblade_names(name, n_blades):
 
 
 def to_multiblade(A, blade_coordinates, blade_speeds, psi, rate):
-    r"""The state matrix in multiblade coordinates, :math:`\mathcal T^{-1}(A\mathcal T - \Omega\,d\mathcal T/d\psi)`.
+    r"""The state matrix in multiblade coordinates (see the module text).
+
+    :math:`\mathcal T^{-1}(A\,\mathcal T - \Omega\,d\mathcal T/d\psi)`.
 
     Parameters
     ----------
