@@ -50,15 +50,19 @@ class CampbellDiagram:
     eigenvalues : ndarray of complex, shape (n_speeds, n_modes)
         1/s.
     shapes : ndarray of complex, shape (n_speeds, n_coordinates, n_modes)
-        Coordinate parts of the eigenvectors, unit length, in the coordinates
-        of ``coordinate_names`` (SI units of each coordinate).
+        Coordinate parts of the eigenvectors in the coordinates of
+        ``coordinate_names``, each coordinate scaled by the square root of
+        the diagonal mass-matrix entry of the speed that moves it (so that
+        metres and radians compare: kinetic-energy-like weights), unit
+        length.  MAC and labels use these.
     mac : ndarray, shape (n_speeds, n_modes)
         MAC of each mode's shape with its shape at the previous speed where it
         was found (1 at the first speed): low values mark an uncertain pairing
         (speeds too far apart for the shapes' changes).
     labels : tuple of str
-        Each mode named by its largest coordinate (at the fastest speed where
-        it was found); a cyclic multiblade coordinate adds the whirl
+        Each mode named by its largest coordinate of ``shapes``, and the next
+        one when that exceeds half of it (at the fastest speed where the mode
+        was found); a cyclic multiblade coordinate adds the whirl
         (forward: the pattern turns with the rotor, non-rotating frequency
         :math:`\omega_{rot} + \Omega`; backward: against it).
     coordinate_names : tuple of str
@@ -287,9 +291,21 @@ class _Layout:
         driven[[n_qi + k for k in keep]] = np.linalg.solve(M[np.ix_(keep, keep)], forces[keep])
         return driven
 
+    def _weights(self, model, A, y, t):
+        r"""Per coordinate, :math:`\sqrt{M_{kk}}\,/\,|\partial\dot q_i/\partial u_k|` of the speed
+        :math:`u_k` that moves it most: coordinates of different units made comparable
+        (a shape so scaled has the units of :math:`\sqrt{kg}\,m`)."""
+        n_qi = self.n_qi
+        mass = np.abs(np.diag(model.mass_matrix(t, y)))[:len(self.names) - n_qi]
+        rates = np.abs(A[:n_qi, n_qi:])
+        k = np.argmax(rates, axis=1)
+        scale = rates[np.arange(n_qi), k]
+        return np.sqrt(mass[k]) / np.where(scale > 0, scale, 1.0)
+
     def state_matrix(self, model, y, t, r):
         """The linearization about ``y``: driven, in multiblade coordinates as asked."""
         A = model.linearize(y, t=t, r=r)[0]
+        self.weights = self._weights(model, A, y, t)[self.kept[:len(self.coordinates)]]
         if self.constant_speed:
             A = self._driven(model, A, y, t)
         if self.blades is not None:
@@ -309,7 +325,7 @@ class _Layout:
         values, vectors = np.linalg.eig(A[np.ix_(self.kept, self.kept)])
         magnitude = max(float(np.max(np.abs(values))), 1e-300) if values.size else 1.0
         oscillatory = values.imag > 1e-9 * magnitude
-        shapes = vectors[self.coordinates][:, oscillatory]
+        shapes = vectors[self.coordinates][:, oscillatory] * self.weights[:, None]
         shapes = shapes / np.linalg.norm(shapes, axis=0)
         return values[oscillatory], shapes, periodicity
 
@@ -359,9 +375,11 @@ def _tracked(speeds, rows, layout, n_modes, harmonics):
 
 
 def _label(shape, layout, omega):
-    """The largest coordinate's name; for a cyclic multiblade coordinate, the whirl."""
+    """The largest coordinate's name (and the next if above half of it); a cyclic
+    multiblade coordinate says its whirl."""
     names = layout.coordinate_names
-    i = int(np.argmax(np.abs(shape)))
+    order = np.argsort(-np.abs(shape))
+    i = int(order[0])
     name = names[i]
     for suffix, partner in ((" cos", " sin"), (" sin", " cos")):
         if name.endswith(suffix) and name[:-len(suffix)] + partner in names:
@@ -372,6 +390,8 @@ def _label(shape, layout, omega):
             if omega == 0 or abs(turn) < 1e-3 * abs(shape[i]) ** 2:
                 return f"{base} cyclic"
             return f"{base} {'forward' if turn < 0 else 'backward'} whirl"
+    if len(order) > 1 and abs(shape[order[1]]) > 0.5 * abs(shape[i]):
+        return f"{name}, {names[int(order[1])]}"
     return name
 
 
