@@ -56,8 +56,9 @@ def plot_campbell(diagram, path=None, speed_unit="rpm", frequency_unit="Hz", tit
         end = np.nonzero(n * per_rev <= top)[0]
         if end.size:
             k = end[-1]
+            inside = (2, 2) if k == len(x) - 1 else (-18, -12)  # leaves through the top
             ax.annotate(f"{n}P", (x[k], n * per_rev[k]), fontsize="small", color="0.35",
-                        xytext=(2, 2), textcoords="offset points")
+                        xytext=inside, textcoords="offset points")
     cycle = plt.rcParams["axes.prop_cycle"].by_key()["color"]
     styles = ["-", "-.", ":"]
     for j, label in enumerate(diagram.labels):
