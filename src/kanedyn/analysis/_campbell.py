@@ -303,29 +303,30 @@ class _Layout:
         return np.sqrt(mass[k]) / np.where(scale > 0, scale, 1.0)
 
     def state_matrix(self, model, y, t, r):
-        """The linearization about ``y``: driven, in multiblade coordinates as asked."""
+        """The linearization about ``y`` (driven, in multiblade coordinates as asked) and
+        the weights of the kept coordinates."""
         A = model.linearize(y, t=t, r=r)[0]
-        self.weights = self._weights(model, A, y, t)[self.kept[:len(self.coordinates)]]
+        weights = self._weights(model, A, y, t)[self.kept[:len(self.coordinates)]]
         if self.constant_speed:
             A = self._driven(model, A, y, t)
         if self.blades is not None:
             rate = float(model.rhs(t, y)[self.state_azimuth])  # kinematic: no input
             A = to_multiblade(A, self.blades, self._blade_speeds(A), y[self.state_azimuth],
                               rate)
-        return A
+        return A, weights
 
     def modes(self, model, y, t, r):
         """Eigenvalues, coordinate shapes and periodicity of the steady motion ``y``."""
-        A = self.state_matrix(model, y, t, r)
+        A, weights = self.state_matrix(model, y, t, r)
         turned = y.copy()   # a quarter of the blade spacing further on
         turned[self.state_azimuth] += np.pi / (2 * (1 if self.blades is None
                                                     else len(self.blades)))
-        change = np.max(np.abs(self.state_matrix(model, turned, t, r) - A))
+        change = np.max(np.abs(self.state_matrix(model, turned, t, r)[0] - A))
         periodicity = float(change) / max(float(np.max(np.abs(A))), 1e-300)
         values, vectors = np.linalg.eig(A[np.ix_(self.kept, self.kept)])
         magnitude = max(float(np.max(np.abs(values))), 1e-300) if values.size else 1.0
         oscillatory = values.imag > 1e-9 * magnitude
-        shapes = vectors[self.coordinates][:, oscillatory] * self.weights[:, None]
+        shapes = vectors[self.coordinates][:, oscillatory] * weights[:, None]
         shapes = shapes / np.linalg.norm(shapes, axis=0)
         return values[oscillatory], shapes, periodicity
 
