@@ -18,6 +18,10 @@
 ``_flexible_robot_oc`` the elastic robot's optimal rest-to-rest rotation
                    against its torque pulse
 ``_bicycle_lane_change`` the Whipple bicycle's lane change by steer torque
+``_campbell``      Campbell diagrams: steady motions over rotor speed, modes
+                   followed by MAC
+``_mbc``           the multiblade coordinate transformation of a state matrix
+``_campbell_plot`` the Campbell diagram's figure with the rotor harmonics
 """
 
 from .._lazy import lazy_attributes as _lazy_attributes
@@ -78,6 +82,11 @@ _LAZY = {
     'RestToRest': '._flexible_robot_oc',
     'bicycle_lane_change': '._bicycle_lane_change',
     'LaneChange': '._bicycle_lane_change',
+    'campbell': '._campbell',
+    'CampbellDiagram': '._campbell',
+    'plot_campbell': '._campbell_plot',
+    'multiblade_basis': '._mbc',
+    'to_multiblade': '._mbc',
     'STUDIES': '._studies',
     'available_studies': '._studies',
     'Study': '._studies',
