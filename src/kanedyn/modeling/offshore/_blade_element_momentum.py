@@ -29,9 +29,10 @@ Energy* 17, 1327)
 
 .. math:: R(\varphi) = \frac{\sin\varphi}{1 - a} - \frac{V_x}{V_y}\cos\varphi\,(1 - k'),
 
-bracketed (after a neighbourhood of a guess, if given) first on :math:`(0, \pi/2]`, then on :math:`[-\pi/4, 0)`, then on
-:math:`[\pi/2, \pi)`, and found by a safeguarded regula falsi (Illinois) on
-all annuli at once.  The loads per unit length are
+bracketed (after a neighbourhood of a guess, if given) first on
+:math:`(0, \pi/2]`, then on :math:`[-\pi/4, 0)`, then on :math:`[\pi/2, \pi)`,
+and found by a safeguarded regula falsi (Illinois) on all annuli at once.
+The loads per unit length are
 :math:`N' = \tfrac12\rho W^2 c\,c_n` (along the shaft) and
 :math:`T' = \tfrac12\rho W^2 c\,c_t` (along the blade's motion), with
 :math:`W^2 = V_x^2(1 - a)^2 + V_y^2(1 + a')^2`; thrust and torque integrate
