@@ -54,7 +54,7 @@ def test_readers_take_aerodyn_tables(tmp_path):
     blade = kd.offshore.read_blade_table(blade_file)
     assert blade.span.tolist() == [0.0, 30.0, 61.5]
     assert blade.twist.tolist() == [13.3, 6.5, 0.1]
-    assert blade.chord.tolist() == [3.5, 3.7, 1.4] and blade.airfoil.tolist() == [1, 1 + 1, 2]
+    assert blade.chord.tolist() == [3.5, 3.7, 1.4] and blade.airfoil.tolist() == [1, 2, 2]
 
 
 @pytest.mark.parametrize("text, message", [
