@@ -21,6 +21,13 @@ model is built from them and ``docs/offshore.md`` describes each::
     RotorAerodynamics   quasi-steady rotor thrust and torque from a PerformanceSurface
     Drivetrain        the spinning rotor on a tilted shaft, gearbox, generator (shaft twist)
     BaselineController  variable-speed, collective-pitch control as first-order states
+    AirfoilPolar      an airfoil's lift and drag coefficients against the angle of attack
+    BladeTable        a blade's aerodynamic stations: span, twist, chord, airfoil number
+    read_airfoil_polar  an AirfoilPolar from an AeroDyn 15 airfoil file
+    read_blade_table  a BladeTable from an AeroDyn 15 blade file
+    BladeElementMomentum  a rotor's annuli solved by blade-element momentum theory
+    AnnulusSolution   the annuli's inflow angles, inductions and loads
+    BladeElementRotor   quasi-steady BEM force and moment on a spinning rotor from the motion
 
 These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
@@ -49,6 +56,13 @@ _LAZY = {
     "RotorAerodynamics": ".modeling.offshore",
     "Drivetrain": ".modeling.offshore",
     "BaselineController": ".modeling.offshore",
+    "AirfoilPolar": ".modeling.offshore",
+    "BladeTable": ".modeling.offshore",
+    "read_airfoil_polar": ".modeling.offshore",
+    "read_blade_table": ".modeling.offshore",
+    "BladeElementMomentum": ".modeling.offshore",
+    "AnnulusSolution": ".modeling.offshore",
+    "BladeElementRotor": ".modeling.offshore",
 }
 
 __all__ = list(_LAZY)

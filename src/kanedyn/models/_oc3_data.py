@@ -190,6 +190,7 @@ RNA = _group(
 ROTOR = _group(
     n_blades=(3, "1", "5MW", "number of blades"),
     diameter=(126.0, "m", "5MW", "rotor diameter"),
+    hub_radius=(1.5, "m", "5MW", "hub radius (hub diameter 3 m): the blades' root"),
     hub_height=(90.0, "m", "5MW", "hub height above SWL"),
     rated_wind_speed=(11.4, "m/s", "5MW", "rated wind speed"),
     rated_rotor_speed=(12.1, "rpm", "5MW", "rated rotor speed"),

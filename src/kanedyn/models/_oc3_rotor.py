@@ -13,6 +13,13 @@ Parts of the ``oc3-spar`` builder:
   values for the mean wind (specified inputs, replaceable);
 * :func:`oc3_operating_point`: the steady operating point of that rotor,
   drivetrain and controller on a fixed hub in a steady wind;
+* with ``aero="bem"`` the rotor's loads come instead from blade-element
+  momentum theory on the NREL 5-MW blade
+  (:class:`~kanedyn.offshore.BladeElementRotor` of
+  :func:`~kanedyn.models._nrel5mw_blade.nrel5mw_bem`): the force and moment
+  of the annuli solved, at every state, at the relative wind each blade
+  element sees (rotor speed, azimuth, the hub's velocity and the nacelle's
+  rotation);
 * :func:`rna_inertia_pieces`: the RNA's inertia less the spinning parts'.
 
 Precone (2.5 deg) is not modelled: the rigid blades sit in the plane normal
@@ -33,13 +40,19 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..modeling import BaselineController, Drivetrain, PerformanceSurface, RotorAerodynamics
+from ..modeling import (BaselineController, BladeElementRotor, Drivetrain, PerformanceSurface,
+                        RotorAerodynamics)
+from ._nrel5mw_blade import nrel5mw_bem
 from ._nrel5mw_performance import (PITCH_DEGREES, POWER_COEFFICIENT, THRUST_COEFFICIENT,
                                    TIP_SPEED_RATIOS)
 from ._oc3_data import CONTROLLER, DRIVETRAIN, ROTOR, rna_inertia_about_cm
 
 __all__ = ["spinning_rotor", "oc3_operating_point", "OperatingPoint", "oc3_controller",
-           "oc3_performance_surface", "rna_inertia_pieces", "PITCH_ACTUATOR_TIME_CONSTANT"]
+           "oc3_performance_surface", "rna_inertia_pieces", "PITCH_ACTUATOR_TIME_CONSTANT",
+           "AERO_MODELS"]
+
+#: the ``aero`` option's choices: the performance table's fit, blade-element momentum
+AERO_MODELS = ("thrust", "bem")
 
 #: s, time constant of the first-order pitch actuator (our choice: fast against the
 #: pitch controller's 0.2 rad/s, slow enough for explicit integrators)
@@ -133,7 +146,24 @@ def _torque_law(controller):
     return sm.lambdify((w, p), controller.generator_torque([w, e, p]), "math")
 
 
-def oc3_operating_point(wind_speed):
+def _aerodynamics(aero, wind_speed):
+    """``(thrust(speed, pitch), torque(speed, pitch))`` of the rotor on a still hub, N, N m."""
+    R, rho = _radius(), _v(ROTOR, "air_density")
+    if aero == "bem":
+        # the wind along the tilted shaft (the in-plane part's effect is second order)
+        axial = wind_speed * math.cos(math.radians(_v(ROTOR, "shaft_tilt")))
+        bem = nrel5mw_bem()
+        return (lambda speed, pitch: float(bem.steady_loads(axial, speed, pitch)[0]),
+                lambda speed, pitch: float(bem.steady_loads(axial, speed, pitch)[1]))
+    surface = oc3_performance_surface()
+    q = 0.5 * rho * math.pi * R ** 2 * wind_speed ** 2
+    return (lambda speed, pitch: q * float(surface.coefficients(speed * R / wind_speed,
+                                                                pitch)[1]),
+            lambda speed, pitch: q * R * float(surface.torque_coefficient(
+                speed * R / wind_speed, pitch)))
+
+
+def oc3_operating_point(wind_speed, aero="thrust"):
     r"""The steady operating point of the OC3 rotor, drivetrain and controller at a wind speed.
 
     With the hub held still: below rated the pitch is at its minimum and the
@@ -145,6 +175,10 @@ def oc3_operating_point(wind_speed):
     ----------
     wind_speed : float
         m/s, from 3 to 25 (cut-in to cut-out).
+    aero : {"thrust", "bem"}
+        The rotor's aerodynamics: the performance table's fit, or
+        blade-element momentum theory with the wind's component along the
+        tilted shaft (as the ``oc3-spar`` option ``aero``).
 
     Returns
     -------
@@ -154,13 +188,13 @@ def oc3_operating_point(wind_speed):
     if not (isinstance(wind_speed, (int, float)) and 3 <= wind_speed <= 25):
         raise ModelError(f"oc3_operating_point: wind_speed must be from 3 to 25 m/s, got "
                          f"{wind_speed!r}")
-    surface, controller = oc3_performance_surface(), oc3_controller()
-    R, rho, ratio = _radius(), _v(ROTOR, "air_density"), _v(DRIVETRAIN, "gear_ratio")
-    q = 0.5 * rho * math.pi * R ** 2 * wind_speed ** 2
+    if aero not in AERO_MODELS:
+        raise ModelError(f"oc3_operating_point: aero must be one of {', '.join(AERO_MODELS)}, "
+                         f"got {aero!r}")
+    controller = oc3_controller()
+    ratio = _v(DRIVETRAIN, "gear_ratio")
     law = _torque_law(controller)
-
-    def aero_torque(speed, pitch):
-        return q * R * float(surface.torque_coefficient(speed * R / wind_speed, pitch))
+    aero_thrust, aero_torque = _aerodynamics(aero, wind_speed)
 
     def balance(speed, pitch=0.0):
         return aero_torque(speed, pitch) - ratio * law(ratio * speed, pitch)
@@ -175,13 +209,12 @@ def oc3_operating_point(wind_speed):
     else:
         speed = brentq(balance, lo, top, xtol=1e-12)
     torque = law(ratio * speed, pitch)
-    _, ct = surface.coefficients(speed * R / wind_speed, pitch)
     return OperatingPoint(wind_speed, speed, pitch, torque, aero_torque(speed, pitch) * speed,
                           _v(DRIVETRAIN, "generator_efficiency") * torque * ratio * speed,
-                          q * float(ct))
+                          aero_thrust(speed, pitch))
 
 
-def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
+def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None):
     r"""The spinning rotor part of the ``oc3-spar`` builder.
 
     Parameters
@@ -194,22 +227,27 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
     wind : float
         Mean wind speed, m/s (0: no aerodynamic loads).
     options : dict
-        The builder's options (``controller``, ``drivetrain``).
+        The builder's options (``controller``, ``drivetrain``, ``aero``).
     wind_symbol : sympy.Function, optional
         The specified input of a turbulent wind (otherwise the mean wind).
+    wind_series : callable, optional
+        The turbulent wind as a function of time (m/s), for ``aero="bem"``.
 
     Returns
     -------
     dict
         ``q``, ``u``, ``kd_eqs``, ``bodies``, ``loads``, ``potential``
-        (SymPy), ``specified`` (``{symbol: value}``), ``initial``
+        (SymPy), ``specified`` (``{symbol: value}``; with ``aero="bem"`` the
+        rotor's inputs are not among them: they need the model's whole state,
+        ``symbols["aerodynamics"].specified(states)``), ``initial``
         (``{symbol: value}``), ``units`` (of the states), ``symbols``
         (``drivetrain``, ``controller``, ``aerodynamics``, ``generator_torque``,
         ``pitch``, ``electrical_power``, all SymPy in the states).
     """
     controlled = options["controller"] == "on"
+    bem = options["aero"] == "bem"
     controller = oc3_controller()
-    point = oc3_operating_point(wind) if wind > 0 else None
+    point = oc3_operating_point(wind, options["aero"]) if wind > 0 else None
     states = controller.states() if controlled else []
     if controlled:
         torque, pitch = controller.generator_torque(states), states[2]
@@ -217,7 +255,9 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
     else:
         torque, pitch = me.dynamicsymbols("T_generator pitch_input")
         specified = {torque: point.generator_torque if point else 0.0}
-        if point:     # without wind nothing depends on the pitch
+        if point and bem:      # the BEM's loads are computed with the held pitch
+            pitch = point.pitch
+        elif point:     # without wind nothing depends on the pitch
             specified[pitch] = point.pitch
     flexible = options["drivetrain"] == "flexible"
     drive = Drivetrain(A, hub, math.radians(_v(ROTOR, "shaft_tilt")),
@@ -228,7 +268,12 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None):
     q, u, kd_eqs = list(drive.q), list(drive.u), list(drive.kd_eqs)
     loads = list(drive.loads)
     aero = None
-    if wind > 0:
+    if wind > 0 and bem:
+        aero = BladeElementRotor("rotor", nrel5mw_bem(), hub, drive.shaft_frame,
+                                 drive.rotor_frame, N, drive.q[0], drive.rotor_speed, pitch,
+                                 wind_series if wind_series is not None else wind)
+        loads += aero.to_loads()
+    elif wind > 0:
         aero = RotorAerodynamics("rotor", oc3_performance_surface(), _radius(),
                                  _v(ROTOR, "air_density"), hub, drive.shaft, N,
                                  drive.rotor_frame, drive.rotor_speed, pitch,

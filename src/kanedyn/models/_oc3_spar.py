@@ -75,7 +75,7 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
-from ._oc3_rotor import rna_inertia_pieces, spinning_rotor
+from ._oc3_rotor import AERO_MODELS, rna_inertia_pieces, spinning_rotor
 from ._oc3_tower import oc3_tower_rna_basis
 from ._oc3_shapes import oc3_shape_specs
 
@@ -90,7 +90,8 @@ _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "
             "sea": ("still", "regular", "irregular"),
             "mooring": ("linear", "linear-symmetric", "catenary", "none"),
             "tmdi": ("off", "tmd", "tmdi"), "rotor": ("rigid", "spinning"),
-            "controller": ("off", "on"), "drivetrain": ("rigid", "flexible")}
+            "controller": ("off", "on"), "drivetrain": ("rigid", "flexible"),
+            "aero": AERO_MODELS}
 
 _N_STRIPS = 10          # Morison strips over the wetted 120 m
 _WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
@@ -140,7 +141,7 @@ def _check(options):
         raise ModelError(f"oc3-spar: sea={options['sea']} needs wave_height > 0 and "
                          "wave_period > 0")
     if options["rotor"] == "rigid":
-        for key, value in (("controller", "on"), ("drivetrain", "flexible")):
+        for key, value in (("controller", "on"), ("drivetrain", "flexible"), ("aero", "bem")):
             if options[key] == value:
                 raise ModelError(f"oc3-spar: option {key}={value} needs rotor=spinning (the "
                                  "rigid rotor has no rotor speed)")
@@ -160,7 +161,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
              inertance_ratio=0.02, inerter_height=60.0, rna_offset=True, rotor="rigid",
-             controller="off", drivetrain="rigid"):
+             controller="off", drivetrain="rigid", aero="thrust"):
     r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
 
     Parameters
@@ -240,6 +241,15 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         With ``rotor="spinning"``: ``"flexible"`` adds the low-speed shaft's
         torsional twist as a degree of freedom (published stiffness and
         damping).
+    aero : {"thrust", "bem"}
+        With ``rotor="spinning"``: ``"thrust"``, the rotor's thrust and torque
+        from its performance table (the cheap option); ``"bem"``, the force
+        and moment of blade-element momentum theory on the NREL 5-MW blade,
+        solved at every state from the relative wind of each blade element
+        (rotor speed, azimuth, the hub's and nacelle's motion): six specified
+        inputs ``Frotor_x/y/z``, ``Mrotor_x/y/z`` (shaft-frame components,
+        N and N m), their callables in ``specified``.  With
+        ``controller="off"`` the BEM uses the steady pitch for the wind.
 
     Returns
     -------
@@ -264,7 +274,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                    tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
                    inertance_ratio=inertance_ratio, inerter_height=inerter_height,
                    rna_offset=rna_offset, rotor=rotor, controller=controller,
-                   drivetrain=drivetrain)
+                   drivetrain=drivetrain, aero=aero)
     _check(options)
     g = _v(ENVIRONMENT, "gravity")
     rho = _v(ENVIRONMENT, "water_density")
@@ -392,7 +402,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     if spinning:
         if not tower_modes:
             hub.v2pt_theory(top, N, A)
-        spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol)
+        spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol,
+                              wind if wind_symbol is not None else None)
         q += spin["q"]
         u += spin["u"]
         kd_eqs += spin["kd_eqs"]
@@ -473,6 +484,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         elements["yaw_spring"] = yaw_spring
 
     # ------------------------------------------------------------------- rotor
+    if spinning and aero == "bem" and wind_speed > 0:    # the BEM's inputs read the state
+        specified.update(elements["rotor"].specified(states))
     if not spinning and wind_speed > 0:
         # along the shaft, downwind and (tilted) downward: hub upwind and higher
         tilt = math.radians(_v(ROTOR, "shaft_tilt"))
@@ -501,7 +514,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         what.append(tmdi.upper())
     if spinning:
         what.append(f"spinning rotor, controller {controller}"
-                    + (", flexible drivetrain" if drivetrain == "flexible" else ""))
+                    + (", flexible drivetrain" if drivetrain == "flexible" else "")
+                    + (", BEM aerodynamics" if aero == "bem" else ""))
     return ModelDefinition(
         name="oc3-spar",
         title="OC3-Hywind spar floating wind turbine (" + ", ".join(what) + ")",

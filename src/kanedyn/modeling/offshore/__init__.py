@@ -8,11 +8,17 @@
 ``_mooring``       linearized 6x6 mooring, catenary mooring systems
 ``_rotor``         rotor thrust from a steady curve, aerodynamic damping, Kaimal wind
 ``_rotor_performance``  a rotor's torque and thrust from its Cp, Ct table (closed-form fit)
+``_aerodyn_tables``  airfoil polars and blade tables read from AeroDyn 15 files
+``_blade_element_momentum``  a rotor's annuli solved by blade-element momentum theory
+``_blade_element_rotor``  BEM loads on a spinning rotor from the bodies' motion
 ``_drivetrain``    the spinning rotor on a tilted shaft, gearbox, generator, shaft twist
 ``_baseline_controller``  variable-speed, collective-pitch control as first-order states
 """
 
+from ._aerodyn_tables import AirfoilPolar, BladeTable, read_airfoil_polar, read_blade_table
 from ._baseline_controller import BaselineController
+from ._blade_element_momentum import AnnulusSolution, BladeElementMomentum
+from ._blade_element_rotor import BladeElementRotor
 from ._catenary import CatenaryLine, catenary_spans, solve_catenary
 from ._drivetrain import Drivetrain
 from ._hydrostatics import HYDROSTATIC_FORMS, Hydrostatics
@@ -28,4 +34,6 @@ __all__ = ["AiryWave", "IrregularSea", "jonswap_spectrum", "jonswap_gamma", "wav
            "HYDROSTATIC_FORMS", "CatenaryLine", "catenary_spans", "solve_catenary",
            "OC3_MOORING", "CatenaryMooring", "LinearMooring", "state_function",
            "NREL5MW_THRUST", "RotorThrust", "ThrustCurve", "kaimal_spectrum", "kaimal_wind",
-           "PerformanceSurface", "RotorAerodynamics", "Drivetrain", "BaselineController"]
+           "PerformanceSurface", "RotorAerodynamics", "Drivetrain", "BaselineController",
+           "AirfoilPolar", "BladeTable", "read_airfoil_polar", "read_blade_table",
+           "BladeElementMomentum", "AnnulusSolution", "BladeElementRotor"]

@@ -1,0 +1,336 @@
+r"""Quasi-steady blade-element momentum (BEM) theory of a rotor's annuli.
+
+``BladeElementMomentum``  a rotor of rigid blades in the plane normal to its
+                          shaft: its annuli's induction solved from the local
+                          inflow, loads per unit length, steady thrust, torque
+                          and the coefficients :math:`C_P(\lambda,\theta)`,
+                          :math:`C_T(\lambda,\theta)`
+``AnnulusSolution``       the solved annuli (inflow angle, inductions, loads)
+
+Each annulus at radius :math:`r` sees the axial inflow :math:`V_x` (along the
+shaft, downwind) and the tangential one :math:`V_y` (against the blade's
+motion).  With the inflow angle :math:`\varphi`, the angle of attack
+:math:`\alpha = \varphi - (\beta + \theta)` (twist and pitch), the airfoil's
+:math:`C_l(\alpha)`, :math:`C_d(\alpha)` (linear in the tables), the normal
+and tangential coefficients :math:`c_n = C_l\cos\varphi + C_d\sin\varphi`,
+:math:`c_t = C_l\sin\varphi - C_d\cos\varphi`, the local solidity
+:math:`\sigma' = Bc/(2\pi r)` and Prandtl's tip and hub losses
+
+.. math:: F = \tfrac{2}{\pi}\arccos e^{-\frac{B}{2}\frac{R - r}{r|\sin\varphi|}}
+          \cdot \tfrac{2}{\pi}\arccos e^{-\frac{B}{2}\frac{r - R_h}{R_h|\sin\varphi|}},
+
+the inductions are :math:`a = k/(1 + k)` and :math:`a' = k'/(1 - k')` with
+:math:`k = \sigma' c_n/(4F\sin^2\varphi)`, :math:`k' = \sigma' c_t/(4F\sin\varphi
+\cos\varphi)`; above :math:`k = 2/3` (:math:`a = 0.4`) the axial induction
+follows Buhl's empirical thrust curve (the high-induction correction), and for
+:math:`\varphi < 0` the propeller-brake branch :math:`a = k/(k - 1)`.  The
+inflow angle is the root of the one-equation residual (Ning 2014, *Wind
+Energy* 17, 1327)
+
+.. math:: R(\varphi) = \frac{\sin\varphi}{1 - a} - \frac{V_x}{V_y}\cos\varphi\,(1 - k'),
+
+bracketed (after a neighbourhood of a guess, if given) first on
+:math:`(0, \pi/2]`, then on :math:`[-\pi/4, 0)`, then on :math:`[\pi/2, \pi)`,
+and found by a safeguarded regula falsi (Illinois) on all annuli at once.
+The loads per unit length are
+:math:`N' = \tfrac12\rho W^2 c\,c_n` (along the shaft) and
+:math:`T' = \tfrac12\rho W^2 c\,c_t` (along the blade's motion), with
+:math:`W^2 = V_x^2(1 - a)^2 + V_y^2(1 + a')^2`; thrust and torque integrate
+them over :math:`R_h \le r \le R` by the trapezoidal rule with zero load at
+both ends.  Drag enters the inductions and the loads (as in CCBlade's default).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..._errors import ModelError
+from ._aerodyn_tables import AirfoilPolar, BladeTable
+
+__all__ = ["BladeElementMomentum", "AnnulusSolution"]
+
+_EPS = 1e-6          # rad, the brackets keep this far from phi = 0 and pi
+_TOLERANCE = 1e-10   # rad, on the inflow angle
+_MAX_ITERATIONS = 100
+
+
+@dataclass(frozen=True)
+class AnnulusSolution:
+    """The annuli's solved state; every field has the shape of the inflows, (..., n).
+
+    Attributes
+    ----------
+    inflow_angle : ndarray
+        :math:`\\varphi`, rad.
+    angle_of_attack : ndarray
+        rad.
+    axial_induction, tangential_induction : ndarray
+        :math:`a`, :math:`a'`.
+    normal_load, tangential_load : ndarray
+        :math:`N'`, :math:`T'`, N/m.
+    """
+
+    inflow_angle: np.ndarray
+    angle_of_attack: np.ndarray
+    axial_induction: np.ndarray
+    tangential_induction: np.ndarray
+    normal_load: np.ndarray
+    tangential_load: np.ndarray
+
+
+class BladeElementMomentum:
+    r"""A rotor of rigid blades whose annuli are solved by blade-element momentum theory.
+
+    Parameters
+    ----------
+    blade : BladeTable
+        Stations from the root (span 0 at ``hub_radius``).  Stations closer
+        than 1 mm to the tip are dropped (their load is zero by the tip loss).
+    polars : sequence of AirfoilPolar
+        The airfoils that ``blade.airfoil`` numbers (1-based).
+    hub_radius, tip_radius : float
+        :math:`R_h`, :math:`R`, m.
+    blades : int
+        :math:`B`.
+    air_density : float
+        :math:`\rho`, kg/m^3.
+    tip_loss, hub_loss : bool
+        Prandtl's factors (both on by default).
+
+    Attributes
+    ----------
+    radius, chord, twist : ndarray, shape (n,)
+        m, m, rad of the annuli.
+    weights : ndarray, shape (n,)
+        m, trapezoidal-rule weights: :math:`\int f\,dr \approx \sum_i w_i f_i`.
+    """
+
+    def __init__(self, blade, polars, hub_radius, tip_radius, blades, air_density,
+                 tip_loss=True, hub_loss=True):
+        if not isinstance(blade, BladeTable):
+            raise ModelError(f"BladeElementMomentum: blade must be a BladeTable, got "
+                             f"{type(blade).__name__}")
+        polars = list(polars)
+        if not polars or not all(isinstance(p, AirfoilPolar) for p in polars):
+            raise ModelError("BladeElementMomentum: polars must be a non-empty sequence of "
+                             "AirfoilPolar")
+        for key, value in (("hub_radius", hub_radius), ("tip_radius", tip_radius),
+                           ("air_density", air_density)):
+            if isinstance(value, bool) or not (isinstance(value, (int, float)) and value > 0):
+                raise ModelError(f"BladeElementMomentum: {key} must be a positive number, "
+                                 f"got {value!r}")
+        if not (isinstance(blades, int) and blades >= 1):
+            raise ModelError(f"BladeElementMomentum: blades must be a positive int, got "
+                             f"{blades!r}")
+        if tip_radius <= hub_radius:
+            raise ModelError("BladeElementMomentum: tip_radius must exceed hub_radius")
+        if blade.airfoil.max() > len(polars):
+            raise ModelError(f"BladeElementMomentum: the blade names airfoil "
+                             f"{blade.airfoil.max()} but {len(polars)} polars are given")
+        r = hub_radius + np.asarray(blade.span, float)
+        keep = (r > hub_radius) & (r < tip_radius - 1e-3)
+        if not keep.any():
+            raise ModelError("BladeElementMomentum: no blade station lies between the hub "
+                             "and the tip")
+        self.radius = r[keep]
+        self.chord = np.asarray(blade.chord, float)[keep]
+        self.twist = np.radians(np.asarray(blade.twist, float)[keep])
+        self.hub_radius, self.tip_radius = float(hub_radius), float(tip_radius)
+        self.blades, self.air_density = blades, float(air_density)
+        self.tip_loss, self.hub_loss = bool(tip_loss), bool(hub_loss)
+        self.polars = tuple(polars)
+        ends = np.concatenate([[hub_radius], self.radius, [tip_radius]])
+        steps = np.diff(ends)
+        self.weights = (steps[:-1] + steps[1:]) / 2
+        self.solidity = blades * self.chord / (2 * np.pi * self.radius)
+        # every annulus's polar on the union of the tables' angles (exactly the same
+        # piecewise-linear functions), so one search serves all annuli
+        grid = np.unique(np.concatenate([p.angle_of_attack for p in polars]))
+        self._alpha = np.radians(grid)
+        ids = np.asarray(blade.airfoil)[keep] - 1
+        self._lift = np.array([np.interp(grid, polars[i].angle_of_attack, polars[i].lift)
+                               for i in ids])
+        self._drag = np.array([np.interp(grid, polars[i].angle_of_attack, polars[i].drag)
+                               for i in ids])
+
+    # ------------------------------------------------------------------ annuli
+    def airfoil_coefficients(self, angle_of_attack):
+        r"""``(C_l, C_d)`` of each annulus's airfoil at ``angle_of_attack`` (rad, (..., n))."""
+        alpha = np.mod(np.asarray(angle_of_attack, float) + np.pi, 2 * np.pi) - np.pi
+        grid = self._alpha
+        i = np.clip(np.searchsorted(grid, alpha) - 1, 0, grid.size - 2)
+        f = (alpha - grid[i]) / (grid[i + 1] - grid[i])
+        rows = np.broadcast_to(np.arange(self.radius.size), alpha.shape)
+        lift = self._lift[rows, i] * (1 - f) + self._lift[rows, i + 1] * f
+        drag = self._drag[rows, i] * (1 - f) + self._drag[rows, i + 1] * f
+        return lift, drag
+
+    def _state(self, phi, ratio, theta):
+        """Inductions, loss factor and coefficients at inflow angle ``phi`` (all (..., n))."""
+        s, c = np.sin(phi), np.cos(phi)
+        cl, cd = self.airfoil_coefficients(phi - theta)
+        cn, ct = cl * c + cd * s, cl * s - cd * c
+        abs_s = np.maximum(np.abs(s), 1e-12)
+        F = np.ones_like(phi)
+        if self.tip_loss:
+            x = self.blades / 2 * (self.tip_radius - self.radius) / (self.radius * abs_s)
+            F = F * 2 / np.pi * np.arccos(np.exp(-x))
+        if self.hub_loss:
+            x = self.blades / 2 * (self.radius - self.hub_radius) / (self.hub_radius * abs_s)
+            F = F * 2 / np.pi * np.arccos(np.exp(-x))
+        F = np.maximum(F, 1e-12)
+        k = self.solidity * cn / (4 * F * s * s)
+        kp = self.solidity * ct / (4 * F * s * c)
+        # Buhl's empirical thrust above a = 0.4 (k = 2/3)
+        g1 = 2 * F * k - (10 / 9 - F)
+        g2 = np.maximum(2 * F * k - F * (4 / 3 - F), 0.0)
+        g3 = 2 * F * k - (25 / 9 - 2 * F)
+        near = np.abs(g3) < 1e-6
+        buhl = np.where(near, 1 - 1 / (2 * np.sqrt(np.maximum(g2, 1e-12))),
+                        (g1 - np.sqrt(g2)) / np.where(near, 1.0, g3))
+        windmill = np.where(k <= 2 / 3, k / (1 + k), buhl)
+        brake = np.where(k > 1, k / np.where(k > 1, k - 1, 1.0), 0.0)
+        a = np.where(phi > 0, windmill, brake)
+        residual = np.where(phi > 0, s / (1 - a), s * (1 - k)) - ratio * c * (1 - kp)
+        return residual, a, kp, cn, ct
+
+    def solve(self, axial_speed, tangential_speed, pitch, guess=None):
+        r"""Solve every annulus for its inflow angle, inductions and loads.
+
+        Parameters
+        ----------
+        axial_speed : array_like, shape (..., n) or broadcastable
+            :math:`V_x`, m/s: the air's speed through the annulus along the
+            shaft (downwind), relative to the blade element.
+        tangential_speed : array_like, broadcastable to the same
+            :math:`V_y`, m/s: the element's speed in the rotor plane along its
+            motion, relative to the air (:math:`\Omega r` on a still rotor);
+            must be positive.
+        pitch : array_like
+            Collective pitch, rad (broadcast, e.g. shape (..., 1)).
+        guess : ndarray, optional
+            Inflow angles (rad, the inflows' shape) near the solution, e.g. the
+            last solve's: a bracket of +-0.05 rad around each is tried first
+            (fewer iterations, the same root where it brackets one).
+
+        Returns
+        -------
+        AnnulusSolution
+        """
+        Vx, Vy = np.broadcast_arrays(np.asarray(axial_speed, float),
+                                     np.asarray(tangential_speed, float))
+        Vx, Vy = np.broadcast_arrays(Vx, Vy, self.radius)[:2]
+        if np.any(~(Vy > 0)):
+            raise ModelError("BladeElementMomentum.solve: tangential_speed must be positive "
+                             "(a rotor turning forward); got "
+                             f"{np.min(Vy):g} m/s")
+        theta = self.twist + np.asarray(pitch, float)
+        ratio = Vx / Vy
+
+        def residual(phi):
+            return self._state(phi, ratio, theta)[0]
+
+        lo, hi = _bracket(residual, Vx.shape, guess)
+        phi = _illinois(residual, lo, hi)
+        _, a, kp, cn, ct = self._state(phi, ratio, theta)
+        a = np.where(Vx == 0, 0.0, a)
+        ap = kp / (1 - kp)
+        w2 = (Vx * (1 - a)) ** 2 + (Vy * (1 + ap)) ** 2
+        q = 0.5 * self.air_density * w2 * self.chord
+        return AnnulusSolution(phi, phi - theta, a, ap, q * cn, q * ct)
+
+    # ---------------------------------------------------------------- rotor
+    def steady_loads(self, wind_speed, rotor_speed, pitch):
+        r"""Thrust (N) and torque (N m) of the rotor in a uniform steady axial wind.
+
+        Parameters
+        ----------
+        wind_speed : float or ndarray
+            m/s, along the shaft.
+        rotor_speed : float or ndarray
+            rad/s.
+        pitch : float or ndarray
+            rad.
+
+        Returns
+        -------
+        (ndarray, ndarray)
+            Thrust and aerodynamic torque, the inputs' broadcast shape.
+        """
+        V, W, P = np.broadcast_arrays(*(np.asarray(x, float)[..., None]
+                                        for x in (wind_speed, rotor_speed, pitch)))
+        sol = self.solve(V, W * self.radius, P)
+        thrust = self.blades * np.sum(sol.normal_load * self.weights, axis=-1)
+        torque = self.blades * np.sum(sol.tangential_load * self.radius * self.weights,
+                                      axis=-1)
+        return thrust, torque
+
+    def coefficients(self, tip_speed_ratio, pitch):
+        r""":math:`(C_P, C_T)` at tip-speed ratio :math:`\lambda = \Omega R/V` and pitch (rad).
+
+        Dimensionless (computed at 1 m/s: quasi-steady BEM scales with
+        :math:`V^2`), :math:`C_P = Q\Omega/(\tfrac12\rho\pi R^2V^3)`,
+        :math:`C_T = T/(\tfrac12\rho\pi R^2V^2)`; arrays broadcast.
+        """
+        lam = np.asarray(tip_speed_ratio, float)
+        speed = lam / self.tip_radius
+        thrust, torque = self.steady_loads(1.0, speed, pitch)
+        q = 0.5 * self.air_density * np.pi * self.tip_radius ** 2
+        return torque * speed / q, thrust / q
+
+    def torque_coefficient(self, tip_speed_ratio, pitch):
+        r""":math:`C_Q = C_P/\lambda`."""
+        cp, _ = self.coefficients(tip_speed_ratio, pitch)
+        return cp / np.asarray(tip_speed_ratio, float)
+
+    def __repr__(self):
+        return (f"BladeElementMomentum({self.blades} blades, R={self.tip_radius} m, "
+                f"{self.radius.size} annuli)")
+
+
+def _bracket(residual, shape, guess=None):
+    """Per annulus, the first of Ning's three intervals whose ends' residuals differ in
+    sign; with a guess, first the guess's neighbourhood within the guess's interval."""
+    intervals = [(_EPS, np.pi / 2), (-np.pi / 4, -_EPS), (np.pi / 2, np.pi - _EPS)]
+    lo, hi = np.full(shape, np.nan), np.full(shape, np.nan)
+    if guess is not None and np.shape(guess) == shape:
+        g = np.asarray(guess, float)
+        # stay on the guess's side of 0 and pi/2: the branches differ there
+        edges = np.where(g > np.pi / 2, np.pi / 2, np.where(g > 0, _EPS, -np.pi / 4))
+        tops = np.where(g > np.pi / 2, np.pi - _EPS, np.where(g > 0, np.pi / 2, -_EPS))
+        intervals.insert(0, (np.maximum(g - 0.05, edges), np.minimum(g + 0.05, tops)))
+    for a, b in intervals:
+        a, b = np.broadcast_to(a, shape), np.broadcast_to(b, shape)
+        fresh = np.isnan(lo)
+        if not fresh.any():
+            break
+        fresh &= residual(a) * residual(b) <= 0
+        lo[fresh], hi[fresh] = a[fresh], b[fresh]
+    if np.isnan(lo).any():
+        raise ModelError("BladeElementMomentum: no bracket of the inflow angle found for "
+                         f"{int(np.isnan(lo).sum())} annuli")
+    return lo, hi
+
+
+def _illinois(residual, lo, hi):
+    """Regula falsi with the Illinois modification on arrays of brackets, to _TOLERANCE."""
+    flo, fhi = residual(lo), residual(hi)
+    side = np.zeros(lo.shape, int)
+    x = np.where(flo == 0, lo, hi)
+    for _ in range(_MAX_ITERATIONS):
+        x = np.where(fhi != flo, (lo * fhi - hi * flo) / np.where(fhi != flo, fhi - flo, 1.0),
+                     (lo + hi) / 2)
+        x = np.clip(x, np.minimum(lo, hi), np.maximum(lo, hi))
+        fx = residual(x)
+        left = flo * fx > 0                    # root in (x, hi): x replaces lo
+        lo, flo = np.where(left, x, lo), np.where(left, fx, flo)
+        hi, fhi = np.where(left, hi, x), np.where(left, fhi, fx)
+        # Illinois: an end kept twice in a row has its residual halved
+        fhi = np.where(left & (side == 1), fhi / 2, fhi)
+        flo = np.where(~left & (side == -1), flo / 2, flo)
+        side = np.where(left, 1, -1)
+        if np.all((np.abs(hi - lo) < _TOLERANCE) | (fx == 0)):
+            break
+    return x

@@ -1,0 +1,206 @@
+r"""Quasi-steady blade-element momentum loads on a spinning rotor, from the bodies' motion.
+
+``BladeElementRotor``  the aerodynamic force and moment on a rotor of rigid
+                       blades, its annuli solved by
+                       :class:`~kanedyn.offshore.BladeElementMomentum` at the
+                       relative wind each blade element sees
+
+Blade :math:`k` of :math:`B` lies along :math:`e_r = \cos\theta_k S_z -
+\sin\theta_k S_y`, :math:`\theta_k = \psi + 2\pi k/B`, in the plane normal to
+the shaft :math:`S_x` (no precone), and moves along :math:`e_t = S_x\times e_r`.
+The element at radius :math:`r` is at :math:`p = r e_r` from the hub and moves
+at :math:`v_p = v_{hub} + (\omega_S + \Omega S_x)\times p`; the air's velocity
+relative to it is :math:`U = V(t)\,d - v_p` (a uniform wind of speed :math:`V`
+along :math:`d`), so :math:`V_x = U\cdot S_x` and :math:`V_y = -U\cdot e_t`.
+The platform's and tower's motion enters every element's inflow: a hub moving
+downwind lowers :math:`V_x` and the thrust (aerodynamic damping), a pitching
+nacelle loads the upper and lower blades unequally (hub moments).
+
+The loads enter the equations as six specified inputs, the force's and the
+moment's :math:`S` components at the hub (the moment acts on the rotor's
+frame: its :math:`S_x` part turns the rotor, the rest reaches the nacelle);
+:meth:`BladeElementRotor.specified` computes them from ``(t, y)`` by solving
+every annulus of every blade (one solve per state, shared by the six inputs,
+warm-started from the last solution).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from ..._errors import ModelError
+from ._blade_element_momentum import BladeElementMomentum
+from ._mooring import state_function
+
+__all__ = ["BladeElementRotor"]
+
+
+class BladeElementRotor:
+    r"""Quasi-steady BEM force and moment on a spinning rotor, as six specified inputs.
+
+    Parameters
+    ----------
+    name : str
+    bem : BladeElementMomentum
+        The rotor's blades, airfoils and annuli.
+    hub : sympy.physics.mechanics.Point
+        The hub centre, its velocity in ``frame`` known in the speeds.
+    shaft_frame : sympy.physics.mechanics.ReferenceFrame
+        :math:`S`, its x axis along the shaft, downwind; its angular velocity
+        in ``frame`` known in the speeds.
+    rotor_frame : sympy.physics.mechanics.ReferenceFrame
+        The spinning rotor's frame (the moment acts on it).
+    frame : sympy.physics.mechanics.ReferenceFrame
+        The inertial frame.
+    azimuth, rotor_speed : sympy.Expr
+        :math:`\psi` (rad) and :math:`\Omega` (rad/s), the rotor's angle and
+        speed about :math:`S_x` relative to :math:`S`.
+    pitch : sympy.Expr or float
+        Collective pitch, rad: an expression of the states, or a number.
+    wind : float or callable
+        Free wind speed, m/s: a number or a function of time.
+    wind_direction : sympy.physics.vector.Vector, optional
+        Unit vector of the wind, ``frame.x`` when not given.
+
+    Attributes
+    ----------
+    force_symbols, moment_symbols : tuple of sympy.Function
+        ``F{name}_x(t)`` ... and ``M{name}_x(t)`` ..., N and N m, :math:`S`
+        components.
+    """
+
+    def __init__(self, name, bem, hub, shaft_frame, rotor_frame, frame, azimuth, rotor_speed,
+                 pitch, wind, wind_direction=None):
+        if not isinstance(name, str) or not name:
+            raise ModelError(f"BladeElementRotor needs a non-empty name, got {name!r}")
+        what = f"BladeElementRotor {name!r}"
+        if not isinstance(bem, BladeElementMomentum):
+            raise ModelError(f"{what}: bem must be a BladeElementMomentum, got "
+                             f"{type(bem).__name__}")
+        if not isinstance(hub, me.Point):
+            raise ModelError(f"{what}: hub must be a Point")
+        for key, value in (("shaft_frame", shaft_frame), ("rotor_frame", rotor_frame),
+                           ("frame", frame)):
+            if not isinstance(value, me.ReferenceFrame):
+                raise ModelError(f"{what}: {key} must be a ReferenceFrame")
+        if not (callable(wind) or (isinstance(wind, (int, float))
+                                   and not isinstance(wind, bool) and wind > 0)):
+            raise ModelError(f"{what}: wind must be a positive number (m/s) or a function "
+                             f"of t, got {wind!r}")
+        self.name, self.bem, self.hub, self.frame = name, bem, hub, frame
+        self.shaft_frame, self.rotor_frame = shaft_frame, rotor_frame
+        self.azimuth, self.rotor_speed = azimuth, rotor_speed
+        self.pitch, self.wind = pitch, wind
+        self.wind_direction = frame.x if wind_direction is None else wind_direction
+        t = me.dynamicsymbols._t
+        self.force_symbols = tuple(sm.Function(f"F{name}_{c}")(t) for c in "xyz")
+        self.moment_symbols = tuple(sm.Function(f"M{name}_{c}")(t) for c in "xyz")
+
+    def _axes(self):
+        S = self.shaft_frame
+        return S.x, S.y, S.z
+
+    def to_loads(self):
+        """``[(hub, F), (rotor_frame, M)]`` with ``F``, ``M`` of the input symbols."""
+        axes = self._axes()
+        force = sum((f * e for f, e in zip(self.force_symbols, axes)), me.Vector(0))
+        moment = sum((m * e for m, e in zip(self.moment_symbols, axes)), me.Vector(0))
+        return [(self.hub, force), (self.rotor_frame, moment)]
+
+    def kinematics(self, states, constants=None):
+        r"""Callable ``y -> (v_hub, omega_S, d, psi, Omega, pitch)`` in :math:`S` components."""
+        axes = self._axes()
+        velocity = self.hub.vel(self.frame)
+        rate = self.shaft_frame.ang_vel_in(self.frame)
+        exprs = ([velocity.dot(e) for e in axes] + [rate.dot(e) for e in axes]
+                 + [self.wind_direction.dot(e) for e in axes]
+                 + [self.azimuth, self.rotor_speed, sm.sympify(self.pitch)])
+        evaluate = state_function(exprs, states, constants, f"BladeElementRotor {self.name!r}")
+
+        def split(y):
+            k = evaluate(y)
+            return k[0:3], k[3:6], k[6:9], k[9], k[10], k[11]
+        return split
+
+    def wind_speed(self, t):
+        """Free wind speed (m/s) at time ``t``."""
+        return float(self.wind(t)) if callable(self.wind) else float(self.wind)
+
+    def wrench(self, velocity, rate, direction, azimuth, rotor_speed, pitch, wind_speed,
+               guess=None):
+        r"""Aerodynamic force and moment about the hub, and the annuli solved.
+
+        Parameters
+        ----------
+        velocity, rate, direction : array_like, shape (3,)
+            The hub's velocity (m/s), the shaft frame's angular velocity
+            (rad/s) and the wind's direction, in :math:`S` components.
+        azimuth, rotor_speed, pitch : float
+            rad, rad/s, rad.
+        wind_speed : float
+            m/s.
+        guess : ndarray, shape (B, n), optional
+            Inflow angles to start from.
+
+        Returns
+        -------
+        (ndarray, ndarray, AnnulusSolution)
+            Force (N) and moment (N m) in :math:`S` components, shape (3,), and
+            the solution, shape (B, n).
+        """
+        bem = self.bem
+        theta = azimuth + 2 * np.pi * np.arange(bem.blades)[:, None] / bem.blades
+        zeros = np.zeros_like(theta)
+        e_r = np.stack([zeros, -np.sin(theta), np.cos(theta)], axis=-1)      # (B, 1, 3)
+        e_t = np.stack([zeros, -np.cos(theta), -np.sin(theta)], axis=-1)
+        p = bem.radius[:, None] * e_r                                         # (B, n, 3)
+        spin = np.asarray(rate, float) + np.array([rotor_speed, 0.0, 0.0])
+        air = wind_speed * np.asarray(direction, float) - np.asarray(velocity, float) \
+            - np.cross(spin, p)
+        solution = bem.solve(air[..., 0], -np.sum(air * e_t, axis=-1), pitch, guess)
+        element = (solution.normal_load[..., None] * np.array([1.0, 0.0, 0.0])
+                   + solution.tangential_load[..., None] * e_t) * bem.weights[:, None]
+        force = element.sum(axis=(0, 1))
+        moment = np.cross(p, element).sum(axis=(0, 1))
+        return force, moment, solution
+
+    def specified(self, states, constants=None):
+        """``{input symbol: callable(t, y)}`` for ``eom.numeric(specified=...)``.
+
+        Parameters
+        ----------
+        states : EquationsOfMotion or sequence of dynamic symbols
+            The order of ``y``.
+        constants : dict, optional
+            Values of constants in the kinematics.
+        """
+        kinematics = self.kinematics(states, constants)
+        cache = {"key": None, "wrench": None, "phi": None}
+
+        def wrench(t, y):
+            y = np.asarray(y, dtype=float)
+            key = (float(t), y.tobytes())
+            if cache["key"] != key:
+                force, moment, solution = self.wrench(*kinematics(y), self.wind_speed(t),
+                                                      guess=cache["phi"])
+                cache["wrench"] = np.concatenate([force, moment])
+                cache["phi"], cache["key"] = solution.inflow_angle, key
+            return cache["wrench"]
+
+        return {s: _Entry(wrench, i)
+                for i, s in enumerate(self.force_symbols + self.moment_symbols)}
+
+    def __repr__(self):
+        return f"BladeElementRotor({self.name!r}, {self.bem!r})"
+
+
+class _Entry:
+    """One entry of a shared function's vector: callable ``(t, y) -> float``."""
+
+    def __init__(self, function, i):
+        self.function, self.i = function, i
+
+    def __call__(self, t, y):
+        return float(self.function(t, y)[self.i])
