@@ -518,27 +518,22 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                     "mooring, rotor thrust or a spinning rotor with drivetrain and "
                     "baseline controller, TMD or TMDI in the nacelle "
                     "(docs/oc3_model_card.md).",
-<<<<<<< HEAD
         # numeric lengths hide the units from the kinematics: the angles and the modal
         # coordinates (modes scaled to a largest nodal translation of 1 m) declared
         units={**{qi: "rad" for qi in q6[3:]}, **{qi: "m" for qi in q6[:3]},
                **({qi: "m" for qi in tower.q} if tower_modes else {}),
-               **({s_d: "m"} if s_d is not None else {})},
-        body_groups={"platform": ("platform",), "tower": ("tower",), "rna": ("rna",)},
+               **({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
+        body_groups={"platform": ("platform",), "tower": ("tower",),
+                     "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
+                     else ("rna",)},
         gravity=(0.0, 0.0, -g),
         shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
                                     (cm_x, _v(RNA, "cm_z")), _v(TOWER, "top_z")))
-=======
-        units={**({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
-        body_groups={"platform": ("platform",), "tower": ("tower",),
-                     "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
-                     else ("rna",)})
 
 
 def _inertia(A, I):
     """The inertia dyadic of a symmetric matrix in ``A`` components."""
     return me.inertia(A, I[0, 0], I[1, 1], I[2, 2], I[0, 1], I[1, 2], I[0, 2])
->>>>>>> i36-rotor
 
 
 class _PeriodicSeries:
