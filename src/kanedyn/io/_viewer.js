@@ -451,7 +451,7 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
 
   let meshes = 0;
   world.traverse((o) => { if (o.isMesh) meshes += 1; });
-  return Object.assign(counts, {
+  const handle = {  // its getters stay getters (Object.assign would copy their values)
     meshes, t0, t1, follow, camera, controls, ready: true,
     setTime(t) { playing = false; playButton.textContent = "Play"; show(t);
                  renderer.render(world, camera); return time; },
@@ -470,5 +470,6 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
       renderer.dispose();
       renderer.domElement.remove();
     },
-  });
+  };
+  return Object.assign(handle, counts);
 }
