@@ -24,7 +24,6 @@ Run: ``PYTHONPATH=src python benchmarks/bench_notebook.py [--rounds 7] [--browse
 from __future__ import annotations
 
 import argparse
-import json
 import statistics
 import sys
 import time

@@ -144,7 +144,8 @@ def test_widget_front_end_in_headless_chromium(tmp_path):
             host = page.locator("#host")
             before = host.screenshot()
             # the time set from Python (a synced trait) moves the scene
-            moved = page.evaluate("window.fake.model.set('time', 0.5), window.host.kanedynScene.time")
+            moved = page.evaluate(
+                "window.fake.model.set('time', 0.5), window.host.kanedynScene.time")
             after = host.screenshot()
             # scrubbing: the time slider let go at its end sends that time back
             page.evaluate("""(() => { const s = window.host.querySelector('.kd-slider');

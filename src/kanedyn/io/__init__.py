@@ -34,8 +34,9 @@ _LAZY = {"read_mesh": "._meshes", "read_obj": "._meshes", "read_stl": "._meshes"
          "quaternions": "._viewer", "scene_data": "._viewer", "up_direction": "._up",
          "export_fmu": ".fmu"}
 
-__all__ = ["animate", "page_html", "widget", "interact", "Interactive", "scene_data", "up_direction", "quaternions", "read_mesh",
-           "read_obj", "read_stl", "PALETTE", "DEFAULT_MAX_FRAMES", "load", "save_equations",
-           "SavedFileError", "save_data", "load_data", "SAVED_FILE_LIMITS", "export_fmu"]
+__all__ = ["animate", "page_html", "widget", "interact", "Interactive", "scene_data",
+           "up_direction", "quaternions", "read_mesh", "read_obj", "read_stl", "PALETTE",
+           "DEFAULT_MAX_FRAMES", "load", "save_equations", "SavedFileError", "save_data",
+           "load_data", "SAVED_FILE_LIMITS", "export_fmu"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
