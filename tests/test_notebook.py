@@ -66,6 +66,16 @@ def test_sliders_rerun_the_compiled_model():
     assert "application/vnd.jupyter.widget-view+json" in shown._repr_mimebundle_()
 
 
+def test_a_run_that_stops_early_is_drawn_as_far_as_it_went():
+    pytest.importorskip("ipywidgets", reason="the sliders need ipywidgets (the notebook extra)")
+    # 50 s of motion cannot be computed within a microsecond: the run stops early
+    shown = kd.interact(kd.models.build("pendulum"), (0, 50), sliders={"l": (0.5, 2.0)},
+                        timeout=1e-6)
+    assert not shown.result.success and shown.result.t[-1] < 50
+    assert "the run stopped early</b>: the time limit" in shown.status.value
+    assert json.loads(shown.widget.scene_json)["t"] == pytest.approx(list(shown.result.t))
+
+
 def test_slider_mistakes_are_named():
     pytest.importorskip("ipywidgets", reason="the sliders need ipywidgets (the notebook extra)")
     definition = kd.models.build("pendulum")
