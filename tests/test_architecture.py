@@ -31,7 +31,8 @@ FACADES = {
         "the frozen equations",
     ("simulation._results", "analysis"): "SimulationResult.plot and .plot_deflection",
     ("simulation._results", "io"):
-        "SimulationResult.animate: the public API puts the 3D animation on the result",
+        "SimulationResult.animate and .widget: the public API puts the 3D animation (a "
+        "page, a notebook widget) on the result",
     ("formulations._eom", "io"):
         "EquationsOfMotion.save: the public API puts saving on the frozen equations "
         "(the file format lives in io/_saved.py)",

@@ -339,8 +339,8 @@ def test_hostile_names_shown_as_text_in_chromium(tmp_path):
     page = _hostile_page(tmp_path)
     ((errors, counts, _, probe),) = _browser_pages([page], times=[0.0], probe="""({
         ran: window.kdRan === undefined ? null : window.kdRan,
-        legend: [...document.querySelectorAll('#legend > div')].map((d) => d.textContent),
-        title: document.getElementById('title').textContent,
+        legend: [...document.querySelectorAll('.kd-legend > div')].map((d) => d.textContent),
+        title: document.querySelector('.kd-title').textContent,
         documentTitle: document.title,
         images: document.images.length})""")
     assert errors == []

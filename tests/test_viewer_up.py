@@ -114,7 +114,7 @@ def test_turbine_screenshot_nacelle_above_platform(turbine_page):
     lies above the spar's (its first)."""
     _, scene, path = turbine_page
     ((errors, counts, (shot,), note),) = _browser_pages(
-        [path], times=[1.0], probe="document.getElementById('scale').textContent")
+        [path], times=[1.0], probe="document.querySelector('.kd-scale').textContent")
     assert errors == [] and counts["bodies"] == 3
     assert "up: +z (against the model's declared gravity)" in note
     pixels = _pixels(shot)[:-60]  # the 3D view, not the bar of controls

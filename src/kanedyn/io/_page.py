@@ -9,7 +9,9 @@ The page holds three parts, all inline:
   ``blob:`` URLs (no import map, no file next to the page);
 * the scene (:func:`kanedyn.io.scene_data`) as JSON in a
   ``<script type="application/json">`` element, read with ``JSON.parse``;
-* the viewer's own script (``_viewer.js``).
+* the viewer's own script: the scene code shared with the notebook widget
+  (``_viewer.js``, :func:`viewer_script`) and the page's start
+  (``_viewer_page.js``).
 """
 
 from __future__ import annotations
@@ -26,16 +28,20 @@ from .._errors import OptionError
 from .._output_files import replacing
 from ._viewer import DEFAULT_MAX_FRAMES, scene_data
 
-__all__ = ["animate", "page_html", "script_json", "THREE_VERSION"]
+__all__ = ["animate", "page_html", "script_json", "vendored_three", "viewer_script",
+           "VIEWER_CSS", "THREE_VERSION"]
 
 THREE_VERSION = "0.187.0"
-_THREE_FILES = {"kd-three-core": "three.core.js", "kd-three": "three.module.js",
-                "kd-orbit": "OrbitControls.js"}
+_THREE_FILES = {"core": "three.core.js", "main": "three.module.js",
+                "orbit": "OrbitControls.js"}
+#: the page's element of each part of three.js
+_THREE_ELEMENTS = {"core": "kd-three-core", "main": "kd-three", "orbit": "kd-orbit"}
 
 
 @lru_cache(maxsize=1)
-def _vendored():
-    """``{element id: base64 of gzip of the file}`` of the vendored three.js."""
+def vendored_three():
+    """``{"core", "main", "orbit"}``: base64 of gzip of three.js's core, its module
+    build and OrbitControls (``_vendor/three``), as the viewer's script unpacks them."""
     folder = resources.files("kanedyn.io").joinpath("_vendor", "three")
     out = {}
     for key, name in _THREE_FILES.items():
@@ -44,8 +50,35 @@ def _vendored():
     return out
 
 
-def _viewer_script():
-    return resources.files("kanedyn.io").joinpath("_viewer.js").read_text(encoding="utf-8")
+def viewer_script(start):
+    """The viewer's module: the scene code (``_viewer.js``) and then ``start``, the
+    page's (``"page"``) or the notebook widget's (``"widget"``) own file."""
+    folder = resources.files("kanedyn.io")
+    return "\n".join(folder.joinpath(name).read_text(encoding="utf-8")
+                     for name in ("_viewer.js", f"_viewer_{start}.js"))
+
+
+#: the viewer's look, the same in the page and the notebook widget
+VIEWER_CSS = """
+.kd-viewer { position: relative; height: 480px; overflow: hidden; background: #f4f5f7;
+  font: 14px/1.35 system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }
+.kd-viewer .kd-view { position: absolute; inset: 0 0 56px 0; }
+.kd-viewer .kd-bar { position: absolute; left: 0; right: 0; bottom: 0; height: 56px;
+  display: flex; align-items: center; gap: 12px; padding: 0 14px; background: #fff;
+  border-top: 1px solid #d0d4da; box-sizing: border-box; }
+.kd-viewer .kd-bar button { width: 76px; height: 32px; font-size: 14px; }
+.kd-viewer .kd-slider { flex: 1; }
+.kd-viewer .kd-time { font-variant-numeric: tabular-nums; min-width: 170px;
+  text-align: right; }
+.kd-viewer .kd-info { position: absolute; left: 12px; top: 10px;
+  background: rgba(255,255,255,0.85); padding: 8px 12px; border-radius: 6px;
+  max-width: 40%; }
+.kd-viewer h1.kd-title { font-size: 16px; margin: 0 0 4px 0; padding: 0; border: 0; }
+.kd-viewer .kd-legend span.swatch { display: inline-block; width: 12px; height: 12px;
+  margin-right: 6px; vertical-align: -1px; border-radius: 2px; }
+.kd-viewer .kd-notes { color: #8a4b00; font-size: 12px; }
+.kd-viewer .kd-error { color: #b00020; white-space: pre-wrap; }
+"""
 
 
 #: characters of JSON text written as ``\\uXXXX`` escapes inside the page's
@@ -68,8 +101,8 @@ def script_json(value):
 
 def page_html(scene):
     """The complete page of a scene (:func:`kanedyn.io.scene_data`), as a string."""
-    blobs = "\n".join(f'<script id="{key}" type="application/octet-stream">{value}</script>'
-                      for key, value in _vendored().items())
+    blobs = "\n".join(f'<script id="{_THREE_ELEMENTS[key]}" type="application/octet-stream">'
+                      f'{value}</script>' for key, value in vendored_three().items())
     data = script_json(scene)
     title = html.escape(scene.get("title") or "kanedyn")
     return f"""<!DOCTYPE html>
@@ -80,41 +113,17 @@ def page_html(scene):
 <meta name="generator" content="kanedyn (three.js {THREE_VERSION}, MIT licence)">
 <title>{title}</title>
 <style>
-html, body {{ margin: 0; height: 100%; overflow: hidden; background: #f4f5f7;
-  font: 14px/1.35 system-ui, -apple-system, "Segoe UI", sans-serif; color: #222; }}
-#view {{ position: absolute; inset: 0 0 56px 0; }}
-#bar {{ position: absolute; left: 0; right: 0; bottom: 0; height: 56px; display: flex;
-  align-items: center; gap: 12px; padding: 0 14px; background: #fff;
-  border-top: 1px solid #d0d4da; box-sizing: border-box; }}
-#bar button {{ width: 76px; height: 32px; font-size: 14px; }}
-#slider {{ flex: 1; }}
-#time {{ font-variant-numeric: tabular-nums; min-width: 170px; text-align: right; }}
-#info {{ position: absolute; left: 12px; top: 10px; background: rgba(255,255,255,0.85);
-  padding: 8px 12px; border-radius: 6px; max-width: 40%; }}
-#info h1 {{ font-size: 16px; margin: 0 0 4px 0; }}
-#legend span.swatch {{ display: inline-block; width: 12px; height: 12px;
-  margin-right: 6px; vertical-align: -1px; border-radius: 2px; }}
-#notes {{ color: #8a4b00; font-size: 12px; }}
-#error {{ color: #b00020; white-space: pre-wrap; }}
+html, body {{ margin: 0; height: 100%; overflow: hidden; }}
+{VIEWER_CSS}
+#kd-root {{ position: absolute; inset: 0; height: auto; }}
 </style>
 </head>
 <body>
-<div id="view"></div>
-<div id="info"><h1 id="title"></h1><div id="legend"></div><div id="scale"></div>
-<div id="notes"></div><div id="error"></div></div>
-<div id="bar">
-<button id="play" type="button">Play</button>
-<input id="slider" type="range" min="0" max="1000" step="1" value="0" aria-label="time">
-<label>speed <select id="speed">
-<option value="0.1">0.1x</option><option value="0.25">0.25x</option>
-<option value="0.5">0.5x</option><option value="1" selected>1x</option>
-<option value="2">2x</option><option value="4">4x</option></select></label>
-<span id="time"></span>
-</div>
+<div id="kd-root"></div>
 {blobs}
 <script id="kd-scene" type="application/json">{data}</script>
 <script type="module">
-{_viewer_script()}
+{viewer_script("page")}
 </script>
 </body>
 </html>

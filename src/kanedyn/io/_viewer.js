@@ -1,33 +1,64 @@
-// kanedyn's animation viewer: draws the scene held as JSON in #kd-scene with three.js,
-// which the page carries gzip-compressed in #kd-three-core, #kd-three and #kd-orbit.
-// Nothing is fetched from the network.
+// kanedyn's animation viewer: the scene code shared by the page (_viewer_page.js) and
+// the notebook widget (_viewer_widget.js); kanedyn.io._page joins this file with one of
+// them into one module.  three.js comes gzip-compressed and base64-encoded from the
+// page or the widget's module: nothing is fetched from the network.
 
-const errorBox = document.getElementById("error");
-function fail(err) {
-  console.error(err);
-  errorBox.textContent = "The animation could not be shown: " + (err && err.message || err);
-}
-
-async function unpack(id) {
-  const text = document.getElementById(id).textContent.trim();
-  const bytes = Uint8Array.from(atob(text), (c) => c.charCodeAt(0));
+async function kdUnpack(b64) {
+  const bytes = Uint8Array.from(atob(b64.trim()), (c) => c.charCodeAt(0));
   const stream = new Blob([bytes]).stream().pipeThrough(new DecompressionStream("gzip"));
   return await new Response(stream).text();
 }
 
-function moduleURL(source) {
+function kdModuleURL(source) {
   return URL.createObjectURL(new Blob([source], { type: "text/javascript" }));
 }
 
-async function loadThree() {
-  const core = moduleURL(await unpack("kd-three-core"));
-  const main = moduleURL((await unpack("kd-three")).replaceAll("'./three.core.js'",
-                                                               JSON.stringify(core)));
-  const orbit = moduleURL((await unpack("kd-orbit")).replaceAll("from 'three'",
-                                                                "from " + JSON.stringify(main)));
+// three.js from {core, main, orbit}: base64 of gzip of three.core.js, three.module.js
+// and OrbitControls.js, imported from blob: URLs
+async function kdLoadThree(sources) {
+  const core = kdModuleURL(await kdUnpack(sources.core));
+  const main = kdModuleURL((await kdUnpack(sources.main)).replaceAll("'./three.core.js'",
+                                                                   JSON.stringify(core)));
+  const orbit = kdModuleURL((await kdUnpack(sources.orbit)).replaceAll(
+    "from 'three'", "from " + JSON.stringify(main)));
   const THREE = await import(main);
   const { OrbitControls } = await import(orbit);
   return { THREE, OrbitControls };
+}
+
+// the viewer's elements inside root (classes, not ids: a notebook shows several)
+function kdMarkup(root) {
+  const add = (parent, tag, cls, text) => {
+    const e = parent.appendChild(document.createElement(tag));
+    if (cls) e.className = cls;
+    if (text) e.textContent = text;
+    return e;
+  };
+  root.classList.add("kd-viewer");
+  const parts = { root, view: add(root, "div", "kd-view") };
+  const info = add(root, "div", "kd-info");
+  parts.title = add(info, "h1", "kd-title");
+  for (const name of ["legend", "scale", "notes", "error"]) parts[name] = add(info, "div", "kd-" + name);
+  const bar = add(root, "div", "kd-bar");
+  parts.play = add(bar, "button", "kd-play", "Play");
+  parts.play.type = "button";
+  parts.slider = add(bar, "input", "kd-slider");
+  Object.assign(parts.slider, { type: "range", min: "0", max: "1000", step: "1", value: "0" });
+  parts.slider.setAttribute("aria-label", "time");
+  const label = add(bar, "label", null, "speed ");
+  parts.speed = add(label, "select", "kd-speed");
+  for (const v of ["0.1", "0.25", "0.5", "1", "2", "4"]) {
+    const option = add(parts.speed, "option", null, v + "x");
+    option.value = v;
+    option.selected = v === "1";
+  }
+  parts.time = add(bar, "span", "kd-time");
+  return parts;
+}
+
+function kdFail(parts, err) {
+  console.error(err);
+  parts.error.textContent = "The animation could not be shown: " + (err && err.message || err);
 }
 
 function niceStep(x) {
@@ -41,11 +72,17 @@ function decode(b64, Type) {
   return new Type(bytes.buffer);
 }
 
-function build(THREE, OrbitControls, scene) {
+// draw a scene (kanedyn.io.scene_data) into the elements of kdMarkup; returns the
+// viewer's handle (counts of what is drawn, setTime, dispose).  `previous`, a handle
+// of the same elements, hands over the camera, the time and play/pause.
+function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
   const T = scene.t;
   const nFrames = T.length;
   const size = scene.size;
-  const view = document.getElementById("view");
+  const view = parts.view;
+  const listening = new AbortController();
+  const signal = listening.signal;
+  for (const name of ["legend", "notes", "error"]) parts[name].textContent = "";
   const renderer = new THREE.WebGLRenderer({ antialias: true, preserveDrawingBuffer: true });
   renderer.setPixelRatio(window.devicePixelRatio || 1);
   view.appendChild(renderer.domElement);
@@ -140,7 +177,7 @@ function build(THREE, OrbitControls, scene) {
   }
 
   // bodies; names are the user's text: set as text, never parsed as HTML
-  const legend = document.getElementById("legend");
+  const legend = parts.legend;
   function legendEntry(color, text) {
     const entry = legend.appendChild(document.createElement("div"));
     const swatch = entry.appendChild(document.createElement("span"));
@@ -318,12 +355,13 @@ function build(THREE, OrbitControls, scene) {
   label("z", new THREE.Vector3(0, 0, 1.2 * axisLength), "#1f5fd6");
   const upName = ["x", "y", "z"].map((c, i) => Math.abs(scene.up[i]) > 0.999 ?
     (scene.up[i] > 0 ? "+" : "-") + c : null).find((c) => c) || "tilted";
-  document.getElementById("scale").textContent =
+  parts.scale.textContent =
     `grid ${gridLabel} m; up: ${upName} (${scene.up_note})` +
     `${follow ? "; the camera follows the model" : ""}`;
-  const notes = document.getElementById("notes");
-  scene.notes.forEach((n) => { notes.appendChild(document.createElement("div")).textContent = n; });
-  document.getElementById("title").textContent = scene.title;
+  scene.notes.forEach((n) => {
+    parts.notes.appendChild(document.createElement("div")).textContent = n;
+  });
+  parts.title.textContent = scene.title;
 
   // camera: look along the inertial axis across which the least motion happens
   const axes = [new THREE.Vector3(1, 0, 0), new THREE.Vector3(0, 1, 0), new THREE.Vector3(0, 0, 1)];
@@ -345,13 +383,18 @@ function build(THREE, OrbitControls, scene) {
   sun.position.copy(center).addScaledVector(direction, distance).addScaledVector(up, distance);
   const controls = new OrbitControls(camera, renderer.domElement);
   controls.target.copy(center);
+  if (previous) {  // the same view as before the scene changed
+    camera.position.copy(previous.camera.position);
+    camera.near = previous.camera.near; camera.far = previous.camera.far;
+    controls.target.copy(previous.controls.target);
+  }
   controls.update();
 
   // time controls
-  const slider = document.getElementById("slider");
-  const playButton = document.getElementById("play");
-  const speedSelect = document.getElementById("speed");
-  const readout = document.getElementById("time");
+  const slider = parts.slider;
+  const playButton = parts.play;
+  const speedSelect = parts.speed;
+  const readout = parts.time;
   const t0 = T[0], t1 = T[nFrames - 1];
   const digits = Math.max(2, Math.min(6, 2 - Math.floor(Math.log10(Math.max(t1 - t0, 1e-9) / 100))));
   let time = t0, playing = false, last = null;
@@ -366,13 +409,14 @@ function build(THREE, OrbitControls, scene) {
     slider.value = String(Math.round(1000 * (t1 > t0 ? (time - t0) / (t1 - t0) : 0)));
     readout.textContent = `t = ${time.toFixed(digits)} s / ${t1.toFixed(digits)} s`;
   }
-  slider.addEventListener("input", () => show(t0 + (t1 - t0) * Number(slider.value) / 1000));
+  slider.addEventListener("input", () => show(t0 + (t1 - t0) * Number(slider.value) / 1000),
+                          { signal });
   playButton.addEventListener("click", () => {
     playing = !playing;
     playButton.textContent = playing ? "Pause" : "Play";
     if (playing && time >= t1) show(t0);
     last = null;
-  });
+  }, { signal });
   function resize() {
     const w = view.clientWidth, h = view.clientHeight;
     renderer.setSize(w, h, false);
@@ -381,7 +425,8 @@ function build(THREE, OrbitControls, scene) {
     camera.aspect = w / Math.max(h, 1);
     camera.updateProjectionMatrix();
   }
-  window.addEventListener("resize", resize);
+  const watcher = new ResizeObserver(resize);
+  watcher.observe(view);
   resize();
   function frame(now) {
     if (playing) {
@@ -394,26 +439,38 @@ function build(THREE, OrbitControls, scene) {
     }
     controls.update();
     renderer.render(world, camera);
-    requestAnimationFrame(frame);
+    request = requestAnimationFrame(frame);
   }
-  show(t0);
+  let request = null;
+  if (previous) {
+    playing = previous.playing;
+    playButton.textContent = playing ? "Pause" : "Play";
+    show(previous.time);
+  } else show(t0);
   renderer.render(world, camera);
-  requestAnimationFrame(frame);
+  request = requestAnimationFrame(frame);
 
   let meshes = 0;
   world.traverse((o) => { if (o.isMesh) meshes += 1; });
-  window.kanedynScene = Object.assign(counts, {
-    meshes, t0, t1, follow, ready: true,
+  const handle = {  // its getters stay getters (Object.assign would copy their values)
+    meshes, t0, t1, follow, camera, controls, ready: true,
     setTime(t) { playing = false; playButton.textContent = "Play"; show(t);
                  renderer.render(world, camera); return time; },
     get time() { return time; },
-  });
-}
-
-try {
-  const scene = JSON.parse(document.getElementById("kd-scene").textContent);
-  const { THREE, OrbitControls } = await loadThree();
-  build(THREE, OrbitControls, scene);
-} catch (err) {
-  fail(err);
+    get playing() { return playing; },
+    dispose() {  // stop drawing and listening; the elements stay for the next scene
+      cancelAnimationFrame(request);
+      listening.abort();
+      watcher.disconnect();
+      controls.dispose();
+      world.traverse((o) => {
+        if (o.geometry) o.geometry.dispose();
+        if (o.material) [].concat(o.material).forEach((m) => { if (m.map) m.map.dispose();
+                                                             m.dispose(); });
+      });
+      renderer.dispose();
+      renderer.domElement.remove();
+    },
+  };
+  return Object.assign(handle, counts);
 }

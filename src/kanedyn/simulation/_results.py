@@ -465,6 +465,18 @@ class SimulationResult:
         return animate(self, path, visuals=visuals, trace=trace, up=up,
                        max_frames=max_frames, title=title, inputs=inputs)
 
+    def widget(self, visuals=(), trace=(), up="auto", max_frames=2000, title=None,
+               inputs=None, height=480):
+        """The 3D animation as a live notebook widget (anywidget; the ``notebook``
+        extra): the page of :meth:`animate`, inside Jupyter, without a network.
+
+        Parameters are those of :meth:`animate` (no path) and ``height``
+        (pixels); see :func:`kanedyn.io.widget` and ``docs/viewer.md``.
+        """
+        from ..io import widget
+        return widget(self, visuals=visuals, trace=trace, up=up, max_frames=max_frames,
+                      title=title, inputs=inputs, height=height)
+
     def plot_deflection(self, body, times, scale="auto", path=None):
         """Draw a flexible body's deformed member at chosen times; returns the Figure.
 
