@@ -123,6 +123,14 @@ class Jacobians:
     contact_forces_parameters: np.ndarray | None = None
     contact_names: tuple = ()
 
+    @classmethod
+    def _of(cls, **fields):
+        """One made from all its fields without the checks of ``__init__`` (a
+        Jacobian per step of an integrator: its construction counts)."""
+        self = object.__new__(cls)
+        self.__dict__.update(fields)
+        return self
+
 
 # ------------------------------------------------------------ generated code
 def _specification(model, parameters):
@@ -183,11 +191,16 @@ def _system(model):
 
 
 def _parts(model):
-    """The stabilization parts whose derivatives are generated (``()``: none)."""
-    from ._stabilization_derivatives import parts
-    if model.contacts:  # the contact modes' solve is index-1, without stabilization
-        return ()
-    return parts(_system(model), model.n_q_dep) if model.n_u_dep else ()
+    """The stabilization parts whose derivatives are generated (``()``: none);
+    kept by the model (its scheme does not change)."""
+    found = model.__dict__.get("_jacobian_parts")
+    if found is None:
+        from ._stabilization_derivatives import parts
+        # the contact modes' solve is index-1, without stabilization
+        found = () if model.contacts or not model.n_u_dep else parts(_system(model),
+                                                                      model.n_q_dep)
+        model.__dict__["_jacobian_parts"] = found
+    return found
 
 
 #: changes when the generated derivatives change (part of the C cache key)
@@ -331,7 +344,12 @@ def _constraint_rows_are_velocity_rows(model):
 
 
 def _check_available(model, modes_given=False):
-    reason = derivatives_unavailable(model, modes_given)
+    """Raise why ``model`` has no exact derivatives; what was found is kept by the
+    model (it does not change)."""
+    key = "_jacobian_reason_modes" if modes_given else "_jacobian_reason"
+    reason = model.__dict__.get(key)
+    if reason is None:
+        reason = model.__dict__[key] = derivatives_unavailable(model, modes_given) or ""
     if reason:
         raise ModelError(reason)
 
@@ -389,10 +407,9 @@ def _evaluate(model, fns, T, Y, R):
     ``R`` (:func:`_stabilization_derivatives.accelerations`).  The derivatives
     then solve the stacked systems.
     """
-    from . import _stabilization_derivatives as stab
     dynamics, derivatives, dynamics_rows, derivative_rows, solved = fns
     N, n, o, m = len(Y), model.n_q, model.n_u, model.n_u_dep
-    system, names = _system(model), _parts(model)
+    names = _parts(model)
     if R is None:
         R = (np.array([model._r(t, y) for t, y in zip(T, Y)], dtype=float).reshape(N, -1)
              if model._inputs else np.zeros((N, 0)))
@@ -404,7 +421,8 @@ def _evaluate(model, fns, T, Y, R):
         groups = [(D[:, :x, a:b], D[:, x:, a:b] if m else None)
                   for a, b in ((0, x), (x, k), (k, D.shape[2]))]
         return f, groups, constraints
-    values = {}
+    from . import _stabilization_derivatives as stab
+    system, values = _system(model), {}
     if dynamics_rows is not None and N > 1 and not names:
         T, Y = np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(Y, dtype=float)
         qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(T, Y, model._p, R)
@@ -481,8 +499,8 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         model._check_y(Y if not many else Y[0])  # raises, naming the states
         raise ValueError(f"y must have shape (N, {model.n_states}) for many states, "
                          f"got {Y.shape}")
-    T = np.full(len(rows), t, dtype=float) if np.ndim(t) == 0 else \
-        np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
+    T = np.full(len(rows), t, dtype=float) if isinstance(t, (int, float)) or \
+        np.ndim(t) == 0 else np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
     if r is not None:
         r = np.atleast_1d(np.asarray(r, dtype=float))
         if r.shape[-1] != len(model.input_names):
@@ -501,7 +519,7 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         groups = [(d[0], None if dl is None else dl[0]) for d, dl in groups]
         contact = {key: value[0] for key, value in contact.items()}
     m = model.n_u_dep
-    return Jacobians(
+    return Jacobians._of(
         f=f, state=groups[0][0], inputs=groups[1][0],
         parameters=groups[2][0] if parameters else None,
         multipliers=groups[0][1] if m else None,
