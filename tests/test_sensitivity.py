@@ -67,8 +67,8 @@ def test_bad_requests(oscillator):
                                              "constants are k, m"):
         kd.sensitivity(model, (0.0, 1.0), [0.1, 0.0], parameters=["c"])
     contact = kd.models.build("bouncing-ball")
-    with pytest.raises(kd.ModelError, match="sensitivity: exact derivatives of a model "
-                                            "with contacts"):
+    with pytest.raises(kd.ModelError, match="sensitivity: a model with contacts has exact "
+                                            "derivatives within given contact modes only"):
         kd.sensitivity(contact.numeric(backend="numpy"), (0.0, 1.0), [1.0, 0.0])
     none = kd.sensitivity(model, (0.0, 1.0), [0.1, 0.0], parameters=False)
     assert none.parameters.shape == (none.t.size, 2, 0)
