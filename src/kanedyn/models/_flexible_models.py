@@ -140,6 +140,7 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
         constants={}, initial_state={}, t_end=20.0, specified={theta: angle},
         symbols=dict(theta=theta, theta_rate=angle.diff(T), beam=beam, tau=tau, N=N, B=B,
                      member=member),
+        load_names=("hub torque tau (drives the prescribed spin-up)",),
         description="Kane, Ryan & Banerjee (1987): prescribed spin-up of a cantilever; "
                     "bounded with geometric stiffening, divergent without.")
 
@@ -247,11 +248,12 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         torque, specified, extra = tau, {tau: 0.0}, {"tau": tau}
         constants = {k: v for k, v in constants.items() if k not in (T_m, theta_f)}
         title = "elastic one-dof robot: hub, flexible link and payload, motor torque tau(t)"
-    loads = [(B, torque * N.z)]
+    loads, load_names = [(B, torque * N.z)], ("motor torque",)
     if hub_damping is not None:
         c_h = sm.Symbol("c_h", nonnegative=True)
         constants[c_h] = _damping(hub_damping)
-        loads = [(B, (torque - c_h * omega) * N.z)]
+        loads.append((B, -c_h * omega * N.z))
+        load_names += ("hub damping",)
         extra["c_h"] = c_h
     return ModelDefinition(
         name="flexible-robot",
@@ -263,5 +265,6 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         symbols=dict(theta=theta, omega=omega, link=link, torque=torque, pulse=pulse, tip=tip,
                      N=N, B=B, member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m,
                      theta_f=theta_f, **extra),
+        load_names=load_names,
         description="Meghdari & Fahimi's elastic one-dof robot (laboratory numbers "
                     "assumed): finite elements, Craig–Bampton, Kane's method.")
