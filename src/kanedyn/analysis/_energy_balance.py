@@ -12,8 +12,8 @@ flexible body's damping.  The residual
 
 is the balance's quality figure: zero along an exact solution, so that
 what remains measures the integration's error (and any term the balance
-does not know of).  It is given relative to the energy exchanged,
-:math:`S = \max_t \max(|E(t) - E(t_0)|, \sum_j |W_j(t)|)`.
+does not know of).  It is given relative to the energy exchanged or moving,
+:math:`S = \max_t \max(|E(t) - E(t_0)|,\ \sum_j |W_j(t)|,\ T(t))`.
 
 The works are integrated along the run's continuous solution
 (``dense_output=True``): Gauss-Legendre with :data:`_NODES` nodes on each of
@@ -53,7 +53,7 @@ class EnergyBalance:
     residual : numpy.ndarray, shape (N,)
         ``energy_change - sum(terms)``, J.
     scale : float
-        The energy exchanged, :math:`S`, J.
+        The energy exchanged or moving, :math:`S`, J.
     notes : tuple of str
         What the balance leaves out or takes from elsewhere.
     """
@@ -86,8 +86,8 @@ class EnergyBalance:
         rows.append(("residual", self.residual[-1]))
         width = max(len(label) for label, _ in rows)
         out = [f"  {label:<{width}}  {value:+.6e} J" for label, value in rows]
-        out[-1] += (f" (largest {self.relative_residual:.3e} of the {self.scale:.6g} J "
-                    "exchanged)")
+        out[-1] += (f" (largest: {self.relative_residual:.3e} of the {self.scale:.6g} J "
+                    "exchanged or moving)")
         return out + [f"  note: {note}" for note in self.notes]
 
 
@@ -136,8 +136,11 @@ def energy_balance(result, load_names=None, gravity="g"):
         notes.append(f"the loads' parts in {symbol} (gravity) are held by the potential "
                      "energy")
     if powers.prescribed is None:
-        notes.append("flexible bodies: the work of prescribed motion is in the terms of "
-                     "the constraint forces that auxiliary speeds expose, if any")
+        moved = ", ".join(powers.moved_flexible)
+        notes.append(f"the work that drives the prescribed motion of {moved} is "
+                     + (f"that of the constraint forces {', '.join(model.aux_names)}"
+                        if model.aux_names else "not known here (no term): expose its "
+                        "forces by auxiliary speeds"))
     elif np.any(powers.prescribed):
         columns["prescribed motion (the forces that drive it)"] = powers.prescribed
     columns.update({f"damping of {body}": p for body, p in powers.damping.items()})
@@ -148,17 +151,15 @@ def energy_balance(result, load_names=None, gravity="g"):
         cumulative = np.concatenate([[0.0], np.cumsum(np.add.reduceat(
             power * weights, np.arange(0, power.size, _NODES)))])
         terms[name] = cumulative[at] - cumulative[at[0]]
-    energy = np.array([_stored(model, t, y) for t, y in zip(result.t, result.y.T)])
+    kinetic, potential = np.array([model.energies(t, y) for t, y in
+                                   zip(result.t, result.y.T)]).T.reshape(2, -1)
+    energy = kinetic + (potential if model.has_potential else 0.0)
     change = energy - energy[0]
     residual = change - sum(terms.values(), np.zeros_like(change))
     exchanged = sum((np.abs(v) for v in terms.values()), np.zeros_like(change))
-    scale = float(np.max(np.maximum(np.abs(change), exchanged))) if change.size else 0.0
+    scale = float(np.max(np.maximum(np.maximum(np.abs(change), exchanged), kinetic))
+                  if change.size else 0.0)
     return EnergyBalance(np.asarray(result.t), change, terms, residual, scale, tuple(notes))
-
-
-def _stored(model, t, y):
-    kinetic, potential = model.energies(t, y)
-    return kinetic + (potential if model.has_potential else 0.0)
 
 
 def _grid(sol, t_out):

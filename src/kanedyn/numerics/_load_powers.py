@@ -10,7 +10,8 @@ power of everything :math:`E` does not hold.  Here that power is taken apart:
   forces that auxiliary speeds expose given their values
   (:meth:`NumericModel.auxiliary`);
 * the constraint forces that drive prescribed motion and that no auxiliary
-  speed exposes, for models of rigid bodies and particles: with
+  speed exposes, where that motion moves rigid bodies and particles only:
+  with
   :math:`v^t_k, \omega^t_k` the velocities at zero speeds (the explicitly
   time-dependent part),
 
@@ -58,16 +59,19 @@ class LoadPowers:
     gravity : numpy.ndarray, shape (n_loads, N)
         The power of each load's gravity part (zero without a gravity symbol).
     prescribed : numpy.ndarray or None, shape (N,)
-        :math:`P_\text{prescribed}`; ``None`` where the model has flexible
-        bodies (their inertia forces are not taken apart here).
+        :math:`P_\text{prescribed}`; ``None`` where a flexible body's motion is
+        prescribed in part (its inertia forces are not taken apart here).
     damping : dict
         ``{flexible body name: ndarray (N,)}`` for the bodies with damping.
+    moved_flexible : tuple of str
+        The flexible bodies whose frame or origin moves in part as prescribed.
     """
 
     loads: np.ndarray
     gravity: np.ndarray
     prescribed: np.ndarray | None
     damping: dict
+    moved_flexible: tuple = ()
 
 
 def _specification(model, gravity):
@@ -107,10 +111,11 @@ def _specification(model, gravity):
         rest_power.append(sub(dot(rest, base)))
         grav_power.append(sub(dot(grav, base)))
         along_t.append(dot(vec, prescribed_part(base)))
-    rigid = all(isinstance(b, (me.RigidBody, me.Particle)) for b in eom.bodies) \
-        and len(eom.bodies) == len(eom._body_terms)
+    moved = [b.name for b in eom.bodies if not isinstance(b, (me.RigidBody, me.Particle))
+             and any(not sm.sympify(c).is_zero for c in
+                     prescribed_part(velocity(b.frame)) + prescribed_part(velocity(b.origin)))]
     outputs = [((len(rest_power),), rest_power), ((len(grav_power),), grav_power)]
-    if rigid:
+    if not moved:
         o = len(udot)
         inertia_power = []
         for terms, (force, torque) in zip(eom._body_terms, eom._inertial):
@@ -129,22 +134,22 @@ def _specification(model, gravity):
                 inertia_power.append(dot(H_rate, prescribed_part(kin.angular_velocity(
                     body.frame))))
         outputs.append(((), [sub(sm.Add(*inertia_power) - sm.Add(*along_t))]))
-    return args, outputs, rigid
+    return args, outputs, tuple(moved)
 
 
 def _function(model, gravity):
     """The generated (vectorized NumPy) function, kept by the model per gravity symbol."""
     cache = model._data.setdefault("load_powers", {})
     if gravity not in cache:
-        args, outputs, rigid = _specification(model, gravity)
+        args, outputs, moved = _specification(model, gravity)
         source = generate_python(_workspace(model)[0], "load_powers", args, outputs,
                                  vectorized=True, cse=True)
-        cache[gravity] = (source, rigid)
-    source, rigid = cache[gravity]
+        cache[gravity] = (source, moved)
+    source, moved = cache[gravity]
     key = ("load_powers", gravity)
     if key not in model._fn:
         model._fn[key] = compile_python(source, "load_powers")
-    return model._fn[key], rigid
+    return model._fn[key], moved
 
 
 def load_powers(model, t, y, gravity=None):
@@ -165,7 +170,7 @@ def load_powers(model, t, y, gravity=None):
     -------
     LoadPowers
     """
-    fn, rigid = _function(model, gravity)
+    fn, moved = _function(model, gravity)
     ts = np.atleast_1d(np.asarray(t, dtype=float))
     Y = np.asarray(y, dtype=float).reshape(model.n_states, ts.size)
     n, k = model.n_q, len(model.aux_names)
@@ -178,8 +183,8 @@ def load_powers(model, t, y, gravity=None):
     out = fn(ts, Y, model._p, R)
     loads = np.broadcast_to(out[0], (len(out[0]), ts.size)).astype(float)
     grav = np.broadcast_to(out[1], (len(out[1]), ts.size)).astype(float)
-    prescribed = np.broadcast_to(out[2], ts.shape).astype(float) if rigid else None
-    return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y))
+    prescribed = None if moved else np.broadcast_to(out[2], ts.shape).astype(float)
+    return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y), moved)
 
 
 def _damping_powers(model, Y):
