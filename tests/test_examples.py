@@ -528,3 +528,16 @@ def test_seatbelt_sensor(tmp_path, monkeypatch):
     wall = [w for name, w in balance.terms.items() if "k_lim" in name]
     assert wall and wall[0][-1] < 0
     assert balance.terms["prescribed motion (the forces that drive it)"][-1] > 0
+
+
+# ----------------------------------------------------- parallel inverse dynamics
+def test_parallel_inverse_dynamics(tmp_path, monkeypatch):
+    """The 3-RRR's motor torques: zero at rest at both ends (a horizontal robot, no
+    gravity), and their power equal to the rate of the kinetic energy differentiated
+    from its own expression, to round-off."""
+    out, _ = run_example("parallel_inverse_dynamics", [], tmp_path, monkeypatch)
+    study = out["study"]
+    assert study.forces.shape == (3, 201) and np.all(np.isfinite(study.forces))
+    np.testing.assert_allclose(study.forces[:, [0, -1]], 0.0, atol=1e-12)
+    assert np.max(np.abs(study.forces)) > 1e-2
+    assert out["power_residual"] < 1e-10
