@@ -358,6 +358,11 @@ CLI_CASES = {
     "negative hub damping": (["run", "flexible-robot", "--set", "hub_damping=-1"],
                              r"flexible-robot: hub_damping must be a finite number >= 0 "
                              r"\(N m s/rad\), got -1"),
+    "negative beam stiffness": (["run", "spin-up-beam", "--set", "EI=-1"],
+                                r"spin-up-beam: EI must be a finite number > 0 \(N m\^2\), "
+                                r"got -1"),
+    "zero link length": (["run", "flexible-robot", "--set", "length=0"],
+                         r"flexible-robot: length must be a finite number > 0 \(m\), got 0"),
 }
 
 

@@ -55,7 +55,8 @@ def test_run_writes_outputs(tmp_path, capsys):
     assert summary["initial_state"]["u1"] == 1.0
     assert summary["max_constraint_residual"] < 1e-6
     text = capsys.readouterr().out
-    assert "energy drift" in text and "max constraint residual" in text
+    assert "energy balance over the run" in text and "max constraint residual" in text
+    assert summary["energy_terms"]["relative_residual"] < 1e-6
 
 
 def test_run_with_constraint_forces(tmp_path):

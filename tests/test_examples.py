@@ -529,3 +529,31 @@ def test_oc3_controller(tmp_path, monkeypatch):
     assert out["mean_pitch_deg"] == pytest.approx(np.degrees(steady.pitch), abs=1.0)
     assert out["mean_platform_pitch_deg"] > 1.0
     assert out["rotor_rpm"].min() > 8.0 and out["rotor_rpm"].max() < 17.0
+
+
+# ----------------------------------------------------------- seat-belt sensor
+def test_seatbelt_sensor(tmp_path, monkeypatch):
+    """The 20 g pulse tilts the pendulum past the lock angle and onto the wall; the
+    energy balance closes to 1e-8 of the energy exchanged, the wall's damper taking
+    energy out and the housing's prescribed motion putting it in."""
+    out, _ = run_example("seatbelt_sensor", [], tmp_path, monkeypatch)
+    assert out["success"] and out["lock_time"] is not None and 0.005 < out["lock_time"] < 0.03
+    assert 29.0 < np.max(out["tilt"]) < 32.0  # the wall at 30 deg, a stiff penalty
+    balance = out["balance"]
+    assert balance.relative_residual < 1e-8
+    wall = [w for name, w in balance.terms.items() if "k_lim" in name]
+    assert wall and wall[0][-1] < 0
+    assert balance.terms["prescribed motion (the forces that drive it)"][-1] > 0
+
+
+# ----------------------------------------------------- parallel inverse dynamics
+def test_parallel_inverse_dynamics(tmp_path, monkeypatch):
+    """The 3-RRR's motor torques: zero at rest at both ends (a horizontal robot, no
+    gravity), and their power equal to the rate of the kinetic energy differentiated
+    from its own expression, to round-off."""
+    out, _ = run_example("parallel_inverse_dynamics", [], tmp_path, monkeypatch)
+    study = out["study"]
+    assert study.forces.shape == (3, 201) and np.all(np.isfinite(study.forces))
+    np.testing.assert_allclose(study.forces[:, [0, -1]], 0.0, atol=1e-12)
+    assert np.max(np.abs(study.forces)) > 1e-2
+    assert out["power_residual"] < 1e-10

@@ -1,5 +1,6 @@
 """Analysis: checks, comparisons and plots of what the layers below computed.
 
+``_energy_balance`` the energy balance of a run, term by term
 ``_newton_euler``  body-by-body Newton-Euler residuals with identified forces
 ``_compare``       formulations side by side; work-precision
 ``_residual_figure`` each formulation's motion beside its Newton-Euler residual
@@ -29,6 +30,8 @@ from .._lazy import lazy_attributes as _lazy_attributes
 #: public name -> the module (in this package) that defines it; imported on first use
 #: (the command line lists its sub-commands without SciPy, SymPy or Matplotlib)
 _LAZY = {
+    'energy_balance': '._energy_balance',
+    'EnergyBalance': '._energy_balance',
     'check_newton_euler': '._newton_euler',
     'NewtonEulerCheck': '._newton_euler',
     'compare_formulations': '._compare',

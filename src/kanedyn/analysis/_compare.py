@@ -50,7 +50,8 @@ class FormulationComparison:
     deviation : dict
         ``{method: max |q - q_ref|}`` over the run.
     newton_euler : dict
-        ``{method: NewtonEulerCheck}``.
+        ``{method: NewtonEulerCheck}``; empty where the check is not
+        available for the model (see ``newton_euler_note``).
     position_error, velocity_error : dict
         ``{method: ndarray (N,)}``: largest absolute configuration- and
         velocity-constraint residual at each output time (``nan`` where it
@@ -77,6 +78,8 @@ class FormulationComparison:
         ``{"coordinates": {name: unit or None}, "position": [units],
         "velocity": [units]}``: units of the coordinates and of the
         configuration and velocity constraints (for the plot's labels).
+    newton_euler_note : str
+        Why there is no Newton-Euler check (``""`` where there is one).
     """
 
     model: str
@@ -95,6 +98,7 @@ class FormulationComparison:
     messages: dict
     integrator: str = "RK45"
     units: dict = field(default_factory=dict)
+    newton_euler_note: str = ""
 
     @property
     def constraint_residual(self):
@@ -121,27 +125,31 @@ class FormulationComparison:
     def table(self):
         """The figures as a text table (a title line, then one row per method)."""
         from tabulate import tabulate
+        sources = (", ".join(f"{m} {self.newton_euler[m].source}" for m in self.methods)
+                   if self.newton_euler else "no N-E check")
         title = (f"{self.model}: t = 0..{self.t[-1]:g} s, {self.integrator} "
-                 f"(reference: {self.methods[0]}; N-E multipliers: "
-                 + ", ".join(f"{m} {self.newton_euler[m].source}" for m in self.methods)
-                 + ")")
+                 f"(reference: {self.methods[0]}; N-E multipliers: {sources})")
         headers = ("method", "mul", "add", "fun", "max|q-q_ref|", "N-E force", "N-E moment",
                    "N-E rel", "|h| max", "|c| max", "|dE| max", "nfev", "proj", "cpu/s")
         pos, vel, drift = self.position_residual, self.constraint_residual, self.energy_drift
         per_second = self.cpu_per_second
         rows = []
         for m in self.methods:
-            ne = self.newton_euler[m]
+            ne = self.newton_euler.get(m)
             ops = self.operations[m]
-            rel = ne.max / ne.inertia_scale if ne.inertia_scale else np.nan
+            figures = (None, None, None) if ne is None else (
+                ne.max_force, ne.max_moment,
+                ne.max / ne.inertia_scale if ne.inertia_scale else np.nan)
             rows.append((m, ops["multiplications"], ops["additions"], ops["functions"],
-                         self.deviation[m], ne.max_force, ne.max_moment, rel, pos[m], vel[m],
-                         drift[m], self.evaluations[m], self.projections[m], per_second[m]))
+                         self.deviation[m], *figures, pos[m], vel[m], drift[m],
+                         self.evaluations[m], self.projections[m], per_second[m]))
         formats = ("", "d", "d", "d", ".3e", ".2e", ".2e", ".1e", ".1e", ".1e", ".1e", "d",
                    "d", ".3f")
         lines = [title, tabulate(rows, headers=headers, floatfmt=formats, intfmt="d",
-                                 missingval="nan")]
-        unidentified = sorted({n for m in self.methods for n in self.newton_euler[m].unidentified})
+                                 missingval="n/a")]
+        if self.newton_euler_note:
+            lines.append(f"N-E columns n/a: {self.newton_euler_note}")
+        unidentified = sorted({n for ne in self.newton_euler.values() for n in ne.unidentified})
         if unidentified:
             lines.append(f"N-E residuals hold the forces of {', '.join(unidentified)}: "
                          "constraints given as scalar equations identify no force on a body "
@@ -368,6 +376,7 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
             "energy_error", "operations", "cpu_time", "evaluations", "projections",
             "messages")
     out = {key: {} for key in keys}
+    note = ""
     for m in methods:
         start = time.process_time()
         res = simulate(built[m], (0.0, t_end), starts[m], t_eval=t_eval, rtol=rtol,
@@ -377,7 +386,10 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         out["evaluations"][m] = int(res.nfev)
         out["projections"][m] = int(res.projections)
         out["coordinates"][m] = _coordinates(res, q_names)
-        out["newton_euler"][m] = check_newton_euler(res)
+        try:
+            out["newton_euler"][m] = check_newton_euler(res)
+        except ModelError as exc:  # not for this model (flexible bodies): a column less
+            note = str(exc)
         out["position_error"][m], out["velocity_error"][m] = _constraint_errors(res, checkers)
         energy = res.energy
         out["energy_error"][m] = None if energy is None else energy - energy[0]
@@ -392,8 +404,11 @@ def compare_formulations(name, methods=("kane", "lagrange", "augmented"), t_end=
         q = out["coordinates"][m]
         n = min(q.shape[1], q0.shape[1])
         out["deviation"][m] = float(np.max(np.abs(q[:, :n] - q0[:, :n]), initial=0.0))
+    if note:  # the check is all or nothing for a model
+        out["newton_euler"] = {}
     return FormulationComparison(model=name, methods=methods, t=t_eval,
-                                 integrator=integrator, units=units, **out)
+                                 integrator=integrator, units=units, newton_euler_note=note,
+                                 **out)
 
 
 @dataclass(frozen=True)

@@ -21,9 +21,10 @@ def add_parser(sub):
                    help="end time [s] (default: the model's)")
     p.add_argument("--rtol", type=positive_float, default=1e-10, help="relative tolerance")
     p.add_argument("--atol", type=positive_float, default=1e-12, help="absolute tolerance")
-    p.add_argument("--integrator", type=integrator_name, default="RK45",
+    p.add_argument("--integrator", type=integrator_name, default=None,
                    help="integrator for every formulation: a solve_ivp method (RK45, "
-                        "DOP853, Radau, BDF, ...)")
+                        "DOP853, Radau, BDF, ...); default: RK45, or Radau for a model "
+                        "with flexible bodies (their stiff modes)")
     add_backend_argument(p, auto="numpy: not every formulation has a C right-hand side")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=6) or parameter (A=0)")
@@ -71,18 +72,19 @@ def cmd_compare(args):
             if initial:
                 raise KanedynError(f"--set {next(iter(initial))}: compare takes model options "
                                    "and parameters, not initial values")
+    integrator = args.integrator or _default_integrator(names, args.set)
     study = args.target == "nonholonomic"  # its figure is always written
     out_dir = (check_output_dir(args.out) if args.plot or args.work_precision or study
                else None)  # before any work
     if not args.quiet:
-        _print_explanation(args)
+        _print_explanation(args, integrator)
     # auto is numpy here: not every formulation compared has a C right-hand side
     backend = "numpy" if args.backend == "auto" else args.backend
     comparisons = []
     for name in names:
         options, constants = parse_sets(name, args.set)
         cmp = compare_formulations(name, methods, t_end=args.t_end, rtol=args.rtol,
-                                   atol=args.atol, integrator=args.integrator,
+                                   atol=args.atol, integrator=integrator,
                                    constants=constants or None, backend=backend,
                                    **options)
         comparisons.append(cmp)
@@ -92,13 +94,15 @@ def cmd_compare(args):
             path = out_dir / f"compare-{name}.png"
             cmp.plot(path)
             print(f"plot: {path}")
-            if args.plot and not study:
+            if not cmp.newton_euler:
+                print(f"no Newton-Euler figure: {cmp.newton_euler_note}")
+            elif args.plot and not study:
                 path = out_dir / f"newton-euler-{name}.png"
                 plot_newton_euler_residuals([cmp], path)
                 print(f"motion and Newton-Euler residuals: {path}")
         if args.work_precision:
             wp = work_precision(name, methods, t_end=args.t_end, target=args.target_error,
-                                integrator=args.integrator, constants=constants or None,
+                                integrator=integrator, constants=constants or None,
                                 backend=backend, **options)
             print()
             print(wp.table())
@@ -113,10 +117,25 @@ def cmd_compare(args):
     return 0
 
 
-def _print_explanation(args):
+def _default_integrator(names, sets):
+    """RK45, or Radau where a model has flexible bodies: their bending modes make
+    the equations stiff, and explicit steps crawl at their stability limit."""
+    from ..modeling import FlexibleBody
+    for name in names:
+        options, _ = parse_sets(name, sets)
+        bodies = build(name, **options).kane_args.get("bodies", ())
+        if any(isinstance(b, FlexibleBody) for b in bodies):
+            print(f"integrator: Radau for every formulation ({name} has flexible bodies, "
+                  "whose stiff modes would hold an explicit method to tiny steps; "
+                  "--integrator to choose)")
+            return "Radau"
+    return "RK45"
+
+
+def _print_explanation(args, integrator):
     print("Each formulation starts from the same coordinates and rates (augmented-"
           "Lagrangean multipliers at 0),")
-    print(f"integrated by {args.integrator} at rtol={args.rtol:g}, atol={args.atol:g}. "
+    print(f"integrated by {integrator} at rtol={args.rtol:g}, atol={args.atol:g}. "
           "mul/add/fun: operations of the generated")
     print("equations after joint CSE. N-E: Newton-Euler residuals of every body with the "
           "identified constraint forces")

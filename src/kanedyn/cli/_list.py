@@ -6,7 +6,7 @@ from __future__ import annotations
 import inspect
 
 from .._errors import KanedynError
-from ..models import REGISTRY, build, unknown_model_text
+from ..models import OPTION_UNITS, REGISTRY, build, unknown_model_text
 from ._table import table
 
 __all__ = ["add_parser", "cmd_list", "WIDTH"]
@@ -47,10 +47,12 @@ def cmd_list(args):
 
 
 def option_defaults(name):
-    """``[(option, type name, default)]`` of a built-in model (from its builder)."""
+    """``[(option, type name, default, unit)]`` of a built-in model (from its builder;
+    the unit ``""`` where the option has none)."""
     builder, options = REGISTRY[name]
     signature = inspect.signature(builder)
-    return [(key, kind.__name__, signature.parameters[key].default)
+    units = OPTION_UNITS.get(name, {})
+    return [(key, kind.__name__, signature.parameters[key].default, units.get(key, ""))
             for key, kind in options.items()]
 
 
@@ -61,7 +63,8 @@ def _describe(name):
     options = option_defaults(name)
     print()
     if options:
-        print(table(options, ("option", "type", "default"), title="options (--set NAME=VALUE)"))
+        print(table(options, ("option", "type", "default", "unit"),
+                    title="options (--set NAME=VALUE)"))
     else:
         print("options: none")
     units = {str(k): v for k, v in definition.constant_units.items()}

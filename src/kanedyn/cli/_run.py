@@ -83,11 +83,12 @@ def cmd_run(args):
         res, stopped_by = stop.result, stop.signum
     report = (definition.report(res, definition)  # of the output points: none, no report
               if definition.report is not None and res.t.size else None)
+    balance = _energy_balance(definition, res) if stopped_by is None else None
     writing, written = _Writing(stopped_by), []
     try:
         with holding(writing.on_signal):
-            summary = _write_run(definition, eom, model, res, out, progress, report, written,
-                                 writing.pictures)
+            summary = _write_run(definition, eom, model, res, out, progress, report, balance,
+                                 written, writing.pictures)
             if args.animate:
                 page = _written(out / f"{definition.name}.html", written,
                                 lambda path: res.animate(
@@ -103,7 +104,7 @@ def cmd_run(args):
         print(f"kanedyn: {interruption(writing.first)} while writing the outputs; they were "
               "finished first", file=sys.stderr)
         return exit_status(writing.first)
-    _print_summary(summary)
+    _print_summary(summary, balance)
     if report is not None:
         print(f"{definition.name} report: {_report_text(report)}")
     _print_identified(model, res)
@@ -183,7 +184,8 @@ def _report_dict(report):
     return as_dict() if callable(as_dict) else {"text": _report_text(report)}
 
 
-def _write_run(definition, eom, model, res, out, progress, report, written, pictures):
+def _write_run(definition, eom, model, res, out, progress, report, balance, written,
+               pictures):
     """CSV and summary, then the plot (``pictures()`` called between them); the names
     of the files completed go into ``written``."""
     try:
@@ -198,6 +200,9 @@ def _write_run(definition, eom, model, res, out, progress, report, written, pict
                                           map(float, res.initial_state))))
     if report is not None:
         summary["report"] = _report_dict(report)
+    if balance is not None:
+        summary["energy_terms"] = (balance.as_dict() if not isinstance(balance, str)
+                                   else {"not available": balance})
     text = json.dumps(summary, indent=2, default=float)
 
     def write_summary(path):
@@ -232,11 +237,25 @@ def _simulate(model, t_end, y0, args, progress, forces):
     t_eval = np.linspace(0.0, t_end, max(2, int(args.points)))
     return simulate(model, (0.0, t_end), y0, method=args.method, rtol=args.rtol,
                     atol=args.atol, t_eval=t_eval, progress=progress,
-                    constraint_forces=forces)
+                    constraint_forces=forces, dense_output=not model.contacts)
 
 
-def _print_summary(summary):
-    drift = summary["energy_drift"]
+def _energy_balance(definition, res):
+    """The run's energy balance term by term (:func:`kanedyn.analysis.energy_balance`),
+    the reason why there is none (text), or ``None`` for a model with contacts (its
+    own balance is in the summary)."""
+    if res.model.contacts:
+        return None
+    if res.t.size < 2 or res.sol is None:
+        return "the run has fewer than two output points"
+    from ..analysis import energy_balance
+    try:
+        return energy_balance(res, load_names=definition.load_names or None)
+    except KanedynError as exc:
+        return str(exc)
+
+
+def _print_summary(summary, balance):
     print(f"success: {summary['success']} ({summary['message']}), "
           f"backend: {summary['backend']}")
     reached = "none reached" if summary["t_end"] is None else f"{summary['t_end']:g} s"
@@ -254,9 +273,11 @@ def _print_summary(summary):
             print("  " + line)
         if len(changes) > 12:
             print(f"  ... ({len(changes) - 12} more in summary.json)")
-    else:
-        print("energy drift (relative): " + ("n/a (no energy defined)" if drift is None
-                                             else f"{drift:.3e}"))
+    elif isinstance(balance, str):
+        print(f"energy balance: not available ({balance})")
+    elif balance is not None:
+        print("energy balance over the run:")
+        print("\n".join(balance.lines()))
     residual = summary["max_constraint_residual"]
     print("max constraint residual: " + ("n/a (no output points)" if residual is None
                                          else f"{residual:.3e}")

@@ -96,8 +96,8 @@ _LAZY = {
 }
 
 
-__all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "build", "available",
-           "similar_models", "unknown_model_text", "pendulum",
+__all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "OPTION_UNITS", "build",
+           "available", "similar_models", "unknown_model_text", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
@@ -227,10 +227,15 @@ REGISTRY = {
     "n-four-bar": (_Builder("n_four_bar"), {"n": int}),
     "andrews-squeezer": (_Builder("andrews_squeezer"), {}),
     "spin-up-beam": (_Builder("spin_up_beam"), {"omega_s": float, "stiffening": bool,
-                                                "n_modes": int, "n_elements": int}),
+                                                "n_modes": int, "n_elements": int,
+                                                "length": float, "EI": float,
+                                                "mass_per_length": float, "EA": float,
+                                                "spin_up_time": float}),
     "flexible-robot": (_Builder("flexible_robot"), {"n_modes": int, "n_elements": int,
                                         "stiffening": bool, "hub_damping": float,
-                                        "pulse_payload": float, "torque_input": bool}),
+                                        "pulse_payload": float, "torque_input": bool,
+                                        "length": float, "EI": float,
+                                        "mass_per_length": float, "EA": float}),
     "3rrr": (_Builder("planar_3rrr"), {"gravity": bool}),
     "stewart-platform": (_Builder("stewart_platform"), {}),
     "out-parallel-6dof": (_Builder("out_parallel_6dof"), {}),
@@ -242,6 +247,14 @@ REGISTRY = {
 }
 
 
+
+#: name -> {option: unit} of the options that carry one (``kanedyn list MODEL``)
+OPTION_UNITS = {
+    "spin-up-beam": {"omega_s": "rad/s", "length": "m", "EI": "N m^2",
+                     "mass_per_length": "kg/m", "EA": "N", "spin_up_time": "s"},
+    "flexible-robot": {"hub_damping": "N m s/rad", "pulse_payload": "kg", "length": "m",
+                       "EI": "N m^2", "mass_per_length": "kg/m", "EA": "N"},
+}
 
 
 def available():

@@ -80,7 +80,17 @@ def spin_up_angle(omega_s, duration):
     return sm.Piecewise((ramp, T < duration), (omega_s * T - omega_s * duration / 2, True))
 
 
-def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
+def _positive(model, option, value, unit):
+    """``value`` as a float, refused unless finite and positive (``option`` named)."""
+    number = float(value)
+    if not (math.isfinite(number) and number > 0):
+        raise ModelError(f"{model}: {option} must be a finite number > 0 ({unit}), "
+                         f"got {value!r}")
+    return number
+
+
+def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10, length=10.0,
+                 EI=1.4e4, mass_per_length=1.2, EA=2.8e7, spin_up_time=15.0):
     r"""The spin-up of a cantilever on a hub (Kane, Ryan & Banerjee 1987).
 
     A uniform beam (``L = 10`` m, ``rho A = 1.2`` kg/m, ``EI = 1.4e4`` N m^2,
@@ -108,6 +118,11 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
         In-plane bending modes kept.
     n_elements : int
         Beam elements.
+    length, EI, mass_per_length, EA : float
+        The beam's length (m), bending stiffness in the plane (N m^2), mass per
+        length (kg/m) and axial stiffness (N).
+    spin_up_time : float
+        ``T`` of the spin-up law (:func:`spin_up_angle`), s.
 
     Returns
     -------
@@ -118,8 +133,14 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
     """
     if not (math.isfinite(omega_s) and omega_s >= 0):
         raise ModelError(f"spin-up-beam: omega_s must be a non-negative rate, got {omega_s!r}")
-    member = in_plane_member("beam", 10.0, mass_per_length=1.2, EI=1.4e4, EA=2.8e7,
-                             n_modes=n_modes, n_elements=n_elements)
+    beam_values = {name: _positive("spin-up-beam", name, value, unit) for name, value, unit in
+                   (("length", length, "m"), ("EI", EI, "N m^2"),
+                    ("mass_per_length", mass_per_length, "kg/m"), ("EA", EA, "N"),
+                    ("spin_up_time", spin_up_time, "s"))}
+    member = in_plane_member("beam", beam_values["length"],
+                             mass_per_length=beam_values["mass_per_length"],
+                             EI=beam_values["EI"], EA=beam_values["EA"], n_modes=n_modes,
+                             n_elements=n_elements)
     N = me.ReferenceFrame("N")
     O = me.Point("O")
     O.set_vel(N, 0)
@@ -128,7 +149,7 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
     B = N.orientnew("B", "Axis", [theta, N.z])
     B.set_ang_vel(N, (theta.diff(T) + u_a) * N.z)
     beam = FlexibleBody("beam", B, O, member, stiffening=stiffening)
-    angle = spin_up_angle(omega_s, 15.0)
+    angle = spin_up_angle(omega_s, beam_values["spin_up_time"])
     which = "with" if stiffening else "without"
     return ModelDefinition(
         name="spin-up-beam",
@@ -140,6 +161,7 @@ def spin_up_beam(omega_s=6.0, stiffening=True, n_modes=4, n_elements=10):
         constants={}, initial_state={}, t_end=20.0, specified={theta: angle},
         symbols=dict(theta=theta, theta_rate=angle.diff(T), beam=beam, tau=tau, N=N, B=B,
                      member=member),
+        load_names=("hub torque tau (drives the prescribed spin-up)",),
         description="Kane, Ryan & Banerjee (1987): prescribed spin-up of a cantilever; "
                     "bounded with geometric stiffening, divergent without.")
 
@@ -161,7 +183,8 @@ def _payload(value):
 
 
 def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
-                   pulse_payload=None, torque_input=False):
+                   pulse_payload=None, torque_input=False, length=1.0, EI=36.5,
+                   mass_per_length=0.675, EA=1.75e7):
     r"""The elastic one-dof robot: a motor-driven hub turning a flexible link with a payload.
 
     The robot of Meghdari & Fahimi's elastic Kane's method, with the numbers
@@ -207,6 +230,11 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         ``m_p`` itself.
     torque_input : bool
         The motor torque is the specified input ``tau(t)``, not the pulse.
+    length, EI, mass_per_length, EA : float
+        The link's length (m), bending stiffness in the plane (N m^2), mass per
+        length (kg/m) and axial stiffness (N).  The hub (``J_h``, ``m_h``,
+        ``r_h``), the payload (``m_p``) and the pulse (``T_m``, ``theta_f``) are
+        parameters (constants).
 
     Returns
     -------
@@ -217,7 +245,10 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         (the tip node's point), ``N``, ``B``; with ``torque_input``, ``tau``;
         with ``hub_damping``, ``c_h``.
     """
-    length, mass_per_length, EI, EA = 1.0, 0.675, 36.5, 1.75e7
+    length, EI, mass_per_length, EA = (
+        _positive("flexible-robot", name, value, unit) for name, value, unit in
+        (("length", length, "m"), ("EI", EI, "N m^2"),
+         ("mass_per_length", mass_per_length, "kg/m"), ("EA", EA, "N")))
     member = in_plane_member("link", length, mass_per_length=mass_per_length, EI=EI, EA=EA,
                              n_modes=n_modes, n_elements=n_elements)
     J_h, m_h, r_h, m_p, T_m, theta_f = sm.symbols("J_h m_h r_h m_p T_m theta_f",
@@ -247,11 +278,12 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         torque, specified, extra = tau, {tau: 0.0}, {"tau": tau}
         constants = {k: v for k, v in constants.items() if k not in (T_m, theta_f)}
         title = "elastic one-dof robot: hub, flexible link and payload, motor torque tau(t)"
-    loads = [(B, torque * N.z)]
+    loads, load_names = [(B, torque * N.z)], ("motor torque",)
     if hub_damping is not None:
         c_h = sm.Symbol("c_h", nonnegative=True)
         constants[c_h] = _damping(hub_damping)
-        loads = [(B, (torque - c_h * omega) * N.z)]
+        loads.append((B, -c_h * omega * N.z))
+        load_names += ("hub damping",)
         extra["c_h"] = c_h
     return ModelDefinition(
         name="flexible-robot",
@@ -263,5 +295,9 @@ def flexible_robot(n_modes=4, n_elements=10, stiffening=True, hub_damping=None,
         symbols=dict(theta=theta, omega=omega, link=link, torque=torque, pulse=pulse, tip=tip,
                      N=N, B=B, member=member, J_h=J_h, r_h=r_h, m_p=m_p, T_m=T_m,
                      theta_f=theta_f, **extra),
+        load_names=load_names,
+        constant_units={J_h: "kg m^2", m_h: "kg", r_h: "m", m_p: "kg", T_m: "s",
+                        theta_f: "rad", **({extra["c_h"]: "N m s/rad"} if "c_h" in extra
+                                           else {})},
         description="Meghdari & Fahimi's elastic one-dof robot (laboratory numbers "
                     "assumed): finite elements, Craig–Bampton, Kane's method.")

@@ -22,6 +22,7 @@
 ``_diagnosis``           why a derivative is not finite, in the model's names
 ``_actuator_forces``     actuator forces from generalized forces by virtual work
 ``_inverse_parts``       inverse-dynamics and actuator forces by cause and body; power
+``_load_powers``         the power of each load, of prescribed motion, of damping
 ``_singular``            distance to singular configurations, and its monitor
 """
 
@@ -47,6 +48,8 @@ _LAZY = {
     'PowerBalance': '._inverse_parts',
     'actuator_parts': '._inverse_parts',
     'inverse_parts': '._inverse_parts',
+    'LoadPowers': '._load_powers',
+    'load_powers': '._load_powers',
     'Jacobians': '._jacobians',
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',

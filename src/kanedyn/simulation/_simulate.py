@@ -601,6 +601,11 @@ class _CompiledDense:
         self.q = q.reshape(len(th), -1, 4)
         self.method = method
 
+    @property
+    def ts(self):
+        """The steps' ends, s (as ``OdeSolution.ts``)."""
+        return np.concatenate([self.t_old, self.t_old[-1:] + self.h[-1:]])
+
     def __call__(self, t):
         t = np.asarray(t, dtype=float)
         scalar = t.ndim == 0

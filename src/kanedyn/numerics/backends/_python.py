@@ -8,6 +8,7 @@ specified inputs, each an indexable sequence.
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -174,8 +175,10 @@ class _LazySciPy:
         return getattr(scipy, name)
 
 
-_NAMESPACE = {"math": math, "numpy": np, "scipy": _LazySciPy(), "_array": np.array,
-              "_zeros": np.zeros, "_stack": _stack, "_kd_dpow": _kd_dpow,
+#: names the generated code uses (functools: NumPy's printer writes Max and Min of
+#: arrays as functools.reduce over numpy.maximum/minimum)
+_NAMESPACE = {"functools": functools, "math": math, "numpy": np, "scipy": _LazySciPy(),
+              "_array": np.array, "_zeros": np.zeros, "_stack": _stack, "_kd_dpow": _kd_dpow,
               "_kd_dpow_lanes": _kd_dpow_lanes}
 
 

@@ -1,0 +1,203 @@
+r"""The energy balance of a run, term by term: what changed the stored energy.
+
+The stored energy :math:`E = T + V` (kinetic plus the declared potential
+energy, :math:`V = 0` where none is declared) changes by the work of
+everything it does not hold.  Each of these is a named term
+(:mod:`kanedyn.numerics._load_powers`): the work of each load (inputs,
+dampers, drag, friction elements, constraint forces that auxiliary speeds
+expose), of the constraint forces that drive prescribed motion, and of each
+flexible body's damping.  The residual
+
+.. math:: r(t) = E(t) - E(t_0) - \sum_j W_j(t)
+
+is the balance's quality figure: zero along an exact solution, so that
+what remains measures the integration's error (and any term the balance
+does not know of).  It is given relative to the energy exchanged or moving,
+:math:`S = \max_t \max(|E(t) - E(t_0)|,\ \sum_j |W_j(t)|,\ T(t))`.
+
+The works are integrated along the run's continuous solution
+(``dense_output=True``): Gauss-Legendre with :data:`_NODES` nodes on each of
+the integrator's steps (cut at the output times), so that the quadrature's
+error is far below the integration's.  The residual then is
+:math:`\int \nabla E\cdot(\dot y - f(t, y))\,dt` along the continuous
+solution: its defect.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from .._errors import KanedynError
+from ..numerics import load_powers
+
+__all__ = ["EnergyBalance", "energy_balance"]
+
+#: Gauss-Legendre nodes per step
+_NODES = 5
+
+
+@dataclass(frozen=True)
+class EnergyBalance:
+    r"""A run's energy balance (see :mod:`kanedyn.analysis._energy_balance`).
+
+    Attributes
+    ----------
+    t : numpy.ndarray, shape (N,)
+        The run's output times, s.
+    energy_change : numpy.ndarray, shape (N,)
+        :math:`E(t) - E(t_0)`, J.
+    terms : dict
+        ``{name: numpy.ndarray (N,)}``: the work of each term from the start, J.
+    residual : numpy.ndarray, shape (N,)
+        ``energy_change - sum(terms)``, J.
+    scale : float
+        The energy exchanged or moving, :math:`S`, J.
+    notes : tuple of str
+        What the balance leaves out or takes from elsewhere.
+    """
+
+    t: np.ndarray
+    energy_change: np.ndarray
+    terms: dict
+    residual: np.ndarray
+    scale: float
+    notes: tuple = ()
+
+    @property
+    def relative_residual(self):
+        """The largest ``|residual|`` over :attr:`scale` (0 where nothing is exchanged)."""
+        largest = float(np.max(np.abs(self.residual))) if self.residual.size else 0.0
+        return largest / self.scale if self.scale > 0 else largest
+
+    def as_dict(self):
+        """Final values, JSON-ready: ``energy_change``, ``terms``, ``residual`` (J),
+        ``scale`` (J), ``relative_residual``, ``notes``."""
+        return {"energy_change": float(self.energy_change[-1]),
+                "terms": {name: float(w[-1]) for name, w in self.terms.items()},
+                "residual": float(self.residual[-1]), "scale": self.scale,
+                "relative_residual": self.relative_residual, "notes": list(self.notes)}
+
+    def lines(self):
+        """The balance at the end of the run, as lines of text."""
+        rows = [("change of stored energy", self.energy_change[-1])]
+        rows += [(f"work: {name}", w[-1]) for name, w in self.terms.items()]
+        rows.append(("residual", self.residual[-1]))
+        width = max(len(label) for label, _ in rows)
+        out = [f"  {label:<{width}}  {value:+.6e} J" for label, value in rows]
+        out[-1] += (f" (largest: {self.relative_residual:.3e} of the {self.scale:.6g} J "
+                    "exchanged or moving)")
+        return out + [f"  note: {note}" for note in self.notes]
+
+
+def energy_balance(result, load_names=None, gravity="g"):
+    """The energy balance of ``result``, term by term.
+
+    Parameters
+    ----------
+    result : SimulationResult
+        A run with a continuous solution (``kd.simulate(..., dense_output=True)``)
+        of a model derived by :func:`kanedyn.kane`.
+    load_names : sequence of str, optional
+        A name for each load, in the order of ``eom.loads``
+        (:attr:`kanedyn.models.ModelDefinition.load_names`).  Default: where the
+        load acts and the constants, inputs and constraint forces it holds.
+    gravity : str or sympy.Symbol or None
+        The gravity constant: where the model declares a potential energy, the
+        loads' parts proportional to it are taken to be held by that potential
+        (and are no term).  A name is looked up among the model's constants
+        (none of that name: no gravity parts); ``None``: no gravity parts.
+
+    Returns
+    -------
+    EnergyBalance
+    """
+    model = result.model
+    sol = result.sol
+    if sol is None:
+        raise KanedynError("energy_balance needs the run's continuous solution: simulate "
+                           "with dense_output=True")
+    if model.contacts:
+        raise KanedynError("energy_balance: a model with contacts has its own balance, "
+                           "result.energy_balance()")
+    eom = model._eom
+    names = _term_names(eom, model, load_names)
+    symbol = _gravity_symbol(eom, gravity) if model.has_potential else None
+    grid = _grid(sol, result.t)
+    a, b = grid[:-1], grid[1:]
+    x, w = np.polynomial.legendre.leggauss(_NODES)
+    nodes = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * x).ravel()
+    powers = load_powers(model, nodes, sol(nodes), gravity=symbol)
+    columns = {name: power for name, power, weight in zip(names, powers.loads, powers.gravity)
+               if np.any(power) or not np.any(weight)}  # not wholly held by V
+    notes = []
+    if symbol is not None and np.any(powers.gravity):
+        notes.append(f"the loads' parts in {symbol} (gravity) are held by the potential "
+                     "energy")
+    if powers.prescribed is None:
+        moved = ", ".join(powers.moved_flexible)
+        notes.append(f"the work that drives the prescribed motion of {moved} is "
+                     + (f"that of the constraint forces {', '.join(model.aux_names)}"
+                        if model.aux_names else "not known here (no term): expose its "
+                        "forces by auxiliary speeds"))
+    elif np.any(powers.prescribed):
+        columns["prescribed motion (the forces that drive it)"] = powers.prescribed
+    columns.update({f"damping of {body}": p for body, p in powers.damping.items()})
+    weights = (0.5 * (b - a)[:, None] * w).ravel()
+    at = np.searchsorted(grid, result.t)
+    terms = {}
+    for name, power in columns.items():
+        cumulative = np.concatenate([[0.0], np.cumsum(np.add.reduceat(
+            power * weights, np.arange(0, power.size, _NODES)))])
+        terms[name] = cumulative[at] - cumulative[at[0]]
+    kinetic, potential = np.array([model.energies(t, y) for t, y in
+                                   zip(result.t, result.y.T)]).T.reshape(2, -1)
+    energy = kinetic + (potential if model.has_potential else 0.0)
+    change = energy - energy[0]
+    residual = change - sum(terms.values(), np.zeros_like(change))
+    exchanged = sum((np.abs(v) for v in terms.values()), np.zeros_like(change))
+    scale = float(np.max(np.maximum(np.maximum(np.abs(change), exchanged), kinetic))
+                  if change.size else 0.0)
+    return EnergyBalance(np.asarray(result.t), change, terms, residual, scale, tuple(notes))
+
+
+def _grid(sol, t_out):
+    """The integrator's step ends (where the solution keeps them) and the output times."""
+    pieces = getattr(sol, "pieces", [sol])
+    steps = [np.asarray(p.ts, dtype=float) for p in pieces if hasattr(p, "ts")]
+    grid = np.unique(np.concatenate(steps + [np.asarray(t_out, dtype=float)]))
+    return grid[(grid >= t_out[0]) & (grid <= t_out[-1])]
+
+
+def _gravity_symbol(eom, gravity):
+    if gravity is None or not isinstance(gravity, str):
+        return gravity
+    return next((c for c in eom.constants if str(c) == gravity), None)
+
+
+def _term_names(eom, model, load_names):
+    """One name per load: given, or where it acts and the symbols it holds."""
+    count = len(eom._load_vectors)
+    if load_names is not None:
+        load_names = [str(n) for n in load_names]
+        if len(load_names) != count:
+            raise KanedynError(f"energy_balance: {len(load_names)} load names for {count} "
+                               "loads")
+        return load_names
+    import sympy.physics.mechanics as me
+
+    from ..engine import name_of
+    constants = {str(c) for c in eom.constants}
+    forces = set(model.aux_names)
+    inputs = {n.removesuffix("(t)") for n in model.input_names}
+    names = []
+    for location, vector in eom.loads:
+        kind = "torque on" if hasattr(location, "ang_vel_in") else "force at"
+        symbols = set().union(*(m.free_symbols | set(me.find_dynamicsymbols(m))
+                                for m, _ in vector.args))
+        held = sorted({name_of(s) for s in symbols} & (constants | forces | inputs))
+        text = f"{kind} {location.name}" + (f" [{', '.join(held)}]" if held else "")
+        names.append(f"constraint {text}" if forces & set(held) else text)
+    return [f"{n} ({k + 1})" if names.count(n) > 1 else n for k, n in enumerate(names)]
+

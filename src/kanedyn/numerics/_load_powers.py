@@ -1,0 +1,201 @@
+r"""The power of each load, of prescribed motion and of flexible bodies' damping.
+
+Along a motion the stored energy :math:`E = T + V` changes at the rate of the
+power of everything :math:`E` does not hold.  Here that power is taken apart:
+
+* each load :math:`l` of the equations (a force :math:`F_l` at a point, a
+  torque :math:`M_l` on a frame): :math:`P_l = F_l\cdot v_l` or
+  :math:`M_l\cdot\omega_l`, with the whole velocity, its explicitly
+  time-dependent part (prescribed motion) included, and the constraint
+  forces that auxiliary speeds expose given their values
+  (:meth:`NumericModel.auxiliary`);
+* the constraint forces that drive prescribed motion and that no auxiliary
+  speed exposes, where that motion moves rigid bodies and particles only:
+  with
+  :math:`v^t_k, \omega^t_k` the velocities at zero speeds (the explicitly
+  time-dependent part),
+
+  .. math::
+
+      P_\text{prescribed} = \sum_k \left[m_k a_k\cdot v^t_k
+          + (I_k\alpha_k + \omega_k\times I_k\omega_k)\cdot\omega^t_k\right]
+          - \sum_l F_l\cdot v^t_l,
+
+  the power of all forces on the bodies along :math:`v^t` minus that of the
+  loads (zero where no motion is prescribed, or where auxiliary speeds
+  expose every force that drives it);
+* each flexible body's modal damping, :math:`-\dot\eta^T C\dot\eta`.
+
+The gravity parts of the loads (:math:`F_l(g) - F_l(0)` at the gravity
+symbol :math:`g`) are given apart: where the model declares a potential
+energy, that is taken to be theirs (as :func:`power_balance` does).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import sympy as sm
+import sympy.physics.mechanics as me
+
+from .._errors import ModelError
+from ..engine import dot, inertia_components, matvec, name_of
+from ._inverse import _equations, _workspace
+from .backends._python import compile_python, generate_python
+
+__all__ = ["LoadPowers", "load_powers"]
+
+
+@dataclass(frozen=True)
+class LoadPowers:
+    r"""Powers at a set of states, W.
+
+    Attributes
+    ----------
+    loads : numpy.ndarray, shape (n_loads, N)
+        Each load's power without its gravity part, in the order of
+        ``eom.loads``.
+    gravity : numpy.ndarray, shape (n_loads, N)
+        The power of each load's gravity part (zero without a gravity symbol).
+    prescribed : numpy.ndarray or None, shape (N,)
+        :math:`P_\text{prescribed}`; ``None`` where a flexible body's motion is
+        prescribed in part (its inertia forces are not taken apart here).
+    damping : dict
+        ``{flexible body name: ndarray (N,)}`` for the bodies with damping.
+    moved_flexible : tuple of str
+        The flexible bodies whose frame or origin moves in part as prescribed.
+    """
+
+    loads: np.ndarray
+    gravity: np.ndarray
+    prescribed: np.ndarray | None
+    damping: dict
+    moved_flexible: tuple = ()
+
+
+def _specification(model, gravity):
+    """Arguments and outputs of the generated function; whether it gives the
+    prescribed motion's power."""
+    eom = _equations(model)
+    prog, kin = _workspace(model)
+    if eom.method != "kane" or kin is None:
+        raise ModelError(f"the power of each load needs equations derived by kd.kane, not by "
+                         f"{eom.method!r}")
+    table = eom._table
+    key = "auxiliary" if "auxiliary" in model._functions else "dynamics"
+    args = dict(model._functions[key][0])
+    udot = list(table.udot)
+    args["r"] = list(args["r"]) + udot
+    subs = model._substitutions
+    aux_zero = {ua: 0 for ua in table.u_aux}
+    at_rest = {**aux_zero, **{s: 0 for s in table.u}}
+
+    def sub(e):
+        e = prog.subs(e, aux_zero) if aux_zero else e
+        return prog.subs(e, subs) if subs else e
+
+    def velocity(loc):
+        return (kin.angular_velocity(loc) if isinstance(loc, me.ReferenceFrame)
+                else kin.velocity(loc))
+
+    def prescribed_part(vector):
+        return tuple(prog.subs(c, at_rest) for c in vector)
+
+    g = None if gravity is None else table.internal(gravity, "gravity")
+    rest_power, grav_power, along_t = [], [], []
+    for loc, vec in eom._load_vectors:
+        base = velocity(loc)
+        rest = tuple(prog.subs(c, {g: 0}) for c in vec) if g is not None else vec
+        grav = tuple(c - d for c, d in zip(vec, rest))
+        rest_power.append(sub(dot(rest, base)))
+        grav_power.append(sub(dot(grav, base)))
+        along_t.append(dot(vec, prescribed_part(base)))
+    moved = [b.name for b in eom.bodies if not isinstance(b, (me.RigidBody, me.Particle))
+             and any(not sm.sympify(c).is_zero for c in
+                     prescribed_part(velocity(b.frame)) + prescribed_part(velocity(b.origin)))]
+    outputs = [((len(rest_power),), rest_power), ((len(grav_power),), grav_power)]
+    if not moved:
+        o = len(udot)
+        inertia_power = []
+        for terms, (force, torque) in zip(eom._body_terms, eom._inertial):
+            terms = terms.on(prog)
+            body = terms.body
+            V, W = terms.partial_velocities, terms.partial_angular_velocities
+            m = kin.internal(body.mass, f"mass of {body.name}")
+            ma = tuple(m * sm.Add(*[V[s][i] * udot[s] for s in range(o)]) + force[i]
+                       for i in range(3))
+            inertia_power.append(dot(ma, prescribed_part(kin.velocity(body.masscenter))))
+            if isinstance(body, me.RigidBody):
+                I_N = inertia_components(kin, body, f"body {body.name}")[1]
+                alpha = tuple(sm.Add(*[W[s][i] * udot[s] for s in range(o)])
+                              for i in range(3))
+                H_rate = tuple(a + t for a, t in zip(matvec(I_N, alpha), torque))
+                inertia_power.append(dot(H_rate, prescribed_part(kin.angular_velocity(
+                    body.frame))))
+        outputs.append(((), [sub(sm.Add(*inertia_power) - sm.Add(*along_t))]))
+    return args, outputs, tuple(moved)
+
+
+def _function(model, gravity):
+    """The generated (vectorized NumPy) function, kept by the model per gravity symbol."""
+    cache = model._data.setdefault("load_powers", {})
+    if gravity not in cache:
+        args, outputs, moved = _specification(model, gravity)
+        source = generate_python(_workspace(model)[0], "load_powers", args, outputs,
+                                 vectorized=True, cse=True)
+        cache[gravity] = (source, moved)
+    source, moved = cache[gravity]
+    key = ("load_powers", gravity)
+    if key not in model._fn:
+        model._fn[key] = compile_python(source, "load_powers")
+    return model._fn[key], moved
+
+
+def load_powers(model, t, y, gravity=None):
+    r"""The powers of the module's text at states ``y`` and times ``t``.
+
+    Parameters
+    ----------
+    model : NumericModel
+        Built by ``eom.numeric(...)`` from equations of :func:`kanedyn.kane`.
+    t : array_like, shape (N,)
+        Times, s.
+    y : array_like, shape (n_states, N)
+        States there (consistent with the constraints).
+    gravity : sympy.Symbol, optional
+        The gravity constant (e.g. ``g``); without it no load has a gravity part.
+
+    Returns
+    -------
+    LoadPowers
+    """
+    fn, moved = _function(model, gravity)
+    ts = np.atleast_1d(np.asarray(t, dtype=float))
+    Y = np.asarray(y, dtype=float).reshape(model.n_states, ts.size)
+    n, k = model.n_q, len(model.aux_names)
+    rows = []
+    for i in range(ts.size):
+        inputs = list(model._input_values(ts[i], Y[:, i])) if model._inputs else []
+        forces = list(model.auxiliary(ts[i], Y[:, i]).values()) if k else []
+        rows.append(inputs + forces + list(model.rhs(ts[i], Y[:, i])[n:]))
+    R = np.array(rows, dtype=float).T.reshape(-1, ts.size)
+    out = fn(ts, Y, model._p, R)
+    loads = np.broadcast_to(out[0], (len(out[0]), ts.size)).astype(float)
+    grav = np.broadcast_to(out[1], (len(out[1]), ts.size)).astype(float)
+    prescribed = None if moved else np.broadcast_to(out[2], ts.shape).astype(float)
+    return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y), moved)
+
+
+def _damping_powers(model, Y):
+    """``{flexible body name: -u^T C u}`` for the flexible bodies with damping."""
+    out = {}
+    for body in _equations(model).bodies:
+        damping = getattr(body, "damping", None)
+        if damping is None or not np.any(damping):
+            continue
+        rows = [model.state_names.index(name_of(u)) for u in body.u]
+        speeds = Y[rows]
+        out[body.name] = -np.einsum("in,ij,jn->n", speeds, np.asarray(damping, float),
+                                    speeds)
+    return out

@@ -1,0 +1,107 @@
+"""The energy balance term by term (kd.analysis.energy_balance): each term set against
+a second route to it, and the residual closing on the driven models."""
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+
+import kanedyn as kd
+from kanedyn import KanedynError
+from kanedyn.analysis import energy_balance
+
+TIGHT = dict(rtol=1e-10, atol=1e-10, dense_output=True)
+
+
+def _run(name, t_end=None, points=401, backend="c", **options):
+    definition = kd.models.build(name, **options)
+    model = definition.numeric(backend=backend)
+    t_end = t_end or definition.t_end
+    res = kd.simulate(model, (0.0, t_end), definition.initial(model),
+                      t_eval=np.linspace(0.0, t_end, points), **TIGHT)
+    assert res.success, res.message
+    return definition, res
+
+
+def _trapezoid(values, t):
+    return np.concatenate([[0.0], np.cumsum(0.5 * np.diff(t) * (values[1:] + values[:-1]))])
+
+
+def test_flexible_robot_closes_and_the_motor_term_is_the_torque_times_the_rate():
+    definition, res = _run("flexible-robot", hub_damping=0.02, points=3001)
+    balance = energy_balance(res, load_names=definition.load_names)
+    assert set(balance.terms) == {"motor torque", "hub damping"}
+    assert balance.relative_residual < 1e-8
+    # the motor's work from its torque expression and the hub rate, on the output points
+    sy = definition.symbols
+    torque = sm.lambdify(sm.Symbol("t"), definition.symbols["pulse"].subs(
+        {sy["T_m"]: 1.0, sy["theta_f"]: np.pi / 2, **{s: v for s, v in
+                                                      definition.constants.items()}}
+    ).subs(me.dynamicsymbols._t, sm.Symbol("t")))
+    omega = res["omega"]
+    motor = _trapezoid(np.array([float(torque(t)) for t in res.t]) * omega, res.t)
+    np.testing.assert_allclose(balance.terms["motor torque"], motor, atol=1e-5 * balance.scale)
+    damping = _trapezoid(-0.02 * omega ** 2, res.t)
+    np.testing.assert_allclose(balance.terms["hub damping"], damping, atol=1e-5 * balance.scale)
+    # the damper took out most of what the motor put in
+    assert balance.terms["hub damping"][-1] < -0.9 * balance.terms["motor torque"][-1]
+
+
+def test_spin_up_beam_closes_on_the_work_of_the_drive_torque():
+    definition, res = _run("spin-up-beam", t_end=16.0, n_modes=2, n_elements=4)
+    balance = energy_balance(res, load_names=definition.load_names)
+    assert balance.relative_residual < 1e-8
+    [(name, work)] = balance.terms.items()
+    # tau from the auxiliary speed's equation at the output points, times the prescribed rate
+    model = res.model
+    tau = np.array([model.auxiliary(t, y)["tau"] for t, y in zip(res.t, res.y.T)])
+    rate = sm.lambdify(me.dynamicsymbols._t, definition.symbols["theta_rate"])
+    drive = _trapezoid(tau * np.array([float(rate(t)) for t in res.t]), res.t)
+    np.testing.assert_allclose(work, drive, atol=1e-4 * balance.scale)
+    assert work[-1] == pytest.approx(balance.energy_change[-1], rel=1e-8)
+
+
+@pytest.fixture(scope="module")
+def seatbelt_run():
+    """The default sensor through the first 50 ms of its pulse (it reaches the
+    housing's wall, the penalty limit's damper working, at about 25 ms)."""
+    return _run("seatbelt-sensor", t_end=0.05, points=201)[1]
+
+
+def test_seatbelt_prescribed_motion_term_is_the_pivot_forces_work(seatbelt_run):
+    """The work of the forces that drive the housing's motion, taken from the
+    inertia forces, equals the work of the pivot force exposed by auxiliary
+    speeds in the same model (pivot_force=True): two routes to one term."""
+    res = seatbelt_run
+    balance = energy_balance(res)
+    assert balance.relative_residual < 1e-8
+    prescribed = balance.terms["prescribed motion (the forces that drive it)"]
+    assert "force at G [g, m]" not in balance.terms  # gravity: held by the potential
+    exposed = _run("seatbelt-sensor", t_end=0.05, points=201, pivot_force=True)[1]
+    exposed_balance = energy_balance(exposed)
+    assert exposed_balance.relative_residual < 1e-8
+    [pivot] = [w for n, w in exposed_balance.terms.items() if n.startswith("constraint")]
+    np.testing.assert_allclose(prescribed, pivot, atol=1e-8 * balance.scale)
+    assert abs(prescribed[-1]) > 0.5 * balance.scale
+    limit = [w for n, w in balance.terms.items() if "k_lim" in n]
+    assert limit and limit[0][-1] < 0  # the wall's damper took energy out
+
+
+@pytest.mark.slow
+def test_a_missing_term_shows_in_the_residual(seatbelt_run):
+    """Gravity counted twice (its load and the potential) leaves its work as residual."""
+    res = seatbelt_run
+    kept = energy_balance(res)
+    counted_twice = energy_balance(res, gravity=None)
+    assert kept.relative_residual < 1e-8 and counted_twice.relative_residual > 1e-4
+
+
+def test_without_the_continuous_solution_it_says_what_to_do():
+    definition = kd.models.build("flexible-robot", n_modes=1, n_elements=2)
+    model = definition.numeric(backend="numpy")
+    res = kd.simulate(model, (0.0, 0.1), definition.initial(model))
+    with pytest.raises(KanedynError, match="dense_output=True"):
+        energy_balance(res)
+    res = kd.simulate(model, (0.0, 0.1), definition.initial(model), dense_output=True)
+    with pytest.raises(KanedynError, match="2 load names for 1 loads"):
+        energy_balance(res, load_names=("a", "b"))
