@@ -119,7 +119,8 @@ _ALLOWED = {("numerics/backends/_c_quick.py", "write_text"),
             ("analysis/_seatbelt_studies.py", "to_csv"),  # LockMap.to_csv
             ("cli/_demo.py", "to_csv"),  # SimulationResult.to_csv
             ("cli/_inverse.py", "to_csv"),  # InverseStudy.to_csv
-            ("cli/_optimize.py", "to_csv")}  # OptimalControlResult.to_csv (replacing)
+            ("cli/_optimize.py", "to_csv"),  # OptimalControlResult.to_csv (replacing)
+            ("io/fmu/_export.py", "write_text")}  # C sources into its own temporary folder
 
 
 def _writing_mode(node):
