@@ -25,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError
+from .._output_files import replacing
 from ..modeling import (AirfoilPolar, BladeElementMomentum, BladeTable, read_airfoil_polar,
                         read_blade_table)
 from ._oc3_data import ROTOR
@@ -59,7 +60,8 @@ def write_nrel5mw_blade(source, path=NREL5MW_BLADE_DATA):
         polar = read_airfoil_polar(source / "Airfoils" / f"{name}.dat")
         arrays[f"polar{i}"] = np.column_stack([polar.angle_of_attack, polar.lift,
                                                polar.drag])
-    np.savez_compressed(path, **arrays)
+    with replacing(Path(path), "wb") as handle:
+        np.savez_compressed(handle, **arrays)
 
 
 @functools.lru_cache(maxsize=1)
