@@ -11,6 +11,7 @@ from kanedyn._errors import KanedynError
 from kanedyn.cli import main
 
 
+@pytest.mark.slow
 def test_oc3_campbell_study_writes_its_table_and_figure_with_campbells_frequencies(tmp_path):
     code = main(["study", "oc3-campbell", "--set", "n_speeds=3", "--set", "max_rpm=12.1",
                  "--set", "drivetrain=rigid", "--out", str(tmp_path), "--quiet"])
