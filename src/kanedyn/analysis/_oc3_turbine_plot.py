@@ -59,7 +59,9 @@ def oc3_turbine_series(definition, model, y):
     if rotor is None:
         return out
     out["rotor_speed"] = y[names.index("rotor_speed")] * 30 / math.pi
-    states = list(model.eom.q) + list(model.eom.u)
+    from ..engine import name_of
+    symbols = {name_of(x): x for x in [*definition.symbols["q"], *definition.symbols["u"]]}
+    states = [symbols[name] for name in names]
     inputs = {k: v for k, v in definition.specified.items() if not callable(v)}
     pitch = state_function([rotor["pitch"]], states, inputs, "blade pitch")
     power = state_function([rotor["electrical_power"]], states,
