@@ -324,6 +324,14 @@ CLI_CASES = {
     "float option as code": (["run", "ladder", "--set", "angle=().__class__"],
                              "option angle of ladder: .* is not a number"),
     "missing equals sign": (["run", "pendulum", "--set", "m"], "--set expects name=value"),
+    "oc3-operating wind list not numbers": (
+        ["study", "oc3-operating", "--set", "wind_speeds=rated"],
+        "oc3-operating: wind_speeds must be numbers in m/s"),
+    "oc3-operating wind out of the operating range": (
+        ["study", "oc3-operating", "--set", "wind_speeds=11.4,30"],
+        "oc3-operating: wind_speeds must be one or more operating winds"),
+    "oc3-campbell one speed": (["study", "oc3-campbell", "--set", "n_speeds=1"],
+                               "oc3-campbell: n_speeds must be at least 2"),
     "derive with a value": (["derive", "pendulum", "--set", "m=2"],
                             "derive takes only model options"),
     "unknown formulation": (["compare", "pendulum", "--methods", "kane,hamilton"],

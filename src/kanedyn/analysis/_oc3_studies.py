@@ -38,7 +38,7 @@ from .._output_files import save_figure
 from ._studies import StudyOption, register_study
 
 __all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao",
-           "decay_analysis", "simulated_rao"]
+           "decay_analysis", "simulated_rao", "tuned_damper_options"]
 
 _TOP_Z = 87.6  # tower top above the SWL, m
 _WATER_DEPTH = 320.0  # OC3 water depth, m (only the fluid kinematics use it)
@@ -579,6 +579,33 @@ def _tuned(backend, kind, mass_ratio, inertance_ratio, inerter_height, tower_mod
     return tuning, d, y, wp
 
 
+def tuned_damper_options(kind, mass_ratio, inertance_ratio, inerter_height, backend,
+                         tower_damping, tower_damping_reference):
+    """``oc3_spar`` options of a TMD or TMDI tuned as ``oc3-tmdi`` tunes it.
+
+    H-infinity on the still-water, parked FRF of the tower-top deflection
+    (two tower modes), with these mass and inertance ratios and tower damping.
+
+    Returns
+    -------
+    (dict, tuple)
+        The model options (``tmd_mass_ratio``, ``tmd_frequency`` in Hz,
+        ``tmd_damping``, and for the TMDI ``inertance_ratio``,
+        ``inerter_height``), and ``(frequency ratio, damping ratio, tower mode
+        rad/s)`` of the tuning.
+    """
+    beta = inertance_ratio if kind == "tmdi" else 0.0
+    tuning, _, _, wp = _tuned(backend, kind, mass_ratio, inertance_ratio, inerter_height, 2,
+                              "hinf", tower_damping, tower_damping_reference)
+    f, zeta = tuning.frequency_ratio, tuning.damping_ratio
+    scale = math.sqrt(1 + beta / mass_ratio)   # k_d = m_d w_d^2 = (m_d + b)(f w_p)^2
+    options = dict(tmd_mass_ratio=mass_ratio, tmd_frequency=f * wp / (2 * math.pi) * scale,
+                   tmd_damping=zeta * scale)
+    if kind == "tmdi":
+        options.update(inertance_ratio=beta, inerter_height=inerter_height)
+    return options, (f, zeta, wp)
+
+
 def _band_peaks(model, y, omega, rows):
     """``[(|H| peak, omega), ...]`` per output row: the largest local maximum inside the
     grid ``omega`` of the force-to-output FRF, refined (``response_peaks``)."""
@@ -694,26 +721,16 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
         raise KanedynError(f"oc3-sea: duration must be at least 100 s, got {duration}")
     rows, spectra, tuned = [], {}, {}
     for kind in ("off", "tmd", "tmdi"):
-        beta = inertance_ratio if kind == "tmdi" else 0.0
         opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=Hs,
                     wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind,
                     tower_damping=tower_damping,
                     tower_damping_reference=tower_damping_reference)
         if kind != "off":
-            # tuned as oc3-tmdi tunes (H-infinity on the still-water, parked FRF of the
-            # deflection), with this study's mass and inertance ratios and tower damping
             _say(quiet, f"oc3-sea: tuning the {kind.upper()}")
-            tuning, _, _, wp = _tuned(backend, kind, mass_ratio, inertance_ratio,
-                                      inerter_height, 2, "hinf", tower_damping,
-                                      tower_damping_reference)
-            f, zeta = tuning.frequency_ratio, tuning.damping_ratio
-            tuned[kind] = (f, zeta, wp)
-            scale = math.sqrt(1 + beta / mass_ratio)   # k_d = m_d w_d^2 = (m_d + b)(f w_p)^2
-            opts.update(tmd_mass_ratio=mass_ratio,
-                        tmd_frequency=f * wp / (2 * math.pi) * scale,
-                        tmd_damping=zeta * scale)
-            if kind == "tmdi":
-                opts.update(inertance_ratio=beta, inerter_height=inerter_height)
+            damper, tuned[kind] = tuned_damper_options(
+                kind, mass_ratio, inertance_ratio, inerter_height, backend, tower_damping,
+                tower_damping_reference)
+            opts.update(damper)
         _say(quiet, f"oc3-sea: {kind} ({duration:g} s)")
         d, _, model, y_eq = _model(backend, **opts)
         dt = 0.1

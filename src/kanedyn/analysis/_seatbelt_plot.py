@@ -98,7 +98,12 @@ def seatbelt_run_figure(result, definition, report=None):
 
 #: model name -> the figure ``kanedyn run`` writes besides the states' plot, as
 #: ``<name>_story.png``: ``f(result, definition) -> Figure``
-RUN_FIGURES = {"seatbelt-sensor": seatbelt_run_figure}
+def _oc3_run_figure(result, definition):
+    from ._oc3_turbine_plot import oc3_run_figure
+    return oc3_run_figure(result, definition)
+
+
+RUN_FIGURES = {"seatbelt-sensor": seatbelt_run_figure, "oc3-spar": _oc3_run_figure}
 
 
 def run_figure(result, definition):

@@ -151,6 +151,7 @@ def study_option_value(study_name, name, option, value):
 
 def _load_builtin():
     from . import _oc3_studies  # noqa: F401  (registers the oc3-* studies)
+    from . import _oc3_campbell_study, _oc3_operating_study  # noqa: F401  (oc3 turbine)
     from . import _seatbelt_studies  # noqa: F401  (registers the seatbelt-* studies)
     from ._optimal_problems import available_problems
     available_problems()  # registers the optimal-control problems as studies

@@ -392,6 +392,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         # derivatives, which the rotor's numeric aerodynamic damping cannot take)
         rates = {qk.diff(T): uk for qk, uk in zip(tower.q, tower.u)}
         hub.set_vel(N, me.msubs(top.vel(N) + hub.pos_from(top).dt(N), rates))
+        if spinning:   # and the nacelle's, which the BEM's blade elements take
+            A.set_ang_vel(N, me.msubs(A.ang_vel_in(N), rates))
     spin = wind_symbol = None
     wind = float(wind_speed)
     if wind_speed > 0 and turbulence > 0:

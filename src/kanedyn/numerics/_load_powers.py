@@ -111,9 +111,14 @@ def _specification(model, gravity):
         rest_power.append(sub(dot(rest, base)))
         grav_power.append(sub(dot(grav, base)))
         along_t.append(dot(vec, prescribed_part(base)))
+    def reference_motion(body):
+        # a flexible body's frame and origin; an inertial element's rates (no frame)
+        if hasattr(body, "origin"):
+            return prescribed_part(velocity(body.frame)) + prescribed_part(velocity(body.origin))
+        return tuple(prog.subs(c, at_rest) for c in body._rates(kin))
+
     moved = [b.name for b in eom.bodies if not isinstance(b, (me.RigidBody, me.Particle))
-             and any(not sm.sympify(c).is_zero for c in
-                     prescribed_part(velocity(b.frame)) + prescribed_part(velocity(b.origin)))]
+             and any(not sm.sympify(c).is_zero for c in reference_motion(b))]
     outputs = [((len(rest_power),), rest_power), ((len(grav_power),), grav_power)]
     if not moved:
         o = len(udot)
