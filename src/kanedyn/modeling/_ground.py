@@ -39,10 +39,9 @@ GROUND_SHAPES = ("sphere", "capsule", "box")
 
 
 def _number(value, what, lower=0.0, upper=None):
-    try:
-        v = float(value)
-    except (TypeError, ValueError):
-        raise ModelError(f"Ground: {what} must be a number, not {value!r}") from None
+    if isinstance(value, (str, bytes, bool)) or not isinstance(value, (int, float, np.number)):
+        raise ModelError(f"Ground: {what} must be a number, not {value!r}")
+    v = float(value)
     if not np.isfinite(v) or v < lower or (upper is not None and v > upper):
         bound = f"in [{lower}, {upper}]" if upper is not None else f">= {lower}"
         raise ModelError(f"Ground: {what} must be a finite number {bound}, got {value!r}")
