@@ -178,3 +178,84 @@ def test_ground_input_is_checked(tmp_path):
     with pytest.raises(kd.models.MJCFError, match=r"box\.xml: ground: no colliding sphere, "
                                                   "capsule or box geom on a moving body"):
         kd.models.from_mjcf(mjcf, ground=ground)
+
+
+QUADRUPED_MJCF = """<mujoco model="quadruped">
+  <option gravity="0 0 -9.81" timestep="0.0005"/>
+  <default>
+    <joint type="hinge" axis="0 1 0" stiffness="40" damping="0.4"/>
+    <geom type="capsule" size="0.015" mass="0.15" friction="0.8"/>
+  </default>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="base" pos="0 0 0.45">
+      <freejoint/>
+      <geom name="base" type="box" size="0.2 0.1 0.03" mass="1.5"/>
+      <body name="fl" pos="0.18 0.12 0"><joint name="fl"/>
+        <geom name="fl" fromto="0 0 0 0.05 0 -0.22"/></body>
+      <body name="fr" pos="0.18 -0.12 0"><joint name="fr"/>
+        <geom name="fr" fromto="0 0 0 0.05 0 -0.22"/></body>
+      <body name="hl" pos="-0.18 0.12 0"><joint name="hl"/>
+        <geom name="hl" fromto="0 0 0 -0.05 0 -0.22"/></body>
+      <body name="hr" pos="-0.18 -0.12 0"><joint name="hr"/>
+        <geom name="hr" fromto="0 0 0 -0.05 0 -0.22"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _mujoco_drop(path, t_end):
+    """MuJoCo's base height (n,), times (n,) and the summed normal contact force at
+    the end, N."""
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    t, z = [], []
+    while data.time < t_end:
+        mujoco.mj_step(model, data)
+        t.append(data.time)
+        z.append(data.qpos[2])
+    wrench = np.zeros(6)
+    total = 0.0
+    for i in range(data.ncon):
+        mujoco.mj_contactForce(model, data, i, wrench)
+        total += wrench[0]  # along the contact normal
+    return np.array(t), np.array(z), total
+
+
+def _settled_after(t, z, tol=1e-3):
+    """The last time the height is farther than ``tol`` (m) from its final value."""
+    return t[np.nonzero(np.abs(z - z[-1]) > tol)[0][-1]]
+
+
+@pytest.mark.slow
+def test_quadruped_drop_compared_with_mujoco(tmp_path):
+    """A quadruped (box base, four capsule legs on spring-damper hips, MJCF)
+    dropped 0.215 m onto the ground, in kanedyn (rigid contacts, plastic impacts,
+    Coulomb friction 0.8) and in MuJoCo (its soft contacts, same friction, the
+    file's own floor plane).  Both land at the free-fall time; the base rests
+    0.235 m high in kanedyn (legs undeflected: the sticking feet take the
+    horizontal load) and within a millimetre of it in MuJoCo (its feet sink in
+    and creep); MuJoCo's base rings down within 0.15 s, kanedyn's stops at the
+    impact; in both the normal forces carry the weight."""
+    path = tmp_path / "quadruped.xml"
+    path.write_text(QUADRUPED_MJCF)
+    definition = kd.models.from_mjcf(path, ground=kd.Ground(height=0.0, mu_k=0.8,
+                                                             restitution=0.0))
+    assert len(definition.kane_args["contacts"]) == 8 + 4 * 2
+    t_end, weight = 1.0, (1.5 + 4 * 0.15) * G
+    res = kd.simulate(definition.numeric(), (0.0, t_end), definition.initial_state,
+                      max_step=0.01)
+    t_mj, z_mj, normal_mj = _mujoco_drop(path, t_end)
+    t_fall = np.sqrt(2 * (0.45 - 0.22 - 0.015) / G)
+    assert res.impacts[0].t == pytest.approx(t_fall, rel=1e-6)
+    assert t_mj[np.argmax(z_mj < 0.235)] == pytest.approx(t_fall, abs=2e-3)
+    assert res.y[2, -1] == pytest.approx(0.235, abs=1e-9)
+    assert abs(z_mj[-1] - res.y[2, -1]) < 1e-3
+    n_q = len(definition.kane_args["q_ind"])
+    assert np.max(np.abs(res.y[n_q:, -1])) < 1e-6   # the speeds: at rest
+    assert np.all(np.abs(res.y[2, res.t > res.impacts[-1].t] - 0.235) < 1e-6)
+    assert 0.0 < _settled_after(t_mj, z_mj) - t_fall < 0.15
+    assert sum(_normal_forces(res).values()) == pytest.approx(weight, rel=1e-8)
+    assert normal_mj == pytest.approx(weight, rel=1e-3)
