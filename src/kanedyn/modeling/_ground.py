@@ -166,8 +166,9 @@ def ground_contacts(ground, frame, origin, primitives, source):
     planes, contacts, notes = {}, [], []
     for prim in primitives:
         if prim.shape not in GROUND_SHAPES:
-            notes.append(f"{prim.where}{': ' if prim.where else ''}{prim.name}: a {prim.shape} does not touch the ground (only "
-                         f"{', '.join(GROUND_SHAPES)} do)")
+            where = f"{prim.where}: " if prim.where else ""
+            notes.append(f"{where}{prim.name}: a {prim.shape} does not touch the ground "
+                         f"(only {', '.join(GROUND_SHAPES)} do)")
             continue
         for suffix, offset, lift in _body_points(prim):
             level = ground.height + lift

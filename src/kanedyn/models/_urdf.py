@@ -335,7 +335,8 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
                    points={link: build.point_of[group[link][0]] for link in robot.links})
     return URDFDefinition(
         name=robot.name, title=f"{robot.name} from {robot.source} ({len(q_list)} coordinates)",
-        kane_args=kane_args, constants=build.constants, initial_state={s: 0.0 for s in q_list + u_list},
+        kane_args=kane_args, constants=build.constants,
+        initial_state={s: 0.0 for s in q_list + u_list},
         t_end=float(t_end), specified=build.specified, symbols=symbols,
         description=f"URDF robot '{robot.name}' read from {robot.source}; {base} base.",
         source=robot.source, joints=tuple(build.joint_infos), visuals=tuple(visuals),
