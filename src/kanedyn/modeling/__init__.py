@@ -4,6 +4,7 @@
                          ``System`` or ``KanesMethod`` keywords
 ``_physical``            physical plausibility of masses and inertias
 ``_contacts``            contacts and the surfaces they touch
+``_ground``              a ground plane for robots: collision primitives as contacts
 ``_vector_constraints``  constraints in vector form that identify their forces
 ``_actuators``           actuators, transmissions (ball screws), external wrenches
 ``_inertial_elements``   generalized-inertia elements: rate inertia, inerter, added mass
@@ -44,6 +45,10 @@ _LAZY = {
     'Sphere': '._contacts',
     'Surface': '._contacts',
     'coefficient_value': '._contacts',
+    'Ground': '._ground',
+    'CollisionPrimitive': '._ground',
+    'GROUND_SHAPES': '._ground',
+    'ground_contacts': '._ground',
     'BodyValues': '._physical',
     'body_parameters': '._physical',
     'body_values': '._physical',

@@ -21,7 +21,8 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..modeling import inertia_violation, principal_moments
+from ..modeling import (CollisionPrimitive, Ground, ground_contacts, inertia_violation,
+                        principal_moments)
 from ._base import ModelDefinition
 from ._urdf_parse import (URDFError, Visual, inertia_text, parse_robot, pose_matrix,
                           round_off_text)
@@ -232,7 +233,7 @@ def _nearest_solid(inertia):
 
 
 def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=None,
-              mesh_dirs=None, efforts=True, t_end=1.0):
+              mesh_dirs=None, efforts=True, ground=None, t_end=1.0):
     """A model definition of the robot described by a URDF file.
 
     Parameters
@@ -264,6 +265,14 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     efforts : bool, optional
         Add the joint torques/forces ``tau_<joint>`` as specified inputs (zero by
         default; give ``specified={...}`` to :meth:`ModelDefinition.numeric`).
+    ground : kanedyn.Ground, optional
+        A rigid ground plane ``z = ground.height`` of the base frame: every
+        ``<collision>`` sphere (its centre against the plane raised by its
+        radius) and box (its eight vertices) of a moving body becomes a
+        :class:`~kanedyn.Contact` with the ground's friction and restitution,
+        named ``<link>/collision<k>`` (``#<vertex>`` appended for a box).
+        Cylinders and meshes are not used (a :class:`UserWarning` names them);
+        none usable is an error.
     t_end : float, optional
         Default simulation length, s.
 
@@ -317,14 +326,17 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
                 out.append(replace(vis, body=body, transform=tuple(map(tuple, pose))))
     q_list, u_list = build.q, build.u
     group = build.group
+    kane_args = dict(frame=build.N, q_ind=q_list, u_ind=u_list, kd_eqs=build.kd_eqs,
+                     bodies=build.rigid_bodies, loads=build.loads)
+    if ground is not None:
+        kane_args["contacts"] = _ground_contacts(ground, collisions, build, robot.source)
     symbols = dict(q=q_list, u=u_list, g=build.g, N=build.N, O=build.O,
                    frames={link: build.frame_of[group[link][0]] for link in robot.links},
                    points={link: build.point_of[group[link][0]] for link in robot.links})
     return URDFDefinition(
         name=robot.name, title=f"{robot.name} from {robot.source} ({len(q_list)} coordinates)",
-        kane_args=dict(frame=build.N, q_ind=q_list, u_ind=u_list, kd_eqs=build.kd_eqs,
-                       bodies=build.rigid_bodies, loads=build.loads),
-        constants=build.constants, initial_state={s: 0.0 for s in q_list + u_list},
+        kane_args=kane_args, constants=build.constants,
+        initial_state={s: 0.0 for s in q_list + u_list},
         t_end=float(t_end), specified=build.specified, symbols=symbols,
         description=f"URDF robot '{robot.name}' read from {robot.source}; {base} base.",
         source=robot.source, joints=tuple(build.joint_infos), visuals=tuple(visuals),
@@ -501,6 +513,27 @@ def _warn_inertias(robot, adjusted):
         warnings.warn(f"{robot.source}: {len(notes)} inertia(s) not a solid's by "
                       f"round-off only, up to {round_off_text(robot.inertia_tolerance)}, "
                       "accepted:\n  " + "\n  ".join(notes), UserWarning, stacklevel=3)
+
+
+def _ground_contacts(ground, collisions, build, source):
+    """Contacts of the ``<collision>`` spheres and boxes of moving bodies with
+    ``ground`` (a warning names the collision elements not used)."""
+    if not isinstance(ground, Ground):
+        raise ModelError(f"from_urdf: ground must be a kanedyn.Ground, not {ground!r}")
+    primitives, count = [], {}
+    for vis in collisions:
+        if vis.body == "":
+            continue  # fixed to the ground
+        k = count[vis.link] = count.get(vis.link, -1) + 1
+        size = [s / 2 for s in vis.size] if vis.shape == "box" else vis.size
+        primitives.append(CollisionPrimitive(
+            f"{vis.link}/collision{k}", vis.shape, tuple(size), build.frame_of[vis.body],
+            build.point_of[vis.body], vis.transform, f"{vis.source}:{vis.line}"))
+    contacts = ground_contacts(ground, build.N, build.O, primitives, source)
+    if not contacts:
+        raise URDFError(f"{source}: ground: no <collision> sphere or box on a moving link "
+                        "(meshes and cylinders are not turned into ground contacts)")
+    return contacts
 
 
 def _check_masses(order, carried, source):

@@ -36,6 +36,7 @@ import sympy.physics.mechanics as me
 from ...modeling import RateInertia, inertia_violation, principal_moments
 from .._base import ModelDefinition
 from ._frames import euler_matrix, matrix_quat, quat_matrix
+from ._ground import mjcf_ground_contacts
 from ._inertia import body_mass_properties, bound, combine
 from ._parse import parse_mjcf
 from ._xml import MJCFError
@@ -892,7 +893,7 @@ class _Builder:
         return [exprs[i] for i in rows], [self.q[i] for i in sorted(chosen)], lines
 
 
-def from_mjcf(path, *, inputs=True, t_end=1.0):
+def from_mjcf(path, *, inputs=True, ground=None, t_end=1.0):
     """A model definition of the MuJoCo model in an MJCF file.
 
     Parameters
@@ -903,6 +904,15 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
         Add each actuator's control ``ctrl_<actuator>`` as a specified input
         (zero by default; give ``specified={...}`` to
         :meth:`ModelDefinition.numeric`).  ``False``: no actuator forces.
+    ground : kanedyn.Ground, optional
+        A rigid ground plane ``z = ground.height`` of the world frame: every
+        sphere (its centre against the plane raised by its radius), capsule (its
+        two end spheres) and box (its eight vertices) geom of a moving body with
+        ``contype`` or ``conaffinity`` not zero becomes a :class:`~kanedyn.Contact`
+        with the ground's friction and restitution, named after the geom
+        (``<body>/geom<k>`` when it has no name; ``#<k>`` appended for the ends
+        and vertices).  Other geom types are not used (a :class:`UserWarning`
+        names them); the file's own planes are not used either.
     t_end : float, optional
         Default simulation length, s.
 
@@ -948,6 +958,11 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
         u_ind = [u for u in u_ind if u not in u_dep]
         kane_args.update(q_dep=q_dep, u_dep=u_dep, configuration_constraints=config)
     kane_args.update(q_ind=q_ind, u_ind=u_ind, kd_eqs=kd_eqs)
+    geoms = tuple(build.geom_records())
+    if ground is not None:
+        kane_args["contacts"] = mjcf_ground_contacts(ground, geoms, build.frame_of,
+                                                     build.point_of, build.N, build.O,
+                                                     model.source)
     if build.bodies == [] or not any(isinstance(b, me.RigidBody) for b in build.bodies):
         raise MJCFError(f"{model.source}: no body has mass")
     nq, nv = build.qpos_at, build.dof_at
@@ -966,6 +981,6 @@ def from_mjcf(path, *, inputs=True, t_end=1.0):
         description=f"MuJoCo model '{model.name}' read from {model.source}.",
         source=model.source, joints=tuple(build.joint_infos),
         actuators=tuple(build.actuator_infos), sites=tuple(build.site_infos),
-        geoms=tuple(build.geom_records()),
+        geoms=geoms,
         equalities=tuple(equalities), body_of=dict(build.head), gravity=build.gravity,
         nq=nq, nv=nv)

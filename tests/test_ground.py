@@ -1,0 +1,265 @@
+"""A ground plane for robots: ``from_urdf``/``from_mjcf(..., ground=kd.Ground(...))``
+turn collision spheres, capsules and boxes into rigid contacts.  Checked against
+statics (normal forces carry the weight, shared by symmetry), closed forms (a
+sliding box's stopping distance and time, a sphere's rebound height) and, for a
+quadruped dropped on its springy legs, MuJoCo's simulation of the same file."""
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+
+G = 9.81
+
+BOX_MJCF = """<mujoco model="box">
+  <option gravity="0 0 -9.81"/>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="box" pos="0 0 {z}">
+      <freejoint/>
+      <geom name="box" type="box" size="0.2 0.1 0.05" mass="2"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+BOX_URDF = """<?xml version="1.0"?>
+<robot name="block">
+  <link name="block">
+    <inertial><mass value="3.0"/>
+      <inertia ixx="0.01" iyy="0.02" izz="0.025" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><geometry><box size="0.3 0.2 0.1"/></geometry></collision>
+    {extra}
+  </link>
+</robot>
+"""
+
+SPHERE_URDF = """<?xml version="1.0"?>
+<robot name="ball">
+  <link name="ball">
+    <inertial><mass value="0.5"/>
+      <inertia ixx="0.0008" iyy="0.0008" izz="0.0008" ixy="0" ixz="0" iyz="0"/></inertial>
+    <collision><origin xyz="0 0 0.1"/><geometry><sphere radius="0.04"/></geometry></collision>
+  </link>
+</robot>
+"""
+
+
+def _state(definition, **values):
+    """The definition's initial state with some coordinates/speeds set by name."""
+    state = dict(definition.initial_state)
+    by_name = {str(s).removesuffix("(t)"): s for s in state}
+    for name, value in values.items():
+        state[by_name[name]] = value
+    return state
+
+
+def _normal_forces(res, k=-1):
+    return {name: forces["normal"][k] for name, forces in res.contact_forces.items()}
+
+
+def test_tilted_box_settles_on_its_four_bottom_corners(tmp_path):
+    """An MJCF box dropped tilted lands on an edge and settles flat: the normal
+    forces sum to the weight and, the box being symmetric, each bottom corner
+    carries a quarter of it; the top corners none."""
+    path = tmp_path / "box.xml"
+    path.write_text(BOX_MJCF.format(z=0.2))
+    ground = kd.Ground(height=0.0, mu_k=0.6, restitution=0.0)
+    definition = kd.models.from_mjcf(path, ground=ground)
+    names = [c.name for c in definition.kane_args["contacts"]]
+    assert names == [f"box#{k}" for k in range(8)]
+    res = kd.simulate(definition.numeric(), (0.0, 1.5),
+                      _state(definition, phi_joint0=0.3), max_step=0.01)
+    assert res.impacts, "the box must land"
+    assert res.y[2, -1] == pytest.approx(0.05, abs=1e-8)  # half its height
+    assert np.max(np.abs(res.y[6:, -1])) < 1e-6           # at rest
+    forces = _normal_forces(res)
+    assert sum(forces.values()) == pytest.approx(2.0 * G, rel=1e-8)
+    bottom = [f for f in forces.values() if f > 1e-9]
+    assert len(bottom) == 4
+    assert bottom == pytest.approx([2.0 * G / 4] * 4, rel=1e-6)
+
+
+def test_sliding_box_stops_at_the_closed_form(tmp_path):
+    """A URDF box launched along the ground at v0 slides to rest after
+    v0^2 / (2 mu g) in v0 / (mu g): the slip turns to stick then."""
+    path = tmp_path / "block.urdf"
+    path.write_text(BOX_URDF.format(extra=""))
+    mu, v0 = 0.4, 2.0
+    definition = kd.models.from_urdf(path, base="floating",
+                                     ground=kd.Ground(height=0.0, mu_k=mu, restitution=0.0))
+    res = kd.simulate(definition.numeric(), (0.0, 1.0),
+                      _state(definition, z=0.05, v_x=v0), rtol=1e-10, atol=1e-10,
+                      max_step=0.01)
+    assert res.y[0, -1] == pytest.approx(v0 ** 2 / (2 * mu * G), rel=1e-6)
+    assert res.y[2, -1] == pytest.approx(0.05, abs=1e-9)
+    sticks = [c.t for c in res.mode_history if c.new == "stick"]
+    assert sticks and min(sticks) == pytest.approx(v0 / (mu * G), rel=1e-6)
+    assert sum(_normal_forces(res, 10).values()) == pytest.approx(3.0 * G, rel=1e-8)
+
+
+def test_sphere_rebounds_to_e_squared_of_its_drop(tmp_path):
+    """A URDF sphere (offset from its link origin) dropped from h above the
+    ground rebounds to e^2 h (Newton's law): its centre is held at the radius
+    above the plane, its lowest point touches it."""
+    path = tmp_path / "ball.urdf"
+    path.write_text(SPHERE_URDF)
+    e, h, r = 0.5, 0.3, 0.04
+    ground = kd.Ground(height=-0.2, mu_k=0.5, restitution=e, restitution_law="newton")
+    definition = kd.models.from_urdf(path, base="floating", ground=ground)
+    (contact,) = definition.kane_args["contacts"]
+    assert contact.name == "ball/collision0"
+    z0 = -0.2 + r + h - 0.1          # the link origin is 0.1 below the centre
+    t_land = np.sqrt(2 * h / G)
+    res = kd.simulate(definition.numeric(), (0.0, 2 * t_land),
+                      _state(definition, z=z0), rtol=1e-10, atol=1e-12, max_step=0.005)
+    (impact, *_) = res.impacts
+    assert impact.t == pytest.approx(t_land, rel=1e-7)
+    after = res.t > impact.t
+    assert np.max(res.y[2, after]) - (z0 - h) == pytest.approx(e ** 2 * h, rel=1e-4)
+
+
+def test_capsule_lies_on_the_ground_on_its_end_spheres(tmp_path):
+    """A horizontal MJCF capsule falls and rests with its axis at its radius above
+    the ground, each end sphere carrying half the weight."""
+    path = tmp_path / "capsule.xml"
+    path.write_text("""<mujoco><worldbody><body pos="0 0 0.3"><freejoint/>
+      <geom name="rod" type="capsule" fromto="-0.2 0 0 0.2 0 0" size="0.03" mass="1.2"/>
+      </body></worldbody></mujoco>""")
+    definition = kd.models.from_mjcf(path, ground=kd.Ground(height=0.1, mu_k=0.5,
+                                                             restitution=0.0))
+    assert [c.name for c in definition.kane_args["contacts"]] == ["rod#0", "rod#1"]
+    res = kd.simulate(definition.numeric(), (0.0, 0.5), definition.initial_state,
+                      max_step=0.01)
+    assert res.y[2, -1] == pytest.approx(0.13, abs=1e-9)
+    assert list(_normal_forces(res).values()) == pytest.approx([0.6 * G] * 2, rel=1e-8)
+
+
+def test_ground_input_is_checked(tmp_path):
+    """Ground parameters, a ground that is not a Ground, a robot with nothing to
+    touch the ground, and collision shapes that cannot: each named."""
+    with pytest.raises(kd.ModelError, match="Ground: mu_k must be a finite number >= 0"):
+        kd.Ground(height=0.0, mu_k=-0.1, restitution=0.0)
+    with pytest.raises(kd.ModelError, match=r"Ground: restitution must be a finite number "
+                                            r"in \[0.0, 1.0\], got 1.5"):
+        kd.Ground(height=0.0, mu_k=0.5, restitution=1.5)
+    with pytest.raises(kd.ModelError, match="Ground: height must be a number, not '0'"):
+        kd.Ground(height="0", mu_k=0.5, restitution=0.0)
+    with pytest.raises(kd.ModelError, match="Ground: restitution_law must be"):
+        kd.Ground(height=0.0, mu_k=0.5, restitution=0.0, restitution_law="hertz")
+    with pytest.raises(TypeError, match="mu_k"):
+        kd.Ground(height=0.0, restitution=0.0)  # friction has no default
+    path = tmp_path / "block.urdf"
+    path.write_text(BOX_URDF.format(extra=""))
+    with pytest.raises(kd.ModelError, match="from_urdf: ground must be a kanedyn.Ground"):
+        kd.models.from_urdf(path, base="floating", ground=True)
+    ground = kd.Ground(height=0.0, mu_k=0.5, restitution=0.0)
+    path.write_text(BOX_URDF.format(extra="").replace(
+        '<box size="0.3 0.2 0.1"/>', '<cylinder radius="0.1" length="0.2"/>'))
+    with pytest.raises(kd.models.URDFError, match=r"block\.urdf: ground: no <collision> "
+                                                  "sphere or box on a moving link"), \
+            pytest.warns(UserWarning, match="a cylinder does not touch the ground"):
+        kd.models.from_urdf(path, base="floating", ground=ground)
+    path.write_text(BOX_URDF.format(extra='<collision><geometry><cylinder radius="0.1" '
+                                          'length="0.2"/></geometry></collision>'))
+    with pytest.warns(UserWarning, match=r"1 collision shape\(s\) not in contact with the "
+                                         r"ground:\n  .*block\.urdf:7: block/collision1: "
+                                         "a cylinder does not touch the ground"):
+        definition = kd.models.from_urdf(path, base="floating", ground=ground)
+    assert len(definition.kane_args["contacts"]) == 8
+    mjcf = tmp_path / "box.xml"
+    mjcf.write_text(BOX_MJCF.format(z=0.2))
+    with pytest.raises(kd.models.MJCFError, match="from_mjcf: ground must be a "
+                                                  "kanedyn.Ground, not 0.5"):
+        kd.models.from_mjcf(mjcf, ground=0.5)
+    mjcf.write_text(BOX_MJCF.format(z=0.2).replace('name="box" type="box"',
+                                                   'name="box" type="box" contype="0" '
+                                                   'conaffinity="0"'))
+    with pytest.raises(kd.models.MJCFError, match=r"box\.xml: ground: no colliding sphere, "
+                                                  "capsule or box geom on a moving body"):
+        kd.models.from_mjcf(mjcf, ground=ground)
+
+
+QUADRUPED_MJCF = """<mujoco model="quadruped">
+  <option gravity="0 0 -9.81" timestep="0.0005"/>
+  <default>
+    <joint type="hinge" axis="0 1 0" stiffness="40" damping="0.4"/>
+    <geom type="capsule" size="0.015" mass="0.15" friction="0.8"/>
+  </default>
+  <worldbody>
+    <geom name="floor" type="plane" size="2 2 0.1"/>
+    <body name="base" pos="0 0 0.45">
+      <freejoint/>
+      <geom name="base" type="box" size="0.2 0.1 0.03" mass="1.5"/>
+      <body name="fl" pos="0.18 0.12 0"><joint name="fl"/>
+        <geom name="fl" fromto="0 0 0 0.05 0 -0.22"/></body>
+      <body name="fr" pos="0.18 -0.12 0"><joint name="fr"/>
+        <geom name="fr" fromto="0 0 0 0.05 0 -0.22"/></body>
+      <body name="hl" pos="-0.18 0.12 0"><joint name="hl"/>
+        <geom name="hl" fromto="0 0 0 -0.05 0 -0.22"/></body>
+      <body name="hr" pos="-0.18 -0.12 0"><joint name="hr"/>
+        <geom name="hr" fromto="0 0 0 -0.05 0 -0.22"/></body>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def _mujoco_drop(path, t_end):
+    """MuJoCo's times (n,), base height (n,), the summed normal contact force at
+    the end (N) and the final hip angles (4,), rad."""
+    mujoco = pytest.importorskip("mujoco")
+    model = mujoco.MjModel.from_xml_path(str(path))
+    data = mujoco.MjData(model)
+    t, z = [], []
+    while data.time < t_end:
+        mujoco.mj_step(model, data)
+        t.append(data.time)
+        z.append(data.qpos[2])
+    wrench = np.zeros(6)
+    total = 0.0
+    for i in range(data.ncon):
+        mujoco.mj_contactForce(model, data, i, wrench)
+        total += wrench[0]  # along the contact normal
+    return np.array(t), np.array(z), total, data.qpos[7:].copy()
+
+
+def _settled_after(t, z, tol=1e-3):
+    """The last time the height is farther than ``tol`` (m) from its final value."""
+    return t[np.nonzero(np.abs(z - z[-1]) > tol)[0][-1]]
+
+
+@pytest.mark.slow
+def test_quadruped_drop_compared_with_mujoco(tmp_path):
+    """A quadruped (box base, four capsule legs on spring-damper hips, MJCF)
+    dropped 0.215 m onto the ground, in kanedyn (rigid contacts, plastic impacts,
+    Coulomb friction 0.8) and in MuJoCo (its soft contacts, same friction, the
+    file's own floor plane).  Both land at the free-fall time; the base rests
+    0.235 m high in kanedyn (legs undeflected: the sticking feet take the
+    horizontal load) and 0.3 to 1 mm lower in MuJoCo (its feet sink in and
+    creep, the hips deflect by about 0.006 rad); MuJoCo's base dips 10 to 20 mm
+    at landing and rings down within 0.15 s, kanedyn's stops at the impact; in
+    both the normal forces carry the weight."""
+    path = tmp_path / "quadruped.xml"
+    path.write_text(QUADRUPED_MJCF)
+    definition = kd.models.from_mjcf(path, ground=kd.Ground(height=0.0, mu_k=0.8,
+                                                             restitution=0.0))
+    assert len(definition.kane_args["contacts"]) == 8 + 4 * 2
+    t_end, weight = 1.0, (1.5 + 4 * 0.15) * G
+    res = kd.simulate(definition.numeric(), (0.0, t_end), definition.initial_state,
+                      max_step=0.01)
+    t_mj, z_mj, normal_mj, hips_mj = _mujoco_drop(path, t_end)
+    t_fall = np.sqrt(2 * (0.45 - 0.22 - 0.015) / G)
+    assert res.impacts[0].t == pytest.approx(t_fall, rel=1e-6)
+    assert t_mj[np.argmax(z_mj < 0.235)] == pytest.approx(t_fall, abs=2e-3)
+    assert res.y[2, -1] == pytest.approx(0.235, abs=1e-9)
+    assert 0.3e-3 < res.y[2, -1] - z_mj[-1] < 1e-3         # MuJoCo's feet sink, creep
+    assert 0.010 < 0.235 - np.min(z_mj) < 0.020                # and its dip at landing
+    assert np.abs(hips_mj) == pytest.approx([0.006] * 4, abs=1e-3)
+    assert np.max(np.abs(res.y[6:10, -1])) < 1e-9              # kanedyn's hips undeflected
+    n_q = len(definition.kane_args["q_ind"])
+    assert np.max(np.abs(res.y[n_q:, -1])) < 1e-6   # the speeds: at rest
+    assert np.all(np.abs(res.y[2, res.t > res.impacts[-1].t] - 0.235) < 1e-6)
+    assert 0.0 < _settled_after(t_mj, z_mj) - t_fall < 0.15
+    assert sum(_normal_forces(res).values()) == pytest.approx(weight, rel=1e-8)
+    assert normal_mj == pytest.approx(weight, rel=1e-3)
