@@ -598,13 +598,17 @@ def test_box_visual_placed_where_the_urdf_says(tmp_path):
 
 @pytest.mark.parametrize("robot", ["ur5", "panda"])
 def test_robot_shapes_one_per_moving_link(robot):
-    """The arms' visual meshes are Collada (.dae): each moving link is drawn by its
-    collision geometry; the base's visual (on the ground) is reported, not lost."""
+    """The arms' visual meshes are COLLADA (.dae): each moving link is drawn by its
+    own visual meshes (read with trimesh); the base's visual (on the ground) is
+    reported, not lost."""
+    pytest.importorskip("trimesh")
+    pytest.importorskip("collada")
     definition = kd.models.from_urdf(robots_folder() / REAL[robot])
     shapes, notes = definition.visual_shapes()
     moving = {b.name for b in definition.kane_args["bodies"]}
     assert {s.body.name for s in shapes} == moving
-    assert all(s.path.suffix == ".stl" for s in shapes if isinstance(s, kd.visuals.Mesh))
+    assert all(s.path.suffix == ".dae" for s in shapes if isinstance(s, kd.visuals.Mesh))
+    assert not [n for n in notes if n.startswith("replaced")]
     if robot == "ur5":
         assert len(shapes) == 6 and all(isinstance(s, kd.visuals.Mesh) for s in shapes)
     # every visual is drawn or named in a note

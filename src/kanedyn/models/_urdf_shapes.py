@@ -9,6 +9,7 @@ visual's rotation, both in body-frame components.
 
 from __future__ import annotations
 
+from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +18,11 @@ from ._urdf_meshes import shown_name
 
 __all__ = ["urdf_shapes", "MESH_FORMATS"]
 
-#: mesh file suffixes the viewer reads
-MESH_FORMATS = (".stl", ".obj")
+#: mesh file suffixes the viewer reads (.dae with trimesh and pycollada installed)
+MESH_FORMATS = (".stl", ".obj", ".dae")
+
+#: the modules that read .dae files (the optional extra "meshes")
+_COLLADA_READERS = ("trimesh", "collada")
 
 
 def _where(vis):
@@ -35,8 +39,13 @@ def _not_drawable(vis):
     if vis.path is None:
         return "the mesh file was not found (give package_dirs=... to from_urdf)"
     if Path(vis.path).suffix.lower() not in MESH_FORMATS:
-        return (f"the viewer reads {' and '.join(MESH_FORMATS)} meshes, not "
+        return (f"the viewer reads {', '.join(MESH_FORMATS)} meshes, not "
                 f"{Path(vis.path).suffix or 'files without a suffix'}")
+    if Path(vis.path).suffix.lower() == ".dae":
+        missing = [name for name in _COLLADA_READERS if find_spec(name) is None]
+        if missing:
+            return (f"reading .dae meshes needs trimesh and pycollada ({', '.join(missing)} "
+                    "not installed: pip install 'kanedyn[meshes]')")
     return None
 
 

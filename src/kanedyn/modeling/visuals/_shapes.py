@@ -205,7 +205,11 @@ class Sphere(Shape):
 
 
 class Mesh(Shape):
-    """A triangle mesh read from an STL (binary or text) or OBJ file.
+    """A triangle mesh read from an STL (binary or text), OBJ or COLLADA file.
+
+    A COLLADA (``.dae``) file is read with trimesh and pycollada
+    (``pip install 'kanedyn[meshes]'``), in metres by its ``<unit>`` and turned
+    so that its ``<up_axis>`` is the shape's ``+z``; ``scale`` applies after.
 
     Parameters
     ----------
@@ -221,8 +225,8 @@ class Mesh(Shape):
     def __init__(self, body, path, scale=1.0, **options):
         super().__init__(body, **options)
         path = Path(path)
-        if path.suffix.lower() not in (".stl", ".obj"):
-            raise ModelError(f"{self._where()}: {path} is not an .stl or .obj file")
+        if path.suffix.lower() not in (".stl", ".obj", ".dae"):
+            raise ModelError(f"{self._where()}: {path} is not an .stl, .obj or .dae file")
         if not path.is_file():
             raise ModelError(f"{self._where()}: mesh file {path} does not exist")
         self.path = path
