@@ -598,22 +598,22 @@ def test_box_visual_placed_where_the_urdf_says(tmp_path):
 
 @pytest.mark.parametrize("robot", ["ur5", "panda"])
 def test_robot_shapes_one_per_moving_link(robot):
-    """The arms' visual meshes are Collada (.dae): each moving link is drawn by its
-    collision geometry; the base's visual (on the ground) is reported, not lost."""
+    """The arms' visual meshes are COLLADA (.dae): each moving link is drawn by its
+    own visual meshes (read with trimesh), and so is the base, fixed in the
+    inertial frame."""
+    pytest.importorskip("trimesh")
+    pytest.importorskip("collada")
     definition = kd.models.from_urdf(robots_folder() / REAL[robot])
     shapes, notes = definition.visual_shapes()
     moving = {b.name for b in definition.kane_args["bodies"]}
-    assert {s.body.name for s in shapes} == moving
-    assert all(s.path.suffix == ".stl" for s in shapes if isinstance(s, kd.visuals.Mesh))
+    N = definition.symbols["N"]
+    assert {s.body.name for s in shapes} == moving | {N.name}
+    assert all(s.path.suffix == ".dae" for s in shapes if isinstance(s, kd.visuals.Mesh))
+    base = [s for s in shapes if s.body is N]
+    assert len(base) == 1 and base[0].path.stem in ("base", "link0")
+    assert notes == []
     if robot == "ur5":
-        assert len(shapes) == 6 and all(isinstance(s, kd.visuals.Mesh) for s in shapes)
-    # every visual is drawn or named in a note
-    drawn = {v.link for v in definition.visuals if v.body in moving}
-    noted = {n.split("link '")[1].split("'")[0] for n in notes}
-    assert {v.link for v in definition.visuals} == drawn | noted
-    skipped = [n for n in notes if n.startswith("skipped")]
-    assert len(skipped) == 1 and "fixed to the ground" in skipped[0]
-    assert "'base_link'" in skipped[0] or "'panda_link0'" in skipped[0]
+        assert len(shapes) == 7 and all(isinstance(s, kd.visuals.Mesh) for s in shapes)
 
 
 def _mesh_robot(path, filenames):

@@ -1,8 +1,9 @@
-"""Triangle meshes read from STL (binary or text) and OBJ files, for the viewer.
+"""Triangle meshes read from STL (binary or text), OBJ and COLLADA files, for the viewer.
 
 Only geometry is read: vertices and triangles (OBJ polygons are split into
 fans; texture coordinates, normals, groups and materials are ignored).  The
-result is embedded in the page as base64 little-endian arrays.
+result is embedded in the page as base64 little-endian arrays.  COLLADA
+(``.dae``) files are read by :mod:`._collada` (trimesh and pycollada).
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from pathlib import Path
 import numpy as np
 
 from .._errors import ModelError
+from ._collada import read_dae
 
 __all__ = ["read_mesh", "read_stl", "read_obj"]
 
@@ -84,9 +86,9 @@ def read_obj(path):
 
 
 def read_mesh(path):
-    """The mesh of an STL or OBJ file as page data (base64 arrays)."""
+    """The mesh of an STL, OBJ or COLLADA file as page data (base64 arrays)."""
     path = Path(path)
-    reader = read_obj if path.suffix.lower() == ".obj" else read_stl
+    reader = {".obj": read_obj, ".dae": read_dae}.get(path.suffix.lower(), read_stl)
     vertices, triangles = reader(path)
     return {"vertices": base64.b64encode(vertices.astype("<f4").tobytes()).decode("ascii"),
             "triangles": base64.b64encode(triangles.astype("<u4").tobytes()).decode("ascii"),

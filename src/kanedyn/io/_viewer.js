@@ -95,7 +95,7 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
   const sun = new THREE.DirectionalLight(0xffffff, 1.6);
   world.add(sun);
 
-  const counts = { bodies: 0, shapes: 0, surfaces: 0, flexible: 0, traces: 0,
+  const counts = { bodies: 0, shapes: 0, fixed: 0, surfaces: 0, flexible: 0, traces: 0,
                    segments: 0, frames: nFrames };
   const updaters = [];
   const material = (color, opacity = 1) => new THREE.MeshStandardMaterial({
@@ -207,6 +207,16 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
     legendEntry(b.color, b.name + (b.default_shape ? " (default shape)" : ""));
   });
 
+  // shapes fixed in the inertial frame (a robot's fixed base): placed once
+  let fixedGroup = null;
+  if (scene.fixed) {
+    fixedGroup = new THREE.Group();
+    fixedGroup.name = scene.fixed.name;
+    scene.fixed.shapes.forEach((s) => { fixedGroup.add(shapeMesh(s)); counts.fixed += 1; });
+    world.add(fixedGroup);
+    legendEntry(scene.fixed.color, scene.fixed.name);
+  }
+
   // skeleton: the links between the points that locate the bodies
   const sk = scene.skeleton;
   const reach = scene.reach || size;  // the model's own size (links' thickness)
@@ -295,6 +305,7 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
   // framing: everything drawn, over a few frames; a model that travels far
   // compared with its own size is followed by the camera
   const bounds = new THREE.Box3(new THREE.Vector3(...scene.low), new THREE.Vector3(...scene.high));
+  if (fixedGroup) bounds.expandByObject(fixedGroup);
   let instant = 0;
   const centroid = (out) => {
     out.set(0, 0, 0);
@@ -321,9 +332,9 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
   const step = niceStep(radius / 5);
   const whole = Math.max(0.5 * extent.length(), radius);
   let gridLabel = String(Number(step.toPrecision(2)));
-  const lowest = Math.min(...[0, 1, 2, 3, 4, 5, 6, 7].map((i) => new THREE.Vector3(
-    i & 1 ? bounds.max.x : bounds.min.x, i & 2 ? bounds.max.y : bounds.min.y,
-    i & 4 ? bounds.max.z : bounds.min.z).dot(up)));
+  // the grid: under the lowest point anything drawn reaches at any frame
+  const lowest = scene.floor;
+  let gridHeight = null;  // along up; null when a contact plane is the floor
   if (!floorDrawn) {
     const gridStep = niceStep(Math.max(step, whole / 100));
     const span = 2 * gridStep * Math.ceil(1.3 * whole / gridStep);
@@ -332,6 +343,7 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
     const middle = bounds.getCenter(new THREE.Vector3());
     grid.position.copy(middle).addScaledVector(up, lowest - middle.dot(up));
     world.add(grid);
+    gridHeight = grid.position.dot(up);
     gridLabel = String(Number(gridStep.toPrecision(2)));
   }
   const axisLength = 2 * step;
@@ -453,7 +465,7 @@ function kdBuild(THREE, OrbitControls, scene, parts, previous = null) {
   let meshes = 0;
   world.traverse((o) => { if (o.isMesh) meshes += 1; });
   const handle = {  // its getters stay getters (Object.assign would copy their values)
-    meshes, t0, t1, follow, camera, controls, ready: true,
+    meshes, t0, t1, follow, camera, controls, gridHeight, ready: true,
     setTime(t) { playing = false; playButton.textContent = "Play"; show(t);
                  renderer.render(world, camera); return time; },
     get time() { return time; },

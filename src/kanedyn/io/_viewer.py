@@ -21,7 +21,10 @@ r"""The scene of a 3D animation: what is drawn, and where it is at each frame.
   (:func:`kanedyn.analysis.deformed_nodes` placed by the body's pose);
 * contact surfaces: planes as a finite patch around the motion, spheres and
   ellipsoids whole; implicit surfaces are listed as not drawn;
-* the paths of chosen points (``trace``).
+* the paths of chosen points (``trace``);
+* shapes fixed in the inertial frame (a robot's fixed base), placed once;
+* the height of the ground grid (``floor``): the lowest height along "up"
+  that anything drawn reaches over all the frames (:mod:`._floor`).
 
 Positions and orientations are evaluated from the model's own kinematics
 (named intermediates of its program, :class:`kanedyn.engine.Kinematics`),
@@ -43,14 +46,17 @@ from ..modeling import (SURFACE_COORDINATES, Ellipsoid, FlexibleBody, InertialEl
                         Plane, Sphere, body_parameters)
 from ..modeling.visuals import Mesh, Shape
 from ..numerics import compile_python, generate_python
+from ._floor import lowest_height
 from ._meshes import read_mesh
 from ._up import up_direction
 
-__all__ = ["scene_data", "quaternions", "PALETTE", "DEFAULT_MAX_FRAMES"]
+__all__ = ["scene_data", "quaternions", "PALETTE", "FIXED_COLOR", "DEFAULT_MAX_FRAMES"]
 
 #: colours of bodies, in order (then repeated)
 PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2",
            "#17becf", "#bcbd22", "#7f7f7f")
+#: colour of shapes fixed in the inertial frame that declare none
+FIXED_COLOR = "#9aa3ad"
 DEFAULT_MAX_FRAMES = 2000
 _PARTICLE_SIZE = 0.03  # particle sphere radius, fraction of the scene size
 
@@ -431,13 +437,20 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
     reach = own if 0 < 4 * own < size else size
     up_vec, up_note = up_direction(up, model._eom, values)
 
-    by_body = {}
+    frame = model._eom.frame
+    by_body, fixed_shapes = {}, []
     for v in visuals:
+        if isinstance(v.body, me.ReferenceFrame):
+            if v.body is not frame:
+                raise ModelError(f"{v._where()}: {v.body} is not the inertial frame {frame} "
+                                 "of the simulated model, the only frame shapes are fixed in")
+            fixed_shapes.append(v)
+            continue
         if not any(v.body is b for b in prog.bodies):
             raise ModelError(f"{v._where()}: {getattr(v.body, 'name', v.body)} is not a body "
                              "of the simulated model")
         by_body.setdefault(id(v.body), []).append(v)
-    bodies = []
+    bodies, floor = [], float(np.min(cloud @ up_vec))
     for n, (kind, k, ip, jf, _) in enumerate(prog.items):
         body = prog.bodies[k]
         color = PALETTE[n % len(PALETTE)]
@@ -456,9 +469,18 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
                 default = True
         quat = quaternions(dcm[:, jf]) if jf is not None else np.tile([0, 0, 0, 1.0],
                                                                      (len(t), 1))
+        rotation = dcm[:, jf] if jf is not None else np.broadcast_to(np.eye(3), (len(t), 3, 3))
+        floor = min(floor, lowest_height(up_vec, pos[:, ip, :], rotation, shapes))
         bodies.append({"name": body.name, "color": color, "shapes": shapes,
                        "default_shape": default, "oriented": jf is not None,
                        "position": _rounded(pos[:, ip, :]), "quaternion": _rounded(quat)})
+    fixed = None
+    if fixed_shapes:
+        color = next((v.color for v in fixed_shapes if v.color), FIXED_COLOR)
+        fixed = {"name": f"{frame.name} (fixed)", "color": color,
+                 "shapes": [_shape_data(v, color) for v in fixed_shapes]}
+        floor = min(floor, lowest_height(up_vec, np.zeros((1, 3)), np.eye(3)[None],
+                                         fixed["shapes"]))
     flex = [{"name": prog.bodies[k].name, "body": [i for i, item in enumerate(prog.items)
                                                    if item[1] == k][0],
              "n_nodes": int(world.shape[1]), "nodes": _rounded(world)}
@@ -499,6 +521,8 @@ def scene_data(result, visuals=(), trace=(), up="auto", max_frames=DEFAULT_MAX_F
         "low": lo.tolist(), "high": hi.tolist(),
         "origin": getattr(prog, "origin_name", None),
         "bodies": bodies,
+        "fixed": fixed,
+        "floor": floor,
         "flexible": flex,
         "skeleton": skeleton,
         "surfaces": surfaces,

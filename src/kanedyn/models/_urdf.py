@@ -144,11 +144,12 @@ class URDFDefinition(ModelDefinition):
     def shapes(self, constants=None):
         """Shapes drawing the robot with its own ``<visual>`` geometry.
 
-        A visual mesh that the viewer cannot read (only ``.stl`` and ``.obj``
-        are read; e.g. a Collada ``.dae``) is replaced by the link's
-        ``<collision>`` geometry when that can be drawn.  Visuals that are still
-        not drawable (and those of links fixed to the ground or of massless
-        links, which the viewer does not draw) are skipped with a
+        A visual mesh that the viewer cannot read (``.stl``, ``.obj`` and, with
+        trimesh and pycollada, COLLADA ``.dae`` are read) is replaced by the
+        link's ``<collision>`` geometry when that can be drawn.  Visuals of links
+        fixed to the ground are shapes fixed in the inertial frame.  Visuals
+        that are still not drawable (and those of massless links, which the
+        viewer does not draw) are skipped with a
         :class:`UserWarning` naming each; :meth:`visual_shapes` returns the list.
 
         Parameters

@@ -4,11 +4,14 @@ A :class:`~kanedyn.models.Visual` is posed in the frame of its body's link (orig
 at the joint); a viewer shape is placed from the body's mass centre
 ``G = P + cx b_x + cy b_y + cz b_z`` (the constants ``cx_<body>``...), so its
 offset is the visual's translation minus ``(cx, cy, cz)`` and its rotation the
-visual's rotation, both in body-frame components.
+visual's rotation, both in body-frame components.  A visual of a link fixed to
+the ground (the fixed base) is a shape fixed in the inertial frame ``N``, placed
+from the root link's origin ``O`` in ``N`` components.
 """
 
 from __future__ import annotations
 
+from importlib.util import find_spec
 from pathlib import Path
 
 import numpy as np
@@ -17,8 +20,11 @@ from ._urdf_meshes import shown_name
 
 __all__ = ["urdf_shapes", "MESH_FORMATS"]
 
-#: mesh file suffixes the viewer reads
-MESH_FORMATS = (".stl", ".obj")
+#: mesh file suffixes the viewer reads (.dae with trimesh and pycollada installed)
+MESH_FORMATS = (".stl", ".obj", ".dae")
+
+#: the modules that read .dae files (the optional extra "meshes")
+_COLLADA_READERS = ("trimesh", "collada")
 
 
 def _where(vis):
@@ -35,8 +41,13 @@ def _not_drawable(vis):
     if vis.path is None:
         return "the mesh file was not found (give package_dirs=... to from_urdf)"
     if Path(vis.path).suffix.lower() not in MESH_FORMATS:
-        return (f"the viewer reads {' and '.join(MESH_FORMATS)} meshes, not "
+        return (f"the viewer reads {', '.join(MESH_FORMATS)} meshes, not "
                 f"{Path(vis.path).suffix or 'files without a suffix'}")
+    if Path(vis.path).suffix.lower() == ".dae":
+        missing = [name for name in _COLLADA_READERS if find_spec(name) is None]
+        if missing:
+            return (f"reading .dae meshes needs trimesh and pycollada ({', '.join(missing)} "
+                    "not installed: pip install 'kanedyn[meshes]')")
     return None
 
 
@@ -63,10 +74,11 @@ def _shape(vis, body, centre, rgba):
 
 
 def _bodies(definition, values):
-    """``{body link: (RigidBody, mass centre (3,) in the link frame)}``."""
+    """``{body link: (RigidBody, mass centre (3,) in the link frame)}``; the ground,
+    ``""``, is the inertial frame with its origin."""
     frames, points = definition.symbols["frames"], definition.symbols["points"]
     rigid = definition.kane_args["bodies"]
-    out = {}
+    out = {"": (definition.symbols["N"], np.zeros(3))}
     for link, (body, _) in definition.link_bodies.items():
         if body != link:
             continue
@@ -84,7 +96,8 @@ def urdf_shapes(definition, values):
     Every visual that can be drawn gives one shape.  A link whose visuals include
     one that cannot (an unread mesh format, a missing file) has those replaced by
     its drawable ``<collision>`` geometry, once per link; when it has none, or the
-    link is on the ground or massless, the visual is skipped.  ``notes`` says
+    link is massless, the visual is skipped.  Visuals of links fixed to the ground
+    are shapes fixed in the inertial frame.  ``notes`` says
     which visual was replaced or skipped and why.
     """
     bodies = _bodies(definition, values)
@@ -98,9 +111,8 @@ def urdf_shapes(definition, values):
     for link, (vis_list, col_list) in by_link.items():
         body = vis_list[0].body
         if body not in bodies:
-            why = ("fixed to the ground, which the viewer does not draw" if body == ""
-                   else f"its body '{body}' has no mass, so the viewer has no body to "
-                   "move it with")
+            why = (f"its body '{body}' has no mass, so the viewer has no body to move "
+                   "it with")
             notes += [f"skipped {_where(v)}: {why}" for v in vis_list]
             continue
         rb, centre = bodies[body]

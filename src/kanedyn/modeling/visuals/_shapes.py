@@ -1,7 +1,8 @@
 """Shapes that draw a body in the 3D viewer: box, cylinder, sphere, mesh file.
 
 A shape is attached to a body (a ``RigidBody``, ``Particle`` or
-:class:`~kanedyn.FlexibleBody`) and moves with it.  It is placed by an
+:class:`~kanedyn.FlexibleBody`) and moves with it, or to the model's inertial
+``ReferenceFrame`` (a robot's fixed base), where it stays.  It is placed by an
 ``offset`` from the body's reference point (a rigid body's or particle's mass
 centre, a flexible body's origin) and a ``rotation`` whose columns are the
 shape's own x, y, z axes in body-frame components.  All lengths in metres,
@@ -90,10 +91,14 @@ class Shape:
 
     Parameters
     ----------
-    body : RigidBody, Particle or FlexibleBody
+    body : RigidBody, Particle, FlexibleBody or ReferenceFrame
+        The body the shape moves with, or the model's inertial frame for a
+        shape fixed in it (drawn in every frame where it is, as "fixed").
     offset : sequence of 3 float, optional
         Position of the shape's centre from the body's reference point, in
-        body-frame components (a particle: inertial axes), m.  Default: none.
+        body-frame components (a particle: inertial axes), m; for a shape fixed
+        in the inertial frame, from the point fixed in it that the scene's
+        positions start at (the viewer's ``origin``).  Default: none.
     rotation : array_like, shape (3, 3), optional
         The shape's x, y, z axes (columns) in body-frame components.
         Default: aligned with the body frame.
@@ -107,9 +112,10 @@ class Shape:
 
     def __init__(self, body, offset=(0.0, 0.0, 0.0), rotation=None, color=None,
                  opacity=1.0):
-        if not isinstance(body, (me.RigidBody, me.Particle, FlexibleBody)):
-            raise ModelError(f"a {self.kind} shape belongs to a RigidBody, Particle or "
-                             f"FlexibleBody, got {body!r}")
+        if not isinstance(body, (me.RigidBody, me.Particle, FlexibleBody,
+                                 me.ReferenceFrame)):
+            raise ModelError(f"a {self.kind} shape belongs to a RigidBody, Particle, "
+                             f"FlexibleBody or the inertial ReferenceFrame, got {body!r}")
         where = f"{self.kind} of body {_body_name(body)}"
         self.body = body
         self.offset = _vector(offset, f"{where}: offset")
@@ -205,7 +211,11 @@ class Sphere(Shape):
 
 
 class Mesh(Shape):
-    """A triangle mesh read from an STL (binary or text) or OBJ file.
+    """A triangle mesh read from an STL (binary or text), OBJ or COLLADA file.
+
+    A COLLADA (``.dae``) file is read with trimesh and pycollada
+    (``pip install 'kanedyn[meshes]'``), in metres by its ``<unit>`` and turned
+    so that its ``<up_axis>`` is the shape's ``+z``; ``scale`` applies after.
 
     Parameters
     ----------
@@ -221,8 +231,8 @@ class Mesh(Shape):
     def __init__(self, body, path, scale=1.0, **options):
         super().__init__(body, **options)
         path = Path(path)
-        if path.suffix.lower() not in (".stl", ".obj"):
-            raise ModelError(f"{self._where()}: {path} is not an .stl or .obj file")
+        if path.suffix.lower() not in (".stl", ".obj", ".dae"):
+            raise ModelError(f"{self._where()}: {path} is not an .stl, .obj or .dae file")
         if not path.is_file():
             raise ModelError(f"{self._where()}: mesh file {path} does not exist")
         self.path = path
