@@ -114,6 +114,12 @@ class InverseStudy:
         ``{cause or group: array (k, N)}`` (see :class:`kanedyn.ActuatorParts`).
     power : PowerBalance
         Arrays of shape ``(N,)``, W.
+    rates, rate_derivatives : numpy.ndarray, shape (k, N)
+        Actuator rates :math:`\dot s` and :math:`\ddot s` (m/s, m/s² or rad/s,
+        rad/s²).
+    motors : MotorTorques or None
+        Motor torques, speeds and powers when every actuator has a
+        :class:`~kanedyn.BallScrew` (:func:`kanedyn.analysis.motor_torques`).
     """
 
     model_name: str
@@ -134,6 +140,9 @@ class InverseStudy:
     causes: dict
     groups: dict
     power: object
+    rates: np.ndarray = None
+    rate_derivatives: np.ndarray = None
+    motors: object = None
     extra: dict = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------ summaries
@@ -356,14 +365,18 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     pose, rate, accel = motion(t)
     ik = _Kinematics(definition, model, overrides)
     q, u, udot = ik(t, pose, rate, accel)
-    forces, condition = [], []
+    forces, condition, rates, rate_dots = [], [], [], []
     for j in range(t.size):
         r = amap.forces(t[j], np.concatenate([q[j], u[j]]), udot[j])
         forces.append(r.forces)
         condition.append(r.condition)
+        rates.append(r.rates)
+        rate_dots.append(r.rate_derivatives)
+    rates, rate_dots = np.array(rates).T, np.array(rate_dots).T
     gravity = _gravity_symbol(definition)
     parts = amap.parts(t, q.T, u.T, udot.T, groups=definition.body_groups, gravity=gravity)
     power = amap.power_balance(t, q.T, u.T, udot.T, gravity=gravity)
+    motors = _motors(definition, amap, t, parts.groups, rates, rate_dots)
 
     def forward(rtol, atol, method):
         return _forward(definition, model, amap, motion, t, q[0], u[0], overrides,
@@ -376,8 +389,20 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         units=tuple(_unit(a) for a in definition.actuators),
         forces=np.array(forces).T, condition=np.array(condition),
         causes=dict(parts.causes), groups=dict(parts.groups), power=power,
+        rates=rates, rate_derivatives=rate_dots, motors=motors,
         extra={"model": model, "actuator_map": amap, "definition": definition,
                "forward": forward})
+
+
+def _motors(definition, amap, t, groups, rates, rate_dots):
+    """Motor torques when every actuator drives through a ball screw, else None."""
+    from ..modeling import BallScrew
+    from ._motor_torques import motor_torques
+    screws = [a.transmission for a in definition.actuators]
+    if not all(isinstance(s, BallScrew) for s in screws):
+        return None
+    nut = {g: v for g, v in groups.items() if g != "drive train"}
+    return motor_torques(amap.names, screws, t, nut, rates, rate_dots)
 
 
 def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, method):

@@ -1,0 +1,85 @@
+"""Motor torques of the out-parallel manipulator's ball screws: efficiency forward and
+back-driven, the rotor, coupler and screw inertias as separate terms."""
+
+import numpy as np
+import pytest
+
+import kanedyn as kd
+from kanedyn import KanedynError, ModelError
+from kanedyn.analysis import DRIVE_PARTS, inverse_study, motor_torques
+from kanedyn.models import OUT_PARALLEL_INERTIA
+
+
+def test_motor_torque_hand_calculation_forward_and_back_driven():
+    # lead 10 mm, J_r, J_c, J_s = 2e-4, 1e-4, 3e-4 kg m^2, eta = 0.9, eta' = 0.8
+    screw = kd.BallScrew(0.01, 2e-4, 1e-4, 3e-4, efficiency=0.9, back_efficiency=0.8)
+    force = {"platform": np.array([[300.0, 300.0]]), "struts": np.array([[100.0, 100.0]])}
+    rate = np.array([[0.1, -0.1]])       # m/s: forward (F s' > 0), then back-driven
+    accel = np.array([[2.0, 2.0]])       # m/s^2
+    m = motor_torques(["c1"], [screw], [0.0, 1.0], force, rate, accel)
+    # by hand: load 400 N * 0.01 m / (2 pi * 0.9) = 0.707355 N m forward,
+    #          400 N * 0.01 m * 0.8 / (2 pi) = 0.509296 N m back-driven;
+    # inertia (2e-4 + 1e-4 + 3e-4) kg m^2 * (2 pi / 0.01 m) * 2 m/s^2 = 0.753982 N m
+    np.testing.assert_allclose(m.torque[0], [0.707355 + 0.753982, 0.509296 + 0.753982],
+                               atol=1e-6)
+    np.testing.assert_array_equal(m.back_driven[0], [False, True])
+    # rotor 2e-4 * 628.3185 * 2 = 0.251327, coupler half of it, screw 1.5 times
+    np.testing.assert_allclose([m.parts[p][0, 0] for p in DRIVE_PARTS],
+                               [0.251327, 0.125664, 0.376991], atol=1e-6)
+    np.testing.assert_allclose(m.parts["platform"][0], [0.530516, 0.381972], atol=1e-6)
+    np.testing.assert_allclose(m.speed[0], [62.831853, -62.831853], atol=1e-6)
+    np.testing.assert_allclose(m.power, m.torque * m.speed)
+
+
+@pytest.mark.parametrize("kwargs, name", [({"efficiency": 0.0}, "efficiency"),
+                                          ({"back_efficiency": 1.2}, "back_efficiency"),
+                                          ({"efficiency": "0.9"}, "efficiency")])
+def test_ball_screw_refuses_efficiencies_outside_0_1(kwargs, name):
+    with pytest.raises(ModelError, match=rf"BallScrew {name} must be a number in \(0, 1\]"):
+        kd.BallScrew(0.01, 1e-4, 0.0, 0.0, **kwargs)
+
+
+def test_motor_torques_refuses_missing_screws_and_bad_shapes():
+    screw = kd.BallScrew(0.01, 1e-4, 0.0, 0.0)
+    with pytest.raises(KanedynError, match="a ball screw for each actuator"):
+        motor_torques(["a", "b"], [screw, None], [0.0], {}, np.zeros((2, 1)),
+                      np.zeros((2, 1)))
+    with pytest.raises(KanedynError, match=r"rates has shape \(1, 2\), expected \(1, 1\)"):
+        motor_torques(["a"], [screw], [0.0], {}, np.zeros((1, 2)), np.zeros((1, 1)))
+
+
+@pytest.fixture(scope="module")
+def study():
+    return inverse_study("out-parallel-6dof", trajectory="sinusoid", points=41)
+
+
+def test_study_motor_torques_follow_the_carriage_forces(study):
+    """tau = (f - m_refl s'') p eps / (2 pi) + J 2 pi s'' / p, per point, from the
+    carriage forces and rates of the study (not from its body groups)."""
+    m = study.motors
+    p = OUT_PARALLEL_INERTIA["lead"]
+    J = OUT_PARALLEL_INERTIA["J_r"] + OUT_PARALLEL_INERTIA["J_cp"] + OUT_PARALLEL_INERTIA["J_sc"]
+    ratio = 2 * np.pi / p
+    sdd, sd = study.rate_derivatives, study.rates
+    nut = study.forces - ratio ** 2 * J * sdd
+    back = nut * sd < 0
+    assert 0 < back.sum() < back.size        # both regimes occur on this path
+    eps = np.where(back, OUT_PARALLEL_INERTIA["eta_back"], 1 / OUT_PARALLEL_INERTIA["eta"])
+    expected = nut * p * eps / (2 * np.pi) + J * ratio * sdd
+    np.testing.assert_allclose(m.torque, expected, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(sum(m.parts.values()), m.torque, rtol=1e-12, atol=1e-12)
+    assert set(m.parts) >= {"platform", "struts", "carriages", *DRIVE_PARTS}
+
+
+def test_lossless_motor_power_equals_the_power_balance(study):
+    """With eta = eta' = 1 the motors' power is the actuators' power of the energy
+    balance (dT/dt + dT_drive/dt + dV/dt), computed from the energies."""
+    screws = [kd.BallScrew(a.transmission.lead, a.transmission.J_rotor,
+                           a.transmission.J_coupler, a.transmission.J_screw)
+              for a in study.extra["definition"].actuators]
+    nut = {g: v for g, v in study.groups.items() if g != "drive train"}
+    m = motor_torques(study.names, screws, study.t, nut, study.rates, study.rate_derivatives)
+    pw = study.power
+    energy = pw.kinetic_rate + pw.drive_rate + pw.potential_rate - pw.wrench_power
+    scale = np.max(np.abs(energy))
+    assert np.max(np.abs(m.power.sum(axis=0) - energy)) < 1e-9 * scale
