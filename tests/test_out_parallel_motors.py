@@ -83,3 +83,20 @@ def test_lossless_motor_power_equals_the_power_balance(study):
     energy = pw.kinetic_rate + pw.drive_rate + pw.potential_rate - pw.wrench_power
     scale = np.max(np.abs(energy))
     assert np.max(np.abs(m.power.sum(axis=0) - energy)) < 1e-9 * scale
+
+
+def test_cli_prints_motor_torques_and_writes_their_files(tmp_path, capsys):
+    from kanedyn.cli import main
+    assert main(["inverse", "out-parallel-6dof", "--points", "21", "--out", str(tmp_path),
+                 "--quiet"]) == 0
+    out = capsys.readouterr().out
+    assert "motors (ball screws; forward efficiency where F·ṡ >= 0" in out
+    rows = [line.split() for line in out.splitlines() if line.strip().startswith("carriage")]
+    assert len(rows) == 12                 # forces, then motors
+    header = (tmp_path / "motors.csv").read_text().splitlines()[0].split(",")
+    assert "carriage1:torque [N m]" in header and "carriage6:torque screw [N m]" in header
+    data = np.loadtxt(tmp_path / "motors.csv", delimiter=",", skiprows=1)
+    col = header.index("carriage1:torque [N m]")
+    assert float(rows[6][1]) == pytest.approx(np.max(np.abs(data[:, col])), rel=1e-5)
+    assert (tmp_path / "motors.png").stat().st_size > 0
+    assert (tmp_path / "motor_decomposition.png").stat().st_size > 0

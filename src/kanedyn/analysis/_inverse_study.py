@@ -190,6 +190,9 @@ class InverseStudy:
     def to_csv(self, directory):
         """Write ``forces.csv``, ``causes.csv``, ``groups.csv``, ``power.csv``.
 
+        With ball screws also ``motors.csv``: each motor's torque (N m), speed
+        (rad/s), power (W) and torque parts (N m).
+
         Returns the list of paths written.
         """
         out = Path(directory)
@@ -209,6 +212,8 @@ class InverseStudy:
                   "wrench_power": pw.wrench_power, "residual": pw.residual}
         tables["power.csv"] = (["t [s]"] + [f"{k} [W]" for k in powers],
                                np.column_stack([self.t, *powers.values()]))
+        if self.motors is not None:
+            tables["motors.csv"] = _motor_table(self.motors)
         paths = []
         for name, (header, data) in tables.items():
             path = out / name
@@ -228,7 +233,11 @@ class InverseStudy:
         return header, np.column_stack(cols)
 
     def plot(self, directory):
-        """Write ``forces.png``, ``decomposition.png`` and ``power.png``; their paths."""
+        """Write ``forces.png``, ``decomposition.png`` and ``power.png``; their paths.
+
+        With ball screws also ``motors.png`` (torque and power per motor) and
+        ``motor_decomposition.png`` (the peak motor's torque by part).
+        """
         from ._plotting import pyplot
         plt = pyplot()
         out = Path(directory)
@@ -283,7 +292,57 @@ class InverseStudy:
         axr.grid(True, alpha=0.3)
         axr.legend(fontsize="small")
         paths.append(_save(plt, fig, out / "power.png"))
+        if self.motors is not None:
+            paths += _plot_motors(plt, self.motors, what, out)
         return paths
+
+
+def _motor_table(motors):
+    header, cols = ["t [s]"], [motors.t]
+    for i, n in enumerate(motors.names):
+        for label, arr in (("torque [N m]", motors.torque), ("speed [rad/s]", motors.speed),
+                           ("power [W]", motors.power)):
+            header.append(f"{n}:{label}")
+            cols.append(arr[i])
+        for part, arr in motors.parts.items():
+            header.append(f"{n}:torque {part} [N m]")
+            cols.append(arr[i])
+    return header, np.column_stack(cols)
+
+
+def _plot_motors(plt, motors, what, out):
+    fig, (ax, axp) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    for n, tau, power in zip(motors.names, motors.torque, motors.power):
+        ax.plot(motors.t, tau, label=n)
+        axp.plot(motors.t, power, label=n)
+    ax.set_ylabel("motor torque [N m]")
+    ax.set_title(f"Motor torques and powers: {what}")
+    axp.set_ylabel("motor power [W]")
+    axp.set_xlabel("t [s]")
+    for a in (ax, axp):
+        a.grid(True, alpha=0.3)
+        a.legend(ncol=min(len(motors.names), 3), fontsize="small")
+    paths = [_save(plt, fig, out / "motors.png")]
+
+    i = int(np.argmax(np.max(np.abs(motors.torque), axis=1)))
+    name = motors.names[i]
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(motors.t, motors.torque[i], "k", lw=2.2, label="total")
+    scale = max(1.0, float(np.max(np.abs(motors.torque[i]))))
+    for part, arr in motors.parts.items():
+        if np.max(np.abs(arr[i])) > 1e-12 * scale:
+            ax.plot(motors.t, arr[i], label=part)
+    back = motors.back_driven[i]
+    if back.any():
+        ax.fill_between(motors.t, 0, 1, where=back, color="0.85", alpha=0.6,
+                        transform=ax.get_xaxis_transform(), label="back-driven")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"{name} motor torque [N m]")
+    ax.set_title(f"{name} motor torque by part: {what}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small", ncol=2)
+    paths.append(_save(plt, fig, out / "motor_decomposition.png"))
+    return paths
 
 
 def _save(plt, fig, path):

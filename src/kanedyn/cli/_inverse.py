@@ -75,6 +75,8 @@ def cmd_inverse(args):
           f"residual {np.max(np.abs(pw.residual)):.3e} W "
           f"({study.power_residual():.3e} of the peak)")
     print(f"largest condition number of the actuator Jacobian: {np.max(study.condition):.4g}")
+    if study.motors is not None:
+        _print_motors(study.motors)
     if args.check:
         progress.stage("forward simulation driven by the computed forces (DOP853, 1e-11)")
         error = study.forward_check()
@@ -84,3 +86,16 @@ def cmd_inverse(args):
         written = study.to_csv(out) + study.plot(out)
         print("wrote " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _print_motors(motors):
+    import numpy as np
+    width = max(len(n) for n in motors.names)
+    print("motors (ball screws; forward efficiency where F·ṡ >= 0, back-driving where < 0):")
+    print(f"  {'actuator':<{width}}  {'peak |torque|':>15}  {'peak |speed|':>16}  "
+          f"{'peak |power|':>13}  {'back-driven':>11}")
+    for i, n in enumerate(motors.names):
+        share = 100.0 * np.mean(motors.back_driven[i])
+        print(f"  {n:<{width}}  {np.max(np.abs(motors.torque[i])):>11.6g} N m  "
+              f"{np.max(np.abs(motors.speed[i])):>10.6g} rad/s  "
+              f"{np.max(np.abs(motors.power[i])):>11.6g} W  {share:>10.3g}%")
