@@ -100,3 +100,50 @@ def test_cli_prints_motor_torques_and_writes_their_files(tmp_path, capsys):
     assert float(rows[6][1]) == pytest.approx(np.max(np.abs(data[:, col])), rel=1e-5)
     assert (tmp_path / "motors.png").stat().st_size > 0
     assert (tmp_path / "motor_decomposition.png").stat().st_size > 0
+
+
+def test_a_vertical_platform_wrench_acts_as_extra_platform_weight():
+    """Fz = -10 kg * g on the platform's mass centre (a specified input) moves the
+    carriage forces as 10 kg more platform mass moves their gravity part."""
+    from kanedyn.analysis import WrenchTable
+    g = 9.81
+    base = inverse_study("out-parallel-6dof", points=11)
+    heavier = inverse_study("out-parallel-6dof", points=11, constants={"m_p": 30.0})
+    loaded = inverse_study("out-parallel-6dof", points=11, wrench=[0, 0, -10 * g, 0, 0, 0])
+    np.testing.assert_allclose(loaded.causes["wrench"],
+                               heavier.causes["gravity"] - base.causes["gravity"],
+                               rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(loaded.forces - base.forces, loaded.causes["wrench"],
+                               atol=1e-9)
+    # a table ramping the same force over 0..2 s: half of it at t = 1 s (point 5)
+    table = WrenchTable(t=np.array([0.0, 2.0]),
+                        values=np.array([[0.0] * 6, [0, 0, -20 * g, 0, 0, 0]]), source="ramp")
+    ramp = inverse_study("out-parallel-6dof", points=11, wrench=table)
+    np.testing.assert_allclose(ramp.causes["wrench"][:, 5], loaded.causes["wrench"][:, 5],
+                               rtol=1e-10)
+    assert ramp.power_residual() < 1e-12
+
+
+@pytest.mark.parametrize("text, message", [
+    ("t,Fx,Fy,Fz,Mx,My\n0,0,0,0,0,0\n", r"line 1: the header must be t,Fx,Fy,Fz,Mx,My,Mz"),
+    ("t,Fx,Fy,Fz,Mx,My,Mz\n0,0,0,0,0,0,0\n0,1,0,0,0,0,0\n",
+     r"line 3: t = 0 s is not after the previous row's 0 s"),
+    ("t,Fx,Fy,Fz,Mx,My,Mz\n0,0,0,0,0,0,0\n1,nan,0,0,0,0,0\n",
+     r"line 3, column Fx: 'nan' is not a finite number"),
+    ("t,Fx,Fy,Fz,Mx,My,Mz\n0,0,0,0,0,0,0\n1,0,0,0\n", r"line 3: 4 values, expected 7"),
+])
+def test_wrench_csv_errors_name_file_line_and_column(tmp_path, text, message):
+    from kanedyn.analysis import read_wrench_csv
+    path = tmp_path / "w.csv"
+    path.write_text(text)
+    with pytest.raises(KanedynError, match=message):
+        read_wrench_csv(path)
+
+
+def test_cli_wrench_table_must_cover_the_trajectory(tmp_path, capsys):
+    from kanedyn.cli import main
+    path = tmp_path / "short.csv"
+    path.write_text("t,Fx,Fy,Fz,Mx,My,Mz\n0,0,0,0,0,0,0\n1,0,0,-50,0,0,0\n")
+    assert main(["inverse", "out-parallel-6dof", "--quiet", "--wrench", str(path)]) == 2
+    err = capsys.readouterr().err
+    assert "--wrench: " in err and "covers t = 0 .. 1 s; the trajectory needs 0 .. 2 s" in err

@@ -360,7 +360,7 @@ def _gravity_symbol(definition):
 
 
 def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
-                  backend="numpy", constants=None, model=None):
+                  backend="numpy", constants=None, model=None, wrench=None):
     r"""Actuator forces of a parallel model along a named trajectory.
 
     Parameters
@@ -383,6 +383,11 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     model : NumericModel, optional
         Built from ``definition.derive()`` without the drive-train elements
         (derived here if omitted).
+    wrench : array_like, shape (6,), or WrenchTable or callable, optional
+        An external wrench on the platform, ``Fx, Fy, Fz`` (N), ``Mx, My, Mz``
+        (N m) in the ground frame, constant or a function of time
+        (:func:`kanedyn.analysis.with_platform_wrench`).  Not together with
+        ``model``: build that from ``with_platform_wrench(definition, wrench)``.
 
     Returns
     -------
@@ -411,6 +416,14 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     t_end = float(definition.t_end if t_end is None else t_end)
     if not t_end > 0:
         raise KanedynError(f"t_end must be positive, got {t_end!r}")
+    if wrench is not None:
+        from ._platform_wrench import with_platform_wrench
+        if model is not None:
+            raise KanedynError("inverse_study: give a wrench or a model, not both (build "
+                               "the model from with_platform_wrench(definition, wrench))")
+        if hasattr(wrench, "check_covers"):
+            wrench.check_covers(0.0, t_end)
+        definition = with_platform_wrench(definition, wrench)
     overrides = dict(constants or {})
     if model is None:
         model = definition.numeric(definition.derive(), constants=overrides, backend=backend)
