@@ -371,6 +371,12 @@ CLI_CASES = {
                                 r"got -1"),
     "zero link length": (["run", "flexible-robot", "--set", "length=0"],
                          r"flexible-robot: length must be a finite number > 0 \(m\), got 0"),
+    "a word in a platform wrench": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--wrench", "1,2,x,0,0,0"],
+        "--wrench 1,2,x,0,0,0: Fz = 'x' is not a finite number"),
+    "a platform wrench of five numbers": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--wrench", "1,2,3,4,5"],
+        r"--wrench 1,2,3,4,5: give six numbers Fx,Fy,Fz,Mx,My,Mz \[N, N m\] or a .csv file"),
 }
 
 

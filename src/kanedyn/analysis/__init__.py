@@ -11,6 +11,8 @@
 ``_bicycle_plot``  the Whipple bicycle's eigenvalues with its modes named
 ``_damper_tuning`` frequency responses of linearized models; TMD / TMDI tuning
 ``_inverse_study`` actuator forces of parallel models along named trajectories
+``_motor_torques`` motor torques of ball-screw actuators (efficiency, drive-train parts)
+``_platform_wrench`` an external wrench on a platform, constant or a CSV table over time
 ``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
 ``_seatbelt_plot`` the sensor's run in one figure (pulse, tilt, lock and release);
                    the models' own figures of a run (``RUN_FIGURES``)
@@ -66,6 +68,13 @@ _LAZY = {
     'InverseStudy': '._inverse_study',
     'TRAJECTORIES': '._inverse_study',
     'trajectory_offsets': '._inverse_study',
+    'motor_torques': '._motor_torques',
+    'MotorTorques': '._motor_torques',
+    'DRIVE_PARTS': '._motor_torques',
+    'WrenchTable': '._platform_wrench',
+    'read_wrench_csv': '._platform_wrench',
+    'with_platform_wrench': '._platform_wrench',
+    'WRENCH_COLUMNS': '._platform_wrench',
     'seatbelt_run_figure': '._seatbelt_plot',
     'run_figure': '._seatbelt_plot',
     'RUN_FIGURES': '._seatbelt_plot',

@@ -114,6 +114,12 @@ class InverseStudy:
         ``{cause or group: array (k, N)}`` (see :class:`kanedyn.ActuatorParts`).
     power : PowerBalance
         Arrays of shape ``(N,)``, W.
+    rates, rate_derivatives : numpy.ndarray, shape (k, N)
+        Actuator rates :math:`\dot s` and :math:`\ddot s` (m/s, m/s² or rad/s,
+        rad/s²).
+    motors : MotorTorques or None
+        Motor torques, speeds and powers when every actuator has a
+        :class:`~kanedyn.BallScrew` (:func:`kanedyn.analysis.motor_torques`).
     """
 
     model_name: str
@@ -134,6 +140,9 @@ class InverseStudy:
     causes: dict
     groups: dict
     power: object
+    rates: np.ndarray = None
+    rate_derivatives: np.ndarray = None
+    motors: object = None
     extra: dict = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------ summaries
@@ -181,6 +190,9 @@ class InverseStudy:
     def to_csv(self, directory):
         """Write ``forces.csv``, ``causes.csv``, ``groups.csv``, ``power.csv``.
 
+        With ball screws also ``motors.csv``: each motor's torque (N m), speed
+        (rad/s), power (W) and torque parts (N m).
+
         Returns the list of paths written.
         """
         out = Path(directory)
@@ -200,6 +212,8 @@ class InverseStudy:
                   "wrench_power": pw.wrench_power, "residual": pw.residual}
         tables["power.csv"] = (["t [s]"] + [f"{k} [W]" for k in powers],
                                np.column_stack([self.t, *powers.values()]))
+        if self.motors is not None:
+            tables["motors.csv"] = _motor_table(self.motors)
         paths = []
         for name, (header, data) in tables.items():
             path = out / name
@@ -219,7 +233,11 @@ class InverseStudy:
         return header, np.column_stack(cols)
 
     def plot(self, directory):
-        """Write ``forces.png``, ``decomposition.png`` and ``power.png``; their paths."""
+        """Write ``forces.png``, ``decomposition.png`` and ``power.png``; their paths.
+
+        With ball screws also ``motors.png`` (torque and power per motor) and
+        ``motor_decomposition.png`` (the peak motor's torque by part).
+        """
         from ._plotting import pyplot
         plt = pyplot()
         out = Path(directory)
@@ -274,7 +292,57 @@ class InverseStudy:
         axr.grid(True, alpha=0.3)
         axr.legend(fontsize="small")
         paths.append(_save(plt, fig, out / "power.png"))
+        if self.motors is not None:
+            paths += _plot_motors(plt, self.motors, what, out)
         return paths
+
+
+def _motor_table(motors):
+    header, cols = ["t [s]"], [motors.t]
+    for i, n in enumerate(motors.names):
+        for label, arr in (("torque [N m]", motors.torque), ("speed [rad/s]", motors.speed),
+                           ("power [W]", motors.power)):
+            header.append(f"{n}:{label}")
+            cols.append(arr[i])
+        for part, arr in motors.parts.items():
+            header.append(f"{n}:torque {part} [N m]")
+            cols.append(arr[i])
+    return header, np.column_stack(cols)
+
+
+def _plot_motors(plt, motors, what, out):
+    fig, (ax, axp) = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
+    for n, tau, power in zip(motors.names, motors.torque, motors.power):
+        ax.plot(motors.t, tau, label=n)
+        axp.plot(motors.t, power, label=n)
+    ax.set_ylabel("motor torque [N m]")
+    ax.set_title(f"Motor torques and powers: {what}")
+    axp.set_ylabel("motor power [W]")
+    axp.set_xlabel("t [s]")
+    for a in (ax, axp):
+        a.grid(True, alpha=0.3)
+        a.legend(ncol=min(len(motors.names), 3), fontsize="small")
+    paths = [_save(plt, fig, out / "motors.png")]
+
+    i = int(np.argmax(np.max(np.abs(motors.torque), axis=1)))
+    name = motors.names[i]
+    fig, ax = plt.subplots(figsize=(8, 4.5))
+    ax.plot(motors.t, motors.torque[i], "k", lw=2.2, label="total")
+    scale = max(1.0, float(np.max(np.abs(motors.torque[i]))))
+    for part, arr in motors.parts.items():
+        if np.max(np.abs(arr[i])) > 1e-12 * scale:
+            ax.plot(motors.t, arr[i], label=part)
+    back = motors.back_driven[i]
+    if back.any():
+        ax.fill_between(motors.t, 0, 1, where=back, color="0.85", alpha=0.6,
+                        transform=ax.get_xaxis_transform(), label="back-driven")
+    ax.set_xlabel("t [s]")
+    ax.set_ylabel(f"{name} motor torque [N m]")
+    ax.set_title(f"{name} motor torque by part: {what}")
+    ax.grid(True, alpha=0.3)
+    ax.legend(fontsize="small", ncol=2)
+    paths.append(_save(plt, fig, out / "motor_decomposition.png"))
+    return paths
 
 
 def _save(plt, fig, path):
@@ -292,7 +360,7 @@ def _gravity_symbol(definition):
 
 
 def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
-                  backend="numpy", constants=None, model=None):
+                  backend="numpy", constants=None, model=None, wrench=None):
     r"""Actuator forces of a parallel model along a named trajectory.
 
     Parameters
@@ -315,6 +383,11 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     model : NumericModel, optional
         Built from ``definition.derive()`` without the drive-train elements
         (derived here if omitted).
+    wrench : array_like, shape (6,), or WrenchTable or callable, optional
+        An external wrench on the platform, ``Fx, Fy, Fz`` (N), ``Mx, My, Mz``
+        (N m) in the ground frame, constant or a function of time
+        (:func:`kanedyn.analysis.with_platform_wrench`).  Not together with
+        ``model``: build that from ``with_platform_wrench(definition, wrench)``.
 
     Returns
     -------
@@ -343,6 +416,14 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     t_end = float(definition.t_end if t_end is None else t_end)
     if not t_end > 0:
         raise KanedynError(f"t_end must be positive, got {t_end!r}")
+    if wrench is not None:
+        from ._platform_wrench import with_platform_wrench
+        if model is not None:
+            raise KanedynError("inverse_study: give a wrench or a model, not both (build "
+                               "the model from with_platform_wrench(definition, wrench))")
+        if hasattr(wrench, "check_covers"):
+            wrench.check_covers(0.0, t_end)
+        definition = with_platform_wrench(definition, wrench)
     overrides = dict(constants or {})
     if model is None:
         model = definition.numeric(definition.derive(), constants=overrides, backend=backend)
@@ -356,14 +437,18 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     pose, rate, accel = motion(t)
     ik = _Kinematics(definition, model, overrides)
     q, u, udot = ik(t, pose, rate, accel)
-    forces, condition = [], []
+    forces, condition, rates, rate_dots = [], [], [], []
     for j in range(t.size):
         r = amap.forces(t[j], np.concatenate([q[j], u[j]]), udot[j])
         forces.append(r.forces)
         condition.append(r.condition)
+        rates.append(r.rates)
+        rate_dots.append(r.rate_derivatives)
+    rates, rate_dots = np.array(rates).T, np.array(rate_dots).T
     gravity = _gravity_symbol(definition)
     parts = amap.parts(t, q.T, u.T, udot.T, groups=definition.body_groups, gravity=gravity)
     power = amap.power_balance(t, q.T, u.T, udot.T, gravity=gravity)
+    motors = _motors(definition, amap, t, parts.groups, rates, rate_dots)
 
     def forward(rtol, atol, method):
         return _forward(definition, model, amap, motion, t, q[0], u[0], overrides,
@@ -376,8 +461,20 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         units=tuple(_unit(a) for a in definition.actuators),
         forces=np.array(forces).T, condition=np.array(condition),
         causes=dict(parts.causes), groups=dict(parts.groups), power=power,
+        rates=rates, rate_derivatives=rate_dots, motors=motors,
         extra={"model": model, "actuator_map": amap, "definition": definition,
                "forward": forward})
+
+
+def _motors(definition, amap, t, groups, rates, rate_dots):
+    """Motor torques when every actuator drives through a ball screw, else None."""
+    from ..modeling import BallScrew
+    from ._motor_torques import motor_torques
+    screws = [a.transmission for a in definition.actuators]
+    if not all(isinstance(s, BallScrew) for s in screws):
+        return None
+    nut = {g: v for g, v in groups.items() if g != "drive train"}
+    return motor_torques(amap.names, screws, t, nut, rates, rate_dots)
 
 
 def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, method):

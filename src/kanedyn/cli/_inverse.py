@@ -30,6 +30,10 @@ def add_parser(sub):
     add_backend_argument(p)
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option or parameter (m_p=12)")
+    p.add_argument("--wrench", default=None, metavar="Fx,Fy,Fz,Mx,My,Mz | FILE.csv",
+                   help="external wrench on the platform, in the ground frame: six "
+                        "numbers [N, N m], or a CSV file with the header t,Fx,Fy,Fz,Mx,My,Mz "
+                        "covering the trajectory (interpolated linearly)")
     p.add_argument("--check", action="store_true",
                    help="also drive the forward model with the forces (DOP853, "
                         "rtol = atol = 1e-11) and print the largest pose error")
@@ -54,6 +58,13 @@ def cmd_inverse(args):
         raise KanedynError(f"--set {unknown[0]}: not an option or parameter of "
                            f"{definition.name}; parameters: {', '.join(sorted(names))}")
     out = check_output_dir(args.out) if args.out is not None else None
+    if args.wrench is not None:
+        from ..analysis import with_platform_wrench
+        wrench = _wrench_option(args.wrench)
+        if hasattr(wrench, "check_covers"):
+            t_end = definition.t_end if args.t_end is None else args.t_end
+            _option_error("--wrench", wrench.check_covers, 0.0, t_end)
+        definition = _option_error("--wrench", with_platform_wrench, definition, wrench)
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     model = numeric_model(definition, definition.derive(), args.backend, values)
@@ -64,6 +75,8 @@ def cmd_inverse(args):
     progress.done()
     print(f"{definition.name}: {args.trajectory} trajectory over {study.t[-1]:g} s, "
           f"{study.t.size} points; inverse kinematics: {study.ik_method}")
+    if args.wrench is not None:
+        print(f"external wrench on the platform (ground frame): {args.wrench}")
     width = max(len(n) for n in study.names)
     print(f"  {'actuator':<{width}}  {'peak |force|':>14}  {'rms':>12}")
     for n, u, f in zip(study.names, study.units, study.forces):
@@ -75,6 +88,8 @@ def cmd_inverse(args):
           f"residual {np.max(np.abs(pw.residual)):.3e} W "
           f"({study.power_residual():.3e} of the peak)")
     print(f"largest condition number of the actuator Jacobian: {np.max(study.condition):.4g}")
+    if study.motors is not None:
+        _print_motors(study.motors)
     if args.check:
         progress.stage("forward simulation driven by the computed forces (DOP853, 1e-11)")
         error = study.forward_check()
@@ -84,3 +99,47 @@ def cmd_inverse(args):
         written = study.to_csv(out) + study.plot(out)
         print("wrote " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _option_error(option, fn, *args):
+    try:
+        return fn(*args)
+    except KanedynError as exc:
+        raise KanedynError(f"{option}: {exc}") from None
+
+
+def _wrench_option(text):
+    """Six comma-separated numbers, or the path of a wrench CSV file."""
+    import math
+
+    from ..analysis import read_wrench_csv
+    parts = text.split(",")
+    if len(parts) == 6 and not text.lower().endswith(".csv"):
+        values = []
+        for name, cell in zip(("Fx", "Fy", "Fz", "Mx", "My", "Mz"), parts):
+            try:
+                x = float(cell)
+            except ValueError:
+                x = math.nan
+            if not math.isfinite(x):
+                raise KanedynError(f"--wrench {text}: {name} = {cell.strip()!r} is not a "
+                                   "finite number")
+            values.append(x)
+        return values
+    if not text.lower().endswith(".csv"):
+        raise KanedynError(f"--wrench {text}: give six numbers Fx,Fy,Fz,Mx,My,Mz [N, N m] "
+                           "or a .csv file")
+    return _option_error("--wrench", read_wrench_csv, text)
+
+
+def _print_motors(motors):
+    import numpy as np
+    width = max(len(n) for n in motors.names)
+    print("motors (ball screws; forward efficiency where F·ṡ >= 0, back-driving where < 0):")
+    print(f"  {'actuator':<{width}}  {'peak |torque|':>15}  {'peak |speed|':>16}  "
+          f"{'peak |power|':>13}  {'back-driven':>11}")
+    for i, n in enumerate(motors.names):
+        share = 100.0 * np.mean(motors.back_driven[i])
+        print(f"  {n:<{width}}  {np.max(np.abs(motors.torque[i])):>11.6g} N m  "
+              f"{np.max(np.abs(motors.speed[i])):>10.6g} rad/s  "
+              f"{np.max(np.abs(motors.power[i])):>11.6g} W  {share:>10.3g}%")

@@ -42,15 +42,34 @@ class BallScrew:
     .. math:: m_\text{reflected} = \left(\frac{2\pi}{p}\right)^2
               (J_\text{rotor} + J_\text{coupler} + J_\text{screw}).
 
+    The screw-nut contact loses power: driven forward (the motor doing work
+    on the load, :math:`F\dot s \ge 0` for the nut force :math:`F` the load
+    needs) the screw needs :math:`\tau = Fp/(2\pi\eta)`; back-driven (the
+    load doing work on the motor, :math:`F\dot s < 0`)
+    :math:`\tau = \eta' F p/(2\pi)`.  The efficiencies only enter the motor
+    torques of an inverse study (:func:`kanedyn.analysis.motor_torques`), not
+    the equations of motion.
+
     Parameters
     ----------
     lead : float or sympy.Expr
         Nut travel per screw revolution ``p``, in m (positive).
     J_rotor, J_coupler, J_screw : float or sympy.Expr
         Moments of inertia about the screw axis, in kg m^2 (non-negative).
+    efficiency, back_efficiency : float, optional
+        :math:`\eta` (forward-driven) and :math:`\eta'` (back-driven), each in
+        (0, 1]; 1 (a lossless screw) when not given.  A self-locking screw
+        (:math:`\eta' \le 0`) is not modelled.
     """
 
-    def __init__(self, lead, J_rotor, J_coupler, J_screw):
+    def __init__(self, lead, J_rotor, J_coupler, J_screw, efficiency=1.0,
+                 back_efficiency=1.0):
+        for name, value in (("efficiency", efficiency), ("back_efficiency", back_efficiency)):
+            if (isinstance(value, bool) or not isinstance(value, (int, float))
+                    or not 0.0 < value <= 1.0):
+                raise ModelError(f"BallScrew {name} must be a number in (0, 1], "
+                                 f"got {value!r}")
+        self.efficiency, self.back_efficiency = float(efficiency), float(back_efficiency)
         for name, value in (("lead", lead), ("J_rotor", J_rotor), ("J_coupler", J_coupler),
                             ("J_screw", J_screw)):
             if isinstance(value, (int, float)):
@@ -90,7 +109,8 @@ class BallScrew:
 
     def __repr__(self):
         return (f"BallScrew(lead={self.lead}, J_rotor={self.J_rotor}, "
-                f"J_coupler={self.J_coupler}, J_screw={self.J_screw})")
+                f"J_coupler={self.J_coupler}, J_screw={self.J_screw}, "
+                f"efficiency={self.efficiency}, back_efficiency={self.back_efficiency})")
 
 
 class Actuator:

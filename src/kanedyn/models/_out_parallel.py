@@ -31,10 +31,12 @@ __all__ = ["out_parallel_6dof", "OUT_PARALLEL_GEOMETRY", "OUT_PARALLEL_INERTIA",
 OUT_PARALLEL_GEOMETRY = {"R_b": 0.6, "r_p": 0.25, "L": 0.6, "h": 0.8,
                          "gamma_b": np.radians(15.0), "gamma_p": np.radians(45.0)}
 
-#: Default masses (kg), screw lead (m) and drive-train inertias (kg m^2) of
+#: Default masses (kg), screw lead (m), drive-train inertias (kg m^2) and the
+#: screw's forward and back-driving efficiencies ``eta``, ``eta_back`` of
 #: :func:`out_parallel_6dof`.
 OUT_PARALLEL_INERTIA = {"m_p": 20.0, "m_s": 2.0, "m_c": 5.0, "lead": 0.01,
-                        "J_r": 2.0e-4, "J_cp": 1.0e-4, "J_sc": 3.0e-4}
+                        "J_r": 2.0e-4, "J_cp": 1.0e-4, "J_sc": 3.0e-4,
+                        "eta": 0.9, "eta_back": 0.8}
 
 
 def _geometry(geometry):
@@ -241,7 +243,9 @@ def out_parallel_6dof():
     each carriage is driven by a ball screw of lead ``lead = 10 mm`` with
     rotor, coupler and screw inertias ``J_r = 2e-4``, ``J_cp = 1e-4``,
     ``J_sc = 3e-4 kg m^2`` about the screw axis, so a reflected mass
-    :math:`(2\pi/p)^2 (J_r + J_{cp} + J_{sc}) = 236.9` kg on each travel.
+    :math:`(2\pi/p)^2 (J_r + J_{cp} + J_{sc}) = 236.9` kg on each travel, and
+    screw efficiencies ``eta = 0.9`` (forward) and ``eta_back = 0.8``
+    (back-driven), which only enter the motor torques of an inverse study.
     These are numbers in the :class:`~kanedyn.BallScrew` objects, not
     parameters of the equations (which do not contain them).
 
@@ -288,7 +292,8 @@ def out_parallel_6dof():
     A0_num, _, c_num = out_parallel_anchors()
     # drive trains as numbers: the equations of motion do not contain them (they
     # enter through the actuators), so they are not parameters of the model
-    screw = [OUT_PARALLEL_INERTIA[key] for key in ("lead", "J_r", "J_cp", "J_sc")]
+    screw = [OUT_PARALLEL_INERTIA[key] for key in ("lead", "J_r", "J_cp", "J_sc", "eta",
+                                                   "eta_back")]
     struts, carriages, actuators = [], [], []
     config, velocity = [], []
     for j in range(6):
