@@ -247,3 +247,12 @@ def test_split_program_uses_the_heap_work_array(tmp_path, monkeypatch):
         code, ydot = _call(lib, "kanedyn_rhs", 0.0, y, p, [], model.n_states)
         assert code == 0
         np.testing.assert_allclose(ydot, model.rhs(0.0, y), rtol=1e-13, atol=1e-13)
+
+
+def test_a_model_with_contacts_is_refused_not_exported_without_them(tmp_path):
+    definition = kd.models.build("bouncing-ball")
+    model = definition.numeric(backend="numpy")
+    with pytest.raises(kd.ModelError, match=r"standalone C of a model with contacts "
+                                            r"\(floor\)"):
+        model.export_c(tmp_path / "ball.c")
+    assert not (tmp_path / "ball.c").exists()

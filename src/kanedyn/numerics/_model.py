@@ -1282,6 +1282,12 @@ class NumericModel(StateLayout):
             raise ModelError(f"cannot export C: the right-hand side of the "
                              f"{self.scheme.name!r} scheme ({eom.method} formulation) is "
                              "not the generated C one; use the default scheme")
+        if standalone and self.contacts:
+            names = ", ".join(c["name"] for c in self.contacts)
+            raise ModelError(f"cannot export standalone C of a model with contacts "
+                             f"({names}): the file would hold the right-hand side without "
+                             "them (their modes, events and impacts are followed by "
+                             "kd.simulate); export the model without its contacts")
         table = eom._table
         cse = self._cse  # None: the default choice (see build_numeric_model)
         if not standalone:
