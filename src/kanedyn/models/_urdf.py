@@ -21,11 +21,11 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ModelError
-from ..modeling import (CollisionPrimitive, Ground, ground_contacts, inertia_violation,
-                        principal_moments)
+from ..modeling import inertia_violation, principal_moments
 from ._base import ModelDefinition
 from ._urdf_parse import (URDFError, Visual, inertia_text, parse_robot, pose_matrix,
                           round_off_text)
+from ._urdf_ground import urdf_ground_contacts
 from ._urdf_shapes import urdf_shapes
 
 __all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
@@ -234,7 +234,7 @@ def _nearest_solid(inertia):
 
 
 def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=None,
-              mesh_dirs=None, efforts=True, ground=None, t_end=1.0):
+              mesh_dirs=None, efforts=True, ground=None, ground_points=None, t_end=1.0):
     """A model definition of the robot described by a URDF file.
 
     Parameters
@@ -274,6 +274,13 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
         named ``<link>/collision<k>`` (``#<vertex>`` appended for a box).
         Cylinders and meshes are not used (a :class:`UserWarning` names them);
         none usable is an error.
+    ground_points : dict, optional
+        With ``ground``: contact points given explicitly, ``{link name: [(x, y,
+        z), ...]}`` in the link's frame (m), for links whose collision geometry
+        is a mesh.  A point ``(x, y, z, r)`` is a sphere of radius ``r`` centred
+        there.  Each becomes a contact named ``<link>/point<k>``; the link's
+        ``<collision>`` elements are then not used (nor warned about).  An
+        unknown link, or one fixed to the ground, is an error naming it.
     t_end : float, optional
         Default simulation length, s.
 
@@ -330,7 +337,11 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     kane_args = dict(frame=build.N, q_ind=q_list, u_ind=u_list, kd_eqs=build.kd_eqs,
                      bodies=build.rigid_bodies, loads=build.loads)
     if ground is not None:
-        kane_args["contacts"] = _ground_contacts(ground, collisions, build, robot.source)
+        kane_args["contacts"] = urdf_ground_contacts(ground, ground_points, collisions,
+                                                     robot, build)
+    elif ground_points is not None:
+        raise ModelError("from_urdf: ground_points given without a ground "
+                         "(ground=kd.Ground(...))")
     symbols = dict(q=q_list, u=u_list, g=build.g, N=build.N, O=build.O,
                    frames={link: build.frame_of[group[link][0]] for link in robot.links},
                    points={link: build.point_of[group[link][0]] for link in robot.links})
@@ -514,27 +525,6 @@ def _warn_inertias(robot, adjusted):
         warnings.warn(f"{robot.source}: {len(notes)} inertia(s) not a solid's by "
                       f"round-off only, up to {round_off_text(robot.inertia_tolerance)}, "
                       "accepted:\n  " + "\n  ".join(notes), UserWarning, stacklevel=3)
-
-
-def _ground_contacts(ground, collisions, build, source):
-    """Contacts of the ``<collision>`` spheres and boxes of moving bodies with
-    ``ground`` (a warning names the collision elements not used)."""
-    if not isinstance(ground, Ground):
-        raise ModelError(f"from_urdf: ground must be a kanedyn.Ground, not {ground!r}")
-    primitives, count = [], {}
-    for vis in collisions:
-        if vis.body == "":
-            continue  # fixed to the ground
-        k = count[vis.link] = count.get(vis.link, -1) + 1
-        size = [s / 2 for s in vis.size] if vis.shape == "box" else vis.size
-        primitives.append(CollisionPrimitive(
-            f"{vis.link}/collision{k}", vis.shape, tuple(size), build.frame_of[vis.body],
-            build.point_of[vis.body], vis.transform, f"{vis.source}:{vis.line}"))
-    contacts = ground_contacts(ground, build.N, build.O, primitives, source)
-    if not contacts:
-        raise URDFError(f"{source}: ground: no <collision> sphere or box on a moving link "
-                        "(meshes and cylinders are not turned into ground contacts)")
-    return contacts
 
 
 def _check_masses(order, carried, source):
