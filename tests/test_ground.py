@@ -263,3 +263,103 @@ def test_quadruped_drop_compared_with_mujoco(tmp_path):
     assert 0.0 < _settled_after(t_mj, z_mj) - t_fall < 0.15
     assert sum(_normal_forces(res).values()) == pytest.approx(weight, rel=1e-8)
     assert normal_mj == pytest.approx(weight, rel=1e-3)
+
+
+SOLO_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
+SOLO_POSTURE = {"HAA": 0.0, "FL_HFE": 0.8, "FR_HFE": 0.8, "HL_HFE": -0.8, "HR_HFE": -0.8,
+                "FL_KFE": -1.6, "FR_KFE": -1.6, "HL_KFE": 1.6, "HR_KFE": 1.6}
+
+
+def _solo12():
+    """Solo12's URDF (example-robot-data) and Pinocchio, or skip."""
+    from importlib.metadata import PackageNotFoundError, distribution
+    pin = pytest.importorskip("pinocchio")
+    try:
+        robots = distribution("example-robot-data").locate_file(
+            "cmeel.prefix/share/example-robot-data/robots")
+    except PackageNotFoundError:
+        pytest.skip("needs example-robot-data")
+    return robots / "solo_description/robots/solo12.urdf", pin
+
+
+def _target(joint):
+    return SOLO_POSTURE["HAA"] if joint.endswith("HAA") else SOLO_POSTURE[joint]
+
+
+def _pinocchio_q(pin, pmodel, names, y):
+    """Pinocchio's configuration of kanedyn's coordinates ``y[:len(names)]``."""
+    from scipy.spatial.transform import Rotation
+    q = np.zeros(pmodel.nq)
+    q[:3] = y[:3]
+    q[3:7] = Rotation.from_euler("XYZ", y[3:6]).as_quat()
+    for k, name in enumerate(names[6:], start=6):
+        q[pmodel.joints[pmodel.getJointId(name.removeprefix("q_"))].idx_q] = y[k]
+    return q
+
+
+def test_solo12_stands_on_its_feet():
+    """Solo12 (mesh collisions only: its feet given as ``ground_points``, spheres of
+    the foot mesh's 16 mm radius) dropped level from 0.30 m with PD joint springs
+    holding the straight-standing posture: it lands at the free-fall time of its
+    lowest feet (from Pinocchio's forward kinematics), settles, and at rest (i) the
+    normal forces sum to its weight (its masses summed from the URDF file), (ii)
+    the feet rest on the ground and (iii) Pinocchio's generalized gravity equals
+    the spring torques plus the contact forces through its foot Jacobians."""
+    import xml.etree.ElementTree as ET
+    path, pin = _solo12()
+    radius, kp, kd_ = 0.016, 20.0, 0.5
+    ground = kd.Ground(height=0.0, mu_k=0.8, restitution=0.0)
+    with pytest.warns(UserWarning, match="13 collision shape"):  # the base's, legs' meshes
+        definition = kd.models.from_urdf(path, base="floating", ground=ground, ground_points={
+            foot: [(0.0, 0.0, 0.0, radius)] for foot in SOLO_FEET})
+    assert [c.name for c in definition.kane_args["contacts"]] == [
+        f"{foot}/point0" for foot in SOLO_FEET]
+    names = [str(s).removesuffix("(t)") for s in definition.kane_args["q_ind"]]
+    n = len(names)
+
+    def pd(i, target):
+        return lambda t, y: -kp * (y[i] - target) - kd_ * y[n + i]
+
+    specified = {}
+    for s in definition.specified:
+        joint = str(s).removesuffix("(t)").removeprefix("tau_")
+        specified[s] = pd(names.index("q_" + joint), _target(joint))
+    model = definition.numeric(specified=specified, backend="c")
+    y0 = np.zeros(2 * n)
+    y0[2] = 0.30
+    y0[6:n] = [_target(name.removeprefix("q_")) for name in names[6:]]
+    res = kd.simulate(model, (0.0, 2.0), y0, max_step=0.01)
+
+    pmodel = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
+    data = pmodel.createData()
+    feet = [pmodel.getFrameId(foot) for foot in SOLO_FEET]
+
+    def foot_heights(y):
+        pin.framesForwardKinematics(pmodel, data, _pinocchio_q(pin, pmodel, names, y))
+        return np.array([data.oMf[f].translation[2] for f in feet])
+
+    t_fall = np.sqrt(2 * (np.min(foot_heights(y0)) - radius) / G)
+    assert res.impacts[0].t == pytest.approx(t_fall, rel=1e-6)
+    y = res.y[:, -1]
+    assert np.max(np.abs(y[n:])) < 1e-9                                # at rest
+    assert foot_heights(y) == pytest.approx([radius] * 4, abs=1e-9)   # on the ground
+    masses = [float(m.get("value")) for m in ET.parse(path).iter("mass")]
+    normal = _normal_forces(res)
+    assert sum(normal.values()) == pytest.approx(sum(masses) * G, rel=1e-6)
+    assert y[2] == pytest.approx(0.236, abs=1e-3)  # the knees give 13 mrad under load
+
+    # statics with Pinocchio: g(q) = tau + sum_feet J_foot^T f_foot
+    q = _pinocchio_q(pin, pmodel, names, y)
+    gravity = pin.computeGeneralizedGravity(pmodel, data, q)
+    pin.computeJointJacobians(pmodel, data, q)
+    pin.framesForwardKinematics(pmodel, data, q)
+    tau = np.zeros(pmodel.nv)
+    for k, name in enumerate(names[6:], start=6):
+        joint = name.removeprefix("q_")
+        tau[pmodel.joints[pmodel.getJointId(joint)].idx_v] = -kp * (y[k] - _target(joint))
+    for foot, frame in zip(SOLO_FEET, feet):
+        forces = res.contact_forces[f"{foot}/point0"]
+        f = forces["friction"][-1] + np.array([0.0, 0.0, forces["normal"][-1]])
+        J = pin.getFrameJacobian(pmodel, data, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
+        tau += J.T @ f
+    assert tau == pytest.approx(gravity, abs=1e-8 * np.max(np.abs(gravity)))
