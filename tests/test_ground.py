@@ -4,6 +4,8 @@ statics (normal forces carry the weight, shared by symmetry), closed forms (a
 sliding box's stopping distance and time, a sphere's rebound height) and, for a
 quadruped dropped on its springy legs, MuJoCo's simulation of the same file."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -178,6 +180,49 @@ def test_ground_input_is_checked(tmp_path):
     with pytest.raises(kd.models.MJCFError, match=r"box\.xml: ground: no colliding sphere, "
                                                   "capsule or box geom on a moving body"):
         kd.models.from_mjcf(mjcf, ground=ground)
+
+
+def test_ground_points_input_is_checked(tmp_path):
+    """Explicit ground points: an unknown link (with the close names), a link fixed
+    to the ground, a malformed point, a negative radius, points without a ground:
+    each named; a link given points has its collision elements replaced, not warned
+    about."""
+    path = tmp_path / "block.urdf"
+    path.write_text(BOX_URDF.format(extra="").replace(
+        '<box size="0.3 0.2 0.1"/>', '<mesh filename="block.stl"/>'))
+    ground = kd.Ground(height=0.0, mu_k=0.5, restitution=0.0)
+
+    def load(points, base="floating", given=ground):
+        return kd.models.from_urdf(path, base=base, ground=given, ground_points=points)
+
+    with pytest.raises(kd.ModelError, match=r"ground_points: .*block\.urdf has no link "
+                                            r"'blok' \(did you mean 'block'\?\)"):
+        load({"blok": [(0, 0, 0)]})
+    with pytest.raises(kd.ModelError, match="link 'block' is fixed to the ground"):
+        load({"block": [(0, 0, 0)]}, base="fixed")
+    with pytest.raises(kd.ModelError, match=r"ground_points\['block'\]\[1\] must be "
+                                            r"\(x, y, z\) or \(x, y, z, radius\)"):
+        load({"block": [(0, 0, 0), (0, 0)]})
+    with pytest.raises(kd.ModelError, match=r"ground_points\['block'\]\[0\]: the radius "
+                                            "must be >= 0, got -0.01"):
+        load({"block": [(0, 0, 0, -0.01)]})
+    with pytest.raises(kd.ModelError, match=r"ground_points\['block'\] must be a non-empty"):
+        load({"block": []})
+    with pytest.raises(kd.ModelError, match="ground_points given without a ground"):
+        load({"block": [(0, 0, 0)]}, given=None)
+    with pytest.raises(kd.models.URDFError, match="give contact points with ground_points"), \
+            pytest.warns(UserWarning, match="a mesh does not touch the ground"):
+        load(None)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # the block's mesh is replaced by its points
+        definition = load({"block": [(x, y, -0.05) for x in (-0.15, 0.15)
+                                     for y in (-0.1, 0.1)]})
+    res = kd.simulate(definition.numeric(), (0.0, 0.5), _state(definition, z=0.1),
+                      max_step=0.01)
+    assert [c.name for c in definition.kane_args["contacts"]] == [
+        f"block/point{k}" for k in range(4)]
+    assert res.y[2, -1] == pytest.approx(0.05, abs=1e-9)  # resting on its four points
+    assert list(_normal_forces(res).values()) == pytest.approx([3.0 * G / 4] * 4, rel=1e-8)
 
 
 QUADRUPED_MJCF = """<mujoco model="quadruped">
