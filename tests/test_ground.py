@@ -391,7 +391,7 @@ def test_solo12_stands_on_its_feet():
     masses = [float(m.get("value")) for m in ET.parse(path).iter("mass")]
     normal = _normal_forces(res)
     assert sum(normal.values()) == pytest.approx(sum(masses) * G, rel=1e-6)
-    assert y[2] == pytest.approx(0.236, abs=1e-3)  # the knees give 13 mrad under load
+    assert y[2] == pytest.approx(0.236, abs=1e-3)  # the soft PD springs give under load
 
     # statics with Pinocchio: g(q) = tau + sum_feet J_foot^T f_foot
     q = _pinocchio_q(pin, pmodel, names, y)
