@@ -73,7 +73,8 @@ def urdf_ground_contacts(ground, ground_points, collisions, robot, build):
     elements not used, except those of links given ground points)."""
     if not isinstance(ground, Ground):
         raise ModelError(f"from_urdf: ground must be a kanedyn.Ground, not {ground!r}")
-    explicit = _point_primitives(ground_points, robot, build) if ground_points else []
+    explicit = ([] if ground_points is None
+                else _point_primitives(ground_points, robot, build))
     primitives, count = [], {}
     for vis in collisions:
         if vis.body == "":
