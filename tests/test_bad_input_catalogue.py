@@ -377,6 +377,13 @@ CLI_CASES = {
     "a platform wrench of five numbers": (
         ["inverse", "out-parallel-6dof", "--quiet", "--wrench", "1,2,3,4,5"],
         r"--wrench 1,2,3,4,5: give six numbers Fx,Fy,Fz,Mx,My,Mz \[N, N m\] or a .csv file"),
+    "a pose file that is not there": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--poses", "no-such-poses.csv"],
+        r"--poses: pose file no-such-poses.csv: cannot read it \(No such file"),
+    "a pose file with a named trajectory": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--poses", "p.csv", "--trajectory",
+         "sinusoid"],
+        r"--poses p.csv: the pose file sets the trajectory and its times; drop --trajectory"),
 }
 
 

@@ -33,6 +33,10 @@ _GEOMETRY = {"3rrr": ("R_b", "r_p", "l_1", "l_2"),
              "out-parallel-6dof": ("R_b", "r_p", "L")}
 
 
+# the pose a pose file gives (kanedyn.analysis.read_pose_csv)
+_POSE_FILE_NAMES = ("x", "y", "z", "phi_x", "phi_y", "phi_z")
+
+
 def trajectory_offsets(definition):
     """Offset of each pose component for the named trajectories (m or rad).
 
@@ -360,7 +364,7 @@ def _gravity_symbol(definition):
 
 
 def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
-                  backend="numpy", constants=None, model=None, wrench=None):
+                  backend="numpy", constants=None, model=None, wrench=None, poses=None):
     r"""Actuator forces of a parallel model along a named trajectory.
 
     Parameters
@@ -388,6 +392,11 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         (N m) in the ground frame, constant or a function of time
         (:func:`kanedyn.analysis.with_platform_wrench`).  Not together with
         ``model``: build that from ``with_platform_wrench(definition, wrench)``.
+    poses : PoseTable, optional
+        A platform trajectory read from a pose file
+        (:func:`kanedyn.analysis.read_pose_csv`), in place of ``trajectory``
+        and ``t_end``: the ``points`` times span the table's; the model's pose
+        must be ``x, y, z, phi_x, phi_y, phi_z``.
 
     Returns
     -------
@@ -408,21 +417,29 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         raise ModelError(f"model {definition.name!r} declares no actuators; inverse studies "
                          "need definition.actuators (3rrr, stewart-platform, "
                          "out-parallel-6dof)")
-    if trajectory not in TRAJECTORIES:
+    if poses is None and trajectory not in TRAJECTORIES:
         raise KanedynError(f"unknown trajectory {trajectory!r}; available: "
                            f"{', '.join(TRAJECTORIES)}")
     if int(points) < 2:
         raise KanedynError(f"inverse_study needs at least 2 points, got {points}")
-    t_end = float(definition.t_end if t_end is None else t_end)
-    if not t_end > 0:
-        raise KanedynError(f"t_end must be positive, got {t_end!r}")
+    if poses is not None:
+        if t_end is not None:
+            raise KanedynError("inverse_study: give poses or t_end, not both (the pose "
+                               "table sets the times)")
+        t0, t_end = float(poses.t[0]), float(poses.t[-1])
+        trajectory = f"pose file {Path(poses.source).name}"
+    else:
+        t0 = 0.0
+        t_end = float(definition.t_end if t_end is None else t_end)
+        if not t_end > 0:
+            raise KanedynError(f"t_end must be positive, got {t_end!r}")
     if wrench is not None:
         from ._platform_wrench import with_platform_wrench
         if model is not None:
             raise KanedynError("inverse_study: give a wrench or a model, not both (build "
                                "the model from with_platform_wrench(definition, wrench))")
         if hasattr(wrench, "check_covers"):
-            wrench.check_covers(0.0, t_end)
+            wrench.check_covers(t0, t_end)
         definition = with_platform_wrench(definition, wrench)
     overrides = dict(constants or {})
     if model is None:
@@ -432,8 +449,15 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     pose_names = tuple(str(s).removesuffix("(t)") for s in pose_syms)
     y0 = definition.initial(model)
     home = np.array([y0[model.index(n)] for n in pose_names], float)
-    motion = _pose_motion(trajectory, home, trajectory_offsets(definition), t_end)
-    t = np.linspace(0.0, t_end, int(points))
+    if poses is not None:
+        if pose_names != _POSE_FILE_NAMES:
+            raise KanedynError(f"{poses.source}: a pose file gives x, y, z, phi_x, phi_y, "
+                               f"phi_z; model {definition.name!r} has the pose "
+                               f"{', '.join(pose_names)}")
+        motion = poses
+    else:
+        motion = _pose_motion(trajectory, home, trajectory_offsets(definition), t_end)
+    t = np.linspace(t0, t_end, int(points))
     pose, rate, accel = motion(t)
     ik = _Kinematics(definition, model, overrides)
     q, u, udot = ik(t, pose, rate, accel)

@@ -18,9 +18,14 @@ def add_parser(sub):
     p = sub.add_parser("inverse", help="actuator forces along a prescribed platform motion: "
                                        "by cause, by body group, power balance")
     add_model_argument(p)
-    p.add_argument("--trajectory", choices=_TRAJECTORIES, default="quintic",
+    p.add_argument("--trajectory", choices=_TRAJECTORIES, default=None,
                    help="quintic: rest to rest from the home pose to an offset pose; "
                         "sinusoid: about the home pose (default quintic)")
+    p.add_argument("--poses", default=None, metavar="FILE.csv",
+                   help="platform trajectory from a CSV file with the header "
+                        "t,x,y,z,roll,pitch,yaw (body-fixed X-Y-Z angles) or "
+                        "t,x,y,z,qw,qx,qy,qz [s, m, rad], splined (C2); instead of "
+                        "--trajectory and --t-end")
     p.add_argument("--t-end", type=positive_float, default=None,
                    help="duration [s] (default: the model's)")
     p.add_argument("--points", type=point_count, default=201,
@@ -58,22 +63,28 @@ def cmd_inverse(args):
         raise KanedynError(f"--set {unknown[0]}: not an option or parameter of "
                            f"{definition.name}; parameters: {', '.join(sorted(names))}")
     out = check_output_dir(args.out) if args.out is not None else None
+    poses = _poses_option(args)
     if args.wrench is not None:
         from ..analysis import with_platform_wrench
         wrench = _wrench_option(args.wrench)
         if hasattr(wrench, "check_covers"):
-            t_end = definition.t_end if args.t_end is None else args.t_end
-            _option_error("--wrench", wrench.check_covers, 0.0, t_end)
+            span = ((poses.t[0], poses.t[-1]) if poses is not None
+                    else (0.0, definition.t_end if args.t_end is None else args.t_end))
+            _option_error("--wrench", wrench.check_covers, *span)
         definition = _option_error("--wrench", with_platform_wrench, definition, wrench)
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     model = numeric_model(definition, definition.derive(), args.backend, values)
-    progress.stage(f"inverse kinematics and actuator forces, {args.trajectory} trajectory, "
-                   f"{args.points} points")
-    study = inverse_study(definition, trajectory=args.trajectory, t_end=args.t_end,
-                          points=args.points, constants=values, model=model)
+    trajectory = args.trajectory or "quintic"
+    progress.stage(f"inverse kinematics and actuator forces, "
+                   f"{args.poses or trajectory} trajectory, {args.points} points")
+    study = inverse_study(definition, trajectory=trajectory, t_end=args.t_end,
+                          points=args.points, constants=values, model=model, poses=poses)
     progress.done()
-    print(f"{definition.name}: {args.trajectory} trajectory over {study.t[-1]:g} s, "
+    span = (f"over {study.t[-1]:g} s" if poses is None
+            else f"t = {study.t[0]:g} .. {study.t[-1]:g} s ({poses.orientation}, "
+                 f"{poses.t.size} rows, cubic spline)")
+    print(f"{definition.name}: {study.trajectory} trajectory {span}, "
           f"{study.t.size} points; inverse kinematics: {study.ik_method}")
     if args.wrench is not None:
         print(f"external wrench on the platform (ground frame): {args.wrench}")
@@ -99,6 +110,18 @@ def cmd_inverse(args):
         written = study.to_csv(out) + study.plot(out)
         print("wrote " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _poses_option(args):
+    """The pose table of ``--poses``, or None; refused together with its alternatives."""
+    if args.poses is None:
+        return None
+    for flag, value in (("--trajectory", args.trajectory), ("--t-end", args.t_end)):
+        if value is not None:
+            raise KanedynError(f"--poses {args.poses}: the pose file sets the trajectory and "
+                               f"its times; drop {flag}")
+    from ..analysis import read_pose_csv
+    return _option_error("--poses", read_pose_csv, args.poses)
 
 
 def _option_error(option, fn, *args):
