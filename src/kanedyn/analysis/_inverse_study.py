@@ -15,6 +15,7 @@ forces and measures how closely the platform follows the prescription.
 from __future__ import annotations
 
 import csv
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -72,6 +73,9 @@ class _Kinematics:
             str(k) in geometry for k in overrides)
         closed = {"3rrr": planar_3rrr_ik, "out-parallel-6dof": out_parallel_ik}
         self.closed = None if changed else closed.get(definition.name)
+        geometry = definition.symbols.get("geometry")
+        if self.closed is not None and geometry is not None:
+            self.closed = functools.partial(self.closed, geometry=geometry)
         self.method = ("closed form" if self.closed is not None
                        else "Newton (warm-started)")
         y0 = definition.initial(model)
@@ -124,6 +128,9 @@ class InverseStudy:
     motors : MotorTorques or None
         Motor torques, speeds and powers when every actuator has a
         :class:`~kanedyn.BallScrew` (:func:`kanedyn.analysis.motor_torques`).
+    limit_check : LimitCheck or None
+        The actuator limits checked along the path, with the first violation
+        (:func:`kanedyn.analysis.check_actuator_limits`); None without limits.
     """
 
     model_name: str
@@ -147,6 +154,7 @@ class InverseStudy:
     rates: np.ndarray = None
     rate_derivatives: np.ndarray = None
     motors: object = None
+    limit_check: object = None
     extra: dict = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------ summaries
@@ -364,7 +372,8 @@ def _gravity_symbol(definition):
 
 
 def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
-                  backend="numpy", constants=None, model=None, wrench=None, poses=None):
+                  backend="numpy", constants=None, model=None, wrench=None, poses=None,
+                  limits=None):
     r"""Actuator forces of a parallel model along a named trajectory.
 
     Parameters
@@ -397,6 +406,10 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         (:func:`kanedyn.analysis.read_pose_csv`), in place of ``trajectory``
         and ``t_end``: the ``points`` times span the table's; the model's pose
         must be ``x, y, z, phi_x, phi_y, phi_z``.
+    limits : dict, optional
+        ``{quantity: limit}`` of ``force``, ``speed``, ``torque``,
+        ``motor_speed`` (:func:`kanedyn.analysis.check_actuator_limits`),
+        checked along the path into ``InverseStudy.limit_check``.
 
     Returns
     -------
@@ -473,6 +486,10 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     parts = amap.parts(t, q.T, u.T, udot.T, groups=definition.body_groups, gravity=gravity)
     power = amap.power_balance(t, q.T, u.T, udot.T, gravity=gravity)
     motors = _motors(definition, amap, t, parts.groups, rates, rate_dots)
+    forces = np.array(forces).T
+    units = tuple(_unit(a) for a in definition.actuators)
+    limit_check = None if limits is None else _limit_check(amap.names, units, t, forces,
+                                                           rates, motors, limits)
 
     def forward(rtol, atol, method):
         return _forward(definition, model, amap, motion, t, q[0], u[0], overrides,
@@ -482,12 +499,22 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         model_name=definition.name, trajectory=trajectory, t=t, pose_names=pose_names,
         pose=pose, pose_rate=rate, pose_accel=accel, q=q, u=u, udot=udot,
         ik_method=ik.method, names=amap.names,
-        units=tuple(_unit(a) for a in definition.actuators),
-        forces=np.array(forces).T, condition=np.array(condition),
+        units=units, forces=forces, condition=np.array(condition),
         causes=dict(parts.causes), groups=dict(parts.groups), power=power,
-        rates=rates, rate_derivatives=rate_dots, motors=motors,
+        rates=rates, rate_derivatives=rate_dots, motors=motors, limit_check=limit_check,
         extra={"model": model, "actuator_map": amap, "definition": definition,
                "forward": forward})
+
+
+def _limit_check(names, units, t, forces, rates, motors, limits):
+    from ._actuator_limits import check_actuator_limits
+    unit = "/".join(sorted(set(units)))
+    values = {"force": forces, "speed": rates,
+              "torque": None if motors is None else motors.torque,
+              "motor_speed": None if motors is None else motors.speed}
+    quantity_units = {"force": unit, "speed": "m/s" if unit == "N" else "rad/s",
+                      "torque": "N m", "motor_speed": "rad/s"}
+    return check_actuator_limits(t, names, values, quantity_units, limits)
 
 
 def _motors(definition, amap, t, groups, rates, rate_dots):
