@@ -377,6 +377,25 @@ CLI_CASES = {
     "a platform wrench of five numbers": (
         ["inverse", "out-parallel-6dof", "--quiet", "--wrench", "1,2,3,4,5"],
         r"--wrench 1,2,3,4,5: give six numbers Fx,Fy,Fz,Mx,My,Mz \[N, N m\] or a .csv file"),
+    "a pose file that is not there": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--poses", "no-such-poses.csv"],
+        r"--poses: pose file no-such-poses.csv: cannot read it \(No such file"),
+    "a pose file with a named trajectory": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--poses", "p.csv", "--trajectory",
+         "sinusoid"],
+        r"--poses p.csv: the pose file sets the trajectory and its times; drop --trajectory"),
+    "an actuator limit that is not a quantity": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--limit", "forse=100"],
+        r"--limit forse=100: 'forse=100' is not QUANTITY=VALUE with QUANTITY one of force, "),
+    "a negative actuator limit": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--limit", "force=-1"],
+        r"--limit force=-1: force = '-1' is not a finite number > 0"),
+    "a machine file for another model": (
+        ["inverse", "stewart-platform", "--quiet", "--machine", "m.toml"],
+        r"--machine m.toml: machine files describe out-parallel-6dof, not stewart-platform"),
+    "a machine file that is not there": (
+        ["inverse", "out-parallel-6dof", "--quiet", "--machine", "no-such-machine.toml"],
+        r"--machine: machine file no-such-machine.toml: cannot read it"),
 }
 
 

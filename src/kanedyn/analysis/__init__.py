@@ -13,6 +13,9 @@
 ``_inverse_study`` actuator forces of parallel models along named trajectories
 ``_motor_torques`` motor torques of ball-screw actuators (efficiency, drive-train parts)
 ``_platform_wrench`` an external wrench on a platform, constant or a CSV table over time
+``_csv_table``     the strict reader of numeric CSV tables over time (wrench, poses)
+``_actuator_limits`` actuator limits checked along a path, the first violation named
+``_pose_table``    a platform trajectory from a CSV file of poses, splined (C2)
 ``_seatbelt_studies`` the seat-belt sensor's lock map and regulatory check
 ``_seatbelt_plot`` the sensor's run in one figure (pulse, tilt, lock and release);
                    the models' own figures of a run (``RUN_FIGURES``)
@@ -75,6 +78,14 @@ _LAZY = {
     'read_wrench_csv': '._platform_wrench',
     'with_platform_wrench': '._platform_wrench',
     'WRENCH_COLUMNS': '._platform_wrench',
+    'LIMIT_QUANTITIES': '._actuator_limits',
+    'LimitViolation': '._actuator_limits',
+    'LimitCheck': '._actuator_limits',
+    'check_actuator_limits': '._actuator_limits',
+    'PoseTable': '._pose_table',
+    'read_pose_csv': '._pose_table',
+    'POSE_HEADERS': '._pose_table',
+    'quaternion_to_xyz': '._pose_table',
     'seatbelt_run_figure': '._seatbelt_plot',
     'run_figure': '._seatbelt_plot',
     'RUN_FIGURES': '._seatbelt_plot',

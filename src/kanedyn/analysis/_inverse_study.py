@@ -15,6 +15,7 @@ forces and measures how closely the platform follows the prescription.
 from __future__ import annotations
 
 import csv
+import functools
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -31,6 +32,10 @@ TRAJECTORIES = ("quintic", "sinusoid")
 # closed-form inverse kinematics: model name -> (geometry constants it assumes)
 _GEOMETRY = {"3rrr": ("R_b", "r_p", "l_1", "l_2"),
              "out-parallel-6dof": ("R_b", "r_p", "L")}
+
+
+# the pose a pose file gives (kanedyn.analysis.read_pose_csv)
+_POSE_FILE_NAMES = ("x", "y", "z", "phi_x", "phi_y", "phi_z")
 
 
 def trajectory_offsets(definition):
@@ -68,6 +73,9 @@ class _Kinematics:
             str(k) in geometry for k in overrides)
         closed = {"3rrr": planar_3rrr_ik, "out-parallel-6dof": out_parallel_ik}
         self.closed = None if changed else closed.get(definition.name)
+        geometry = definition.symbols.get("geometry")
+        if self.closed is not None and geometry is not None:
+            self.closed = functools.partial(self.closed, geometry=geometry)
         self.method = ("closed form" if self.closed is not None
                        else "Newton (warm-started)")
         y0 = definition.initial(model)
@@ -120,6 +128,9 @@ class InverseStudy:
     motors : MotorTorques or None
         Motor torques, speeds and powers when every actuator has a
         :class:`~kanedyn.BallScrew` (:func:`kanedyn.analysis.motor_torques`).
+    limit_check : LimitCheck or None
+        The actuator limits checked along the path, with the first violation
+        (:func:`kanedyn.analysis.check_actuator_limits`); None without limits.
     """
 
     model_name: str
@@ -143,6 +154,7 @@ class InverseStudy:
     rates: np.ndarray = None
     rate_derivatives: np.ndarray = None
     motors: object = None
+    limit_check: object = None
     extra: dict = field(default_factory=dict, repr=False, compare=False)
 
     # ------------------------------------------------------------ summaries
@@ -360,7 +372,8 @@ def _gravity_symbol(definition):
 
 
 def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
-                  backend="numpy", constants=None, model=None, wrench=None):
+                  backend="numpy", constants=None, model=None, wrench=None, poses=None,
+                  limits=None):
     r"""Actuator forces of a parallel model along a named trajectory.
 
     Parameters
@@ -388,6 +401,15 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         (N m) in the ground frame, constant or a function of time
         (:func:`kanedyn.analysis.with_platform_wrench`).  Not together with
         ``model``: build that from ``with_platform_wrench(definition, wrench)``.
+    poses : PoseTable, optional
+        A platform trajectory read from a pose file
+        (:func:`kanedyn.analysis.read_pose_csv`), in place of ``trajectory``
+        and ``t_end``: the ``points`` times span the table's; the model's pose
+        must be ``x, y, z, phi_x, phi_y, phi_z``.
+    limits : dict, optional
+        ``{quantity: limit}`` of ``force``, ``speed``, ``torque``,
+        ``motor_speed`` (:func:`kanedyn.analysis.check_actuator_limits`),
+        checked along the path into ``InverseStudy.limit_check``.
 
     Returns
     -------
@@ -408,21 +430,29 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         raise ModelError(f"model {definition.name!r} declares no actuators; inverse studies "
                          "need definition.actuators (3rrr, stewart-platform, "
                          "out-parallel-6dof)")
-    if trajectory not in TRAJECTORIES:
+    if poses is None and trajectory not in TRAJECTORIES:
         raise KanedynError(f"unknown trajectory {trajectory!r}; available: "
                            f"{', '.join(TRAJECTORIES)}")
     if int(points) < 2:
         raise KanedynError(f"inverse_study needs at least 2 points, got {points}")
-    t_end = float(definition.t_end if t_end is None else t_end)
-    if not t_end > 0:
-        raise KanedynError(f"t_end must be positive, got {t_end!r}")
+    if poses is not None:
+        if t_end is not None:
+            raise KanedynError("inverse_study: give poses or t_end, not both (the pose "
+                               "table sets the times)")
+        t0, t_end = float(poses.t[0]), float(poses.t[-1])
+        trajectory = f"pose file {Path(poses.source).name}"
+    else:
+        t0 = 0.0
+        t_end = float(definition.t_end if t_end is None else t_end)
+        if not t_end > 0:
+            raise KanedynError(f"t_end must be positive, got {t_end!r}")
     if wrench is not None:
         from ._platform_wrench import with_platform_wrench
         if model is not None:
             raise KanedynError("inverse_study: give a wrench or a model, not both (build "
                                "the model from with_platform_wrench(definition, wrench))")
         if hasattr(wrench, "check_covers"):
-            wrench.check_covers(0.0, t_end)
+            wrench.check_covers(t0, t_end)
         definition = with_platform_wrench(definition, wrench)
     overrides = dict(constants or {})
     if model is None:
@@ -432,8 +462,15 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     pose_names = tuple(str(s).removesuffix("(t)") for s in pose_syms)
     y0 = definition.initial(model)
     home = np.array([y0[model.index(n)] for n in pose_names], float)
-    motion = _pose_motion(trajectory, home, trajectory_offsets(definition), t_end)
-    t = np.linspace(0.0, t_end, int(points))
+    if poses is not None:
+        if pose_names != _POSE_FILE_NAMES:
+            raise KanedynError(f"{poses.source}: a pose file gives x, y, z, phi_x, phi_y, "
+                               f"phi_z; model {definition.name!r} has the pose "
+                               f"{', '.join(pose_names)}")
+        motion = poses
+    else:
+        motion = _pose_motion(trajectory, home, trajectory_offsets(definition), t_end)
+    t = np.linspace(t0, t_end, int(points))
     pose, rate, accel = motion(t)
     ik = _Kinematics(definition, model, overrides)
     q, u, udot = ik(t, pose, rate, accel)
@@ -449,6 +486,10 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
     parts = amap.parts(t, q.T, u.T, udot.T, groups=definition.body_groups, gravity=gravity)
     power = amap.power_balance(t, q.T, u.T, udot.T, gravity=gravity)
     motors = _motors(definition, amap, t, parts.groups, rates, rate_dots)
+    forces = np.array(forces).T
+    units = tuple(_unit(a) for a in definition.actuators)
+    limit_check = None if limits is None else _limit_check(amap.names, units, t, forces,
+                                                           rates, motors, limits)
 
     def forward(rtol, atol, method):
         return _forward(definition, model, amap, motion, t, q[0], u[0], overrides,
@@ -458,12 +499,22 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         model_name=definition.name, trajectory=trajectory, t=t, pose_names=pose_names,
         pose=pose, pose_rate=rate, pose_accel=accel, q=q, u=u, udot=udot,
         ik_method=ik.method, names=amap.names,
-        units=tuple(_unit(a) for a in definition.actuators),
-        forces=np.array(forces).T, condition=np.array(condition),
+        units=units, forces=forces, condition=np.array(condition),
         causes=dict(parts.causes), groups=dict(parts.groups), power=power,
-        rates=rates, rate_derivatives=rate_dots, motors=motors,
+        rates=rates, rate_derivatives=rate_dots, motors=motors, limit_check=limit_check,
         extra={"model": model, "actuator_map": amap, "definition": definition,
                "forward": forward})
+
+
+def _limit_check(names, units, t, forces, rates, motors, limits):
+    from ._actuator_limits import check_actuator_limits
+    unit = "/".join(sorted(set(units)))
+    values = {"force": forces, "speed": rates,
+              "torque": None if motors is None else motors.torque,
+              "motor_speed": None if motors is None else motors.speed}
+    quantity_units = {"force": unit, "speed": "m/s" if unit == "N" else "rad/s",
+                      "torque": "N m", "motor_speed": "rad/s"}
+    return check_actuator_limits(t, names, values, quantity_units, limits)
 
 
 def _motors(definition, amap, t, groups, rates, rate_dots):

@@ -14,15 +14,13 @@ and it must cover the study's time span (no extrapolation).
 
 from __future__ import annotations
 
-import csv
 import dataclasses
-import math
 from dataclasses import dataclass
-from pathlib import Path
 
 import numpy as np
 
 from .._errors import KanedynError
+from ._csv_table import read_numeric_csv
 
 __all__ = ["WrenchTable", "read_wrench_csv", "with_platform_wrench", "WRENCH_COLUMNS"]
 
@@ -71,37 +69,7 @@ def read_wrench_csv(path):
         Naming the file and line of a missing column, a value that is not a
         finite number, or a time not after the one before.
     """
-    path = Path(path)
-    try:
-        text = path.read_text(encoding="utf-8")
-    except OSError as exc:
-        raise KanedynError(f"wrench file {path}: cannot read it ({exc.strerror})") from None
-    rows = [r for r in csv.reader(text.splitlines()) if any(c.strip() for c in r)]
-    expected = ["t", *WRENCH_COLUMNS]
-    if not rows or [c.strip() for c in rows[0]] != expected:
-        raise KanedynError(f"{path}, line 1: the header must be {','.join(expected)}")
-    if len(rows) < 2:
-        raise KanedynError(f"{path}: needs at least two rows of data")
-    data = []
-    for line, row in enumerate(rows[1:], start=2):
-        if len(row) != len(expected):
-            raise KanedynError(f"{path}, line {line}: {len(row)} values, expected "
-                               f"{len(expected)} ({','.join(expected)})")
-        values = []
-        for name, cell in zip(expected, row):
-            try:
-                x = float(cell)
-            except ValueError:
-                x = math.nan
-            if not math.isfinite(x):
-                raise KanedynError(f"{path}, line {line}, column {name}: {cell.strip()!r} "
-                                   "is not a finite number")
-            values.append(x)
-        if data and not values[0] > data[-1][0]:
-            raise KanedynError(f"{path}, line {line}: t = {values[0]:g} s is not after the "
-                               f"previous row's {data[-1][0]:g} s")
-        data.append(values)
-    arr = np.array(data)
+    _, arr, _ = read_numeric_csv(path, [["t", *WRENCH_COLUMNS]], "wrench")
     return WrenchTable(t=arr[:, 0], values=arr[:, 1:], source=str(path))
 
 

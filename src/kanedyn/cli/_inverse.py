@@ -18,9 +18,14 @@ def add_parser(sub):
     p = sub.add_parser("inverse", help="actuator forces along a prescribed platform motion: "
                                        "by cause, by body group, power balance")
     add_model_argument(p)
-    p.add_argument("--trajectory", choices=_TRAJECTORIES, default="quintic",
+    p.add_argument("--trajectory", choices=_TRAJECTORIES, default=None,
                    help="quintic: rest to rest from the home pose to an offset pose; "
                         "sinusoid: about the home pose (default quintic)")
+    p.add_argument("--poses", default=None, metavar="FILE.csv",
+                   help="platform trajectory from a CSV file with the header "
+                        "t,x,y,z,roll,pitch,yaw (body-fixed X-Y-Z angles) or "
+                        "t,x,y,z,qw,qx,qy,qz [s, m, rad], splined (C2); instead of "
+                        "--trajectory and --t-end")
     p.add_argument("--t-end", type=positive_float, default=None,
                    help="duration [s] (default: the model's)")
     p.add_argument("--points", type=point_count, default=201,
@@ -34,6 +39,12 @@ def add_parser(sub):
                    help="external wrench on the platform, in the ground frame: six "
                         "numbers [N, N m], or a CSV file with the header t,Fx,Fy,Fz,Mx,My,Mz "
                         "covering the trajectory (interpolated linearly)")
+    p.add_argument("--machine", default=None, metavar="FILE.toml",
+                   help="out-parallel-6dof: the machine's geometry, masses, drive trains "
+                        "and (optionally) actuator limits from a TOML file")
+    p.add_argument("--limit", default=None, metavar="force=N,speed=V,torque=T,motor_speed=W",
+                   help="actuator limits checked along the path [N, m/s, N m, rad/s]; "
+                        "over a machine file's [limits]; the first violation is named")
     p.add_argument("--check", action="store_true",
                    help="also drive the forward model with the forces (DOP853, "
                         "rtol = atol = 1e-11) and print the largest pose error")
@@ -58,22 +69,33 @@ def cmd_inverse(args):
         raise KanedynError(f"--set {unknown[0]}: not an option or parameter of "
                            f"{definition.name}; parameters: {', '.join(sorted(names))}")
     out = check_output_dir(args.out) if args.out is not None else None
+    limits = {}
+    if args.machine is not None:
+        definition, limits = _machine_option(args.machine, definition)
+    limits.update(_limit_option(args.limit))
+    poses = _poses_option(args)
     if args.wrench is not None:
         from ..analysis import with_platform_wrench
         wrench = _wrench_option(args.wrench)
         if hasattr(wrench, "check_covers"):
-            t_end = definition.t_end if args.t_end is None else args.t_end
-            _option_error("--wrench", wrench.check_covers, 0.0, t_end)
+            span = ((poses.t[0], poses.t[-1]) if poses is not None
+                    else (0.0, definition.t_end if args.t_end is None else args.t_end))
+            _option_error("--wrench", wrench.check_covers, *span)
         definition = _option_error("--wrench", with_platform_wrench, definition, wrench)
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"deriving {definition.title}")
     model = numeric_model(definition, definition.derive(), args.backend, values)
-    progress.stage(f"inverse kinematics and actuator forces, {args.trajectory} trajectory, "
-                   f"{args.points} points")
-    study = inverse_study(definition, trajectory=args.trajectory, t_end=args.t_end,
-                          points=args.points, constants=values, model=model)
+    trajectory = args.trajectory or "quintic"
+    progress.stage(f"inverse kinematics and actuator forces, "
+                   f"{args.poses or trajectory} trajectory, {args.points} points")
+    study = inverse_study(definition, trajectory=trajectory, t_end=args.t_end,
+                          points=args.points, constants=values, model=model, poses=poses,
+                          limits=limits or None)
     progress.done()
-    print(f"{definition.name}: {args.trajectory} trajectory over {study.t[-1]:g} s, "
+    span = (f"over {study.t[-1]:g} s" if poses is None
+            else f"t = {study.t[0]:g} .. {study.t[-1]:g} s ({poses.orientation}, "
+                 f"{poses.t.size} rows, cubic spline)")
+    print(f"{definition.name}: {study.trajectory} trajectory {span}, "
           f"{study.t.size} points; inverse kinematics: {study.ik_method}")
     if args.wrench is not None:
         print(f"external wrench on the platform (ground frame): {args.wrench}")
@@ -90,6 +112,8 @@ def cmd_inverse(args):
     print(f"largest condition number of the actuator Jacobian: {np.max(study.condition):.4g}")
     if study.motors is not None:
         _print_motors(study.motors)
+    if study.limit_check is not None:
+        _print_limits(study.limit_check)
     if args.check:
         progress.stage("forward simulation driven by the computed forces (DOP853, 1e-11)")
         error = study.forward_check()
@@ -99,6 +123,63 @@ def cmd_inverse(args):
         written = study.to_csv(out) + study.plot(out)
         print("wrote " + ", ".join(str(p) for p in written))
     return 0
+
+
+def _machine_option(path, definition):
+    """The out-parallel model built from a machine file, and the file's limits."""
+    from ..models import out_parallel_6dof, read_out_parallel_machine
+    if definition.name != "out-parallel-6dof":
+        raise KanedynError(f"--machine {path}: machine files describe out-parallel-6dof, "
+                           f"not {definition.name}")
+    machine = _option_error("--machine", read_out_parallel_machine, path)
+    return out_parallel_6dof(machine), dict(machine.limits)
+
+
+def _limit_option(text):
+    """``{quantity: limit}`` from ``force=300,torque=0.5``; each number checked."""
+    import math
+
+    from ..analysis import LIMIT_QUANTITIES
+    if text is None:
+        return {}
+    limits = {}
+    for item in text.split(","):
+        name, sep, cell = (part.strip() for part in item.partition("="))
+        if not sep or name not in LIMIT_QUANTITIES:
+            raise KanedynError(f"--limit {text}: {item.strip()!r} is not QUANTITY=VALUE with "
+                               f"QUANTITY one of {', '.join(LIMIT_QUANTITIES)}")
+        try:
+            x = float(cell)
+        except ValueError:
+            x = math.nan
+        if not (math.isfinite(x) and x > 0):
+            raise KanedynError(f"--limit {text}: {name} = {cell!r} is not a finite number > 0")
+        limits[name] = x
+    return limits
+
+
+def _print_limits(check):
+    parts = [f"{q} {v:.6g} {check.units[q]} (peak {check.peaks[q]:.6g})"
+             for q, v in check.limits.items()]
+    print("actuator limits: " + "; ".join(parts))
+    if check.ok:
+        print("  all within limits along the path")
+        return
+    count = ", ".join(f"{q} {n}" for q, n in check.violations.items() if n)
+    print(f"  LIMIT EXCEEDED, first at {check.first.describe()}; points x actuators over: "
+          f"{count}")
+
+
+def _poses_option(args):
+    """The pose table of ``--poses``, or None; refused together with its alternatives."""
+    if args.poses is None:
+        return None
+    for flag, value in (("--trajectory", args.trajectory), ("--t-end", args.t_end)):
+        if value is not None:
+            raise KanedynError(f"--poses {args.poses}: the pose file sets the trajectory and "
+                               f"its times; drop {flag}")
+    from ..analysis import read_pose_csv
+    return _option_error("--poses", read_pose_csv, args.poses)
 
 
 def _option_error(option, fn, *args):

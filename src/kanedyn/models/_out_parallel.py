@@ -217,7 +217,7 @@ def out_parallel_ik(pose, rate=None, accel=None, geometry=None):
     return q, u, ud
 
 
-def out_parallel_6dof():
+def out_parallel_6dof(machine=None):
     r"""A 6-dof out-parallel manipulator: six ball-screw carriages on vertical rails.
 
     Geometry (:data:`OUT_PARALLEL_GEOMETRY`, :func:`out_parallel_anchors`).
@@ -256,6 +256,13 @@ def out_parallel_6dof():
     eighteen loop closures :math:`A_{0j} + s_j N_z + L\hat l_j - (p + R c_j) = 0`.
     :func:`out_parallel_ik` gives them in closed form.
 
+    Parameters
+    ----------
+    machine : OutParallelMachine, optional
+        Another machine's geometry, masses and drive trains
+        (:func:`kanedyn.models.read_out_parallel_machine`); the defaults above
+        if omitted.
+
     Returns
     -------
     ModelDefinition
@@ -263,9 +270,10 @@ def out_parallel_6dof():
         the travels with their :class:`~kanedyn.BallScrew`;
         ``body_groups``: ``platform``, ``struts``, ``carriages``; ``symbols``:
         ``pose``, ``pose_rates``, ``s``, ``a``, ``b``, ``N``, the constants by
-        name.
+        name, ``geometry`` (the numbers of :data:`OUT_PARALLEL_GEOMETRY`).
     """
-    geo = OUT_PARALLEL_GEOMETRY
+    geo = _geometry(None if machine is None else machine.geometry)
+    inertia = dict(OUT_PARALLEL_INERTIA if machine is None else machine.inertia)
     pose = list(me.dynamicsymbols("x y z phi_x phi_y phi_z"))
     rates = list(me.dynamicsymbols("vx vy vz wx wy wz"))
     s = list(me.dynamicsymbols("s1:7"))
@@ -289,10 +297,10 @@ def out_parallel_6dof():
     platform = me.RigidBody("platform", Gp, P, mp,
                             (me.inertia(P, mp * rp ** 2 / 4, mp * rp ** 2 / 4,
                                         mp * rp ** 2 / 2), Gp))
-    A0_num, _, c_num = out_parallel_anchors()
+    A0_num, _, c_num = out_parallel_anchors(geo)
     # drive trains as numbers: the equations of motion do not contain them (they
     # enter through the actuators), so they are not parameters of the model
-    screw = [OUT_PARALLEL_INERTIA[key] for key in ("lead", "J_r", "J_cp", "J_sc", "eta",
+    screw = [inertia[key] for key in ("lead", "J_r", "J_cp", "J_sc", "eta",
                                                    "eta_back")]
     struts, carriages, actuators = [], [], []
     config, velocity = [], []
@@ -323,12 +331,12 @@ def out_parallel_6dof():
     loads = [(body.masscenter, -body.mass * g * N.z) for body in bodies]
     heights = sm.Add(*(body.mass * g * body.masscenter.pos_from(O).dot(N.z)
                        for body in bodies))
-    home, _, _ = out_parallel_ik([0, 0, geo["h"], 0, 0, 0])
+    home, _, _ = out_parallel_ik([0, 0, geo["h"], 0, 0, 0], geometry=geo)
     initial = {v: 0.0 for v in u_all}
     initial.update(dict(zip(q_all, home)))
     named = dict(R_b=Rb, r_p=rp, L=L, m_p=mp, m_s=ms, m_c=mc, g=g)
     values = dict(R_b=geo["R_b"], r_p=geo["r_p"], L=geo["L"], g=9.81,
-                  **{key: OUT_PARALLEL_INERTIA[key] for key in ("m_p", "m_s", "m_c")})
+                  **{key: inertia[key] for key in ("m_p", "m_s", "m_c")})
     constants = {named[key]: value for key, value in values.items()}
     units = {Rb: "m", rp: "m", L: "m", mp: "kg", ms: "kg", mc: "kg", g: "m/s^2"}
     return ModelDefinition(
@@ -342,7 +350,8 @@ def out_parallel_6dof():
                        bodies=bodies, loads=loads, potential_energy=heights),
         constants=constants, constant_units=units, initial_state=initial, t_end=2.0,
         symbols=dict(pose=pose, pose_rates=rates, s=s, a=a, b=b, ds=ds, N=N, O=O,
-                     platform=platform, struts=struts, carriages=carriages, **named),
+                     platform=platform, struts=struts, carriages=carriages, geometry=geo,
+                     **named),
         description="Six carriages driven by ball screws on vertical rails outside the "
                     "workspace hold the platform through fixed-length struts (universal "
                     "joint at the carriage, spherical at the platform). The platform pose "
