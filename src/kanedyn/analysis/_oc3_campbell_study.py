@@ -46,15 +46,19 @@ def oc3_campbell_diagram(max_rpm=12.1, n_speeds=12, backend="c", **options):
     """
     from ..models import oc3_spar
     from ._campbell import campbell
+    _check_speeds(max_rpm, n_speeds)
+    d = oc3_spar(rotor="spinning", controller="off", wind_speed=0.0, **options)
+    model = d.numeric(backend=backend)
+    speeds = np.linspace(0.0, max_rpm, n_speeds) * math.pi / 30
+    return campbell(model, speeds, d.initial(model), speed="rotor_speed", azimuth="azimuth")
+
+
+def _check_speeds(max_rpm, n_speeds):
     if not (max_rpm > 0 and math.isfinite(max_rpm)):
         raise KanedynError(f"oc3-campbell: max_rpm must be a positive number of rpm, "
                            f"got {max_rpm!r}")
     if n_speeds < 2:
         raise KanedynError(f"oc3-campbell: n_speeds must be at least 2, got {n_speeds}")
-    d = oc3_spar(rotor="spinning", controller="off", wind_speed=0.0, **options)
-    model = d.numeric(backend=backend)
-    speeds = np.linspace(0.0, max_rpm, n_speeds) * math.pi / 30
-    return campbell(model, speeds, d.initial(model), speed="rotor_speed", azimuth="azimuth")
 
 
 def _campbell_study(out, quiet, max_rpm, n_speeds, tower_modes, drivetrain, tmdi, backend,
@@ -62,6 +66,7 @@ def _campbell_study(out, quiet, max_rpm, n_speeds, tower_modes, drivetrain, tmdi
     options = dict(tower_modes=tower_modes, drivetrain=drivetrain, tmdi=tmdi,
                    tower_damping=tower_damping,
                    tower_damping_reference=tower_damping_reference)
+    _check_speeds(max_rpm, n_speeds)  # before saying what it does
     _say(quiet, f"oc3-campbell: {n_speeds} rotor speeds, 0 to {max_rpm:g} rpm")
     diagram = oc3_campbell_diagram(max_rpm=max_rpm, n_speeds=n_speeds, backend=backend,
                                    **options)
