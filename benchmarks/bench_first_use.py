@@ -42,7 +42,7 @@ from kanedyn.numerics import COMPILE_STATS
 from kanedyn.numerics.backends._c_quick import QUICK_STATS
 {imports}
 t_imports = time.perf_counter() - t0
-d = kd.models.build("chain3d", n={n}, style="positions")
+d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
 m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
 t_rhs = time.perf_counter() - t0

@@ -101,7 +101,7 @@ import json, sys
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
-d = kd.models.build("chain3d", n=3, style="positions")  # the default: lazy when cached
+d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
 m = d.numeric(backend="c")
 f = m.rhs(0.0, d.initial(m))
 run = kd.simulate(m, (0.0, 0.5), d.initial(m))

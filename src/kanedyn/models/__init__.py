@@ -283,22 +283,20 @@ def unknown_model_text(name):
     return f"unknown model {name!r}{hint}"
 
 
-def build(name, lazy=None, **options):
+def build(name, lazy=False, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
 
     Parameters
     ----------
     name : str
         One of :data:`REGISTRY` (``kanedyn list``).
-    lazy : bool, optional
-        By default (``None``) and with ``True``: when the model's compiled
-        numerical model is in the derivation cache (its options were checked
-        when the entry was written), a :class:`PendingDefinition` that builds
-        the definition only when first needed, so that
-        ``build(name).numeric(backend="c")`` in a second process needs no SymPy
-        objects at all (its ``.definition`` is the :class:`ModelDefinition`).
-        Otherwise, and always with ``False``, the definition is built here, so
-        errors in option values are raised by this call.
+    lazy : bool
+        ``True``: when the model's compiled numerical model is in the derivation
+        cache, return a :class:`PendingDefinition` that builds the definition
+        only when first needed (``build(name, lazy=True).numeric(backend="c")``
+        then needs no SymPy objects at all; its ``.definition`` is the
+        :class:`ModelDefinition`).  Otherwise, and by default, the definition
+        is built here, so errors in option values are raised by this call.
     **options
         Model options, e.g. ``n=8`` for ``chain3d``.
     """
@@ -313,7 +311,7 @@ def build(name, lazy=None, **options):
                          f"its options: {sorted(allowed) or 'none'}")
     from ._base import PendingDefinition
     pending = PendingDefinition(name, options, builder)  # imported when it builds
-    return pending if lazy is not False and pending.in_cache() else pending.definition
+    return pending if lazy and pending.in_cache() else pending.definition
 
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__,
