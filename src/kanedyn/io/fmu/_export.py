@@ -152,7 +152,10 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     settings = _settings(rtol, atol, projection_tol)
     y_start = model.state(y0)
     r_start = model.input_values(0.0, y_start)
-    units = {str(k): v for k, v in (constant_units or {}).items()}
+    # units of constants the equations do not use (dropped from the model) have no
+    # variable to go to; any other name is a mistake
+    dropped = set(model._data.get("unused_constants", ()))
+    units = {str(k): v for k, v in (constant_units or {}).items() if str(k) not in dropped}
     unknown = sorted(set(units) - set(model.constants))
     if unknown:
         raise OptionError(f"constant_units names {', '.join(unknown)}, which are not "
