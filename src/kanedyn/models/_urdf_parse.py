@@ -26,7 +26,7 @@ from .._errors import ModelError
 from ..modeling import inertia_violation, principal_moments
 from ._urdf_meshes import resolve_mesh, shown_name
 
-__all__ = ["URDFError", "Element", "read_xml", "Robot", "Link", "Joint", "Inertial",
+__all__ = ["URDFError", "Element", "read_xml", "parse_xml", "Robot", "Link", "Joint", "Inertial",
            "Visual", "parse_robot", "rpy_matrix", "pose_matrix", "SUPPORTED_JOINTS",
            "INERTIA_RTOL", "check_inertias", "inertia_text", "round_off_text"]
 
@@ -79,24 +79,36 @@ def read_xml(path):
         When the file cannot be read or is not well-formed XML (with its line).
     """
     path = Path(path)
+    return parse_xml(path, path, "a URDF", URDFError, Element)
+
+
+def parse_xml(path, shown, kind, error, element):
+    """The root element of the XML file ``path``, each made by ``element(tag, attrib,
+    line)``; entity declarations refused (expansion bombs, external files).
+
+    ``shown``: the file as messages name it; ``kind``: ``"a URDF"``, ``"an MJCF"``;
+    ``error``: the exception class raised, with file and line, when the file cannot
+    be read or is not well-formed XML.
+    """
     try:
-        data = path.read_bytes()
+        data = Path(path).read_bytes()
     except OSError as exc:
-        raise URDFError(f"{path}: cannot read the URDF file: {exc.strerror or exc}") from None
+        raise error(f"{shown}: cannot read the {kind.split()[-1]} file: "
+                    f"{exc.strerror or exc}") from None
     parser = xml.parsers.expat.ParserCreate()
     stack, roots = [], []
 
     def start(tag, attrib):
-        element = Element(tag, dict(attrib), parser.CurrentLineNumber)
-        (stack[-1].children if stack else roots).append(element)
-        stack.append(element)
+        made = element(tag, dict(attrib), parser.CurrentLineNumber)
+        (stack[-1].children if stack else roots).append(made)
+        stack.append(made)
 
     def end(tag):
         stack.pop()
 
-    def no_entities(*args):  # refuse entity declarations (entity expansion bombs)
-        raise URDFError(f"{path}:{parser.CurrentLineNumber}: entity declarations are not "
-                        "accepted in a URDF file")
+    def no_entities(*args):
+        raise error(f"{shown}:{parser.CurrentLineNumber}: entity declarations are not "
+                    f"accepted in {kind} file")
 
     parser.StartElementHandler = start
     parser.EndElementHandler = end
@@ -104,8 +116,8 @@ def read_xml(path):
     try:
         parser.Parse(data, True)
     except xml.parsers.expat.ExpatError as exc:
-        raise URDFError(f"{path}:{exc.lineno}: not a well-formed XML file "
-                        f"({xml.parsers.expat.ErrorString(exc.code)})") from None
+        raise error(f"{shown}:{exc.lineno}: not a well-formed XML file "
+                    f"({xml.parsers.expat.ErrorString(exc.code)})") from None
     return roots[0]
 
 

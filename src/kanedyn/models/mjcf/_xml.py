@@ -13,12 +13,12 @@ from __future__ import annotations
 
 import math
 import re
-import xml.parsers.expat
 from dataclasses import dataclass
 from pathlib import Path
 
 from ..._errors import ModelError
 from .._urdf_parse import Element as _XMLElement
+from .._urdf_parse import parse_xml
 
 __all__ = ["MJCFError", "Element", "read_mjcf", "number", "numbers"]
 
@@ -50,35 +50,8 @@ class Element(_XMLElement):
 
 
 def _parse(path, shown):
-    try:
-        data = Path(path).read_bytes()
-    except OSError as exc:
-        raise MJCFError(f"{shown}: cannot read the MJCF file: "
-                        f"{exc.strerror or exc}") from None
-    parser = xml.parsers.expat.ParserCreate()
-    stack, roots = [], []
-
-    def start(tag, attrib):
-        element = Element(tag, dict(attrib), parser.CurrentLineNumber, source=shown)
-        (stack[-1].children if stack else roots).append(element)
-        stack.append(element)
-
-    def end(tag):
-        stack.pop()
-
-    def no_entities(*args):  # refuse entity declarations (expansion bombs, external files)
-        raise MJCFError(f"{shown}:{parser.CurrentLineNumber}: entity declarations are not "
-                        "accepted in an MJCF file")
-
-    parser.StartElementHandler = start
-    parser.EndElementHandler = end
-    parser.EntityDeclHandler = no_entities
-    try:
-        parser.Parse(data, True)
-    except xml.parsers.expat.ExpatError as exc:
-        raise MJCFError(f"{shown}:{exc.lineno}: not a well-formed XML file "
-                        f"({xml.parsers.expat.ErrorString(exc.code)})") from None
-    return roots[0]
+    return parse_xml(path, shown, "an MJCF", MJCFError,
+                     lambda tag, attrib, line: Element(tag, attrib, line, source=shown))
 
 
 def read_mjcf(path):
