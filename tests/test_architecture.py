@@ -21,7 +21,8 @@ PACKAGE = Path(__file__).resolve().parents[1] / "src" / "kanedyn"
 ORDER = ["foundation", "engine", "modeling", "formulations", "numerics", "simulation",
          "optimization", "models", "analysis", "io", "cli", "public"]
 FOUNDATION = {"_errors", "_progress", "_number_text", "_version", "_html", "_lazy",
-              "_expressions", "_fork", "_signals", "_trusted_files", "_output_files"}
+              "_expressions", "_fork", "_signals", "_trusted_files", "_output_files",
+              "_input_files"}
 PUBLIC = {"__init__", "schemes", "visuals", "offshore", "vehicle", "flexible", "studies"}
 
 #: (importing module, imported layer): the method that needs it

@@ -28,16 +28,14 @@ finite number, a row longer than the header, times that do not increase.
 from __future__ import annotations
 
 import csv
-import io
 import math
-import os
 import re
-import stat
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .._errors import ModelError
+from .._input_files import read_bounded_text
 
 __all__ = ["MeasuredRecord", "MAX_BYTES", "as_records"]
 
@@ -377,40 +375,11 @@ def _cell(row, col, name, line, source):
     return value
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"))
-
-
 def _text(path, source, max_bytes):
     """The UTF-8 text (a text stream) of the regular file ``path``."""
-    try:  # O_NONBLOCK: opening a named pipe does not wait for a writer
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise ModelError(f"cannot read the record {source}: {exc.strerror}") from None
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            kind = next((what for test, what in _KINDS if test(info.st_mode)), "not a file")
-            raise ModelError(f"{source}: {kind}, not a regular file; give a CSV file")
-        if info.st_size > max_bytes:
-            raise ModelError(f"{source}: {info.st_size} bytes, more than the {max_bytes} a "
-                             "record may have (MeasuredRecord.from_csv(..., max_bytes=...) "
-                             "reads a larger one)")
-        with open(fd, "rb", closefd=False) as handle:
-            data = handle.read(max_bytes + 1)
-    except OSError as exc:
-        raise ModelError(f"cannot read the record {source}: {exc.strerror}") from None
-    finally:
-        os.close(fd)
-    if len(data) > max_bytes:
-        raise ModelError(f"{source}: more than the {max_bytes} bytes a record may have")
-    try:
-        data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at "
-                         f"offset {exc.start}); save it as UTF-8 CSV") from None
-    return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8-sig", newline="")
+    return read_bounded_text(path, source, max_bytes, name="the record",
+                             limit=("a record", "MeasuredRecord.from_csv(..., max_bytes=...) "
+                                                "reads a larger one"))
 
 
 def _rows(text, source):

@@ -33,11 +33,8 @@ thousand times too large.
 from __future__ import annotations
 
 import csv
-import io
 import math
-import os
 import re
-import stat
 import warnings
 from array import array
 from dataclasses import dataclass, field
@@ -45,6 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._errors import ModelError
+from ..._input_files import read_bounded_bytes, read_bounded_text
 from ..._output_files import replacing
 from ._pulses import G0
 
@@ -238,49 +236,22 @@ def series_from_channels(t, channels, source, labels, notes=(), time_factor=1.0,
         notes=tuple(notes))
 
 
-_KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
-          (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
-          (stat.S_ISSOCK, "a socket"))
-
-
 def _read_bytes(path, source, max_bytes, reader="read_pulse_csv", wanted="a CSV file"):
     """The bytes of the regular file ``path`` of at most ``max_bytes`` bytes
     (``reader`` and ``wanted`` name the function reading it and what it reads)."""
-    try:  # O_NONBLOCK: opening a named pipe does not wait for a writer
-        fd = os.open(path, os.O_RDONLY | getattr(os, "O_NONBLOCK", 0))
-    except OSError as exc:
-        raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
-    try:
-        info = os.fstat(fd)
-        if not stat.S_ISREG(info.st_mode):
-            kind = next((what for test, what in _KINDS if test(info.st_mode)), "not a file")
-            raise ModelError(f"{source}: {kind}, not a regular file; give {wanted}")
-        with open(fd, "rb", closefd=False) as handle:
-            data = handle.read(info.st_size + 1) if info.st_size <= max_bytes else b""
-            if info.st_size < len(data) <= max_bytes:  # it grew, or its size is not known
-                data += handle.read(max_bytes + 1 - len(data))
-    except OSError as exc:
-        raise ModelError(f"cannot read pulse file {source}: {exc.strerror}") from None
-    finally:
-        os.close(fd)
-    if info.st_size > max_bytes or len(data) > max_bytes:  # (or it grew while read)
-        raise ModelError(f"{source}: {max(info.st_size, len(data))} bytes, more than the "
-                         f"{max_bytes} a pulse record may have (give {reader}(..., "
-                         "max_bytes=...) to read a larger one)")
-    return data
+    return read_bounded_bytes(path, source, max_bytes, name="pulse file", wanted=wanted,
+                              limit=_limit(reader))
 
 
 def _read_text(path, source, max_bytes, reader="read_pulse_csv"):
     """The UTF-8 text (a text stream) of the regular file ``path`` of at most
     ``max_bytes`` bytes (``reader``: the function reading it, in messages)."""
-    data = _read_bytes(path, source, max_bytes, reader)
-    try:  # checked whole (to name the offset), then decoded as it is read
-        data.decode("utf-8-sig")
-    except UnicodeDecodeError as exc:
-        raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
-                         f"at offset {exc.start}); save it as UTF-8 CSV") from None
-    # utf-8-sig: the byte-order mark that spreadsheet programs write is skipped
-    return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8-sig", newline="")
+    return read_bounded_text(path, source, max_bytes, name="pulse file",
+                             limit=_limit(reader))
+
+
+def _limit(reader):
+    return "a pulse record", f"give {reader}(..., max_bytes=...) to read a larger one"
 
 
 def _note(row):
