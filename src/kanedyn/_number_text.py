@@ -16,7 +16,7 @@ import operator
 
 from ._errors import KanedynError
 
-__all__ = ["NumberTextError", "parse_number", "MAX_LENGTH"]
+__all__ = ["NumberTextError", "parse_number", "finite_number", "MAX_LENGTH"]
 
 #: longest text accepted (characters); longer text is refused before parsing
 MAX_LENGTH = 200
@@ -107,3 +107,14 @@ def _evaluate(node):
     if isinstance(node, ast.UnaryOp) and type(node.op) in _UNARY:
         return _UNARY[type(node.op)](_evaluate(node.operand))
     raise _NotArithmetic(f"{type(node).__name__} is not allowed")
+
+
+def finite_number(text, kind=float):
+    """The finite number ``text`` is written as, plainly (``kind``: ``float`` or
+    ``int``; no arithmetic, unlike :func:`parse_number`), or ``None`` (a cell of a
+    table that is not one: the caller names it)."""
+    try:
+        value = kind(text)
+    except (TypeError, ValueError):
+        return None
+    return value if math.isfinite(value) else None

@@ -9,12 +9,12 @@ file, the line and (for a bad value) the column.  Cells are parsed with
 from __future__ import annotations
 
 import csv
-import math
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import KanedynError
+from .._number_text import finite_number
 
 __all__ = ["read_numeric_csv"]
 
@@ -72,11 +72,8 @@ def read_numeric_csv(path, headers, what):
                                f"{len(expected)} ({','.join(expected)})")
         values = []
         for name, cell in zip(expected, row):
-            try:
-                x = float(cell)
-            except ValueError:
-                x = math.nan
-            if not math.isfinite(x):
+            x = finite_number(cell)
+            if x is None:
                 raise KanedynError(f"{path}, line {line}, column {name}: {cell.strip()!r} "
                                    "is not a finite number")
             values.append(x)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from .._errors import KanedynError
+from .._number_text import finite_number
 from .._progress import Progress
 from ..models import build
 from ._options import (add_backend_argument, add_model_argument, check_output_dir, numeric_model,
@@ -137,8 +138,6 @@ def _machine_option(path, definition):
 
 def _limit_option(text):
     """``{quantity: limit}`` from ``force=300,torque=0.5``; each number checked."""
-    import math
-
     from ..analysis import LIMIT_QUANTITIES
     if text is None:
         return {}
@@ -148,11 +147,8 @@ def _limit_option(text):
         if not sep or name not in LIMIT_QUANTITIES:
             raise KanedynError(f"--limit {text}: {item.strip()!r} is not QUANTITY=VALUE with "
                                f"QUANTITY one of {', '.join(LIMIT_QUANTITIES)}")
-        try:
-            x = float(cell)
-        except ValueError:
-            x = math.nan
-        if not (math.isfinite(x) and x > 0):
+        x = finite_number(cell)
+        if x is None or not x > 0:
             raise KanedynError(f"--limit {text}: {name} = {cell!r} is not a finite number > 0")
         limits[name] = x
     return limits
@@ -191,18 +187,13 @@ def _option_error(option, fn, *args):
 
 def _wrench_option(text):
     """Six comma-separated numbers, or the path of a wrench CSV file."""
-    import math
-
     from ..analysis import read_wrench_csv
     parts = text.split(",")
     if len(parts) == 6 and not text.lower().endswith(".csv"):
         values = []
         for name, cell in zip(("Fx", "Fy", "Fz", "Mx", "My", "Mz"), parts):
-            try:
-                x = float(cell)
-            except ValueError:
-                x = math.nan
-            if not math.isfinite(x):
+            x = finite_number(cell)
+            if x is None:
                 raise KanedynError(f"--wrench {text}: {name} = {cell.strip()!r} is not a "
                                    "finite number")
             values.append(x)

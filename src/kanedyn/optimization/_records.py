@@ -35,6 +35,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .._errors import ModelError
+from .._number_text import finite_number
 from .._input_files import read_bounded_text
 
 __all__ = ["MeasuredRecord", "MAX_BYTES", "as_records"]
@@ -364,11 +365,8 @@ def _header(row, columns, source, line):
 
 def _cell(row, col, name, line, source):
     cell = row[col].strip() if col < len(row) else ""
-    try:
-        value = float(cell)
-    except ValueError:
-        value = None
-    if value is None or not math.isfinite(value):
+    value = finite_number(cell)
+    if value is None:
         shown = repr(cell) if cell else "an empty cell"
         raise ModelError(f"{source}: line {line}, column {name!r}: {shown} is not a finite "
                          "number")

@@ -34,6 +34,7 @@ from pathlib import Path
 import numpy as np
 
 from ..._errors import ModelError
+from ..._number_text import finite_number
 from ..._output_files import replacing
 from ._pulses import G0
 from ._series import MAX_BYTES, _read_bytes, series_from_channels
@@ -181,11 +182,8 @@ def _read_channel(path, target, code, max_bytes):
 
     def number(key, kind=float):
         text, line_no = header[key.lower()]
-        try:
-            value = kind(text)
-        except ValueError:
-            value = math.nan
-        if not math.isfinite(value):
+        value = finite_number(text, kind)
+        if value is None:
             raise ModelError(f"{where}, line {line_no}: {key} {text!r} is not a "
                              f"{'whole ' if kind is int else ''}number")
         return value
