@@ -29,7 +29,7 @@ from ._urdf_ground import urdf_ground_contacts
 from ._urdf_shapes import urdf_shapes
 
 __all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
-           "PINOCCHIO_GRAVITY"]
+           "PINOCCHIO_GRAVITY", "named_rigid_body"]
 
 #: Pinocchio's default ``model.gravity`` (linear part), m/s^2, in the base frame
 PINOCCHIO_GRAVITY = (0.0, 0.0, -9.81)
@@ -499,22 +499,33 @@ class _Builder:
             self.carried[body] = mass + float(np.abs(inertia).sum())
             if mass == 0 and not inertia.any():
                 continue  # a massless body: a frame only
-            ident, frame = self.names[body], self.frame_of[body]
-            m = sm.Symbol(f"m_{ident}", nonnegative=True)
-            c = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
-            G = self.point_of[body].locatenew(f"G_{ident}", sum(
-                (ci * e for ci, e in zip(c, (frame.x, frame.y, frame.z))), me.Vector(0)))
-            self.constants[m] = mass
-            self.constants.update({ci: float(v) for ci, v in zip(c, centre)})
-            comps = {}
-            for key, i, k in _INERTIA_KEYS:
-                comps[key] = sm.Symbol(f"I{key}_{ident}", real=True)
-                self.constants[comps[key]] = float(inertia[i, k])
-            dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
-                                comps["yz"], comps["zx"])
-            self.rigid_bodies.append(me.RigidBody(ident, G, frame, m, (dyadic, G)))
+            rigid = named_rigid_body(self.names[body], self.frame_of[body],
+                                     self.point_of[body], mass, centre, inertia,
+                                     self.constants)
+            self.rigid_bodies.append(rigid)
             if g_dir is not None and mass > 0:
-                self.loads.append((G, m * self.g * g_dir))
+                self.loads.append((rigid.masscenter, rigid.mass * self.g * g_dir))
+
+
+def named_rigid_body(ident, frame, origin, mass, centre, inertia, constants):
+    """The rigid body ``ident`` fixed in ``frame`` whose mass (kg), mass centre (m,
+    from the point ``origin`` in ``frame`` components, shape (3,)) and central
+    inertia (kg m^2, ``frame`` components, shape (3, 3)) are named constants
+    (``m_<ident>``, ``cx_<ident>``..., ``Ixx_<ident>``...), their values put in
+    ``constants`` (a dict, changed)."""
+    m = sm.Symbol(f"m_{ident}", nonnegative=True)
+    c = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
+    G = origin.locatenew(f"G_{ident}", sum(
+        (ci * e for ci, e in zip(c, (frame.x, frame.y, frame.z))), me.Vector(0)))
+    constants[m] = mass
+    constants.update({ci: float(v) for ci, v in zip(c, centre)})
+    comps = {}
+    for key, i, k in _INERTIA_KEYS:
+        comps[key] = sm.Symbol(f"I{key}_{ident}", real=True)
+        constants[comps[key]] = float(inertia[i, k])
+    dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
+                        comps["yz"], comps["zx"])
+    return me.RigidBody(ident, G, frame, m, (dyadic, G))
 
 
 def _warn_inertias(robot, adjusted):

@@ -18,7 +18,7 @@ import numpy as np
 
 from ._urdf_meshes import shown_name
 
-__all__ = ["urdf_shapes", "MESH_FORMATS"]
+__all__ = ["urdf_shapes", "MESH_FORMATS", "colour_of"]
 
 #: mesh file suffixes the viewer reads (.dae with trimesh and pycollada installed)
 MESH_FORMATS = (".stl", ".obj", ".dae")
@@ -51,7 +51,9 @@ def _not_drawable(vis):
     return None
 
 
-def _colour(rgba):
+def colour_of(rgba):
+    """The viewer's colour and opacity of an RGBA quadruple (each clipped to [0, 1];
+    the opacity at least 0.05), ``{}`` for None."""
     if rgba is None:
         return {}
     r, g, b, a = (min(max(float(c), 0.0), 1.0) for c in rgba)
@@ -63,7 +65,7 @@ def _shape(vis, body, centre, rgba):
     from ..modeling import visuals as kv
     T = np.asarray(vis.transform, dtype=float)
     R = T[:3, :3]
-    options = dict(offset=T[:3, 3] - centre, **_colour(rgba))
+    options = dict(offset=T[:3, 3] - centre, **colour_of(rgba))
     if vis.shape == "box":
         return kv.Box(body, vis.size, rotation=R, **options)
     if vis.shape == "cylinder":  # URDF cylinders lie along their own z

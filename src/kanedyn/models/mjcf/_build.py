@@ -35,6 +35,7 @@ import sympy.physics.mechanics as me
 
 from ...modeling import RateInertia, inertia_violation, principal_moments
 from .._base import ModelDefinition
+from .._urdf import named_rigid_body
 from ._frames import euler_matrix, matrix_quat, quat_matrix
 from ._ground import mjcf_ground_contacts
 from ._inertia import body_mass_properties, bound, combine
@@ -43,10 +44,6 @@ from ._xml import MJCFError
 
 __all__ = ["from_mjcf", "MJCFDefinition", "MJCFJoint", "MJCFActuator", "MJCFSite",
            "MJCFGeom", "euler_angles", "euler_rates_matrix"]
-
-_INERTIA_KEYS = (("xx", 0, 0), ("yy", 1, 1), ("zz", 2, 2), ("xy", 0, 1), ("yz", 1, 2),
-                 ("zx", 2, 0))
-
 
 @dataclass(frozen=True)
 class MJCFJoint:
@@ -629,22 +626,12 @@ class _Builder:
                 continue
             ident = self.names(body.name, "body", body.element)
             frame, point = self.frame_of[body.name], self.point_of[body.name]
-            m = sm.Symbol(f"m_{ident}", nonnegative=True)
-            cs = sm.symbols(f"cx_{ident} cy_{ident} cz_{ident}", real=True)
-            G = point.locatenew(f"G_{ident}", _vector(frame, cs))
-            self.constants[m] = mass
-            self.constants.update({ci: float(v) for ci, v in zip(cs, centre)})
-            comps = {}
-            for key, i, k in _INERTIA_KEYS:
-                comps[key] = sm.Symbol(f"I{key}_{ident}", real=True)
-                self.constants[comps[key]] = float(inertia[i, k])
-            dyadic = me.inertia(frame, comps["xx"], comps["yy"], comps["zz"], comps["xy"],
-                                comps["yz"], comps["zx"])
-            rigid = me.RigidBody(ident, G, frame, m, (dyadic, G))
+            rigid = named_rigid_body(ident, frame, point, mass, centre, inertia,
+                                     self.constants)
             self.bodies.append(rigid)
             self.rigid_of[body.name] = rigid
             if g_dir is not None and mass > 0:
-                self.loads.append((G, m * self.g * g_dir))
+                self.loads.append((rigid.masscenter, rigid.mass * self.g * g_dir))
             for k, (m_k, c_k, _, member) in enumerate(parts):
                 if member.gravcomp and m_k > 0 and g_dir is not None:
                     at = point.locatenew(f"Gc{k}_{ident}", _vector(frame, c_k))

@@ -13,18 +13,12 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._urdf_shapes import colour_of
+
 __all__ = ["mjcf_shapes", "VISIBLE_GROUPS"]
 
 #: the geom groups MuJoCo's viewer shows by default
 VISIBLE_GROUPS = (0, 1, 2)
-
-
-def _colour(rgba):
-    if rgba is None:
-        return {}
-    r, g, b, a = (min(max(float(c), 0.0), 1.0) for c in rgba)
-    return {"color": "#{:02x}{:02x}{:02x}".format(*(round(255 * c) for c in (r, g, b))),
-            "opacity": max(a, 0.05)}
 
 
 def _bodies(definition, values):
@@ -59,7 +53,7 @@ def mjcf_shapes(definition, values, groups=VISIBLE_GROUPS):
         rb, centre = bodies[geom.body]
         T = np.asarray(geom.transform, dtype=float)
         R, offset = T[:3, :3], T[:3, 3] - centre
-        options = _colour(rgba)
+        options = colour_of(rgba)
         size = geom.size
         if geom.type == "sphere":
             shapes.append(kv.Sphere(rb, size[0], offset=offset, **options))
