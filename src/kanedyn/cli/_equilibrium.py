@@ -8,7 +8,7 @@ import numpy as np
 from .._errors import KanedynError
 from .._progress import Progress
 from ..models import build
-from ._options import (add_backend_argument, add_model_argument, numeric_model, parse_sets,
+from ._options import (add_backend_argument, add_model_argument, derived_model, parse_sets,
                        split_values)
 from ._table import table
 
@@ -50,10 +50,7 @@ def cmd_equilibrium(args):
             raise KanedynError(f"{option} {unknown[0]}: not a state of {definition.name}; "
                                f"states: {', '.join(definition.state_names)}")
     progress = Progress(enabled=not args.quiet)
-    progress.stage(f"deriving {definition.title}")
-    eom = definition.derive(progress=progress)
-    model = numeric_model(definition, eom, args.backend, constants,
-                          note=lambda text: progress.stage(text))
+    model = derived_model(definition, args.backend, constants, progress)
     y0 = definition.initial(model, initial)
     progress.stage("solving (generating the derivatives on first use)")
     found = equilibrium(model, y0, hold=args.hold, moving=args.moving)

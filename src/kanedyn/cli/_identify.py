@@ -8,7 +8,7 @@ from .._errors import KanedynError
 from .._number_text import parse_number
 from .._progress import Progress
 from ..models import build
-from ._options import (add_backend_argument, add_model_argument, numeric_model, parse_sets,
+from ._options import (add_backend_argument, add_model_argument, derived_model, parse_sets,
                        split_values)
 from ._table import table
 
@@ -107,10 +107,7 @@ def cmd_identify(args):
                            f"constants: {', '.join(sorted(const_names))}")
     records = [MeasuredRecord.from_csv(path, columns=columns) for path in args.data]
     progress = Progress(enabled=not args.quiet)
-    progress.stage(f"deriving {definition.title}")
-    eom = definition.derive(progress=progress)
-    model = numeric_model(definition, eom, args.backend, constants,
-                          note=lambda text: progress.stage(text))
+    model = derived_model(definition, args.backend, constants, progress)
     y0 = definition.initial(model, initial)
     progress.stage("fitting (generating the derivatives on first use)")
     fit = identify(model, records, args.fit, initial=args.initial, y0=y0,

@@ -20,7 +20,7 @@ from .._number_text import parse_number
 from ..models import REGISTRY, unknown_model_text
 
 __all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument", "model_name",
-           "add_model_argument",
+           "add_model_argument", "derived_model",
            "numeric_model", "positive_float", "point_count", "integrator_name",
            "check_output_dir", "check_output_file"]
 
@@ -34,6 +34,15 @@ def add_backend_argument(parser, auto="c when a C compiler is found, else numpy"
     parser.add_argument("--backend", choices=BACKENDS, default="auto",
                         help=f"numerical backend: auto (default: {auto}), numpy, or c "
                              "(generated C, compiled with the system compiler and cached)")
+
+
+def derived_model(definition, backend, constants, progress):
+    """:func:`numeric_model` of ``definition`` derived now, each stage said by
+    ``progress`` (a :class:`~kanedyn._progress.Progress`)."""
+    progress.stage(f"deriving {definition.title}")
+    eom = definition.derive(progress=progress)
+    return numeric_model(definition, eom, backend, constants,
+                         note=lambda text: progress.stage(text))
 
 
 def numeric_model(definition, eom, backend, constants=None, note=print):
