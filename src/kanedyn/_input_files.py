@@ -7,13 +7,14 @@ allows (also one that grows while it is read), each with a message naming it.
 
 from __future__ import annotations
 
+import csv
 import io
 import os
 import stat
 
 from ._errors import ModelError
 
-__all__ = ["read_bounded_bytes", "read_bounded_text"]
+__all__ = ["read_bounded_bytes", "read_bounded_text", "csv_rows"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
@@ -71,3 +72,22 @@ def read_bounded_text(path, source, max_bytes, *, name, limit):
         raise ModelError(f"{source}: not UTF-8 text (byte {exc.object[exc.start]:#04x} "
                          f"at offset {exc.start}); save it as UTF-8 CSV") from None
     return io.TextIOWrapper(io.BytesIO(data), encoding="utf-8-sig", newline="")
+
+
+def csv_rows(text, source, what):
+    """``(line number, cells)`` of the CSV text stream ``text``; a cell over the csv
+    module's field limit, or text it cannot read, is refused naming the line
+    (``what``: what the file should be, ``"a pulse record"``)."""
+    reader = csv.reader(text)
+    while True:
+        try:
+            row = next(reader)
+        except StopIteration:
+            return
+        except csv.Error as exc:
+            line = reader.line_num
+            if "field limit" in str(exc):
+                raise ModelError(f"{source}: line {line}: a cell longer than "
+                                 f"{csv.field_size_limit()} characters; not {what}") from None
+            raise ModelError(f"{source}: line {line}: not readable as CSV ({exc})") from None
+        yield reader.line_num, row

@@ -27,7 +27,6 @@ finite number, a row longer than the header, times that do not increase.
 
 from __future__ import annotations
 
-import csv
 import math
 import re
 from dataclasses import dataclass, field
@@ -36,7 +35,7 @@ import numpy as np
 
 from .._errors import ModelError
 from .._number_text import finite_number
-from .._input_files import read_bounded_text
+from .._input_files import csv_rows, read_bounded_text
 
 __all__ = ["MeasuredRecord", "MAX_BYTES", "as_records"]
 
@@ -172,7 +171,7 @@ class MeasuredRecord:
             Naming the file, the line and the column at fault.
         """
         source = str(path)
-        rows = _rows(_text(path, source, max_bytes), source)
+        rows = csv_rows(_text(path, source, max_bytes), source, "a record")
         header, header_line = None, 0
         for line, row in rows:
             if not "".join(row).strip() or row[0].lstrip().startswith("#"):
@@ -378,20 +377,6 @@ def _text(path, source, max_bytes):
     return read_bounded_text(path, source, max_bytes, name="the record",
                              limit=("a record", "MeasuredRecord.from_csv(..., max_bytes=...) "
                                                 "reads a larger one"))
-
-
-def _rows(text, source):
-    """``(line number, cells)`` of the CSV text stream."""
-    reader = csv.reader(text)
-    while True:
-        try:
-            row = next(reader)
-        except StopIteration:
-            return
-        except csv.Error as exc:
-            raise ModelError(f"{source}: line {reader.line_num}: not readable as CSV "
-                             f"({exc})") from None
-        yield reader.line_num, row
 
 
 # ------------------------------------------------------------- many

@@ -42,7 +42,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..._errors import ModelError
-from ..._input_files import read_bounded_bytes, read_bounded_text
+from ..._input_files import csv_rows, read_bounded_bytes, read_bounded_text
 from ..._output_files import replacing
 from ._pulses import G0
 
@@ -308,22 +308,8 @@ def _refuse_cell(row, names, cells, line_no, source):
 
 
 def _csv_rows(text, source):
-    """``(line number, cells)`` of the CSV text stream ``text``; a cell over the csv
-    module's field limit or text it cannot read is refused, naming the line."""
-    reader = csv.reader(text)
-    while True:
-        try:
-            row = next(reader)
-        except StopIteration:
-            return
-        except csv.Error as exc:
-            line = reader.line_num
-            if "field limit" in str(exc):
-                raise ModelError(f"{source}: line {line}: a cell longer than "
-                                 f"{csv.field_size_limit()} characters; not a pulse "
-                                 "record") from None
-            raise ModelError(f"{source}: line {line}: not readable as CSV ({exc})") from None
-        yield reader.line_num, row
+    """``(line number, cells)`` of the CSV text stream ``text`` (:func:`csv_rows`)."""
+    return csv_rows(text, source, "a pulse record")
 
 
 def _warn_speed_change(t, acceleration, time_factor, source):
