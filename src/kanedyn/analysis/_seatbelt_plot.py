@@ -11,6 +11,8 @@ beyond ``release_g``, in red).  ``kanedyn run seatbelt-sensor`` writes it as
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import math
 import textwrap
 
@@ -57,7 +59,11 @@ def seatbelt_run_figure(result, definition, report=None):
     top.axhline(report.release_g, color="0.5", ls=":", lw=1.0,
                 label=f"{report.release_g:g} g (release check)")
     top.set_ylabel("vehicle acceleration [g]")
-    top.set_title(f"pulse: {motion.source.split('/')[-1]}", fontsize=9)
+    # a record's file by its name; an analytic pulse by its description (whose units
+    # hold a "/")
+    source = Path(motion.source)
+    top.set_title(f"pulse: {source.name if source.is_file() else motion.source}",
+                  fontsize=9)
     top.legend(fontsize=8, loc="best")
     top.grid(alpha=0.3)
     lock = math.degrees(report.lock_angle)
