@@ -236,9 +236,18 @@ def _slip_direction(contact, point, reference, velocity, space, drift):
 
 def _coefficient_derivatives(model, X, parameters):
     """``{(contact, key): d value/dp (X,)}`` of the friction coefficients that
-    are expressions of the constants (parameter columns only)."""
+    are expressions of the constants (parameter columns only); differentiated
+    once per model (its constants do not change)."""
     if not parameters:
         return {}
+    found = model.__dict__.get("_contact_coefficient_slopes")
+    if found is None:
+        found = model.__dict__["_contact_coefficient_slopes"] = _coefficient_slopes(
+            model, X)
+    return found
+
+
+def _coefficient_slopes(model, X):
     import sympy as sm
     values = dict(zip(model.constants, model._p))
     out = {}
