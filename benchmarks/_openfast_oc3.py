@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -35,9 +35,13 @@ DECK = DATA / "deck"
 OUTPUTS = DATA / "outputs"
 
 #: kanedyn's oc3-spar options that apply OpenFAST's inputs of the deck
-KANEDYN_OPTIONS = dict(tower_modes=4, tower_damping=0.01, tower_damping_reference="isolated",
+KANEDYN_OPTIONS = dict(tower_modes=4, stiffening=True, tower_damping=0.01,
+                       tower_damping_reference="isolated",
                        hydrostatics="linear", added_mass="sheet", linear_damping=True,
                        drag=True, mooring="catenary", rotor="rigid", wind_speed=0.0)
+
+#: from this time on (s) the case released undisplaced ("still") is fitted for its offsets
+SETTLED = 40.0
 
 #: OpenFAST channel -> (kanedyn state or output, factor to kanedyn's units)
 CHANNELS = {"PtfmSurge": ("surge", 1.0), "PtfmSway": ("sway", 1.0),
@@ -61,7 +65,6 @@ class Case:
     step: float
     channel: str
     title: str = ""
-    extra: dict = field(default_factory=dict)
 
 
 CASES = {c.name: c for c in (
@@ -239,23 +242,89 @@ def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
 # ----------------------------------------------------------------- comparison
 @dataclass(frozen=True)
 class Decay:
-    """A free decay's measures: period, damping ratio, mean and first amplitudes."""
+    """A free decay's measures, independent of the offset it decays about.
+
+    Attributes
+    ----------
+    period : float
+        Mean spacing of the maxima, s.
+    damping : float
+        Damping ratio from the mean logarithmic decrement of the successive
+        double amplitudes (a maximum less the minimum after it).
+    times, maxima, minima : ndarray, shape (n,)
+        The maxima's times and values, and the minimum after each, every
+        extremum refined by a parabola through the samples around it (so
+        the output step limits neither).
+    """
 
     period: float
     damping: float
-    mean: float
-    peaks: np.ndarray
+    times: np.ndarray
+    maxima: np.ndarray
+    minima: np.ndarray
+
+    @property
+    def double_amplitudes(self):
+        return self.maxima - self.minima
+
+    @property
+    def centres(self):
+        """Midpoints of each maximum and the following minimum (the offset decayed about)."""
+        return 0.5 * (self.maxima + self.minima)
 
 
-def decay_measures(t, x, skip=0.0):
-    """Period and damping ratio (logarithmic decrement) about the record's final mean.
+def _extrema(t, y):
+    """Times and values of the maxima of ``y``, refined by parabolas.
 
-    The mean is that of the last third of the record (the offset the decay
-    settles about); peaks after ``skip`` seconds are used.
+    The first sample counts as a maximum when the record starts there at rest
+    (a decay released from a displacement): its value, at its time.
     """
-    from kanedyn.analysis._oc3_studies import decay_analysis
+    from scipy.signal import find_peaks
+    k, _ = find_peaks(y)
+    k = k[(k > 0) & (k < len(y) - 1)]
+    a, b, c = y[k - 1], y[k], y[k + 1]
+    shift = 0.5 * (a - c) / (a - 2 * b + c)          # the parabola's vertex, in steps
+    times, values = t[k] + shift * (t[1] - t[0]), b - 0.25 * (a - c) * shift
+    if len(y) > 1 and y[0] > y[1]:
+        times, values = np.insert(times, 0, t[0]), np.insert(values, 0, y[0])
+    return times, values
+
+
+def decay_measures(t, x, count=None):
+    """:class:`Decay` of the record ``x(t)`` from its first ``count`` cycles."""
     x = np.asarray(x, float)
-    mean = float(np.mean(x[t >= t[-1] * 2 / 3]))
-    keep = t >= skip
-    period, zeta, peaks = decay_analysis(t[keep], x[keep] - mean)
-    return Decay(period, zeta, mean, (x[keep] - mean)[peaks])
+    t_max, maxima = _extrema(t, x)
+    t_min, minima = _extrema(t, -x)
+    pairs = [(tm, m, -minima[np.argmax(t_min > tm)]) for tm, m in zip(t_max, maxima)
+             if np.any(t_min > tm)][:count]
+    times, maxima, minima = (np.array(v) for v in zip(*pairs))
+    double = maxima - minima
+    delta = float(np.mean(np.log(double[:-1] / double[1:])))
+    return Decay(float(np.mean(np.diff(times))), delta / math.hypot(2 * math.pi, delta),
+                 times, maxima, minima)
+
+
+def settled_offset(t, x, period, start=SETTLED):
+    """The value ``x(t)`` settles to: a damped cosine plus a constant fitted from ``start``.
+
+    Parameters
+    ----------
+    t, x : ndarray
+        A record released from rest away from its equilibrium.
+    period : float
+        A first guess of the oscillation's period, s.
+
+    Returns
+    -------
+    float
+        The fitted constant.
+    """
+    from scipy.optimize import curve_fit
+
+    def decay(t, offset, amplitude, rate, period, phase):
+        return offset + amplitude * np.exp(-rate * t) * np.cos(2 * math.pi * t / period + phase)
+
+    keep = t >= start
+    guess = [np.mean(x[keep]), np.ptp(x[keep]) / 2, 0.01, period, 0.0]
+    p, _ = curve_fit(decay, t[keep] - start, x[keep], p0=guess, maxfev=20000)
+    return float(p[0])
