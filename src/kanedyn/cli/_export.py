@@ -6,7 +6,8 @@ from __future__ import annotations
 from .._errors import KanedynError
 from .._progress import Progress
 from ..models import REGISTRY, build
-from ._options import check_output_file, parse_sets, positive_float, split_values
+from ._options import (check_output_file, parse_sets, positive_float, positive_pairs,
+                       split_values)
 
 __all__ = ["add_parser", "cmd_export"]
 
@@ -30,6 +31,9 @@ def add_parser(sub):
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option (n=4), parameter (m=2: its value in the FMU) or "
                         "initial value (q1=0.3: the state's start value)")
+    p.add_argument("--nominal", action="append", metavar="STATE=VALUE", default=[],
+                   help="a state's nominal value, its typical magnitude (importers scale "
+                        "their absolute tolerance by it; default 1), e.g. eta_link_1=1e-3")
     p.add_argument("--t-end", type=positive_float, default=None,
                    help="stop time of the FMU's default experiment [s] (default: the "
                         "model's)")
@@ -50,13 +54,18 @@ def cmd_export(args):
     definition = build(args.model, **options)  # checks the options
     check_output_file(args.fmu, "--fmu")
     constants, initial = split_values(definition, values)  # names checked before deriving
+    nominals = positive_pairs(args.nominal, "--nominal", "state")
+    unknown = sorted(set(nominals) - set(definition.state_names))
+    if unknown:
+        raise KanedynError(f"--nominal {unknown[0]}: not a state of {definition.name}; its "
+                           f"states: {', '.join(definition.state_names)}")
     eom = definition.derive(progress=Progress(enabled=not args.quiet))
     model = definition.numeric(eom, constants=constants, backend="numpy")
     written = export_fmu(model, args.fmu, definition.initial(model, initial),
                          t_end=args.t_end or definition.t_end, rtol=args.rtol,
                          atol=args.atol, constant_units=definition.constant_units,
                          title=f"{definition.name}: {definition.title}",
-                         fmi_version=args.fmi_version)
+                         fmi_version=args.fmi_version, nominals=nominals)
     print(f"wrote {written} (FMI {args.fmi_version}.0; {model.n_states} states, "
           f"{len(model.constants)} parameters, {len(model.input_names)} inputs)")
     return 0

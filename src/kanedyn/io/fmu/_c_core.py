@@ -51,6 +51,7 @@ extern const double kanedyn_default_parameters[];
 enum { S_OK = 0, S_WARNING = 1, S_DISCARD = 2, S_ERROR = 3, S_FATAL = 4 };
 
 static const double y_start[NX] = {%(y_start)s};
+static const double y_nominal[NX] = {%(y_nominal)s};
 static const double r_start[SZ(NR)] = {%(r_start)s};
 static const double set_start[NSET] = {%(settings)s};  /* rtol, atol, projection_tol */
 static const char *const variable_names[VR_END + 1] = {%(names)s, "time"};
@@ -264,7 +265,7 @@ static int core_derivatives(Instance *c, double dx[], size_t nx, const char *fun
 
 static int core_nominals(Instance *c, double nominal[], size_t nx, const char *function) {
     if (nx != NX) return failed(c, "%%s: wrong number of states", function);
-    for (size_t k = 0; k < nx; ++k) nominal[k] = 1.0;
+    memcpy(nominal, y_nominal, sizeof y_nominal);
     return S_OK;
 }
 

@@ -90,6 +90,8 @@ def _values(v, derivative):
         values["start"] = _number(v.start)
     if v.unit:
         values["unit"] = v.unit
+    if v.nominal is not None:
+        values["nominal"] = _number(v.nominal)
     if v.derivative is not None:
         values["derivative"] = str(derivative)
     return values

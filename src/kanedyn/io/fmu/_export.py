@@ -97,6 +97,22 @@ def _settings(rtol, atol, projection_tol):
     return values
 
 
+def _check_nominals(model, nominals):
+    """``{state name: float}`` from the user's ``nominals``, checked."""
+    checked = {}
+    for name, value in (nominals or {}).items():
+        name = str(name)
+        if name not in model.state_names:
+            raise OptionError(f"nominals names {name!r}, which is not a state of the model; "
+                              f"its states: {', '.join(model.state_names)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not (np.isfinite(value) and value > 0):
+            raise OptionError(f"the nominal value of {name} must be a finite number > 0, "
+                              f"got {value!r}")
+        checked[name] = float(value)
+    return checked
+
+
 def _check_names(layout):
     seen = {}
     for v in layout.variables:
@@ -119,7 +135,8 @@ def _compile(sources, folder, library):
 
 
 def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_tol=None,
-               constant_units=None, identifier=None, title=None, fmi_version=2):
+               constant_units=None, identifier=None, title=None, fmi_version=2,
+               nominals=None):
     """Write ``model`` as an FMI 2.0 or 3.0 FMU for model exchange and co-simulation.
 
     Parameters
@@ -153,6 +170,13 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
         variables, the independent variable ``time``, ``buildDescription.xml``;
         co-simulation holds the inputs over a step). Both versions share the
         model's C and the core of the interface, and give the same results.
+    nominals : dict, optional
+        ``{state name: typical magnitude}`` (in the state's SI unit): the states'
+        ``nominal`` values, which ``fmi2GetNominalsOfContinuousStates``
+        (``fmi3…``) returns and importers scale their absolute tolerance by
+        (FMPy's CVODE: ``atol = rtol * nominal``). A state not named has FMI's
+        default, 1. Small states (elastic coordinates of millimetres) need them
+        for an accurate model-exchange run.
 
     Returns
     -------
@@ -162,8 +186,8 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     Raises
     ------
     OptionError
-        A file name not ending in ``.fmu``, a bad tolerance, identifier or
-        ``fmi_version``.
+        A file name not ending in ``.fmu``, a bad tolerance, identifier,
+        ``fmi_version`` or nominal value.
     ModelError
         A model with contacts, or whose equations are not available.
     CompilerError
@@ -189,7 +213,8 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
         raise OptionError(f"constant_units names {', '.join(unknown)}, which are not "
                           f"constants of the model; its constants: "
                           f"{', '.join(model.constants)}")
-    layout = fmu_variables(model, y_start, r_start, settings, units)
+    layout = fmu_variables(model, y_start, r_start, settings, units,
+                           _check_nominals(model, nominals))
     _check_names(layout)
     title = title or model.title or model.name or "a kanedyn model"
     model_c = model.c_source(title=title)

@@ -64,5 +64,7 @@ def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi
         "title": title.replace("*/", "* /"), "identifier": identifier, "guid": guid,
         "nx": nx, "np": np_, "nr": nr, "ne": layout.n_energies, "ncon": n_constraints,
         "y_start": _numbers(v.start for v in variables[:nx]),
+        "y_nominal": _numbers(1.0 if v.nominal is None else v.nominal
+                              for v in variables[:nx]),
         "r_start": _numbers(v.start for v in inputs), "settings": _numbers(settings),
         "names": ", ".join(_c_string(v.name) for v in variables)}
