@@ -269,6 +269,7 @@ static int core_nominals(Instance *c, double nominal[], size_t nx, const char *f
     return S_OK;
 }
 
+#if INPUT_DERIVATIVES
 /* co-simulation: inputs' first derivatives (FMI 2.0 only) */
 static int core_set_input_rate(Instance *c, unsigned vr, int order, double value,
                                const char *function) {
@@ -277,6 +278,7 @@ static int core_set_input_rate(Instance *c, unsigned vr, int order, double value
     c->r_rate[vr - VR_R] = value;
     return S_OK;
 }
+#endif
 
 /* co-simulation: integrate from t0 to t0 + h with kanedyn_advance */
 static int core_do_step(Instance *c, double t0, double h, const char *function) {

@@ -60,6 +60,7 @@ typedef struct {
 #endif
 
 typedef fmi2CallbackFunctions Callbacks;
+#define INPUT_DERIVATIVES 1  /* fmi2SetRealInputDerivatives */
 #define TIME_VARIABLE 0
 #define FLOAT_NAME "Real"
 """

@@ -70,6 +70,7 @@ typedef struct {
     fmi3InstanceEnvironment environment;
     fmi3LogMessageCallback log;
 } Callbacks;
+#define INPUT_DERIVATIVES 0  /* FMI 3.0 has no input derivatives */
 #define TIME_VARIABLE 1
 #define FLOAT_NAME "Float64"
 """
