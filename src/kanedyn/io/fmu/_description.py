@@ -103,7 +103,7 @@ def _structure(root, layout, version):
     derivatives = layout.derivatives
     calculated = [k + 1 for k, v in enumerate(layout.variables)
                   if v.causality == "output" and v.initial == "calculated"]
-    lists = ((layout.block("output"), derivatives, sorted(derivatives + calculated)))
+    lists = (layout.block("output"), derivatives, sorted(derivatives + calculated))
     structure = ET.SubElement(root, "ModelStructure")
     if version == 2:
         for tag, indices in zip(("Outputs", "Derivatives", "InitialUnknowns"), lists):
