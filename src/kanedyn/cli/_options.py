@@ -194,6 +194,21 @@ def parse_sets(model_name, pairs):
     return options, rest
 
 
+def positive_pairs(pairs, option, key_name):
+    """``{key: value}`` from ``key=value`` texts (``--sigma``, ``--nominal``), each
+    value a finite number > 0 (never evaluated as code)."""
+    out = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise KanedynError(f"{option} expects {key_name}=value, got {pair!r}")
+        key, text = (s.strip() for s in pair.split("=", 1))
+        value = parse_number(text, f"{option} {key}")
+        if not (math.isfinite(value) and value > 0):
+            raise KanedynError(f"{option} {key}: {text!r} is not a positive finite number")
+        out[key] = value
+    return out
+
+
 def _finite(number, key, text):
     if not math.isfinite(number):
         raise KanedynError(f"--set {key}: {text!r} is not a finite number")

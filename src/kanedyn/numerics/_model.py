@@ -1317,13 +1317,13 @@ class NumericModel(StateLayout):
         return path
 
     def export_fmu(self, path, y0, **options):
-        """Write this model as an FMI 2.0 FMU (model exchange and co-simulation)
-        compiled from :meth:`c_source`; returns the path.
+        """Write this model as an FMI 2.0 or 3.0 FMU (model exchange and
+        co-simulation) compiled from :meth:`c_source`; returns the path.
 
         See :func:`kanedyn.io.export_fmu` for ``y0`` (the start state) and the
         options (``t_end``, ``rtol``, ``atol``, ``projection_tol``,
-        ``constant_units``, ``identifier``, ``title``).  Models with contacts are
-        refused.
+        ``constant_units``, ``identifier``, ``title``, ``fmi_version``,
+        ``nominals``).  Models with contacts are refused.
         """
         from ..io import export_fmu
         return export_fmu(self, path, y0, **options)

@@ -45,6 +45,9 @@ class FmuVariable:
     derivative : int or None
         For a state derivative: the 1-based index of its state among the
         model variables.
+    nominal : float or None
+        For a state: its typical magnitude, where declared (importers scale their
+        absolute tolerance by it; FMI's default is 1).
     """
 
     name: str
@@ -56,6 +59,7 @@ class FmuVariable:
     unit: str | None
     description: str
     derivative: int | None = None
+    nominal: float | None = None
 
 
 @dataclass(frozen=True)
@@ -97,7 +101,7 @@ def derivative_unit(unit):
     return f"{unit}/s"
 
 
-def fmu_variables(model, y0, r0, settings, constant_units):
+def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
     """The variables of ``model`` exported as an FMU.
 
     Parameters
@@ -111,17 +115,22 @@ def fmu_variables(model, y0, r0, settings, constant_units):
         ``{setting name: value}`` for every name of :data:`SETTINGS`.
     constant_units : dict
         ``{constant name: unit}`` of the constants whose unit is declared.
+    nominals : dict, optional
+        ``{state name: typical magnitude}`` of the states whose nominal value is
+        declared.
 
     Returns
     -------
     FmuVariables
     """
     out = []
+    nominals = nominals or {}
 
-    def add(name, causality, variability, initial, start, unit, description, derivative=None):
+    def add(name, causality, variability, initial, start, unit, description, derivative=None,
+            nominal=None):
         out.append(FmuVariable(name, len(out), causality, variability, initial,
                                None if start is None else float(start), unit, description,
-                               derivative))
+                               derivative, nominal))
 
     units = model.state_units
     n = model.n_q
@@ -130,7 +139,8 @@ def fmu_variables(model, y0, r0, settings, constant_units):
         kind = "coordinate" if k < n else "speed"
         note = " (dependent: completed from the constraints at initialization)" \
             if dependent else ""
-        add(name, "output", "continuous", "exact", y0[k], units.get(name), kind + note)
+        add(name, "output", "continuous", "exact", y0[k], units.get(name), kind + note,
+            nominal=nominals.get(name))
     for k, name in enumerate(model.state_names):
         add(f"der({name})", "local", "continuous", None, None,
             derivative_unit(units.get(name)), f"time derivative of {name}", derivative=k + 1)
