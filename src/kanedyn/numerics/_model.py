@@ -1612,8 +1612,9 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "c_source": None,  # filled in when pickled (see __getstate__)
         "p": [values[s] for s in const_syms],
         "constants": {str(s): values[s] for s in const_syms},
-        # given, but the equations do not use them (not constants of this model)
-        "unused_constants": tuple(sorted(str(s) for s in unused)),
+        # given, but the equations do not use them (not constants of this model;
+        # the viewer's shapes may be placed by them)
+        "unused_constants": {str(s): unused[s] for s in sorted(unused, key=str)},
         "inputs": runtime,
         "input_names": tuple(inp.name for _, inp in runtime),
         "n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m,
