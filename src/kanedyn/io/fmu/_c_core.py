@@ -30,6 +30,14 @@ int kanedyn_advance(double t0, double t1, double *y, const double *p, const doub
                     const double *r_rate, double rtol, double atol, double project_tol,
                     double *step, long *steps);
 extern const double kanedyn_default_parameters[];
+#define NC %(nc)d           /* contacts (co-simulation only) */
+#if NC > 0
+size_t kanedyn_contact_state_size(void);
+int kanedyn_contact_start(double t, double *z, const double *p, void *state, double atol);
+int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, void *state,
+                            double rtol, double atol, long *steps);
+const char *kanedyn_contact_message(const void *state);
+#endif
 
 #define NX %(nx)d           /* states */
 #define NP %(np)d           /* parameters */
@@ -67,6 +75,8 @@ typedef struct {
     long steps;
     double y[NX], ydot[NX], p[SZ(NP)], r[SZ(NR)], r_rate[SZ(NR)], energy[2];
     double set[NSET];
+    double work[2];                    /* contacts: work of friction, of all contact forces */
+    void *contacts;                    /* contacts: the modes and references of model.c */
 } Instance;
 
 /* defined by the interface: */
@@ -96,6 +106,7 @@ static const char *code_text(int code) {
     case 2: return "out of memory";
     case 3: return "a state derivative is not finite";
     case 4: return "step size too small";
+    case 5: return "contact handling";
     default: return "unknown failure";
     }
 }
@@ -148,9 +159,27 @@ static Instance *core_new(const char *name, int cosimulation, int logging,
                           const Callbacks *cb) {
     Instance *c = (Instance *)allocate(cb, sizeof(Instance));
     if (c == NULL) return NULL;
+    c->contacts = NULL;
+#if NC > 0
+    c->cb = *cb;
+    c->name = (char *)"";
+    c->logging = logging;
+    if (!cosimulation) {
+        say(c, S_ERROR, "logStatusError", "this FMU's model has contacts: it runs as "
+            "co-simulation only (its contact events are handled inside the step)");
+        release(cb, c);
+        return NULL;
+    }
+    c->contacts = allocate(cb, kanedyn_contact_state_size());
+    if (c->contacts == NULL) { release(cb, c); return NULL; }
+#endif
     if (name == NULL) name = "";
     c->name = (char *)allocate(cb, strlen(name) + 1);
-    if (c->name == NULL) { release(cb, c); return NULL; }
+    if (c->name == NULL) {
+        if (c->contacts != NULL) release(cb, c->contacts);
+        release(cb, c);
+        return NULL;
+    }
     strcpy(c->name, name);
     c->cb = *cb;
     c->cosimulation = cosimulation;
@@ -163,6 +192,7 @@ static void core_free(Instance *c) {
     if (c == NULL) return;
     Callbacks cb = c->cb;
     release(&cb, c->name);
+    if (c->contacts != NULL) release(&cb, c->contacts);
     release(&cb, c);
 }
 
@@ -177,6 +207,22 @@ static int core_exit_initialization(Instance *c) {
         return failed(c, "%%s must be > 0 (projection_tol >= 0)",
                       "kanedyn.rtol and kanedyn.atol");
     if (project(c) != 0) return S_ERROR;  /* a consistent initial state, as kd.simulate */
+#if NC > 0
+    {  /* the contacts' modes at the start: impacts, forces within their limits */
+        double z[NX + 2];
+        memcpy(z, c->y, sizeof c->y);
+        int code = kanedyn_contact_start(c->t, z, c->p, c->contacts, c->set[1]);
+        if (code != 0) {
+            say(c, S_ERROR, "logStatusError", "the contacts at the start: %%s",
+                code == 5 ? kanedyn_contact_message(c->contacts) : code_text(code));
+            return S_ERROR;
+        }
+        memcpy(c->y, z, sizeof c->y);
+        c->work[0] = z[NX];
+        c->work[1] = z[NX + 1];
+        c->fresh = 0;
+    }
+#endif
     c->mode = c->cosimulation ? STEP : EVENT;
     return refresh(c) == 0 ? S_OK : S_ERROR;
 }
@@ -284,10 +330,25 @@ static int core_set_input_rate(Instance *c, unsigned vr, int order, double value
 static int core_do_step(Instance *c, double t0, double h, const char *function) {
     if (c->mode != STEP) return failed(c, "%%s: not in step mode", function);
     if (!(h > 0)) return failed(c, "%%s: the step size must be > 0", function);
-    double t1 = t0 + h, y[NX];
-    memcpy(y, c->y, sizeof y);
+    double t1 = t0 + h, y[NX + 2];
+    memcpy(y, c->y, sizeof c->y);
+#if NC > 0  /* through the contact events (no inputs, no constraints: see io.fmu) */
+    y[NX] = c->work[0];
+    y[NX + 1] = c->work[1];
+    int code = kanedyn_contact_advance(t0, t1, y, c->p, c->contacts, c->set[0], c->set[1],
+                                       &c->steps);
+    if (code == 5) {
+        say(c, S_ERROR, "logStatusError", "the step from t = %%.17g to %%.17g failed: %%s",
+            t0, t1, kanedyn_contact_message(c->contacts));
+        c->fresh = 0;
+        return S_ERROR;
+    }
+    c->work[0] = y[NX];
+    c->work[1] = y[NX + 1];
+#else
     int code = kanedyn_advance(t0, t1, y, c->p, c->r, c->r_rate, c->set[0], c->set[1],
                                c->set[2], &c->step, &c->steps);
+#endif
     for (int k = 0; k < NR; ++k) {  /* the inputs at t1, their derivatives used up */
         c->r[k] += h * c->r_rate[k];
         c->r_rate[k] = 0.0;
@@ -298,7 +359,7 @@ static int core_do_step(Instance *c, double t0, double h, const char *function) 
             t0, t1, code_text(code));
         return S_ERROR;
     }
-    memcpy(c->y, y, sizeof y);
+    memcpy(c->y, y, sizeof c->y);
     c->t = t1;
     return S_OK;
 }

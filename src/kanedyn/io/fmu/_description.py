@@ -46,8 +46,10 @@ def _text(root):
             + ET.tostring(root, encoding="unicode") + "\n")
 
 
-def _interfaces(root, version, identifier, source_files):
+def _interfaces(root, version, identifier, source_files, model_exchange=True):
     for tag, extra in zip(("ModelExchange", "CoSimulation"), _INTERFACES[version]):
+        if tag == "ModelExchange" and not model_exchange:
+            continue
         element = ET.SubElement(root, tag, {"modelIdentifier": identifier,
                                             **_COMMON[version], **extra})
         if version == 2:
@@ -118,7 +120,7 @@ def _structure(root, layout, version):
 
 
 def model_description(layout, identifier, guid, name, description, source_files,
-                      stop_time=None, tolerance=None, fmi_version=2):
+                      stop_time=None, tolerance=None, fmi_version=2, model_exchange=True):
     """The text of ``modelDescription.xml``.
 
     Parameters
@@ -136,6 +138,9 @@ def model_description(layout, identifier, guid, name, description, source_files,
     stop_time, tolerance : float, optional
         The ``DefaultExperiment``'s stop time [s] and relative tolerance.
     fmi_version : {2, 3}
+    model_exchange : bool
+        Whether the FMU offers model exchange (``False``: co-simulation only, a
+        model with contacts).
 
     Returns
     -------
@@ -148,7 +153,7 @@ def model_description(layout, identifier, guid, name, description, source_files,
         "variableNamingConvention": "flat"})
     if fmi_version == 2:
         root.set("numberOfEventIndicators", "0")
-    _interfaces(root, fmi_version, identifier, source_files)
+    _interfaces(root, fmi_version, identifier, source_files, model_exchange)
     _units_categories_experiment(root, layout, stop_time, tolerance,
                                  extra_units=("s",) if fmi_version == 3 else ())
     variables = ET.SubElement(root, "ModelVariables")
