@@ -444,4 +444,5 @@ def test_cli_export_bad_input(argv, message, tmp_path, capsys, monkeypatch):
 def test_cli_export_contacts(tmp_path, capsys):
     assert main(["export", "bouncing-ball", "--fmu", str(tmp_path / "b.fmu"),
                  "--quiet"]) == 0
+    assert "1 contacts: co-simulation only" in capsys.readouterr().out
     assert validate_fmu(str(tmp_path / "b.fmu")) == []
