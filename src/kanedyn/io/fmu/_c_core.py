@@ -37,7 +37,13 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
 int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, void *state,
                             double rtol, double atol, long *steps);
 const char *kanedyn_contact_message(const void *state);
+int kanedyn_contact_derivatives(double t, const double *y, const double *p, void *state,
+                                double *ydot);
+int kanedyn_contact_indicators(double t, const double *y, const double *p, void *state,
+                               double *g);
+int kanedyn_contact_update(double t, double *y, const double *p, void *state, int *changed);
 #endif
+#define NI (CONTACTS_ME ? 2 * NC : 0)  /* event indicators: 2 per contact */
 
 #define NX %(nx)d           /* states */
 #define NP %(np)d           /* parameters */
@@ -114,7 +120,16 @@ static const char *code_text(int code) {
 /* derivatives and energies at the current time and state */
 static int refresh(Instance *c) {
     if (c->fresh) return 0;
+#if NC > 0  /* in the contacts' current modes */
+    int code = kanedyn_contact_derivatives(c->t, c->y, c->p, c->contacts, c->ydot);
+    if (code == 5) {
+        say(c, S_ERROR, "logStatusError", "the derivatives at t = %%.17g: %%s", c->t,
+            kanedyn_contact_message(c->contacts));
+        return code;
+    }
+#else
     int code = kanedyn_rhs(c->t, c->y, c->p, c->r, c->ydot);
+#endif
     if (code != 0) {
         say(c, S_ERROR, "logStatusError", "the right-hand side failed at t = %%.17g: %%s",
             c->t, code_text(code));
@@ -164,7 +179,7 @@ static Instance *core_new(const char *name, int cosimulation, int logging,
     c->cb = *cb;
     c->name = (char *)"";
     c->logging = logging;
-    if (!cosimulation) {
+    if (!cosimulation && !CONTACTS_ME) {
         say(c, S_ERROR, "logStatusError", "this FMU's model has contacts: it runs as "
             "co-simulation only (its contact events are handled inside the step)");
         release(cb, c);
@@ -273,6 +288,20 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
     return S_OK;
 }
 
+/* model exchange: the event indicators (2 per contact, see kanedyn_contact_indicators) */
+static int core_indicators(Instance *c, double g[], size_t ni, const char *function) {
+    if (ni != NI) return failed(c, "%%s: wrong number of event indicators", function);
+#if NC > 0
+    if (NI > 0 && kanedyn_contact_indicators(c->t, c->y, c->p, c->contacts, g) != 0) {
+        say(c, S_ERROR, "logStatusError", "%%s", kanedyn_contact_message(c->contacts));
+        return S_ERROR;
+    }
+#else
+    (void)g;
+#endif
+    return S_OK;
+}
+
 /* model exchange: a step event when the constraint residual exceeds projection_tol */
 static int core_step_event(Instance *c) {
     return NCON > 0 && c->set[2] > 0 && residual(c) > c->set[2];
@@ -281,6 +310,16 @@ static int core_step_event(Instance *c) {
 /* model exchange, event mode: project when needed; *changed: the states were moved */
 static int core_update_discrete_states(Instance *c, int *changed) {
     *changed = 0;
+#if NC > 0  /* contact events: impacts and mode changes */
+    int code = kanedyn_contact_update(c->t, c->y, c->p, c->contacts, changed);
+    c->fresh = 0;
+    if (code != 0) {
+        say(c, S_ERROR, "logStatusError", "the contact event at t = %%.17g: %%s", c->t,
+            code == 5 ? kanedyn_contact_message(c->contacts) : code_text(code));
+        return S_ERROR;
+    }
+    if (*changed) say(c, S_OK, "logEvents", "t = %%.17g: a contact event", c->t);
+#endif
     if (core_step_event(c)) {
         say(c, S_OK, "logEvents", "t = %%.17g: state projected onto the constraints", c->t);
         if (project(c) != 0) return S_ERROR;

@@ -73,6 +73,7 @@ typedef struct {
 #define INPUT_DERIVATIVES 0  /* FMI 3.0 has no input derivatives */
 #define TIME_VARIABLE 1
 #define FLOAT_NAME "Float64"
+#define CONTACTS_ME 0  /* model exchange of contacts (event indicators) */
 """
 
 #: the exported functions, after the core
@@ -415,8 +416,7 @@ FMI_EXPORT fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Floa
 }
 
 FMI_EXPORT fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 z[], size_t ni) {
-    (void)z;
-    return ni == 0 ? fmi3OK : S(failed(I(c), "%%s", "this FMU has no event indicators"));
+    return S(core_indicators(I(c), z, ni, "fmi3GetEventIndicators"));
 }
 
 FMI_EXPORT fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t nx) {

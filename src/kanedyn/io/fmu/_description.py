@@ -120,7 +120,8 @@ def _structure(root, layout, version):
 
 
 def model_description(layout, identifier, guid, name, description, source_files,
-                      stop_time=None, tolerance=None, fmi_version=2, model_exchange=True):
+                      stop_time=None, tolerance=None, fmi_version=2, model_exchange=True,
+                      event_indicators=0):
     """The text of ``modelDescription.xml``.
 
     Parameters
@@ -140,7 +141,10 @@ def model_description(layout, identifier, guid, name, description, source_files,
     fmi_version : {2, 3}
     model_exchange : bool
         Whether the FMU offers model exchange (``False``: co-simulation only, a
-        model with contacts).
+        model with contacts in FMI 3.0).
+    event_indicators : int
+        FMI 2.0's ``numberOfEventIndicators`` (two per contact of a model with
+        contacts).
 
     Returns
     -------
@@ -152,7 +156,7 @@ def model_description(layout, identifier, guid, name, description, source_files,
         "description": description, "generationTool": f"kanedyn {__version__}",
         "variableNamingConvention": "flat"})
     if fmi_version == 2:
-        root.set("numberOfEventIndicators", "0")
+        root.set("numberOfEventIndicators", str(event_indicators))
     _interfaces(root, fmi_version, identifier, source_files, model_exchange)
     _units_categories_experiment(root, layout, stop_time, tolerance,
                                  extra_units=("s",) if fmi_version == 3 else ())

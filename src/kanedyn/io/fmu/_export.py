@@ -242,7 +242,9 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
                                fmi_version, len(model.contacts))
     xml = model_description(layout, identifier, guid, model.name or identifier, title,
                             sources, stop_time=t_end, tolerance=rtol,
-                            fmi_version=fmi_version, model_exchange=not model.contacts)
+                            fmi_version=fmi_version,
+                            model_exchange=fmi_version == 2 or not model.contacts,
+                            event_indicators=2 * len(model.contacts))
     with tempfile.TemporaryDirectory(prefix="kanedyn-fmu-") as temporary:
         folder = Path(temporary)
         (folder / "model.c").write_text(model_c)

@@ -50,6 +50,7 @@ typedef struct {
     double tol_d, tol_v, tol_slip, tol_f, tol_a, tol_lift, rest, stab, h;
     long events, impacts;
     double *w;
+    KdSeg seg;                         /* model exchange: the current segment's events */
     char message[480];
 } KdHybrid;
 
@@ -513,6 +514,7 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
     }
     if (!status) status = kd_hy_resolve(H, t, z, p);
     H->fresh = 1;
+    if (!status) kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
     kd_free_work(H->w);
     H->w = NULL;
     return status;
@@ -551,6 +553,87 @@ int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, vo
             status = kd_hy_fail(H, -1, t, "the contact modes change more than 1000 times "
                                 "without time advancing (chattering)");
     }
+    kd_free_work(H->w);
+    H->w = NULL;
+    return status;
+}
+
+/* ---------------------------------------------------------- model exchange */
+/* the derivatives of the state (KD_NX entries) in the current modes */
+int kanedyn_contact_derivatives(double t, const double *y, const double *p, void *state,
+                                double *ydot) {
+    KdHybrid *H = (KdHybrid *)state;
+    double z[KD_NZ], zd[KD_NZ];
+    KdSegOut o;
+    memcpy(z, y, sizeof(double) * KD_NX);
+    z[KD_NX] = z[KD_NX + 1] = 0.0;
+    H->seg.w = kd_work();
+    if (H->seg.w == NULL) return 2;
+    H->seg.p = p;
+    int st = kd_seg_solve(&H->seg, t, z, zd, &o);
+    kd_free_work(H->seg.w);
+    H->seg.w = NULL;
+    if (st) {
+        H->w = NULL;
+        return kd_hy_fail(H, -1, t, st == 2 ? "more than one contact sliding or sticking at "
+                          "once, or an ill-conditioned contact: not handled by the exported "
+                          "FMU" : "singular or not finite contact equations");
+    }
+    memcpy(ydot, zd, sizeof(double) * KD_NX);
+    return 0;
+}
+
+/* 2 per contact: the values of the current modes' event functions (an event where
+   one falls to zero; 1 where a contact has fewer) */
+int kanedyn_contact_indicators(double t, const double *y, const double *p, void *state,
+                               double *g) {
+    KdHybrid *H = (KdHybrid *)state;
+    double z[KD_NZ], values[KD_MAXEV];
+    int used[KD_NC] = {0};
+    memcpy(z, y, sizeof(double) * KD_NX);
+    z[KD_NX] = z[KD_NX + 1] = 0.0;
+    for (int i = 0; i < 2 * KD_NC; ++i) g[i] = 1.0;
+    H->seg.w = kd_work();
+    if (H->seg.w == NULL) return 2;
+    H->seg.p = p;
+    int st = H->seg.n_ev ? kd_seg_events(&H->seg, t, z, values) : 0;
+    kd_free_work(H->seg.w);
+    H->seg.w = NULL;
+    if (st) return kd_hy_fail(H, -1, t, "the contact event functions cannot be evaluated");
+    for (int k = 0; k < H->seg.n_ev; ++k) {
+        int c = H->seg.ev_c[k];
+        g[2 * c + used[c]++] = values[k];
+    }
+    return 0;
+}
+
+/* event mode: the events whose functions have fallen to zero or below change the
+   modes (impacts, then modes settled) as kd.simulate's events; *changed: the speeds
+   jumped.  The next segment's event functions start positive. */
+int kanedyn_contact_update(double t, double *y, const double *p, void *state, int *changed) {
+    KdHybrid *H = (KdHybrid *)state;
+    double z[KD_NZ], values[KD_MAXEV], before[KD_NX];
+    int status = 0, event = -1;
+    *changed = 0;
+    memcpy(z, y, sizeof(double) * KD_NX);
+    memcpy(before, y, sizeof before);
+    z[KD_NX] = z[KD_NX + 1] = 0.0;
+    H->w = kd_work();
+    if (H->w == NULL) return 2;
+    H->seg.w = H->w;
+    H->seg.p = p;
+    if (H->seg.n_ev && kd_seg_events(&H->seg, t, z, values) != 0)
+        status = kd_hy_fail(H, -1, t, "the contact event functions cannot be evaluated");
+    for (int k = 0; k < H->seg.n_ev && !status; ++k)
+        if (values[k] <= 0 && (event < 0 || values[k] < values[event])) event = k;
+    if (!status && event >= 0) {
+        status = kd_hy_event(H, t, z, p, H->seg.ev_c[event], H->seg.ev_kind[event]);
+        H->fresh = 1;
+        if (!status) kd_hy_segment(H, t, z, p, &H->seg);
+        memcpy(y, z, sizeof(double) * KD_NX);
+        *changed = memcmp(before, y, sizeof before) != 0;
+    }
+    H->seg.w = NULL;
     kd_free_work(H->w);
     H->w = NULL;
     return status;
