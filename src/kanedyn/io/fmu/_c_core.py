@@ -58,7 +58,9 @@ int kanedyn_contact_update(double t, double *y, const double *p, void *state, in
 #define VR_E (VR_R + NR)
 #define VR_SET (VR_E + NE)
 #define NSET 3
-#define VR_END (VR_SET + NSET)
+#define NIV %(niv)d          /* event-indicator variables (FMI 3.0 declares them) */
+#define VR_IND (VR_SET + NSET)
+#define VR_END (VR_IND + NIV)
 #define VR_TIME VR_END      /* the independent variable (declared by FMI 3.0 only) */
 #define TOKEN "%(guid)s"
 
@@ -242,6 +244,20 @@ static int core_exit_initialization(Instance *c) {
     return refresh(c) == 0 ? S_OK : S_ERROR;
 }
 
+/* model exchange: the event indicators (2 per contact, see kanedyn_contact_indicators) */
+static int core_indicators(Instance *c, double g[], size_t ni, const char *function) {
+    if (ni != NI) return failed(c, "%%s: wrong number of event indicators", function);
+#if NC > 0
+    if (NI > 0 && kanedyn_contact_indicators(c->t, c->y, c->p, c->contacts, g) != 0) {
+        say(c, S_ERROR, "logStatusError", "%%s", kanedyn_contact_message(c->contacts));
+        return S_ERROR;
+    }
+#else
+    (void)g;
+#endif
+    return S_OK;
+}
+
 static int core_get(Instance *c, const unsigned vr[], size_t nvr, double value[]) {
     for (size_t k = 0; k < nvr; ++k) {
         unsigned v = vr[k];
@@ -252,7 +268,14 @@ static int core_get(Instance *c, const unsigned vr[], size_t nvr, double value[]
         else if (v < VR_R) value[k] = c->p[v - VR_P];
         else if (v < VR_E) value[k] = c->r[v - VR_R];
         else if (v < VR_SET) value[k] = c->mode == INSTANTIATED ? 0.0 : c->energy[v - VR_E];
-        else if (v < VR_END) value[k] = c->set[v - VR_SET];
+        else if (v < VR_IND) value[k] = c->set[v - VR_SET];
+        else if (v < VR_END) {  /* an event indicator: all computed, one kept */
+            double g[SZ(NIV)];
+            if (c->mode == INSTANTIATED) g[v - VR_IND] = 0.0;
+            else if (core_indicators(c, g, NIV, "getting an event indicator") != S_OK)
+                return S_ERROR;
+            value[k] = g[v - VR_IND];
+        }
         else if (v == VR_TIME && TIME_VARIABLE) value[k] = c->t;
         else {
             say(c, S_ERROR, "logStatusError", "no %%s variable has value reference %%u",
@@ -274,7 +297,7 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
                 FLOAT_NAME, v);
             return S_ERROR;
         }
-        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET))
+        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET) || v >= VR_IND)
             return failed(c, "%%s is computed by the FMU: it cannot be set", variable_names[v]);
         if (!before && !(v >= VR_R && v < VR_E))
             return failed(c, "%%s can only be set before the end of initialization",
@@ -282,23 +305,9 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
         if (v < VR_DER) c->y[v - VR_Y] = value[k];
         else if (v < VR_R) c->p[v - VR_P] = value[k];
         else if (v < VR_E) { c->r[v - VR_R] = value[k]; c->r_rate[v - VR_R] = 0.0; }
-        else c->set[v - VR_SET] = value[k];
+        else c->set[v - VR_SET] = value[k];  /* v < VR_IND */
         c->fresh = 0;
     }
-    return S_OK;
-}
-
-/* model exchange: the event indicators (2 per contact, see kanedyn_contact_indicators) */
-static int core_indicators(Instance *c, double g[], size_t ni, const char *function) {
-    if (ni != NI) return failed(c, "%%s: wrong number of event indicators", function);
-#if NC > 0
-    if (NI > 0 && kanedyn_contact_indicators(c->t, c->y, c->p, c->contacts, g) != 0) {
-        say(c, S_ERROR, "logStatusError", "%%s", kanedyn_contact_message(c->contacts));
-        return S_ERROR;
-    }
-#else
-    (void)g;
-#endif
     return S_OK;
 }
 

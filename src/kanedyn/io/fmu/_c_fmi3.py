@@ -73,7 +73,7 @@ typedef struct {
 #define INPUT_DERIVATIVES 0  /* FMI 3.0 has no input derivatives */
 #define TIME_VARIABLE 1
 #define FLOAT_NAME "Float64"
-#define CONTACTS_ME 0  /* model exchange of contacts (event indicators) */
+#define CONTACTS_ME 1  /* model exchange of contacts (event indicators) */
 """
 
 #: the exported functions, after the core
@@ -430,7 +430,7 @@ FMI_EXPORT fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Floa
 
 FMI_EXPORT fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) {
     (void)c;
-    *n = 0;
+    *n = NI;
     return fmi3OK;
 }
 

@@ -117,6 +117,8 @@ def _structure(root, layout, version):
         for index in indices:
             reference = layout.variables[index - 1].value_reference
             ET.SubElement(structure, tag, {"valueReference": str(reference)})
+    for v in layout.variables[len(layout.variables) - layout.n_indicators:]:
+        ET.SubElement(structure, "EventIndicator", {"valueReference": str(v.value_reference)})
 
 
 def model_description(layout, identifier, guid, name, description, source_files,

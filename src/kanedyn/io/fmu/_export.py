@@ -229,7 +229,8 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
                           f"constants of the model; its constants: "
                           f"{', '.join(model.constants)}")
     layout = fmu_variables(model, y_start, r_start, settings, units,
-                           _check_nominals(model, nominals))
+                           _check_nominals(model, nominals),
+                           indicators=fmi_version == 3 and bool(model.contacts))
     _check_names(layout)
     title = title or model.title or model.name or "a kanedyn model"
     model_c = model._c_text(title=title, contacts=True) if model.contacts \
@@ -243,7 +244,6 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     xml = model_description(layout, identifier, guid, model.name or identifier, title,
                             sources, stop_time=t_end, tolerance=rtol,
                             fmi_version=fmi_version,
-                            model_exchange=fmi_version == 2 or not model.contacts,
                             event_indicators=2 * len(model.contacts))
     with tempfile.TemporaryDirectory(prefix="kanedyn-fmu-") as temporary:
         folder = Path(temporary)

@@ -73,6 +73,9 @@ class FmuVariables:
         ``modelDescription.xml``: index = value reference + 1).
     n_states, n_parameters, n_inputs, n_energies : int
         Sizes of the blocks (``n_energies``: 1, or 2 with a potential energy).
+    n_indicators : int
+        The event indicators' variables, the last block (FMI 3.0 declares the
+        event indicators of a model with contacts as variables).
     """
 
     variables: tuple
@@ -80,6 +83,7 @@ class FmuVariables:
     n_parameters: int
     n_inputs: int
     n_energies: int
+    n_indicators: int = 0
 
     def block(self, causality, variability="continuous"):
         """1-based indices of the variables of ``causality`` and ``variability``."""
@@ -101,7 +105,7 @@ def derivative_unit(unit):
     return f"{unit}/s"
 
 
-def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
+def fmu_variables(model, y0, r0, settings, constant_units, nominals=None, indicators=False):
     """The variables of ``model`` exported as an FMU.
 
     Parameters
@@ -118,6 +122,8 @@ def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
     nominals : dict, optional
         ``{state name: typical magnitude}`` of the states whose nominal value is
         declared.
+    indicators : bool
+        Declare the event indicators (two per contact) as variables (FMI 3.0).
 
     Returns
     -------
@@ -157,5 +163,12 @@ def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
             "potential energy (as the model declares it)")
     for name, description in SETTINGS.items():
         add(name, "parameter", "fixed", "exact", settings[name], None, description)
+    n_indicators = 2 * len(model.contacts) if indicators else 0
+    for contact in model.contacts if indicators else ():
+        for k in (1, 2):
+            add(f"{contact['name']}.event_indicator_{k}", "local", "continuous", None, None,
+                None, f"event indicator {k} of contact {contact['name']}: the value of an "
+                "event function of its current mode (an event where it falls to zero)")
     return FmuVariables(tuple(out), model.n_states, len(model.constants),
-                        len(model.input_names), 2 if model.has_potential else 1)
+                        len(model.input_names), 2 if model.has_potential else 1,
+                        n_indicators)

@@ -66,7 +66,7 @@ def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi
     inputs = variables[2 * nx + np_:2 * nx + np_ + nr]
     return (interface.HEAD + CORE + interface.API) % {
         "title": title.replace("*/", "* /"), "identifier": identifier, "guid": guid,
-        "nx": nx, "nc": n_contacts, "np": np_, "nr": nr, "ne": layout.n_energies, "ncon": n_constraints,
+        "nx": nx, "nc": n_contacts, "niv": layout.n_indicators, "np": np_, "nr": nr, "ne": layout.n_energies, "ncon": n_constraints,
         "y_start": _numbers(v.start for v in variables[:nx]),
         "y_nominal": _numbers(1.0 if v.nominal is None else v.nominal
                               for v in variables[:nx]),
