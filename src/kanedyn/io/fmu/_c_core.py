@@ -30,7 +30,7 @@ int kanedyn_advance(double t0, double t1, double *y, const double *p, const doub
                     const double *r_rate, double rtol, double atol, double project_tol,
                     double *step, long *steps);
 extern const double kanedyn_default_parameters[];
-#define NC %(nc)d           /* contacts (co-simulation only) */
+#define NC %(nc)d           /* contacts */
 #if NC > 0
 size_t kanedyn_contact_state_size(void);
 int kanedyn_contact_start(double t, double *z, const double *p, void *state, double atol);
@@ -43,7 +43,7 @@ int kanedyn_contact_indicators(double t, const double *y, const double *p, void 
                                double *g);
 int kanedyn_contact_update(double t, double *y, const double *p, void *state, int *changed);
 #endif
-#define NI (CONTACTS_ME ? 2 * NC : 0)  /* event indicators: 2 per contact */
+#define NI (2 * NC)         /* event indicators: 2 per contact */
 
 #define NX %(nx)d           /* states */
 #define NP %(np)d           /* parameters */
@@ -178,15 +178,6 @@ static Instance *core_new(const char *name, int cosimulation, int logging,
     if (c == NULL) return NULL;
     c->contacts = NULL;
 #if NC > 0
-    c->cb = *cb;
-    c->name = (char *)"";
-    c->logging = logging;
-    if (!cosimulation && !CONTACTS_ME) {
-        say(c, S_ERROR, "logStatusError", "this FMU's model has contacts: it runs as "
-            "co-simulation only (its contact events are handled inside the step)");
-        release(cb, c);
-        return NULL;
-    }
     c->contacts = allocate(cb, kanedyn_contact_state_size());
     if (c->contacts == NULL) { release(cb, c); return NULL; }
 #endif

@@ -63,7 +63,6 @@ typedef fmi2CallbackFunctions Callbacks;
 #define INPUT_DERIVATIVES 1  /* fmi2SetRealInputDerivatives */
 #define TIME_VARIABLE 0
 #define FLOAT_NAME "Real"
-#define CONTACTS_ME 1  /* model exchange of contacts (event indicators) */
 """
 
 #: the exported functions, after the core

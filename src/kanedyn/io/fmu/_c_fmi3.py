@@ -73,7 +73,6 @@ typedef struct {
 #define INPUT_DERIVATIVES 0  /* FMI 3.0 has no input derivatives */
 #define TIME_VARIABLE 1
 #define FLOAT_NAME "Float64"
-#define CONTACTS_ME 1  /* model exchange of contacts (event indicators) */
 """
 
 #: the exported functions, after the core

@@ -46,10 +46,8 @@ def _text(root):
             + ET.tostring(root, encoding="unicode") + "\n")
 
 
-def _interfaces(root, version, identifier, source_files, model_exchange=True):
+def _interfaces(root, version, identifier, source_files):
     for tag, extra in zip(("ModelExchange", "CoSimulation"), _INTERFACES[version]):
-        if tag == "ModelExchange" and not model_exchange:
-            continue
         element = ET.SubElement(root, tag, {"modelIdentifier": identifier,
                                             **_COMMON[version], **extra})
         if version == 2:
@@ -122,8 +120,7 @@ def _structure(root, layout, version):
 
 
 def model_description(layout, identifier, guid, name, description, source_files,
-                      stop_time=None, tolerance=None, fmi_version=2, model_exchange=True,
-                      event_indicators=0):
+                      stop_time=None, tolerance=None, fmi_version=2, event_indicators=0):
     """The text of ``modelDescription.xml``.
 
     Parameters
@@ -141,12 +138,9 @@ def model_description(layout, identifier, guid, name, description, source_files,
     stop_time, tolerance : float, optional
         The ``DefaultExperiment``'s stop time [s] and relative tolerance.
     fmi_version : {2, 3}
-    model_exchange : bool
-        Whether the FMU offers model exchange (``False``: co-simulation only, a
-        model with contacts in FMI 3.0).
     event_indicators : int
         FMI 2.0's ``numberOfEventIndicators`` (two per contact of a model with
-        contacts).
+        contacts; FMI 3.0 declares them as variables, ``layout.n_indicators``).
 
     Returns
     -------
@@ -159,7 +153,7 @@ def model_description(layout, identifier, guid, name, description, source_files,
         "variableNamingConvention": "flat"})
     if fmi_version == 2:
         root.set("numberOfEventIndicators", str(event_indicators))
-    _interfaces(root, fmi_version, identifier, source_files, model_exchange)
+    _interfaces(root, fmi_version, identifier, source_files)
     _units_categories_experiment(root, layout, stop_time, tolerance,
                                  extra_units=("s",) if fmi_version == 3 else ())
     variables = ET.SubElement(root, "ModelVariables")

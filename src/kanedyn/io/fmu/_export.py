@@ -154,9 +154,10 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     Parameters
     ----------
     model : NumericModel
-        With contacts the FMU is for co-simulation only: its step runs the contact
-        loop of ``kd.simulate`` in C (modes, events, single-contact impacts; see
-        ``docs/fmu.md`` for what it refuses).
+        With contacts the co-simulation step runs the contact loop of
+        ``kd.simulate`` in C (modes, events, single-contact impacts) and model
+        exchange has two event indicators per contact, the impacts and mode changes
+        in the event update (see ``docs/fmu.md`` for what it refuses).
     path : str or Path
         The file to write; its name must end in ``.fmu``.
     y0 : array_like or dict

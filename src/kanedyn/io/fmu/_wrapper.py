@@ -54,7 +54,8 @@ def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi
     fmi_version : {2, 3}
     n_contacts : int
         The model's contacts (``model.c`` then has the contact loop,
-        ``kanedyn_contact_*``; the FMU is for co-simulation only).
+        ``kanedyn_contact_*``: the co-simulation step, the model-exchange
+        derivatives, event indicators and event update).
 
     Returns
     -------

@@ -1,7 +1,8 @@
 r"""C source of the contact loop of the standalone export (no Python).
 
 What :func:`kanedyn.simulation._hybrid.simulate_contacts` does between and at
-events, in C, for an FMU's co-simulation step: the segments between events are
+events, in C, for an FMU (its co-simulation step; the same event handling for
+model exchange, below): the segments between events are
 integrated by the compiled contact segment (:data:`._c_contact.SEGMENT`: SciPy's
 RK45, the mode's event functions located by Brent's method on the continuous
 extension); at an event the modes change as there (the gap closes, the normal
@@ -30,6 +31,21 @@ work of the friction forces and of all contact forces [J])::
                                 void *state, double rtol, double atol, long *steps);
     int kanedyn_contact_mode(const void *state, int contact);
     const char *kanedyn_contact_message(const void *state);
+
+and for model exchange (``y`` the state alone)::
+
+    int kanedyn_contact_derivatives(double t, const double *y, const double *p,
+                                    void *state, double *ydot);
+    int kanedyn_contact_indicators(double t, const double *y, const double *p,
+                                   void *state, double *g);
+    int kanedyn_contact_update(double t, double *y, const double *p, void *state,
+                               int *changed);
+
+The derivatives are those of the current modes; the two indicators of a contact
+are its current mode's event functions (the gap; or the normal force and the
+slip's stop or the friction margin; 1 where unused), positive until the event;
+the update applies the event whose function has fallen to zero or below, as the
+co-simulation step does at the event it locates.
 """
 
 from __future__ import annotations
