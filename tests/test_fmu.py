@@ -421,6 +421,22 @@ def test_contact_fmu_event_indicators(folder):
     assert names == ["floor.event_indicator_1", "floor.event_indicator_2"]
 
 
+@pytest.mark.parametrize("fmi_version", VERSIONS)
+def test_contact_fmu_sources_compile_strictly(fmi_version, folder, tmp_path):
+    """The sources in the archive build on their own (C99, no warnings)."""
+    import subprocess
+    import zipfile
+    _, _, _, path = _exported("falling-rod", folder, fmi_version)
+    with zipfile.ZipFile(path) as archive:
+        archive.extractall(tmp_path)
+    cc = shutil.which("cc") or shutil.which("gcc")
+    for name in ("model.c", f"fmi{fmi_version}.c"):
+        done = subprocess.run([cc, "-c", "-std=c99", "-Wall", "-Werror", "-pedantic",
+                               str(tmp_path / "sources" / name), "-o",
+                               str(tmp_path / (name + ".o"))], capture_output=True, text=True)
+        assert done.returncode == 0, done.stderr
+
+
 def test_bilateral_contacts_are_refused_naming_them(folder):
     import sympy.physics.mechanics as me
     q, u = me.dynamicsymbols("x y z"), me.dynamicsymbols("u_x u_y u_z")
