@@ -410,6 +410,22 @@ def test_contact_fmu_model_exchange_event_times(name, t_end, rtol, folder):
     assert np.max(np.abs(events - expected)) < 1e-8
 
 
+@pytest.mark.parametrize("fmi_version", VERSIONS)
+@pytest.mark.parametrize("kind", ["CoSimulation", "ModelExchange"])
+def test_contact_fmu_mode_outputs(kind, fmi_version, folder):
+    """The output ``incline.mode`` (0 separated, 1 sliding, 2 sticking) follows
+    kd.simulate's modes at the output times: slip, stick, slip, lift-off."""
+    _, model, y0, path = _exported("block-on-incline", folder, fmi_version)
+    result = fmpy.simulate_fmu(str(path), fmi_type=kind, stop_time=3.0, output_interval=0.1,
+                               output=["incline.mode"], relative_tolerance=1e-12,
+                               record_events=False)
+    ref = _contact_reference(model, y0, result["time"])
+    codes = {"separated": 0, "slip": 1, "stick": 2}
+    expected = [codes[mode] for mode in ref.contact_forces["incline"]["mode"]]
+    assert len(set(expected)) == 3
+    assert list(result["incline.mode"]) == expected
+
+
 def test_contact_fmu_event_indicators(folder):
     """Two event indicators per contact: FMI 2.0 counts them, FMI 3.0 declares them
     as variables."""

@@ -37,6 +37,7 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
 int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, void *state,
                             double rtol, double atol, long *steps);
 const char *kanedyn_contact_message(const void *state);
+int kanedyn_contact_mode(const void *state, int contact);
 int kanedyn_contact_derivatives(double t, const double *y, const double *p, void *state,
                                 double *ydot);
 int kanedyn_contact_indicators(double t, const double *y, const double *p, void *state,
@@ -59,7 +60,8 @@ int kanedyn_contact_update(double t, double *y, const double *p, void *state, in
 #define VR_SET (VR_E + NE)
 #define NSET 3
 #define NIV %(niv)d          /* event-indicator variables (FMI 3.0 declares them) */
-#define VR_IND (VR_SET + NSET)
+#define VR_MODE (VR_SET + NSET) /* the contacts' modes (0 separated, 1 slip, 2 stick) */
+#define VR_IND (VR_MODE + NC)
 #define VR_END (VR_IND + NIV)
 #define VR_TIME VR_END      /* the independent variable (declared by FMI 3.0 only) */
 #define TOKEN "%(guid)s"
@@ -259,7 +261,12 @@ static int core_get(Instance *c, const unsigned vr[], size_t nvr, double value[]
         else if (v < VR_R) value[k] = c->p[v - VR_P];
         else if (v < VR_E) value[k] = c->r[v - VR_R];
         else if (v < VR_SET) value[k] = c->mode == INSTANTIATED ? 0.0 : c->energy[v - VR_E];
-        else if (v < VR_IND) value[k] = c->set[v - VR_SET];
+        else if (v < VR_MODE) value[k] = c->set[v - VR_SET];
+#if NC > 0
+        else if (v < VR_IND)
+            value[k] = c->mode == INSTANTIATED ? 0.0
+                       : (double)kanedyn_contact_mode(c->contacts, (int)(v - VR_MODE));
+#endif
         else if (v < VR_END) {  /* an event indicator: all computed, one kept */
             double g[SZ(NIV)];
             if (c->mode == INSTANTIATED) g[v - VR_IND] = 0.0;
@@ -288,7 +295,7 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
                 FLOAT_NAME, v);
             return S_ERROR;
         }
-        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET) || v >= VR_IND)
+        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET) || v >= VR_MODE)
             return failed(c, "%%s is computed by the FMU: it cannot be set", variable_names[v]);
         if (!before && !(v >= VR_R && v < VR_E))
             return failed(c, "%%s can only be set before the end of initialization",
@@ -296,7 +303,7 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
         if (v < VR_DER) c->y[v - VR_Y] = value[k];
         else if (v < VR_R) c->p[v - VR_P] = value[k];
         else if (v < VR_E) { c->r[v - VR_R] = value[k]; c->r_rate[v - VR_R] = 0.0; }
-        else c->set[v - VR_SET] = value[k];  /* v < VR_IND */
+        else c->set[v - VR_SET] = value[k];  /* v < VR_MODE */
         c->fresh = 0;
     }
     return S_OK;

@@ -5,7 +5,8 @@ Value references are consecutive, in blocks (the C wrapper's ``VR_*`` macros):
 the states ``y`` (coordinates then speeds, as ``model.state_names``), their
 derivatives, the parameters ``p`` (the model's constants, in the order of
 ``model.constants``), the specified inputs ``r``, the energy outputs (kinetic;
-potential where the model declares one), then the solver settings.
+potential where the model declares one), the solver settings, then, with contacts,
+their modes (outputs) and, in FMI 3.0, their event indicators.
 """
 
 from __future__ import annotations
@@ -163,6 +164,10 @@ def fmu_variables(model, y0, r0, settings, constant_units, nominals=None, indica
             "potential energy (as the model declares it)")
     for name, description in SETTINGS.items():
         add(name, "parameter", "fixed", "exact", settings[name], None, description)
+    for contact in model.contacts:
+        add(f"{contact['name']}.mode", "output", "continuous", "calculated", None, None,
+            f"mode of contact {contact['name']}: 0 separated, 1 sliding, 2 sticking "
+            "(piecewise constant)")
     n_indicators = 2 * len(model.contacts) if indicators else 0
     for contact in model.contacts if indicators else ():
         for k in (1, 2):
