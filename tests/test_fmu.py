@@ -328,6 +328,25 @@ def test_contact_fmu_cosimulation_equals_simulate(name, fmi_version, t_end, dt, 
     assert np.max(np.abs(states - ref.y)) < 1e-8
 
 
+def test_contact_fmu_coefficients_follow_their_parameters(folder):
+    """The restitution and friction coefficients are expressions of the FMU's
+    parameters: a ball given e = 0.5 and mu = 0.3 (friction at the impacts) in the
+    FMU equals kd.simulate of the model with those constants."""
+    _, model, y0, path = _exported("bouncing-ball", folder, 2)
+    result = fmpy.simulate_fmu(str(path), fmi_type="CoSimulation", stop_time=2.0,
+                               output_interval=0.02, output=list(model.state_names),
+                               relative_tolerance=CONTACT_TOL,
+                               start_values={"kanedyn.atol": CONTACT_TOL, "e": 0.5,
+                                             "mu": 0.3})
+    changed = model.with_constants({"e": 0.5, "mu": 0.3})
+    ref = _contact_reference(changed, y0, result["time"])
+    states = np.array([result[n] for n in model.state_names])
+    assert len(ref.impacts) > 3
+    assert np.max(np.abs(states - ref.y)) < 1e-8
+    default = _contact_reference(model, y0, result["time"])
+    assert np.max(np.abs(states - default.y)) > 1e-2  # the parameters made a difference
+
+
 def test_contact_fmu_ball_bounces_as_the_closed_form(folder):
     """Free flights between impacts with the floor: touchdown at t1 = sqrt(2 h / g),
     each bounce leaving at e times the speed it came with (Poisson, frictionless)."""
