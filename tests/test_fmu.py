@@ -369,6 +369,27 @@ def test_contact_fmu_ball_bounces_as_the_closed_form(folder):
     assert np.max(np.abs(states[0] - z)) < 1e-8
 
 
+@pytest.mark.parametrize("kind, fmi_version", [("CoSimulation", 2),
+                                                ("ModelExchange", 3)])
+def test_contact_fmu_frictionless_ladder(kind, fmi_version, folder):
+    """Two frictionless contacts sliding at once (floor and wall): the top leaves the
+    wall when the ladder's centre has fallen to 2/3 of its initial height (the
+    closed form), and the FMU equals kd.simulate up to the top's landing on the
+    floor (0.59 s; an impact while the foot slides, which the FMU refuses)."""
+    _, model, y0, path = _exported("ladder", folder, fmi_version, frictionless=True)
+    start = {"kanedyn.atol": CONTACT_TOL} if kind == "CoSimulation" else {}
+    result = fmpy.simulate_fmu(str(path), fmi_type=kind, stop_time=0.58,
+                               output_interval=0.01, output=list(model.state_names),
+                               relative_tolerance=CONTACT_TOL if kind == "CoSimulation"
+                               else 1e-12, record_events=False, start_values=start)
+    ref = _contact_reference(model, y0, result["time"])
+    states = np.array([result[n] for n in model.state_names])
+    assert np.max(np.abs(states - ref.y)) < 1e-8
+    (lift_off,) = [c for c in ref.mode_history if c.contact == "wall"]
+    at = kd.simulate(model, (0.0, lift_off.t), y0, rtol=CONTACT_TOL, atol=CONTACT_TOL)
+    assert abs(at["z"][-1] / y0[1] - 2 / 3) < 1e-8
+
+
 def test_contact_fmu_refuses_two_active_contacts_naming_them(folder):
     """The falling rod bounces on one end, then on the other, until both touch at
     once: the FMU equals kd.simulate up to then and stops there with an error."""

@@ -119,6 +119,80 @@ static void kd_seg_slip_dir(const KdSeg *S, int c, const double *n, const double
     for (int i = 0; i < 3; ++i) s[i] = norm > 0 ? s[i] / norm : 0.0;
 }
 
+#if !(KD_NUDEP > 0 || KD_NR > 0)
+/* whether the k rows R (k x KD_NU, k <= 3) are independent: the smallest singular
+   value above 1e-10 times the largest (eigenvalues of R R^T, padded to 3 x 3) */
+static int kd_seg_independent(const double *R, int k) {
+    double G[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, ev[3], V[9];
+    for (int a = 0; a < k; ++a)
+        for (int b = 0; b < k; ++b)
+            for (int j = 0; j < KD_NU; ++j) G[3 * a + b] += R[a * KD_NU + j] * R[b * KD_NU + j];
+    kd_jacobi3(G, ev, V);
+    for (int a = 0; a < 2; ++a)  /* descending */
+        for (int b = a + 1; b < 3; ++b)
+            if (ev[b] > ev[a]) { double x = ev[a]; ev[a] = ev[b]; ev[b] = x; }
+    return ev[0] > 0 && ev[k - 1] > 1e-20 * ev[0];
+}
+
+/* several active contacts, all frictionless (no Coulomb or viscous friction) and
+   sliding, their normal rows independent: the normal forces by the Schur
+   complement (solve_modes' general path without friction); 2 otherwise */
+static int kd_seg_frictionless(KdSeg *S, const double *z, double *zd, KdSegOut *o,
+                               const double *M, const double *f, const double *jac,
+                               const double *acc, const double *rate) {
+    int act[3], k = 0;
+    (void)acc;
+    for (int i = 0; i < KD_NC; ++i) {
+        if (S->modes[i] == 0) continue;
+        if (S->modes[i] != 1 || S->mu_k[i] != 0.0 || S->mu_s[i] != 0.0 || S->visc[i] != 0.0
+                || k == 3)
+            return 2;
+        act[k++] = i;
+    }
+    double R[3 * KD_NU], X[4 * KD_NU], A[KD_NU * KD_NU], W[9], lam[3];
+    for (int a = 0; a < k; ++a) {
+        const double *J = jac + 3 * act[a] * KD_NU, *n = o->normal + 3 * act[a];
+        for (int j = 0; j < KD_NU; ++j)
+            R[a * KD_NU + j] = n[0] * J[j] + n[1] * J[KD_NU + j] + n[2] * J[2 * KD_NU + j];
+    }
+    if (!kd_seg_independent(R, k)) return 2;
+    for (int j = 0; j < KD_NU; ++j) {
+        X[(k + 1) * j] = f[j];
+        for (int a = 0; a < k; ++a) X[(k + 1) * j + 1 + a] = R[a * KD_NU + j];
+    }
+    memcpy(A, M, sizeof(A));
+    if (kd_lu_solve(KD_NU, A, X, k + 1) != 0) return 1;
+    for (int a = 0; a < k; ++a) {
+        int c = act[a];
+        const double *n = o->normal + 3 * c, *v = o->vel + 3 * c;
+        double dist = o->gap[c] / o->grad[c], w = S->stab;
+        lam[a] = -(rate[c] + 2 * w * kd_dot3(n, v) + w * w * dist);
+        for (int j = 0; j < KD_NU; ++j) {
+            lam[a] -= R[a * KD_NU + j] * X[(k + 1) * j];
+            for (int b = 0; b < k; ++b)
+                W[k * a + b] = (j ? W[k * a + b] : 0.0) + R[a * KD_NU + j] * X[(k + 1) * j + 1 + b];
+        }
+    }
+    if (kd_lu_solve(k, W, lam, 1) != 0) return 2;
+    double *ud = zd + KD_NQ, power = 0.0;
+    const double *u = z + KD_NQ;
+    for (int j = 0; j < KD_NU; ++j) {
+        ud[j] = X[(k + 1) * j];
+        for (int a = 0; a < k; ++a) ud[j] += X[(k + 1) * j + 1 + a] * lam[a];
+    }
+    for (int a = 0; a < k; ++a) {
+        int c = act[a];
+        o->N[c] = lam[a];
+        for (int i = 0; i < 3; ++i) o->total[3 * c + i] = lam[a] * o->normal[3 * c + i];
+        for (int j = 0; j < KD_NU; ++j) power += lam[a] * R[a * KD_NU + j] * u[j];
+    }
+    zd[KD_NX] = 0.0;
+    zd[KD_NX + 1] = power;
+    for (int i = 0; i < KD_NZ; ++i) if (!isfinite(zd[i])) return 1;
+    return 0;
+}
+#endif
+
 /* z' and the contact forces for the fixed modes: 0, 1 singular / not finite,
    2 not handled here */
 static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOut *o) {
@@ -139,9 +213,10 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
         double vn = kd_dot3(n, v);
         for (int a = 0; a < 3; ++a) { o->vt[3 * i + a] = v[a] - vn * n[a]; o->total[3 * i + a] = 0.0; }
         o->N[i] = 0.0;
-        if (S->modes[i] != 0) { if (c >= 0) return 2; c = i; }
+        if (S->modes[i] != 0) { if (c >= 0) c = -2; else if (c == -1) c = i; }
     }
     memcpy(zd, qd, sizeof(double) * KD_NQ);
+    if (c == -2) return kd_seg_frictionless(S, z, zd, o, M, f, jac, acc, rate);
     double *ud = zd + KD_NQ;
     double A[KD_NU * KD_NU];
     memcpy(A, M, sizeof(A));

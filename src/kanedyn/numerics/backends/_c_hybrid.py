@@ -137,8 +137,9 @@ static int kd_hy_solve(KdHybrid *H, double t, const double *z, const double *p,
         for (int c = 0; c < KD_NC; ++c) active += modes[c] != KD_SEP;
         if (active > 1)
             return kd_hy_several(H, t, modes, "more than one contact sliding or sticking at "
-                                 "once is not handled by the exported FMU (kd.simulate "
-                                 "handles it)");
+                                 "once, with friction or with dependent normal directions, "
+                                 "is not handled by the exported FMU (kd.simulate handles "
+                                 "it)");
         return kd_hy_fail(H, -1, t, "the contact-space matrix is ill-conditioned (a point "
                           "that cannot move in some direction): not handled by the "
                           "exported FMU");
@@ -643,9 +644,23 @@ int kanedyn_contact_update(double t, double *y, const double *p, void *state, in
     for (int k = 0; k < H->seg.n_ev && !status; ++k)
         if (values[k] <= 0 && (event < 0 || values[k] < values[event])) event = k;
     if (!status && event >= 0) {
-        status = kd_hy_event(H, t, z, p, H->seg.ev_c[event], H->seg.ev_kind[event]);
+        int c = H->seg.ev_c[event], grazing = 0;
+        if (H->seg.ev_kind[event] == 0) {  /* a gap that closes without approaching */
+            KdPoints P;
+            kd_hy_points(H, t, z, p, &P);
+            grazing = kd_hy_vn(&P, c) >= -H->tol_v;
+        }
+        status = kd_hy_event(H, t, z, p, c, H->seg.ev_kind[event]);
         H->fresh = 1;
         if (!status) kd_hy_segment(H, t, z, p, &H->seg);
+        if (!status && grazing && H->modes[c] == KD_SEP) {
+            /* it stays separated, leaving from the surface at rounding-level speed:
+               its next event where it comes back closer than tol_d (the integrator
+               of the importer, not this FMU, sets the noise of its gap) */
+            KdPoints P;
+            kd_hy_points(H, t, z, p, &P);
+            H->seg.offset[c] = fmax(0.0, -kd_hy_dist(&P, c)) + H->tol_d;
+        }
         memcpy(y, z, sizeof(double) * KD_NX);
         *changed = memcmp(before, y, sizeof before) != 0;
     }
