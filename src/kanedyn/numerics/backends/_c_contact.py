@@ -15,7 +15,10 @@ The per-mode contact solve is the Schur complement of
 or one active unilateral contact sliding (one unknown normal force, Coulomb
 friction along the slip direction of
 :func:`kanedyn.numerics._contact_dynamics.slip_direction`) or sticking (a
-3-vector force), with Baumgarte stabilization of the normal distance.  Any
+3-vector force), with Baumgarte stabilization of the normal distance.  Several
+active contacts only when all are frictionless and sliding with independent
+normal rows (their normal forces by the Schur complement): the exported FMU's
+contact loop uses that; ``kd.simulate`` gives such segments to the Python path.  Any
 other case (several active contacts, dependent speeds, specified inputs, an
 ill-conditioned contact-space matrix) and any failure (singular or not
 finite) returns status 2 at once: the caller integrates that segment with
@@ -35,6 +38,10 @@ guard, by a ``KeyboardInterrupt`` at the signal check, or by its time limit,
 ``timeout`` s of computing, 0: none, checked every 16 steps: what it has); ``t``
 (N,) and ``z`` (N, n + 2) the accepted steps from ``t0`` (and the event point).
 Like the integration loop it lets Python's other threads work between its steps.
+
+:data:`SEGMENT` is the Python-free part (the solve, the event functions, Brent's
+method and the loop ``kd_seg_run``), shared with the standalone export's contact
+loop (:mod:`._c_hybrid`); :data:`CONTACT` adds the module's entry point.
 """
 
 SEGMENT = r"""

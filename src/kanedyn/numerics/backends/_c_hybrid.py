@@ -15,8 +15,9 @@ Tolerances, rest speed, Baumgarte frequency (10 rad/s) and the choice of slip
 references are those of ``kd.simulate``'s defaults.
 
 What it does not do, a failure with a message naming the contact (code 5,
-``kanedyn_contact_message``): two contacts active at once (several sliding or
-sticking contacts, or an impact of a contact while another touches), an impact
+``kanedyn_contact_message``): several contacts sliding or sticking at once unless
+all are frictionless with independent normals, an impact of a contact while
+another touches or of several at once, an impact
 whose slip turns during the impulse (out of plane), a singular or non-finite
 contact solve, modes that do not settle.  The export refuses bilateral
 contacts, dependent speeds and specified inputs before (``io.fmu``).
