@@ -270,7 +270,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         parts.append(src)
         work = max(work, w)
     names = list(parameters)
-    header = _header(title, state_names, parameters, input_names, sizes)
+    header = _header(title, state_names, parameters, input_names, sizes,
+                     [c["name"] for c in contacts or ()])
     defines = [f"#define KD_NQ {n}", f"#define KD_NU {o}", f"#define KD_NQDEP {l}",
                f"#define KD_NUDEP {m}", f"#define KD_NP {n_p}", f"#define KD_NR {n_r}",
                f"#define KD_NW {work}",
@@ -288,7 +289,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
                       *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
 
 
-def _header(title, state_names, parameters, input_names, sizes):
+def _header(title, state_names, parameters, input_names, sizes, contacts=()):
     n, o = sizes["n_q"], sizes["n_u"]
     l, m = sizes["n_q_dep"], sizes["n_u_dep"]
     lines = [f"{title or 'a kanedyn model'}", "",
@@ -343,5 +344,13 @@ def _header(title, state_names, parameters, input_names, sizes):
     lines.append(f"Specified inputs r (KANEDYN_NR = {len(input_names)}):")
     lines += [f"  r[{k}] = {name.removesuffix('(t)')}"
               for k, name in enumerate(input_names)] or ["  none"]
+    if contacts:
+        lines += [f"Contacts (KD_NC = {len(contacts)}): {', '.join(contacts)}.",
+                  "  Their modes, events and impacts: kanedyn_contact_start,",
+                  "  kanedyn_contact_advance (co-simulation), kanedyn_contact_derivatives,",
+                  "  kanedyn_contact_indicators, kanedyn_contact_update (model exchange),",
+                  "  on z = [y, work of friction, work of all contact forces] and a state",
+                  "  of kanedyn_contact_state_size() bytes; kanedyn_contact_message says",
+                  "  why a call returned 5."]
     body = "\n".join((" * " + line).rstrip() for line in lines)
     return "/*\n" + body.replace("*/", "* /") + "\n */"
