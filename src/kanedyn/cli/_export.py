@@ -21,8 +21,9 @@ def add_parser(sub):
                     "exchange and co-simulation: the standalone C of its equations and the FMI "
                     "functions, compiled with the system C compiler (no Python needed to "
                     "run it), the sources included.  States are outputs, constants "
-                    "parameters, specified inputs inputs; models with contacts are "
-                    "refused.")
+                    "parameters, specified inputs inputs; a model's contact events are "
+                    "event indicators (model exchange) and handled inside the step "
+                    "(co-simulation).")
     p.add_argument("model", choices=list(REGISTRY))
     p.add_argument("--fmu", metavar="FILE", required=True,
                    help="the FMU to write (a name ending in .fmu)")
@@ -66,6 +67,7 @@ def cmd_export(args):
                          atol=args.atol, constant_units=definition.constant_units,
                          title=f"{definition.name}: {definition.title}",
                          fmi_version=args.fmi_version, nominals=nominals)
+    contacts = f", {len(model.contacts)} contacts" if model.contacts else ""
     print(f"wrote {written} (FMI {args.fmi_version}.0; {model.n_states} states, "
-          f"{len(model.constants)} parameters, {len(model.input_names)} inputs)")
+          f"{len(model.constants)} parameters, {len(model.input_names)} inputs{contacts})")
     return 0

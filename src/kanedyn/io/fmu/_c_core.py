@@ -30,6 +30,21 @@ int kanedyn_advance(double t0, double t1, double *y, const double *p, const doub
                     const double *r_rate, double rtol, double atol, double project_tol,
                     double *step, long *steps);
 extern const double kanedyn_default_parameters[];
+#define NC %(nc)d           /* contacts */
+#if NC > 0
+size_t kanedyn_contact_state_size(void);
+int kanedyn_contact_start(double t, double *z, const double *p, void *state, double atol);
+int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, void *state,
+                            double rtol, double atol, long *steps);
+const char *kanedyn_contact_message(const void *state);
+int kanedyn_contact_mode(const void *state, int contact);
+int kanedyn_contact_derivatives(double t, const double *y, const double *p, void *state,
+                                double *ydot);
+int kanedyn_contact_indicators(double t, const double *y, const double *p, void *state,
+                               double *g);
+int kanedyn_contact_update(double t, double *y, const double *p, void *state, int *changed);
+#endif
+#define NI (2 * NC)         /* event indicators: 2 per contact */
 
 #define NX %(nx)d           /* states */
 #define NP %(np)d           /* parameters */
@@ -44,7 +59,10 @@ extern const double kanedyn_default_parameters[];
 #define VR_E (VR_R + NR)
 #define VR_SET (VR_E + NE)
 #define NSET 3
-#define VR_END (VR_SET + NSET)
+#define NIV %(niv)d          /* event-indicator variables (FMI 3.0 declares them) */
+#define VR_MODE (VR_SET + NSET) /* the contacts' modes (0 separated, 1 slip, 2 stick) */
+#define VR_IND (VR_MODE + NC)
+#define VR_END (VR_IND + NIV)
 #define VR_TIME VR_END      /* the independent variable (declared by FMI 3.0 only) */
 #define TOKEN "%(guid)s"
 
@@ -67,6 +85,8 @@ typedef struct {
     long steps;
     double y[NX], ydot[NX], p[SZ(NP)], r[SZ(NR)], r_rate[SZ(NR)], energy[2];
     double set[NSET];
+    double work[2];                    /* contacts: work of friction, of all contact forces */
+    void *contacts;                    /* contacts: the modes and references of model.c */
 } Instance;
 
 /* defined by the interface: */
@@ -96,6 +116,7 @@ static const char *code_text(int code) {
     case 2: return "out of memory";
     case 3: return "a state derivative is not finite";
     case 4: return "step size too small";
+    case 5: return "contact handling";
     default: return "unknown failure";
     }
 }
@@ -103,7 +124,16 @@ static const char *code_text(int code) {
 /* derivatives and energies at the current time and state */
 static int refresh(Instance *c) {
     if (c->fresh) return 0;
+#if NC > 0  /* in the contacts' current modes */
+    int code = kanedyn_contact_derivatives(c->t, c->y, c->p, c->contacts, c->ydot);
+    if (code == 5) {
+        say(c, S_ERROR, "logStatusError", "the derivatives at t = %%.17g: %%s", c->t,
+            kanedyn_contact_message(c->contacts));
+        return code;
+    }
+#else
     int code = kanedyn_rhs(c->t, c->y, c->p, c->r, c->ydot);
+#endif
     if (code != 0) {
         say(c, S_ERROR, "logStatusError", "the right-hand side failed at t = %%.17g: %%s",
             c->t, code_text(code));
@@ -148,9 +178,18 @@ static Instance *core_new(const char *name, int cosimulation, int logging,
                           const Callbacks *cb) {
     Instance *c = (Instance *)allocate(cb, sizeof(Instance));
     if (c == NULL) return NULL;
+    c->contacts = NULL;
+#if NC > 0
+    c->contacts = allocate(cb, kanedyn_contact_state_size());
+    if (c->contacts == NULL) { release(cb, c); return NULL; }
+#endif
     if (name == NULL) name = "";
     c->name = (char *)allocate(cb, strlen(name) + 1);
-    if (c->name == NULL) { release(cb, c); return NULL; }
+    if (c->name == NULL) {
+        if (c->contacts != NULL) release(cb, c->contacts);
+        release(cb, c);
+        return NULL;
+    }
     strcpy(c->name, name);
     c->cb = *cb;
     c->cosimulation = cosimulation;
@@ -163,6 +202,7 @@ static void core_free(Instance *c) {
     if (c == NULL) return;
     Callbacks cb = c->cb;
     release(&cb, c->name);
+    if (c->contacts != NULL) release(&cb, c->contacts);
     release(&cb, c);
 }
 
@@ -177,8 +217,38 @@ static int core_exit_initialization(Instance *c) {
         return failed(c, "%%s must be > 0 (projection_tol >= 0)",
                       "kanedyn.rtol and kanedyn.atol");
     if (project(c) != 0) return S_ERROR;  /* a consistent initial state, as kd.simulate */
+#if NC > 0
+    {  /* the contacts' modes at the start: impacts, forces within their limits */
+        double z[NX + 2];
+        memcpy(z, c->y, sizeof c->y);
+        int code = kanedyn_contact_start(c->t, z, c->p, c->contacts, c->set[1]);
+        if (code != 0) {
+            say(c, S_ERROR, "logStatusError", "the contacts at the start: %%s",
+                code == 5 ? kanedyn_contact_message(c->contacts) : code_text(code));
+            return S_ERROR;
+        }
+        memcpy(c->y, z, sizeof c->y);
+        c->work[0] = z[NX];
+        c->work[1] = z[NX + 1];
+        c->fresh = 0;
+    }
+#endif
     c->mode = c->cosimulation ? STEP : EVENT;
     return refresh(c) == 0 ? S_OK : S_ERROR;
+}
+
+/* model exchange: the event indicators (2 per contact, see kanedyn_contact_indicators) */
+static int core_indicators(Instance *c, double g[], size_t ni, const char *function) {
+    if (ni != NI) return failed(c, "%%s: wrong number of event indicators", function);
+#if NC > 0
+    if (NI > 0 && kanedyn_contact_indicators(c->t, c->y, c->p, c->contacts, g) != 0) {
+        say(c, S_ERROR, "logStatusError", "%%s", kanedyn_contact_message(c->contacts));
+        return S_ERROR;
+    }
+#else
+    (void)g;
+#endif
+    return S_OK;
 }
 
 static int core_get(Instance *c, const unsigned vr[], size_t nvr, double value[]) {
@@ -191,7 +261,19 @@ static int core_get(Instance *c, const unsigned vr[], size_t nvr, double value[]
         else if (v < VR_R) value[k] = c->p[v - VR_P];
         else if (v < VR_E) value[k] = c->r[v - VR_R];
         else if (v < VR_SET) value[k] = c->mode == INSTANTIATED ? 0.0 : c->energy[v - VR_E];
-        else if (v < VR_END) value[k] = c->set[v - VR_SET];
+        else if (v < VR_MODE) value[k] = c->set[v - VR_SET];
+#if NC > 0
+        else if (v < VR_IND)
+            value[k] = c->mode == INSTANTIATED ? 0.0
+                       : (double)kanedyn_contact_mode(c->contacts, (int)(v - VR_MODE));
+#endif
+        else if (v < VR_END) {  /* an event indicator: all computed, one kept */
+            double g[SZ(NIV)];
+            if (c->mode == INSTANTIATED) g[v - VR_IND] = 0.0;
+            else if (core_indicators(c, g, NIV, "getting an event indicator") != S_OK)
+                return S_ERROR;
+            value[k] = g[v - VR_IND];
+        }
         else if (v == VR_TIME && TIME_VARIABLE) value[k] = c->t;
         else {
             say(c, S_ERROR, "logStatusError", "no %%s variable has value reference %%u",
@@ -213,7 +295,7 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
                 FLOAT_NAME, v);
             return S_ERROR;
         }
-        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET))
+        if ((v >= VR_DER && v < VR_P) || (v >= VR_E && v < VR_SET) || v >= VR_MODE)
             return failed(c, "%%s is computed by the FMU: it cannot be set", variable_names[v]);
         if (!before && !(v >= VR_R && v < VR_E))
             return failed(c, "%%s can only be set before the end of initialization",
@@ -221,7 +303,7 @@ static int core_set(Instance *c, const unsigned vr[], size_t nvr, const double v
         if (v < VR_DER) c->y[v - VR_Y] = value[k];
         else if (v < VR_R) c->p[v - VR_P] = value[k];
         else if (v < VR_E) { c->r[v - VR_R] = value[k]; c->r_rate[v - VR_R] = 0.0; }
-        else c->set[v - VR_SET] = value[k];
+        else c->set[v - VR_SET] = value[k];  /* v < VR_MODE */
         c->fresh = 0;
     }
     return S_OK;
@@ -235,6 +317,16 @@ static int core_step_event(Instance *c) {
 /* model exchange, event mode: project when needed; *changed: the states were moved */
 static int core_update_discrete_states(Instance *c, int *changed) {
     *changed = 0;
+#if NC > 0  /* contact events: impacts and mode changes */
+    int code = kanedyn_contact_update(c->t, c->y, c->p, c->contacts, changed);
+    c->fresh = 0;
+    if (code != 0) {
+        say(c, S_ERROR, "logStatusError", "the contact event at t = %%.17g: %%s", c->t,
+            code == 5 ? kanedyn_contact_message(c->contacts) : code_text(code));
+        return S_ERROR;
+    }
+    if (*changed) say(c, S_OK, "logEvents", "t = %%.17g: a contact event", c->t);
+#endif
     if (core_step_event(c)) {
         say(c, S_OK, "logEvents", "t = %%.17g: state projected onto the constraints", c->t);
         if (project(c) != 0) return S_ERROR;
@@ -284,10 +376,25 @@ static int core_set_input_rate(Instance *c, unsigned vr, int order, double value
 static int core_do_step(Instance *c, double t0, double h, const char *function) {
     if (c->mode != STEP) return failed(c, "%%s: not in step mode", function);
     if (!(h > 0)) return failed(c, "%%s: the step size must be > 0", function);
-    double t1 = t0 + h, y[NX];
-    memcpy(y, c->y, sizeof y);
+    double t1 = t0 + h, y[NX + 2];
+    memcpy(y, c->y, sizeof c->y);
+#if NC > 0  /* through the contact events (no inputs, no constraints: see io.fmu) */
+    y[NX] = c->work[0];
+    y[NX + 1] = c->work[1];
+    int code = kanedyn_contact_advance(t0, t1, y, c->p, c->contacts, c->set[0], c->set[1],
+                                       &c->steps);
+    if (code == 5) {
+        say(c, S_ERROR, "logStatusError", "the step from t = %%.17g to %%.17g failed: %%s",
+            t0, t1, kanedyn_contact_message(c->contacts));
+        c->fresh = 0;
+        return S_ERROR;
+    }
+    c->work[0] = y[NX];
+    c->work[1] = y[NX + 1];
+#else
     int code = kanedyn_advance(t0, t1, y, c->p, c->r, c->r_rate, c->set[0], c->set[1],
                                c->set[2], &c->step, &c->steps);
+#endif
     for (int k = 0; k < NR; ++k) {  /* the inputs at t1, their derivatives used up */
         c->r[k] += h * c->r_rate[k];
         c->r_rate[k] = 0.0;
@@ -298,7 +405,7 @@ static int core_do_step(Instance *c, double t0, double h, const char *function) 
             t0, t1, code_text(code));
         return S_ERROR;
     }
-    memcpy(c->y, y, sizeof y);
+    memcpy(c->y, y, sizeof c->y);
     c->t = t1;
     return S_OK;
 }

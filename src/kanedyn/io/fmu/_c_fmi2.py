@@ -272,8 +272,7 @@ FMI_EXPORT fmi2Status fmi2GetDerivatives(fmi2Component c, fmi2Real dx[], size_t 
 }
 
 FMI_EXPORT fmi2Status fmi2GetEventIndicators(fmi2Component c, fmi2Real z[], size_t ni) {
-    (void)z;
-    return ni == 0 ? fmi2OK : S(failed(I(c), "%%s", "this FMU has no event indicators"));
+    return S(core_indicators(I(c), z, ni, "fmi2GetEventIndicators"));
 }
 
 FMI_EXPORT fmi2Status fmi2GetContinuousStates(fmi2Component c, fmi2Real x[], size_t nx) {

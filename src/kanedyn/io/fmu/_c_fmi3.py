@@ -415,8 +415,7 @@ FMI_EXPORT fmi3Status fmi3GetContinuousStateDerivatives(fmi3Instance c, fmi3Floa
 }
 
 FMI_EXPORT fmi3Status fmi3GetEventIndicators(fmi3Instance c, fmi3Float64 z[], size_t ni) {
-    (void)z;
-    return ni == 0 ? fmi3OK : S(failed(I(c), "%%s", "this FMU has no event indicators"));
+    return S(core_indicators(I(c), z, ni, "fmi3GetEventIndicators"));
 }
 
 FMI_EXPORT fmi3Status fmi3GetContinuousStates(fmi3Instance c, fmi3Float64 x[], size_t nx) {
@@ -430,7 +429,7 @@ FMI_EXPORT fmi3Status fmi3GetNominalsOfContinuousStates(fmi3Instance c, fmi3Floa
 
 FMI_EXPORT fmi3Status fmi3GetNumberOfEventIndicators(fmi3Instance c, size_t *n) {
     (void)c;
-    *n = 0;
+    *n = NI;
     return fmi3OK;
 }
 

@@ -115,10 +115,12 @@ def _structure(root, layout, version):
         for index in indices:
             reference = layout.variables[index - 1].value_reference
             ET.SubElement(structure, tag, {"valueReference": str(reference)})
+    for v in layout.variables[len(layout.variables) - layout.n_indicators:]:
+        ET.SubElement(structure, "EventIndicator", {"valueReference": str(v.value_reference)})
 
 
 def model_description(layout, identifier, guid, name, description, source_files,
-                      stop_time=None, tolerance=None, fmi_version=2):
+                      stop_time=None, tolerance=None, fmi_version=2, event_indicators=0):
     """The text of ``modelDescription.xml``.
 
     Parameters
@@ -136,6 +138,9 @@ def model_description(layout, identifier, guid, name, description, source_files,
     stop_time, tolerance : float, optional
         The ``DefaultExperiment``'s stop time [s] and relative tolerance.
     fmi_version : {2, 3}
+    event_indicators : int
+        FMI 2.0's ``numberOfEventIndicators`` (two per contact of a model with
+        contacts; FMI 3.0 declares them as variables, ``layout.n_indicators``).
 
     Returns
     -------
@@ -147,7 +152,7 @@ def model_description(layout, identifier, guid, name, description, source_files,
         "description": description, "generationTool": f"kanedyn {__version__}",
         "variableNamingConvention": "flat"})
     if fmi_version == 2:
-        root.set("numberOfEventIndicators", "0")
+        root.set("numberOfEventIndicators", str(event_indicators))
     _interfaces(root, fmi_version, identifier, source_files)
     _units_categories_experiment(root, layout, stop_time, tolerance,
                                  extra_units=("s",) if fmi_version == 3 else ())

@@ -77,11 +77,23 @@ def _check_path(path):
 
 
 def _check_model(model):
-    if model.contacts:
-        names = ", ".join(c["name"] for c in model.contacts)
-        raise ModelError(f"cannot export an FMU of a model with contacts ({names}): its "
-                         "contact modes and impacts run in kanedyn's simulate, not in the "
-                         "generated C; export the model without its contacts")
+    """What the contact loop of the FMU (co-simulation) does not port is refused."""
+    if not model.contacts:
+        return
+    names = ", ".join(c["name"] for c in model.contacts)
+    for c in model.contacts:
+        if c["kind"] != "unilateral":
+            raise ModelError(f"cannot export an FMU of contact {c['name']}: it is "
+                             f"{c['kind']}, and the FMU's contact loop handles unilateral "
+                             "contacts only (kd.simulate handles it)")
+    if model.n_u_dep or model.n_q_dep:
+        raise ModelError(f"cannot export an FMU of a model with contacts ({names}) and "
+                         "constraints (dependent coordinates or speeds): the FMU's contact "
+                         "loop handles unconstrained models only (kd.simulate handles it)")
+    if model.input_names:
+        raise ModelError(f"cannot export an FMU of a model with contacts ({names}) and "
+                         f"specified inputs ({', '.join(model.input_names)}): the FMU's "
+                         "contact loop handles models without inputs only")
 
 
 def _settings(rtol, atol, projection_tol):
@@ -142,7 +154,10 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     Parameters
     ----------
     model : NumericModel
-        Without contacts (refused: :class:`~kanedyn.ModelError` naming them).
+        With contacts the co-simulation step runs the contact loop of
+        ``kd.simulate`` in C (modes, events, single-contact impacts) and model
+        exchange has two event indicators per contact, the impacts and mode changes
+        in the event update (see ``docs/fmu.md`` for what it refuses).
     path : str or Path
         The file to write; its name must end in ``.fmu``.
     y0 : array_like or dict
@@ -189,7 +204,8 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
         A file name not ending in ``.fmu``, a bad tolerance, identifier,
         ``fmi_version`` or nominal value.
     ModelError
-        A model with contacts, or whose equations are not available.
+        A model whose equations are not available, or with contacts the FMU does not
+        handle (bilateral ones; with constraints or specified inputs).
     CompilerError
         No C compiler, or the build failed.
     """
@@ -214,19 +230,22 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
                           f"constants of the model; its constants: "
                           f"{', '.join(model.constants)}")
     layout = fmu_variables(model, y_start, r_start, settings, units,
-                           _check_nominals(model, nominals))
+                           _check_nominals(model, nominals),
+                           indicators=fmi_version == 3 and bool(model.contacts))
     _check_names(layout)
     title = title or model.title or model.name or "a kanedyn model"
-    model_c = model.c_source(title=title)
+    model_c = model._c_text(title=title, contacts=True) if model.contacts \
+        else model.c_source(title=title)
     digest = hashlib.sha256("\n".join([model_c, repr(layout), str(fmi_version)])
                             .encode()).digest()
     guid = "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
     wrapper_c = wrapper_source(layout, identifier, guid, title,
                                model.n_q_dep + model.n_u_dep, list(settings.values()),
-                               fmi_version)
+                               fmi_version, len(model.contacts))
     xml = model_description(layout, identifier, guid, model.name or identifier, title,
                             sources, stop_time=t_end, tolerance=rtol,
-                            fmi_version=fmi_version)
+                            fmi_version=fmi_version,
+                            event_indicators=2 * len(model.contacts))
     with tempfile.TemporaryDirectory(prefix="kanedyn-fmu-") as temporary:
         folder = Path(temporary)
         (folder / "model.c").write_text(model_c)

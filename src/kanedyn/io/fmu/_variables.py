@@ -5,7 +5,8 @@ Value references are consecutive, in blocks (the C wrapper's ``VR_*`` macros):
 the states ``y`` (coordinates then speeds, as ``model.state_names``), their
 derivatives, the parameters ``p`` (the model's constants, in the order of
 ``model.constants``), the specified inputs ``r``, the energy outputs (kinetic;
-potential where the model declares one), then the solver settings.
+potential where the model declares one), the solver settings, then, with contacts,
+their modes (outputs) and, in FMI 3.0, their event indicators.
 """
 
 from __future__ import annotations
@@ -73,6 +74,9 @@ class FmuVariables:
         ``modelDescription.xml``: index = value reference + 1).
     n_states, n_parameters, n_inputs, n_energies : int
         Sizes of the blocks (``n_energies``: 1, or 2 with a potential energy).
+    n_indicators : int
+        The event indicators' variables, the last block (FMI 3.0 declares the
+        event indicators of a model with contacts as variables).
     """
 
     variables: tuple
@@ -80,6 +84,7 @@ class FmuVariables:
     n_parameters: int
     n_inputs: int
     n_energies: int
+    n_indicators: int = 0
 
     def block(self, causality, variability="continuous"):
         """1-based indices of the variables of ``causality`` and ``variability``."""
@@ -101,7 +106,7 @@ def derivative_unit(unit):
     return f"{unit}/s"
 
 
-def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
+def fmu_variables(model, y0, r0, settings, constant_units, nominals=None, indicators=False):
     """The variables of ``model`` exported as an FMU.
 
     Parameters
@@ -118,6 +123,8 @@ def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
     nominals : dict, optional
         ``{state name: typical magnitude}`` of the states whose nominal value is
         declared.
+    indicators : bool
+        Declare the event indicators (two per contact) as variables (FMI 3.0).
 
     Returns
     -------
@@ -157,5 +164,16 @@ def fmu_variables(model, y0, r0, settings, constant_units, nominals=None):
             "potential energy (as the model declares it)")
     for name, description in SETTINGS.items():
         add(name, "parameter", "fixed", "exact", settings[name], None, description)
+    for contact in model.contacts:
+        add(f"{contact['name']}.mode", "output", "continuous", "calculated", None, None,
+            f"mode of contact {contact['name']}: 0 separated, 1 sliding, 2 sticking "
+            "(piecewise constant)")
+    n_indicators = 2 * len(model.contacts) if indicators else 0
+    for contact in model.contacts if indicators else ():
+        for k in (1, 2):
+            add(f"{contact['name']}.event_indicator_{k}", "local", "continuous", None, None,
+                None, f"event indicator {k} of contact {contact['name']}: the value of an "
+                "event function of its current mode (an event where it falls to zero)")
     return FmuVariables(tuple(out), model.n_states, len(model.constants),
-                        len(model.input_names), 2 if model.has_potential else 1)
+                        len(model.input_names), 2 if model.has_potential else 1,
+                        n_indicators)

@@ -38,7 +38,8 @@ def _numbers(values):
     return ", ".join(repr(float(v)) for v in values) or "0.0"
 
 
-def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi_version=2):
+def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi_version=2,
+                   n_contacts=0):
     """C99 source of ``fmi2.c`` or ``fmi3.c``.
 
     Parameters
@@ -51,6 +52,10 @@ def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi
     settings : sequence of float
         Start values of ``kanedyn.rtol``, ``kanedyn.atol``, ``kanedyn.projection_tol``.
     fmi_version : {2, 3}
+    n_contacts : int
+        The model's contacts (``model.c`` then has the contact loop,
+        ``kanedyn_contact_*``: the co-simulation step, the model-exchange
+        derivatives, event indicators and event update).
 
     Returns
     -------
@@ -62,7 +67,7 @@ def wrapper_source(layout, identifier, guid, title, n_constraints, settings, fmi
     inputs = variables[2 * nx + np_:2 * nx + np_ + nr]
     return (interface.HEAD + CORE + interface.API) % {
         "title": title.replace("*/", "* /"), "identifier": identifier, "guid": guid,
-        "nx": nx, "np": np_, "nr": nr, "ne": layout.n_energies, "ncon": n_constraints,
+        "nx": nx, "nc": n_contacts, "niv": layout.n_indicators, "np": np_, "nr": nr, "ne": layout.n_energies, "ncon": n_constraints,
         "y_start": _numbers(v.start for v in variables[:nx]),
         "y_nominal": _numbers(1.0 if v.nominal is None else v.nominal
                               for v in variables[:nx]),
