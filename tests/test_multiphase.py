@@ -202,10 +202,12 @@ def test_payload_released_minimum_time_closed_form():
 
 
 # ---------------------------------------------------------------- derivatives
-def test_multiphase_derivatives_against_differences():
+@pytest.mark.parametrize("method, degree", [("lgr", 2), ("hermite-simpson", None),
+                                            ("midpoint", None), ("trapezoid", None)])
+def test_multiphase_derivatives_against_differences(method, degree):
     """Three phases: a free duration (trapezoid), then a time-dependent model
-    on a start that is a variable (LGR of degree 2; its objective, Mayer term
-    and path constraint in t), then a free duration on a variable start
+    on a start that is a variable (``method``; its objective, Mayer term and
+    path constraint in t), then a free duration on a variable start
     (Hermite-Simpson); linkages by continuity and by equations in both
     sides and the junction time.  The Jacobian and gradient against central
     differences."""
@@ -220,7 +222,7 @@ def test_multiphase_derivatives_against_differences():
         path_constraints=[(v ** 2 + F, -4, 4)])
     second = kd.OptimalControlProblem(
         forced, nodes=3, duration=0.7, lagrange=F2 ** 2 + sm.sin(t) * x2 + t * v2 ** 2,
-        mayer=t * x2, method="lgr", degree=2, path_constraints=[(x2 * t + F2, -9, 9)])
+        mayer=t * x2, method=method, degree=degree, path_constraints=[(x2 * t + F2, -9, 9)])
     third = kd.OptimalControlProblem(
         cart, nodes=4, duration=T3, lagrange=F ** 2, mayer=T3 + v ** 2,
         bounds={T3: (0.1, 3)}, method="hermite-simpson")

@@ -6,6 +6,7 @@
     kanedyn optimize pendulum --nodes 401 --bound tau=-1.5:1.5 --plot swing.png
     kanedyn optimize flexible-robot --problem minimum-time --set n_modes=2
     kanedyn optimize whipple-bicycle --set offset=2 --duration 3 --output lane.csv
+    kanedyn optimize pendulum --method lgr --degree 4 --nodes 41
 
 The problem is posed, solved by IPOPT and checked by simulation (each
 problem says how); the summary is printed.  Exit code 0 when IPOPT solved
@@ -35,6 +36,16 @@ def _positive_int(text):
     return value
 
 
+def _whole_number(text):
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"needs at least 1, got {value}")
+    return value
+
+
 def add_parser(sub):
     """Add the ``optimize`` sub-command to ``sub``."""
     p = sub.add_parser(
@@ -51,8 +62,11 @@ def add_parser(sub):
     p.add_argument("--nodes", type=_positive_int, default=None,
                    help="collocation nodes (default: the problem's)")
     p.add_argument("--method", default=None,
-                   help="collocation: trapezoid, backward-euler, midpoint, hermite-simpson "
-                        "(default: the problem's)")
+                   help="collocation: trapezoid, backward-euler, midpoint, hermite-simpson, "
+                        "lgr (default: the problem's)")
+    p.add_argument("--degree", type=_whole_number, default=None,
+                   help="with --method lgr: the Legendre-Gauss-Radau points per interval "
+                        "(default 3; order 2 degree - 1)")
     p.add_argument("--duration", type=positive_float, default=None,
                    help="duration [s] (a free duration's guess; default: the problem's)")
     p.add_argument("--bound", action="append", metavar="NAME=LOW:HIGH", default=[],
@@ -128,8 +142,13 @@ def cmd_optimize(args):
     if args.method is not None and args.method not in COLLOCATION_METHODS:
         raise KanedynError(f"--method {args.method!r}: available "
                            f"{', '.join(COLLOCATION_METHODS)}")
+    if args.degree is not None and (args.method or problem.method) != "lgr":
+        raise KanedynError(f"--degree is for --method lgr (the problem's method is "
+                           f"{args.method or problem.method})")
     model_options, values = parse_sets(args.model, args.set)
     options, constants = {}, {}
+    if args.degree is not None:  # only then: a problem may predate LGR's degree
+        options["degree"] = args.degree
     names = None
     for key, value in values.items():
         if key in problem.options:
