@@ -181,8 +181,8 @@ def _pulse_amplitude(definition):
 
 def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bounds=None,
                                 constants=None, model_options=None, backend="c", ipopt=None,
-                                degree=None, objective="effort", angle=90.0, after=2.0, torque_limit=0.0,
-                                pulse_duration=1.0, regularization=1e-3):
+                                degree=None, objective="effort", angle=90.0, after=2.0,
+                                torque_limit=0.0, pulse_duration=1.0, regularization=1e-3):
     r"""The elastic robot's rest-to-rest rotation of least effort or least
     time, and the torque pulse it uses today, both simulated and compared.
 
