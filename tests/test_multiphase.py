@@ -132,7 +132,7 @@ def test_split_in_two_is_the_single_phase_problem(method, degree, continuous):
 def test_payload_released_least_effort_closed_form(method, degree, renamed):
     """A 1 kg cart carries a 1 kg payload until t = 0.4 s and moves on alone,
     from rest at 0 to rest at 1 m in 1 s, with the least integral of F^2:
-    the closed form (objective, position, the force halving at the release)
+    the closed form (objective, position, the force doubling at the release)
     is piecewise cubic in the position, which both methods represent
     exactly.  The phases are two models (two particles, then one); the
     second names its states y, w in the renamed case, joined by linkage
@@ -172,7 +172,10 @@ def test_payload_released_minimum_time_closed_form():
     it on reaching 0.5 m and stops at 1 m alone (1 kg): the least total time
     is sqrt(2) (full push, loaded) + 2 sqrt(3/4) - sqrt(1/2) (push and brake
     alone) = 2.4391576 s.  Both durations are free, so the second phase's
-    start is a variable; each phase's Mayer term is its duration."""
+    start is a variable; each phase's Mayer term is its duration.
+    Hermite-Simpson with 21 and 41 nodes a phase: 3.1e-5 and 4.2e-6 below it
+    (the switch from push to brake falls between nodes); the loaded phase,
+    at its bound throughout, exact."""
     loaded, (x, v, F) = _cart([1.0, 1.0])
     alone, _ = _cart([1.0])
     T1, T2 = sm.symbols("T1 T2")
@@ -197,7 +200,7 @@ def test_payload_released_minimum_time_closed_form():
         assert two.t[0] == pytest.approx(one.t[-1], abs=1e-12)
         assert abs(one["v"][-1] - np.sqrt(0.5)) < 1e-6
         found.append(result.objective)
-    assert abs(found[-1] - exact) < 5e-3, found
+    assert abs(found[-1] - exact) < 2e-5, found
     assert abs(found[-1] - exact) <= abs(found[0] - exact)
 
 
