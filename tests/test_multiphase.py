@@ -18,9 +18,9 @@ IPOPT through cyipopt is needed; without it every test here is skipped.
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import sympy as sm
 import sympy.physics.mechanics as me
+from test_optimal_control import check_against_differences
 
 import kanedyn as kd
 
@@ -243,19 +243,7 @@ def test_multiphase_derivatives_against_differences(method, degree):
             z[offset + L_.duration_index] = 0.8
         if L_.free_start_time:
             z[offset + L_.start_index] = 1.3
-    J = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()),
-                      shape=(nlp.m, nlp.n)).toarray()
-    J_fd, g_fd = np.zeros_like(J), np.zeros(nlp.n)
-    for i in range(nlp.n):
-        e = np.zeros(nlp.n)
-        e[i] = 1e-6
-        J_fd[:, i] = (nlp.constraints(z + e) - nlp.constraints(z - e)) / 2e-6
-        g_fd[i] = (nlp.objective(z + e) - nlp.objective(z - e)) / 2e-6
-    assert np.max(np.abs(J - J_fd)) < 1e-6
-    assert np.max(np.abs(nlp.gradient(z) - g_fd)) < 1e-6
-    pattern = sp.coo_matrix((np.ones(len(nlp.structure[0])), nlp.structure),
-                            shape=(nlp.m, nlp.n)).toarray()
-    assert np.all(pattern[np.abs(J_fd) > 1e-9] > 0)  # no entry outside the pattern
+    check_against_differences(nlp, z, 1e-6)
 
 
 # ----------------------------------------------------------------- the result

@@ -315,12 +315,8 @@ class IntervalDefects:
         return np.concatenate(rows), np.concatenate(cols)
 
     def jacobian(self, h, T, evaluated, time_rates):
-        """Values in the order of :attr:`structure`.
-
-        ``evaluated``: per group ``(f, A, B, Pf)`` (Pf: the free parameters'
-        columns, or None); ``time_rates``: per group :math:`\\partial
-        f/\\partial t` (free duration or start time) or ``None``.
-        """
+        """Values in the order of :attr:`structure` (arguments as
+        :meth:`._transcription.Defects.jacobian`)."""
         L = self.layout
         N, ns, rows = L.nodes, L.n_states, self.rows
         nd = len(rows)
