@@ -248,13 +248,7 @@ class IntervalDefects:
                 blocks.append(("eye", g))
         if L.n_inputs:
             blocks += [("r", g) for g in range(c.size) if c[g]]
-        if L.n_free:
-            blocks.append("p")
-        if L.free_duration:
-            blocks.append("T")
-        if L.free_start_time:
-            blocks.append("t0")
-        return blocks
+        return blocks + L.shared_blocks()
 
     def _point_start(self, g, what):
         """Columns of the first entry of point g in every interval, shape
@@ -272,12 +266,8 @@ class IntervalDefects:
     def _columns(self, block):
         L = self.layout
         nd = len(self.rows)
-        if block == "p":
-            return L.free_start + np.arange(L.n_free)[None, None, :]
-        if block == "T":
-            return np.full((1, 1, 1), L.duration_index)
-        if block == "t0":
-            return np.full((1, 1, 1), L.start_index)
+        if isinstance(block, str):
+            return L.shared_columns(block)
         what, g = block
         if what == "eye":
             return self._point_start(g, "y") + self.rows.reshape(1, nd, 1)

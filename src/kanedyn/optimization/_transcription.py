@@ -212,6 +212,19 @@ class Layout:
     def state_index(self, k, j):
         return k * self.n_states + j
 
+    def shared_blocks(self):
+        """The column groups every row of the dynamics may depend on besides
+        its points: ``"p"`` (the free parameters), ``"T"`` (a free
+        duration), ``"t0"`` (a start time that is a variable)."""
+        return [block for block, present in (("p", self.n_free), ("T", self.free_duration),
+                                             ("t0", self.free_start_time)) if present]
+
+    def shared_columns(self, block):
+        """The columns of a :meth:`shared_blocks` group, shape (1, 1, k)."""
+        if block == "p":
+            return self.free_start + np.arange(self.n_free)[None, None, :]
+        return np.full((1, 1, 1), self.duration_index if block == "T" else self.start_index)
+
     def input_index(self, k, j):
         return self.input_start + k * self.n_inputs + j
 
@@ -324,13 +337,7 @@ class Defects:
         blocks = [("y", o) for o in offsets]
         if L.n_inputs:
             blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
-        if L.n_free:
-            blocks.append("p")
-        if L.free_duration:
-            blocks.append("T")
-        if L.free_start_time:
-            blocks.append("t0")
-        return blocks
+        return blocks + L.shared_blocks()
 
     def _structure(self):
         L = self.layout
@@ -339,12 +346,8 @@ class Defects:
         i = np.arange(nd)[None, :, None]
         rows, cols = [], []
         for block in self._blocks():
-            if block == "p":
-                c = L.free_start + np.arange(L.n_free)[None, None, :]
-            elif block == "T":
-                c = np.full((1, 1, 1), L.duration_index)
-            elif block == "t0":
-                c = np.full((1, 1, 1), L.start_index)
+            if isinstance(block, str):
+                c = L.shared_columns(block)
             elif block[0] == "y":
                 c = (k + block[1]) * L.n_states + np.arange(L.n_states)[None, None, :]
             else:
