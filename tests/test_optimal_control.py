@@ -7,7 +7,11 @@ against what shares none of its code:
   backward Euler (1) and the trapezoid (2) in the states, and of the
   re-simulation defect;
 - opty on the same discrete problem (pendulum and cart-pole swing-ups, its
-  equations written by hand and by SymPy's KanesMethod): the same optimum;
+  equations written by hand and by SymPy's KanesMethod): the same optimum,
+  and LGR of degree 1 (backward Euler's problem) reaching it too;
+- Legendre-Gauss-Radau: the Radau IIA tableaux in closed form, the
+  oscillator's closed form (the error falling with the degree, order 2d - 1
+  with the mesh), Hermite-Simpson's optimum on a fine mesh;
 - the NLP's Jacobian and gradient against central differences;
 - a closed loop (a pendulum in Cartesian coordinates with its length as a
   constraint) against the same motion in its angle.

@@ -47,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["METHODS", "COLLOCATION_METHODS", "ORDERS", "Stage", "Layout", "Defects",
-           "defects_for", "INTERVAL_METHODS", "interval_scheme", "order_of"]
+           "defects_for", "INTERVAL_METHODS", "interval_scheme"]
 
 
 @dataclass(frozen=True)
@@ -87,13 +87,8 @@ INTERVAL_METHODS = ("hermite-simpson", "lgr")
 COLLOCATION_METHODS = tuple(METHODS) + INTERVAL_METHODS
 
 #: the order of accuracy of each method's states at the nodes (``lgr``:
-#: 2 degree - 1, :func:`order_of`)
+#: 2 degree - 1)
 ORDERS = {"backward-euler": 1, "trapezoid": 2, "midpoint": 2, "hermite-simpson": 4}
-
-
-def order_of(method, degree=None):
-    """The order of accuracy of the states at the nodes."""
-    return 2 * degree - 1 if method == "lgr" else ORDERS[method]
 
 
 def interval_scheme(method, degree=None):
