@@ -90,10 +90,10 @@ class Linkage:
 
 class JunctionRow:
     """One row at a junction: ``columns`` (global) and ``function(z) ->
-    (value, gradient over columns)``; ``text`` says what it is."""
+    (value, gradient over columns)``."""
 
-    def __init__(self, columns, function, text):
-        self.columns, self.function, self.text = np.asarray(columns, dtype=int), function, text
+    def __init__(self, columns, function):
+        self.columns, self.function = np.asarray(columns, dtype=int), function
 
 
 class _Side:
@@ -120,24 +120,20 @@ class _Side:
         raise ModelError(f"{what} names {name}, which phase {self.number} lacks (its states: "
                          f"{', '.join(s.states)}; inputs: {', '.join(s.inputs) or 'none'})")
 
-    def time_terms(self):
-        """``[(column, None)]`` of the start time and the duration where they
-        are variables, and their fixed sum: the end time is that sum plus
-        the variables."""
-        L, cols, fixed = self.layout, [], 0.0
-        if L.free_start_time:
-            cols.append(self.offset + L.start_index)
-        else:
-            fixed += self.start
-        if L.free_duration:
-            cols.append(self.offset + L.duration_index)
-        else:
-            fixed += self.problem.duration_value
-        return cols, fixed
 
 
 def _end_time(side):
-    cols, fixed = side.time_terms()
+    """``(columns, end(z))``: the phase's end time is its start time plus its
+    duration, each a variable (its column listed) or fixed."""
+    L, cols, fixed = side.layout, [], 0.0
+    if L.free_start_time:
+        cols.append(side.offset + L.start_index)
+    else:
+        fixed += side.start
+    if L.free_duration:
+        cols.append(side.offset + L.duration_index)
+    else:
+        fixed += side.problem.duration_value
     return cols, (lambda z: fixed + float(np.sum(z[cols])))
 
 
@@ -151,10 +147,7 @@ def junction_rows(k, linkage, before, after):
     if after.layout.free_start_time:
         start = after.offset + after.layout.start_index
         grad = np.array([1.0] + [-1.0] * len(end_cols))
-        rows.append(JunctionRow([start] + end_cols,
-                                lambda z: (z[start] - end_time(z), grad),
-                                f"phase {after.number} starts where phase {before.number} "
-                                "ends"))
+        rows.append(JunctionRow([start] + end_cols, lambda z: (z[start] - end_time(z), grad)))
     names = _continuous_names(linkage, before, after, where)
     if not names and not linkage.equations:
         raise ModelError(f"{where} joins nothing: give it continuous states or equations "
@@ -211,8 +204,7 @@ def _continuous(names, before, after, where):
             continue  # both ends fixed to the same value: nothing to impose
         cols = [before.column(kind_a, ja), after.column(kind_b, jb)]
         grad = np.array([1.0, -1.0])
-        rows.append(JunctionRow(cols, lambda z, c=cols: (z[c[0]] - z[c[1]], grad),
-                                f"{name} continuous"))
+        rows.append(JunctionRow(cols, lambda z, c=cols: (z[c[0]] - z[c[1]], grad)))
     return rows
 
 
@@ -258,4 +250,4 @@ def _equation(value, i, before, after, where, end_cols, end_time):
         out = fn(*z[cols], end_time(z))
         grad = np.array(out[1:], dtype=float)
         return float(out[0]), np.concatenate([grad[:n], np.full(len(end_cols), grad[n])])
-    return JunctionRow(columns, function, str(value))
+    return JunctionRow(columns, function)
