@@ -1376,7 +1376,7 @@ OCP_CASES = {
     "unknown collocation method": (
         lambda: _ocp(method="rk4"), kd.ModelError,
         r"^unknown collocation method 'rk4'; available: backward-euler, trapezoid, midpoint,"
-        r" hermite-simpson$"),
+        r" hermite-simpson, lgr$"),
     "guess of the wrong shape": (
         lambda: _ocp().solve(np.zeros(7)), kd.ModelError,
         r"^the guess must have shape \(33,\) \(states and inputs at 11 nodes, .*got \(7,\)"),
@@ -1528,3 +1528,132 @@ def test_identification_bad_input(spring, case, tmp_path):
     make, kind, pattern = IDENTIFY_CASES[case]
     with pytest.raises(kind, match=pattern):
         make(spring, tmp_path)
+
+
+# ---- issue 35, multiphase problems and Legendre-Gauss-Radau collocation
+def _phases(first=None, second=None, **problem):
+    """Two phases of the spring's problem (0.5 s each), the first from rest at
+    0, the second to rest at 1, with ``first``/``second`` changes; then
+    ``kd.MultiphaseProblem`` with ``problem`` (``phases=`` replaces them)."""
+    a = _ocp(**{"duration": 0.5, "final": {}, **(first or {})})
+    b = _ocp(**{"duration": 0.5, "initial": {}, **(second or {})})
+    return kd.MultiphaseProblem(problem.pop("phases", [a, b]), **problem)
+
+
+def _other_states():
+    """A model whose states (z, w) and input (G) the spring lacks."""
+    z, w, G = me.dynamicsymbols("z w G")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", z * N.x)
+    P.set_vel(N, w * N.x)
+    eom = kd.kane(frame=N, q_ind=[z], u_ind=[w], kd_eqs=[z.diff() - w],
+                  bodies=[me.Particle("P", P, 1.0)], loads=[(P, G * N.x)])
+    numeric = eom.numeric(specified={G: 0.0})
+    return kd.OptimalControlProblem(numeric, nodes=5, duration=0.5, lagrange=G ** 2,
+                                    final={z: 1, w: 0})
+
+
+def _junction(*equations):
+    q, u = me.dynamicsymbols("q u")
+    return kd.Linkage(equations=[e(q, u, me.dynamicsymbols._t, kd.Linkage)
+                                 for e in equations])
+
+
+#: multiphase problems and LGR: each a clear error naming the phase, linkage,
+#: state or option at fault
+MULTIPHASE_CASES = {
+    "LGR degree below 1": (
+        lambda: _ocp(method="lgr", degree=0), kd.ModelError,
+        r"^degree must be an integer of at least 1 \(the Radau points per interval of "
+        r"method='lgr'\), got 0$"),
+    "LGR degree not a whole number": (
+        lambda: _ocp(method="lgr", degree=2.5), kd.ModelError,
+        r"^degree must be an integer of at least 1 .*, got 2\.5$"),
+    "degree for another method": (
+        lambda: _ocp(degree=3), kd.ModelError,
+        r"^degree= is for method='lgr' \(its Radau points per interval\); method "
+        r"'trapezoid' has none$"),
+    "one phase": (
+        lambda: _phases(phases=[_ocp()]), kd.ModelError,
+        r"^a multiphase problem needs at least two phases, got 1 \(a single phase is solved "
+        r"by its own solve\(\)\)$"),
+    "a phase that is not a problem": (
+        lambda: _phases(phases=[_ocp(), "phase"]), kd.ModelError,
+        r"^phase 2 must be an OptimalControlProblem, got str$"),
+    "fewer linkages than junctions": (
+        lambda: _phases(phases=[_ocp(), _ocp(), _ocp()], linkages=[kd.Linkage()]),
+        kd.ModelError,
+        r"^3 phases have 2 junctions, but linkages= gives 1 \(one Linkage per junction, or "
+        r"one for all\)$"),
+    "a linkage that is not a Linkage": (
+        lambda: _phases(linkages=[{"q": "q"}]), kd.ModelError,
+        r"^linkage 1 must be a kd\.Linkage, got dict$"),
+    "continuous state a phase lacks": (
+        lambda: _phases(linkages=kd.Linkage(continuous=["z"])), kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): continuous names z, which phase 1 lacks \(its "
+        r"states: q, u; inputs: F\)$"),
+    "linkage equation naming a state the next phase lacks": (
+        lambda: _phases(second=None, phases=[_ocp(duration=0.5, final={}), _other_states()],
+                        linkages=_junction(lambda q, u, t, L: q.subs(t, L.after) - 1)),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\), equation 0 \(q\(t_j\^\+\) - 1\) names q, which "
+        r"phase 2 lacks \(its states: z, w; inputs: G\) \(at its start\)$"),
+    "linkage equation at the running time": (
+        lambda: _phases(linkages=_junction(lambda q, u, t, L: q - q.subs(t, L.after))),
+        kd.ModelError,
+        r"equation 0 \(.*\) contains q\(t\): at a junction a state or input is written "
+        r"q\(Linkage\.before\) \(the end of phase 1\) or q\(Linkage\.after\)"),
+    "linkage equation naming a constant": (
+        lambda: _phases(linkages=_junction(
+            lambda q, u, t, L: q.subs(t, L.after) - sm.Symbol("m") * q.subs(t, L.before))),
+        kd.ModelError,
+        r"names m: a linkage names only states and inputs at the junction and its time "
+        r"\(write constants as numbers\)$"),
+    "phases that share no state": (
+        lambda: _phases(phases=[_ocp(duration=0.5, final={}), _other_states()]),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): the phases share no independent state \(phase 1: "
+        r"q, u; phase 2: z, w\), so the default linkage joins nothing; give "
+        r"linkages=\[kd\.Linkage\(equations=\[\.\.\.\]\)\]$"),
+    "a linkage that joins nothing": (
+        lambda: _phases(linkages=kd.Linkage(continuous=[])), kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\) joins nothing: give it continuous states or "
+        r"equations"),
+    "continuous state fixed to two values": (
+        lambda: _phases(first={"final": {"q": 0.4}}, second={"initial": {"q": 0.6}}),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): q is continuous, but phase 1 ends with q = 0\.4 "
+        r"and phase 2 starts with q = 0\.6$"),
+    "a start time that is not the junction's": (
+        lambda: _phases(second={"start_time": 0.3}), kd.ModelError,
+        r"^phase 2 starts where phase 1 ends, at 0\.5 s, but was given start_time=0\.3; "
+        r"leave it out or give 0\.5$"),
+    "a start time after a free duration": (
+        lambda: _phases(first={"duration": sm.Symbol("T1"),
+                               "bounds": {sm.Symbol("T1"): (0.1, 1)}},
+                        second={"start_time": 0.5}), kd.ModelError,
+        r"^phase 2 starts where phase 1 ends, which follows a free duration: leave its "
+        r"start_time out \(it was given 0\.5 s\)$"),
+    "one free-duration symbol in two phases": (
+        lambda: _phases(first={"duration": sm.Symbol("T"), "bounds": {sm.Symbol("T"): (0.1, 1)}},
+                        second={"duration": sm.Symbol("T"),
+                                "bounds": {sm.Symbol("T"): (0.1, 1)}}), kd.ModelError,
+        r"^phases 1 and 2 both have the free duration T; give each phase a symbol of its "
+        r"own$"),
+    "a guess per phase missing": (
+        lambda: _phases().solve([np.zeros(33)]), kd.ModelError,
+        r"^give one guess per phase: 2 phases, 1 guesses$"),
+    "a phase's guess of the wrong shape": (
+        lambda: _phases().solve([np.zeros(33), np.zeros(5)]), kd.ModelError,
+        r"^phase 2: the guess must have shape \(33,\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MULTIPHASE_CASES))
+def test_multiphase_and_lgr_bad_input(case):
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    make, kind, pattern = MULTIPHASE_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make()

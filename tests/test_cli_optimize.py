@@ -54,6 +54,27 @@ def test_optimize_hermite_simpson_csv_has_the_midpoints(tmp_path, capsys):
     assert np.all(np.diff(t) > 0)
 
 
+def test_optimize_lgr_csv_has_the_interior_points(tmp_path, capsys):
+    """--method lgr --degree 3: each interval's two interior Radau points in
+    the CSV between its nodes, at the Radau positions; --degree without
+    lgr is refused (exit code 2), naming the method."""
+    out = tmp_path / "lgr.csv"
+    code = main(["optimize", "pendulum", "--nodes", "21", "--method", "lgr", "--degree", "3",
+                 "--output", str(out), "--quiet", "--backend", "numpy"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "21 nodes, lgr of degree 3" in text
+    rows = list(csv.reader(open(out)))[1:]
+    assert len(rows) == 21 + 20 * 2
+    assert [r[1] for r in rows[:4]] == ["node", "interior", "interior", "node"]
+    t = np.array([float(r[0]) for r in rows[:4]])
+    np.testing.assert_allclose((t[1:3] - t[0]) / (t[3] - t[0]),
+                               [(4 - np.sqrt(6)) / 10, (4 + np.sqrt(6)) / 10], rtol=1e-12)
+    assert main(["optimize", "pendulum", "--degree", "3", "--quiet"]) == 2
+    assert "--degree is for --method lgr (the problem's method is trapezoid)" in \
+        capsys.readouterr().err
+
+
 def test_optimize_exit_1_when_ipopt_fails(capsys):
     """The iteration limit reached: exit code 1, the summary says so."""
     code = main(["optimize", "pendulum", "--nodes", "51", "--max-iter", "3", "--quiet",

@@ -21,7 +21,7 @@ from ..models import REGISTRY, unknown_model_text
 
 __all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument", "model_name",
            "add_model_argument", "derived_model",
-           "numeric_model", "positive_float", "point_count", "integrator_name",
+           "numeric_model", "positive_float", "point_count", "whole_number", "integrator_name",
            "check_output_dir", "check_output_file"]
 
 #: numerical backends the commands offer (``--backend``)
@@ -100,15 +100,23 @@ def positive_float(text):
     return value
 
 
-def point_count(text):
-    """``type=`` of ``--points``: a whole number of output times, at least 2."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"needs at least 2 output points, got {value}")
-    return value
+def whole_number(least, what):
+    """``type=`` of an option that takes a whole number of ``what``, at least
+    ``least``."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") \
+                from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"needs at least {least} {what}, got {value}")
+        return value
+    return parse
+
+
+#: ``type=`` of ``--points``: a whole number of output times, at least 2
+point_count = whole_number(2, "output points")
 
 
 def integrator_name(text):

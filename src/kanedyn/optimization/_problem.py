@@ -113,13 +113,21 @@ class OptimalControlProblem:
     parameters : sequence of constants, optional
         Constants of the model that are optimized too (their model values are
         the initial guess).
-    method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson"}
+    method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson", "lgr"}
         The collocation (see :mod:`kanedyn.optimization._transcription`).
         ``"hermite-simpson"`` (order 4) adds the states and inputs at the
-        midpoint of every interval as variables; bounds and path constraints
-        (and a model's constraints) hold there too.
-    start_time : float
-        :math:`t_0`, s.
+        midpoint of every interval as variables, ``"lgr"``
+        (Legendre-Gauss-Radau, order 2 degree - 1) those at the degree - 1
+        interior Radau points (:mod:`kanedyn.optimization._interval`);
+        bounds and path constraints (and a model's constraints) hold there
+        too.
+    degree : int, optional
+        Only with ``method="lgr"``: the Radau points per interval (at least
+        1; default 3).
+    start_time : float, optional
+        :math:`t_0`, s (default 0).  In a :class:`MultiphaseProblem` a phase
+        after the first starts where the one before ends: leave it out
+        there, or give that time.
     constants : dict, optional
         Only with equations of motion: the constants' values.
     backend : str
@@ -154,8 +162,8 @@ class OptimalControlProblem:
 
     def __init__(self, model, *, nodes, duration, lagrange=None, mayer=None, bounds=None,
                  initial=None, final=None, instance_constraints=(), periodic=(),
-                 path_constraints=(), parameters=(), method="trapezoid", start_time=0.0,
-                 constants=None, backend="numpy"):
+                 path_constraints=(), parameters=(), method="trapezoid", degree=None,
+                 start_time=None, constants=None, backend="numpy"):
         model = self._numeric(model, constants, backend)
         reason = _derivatives_unavailable(model)
         if reason:
@@ -168,8 +176,15 @@ class OptimalControlProblem:
             raise ModelError(f"unknown collocation method {method!r}; available: "
                              f"{', '.join(COLLOCATION_METHODS)}")
         self.method = method
-        if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real):
-            raise ModelError(f"start_time must be a number, got {start_time!r}")
+        self.degree = _degree(degree, method)
+        #: whether start_time was given (a later phase of a MultiphaseProblem
+        #: starts where the one before ends)
+        self.start_time_given = start_time is not None
+        if start_time is None:
+            start_time = 0.0
+        if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real) \
+                or not np.isfinite(start_time):
+            raise ModelError(f"start_time must be a finite number, got {start_time!r}")
         self.start_time = float(start_time)
         self._duration(duration)
         import sympy.physics.mechanics as me
@@ -376,8 +391,9 @@ class OptimalControlProblem:
     @property
     def n_variables(self):
         """Length of the decision vector (states and inputs at every node, the
-        free parameters, the duration when free; with Hermite-Simpson also the
-        states and inputs at the N - 1 midpoints)."""
+        free parameters, the duration when free; with Hermite-Simpson and LGR
+        also the states and inputs at the interior points of the N - 1
+        intervals)."""
         return Layout.of(self).n_variables
 
     def node_times(self, duration=None):
@@ -438,29 +454,33 @@ class OptimalControlProblem:
         from ._guess import vector
         from ._nlp import CollocationNLP
         from ._result import build_result
-        from ._solvers import solver_named
-        chosen = solver_named(solver)
+        from ._solvers import solve_nlp
         x0, warm = vector(self, guess, warm_start)
         nlp = CollocationNLP(self)
-        stop = {"signal": None}
-
-        def on_signal(signum):
-            from .._signals import Stopped
-            if stop["signal"] is not None:  # a second one: stop at once
-                raise Stopped(signum)
-            stop["signal"] = signum
-
-        from .._signals import holding
-        with holding(on_signal):
-            solution = chosen.solve(nlp, x0, options=options, warm=warm,
-                                    stop=lambda: stop["signal"] is not None)
-        return build_result(self, nlp, solution, stop["signal"])
+        solution, signal = solve_nlp(solver, nlp, x0, options, warm)
+        return build_result(self, nlp, solution, signal)
 
     def __repr__(self):
         free = " free duration," if self.free_duration else ""
-        return (f"<OptimalControlProblem {self.method}, {self.nodes} nodes,{free} "
+        method = self.method if self.degree is None else f"{self.method} degree {self.degree}"
+        return (f"<OptimalControlProblem {method}, {self.nodes} nodes,{free} "
                 f"{len(self.symbols.states)} states, {len(self.symbols.inputs)} inputs, "
                 f"{len(self.symbols.free)} free parameters>")
+
+
+def _degree(degree, method):
+    """The LGR degree (3 unless given); ``None`` for the other methods."""
+    if method != "lgr":
+        if degree is not None:
+            raise ModelError(f"degree= is for method='lgr' (its Radau points per interval); "
+                             f"method {method!r} has none")
+        return None
+    if degree is None:
+        return 3
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
+        raise ModelError(f"degree must be an integer of at least 1 (the Radau points per "
+                         f"interval of method='lgr'), got {degree!r}")
+    return int(degree)
 
 
 def _derivatives_unavailable(model):

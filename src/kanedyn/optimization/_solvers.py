@@ -26,7 +26,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "IPOPT_STATUS"]
+__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
 
 #: IPOPT's return codes and what they mean for the user
 IPOPT_STATUS = {
@@ -178,3 +178,22 @@ def solver_named(solver):
         raise ModelError(f"solver must be a name ({', '.join(SOLVERS)}) or an object with "
                          f"solve(nlp, x0, options, warm, stop), not {solver!r}")
     return solver
+
+
+def solve_nlp(solver, nlp, x0, options, warm):
+    """``(NLPSolution, signal)``: ``nlp`` solved from ``x0`` by ``solver`` (a
+    name or an object), a Ctrl-C (SIGINT) or SIGTERM stopping it at the next
+    iteration (``signal``: its number, else ``None``) and a second one at once."""
+    from .._signals import Stopped, holding
+    chosen = solver_named(solver)
+    stop = {"signal": None}
+
+    def on_signal(signum):
+        if stop["signal"] is not None:  # a second one: stop at once
+            raise Stopped(signum)
+        stop["signal"] = signum
+
+    with holding(on_signal):
+        solution = chosen.solve(nlp, x0, options=options, warm=warm,
+                                stop=lambda: stop["signal"] is not None)
+    return solution, stop["signal"]
