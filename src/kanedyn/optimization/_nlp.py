@@ -39,7 +39,7 @@ def _finite(bound):
 class CollocationNLP:
     """The NLP of ``problem`` (an :class:`OptimalControlProblem`)."""
 
-    def __init__(self, problem):
+    def __init__(self, problem, hessian="limited-memory"):
         self.problem = pb = problem
         self.layout = L = Layout.of(pb)
         self.defects = defects_for(pb.method, L, pb.collocated_rows)
@@ -48,6 +48,11 @@ class CollocationNLP:
         self._models = {}
         self._pattern()
         self._bounds()
+        #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
+        self.exact_hessian = None
+        if hessian == "exact":
+            from ._hessian import LagrangianHessian
+            self.exact_hessian = LagrangianHessian(self)
 
     # ------------------------------------------------------------ layout
     def _pattern(self):
@@ -282,6 +287,14 @@ class CollocationNLP:
                 grad = grad[:-1]
             parts.append(grad)
         return np.concatenate(parts)
+
+    def hessian_structure(self):
+        """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""
+        return self.exact_hessian.structure
+
+    def hessian(self, z, multipliers, objective_factor):
+        """The Hessian's values at ``z`` (IPOPT's ``obj_factor`` and ``lambda``)."""
+        return self.exact_hessian.values(z, objective_factor, multipliers)
 
     # ---------------------------------------------------------- reporting
     def violation(self, z):
