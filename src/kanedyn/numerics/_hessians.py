@@ -126,16 +126,19 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None):
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
     mass, second = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
-    mass = np.moveaxis(np.broadcast_to(np.asarray(mass, dtype=float), (o, o, N)), -1, 0)
+    # points on the last axis throughout: elementwise work on rows of length N
+    mass = np.broadcast_to(np.asarray(mass, dtype=float), (o, o, N))
     nv = nx + o
-    second = np.moveaxis(np.broadcast_to(np.asarray(second, dtype=float),
-                                         ((n + o) * nv, nv, N)), -1, 0).reshape(N, n + o, nv, nv)
+    second = np.broadcast_to(np.asarray(second, dtype=float),
+                             ((n + o) * nv, nv, N)).reshape(n + o, nv, nv, N)
     weights = np.asarray(weights, dtype=float).reshape(N, ns)
-    nu = np.linalg.solve(np.swapaxes(mass, 1, 2), weights[:, n:, None])[..., 0]
-    c = np.concatenate([weights[:, :n], -nu], axis=1)
-    phi = np.einsum("ki,kiab->kab", c, second)
-    lift = np.zeros((N, nv, nx))
-    lift[:, np.arange(nx), np.arange(nx)] = 1.0
-    lift[:, nx:, :ns] = J.state[:, n:, :]
-    lift[:, nx:, ns:] = J.inputs[:, n:, :]
-    return np.einsum("kai,kab,kbj->kij", lift, phi, lift)
+    nu = np.linalg.solve(np.moveaxis(mass, -1, 0).swapaxes(1, 2),
+                         weights[:, n:, None])[..., 0]
+    c = np.concatenate([weights[:, :n], -nu], axis=1).T  # (n + o, N)
+    phi = np.einsum("ik,iabk->abk", c, second)
+    W = np.concatenate([np.moveaxis(J.state[:, n:, :], 0, -1),
+                        np.moveaxis(J.inputs[:, n:, :], 0, -1)], axis=1)  # w_x, (o, nx, N)
+    cross = np.einsum("abk,bjk->ajk", phi[:nx, nx:], W)
+    H = phi[:nx, :nx] + cross + cross.transpose(1, 0, 2)
+    H = H + np.einsum("bik,bck,cjk->ijk", W, phi[nx:, nx:], W, optimize=True)
+    return np.ascontiguousarray(np.moveaxis(H, -1, 0))
