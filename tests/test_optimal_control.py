@@ -495,12 +495,20 @@ def test_exact_hessian_against_differences(system, method):
     """The Lagrangian's exact Hessian (generated second derivatives of f, through
     the mass matrix's solve) against central differences of the exact
     gradient of the Lagrangian (the NLP's Jacobian transposed times the
-    multipliers, plus the objective's gradient), at a random point."""
+    multipliers, plus the objective's gradient, Lagrange and Mayer terms), at a
+    random point."""
     import _ocp_peers as peers
 
     from kanedyn.optimization._nlp import CollocationNLP
-    build = peers.pendulum_kanedyn if system == "pendulum" else peers.cart_pole_kanedyn
-    problem, _ = build(5, method=method, backend="numpy")
+    if system == "pendulum":  # an integrand and a Mayer term curved in the states too
+        definition = kd.models.build("pendulum", torque=True)
+        q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+        problem = kd.OptimalControlProblem(
+            definition.numeric(backend="numpy"), nodes=5, duration=2.0,
+            lagrange=tau ** 2 + sm.sin(q) * u * tau, mayer=q ** 2 * u,
+            bounds={tau: (-2, 2)}, initial={q: 0, u: 0}, method=method)
+    else:
+        problem, _ = peers.cart_pole_kanedyn(5, method=method, backend="numpy")
     nlp = CollocationNLP(problem, hessian="exact")
     rng = np.random.default_rng(3)
     z, multipliers, sigma = rng.normal(size=nlp.n), rng.normal(size=nlp.m), 0.7
