@@ -647,3 +647,83 @@ def test_failures_are_reported_in_the_result(integrator):
     assert not result.success
     assert "IPOPT" in result.message or "ipopt" in result.message
     assert result.status in (4, -1)
+
+
+# ------------------------------------------------- the exact Hessian (issue 35)
+def _lagrangian_gradient(nlp, z, sigma, multipliers):
+    """sigma grad J + J_g^T lambda, from the NLP's exact first derivatives."""
+    jac = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()), shape=(nlp.m, nlp.n))
+    return sigma * nlp.gradient(z) + jac.T @ multipliers
+
+
+@pytest.mark.parametrize("system", ["pendulum", "cart-pole"])
+@pytest.mark.parametrize("method", ["backward-euler", "trapezoid", "midpoint"])
+def test_exact_hessian_against_differences(system, method):
+    """The Lagrangian's exact Hessian (generated second derivatives of f, through
+    the mass matrix's solve) against central differences of the exact
+    gradient of the Lagrangian (the NLP's Jacobian transposed times the
+    multipliers, plus the objective's gradient, Lagrange and Mayer terms), at a
+    random point."""
+    import _ocp_peers as peers
+
+    from kanedyn.optimization._nlp import CollocationNLP
+    if system == "pendulum":  # an integrand and a Mayer term curved in the states too
+        definition = kd.models.build("pendulum", torque=True)
+        q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+        problem = kd.OptimalControlProblem(
+            definition.numeric(backend="numpy"), nodes=5, duration=2.0,
+            lagrange=tau ** 2 + sm.sin(q) * u * tau, mayer=q ** 2 * u,
+            bounds={tau: (-2, 2)}, initial={q: 0, u: 0}, method=method)
+    else:
+        problem, _ = peers.cart_pole_kanedyn(5, method=method, backend="numpy")
+    nlp = CollocationNLP(problem, hessian="exact")
+    rng = np.random.default_rng(3)
+    z, multipliers, sigma = rng.normal(size=nlp.n), rng.normal(size=nlp.m), 0.7
+    rows, cols = nlp.hessian_structure()
+    assert np.all(rows >= cols)  # the lower triangle, as IPOPT takes it
+    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
+                      shape=(nlp.n, nlp.n)).toarray()
+    H = H + np.tril(H, -1).T
+    H_fd = np.zeros_like(H)
+    for i in range(nlp.n):
+        e = np.zeros(nlp.n)
+        e[i] = 1e-6
+        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
+                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    assert np.max(np.abs(H)) > 1.0  # the dynamics' curvature is there
+    assert np.max(np.abs(H - H_fd)) < 1e-7 * max(1.0, np.max(np.abs(H)))
+
+
+def test_exact_hessian_reaches_the_limited_memory_optimum():
+    """The cart-pole swing-up solved with the exact Hessian: the optimum of the
+    limited-memory solve (a different path to it), in fewer iterations."""
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(40, method="trapezoid", backend="numpy")
+    guess = peers.cart_pole_guess(40)
+    approximate = problem.solve(guess, options=TIGHT)
+    exact = problem.solve(guess, options=TIGHT, hessian="exact")
+    assert approximate.success and exact.success, (approximate.message, exact.message)
+    assert abs(exact.objective - approximate.objective) < 1e-8 * abs(approximate.objective)
+    assert np.max(np.abs(exact.x - approximate.x)) < 1e-5
+    assert exact.iterations < approximate.iterations
+
+
+def test_exact_hessian_refusals():
+    """What the exact Hessian does not cover is refused, naming it; so are an
+    unknown Hessian and a contradicting IPOPT option."""
+    import _ocp_peers as peers
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(
+        model, nodes=5, duration=1.0, lagrange=tau ** 2, initial={q: 0, u: 0}, final={q: 1, u: 0},
+        path_constraints=[(u ** 2, 0, 4)])
+    guess = problem.guess_line(inputs={tau: 0.0})
+    with pytest.raises(kd.ModelError, match='hessian="exact".*path constraints'):
+        problem.solve(guess, hessian="exact")
+    with pytest.raises(kd.ModelError, match="hessian='newton'"):
+        problem.solve(guess, hessian="newton")
+    plain, _ = peers.pendulum_kanedyn(5, backend="numpy")
+    with pytest.raises(ValueError, match="hessian_approximation"):
+        plain.solve(peers.pendulum_guess(5), hessian="exact",
+                    options={"hessian_approximation": "limited-memory"})

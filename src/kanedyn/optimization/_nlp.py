@@ -43,10 +43,12 @@ class CollocationNLP:
 
     ``start_time``: where it starts, s (default: the problem's); with
     ``free_start_time`` the start time is the decision vector's last entry
-    instead (a phase of a multiphase problem).
+    instead (a phase of a multiphase problem). ``hessian``: ``"exact"`` for
+    the Lagrangian's Hessian from the second derivatives (:mod:`._hessian`).
     """
 
-    def __init__(self, problem, start_time=None, free_start_time=False):
+    def __init__(self, problem, start_time=None, free_start_time=False,
+                 hessian="limited-memory"):
         self.problem = pb = problem
         self.start_time = pb.start_time if start_time is None else float(start_time)
         self.layout = L = Layout.of(pb, free_start_time)
@@ -56,6 +58,11 @@ class CollocationNLP:
         self._models = {}
         self._pattern()
         self._bounds()
+        #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
+        self.exact_hessian = None
+        if hessian == "exact":
+            from ._hessian import LagrangianHessian
+            self.exact_hessian = LagrangianHessian(self)
 
     # ------------------------------------------------------------ layout
     def _pattern(self):
@@ -283,6 +290,14 @@ class CollocationNLP:
                 grad = grad[:-1]
             parts.append(grad)
         return np.concatenate(parts)
+
+    def hessian_structure(self):
+        """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""
+        return self.exact_hessian.structure
+
+    def hessian(self, z, multipliers, objective_factor):
+        """The Hessian's values at ``z`` (IPOPT's ``obj_factor`` and ``lambda``)."""
+        return self.exact_hessian.values(z, objective_factor, multipliers)
 
     # ---------------------------------------------------------- reporting
     def violation(self, z):

@@ -428,7 +428,8 @@ class OptimalControlProblem:
         return from_result(self, result, inputs)
 
     # ------------------------------------------------------------ solve
-    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False):
+    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False,
+              hessian="limited-memory"):
         """Solve the transcribed problem from ``guess``.
 
         Parameters
@@ -444,6 +445,12 @@ class OptimalControlProblem:
             "max_iter": 500}``).
         warm_start : bool
             With a previous result as ``guess``: start from its multipliers too.
+        hessian : {"limited-memory", "exact"}
+            The Hessian of the Lagrangian IPOPT uses: its limited-memory
+            quasi-Newton approximation, or the exact one (generated second
+            derivatives of the model, :mod:`kanedyn.optimization._hessian`;
+            not for path or instance constraints, free parameters, a free
+            duration, models with constraints or Hermite-Simpson).
 
         Returns
         -------
@@ -454,9 +461,13 @@ class OptimalControlProblem:
         from ._guess import vector
         from ._nlp import CollocationNLP
         from ._result import build_result
-        from ._solvers import solve_nlp
+        from ._hessian import HESSIANS
+        from ._solvers import solve_nlp, solver_named
+        solver_named(solver)
+        if hessian not in HESSIANS:
+            raise ModelError(f"hessian={hessian!r}: give one of {', '.join(HESSIANS)}")
         x0, warm = vector(self, guess, warm_start)
-        nlp = CollocationNLP(self)
+        nlp = CollocationNLP(self, hessian=hessian)
         solution, signal = solve_nlp(solver, nlp, x0, options, warm)
         return build_result(self, nlp, solution, signal)
 

@@ -13,8 +13,9 @@ IPOPT through cyipopt was chosen by measurement (``docs/benchmarks.md``,
 its values per call; CasADi's IPOPT reached through ``casadi.Callback`` took
 time growing as N^3 (194 s at 3,000 variables against 0.12 s).  The Hessian
 of the Lagrangian is IPOPT's limited-memory quasi-Newton approximation
-(``hessian_approximation = "limited-memory"``): no second derivatives are
-generated.
+(``hessian_approximation = "limited-memory"``) unless the NLP has an exact
+one (``nlp.exact_hessian``, ``solve(hessian="exact")``): then
+``hessian_structure()`` and ``hessian(x, multipliers, objective_factor)``.
 """
 
 from __future__ import annotations
@@ -128,10 +129,21 @@ class Ipopt:
                 count[0] = int(iter_count)
                 return not stop()
 
+        exact = getattr(nlp, "exact_hessian", None) is not None
+        if exact:
+            Callbacks.hessianstructure = lambda self: nlp.hessian_structure()
+            Callbacks.hessian = staticmethod(nlp.hessian)
+
         problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(),
                                   lb=nlp.x_lower, ub=nlp.x_upper,
                                   cl=nlp.g_lower, cu=nlp.g_upper)
         merged = dict(self.DEFAULTS, **(options or {}))
+        if exact:
+            if (options or {}).get("hessian_approximation", "exact") != "exact":
+                raise ValueError('hessian="exact" and the IPOPT option '
+                                 f'hessian_approximation={options["hessian_approximation"]!r} '
+                                 'contradict each other; give one')
+            merged["hessian_approximation"] = "exact"
         if warm is not None:
             merged.setdefault("warm_start_init_point", "yes")
         for key, value in merged.items():
