@@ -346,9 +346,10 @@ CLI_CASES = {
                                    "tower_damping_reference=loaded"],
                                   "option tower_damping_reference must be one of isolated, "
                                   "with_rna, got 'loaded'"),
-    "FMU of a model with contacts": (["export", "bouncing-ball", "--fmu", "ball.fmu"],
-                                     r"cannot export an FMU of a model with contacts "
-                                     r"\(floor\)"),
+    "FMU nominal of a state the model lacks": (["export", "bouncing-ball", "--fmu", "ball.fmu",
+                                                "--nominal", "q9=1"],
+                                               "--nominal q9: not a state of bouncing-ball; "
+                                               "its states: x, z, u_x, u_z"),
     "FMU file name without .fmu": (["export", "pendulum", "--fmu", "pendulum.zip"],
                                    r"--fmu .*pendulum\.zip: the file name must end in \.fmu"),
     "FMU with an unknown --set name": (["export", "pendulum", "--fmu", "p.fmu", "--set",
