@@ -29,7 +29,7 @@ def _midpoint_times(problem, T):
 
 
 def _parameters(problem):
-    return np.array([problem.symbols.constants[n] for n in problem.symbols.free], dtype=float)
+    return problem.parameter_start()
 
 
 def _named(values, names, what):
@@ -130,8 +130,8 @@ def from_result(problem, result, inputs):
         Ym = Rm = None
         if _layout(problem).midpoints:
             Ym, Rm = at(0.5 * (s_new[:-1] + s_new[1:]))
-        P = np.array([result.parameters.get(n, problem.symbols.constants[n])
-                      for n in problem.symbols.free], dtype=float)
+        P = np.array([result.parameters.get(n, start) for n, start in
+                      zip(problem.symbols.free, problem.parameter_start())], dtype=float)
         return _layout(problem).join(Y, R, P, T if problem.free_duration else None, Ym, Rm)
     if not (hasattr(result, "t") and hasattr(result, "y") and hasattr(result, "state_names")):
         raise ModelError(f"guess_from takes a SimulationResult or an OptimalControlResult, "

@@ -96,7 +96,7 @@ class OptimalControlResult:
         Inputs at the nodes.
     state_names, input_names : tuple of str
     parameters : dict
-        ``{name: value}`` of the free parameters.
+        ``{name: value}`` of the free parameters and the auxiliary variables.
     duration : float
         s.
     objective : float
@@ -165,8 +165,10 @@ class OptimalControlResult:
     def model(self):
         """The numerical model with the optimal free parameters and inputs."""
         model = self.problem.model
-        if self.parameters:
-            model = model.with_constants(self.parameters)
+        constants = {k: v for k, v in self.parameters.items()
+                     if k not in self.problem.auxiliary}
+        if constants:
+            model = model.with_constants(constants)
         return model.with_inputs(self.inputs()) if self.input_names else model
 
     @property
