@@ -530,13 +530,11 @@ def _motors(definition, amap, t, groups, rates, rate_dots):
 
 def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, method):
     """Simulate the forward model driven by the exact forces of ``amap`` along ``motion``."""
-    import sympy.physics.mechanics as me
-
     from ..formulations import formulate
+    from ..modeling import drive_inputs
     from ..simulation import simulate
     kane_args = dict(definition.kane_args)
-    loads, bodies = list(kane_args.get("loads") or []), list(kane_args["bodies"])
-    inputs = {}
+    symbols, loads, elements = drive_inputs(definition.actuators)
     ik = _Kinematics(definition, model, overrides)
     cache = {}
 
@@ -549,14 +547,9 @@ def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, 
             cache[time] = amap.forces(time, y, ud[0]).forces
         return cache[time]
 
-    for i, a in enumerate(definition.actuators):
-        F = me.dynamicsymbols(f"F_{a.name}")
-        loads += a.to_loads(F)
-        element = a.inertia_element()
-        if element is not None:
-            bodies.append(element)
-        inputs[F] = (lambda time, i=i: float(forces_at(time)[i]))
-    kane_args.update(loads=loads, bodies=bodies)
+    inputs = {F: (lambda time, i=i: float(forces_at(time)[i])) for i, F in enumerate(symbols)}
+    kane_args.update(loads=list(kane_args.get("loads") or []) + loads,
+                     bodies=list(kane_args["bodies"]) + elements)
     eom = formulate(**kane_args)
     driven = eom.numeric(constants=model.constants, specified=inputs)
     y0 = np.concatenate([q0, u0])

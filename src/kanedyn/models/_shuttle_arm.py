@@ -71,7 +71,7 @@ def _boom_member(name, length, mass):
                                f"constraint_{tip}_uz"])
 
 
-def shuttle_arm(payload=True, flexible_booms=False):
+def shuttle_arm(payload=True, flexible_booms=False, torque_input=False):
     r"""The Shuttle arm (SRMS) moving a Hubble-class payload, in orbit.
 
     Public figures (NASA; JSC "Remote Manipulator System" fact page,
@@ -143,6 +143,12 @@ def shuttle_arm(payload=True, flexible_booms=False):
     on the inboard one (the shoulder's on the orbiter), so the drive power
     is :math:`\sum_i \tau_i u_i`.
 
+    With ``torque_input=True`` the six joint torques are specified inputs
+    ``tau1(t) .. tau6(t)`` (N m, positive about each joint's axis as above)
+    in place of the servos, for optimal control: the profile, the gains and
+    their constants ``T_m``, ``omega_c``, ``zeta_c``, ``J_1 .. J_6`` are then
+    not in the model.
+
     Parameters
     ----------
     payload : bool
@@ -150,6 +156,8 @@ def shuttle_arm(payload=True, flexible_booms=False):
         then scaled by the empty arm's joint inertias).
     flexible_booms : bool
         Make the upper and lower booms flexible bodies.
+    torque_input : bool
+        The joint torques as inputs ``tau1 .. tau6`` instead of the PD servos.
 
     Returns
     -------
@@ -157,7 +165,9 @@ def shuttle_arm(payload=True, flexible_booms=False):
         ``symbols`` holds ``q``, ``u``, the reference angles and rates
         ``q_ref``, ``u_ref`` (expressions in ``t``), the joint torques
         ``torques``, the frames ``N, A``, the end-effector ``tip`` point and
-        its position ``tip_position`` (a 3x1 matrix in ``N``, m).
+        its position ``tip_position`` (a 3x1 matrix in ``N``, m); with
+        ``torque_input`` the torques are the input symbols and ``q_ref``,
+        ``u_ref`` are still the quintic profile.
     """
     q = me.dynamicsymbols("q1:7")
     u = me.dynamicsymbols("u1:7")
@@ -180,6 +190,7 @@ def shuttle_arm(payload=True, flexible_booms=False):
     nominal = {L2: 6.37, L3: 7.06, L4: 0.5, L5: 0.5, L6: 0.83, rb: 0.19,
                m1: 40.0, m2: 120.0, m3: 110.0, m4: 40.0, m5: 40.0, m6: 60.0,
                omega_c: 0.5, zeta_c: 1.0, T_m: 150.0}
+    nominal_T_m = nominal[T_m]
 
     def tube(frame, m, length):  # thin-walled tube along the frame's x axis
         return me.inertia(frame, m * rb ** 2, m * (rb ** 2 / 2 + length ** 2 / 12),
@@ -241,11 +252,15 @@ def shuttle_arm(payload=True, flexible_booms=False):
     constants.update(zip(J, _J_PAYLOAD if payload else _J_EMPTY))
 
     q_ref, u_ref, torques, loads = [], [], [], []
+    inputs = me.dynamicsymbols("tau1:7") if torque_input else None
     for i in range(6):
         angle, rate = quintic(T, math.radians(SRMS_START_DEG[i]),
                               math.radians(SRMS_END_DEG[i]), T_m)
-        tau = (J[i] * omega_c ** 2 * (angle - q[i])
-               + 2 * zeta_c * J[i] * omega_c * (rate - u[i]))
+        if torque_input:
+            tau = inputs[i]
+        else:
+            tau = (J[i] * omega_c ** 2 * (angle - q[i])
+                   + 2 * zeta_c * J[i] * omega_c * (rate - u[i]))
         q_ref.append(angle)
         u_ref.append(rate)
         torques.append(tau)
@@ -254,6 +269,14 @@ def shuttle_arm(payload=True, flexible_booms=False):
             loads.append((parents[i], -tau * axes[i]))
     symbols.update(q_ref=q_ref, u_ref=u_ref, torques=torques,
                    tip_position=tip.pos_from(O).to_matrix(N))
+    specified, title = {}, "PD-tracked manoeuvre"
+    if torque_input:  # the servos' constants are then not in the equations
+        for symbol in (T_m, omega_c, zeta_c, *J):
+            constants.pop(symbol)
+        symbols.update(q_ref=[a.subs(T_m, nominal_T_m) for a in q_ref],
+                       u_ref=[r.subs(T_m, nominal_T_m) for r in u_ref],
+                       tau=list(inputs))
+        specified, title = {tau: 0.0 for tau in inputs}, "joint torques tau1..tau6 as inputs"
 
     initial = {qi: math.radians(a) for qi, a in zip(q, SRMS_START_DEG)}
     initial.update({ui: 0.0 for ui in u})
@@ -265,11 +288,12 @@ def shuttle_arm(payload=True, flexible_booms=False):
     modal_kd = [e for boom in booms.values() for e in boom.kd_eqs]
     return ModelDefinition(
         name="shuttle-arm",
-        title=f"Shuttle arm (SRMS, 6 revolute joints, {kind}{what}), PD-tracked manoeuvre",
+        title=f"Shuttle arm (SRMS, 6 revolute joints, {kind}{what}), {title}",
         kane_args=dict(frame=N, q_ind=list(q) + modal_q, u_ind=list(u) + modal_u,
                        kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)] + modal_kd,
                        bodies=bodies, loads=loads),
         constants=constants, initial_state=initial, t_end=200.0, symbols=symbols,
+        specified=specified,
         description="The system of Cyril, Angeles & Misra (1991): compare "
                     "method='orthogonal-complement' (with BDF) and Kane's method. "
                     "Microgravity; joint angles follow quintic profiles over T_m = "
