@@ -405,7 +405,9 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         A platform trajectory read from a pose file
         (:func:`kanedyn.analysis.read_pose_csv`), in place of ``trajectory``
         and ``t_end``: the ``points`` times span the table's; the model's pose
-        must be ``x, y, z, phi_x, phi_y, phi_z``.
+        must be ``x, y, z, phi_x, phi_y, phi_z``.  Any object with the
+        table's ``t``, ``source`` and call will do; its ``label``, when it
+        has one, names the trajectory.
     limits : dict, optional
         ``{quantity: limit}`` of ``force``, ``speed``, ``torque``,
         ``motor_speed`` (:func:`kanedyn.analysis.check_actuator_limits`),
@@ -440,7 +442,7 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
             raise KanedynError("inverse_study: give poses or t_end, not both (the pose "
                                "table sets the times)")
         t0, t_end = float(poses.t[0]), float(poses.t[-1])
-        trajectory = f"pose file {Path(poses.source).name}"
+        trajectory = getattr(poses, "label", None) or f"pose file {Path(poses.source).name}"
     else:
         t0 = 0.0
         t_end = float(definition.t_end if t_end is None else t_end)

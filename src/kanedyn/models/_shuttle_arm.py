@@ -167,7 +167,9 @@ def shuttle_arm(payload=True, flexible_booms=False, torque_input=False):
         ``torques``, the frames ``N, A``, the end-effector ``tip`` point and
         its position ``tip_position`` (a 3x1 matrix in ``N``, m); with
         ``torque_input`` the torques are the input symbols and ``q_ref``,
-        ``u_ref`` are still the quintic profile.
+        ``u_ref`` are still the quintic profile, and ``servo`` holds the
+        servos' numbers (``J``, kg m^2, ``omega_c``, rad/s, ``zeta_c``) for a
+        tracking term.
     """
     q = me.dynamicsymbols("q1:7")
     u = me.dynamicsymbols("u1:7")
@@ -190,7 +192,6 @@ def shuttle_arm(payload=True, flexible_booms=False, torque_input=False):
     nominal = {L2: 6.37, L3: 7.06, L4: 0.5, L5: 0.5, L6: 0.83, rb: 0.19,
                m1: 40.0, m2: 120.0, m3: 110.0, m4: 40.0, m5: 40.0, m6: 60.0,
                omega_c: 0.5, zeta_c: 1.0, T_m: 150.0}
-    nominal_T_m = nominal[T_m]
 
     def tube(frame, m, length):  # thin-walled tube along the frame's x axis
         return me.inertia(frame, m * rb ** 2, m * (rb ** 2 / 2 + length ** 2 / 12),
@@ -271,11 +272,12 @@ def shuttle_arm(payload=True, flexible_booms=False, torque_input=False):
                    tip_position=tip.pos_from(O).to_matrix(N))
     specified, title = {}, "PD-tracked manoeuvre"
     if torque_input:  # the servos' constants are then not in the equations
-        for symbol in (T_m, omega_c, zeta_c, *J):
-            constants.pop(symbol)
-        symbols.update(q_ref=[a.subs(T_m, nominal_T_m) for a in q_ref],
-                       u_ref=[r.subs(T_m, nominal_T_m) for r in u_ref],
-                       tau=list(inputs))
+        servo = {"J": tuple(constants.pop(j) for j in J), "omega_c": constants.pop(omega_c),
+                 "zeta_c": constants.pop(zeta_c)}
+        duration = constants.pop(T_m)
+        symbols.update(q_ref=[a.subs(T_m, duration) for a in q_ref],
+                       u_ref=[r.subs(T_m, duration) for r in u_ref],
+                       tau=list(inputs), servo=servo)
         specified, title = {tau: 0.0 for tau in inputs}, "joint torques tau1..tau6 as inputs"
 
     initial = {qi: math.radians(a) for qi, a in zip(q, SRMS_START_DEG)}

@@ -182,11 +182,7 @@ class OptimalControlResult:
             {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
             f"collocation ({self.method})")
 
-    def table(self):
-        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
-        ``point`` (``node``, or ``midpoint`` for Hermite-Simpson's midpoints,
-        in time order with the nodes), every state, every input (SI units of
-        the model); one row per point."""
+    def _ordered(self):
         t, y, r = self.t, self.y, self.r
         kind = np.zeros(t.size, dtype=int)
         if self.t_mid is not None:
@@ -196,6 +192,20 @@ class OptimalControlResult:
             kind = np.concatenate([kind, np.ones(self.t_mid.size, dtype=int)])
             order = np.argsort(t, kind="stable")
             t, y, r, kind = t[order], y[:, order], r[:, order], kind[order]
+        return t, y, r, kind
+
+    def points(self):
+        """``(t, y, r)`` at every collocation point in time order: the nodes
+        and, for Hermite-Simpson, the midpoints; shapes (K,), (n_states, K),
+        (n_inputs, K)."""
+        return self._ordered()[:3]
+
+    def table(self):
+        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
+        ``point`` (``node``, or ``midpoint`` for Hermite-Simpson's midpoints,
+        in time order with the nodes), every state, every input (SI units of
+        the model); one row per point."""
+        t, y, r, kind = self._ordered()
         columns = ("t", "point", *self.state_names, *self.input_names)
         rows = [(float(t[j]), ("node", "midpoint")[kind[j]], *map(float, y[:, j]),
                  *map(float, r[:, j])) for j in range(t.size)]
