@@ -172,7 +172,7 @@ def test_shuttle_arm_least_effort_within_its_limits(tmp_path):
     replayed by Radau open loop they keep the arm within 5e-4 rad of the
     collocated angles (measured 1.8e-4), and with the servos' PD term on top
     within 5e-5 rad, the PD term under 1 % of the torque limits."""
-    from kanedyn.models._shuttle_arm import SRMS_END_DEG, SRMS_START_DEG
+    from kanedyn.models import SRMS_END_DEG, SRMS_START_DEG
     s = kd.studies.shuttle_arm_minimum_energy(nodes=51)
     d, r = s.data, s.result
     assert r.success, r.message

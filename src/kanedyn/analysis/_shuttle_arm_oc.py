@@ -1,7 +1,7 @@
 r"""The Shuttle arm's payload manoeuvre of least effort, against its quintic profile.
 
 The built-in ``shuttle-arm`` (rigid booms, the Hubble-class payload) moves
-its six joints from :data:`~kanedyn.models._shuttle_arm.SRMS_START_DEG` to
+its six joints from :data:`~kanedyn.models.SRMS_START_DEG` to
 ``SRMS_END_DEG`` along quintic profiles in 150 s.  With ``torque_input=True``
 the joint torques are inputs, and :func:`shuttle_arm_minimum_energy` asks
 for the torques of least :math:`\int\sum_i\tau_i^2 dt` (the effort, the
@@ -251,7 +251,7 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
     -------
     ArmManoeuvre
     """
-    from ..models._shuttle_arm import SRMS_END_DEG, SRMS_START_DEG
+    from ..models import SRMS_END_DEG, SRMS_START_DEG
     from ..optimization import OptimalControlProblem
     from ..simulation import simulate
     if np.isnan(margin) or margin < 0:
