@@ -28,10 +28,6 @@ def _midpoint_times(problem, T):
     return 0.5 * (nodes[:-1] + nodes[1:])
 
 
-def _parameters(problem):
-    return problem.parameter_start()
-
-
 def _named(values, names, what):
     """``{index: value}`` of a dict keyed by symbols or names among ``names``."""
     from ._problem import _name
@@ -96,7 +92,7 @@ def line(problem, start, end, inputs, duration):
     if mid is not None:
         Ym = 0.5 * (Y[:-1] + Y[1:])
         Rm = _input_columns(problem, inputs, mid)
-    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Ym, Rm)
 
 
 def from_result(problem, result, inputs):
@@ -162,7 +158,7 @@ def from_result(problem, result, inputs):
     if _layout(problem).midpoints:
         mid = 0.5 * (times[:-1] + times[1:])
         Ym, Rm = states(mid), _input_columns(problem, inputs or {}, mid)
-    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Ym, Rm)
 
 
 def vector(problem, guess, warm_start):
