@@ -526,7 +526,7 @@ def test_out_parallel_least_peak_force(tmp_path, monkeypatch):
     potential energy, computed here from the documented masses (platform
     20 kg, struts 2 kg at mid-length, carriages 5 kg, g = 9.81) and the
     closed-form inverse kinematics of the two poses (the drive trains'
-    kinetic energy is zero at both ends); the peak is the holding force,
+    kinetic energy is zero at both ends), to 1e-5; the peak is the holding force,
     below the quintic's, and the inverse dynamics of the optimal path gives
     the collocated forces back to 1 N."""
     from scipy.integrate import simpson
@@ -553,7 +553,7 @@ def test_out_parallel_least_peak_force(tmp_path, monkeypatch):
         s = q[6:12]
         return 9.81 * (20.0 * pose[2] + 5.0 * np.sum(s) + 2.0 * np.sum((s + anchors) / 2))
     rise = potential(out["quintic"].pose[-1]) - potential(out["quintic"].pose[0])
-    assert abs(work - rise) < 1e-3 * rise, (work, rise)
+    assert abs(work - rise) < 1e-5 * rise, (work, rise)  # measured 1.1e-6
     assert abs(out["peak"] - out["held"]) < 1e-5 * out["held"]
     assert out["peak"] < 0.95 * np.max(np.abs(out["quintic"].forces))
     assert np.max(np.abs(F)) <= out["peak"] * (1 + 1e-6)
