@@ -18,9 +18,10 @@ from ._base import ModelDefinition
 
 __all__ = ["shuttle_arm", "quintic", "SRMS_START_DEG", "SRMS_END_DEG"]
 
-#: Joint angles at the start and end of the manoeuvre, degrees (shoulder yaw,
+#: Joint angles at the start of the manoeuvre, degrees (shoulder yaw,
 #: shoulder pitch, elbow pitch, wrist pitch, wrist yaw, wrist roll).
 SRMS_START_DEG = (0.0, 15.0, -30.0, 15.0, 0.0, 0.0)
+#: Joint angles at the end of the manoeuvre, degrees (same order).
 SRMS_END_DEG = (-20.0, 35.0, -50.0, 5.0, 10.0, 30.0)
 
 # Nominal joint inertias (kg m^2): the diagonal of the mass matrix at the
