@@ -161,6 +161,26 @@ def test_bicycle_small_lane_change_matches_the_linear_benchmark():
 
 # ----------------------------------------------------------- the Shuttle arm
 @pytest.mark.slow
+def test_shuttle_arm_torque_inputs_drive_as_the_servos_do():
+    """The arm with torque inputs, fed the servos' torques (the servo model's
+    own expressions evaluated at a state off the profile), has the servo
+    model's state derivative: the inputs act where the servos did."""
+    import sympy as sm
+    import sympy.physics.mechanics as me
+    servo = kd.models.build("shuttle-arm")
+    driven = kd.models.build("shuttle-arm", torque_input=True)
+    t, y = 40.0, np.array([0.1, 0.3, -0.6, 0.2, 0.05, 0.4, 0.01, -0.02, 0.03, 0.0, 0.02, -0.01])
+    values = {me.dynamicsymbols._t: t, **dict(zip(servo.symbols["q"] + servo.symbols["u"], y))}
+    torques = [float(sm.sympify(tau).xreplace(servo.constants).xreplace(values))
+               for tau in servo.symbols["torques"]]
+    expected = servo.numeric(backend="numpy").rhs(t, y)
+    model = driven.numeric(backend="numpy")
+    found = model.with_inputs(dict(zip(driven.symbols["tau"], torques))).rhs(t, y)
+    np.testing.assert_allclose(found, expected, rtol=1e-10, atol=1e-14)
+    assert not {"T_m", "omega_c", "J_1"} & {str(c) for c in model.constants}
+
+
+@pytest.mark.slow
 def test_shuttle_arm_least_effort_within_its_limits(tmp_path):
     """The payload manoeuvre (150 s, 51 nodes, Hermite-Simpson) of least
     integral of sum tau_i^2, each joint within the quintic's range +- 10 deg
