@@ -211,8 +211,8 @@ def out_parallel_least_peak_force(*, nodes=None, method=None, duration=None, bou
         Default 41 nodes, ``"hermite-simpson"``, 2 s (the quintic's).
     bounds, constants, model_options, backend, ipopt :
         As every named problem (:mod:`._optimal_problems`); ``bounds`` by
-        name (``F_carriage1``, ``z``) replace the force limit or bound the
-        pose.
+        name bound the pose (``z``) or replace a carriage's force limit
+        (``F_carriage1``; the limit checks keep ``force_limit``).
     force_limit : float
         The ball screws' force limit on every carriage, N (an assumed
         rating: about 1.3 times the largest static force in the two poses).

@@ -80,7 +80,10 @@ class ArmManoeuvre:
     angle_limits : ndarray, shape (6, 2)
         Each joint's bounds, rad (infinite without).
     torque_limits : ndarray, shape (6,)
-        Each joint's torque limit, N m.
+        Each joint's torque limit (the larger side of its bounds), N m.
+    tip_difference_open, tip_difference_tracked : ndarray, shape (N,)
+        How far the end effector of each replay is from the collocated path's
+        at the nodes, m (infinite after a run that ended early).
     data : mapping
         ``objective``; ``effort_optimal`` and ``effort_quintic`` (the
         integral of the summed squared torques, N^2 m^2 s, of the optimal
@@ -206,6 +209,12 @@ def _quintic(model, start, end, duration):
     return t, q.T, u.T, model.inverse_dynamics(t, q.T, u.T, ud.T)
 
 
+def _pair(bounds):
+    """``(lower, upper)`` with a missing side infinite."""
+    lower, upper = bounds
+    return (-np.inf if lower is None else float(lower), np.inf if upper is None else float(upper))
+
+
 class _Tracking:
     """The servos' PD term on the collocated path, a function of (t, y)."""
 
@@ -320,7 +329,7 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
     fine = np.linspace(0.0, result.duration, 20001)
     effort = float(np.trapezoid(sum(np.array([f(t) for t in fine]) ** 2
                                     for f in optimal.values()), fine))
-    bound = np.array([limits[f"tau{i + 1}"][1] for i in range(6)])
+    bound = np.array([max(abs(v) for v in _pair(limits[f"tau{i + 1}"])) for i in range(6)])
     low = np.minimum(start, end)[:, None] - result.y[:6]
     high = result.y[:6] - np.maximum(start, end)[:, None]
     effort_quintic = float(np.trapezoid(np.sum(tau_quintic ** 2, axis=0), tq))
@@ -334,8 +343,7 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
         defect_tip_tracked=float(np.max(tip_tracked)),
         tracking_peak=float(np.max(np.abs(pd))),
         tracking_ratio=float(np.max(np.max(np.abs(pd), axis=1) / bound)))
-    angle_limits = np.array([limits.get(f"q{i + 1}", (-np.inf, np.inf)) for i in range(6)],
-                            dtype=float)
+    angle_limits = np.array([_pair(limits.get(f"q{i + 1}", (None, None))) for i in range(6)])
     return ArmManoeuvre(
         result=result, t_quintic=tq, angles_quintic=q_quintic, torques_quintic=tau_quintic,
         open_loop=open_loop, tracked=tracked, tracking_torque=pd,
