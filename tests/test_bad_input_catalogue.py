@@ -1658,3 +1658,65 @@ def test_multiphase_and_lgr_bad_input(case):
     make, kind, pattern = MULTIPHASE_CASES[case]
     with pytest.raises(kind, match=pattern):
         make()
+
+
+# ---- issue 35, item 4: the Shuttle arm and out-parallel studies
+_S = sm.Symbol("s")
+
+#: auxiliary variables of an optimal-control problem, and the two studies' options:
+#: each a clear error naming the variable or option
+STUDY_OCP_CASES = {
+    "auxiliary variable that is a constant": (
+        lambda: _ocp(auxiliary={sm.Symbol("m"): 1.0}), kd.ModelError,
+        r"^auxiliary variable m is a constant of the model \(list it in parameters= to "
+        r"optimize it\)$"),
+    "auxiliary variable that is a state": (
+        lambda: _ocp(auxiliary={sm.Symbol("q"): 1.0}), kd.ModelError,
+        r"^auxiliary variable q is a state of the model$"),
+    "auxiliary variable named by text": (
+        lambda: _ocp(auxiliary={"s": 1.0}), kd.ModelError,
+        r"^auxiliary variables are SymPy symbols, got 's'$"),
+    "auxiliary variables as a list": (
+        lambda: _ocp(auxiliary=[_S]), kd.ModelError,
+        r"^auxiliary must be a dict \{symbol: starting value\}, got list$"),
+    "auxiliary starting value as text": (
+        lambda: _ocp(auxiliary={_S: "big"}), kd.ModelError,
+        r"^starting value of the auxiliary variable s must be a finite number, got 'big'$"),
+    "auxiliary starting value nan": (
+        lambda: _ocp(auxiliary={_S: float("nan")}), kd.ModelError,
+        r"^starting value of the auxiliary variable s must be a finite number, got nan$"),
+    "objective naming an undeclared auxiliary": (
+        lambda: _ocp(lagrange=None, mayer=_S), kd.ModelError,
+        r"terminal cost \(mayer\) names s, which is not a symbol of the model"),
+    "shuttle arm: negative joint-angle margin": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(margin=-5.0), kd.KanedynError,
+        r"^margin must be a number of degrees >= 0 \(inf: no joint-angle limits\), got -5\.0$"),
+    "shuttle arm: torque factor zero": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(torque_factor=0.0), kd.KanedynError,
+        r"^torque_factor must be a positive number, got 0\.0$"),
+    "shuttle arm: flexible booms": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(model_options={"flexible_booms": True}),
+        kd.KanedynError, r"posed on the rigid arm; flexible_booms=True is not supported$"),
+    "out-parallel: force limit not positive": (
+        lambda: kd.studies.out_parallel_least_peak_force(force_limit=-200.0), kd.KanedynError,
+        r"^force_limit must be a positive number \(N\), got -200\.0$"),
+    "out-parallel: negative regularization": (
+        lambda: kd.studies.out_parallel_least_peak_force(regularization=-1e-5),
+        kd.KanedynError, r"^regularization must be a number >= 0, got -1e-05$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(STUDY_OCP_CASES))
+def test_study_optimal_control_bad_input(case):
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    make, kind, pattern = STUDY_OCP_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make()
+
+
+def test_study_option_from_the_command_line_is_one_line(capsys):
+    """``kanedyn optimize shuttle-arm --set margin=-1``: exit 2, the option named."""
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    assert main(["optimize", "shuttle-arm", "--set", "margin=-1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "margin must be a number of degrees >= 0" in err and len(err.splitlines()) == 1

@@ -138,6 +138,34 @@ def test_free_parameter_goes_to_its_bound():
     assert abs((4 * J[1] - J[0]) / 3 - 12 * 0.25) < 1e-6
 
 
+def test_epigraph_bound_is_the_least_peak_force(integrator):
+    """An auxiliary variable s with -s <= F <= s, minimized: the least peak
+    |F| of the unit rest-to-rest move in 1 s is bang-bang, F = 4 then -4
+    (x = a/4 = 1).  Hermite-Simpson finds 4 to 1e-7 (the switch at t = 0.5 is
+    a node); the trapezoid approaches from above at order 2.  The model
+    never sees s: its simulation with the optimal force ends at x = 1."""
+    model, (x, v, F, _) = integrator
+    s = sm.Symbol("s")
+    found = {}
+    for method, nodes in (("hermite-simpson", 21), ("trapezoid", 41), ("trapezoid", 81)):
+        problem = kd.OptimalControlProblem(
+            model, nodes=nodes, duration=1.0, mayer=s, auxiliary={s: 10.0},
+            bounds={s: (0, None)}, path_constraints=[(F - s, None, 0), (F + s, 0, None)],
+            initial={x: 0, v: 0}, final={x: 1, v: 0}, method=method)
+        result = problem.solve(problem.guess_line(inputs={F: 0.0}), options={"tol": 1e-10})
+        assert result.success, result.message
+        assert result.objective == result.parameters["s"]
+        assert np.max(np.abs(result["F"])) <= result.parameters["s"] * (1 + 1e-8)
+        found[method, nodes] = result.parameters["s"]
+        if method == "hermite-simpson":
+            assert abs(result.parameters["s"] - 4.0) < 1e-7
+            run = result.resimulate()
+            assert abs(run.simulation["x"][-1] - 1.0) < 1e-6
+    e41, e81 = found["trapezoid", 41] - 4, found["trapezoid", 81] - 4
+    assert e41 > e81 > 0
+    assert abs(_order([e41, e81], (41, 81)) - 2) < 0.1
+
+
 # ------------------------------------------------------------ Hermite-Simpson
 def _oscillator(omega=3.0):
     """x'' + omega^2 x = F (unit mass on a spring), and the closed form of its
@@ -417,14 +445,14 @@ def test_lgr_result_inputs_guesses_and_table(tmp_path):
 @pytest.mark.parametrize("free", [False, True])
 def test_nlp_derivatives_against_differences(method, degree, free):
     """Jacobian of all constraint kinds and the objective's gradient (Lagrange
-    and Mayer terms, free parameters, free duration) against central
-    differences of the NLP's own functions."""
+    and Mayer terms, free parameters, an auxiliary variable, free duration)
+    against central differences of the NLP's own functions."""
     from kanedyn.optimization._nlp import CollocationNLP
     definition = kd.models.build("pendulum", torque=True)
     model = definition.numeric(backend="numpy")
     q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
     t = me.dynamicsymbols._t
-    T = sm.Symbol("T")
+    T, w = sm.symbols("T w")
     duration = T if free else 2.0
     problem = kd.OptimalControlProblem(
         model, nodes=6, duration=duration, lagrange=tau ** 2 + q ** 2 * u + sm.sin(t) * u,
@@ -434,6 +462,13 @@ def test_nlp_derivatives_against_differences(method, degree, free):
         parameters=["m", "l"],
         path_constraints=[(u ** 2 + tau * q, -5, 5)],
         instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0)],
+
+
+        mayer=q ** 2 + w ** 2 + (T if free else 0),
+        bounds={tau: (-2, 2), **({T: (0.5, 5)} if free else {})},
+        initial={q: 0, u: 0}, final={q: np.pi}, method=method, parameters=["m", "l"],
+        auxiliary={w: 0.7}, path_constraints=[(u ** 2 + tau * q - w * u, -5, 5)],
+        instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0) + w],
         periodic=[u])
     nlp = CollocationNLP(problem)
     z = np.random.default_rng(0).normal(size=nlp.n)

@@ -102,7 +102,8 @@ def register_problem(problem):
 
 def available_problems():
     """:data:`OPTIMAL_PROBLEMS` with the built-in problems registered."""
-    from . import _bicycle_lane_change, _flexible_robot_oc  # noqa: F401  (register)
+    from . import (_bicycle_lane_change, _flexible_robot_oc,  # noqa: F401  (register)
+                   _out_parallel_oc, _shuttle_arm_oc)
     return OPTIMAL_PROBLEMS
 
 
@@ -164,6 +165,17 @@ def merged_bounds(defaults, bounds, names):
 def solve(problem, guess, ipopt):
     """Solve with the named problems' IPOPT defaults updated by ``ipopt``."""
     return problem.solve(guess, options=dict(IPOPT_DEFAULTS, **(ipopt or {})))
+
+
+class SplineInput:
+    """An input as a function of t: a SciPy spline, evaluated as a float
+    (picklable)."""
+
+    def __init__(self, spline):
+        self.spline = spline
+
+    def __call__(self, t):
+        return float(self.spline(t))
 
 
 def result_lines(result):

@@ -27,10 +27,6 @@ def _interior_fractions(problem):
     return L.positions()[L.nodes:]
 
 
-def _parameters(problem):
-    return np.array([problem.symbols.constants[n] for n in problem.symbols.free], dtype=float)
-
-
 def _named(values, names, what):
     """``{index: value}`` of a dict keyed by symbols or names among ``names``."""
     from ._problem import _name
@@ -93,7 +89,7 @@ def line(problem, start, end, inputs, duration):
     inner = _interior_fractions(problem)[:, None]
     Yi = y0 + inner * (y1 - y0)
     Ri = _input_columns(problem, inputs, problem.start_time + T * inner[:, 0])
-    return _layout(problem).join(Y, R, _parameters(problem), T, Yi, Ri)
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Yi, Ri)
 
 
 def from_result(problem, result, inputs):
@@ -124,8 +120,8 @@ def from_result(problem, result, inputs):
             return Y, R
         Y, R = at(np.linspace(0.0, 1.0, problem.nodes))
         Yi, Ri = at(_interior_fractions(problem))
-        P = np.array([result.parameters.get(n, problem.symbols.constants[n])
-                      for n in problem.symbols.free], dtype=float)
+        P = np.array([result.parameters.get(n, start) for n, start in
+                      zip(problem.symbols.free, problem.parameter_start())], dtype=float)
         return _layout(problem).join(Y, R, P, T if problem.free_duration else None, Yi, Ri)
     if not (hasattr(result, "t") and hasattr(result, "y") and hasattr(result, "state_names")):
         raise ModelError(f"guess_from takes a SimulationResult or an OptimalControlResult, "
@@ -156,7 +152,7 @@ def from_result(problem, result, inputs):
     R = _input_columns(problem, inputs or {}, times)
     inner = t[0] + T * _interior_fractions(problem)
     Yi, Ri = states(inner), _input_columns(problem, inputs or {}, inner)
-    return _layout(problem).join(Y, R, _parameters(problem), T, Yi, Ri)
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Yi, Ri)
 
 
 def vector(problem, guess, warm_start):

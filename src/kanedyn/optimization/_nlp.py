@@ -151,10 +151,13 @@ class CollocationNLP:
 
     # --------------------------------------------------------- evaluation
     def _model(self, P):
+        """The model with the free parameters ``P`` (the auxiliary variables,
+        which it does not contain, left out)."""
         pb = self.problem
-        if not len(P):
+        n = len(pb.free_columns)
+        if not n:
             return pb.model
-        key = tuple(float(v) for v in P)
+        key = tuple(float(v) for v in P[:n])
         model = self._models.get(key)
         if model is None:
             if len(self._models) > 8:
@@ -178,8 +181,12 @@ class CollocationNLP:
         free_columns = pb.free_columns
         evaluated, rates, lagrange = [], [], []
         for t, Ys, Rs in self.defects.points(t0, h, Y, R, Yi, Ri):
-            J = model.jacobians(t, Ys, r=Rs, parameters=bool(L.n_free))
-            Pf = J.parameters[:, :, free_columns] if L.n_free else None
+            J = model.jacobians(t, Ys, r=Rs, parameters=bool(free_columns))
+            Pf = None
+            if L.n_free:  # the auxiliary variables' columns (last) are zero
+                Pf = np.zeros(J.f.shape + (L.n_free,))
+                if free_columns:
+                    Pf[..., :len(free_columns)] = J.parameters[:, :, free_columns]
             evaluated.append((J.f, J.state, J.inputs, Pf, J.constraints))
             if L.free_duration or L.free_start_time:
                 rates.append(self._time_rate(model, t, Ys, Rs, T))

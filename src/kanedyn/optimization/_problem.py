@@ -113,6 +113,13 @@ class OptimalControlProblem:
     parameters : sequence of constants, optional
         Constants of the model that are optimized too (their model values are
         the initial guess).
+    auxiliary : dict, optional
+        ``{sympy.Symbol: starting value}``: free scalars the model does not
+        contain, which only the objective and the constraints name; bounds in
+        ``bounds``.  The bound :math:`s` of an epigraph is one: minimizing
+        ``mayer=s`` with the path constraints :math:`-s \le F_i(t) \le s`
+        minimizes the peak of :math:`|F_i|`.  Their values are in the
+        result's ``parameters``.
     method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson", "lgr"}
         The collocation (see :mod:`kanedyn.optimization._transcription`).
         ``"hermite-simpson"`` (order 4) adds the states and inputs at the
@@ -162,8 +169,8 @@ class OptimalControlProblem:
 
     def __init__(self, model, *, nodes, duration, lagrange=None, mayer=None, bounds=None,
                  initial=None, final=None, instance_constraints=(), periodic=(),
-                 path_constraints=(), parameters=(), method="trapezoid", degree=None,
-                 start_time=None, constants=None, backend="numpy"):
+                 path_constraints=(), parameters=(), auxiliary=None, method="trapezoid",
+                 degree=None, start_time=None, constants=None, backend="numpy"):
         model = self._numeric(model, constants, backend)
         reason = _derivatives_unavailable(model)
         if reason:
@@ -192,12 +199,13 @@ class OptimalControlProblem:
         free = tuple(self._free_parameter(p, names) for p in parameters)
         if len(set(free)) != len(free):
             raise ModelError(f"parameters lists a constant twice: {', '.join(free)}")
+        self.free_columns = [names.index(p) for p in free]
+        self.auxiliary = self._auxiliary(auxiliary or {}, names)
         self.symbols = Symbols(
             t=me.dynamicsymbols._t, states=tuple(model.state_names),
             inputs=tuple(n.removesuffix("(t)") for n in model.input_names),
-            constants=dict(model.constants), free=free,
+            constants=dict(model.constants), free=free + tuple(self.auxiliary),
             duration=self.duration if self.free_duration else None)
-        self.free_columns = [names.index(p) for p in free]
         self._constraint_layout()
         self._bounds(bounds or {})
         self.initial = self._end_values(initial or {}, "initial")
@@ -249,6 +257,40 @@ class OptimalControlProblem:
             raise ModelError(f"parameters: {p} is not a constant of the model (its "
                              f"constants: {', '.join(names)})")
         return name
+
+    def _auxiliary(self, auxiliary, constants):
+        """``{name: starting value}`` of the auxiliary variables, checked."""
+        import sympy as sm
+        if not isinstance(auxiliary, dict):
+            raise ModelError(f"auxiliary must be a dict {{symbol: starting value}}, got "
+                             f"{type(auxiliary).__name__}")
+        m = self.model
+        taken = {"t": "the time", **{n: "a constant of the model (list it in "
+                                        "parameters= to optimize it)" for n in constants},
+                 **{n: "a state of the model" for n in m.state_names},
+                 **{n.removesuffix("(t)"): "an input of the model" for n in m.input_names}}
+        if self.free_duration:
+            taken[str(self.duration)] = "the free duration"
+        out = {}
+        for key, value in auxiliary.items():
+            if not isinstance(key, sm.Symbol):
+                raise ModelError(f"auxiliary variables are SymPy symbols, got {key!r}")
+            name = str(key)
+            if name in taken:
+                raise ModelError(f"auxiliary variable {name} is {taken[name]}")
+            if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)) \
+                    or not np.isfinite(value):
+                raise ModelError(f"starting value of the auxiliary variable {name} must be a "
+                                 f"finite number, got {value!r}")
+            out[name] = float(value)
+        return out
+
+    def parameter_start(self):
+        """The free parameters' starting values: the model's constants, then
+        the auxiliary variables' (ndarray, the layout's order)."""
+        s = self.symbols
+        return np.array([self.auxiliary[n] if n in self.auxiliary else s.constants[n]
+                         for n in s.free], dtype=float)
 
     def _constraint_layout(self):
         m = self.model

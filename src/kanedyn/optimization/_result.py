@@ -107,7 +107,7 @@ class OptimalControlResult:
         Inputs at the nodes.
     state_names, input_names : tuple of str
     parameters : dict
-        ``{name: value}`` of the free parameters.
+        ``{name: value}`` of the free parameters and the auxiliary variables.
     duration : float
         s.
     objective : float
@@ -182,8 +182,10 @@ class OptimalControlResult:
     def model(self):
         """The numerical model with the optimal free parameters and inputs."""
         model = self.problem.model
-        if self.parameters:
-            model = model.with_constants(self.parameters)
+        constants = {k: v for k, v in self.parameters.items()
+                     if k not in self.problem.auxiliary}
+        if constants:
+            model = model.with_constants(constants)
         return model.with_inputs(self.inputs()) if self.input_names else model
 
     @property
@@ -197,11 +199,7 @@ class OptimalControlResult:
             {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
             f"collocation ({self.method})")
 
-    def table(self):
-        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
-        ``point`` (``node``, ``midpoint`` for Hermite-Simpson's midpoints or
-        ``interior`` for LGR's interior points, in time order with the nodes),
-        every state, every input (SI units of the model); one row per point."""
+    def _ordered(self):
         t, y, r = self.t, self.y, self.r
         kind = np.zeros(t.size, dtype=int)
         if self.t_mid is not None:
@@ -211,6 +209,20 @@ class OptimalControlResult:
             kind = np.concatenate([kind, np.ones(self.t_mid.size, dtype=int)])
             order = np.argsort(t, kind="stable")
             t, y, r, kind = t[order], y[:, order], r[:, order], kind[order]
+        return t, y, r, kind
+
+    def points(self):
+        """``(t, y, r)`` at every collocation point in time order: the nodes
+        and the interior points (Hermite-Simpson's midpoints, LGR's interior
+        Radau points); shapes (K,), (n_states, K), (n_inputs, K)."""
+        return self._ordered()[:3]
+
+    def table(self):
+        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
+        ``point`` (``node``, ``midpoint`` for Hermite-Simpson's midpoints or
+        ``interior`` for LGR's interior points, in time order with the nodes),
+        every state, every input (SI units of the model); one row per point."""
+        t, y, r, kind = self._ordered()
         columns = ("t", "point", *self.state_names, *self.input_names)
         scheme = interval_scheme(self.method, self.degree)
         labels = ("node", scheme.label if scheme else None)
