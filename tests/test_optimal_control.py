@@ -456,17 +456,10 @@ def test_nlp_derivatives_against_differences(method, degree, free):
     duration = T if free else 2.0
     problem = kd.OptimalControlProblem(
         model, nodes=6, duration=duration, lagrange=tau ** 2 + q ** 2 * u + sm.sin(t) * u,
-        mayer=q ** 2 + (T if free else 0), bounds={tau: (-2, 2), **({T: (0.5, 5)} if free
-                                                                   else {})},
-        initial={q: 0, u: 0}, final={q: np.pi}, method=method, degree=degree,
-        parameters=["m", "l"],
-        path_constraints=[(u ** 2 + tau * q, -5, 5)],
-        instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0)],
-
-
         mayer=q ** 2 + w ** 2 + (T if free else 0),
         bounds={tau: (-2, 2), **({T: (0.5, 5)} if free else {})},
-        initial={q: 0, u: 0}, final={q: np.pi}, method=method, parameters=["m", "l"],
+        initial={q: 0, u: 0}, final={q: np.pi}, method=method, degree=degree,
+        parameters=["m", "l"],
         auxiliary={w: 0.7}, path_constraints=[(u ** 2 + tau * q - w * u, -5, 5)],
         instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0) + w],
         periodic=[u])
