@@ -439,15 +439,14 @@ static int kd_event(KdIntegrator *ig, int k, double t, const double *y, double *
     return 0;
 }
 
-/* a function of the state along the continuous extension: g(t, y) into *g, -1 on
-   a Python error */
-typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
+/* a function of time: g(t) into *g; nonzero: an error (a Python error in the loop) */
+typedef int (*KdRootFn)(void *ctx, double t, double *g);
 
-/* Brent's method for a zero of fn on the continuous extension in [a, b]. */
-static int kd_brent(KdIntegrator *ig, KdAlongFn fn, void *ctx, double a, double b, double fa,
-                    double fb, double *root) {
+/* Brent's method for a zero of fn in [a, b] (fa, fb: its values there), the loop's
+   and the ensemble's (SciPy's brentq with xtol = rtol = 4 eps) */
+static int kd_brent(KdRootFn fn, void *ctx, double a, double b, double fa, double fb,
+                    double *root) {
     const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
-    double y[KD_NX];
     double c = a, fc = fa, d = b - a, e = d;
     for (int iter = 0; iter < 200; ++iter) {
         if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
@@ -469,11 +468,21 @@ static int kd_brent(KdIntegrator *ig, KdAlongFn fn, void *ctx, double a, double 
         } else { d = m; e = m; }
         a = b; fa = fb;
         b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
-        kd_dense(ig, b, y);
-        if (fn(ig, ctx, b, y, &fb) != 0) return -1;
+        if (fn(ctx, b, &fb) != 0) return -1;
     }
     *root = b;
     return 0;
+}
+
+/* a function of the state along the loop's continuous extension: g(t, y) into *g, -1
+   on a Python error; as a KdRootFn of t with its KdAlong */
+typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
+typedef struct { KdIntegrator *ig; KdAlongFn fn; void *ctx; } KdAlong;
+static int kd_along(void *along, double t, double *g) {
+    const KdAlong *a = (const KdAlong *)along;
+    double y[KD_NX];
+    kd_dense(a->ig, t, y);
+    return a->fn(a->ig, a->ctx, t, y, g);
 }
 
 static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, double *g) {
@@ -706,7 +715,8 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
                         - 0.5 * fabs(t - ig->t_old) * fmax(fabs(mon->rate), fabs(rate));
         if (turns && lowest < mon->threshold) {
             double root, yr[KD_NX], Br[KD_NUDEP * KD_NU];
-            if (kd_brent(ig, kd_monitor_rate_at, mon, ig->t_old, t, mon->rate, rate, &root) != 0)
+            KdAlong along = {ig, kd_monitor_rate_at, mon};
+            if (kd_brent(kd_along, &along, ig->t_old, t, mon->rate, rate, &root) != 0)
                 return -1;
             kd_dense(ig, root, yr);
             if (kd_constraint_matrix(ig->model, root, yr, Br) != 0) return -1;
@@ -1077,7 +1087,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
                              || ((up || down) && ev_dir[k] == 0);
                 if (!active) continue;
                 double root;
-                if (kd_brent(&ig, kd_event_at, &k, t, t_new, g_old[k], g_new[k], &root) != 0)
+                KdAlong along = {&ig, kd_event_at, &k};
+                if (kd_brent(kd_along, &along, t, t_new, g_old[k], g_new[k], &root) != 0)
                     KD_FAIL;
                 roots[n_roots] = root; which[n_roots] = k; n_roots++;
             }
