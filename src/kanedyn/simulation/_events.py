@@ -13,6 +13,7 @@ Python ones.
 
 from __future__ import annotations
 
+import functools
 import numbers
 import sys
 from dataclasses import dataclass
@@ -99,9 +100,17 @@ def as_event(event):
     return None
 
 
-def _slots(model, event):
+def _layout(model):
+    """What the events of ``model`` are compiled against: its state, constant and
+    input names, in order (not the constants' values)."""
+    return (tuple(model.state_names), tuple(model.constants),
+            tuple(name.removesuffix("(t)") for name in model.input_names))
+
+
+def _slots(layout, event):
     """``{symbol or dynamic symbol of the expression: (array, index)}`` with array
-    ``"t"``, ``"y"`` (the state), ``"p"`` (the constants) or ``"r"`` (the inputs)."""
+    ``"t"``, ``"y"`` (the state), ``"p"`` (the constants) or ``"r"`` (the inputs)
+    of a model of ``layout`` (:func:`_layout`)."""
     import sympy as sm
     from sympy.core.function import AppliedUndef
     t = sm.Symbol("t")
@@ -112,9 +121,8 @@ def _slots(model, event):
                          f"{', '.join(rates)}; an event is a function of the state: write "
                          "the rates of the coordinates with the speeds (the kinematic "
                          "equations)")
-    states = {name: i for i, name in enumerate(model.state_names)}
-    inputs = {name.removesuffix("(t)"): j for j, name in enumerate(model.input_names)}
-    constants = {name: k for k, name in enumerate(model.constants)}
+    states, constants, inputs = ({name: i for i, name in enumerate(names)}
+                                 for names in layout)
     slots, unknown = {}, []
     for function in expression.atoms(AppliedUndef):
         name = str(function.func)
@@ -137,20 +145,20 @@ def _slots(model, event):
         raise ModelError(
             f"event {event.name}: {', '.join(sorted(set(unknown)))} "
             f"{'is' if len(set(unknown)) == 1 else 'are'} not the time t or a state, input "
-            f"or constant of this model (states: {', '.join(model.state_names)}; constants: "
-            f"{', '.join(model.constants) or 'none'}; inputs: "
+            f"or constant of this model (states: {', '.join(states)}; constants: "
+            f"{', '.join(constants) or 'none'}; inputs: "
             f"{', '.join(inputs) or 'none'}); give numbers for other values")
     return slots
 
 
-def _arguments(model, events):
+def _arguments(layout, events):
     """``(expressions, {dummy: (array, index)})``: the events' expressions in one
     dummy symbol per entry of t, y, p and r they use."""
     import sympy as sm
     dummies, expressions = {}, []
     for event in events:
         replace = {}
-        for key, slot in _slots(model, event).items():
+        for key, slot in _slots(layout, event).items():
             if slot not in dummies:
                 dummies[slot] = sm.Dummy(f"{slot[0]}{slot[1]}")
             replace[key] = dummies[slot]
@@ -158,23 +166,30 @@ def _arguments(model, events):
     return expressions, {d: slot for slot, d in dummies.items()}
 
 
+@functools.lru_cache(maxsize=256)
+def _lambdified(layout, event):
+    """``(f, uses_inputs)``: ``event`` as a Python function ``f(t, *y, *p[, *r])`` of a
+    model of ``layout`` (made once per event and layout: a sweep's runs share it)."""
+    import sympy as sm
+    (expression,), slots = _arguments(layout, [event])
+    n_y, n_p = len(layout[0]), len(layout[1])
+    order = {"t": lambda i: 0, "y": lambda i: 1 + i, "p": lambda i: 1 + n_y + i,
+             "r": lambda i: 1 + n_y + n_p + i}
+    uses_inputs = any(array == "r" for array, _ in slots.values())
+    arguments = [sm.Dummy() for _ in range(1 + n_y + n_p
+                                           + (len(layout[2]) if uses_inputs else 0))]
+    for dummy, (array, index) in slots.items():
+        arguments[order[array](index)] = dummy
+    return sm.lambdify(arguments, expression, modules="math"), uses_inputs
+
+
 def python_event(model, event):
     """``event`` as ``kd.simulate`` calls events: a function ``g(t, y)`` with
     ``terminal``, ``direction`` and ``__name__``, the model's constants bound
     (those of ``model``: bind to the model that runs) and its inputs evaluated at
     ``(t, y)`` where the expression has them."""
-    import sympy as sm
-    (expression,), slots = _arguments(model, [event])
-    n_y, n_p = model.n_states, len(model.constants)
+    function, uses_inputs = _lambdified(_layout(model), event)
     p = [float(v) for v in model.constants.values()]
-    order = {"t": lambda i: 0, "y": lambda i: 1 + i, "p": lambda i: 1 + n_y + i,
-             "r": lambda i: 1 + n_y + n_p + i}
-    uses_inputs = any(array == "r" for array, _ in slots.values())
-    arguments = [sm.Dummy() for _ in range(1 + n_y + n_p
-                                           + (len(model.input_names) if uses_inputs else 0))]
-    for dummy, (array, index) in slots.items():
-        arguments[order[array](index)] = dummy
-    function = sm.lambdify(arguments, expression, modules="math")
 
     def value(t, y):
         return float(function(t, *y, *p, *(model._r(t, y) if uses_inputs else ())))
@@ -189,15 +204,22 @@ def compiled_event_table(model, events):
     """``(capsule, directions, terminal)`` of ``events`` (a list of :class:`Event`)
     for the C model's ``integrate_many``: all of them compiled into one function
     (:func:`kanedyn.numerics.backends.compiled_events`)."""
+    return (_compiled(_layout(model), tuple(events)),
+            np.array([e.direction for e in events], dtype=float),
+            np.array([float(e.terminal) for e in events]))
+
+
+@functools.lru_cache(maxsize=64)
+def _compiled(layout, events):
+    """The capsule of ``events`` for a model of ``layout`` (made once per process and
+    set of events: a sweep's batches share it; the module is cached on disk)."""
     from ..numerics.backends import CodegenError, compiled_events
-    expressions, slots = _arguments(model, events)
+    expressions, slots = _arguments(layout, events)
     names = {d: "t" if array == "t" else f"{array}[{index}]"
              for d, (array, index) in slots.items()}
-    sizes = (model.n_states, len(model.constants), len(model.input_names))
+    sizes = tuple(len(names_) for names_ in layout)
     try:
-        capsule = compiled_events(expressions, names, sizes, [e.name for e in events])
+        return compiled_events(expressions, names, sizes, [e.name for e in events])
     except CodegenError as exc:
         raise ModelError(f"simulate_many compiles its events to C, which cannot evaluate "
                          f"this: {str(exc).split('; the numpy backend')[0]}") from None
-    return (capsule, np.array([e.direction for e in events], dtype=float),
-            np.array([float(e.terminal) for e in events]))
