@@ -195,7 +195,7 @@ def test_events_are_located_as_the_compiled_loop_locates_them(pendulum):
     times = np.linspace(0.0, 10.0, 21)
     record = np.random.default_rng(1).uniform(-0.3, 0.3, (3, times.size))
     lengths = [1.0, 1.5, 2.0]
-    t_eval = np.linspace(0.0, 10.0, 11)
+    t_eval = np.linspace(0.0, 10.0, 401)  # outputs within the terminal step too
     events = _pendulum_events()
     many = kd.simulate_many(model, [1.0, 0.0], (0.0, 10.0), constants={"l": lengths},
                             inputs={"tau": record}, input_times=times, t_eval=t_eval,
@@ -217,6 +217,7 @@ def test_events_are_located_as_the_compiled_loop_locates_them(pendulum):
                 assert np.max(np.abs(one.y_events[k] - many.y_events[i][k]),
                               initial=0.0) <= 1e-12
             assert np.max(np.abs(one.y.T - many.y[i][:one.t.size])) <= 1e-12
+            assert np.all(np.isnan(many.y[i][one.t.size:]))  # none past its end
         if i:  # the runs that go on meet many crossings
             assert sum(len(times_k) for times_k in many.t_events[i][:2]) > 5
     first = many.t_events[0][2]
