@@ -895,7 +895,7 @@ def _sea_study(out, quiet, Hs, Tp, seed, seeds, wind_speed, duration, mass_ratio
             ax.legend(fontsize=7)
             ax.grid(True, which="both", lw=0.3)
         axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, {seed_text}, wind "
-                          f"{wind_speed:g} m/s, {duration:g} s (Welch"
+                          f"{wind_speed:g} m/s, {duration:g} s\n(Welch"
                           f"{', mean over the seeds' if seeds > 1 else ''}); {damping_text}",
                           fontsize=8)
         figures.append(_save(fig, out / "oc3-sea.png"))

@@ -24,7 +24,7 @@ import numpy as np
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._output_files import replacing
 from .._signals import end_by_signal_if_uncaught
-from ._events import as_event, compiled_event_table
+from ._events import as_event, compiled_event_table, listed
 from ._run_guard import INTERRUPTED, RunGuard, time_limit_message
 
 __all__ = ["simulate_many", "EnsembleResult"]
@@ -282,11 +282,8 @@ def _initial_states(model, y0, P, n, t0):
 
 def _events(events):
     """``events`` of :func:`simulate_many` as a list of :class:`Event`."""
-    if events is None:
-        return []
-    listed = list(events) if isinstance(events, (list, tuple)) else [events]
     found = []
-    for k, event in enumerate(listed):
+    for k, event in enumerate(listed(events)):
         as_expression = as_event(event)
         if as_expression is not None:
             found.append(as_expression)

@@ -22,7 +22,7 @@ import numpy as np
 
 from .._errors import ModelError, OptionError
 
-__all__ = ["Event", "as_event", "python_event", "compiled_event_table"]
+__all__ = ["Event", "as_event", "listed", "python_event", "compiled_event_table"]
 
 
 @dataclass(frozen=True)
@@ -85,6 +85,13 @@ class Event:
         object.__setattr__(self, "terminal", bool(self.terminal))
         object.__setattr__(self, "direction", float(direction))
         object.__setattr__(self, "name", self.name or str(expression))
+
+
+def listed(events):
+    """The ``events`` option as a list: ``None`` none, one event, or a list or tuple."""
+    if events is None:
+        return []
+    return list(events) if isinstance(events, (list, tuple)) else [events]
 
 
 def as_event(event):

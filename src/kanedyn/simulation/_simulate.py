@@ -25,7 +25,7 @@ from .._progress import as_progress
 from .._signals import end_by_signal_if_uncaught
 from ._results import SimulationResult
 from ._energy_check import Balance, WorkTracker, with_energy_note
-from ._events import as_event, python_event
+from ._events import as_event, listed, python_event
 from ._index3 import run_index3
 from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_event, guarded_method,
                          scipy_methods, solver_class, time_limit_message)
@@ -521,9 +521,7 @@ def _check_step_options(options, t0, t1):
 def _check_events(events, t0, y0, model):
     """Events as a list of functions (an :class:`~._events.Event` as one of
     ``model``), each checked once at the initial state."""
-    if events is None:
-        return []
-    events = list(events) if isinstance(events, (list, tuple)) else [events]
+    events = listed(events)
     for k, event in enumerate(events):
         expression = as_event(event)
         if expression is not None:

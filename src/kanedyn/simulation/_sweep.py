@@ -217,9 +217,8 @@ _ENSEMBLE_OPTIONS = {"method", "rtol", "atol", "t_eval", "max_step", "first_step
 def _expression_events(events):
     """Whether ``events`` (``simulate``'s option) are all expressions
     (:class:`~._events.Event`), which :func:`simulate_many` compiles."""
-    from ._events import as_event
-    listed = events if isinstance(events, (list, tuple)) else [events]
-    return all(as_event(event) is not None for event in listed)
+    from ._events import as_event, listed
+    return all(as_event(event) is not None for event in listed(events))
 
 
 def _ensemble_rows(model, batch, names, y0, t_span, outputs, options, threads):

@@ -10,6 +10,13 @@ threads, Python's lock released.  The inputs of a trajectory are constants or a
 record on a time grid shared by all, interpolated linearly (NumPy's ``interp``
 formula).
 
+Events come compiled, in a module of their own (:mod:`._c_events`: the capsule of an
+:data:`EVENT_TABLE`, one function evaluating all of them with the trajectory's
+constants and inputs), with a direction and a terminal flag each; a trajectory locates
+them as the compiled loop does (``kd_brent`` on the step's continuous extension, the
+roots in time order up to the first terminal one, which ends it there) and keeps
+those it met in a buffer of its own, returned trajectory by trajectory.
+
 While the threads work, the calling thread waits for them, waking at least
 every ``KD_ENS_POLL`` seconds to take Python's signals: a Ctrl-C (or the run's stop flag) stops every
 trajectory at its next step, and what was computed is returned, as a time
@@ -228,20 +235,13 @@ static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double
             double roots[64];
             int which[64], n_roots = 0;
             for (int k = 0; k < n_ev && n_roots < 64; ++k) {
-                int up = g_old[k] <= 0 && g_new[k] >= 0, down = g_old[k] >= 0 && g_new[k] <= 0;
-                int active = (up && s->ev_dir[k] > 0) || (down && s->ev_dir[k] < 0)
-                             || ((up || down) && s->ev_dir[k] == 0);
-                if (!active) continue;
+                if (!kd_event_active(g_old[k], g_new[k], s->ev_dir[k])) continue;
                 KdEnsAlong along = {s, c, y, Q, t, h, k, g_work};
                 kd_brent(kd_ens_event_along, &along, t, t_new, g_old[k], g_new[k],
                          &roots[n_roots]);
                 which[n_roots++] = k;
             }
-            for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
-                for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
-                    double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
-                    int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
-                }
+            kd_sort_roots(roots, which, n_roots, dir);
             for (int a = 0; a < n_roots; ++a) {
                 double ye[KD_NX];
                 kd_dopri_dense(y, t, h, Q, roots[a], ye);

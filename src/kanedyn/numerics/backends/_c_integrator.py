@@ -474,6 +474,22 @@ static int kd_brent(KdRootFn fn, void *ctx, double a, double b, double fa, doubl
     return 0;
 }
 
+/* whether an event whose values went from g_old to g_new over a step has a zero there
+   in its direction (> 0: upward, < 0: downward, 0: either) */
+static inline int kd_event_active(double g_old, double g_new, double direction) {
+    int up = g_old <= 0 && g_new >= 0, down = g_old >= 0 && g_new <= 0;
+    return (up && direction > 0) || (down && direction < 0) || ((up || down) && direction == 0);
+}
+
+/* the n roots (and the events they belong to) sorted by time along dir */
+static void kd_sort_roots(double *roots, int *which, int n, double dir) {
+    for (int a = 1; a < n; ++a)
+        for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
+            double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
+            int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
+        }
+}
+
 /* a function of the state along the loop's continuous extension: g(t, y) into *g, -1
    on a Python error; as a KdRootFn of t with its KdAlong */
 typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
@@ -1082,21 +1098,14 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             double roots[64];
             int which[64], n_roots = 0;
             for (int k = 0; k < ig.n_events && n_roots < 64; ++k) {
-                int up = g_old[k] <= 0 && g_new[k] >= 0, down = g_old[k] >= 0 && g_new[k] <= 0;
-                int active = (up && ev_dir[k] > 0) || (down && ev_dir[k] < 0)
-                             || ((up || down) && ev_dir[k] == 0);
-                if (!active) continue;
+                if (!kd_event_active(g_old[k], g_new[k], ev_dir[k])) continue;
                 double root;
                 KdAlong along = {&ig, kd_event_at, &k};
                 if (kd_brent(kd_along, &along, t, t_new, g_old[k], g_new[k], &root) != 0)
                     KD_FAIL;
                 roots[n_roots] = root; which[n_roots] = k; n_roots++;
             }
-            for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
-                for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
-                    double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
-                    int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
-                }
+            kd_sort_roots(roots, which, n_roots, dir);
             for (int a = 0; a < n_roots; ++a) {
                 double ye[KD_NX];
                 kd_dense(&ig, roots[a], ye);
