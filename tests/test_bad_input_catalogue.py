@@ -1720,3 +1720,73 @@ def test_study_option_from_the_command_line_is_one_line(capsys):
     assert main(["optimize", "shuttle-arm", "--set", "margin=-1", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "margin must be a number of degrees >= 0" in err and len(err.splitlines()) == 1
+
+
+# ---- issue 39: events of simulate_many (kd.Event)
+@pytest.fixture(scope="module")
+def torqued_pendulum():
+    if kd.numerics.backends.compiler_command() is None:
+        pytest.skip("simulate_many runs in the C backend")
+    return kd.models.build("pendulum", torque=True).numeric(backend="c")
+
+
+def _many(model, events):
+    return kd.simulate_many(model, [0.1, 0.0], (0.0, 0.5), inputs={"tau": 0.0},
+                            events=events)
+
+
+def _q_u():
+    return me.dynamicsymbols("q u")
+
+
+def _knee(t, y):
+    return y[0]
+
+
+EVENT_CASES = {
+    "an event that is a Python function": (
+        lambda m: _many(m, [_knee]), kd.OptionError,
+        r"^simulate_many: event _knee is a Python function, which cannot run in the C "
+        r"threads that integrate the runs; give it as a SymPy expression of t and the "
+        r"model's states, inputs and constants, kd\.Event\(expression, terminal=\.\.\., "
+        r"direction=\.\.\.\) \(kd\.simulate takes the same Event\)$"),
+    "an event given as text": (
+        lambda m: _many(m, ["q - 0.2"]), kd.OptionError,
+        r"^simulate_many: events\[0\] is not a SymPy expression or a kd\.Event: 'q - 0\.2'$"),
+    "an Event's expression given as text": (
+        lambda m: kd.Event("__import__('os')"), kd.ModelError,
+        r"^an event's expression is the text \"__import__\('os'\)\"; give a number or a "
+        r"SymPy expression \(text is never run as code\)$"),
+    "a condition for an event": (
+        lambda m: kd.Event(_q_u()[0] > 0.2), kd.OptionError,
+        r"^event q\(t\) > 0\.2 is a condition; an event is a value that crosses zero; give "
+        r"q\(t\) - 0\.2$"),
+    "a direction of 2": (
+        lambda m: kd.Event(_q_u()[0], direction=2), kd.OptionError,
+        r"^event q\(t\): direction must be -1, 0 or 1, got 2$"),
+    "terminal given as text": (
+        lambda m: kd.Event(_q_u()[0], terminal="yes"), kd.OptionError,
+        r"^event q\(t\): terminal must be True or False, got 'yes'$"),
+    "a symbol the model does not have": (
+        lambda m: _many(m, kd.Event(_q_u()[0] - sm.Symbol("x0"), name="reach")),
+        kd.ModelError,
+        r"^event reach: x0 is not the time t or a state, input or constant of this model "
+        r"\(states: q, u; constants: g, l, m; inputs: tau\); give numbers for other "
+        r"values$"),
+    "a symbol the model does not have, in kd.simulate": (
+        lambda m: kd.simulate(m.with_inputs({"tau": 0.0}), (0.0, 0.5), [0.1, 0.0],
+                              events=[_q_u()[0] - me.dynamicsymbols("w")]),
+        kd.ModelError, r"^event q\(t\) - w\(t\): w is not the time t or a state"),
+    "a rate in an event": (
+        lambda m: _many(m, _q_u()[0].diff()), kd.ModelError,
+        r"^event Derivative\(q\(t\), t\): it holds the derivative\(s\) "
+        r"Derivative\(q\(t\), t\); an event is a function of the state: write the rates "
+        r"of the coordinates with the speeds \(the kinematic equations\)$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EVENT_CASES))
+def test_ensemble_event_bad_input(torqued_pendulum, case):
+    make, kind, pattern = EVENT_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make(torqued_pendulum)
