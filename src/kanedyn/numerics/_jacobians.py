@@ -164,11 +164,13 @@ def _specification(model, parameters):
          for r in range(o)]
     a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
     columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
+    tree = _tree_state_rows(model, prog, kin, w, mass, args["y"])
     outputs = []
     for variables in columns:
         for rows in (qdot, E, a):
-            jac = prog.jacobian(rows, variables, guarded=True)
-            outputs.append(((len(rows), len(variables)), list(jac)))
+            jac = (tree if rows is E and variables is args["y"] and tree is not None
+                   else list(prog.jacobian(rows, variables, guarded=True)))
+            outputs.append(((len(rows), len(variables)), jac))
     _, constraints = model._functions["constraints"]
     for rows in (constraints[0][1], constraints[3][1]):  # h(q), c(q, u)
         jac = prog.jacobian(rows, args["y"], guarded=True)
@@ -181,6 +183,39 @@ def _specification(model, parameters):
         jac = prog.jacobian(rows, variables, guarded=True)
         outputs.append(((len(rows), len(variables)), list(jac)))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
+
+
+def _tree_state_rows(model, prog, kin, w, mass, y):
+    r""":math:`\partial E/\partial y` (row-major entries) of a tree without
+    constraints or contacts, its inertia forces differentiated in spatial terms
+    (:func:`kanedyn.engine.tree_inertia_derivatives`) and its active forces by
+    the program; ``None`` where the tree's formulas do not apply."""
+    import sympy as sm
+
+    from ..engine import tree_inertia_derivatives
+    from ._inverse import _tree_bodies
+    eom, o = model._eom, model.n_u
+    if model.n_u_dep or model.n_q_dep or model.contacts or kin is None:
+        return None
+    found = _tree_bodies(eom, kin)
+    if found is None:
+        return None
+    subs = model._substitutions
+
+    def sub(e):
+        return prog.subs(e, subs) if subs else e
+    remainder = [sub(e) for e in eom._remainder]
+    inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) + remainder[r]
+               for r in range(o)]
+    table = eom._table
+    found = tree_inertia_derivatives(kin, *found, table.q, table.u, w, o, inertia)
+    if found is None:
+        return None
+    dq, du = found
+    active = prog.jacobian([sub(e) for e in eom._active], y, guarded=True)
+    n = len(y) - o
+    return [(dq[r][c] if c < n else du[r][c - n]) - active[r, c]
+            for r in range(o) for c in range(len(y))]
 
 
 def _system(model):
@@ -204,7 +239,7 @@ def _parts(model):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 2"
+_GENERATION = "jacobians 3"
 
 
 def _functions(model, parameters):
