@@ -115,7 +115,7 @@ def _named(prog, vec, name):
 
 
 def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordinates, speeds,
-                             rates, o, reference):
+                             rates, o, reference, loads=()):
     r"""``(dq, du)``: :math:`\partial\tau/\partial q` and :math:`\partial\tau/\partial
     u` (o x o nested lists of expressions) of a tree's inertia forces with the
     rates :math:`\dot u` held, by the spatial formulas of this module; or
@@ -133,57 +133,65 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         Number of real speeds.
     reference : sequence of o expressions
         The inertia forces :math:`\tau` as the equations compute them
-        (:math:`M\dot u + n`); the result is returned only where it agrees with
-        their complex-step derivatives at the sample points.
+        (:math:`M\dot u + n`), less the generalized forces of ``loads``; the
+        result is returned only where it agrees with their complex-step
+        derivatives at the sample points.
+    loads : sequence of (int, str, tuple)
+        Loads constant in inertial components, ``(k, "F", force)`` at the mass
+        centre of body ``k`` or ``(k, "T", torque)`` on its frame: their
+        generalized forces are subtracted from :math:`\tau` (see
+        :func:`_load_terms`).
     """
     found = _structure(kin, bodies, body_terms, o) if len(coordinates) == o else None
     if found is None:
         return None
     prog = kin.prog
     positions, supports, S = found
-    tree = _speed_tree(kin, _Composite(supports), supports, S,
+    composite = _Composite(supports)
+    tree = _speed_tree(kin, composite, supports, S,
                        _spatial_inertias(masses, inertias, positions))
     parent, order, own = tree["parent"], tree["order"], tree["inertia"]
     S = [tuple(s) for s in tree["S"]]
-    v, a = {}, {}
+    v, a, d, e = {}, {}, {}, {}
     for i in reversed(order):  # parents first: twists and accelerations
         above = parent[i]
         vp, ap = (v[above], a[above]) if above >= 0 else (_ZERO6, _ZERO6)
+        d[i] = _named(prog, _motion_cross(vp, S[i]), f"dt{i}")
+        e[i] = _named(prog, _sum(_motion_cross(ap, S[i]), _motion_cross(vp, d[i])), f"et{i}")
         v[i] = _named(prog, _sum(vp, _scaled(S[i], speeds[i])), f"Vt{i}")
-        a[i] = _named(prog, _sum(ap, _scaled(S[i], rates[i]),
-                                 _scaled(_motion_cross(vp, S[i]), speeds[i])), f"At{i}")
+        a[i] = _named(prog, _sum(ap, _scaled(S[i], rates[i]), _scaled(d[i], speeds[i])),
+                      f"At{i}")
     children = {i: [] for i in range(o)}
     for i in range(o):
         if parent[i] >= 0:
             children[parent[i]].append(i)
-    Ic, Id, H, F = {}, {}, {}, {}
+    applied = _load_terms(loads, positions, _homes(composite, supports))
+    Ic, Id, H, F, L = {}, {}, {}, {}, {}
     for i in order:  # children first: composites
-        below = [(Ic[c], Id[c], H[c], F[c]) for c in children[i]]
+        below = [(Ic[c], Id[c], H[c], F[c], L[c]) for c in children[i]]
         h = _applied(own[i], v[i])
         f = _sum(_applied(own[i], a[i]), _force_cross(v[i], h))
         Ic[i] = _named(prog, _sum(own[i], *[x[0] for x in below]), f"Ic{i}")
         Id[i] = _named(prog, _sum(_rate(own[i], v[i]), *[x[1] for x in below]), f"Id{i}")
         H[i] = _named(prog, _sum(h, *[x[2] for x in below]), f"Hc{i}")
         F[i] = _named(prog, _sum(f, *[x[3] for x in below]), f"Fc{i}")
-    d, e, alpha, beta, Y, Z = {}, {}, {}, {}, {}, {}
+        L[i] = _named(prog, _sum(applied.get(i, _ZERO_LOAD), *[x[4] for x in below]), f"Lc{i}")
+    alpha, beta, gamma, Y, Z = {}, {}, {}, {}, {}
     for j in range(o):
-        above = parent[j]
-        vp, ap = (v[above], a[above]) if above >= 0 else (_ZERO6, _ZERO6)
-        d[j] = _named(prog, _motion_cross(vp, S[j]), f"dt{j}")
-        e[j] = _named(prog, _sum(_motion_cross(ap, S[j]), _motion_cross(vp, d[j])), f"et{j}")
         alpha[j] = _named(prog, _applied(Ic[j], S[j]), f"al{j}")
-        beta[j] = _named(prog, _sum(_applied(Id[j], S[j]),
-                                    _scaled(_force_cross(S[j], H[j]), -1)), f"be{j}")
+        turn = _force_cross(S[j], H[j])
+        beta[j] = _named(prog, _sum(_applied(Id[j], S[j]), _scaled(turn, -1)), f"be{j}")
+        gamma[j] = _named(prog, _load_lever(L[j], S[j]), f"ga{j}")
         Y[j] = _named(prog, _sum(_force_cross(S[j], F[j]), _applied(Ic[j], e[j]),
-                                 _applied(Id[j], d[j]), _force_cross(d[j], H[j])), f"Yq{j}")
-        Z[j] = _named(prog, _sum(beta[j], _scaled(_force_cross(S[j], H[j]), 2),
-                                 _scaled(_applied(Ic[j], d[j]), 2)), f"Zu{j}")
+                                 _applied(Id[j], d[j]), _force_cross(d[j], H[j]),
+                                 _scaled(_load_rate(L[j], S[j]), -1)), f"Yq{j}")
+        Z[j] = _named(prog, _sum(beta[j], _scaled(_sum(turn, _applied(Ic[j], d[j])), 2)), f"Zu{j}")
     dq = [[sm.S.Zero] * o for _ in range(o)]
     du = [[sm.S.Zero] * o for _ in range(o)]
     for i in range(o):
         j = i
         while j >= 0:  # i itself and the speeds above it
-            dq[i][j] = _dot(alpha[i], e[j]) + _dot(beta[i], d[j])
+            dq[i][j] = _dot(alpha[i], e[j]) + _dot(beta[i], d[j]) + _dot(gamma[i], S[j][:3])
             du[i][j] = _dot(beta[i], S[j]) + 2 * _dot(alpha[i], d[j])
             if j != i:  # i is below j
                 dq[j][i] = _dot(S[j], Y[i])
@@ -192,6 +200,64 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
     if not _agrees(prog, reference, list(coordinates[:o]) + list(speeds[:o]), dq, du):
         return None
     return dq, du
+
+
+def _homes(composite, supports):
+    """``{body: speed}``: the speed of the speed tree each moved body hangs from
+    (the last of the speeds of its smallest support, as in ``_speed_tree``)."""
+    home = {}
+    for b in composite.order:
+        last = [r for r, s in enumerate(supports) if s == b][-1]
+        for k in composite.own[b]:
+            home[k] = last
+    return home
+
+
+#: the load composites: wrench about O (6), :math:`G = \sum F c^T` (9, row-major),
+#: :math:`\sigma = \sum c\cdot F` and the summed torques (3)
+_ZERO_LOAD = (sm.S.Zero,) * 19
+
+
+def _load_terms(loads, positions, homes):
+    r"""``{speed: 19 entries}``: each speed's own constant loads (see
+    :data:`_ZERO_LOAD`), a force :math:`F` at the mass centre :math:`c` of a
+    body or a torque :math:`T` on its frame (bodies no speed moves have
+    none)."""
+    out = {}
+    for k, kind, vec in loads:
+        if k not in homes:
+            continue
+        if kind == "F":
+            c = positions[k]
+            terms = (add(cross(c, vec), (sm.S.Zero,) * 3) + tuple(vec)
+                     + tuple(f * x for f in vec for x in c)
+                     + (sm.Add(*[x * f for x, f in zip(c, vec)]),) + (sm.S.Zero,) * 3)
+        else:
+            terms = tuple(vec) + (sm.S.Zero,) * 13 + tuple(vec)
+        out[homes[k]] = _sum(out.get(homes[k], _ZERO_LOAD), terms)
+    return out
+
+
+def _load_lever(load, S):
+    r""":math:`\gamma` with :math:`\partial(S_i\cdot W_i)/\partial q_j =
+    -\gamma_i\cdot\omega_j` for :math:`j \preceq i`: the loads below ``i``
+    do not turn with the bodies (:math:`\sigma W - G^T W + T\times W + F\times
+    V`, ``S = (W, V)``)."""
+    G, sigma, T, force = load[6:15], load[15], load[16:19], load[3:6]
+    W, V = S[:3], S[3:]
+    GW = tuple(sm.Add(*[G[3 * b + a] * W[b] for b in range(3)]) for a in range(3))
+    return _sum(_scaled(W, sigma), _scaled(GW, -1), cross(T, W), cross(force, V))
+
+
+def _load_rate(load, S):
+    r""":math:`\partial W_j/\partial q_j` of the summed load wrench below ``j``
+    (``S`` its twist): :math:`S\times^* W` less the turn the constant loads do
+    not make, :math:`(\sigma\omega - G\omega + \omega\times T,\ \omega\times F)`."""
+    G, sigma, T, force = load[6:15], load[15], load[16:19], load[3:6]
+    w = S[:3]
+    Gw = tuple(sm.Add(*[G[3 * a + b] * w[b] for b in range(3)]) for a in range(3))
+    turn = _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
+    return _sum(_force_cross(S, load[:6]), _scaled(turn, -1))
 
 
 def _agrees(prog, reference, variables, dq, du, rtol=1e-9):
