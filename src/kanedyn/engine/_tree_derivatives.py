@@ -179,13 +179,15 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
     alpha, beta, gamma, Y, Z = {}, {}, {}, {}, {}
     for j in range(o):
         alpha[j] = _named(prog, _applied(Ic[j], S[j]), f"al{j}")
-        turn = _force_cross(S[j], H[j])
-        beta[j] = _named(prog, _sum(_applied(Id[j], S[j]), _scaled(turn, -1)), f"be{j}")
+        turn = _named(prog, _force_cross(S[j], H[j]), f"SH{j}")
+        rate = _named(prog, _applied(Id[j], S[j]), f"IS{j}")
+        beta[j] = _named(prog, _sum(rate, _scaled(turn, -1)), f"be{j}")
         gamma[j] = _named(prog, _load_lever(L[j], S[j]), f"ga{j}")
-        Y[j] = _named(prog, _sum(_force_cross(S[j], F[j]), _applied(Ic[j], e[j]),
+        net = _sum(F[j], _scaled(L[j][:6], -1))
+        Y[j] = _named(prog, _sum(_force_cross(S[j], net), _applied(Ic[j], e[j]),
                                  _applied(Id[j], d[j]), _force_cross(d[j], H[j]),
-                                 _scaled(_load_rate(L[j], S[j]), -1)), f"Yq{j}")
-        Z[j] = _named(prog, _sum(beta[j], _scaled(_sum(turn, _applied(Ic[j], d[j])), 2)), f"Zu{j}")
+                                 _load_turn(L[j], S[j][:3])), f"Yq{j}")
+        Z[j] = _named(prog, _sum(rate, turn, _scaled(_applied(Ic[j], d[j]), 2)), f"Zu{j}")
     dq = [[sm.S.Zero] * o for _ in range(o)]
     du = [[sm.S.Zero] * o for _ in range(o)]
     for i in range(o):
@@ -249,15 +251,13 @@ def _load_lever(load, S):
     return _sum(_scaled(W, sigma), _scaled(GW, -1), cross(T, W), cross(force, V))
 
 
-def _load_rate(load, S):
-    r""":math:`\partial W_j/\partial q_j` of the summed load wrench below ``j``
-    (``S`` its twist): :math:`S\times^* W` less the turn the constant loads do
-    not make, :math:`(\sigma\omega - G\omega + \omega\times T,\ \omega\times F)`."""
+def _load_turn(load, w):
+    r"""What the constant loads below a speed of angular part ``w`` of its twist
+    do not turn with its bodies: :math:`(\sigma w - G w + w\times T,\ w\times F)`
+    (:math:`\partial W_j/\partial q_j = S_j\times^* W_j` less this)."""
     G, sigma, T, force = load[6:15], load[15], load[16:19], load[3:6]
-    w = S[:3]
     Gw = tuple(sm.Add(*[G[3 * a + b] * w[b] for b in range(3)]) for a in range(3))
-    turn = _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
-    return _sum(_force_cross(S, load[:6]), _scaled(turn, -1))
+    return _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
 
 
 def _agrees(prog, reference, variables, dq, du, rtol=1e-9):

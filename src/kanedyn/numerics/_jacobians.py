@@ -620,47 +620,40 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         contact_names=tuple(c["name"] for c in model.contacts))
 
 
+#: the fields of :class:`Jacobians` the C module's ``solved_jacobian`` fills, in its order
+_SOLVED = ("f", "constraints", "state", "inputs", "parameters", "multipliers",
+           "multipliers_inputs", "multipliers_parameters")
+
+
 def _keep_point(model, fns, parameters):
-    """Keep with ``model`` the function that gives its :class:`Jacobians` at one
-    state in one call of the C module (``solved_jacobian``), for the next calls
-    with ``r`` and ``modes`` not given: a C model without contacts or a stabilized
-    scheme (whose parts are solved in NumPy).  It returns ``None`` for what it
-    does not take as it comes (``y`` not an array of ``n_states`` floats, ``t``
-    not a number), which :func:`jacobians` then checks and converts."""
+    """Keep with ``model`` the function ``point(t, y)`` that gives its
+    :class:`Jacobians` at one state in one call of the C module
+    (``solved_jacobian``), for the next calls with ``r`` and ``modes`` not
+    given: a C model without contacts or a stabilized scheme (whose parts are
+    solved in NumPy), with constants where they are asked for.  It returns
+    ``None`` for what it does not take as it comes (``y`` not an array of
+    ``n_states`` floats, ``t`` not a number), which :func:`jacobians` then
+    checks and converts."""
+    from functools import partial
     key = "_jacobian_point_p" if parameters else "_jacobian_point"
     one = fns[5]
-    if key in model.__dict__ or one is None or model.contacts or _parts(model):
+    if key in model.__dict__ or one is None or model.contacts or _parts(model) \
+            or (parameters and not len(model._p)):
         return
     fixed = dict(contact_forces=None, contact_forces_state=None, contact_forces_inputs=None,
                  contact_forces_parameters=None, state_names=tuple(model.state_names),
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
-    p, inputs, shape, none = model._p, model._inputs, (model.n_states,), np.zeros(0)
-    new, assign = object.__new__, object.__setattr__
-    # no constants: their columns are empty, not None
-    empty = parameters and not len(p)
+    solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
+    if not model._inputs:
+        model.__dict__[key] = partial(solved, np.zeros(0))
+        return
+    shape = (model.n_states,)
 
     def point(t, y):
-        if inputs:
-            if type(y) is not np.ndarray or y.shape != shape:
-                return None
-            r = np.array(model._r(t, y), dtype=float)
-        else:
-            r = none
-        values = one(t, y, p, r)
-        if values is None:
+        if type(y) is not np.ndarray or y.shape != shape:
             return None
-        fields = fixed.copy()
-        (fields["f"], fields["constraints"], fields["state"], fields["inputs"],
-         fields["parameters"], fields["multipliers"], fields["multipliers_inputs"],
-         fields["multipliers_parameters"]) = values
-        if empty:
-            fields["parameters"] = np.zeros((len(y), 0))
-            if fields["multipliers"] is not None:
-                fields["multipliers_parameters"] = np.zeros((model.n_u_dep, 0))
-        found = new(Jacobians)
-        assign(found, "__dict__", fields)
-        return found
+        return solved(np.array(model._r(t, y), dtype=float), t, y)
 
     model.__dict__[key] = point
 

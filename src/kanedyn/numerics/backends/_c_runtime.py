@@ -1328,14 +1328,15 @@ done:
     return result;
 }
 
-/* solved_jacobian(t, y, p, r): the exact derivatives at one state, for
-   NumericModel.jacobians without checks: t a number, y an array of n_x doubles
-   (exactly: None for anything else, which the caller then checks and
-   converts), p and r (n_r) vectors.  The tuple (f, C, then the blocks of D:
-   the rows of f, then those of the multipliers, each in the columns of the
-   state, the inputs and the constants), arrays of their own; None for the
-   blocks of the constants where none are generated, and for those of the
-   multipliers without dependent speeds; LinAlgError if singular */
+/* solved_jacobian(cls, fields, keys, p, r, t, y): the exact derivatives at one
+   state as a new instance of `cls` (NumericModel.jacobians without checks),
+   whose __dict__ is a copy of the dict `fields` with the 8 `keys` set to f, C,
+   then the blocks of D (the rows of f, then those of the multipliers, each in
+   the columns of the state, the inputs and the constants), arrays of their own
+   or None (the constants where none are generated; the multipliers without
+   dependent speeds).  p and r (n_r) vectors; t a number and y an array of n_x
+   doubles, exactly: None for anything else, which the caller then checks and
+   converts.  LinAlgError if singular */
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
                                        Py_ssize_t nargs) {
     (void)self;
@@ -1344,20 +1345,25 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
         PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
         return NULL;
     }
-    if (nargs != 4) {
-        PyErr_SetString(PyExc_TypeError, "solved_jacobian(t, y, p, r) takes 4 arguments");
+    if (nargs != 7 || !PyType_Check(args[0]) || !PyDict_Check(args[1])
+            || !PyTuple_Check(args[2]) || PyTuple_GET_SIZE(args[2]) != 8) {
+        PyErr_SetString(PyExc_TypeError, "solved_jacobian(cls, fields, keys, p, r, t, y): a "
+                        "class, a dict, a tuple of 8 names, then the arguments");
         return NULL;
     }
-    const double *y = kd_in_place(args[1], KD_NX);
-    if (y == NULL || !(PyFloat_Check(args[0]) || PyLong_CheckExact(args[0])))
+    const double *y = kd_in_place(args[6], KD_NX);
+    if (y == NULL || !(PyFloat_Check(args[5]) || PyLong_CheckExact(args[5])))
         Py_RETURN_NONE;
-    const double t = PyFloat_AsDouble(args[0]);
+    const double t = PyFloat_AsDouble(args[5]);
     if (t == -1.0 && PyErr_Occurred()) return NULL;
     static const double empty[1] = {0.0};
-    PyObject *keep[2] = {NULL, NULL}, *result = NULL;
-    const double *p = KD_NP > 0 ? kd_vector(args[2], KD_NP, &keep[0], "p") : empty;
+    static PyObject *dict_name = NULL;
+    if (dict_name == NULL && (dict_name = PyUnicode_InternFromString("__dict__")) == NULL)
+        return NULL;
+    PyObject *keep[2] = {NULL, NULL}, *values[8] = {NULL}, *result = NULL;
+    const double *p = KD_NP > 0 ? kd_vector(args[3], KD_NP, &keep[0], "p") : empty;
     const double *r = p == NULL ? NULL
-        : KD_NR > 0 ? kd_vector(args[3], KD_NR, &keep[1], "r") : empty;
+        : KD_NR > 0 ? kd_vector(args[4], KD_NR, &keep[1], "r") : empty;
     const int rows = KD_NX + KD_NUDEP, columns = info->columns;
     const int widths[3] = {KD_NX, KD_NR, columns - KD_NX - KD_NR};
     double *work = r == NULL ? NULL : (double *)PyMem_Malloc(
@@ -1367,41 +1373,42 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
         goto done;
     }
     double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = NULL;
-    PyObject *F = kd_new_vector(KD_NX, &f);
-    PyObject *Cn = F == NULL ? NULL : kd_new_matrix(info->constraint_rows, KD_NX, &C);
-    result = Cn == NULL ? NULL : PyTuple_New(8);
-    if (result == NULL) {
-        Py_XDECREF(F); Py_XDECREF(Cn);
+    if ((values[0] = kd_new_vector(KD_NX, &f)) == NULL
+            || (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL)
         goto done;
-    }
-    PyTuple_SET_ITEM(result, 0, F);
-    PyTuple_SET_ITEM(result, 1, Cn);
     int bad;
     Py_BEGIN_ALLOW_THREADS
     bad = info->core(t, y, p, r, work, work + KD_SZ(KD_NW), f, D, C);
     Py_END_ALLOW_THREADS
     if (bad) {
         PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
-        Py_CLEAR(result);
         goto done;
     }
     for (int b = 0; b < 6; ++b) {
         const int group = b % 3, first = b < 3 ? 0 : KD_NX, height = b < 3 ? KD_NX : KD_NUDEP;
-        PyObject *block = Py_None;
         if ((group == 2 && widths[2] == 0) || (b >= 3 && KD_NUDEP == 0)) {
-            Py_INCREF(block);
-        } else {
-            const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
-            double *out;
-            block = kd_new_matrix(height, widths[group], &out);
-            if (block == NULL) { Py_CLEAR(result); goto done; }
-            for (int i = 0; i < height; ++i)
-                memcpy(out + i * widths[group], D + (first + i) * columns + at,
-                       sizeof(double) * widths[group]);
+            Py_INCREF(Py_None);
+            values[2 + b] = Py_None;
+            continue;
         }
-        PyTuple_SET_ITEM(result, 2 + b, block);
+        const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
+        double *out;
+        if ((values[2 + b] = kd_new_matrix(height, widths[group], &out)) == NULL) goto done;
+        for (int i = 0; i < height; ++i)
+            memcpy(out + i * widths[group], D + (first + i) * columns + at,
+                   sizeof(double) * widths[group]);
     }
+    PyObject *fields = PyDict_Copy(args[1]);
+    for (int k = 0; fields != NULL && k < 8; ++k)
+        if (PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
+            Py_CLEAR(fields);
+    PyTypeObject *cls = (PyTypeObject *)args[0];
+    result = fields == NULL ? NULL : cls->tp_alloc(cls, 0);  /* object.__new__(cls) */
+    if (result != NULL && PyObject_GenericSetAttr(result, dict_name, fields) != 0)
+        Py_CLEAR(result);
+    Py_XDECREF(fields);
 done:
+    for (int k = 0; k < 8; ++k) Py_XDECREF(values[k]);
     Py_XDECREF(keep[0]); Py_XDECREF(keep[1]);
     PyMem_Free(work);
     return result;
