@@ -45,6 +45,18 @@ with the composites of the bodies below :math:`i`: inertia
 H_i` (zero elsewhere).  Pinocchio's derivatives of the recursive Newton-Euler
 algorithm rest on the same cancellation (Carpentier and Mansard, RSS 2018).
 
+Loads constant in inertial components (forces :math:`F` at mass centres
+:math:`c`, torques :math:`T` on body frames: gravity) are subtracted from
+:math:`\tau` in the same terms.  They do not turn with the bodies: with their
+sums below :math:`i`, the wrench :math:`W_i`, :math:`\sigma_i = \sum c\cdot F`,
+:math:`G_i = \sum F c^T` and the summed torques and forces, moving :math:`q_j`
+changes :math:`W_j` by :math:`S_j\times^* W_j` less
+:math:`(\sigma\omega_j - G\omega_j + \omega_j\times T,\ \omega_j\times F)`
+(:math:`\omega_j` the angular part of :math:`S_j`).  So :math:`F_j` becomes
+:math:`F_j - W_j` in the second case of :math:`\partial\tau_i/\partial q_j`,
+which gains that difference, and the first gains :math:`\gamma_i\cdot\omega_j`
+(:func:`_load_lever`).
+
 None of these conditions is assumed: the derivatives are compared at random
 points with complex-step derivatives of the equations' own inertia forces
 (:meth:`~._program.Program.shadow_jacobian`), and ``None`` is returned where
