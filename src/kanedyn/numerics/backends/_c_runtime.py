@@ -1255,6 +1255,13 @@ done:
     return result;
 }
 
+/* the module's exact derivatives, or NULL with a TypeError */
+static const KdJacobianInfo *kd_module_jacobians(void) {
+    const KdJacobianInfo *info = KD_JACOBIANS;
+    if (info == NULL) PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
+    return info;
+}
+
 /* solved_jacobians(t, Y, p, R): the exact derivatives at each of N states (a
    module with the generated `jacobians`, KdJacobianInfo): t (N,), Y (N, n_x), R
    (N, nr); the tuple (F (N, n_x), D (N, n_x + m, columns), C (N, n_con, n_x)) of
@@ -1262,11 +1269,8 @@ done:
 static PyObject *kd_py_solved_jacobians(PyObject *self, PyObject *const *args,
                                         Py_ssize_t nargs) {
     (void)self;
-    const KdJacobianInfo *info = KD_JACOBIANS;
-    if (info == NULL) {
-        PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
-        return NULL;
-    }
+    const KdJacobianInfo *info = kd_module_jacobians();
+    if (info == NULL) return NULL;
     if (nargs != 4) {
         PyErr_SetString(PyExc_TypeError, "solved_jacobians(t, Y, p, R) takes 4 arguments");
         return NULL;
@@ -1340,11 +1344,8 @@ done:
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
                                        Py_ssize_t nargs) {
     (void)self;
-    const KdJacobianInfo *info = KD_JACOBIANS;
-    if (info == NULL) {
-        PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
-        return NULL;
-    }
+    const KdJacobianInfo *info = kd_module_jacobians();
+    if (info == NULL) return NULL;
     if (nargs != 7 || !PyType_Check(args[0]) || !PyDict_Check(args[1])
             || !PyTuple_Check(args[2]) || PyTuple_GET_SIZE(args[2]) != 8) {
         PyErr_SetString(PyExc_TypeError, "solved_jacobian(cls, fields, keys, p, r, t, y): a "
