@@ -15,7 +15,9 @@ pytestmark = [pytest.mark.skipif(_cbackend.compiler_command() is None,
 
 
 def _counting(monkeypatch):
-    """The calls of simulate_many, counted."""
+    """The calls of simulate_many, counted: the runs of each (the sweep takes it from
+    its module, the studies from the simulation package, where it stays once loaded)."""
+    import kanedyn.simulation
     from kanedyn.simulation import _ensemble
     calls = []
     original = _ensemble.simulate_many
@@ -24,6 +26,7 @@ def _counting(monkeypatch):
         calls.append(len(np.atleast_2d(args[1])))
         return original(*args, **kwargs)
     monkeypatch.setattr(_ensemble, "simulate_many", counted)
+    monkeypatch.setattr(kanedyn.simulation, "simulate_many", counted)
     return calls
 
 
