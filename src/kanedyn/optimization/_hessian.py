@@ -45,7 +45,7 @@ class LagrangianHessian:
     :class:`._nlp.CollocationNLP`)."""
 
     def __init__(self, nlp):
-        from ..numerics._hessians import hessians_unavailable
+        from ..numerics import hessians_unavailable
         pb, L = nlp.problem, nlp.layout
         refused = [what for what, present in (
             ("path constraints", bool(pb.path)),
@@ -88,7 +88,7 @@ class LagrangianHessian:
 
     def values(self, z, sigma, multipliers):
         """The Hessian's values in the order of :attr:`structure`."""
-        from ..numerics._hessians import weighted_hessians
+        from ..numerics import weighted_hessians
         nlp = self.nlp
         e = nlp._evaluate(z)
         pb, L = nlp.problem, nlp.layout
