@@ -18,13 +18,22 @@ wave excitation), the OC3 linear damping and yaw spring, Morison drag
 tower file of :func:`write_tower_file`: OC3's station table and mode shapes
 fitted to kanedyn's clamped tower+RNA modes), a parked rotor (ElastoDyn's
 blades and drivetrain rigid, rotor speed 0), still water, no wind.
+
+The wave case ("waves") adds a regular Airy wave (OpenFAST's ``WaveMod`` 1P0,
+no stretching) and its loads by strip theory on both sides: kanedyn's Morison
+inertia force (1 + Ca) rho A a with Ca = 1 on strips wetted at rest, against
+HydroDyn's strip theory on the same members with the transverse inertia
+coefficient Ca + Cp = 0 + 2 and no strip added mass, buoyancy or axial terms
+(``deck/NRELOffshrBsline5MW_OC3Hywind_HydroDyn_Waves.dat``); the added mass
+and hydrostatics stay the WAMIT-format files' on the OpenFAST side and the
+published matrices on kanedyn's.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +52,12 @@ KANEDYN_OPTIONS = dict(tower_modes=4, stiffening=True, tower_damping=0.01,
 #: from this time on (s) the case released undisplaced ("still") is fitted for its offsets
 SETTLED = 40.0
 
+#: the regular wave of the "waves" case: height (m) and period (s)
+WAVE_HEIGHT, WAVE_PERIOD = 6.0, 10.0
+
+#: from this time on (s) the wave case's responses are compared (the waves start at t = 0)
+WAVE_START = 60.0
+
 #: OpenFAST channel -> (kanedyn state or output, factor to kanedyn's units)
 CHANNELS = {"PtfmSurge": ("surge", 1.0), "PtfmSway": ("sway", 1.0),
             "PtfmHeave": ("heave", 1.0), "PtfmRoll": ("roll", math.pi / 180),
@@ -56,7 +71,10 @@ class Case:
 
     ``elastodyn``: ElastoDyn initial conditions changed from the deck
     (``PtfmSurge`` in m, angles in deg, ``TTDspFA`` in m); ``channel``: the
-    response the decay is measured on.
+    response the decay is measured on.  A wave case also gives ``seastate``
+    (SeaState values changed from the deck), ``hydrodyn`` (the HydroDyn file
+    used instead of the deck's) and ``kanedyn`` (oc3-spar options added to
+    :data:`KANEDYN_OPTIONS`); ``waves`` is then True.
     """
 
     name: str
@@ -65,15 +83,27 @@ class Case:
     step: float
     channel: str
     title: str = ""
+    seastate: dict = field(default_factory=dict)
+    hydrodyn: str = ""
+    kanedyn: dict = field(default_factory=dict)
+
+    @property
+    def waves(self):
+        return bool(self.seastate)
 
 
 CASES = {c.name: c for c in (
-    Case("still", {}, 200.0, 0.5, "PtfmPitch", "released undisplaced"),
-    Case("surge", {"PtfmSurge": 5.0}, 400.0, 0.25, "PtfmSurge", "surge 5 m"),
+    Case("still", {}, 120.0, 0.5, "PtfmPitch", "released undisplaced"),
+    Case("surge", {"PtfmSurge": 5.0}, 200.0, 0.25, "PtfmSurge", "surge 5 m"),
     Case("heave", {"PtfmHeave": 1.0}, 120.0, 0.1, "PtfmHeave", "heave 1 m"),
-    Case("pitch", {"PtfmPitch": 2.0}, 120.0, 0.1, "PtfmPitch", "pitch 2 deg"),
-    Case("yaw", {"PtfmYaw": 5.0}, 60.0, 0.05, "PtfmYaw", "yaw 5 deg"),
+    Case("pitch", {"PtfmPitch": 2.0}, 80.0, 0.1, "PtfmPitch", "pitch 2 deg"),
+    Case("yaw", {"PtfmYaw": 5.0}, 40.0, 0.05, "PtfmYaw", "yaw 5 deg"),
     Case("tower", {"TTDspFA": 0.2}, 20.0, 0.025, "TTDspFA", "tower-top fore-aft 0.2 m"),
+    Case("waves", {}, 120.0, 0.1, "PtfmPitch",
+         f"regular waves H {WAVE_HEIGHT:g} m, T {WAVE_PERIOD:g} s",
+         seastate={"WaveMod": "1P0", "WaveHs": f"{WAVE_HEIGHT:g}", "WaveTp": f"{WAVE_PERIOD:g}"},
+         hydrodyn="NRELOffshrBsline5MW_OC3Hywind_HydroDyn_Waves.dat",
+         kanedyn={"sea": "regular", "wave_height": WAVE_HEIGHT, "wave_period": WAVE_PERIOD}),
 )}
 
 
@@ -198,10 +228,12 @@ def read_output_csv(path):
 
 # ----------------------------------------------------------------- kanedyn side
 @functools.lru_cache(maxsize=2)
-def kanedyn_model(backend="c"):
-    """``(definition, numeric model, outputs)`` of oc3-spar with :data:`KANEDYN_OPTIONS`."""
+def kanedyn_model(backend="c", extra=()):
+    """``(definition, numeric model, outputs)`` of oc3-spar with :data:`KANEDYN_OPTIONS`
+    and the ``(option, value)`` pairs ``extra``."""
     from kanedyn.analysis._oc3_studies import _built, oc3_outputs
-    d, _, model, _ = _built(backend, tuple(sorted(KANEDYN_OPTIONS.items())))
+    options = {**KANEDYN_OPTIONS, **dict(extra)}
+    d, _, model, _ = _built(backend, tuple(sorted(options.items())))
     return d, model, oc3_outputs(d, model)
 
 
@@ -221,9 +253,10 @@ def initial_state(case, model, outputs):
 
 
 def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
-    """``(time, {channel: series})`` of kanedyn in ``case``, in OpenFAST's units."""
+    """``(time, {channel: series})`` of kanedyn in ``case``, in OpenFAST's units
+    (and ``Wave1Elev``, the wave elevation at the origin in m, in a wave case)."""
     from kanedyn.simulation import simulate
-    _, model, outputs = kanedyn_model(backend)
+    d, model, outputs = kanedyn_model(backend, tuple(sorted(case.kanedyn.items())))
     y0 = initial_state(case, model, outputs)
     t = np.arange(0.0, case.duration + 0.5 * case.step, case.step)
     res = simulate(model, (0.0, t[-1]), y0, t_eval=t, rtol=rtol, atol=atol)
@@ -236,6 +269,8 @@ def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
             series[channel] = outputs["top_deflection"][0] @ res.y / factor
         else:
             series[channel] = res.y[names.index(target)] / factor
+    if case.waves:   # the wave elevation at the platform's reference point (0, 0), m
+        series["Wave1Elev"] = d.elements["morison"].waves.elevation_series(0.0, res.t)
     return res.t, series
 
 
@@ -328,3 +363,36 @@ def settled_offset(t, x, period, start=SETTLED):
     guess = [np.mean(x[keep]), np.ptp(x[keep]) / 2, 0.01, period, 0.0]
     p, _ = curve_fit(decay, t[keep] - start, x[keep], p0=guess, maxfev=20000)
     return float(p[0])
+
+
+@dataclass(frozen=True)
+class Harmonic:
+    """The wave-frequency part of a record in regular waves.
+
+    Attributes
+    ----------
+    amplitude : float
+        Amplitude of the component at the wave's frequency, in the record's units.
+    phase : float
+        Its phase, rad: the component is ``amplitude cos(omega t - phase)``.
+    """
+
+    amplitude: float
+    phase: float
+
+
+def wave_harmonic(t, x, period, start):
+    """:class:`Harmonic` of ``x(t)`` at the frequency ``2 pi / period`` from ``start`` on.
+
+    Least squares over the whole periods from ``start``: the harmonic and a cubic
+    in time (the slow transient of the surge and pitch modes left by the
+    waves' start, about 30 to 120 s periods).
+    """
+    omega = 2 * math.pi / period
+    cycles = math.floor((t[-1] - start) / period + 1e-9)
+    keep = (t >= start - 1e-9) & (t <= start + cycles * period + 1e-9)
+    s = (t[keep] - start) / (cycles * period)
+    basis = np.column_stack([np.cos(omega * t[keep]), np.sin(omega * t[keep]),
+                             np.ones_like(s), s, s ** 2, s ** 3])
+    (a, b, *_), *_ = np.linalg.lstsq(basis, np.asarray(x, float)[keep], rcond=None)
+    return Harmonic(float(math.hypot(a, b)), float(math.atan2(b, a)))

@@ -38,6 +38,9 @@ import _openfast_oc3 as oc3  # noqa: E402
 FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast.png"
 FST = "OC3Hywind.fst"
 ELASTODYN = "NRELOffshrBsline5MW_OC3Hywind_ElastoDyn.dat"
+SEASTATE = "SeaState.dat"
+#: the wave elevation at the platform's reference point, kept in a wave case's CSV
+WAVE_CHANNEL = "Wave1Elev"
 #: the masses of ElastoDyn's summary file kept (label in the file -> CSV name)
 ED_SUMMARY = {"Rotor Mass": "rotor_mass", "Rotor Inertia": "rotor_inertia",
               "Tower-top Mass": "tower_top_mass", "Tower Mass": "tower_mass",
@@ -88,6 +91,9 @@ def run_case(openfast, case, work):
     shutil.copytree(oc3.DECK, work, dirs_exist_ok=True)
     set_values(work / FST, {"TMax": f"{case.duration:g}", "DT_Out": f"{case.step:g}"})
     set_values(work / ELASTODYN, {k: f"{v:g}" for k, v in case.elastodyn.items()})
+    set_values(work / SEASTATE, case.seastate)
+    if case.hydrodyn:
+        set_values(work / FST, {"HydroFile": f'"{case.hydrodyn}"'})
     log = work / "openfast.log"
     with open(log, "w") as out:
         done = subprocess.run([openfast, FST], cwd=work, stdout=out, stderr=subprocess.STDOUT,
@@ -100,7 +106,8 @@ def run_case(openfast, case, work):
 
 def write_csv(case, out_file):
     names, units, data = read_out(out_file)
-    keep = [0] + [names.index(c) for c in oc3.CHANNELS]
+    channels = [*oc3.CHANNELS, *([WAVE_CHANNEL] if case.waves else [])]
+    keep = [0] + [names.index(c) for c in channels]
     header = ",".join(f"{names[k]} {units[k]}".replace("(", "[").replace(")", "]") for k in keep)
     oc3.OUTPUTS.mkdir(parents=True, exist_ok=True)
     np.savetxt(oc3.OUTPUTS / f"{case.name}.csv", data[:, keep], delimiter=",", fmt="%.7g",
@@ -148,24 +155,32 @@ def cmd_run(args):
     return 0
 
 
-def _panel(ax, case, of, kd):
+UNITS = {"PtfmSurge": "m", "PtfmHeave": "m", "PtfmPitch": "deg", "PtfmYaw": "deg",
+         "TTDspFA": "m"}
+
+
+def _panel(ax, case, of, kd, channel=None):
     """One case's responses on ``ax``; the title gives both codes' measures."""
     (t_of, a), (t_kd, b) = of, kd
-    channel = case.channel
+    channel = channel or case.channel
     ax.plot(t_of, a[channel], lw=1.2, label="OpenFAST")
     ax.plot(t_kd, b[channel], "--", lw=1.0, label="kanedyn")
-    unit = "deg" if channel in ("PtfmPitch", "PtfmYaw") else "m"
+    unit = UNITS[channel]
     ax.set_ylabel(f"{channel} [{unit}]")
-    if not case.elastodyn:     # released undisplaced: the offsets it settles to
+    if case.waves:
+        h_of, h_kd = (oc3.wave_harmonic(t, s[channel], oc3.WAVE_PERIOD, oc3.WAVE_START)
+                      for t, s in ((t_of, a), (t_kd, b)))
+        title = (f"{case.title}: {channel} amplitude at the wave period (from "
+                 f"{oc3.WAVE_START:g} s) {h_of.amplitude:.4g} / {h_kd.amplitude:.4g} {unit}")
+    elif not case.elastodyn:     # released undisplaced: the offsets it settles to
         period = 29.5                       # the pitch period, s
         title = (f"{case.title}: settles to {oc3.settled_offset(t_of, a[channel], period):.4f} / "
                  f"{oc3.settled_offset(t_kd, b[channel], period):.4f} {unit}")
-        print(title)
     else:
         m_of, m_kd = oc3.decay_measures(t_of, a[channel]), oc3.decay_measures(t_kd, b[channel])
         title = (f"{case.title}: period {m_of.period:.4g} / {m_kd.period:.4g} s, damping ratio "
                  f"{m_of.damping:.4f} / {m_kd.damping:.4f}")
-        print(title)
+    print(title)
     ax.set_title(title + " (OpenFAST / kanedyn)", fontsize=8)
     ax.legend(fontsize=7, loc="upper right")
 
@@ -173,13 +188,21 @@ def _panel(ax, case, of, kd):
 def cmd_figure(args):
     from kanedyn.analysis._plotting import pyplot, save_figure
     plt = pyplot()
-    cases = list(oc3.CASES.values())
-    fig, axes = plt.subplots((len(cases) + 1) // 2, 2, figsize=(12, 2.6 * ((len(cases) + 1) // 2)))
-    for ax, case in zip(axes.ravel(), cases):
-        _panel(ax, case, oc3.read_output_csv(oc3.OUTPUTS / f"{case.name}.csv"),
-               oc3.kanedyn_response(case))
+    # one panel per case, and the wave case's surge beside its pitch
+    panels = [(case, None) for case in oc3.CASES.values()]
+    panels += [(case, "PtfmSurge") for case in oc3.CASES.values() if case.waves]
+    rows = (len(panels) + 1) // 2
+    fig, axes = plt.subplots(rows, 2, figsize=(12, 2.6 * rows))
+    responses = {}
+    for ax, (case, channel) in zip(axes.ravel(), panels):
+        if case.name not in responses:
+            responses[case.name] = (oc3.read_output_csv(oc3.OUTPUTS / f"{case.name}.csv"),
+                                    oc3.kanedyn_response(case))
+        _panel(ax, case, *responses[case.name], channel=channel)
         ax.set_xlabel("time [s]", fontsize=8)
-    fig.suptitle("OC3-Hywind in still water, rotor parked: OpenFAST v5 (ElastoDyn, HydroDyn "
+    for ax in axes.ravel()[len(panels):]:
+        ax.set_visible(False)
+    fig.suptitle("OC3-Hywind, rotor parked, no wind: OpenFAST v5 (ElastoDyn, HydroDyn "
                  "with constant added mass, MAP++) and kanedyn oc3-spar on the same inputs",
                  fontsize=10)
     fig.tight_layout()
