@@ -270,7 +270,7 @@ def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
         else:
             series[channel] = res.y[names.index(target)] / factor
     if case.waves:   # the wave elevation at the platform's reference point (0, 0), m
-        series["Wave1Elev"] = d.elements["morison"].waves.elevation_series(0.0, res.t)
+        series["Wave1Elev"] = d.symbols["elements"]["morison"].waves.elevation_series(0.0, res.t)
     return res.t, series
 
 

@@ -214,14 +214,20 @@ def _both(name):
 
 
 #: case -> (relative period tolerance, damping-ratio tolerance (absolute), relative
-#: tolerance of the double amplitudes, cycles compared); measured differences in
-#: docs/oc3_model_card.md ("Against OpenFAST")
+#: tolerance of the double amplitudes, cycles compared); measured differences and their
+#: causes in docs/oc3_model_card.md ("Against OpenFAST")
+#: (surge is not compared: OpenFAST's loosely coupled surge decay is damped less than its
+#: linear damping matrix alone would damp it; the card's "OpenFAST's coupling")
 DECAY_TOLERANCES = {
-    "surge": (None, None, None, 3),
-    "heave": (0.005, 0.002, 0.03, 4),   # +1.9 %: OpenFAST's 0.17 % lighter RNA floats 1.7 cm higher
-    "pitch": (0.005, 0.004, 0.05, 4),
-    "yaw": (None, None, None, None),
-    "tower": (0.005, 0.001, 0.02, 10),
+    # measured: period 1e-5, damping 1e-5; double amplitudes 1.8 % larger in kanedyn,
+    # as OpenFAST's balance is 1.7 cm higher (its lighter RNA), 1.7 % of the release
+    "heave": (0.002, 0.001, 0.025, 4),
+    # measured: period -0.04 %, damping -0.0011, double amplitudes up to +1.6 %
+    "pitch": (0.003, 0.002, 0.025, 3),
+    # measured: period +0.52 %, damping -0.0002, double amplitudes up to +0.4 %
+    "yaw": (0.008, 0.001, 0.01, 4),
+    # measured: period -0.003 %, damping +0.0001, double amplitudes within 0.5 %
+    "tower": (0.002, 0.0005, 0.01, 10),
 }
 
 
@@ -245,12 +251,12 @@ def test_free_decay_against_openfast(name):
 @pytest.mark.slow
 def test_offsets_released_undisplaced_against_openfast(summary):
     """Released from the undisplaced position, both settle (a damped cosine fitted from
-    40 s) to the pitch and tower deflection of the RNA's overhanging weight within 5 %;
-    OpenFAST floats higher by its lighter RNA's buoyancy surplus, Δm g / (C33 + K33)
-    = 1.74 cm, measured 1.94 cm (the rest not identified), within 20 %."""
+    40 s) to the tower deflection of the RNA's overhanging weight within 5 % (measured
+    1.5 %); OpenFAST floats higher by its lighter RNA's buoyancy surplus,
+    Δm g / (C33 + K33) = 1.74 cm, measured 1.71 cm, within 5 %.  (The settled pitch is
+    not compared: OpenFAST's loosely coupled surge swings by a metre in this record,
+    docs/oc3_model_card.md, "OpenFAST's coupling".)"""
     (t_of, of), (t_kd, kd) = _both("still")
-    pitch = [oc3.settled_offset(t, s["PtfmPitch"], 29.5) for t, s in ((t_of, of), (t_kd, kd))]
-    assert pitch[1] < 0 and abs(pitch[1] / pitch[0] - 1) < 0.05
     top = [oc3.settled_offset(t, s["TTDspFA"], 29.5) for t, s in ((t_of, of), (t_kd, kd))]
     assert top[1] < 0 and abs(top[1] / top[0] - 1) < 0.05
     heave = [oc3.settled_offset(t, s["PtfmHeave"], 30.9) for t, s in ((t_of, of), (t_kd, kd))]
@@ -258,5 +264,37 @@ def test_offsets_released_undisplaced_against_openfast(summary):
     stiffness = _v(D.HYDRO, "C33") + _v(D.MOORING, "K33")
     expected = mass * _v(D.ENVIRONMENT, "gravity") / stiffness
     assert expected == pytest.approx(0.0174, abs=1e-4)
-    assert heave[0] - heave[1] == pytest.approx(expected, rel=0.2)
+    assert heave[0] - heave[1] == pytest.approx(expected, rel=0.05)
     assert abs(heave[1]) < 1e-3        # kanedyn starts within 0.15 mm of its balance
+
+
+#: channel -> (relative amplitude tolerance, phase tolerance (rad)) of the response at
+#: the wave period, from 60 s on; measured (kanedyn against OpenFAST): surge -0.65 %,
+#: pitch -1.0 %, tower-top deflection -0.8 %, phases within 0.0032 rad.  Heave is not
+#: compared: neither code has a first-order heave excitation here (no axial terms), its
+#: 5 to 11 mm at the wave period are second-order effects (docs/oc3_model_card.md)
+WAVE_TOLERANCES = {
+    "PtfmSurge": (0.02, 0.01),
+    "PtfmPitch": (0.025, 0.01),
+    "TTDspFA": (0.02, 0.01),
+}
+
+
+@pytest.mark.slow
+def test_regular_waves_against_openfast():
+    """In the same regular wave (H 6 m, T 10 s, a crest at the origin at t = 0 in both)
+    the responses at the wave period (fitted from 60 s on, with a cubic for the slow
+    transient) agree in amplitude and phase within the stated tolerances; the two wave
+    elevations first agree with the wave asked for, to 1e-4 of the amplitude."""
+    (t_of, of), (t_kd, kd) = _both("waves")
+    period, start = oc3.WAVE_PERIOD, oc3.WAVE_START
+    waves = [oc3.wave_harmonic(t, s["Wave1Elev"], period, start) for t, s in
+             ((t_of, of), (t_kd, kd))]
+    for h in waves:
+        assert h.amplitude == pytest.approx(oc3.WAVE_HEIGHT / 2, rel=1e-4)
+        assert abs(h.phase) < 1e-4
+    for channel, (amplitude_tol, phase_tol) in WAVE_TOLERANCES.items():
+        a, b = (oc3.wave_harmonic(t, s[channel], period, start) for t, s in
+                ((t_of, of), (t_kd, kd)))
+        assert abs(b.amplitude / a.amplitude - 1) < amplitude_tol, channel
+        assert abs(math.remainder(b.phase - a.phase, 2 * math.pi)) < phase_tol, channel
