@@ -170,17 +170,17 @@ def _panel(ax, case, of, kd, channel=None):
     if case.waves:
         h_of, h_kd = (oc3.wave_harmonic(t, s[channel], oc3.WAVE_PERIOD, oc3.WAVE_START)
                       for t, s in ((t_of, a), (t_kd, b)))
-        title = (f"{case.title}: {channel} amplitude at the wave period (from "
+        title = (f"{case.title}: {channel}\namplitude at the wave period (from "
                  f"{oc3.WAVE_START:g} s) {h_of.amplitude:.4g} / {h_kd.amplitude:.4g} {unit}")
     elif not case.elastodyn:     # released undisplaced: the offsets it settles to
         period = 29.5                       # the pitch period, s
-        title = (f"{case.title}: settles to {oc3.settled_offset(t_of, a[channel], period):.4f} / "
+        title = (f"{case.title}\nsettles to {oc3.settled_offset(t_of, a[channel], period):.4f} / "
                  f"{oc3.settled_offset(t_kd, b[channel], period):.4f} {unit}")
     else:
         m_of, m_kd = oc3.decay_measures(t_of, a[channel]), oc3.decay_measures(t_kd, b[channel])
-        title = (f"{case.title}: period {m_of.period:.4g} / {m_kd.period:.4g} s, damping ratio "
+        title = (f"{case.title}\nperiod {m_of.period:.4g} / {m_kd.period:.4g} s, damping ratio "
                  f"{m_of.damping:.4f} / {m_kd.damping:.4f}")
-    print(title)
+    print(title.replace("\n", ": "))
     ax.set_title(title + " (OpenFAST / kanedyn)", fontsize=8)
     ax.legend(fontsize=7, loc="upper right")
 
@@ -192,7 +192,7 @@ def cmd_figure(args):
     panels = [(case, None) for case in oc3.CASES.values()]
     panels += [(case, "PtfmSurge") for case in oc3.CASES.values() if case.waves]
     rows = (len(panels) + 1) // 2
-    fig, axes = plt.subplots(rows, 2, figsize=(12, 2.6 * rows))
+    fig, axes = plt.subplots(rows, 2, figsize=(12, 2.9 * rows))
     responses = {}
     for ax, (case, channel) in zip(axes.ravel(), panels):
         if case.name not in responses:
