@@ -229,7 +229,8 @@ def test_modes_given_for_the_start_are_checked_and_changes_recorded():
     assert res["s"][-1] == pytest.approx(-down * 0.5 ** 2 / 2, abs=1e-9)
 
 
-def test_slow_slip_turned_by_a_side_force_stops_at_the_closed_form():
+@pytest.mark.parametrize("backend", ["numpy", "c"])  # c: the compiled contact segments
+def test_slow_slip_turned_by_a_side_force_stops_at_the_closed_form(backend):
     """A puck launched slowly (1e-3 m/s, 1000 times the stick speed of 1e-6 m/s at the
     default tolerances) along x on a floor, pushed along y by half its friction: the
     slip turns towards the force while it slows and stops at the closed form
@@ -252,7 +253,8 @@ def test_slow_slip_turned_by_a_side_force_stops_at_the_closed_form():
     model = kd.kane(frame=N, q_ind=[x, y, z], u_ind=[ux, uy, uz],
                     kd_eqs=[x.diff() - ux, y.diff() - uy, z.diff() - uz],
                     bodies=[me.Particle("puck", P, M)],
-                    loads=[(P, M * (a * N.y - G * N.z))], contacts=[floor]).numeric()
+                    loads=[(P, M * (a * N.y - G * N.z))],
+                    contacts=[floor]).numeric(backend=backend)
     C = v0 / math.tan(math.pi / 4) ** (1 / k)  # v at phi = 90 deg
     t_stop = quad(lambda p: C * math.tan(p / 2) ** (1 / k) / math.sin(p) ** 2 / a,
                   0.0, math.pi / 2)[0]
