@@ -121,6 +121,36 @@ def test_sphere_rebounds_to_e_squared_of_its_drop(tmp_path):
     assert np.max(res.y[2, after]) - (z0 - h) == pytest.approx(e ** 2 * h, rel=1e-4)
 
 
+def test_ball_launched_sliding_rolls_at_five_sevenths_of_its_speed(tmp_path):
+    """A solid URDF ball (inertia 2/5 m r^2) launched along the ground at v0 without
+    spin slides, friction spinning it up, until it rolls at 5 v0 / 7, at
+    t = 2 v0 / (7 mu g), 12 v0^2 / (49 mu g) on; then it rolls on without friction
+    (the body's point at the bottom of the ball sticks): 2/7 of its kinetic energy
+    dissipated."""
+    m, r, mu, v0 = 0.5, 0.04, 0.2, 1.0
+    path = tmp_path / "ball.urdf"
+    path.write_text(SPHERE_URDF.replace('<origin xyz="0 0 0.1"/>', "").replace(
+        "0.0008", repr(0.4 * m * r ** 2)))
+    definition = kd.models.from_urdf(path, base="floating",
+                                     ground=kd.Ground(height=0.0, mu_k=mu, restitution=0.0))
+    t_roll = 2 * v0 / (7 * mu * G)
+    res = kd.simulate(definition.numeric(), (0.0, 2 * t_roll),
+                      _state(definition, z=r, v_x=v0), rtol=1e-10, atol=1e-10)
+    (change,) = res.mode_history
+    assert (change.old, change.new, change.t) == ("slip", "stick", pytest.approx(t_roll,
+                                                                               rel=1e-8))
+    after = res.t > t_roll
+    from scipy.spatial.transform import Rotation  # the speeds are along the ball's axes
+    turned = Rotation.from_euler("XYZ", res.y[3:6, after].T)
+    v = turned.apply(res.y[6:9, after].T)
+    w = turned.apply(res.y[9:12, after].T)
+    assert v[:, 0] == pytest.approx(5 * v0 / 7, rel=1e-8)
+    assert w[:, 1] * r == pytest.approx(v[:, 0], rel=1e-8)  # rolling
+    x_roll = 12 * v0 ** 2 / (49 * mu * G)
+    assert res["x"][-1] == pytest.approx(x_roll + 5 * v0 / 7 * (res.t[-1] - t_roll),
+                                         rel=1e-8)
+    assert -res.dissipated_work[-1] == pytest.approx(2 / 7 * 0.5 * m * v0 ** 2, rel=1e-8)
+
 def test_capsule_lies_on_the_ground_on_its_end_spheres(tmp_path):
     """A horizontal MJCF capsule falls and rests with its axis at its radius above
     the ground, each end sphere carrying half the weight."""
@@ -371,6 +401,7 @@ def test_quadruped_drop_compared_with_mujoco(tmp_path):
 
 
 SOLO_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
+SOLO_RADIUS = 0.016  # m: the feet as balls of the foot mesh's radius
 SOLO_POSTURE = {"HAA": 0.0, "FL_HFE": 0.8, "FR_HFE": 0.8, "HL_HFE": -0.8, "HR_HFE": -0.8,
                 "FL_KFE": -1.6, "FR_KFE": -1.6, "HL_KFE": 1.6, "HR_KFE": 1.6}
 
@@ -409,10 +440,11 @@ def test_solo12_stands_on_its_feet():
     lowest feet (from Pinocchio's forward kinematics), settles, and at rest (i) the
     normal forces sum to its weight (its masses summed from the URDF file), (ii)
     the feet rest on the ground and (iii) Pinocchio's generalized gravity equals
-    the spring torques plus the contact forces through its foot Jacobians."""
+    the spring torques plus the contact forces through the Jacobians of the balls'
+    bottoms."""
     import xml.etree.ElementTree as ET
     path, pin = _solo12()
-    radius, kp, kd_ = 0.016, 20.0, 0.5
+    radius, kp, kd_ = SOLO_RADIUS, 20.0, 0.5
     ground = kd.Ground(height=0.0, mu_k=0.8, restitution=0.0)
     with pytest.warns(UserWarning, match="13 collision shape"):  # the base's, legs' meshes
         definition = kd.models.from_urdf(path, base="floating", ground=ground, ground_points={
@@ -446,7 +478,7 @@ def test_solo12_stands_on_its_feet():
     t_fall = np.sqrt(2 * (np.min(foot_heights(y0)) - radius) / G)
     assert res.impacts[0].t == pytest.approx(t_fall, rel=1e-6)
     y = res.y[:, -1]
-    assert np.max(np.abs(y[n:])) < 1e-9                                # at rest
+    assert np.max(np.abs(y[n:])) < 1e-8                                # at rest
     assert foot_heights(y) == pytest.approx([radius] * 4, abs=1e-9)   # on the ground
     masses = [float(m.get("value")) for m in ET.parse(path).iter("mass")]
     normal = _normal_forces(res)
@@ -465,6 +497,149 @@ def test_solo12_stands_on_its_feet():
     for foot, frame in zip(SOLO_FEET, feet):
         forces = res.contact_forces[f"{foot}/point0"]
         f = forces["friction"][-1] + np.array([0.0, 0.0, forces["normal"][-1]])
-        J = pin.getFrameJacobian(pmodel, data, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
-        tau += J.T @ f
+        J = pin.getFrameJacobian(pmodel, data, frame, pin.LOCAL_WORLD_ALIGNED)
+        # the force acts at the bottom of the ball, r = (0, 0, -radius) from the foot
+        r_cross = np.array([[0.0, radius, 0.0], [-radius, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        tau += (J[:3] - r_cross @ J[3:]).T @ f
     assert tau == pytest.approx(gravity, abs=1e-8 * np.max(np.abs(gravity)))
+
+
+def _locked_solo12(tmp_path, path):
+    """Solo12's URDF with every joint locked in the standing posture (a revolute
+    joint turned fixed, its origin turned by the posture angle about its axis)."""
+    import xml.etree.ElementTree as ET
+    from scipy.spatial.transform import Rotation
+    tree = ET.parse(path)
+    for joint in tree.getroot().iter("joint"):
+        if joint.get("type") != "revolute":
+            continue
+        origin = joint.find("origin")
+        axis = np.array([float(v) for v in joint.find("axis").get("xyz").split()])
+        turned = (Rotation.from_euler("xyz", [float(v) for v in origin.get("rpy").split()])
+                  * Rotation.from_rotvec(axis * _target(joint.get("name"))))
+        origin.set("rpy", " ".join(repr(float(a)) for a in turned.as_euler("xyz")))
+        joint.set("type", "fixed")
+        for tag in ("axis", "limit", "dynamics"):
+            for element in joint.findall(tag):
+                joint.remove(element)
+    locked = tmp_path / "solo12_locked.urdf"
+    tree.write(locked)
+    return locked
+
+
+def _with_gravity_potential(definition):
+    """The definition with its gravity potential ``sum m g z`` declared (from_urdf
+    gives gravity as loads): ``res.energy`` and ``res.energy_balance()``."""
+    from dataclasses import replace
+    N, O, g = definition.kane_args["frame"], definition.symbols["O"], definition.symbols["g"]
+    V = sum(b.mass * g * b.masscenter.pos_from(O).dot(N.z)
+            for b in definition.kane_args["bodies"])
+    return replace(definition, kane_args={**definition.kane_args, "potential_energy": V})
+
+
+def _locked_solo12_model(tmp_path, mu):
+    """The locked Solo12 on a ground of friction ``mu`` (its feet: 16 mm balls),
+    its numerical model, Pinocchio's model of it, and its foot frames."""
+    path, pin = _solo12()
+    locked = _locked_solo12(tmp_path, path)
+    ground = kd.Ground(height=0.0, mu_k=mu, restitution=0.0)
+    with pytest.warns(UserWarning, match="collision shape"):  # the meshes
+        definition = kd.models.from_urdf(locked, base="floating", ground=ground,
+                                         ground_points={foot: [(0.0, 0.0, 0.0, SOLO_RADIUS)]
+                                                        for foot in SOLO_FEET})
+    pmodel = pin.buildModelFromUrdf(str(locked), pin.JointModelFreeFlyer())
+    return (_with_gravity_potential(definition).numeric(), pin, pmodel,
+            [pmodel.getFrameId(foot) for foot in SOLO_FEET])
+
+
+def _foot_points(pin, pmodel, frames, y):
+    """The feet's centres (4, 3) in the world at the locked robot's state ``y``."""
+    from scipy.spatial.transform import Rotation
+    data = pmodel.createData()
+    q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
+    pin.framesForwardKinematics(pmodel, data, q)
+    return np.array([data.oMf[f].translation for f in frames])
+
+
+def _check_energy(res):
+    """Dissipation is never negative and the energy balance closes: the energy lost
+    is what friction and the impacts dissipated."""
+    assert np.max(np.abs(res.energy_balance())) < 1e-8 * res.energy[0]
+    assert all(impact.energy_loss >= 0 for impact in res.impacts)
+    # the friction work (<= 0) never grows but by the work on the residual slip of
+    # sticking feet (up to the stick speed)
+    assert np.all(np.diff(res.dissipated_work) <= 1e-8 * abs(res.dissipated_work[-1]))
+    lost = res.energy[0] - res.energy[-1]  # the rest: normal forces on the contact drift
+    assert lost == pytest.approx(-res.dissipated_work[-1]
+                                 + sum(i.energy_loss for i in res.impacts), rel=1e-6)
+    return lost
+
+
+def test_solo12_locked_dropped_tilted_rocks_to_rest(tmp_path):
+    """Solo12 with its joints locked in the standing posture, dropped from a base
+    height of 0.30 m rolled 0.1 rad and pitched 0.15 rad (friction 0.8, plastic
+    impacts): the front right foot lands first, at its free-fall time (Pinocchio's
+    kinematics of the tilted robot); the others follow as it pivots and rocks from
+    foot pair to foot pair (22 impacts) until it rests on its four feet, each
+    carrying a quarter of its weight; the energy lost is what the impacts and
+    friction dissipated, to the integration's tolerance."""
+    model, pin, pmodel, frames = _locked_solo12_model(tmp_path, 0.8)
+    y0 = np.zeros(12)
+    y0[2:5] = 0.30, 0.1, 0.15
+    res = kd.simulate(model, (0.0, 0.5), y0, max_step=0.01)
+    assert res.success, res.message
+    heights = _foot_points(pin, pmodel, frames, y0)[:, 2] - SOLO_RADIUS
+    first = res.impacts[0]
+    assert first.contacts == ("FR_FOOT/point0",)
+    assert np.argmin(heights) == 1
+    assert first.t == pytest.approx(np.sqrt(2 * np.min(heights) / G), rel=1e-8)
+    touchdown = {foot: min(c.t for c in res.mode_history if c.contact == f"{foot}/point0")
+                 for foot in SOLO_FEET}
+    assert sorted(touchdown, key=touchdown.get) == ["FR_FOOT", "FL_FOOT", "HL_FOOT", "HR_FOOT"]
+    y = res.y[:, -1]
+    assert np.max(np.abs(y[6:])) < 1e-6  # at rest, to the stick speed 100 atol
+    assert _foot_points(pin, pmodel, frames, y)[:, 2] == pytest.approx(  # to the drift
+        [SOLO_RADIUS] * 4, abs=1e-7)
+    weight = sum(i.mass for i in pmodel.inertias) * G
+    assert list(_normal_forces(res).values()) == pytest.approx([weight / 4] * 4, rel=1e-6)
+    _check_energy(res)
+
+
+def test_solo12_locked_slides_to_the_closed_form(tmp_path):
+    """The locked Solo12 standing on a ground of friction 0.1, launched forwards at
+    1 m/s: all four feet slide, the robot translates without turning and stops after
+    v0^2 / (2 mu g) in v0 / (mu g), every sliding foot at once.  While it slides
+    the normal forces carry its weight and the front feet carry more than the hind
+    ones: their moment about the mass centre balances the friction's
+    (``sum N_i (x_i - x_G) = mu m g h_G``); the kinetic energy is what friction
+    dissipates."""
+    mu, v0 = 0.1, 1.0
+    model, pin, pmodel, frames = _locked_solo12_model(tmp_path, mu)
+    y0 = np.zeros(12)
+    y0[2] = SOLO_RADIUS - _foot_points(pin, pmodel, frames, y0)[0, 2]  # feet on the ground
+    y0[6] = v0
+    t_stop = v0 / (mu * G)
+    res = kd.simulate(model, (0.0, 1.2 * t_stop), y0, max_step=0.01, rtol=1e-10, atol=1e-10)
+    assert res.success, res.message
+    assert res.y[0, -1] == pytest.approx(v0 ** 2 / (2 * mu * G), rel=1e-9)
+    assert np.max(np.abs(res.y[[1, 3, 4, 5], :])) < 1e-9      # no sideways, no turning
+    stops = [c for c in res.mode_history if (c.old, c.new) == ("slip", "stick")]
+    assert stops and {c.t for c in stops} == {stops[0].t}
+    assert stops[0].t == pytest.approx(t_stop, rel=1e-9)
+    weight = sum(i.mass for i in pmodel.inertias) * G
+    sliding = res.t < t_stop
+    forces = res.contact_forces
+    normal = np.array([forces[f"{foot}/point0"]["normal"] for foot in SOLO_FEET])
+    assert normal[:, sliding].sum(axis=0) == pytest.approx(weight, rel=1e-9)
+    data = pmodel.createData()
+    k = np.searchsorted(res.t, t_stop / 2)
+    y = res.y[:, k]
+    from scipy.spatial.transform import Rotation
+    q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
+    centre = pin.centerOfMass(pmodel, data, q)
+    feet = _foot_points(pin, pmodel, frames, y)
+    moment = normal[:, k] @ (feet[:, 0] - centre[0])
+    assert moment == pytest.approx(mu * weight * centre[2], rel=1e-8)
+    assert normal[0, k] + normal[1, k] > normal[2, k] + normal[3, k]  # front over hind
+    assert -res.dissipated_work[-1] == pytest.approx(res.kinetic_energy[0], rel=1e-9)
+    _check_energy(res)
