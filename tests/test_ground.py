@@ -504,7 +504,7 @@ def test_solo12_stands_on_its_feet():
     assert tau == pytest.approx(gravity, abs=1e-8 * np.max(np.abs(gravity)))
 
 
-def _locked_solo12(tmp_path, path):
+def _locked_solo12_urdf(folder, path):
     """Solo12's URDF with every joint locked in the standing posture (a revolute
     joint turned fixed, its origin turned by the posture angle about its axis)."""
     import xml.etree.ElementTree as ET
@@ -522,7 +522,7 @@ def _locked_solo12(tmp_path, path):
         for tag in ("axis", "limit", "dynamics"):
             for element in joint.findall(tag):
                 joint.remove(element)
-    locked = tmp_path / "solo12_locked.urdf"
+    locked = folder / "solo12_locked.urdf"
     tree.write(locked)
     return locked
 
@@ -537,28 +537,67 @@ def _with_gravity_potential(definition):
     return replace(definition, kane_args={**definition.kane_args, "potential_energy": V})
 
 
-def _locked_solo12_model(tmp_path, mu):
-    """The locked Solo12 on a ground of friction ``mu`` (its feet: 16 mm balls),
-    its numerical model, Pinocchio's model of it, and its foot frames."""
+@pytest.fixture(scope="module")
+def locked_solo12(tmp_path_factory):
+    """Solo12 with its joints locked: the URDF file, Pinocchio's model of it, its
+    foot frames and weight (N), and kanedyn's model on a ground of a friction."""
+    from types import SimpleNamespace
     path, pin = _solo12()
-    locked = _locked_solo12(tmp_path, path)
-    ground = kd.Ground(height=0.0, mu_k=mu, restitution=0.0)
-    with pytest.warns(UserWarning, match="collision shape"):  # the meshes
-        definition = kd.models.from_urdf(locked, base="floating", ground=ground,
-                                         ground_points={foot: [(0.0, 0.0, 0.0, SOLO_RADIUS)]
-                                                        for foot in SOLO_FEET})
+    locked = _locked_solo12_urdf(tmp_path_factory.mktemp("solo12"), path)
     pmodel = pin.buildModelFromUrdf(str(locked), pin.JointModelFreeFlyer())
-    return (_with_gravity_potential(definition).numeric(), pin, pmodel,
-            [pmodel.getFrameId(foot) for foot in SOLO_FEET])
+
+    def model(mu):
+        ground = kd.Ground(height=0.0, mu_k=mu, restitution=0.0)
+        with pytest.warns(UserWarning, match="collision shape"):  # the meshes
+            definition = kd.models.from_urdf(locked, base="floating", ground=ground,
+                                             ground_points={foot: [(0, 0, 0, SOLO_RADIUS)]
+                                                            for foot in SOLO_FEET})
+        return _with_gravity_potential(definition).numeric()
+
+    return SimpleNamespace(path=locked, pin=pin, pmodel=pmodel, model=model,
+                           frames=[pmodel.getFrameId(foot) for foot in SOLO_FEET],
+                           weight=sum(i.mass for i in pmodel.inertias) * G)
 
 
-def _foot_points(pin, pmodel, frames, y):
+def _foot_points(solo, y):
     """The feet's centres (4, 3) in the world at the locked robot's state ``y``."""
     from scipy.spatial.transform import Rotation
-    data = pmodel.createData()
+    data = solo.pmodel.createData()
     q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
-    pin.framesForwardKinematics(pmodel, data, q)
-    return np.array([data.oMf[f].translation for f in frames])
+    solo.pin.framesForwardKinematics(solo.pmodel, data, q)
+    return np.array([data.oMf[f].translation for f in solo.frames])
+
+
+#: the tilted drop: base height (m), roll and pitch (rad), friction
+SOLO_DROP = (0.30, 0.1, 0.15, 0.8)
+#: the slide: friction, launch speed (m/s)
+SOLO_SLIDE = (0.1, 1.0)
+
+
+@pytest.fixture(scope="module")
+def locked_drop(locked_solo12):
+    """The locked Solo12 dropped tilted: its initial state and the result."""
+    z, roll, pitch, mu = SOLO_DROP
+    y0 = np.zeros(12)
+    y0[2:5] = z, roll, pitch
+    return y0, kd.simulate(locked_solo12.model(mu), (0.0, 0.5), y0, max_step=0.01)
+
+
+@pytest.fixture(scope="module")
+def locked_slide(locked_solo12):
+    """The locked Solo12 launched forwards on its feet: its initial state and result."""
+    mu, v0 = SOLO_SLIDE
+    y0 = np.zeros(12)
+    y0[2] = SOLO_RADIUS - _foot_points(locked_solo12, y0)[0, 2]  # feet on the ground
+    y0[6] = v0
+    return y0, kd.simulate(locked_solo12.model(mu), (0.0, 1.2 * v0 / (mu * G)), y0,
+                           max_step=0.01, rtol=1e-10, atol=1e-10)
+
+
+def _touchdowns(res):
+    """The first time each foot touches the ground (s)."""
+    return {foot: min(c.t for c in res.mode_history if c.contact == f"{foot}/point0")
+            for foot in SOLO_FEET}
 
 
 def _check_energy(res):
@@ -572,74 +611,160 @@ def _check_energy(res):
     lost = res.energy[0] - res.energy[-1]  # the rest: normal forces on the contact drift
     assert lost == pytest.approx(-res.dissipated_work[-1]
                                  + sum(i.energy_loss for i in res.impacts), rel=1e-6)
-    return lost
 
 
-def test_solo12_locked_dropped_tilted_rocks_to_rest(tmp_path):
+def test_solo12_locked_dropped_tilted_rocks_to_rest(locked_solo12, locked_drop):
     """Solo12 with its joints locked in the standing posture, dropped from a base
     height of 0.30 m rolled 0.1 rad and pitched 0.15 rad (friction 0.8, plastic
     impacts): the front right foot lands first, at its free-fall time (Pinocchio's
-    kinematics of the tilted robot); the others follow as it pivots and rocks from
-    foot pair to foot pair (22 impacts) until it rests on its four feet, each
-    carrying a quarter of its weight; the energy lost is what the impacts and
-    friction dissipated, to the integration's tolerance."""
-    model, pin, pmodel, frames = _locked_solo12_model(tmp_path, 0.8)
-    y0 = np.zeros(12)
-    y0[2:5] = 0.30, 0.1, 0.15
-    res = kd.simulate(model, (0.0, 0.5), y0, max_step=0.01)
+    kinematics of the tilted robot); the others follow as it rolls on that foot's
+    ball and rocks from foot pair to foot pair until it rests on its four feet,
+    each carrying a quarter of its weight; the energy lost is what the impacts
+    and friction dissipated, to the integration's tolerance."""
+    y0, res = locked_drop
     assert res.success, res.message
-    heights = _foot_points(pin, pmodel, frames, y0)[:, 2] - SOLO_RADIUS
+    heights = _foot_points(locked_solo12, y0)[:, 2] - SOLO_RADIUS
     first = res.impacts[0]
     assert first.contacts == ("FR_FOOT/point0",)
     assert np.argmin(heights) == 1
     assert first.t == pytest.approx(np.sqrt(2 * np.min(heights) / G), rel=1e-8)
-    touchdown = {foot: min(c.t for c in res.mode_history if c.contact == f"{foot}/point0")
-                 for foot in SOLO_FEET}
+    touchdown = _touchdowns(res)
     assert sorted(touchdown, key=touchdown.get) == ["FR_FOOT", "FL_FOOT", "HL_FOOT", "HR_FOOT"]
     y = res.y[:, -1]
     assert np.max(np.abs(y[6:])) < 1e-6  # at rest, to the stick speed 100 atol
-    assert _foot_points(pin, pmodel, frames, y)[:, 2] == pytest.approx(  # to the drift
+    assert _foot_points(locked_solo12, y)[:, 2] == pytest.approx(  # to the drift
         [SOLO_RADIUS] * 4, abs=1e-7)
-    weight = sum(i.mass for i in pmodel.inertias) * G
+    weight = locked_solo12.weight
     assert list(_normal_forces(res).values()) == pytest.approx([weight / 4] * 4, rel=1e-6)
     _check_energy(res)
 
 
-def test_solo12_locked_slides_to_the_closed_form(tmp_path):
+def test_solo12_locked_slides_to_the_closed_form(locked_solo12, locked_slide):
     """The locked Solo12 standing on a ground of friction 0.1, launched forwards at
     1 m/s: all four feet slide, the robot translates without turning and stops after
     v0^2 / (2 mu g) in v0 / (mu g), every sliding foot at once.  While it slides
     the normal forces carry its weight and the front feet carry more than the hind
-    ones: their moment about the mass centre balances the friction's
-    (``sum N_i (x_i - x_G) = mu m g h_G``); the kinetic energy is what friction
+    ones: their moment about the mass centre balances the friction's at the ground
+    (``sum N_i (x_i - x_G) = mu m g z_G``); the kinetic energy is what friction
     dissipates."""
-    mu, v0 = 0.1, 1.0
-    model, pin, pmodel, frames = _locked_solo12_model(tmp_path, mu)
-    y0 = np.zeros(12)
-    y0[2] = SOLO_RADIUS - _foot_points(pin, pmodel, frames, y0)[0, 2]  # feet on the ground
-    y0[6] = v0
-    t_stop = v0 / (mu * G)
-    res = kd.simulate(model, (0.0, 1.2 * t_stop), y0, max_step=0.01, rtol=1e-10, atol=1e-10)
+    from scipy.spatial.transform import Rotation
+    mu, v0 = SOLO_SLIDE
+    y0, res = locked_slide
     assert res.success, res.message
+    t_stop = v0 / (mu * G)
     assert res.y[0, -1] == pytest.approx(v0 ** 2 / (2 * mu * G), rel=1e-9)
     assert np.max(np.abs(res.y[[1, 3, 4, 5], :])) < 1e-9      # no sideways, no turning
     stops = [c for c in res.mode_history if (c.old, c.new) == ("slip", "stick")]
     assert stops and {c.t for c in stops} == {stops[0].t}
     assert stops[0].t == pytest.approx(t_stop, rel=1e-9)
-    weight = sum(i.mass for i in pmodel.inertias) * G
+    weight = locked_solo12.weight
+    normal = np.array([res.contact_forces[f"{foot}/point0"]["normal"] for foot in SOLO_FEET])
     sliding = res.t < t_stop
-    forces = res.contact_forces
-    normal = np.array([forces[f"{foot}/point0"]["normal"] for foot in SOLO_FEET])
     assert normal[:, sliding].sum(axis=0) == pytest.approx(weight, rel=1e-9)
-    data = pmodel.createData()
     k = np.searchsorted(res.t, t_stop / 2)
     y = res.y[:, k]
-    from scipy.spatial.transform import Rotation
+    pin, pmodel = locked_solo12.pin, locked_solo12.pmodel
     q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
-    centre = pin.centerOfMass(pmodel, data, q)
-    feet = _foot_points(pin, pmodel, frames, y)
-    moment = normal[:, k] @ (feet[:, 0] - centre[0])
-    assert moment == pytest.approx(mu * weight * centre[2], rel=1e-8)
+    centre = pin.centerOfMass(pmodel, pmodel.createData(), q)
+    feet = _foot_points(locked_solo12, y)
+    assert normal[:, k] @ (feet[:, 0] - centre[0]) == pytest.approx(mu * weight * centre[2],
+                                                                    rel=1e-8)
     assert normal[0, k] + normal[1, k] > normal[2, k] + normal[3, k]  # front over hind
     assert -res.dissipated_work[-1] == pytest.approx(res.kinetic_energy[0], rel=1e-9)
     _check_energy(res)
+
+
+def _mujoco_solo12(mujoco, solo, mu):
+    """MuJoCo's model of the locked Solo12: its own reader of the URDF (bodies,
+    masses, inertias; visual and collision meshes left out), a free joint, balls of
+    the feet's radius at the foot frames as its only geoms, a floor plane of the
+    same friction; stiff contacts (time constant 0.2 ms, damping ratio 5: no
+    rebound, as kanedyn's plastic impacts; impedance 0.99 to 0.999), elliptic
+    friction cones, 0.02 ms steps."""
+    import xml.etree.ElementTree as ET
+    root = ET.parse(solo.path).getroot()
+    for link in root.iter("link"):
+        for tag in ("visual", "collision"):
+            for element in link.findall(tag):
+                link.remove(element)
+    ET.SubElement(ET.SubElement(root, "mujoco"), "compiler", fusestatic="false",
+                  discardvisual="true", balanceinertia="false")
+    spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
+    spec.option.timestep = 2e-5
+    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
+    spec.body("base_link").add_freejoint()
+    contact = dict(friction=[mu, 0.0, 0.0], solref=[2e-4, 5.0],
+                   solimp=[0.99, 0.999, 0.001, 0.5, 2.0])
+    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5.0, 5.0, 0.1], **contact)
+    for foot in SOLO_FEET:
+        spec.body(foot).add_geom(name=foot, type=mujoco.mjtGeom.mjGEOM_SPHERE,
+                                 size=[SOLO_RADIUS, 0.0, 0.0], mass=0.0, **contact)
+    return spec.compile()
+
+
+def _mujoco_run(mujoco, model, y0, t_end):
+    """MuJoCo from kanedyn's state ``y0`` (level or tilted, speeds along the world
+    axes): the first time each foot penetrates the floor, the final position
+    (3,), body-fixed x-y-z angles and speeds, and the summed normal force (N)."""
+    from scipy.spatial.transform import Rotation
+    data = mujoco.MjData(model)
+    data.qpos[:3] = y0[:3]
+    x, y, z, w = Rotation.from_euler("XYZ", y0[3:6]).as_quat()
+    data.qpos[3:7] = w, x, y, z
+    data.qvel[:3] = y0[6:9]
+    feet = {model.geom(foot).id: foot for foot in SOLO_FEET}
+    touchdown = {}
+    while data.time < t_end:
+        mujoco.mj_step(model, data)
+        if len(touchdown) < len(feet) and data.ncon:
+            contacts = data.contact
+            for geom in np.concatenate([contacts.geom1[contacts.dist < 0],
+                                        contacts.geom2[contacts.dist < 0]]):
+                if geom in feet:
+                    touchdown.setdefault(feet[geom], data.time)
+    wrench, normal = np.zeros(6), 0.0
+    for i in range(data.ncon):
+        mujoco.mj_contactForce(model, data, i, wrench)
+        normal += wrench[0]
+    w, x, y, z = data.qpos[3:7]
+    return (touchdown, data.qpos[:3].copy(), Rotation.from_quat([x, y, z, w]).as_euler("XYZ"),
+            data.qvel.copy(), normal)
+
+
+def test_solo12_locked_compared_with_mujoco(locked_solo12, locked_drop, locked_slide):
+    """The tilted drop and the slide of the locked Solo12 in MuJoCo (its own URDF
+    reader gives the same mass matrix as kanedyn's, to rounding).  The model
+    differences: MuJoCo's contacts are soft (the feet sink in by a fraction of a
+    micrometre at rest, impacts last a few steps, friction is regularized) and it
+    steps at 0.02 ms; kanedyn's are rigid, impacts instantaneous and plastic.  The
+    feet touch down in the same order, each within 0.1 ms (MuJoCo sees a touch at
+    the step after it); after 25 impacts in kanedyn both rest within 0.1 mm and
+    0.5 mrad of heading of each other, the base at the same height to 1
+    micrometre, the normal forces carrying the weight; MuJoCo's slide stops 0.45 mm
+    (0.09 %) beyond v0^2 / (2 mu g), where kanedyn's stops."""
+    mujoco = pytest.importorskip("mujoco")
+    solo = locked_solo12
+    y0, res = locked_drop
+    model = _mujoco_solo12(mujoco, solo, SOLO_DROP[3])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)  # the level pose: MuJoCo's speeds are kanedyn's
+    M = np.zeros((6, 6))
+    mujoco.mj_fullM(model, data, M)
+    assert M == pytest.approx(res.model.mass_matrix(0.0, np.zeros(12)), abs=1e-12)
+    touchdown, position, angles, speeds, normal = _mujoco_run(mujoco, model, y0, 0.5)
+    ours = _touchdowns(res)
+    assert sorted(touchdown, key=touchdown.get) == sorted(ours, key=ours.get)
+    later = np.array([touchdown[f] - ours[f] for f in SOLO_FEET])
+    assert np.all((later >= 0) & (later < 1e-4))
+    y = res.y[:, -1]
+    assert position[:2] == pytest.approx(y[:2], abs=1e-4)
+    assert angles[2] == pytest.approx(y[5], abs=5e-4)
+    assert position[2] == pytest.approx(y[2], abs=1e-6)
+    assert np.max(np.abs(speeds)) < 1e-6
+    assert normal == pytest.approx(solo.weight, rel=1e-6)
+    mu, v0 = SOLO_SLIDE
+    y0, res = locked_slide
+    _, position, angles, speeds, normal = _mujoco_run(
+        mujoco, _mujoco_solo12(mujoco, solo, mu), y0, res.t[-1])
+    assert 0 < position[0] - v0 ** 2 / (2 * mu * G) < 1e-3
+    assert np.max(np.abs(speeds)) < 1e-6
