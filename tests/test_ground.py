@@ -4,12 +4,17 @@ statics (normal forces carry the weight, shared by symmetry), closed forms (a
 sliding box's stopping distance and time, a sphere's rebound height) and, for a
 quadruped dropped on its springy legs, MuJoCo's simulation of the same file."""
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import kanedyn as kd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import _solo12 as solo12  # noqa: E402
 
 G = 9.81
 
@@ -400,26 +405,17 @@ def test_quadruped_drop_compared_with_mujoco(tmp_path):
     assert normal_mj == pytest.approx(weight, rel=1e-3)
 
 
-SOLO_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
-SOLO_RADIUS = 0.016  # m: the feet as balls of the foot mesh's radius
-SOLO_POSTURE = {"HAA": 0.0, "FL_HFE": 0.8, "FR_HFE": 0.8, "HL_HFE": -0.8, "HR_HFE": -0.8,
-                "FL_KFE": -1.6, "FR_KFE": -1.6, "HL_KFE": 1.6, "HR_KFE": 1.6}
+SOLO_FEET, SOLO_RADIUS = solo12.FEET, solo12.RADIUS
 
 
 def _solo12():
     """Solo12's URDF (example-robot-data) and Pinocchio, or skip."""
-    from importlib.metadata import PackageNotFoundError, distribution
+    from importlib.metadata import PackageNotFoundError
     pin = pytest.importorskip("pinocchio")
     try:
-        robots = distribution("example-robot-data").locate_file(
-            "cmeel.prefix/share/example-robot-data/robots")
+        return solo12.solo12_urdf(), pin
     except PackageNotFoundError:
         pytest.skip("needs example-robot-data")
-    return robots / "solo_description/robots/solo12.urdf", pin
-
-
-def _target(joint):
-    return SOLO_POSTURE["HAA"] if joint.endswith("HAA") else SOLO_POSTURE[joint]
 
 
 def _pinocchio_q(pin, pmodel, names, y):
@@ -460,11 +456,11 @@ def test_solo12_stands_on_its_feet():
     specified = {}
     for s in definition.specified:
         joint = str(s).removesuffix("(t)").removeprefix("tau_")
-        specified[s] = pd(names.index("q_" + joint), _target(joint))
+        specified[s] = pd(names.index("q_" + joint), solo12.posture(joint))
     model = definition.numeric(specified=specified, backend="c")
     y0 = np.zeros(2 * n)
     y0[2] = 0.30
-    y0[6:n] = [_target(name.removeprefix("q_")) for name in names[6:]]
+    y0[6:n] = [solo12.posture(name.removeprefix("q_")) for name in names[6:]]
     res = kd.simulate(model, (0.0, 2.0), y0, max_step=0.01)
 
     pmodel = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
@@ -493,7 +489,7 @@ def test_solo12_stands_on_its_feet():
     tau = np.zeros(pmodel.nv)
     for k, name in enumerate(names[6:], start=6):
         joint = name.removeprefix("q_")
-        tau[pmodel.joints[pmodel.getJointId(joint)].idx_v] = -kp * (y[k] - _target(joint))
+        tau[pmodel.joints[pmodel.getJointId(joint)].idx_v] = -kp * (y[k] - solo12.posture(joint))
     for foot, frame in zip(SOLO_FEET, feet):
         forces = res.contact_forces[f"{foot}/point0"]
         f = forces["friction"][-1] + np.array([0.0, 0.0, forces["normal"][-1]])
@@ -502,29 +498,6 @@ def test_solo12_stands_on_its_feet():
         r_cross = np.array([[0.0, radius, 0.0], [-radius, 0.0, 0.0], [0.0, 0.0, 0.0]])
         tau += (J[:3] - r_cross @ J[3:]).T @ f
     assert tau == pytest.approx(gravity, abs=1e-8 * np.max(np.abs(gravity)))
-
-
-def _locked_solo12_urdf(folder, path):
-    """Solo12's URDF with every joint locked in the standing posture (a revolute
-    joint turned fixed, its origin turned by the posture angle about its axis)."""
-    import xml.etree.ElementTree as ET
-    from scipy.spatial.transform import Rotation
-    tree = ET.parse(path)
-    for joint in tree.getroot().iter("joint"):
-        if joint.get("type") != "revolute":
-            continue
-        origin = joint.find("origin")
-        axis = np.array([float(v) for v in joint.find("axis").get("xyz").split()])
-        turned = (Rotation.from_euler("xyz", [float(v) for v in origin.get("rpy").split()])
-                  * Rotation.from_rotvec(axis * _target(joint.get("name"))))
-        origin.set("rpy", " ".join(repr(float(a)) for a in turned.as_euler("xyz")))
-        joint.set("type", "fixed")
-        for tag in ("axis", "limit", "dynamics"):
-            for element in joint.findall(tag):
-                joint.remove(element)
-    locked = folder / "solo12_locked.urdf"
-    tree.write(locked)
-    return locked
 
 
 def _with_gravity_potential(definition):
@@ -543,7 +516,7 @@ def locked_solo12(tmp_path_factory):
     foot frames and weight (N), and kanedyn's model on a ground of a friction."""
     from types import SimpleNamespace
     path, pin = _solo12()
-    locked = _locked_solo12_urdf(tmp_path_factory.mktemp("solo12"), path)
+    locked = solo12.locked_urdf(path, tmp_path_factory.mktemp("solo12") / "locked.urdf")
     pmodel = pin.buildModelFromUrdf(str(locked), pin.JointModelFreeFlyer())
 
     def model(mu):
@@ -674,63 +647,6 @@ def test_solo12_locked_slides_to_the_closed_form(locked_solo12, locked_slide):
     _check_energy(res)
 
 
-def _mujoco_solo12(mujoco, solo, mu):
-    """MuJoCo's model of the locked Solo12: its own reader of the URDF (bodies,
-    masses, inertias; visual and collision meshes left out), a free joint, balls of
-    the feet's radius at the foot frames as its only geoms, a floor plane of the
-    same friction; stiff contacts (time constant 0.2 ms, damping ratio 5: no
-    rebound, as kanedyn's plastic impacts; impedance 0.99 to 0.999), elliptic
-    friction cones, 0.02 ms steps."""
-    import xml.etree.ElementTree as ET
-    root = ET.parse(solo.path).getroot()
-    for link in root.iter("link"):
-        for tag in ("visual", "collision"):
-            for element in link.findall(tag):
-                link.remove(element)
-    ET.SubElement(ET.SubElement(root, "mujoco"), "compiler", fusestatic="false",
-                  discardvisual="true", balanceinertia="false")
-    spec = mujoco.MjSpec.from_string(ET.tostring(root, encoding="unicode"))
-    spec.option.timestep = 2e-5
-    spec.option.cone = mujoco.mjtCone.mjCONE_ELLIPTIC
-    spec.body("base_link").add_freejoint()
-    contact = dict(friction=[mu, 0.0, 0.0], solref=[2e-4, 5.0],
-                   solimp=[0.99, 0.999, 0.001, 0.5, 2.0])
-    spec.worldbody.add_geom(type=mujoco.mjtGeom.mjGEOM_PLANE, size=[5.0, 5.0, 0.1], **contact)
-    for foot in SOLO_FEET:
-        spec.body(foot).add_geom(name=foot, type=mujoco.mjtGeom.mjGEOM_SPHERE,
-                                 size=[SOLO_RADIUS, 0.0, 0.0], mass=0.0, **contact)
-    return spec.compile()
-
-
-def _mujoco_run(mujoco, model, y0, t_end):
-    """MuJoCo from kanedyn's state ``y0`` (level or tilted, speeds along the world
-    axes): the first time each foot penetrates the floor, the final position
-    (3,), body-fixed x-y-z angles and speeds, and the summed normal force (N)."""
-    from scipy.spatial.transform import Rotation
-    data = mujoco.MjData(model)
-    data.qpos[:3] = y0[:3]
-    x, y, z, w = Rotation.from_euler("XYZ", y0[3:6]).as_quat()
-    data.qpos[3:7] = w, x, y, z
-    data.qvel[:3] = y0[6:9]
-    feet = {model.geom(foot).id: foot for foot in SOLO_FEET}
-    touchdown = {}
-    while data.time < t_end:
-        mujoco.mj_step(model, data)
-        if len(touchdown) < len(feet) and data.ncon:
-            contacts = data.contact
-            for geom in np.concatenate([contacts.geom1[contacts.dist < 0],
-                                        contacts.geom2[contacts.dist < 0]]):
-                if geom in feet:
-                    touchdown.setdefault(feet[geom], data.time)
-    wrench, normal = np.zeros(6), 0.0
-    for i in range(data.ncon):
-        mujoco.mj_contactForce(model, data, i, wrench)
-        normal += wrench[0]
-    w, x, y, z = data.qpos[3:7]
-    return (touchdown, data.qpos[:3].copy(), Rotation.from_quat([x, y, z, w]).as_euler("XYZ"),
-            data.qvel.copy(), normal)
-
-
 def test_solo12_locked_compared_with_mujoco(locked_solo12, locked_drop, locked_slide):
     """The tilted drop and the slide of the locked Solo12 in MuJoCo (its own URDF
     reader gives the same mass matrix as kanedyn's, to rounding).  The model
@@ -745,26 +661,26 @@ def test_solo12_locked_compared_with_mujoco(locked_solo12, locked_drop, locked_s
     mujoco = pytest.importorskip("mujoco")
     solo = locked_solo12
     y0, res = locked_drop
-    model = _mujoco_solo12(mujoco, solo, SOLO_DROP[3])
+    model = solo12.mujoco_model(mujoco, solo.path, SOLO_DROP[3])
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)  # the level pose: MuJoCo's speeds are kanedyn's
     M = np.zeros((6, 6))
     mujoco.mj_fullM(model, data, M)
     assert M == pytest.approx(res.model.mass_matrix(0.0, np.zeros(12)), abs=1e-12)
-    touchdown, position, angles, speeds, normal = _mujoco_run(mujoco, model, y0, 0.5)
-    ours = _touchdowns(res)
+    theirs = solo12.mujoco_run(mujoco, model, y0, 0.5)
+    touchdown, ours = theirs["touchdown"], _touchdowns(res)
     assert sorted(touchdown, key=touchdown.get) == sorted(ours, key=ours.get)
     later = np.array([touchdown[f] - ours[f] for f in SOLO_FEET])
     assert np.all((later >= 0) & (later < 1e-4))
     y = res.y[:, -1]
-    assert position[:2] == pytest.approx(y[:2], abs=1e-4)
-    assert angles[2] == pytest.approx(y[5], abs=5e-4)
-    assert position[2] == pytest.approx(y[2], abs=1e-6)
-    assert np.max(np.abs(speeds)) < 1e-6
-    assert normal == pytest.approx(solo.weight, rel=1e-6)
+    assert theirs["position"] == pytest.approx(y[:3], abs=1e-4)
+    assert theirs["position"][2] == pytest.approx(y[2], abs=1e-6)
+    assert theirs["angles"][2] == pytest.approx(y[5], abs=5e-4)
+    assert np.max(np.abs(theirs["qvel"])) < 1e-6
+    assert theirs["normal"] == pytest.approx(solo.weight, rel=1e-6)
     mu, v0 = SOLO_SLIDE
     y0, res = locked_slide
-    _, position, angles, speeds, normal = _mujoco_run(
-        mujoco, _mujoco_solo12(mujoco, solo, mu), y0, res.t[-1])
-    assert 0 < position[0] - v0 ** 2 / (2 * mu * G) < 1e-3
-    assert np.max(np.abs(speeds)) < 1e-6
+    theirs = solo12.mujoco_run(mujoco, solo12.mujoco_model(mujoco, solo.path, mu), y0,
+                               res.t[-1])
+    assert 0 < theirs["position"][0] - v0 ** 2 / (2 * mu * G) < 1e-3
+    assert np.max(np.abs(theirs["qvel"])) < 1e-6
