@@ -88,7 +88,8 @@ def jupyterlab(tmp_path):
     root.mkdir()
     (root / "widget.ipynb").write_text(json.dumps(_notebook()), encoding="utf-8")
     env = dict(os.environ)
-    for key, sub in (("JUPYTER_CONFIG_DIR", "config"), ("JUPYTER_RUNTIME_DIR", "runtime"),
+    for key, sub in (("JUPYTER_CONFIG_DIR", "config"), ("JUPYTER_DATA_DIR", "data"),
+                     ("JUPYTER_RUNTIME_DIR", "runtime"),
                      ("JUPYTERLAB_SETTINGS_DIR", "settings"),
                      ("JUPYTERLAB_WORKSPACES_DIR", "workspaces"), ("IPYTHONDIR", "ipython")):
         env[key] = str(tmp_path / sub)
