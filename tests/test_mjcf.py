@@ -632,12 +632,11 @@ BAD = {
     "massless moving body": (
         "<mujoco><worldbody><body>\n<joint name='j'/></body></worldbody></mujoco>",
         r"model\.xml:2: <joint name='j'>: moves only massless bodies"),
-    "mesh inertia": (
-        "<mujoco><asset><mesh name='m' vertex='0 0 0 1 0 0 0 1 0 0 0 1'/></asset>"
-        "<worldbody><body><joint/>\n<geom type='mesh' mesh='m'/></body></worldbody>"
-        "</mujoco>",
-        r"model\.xml:2: <geom>: the mass and inertia of a mesh geom cannot be inferred "
-        r"here .* give the body an <inertial>"),
+    "shell inertia": (
+        "<mujoco><worldbody><body><joint/>\n<geom type='box' size='0.1 0.1 0.1' "
+        "shellinertia='true'/></body></worldbody></mujoco>",
+        r"model\.xml:2: <geom>: shellinertia cannot be inferred here .* give the body an "
+        "<inertial>"),
     "spatial tendon": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/><site name='s'/>"
         "</body></worldbody><tendon>\n<spatial name='t'><site site='s'/></spatial>"

@@ -39,7 +39,8 @@ from .._urdf import named_rigid_body
 from ._frames import euler_matrix, matrix_quat, quat_matrix
 from .._robot_ground import robot_ground_contacts
 from ._ground import MJCF_NONE_USABLE, mjcf_collision_shapes
-from ._inertia import body_mass_properties, bound, combine
+from ._inertia import NotInferable, body_mass_properties, bound, combine
+from ._meshes import MeshLibrary
 from ._parse import parse_mjcf
 from ._xml import MJCFError
 
@@ -341,9 +342,12 @@ class _Names:
 
 
 class _Builder:
-    def __init__(self, model, inputs):
+    def __init__(self, model, inputs, mesh_dirs=()):
         self.m = model
         self.inputs = inputs
+        compiler = model.compiler
+        self.meshes = MeshLibrary(model.meshes, model.source,
+                                  compiler.meshdir or compiler.assetdir, mesh_dirs)
         self.N = me.ReferenceFrame("N")
         self.O = me.Point("O")
         self.O.set_vel(self.N, 0)
@@ -567,14 +571,16 @@ class _Builder:
         props = {}
         for body in self.m.bodies[1:]:
             try:
-                mass, c, J, counted = body_mass_properties(body, self.m.compiler)
-            except ValueError as exc:
+                mass, c, J, counted = body_mass_properties(body, self.m.compiler,
+                                                           self.meshes)
+            except NotInferable as exc:
                 geom = exc.args[0]
                 what = ("shellinertia" if geom.shellinertia
                         else f"the mass and inertia of a {geom.type} geom")
                 raise geom.element.error(
-                    f"{what} cannot be inferred here (sphere, ellipsoid, box, cylinder "
-                    "and capsule are); give the body an <inertial>") from None
+                    f"{what} cannot be inferred here (sphere, ellipsoid, box, cylinder, "
+                    "capsule and mesh are; a mesh's surface by <mesh inertia='shell'>); "
+                    "give the body an <inertial>") from None
             if body.mocap:
                 mass, J = 0.0, np.zeros((3, 3))
             mass, J = bound(mass, J, self.m.compiler)
@@ -582,7 +588,7 @@ class _Builder:
             # the axes of the equivalent inertia box (fluid forces), as MuJoCo picks
             # them: those of <inertial diaginertia>, of a body's only geom, else the
             # principal axes
-            self.box_axes[body.name] = (counted[0].R if len(counted) == 1 else
+            self.box_axes[body.name] = (self.geom_axes(counted[0]) if len(counted) == 1 else
                                         body.inertial.axes if body.inertial is not None
                                         and not counted else None)
         total = self.m.compiler.settotalmass
@@ -594,6 +600,13 @@ class _Builder:
             scale = total / now
             props = {k: (m * scale, c, J * scale) for k, (m, c, J) in props.items()}
         return props
+
+    def geom_axes(self, geom):
+        """The axes of a geom's frame as MuJoCo compiles it: a mesh geom's are the
+        principal axes of its mesh."""
+        if geom.type != "mesh":
+            return geom.R
+        return geom.R @ np.linalg.eigh(self.meshes.properties(geom.mesh)[2])[1]
 
     def rigid_bodies(self):
         props = self.masses()
@@ -739,7 +752,7 @@ class _Builder:
             counted = body.index and (self.m.compiler.inertiafromgeom == "true" or (
                 self.m.compiler.inertiafromgeom == "auto" and body.inertial is None))
             for g in geoms:
-                mass = (geom_mass_properties(g)[0] if counted and lo <= g.group <= hi
+                mass = (geom_mass_properties(g, self.meshes)[0] if counted and lo <= g.group <= hi
                         and g.type in INERTIA_SHAPES else 0.0)
                 rgba = g.rgba if g.rgba is not None else self.m.materials.get(g.material)
                 Tg = T @ _pose(g.pos, g.R)
@@ -881,7 +894,8 @@ class _Builder:
         return [exprs[i] for i in rows], [self.q[i] for i in sorted(chosen)], lines
 
 
-def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
+def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
+              mesh_dirs=()):
     """A model definition of the MuJoCo model in an MJCF file.
 
     Parameters
@@ -910,6 +924,10 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
         body, or one fixed to the world, is an error naming it.
     t_end : float, optional
         Default simulation length, s.
+    mesh_dirs : sequence of path-like, optional
+        Folders besides the model's own (and those below it) that mesh files may
+        be read from.  A mesh file is read only for a mesh geom whose mass and
+        inertia are inferred (STL and OBJ need trimesh; MuJoCo's ``.msh`` does not).
 
     Returns
     -------
@@ -931,7 +949,7 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
     >>> model = cartpole.numeric()                                # doctest: +SKIP
     """
     model = parse_mjcf(path)
-    build = _Builder(model, inputs)
+    build = _Builder(model, inputs, mesh_dirs)
     build.walk()
     if not build.q:
         raise MJCFError(f"{model.source}: the model has no joints: nothing moves")

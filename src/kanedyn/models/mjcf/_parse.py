@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ._frames import (ORIENTATIONS, axis_angle_matrix, euler_matrix, quat_matrix,
                       xyaxes_matrix, zaxis_matrix)
+from ._meshes import MESH_INERTIA_MODES, Mesh
 from ._xml import MJCFError, number, numbers, read_mjcf
 
 __all__ = ["Model", "Body", "Joint", "Geom", "Site", "Inertial", "Actuator", "Equality",
@@ -52,6 +54,8 @@ class Compiler:
     balanceinertia: bool = False
     autolimits: bool = True
     alignfree: bool = False
+    meshdir: str | None = None  # mesh files' folder (else assetdir), from the model's
+    assetdir: str | None = None
 
 
 @dataclass(frozen=True)
@@ -130,6 +134,7 @@ class Geom:
     contype: int = 1
     conaffinity: int = 1
     material: str | None = None
+    mesh: str | None = None  # the <mesh> asset of a mesh geom
 
 
 @dataclass(frozen=True)
@@ -237,6 +242,7 @@ class Model:
     world_geoms: list
     materials: dict = field(default_factory=dict)  # name -> rgba
     tendons: list = field(default_factory=list)
+    meshes: dict = field(default_factory=dict)  # name -> Mesh
 
     def body(self, name):
         return next((b for b in self.bodies if b.name == name), None)
@@ -355,6 +361,9 @@ class _Reader:
             if values.get("alignfree"):
                 raise a.error("alignfree", "free bodies moved to their inertial frames "
                               "are not supported (their qpos would not be the body's)")
+            for key in ("meshdir", "assetdir"):
+                if a.has(key):
+                    values[key] = a.text(key)
             if a.has("fusestatic") and _bool(a, "fusestatic", "false"):
                 pass  # merging bodies without joints changes nothing in the dynamics
         return Compiler(**values)
@@ -385,7 +394,11 @@ class _Reader:
         name = el.attrib.get("class", "main" if top else None)
         if name is None:
             raise el.error("a nested <default> needs a class name")
-        if name in self.defaults:
+        if top and name == "main" and name in self.defaults:
+            # a further top-level <default> adds to the top class, as MuJoCo merges
+            # them; classes it declares start from the top class as it is then
+            inherited = self.defaults.pop(name)
+        elif name in self.defaults:
             raise el.error(f"a second default class '{name}' (the first is on line "
                            f"{self.default_lines[name]})")
         table = {tag: dict(values) for tag, values in inherited.items()}
@@ -510,6 +523,12 @@ class _Reader:
         kind = a.choice("type", "sphere", GEOM_TYPES)
         size = list(a.numbers("size", (), at_least=0, at_most=3))
         size += [0.0] * (3 - len(size))
+        mesh = a.text("mesh")
+        if kind == "mesh" and mesh is None:
+            raise el.error("a mesh geom needs a mesh attribute")
+        if kind != "mesh" and mesh is not None:
+            raise a.error("mesh", f"a {kind} fitted to a mesh is not supported (give "
+                          "type='mesh', or the size without a mesh)")
         pos, R = self.pose(a)
         if a.has("fromto"):
             if kind not in ("capsule", "cylinder", "box", "ellipsoid"):
@@ -537,12 +556,13 @@ class _Reader:
             raise a.error("mass", "a negative mass")
         rgba = a.numbers("rgba", None, n=4) if a.has("rgba") else None
         shell = a.text("shellinertia", "false")
+
         return Geom(name=el.attrib.get("name") or f"geom{index}", type=kind,
                     size=tuple(size), pos=pos, R=R, mass=mass, density=density,
                     group=int(a.number("group", 0)), shellinertia=shell == "true",
                     rgba=rgba, element=el, contype=int(a.number("contype", 1)),
                     conaffinity=int(a.number("conaffinity", 1)),
-                    material=a.text("material"))
+                    material=a.text("material"), mesh=mesh)
 
     def site(self, el, childclass, index, body):
         a = self.attrs(el, "site", childclass)
@@ -861,6 +881,37 @@ def _tendons(reader, root, joints):
     return out
 
 
+def _meshes(reader, root):
+    """The ``<mesh>`` assets (read as records; their files are read when used)."""
+    out = {}
+    for asset in root.findall("asset"):
+        for el in asset.findall("mesh"):
+            a = reader.attrs(el, "mesh", None)
+            file = a.text("file")
+            name = el.attrib.get("name") or (Path(file).stem if file else None)
+            if name is None:
+                raise el.error("a mesh without a file needs a name")
+            if name in out:
+                raise el.error(f"a second mesh named '{name}' (the first is on line "
+                               f"{out[name].element.line})")
+            for key in ("builtin", "plugin", "content_type"):
+                if a.has(key):
+                    raise a.error(key, "not supported (meshes from files, or vertex and "
+                                  "face, are)")
+            refquat = a.numbers("refquat", (1.0, 0.0, 0.0, 0.0), n=4)
+            if np.linalg.norm(refquat) < 1e-12:
+                raise a.error("refquat", "a zero quaternion")
+            vertex = a.numbers("vertex", None, at_least=0) if a.has("vertex") else None
+            face = a.numbers("face", None, at_least=0) if a.has("face") else None
+            out[name] = Mesh(name=name, file=file, vertex=vertex, face=face,
+                             scale=a.numbers("scale", (1.0, 1.0, 1.0), n=3),
+                             refpos=a.numbers("refpos", (0.0, 0.0, 0.0), n=3),
+                             refrot=quat_matrix(refquat),
+                             inertia=a.choice("inertia", "legacy", MESH_INERTIA_MODES),
+                             maxhullvert=int(a.number("maxhullvert", -1)), element=el)
+    return out
+
+
 def parse_mjcf(path):
     """The :class:`Model` of the MJCF file ``path``."""
     root = read_mjcf(path)
@@ -908,6 +959,10 @@ def parse_mjcf(path):
             eq = _equality(reader, el, len(equalities), seen, joints, tendons, sites)
             if eq is not None:
                 equalities.append(eq)
+    meshes = _meshes(reader, root)
+    for geom in [g for b in bodies for g in b.geoms] + tree.world_geoms:
+        if geom.mesh is not None and geom.mesh not in meshes:
+            raise geom.element.error(f"mesh='{geom.mesh}': no mesh asset of that name")
     materials = {}
     for asset in root.findall("asset"):
         for mat in asset.findall("material"):
@@ -917,4 +972,4 @@ def parse_mjcf(path):
                  compiler=reader.compiler, option=option, bodies=bodies,
                  actuators=actuators, equalities=equalities,
                  world_sites=tree.world_sites, world_geoms=tree.world_geoms,
-                 materials=materials, tendons=list(tendons.values()))
+                 materials=materials, tendons=list(tendons.values()), meshes=meshes)
