@@ -647,11 +647,11 @@ BAD = {
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
         "<actuator>\n<motor name='m' joint='k'/></actuator></mujoco>",
         r"model\.xml:2: <motor name='m'>: joint='k': no joint of that name"),
-    "activation dynamics": (
+    "muscle activation dynamics": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
-        "<actuator>\n<general joint='j' dyntype='filter'/></actuator></mujoco>",
-        r"model\.xml:2: <general>: dyntype='filter': an actuator with activation dynamics "
-        "is not supported"),
+        "<actuator>\n<general joint='j' dyntype='muscle'/></actuator></mujoco>",
+        r"model\.xml:2: <general>: dyntype='muscle': 'muscle' activation dynamics are not "
+        "supported"),
     "equality of a missing body": (
         "<mujoco><worldbody><body name='a'><joint/><geom size='0.1'/></body></worldbody>"
         "<equality>\n<connect body1='a' body2='b' anchor='0 0 0'/></equality></mujoco>",

@@ -97,7 +97,16 @@ class MJCFActuator:
     """An actuator: ``ctrl`` is its specified input (``ctrl_<name>``), ``force`` the
     actuator force as an expression of it (clamps included); its joint (or, when
     ``tendon``, each joint of that fixed tendon, times its coefficient) receives
-    ``gear * force``."""
+    ``gear * force``.
+
+    With activation dynamics (``dyntype`` ``integrator``, ``filter`` or
+    ``filterexact``), ``act`` is its activation, a first-order state
+    ``act_<name>`` of the model (MuJoCo's ``act`` entry ``act_index``), and
+    ``act_rate`` its derivative: ``ctrl`` (integrator) or ``(ctrl - act) / tau``
+    (filters; ``tau`` in s), ``ctrl`` clamped to ``ctrlrange``; the force uses the
+    activation instead of ``ctrl`` (with ``actearly``, the activation one time step
+    ahead); with ``actrange`` the rate stops at its ends.
+    """
 
     name: str
     type: str
@@ -109,6 +118,13 @@ class MJCFActuator:
     forcerange: tuple | None
     line: int
     tendon: bool = False  # ``joint`` names a fixed tendon
+    dyntype: str = "none"
+    tau: float = 0.0
+    actrange: tuple | None = None
+    actearly: bool = False
+    act: object = None
+    act_rate: object = None
+    act_index: int | None = None
 
 
 @dataclass(frozen=True)
@@ -174,8 +190,8 @@ class MJCFDefinition(ModelDefinition):
         ground (the world and the bodies welded to it).
     gravity : tuple
         The gravity vector of ``<option>`` (m/s^2), zero when disabled.
-    nq, nv : int
-        MuJoCo's ``qpos`` and ``qvel`` lengths.
+    nq, nv, na : int
+        MuJoCo's ``qpos``, ``qvel`` and ``act`` lengths.
     """
 
     source: str = ""
@@ -188,6 +204,7 @@ class MJCFDefinition(ModelDefinition):
     gravity: tuple = (0.0, 0.0, -9.81)
     nq: int = 0
     nv: int = 0
+    na: int = 0
 
     def visual_shapes(self, constants=None, groups=(0, 1, 2)):
         """The viewer shapes of the geoms in ``groups``, and what was not drawn.
@@ -211,8 +228,10 @@ class MJCFDefinition(ModelDefinition):
         are not drawn."""
         return self.visual_shapes(constants)[0]
 
-    def state_from_mujoco(self, model, qpos, qvel):
-        """kanedyn's state ``y`` (for ``model``) of MuJoCo's ``qpos`` and ``qvel``.
+    def state_from_mujoco(self, model, qpos, qvel, act=None):
+        """kanedyn's state ``y`` (for ``model``) of MuJoCo's ``qpos``, ``qvel`` and,
+        for a model whose actuators have activations, ``act`` (MuJoCo's
+        ``data.act``, ``na`` entries).
 
         Quaternions (w-first) become body-fixed x-y-z angles (their branch with
         ``|theta| <= 90 deg``); the speeds are ``qvel`` itself.
@@ -220,6 +239,17 @@ class MJCFDefinition(ModelDefinition):
         from ...engine import name_of
         qpos, qvel = np.asarray(qpos, dtype=float), np.asarray(qvel, dtype=float)
         y = np.zeros(model.n_states)
+        if self.na:
+            if act is None:
+                raise ValueError(f"{self.source}: the model's actuators have {self.na} "
+                                 "activations: give act (MuJoCo's data.act)")
+            act = np.asarray(act, dtype=float)
+            if act.shape != (self.na,):
+                raise ValueError(f"act has shape {act.shape}; the model has {self.na} "
+                                 "activations")
+            for a in self.actuators:
+                if a.act is not None:
+                    y[model.index(name_of(a.act))] = act[a.act_index]
         for j in self.joints:
             a, v = j.qpos_index, j.dof_index
             if j.type in ("hinge", "slide"):
@@ -252,6 +282,20 @@ class MJCFDefinition(ModelDefinition):
             for k, s in enumerate(j.u):
                 qvel[v + k] = y[model.index(name_of(s))]
         return qpos, qvel
+
+    def mujoco_act(self, model, y):
+        """MuJoCo's ``act`` (na,) of kanedyn's state ``y``: the activations."""
+        from ...engine import name_of
+        return np.array([y[model.index(name_of(a.act))] for a in self.actuators
+                         if a.act is not None])
+
+    def act_dot(self, model, t, y):
+        """MuJoCo's ``act_dot`` (na,) at kanedyn's state ``y``: the activations'
+        derivatives."""
+        from ...engine import name_of
+        ydot = model.rhs(t, y)
+        return np.array([ydot[model.index(name_of(a.act))] for a in self.actuators
+                         if a.act is not None])
 
     def qacc(self, model, t, y):
         """MuJoCo's ``qacc`` (nv,) at kanedyn's state ``y``: the speeds' derivatives."""
@@ -353,6 +397,7 @@ class _Builder:
         self.O.set_vel(self.N, 0)
         self.names = _Names(model.source)
         self.q, self.u, self.kd_eqs, self.loads, self.bodies = [], [], [], [], []
+        self.activations, self.kd_act = [], []  # actuators' activations: first-order states
         self.constants, self.specified, self.initial = {}, {}, {}
         self.joint_infos, self.actuator_infos, self.site_infos = [], [], []
         self.frame_of, self.point_of = {"": self.N}, {"": self.O}
@@ -547,6 +592,9 @@ class _Builder:
             c = ctrl
             if act.ctrlrange is not None and clamp:
                 c = _clamp(ctrl, *act.ctrlrange)
+            state, rate = None, None
+            if act.dyntype != "none" and self.inputs:  # (no inputs: no forces, no states)
+                state, rate, c = self.activation(act, aid, c)
             g0, g1, g2 = (sm.Float(x) for x in act.gain)
             b0, b1, b2 = (sm.Float(x) for x in act.bias)
             force = (g0 + g1 * length + g2 * velocity) * c + b0 + b1 * length + b2 * velocity
@@ -554,7 +602,9 @@ class _Builder:
                 force = _clamp(force, *act.forcerange)
             self.actuator_infos.append(MJCFActuator(
                 act.name, act.type, act.joint, act.gear, ctrl, force, act.ctrlrange,
-                act.forcerange, act.element.line, act.tendon))
+                act.forcerange, act.element.line, act.tendon, act.dyntype, act.tau,
+                act.actrange, act.actearly, state, rate,
+                None if state is None else len(self.activations) - 1))
             if not self.inputs:
                 continue
             self.specified[ctrl] = 0.0
@@ -564,6 +614,32 @@ class _Builder:
                 self.tendon_load(act.joint, act.gear * force)
             else:
                 self.generalized_load(self.dofs[act.joint], act.gear * force)
+
+    def activation(self, act, aid, ctrl):
+        """``(state, its rate, what the force uses)`` of an actuator's activation
+        (``ctrl``: its control, clamped)."""
+        state = me.dynamicsymbols(f"act_{aid}")
+        if act.dyntype == "integrator":
+            rate = ctrl
+        else:
+            rate = (ctrl - state) / sm.Float(act.tau)
+        used = state
+        if act.actearly:  # the activation MuJoCo's next time step will have
+            dt = self.m.option.timestep
+            if act.dyntype == "filterexact":
+                used = state + (ctrl - state) * sm.Float(-math.expm1(-dt / act.tau))
+            else:
+                used = state + sm.Float(dt) * rate
+            if act.actrange is not None:
+                used = _clamp(used, *act.actrange)
+        if act.actrange is not None:  # the activation stops at the ends of its range
+            lo, hi = (sm.Float(x) for x in act.actrange)
+            rate = sm.Piecewise((sm.Min(rate, 0), state >= hi),
+                                (sm.Max(rate, 0), state <= lo), (rate, True))
+        self.activations.append(state)
+        self.kd_act.append(state.diff() - rate)
+        self.initial[state] = 0.0
+        return state, rate, used
 
     # bodies and their mass ---------------------------------------------------------
     def masses(self):
@@ -970,7 +1046,12 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
         q_ind = [q for q in q_ind if q not in q_dep]
         u_ind = [u for u in u_ind if u not in u_dep]
         kane_args.update(q_dep=q_dep, u_dep=u_dep, configuration_constraints=config)
+    # the actuators' activations join the coordinates as first-order states
+    q_ind += build.activations
+    kd_eqs += build.kd_act
     kane_args.update(q_ind=q_ind, u_ind=u_ind, kd_eqs=kd_eqs)
+    if build.activations and inputs:
+        kane_args["kd_inputs"] = [a.ctrl for a in build.actuator_infos if a.act is not None]
     geoms = tuple(build.geom_records())
     contacts = robot_ground_contacts(
         ground, ground_points, mjcf_collision_shapes(geoms, build.frame_of, build.point_of),
@@ -987,6 +1068,7 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
                    points={b.name: build.point_of[build.head[b.name][0]]
                            for b in model.bodies},
                    ctrl={a.name: a.ctrl for a in build.actuator_infos},
+                   act={a.name: a.act for a in build.actuator_infos if a.act is not None},
                    bodies=dict(build.rigid_of))
     return MJCFDefinition(
         name=model.name, title=f"{model.name} from {Path(model.source).name} ({nv} degrees "
@@ -998,4 +1080,4 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
         actuators=tuple(build.actuator_infos), sites=tuple(build.site_infos),
         geoms=geoms,
         equalities=tuple(equalities), body_of=dict(build.head), gravity=build.gravity,
-        nq=nq, nv=nv)
+        nq=nq, nv=nv, na=len(build.activations))

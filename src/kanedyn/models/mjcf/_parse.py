@@ -31,9 +31,12 @@ __all__ = ["Model", "Body", "Joint", "Geom", "Site", "Inertial", "Actuator", "Eq
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 GEOM_TYPES = ("plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box",
               "mesh", "sdf")
-#: actuators read as specified inputs (force = gain * ctrl + bias, no activation)
-ACTUATOR_TYPES = ("motor", "position", "velocity", "general", "damper")
-_OTHER_ACTUATORS = ("intvelocity", "cylinder", "muscle", "adhesion", "plugin")
+#: actuators read: force = gain * (ctrl, or the activation) + bias
+ACTUATOR_TYPES = ("motor", "position", "velocity", "general", "damper", "intvelocity",
+                  "cylinder")
+_OTHER_ACTUATORS = ("muscle", "adhesion", "plugin")
+#: activation dynamics read (MuJoCo's dyntype)
+DYNTYPES = ("none", "integrator", "filter", "filterexact")
 _FLAGS = ("constraint", "equality", "frictionloss", "limit", "contact", "spring", "damper",
           "passive", "gravity", "clampctrl", "warmstart", "filterparent", "actuation",
           "refsafe", "sensor", "midphase", "eulerdamp", "autoreset", "nativeccd", "island",
@@ -201,6 +204,13 @@ class Actuator:
     forcerange: tuple | None
     element: object = None
     tendon: bool = False  # ``joint`` names a fixed tendon
+    #: activation dynamics: ``none`` (the force uses ctrl), ``integrator``
+    #: (act' = ctrl), ``filter`` and ``filterexact`` (act' = (ctrl - act) / tau,
+    #: tau in s); the force then uses the activation
+    dyntype: str = "none"
+    tau: float = 0.0
+    actrange: tuple | None = None
+    actearly: bool = False
 
 
 @dataclass(frozen=True)
@@ -720,9 +730,6 @@ def _actuator(reader, el, index, joints, tendons):
         kv = a.number("kv", 0.0)
         if a.has("dampratio"):
             raise a.error("dampratio", "not supported (give kv)")
-        if a.has("timeconst") and a.number("timeconst", 0.0) != 0:
-            raise a.error("timeconst", "an actuator with activation dynamics is not "
-                          "supported")
         gain, bias = (kp, 0.0, 0.0), (0.0, -kp, -kv)
     elif kind == "velocity":
         kv = a.number("kv", 1.0)
@@ -730,11 +737,17 @@ def _actuator(reader, el, index, joints, tendons):
     elif kind == "damper":
         kv = a.number("kv", 1.0)
         gain, bias = (0.0, 0.0, -kv), (0.0, 0.0, 0.0)
+    elif kind == "intvelocity":
+        kp, kv = a.number("kp", 1.0), a.number("kv", 0.0)
+        if a.has("dampratio"):
+            raise a.error("dampratio", "not supported (give kv)")
+        gain, bias = (kp, 0.0, 0.0), (0.0, -kp, -kv)
+    elif kind == "cylinder":
+        area = a.number("area", 1.0)
+        if a.has("diameter"):
+            area = math.pi / 4 * a.number("diameter", None) ** 2
+        gain, bias = (area, 0.0, 0.0), a.numbers("bias", (0.0, 0.0, 0.0), n=3)
     elif kind == "general":
-        if a.choice("dyntype", "none", ("none", "integrator", "filter", "filterexact",
-                                        "muscle", "user")) != "none":
-            raise a.error("dyntype", "an actuator with activation dynamics is not "
-                          "supported")
         gaintype = a.choice("gaintype", "fixed", ("fixed", "affine", "muscle", "user"))
         biastype = a.choice("biastype", "none", ("none", "affine", "muscle", "user"))
         if gaintype not in ("fixed", "affine"):
@@ -745,8 +758,11 @@ def _actuator(reader, el, index, joints, tendons):
         bp = a.numbers("biasprm", (0.0,), at_least=1, at_most=10) + (0.0,) * 3
         gain = gp[:1] + ((gp[1], gp[2]) if gaintype == "affine" else (0.0, 0.0))
         bias = tuple(bp[:3]) if biastype == "affine" else (0.0, 0.0, 0.0)
+    dyntype, tau = _activation(a, kind)
     ranges = {}
-    for what in ("ctrl", "force"):
+    for what in ("ctrl", "force", "act"):
+        if what == "act" and dyntype == "none":
+            continue
         limited = a.flag(f"{what}limited", "auto")
         key = f"{what}range"
         if a.has(key) and (limited == "true" or (limited == "auto"
@@ -760,7 +776,36 @@ def _actuator(reader, el, index, joints, tendons):
     return Actuator(name=name, type=kind, joint=joint, gear=gear, gain=tuple(gain),
                     bias=tuple(bias), ctrlrange=ranges.get("ctrl"),
                     forcerange=ranges.get("force"), element=el,
-                    tendon=a.has("tendon"))
+                    tendon=a.has("tendon"), dyntype=dyntype, tau=tau,
+                    actrange=ranges.get("act"),
+                    actearly=dyntype != "none" and _bool(a, "actearly", "false"))
+
+
+def _activation(a, kind):
+    """``(dyntype, time constant in s)`` of an actuator, as MuJoCo's shortcuts set
+    them: position with a ``timeconst`` filters exactly, cylinder filters,
+    intvelocity integrates."""
+    if kind == "position":
+        tau = a.number("timeconst", 0.0)
+        return ("filterexact", tau) if tau > 0 else ("none", 0.0)
+    if kind == "cylinder":
+        dyntype, tau, key = "filter", a.number("timeconst", 1.0), "timeconst"
+    elif kind == "intvelocity":
+        return "integrator", 0.0
+    elif kind == "general":
+        dyntype = a.choice("dyntype", "none", DYNTYPES + ("muscle", "user"))
+        if dyntype in ("muscle", "user"):
+            raise a.error("dyntype", f"'{dyntype}' activation dynamics are not supported "
+                          "(none, integrator, filter and filterexact are)")
+        tau, key = a.numbers("dynprm", (1.0,), at_least=1, at_most=10)[0], "dynprm"
+        if a.has("actdim") and a.number("actdim", -1) not in (-1, 0 if dyntype == "none"
+                                                               else 1):
+            raise a.error("actdim", "one activation per actuator is supported")
+    else:
+        return "none", 0.0
+    if dyntype in ("filter", "filterexact") and tau <= 0:
+        raise a.error(key, f"the time constant of a {dyntype} must be positive")
+    return dyntype, tau
 
 
 def _equality(reader, el, index, bodies, joints, tendons, sites):
@@ -943,7 +988,8 @@ def parse_mjcf(path):
         for el in section.children:
             if el.tag in _OTHER_ACTUATORS:
                 raise el.error(f"<{el.tag}> actuators are not supported (motor, position, "
-                               "velocity, damper and general without activation are)")
+                               "velocity, damper, intvelocity, cylinder and general "
+                               "without muscle dynamics are)")
             if el.tag not in ACTUATOR_TYPES:
                 raise el.error(f"unknown actuator <{el.tag}>")
             actuators.append(_actuator(reader, el, len(actuators), joints, tendons))
