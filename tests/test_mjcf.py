@@ -637,12 +637,12 @@ BAD = {
         "shellinertia='true'/></body></worldbody></mujoco>",
         r"model\.xml:2: <geom>: shellinertia cannot be inferred here .* give the body an "
         "<inertial>"),
-    "spatial tendon": (
+    "spatial tendon of one site": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/><site name='s'/>"
         "</body></worldbody><tendon>\n<spatial name='t'><site site='s'/></spatial>"
         "</tendon></mujoco>",
-        r"model\.xml:2: <spatial name='t'>: spatial tendons are not supported \(fixed "
-        r"tendons are\)"),
+        r"model\.xml:2: <spatial name='t'>: a spatial tendon \(and each branch after a "
+        r"pulley\) needs at least two sites"),
     "actuator of a missing joint": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
         "<actuator>\n<motor name='m' joint='k'/></actuator></mujoco>",

@@ -550,13 +550,18 @@ class _Builder:
             self.generalized_load(generalized, amount[0] if n == 1 else amount)
 
     def tendons(self):
-        """Length, rate and passive forces of the fixed tendons."""
+        """Length, rate and passive forces of the tendons."""
         joints = {j.name: j for j in self.joint_infos}
         self.tendon_of = {}
         for tendon in self.m.tendons:
-            L = sum((sm.Float(c) * joints[j].q[0] for j, c in tendon.joints), sm.S.Zero)
-            Ldot = sum((sm.Float(c) * joints[j].u[0] for j, c in tendon.joints), sm.S.Zero)
-            self.tendon_of[tendon.name] = (L, Ldot, tendon.joints)
+            if tendon.path:
+                L, Ldot, apply = self.spatial(tendon)
+            else:
+                L = sum((sm.Float(c) * joints[j].q[0] for j, c in tendon.joints), sm.S.Zero)
+                Ldot = sum((sm.Float(c) * joints[j].u[0] for j, c in tendon.joints),
+                           sm.S.Zero)
+                apply = self.joint_forces(tendon.joints)
+            self.tendon_of[tendon.name] = (L, Ldot, apply)
             tid = self.names(tendon.name, "tendon", tendon.element)
             if tendon.armature > 0:
                 self.bodies.append(RateInertia(f"armature_tendon_{tid}", [Ldot],
@@ -564,7 +569,7 @@ class _Builder:
             force = sm.S.Zero
             if "spring" not in self.off and any(tendon.stiffness):
                 if tendon.springlength is None:  # the length at the spring references
-                    lo = hi = sum(c * joints[j].springref for j, c in tendon.joints)
+                    lo = hi = self.spring_length(L)
                 else:
                     lo, hi = tendon.springlength
                 x = L - (sm.Float(lo) if lo == hi else _clamp(L, lo, hi))
@@ -574,9 +579,50 @@ class _Builder:
             if force != 0:
                 self.tendon_load(tendon.name, force)
 
+    def joint_forces(self, members):
+        """What applies a fixed tendon's force ``f``: ``coef * f`` on each joint."""
+        def apply(force):
+            for joint, coef in members:
+                self.generalized_load(self.dofs[joint], sm.Float(coef) * force)
+        return apply
+
+    def spatial(self, tendon):
+        """Length, rate and what applies the force of a spatial tendon through sites:
+        each straight segment between consecutive sites of a branch counts its
+        length divided by the branch's divisor, and a force ``f`` (positive: it
+        lengthens the tendon) pushes each segment's ends apart by ``f / divisor``."""
+        segments = []
+        for (a, d), (b, _) in zip(tendon.path, tendon.path[1:]):
+            if a is not None and b is not None:
+                segments.append((self.site_points[a], self.site_points[b], d))
+        L, Ldot, ends = sm.S.Zero, sm.S.Zero, []
+        to_u = self.qdot_to_u()
+        for P1, P2, d in segments:
+            r = P2.pos_from(P1)
+            length = sm.sqrt(r.dot(r))
+            e = r / length
+            v = (P2.pos_from(self.O).dt(self.N) - P1.pos_from(self.O).dt(self.N))
+            L += length / sm.Float(d)
+            Ldot += e.dot(v).xreplace(to_u) / sm.Float(d)
+            ends.append((P1, P2, e / sm.Float(d)))
+
+        def apply(force):
+            for P1, P2, e in ends:
+                self.loads.append((P2, force * e))
+                self.loads.append((P1, -force * e))
+        return L, Ldot, apply
+
+    def spring_length(self, L):
+        """A tendon's length with hinge and slide joints at their spring references
+        (others at qpos0): MuJoCo's default spring length."""
+        values = {q: self.initial[q] for q in self.q}
+        for j in self.joint_infos:
+            if j.type in ("hinge", "slide"):
+                values[j.q[0]] = j.springref
+        return float(L.xreplace(values).evalf())
+
     def tendon_load(self, name, force):
-        for joint, coef in self.tendon_of[name][2]:
-            self.generalized_load(self.dofs[joint], sm.Float(coef) * force)
+        self.tendon_of[name][2](force)
 
     def actuators(self):
         joints = {j.name: j for j in self.joint_infos}
@@ -1029,12 +1075,13 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
     build.walk()
     if not build.q:
         raise MJCFError(f"{model.source}: the model has no joints: nothing moves")
+    sites = build.sites()
+    build.site_points = sites
     build.tendons()
     build.actuators()
     build.rigid_bodies()
     build.fluid()
     build.check_masses()
-    sites = build.sites()
     loops = build.loops()
     kane_args = dict(frame=build.N, bodies=build.bodies, loads=build.loads)
     q_ind, u_ind, kd_eqs = list(build.q), list(build.u), list(build.kd_eqs)
@@ -1069,6 +1116,7 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
                            for b in model.bodies},
                    ctrl={a.name: a.ctrl for a in build.actuator_infos},
                    act={a.name: a.act for a in build.actuator_infos if a.act is not None},
+                   tendons={name: t[0] for name, t in build.tendon_of.items()},
                    bodies=dict(build.rigid_of))
     return MJCFDefinition(
         name=model.name, title=f"{model.name} from {Path(model.source).name} ({nv} degrees "

@@ -102,7 +102,10 @@ class Joint:
 @dataclass(frozen=True)
 class Tendon:
     """A fixed tendon: its length is ``sum(coef * q)`` over ``joints``
-    (``[(joint name, coef)]``); a spring ``-(a x + b x^2 + c x^3)`` of the
+    (``[(joint name, coef)]``); a spatial one (``path`` not empty) is a path
+    through sites, ``path`` = ``[(site name, divisor)]`` with ``None`` for a
+    pulley (it ends a branch; the divisor of the branch after it is the
+    pulley's); a spring ``-(a x + b x^2 + c x^3)`` of the
     displacement ``x`` from ``springlength`` (a dead band when two values differ;
     None: the length at the joints' spring references), polynomial damping,
     armature, ``range`` (not enforced)."""
@@ -116,6 +119,7 @@ class Tendon:
     range: tuple | None
     frictionloss: float
     element: object = None
+    path: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -709,11 +713,11 @@ def _actuator(reader, el, index, joints, tendons):
     for key in ("site", "body", "jointinparent", "cranksite", "slidersite"):
         if a.has(key):
             raise el.error(f"a transmission by '{key}' is not supported (joints and "
-                           "fixed tendons are)")
+                           "tendons are)")
     if a.has("tendon"):
         joint = a.text("tendon")
         if joint not in tendons:
-            raise a.error("tendon", "no fixed tendon of that name")
+            raise a.error("tendon", "no tendon of that name")
     elif not a.has("joint"):
         raise el.error("has no joint or tendon (the transmissions supported)")
     else:
@@ -860,8 +864,7 @@ def _equality(reader, el, index, bodies, joints, tendons, sites):
             if a.has(key):
                 found[key] = a.text(key)
                 if found[key] not in table:
-                    raise a.error(key, f"no {'fixed tendon' if what == 'tendon' else what} "
-                                  "of that name")
+                    raise a.error(key, f"no {what} of that name")
                 if what == "joint" and joints[found[key]].type not in ("hinge", "slide"):
                     raise a.error(key, "an equality of hinge and slide joints only")
         coef = a.numbers("polycoef", (0.0, 1.0, 0.0, 0.0, 0.0), n=5)
@@ -871,21 +874,52 @@ def _equality(reader, el, index, bodies, joints, tendons, sites):
                    "joint and tendon are)")
 
 
-def _tendons(reader, root, joints):
-    """The fixed tendons (spatial ones are refused)."""
+def _spatial_path(el, sites):
+    """``[(site name, divisor) or (None, divisor)]`` of a spatial tendon: its
+    sites in order, a pulley (None) starting a branch of its divisor."""
+    path, divisor, branch = [], 1.0, 0
+    for child in el.children:
+        if child.tag == "geom":
+            raise child.error("a spatial tendon wrapping around a geom is not supported "
+                              "(spatial tendons through sites are)")
+        if child.tag == "pulley":
+            divisor = number(child, "divisor") if "divisor" in child.attrib else None
+            if divisor is None or divisor <= 0:
+                raise child.error("a pulley needs a positive divisor")
+            if branch < 2:
+                raise child.error("a pulley must follow a branch of at least two sites")
+            path.append((None, divisor))
+            branch = 0
+            continue
+        if child.tag != "site":
+            raise child.error(f"<{child.tag}> in a spatial tendon: sites, pulleys and "
+                              "geoms make its path")
+        site = child.attrib.get("site")
+        if site is None or site not in sites:
+            raise (child.error(f"site='{site}': no site of that name") if site
+                   else child.error("has no site"))
+        path.append((site, divisor))
+        branch += 1
+    if branch < 2:
+        raise el.error("a spatial tendon (and each branch after a pulley) needs at "
+                       "least two sites")
+    return tuple(path)
+
+
+def _tendons(reader, root, joints, sites):
+    """The fixed tendons, and the spatial ones through sites."""
     out, names = [], {}
     for section in root.findall("tendon"):
         for el in section.children:
-            if el.tag == "spatial":
-                raise el.error("spatial tendons are not supported (fixed tendons are)")
-            if el.tag != "fixed":
+            if el.tag not in ("fixed", "spatial"):
                 raise el.error(f"unknown tendon <{el.tag}>")
             a = reader.attrs(el, "tendon", None)
             name = el.attrib.get("name") or f"tendon{len(out)}"
             if name in names:
                 raise el.error(f"a second tendon named '{name}'")
             members = []
-            for j in el.children:
+            path = _spatial_path(el, sites) if el.tag == "spatial" else ()
+            for j in el.children if el.tag == "fixed" else ():
                 if j.tag != "joint":
                     raise j.error("a fixed tendon holds <joint> elements only")
                 ja = _Attrs(j, {})
@@ -898,7 +932,7 @@ def _tendons(reader, root, joints):
                                 if ja.has("coef") else j.error("has no coef")))
                 if isinstance(members[-1][1], MJCFError):
                     raise members[-1][1]
-            if not members:
+            if not members and not path:
                 raise el.error("a fixed tendon without joints")
             coefs = {}
             for key in ("stiffness", "damping"):
@@ -918,9 +952,12 @@ def _tendons(reader, root, joints):
             for key in ("actuatorfrcrange", "springyield"):
                 if a.has(key) and any(a.numbers(key, None, at_least=1, at_most=2)):
                     raise a.error(key, "not supported")
+            if path and a.has("armature") and a.number("armature", 0.0) != 0:
+                raise a.error("armature", "armature of a spatial tendon is not supported "
+                              "(of a fixed tendon it is)")
             tendon = Tendon(name, tuple(members), coefs["stiffness"][:3],
                             coefs["damping"][:3], springlength, a.number("armature", 0.0),
-                            rng, a.number("frictionloss", 0.0), el)
+                            rng, a.number("frictionloss", 0.0), el, path)
             names[name] = tendon
             out.append(tendon)
     return out
@@ -982,7 +1019,9 @@ def parse_mjcf(path):
                 raise j.element.error(f"a second joint named '{j.name}' (the first is on "
                                       f"line {joints[j.name].element.line})")
             joints[j.name] = j
-    tendons = {t.name: t for t in _tendons(reader, root, joints)}
+    sites = {site.name: site for b in bodies for site in b.sites}
+    sites.update({site.name: site for site in tree.world_sites})
+    tendons = {t.name: t for t in _tendons(reader, root, joints, sites)}
     actuators, equalities = [], []
     for section in root.findall("actuator"):
         for el in section.children:
@@ -998,8 +1037,6 @@ def parse_mjcf(path):
         if act.name in names:
             raise act.element.error(f"a second actuator named '{act.name}'")
         names[act.name] = act
-    sites = {site.name: site for b in bodies for site in b.sites}
-    sites.update({site.name: site for site in tree.world_sites})
     for section in root.findall("equality"):
         for el in section.children:
             eq = _equality(reader, el, len(equalities), seen, joints, tendons, sites)
