@@ -36,6 +36,7 @@ import sympy.physics.mechanics as me
 from ...modeling import RateInertia, inertia_violation, principal_moments
 from .._base import ModelDefinition
 from .._urdf import named_rigid_body
+from ._actuation import Actuation, MJCFActuator, damping_force, spring_force
 from ._frames import euler_matrix, matrix_quat, quat_matrix
 from .._robot_ground import robot_ground_contacts
 from ._ground import MJCF_NONE_USABLE, mjcf_collision_shapes
@@ -90,41 +91,6 @@ class MJCFJoint:
     frictionloss: float
     line: int
     source: str
-
-
-@dataclass(frozen=True)
-class MJCFActuator:
-    """An actuator: ``ctrl`` is its specified input (``ctrl_<name>``), ``force`` the
-    actuator force as an expression of it (clamps included); its joint (or, when
-    ``tendon``, each joint of that fixed tendon, times its coefficient) receives
-    ``gear * force``.
-
-    With activation dynamics (``dyntype`` ``integrator``, ``filter`` or
-    ``filterexact``), ``act`` is its activation, a first-order state
-    ``act_<name>`` of the model (MuJoCo's ``act`` entry ``act_index``), and
-    ``act_rate`` its derivative: ``ctrl`` (integrator) or ``(ctrl - act) / tau``
-    (filters; ``tau`` in s), ``ctrl`` clamped to ``ctrlrange``; the force uses the
-    activation instead of ``ctrl`` (with ``actearly``, the activation one time step
-    ahead); with ``actrange`` the rate stops at its ends.
-    """
-
-    name: str
-    type: str
-    joint: str
-    gear: float
-    ctrl: object
-    force: object
-    ctrlrange: tuple | None
-    forcerange: tuple | None
-    line: int
-    tendon: bool = False  # ``joint`` names a fixed tendon
-    dyntype: str = "none"
-    tau: float = 0.0
-    actrange: tuple | None = None
-    actearly: bool = False
-    act: object = None
-    act_rate: object = None
-    act_index: int | None = None
 
 
 @dataclass(frozen=True)
@@ -347,25 +313,6 @@ def _pose(pos, R):
     return T
 
 
-def _spring(x, a, b=0.0, c=0.0):
-    """MuJoCo's polynomial spring force ``-(a x + b x^2 + c x^3)``."""
-    return -sum((sm.Float(k) * x ** p for k, p in ((a, 1), (b, 2), (c, 3)) if k),
-                sm.S.Zero)
-
-
-def _damping(v, a, b=0.0, c=0.0):
-    """MuJoCo's polynomial damping force ``-(a v + b v|v| + c v^3)``."""
-    return -sum((sm.Float(k) * term for k, term in ((a, v), (b, v * sm.Abs(v)),
-                                                      (c, v ** 3)) if k), sm.S.Zero)
-
-
-def _clamp(x, lo, hi):
-    """``x`` clamped to ``[lo, hi]``, written with absolute values (whose
-    derivatives, signs, every backend's generated code evaluates)."""
-    lo, hi = sm.Float(lo), sm.Float(hi)
-    return (lo + hi + sm.Abs(x - lo) - sm.Abs(x - hi)) / 2
-
-
 class _Names:
     """kanedyn identifiers of MJCF names (characters other than letters, digits
     and ``_`` become ``_``), checked not to clash."""
@@ -385,7 +332,7 @@ class _Names:
         return ident
 
 
-class _Builder:
+class _Builder(Actuation):
     def __init__(self, model, inputs, mesh_dirs=()):
         self.m = model
         self.inputs = inputs
@@ -541,151 +488,13 @@ class _Builder:
                                            list(info.u), np.eye(n) * joint.armature))
         amount = [sm.S.Zero] * n
         if "damper" not in self.off:
-            amount = [a + _damping(u, joint.damping, *joint.damping_terms)
+            amount = [a + damping_force(u, joint.damping, *joint.damping_terms)
                       for a, u in zip(amount, info.u)]
         if "spring" not in self.off and n == 1:
-            amount[0] += _spring(info.q[0] - joint.springref, joint.stiffness,
+            amount[0] += spring_force(info.q[0] - joint.springref, joint.stiffness,
                                  *joint.stiffness_terms)
         if any(a != 0 for a in amount):
             self.generalized_load(generalized, amount[0] if n == 1 else amount)
-
-    def tendons(self):
-        """Length, rate and passive forces of the tendons."""
-        joints = {j.name: j for j in self.joint_infos}
-        self.tendon_of = {}
-        for tendon in self.m.tendons:
-            if tendon.path:
-                L, Ldot, apply = self.spatial(tendon)
-            else:
-                L = sum((sm.Float(c) * joints[j].q[0] for j, c in tendon.joints), sm.S.Zero)
-                Ldot = sum((sm.Float(c) * joints[j].u[0] for j, c in tendon.joints),
-                           sm.S.Zero)
-                apply = self.joint_forces(tendon.joints)
-            self.tendon_of[tendon.name] = (L, Ldot, apply)
-            tid = self.names(tendon.name, "tendon", tendon.element)
-            if tendon.armature > 0:
-                self.bodies.append(RateInertia(f"armature_tendon_{tid}", [Ldot],
-                                               tendon.armature))
-            force = sm.S.Zero
-            if "spring" not in self.off and any(tendon.stiffness):
-                if tendon.springlength is None:  # the length at the spring references
-                    lo = hi = self.spring_length(L)
-                else:
-                    lo, hi = tendon.springlength
-                x = L - (sm.Float(lo) if lo == hi else _clamp(L, lo, hi))
-                force += _spring(x, *tendon.stiffness)
-            if "damper" not in self.off:
-                force += _damping(Ldot, *tendon.damping)
-            if force != 0:
-                self.tendon_load(tendon.name, force)
-
-    def joint_forces(self, members):
-        """What applies a fixed tendon's force ``f``: ``coef * f`` on each joint."""
-        def apply(force):
-            for joint, coef in members:
-                self.generalized_load(self.dofs[joint], sm.Float(coef) * force)
-        return apply
-
-    def spatial(self, tendon):
-        """Length, rate and what applies the force of a spatial tendon through sites:
-        each straight segment between consecutive sites of a branch counts its
-        length divided by the branch's divisor, and a force ``f`` (positive: it
-        lengthens the tendon) pushes each segment's ends apart by ``f / divisor``."""
-        segments = []
-        for (a, d), (b, _) in zip(tendon.path, tendon.path[1:]):
-            if a is not None and b is not None:
-                segments.append((self.site_points[a], self.site_points[b], d))
-        L, Ldot, ends = sm.S.Zero, sm.S.Zero, []
-        to_u = self.qdot_to_u()
-        for P1, P2, d in segments:
-            r = P2.pos_from(P1)
-            length = sm.sqrt(r.dot(r))
-            e = r / length
-            v = (P2.pos_from(self.O).dt(self.N) - P1.pos_from(self.O).dt(self.N))
-            L += length / sm.Float(d)
-            Ldot += e.dot(v).xreplace(to_u) / sm.Float(d)
-            ends.append((P1, P2, e / sm.Float(d)))
-
-        def apply(force):
-            for P1, P2, e in ends:
-                self.loads.append((P2, force * e))
-                self.loads.append((P1, -force * e))
-        return L, Ldot, apply
-
-    def spring_length(self, L):
-        """A tendon's length with hinge and slide joints at their spring references
-        (others at qpos0): MuJoCo's default spring length."""
-        values = {q: self.initial[q] for q in self.q}
-        for j in self.joint_infos:
-            if j.type in ("hinge", "slide"):
-                values[j.q[0]] = j.springref
-        return float(L.xreplace(values).evalf())
-
-    def tendon_load(self, name, force):
-        self.tendon_of[name][2](force)
-
-    def actuators(self):
-        joints = {j.name: j for j in self.joint_infos}
-        clamp = "clampctrl" not in self.off
-        for act in self.m.actuators:
-            aid = self.names(act.name, "actuator", act.element)
-            ctrl = me.dynamicsymbols(f"ctrl_{aid}")
-            if act.tendon:
-                L, Ldot, _ = self.tendon_of[act.joint]
-            else:
-                L, Ldot = joints[act.joint].q[0], joints[act.joint].u[0]
-            length, velocity = act.gear * L, act.gear * Ldot
-            c = ctrl
-            if act.ctrlrange is not None and clamp:
-                c = _clamp(ctrl, *act.ctrlrange)
-            state, rate = None, None
-            if act.dyntype != "none" and self.inputs:  # (no inputs: no forces, no states)
-                state, rate, c = self.activation(act, aid, c)
-            g0, g1, g2 = (sm.Float(x) for x in act.gain)
-            b0, b1, b2 = (sm.Float(x) for x in act.bias)
-            force = (g0 + g1 * length + g2 * velocity) * c + b0 + b1 * length + b2 * velocity
-            if act.forcerange is not None:
-                force = _clamp(force, *act.forcerange)
-            self.actuator_infos.append(MJCFActuator(
-                act.name, act.type, act.joint, act.gear, ctrl, force, act.ctrlrange,
-                act.forcerange, act.element.line, act.tendon, act.dyntype, act.tau,
-                act.actrange, act.actearly, state, rate,
-                None if state is None else len(self.activations) - 1))
-            if not self.inputs:
-                continue
-            self.specified[ctrl] = 0.0
-            if "actuation" in self.off:
-                continue
-            if act.tendon:
-                self.tendon_load(act.joint, act.gear * force)
-            else:
-                self.generalized_load(self.dofs[act.joint], act.gear * force)
-
-    def activation(self, act, aid, ctrl):
-        """``(state, its rate, what the force uses)`` of an actuator's activation
-        (``ctrl``: its control, clamped)."""
-        state = me.dynamicsymbols(f"act_{aid}")
-        if act.dyntype == "integrator":
-            rate = ctrl
-        else:
-            rate = (ctrl - state) / sm.Float(act.tau)
-        used = state
-        if act.actearly:  # the activation MuJoCo's next time step will have
-            dt = self.m.option.timestep
-            if act.dyntype == "filterexact":
-                used = state + (ctrl - state) * sm.Float(-math.expm1(-dt / act.tau))
-            else:
-                used = state + sm.Float(dt) * rate
-            if act.actrange is not None:
-                used = _clamp(used, *act.actrange)
-        if act.actrange is not None:  # the activation stops at the ends of its range
-            lo, hi = (sm.Float(x) for x in act.actrange)
-            rate = sm.Piecewise((sm.Min(rate, 0), state >= hi),
-                                (sm.Max(rate, 0), state <= lo), (rate, True))
-        self.activations.append(state)
-        self.kd_act.append(state.diff() - rate)
-        self.initial[state] = 0.0
-        return state, rate, used
 
     # bodies and their mass ---------------------------------------------------------
     def masses(self):
