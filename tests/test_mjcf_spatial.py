@@ -53,7 +53,8 @@ SPATIAL = """\
       <geom type="sphere" size="0.05"/><site name="s5" pos="0 0.05 0"/></body>
   </worldbody>
   <tendon>
-    <spatial name="cable" stiffness="20" damping="0.3 0.1" limited="true" range="0 2">
+    <spatial name="cable" stiffness="20" damping="0.3 0.1" limited="true" range="0 2"
+             armature="0.05">
       <site site="anchor"/><site site="s1"/><site site="s2"/><site site="s3"/>
       <site site="s4"/>
     </spatial>
@@ -85,8 +86,8 @@ def test_spatial_tendons_match_mujoco(tmp_path):
     """Sites on the world, on hinged bodies, on a ball joint's body and on a free
     body; a pulley; springs about the length at the spring references (default),
     a length and a dead band (cubic); linear and quadratic damping from a default
-    class and its own; a motor, a position servo and a filtered actuator on
-    tendons."""
+    class and its own; armature (of a tendon within one kinematic tree); a
+    motor, a position servo and a filtered actuator on tendons."""
     path = tmp_path / "spatial.xml"
     path.write_text(SPATIAL)
     definition = kd.models.from_mjcf(path)
@@ -123,9 +124,6 @@ def test_ball_in_cup_matches_mujoco():
 REFUSED = {
     "wrapping": ("<spatial><site site='a'/><geom geom='g'/><site site='b'/></spatial>",
                  r"<geom>: a spatial tendon wrapping around a geom is not supported"),
-    "armature": ("<spatial armature='0.1'><site site='a'/><site site='b'/></spatial>",
-                 r"<spatial>: armature='0.1': armature of a spatial tendon is not "
-                 "supported"),
     "one site": ("<spatial><site site='a'/></spatial>",
                  r"<spatial>: a spatial tendon \(and each branch after a pulley\) needs "
                  "at least two sites"),
@@ -145,4 +143,39 @@ def test_refused_spatial_tendons_name_file_element_and_line(case, tmp_path):
                     "size='0.1'/><site name='b' pos='0.2 0 0'/></body></worldbody>"
                     f"<tendon>\n{tendon}</tendon></mujoco>")
     with pytest.raises(MJCFError, match=r"model\.xml:2: " + pattern):
+        kd.models.from_mjcf(path)
+
+
+TWO_TREES = """\
+<mujoco><worldbody>
+  <body name="arm"><joint name="j" axis="0 1 0"/>
+    <geom type="capsule" fromto="0 0 0 0.3 0 0" size="0.03"/><site name="a" pos="0.3 0 0"/>
+    <body pos="0.3 0 0"><joint name="k" axis="0 1 0"/>
+      <geom type="capsule" fromto="0 0 0 0.2 0 0" size="0.02"/></body></body>
+  <body name="cart" pos="0 0.5 0"><joint name="s" type="slide" axis="1 0 0"/>
+    <geom type="box" size="0.05 0.05 0.05"/><site name="b"/></body>
+</worldbody>
+<tendon>
+  <fixed name="t" armature="0.3" stiffness="2"><joint joint="j" coef="1"/>
+    <joint joint="k" coef="0.5"/><joint joint="s" coef="-2"/></fixed>
+  SPATIAL
+</tendon>
+<actuator><motor tendon="t"/></actuator></mujoco>
+"""
+
+
+def test_tendon_armature_across_kinematic_trees(tmp_path):
+    """A fixed tendon with armature coupling an arm and a separate cart: MuJoCo
+    adds the armature within each kinematic tree only (no inertia coupling the
+    arm and the cart), and so does kanedyn; a spatial tendon with armature
+    across the two trees is refused (MuJoCo's velocity term then is not that of
+    the trees' parts)."""
+    path = tmp_path / "trees.xml"
+    path.write_text(TWO_TREES.replace("SPATIAL", ""))
+    assert compare_with_mujoco(path, states=4) < 1e-12
+    path.write_text(TWO_TREES.replace("SPATIAL", "<spatial armature='0.1'><site site='a'/>"
+                                      "<site site='b'/></spatial>"))
+    with pytest.raises(MJCFError, match=r"trees\.xml:12: <spatial>: armature of a spatial "
+                                        r"tendon spanning several kinematic trees \(below "
+                                        r"bodies arm, cart\) is not supported"):
         kd.models.from_mjcf(path)

@@ -97,8 +97,7 @@ class Actuation:
             self.tendon_of[tendon.name] = (L, Ldot, apply)
             tid = self.names(tendon.name, "tendon", tendon.element)
             if tendon.armature > 0:
-                self.bodies.append(RateInertia(f"armature_tendon_{tid}", [Ldot],
-                                               tendon.armature))
+                self.tendon_armature(tendon, tid, Ldot)
             force = sm.S.Zero
             if "spring" not in self.off and any(tendon.stiffness):
                 if tendon.springlength is None:  # the length at the spring references
@@ -111,6 +110,34 @@ class Actuation:
                 force += damping_force(Ldot, *tendon.damping)
             if force != 0:
                 self.tendon_load(tendon.name, force)
+
+    def tendon_armature(self, tendon, tid, Ldot):
+        """A tendon's armature as MuJoCo adds it: ``armature * J_k^T J_k`` for the
+        part ``J_k`` of the length's gradient in each kinematic tree (the bodies
+        below one child of the world) the tendon spans, the coupling between trees
+        left out: a :class:`RateInertia` on each tree's part of the rate.  That is
+        exact for a fixed tendon (constant ``J``); a spatial tendon spanning
+        several trees is refused (MuJoCo's velocity term then is not that of the
+        trees' parts)."""
+        trees = {}
+        for j in self.joint_infos:
+            body = self.m.body(j.body)
+            while body.parent != 0:
+                body = self.m.bodies[body.parent]
+            trees.setdefault(body.name, []).extend(j.u)
+        every = [u for us in trees.values() for u in us]
+        parts = {}
+        for root, speeds in trees.items():
+            rate = Ldot.xreplace({u: 0 for u in every if u not in speeds})
+            if rate != 0:
+                parts[root] = rate
+        if tendon.path and len(parts) > 1:
+            raise tendon.element.error(
+                f"armature of a spatial tendon spanning several kinematic trees (below "
+                f"bodies {', '.join(sorted(parts))}) is not supported")
+        for root, rate in parts.items():
+            name = f"armature_tendon_{tid}" + (f"_{root}" if len(parts) > 1 else "")
+            self.bodies.append(RateInertia(name, [rate], tendon.armature))
 
     def joint_forces(self, members):
         """What applies a fixed tendon's force ``f``: ``coef * f`` on each joint."""

@@ -952,9 +952,6 @@ def _tendons(reader, root, joints, sites):
             for key in ("actuatorfrcrange", "springyield"):
                 if a.has(key) and any(a.numbers(key, None, at_least=1, at_most=2)):
                     raise a.error(key, "not supported")
-            if path and a.has("armature") and a.number("armature", 0.0) != 0:
-                raise a.error("armature", "armature of a spatial tendon is not supported "
-                              "(of a fixed tendon it is)")
             tendon = Tendon(name, tuple(members), coefs["stiffness"][:3],
                             coefs["damping"][:3], springlength, a.number("armature", 0.0),
                             rng, a.number("frictionloss", 0.0), el, path)
