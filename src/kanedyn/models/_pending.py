@@ -69,27 +69,14 @@ class PendingDefinition(ModelDefinition):
             light = object.__getattribute__(self, "_light")
             if light is not None and attribute in ("name", "title"):
                 return light[attribute]
-            return getattr(object.__getattribute__(self, "_fill")(), attribute)
+            return getattr(_filled(self), attribute)
         return object.__getattribute__(self, attribute)
 
-    def _fill(self):
-        """Build the definition, take its fields and become a :class:`ModelDefinition`
-        (of the builder's class); returns ``self``."""
-        with _FILLING:
-            if type(self) is PendingDefinition:
-                built = build_now(self._registry_name, self._options, self._builder)
-                for name in ("_registry_name", "_options", "_builder", "_light"):
-                    object.__delattr__(self, name)
-                for name, value in vars(built).items():  # its fields, and _origin
-                    object.__setattr__(self, name, value)
-                object.__setattr__(self, "__class__", type(built))
-        return self
-
     def __repr__(self):
-        return repr(self._fill())
+        return repr(_filled(self))
 
     def __eq__(self, other):
-        return self._fill() == other
+        return _filled(self) == other
 
     __hash__ = ModelDefinition.__hash__
 
@@ -113,12 +100,13 @@ class PendingDefinition(ModelDefinition):
                 model, light = found
                 if set(constants or {}) <= set(light["constants"]):
                     object.__setattr__(self, "_light", light)
-                    model._rederive = lambda: self.numeric(self.derive(), **options)
+                    model._rederive = lambda: _filled(self).numeric(self.derive(),
+                                                                    **options)
                     if constants:
                         model = model.with_constants({k: float(v)
                                                       for k, v in constants.items()})
                     return model
-        return self._fill().numeric(eom, constants=constants, specified=specified,
+        return _filled(self).numeric(eom, constants=constants, specified=specified,
                                     **options)
 
     def initial(self, model, overrides=None):
@@ -132,7 +120,22 @@ class PendingDefinition(ModelDefinition):
             for key, value in values.items():
                 y[model.index(key)] = float(value)
             return y
-        return self._fill().initial(model, overrides)
+        return _filled(self).initial(model, overrides)
+
+
+def _filled(definition):
+    """``definition``, built if it was a :class:`PendingDefinition`: its
+    builder's definition's fields taken, and its class (a method of a
+    pending definition that builds it calls this, not a method: the object's
+    class changes under it)."""
+    with _FILLING:
+        if type(definition) is PendingDefinition:
+            state = object.__getattribute__(definition, "__dict__")
+            built = build_now(state["_registry_name"], state["_options"], state["_builder"])
+            state.clear()
+            state.update(vars(built))  # its fields, and _origin
+            object.__setattr__(definition, "__class__", type(built))
+    return definition
 
 
 def build_now(name, options, builder):
