@@ -1,9 +1,10 @@
 """Time to first use: a built-in model to its first compiled evaluation.
 
-For chain3d (style="positions") at n = 10, 30, 60: cold (a fresh process and
+For chain3d (style="positions") at n = 10, 30, 60, 100: cold (a fresh process and
 an empty cache directory via XDG_CACHE_HOME, so the model is derived and the
 C compiled) and warm (a second fresh process, same model and cache), each the
 wall time of ``build -> numeric(backend="c") -> rhs`` inside the process
+(``kd.models.build`` with its default options, as a user calls it)
 (interpreter start-up excluded, ``import kanedyn`` and the SymPy and NumPy it
 imports included), and for the warm process also to the end of a first
 ``kd.simulate`` over 1 s; the cold time is also given after the imports of
@@ -18,7 +19,7 @@ the table gives the time to the first evaluation, to the optimized module in use
 process of its own, the first evaluation with the optimizing compiler alone.
 The machine is shared: run with ``--repeat`` and read the minima.
 
-    python benchmarks/bench_first_use.py [--sizes 10,30,60] [--repeat 1]
+    python benchmarks/bench_first_use.py [--sizes 10,30,60,100] [--repeat 1]
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from kanedyn.numerics import COMPILE_STATS
 from kanedyn.numerics.backends._c_quick import QUICK_STATS
 {imports}
 t_imports = time.perf_counter() - t0
-d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
+d = kd.models.build("chain3d", n={n}, style="positions")
 m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
 t_rhs = time.perf_counter() - t0
@@ -85,7 +86,7 @@ def child(code, cache, quick=None):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", default="10,30,60")
+    parser.add_argument("--sizes", default="10,30,60,100")
     parser.add_argument("--repeat", type=int, default=1)
     args = parser.parse_args(argv)
     byte_compile_package()
