@@ -66,7 +66,7 @@ class Run(subprocess.Popen):
         return code
 
 subprocess.Popen = Run
-d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
+d = kd.models.build("chain3d", n={n}, style="positions")
 mark("model defined")
 derive = type(d).derive
 def timed_derive(self, *args, **kwargs):

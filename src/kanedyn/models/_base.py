@@ -145,6 +145,15 @@ class ModelDefinition:
         (:meth:`NumericModel.with_constants`), never a new derivation or build.
         The symbolic equations of a model from the cache are derived again
         only when they are asked for (linearization, pickling).
+
+        A definition made otherwise (a user's ``ModelDefinition``, one read
+        from URDF or MJCF) is kept there too, keyed by a digest of its
+        description (:func:`kanedyn.models._fingerprint.description_fingerprint`:
+        every expression, frame, point, body, load and constant reachable from
+        its fields), so that the same description built again in a second
+        process skips the derivation; one holding anything the digest does not
+        cover (a callable, kanedyn's contacts or force elements) is derived
+        every time.
         """
         if eom is None and specified is None:
             cached = _derivation_cache(self, constants, options)
@@ -433,7 +442,12 @@ def _derivation_cache(definition, constants, options):
     """The numerical model from the derivation cache (built and stored on a miss),
     or ``None`` when the model or its options are not cacheable."""
     overrides = definition._constant_overrides(constants or {})
-    key = _cacheable(getattr(definition, "_origin", None), overrides, options)
+    origin = getattr(definition, "_origin", None)
+    if origin is None and options.get("backend") == "c":  # a user's model: its description
+        from ._fingerprint import description_fingerprint
+        fingerprint = description_fingerprint(definition)
+        origin = None if fingerprint is None else ("description", fingerprint)
+    key = _cacheable(origin, overrides, options)
     if key is None:
         return None
 
