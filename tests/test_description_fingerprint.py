@@ -118,3 +118,24 @@ def test_unchanged_user_model_is_read_from_the_cache_a_changed_one_derived(
     expected = other.numeric(other.derive())
     assert np.allclose(changed.rhs(0.0, y), expected.rhs(0.0, y), rtol=1e-12, atol=1e-12)
     assert not np.allclose(changed.rhs(0.0, y), first.rhs(0.0, y))
+
+
+def test_a_description_changed_after_its_model_was_read_is_not_derived_for_it(
+        tmp_path, monkeypatch):
+    """The equations of a model read from the cache are derived from its
+    definition when first asked for; a definition changed in between would
+    give other equations: refused, naming the model."""
+    import sympy.physics.mechanics as me
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    tmp_path.chmod(0o700)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    double_pendulum().numeric(backend="c")
+    kd.numerics.finish_compiling()
+    definition = double_pendulum()
+    model = definition.numeric(backend="c")
+    N = definition.kane_args["frame"]
+    definition.kane_args["bodies"][1].masscenter.set_vel(N, me.Vector(0))
+    with pytest.raises(kd.ModelError, match="model double pendulum: its description changed"):
+        model.linearize(0.0, np.zeros(4))

@@ -443,8 +443,8 @@ def _derivation_cache(definition, constants, options):
     or ``None`` when the model or its options are not cacheable."""
     overrides = definition._constant_overrides(constants or {})
     origin = getattr(definition, "_origin", None)
+    from ._fingerprint import description_fingerprint
     if origin is None and options.get("backend") == "c":  # a user's model: its description
-        from ._fingerprint import description_fingerprint
         fingerprint = description_fingerprint(definition)
         origin = None if fingerprint is None else ("description", fingerprint)
     key = _cacheable(origin, overrides, options)
@@ -452,6 +452,11 @@ def _derivation_cache(definition, constants, options):
         return None
 
     def derive_again():
+        if origin[0] == "description" and description_fingerprint(definition) != origin[1]:
+            raise ModelError(f"model {definition.name}: its description changed after its "
+                             "numerical model was read from the derivation cache; its "
+                             "equations cannot be derived for that model (make a new "
+                             "numerical model with numeric())")
         return definition.numeric(definition.derive(), **options)
 
     found = _read_cache(key)
