@@ -119,3 +119,23 @@ def test_lazy_false_always_builds(cache, monkeypatch):
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(cache))
     assert type(kd.models.build("chain3d", lazy=False, **OPTIONS)) is ModelDefinition
     assert type(kd.models.build("chain3d", **OPTIONS)) is PendingDefinition
+
+
+def test_command_line_derive_of_a_cached_model_prints_what_the_eager_path_prints(
+        cache, monkeypatch, capsys, tmp_path):
+    """``kanedyn derive`` (which builds through ``kd.models.build``) with the
+    model in the cache prints the equations it prints with an empty cache."""
+    from kanedyn.cli import main
+    argv = ["derive", "chain3d", "--set", "n=2", "--set", "style=positions", "--quiet"]
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(cache))
+    assert main(argv) == 0
+    warm = capsys.readouterr().out
+    empty = tmp_path / "empty"
+    empty.mkdir(mode=0o700)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(empty))
+    assert main(argv) == 0
+
+    def equations(text):  # without the line that says how long the derivation took
+        return [line for line in text.splitlines() if "derived in" not in line]
+    assert equations(warm) == equations(capsys.readouterr().out)
+    assert any(line.startswith("mass_matrix") for line in equations(warm))
