@@ -125,6 +125,7 @@ static void kd_hy_seg(const KdHybrid *H, const double *p, const int *modes, KdSe
     memcpy(S->mu_s, H->mu_s, sizeof S->mu_s);
     memcpy(S->visc, H->visc, sizeof S->visc);
     S->stab = H->stab;
+    S->general = 1;
 }
 
 static int kd_hy_solve(KdHybrid *H, double t, const double *z, const double *p,
@@ -225,25 +226,6 @@ static void kd_hy_matvec(const double *W, const double *x, double *out) {
     for (int a = 0; a < 3; ++a) out[a] = W[3 * a] * x[0] + W[3 * a + 1] * x[1] + W[3 * a + 2] * x[2];
 }
 
-/* least-squares solution of the symmetric 2 x 2 system A a = b (cut-off 1e-12) */
-static void kd_hy_pinv2(const double *A, const double *b, double *a) {
-    double ev[2], V[4];
-    double m = 0.5 * (A[0] + A[3]), d = 0.5 * (A[0] - A[3]), r = sqrt(d * d + A[1] * A[1]);
-    ev[0] = m + r; ev[1] = m - r;
-    if (A[1] == 0.0) { V[0] = 1; V[2] = 0; V[1] = 0; V[3] = 1; ev[0] = A[0]; ev[1] = A[3]; }
-    else {
-        double x = ev[0] - A[3], y = A[1], nn = sqrt(x * x + y * y);
-        V[0] = x / nn; V[2] = y / nn; V[1] = -V[2]; V[3] = V[0];
-    }
-    double big = fmax(fabs(ev[0]), fabs(ev[1]));
-    a[0] = a[1] = 0.0;
-    for (int k = 0; k < 2; ++k) {
-        if (!(fabs(ev[k]) > 1e-12 * big)) continue;
-        double c = (V[k] * b[0] + V[2 + k] * b[1]) / ev[k];
-        a[0] += c * V[k]; a[1] += c * V[2 + k];
-    }
-}
-
 /* the impulse on one contact point; 0, or 5 where the slip turns (not ported) */
 static int kd_hy_single(const double *W, const double *v0, const double *n, double mu_k,
                         double mu_s, double e, int newton, double *P_out) {
@@ -260,7 +242,7 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
     A2[0] = kd_dot3(T1, WT1); A2[1] = kd_dot3(T1, WT2); A2[2] = kd_dot3(T2, WT1); A2[3] = kd_dot3(T2, WT2);
     A2[1] = A2[2] = 0.5 * (A2[1] + A2[2]);
     b2[0] = -kd_dot3(T1, Wn); b2[1] = -kd_dot3(T2, Wn);
-    kd_hy_pinv2(A2, b2, a2);
+    kd_pinv2(A2, b2, a2);
     for (int i = 0; i < 3; ++i) stick_rate[i] = T1[i] * a2[0] + T2[i] * a2[1];
     int can_stick = sqrt(a2[0] * a2[0] + a2[1] * a2[1]) <= mu_s * (1 + 1e-12);
     double scale = fmax(sqrt(kd_dot3(v0, v0)), 1e-300), slip_tol = 1e-9 * scale;
@@ -375,48 +357,93 @@ static int kd_hy_impact(KdHybrid *H, double t, double *z, const double *p, const
     return 0;
 }
 
-/* impacts of approaching contacts, then consistent modes (_hybrid._resolve) */
+/* the impact of the k contacts inv (hitting or touching) at once (resolve_impact with
+   _simultaneous: Newton's law; without restitution where it would gain energy) */
+static int kd_hy_impact_several(KdHybrid *H, double t, double *z, const double *p,
+                                const KdPoints *P, const int *inv, int k, const int *plastic) {
+    const double r[1] = {0.0};
+    double qd[KD_SZ(KD_NQ)], M[KD_NU * KD_NU], f[KD_NU], B[1], Ka[1], fa[1];
+    double D[KD_NU * 3 * KD_NC], W[9 * KD_NC * KD_NC], v0[3 * KD_NC], v1[3 * KD_NC];
+    double normals[3 * KD_NC], mu[KD_NC], e[KD_NC], Pi[3 * KD_NC];
+    int n = 3 * k;
+    kd_eval_dynamics(t, z, p, r, H->w, qd, M, f, B, Ka, fa);
+    for (int a = 0; a < k; ++a) {
+        const double *J = P->jac + 3 * inv[a] * KD_NU;
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < KD_NU; ++j) D[j * n + 3 * a + i] = J[i * KD_NU + j];
+            v0[3 * a + i] = P->vel[3 * inv[a] + i];
+            normals[3 * a + i] = P->normal[3 * inv[a] + i];
+        }
+        mu[a] = H->mu_k[inv[a]];
+        e[a] = plastic[inv[a]] ? 0.0 : H->e[inv[a]];
+    }
+    if (kd_lu_solve(KD_NU, M, D, n) != 0) {
+        int mask[KD_NC] = {0};
+        for (int a = 0; a < k; ++a) mask[inv[a]] = 1;
+        return kd_hy_several(H, t, mask, "singular mass matrix at the impact");
+    }
+    for (int a = 0; a < k; ++a)
+        for (int i = 0; i < 3; ++i) {
+            const double *J = P->jac + 3 * inv[a] * KD_NU + i * KD_NU;
+            for (int col = 0; col < n; ++col) {
+                double sum = 0.0;
+                for (int j = 0; j < KD_NU; ++j) sum += J[j] * D[j * n + col];
+                W[(3 * a + i) * n + col] = sum;
+            }
+        }
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        double loss = 0.0, work = 0.0;
+        kd_imp_several(k, W, v0, normals, mu, e, Pi);
+        for (int a = 0; a < n; ++a) {
+            v1[a] = v0[a];
+            for (int b = 0; b < n; ++b) v1[a] += W[a * n + b] * Pi[b];
+        }
+        for (int a = 0; a < n; ++a) { loss -= 0.5 * Pi[a] * (v0[a] + v1[a]); work += Pi[a] * v0[a]; }
+        if (!(loss < -1e-12 * fmax(1.0, fabs(work)))) break;
+        for (int a = 0; a < k; ++a) e[a] = 0.0;  /* Kane's paradox: no restitution */
+    }
+    for (int j = 0; j < KD_NU; ++j)
+        for (int col = 0; col < n; ++col) z[KD_NQ + j] += D[j * n + col] * Pi[col];
+    H->impacts++;
+    return 0;
+}
+
+/* impacts of approaching contacts (with the contacts already touching), then
+   consistent modes (_hybrid._resolve) */
 static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p) {
     KdPoints P;
-    int hitting = -1, involved = 0, touching[KD_NC];
+    int touching[KD_NC], hitting[KD_NC], plastic[KD_NC], inv[KD_NC], k = 0, any = 0;
     kd_hy_points(H, t, z, p, &P);
     for (int c = 0; c < KD_NC; ++c) {
         touching[c] = kd_hy_dist(&P, c) <= H->tol_d;
-        if (touching[c] && kd_hy_vn(&P, c) < -H->tol_v) {
-            if (hitting >= 0) {
-                int both[KD_NC] = {0};
-                both[c] = both[hitting] = 1;
-                return kd_hy_several(H, t, both, "an impact of several contacts at once is "
-                                     "not handled by the exported FMU");
-            }
-            hitting = c;
-        }
+        hitting[c] = touching[c] && kd_hy_vn(&P, c) < -H->tol_v;
+        any |= hitting[c];
     }
-    if (hitting >= 0) {
-        int c = hitting;
-        for (int i = 0; i < KD_NC; ++i)
-            if (i != c && touching[i] && H->modes[i] != KD_SEP) {
-                int both[KD_NC] = {0};
-                both[c] = both[i] = 1;
-                return kd_hy_several(H, t, both, "an impact while another contact touches "
-                                     "is not handled by the exported FMU");
-            }
-        (void)involved;
-        double speed = -kd_hy_vn(&P, c);
-        int plastic = speed < H->rest
-                      || (H->bounced[c] && H->bounce_v[c] * (t - H->bounce_t[c]) <= H->tol_lift);
-        int st = kd_hy_impact(H, t, z, p, &P, c, plastic ? 0.0 : H->e[c]);
+    if (any) {
+        int st;
+        for (int c = 0; c < KD_NC; ++c) {
+            /* too slow to bounce again, or bouncing too little to leave: plastic */
+            plastic[c] = hitting[c] && (-kd_hy_vn(&P, c) < H->rest
+                                        || (H->bounced[c] && H->bounce_v[c]
+                                            * (t - H->bounce_t[c]) <= H->tol_lift));
+            if (hitting[c] || (touching[c] && H->modes[c] != KD_SEP)) inv[k++] = c;
+        }
+        if (k == 1) st = kd_hy_impact(H, t, z, p, &P, inv[0], plastic[inv[0]] ? 0.0 : H->e[inv[0]]);
+        else st = kd_hy_impact_several(H, t, z, p, &P, inv, k, plastic);
         if (st) return st;
         kd_hy_points(H, t, z, p, &P);
-        double vn = kd_hy_vn(&P, c);
-        if (vn > H->rest) {
-            H->modes[c] = KD_SEP;
-            H->bounced[c] = 1;
-            H->bounce_t[c] = t;
-            H->bounce_v[c] = vn;
-        } else {
-            H->modes[c] = kd_hy_touching_mode(H, &P, c);
-            H->bounced[c] = 0;
+        for (int a = 0; a < k; ++a) {
+            int c = inv[a];
+            double vn = kd_hy_vn(&P, c);
+            if (vn > H->rest) {
+                H->modes[c] = KD_SEP;
+                H->bounced[c] = 1;
+                H->bounce_t[c] = t;
+                H->bounce_v[c] = vn;
+            } else {
+                H->modes[c] = kd_hy_touching_mode(H, &P, c);
+                H->bounced[c] = 0;
+            }
         }
     }
     return kd_hy_settle(H, t, z, p);
@@ -428,18 +455,23 @@ static int kd_hy_keep(void *ctx, int phase, double t, const double *z) {
     return 0;
 }
 
-/* the segment's slip references (at its start) and event functions */
-static void kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p, KdSeg *S) {
+/* the segment's slip references (at its start, from the slip velocities free of
+   the other contacts' drift) and event functions; 0 or 5 */
+static int kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p, KdSeg *S) {
     KdPoints P;
     kd_hy_points(H, t, z, p, &P);
     if (H->fresh) {
+        KdSegOut o;
+        int st = kd_hy_solve(H, t, z, p, H->modes, &o);
+        if (st) return st;
         for (int c = 0; c < KD_NC; ++c) {
-            double vt[3], speed = kd_hy_slip(&P, c, vt);
+            const double *vt = o.vt + 3 * c;
+            double speed = sqrt(kd_dot3(vt, vt));
             if (H->modes[c] != KD_SLIP) H->has_ref[c] = 0;
             else if (speed > H->tol_slip) {
                 H->has_ref[c] = 1;
                 for (int i = 0; i < 3; ++i) H->ref[3 * c + i] = vt[i] / speed;
-                H->slow[c] = 1e-3 * speed;
+                H->slow[c] = fmax(1e-3 * speed, 20.0 * H->tol_slip);  /* _SLOW_STILL */
                 H->still[c] = H->tol_slip;
             }
         }
@@ -459,6 +491,7 @@ static void kd_hy_segment(KdHybrid *H, double t, const double *z, const double *
             S->ev_c[S->n_ev] = c; S->ev_kind[S->n_ev++] = 3;
         }
     }
+    return 0;
 }
 
 /* the modes after event `kind` of contact c at (t, z) (simulate_contacts) */
@@ -470,24 +503,26 @@ static int kd_hy_event(KdHybrid *H, double t, double *z, const double *p, int c,
         KdSegOut o;
         int st = kd_hy_solve(H, t, z, p, H->modes, &o);
         if (st) return st;
-        double ft[3], size;
-        for (int i = 0; i < 3; ++i)
-            ft[i] = o.total[3 * c + i] - o.N[c] * o.normal[3 * c + i] - H->visc[c] * o.vt[3 * c + i];
+        double ft[3], size, vn = kd_dot3(o.normal + 3 * c, o.vel + 3 * c);
+        for (int i = 0; i < 3; ++i)  /* the friction, its viscous part on the raw slip */
+            ft[i] = o.total[3 * c + i] - o.N[c] * o.normal[3 * c + i]
+                    - H->visc[c] * (o.vel[3 * c + i] - vn * o.normal[3 * c + i]);
         size = fmax(sqrt(kd_dot3(ft, ft)), 1e-300);
         H->modes[c] = KD_SLIP;
         H->has_ref[c] = 1;
         for (int i = 0; i < 3; ++i) H->ref[3 * c + i] = -ft[i] / size;
         H->slow[c] = INFINITY;
         H->still[c] = H->tol_slip;
-    } else {  /* the slip stops: every sliding contact whose slip has stopped sticks */
-        KdPoints P;
-        int stopping[KD_NC];
-        kd_hy_points(H, t, z, p, &P);
+    } else {  /* the slip stops: every sliding contact whose slip (free of the other
+                 contacts' drift) has stopped sticks (_stopped) */
+        KdSegOut o;
+        int stopping[KD_NC], st = kd_hy_solve(H, t, z, p, H->modes, &o);
+        if (st) return st;
         for (int i = 0; i < KD_NC; ++i) {
-            double vt[3];
+            const double *vt = o.vt + 3 * i;
             stopping[i] = H->modes[i] == KD_SLIP && H->has_ref[i]
                           && (i == c || isfinite(H->slow[i]))
-                          && kd_hy_slip(&P, i, vt) <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]);
+                          && sqrt(kd_dot3(vt, vt)) <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]);
         }
         for (int i = 0; i < KD_NC; ++i) if (stopping[i]) H->modes[i] = KD_STICK;
     }
@@ -532,7 +567,7 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
     }
     if (!status) status = kd_hy_resolve(H, t, z, p);
     H->fresh = 1;
-    if (!status) kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
+    if (!status) status = kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
     kd_free_work(H->w);
     H->w = NULL;
     return status;
@@ -551,7 +586,7 @@ int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, vo
         KdSeg S;
         double t_end, start = t;
         int event;
-        kd_hy_segment(H, t, z, p, &S);
+        if ((status = kd_hy_segment(H, t, z, p, &S)) != 0) break;
         int st = kd_seg_run(&S, t, t1, z, rtol, atol, &H->h, kd_hy_keep, steps, &t_end, &event);
         if (st == 2) {
             KdSegOut o;
@@ -653,7 +688,7 @@ int kanedyn_contact_update(double t, double *y, const double *p, void *state, in
         }
         status = kd_hy_event(H, t, z, p, c, H->seg.ev_kind[event]);
         H->fresh = 1;
-        if (!status) kd_hy_segment(H, t, z, p, &H->seg);
+        if (!status) status = kd_hy_segment(H, t, z, p, &H->seg);
         if (!status && grazing && H->modes[c] == KD_SEP) {
             /* it stays separated, leaving from the surface at rounding-level speed:
                its next event where it comes back closer than tol_d (the integrator
