@@ -17,8 +17,10 @@ friction along the slip direction of
 :func:`kanedyn.numerics._contact_dynamics.slip_direction`) or sticking (a
 3-vector force), with Baumgarte stabilization of the normal distance.  Several
 active contacts only when all are frictionless and sliding with independent
-normal rows (their normal forces by the Schur complement): the exported FMU's
-contact loop uses that; ``kd.simulate`` gives such segments to the Python path.  Any
+normal rows (their normal forces by the Schur complement).  The exported FMU
+(where ``KD_GENERAL_CONTACTS`` is defined and the segment sets ``general``) solves
+every other case by the general solve of :mod:`._c_contact_general`;
+``kd.simulate`` gives such segments to the Python path.  Any
 other case (several active contacts, dependent speeds, specified inputs, an
 ill-conditioned contact-space matrix) and any failure (singular or not
 finite) returns status 2 at once: the caller integrates that segment with

@@ -9,18 +9,21 @@ extension); at an event the modes change as there (the gap closes, the normal
 force vanishes, the slip stops, the friction reaches :math:`\mu_s N`), impacts
 are resolved by the single-contact law of
 :func:`kanedyn.simulation._impact._single` (Poisson or Newton restitution,
-Coulomb friction integrated over the normal impulse in closed form) and the
+Coulomb friction integrated over the normal impulse in closed form) or, where
+several contacts take part (those hitting and those already touching), by
+:func:`kanedyn.simulation._impact._simultaneous` (:mod:`._c_impacts`), and the
 modes are settled (forces within their limits) before integration resumes.
-Tolerances, rest speed, Baumgarte frequency (10 rad/s) and the choice of slip
-references are those of ``kd.simulate``'s defaults.
+Several active contacts are solved by the general path of
+:func:`kanedyn.numerics._contact_dynamics.solve_modes`
+(:mod:`._c_contact_general`).  Tolerances, rest speed, Baumgarte frequency
+(10 rad/s) and the choice of slip references (from the slip velocities free of
+the other contacts' drift) are those of ``kd.simulate``'s defaults.
 
 What it does not do, a failure with a message naming the contact (code 5,
-``kanedyn_contact_message``): several contacts sliding or sticking at once unless
-all are frictionless with independent normals, an impact of a contact while
-another touches or of several at once, an impact
-whose slip turns during the impulse (out of plane), a singular or non-finite
-contact solve, modes that do not settle.  The export refuses bilateral
-contacts, dependent speeds and specified inputs before (``io.fmu``).
+``kanedyn_contact_message``): an impact of one contact whose slip turns during
+the impulse (out of plane), a singular or non-finite contact solve, modes that
+do not settle.  The export refuses bilateral contacts, dependent speeds and
+specified inputs before (``io.fmu``).
 
 Public interface (appended to ``model.c``; ``z`` is the state followed by the
 work of the friction forces and of all contact forces [J])::
