@@ -114,6 +114,15 @@ static int kd_hy_several(KdHybrid *H, double t, const int *modes, const char *wh
     return 5;
 }
 
+/* the contact equations of modes cannot be solved: the message names the active
+   contacts (code 5) */
+static int kd_hy_singular(KdHybrid *H, double t, const int *modes) {
+    const char *what = "singular or not finite contact equations";
+    for (int c = 0; c < KD_NC; ++c)
+        if (modes[c] != KD_SEP) return kd_hy_several(H, t, modes, what);
+    return kd_hy_fail(H, -1, t, what);
+}
+
 /* the segment solver for modes (and the references of H) */
 static void kd_hy_seg(const KdHybrid *H, const double *p, const int *modes, KdSeg *S) {
     memset(S, 0, sizeof *S);
@@ -137,19 +146,7 @@ static int kd_hy_solve(KdHybrid *H, double t, const double *z, const double *p,
     double zd[KD_NZ];
     kd_hy_seg(H, p, modes, &S);
     int st = kd_seg_solve(&S, t, z, zd, o);
-    if (st == 2) {
-        int active = 0;
-        for (int c = 0; c < KD_NC; ++c) active += modes[c] != KD_SEP;
-        if (active > 1)
-            return kd_hy_several(H, t, modes, "more than one contact sliding or sticking at "
-                                 "once, with friction or with dependent normal directions, "
-                                 "is not handled by the exported FMU (kd.simulate handles "
-                                 "it)");
-        return kd_hy_fail(H, -1, t, "the contact-space matrix is ill-conditioned (a point "
-                          "that cannot move in some direction): not handled by the "
-                          "exported FMU");
-    }
-    if (st) return kd_hy_fail(H, -1, t, "singular or not finite contact equations");
+    if (st) return kd_hy_singular(H, t, modes);
     return 0;
 }
 
@@ -631,9 +628,7 @@ int kanedyn_contact_derivatives(double t, const double *y, const double *p, void
     H->seg.w = NULL;
     if (st) {
         H->w = NULL;
-        return kd_hy_fail(H, -1, t, st == 2 ? "more than one contact sliding or sticking at "
-                          "once, or an ill-conditioned contact: not handled by the exported "
-                          "FMU" : "singular or not finite contact equations");
+        return kd_hy_singular(H, t, H->seg.modes);
     }
     memcpy(ydot, zd, sizeof(double) * KD_NX);
     return 0;
