@@ -444,9 +444,16 @@ def test_contact_fmu_falling_rod_lands_with_both_ends(folder):
     assert np.max(np.abs(states - ref.y)) < 1e-8
 
 
-def _rod_in_space(folder):
-    """A rod that can also move along N.y, its end A falling on a rough floor with a
-    slip across the rod's plane: the slip turns during the impulse."""
+_IN_SPACE = {}
+
+
+def _rod_in_space(folder, law):
+    """A rod that can also move along N.y, its end A landing on a rough floor (mu 0.3,
+    restitution 0.5 under ``law``) with a slip across the rod's plane: the slip
+    turns during the impulse (kd.simulate integrates it over the normal impulse).
+    (model, y0, path of its FMU), built once per law."""
+    if law in _IN_SPACE:
+        return _IN_SPACE[law]
     import sympy.physics.mechanics as me
     q = me.dynamicsymbols("x y z theta")
     u = me.dynamicsymbols("u_x u_y u_z omega")
@@ -459,26 +466,34 @@ def _rod_in_space(folder):
     rod = me.RigidBody("rod", G, B, 1.0, (me.inertia(B, 0, 1 / 12, 1 / 12), G))
     A = G.locatenew("A", 0.5 * B.x)
     A.v2pt_theory(G, N, B)
-    floor = kd.Contact(A, kd.Plane(N, O, N.z, name="floor"), mu_k=0.3, name="floor-A")
+    floor = kd.Contact(A, kd.Plane(N, O, N.z, name="floor"), mu_k=0.3, restitution=0.5,
+                       restitution_law=law, name="floor-A")
     eom = kd.kane(frame=N, q_ind=q, u_ind=u, kd_eqs=[a.diff() - b for a, b in zip(q, u)],
                   bodies=[rod], loads=[(G, -9.81 * N.z)], contacts=[floor])
     model = eom.numeric(backend="c")
     y0 = np.array([0.0, 0.0, 0.5 * np.sin(0.6) + 0.01, -0.6, 1.0, 1.0, -1.0, 0.0])
-    return model, y0, model.export_fmu(folder / "rod-in-space.fmu", y0)
+    _IN_SPACE[law] = (model, y0, model.export_fmu(folder / f"rod-in-space-{law}.fmu", y0))
+    return _IN_SPACE[law]
 
 
-def test_contact_fmu_refuses_an_impact_whose_slip_turns_naming_it(folder):
-    """An impact whose slip turns during the impulse (kd.simulate integrates it over
-    the normal impulse): the FMU stops there with an error naming the contact."""
-    model, y0, path = _rod_in_space(folder)
-    ref = kd.simulate(model, (0.0, 0.3), y0, rtol=CONTACT_TOL, atol=CONTACT_TOL)
-    assert ref.success and len(ref.impacts) == 1
-    messages = []
-    with pytest.raises(Exception, match="fmi2DoStep failed"):
-        _contact_run_of("CoSimulation", path, model.state_names, 0.3,
-                        logger=lambda *args: messages.append(args[-1].decode()))
-    assert any("contact floor-A at t = 0.00955" in m and "slip turns during the impulse"
-               in m and "not handled by the exported FMU" in m for m in messages)
+@pytest.mark.parametrize("law", ["poisson", "newton"])
+@pytest.mark.parametrize("kind", ["CoSimulation", "ModelExchange"])
+def test_contact_fmu_impact_whose_slip_turns(kind, law, folder):
+    """Impacts whose slip turns during the impulse (the slip across the rod's plane
+    meets an inverse inertia that differs along and across it), integrated over the
+    normal impulse in the FMU as in kd.simulate; 20 impacts in 1 s, the bounces
+    shrinking geometrically.  Measured 1.8e-9 / 1.4e-9 (co-simulation, Poisson /
+    Newton), 2.2e-9 / 1.4e-9 (model exchange, CVODE at 1e-13; at 1e-12: 1.8e-7 /
+    1.2e-3)."""
+    model, y0, path = _rod_in_space(folder, law)
+    times, states = _contact_run_of(kind, path, model.state_names, 1.0, rtol=1e-13)
+    ref = _contact_reference(model, y0, times)
+    # the friction impulse of the first impact is not opposite the slip it met (along
+    # (1, 1) / sqrt(2)): the slip turned
+    friction = ref.impacts[0].impulses[0][:2]
+    slip = np.array([1.0, 1.0]) / np.sqrt(2.0)
+    assert len(ref.impacts) > 10 and -friction @ slip < 0.999 * np.hypot(*friction)
+    assert np.max(np.abs(states - ref.y)) < 1e-8
 
 
 # (model, FMI version, end time [s], CVODE's rtol): FMPy's model exchange, the contact

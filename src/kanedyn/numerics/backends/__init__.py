@@ -13,6 +13,7 @@
 ``_c_hybrid``       the standalone file's contact loop: modes, events, impacts
 ``_c_contact_general``  its solve of several active contacts with friction
 ``_c_impacts``      its impacts of several contacts at once
+``_c_impact_slide`` its impacts whose slip turns (integrated over the impulse)
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes

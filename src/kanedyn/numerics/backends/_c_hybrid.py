@@ -9,7 +9,8 @@ extension); at an event the modes change as there (the gap closes, the normal
 force vanishes, the slip stops, the friction reaches :math:`\mu_s N`), impacts
 are resolved by the single-contact law of
 :func:`kanedyn.simulation._impact._single` (Poisson or Newton restitution,
-Coulomb friction integrated over the normal impulse in closed form) or, where
+Coulomb friction integrated over the normal impulse: in closed form, or where
+the slip turns by :mod:`._c_impact_slide`) or, where
 several contacts take part (those hitting and those already touching), by
 :func:`kanedyn.simulation._impact._simultaneous` (:mod:`._c_impacts`), and the
 modes are settled (forces within their limits) before integration resumes.
@@ -19,11 +20,10 @@ Several active contacts are solved by the general path of
 (10 rad/s) and the choice of slip references (from the slip velocities free of
 the other contacts' drift) are those of ``kd.simulate``'s defaults.
 
-What it does not do, a failure with a message naming the contact (code 5,
-``kanedyn_contact_message``): an impact of one contact whose slip turns during
-the impulse (out of plane), a singular or non-finite contact solve, modes that
-do not settle.  The export refuses bilateral contacts, dependent speeds and
-specified inputs before (``io.fmu``).
+What it does not do, a failure with a message naming the contacts (code 5,
+``kanedyn_contact_message``): a singular or non-finite contact solve, modes that
+do not settle (``kd.simulate`` stops there too).  The export refuses bilateral
+contacts, dependent speeds and specified inputs before (``io.fmu``).
 
 Public interface (appended to ``model.c``; ``z`` is the state followed by the
 work of the friction forces and of all contact forces [J])::
@@ -226,12 +226,12 @@ static void kd_hy_matvec(const double *W, const double *x, double *out) {
     for (int a = 0; a < 3; ++a) out[a] = W[3 * a] * x[0] + W[3 * a + 1] * x[1] + W[3 * a + 2] * x[2];
 }
 
-/* the impulse on one contact point; 0, or 5 where the slip turns (not ported) */
-static int kd_hy_single(const double *W, const double *v0, const double *n, double mu_k,
-                        double mu_s, double e, int newton, double *P_out) {
+/* the impulse on one contact point */
+static void kd_hy_single(const double *W, const double *v0, const double *n, double mu_k,
+                         double mu_s, double e, int newton, double *P_out) {
     double vn0 = kd_dot3(n, v0), T1[3], T2[3], a[3];
     for (int i = 0; i < 3; ++i) P_out[i] = 0.0;
-    if (vn0 >= 0) return 0;
+    if (vn0 >= 0) return;
     if (fabs(n[0]) < 0.9) { a[0] = 1; a[1] = 0; a[2] = 0; } else { a[0] = 0; a[1] = 1; a[2] = 0; }
     T1[0] = n[1] * a[2] - n[2] * a[1]; T1[1] = n[2] * a[0] - n[0] * a[2]; T1[2] = n[0] * a[1] - n[1] * a[0];
     double t1n = sqrt(kd_dot3(T1, T1));
@@ -293,21 +293,26 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
             for (int i = 0; i < 3; ++i) drift[i] = cst[i] - cn * n[i];
             along = kd_dot3(drift, dir);
             for (int i = 0; i < 3; ++i) off += (drift[i] - along * dir[i]) * (drift[i] - along * dir[i]);
-            if (!(sqrt(off) <= 1e-13 * sqrt(kd_dot3(cst, cst)))) return 5;
-            p_next = stop_p;
-            if (sliding && along < 0) { double x_ = p - kd_dot3(vt, dir) / along; if (x_ >= p) p_next = fmin(p_next, x_); }
-            if (pc < 0 && cn > 0) { double x_ = p - vnv / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
-            if (pc >= 0 && newton && cn > 0) { double x_ = p + (target - vnv) / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
-            for (int i = 0; i < 3; ++i) {
-                v[i] += (p_next - p) * cst[i];
-                Pt[i] -= (p_next - p) * mu_k * dir[i];
+            if (!(sqrt(off) <= 1e-13 * sqrt(kd_dot3(cst, cst)))) {
+                /* the slip turns: integrated over the normal impulse */
+                kd_imp_slide(W, n, mu_k, dir, slip_tol, pc < 0, newton, target, stop_p, scale,
+                             &p, v, Pt);
+            } else {  /* the slip keeps its direction: closed form */
+                p_next = stop_p;
+                if (sliding && along < 0) { double x_ = p - kd_dot3(vt, dir) / along; if (x_ >= p) p_next = fmin(p_next, x_); }
+                if (pc < 0 && cn > 0) { double x_ = p - vnv / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
+                if (pc >= 0 && newton && cn > 0) { double x_ = p + (target - vnv) / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
+                for (int i = 0; i < 3; ++i) {
+                    v[i] += (p_next - p) * cst[i];
+                    Pt[i] -= (p_next - p) * mu_k * dir[i];
+                }
+                p = p_next;
+                vnv = kd_dot3(n, v);
+                for (int i = 0; i < 3; ++i) vt[i] = v[i] - vnv * n[i];
+                double along_v = kd_dot3(vt, dir);
+                if (sliding && along < 0 && along_v <= slip_tol)
+                    for (int i = 0; i < 3; ++i) v[i] -= along_v * dir[i];
             }
-            p = p_next;
-            vnv = kd_dot3(n, v);
-            for (int i = 0; i < 3; ++i) vt[i] = v[i] - vnv * n[i];
-            double along_v = kd_dot3(vt, dir);
-            if (sliding && along < 0 && along_v <= slip_tol)
-                for (int i = 0; i < 3; ++i) v[i] -= along_v * dir[i];
         }
         double vn = kd_dot3(n, v);
         if (pc < 0 && vn >= -1e-14 * scale) {
@@ -319,7 +324,6 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
         if (pc >= 0 && !newton && p >= (1 + e) * pc * (1 - 1e-15)) break;
     }
     for (int i = 0; i < 3; ++i) P_out[i] = p * n[i] + Pt[i];
-    return 0;
 }
 
 /* the impact of contact c (restitution e): the speeds of z jump (resolve_impact) */
@@ -342,9 +346,7 @@ static int kd_hy_impact(KdHybrid *H, double t, double *z, const double *p, const
         }
     int newton = kd_contact_law[c];
     for (int attempt = 0; attempt < 2; ++attempt) {
-        if (kd_hy_single(W, v0, n, H->mu_k[c], H->mu_s[c], e, newton, Pc) != 0)
-            return kd_hy_fail(H, c, t, "an impact whose slip turns during the impulse (out "
-                              "of plane) is not handled by the exported FMU");
+        kd_hy_single(W, v0, n, H->mu_k[c], H->mu_s[c], e, newton, Pc);
         kd_hy_matvec(W, Pc, v1);
         double loss = 0.0;
         for (int i = 0; i < 3; ++i) v1[i] += v0[i];
