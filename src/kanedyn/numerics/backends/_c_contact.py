@@ -52,6 +52,8 @@ SEGMENT = r"""
    ------------------------------------------------------------------------ */
 #define KD_NZ (KD_NX + 2)
 #define KD_MAXEV (2 * KD_NC)
+#define KD_STALL_TURN 0.06030737921409157  /* 1 - cos(20 deg) */
+#define KD_SLOW_STILL 10.0  /* _SLOW_STILL of kanedyn.simulation._hybrid */
 
 typedef struct {
     const double *p;
@@ -368,7 +370,15 @@ static int kd_seg_events(KdSeg *S, double t, const double *z, double *g) {
         switch (S->ev_kind[k]) {
         case 0: g[k] = o.gap[c] / o.grad[c] + S->offset[c]; break;
         case 1: g[k] = o.N[c]; break;
-        case 2: g[k] = fmax(kd_dot3(vt, S->ref + 3 * c), sqrt(kd_dot3(vt, vt)) - S->slow[c]); break;
+        case 2: {  /* _slip_stop_value of kanedyn.simulation._hybrid */
+            double along = kd_dot3(vt, S->ref + 3 * c), speed = sqrt(kd_dot3(vt, vt));
+            g[k] = fmax(along, speed - S->slow[c]);
+            if (S->slow[c] <= KD_SLOW_STILL * S->still[c] && speed > 0) {
+                double turn = fmin(1.0, (1.0 - along / speed) / KD_STALL_TURN);
+                g[k] = fmin(g[k], speed - 0.5 * S->still[c] * turn);
+            }
+            break;
+        }
         default: {
             double ft[3];
             for (int i = 0; i < 3; ++i) ft[i] = tot[i] - o.N[c] * n[i];
