@@ -176,8 +176,12 @@ static int kd_hy_free_normal(KdHybrid *H, double t, const double *z, const doubl
     return 0;
 }
 
-/* modes consistent with the state: forces within limits, gaps open (_hybrid.settle) */
-static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p) {
+/* modes consistent with the state: forces within limits, gaps open (_hybrid.settle);
+   stopped: per contact the slip speed (free of the other contacts' drift) of a slip
+   that has just stopped, against which its stick is judged, or < 0 (its own slip
+   speed); NULL: none */
+static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p,
+                        const double *stopped) {
     KdPoints P;
     kd_hy_points(H, t, z, p, &P);
     for (int c = 0; c < KD_NC; ++c) {
@@ -189,8 +193,11 @@ static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p)
             if (a < -H->tol_a) H->modes[c] = kd_hy_touching_mode(H, &P, c);
         } else if (H->modes[c] != KD_SEP) {
             if (leaving) H->modes[c] = KD_SEP;
-            else if (H->modes[c] == KD_STICK && kd_hy_touching_mode(H, &P, c) == KD_SLIP)
-                H->modes[c] = KD_SLIP;
+            else if (H->modes[c] == KD_STICK) {
+                double vt[3], speed = stopped && stopped[c] >= 0 ? stopped[c]
+                                                                  : kd_hy_slip(&P, c, vt);
+                if (speed > H->tol_slip) H->modes[c] = KD_SLIP;
+            }
         }
     }
     for (int round = 0; round < 4 * KD_NC + 4; ++round) {
@@ -411,8 +418,9 @@ static int kd_hy_impact_several(KdHybrid *H, double t, double *z, const double *
 }
 
 /* impacts of approaching contacts (with the contacts already touching), then
-   consistent modes (_hybrid._resolve) */
-static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p) {
+   consistent modes (_hybrid._resolve); stopped: as for kd_hy_settle */
+static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p,
+                         const double *stopped) {
     KdPoints P;
     int touching[KD_NC], hitting[KD_NC], plastic[KD_NC], inv[KD_NC], k = 0, any = 0;
     kd_hy_points(H, t, z, p, &P);
@@ -448,7 +456,7 @@ static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p) {
             }
         }
     }
-    return kd_hy_settle(H, t, z, p);
+    return kd_hy_settle(H, t, z, p, stopped);
 }
 
 static int kd_hy_keep(void *ctx, int phase, double t, const double *z) {
@@ -473,7 +481,7 @@ static int kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p
             else if (speed > H->tol_slip) {
                 H->has_ref[c] = 1;
                 for (int i = 0; i < 3; ++i) H->ref[3 * c + i] = vt[i] / speed;
-                H->slow[c] = fmax(1e-3 * speed, 20.0 * H->tol_slip);  /* _SLOW_STILL */
+                H->slow[c] = fmax(1e-3 * speed, KD_SLOW_STILL * H->tol_slip);
                 H->still[c] = H->tol_slip;
             }
         }
@@ -498,6 +506,8 @@ static int kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p
 
 /* the modes after event `kind` of contact c at (t, z) (simulate_contacts) */
 static int kd_hy_event(KdHybrid *H, double t, double *z, const double *p, int c, int kind) {
+    double stopped[KD_NC];  /* the slip speeds of the slips that stop here, or -1 */
+    for (int i = 0; i < KD_NC; ++i) stopped[i] = -1.0;
     H->events++;
     if (kind == 0) H->modes[c] = KD_STICK;  /* touching; settled below */
     else if (kind == 1) H->modes[c] = KD_SEP;
@@ -518,17 +528,18 @@ static int kd_hy_event(KdHybrid *H, double t, double *z, const double *p, int c,
     } else {  /* the slip stops: every sliding contact whose slip (free of the other
                  contacts' drift) has stopped sticks (_stopped) */
         KdSegOut o;
-        int stopping[KD_NC], st = kd_hy_solve(H, t, z, p, H->modes, &o);
+        int st = kd_hy_solve(H, t, z, p, H->modes, &o);
         if (st) return st;
         for (int i = 0; i < KD_NC; ++i) {
             const double *vt = o.vt + 3 * i;
-            stopping[i] = H->modes[i] == KD_SLIP && H->has_ref[i]
-                          && (i == c || isfinite(H->slow[i]))
-                          && sqrt(kd_dot3(vt, vt)) <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]);
+            double speed = sqrt(kd_dot3(vt, vt));
+            if (H->modes[i] == KD_SLIP && H->has_ref[i] && (i == c || isfinite(H->slow[i]))
+                    && speed <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]))
+                stopped[i] = speed;
         }
-        for (int i = 0; i < KD_NC; ++i) if (stopping[i]) H->modes[i] = KD_STICK;
+        for (int i = 0; i < KD_NC; ++i) if (stopped[i] >= 0) H->modes[i] = KD_STICK;
     }
-    return kd_hy_resolve(H, t, z, p);
+    return kd_hy_resolve(H, t, z, p, stopped);
 }
 
 size_t kanedyn_contact_state_size(void) { return sizeof(KdHybrid); }
@@ -567,7 +578,7 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
         else if (kd_hy_dist(&P, c) < -H->tol_d)
             status = kd_hy_fail(H, c, t, "the point starts inside its surface");
     }
-    if (!status) status = kd_hy_resolve(H, t, z, p);
+    if (!status) status = kd_hy_resolve(H, t, z, p, NULL);
     H->fresh = 1;
     if (!status) status = kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
     kd_free_work(H->w);
