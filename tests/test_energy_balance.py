@@ -122,6 +122,27 @@ def test_a_missing_term_shows_in_the_residual(seatbelt_run):
     assert kept.relative_residual < 1e-8 and counted_twice.relative_residual > 1e-4
 
 
+def test_load_names_find_the_symbols_in_shared_subexpressions():
+    """Loads that share a deep recurrence (a Chebyshev series, as a rotor's inflow
+    gives): every load names the constant inside it, the shared part walked once."""
+    from kanedyn.analysis._energy_balance import _term_names
+    N, O = me.ReferenceFrame("N"), me.Point("O")
+    O.set_vel(N, 0)
+    x, u = me.dynamicsymbols("x u")
+    c, k = sm.symbols("c k")
+    P = O.locatenew("P", x * N.x)
+    P.set_vel(N, u * N.x)
+    series = [sm.S.One, sm.sin(x) * c]
+    for _ in range(40):    # 2^40 nodes as a tree
+        series.append(2 * series[1] * series[-1] - series[-2])
+    loads = [(P, -k * x * N.x), (P, series[-1] * N.x), (P, series[-1] ** 2 * N.y)]
+    eom = kd.kane(frame=N, q_ind=[x], u_ind=[u], kd_eqs=[x.diff() - u],
+                  bodies=[me.Particle("p", P, 1.0)], loads=loads)
+    model = eom.numeric(constants={c: 0.1, k: 1.0}, backend="numpy")
+    assert _term_names(eom, model, None) == ["force at P [k]", "force at P [c] (2)",
+                                             "force at P [c] (3)"]
+
+
 def test_without_the_continuous_solution_it_says_what_to_do():
     definition = kd.models.build("flexible-robot", n_modes=1, n_elements=2)
     model = definition.numeric(backend="numpy")

@@ -185,19 +185,41 @@ def _term_names(eom, model, load_names):
             raise KanedynError(f"energy_balance: {len(load_names)} load names for {count} "
                                "loads")
         return load_names
-    import sympy.physics.mechanics as me
-
     from ..engine import name_of
     constants = {str(c) for c in eom.constants}
     forces = set(model.aux_names)
     inputs = {n.removesuffix("(t)") for n in model.input_names}
     names = []
+    memo = {}
     for location, vector in eom.loads:
         kind = "torque on" if hasattr(location, "ang_vel_in") else "force at"
-        symbols = set().union(*(m.free_symbols | set(me.find_dynamicsymbols(m))
-                                for m, _ in vector.args))
+        symbols = set().union(*(_leaves(m, memo) for m, _ in vector.args))
         held = sorted({name_of(s) for s in symbols} & (constants | forces | inputs))
         text = f"{kind} {location.name}" + (f" [{', '.join(held)}]" if held else "")
         names.append(f"constraint {text}" if forces & set(held) else text)
     return [f"{n} ({k + 1})" if names.count(n) > 1 else n for k, n in enumerate(names)]
 
+
+
+def _leaves(expr, memo):
+    """The symbols and functions (of time) in ``expr``, each shared subexpression's found
+    once (``memo``: subexpression -> its leaves, kept across calls).
+
+    Loads built by recurrences (a rotor's Chebyshev series of the inflow) share
+    subexpressions so deeply that a walk of the tree, as ``free_symbols`` and
+    ``find_dynamicsymbols`` take, visits exponentially many nodes.
+    """
+    import sympy as sm
+    stack = [(expr, False)]
+    while stack:
+        node, children_done = stack.pop()
+        if node in memo:
+            continue
+        if isinstance(node, (sm.Symbol, sm.core.function.AppliedUndef)):
+            memo[node] = frozenset((node,))
+        elif children_done:
+            memo[node] = frozenset().union(*(memo[a] for a in node.args))
+        else:
+            stack.append((node, True))
+            stack.extend((a, False) for a in node.args if a not in memo)
+    return memo[expr]
