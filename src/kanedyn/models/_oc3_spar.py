@@ -75,6 +75,7 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
+from ._oc3_blades import rna_without_blades
 from ._oc3_rotor import AERO_MODELS, rna_inertia_pieces, spinning_rotor
 from ._oc3_tower import oc3_tower_rna_basis
 from ._oc3_shapes import oc3_shape_specs
@@ -91,7 +92,7 @@ _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "
             "mooring": ("linear", "linear-symmetric", "catenary", "none"),
             "tmdi": ("off", "tmd", "tmdi"), "rotor": ("rigid", "spinning"),
             "controller": ("off", "on"), "drivetrain": ("rigid", "flexible"),
-            "aero": AERO_MODELS}
+            "aero": AERO_MODELS, "blades": ("rigid", "flexible")}
 
 _N_STRIPS = 10          # Morison strips over the wetted 120 m
 _WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
@@ -141,7 +142,8 @@ def _check(options):
         raise ModelError(f"oc3-spar: sea={options['sea']} needs wave_height > 0 and "
                          "wave_period > 0")
     if options["rotor"] == "rigid":
-        for key, value in (("controller", "on"), ("drivetrain", "flexible"), ("aero", "bem")):
+        for key, value in (("controller", "on"), ("drivetrain", "flexible"), ("aero", "bem"),
+                           ("blades", "flexible")):
             if options[key] == value:
                 raise ModelError(f"oc3-spar: option {key}={value} needs rotor=spinning (the "
                                  "rigid rotor has no rotor speed)")
@@ -161,7 +163,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
              inertance_ratio=0.02, inerter_height=60.0, rna_offset=True, rotor="rigid",
-             controller="off", drivetrain="rigid", aero="thrust"):
+             controller="off", drivetrain="rigid", aero="thrust", blades="rigid"):
     r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
 
     Parameters
@@ -274,7 +276,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                    tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
                    inertance_ratio=inertance_ratio, inerter_height=inerter_height,
                    rna_offset=rna_offset, rotor=rotor, controller=controller,
-                   drivetrain=drivetrain, aero=aero)
+                   drivetrain=drivetrain, aero=aero, blades=blades)
     _check(options)
     g = _v(ENVIRONMENT, "gravity")
     rho = _v(ENVIRONMENT, "water_density")
@@ -347,11 +349,16 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     # --------------------------------------------------------------------- RNA
     m_rna = _v(RNA, "mass")
     cm_x = _v(RNA, "cm_x") if rna_offset else 0.0
-    G_rna = top.locatenew("G_rna", cm_x * A.x + _v(RNA, "cm_z") * A.z)
+    cm_rna = np.array([cm_x, 0.0, _v(RNA, "cm_z")])
     spinning = rotor == "spinning"
     # with a spinning rotor the RNA keeps all but the spinning parts' inertia, in two
-    # pieces (see rna_inertia_pieces)
-    I_rna, I_axial = rna_inertia_pieces() if spinning else (rna_inertia_about_cm(), None)
+    # pieces (see rna_inertia_pieces); flexible blades take their mass as well
+    if spinning and blades == "flexible":
+        m_rna, cm_rna, I_rest = rna_without_blades(cm_x)
+        I_rna, I_axial = rna_inertia_pieces(I_rest)
+    else:
+        I_rna, I_axial = rna_inertia_pieces() if spinning else (rna_inertia_about_cm(), None)
+    G_rna = top.locatenew("G_rna", cm_rna[0] * A.x + cm_rna[2] * A.z)
     rna = me.RigidBody("rna", G_rna, A, m_rna, (_inertia(A, I_rna), G_rna))
     bodies.append(rna)
     if spinning:
@@ -405,7 +412,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         if not tower_modes:
             hub.v2pt_theory(top, N, A)
         spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol,
-                              wind if wind_symbol is not None else None)
+                              wind if wind_symbol is not None else None, origin=O)
         q += spin["q"]
         u += spin["u"]
         kd_eqs += spin["kd_eqs"]
@@ -517,6 +524,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     if spinning:
         what.append(f"spinning rotor, controller {controller}"
                     + (", flexible drivetrain" if drivetrain == "flexible" else "")
+                    + (", flexible blades" if blades == "flexible" else "")
                     + (", BEM aerodynamics" if aero == "bem" else ""))
     return ModelDefinition(
         name="oc3-spar",
@@ -541,7 +549,9 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                **({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
         body_groups={"platform": ("platform",), "tower": ("tower",),
                      "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
-                     else ("rna",)},
+                     else ("rna",),
+                     **({"blades": ("blade1", "blade2", "blade3")} if blades == "flexible"
+                        else {})},
         gravity=(0.0, 0.0, -g),
         shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
                                     (cm_x, _v(RNA, "cm_z")), _v(TOWER, "top_z")))
