@@ -287,3 +287,36 @@ def test_rna_less_blades_keeps_the_whole():
     np.testing.assert_allclose(published[[0, 1, 2, 2], [0, 1, 2, 0]],
                                [4.370e7, 2.353e7, 2.542e7, 1.169e6], rtol=1e-9)
     assert np.linalg.eigvalsh(I_rest)[0] > 1e6
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("aero", ["thrust", "bem"])
+def test_cli_run_with_flexible_blades(aero, tmp_path):
+    """``kanedyn run oc3-spar --set rotor=spinning --set blades=flexible`` (controller on,
+    18 m/s): the blades bend downwind, the rotor stays near rated speed, and the story
+    figure gets the blade-tip panels."""
+    import csv
+
+    from kanedyn.analysis._oc3_turbine_plot import blade_tip_deflection
+    from kanedyn.cli import main
+    assert main(["run", "oc3-spar", "--set", "rotor=spinning", "--set", "blades=flexible",
+                 "--set", "controller=on", "--set", "wind_speed=18", "--set", f"aero={aero}",
+                 "--t-end", "8", "--rtol", "1e-6", "--out", str(tmp_path), "--quiet"]) == 0
+    with open(tmp_path / "oc3-spar.csv") as f:
+        rows = list(csv.DictReader(f))
+
+    def column(name):
+        key = next(k for k in rows[0] if k.split(" ")[0] == name)
+        return np.array([float(r[key]) for r in rows])
+    late = column("t") > 4.0
+    rpm = column("rotor_speed")[late] * 30 / math.pi
+    assert np.all(np.abs(rpm / 12.1 - 1) < 0.08)
+    blade = kd.models.oc3_spar(rotor="spinning", blades="flexible").symbols["rotor"]["blades"][0]
+    eta = np.array([column(f"{m}_blade1") for m in ("flap1", "edge1", "flap2")])
+    out_of_plane, in_plane = blade_tip_deflection(blade, eta, column("blade_pitch"))
+    # downwind by metres (measured 2.4 m with the ideal rotor's loading, 1.4 m with the
+    # BEM's, which unloads the outer blade at 14 deg of pitch); forward, with the rotation
+    # (the driving torque, and the flap deflection of the pitched blade: 0.96 and 0.62 m)
+    assert 1.0 < np.mean(out_of_plane[late]) < 4.0
+    assert 0.3 < np.mean(in_plane[late]) < 1.5
+    assert (tmp_path / "oc3-spar_story.png").stat().st_size > 10_000
