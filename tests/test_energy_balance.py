@@ -141,6 +141,15 @@ def test_load_names_find_the_symbols_in_shared_subexpressions():
     model = eom.numeric(constants={c: 0.1, k: 1.0}, backend="numpy")
     assert _term_names(eom, model, None) == ["force at P [k]", "force at P [c] (2)",
                                              "force at P [c] (3)"]
+    # a name given to two loads makes one term of both; None keeps the default name
+    res = kd.simulate(model, (0.0, 1.0), [0.5, 0.0], t_eval=np.linspace(0.0, 1.0, 11),
+                      **TIGHT)
+    apart = energy_balance(res)
+    joined = energy_balance(res, load_names=[None, "series", "series"])
+    assert set(joined.terms) == {"force at P [k]", "series"}
+    np.testing.assert_allclose(joined.terms["series"], apart.terms["force at P [c] (2)"]
+                               + apart.terms["force at P [c] (3)"], rtol=1e-12, atol=1e-15)
+    assert joined.relative_residual < 1e-8
 
 
 def test_without_the_continuous_solution_it_says_what_to_do():
@@ -199,10 +208,13 @@ def test_oc3_spar_flexible_blades_work_closes_the_energy():
     m = d.numeric(backend="c")
     r = kd.simulate(m, (0, 10), d.initial(m), t_eval=np.linspace(0, 10, 101), rtol=1e-9,
                     atol=1e-9, dense_output=True)
-    b = energy_balance(r)
+    b = energy_balance(r, load_names=d.load_names)
     T = np.array([m.energies(t, y)[0] for t, y in zip(r.t, r.y.T)])
     W = sum(b.terms.values())
     assert abs(b.terms["torque on G"][-1]) > 1e7                 # the generator's work
+    # each blade's node loads one term, the wind working on it
+    assert all(b.terms[f"aerodynamic forces on blade{k}"][-1] > 1e7 for k in (1, 2, 3))
+    assert len(b.terms) < 40
     pitching = b.terms["prescribed motion (the forces that drive it)"]
     assert np.max(np.abs(pitching)) > 10.0                      # the pitch drive's, J
     for k in (1, 2, 3):

@@ -99,10 +99,13 @@ def energy_balance(result, load_names=None, gravity="g"):
     result : SimulationResult
         A run with a continuous solution (``kd.simulate(..., dense_output=True)``)
         of a model derived by :func:`kanedyn.kane`.
-    load_names : sequence of str, optional
+    load_names : sequence of str or None, optional
         A name for each load, in the order of ``eom.loads``
-        (:attr:`kanedyn.models.ModelDefinition.load_names`).  Default: where the
-        load acts and the constants, inputs and constraint forces it holds.
+        (:attr:`kanedyn.models.ModelDefinition.load_names`); loads that share a
+        name are one term (their works added: the aerodynamic forces on a
+        blade's nodes).  Default, for the whole sequence or an entry ``None``:
+        where the load acts and the constants, inputs and constraint forces it
+        holds.
     gravity : str or sympy.Symbol or None
         The gravity constant: where the model declares a potential energy, the
         loads' parts proportional to it are taken to be held by that potential
@@ -129,8 +132,10 @@ def energy_balance(result, load_names=None, gravity="g"):
     x, w = np.polynomial.legendre.leggauss(_NODES)
     nodes = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * x).ravel()
     powers = load_powers(model, nodes, sol(nodes), gravity=symbol)
-    columns = {name: power for name, power, weight in zip(names, powers.loads, powers.gravity)
-               if np.any(power) or not np.any(weight)}  # not wholly held by V
+    columns = {}
+    for name, power, weight in zip(names, powers.loads, powers.gravity):
+        if np.any(power) or not np.any(weight):     # not wholly held by V
+            columns[name] = columns[name] + power if name in columns else power
     notes = []
     if symbol is not None and np.any(powers.gravity):
         notes.append(f"the loads' parts in {symbol} (gravity) are held by the potential "
@@ -180,11 +185,14 @@ def _term_names(eom, model, load_names):
     """One name per load: given, or where it acts and the symbols it holds."""
     count = len(eom._load_vectors)
     if load_names is not None:
-        load_names = [str(n) for n in load_names]
+        load_names = [None if n is None else str(n) for n in load_names]
         if len(load_names) != count:
             raise KanedynError(f"energy_balance: {len(load_names)} load names for {count} "
                                "loads")
-        return load_names
+        if None not in load_names:
+            return load_names
+        defaults = _term_names(eom, model, None)
+        return [given or default for given, default in zip(load_names, defaults)]
     from ..engine import name_of
     constants = {str(c) for c in eom.constants}
     forces = set(model.aux_names)

@@ -78,10 +78,11 @@ class ModelDefinition:
         sensor's vehicle displacement: only its accelerations drive the
         model); ``SimulationResult.animate(inputs=...)`` takes them, and
         ``kanedyn run --animate`` passes them.  Empty when none.
-    load_names : tuple of str
+    load_names : tuple of str or None
         A name for each load of ``kane_args["loads"]``, in their order, for the
-        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`);
-        empty: named there by where they act and the symbols they hold.
+        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`;
+        loads that share a name are one term); empty, or an entry ``None``:
+        named there by where they act and the symbols they hold.
     gravity : tuple of 3 float or None
         The gravitational acceleration in the inertial frame's components,
         m/s^2, where the model declares it; the 3D viewer draws up against

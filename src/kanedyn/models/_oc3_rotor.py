@@ -285,6 +285,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
                        damping=_v(DRIVETRAIN, "shaft_damping") if flexible else None)
     q, u, kd_eqs = list(drive.q), list(drive.u), list(drive.kd_eqs)
     loads, bodies, potential, units = list(drive.loads), list(drive.bodies), [], {}
+    names = {}   # load index -> energy-balance term (the blades' node loads, one per blade)
     if controlled:
         q += states
         kd_eqs += controller.kinematic_equations(states, drive.generator_speed)
@@ -306,6 +307,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
             drive.shaft_frame, blades["radial"], N, pitch,
             wind_series if wind_series is not None else wind)
         loads += aero.to_loads()
+        names = _blade_load_names(len(loads), aero.to_loads())
     elif wind > 0 and bem:
         aero = BladeElementRotor("rotor", nrel5mw_bem(), hub, drive.shaft_frame,
                                  drive.rotor_frame, N, drive.q[0], drive.rotor_speed, pitch,
@@ -315,6 +317,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
         blade_loads, thrusts, torques = blade_thrust_loads(
             blades["bodies"], blades["radial"], drive.shaft, N, oc3_performance_surface(),
             drive.rotor_speed, pitch, wind_symbol if wind_symbol is not None else wind)
+        names = _blade_load_names(len(loads) + len(blade_loads), blade_loads)
         loads += blade_loads
         aero = BladeThrust(thrusts, torques)
     elif wind > 0:
@@ -336,13 +339,21 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
     units.update({**dict.fromkeys(drive.q, "rad"), **dict.fromkeys(drive.u, "rad/s")})
     if controlled:
         units.update({states[0]: "rad/s", states[1]: "rad", states[2]: "rad"})
-    return dict(q=q, u=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads,
+    return dict(q=q, u=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads, load_names=names,
                 potential=sm.Add(drive.potential_energy, *potential), specified=specified,
                 initial=initial, units=units,
                 symbols=dict(drivetrain=drive, controller=controller if controlled else None,
                              aerodynamics=aero, generator_torque=torque, pitch=pitch,
                              electrical_power=power,
                              blades=blades["bodies"] if blades else None))
+
+
+def _blade_load_names(end, blade_loads):
+    """``{index: "aerodynamic forces on <blade>"}`` of the last ``len(blade_loads)`` of
+    ``end`` loads (each acting at a node point named ``<blade>_node<k>``)."""
+    start = end - len(blade_loads)
+    return {start + i: "aerodynamic forces on " + point.name.rpartition("_node")[0]
+            for i, (point, _) in enumerate(blade_loads)}
 
 
 @dataclass(frozen=True)

@@ -402,6 +402,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         if spinning:   # and the nacelle's, which the BEM's blade elements take
             A.set_ang_vel(N, me.msubs(A.ang_vel_in(N), rates))
     spin = wind_symbol = None
+    load_names = {}
     wind = float(wind_speed)
     if wind_speed > 0 and turbulence > 0:
         t_w, v_w = kaimal_wind(wind_speed, turbulence, _WIND_SERIES, 0.25, seed,
@@ -417,6 +418,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         u += spin["u"]
         kd_eqs += spin["kd_eqs"]
         bodies += spin["bodies"]
+        load_names = {len(loads) + i: name for i, name in spin["load_names"].items()}
         loads += spin["loads"]
         potential.append(spin["potential"])
         elements["rotor"] = spin["symbols"]["aerodynamics"]
@@ -532,6 +534,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         kane_args=dict(frame=N, q_ind=q, u_ind=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads,
                        potential_energy=sm.Add(*potential)),
         constants=constants, initial_state=state, t_end=60.0, specified=specified,
+        load_names=tuple(load_names.get(i) for i in range(len(loads))) if load_names else (),
         symbols=dict(q=q, u=u, N=N, B=B, A=A, O=O, P=P, top=top, hub=hub, damper=damper,
                      tower=tower, tower_node=tower_node, elements=elements, s_d=s_d, m_d=m_d,
                      k_d=k_d, c_d=c_d, b=b, potential_energy=sm.Add(*potential),
