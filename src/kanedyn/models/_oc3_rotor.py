@@ -20,10 +20,16 @@ Parts of the ``oc3-spar`` builder:
   of the annuli solved, at every state, at the relative wind each blade
   element sees (rotor speed, azimuth, the hub's velocity and the nacelle's
   rotation);
+* with ``blades="flexible"`` the blades are flexible bodies
+  (:mod:`kanedyn.models._oc3_blades`): the drivetrain's rotor is then the hub
+  alone, the pitch turns the blades at their roots, and the aerodynamic loads
+  act on the blades' nodes (:class:`~kanedyn.offshore.FlexibleBladeElementRotor`
+  with ``aero="bem"``);
 * :func:`rna_inertia_pieces`: the RNA's inertia less the spinning parts'.
 
-Precone (2.5 deg) is not modelled: the rigid blades sit in the plane normal
-to the shaft (the published rotor inertia, which includes it, is used).
+Precone (2.5 deg) is not modelled: the blades sit in the plane normal to the
+shaft (with rigid blades the published rotor inertia, which includes it, is
+used).
 The pitch actuator is first order with :data:`PITCH_ACTUATOR_TIME_CONSTANT`
 (not published: the published controller commands the pitch directly, rate
 limited) and the 8 deg/s rate limit.

@@ -53,7 +53,9 @@ wind, the aerodynamic damping on the hub's velocity along the shaft).
 With ``rotor="spinning"`` the rotor azimuth (and with ``drivetrain="flexible"`` the
 low-speed shaft's twist) is a degree of freedom, the rotor's thrust and torque come from
 its performance table, and with ``controller="on"`` the baseline controller's three
-states join the coordinates (:mod:`kanedyn.models._oc3_rotor`).
+states join the coordinates (:mod:`kanedyn.models._oc3_rotor`); with
+``blades="flexible"`` the blades are flexible bodies with three modes each
+(:mod:`kanedyn.models._oc3_blades`).
 """
 
 from __future__ import annotations
@@ -252,6 +254,15 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         inputs ``Frotor_x/y/z``, ``Mrotor_x/y/z`` (shaft-frame components,
         N and N m), their callables in ``specified``.  With
         ``controller="off"`` the BEM uses the steady pitch for the wind.
+    blades : {"rigid", "flexible"}
+        With ``rotor="spinning"``: ``"flexible"``, the three blades are
+        :class:`~kanedyn.FlexibleBody` members of the NREL 5-MW blade (first
+        flap, first edge and second flap modes, structural twist, the published
+        0.477465 % damping, centrifugal stiffening, gravity), turned at their
+        roots by the pitch; the aerodynamic loads act on their nodes
+        (:mod:`kanedyn.models._oc3_blades`; with ``aero="bem"`` two inputs per
+        node, ``Frotor_n_<blade>_<node>`` and ``Frotor_t_...``).  With
+        ``controller="off"`` the blades keep the steady pitch for the wind.
 
     Returns
     -------

@@ -40,7 +40,7 @@ import sympy.physics.mechanics as me
 from ..._errors import ModelError
 from ..flexible import FlexibleBody
 from ._blade_element_momentum import BladeElementMomentum
-from ._blade_element_rotor import _Entry
+from ._blade_element_rotor import warm_started_inputs
 from ._mooring import state_function
 
 __all__ = ["FlexibleBladeElementRotor"]
@@ -226,32 +226,17 @@ class FlexibleBladeElementRotor:
         return float(self.wind(t)) if callable(self.wind) else float(self.wind)
 
     def specified(self, states, constants=None):
-        """``{input symbol: callable(t, y)}`` for ``eom.numeric(specified=...)``.
-
-        Parameters
-        ----------
-        states : EquationsOfMotion or sequence of dynamic symbols
-            The order of ``y``.
-        constants : dict, optional
-            Values of constants in the kinematics.
-        """
+        """``{input symbol: callable(t, y)}``, as :meth:`BladeElementRotor.specified`."""
         kinematics = self.kinematics(states, constants)
-        cache = {"key": None, "loads": None, "phi": None}
 
-        def loads(t, y):
-            y = np.asarray(y, dtype=float)
-            key = (float(t), y.tobytes())
-            if cache["key"] != key:
-                state, direction, pitch = kinematics(y)
-                normal, tangential, solution = self.node_loads(
-                    state, direction, pitch, self.wind_speed(t), guess=cache["phi"])
-                cache["loads"] = np.concatenate([normal.ravel(), tangential.ravel()])
-                cache["phi"], cache["key"] = solution.inflow_angle, key
-            return cache["loads"]
-
+        def solve(t, y, guess):
+            state, direction, pitch = kinematics(y)
+            normal, tangential, solution = self.node_loads(state, direction, pitch,
+                                                           self.wind_speed(t), guess=guess)
+            return np.concatenate([normal.ravel(), tangential.ravel()]), solution.inflow_angle
         symbols = [s for row in self.normal_symbols for s in row]
         symbols += [s for row in self.tangential_symbols for s in row]
-        return {s: _Entry(loads, i) for i, s in enumerate(symbols)}
+        return warm_started_inputs(symbols, solve)
 
     def __repr__(self):
         return (f"FlexibleBladeElementRotor({self.name!r}, {len(self.blades)} flexible blades, "
