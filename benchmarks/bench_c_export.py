@@ -1,7 +1,10 @@
 """The standalone C export against the compiled module and Pinocchio's ``aba``, same run.
 
 ``chain3d`` (the spatial chain; Pinocchio's twin from :func:`_peers.pinocchio_chain`)
-at n = 30 and 100 (``--sizes``), at a random state:
+at n = 30 and 100 (``--sizes``), at a random state, built with ``style="positions"``
+(as ``bench_large.py`` and ``bench_numerics.py`` build it: the same equations; the
+default ``"v2pt"`` has SymPy multiply out direction cosines while the model is built,
+which did not finish in 25 minutes at n = 100):
 
 - the standalone file of ``model.c_source()`` (what ``kanedyn derive MODEL
   --c`` writes), compiled with ``cc -O2 -shared -fPIC`` and called from C in
@@ -34,7 +37,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _timing import interleaved  # noqa: E402
+from _timing import interleaved, optimized_modules_only  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 #: appended to the exported file: the calls timed in C
@@ -67,7 +70,8 @@ def measure(n, rounds, folder):
     Path(folder).mkdir()
     import pinocchio as pin
 
-    model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
+    model = kd.models.build("chain3d", n=n, style="positions").numeric(constants=DEFAULTS,
+                                                                        backend="c")
     pmodel, pdata = pinocchio_chain(n)
     rng = np.random.default_rng(2)
     y = rng.uniform(-1.5, 1.5, 2 * n)
@@ -89,6 +93,7 @@ def measure(n, rounds, folder):
 
 
 def main():
+    optimized_modules_only()  # the module timed is gcc's, not TinyCC's first one
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[30, 100])
     parser.add_argument("--rounds", type=int, default=7)

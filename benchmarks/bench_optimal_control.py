@@ -40,9 +40,14 @@ there is no cap: MUMPS reserves far more address space than it touches, and
 with a cap of 8 or 12 GiB it failed to allocate its workspace at 10^6 nodes
 with 3.1 GiB resident, where without one the run stayed below 4 GiB.
 
+``--hessian exact``: kanedyn with the exact Hessian of the Lagrangian
+(``solve(hessian="exact")``), opty with IPOPT's limited-memory one as always
+(opty gives no Hessian).
+
 Usage::
 
-    python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100]
+    python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100] \
+        [--hessian exact]
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
         [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
@@ -69,11 +74,25 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import _ocp_peers as peers  # noqa: E402
 
 
+#: kanedyn's Hessian of the Lagrangian (``--hessian``): IPOPT's limited-memory
+#: approximation (as opty) or the exact one
+HESSIAN = {"kind": "limited-memory"}
+
+
+def kanedyn_options():
+    """IPOPT's options and ``solve``'s ``hessian`` for kanedyn."""
+    if HESSIAN["kind"] == "exact":
+        options = {k: v for k, v in peers.IPOPT_OPTIONS.items() if k != "hessian_approximation"}
+        return options, "exact"
+    return peers.IPOPT_OPTIONS, "limited-memory"
+
+
 def run_kanedyn(build, nodes, guess):
     start = time.perf_counter()
     problem, model = build(nodes)
     model.jacobians(0.0, np.zeros(model.n_states), r=np.zeros(len(model.input_names)))
-    result = problem.solve(guess, options=peers.IPOPT_OPTIONS)  # derivatives built above
+    options, hessian = kanedyn_options()
+    result = problem.solve(guess, options=options, hessian=hessian)  # derivatives built above
     total = time.perf_counter() - start
     return dict(total=total, solve=result.wall_time, iterations=result.iterations,
                 objective=result.objective, status=result.status, x=result.x)
@@ -271,6 +290,9 @@ def main():
     parser.add_argument("--gallery", type=int, nargs="*", default=[],
                         help="opty's double pendulum on a cart at these node counts "
                              "(the gallery's: 300)")
+    parser.add_argument("--hessian", choices=("limited-memory", "exact"),
+                        default="limited-memory",
+                        help="kanedyn's Hessian of the Lagrangian (opty: limited-memory)")
     parser.add_argument("--scan", action="store_true",
                         help="nodes against memory and time, one process per run")
     parser.add_argument("--scan-nodes", type=int, nargs="*",
@@ -280,9 +302,11 @@ def main():
     parser.add_argument("--address-cap", type=float, default=0.0,
                         help="GiB of address space per child (0: no cap)")
     args = parser.parse_args()
+    HESSIAN["kind"] = args.hessian
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
     import cyipopt
     import opty
+    print(f"kanedyn's Hessian: {args.hessian}; load average {os.getloadavg()[0]:.1f}")
     print(f"opty {opty.__version__}, cyipopt {cyipopt.__version__} (IPOPT "
           f"{'.'.join(map(str, cyipopt.IPOPT_VERSION))}), kanedyn cache "
           f"{os.environ['KANEDYN_CACHE_DIR']}")

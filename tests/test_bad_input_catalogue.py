@@ -346,9 +346,10 @@ CLI_CASES = {
                                    "tower_damping_reference=loaded"],
                                   "option tower_damping_reference must be one of isolated, "
                                   "with_rna, got 'loaded'"),
-    "FMU of a model with contacts": (["export", "bouncing-ball", "--fmu", "ball.fmu"],
-                                     r"cannot export an FMU of a model with contacts "
-                                     r"\(floor\)"),
+    "FMU nominal of a state the model lacks": (["export", "bouncing-ball", "--fmu", "ball.fmu",
+                                                "--nominal", "q9=1"],
+                                               "--nominal q9: not a state of bouncing-ball; "
+                                               "its states: x, z, u_x, u_z"),
     "FMU file name without .fmu": (["export", "pendulum", "--fmu", "pendulum.zip"],
                                    r"--fmu .*pendulum\.zip: the file name must end in \.fmu"),
     "FMU with an unknown --set name": (["export", "pendulum", "--fmu", "p.fmu", "--set",
@@ -1376,7 +1377,7 @@ OCP_CASES = {
     "unknown collocation method": (
         lambda: _ocp(method="rk4"), kd.ModelError,
         r"^unknown collocation method 'rk4'; available: backward-euler, trapezoid, midpoint,"
-        r" hermite-simpson$"),
+        r" hermite-simpson, lgr$"),
     "guess of the wrong shape": (
         lambda: _ocp().solve(np.zeros(7)), kd.ModelError,
         r"^the guess must have shape \(33,\) \(states and inputs at 11 nodes, .*got \(7,\)"),
@@ -1594,3 +1595,264 @@ def test_flexible_blades_bad_input(case):
     make, pattern = BLADE_API_CASES[case]
     with pytest.raises(kd.ModelError, match=pattern):
         make()
+
+
+# ---- issue 35, multiphase problems and Legendre-Gauss-Radau collocation
+def _phases(first=None, second=None, **problem):
+    """Two phases of the spring's problem (0.5 s each), the first from rest at
+    0, the second to rest at 1, with ``first``/``second`` changes; then
+    ``kd.MultiphaseProblem`` with ``problem`` (``phases=`` replaces them)."""
+    a = _ocp(**{"duration": 0.5, "final": {}, **(first or {})})
+    b = _ocp(**{"duration": 0.5, "initial": {}, **(second or {})})
+    return kd.MultiphaseProblem(problem.pop("phases", [a, b]), **problem)
+
+
+def _other_states():
+    """A model whose states (z, w) and input (G) the spring lacks."""
+    z, w, G = me.dynamicsymbols("z w G")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", z * N.x)
+    P.set_vel(N, w * N.x)
+    eom = kd.kane(frame=N, q_ind=[z], u_ind=[w], kd_eqs=[z.diff() - w],
+                  bodies=[me.Particle("P", P, 1.0)], loads=[(P, G * N.x)])
+    numeric = eom.numeric(specified={G: 0.0})
+    return kd.OptimalControlProblem(numeric, nodes=5, duration=0.5, lagrange=G ** 2,
+                                    final={z: 1, w: 0})
+
+
+def _junction(*equations):
+    q, u = me.dynamicsymbols("q u")
+    return kd.Linkage(equations=[e(q, u, me.dynamicsymbols._t, kd.Linkage)
+                                 for e in equations])
+
+
+#: multiphase problems and LGR: each a clear error naming the phase, linkage,
+#: state or option at fault
+MULTIPHASE_CASES = {
+    "LGR degree below 1": (
+        lambda: _ocp(method="lgr", degree=0), kd.ModelError,
+        r"^degree must be an integer of at least 1 \(the Radau points per interval of "
+        r"method='lgr'\), got 0$"),
+    "LGR degree not a whole number": (
+        lambda: _ocp(method="lgr", degree=2.5), kd.ModelError,
+        r"^degree must be an integer of at least 1 .*, got 2\.5$"),
+    "degree for another method": (
+        lambda: _ocp(degree=3), kd.ModelError,
+        r"^degree= is for method='lgr' \(its Radau points per interval\); method "
+        r"'trapezoid' has none$"),
+    "one phase": (
+        lambda: _phases(phases=[_ocp()]), kd.ModelError,
+        r"^a multiphase problem needs at least two phases, got 1 \(a single phase is solved "
+        r"by its own solve\(\)\)$"),
+    "a phase that is not a problem": (
+        lambda: _phases(phases=[_ocp(), "phase"]), kd.ModelError,
+        r"^phase 2 must be an OptimalControlProblem, got str$"),
+    "fewer linkages than junctions": (
+        lambda: _phases(phases=[_ocp(), _ocp(), _ocp()], linkages=[kd.Linkage()]),
+        kd.ModelError,
+        r"^3 phases have 2 junctions, but linkages= gives 1 \(one Linkage per junction, or "
+        r"one for all\)$"),
+    "a linkage that is not a Linkage": (
+        lambda: _phases(linkages=[{"q": "q"}]), kd.ModelError,
+        r"^linkage 1 must be a kd\.Linkage, got dict$"),
+    "continuous state a phase lacks": (
+        lambda: _phases(linkages=kd.Linkage(continuous=["z"])), kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): continuous names z, which phase 1 lacks \(its "
+        r"states: q, u; inputs: F\)$"),
+    "linkage equation naming a state the next phase lacks": (
+        lambda: _phases(second=None, phases=[_ocp(duration=0.5, final={}), _other_states()],
+                        linkages=_junction(lambda q, u, t, L: q.subs(t, L.after) - 1)),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\), equation 0 \(q\(t_j\^\+\) - 1\) names q, which "
+        r"phase 2 lacks \(its states: z, w; inputs: G\) \(at its start\)$"),
+    "linkage equation at the running time": (
+        lambda: _phases(linkages=_junction(lambda q, u, t, L: q - q.subs(t, L.after))),
+        kd.ModelError,
+        r"equation 0 \(.*\) contains q\(t\): at a junction a state or input is written "
+        r"q\(Linkage\.before\) \(the end of phase 1\) or q\(Linkage\.after\)"),
+    "linkage equation naming a constant": (
+        lambda: _phases(linkages=_junction(
+            lambda q, u, t, L: q.subs(t, L.after) - sm.Symbol("m") * q.subs(t, L.before))),
+        kd.ModelError,
+        r"names m: a linkage names only states and inputs at the junction and its time "
+        r"\(write constants as numbers\)$"),
+    "phases that share no state": (
+        lambda: _phases(phases=[_ocp(duration=0.5, final={}), _other_states()]),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): the phases share no independent state \(phase 1: "
+        r"q, u; phase 2: z, w\), so the default linkage joins nothing; give "
+        r"linkages=\[kd\.Linkage\(equations=\[\.\.\.\]\)\]$"),
+    "a linkage that joins nothing": (
+        lambda: _phases(linkages=kd.Linkage(continuous=[])), kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\) joins nothing: give it continuous states or "
+        r"equations"),
+    "continuous state fixed to two values": (
+        lambda: _phases(first={"final": {"q": 0.4}}, second={"initial": {"q": 0.6}}),
+        kd.ModelError,
+        r"^linkage 1 \(phases 1 and 2\): q is continuous, but phase 1 ends with q = 0\.4 "
+        r"and phase 2 starts with q = 0\.6$"),
+    "a start time that is not the junction's": (
+        lambda: _phases(second={"start_time": 0.3}), kd.ModelError,
+        r"^phase 2 starts where phase 1 ends, at 0\.5 s, but was given start_time=0\.3; "
+        r"leave it out or give 0\.5$"),
+    "a start time after a free duration": (
+        lambda: _phases(first={"duration": sm.Symbol("T1"),
+                               "bounds": {sm.Symbol("T1"): (0.1, 1)}},
+                        second={"start_time": 0.5}), kd.ModelError,
+        r"^phase 2 starts where phase 1 ends, which follows a free duration: leave its "
+        r"start_time out \(it was given 0\.5 s\)$"),
+    "one free-duration symbol in two phases": (
+        lambda: _phases(first={"duration": sm.Symbol("T"), "bounds": {sm.Symbol("T"): (0.1, 1)}},
+                        second={"duration": sm.Symbol("T"),
+                                "bounds": {sm.Symbol("T"): (0.1, 1)}}), kd.ModelError,
+        r"^phases 1 and 2 both have the free duration T; give each phase a symbol of its "
+        r"own$"),
+    "a guess per phase missing": (
+        lambda: _phases().solve([np.zeros(33)]), kd.ModelError,
+        r"^give one guess per phase: 2 phases, 1 guesses$"),
+    "a phase's guess of the wrong shape": (
+        lambda: _phases().solve([np.zeros(33), np.zeros(5)]), kd.ModelError,
+        r"^phase 2: the guess must have shape \(33,\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MULTIPHASE_CASES))
+def test_multiphase_and_lgr_bad_input(case):
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    make, kind, pattern = MULTIPHASE_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make()
+
+
+# ---- issue 35, item 4: the Shuttle arm and out-parallel studies
+_S = sm.Symbol("s")
+
+#: auxiliary variables of an optimal-control problem, and the two studies' options:
+#: each a clear error naming the variable or option
+STUDY_OCP_CASES = {
+    "auxiliary variable that is a constant": (
+        lambda: _ocp(auxiliary={sm.Symbol("m"): 1.0}), kd.ModelError,
+        r"^auxiliary variable m is a constant of the model \(list it in parameters= to "
+        r"optimize it\)$"),
+    "auxiliary variable that is a state": (
+        lambda: _ocp(auxiliary={sm.Symbol("q"): 1.0}), kd.ModelError,
+        r"^auxiliary variable q is a state of the model$"),
+    "auxiliary variable named by text": (
+        lambda: _ocp(auxiliary={"s": 1.0}), kd.ModelError,
+        r"^auxiliary variables are SymPy symbols, got 's'$"),
+    "auxiliary variables as a list": (
+        lambda: _ocp(auxiliary=[_S]), kd.ModelError,
+        r"^auxiliary must be a dict \{symbol: starting value\}, got list$"),
+    "auxiliary starting value as text": (
+        lambda: _ocp(auxiliary={_S: "big"}), kd.ModelError,
+        r"^starting value of the auxiliary variable s must be a finite number, got 'big'$"),
+    "auxiliary starting value nan": (
+        lambda: _ocp(auxiliary={_S: float("nan")}), kd.ModelError,
+        r"^starting value of the auxiliary variable s must be a finite number, got nan$"),
+    "objective naming an undeclared auxiliary": (
+        lambda: _ocp(lagrange=None, mayer=_S), kd.ModelError,
+        r"terminal cost \(mayer\) names s, which is not a symbol of the model"),
+    "shuttle arm: negative joint-angle margin": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(margin=-5.0), kd.KanedynError,
+        r"^margin must be a number of degrees >= 0 \(inf: no joint-angle limits\), got -5\.0$"),
+    "shuttle arm: torque factor zero": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(torque_factor=0.0), kd.KanedynError,
+        r"^torque_factor must be a positive number, got 0\.0$"),
+    "shuttle arm: flexible booms": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(model_options={"flexible_booms": True}),
+        kd.KanedynError, r"posed on the rigid arm; flexible_booms=True is not supported$"),
+    "out-parallel: force limit not positive": (
+        lambda: kd.studies.out_parallel_least_peak_force(force_limit=-200.0), kd.KanedynError,
+        r"^force_limit must be a positive number \(N\), got -200\.0$"),
+    "out-parallel: negative regularization": (
+        lambda: kd.studies.out_parallel_least_peak_force(regularization=-1e-5),
+        kd.KanedynError, r"^regularization must be a number >= 0, got -1e-05$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(STUDY_OCP_CASES))
+def test_study_optimal_control_bad_input(case):
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    make, kind, pattern = STUDY_OCP_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make()
+
+
+def test_study_option_from_the_command_line_is_one_line(capsys):
+    """``kanedyn optimize shuttle-arm --set margin=-1``: exit 2, the option named."""
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    assert main(["optimize", "shuttle-arm", "--set", "margin=-1", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "margin must be a number of degrees >= 0" in err and len(err.splitlines()) == 1
+
+
+# ---- issue 39: events of simulate_many (kd.Event)
+@pytest.fixture(scope="module")
+def torqued_pendulum():
+    if kd.numerics.backends.compiler_command() is None:
+        pytest.skip("simulate_many runs in the C backend")
+    return kd.models.build("pendulum", torque=True).numeric(backend="c")
+
+
+def _many(model, events):
+    return kd.simulate_many(model, [0.1, 0.0], (0.0, 0.5), inputs={"tau": 0.0},
+                            events=events)
+
+
+def _q_u():
+    return me.dynamicsymbols("q u")
+
+
+def _knee(t, y):
+    return y[0]
+
+
+EVENT_CASES = {
+    "an event that is a Python function": (
+        lambda m: _many(m, [_knee]), kd.OptionError,
+        r"^simulate_many: event _knee is a Python function, which cannot run in the C "
+        r"threads that integrate the runs; give it as a SymPy expression of t and the "
+        r"model's states, inputs and constants, kd\.Event\(expression, terminal=\.\.\., "
+        r"direction=\.\.\.\) \(kd\.simulate takes the same Event\)$"),
+    "an event given as text": (
+        lambda m: _many(m, ["q - 0.2"]), kd.OptionError,
+        r"^simulate_many: events\[0\] is not a SymPy expression or a kd\.Event: 'q - 0\.2'$"),
+    "an Event's expression given as text": (
+        lambda m: kd.Event("__import__('os')"), kd.ModelError,
+        r"^an event's expression is the text \"__import__\('os'\)\"; give a number or a "
+        r"SymPy expression \(text is never run as code\)$"),
+    "a condition for an event": (
+        lambda m: kd.Event(_q_u()[0] > 0.2), kd.OptionError,
+        r"^event q\(t\) > 0\.2 is a condition; an event is a value that crosses zero; give "
+        r"q\(t\) - 0\.2$"),
+    "a direction of 2": (
+        lambda m: kd.Event(_q_u()[0], direction=2), kd.OptionError,
+        r"^event q\(t\): direction must be -1, 0 or 1, got 2$"),
+    "terminal given as text": (
+        lambda m: kd.Event(_q_u()[0], terminal="yes"), kd.OptionError,
+        r"^event q\(t\): terminal must be True or False, got 'yes'$"),
+    "a symbol the model does not have": (
+        lambda m: _many(m, kd.Event(_q_u()[0] - sm.Symbol("x0"), name="reach")),
+        kd.ModelError,
+        r"^event reach: x0 is not the time t or a state, input or constant of this model "
+        r"\(states: q, u; constants: g, l, m; inputs: tau\); give numbers for other "
+        r"values$"),
+    "a symbol the model does not have, in kd.simulate": (
+        lambda m: kd.simulate(m.with_inputs({"tau": 0.0}), (0.0, 0.5), [0.1, 0.0],
+                              events=[_q_u()[0] - me.dynamicsymbols("w")]),
+        kd.ModelError, r"^event q\(t\) - w\(t\): w is not the time t or a state"),
+    "a rate in an event": (
+        lambda m: _many(m, _q_u()[0].diff()), kd.ModelError,
+        r"^event Derivative\(q\(t\), t\): it holds the derivative\(s\) "
+        r"Derivative\(q\(t\), t\); an event is a function of the state: write the rates "
+        r"of the coordinates with the speeds \(the kinematic equations\)$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(EVENT_CASES))
+def test_ensemble_event_bad_input(torqued_pendulum, case):
+    make, kind, pattern = EVENT_CASES[case]
+    with pytest.raises(kind, match=pattern):
+        make(torqued_pendulum)

@@ -15,7 +15,9 @@ def test_optimize_lists_the_problems(capsys):
     assert main(["optimize"]) == 0
     text = capsys.readouterr().out
     for name in ("pendulum:", "swing-up", "flexible-robot:", "rest-to-rest", "minimum-time",
-                 "whipple-bicycle:", "lane-change", "offset=3.0"):
+                 "whipple-bicycle:", "lane-change", "offset=3.0", "shuttle-arm:",
+                 "minimum-energy", "margin=10.0", "out-parallel-6dof:", "least-peak-force",
+                 "force_limit=200.0"):
         assert name in text
 
 
@@ -52,6 +54,27 @@ def test_optimize_hermite_simpson_csv_has_the_midpoints(tmp_path, capsys):
     assert [r[1] for r in rows[:3]] == ["node", "midpoint", "node"]
     t = np.array([float(r[0]) for r in rows])
     assert np.all(np.diff(t) > 0)
+
+
+def test_optimize_lgr_csv_has_the_interior_points(tmp_path, capsys):
+    """--method lgr --degree 3: each interval's two interior Radau points in
+    the CSV between its nodes, at the Radau positions; --degree without
+    lgr is refused (exit code 2), naming the method."""
+    out = tmp_path / "lgr.csv"
+    code = main(["optimize", "pendulum", "--nodes", "21", "--method", "lgr", "--degree", "3",
+                 "--output", str(out), "--quiet", "--backend", "numpy"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "21 nodes, lgr of degree 3" in text
+    rows = list(csv.reader(open(out)))[1:]
+    assert len(rows) == 21 + 20 * 2
+    assert [r[1] for r in rows[:4]] == ["node", "interior", "interior", "node"]
+    t = np.array([float(r[0]) for r in rows[:4]])
+    np.testing.assert_allclose((t[1:3] - t[0]) / (t[3] - t[0]),
+                               [(4 - np.sqrt(6)) / 10, (4 + np.sqrt(6)) / 10], rtol=1e-12)
+    assert main(["optimize", "pendulum", "--degree", "3", "--quiet"]) == 2
+    assert "--degree is for --method lgr (the problem's method is trapezoid)" in \
+        capsys.readouterr().err
 
 
 def test_optimize_exit_1_when_ipopt_fails(capsys):
@@ -123,3 +146,22 @@ def test_the_problems_are_studies_too(tmp_path, capsys):
     numbers = dict(csv.reader(open(tmp_path / "whipple-bicycle-lane-change_numbers.csv")))
     assert abs(float(numbers["lateral"]) - 1.0) < 1e-2
     assert (tmp_path / "whipple-bicycle-lane-change.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_optimize_out_parallel_in_one_second_within_a_limit(tmp_path, capsys):
+    """``--duration 1 --set force_limit=180``: the quintic needs 262.5 N, the
+    least peak (176.6 N) fits under 180 N; the CSV's forces, nodes and
+    midpoints, keep the limit."""
+    out = tmp_path / "platform.csv"
+    code = main(["optimize", "out-parallel-6dof", "--nodes", "21", "--duration", "1",
+                 "--set", "force_limit=180", "--output", str(out), "--plot",
+                 str(tmp_path / "platform.png"), "--quiet"])
+    text = capsys.readouterr().out
+    assert code == 0, text
+    assert "quintic 262.509" in text and "within +-180 N" in text
+    rows = list(csv.DictReader(open(out)))
+    assert len(rows) == 41
+    forces = np.array([[float(row[f"F_carriage{j}"]) for j in range(1, 7)] for row in rows])
+    assert 176.0 < np.max(np.abs(forces)) <= 180.0
+    assert (tmp_path / "platform.png").stat().st_size > 0

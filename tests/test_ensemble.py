@@ -159,3 +159,137 @@ def test_the_sweep_integrates_its_runs_together():
         else:
             assert np.allclose(together[column].astype(float),
                                one_by_one[column].astype(float), rtol=0, atol=1e-13)
+
+
+# ------------------------------------------------------------ events (issue 39)
+def _pendulum_events():
+    """Events on the pendulum in its time, state, constant l and input tau: a downward
+    zero of the angle, a height crossing either way, a terminal upward speed."""
+    import sympy as sm
+    import sympy.physics.mechanics as me
+    q, u, tau = me.dynamicsymbols("q u tau")
+    l, t = sm.symbols("l t")
+    return [kd.Event(q, direction=-1), l * sm.sin(q) - 0.2 + tau * t,
+            kd.Event(u - 2.7, terminal=True, direction=1, name="fast")]
+
+
+def _by_hand(length, record, times):
+    """The same events as Python functions of (t, y), written without kd.Event."""
+    def zero(t, y):
+        return y[0]
+
+    def height(t, y):
+        return length * np.sin(y[0]) - 0.2 + np.interp(t, times, record) * t
+
+    def fast(t, y):
+        return y[1] - 2.7
+    zero.direction, fast.direction, fast.terminal = -1, 1, True
+    return [zero, height, fast]
+
+
+def test_events_are_located_as_the_compiled_loop_locates_them(pendulum):
+    """Each run's events (times and states) equal kd.simulate's with the same events as
+    Python functions, and with the same kd.Event; a terminal event ends its run there
+    (status 1, the end state the event's, no outputs after it) while the others go on."""
+    model, y0 = pendulum
+    times = np.linspace(0.0, 10.0, 21)
+    record = np.random.default_rng(1).uniform(-0.3, 0.3, (3, times.size))
+    lengths = [1.0, 1.5, 2.0]
+    t_eval = np.linspace(0.0, 10.0, 401)  # outputs within the terminal step too
+    events = _pendulum_events()
+    many = kd.simulate_many(model, [1.0, 0.0], (0.0, 10.0), constants={"l": lengths},
+                            inputs={"tau": record}, input_times=times, t_eval=t_eval,
+                            events=events)
+    assert list(many.status) == [1, 0, 0]
+    assert many.message[0] == "a termination event occurred"
+    for i in range(3):
+        driven = model.with_constants({"l": lengths[i]}).with_inputs(
+            {"tau": lambda t, r=record[i]: np.interp(t, times, r)})
+        by_hand = kd.simulate(driven, (0.0, 10.0), [1.0, 0.0], t_eval=t_eval,
+                              events=_by_hand(lengths[i], record[i], times))
+        same = kd.simulate(driven, (0.0, 10.0), [1.0, 0.0], t_eval=t_eval, events=events)
+        for one in (by_hand, same):
+            assert one.status == many.status[i] and one.message == many.message[i]
+            for k in range(3):
+                assert len(one.t_events[k]) == len(many.t_events[i][k])
+                assert np.max(np.abs(one.t_events[k] - many.t_events[i][k]),
+                              initial=0.0) <= 1e-12
+                assert np.max(np.abs(one.y_events[k] - many.y_events[i][k]),
+                              initial=0.0) <= 1e-12
+            assert np.max(np.abs(one.y.T - many.y[i][:one.t.size])) <= 1e-12
+            assert np.all(np.isnan(many.y[i][one.t.size:]))  # none past its end
+        if i:  # the runs that go on meet many crossings
+            assert sum(len(times_k) for times_k in many.t_events[i][:2]) > 5
+    first = many.t_events[0][2]
+    assert first.size == 1 and many.t_end[0] == first[0] and many.t_end[0] < 10.0
+    assert np.array_equal(many.y_end[0], many.y_events[0][2][0])
+    assert np.all(np.isnan(many.y[0][t_eval > first[0]]))
+    run = many.run(0)
+    assert run.status == 1 and np.array_equal(run.t_events[2], first)
+
+
+def test_events_with_dependent_coordinates_and_projection():
+    """The four-bar (dependent coordinates completed per run, drift projected): an
+    event on a dependent angle, terminal, at kd.simulate's time and state."""
+    import sympy.physics.mechanics as me
+    model, y0 = _model("four-bar")
+    dependent = me.dynamicsymbols(model.state_names[1])
+    event = kd.Event(dependent - y0[1] - 0.3, terminal=True, direction=1)
+    Y0 = y0 + 0.02 * np.random.default_rng(2).standard_normal((3, y0.size))
+    t_eval = np.linspace(0.0, 3.0, 31)
+    many = kd.simulate_many(model, Y0, (0.0, 3.0), events=event, t_eval=t_eval, rtol=1e-9,
+                            atol=1e-9)
+    assert np.all(many.status == 1)
+    for i in range(3):
+        one = kd.simulate(model, (0.0, 3.0), Y0[i], events=[event], t_eval=t_eval,
+                          rtol=1e-9, atol=1e-9)
+        assert one.status == 1
+        assert abs(one.t_events[0][0] - many.t_end[i]) <= 1e-12
+        assert np.max(np.abs(one.y_events[0][0] - many.y_end[i])) <= 1e-12
+
+
+def test_an_event_that_is_a_python_function_is_refused(pendulum):
+    model, y0 = pendulum
+
+    def touchdown(t, y):
+        return y[0]
+    with pytest.raises(kd.OptionError, match="event touchdown is a Python function, which "
+                       "cannot run in the C threads.*kd.Event\\(expression"):
+        kd.simulate_many(model, y0, (0.0, 1.0), inputs={"tau": 0.0}, events=[touchdown])
+
+
+def test_the_sweep_integrates_runs_with_expression_events_together(monkeypatch):
+    """kd.sweep hands runs whose events are expressions to simulate_many (its event
+    columns equal those of one kd.simulate per run with the same events as Python
+    functions); Python functions keep the runs one by one."""
+    pytest.importorskip("pandas")
+    import sympy.physics.mechanics as me
+    from kanedyn.simulation import _ensemble
+    model, y0 = _model("pendulum")
+    q, u = me.dynamicsymbols("q u")
+    calls = []
+    original = _ensemble.simulate_many
+    monkeypatch.setattr(_ensemble, "simulate_many",
+                        lambda *a, **k: calls.append(1) or original(*a, **k))
+
+    def zero(t, y):
+        return y[0]
+
+    def fast(t, y):
+        return y[1] + 3.0
+    fast.terminal = True
+    params = {"l": (0.5, 1.0, 2.0), "q": (0.5, 1.0, 2.5)}
+    common = dict(scheduler="serial", progress=False)
+    together = kd.sweep(model, params, y0, (0.0, 4.0), ("events", "final", "t_end"),
+                        events=[q, kd.Event(u + 3.0, terminal=True)], **common)
+    assert calls
+    calls.clear()
+    one_by_one = kd.sweep(model, params, y0, (0.0, 4.0), ("events", "final", "t_end"),
+                          events=[zero, fast], **common)
+    assert not calls
+    assert (together.status == one_by_one.status).all() and (together.status == 1).any()
+    for column in together.columns:
+        if column != "message":
+            assert np.allclose(together[column].astype(float),
+                               one_by_one[column].astype(float), rtol=0, atol=1e-12,
+                               equal_nan=True), column

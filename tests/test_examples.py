@@ -489,6 +489,77 @@ def test_flexible_robot_rest_to_rest(tmp_path, monkeypatch):
     assert abs(effort - out["objective"]) < 1e-4 * out["objective"]
 
 
+@pytest.mark.slow
+def test_shuttle_arm_minimum_energy(tmp_path, monkeypatch):
+    """Checked by hand: the end angles are the documented pose (-20, 35, -50,
+    5, 10, 30 deg), every joint stays within the documented start-to-end
+    range +- 10 deg and every torque within its limit at every node and
+    midpoint, the effort is below the quintic's; in microgravity, rest to
+    rest, the torques' net work (Simpson over the collocated points of
+    sum tau_i u_i) is zero, the kinetic energy being zero at both ends (to
+    1e-4 of the work done both ways); the PD-tracked replay stays closer to
+    the path than the open-loop one."""
+    from scipy.integrate import simpson
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (the test extra)")
+    out, _ = run_example("shuttle_arm_minimum_energy", ["--nodes", "51"], tmp_path,
+                         monkeypatch)
+    r = out["result"]
+    assert out["success"], r.message
+    start = np.radians([0.0, 15.0, -30.0, 15.0, 0.0, 0.0])
+    end = np.radians([-20.0, 35.0, -50.0, 5.0, 10.0, 30.0])
+    t, y, tau = r.points()
+    np.testing.assert_allclose(y[:6, -1], end, atol=1e-9)
+    margin = np.radians(10.0)
+    assert np.all(y[:6] >= np.minimum(start, end)[:, None] - margin - 1e-6)
+    assert np.all(y[:6] <= np.maximum(start, end)[:, None] + margin + 1e-6)
+    assert np.all(np.abs(tau) <= out["limit"][:, None] * (1 + 1e-6))
+    assert r.objective < 0.65 * out["effort_quintic"]
+    power = np.sum(tau * y[6:12], axis=0)
+    assert abs(simpson(power, x=t)) < 1e-4 * simpson(np.abs(power), x=t)
+    assert out["drift_tracked"] < out["drift_open_loop"] / 5 and out["drift_open_loop"] < 1e-3
+
+
+@pytest.mark.slow
+def test_out_parallel_least_peak_force(tmp_path, monkeypatch):
+    """Checked by hand: from rest to rest the carriage forces' net work
+    (Simpson of sum F_j ds_j over the collocated points) is the rise of the
+    potential energy, computed here from the documented masses (platform
+    20 kg, struts 2 kg at mid-length, carriages 5 kg, g = 9.81) and the
+    closed-form inverse kinematics of the two poses (the drive trains'
+    kinetic energy is zero at both ends), to 1e-5; the peak is the holding force,
+    below the quintic's, and the inverse dynamics of the optimal path gives
+    the collocated forces back to 1 N."""
+    from scipy.integrate import simpson
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (the test extra)")
+    out, _ = run_example("out_parallel_least_peak_force", ["--nodes", "21"], tmp_path,
+                         monkeypatch)
+    r = out["result"]
+    assert out["success"], r.message
+    t, y, F = r.points()
+    names = list(r.state_names)
+    ds = y[[names.index(f"ds{j}") for j in range(1, 7)]]
+    work = simpson(np.sum(F * ds, axis=0), x=t)
+    from kanedyn.models import out_parallel_anchors, out_parallel_ik
+    _, _, c = out_parallel_anchors()
+
+    def potential(pose):
+        q, _, _ = out_parallel_ik(pose)
+        a, b, gamma = pose[3:]
+        Rx = np.array([[1, 0, 0], [0, np.cos(a), -np.sin(a)], [0, np.sin(a), np.cos(a)]])
+        Ry = np.array([[np.cos(b), 0, np.sin(b)], [0, 1, 0], [-np.sin(b), 0, np.cos(b)]])
+        Rz = np.array([[np.cos(gamma), -np.sin(gamma), 0], [np.sin(gamma), np.cos(gamma), 0],
+                       [0, 0, 1]])
+        anchors = pose[2] + (Rx @ Ry @ Rz @ c.T)[2]
+        s = q[6:12]
+        return 9.81 * (20.0 * pose[2] + 5.0 * np.sum(s) + 2.0 * np.sum((s + anchors) / 2))
+    rise = potential(out["quintic"].pose[-1]) - potential(out["quintic"].pose[0])
+    assert abs(work - rise) < 1e-5 * rise, (work, rise)  # measured 1.1e-6
+    assert abs(out["peak"] - out["held"]) < 1e-5 * out["held"]
+    assert out["peak"] < 0.95 * np.max(np.abs(out["quintic"].forces))
+    assert np.max(np.abs(F)) <= out["peak"] * (1 + 1e-6)
+    assert out["difference"] < 1.0
+
+
 def test_pendulum_swing_up(tmp_path, monkeypatch):
     """The optimum meets its own conditions, checked here by hand: the end
     states, the torque limit, the objective as the trapezoid of tau^2, and the

@@ -225,6 +225,66 @@ def test_ground_points_input_is_checked(tmp_path):
     assert list(_normal_forces(res).values()) == pytest.approx([3.0 * G / 4] * 4, rel=1e-8)
 
 
+DRUM_MJCF = """<mujoco model="drum">
+  <worldbody>
+    <body name="stand" pos="1 0 0"><geom type="box" size="0.1 0.1 0.1"/></body>
+    <body name="drum" pos="0 0 0.3"><freejoint/>
+      <geom name="shell" type="cylinder" size="0.1 0.05" mass="2" contype="0"
+            conaffinity="0"/>
+      <body name="rim" pos="0 0 -0.05" euler="90 0 0"/>
+    </body>
+  </worldbody>
+</mujoco>
+"""
+
+
+def test_mjcf_ground_points(tmp_path):
+    """``from_mjcf(ground_points=...)``: points in the frame of a body welded to the
+    moving one (``rim``, turned 90 deg about x: its point (x, y, z) is (x, -z, y - 0.05)
+    in the drum's frame), three at 120 deg on a circle 20 mm below the rim: the drum
+    rests on them at 0.07 m, each carrying a third of its weight.  Bad input is named
+    as for ``from_urdf`` (the same code): an unknown body with the close names, a body
+    welded to the world, a malformed point, points without a ground."""
+    path = tmp_path / "drum.xml"
+    path.write_text(DRUM_MJCF)
+    ground = kd.Ground(height=0.0, mu_k=0.5, restitution=0.0)
+    points = [(0.1 * np.cos(a), -0.02, 0.1 * np.sin(a)) for a in np.arange(3) * 2 * np.pi / 3]
+    with pytest.raises(kd.models.MJCFError, match=r"drum\.xml: ground: no colliding sphere, "
+                                                  r"capsule or box geom on a moving body "
+                                                  r"\(give contact points with ground_points"):
+        kd.models.from_mjcf(path, ground=ground)
+    definition = kd.models.from_mjcf(path, ground=ground, ground_points={"rim": points})
+    assert [c.name for c in definition.kane_args["contacts"]] == [
+        f"rim/point{k}" for k in range(3)]
+    res = kd.simulate(definition.numeric(), (0.0, 0.5), definition.initial_state,
+                      max_step=0.01)
+    assert res.y[2, -1] == pytest.approx(0.07, abs=1e-9)
+    assert res.y[3:6, -1] == pytest.approx([0.0] * 3, abs=1e-9)  # level
+    assert list(_normal_forces(res).values()) == pytest.approx([2.0 * G / 3] * 3, rel=1e-8)
+
+    def load(points, given=ground):
+        return kd.models.from_mjcf(path, ground=given, ground_points=points)
+
+    with pytest.raises(kd.models.MJCFError, match=r"from_mjcf: ground_points: .*drum\.xml has "
+                                                  r"no body 'rims' \(did you mean 'rim'\?\)"):
+        load({"rims": points})
+    with pytest.raises(kd.models.MJCFError, match="from_mjcf: ground_points: body 'stand' is "
+                                                  "fixed to the ground"):
+        load({"stand": points})
+    with pytest.raises(kd.models.MJCFError, match=r"from_mjcf: ground_points\['rim'\]\[2\] "
+                                                  r"must be \(x, y, z\) or \(x, y, z, radius\), "
+                                                  "finite numbers in m in the body's frame"):
+        load({"rim": points[:2] + [(0.0, "a", 0.0)]})
+    with pytest.raises(kd.models.MJCFError, match=r"ground_points\['rim'\]\[0\]: the radius "
+                                                  "must be >= 0"):
+        load({"rim": [(0, 0, 0, -1)]})
+    with pytest.raises(kd.models.MJCFError, match="from_mjcf: ground_points must be a dict "
+                                                  r"\{body name"):
+        load([points])
+    with pytest.raises(kd.models.MJCFError, match="from_mjcf: ground_points given without a "
+                                                  "ground"):
+        load({"rim": points}, given=None)
+
 QUADRUPED_MJCF = """<mujoco model="quadruped">
   <option gravity="0 0 -9.81" timestep="0.0005"/>
   <default>

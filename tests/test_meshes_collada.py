@@ -125,8 +125,16 @@ def test_page_data_of_a_dae(tmp_path):
 
 
 @pytest.mark.parametrize("text, message", [
-    ("<COLLADA><unclosed>", "not a readable COLLADA file"),
-    ("not xml at all", "not a readable COLLADA file"),
+    ("<COLLADA><unclosed>", ":1: not a well-formed XML file"),
+    ("not xml at all", ":1: not a well-formed XML file"),
+    ("<?xml version='1.0'?><notcollada/>", "not a readable COLLADA file"),
+    # an entity naming a file of this machine, and an expansion bomb's first step
+    (_dae().replace("<COLLADA", '<!DOCTYPE COLLADA [<!ENTITY up SYSTEM '
+                    '"file:///etc/hostname">]>\n<COLLADA', 1).replace("Y_UP", "&up;"),
+     ":2: entity declarations are not accepted in a COLLADA file"),
+    (_dae().replace("<COLLADA", '<!DOCTYPE COLLADA [<!ENTITY a "aaaaaaaaaa">'
+                    '<!ENTITY b "&a;&a;&a;&a;&a;&a;&a;&a;&a;&a;">]>\n<COLLADA', 1),
+     ":2: entity declarations are not accepted in a COLLADA file"),
     (_dae(unit="centimetre"), "<unit meter='centimetre'> is not a positive number"),
     (_dae(unit="-1"), "<unit meter='-1'> is not a positive number"),
     (_dae(up="W_UP"), "<up_axis>W_UP</up_axis> is not X_UP, Y_UP or Z_UP"),
@@ -138,6 +146,16 @@ def test_malformed_dae_named_with_its_fault(tmp_path, text, message):
     with pytest.raises(kd.ModelError) as info:
         read_dae(path)
     assert str(path) in str(info.value) and message in str(info.value)
+
+
+def test_dae_larger_than_the_limit_refused(tmp_path, monkeypatch):
+    import kanedyn.io._collada as collada_reader
+    path = tmp_path / "box.dae"
+    path.write_text(_dae())
+    monkeypatch.setattr(collada_reader, "MAX_DAE_BYTES", 100)
+    with pytest.raises(kd.ModelError, match=r"box.dae: \d+ bytes, more than the 100 a "
+                                            r"COLLADA mesh may have"):
+        read_dae(path)
 
 
 def test_missing_libraries_named(tmp_path, monkeypatch):

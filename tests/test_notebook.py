@@ -6,7 +6,7 @@ The browser test loads the widget's ES module as anywidget does (from a
 ``set``, ``on``, ``off``, ``save_changes``, with ``set`` announcing
 ``change:NAME`` as Backbone's models do), then reads back what it drew: the
 viewer's counts, screenshots before and after moving the time from Python,
-the time the slider sends back, and a second scene drawn in the same view.
+the time the slider sends back (moved and let go), and a second scene drawn in the same view.
 """
 
 import json
@@ -161,6 +161,13 @@ def test_widget_front_end_in_headless_chromium(tmp_path):
             page.evaluate("""(() => { const s = window.host.querySelector('.kd-slider');
                 s.value = '1000'; s.dispatchEvent(new Event('input'));
                 s.dispatchEvent(new Event('change')); })()""")
+            let_go = page.evaluate("window.fake.saved.map((s) => s.time)")
+            # moved without letting go: sent once within 0.1 s
+            page.evaluate("""(() => { const s = window.host.querySelector('.kd-slider');
+                for (const v of ['400', '450', '500']) {
+                  s.value = v; s.dispatchEvent(new Event('input')); } })()""")
+            page.wait_for_function("window.fake.saved.length === 2", timeout=10_000)
+            page.wait_for_timeout(300)
             sent = page.evaluate("window.fake.saved.map((s) => s.time)")
             # a new scene (the sliders' re-run) is drawn in the same view
             page.evaluate(f"window.fake.model.set('scene_json', {json.dumps(json.dumps(longer))})")
@@ -185,8 +192,9 @@ def test_widget_front_end_in_headless_chromium(tmp_path):
     view = (slice(0, A.shape[0] - 60), slice(0, A.shape[1]))  # the 3D view, not the bar
     changed = np.any(np.abs(A[view] - B[view]) > 30, axis=-1)
     assert changed.sum() > 300 and changed.mean() < 0.2  # the bob and rod moved, only they
-    assert sent == [pytest.approx(2.0)]
-    assert redrawn == {"frames": 41, "time": pytest.approx(2.0), "canvases": 1, "legend": 1,
+    assert let_go == [pytest.approx(2.0)]
+    assert sent == [pytest.approx(2.0), pytest.approx(1.0)]
+    assert redrawn == {"frames": 41, "time": pytest.approx(1.0), "canvases": 1, "legend": 1,
                        "height": 420}
     C = _pixels(longer_shot)
     assert np.any(np.abs(C[view] - B[view]) > 30, axis=-1).sum() > 300

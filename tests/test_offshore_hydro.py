@@ -106,6 +106,55 @@ def test_irregular_sea_statistics_and_seed():
     assert np.max(np.abs(e_other - eta[:50])) > 0.1
 
 
+@pytest.mark.parametrize("stretching", ["none", "vertical", "wheeler"])
+def test_kinematics_series_and_a_sea_with_another_seed(stretching):
+    """The kinematics at many times at once (records for simulate_many) equal those
+    time by time; with_seed is the sea of that seed."""
+    sea = kd.offshore.IrregularSea(6.0, 10.0, 3.3, depth=320.0, n_components=60, seed=7,
+                                   stretching=stretching)
+    x, z = np.array([[0.0, 3.0], [-2.0, 1.0]]), np.array([[-30.0, -1.0], [0.5, 2.0]])
+    times = np.linspace(0.0, 40.0, 2500)  # more than one block of times
+    vel, acc = sea.kinematics_series(x, z, times, 0.5)
+    assert vel.shape == acc.shape == (2500, 2, 2, 3)
+    for k in (0, 1, 1777, 2499):
+        v, a = sea.kinematics(x, z, times[k], 0.5)
+        np.testing.assert_allclose(vel[k], v, rtol=0, atol=1e-12)
+        np.testing.assert_allclose(acc[k], a, rtol=0, atol=1e-12)
+    if stretching == "none":  # 2 m above the still water level: dry
+        assert np.all(vel[:, 1, 1] == 0) and np.any(vel[:, 0, 0] != 0)
+    eta = sea.elevation_series(np.array([0.0, 5.0]), times[:3])
+    assert eta.shape == (3, 2) and eta[2, 1] == sea.elevation(np.array([0.0, 5.0]),
+                                                              times[2])[1]
+    other = sea.with_seed(8)
+    fresh = kd.offshore.IrregularSea(6.0, 10.0, 3.3, depth=320.0, n_components=60, seed=8,
+                                     stretching=stretching)
+    assert other.seed == 8 and np.array_equal(other.phases, fresh.phases)
+    assert np.array_equal(other.omegas, sea.omegas) and other.stretching == stretching
+
+
+def test_morison_input_series_equal_its_inputs():
+    """input_series (all times at once) against specified()'s functions of t, with the
+    cylinder's sea and with another seed's."""
+    sea = kd.offshore.IrregularSea(6.0, 10.0, 3.3, depth=320.0, n_components=80, seed=1,
+                                   stretching="vertical")
+    member, _ = _fixed_member([(-60.0, 9.4), (5.0, 9.4)], rho=RHO, Ca=1.0, Cd=0.6,
+                              n_strips=5, waves=sea, z_top=5.0)
+    times = np.linspace(0.0, 30.0, 301)
+    series = member.input_series(times)
+    functions = member.specified()
+    assert set(series) == set(functions) and any("wet" in str(k) for k in series)
+    for symbol, f in functions.items():
+        np.testing.assert_allclose(series[symbol], [f(t) for t in times], rtol=0,
+                                   atol=1e-12)
+    other, _ = _fixed_member([(-60.0, 9.4), (5.0, 9.4)], rho=RHO, Ca=1.0, Cd=0.6,
+                             n_strips=5, waves=sea.with_seed(2), z_top=5.0)
+    shifted = member.input_series(times[:20], sea.with_seed(2))
+    for symbol, f in other.specified().items():
+        name = str(symbol)
+        mine = next(v for k, v in shifted.items() if str(k) == name)
+        np.testing.assert_allclose(mine, [f(t) for t in times[:20]], rtol=0, atol=1e-12)
+
+
 # ---------------------------------------------------------------- Morison
 def _fixed_member(stations, **kw):
     N = me.ReferenceFrame("N")

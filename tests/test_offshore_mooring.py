@@ -271,6 +271,35 @@ def test_aerodynamic_damping_sign_and_runtime_thrust():
     assert model.rhs(0.0, np.zeros(2))[1] == pytest.approx(at_rest / 1e6)
 
 
+def test_thrust_as_an_expression_is_the_curve():
+    """ThrustCurve.expression: the same PCHIP pieces (held at the ends); a rotor's thrust
+    under a steady wind as an expression of the state gives the model the same
+    derivative as its Python function of (t, y)."""
+    import sympy as sm
+    curve = kd.offshore.NREL5MW_THRUST
+    V = sm.Symbol("V")
+    f = sm.lambdify(V, curve.expression(V), "math")
+    speeds = np.linspace(0.0, 30.0, 3001)
+    np.testing.assert_allclose([f(v) for v in speeds], curve(speeds), rtol=1e-14, atol=1e-9)
+    x, ux = me.dynamicsymbols("x ux")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    hub = O.locatenew("hub", x * N.x)
+    hub.set_vel(N, ux * N.x)
+    rotor = kd.offshore.RotorThrust("r", hub, N.x, N, curve, wind=9.0)
+    eom = kd.kane(frame=N, q_ind=[x], u_ind=[ux], kd_eqs=[x.diff() - ux],
+                  bodies=[me.Particle("m", hub, 1e6)], loads=rotor.to_loads())
+    python = eom.numeric(constants={}, specified=rotor.specified(eom))
+    compiled = eom.numeric(constants={}, specified={rotor.symbol: rotor.expression()})
+    assert compiled.input_names == ()
+    for u in (-4.0, -0.3, 0.0, 0.7, 12.0):
+        assert compiled.rhs(0.0, [0.0, u])[1] == pytest.approx(python.rhs(0.0, [0.0, u])[1],
+                                                               rel=1e-14)
+    gusty = kd.offshore.RotorThrust("g", hub, N.x, N, curve, wind=lambda t: 9.0 + t)
+    with pytest.raises(kd.ModelError, match="the wind varies in time"):
+        gusty.expression()
+
+
 def test_kaimal_wind_mean_intensity_and_seed():
     t, v = kd.offshore.kaimal_wind(11.4, 0.15, duration=3600.0, dt=0.25, seed=7)
     assert v.mean() == pytest.approx(11.4, rel=0.01)

@@ -7,7 +7,11 @@ against what shares none of its code:
   backward Euler (1) and the trapezoid (2) in the states, and of the
   re-simulation defect;
 - opty on the same discrete problem (pendulum and cart-pole swing-ups, its
-  equations written by hand and by SymPy's KanesMethod): the same optimum;
+  equations written by hand and by SymPy's KanesMethod): the same optimum,
+  and LGR of degree 1 (backward Euler's problem) reaching it too;
+- Legendre-Gauss-Radau: the Radau IIA tableaux in closed form, the
+  oscillator's closed form (the error falling with the degree, order 2d - 1
+  with the mesh), Hermite-Simpson's optimum on a fine mesh;
 - the NLP's Jacobian and gradient against central differences;
 - a closed loop (a pendulum in Cartesian coordinates with its length as a
   constraint) against the same motion in its angle.
@@ -132,6 +136,34 @@ def test_free_parameter_goes_to_its_bound():
         assert abs(r.parameters["m"] - 0.5) < 1e-8
     J = [r.objective for r in results]
     assert abs((4 * J[1] - J[0]) / 3 - 12 * 0.25) < 1e-6
+
+
+def test_epigraph_bound_is_the_least_peak_force(integrator):
+    """An auxiliary variable s with -s <= F <= s, minimized: the least peak
+    |F| of the unit rest-to-rest move in 1 s is bang-bang, F = 4 then -4
+    (x = a/4 = 1).  Hermite-Simpson finds 4 to 1e-7 (the switch at t = 0.5 is
+    a node); the trapezoid approaches from above at order 2.  The model
+    never sees s: its simulation with the optimal force ends at x = 1."""
+    model, (x, v, F, _) = integrator
+    s = sm.Symbol("s")
+    found = {}
+    for method, nodes in (("hermite-simpson", 21), ("trapezoid", 41), ("trapezoid", 81)):
+        problem = kd.OptimalControlProblem(
+            model, nodes=nodes, duration=1.0, mayer=s, auxiliary={s: 10.0},
+            bounds={s: (0, None)}, path_constraints=[(F - s, None, 0), (F + s, 0, None)],
+            initial={x: 0, v: 0}, final={x: 1, v: 0}, method=method)
+        result = problem.solve(problem.guess_line(inputs={F: 0.0}), options={"tol": 1e-10})
+        assert result.success, result.message
+        assert result.objective == result.parameters["s"]
+        assert np.max(np.abs(result["F"])) <= result.parameters["s"] * (1 + 1e-8)
+        found[method, nodes] = result.parameters["s"]
+        if method == "hermite-simpson":
+            assert abs(result.parameters["s"] - 4.0) < 1e-7
+            run = result.resimulate()
+            assert abs(run.simulation["x"][-1] - 1.0) < 1e-6
+    e41, e81 = found["trapezoid", 41] - 4, found["trapezoid", 81] - 4
+    assert e41 > e81 > 0
+    assert abs(_order([e41, e81], (41, 81)) - 2) < 0.1
 
 
 # ------------------------------------------------------------ Hermite-Simpson
@@ -269,32 +301,179 @@ def test_hermite_simpson_result_guesses_and_warm_start(tmp_path):
         finer.solve(result, warm_start=True)
 
 
-@pytest.mark.parametrize("method", ["backward-euler", "trapezoid", "midpoint",
-                                    "hermite-simpson"])
+# ------------------------------------------------------ Legendre-Gauss-Radau
+def test_lgr_points_weights_and_differentiation():
+    """The Radau IIA abscissae and weights of degrees 2 and 3 (their closed
+    forms: 1/3, 1 with 3/4, 1/4; (4 -+ sqrt 6)/10, 1 with (16 -+ sqrt 6)/36,
+    1/9); the quadrature exact to degree 2d - 2 and not 2d - 1; the
+    differentiation matrix exact on polynomials of degree d."""
+    from kanedyn.optimization._interval import lgr
+    s6 = np.sqrt(6.0)
+    closed = {2: ([1 / 3, 1.0], [0.75, 0.25]),
+              3: ([(4 - s6) / 10, (4 + s6) / 10, 1.0], [(16 - s6) / 36, (16 + s6) / 36, 1 / 9])}
+    for d, (points, weights) in closed.items():
+        scheme = lgr(d)
+        np.testing.assert_allclose(scheme.positions, [0.0] + points, atol=1e-15)
+        np.testing.assert_allclose(scheme.weights, [0.0] + weights, atol=1e-15)
+    for d in (1, 2, 3, 5, 8):
+        scheme = lgr(d)
+        sigma, w = np.array(scheme.positions), scheme.weights
+        for k in range(2 * d):
+            exact = 1.0 / (k + 1)
+            if k <= 2 * d - 2:
+                assert abs(w @ sigma ** k - exact) < 1e-14, (d, k)
+            else:
+                assert abs(w @ sigma ** k - exact) > 1e-12, (d, k)
+        for k in range(d + 1):  # rows: D y = y' at the Radau points
+            np.testing.assert_allclose(scheme.a @ sigma ** k,
+                                       k * sigma[1:] ** max(k - 1, 0) if k else 0.0,
+                                       atol=1e-11 * d ** 2)
+
+
+def _oscillator_lgr(model, symbols, nodes, degree):
+    x, v, F = symbols
+    problem = kd.OptimalControlProblem(model, nodes=nodes, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0},
+                                       method="lgr", degree=degree)
+    result = problem.solve(problem.guess_line(inputs={F: 0.0}), options=TIGHT)
+    assert result.success, result.message
+    return result
+
+
+def test_lgr_converges_on_a_closed_form():
+    """The oscillator's least-effort move (closed form above): on a mesh of 4
+    intervals the states' error falls more than 100-fold with each degree
+    from 2 to 5 (measured 4.7e-3, 2.4e-5, 7.1e-8, 1.1e-10), and for a
+    degree the states and objective converge at order 2d - 1 as the
+    intervals halve (2, 4, 8 intervals; measured 3.2 and 5.1 for degrees 2
+    and 3), as does the re-simulation defect (the optimal inputs, polynomials
+    of degree d - 1 between the points, simulated: measured 4.8 for degree
+    3).  The inputs at the Radau points follow the closed form too."""
+    model, symbols, exact = _oscillator()
+    by_degree = [_oscillator_lgr(model, symbols, 5, d) for d in (2, 3, 4, 5)]
+    errors = [np.max(np.abs(r["x"] - exact["x"](r.t))) for r in by_degree]
+    assert all(errors[i + 1] < errors[i] / 100 for i in range(3)), errors
+    assert errors[-1] < 1e-9
+    best = by_degree[-1]
+    assert abs(best.objective - exact["objective"]) < 1e-7
+    assert np.max(np.abs(best.r_mid[0] - exact["F"](best.t_mid))) < 1e-4
+    assert best.t_mid.shape == (4 * 4,) and best.y_mid.shape == (2, 16)
+    nodes = (3, 5, 9)
+    for degree in (2, 3):
+        results = [_oscillator_lgr(model, symbols, n, degree) for n in nodes]
+        for name in ("x", "v"):
+            e = [np.max(np.abs(r[name] - exact[name](r.t))) for r in results]
+            assert _order(e[1:], nodes[1:]) > 2 * degree - 1 - 0.3, (degree, name, e)
+        J = [abs(r.objective - exact["objective"]) for r in results]
+        assert _order(J[1:], nodes[1:]) > 2 * degree - 1 - 0.3, (degree, J)
+    defects = [r.resimulate(rtol=1e-13, atol=1e-13).max_defect for r in results[1:]]
+    assert _order(defects, nodes[1:]) > 4.5, defects
+
+
+def test_lgr_degree_one_is_backward_euler(integrator):
+    """Degree 1 collocates at the right end of each interval: backward
+    Euler's discrete problem, the same optimum and states (the first input,
+    which backward Euler leaves free, is tied to the first interval's)."""
+    model, symbols = integrator
+    euler = _rest_to_rest(model, symbols, 21, "backward-euler")
+    radau = _rest_to_rest(model, symbols, 21, "lgr", degree=1)
+    assert abs(euler.objective - radau.objective) < 1e-9
+    assert np.max(np.abs(euler.y - radau.y)) < 1e-8
+    assert np.max(np.abs(euler.r[:, 1:] - radau.r[:, 1:])) < 1e-7
+    assert radau.r[0, 0] == pytest.approx(radau.r[0, 1], abs=1e-12)
+
+
+def test_lgr_pendulum_swing_meets_hermite_simpson():
+    """The pendulum swung to 2 rad and stopped in 3 s with least effort (no
+    closed form): LGR of degree 4 on 20 intervals (81 points) reaches
+    Hermite-Simpson's optimum on 160 intervals (321 points) to 1e-7
+    (measured 18.6512581 and 18.6512570; Hermite-Simpson's own change from
+    80 to 160 intervals is 1.1e-5), with the same angles at the nodes; at
+    degree 3 the gap shrinks at order 5 from 20 to 40 intervals."""
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+
+    def solve(nodes, method, degree=None):
+        problem = kd.OptimalControlProblem(
+            model, nodes=nodes, duration=3.0, lagrange=tau ** 2, initial={q: 0, u: 0},
+            final={q: 2.0, u: 0}, method=method, degree=degree)
+        result = problem.solve(problem.guess_line(inputs={tau: 0.0}), options=TIGHT)
+        assert result.success, result.message
+        return result
+
+    reference = solve(161, "hermite-simpson")
+    radau = solve(21, "lgr", 4)
+    assert abs(radau.objective - reference.objective) < 1e-7 * reference.objective
+    assert np.max(np.abs(radau["q"] - reference["q"][::8])) < 1e-5
+    gaps = [abs(solve(n, "lgr", 3).objective - reference.objective) for n in (21, 41)]
+    assert _order(gaps, (21, 41)) > 4.5, gaps
+
+
+def test_lgr_result_inputs_guesses_and_table(tmp_path):
+    """LGR's inputs between the points are the polynomial of degree d - 1
+    through each interval's Radau points: they pass through the collocated
+    inputs, and the first node's input is that polynomial's value; the
+    re-simulated optimum ends where it was collocated; a Hermite-Simpson
+    solution seeds an LGR problem and the other way round; the table marks
+    the interior points."""
+    model, symbols, exact = _oscillator()
+    x, v, F = symbols
+    result = _oscillator_lgr(model, symbols, 5, 4)
+    force = result.inputs()["F"]
+    np.testing.assert_allclose([force(t) for t in result.t_mid], result.r_mid[0], atol=1e-12)
+    np.testing.assert_allclose([force(t) for t in result.t], result["F"], atol=1e-12)
+    assert abs(force(0.1) - exact["F"](0.1)) < 1e-3
+    columns, rows = result.table()
+    assert [row[1] for row in rows[:5]] == ["node", "interior", "interior", "interior",
+                                             "node"]
+    assert np.all(np.diff([row[0] for row in rows]) > 0)
+    hermite = kd.OptimalControlProblem(model, nodes=11, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0},
+                                       method="hermite-simpson")
+    seeded = hermite.solve(result, options=TIGHT)
+    assert seeded.success and abs(seeded.objective - exact["objective"]) < 1e-3
+    back = result.problem.solve(seeded, options=TIGHT)
+    assert back.success and abs(back.objective - result.objective) < 1e-9
+    again = result.problem.solve(result, warm_start=True, options=TIGHT)
+    assert again.success and again.iterations <= result.iterations
+
+
+@pytest.mark.parametrize("method, degree", [
+    ("backward-euler", None), ("trapezoid", None), ("midpoint", None),
+    ("hermite-simpson", None), ("lgr", 1), ("lgr", 3)])
 @pytest.mark.parametrize("free", [False, True])
-def test_nlp_derivatives_against_differences(method, free):
+def test_nlp_derivatives_against_differences(method, degree, free):
     """Jacobian of all constraint kinds and the objective's gradient (Lagrange
-    and Mayer terms, free parameters, free duration) against central
-    differences of the NLP's own functions."""
+    and Mayer terms, free parameters, an auxiliary variable, free duration)
+    against central differences of the NLP's own functions."""
     from kanedyn.optimization._nlp import CollocationNLP
     definition = kd.models.build("pendulum", torque=True)
     model = definition.numeric(backend="numpy")
     q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
     t = me.dynamicsymbols._t
-    T = sm.Symbol("T")
+    T, w = sm.symbols("T w")
     duration = T if free else 2.0
     problem = kd.OptimalControlProblem(
         model, nodes=6, duration=duration, lagrange=tau ** 2 + q ** 2 * u + sm.sin(t) * u,
-        mayer=q ** 2 + (T if free else 0), bounds={tau: (-2, 2), **({T: (0.5, 5)} if free
-                                                                   else {})},
-        initial={q: 0, u: 0}, final={q: np.pi}, method=method, parameters=["m", "l"],
-        path_constraints=[(u ** 2 + tau * q, -5, 5)],
-        instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0)],
+        mayer=q ** 2 + w ** 2 + (T if free else 0),
+        bounds={tau: (-2, 2), **({T: (0.5, 5)} if free else {})},
+        initial={q: 0, u: 0}, final={q: np.pi}, method=method, degree=degree,
+        parameters=["m", "l"],
+        auxiliary={w: 0.7}, path_constraints=[(u ** 2 + tau * q - w * u, -5, 5)],
+        instance_constraints=[q.subs(t, 2 * duration / 5) - 0.3 * u.subs(t, 0) + w],
         periodic=[u])
     nlp = CollocationNLP(problem)
     z = np.random.default_rng(0).normal(size=nlp.n)
     if free:
         z[-1] = 2.0
+    check_against_differences(nlp, z, 1e-7)
+
+
+def check_against_differences(nlp, z, tolerance):
+    """The NLP's sparse Jacobian and gradient at ``z`` against central
+    differences of its constraints and objective; no nonzero difference
+    outside the Jacobian's pattern."""
     J = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()),
                       shape=(nlp.m, nlp.n)).toarray()
     J_fd, g_fd = np.zeros_like(J), np.zeros(nlp.n)
@@ -303,8 +482,12 @@ def test_nlp_derivatives_against_differences(method, free):
         e[i] = 1e-6
         J_fd[:, i] = (nlp.constraints(z + e) - nlp.constraints(z - e)) / 2e-6
         g_fd[i] = (nlp.objective(z + e) - nlp.objective(z - e)) / 2e-6
-    assert np.max(np.abs(J - J_fd)) < 1e-7
-    assert np.max(np.abs(nlp.gradient(z) - g_fd)) < 1e-7
+    assert np.max(np.abs(J - J_fd)) < tolerance
+    assert np.max(np.abs(nlp.gradient(z) - g_fd)) < tolerance
+    rows, cols = nlp.jacobian_structure()
+    pattern = sp.coo_matrix((np.ones(len(rows)), (rows, cols)),
+                            shape=(nlp.m, nlp.n)).toarray()
+    assert np.all(pattern[np.abs(J_fd) > 1e-9] > 0)
 
 
 def _circle_pendulum():
@@ -328,16 +511,17 @@ def _circle_pendulum():
     return model, (x, y, vx, vy, tau)
 
 
-@pytest.mark.parametrize("method, tolerance", [("trapezoid", 1e-3),
-                                               ("hermite-simpson", 1e-6)])
-def test_closed_loop_matches_the_angle_formulation(method, tolerance):
+@pytest.mark.parametrize("method, nodes, tolerance", [
+    ("trapezoid", 101, 1e-3), ("hermite-simpson", 101, 1e-6), ("lgr", 21, 1e-6)])
+def test_closed_loop_matches_the_angle_formulation(method, nodes, tolerance):
     """A rest-to-rest swing to 0.5 rad in 2 s of least effort: in Cartesian
-    coordinates with the constraint at every node (and, Hermite-Simpson, every
-    midpoint) it reaches the optimum of the angle formulation (both converge
-    to it at the method's order: 1.2e-4 apart with the trapezoid, 4e-8 with
-    Hermite-Simpson), and keeps the constraints at every point."""
+    coordinates with the constraint at every node (and, Hermite-Simpson and
+    LGR, every interior point) it reaches the optimum of the angle
+    formulation (both converge to it at the method's order: 1.2e-4 apart with
+    the trapezoid, 4e-8 with Hermite-Simpson at 101 nodes, 2.9e-7 with LGR
+    of degree 3 at 21), and keeps the constraints at every point."""
     model, (x, y, vx, vy, tau) = _circle_pendulum()
-    nodes, angle = 101, 0.5
+    angle = 0.5
     problem = kd.OptimalControlProblem(
         model, nodes=nodes, duration=2.0, lagrange=tau ** 2, initial={x: 0, vx: 0},
         final={x: np.sin(angle), vx: 0}, method=method)
@@ -373,19 +557,30 @@ def _opty_or_skip():
 def test_pendulum_swing_up_same_optimum_as_opty():
     """opty's gallery problem as published (501 nodes, its random guess, its
     equations written by hand), backward Euler, the same IPOPT options: the
-    same objective to 1e-6.  (At 101 nodes both find the backward-Euler
-    problem infeasible; the midpoint rule leaves an alternating input
-    sequence free, so its optimum is not unique.)"""
+    same objective to 1e-6.  LGR of degree 1 is the same discrete problem
+    (backward Euler, its first input tied to the second): from the same guess
+    it reaches opty's optimum too (measured 15.6415536236 against
+    15.6415536236).  (At 101 nodes both find the backward-Euler problem
+    infeasible; the midpoint rule leaves an alternating input sequence free,
+    so its optimum is not unique.)"""
     _opty_or_skip()
     import _ocp_peers as peers
     method = "backward-euler"
     nodes = 501
     guess = np.random.default_rng(0).normal(size=3 * nodes)
-    problem, _ = peers.pendulum_kanedyn(nodes, method, backend="numpy")
+    problem, model = peers.pendulum_kanedyn(nodes, method, backend="numpy")
     ours = problem.solve(guess, options=peers.IPOPT_OPTIONS)
     theirs, info, _ = peers.solve_opty(peers.pendulum_opty(nodes, method), guess, 2, 1)
     assert ours.status in (0, 1) and info["status"] in (0, 1), (ours.message, info)
     assert abs(ours.objective - info["obj_val"]) / abs(info["obj_val"]) < 1e-6
+    q, u, tau = (kd.models.build("pendulum", torque=True).symbols[k] for k in ("q", "u", "tau"))
+    limit = peers.PENDULUM["torque"]
+    radau = kd.OptimalControlProblem(
+        model, nodes=nodes, duration=peers.PENDULUM["duration"], lagrange=tau ** 2,
+        bounds={tau: (-limit, limit)}, initial={q: 0.0, u: 0.0}, final={q: np.pi, u: 0.0},
+        method="lgr", degree=1).solve(guess, options=peers.IPOPT_OPTIONS)
+    assert radau.success, radau.message
+    assert abs(radau.objective - info["obj_val"]) / abs(info["obj_val"]) < 1e-6
 
 
 @pytest.mark.slow
@@ -480,3 +675,83 @@ def test_failures_are_reported_in_the_result(integrator):
     assert not result.success
     assert "IPOPT" in result.message or "ipopt" in result.message
     assert result.status in (4, -1)
+
+
+# ------------------------------------------------- the exact Hessian (issue 35)
+def _lagrangian_gradient(nlp, z, sigma, multipliers):
+    """sigma grad J + J_g^T lambda, from the NLP's exact first derivatives."""
+    jac = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()), shape=(nlp.m, nlp.n))
+    return sigma * nlp.gradient(z) + jac.T @ multipliers
+
+
+@pytest.mark.parametrize("system", ["pendulum", "cart-pole"])
+@pytest.mark.parametrize("method", ["backward-euler", "trapezoid", "midpoint"])
+def test_exact_hessian_against_differences(system, method):
+    """The Lagrangian's exact Hessian (generated second derivatives of f, through
+    the mass matrix's solve) against central differences of the exact
+    gradient of the Lagrangian (the NLP's Jacobian transposed times the
+    multipliers, plus the objective's gradient, Lagrange and Mayer terms), at a
+    random point."""
+    import _ocp_peers as peers
+
+    from kanedyn.optimization._nlp import CollocationNLP
+    if system == "pendulum":  # an integrand and a Mayer term curved in the states too
+        definition = kd.models.build("pendulum", torque=True)
+        q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+        problem = kd.OptimalControlProblem(
+            definition.numeric(backend="numpy"), nodes=5, duration=2.0,
+            lagrange=tau ** 2 + sm.sin(q) * u * tau, mayer=q ** 2 * u,
+            bounds={tau: (-2, 2)}, initial={q: 0, u: 0}, method=method)
+    else:
+        problem, _ = peers.cart_pole_kanedyn(5, method=method, backend="numpy")
+    nlp = CollocationNLP(problem, hessian="exact")
+    rng = np.random.default_rng(3)
+    z, multipliers, sigma = rng.normal(size=nlp.n), rng.normal(size=nlp.m), 0.7
+    rows, cols = nlp.hessian_structure()
+    assert np.all(rows >= cols)  # the lower triangle, as IPOPT takes it
+    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
+                      shape=(nlp.n, nlp.n)).toarray()
+    H = H + np.tril(H, -1).T
+    H_fd = np.zeros_like(H)
+    for i in range(nlp.n):
+        e = np.zeros(nlp.n)
+        e[i] = 1e-6
+        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
+                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    assert np.max(np.abs(H)) > 1.0  # the dynamics' curvature is there
+    assert np.max(np.abs(H - H_fd)) < 1e-7 * max(1.0, np.max(np.abs(H)))
+
+
+def test_exact_hessian_reaches_the_limited_memory_optimum():
+    """The cart-pole swing-up solved with the exact Hessian: the optimum of the
+    limited-memory solve (a different path to it), in fewer iterations."""
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(40, method="trapezoid", backend="numpy")
+    guess = peers.cart_pole_guess(40)
+    approximate = problem.solve(guess, options=TIGHT)
+    exact = problem.solve(guess, options=TIGHT, hessian="exact")
+    assert approximate.success and exact.success, (approximate.message, exact.message)
+    assert abs(exact.objective - approximate.objective) < 1e-8 * abs(approximate.objective)
+    assert np.max(np.abs(exact.x - approximate.x)) < 1e-5
+    assert exact.iterations < approximate.iterations
+
+
+def test_exact_hessian_refusals():
+    """What the exact Hessian does not cover is refused, naming it; so are an
+    unknown Hessian and a contradicting IPOPT option."""
+    import _ocp_peers as peers
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(
+        model, nodes=5, duration=1.0, lagrange=tau ** 2, initial={q: 0, u: 0}, final={q: 1, u: 0},
+        path_constraints=[(u ** 2, 0, 4)])
+    guess = problem.guess_line(inputs={tau: 0.0})
+    with pytest.raises(kd.ModelError, match='hessian="exact".*path constraints'):
+        problem.solve(guess, hessian="exact")
+    with pytest.raises(kd.ModelError, match="hessian='newton'"):
+        problem.solve(guess, hessian="newton")
+    plain, _ = peers.pendulum_kanedyn(5, backend="numpy")
+    with pytest.raises(ValueError, match="hessian_approximation"):
+        plain.solve(peers.pendulum_guess(5), hessian="exact",
+                    options={"hessian_approximation": "limited-memory"})

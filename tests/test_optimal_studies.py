@@ -11,7 +11,15 @@ shares none of its code:
   ends where it was asked to; a small lane change costs what the published
   linear benchmark (Meijaard et al. 2007: M, C1, K0, K2, with the linear yaw
   and lateral kinematics) gives in closed form through its controllability
-  Gramian, and its steer torque follows the closed-form one.
+  Gramian, and its steer torque follows the closed-form one;
+- the Shuttle arm's manoeuvre of least effort: the quintic's effort from the
+  inverse dynamics of its closed form, the limits at every point, the
+  optimal torques replayed by Radau open loop and with the servos' PD term;
+- the out-parallel manipulator's path of least peak force: the static
+  forces in the two poses (the forward model does not accelerate under
+  them), the quintic's peak and limit check from the inverse study, the
+  inverse dynamics of the optimal path against the collocated forces, the
+  forces replayed by Radau.
 """
 
 import numpy as np
@@ -149,3 +157,122 @@ def test_bicycle_small_lane_change_matches_the_linear_benchmark():
     inner = r.t < 3.6
     assert np.max(np.abs(r["T_delta"][inner] - expected[inner])) < 0.01 * np.max(
         np.abs(expected))
+
+
+# ----------------------------------------------------------- the Shuttle arm
+@pytest.mark.slow
+def test_shuttle_arm_torque_inputs_drive_as_the_servos_do():
+    """The arm with torque inputs, fed the servos' torques (the servo model's
+    own expressions evaluated at a state off the profile), has the servo
+    model's state derivative: the inputs act where the servos did."""
+    import sympy as sm
+    import sympy.physics.mechanics as me
+    servo = kd.models.build("shuttle-arm")
+    driven = kd.models.build("shuttle-arm", torque_input=True)
+    t, y = 40.0, np.array([0.1, 0.3, -0.6, 0.2, 0.05, 0.4, 0.01, -0.02, 0.03, 0.0, 0.02, -0.01])
+    values = {me.dynamicsymbols._t: t, **dict(zip(servo.symbols["q"] + servo.symbols["u"], y))}
+    torques = [float(sm.sympify(tau).xreplace(servo.constants).xreplace(values))
+               for tau in servo.symbols["torques"]]
+    expected = servo.numeric(backend="numpy").rhs(t, y)
+    model = driven.numeric(backend="numpy")
+    found = model.with_inputs(dict(zip(driven.symbols["tau"], torques))).rhs(t, y)
+    np.testing.assert_allclose(found, expected, rtol=1e-10, atol=1e-14)
+    assert not {"T_m", "omega_c", "J_1"} & {str(c) for c in model.constants}
+
+
+@pytest.mark.slow
+def test_shuttle_arm_least_effort_within_its_limits(tmp_path):
+    """The payload manoeuvre (150 s, 51 nodes, Hermite-Simpson) of least
+    integral of sum tau_i^2, each joint within the quintic's range +- 10 deg
+    and its torque within the quintic's peak: the quintic is then a feasible
+    point, and the optimum costs 42 % less (the quintic's effort from the
+    inverse dynamics of its closed form, not from the collocation).  The
+    limits hold at every node and midpoint; the optimal torques as
+    collocated (quadratic between the points) integrate to the objective;
+    replayed by Radau open loop they keep the arm within 5e-4 rad of the
+    collocated angles (measured 1.8e-4), and with the servos' PD term on top
+    within 5e-5 rad, the PD term under 1 % of the torque limits."""
+    from kanedyn.models import SRMS_END_DEG, SRMS_START_DEG
+    s = kd.studies.shuttle_arm_minimum_energy(nodes=51)
+    d, r = s.data, s.result
+    assert r.success, r.message
+    assert 0.5 < d["effort_ratio"] < 0.65, dict(d)
+    assert abs(d["effort_optimal"] - r.objective) < 1e-4 * r.objective
+    # the quintic's peaks are the limits, its effort the integral of its torques
+    np.testing.assert_allclose(s.torque_limits, np.max(np.abs(s.torques_quintic), axis=1))
+    assert abs(np.trapezoid(np.sum(s.torques_quintic ** 2, axis=0), s.t_quintic)
+               - d["effort_quintic"]) < 1e-9 * d["effort_quintic"]
+    # limits at the nodes and midpoints
+    t, y, torques = r.points()
+    assert np.all(np.abs(torques) <= s.torque_limits[:, None] * (1 + 1e-6))
+    start, end = np.radians(SRMS_START_DEG), np.radians(SRMS_END_DEG)
+    low = np.minimum(start, end) - np.radians(10.0)
+    high = np.maximum(start, end) + np.radians(10.0)
+    assert np.all(y[:6] >= low[:, None] - 1e-6) and np.all(y[:6] <= high[:, None] + 1e-6)
+    np.testing.assert_allclose(y[:6, -1], end, atol=1e-9)
+    # the replays
+    assert d["defect_angle_open"] < 5e-4
+    assert d["defect_angle_tracked"] < 5e-5
+    assert d["defect_angle_tracked"] < d["defect_angle_open"] / 5
+    assert d["tracking_ratio"] < 0.01
+    assert "with the servos' PD term" in s.summary
+    assert s.plot(tmp_path / "arm.png").stat().st_size > 0
+
+
+# ------------------------------------------------ the out-parallel manipulator
+def _static_forces_hold(study, column):
+    """The forward model driven by the quintic's forces at one of its ends
+    (at rest) does not accelerate: those are the static forces."""
+    model = study.result.problem.model
+    q = study.quintic
+    forces = {name: float(f) for name, f in zip(model.input_names, q.forces[:, column])}
+    y = np.concatenate([q.q[column], q.u[column]])
+    rates = model.with_inputs(forces).rhs(0.0, y)
+    return float(np.max(np.abs(rates[model.n_q:])))
+
+
+@pytest.mark.slow
+def test_out_parallel_least_peak_force_is_the_holding_force(tmp_path):
+    """Today's poses in today's 2 s (21 nodes): the least peak carriage force
+    is the largest static force in the two poses (156.61 N, which the forward
+    model confirms holds the platform still), 7.9 % below the quintic's
+    170.09 N.  The inverse dynamics of the optimal path, splined from the
+    collocated poses and rates, gives the collocated forces to 1 N and keeps
+    the limit; the forces simulated by Radau follow the path to 1e-4."""
+    s = kd.studies.out_parallel_least_peak_force(nodes=21)
+    d, r = s.data, s.result
+    assert r.success, r.message
+    assert _static_forces_hold(s, 0) < 1e-9 and _static_forces_hold(s, -1) < 1e-9
+    assert abs(d["static_bound"] - np.max(np.abs(s.quintic.forces[:, [0, -1]]))) < 1e-12
+    assert abs(d["peak_optimal"] - d["static_bound"]) < 1e-5 * d["static_bound"]
+    assert abs(d["peak_quintic"] - 170.094) < 0.01
+    assert 0.07 < d["reduction"] < 0.09
+    _, _, forces = r.points()
+    assert np.max(np.abs(forces)) <= d["peak_optimal"] * (1 + 1e-6)
+    assert d["force_difference"] < 1.0
+    assert d["peak_inverse"] < d["peak_optimal"] + 1.0
+    assert d["violations_optimal"] == 0 and s.inverse.limit_check.first is None
+    assert d["defect"] < 1e-4
+    assert "which no path goes below" in s.summary
+    assert s.plot(tmp_path / "platform.png").stat().st_size > 0
+
+
+@pytest.mark.slow
+def test_out_parallel_in_one_second_the_quintic_breaks_the_limit():
+    """In 1 s the quintic needs 262.5 N and breaks the 200 N limit (the
+    inverse study's limit check names the first violation); the least peak
+    is 176.6 N, reached by all six carriages (a minimax optimum equalizes
+    them), within the limit at every node and midpoint; the forces simulated
+    by Radau follow the path to 1e-4."""
+    s = kd.studies.out_parallel_least_peak_force(nodes=21, duration=1.0)
+    d, r = s.data, s.result
+    assert r.success, r.message
+    assert abs(d["peak_quintic"] - 262.509) < 0.01
+    first = s.quintic.limit_check.first
+    assert first is not None and first.quantity == "force" and abs(first.value) > 200
+    assert d["violations_quintic"] > 0
+    assert 176.0 < d["peak_optimal"] < 177.5
+    _, _, forces = r.points()
+    assert np.all(np.max(np.abs(forces), axis=1) > d["peak_optimal"] * (1 - 1e-4))
+    assert np.max(np.abs(forces)) <= d["peak_optimal"] * (1 + 1e-6) < 200
+    assert d["defect"] < 1e-4

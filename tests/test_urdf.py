@@ -596,6 +596,42 @@ def test_box_visual_placed_where_the_urdf_says(tmp_path):
         np.testing.assert_allclose(axes, expected[:3, :3], atol=2e-6)
 
 
+ONE_LINK = """<robot name="one">
+  <link name="base"/>
+  <link name="arm">
+    <inertial><origin xyz="0.5 0.2 0"/><mass value="1"/>
+      <inertia ixx="0.01" iyy="0.1" izz="0.1" ixy="0" ixz="0" iyz="0"/></inertial>
+    <visual><origin xyz="0.5 0 0"/><geometry><box size="1 0.1 0.1"/></geometry></visual>
+  </link>
+  <joint name="hinge" type="revolute"><parent link="base"/><child link="arm"/>
+    <axis xyz="0 1 0"/><limit lower="-3" upper="3" effort="1" velocity="1"/></joint>
+</robot>
+"""
+
+
+def test_one_link_drawn_where_its_mass_centre_is_off_the_axis(tmp_path):
+    """The arm turns about y and its mass centre is 0.2 m along y: the equations
+    do not use cy_arm (nor some inertias), the numerical model keeps its value
+    aside and the viewer places the box with it."""
+    path = tmp_path / "one.urdf"
+    path.write_text(ONE_LINK)
+    definition = kd.models.from_urdf(path)
+    model = definition.numeric()
+    assert model._data["unused_constants"]["cy_arm"] == pytest.approx(0.2)
+    res = kd.simulate(model, (0.0, 0.3), [0.4, 0.0], t_eval=[0.0, 0.15, 0.3])
+    shapes = definition.shapes()
+    scene = scene_data(res, visuals=shapes)
+    arm = next(b for b in scene["bodies"] if b["name"] == "arm")
+    drawn = next(s for s in arm["shapes"] if s["kind"] == "box")
+    from scipy.spatial.transform import Rotation
+    for k in range(3):
+        expected = _turn((0, 1, 0), res.y[0, k]) @ _pose((0.5, 0, 0), (0, 0, 0))
+        p = np.array(arm["position"]).reshape(-1, 3)[k]
+        R = Rotation.from_quat(np.array(arm["quaternion"]).reshape(-1, 4)[k]).as_matrix()
+        np.testing.assert_allclose(p + R @ np.array(drawn["offset"]), expected[:3, 3],
+                                   atol=2e-6)  # the page rounds to 6 digits
+
+
 @pytest.mark.parametrize("robot", ["ur5", "panda"])
 def test_robot_shapes_one_per_moving_link(robot):
     """The arms' visual meshes are COLLADA (.dae): each moving link is drawn by its

@@ -11,10 +11,11 @@ import csv
 import io
 import os
 import stat
+import xml.parsers.expat
 
 from ._errors import ModelError
 
-__all__ = ["read_bounded_bytes", "read_bounded_text", "csv_rows"]
+__all__ = ["read_bounded_bytes", "read_bounded_text", "csv_rows", "refuse_xml_entities"]
 
 _KINDS = ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe"),
           (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
@@ -60,6 +61,40 @@ def read_bounded_bytes(path, source, max_bytes, *, name, limit, wanted="a CSV fi
         raise ModelError(f"{source}: {max(info.st_size, len(data))} bytes, more than the "
                          f"{max_bytes} {what} may have ({larger})")
     return data
+
+
+def refuse_xml_entities(data, source, kind):
+    """Check that the XML bytes ``data`` are well formed and declare no entities.
+
+    For XML handed to another library's parser (COLLADA meshes): an entity
+    declaration can expand into gigabytes or name a file of this machine, and no
+    file of the formats read here needs one.
+
+    Parameters
+    ----------
+    data : bytes
+    source : str
+        The file as messages name it.
+    kind : str
+        What the file is, after "in" (``"a COLLADA file"``).
+
+    Raises
+    ------
+    ModelError
+        Naming the file and the line of the declaration or of the syntax error.
+    """
+    parser = xml.parsers.expat.ParserCreate()
+
+    def no_entities(*args):
+        raise ModelError(f"{source}:{parser.CurrentLineNumber}: entity declarations "
+                         f"are not accepted in {kind}")
+
+    parser.EntityDeclHandler = no_entities
+    try:
+        parser.Parse(data, True)
+    except xml.parsers.expat.ExpatError as exc:
+        raise ModelError(f"{source}:{exc.lineno}: not a well-formed XML file "
+                         f"({xml.parsers.expat.ErrorString(exc.code)})") from None
 
 
 def read_bounded_text(path, source, max_bytes, *, name, limit):

@@ -22,6 +22,12 @@ behind some of them are public too::
     RestToRest            its residual vibration, effort, time
     bicycle_lane_change   the Whipple bicycle's lane change by steer torque
     LaneChange            the optimum and its simulation
+    shuttle_arm_minimum_energy  the Shuttle arm's payload manoeuvre of least effort
+                          within joint-angle and torque limits, against its quintic
+    ArmManoeuvre          the optimum, its open-loop and PD-tracked replays
+    out_parallel_least_peak_force  the out-parallel manipulator's path of least peak
+                          carriage force, against its quintic
+    PeakForcePath         the optimum, the inverse dynamics of its path, its replay
     pendulum_swing_up     the pendulum's swing-up (opty's gallery problem)
     SwingUp               the optimum and its simulation
     OPTIMAL_PROBLEMS      model -> named optimal-control problems (``kanedyn optimize``;
@@ -51,6 +57,10 @@ _LAZY = {
     "RestToRest": ".analysis",
     "bicycle_lane_change": ".analysis",
     "LaneChange": ".analysis",
+    "shuttle_arm_minimum_energy": ".analysis",
+    "ArmManoeuvre": ".analysis",
+    "out_parallel_least_peak_force": ".analysis",
+    "PeakForcePath": ".analysis",
     "pendulum_swing_up": ".analysis",
     "SwingUp": ".analysis",
     "OPTIMAL_PROBLEMS": ".analysis",

@@ -24,6 +24,10 @@
 ``_flexible_robot_oc`` the elastic robot's optimal rest-to-rest rotation
                    against its torque pulse
 ``_bicycle_lane_change`` the Whipple bicycle's lane change by steer torque
+``_shuttle_arm_oc`` the Shuttle arm's payload manoeuvre of least effort with
+                   joint-angle and torque limits, replayed open loop and PD-tracked
+``_out_parallel_oc`` the out-parallel manipulator's platform path of least peak
+                   carriage force (epigraph), checked by inverse dynamics
 ``_campbell``      Campbell diagrams: steady motions over rotor speed, modes
                    followed by MAC
 ``_mbc``           the multiblade coordinate transformation of a state matrix
@@ -105,6 +109,10 @@ _LAZY = {
     'RestToRest': '._flexible_robot_oc',
     'bicycle_lane_change': '._bicycle_lane_change',
     'LaneChange': '._bicycle_lane_change',
+    'shuttle_arm_minimum_energy': '._shuttle_arm_oc',
+    'ArmManoeuvre': '._shuttle_arm_oc',
+    'out_parallel_least_peak_force': '._out_parallel_oc',
+    'PeakForcePath': '._out_parallel_oc',
     'campbell': '._campbell',
     'CampbellDiagram': '._campbell',
     'plot_campbell': '._campbell_plot',

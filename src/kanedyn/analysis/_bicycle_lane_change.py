@@ -124,14 +124,14 @@ class LaneChange:
 
 def bicycle_lane_change(*, nodes=None, method=None, duration=None, bounds=None,
                         constants=None, model_options=None, backend="c", ipopt=None,
-                        offset=3.0, speed=5.0):
+                        degree=None, offset=3.0, speed=5.0):
     r"""The Whipple bicycle's lane change of least :math:`\int T_\delta^2 dt`.
 
     Parameters
     ----------
     nodes, method, duration :
         Default 61 nodes, ``"hermite-simpson"``, 4 s.
-    bounds, constants, model_options, backend, ipopt :
+    bounds, constants, model_options, backend, ipopt, degree :
         As every named problem (:mod:`._optimal_problems`).
     offset : float
         Sideways displacement of the rear contact, m (positive to the right).
@@ -163,7 +163,7 @@ def bicycle_lane_change(*, nodes=None, method=None, duration=None, bounds=None,
     limits = merged_bounds({}, bounds, list(names) + ["T_delta"])
     problem = OptimalControlProblem(model, nodes=nodes, duration=T, lagrange=T_delta ** 2,
                                     bounds=limits, initial=initial, final=final,
-                                    method=method)
+                                    method=method, degree=degree)
     # the guess: riding straight on, as the model does without a torque
     straight = simulate(model.with_inputs({T_delta: 0.0}), (0.0, T), y0, rtol=1e-9,
                         atol=1e-9, dense_output=True)

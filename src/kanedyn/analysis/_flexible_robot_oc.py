@@ -181,8 +181,8 @@ def _pulse_amplitude(definition):
 
 def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bounds=None,
                                 constants=None, model_options=None, backend="c", ipopt=None,
-                                objective="effort", angle=90.0, after=2.0, torque_limit=0.0,
-                                pulse_duration=1.0, regularization=1e-3):
+                                degree=None, objective="effort", angle=90.0, after=2.0,
+                                torque_limit=0.0, pulse_duration=1.0, regularization=1e-3):
     r"""The elastic robot's rest-to-rest rotation of least effort or least
     time, and the torque pulse it uses today, both simulated and compared.
 
@@ -193,7 +193,7 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
     duration : float
         ``objective="effort"``: the manoeuvre's duration, s (default 1); the
         pulse compared takes as long.  ``"time"``: the guess of the duration.
-    bounds, constants, model_options, backend, ipopt :
+    bounds, constants, model_options, backend, ipopt, degree :
         As every named problem (:mod:`._optimal_problems`); ``model_options``
         of ``flexible-robot`` (``n_modes``, ``n_elements``, ``stiffening``).
     objective : {"effort", "time"}
@@ -247,7 +247,7 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
         limits = merged_bounds({}, bounds, names)
         problem = OptimalControlProblem(model, nodes=nodes, duration=T, lagrange=tau ** 2,
                                         bounds=limits, initial=initial, final=final,
-                                        method=method)
+                                        method=method, degree=degree)
         guess = problem.guess_line(inputs={tau: 0.0})
     else:
         limit = torque_limit or tau_0
@@ -256,7 +256,8 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
         limits[T] = (0.05 * T_pulse, 5.0 * T_pulse)
         problem = OptimalControlProblem(model, nodes=nodes, duration=T, mayer=T,
                                         lagrange=regularization * tau ** 2, bounds=limits,
-                                        initial=initial, final=final, method=method)
+                                        initial=initial, final=final, method=method,
+                                        degree=degree)
         guess = problem.guess_line(inputs={tau: 0.0}, duration=float(duration or T_pulse))
     result = solve(problem, guess, ipopt)
 

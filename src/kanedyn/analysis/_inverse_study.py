@@ -405,7 +405,9 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
         A platform trajectory read from a pose file
         (:func:`kanedyn.analysis.read_pose_csv`), in place of ``trajectory``
         and ``t_end``: the ``points`` times span the table's; the model's pose
-        must be ``x, y, z, phi_x, phi_y, phi_z``.
+        must be ``x, y, z, phi_x, phi_y, phi_z``.  Any object with the
+        table's ``t``, ``source`` and call will do; its ``label``, when it
+        has one, names the trajectory.
     limits : dict, optional
         ``{quantity: limit}`` of ``force``, ``speed``, ``torque``,
         ``motor_speed`` (:func:`kanedyn.analysis.check_actuator_limits`),
@@ -440,7 +442,7 @@ def inverse_study(definition, trajectory="quintic", t_end=None, points=201,
             raise KanedynError("inverse_study: give poses or t_end, not both (the pose "
                                "table sets the times)")
         t0, t_end = float(poses.t[0]), float(poses.t[-1])
-        trajectory = f"pose file {Path(poses.source).name}"
+        trajectory = getattr(poses, "label", None) or f"pose file {Path(poses.source).name}"
     else:
         t0 = 0.0
         t_end = float(definition.t_end if t_end is None else t_end)
@@ -530,13 +532,11 @@ def _motors(definition, amap, t, groups, rates, rate_dots):
 
 def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, method):
     """Simulate the forward model driven by the exact forces of ``amap`` along ``motion``."""
-    import sympy.physics.mechanics as me
-
     from ..formulations import formulate
+    from ..modeling import drive_inputs
     from ..simulation import simulate
     kane_args = dict(definition.kane_args)
-    loads, bodies = list(kane_args.get("loads") or []), list(kane_args["bodies"])
-    inputs = {}
+    symbols, loads, elements = drive_inputs(definition.actuators)
     ik = _Kinematics(definition, model, overrides)
     cache = {}
 
@@ -549,14 +549,9 @@ def _forward(definition, model, amap, motion, t, q0, u0, overrides, rtol, atol, 
             cache[time] = amap.forces(time, y, ud[0]).forces
         return cache[time]
 
-    for i, a in enumerate(definition.actuators):
-        F = me.dynamicsymbols(f"F_{a.name}")
-        loads += a.to_loads(F)
-        element = a.inertia_element()
-        if element is not None:
-            bodies.append(element)
-        inputs[F] = (lambda time, i=i: float(forces_at(time)[i]))
-    kane_args.update(loads=loads, bodies=bodies)
+    inputs = {F: (lambda time, i=i: float(forces_at(time)[i])) for i, F in enumerate(symbols)}
+    kane_args.update(loads=list(kane_args.get("loads") or []) + loads,
+                     bodies=list(kane_args["bodies"]) + elements)
     eom = formulate(**kane_args)
     driven = eom.numeric(constants=model.constants, specified=inputs)
     y0 = np.concatenate([q0, u0])

@@ -38,7 +38,8 @@ from .._output_files import save_figure
 from ._studies import StudyOption, register_study
 
 __all__ = ["oc3_linear_system", "oc3_outputs", "wave_input_phasor", "linear_rao",
-           "decay_analysis", "simulated_rao", "tuned_damper_options"]
+           "decay_analysis", "simulated_rao", "tuned_damper_options", "sea_runs",
+           "SEA_INPUT_STEP"]
 
 _TOP_Z = 87.6  # tower top above the SWL, m
 _WATER_DEPTH = 320.0  # OC3 water depth, m (only the fluid kinematics use it)
@@ -712,18 +713,131 @@ register_study("oc3-tmdi", _tmdi_study, {
 
 
 # ------------------------------------------------------------------ oc3-sea
-def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inertance_ratio,
-               inerter_height, backend, tower_damping, tower_damping_reference):
-    from scipy.signal import welch
+#: time step of the fluid kinematics sampled for the ensemble's runs, s: linear between
+#: the samples, they moved the tower-top and base outputs of 200 s runs (Hs 6 m, Tp
+#: 10 s, seeds 1 and 2) by at most 7e-4 of their standard deviations, and those by at
+#: most 1.3e-4 of themselves, against the kinematics evaluated at every step
+#: (tests/test_oc3_sea_ensemble.py)
+SEA_INPUT_STEP = 0.025
 
-    from ..simulation import simulate
+
+@functools.lru_cache(maxsize=8)
+def _time_inputs_model(backend, options):
+    """The model of ``_built(backend, options)`` whose inputs are all the Morison
+    strips' fluid kinematics, functions of time that :func:`sea_runs` samples: its
+    rotor's thrust under a steady wind given as its expression (compiled,
+    :meth:`~kanedyn.offshore.RotorThrust.expression`; the model itself when there is
+    none).  ``None`` where the ensemble cannot run it: not compiled, or an input
+    that reads the state or the time otherwise (a turbulent wind, catenary lines, a
+    spinning rotor's aerodynamics and controller)."""
+    from ..modeling import RotorThrust
+    d, eom, model, _ = _built(backend, options)
+    morison = d.symbols["elements"].get("morison")
+    if getattr(model, "_c", None) is None or morison is None:
+        return None
+    needed = {str(x) for x in eom.specified}
+    inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
+    rotor = d.symbols["elements"].get("rotor")
+    thrust = isinstance(rotor, RotorThrust) and rotor.symbol in inputs
+    if thrust:
+        if callable(rotor.wind):
+            return None
+        inputs[rotor.symbol] = rotor.expression()
+    if set(inputs) - set(morison.specified()) - ({rotor.symbol} if thrust else set()):
+        return None
+    if not thrust:
+        return model
+    return eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
+
+
+def sea_runs(seeds, duration, backend="c", ensemble=True, dt=0.1,
+             input_step=SEA_INPUT_STEP, rtol=1e-6, atol=1e-6, **options):
+    """Runs of the ``oc3-spar`` in irregular seas that differ by their phases' seeds,
+    from its still-water equilibrium.
+
+    Parameters
+    ----------
+    seeds : sequence of int
+        Seeds of the sea's random phases, one run each.
+    duration : float
+        s.
+    backend : {"c", "numpy"}
+    ensemble : bool
+        Integrate the runs together in C (:func:`kanedyn.simulate_many`) where the
+        model allows it (see below); ``False``: one :func:`kanedyn.simulate` per
+        seed, the fluid kinematics evaluated at every step.
+    dt : float
+        Output step, s.
+    input_step : float
+        Step of the sampled fluid kinematics of the ensemble, s.
+    rtol, atol : float
+    **options
+        Of :func:`kanedyn.models.oc3_spar` (``sea="irregular"`` and the seed set here).
+
+    Returns
+    -------
+    (definition, model, t, Y)
+        The first seed's definition and model, the output times (m,), s, and the
+        states, shape (len(seeds), m, n_states).
+
+    Notes
+    -----
+    The ensemble's model is the same equations with the rotor's thrust under a steady
+    wind compiled (:meth:`~kanedyn.offshore.RotorThrust.expression`, the same curve:
+    outputs within 1e-12 of the Python thrust's), and each seed's fluid kinematics
+    sampled every ``input_step`` s (:meth:`~kanedyn.offshore.MorisonCylinder.input_series`)
+    and interpolated linearly between the samples.  Models it cannot run (see
+    ``_time_inputs_model``), and the NumPy backend, go one :func:`kanedyn.simulate`
+    per seed.
+    """
+    from ..simulation import simulate, simulate_many
+    seeds = [int(seed) for seed in seeds]
+    if not seeds:
+        raise KanedynError("sea_runs: give at least one seed")
+    options = dict(options, sea="irregular")
+    first = dict(options, seed=seeds[0])
+    d, _, model, y_eq = _model(backend, **first)
+    t_eval = np.arange(0.0, duration + dt / 2, dt)
+    fast = _time_inputs_model(backend, tuple(sorted(first.items()))) if ensemble else None
+    if fast is not None:
+        morison = d.symbols["elements"]["morison"]
+        times = np.arange(0.0, duration + input_step, input_step)
+        series = [morison.input_series(times, morison.waves.with_seed(seed)) for seed in seeds]
+        names = {name.removesuffix("(t)") for name in fast.input_names}
+        inputs = {symbol: np.stack([values[symbol] for values in series])
+                  for symbol in series[0] if _name(symbol) in names}
+        many = simulate_many(fast, y_eq, (0.0, duration), inputs=inputs, input_times=times,
+                             t_eval=t_eval, rtol=rtol, atol=atol)
+        for seed, success, message in zip(seeds, many.success, many.message):
+            if not success:
+                raise KanedynError(f"oc3 sea run, seed {seed}: {message}")
+        return d, model, t_eval, many.y
+    from ..models import oc3_spar
+    names = {name.removesuffix("(t)") for name in model.input_names}
+    runs = []
+    for seed in seeds:  # the same equations: the seed's functions of time as the inputs
+        sea = d if seed == seeds[0] else oc3_spar(**dict(options, seed=seed))
+        run = model.with_inputs({k: v for k, v in sea.specified.items() if _name(k) in names})
+        res = simulate(run, (0.0, duration), y_eq, t_eval=t_eval, rtol=rtol, atol=atol)
+        if not res.success:
+            raise KanedynError(f"oc3 sea run, seed {seed}: {res.message}")
+        runs.append(res.y.T)
+    return d, model, t_eval, np.array(runs)
+
+
+def _sea_study(out, quiet, Hs, Tp, seed, seeds, wind_speed, duration, mass_ratio,
+               inertance_ratio, inerter_height, backend, tower_damping,
+               tower_damping_reference):
+    from scipy.signal import welch
     if duration < 100:
         raise KanedynError(f"oc3-sea: duration must be at least 100 s, got {duration}")
+    if seeds < 1:
+        raise KanedynError(f"oc3-sea: seeds must be at least 1, got {seeds}")
+    phases = list(range(seed, seed + seeds))
     rows, spectra, tuned = [], {}, {}
     for kind in ("off", "tmd", "tmdi"):
-        opts = dict(tower_modes=2, drag=True, sea="irregular", wave_height=Hs,
-                    wave_period=Tp, seed=seed, wind_speed=wind_speed, tmdi=kind,
-                    tower_damping=tower_damping,
+        opts = dict(tower_modes=2, drag=True, wave_height=Hs, wave_period=Tp,
+                    wind_speed=wind_speed, tmdi=kind, tower_damping=tower_damping,
                     tower_damping_reference=tower_damping_reference)
         if kind != "off":
             _say(quiet, f"oc3-sea: tuning the {kind.upper()}")
@@ -731,30 +845,35 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
                 kind, mass_ratio, inertance_ratio, inerter_height, backend, tower_damping,
                 tower_damping_reference)
             opts.update(damper)
-        _say(quiet, f"oc3-sea: {kind} ({duration:g} s)")
-        d, _, model, y_eq = _model(backend, **opts)
-        dt = 0.1
-        t_eval = np.arange(0.0, duration + dt / 2, dt)
-        res = simulate(model, (0.0, duration), y_eq, t_eval=t_eval, rtol=1e-6, atol=1e-6)
-        if not res.success:
-            raise KanedynError(f"oc3-sea: the simulation with tmdi={kind} failed: "
-                               f"{res.message}")
+        _say(quiet, f"oc3-sea: {kind} ({seeds} x {duration:g} s)")
+        d, model, t, Y = sea_runs(phases, duration, backend, **opts)
+        dt = t[1] - t[0]
         outputs = oc3_outputs(d, model)
-        keep = res.t >= min(100.0, duration / 4)          # past the start-up transient
-        top = outputs["top_displacement"][0] @ res.y[:, keep]
-        deflection = outputs["top_deflection"][0] @ res.y[:, keep]
-        moment = outputs["base_moment"][0] @ res.y[:, keep]
-        rows.append((kind, round(float(np.mean(top)), 5), round(float(np.std(top)), 5),
-                     round(float(np.mean(deflection)), 5),
-                     round(float(np.std(deflection)), 5),
-                     round(float(np.mean(moment)) / 1e6, 4),
-                     round(float(np.std(moment)) / 1e6, 4)))
+        keep = t >= min(100.0, duration / 4)          # past the start-up transient
+        series = [[outputs[name][0] @ y[keep].T for y in Y]
+                  for name in ("top_displacement", "top_deflection", "base_moment")]
+        means = [np.mean([np.mean(x) for x in runs]) for runs in series]
+        stds = [np.array([np.std(x) for x in runs]) for runs in series]
+        row = (kind, round(float(means[0]), 5), round(float(stds[0].mean()), 5),
+               round(float(means[1]), 5), round(float(stds[1].mean()), 5),
+               round(float(means[2]) / 1e6, 4), round(float(stds[2].mean()) / 1e6, 4))
+        if seeds > 1:  # how much the standard deviations vary from sea to sea
+            row += (round(float(stds[0].std()), 5), round(float(stds[1].std()), 5),
+                    round(float(stds[2].std()) / 1e6, 4))
+        rows.append(row)
         nper = min(int(200 / dt), int(keep.sum()))
-        spectra[kind] = [welch(x, fs=1 / dt, nperseg=nper) for x in (top, deflection, moment)]
+        spectra[kind] = [(welch(runs[0], fs=1 / dt, nperseg=nper)[0],
+                          np.mean([welch(x, fs=1 / dt, nperseg=nper)[1] for x in runs], axis=0))
+                         for runs in series]
     columns = ("tmdi", "mean tower-top displacement [m]", "std tower-top displacement [m]",
                "mean tower-top deflection [m]", "std tower-top deflection [m]",
                "mean tower-base moment [MN m]", "std tower-base moment [MN m]")
+    if seeds > 1:
+        columns += ("spread of std tower-top displacement [m]",
+                    "spread of std tower-top deflection [m]",
+                    "spread of std tower-base moment [MN m]")
     damping_text = f"tower damping {tower_damping:g} ({tower_damping_reference})"
+    seed_text = f"seed {seed}" if seeds == 1 else f"seeds {seed}-{seed + seeds - 1}"
     figures = []
     if out is not None:
         plt = _pyplot()
@@ -775,12 +894,16 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
         for ax in axes:
             ax.legend(fontsize=7)
             ax.grid(True, which="both", lw=0.3)
-        axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, seed {seed}, wind "
-                          f"{wind_speed:g} m/s, {duration:g} s (Welch); {damping_text}",
+        axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, {seed_text}, wind "
+                          f"{wind_speed:g} m/s, {duration:g} s\n(Welch"
+                          f"{', mean over the seeds' if seeds > 1 else ''}); {damping_text}",
                           fontsize=8)
         figures.append(_save(fig, out / "oc3-sea.png"))
+    spread = (lambda r: f" (spread over the seeds {r[7]:.3g} m, {r[8]:.3g} m, "
+              f"{r[9]:.3g} MN m)") if seeds > 1 else (lambda r: "")
     summary = "\n".join(f"{r[0]:5s}: std top displacement {r[2]:.4g} m, std top deflection "
-                        f"{r[4]:.4g} m, std base moment {r[6]:.4g} MN m" for r in rows)
+                        f"{r[4]:.4g} m, std base moment {r[6]:.4g} MN m{spread(r)}"
+                        for r in rows)
     summary += "\n" + "\n".join(f"{k.upper()} tuned: f {v[0]:.5f}, zeta {v[1]:.5f} on the "
                                 f"{v[2] / (2 * math.pi):.4f} Hz tower mode"
                                 for k, v in tuned.items())
@@ -793,7 +916,9 @@ def _sea_study(out, quiet, Hs, Tp, seed, wind_speed, duration, mass_ratio, inert
 register_study("oc3-sea", _sea_study, {
     "Hs": StudyOption(float, 6.0, "significant wave height, m"),
     "Tp": StudyOption(float, 10.0, "JONSWAP peak period, s"),
-    "seed": StudyOption(int, 1, "seed of the sea's random phases"),
+    "seed": StudyOption(int, 1, "seed of the sea's random phases (the first one)"),
+    "seeds": StudyOption(int, 1, "seas to run, seeds seed, seed + 1, ... (statistics "
+                         "averaged over them, with their spread)"),
     "wind_speed": StudyOption(float, 11.4, "steady hub-height wind, m/s (0: parked)"),
     "duration": StudyOption(float, 600.0, "simulated time, s (the first 100 s are dropped)"),
     "mass_ratio": StudyOption(float, 0.02, "damper mass / (tower + RNA mass)"),

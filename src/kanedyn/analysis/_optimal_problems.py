@@ -19,6 +19,8 @@ keywords, which ``kanedyn optimize`` fills from its options:
     ``"c"``, ``"numpy"`` or ``"auto"``;
 ``ipopt``
     IPOPT's options;
+``degree``
+    LGR's points per interval (``method="lgr"`` only; ``None``: 3);
 
 and its own options (:attr:`OptimalProblem.options`).
 
@@ -56,7 +58,7 @@ class OptimalProblem:
     name : str
     function : callable
         ``function(nodes=, method=, duration=, bounds=, constants=,
-        model_options=, backend=, ipopt=, **options)`` -> a study result with
+        model_options=, backend=, ipopt=, degree=, **options)`` -> a study result with
         ``result``, ``summary``, ``data`` and ``plot(path)``.
     description : str
         One line.
@@ -100,7 +102,8 @@ def register_problem(problem):
 
 def available_problems():
     """:data:`OPTIMAL_PROBLEMS` with the built-in problems registered."""
-    from . import _bicycle_lane_change, _flexible_robot_oc  # noqa: F401  (register)
+    from . import (_bicycle_lane_change, _flexible_robot_oc,  # noqa: F401  (register)
+                   _out_parallel_oc, _shuttle_arm_oc)
     return OPTIMAL_PROBLEMS
 
 
@@ -164,11 +167,24 @@ def solve(problem, guess, ipopt):
     return problem.solve(guess, options=dict(IPOPT_DEFAULTS, **(ipopt or {})))
 
 
+class SplineInput:
+    """An input as a function of t: a SciPy spline, evaluated as a float
+    (picklable)."""
+
+    def __init__(self, spline):
+        self.spline = spline
+
+    def __call__(self, t):
+        return float(self.spline(t))
+
+
 def result_lines(result):
     """The summary lines every named problem prints about its solve."""
     status = "solved" if result.success else "NOT solved"
+    method = result.method if result.degree is None else (
+        f"{result.method} of degree {result.degree}")
     return [f"{status}: {result.message}",
-            f"objective {result.objective:.10g}; {result.t.size} nodes, {result.method}, "
+            f"objective {result.objective:.10g}; {result.t.size} nodes, {method}, "
             f"duration {result.duration:.6g} s; {result.iterations} iterations in "
             f"{result.wall_time:.2f} s"]
 
@@ -182,10 +198,12 @@ def _study_of(problem):
     model_options = {k: kind for k, kind in REGISTRY[problem.model][1].items()
                      if k not in problem.required}
 
-    def run(out, quiet, nodes, method, duration, backend, **options):
+    def run(out, quiet, nodes, method, duration, backend, degree=None, **options):
         chosen = {k: options.pop(k) for k in model_options if options.get(k) is not None}
         for k in model_options:
             options.pop(k, None)
+        if degree is not None:  # only then: a problem may predate LGR's degree
+            options["degree"] = degree
         found = problem.function(nodes=nodes, method=method, duration=duration,
                                  backend=backend, model_options=chosen, **options)
         figures = []
@@ -199,6 +217,8 @@ def _study_of(problem):
         "nodes": StudyOption(int, problem.nodes, "collocation nodes"),
         "method": StudyOption(str, problem.method, "collocation", COLLOCATION_METHODS),
         "duration": StudyOption(float, problem.duration, "duration [s]"),
+        "degree": StudyOption(int, None, "LGR's points per interval (method lgr; "
+                                         "default 3)"),
         "backend": StudyOption(str, "c", "numerical backend", ("c", "numpy", "auto")),
         **{k: StudyOption(kind, None, f"option of the model {problem.model} (default: "
                                       "the model's)")
@@ -277,7 +297,7 @@ class SwingUp:
 
 def pendulum_swing_up(*, nodes=None, method=None, duration=None, bounds=None,
                       constants=None, model_options=None, backend="c", ipopt=None,
-                      limit=2.0):
+                      degree=None, limit=2.0):
     r"""Swing the pendulum from hanging to upright, at rest, with the least
     :math:`\int\tau^2 dt` and :math:`|\tau| \le` ``limit`` (opty's gallery
     problem: 10 s, 2 N m).
@@ -301,7 +321,7 @@ def pendulum_swing_up(*, nodes=None, method=None, duration=None, bounds=None,
     from ..optimization import OptimalControlProblem
     problem = OptimalControlProblem(
         model, nodes=nodes, duration=duration, lagrange=tau ** 2, bounds=limits,
-        initial={q: 0.0, u: 0.0}, final={q: np.pi, u: 0.0}, method=method)
+        initial={q: 0.0, u: 0.0}, final={q: np.pi, u: 0.0}, method=method, degree=degree)
     guess = problem.guess_line(start={u: np.pi / duration}, end={u: np.pi / duration},
                                inputs={tau: lambda t: np.sin(2 * np.pi * t / duration)})
     result = solve(problem, guess, ipopt)

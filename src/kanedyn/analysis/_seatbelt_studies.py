@@ -2,7 +2,11 @@ r"""Studies of the seat-belt sensor (``seatbelt-sensor``): lock map and regulato
 
 Both studies run one compiled model whose vehicle motion is written in closed
 form with four extra constants, so that :func:`kanedyn.sweep` varies the pulse
-like any parameter (no derivation or build per run):
+like any parameter (no derivation or build per run), and whose lock is an event
+given as an expression of the angles, so that the sweep integrates the lock map's
+runs together in C threads (:func:`kanedyn.simulate_many`; for a C model with the
+``penalty`` or ``none`` limit: the ``contact`` limit's modes and impacts are followed
+in Python, so its runs go one :func:`kanedyn.simulate` each):
 
 * ``peak_g`` (g) and ``duration`` (s) of the pulse,
 * ``direction`` (rad): the deceleration points along -(cos, sin, 0) in vehicle
@@ -117,14 +121,15 @@ def seatbelt_study_model(shape="halfsine", limit="penalty", constants=None, back
 
 
 def _lock_event(lock_angle):
-    from ..models import seatbelt_tilt
-
-    def crossing(t, y):
-        return float(seatbelt_tilt(y[:2])) - lock_angle
-
-    crossing.terminal = False
-    crossing.direction = 0
-    return crossing
+    """The tilt of the pendulum in its housing crossing the lock angle (both ways), as
+    an expression (:class:`kanedyn.Event`): ``kd.sweep`` integrates the lock map's runs
+    together in C with it (``simulate_many``), and ``kd.simulate`` takes it too.  The
+    tilt is that of :func:`kanedyn.models.seatbelt_tilt`."""
+    from ..simulation import Event
+    q1, q2 = me.dynamicsymbols("q1 q2")
+    c = sm.cos(q1) * sm.cos(q2)
+    s = sm.sqrt((sm.sin(q1) * sm.cos(q2)) ** 2 + sm.sin(q2) ** 2)
+    return Event(sm.atan2(s, c) - lock_angle, name="lock")
 
 
 def _lock_angle(lock_angle):

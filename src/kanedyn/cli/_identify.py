@@ -2,14 +2,11 @@
 
 from __future__ import annotations
 
-import math
-
 from .._errors import KanedynError
-from .._number_text import parse_number
 from .._progress import Progress
 from ..models import build
 from ._options import (add_backend_argument, add_model_argument, derived_model, parse_sets,
-                       split_values)
+                       positive_pairs, split_values)
 from ._table import table
 
 __all__ = ["add_parser", "cmd_identify"]
@@ -77,26 +74,13 @@ def add_parser(sub):
     p.set_defaults(func=cmd_identify)
 
 
-def _sigmas(pairs):
-    out = {}
-    for pair in pairs:
-        if "=" not in pair:
-            raise KanedynError(f"--sigma expects column=value, got {pair!r}")
-        key, text = (s.strip() for s in pair.split("=", 1))
-        value = parse_number(text, f"--sigma {key}")
-        if not (math.isfinite(value) and value > 0):
-            raise KanedynError(f"--sigma {key}: {text!r} is not a positive finite number")
-        out[key] = value
-    return out
-
-
 def cmd_identify(args):
     from ..optimization import MeasuredRecord, identify
     if not args.fit and not args.initial:
         raise KanedynError("nothing to fit: name constants with --fit (and/or states with "
                            "--initial)")
     options, values = parse_sets(args.model, args.set)
-    sigma = _sigmas(args.sigma)
+    sigma = positive_pairs(args.sigma, "--sigma", "column")
     columns = [c.strip() for c in args.columns.split(",")] if args.columns else None
     definition = build(args.model, **options)  # checks the options
     constants, initial = split_values(definition, values)

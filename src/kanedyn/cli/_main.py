@@ -13,7 +13,8 @@
     kanedyn equilibrium MODEL [--hold STATE ...] [--moving COORDINATE ...]
     kanedyn identify MODEL --data FILE.csv --fit NAME [--fit NAME ...] [--set name=value]
     kanedyn optimize [MODEL] [--problem NAME] [--nodes N] [--method M] [--bound tau=-2:2]
-    kanedyn export MODEL --fmu FILE.fmu [--set name=value ...]
+    kanedyn export MODEL --fmu FILE.fmu [--fmi-version 2|3] [--set name=value ...]
+                   [--nominal state=value ...]
 """
 
 from __future__ import annotations

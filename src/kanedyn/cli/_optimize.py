@@ -6,6 +6,7 @@
     kanedyn optimize pendulum --nodes 401 --bound tau=-1.5:1.5 --plot swing.png
     kanedyn optimize flexible-robot --problem minimum-time --set n_modes=2
     kanedyn optimize whipple-bicycle --set offset=2 --duration 3 --output lane.csv
+    kanedyn optimize pendulum --method lgr --degree 4 --nodes 41
 
 The problem is posed, solved by IPOPT and checked by simulation (each
 problem says how); the summary is printed.  Exit code 0 when IPOPT solved
@@ -14,25 +15,14 @@ it, 1 when it did not (the last iterate is still written), 2 for bad input.
 
 from __future__ import annotations
 
-import argparse
 import math
 
 from .._errors import KanedynError
 from .._number_text import parse_number
 from .._progress import Progress
-from ._options import BACKENDS, check_output_file, parse_sets, positive_float
+from ._options import BACKENDS, check_output_file, parse_sets, positive_float, whole_number
 
 __all__ = ["add_parser", "cmd_optimize"]
-
-
-def _positive_int(text):
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"needs at least 2 nodes, got {value}")
-    return value
 
 
 def add_parser(sub):
@@ -48,11 +38,14 @@ def add_parser(sub):
                    help="a built-in model with named problems (kanedyn optimize lists them)")
     p.add_argument("--problem", default=None,
                    help="the model's problem (default: its first)")
-    p.add_argument("--nodes", type=_positive_int, default=None,
+    p.add_argument("--nodes", type=whole_number(2, "nodes"), default=None,
                    help="collocation nodes (default: the problem's)")
     p.add_argument("--method", default=None,
-                   help="collocation: trapezoid, backward-euler, midpoint, hermite-simpson "
-                        "(default: the problem's)")
+                   help="collocation: trapezoid, backward-euler, midpoint, hermite-simpson, "
+                        "lgr (default: the problem's)")
+    p.add_argument("--degree", type=whole_number(1, "point per interval"), default=None,
+                   help="with --method lgr: the Legendre-Gauss-Radau points per interval "
+                        "(default 3; order 2 degree - 1)")
     p.add_argument("--duration", type=positive_float, default=None,
                    help="duration [s] (a free duration's guess; default: the problem's)")
     p.add_argument("--bound", action="append", metavar="NAME=LOW:HIGH", default=[],
@@ -66,7 +59,7 @@ def add_parser(sub):
                         "numpy or c")
     p.add_argument("--tol", type=positive_float, default=None,
                    help="IPOPT's tolerance (default 1e-8)")
-    p.add_argument("--max-iter", type=_positive_int, default=None,
+    p.add_argument("--max-iter", type=whole_number(1, "iteration"), default=None,
                    help="IPOPT's iteration limit (default 3000)")
     p.add_argument("--plot", default=None, metavar="FILE",
                    help="write the problem's figure (PNG)")
@@ -128,8 +121,13 @@ def cmd_optimize(args):
     if args.method is not None and args.method not in COLLOCATION_METHODS:
         raise KanedynError(f"--method {args.method!r}: available "
                            f"{', '.join(COLLOCATION_METHODS)}")
+    if args.degree is not None and (args.method or problem.method) != "lgr":
+        raise KanedynError(f"--degree is for --method lgr (the problem's method is "
+                           f"{args.method or problem.method})")
     model_options, values = parse_sets(args.model, args.set)
     options, constants = {}, {}
+    if args.degree is not None:  # only then: a problem may predate LGR's degree
+        options["degree"] = args.degree
     names = None
     for key, value in values.items():
         if key in problem.options:

@@ -21,7 +21,7 @@ from ..models import REGISTRY, unknown_model_text
 
 __all__ = ["parse_sets", "split_values", "BACKENDS", "add_backend_argument", "model_name",
            "add_model_argument", "derived_model",
-           "numeric_model", "positive_float", "point_count", "integrator_name",
+           "numeric_model", "positive_float", "point_count", "whole_number", "integrator_name",
            "check_output_dir", "check_output_file"]
 
 #: numerical backends the commands offer (``--backend``)
@@ -100,15 +100,23 @@ def positive_float(text):
     return value
 
 
-def point_count(text):
-    """``type=`` of ``--points``: a whole number of output times, at least 2."""
-    try:
-        value = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") from None
-    if value < 2:
-        raise argparse.ArgumentTypeError(f"needs at least 2 output points, got {value}")
-    return value
+def whole_number(least, what):
+    """``type=`` of an option that takes a whole number of ``what``, at least
+    ``least``."""
+    def parse(text):
+        try:
+            value = int(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"expected a whole number, got {text!r}") \
+                from None
+        if value < least:
+            raise argparse.ArgumentTypeError(f"needs at least {least} {what}, got {value}")
+        return value
+    return parse
+
+
+#: ``type=`` of ``--points``: a whole number of output times, at least 2
+point_count = whole_number(2, "output points")
 
 
 def integrator_name(text):
@@ -192,6 +200,21 @@ def parse_sets(model_name, pairs):
         else:
             rest[key] = _finite(parse_number(value, f"--set {key}"), key, value)
     return options, rest
+
+
+def positive_pairs(pairs, option, key_name):
+    """``{key: value}`` from ``key=value`` texts (``--sigma``, ``--nominal``), each
+    value a finite number > 0 (never evaluated as code)."""
+    out = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise KanedynError(f"{option} expects {key_name}=value, got {pair!r}")
+        key, text = (s.strip() for s in pair.split("=", 1))
+        value = parse_number(text, f"{option} {key}")
+        if not (math.isfinite(value) and value > 0):
+            raise KanedynError(f"{option} {key}: {text!r} is not a positive finite number")
+        out[key] = value
+    return out
 
 
 def _finite(number, key, text):

@@ -18,7 +18,7 @@
               arguments checked by kind without computing
 ``_saved_schema`` the other objects a saved file may hold: per class, its
               attributes and their types (or its constructor's fields)
-``fmu/``      FMU export (FMI 2.0, model exchange and co-simulation) from the
+``fmu/``      FMU export (FMI 2.0 or 3.0, model exchange and co-simulation) from the
               standalone C export: :func:`export_fmu`
 """
 

@@ -1,8 +1,10 @@
 """Triangle meshes read from COLLADA (``.dae``) files, for the viewer.
 
-The file is parsed by pycollada (an XML reader: nothing in the file is run) and
-its scene flattened into one triangle mesh by trimesh, the node transforms
-applied.  Both are optional (``pip install 'kanedyn[meshes]'``) and imported
+The file is read whole (at most ``MAX_DAE_BYTES``), checked to be well-formed XML
+that declares no entities, and its bytes parsed by pycollada (an XML reader:
+nothing in the file is run; given bytes, it opens no other file the document
+names) and its scene flattened into one triangle mesh by trimesh, the node
+transforms applied.  Both are optional (``pip install 'kanedyn[meshes]'``) and imported
 only when a ``.dae`` file is read.
 
 The document's ``<asset>`` gives the length unit (``<unit meter="0.01"/>``: one
@@ -17,13 +19,18 @@ made ``+x`` and ``+z`` made ``-y``.
 
 from __future__ import annotations
 
+import io
 from pathlib import Path
 
 import numpy as np
 
 from .._errors import ModelError
+from .._input_files import read_bounded_bytes, refuse_xml_entities
 
-__all__ = ["read_dae", "UP_AXIS_TO_Z"]
+__all__ = ["read_dae", "UP_AXIS_TO_Z", "MAX_DAE_BYTES"]
+
+#: the largest COLLADA file read, bytes (a robot's meshes are a few MB)
+MAX_DAE_BYTES = 256 * 2**20
 
 #: rows: the file's x, y, z axes in z-up components (vertices @ this matrix)
 UP_AXIS_TO_Z = {
@@ -78,22 +85,31 @@ def read_dae(path):
     Raises
     ------
     ModelError
-        trimesh or pycollada is missing, the file is not COLLADA XML, its unit or
-        up axis is malformed, or its scene holds no triangles.
+        trimesh or pycollada is missing, the file is larger than ``MAX_DAE_BYTES``,
+        not well-formed XML, declares entities, is not COLLADA, its unit or up axis
+        is malformed, or its scene holds no triangles.
     """
     path = Path(path)
     collada, trimesh = _libraries(path)
+    data = read_bounded_bytes(path, str(path), MAX_DAE_BYTES, name="the mesh file",
+                              limit=("a COLLADA mesh", "simplify the mesh"),
+                              wanted="a COLLADA (.dae) file")
+    refuse_xml_entities(data, str(path), "a COLLADA file")
     try:
         # textures and unsupported effects are not drawn: not being able to read
         # them is no reason to refuse the geometry
-        doc = collada.Collada(str(path), ignore=[collada.common.DaeUnsupportedError,
+        doc = collada.Collada(io.BytesIO(data), ignore=[collada.common.DaeUnsupportedError,
                                                  collada.common.DaeBrokenRefError])
     except Exception as exc:  # lxml syntax errors, pycollada's DaeError family
         raise ModelError(f"{path}: not a readable COLLADA file: "
                          f"{type(exc).__name__}: {exc}") from None
+    root = doc.xmlnode.getroot().tag
+    if root.rpartition("}")[2] != "COLLADA":
+        raise ModelError(f"{path}: not a readable COLLADA file: its root element is "
+                         f"<{root.rpartition('}')[2]}>, not <COLLADA>")
     unit, up = _asset(path, doc)
     try:
-        scene = trimesh.load_scene(str(path), file_type="dae")
+        scene = trimesh.load_scene(io.BytesIO(data), file_type="dae")
         mesh = scene.to_geometry() if len(scene.geometry) else None
     except Exception as exc:
         raise ModelError(f"{path}: trimesh cannot build its scene: "

@@ -243,13 +243,20 @@ class _Program:
             for e in exprs:
                 leaves |= prog.deps(e)
         given = {table.external(s): s for s in leaves - known if table.external(s) in inputs}
+        # constants given to the model that its equations do not use but the shapes'
+        # places do (a link's mass centre along its joint axis): their values
+        unused = model._data.get("unused_constants", {})
+        fixed = {s: unused[name_of(table.external(s))] for s in leaves - known
+                 if table.external(s) not in given and name_of(table.external(s)) in unused}
         self.extra = list(given)  # inputs the positions need beyond the model's: given
-        unknown = sorted(name_of(table.external(s)) for s in leaves - known - set(given.values()))
+        self.fixed = list(fixed.values())
+        unknown = sorted(name_of(table.external(s))
+                         for s in leaves - known - set(given.values()) - set(fixed))
         if unknown:
             raise ModelError(f"the positions of the animation need {', '.join(unknown)}, "
                              "which the numerical model has no value for (give them with "
                              "animate(..., inputs={symbol: function of t}))")
-        args["r"] = list(args["r"]) + list(given.values())
+        args["r"] = list(args["r"]) + list(given.values()) + list(fixed)
         # (n, 3, 3) outputs are written as (n*3, 3): reshape after the call
         outputs[1] = ((3 * len(frames), 3), dcm_exprs)
         source = generate_python(prog, "viewer_poses", args, outputs, vectorized=True)
@@ -261,6 +268,7 @@ class _Program:
              for i in range(len(model._inputs))] if model._inputs else []
         r += [np.array([float(inputs[symbol](tj)) for tj in t]) if callable(inputs[symbol])
               else np.full(k, float(inputs[symbol])) for symbol in self.extra]
+        r += [np.full(k, value) for value in self.fixed]
         pos, dcm = self.function(t, Y, model._p, r)
         pos = np.broadcast_to(pos, (len(self.points), 3, k))
         dcm = np.broadcast_to(dcm, (3 * len(self.frames), 3, k))

@@ -33,13 +33,21 @@ function render({ model, el }) {
     }
   }
   const moveTo = () => { if (viewer) viewer.setTime(model.get("time")); };
-  // scrubbing: the time reached is the model's when the slider is let go
-  const scrubbed = () => {
-    if (!viewer) return;
+  // scrubbing: the time reached becomes the model's while the slider moves, at
+  // most once per 0.1 s (a kernel is not flooded; the viewer's own listener has
+  // moved the scene by then), and when it is let go
+  let lastSent = null;
+  let pending = null;
+  const send = () => {
+    pending = null;
+    if (!viewer || viewer.time === lastSent) return;
+    lastSent = viewer.time;
     model.set("time", viewer.time);
     model.save_changes();
   };
-  parts.slider.addEventListener("change", scrubbed);
+  const scrubbing = () => { if (pending === null) pending = setTimeout(send, 100); };
+  parts.slider.addEventListener("input", scrubbing);
+  parts.slider.addEventListener("change", send);
   model.on("change:scene_json", draw);
   model.on("change:time", moveTo);
   model.on("change:height", size);
@@ -48,6 +56,7 @@ function render({ model, el }) {
     model.off("change:scene_json", draw);
     model.off("change:time", moveTo);
     model.off("change:height", size);
+    if (pending !== null) clearTimeout(pending);
     if (viewer) viewer.dispose();
   };
 }

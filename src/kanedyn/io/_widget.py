@@ -8,7 +8,8 @@ so nothing is fetched from the network.  Its synchronized traits:
 ``scene_json``  the scene as JSON text; a new one (:meth:`SceneWidget.draw`)
                 is drawn in the same view (camera, time and play/pause kept)
 ``time``        the time shown, s: set from Python it moves the scene there;
-                letting go of the time slider sets it back
+                moving the time slider sets it back (at most every 0.1 s, and
+                where the slider is let go)
 ``height``      the widget's height, pixels
 
 anywidget is imported when the first widget is made (the ``notebook`` extra).

@@ -33,6 +33,7 @@ _LAZY = {
     'ExternalWrench': '._actuators',
     'JointActuator': '._actuators',
     'LinearActuator': '._actuators',
+    'drive_inputs': '._actuators',
     'AddedMass': '._inertial_elements',
     'Inerter': '._inertial_elements',
     'InertialElement': '._inertial_elements',

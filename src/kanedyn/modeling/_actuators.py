@@ -13,6 +13,7 @@ in ``bodies=[...]``).
 ``LinearActuator``  a force along the line between two points (a prismatic leg)
 ``BallScrew``       motor, coupler and screw driving an actuator through a lead
 ``ExternalWrench``  a force at a body's mass centre and a moment on its frame
+``drive_inputs``    actuators driven by specified inputs: their loads and drive trains
 """
 
 import sympy as sm
@@ -21,7 +22,8 @@ import sympy.physics.mechanics as me
 from .._errors import ModelError
 from ._inertial_elements import RateInertia
 
-__all__ = ["Actuator", "JointActuator", "LinearActuator", "BallScrew", "ExternalWrench"]
+__all__ = ["Actuator", "JointActuator", "LinearActuator", "BallScrew", "ExternalWrench",
+           "drive_inputs"]
 
 _t = me.dynamicsymbols._t
 
@@ -333,3 +335,38 @@ class ExternalWrench:
 
     def __repr__(self):
         return f"ExternalWrench({self.body.name!r}, force={self.force}, moment={self.moment})"
+
+
+def drive_inputs(actuators):
+    """Actuators driven by specified inputs, for a forward model.
+
+    Each actuator's force or torque becomes the dynamic symbol
+    ``F_<name>(t)`` (N or N m) applied through :meth:`~JointActuator.to_loads`,
+    and its transmission's drive train (:meth:`Actuator.inertia_element`)
+    becomes an inertial element, so that the input is the force or torque
+    on the actuator's rate with the reflected inertia included (what
+    ``ActuatorMap.forces`` computes).
+
+    Parameters
+    ----------
+    actuators : sequence of Actuator
+
+    Returns
+    -------
+    inputs : list of sympy.Function
+        ``F_<name>(t)``, one per actuator, in order.
+    loads : list
+        Their loads, for ``loads=[...]``.
+    elements : list of RateInertia
+        The drive trains, for ``bodies=[...]`` (none for an actuator without
+        a transmission).
+    """
+    inputs, loads, elements = [], [], []
+    for actuator in actuators:
+        F = me.dynamicsymbols(f"F_{actuator.name}")
+        inputs.append(F)
+        loads += actuator.to_loads(F)
+        element = actuator.inertia_element()
+        if element is not None:
+            elements.append(element)
+    return inputs, loads, elements

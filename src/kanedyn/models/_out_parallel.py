@@ -17,7 +17,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import ConstraintError, ModelError
-from ..modeling import BallScrew, JointActuator
+from ..modeling import BallScrew, JointActuator, drive_inputs
 from ._base import ModelDefinition
 from ._parallel import _rotation_xyz
 
@@ -217,7 +217,7 @@ def out_parallel_ik(pose, rate=None, accel=None, geometry=None):
     return q, u, ud
 
 
-def out_parallel_6dof(machine=None):
+def out_parallel_6dof(machine=None, force_input=False):
     r"""A 6-dof out-parallel manipulator: six ball-screw carriages on vertical rails.
 
     Geometry (:data:`OUT_PARALLEL_GEOMETRY`, :func:`out_parallel_anchors`).
@@ -256,12 +256,21 @@ def out_parallel_6dof(machine=None):
     eighteen loop closures :math:`A_{0j} + s_j N_z + L\hat l_j - (p + R c_j) = 0`.
     :func:`out_parallel_ik` gives them in closed form.
 
+    With ``force_input=True`` the model is driven by its ball screws: the
+    carriage forces are specified inputs ``F_carriage1 .. F_carriage6`` (N,
+    along ``N.z`` on each carriage, positive up), and each drive train's
+    reflected inertia is among the bodies (a rate inertia on the travel), so
+    that an input is the force the actuator map computes
+    (:func:`kanedyn.modeling.drive_inputs`); for optimal control.
+
     Parameters
     ----------
     machine : OutParallelMachine, optional
         Another machine's geometry, masses and drive trains
         (:func:`kanedyn.models.read_out_parallel_machine`); the defaults above
         if omitted.
+    force_input : bool
+        The carriage forces as inputs, the drive trains as bodies.
 
     Returns
     -------
@@ -270,7 +279,8 @@ def out_parallel_6dof(machine=None):
         the travels with their :class:`~kanedyn.BallScrew`;
         ``body_groups``: ``platform``, ``struts``, ``carriages``; ``symbols``:
         ``pose``, ``pose_rates``, ``s``, ``a``, ``b``, ``N``, the constants by
-        name, ``geometry`` (the numbers of :data:`OUT_PARALLEL_GEOMETRY`).
+        name, ``geometry`` (the numbers of :data:`OUT_PARALLEL_GEOMETRY`);
+        with ``force_input``, ``forces`` (the input symbols).
     """
     geo = _geometry(None if machine is None else machine.geometry)
     inertia = dict(OUT_PARALLEL_INERTIA if machine is None else machine.inertia)
@@ -331,6 +341,14 @@ def out_parallel_6dof(machine=None):
     loads = [(body.masscenter, -body.mass * g * N.z) for body in bodies]
     heights = sm.Add(*(body.mass * g * body.masscenter.pos_from(O).dot(N.z)
                        for body in bodies))
+    driven, specified, title = {}, {}, ("6-dof out-parallel manipulator: ball-screw "
+                                        "carriages on rails, struts, under gravity")
+    if force_input:
+        forces, drive_loads, drive_trains = drive_inputs(actuators)
+        loads += drive_loads
+        bodies += drive_trains
+        driven, specified = {"forces": forces}, {F: 0.0 for F in forces}
+        title += ", carriage forces as inputs"
     home, _, _ = out_parallel_ik([0, 0, geo["h"], 0, 0, 0], geometry=geo)
     initial = {v: 0.0 for v in u_all}
     initial.update(dict(zip(q_all, home)))
@@ -341,8 +359,7 @@ def out_parallel_6dof(machine=None):
     units = {Rb: "m", rp: "m", L: "m", mp: "kg", ms: "kg", mc: "kg", g: "m/s^2"}
     return ModelDefinition(
         name="out-parallel-6dof",
-        title="6-dof out-parallel manipulator: ball-screw carriages on rails, struts, "
-              "under gravity",
+        title=title, specified=specified,
         kane_args=dict(frame=N, q_ind=pose, u_ind=rates,
                        kd_eqs=[q.diff() - u for q, u in zip(q_all, u_all)],
                        q_dep=s + a + b, u_dep=ds + da + db,
@@ -351,7 +368,7 @@ def out_parallel_6dof(machine=None):
         constants=constants, constant_units=units, initial_state=initial, t_end=2.0,
         symbols=dict(pose=pose, pose_rates=rates, s=s, a=a, b=b, ds=ds, N=N, O=O,
                      platform=platform, struts=struts, carriages=carriages, geometry=geo,
-                     **named),
+                     **named, **driven),
         description="Six carriages driven by ball screws on vertical rails outside the "
                     "workspace hold the platform through fixed-length struts (universal "
                     "joint at the carriage, spherical at the platform). The platform pose "

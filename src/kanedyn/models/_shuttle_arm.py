@@ -18,9 +18,10 @@ from ._base import ModelDefinition
 
 __all__ = ["shuttle_arm", "quintic", "SRMS_START_DEG", "SRMS_END_DEG"]
 
-#: Joint angles at the start and end of the manoeuvre, degrees (shoulder yaw,
+#: Joint angles at the start of the manoeuvre, degrees (shoulder yaw,
 #: shoulder pitch, elbow pitch, wrist pitch, wrist yaw, wrist roll).
 SRMS_START_DEG = (0.0, 15.0, -30.0, 15.0, 0.0, 0.0)
+#: Joint angles at the end of the manoeuvre, degrees (same order).
 SRMS_END_DEG = (-20.0, 35.0, -50.0, 5.0, 10.0, 30.0)
 
 # Nominal joint inertias (kg m^2): the diagonal of the mass matrix at the
@@ -71,7 +72,7 @@ def _boom_member(name, length, mass):
                                f"constraint_{tip}_uz"])
 
 
-def shuttle_arm(payload=True, flexible_booms=False):
+def shuttle_arm(payload=True, flexible_booms=False, torque_input=False):
     r"""The Shuttle arm (SRMS) moving a Hubble-class payload, in orbit.
 
     Public figures (NASA; JSC "Remote Manipulator System" fact page,
@@ -143,6 +144,12 @@ def shuttle_arm(payload=True, flexible_booms=False):
     on the inboard one (the shoulder's on the orbiter), so the drive power
     is :math:`\sum_i \tau_i u_i`.
 
+    With ``torque_input=True`` the six joint torques are specified inputs
+    ``tau1(t) .. tau6(t)`` (N m, positive about each joint's axis as above)
+    in place of the servos, for optimal control: the profile, the gains and
+    their constants ``T_m``, ``omega_c``, ``zeta_c``, ``J_1 .. J_6`` are then
+    not in the model.
+
     Parameters
     ----------
     payload : bool
@@ -150,6 +157,8 @@ def shuttle_arm(payload=True, flexible_booms=False):
         then scaled by the empty arm's joint inertias).
     flexible_booms : bool
         Make the upper and lower booms flexible bodies.
+    torque_input : bool
+        The joint torques as inputs ``tau1 .. tau6`` instead of the PD servos.
 
     Returns
     -------
@@ -157,7 +166,11 @@ def shuttle_arm(payload=True, flexible_booms=False):
         ``symbols`` holds ``q``, ``u``, the reference angles and rates
         ``q_ref``, ``u_ref`` (expressions in ``t``), the joint torques
         ``torques``, the frames ``N, A``, the end-effector ``tip`` point and
-        its position ``tip_position`` (a 3x1 matrix in ``N``, m).
+        its position ``tip_position`` (a 3x1 matrix in ``N``, m); with
+        ``torque_input`` the torques are the input symbols and ``q_ref``,
+        ``u_ref`` are still the quintic profile, and ``servo`` holds the
+        servos' numbers (``J``, kg m^2, ``omega_c``, rad/s, ``zeta_c``) for a
+        tracking term.
     """
     q = me.dynamicsymbols("q1:7")
     u = me.dynamicsymbols("u1:7")
@@ -241,11 +254,15 @@ def shuttle_arm(payload=True, flexible_booms=False):
     constants.update(zip(J, _J_PAYLOAD if payload else _J_EMPTY))
 
     q_ref, u_ref, torques, loads = [], [], [], []
+    inputs = me.dynamicsymbols("tau1:7") if torque_input else None
     for i in range(6):
         angle, rate = quintic(T, math.radians(SRMS_START_DEG[i]),
                               math.radians(SRMS_END_DEG[i]), T_m)
-        tau = (J[i] * omega_c ** 2 * (angle - q[i])
-               + 2 * zeta_c * J[i] * omega_c * (rate - u[i]))
+        if torque_input:
+            tau = inputs[i]
+        else:
+            tau = (J[i] * omega_c ** 2 * (angle - q[i])
+                   + 2 * zeta_c * J[i] * omega_c * (rate - u[i]))
         q_ref.append(angle)
         u_ref.append(rate)
         torques.append(tau)
@@ -254,6 +271,15 @@ def shuttle_arm(payload=True, flexible_booms=False):
             loads.append((parents[i], -tau * axes[i]))
     symbols.update(q_ref=q_ref, u_ref=u_ref, torques=torques,
                    tip_position=tip.pos_from(O).to_matrix(N))
+    specified, title = {}, "PD-tracked manoeuvre"
+    if torque_input:  # the servos' constants are then not in the equations
+        servo = {"J": tuple(constants.pop(j) for j in J), "omega_c": constants.pop(omega_c),
+                 "zeta_c": constants.pop(zeta_c)}
+        duration = constants.pop(T_m)
+        symbols.update(q_ref=[a.subs(T_m, duration) for a in q_ref],
+                       u_ref=[r.subs(T_m, duration) for r in u_ref],
+                       tau=list(inputs), servo=servo)
+        specified, title = {tau: 0.0 for tau in inputs}, "joint torques tau1..tau6 as inputs"
 
     initial = {qi: math.radians(a) for qi, a in zip(q, SRMS_START_DEG)}
     initial.update({ui: 0.0 for ui in u})
@@ -265,11 +291,12 @@ def shuttle_arm(payload=True, flexible_booms=False):
     modal_kd = [e for boom in booms.values() for e in boom.kd_eqs]
     return ModelDefinition(
         name="shuttle-arm",
-        title=f"Shuttle arm (SRMS, 6 revolute joints, {kind}{what}), PD-tracked manoeuvre",
+        title=f"Shuttle arm (SRMS, 6 revolute joints, {kind}{what}), {title}",
         kane_args=dict(frame=N, q_ind=list(q) + modal_q, u_ind=list(u) + modal_u,
                        kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)] + modal_kd,
                        bodies=bodies, loads=loads),
         constants=constants, initial_state=initial, t_end=200.0, symbols=symbols,
+        specified=specified,
         description="The system of Cyril, Angeles & Misra (1991): compare "
                     "method='orthogonal-complement' (with BDF) and Kane's method. "
                     "Microgravity; joint angles follow quintic profiles over T_m = "

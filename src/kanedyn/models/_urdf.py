@@ -25,7 +25,8 @@ from ..modeling import inertia_violation, principal_moments
 from ._base import ModelDefinition
 from ._urdf_parse import (URDFError, Visual, inertia_text, parse_robot, pose_matrix,
                           round_off_text)
-from ._urdf_ground import urdf_ground_contacts
+from ._robot_ground import robot_ground_contacts
+from ._urdf_ground import URDF_NONE_USABLE, urdf_collision_shapes
 from ._urdf_shapes import urdf_shapes
 
 __all__ = ["from_urdf", "URDFDefinition", "URDFError", "JointInfo", "Visual",
@@ -336,12 +337,12 @@ def from_urdf(path, *, gravity=PINOCCHIO_GRAVITY, base="fixed", package_dirs=Non
     group = build.group
     kane_args = dict(frame=build.N, q_ind=q_list, u_ind=u_list, kd_eqs=build.kd_eqs,
                      bodies=build.rigid_bodies, loads=build.loads)
-    if ground is not None:
-        kane_args["contacts"] = urdf_ground_contacts(ground, ground_points, collisions,
-                                                     robot, build)
-    elif ground_points is not None:
-        raise ModelError("from_urdf: ground_points given without a ground "
-                         "(ground=kd.Ground(...))")
+    contacts = robot_ground_contacts(
+        ground, ground_points, urdf_collision_shapes(collisions, build), group, build,
+        caller="from_urdf", kind="link", error=URDFError, source=robot.source,
+        none_usable=URDF_NONE_USABLE)
+    if contacts is not None:
+        kane_args["contacts"] = contacts
     symbols = dict(q=q_list, u=u_list, g=build.g, N=build.N, O=build.O,
                    frames={link: build.frame_of[group[link][0]] for link in robot.links},
                    points={link: build.point_of[group[link][0]] for link in robot.links})

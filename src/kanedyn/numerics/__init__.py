@@ -10,6 +10,8 @@
 ``_inverse``             inverse dynamics: the generalized forces for given rates
 ``_jacobians``           exact derivatives of the right-hand side (state, inputs,
                          constants), generated from the equations' program
+``_hessians``            second derivatives of the right-hand side, weighted by
+                         multipliers (the exact Hessian of optimal control)
 ``_stabilization_derivatives``
                          what the stabilized schemes (Baumgarte, penalty, augmented
                          Lagrangian) add to those derivatives
@@ -51,6 +53,8 @@ _LAZY = {
     'LoadPowers': '._load_powers',
     'load_powers': '._load_powers',
     'Jacobians': '._jacobians',
+    'hessians_unavailable': '._hessians',
+    'weighted_hessians': '._hessians',
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',
     'derivatives_built': '._jacobians',

@@ -88,6 +88,24 @@ def _specification(model):
     return inverse_args, [((o,), tau), dynamics[3], dynamics[4], dynamics[5]]
 
 
+def _tree_bodies(eom, kin):
+    """``(bodies, body_terms, masses, inertias)`` of a Kane model's rigid bodies
+    and particles on ``kin.prog`` (where new intermediates go), or ``None`` (not
+    Kane's method, or flexible bodies)."""
+    if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
+        return None
+    bodies = list(eom.bodies)
+    if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
+            or len(bodies) != len(eom._body_terms):
+        return None
+    prog = kin.prog
+    masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
+              for b in bodies]
+    inertias = [inertia_components(kin, b, f"body {b.name}")[1]
+                if isinstance(b, me.RigidBody) else None for b in bodies]
+    return bodies, [t.on(prog) for t in eom._body_terms], masses, inertias
+
+
 def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
     """``M u'`` of a Kane tree by the engine's recursive pass, else ``None``.
 
@@ -96,22 +114,15 @@ def _recursive_inertia_forces(eom, o, rates, substitutions, kin=None):
     """
     if eom.method != "kane" or getattr(eom, "_kinematics", None) is None:
         return None
-    bodies = list(eom.bodies)
-    if any(not isinstance(b, (me.RigidBody, me.Particle)) for b in bodies) \
-            or len(bodies) != len(eom._body_terms):
-        return None
     if kin is None:
         kin = eom._kinematics.on(eom._program.copy())
-    prog = kin.prog
-    masses = [prog.let(kin.internal(b.mass, f"mass of {b.name}"), f"m_{b.name}")
-              for b in bodies]
-    inertias = [inertia_components(kin, b, f"body {b.name}")[1]
-                if isinstance(b, me.RigidBody) else None for b in bodies]
-    rows = composite_inertia_forces(kin, bodies, [t.on(prog) for t in eom._body_terms],
-                                    masses, inertias, rates, o)
+    found = _tree_bodies(eom, kin)
+    if found is None:
+        return None
+    rows = composite_inertia_forces(kin, *found, rates, o)
     if rows is None or not substitutions:
         return rows
-    return [prog.subs(e, substitutions) for e in rows]
+    return [kin.prog.subs(e, substitutions) for e in rows]
 
 
 def _generated(model):

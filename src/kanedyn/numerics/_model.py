@@ -1001,6 +1001,11 @@ class NumericModel(StateLayout):
         >>> J.state.shape
         (2, 2)
         """
+        if r is None and modes is None:  # one state on C: one call, without the checks
+            point = self.__dict__.get("_jacobian_point_p" if parameters else "_jacobian_point")
+            found = point(t, y) if point is not None else None
+            if found is not None:
+                return found
         from ._jacobians import jacobians
         return jacobians(self, t, y, r=r, parameters=parameters, modes=modes,
                          directions=directions, stabilization=stabilization)
@@ -1271,6 +1276,20 @@ class NumericModel(StateLayout):
             unpickling), or the model's constraint scheme or formulation is
             not what the generated right-hand side computes.
         """
+        if standalone and self.contacts:
+            names = ", ".join(c["name"] for c in self.contacts)
+            raise ModelError(f"cannot export standalone C of a model with contacts "
+                             f"({names}): the file would hold the right-hand side without "
+                             "them (their modes, events and impacts are followed by "
+                             "kd.simulate); export the model without its contacts")
+        return self._c_text(standalone, module_name, title)
+
+    def _c_text(self, standalone=True, module_name="kanedyn_model", title=None,
+                contacts=False):
+        """:meth:`c_source` without its refusal of contacts; ``contacts=True``: the
+        standalone file with the contact kinematics and the contact loop
+        (:mod:`kanedyn.numerics.backends._c_hybrid`), what an FMU of a model with
+        contacts compiles."""
         from .backends._c import NAME_TOKEN, generate_c
         from .backends._c_export import standalone_c
         eom = getattr(self, "_eom", None)
@@ -1282,12 +1301,6 @@ class NumericModel(StateLayout):
             raise ModelError(f"cannot export C: the right-hand side of the "
                              f"{self.scheme.name!r} scheme ({eom.method} formulation) is "
                              "not the generated C one; use the default scheme")
-        if standalone and self.contacts:
-            names = ", ".join(c["name"] for c in self.contacts)
-            raise ModelError(f"cannot export standalone C of a model with contacts "
-                             f"({names}): the file would hold the right-hand side without "
-                             "them (their modes, events and impacts are followed by "
-                             "kd.simulate); export the model without its contacts")
         table = eom._table
         cse = self._cse  # None: the default choice (see build_numeric_model)
         if not standalone:
@@ -1301,7 +1314,33 @@ class NumericModel(StateLayout):
                             dict(zip(self.constants, map(float, self._p))),
                             input_names=self.input_names,
                             title=title or f"{self!r}", cse=cse is not False,
-                            describe=lambda e: str(table.external(e)))
+                            describe=lambda e: str(table.external(e)),
+                            contacts=self._contact_c() if contacts else None)
+
+    def _contact_c(self):
+        """Per contact: its name, law and the C expressions (of ``p[i]``) of its
+        coefficients (for :func:`~kanedyn.numerics.backends._c_export.standalone_c`)."""
+        import sympy as sm
+        index = {name: i for i, name in enumerate(self.constants)}
+        unused = dict(self._data.get("unused_constants") or {})
+        out = []
+        for entry, exprs in self._data.get("contact_coefficients") or ():
+            item = {"name": entry["name"], "newton": entry["law"] == "newton"}
+            for key in ("mu_k", "mu_s", "viscous", "restitution"):
+                expr = sm.sympify(exprs.get(key, 0), strict=True)
+                values = {}
+                for symbol in expr.free_symbols:
+                    if str(symbol) in index:
+                        values[symbol] = sm.Symbol(f"p[{index[str(symbol)]}]")
+                    elif str(symbol) in unused:
+                        values[symbol] = sm.Float(unused[str(symbol)])
+                    else:
+                        raise ModelError(f"contact {entry['name']}: its {key} depends on "
+                                         f"{symbol}, which is not a constant of the model")
+                item[key] = sm.ccode(sm.Float(expr) if expr.is_number
+                                     else expr.xreplace(values))
+            out.append(item)
+        return out
 
     def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None):
         """Write :meth:`c_source` to ``path``; returns the path (a ``Path``).
@@ -1317,13 +1356,13 @@ class NumericModel(StateLayout):
         return path
 
     def export_fmu(self, path, y0, **options):
-        """Write this model as an FMI 2.0 FMU (model exchange and co-simulation)
-        compiled from :meth:`c_source`; returns the path.
+        """Write this model as an FMI 2.0 or 3.0 FMU (model exchange and
+        co-simulation) compiled from :meth:`c_source`; returns the path.
 
         See :func:`kanedyn.io.export_fmu` for ``y0`` (the start state) and the
         options (``t_end``, ``rtol``, ``atol``, ``projection_tol``,
-        ``constant_units``, ``identifier``, ``title``).  Models with contacts are
-        refused.
+        ``constant_units``, ``identifier``, ``title``, ``fmi_version``,
+        ``nominals``).  Models with contacts are refused.
         """
         from ..io import export_fmu
         return export_fmu(self, path, y0, **options)
@@ -1612,8 +1651,9 @@ def build_numeric_model(eom, constants, specified, backend="numpy", cse=None, sc
         "c_source": None,  # filled in when pickled (see __getstate__)
         "p": [values[s] for s in const_syms],
         "constants": {str(s): values[s] for s in const_syms},
-        # given, but the equations do not use them (not constants of this model)
-        "unused_constants": tuple(sorted(str(s) for s in unused)),
+        # given, but the equations do not use them (not constants of this model;
+        # the viewer's shapes may be placed by them)
+        "unused_constants": {str(s): unused[s] for s in sorted(unused, key=str)},
         "inputs": runtime,
         "input_names": tuple(inp.name for _, inp in runtime),
         "n_q": n, "n_u": o, "n_q_dep": l, "n_u_dep": m,

@@ -5,13 +5,19 @@
 ``_terms``         the user's SymPy expressions in the model's symbols, compiled
                    with their gradients
 ``_transcription`` the decision vector and the dynamics' defects of each
-                   collocation method (backward Euler, trapezoid, midpoint)
+                   one-step collocation method (backward Euler, trapezoid,
+                   midpoint)
+``_interval``      collocation on points inside the intervals: Hermite-Simpson,
+                   Legendre-Gauss-Radau of any degree
 ``_nlp``           the nonlinear program: bounds, objective, constraints and
                    their sparse Jacobian from ``model.jacobians``
 ``_solvers``       the NLP solvers behind one interface (IPOPT through cyipopt)
 ``_guess``         initial guesses: a straight line, a simulation, a solution
 ``_result``        ``OptimalControlResult``, the inputs as collocated, and the
                    check of the optimal inputs by simulation
+``_multiphase``    ``MultiphaseProblem``: phases in sequence solved as one NLP
+``_linkage``       ``Linkage``: how phases join, and the junctions' rows
+``_multiphase_result`` ``MultiphaseResult``: each phase's trajectory, and joined
 ``_records``       ``MeasuredRecord``: measured channels from arrays or a CSV file
 ``_identify``      ``identify``: constants and initial states fitted to records
                    (single and multiple shooting on the sensitivities)
@@ -28,6 +34,9 @@ from .._lazy import lazy_attributes as _lazy_attributes
 _LAZY = {
     "OptimalControlProblem": "._problem",
     "OptimalControlResult": "._result",
+    "MultiphaseProblem": "._multiphase",
+    "MultiphaseResult": "._multiphase_result",
+    "Linkage": "._linkage",
     "Resimulation": "._result",
     "NLPSolution": "._solvers",
     "SOLVERS": "._solvers",

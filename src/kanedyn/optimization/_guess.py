@@ -20,16 +20,11 @@ def _layout(problem):
     return Layout.of(problem)
 
 
-def _midpoint_times(problem, T):
-    """Times of the N - 1 midpoints (for a layout that has them), else None."""
-    if not _layout(problem).midpoints:
-        return None
-    nodes = problem.node_times(T)
-    return 0.5 * (nodes[:-1] + nodes[1:])
-
-
-def _parameters(problem):
-    return np.array([problem.symbols.constants[n] for n in problem.symbols.free], dtype=float)
+def _interior_fractions(problem):
+    """Where the interior points lie, as fractions of the duration (empty
+    for a layout without them)."""
+    L = _layout(problem)
+    return L.positions()[L.nodes:]
 
 
 def _named(values, names, what):
@@ -91,12 +86,10 @@ def line(problem, start, end, inputs, duration):
     y1 = np.array([b[k] for k in range(len(names))], dtype=float)
     Y = y0 + s * (y1 - y0)
     R = _input_columns(problem, inputs, problem.node_times(T))
-    Ym = Rm = None
-    mid = _midpoint_times(problem, T)
-    if mid is not None:
-        Ym = 0.5 * (Y[:-1] + Y[1:])
-        Rm = _input_columns(problem, inputs, mid)
-    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
+    inner = _interior_fractions(problem)[:, None]
+    Yi = y0 + inner * (y1 - y0)
+    Ri = _input_columns(problem, inputs, problem.start_time + T * inner[:, 0])
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Yi, Ri)
 
 
 def from_result(problem, result, inputs):
@@ -109,8 +102,8 @@ def from_result(problem, result, inputs):
             raise ModelError(f"the earlier solution has the states {result.state_names}, "
                              f"this problem {problem.symbols.states}")
         T = result.duration
-        # the earlier points (its nodes, and its midpoints when it has them) in
-        # order, as fractions of its duration
+        # the earlier points (its nodes, and its interior points when it has
+        # them) in order, as fractions of its duration
         s_old, y_old, r_old = result.t, result.y, result.r
         if result.t_mid is not None:
             s_old = np.concatenate([result.t, result.t_mid])
@@ -125,14 +118,11 @@ def from_result(problem, result, inputs):
             R = np.stack([np.interp(s_new, s_old, row) for row in r_old], axis=1) \
                 if r_old.shape[0] else np.zeros((s_new.size, 0))
             return Y, R
-        s_new = np.linspace(0.0, 1.0, problem.nodes)
-        Y, R = at(s_new)
-        Ym = Rm = None
-        if _layout(problem).midpoints:
-            Ym, Rm = at(0.5 * (s_new[:-1] + s_new[1:]))
-        P = np.array([result.parameters.get(n, problem.symbols.constants[n])
-                      for n in problem.symbols.free], dtype=float)
-        return _layout(problem).join(Y, R, P, T if problem.free_duration else None, Ym, Rm)
+        Y, R = at(np.linspace(0.0, 1.0, problem.nodes))
+        Yi, Ri = at(_interior_fractions(problem))
+        P = np.array([result.parameters.get(n, start) for n, start in
+                      zip(problem.symbols.free, problem.parameter_start())], dtype=float)
+        return _layout(problem).join(Y, R, P, T if problem.free_duration else None, Yi, Ri)
     if not (hasattr(result, "t") and hasattr(result, "y") and hasattr(result, "state_names")):
         raise ModelError(f"guess_from takes a SimulationResult or an OptimalControlResult, "
                          f"not {type(result).__name__}")
@@ -153,16 +143,16 @@ def from_result(problem, result, inputs):
     times = t[0] + np.linspace(0.0, T, problem.nodes)
 
     def states(at):
+        if not at.size:
+            return np.zeros((0, len(result.state_names)))
         if getattr(result, "sol", None) is not None:  # dense output: exact between steps
             return np.asarray(result.sol(at), dtype=float).T
         return np.stack([np.interp(at, t, row) for row in result.y], axis=1)
     Y = states(times)
     R = _input_columns(problem, inputs or {}, times)
-    Ym = Rm = None
-    if _layout(problem).midpoints:
-        mid = 0.5 * (times[:-1] + times[1:])
-        Ym, Rm = states(mid), _input_columns(problem, inputs or {}, mid)
-    return _layout(problem).join(Y, R, _parameters(problem), T, Ym, Rm)
+    inner = t[0] + T * _interior_fractions(problem)
+    Yi, Ri = states(inner), _input_columns(problem, inputs or {}, inner)
+    return _layout(problem).join(Y, R, problem.parameter_start(), T, Yi, Ri)
 
 
 def vector(problem, guess, warm_start):
@@ -182,8 +172,8 @@ def vector(problem, guess, warm_start):
             raise ModelError("warm_start=True needs a previous OptimalControlResult as guess")
         x0 = np.asarray(guess, dtype=float)
         if x0.shape != (problem.n_variables,):
-            mid = (f" and {problem.nodes - 1} midpoints" if _layout(problem).midpoints
-                   else "")
+            inner = _layout(problem).n_interior
+            mid = f" and {inner} interior points" if inner else ""
             raise ModelError(f"the guess must have shape ({problem.n_variables},) (states "
                              f"and inputs at {problem.nodes} nodes{mid}, the free "
                              f"parameters, the duration when free), got {x0.shape}; use "

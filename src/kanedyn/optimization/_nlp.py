@@ -5,9 +5,9 @@ bounds, the objective and its gradient, the constraints, the pattern and the
 values of their sparse Jacobian.  Its constraint rows, in order:
 
 1. the dynamics' defects, ``(N - 1) * n_rows`` (:class:`._transcription.Defects`;
-   twice as many for Hermite-Simpson, :class:`._transcription.HermiteSimpsonDefects`);
+   with Hermite-Simpson and LGR those of :class:`._interval.IntervalDefects`);
 2. the path constraints, one row per point each: the N nodes, then (with
-   Hermite-Simpson) the N - 1 midpoints;
+   Hermite-Simpson and LGR) the interior points;
 3. for a model with constraints, the configuration and velocity constraint
    residuals :math:`[h(q_k);\ c(q_k, u_k)]` at every point (the dependent
    states are then not collocated: they follow from these);
@@ -18,7 +18,9 @@ point in one call) are evaluated once per decision vector and shared by the
 constraints, the Jacobian and the objective.  With a free duration the
 derivative :math:`\partial f/\partial t` of an explicitly time-dependent model
 is taken by central differences of ``f`` (the only derivative not generated;
-exactly zero for an autonomous model).
+exactly zero for an autonomous model); so it is when the start time is a
+variable (a phase of a :class:`._multiphase.MultiphaseProblem` after a free
+duration).
 """
 
 from __future__ import annotations
@@ -27,7 +29,7 @@ import numpy as np
 
 from ._transcription import Layout, defects_for
 
-__all__ = ["CollocationNLP"]
+__all__ = ["CollocationNLP", "largest_violation"]
 
 INFINITY = 1e20  # IPOPT's "no bound" beyond 1e19
 
@@ -37,31 +39,46 @@ def _finite(bound):
 
 
 class CollocationNLP:
-    """The NLP of ``problem`` (an :class:`OptimalControlProblem`)."""
+    """The NLP of ``problem`` (an :class:`OptimalControlProblem`).
 
-    def __init__(self, problem):
+    ``start_time``: where it starts, s (default: the problem's); with
+    ``free_start_time`` the start time is the decision vector's last entry
+    instead (a phase of a multiphase problem). ``hessian``: ``"exact"`` for
+    the Lagrangian's Hessian from the second derivatives (:mod:`._hessian`).
+    """
+
+    def __init__(self, problem, start_time=None, free_start_time=False,
+                 hessian="limited-memory"):
         self.problem = pb = problem
-        self.layout = L = Layout.of(pb)
-        self.defects = defects_for(pb.method, L, pb.collocated_rows)
+        self.start_time = pb.start_time if start_time is None else float(start_time)
+        self.layout = L = Layout.of(pb, free_start_time)
+        self.defects = defects_for(pb.method, L, pb.collocated_rows, pb.degree)
         self.n = L.n_variables
         self._cache_key = None
         self._models = {}
         self._pattern()
         self._bounds()
+        #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
+        self.exact_hessian = None
+        if hessian == "exact":
+            from ._hessian import LagrangianHessian
+            self.exact_hessian = LagrangianHessian(self)
 
     # ------------------------------------------------------------ layout
     def _pattern(self):
         pb, L = self.problem, self.layout
         ns, nf, K = L.n_states, L.n_free, L.n_points
         rows, cols = [self.defects.structure[0]], [self.defects.structure[1]]
-        start = int(self.defects.structure[0].max(initial=-1)) + 1
+        start = self.defects.n_rows
         point = np.arange(K)[:, None]
         y_cols, r_cols = L.point_columns()
-        # path constraints: dense in y_k, r_k, p, T
+        # path constraints: dense in y_k, r_k, p, T, t0
         for _ in pb.path:
             c = [y_cols, r_cols, np.broadcast_to(L.free_start + np.arange(nf), (K, nf))]
             if L.free_duration:
                 c.append(np.full((K, 1), L.duration_index))
+            if L.free_start_time:
+                c.append(np.full((K, 1), L.start_index))
             c = np.concatenate(c, axis=1)
             rows.append(np.broadcast_to(start + point, c.shape).ravel())
             cols.append(c.ravel())
@@ -105,17 +122,20 @@ class CollocationNLP:
         hi[L.free_start:L.free_start + L.n_free] = pb.free_bounds[:, 1]
         if L.free_duration:
             lo[L.duration_index], hi[L.duration_index] = pb.duration_bounds
-        if L.midpoints:
-            mid_inputs = L.mid_start + (N - 1) * L.n_states
-            lo[L.mid_start:mid_inputs] = np.tile(sb[:, 0], N - 1)
-            hi[L.mid_start:mid_inputs] = np.tile(sb[:, 1], N - 1)
-            lo[mid_inputs:] = np.tile(ib[:, 0], N - 1)
-            hi[mid_inputs:] = np.tile(ib[:, 1], N - 1)
+        if L.n_interior:
+            K = L.n_interior
+            inner_inputs = L.interior_start + K * L.n_states
+            lo[L.interior_start:inner_inputs] = np.tile(sb[:, 0], K)
+            hi[L.interior_start:inner_inputs] = np.tile(sb[:, 1], K)
+            lo[inner_inputs:inner_inputs + K * L.n_inputs] = np.tile(ib[:, 0], K)
+            hi[inner_inputs:inner_inputs + K * L.n_inputs] = np.tile(ib[:, 1], K)
+        if L.free_start_time:
+            lo[L.start_index], hi[L.start_index] = -np.inf, np.inf
         for k, values in ((0, pb.initial), (N - 1, pb.final)):
             for j, value in values.items():
                 lo[L.state_index(k, j)] = hi[L.state_index(k, j)] = value
         self.x_lower, self.x_upper = _finite(lo), _finite(hi)
-        n_defects = int(self.defects.structure[0].max(initial=-1)) + 1
+        n_defects = self.defects.n_rows
         g_lo, g_hi = [np.zeros(n_defects)], [np.zeros(n_defects)]
         K = L.n_points
         for path in pb.path:
@@ -131,10 +151,13 @@ class CollocationNLP:
 
     # --------------------------------------------------------- evaluation
     def _model(self, P):
+        """The model with the free parameters ``P`` (the auxiliary variables,
+        which it does not contain, left out)."""
         pb = self.problem
-        if not len(P):
+        n = len(pb.free_columns)
+        if not n:
             return pb.model
-        key = tuple(float(v) for v in P)
+        key = tuple(float(v) for v in P[:n])
         model = self._models.get(key)
         if model is None:
             if len(self._models) > 8:
@@ -151,16 +174,21 @@ class CollocationNLP:
             return self._cache
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
-        Ym, Rm = L.split_midpoints(z)
+        Yi, Ri = L.split_interior(z)
+        t0 = L.start_time(z, self.start_time)
         h = T / (L.nodes - 1)
         model = self._model(P)
         free_columns = pb.free_columns
         evaluated, rates, lagrange = [], [], []
-        for t, Ys, Rs in self.defects.points(pb.start_time, h, Y, R, Ym, Rm):
-            J = model.jacobians(t, Ys, r=Rs, parameters=bool(L.n_free))
-            Pf = J.parameters[:, :, free_columns] if L.n_free else None
+        for t, Ys, Rs in self.defects.points(t0, h, Y, R, Yi, Ri):
+            J = model.jacobians(t, Ys, r=Rs, parameters=bool(free_columns))
+            Pf = None
+            if L.n_free:  # the auxiliary variables' columns (last) are zero
+                Pf = np.zeros(J.f.shape + (L.n_free,))
+                if free_columns:
+                    Pf[..., :len(free_columns)] = J.parameters[:, :, free_columns]
             evaluated.append((J.f, J.state, J.inputs, Pf, J.constraints))
-            if L.free_duration:
+            if L.free_duration or L.free_start_time:
                 rates.append(self._time_rate(model, t, Ys, Rs, T))
             if pb.lagrange is not None:
                 lagrange.append(pb.lagrange(t, Ys, Rs, P, T))
@@ -170,11 +198,11 @@ class CollocationNLP:
             if group is not None:  # a group that holds every point
                 point_constraints = evaluated[group][4]
             else:
-                point_constraints = model.jacobians(self._node_times(T), Y, r=R).constraints
-        Yp = Y if Ym is None else np.concatenate([Y, Ym])
-        Rp = R if Rm is None else np.concatenate([R, Rm])
+                point_constraints = model.jacobians(t0 + h * np.arange(L.nodes), Y,
+                                                    r=R).constraints
         self._cache_key, self._cache = key, dict(
-            z=z, Y=Y, R=R, P=P, T=T, h=h, model=model, Ym=Ym, Yp=Yp, Rp=Rp,
+            z=z, Y=Y, R=R, P=P, T=T, t0=t0, h=h, model=model, Yi=Yi, Ri=Ri,
+            Yp=np.concatenate([Y, Yi]), Rp=np.concatenate([R, Ri]),
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
             point_constraints=point_constraints)
         return self._cache
@@ -186,21 +214,8 @@ class CollocationNLP:
         down = model.jacobians(t - delta, Y, r=R).f
         return (up - down) / (2 * delta)
 
-    def _node_times(self, T):
-        return self.problem.start_time + T / (self.layout.nodes - 1) * np.arange(
-            self.layout.nodes)
-
-    def _point_positions(self):
-        """Where each point lies, as a fraction of the duration: nodes, then
-        midpoints."""
-        N = self.layout.nodes
-        s = np.arange(N) / (N - 1)
-        if self.layout.midpoints:
-            s = np.concatenate([s, (np.arange(N - 1) + 0.5) / (N - 1)])
-        return s
-
-    def _point_times(self, T):
-        return self.problem.start_time + T * self._point_positions()
+    def _point_times(self, e):
+        return e["t0"] + e["T"] * self.layout.positions()
 
     # ---------------------------------------------------------- objective
     def objective(self, z):
@@ -214,38 +229,36 @@ class CollocationNLP:
         return value
 
     def _mayer(self, e):
-        pb = self.problem
-        tf = pb.start_time + e["T"]
-        return pb.mayer(np.array([tf]), e["Y"][-1:], e["R"][-1:], e["P"], e["T"])
+        tf = e["t0"] + e["T"]
+        return self.problem.mayer(np.array([tf]), e["Y"][-1:], e["R"][-1:], e["P"], e["T"])
 
     def gradient(self, z):
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
-        N, ns, nr = L.nodes, L.n_states, L.n_inputs
+        N, ns, nr, K = L.nodes, L.n_states, L.n_inputs, L.n_interior
         gY, gR = np.zeros((N, ns)), np.zeros((N, nr))
-        gYm = gRm = None
-        if L.midpoints:
-            gYm, gRm = np.zeros((N - 1, ns)), np.zeros((N - 1, nr))
-        gP, gT = np.zeros(L.n_free), 0.0
+        gYi, gRi = np.zeros((K, ns)), np.zeros((K, nr))
+        gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
         if pb.lagrange is not None:
-            gY, gR, gYm_q, gRm_q, gP, gT = self.defects.quadrature_gradient(
+            gY, gR, gYi_q, gRi_q, gP, gT, gt0 = self.defects.quadrature_gradient(
                 e["h"], e["lagrange"])
-            if gYm_q is not None:
-                gYm, gRm = gYm_q, gRm_q
+            if gYi_q is not None:
+                gYi, gRi = gYi_q, gRi_q
         if pb.mayer is not None:
             _, d_t, d_y, d_r, d_p, d_T = self._mayer(e)
             gY[-1] += d_y[0]
             gR[-1] += d_r[0]
             gP += d_p[0]
             gT += d_t[0] + d_T[0]
-        return L.join(gY, gR, gP, gT, gYm, gRm)
+            gt0 += d_t[0]
+        return L.join(gY, gR, gP, gT, gYi, gRi, gt0)
 
     # -------------------------------------------------------- constraints
     def constraints(self, z):
         e = self._evaluate(z)
         pb = self.problem
-        parts = [self.defects.values(e["Y"], e["h"], e["evaluated"], e["Ym"])]
-        t = self._point_times(e["T"])
+        parts = [self.defects.values(e["Y"], e["h"], e["evaluated"], e["Yi"], e["R"], e["Ri"])]
+        t = self._point_times(e)
         for path in pb.path:
             parts.append(path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])[0])
         if pb.n_residuals:
@@ -267,12 +280,14 @@ class CollocationNLP:
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
         parts = [self.defects.jacobian(e["h"], e["T"], e["evaluated"], e["rates"])]
-        t = self._point_times(e["T"])
+        t = self._point_times(e)
         for path in pb.path:
             _, d_t, d_y, d_r, d_p, d_T = path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])
             block = [d_y, d_r, d_p]
             if L.free_duration:
-                block.append((d_t * self._point_positions() + d_T)[:, None])
+                block.append((d_t * L.positions() + d_T)[:, None])
+            if L.free_start_time:
+                block.append(d_t[:, None])
             parts.append(np.concatenate(block, axis=1).ravel())
         if pb.n_residuals:
             parts.append(e["point_constraints"].ravel())
@@ -283,11 +298,24 @@ class CollocationNLP:
             parts.append(grad)
         return np.concatenate(parts)
 
+    def hessian_structure(self):
+        """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""
+        return self.exact_hessian.structure
+
+    def hessian(self, z, multipliers, objective_factor):
+        """The Hessian's values at ``z`` (IPOPT's ``obj_factor`` and ``lambda``)."""
+        return self.exact_hessian.values(z, objective_factor, multipliers)
+
     # ---------------------------------------------------------- reporting
     def violation(self, z):
         """Largest violation of a constraint or a bound at ``z``."""
-        z = np.asarray(z, dtype=float)
-        g = self.constraints(z)
-        worst = [np.max(np.maximum(self.g_lower - g, g - self.g_upper), initial=0.0),
-                 np.max(np.maximum(self.x_lower - z, z - self.x_upper), initial=0.0)]
-        return float(max(worst))
+        return largest_violation(self, z)
+
+
+def largest_violation(nlp, z):
+    """Largest violation of a constraint or a bound of ``nlp`` at ``z``."""
+    z = np.asarray(z, dtype=float)
+    g = nlp.constraints(z)
+    worst = [np.max(np.maximum(nlp.g_lower - g, g - nlp.g_upper), initial=0.0),
+             np.max(np.maximum(nlp.x_lower - z, z - nlp.x_upper), initial=0.0)]
+    return float(max(worst))

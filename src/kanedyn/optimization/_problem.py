@@ -113,13 +113,28 @@ class OptimalControlProblem:
     parameters : sequence of constants, optional
         Constants of the model that are optimized too (their model values are
         the initial guess).
-    method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson"}
+    auxiliary : dict, optional
+        ``{sympy.Symbol: starting value}``: free scalars the model does not
+        contain, which only the objective and the constraints name; bounds in
+        ``bounds``.  The bound :math:`s` of an epigraph is one: minimizing
+        ``mayer=s`` with the path constraints :math:`-s \le F_i(t) \le s`
+        minimizes the peak of :math:`|F_i|`.  Their values are in the
+        result's ``parameters``.
+    method : {"trapezoid", "backward-euler", "midpoint", "hermite-simpson", "lgr"}
         The collocation (see :mod:`kanedyn.optimization._transcription`).
         ``"hermite-simpson"`` (order 4) adds the states and inputs at the
-        midpoint of every interval as variables; bounds and path constraints
-        (and a model's constraints) hold there too.
-    start_time : float
-        :math:`t_0`, s.
+        midpoint of every interval as variables, ``"lgr"``
+        (Legendre-Gauss-Radau, order 2 degree - 1) those at the degree - 1
+        interior Radau points (:mod:`kanedyn.optimization._interval`);
+        bounds and path constraints (and a model's constraints) hold there
+        too.
+    degree : int, optional
+        Only with ``method="lgr"``: the Radau points per interval (at least
+        1; default 3).
+    start_time : float, optional
+        :math:`t_0`, s (default 0).  In a :class:`MultiphaseProblem` a phase
+        after the first starts where the one before ends: leave it out
+        there, or give that time.
     constants : dict, optional
         Only with equations of motion: the constants' values.
     backend : str
@@ -154,8 +169,8 @@ class OptimalControlProblem:
 
     def __init__(self, model, *, nodes, duration, lagrange=None, mayer=None, bounds=None,
                  initial=None, final=None, instance_constraints=(), periodic=(),
-                 path_constraints=(), parameters=(), method="trapezoid", start_time=0.0,
-                 constants=None, backend="numpy"):
+                 path_constraints=(), parameters=(), auxiliary=None, method="trapezoid",
+                 degree=None, start_time=None, constants=None, backend="numpy"):
         model = self._numeric(model, constants, backend)
         reason = _derivatives_unavailable(model)
         if reason:
@@ -168,8 +183,15 @@ class OptimalControlProblem:
             raise ModelError(f"unknown collocation method {method!r}; available: "
                              f"{', '.join(COLLOCATION_METHODS)}")
         self.method = method
-        if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real):
-            raise ModelError(f"start_time must be a number, got {start_time!r}")
+        self.degree = _degree(degree, method)
+        #: whether start_time was given (a later phase of a MultiphaseProblem
+        #: starts where the one before ends)
+        self.start_time_given = start_time is not None
+        if start_time is None:
+            start_time = 0.0
+        if isinstance(start_time, bool) or not isinstance(start_time, numbers.Real) \
+                or not np.isfinite(start_time):
+            raise ModelError(f"start_time must be a finite number, got {start_time!r}")
         self.start_time = float(start_time)
         self._duration(duration)
         import sympy.physics.mechanics as me
@@ -177,12 +199,13 @@ class OptimalControlProblem:
         free = tuple(self._free_parameter(p, names) for p in parameters)
         if len(set(free)) != len(free):
             raise ModelError(f"parameters lists a constant twice: {', '.join(free)}")
+        self.free_columns = [names.index(p) for p in free]
+        self.auxiliary = self._auxiliary(auxiliary or {}, names)
         self.symbols = Symbols(
             t=me.dynamicsymbols._t, states=tuple(model.state_names),
             inputs=tuple(n.removesuffix("(t)") for n in model.input_names),
-            constants=dict(model.constants), free=free,
+            constants=dict(model.constants), free=free + tuple(self.auxiliary),
             duration=self.duration if self.free_duration else None)
-        self.free_columns = [names.index(p) for p in free]
         self._constraint_layout()
         self._bounds(bounds or {})
         self.initial = self._end_values(initial or {}, "initial")
@@ -234,6 +257,40 @@ class OptimalControlProblem:
             raise ModelError(f"parameters: {p} is not a constant of the model (its "
                              f"constants: {', '.join(names)})")
         return name
+
+    def _auxiliary(self, auxiliary, constants):
+        """``{name: starting value}`` of the auxiliary variables, checked."""
+        import sympy as sm
+        if not isinstance(auxiliary, dict):
+            raise ModelError(f"auxiliary must be a dict {{symbol: starting value}}, got "
+                             f"{type(auxiliary).__name__}")
+        m = self.model
+        taken = {"t": "the time", **{n: "a constant of the model (list it in "
+                                        "parameters= to optimize it)" for n in constants},
+                 **{n: "a state of the model" for n in m.state_names},
+                 **{n.removesuffix("(t)"): "an input of the model" for n in m.input_names}}
+        if self.free_duration:
+            taken[str(self.duration)] = "the free duration"
+        out = {}
+        for key, value in auxiliary.items():
+            if not isinstance(key, sm.Symbol):
+                raise ModelError(f"auxiliary variables are SymPy symbols, got {key!r}")
+            name = str(key)
+            if name in taken:
+                raise ModelError(f"auxiliary variable {name} is {taken[name]}")
+            if isinstance(value, bool) or not isinstance(value, (numbers.Real, np.number)) \
+                    or not np.isfinite(value):
+                raise ModelError(f"starting value of the auxiliary variable {name} must be a "
+                                 f"finite number, got {value!r}")
+            out[name] = float(value)
+        return out
+
+    def parameter_start(self):
+        """The free parameters' starting values: the model's constants, then
+        the auxiliary variables' (ndarray, the layout's order)."""
+        s = self.symbols
+        return np.array([self.auxiliary[n] if n in self.auxiliary else s.constants[n]
+                         for n in s.free], dtype=float)
 
     def _constraint_layout(self):
         m = self.model
@@ -376,8 +433,9 @@ class OptimalControlProblem:
     @property
     def n_variables(self):
         """Length of the decision vector (states and inputs at every node, the
-        free parameters, the duration when free; with Hermite-Simpson also the
-        states and inputs at the N - 1 midpoints)."""
+        free parameters, the duration when free; with Hermite-Simpson and LGR
+        also the states and inputs at the interior points of the N - 1
+        intervals)."""
         return Layout.of(self).n_variables
 
     def node_times(self, duration=None):
@@ -412,7 +470,8 @@ class OptimalControlProblem:
         return from_result(self, result, inputs)
 
     # ------------------------------------------------------------ solve
-    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False):
+    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False,
+              hessian="limited-memory"):
         """Solve the transcribed problem from ``guess``.
 
         Parameters
@@ -428,6 +487,12 @@ class OptimalControlProblem:
             "max_iter": 500}``).
         warm_start : bool
             With a previous result as ``guess``: start from its multipliers too.
+        hessian : {"limited-memory", "exact"}
+            The Hessian of the Lagrangian IPOPT uses: its limited-memory
+            quasi-Newton approximation, or the exact one (generated second
+            derivatives of the model, :mod:`kanedyn.optimization._hessian`;
+            not for path or instance constraints, free parameters, a free
+            duration, models with constraints or Hermite-Simpson).
 
         Returns
         -------
@@ -438,29 +503,37 @@ class OptimalControlProblem:
         from ._guess import vector
         from ._nlp import CollocationNLP
         from ._result import build_result
-        from ._solvers import solver_named
-        chosen = solver_named(solver)
+        from ._hessian import HESSIANS
+        from ._solvers import solve_nlp, solver_named
+        solver_named(solver)
+        if hessian not in HESSIANS:
+            raise ModelError(f"hessian={hessian!r}: give one of {', '.join(HESSIANS)}")
         x0, warm = vector(self, guess, warm_start)
-        nlp = CollocationNLP(self)
-        stop = {"signal": None}
-
-        def on_signal(signum):
-            from .._signals import Stopped
-            if stop["signal"] is not None:  # a second one: stop at once
-                raise Stopped(signum)
-            stop["signal"] = signum
-
-        from .._signals import holding
-        with holding(on_signal):
-            solution = chosen.solve(nlp, x0, options=options, warm=warm,
-                                    stop=lambda: stop["signal"] is not None)
-        return build_result(self, nlp, solution, stop["signal"])
+        nlp = CollocationNLP(self, hessian=hessian)
+        solution, signal = solve_nlp(solver, nlp, x0, options, warm)
+        return build_result(self, nlp, solution, signal)
 
     def __repr__(self):
         free = " free duration," if self.free_duration else ""
-        return (f"<OptimalControlProblem {self.method}, {self.nodes} nodes,{free} "
+        method = self.method if self.degree is None else f"{self.method} degree {self.degree}"
+        return (f"<OptimalControlProblem {method}, {self.nodes} nodes,{free} "
                 f"{len(self.symbols.states)} states, {len(self.symbols.inputs)} inputs, "
                 f"{len(self.symbols.free)} free parameters>")
+
+
+def _degree(degree, method):
+    """The LGR degree (3 unless given); ``None`` for the other methods."""
+    if method != "lgr":
+        if degree is not None:
+            raise ModelError(f"degree= is for method='lgr' (its Radau points per interval); "
+                             f"method {method!r} has none")
+        return None
+    if degree is None:
+        return 3
+    if isinstance(degree, bool) or not isinstance(degree, (int, np.integer)) or degree < 1:
+        raise ModelError(f"degree must be an integer of at least 1 (the Radau points per "
+                         f"interval of method='lgr'), got {degree!r}")
+    return int(degree)
 
 
 def _derivatives_unavailable(model):

@@ -5,7 +5,10 @@ The inputs between nodes are what the transcription assumed
 (:func:`input_functions`): backward Euler holds :math:`r_{k+1}` over
 :math:`(t_k, t_{k+1}]`, the midpoint rule :math:`(r_k + r_{k+1})/2`, the
 trapezoid interpolates linearly, Hermite-Simpson quadratically through
-:math:`r_k`, the midpoint's :math:`\bar r_k` and :math:`r_{k+1}`.
+:math:`r_k`, the midpoint's :math:`\bar r_k` and :math:`r_{k+1}`, LGR of
+degree d by the polynomial of degree d - 1 through the inputs at the
+interval's d Radau points (its interior points and :math:`r_{k+1}`) over
+:math:`(t_k, t_{k+1}]`.
 :meth:`OptimalControlResult.resimulate` integrates the model with those
 inputs by ``kd.simulate`` and reports how far the simulated states end from
 the collocated ones at the nodes.
@@ -17,31 +20,32 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._interval import lagrange_weights
 from ._solvers import IPOPT_STATUS
+from ._transcription import interval_scheme
 
-__all__ = ["OptimalControlResult", "Resimulation", "build_result", "input_functions"]
+__all__ = ["OptimalControlResult", "Resimulation", "build_result", "input_functions",
+           "status_text", "write_csv"]
 
 
 class _Held:
     """An input as the transcription saw it, a function of t (picklable).
 
-    ``mid``: the values at the midpoints (``"quadratic"`` only)."""
+    ``"polynomial"``: on :math:`(t_k, t_{k+1}]` the polynomial through
+    ``table[k]`` at the positions ``points`` (fractions of the interval)."""
 
-    def __init__(self, t, values, kind, mid=None):
+    def __init__(self, t, values, kind, points=None, table=None):
         self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
-        self.mid = None if mid is None else np.asarray(mid)
+        self.points, self.table = points, table
 
     def __call__(self, t):
         t0, tf, n = self.t[0], self.t[-1], self.t.size
         if self.kind == "linear":
             return float(np.interp(t, self.t, self.values))
         s = (t - t0) / (tf - t0) * (n - 1)
-        if self.kind == "quadratic":  # through r_k, rbar_k, r_k+1 on [t_k, t_k+1]
-            k = int(min(max(np.floor(s), 0), n - 2))
-            x = s - k
-            a, m, b = self.values[k], self.mid[k], self.values[k + 1]
-            return float(a * (1 - x) * (1 - 2 * x) + 4 * m * x * (1 - x)
-                         + b * x * (2 * x - 1))
+        if self.kind == "polynomial":
+            k = int(min(max(np.ceil(s - 1e-12) - 1, 0), n - 2))
+            return float(self.table[k] @ lagrange_weights(self.points, s - k)[0])
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
@@ -49,16 +53,23 @@ class _Held:
         return float(0.5 * (self.values[k] + self.values[k + 1]))
 
 
-_HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear",
-         "hermite-simpson": "quadratic"}
+_HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"}
 
 
-def input_functions(method, t, r, names, r_mid=None):
+def input_functions(method, t, r, names, r_mid=None, degree=None):
     """``{input name: f(t)}`` of the inputs as collocated by ``method``
-    (``r_mid``: the inputs at the midpoints, for Hermite-Simpson)."""
-    mids = r_mid if r_mid is not None else [None] * len(names)
-    return {name: _Held(t, row, _HOLD[method], mid)
-            for name, row, mid in zip(names, r, mids)}
+    (``r_mid``: the inputs at the interior points, (n_inputs, (N - 1) m),
+    for Hermite-Simpson and LGR)."""
+    scheme = interval_scheme(method, degree)
+    if scheme is None:
+        return {name: _Held(t, row, _HOLD[method]) for name, row in zip(names, r)}
+    m = len(scheme.interior)
+    out = {}
+    for name, row, inner in zip(names, r, r_mid if m else [()] * len(names)):
+        every = np.column_stack([row[:-1], np.reshape(inner, (t.size - 1, m)), row[1:]])
+        g = list(scheme.input_positions)
+        out[name] = _Held(t, row, "polynomial", np.array(scheme.positions)[g], every[:, g])
+    return out
 
 
 @dataclass(frozen=True)
@@ -96,7 +107,7 @@ class OptimalControlResult:
         Inputs at the nodes.
     state_names, input_names : tuple of str
     parameters : dict
-        ``{name: value}`` of the free parameters.
+        ``{name: value}`` of the free parameters and the auxiliary variables.
     duration : float
         s.
     objective : float
@@ -112,6 +123,8 @@ class OptimalControlResult:
     wall_time : float
         Seconds in the solver.
     method : str
+    degree : int or None
+        LGR's degree.
     solver : str
     x : ndarray
         The decision vector.
@@ -119,8 +132,10 @@ class OptimalControlResult:
         For a warm start.
     problem : OptimalControlProblem
     t_mid, y_mid, r_mid : ndarray or None
-        Hermite-Simpson only: the midpoints' times (N - 1,), states
-        (n_states, N - 1) and inputs (n_inputs, N - 1); ``None`` otherwise.
+        Hermite-Simpson and LGR: the interior points' times ((N - 1) m,),
+        states (n_states, (N - 1) m) and inputs (n_inputs, (N - 1) m), interval
+        by interval (the midpoints, m = 1; LGR's interior Radau points, m =
+        degree - 1); ``None`` otherwise.
     """
 
     t: np.ndarray
@@ -145,6 +160,7 @@ class OptimalControlResult:
     t_mid: np.ndarray = None
     y_mid: np.ndarray = None
     r_mid: np.ndarray = None
+    degree: int = None
 
     def __getitem__(self, key):
         """A state's or an input's values at the nodes, by name or dynamic symbol."""
@@ -160,13 +176,16 @@ class OptimalControlResult:
     def inputs(self):
         """``{input name: f(t)}``: the inputs between the nodes as the
         transcription assumed them."""
-        return input_functions(self.method, self.t, self.r, self.input_names, self.r_mid)
+        return input_functions(self.method, self.t, self.r, self.input_names, self.r_mid,
+                               self.degree)
 
     def model(self):
         """The numerical model with the optimal free parameters and inputs."""
         model = self.problem.model
-        if self.parameters:
-            model = model.with_constants(self.parameters)
+        constants = {k: v for k, v in self.parameters.items()
+                     if k not in self.problem.auxiliary}
+        if constants:
+            model = model.with_constants(constants)
         return model.with_inputs(self.inputs()) if self.input_names else model
 
     @property
@@ -180,11 +199,7 @@ class OptimalControlResult:
             {"nfev": 0, "njev": 0, "nlu": 0}, 0, self.y[:, 0].copy(), False,
             f"collocation ({self.method})")
 
-    def table(self):
-        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
-        ``point`` (``node``, or ``midpoint`` for Hermite-Simpson's midpoints,
-        in time order with the nodes), every state, every input (SI units of
-        the model); one row per point."""
+    def _ordered(self):
         t, y, r = self.t, self.y, self.r
         kind = np.zeros(t.size, dtype=int)
         if self.t_mid is not None:
@@ -194,25 +209,30 @@ class OptimalControlResult:
             kind = np.concatenate([kind, np.ones(self.t_mid.size, dtype=int)])
             order = np.argsort(t, kind="stable")
             t, y, r, kind = t[order], y[:, order], r[:, order], kind[order]
+        return t, y, r, kind
+
+    def points(self):
+        """``(t, y, r)`` at every collocation point in time order: the nodes
+        and the interior points (Hermite-Simpson's midpoints, LGR's interior
+        Radau points); shapes (K,), (n_states, K), (n_inputs, K)."""
+        return self._ordered()[:3]
+
+    def table(self):
+        """``(columns, rows)`` of the collocated trajectory: ``t`` (s),
+        ``point`` (``node``, ``midpoint`` for Hermite-Simpson's midpoints or
+        ``interior`` for LGR's interior points, in time order with the nodes),
+        every state, every input (SI units of the model); one row per point."""
+        t, y, r, kind = self._ordered()
         columns = ("t", "point", *self.state_names, *self.input_names)
-        rows = [(float(t[j]), ("node", "midpoint")[kind[j]], *map(float, y[:, j]),
+        scheme = interval_scheme(self.method, self.degree)
+        labels = ("node", scheme.label if scheme else None)
+        rows = [(float(t[j]), labels[kind[j]], *map(float, y[:, j]),
                  *map(float, r[:, j])) for j in range(t.size)]
         return columns, rows
 
     def to_csv(self, path):
         """Write :meth:`table` as CSV (numbers as ``repr``); returns the path."""
-        import csv
-        from pathlib import Path
-
-        from .._output_files import replacing
-        columns, rows = self.table()
-        path = Path(path)
-        with replacing(path, newline="") as handle:
-            writer = csv.writer(handle)
-            writer.writerow(columns)
-            for row in rows:
-                writer.writerow([v if isinstance(v, str) else repr(v) for v in row])
-        return path
+        return write_csv(path, *self.table())
 
     def plot(self, states=None, path=None, title=None):
         """Plot the collocated states (``SimulationResult.plot``); returns the Figure."""
@@ -251,13 +271,25 @@ class OptimalControlResult:
                 f"{self.message}>")
 
 
-def build_result(problem, nlp, solution, interrupted):
+def write_csv(path, columns, rows):
+    """Write a table as CSV (numbers as ``repr``, text as it is); returns the path."""
+    import csv
+    from pathlib import Path
+
+    from .._output_files import replacing
+    path = Path(path)
+    with replacing(path, newline="") as handle:
+        writer = csv.writer(handle)
+        writer.writerow(columns)
+        for row in rows:
+            writer.writerow([v if isinstance(v, str) else repr(v) for v in row])
+    return path
+
+
+def status_text(solution, interrupted, violation):
+    """The result's message: the solver's status and its meaning, an
+    interruption, the largest violation."""
     from .._signals import interruption
-    L = nlp.layout
-    Y, R, P, T = L.split(solution.x, problem.duration_value)
-    Ym, Rm = L.split_midpoints(solution.x)
-    violation = nlp.violation(solution.x)
-    objective = nlp.objective(solution.x)
     meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
     text = f"{solution.solver}: {solution.status_text} (status {solution.status}"
     text += f": {meaning})" if meaning else ")"
@@ -266,10 +298,30 @@ def build_result(problem, nlp, solution, interrupted):
                 f"iterate is returned; " + text)
     text += (f" after {solution.iterations} iterations; largest constraint violation "
              f"{violation:.2e}")
-    t = problem.start_time + float(T) * np.linspace(0.0, 1.0, problem.nodes)
+    return text
+
+
+def build_result(problem, nlp, solution, interrupted, x=None, violation=None):
+    """The :class:`OptimalControlResult` of ``problem`` from the solver's
+    ``solution``; ``x``, ``violation``: a phase's part of a multiphase
+    solution and the whole problem's violation (default: the solution's)."""
+    L = nlp.layout
+    x = solution.x if x is None else x
+    Y, R, P, T = L.split(x, problem.duration_value)
+    Yi, Ri = L.split_interior(x)
+    t0 = float(L.start_time(x, nlp.start_time))
+    violation = nlp.violation(x) if violation is None else violation
+    objective = float(nlp.objective(x))
+    text = status_text(solution, interrupted, violation)
+    positions = float(T) * L.positions()
+    t = t0 + positions[:L.nodes]
     mid = {}
-    if Ym is not None:
-        mid = dict(t_mid=0.5 * (t[:-1] + t[1:]), y_mid=Ym.T.copy(), r_mid=Rm.T.copy())
+    if L.n_interior:
+        mid = dict(t_mid=t0 + positions[L.nodes:], y_mid=Yi.T.copy(), r_mid=Ri.T.copy())
+    multipliers = solution.multipliers
+    if x is not solution.x:  # a phase: its own vector, no multipliers of its own
+        x = x[:L.n_variables - int(L.free_start_time)]
+        multipliers = {key: None for key in multipliers}
     return OptimalControlResult(
         t=t, y=Y.T.copy(), r=R.T.copy(), state_names=problem.symbols.states,
         input_names=problem.symbols.inputs,
@@ -277,5 +329,5 @@ def build_result(problem, nlp, solution, interrupted):
         objective=objective, constraint_violation=violation,
         success=solution.status in (0, 1) and interrupted is None, status=solution.status,
         message=text, iterations=solution.iterations, wall_time=solution.wall_time,
-        method=problem.method, solver=solution.solver, x=solution.x,
-        multipliers=solution.multipliers, problem=problem, **mid)
+        method=problem.method, solver=solution.solver, x=x,
+        multipliers=multipliers, problem=problem, degree=problem.degree, **mid)

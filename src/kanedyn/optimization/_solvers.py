@@ -13,8 +13,9 @@ IPOPT through cyipopt was chosen by measurement (``docs/benchmarks.md``,
 its values per call; CasADi's IPOPT reached through ``casadi.Callback`` took
 time growing as N^3 (194 s at 3,000 variables against 0.12 s).  The Hessian
 of the Lagrangian is IPOPT's limited-memory quasi-Newton approximation
-(``hessian_approximation = "limited-memory"``): no second derivatives are
-generated.
+(``hessian_approximation = "limited-memory"``) unless the NLP has an exact
+one (``nlp.exact_hessian``, ``solve(hessian="exact")``): then
+``hessian_structure()`` and ``hessian(x, multipliers, objective_factor)``.
 """
 
 from __future__ import annotations
@@ -26,7 +27,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "IPOPT_STATUS"]
+__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
 
 #: IPOPT's return codes and what they mean for the user
 IPOPT_STATUS = {
@@ -128,10 +129,21 @@ class Ipopt:
                 count[0] = int(iter_count)
                 return not stop()
 
+        exact = getattr(nlp, "exact_hessian", None) is not None
+        if exact:
+            Callbacks.hessianstructure = lambda self: nlp.hessian_structure()
+            Callbacks.hessian = staticmethod(nlp.hessian)
+
         problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(),
                                   lb=nlp.x_lower, ub=nlp.x_upper,
                                   cl=nlp.g_lower, cu=nlp.g_upper)
         merged = dict(self.DEFAULTS, **(options or {}))
+        if exact:
+            if (options or {}).get("hessian_approximation", "exact") != "exact":
+                raise ValueError('hessian="exact" and the IPOPT option '
+                                 f'hessian_approximation={options["hessian_approximation"]!r} '
+                                 'contradict each other; give one')
+            merged["hessian_approximation"] = "exact"
         if warm is not None:
             merged.setdefault("warm_start_init_point", "yes")
         for key, value in merged.items():
@@ -178,3 +190,22 @@ def solver_named(solver):
         raise ModelError(f"solver must be a name ({', '.join(SOLVERS)}) or an object with "
                          f"solve(nlp, x0, options, warm, stop), not {solver!r}")
     return solver
+
+
+def solve_nlp(solver, nlp, x0, options, warm):
+    """``(NLPSolution, signal)``: ``nlp`` solved from ``x0`` by ``solver`` (a
+    name or an object), a Ctrl-C (SIGINT) or SIGTERM stopping it at the next
+    iteration (``signal``: its number, else ``None``) and a second one at once."""
+    from .._signals import Stopped, holding
+    chosen = solver_named(solver)
+    stop = {"signal": None}
+
+    def on_signal(signum):
+        if stop["signal"] is not None:  # a second one: stop at once
+            raise Stopped(signum)
+        stop["signal"] = signum
+
+    with holding(on_signal):
+        solution = chosen.solve(nlp, x0, options=options, warm=warm,
+                                stop=lambda: stop["signal"] is not None)
+    return solution, stop["signal"]

@@ -31,25 +31,9 @@ rectangles at the right ends; trapezoid; midpoint), so the discrete problem
 is consistent.  ``midpoint`` is opty's ``"midpoint"``, ``backward-euler``
 its ``"backward euler"``.
 
-``hermite-simpson`` (order 4) is the separated form (Betts, *Practical
-Methods for Optimal Control*, 2nd ed., sec. 4.6.4): the states and inputs at
-the midpoint of each interval, :math:`\bar y_k, \bar r_k`, are decision
-variables too (after everything else in :math:`z`), and each interval has
-two groups of rows,
-
-.. math::
-
-    y_{k+1} - y_k - \tfrac{h}{6}\,(f_k + 4\bar f_k + f_{k+1}) = 0
-    \quad\text{(Simpson)},\qquad
-    \bar y_k - \tfrac12 (y_k + y_{k+1}) - \tfrac{h}{8}\,(f_k - f_{k+1}) = 0
-    \quad\text{(Hermite)},
-
-with :math:`\bar f_k = f(t_k + h/2, \bar y_k, \bar r_k, p)`.  Every point
-(nodes and midpoints) is independent of the others, so ``model.jacobians``
-is called once on all 2N - 1 of them and each row's derivatives are those
-values times constants: no products of Jacobians, as the compressed form
-(midpoints eliminated, :math:`\bar y` a function of both nodes) needs.
-The objective's integral is Simpson's rule on the same points.
+``hermite-simpson`` and ``lgr`` (Legendre-Gauss-Radau of a chosen degree)
+collocate on points inside each interval that are decision variables too:
+see :mod:`._interval`.
 
 The exact derivatives of :math:`f` come from ``model.jacobians`` at all
 stage points in one call; the constraint Jacobian is assembled from them in
@@ -63,7 +47,7 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = ["METHODS", "COLLOCATION_METHODS", "ORDERS", "Stage", "Layout", "Defects",
-           "HermiteSimpsonDefects", "defects_for", "MIDPOINT_METHODS"]
+           "defects_for", "INTERVAL_METHODS", "interval_scheme"]
 
 
 @dataclass(frozen=True)
@@ -95,21 +79,35 @@ METHODS = {
     "midpoint": (Stage((0.5, 0.5), 1.0),),
 }
 
-#: methods whose midpoint states and inputs are decision variables
-#: (:class:`HermiteSimpsonDefects`)
-MIDPOINT_METHODS = ("hermite-simpson",)
+#: methods whose points inside each interval are decision variables
+#: (:mod:`._interval`); ``lgr`` takes a degree
+INTERVAL_METHODS = ("hermite-simpson", "lgr")
 
 #: the names of the collocation methods (``method=``)
-COLLOCATION_METHODS = tuple(METHODS) + MIDPOINT_METHODS
+COLLOCATION_METHODS = tuple(METHODS) + INTERVAL_METHODS
 
-#: the order of accuracy of each method's states
+#: the order of accuracy of each method's states at the nodes (``lgr``:
+#: 2 degree - 1)
 ORDERS = {"backward-euler": 1, "trapezoid": 2, "midpoint": 2, "hermite-simpson": 4}
 
 
-def defects_for(method, layout, rows):
-    """The defect rows of ``method`` on ``layout`` (see :class:`Defects`)."""
-    if method in MIDPOINT_METHODS:
-        return HermiteSimpsonDefects(layout, rows)
+def interval_scheme(method, degree=None):
+    """The :class:`._interval.IntervalScheme` of an interval method, else ``None``."""
+    from ._interval import hermite_simpson, lgr
+    if method == "hermite-simpson":
+        return hermite_simpson()
+    if method == "lgr":
+        return lgr(degree)
+    return None
+
+
+def defects_for(method, layout, rows, degree=None):
+    """The defect rows of ``method`` on ``layout`` (see :class:`Defects` and
+    :class:`._interval.IntervalDefects`)."""
+    scheme = interval_scheme(method, degree)
+    if scheme is not None:
+        from ._interval import IntervalDefects
+        return IntervalDefects(scheme, layout, rows)
     return Defects(method, layout, rows)
 
 
@@ -123,10 +121,15 @@ class Layout:
         N.
     n_states, n_inputs, n_free : int
     free_duration : bool
-    midpoints : bool
-        The states and inputs at the N - 1 midpoints are variables too
-        (Hermite-Simpson), after the duration: ``[..., T, ybar_0, ...,
-        ybar_{N-2}, rbar_0, ..., rbar_{N-2}]``.
+    interior : tuple of float
+        Positions (fractions of an interval) of the m points inside every
+        interval whose states and inputs are variables too (Hermite-Simpson's
+        midpoint, LGR's interior Radau points), after the duration:
+        ``[..., T, ybar_(0,1), ..., ybar_(0,m), ybar_(1,1), ..., rbar_(0,1),
+        ...]``, interval by interval.
+    free_start_time : bool
+        The start time is a variable, the vector's last entry (a phase that
+        follows a free duration, :mod:`._multiphase`).
     """
 
     nodes: int
@@ -134,41 +137,59 @@ class Layout:
     n_inputs: int
     n_free: int
     free_duration: bool
-    midpoints: bool = False
+    interior: tuple = ()
+    free_start_time: bool = False
 
     @classmethod
-    def of(cls, problem):
+    def of(cls, problem, free_start_time=False):
         """The layout of an :class:`OptimalControlProblem`."""
         s = problem.symbols
+        scheme = interval_scheme(problem.method, problem.degree)
         return cls(problem.nodes, len(s.states), len(s.inputs), len(s.free),
-                   problem.free_duration, problem.method in MIDPOINT_METHODS)
+                   problem.free_duration, scheme.interior if scheme else (),
+                   free_start_time)
+
+    @property
+    def n_interior(self):
+        """Interior points in all: (N - 1) m."""
+        return (self.nodes - 1) * len(self.interior)
 
     @property
     def n_points(self):
-        """Points that carry states and inputs: the nodes, then the midpoints."""
-        return 2 * self.nodes - 1 if self.midpoints else self.nodes
+        """Points that carry states and inputs: the nodes, then the interior points."""
+        return self.nodes + self.n_interior
 
     @property
-    def mid_start(self):
-        """Index of the first midpoint state (the end of the vector without them)."""
+    def interior_start(self):
+        """Index of the first interior state."""
         return self.free_start + self.n_free + int(self.free_duration)
+
+    @property
+    def start_index(self):
+        """Index of the start time when it is a variable (the last entry)."""
+        return self.n_variables - 1 if self.free_start_time else None
 
     @property
     def n_variables(self):
         return self.n_points * (self.n_states + self.n_inputs) + self.n_free \
-            + int(self.free_duration)
+            + int(self.free_duration) + int(self.free_start_time)
+
+    def positions(self):
+        """Where each point lies, as a fraction of the duration: the nodes,
+        then the interior points."""
+        N = self.nodes
+        inner = (np.arange(N - 1)[:, None] + np.asarray(self.interior)[None, :]).ravel()
+        return np.concatenate([np.arange(N), inner]) / (N - 1)
 
     def point_columns(self):
         """``(state columns (n_points, n_states), input columns (n_points,
         n_inputs))`` of every point, nodes first."""
         N, ns, nr = self.nodes, self.n_states, self.n_inputs
         node = np.arange(N)[:, None]
-        ys = [node * ns + np.arange(ns)]
-        rs = [self.input_start + node * nr + np.arange(nr)]
-        if self.midpoints:
-            mid = np.arange(N - 1)[:, None]
-            ys.append(self.mid_start + mid * ns + np.arange(ns))
-            rs.append(self.mid_start + (N - 1) * ns + mid * nr + np.arange(nr))
+        inner = np.arange(self.n_interior)[:, None]
+        ys = [node * ns + np.arange(ns), self.interior_start + inner * ns + np.arange(ns)]
+        rs = [self.input_start + node * nr + np.arange(nr),
+              self.interior_start + self.n_interior * ns + inner * nr + np.arange(nr)]
         return np.concatenate(ys), np.concatenate(rs)
 
     @property
@@ -186,6 +207,19 @@ class Layout:
     def state_index(self, k, j):
         return k * self.n_states + j
 
+    def shared_blocks(self):
+        """The column groups every row of the dynamics may depend on besides
+        its points: ``"p"`` (the free parameters), ``"T"`` (a free
+        duration), ``"t0"`` (a start time that is a variable)."""
+        return [block for block, present in (("p", self.n_free), ("T", self.free_duration),
+                                             ("t0", self.free_start_time)) if present]
+
+    def shared_columns(self, block):
+        """The columns of a :meth:`shared_blocks` group, shape (1, 1, k)."""
+        if block == "p":
+            return self.free_start + np.arange(self.n_free)[None, None, :]
+        return np.full((1, 1, 1), self.duration_index if block == "T" else self.start_index)
+
     def input_index(self, k, j):
         return self.input_start + k * self.n_inputs + j
 
@@ -198,26 +232,33 @@ class Layout:
         T = z[self.duration_index] if self.free_duration else duration
         return Y, R, P, T
 
-    def split_midpoints(self, z):
-        """``(Ybar (N - 1, n_states), Rbar (N - 1, n_inputs))``, or ``(None, None)``."""
-        if not self.midpoints:
-            return None, None
-        N, ns, nr = self.nodes, self.n_states, self.n_inputs
-        start = self.mid_start
-        Ym = z[start:start + (N - 1) * ns].reshape(N - 1, ns)
-        Rm = z[start + (N - 1) * ns:start + (N - 1) * (ns + nr)].reshape(N - 1, nr)
-        return Ym, Rm
+    def split_interior(self, z):
+        """``(Yi ((N - 1) m, n_states), Ri ((N - 1) m, n_inputs))`` (empty
+        without interior points)."""
+        K, ns, nr = self.n_interior, self.n_states, self.n_inputs
+        start = self.interior_start
+        Yi = z[start:start + K * ns].reshape(K, ns)
+        Ri = z[start + K * ns:start + K * (ns + nr)].reshape(K, nr)
+        return Yi, Ri
 
-    def join(self, Y, R, P, T, Ym=None, Rm=None):
-        """The decision vector; the midpoints (when the layout has them) are
-        required."""
+    def start_time(self, z, fixed):
+        """The start time: the variable when the layout has it, else ``fixed``."""
+        return z[self.start_index] if self.free_start_time else fixed
+
+    def join(self, Y, R, P, T, Yi=None, Ri=None, t0=None):
+        """The decision vector; the interior points (when the layout has
+        them) and the start time (when it is a variable) are required."""
         parts = [np.ravel(Y), np.ravel(R), np.ravel(P)]
         if self.free_duration:
             parts.append([T])
-        if self.midpoints:
-            if Ym is None or Rm is None:
-                raise ValueError("this layout needs the midpoint states and inputs")
-            parts += [np.ravel(Ym), np.ravel(Rm)]
+        if self.n_interior:
+            if Yi is None or Ri is None:
+                raise ValueError("this layout needs the interior points' states and inputs")
+            parts += [np.ravel(Yi), np.ravel(Ri)]
+        if self.free_start_time:
+            if t0 is None:
+                raise ValueError("this layout needs the start time")
+            parts.append([t0])
         return np.concatenate(parts).astype(float)
 
 
@@ -236,13 +277,17 @@ class Defects:
         self.structure = self._structure()
 
     @property
+    def n_rows(self):
+        return (self.layout.nodes - 1) * len(self.rows)
+
+    @property
     def point_group(self):
         """The index of the evaluation group that holds every point of the
         layout (its nodes), or ``None``."""
         return 0 if any(s.node is not None for s in self.stages) else None
 
     # the stage points ---------------------------------------------------
-    def points(self, t0, h, Y, R, Ym=None, Rm=None):
+    def points(self, t0, h, Y, R, Yi=None, Ri=None):
         """``[(t, Y, R)]`` of the distinct evaluation groups: all nodes (when
         some stage is a node), then each interior stage's points."""
         groups = []
@@ -271,8 +316,8 @@ class Defects:
         return out
 
     # values ------------------------------------------------------------
-    def values(self, Y, h, evaluated, Ym=None):
-        """Defects, shape ((N - 1) * n_rows,)."""
+    def values(self, Y, h, evaluated, Yi=None, R=None, Ri=None):
+        """Defects, shape ((N - 1) * len(rows),)."""
         rows = self.rows
         E = Y[1:, rows] - Y[:-1, rows]
         for s, (f, *_) in zip(self.stages, self._stage_values(evaluated)):
@@ -281,17 +326,13 @@ class Defects:
 
     def _blocks(self):
         """The column groups of each interval's rows: ``("y", o)``, ``("r",
-        o)``, ``"p"``, ``"T"``."""
+        o)``, ``"p"``, ``"T"``, ``"t0"``."""
         L = self.layout
         offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
         blocks = [("y", o) for o in offsets]
         if L.n_inputs:
             blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
-        if L.n_free:
-            blocks.append("p")
-        if L.free_duration:
-            blocks.append("T")
-        return blocks
+        return blocks + L.shared_blocks()
 
     def _structure(self):
         L = self.layout
@@ -300,10 +341,8 @@ class Defects:
         i = np.arange(nd)[None, :, None]
         rows, cols = [], []
         for block in self._blocks():
-            if block == "p":
-                c = L.free_start + np.arange(L.n_free)[None, None, :]
-            elif block == "T":
-                c = np.full((1, 1, 1), L.duration_index)
+            if isinstance(block, str):
+                c = L.shared_columns(block)
             elif block[0] == "y":
                 c = (k + block[1]) * L.n_states + np.arange(L.n_states)[None, None, :]
             else:
@@ -319,7 +358,7 @@ class Defects:
 
         ``evaluated``: per group ``(f, A, B, Pf)`` (Pf: the free parameters'
         columns, or None); ``time_rates``: per group :math:`\\partial
-        f/\\partial t` (free duration) or ``None``.
+        f/\\partial t` (free duration or start time) or ``None``.
         """
         L = self.layout
         N, rows = L.nodes, self.rows
@@ -340,6 +379,9 @@ class Defects:
                     if rates is not None:
                         position = (np.arange(N - 1) + s.position) * dh
                         v = v - h * s.c * rates[j][0][:, rows] * position[:, None]
+                v = v[:, :, None]
+            elif block == "t0":
+                v = sum(-h * s.c * rates[j][0][:, rows] for j, s in enumerate(self.stages))
                 v = v[:, :, None]
             elif block[0] == "y":
                 o = block[1]
@@ -363,12 +405,13 @@ class Defects:
         return sum(h * s.c * float(np.sum(term[0])) for s, term in zip(self.stages, stages))
 
     def quadrature_gradient(self, h, evaluated_terms):
-        """The gradient of :meth:`quadrature`: ``(gY, gR, gYbar, gRbar, gP,
-        gT)`` (no midpoints here: ``gYbar = gRbar = None``)."""
+        """The gradient of :meth:`quadrature`: ``(gY, gR, gYi, gRi, gP, gT,
+        gt0)`` (no interior points here: ``gYi = gRi = None``; ``gt0`` the
+        start time's)."""
         L = self.layout
         N = L.nodes
         gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
-        gP, gT = np.zeros(L.n_free), 0.0
+        gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
         for stage, (value, d_t, d_y, d_r, d_p, d_T) in zip(
                 self.stages, self._stage_values(evaluated_terms)):
             w = h * stage.c
@@ -380,173 +423,5 @@ class Defects:
             gP += w * d_p.sum(axis=0)
             position = (np.arange(N - 1) + stage.position) / (N - 1)
             gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) + w * d_T.sum()
-        return gY, gR, None, None, gP, gT
-
-
-class HermiteSimpsonDefects:
-    r"""The separated Hermite-Simpson rows (see the module's text), on a
-    layout with midpoints.
-
-    Rows, interval by interval: the Simpson rows, then the Hermite rows, each
-    over :attr:`rows`.  Each is :math:`\sum_g a_g\, x_g + h \sum_g c_g\,
-    f(x_g)` over the interval's three points :math:`g` (left node, midpoint,
-    right node), with the coefficients of :data:`KINDS`.
-    """
-
-    #: (name, {point: coefficient of the state}, {point: coefficient of h f})
-    KINDS = (("simpson", {"left": -1.0, "mid": 0.0, "right": 1.0},
-              {"left": -1 / 6, "mid": -4 / 6, "right": -1 / 6}),
-             ("hermite", {"left": -0.5, "mid": 1.0, "right": -0.5},
-              {"left": -1 / 8, "mid": 0.0, "right": 1 / 8}))
-    #: Simpson's weights of the objective's integral, times h
-    WEIGHTS = {"left": 1 / 6, "mid": 4 / 6, "right": 1 / 6}
-    #: where each point lies in its interval, in units of h
-    POSITION = {"left": 0.0, "mid": 0.5, "right": 1.0}
-
-    point_group = 0
-
-    def __init__(self, layout, rows):
-        if not layout.midpoints:
-            raise ValueError("Hermite-Simpson needs a layout with midpoints")
-        self.layout = layout
-        self.rows = np.asarray(rows, dtype=int)
-        self.structure = self._structure()
-
-    def points(self, t0, h, Y, R, Ym, Rm):
-        """One evaluation group: the N nodes, then the N - 1 midpoints."""
-        N = self.layout.nodes
-        t = np.concatenate([t0 + h * np.arange(N), t0 + h * (np.arange(N - 1) + 0.5)])
-        return [(t, np.concatenate([Y, Ym]), np.concatenate([R, Rm]))]
-
-    def _at(self, array):
-        """``{point: array rows of the N - 1 intervals}`` of an array over all points."""
-        N = self.layout.nodes
-        return {"left": array[:N - 1], "mid": array[N:], "right": array[1:N]}
-
-    def values(self, Y, h, evaluated, Ym):
-        rows = self.rows
-        f = self._at(evaluated[0][0])
-        y = {"left": Y[:-1], "mid": Ym, "right": Y[1:]}
-        out = []
-        for _, a, c in self.KINDS:
-            E = sum(a[g] * y[g][:, rows] for g in a if a[g])
-            out.append(E + h * sum(c[g] * f[g][:, rows] for g in c if c[g]))
-        return np.stack(out, axis=1).ravel()
-
-    def _blocks(self, kind):
-        """The column groups of one kind of rows: ``("y", point)`` (dense),
-        ``("eye", point)`` (the row's own state only), ``("r", point)``, ``"p"``,
-        ``"T"``."""
-        _, a, c = kind
-        L = self.layout
-        blocks = []
-        for g in ("left", "mid", "right"):
-            if c[g]:
-                blocks.append(("y", g))
-            elif a[g]:
-                blocks.append(("eye", g))
-        if L.n_inputs:
-            blocks += [("r", g) for g in ("left", "mid", "right") if c[g]]
-        if L.n_free:
-            blocks.append("p")
-        if L.free_duration:
-            blocks.append("T")
-        return blocks
-
-    def _columns(self, block):
-        L = self.layout
-        N, ns, nr, nd = L.nodes, L.n_states, L.n_inputs, len(self.rows)
-        k = np.arange(N - 1)[:, None, None]
-        if block == "p":
-            return L.free_start + np.arange(L.n_free)[None, None, :]
-        if block == "T":
-            return np.full((1, 1, 1), L.duration_index)
-        what, g = block
-        if what == "eye":
-            start = (L.mid_start + k * ns if g == "mid"
-                     else (k + (g == "right")) * ns)
-            return start + self.rows.reshape(1, nd, 1)
-        if what == "y":
-            if g == "mid":
-                return L.mid_start + k * ns + np.arange(ns)[None, None, :]
-            return (k + (g == "right")) * ns + np.arange(ns)[None, None, :]
-        if g == "mid":
-            return L.mid_start + (N - 1) * ns + k * nr + np.arange(nr)[None, None, :]
-        return L.input_start + (k + (g == "right")) * nr + np.arange(nr)[None, None, :]
-
-    def _structure(self):
-        N, nd = self.layout.nodes, len(self.rows)
-        k = np.arange(N - 1)[:, None, None]
-        i = np.arange(nd)[None, :, None]
-        rows, cols = [], []
-        for j, kind in enumerate(self.KINDS):
-            for block in self._blocks(kind):
-                c = self._columns(block)
-                shape = (N - 1, nd, c.shape[2])
-                rows.append(np.broadcast_to(k * 2 * nd + j * nd + i, shape).ravel())
-                cols.append(np.broadcast_to(c, shape).ravel())
-        return np.concatenate(rows), np.concatenate(cols)
-
-    def jacobian(self, h, T, evaluated, time_rates):
-        """Values in the order of :attr:`structure` (arguments as
-        :meth:`Defects.jacobian`)."""
-        L = self.layout
-        N, ns, rows = L.nodes, L.n_states, self.rows
-        nd = len(rows)
-        f, A, B, Pf = evaluated[0][:4]
-        f, A, B = self._at(f), self._at(A), self._at(B)
-        Pf = self._at(Pf) if L.n_free else None
-        rate = self._at(time_rates[0]) if time_rates else None
-        dh = 1.0 / (N - 1)
-        eye = np.zeros((nd, ns))
-        eye[np.arange(nd), rows] = 1.0
-        values = []
-        for kind in self.KINDS:
-            _, a, c = kind
-            for block in self._blocks(kind):
-                if block == "p":
-                    v = sum(h * c[g] * Pf[g][:, rows] for g in c if c[g])
-                elif block == "T":
-                    v = 0.0
-                    for g in c:
-                        if c[g]:
-                            v = v + dh * c[g] * f[g][:, rows]
-                            if rate is not None:
-                                position = (np.arange(N - 1) + self.POSITION[g]) * dh
-                                v = v + h * c[g] * rate[g][:, rows] * position[:, None]
-                    v = v[:, :, None]
-                elif block[0] == "eye":
-                    v = np.full((N - 1, nd, 1), a[block[1]])
-                elif block[0] == "y":
-                    g = block[1]
-                    v = a[g] * eye + h * c[g] * A[g][:, rows]
-                else:
-                    g = block[1]
-                    v = h * c[g] * B[g][:, rows]
-                values.append(np.ravel(v))
-        return np.concatenate(values)
-
-    def quadrature(self, h, evaluated_terms):
-        """Simpson's rule, :math:`\\tfrac{h}{6} \\sum_k (L_k + 4\\bar L_k + L_{k+1})`."""
-        value = self._at(evaluated_terms[0][0])
-        return h * sum(w * float(np.sum(value[g])) for g, w in self.WEIGHTS.items())
-
-    def quadrature_gradient(self, h, evaluated_terms):
-        """``(gY, gR, gYbar, gRbar, gP, gT)`` of :meth:`quadrature`."""
-        L = self.layout
-        N = L.nodes
-        value, d_t, d_y, d_r, d_p, d_T = (self._at(a) for a in evaluated_terms[0])
-        gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
-        gP, gT = np.zeros(L.n_free), 0.0
-        for g, w in self.WEIGHTS.items():
-            if g == "mid":
-                gYm, gRm = h * w * d_y[g], h * w * d_r[g]
-            else:
-                o = int(g == "right")
-                gY[o:o + N - 1] += h * w * d_y[g]
-                gR[o:o + N - 1] += h * w * d_r[g]
-            gP += h * w * d_p[g].sum(axis=0)
-            position = (np.arange(N - 1) + self.POSITION[g]) / (N - 1)
-            gT += w / (N - 1) * value[g].sum() + h * w * (np.sum(d_t[g] * position)
-                                                        + d_T[g].sum())
-        return gY, gR, gYm, gRm, gP, gT
+            gt0 += w * np.sum(d_t)
+        return gY, gR, None, None, gP, gT, gt0

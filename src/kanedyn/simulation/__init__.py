@@ -12,6 +12,8 @@
 ``_results``     ``SimulationResult``
 ``_sweep``       ``sweep``: many runs over a parameter grid or samples, on Dask
 ``_ensemble``    ``simulate_many``: many runs of a compiled model at once, in C threads
+``_events``      ``Event``: events given as SymPy expressions, for ``simulate`` (as
+                 Python functions) and ``simulate_many`` (compiled to C)
 ``_sensitivity`` ``sensitivity``: a run with the derivatives of its states with
                  respect to the initial state and the constants
 """
@@ -32,6 +34,7 @@ _LAZY = {
     "sweep": "._sweep",
     "simulate_many": "._ensemble",
     "EnsembleResult": "._ensemble",
+    "Event": "._events",
     "SweepInterrupted": "._sweep",
     "SWEEP_OUTPUTS": "._sweep",
     "check_scheduler": "._sweep",

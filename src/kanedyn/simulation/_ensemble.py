@@ -5,9 +5,11 @@ record sampled on a time grid shared by all and interpolated linearly); all
 run the compiled loop's RK45 (``Model.integrate_many`` of the C module: the
 same steps and numbers as ``kd.simulate(..., method="RK45")`` on the compiled
 loop) on POSIX threads, Python's lock released, and the outputs at ``t_eval``
-come back as one array.  What a run of ``kd.simulate`` does in Python per
-step (events, inputs that are Python functions, the energy sampling, the
-search for singular configurations) is not available here: the checks say so.
+come back as one array.  Events are SymPy expressions (:class:`~._events.Event`),
+compiled into one C function the threads evaluate, located as the compiled loop
+locates them.  What a run of ``kd.simulate`` does in Python per step (events and
+inputs that are Python functions, the energy sampling, the search for singular
+configurations) is not available here: the checks say so.
 """
 
 from __future__ import annotations
@@ -22,12 +24,13 @@ import numpy as np
 from .._errors import ModelError, OptionError, SimulationInterrupted
 from .._output_files import replacing
 from .._signals import end_by_signal_if_uncaught
+from ._events import as_event, compiled_event_table, listed
 from ._run_guard import INTERRUPTED, RunGuard, time_limit_message
 
 __all__ = ["simulate_many", "EnsembleResult"]
 
 #: outcome codes of the C ensemble (KD_ENS_...)
-_DONE, _SMALL_STEP, _PROJECTION, _STOPPED, _TIMED_OUT = range(5)
+_DONE, _SMALL_STEP, _PROJECTION, _STOPPED, _TIMED_OUT, _TERMINAL, _NO_MEMORY = range(7)
 
 
 @dataclass(frozen=True)
@@ -41,13 +44,20 @@ class EnsembleResult:
     y : ndarray, shape (N, m, n_states)
         States at the output times; ``nan`` past where a run ended early.
     status : ndarray of int, shape (N,)
-        0: reached the end; -1: ended early (``message`` says why).
+        0: reached the end; 1: a terminal event ended it; -1: ended early
+        (``message`` says why).
     message : tuple of str
         One per run.
     t_end : ndarray, shape (N,)
-        Time of each run's last accepted state, s.
+        Time of each run's last accepted state, s (a terminal event's time).
     y_end : ndarray, shape (N, n_states)
         That state (the end state of a complete run).
+    t_events : tuple
+        Per run, a tuple of one array per event: the times it occurred, s (as
+        ``SimulationResult.t_events``).
+    y_events : tuple
+        Per run, a tuple of one array per event, shape (k, n_states): the states
+        there.
     nfev, steps, projections : ndarray of int, shape (N,)
         Right-hand sides evaluated, steps accepted, projections onto the
         constraints, per run.
@@ -78,6 +88,8 @@ class EnsembleResult:
     input_names: tuple
     model: object
     method: str = "RK45 (compiled ensemble)"
+    t_events: tuple = ()
+    y_events: tuple = ()
 
     def __len__(self):
         return len(self.status)
@@ -95,15 +107,18 @@ class EnsembleResult:
         return self.y[:, :, self.state_names.index(name)]
 
     def run(self, i):
-        """Run ``i`` as a :class:`SimulationResult` (its output times reached), on
-        the model with its constants (inputs held at their first sample)."""
+        """Run ``i`` as a :class:`SimulationResult` (its output times reached and
+        its events), on the model with its constants (inputs held at their first
+        sample)."""
         from ._results import SimulationResult
         i = int(i)
         model = self.model.with_constants(list(self.constants[i]))
         reached = np.all(np.isfinite(self.y[i]), axis=1)
         return SimulationResult.build(
             model=model, t=self.t[reached], y=self.y[i][reached].T.copy(),
-            status=int(self.status[i]), message=self.message[i], t_events=[], y_events=[],
+            status=int(self.status[i]), message=self.message[i],
+            t_events=list(self.t_events[i]) if self.t_events else [],
+            y_events=list(self.y_events[i]) if self.y_events else [],
             dense_segments=None, counters={"nfev": int(self.nfev[i]), "njev": 0, "nlu": 0},
             projections=int(self.projections[i]), initial_state=self.y[i][0].copy(),
             constraint_forces=False, method=self.method)
@@ -265,9 +280,46 @@ def _initial_states(model, y0, P, n, t0):
     return Y, n
 
 
+def _events(events):
+    """``events`` of :func:`simulate_many` as a list of :class:`Event`."""
+    found = []
+    for k, event in enumerate(listed(events)):
+        as_expression = as_event(event)
+        if as_expression is not None:
+            found.append(as_expression)
+            continue
+        name = getattr(event, "__name__", None) or f"events[{k}]"
+        if callable(event):
+            raise OptionError(
+                f"simulate_many: event {name} is a Python function, which cannot run in "
+                "the C threads that integrate the runs; give it as a SymPy expression of "
+                "t and the model's states, inputs and constants, kd.Event(expression, "
+                "terminal=..., direction=...) (kd.simulate takes the same Event)")
+        raise OptionError(f"simulate_many: events[{k}] is not a SymPy expression or a "
+                          f"kd.Event: {event!r}")
+    return found
+
+
+def _events_by_run(out, n, n_events):
+    """``(t_events, y_events)`` of :class:`EnsembleResult` from the C ensemble's
+    events (in run order, each run's in the order met)."""
+    if not n_events:
+        return (), ()
+    run, which, t, y = out["event_run"], out["event_which"], out["event_t"], out["event_y"]
+    bounds = np.searchsorted(run, np.arange(n + 1))
+    t_events, y_events = [], []
+    for i in range(n):
+        part = slice(bounds[i], bounds[i + 1])
+        kinds = which[part]
+        t_events.append(tuple(t[part][kinds == k] for k in range(n_events)))
+        y_events.append(tuple(y[part][kinds == k] for k in range(n_events)))
+    return tuple(t_events), tuple(y_events)
+
+
 def simulate_many(model, y0, t_span, *, constants=None, inputs=None, input_times=None,
-                  t_eval=None, rtol=1e-8, atol=1e-8, max_step=np.inf, first_step=None,
-                  project=None, projection_tol=None, threads=None, timeout=None):
+                  t_eval=None, events=None, rtol=1e-8, atol=1e-8, max_step=np.inf,
+                  first_step=None, project=None, projection_tol=None, threads=None,
+                  timeout=None):
     """Integrate many runs of one compiled model at once, in C.
 
     Parameters
@@ -290,6 +342,12 @@ def simulate_many(model, y0, t_span, *, constants=None, inputs=None, input_times
         Times of the input samples, s, covering ``t_span``.
     t_eval : array_like, optional
         Output times within ``t_span`` (default: its two ends).
+    events : kd.Event, SymPy expression, or a list of them, optional
+        Zero crossings of expressions of ``t`` and the model's states, inputs and
+        constants (each run's), compiled into C and located as ``kd.simulate``'s
+        compiled loop locates its events (Brent's method on each step's
+        continuous extension); a terminal one ends its run there (status 1).
+        Python functions cannot run in the threads and are refused.
     rtol, atol, max_step, first_step
         As :func:`kanedyn.simulate` with ``method="RK45"`` on the compiled loop.
     project, projection_tol
@@ -308,6 +366,11 @@ def simulate_many(model, y0, t_span, *, constants=None, inputs=None, input_times
 
     Raises
     ------
+    OptionError
+        An event that is a Python function (or not an expression).
+    ModelError
+        An event naming a symbol that is not the model's, or that C cannot
+        evaluate.
     SimulationInterrupted
         On Ctrl-C; its ``result`` is the :class:`EnsembleResult` of what was
         computed.
@@ -315,6 +378,7 @@ def simulate_many(model, y0, t_span, *, constants=None, inputs=None, input_times
     from ._simulate import (_check_span, _check_t_eval, _check_tolerances, _initial_failure,
                             check_timeout)
     _check_model(model)
+    events = _events(events)
     t0, t1 = _check_span(t_span)
     rtol, atol = _check_tolerances(rtol, atol, model.n_states)
     t_eval = _check_t_eval(t_eval, t0, t1)
@@ -339,24 +403,28 @@ def simulate_many(model, y0, t_span, *, constants=None, inputs=None, input_times
         project = scheme.project if scheme is not None else True
     tol = projection_tol if projection_tol is not None else max(100 * np.max(atol), 1e-10)
     atol_vec = np.broadcast_to(np.asarray(atol, dtype=float), (model.n_states,)).copy()
+    table = compiled_event_table(model, events) if events else (None, None, None)
     guard = RunGuard(model, timeout)
     with guard.catching_interrupts():
         out = model._c.integrate_many(
             t0, t1, Y0, P, times, R, t_eval, float(rtol), atol_vec, max_step,
             float(first_step or 0.0), float(tol) if constrained and project else 0.0,
-            int(threads), guard.stop_flag, guard.seconds_left())
+            int(threads), guard.stop_flag, guard.seconds_left(), *table)
+    t_events, y_events = _events_by_run(out, n, len(events))
     messages = [_message(code, t_end, t_bad, timeout) for code, t_end, t_bad in
                 zip(out["outcome"], out["t_end"], out["t_singular"])]
     for i in np.flatnonzero(out["t_singular"] == t0):  # as kd.simulate: why it cannot start
         cause = _initial_failure(model.with_constants(list(P[i])), t0, Y0[i])
         messages[i] = f"cannot start: {cause}" if cause else messages[i]
+    status = np.where(out["outcome"] == _DONE, 0, np.where(out["outcome"] == _TERMINAL, 1, -1))
     result = EnsembleResult(
-        t=t_eval.copy(), y=out["y"], status=np.where(out["outcome"] == _DONE, 0, -1),
+        t=t_eval.copy(), y=out["y"], status=status,
         message=tuple(messages),
         t_end=out["t_end"], y_end=out["y_end"], nfev=out["nfev"], steps=out["steps"],
         projections=out["projections"], constants=P, inputs=R, input_times=times,
         state_names=tuple(model.state_names), constant_names=tuple(model.constants),
-        input_names=tuple(model.input_names), model=model)
+        input_names=tuple(model.input_names), model=model, t_events=t_events,
+        y_events=y_events)
     if guard.interrupted or out["interrupted"]:
         end_by_signal_if_uncaught()
         raise SimulationInterrupted(result, guard.signum)
@@ -376,4 +444,8 @@ def _message(code, t_end, t_bad, timeout):
                 "Jacobian)")
     if code == _STOPPED:
         return INTERRUPTED
+    if code == _TERMINAL:
+        return "a termination event occurred"
+    if code == _NO_MEMORY:
+        return "no memory was left for the events found"
     return time_limit_message(timeout, t_end)

@@ -36,6 +36,8 @@ from ._run_guard import INTERRUPTED, RunGuard, guarded_event, guarded_method
 __all__ = ["simulate_contacts", "ModeChange"]
 
 _MAX_STALLED_SEGMENTS = 1000  # mode changes in a row without time advancing
+#: a sliding contact's "slow" speed is at least this many times its "still" one
+_SLOW_STILL = 20.0
 
 
 class ModeChange(tuple):
@@ -320,7 +322,11 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
             if modes[c] != SLIP:
                 directions[c] = None
             elif speed > tol["slip"]:
-                directions[c] = SlipReference(slips[c] / speed, 1e-3 * speed, tol["slip"])
+                # "slow" well above "still": a slow slip held near the still speed
+                # by its frozen direction turns away from the reference (and stops)
+                directions[c] = SlipReference(slips[c] / speed,
+                                              max(1e-3 * speed, _SLOW_STILL * tol["slip"]),
+                                              tol["slip"])
             # else: a slip that starts keeps the direction it starts in
         solver.key = None  # the directions changed: no cached solution is valid
         mode_events = _events(model, solver, points, modes, directions, n)

@@ -25,6 +25,7 @@ from .._progress import as_progress
 from .._signals import end_by_signal_if_uncaught
 from ._results import SimulationResult
 from ._energy_check import Balance, WorkTracker, with_energy_note
+from ._events import as_event, listed, python_event
 from ._index3 import run_index3
 from ._run_guard import (INTERRUPTED, Integrand, RunGuard, guarded_event, guarded_method,
                          scipy_methods, solver_class, time_limit_message)
@@ -87,10 +88,13 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
     rtol, atol : float
         Integration tolerances (``rtol > 0``; ``atol > 0``, a number or one
         per state).
-    events : callable or list of callables, optional
+    events : callable, kd.Event, or a list of them, optional
         ``event(t, y)`` functions returning one number, with optional
         ``terminal`` and ``direction`` attributes, exactly as for
-        ``solve_ivp``.
+        ``solve_ivp``; or :class:`kanedyn.Event` (a SymPy expression of ``t``
+        and the model's states, inputs and constants, evaluated with this
+        model's constants; a bare expression is an Event with the defaults),
+        which :func:`kanedyn.simulate_many` compiles to C.
     dense_output : bool
         Keep a continuous solution (``result.sol(t)``).
     project : bool, optional
@@ -186,7 +190,7 @@ def simulate(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-8, atol=1
         solver_class(method)  # refuse unknown methods before any work
     progress = as_progress(progress)
     y_init = model.state(y0, t0)
-    user_events = _check_events(events, t0, y_init)
+    user_events = _check_events(events, t0, y_init, model)
     constrained = (model.n_q_dep + model.n_u_dep) > 0
     scheme = getattr(model, "scheme", None)
     if project is None:
@@ -514,12 +518,14 @@ def _check_step_options(options, t0, t1):
         raise OptionError(f"first_step {first} is longer than t_span ({t0:g}, {t1:g})")
 
 
-def _check_events(events, t0, y0):
-    """Events as a list, each checked once at the initial state."""
-    if events is None:
-        return []
-    events = list(events) if isinstance(events, (list, tuple)) else [events]
+def _check_events(events, t0, y0, model):
+    """Events as a list of functions (an :class:`~._events.Event` as one of
+    ``model``), each checked once at the initial state."""
+    events = listed(events)
     for k, event in enumerate(events):
+        expression = as_event(event)
+        if expression is not None:
+            events[k] = event = python_event(model, expression)
         name = getattr(event, "__name__", None) or f"events[{k}]"
         if not callable(event):
             raise OptionError(f"events[{k}] is not callable: {event!r}")

@@ -211,24 +211,34 @@ def _outputs(row, res, outputs, model):
 
 #: the options of ``simulate`` a sweep's runs may have to be integrated together
 _ENSEMBLE_OPTIONS = {"method", "rtol", "atol", "t_eval", "max_step", "first_step", "project",
-                     "projection_tol"}
+                     "projection_tol", "events"}
+
+
+def _expression_events(events):
+    """Whether ``events`` (``simulate``'s option) are all expressions
+    (:class:`~._events.Event`), which :func:`simulate_many` compiles."""
+    from ._events import as_event, listed
+    return all(as_event(event) is not None for event in listed(events))
 
 
 def _ensemble_rows(model, batch, names, y0, t_span, outputs, options, threads):
     """The rows of ``batch`` from one :func:`simulate_many`, or ``None`` where
     ``simulate`` would integrate the runs otherwise than the ensemble does (a
     NumPy model, contacts, a scheme's own integrator, a method other than the
-    compiled RK45, events or other options) or the outputs need what the
-    ensemble does not keep (every step's state without ``t_eval``, events,
-    energies, each run's wall time).  The numbers are those of ``simulate``'s
-    compiled loop.  Where a run's values are refused (a negative mass), the batch
-    goes run by run (:func:`_run_one`), whose rows say which failed."""
+    compiled RK45, events that are Python functions or other options) or the
+    outputs need what the ensemble does not keep (every step's state without
+    ``t_eval``, energies, each run's wall time).  The numbers are those of
+    ``simulate``'s compiled loop.  Where a run's values are refused (a negative
+    mass), the batch goes run by run (:func:`_run_one`), whose rows say which
+    failed."""
     from ._ensemble import simulate_many
-    kept = {"final", "nfev", "t_end"} | ({"max", "min"} if "t_eval" in options else set())
+    kept = {"final", "nfev", "t_end", "events"} \
+        | ({"max", "min"} if "t_eval" in options else set())
     if (getattr(model, "_c", None) is None or model.contacts or not set(outputs) <= kept
             or getattr(getattr(model, "scheme", None), "integrator", None) is not None
             or not set(options) <= _ENSEMBLE_OPTIONS
-            or options.get("method", "RK45") != "RK45"):
+            or options.get("method", "RK45") != "RK45"
+            or options.get("events") is not None and not _expression_events(options["events"])):
         return None
     values = np.array([v for _, v in batch], dtype=float).reshape(len(batch), len(names))
     constants = {k: values[:, j] for j, k in enumerate(names) if k in model.constants}
@@ -247,19 +257,21 @@ def _ensemble_rows(model, batch, names, y0, t_span, outputs, options, threads):
         row = _parameters_row(run, names, values)
         row.update(success=bool(ensemble.status[i] >= 0), status=int(ensemble.status[i]),
                    message=ensemble.message[i])
-        _ensemble_outputs(row, ensemble, i, outputs)
+        _ensemble_outputs(row, ensemble, i, outputs, "t_eval" not in options)
         rows.append(row)
     return rows
 
 
-def _ensemble_outputs(row, ensemble, i, outputs):
+def _ensemble_outputs(row, ensemble, i, outputs, every_step):
     """:func:`_outputs` of run ``i`` of an ensemble: its output times reached, and
     the state accepted last where a run that ended early got beyond them (as
-    ``simulate`` keeps it)."""
+    ``simulate`` keeps it), or that a terminal event ended where ``simulate`` would
+    have given ``every_step`` (no ``t_eval``)."""
     y = ensemble.y[i]
     reached = np.all(np.isfinite(y), axis=1)
     t, states = ensemble.t[reached], y[reached]
-    if ensemble.status[i] < 0 and (not t.size or ensemble.t_end[i] > t[-1]) \
+    ended = ensemble.status[i] < 0 or ensemble.status[i] == 1 and every_step
+    if ended and (not t.size or ensemble.t_end[i] > t[-1]) \
             and np.all(np.isfinite(ensemble.y_end[i])) and ensemble.t_end[i] != ensemble.t[0]:
         t = np.append(t, ensemble.t_end[i])
         states = np.vstack([states, ensemble.y_end[i]])
@@ -272,6 +284,10 @@ def _ensemble_outputs(row, ensemble, i, outputs):
         row.update((f"max_{s}", float(v)) for s, v in zip(names, states.max(axis=0)))
     if "min" in outputs:
         row.update((f"min_{s}", float(v)) for s, v in zip(names, states.min(axis=0)))
+    if "events" in outputs:
+        for k, times in enumerate(ensemble.t_events[i] if ensemble.t_events else ()):
+            row[f"event{k}_count"] = int(len(times))
+            row[f"event{k}_first"] = float(times[0]) if len(times) else float("nan")
     if "nfev" in outputs:
         row["rhs_evaluations"] = int(ensemble.nfev[i])
     if "t_end" in outputs:

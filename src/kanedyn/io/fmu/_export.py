@@ -1,10 +1,12 @@
-"""``export_fmu``: a numerical model as an FMI 2.0 FMU (model exchange and
+"""``export_fmu``: a numerical model as an FMI 2.0 or 3.0 FMU (model exchange and
 co-simulation), compiled from the standalone C export; no Python needed to run it.
 
 The archive holds ``modelDescription.xml``, ``sources/model.c`` (the
-standalone export, :meth:`NumericModel.c_source`), ``sources/fmi2.c`` (the FMI
-interface) and ``binaries/<platform>/<identifier>.<so|dylib>`` built from both
-with the C compiler the C backend uses.
+standalone export, :meth:`NumericModel.c_source`), ``sources/fmi2.c`` or
+``sources/fmi3.c`` (the FMI interface; FMI 3.0 adds
+``sources/buildDescription.xml``) and
+``binaries/<platform>/<identifier>.<so|dylib>`` built from both with the C
+compiler the C backend uses.
 """
 
 from __future__ import annotations
@@ -23,24 +25,42 @@ import numpy as np
 from ..._errors import ModelError, OptionError
 from ..._output_files import replacing
 from ...numerics.backends import CompilerError, compiler_command, missing_compiler_text
-from ._description import model_description
+from ._description import build_description, model_description
 from ._variables import fmu_variables
-from ._wrapper import wrapper_source
+from ._wrapper import WRAPPER_FILES, wrapper_source
 
-__all__ = ["export_fmu", "FMU_SOURCES"]
+__all__ = ["export_fmu", "FMU_SOURCES", "FMI_VERSIONS"]
 
-#: the files in ``sources/`` (compile both into one shared library)
-FMU_SOURCES = ("model.c", "fmi2.c")
-#: the binaries' folder and file suffix, per operating system
-_PLATFORMS = {"Linux": ("linux64", ".so"), "Darwin": ("darwin64", ".dylib")}
+#: the FMI major versions written
+FMI_VERSIONS = (2, 3)
+#: the C files in ``sources/``, per FMI version (compile both into one shared library)
+FMU_SOURCES = {version: ("model.c", WRAPPER_FILES[version]) for version in FMI_VERSIONS}
+#: the binaries' file suffix and FMI 2.0's folder, per operating system
+_PLATFORMS = {"Linux": (".so", "linux64"), "Darwin": (".dylib", "darwin64")}
+#: FMI 3.0's names of the processor architectures (its folders: ``x86_64-linux``, ...)
+_ARCHITECTURES = {"x86_64": "x86_64", "amd64": "x86_64", "aarch64": "aarch64",
+                  "arm64": "aarch64"}
 
 
-def _platform():
+def _platform(fmi_version):
+    """(the binaries' folder, file suffix) for this machine."""
     system = platform.system()
-    if system not in _PLATFORMS or platform.architecture()[0] != "64bit":
+    machine = platform.machine().lower()
+    if (system not in _PLATFORMS or platform.architecture()[0] != "64bit"
+            or (fmi_version == 3 and machine not in _ARCHITECTURES)):
         raise OptionError(f"FMU export builds binaries for 64-bit Linux and macOS only "
-                          f"(this is {system}, {platform.architecture()[0]})")
-    return _PLATFORMS[system]
+                          f"(this is {system}, {platform.architecture()[0]}, {machine})")
+    suffix, folder = _PLATFORMS[system]
+    if fmi_version == 3:
+        folder = f"{_ARCHITECTURES[machine]}-{system.lower()}"
+    return folder, suffix
+
+
+def _check_version(fmi_version):
+    if isinstance(fmi_version, bool) or fmi_version not in FMI_VERSIONS:
+        raise OptionError(f"fmi_version must be 2 or 3 (FMI 2.0 or 3.0), got "
+                          f"{fmi_version!r}")
+    return int(fmi_version)
 
 
 def _identifier(name):
@@ -57,11 +77,23 @@ def _check_path(path):
 
 
 def _check_model(model):
-    if model.contacts:
-        names = ", ".join(c["name"] for c in model.contacts)
-        raise ModelError(f"cannot export an FMU of a model with contacts ({names}): its "
-                         "contact modes and impacts run in kanedyn's simulate, not in the "
-                         "generated C; export the model without its contacts")
+    """What the contact loop of the FMU (co-simulation) does not port is refused."""
+    if not model.contacts:
+        return
+    names = ", ".join(c["name"] for c in model.contacts)
+    for c in model.contacts:
+        if c["kind"] != "unilateral":
+            raise ModelError(f"cannot export an FMU of contact {c['name']}: it is "
+                             f"{c['kind']}, and the FMU's contact loop handles unilateral "
+                             "contacts only (kd.simulate handles it)")
+    if model.n_u_dep or model.n_q_dep:
+        raise ModelError(f"cannot export an FMU of a model with contacts ({names}) and "
+                         "constraints (dependent coordinates or speeds): the FMU's contact "
+                         "loop handles unconstrained models only (kd.simulate handles it)")
+    if model.input_names:
+        raise ModelError(f"cannot export an FMU of a model with contacts ({names}) and "
+                         f"specified inputs ({', '.join(model.input_names)}): the FMU's "
+                         "contact loop handles models without inputs only")
 
 
 def _settings(rtol, atol, projection_tol):
@@ -75,6 +107,22 @@ def _settings(rtol, atol, projection_tol):
                               f"{'>= 0' if option == 'projection_tol' else '> 0'}, "
                               f"got {value!r}")
     return values
+
+
+def _check_nominals(model, nominals):
+    """``{state name: float}`` from the user's ``nominals``, checked."""
+    checked = {}
+    for name, value in (nominals or {}).items():
+        name = str(name)
+        if name not in model.state_names:
+            raise OptionError(f"nominals names {name!r}, which is not a state of the model; "
+                              f"its states: {', '.join(model.state_names)}")
+        if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                or not (np.isfinite(value) and value > 0):
+            raise OptionError(f"the nominal value of {name} must be a finite number > 0, "
+                              f"got {value!r}")
+        checked[name] = float(value)
+    return checked
 
 
 def _check_names(layout):
@@ -99,13 +147,17 @@ def _compile(sources, folder, library):
 
 
 def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_tol=None,
-               constant_units=None, identifier=None, title=None):
-    """Write ``model`` as an FMI 2.0 FMU for model exchange and co-simulation.
+               constant_units=None, identifier=None, title=None, fmi_version=2,
+               nominals=None):
+    """Write ``model`` as an FMI 2.0 or 3.0 FMU for model exchange and co-simulation.
 
     Parameters
     ----------
     model : NumericModel
-        Without contacts (refused: :class:`~kanedyn.ModelError` naming them).
+        With contacts the co-simulation step runs the contact loop of
+        ``kd.simulate`` in C (modes, events, single-contact impacts) and model
+        exchange has two event indicators per contact, the impacts and mode changes
+        in the event update (see ``docs/fmu.md`` for what it refuses).
     path : str or Path
         The file to write; its name must end in ``.fmu``.
     y0 : array_like or dict
@@ -128,6 +180,18 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
         name.
     title : str, optional
         The model's description in the FMU.
+    fmi_version : {2, 3}
+        The FMI standard written: 2 (FMI 2.0, the default) or 3 (FMI 3.0: ``Float64``
+        variables, the independent variable ``time``, ``buildDescription.xml``;
+        co-simulation holds the inputs over a step). Both versions share the
+        model's C and the core of the interface, and give the same results.
+    nominals : dict, optional
+        ``{state name: typical magnitude}`` (in the state's SI unit): the states'
+        ``nominal`` values, which ``fmi2GetNominalsOfContinuousStates``
+        (``fmi3…``) returns and importers scale their absolute tolerance by
+        (FMPy's CVODE: ``atol = rtol * nominal``). A state not named has FMI's
+        default, 1. Small states (elastic coordinates of millimetres) need them
+        for an accurate model-exchange run.
 
     Returns
     -------
@@ -137,15 +201,19 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
     Raises
     ------
     OptionError
-        A file name not ending in ``.fmu``, a bad tolerance or identifier.
+        A file name not ending in ``.fmu``, a bad tolerance, identifier,
+        ``fmi_version`` or nominal value.
     ModelError
-        A model with contacts, or whose equations are not available.
+        A model whose equations are not available, or with contacts the FMU does not
+        handle (bilateral ones; with constraints or specified inputs).
     CompilerError
         No C compiler, or the build failed.
     """
     path = _check_path(path)
+    fmi_version = _check_version(fmi_version)
     _check_model(model)
-    folder_name, suffix = _platform()
+    folder_name, suffix = _platform(fmi_version)
+    sources = FMU_SOURCES[fmi_version]
     identifier = identifier or _identifier(model.name)
     if not re.fullmatch(r"[A-Za-z_][A-Za-z0-9_]*", identifier, flags=re.ASCII):
         raise OptionError(f"identifier must be a C identifier, got {identifier!r}")
@@ -161,26 +229,36 @@ def export_fmu(model, path, y0, t_end=None, rtol=1e-10, atol=1e-10, projection_t
         raise OptionError(f"constant_units names {', '.join(unknown)}, which are not "
                           f"constants of the model; its constants: "
                           f"{', '.join(model.constants)}")
-    layout = fmu_variables(model, y_start, r_start, settings, units)
+    layout = fmu_variables(model, y_start, r_start, settings, units,
+                           _check_nominals(model, nominals),
+                           indicators=fmi_version == 3 and bool(model.contacts))
     _check_names(layout)
     title = title or model.title or model.name or "a kanedyn model"
-    model_c = model.c_source(title=title)
-    digest = hashlib.sha256("\n".join([model_c, repr(layout)]).encode()).digest()
+    model_c = model._c_text(title=title, contacts=True) if model.contacts \
+        else model.c_source(title=title)
+    digest = hashlib.sha256("\n".join([model_c, repr(layout), str(fmi_version)])
+                            .encode()).digest()
     guid = "{" + str(uuid.UUID(bytes=digest[:16], version=4)) + "}"
-    fmi2_c = wrapper_source(layout, identifier, guid, title,
-                            model.n_q_dep + model.n_u_dep, list(settings.values()))
+    wrapper_c = wrapper_source(layout, identifier, guid, title,
+                               model.n_q_dep + model.n_u_dep, list(settings.values()),
+                               fmi_version, len(model.contacts))
     xml = model_description(layout, identifier, guid, model.name or identifier, title,
-                            FMU_SOURCES, stop_time=t_end, tolerance=rtol)
+                            sources, stop_time=t_end, tolerance=rtol,
+                            fmi_version=fmi_version,
+                            event_indicators=2 * len(model.contacts))
     with tempfile.TemporaryDirectory(prefix="kanedyn-fmu-") as temporary:
         folder = Path(temporary)
         (folder / "model.c").write_text(model_c)
-        (folder / "fmi2.c").write_text(fmi2_c)
+        (folder / sources[1]).write_text(wrapper_c)
         library = folder / f"{identifier}{suffix}"
-        _compile(FMU_SOURCES, folder, library)
+        _compile(sources, folder, library)
         with replacing(path, "wb") as handle:
             with zipfile.ZipFile(handle, "w", zipfile.ZIP_DEFLATED) as archive:
                 archive.writestr("modelDescription.xml", xml)
-                for name in FMU_SOURCES:
+                for name in sources:
                     archive.write(folder / name, f"sources/{name}")
+                if fmi_version == 3:
+                    archive.writestr("sources/buildDescription.xml",
+                                     build_description(identifier, sources))
                 archive.write(library, f"binaries/{folder_name}/{identifier}{suffix}")
     return path

@@ -5,7 +5,8 @@ Value references are consecutive, in blocks (the C wrapper's ``VR_*`` macros):
 the states ``y`` (coordinates then speeds, as ``model.state_names``), their
 derivatives, the parameters ``p`` (the model's constants, in the order of
 ``model.constants``), the specified inputs ``r``, the energy outputs (kinetic;
-potential where the model declares one), then the solver settings.
+potential where the model declares one), the solver settings, then, with contacts,
+their modes (outputs) and, in FMI 3.0, their event indicators.
 """
 
 from __future__ import annotations
@@ -45,6 +46,9 @@ class FmuVariable:
     derivative : int or None
         For a state derivative: the 1-based index of its state among the
         model variables.
+    nominal : float or None
+        For a state: its typical magnitude, where declared (importers scale their
+        absolute tolerance by it; FMI's default is 1).
     """
 
     name: str
@@ -56,6 +60,7 @@ class FmuVariable:
     unit: str | None
     description: str
     derivative: int | None = None
+    nominal: float | None = None
 
 
 @dataclass(frozen=True)
@@ -69,6 +74,9 @@ class FmuVariables:
         ``modelDescription.xml``: index = value reference + 1).
     n_states, n_parameters, n_inputs, n_energies : int
         Sizes of the blocks (``n_energies``: 1, or 2 with a potential energy).
+    n_indicators : int
+        The event indicators' variables, the last block (FMI 3.0 declares the
+        event indicators of a model with contacts as variables).
     """
 
     variables: tuple
@@ -76,6 +84,7 @@ class FmuVariables:
     n_parameters: int
     n_inputs: int
     n_energies: int
+    n_indicators: int = 0
 
     def block(self, causality, variability="continuous"):
         """1-based indices of the variables of ``causality`` and ``variability``."""
@@ -97,7 +106,7 @@ def derivative_unit(unit):
     return f"{unit}/s"
 
 
-def fmu_variables(model, y0, r0, settings, constant_units):
+def fmu_variables(model, y0, r0, settings, constant_units, nominals=None, indicators=False):
     """The variables of ``model`` exported as an FMU.
 
     Parameters
@@ -111,17 +120,24 @@ def fmu_variables(model, y0, r0, settings, constant_units):
         ``{setting name: value}`` for every name of :data:`SETTINGS`.
     constant_units : dict
         ``{constant name: unit}`` of the constants whose unit is declared.
+    nominals : dict, optional
+        ``{state name: typical magnitude}`` of the states whose nominal value is
+        declared.
+    indicators : bool
+        Declare the event indicators (two per contact) as variables (FMI 3.0).
 
     Returns
     -------
     FmuVariables
     """
     out = []
+    nominals = nominals or {}
 
-    def add(name, causality, variability, initial, start, unit, description, derivative=None):
+    def add(name, causality, variability, initial, start, unit, description, derivative=None,
+            nominal=None):
         out.append(FmuVariable(name, len(out), causality, variability, initial,
                                None if start is None else float(start), unit, description,
-                               derivative))
+                               derivative, nominal))
 
     units = model.state_units
     n = model.n_q
@@ -130,7 +146,8 @@ def fmu_variables(model, y0, r0, settings, constant_units):
         kind = "coordinate" if k < n else "speed"
         note = " (dependent: completed from the constraints at initialization)" \
             if dependent else ""
-        add(name, "output", "continuous", "exact", y0[k], units.get(name), kind + note)
+        add(name, "output", "continuous", "exact", y0[k], units.get(name), kind + note,
+            nominal=nominals.get(name))
     for k, name in enumerate(model.state_names):
         add(f"der({name})", "local", "continuous", None, None,
             derivative_unit(units.get(name)), f"time derivative of {name}", derivative=k + 1)
@@ -147,5 +164,16 @@ def fmu_variables(model, y0, r0, settings, constant_units):
             "potential energy (as the model declares it)")
     for name, description in SETTINGS.items():
         add(name, "parameter", "fixed", "exact", settings[name], None, description)
+    for contact in model.contacts:
+        add(f"{contact['name']}.mode", "output", "continuous", "calculated", None, None,
+            f"mode of contact {contact['name']}: 0 separated, 1 sliding, 2 sticking "
+            "(piecewise constant)")
+    n_indicators = 2 * len(model.contacts) if indicators else 0
+    for contact in model.contacts if indicators else ():
+        for k in (1, 2):
+            add(f"{contact['name']}.event_indicator_{k}", "local", "continuous", None, None,
+                None, f"event indicator {k} of contact {contact['name']}: the value of an "
+                "event function of its current mode (an event where it falls to zero)")
     return FmuVariables(tuple(out), model.n_states, len(model.constants),
-                        len(model.input_names), 2 if model.has_potential else 1)
+                        len(model.input_names), 2 if model.has_potential else 1,
+                        n_indicators)

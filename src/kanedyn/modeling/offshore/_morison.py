@@ -74,6 +74,32 @@ class _StripKinematics:
         self._t = None
         self._values = None
 
+    def series(self, times, waves):
+        """``(velocity (T, n, 3), acceleration (T, n, 3), wetted fraction (T, n))`` at
+        ``times`` (T,) under ``waves`` (these strips', or another field's)."""
+        T = len(times)
+        vel = np.zeros((T, self.n, 3))
+        acc = np.zeros((T, self.n, 3))
+        if waves is not None:
+            v, a = waves.kinematics_series(self.points[:, 0], self.points[:, 2], times,
+                                           self.points[:, 1])
+            for out, values, weights in ((vel, v, self.weights_v), (acc, a, self.weights_a)):
+                sums = np.zeros((self.n, len(weights)))  # strip <- its points, weighted
+                sums[self.strip_of, np.arange(len(weights))] = weights
+                out += np.tensordot(values, sums, axes=([1], [1])).transpose(0, 2, 1)
+        if self.current is not None:
+            vel += self.current
+        wet = np.ones((T, self.n))
+        if self.wet_rows.size:
+            if waves is None or waves.stretching == "none":
+                eta = np.zeros((T, self.wet_rows.size))
+            else:
+                xy = self.xy_mid[self.wet_rows]
+                eta = waves.elevation_series(xy[:, 0], times, xy[:, 1])
+            lo, hi = self.z_lo[self.wet_rows], self.z_hi[self.wet_rows]
+            wet[:, self.wet_rows] = np.clip((eta - lo) / (hi - lo), 0.0, 1.0)
+        return vel, acc, wet
+
     def __call__(self, t):
         t = float(t)
         if t != self._t:
@@ -296,6 +322,25 @@ class MorisonCylinder:
                 out[self._a[i][j]] = _Pick(self._cache, 1, i, j)
         for i, sym in self._wet.items():
             out[sym] = _Pick(self._cache, 2, i, None)
+        return out
+
+    def input_series(self, times, waves=None):
+        """``{symbol: values at times}`` of the inputs of :meth:`specified`, computed
+        for all ``times`` (s) at once: records for :func:`kanedyn.simulate_many`
+        (``inputs=``, ``input_times=times``).
+
+        ``waves``: another wave field on the same strips (e.g.
+        ``IrregularSea.with_seed``), default this cylinder's.
+        """
+        times = np.asarray(times, dtype=float).ravel()
+        vel, acc, wet = self._cache.series(times, self.waves if waves is None else waves)
+        out = {}
+        for i in range(self.n_strips):
+            for j in range(3):
+                out[self._v[i][j]] = vel[:, i, j]
+                out[self._a[i][j]] = acc[:, i, j]
+        for i, sym in self._wet.items():
+            out[sym] = wet[:, i]
         return out
 
     def strip_kinematics(self, t):

@@ -71,6 +71,22 @@ class ThrustCurve:
         slope = self._interpolants()[1]
         return np.where(inside, slope(np.clip(V, self.speeds[0], self.speeds[-1])), 0.0)
 
+    def expression(self, V):
+        """The thrust (N) at the SymPy expression ``V`` (m/s): the same cubic pieces
+        as :meth:`__call__` (held at the end values outside the table), as a
+        ``Piecewise`` that compiled code evaluates."""
+        import sympy as sm
+        f = self._interpolants()[0]
+        x, c = f.x, f.c  # piece i: sum_k c[k, i] (V - x[i])^(3 - k)
+        pieces = [(float(self.thrusts[0]), V < float(x[0]))]
+        for i in range(len(x) - 1):
+            s = V - float(x[i])
+            cubic = ((float(c[0, i]) * s + float(c[1, i])) * s + float(c[2, i])) * s \
+                + float(c[3, i])
+            pieces.append((cubic, V < float(x[i + 1])))
+        pieces.append((float(self.thrusts[-1]), True))
+        return sm.Piecewise(*pieces)
+
 
 _BELOW = np.array([3.0, 4.0, 5.0, 6.0, 7.0, 8.0, 9.0, 10.0, 11.0, 11.4])
 #: The NREL 5-MW steady thrust curve (N against m/s at hub height).  Below
@@ -235,6 +251,22 @@ class RotorThrust:
     def damping(self, V):
         """Linearized aerodynamic damping :math:`dT/dV` (N s/m) at wind speed ``V``."""
         return float(self.curve.slope(V))
+
+    def expression(self):
+        """The thrust (N) as a SymPy expression of the state, for a steady wind (a
+        number): :meth:`ThrustCurve.expression` at :math:`V_{rel}`.  Given as the
+        input's value (``eom.numeric(specified={rotor.symbol: rotor.expression()})``)
+        it is evaluated in the compiled code, not by a Python function of
+        ``(t, y)`` as :meth:`specified` gives it."""
+        if callable(self.wind):
+            raise ModelError(f"RotorThrust {self.name!r}: the wind varies in time (a "
+                             "function); its thrust is a function of (t, y): use "
+                             "specified()")
+        if self.lag is not None:
+            raise ModelError(f"RotorThrust {self.name!r}: with lag= the thrust is a state")
+        v_rel = (float(self.wind) * self.wind_direction.dot(self.shaft)
+                 - self.hub.vel(self.frame).dot(self.shaft))
+        return self.curve.expression(v_rel)
 
     def specified(self, states, constants=None):
         """``{T: callable(t, y)}`` (without lag) for ``eom.numeric(specified=...)``."""

@@ -267,15 +267,7 @@ class _LinearWaves:
         per-component factor is computed once for the points (the last set seen
         is kept: Morison strips ask at the same points every time) and a call
         is eight matrix-vector products with ``cos(omega t)``, ``sin(omega t)``."""
-        key = (x.shape, x.tobytes(), y.tobytes(), z.tobytes())
-        if getattr(self, "_fixed_key", None) != key:
-            c, s = math.cos(self.direction), math.sin(self.direction)
-            base = (x * c + y * s)[..., None] * self.wave_numbers + self.phases
-            C, S = np.cos(base), np.sin(base)
-            ch, sh = self._profiles(np.minimum(z, 0.0))
-            self._fixed = (C, S, ch * C, ch * S, sh * S, sh * C)
-            self._fixed_key = key
-        C, S, A, B, D, E = self._fixed
+        C, S, A, B, D, E = self._fixed_factors(x, y, z)
         ct, st = np.cos(self.omegas * t), np.sin(self.omegas * t)
         wa = self.omegas * self.amplitudes
         w2a = self.omegas * wa
@@ -292,6 +284,66 @@ class _LinearWaves:
         vel = np.stack([u_h * c, u_h * s, w], axis=-1) * wet[..., None]
         acc = np.stack([a_h * c, a_h * s, a_z], axis=-1) * wet[..., None]
         return vel, acc
+
+    def _fixed_factors(self, x, y, z):
+        """The per-point, per-component factors of :meth:`_fixed_point_kinematics`
+        (cached for the last points asked for)."""
+        key = (x.shape, x.tobytes(), y.tobytes(), z.tobytes())
+        if getattr(self, "_fixed_key", None) != key:
+            c, s = math.cos(self.direction), math.sin(self.direction)
+            base = (x * c + y * s)[..., None] * self.wave_numbers + self.phases
+            C, S = np.cos(base), np.sin(base)
+            ch, sh = self._profiles(np.minimum(z, 0.0))
+            self._fixed = (C, S, ch * C, ch * S, sh * S, sh * C)
+            self._fixed_key = key
+        return self._fixed
+
+    def kinematics_series(self, x, z, times, y=0.0):
+        """:meth:`kinematics` at each of ``times`` (s): velocity and acceleration,
+        shape ``(len(times),) + S + (3,)``.  Without Wheeler stretching (the
+        depth profile then does not depend on the time) in matrix products over
+        blocks of times, the way to sample the kinematics for input records
+        (:func:`kanedyn.simulate_many`); with it, time by time."""
+        times = np.asarray(times, dtype=float).ravel()
+        x, y, z = np.broadcast_arrays(np.asarray(x, float), np.asarray(y, float),
+                                      np.asarray(z, float))
+        if self.stretching == "wheeler":
+            pairs = [self.kinematics(x, z, t, y) for t in times]
+            shape = (len(times),) + x.shape + (3,)
+            return (np.stack([v for v, _ in pairs]).reshape(shape),
+                    np.stack([a for _, a in pairs]).reshape(shape))
+        C, S, A, B, D, E = self._fixed_factors(x, y, z)
+        m, w = self.omegas.size, self.omegas
+        flat = [F.reshape(-1, m) for F in (C, S, A, B, D, E)]
+        C, S, A, B, D, E = flat
+        # with theta = base - omega t: u_h, w, du_h/dt, dw/dt are the rows of
+        # F1 (omega a cos omega t) + or - F2 (omega a sin omega t)
+        F1 = np.concatenate([A, D, B * w, E * w]).T
+        F2 = np.concatenate([B, E, A * w, D * w]).T
+        P = A.shape[0]
+        c, s = math.cos(self.direction), math.sin(self.direction)
+        vel = np.empty((len(times), P, 3))
+        acc = np.empty_like(vel)
+        wa = w * self.amplitudes
+        for start in range(0, len(times), 2048):  # blocks of (times x components)
+            block = slice(start, start + 2048)
+            phase = np.multiply.outer(times[block], w)
+            ct, st = np.cos(phase), np.sin(phase)
+            X1, X2 = (ct * wa) @ F1, (st * wa) @ F2
+            u_h, v_z = X1[:, :P] + X2[:, :P], X1[:, P:2 * P] - X2[:, P:2 * P]
+            a_h, a_z = X1[:, 2 * P:3 * P] - X2[:, 2 * P:3 * P], -(X1[:, 3 * P:] + X2[:, 3 * P:])
+            if self.stretching == "none":
+                wet = z.reshape(-1) <= 0
+            else:  # vertical: wet up to the surface
+                wet = z.reshape(-1) <= (ct * self.amplitudes) @ C.T + (st * self.amplitudes) @ S.T
+            vel[block] = np.stack([u_h * c, u_h * s, v_z], axis=-1) * wet[..., None]
+            acc[block] = np.stack([a_h * c, a_h * s, a_z], axis=-1) * wet[..., None]
+        shape = (len(times),) + x.shape + (3,)
+        return vel.reshape(shape), acc.reshape(shape)
+
+    def elevation_series(self, x, times, y=0.0):
+        """:meth:`elevation` at each of ``times`` (s), shape ``(len(times),) + S``."""
+        return np.stack([self.elevation(x, t, y) for t in np.asarray(times, float).ravel()])
 
     def velocity(self, x, z, t, y=0.0):
         """Particle velocity (m/s), shape ``S + (3,)`` (see :meth:`kinematics`)."""
@@ -413,6 +465,7 @@ class IrregularSea(_LinearWaves):
         if not hi > lo:
             raise ModelError(f"IrregularSea: omega_max ({hi}) must exceed omega_min ({lo})")
         self.seed, self.n_components = int(seed), int(n_components)
+        self.band = (lo, hi)
         self.d_omega = (hi - lo) / n_components
         omegas = lo + (np.arange(n_components) + 0.5) * self.d_omega
         spectrum = jonswap_spectrum(omegas, self.Hs, self.Tp, self.gamma)
@@ -420,6 +473,13 @@ class IrregularSea(_LinearWaves):
         phases = np.random.default_rng(self.seed).uniform(0.0, 2 * math.pi, n_components)
         super().__init__("IrregularSea", amplitudes, omegas, phases, depth, direction, g,
                          stretching)
+
+    def with_seed(self, seed):
+        """The same sea (spectrum, band, components, depth, heading, stretching) with
+        the phases of another ``seed``."""
+        return IrregularSea(self.Hs, self.Tp, self.gamma, self.depth, self.n_components, seed,
+                            omega_min=self.band[0], omega_max=self.band[1],
+                            direction=self.direction, g=self.g, stretching=self.stretching)
 
     @property
     def variance(self):

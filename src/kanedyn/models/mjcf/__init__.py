@@ -11,7 +11,7 @@ Modules, in the order the data flows:
 ``_build``    the :class:`~kanedyn.models.ModelDefinition`: coordinates, bodies,
               passive forces, fixed tendons, fluid forces, actuators as inputs,
               loop-closure constraints; geoms and sites as data
-``_ground``   contacts of the geoms with a ground plane (``from_mjcf(ground=...)``)
+``_ground``   the geoms that may touch a ground plane (``from_mjcf(ground=...)``)
 ``_shapes``   viewer shapes of the geoms (``MJCFDefinition.shapes``)
 """
 

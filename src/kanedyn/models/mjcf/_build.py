@@ -37,7 +37,8 @@ from ...modeling import RateInertia, inertia_violation, principal_moments
 from .._base import ModelDefinition
 from .._urdf import named_rigid_body
 from ._frames import euler_matrix, matrix_quat, quat_matrix
-from ._ground import mjcf_ground_contacts
+from .._robot_ground import robot_ground_contacts
+from ._ground import MJCF_NONE_USABLE, mjcf_collision_shapes
 from ._inertia import body_mass_properties, bound, combine
 from ._parse import parse_mjcf
 from ._xml import MJCFError
@@ -880,7 +881,7 @@ class _Builder:
         return [exprs[i] for i in rows], [self.q[i] for i in sorted(chosen)], lines
 
 
-def from_mjcf(path, *, inputs=True, ground=None, t_end=1.0):
+def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
     """A model definition of the MuJoCo model in an MJCF file.
 
     Parameters
@@ -900,6 +901,13 @@ def from_mjcf(path, *, inputs=True, ground=None, t_end=1.0):
         (``<body>/geom<k>`` when it has no name; ``#<k>`` appended for the ends
         and vertices).  Other geom types are not used (a :class:`UserWarning`
         names them); the file's own planes are not used either.
+    ground_points : dict, optional
+        With ``ground``: contact points given explicitly, ``{body name: [(x, y,
+        z), ...]}`` in the MJCF body's frame (m), for bodies whose collision
+        geometry is a mesh.  A point ``(x, y, z, r)`` is a sphere of radius
+        ``r`` centred there.  Each becomes a contact named ``<body>/point<k>``;
+        the body's own geoms are then not used (nor warned about).  An unknown
+        body, or one fixed to the world, is an error naming it.
     t_end : float, optional
         Default simulation length, s.
 
@@ -946,10 +954,12 @@ def from_mjcf(path, *, inputs=True, ground=None, t_end=1.0):
         kane_args.update(q_dep=q_dep, u_dep=u_dep, configuration_constraints=config)
     kane_args.update(q_ind=q_ind, u_ind=u_ind, kd_eqs=kd_eqs)
     geoms = tuple(build.geom_records())
-    if ground is not None:
-        kane_args["contacts"] = mjcf_ground_contacts(ground, geoms, build.frame_of,
-                                                     build.point_of, build.N, build.O,
-                                                     model.source)
+    contacts = robot_ground_contacts(
+        ground, ground_points, mjcf_collision_shapes(geoms, build.frame_of, build.point_of),
+        build.head, build, caller="from_mjcf", kind="body", error=MJCFError,
+        source=model.source, none_usable=MJCF_NONE_USABLE)
+    if contacts is not None:
+        kane_args["contacts"] = contacts
     if build.bodies == [] or not any(isinstance(b, me.RigidBody) for b in build.bodies):
         raise MJCFError(f"{model.source}: no body has mass")
     nq, nv = build.qpos_at, build.dof_at

@@ -6,6 +6,8 @@
 ``_c_quick``        a model's first module from TinyCC, the optimized one built meanwhile
 ``_c_runtime``      the C runtime every generated module carries
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
+``_c_ensemble``     many trajectories of the loop's RK45 at once, on POSIX threads
+``_c_events``       events given as expressions, compiled for the ensemble
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes
@@ -14,10 +16,11 @@ from ._c_build import (STATS, CompilerError, cache_dir, compiler_command, load_m
 
 #: names whose modules need SymPy: imported on first use
 _LAZY = {"fingerprint": "._c", "generate_c": "._c", "CodegenError": "._python",
-         "compile_python": "._python", "generate_python": "._python"}
+         "compile_python": "._python", "generate_python": "._python",
+         "compiled_events": "._c_events"}
 
 __all__ = ["compile_python", "generate_python", "CodegenError", "generate_c", "load_module",
            "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir",
-           "trusted_cache_dir", "missing_compiler_text"]
+           "trusted_cache_dir", "missing_compiler_text", "compiled_events"]
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

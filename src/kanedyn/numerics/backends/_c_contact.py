@@ -15,7 +15,10 @@ The per-mode contact solve is the Schur complement of
 or one active unilateral contact sliding (one unknown normal force, Coulomb
 friction along the slip direction of
 :func:`kanedyn.numerics._contact_dynamics.slip_direction`) or sticking (a
-3-vector force), with Baumgarte stabilization of the normal distance.  Any
+3-vector force), with Baumgarte stabilization of the normal distance.  Several
+active contacts only when all are frictionless and sliding with independent
+normal rows (their normal forces by the Schur complement): the exported FMU's
+contact loop uses that; ``kd.simulate`` gives such segments to the Python path.  Any
 other case (several active contacts, dependent speeds, specified inputs, an
 ill-conditioned contact-space matrix) and any failure (singular or not
 finite) returns status 2 at once: the caller integrates that segment with
@@ -35,9 +38,13 @@ guard, by a ``KeyboardInterrupt`` at the signal check, or by its time limit,
 ``timeout`` s of computing, 0: none, checked every 16 steps: what it has); ``t``
 (N,) and ``z`` (N, n + 2) the accepted steps from ``t0`` (and the event point).
 Like the integration loop it lets Python's other threads work between its steps.
+
+:data:`SEGMENT` is the Python-free part (the solve, the event functions, Brent's
+method and the loop ``kd_seg_run``), shared with the standalone export's contact
+loop (:mod:`._c_hybrid`); :data:`CONTACT` adds the module's entry point.
 """
 
-CONTACT = r"""
+SEGMENT = r"""
 /* ------------------------------------------------------------------------
    Compiled contact segments
    ------------------------------------------------------------------------ */
@@ -119,6 +126,80 @@ static void kd_seg_slip_dir(const KdSeg *S, int c, const double *n, const double
     for (int i = 0; i < 3; ++i) s[i] = norm > 0 ? s[i] / norm : 0.0;
 }
 
+#if !(KD_NUDEP > 0 || KD_NR > 0)
+/* whether the k rows R (k x KD_NU, k <= 3) are independent: the smallest singular
+   value above 1e-10 times the largest (eigenvalues of R R^T, padded to 3 x 3) */
+static int kd_seg_independent(const double *R, int k) {
+    double G[9] = {0, 0, 0, 0, 0, 0, 0, 0, 0}, ev[3], V[9];
+    for (int a = 0; a < k; ++a)
+        for (int b = 0; b < k; ++b)
+            for (int j = 0; j < KD_NU; ++j) G[3 * a + b] += R[a * KD_NU + j] * R[b * KD_NU + j];
+    kd_jacobi3(G, ev, V);
+    for (int a = 0; a < 2; ++a)  /* descending */
+        for (int b = a + 1; b < 3; ++b)
+            if (ev[b] > ev[a]) { double x = ev[a]; ev[a] = ev[b]; ev[b] = x; }
+    return ev[0] > 0 && ev[k - 1] > 1e-20 * ev[0];
+}
+
+/* several active contacts, all frictionless (no Coulomb or viscous friction) and
+   sliding, their normal rows independent: the normal forces by the Schur
+   complement (solve_modes' general path without friction); 2 otherwise */
+static int kd_seg_frictionless(KdSeg *S, const double *z, double *zd, KdSegOut *o,
+                               const double *M, const double *f, const double *jac,
+                               const double *acc, const double *rate) {
+    int act[3], k = 0;
+    (void)acc;
+    for (int i = 0; i < KD_NC; ++i) {
+        if (S->modes[i] == 0) continue;
+        if (S->modes[i] != 1 || S->mu_k[i] != 0.0 || S->mu_s[i] != 0.0 || S->visc[i] != 0.0
+                || k == 3)
+            return 2;
+        act[k++] = i;
+    }
+    double R[3 * KD_NU], X[4 * KD_NU], A[KD_NU * KD_NU], W[9], lam[3];
+    for (int a = 0; a < k; ++a) {
+        const double *J = jac + 3 * act[a] * KD_NU, *n = o->normal + 3 * act[a];
+        for (int j = 0; j < KD_NU; ++j)
+            R[a * KD_NU + j] = n[0] * J[j] + n[1] * J[KD_NU + j] + n[2] * J[2 * KD_NU + j];
+    }
+    if (!kd_seg_independent(R, k)) return 2;
+    for (int j = 0; j < KD_NU; ++j) {
+        X[(k + 1) * j] = f[j];
+        for (int a = 0; a < k; ++a) X[(k + 1) * j + 1 + a] = R[a * KD_NU + j];
+    }
+    memcpy(A, M, sizeof(A));
+    if (kd_lu_solve(KD_NU, A, X, k + 1) != 0) return 1;
+    for (int a = 0; a < k; ++a) {
+        int c = act[a];
+        const double *n = o->normal + 3 * c, *v = o->vel + 3 * c;
+        double dist = o->gap[c] / o->grad[c], w = S->stab;
+        lam[a] = -(rate[c] + 2 * w * kd_dot3(n, v) + w * w * dist);
+        for (int j = 0; j < KD_NU; ++j) {
+            lam[a] -= R[a * KD_NU + j] * X[(k + 1) * j];
+            for (int b = 0; b < k; ++b)
+                W[k * a + b] = (j ? W[k * a + b] : 0.0) + R[a * KD_NU + j] * X[(k + 1) * j + 1 + b];
+        }
+    }
+    if (kd_lu_solve(k, W, lam, 1) != 0) return 2;
+    double *ud = zd + KD_NQ, power = 0.0;
+    const double *u = z + KD_NQ;
+    for (int j = 0; j < KD_NU; ++j) {
+        ud[j] = X[(k + 1) * j];
+        for (int a = 0; a < k; ++a) ud[j] += X[(k + 1) * j + 1 + a] * lam[a];
+    }
+    for (int a = 0; a < k; ++a) {
+        int c = act[a];
+        o->N[c] = lam[a];
+        for (int i = 0; i < 3; ++i) o->total[3 * c + i] = lam[a] * o->normal[3 * c + i];
+        for (int j = 0; j < KD_NU; ++j) power += lam[a] * R[a * KD_NU + j] * u[j];
+    }
+    zd[KD_NX] = 0.0;
+    zd[KD_NX + 1] = power;
+    for (int i = 0; i < KD_NZ; ++i) if (!isfinite(zd[i])) return 1;
+    return 0;
+}
+#endif
+
 /* z' and the contact forces for the fixed modes: 0, 1 singular / not finite,
    2 not handled here */
 static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOut *o) {
@@ -139,9 +220,10 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
         double vn = kd_dot3(n, v);
         for (int a = 0; a < 3; ++a) { o->vt[3 * i + a] = v[a] - vn * n[a]; o->total[3 * i + a] = 0.0; }
         o->N[i] = 0.0;
-        if (S->modes[i] != 0) { if (c >= 0) return 2; c = i; }
+        if (S->modes[i] != 0) { if (c >= 0) c = -2; else if (c == -1) c = i; }
     }
     memcpy(zd, qd, sizeof(double) * KD_NQ);
+    if (c == -2) return kd_seg_frictionless(S, z, zd, o, M, f, jac, acc, rate);
     double *ud = zd + KD_NQ;
     double A[KD_NU * KD_NU];
     memcpy(A, M, sizeof(A));
@@ -326,6 +408,148 @@ static int kd_seg_f(KdSeg *S, double t, const double *z, double *zd) {
     return kd_seg_solve(S, t, z, zd, &o);
 }
 
+
+/* what kd_seg_run reports: phase 0 before each step (return nonzero: stop there,
+   status 3), phase 1 a point of the segment (t, z) to keep (return nonzero: a
+   failure, status -1) */
+typedef int (*KdSegKeep)(void *ctx, int phase, double t, const double *z);
+
+/* Integrates the segment of S from (t0, z) toward t1 with SciPy's RK45 (its
+   coefficients, error norm, step control and initial step), the events
+   evaluated after every accepted step and located by Brent's method on the
+   continuous extension.  Status 0: reached t1; 1: event *event ended the
+   segment; 2: not handled here, singular or not finite, or the step became too
+   small; 3: stopped by keep; -1: keep failed.  On return z holds the last point
+   and *t_end its time.  *h_next: the step to try first (0: SciPy's choice) and,
+   on return, the one to try next. */
+static int kd_seg_run(KdSeg *S, double t0, double t1, double *z, double rtol, double atol,
+                      double *h_next, KdSegKeep keep, void *ctx, double *t_end, int *event) {
+    int st;
+    double t = t0, f[KD_NZ], z_new[KD_NZ], K[7][KD_NZ], ztmp[KD_NZ];
+    double g_old[KD_MAXEV], g_new[KD_MAXEV], scale[KD_NZ];
+    *event = -1;
+    *t_end = t0;
+    if (kd_seg_f(S, t, z, f) != 0) return 2;
+    if (S->n_ev && kd_seg_events(S, t, z, g_old) != 0) return 2;
+    if (keep(ctx, 1, t, z)) return -1;
+    double h_abs, interval = t1 - t0;
+    if (interval <= 0.0) return 0;
+    if (h_next != NULL && *h_next > 0) h_abs = fmin(*h_next, interval);
+    else {  /* initial step: SciPy's select_initial_step (order 4) */
+        double y1[KD_NZ], f1[KD_NZ], tmp[KD_NZ];
+        for (int i = 0; i < KD_NZ; ++i) scale[i] = atol + fabs(z[i]) * rtol;
+        double d0 = kd_rms(z, scale, KD_NZ), d1 = kd_rms(f, scale, KD_NZ), h0;
+        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
+        h0 = fmin(h0, interval);
+        for (int i = 0; i < KD_NZ; ++i) y1[i] = z[i] + h0 * f[i];
+        if (kd_seg_f(S, t + h0, y1, f1) != 0) return 2;
+        for (int i = 0; i < KD_NZ; ++i) tmp[i] = f1[i] - f[i];
+        double d2 = kd_rms(tmp, scale, KD_NZ) / h0, h1;
+        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
+        else h1 = pow(0.01 / fmax(d1, d2), 1.0 / 5.0);
+        h_abs = fmin(fmin(100 * h0, h1), interval);
+    }
+    while (t < t1) {
+        if (keep(ctx, 0, t, z)) return 3;
+        double min_step = 10 * fabs(nextafter(t, INFINITY) - t);
+        if (h_abs < min_step) h_abs = min_step;
+        int accepted = 0, rejected = 0;
+        double h = 0.0, t_new = t, err_norm = 0.0, wanted = h_abs;
+        while (!accepted) {
+            if (h_abs < min_step) return 2;
+            wanted = h_abs;
+            t_new = t + h_abs;
+            if (t_new > t1) t_new = t1;
+            h = t_new - t;
+            h_abs = fabs(h);
+            memcpy(K[0], f, sizeof(f));
+            for (int s = 1; s < 7; ++s) {
+                for (int i = 0; i < KD_NZ; ++i) {
+                    double a = 0.0;
+                    for (int j = 0; j < s; ++j) a += kd_A[s][j] * K[j][i];
+                    ztmp[i] = z[i] + h * a;
+                }
+                if (s == 6) memcpy(z_new, ztmp, sizeof(z_new));
+                if (kd_seg_f(S, t + kd_C[s] * h, ztmp, K[s]) != 0) return 2;
+            }
+            double err[KD_NZ];
+            for (int i = 0; i < KD_NZ; ++i) {
+                double e = 0.0;
+                for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+                err[i] = e * h;
+                scale[i] = atol + fmax(fabs(z[i]), fabs(z_new[i])) * rtol;
+            }
+            err_norm = kd_rms(err, scale, KD_NZ);
+            if (err_norm < 1) {
+                double factor = err_norm == 0 ? 10.0 : fmin(10.0, 0.9 * pow(err_norm, -0.2));
+                if (rejected) factor = fmin(1.0, factor);
+                h_abs *= factor;
+                accepted = 1;
+            } else {
+                double factor = 0.9 * pow(err_norm, -0.2);
+                if (!(factor > 0.2)) factor = 0.2;
+                h_abs *= factor;
+                rejected = 1;
+            }
+        }
+        if (h_next != NULL) *h_next = t_new == t1 ? fmax(wanted, h_abs) : h_abs;
+        S->t_old = t; S->h = h;
+        memcpy(S->z_old, z, sizeof(double) * KD_NZ);
+        for (int i = 0; i < KD_NZ; ++i)
+            for (int j = 0; j < 4; ++j) {
+                double s = 0.0;
+                for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
+                S->Q[4 * i + j] = s;
+            }
+        if (S->n_ev) {
+            if (kd_seg_events(S, t_new, z_new, g_new) != 0) return 2;
+            double first = INFINITY;
+            for (int k = 0; k < S->n_ev; ++k) {
+                if (!(g_old[k] >= 0 && g_new[k] <= 0)) continue;  /* direction -1 */
+                double root;
+                if ((st = kd_seg_root(S, k, t, t_new, g_old[k], g_new[k], &root)) != 0)
+                    return 2;
+                if (root < first) { first = root; *event = k; }
+            }
+            if (*event >= 0) {
+                kd_seg_dense(S, first, z);
+                *t_end = first;
+                return keep(ctx, 1, first, z) ? -1 : 1;
+            }
+            memcpy(g_old, g_new, sizeof(double) * S->n_ev);
+        }
+        t = t_new;
+        memcpy(z, z_new, sizeof(double) * KD_NZ);
+        memcpy(f, K[6], sizeof(f));
+        *t_end = t;
+        if (keep(ctx, 1, t, z)) return -1;
+    }
+    return 0;
+}
+"""
+
+CONTACT = SEGMENT + r"""
+/* the Python entry's keep (kd_seg_run): the points into buffers; before a step,
+   Python's signals, the guard's stop flag and its time limit */
+typedef struct {
+    KdBuf *t, *z;
+    const volatile npy_int32 *stop;
+    double deadline, next_yield;
+    unsigned long steps;
+    int interrupted;  /* -1: an exception other than KeyboardInterrupt is set */
+} KdSegPy;
+
+static int kd_seg_keep_py(void *ctx, int phase, double t, const double *z) {
+    KdSegPy *k = (KdSegPy *)ctx;
+    if (phase == 1) return kd_buf_push(k->t, &t, 1) || kd_buf_push(k->z, z, KD_NZ);
+    if (PyErr_CheckSignals() != 0) {
+        if (!PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) { k->interrupted = -1; return 1; }
+        PyErr_Clear();  /* stopped (Ctrl-C): what it has */
+        return 1;
+    }
+    return *k->stop || kd_pause(&k->steps, k->deadline, &k->next_yield);
+}
+
 static int kd_seg_array(PyObject *obj, npy_intp n, int integer, void *out) {
     PyArrayObject *a = (PyArrayObject *)PyArray_FROMANY(obj, integer ? NPY_INT : NPY_DOUBLE,
                                                         0, 2, NPY_ARRAY_IN_ARRAY);
@@ -352,7 +576,6 @@ static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
     if (stop == NULL) return NULL;
     double deadline = timeout > 0 ? kd_clock() + timeout : 0.0;
     double next_yield = kd_clock() + KD_YIELD_SECONDS;
-    unsigned long steps_taken = 0;
     if (PyTuple_GET_SIZE(spec) != 12) {
         PyErr_SetString(PyExc_ValueError, "contact_segment: spec must have 12 entries");
         return NULL;
@@ -392,119 +615,14 @@ static PyObject *kd_py_contact_segment(PyObject *self, PyObject *args) {
     S.stab = PyFloat_AsDouble(PyTuple_GET_ITEM(spec, 9));
     if (S.stab == -1.0 && PyErr_Occurred()) goto done;
 
-    int status = 0, event = -1, st;
-    double t = t0, z[KD_NZ], f[KD_NZ], z_new[KD_NZ], K[7][KD_NZ], ztmp[KD_NZ];
-    double g_old[KD_MAXEV], g_new[KD_MAXEV], scale[KD_NZ];
+    KdSegPy keep = {&out_t, &out_z, stop, deadline, next_yield, 0, 0};
+    double z[KD_NZ], t_end;
+    int event = -1;
     memcpy(z, z0, sizeof(z));
-    if ((st = kd_seg_f(&S, t, z, f)) != 0) { status = 2; goto finish; }
-    if (S.n_ev && (st = kd_seg_events(&S, t, z, g_old)) != 0) { status = 2; goto finish; }
-    if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_z, z, KD_NZ)) goto done;
-
-    /* initial step: SciPy's select_initial_step (order 4) */
-    double h_abs, interval = t1 - t0;
-    if (interval <= 0.0) goto finish;
-    {
-        double y1[KD_NZ], f1[KD_NZ], tmp[KD_NZ];
-        for (int i = 0; i < KD_NZ; ++i) scale[i] = atol + fabs(z[i]) * rtol;
-        double d0 = kd_rms(z, scale, KD_NZ), d1 = kd_rms(f, scale, KD_NZ), h0;
-        h0 = (d0 < 1e-5 || d1 < 1e-5) ? 1e-6 : 0.01 * d0 / d1;
-        h0 = fmin(h0, interval);
-        for (int i = 0; i < KD_NZ; ++i) y1[i] = z[i] + h0 * f[i];
-        if (kd_seg_f(&S, t + h0, y1, f1) != 0) { status = 2; goto finish; }
-        for (int i = 0; i < KD_NZ; ++i) tmp[i] = f1[i] - f[i];
-        double d2 = kd_rms(tmp, scale, KD_NZ) / h0, h1;
-        if (d1 <= 1e-15 && d2 <= 1e-15) h1 = fmax(1e-6, h0 * 1e-3);
-        else h1 = pow(0.01 / fmax(d1, d2), 1.0 / 5.0);
-        h_abs = fmin(fmin(100 * h0, h1), interval);
-    }
-    while (t < t1) {
-        if (PyErr_CheckSignals() != 0) {
-            if (!PyErr_ExceptionMatches(PyExc_KeyboardInterrupt)) goto done;
-            PyErr_Clear();  /* stopped (Ctrl-C): what it has */
-            status = 3;
-            goto finish;
-        }
-        if (*stop || kd_pause(&steps_taken, deadline, &next_yield)) { status = 3; goto finish; }
-        double min_step = 10 * fabs(nextafter(t, INFINITY) - t);
-        if (h_abs < min_step) h_abs = min_step;
-        int accepted = 0, rejected = 0;
-        double h = 0.0, t_new = t, err_norm = 0.0;
-        while (!accepted) {
-            if (h_abs < min_step) { status = 2; goto finish; }
-            t_new = t + h_abs;
-            if (t_new > t1) t_new = t1;
-            h = t_new - t;
-            h_abs = fabs(h);
-            memcpy(K[0], f, sizeof(f));
-            int bad = 0;
-            for (int s = 1; s < 7 && !bad; ++s) {
-                for (int i = 0; i < KD_NZ; ++i) {
-                    double a = 0.0;
-                    for (int j = 0; j < s; ++j) a += kd_A[s][j] * K[j][i];
-                    ztmp[i] = z[i] + h * a;
-                }
-                if (s == 6) memcpy(z_new, ztmp, sizeof(z_new));
-                st = kd_seg_f(&S, t + kd_C[s] * h, ztmp, K[s]);
-                if (st == 2) { status = 2; goto finish; }
-                bad = st != 0;
-            }
-            if (bad) err_norm = INFINITY;  /* SciPy would see non-finite values: shrink */
-            else {
-                double err[KD_NZ];
-                for (int i = 0; i < KD_NZ; ++i) {
-                    double e = 0.0;
-                    for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
-                    err[i] = e * h;
-                    scale[i] = atol + fmax(fabs(z[i]), fabs(z_new[i])) * rtol;
-                }
-                err_norm = kd_rms(err, scale, KD_NZ);
-            }
-            if (bad) { status = 2; goto finish; }
-            if (err_norm < 1) {
-                double factor = err_norm == 0 ? 10.0 : fmin(10.0, 0.9 * pow(err_norm, -0.2));
-                if (rejected) factor = fmin(1.0, factor);
-                h_abs *= factor;
-                accepted = 1;
-            } else {
-                double factor = 0.9 * pow(err_norm, -0.2);
-                if (!(factor > 0.2)) factor = 0.2;
-                h_abs *= factor;
-                rejected = 1;
-            }
-        }
-        S.t_old = t; S.h = h;
-        memcpy(S.z_old, z, sizeof(z));
-        for (int i = 0; i < KD_NZ; ++i)
-            for (int j = 0; j < 4; ++j) {
-                double s = 0.0;
-                for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
-                S.Q[4 * i + j] = s;
-            }
-        if (S.n_ev) {
-            if ((st = kd_seg_events(&S, t_new, z_new, g_new)) != 0) { status = 2; goto finish; }
-            double first = INFINITY;
-            for (int k = 0; k < S.n_ev; ++k) {
-                if (!(g_old[k] >= 0 && g_new[k] <= 0)) continue;  /* direction -1 */
-                double root;
-                if ((st = kd_seg_root(&S, k, t, t_new, g_old[k], g_new[k], &root)) != 0) {
-                    status = 2; goto finish;
-                }
-                if (root < first) { first = root; event = k; }
-            }
-            if (event >= 0) {
-                kd_seg_dense(&S, first, ztmp);
-                if (kd_buf_push(&out_t, &first, 1) || kd_buf_push(&out_z, ztmp, KD_NZ)) goto done;
-                status = 1;
-                goto finish;
-            }
-            memcpy(g_old, g_new, sizeof(double) * S.n_ev);
-        }
-        t = t_new;
-        memcpy(z, z_new, sizeof(z));
-        memcpy(f, K[6], sizeof(f));
-        if (kd_buf_push(&out_t, &t, 1) || kd_buf_push(&out_z, z, KD_NZ)) goto done;
-    }
-finish:
+    int status = kd_seg_run(&S, t0, t1, z, rtol, atol, NULL, kd_seg_keep_py, &keep, &t_end,
+                            &event);
+    if (status == -1) goto done;
+    if (status == 3 && keep.interrupted < 0) goto done;  /* an exception other than Ctrl-C */
     {
         PyObject *ta = kd_buf_array(&out_t, out_t.n, -1);
         PyObject *za = kd_buf_array(&out_z, out_t.n, KD_NZ);

@@ -32,7 +32,9 @@ from __future__ import annotations
 from ..._version import __version__
 from . import _c_runtime
 from ._c import _function_source, solver_source
-from ._c_integrator import DORMAND_PRINCE, PROJECTION
+from ._c_contact import SEGMENT
+from ._c_hybrid import HYBRID
+from ._c_integrator import DENSE_OUTPUT, DORMAND_PRINCE, PROJECTION
 
 __all__ = ["standalone_c"]
 
@@ -194,8 +196,26 @@ def _list(items, fallback):
     return ", ".join(items) if items else fallback
 
 
+def _contact_source(contacts):
+    """C of the contacts' names, restitution laws and coefficients (expressions of
+    the parameters ``p``), for the contact loop (:data:`._c_hybrid.HYBRID`)."""
+    k = len(contacts)
+    lines = [f"#define KD_NC {k}",
+             "const char *const kanedyn_contact_names[KD_NC] = {"
+             + ", ".join(_c_string(c["name"]) for c in contacts) + "};",
+             "static const int kd_contact_law[KD_NC] = {"
+             + ", ".join("1" if c["newton"] else "0" for c in contacts) + "};",
+             "static void kd_contact_coefficients(const double *p, double *mu_k, double *mu_s,",
+             "                                    double *visc, double *e) {",
+             "    (void)p;"]
+    for i, c in enumerate(contacts):
+        lines += [f"    mu_k[{i}] = {c['mu_k']};", f"    mu_s[{i}] = {c['mu_s']};",
+                  f"    visc[{i}] = {c['viscous']};", f"    e[{i}] = {c['restitution']};"]
+    return "\n".join([*lines, "}"])
+
+
 def standalone_c(program, functions, sizes, state_names, parameters, input_names=(),
-                 title="", describe=str, cse=True):
+                 title="", describe=str, cse=True, contacts=None):
     """C99 source of a model's right-hand side, constraints and energies.
 
     Parameters
@@ -218,6 +238,12 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         Text of an expression for error messages.
     cse : bool
         Common subexpression elimination of the generated code.
+    contacts : sequence of dict, optional
+        With the model's contacts (dependent speeds and specified inputs excluded):
+        per contact ``name``, ``newton`` (bool: Newton's restitution law, else
+        Poisson's) and the C expressions (of ``p[i]``) of ``mu_k``, ``mu_s``,
+        ``viscous``, ``restitution``; the file then holds the contact kinematics
+        and the contact loop (:mod:`._c_hybrid`: ``kanedyn_contact_*``).
 
     Returns
     -------
@@ -233,6 +259,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
                 "energy": functions["energy"]}
     if "tree" in functions and not m:  # what the module runs: the articulated-body pass
         selected = {"tree": functions["tree"], **selected}
+    if contacts:
+        selected["contacts"] = functions["contacts"]
     parts, work = [], 0
     for name, (arguments, outputs) in selected.items():
         # the tree pass's statements are its composite sums: no elimination (as in the
@@ -242,7 +270,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         parts.append(src)
         work = max(work, w)
     names = list(parameters)
-    header = _header(title, state_names, parameters, input_names, sizes)
+    header = _header(title, state_names, parameters, input_names, sizes,
+                     [c["name"] for c in contacts or ()])
     defines = [f"#define KD_NQ {n}", f"#define KD_NU {o}", f"#define KD_NQDEP {l}",
                f"#define KD_NUDEP {m}", f"#define KD_NP {n_p}", f"#define KD_NR {n_r}",
                f"#define KD_NW {work}",
@@ -255,11 +284,12 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "parameters": _list([_c_string(s) for s in names], "NULL"),
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
+    tail = [_contact_source(contacts), DENSE_OUTPUT, SEGMENT, HYBRID] if contacts else []
     return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
-                      *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public])
+                      *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
 
 
-def _header(title, state_names, parameters, input_names, sizes):
+def _header(title, state_names, parameters, input_names, sizes, contacts=()):
     n, o = sizes["n_q"], sizes["n_u"]
     l, m = sizes["n_q_dep"], sizes["n_u_dep"]
     lines = [f"{title or 'a kanedyn model'}", "",
@@ -314,5 +344,13 @@ def _header(title, state_names, parameters, input_names, sizes):
     lines.append(f"Specified inputs r (KANEDYN_NR = {len(input_names)}):")
     lines += [f"  r[{k}] = {name.removesuffix('(t)')}"
               for k, name in enumerate(input_names)] or ["  none"]
+    if contacts:
+        lines += [f"Contacts (KD_NC = {len(contacts)}): {', '.join(contacts)}.",
+                  "  Their modes, events and impacts: kanedyn_contact_start,",
+                  "  kanedyn_contact_advance (co-simulation), kanedyn_contact_derivatives,",
+                  "  kanedyn_contact_indicators, kanedyn_contact_update (model exchange),",
+                  "  on z = [y, work of friction, work of all contact forces] and a state",
+                  "  of kanedyn_contact_state_size() bytes; kanedyn_contact_message says",
+                  "  why a call returned 5."]
     body = "\n".join((" * " + line).rstrip() for line in lines)
     return "/*\n" + body.replace("*/", "* /") + "\n */"

@@ -195,6 +195,20 @@ static inline int kd_first_step(KdRhsFn fn, void *ctx, double t, const double *y
 }
 """
 
+#: the coefficients of RK45's continuous extension (the compiled loop's and the
+#: contact segments')
+DENSE_OUTPUT = r"""
+/* Dormand-Prince 5(4) dense output (SciPy's RK45's) */
+static const double kd_P[7][4] = {
+    {1, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
+    {0, 0, 0, 0},
+    {0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
+    {0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
+    {0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
+    {0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
+    {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
+"""
+
 _LOOP = r"""
 /* ------------------------------------------------------------------------
    Compiled integration loop
@@ -439,15 +453,14 @@ static int kd_event(KdIntegrator *ig, int k, double t, const double *y, double *
     return 0;
 }
 
-/* a function of the state along the continuous extension: g(t, y) into *g, -1 on
-   a Python error */
-typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
+/* a function of time: g(t) into *g; nonzero: an error (a Python error in the loop) */
+typedef int (*KdRootFn)(void *ctx, double t, double *g);
 
-/* Brent's method for a zero of fn on the continuous extension in [a, b]. */
-static int kd_brent(KdIntegrator *ig, KdAlongFn fn, void *ctx, double a, double b, double fa,
-                    double fb, double *root) {
+/* Brent's method for a zero of fn in [a, b] (fa, fb: its values there), the loop's
+   and the ensemble's (SciPy's brentq with xtol = rtol = 4 eps) */
+static int kd_brent(KdRootFn fn, void *ctx, double a, double b, double fa, double fb,
+                    double *root) {
     const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
-    double y[KD_NX];
     double c = a, fc = fa, d = b - a, e = d;
     for (int iter = 0; iter < 200; ++iter) {
         if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
@@ -469,11 +482,37 @@ static int kd_brent(KdIntegrator *ig, KdAlongFn fn, void *ctx, double a, double 
         } else { d = m; e = m; }
         a = b; fa = fb;
         b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
-        kd_dense(ig, b, y);
-        if (fn(ig, ctx, b, y, &fb) != 0) return -1;
+        if (fn(ctx, b, &fb) != 0) return -1;
     }
     *root = b;
     return 0;
+}
+
+/* whether an event whose values went from g_old to g_new over a step has a zero there
+   in its direction (> 0: upward, < 0: downward, 0: either) */
+static inline int kd_event_active(double g_old, double g_new, double direction) {
+    int up = g_old <= 0 && g_new >= 0, down = g_old >= 0 && g_new <= 0;
+    return (up && direction > 0) || (down && direction < 0) || ((up || down) && direction == 0);
+}
+
+/* the n roots (and the events they belong to) sorted by time along dir */
+static void kd_sort_roots(double *roots, int *which, int n, double dir) {
+    for (int a = 1; a < n; ++a)
+        for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
+            double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
+            int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
+        }
+}
+
+/* a function of the state along the loop's continuous extension: g(t, y) into *g, -1
+   on a Python error; as a KdRootFn of t with its KdAlong */
+typedef int (*KdAlongFn)(KdIntegrator *ig, void *ctx, double t, const double *y, double *g);
+typedef struct { KdIntegrator *ig; KdAlongFn fn; void *ctx; } KdAlong;
+static int kd_along(void *along, double t, double *g) {
+    const KdAlong *a = (const KdAlong *)along;
+    double y[KD_NX];
+    kd_dense(a->ig, t, y);
+    return a->fn(a->ig, a->ctx, t, y, g);
 }
 
 static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, double *g) {
@@ -706,7 +745,8 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
                         - 0.5 * fabs(t - ig->t_old) * fmax(fabs(mon->rate), fabs(rate));
         if (turns && lowest < mon->threshold) {
             double root, yr[KD_NX], Br[KD_NUDEP * KD_NU];
-            if (kd_brent(ig, kd_monitor_rate_at, mon, ig->t_old, t, mon->rate, rate, &root) != 0)
+            KdAlong along = {ig, kd_monitor_rate_at, mon};
+            if (kd_brent(kd_along, &along, ig->t_old, t, mon->rate, rate, &root) != 0)
                 return -1;
             kd_dense(ig, root, yr);
             if (kd_constraint_matrix(ig->model, root, yr, Br) != 0) return -1;
@@ -738,16 +778,7 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
 }
 #endif
 
-/* Dormand-Prince 5(4) dense output (SciPy's RK45's) */
-static const double kd_P[7][4] = {
-    {1, -8048581381.0 / 2820520608, 8663915743.0 / 2820520608, -12715105075.0 / 11282082432},
-    {0, 0, 0, 0},
-    {0, 131558114200.0 / 32700410799, -68118460800.0 / 10900136933, 87487479700.0 / 32700410799},
-    {0, -1754552775.0 / 470086768, 14199869525.0 / 1410260304, -10690763975.0 / 1880347072},
-    {0, 127303824393.0 / 49829197408, -318862633887.0 / 49829197408, 701980252875.0 / 199316789632},
-    {0, -282668133.0 / 205662961, 2019193451.0 / 616988883, -1453857185.0 / 822651844},
-    {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
-
+""" + DENSE_OUTPUT + r"""
 /* one attempted RK45 step of size h from (t, y, f): y_new, f_new (= K[6]), error norm */
 /* kd_f as a KdRhsFn (ctx: the KdIntegrator) */
 static int kd_f_stepper(void *ctx, double t, const double *y, double *out) {
@@ -1072,20 +1103,14 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             double roots[64];
             int which[64], n_roots = 0;
             for (int k = 0; k < ig.n_events && n_roots < 64; ++k) {
-                int up = g_old[k] <= 0 && g_new[k] >= 0, down = g_old[k] >= 0 && g_new[k] <= 0;
-                int active = (up && ev_dir[k] > 0) || (down && ev_dir[k] < 0)
-                             || ((up || down) && ev_dir[k] == 0);
-                if (!active) continue;
+                if (!kd_event_active(g_old[k], g_new[k], ev_dir[k])) continue;
                 double root;
-                if (kd_brent(&ig, kd_event_at, &k, t, t_new, g_old[k], g_new[k], &root) != 0)
+                KdAlong along = {&ig, kd_event_at, &k};
+                if (kd_brent(kd_along, &along, t, t_new, g_old[k], g_new[k], &root) != 0)
                     KD_FAIL;
                 roots[n_roots] = root; which[n_roots] = k; n_roots++;
             }
-            for (int a = 1; a < n_roots; ++a)  /* sort by time along the direction */
-                for (int b = a; b > 0 && dir * (roots[b] - roots[b - 1]) < 0; --b) {
-                    double tr = roots[b]; roots[b] = roots[b - 1]; roots[b - 1] = tr;
-                    int tw = which[b]; which[b] = which[b - 1]; which[b - 1] = tw;
-                }
+            kd_sort_roots(roots, which, n_roots, dir);
             for (int a = 0; a < n_roots; ++a) {
                 double ye[KD_NX];
                 kd_dense(&ig, roots[a], ye);

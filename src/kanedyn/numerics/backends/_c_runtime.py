@@ -385,7 +385,8 @@ static int kd_lu_factor(int n, double *A, double *piv) {
 
 /* X = A^-1 X in place from the factors of kd_lu_factor (X: n x nrhs): the row
    exchanges (whole rows were exchanged in the factors), then L, then U */
-static void kd_lu_apply(int n, const double *A, const double *piv, double *X, int nrhs) {
+KD_VECTORIZED static void kd_lu_apply(int n, const double *A, const double *piv, double *X,
+                                      int nrhs) {
     for (int k = 0; k < n; ++k) {
         const int p = (int)piv[k];
         if (p == k) continue;
@@ -412,6 +413,71 @@ static void kd_lu_apply(int n, const double *A, const double *piv, double *X, in
     }
 }
 
+#if KD_NUDEP == 0 && (KD_SOLVE == 1 || KD_SOLVE == 2)
+/* without dependent speeds the system is M, factored as for the right-hand side
+   (L^T D L: kd_ltdl_dense or kd_ltdl_tree, the same u'); then X = M^-1 X (X:
+   KD_NU x KD_JC) from those factors, whole rows of X at a time (the compiler
+   vectorizes them) */
+#define KD_JACOBIAN_LTDL 1
+#if KD_SOLVE == 1
+#define KD_LTDL kd_ltdl_dense
+#define KD_ABOVE(k) ((k) - 1)
+#define KD_UP(i) ((i) - 1)
+#else
+#define KD_LTDL kd_ltdl_tree
+#define KD_ABOVE(k) (kd_parent[k])
+#define KD_UP(i) (kd_parent[i])
+#endif
+KD_VECTORIZED static void kd_ltdl_apply(const double *restrict A, double *restrict X) {
+    const int n = KD_NU;
+    for (int k = n - 1; k > 0; --k) {  /* L^T Z = X */
+        const double *restrict xk = X + k * KD_JC;
+        for (int i = KD_ABOVE(k); i >= 0; i = KD_UP(i)) {
+            const double a = A[k * n + i];
+            double *restrict xi = X + i * KD_JC;
+            for (int j = 0; j < KD_JC; ++j) xi[j] -= a * xk[j];
+        }
+    }
+    for (int k = 0; k < n; ++k) {  /* D */
+        const double d = A[k * n + k];
+        double *restrict xk = X + k * KD_JC;
+        for (int j = 0; j < KD_JC; ++j) xk[j] /= d;
+    }
+    for (int k = 1; k < n; ++k) {  /* L X = Z */
+        double *restrict xk = X + k * KD_JC;
+        for (int i = KD_ABOVE(k); i >= 0; i = KD_UP(i)) {
+            const double a = A[k * n + i];
+            const double *restrict xi = X + i * KD_JC;
+            for (int j = 0; j < KD_JC; ++j) xk[j] -= a * xi[j];
+        }
+    }
+}
+#else
+#define KD_JACOBIAN_LTDL 0
+#endif
+
+/* [[M, -B^T], [K, 0]] [u'; lambda] = [f; -f_a]: the system S, its LU factors
+   (pivots piv) and the solution sol; 1 if singular */
+static int kd_index1_lu(const double *M, const double *fv, const double *B, const double *Ka,
+                        const double *fa, double *S, double *piv, double *sol) {
+    for (int i = 0; i < KD_NS; ++i)
+        for (int j = 0; j < KD_NS; ++j) S[i * KD_NS + j] = 0.0;
+    for (int i = 0; i < KD_NU; ++i) {
+        for (int j = 0; j < KD_NU; ++j) S[i * KD_NS + j] = M[i * KD_NU + j];
+        sol[i] = fv[i];
+    }
+    for (int c = 0; c < KD_NUDEP; ++c) {
+        for (int j = 0; j < KD_NU; ++j) {
+            S[j * KD_NS + KD_NU + c] = -B[c * KD_NU + j];
+            S[(KD_NU + c) * KD_NS + j] = Ka[c * KD_NU + j];
+        }
+        sol[KD_NU + c] = -fa[c];
+    }
+    if (kd_lu_factor(KD_NS, S, piv) != 0) return 1;
+    kd_lu_apply(KD_NS, S, piv, sol, 1);
+    return 0;
+}
+
 /* one column group of the derivatives: g_x into the rows of q' of D, the
    right-hand sides -[E_x; a_x] into X, both at column `at` of the KD_JC */
 static void kd_jacobian_group(const double *g, const double *E, const double *a, int cols,
@@ -431,22 +497,14 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
     double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *X = EA + KD_NS * KD_JC;
     kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
-    /* [[M, -B^T], [K, 0]] [u'; lambda] = [f; -f_a] */
-    for (int i = 0; i < KD_NS; ++i)
-        for (int j = 0; j < KD_NS; ++j) S[i * KD_NS + j] = 0.0;
-    for (int i = 0; i < KD_NU; ++i) {
-        for (int j = 0; j < KD_NU; ++j) S[i * KD_NS + j] = M[i * KD_NU + j];
-        sol[i] = fv[i];
-    }
-    for (int c = 0; c < KD_NUDEP; ++c) {
-        for (int j = 0; j < KD_NU; ++j) {
-            S[j * KD_NS + KD_NU + c] = -B[c * KD_NU + j];
-            S[(KD_NU + c) * KD_NS + j] = Ka[c * KD_NU + j];
-        }
-        sol[KD_NU + c] = -fa[c];
-    }
-    if (kd_lu_factor(KD_NS, S, piv) != 0) return 1;
-    kd_lu_apply(KD_NS, S, piv, sol, 1);
+    int lu = 1;
+#if KD_JACOBIAN_LTDL
+    memcpy(sol, fv, sizeof(double) * KD_NU);
+    lu = KD_LTDL(M, sol) != 0;  /* M: its factors */
+    if (lu) kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);  /* not positive
+                                                 definite: M again, LU with pivoting */
+#endif
+    if (lu && kd_index1_lu(M, fv, B, Ka, fa, S, piv, sol) != 0) return 1;
     for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
     for (int i = 0; i < KD_NS; ++i) rx[KD_NR + i] = sol[i];
     /* the blocks g_x, E_x, a_x of each group, each at the start of its own rows of G
@@ -467,6 +525,9 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
 #endif
     for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
         if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, D, X);
+#if KD_JACOBIAN_LTDL
+    if (!lu) kd_ltdl_apply(M, X); else
+#endif
     kd_lu_apply(KD_NS, S, piv, X, KD_JC);
     memcpy(D + KD_NQ * KD_JC, X, sizeof(double) * KD_NU * KD_JC);  /* the rows of u' */
     memcpy(D + KD_NX * KD_JC, X + KD_NU * KD_JC, sizeof(double) * KD_NUDEP * KD_JC);
@@ -1194,6 +1255,13 @@ done:
     return result;
 }
 
+/* the module's exact derivatives, or NULL with a TypeError */
+static const KdJacobianInfo *kd_module_jacobians(void) {
+    const KdJacobianInfo *info = KD_JACOBIANS;
+    if (info == NULL) PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
+    return info;
+}
+
 /* solved_jacobians(t, Y, p, R): the exact derivatives at each of N states (a
    module with the generated `jacobians`, KdJacobianInfo): t (N,), Y (N, n_x), R
    (N, nr); the tuple (F (N, n_x), D (N, n_x + m, columns), C (N, n_con, n_x)) of
@@ -1201,11 +1269,8 @@ done:
 static PyObject *kd_py_solved_jacobians(PyObject *self, PyObject *const *args,
                                         Py_ssize_t nargs) {
     (void)self;
-    const KdJacobianInfo *info = KD_JACOBIANS;
-    if (info == NULL) {
-        PyErr_SetString(PyExc_TypeError, "this module has no exact derivatives");
-        return NULL;
-    }
+    const KdJacobianInfo *info = kd_module_jacobians();
+    if (info == NULL) return NULL;
     if (nargs != 4) {
         PyErr_SetString(PyExc_TypeError, "solved_jacobians(t, Y, p, R) takes 4 arguments");
         return NULL;
@@ -1263,6 +1328,89 @@ static PyObject *kd_py_solved_jacobians(PyObject *self, PyObject *const *args,
 done:
     Py_XDECREF(T); Py_XDECREF(Y); Py_XDECREF(R); Py_XDECREF(keep);
     Py_XDECREF(F); Py_XDECREF(D); Py_XDECREF(C);
+    PyMem_Free(work);
+    return result;
+}
+
+/* solved_jacobian(cls, fields, keys, p, r, t, y): the exact derivatives at one
+   state as a new instance of `cls` (NumericModel.jacobians without checks),
+   whose __dict__ is a copy of the dict `fields` with the 8 `keys` set to f, C,
+   then the blocks of D (the rows of f, then those of the multipliers, each in
+   the columns of the state, the inputs and the constants), arrays of their own
+   or None (the constants where none are generated; the multipliers without
+   dependent speeds).  p and r (n_r) vectors; t a number and y an array of n_x
+   doubles, exactly: None for anything else, which the caller then checks and
+   converts.  LinAlgError if singular */
+static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
+                                       Py_ssize_t nargs) {
+    (void)self;
+    const KdJacobianInfo *info = kd_module_jacobians();
+    if (info == NULL) return NULL;
+    if (nargs != 7 || !PyType_Check(args[0]) || !PyDict_Check(args[1])
+            || !PyTuple_Check(args[2]) || PyTuple_GET_SIZE(args[2]) != 8) {
+        PyErr_SetString(PyExc_TypeError, "solved_jacobian(cls, fields, keys, p, r, t, y): a "
+                        "class, a dict, a tuple of 8 names, then the arguments");
+        return NULL;
+    }
+    const double *y = kd_in_place(args[6], KD_NX);
+    if (y == NULL || !(PyFloat_Check(args[5]) || PyLong_CheckExact(args[5])))
+        Py_RETURN_NONE;
+    const double t = PyFloat_AsDouble(args[5]);
+    if (t == -1.0 && PyErr_Occurred()) return NULL;
+    static const double empty[1] = {0.0};
+    static PyObject *dict_name = NULL;
+    if (dict_name == NULL && (dict_name = PyUnicode_InternFromString("__dict__")) == NULL)
+        return NULL;
+    PyObject *keep[2] = {NULL, NULL}, *values[8] = {NULL}, *result = NULL;
+    const double *p = KD_NP > 0 ? kd_vector(args[3], KD_NP, &keep[0], "p") : empty;
+    const double *r = p == NULL ? NULL
+        : KD_NR > 0 ? kd_vector(args[4], KD_NR, &keep[1], "r") : empty;
+    const int rows = KD_NX + KD_NUDEP, columns = info->columns;
+    const int widths[3] = {KD_NX, KD_NR, columns - KD_NX - KD_NR};
+    double *work = r == NULL ? NULL : (double *)PyMem_Malloc(
+        sizeof(double) * (KD_SZ(KD_NW) + info->scratch + rows * columns));
+    if (work == NULL) {
+        if (r != NULL) PyErr_NoMemory();
+        goto done;
+    }
+    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = NULL;
+    if ((values[0] = kd_new_vector(KD_NX, &f)) == NULL
+            || (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL)
+        goto done;
+    int bad;
+    Py_BEGIN_ALLOW_THREADS
+    bad = info->core(t, y, p, r, work, work + KD_SZ(KD_NW), f, D, C);
+    Py_END_ALLOW_THREADS
+    if (bad) {
+        PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
+        goto done;
+    }
+    for (int b = 0; b < 6; ++b) {
+        const int group = b % 3, first = b < 3 ? 0 : KD_NX, height = b < 3 ? KD_NX : KD_NUDEP;
+        if ((group == 2 && widths[2] == 0) || (b >= 3 && KD_NUDEP == 0)) {
+            Py_INCREF(Py_None);
+            values[2 + b] = Py_None;
+            continue;
+        }
+        const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
+        double *out;
+        if ((values[2 + b] = kd_new_matrix(height, widths[group], &out)) == NULL) goto done;
+        for (int i = 0; i < height; ++i)
+            memcpy(out + i * widths[group], D + (first + i) * columns + at,
+                   sizeof(double) * widths[group]);
+    }
+    PyObject *fields = PyDict_Copy(args[1]);
+    for (int k = 0; fields != NULL && k < 8; ++k)
+        if (PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
+            Py_CLEAR(fields);
+    PyTypeObject *cls = (PyTypeObject *)args[0];
+    result = fields == NULL ? NULL : cls->tp_alloc(cls, 0);  /* object.__new__(cls) */
+    if (result != NULL && PyObject_GenericSetAttr(result, dict_name, fields) != 0)
+        Py_CLEAR(result);
+    Py_XDECREF(fields);
+done:
+    for (int k = 0; k < 8; ++k) Py_XDECREF(values[k]);
+    Py_XDECREF(keep[0]); Py_XDECREF(keep[1]);
     PyMem_Free(work);
     return result;
 }
@@ -1457,6 +1605,8 @@ static PyMethodDef kd_runtime_functions[] = {
 #endif
     {"_adopt", (PyCFunction)kd_py_adopt, METH_O, NULL},
     {"solved_jacobians", (PyCFunction)(void (*)(void))kd_py_solved_jacobians, METH_FASTCALL,
+     NULL},
+    {"solved_jacobian", (PyCFunction)(void (*)(void))kd_py_solved_jacobian, METH_FASTCALL,
      NULL},
 #ifdef KD_INVERSE_POINT
     {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, METH_FASTCALL, NULL},

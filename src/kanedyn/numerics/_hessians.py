@@ -1,0 +1,144 @@
+r"""Exact second derivatives of a model's state derivative, contracted with weights.
+
+For :math:`f = [\dot q;\ \dot u]`, :math:`\dot q = g(q, u, r)` and the
+accelerations :math:`w = \dot u` solving :math:`E(x, w) = \tau(q, u, w) - f_u
+= 0` (:math:`x = (y, r)`, :math:`E_w = M`, :math:`E` linear in :math:`w`),
+differentiating :math:`E(x, w(x)) = 0` twice gives
+
+.. math::
+
+    M\, w_{xx} = -\begin{bmatrix} I \\ w_x \end{bmatrix}^T E''
+                  \begin{bmatrix} I \\ w_x \end{bmatrix},
+    \qquad w_x = -M^{-1} E_x,
+
+with :math:`E''` the Hessian of :math:`E` in :math:`(x, w)`.  So for weights
+:math:`\lambda = [\lambda_q; \lambda_u]` on the rows of :math:`f`, with
+:math:`\nu = M^{-T}\lambda_u`,
+
+.. math::
+
+    \frac{\partial^2 (\lambda^T f)}{\partial x^2} =
+    \begin{bmatrix} I \\ w_x \end{bmatrix}^T
+    \Bigl(\textstyle\sum_i \lambda_{q,i}\, g_i'' - \sum_i \nu_i\, E_i''\Bigr)
+    \begin{bmatrix} I \\ w_x \end{bmatrix} .
+
+The second derivatives :math:`g_i''` and :math:`E_i''` in :math:`(y, r, w)`
+are generated code: forward differentiation, twice, of the equations'
+straight-line program (:meth:`kanedyn.engine.Program.jacobian`), printed as
+NumPy code evaluated on every point at once; :math:`w_x` is that of
+:func:`~kanedyn.numerics.jacobians`.  For models without dependent speeds or
+coordinates and without contacts (others are refused, saying why).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .._errors import ModelError
+
+__all__ = ["hessians_unavailable", "weighted_hessians"]
+
+
+def hessians_unavailable(model):
+    """Why :func:`weighted_hessians` cannot serve ``model`` (text), or ``None``."""
+    from ._jacobians import derivatives_unavailable
+    reason = derivatives_unavailable(model)
+    if reason:
+        return reason
+    if model.n_u_dep or model.n_q_dep:
+        return ("exact second derivatives are generated for models without constraints "
+                f"only; this one has {model.n_q_dep} dependent coordinates and "
+                f"{model.n_u_dep} dependent speeds")
+    if model.contacts:
+        return "exact second derivatives are not generated for models with contacts"
+    if getattr(model, "_eom", None) is None:
+        return "exact second derivatives need the model's equations (a model built by " \
+               "eom.numeric(...), not one restored from a file)"
+    return None
+
+
+def _specification(model):
+    """``(program, arguments, outputs)``: arguments ``(t, y, p, r)`` with ``r``
+    the inputs then :math:`w`; outputs ``M`` (o, o) and the second
+    derivatives of ``[g; E]`` in ``v = (y, r, w)``, ((n + o) * nv, nv)."""
+    from ._inverse import _recursive_inertia_forces, _workspace
+    import sympy as sm
+    eom = model._eom
+    args, dynamics = model._functions["dynamics"]
+    o = model.n_u
+    qdot, mass, force = dynamics[0][1], dynamics[1][1], dynamics[2][1]
+    prog, kin = _workspace(model)
+    w = list(eom._table.udot)
+    inertia = _recursive_inertia_forces(eom, o, w, model._substitutions, kin)
+    if inertia is None:
+        inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) for r in range(o)]
+    rows = list(qdot) + [inertia[r] - force[r] for r in range(o)]
+    v = list(args["y"]) + list(args["r"]) + w
+    first = prog.jacobian(rows, v, guarded=True)
+    second = prog.jacobian(list(first), v, guarded=True)
+    outputs = [((o, o), list(mass)), ((len(rows) * len(v), len(v)), list(second))]
+    return prog, dict(args, r=list(args["r"]) + w), outputs
+
+
+def _function(model):
+    """The generated NumPy function, made on first use and kept by the model."""
+    found = model.__dict__.get("_weighted_hessians")
+    if found is None:
+        from .backends._python import compile_python, generate_python
+        prog, args, outputs = _specification(model)
+        source = generate_python(prog, "hessians", args, outputs, vectorized=True, cse=True)
+        found = model.__dict__["_weighted_hessians"] = compile_python(source, "hessians")
+    return found
+
+
+def weighted_hessians(model, t, Y, R, weights, jacobians=None):
+    r""":math:`\partial^2 (\lambda_k^T f)/\partial x^2` at each of N points,
+    :math:`x = (y, r)`.
+
+    Parameters
+    ----------
+    model : NumericModel
+    t : ndarray, shape (N,)
+        Times, s.
+    Y : ndarray, shape (N, n_states)
+    R : ndarray, shape (N, n_inputs)
+    weights : ndarray, shape (N, n_states)
+        :math:`\lambda_k`, one weight per row of :math:`f` (units: those of
+        the Lagrangian over those of :math:`f`).
+    jacobians : Jacobians, optional
+        ``model.jacobians(t, Y, r=R)`` when already at hand.
+
+    Returns
+    -------
+    ndarray, shape (N, n_states + n_inputs, n_states + n_inputs)
+        Symmetric; the columns are the states then the inputs.
+    """
+    reason = hessians_unavailable(model)
+    if reason:
+        raise ModelError(reason)
+    Y = np.asarray(Y, dtype=float)
+    R = np.asarray(R, dtype=float).reshape(len(Y), -1)
+    N, n, o = len(Y), model.n_q, model.n_u
+    ns, nr = model.n_states, R.shape[1]
+    nx = ns + nr
+    J = jacobians if jacobians is not None else model.jacobians(t, Y, r=R)
+    fn = _function(model)
+    T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
+    r_args = [*R.T, *J.f[:, n:].T]
+    mass, second = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
+    # points on the last axis throughout: elementwise work on rows of length N
+    mass = np.broadcast_to(np.asarray(mass, dtype=float), (o, o, N))
+    nv = nx + o
+    second = np.broadcast_to(np.asarray(second, dtype=float),
+                             ((n + o) * nv, nv, N)).reshape(n + o, nv, nv, N)
+    weights = np.asarray(weights, dtype=float).reshape(N, ns)
+    nu = np.linalg.solve(np.moveaxis(mass, -1, 0).swapaxes(1, 2),
+                         weights[:, n:, None])[..., 0]
+    c = np.concatenate([weights[:, :n], -nu], axis=1).T  # (n + o, N)
+    phi = np.einsum("ik,iabk->abk", c, second)
+    W = np.concatenate([np.moveaxis(J.state[:, n:, :], 0, -1),
+                        np.moveaxis(J.inputs[:, n:, :], 0, -1)], axis=1)  # w_x, (o, nx, N)
+    cross = np.einsum("abk,bjk->ajk", phi[:nx, nx:], W)
+    H = phi[:nx, :nx] + cross + cross.transpose(1, 0, 2)
+    H = H + np.einsum("bik,bck,cjk->ijk", W, phi[nx:, nx:], W, optimize=True)
+    return np.ascontiguousarray(np.moveaxis(H, -1, 0))

@@ -1,0 +1,234 @@
+"""Exact derivatives of trees in spatial terms, and one state in one call of the C
+module (issue 34, its speed goals).
+
+For a tree of joints whose coordinates' rates are its speeds, the derivatives of
+the inertia forces (and of loads constant in inertial components, gravity) come
+from the spatial formulas of ``kanedyn.engine.tree_inertia_derivatives``
+instead of forward differentiation of the program.  They are compared here with
+what the program gives (the general path, which every other model takes),
+with differences of ``model.rhs``, and, through ``tests/test_jacobians.py``,
+with Pinocchio on random trees and real robots (asserted here to go through the
+spatial formulas).
+"""
+
+import numpy as np
+import pytest
+import sympy as sm
+import sympy.physics.mechanics as me
+from test_jacobians import (a_state, compare_with_pinocchio, differences, needs_compiler,
+                            relative, robot_file)
+from test_tree_factor import random_tree_urdf
+
+import kanedyn as kd
+from kanedyn.engine import tree_inertia_derivatives
+from kanedyn.numerics import _jacobians
+from kanedyn.numerics._inverse import _tree_bodies, _workspace
+
+
+def spatial_rows(model):
+    """The spatial formulas' d E/d y of ``model`` (None where they do not apply)."""
+    prog, kin = _workspace(model)
+    args, dynamics = model._functions["dynamics"]
+    return _jacobians._tree_state_rows(model, prog, kin, list(model._eom._table.udot),
+                                       dynamics[1][1], args["y"], args["p"])
+
+
+def by_the_program(monkeypatch, model, *args, **options):
+    """``model.jacobians(*args, **options)`` of derivatives generated from the
+    program (on a model that has not made its own yet)."""
+    with monkeypatch.context() as patch:
+        patch.setattr(_jacobians, "_tree_state_rows", lambda *args: None)
+        return model.jacobians(*args, **options)
+
+
+def gimbal():
+    """A body on a gimbal (three speeds of one support, in the order of its
+    rotations), a pendulum hanging from it on a revolute joint with a torsional
+    spring and damper, gravity, a constant torque on the gimbal's body and an
+    input force off a mass centre."""
+    q = me.dynamicsymbols("q1:5")
+    u = me.dynamicsymbols("u1:5")
+    F = me.dynamicsymbols("F")
+    m1, m2, g, a, b, d, ell, k, c, T0 = sm.symbols("m1 m2 g a b d l k c T0")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    A, B, C, D = (me.ReferenceFrame(name) for name in "ABCD")
+    A.orient_axis(N, N.z, q[0])
+    A.set_ang_vel(N, u[0] * N.z)
+    B.orient_axis(A, A.x, q[1])
+    B.set_ang_vel(A, u[1] * A.x)
+    C.orient_axis(B, B.y, q[2])
+    C.set_ang_vel(B, u[2] * B.y)
+    D.orient_axis(C, C.x, q[3])
+    D.set_ang_vel(C, u[3] * C.x)
+    Cc = O.locatenew("Cc", a * C.z + b * C.x)
+    Q = O.locatenew("Q", d * C.y)
+    Dc = Q.locatenew("Dc", -ell * D.z)
+    for point in (Cc, Q, Dc):
+        point.set_vel(N, point.pos_from(O).dt(N))
+    body = me.RigidBody("body", Cc, C, m1, (me.inertia(C, 0.3, 0.2, 0.25, 0.01, 0.02, -0.01), Cc))
+    bob = me.RigidBody("bob", Dc, D, m2, (me.inertia(D, 0.05, 0.04, 0.02), Dc))
+    spring = -(k * q[3] + c * u[3]) * C.x
+    eom = kd.kane(frame=N, q_ind=list(q), u_ind=list(u),
+                  kd_eqs=[qi.diff() - ui for qi, ui in zip(q, u)], bodies=[body, bob],
+                  loads=[(Cc, -m1 * g * N.z), (Dc, -m2 * g * N.z), (C, T0 * N.x),
+                         (D, spring), (C, -spring), (Q, F * N.y)])
+    constants = {m1: 2.0, m2: 0.7, g: 9.81, a: 0.2, b: 0.05, d: 0.3, ell: 0.4, k: 3.0,
+                 c: 0.2, T0: 0.5}
+    return eom, constants, F
+
+
+def gimbal_model(backend="numpy"):
+    eom, constants, F = gimbal()
+    return eom.numeric(constants=constants, specified={F: 0.8}, backend=backend)
+
+
+def chain(n=4):
+    definition = kd.models.build("chain3d", n=n)
+    return definition, definition.numeric(backend="numpy")
+
+
+def urdf_tree(tmp_path, seed=1):
+    rng = np.random.default_rng(seed)
+    parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]  # several roots
+    definition = kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, seed))
+    return definition.numeric(backend="numpy")
+
+
+def a_tree_state(model, seed=3):
+    return np.random.default_rng(seed).uniform(-1.2, 1.2, model.n_states)
+
+
+@pytest.mark.parametrize("which", ["gimbal", "chain3d", "urdf"])
+def test_trees_agree_with_the_derivatives_of_the_program(which, monkeypatch, tmp_path):
+    """State, inputs and constants, the same to round-off whichever way the state
+    columns of the inertia forces were formed."""
+    def build():
+        if which == "gimbal":
+            return gimbal_model()
+        return chain()[1] if which == "chain3d" else urdf_tree(tmp_path)
+    model, general = build(), build()
+    assert spatial_rows(model) is not None
+    y = a_tree_state(model)
+    mine = model.jacobians(0.0, y, parameters=True)
+    theirs = by_the_program(monkeypatch, general, 0.0, y, parameters=True)
+    for part in ("f", "state", "inputs", "parameters"):
+        a, b = getattr(mine, part), getattr(theirs, part)
+        assert a.shape == b.shape and (not a.size or relative(a, b) < 1e-12), part
+
+
+def test_the_gimbal_against_differences():
+    model = gimbal_model()
+    assert spatial_rows(model) is not None
+    y = a_tree_state(model, seed=5)
+    J = model.jacobians(0.0, y)
+    assert relative(J.state, differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
+    assert relative(J.inputs, differences(lambda r: model.jacobians(0.0, y, r=r).f,
+                                          [0.8])) < 1e-8
+
+
+def test_not_where_they_do_not_apply():
+    """A particle (no orientation to turn with its joint), coordinates whose rates
+    are not the speeds, and a tree given the wrong inertia forces to agree with:
+    the program's derivatives (the general path), which match differences."""
+    pendulum = kd.models.build("pendulum")
+    model = pendulum.numeric(backend="numpy")
+    assert spatial_rows(model) is None
+    y = a_state(pendulum, model)
+    assert relative(model.jacobians(0.0, y).state,
+                    differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
+
+    q, u = me.dynamicsymbols("q u")
+    N, B = me.ReferenceFrame("N"), me.ReferenceFrame("B")
+    B.orient_axis(N, N.z, q)
+    B.set_ang_vel(N, 2 * u * N.z)  # q' = 2 u
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    C = O.locatenew("C", 0.5 * B.x)
+    C.v2pt_theory(O, N, B)
+    rod = me.RigidBody("rod", C, B, 1.0, (me.inertia(B, 0.0, 0.1, 0.1), C))
+    eom = kd.kane(frame=N, q_ind=[q], u_ind=[u], kd_eqs=[q.diff() - 2 * u], bodies=[rod],
+                  loads=[(C, -9.81 * N.y)])
+    model = eom.numeric(backend="numpy")
+    assert spatial_rows(model) is None
+    y = np.array([0.4, -0.7])
+    assert relative(model.jacobians(0.0, y).state,
+                    differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
+
+    _, model = chain(3)
+    prog, kin = _workspace(model)
+    eom, table = model._eom, model._eom._table
+    args, dynamics = model._functions["dynamics"]
+    mass, o = dynamics[1][1], model.n_u
+    inertia = [sm.Add(*[mass[r * o + s] * table.udot[s] for s in range(o)]) + eom._remainder[r]
+               for r in range(o)]
+    found = _tree_bodies(eom, kin)
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    inertia) is not None
+    wrong = [e + table.q[0] ** 2 * int(r == 1) for r, e in enumerate(inertia)]
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    wrong) is None
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pinocchio_compares_the_spatial_formulas(tmp_path, seed):
+    """test_jacobians.py compares these trees with Pinocchio: through the
+    spatial formulas."""
+    rng = np.random.default_rng(seed)
+    parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]
+    path = random_tree_urdf(tmp_path / "tree.urdf", parent, seed)
+    assert spatial_rows(kd.models.from_urdf(path).numeric(backend="numpy")) is not None
+    assert compare_with_pinocchio(path, seed=seed) < 1e-9
+
+
+@pytest.mark.slow
+def test_panda_through_the_spatial_formulas():
+    path = robot_file("panda_description/urdf/panda.urdf")
+    assert spatial_rows(kd.models.from_urdf(path).numeric(backend="numpy")) is not None
+
+
+# ------------------------------------------------------------- one state, C
+@needs_compiler
+def test_one_state_in_one_call():
+    """After the first call, one state takes one call of the C module: the numbers
+    of the general path, and what it does not take as it comes (a list, another
+    length) goes the general way (converted, or refused naming the states)."""
+    model = gimbal_model(backend="c")
+    y = a_tree_state(model)
+    first = model.jacobians(0.0, y)
+    assert "_jacobian_point" in model.__dict__
+    again = model.jacobians(np.float64(0.0), y)
+    rows = model.jacobians(np.zeros(1), y[None, :])
+    for part in ("f", "state", "inputs", "constraints"):
+        np.testing.assert_array_equal(getattr(again, part), getattr(first, part))
+        np.testing.assert_array_equal(getattr(again, part), getattr(rows, part)[0])
+    assert again.parameters is None and again.multipliers is None
+    assert again.state_names == first.state_names and again.input_names == first.input_names
+    listed = model.jacobians(0, list(y))
+    np.testing.assert_array_equal(listed.state, first.state)
+    with pytest.raises(ValueError, match="the state must have 8 entries"):
+        model.jacobians(0.0, y[:5])
+    with_r = model.jacobians(0.0, y, r=[0.8])
+    np.testing.assert_array_equal(with_r.state, first.state)
+
+    p = model.jacobians(0.0, y, parameters=True)
+    p_again = model.jacobians(0.0, y, parameters=True)
+    assert p.parameter_names == tuple(model.constants)
+    np.testing.assert_array_equal(p_again.parameters, p.parameters)
+    np.testing.assert_array_equal(p_again.state, first.state)
+
+
+@needs_compiler
+def test_one_state_with_multipliers_in_one_call():
+    definition = kd.models.build("four-bar")
+    model = definition.numeric(backend="c")
+    y = np.asarray(definition.initial(model), dtype=float)
+    first = model.jacobians(0.0, y, parameters=True)
+    again = model.jacobians(0.0, y, parameters=True)
+    rows = model.jacobians(0.0, y[None, :], parameters=True)
+    for part in ("f", "state", "inputs", "parameters", "multipliers", "multipliers_inputs",
+                 "multipliers_parameters", "constraints"):
+        np.testing.assert_array_equal(getattr(again, part), getattr(first, part))
+        np.testing.assert_array_equal(getattr(again, part), getattr(rows, part)[0])
+    assert again.multiplier_names == first.multiplier_names
