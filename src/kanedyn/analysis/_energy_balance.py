@@ -91,7 +91,7 @@ class EnergyBalance:
         return out + [f"  note: {note}" for note in self.notes]
 
 
-def energy_balance(result, load_names=None, gravity="g"):
+def energy_balance(result, load_names=None, gravity="g", potential_loads=()):
     """The energy balance of ``result``, term by term.
 
     Parameters
@@ -111,6 +111,11 @@ def energy_balance(result, load_names=None, gravity="g"):
         loads' parts proportional to it are taken to be held by that potential
         (and are no term).  A name is looked up among the model's constants
         (none of that name: no gravity parts); ``None``: no gravity parts.
+    potential_loads : sequence of int
+        The indices (in the order of ``eom.loads``) of the loads whose work the
+        declared potential energy holds
+        (:attr:`kanedyn.models.ModelDefinition.potential_loads`: weights and
+        springs where the constants are numbers): no term.  Default: none.
 
     Returns
     -------
@@ -126,6 +131,7 @@ def energy_balance(result, load_names=None, gravity="g"):
                            "result.energy_balance()")
     eom = model._eom
     names = _term_names(eom, model, load_names)
+    held = _held(potential_loads, len(names), model.has_potential)
     symbol = _gravity_symbol(eom, gravity) if model.has_potential else None
     grid = _grid(sol, result.t)
     a, b = grid[:-1], grid[1:]
@@ -133,13 +139,18 @@ def energy_balance(result, load_names=None, gravity="g"):
     nodes = (0.5 * (a + b)[:, None] + 0.5 * (b - a)[:, None] * x).ravel()
     powers = load_powers(model, nodes, sol(nodes), gravity=symbol)
     columns = {}
-    for name, power, weight in zip(names, powers.loads, powers.gravity):
+    for k, (name, power, weight) in enumerate(zip(names, powers.loads, powers.gravity)):
+        if k in held:
+            continue
         if np.any(power) or not np.any(weight):     # not wholly held by V
             columns[name] = columns[name] + power if name in columns else power
     notes = []
     if symbol is not None and np.any(powers.gravity):
         notes.append(f"the loads' parts in {symbol} (gravity) are held by the potential "
                      "energy")
+    if held:
+        notes.append(f"{len(held)} loads are held by the potential energy (no terms): "
+                     + ", ".join(dict.fromkeys(names[k] for k in sorted(held))))
     if powers.prescribed is None:
         moved = ", ".join(powers.moved_flexible)
         notes.append(f"the work that drives the prescribed motion of {moved} is "
@@ -165,6 +176,20 @@ def energy_balance(result, load_names=None, gravity="g"):
     scale = float(np.max(np.maximum(np.maximum(np.abs(change), exchanged), kinetic))
                   if change.size else 0.0)
     return EnergyBalance(np.asarray(result.t), change, terms, residual, scale, tuple(notes))
+
+
+def _held(potential_loads, count, has_potential):
+    """The set of load indices held by the potential, checked."""
+    held = set()
+    for k in potential_loads or ():
+        if isinstance(k, bool) or not isinstance(k, (int, np.integer)) or not 0 <= k < count:
+            raise KanedynError(f"energy_balance: potential_loads must be indices of the "
+                               f"{count} loads, got {k!r}")
+        held.add(int(k))
+    if held and not has_potential:
+        raise KanedynError("energy_balance: potential_loads given, but the model declares "
+                           "no potential energy to hold their work")
+    return held
 
 
 def _grid(sol, t_out):

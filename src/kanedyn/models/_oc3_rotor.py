@@ -254,9 +254,11 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
     Returns
     -------
     dict
-        ``q``, ``u``, ``kd_eqs``, ``bodies``, ``loads``, ``potential``
-        (SymPy), ``specified`` (``{symbol: value}``; with ``aero="bem"`` the
-        rotor's inputs are not among them: they need the model's whole state,
+        ``q``, ``u``, ``kd_eqs``, ``bodies``, ``loads``, ``load_names``
+        (``{index: energy-balance term}``), ``held`` (the indices of the loads
+        whose work ``potential`` holds), ``potential`` (SymPy), ``specified``
+        (``{symbol: value}``; with ``aero="bem"`` the rotor's inputs are not
+        among them: they need the model's whole state,
         ``symbols["aerodynamics"].specified(states)``), ``initial``
         (``{symbol: value}``), ``units`` (of the states), ``symbols``
         (``drivetrain``, ``controller``, ``aerodynamics``, ``generator_torque``,
@@ -346,6 +348,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
     if controlled:
         units.update({states[0]: "rad/s", states[1]: "rad", states[2]: "rad"})
     return dict(q=q, u=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads, load_names=names,
+                held=drive.potential_loads,
                 potential=sm.Add(drive.potential_energy, *potential), specified=specified,
                 initial=initial, units=units,
                 symbols=dict(drivetrain=drive, controller=controller if controlled else None,
