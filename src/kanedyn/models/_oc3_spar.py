@@ -478,7 +478,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     specified = {}
     if spin is not None:
         specified.update(spin["specified"])
-        if wind_symbol is not None:
+        if wind_symbol is not None and aero != "bem":   # the BEM calls the series itself
             specified[wind_symbol] = wind
     if drag or waves is not None or added_mass == "morison":
         morison = MorisonCylinder(
