@@ -2,7 +2,10 @@ r"""The energy balance of a run, term by term: what changed the stored energy.
 
 The stored energy :math:`E = T + V` (kinetic plus the declared potential
 energy, :math:`V = 0` where none is declared) changes by the work of
-everything it does not hold.  Each of these is a named term
+everything it does not hold.  What :math:`V` holds is said by the caller
+(``potential_loads``: the loads whose work it holds, as a model definition
+declares them) or found by the gravity symbol (the loads' parts in it); no
+term counts it a second time.  Each of the others is a named term
 (:mod:`kanedyn.numerics._load_powers`): the work of each load (inputs,
 dampers, drag, friction elements, constraint forces that auxiliary speeds
 expose), of the constraint forces that drive prescribed motion, and of each
