@@ -22,9 +22,9 @@ executable on this machine on a deck that the script runs as it is apart from
 its run length (TMax = ``--duration``), e.g. kanedyn's structural and
 hydrodynamic OC3 deck (``tests/data/openfast_oc3/deck``: ElastoDyn with the
 flexible tower and a parked rigid rotor, HydroDyn without wave excitation or
-radiation memory, still water, MAP++; no AeroDyn, InflowWind or ServoDyn),
-which makes that timing a bound from above on OpenFAST's speed for the full
-case.  Without an executable or deck it says so and skips.
+radiation memory, still water, MAP++; no AeroDyn, InflowWind or ServoDyn): a
+subset of the full case's modules, which would be expected to run faster than
+the full case.  Without an executable or deck it says so and skips.
 
 Run: ``python benchmarks/bench_oc3_realtime.py [--duration 60] [--openfast PATH
 --deck DIR]``.
