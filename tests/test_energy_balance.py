@@ -205,18 +205,21 @@ def _own_potential(definition, model, flexible):
 @pytest.mark.slow
 def test_oc3_spar_spinning_rotor_with_controller_printed_balance_closes():
     """The balance that `kanedyn run oc3-spar` prints leaves out the loads whose work the
-    declared potential holds (weights, the hydrostatic and mooring springs' gradients:
-    the definition's potential_loads) and closes; counted as work as well, they would
-    make a residual of the potential's change.  A second route: every load counted as
-    work, the kinetic energy plus the tower's own potential (bending, gravity: no load)
-    closes too, and the two agree on the work of the loads not held."""
-    d = kd.models.oc3_spar(rotor="spinning", controller="on", wind_speed=18.0)
+    declared potential holds (weights, the flexible shaft's spring, the hydrostatic and
+    mooring springs' gradients: the definition's potential_loads) and closes; counted
+    as work as well, they would make a residual of the potential's change.  A second
+    route: every load counted as work, the kinetic energy plus the tower's own potential
+    (bending, gravity: no load) closes too, and the two agree on the work of the loads
+    not held."""
+    d = kd.models.oc3_spar(rotor="spinning", controller="on", wind_speed=18.0,
+                           drivetrain="flexible")
     m = d.numeric(backend="c")
     r = kd.simulate(m, (0, 10), d.initial(m), t_eval=np.linspace(0, 10, 101), rtol=1e-9,
                     atol=1e-9, dense_output=True)
     printed = energy_balance(r, load_names=d.load_names, potential_loads=d.potential_loads)
     assert printed.relative_residual < 1e-7                    # measured 2e-10
-    assert abs(printed.terms["torque on G"][-1]) > 1e7        # the generator's work
+    assert abs(printed.terms["generator torque"][-1]) > 1e7        # the generator's work
+    assert printed.terms["low-speed shaft damping"][-1] < 0.0
     assert printed.terms["mooring beyond its potential (the published matrix's asymmetry, "
                          "second-order part)"][-1] != 0.0
     assert any("held by the potential energy" in note for note in printed.notes)
@@ -254,7 +257,7 @@ def test_oc3_spar_flexible_blades_bem_controller_energy_balance_closes():
     assert b.relative_residual < 1e-6
     aero = [b.terms[f"aerodynamic forces on blade{k}"] for k in (1, 2, 3)]
     assert all(w[-1] > 1e6 for w in aero)                      # the wind works on each
-    assert b.terms["torque on G"][-1] < -1e6                   # the generator takes it
+    assert b.terms["generator torque"][-1] < -1e6                   # the generator takes it
     pitching = b.terms["prescribed motion (the forces that drive it)"]
     assert np.max(np.abs(pitching)) > 1.0                     # the pitch drive's, J
     for body in ("tower", "blade1", "blade2", "blade3"):

@@ -293,7 +293,10 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
                        damping=_v(DRIVETRAIN, "shaft_damping") if flexible else None)
     q, u, kd_eqs = list(drive.q), list(drive.u), list(drive.kd_eqs)
     loads, bodies, potential, units = list(drive.loads), list(drive.bodies), [], {}
-    names = {}   # load index -> energy-balance term (the blades' node loads, one per blade)
+    # load index -> energy-balance term (the blades' node loads one per blade)
+    names = {0: "generator torque", 1: "generator torque's reaction on the nacelle"}
+    if flexible:     # the shaft's spring torques (2-4) are held by its potential
+        names.update(dict.fromkeys((5, 6, 7), "low-speed shaft damping"))
     if controlled:
         q += states
         kd_eqs += controller.kinematic_equations(states, drive.generator_speed)
@@ -315,7 +318,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
             drive.shaft_frame, blades["radial"], N, pitch,
             wind_series if wind_series is not None else wind)
         loads += aero.to_loads()
-        names = _blade_load_names(len(loads), aero.to_loads())
+        names.update(_blade_load_names(len(loads), aero.to_loads()))
     elif wind > 0 and bem:
         aero = BladeElementRotor("rotor", nrel5mw_bem(), hub, drive.shaft_frame,
                                  drive.rotor_frame, N, drive.q[0], drive.rotor_speed, pitch,
@@ -325,7 +328,7 @@ def spinning_rotor(A, hub, N, wind, options, wind_symbol=None, wind_series=None,
         blade_loads, thrusts, torques = blade_thrust_loads(
             blades["bodies"], blades["radial"], drive.shaft, N, oc3_performance_surface(),
             drive.rotor_speed, pitch, wind_symbol if wind_symbol is not None else wind)
-        names = _blade_load_names(len(loads) + len(blade_loads), blade_loads)
+        names.update(_blade_load_names(len(loads) + len(blade_loads), blade_loads))
         loads += blade_loads
         aero = BladeThrust(thrusts, torques)
     elif wind > 0:
