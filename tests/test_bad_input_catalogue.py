@@ -618,9 +618,9 @@ BAD_FILE_CASES = {
         r"model\.xml:3: <joint> \(a default\): damping='1e999': '1e999' is beyond the "
         "range of floating point"),
     "MJCF unsupported element": (
-        _mjcf(_arm(tail="<tendon>\n<spatial name='t'><site site='s'/></spatial>\n"
-                        "</tendon>\n")), kd.models.MJCFError,
-        r"model\.xml:12: <spatial name='t'>: spatial tendons are not supported"),
+        _mjcf(_arm(tail="<actuator>\n<muscle name='m' joint='j'/>\n</actuator>\n")),
+        kd.models.MJCFError, r"model\.xml:12: <muscle name='m'>: <muscle> actuators are not "
+        "supported"),
     "inertia entries of 1e308": (
         lambda tmp: kd.kane(**_rigid(lambda A: me.inertia(A, 1e308, 1e308, 1e308, 1e308))),
         kd.ModelError, r"rigid body 'plate': its principal moments of inertia are beyond "
