@@ -11,6 +11,7 @@
 ``_aerodyn_tables``  airfoil polars and blade tables read from AeroDyn 15 files
 ``_blade_element_momentum``  a rotor's annuli solved by blade-element momentum theory
 ``_blade_element_rotor``  BEM loads on a spinning rotor from the bodies' motion
+``_flexible_blade_rotor``  BEM loads on the nodes of flexible blades as they deflect
 ``_drivetrain``    the spinning rotor on a tilted shaft, gearbox, generator, shaft twist
 ``_baseline_controller``  variable-speed, collective-pitch control as first-order states
 """
@@ -21,6 +22,7 @@ from ._blade_element_momentum import AnnulusSolution, BladeElementMomentum
 from ._blade_element_rotor import BladeElementRotor
 from ._catenary import CatenaryLine, catenary_spans, solve_catenary
 from ._drivetrain import Drivetrain
+from ._flexible_blade_rotor import FlexibleBladeElementRotor
 from ._hydrostatics import HYDROSTATIC_FORMS, Hydrostatics
 from ._mooring import OC3_MOORING, CatenaryMooring, LinearMooring, state_function
 from ._morison import AddedMassStrip, MorisonCylinder
@@ -36,4 +38,5 @@ __all__ = ["AiryWave", "IrregularSea", "jonswap_spectrum", "jonswap_gamma", "wav
            "NREL5MW_THRUST", "RotorThrust", "ThrustCurve", "kaimal_spectrum", "kaimal_wind",
            "PerformanceSurface", "RotorAerodynamics", "Drivetrain", "BaselineController",
            "AirfoilPolar", "BladeTable", "read_airfoil_polar", "read_blade_table",
-           "BladeElementMomentum", "AnnulusSolution", "BladeElementRotor"]
+           "BladeElementMomentum", "AnnulusSolution", "BladeElementRotor",
+           "FlexibleBladeElementRotor"]
