@@ -1618,6 +1618,72 @@ def test_openfast_input_bad_input(case, tmp_path):
         make(tmp_path)
 
 
+# ---- issue 36, item 3: flexible blades
+BLADE_CLI_CASES = {
+    "unknown blades": (["run", "oc3-spar", "--set", "rotor=spinning", "--set",
+                        "blades=elastic"],
+                       "option blades must be one of rigid, flexible, got 'elastic'"),
+    "flexible blades without a spinning rotor": (
+        ["run", "oc3-spar", "--set", "blades=flexible"],
+        r"option blades=flexible needs rotor=spinning \(the rigid rotor has no rotor speed\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BLADE_CLI_CASES))
+def test_flexible_blades_bad_command_line(case, capsys, tmp_path):
+    argv, pattern = BLADE_CLI_CASES[case]
+    assert main(argv + ["--out", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("kanedyn: error: ") and re.search(pattern, err), err
+
+
+def _blade_rotor(**changes):
+    """A FlexibleBladeElementRotor of three NREL 5-MW blades on a bare hub."""
+    from kanedyn.models._nrel5mw_blade import nrel5mw_bem
+    from kanedyn.models._oc3_blades import blade_annulus_nodes, oc3_blade_member
+    N, O = me.ReferenceFrame("N"), me.Point("O")
+    O.set_vel(N, 0)
+    member = oc3_blade_member()
+    blades = [kd.FlexibleBody(f"b{k}", N, O, member) for k in range(3)]
+    bem = nrel5mw_bem()
+    args = dict(name="rotor", bem=bem, blades=blades, nodes=blade_annulus_nodes(member, bem),
+                hub=O, shaft_frame=N, radial=[N.z, N.z, N.z], frame=N, pitch=0.0, wind=11.4)
+    args.update(changes)
+    return kd.offshore.FlexibleBladeElementRotor(**args)
+
+
+def _blade_modes(**options):
+    from kanedyn.models._nrel5mw_blade_structure import nrel5mw_blade_modes
+    return nrel5mw_blade_modes(**options)
+
+
+BLADE_API_CASES = {
+    "two bodies for a three-bladed rotor": (
+        lambda: _blade_rotor(blades=_blade_rotor().blades[:2]),
+        r"the rotor has 3 blades; got 2 flexible bodies and 3 span directions"),
+    "rigid bodies as blades": (
+        lambda: _blade_rotor(blades=[me.Particle("p", me.Point("P"), 1.0)] * 3),
+        "blades must be FlexibleBody objects"),
+    "too few annulus nodes": (lambda: _blade_rotor(nodes=[1, 2, 3]),
+                              "17 annuli need as many nodes, got 3"),
+    "a node off its annulus": (
+        lambda: _blade_rotor(nodes=[2] + list(range(2, 18))),
+        r"node 2 of blade 'b0' is 5\.6 m from the shaft, annulus 0 at 2\.8667 m"),
+    "no wind": (lambda: _blade_rotor(wind=0.0),
+                r"wind must be a positive number \(m/s\) or a function of t, got 0\.0"),
+    "blade damping of 1 or more": (
+        lambda: _blade_modes(damping=1.0),
+        r"nrel5mw blade: damping must be a fraction of critical in \[0, 1\), got 1\.0"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BLADE_API_CASES))
+def test_flexible_blades_bad_input(case):
+    make, pattern = BLADE_API_CASES[case]
+    with pytest.raises(kd.ModelError, match=pattern):
+        make()
+
+
 # ---- issue 35, multiphase problems and Legendre-Gauss-Radau collocation
 def _phases(first=None, second=None, **problem):
     """Two phases of the spring's problem (0.5 s each), the first from rest at

@@ -32,6 +32,7 @@ model is built from them and ``docs/offshore.md`` describes each::
     BladeElementMomentum  a rotor's annuli solved by blade-element momentum theory
     AnnulusSolution   the annuli's inflow angles, inductions and loads
     BladeElementRotor   quasi-steady BEM force and moment on a spinning rotor from the motion
+    FlexibleBladeElementRotor  quasi-steady BEM loads on the nodes of flexible blades
 
 These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
@@ -71,6 +72,7 @@ _LAZY = {
     "BladeElementMomentum": ".modeling.offshore",
     "AnnulusSolution": ".modeling.offshore",
     "BladeElementRotor": ".modeling.offshore",
+    "FlexibleBladeElementRotor": ".modeling.offshore",
 }
 
 __all__ = list(_LAZY)

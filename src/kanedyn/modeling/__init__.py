@@ -96,6 +96,7 @@ _LAZY = {
     'BladeElementMomentum': '.offshore',
     'AnnulusSolution': '.offshore',
     'BladeElementRotor': '.offshore',
+    'FlexibleBladeElementRotor': '.offshore',
     'ThrustCurve': '.offshore',
     'jonswap_gamma': '.offshore',
     'jonswap_spectrum': '.offshore',

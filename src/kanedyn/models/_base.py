@@ -78,10 +78,17 @@ class ModelDefinition:
         sensor's vehicle displacement: only its accelerations drive the
         model); ``SimulationResult.animate(inputs=...)`` takes them, and
         ``kanedyn run --animate`` passes them.  Empty when none.
-    load_names : tuple of str
+    load_names : tuple of str or None
         A name for each load of ``kane_args["loads"]``, in their order, for the
-        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`);
-        empty: named there by where they act and the symbols they hold.
+        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`;
+        loads that share a name are one term); empty, or an entry ``None``:
+        named there by where they act and the symbols they hold.
+    potential_loads : tuple of int
+        The indices of the loads of ``kane_args["loads"]`` whose work the
+        declared ``potential_energy`` holds exactly (weights, springs: each
+        load's power is minus the rate of its part of the potential); the
+        energy balance leaves them out (counted as work as well, they would be
+        counted twice).  Empty: none (every load's work is a term).
     gravity : tuple of 3 float or None
         The gravitational acceleration in the inertial frame's components,
         m/s^2, where the model declares it; the 3D viewer draws up against
@@ -107,6 +114,7 @@ class ModelDefinition:
     animation_inputs: dict = field(default_factory=dict)
     gravity: tuple = None
     load_names: tuple = ()
+    potential_loads: tuple = ()
 
     def _labels(self):
         return dict(name=self.name, title=self.title, units=self.units or None,

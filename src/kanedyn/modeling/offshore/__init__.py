@@ -12,6 +12,7 @@
 ``_openfast_input``  OpenFAST's text input and summary files: values by name, tables
 ``_blade_element_momentum``  a rotor's annuli solved by blade-element momentum theory
 ``_blade_element_rotor``  BEM loads on a spinning rotor from the bodies' motion
+``_flexible_blade_rotor``  BEM loads on the nodes of flexible blades as they deflect
 ``_drivetrain``    the spinning rotor on a tilted shaft, gearbox, generator, shaft twist
 ``_baseline_controller``  variable-speed, collective-pitch control as first-order states
 """
@@ -22,6 +23,7 @@ from ._blade_element_momentum import AnnulusSolution, BladeElementMomentum
 from ._blade_element_rotor import BladeElementRotor
 from ._catenary import CatenaryLine, catenary_spans, solve_catenary
 from ._drivetrain import Drivetrain
+from ._flexible_blade_rotor import FlexibleBladeElementRotor
 from ._hydrostatics import HYDROSTATIC_FORMS, Hydrostatics
 from ._openfast_input import (OpenFASTEntry, OpenFASTInput, OpenFASTTable,
                               read_openfast_input)
@@ -40,4 +42,5 @@ __all__ = ["AiryWave", "IrregularSea", "jonswap_spectrum", "jonswap_gamma", "wav
            "PerformanceSurface", "RotorAerodynamics", "Drivetrain", "BaselineController",
            "AirfoilPolar", "BladeTable", "read_airfoil_polar", "read_blade_table",
            "BladeElementMomentum", "AnnulusSolution", "BladeElementRotor",
+           "FlexibleBladeElementRotor",
            "OpenFASTInput", "OpenFASTTable", "OpenFASTEntry", "read_openfast_input"]
