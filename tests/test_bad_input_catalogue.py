@@ -1531,6 +1531,93 @@ def test_identification_bad_input(spring, case, tmp_path):
         make(spring, tmp_path)
 
 
+# ---- issue 36, item 6: OpenFAST input files (kd.offshore.read_openfast_input)
+_OPENFAST_FILE = """------- ElastoDyn-like test file -------
+title line
+---------------------- MASS ----------------------------------------------------
+    7466330   PtfmMass    - Platform mass (kg)
+"__import__('os').system('true')"   PtfmRIner   - text where a number belongs
+True          PtfmSgDOF   - flag
+        100   HubMass     - given once
+        200   HubMass     - given twice
+          0   AddCLin     - a matrix
+          1
+     0    x
+---------------------- TABLE ---------------------------------------------------
+          2   NJoints     - rows of the table below
+JointID   Jointzi
+  (-)       (m)
+    1      -120
+    2      depth
+"""
+
+
+def _openfast(tmp, text=_OPENFAST_FILE, name="ed.dat"):
+    path = tmp / name
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    return kd.offshore.read_openfast_input(path)
+
+
+OPENFAST_CASES = {
+    "missing file": (
+        lambda tmp: kd.offshore.read_openfast_input(tmp / "none.dat"),
+        r"cannot read OpenFAST file .*none\.dat: No such file"),
+    "a folder": (
+        lambda tmp: kd.offshore.read_openfast_input(tmp),
+        r"a folder, not a regular file; give an OpenFAST text file$"),
+    "not UTF-8": (
+        lambda tmp: _openfast(tmp, b"header\n 1 X - x\n\xff\n"),
+        r"ed\.dat, line 3: not UTF-8 text \(byte 0xff\)$"),
+    "larger than allowed": (
+        lambda tmp: kd.offshore.read_openfast_input(
+            _openfast(tmp) and tmp / "ed.dat", max_bytes=10),
+        r"ed\.dat: \d+ bytes, more than the 10 an OpenFAST file may have"),
+    "name missing": (
+        lambda tmp: _openfast(tmp).number("PtfmMas"),
+        r"ed\.dat: no line gives PtfmMas$"),
+    "name given twice": (
+        lambda tmp: _openfast(tmp).number("HubMass"),
+        r"ed\.dat: HubMass is given on lines 7, 8; which one is meant is not clear$"),
+    "text (code) where a number belongs, never run": (
+        lambda tmp: _openfast(tmp).number("PtfmRIner"),
+        r"ed\.dat, line 5: PtfmRIner is \"__import__\('os'\)\.system\('true'\)\", not a "
+        r"number$"),
+    "number where a flag belongs": (
+        lambda tmp: _openfast(tmp).flag("PtfmMass"),
+        r"ed\.dat, line 4: PtfmMass is 7466330\.0, not a flag \(True or False\)$"),
+    "flag where a number belongs": (
+        lambda tmp: _openfast(tmp).integer("PtfmSgDOF"),
+        r"ed\.dat, line 6: PtfmSgDOF is True, not a whole number$"),
+    "matrix where one value belongs": (
+        lambda tmp: _openfast(tmp).number("AddCLin"),
+        r"ed\.dat, line 9: AddCLin holds 2 values, not one$"),
+    "matrix row of another length": (
+        lambda tmp: _openfast(tmp, _OPENFAST_FILE.replace("     0    x\n", "")
+                              .replace("          1\n", "          1   2\n")).array("AddCLin"),
+        r"ed\.dat, line 9: the rows of AddCLin differ in length$"),
+    "no table with the column": (
+        lambda tmp: _openfast(tmp).table("Jointxi"),
+        r"ed\.dat: no table has a column 'Jointxi'$"),
+    "table shorter than its count": (
+        lambda tmp: _openfast(tmp, _OPENFAST_FILE.replace("2   NJoints", "3   NJoints"))
+        .table("JointID", rows="NJoints"),
+        r"ed\.dat, line 14: NJoints = 3 but the table has 2 rows$"),
+    "text in a column of numbers": (
+        lambda tmp: _openfast(tmp).table("JointID").column("Jointzi"),
+        r"ed\.dat, line 17: column 'Jointzi' holds 'depth', not a number$"),
+    "column the table lacks": (
+        lambda tmp: _openfast(tmp).table("JointID").column("Jointxi"),
+        r"ed\.dat, line 14: the table has no column 'Jointxi' \(columns: JointID, Jointzi\)$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OPENFAST_CASES))
+def test_openfast_input_bad_input(case, tmp_path):
+    make, pattern = OPENFAST_CASES[case]
+    with pytest.raises(kd.ModelError, match=pattern):
+        make(tmp_path)
+
+
 # ---- issue 36, item 3: flexible blades
 BLADE_CLI_CASES = {
     "unknown blades": (["run", "oc3-spar", "--set", "rotor=spinning", "--set",
