@@ -1,6 +1,6 @@
 """Regenerate the OpenFAST side of kanedyn's OC3-Hywind comparison, and draw its figure.
 
-    python benchmarks/openfast_oc3.py run [--openfast PATH] [--cases surge,pitch]
+    python benchmarks/openfast_oc3.py run [--openfast PATH] [--discon PATH] [--cases surge,pitch]
     python benchmarks/openfast_oc3.py figure
 
 ``run`` needs an OpenFAST executable (v5; ``--openfast``, else ``$OPENFAST``,
@@ -12,6 +12,11 @@ the case's initial condition, run length and output step), and writes
 ``tests/data/openfast_oc3/outputs/<case>.csv`` (time and the platform and
 tower-top channels, OpenFAST's units) and ``summary.csv`` (the masses ElastoDyn
 computes from the deck, MAP++'s line at the undisplaced platform).
+
+The wind case also needs the baseline controller as a Bladed-style library
+(``--discon``, else ``$DISCON``): OpenFAST's ``share/discon/DISCON.F90`` with
+the OC3-Hywind changes (tests/data/openfast_oc3/NOTICE.md says which), built
+with its CMakeLists; without one that case is skipped, saying so.
 
 ``figure`` runs kanedyn on the same cases (``oc3-spar`` with
 ``_openfast_oc3.KANEDYN_OPTIONS``) and draws docs/img/oc3-openfast.png with
@@ -39,6 +44,12 @@ FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast.png"
 FST = "OC3Hywind.fst"
 ELASTODYN = "NRELOffshrBsline5MW_OC3Hywind_ElastoDyn.dat"
 SEASTATE = "SeaState.dat"
+INFLOW = "NRELOffshrBsline5MW_InflowWind_Steady.dat"
+#: the wind case's module files (the fst's name for each)
+WIND_FILES = {"InflowFile": INFLOW, "AeroFile": "NRELOffshrBsline5MW_OC3Hywind_AeroDyn15.dat",
+              "ServoFile": "NRELOffshrBsline5MW_OC3Hywind_ServoDyn.dat"}
+#: where the ServoDyn file expects the controller library
+DISCON_NAME = "DISCON_OC3Hywind.so"
 #: the wave elevation at the platform's reference point, kept in a wave case's CSV
 WAVE_CHANNEL = "Wave1Elev"
 #: the masses of ElastoDyn's summary file kept (label in the file -> CSV name)
@@ -86,11 +97,19 @@ def write_deck():
     oc3.write_wamit_files(oc3.DECK / "HydroData" / "Spar")
 
 
-def run_case(openfast, case, work):
+def run_case(openfast, case, work, discon=None):
     """Run ``case`` in the folder ``work``; its output file's path."""
     shutil.copytree(oc3.DECK, work, dirs_exist_ok=True)
     set_values(work / FST, {"TMax": f"{case.duration:g}", "DT_Out": f"{case.step:g}"})
-    set_values(work / ELASTODYN, {k: f"{v:g}" for k, v in case.elastodyn.items()})
+    values = {k: f"{v:g}" for k, v in case.elastodyn.items()}
+    if "BlPitch(1)" in values:   # the three blades alike
+        values.update({"BlPitch(2)": values["BlPitch(1)"], "BlPitch(3)": values["BlPitch(1)"]})
+    set_values(work / ELASTODYN, {**values, **case.settings})
+    if case.wind:
+        set_values(work / FST, {"CompInflow": "1", "CompAero": "2", "CompServo": "1",
+                                **{k: f'"{v}"' for k, v in WIND_FILES.items()}})
+        set_values(work / INFLOW, {"HWindSpeed": f"{case.wind:g}"})
+        shutil.copy(discon, work / DISCON_NAME)
     set_values(work / SEASTATE, case.seastate)
     if case.hydrodyn:
         set_values(work / FST, {"HydroFile": f'"{case.hydrodyn}"'})
@@ -106,7 +125,8 @@ def run_case(openfast, case, work):
 
 def write_csv(case, out_file):
     names, units, data = read_out(out_file)
-    channels = [*oc3.CHANNELS, *([WAVE_CHANNEL] if case.waves else [])]
+    channels = [*oc3.CHANNELS, *([WAVE_CHANNEL] if case.waves else []),
+                *(oc3.WIND_CHANNELS if case.wind else [])]
     keep = [0] + [names.index(c) for c in channels]
     header = ",".join(f"{names[k]} {units[k]}".replace("(", "[").replace(")", "]") for k in keep)
     oc3.OUTPUTS.mkdir(parents=True, exist_ok=True)
@@ -145,12 +165,17 @@ def cmd_run(args):
                       if line.strip().startswith(("OpenFAST-", "OpenFAST v", "- Compiler"))))
     write_deck()
     names = args.cases.split(",") if args.cases else list(oc3.CASES)
+    discon = args.discon or os.environ.get("DISCON")
     for name in names:
         case = oc3.CASES[name]
+        if case.wind and not (discon and Path(discon).is_file()):
+            print(f"{name}: skipped, no controller library (give --discon PATH or set $DISCON)")
+            continue
         with tempfile.TemporaryDirectory(prefix=f"oc3-{name}-") as tmp:
-            out = run_case(openfast, case, Path(tmp))
+            out = run_case(openfast, case, Path(tmp), discon)
             write_csv(case, out)
-            write_summary(out)
+            if not case.wind:   # its ElastoDyn (no precone) is not the deck's
+                write_summary(out)
         print(f"{name}: {case.duration:g} s written to {oc3.OUTPUTS / (name + '.csv')}")
     return 0
 
@@ -217,6 +242,7 @@ def main(argv=None):
     run = sub.add_parser("run", help="run OpenFAST on the cases, write the outputs")
     run.add_argument("--openfast", help="the OpenFAST executable")
     run.add_argument("--cases", help="comma-separated case names (default: all)")
+    run.add_argument("--discon", help="the baseline controller library (the wind case)")
     sub.add_parser("figure", help="run kanedyn on the cases, draw docs/img/oc3-openfast.png")
     args = p.parse_args(argv)
     return cmd_run(args) if args.command == "run" else cmd_figure(args)
