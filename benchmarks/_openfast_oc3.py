@@ -269,18 +269,26 @@ def kanedyn_model(backend="c", extra=()):
 def initial_state(case, model, outputs, definition=None):
     """kanedyn's state for the case's ElastoDyn initial conditions (undisplaced otherwise).
 
-    A wind case starts from the definition's initial state (the rotor's and the
-    controller's states at the operating point of the wind) with the platform,
-    tower, rotor speed and blade pitch of the case.
+    A wind case starts from the definition's initial state with the platform,
+    tower, rotor speed and blade pitch of the case, the controller's filtered
+    generator speed at the generator's speed and its integral at the value whose
+    command is the blade pitch (as OpenFAST's controller library starts itself).
     """
     names = list(model.state_names)
     y0 = np.array(definition.initial(model), float) if case.wind else np.zeros(model.n_states)
     for channel, value in case.elastodyn.items():
         if channel == "RotSpeed":
+            from kanedyn.models._oc3_data import DRIVETRAIN
             y0[names.index("rotor_speed")] = value * math.pi / 30
+            y0[names.index("gen_speed_filtered")] = (value * math.pi / 30
+                                                     * DRIVETRAIN["gear_ratio"].value)
             continue
         if channel == "BlPitch(1)":
-            y0[names.index("blade_pitch")] = math.radians(value)
+            from kanedyn.models._oc3_rotor import oc3_controller
+            controller, pitch = oc3_controller(), math.radians(value)
+            y0[names.index("blade_pitch")] = pitch
+            y0[names.index("speed_error_integral")] = pitch / (
+                controller.gain_correction(pitch) * controller.ki)
             continue
         target, factor = CHANNELS[channel]
         if target == "top_deflection":
@@ -434,6 +442,11 @@ def settled_offset(t, x, period, start=SETTLED):
     guess = [np.mean(x[keep]), np.ptp(x[keep]) / 2, 0.01, period, 0.0]
     p, _ = curve_fit(decay, t[keep] - start, x[keep], p0=guess, maxfev=20000)
     return float(p[0])
+
+
+def wind_mean(t, series, channel, start=WIND_START):
+    """The mean of ``series[channel]`` from ``start`` to the record's end."""
+    return float(np.mean(np.asarray(series[channel])[np.asarray(t) >= start - 1e-9]))
 
 
 @dataclass(frozen=True)

@@ -2,6 +2,7 @@
 
     python benchmarks/openfast_oc3.py run [--openfast PATH] [--discon PATH] [--cases surge,pitch]
     python benchmarks/openfast_oc3.py figure
+    python benchmarks/openfast_oc3.py wind-figure
 
 ``run`` needs an OpenFAST executable (v5; ``--openfast``, else ``$OPENFAST``,
 else ``openfast`` on the PATH).  Without one it says so and exits with status
@@ -20,7 +21,9 @@ with its CMakeLists; without one that case is skipped, saying so.
 
 ``figure`` runs kanedyn on the same cases (``oc3-spar`` with
 ``_openfast_oc3.KANEDYN_OPTIONS``) and draws docs/img/oc3-openfast.png with
-both responses, printing the periods and damping ratios of both.
+both responses, printing the periods and damping ratios of both (the cases
+without wind); ``wind-figure`` draws docs/img/oc3-openfast-wind.png, the wind
+case's rotor, platform and tower responses and their means.
 """
 
 from __future__ import annotations
@@ -41,6 +44,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import _openfast_oc3 as oc3  # noqa: E402
 
 FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast.png"
+WIND_FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast-wind.png"
 FST = "OC3Hywind.fst"
 ELASTODYN = "NRELOffshrBsline5MW_OC3Hywind_ElastoDyn.dat"
 SEASTATE = "SeaState.dat"
@@ -181,7 +185,7 @@ def cmd_run(args):
 
 
 UNITS = {"PtfmSurge": "m", "PtfmHeave": "m", "PtfmPitch": "deg", "PtfmYaw": "deg",
-         "TTDspFA": "m"}
+         "TTDspFA": "m", "RotSpeed": "rpm", "BlPitch1": "deg", "GenPwr": "kW", "RtAeroFxh": "N"}
 
 
 def _panel(ax, case, of, kd, channel=None):
@@ -214,8 +218,9 @@ def cmd_figure(args):
     from kanedyn.analysis._plotting import pyplot, save_figure
     plt = pyplot()
     # one panel per case, and the wave case's surge beside its pitch
-    panels = [(case, None) for case in oc3.CASES.values()]
-    panels += [(case, "PtfmSurge") for case in oc3.CASES.values() if case.waves]
+    cases = [case for case in oc3.CASES.values() if not case.wind]
+    panels = [(case, None) for case in cases]
+    panels += [(case, "PtfmSurge") for case in cases if case.waves]
     rows = (len(panels) + 1) // 2
     fig, axes = plt.subplots(rows, 2, figsize=(12, 2.9 * rows))
     responses = {}
@@ -236,6 +241,36 @@ def cmd_figure(args):
     return 0
 
 
+def cmd_wind_figure(args):
+    from kanedyn.analysis._plotting import pyplot, save_figure
+    plt = pyplot()
+    case = oc3.CASES["wind"]
+    (t_of, a), (t_kd, b) = (oc3.read_output_csv(oc3.OUTPUTS / "wind.csv"),
+                            oc3.kanedyn_response(case))
+    channels = ["RotSpeed", "BlPitch1", "GenPwr", "RtAeroFxh", "PtfmSurge", "PtfmPitch",
+                "PtfmHeave", "TTDspFA"]
+    fig, axes = plt.subplots(4, 2, figsize=(12, 11))
+    for ax, channel in zip(axes.ravel(), channels):
+        ax.plot(t_of, a[channel], lw=1.2, label="OpenFAST")
+        ax.plot(t_kd, b[channel], "--", lw=1.0, label="kanedyn")
+        m_of, m_kd = (oc3.wind_mean(t, s, channel) for t, s in ((t_of, a), (t_kd, b)))
+        ax.axvline(oc3.WIND_START, color="0.6", lw=0.8)
+        ax.set_ylabel(f"{channel} [{UNITS[channel]}]")
+        ax.set_title(f"{channel}: mean from {oc3.WIND_START:g} s {m_of:.5g} / {m_kd:.5g} "
+                     f"{UNITS[channel]} (OpenFAST / kanedyn)", fontsize=8)
+        print(f"{channel}: OpenFAST {m_of:.6g}, kanedyn {m_kd:.6g}, kanedyn - OpenFAST "
+              f"{m_kd - m_of:.4g} ({m_kd / m_of - 1:+.2%})")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.set_xlabel("time [s]", fontsize=8)
+    fig.suptitle(f"OC3-Hywind, steady wind {case.wind:g} m/s, rotor turning, baseline "
+                 "controller, still water: OpenFAST v5 (AeroDyn quasi-steady BEM, DISCON) "
+                 "and kanedyn oc3-spar (aero=bem, controller=on)", fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, WIND_FIGURE, dpi=100)
+    print(f"figure: {WIND_FIGURE}")
+    return 0
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
@@ -244,8 +279,11 @@ def main(argv=None):
     run.add_argument("--cases", help="comma-separated case names (default: all)")
     run.add_argument("--discon", help="the baseline controller library (the wind case)")
     sub.add_parser("figure", help="run kanedyn on the cases, draw docs/img/oc3-openfast.png")
+    sub.add_parser("wind-figure", help="run kanedyn on the wind case, draw "
+                   "docs/img/oc3-openfast-wind.png")
     args = p.parse_args(argv)
-    return cmd_run(args) if args.command == "run" else cmd_figure(args)
+    commands = {"run": cmd_run, "figure": cmd_figure, "wind-figure": cmd_wind_figure}
+    return commands[args.command](args)
 
 
 if __name__ == "__main__":
