@@ -263,8 +263,9 @@ def cmd_wind_figure(args):
         ax.legend(fontsize=7, loc="upper right")
         ax.set_xlabel("time [s]", fontsize=8)
     fig.suptitle(f"OC3-Hywind, steady wind {case.wind:g} m/s, rotor turning, baseline "
-                 "controller, still water: OpenFAST v5 (AeroDyn quasi-steady BEM, DISCON) "
-                 "and kanedyn oc3-spar (aero=bem, controller=on)", fontsize=10)
+                 "controller, still water:\nOpenFAST v5 (AeroDyn quasi-steady BEM, "
+                 "controller library) and kanedyn oc3-spar (aero=bem, controller=on)",
+                 fontsize=10)
     fig.tight_layout()
     save_figure(fig, WIND_FIGURE, dpi=100)
     print(f"figure: {WIND_FIGURE}")
