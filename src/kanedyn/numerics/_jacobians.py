@@ -149,7 +149,10 @@ def _specification(model, parameters):
     scheme the derivatives of its parts (:func:`_stabilization_derivatives.part_rows`),
     or for a model with contacts those of its contact kinematics, mass matrix
     and velocity-constraint matrix (:func:`_contact_derivatives.contact_rows`),
-    one output per column group.
+    one output per column group.  For a tree taking the spatial formulas
+    (:func:`_tree_state_rows`) ``E_y`` lacks their part, and one last output
+    holds the factors it is formed from; the tree of speeds is kept by the
+    model (``_jacobian_tree``).
     """
     import sympy as sm
 
@@ -171,10 +174,11 @@ def _specification(model, parameters):
     a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
     columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
     tree = _tree_state_rows(model, prog, kin, w, mass, args["y"], args["p"])
+    model.__dict__["_jacobian_tree"] = None if tree is None else tree[2]
     outputs = []
     for variables in columns:
         for rows in (qdot, E, a):
-            jac = (tree if rows is E and variables is args["y"] and tree is not None
+            jac = (tree[0] if rows is E and variables is args["y"] and tree is not None
                    else list(prog.jacobian(rows, variables, guarded=True)))
             outputs.append(((len(rows), len(variables)), jac))
     _, constraints = model._functions["constraints"]
@@ -188,17 +192,24 @@ def _specification(model, parameters):
     for variables in columns if rows else ():
         jac = prog.jacobian(rows, variables, guarded=True)
         outputs.append(((len(rows), len(variables)), list(jac)))
+    if tree is not None:  # last: the tree's factors (no constraint or contact rows)
+        outputs.append(((len(tree[1]), o), [x for row in tree[1] for x in row]))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
 
 
 def _tree_state_rows(model, prog, kin, w, mass, y, constants):
-    r""":math:`\partial E/\partial y` (row-major entries) of a tree without
-    constraints or contacts, or ``None`` where the tree's formulas do not apply.
+    r"""``(rows, factors, parent)`` of :math:`\partial E/\partial y` of a tree
+    without constraints or contacts, or ``None`` where the tree's formulas do
+    not apply.
 
     Its inertia forces and the loads constant in inertial components at mass
     centres and on body frames (gravity) are differentiated in spatial terms
     (:func:`kanedyn.engine.tree_inertia_derivatives`), the other loads by the
-    program."""
+    program: ``rows`` (row-major entries) holds the latter's part; the former's
+    is formed from the numbers of ``factors`` (45 rows of o expressions) and the
+    tree ``parent`` when the code runs (:func:`kanedyn.engine.tree_jacobian_values`,
+    or the C runtime's ``kd_tree_jacobian``), so the generated code grows with
+    n, not n^2."""
     import sympy as sm
 
     from ..engine import dot, tree_inertia_derivatives
@@ -216,14 +227,13 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
                - sm.Add(*[dot(vec, part[r]) for _, _, vec, part in constant])
                for r in range(o)]
     spatial = tree_inertia_derivatives(kin, *found, table.q, table.u, w, o, inertia,
-                                       [(k, kind, vec) for k, kind, vec, _ in constant])
+                                       [(k, kind, vec) for k, kind, vec, _ in constant],
+                                       factors=True)
     if spatial is None:
         return None
-    dq, du = spatial
+    _, _, factors, parent = spatial
     active = prog.jacobian(other, y, guarded=True)
-    n = len(y) - o
-    return [(dq[r][c] if c < n else du[r][c - n]) - active[r, c]
-            for r in range(o) for c in range(len(y))]
+    return [-active[r, c] for r in range(o) for c in range(len(y))], factors, parent
 
 
 def _substituted(model, prog, expr):
@@ -292,7 +302,7 @@ def _parts(model):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 3"
+_GENERATION = "jacobians 4"
 
 
 def _functions(model, parameters):
@@ -313,7 +323,9 @@ def _functions(model, parameters):
 
         def units():
             prog, args, outputs = _specification(model, parameters)
-            return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
+            tree = {"jacobian_tree": model.__dict__["_jacobian_tree"]}
+            return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
+                                    dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
         # first from the quick compiler where there is one: its functions move onto
@@ -518,7 +530,7 @@ def _evaluate(model, fns, T, Y, R):
         S = _index1_matrices(mass, vel_B, acc_K)
         solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
         udot, lam = solved[:, :o], solved[:, o:]
-        outputs = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
+        outputs = list(derivative_rows(T, Y, model._p, np.hstack([R, udot, lam])))
     else:
         at = []
         for t, y, r in zip(T, Y, R):
@@ -536,6 +548,10 @@ def _evaluate(model, fns, T, Y, R):
         values = {key: np.stack([a[3][key] for a in at]) for key in at[0][3]}
         outputs = [np.stack(part) for part in zip(*(a[4] for a in at))]
         S = _index1_matrices(mass, vel_B, acc_K, values.get("alpha"))
+    tree = model.__dict__.get("_jacobian_tree")
+    if tree is not None:  # the part of the spatial formulas, from their factors
+        from ..engine import tree_jacobian_values
+        outputs[1] = outputs[1] + tree_jacobian_values(outputs.pop(), tree)
     count = (len(outputs) - 2) // (4 if names else 3)  # column groups
     blocks, (h_y, c_y) = outputs[:3 * count], outputs[3 * count:3 * count + 2]
     extra = outputs[3 * count + 2:]
