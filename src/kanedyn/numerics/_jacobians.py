@@ -175,6 +175,7 @@ def _specification(model, parameters):
     columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
     tree = _tree_state_rows(model, prog, kin, w, mass, args["y"], args["p"])
     model.__dict__["_jacobian_tree"] = None if tree is None else tree[2]
+    factored = tree is not None and tree[1] is not None
     outputs = []
     for variables in columns:
         for rows in (qdot, E, a):
@@ -192,9 +193,16 @@ def _specification(model, parameters):
     for variables in columns if rows else ():
         jac = prog.jacobian(rows, variables, guarded=True)
         outputs.append(((len(rows), len(variables)), list(jac)))
-    if tree is not None:  # last: the tree's factors (no constraint or contact rows)
+    if factored:  # last: the tree's factors (no constraint or contact rows)
         outputs.append(((len(tree[1]), o), [x for row in tree[1] for x in row]))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
+
+
+#: speeds from which a tree's derivatives are formed from its factors when the
+#: code runs (below, the entries are expressions of the generated code): chain3d,
+#: C, per state, the factors' time over the expressions' 1.1 at n = 7, 1.0 at
+#: n = 12, 0.73 at n = 30
+TREE_FACTOR_MIN_SPEEDS = 12
 
 
 def _tree_state_rows(model, prog, kin, w, mass, y, constants):
@@ -205,11 +213,12 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
     Its inertia forces and the loads constant in inertial components at mass
     centres and on body frames (gravity) are differentiated in spatial terms
     (:func:`kanedyn.engine.tree_inertia_derivatives`), the other loads by the
-    program: ``rows`` (row-major entries) holds the latter's part; the former's
-    is formed from the numbers of ``factors`` (45 rows of o expressions) and the
-    tree ``parent`` when the code runs (:func:`kanedyn.engine.tree_jacobian_values`,
-    or the C runtime's ``kd_tree_jacobian``), so the generated code grows with
-    n, not n^2."""
+    program: ``rows`` (row-major entries) holds the latter's part; from
+    :data:`TREE_FACTOR_MIN_SPEEDS` speeds the former's is formed from the numbers
+    of ``factors`` (45 rows of o expressions) and the tree ``parent`` when the
+    code runs (:func:`kanedyn.engine.tree_jacobian_values`, or the C runtime's
+    ``kd_tree_jacobian``), so the generated code grows with n, not n^2; below,
+    ``rows`` holds both parts and ``factors`` and ``parent`` are ``None``."""
     import sympy as sm
 
     from ..engine import dot, tree_inertia_derivatives
@@ -231,8 +240,11 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
                                        factors=True)
     if spatial is None:
         return None
-    _, _, factors, parent = spatial
+    dq, du, factors, parent = spatial
     active = prog.jacobian(other, y, guarded=True)
+    if o < TREE_FACTOR_MIN_SPEEDS:  # the entries as expressions
+        return [(dq[r][c] if c < o else du[r][c - o]) - active[r, c]
+                for r in range(o) for c in range(len(y))], None, None
     return [-active[r, c] for r in range(o) for c in range(len(y))], factors, parent
 
 
@@ -352,6 +364,7 @@ def _c_key(model, parameters):
     parts = _parts(model)
     stabilized = f" stabilization={','.join(parts)}" if parts else ""
     stabilized += " contacts" if model.contacts else ""
+    stabilized += " factors" if model.n_u >= TREE_FACTOR_MIN_SPEEDS else ""
     return f"{text}\n{_GENERATION} parameters={parameters}{stabilized}", functions, sizes
 
 
