@@ -256,6 +256,15 @@ def test_one_state_in_one_call():
         model.jacobians(0.0, y[:5])
     with_r = model.jacobians(0.0, y, r=[0.8])
     np.testing.assert_array_equal(with_r.state, first.state)
+    # r given as an array of the inputs: one call too (kept by the first call with r)
+    assert "_jacobian_point_given_r" in model.__dict__
+    given = model.jacobians(0.0, y, r=np.array([0.3]))
+    general = model.jacobians(np.zeros(1), y[None, :], r=np.array([0.3]))
+    for part in ("f", "state", "inputs", "constraints"):
+        np.testing.assert_array_equal(getattr(given, part), getattr(general, part)[0])
+    assert not np.array_equal(given.f, first.f)  # the input's force changed
+    with pytest.raises(ValueError, match="r must have 1 entries"):
+        model.jacobians(0.0, y, r=np.array([0.3, 0.1]))
 
     p = model.jacobians(0.0, y, parameters=True)
     p_again = model.jacobians(0.0, y, parameters=True)
@@ -272,6 +281,10 @@ def test_one_state_with_multipliers_in_one_call():
     first = model.jacobians(0.0, y, parameters=True)
     again = model.jacobians(0.0, y, parameters=True)
     rows = model.jacobians(0.0, y[None, :], parameters=True)
+    assert not model.input_names  # no inputs: an r of any length is refused
+    with pytest.raises(ValueError, match="r must have 0 entries"):
+        model.jacobians(0.0, y, r=np.ones(1), parameters=True)
+    np.testing.assert_array_equal(model.jacobians(0.0, y, r=np.zeros(0)).state, first.state)
     for part in ("f", "state", "inputs", "parameters", "multipliers", "multipliers_inputs",
                  "multipliers_parameters", "constraints"):
         np.testing.assert_array_equal(getattr(again, part), getattr(first, part))

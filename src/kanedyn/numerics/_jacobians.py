@@ -637,7 +637,7 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         groups = [(d[0], None if dl is None else dl[0]) for d, dl in groups]
         contact = {key: value[0] for key, value in contact.items()}
     m = model.n_u_dep
-    if not many and r is None and modes is None:
+    if not many and modes is None:
         _keep_point(model, fns, parameters)
     return Jacobians._of(
         f=f, state=groups[0][0], inputs=groups[1][0],
@@ -661,14 +661,14 @@ _SOLVED = ("f", "constraints", "state", "inputs", "parameters", "multipliers",
 
 
 def _keep_point(model, fns, parameters):
-    """Keep with ``model`` the function ``point(t, y)`` that gives its
-    :class:`Jacobians` at one state in one call of the C module
-    (``solved_jacobian``), for the next calls with ``r`` and ``modes`` not
-    given: a C model without contacts or a stabilized scheme (whose parts are
-    solved in NumPy), with constants where they are asked for.  It returns
-    ``None`` for what it does not take as it comes (``y`` not an array of
-    ``n_states`` floats, ``t`` not a number), which :func:`jacobians` then
-    checks and converts."""
+    """Keep with ``model`` the functions ``point(t, y)`` and ``given(r, t, y)``
+    that give its :class:`Jacobians` at one state in one call of the C module
+    (``solved_jacobian``), for the next calls with ``modes`` not given (and
+    ``r`` not given, or given): a C model without contacts or a stabilized
+    scheme (whose parts are solved in NumPy), with constants where they are
+    asked for.  They return ``None`` for what they do not take as it comes
+    (``y`` or ``r`` not an array of ``n_states`` or ``n_inputs`` floats, ``t``
+    not a number), which :func:`jacobians` then checks and converts."""
     from functools import partial
     key = "_jacobian_point_p" if parameters else "_jacobian_point"
     one = fns[5]
@@ -680,6 +680,7 @@ def _keep_point(model, fns, parameters):
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
     solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
+    model.__dict__[key + "_given_r"] = solved
     if not model._inputs:
         model.__dict__[key] = partial(solved, np.zeros(0))
         return

@@ -1483,7 +1483,7 @@ done:
    then the blocks of D (the rows of f, then those of the multipliers, each in
    the columns of the state, the inputs and the constants), arrays of their own
    or None (the constants where none are generated; the multipliers without
-   dependent speeds).  p and r (n_r) vectors; t a number and y an array of n_x
+   dependent speeds).  p a vector; t a number, r and y arrays of n_r and n_x
    doubles, exactly: None for anything else, which the caller then checks and
    converts.  LinAlgError if singular */
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
@@ -1506,16 +1506,17 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
     static PyObject *dict_name = NULL;
     if (dict_name == NULL && (dict_name = PyUnicode_InternFromString("__dict__")) == NULL)
         return NULL;
+    const double *r = kd_in_place(args[4], KD_NR);  /* no inputs: an empty array */
+    if (r == NULL) Py_RETURN_NONE;
+    if (KD_NR == 0) r = empty;
     PyObject *keep[2] = {NULL, NULL}, *values[8] = {NULL}, *result = NULL;
     const double *p = KD_NP > 0 ? kd_vector(args[3], KD_NP, &keep[0], "p") : empty;
-    const double *r = p == NULL ? NULL
-        : KD_NR > 0 ? kd_vector(args[4], KD_NR, &keep[1], "r") : empty;
     const int rows = KD_NX + KD_NUDEP, columns = info->columns;
     const int widths[3] = {KD_NX, KD_NR, columns - KD_NX - KD_NR};
-    double *work = r == NULL ? NULL : (double *)PyMem_Malloc(
+    double *work = p == NULL ? NULL : (double *)PyMem_Malloc(
         sizeof(double) * (KD_SZ(KD_NW) + info->scratch + rows * columns));
     if (work == NULL) {
-        if (r != NULL) PyErr_NoMemory();
+        if (p != NULL) PyErr_NoMemory();
         goto done;
     }
     double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = NULL;
