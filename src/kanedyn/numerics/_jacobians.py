@@ -679,6 +679,13 @@ def _keep_point(model, fns, parameters):
                  contact_forces_parameters=None, state_names=tuple(model.state_names),
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
+    # empty blocks: one read-only array each, not made anew per call
+    x = model.n_states
+    for name, shape in (("constraints", (model.n_q_dep + model.n_u_dep, x)),
+                        ("inputs", (x, len(model.input_names)))):
+        if not min(shape):
+            fixed[name] = np.empty(shape)
+            fixed[name].flags.writeable = False
     solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
     model.__dict__[key + "_given_r"] = solved
     if not model._inputs:

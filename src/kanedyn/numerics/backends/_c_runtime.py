@@ -1483,7 +1483,8 @@ done:
    then the blocks of D (the rows of f, then those of the multipliers, each in
    the columns of the state, the inputs and the constants), arrays of their own
    or None (the constants where none are generated; the multipliers without
-   dependent speeds).  p a vector; t a number, r and y arrays of n_r and n_x
+   dependent speeds); C without constraints and the inputs' block without
+   inputs are not set (`fields` holds them: empty arrays, read-only).  p a vector; t a number, r and y arrays of n_r and n_x
    doubles, exactly: None for anything else, which the caller then checks and
    converts.  LinAlgError if singular */
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
@@ -1519,9 +1520,10 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
         if (p != NULL) PyErr_NoMemory();
         goto done;
     }
-    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = NULL;
+    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = D;
     if ((values[0] = kd_new_vector(KD_NX, &f)) == NULL
-            || (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL)
+            || (info->constraint_rows > 0  /* else the empty array of `fields` */
+                && (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL))
         goto done;
     int bad;
     Py_BEGIN_ALLOW_THREADS
@@ -1538,6 +1540,7 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
             values[2 + b] = Py_None;
             continue;
         }
+        if (b == 1 && widths[1] == 0) continue;  /* no inputs: the empty array of `fields` */
         const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
         double *out;
         if ((values[2 + b] = kd_new_matrix(height, widths[group], &out)) == NULL) goto done;
@@ -1547,7 +1550,8 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
     }
     PyObject *fields = PyDict_Copy(args[1]);
     for (int k = 0; fields != NULL && k < 8; ++k)
-        if (PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
+        if (values[k] != NULL
+                && PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
             Py_CLEAR(fields);
     PyTypeObject *cls = (PyTypeObject *)args[0];
     result = fields == NULL ? NULL : cls->tp_alloc(cls, 0);  /* object.__new__(cls) */
