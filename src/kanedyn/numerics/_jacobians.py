@@ -31,7 +31,9 @@ articulated-body derivatives do; otherwise :math:`\tau` is the product with the
 mass-matrix entries.  A tree whose coordinates' rates are its speeds takes
 spatial formulas for the state columns of its inertia forces and constant loads
 instead (:func:`kanedyn.engine.tree_inertia_derivatives`, fewer operations by
-a factor 3.5 to 7 on ``chain3d`` at n = 7 to 30; :func:`_tree_state_rows`).
+a factor 3.5 to 7 on ``chain3d`` at n = 7 to 30; :func:`_tree_state_rows`),
+their :math:`n^2` entries formed when the code runs from
+:data:`TREE_FACTOR_MIN_SPEEDS` speeds.
 The linear solve is numerical, so dependent speeds (and coordinates) are
 differentiated through their elimination exactly.  One state on the C backend
 is then one call of the module, which also makes the :class:`Jacobians`
