@@ -1,9 +1,11 @@
 """Time to first use: a built-in model to its first compiled evaluation.
 
-For chain3d (style="positions") at n = 10, 30, 60: cold (a fresh process and
+For chain3d (style="positions") at n = 10, 30, 60, 100: cold (a fresh process and
 an empty cache directory via XDG_CACHE_HOME, so the model is derived and the
 C compiled) and warm (a second fresh process, same model and cache), each the
 wall time of ``build -> numeric(backend="c") -> rhs`` inside the process
+(``kd.models.build`` with its default options, as a user calls it; the warm
+process's own CPU time to that point too, which a loaded machine inflates less)
 (interpreter start-up excluded, ``import kanedyn`` and the SymPy and NumPy it
 imports included), and for the warm process also to the end of a first
 ``kd.simulate`` over 1 s; the cold time is also given after the imports of
@@ -18,7 +20,13 @@ the table gives the time to the first evaluation, to the optimized module in use
 process of its own, the first evaluation with the optimizing compiler alone.
 The machine is shared: run with ``--repeat`` and read the minima.
 
-    python benchmarks/bench_first_use.py [--sizes 10,30,60] [--repeat 1]
+The warm process is also timed with ``build(..., lazy=False)`` (the definition's
+SymPy objects built, as the default did before), and with ``--user`` users' models
+are timed too: a URDF tree read with ``from_urdf`` and chain3d written as a user's
+own ``ModelDefinition``, warm from the description's digest against warm derived
+again (the compiled module in the cache either way).
+
+    python benchmarks/bench_first_use.py [--sizes 10,30,60,100] [--repeat 1] [--user]
 """
 
 from __future__ import annotations
@@ -42,16 +50,17 @@ from kanedyn.numerics import COMPILE_STATS
 from kanedyn.numerics.backends._c_quick import QUICK_STATS
 {imports}
 t_imports = time.perf_counter() - t0
-d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
+d = kd.models.build("chain3d", n={n}, style="positions"{eager})
 m = d.numeric(backend="c")
 m.rhs(0.0, d.initial(m))
 t_rhs = time.perf_counter() - t0
+cpu_rhs = time.process_time()
 kd.simulate(m, (0.0, 1.0), d.initial(m))
 t_run = time.perf_counter() - t0
 kd.numerics.finish_compiling()
 t_optimized = time.perf_counter() - t0 if QUICK_STATS["quick"] else t_rhs
 print(json.dumps([t_rhs, DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
-                  t_run, t_imports, t_optimized, QUICK_STATS["quick"]]))
+                  t_run, t_imports, t_optimized, QUICK_STATS["quick"], cpu_rhs]))
 """
 #: what a script that writes its model with SymPy imports before it (in the cold
 #: process only: the warm one imports neither)
@@ -76,6 +85,65 @@ print(json.dumps([time.perf_counter() - t0]))
 """
 
 
+#: a user's model in a fresh process: the humanoid URDF tree (30 bodies) read with
+#: ``from_urdf``, or chain3d written as a user's own ModelDefinition; ``{numeric}``
+#: either ``d.numeric(backend="c")`` (the description's digest finds the derivation
+#: cache's entry) or ``d.numeric(d.derive(), backend="c")`` (derived again, the
+#: compiled module found in the cache: what a warm start did before the digest)
+USER = """
+import json, sys, time
+t0 = time.perf_counter()
+import kanedyn as kd
+import sympy, sympy.physics.mechanics
+from kanedyn.models._base import DERIVE_STATS
+from kanedyn.models._fingerprint import description_fingerprint
+t_imports = time.perf_counter() - t0
+if {urdf!r}:
+    d = kd.models.from_urdf({urdf!r}, efforts=False)
+else:
+    b = kd.models.chain3d(n={n}, style="positions")
+    d = kd.models.ModelDefinition(name="my chain", title="a user's chain", kane_args=b.kane_args,
+                                  constants=b.constants, initial_state=b.initial_state, t_end=1.0)
+t_model = time.perf_counter() - t0
+description_fingerprint(d)
+t_digest = time.perf_counter() - t0 - t_model
+m = {numeric}
+m.rhs(0.0, d.initial(m))
+t_rhs = time.perf_counter() - t0
+print(json.dumps([t_rhs, DERIVE_STATS["derivations"], t_imports, t_model, t_digest]))
+"""
+
+
+def user_models(repeat):
+    """The table of users' models: cold, warm derived again, warm from the digest."""
+    from _peers import humanoid_urdf
+    print("\n| user's model | cold s | warm, derived again (the module cached) s | warm, "
+          "from the description's digest s | of which imports / building the SymPy objects "
+          "/ the digest s | derivations warm again/digest |")
+    print("|---|---|---|---|---|---|")
+    with tempfile.TemporaryDirectory() as folder:
+        urdf = os.path.join(folder, "humanoid30.urdf")
+        with open(urdf, "w") as handle:
+            handle.write(humanoid_urdf())
+        for label, urdf_path, n in (("chain3d n = 10, a user's ModelDefinition", "", 10),
+                                    ("humanoid URDF, 30 bodies", urdf, 0)):
+            cold, again, digest = [], [], []
+            for _ in range(repeat):
+                with tempfile.TemporaryDirectory() as cache:
+                    new = USER.format(urdf=urdf_path, n=n, numeric='d.numeric(backend="c")')
+                    old = USER.format(urdf=urdf_path, n=n,
+                                      numeric='d.numeric(d.derive(), backend="c")')
+                    cold.append(child(new, cache))
+                    child(old, cache)  # its module (without the cache's M) compiled once
+                    for _ in range(2):  # interleaved
+                        again.append(child(old, cache))
+                        digest.append(child(new, cache))
+            best = min(digest, key=lambda row: row[0])
+            print(f"| {label} | {min(r[0] for r in cold):.2f} | {min(r[0] for r in again):.2f} "
+                  f"| {best[0]:.2f} | {best[2]:.2f} / {best[3] - best[2]:.2f} / {best[4]:.3f} "
+                  f"| {again[-1][1]}/{digest[-1][1]} |", flush=True)
+
+
 def child(code, cache, quick=None):
     proc = run_python(code, cache, quick=quick)
     if proc.returncode != 0:
@@ -85,26 +153,31 @@ def child(code, cache, quick=None):
 
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", default="10,30,60")
+    parser.add_argument("--sizes", default="10,30,60,100")
     parser.add_argument("--repeat", type=int, default=1)
+    parser.add_argument("--user", action="store_true",
+                        help="also users' models (a URDF tree, a user's ModelDefinition)")
     args = parser.parse_args(argv)
     byte_compile_package()
     print("| n | cold s | cold after importing NumPy and SymPy s | cold to the optimized "
           "module s | cold, optimizing compiler only s | warm s | warm to a 1 s simulation s "
+          "| warm, its CPU s | warm with build(lazy=False) s "
           "| derivations cold/warm | compiles cold/warm | quick builds cold/warm "
           "| Pinocchio Model+Data s (after its import) |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for n in (int(x) for x in args.sizes.split(",")):
-        cold, slow, warm = [], [], []
+        cold, slow, warm, eager = [], [], [], []
         for k in range(args.repeat):  # the two kinds of cold process in turn, first by turns
             for quick in ((None, False) if k % 2 == 0 else (False, None)):
                 with tempfile.TemporaryDirectory() as cache:
-                    c = child(CHILD.format(n=n, imports=MODEL_IMPORTS), cache, quick)
+                    c = child(CHILD.format(n=n, imports=MODEL_IMPORTS, eager=""), cache, quick)
                     if quick is False:
                         slow.append(c)
                         continue
                     cold.append(c)
-                    warm.append(child(CHILD.format(n=n, imports=""), cache))
+                    warm.append(child(CHILD.format(n=n, imports="", eager=""), cache))
+                    eager.append(child(CHILD.format(n=n, imports="", eager=", lazy=False"),
+                                       cache))
         peer = child(PEER.format(n=n), tempfile.gettempdir())
 
         def least(rows, k):
@@ -112,9 +185,12 @@ def main(argv=None):
 
         print(f"| {n} | {least(cold, 0)} | {min(c[0] - c[4] for c in cold):.2f} | "
               f"{least(cold, 5)} | {least(slow, 0)} | {least(warm, 0)} | {least(warm, 3)} | "
+              f"{least(warm, 7)} | {least(eager, 0)} | "
               f"{cold[-1][1]}/{warm[-1][1]} | {cold[-1][2]}/{warm[-1][2]} | "
               f"{cold[-1][6]}/{warm[-1][6]} | "
               f"{f'{peer[0]:.4f}' if peer else '-'} |", flush=True)
+    if args.user:
+        user_models(args.repeat)
 
 
 if __name__ == "__main__":

@@ -7,7 +7,9 @@ clock read at every stage (the imports of NumPy, SymPy and
 translation unit as the code generation hands it over, the optimized module
 taking the quick one's place) and every compiler run's start and end (the quick
 compiler's, or the prefetched generic runtime's without it).  Seconds from before
-``import numpy``.  The machine is shared: compare traces of one hour only.
+``import numpy``, wall time and the process's own CPU time (which a loaded
+machine inflates far less; the compilers' CPU is not in it).  The machine is
+shared: compare traces of one hour only.
 
     python benchmarks/trace_first_use.py [--n 10] [--repeat 1] [--no-quick]
 """
@@ -28,9 +30,11 @@ CHILD = """
 import json, subprocess, time
 from pathlib import Path
 t0 = time.perf_counter()
-marks, runs = [], []
+marks, runs, cpu = [], [], []
+c0 = time.process_time()
 def mark(what):
     marks.append((time.perf_counter() - t0, what))
+    cpu.append(time.process_time() - c0)
 import numpy
 mark("import numpy")
 import sympy
@@ -66,7 +70,7 @@ class Run(subprocess.Popen):
         return code
 
 subprocess.Popen = Run
-d = kd.models.build("chain3d", n={n}, style="positions", lazy=True)
+d = kd.models.build("chain3d", n={n}, style="positions")
 mark("model defined")
 derive = type(d).derive
 def timed_derive(self, *args, **kwargs):
@@ -97,19 +101,21 @@ first = m._module
 kd.numerics.finish_compiling()
 if m._module is not first:
     mark("optimized module in use")
-print(json.dumps([marks, runs]))
+print(json.dumps([marks, runs, cpu]))
 """
 
 
-def trace(n, quick=None):
+def trace(n, quick=None, cpu=False):
     """``(marks, runs)`` of one cold process: ``(s, stage)`` and
     ``[start s, end s, unit]`` per compiler run; ``quick=False``: without the
-    quick compiler (see :func:`_fresh_process.run_python`)."""
+    quick compiler (see :func:`_fresh_process.run_python`); ``cpu=True``: also
+    the process's CPU time at each mark, s (its compilers' not counted)."""
     with tempfile.TemporaryDirectory() as cache:
         proc = run_python(CHILD.format(n=n), cache, quick=quick)
     if proc.returncode != 0:
         raise SystemExit(proc.stderr[-3000:])
-    return json.loads(proc.stdout.strip().splitlines()[-1])
+    marks, runs, used = json.loads(proc.stdout.strip().splitlines()[-1])
+    return (marks, runs, used) if cpu else (marks, runs)
 
 
 def main(argv=None):
@@ -121,10 +127,10 @@ def main(argv=None):
     args = parser.parse_args(argv)
     byte_compile_package()
     for k in range(args.repeat):
-        marks, runs = trace(args.n, quick=False if args.no_quick else None)
-        print(f"chain3d n = {args.n}, cold, trace {k + 1}")
-        for at, stage in marks:
-            print(f"  {at:6.3f} s  {stage}")
+        marks, runs, used = trace(args.n, quick=False if args.no_quick else None, cpu=True)
+        print(f"chain3d n = {args.n}, cold, trace {k + 1} (wall s, this process's CPU s)")
+        for (at, stage), cpu in zip(marks, used):
+            print(f"  {at:6.3f} s  {cpu:6.3f} s  {stage}")
         busy = 0.0
         for start, end, what in sorted(runs):
             end = end if end is not None else float("nan")

@@ -618,9 +618,9 @@ BAD_FILE_CASES = {
         r"model\.xml:3: <joint> \(a default\): damping='1e999': '1e999' is beyond the "
         "range of floating point"),
     "MJCF unsupported element": (
-        _mjcf(_arm(tail="<tendon>\n<spatial name='t'><site site='s'/></spatial>\n"
-                        "</tendon>\n")), kd.models.MJCFError,
-        r"model\.xml:12: <spatial name='t'>: spatial tendons are not supported"),
+        _mjcf(_arm(tail="<actuator>\n<muscle name='m' joint='j'/>\n</actuator>\n")),
+        kd.models.MJCFError, r"model\.xml:12: <muscle name='m'>: <muscle> actuators are not "
+        "supported"),
     "inertia entries of 1e308": (
         lambda tmp: kd.kane(**_rigid(lambda A: me.inertia(A, 1e308, 1e308, 1e308, 1e308))),
         kd.ModelError, r"rigid body 'plate': its principal moments of inertia are beyond "
@@ -1529,6 +1529,159 @@ def test_identification_bad_input(spring, case, tmp_path):
     make, kind, pattern = IDENTIFY_CASES[case]
     with pytest.raises(kind, match=pattern):
         make(spring, tmp_path)
+
+
+# ---- issue 36, item 6: OpenFAST input files (kd.offshore.read_openfast_input)
+_OPENFAST_FILE = """------- ElastoDyn-like test file -------
+title line
+---------------------- MASS ----------------------------------------------------
+    7466330   PtfmMass    - Platform mass (kg)
+"__import__('os').system('true')"   PtfmRIner   - text where a number belongs
+True          PtfmSgDOF   - flag
+        100   HubMass     - given once
+        200   HubMass     - given twice
+          0   AddCLin     - a matrix
+          1
+     0    x
+---------------------- TABLE ---------------------------------------------------
+          2   NJoints     - rows of the table below
+JointID   Jointzi
+  (-)       (m)
+    1      -120
+    2      depth
+"""
+
+
+def _openfast(tmp, text=_OPENFAST_FILE, name="ed.dat"):
+    path = tmp / name
+    path.write_bytes(text if isinstance(text, bytes) else text.encode())
+    return kd.offshore.read_openfast_input(path)
+
+
+OPENFAST_CASES = {
+    "missing file": (
+        lambda tmp: kd.offshore.read_openfast_input(tmp / "none.dat"),
+        r"cannot read OpenFAST file .*none\.dat: No such file"),
+    "a folder": (
+        lambda tmp: kd.offshore.read_openfast_input(tmp),
+        r"a folder, not a regular file; give an OpenFAST text file$"),
+    "not UTF-8": (
+        lambda tmp: _openfast(tmp, b"header\n 1 X - x\n\xff\n"),
+        r"ed\.dat, line 3: not UTF-8 text \(byte 0xff\)$"),
+    "larger than allowed": (
+        lambda tmp: kd.offshore.read_openfast_input(
+            _openfast(tmp) and tmp / "ed.dat", max_bytes=10),
+        r"ed\.dat: \d+ bytes, more than the 10 an OpenFAST file may have"),
+    "name missing": (
+        lambda tmp: _openfast(tmp).number("PtfmMas"),
+        r"ed\.dat: no line gives PtfmMas$"),
+    "name given twice": (
+        lambda tmp: _openfast(tmp).number("HubMass"),
+        r"ed\.dat: HubMass is given on lines 7, 8; which one is meant is not clear$"),
+    "text (code) where a number belongs, never run": (
+        lambda tmp: _openfast(tmp).number("PtfmRIner"),
+        r"ed\.dat, line 5: PtfmRIner is \"__import__\('os'\)\.system\('true'\)\", not a "
+        r"number$"),
+    "number where a flag belongs": (
+        lambda tmp: _openfast(tmp).flag("PtfmMass"),
+        r"ed\.dat, line 4: PtfmMass is 7466330\.0, not a flag \(True or False\)$"),
+    "flag where a number belongs": (
+        lambda tmp: _openfast(tmp).integer("PtfmSgDOF"),
+        r"ed\.dat, line 6: PtfmSgDOF is True, not a whole number$"),
+    "matrix where one value belongs": (
+        lambda tmp: _openfast(tmp).number("AddCLin"),
+        r"ed\.dat, line 9: AddCLin holds 2 values, not one$"),
+    "matrix row of another length": (
+        lambda tmp: _openfast(tmp, _OPENFAST_FILE.replace("     0    x\n", "")
+                              .replace("          1\n", "          1   2\n")).array("AddCLin"),
+        r"ed\.dat, line 9: the rows of AddCLin differ in length$"),
+    "no table with the column": (
+        lambda tmp: _openfast(tmp).table("Jointxi"),
+        r"ed\.dat: no table has a column 'Jointxi'$"),
+    "table shorter than its count": (
+        lambda tmp: _openfast(tmp, _OPENFAST_FILE.replace("2   NJoints", "3   NJoints"))
+        .table("JointID", rows="NJoints"),
+        r"ed\.dat, line 14: NJoints = 3 but the table has 2 rows$"),
+    "text in a column of numbers": (
+        lambda tmp: _openfast(tmp).table("JointID").column("Jointzi"),
+        r"ed\.dat, line 17: column 'Jointzi' holds 'depth', not a number$"),
+    "column the table lacks": (
+        lambda tmp: _openfast(tmp).table("JointID").column("Jointxi"),
+        r"ed\.dat, line 14: the table has no column 'Jointxi' \(columns: JointID, Jointzi\)$"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(OPENFAST_CASES))
+def test_openfast_input_bad_input(case, tmp_path):
+    make, pattern = OPENFAST_CASES[case]
+    with pytest.raises(kd.ModelError, match=pattern):
+        make(tmp_path)
+
+
+# ---- issue 36, item 3: flexible blades
+BLADE_CLI_CASES = {
+    "unknown blades": (["run", "oc3-spar", "--set", "rotor=spinning", "--set",
+                        "blades=elastic"],
+                       "option blades must be one of rigid, flexible, got 'elastic'"),
+    "flexible blades without a spinning rotor": (
+        ["run", "oc3-spar", "--set", "blades=flexible"],
+        r"option blades=flexible needs rotor=spinning \(the rigid rotor has no rotor speed\)"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BLADE_CLI_CASES))
+def test_flexible_blades_bad_command_line(case, capsys, tmp_path):
+    argv, pattern = BLADE_CLI_CASES[case]
+    assert main(argv + ["--out", str(tmp_path), "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith("kanedyn: error: ") and re.search(pattern, err), err
+
+
+def _blade_rotor(**changes):
+    """A FlexibleBladeElementRotor of three NREL 5-MW blades on a bare hub."""
+    from kanedyn.models._nrel5mw_blade import nrel5mw_bem
+    from kanedyn.models._oc3_blades import blade_annulus_nodes, oc3_blade_member
+    N, O = me.ReferenceFrame("N"), me.Point("O")
+    O.set_vel(N, 0)
+    member = oc3_blade_member()
+    blades = [kd.FlexibleBody(f"b{k}", N, O, member) for k in range(3)]
+    bem = nrel5mw_bem()
+    args = dict(name="rotor", bem=bem, blades=blades, nodes=blade_annulus_nodes(member, bem),
+                hub=O, shaft_frame=N, radial=[N.z, N.z, N.z], frame=N, pitch=0.0, wind=11.4)
+    args.update(changes)
+    return kd.offshore.FlexibleBladeElementRotor(**args)
+
+
+def _blade_modes(**options):
+    from kanedyn.models._nrel5mw_blade_structure import nrel5mw_blade_modes
+    return nrel5mw_blade_modes(**options)
+
+
+BLADE_API_CASES = {
+    "two bodies for a three-bladed rotor": (
+        lambda: _blade_rotor(blades=_blade_rotor().blades[:2]),
+        r"the rotor has 3 blades; got 2 flexible bodies and 3 span directions"),
+    "rigid bodies as blades": (
+        lambda: _blade_rotor(blades=[me.Particle("p", me.Point("P"), 1.0)] * 3),
+        "blades must be FlexibleBody objects"),
+    "too few annulus nodes": (lambda: _blade_rotor(nodes=[1, 2, 3]),
+                              "17 annuli need as many nodes, got 3"),
+    "a node off its annulus": (
+        lambda: _blade_rotor(nodes=[2] + list(range(2, 18))),
+        r"node 2 of blade 'b0' is 5\.6 m from the shaft, annulus 0 at 2\.8667 m"),
+    "no wind": (lambda: _blade_rotor(wind=0.0),
+                r"wind must be a positive number \(m/s\) or a function of t, got 0\.0"),
+    "blade damping of 1 or more": (
+        lambda: _blade_modes(damping=1.0),
+        r"nrel5mw blade: damping must be a fraction of critical in \[0, 1\), got 1\.0"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(BLADE_API_CASES))
+def test_flexible_blades_bad_input(case):
+    make, pattern = BLADE_API_CASES[case]
+    with pytest.raises(kd.ModelError, match=pattern):
+        make()
 
 
 # ---- issue 35, multiphase problems and Legendre-Gauss-Radau collocation

@@ -86,6 +86,21 @@ def test_optimize_exit_1_when_ipopt_fails(capsys):
     assert "NOT solved" in text and "maximum number of iterations" in text
 
 
+def test_optimize_exact_hessian_reaches_the_same_optimum(capsys):
+    """--hessian exact: the same swing-up optimum as IPOPT's limited-memory
+    Hessian (to 1e-6 of the objective), in fewer iterations."""
+    found = {}
+    for hessian in ("limited-memory", "exact"):
+        assert main(["optimize", "pendulum", "--nodes", "101", "--hessian", hessian,
+                     "--quiet", "--backend", "numpy"]) == 0
+        text = capsys.readouterr().out
+        objective = float(text.split("objective ")[1].split(";")[0])
+        iterations = int(text.split(" iterations in ")[0].rsplit(" ", 1)[1])
+        found[hessian] = objective, iterations
+    assert found["exact"][0] == pytest.approx(found["limited-memory"][0], rel=1e-6)
+    assert found["exact"][1] < found["limited-memory"][1]
+
+
 @pytest.mark.parametrize("argv, what", [
     (["optimize", "four-bar"], "no optimal-control problem is defined on 'four-bar'"),
     (["optimize", "pendulum", "--problem", "cartwheel"], "cartwheel"),
@@ -95,6 +110,9 @@ def test_optimize_exit_1_when_ipopt_fails(capsys):
     (["optimize", "pendulum", "--set", "zz=1", "--quiet"], "--set zz"),
     (["optimize", "pendulum", "--method", "rk4"], "rk4"),
     (["optimize", "pendulum", "--nodes", "1"], "--nodes"),
+    (["optimize", "pendulum", "--hessian", "bfgs"], "--hessian"),
+    (["optimize", "pendulum", "--method", "hermite-simpson", "--hessian", "exact",
+      "--quiet"], 'hessian="exact" is not available'),
     (["optimize", "flexible-robot", "--set", "torque_input=false", "--quiet"],
      "torque_input"),
 ])

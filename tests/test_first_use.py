@@ -68,7 +68,7 @@ import json, sys
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
-d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
+d = kd.models.build("chain3d", n=3, style="positions")
 m = d.numeric(backend="c", constants={{"m": {mass}}})
 f = m.rhs(0.0, d.initial(m))
 kd.numerics.finish_compiling()  # a module from the quick compiler: the optimized one too
@@ -101,30 +101,35 @@ import json, sys
 import kanedyn as kd
 from kanedyn.models._base import DERIVE_STATS
 from kanedyn.numerics import COMPILE_STATS
-d = kd.models.build("chain3d", n=3, style="positions", lazy=True)
+d = kd.models.build("chain3d", n=3, style="positions")  # the default: lazy when cached
 m = d.numeric(backend="c")
 f = m.rhs(0.0, d.initial(m))
+after_rhs = "sympy" in sys.modules
 run = kd.simulate(m, (0.0, 0.5), d.initial(m))
 kd.numerics.finish_compiling()
 print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"],
                   list(f) + list(run.y[:, -1]) + [run.method],
-                  sorted(x for x in ("sympy", "scipy", "matplotlib") if x in sys.modules)]))
+                  sorted(x for x in ("sympy", "scipy", "matplotlib") if x in sys.modules),
+                  after_rhs, type(d).__name__]))
 """
 
 
 @pytest.mark.slow
 def test_second_process_starts_without_sympy_or_scipy(tmp_path):
-    """A model in the derivation cache is read, evaluated and simulated on the
-    compiled loop with neither SymPy nor SciPy imported (its body parameters are
-    read only when constants change)."""
+    """A model in the derivation cache, from the default ``kd.models.build``, is
+    read, evaluated and simulated on the compiled loop with neither SymPy nor
+    SciPy imported (its body parameters are read only when constants change):
+    the same numbers as the first process's, which derived it."""
     from kanedyn.numerics import compiler_command
     if compiler_command() is None:
         pytest.skip("no C compiler")
     first = _run(_WARM, tmp_path)
     assert first[:2] == [1, 1] and "sympy" in first[3]
+    assert first[5] == "ModelDefinition"  # nothing in the cache: built by build()
     second = _run(_WARM, tmp_path)
     assert second[:2] == [0, 0] and second[2] == first[2]
-    assert second[3] == []
+    assert second[3] == [] and second[4] is False
+    assert second[5] == "PendingDefinition"
 
 
 @pytest.mark.slow

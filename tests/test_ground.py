@@ -4,12 +4,17 @@ statics (normal forces carry the weight, shared by symmetry), closed forms (a
 sliding box's stopping distance and time, a sphere's rebound height) and, for a
 quadruped dropped on its springy legs, MuJoCo's simulation of the same file."""
 
+import sys
 import warnings
+from pathlib import Path
 
 import numpy as np
 import pytest
 
 import kanedyn as kd
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import _solo12 as solo12  # noqa: E402
 
 G = 9.81
 
@@ -120,6 +125,36 @@ def test_sphere_rebounds_to_e_squared_of_its_drop(tmp_path):
     after = res.t > impact.t
     assert np.max(res.y[2, after]) - (z0 - h) == pytest.approx(e ** 2 * h, rel=1e-4)
 
+
+def test_ball_launched_sliding_rolls_at_five_sevenths_of_its_speed(tmp_path):
+    """A solid URDF ball (inertia 2/5 m r^2) launched along the ground at v0 without
+    spin slides, friction spinning it up, until it rolls at 5 v0 / 7, at
+    t = 2 v0 / (7 mu g), 12 v0^2 / (49 mu g) on; then it rolls on without friction
+    (the body's point at the bottom of the ball sticks): 2/7 of its kinetic energy
+    dissipated."""
+    m, r, mu, v0 = 0.5, 0.04, 0.2, 1.0
+    path = tmp_path / "ball.urdf"
+    path.write_text(SPHERE_URDF.replace('<origin xyz="0 0 0.1"/>', "").replace(
+        "0.0008", repr(0.4 * m * r ** 2)))
+    definition = kd.models.from_urdf(path, base="floating",
+                                     ground=kd.Ground(height=0.0, mu_k=mu, restitution=0.0))
+    t_roll = 2 * v0 / (7 * mu * G)
+    res = kd.simulate(definition.numeric(), (0.0, 2 * t_roll),
+                      _state(definition, z=r, v_x=v0), rtol=1e-10, atol=1e-10)
+    (change,) = res.mode_history
+    assert (change.old, change.new, change.t) == ("slip", "stick", pytest.approx(t_roll,
+                                                                               rel=1e-8))
+    after = res.t > t_roll
+    from scipy.spatial.transform import Rotation  # the speeds are along the ball's axes
+    turned = Rotation.from_euler("XYZ", res.y[3:6, after].T)
+    v = turned.apply(res.y[6:9, after].T)
+    w = turned.apply(res.y[9:12, after].T)
+    assert v[:, 0] == pytest.approx(5 * v0 / 7, rel=1e-8)
+    assert w[:, 1] * r == pytest.approx(v[:, 0], rel=1e-8)  # rolling
+    x_roll = 12 * v0 ** 2 / (49 * mu * G)
+    assert res["x"][-1] == pytest.approx(x_roll + 5 * v0 / 7 * (res.t[-1] - t_roll),
+                                         rel=1e-8)
+    assert -res.dissipated_work[-1] == pytest.approx(2 / 7 * 0.5 * m * v0 ** 2, rel=1e-8)
 
 def test_capsule_lies_on_the_ground_on_its_end_spheres(tmp_path):
     """A horizontal MJCF capsule falls and rests with its axis at its radius above
@@ -370,25 +405,17 @@ def test_quadruped_drop_compared_with_mujoco(tmp_path):
     assert normal_mj == pytest.approx(weight, rel=1e-3)
 
 
-SOLO_FEET = ("FL_FOOT", "FR_FOOT", "HL_FOOT", "HR_FOOT")
-SOLO_POSTURE = {"HAA": 0.0, "FL_HFE": 0.8, "FR_HFE": 0.8, "HL_HFE": -0.8, "HR_HFE": -0.8,
-                "FL_KFE": -1.6, "FR_KFE": -1.6, "HL_KFE": 1.6, "HR_KFE": 1.6}
+SOLO_FEET, SOLO_RADIUS = solo12.FEET, solo12.RADIUS
 
 
 def _solo12():
     """Solo12's URDF (example-robot-data) and Pinocchio, or skip."""
-    from importlib.metadata import PackageNotFoundError, distribution
+    from importlib.metadata import PackageNotFoundError
     pin = pytest.importorskip("pinocchio")
     try:
-        robots = distribution("example-robot-data").locate_file(
-            "cmeel.prefix/share/example-robot-data/robots")
+        return solo12.solo12_urdf(), pin
     except PackageNotFoundError:
         pytest.skip("needs example-robot-data")
-    return robots / "solo_description/robots/solo12.urdf", pin
-
-
-def _target(joint):
-    return SOLO_POSTURE["HAA"] if joint.endswith("HAA") else SOLO_POSTURE[joint]
 
 
 def _pinocchio_q(pin, pmodel, names, y):
@@ -409,10 +436,11 @@ def test_solo12_stands_on_its_feet():
     lowest feet (from Pinocchio's forward kinematics), settles, and at rest (i) the
     normal forces sum to its weight (its masses summed from the URDF file), (ii)
     the feet rest on the ground and (iii) Pinocchio's generalized gravity equals
-    the spring torques plus the contact forces through its foot Jacobians."""
+    the spring torques plus the contact forces through the Jacobians of the balls'
+    bottoms."""
     import xml.etree.ElementTree as ET
     path, pin = _solo12()
-    radius, kp, kd_ = 0.016, 20.0, 0.5
+    radius, kp, kd_ = SOLO_RADIUS, 20.0, 0.5
     ground = kd.Ground(height=0.0, mu_k=0.8, restitution=0.0)
     with pytest.warns(UserWarning, match="13 collision shape"):  # the base's, legs' meshes
         definition = kd.models.from_urdf(path, base="floating", ground=ground, ground_points={
@@ -428,11 +456,11 @@ def test_solo12_stands_on_its_feet():
     specified = {}
     for s in definition.specified:
         joint = str(s).removesuffix("(t)").removeprefix("tau_")
-        specified[s] = pd(names.index("q_" + joint), _target(joint))
+        specified[s] = pd(names.index("q_" + joint), solo12.posture(joint))
     model = definition.numeric(specified=specified, backend="c")
     y0 = np.zeros(2 * n)
     y0[2] = 0.30
-    y0[6:n] = [_target(name.removeprefix("q_")) for name in names[6:]]
+    y0[6:n] = [solo12.posture(name.removeprefix("q_")) for name in names[6:]]
     res = kd.simulate(model, (0.0, 2.0), y0, max_step=0.01)
 
     pmodel = pin.buildModelFromUrdf(str(path), pin.JointModelFreeFlyer())
@@ -446,7 +474,7 @@ def test_solo12_stands_on_its_feet():
     t_fall = np.sqrt(2 * (np.min(foot_heights(y0)) - radius) / G)
     assert res.impacts[0].t == pytest.approx(t_fall, rel=1e-6)
     y = res.y[:, -1]
-    assert np.max(np.abs(y[n:])) < 1e-9                                # at rest
+    assert np.max(np.abs(y[n:])) < 1e-8                                # at rest
     assert foot_heights(y) == pytest.approx([radius] * 4, abs=1e-9)   # on the ground
     masses = [float(m.get("value")) for m in ET.parse(path).iter("mass")]
     normal = _normal_forces(res)
@@ -461,10 +489,198 @@ def test_solo12_stands_on_its_feet():
     tau = np.zeros(pmodel.nv)
     for k, name in enumerate(names[6:], start=6):
         joint = name.removeprefix("q_")
-        tau[pmodel.joints[pmodel.getJointId(joint)].idx_v] = -kp * (y[k] - _target(joint))
+        tau[pmodel.joints[pmodel.getJointId(joint)].idx_v] = -kp * (y[k] - solo12.posture(joint))
     for foot, frame in zip(SOLO_FEET, feet):
         forces = res.contact_forces[f"{foot}/point0"]
         f = forces["friction"][-1] + np.array([0.0, 0.0, forces["normal"][-1]])
-        J = pin.getFrameJacobian(pmodel, data, frame, pin.LOCAL_WORLD_ALIGNED)[:3]
-        tau += J.T @ f
+        J = pin.getFrameJacobian(pmodel, data, frame, pin.LOCAL_WORLD_ALIGNED)
+        # the force acts at the bottom of the ball, r = (0, 0, -radius) from the foot
+        r_cross = np.array([[0.0, radius, 0.0], [-radius, 0.0, 0.0], [0.0, 0.0, 0.0]])
+        tau += (J[:3] - r_cross @ J[3:]).T @ f
     assert tau == pytest.approx(gravity, abs=1e-8 * np.max(np.abs(gravity)))
+
+
+def _with_gravity_potential(definition):
+    """The definition with its gravity potential ``sum m g z`` declared (from_urdf
+    gives gravity as loads): ``res.energy`` and ``res.energy_balance()``."""
+    from dataclasses import replace
+    N, O, g = definition.kane_args["frame"], definition.symbols["O"], definition.symbols["g"]
+    V = sum(b.mass * g * b.masscenter.pos_from(O).dot(N.z)
+            for b in definition.kane_args["bodies"])
+    return replace(definition, kane_args={**definition.kane_args, "potential_energy": V})
+
+
+@pytest.fixture(scope="module")
+def locked_solo12(tmp_path_factory):
+    """Solo12 with its joints locked: the URDF file, Pinocchio's model of it, its
+    foot frames and weight (N), and kanedyn's model on a ground of a friction."""
+    from types import SimpleNamespace
+    path, pin = _solo12()
+    locked = solo12.locked_urdf(path, tmp_path_factory.mktemp("solo12") / "locked.urdf")
+    pmodel = pin.buildModelFromUrdf(str(locked), pin.JointModelFreeFlyer())
+
+    def model(mu):
+        ground = kd.Ground(height=0.0, mu_k=mu, restitution=0.0)
+        with pytest.warns(UserWarning, match="collision shape"):  # the meshes
+            definition = kd.models.from_urdf(locked, base="floating", ground=ground,
+                                             ground_points={foot: [(0, 0, 0, SOLO_RADIUS)]
+                                                            for foot in SOLO_FEET})
+        return _with_gravity_potential(definition).numeric()
+
+    return SimpleNamespace(path=locked, pin=pin, pmodel=pmodel, model=model,
+                           frames=[pmodel.getFrameId(foot) for foot in SOLO_FEET],
+                           weight=sum(i.mass for i in pmodel.inertias) * G)
+
+
+def _foot_points(solo, y):
+    """The feet's centres (4, 3) in the world at the locked robot's state ``y``."""
+    from scipy.spatial.transform import Rotation
+    data = solo.pmodel.createData()
+    q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
+    solo.pin.framesForwardKinematics(solo.pmodel, data, q)
+    return np.array([data.oMf[f].translation for f in solo.frames])
+
+
+#: the tilted drop: base height (m), roll and pitch (rad), friction
+SOLO_DROP = (0.30, 0.1, 0.15, 0.8)
+#: the slide: friction, launch speed (m/s)
+SOLO_SLIDE = (0.1, 1.0)
+
+
+@pytest.fixture(scope="module")
+def locked_drop(locked_solo12):
+    """The locked Solo12 dropped tilted: its initial state and the result."""
+    z, roll, pitch, mu = SOLO_DROP
+    y0 = np.zeros(12)
+    y0[2:5] = z, roll, pitch
+    return y0, kd.simulate(locked_solo12.model(mu), (0.0, 0.5), y0, max_step=0.01)
+
+
+@pytest.fixture(scope="module")
+def locked_slide(locked_solo12):
+    """The locked Solo12 launched forwards on its feet: its initial state and result."""
+    mu, v0 = SOLO_SLIDE
+    y0 = np.zeros(12)
+    y0[2] = SOLO_RADIUS - _foot_points(locked_solo12, y0)[0, 2]  # feet on the ground
+    y0[6] = v0
+    return y0, kd.simulate(locked_solo12.model(mu), (0.0, 1.2 * v0 / (mu * G)), y0,
+                           max_step=0.01, rtol=1e-10, atol=1e-10)
+
+
+def _touchdowns(res):
+    """The first time each foot touches the ground (s)."""
+    return {foot: min(c.t for c in res.mode_history if c.contact == f"{foot}/point0")
+            for foot in SOLO_FEET}
+
+
+def _check_energy(res):
+    """Dissipation is never negative and the energy balance closes: the energy lost
+    is what friction and the impacts dissipated."""
+    assert np.max(np.abs(res.energy_balance())) < 1e-8 * res.energy[0]
+    assert all(impact.energy_loss >= 0 for impact in res.impacts)
+    # the friction work (<= 0) never grows but by the work on the residual slip of
+    # sticking feet (up to the stick speed)
+    assert np.all(np.diff(res.dissipated_work) <= 1e-8 * abs(res.dissipated_work[-1]))
+    lost = res.energy[0] - res.energy[-1]  # the rest: normal forces on the contact drift
+    assert lost == pytest.approx(-res.dissipated_work[-1]
+                                 + sum(i.energy_loss for i in res.impacts), rel=1e-6)
+
+
+def test_solo12_locked_dropped_tilted_rocks_to_rest(locked_solo12, locked_drop):
+    """Solo12 with its joints locked in the standing posture, dropped from a base
+    height of 0.30 m rolled 0.1 rad and pitched 0.15 rad (friction 0.8, plastic
+    impacts): the front right foot lands first, at its free-fall time (Pinocchio's
+    kinematics of the tilted robot); the others follow as it rolls on that foot's
+    ball and rocks from foot pair to foot pair until it rests on its four feet,
+    each carrying a quarter of its weight; the energy lost is what the impacts
+    and friction dissipated, to the integration's tolerance."""
+    y0, res = locked_drop
+    assert res.success, res.message
+    heights = _foot_points(locked_solo12, y0)[:, 2] - SOLO_RADIUS
+    first = res.impacts[0]
+    assert first.contacts == ("FR_FOOT/point0",)
+    assert np.argmin(heights) == 1
+    assert first.t == pytest.approx(np.sqrt(2 * np.min(heights) / G), rel=1e-8)
+    touchdown = _touchdowns(res)
+    assert sorted(touchdown, key=touchdown.get) == ["FR_FOOT", "FL_FOOT", "HL_FOOT", "HR_FOOT"]
+    y = res.y[:, -1]
+    assert np.max(np.abs(y[6:])) < 1e-6  # at rest, to the stick speed 100 atol
+    assert _foot_points(locked_solo12, y)[:, 2] == pytest.approx(  # to the drift
+        [SOLO_RADIUS] * 4, abs=1e-7)
+    weight = locked_solo12.weight
+    assert list(_normal_forces(res).values()) == pytest.approx([weight / 4] * 4, rel=1e-6)
+    _check_energy(res)
+
+
+def test_solo12_locked_slides_to_the_closed_form(locked_solo12, locked_slide):
+    """The locked Solo12 standing on a ground of friction 0.1, launched forwards at
+    1 m/s: all four feet slide, the robot translates without turning and stops after
+    v0^2 / (2 mu g) in v0 / (mu g), every sliding foot at once.  While it slides
+    the normal forces carry its weight and the front feet carry more than the hind
+    ones: their moment about the mass centre balances the friction's at the ground
+    (``sum N_i (x_i - x_G) = mu m g z_G``); the kinetic energy is what friction
+    dissipates."""
+    from scipy.spatial.transform import Rotation
+    mu, v0 = SOLO_SLIDE
+    y0, res = locked_slide
+    assert res.success, res.message
+    t_stop = v0 / (mu * G)
+    assert res.y[0, -1] == pytest.approx(v0 ** 2 / (2 * mu * G), rel=1e-9)
+    assert np.max(np.abs(res.y[[1, 3, 4, 5], :])) < 1e-9      # no sideways, no turning
+    stops = [c for c in res.mode_history if (c.old, c.new) == ("slip", "stick")]
+    assert stops and {c.t for c in stops} == {stops[0].t}
+    assert stops[0].t == pytest.approx(t_stop, rel=1e-9)
+    weight = locked_solo12.weight
+    normal = np.array([res.contact_forces[f"{foot}/point0"]["normal"] for foot in SOLO_FEET])
+    sliding = res.t < t_stop
+    assert normal[:, sliding].sum(axis=0) == pytest.approx(weight, rel=1e-9)
+    k = np.searchsorted(res.t, t_stop / 2)
+    y = res.y[:, k]
+    pin, pmodel = locked_solo12.pin, locked_solo12.pmodel
+    q = np.concatenate([y[:3], Rotation.from_euler("XYZ", y[3:6]).as_quat()])
+    centre = pin.centerOfMass(pmodel, pmodel.createData(), q)
+    feet = _foot_points(locked_solo12, y)
+    assert normal[:, k] @ (feet[:, 0] - centre[0]) == pytest.approx(mu * weight * centre[2],
+                                                                    rel=1e-8)
+    assert normal[0, k] + normal[1, k] > normal[2, k] + normal[3, k]  # front over hind
+    assert -res.dissipated_work[-1] == pytest.approx(res.kinetic_energy[0], rel=1e-9)
+    _check_energy(res)
+
+
+def test_solo12_locked_compared_with_mujoco(locked_solo12, locked_drop, locked_slide):
+    """The tilted drop and the slide of the locked Solo12 in MuJoCo (its own URDF
+    reader gives the same mass matrix as kanedyn's, to rounding).  The model
+    differences: MuJoCo's contacts are soft (the feet sink in by a fraction of a
+    micrometre at rest, impacts last a few steps, friction is regularized) and it
+    steps at 0.02 ms; kanedyn's are rigid, impacts instantaneous and plastic.  The
+    feet touch down in the same order, each within 0.1 ms (MuJoCo sees a touch at
+    the step after it); after 25 impacts in kanedyn both rest within 0.1 mm and
+    0.5 mrad of heading of each other, the base at the same height to 1
+    micrometre, the normal forces carrying the weight; MuJoCo's slide stops 0.45 mm
+    (0.09 %) beyond v0^2 / (2 mu g), where kanedyn's stops."""
+    mujoco = pytest.importorskip("mujoco")
+    solo = locked_solo12
+    y0, res = locked_drop
+    model = solo12.mujoco_model(mujoco, solo.path, SOLO_DROP[3])
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)  # the level pose: MuJoCo's speeds are kanedyn's
+    M = np.zeros((6, 6))
+    mujoco.mj_fullM(model, data, M)
+    assert M == pytest.approx(res.model.mass_matrix(0.0, np.zeros(12)), abs=1e-12)
+    theirs = solo12.mujoco_run(mujoco, model, y0, 0.5)
+    touchdown, ours = theirs["touchdown"], _touchdowns(res)
+    assert sorted(touchdown, key=touchdown.get) == sorted(ours, key=ours.get)
+    later = np.array([touchdown[f] - ours[f] for f in SOLO_FEET])
+    assert np.all((later >= 0) & (later < 1e-4))
+    y = res.y[:, -1]
+    assert theirs["position"] == pytest.approx(y[:3], abs=1e-4)
+    assert theirs["position"][2] == pytest.approx(y[2], abs=1e-6)
+    assert theirs["angles"][2] == pytest.approx(y[5], abs=5e-4)
+    assert np.max(np.abs(theirs["qvel"])) < 1e-6
+    assert theirs["normal"] == pytest.approx(solo.weight, rel=1e-6)
+    mu, v0 = SOLO_SLIDE
+    y0, res = locked_slide
+    theirs = solo12.mujoco_run(mujoco, solo12.mujoco_model(mujoco, solo.path, mu), y0,
+                               res.t[-1])
+    assert 0 < theirs["position"][0] - v0 ** 2 / (2 * mu * G) < 1e-3
+    assert np.max(np.abs(theirs["qvel"])) < 1e-6

@@ -632,27 +632,26 @@ BAD = {
     "massless moving body": (
         "<mujoco><worldbody><body>\n<joint name='j'/></body></worldbody></mujoco>",
         r"model\.xml:2: <joint name='j'>: moves only massless bodies"),
-    "mesh inertia": (
-        "<mujoco><asset><mesh name='m' vertex='0 0 0 1 0 0 0 1 0 0 0 1'/></asset>"
-        "<worldbody><body><joint/>\n<geom type='mesh' mesh='m'/></body></worldbody>"
-        "</mujoco>",
-        r"model\.xml:2: <geom>: the mass and inertia of a mesh geom cannot be inferred "
-        r"here .* give the body an <inertial>"),
-    "spatial tendon": (
+    "shell inertia": (
+        "<mujoco><worldbody><body><joint/>\n<geom type='box' size='0.1 0.1 0.1' "
+        "shellinertia='true'/></body></worldbody></mujoco>",
+        r"model\.xml:2: <geom>: shellinertia cannot be inferred here .* give the body an "
+        "<inertial>"),
+    "spatial tendon of one site": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/><site name='s'/>"
         "</body></worldbody><tendon>\n<spatial name='t'><site site='s'/></spatial>"
         "</tendon></mujoco>",
-        r"model\.xml:2: <spatial name='t'>: spatial tendons are not supported \(fixed "
-        r"tendons are\)"),
+        r"model\.xml:2: <spatial name='t'>: a spatial tendon \(and each branch after a "
+        r"pulley\) needs at least two sites"),
     "actuator of a missing joint": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
         "<actuator>\n<motor name='m' joint='k'/></actuator></mujoco>",
         r"model\.xml:2: <motor name='m'>: joint='k': no joint of that name"),
-    "activation dynamics": (
+    "muscle activation dynamics": (
         "<mujoco><worldbody><body><joint name='j'/><geom size='0.1'/></body></worldbody>"
-        "<actuator>\n<general joint='j' dyntype='filter'/></actuator></mujoco>",
-        r"model\.xml:2: <general>: dyntype='filter': an actuator with activation dynamics "
-        "is not supported"),
+        "<actuator>\n<general joint='j' dyntype='muscle'/></actuator></mujoco>",
+        r"model\.xml:2: <general>: dyntype='muscle': 'muscle' activation dynamics are not "
+        "supported"),
     "equality of a missing body": (
         "<mujoco><worldbody><body name='a'><joint/><geom size='0.1'/></body></worldbody>"
         "<equality>\n<connect body1='a' body2='b' anchor='0 0 0'/></equality></mujoco>",

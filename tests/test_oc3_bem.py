@@ -198,6 +198,24 @@ def test_the_option_is_checked():
         oc3_operating_point(11.4, aero="blade")
 
 
+def test_turbulent_wind_reaches_the_bem_rotor():
+    """In turbulent wind the BEM rotor calls the wind series itself (no ``V_wind``
+    input: the model built with one failed, an input its equations lack); it is the
+    series the performance table's rotor reads through ``V_wind``."""
+    options = dict(tower_modes=0, rotor="spinning", controller="on", wind_speed=12.0,
+                   turbulence=0.1, seed=3)
+    bem = oc3_spar(aero="bem", **options)
+    table = oc3_spar(aero="thrust", **options)
+    series = next(f for s, f in table.specified.items() if str(s) == "V_wind(t)")
+    assert not any(str(s) == "V_wind(t)" for s in bem.specified)
+    rotor = bem.symbols["elements"]["rotor"]
+    for t in (0.0, 7.3, 41.9):
+        assert rotor.wind(t) == series(t)
+    assert np.std([series(t) for t in np.arange(0.0, 600.0, 0.5)]) > 0.5
+    model = bem.numeric(backend="numpy")
+    assert "V_wind" not in " ".join(model.input_names)
+
+
 # ------------------------------------------------- the floating turbine's damping
 def _pitch_decay(wind, aero, controller="on", duration=130.0):
     """Platform pitch after a 2-deg kick from the steady state; (t, pitch - mean), and

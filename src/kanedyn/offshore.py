@@ -25,9 +25,14 @@ model is built from them and ``docs/offshore.md`` describes each::
     BladeTable        a blade's aerodynamic stations: span, twist, chord, airfoil number
     read_airfoil_polar  an AirfoilPolar from an AeroDyn 15 airfoil file
     read_blade_table  a BladeTable from an AeroDyn 15 blade file
+    read_openfast_input  an OpenFAST text input or summary file: values by name, tables
+    OpenFASTInput     what read_openfast_input returns (number, flag, text, array, table)
+    OpenFASTTable     a table of an OpenFAST file: columns, units, rows
+    OpenFASTEntry     one named value (or matrix) of an OpenFAST file, with its line
     BladeElementMomentum  a rotor's annuli solved by blade-element momentum theory
     AnnulusSolution   the annuli's inflow angles, inductions and loads
     BladeElementRotor   quasi-steady BEM force and moment on a spinning rotor from the motion
+    FlexibleBladeElementRotor  quasi-steady BEM loads on the nodes of flexible blades
 
 These names were at ``kd.`` before: that spelling still gives the same object,
 with a DeprecationWarning naming the new one.
@@ -60,9 +65,14 @@ _LAZY = {
     "BladeTable": ".modeling.offshore",
     "read_airfoil_polar": ".modeling.offshore",
     "read_blade_table": ".modeling.offshore",
+    "read_openfast_input": ".modeling.offshore",
+    "OpenFASTInput": ".modeling.offshore",
+    "OpenFASTTable": ".modeling.offshore",
+    "OpenFASTEntry": ".modeling.offshore",
     "BladeElementMomentum": ".modeling.offshore",
     "AnnulusSolution": ".modeling.offshore",
     "BladeElementRotor": ".modeling.offshore",
+    "FlexibleBladeElementRotor": ".modeling.offshore",
 }
 
 __all__ = list(_LAZY)

@@ -893,7 +893,7 @@ def _sea_study(out, quiet, Hs, Tp, seed, seeds, wind_speed, duration, mass_ratio
         axes[2].set_xlim(0, 1.0)
         for ax in axes:
             ax.legend(fontsize=7)
-            ax.grid(True, which="both", lw=0.3)
+            ax.grid(True, which="major", lw=0.3)   # minor lines of 10 decades read as bands
         axes[0].set_title(f"oc3-spar, JONSWAP Hs {Hs:g} m, Tp {Tp:g} s, {seed_text}, wind "
                           f"{wind_speed:g} m/s, {duration:g} s\n(Welch"
                           f"{', mean over the seeds' if seeds > 1 else ''}); {damping_text}",

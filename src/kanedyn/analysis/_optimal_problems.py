@@ -18,7 +18,9 @@ keywords, which ``kanedyn optimize`` fills from its options:
 ``backend``
     ``"c"``, ``"numpy"`` or ``"auto"``;
 ``ipopt``
-    IPOPT's options;
+    IPOPT's options (``{"hessian_approximation": "exact"}`` solves with the
+    exact Hessian of the Lagrangian, ``OptimalControlProblem.solve(hessian=
+    "exact")``; the default is IPOPT's limited-memory approximation);
 ``degree``
     LGR's points per interval (``method="lgr"`` only; ``None``: 3);
 
@@ -163,8 +165,11 @@ def merged_bounds(defaults, bounds, names):
 
 
 def solve(problem, guess, ipopt):
-    """Solve with the named problems' IPOPT defaults updated by ``ipopt``."""
-    return problem.solve(guess, options=dict(IPOPT_DEFAULTS, **(ipopt or {})))
+    """Solve with the named problems' IPOPT defaults updated by ``ipopt``
+    (its ``hessian_approximation`` chooses the Hessian)."""
+    options = dict(IPOPT_DEFAULTS, **(ipopt or {}))
+    hessian = options.pop("hessian_approximation", "limited-memory")
+    return problem.solve(guess, options=options, hessian=hessian)
 
 
 class SplineInput:

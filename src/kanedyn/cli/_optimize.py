@@ -7,6 +7,7 @@
     kanedyn optimize flexible-robot --problem minimum-time --set n_modes=2
     kanedyn optimize whipple-bicycle --set offset=2 --duration 3 --output lane.csv
     kanedyn optimize pendulum --method lgr --degree 4 --nodes 41
+    kanedyn optimize pendulum --hessian exact
 
 The problem is posed, solved by IPOPT and checked by simulation (each
 problem says how); the summary is printed.  Exit code 0 when IPOPT solved
@@ -61,6 +62,11 @@ def add_parser(sub):
                    help="IPOPT's tolerance (default 1e-8)")
     p.add_argument("--max-iter", type=whole_number(1, "iteration"), default=None,
                    help="IPOPT's iteration limit (default 3000)")
+    p.add_argument("--hessian", choices=("limited-memory", "exact"), default=None,
+                   help="the Hessian of the Lagrangian IPOPT uses: its limited-memory "
+                        "approximation (default) or the exact one from the model's second "
+                        "derivatives (refused, with the reason, for problems it does not "
+                        "cover: constrained models, path constraints, free durations ...)")
     p.add_argument("--plot", default=None, metavar="FILE",
                    help="write the problem's figure (PNG)")
     p.add_argument("--output", default=None, metavar="CSV",
@@ -152,6 +158,8 @@ def cmd_optimize(args):
         ipopt["tol"] = args.tol
     if args.max_iter is not None:
         ipopt["max_iter"] = args.max_iter
+    if args.hessian is not None:
+        ipopt["hessian_approximation"] = args.hessian
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"{args.model} {problem.name}: building the model and its derivatives, "
                    "solving, checking by simulation")

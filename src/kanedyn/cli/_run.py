@@ -250,7 +250,8 @@ def _energy_balance(definition, res):
         return "the run has fewer than two output points"
     from ..analysis import energy_balance
     try:
-        return energy_balance(res, load_names=definition.load_names or None)
+        return energy_balance(res, load_names=definition.load_names or None,
+                              potential_loads=definition.potential_loads)
     except KanedynError as exc:
         return str(exc)
 

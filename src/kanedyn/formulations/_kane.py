@@ -592,4 +592,6 @@ def derive_kane(spec, progress=NO_PROGRESS, explicit_kinematics=True):
     # flexible bodies add terms outside that structure
     tree = speed_tree[0] if speed_tree and len(rigid) == len(spec.bodies) else None
     object.__setattr__(eom, "_speed_tree", tree)
+    # the flexible bodies' and inertial elements' blocks (the power of prescribed motion)
+    object.__setattr__(eom, "_flexible_blocks", tuple(terms.block for terms in flexible))
     return eom

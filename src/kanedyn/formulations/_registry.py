@@ -171,6 +171,11 @@ def kane(*args, progress=False, explicit_kinematics=True, **kwargs):
     u_auxiliary : sequence of dynamicsymbols, optional
         Auxiliary speeds that expose constraint forces
         (:attr:`EquationsOfMotion.auxiliary_equations`).
+    kd_inputs : sequence of dynamicsymbols, optional
+        Specified inputs (functions of time) the kinematic differential
+        equations may contain: the inputs of first-order states, such as an
+        actuator's activation :math:`\dot a = c(t)` (an undeclared symbol there
+        is refused as a forgotten speed).
     bodies : sequence of RigidBody or Particle
     loads : sequence of Force, Torque or (Point | ReferenceFrame, Vector)
         (alias ``forcelist``).

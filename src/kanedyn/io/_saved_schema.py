@@ -268,6 +268,8 @@ EXPR = _Leaf("a SymPy expression", is_sympy)
 MATRIX = _Leaf("a SymPy matrix", _is_matrix)
 RANDOM = _exact("a random-number generator", __import__("random").Random)
 EXPRS = _tuple(EXPR)
+#: a tuple or list of expressions (the blocks of flexible bodies keep both)
+_SEQUENCE = _Either(_tuple(EXPR), _list(EXPR))
 STRS = _tuple(STR)
 
 _VECTOR = "sympy.physics.vector."
@@ -421,6 +423,11 @@ OBJECTS = {
         "contact": CONTACT, "gap": EXPR, "grad_norm": EXPR, "normal": EXPRS,
         "velocity": EXPRS, "jacobian": _list(EXPRS), "acceleration": EXPRS,
         "normal_rate": EXPR},
+    _FORMULATIONS + "_flexible.FlexibleBlock": {
+        "body": BODY, "w": _SEQUENCE, "partials": _Either(_list(_SEQUENCE), _tuple(_SEQUENCE)),
+        "mass": _Either(_list(_SEQUENCE), _tuple(_SEQUENCE)), "momentum": _SEQUENCE,
+        "kinetic": EXPR, "active": _SEQUENCE, "rate": _optional(_SEQUENCE),
+        "bias": _optional(_SEQUENCE)},
     _FORMULATIONS + "_orthogonal_complement._Blocks": {
         "T": EXPRS, "Tdu": EXPRS, "Mb": EXPRS, "w": EXPRS, "Q": EXPRS, "n_bodies": INT,
         "TF": EXPRS, "TduF": EXPRS, "MbF": EXPRS, "wF": EXPRS, "sizes": _tuple(INT)},
@@ -448,7 +455,9 @@ OBJECTS = {
         "_declared_units": _optional(_Dict(_Either(STR, EXPR), STR)),
         "_declared_gravity": _optional(_tuple(FLOAT)),
         "_noc_blocks": _instance("NOC blocks", _FORMULATIONS + "_orthogonal_complement._Blocks"),
-        "_scheme": STR, "_multiplier_form": BOOL},
+        "_scheme": STR, "_multiplier_form": BOOL,
+        "_flexible_blocks": _tuple(_instance("a FlexibleBlock",
+                                             _FORMULATIONS + "_flexible.FlexibleBlock"))},
 }
 
 #: ``{class path: field specs}``: named tuples rebuilt by their constructor

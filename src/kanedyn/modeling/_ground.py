@@ -6,9 +6,11 @@ size and pose in a body's frame); :func:`ground_contacts` turns them into
 :class:`~kanedyn.modeling.Contact` objects against the plane ``z = height`` of
 the base frame, normal ``+z``:
 
-- a sphere of radius ``r``: its centre against the plane ``z = height + r``,
-  exact for a sphere on a plane (its lowest point is the centre less ``r``
-  along the normal, whatever the body's orientation);
+- a sphere of radius ``r``: the point of its body at the bottom of the ball,
+  its centre less ``r`` along the normal, exact for a sphere on a plane
+  whatever the body's orientation; its velocity is the body's at that point
+  (the centre's plus the body's rotation about it), so a ball that rolls has
+  its contact point at rest, and the forces act there;
 - a capsule (radius ``r``, half-length ``h`` along its own ``z``): its two end
   spheres, each as above, exact for a capsule on a plane (a capsule touches a
   plane with an end sphere, or lies on it with both);
@@ -123,7 +125,8 @@ class CollisionPrimitive:
 
 
 def _body_points(primitive):
-    """``[(suffix, offset (3,) in the body frame, lift above the plane m)]``."""
+    """``[(suffix, centre (3,) in the body frame, its radius m)]``: the balls (radius
+    0: points) whose bottoms touch the ground."""
     T = np.asarray(primitive.transform, dtype=float)
     R, p = T[:3, :3], T[:3, 3]
     size = [float(s) for s in primitive.size]
@@ -163,28 +166,31 @@ def ground_contacts(ground, frame, origin, primitives, source):
     """
     if not isinstance(ground, Ground):
         raise ModelError(f"ground must be a kanedyn.Ground, not {ground!r}")
-    planes, contacts, notes = {}, [], []
+    contacts, notes = [], []
+    O_plane = origin.locatenew("ground", sm.Float(ground.height) * frame.z)
+    O_plane.set_vel(frame, 0)
+    plane = Plane(frame, O_plane, frame.z, name=f"ground z={ground.height:g}")
     for prim in primitives:
         if prim.shape not in GROUND_SHAPES:
             where = f"{prim.where}: " if prim.where else ""
             notes.append(f"{where}{prim.name}: a {prim.shape} does not touch the ground "
                          f"(only {', '.join(GROUND_SHAPES)} do)")
             continue
-        for suffix, offset, lift in _body_points(prim):
-            level = ground.height + lift
-            if level not in planes:
-                O_plane = origin.locatenew(f"ground_{len(planes)}", sm.Float(level) * frame.z)
-                O_plane.set_vel(frame, 0)
-                planes[level] = Plane(frame, O_plane, frame.z, name=f"ground z={level:g}")
-            point = prim.origin.locatenew(f"{prim.name}{suffix}", sum(
+        for suffix, offset, radius in _body_points(prim):
+            name = f"{prim.name}{suffix}"
+            point = prim.origin.locatenew(name if not radius else f"{name} centre", sum(
                 (sm.Float(float(c)) * e for c, e in zip(offset, (prim.frame.x, prim.frame.y,
                                                                   prim.frame.z)) if c != 0),
                 me.Vector(0)))
             point.v2pt_theory(prim.origin, frame, prim.frame)
-            contacts.append(Contact(point, planes[level], mu_k=ground.mu_k, mu_s=ground.mu_s,
+            if radius:  # the body's point at the bottom of the ball, moving with the body
+                bottom = point.locatenew(name, -sm.Float(radius) * frame.z)
+                bottom.v2pt_theory(point, frame, prim.frame)
+                point = bottom
+            contacts.append(Contact(point, plane, mu_k=ground.mu_k, mu_s=ground.mu_s,
                                     restitution=ground.restitution,
                                     restitution_law=ground.restitution_law,
-                                    name=f"{prim.name}{suffix}"))
+                                    name=name))
     if notes:
         warnings.warn(f"{source}: {len(notes)} collision shape(s) not in contact with the "
                       "ground:\n  " + "\n  ".join(notes), UserWarning, stacklevel=4)

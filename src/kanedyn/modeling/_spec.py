@@ -26,7 +26,7 @@ _ALIASES = {"q_dependent": "q_dep", "u_dependent": "u_dep", "forcelist": "loads"
             "inertial_frame": "frame"}
 _KEYWORDS = ("frame", "q_ind", "u_ind", "kd_eqs", "q_dep", "u_dep",
              "configuration_constraints", "velocity_constraints",
-             "acceleration_constraints", "u_auxiliary", "bodies", "loads")
+             "acceleration_constraints", "u_auxiliary", "bodies", "loads", "kd_inputs")
 
 
 @dataclass(frozen=True)
@@ -172,7 +172,7 @@ def _from_system(system, potential, vector_constraints=()):
 def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=None,
            configuration_constraints=None, velocity_constraints=None,
            acceleration_constraints=None, u_auxiliary=None, bodies=None, loads=None,
-           potential=None, vector_constraints=()):
+           potential=None, vector_constraints=(), kd_inputs=None):
     if not isinstance(frame, me.ReferenceFrame):
         raise ModelError(f"frame must be the inertial sympy ReferenceFrame, got {frame!r}")
     q_ind = _as_tuple(q_ind, "q_ind")
@@ -193,7 +193,7 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
         raise ModelError(
             f"there are {len(q)} generalized coordinates but {len(kd_eqs)} kinematic "
             "differential equations (kd_eqs); give one equation per coordinate")
-    _check_kd_symbols(kd_eqs, q, u_ind + u_dep, u_aux)
+    _check_kd_symbols(kd_eqs, q, u_ind + u_dep, u_aux, _as_tuple(kd_inputs, "kd_inputs"))
 
     config = _expressions(configuration_constraints, "configuration_constraints")
     if len(config) != len(q_dep):
@@ -259,11 +259,16 @@ def _build(frame=None, q_ind=None, u_ind=None, kd_eqs=None, q_dep=None, u_dep=No
                      vector_constraints=tuple(vector_constraints))
 
 
-def _check_kd_symbols(kd_eqs, q, u, u_aux):
-    """Every dynamic symbol of the kinematic equations must be declared."""
+def _check_kd_symbols(kd_eqs, q, u, u_aux, inputs=()):
+    """Every dynamic symbol of the kinematic equations must be declared (``inputs``:
+    specified inputs they may contain, which drive first-order states)."""
     from sympy.physics.vector import dynamicsymbols as ds
     t = ds._t
-    declared = set(q) | set(u) | {s.diff(t) for s in q}
+    overlap = set(inputs) & (set(q) | set(u) | set(u_aux))
+    if overlap:
+        raise ModelError("kd_inputs holds " + ", ".join(sorted(name_of(s) for s in overlap))
+                         + ", a generalized coordinate or speed; give specified inputs")
+    declared = set(q) | set(u) | {s.diff(t) for s in q} | set(inputs)
     for i, eq in enumerate(kd_eqs):
         found = me.find_dynamicsymbols(eq)
         extra = [s for s in found if s not in declared and s not in u_aux]

@@ -16,7 +16,7 @@ from . import _oc3_options
 #: public name -> the module (in this package) that defines it; imported on first use
 _LAZY = {
     'ModelDefinition': '._base',
-    'PendingDefinition': '._base',
+    'PendingDefinition': '._pending',
     'eigenvalues_vs_speed': '._bicycle_analysis',
     'stability_speeds': '._bicycle_analysis',
     'upright_state': '._bicycle_analysis',
@@ -287,7 +287,7 @@ def unknown_model_text(name):
     return f"unknown model {name!r}{hint}"
 
 
-def build(name, lazy=False, **options):
+def build(name, lazy=True, **options):
     """A fresh :class:`ModelDefinition` of the named built-in model.
 
     Parameters
@@ -295,14 +295,22 @@ def build(name, lazy=False, **options):
     name : str
         One of :data:`REGISTRY` (``kanedyn list``).
     lazy : bool
-        ``True``: when the model's compiled numerical model is in the derivation
-        cache, return a :class:`PendingDefinition` that builds the definition
-        only when first needed (``build(name, lazy=True).numeric(backend="c")``
-        then needs no SymPy objects at all; its ``.definition`` is the
-        :class:`ModelDefinition`).  Otherwise, and by default, the definition
-        is built here, so errors in option values are raised by this call.
+        ``True`` (the default): when the model's compiled numerical model
+        (the C backend, these options) is in the derivation cache, a
+        :class:`PendingDefinition`: a :class:`ModelDefinition` whose SymPy
+        objects are built when a field is first read, so that
+        ``build(name).numeric(backend="c")`` in a second process imports no
+        SymPy; its options were checked by the builder when the entry was
+        written.  When the model is not in the cache, the definition is built
+        here.  ``False``: the definition is always built here.  Either way
+        errors in option names and values are raised by this call.
     **options
         Model options, e.g. ``n=8`` for ``chain3d``.
+
+    Returns
+    -------
+    ModelDefinition
+        A :class:`PendingDefinition` (a subclass) while not yet built.
     """
     try:
         builder, allowed = REGISTRY[name]
@@ -313,9 +321,14 @@ def build(name, lazy=False, **options):
     if unknown:
         raise ModelError(f"model {name} has no option(s) {sorted(unknown)}; "
                          f"its options: {sorted(allowed) or 'none'}")
-    from ._base import PendingDefinition
-    pending = PendingDefinition(name, options, builder)  # imported when it builds
-    return pending if lazy and pending.in_cache() else pending.definition
+    if not isinstance(lazy, bool):
+        raise ModelError(f"build({name!r}): lazy must be True or False, not {lazy!r}")
+    from ._pending import PendingDefinition, build_now
+    if lazy:
+        pending = PendingDefinition(name, options, builder)  # imported when it builds
+        if pending.in_cache():
+            return pending
+    return build_now(name, options, builder)
 
 
 __getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__,

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["ModelDefinition", "PendingDefinition", "DERIVE_STATS"]
+__all__ = ["ModelDefinition", "DERIVE_STATS"]
 
 #: what this process did (read by tests): ``derivations``, models derived
 DERIVE_STATS = {"derivations": 0}
@@ -78,10 +78,17 @@ class ModelDefinition:
         sensor's vehicle displacement: only its accelerations drive the
         model); ``SimulationResult.animate(inputs=...)`` takes them, and
         ``kanedyn run --animate`` passes them.  Empty when none.
-    load_names : tuple of str
+    load_names : tuple of str or None
         A name for each load of ``kane_args["loads"]``, in their order, for the
-        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`);
-        empty: named there by where they act and the symbols they hold.
+        terms of the energy balance (:func:`kanedyn.analysis.energy_balance`;
+        loads that share a name are one term); empty, or an entry ``None``:
+        named there by where they act and the symbols they hold.
+    potential_loads : tuple of int
+        The indices of the loads of ``kane_args["loads"]`` whose work the
+        declared ``potential_energy`` holds exactly (weights, springs: each
+        load's power is minus the rate of its part of the potential); the
+        energy balance leaves them out (counted as work as well, they would be
+        counted twice).  Empty: none (every load's work is a term).
     gravity : tuple of 3 float or None
         The gravitational acceleration in the inertial frame's components,
         m/s^2, where the model declares it; the 3D viewer draws up against
@@ -107,6 +114,7 @@ class ModelDefinition:
     animation_inputs: dict = field(default_factory=dict)
     gravity: tuple = None
     load_names: tuple = ()
+    potential_loads: tuple = ()
 
     def _labels(self):
         return dict(name=self.name, title=self.title, units=self.units or None,
@@ -145,6 +153,15 @@ class ModelDefinition:
         (:meth:`NumericModel.with_constants`), never a new derivation or build.
         The symbolic equations of a model from the cache are derived again
         only when they are asked for (linearization, pickling).
+
+        A definition made otherwise (a user's ``ModelDefinition``, one read
+        from URDF or MJCF) is kept there too, keyed by a digest of its
+        description (:func:`kanedyn.models._fingerprint.description_fingerprint`:
+        every expression, frame, point, body, load and constant reachable from
+        its fields), so that the same description built again in a second
+        process skips the derivation; one holding anything the digest does not
+        cover (a callable, kanedyn's contacts or force elements) is derived
+        every time.
         """
         if eom is None and specified is None:
             cached = _derivation_cache(self, constants, options)
@@ -396,8 +413,9 @@ def _read_cache(key):
 
 def _write_cache(key, definition, model):
     """Store ``model`` (its data, without C source: the module is in the cache by
-    its own key) and what :class:`PendingDefinition` needs of ``definition``,
-    atomically; a model that cannot be stored only costs time next time."""
+    its own key) and what :class:`~kanedyn.models.PendingDefinition` needs of
+    ``definition``, atomically; a model that cannot be stored only costs time
+    next time."""
     from .._trusted_files import untrusted_entry
     from ..engine import name_of
     from ..io import SavedFileError, save_data
@@ -432,11 +450,21 @@ def _derivation_cache(definition, constants, options):
     """The numerical model from the derivation cache (built and stored on a miss),
     or ``None`` when the model or its options are not cacheable."""
     overrides = definition._constant_overrides(constants or {})
-    key = _cacheable(getattr(definition, "_origin", None), overrides, options)
+    origin = getattr(definition, "_origin", None)
+    from ._fingerprint import description_fingerprint
+    if origin is None and options.get("backend") == "c":  # a user's model: its description
+        fingerprint = description_fingerprint(definition)
+        origin = None if fingerprint is None else ("description", fingerprint)
+    key = _cacheable(origin, overrides, options)
     if key is None:
         return None
 
     def derive_again():
+        if origin[0] == "description" and description_fingerprint(definition) != origin[1]:
+            raise ModelError(f"model {definition.name}: its description changed after its "
+                             "numerical model was read from the derivation cache; its "
+                             "equations cannot be derived for that model (make a new "
+                             "numerical model with numeric())")
         return definition.numeric(definition.derive(), **options)
 
     found = _read_cache(key)
@@ -453,86 +481,3 @@ def _derivation_cache(definition, constants, options):
     if overrides:
         model = model.with_constants({str(k): float(v) for k, v in overrides.items()})
     return model
-
-
-class PendingDefinition:
-    """A built-in model not built yet (what :func:`kanedyn.models.build` returns).
-
-    It behaves as its :class:`ModelDefinition`, which is built (SymPy objects
-    and all) when first needed; a numerical model with the C backend found in
-    the derivation cache needs no definition at all, so a second process with
-    the same model starts without building it.
-    """
-
-    def __init__(self, name, options, builder):
-        self._origin = (name, tuple(sorted(options.items())))
-        self._builder = builder
-        self._options = dict(options)
-        self._built = None
-        self._light = None  # from a cache entry: name, title, constants, initial state
-
-    @property
-    def definition(self):
-        """The :class:`ModelDefinition`, built on first use."""
-        if self._built is None:
-            built = self._builder(**self._options)
-            object.__setattr__(built, "_origin", self._origin)
-            self._built = built
-        return self._built
-
-    def __getattr__(self, name):
-        if name.startswith("__") or name in ("_built", "_light", "_builder", "_options",
-                                             "_origin"):
-            raise AttributeError(name)
-        return getattr(self.definition, name)
-
-    def __repr__(self):
-        return repr(self.definition)
-
-    def in_cache(self):
-        """True when the derivation cache holds this model's C numerical model
-        (its options were then checked when the entry was written)."""
-        key = _cacheable(self._origin, None, {"backend": "c"})
-        return key is not None and _cache_path(key).exists()
-
-    @property
-    def name(self):
-        return self._light["name"] if self._built is None and self._light else \
-            self.definition.name
-
-    @property
-    def title(self):
-        return self._light["title"] if self._built is None and self._light else \
-            self.definition.title
-
-    def numeric(self, eom=None, constants=None, specified=None, **options):
-        """As :meth:`ModelDefinition.numeric`; from the derivation cache without
-        building the definition when the model is there."""
-        if self._built is None and eom is None and specified is None \
-                and all(isinstance(k, str) for k in (constants or {})):
-            key = _cacheable(self._origin, constants, options)
-            found = _read_cache(key) if key is not None else None
-            if found is not None:
-                model, light = found
-                if set(constants or {}) <= set(light["constants"]):
-                    self._light = light
-                    model._rederive = lambda: self.definition.numeric(
-                        self.definition.derive(), **options)
-                    if constants:
-                        model = model.with_constants({k: float(v)
-                                                      for k, v in constants.items()})
-                    return model
-        return self.definition.numeric(eom, constants=constants, specified=specified,
-                                       **options)
-
-    def initial(self, model, overrides=None):
-        """As :meth:`ModelDefinition.initial`."""
-        if self._built is None and self._light is not None \
-                and all(isinstance(k, str) for k in (overrides or {})):
-            y = np.zeros(model.n_states)
-            values = dict(self._light["initial"])
-            values.update(overrides or {})
-            for key, value in values.items():
-                y[model.index(key)] = float(value)
-            return y
-        return self.definition.initial(model, overrides)

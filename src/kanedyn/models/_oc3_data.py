@@ -3,7 +3,8 @@ r"""OC3-Hywind spar with the NREL 5-MW turbine: the published properties as data
 Every figure is a :class:`Figure` (value, unit, source, meaning), grouped in
 read-only mappings: :data:`PLATFORM`, :data:`ENVIRONMENT`, :data:`HYDRO`,
 :data:`MOORING`, :data:`TOWER`, :data:`RNA`, :data:`ROTOR`, :data:`DRIVETRAIN`,
-:data:`CONTROLLER` (the baseline controller; the OC3 gains), and the tower's
+:data:`CONTROLLER` (the baseline controller; the OC3 gains), :data:`BLADE` (the
+blade's integrated properties), and the tower's
 distributed properties :data:`TOWER_STATIONS`.  Functions assemble the 6 x 6
 matrices of the rigid floating system about the *SWL reference point* (on the
 spar axis at the still water line; x downwind, y to port, z up; rows ordered
@@ -34,7 +35,8 @@ import numpy as np
 from .._errors import ModelError
 
 __all__ = ["Figure", "SOURCES", "PLATFORM", "ENVIRONMENT", "HYDRO", "MOORING", "TOWER",
-           "TOWER_STATIONS", "RNA", "ROTOR", "DRIVETRAIN", "CONTROLLER", "tower_stations",
+           "TOWER_STATIONS", "RNA", "ROTOR", "DRIVETRAIN", "CONTROLLER", "BLADE",
+           "tower_stations",
            "tower_rigid_properties",
            "rna_inertia_about_cm", "rigid_body_mass_matrix", "system_mass_matrix",
            "system_mass_properties", "hydrostatic_matrix", "added_mass_matrix",
@@ -204,6 +206,7 @@ DRIVETRAIN = _group(
     rotor_inertia=(38_759_227.0, "kg m^2", "5MW",
                    "rotor (hub and blades) inertia about the shaft: the published drivetrain "
                    "inertia 43,784,725 cast to the low-speed shaft less 97^2 x 534.116 (sec. 7.4)"),
+    hub_inertia=(115_926.0, "kg m^2", "5MW", "hub inertia about the shaft"),
     generator_inertia=(534.116, "kg m^2", "5MW", "generator inertia about the high-speed shaft"),
     gear_ratio=(97.0, "1", "5MW", "gearbox ratio, high-speed to low-speed shaft"),
     shaft_stiffness=(867_637_000.0, "N m/rad", "5MW",
@@ -241,9 +244,20 @@ CONTROLLER = _group(
     max_pitch_rate=(0.1396263, "rad/s", "5MW", "pitch rate limit (8 deg/s)"),
 )
 
+BLADE = _group(
+    mass=(17_740.0, "kg", "5MW", "blade mass (integrated; the flexible blades' distributed "
+                                 "mass is scaled to it)"),
+    cm_from_root=(20.475, "m", "5MW", "blade centre of mass from the root along the blade"),
+    second_moment_root=(11_776_047.0, "kg m^2", "5MW",
+                        "blade second mass moment of inertia about the root"),
+    damping_ratio=(0.00477465, "1", "5MW",
+                   "structural damping ratio of the blade's modes (flap 1, flap 2, edge 1), "
+                   "fraction of critical, of the isolated blade (0.477465 %)"),
+)
+
 _GROUPS = {"ENVIRONMENT": ENVIRONMENT, "PLATFORM": PLATFORM, "HYDRO": HYDRO,
            "MOORING": MOORING, "TOWER": TOWER, "RNA": RNA, "ROTOR": ROTOR,
-           "DRIVETRAIN": DRIVETRAIN, "CONTROLLER": CONTROLLER}
+           "DRIVETRAIN": DRIVETRAIN, "CONTROLLER": CONTROLLER, "BLADE": BLADE}
 
 
 def all_figures():

@@ -11,5 +11,5 @@ OC3_SPAR_OPTIONS = {
     "mooring": str, "wind_speed": float, "turbulence": float,
     "tmdi": str, "tmd_mass_ratio": float, "tmd_frequency": float, "tmd_damping": float,
     "inertance_ratio": float, "inerter_height": float, "rna_offset": bool,
-    "rotor": str, "controller": str, "drivetrain": str, "aero": str,
+    "rotor": str, "controller": str, "drivetrain": str, "aero": str, "blades": str,
 }

@@ -53,7 +53,9 @@ wind, the aerodynamic damping on the hub's velocity along the shaft).
 With ``rotor="spinning"`` the rotor azimuth (and with ``drivetrain="flexible"`` the
 low-speed shaft's twist) is a degree of freedom, the rotor's thrust and torque come from
 its performance table, and with ``controller="on"`` the baseline controller's three
-states join the coordinates (:mod:`kanedyn.models._oc3_rotor`).
+states join the coordinates (:mod:`kanedyn.models._oc3_rotor`); with
+``blades="flexible"`` the blades are flexible bodies with three modes each
+(:mod:`kanedyn.models._oc3_blades`).
 """
 
 from __future__ import annotations
@@ -75,6 +77,8 @@ from ._oc3_data import (ENVIRONMENT, HYDRO, MOORING, PLATFORM, RNA, ROTOR, TOWER
                         added_mass_matrix, damping_matrix, hydrostatic_matrix,
                         mooring_stiffness_matrix, rna_inertia_about_cm,
                         tower_rigid_properties)
+from ._oc3_blades import rna_without_blades
+from ._oc3_potential import coupled_energy, gradient_loads, restoring_energy, split_loads
 from ._oc3_rotor import AERO_MODELS, rna_inertia_pieces, spinning_rotor
 from ._oc3_tower import oc3_tower_rna_basis
 from ._oc3_shapes import oc3_shape_specs
@@ -91,10 +95,12 @@ _CHOICES = {"hydrostatics": ("linear", "large_angle"), "added_mass": ("sheet", "
             "mooring": ("linear", "linear-symmetric", "catenary", "none"),
             "tmdi": ("off", "tmd", "tmdi"), "rotor": ("rigid", "spinning"),
             "controller": ("off", "on"), "drivetrain": ("rigid", "flexible"),
-            "aero": AERO_MODELS}
+            "aero": AERO_MODELS, "blades": ("rigid", "flexible")}
 
 _N_STRIPS = 10          # Morison strips over the wetted 120 m
 _WIND_SERIES = 3600.0   # s of turbulent wind generated (periodic beyond)
+#: the energy balance's term of a published matrix's loads beyond the potential's gradient
+_BEYOND = "{} beyond its potential (the published matrix's {})"
 
 
 def _v(group, key):
@@ -141,7 +147,8 @@ def _check(options):
         raise ModelError(f"oc3-spar: sea={options['sea']} needs wave_height > 0 and "
                          "wave_period > 0")
     if options["rotor"] == "rigid":
-        for key, value in (("controller", "on"), ("drivetrain", "flexible"), ("aero", "bem")):
+        for key, value in (("controller", "on"), ("drivetrain", "flexible"), ("aero", "bem"),
+                           ("blades", "flexible")):
             if options[key] == value:
                 raise ModelError(f"oc3-spar: option {key}={value} needs rotor=spinning (the "
                                  "rigid rotor has no rotor speed)")
@@ -161,7 +168,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
              wave_period=10.0, seed=1, mooring="linear", wind_speed=0.0, turbulence=0.0,
              tmdi="off", tmd_mass_ratio=0.02, tmd_frequency=0.45, tmd_damping=0.08,
              inertance_ratio=0.02, inerter_height=60.0, rna_offset=True, rotor="rigid",
-             controller="off", drivetrain="rigid", aero="thrust"):
+             controller="off", drivetrain="rigid", aero="thrust", blades="rigid"):
     r"""The OC3-Hywind spar with the NREL 5-MW turbine (see the module text and the model card).
 
     Parameters
@@ -250,6 +257,15 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         inputs ``Frotor_x/y/z``, ``Mrotor_x/y/z`` (shaft-frame components,
         N and N m), their callables in ``specified``.  With
         ``controller="off"`` the BEM uses the steady pitch for the wind.
+    blades : {"rigid", "flexible"}
+        With ``rotor="spinning"``: ``"flexible"``, the three blades are
+        :class:`~kanedyn.FlexibleBody` members of the NREL 5-MW blade (first
+        flap, first edge and second flap modes, structural twist, the published
+        0.477465 % damping, centrifugal stiffening, gravity), turned at their
+        roots by the pitch; the aerodynamic loads act on their nodes
+        (:mod:`kanedyn.models._oc3_blades`; with ``aero="bem"`` two inputs per
+        node, ``Frotor_n_<blade>_<node>`` and ``Frotor_t_...``).  With
+        ``controller="off"`` the blades keep the steady pitch for the wind.
 
     Returns
     -------
@@ -274,7 +290,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                    tmd_frequency=tmd_frequency, tmd_damping=tmd_damping,
                    inertance_ratio=inertance_ratio, inerter_height=inerter_height,
                    rna_offset=rna_offset, rotor=rotor, controller=controller,
-                   drivetrain=drivetrain, aero=aero)
+                   drivetrain=drivetrain, aero=aero, blades=blades)
     _check(options)
     g = _v(ENVIRONMENT, "gravity")
     rho = _v(ENVIRONMENT, "water_density")
@@ -296,6 +312,17 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     q, u, kd_eqs = list(q6), list(u6), [qi.diff(T) - ui for qi, ui in zip(q6, u6)]
     bodies, loads, potential = [], [], []
     elements = {}
+    held, load_names = [], {}   # the loads whose work the potential holds; term names
+
+    def add(new, hold=False, name=None):
+        """Append loads; ``hold``: the potential holds their work exactly (no term of
+        the energy balance); ``name``: their term's name."""
+        start = len(loads)
+        loads.extend(new)
+        if hold:
+            held.extend(range(start, len(loads)))
+        if name:
+            load_names.update(dict.fromkeys(range(start, len(loads)), name))
 
     # ---------------------------------------------------------------- platform
     m_p = _v(PLATFORM, "mass")
@@ -305,7 +332,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         B, _v(PLATFORM, "roll_inertia_cm"), _v(PLATFORM, "pitch_inertia_cm"),
         _v(PLATFORM, "yaw_inertia_cm")), Gp))
     bodies.append(platform)
-    loads.append((Gp, -m_p * g * N.z))
+    add([(Gp, -m_p * g * N.z)], hold=True)
     potential.append(m_p * g * Gp.pos_from(O).dot(N.z))
 
     # ------------------------------------------------------------------- tower
@@ -316,7 +343,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         Gt = P.locatenew("G_tower", cm_t[2] * B.z)
         Gt.v2pt_theory(P, N, B)
         tower = me.RigidBody("tower", Gt, B, m_t, (me.inertia(B, *np.diag(I_t)), Gt))
-        loads.append((Gt, -m_t * g * N.z))
+        add([(Gt, -m_t * g * N.z)], hold=True)
         potential.append(m_t * g * Gt.pos_from(O).dot(N.z))
         A = B
         top = P.locatenew("top", _v(TOWER, "top_z") * B.z)
@@ -347,16 +374,21 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     # --------------------------------------------------------------------- RNA
     m_rna = _v(RNA, "mass")
     cm_x = _v(RNA, "cm_x") if rna_offset else 0.0
-    G_rna = top.locatenew("G_rna", cm_x * A.x + _v(RNA, "cm_z") * A.z)
+    cm_rna = np.array([cm_x, 0.0, _v(RNA, "cm_z")])
     spinning = rotor == "spinning"
     # with a spinning rotor the RNA keeps all but the spinning parts' inertia, in two
-    # pieces (see rna_inertia_pieces)
-    I_rna, I_axial = rna_inertia_pieces() if spinning else (rna_inertia_about_cm(), None)
+    # pieces (see rna_inertia_pieces); flexible blades take their mass as well
+    if spinning and blades == "flexible":
+        m_rna, cm_rna, I_rest = rna_without_blades(cm_x)
+        I_rna, I_axial = rna_inertia_pieces(I_rest)
+    else:
+        I_rna, I_axial = rna_inertia_pieces() if spinning else (rna_inertia_about_cm(), None)
+    G_rna = top.locatenew("G_rna", cm_rna[0] * A.x + cm_rna[2] * A.z)
     rna = me.RigidBody("rna", G_rna, A, m_rna, (_inertia(A, I_rna), G_rna))
     bodies.append(rna)
     if spinning:
         bodies.append(me.RigidBody("rna_axial", G_rna, A, 0, (_inertia(A, I_axial), G_rna)))
-    loads.append((G_rna, -m_rna * g * N.z))
+    add([(G_rna, -m_rna * g * N.z)], hold=True)
     potential.append(m_rna * g * G_rna.pos_from(O).dot(N.z))
 
     # -------------------------------------------------------------- TMD / TMDI
@@ -374,8 +406,9 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         kd_eqs.append(s_d.diff(T) - v_d)
         damper = top.locatenew("damper", s_d * A.x)
         bodies.append(me.Particle("tmd", damper, m_d))
-        loads += [(damper, (-k_d * s_d - c_d * v_d) * A.x - m_d * g * N.z),
-                  (top, (k_d * s_d + c_d * v_d) * A.x)]
+        add([(damper, -k_d * s_d * A.x - m_d * g * N.z), (top, k_d * s_d * A.x)],
+            hold=True)
+        add([(damper, -c_d * v_d * A.x), (top, c_d * v_d * A.x)], name="TMD dashpot")
         potential += [m_d * g * damper.pos_from(O).dot(N.z), k_d * s_d ** 2 / 2]
         if tmdi == "tmdi":
             tower_node, height = tower_point(inerter_height)
@@ -405,11 +438,13 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         if not tower_modes:
             hub.v2pt_theory(top, N, A)
         spin = spinning_rotor(A, hub, N, float(wind_speed), options, wind_symbol,
-                              wind if wind_symbol is not None else None)
+                              wind if wind_symbol is not None else None, origin=O)
         q += spin["q"]
         u += spin["u"]
         kd_eqs += spin["kd_eqs"]
         bodies += spin["bodies"]
+        load_names.update({len(loads) + i: name for i, name in spin["load_names"].items()})
+        held.extend(len(loads) + i for i in spin["held"])
         loads += spin["loads"]
         potential.append(spin["potential"])
         elements["rotor"] = spin["symbols"]["aerodynamics"]
@@ -419,8 +454,12 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         C = hydrostatic_matrix(weight=False)
         hydro = MatrixSpringDamper("hydrostatics", B, P, N, C, np.zeros((6, 6)), O)
         buoyancy = rho * g * _v(PLATFORM, "displaced_volume")
-        loads += hydro.to_loads() + [(P, buoyancy * N.z)]
-        potential.append(-buoyancy * z + _restoring_energy(C, P, O, B, N))
+        exact, energy = gradient_loads(
+            lambda d, R: -buoyancy * d[2] + restoring_energy(C, d, R), P, O, B, N)
+        add(exact, hold=True)
+        add(split_loads(hydro.to_loads() + [(P, buoyancy * N.z)], exact),
+            name=_BEYOND.format("hydrostatics", "second-order part"))
+        potential.append(energy)
     else:
         hydro = Hydrostatics("hydrostatics", B, P, B.z, spar_geometry(), N, O, rest, rho,
                              "large_angle", g=g)
@@ -439,7 +478,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     specified = {}
     if spin is not None:
         specified.update(spin["specified"])
-        if wind_symbol is not None:
+        if wind_symbol is not None and aero != "bem":   # the BEM calls the series itself
             specified[wind_symbol] = wind
     if drag or waves is not None or added_mass == "morison":
         morison = MorisonCylinder(
@@ -449,28 +488,32 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
             waves=waves)
         elements["morison"] = morison
         if drag or waves is not None:
-            loads += morison.to_loads()
+            add(morison.to_loads(), name="Morison drag and wave forces")
             specified.update(morison.specified())
         if added_mass == "morison":
             bodies += morison.inertia_elements()
     if linear_damping:
         damper_6 = MatrixSpringDamper("linear_damping", B, P, N, np.zeros((6, 6)),
                                       damping_matrix(), O)
-        loads += damper_6.to_loads()
+        add(damper_6.to_loads(), name="additional linear damping")
         elements["linear_damping"] = damper_6
 
     # ----------------------------------------------------------------- mooring
     states = [*q, *u]
     if mooring == "linear":
         moor = LinearMooring.oc3(B, P, N, O)
-        loads += moor.to_loads()
-        potential.append(moor.vertical_load * z + _coupled_energy(moor.K, P, O, B, N))
+        exact, energy = gradient_loads(
+            lambda d, R: moor.vertical_load * d[2] + coupled_energy(moor.K, d, R), P, O, B, N)
+        add(exact, hold=True)
+        add(split_loads(moor.to_loads(), exact),
+            name=_BEYOND.format("mooring", "asymmetry, second-order part"))
+        potential.append(energy)
         elements["mooring"] = moor
     elif mooring == "linear-symmetric":
         moor = LinearMooring.oc3(B, P, N, O)
         K_sym = (moor.K + moor.K.T) / 2
         moor_loads, moor_energy = _conservative_spring(K_sym, P, O, B, N)
-        loads += moor_loads + [(P, -moor.vertical_load * N.z)]
+        add(moor_loads + [(P, -moor.vertical_load * N.z)], hold=True)
         potential.append(moor.vertical_load * z + moor_energy)
         elements["mooring"] = moor
     elif mooring == "catenary":
@@ -480,8 +523,12 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         K_yaw = np.zeros((6, 6))
         K_yaw[5, 5] = _v(MOORING, "K66_yaw_spring")
         yaw_spring = MatrixSpringDamper("yaw_spring", B, P, N, K_yaw, np.zeros((6, 6)), O)
-        loads += yaw_spring.to_loads()
-        potential.append(_restoring_energy(K_yaw, P, O, B, N))
+        exact, energy = gradient_loads(lambda d, R: restoring_energy(K_yaw, d, R),
+                                       P, O, B, N)
+        add(exact, hold=True)
+        add(split_loads(yaw_spring.to_loads(), exact),
+            name=_BEYOND.format("yaw spring", "second-order part"))
+        potential.append(energy)
         elements["mooring"] = moor
         elements["yaw_spring"] = yaw_spring
 
@@ -517,6 +564,7 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
     if spinning:
         what.append(f"spinning rotor, controller {controller}"
                     + (", flexible drivetrain" if drivetrain == "flexible" else "")
+                    + (", flexible blades" if blades == "flexible" else "")
                     + (", BEM aerodynamics" if aero == "bem" else ""))
     return ModelDefinition(
         name="oc3-spar",
@@ -524,6 +572,8 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
         kane_args=dict(frame=N, q_ind=q, u_ind=u, kd_eqs=kd_eqs, bodies=bodies, loads=loads,
                        potential_energy=sm.Add(*potential)),
         constants=constants, initial_state=state, t_end=60.0, specified=specified,
+        load_names=tuple(load_names.get(i) for i in range(len(loads))) if load_names else (),
+        potential_loads=tuple(held),
         symbols=dict(q=q, u=u, N=N, B=B, A=A, O=O, P=P, top=top, hub=hub, damper=damper,
                      tower=tower, tower_node=tower_node, elements=elements, s_d=s_d, m_d=m_d,
                      k_d=k_d, c_d=c_d, b=b, potential_energy=sm.Add(*potential),
@@ -541,7 +591,9 @@ def oc3_spar(tower_modes=2, tower_elements=10, stiffening=False, tower_damping=0
                **({s_d: "m"} if s_d is not None else {}), **(spin["units"] if spin else {})},
         body_groups={"platform": ("platform",), "tower": ("tower",),
                      "rna": ("rna", "rna_axial", "rotor", "generator") if spinning
-                     else ("rna",)},
+                     else ("rna",),
+                     **({"blades": ("blade1", "blade2", "blade3")} if blades == "flexible"
+                        else {})},
         gravity=(0.0, 0.0, -g),
         shape_specs=oc3_shape_specs(platform, tower, rna, None if tower_modes else cm_t[2],
                                     (cm_x, _v(RNA, "cm_z")), _v(TOWER, "top_z")))
@@ -561,52 +613,6 @@ class _PeriodicSeries:
 
     def __call__(self, t):
         return float(np.interp(t % self.period, self.t, self.v, period=self.period))
-
-
-def _rotation_energy(K_rr, B, N):
-    r""":math:`\tfrac12\mathrm{tr}(K'(I - R))`, :math:`K' = \mathrm{tr}(C)I - 2C`.
-
-    The potential whose torque is :math:`-\mathrm{vee}(\mathrm{skew}(R K'))`:
-    :math:`-C\theta` to first order, and exactly the moment
-    :math:`-C\,\sin\varphi\,n` of :class:`MatrixSpringDamper` for rotations
-    about one axis of ``C``'s principal axes (planar motions).
-    """
-    C = np.asarray(K_rr, float)
-    Kp = np.trace(C) * np.eye(3) - 2 * C
-    R = N.dcm(B)
-    return sm.Add(*[sm.Float(Kp[i, j]) * ((1 if i == j else 0) - R[j, i])
-                    for i in range(3) for j in range(3) if Kp[i, j] != 0]) / 2
-
-
-def _restoring_energy(K, P, O, B, N):
-    """Potential of a 6 x 6 matrix spring without translation-rotation coupling."""
-    K = np.asarray(K, float)
-    d = P.pos_from(O)
-    dv = [d.dot(e) for e in (N.x, N.y, N.z)]
-    trans = sm.Add(*[sm.Float(K[i, j]) * dv[i] * dv[j] / 2 for i in range(3)
-                     for j in range(3) if K[i, j] != 0])
-    return trans + _rotation_energy(K[3:, 3:], B, N)
-
-
-def _coupled_energy(K, P, O, B, N):
-    """Potential of the linear mooring: diagonal blocks exactly, the coupling symmetrized.
-
-    The coupling term :math:`d^T\\bar K_{tr}\\theta` (:math:`\\bar K` the
-    symmetric part) is the potential of the element's loads to first order in
-    the rotation only (see the model card: energy is conserved to
-    :math:`O(\\theta^2)` of the coupling energy with this mooring).
-    """
-    K = np.array(np.asarray(K, dtype=float))
-    Ks = (K + K.T) / 2
-    Kd = Ks.copy()
-    Kd[:3, 3:] = Kd[3:, :3] = 0
-    d = P.pos_from(O)
-    dv = [d.dot(e) for e in (N.x, N.y, N.z)]
-    th = rotation_vector(B, N)
-    tv = [th.dot(e) for e in (N.x, N.y, N.z)]
-    coupling = sm.Add(*[sm.Float(Ks[i, 3 + j]) * dv[i] * tv[j] for i in range(3)
-                        for j in range(3) if Ks[i, 3 + j] != 0])
-    return _restoring_energy(Kd, P, O, B, N) + coupling
 
 
 def _conservative_spring(K, P, O, B, N):

@@ -10,20 +10,25 @@ power of everything :math:`E` does not hold.  Here that power is taken apart:
   forces that auxiliary speeds expose given their values
   (:meth:`NumericModel.auxiliary`);
 * the constraint forces that drive prescribed motion and that no auxiliary
-  speed exposes, where that motion moves rigid bodies and particles only:
-  with
+  speed exposes: with
   :math:`v^t_k, \omega^t_k` the velocities at zero speeds (the explicitly
-  time-dependent part),
+  time-dependent part, or the part that coordinates without speeds of their
+  own give, such as a controller's pitch state turning a blade),
 
   .. math::
 
       P_\text{prescribed} = \sum_k \left[m_k a_k\cdot v^t_k
           + (I_k\alpha_k + \omega_k\times I_k\omega_k)\cdot\omega^t_k\right]
+          + \sum_b w^t_b\cdot\left(M_b\dot w_b + \beta_b - F_b\right)
           - \sum_l F_l\cdot v^t_l,
 
   the power of all forces on the bodies along :math:`v^t` minus that of the
   loads (zero where no motion is prescribed, or where auxiliary speeds
-  expose every force that drives it);
+  expose every force that drives it); a flexible body or inertial element
+  :math:`b` contributes through its block (:mod:`kanedyn.formulations._flexible`:
+  :math:`w^t_b` its body-frame velocities at zero speeds, :math:`M_b\dot w_b
+  + \beta_b` its inertia forces, :math:`F_b` its gravity, elastic and
+  damping forces);
 * each flexible body's modal damping, :math:`-\dot\eta^T C\dot\eta`.
 
 The gravity parts of the loads (:math:`F_l(g) - F_l(0)` at the gravity
@@ -59,12 +64,14 @@ class LoadPowers:
     gravity : numpy.ndarray, shape (n_loads, N)
         The power of each load's gravity part (zero without a gravity symbol).
     prescribed : numpy.ndarray or None, shape (N,)
-        :math:`P_\text{prescribed}`; ``None`` where a flexible body's motion is
-        prescribed in part (its inertia forces are not taken apart here).
+        :math:`P_\text{prescribed}`; ``None`` where a flexible body whose
+        motion is prescribed in part has no block with the equations (saved
+        by an older kanedyn: its inertia forces are not taken apart here).
     damping : dict
         ``{flexible body name: ndarray (N,)}`` for the bodies with damping.
     moved_flexible : tuple of str
-        The flexible bodies whose frame or origin moves in part as prescribed.
+        The flexible bodies and inertial elements whose motion is prescribed
+        in part.
     """
 
     loads: np.ndarray
@@ -120,9 +127,10 @@ def _specification(model, gravity):
     moved = [b.name for b in eom.bodies if not isinstance(b, (me.RigidBody, me.Particle))
              and any(not sm.sympify(c).is_zero for c in reference_motion(b))]
     outputs = [((len(rest_power),), rest_power), ((len(grav_power),), grav_power)]
-    if not moved:
-        o = len(udot)
-        inertia_power = []
+    blocks = {block.body.name: block for block in getattr(eom, "_flexible_blocks", ())}
+    o = len(udot)
+    if all(name in blocks for name in moved):
+        inertia_power = [_block_power(blocks[name], udot, prescribed_part) for name in moved]
         for terms, (force, torque) in zip(eom._body_terms, eom._inertial):
             terms = terms.on(prog)
             body = terms.body
@@ -140,6 +148,18 @@ def _specification(model, gravity):
                     body.frame))))
         outputs.append(((), [sub(sm.Add(*inertia_power) - sm.Add(*along_t))]))
     return args, outputs, tuple(moved)
+
+
+def _block_power(block, udot, prescribed_part):
+    r""":math:`w^t\cdot(M_b\dot w + \beta - F_b)` of one flexible block."""
+    size, o = block.size, len(udot)
+    wdot = [block.rate[b] + sm.Add(*[block.partials[s][b] * udot[s] for s in range(o)
+                                     if block.partials[s][b] != 0]) for b in range(size)]
+    along = prescribed_part(block.w)
+    return sm.Add(*[along[a] * (sm.Add(*[block.mass[a][b] * wdot[b] for b in range(size)
+                                         if block.mass[a][b] != 0])
+                                 + block.bias[a] - block.active[a])
+                    for a in range(size) if along[a] != 0])
 
 
 def _function(model, gravity):
@@ -188,7 +208,7 @@ def load_powers(model, t, y, gravity=None):
     out = fn(ts, Y, model._p, R)
     loads = np.broadcast_to(out[0], (len(out[0]), ts.size)).astype(float)
     grav = np.broadcast_to(out[1], (len(out[1]), ts.size)).astype(float)
-    prescribed = None if moved else np.broadcast_to(out[2], ts.shape).astype(float)
+    prescribed = np.broadcast_to(out[2], ts.shape).astype(float) if len(out) > 2 else None
     return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y), moved)
 
 

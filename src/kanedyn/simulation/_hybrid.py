@@ -37,7 +37,10 @@ __all__ = ["simulate_contacts", "ModeChange"]
 
 _MAX_STALLED_SEGMENTS = 1000  # mode changes in a row without time advancing
 #: a sliding contact's "slow" speed is at least this many times its "still" one
-_SLOW_STILL = 20.0
+_SLOW_STILL = 10.0
+#: 1 - cos(20 deg): a slip turned this far from its reference stops at half its
+#: still speed (:func:`_slip_stop_value`, KD_STALL_TURN of the compiled segments)
+_STALL_TURN = 0.06030737921409157
 
 
 class ModeChange(tuple):
@@ -122,13 +125,17 @@ def _free_normal_acceleration(solver, t, y, modes, directions, c):
     return float(point.normal @ point.jacobian @ solution.udot + point.normal_rate - held)
 
 
-def settle(model, solver, t, y, modes, directions, tol, reasons):
+def settle(model, solver, t, y, modes, directions, tol, reasons, stopped=None):
     """Modes consistent with the state: forces within limits, gaps open.
 
     Returns new ``(modes, directions)``; ``reasons`` collects
-    ``(contact index, old, new, reason)``.
+    ``(contact index, old, new, reason)``.  ``stopped``: ``{contact: slip
+    speed}`` of the slips that have just stopped (:func:`_stopped`), the speed
+    free of the other contacts' drift, against which their stick is judged (a
+    sticking contact's own slip speed, which carries that drift, for the others).
     """
     modes, directions = list(modes), list(directions)
+    stopped = stopped or {}
     points = contact_points(model, t, y)
     for c, point in enumerate(points):  # kinematic state
         coef = model.contacts[c]
@@ -145,7 +152,8 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
             if coef["kind"] == "unilateral" and leaving:
                 reasons.append((c, modes[c], SEPARATED, "moves away from the surface"))
                 modes[c] = SEPARATED
-            elif modes[c] == STICK and _touching_mode(coef, point, tol) == SLIP:
+            elif modes[c] == STICK and stopped.get(
+                    c, np.linalg.norm(point.slip_velocity)) > tol["slip"]:
                 reasons.append((c, STICK, SLIP, "slips"))
                 modes[c] = SLIP
     for _ in range(4 * len(modes) + 4):  # forces within their limits
@@ -177,6 +185,29 @@ def settle(model, solver, t, y, modes, directions, tol, reasons):
                        "paradox, or chattering)")
 
 
+def _slip_stop_value(vt, reference):
+    """The "slip stops" event of a sliding contact: its zero ends the segment.
+
+    Zero where the slip velocity ``vt`` (3,) loses its component along the
+    reference direction while the slip is slow (a stop), not where a fast slip
+    has merely turned by 90 degrees (see :func:`kanedyn.numerics.slip_direction`).
+    For a slip whose segment began near the ``still`` speed (below
+    ``1e3 * _SLOW_STILL`` times it: its ``slow`` speed is ``_SLOW_STILL`` times
+    it), also where it falls to half the ``still`` speed having turned from the
+    reference (by :data:`_STALL_TURN` or more; by less, at a proportionally
+    lower speed): so slow, its direction is at the integration's error (the
+    foot of a light leg sliding to a stop), and it would be integrated at a
+    crawl without reaching zero.  The compiled contact segments compute the
+    same (``_c_contact``).
+    """
+    along, speed = float(vt @ reference.direction), float(np.linalg.norm(vt))
+    value = max(along, speed - reference.slow)
+    if reference.slow <= _SLOW_STILL * reference.still and speed > 0:
+        turn = min(1.0, (1.0 - along / speed) / _STALL_TURN)
+        value = min(value, speed - 0.5 * reference.still * turn)
+    return value
+
+
 def _events(model, solver, points, modes, directions, n_states):
     """Terminal event functions for the current modes: (function, contact, kind)."""
     events = []
@@ -200,15 +231,12 @@ def _events(model, solver, points, modes, directions, n_states):
                 return solver(t, z[:n_states], modes, directions).normal_force[c]
             events.append((normal, c, "lift-off", -1))
         if mode == SLIP and directions[c] is not None and coef["mu_s"] > 0:
-            # zero where the slip velocity's component along the reference
-            # direction vanishes while the slip is slow (a stop), not where a
-            # fast slip has merely turned by 90 degrees (see slip_direction);
             # the slip velocity is free of the other contacts' drift
-            ref, slow = directions[c].direction, directions[c].slow
+            reference = directions[c]
 
-            def stop(t, z, c=c, ref=ref, slow=slow):
+            def stop(t, z, c=c, reference=reference):
                 vt = solver(t, z[:n_states], modes, directions).slip_velocity[c]
-                return max(vt @ ref, np.linalg.norm(vt) - slow)
+                return _slip_stop_value(vt, reference)
             events.append((stop, c, "slip stops", -1))
         elif mode == STICK:
             def margin(t, z, c=c, coef=coef):
@@ -414,7 +442,7 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
         reasons = []
         new_modes = list(modes)
         before = list(directions)
-        stop_fired, stopping = set(), set()
+        stop_fired, stopping = set(), {}
         for c, kind in fired:
             if kind == "gap":
                 new_modes[c] = STICK  # touching; settled below (impact if approaching)
@@ -440,7 +468,8 @@ def simulate_contacts(model, t_span, y0, *, method="RK45", t_eval=None, rtol=1e-
                 reasons.append((c, SLIP, STICK, "the slip stops"))
         try:
             y, new_modes, directions = _resolve(model, solver, t, y, new_modes, directions,
-                                                tol, rest, reasons, impacts, bounces)
+                                                tol, rest, reasons, impacts, bounces,
+                                                stopping)
         except (RuntimeError, np.linalg.LinAlgError) as exc:
             status, message = -1, f"stopped at t={t:.6g}: {exc}"
             break
@@ -535,7 +564,8 @@ def _compiled_segment(segment_c, model, t, t1, z0, modes, directions, mode_event
 
 
 def _stopped(solver, t, y, modes, directions, tol, fired):
-    """Sliding contacts whose slip has stopped at ``(t, y)``.
+    """Sliding contacts whose slip has stopped at ``(t, y)``: ``{contact: its slip
+    speed}``.
 
     Stopped: the slip speed, free of the other contacts' drift, is at most
     ``min(1e3 tol_slip, 0.1 slow)`` of the contact's reference (a slow slip
@@ -545,14 +575,15 @@ def _stopped(solver, t, y, modes, directions, tol, fired):
     rest) count.
     """
     slips = solver(t, y, modes, directions).slip_velocity
-    out = set()
+    out = {}
     for c, mode in enumerate(modes):
         if mode != SLIP or directions[c] is None:
             continue
         if c not in fired and not np.isfinite(directions[c].slow):
             continue
-        if np.linalg.norm(slips[c]) <= min(tol["slip"] * 1e3, 0.1 * directions[c].slow):
-            out.add(c)
+        speed = float(np.linalg.norm(slips[c]))
+        if speed <= min(tol["slip"] * 1e3, 0.1 * directions[c].slow):
+            out[c] = speed
     return out
 
 
@@ -603,7 +634,8 @@ def _check_initial(model, t, y, modes, tol):
                              "its surface")
 
 
-def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts, bounces):
+def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts, bounces,
+             stopped=None):
     """Impacts of approaching contacts, then consistent modes.
 
     ``bounces`` maps a contact to the time and separation speed of its last
@@ -613,7 +645,7 @@ def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts
     integration resolves) is at rest on its surface: its impact is plastic,
     like one slower than ``rest`` (else the bounces of a contact pressed onto
     its surface at a speed the rounding of the gap keeps up, a Zeno sequence,
-    go on without end).
+    go on without end).  ``stopped``: as for :func:`settle`.
     """
     points = contact_points(model, t, y)
     touching = [c for c, p in enumerate(points) if p.distance <= tol["distance"]]
@@ -638,5 +670,5 @@ def _resolve(model, solver, t, y, modes, directions, tol, rest, reasons, impacts
                 reasons.append((c, modes[c], new, "impact" if c not in plastic
                                 else "impact (too slow to bounce: it stays)"))
                 modes[c] = new
-    modes, directions = settle(model, solver, t, y, modes, directions, tol, reasons)
+    modes, directions = settle(model, solver, t, y, modes, directions, tol, reasons, stopped)
     return y, modes, directions

@@ -380,9 +380,11 @@ class BeamMember(FEMember):
         Section properties at stations along the member (a dict of columns or
         a pandas DataFrame): ``arc`` (m), ``mass_per_length`` (kg/m), ``EA``
         (N), ``GJ`` (N m^2), ``EI_y``, ``EI_z`` (N m^2), optional
-        ``rotary_inertia_y``, ``rotary_inertia_z``, ``polar_inertia`` (kg m)
-        and ``shear_stiffness_y``, ``shear_stiffness_z`` (kappa G A, N; given,
-        that bending plane is a Timoshenko beam).  See
+        ``rotary_inertia_y``, ``rotary_inertia_z``, ``polar_inertia`` (kg m),
+        ``shear_stiffness_y``, ``shear_stiffness_z`` (kappa G A, N; given,
+        that bending plane is a Timoshenko beam) and ``twist`` (rad, the
+        structural twist: each element's local y and z axes turned about its
+        axis, right-handed, by the mean of ``twist`` over the element).  See
         :class:`~kanedyn.modeling.flexible._stations.StationTable`.  The
         properties vary linearly between stations; the element matrices
         integrate that variation exactly.
@@ -393,8 +395,8 @@ class BeamMember(FEMember):
         (the first station) is at the origin.
     reference_vector : array_like, shape (3,), optional
         Fixes each element's local y axis (its part perpendicular to the
-        element's axis); local z = x × y.  Default: body y, or body z for
-        elements parallel to body y.
+        element's axis, then turned by the ``twist`` column if given); local
+        z = x × y.  Default: body y, or body z for elements parallel to body y.
     node_arcs : sequence of float, optional
         Arc positions of the nodes, m, increasing, within the stations
         (instead of ``n_elements``).
@@ -473,6 +475,11 @@ class BeamMember(FEMember):
             axis_e = nodes[e + 1] - nodes[e]
             ref = self._reference(name, e, axis_e, reference_vector)
             rotation = element_axes(axis_e, ref)
+            if "twist" in table.columns:   # the principal axes turned about the element axis
+                angle = table.mean("twist", a, b)
+                c, s_ = np.cos(angle), np.sin(angle)
+                rotation = np.vstack([rotation[0], c * rotation[1] + s_ * rotation[2],
+                                      c * rotation[2] - s_ * rotation[1]])
 
             def section(xi, a=a, b=b):
                 return table.at(a + (b - a) * xi)
@@ -489,6 +496,8 @@ class BeamMember(FEMember):
                  for _, _, el, _ in elements}
         summary = (f"{len(elements)} {'/'.join(sorted(kinds))} beam elements, {len(nodes)} "
                    f"nodes, {len(table.arcs)} stations")
+        if "twist" in table.columns:
+            summary += ", structural twist"
         if "polar_inertia" not in table.columns:
             summary += "; twist carries no inertia (no polar or rotary inertia given)"
         super().__init__(name, nodes, M, K, node_masses=node_masses, summary=summary,

@@ -31,7 +31,11 @@ STATION_COLUMNS = {
                       False),
     "shear_stiffness_y": ("shear stiffness kappa G A for shear along local y", "N", False),
     "shear_stiffness_z": ("shear stiffness kappa G A for shear along local z", "N", False),
+    "twist": ("angle of the section's principal axes (local y, z) about the member axis, "
+              "right-handed, from the reference orientation (structural twist)", "rad", False),
 }
+#: columns that may be negative (angles)
+_SIGNED = {"twist"}
 _POSITIVE = {"EA", "GJ", "EI_y", "EI_z", "shear_stiffness_y", "shear_stiffness_z"}
 
 
@@ -46,7 +50,8 @@ class StationTable:
         Columns by name (a dict of lists, a pandas DataFrame, ...); see
         :data:`STATION_COLUMNS` for names, meanings and units.  ``arc``,
         ``mass_per_length``, ``EA``, ``GJ``, ``EI_y`` and ``EI_z`` are required;
-        the rotary, polar inertias and shear stiffnesses are optional.  When
+        the rotary, polar inertias, shear stiffnesses and the structural
+        ``twist`` (rad) are optional.  When
         ``polar_inertia`` is absent and both rotary inertias are given it is
         their sum (perpendicular-axis theorem); when no inertia of the section
         is given, twist carries no inertia (torsion modes are then absent: their
@@ -105,7 +110,7 @@ class StationTable:
                                      f"({STATION_COLUMNS[name][0]}, {unit})")
                 if name in _POSITIVE and v <= 0:
                     raise ModelError(f"{where}: {name} = {v:g} {unit} must be positive")
-                if name != "arc" and v < 0:
+                if name not in ("arc", *_SIGNED) and v < 0:
                     raise ModelError(f"{where}: {name} = {v:g} {unit} is negative")
         steps = np.diff(arc)
         if np.any(steps <= 0):
@@ -148,6 +153,16 @@ class StationTable:
                              f"station table ({lo:g} .. {hi:g} m)")
         return {name: np.interp(s, self.arcs, values)
                 for name, values in self.columns.items() if name != "arc"}
+
+    def mean(self, name, a, b):
+        """The mean of column ``name`` over the arc interval ``[a, b]`` (m), exact.
+
+        The column varies linearly between stations, so the trapezoidal rule on
+        the interval's ends and the stations inside it integrates it exactly.
+        """
+        s = np.concatenate([[a], self.arcs[(self.arcs > a) & (self.arcs < b)], [b]])
+        values = np.interp(s, self.arcs, self.columns[name])
+        return float(np.sum(np.diff(s) * (values[1:] + values[:-1])) / (2 * (b - a)))
 
     def breaks(self, a, b):
         """Station arcs strictly inside ``(a, b)``, as fractions of ``b - a``."""

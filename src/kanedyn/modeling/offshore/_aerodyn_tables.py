@@ -5,25 +5,23 @@ r"""Readers of the two tables a blade-element rotor needs, in AeroDyn's text for
 ``read_blade_table``    a blade's aerodynamic stations: span, twist, chord and
                         airfoil number (AeroDyn 15 blade file)
 
-Both read numbers only: a value is a decimal literal (``-1.5``, ``3.5420000E+00``)
-matched by a regular expression and converted by ``float``; nothing in a file
-is evaluated.  A line that does not hold what the format says there raises a
+Both read numbers only: a value is a decimal literal (``-1.5``, ``3.5420000E+00``,
+read by ``_openfast_input.decimal_number``); nothing in a file is evaluated.  A
+line that does not hold what the format says there raises a
 :class:`~kanedyn.ModelError` naming the file and the line number.
 """
 
 from __future__ import annotations
 
-import re
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from ..._errors import ModelError
+from ._openfast_input import decimal_number
 
 __all__ = ["AirfoilPolar", "BladeTable", "read_airfoil_polar", "read_blade_table"]
-
-_NUMBER = re.compile(r"[+-]?(\d+\.?\d*|\.\d+)([eEdD][+-]?\d+)?$")
 
 
 @dataclass(frozen=True)
@@ -96,11 +94,11 @@ def _lines(path):
 
 def _numbers(path, number, line, count, what):
     """The first ``count`` tokens of ``line`` as floats, or an error naming the line."""
-    tokens = line.split()
-    if len(tokens) < count or not all(_NUMBER.match(tok) for tok in tokens[:count]):
+    values = [decimal_number(tok) for tok in line.split()[:count]]
+    if len(values) < count or None in values:
         raise ModelError(f"{path}, line {number}: expected {count} numbers ({what}), got "
                          f"{line.strip()[:80]!r}")
-    return [float(tok.replace("d", "e").replace("D", "e")) for tok in tokens[:count]]
+    return values
 
 
 def _keyword(path, lines, key):

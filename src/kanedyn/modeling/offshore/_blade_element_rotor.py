@@ -34,7 +34,7 @@ from ..._errors import ModelError
 from ._blade_element_momentum import BladeElementMomentum
 from ._mooring import state_function
 
-__all__ = ["BladeElementRotor"]
+__all__ = ["BladeElementRotor", "warm_started_inputs"]
 
 
 class BladeElementRotor:
@@ -177,23 +177,38 @@ class BladeElementRotor:
             Values of constants in the kinematics.
         """
         kinematics = self.kinematics(states, constants)
-        cache = {"key": None, "wrench": None, "phi": None}
 
-        def wrench(t, y):
-            y = np.asarray(y, dtype=float)
-            key = (float(t), y.tobytes())
-            if cache["key"] != key:
-                force, moment, solution = self.wrench(*kinematics(y), self.wind_speed(t),
-                                                      guess=cache["phi"])
-                cache["wrench"] = np.concatenate([force, moment])
-                cache["phi"], cache["key"] = solution.inflow_angle, key
-            return cache["wrench"]
-
-        return {s: _Entry(wrench, i)
-                for i, s in enumerate(self.force_symbols + self.moment_symbols)}
+        def solve(t, y, guess):
+            force, moment, solution = self.wrench(*kinematics(y), self.wind_speed(t),
+                                                  guess=guess)
+            return np.concatenate([force, moment]), solution.inflow_angle
+        return warm_started_inputs(self.force_symbols + self.moment_symbols, solve)
 
     def __repr__(self):
         return f"BladeElementRotor({self.name!r}, {self.bem!r})"
+
+
+def warm_started_inputs(symbols, solve):
+    """``{symbol: callable(t, y)}`` sharing one solve per state, each warm-started.
+
+    Parameters
+    ----------
+    symbols : sequence
+        The inputs, in the order of the solve's vector.
+    solve : callable
+        ``solve(t, y, guess) -> (values, inflow angles)``; ``guess`` the last
+        solve's inflow angles (None at first).
+    """
+    cache = {"key": None, "values": None, "phi": None}
+
+    def values(t, y):
+        y = np.asarray(y, dtype=float)
+        key = (float(t), y.tobytes())
+        if cache["key"] != key:
+            cache["values"], cache["phi"] = solve(t, y, cache["phi"])
+            cache["key"] = key
+        return cache["values"]
+    return {s: _Entry(values, i) for i, s in enumerate(symbols)}
 
 
 class _Entry:

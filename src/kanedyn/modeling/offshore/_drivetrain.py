@@ -62,6 +62,14 @@ class Drivetrain:
         :math:`S_x`.
     generator_speed : sympy.Expr
         The generator's speed relative to the nacelle, rad/s (high-speed shaft).
+    loads : list
+        The generator's torque and its reaction on the nacelle; with a flexible
+        shaft, the shaft spring's three torques, then its damper's.
+    potential_energy : sympy.Expr
+        The shaft spring's :math:`\tfrac12 k\,\text{twist}^2`, J (0 when rigid).
+    potential_loads : tuple of int
+        The indices in ``loads`` of the spring's torques, whose work
+        ``potential_energy`` holds.
     """
 
     def __init__(self, nacelle, hub, tilt, rotor_inertia, generator_inertia, gear_ratio,
@@ -104,11 +112,14 @@ class Drivetrain:
                                     (me.inertia(G, generator_inertia, 0, 0), hub))]
         self.loads = [(G, -generator_torque * S.x), (nacelle, generator_torque * S.x)]
         self.potential_energy = sm.S.Zero
+        self.potential_loads = ()
         if self.flexible:
-            moment = stiffness * twist + damping * twist_rate
-            self.loads += [(R, -moment * S.x), (G, moment / gear_ratio * S.x),
-                           (nacelle, moment * (1 - 1 / sm.Float(gear_ratio)) * S.x)]
+            # the shaft's spring (its work held by the potential energy), then its damper
+            for moment in (stiffness * twist, damping * twist_rate):
+                self.loads += [(R, -moment * S.x), (G, moment / gear_ratio * S.x),
+                               (nacelle, moment * (1 - 1 / sm.Float(gear_ratio)) * S.x)]
             self.potential_energy = stiffness * twist ** 2 / 2
+            self.potential_loads = (2, 3, 4)
 
     def __repr__(self):
         return (f"Drivetrain(gear_ratio={self.gear_ratio}, "

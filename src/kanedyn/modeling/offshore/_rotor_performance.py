@@ -28,7 +28,9 @@ __all__ = ["PerformanceSurface", "RotorAerodynamics"]
 
 
 def _clamp(x, lo, hi):
-    return sm.Min(sm.Max(x, lo), hi)
+    # unevaluated: SymPy's search for comparable arguments costs minutes on the large
+    # expressions of a rotor's inflow, and the bounds are numbers
+    return sm.Min(sm.Max(x, lo, evaluate=False), hi, evaluate=False)
 
 
 class PerformanceSurface:

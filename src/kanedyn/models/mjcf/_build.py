@@ -36,10 +36,12 @@ import sympy.physics.mechanics as me
 from ...modeling import RateInertia, inertia_violation, principal_moments
 from .._base import ModelDefinition
 from .._urdf import named_rigid_body
+from ._actuation import Actuation, MJCFActuator, damping_force, spring_force
 from ._frames import euler_matrix, matrix_quat, quat_matrix
 from .._robot_ground import robot_ground_contacts
 from ._ground import MJCF_NONE_USABLE, mjcf_collision_shapes
-from ._inertia import body_mass_properties, bound, combine
+from ._inertia import NotInferable, body_mass_properties, bound, combine
+from ._meshes import MeshLibrary
 from ._parse import parse_mjcf
 from ._xml import MJCFError
 
@@ -89,25 +91,6 @@ class MJCFJoint:
     frictionloss: float
     line: int
     source: str
-
-
-@dataclass(frozen=True)
-class MJCFActuator:
-    """An actuator: ``ctrl`` is its specified input (``ctrl_<name>``), ``force`` the
-    actuator force as an expression of it (clamps included); its joint (or, when
-    ``tendon``, each joint of that fixed tendon, times its coefficient) receives
-    ``gear * force``."""
-
-    name: str
-    type: str
-    joint: str
-    gear: float
-    ctrl: object
-    force: object
-    ctrlrange: tuple | None
-    forcerange: tuple | None
-    line: int
-    tendon: bool = False  # ``joint`` names a fixed tendon
 
 
 @dataclass(frozen=True)
@@ -173,8 +156,8 @@ class MJCFDefinition(ModelDefinition):
         ground (the world and the bodies welded to it).
     gravity : tuple
         The gravity vector of ``<option>`` (m/s^2), zero when disabled.
-    nq, nv : int
-        MuJoCo's ``qpos`` and ``qvel`` lengths.
+    nq, nv, na : int
+        MuJoCo's ``qpos``, ``qvel`` and ``act`` lengths.
     """
 
     source: str = ""
@@ -187,6 +170,7 @@ class MJCFDefinition(ModelDefinition):
     gravity: tuple = (0.0, 0.0, -9.81)
     nq: int = 0
     nv: int = 0
+    na: int = 0
 
     def visual_shapes(self, constants=None, groups=(0, 1, 2)):
         """The viewer shapes of the geoms in ``groups``, and what was not drawn.
@@ -210,8 +194,10 @@ class MJCFDefinition(ModelDefinition):
         are not drawn."""
         return self.visual_shapes(constants)[0]
 
-    def state_from_mujoco(self, model, qpos, qvel):
-        """kanedyn's state ``y`` (for ``model``) of MuJoCo's ``qpos`` and ``qvel``.
+    def state_from_mujoco(self, model, qpos, qvel, act=None):
+        """kanedyn's state ``y`` (for ``model``) of MuJoCo's ``qpos``, ``qvel`` and,
+        for a model whose actuators have activations, ``act`` (MuJoCo's
+        ``data.act``, ``na`` entries).
 
         Quaternions (w-first) become body-fixed x-y-z angles (their branch with
         ``|theta| <= 90 deg``); the speeds are ``qvel`` itself.
@@ -219,6 +205,17 @@ class MJCFDefinition(ModelDefinition):
         from ...engine import name_of
         qpos, qvel = np.asarray(qpos, dtype=float), np.asarray(qvel, dtype=float)
         y = np.zeros(model.n_states)
+        if self.na:
+            if act is None:
+                raise ValueError(f"{self.source}: the model's actuators have {self.na} "
+                                 "activations: give act (MuJoCo's data.act)")
+            act = np.asarray(act, dtype=float)
+            if act.shape != (self.na,):
+                raise ValueError(f"act has shape {act.shape}; the model has {self.na} "
+                                 "activations")
+            for a in self.actuators:
+                if a.act is not None:
+                    y[model.index(name_of(a.act))] = act[a.act_index]
         for j in self.joints:
             a, v = j.qpos_index, j.dof_index
             if j.type in ("hinge", "slide"):
@@ -251,6 +248,20 @@ class MJCFDefinition(ModelDefinition):
             for k, s in enumerate(j.u):
                 qvel[v + k] = y[model.index(name_of(s))]
         return qpos, qvel
+
+    def mujoco_act(self, model, y):
+        """MuJoCo's ``act`` (na,) of kanedyn's state ``y``: the activations."""
+        from ...engine import name_of
+        return np.array([y[model.index(name_of(a.act))] for a in self.actuators
+                         if a.act is not None])
+
+    def act_dot(self, model, t, y):
+        """MuJoCo's ``act_dot`` (na,) at kanedyn's state ``y``: the activations'
+        derivatives."""
+        from ...engine import name_of
+        ydot = model.rhs(t, y)
+        return np.array([ydot[model.index(name_of(a.act))] for a in self.actuators
+                         if a.act is not None])
 
     def qacc(self, model, t, y):
         """MuJoCo's ``qacc`` (nv,) at kanedyn's state ``y``: the speeds' derivatives."""
@@ -302,25 +313,6 @@ def _pose(pos, R):
     return T
 
 
-def _spring(x, a, b=0.0, c=0.0):
-    """MuJoCo's polynomial spring force ``-(a x + b x^2 + c x^3)``."""
-    return -sum((sm.Float(k) * x ** p for k, p in ((a, 1), (b, 2), (c, 3)) if k),
-                sm.S.Zero)
-
-
-def _damping(v, a, b=0.0, c=0.0):
-    """MuJoCo's polynomial damping force ``-(a v + b v|v| + c v^3)``."""
-    return -sum((sm.Float(k) * term for k, term in ((a, v), (b, v * sm.Abs(v)),
-                                                      (c, v ** 3)) if k), sm.S.Zero)
-
-
-def _clamp(x, lo, hi):
-    """``x`` clamped to ``[lo, hi]``, written with absolute values (whose
-    derivatives, signs, every backend's generated code evaluates)."""
-    lo, hi = sm.Float(lo), sm.Float(hi)
-    return (lo + hi + sm.Abs(x - lo) - sm.Abs(x - hi)) / 2
-
-
 class _Names:
     """kanedyn identifiers of MJCF names (characters other than letters, digits
     and ``_`` become ``_``), checked not to clash."""
@@ -340,15 +332,19 @@ class _Names:
         return ident
 
 
-class _Builder:
-    def __init__(self, model, inputs):
+class _Builder(Actuation):
+    def __init__(self, model, inputs, mesh_dirs=()):
         self.m = model
         self.inputs = inputs
+        compiler = model.compiler
+        self.meshes = MeshLibrary(model.meshes, model.source,
+                                  compiler.meshdir or compiler.assetdir, mesh_dirs)
         self.N = me.ReferenceFrame("N")
         self.O = me.Point("O")
         self.O.set_vel(self.N, 0)
         self.names = _Names(model.source)
         self.q, self.u, self.kd_eqs, self.loads, self.bodies = [], [], [], [], []
+        self.activations, self.kd_act = [], []  # actuators' activations: first-order states
         self.constants, self.specified, self.initial = {}, {}, {}
         self.joint_infos, self.actuator_infos, self.site_infos = [], [], []
         self.frame_of, self.point_of = {"": self.N}, {"": self.O}
@@ -492,74 +488,13 @@ class _Builder:
                                            list(info.u), np.eye(n) * joint.armature))
         amount = [sm.S.Zero] * n
         if "damper" not in self.off:
-            amount = [a + _damping(u, joint.damping, *joint.damping_terms)
+            amount = [a + damping_force(u, joint.damping, *joint.damping_terms)
                       for a, u in zip(amount, info.u)]
         if "spring" not in self.off and n == 1:
-            amount[0] += _spring(info.q[0] - joint.springref, joint.stiffness,
+            amount[0] += spring_force(info.q[0] - joint.springref, joint.stiffness,
                                  *joint.stiffness_terms)
         if any(a != 0 for a in amount):
             self.generalized_load(generalized, amount[0] if n == 1 else amount)
-
-    def tendons(self):
-        """Length, rate and passive forces of the fixed tendons."""
-        joints = {j.name: j for j in self.joint_infos}
-        self.tendon_of = {}
-        for tendon in self.m.tendons:
-            L = sum((sm.Float(c) * joints[j].q[0] for j, c in tendon.joints), sm.S.Zero)
-            Ldot = sum((sm.Float(c) * joints[j].u[0] for j, c in tendon.joints), sm.S.Zero)
-            self.tendon_of[tendon.name] = (L, Ldot, tendon.joints)
-            tid = self.names(tendon.name, "tendon", tendon.element)
-            if tendon.armature > 0:
-                self.bodies.append(RateInertia(f"armature_tendon_{tid}", [Ldot],
-                                               tendon.armature))
-            force = sm.S.Zero
-            if "spring" not in self.off and any(tendon.stiffness):
-                if tendon.springlength is None:  # the length at the spring references
-                    lo = hi = sum(c * joints[j].springref for j, c in tendon.joints)
-                else:
-                    lo, hi = tendon.springlength
-                x = L - (sm.Float(lo) if lo == hi else _clamp(L, lo, hi))
-                force += _spring(x, *tendon.stiffness)
-            if "damper" not in self.off:
-                force += _damping(Ldot, *tendon.damping)
-            if force != 0:
-                self.tendon_load(tendon.name, force)
-
-    def tendon_load(self, name, force):
-        for joint, coef in self.tendon_of[name][2]:
-            self.generalized_load(self.dofs[joint], sm.Float(coef) * force)
-
-    def actuators(self):
-        joints = {j.name: j for j in self.joint_infos}
-        clamp = "clampctrl" not in self.off
-        for act in self.m.actuators:
-            aid = self.names(act.name, "actuator", act.element)
-            ctrl = me.dynamicsymbols(f"ctrl_{aid}")
-            if act.tendon:
-                L, Ldot, _ = self.tendon_of[act.joint]
-            else:
-                L, Ldot = joints[act.joint].q[0], joints[act.joint].u[0]
-            length, velocity = act.gear * L, act.gear * Ldot
-            c = ctrl
-            if act.ctrlrange is not None and clamp:
-                c = _clamp(ctrl, *act.ctrlrange)
-            g0, g1, g2 = (sm.Float(x) for x in act.gain)
-            b0, b1, b2 = (sm.Float(x) for x in act.bias)
-            force = (g0 + g1 * length + g2 * velocity) * c + b0 + b1 * length + b2 * velocity
-            if act.forcerange is not None:
-                force = _clamp(force, *act.forcerange)
-            self.actuator_infos.append(MJCFActuator(
-                act.name, act.type, act.joint, act.gear, ctrl, force, act.ctrlrange,
-                act.forcerange, act.element.line, act.tendon))
-            if not self.inputs:
-                continue
-            self.specified[ctrl] = 0.0
-            if "actuation" in self.off:
-                continue
-            if act.tendon:
-                self.tendon_load(act.joint, act.gear * force)
-            else:
-                self.generalized_load(self.dofs[act.joint], act.gear * force)
 
     # bodies and their mass ---------------------------------------------------------
     def masses(self):
@@ -567,14 +502,16 @@ class _Builder:
         props = {}
         for body in self.m.bodies[1:]:
             try:
-                mass, c, J, counted = body_mass_properties(body, self.m.compiler)
-            except ValueError as exc:
+                mass, c, J, counted = body_mass_properties(body, self.m.compiler,
+                                                           self.meshes)
+            except NotInferable as exc:
                 geom = exc.args[0]
                 what = ("shellinertia" if geom.shellinertia
                         else f"the mass and inertia of a {geom.type} geom")
                 raise geom.element.error(
-                    f"{what} cannot be inferred here (sphere, ellipsoid, box, cylinder "
-                    "and capsule are); give the body an <inertial>") from None
+                    f"{what} cannot be inferred here (sphere, ellipsoid, box, cylinder, "
+                    "capsule and mesh are; a mesh's surface by <mesh inertia='shell'>); "
+                    "give the body an <inertial>") from None
             if body.mocap:
                 mass, J = 0.0, np.zeros((3, 3))
             mass, J = bound(mass, J, self.m.compiler)
@@ -582,7 +519,7 @@ class _Builder:
             # the axes of the equivalent inertia box (fluid forces), as MuJoCo picks
             # them: those of <inertial diaginertia>, of a body's only geom, else the
             # principal axes
-            self.box_axes[body.name] = (counted[0].R if len(counted) == 1 else
+            self.box_axes[body.name] = (self.geom_axes(counted[0]) if len(counted) == 1 else
                                         body.inertial.axes if body.inertial is not None
                                         and not counted else None)
         total = self.m.compiler.settotalmass
@@ -594,6 +531,13 @@ class _Builder:
             scale = total / now
             props = {k: (m * scale, c, J * scale) for k, (m, c, J) in props.items()}
         return props
+
+    def geom_axes(self, geom):
+        """The axes of a geom's frame as MuJoCo compiles it: a mesh geom's are the
+        principal axes of its mesh."""
+        if geom.type != "mesh":
+            return geom.R
+        return geom.R @ np.linalg.eigh(self.meshes.properties(geom.mesh)[2])[1]
 
     def rigid_bodies(self):
         props = self.masses()
@@ -739,7 +683,7 @@ class _Builder:
             counted = body.index and (self.m.compiler.inertiafromgeom == "true" or (
                 self.m.compiler.inertiafromgeom == "auto" and body.inertial is None))
             for g in geoms:
-                mass = (geom_mass_properties(g)[0] if counted and lo <= g.group <= hi
+                mass = (geom_mass_properties(g, self.meshes)[0] if counted and lo <= g.group <= hi
                         and g.type in INERTIA_SHAPES else 0.0)
                 rgba = g.rgba if g.rgba is not None else self.m.materials.get(g.material)
                 Tg = T @ _pose(g.pos, g.R)
@@ -881,7 +825,8 @@ class _Builder:
         return [exprs[i] for i in rows], [self.q[i] for i in sorted(chosen)], lines
 
 
-def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
+def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0,
+              mesh_dirs=()):
     """A model definition of the MuJoCo model in an MJCF file.
 
     Parameters
@@ -910,6 +855,10 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
         body, or one fixed to the world, is an error naming it.
     t_end : float, optional
         Default simulation length, s.
+    mesh_dirs : sequence of path-like, optional
+        Folders besides the model's own (and those below it) that mesh files may
+        be read from.  A mesh file is read only for a mesh geom whose mass and
+        inertia are inferred (STL and OBJ need trimesh; MuJoCo's ``.msh`` does not).
 
     Returns
     -------
@@ -931,16 +880,17 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
     >>> model = cartpole.numeric()                                # doctest: +SKIP
     """
     model = parse_mjcf(path)
-    build = _Builder(model, inputs)
+    build = _Builder(model, inputs, mesh_dirs)
     build.walk()
     if not build.q:
         raise MJCFError(f"{model.source}: the model has no joints: nothing moves")
+    sites = build.sites()
+    build.site_points = sites
     build.tendons()
     build.actuators()
     build.rigid_bodies()
     build.fluid()
     build.check_masses()
-    sites = build.sites()
     loops = build.loops()
     kane_args = dict(frame=build.N, bodies=build.bodies, loads=build.loads)
     q_ind, u_ind, kd_eqs = list(build.q), list(build.u), list(build.kd_eqs)
@@ -952,7 +902,12 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
         q_ind = [q for q in q_ind if q not in q_dep]
         u_ind = [u for u in u_ind if u not in u_dep]
         kane_args.update(q_dep=q_dep, u_dep=u_dep, configuration_constraints=config)
+    # the actuators' activations join the coordinates as first-order states
+    q_ind += build.activations
+    kd_eqs += build.kd_act
     kane_args.update(q_ind=q_ind, u_ind=u_ind, kd_eqs=kd_eqs)
+    if build.activations and inputs:
+        kane_args["kd_inputs"] = [a.ctrl for a in build.actuator_infos if a.act is not None]
     geoms = tuple(build.geom_records())
     contacts = robot_ground_contacts(
         ground, ground_points, mjcf_collision_shapes(geoms, build.frame_of, build.point_of),
@@ -969,6 +924,8 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
                    points={b.name: build.point_of[build.head[b.name][0]]
                            for b in model.bodies},
                    ctrl={a.name: a.ctrl for a in build.actuator_infos},
+                   act={a.name: a.act for a in build.actuator_infos if a.act is not None},
+                   tendons={name: t[0] for name, t in build.tendon_of.items()},
                    bodies=dict(build.rigid_of))
     return MJCFDefinition(
         name=model.name, title=f"{model.name} from {Path(model.source).name} ({nv} degrees "
@@ -980,4 +937,4 @@ def from_mjcf(path, *, inputs=True, ground=None, ground_points=None, t_end=1.0):
         actuators=tuple(build.actuator_infos), sites=tuple(build.site_infos),
         geoms=geoms,
         equalities=tuple(equalities), body_of=dict(build.head), gravity=build.gravity,
-        nq=nq, nv=nv)
+        nq=nq, nv=nv, na=len(build.activations))

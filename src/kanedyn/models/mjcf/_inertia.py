@@ -18,6 +18,9 @@ capsule    :math:`2\pi r^2h+4\pi r^3/3`  cylinder :math:`m_c` and two
                                     :math:`m_cr^2/2+2m_sr^2/5`
 =========  ======================  =========================================
 
+A mesh geom's volume (or, for ``inertia="shell"``, area), mass centre and
+inertia come from its triangles (:mod:`._meshes`), placed by the geom's pose.
+
 A body's mass, mass centre and central inertia (in the body's frame) are those
 of its geoms combined (parallel-axis theorem), when the compiler's
 ``inertiafromgeom`` says so (``auto``, MuJoCo's default: when the body has no
@@ -34,10 +37,16 @@ import math
 
 import numpy as np
 
-__all__ = ["geom_mass_properties", "body_mass_properties", "combine", "INERTIA_SHAPES"]
+__all__ = ["geom_mass_properties", "body_mass_properties", "combine", "INERTIA_SHAPES",
+           "NotInferable"]
 
-#: the geom types whose mass and inertia are inferred
-INERTIA_SHAPES = ("sphere", "ellipsoid", "box", "cylinder", "capsule")
+
+class NotInferable(Exception):
+    """A geom whose mass and inertia are not inferred here (``args[0]``: the geom)."""
+
+#: the geom types whose mass and inertia are inferred (a mesh's from its triangles,
+#: :mod:`._meshes`)
+INERTIA_SHAPES = ("sphere", "ellipsoid", "box", "cylinder", "capsule", "mesh")
 
 
 def _volume_and_unit_moments(kind, size):
@@ -66,12 +75,17 @@ def _volume_and_unit_moments(kind, size):
     raise ValueError(kind)
 
 
-def geom_mass_properties(geom):
-    """``(mass, centre (3,), central inertia (3, 3))`` of a geom, in its body's frame."""
+def geom_mass_properties(geom, meshes=None):
+    """``(mass, centre (3,), central inertia (3, 3))`` of a geom, in its body's frame
+    (a mesh geom's from ``meshes``, a :class:`~._meshes.MeshLibrary`)."""
+    R, pos = geom.R, np.asarray(geom.pos, dtype=float)
+    if geom.type == "mesh":
+        volume, centre, unit = meshes.properties(geom.mesh)
+        mass = geom.mass if geom.mass is not None else geom.density * volume
+        return mass, pos + R @ centre, R @ (mass * unit) @ R.T
     volume, unit = _volume_and_unit_moments(geom.type, geom.size)
     mass = geom.mass if geom.mass is not None else geom.density * volume
-    R = geom.R
-    return mass, np.asarray(geom.pos, dtype=float), R @ np.diag(mass * unit) @ R.T
+    return mass, pos, R @ np.diag(mass * unit) @ R.T
 
 
 def combine(parts):
@@ -85,9 +99,9 @@ def combine(parts):
     return mass, centre, inertia
 
 
-def body_mass_properties(body, compiler):
+def body_mass_properties(body, compiler, meshes=None):
     """``(mass, centre, inertia, counted geoms)`` of one body as MuJoCo compiles it,
-    before ``settotalmass``; raises ValueError naming a geom that cannot count."""
+    before ``settotalmass``; raises :class:`NotInferable` of a geom that cannot count."""
     use_geoms = compiler.inertiafromgeom == "true" or (
         compiler.inertiafromgeom == "auto" and body.inertial is None)
     if not use_geoms:
@@ -100,11 +114,9 @@ def body_mass_properties(body, compiler):
     for geom in body.geoms:
         if not lo <= geom.group <= hi or geom.type in ("plane", "hfield"):
             continue
-        if geom.type not in INERTIA_SHAPES:
-            raise ValueError(geom)
-        if geom.shellinertia:
-            raise ValueError(geom)
-        parts.append(geom_mass_properties(geom))
+        if geom.type not in INERTIA_SHAPES or geom.shellinertia:
+            raise NotInferable(geom)
+        parts.append(geom_mass_properties(geom, meshes))
         counted.append(geom)
     if not parts:
         return 0.0, np.zeros(3), np.zeros((3, 3)), []

@@ -15,11 +15,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
+from pathlib import Path
 
 import numpy as np
 
 from ._frames import (ORIENTATIONS, axis_angle_matrix, euler_matrix, quat_matrix,
                       xyaxes_matrix, zaxis_matrix)
+from ._meshes import MESH_INERTIA_MODES, Mesh
 from ._xml import MJCFError, number, numbers, read_mjcf
 
 __all__ = ["Model", "Body", "Joint", "Geom", "Site", "Inertial", "Actuator", "Equality",
@@ -29,9 +31,12 @@ __all__ = ["Model", "Body", "Joint", "Geom", "Site", "Inertial", "Actuator", "Eq
 JOINT_TYPES = ("hinge", "slide", "ball", "free")
 GEOM_TYPES = ("plane", "hfield", "sphere", "capsule", "ellipsoid", "cylinder", "box",
               "mesh", "sdf")
-#: actuators read as specified inputs (force = gain * ctrl + bias, no activation)
-ACTUATOR_TYPES = ("motor", "position", "velocity", "general", "damper")
-_OTHER_ACTUATORS = ("intvelocity", "cylinder", "muscle", "adhesion", "plugin")
+#: actuators read: force = gain * (ctrl, or the activation) + bias
+ACTUATOR_TYPES = ("motor", "position", "velocity", "general", "damper", "intvelocity",
+                  "cylinder")
+_OTHER_ACTUATORS = ("muscle", "adhesion", "plugin")
+#: activation dynamics read (MuJoCo's dyntype)
+DYNTYPES = ("none", "integrator", "filter", "filterexact")
 _FLAGS = ("constraint", "equality", "frictionloss", "limit", "contact", "spring", "damper",
           "passive", "gravity", "clampctrl", "warmstart", "filterparent", "actuation",
           "refsafe", "sensor", "midphase", "eulerdamp", "autoreset", "nativeccd", "island",
@@ -52,6 +57,8 @@ class Compiler:
     balanceinertia: bool = False
     autolimits: bool = True
     alignfree: bool = False
+    meshdir: str | None = None  # mesh files' folder (else assetdir), from the model's
+    assetdir: str | None = None
 
 
 @dataclass(frozen=True)
@@ -95,7 +102,10 @@ class Joint:
 @dataclass(frozen=True)
 class Tendon:
     """A fixed tendon: its length is ``sum(coef * q)`` over ``joints``
-    (``[(joint name, coef)]``); a spring ``-(a x + b x^2 + c x^3)`` of the
+    (``[(joint name, coef)]``); a spatial one (``path`` not empty) is a path
+    through sites, ``path`` = ``[(site name, divisor)]`` with ``None`` for a
+    pulley (it ends a branch; the divisor of the branch after it is the
+    pulley's); a spring ``-(a x + b x^2 + c x^3)`` of the
     displacement ``x`` from ``springlength`` (a dead band when two values differ;
     None: the length at the joints' spring references), polynomial damping,
     armature, ``range`` (not enforced)."""
@@ -109,6 +119,7 @@ class Tendon:
     range: tuple | None
     frictionloss: float
     element: object = None
+    path: tuple = ()
 
 
 @dataclass(frozen=True)
@@ -130,6 +141,7 @@ class Geom:
     contype: int = 1
     conaffinity: int = 1
     material: str | None = None
+    mesh: str | None = None  # the <mesh> asset of a mesh geom
 
 
 @dataclass(frozen=True)
@@ -196,6 +208,13 @@ class Actuator:
     forcerange: tuple | None
     element: object = None
     tendon: bool = False  # ``joint`` names a fixed tendon
+    #: activation dynamics: ``none`` (the force uses ctrl), ``integrator``
+    #: (act' = ctrl), ``filter`` and ``filterexact`` (act' = (ctrl - act) / tau,
+    #: tau in s); the force then uses the activation
+    dyntype: str = "none"
+    tau: float = 0.0
+    actrange: tuple | None = None
+    actearly: bool = False
 
 
 @dataclass(frozen=True)
@@ -237,6 +256,7 @@ class Model:
     world_geoms: list
     materials: dict = field(default_factory=dict)  # name -> rgba
     tendons: list = field(default_factory=list)
+    meshes: dict = field(default_factory=dict)  # name -> Mesh
 
     def body(self, name):
         return next((b for b in self.bodies if b.name == name), None)
@@ -355,6 +375,9 @@ class _Reader:
             if values.get("alignfree"):
                 raise a.error("alignfree", "free bodies moved to their inertial frames "
                               "are not supported (their qpos would not be the body's)")
+            for key in ("meshdir", "assetdir"):
+                if a.has(key):
+                    values[key] = a.text(key)
             if a.has("fusestatic") and _bool(a, "fusestatic", "false"):
                 pass  # merging bodies without joints changes nothing in the dynamics
         return Compiler(**values)
@@ -385,7 +408,11 @@ class _Reader:
         name = el.attrib.get("class", "main" if top else None)
         if name is None:
             raise el.error("a nested <default> needs a class name")
-        if name in self.defaults:
+        if top and name == "main" and name in self.defaults:
+            # a further top-level <default> adds to the top class, as MuJoCo merges
+            # them; classes it declares start from the top class as it is then
+            inherited = self.defaults.pop(name)
+        elif name in self.defaults:
             raise el.error(f"a second default class '{name}' (the first is on line "
                            f"{self.default_lines[name]})")
         table = {tag: dict(values) for tag, values in inherited.items()}
@@ -510,6 +537,12 @@ class _Reader:
         kind = a.choice("type", "sphere", GEOM_TYPES)
         size = list(a.numbers("size", (), at_least=0, at_most=3))
         size += [0.0] * (3 - len(size))
+        mesh = a.text("mesh")
+        if kind == "mesh" and mesh is None:
+            raise el.error("a mesh geom needs a mesh attribute")
+        if kind != "mesh" and mesh is not None:
+            raise a.error("mesh", f"a {kind} fitted to a mesh is not supported (give "
+                          "type='mesh', or the size without a mesh)")
         pos, R = self.pose(a)
         if a.has("fromto"):
             if kind not in ("capsule", "cylinder", "box", "ellipsoid"):
@@ -537,12 +570,13 @@ class _Reader:
             raise a.error("mass", "a negative mass")
         rgba = a.numbers("rgba", None, n=4) if a.has("rgba") else None
         shell = a.text("shellinertia", "false")
+
         return Geom(name=el.attrib.get("name") or f"geom{index}", type=kind,
                     size=tuple(size), pos=pos, R=R, mass=mass, density=density,
                     group=int(a.number("group", 0)), shellinertia=shell == "true",
                     rgba=rgba, element=el, contype=int(a.number("contype", 1)),
                     conaffinity=int(a.number("conaffinity", 1)),
-                    material=a.text("material"))
+                    material=a.text("material"), mesh=mesh)
 
     def site(self, el, childclass, index, body):
         a = self.attrs(el, "site", childclass)
@@ -679,11 +713,11 @@ def _actuator(reader, el, index, joints, tendons):
     for key in ("site", "body", "jointinparent", "cranksite", "slidersite"):
         if a.has(key):
             raise el.error(f"a transmission by '{key}' is not supported (joints and "
-                           "fixed tendons are)")
+                           "tendons are)")
     if a.has("tendon"):
         joint = a.text("tendon")
         if joint not in tendons:
-            raise a.error("tendon", "no fixed tendon of that name")
+            raise a.error("tendon", "no tendon of that name")
     elif not a.has("joint"):
         raise el.error("has no joint or tendon (the transmissions supported)")
     else:
@@ -700,9 +734,6 @@ def _actuator(reader, el, index, joints, tendons):
         kv = a.number("kv", 0.0)
         if a.has("dampratio"):
             raise a.error("dampratio", "not supported (give kv)")
-        if a.has("timeconst") and a.number("timeconst", 0.0) != 0:
-            raise a.error("timeconst", "an actuator with activation dynamics is not "
-                          "supported")
         gain, bias = (kp, 0.0, 0.0), (0.0, -kp, -kv)
     elif kind == "velocity":
         kv = a.number("kv", 1.0)
@@ -710,11 +741,17 @@ def _actuator(reader, el, index, joints, tendons):
     elif kind == "damper":
         kv = a.number("kv", 1.0)
         gain, bias = (0.0, 0.0, -kv), (0.0, 0.0, 0.0)
+    elif kind == "intvelocity":
+        kp, kv = a.number("kp", 1.0), a.number("kv", 0.0)
+        if a.has("dampratio"):
+            raise a.error("dampratio", "not supported (give kv)")
+        gain, bias = (kp, 0.0, 0.0), (0.0, -kp, -kv)
+    elif kind == "cylinder":
+        area = a.number("area", 1.0)
+        if a.has("diameter"):
+            area = math.pi / 4 * a.number("diameter", None) ** 2
+        gain, bias = (area, 0.0, 0.0), a.numbers("bias", (0.0, 0.0, 0.0), n=3)
     elif kind == "general":
-        if a.choice("dyntype", "none", ("none", "integrator", "filter", "filterexact",
-                                        "muscle", "user")) != "none":
-            raise a.error("dyntype", "an actuator with activation dynamics is not "
-                          "supported")
         gaintype = a.choice("gaintype", "fixed", ("fixed", "affine", "muscle", "user"))
         biastype = a.choice("biastype", "none", ("none", "affine", "muscle", "user"))
         if gaintype not in ("fixed", "affine"):
@@ -725,8 +762,11 @@ def _actuator(reader, el, index, joints, tendons):
         bp = a.numbers("biasprm", (0.0,), at_least=1, at_most=10) + (0.0,) * 3
         gain = gp[:1] + ((gp[1], gp[2]) if gaintype == "affine" else (0.0, 0.0))
         bias = tuple(bp[:3]) if biastype == "affine" else (0.0, 0.0, 0.0)
+    dyntype, tau = _activation(a, kind)
     ranges = {}
-    for what in ("ctrl", "force"):
+    for what in ("ctrl", "force", "act"):
+        if what == "act" and dyntype == "none":
+            continue
         limited = a.flag(f"{what}limited", "auto")
         key = f"{what}range"
         if a.has(key) and (limited == "true" or (limited == "auto"
@@ -740,7 +780,36 @@ def _actuator(reader, el, index, joints, tendons):
     return Actuator(name=name, type=kind, joint=joint, gear=gear, gain=tuple(gain),
                     bias=tuple(bias), ctrlrange=ranges.get("ctrl"),
                     forcerange=ranges.get("force"), element=el,
-                    tendon=a.has("tendon"))
+                    tendon=a.has("tendon"), dyntype=dyntype, tau=tau,
+                    actrange=ranges.get("act"),
+                    actearly=dyntype != "none" and _bool(a, "actearly", "false"))
+
+
+def _activation(a, kind):
+    """``(dyntype, time constant in s)`` of an actuator, as MuJoCo's shortcuts set
+    them: position with a ``timeconst`` filters exactly, cylinder filters,
+    intvelocity integrates."""
+    if kind == "position":
+        tau = a.number("timeconst", 0.0)
+        return ("filterexact", tau) if tau > 0 else ("none", 0.0)
+    if kind == "cylinder":
+        dyntype, tau, key = "filter", a.number("timeconst", 1.0), "timeconst"
+    elif kind == "intvelocity":
+        return "integrator", 0.0
+    elif kind == "general":
+        dyntype = a.choice("dyntype", "none", DYNTYPES + ("muscle", "user"))
+        if dyntype in ("muscle", "user"):
+            raise a.error("dyntype", f"'{dyntype}' activation dynamics are not supported "
+                          "(none, integrator, filter and filterexact are)")
+        tau, key = a.numbers("dynprm", (1.0,), at_least=1, at_most=10)[0], "dynprm"
+        if a.has("actdim") and a.number("actdim", -1) not in (-1, 0 if dyntype == "none"
+                                                               else 1):
+            raise a.error("actdim", "one activation per actuator is supported")
+    else:
+        return "none", 0.0
+    if dyntype in ("filter", "filterexact") and tau <= 0:
+        raise a.error(key, f"the time constant of a {dyntype} must be positive")
+    return dyntype, tau
 
 
 def _equality(reader, el, index, bodies, joints, tendons, sites):
@@ -795,8 +864,7 @@ def _equality(reader, el, index, bodies, joints, tendons, sites):
             if a.has(key):
                 found[key] = a.text(key)
                 if found[key] not in table:
-                    raise a.error(key, f"no {'fixed tendon' if what == 'tendon' else what} "
-                                  "of that name")
+                    raise a.error(key, f"no {what} of that name")
                 if what == "joint" and joints[found[key]].type not in ("hinge", "slide"):
                     raise a.error(key, "an equality of hinge and slide joints only")
         coef = a.numbers("polycoef", (0.0, 1.0, 0.0, 0.0, 0.0), n=5)
@@ -806,21 +874,52 @@ def _equality(reader, el, index, bodies, joints, tendons, sites):
                    "joint and tendon are)")
 
 
-def _tendons(reader, root, joints):
-    """The fixed tendons (spatial ones are refused)."""
+def _spatial_path(el, sites):
+    """``[(site name, divisor) or (None, divisor)]`` of a spatial tendon: its
+    sites in order, a pulley (None) starting a branch of its divisor."""
+    path, divisor, branch = [], 1.0, 0
+    for child in el.children:
+        if child.tag == "geom":
+            raise child.error("a spatial tendon wrapping around a geom is not supported "
+                              "(spatial tendons through sites are)")
+        if child.tag == "pulley":
+            divisor = number(child, "divisor") if "divisor" in child.attrib else None
+            if divisor is None or divisor <= 0:
+                raise child.error("a pulley needs a positive divisor")
+            if branch < 2:
+                raise child.error("a pulley must follow a branch of at least two sites")
+            path.append((None, divisor))
+            branch = 0
+            continue
+        if child.tag != "site":
+            raise child.error(f"<{child.tag}> in a spatial tendon: sites, pulleys and "
+                              "geoms make its path")
+        site = child.attrib.get("site")
+        if site is None or site not in sites:
+            raise (child.error(f"site='{site}': no site of that name") if site
+                   else child.error("has no site"))
+        path.append((site, divisor))
+        branch += 1
+    if branch < 2:
+        raise el.error("a spatial tendon (and each branch after a pulley) needs at "
+                       "least two sites")
+    return tuple(path)
+
+
+def _tendons(reader, root, joints, sites):
+    """The fixed tendons, and the spatial ones through sites."""
     out, names = [], {}
     for section in root.findall("tendon"):
         for el in section.children:
-            if el.tag == "spatial":
-                raise el.error("spatial tendons are not supported (fixed tendons are)")
-            if el.tag != "fixed":
+            if el.tag not in ("fixed", "spatial"):
                 raise el.error(f"unknown tendon <{el.tag}>")
             a = reader.attrs(el, "tendon", None)
             name = el.attrib.get("name") or f"tendon{len(out)}"
             if name in names:
                 raise el.error(f"a second tendon named '{name}'")
             members = []
-            for j in el.children:
+            path = _spatial_path(el, sites) if el.tag == "spatial" else ()
+            for j in el.children if el.tag == "fixed" else ():
                 if j.tag != "joint":
                     raise j.error("a fixed tendon holds <joint> elements only")
                 ja = _Attrs(j, {})
@@ -833,7 +932,7 @@ def _tendons(reader, root, joints):
                                 if ja.has("coef") else j.error("has no coef")))
                 if isinstance(members[-1][1], MJCFError):
                     raise members[-1][1]
-            if not members:
+            if not members and not path:
                 raise el.error("a fixed tendon without joints")
             coefs = {}
             for key in ("stiffness", "damping"):
@@ -855,9 +954,40 @@ def _tendons(reader, root, joints):
                     raise a.error(key, "not supported")
             tendon = Tendon(name, tuple(members), coefs["stiffness"][:3],
                             coefs["damping"][:3], springlength, a.number("armature", 0.0),
-                            rng, a.number("frictionloss", 0.0), el)
+                            rng, a.number("frictionloss", 0.0), el, path)
             names[name] = tendon
             out.append(tendon)
+    return out
+
+
+def _meshes(reader, root):
+    """The ``<mesh>`` assets (read as records; their files are read when used)."""
+    out = {}
+    for asset in root.findall("asset"):
+        for el in asset.findall("mesh"):
+            a = reader.attrs(el, "mesh", None)
+            file = a.text("file")
+            name = el.attrib.get("name") or (Path(file).stem if file else None)
+            if name is None:
+                raise el.error("a mesh without a file needs a name")
+            if name in out:
+                raise el.error(f"a second mesh named '{name}' (the first is on line "
+                               f"{out[name].element.line})")
+            for key in ("builtin", "plugin", "content_type"):
+                if a.has(key):
+                    raise a.error(key, "not supported (meshes from files, or vertex and "
+                                  "face, are)")
+            refquat = a.numbers("refquat", (1.0, 0.0, 0.0, 0.0), n=4)
+            if np.linalg.norm(refquat) < 1e-12:
+                raise a.error("refquat", "a zero quaternion")
+            vertex = a.numbers("vertex", None, at_least=0) if a.has("vertex") else None
+            face = a.numbers("face", None, at_least=0) if a.has("face") else None
+            out[name] = Mesh(name=name, file=file, vertex=vertex, face=face,
+                             scale=a.numbers("scale", (1.0, 1.0, 1.0), n=3),
+                             refpos=a.numbers("refpos", (0.0, 0.0, 0.0), n=3),
+                             refrot=quat_matrix(refquat),
+                             inertia=a.choice("inertia", "legacy", MESH_INERTIA_MODES),
+                             maxhullvert=int(a.number("maxhullvert", -1)), element=el)
     return out
 
 
@@ -886,13 +1016,16 @@ def parse_mjcf(path):
                 raise j.element.error(f"a second joint named '{j.name}' (the first is on "
                                       f"line {joints[j.name].element.line})")
             joints[j.name] = j
-    tendons = {t.name: t for t in _tendons(reader, root, joints)}
+    sites = {site.name: site for b in bodies for site in b.sites}
+    sites.update({site.name: site for site in tree.world_sites})
+    tendons = {t.name: t for t in _tendons(reader, root, joints, sites)}
     actuators, equalities = [], []
     for section in root.findall("actuator"):
         for el in section.children:
             if el.tag in _OTHER_ACTUATORS:
                 raise el.error(f"<{el.tag}> actuators are not supported (motor, position, "
-                               "velocity, damper and general without activation are)")
+                               "velocity, damper, intvelocity, cylinder and general "
+                               "without muscle dynamics are)")
             if el.tag not in ACTUATOR_TYPES:
                 raise el.error(f"unknown actuator <{el.tag}>")
             actuators.append(_actuator(reader, el, len(actuators), joints, tendons))
@@ -901,13 +1034,15 @@ def parse_mjcf(path):
         if act.name in names:
             raise act.element.error(f"a second actuator named '{act.name}'")
         names[act.name] = act
-    sites = {site.name: site for b in bodies for site in b.sites}
-    sites.update({site.name: site for site in tree.world_sites})
     for section in root.findall("equality"):
         for el in section.children:
             eq = _equality(reader, el, len(equalities), seen, joints, tendons, sites)
             if eq is not None:
                 equalities.append(eq)
+    meshes = _meshes(reader, root)
+    for geom in [g for b in bodies for g in b.geoms] + tree.world_geoms:
+        if geom.mesh is not None and geom.mesh not in meshes:
+            raise geom.element.error(f"mesh='{geom.mesh}': no mesh asset of that name")
     materials = {}
     for asset in root.findall("asset"):
         for mat in asset.findall("material"):
@@ -917,4 +1052,4 @@ def parse_mjcf(path):
                  compiler=reader.compiler, option=option, bodies=bodies,
                  actuators=actuators, equalities=equalities,
                  world_sites=tree.world_sites, world_geoms=tree.world_geoms,
-                 materials=materials, tendons=list(tendons.values()))
+                 materials=materials, tendons=list(tendons.values()), meshes=meshes)

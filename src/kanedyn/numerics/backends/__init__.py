@@ -8,6 +8,12 @@
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 ``_c_ensemble``     many trajectories of the loop's RK45 at once, on POSIX threads
 ``_c_events``       events given as expressions, compiled for the ensemble
+``_c_contact``      compiled contact segments (modes fixed, events located)
+``_c_export``       the standalone C file (no Python) the FMU export compiles
+``_c_hybrid``       the standalone file's contact loop: modes, events, impacts
+``_c_contact_general``  its solve of several active contacts with friction
+``_c_impacts``      its impacts of several contacts at once
+``_c_impact_slide`` its impacts whose slip turns (integrated over the impulse)
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes

@@ -17,8 +17,10 @@ friction along the slip direction of
 :func:`kanedyn.numerics._contact_dynamics.slip_direction`) or sticking (a
 3-vector force), with Baumgarte stabilization of the normal distance.  Several
 active contacts only when all are frictionless and sliding with independent
-normal rows (their normal forces by the Schur complement): the exported FMU's
-contact loop uses that; ``kd.simulate`` gives such segments to the Python path.  Any
+normal rows (their normal forces by the Schur complement).  The exported FMU
+(where ``KD_GENERAL_CONTACTS`` is defined and the segment sets ``general``) solves
+every other case by the general solve of :mod:`._c_contact_general`;
+``kd.simulate`` gives such segments to the Python path.  Any
 other case (several active contacts, dependent speeds, specified inputs, an
 ill-conditioned contact-space matrix) and any failure (singular or not
 finite) returns status 2 at once: the caller integrates that segment with
@@ -50,11 +52,14 @@ SEGMENT = r"""
    ------------------------------------------------------------------------ */
 #define KD_NZ (KD_NX + 2)
 #define KD_MAXEV (2 * KD_NC)
+#define KD_STALL_TURN 0.06030737921409157  /* 1 - cos(20 deg) */
+#define KD_SLOW_STILL 10.0  /* _SLOW_STILL of kanedyn.simulation._hybrid */
 
 typedef struct {
     const double *p;
     double *w;
     int modes[KD_NC], has_ref[KD_NC];
+    int general;  /* several active contacts in the export's general solve */
     double ref[3 * KD_NC], slow[KD_NC], still[KD_NC], offset[KD_NC];
     double mu_k[KD_NC], mu_s[KD_NC], visc[KD_NC], stab;
     int n_ev, ev_c[KD_MAXEV], ev_kind[KD_MAXEV];
@@ -108,8 +113,10 @@ static void kd_jacobi3(const double *S, double *ev, double *V) {
     for (int i = 0; i < 3; ++i) ev[i] = A[4 * i];
 }
 
+/* slip_direction: vt the slip velocity to follow; a reference projected onto the
+   slips the projector space (3 x 3) allows, or (NULL) onto the tangent plane */
 static void kd_seg_slip_dir(const KdSeg *S, int c, const double *n, const double *v,
-                            const double *vt, double *s) {
+                            const double *vt, const double *space, double *s) {
     double speed = sqrt(kd_dot3(vt, vt));
     int moving = speed > 1e-12 * fmax(1.0, sqrt(kd_dot3(v, v)));
     const double *r = S->ref + 3 * c;
@@ -121,7 +128,9 @@ static void kd_seg_slip_dir(const KdSeg *S, int c, const double *n, const double
     }
     if (!S->has_ref[c]) { s[0] = s[1] = s[2] = 0.0; return; }
     double rn = kd_dot3(r, n);
-    for (int i = 0; i < 3; ++i) s[i] = r[i] - rn * n[i];
+    for (int i = 0; i < 3; ++i)
+        s[i] = space ? space[3 * i] * r[0] + space[3 * i + 1] * r[1] + space[3 * i + 2] * r[2]
+                     : r[i] - rn * n[i];
     double norm = sqrt(kd_dot3(s, s));
     for (int i = 0; i < 3; ++i) s[i] = norm > 0 ? s[i] / norm : 0.0;
 }
@@ -200,6 +209,17 @@ static int kd_seg_frictionless(KdSeg *S, const double *z, double *zd, KdSegOut *
 }
 #endif
 
+#ifdef KD_GENERAL_CONTACTS
+static int kd_seg_general(KdSeg *S, const double *z, double *zd, KdSegOut *o,
+                          const double *M, const double *f, const double *jac,
+                          const double *acc, const double *rate);
+/* what the segment solver cannot do alone: the general solve where S asks for it */
+#define KD_SEG_OTHERWISE \
+    (S->general ? kd_seg_general(S, z, zd, o, M, f, jac, acc, rate) : 2)
+#else
+#define KD_SEG_OTHERWISE 2
+#endif
+
 /* z' and the contact forces for the fixed modes: 0, 1 singular / not finite,
    2 not handled here */
 static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOut *o) {
@@ -223,7 +243,10 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
         if (S->modes[i] != 0) { if (c >= 0) c = -2; else if (c == -1) c = i; }
     }
     memcpy(zd, qd, sizeof(double) * KD_NQ);
-    if (c == -2) return kd_seg_frictionless(S, z, zd, o, M, f, jac, acc, rate);
+    if (c == -2) {
+        int st = kd_seg_frictionless(S, z, zd, o, M, f, jac, acc, rate);
+        return st == 2 ? KD_SEG_OTHERWISE : st;
+    }
     double *ud = zd + KD_NQ;
     double A[KD_NU * KD_NU];
     memcpy(A, M, sizeof(A));
@@ -246,7 +269,7 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
         if (S->modes[c] == 1) {
             double s[3], col[KD_NU], row[KD_NU], X[2 * KD_NU], m = S->mu_k[c];
             double nc = 0.0, nr = 0.0, den = 0.0, r0 = 0.0;
-            kd_seg_slip_dir(S, c, n, v, vt, s);
+            kd_seg_slip_dir(S, c, n, v, vt, NULL, s);
             for (int j = 0; j < KD_NU; ++j) {
                 col[j] = row[j] = 0.0;
                 for (int i = 0; i < 3; ++i) {
@@ -258,7 +281,7 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
             }
             if (kd_lu_solve(KD_NU, A, X, 2) != 0) return 1;
             for (int j = 0; j < KD_NU; ++j) { den += row[j] * X[2 * j + 1]; r0 += row[j] * X[2 * j]; }
-            if (!(fabs(den) > 1e-12 * sqrt(nr) * sqrt(nc))) return 2;
+            if (!(fabs(den) > 1e-12 * sqrt(nr) * sqrt(nc))) return KD_SEG_OTHERWISE;
             double N = (-(rate[c] + corr) - r0) / den;
             for (int j = 0; j < KD_NU; ++j) ud[j] = X[2 * j] + N * X[2 * j + 1];
             for (int i = 0; i < 3; ++i) tot[i] = N * (n[i] - m * s[i]);
@@ -276,10 +299,10 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
                 }
             kd_jacobi3(JJ, ev, V);
             for (int a = 0; a < 3; ++a) big = fmax(big, ev[a]);
-            if (!(big > 0)) return 2;
+            if (!(big > 0)) return KD_SEG_OTHERWISE;
             for (int a = 0; a < 3; ++a) {
                 double rel = ev[a] / big;
-                if (rel > 1e-20 && rel < 1e-8) return 2;  /* rank unclear: reference path */
+                if (rel > 1e-20 && rel < 1e-8) return KD_SEG_OTHERWISE;  /* rank unclear */
                 if (rel >= 1e-8) {
                     for (int i = 0; i < 3; ++i) Q[3 * i + rank] = V[3 * i + a];
                     rank++;
@@ -308,7 +331,7 @@ static int kd_seg_solve(KdSeg *S, double t, const double *z, double *zd, KdSegOu
                         Wc[rank * a + b] = (j ? Wc[rank * a + b] : 0.0) + qj * X[4 * j + 1 + b];
                 }
             }
-            if (kd_lu_solve(rank, Wc, lam, 1) != 0) return 2;
+            if (kd_lu_solve(rank, Wc, lam, 1) != 0) return KD_SEG_OTHERWISE;
             for (int j = 0; j < KD_NU; ++j) {
                 ud[j] = X[4 * j];
                 for (int b = 0; b < rank; ++b) ud[j] += X[4 * j + 1 + b] * lam[b];
@@ -347,7 +370,15 @@ static int kd_seg_events(KdSeg *S, double t, const double *z, double *g) {
         switch (S->ev_kind[k]) {
         case 0: g[k] = o.gap[c] / o.grad[c] + S->offset[c]; break;
         case 1: g[k] = o.N[c]; break;
-        case 2: g[k] = fmax(kd_dot3(vt, S->ref + 3 * c), sqrt(kd_dot3(vt, vt)) - S->slow[c]); break;
+        case 2: {  /* _slip_stop_value of kanedyn.simulation._hybrid */
+            double along = kd_dot3(vt, S->ref + 3 * c), speed = sqrt(kd_dot3(vt, vt));
+            g[k] = fmax(along, speed - S->slow[c]);
+            if (S->slow[c] <= KD_SLOW_STILL * S->still[c] && speed > 0) {
+                double turn = fmin(1.0, (1.0 - along / speed) / KD_STALL_TURN);
+                g[k] = fmin(g[k], speed - 0.5 * S->still[c] * turn);
+            }
+            break;
+        }
         default: {
             double ft[3];
             for (int i = 0; i < 3; ++i) ft[i] = tot[i] - o.N[c] * n[i];

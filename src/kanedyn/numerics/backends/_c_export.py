@@ -33,7 +33,10 @@ from ..._version import __version__
 from . import _c_runtime
 from ._c import _function_source, solver_source
 from ._c_contact import SEGMENT
+from ._c_contact_general import GENERAL
 from ._c_hybrid import HYBRID
+from ._c_impact_slide import SLIDE
+from ._c_impacts import IMPACTS
 from ._c_integrator import DENSE_OUTPUT, DORMAND_PRINCE, PROJECTION
 
 __all__ = ["standalone_c"]
@@ -284,7 +287,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "parameters": _list([_c_string(s) for s in names], "NULL"),
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
-    tail = [_contact_source(contacts), DENSE_OUTPUT, SEGMENT, HYBRID] if contacts else []
+    tail = ([_contact_source(contacts), DENSE_OUTPUT, "#define KD_GENERAL_CONTACTS 1", SEGMENT,
+             GENERAL, IMPACTS, SLIDE, HYBRID] if contacts else [])
     return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
                       *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
 

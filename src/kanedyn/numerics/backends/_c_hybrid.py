@@ -9,17 +9,20 @@ extension); at an event the modes change as there (the gap closes, the normal
 force vanishes, the slip stops, the friction reaches :math:`\mu_s N`), impacts
 are resolved by the single-contact law of
 :func:`kanedyn.simulation._impact._single` (Poisson or Newton restitution,
-Coulomb friction integrated over the normal impulse in closed form) and the
+Coulomb friction integrated over the normal impulse: in closed form, or where
+the slip turns by :mod:`._c_impact_slide`) or, where
+several contacts take part (those hitting and those already touching), by
+:func:`kanedyn.simulation._impact._simultaneous` (:mod:`._c_impacts`), and the
 modes are settled (forces within their limits) before integration resumes.
-Tolerances, rest speed, Baumgarte frequency (10 rad/s) and the choice of slip
-references are those of ``kd.simulate``'s defaults.
+Several active contacts are solved by the general path of
+:func:`kanedyn.numerics._contact_dynamics.solve_modes`
+(:mod:`._c_contact_general`).  Tolerances, rest speed, Baumgarte frequency
+(10 rad/s) and the choice of slip references (from the slip velocities free of
+the other contacts' drift) are those of ``kd.simulate``'s defaults.
 
-What it does not do, a failure with a message naming the contact (code 5,
-``kanedyn_contact_message``): several contacts sliding or sticking at once unless
-all are frictionless with independent normals, an impact of a contact while
-another touches or of several at once, an impact
-whose slip turns during the impulse (out of plane), a singular or non-finite
-contact solve, modes that do not settle.  The export refuses bilateral
+What it does not do, a failure with a message naming the contacts (code 5,
+``kanedyn_contact_message``): a singular or non-finite contact solve, modes that
+do not settle (``kd.simulate`` stops there too).  The export refuses bilateral
 contacts, dependent speeds and specified inputs before (``io.fmu``).
 
 Public interface (appended to ``model.c``; ``z`` is the state followed by the
@@ -111,6 +114,15 @@ static int kd_hy_several(KdHybrid *H, double t, const int *modes, const char *wh
     return 5;
 }
 
+/* the contact equations of modes cannot be solved: the message names the active
+   contacts (code 5) */
+static int kd_hy_singular(KdHybrid *H, double t, const int *modes) {
+    const char *what = "singular or not finite contact equations";
+    for (int c = 0; c < KD_NC; ++c)
+        if (modes[c] != KD_SEP) return kd_hy_several(H, t, modes, what);
+    return kd_hy_fail(H, -1, t, what);
+}
+
 /* the segment solver for modes (and the references of H) */
 static void kd_hy_seg(const KdHybrid *H, const double *p, const int *modes, KdSeg *S) {
     memset(S, 0, sizeof *S);
@@ -125,6 +137,7 @@ static void kd_hy_seg(const KdHybrid *H, const double *p, const int *modes, KdSe
     memcpy(S->mu_s, H->mu_s, sizeof S->mu_s);
     memcpy(S->visc, H->visc, sizeof S->visc);
     S->stab = H->stab;
+    S->general = 1;
 }
 
 static int kd_hy_solve(KdHybrid *H, double t, const double *z, const double *p,
@@ -133,19 +146,7 @@ static int kd_hy_solve(KdHybrid *H, double t, const double *z, const double *p,
     double zd[KD_NZ];
     kd_hy_seg(H, p, modes, &S);
     int st = kd_seg_solve(&S, t, z, zd, o);
-    if (st == 2) {
-        int active = 0;
-        for (int c = 0; c < KD_NC; ++c) active += modes[c] != KD_SEP;
-        if (active > 1)
-            return kd_hy_several(H, t, modes, "more than one contact sliding or sticking at "
-                                 "once, with friction or with dependent normal directions, "
-                                 "is not handled by the exported FMU (kd.simulate handles "
-                                 "it)");
-        return kd_hy_fail(H, -1, t, "the contact-space matrix is ill-conditioned (a point "
-                          "that cannot move in some direction): not handled by the "
-                          "exported FMU");
-    }
-    if (st) return kd_hy_fail(H, -1, t, "singular or not finite contact equations");
+    if (st) return kd_hy_singular(H, t, modes);
     return 0;
 }
 
@@ -175,8 +176,12 @@ static int kd_hy_free_normal(KdHybrid *H, double t, const double *z, const doubl
     return 0;
 }
 
-/* modes consistent with the state: forces within limits, gaps open (_hybrid.settle) */
-static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p) {
+/* modes consistent with the state: forces within limits, gaps open (_hybrid.settle);
+   stopped: per contact the slip speed (free of the other contacts' drift) of a slip
+   that has just stopped, against which its stick is judged, or < 0 (its own slip
+   speed); NULL: none */
+static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p,
+                        const double *stopped) {
     KdPoints P;
     kd_hy_points(H, t, z, p, &P);
     for (int c = 0; c < KD_NC; ++c) {
@@ -188,8 +193,11 @@ static int kd_hy_settle(KdHybrid *H, double t, const double *z, const double *p)
             if (a < -H->tol_a) H->modes[c] = kd_hy_touching_mode(H, &P, c);
         } else if (H->modes[c] != KD_SEP) {
             if (leaving) H->modes[c] = KD_SEP;
-            else if (H->modes[c] == KD_STICK && kd_hy_touching_mode(H, &P, c) == KD_SLIP)
-                H->modes[c] = KD_SLIP;
+            else if (H->modes[c] == KD_STICK) {
+                double vt[3], speed = stopped && stopped[c] >= 0 ? stopped[c]
+                                                                  : kd_hy_slip(&P, c, vt);
+                if (speed > H->tol_slip) H->modes[c] = KD_SLIP;
+            }
         }
     }
     for (int round = 0; round < 4 * KD_NC + 4; ++round) {
@@ -225,31 +233,12 @@ static void kd_hy_matvec(const double *W, const double *x, double *out) {
     for (int a = 0; a < 3; ++a) out[a] = W[3 * a] * x[0] + W[3 * a + 1] * x[1] + W[3 * a + 2] * x[2];
 }
 
-/* least-squares solution of the symmetric 2 x 2 system A a = b (cut-off 1e-12) */
-static void kd_hy_pinv2(const double *A, const double *b, double *a) {
-    double ev[2], V[4];
-    double m = 0.5 * (A[0] + A[3]), d = 0.5 * (A[0] - A[3]), r = sqrt(d * d + A[1] * A[1]);
-    ev[0] = m + r; ev[1] = m - r;
-    if (A[1] == 0.0) { V[0] = 1; V[2] = 0; V[1] = 0; V[3] = 1; ev[0] = A[0]; ev[1] = A[3]; }
-    else {
-        double x = ev[0] - A[3], y = A[1], nn = sqrt(x * x + y * y);
-        V[0] = x / nn; V[2] = y / nn; V[1] = -V[2]; V[3] = V[0];
-    }
-    double big = fmax(fabs(ev[0]), fabs(ev[1]));
-    a[0] = a[1] = 0.0;
-    for (int k = 0; k < 2; ++k) {
-        if (!(fabs(ev[k]) > 1e-12 * big)) continue;
-        double c = (V[k] * b[0] + V[2 + k] * b[1]) / ev[k];
-        a[0] += c * V[k]; a[1] += c * V[2 + k];
-    }
-}
-
-/* the impulse on one contact point; 0, or 5 where the slip turns (not ported) */
-static int kd_hy_single(const double *W, const double *v0, const double *n, double mu_k,
-                        double mu_s, double e, int newton, double *P_out) {
+/* the impulse on one contact point */
+static void kd_hy_single(const double *W, const double *v0, const double *n, double mu_k,
+                         double mu_s, double e, int newton, double *P_out) {
     double vn0 = kd_dot3(n, v0), T1[3], T2[3], a[3];
     for (int i = 0; i < 3; ++i) P_out[i] = 0.0;
-    if (vn0 >= 0) return 0;
+    if (vn0 >= 0) return;
     if (fabs(n[0]) < 0.9) { a[0] = 1; a[1] = 0; a[2] = 0; } else { a[0] = 0; a[1] = 1; a[2] = 0; }
     T1[0] = n[1] * a[2] - n[2] * a[1]; T1[1] = n[2] * a[0] - n[0] * a[2]; T1[2] = n[0] * a[1] - n[1] * a[0];
     double t1n = sqrt(kd_dot3(T1, T1));
@@ -260,7 +249,7 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
     A2[0] = kd_dot3(T1, WT1); A2[1] = kd_dot3(T1, WT2); A2[2] = kd_dot3(T2, WT1); A2[3] = kd_dot3(T2, WT2);
     A2[1] = A2[2] = 0.5 * (A2[1] + A2[2]);
     b2[0] = -kd_dot3(T1, Wn); b2[1] = -kd_dot3(T2, Wn);
-    kd_hy_pinv2(A2, b2, a2);
+    kd_pinv2(A2, b2, a2);
     for (int i = 0; i < 3; ++i) stick_rate[i] = T1[i] * a2[0] + T2[i] * a2[1];
     int can_stick = sqrt(a2[0] * a2[0] + a2[1] * a2[1]) <= mu_s * (1 + 1e-12);
     double scale = fmax(sqrt(kd_dot3(v0, v0)), 1e-300), slip_tol = 1e-9 * scale;
@@ -311,21 +300,26 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
             for (int i = 0; i < 3; ++i) drift[i] = cst[i] - cn * n[i];
             along = kd_dot3(drift, dir);
             for (int i = 0; i < 3; ++i) off += (drift[i] - along * dir[i]) * (drift[i] - along * dir[i]);
-            if (!(sqrt(off) <= 1e-13 * sqrt(kd_dot3(cst, cst)))) return 5;
-            p_next = stop_p;
-            if (sliding && along < 0) { double x_ = p - kd_dot3(vt, dir) / along; if (x_ >= p) p_next = fmin(p_next, x_); }
-            if (pc < 0 && cn > 0) { double x_ = p - vnv / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
-            if (pc >= 0 && newton && cn > 0) { double x_ = p + (target - vnv) / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
-            for (int i = 0; i < 3; ++i) {
-                v[i] += (p_next - p) * cst[i];
-                Pt[i] -= (p_next - p) * mu_k * dir[i];
+            if (!(sqrt(off) <= 1e-13 * sqrt(kd_dot3(cst, cst)))) {
+                /* the slip turns: integrated over the normal impulse */
+                kd_imp_slide(W, n, mu_k, dir, slip_tol, pc < 0, newton, target, stop_p, scale,
+                             &p, v, Pt);
+            } else {  /* the slip keeps its direction: closed form */
+                p_next = stop_p;
+                if (sliding && along < 0) { double x_ = p - kd_dot3(vt, dir) / along; if (x_ >= p) p_next = fmin(p_next, x_); }
+                if (pc < 0 && cn > 0) { double x_ = p - vnv / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
+                if (pc >= 0 && newton && cn > 0) { double x_ = p + (target - vnv) / cn; if (x_ >= p) p_next = fmin(p_next, x_); }
+                for (int i = 0; i < 3; ++i) {
+                    v[i] += (p_next - p) * cst[i];
+                    Pt[i] -= (p_next - p) * mu_k * dir[i];
+                }
+                p = p_next;
+                vnv = kd_dot3(n, v);
+                for (int i = 0; i < 3; ++i) vt[i] = v[i] - vnv * n[i];
+                double along_v = kd_dot3(vt, dir);
+                if (sliding && along < 0 && along_v <= slip_tol)
+                    for (int i = 0; i < 3; ++i) v[i] -= along_v * dir[i];
             }
-            p = p_next;
-            vnv = kd_dot3(n, v);
-            for (int i = 0; i < 3; ++i) vt[i] = v[i] - vnv * n[i];
-            double along_v = kd_dot3(vt, dir);
-            if (sliding && along < 0 && along_v <= slip_tol)
-                for (int i = 0; i < 3; ++i) v[i] -= along_v * dir[i];
         }
         double vn = kd_dot3(n, v);
         if (pc < 0 && vn >= -1e-14 * scale) {
@@ -337,7 +331,6 @@ static int kd_hy_single(const double *W, const double *v0, const double *n, doub
         if (pc >= 0 && !newton && p >= (1 + e) * pc * (1 - 1e-15)) break;
     }
     for (int i = 0; i < 3; ++i) P_out[i] = p * n[i] + Pt[i];
-    return 0;
 }
 
 /* the impact of contact c (restitution e): the speeds of z jump (resolve_impact) */
@@ -360,9 +353,7 @@ static int kd_hy_impact(KdHybrid *H, double t, double *z, const double *p, const
         }
     int newton = kd_contact_law[c];
     for (int attempt = 0; attempt < 2; ++attempt) {
-        if (kd_hy_single(W, v0, n, H->mu_k[c], H->mu_s[c], e, newton, Pc) != 0)
-            return kd_hy_fail(H, c, t, "an impact whose slip turns during the impulse (out "
-                              "of plane) is not handled by the exported FMU");
+        kd_hy_single(W, v0, n, H->mu_k[c], H->mu_s[c], e, newton, Pc);
         kd_hy_matvec(W, Pc, v1);
         double loss = 0.0;
         for (int i = 0; i < 3; ++i) v1[i] += v0[i];
@@ -375,51 +366,97 @@ static int kd_hy_impact(KdHybrid *H, double t, double *z, const double *p, const
     return 0;
 }
 
-/* impacts of approaching contacts, then consistent modes (_hybrid._resolve) */
-static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p) {
+/* the impact of the k contacts inv (hitting or touching) at once (resolve_impact with
+   _simultaneous: Newton's law; without restitution where it would gain energy) */
+static int kd_hy_impact_several(KdHybrid *H, double t, double *z, const double *p,
+                                const KdPoints *P, const int *inv, int k, const int *plastic) {
+    const double r[1] = {0.0};
+    double qd[KD_SZ(KD_NQ)], M[KD_NU * KD_NU], f[KD_NU], B[1], Ka[1], fa[1];
+    double D[KD_NU * 3 * KD_NC], W[9 * KD_NC * KD_NC], v0[3 * KD_NC], v1[3 * KD_NC];
+    double normals[3 * KD_NC], mu[KD_NC], e[KD_NC], Pi[3 * KD_NC];
+    int n = 3 * k;
+    kd_eval_dynamics(t, z, p, r, H->w, qd, M, f, B, Ka, fa);
+    for (int a = 0; a < k; ++a) {
+        const double *J = P->jac + 3 * inv[a] * KD_NU;
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < KD_NU; ++j) D[j * n + 3 * a + i] = J[i * KD_NU + j];
+            v0[3 * a + i] = P->vel[3 * inv[a] + i];
+            normals[3 * a + i] = P->normal[3 * inv[a] + i];
+        }
+        mu[a] = H->mu_k[inv[a]];
+        e[a] = plastic[inv[a]] ? 0.0 : H->e[inv[a]];
+    }
+    if (kd_lu_solve(KD_NU, M, D, n) != 0) {
+        int mask[KD_NC] = {0};
+        for (int a = 0; a < k; ++a) mask[inv[a]] = 1;
+        return kd_hy_several(H, t, mask, "singular mass matrix at the impact");
+    }
+    for (int a = 0; a < k; ++a)
+        for (int i = 0; i < 3; ++i) {
+            const double *J = P->jac + 3 * inv[a] * KD_NU + i * KD_NU;
+            for (int col = 0; col < n; ++col) {
+                double sum = 0.0;
+                for (int j = 0; j < KD_NU; ++j) sum += J[j] * D[j * n + col];
+                W[(3 * a + i) * n + col] = sum;
+            }
+        }
+    for (int attempt = 0; attempt < 2; ++attempt) {
+        double loss = 0.0, work = 0.0;
+        kd_imp_several(k, W, v0, normals, mu, e, Pi);
+        for (int a = 0; a < n; ++a) {
+            v1[a] = v0[a];
+            for (int b = 0; b < n; ++b) v1[a] += W[a * n + b] * Pi[b];
+        }
+        for (int a = 0; a < n; ++a) { loss -= 0.5 * Pi[a] * (v0[a] + v1[a]); work += Pi[a] * v0[a]; }
+        if (!(loss < -1e-12 * fmax(1.0, fabs(work)))) break;
+        for (int a = 0; a < k; ++a) e[a] = 0.0;  /* Kane's paradox: no restitution */
+    }
+    for (int j = 0; j < KD_NU; ++j)
+        for (int col = 0; col < n; ++col) z[KD_NQ + j] += D[j * n + col] * Pi[col];
+    H->impacts++;
+    return 0;
+}
+
+/* impacts of approaching contacts (with the contacts already touching), then
+   consistent modes (_hybrid._resolve); stopped: as for kd_hy_settle */
+static int kd_hy_resolve(KdHybrid *H, double t, double *z, const double *p,
+                         const double *stopped) {
     KdPoints P;
-    int hitting = -1, involved = 0, touching[KD_NC];
+    int touching[KD_NC], hitting[KD_NC], plastic[KD_NC], inv[KD_NC], k = 0, any = 0;
     kd_hy_points(H, t, z, p, &P);
     for (int c = 0; c < KD_NC; ++c) {
         touching[c] = kd_hy_dist(&P, c) <= H->tol_d;
-        if (touching[c] && kd_hy_vn(&P, c) < -H->tol_v) {
-            if (hitting >= 0) {
-                int both[KD_NC] = {0};
-                both[c] = both[hitting] = 1;
-                return kd_hy_several(H, t, both, "an impact of several contacts at once is "
-                                     "not handled by the exported FMU");
-            }
-            hitting = c;
-        }
+        hitting[c] = touching[c] && kd_hy_vn(&P, c) < -H->tol_v;
+        any |= hitting[c];
     }
-    if (hitting >= 0) {
-        int c = hitting;
-        for (int i = 0; i < KD_NC; ++i)
-            if (i != c && touching[i] && H->modes[i] != KD_SEP) {
-                int both[KD_NC] = {0};
-                both[c] = both[i] = 1;
-                return kd_hy_several(H, t, both, "an impact while another contact touches "
-                                     "is not handled by the exported FMU");
-            }
-        (void)involved;
-        double speed = -kd_hy_vn(&P, c);
-        int plastic = speed < H->rest
-                      || (H->bounced[c] && H->bounce_v[c] * (t - H->bounce_t[c]) <= H->tol_lift);
-        int st = kd_hy_impact(H, t, z, p, &P, c, plastic ? 0.0 : H->e[c]);
+    if (any) {
+        int st;
+        for (int c = 0; c < KD_NC; ++c) {
+            /* too slow to bounce again, or bouncing too little to leave: plastic */
+            plastic[c] = hitting[c] && (-kd_hy_vn(&P, c) < H->rest
+                                        || (H->bounced[c] && H->bounce_v[c]
+                                            * (t - H->bounce_t[c]) <= H->tol_lift));
+            if (hitting[c] || (touching[c] && H->modes[c] != KD_SEP)) inv[k++] = c;
+        }
+        if (k == 1) st = kd_hy_impact(H, t, z, p, &P, inv[0], plastic[inv[0]] ? 0.0 : H->e[inv[0]]);
+        else st = kd_hy_impact_several(H, t, z, p, &P, inv, k, plastic);
         if (st) return st;
         kd_hy_points(H, t, z, p, &P);
-        double vn = kd_hy_vn(&P, c);
-        if (vn > H->rest) {
-            H->modes[c] = KD_SEP;
-            H->bounced[c] = 1;
-            H->bounce_t[c] = t;
-            H->bounce_v[c] = vn;
-        } else {
-            H->modes[c] = kd_hy_touching_mode(H, &P, c);
-            H->bounced[c] = 0;
+        for (int a = 0; a < k; ++a) {
+            int c = inv[a];
+            double vn = kd_hy_vn(&P, c);
+            if (vn > H->rest) {
+                H->modes[c] = KD_SEP;
+                H->bounced[c] = 1;
+                H->bounce_t[c] = t;
+                H->bounce_v[c] = vn;
+            } else {
+                H->modes[c] = kd_hy_touching_mode(H, &P, c);
+                H->bounced[c] = 0;
+            }
         }
     }
-    return kd_hy_settle(H, t, z, p);
+    return kd_hy_settle(H, t, z, p, stopped);
 }
 
 static int kd_hy_keep(void *ctx, int phase, double t, const double *z) {
@@ -428,18 +465,23 @@ static int kd_hy_keep(void *ctx, int phase, double t, const double *z) {
     return 0;
 }
 
-/* the segment's slip references (at its start) and event functions */
-static void kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p, KdSeg *S) {
+/* the segment's slip references (at its start, from the slip velocities free of
+   the other contacts' drift) and event functions; 0 or 5 */
+static int kd_hy_segment(KdHybrid *H, double t, const double *z, const double *p, KdSeg *S) {
     KdPoints P;
     kd_hy_points(H, t, z, p, &P);
     if (H->fresh) {
+        KdSegOut o;
+        int st = kd_hy_solve(H, t, z, p, H->modes, &o);
+        if (st) return st;
         for (int c = 0; c < KD_NC; ++c) {
-            double vt[3], speed = kd_hy_slip(&P, c, vt);
+            const double *vt = o.vt + 3 * c;
+            double speed = sqrt(kd_dot3(vt, vt));
             if (H->modes[c] != KD_SLIP) H->has_ref[c] = 0;
             else if (speed > H->tol_slip) {
                 H->has_ref[c] = 1;
                 for (int i = 0; i < 3; ++i) H->ref[3 * c + i] = vt[i] / speed;
-                H->slow[c] = 1e-3 * speed;
+                H->slow[c] = fmax(1e-3 * speed, KD_SLOW_STILL * H->tol_slip);
                 H->still[c] = H->tol_slip;
             }
         }
@@ -459,10 +501,13 @@ static void kd_hy_segment(KdHybrid *H, double t, const double *z, const double *
             S->ev_c[S->n_ev] = c; S->ev_kind[S->n_ev++] = 3;
         }
     }
+    return 0;
 }
 
 /* the modes after event `kind` of contact c at (t, z) (simulate_contacts) */
 static int kd_hy_event(KdHybrid *H, double t, double *z, const double *p, int c, int kind) {
+    double stopped[KD_NC];  /* the slip speeds of the slips that stop here, or -1 */
+    for (int i = 0; i < KD_NC; ++i) stopped[i] = -1.0;
     H->events++;
     if (kind == 0) H->modes[c] = KD_STICK;  /* touching; settled below */
     else if (kind == 1) H->modes[c] = KD_SEP;
@@ -470,28 +515,31 @@ static int kd_hy_event(KdHybrid *H, double t, double *z, const double *p, int c,
         KdSegOut o;
         int st = kd_hy_solve(H, t, z, p, H->modes, &o);
         if (st) return st;
-        double ft[3], size;
-        for (int i = 0; i < 3; ++i)
-            ft[i] = o.total[3 * c + i] - o.N[c] * o.normal[3 * c + i] - H->visc[c] * o.vt[3 * c + i];
+        double ft[3], size, vn = kd_dot3(o.normal + 3 * c, o.vel + 3 * c);
+        for (int i = 0; i < 3; ++i)  /* the friction, its viscous part on the raw slip */
+            ft[i] = o.total[3 * c + i] - o.N[c] * o.normal[3 * c + i]
+                    - H->visc[c] * (o.vel[3 * c + i] - vn * o.normal[3 * c + i]);
         size = fmax(sqrt(kd_dot3(ft, ft)), 1e-300);
         H->modes[c] = KD_SLIP;
         H->has_ref[c] = 1;
         for (int i = 0; i < 3; ++i) H->ref[3 * c + i] = -ft[i] / size;
         H->slow[c] = INFINITY;
         H->still[c] = H->tol_slip;
-    } else {  /* the slip stops: every sliding contact whose slip has stopped sticks */
-        KdPoints P;
-        int stopping[KD_NC];
-        kd_hy_points(H, t, z, p, &P);
+    } else {  /* the slip stops: every sliding contact whose slip (free of the other
+                 contacts' drift) has stopped sticks (_stopped) */
+        KdSegOut o;
+        int st = kd_hy_solve(H, t, z, p, H->modes, &o);
+        if (st) return st;
         for (int i = 0; i < KD_NC; ++i) {
-            double vt[3];
-            stopping[i] = H->modes[i] == KD_SLIP && H->has_ref[i]
-                          && (i == c || isfinite(H->slow[i]))
-                          && kd_hy_slip(&P, i, vt) <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]);
+            const double *vt = o.vt + 3 * i;
+            double speed = sqrt(kd_dot3(vt, vt));
+            if (H->modes[i] == KD_SLIP && H->has_ref[i] && (i == c || isfinite(H->slow[i]))
+                    && speed <= fmin(H->tol_slip * 1e3, 0.1 * H->slow[i]))
+                stopped[i] = speed;
         }
-        for (int i = 0; i < KD_NC; ++i) if (stopping[i]) H->modes[i] = KD_STICK;
+        for (int i = 0; i < KD_NC; ++i) if (stopped[i] >= 0) H->modes[i] = KD_STICK;
     }
-    return kd_hy_resolve(H, t, z, p);
+    return kd_hy_resolve(H, t, z, p, stopped);
 }
 
 size_t kanedyn_contact_state_size(void) { return sizeof(KdHybrid); }
@@ -530,9 +578,9 @@ int kanedyn_contact_start(double t, double *z, const double *p, void *state, dou
         else if (kd_hy_dist(&P, c) < -H->tol_d)
             status = kd_hy_fail(H, c, t, "the point starts inside its surface");
     }
-    if (!status) status = kd_hy_resolve(H, t, z, p);
+    if (!status) status = kd_hy_resolve(H, t, z, p, NULL);
     H->fresh = 1;
-    if (!status) kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
+    if (!status) status = kd_hy_segment(H, t, z, p, &H->seg);  /* for model exchange */
     kd_free_work(H->w);
     H->w = NULL;
     return status;
@@ -551,7 +599,7 @@ int kanedyn_contact_advance(double t0, double t1, double *z, const double *p, vo
         KdSeg S;
         double t_end, start = t;
         int event;
-        kd_hy_segment(H, t, z, p, &S);
+        if ((status = kd_hy_segment(H, t, z, p, &S)) != 0) break;
         int st = kd_seg_run(&S, t, t1, z, rtol, atol, &H->h, kd_hy_keep, steps, &t_end, &event);
         if (st == 2) {
             KdSegOut o;
@@ -593,9 +641,7 @@ int kanedyn_contact_derivatives(double t, const double *y, const double *p, void
     H->seg.w = NULL;
     if (st) {
         H->w = NULL;
-        return kd_hy_fail(H, -1, t, st == 2 ? "more than one contact sliding or sticking at "
-                          "once, or an ill-conditioned contact: not handled by the exported "
-                          "FMU" : "singular or not finite contact equations");
+        return kd_hy_singular(H, t, H->seg.modes);
     }
     memcpy(ydot, zd, sizeof(double) * KD_NX);
     return 0;
@@ -653,7 +699,7 @@ int kanedyn_contact_update(double t, double *y, const double *p, void *state, in
         }
         status = kd_hy_event(H, t, z, p, c, H->seg.ev_kind[event]);
         H->fresh = 1;
-        if (!status) kd_hy_segment(H, t, z, p, &H->seg);
+        if (!status) status = kd_hy_segment(H, t, z, p, &H->seg);
         if (!status && grazing && H->modes[c] == KD_SEP) {
             /* it stays separated, leaving from the surface at rounding-level speed:
                its next event where it comes back closer than tol_d (the integrator
