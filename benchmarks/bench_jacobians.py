@@ -1,13 +1,18 @@
 """Exact derivatives of the dynamics: kanedyn's ``model.jacobians`` vs Pinocchio's
 ``computeABADerivatives``, same run.
 
-The spatial chain ``chain3d`` (the same chain in Pinocchio's terms from
+Robots of ``example-robot-data`` (fixed base, both read from the same URDF
+text): the Panda arm with its two finger joints made fixed (n = 7) and Solo12
+(n = 12), the joint torques ``tau`` their inputs on both sides; and the
+spatial chain ``chain3d`` (the same chain in Pinocchio's terms from
 :func:`_peers.pinocchio_chain`) at n = 7, 12, 30 (and 100 with ``--large``),
-compiled (backend ``"c"``), at a random state:
+without inputs on kanedyn's side.  Compiled (backend ``"c"``), at a random
+state:
 
-- ``model.jacobians(0.0, y)``: the full :math:`\\partial f/\\partial y` (kinematic
-  rows included), called for one state from Python, and for 1000 states in
-  one call (per state);
+- ``model.jacobians(0.0, y, r=tau)`` (the robots) or ``model.jacobians(0.0,
+  y)`` (the chain): the full :math:`\\partial f/\\partial y` (kinematic rows
+  included) and :math:`\\partial f/\\partial\\tau`, called for one state from
+  Python, and for 1000 states in one call (per state);
 - ``pinocchio.computeABADerivatives(model, data, q, v, tau)`` from Python:
   :math:`\\partial\\ddot q/\\partial(q, v, \\tau)`;
 - the largest difference of :math:`\\partial\\dot u/\\partial(q, u)` between them;
@@ -19,12 +24,13 @@ compiled (backend ``"c"``), at a random state:
   fresh cache.
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
-minimum and spread (median / min - 1).  Ratios are between numbers measured in
-this run.
+minimum, median and spread (median / min - 1).  Ratios are between numbers
+measured in this run (of the minima, and of the medians).
 
 Usage::
 
     python benchmarks/bench_jacobians.py [--sizes 7 12 30] [--large] [--rounds 7]
+        [--no-robots] [--no-first-use]
 """
 
 from __future__ import annotations
@@ -80,28 +86,94 @@ def operations(n):
     return prog.count_ops([e for _, exprs in outputs for e in exprs], cse=True)
 
 
-def measure(n, rounds):
+#: the robots of example-robot-data: URDF file, joints made fixed
+ROBOTS = {"Panda": ("panda_description/urdf/panda.urdf",
+                    ("panda_finger_joint1", "panda_finger_joint2")),
+          "Solo12": ("solo_description/robots/solo12.urdf", ())}
+
+
+def robot_text(name):
+    """The URDF text of a robot of :data:`ROBOTS` with its listed joints made
+    fixed (their ``mimic`` elements dropped), or ``None`` without
+    example-robot-data."""
+    import xml.etree.ElementTree as ET
+    from importlib.metadata import PackageNotFoundError, distribution
+    try:
+        robots = distribution("example-robot-data").locate_file(
+            "cmeel.prefix/share/example-robot-data/robots")
+    except PackageNotFoundError:
+        return None
+    relative, fixed = ROBOTS[name]
+    root = ET.parse(Path(robots) / relative).getroot()
+    for joint in root.iter("joint"):
+        if joint.get("name") in fixed:
+            joint.set("type", "fixed")
+            for mimic in joint.findall("mimic"):
+                joint.remove(mimic)
+    return ET.tostring(root, encoding="unicode")
+
+
+def robot_models(name, folder):
+    """``(model, pinocchio model, data, speeds, efforts)`` of a robot: kanedyn's
+    model (C), Pinocchio's from the same text, the Pinocchio speed index of each
+    of kanedyn's joints and the input index of each joint's torque."""
+    from _peers import pinocchio_urdf
+    text = robot_text(name)
+    path = Path(folder) / f"{name}.urdf"
+    path.write_text(text)
+    definition = kd.models.from_urdf(path)
+    model = definition.numeric(backend="c")
+    pmodel, pdata = pinocchio_urdf(text)
+    speeds = [pmodel.joints[pmodel.getJointId(j.name)].idx_v for j in definition.joints]
+    if pmodel.nq != pmodel.nv or sorted(speeds) != list(range(pmodel.nv)):
+        raise RuntimeError(f"{name}: a joint Pinocchio does not count as kanedyn does")
+    efforts = [model.input_names.index(str(j.effort_input)) for j in definition.joints]
+    return model, pmodel, pdata, speeds, efforts
+
+
+def measure(n, rounds, robot=None, folder=None):
+    """Timings of kanedyn (one state, 1000 states) and Pinocchio, and the largest
+    difference of their derivatives, for ``chain3d`` at n or for ``robot``."""
     import pinocchio as pin
 
-    model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
-    pmodel, pdata = pinocchio_chain(n)
     rng = np.random.default_rng(2)
+    if robot is None:
+        model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
+        pmodel, pdata = pinocchio_chain(n)
+        speeds, efforts = list(range(n)), []
+    else:
+        model, pmodel, pdata, speeds, efforts = robot_models(robot, folder)
+        n = len(speeds)
     q, u = rng.uniform(-1.5, 1.5, (2, n))
-    tau = np.zeros(n)
+    tau = rng.uniform(-1.0, 1.0, n) if efforts else np.zeros(n)
     y = np.concatenate([q, u])
-    J = model.jacobians(0.0, y)
+    r = np.zeros(len(model.input_names))
+    r[efforts] = tau[:len(efforts)]
+    qp, vp, tp = (np.zeros(pmodel.nv) for _ in range(3))
+    qp[speeds], vp[speeds], tp[speeds] = q, u, tau
+    if efforts:
+        def one():
+            return model.jacobians(0.0, y, r=r)
+    else:
+        def one():
+            return model.jacobians(0.0, y)
+    J = one()
     # the derivative module comes from the quick compiler first: gcc's code is timed
     kd.numerics.finish_compiling()
-    dq, dv, _ = pin.computeABADerivatives(pmodel, pdata, q, u, tau)
-    error = max(np.max(np.abs(J.state[n:, :n] - dq)), np.max(np.abs(J.state[n:, n:] - dv)))
+    dq, dv, _ = pin.computeABADerivatives(pmodel, pdata, qp, vp, tp)
+    pick = np.ix_(speeds, speeds)
+    error = max(np.max(np.abs(J.state[n:, :n] - dq[pick])),
+                np.max(np.abs(J.state[n:, n:] - dv[pick])))
     states = rng.uniform(-1.5, 1.5, (1000, 2 * n))
+    inputs = np.broadcast_to(r, (len(states), len(r)))
     times = interleaved({
-        "kanedyn": lambda: model.jacobians(0.0, y),
-        "batch": lambda: model.jacobians(np.zeros(len(states)), states),
-        "pinocchio": lambda: pin.computeABADerivatives(pmodel, pdata, q, u, tau)},
+        "kanedyn": one,
+        "batch": lambda: model.jacobians(np.zeros(len(states)), states,
+                                         r=inputs if efforts else None),
+        "pinocchio": lambda: pin.computeABADerivatives(pmodel, pdata, qp, vp, tp)},
         rounds=rounds)
     times["batch"].times = [x / len(states) for x in times["batch"].times]
-    return times, float(error)
+    return times, float(error), n
 
 
 def main():
@@ -111,19 +183,29 @@ def main():
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--no-first-use", action="store_true",
                         help="only the timings per call (not the fresh-process builds)")
+    parser.add_argument("--no-robots", action="store_true",
+                        help="not the robots of example-robot-data")
     args = parser.parse_args()
     sizes = args.sizes + ([100] if args.large else [])
     print(machine_info())
-    print("\n| chain3d n | kanedyn jacobians, us | the same, 1000 states in one call, us "
-          "per state | Pinocchio computeABADerivatives, us | kanedyn / Pinocchio (one; "
-          "batch) | largest difference |")
-    print("|---|---|---|---|---|---|")
-    for n in sizes:
-        times, error = measure(n, args.rounds)
-        a, c, b = times["kanedyn"], times["batch"], times["pinocchio"]
-        print(f"| {n} | {1e6 * a.best:.1f} (spread {a.spread:.0%}) | {1e6 * c.best:.1f} "
-              f"(spread {c.spread:.0%}) | {1e6 * b.best:.1f} (spread {b.spread:.0%}) | "
-              f"{a.best / b.best:.2f}; {c.best / b.best:.2f} | {error:.1e} |")
+    print("\n| model (n) | kanedyn jacobians, us (median) | the same, 1000 states in one "
+          "call, us per state (median) | Pinocchio computeABADerivatives, us (median) | "
+          "kanedyn / Pinocchio, one (medians) | batch / Pinocchio (medians) | "
+          "largest difference |")
+    print("|---|---|---|---|---|---|---|")
+    cases = [] if args.no_robots or robot_text("Panda") is None else list(ROBOTS)
+    cases += sizes
+    with tempfile.TemporaryDirectory() as folder:
+        for case in cases:
+            robot = case if isinstance(case, str) else None
+            times, error, n = measure(0 if robot else case, args.rounds, robot, folder)
+            a, c, b = times["kanedyn"], times["batch"], times["pinocchio"]
+            label = f"{robot} ({n})" if robot else f"chain3d ({n})"
+            print(f"| {label} | {1e6 * a.best:.1f} ({1e6 * a.median:.1f}) | "
+                  f"{1e6 * c.best:.1f} ({1e6 * c.median:.1f}) | "
+                  f"{1e6 * b.best:.1f} ({1e6 * b.median:.1f}) | "
+                  f"{a.best / b.best:.2f} ({a.median / b.median:.2f}) | "
+                  f"{c.best / b.best:.2f} ({c.median / b.median:.2f}) | {error:.1e} |")
     if args.no_first_use:
         return
     print("\n| chain3d n | operations of the derivative code | first rhs, s | "

@@ -118,6 +118,51 @@ def test_trees_agree_with_the_derivatives_of_the_program(which, monkeypatch, tmp
         assert a.shape == b.shape and (not a.size or relative(a, b) < 1e-12), part
 
 
+def factors_against_expressions(which, backend, monkeypatch, tmp_path):
+    """Worst relative difference between the derivatives of a tree whose entries
+    are formed from its factors when the code runs and those written as
+    expressions, over three states at once, parameters included, and one."""
+    def build():
+        if which == "gimbal":
+            return gimbal_model(backend)
+        if which == "chain3d":
+            return chain()[0].numeric(backend=backend)
+        return kd.models.from_urdf(random_tree_urdf(
+            tmp_path / "tree.urdf", [-1, 0, 1, -1, 3, 3, 0], 4)).numeric(backend=backend)
+    expressions = build()
+    Y = np.random.default_rng(8).uniform(-1.2, 1.2, (3, expressions.n_states))
+    theirs = expressions.jacobians(0.0, Y, parameters=True)
+    monkeypatch.setattr(_jacobians, "TREE_FACTOR_MIN_SPEEDS", 1)
+    factored = build()
+    mine = factored.jacobians(0.0, Y, parameters=True)
+    if backend == "numpy":
+        assert factored.__dict__["_jacobian_tree"] is not None
+    else:
+        assert _jacobians._c_key(factored, True)[0].endswith(" factors")
+    worst = relative(factored.jacobians(0.0, Y[1]).state, theirs.state[1])
+    for part in ("f", "state", "inputs", "parameters"):
+        a, b = getattr(mine, part), getattr(theirs, part)
+        assert a.shape == b.shape, part
+        worst = max(worst, relative(a, b) if a.size else 0.0)
+    return worst
+
+
+@pytest.mark.parametrize("which", ["gimbal", "chain3d", "urdf"])
+def test_factors_formed_when_the_code_runs(which, monkeypatch, tmp_path):
+    """From ``TREE_FACTOR_MIN_SPEEDS`` speeds the entries are formed from the
+    per-speed factors when the code runs (NumPy: ``tree_jacobian_values``): the
+    same numbers as the entries written as expressions."""
+    assert factors_against_expressions(which, "numpy", monkeypatch, tmp_path) < 1e-12
+
+
+@needs_compiler
+@pytest.mark.parametrize("which", ["chain3d", "urdf"])
+def test_factors_formed_in_c(which, monkeypatch, tmp_path):
+    """The same in C (``kd_tree_jacobian``): on a chain (its rows vectorized) and
+    on a tree of two roots."""
+    assert factors_against_expressions(which, "c", monkeypatch, tmp_path) < 1e-12
+
+
 def test_the_gimbal_against_differences():
     model = gimbal_model()
     assert spatial_rows(model) is not None
@@ -211,6 +256,15 @@ def test_one_state_in_one_call():
         model.jacobians(0.0, y[:5])
     with_r = model.jacobians(0.0, y, r=[0.8])
     np.testing.assert_array_equal(with_r.state, first.state)
+    # r given as an array of the inputs: one call too (kept by the first call with r)
+    assert "_jacobian_point_given_r" in model.__dict__
+    given = model.jacobians(0.0, y, r=np.array([0.3]))
+    general = model.jacobians(np.zeros(1), y[None, :], r=np.array([0.3]))
+    for part in ("f", "state", "inputs", "constraints"):
+        np.testing.assert_array_equal(getattr(given, part), getattr(general, part)[0])
+    assert not np.array_equal(given.f, first.f)  # the input's force changed
+    with pytest.raises(ValueError, match="r must have 1 entries"):
+        model.jacobians(0.0, y, r=np.array([0.3, 0.1]))
 
     p = model.jacobians(0.0, y, parameters=True)
     p_again = model.jacobians(0.0, y, parameters=True)
@@ -227,6 +281,10 @@ def test_one_state_with_multipliers_in_one_call():
     first = model.jacobians(0.0, y, parameters=True)
     again = model.jacobians(0.0, y, parameters=True)
     rows = model.jacobians(0.0, y[None, :], parameters=True)
+    assert not model.input_names  # no inputs: an r of any length is refused
+    with pytest.raises(ValueError, match="r must have 0 entries"):
+        model.jacobians(0.0, y, r=np.ones(1), parameters=True)
+    np.testing.assert_array_equal(model.jacobians(0.0, y, r=np.zeros(0)).state, first.state)
     for part in ("f", "state", "inputs", "parameters", "multipliers", "multipliers_inputs",
                  "multipliers_parameters", "constraints"):
         np.testing.assert_array_equal(getattr(again, part), getattr(first, part))

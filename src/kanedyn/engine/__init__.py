@@ -9,7 +9,8 @@ numerics or simulation; see ``docs/architecture.md``.
 ``_kinematics``  frames and points as intermediates: rotations, angular
                  velocities, velocities, partial velocities, inertias
 ``_composite``   composite-body sums for the mass matrix and forcing of trees
-``_tree_derivatives``  derivatives of a tree's inertia forces in spatial terms
+``_tree_derivatives``  derivatives of a tree's inertia forces in spatial terms,
+                 and their entries formed from per-speed vectors
 """
 
 from ._composite import composite_equations, composite_inertia_forces
@@ -18,9 +19,10 @@ from ._kinematics import (Kinematics, PartialVelocities, add, cross, dot, dyadic
 from ._program import (SAMPLE_SEEDS, Program, fast_eval, kd_dpow, random_sampler,
                        total_derivative)
 from ._symbols import SymbolTable, name_of
-from ._tree_derivatives import tree_inertia_derivatives
+from ._tree_derivatives import FACTOR_PARTS, tree_inertia_derivatives, tree_jacobian_values
 
 __all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_derivative", "kd_dpow",
            "SymbolTable", "name_of", "Kinematics", "PartialVelocities", "add", "cross", "dot",
            "matvec", "dyadic_matrix", "inertia_components", "is_small", "composite_equations",
-           "composite_inertia_forces", "tree_inertia_derivatives"]
+           "composite_inertia_forces", "tree_inertia_derivatives", "tree_jacobian_values",
+           "FACTOR_PARTS"]

@@ -61,6 +61,12 @@ None of these conditions is assumed: the derivatives are compared at random
 points with complex-step derivatives of the equations' own inertia forces
 (:meth:`~._program.Program.shadow_jacobian`), and ``None`` is returned where
 they differ or cannot be compared.
+
+Generated code need not hold the :math:`2n^2` entries as expressions: the
+vectors :math:`\alpha_i, \beta_i, \gamma_i, d_i, e_i, S_i, Y_i, Z_i` of every
+speed (:data:`FACTOR_PARTS`, ``factors=True``) are :math:`O(n)` expressions,
+and :func:`tree_jacobian_values` (or the C runtime's loop) forms the entries
+from their numbers.
 """
 
 from __future__ import annotations
@@ -72,7 +78,13 @@ from ._composite import _Composite, _spatial_inertias, _speed_tree, _structure
 from ._kinematics import add, cross
 from ._program import SAMPLE_SEEDS
 
-__all__ = ["tree_inertia_derivatives"]
+__all__ = ["tree_inertia_derivatives", "tree_jacobian_values", "FACTOR_PARTS"]
+
+#: the vectors of each speed from which the entries are formed, in the order of
+#: the rows of the factors (``tree_inertia_derivatives(..., factors=True)``), and
+#: their lengths: 45 rows
+FACTOR_PARTS = (("alpha", 6), ("beta", 6), ("gamma", 3), ("d", 6), ("e", 6), ("S", 6),
+                ("Y", 6), ("Z", 6))
 
 _ZERO6 = (sm.S.Zero,) * 6
 
@@ -127,11 +139,14 @@ def _named(prog, vec, name):
 
 
 def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordinates, speeds,
-                             rates, o, reference, loads=()):
+                             rates, o, reference, loads=(), factors=False):
     r"""``(dq, du)``: :math:`\partial\tau/\partial q` and :math:`\partial\tau/\partial
     u` (o x o nested lists of expressions) of a tree's inertia forces with the
     rates :math:`\dot u` held, by the spatial formulas of this module; or
-    ``None`` without the structure.
+    ``None`` without the structure.  With ``factors=True``, ``(dq, du, factors,
+    parent)``: also the vectors of every speed the entries are formed from (45
+    rows of o expressions, :data:`FACTOR_PARTS`) and the speed above each speed
+    (-1 at a root), for :func:`tree_jacobian_values`.
 
     Parameters
     ----------
@@ -153,6 +168,8 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         centre of body ``k`` or ``(k, "T", torque)`` on its frame: their
         generalized forces are subtracted from :math:`\tau` (see
         :func:`_load_terms`).
+    factors : bool, optional
+        Also return the factors and the tree of speeds.
     """
     found = _structure(kin, bodies, body_terms, o) if len(coordinates) == o else None
     if found is None:
@@ -213,7 +230,82 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
             j = parent[j]
     if not _agrees(prog, reference, list(coordinates[:o]) + list(speeds[:o]), dq, du):
         return None
-    return dq, du
+    if not factors:
+        return dq, du
+    parts = {"alpha": alpha, "beta": beta, "gamma": gamma, "d": d, "e": e,
+             "S": dict(enumerate(S)), "Y": Y, "Z": Z}
+    used = _used_components(parts, parent, o)
+    rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
+            for name, size in FACTOR_PARTS for c in range(size)]
+    return dq, du, rows, tuple(parent[i] for i in range(o))
+
+
+#: which parts meet in the products of the formulas: (part of the speed below, part
+#: of the speed above or the same, components, the speed itself too)
+_PRODUCTS = (("alpha", "e", 6, True), ("alpha", "d", 6, True), ("beta", "d", 6, True),
+             ("beta", "S", 6, True), ("gamma", "S", 3, True), ("Y", "S", 6, False),
+             ("Z", "S", 6, False))
+
+
+def _used_components(parts, parent, o):
+    """``{(part, speed, component): bool}``: whether a component of a factor
+    meets a partner not exactly zero in some product of the formulas (the
+    entries skip the others, :func:`_dot`; so do the factors, whose
+    expressions may name constants the equations do not keep)."""
+    used = {(name, i, c): False for name, size in FACTOR_PARTS for i in range(o)
+            for c in range(size)}
+    for i in range(o):
+        j = i
+        while j >= 0:
+            for low, high, size, itself in _PRODUCTS:
+                if j == i and not itself:
+                    continue
+                for c in range(size):
+                    if parts[low][i][c] != 0 and parts[high][j][c] != 0:
+                        used[low, i, c] = used[high, j, c] = True
+            j = parent[j]
+    return used
+
+
+def tree_jacobian_values(factors, parent):
+    r""":math:`\partial\tau/\partial(q, u)` from the numbers of the factors.
+
+    Parameters
+    ----------
+    factors : array_like, shape (45, o) or (N, 45, o)
+        The vectors of every speed (:data:`FACTOR_PARTS`) at one state or N.
+    parent : sequence of o int
+        The speed above each speed, -1 at a root.
+
+    Returns
+    -------
+    ndarray, shape (o, 2 o) or (N, o, 2 o)
+        The derivatives with respect to the coordinates, then the speeds (units
+        of the inertia forces per unit of each).
+    """
+    F = np.asarray(factors, dtype=float)
+    o = len(parent)
+    at, part = 0, {}
+    for name, size in FACTOR_PARTS:
+        part[name] = F[..., at:at + size, :]
+        at += size
+    below = np.eye(o, dtype=bool)  # below[i, j]: j is i or above it
+    for i in range(o):
+        j = parent[i]
+        while j >= 0:
+            below[i, j] = True
+            j = parent[j]
+    strictly_above = (below & ~np.eye(o, dtype=bool)).T  # [j, i]: j strictly above i
+
+    def products(a, b):  # [..., i, j] = a_i . b_j
+        return np.einsum("...ci,...cj->...ij", a, b)
+    al, be, S = part["alpha"], part["beta"], part["S"]
+    lower_q = products(al, part["e"]) + products(be, part["d"]) + products(part["gamma"],
+                                                                         S[..., :3, :])
+    lower_u = products(be, S) + 2.0 * products(al, part["d"])
+    dq = np.where(below, lower_q, 0.0) + np.where(strictly_above, products(S, part["Y"]), 0.0)
+    du = np.where(below, lower_u, 0.0) + np.where(strictly_above, products(S, part["Z"]), 0.0)
+    return np.concatenate([dq, du], axis=-1)
 
 
 def _homes(composite, supports):

@@ -31,7 +31,9 @@ articulated-body derivatives do; otherwise :math:`\tau` is the product with the
 mass-matrix entries.  A tree whose coordinates' rates are its speeds takes
 spatial formulas for the state columns of its inertia forces and constant loads
 instead (:func:`kanedyn.engine.tree_inertia_derivatives`, fewer operations by
-a factor 3.5 to 7 on ``chain3d`` at n = 7 to 30; :func:`_tree_state_rows`).
+a factor 3.5 to 7 on ``chain3d`` at n = 7 to 30; :func:`_tree_state_rows`),
+their :math:`n^2` entries formed when the code runs from
+:data:`TREE_FACTOR_MIN_SPEEDS` speeds.
 The linear solve is numerical, so dependent speeds (and coordinates) are
 differentiated through their elimination exactly.  One state on the C backend
 is then one call of the module, which also makes the :class:`Jacobians`
@@ -149,7 +151,10 @@ def _specification(model, parameters):
     scheme the derivatives of its parts (:func:`_stabilization_derivatives.part_rows`),
     or for a model with contacts those of its contact kinematics, mass matrix
     and velocity-constraint matrix (:func:`_contact_derivatives.contact_rows`),
-    one output per column group.
+    one output per column group.  For a tree taking the spatial formulas
+    (:func:`_tree_state_rows`) ``E_y`` lacks their part, and one last output
+    holds the factors it is formed from; the tree of speeds is kept by the
+    model (``_jacobian_tree``).
     """
     import sympy as sm
 
@@ -171,10 +176,12 @@ def _specification(model, parameters):
     a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
     columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
     tree = _tree_state_rows(model, prog, kin, w, mass, args["y"], args["p"])
+    model.__dict__["_jacobian_tree"] = None if tree is None else tree[2]
+    factored = tree is not None and tree[1] is not None
     outputs = []
     for variables in columns:
         for rows in (qdot, E, a):
-            jac = (tree if rows is E and variables is args["y"] and tree is not None
+            jac = (tree[0] if rows is E and variables is args["y"] and tree is not None
                    else list(prog.jacobian(rows, variables, guarded=True)))
             outputs.append(((len(rows), len(variables)), jac))
     _, constraints = model._functions["constraints"]
@@ -188,17 +195,32 @@ def _specification(model, parameters):
     for variables in columns if rows else ():
         jac = prog.jacobian(rows, variables, guarded=True)
         outputs.append(((len(rows), len(variables)), list(jac)))
+    if factored:  # last: the tree's factors (no constraint or contact rows)
+        outputs.append(((len(tree[1]), o), [x for row in tree[1] for x in row]))
     return prog, dict(args, r=list(args["r"]) + w + mu), outputs
 
 
+#: speeds from which a tree's derivatives are formed from its factors when the
+#: code runs (below, the entries are expressions of the generated code): chain3d,
+#: C, per state, the factors' time over the expressions' 1.1 at n = 7, 1.0 at
+#: n = 12, 0.73 at n = 30
+TREE_FACTOR_MIN_SPEEDS = 12
+
+
 def _tree_state_rows(model, prog, kin, w, mass, y, constants):
-    r""":math:`\partial E/\partial y` (row-major entries) of a tree without
-    constraints or contacts, or ``None`` where the tree's formulas do not apply.
+    r"""``(rows, factors, parent)`` of :math:`\partial E/\partial y` of a tree
+    without constraints or contacts, or ``None`` where the tree's formulas do
+    not apply.
 
     Its inertia forces and the loads constant in inertial components at mass
     centres and on body frames (gravity) are differentiated in spatial terms
     (:func:`kanedyn.engine.tree_inertia_derivatives`), the other loads by the
-    program."""
+    program: ``rows`` (row-major entries) holds the latter's part; from
+    :data:`TREE_FACTOR_MIN_SPEEDS` speeds the former's is formed from the numbers
+    of ``factors`` (45 rows of o expressions) and the tree ``parent`` when the
+    code runs (:func:`kanedyn.engine.tree_jacobian_values`, or the C runtime's
+    ``kd_tree_jacobian``), so the generated code grows with n, not n^2; below,
+    ``rows`` holds both parts and ``factors`` and ``parent`` are ``None``."""
     import sympy as sm
 
     from ..engine import dot, tree_inertia_derivatives
@@ -216,14 +238,16 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
                - sm.Add(*[dot(vec, part[r]) for _, _, vec, part in constant])
                for r in range(o)]
     spatial = tree_inertia_derivatives(kin, *found, table.q, table.u, w, o, inertia,
-                                       [(k, kind, vec) for k, kind, vec, _ in constant])
+                                       [(k, kind, vec) for k, kind, vec, _ in constant],
+                                       factors=True)
     if spatial is None:
         return None
-    dq, du = spatial
+    dq, du, factors, parent = spatial
     active = prog.jacobian(other, y, guarded=True)
-    n = len(y) - o
-    return [(dq[r][c] if c < n else du[r][c - n]) - active[r, c]
-            for r in range(o) for c in range(len(y))]
+    if o < TREE_FACTOR_MIN_SPEEDS:  # the entries as expressions
+        return [(dq[r][c] if c < o else du[r][c - o]) - active[r, c]
+                for r in range(o) for c in range(len(y))], None, None
+    return [-active[r, c] for r in range(o) for c in range(len(y))], factors, parent
 
 
 def _substituted(model, prog, expr):
@@ -292,7 +316,7 @@ def _parts(model):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 3"
+_GENERATION = "jacobians 4"
 
 
 def _functions(model, parameters):
@@ -313,7 +337,9 @@ def _functions(model, parameters):
 
         def units():
             prog, args, outputs = _specification(model, parameters)
-            return generate_c_units(prog, dict(functions, jacobians=(args, outputs)), sizes,
+            tree = {"jacobian_tree": model.__dict__["_jacobian_tree"]}
+            return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
+                                    dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
         # first from the quick compiler where there is one: its functions move onto
@@ -340,6 +366,7 @@ def _c_key(model, parameters):
     parts = _parts(model)
     stabilized = f" stabilization={','.join(parts)}" if parts else ""
     stabilized += " contacts" if model.contacts else ""
+    stabilized += " factors" if model.n_u >= TREE_FACTOR_MIN_SPEEDS else ""
     return f"{text}\n{_GENERATION} parameters={parameters}{stabilized}", functions, sizes
 
 
@@ -518,7 +545,7 @@ def _evaluate(model, fns, T, Y, R):
         S = _index1_matrices(mass, vel_B, acc_K)
         solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
         udot, lam = solved[:, :o], solved[:, o:]
-        outputs = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
+        outputs = list(derivative_rows(T, Y, model._p, np.hstack([R, udot, lam])))
     else:
         at = []
         for t, y, r in zip(T, Y, R):
@@ -536,6 +563,10 @@ def _evaluate(model, fns, T, Y, R):
         values = {key: np.stack([a[3][key] for a in at]) for key in at[0][3]}
         outputs = [np.stack(part) for part in zip(*(a[4] for a in at))]
         S = _index1_matrices(mass, vel_B, acc_K, values.get("alpha"))
+    tree = model.__dict__.get("_jacobian_tree")
+    if tree is not None:  # the part of the spatial formulas, from their factors
+        from ..engine import tree_jacobian_values
+        outputs[1] = outputs[1] + tree_jacobian_values(outputs.pop(), tree)
     count = (len(outputs) - 2) // (4 if names else 3)  # column groups
     blocks, (h_y, c_y) = outputs[:3 * count], outputs[3 * count:3 * count + 2]
     extra = outputs[3 * count + 2:]
@@ -608,7 +639,7 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         groups = [(d[0], None if dl is None else dl[0]) for d, dl in groups]
         contact = {key: value[0] for key, value in contact.items()}
     m = model.n_u_dep
-    if not many and r is None and modes is None:
+    if not many and modes is None:
         _keep_point(model, fns, parameters)
     return Jacobians._of(
         f=f, state=groups[0][0], inputs=groups[1][0],
@@ -632,14 +663,14 @@ _SOLVED = ("f", "constraints", "state", "inputs", "parameters", "multipliers",
 
 
 def _keep_point(model, fns, parameters):
-    """Keep with ``model`` the function ``point(t, y)`` that gives its
-    :class:`Jacobians` at one state in one call of the C module
-    (``solved_jacobian``), for the next calls with ``r`` and ``modes`` not
-    given: a C model without contacts or a stabilized scheme (whose parts are
-    solved in NumPy), with constants where they are asked for.  It returns
-    ``None`` for what it does not take as it comes (``y`` not an array of
-    ``n_states`` floats, ``t`` not a number), which :func:`jacobians` then
-    checks and converts."""
+    """Keep with ``model`` the functions ``point(t, y)`` and ``given(r, t, y)``
+    that give its :class:`Jacobians` at one state in one call of the C module
+    (``solved_jacobian``), for the next calls with ``modes`` not given (and
+    ``r`` not given, or given): a C model without contacts or a stabilized
+    scheme (whose parts are solved in NumPy), with constants where they are
+    asked for.  They return ``None`` for what they do not take as it comes
+    (``y`` or ``r`` not an array of ``n_states`` or ``n_inputs`` floats, ``t``
+    not a number), which :func:`jacobians` then checks and converts."""
     from functools import partial
     key = "_jacobian_point_p" if parameters else "_jacobian_point"
     one = fns[5]
@@ -650,7 +681,15 @@ def _keep_point(model, fns, parameters):
                  contact_forces_parameters=None, state_names=tuple(model.state_names),
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
+    # empty blocks: one read-only array each, not made anew per call
+    x = model.n_states
+    for name, shape in (("constraints", (model.n_q_dep + model.n_u_dep, x)),
+                        ("inputs", (x, len(model.input_names)))):
+        if not min(shape):
+            fixed[name] = np.empty(shape)
+            fixed[name].flags.writeable = False
     solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
+    model.__dict__[key + "_given_r"] = solved
     if not model._inputs:
         model.__dict__[key] = partial(solved, np.zeros(0))
         return

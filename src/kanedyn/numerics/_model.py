@@ -1001,9 +1001,14 @@ class NumericModel(StateLayout):
         >>> J.state.shape
         (2, 2)
         """
-        if r is None and modes is None:  # one state on C: one call, without the checks
-            point = self.__dict__.get("_jacobian_point_p" if parameters else "_jacobian_point")
-            found = point(t, y) if point is not None else None
+        if modes is None:  # one state on C: one call, without the checks
+            key = "_jacobian_point_p" if parameters else "_jacobian_point"
+            if r is None:
+                point = self.__dict__.get(key)
+                found = point(t, y) if point is not None else None
+            else:
+                point = self.__dict__.get(key + "_given_r")
+                found = point(r, t, y) if point is not None else None
             if found is not None:
                 return found
         from ._jacobians import jacobians

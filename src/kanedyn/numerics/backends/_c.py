@@ -809,6 +809,7 @@ def _runtime_parts(functions, sizes, lanes):
     columns = _parameter_columns(functions, sizes)
     if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
         defines.append(f"#define KD_JP {columns}")
+        defines.extend(jacobian_tree_source(sizes))
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
             *([_c_runtime.JACOBIAN_SOLVE] if columns is not None else []),
             _function_table(functions, rows), _c_runtime.MODULE_FOOTER]
@@ -823,7 +824,22 @@ def _parameter_columns(functions, sizes):
     ``None`` without that function, or with more outputs (a stabilized scheme's
     parts: its derivatives are solved in NumPy)."""
     _, outputs = functions.get("jacobians", (None, ()))
-    return {8: 0, 11: sizes["n_p"]}.get(len(outputs))
+    count = len(outputs) - (sizes.get("jacobian_tree") is not None)  # the tree's factors
+    return {8: 0, 11: sizes["n_p"]}.get(count)
+
+
+def jacobian_tree_source(sizes):
+    """C definitions of the tree whose derivatives ``kd_tree_jacobian`` forms from
+    their factors (the last output of the ``jacobians`` function,
+    ``sizes["jacobian_tree"]``: the speed above each speed, -1 at a root):
+    ``KD_TREE_JAC``, ``KD_TREE_CHAIN`` (each speed's parent the one before it)
+    and ``kd_jparent``; ``KD_TREE_JAC 0`` without."""
+    parent = sizes.get("jacobian_tree")
+    if parent is None:
+        return ["#define KD_TREE_JAC 0"]
+    chain = all(p == k - 1 for k, p in enumerate(parent))
+    return ["#define KD_TREE_JAC 1", f"#define KD_TREE_CHAIN {int(chain)}",
+            f"static const int kd_jparent[{len(parent)}] = {{{', '.join(map(str, parent))}}};"]
 
 
 def _inverse_at_a_point(functions, sizes):

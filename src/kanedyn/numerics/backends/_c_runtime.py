@@ -351,11 +351,92 @@ JACOBIAN_SOLVE = r"""
 #define KD_NS (KD_NU + KD_NUDEP)           /* unknowns of the index-1 system */
 #define KD_JC (KD_NX + KD_NR + KD_JP)      /* derivative columns */
 #define KD_NCON (KD_NQDEP + KD_NUDEP)      /* constraint rows */
+#ifndef KD_TREE_JAC
+#define KD_TREE_JAC 0
+#endif
+#if KD_TREE_JAC
+#define KD_TREE_FACTORS (45 * KD_NU)       /* kd_tree_jacobian's vectors */
+#define KD_TREE_OUT , TF                   /* the last output of kd_eval_jacobians */
+#else
+#define KD_TREE_FACTORS 0
+#define KD_TREE_OUT
+#endif
 /* scratch: the dynamics' outputs, the system and its pivots, the extended
-   inputs, the derivative blocks and the right-hand sides of the solve */
+   inputs, the derivative blocks (the solve is done in place in D) and the
+   tree's factors */
 #define KD_JAC_SCRATCH (KD_NQ + KD_NU * KD_NU + KD_NU + 2 * KD_NUDEP * KD_NU + KD_NUDEP \
     + KD_NS * KD_NS + 2 * KD_NS + KD_NR + KD_NS + KD_NQ * KD_JC + KD_NS * KD_JC \
-    + KD_NS * KD_JC + 1)
+    + KD_TREE_FACTORS + 1)
+
+#if KD_TREE_JAC
+#if KD_NQ != KD_NU || KD_NUDEP != 0
+#error "the tree's derivatives need as many coordinates as speeds and no dependent speeds"
+#endif
+/* E (KD_NU rows of 2 KD_NU: the coordinates' columns, then the speeds') += the
+   derivatives of a tree's inertia forces from the vectors of each speed, F (45
+   rows of KD_NU: alpha 6, beta 6, gamma 3, d 6, e 6, S 6, Y 6, Z 6; see
+   kanedyn.engine.tree_inertia_derivatives): for j = i or above it,
+   dq_ij = alpha_i.e_j + beta_i.d_j + gamma_i.S_j(angular), du_ij = beta_i.S_j +
+   2 alpha_i.d_j; for j strictly above i, dq_ji = S_j.Y_i, du_ji = S_j.Z_i.  On a
+   chain, rows of contiguous columns (the compiler vectorizes them) */
+KD_VECTORIZED static void kd_tree_jacobian(const double *restrict F, double *restrict E) {
+    const int n = KD_NU, w = 2 * KD_NU;
+    const double *restrict al = F, *restrict be = F + 6 * n, *restrict ga = F + 12 * n;
+    const double *restrict d = F + 15 * n, *restrict e = F + 21 * n, *restrict S = F + 27 * n;
+    const double *restrict Y = F + 33 * n, *restrict Z = F + 39 * n;
+    for (int i = 0; i < n; ++i) {
+        double A[6], A2[6], B[6], G[3], Si[6];
+        for (int c = 0; c < 6; ++c) {
+            A[c] = al[c * n + i];
+            A2[c] = 2.0 * A[c];
+            B[c] = be[c * n + i];
+            Si[c] = S[c * n + i];
+        }
+        for (int c = 0; c < 3; ++c) G[c] = ga[c * n + i];
+        double *restrict q = E + i * w, *restrict u = q + n;
+#if KD_TREE_CHAIN
+        for (int j = 0; j <= i; ++j) {  /* i and the speeds above it */
+            double sq = 0.0, su = 0.0;
+            for (int c = 0; c < 6; ++c) {
+                sq += A[c] * e[c * n + j] + B[c] * d[c * n + j];
+                su += B[c] * S[c * n + j] + A2[c] * d[c * n + j];
+            }
+            for (int c = 0; c < 3; ++c) sq += G[c] * S[c * n + j];
+            q[j] += sq;
+            u[j] += su;
+        }
+        for (int k = i + 1; k < n; ++k) {  /* the speeds below i: S_i.Y_k, S_i.Z_k */
+            double sq = 0.0, su = 0.0;
+            for (int c = 0; c < 6; ++c) {
+                sq += Si[c] * Y[c * n + k];
+                su += Si[c] * Z[c * n + k];
+            }
+            q[k] += sq;
+            u[k] += su;
+        }
+#else
+        for (int j = i; j >= 0; j = kd_jparent[j]) {
+            double sq = 0.0, su = 0.0;
+            for (int c = 0; c < 6; ++c) {
+                sq += A[c] * e[c * n + j] + B[c] * d[c * n + j];
+                su += B[c] * S[c * n + j] + A2[c] * d[c * n + j];
+            }
+            for (int c = 0; c < 3; ++c) sq += G[c] * S[c * n + j];
+            q[j] += sq;
+            u[j] += su;
+            if (j == i) continue;
+            double tq = 0.0, tu = 0.0;  /* row j, column i: S_j.Y_i, S_j.Z_i */
+            for (int c = 0; c < 6; ++c) {
+                tq += S[c * n + j] * Y[c * n + i];
+                tu += S[c * n + j] * Z[c * n + i];
+            }
+            E[j * w + i] += tq;
+            E[j * w + n + i] += tu;
+        }
+#endif
+    }
+}
+#endif
 
 /* LU factors of A (n x n, in place) with the row of each pivot; 1 if singular */
 static int kd_lu_factor(int n, double *A, double *piv) {
@@ -415,40 +496,90 @@ KD_VECTORIZED static void kd_lu_apply(int n, const double *A, const double *piv,
 
 #if KD_NUDEP == 0 && (KD_SOLVE == 1 || KD_SOLVE == 2)
 /* without dependent speeds the system is M, factored as for the right-hand side
-   (L^T D L: kd_ltdl_dense or kd_ltdl_tree, the same u'); then X = M^-1 X (X:
-   KD_NU x KD_JC) from those factors, whole rows of X at a time (the compiler
-   vectorizes them) */
+   (L^T D L: kd_ltdl_dense or kd_ltdl_tree, the same u'); then X = -M^-1 X (X:
+   KD_NU x KD_JC, the sign taken in the diagonal step) from those factors, whole
+   rows of X at a time (the compiler vectorizes them).  From rows of 32 columns,
+   each row that is updated gathers up to four solved rows per pass, so it is
+   loaded and stored once per four of them (the dense factor: both triangular
+   solves; a tree's: the solve with L, whose rows gather their ancestors); on
+   chain3d, C, per state: 0.83x the time of one row per pass at n = 30, slower at
+   n = 7 (14 columns) */
 #define KD_JACOBIAN_LTDL 1
 #if KD_SOLVE == 1
 #define KD_LTDL kd_ltdl_dense
-#define KD_ABOVE(k) ((k) - 1)
-#define KD_UP(i) ((i) - 1)
 #else
 #define KD_LTDL kd_ltdl_tree
-#define KD_ABOVE(k) (kd_parent[k])
-#define KD_UP(i) (kd_parent[i])
 #endif
+#define KD_GATHER_ROWS (KD_JC >= 32)
+/* x -= a0 x0 + a1 x1 + a2 x2 + a3 x3 (rows of KD_JC) */
+#define KD_GATHER4(x, a, r) \
+    for (int j = 0; j < KD_JC; ++j) \
+        x[j] -= (a[0] * r[0][j] + a[1] * r[1][j]) + (a[2] * r[2][j] + a[3] * r[3][j])
 KD_VECTORIZED static void kd_ltdl_apply(const double *restrict A, double *restrict X) {
     const int n = KD_NU;
-    for (int k = n - 1; k > 0; --k) {  /* L^T Z = X */
-        const double *restrict xk = X + k * KD_JC;
-        for (int i = KD_ABOVE(k); i >= 0; i = KD_UP(i)) {
-            const double a = A[k * n + i];
-            double *restrict xi = X + i * KD_JC;
-            for (int j = 0; j < KD_JC; ++j) xi[j] -= a * xk[j];
+    double a[4];
+    const double *r[4];
+#if KD_SOLVE == 1
+    for (int i = n - 2; i >= 0; --i) {  /* L^T Z = X: row i gathers the rows below it */
+        double *restrict xi = X + i * KD_JC;
+        int k = i + 1;
+        for (; KD_GATHER_ROWS && k + 3 < n; k += 4) {
+            for (int c = 0; c < 4; ++c) {
+                a[c] = A[(k + c) * n + i];
+                r[c] = X + (k + c) * KD_JC;
+            }
+            KD_GATHER4(xi, a, r);
+        }
+        for (; k < n; ++k) {
+            const double b = A[k * n + i];
+            const double *restrict xk = X + k * KD_JC;
+            for (int j = 0; j < KD_JC; ++j) xi[j] -= b * xk[j];
         }
     }
-    for (int k = 0; k < n; ++k) {  /* D */
-        const double d = A[k * n + k];
-        double *restrict xk = X + k * KD_JC;
-        for (int j = 0; j < KD_JC; ++j) xk[j] /= d;
+#else
+    for (int k = n - 1; k > 0; --k) {  /* L^T Z = X: row k scattered to its ancestors */
+        const double *restrict xk = X + k * KD_JC;
+        for (int i = kd_parent[k]; i >= 0; i = kd_parent[i]) {
+            const double b = A[k * n + i];
+            double *restrict xi = X + i * KD_JC;
+            for (int j = 0; j < KD_JC; ++j) xi[j] -= b * xk[j];
+        }
     }
-    for (int k = 1; k < n; ++k) {  /* L X = Z */
+#endif
+    for (int k = 0; k < n; ++k) {  /* -D^-1 */
+        const double s = -1.0 / A[k * n + k];
         double *restrict xk = X + k * KD_JC;
-        for (int i = KD_ABOVE(k); i >= 0; i = KD_UP(i)) {
-            const double a = A[k * n + i];
+        for (int j = 0; j < KD_JC; ++j) xk[j] *= s;
+    }
+    for (int k = 1; k < n; ++k) {  /* L X = Z: row k gathers its ancestors */
+        double *restrict xk = X + k * KD_JC;
+        const double *restrict rk = A + k * n;
+#if KD_SOLVE == 1
+        int i = 0;
+        for (; KD_GATHER_ROWS && i + 3 < k; i += 4) {
+            for (int c = 0; c < 4; ++c) {
+                a[c] = rk[i + c];
+                r[c] = X + (i + c) * KD_JC;
+            }
+            KD_GATHER4(xk, a, r);
+        }
+        for (; i < k; ++i) {
+#else
+        int i = kd_parent[k], c = 0;
+        for (; i >= 0; i = kd_parent[i]) {
+            a[c] = rk[i];
+            r[c] = X + i * KD_JC;
+            if (++c == 4) {
+                KD_GATHER4(xk, a, r);
+                c = 0;
+            }
+        }
+        for (int e = 0; e < c; ++e) {
+            i = (int)((r[e] - X) / KD_JC);
+#endif
+            const double b = rk[i];
             const double *restrict xi = X + i * KD_JC;
-            for (int j = 0; j < KD_JC; ++j) xk[j] -= a * xi[j];
+            for (int j = 0; j < KD_JC; ++j) xk[j] -= b * xi[j];
         }
     }
 }
@@ -479,15 +610,22 @@ static int kd_index1_lu(const double *M, const double *fv, const double *B, cons
 }
 
 /* one column group of the derivatives: g_x into the rows of q' of D, the
-   right-hand sides -[E_x; a_x] into X, both at column `at` of the KD_JC */
-static void kd_jacobian_group(const double *g, const double *E, const double *a, int cols,
-                              int at, double *D, double *X) {
+   right-hand sides [E_x; a_x] (negated where `negate`) into X, both at column
+   `at` of the KD_JC */
+KD_VECTORIZED static void kd_jacobian_group(const double *restrict g, const double *restrict E,
+                                            const double *restrict a, int cols, int at,
+                                            int negate, double *restrict D,
+                                            double *restrict X) {
     for (int i = 0; i < KD_NQ; ++i)
-        for (int j = 0; j < cols; ++j) D[i * KD_JC + at + j] = g[i * cols + j];
-    for (int i = 0; i < KD_NU; ++i)
-        for (int j = 0; j < cols; ++j) X[i * KD_JC + at + j] = -E[i * cols + j];
-    for (int i = 0; i < KD_NUDEP; ++i)
-        for (int j = 0; j < cols; ++j) X[(KD_NU + i) * KD_JC + at + j] = -a[i * cols + j];
+        memcpy(D + i * KD_JC + at, g + i * cols, sizeof(double) * cols);
+    for (int i = 0; i < KD_NS; ++i) {
+        const double *restrict from = i < KD_NU ? E + i * cols : a + (i - KD_NU) * cols;
+        double *restrict to = X + i * KD_JC + at;
+        if (negate)
+            for (int j = 0; j < cols; ++j) to[j] = -from[j];
+        else
+            memcpy(to, from, sizeof(double) * cols);
+    }
 }
 
 KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
@@ -495,7 +633,9 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
     double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
     double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
-    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *X = EA + KD_NS * KD_JC;
+    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *TF = EA + KD_NS * KD_JC;
+    (void)TF;
+    double *X = D + KD_NQ * KD_JC;  /* the solve in place: the rows of u', then of lambda */
     kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
     int lu = 1;
 #if KD_JACOBIAN_LTDL
@@ -518,19 +658,24 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     }
 #if KD_JP > 0
     kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                      C, C + KD_NQDEP * KD_NX);
+                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #else
     kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                      C, C + KD_NQDEP * KD_NX);
+                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+#endif
+#if KD_TREE_JAC
+    kd_tree_jacobian(TF, E[0]);
+#endif
+    int negate = 1;  /* kd_ltdl_apply negates by itself */
+#if KD_JACOBIAN_LTDL
+    negate = lu;
 #endif
     for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, D, X);
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
 #if KD_JACOBIAN_LTDL
     if (!lu) kd_ltdl_apply(M, X); else
 #endif
     kd_lu_apply(KD_NS, S, piv, X, KD_JC);
-    memcpy(D + KD_NQ * KD_JC, X, sizeof(double) * KD_NU * KD_JC);  /* the rows of u' */
-    memcpy(D + KD_NX * KD_JC, X + KD_NU * KD_JC, sizeof(double) * KD_NUDEP * KD_JC);
     memcpy(f, qd, sizeof(double) * KD_NQ);
     memcpy(f + KD_NQ, sol, sizeof(double) * KD_NU);
     return 0;
@@ -1338,7 +1483,8 @@ done:
    then the blocks of D (the rows of f, then those of the multipliers, each in
    the columns of the state, the inputs and the constants), arrays of their own
    or None (the constants where none are generated; the multipliers without
-   dependent speeds).  p and r (n_r) vectors; t a number and y an array of n_x
+   dependent speeds); C without constraints and the inputs' block without
+   inputs are not set (`fields` holds them: empty arrays, read-only).  p a vector; t a number, r and y arrays of n_r and n_x
    doubles, exactly: None for anything else, which the caller then checks and
    converts.  LinAlgError if singular */
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
@@ -1361,21 +1507,23 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
     static PyObject *dict_name = NULL;
     if (dict_name == NULL && (dict_name = PyUnicode_InternFromString("__dict__")) == NULL)
         return NULL;
+    const double *r = kd_in_place(args[4], KD_NR);  /* no inputs: an empty array */
+    if (r == NULL) Py_RETURN_NONE;
+    if (KD_NR == 0) r = empty;
     PyObject *keep[2] = {NULL, NULL}, *values[8] = {NULL}, *result = NULL;
     const double *p = KD_NP > 0 ? kd_vector(args[3], KD_NP, &keep[0], "p") : empty;
-    const double *r = p == NULL ? NULL
-        : KD_NR > 0 ? kd_vector(args[4], KD_NR, &keep[1], "r") : empty;
     const int rows = KD_NX + KD_NUDEP, columns = info->columns;
     const int widths[3] = {KD_NX, KD_NR, columns - KD_NX - KD_NR};
-    double *work = r == NULL ? NULL : (double *)PyMem_Malloc(
+    double *work = p == NULL ? NULL : (double *)PyMem_Malloc(
         sizeof(double) * (KD_SZ(KD_NW) + info->scratch + rows * columns));
     if (work == NULL) {
-        if (r != NULL) PyErr_NoMemory();
+        if (p != NULL) PyErr_NoMemory();
         goto done;
     }
-    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = NULL;
+    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = D;
     if ((values[0] = kd_new_vector(KD_NX, &f)) == NULL
-            || (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL)
+            || (info->constraint_rows > 0  /* else the empty array of `fields` */
+                && (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL))
         goto done;
     int bad;
     Py_BEGIN_ALLOW_THREADS
@@ -1392,6 +1540,7 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
             values[2 + b] = Py_None;
             continue;
         }
+        if (b == 1 && widths[1] == 0) continue;  /* no inputs: the empty array of `fields` */
         const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
         double *out;
         if ((values[2 + b] = kd_new_matrix(height, widths[group], &out)) == NULL) goto done;
@@ -1401,7 +1550,8 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
     }
     PyObject *fields = PyDict_Copy(args[1]);
     for (int k = 0; fields != NULL && k < 8; ++k)
-        if (PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
+        if (values[k] != NULL
+                && PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
             Py_CLEAR(fields);
     PyTypeObject *cls = (PyTypeObject *)args[0];
     result = fields == NULL ? NULL : cls->tp_alloc(cls, 0);  /* object.__new__(cls) */
