@@ -300,13 +300,15 @@ def initial_state(case, model, outputs, definition=None):
     return y0
 
 
-def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
+def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7, duration=None):
     """``(time, {channel: series})`` of kanedyn in ``case``, in OpenFAST's units
-    (and ``Wave1Elev``, the wave elevation at the origin in m, in a wave case)."""
+    (and ``Wave1Elev``, the wave elevation at the origin in m, in a wave case),
+    over ``duration`` s (default: the case's)."""
     from kanedyn.simulation import simulate
     d, model, outputs = kanedyn_model(backend, tuple(sorted(case.kanedyn.items())))
     y0 = initial_state(case, model, outputs, d)
-    t = np.arange(0.0, case.duration + 0.5 * case.step, case.step)
+    end = case.duration if duration is None else duration
+    t = np.arange(0.0, end + 0.5 * case.step, case.step)
     res = simulate(model, (0.0, t[-1]), y0, t_eval=t, rtol=rtol, atol=atol)
     if not res.success:
         raise RuntimeError(f"kanedyn's {case.name} decay failed: {res.message}")
