@@ -58,6 +58,20 @@ WAVE_HEIGHT, WAVE_PERIOD = 6.0, 10.0
 #: from this time on (s) the wave case's responses are compared (the waves start at t = 0)
 WAVE_START = 60.0
 
+#: the steady wind of the "wind" case (m/s, uniform, no shear) and its rotor's initial
+#: state: kanedyn's BEM rotor settled in it (``oc3_spar(..., rotor="spinning",
+#: aero="bem", controller="on")`` at its equilibrium, rounded)
+WIND_SPEED = 18.0
+
+#: from this time on (s) the wind case's means are taken (the surge offset is fitted)
+WIND_START = 100.0
+
+#: the wind case's rotor channels: OpenFAST channel -> (kanedyn quantity, factor to
+#: kanedyn's units); see :func:`kanedyn_response`
+WIND_CHANNELS = {"RotSpeed": ("rotor_speed", math.pi / 30), "BlPitch1": ("blade_pitch",
+                                                                        math.pi / 180),
+                 "GenPwr": ("electrical_power", 1e3), "RtAeroFxh": ("thrust", 1.0)}
+
 #: OpenFAST channel -> (kanedyn state or output, factor to kanedyn's units)
 CHANNELS = {"PtfmSurge": ("surge", 1.0), "PtfmSway": ("sway", 1.0),
             "PtfmHeave": ("heave", 1.0), "PtfmRoll": ("roll", math.pi / 180),
@@ -86,6 +100,8 @@ class Case:
     seastate: dict = field(default_factory=dict)
     hydrodyn: str = ""
     kanedyn: dict = field(default_factory=dict)
+    wind: float = 0.0
+    settings: dict = field(default_factory=dict)
 
     @property
     def waves(self):
@@ -104,6 +120,14 @@ CASES = {c.name: c for c in (
          seastate={"WaveMod": "1P0", "WaveHs": f"{WAVE_HEIGHT:g}", "WaveTp": f"{WAVE_PERIOD:g}"},
          hydrodyn="NRELOffshrBsline5MW_OC3Hywind_HydroDyn_Waves.dat",
          kanedyn={"sea": "regular", "wave_height": WAVE_HEIGHT, "wave_period": WAVE_PERIOD}),
+    Case("wind", {"PtfmSurge": 10.56, "PtfmSway": -0.26, "PtfmHeave": -0.145,
+                  "PtfmRoll": 0.137, "PtfmPitch": 2.427, "PtfmYaw": -0.552, "TTDspFA": 0.218,
+                  "RotSpeed": 12.1, "BlPitch(1)": 14.71},
+         400.0, 0.2, "PtfmPitch", f"steady wind {WIND_SPEED:g} m/s, rotor turning, controller on",
+         kanedyn={"rotor": "spinning", "aero": "bem", "controller": "on", "blades": "rigid",
+                  "wind_speed": WIND_SPEED},
+         wind=WIND_SPEED, settings={"GenDOF": "True", "PreCone(1)": "0", "PreCone(2)": "0",
+                                    "PreCone(3)": "0"}),
 )}
 
 
@@ -231,17 +255,41 @@ def read_output_csv(path):
 def kanedyn_model(backend="c", extra=()):
     """``(definition, numeric model, outputs)`` of oc3-spar with :data:`KANEDYN_OPTIONS`
     and the ``(option, value)`` pairs ``extra``."""
-    from kanedyn.analysis._oc3_studies import _built, oc3_outputs
-    options = {**KANEDYN_OPTIONS, **dict(extra)}
-    d, _, model, _ = _built(backend, tuple(sorted(options.items())))
+    from kanedyn.analysis._oc3_studies import oc3_outputs
+    from kanedyn.models import oc3_spar
+    d = oc3_spar(**{**KANEDYN_OPTIONS, **dict(extra)})
+    eom = d.derive()
+    needed = {str(x) for x in eom.specified}
+    # inputs the equations do not contain (the strips' velocities without drag) are left out
+    inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
+    model = eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
     return d, model, oc3_outputs(d, model)
 
 
-def initial_state(case, model, outputs):
-    """kanedyn's state for the case's ElastoDyn initial conditions (undisplaced otherwise)."""
+def initial_state(case, model, outputs, definition=None):
+    """kanedyn's state for the case's ElastoDyn initial conditions (undisplaced otherwise).
+
+    A wind case starts from the definition's initial state with the platform,
+    tower, rotor speed and blade pitch of the case, the controller's filtered
+    generator speed at the generator's speed and its integral at the value whose
+    command is the blade pitch (as OpenFAST's controller library starts itself).
+    """
     names = list(model.state_names)
-    y0 = np.zeros(model.n_states)
+    y0 = np.array(definition.initial(model), float) if case.wind else np.zeros(model.n_states)
     for channel, value in case.elastodyn.items():
+        if channel == "RotSpeed":
+            from kanedyn.models._oc3_data import DRIVETRAIN
+            y0[names.index("rotor_speed")] = value * math.pi / 30
+            y0[names.index("gen_speed_filtered")] = (value * math.pi / 30
+                                                     * DRIVETRAIN["gear_ratio"].value)
+            continue
+        if channel == "BlPitch(1)":
+            from kanedyn.models._oc3_rotor import oc3_controller
+            controller, pitch = oc3_controller(), math.radians(value)
+            y0[names.index("blade_pitch")] = pitch
+            y0[names.index("speed_error_integral")] = pitch / (
+                controller.gain_correction(pitch) * controller.ki)
+            continue
         target, factor = CHANNELS[channel]
         if target == "top_deflection":
             row = outputs["top_deflection"][0]
@@ -252,13 +300,15 @@ def initial_state(case, model, outputs):
     return y0
 
 
-def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
+def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7, duration=None):
     """``(time, {channel: series})`` of kanedyn in ``case``, in OpenFAST's units
-    (and ``Wave1Elev``, the wave elevation at the origin in m, in a wave case)."""
+    (and ``Wave1Elev``, the wave elevation at the origin in m, in a wave case),
+    over ``duration`` s (default: the case's)."""
     from kanedyn.simulation import simulate
     d, model, outputs = kanedyn_model(backend, tuple(sorted(case.kanedyn.items())))
-    y0 = initial_state(case, model, outputs)
-    t = np.arange(0.0, case.duration + 0.5 * case.step, case.step)
+    y0 = initial_state(case, model, outputs, d)
+    end = case.duration if duration is None else duration
+    t = np.arange(0.0, end + 0.5 * case.step, case.step)
     res = simulate(model, (0.0, t[-1]), y0, t_eval=t, rtol=rtol, atol=atol)
     if not res.success:
         raise RuntimeError(f"kanedyn's {case.name} decay failed: {res.message}")
@@ -271,7 +321,38 @@ def kanedyn_response(case, backend="c", rtol=1e-7, atol=1e-7):
             series[channel] = res.y[names.index(target)] / factor
     if case.waves:   # the wave elevation at the platform's reference point (0, 0), m
         series["Wave1Elev"] = d.symbols["elements"]["morison"].waves.elevation_series(0.0, res.t)
+    if case.wind:
+        series.update(_rotor_series(model, res))
     return res.t, series
+
+
+def _rotor_series(model, res):
+    """The wind case's :data:`WIND_CHANNELS` of kanedyn's run, in OpenFAST's units.
+
+    Rotor speed and blade pitch are states; the thrust is the BEM rotor's force
+    along the shaft (the input ``Frotor_x``, solved again at each output
+    time); the electrical power is the baseline controller's generator torque
+    of the states times the generator speed (gear ratio times the rotor speed)
+    times the generator efficiency.
+    """
+    import sympy as sm
+
+    from kanedyn.models._oc3_data import DRIVETRAIN
+    from kanedyn.models._oc3_rotor import oc3_controller
+    names = list(model.state_names)
+    states = [res.y[names.index(n)] for n in ("gen_speed_filtered", "speed_error_integral",
+                                              "blade_pitch")]
+    symbols = sm.symbols("w i p")
+    torque = sm.lambdify(symbols, oc3_controller().generator_torque(symbols), "numpy")
+    omega = res.y[names.index("rotor_speed")]
+    power = (DRIVETRAIN["generator_efficiency"].value * DRIVETRAIN["gear_ratio"].value
+             * omega * np.broadcast_to(torque(*states), omega.shape))
+    k = list(model.input_names).index("Frotor_x(t)")
+    thrust = np.array([model.input_values(t, y)[k] for t, y in zip(res.t, res.y.T)])
+    values = {"rotor_speed": omega, "blade_pitch": states[2], "electrical_power": power,
+              "thrust": thrust}
+    return {channel: values[target] / factor
+            for channel, (target, factor) in WIND_CHANNELS.items()}
 
 
 # ----------------------------------------------------------------- comparison
@@ -363,6 +444,11 @@ def settled_offset(t, x, period, start=SETTLED):
     guess = [np.mean(x[keep]), np.ptp(x[keep]) / 2, 0.01, period, 0.0]
     p, _ = curve_fit(decay, t[keep] - start, x[keep], p0=guess, maxfev=20000)
     return float(p[0])
+
+
+def wind_mean(t, series, channel, start=WIND_START):
+    """The mean of ``series[channel]`` from ``start`` to the record's end."""
+    return float(np.mean(np.asarray(series[channel])[np.asarray(t) >= start - 1e-9]))
 
 
 @dataclass(frozen=True)

@@ -1,7 +1,8 @@
 """Regenerate the OpenFAST side of kanedyn's OC3-Hywind comparison, and draw its figure.
 
-    python benchmarks/openfast_oc3.py run [--openfast PATH] [--cases surge,pitch]
+    python benchmarks/openfast_oc3.py run [--openfast PATH] [--discon PATH] [--cases surge,pitch]
     python benchmarks/openfast_oc3.py figure
+    python benchmarks/openfast_oc3.py wind-figure
 
 ``run`` needs an OpenFAST executable (v5; ``--openfast``, else ``$OPENFAST``,
 else ``openfast`` on the PATH).  Without one it says so and exits with status
@@ -13,9 +14,16 @@ the case's initial condition, run length and output step), and writes
 tower-top channels, OpenFAST's units) and ``summary.csv`` (the masses ElastoDyn
 computes from the deck, MAP++'s line at the undisplaced platform).
 
+The wind case also needs the baseline controller as a Bladed-style library
+(``--discon``, else ``$DISCON``): OpenFAST's ``share/discon/DISCON.F90`` with
+the OC3-Hywind changes (tests/data/openfast_oc3/NOTICE.md says which), built
+with its CMakeLists; without one that case is skipped, saying so.
+
 ``figure`` runs kanedyn on the same cases (``oc3-spar`` with
 ``_openfast_oc3.KANEDYN_OPTIONS``) and draws docs/img/oc3-openfast.png with
-both responses, printing the periods and damping ratios of both.
+both responses, printing the periods and damping ratios of both (the cases
+without wind); ``wind-figure`` draws docs/img/oc3-openfast-wind.png, the wind
+case's rotor, platform and tower responses and their means.
 """
 
 from __future__ import annotations
@@ -36,9 +44,16 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 import _openfast_oc3 as oc3  # noqa: E402
 
 FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast.png"
+WIND_FIGURE = oc3.ROOT / "docs" / "img" / "oc3-openfast-wind.png"
 FST = "OC3Hywind.fst"
 ELASTODYN = "NRELOffshrBsline5MW_OC3Hywind_ElastoDyn.dat"
 SEASTATE = "SeaState.dat"
+INFLOW = "NRELOffshrBsline5MW_InflowWind_Steady.dat"
+#: the wind case's module files (the fst's name for each)
+WIND_FILES = {"InflowFile": INFLOW, "AeroFile": "NRELOffshrBsline5MW_OC3Hywind_AeroDyn15.dat",
+              "ServoFile": "NRELOffshrBsline5MW_OC3Hywind_ServoDyn.dat"}
+#: where the ServoDyn file expects the controller library
+DISCON_NAME = "DISCON_OC3Hywind.so"
 #: the wave elevation at the platform's reference point, kept in a wave case's CSV
 WAVE_CHANNEL = "Wave1Elev"
 #: the masses of ElastoDyn's summary file kept (label in the file -> CSV name)
@@ -86,11 +101,19 @@ def write_deck():
     oc3.write_wamit_files(oc3.DECK / "HydroData" / "Spar")
 
 
-def run_case(openfast, case, work):
+def run_case(openfast, case, work, discon=None):
     """Run ``case`` in the folder ``work``; its output file's path."""
     shutil.copytree(oc3.DECK, work, dirs_exist_ok=True)
     set_values(work / FST, {"TMax": f"{case.duration:g}", "DT_Out": f"{case.step:g}"})
-    set_values(work / ELASTODYN, {k: f"{v:g}" for k, v in case.elastodyn.items()})
+    values = {k: f"{v:g}" for k, v in case.elastodyn.items()}
+    if "BlPitch(1)" in values:   # the three blades alike
+        values.update({"BlPitch(2)": values["BlPitch(1)"], "BlPitch(3)": values["BlPitch(1)"]})
+    set_values(work / ELASTODYN, {**values, **case.settings})
+    if case.wind:
+        set_values(work / FST, {"CompInflow": "1", "CompAero": "2", "CompServo": "1",
+                                **{k: f'"{v}"' for k, v in WIND_FILES.items()}})
+        set_values(work / INFLOW, {"HWindSpeed": f"{case.wind:g}"})
+        shutil.copy(discon, work / DISCON_NAME)
     set_values(work / SEASTATE, case.seastate)
     if case.hydrodyn:
         set_values(work / FST, {"HydroFile": f'"{case.hydrodyn}"'})
@@ -106,7 +129,8 @@ def run_case(openfast, case, work):
 
 def write_csv(case, out_file):
     names, units, data = read_out(out_file)
-    channels = [*oc3.CHANNELS, *([WAVE_CHANNEL] if case.waves else [])]
+    channels = [*oc3.CHANNELS, *([WAVE_CHANNEL] if case.waves else []),
+                *(oc3.WIND_CHANNELS if case.wind else [])]
     keep = [0] + [names.index(c) for c in channels]
     header = ",".join(f"{names[k]} {units[k]}".replace("(", "[").replace(")", "]") for k in keep)
     oc3.OUTPUTS.mkdir(parents=True, exist_ok=True)
@@ -145,18 +169,23 @@ def cmd_run(args):
                       if line.strip().startswith(("OpenFAST-", "OpenFAST v", "- Compiler"))))
     write_deck()
     names = args.cases.split(",") if args.cases else list(oc3.CASES)
+    discon = args.discon or os.environ.get("DISCON")
     for name in names:
         case = oc3.CASES[name]
+        if case.wind and not (discon and Path(discon).is_file()):
+            print(f"{name}: skipped, no controller library (give --discon PATH or set $DISCON)")
+            continue
         with tempfile.TemporaryDirectory(prefix=f"oc3-{name}-") as tmp:
-            out = run_case(openfast, case, Path(tmp))
+            out = run_case(openfast, case, Path(tmp), discon)
             write_csv(case, out)
-            write_summary(out)
+            if not case.wind:   # its ElastoDyn (no precone) is not the deck's
+                write_summary(out)
         print(f"{name}: {case.duration:g} s written to {oc3.OUTPUTS / (name + '.csv')}")
     return 0
 
 
 UNITS = {"PtfmSurge": "m", "PtfmHeave": "m", "PtfmPitch": "deg", "PtfmYaw": "deg",
-         "TTDspFA": "m"}
+         "TTDspFA": "m", "RotSpeed": "rpm", "BlPitch1": "deg", "GenPwr": "kW", "RtAeroFxh": "N"}
 
 
 def _panel(ax, case, of, kd, channel=None):
@@ -189,8 +218,9 @@ def cmd_figure(args):
     from kanedyn.analysis._plotting import pyplot, save_figure
     plt = pyplot()
     # one panel per case, and the wave case's surge beside its pitch
-    panels = [(case, None) for case in oc3.CASES.values()]
-    panels += [(case, "PtfmSurge") for case in oc3.CASES.values() if case.waves]
+    cases = [case for case in oc3.CASES.values() if not case.wind]
+    panels = [(case, None) for case in cases]
+    panels += [(case, "PtfmSurge") for case in cases if case.waves]
     rows = (len(panels) + 1) // 2
     fig, axes = plt.subplots(rows, 2, figsize=(12, 2.9 * rows))
     responses = {}
@@ -211,15 +241,50 @@ def cmd_figure(args):
     return 0
 
 
+def cmd_wind_figure(args):
+    from kanedyn.analysis._plotting import pyplot, save_figure
+    plt = pyplot()
+    case = oc3.CASES["wind"]
+    (t_of, a), (t_kd, b) = (oc3.read_output_csv(oc3.OUTPUTS / "wind.csv"),
+                            oc3.kanedyn_response(case))
+    channels = ["RotSpeed", "BlPitch1", "GenPwr", "RtAeroFxh", "PtfmSurge", "PtfmPitch",
+                "PtfmHeave", "TTDspFA"]
+    fig, axes = plt.subplots(4, 2, figsize=(12, 11))
+    for ax, channel in zip(axes.ravel(), channels):
+        ax.plot(t_of, a[channel], lw=1.2, label="OpenFAST")
+        ax.plot(t_kd, b[channel], "--", lw=1.0, label="kanedyn")
+        m_of, m_kd = (oc3.wind_mean(t, s, channel) for t, s in ((t_of, a), (t_kd, b)))
+        ax.axvline(oc3.WIND_START, color="0.6", lw=0.8)
+        ax.set_ylabel(f"{channel} [{UNITS[channel]}]")
+        ax.set_title(f"{channel}: mean from {oc3.WIND_START:g} s {m_of:.5g} / {m_kd:.5g} "
+                     f"{UNITS[channel]} (OpenFAST / kanedyn)", fontsize=8)
+        print(f"{channel}: OpenFAST {m_of:.6g}, kanedyn {m_kd:.6g}, kanedyn - OpenFAST "
+              f"{m_kd - m_of:.4g} ({m_kd / m_of - 1:+.2%})")
+        ax.legend(fontsize=7, loc="upper right")
+        ax.set_xlabel("time [s]", fontsize=8)
+    fig.suptitle(f"OC3-Hywind, steady wind {case.wind:g} m/s, rotor turning, baseline "
+                 "controller, still water:\nOpenFAST v5 (AeroDyn quasi-steady BEM, "
+                 "controller library) and kanedyn oc3-spar (aero=bem, controller=on)",
+                 fontsize=10)
+    fig.tight_layout()
+    save_figure(fig, WIND_FIGURE, dpi=100)
+    print(f"figure: {WIND_FIGURE}")
+    return 0
+
+
 def main(argv=None):
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     sub = p.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run OpenFAST on the cases, write the outputs")
     run.add_argument("--openfast", help="the OpenFAST executable")
     run.add_argument("--cases", help="comma-separated case names (default: all)")
+    run.add_argument("--discon", help="the baseline controller library (the wind case)")
     sub.add_parser("figure", help="run kanedyn on the cases, draw docs/img/oc3-openfast.png")
+    sub.add_parser("wind-figure", help="run kanedyn on the wind case, draw "
+                   "docs/img/oc3-openfast-wind.png")
     args = p.parse_args(argv)
-    return cmd_run(args) if args.command == "run" else cmd_figure(args)
+    commands = {"run": cmd_run, "figure": cmd_figure, "wind-figure": cmd_wind_figure}
+    return commands[args.command](args)
 
 
 if __name__ == "__main__":

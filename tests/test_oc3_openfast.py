@@ -298,3 +298,46 @@ def test_regular_waves_against_openfast():
                 ((t_of, of), (t_kd, kd)))
         assert abs(b.amplitude / a.amplitude - 1) < amplitude_tol, channel
         assert abs(math.remainder(b.phase - a.phase, 2 * math.pi)) < phase_tol, channel
+
+
+
+
+#: the steady-wind case (18 m/s, rotor turning, baseline controller, still water):
+#: channel -> relative tolerance of kanedyn's mean against OpenFAST's, means from
+#: oc3.WIND_START (100 s) to 400 s; measured (kanedyn against OpenFAST): rotor speed and
+#: electrical power +0.009 %, blade pitch +0.21 %, aerodynamic thrust +2.94 %, platform
+#: pitch +1.99 %, tower-top deflection +0.41 %.  OpenFAST's rotor speed, power and pitch
+#: swing (by 0.22 %, 0.22 % and 0.37 %) with its undamped surge oscillation, and the
+#: window is not a whole number of those swings; causes in docs/oc3_model_card.md
+#: ("Against OpenFAST")
+WIND_TOLERANCES = {
+    "RotSpeed": 0.002,
+    "GenPwr": 0.002,
+    "BlPitch1": 0.006,
+    "RtAeroFxh": 0.035,
+    "PtfmPitch": 0.025,
+    "TTDspFA": 0.01,
+}
+
+
+@pytest.mark.slow
+def test_steady_wind_against_openfast():
+    """In a steady uniform 18 m/s wind with the rotor turning and the baseline
+    controller (OC3 gains, region-3 constant torque) on, both codes started from the
+    same state (kanedyn's settled one), the means from 100 s of rotor speed, electrical
+    power, blade pitch, aerodynamic thrust, platform pitch and tower-top deflection
+    agree within the stated tolerances; kanedyn's larger thrust is the one difference
+    beyond 0.5 % in the rotor.  (Surge and heave are not compared: OpenFAST's loosely
+    coupled surge swings by a metre about a mean 1 m further downwind, undamped, and
+    its heave with it; docs/oc3_model_card.md, "OpenFAST's coupling".)  kanedyn's
+    record is steady from 100 s and is run to 200 s only: its means over 100-200 s
+    equal those over OpenFAST's 100-400 s window to 5 digits (measured on a 400 s run)."""
+    case = oc3.CASES["wind"]
+    t_of, of = oc3.read_output_csv(oc3.OUTPUTS / "wind.csv")
+    t_kd, kd = oc3.kanedyn_response(case, duration=2 * oc3.WIND_START)
+    assert t_of[-1] == case.duration and t_kd[-1] == 2 * oc3.WIND_START
+    for channel, tol in WIND_TOLERANCES.items():
+        a, b = (oc3.wind_mean(t, s, channel) for t, s in ((t_of, of), (t_kd, kd)))
+        assert abs(b / a - 1) < tol, (channel, a, b)
+    thrust = [oc3.wind_mean(t, s, "RtAeroFxh") for t, s in ((t_of, of), (t_kd, kd))]
+    assert thrust[1] / thrust[0] - 1 > 0.02      # the known difference, not yet explained
