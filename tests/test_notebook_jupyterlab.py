@@ -12,6 +12,7 @@ the browser, the kernel's trait has the new value).
 
 import json
 import os
+import re
 import socket
 import subprocess
 import sys
@@ -117,6 +118,23 @@ def jupyterlab(tmp_path):
         log.close()
 
 
+def _run_cell(page, index, timeout=90.0):
+    """Run cell ``index`` as a user does: click into it, press Shift+Enter.  The
+    key is pressed again while the cell's prompt shows no run (``[ ]:``): a
+    notebook page still starting under load may not take the first one."""
+    cell = page.locator(".jp-Notebook .jp-Cell").nth(index)
+    prompt = cell.locator(".jp-InputPrompt")
+    end = time.monotonic() + timeout
+    while time.monotonic() < end:
+        cell.locator(".cm-content").click()
+        page.keyboard.press("Shift+Enter")
+        for _ in range(40):
+            if re.search(r"\[(\*|\d+)\]", prompt.inner_text()):
+                return
+            page.wait_for_timeout(250)
+    raise AssertionError(f"cell {index} did not start within {timeout} s")
+
+
 def test_widget_in_a_jupyterlab_session(jupyterlab, tmp_path):
     sync_api = pytest.importorskip("playwright.sync_api",
                                    reason="the browser test needs playwright (the test extra)")
@@ -124,19 +142,18 @@ def test_widget_in_a_jupyterlab_session(jupyterlab, tmp_path):
     with sync_api.sync_playwright() as p:
         browser = p.chromium.launch(executable_path=CHROMIUM, args=[
             "--use-gl=angle", "--use-angle=swiftshader", "--enable-unsafe-swiftshader"])
+        page = browser.new_page(viewport={"width": 1200, "height": 900})
         try:
-            page = browser.new_page(viewport={"width": 1200, "height": 900})
             errors = []
             page.on("pageerror", lambda e: errors.append(str(e)))
             page.goto(f"{base}/lab/tree/widget.ipynb?token={token}")
             page.wait_for_selector(".jp-Notebook .jp-Cell .cm-content", timeout=120_000)
             page.wait_for_selector(".jp-Notebook-ExecutionIndicator[data-status='idle']",
                                    timeout=120_000)
-            page.locator(".jp-Notebook .jp-Cell .cm-content").first.click()
-            page.keyboard.press("Shift+Enter")           # cell 1: the widget
+            _run_cell(page, 0)                           # the widget
             page.wait_for_function(f"{SCENE} && {SCENE}.ready", polling=250, timeout=180_000)
             drawn = page.evaluate(f"({{...{SCENE}}})")
-            page.keyboard.press("Shift+Enter")           # cell 2: view.time = 1.5
+            _run_cell(page, 1)                           # view.time = 1.5
             page.wait_for_function(f"Math.abs({SCENE}.time - 1.5) < 1e-9", polling=250,
                                    timeout=60_000)
             # scrubbed to the end and let go in the browser ...
@@ -144,13 +161,18 @@ def test_widget_in_a_jupyterlab_session(jupyterlab, tmp_path):
                 s.value = s.max; s.dispatchEvent(new Event('input'));
                 s.dispatchEvent(new Event('change')); })()""")
             page.wait_for_timeout(500)
-            page.keyboard.press("Shift+Enter")           # cell 3: ... the kernel's trait
+            _run_cell(page, 2)                           # ... the kernel's trait
             printed = page.locator(".jp-OutputArea-output", has_text="kernel time")
             printed.wait_for(timeout=60_000)
             text = printed.inner_text()
             canvases = page.evaluate(
                 "document.querySelectorAll('.jp-OutputArea-output .kd-viewer canvas').length")
-            page.screenshot(path=str(tmp_path / "jupyterlab.png"))
+        except Exception as err:
+            shot = tmp_path / "jupyterlab-failed.png"
+            page.screenshot(path=str(shot))
+            outputs = page.locator(".jp-Notebook").inner_text()
+            raise AssertionError(f"{err}\nthe notebook then (screenshot {shot}):\n"
+                                 f"{outputs}") from err
         finally:
             browser.close()
     assert errors == []
