@@ -89,3 +89,27 @@ def test_tuned_tmd_and_tmdi_reduce_the_tower_peak():
     undamped = run_study("oc3-tmdi", None, tower_damping=0.0).data
     assert 2.0 < undamped["peak_without"] / d["peak_without"] < 3.0
     assert undamped["tmd_peak"] > d["tmd_peak"]
+
+
+def test_the_tuning_model_with_its_tower_top_force_keeps_an_energy_balance():
+    """The FRF model of the tuning (oc3-spar with a fore-aft force F_top at the tower
+    top, here zero) names that force among its loads, so the energy balance takes
+    its loads' names (it had one name fewer than loads) and closes: a tower and pitch
+    decay of 5 s, the work of the dampers and the matrices' remainders against the
+    change of energy, to 1e-7 of the energy exchanged."""
+    import numpy as np
+
+    import kanedyn as kd
+    from kanedyn.analysis import energy_balance
+    from kanedyn.analysis._oc3_studies import _forced_model
+    d, model, y = _forced_model("c", "tmd", 0.0, 60.0, 2)
+    assert len(d.load_names) == len(d.kane_args["loads"])
+    assert d.load_names[-1] == "tower-top force"
+    names = list(model.state_names)
+    y0 = np.array(y, dtype=float)
+    y0[names.index("eta_tower_1")] += 0.05
+    y0[names.index("pitch")] += 0.01
+    res = kd.simulate(model, (0, 5), y0, rtol=1e-10, atol=1e-10, dense_output=True)
+    balance = energy_balance(res, load_names=d.load_names, potential_loads=d.potential_loads)
+    assert "tower-top force" in balance.terms and "TMD dashpot" in balance.terms
+    assert abs(balance.relative_residual) < 1e-7

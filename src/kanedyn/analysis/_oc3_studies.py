@@ -26,6 +26,7 @@ so the linear RAO carries no drag damping.
 from __future__ import annotations
 
 import copy
+import dataclasses
 import functools
 import math
 import re
@@ -539,6 +540,8 @@ def _forced_model(backend, tmdi, inertance_ratio, inerter_height, tower_modes,
     s = d.symbols
     force = me.dynamicsymbols("F_top")
     d.kane_args["loads"] = list(d.kane_args["loads"]) + [(s["top"], force * s["A"].x)]
+    if d.load_names:  # the added force is a term of its own in an energy balance
+        d = dataclasses.replace(d, load_names=tuple(d.load_names) + ("tower-top force",))
     eom = d.derive()
     needed = {str(x) for x in eom.specified}
     inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
