@@ -37,7 +37,7 @@ from ._c_contact_general import GENERAL
 from ._c_hybrid import HYBRID
 from ._c_impact_slide import SLIDE
 from ._c_impacts import IMPACTS
-from ._c_integrator import DENSE_OUTPUT, DORMAND_PRINCE, PROJECTION
+from ._c_integrator import BRENT, DENSE_OUTPUT, DORMAND_PRINCE, PROJECTION
 
 __all__ = ["standalone_c"]
 
@@ -288,7 +288,7 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
     tail = ([_contact_source(contacts), DENSE_OUTPUT, "#define KD_GENERAL_CONTACTS 1", SEGMENT,
-             GENERAL, IMPACTS, SLIDE, HYBRID] if contacts else [])
+             GENERAL, IMPACTS, BRENT, SLIDE, HYBRID] if contacts else [])
     return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
                       *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
 

@@ -18,7 +18,8 @@ rises through zero) or Newton's restitution is reached, or ``stop_p``.
 :data:`._c_integrator.DORMAND_PRINCE`, the continuous extension of
 :data:`._c_integrator.DENSE_OUTPUT`) at the same tolerances (relative
 :math:`10^{-12}`, absolute :math:`10^{-14}` times the speed scale), the
-events located by Brent's method on the continuous extension.
+events located by Brent's method (:data:`._c_integrator.BRENT`) on the
+continuous extension.
 
 Interface (static, for :mod:`._c_hybrid`)::
 
@@ -72,35 +73,24 @@ static void kd_slide_dense(const KdSlide *S, double q, double *y) {
     }
 }
 
-/* Brent's method (SciPy's brentq, xtol = rtol = 4 eps) for event k on the
-   continuous extension in [a, b] */
+/* event k of the slide on its continuous extension: a KdRootFn of the impulse */
+typedef struct { const KdSlide *S; int k; } KdSlideEvent;
+
+static int kd_slide_event_at(void *ctx, double q, double *g) {
+    const KdSlideEvent *E = (const KdSlideEvent *)ctx;
+    double y[6], gs[2];
+    kd_slide_dense(E->S, q, y);
+    kd_slide_events(E->S, y, gs);
+    *g = gs[E->k];
+    return 0;
+}
+
+/* event k's zero in [a, b] by Brent's method (_c_integrator.BRENT) */
 static double kd_slide_root(const KdSlide *S, int k, double a, double b, double fa, double fb) {
-    const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
-    double c = a, fc = fa, d = b - a, e = d, y[6], g[2];
-    for (int iter = 0; iter < 200; ++iter) {
-        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
-        if (fabs(fc) < fabs(fb)) { a = b; b = c; c = a; fa = fb; fb = fc; fc = fa; }
-        double tol = 2 * eps * fabs(b) + 0.5 * (xtol + rtol * fabs(b)), m = 0.5 * (c - b);
-        if (fabs(m) <= tol || fb == 0.0) return b;
-        if (fabs(e) >= tol && fabs(fa) > fabs(fb)) {
-            double s = fb / fa, p, q;
-            if (a == c) { p = 2 * m * s; q = 1 - s; }
-            else {
-                double qq = fa / fc, rr = fb / fc;
-                p = s * (2 * m * qq * (qq - rr) - (b - a) * (rr - 1));
-                q = (qq - 1) * (rr - 1) * (s - 1);
-            }
-            if (p > 0) q = -q; else p = -p;
-            if (2 * p < fmin(3 * m * q - fabs(tol * q), fabs(e * q))) { e = d; d = p / q; }
-            else { d = m; e = m; }
-        } else { d = m; e = m; }
-        a = b; fa = fb;
-        b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
-        kd_slide_dense(S, b, y);
-        kd_slide_events(S, y, g);
-        fb = g[k];
-    }
-    return b;
+    KdSlideEvent E = {S, k};
+    double root = b;
+    kd_brent(kd_slide_event_at, &E, a, b, fa, fb, &root);
+    return root;
 }
 
 /* integrates the phase from *p (v, Pt) to its first event or stop_p; on return

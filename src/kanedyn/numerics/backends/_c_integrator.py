@@ -209,6 +209,43 @@ static const double kd_P[7][4] = {
     {0, 40617522.0 / 29380423, -110615467.0 / 29380423, 69997945.0 / 29380423}};
 """
 
+BRENT = r"""
+/* a function of time: g(t) into *g; nonzero: an error (in the loop: a Python error) */
+typedef int (*KdRootFn)(void *ctx, double t, double *g);
+
+/* Brent's method for a zero of fn in [a, b] (fa, fb: its values there), the loop's,
+   the ensemble's and the FMU's impacts (SciPy's brentq with xtol = rtol = 4 eps) */
+static int kd_brent(KdRootFn fn, void *ctx, double a, double b, double fa, double fb,
+                    double *root) {
+    const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
+    double c = a, fc = fa, d = b - a, e = d;
+    for (int iter = 0; iter < 200; ++iter) {
+        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
+        if (fabs(fc) < fabs(fb)) { a = b; b = c; c = a; fa = fb; fb = fc; fc = fa; }
+        double tol = 2 * eps * fabs(b) + 0.5 * (xtol + rtol * fabs(b));
+        double m = 0.5 * (c - b);
+        if (fabs(m) <= tol || fb == 0.0) { *root = b; return 0; }
+        if (fabs(e) >= tol && fabs(fa) > fabs(fb)) {
+            double s = fb / fa, p, q;
+            if (a == c) { p = 2 * m * s; q = 1 - s; }
+            else {
+                double qq = fa / fc, rr = fb / fc;
+                p = s * (2 * m * qq * (qq - rr) - (b - a) * (rr - 1));
+                q = (qq - 1) * (rr - 1) * (s - 1);
+            }
+            if (p > 0) q = -q; else p = -p;
+            if (2 * p < fmin(3 * m * q - fabs(tol * q), fabs(e * q))) { e = d; d = p / q; }
+            else { d = m; e = m; }
+        } else { d = m; e = m; }
+        a = b; fa = fb;
+        b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
+        if (fn(ctx, b, &fb) != 0) return -1;
+    }
+    *root = b;
+    return 0;
+}
+"""
+
 _LOOP = r"""
 /* ------------------------------------------------------------------------
    Compiled integration loop
@@ -450,41 +487,6 @@ static int kd_event(KdIntegrator *ig, int k, double t, const double *y, double *
     *g = PyFloat_AsDouble(res);
     Py_DECREF(res);
     if (*g == -1.0 && PyErr_Occurred()) return -1;
-    return 0;
-}
-
-/* a function of time: g(t) into *g; nonzero: an error (a Python error in the loop) */
-typedef int (*KdRootFn)(void *ctx, double t, double *g);
-
-/* Brent's method for a zero of fn in [a, b] (fa, fb: its values there), the loop's
-   and the ensemble's (SciPy's brentq with xtol = rtol = 4 eps) */
-static int kd_brent(KdRootFn fn, void *ctx, double a, double b, double fa, double fb,
-                    double *root) {
-    const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
-    double c = a, fc = fa, d = b - a, e = d;
-    for (int iter = 0; iter < 200; ++iter) {
-        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
-        if (fabs(fc) < fabs(fb)) { a = b; b = c; c = a; fa = fb; fb = fc; fc = fa; }
-        double tol = 2 * eps * fabs(b) + 0.5 * (xtol + rtol * fabs(b));
-        double m = 0.5 * (c - b);
-        if (fabs(m) <= tol || fb == 0.0) { *root = b; return 0; }
-        if (fabs(e) >= tol && fabs(fa) > fabs(fb)) {
-            double s = fb / fa, p, q;
-            if (a == c) { p = 2 * m * s; q = 1 - s; }
-            else {
-                double qq = fa / fc, rr = fb / fc;
-                p = s * (2 * m * qq * (qq - rr) - (b - a) * (rr - 1));
-                q = (qq - 1) * (rr - 1) * (s - 1);
-            }
-            if (p > 0) q = -q; else p = -p;
-            if (2 * p < fmin(3 * m * q - fabs(tol * q), fabs(e * q))) { e = d; d = p / q; }
-            else { d = m; e = m; }
-        } else { d = m; e = m; }
-        a = b; fa = fb;
-        b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
-        if (fn(ctx, b, &fb) != 0) return -1;
-    }
-    *root = b;
     return 0;
 }
 
@@ -1271,4 +1273,4 @@ done:
 }
 """
 
-INTEGRATOR = DORMAND_PRINCE + PROJECTION + _LOOP
+INTEGRATOR = DORMAND_PRINCE + PROJECTION + BRENT + _LOOP
