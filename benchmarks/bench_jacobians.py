@@ -30,6 +30,7 @@ measured in this run (of the minima, and of the medians).
 Usage::
 
     python benchmarks/bench_jacobians.py [--sizes 7 12 30] [--large] [--rounds 7]
+        [--style v2pt|positions]
         [--no-robots] [--no-first-use]
 """
 
@@ -56,7 +57,8 @@ _FIRST_USE = """
 import time, json, numpy as np, kanedyn as kd
 from _peers import DEFAULTS
 start = time.perf_counter()
-model = kd.models.build("chain3d", n={n}).numeric(constants=DEFAULTS, backend="c")
+model = kd.models.build("chain3d", n={n}, style={style!r}).numeric(constants=DEFAULTS,
+                                                                  backend="c")
 model.rhs(0.0, np.zeros({x}))
 rhs = time.perf_counter() - start
 start = time.perf_counter()
@@ -65,23 +67,24 @@ print(json.dumps([rhs, time.perf_counter() - start]))
 """
 
 
-def first_use(n):
+def first_use(n, style="v2pt"):
     """Seconds of the first rhs (derivation, generation and the first module
     included) and then of the first jacobians call, in a fresh process with a
     fresh cache."""
     with tempfile.TemporaryDirectory() as cache:
         code = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n" \
-            + _FIRST_USE.format(n=n, x=2 * n)
+            + _FIRST_USE.format(n=n, x=2 * n, style=style)
         done = run_python(code, cache)
         if done.returncode:
             raise RuntimeError(done.stderr[-2000:])
         return json.loads(done.stdout.strip().splitlines()[-1])
 
 
-def operations(n):
+def operations(n, style="v2pt"):
     """Operations of the generated derivative code (after common subexpressions)."""
     from kanedyn.numerics._jacobians import _specification
-    model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="numpy")
+    model = kd.models.build("chain3d", n=n, style=style).numeric(constants=DEFAULTS,
+                                                                backend="numpy")
     prog, _, outputs = _specification(model, False)
     return prog.count_ops([e for _, exprs in outputs for e in exprs], cse=True)
 
@@ -131,14 +134,15 @@ def robot_models(name, folder):
     return model, pmodel, pdata, speeds, efforts
 
 
-def measure(n, rounds, robot=None, folder=None):
+def measure(n, rounds, robot=None, folder=None, style="v2pt"):
     """Timings of kanedyn (one state, 1000 states) and Pinocchio, and the largest
     difference of their derivatives, for ``chain3d`` at n or for ``robot``."""
     import pinocchio as pin
 
     rng = np.random.default_rng(2)
     if robot is None:
-        model = kd.models.build("chain3d", n=n).numeric(constants=DEFAULTS, backend="c")
+        model = kd.models.build("chain3d", n=n, style=style).numeric(constants=DEFAULTS,
+                                                                    backend="c")
         pmodel, pdata = pinocchio_chain(n)
         speeds, efforts = list(range(n)), []
     else:
@@ -185,6 +189,9 @@ def main():
                         help="only the timings per call (not the fresh-process builds)")
     parser.add_argument("--no-robots", action="store_true",
                         help="not the robots of example-robot-data")
+    parser.add_argument("--style", choices=("v2pt", "positions"), default="v2pt",
+                        help="how chain3d is written (positions: the same chain that SymPy "
+                             "builds in seconds at n = 100, where v2pt takes it minutes)")
     args = parser.parse_args()
     sizes = args.sizes + ([100] if args.large else [])
     print(machine_info())
@@ -198,7 +205,8 @@ def main():
     with tempfile.TemporaryDirectory() as folder:
         for case in cases:
             robot = case if isinstance(case, str) else None
-            times, error, n = measure(0 if robot else case, args.rounds, robot, folder)
+            times, error, n = measure(0 if robot else case, args.rounds, robot, folder,
+                                      args.style)
             a, c, b = times["kanedyn"], times["batch"], times["pinocchio"]
             label = f"{robot} ({n})" if robot else f"chain3d ({n})"
             print(f"| {label} | {1e6 * a.best:.1f} ({1e6 * a.median:.1f}) | "
@@ -214,9 +222,9 @@ def main():
     ops, builds = [], []
     byte_compile_package()
     for n in sizes:
-        count = operations(n)
+        count = operations(n, args.style)
         ops.append(count)
-        rhs, jac = first_use(n)
+        rhs, jac = first_use(n, args.style)
         builds.append(jac)
         print(f"| {n} | {count} | {rhs:.2f} | {jac:.2f} | {jac / rhs:.2f} |")
     if len(sizes) > 1:
