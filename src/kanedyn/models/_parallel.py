@@ -616,7 +616,7 @@ def stewart_platform():
                         g: "m/s^2"},
         initial_state=initial, t_end=2.0,
         symbols=dict(pose=pose, pose_rates=rates, a=a, b=b, s=s, N=N, g=g, m_p=mp,
-                     m_c=mc, m_r=mr),
+                     m_c=mc, m_r=mr, platform=bodies[0]),
         actuators=tuple(actuators),
         body_groups={"platform": ("platform",),
                      "legs": tuple(f"{part}{j}" for j in range(1, 7)
