@@ -497,8 +497,8 @@ class OptimalControlProblem:
             The Hessian of the Lagrangian IPOPT uses: its limited-memory
             quasi-Newton approximation, or the exact one (generated second
             derivatives of the model, :mod:`kanedyn.optimization._hessian`;
-            not for path or instance constraints, free parameters, a free
-            duration, models with constraints or Hermite-Simpson).
+            every method, constraint, free parameter and free duration, but
+            not models with constraints or contacts).
 
         Returns
         -------
