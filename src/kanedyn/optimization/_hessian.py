@@ -32,9 +32,10 @@ Jacobian).  The objective's, the path constraints' and the instance
 constraints' second derivatives are SymPy's.  Entries repeat where blocks
 overlap (IPOPT adds them); only the lower triangle is given.
 
-A model with constraints (its dependent states and the residual rows) and a
-phase that starts at a free time (multiphase problems) are refused, naming
-the feature.
+A phase of a multiphase problem whose start time is a variable has
+:math:`t_0` among each point's variables (:math:`\partial t/\partial t_0 =
+1`).  A model with constraints (its dependent states and the residual rows)
+is refused, naming the feature.
 """
 
 from __future__ import annotations
@@ -71,11 +72,8 @@ class LagrangianHessian:
     def __init__(self, nlp):
         from ..numerics import hessians_unavailable
         pb, L = nlp.problem, nlp.layout
-        refused = [what for what, present in (
-            ("a model with constraints", bool(pb.n_residuals)),
-            ("a phase of a multiphase problem", L.free_start_time)) if present]
-        if refused:
-            raise ModelError(f'hessian="exact" is not available for {", ".join(refused)} '
+        if pb.n_residuals:
+            raise ModelError('hessian="exact" is not available for a model with constraints '
                              '(use hessian="limited-memory")')
         reason = hessians_unavailable(pb.model)
         if reason:
