@@ -168,10 +168,10 @@ class LagrangianHessian:
         if plain is not None:
             Hu = Hu + plain
         D = points.D
-        H = np.einsum("kua,kuv,kvb->kab", D, Hu, D, optimize=True)
+        H = np.swapaxes(D, 1, 2) @ (Hu @ D)
         j = points.duration
         if stepped is not None and j is not None:
-            g = np.einsum("kua,ku->ka", D, stepped[1]) / (L.nodes - 1)
+            g = (stepped[1][:, None, :] @ D)[:, 0] / (L.nodes - 1)
             H[:, :, j] += g
             H[:, j, :] += g
         return H[points.mask]
