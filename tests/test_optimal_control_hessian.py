@@ -107,6 +107,23 @@ def test_exact_hessian_against_differences(pendulum, kind, method):
     assert np.max(np.abs(H - H_fd)) < 1e-7 * np.max(np.abs(H))
 
 
+def test_a_timeless_model_skips_its_time_differences(pendulum):
+    """The pendulum names no time, so with the exact Hessian its df/dt (a free
+    duration's) is zero without differences: the constraint Jacobian is the
+    limited-memory NLP's, which takes them (exactly zero too); the forced
+    model below names the time."""
+    from kanedyn.numerics import names_time
+    from kanedyn.optimization._nlp import CollocationNLP
+    model, symbols = pendulum
+    assert not names_time(model) and names_time(_forced()[0])
+    problem = _problem("free duration", model, symbols, "hermite-simpson")
+    exact, plain = CollocationNLP(problem, hessian="exact"), CollocationNLP(problem)
+    z = np.random.default_rng(4).normal(size=exact.n)
+    z[exact.layout.duration_index] = 1.5
+    assert exact._timeless and not plain._timeless
+    assert np.array_equal(exact.jacobian(z), plain.jacobian(z))
+
+
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
 def test_exact_hessian_of_the_cart_pole_with_free_masses(method):
     """Two bodies: the cart's and the pole's masses and the length free (the
@@ -124,13 +141,8 @@ def test_exact_hessian_of_the_cart_pole_with_free_masses(method):
     assert np.max(np.abs(H - H_fd)) < 1e-7 * np.max(np.abs(H))
 
 
-@pytest.mark.parametrize("method", ["trapezoid", "midpoint", "hermite-simpson", "lgr"])
-def test_exact_hessian_of_a_time_dependent_model(method):
-    """A model that names the time (a forcing sin 2t and a damping cos t) with
-    a free duration and a free parameter: its second derivatives in t are
-    generated, but the NLP's own df/dt is by differences (step 1e-6 T), so
-    the duration's row and column of the differenced gradient carry that
-    noise over 1e-6 (1e-5 here): they are held to 1e-4, the rest to 1e-7."""
+def _forced():
+    """A particle forced by sin 2t and damped by cos t: a model naming the time."""
     x, v, F = me.dynamicsymbols("x v F")
     t = me.dynamicsymbols._t
     m, k = sm.symbols("m k")
@@ -143,6 +155,17 @@ def test_exact_hessian_of_a_time_dependent_model(method):
                   bodies=[me.Particle("P", P, m)],
                   loads=[(P, (F + sm.sin(2 * t) * x - k * sm.cos(t) * v * x) * N.x)])
     model = eom.numeric(constants={m: 1.0, k: 0.3}, specified={F: 0.0}, backend="numpy")
+    return model, (x, v, F, k)
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "midpoint", "hermite-simpson", "lgr"])
+def test_exact_hessian_of_a_time_dependent_model(method):
+    """A model that names the time (a forcing sin 2t and a damping cos t) with
+    a free duration and a free parameter: its second derivatives in t are
+    generated, but the NLP's own df/dt is by differences (step 1e-6 T), so
+    the duration's row and column of the differenced gradient carry that
+    noise over 1e-6 (1e-5 here): they are held to 1e-4, the rest to 1e-7."""
+    model, (x, v, F, k) = _forced()
     problem = kd.OptimalControlProblem(model, nodes=4, duration=T, lagrange=F ** 2, mayer=T,
                                        parameters=[k], bounds={T: (0.5, 5)},
                                        initial={x: 0, v: 0}, method=method)

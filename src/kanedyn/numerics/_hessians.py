@@ -39,7 +39,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["hessians_unavailable", "weighted_hessians"]
+__all__ = ["hessians_unavailable", "weighted_hessians", "names_time"]
 
 
 def hessians_unavailable(model):
@@ -58,6 +58,16 @@ def hessians_unavailable(model):
         return "exact second derivatives need the model's equations (a model built by " \
                "eom.numeric(...), not one restored from a file)"
     return None
+
+
+def names_time(model):
+    """Whether the state derivative of ``model`` (a model :func:`weighted_hessians`
+    serves) depends on the time explicitly: whether the time is among the
+    leaves of its kinematic equations, mass matrix and forces."""
+    from ._inverse import _workspace
+    prog, _ = _workspace(model)
+    _, dynamics = model._functions["dynamics"]
+    return any(prog.t in prog.deps(e) for _, exprs in dynamics for e in exprs)
 
 
 def _specification(model, parameters=(), time=False):
