@@ -112,8 +112,8 @@ class LagrangianHessian:
             shared.append(L.duration_index)
         if L.free_start_time:
             shared.append(L.start_index)
-        V = np.concatenate(blocks + [np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))],
-                           axis=1)
+        shared = np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))
+        V = np.concatenate(blocks + [shared], axis=1)
         D = np.zeros((K, self.nu, V.shape[1]))
         i = np.arange(nx)
         for b in range(nb):
