@@ -86,13 +86,15 @@ def test_optimize_exit_1_when_ipopt_fails(capsys):
     assert "NOT solved" in text and "maximum number of iterations" in text
 
 
-def test_optimize_exact_hessian_reaches_the_same_optimum(capsys):
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_optimize_exact_hessian_reaches_the_same_optimum(method, capsys):
     """--hessian exact: the same swing-up optimum as IPOPT's limited-memory
-    Hessian (to 1e-6 of the objective), in fewer iterations."""
+    Hessian (to 1e-6 of the objective), in fewer iterations; Hermite-Simpson
+    (interior points) too."""
     found = {}
     for hessian in ("limited-memory", "exact"):
         assert main(["optimize", "pendulum", "--nodes", "101", "--hessian", hessian,
-                     "--quiet", "--backend", "numpy"]) == 0
+                     "--method", method, "--quiet", "--backend", "numpy"]) == 0
         text = capsys.readouterr().out
         objective = float(text.split("objective ")[1].split(";")[0])
         iterations = int(text.split(" iterations in ")[0].rsplit(" ", 1)[1])
@@ -111,8 +113,8 @@ def test_optimize_exact_hessian_reaches_the_same_optimum(capsys):
     (["optimize", "pendulum", "--method", "rk4"], "rk4"),
     (["optimize", "pendulum", "--nodes", "1"], "--nodes"),
     (["optimize", "pendulum", "--hessian", "bfgs"], "--hessian"),
-    (["optimize", "pendulum", "--method", "hermite-simpson", "--hessian", "exact",
-      "--quiet"], 'hessian="exact" is not available'),
+    (["optimize", "whipple-bicycle", "--hessian", "exact", "--quiet", "--backend", "numpy"],
+     'hessian="exact" is not available for a model with constraints'),
     (["optimize", "flexible-robot", "--set", "torque_input=false", "--quiet"],
      "torque_input"),
 ])

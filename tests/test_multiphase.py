@@ -11,7 +11,9 @@ checked against what shares none of its code:
   release where the cart has travelled half way);
 - the NLP's Jacobian and gradient against central differences (free
   durations, start times that are variables, time-dependent models and
-  objectives, linkage equations in the junction time).
+  objectives, linkage equations in the junction time); the exact Hessian of
+  its Lagrangian against central differences of that gradient, and its
+  solve against the limited-memory one.
 
 IPOPT through cyipopt is needed; without it every test here is skipped.
 """
@@ -20,7 +22,7 @@ import numpy as np
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
-from test_optimal_control import check_against_differences
+from test_optimal_control import _lagrangian_gradient, check_against_differences
 
 import kanedyn as kd
 
@@ -244,6 +246,96 @@ def test_multiphase_derivatives_against_differences(method, degree):
         if L_.free_start_time:
             z[offset + L_.start_index] = 1.3
     check_against_differences(nlp, z, 1e-6)
+
+
+def _three_phases(method, degree, time_force=False):
+    """The three phases of the derivatives' check (see below)."""
+    cart, (x, v, F) = _cart([1.5])
+    forced, (x2, v2, F2) = _cart([0.7], time_force=time_force)
+    T1, T3 = sm.symbols("T1 T3")
+    L = kd.Linkage
+    first = kd.OptimalControlProblem(
+        cart, nodes=4, duration=T1, lagrange=F ** 2 + x * v, mayer=x ** 2,
+        bounds={T1: (0.1, 3)}, initial={x: 0}, method="trapezoid",
+        path_constraints=[(v ** 2 + F, -4, 4)])
+    second = kd.OptimalControlProblem(
+        forced, nodes=3, duration=0.7, lagrange=F2 ** 2 + sm.sin(t) * x2 + t * v2 ** 2,
+        mayer=t * x2, method=method, degree=degree, path_constraints=[(x2 * t + F2, -9, 9)])
+    third = kd.OptimalControlProblem(
+        cart, nodes=4, duration=T3, lagrange=F ** 2, mayer=T3 + v ** 2,
+        bounds={T3: (0.1, 3)}, method="hermite-simpson")
+    return kd.MultiphaseProblem([first, second, third], linkages=[
+        L(continuous=[], equations=[
+            x2.subs(t, L.after) - x.subs(t, L.before) ** 2 - L.before * 0.1,
+            v2.subs(t, L.after) * F.subs(t, L.before) - sm.cos(L.after)]),
+        L(continuous=[x], equations=[v.subs(t, L.after) - 2 * v2.subs(t, L.before)])])
+
+
+def _random_point(nlp, seed=1):
+    z = np.random.default_rng(seed).normal(size=nlp.n)
+    for sub, offset in zip(nlp.phase_nlps, nlp.offsets):
+        L_ = sub.layout
+        if L_.free_duration:
+            z[offset + L_.duration_index] = 0.8
+        if L_.free_start_time:
+            z[offset + L_.start_index] = 1.3
+    return z
+
+
+@pytest.mark.parametrize("method, degree", [("lgr", 2), ("hermite-simpson", None),
+                                            ("midpoint", None), ("trapezoid", None)])
+def test_multiphase_exact_hessian_against_differences(method, degree):
+    """The three phases below (the second's model autonomous here, its
+    objective and path constraint in t; start times that are variables;
+    linkage equations in both sides and the junction time) with the exact
+    Hessian: within 1e-7 of its largest entry of the central differences of
+    the exact gradient of the Lagrangian, at a random point with random
+    multipliers."""
+    import scipy.sparse as sp
+
+    from kanedyn.optimization._multiphase import MultiphaseNLP
+    nlp = MultiphaseNLP(_three_phases(method, degree), hessian="exact")
+    z = _random_point(nlp)
+    rng = np.random.default_rng(2)
+    multipliers, sigma = rng.normal(size=nlp.m), 0.7
+    rows, cols = nlp.hessian_structure()
+    assert np.all(rows >= cols)
+    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
+                      shape=(nlp.n, nlp.n)).toarray()
+    H = H + np.tril(H, -1).T
+    H_fd = np.zeros_like(H)
+    for i in range(nlp.n):
+        e = np.zeros(nlp.n)
+        e[i] = 1e-6
+        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
+                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    assert np.max(np.abs(H)) > 1.0
+    assert np.max(np.abs(H - H_fd)) < 1e-7 * np.max(np.abs(H))
+
+
+def test_multiphase_exact_hessian_reaches_the_limited_memory_optimum():
+    """The payload released part way in least time (both durations free,
+    the second start a variable), Hermite-Simpson, 21 nodes a phase: the
+    exact Hessian's optimum is the limited-memory solve's, in no more
+    iterations."""
+    loaded, (x, v, F) = _cart([1.0, 1.0])
+    alone, _ = _cart([1.0])
+    T1, T2 = sm.symbols("T1 T2")
+    first = kd.OptimalControlProblem(
+        loaded, nodes=21, duration=T1, mayer=T1 + 1e-2 * v ** 2, lagrange=1e-2 * F ** 2,
+        bounds={F: (-1, 1), T1: (0.5, 3)}, initial={x: 0, v: 0}, final={x: 0.5},
+        method="hermite-simpson")
+    second = kd.OptimalControlProblem(
+        alone, nodes=21, duration=T2, mayer=T2, lagrange=1e-2 * F ** 2,
+        bounds={F: (-1, 1), T2: (0.5, 3)}, final={x: 1, v: 0}, method="hermite-simpson")
+    problem = kd.MultiphaseProblem([first, second])
+    guess = [first.guess_line(end={v: 0.7}, inputs={F: 1.0}, duration=1.5),
+             second.guess_line(start={x: 0.5, v: 0.7}, inputs={F: 0.0}, duration=1.0)]
+    approximate = problem.solve(guess, options=TIGHT)
+    exact = problem.solve(guess, options=TIGHT, hessian="exact")
+    assert approximate.success and exact.success, (approximate.message, exact.message)
+    assert abs(exact.objective - approximate.objective) < 1e-8 * abs(approximate.objective)
+    assert exact.iterations <= approximate.iterations
 
 
 # ----------------------------------------------------------------- the result

@@ -740,14 +740,13 @@ def test_exact_hessian_refusals():
     """What the exact Hessian does not cover is refused, naming it; so are an
     unknown Hessian and a contradicting IPOPT option."""
     import _ocp_peers as peers
-    definition = kd.models.build("pendulum", torque=True)
-    model = definition.numeric(backend="numpy")
-    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    model, (x, y, vx, vy, tau) = _circle_pendulum()  # a closed loop
     problem = kd.OptimalControlProblem(
-        model, nodes=5, duration=1.0, lagrange=tau ** 2, initial={q: 0, u: 0}, final={q: 1, u: 0},
-        path_constraints=[(u ** 2, 0, 4)])
-    guess = problem.guess_line(inputs={tau: 0.0})
-    with pytest.raises(kd.ModelError, match='hessian="exact".*path constraints'):
+        model, nodes=5, duration=1.0, lagrange=tau ** 2, initial={x: 0, vx: 0},
+        final={x: 0.5, vx: 0})
+    guess = problem.guess_line(start={y: -1, vy: 0}, end={y: -np.cos(0.5), vy: 0},
+                               inputs={tau: 0.0})
+    with pytest.raises(kd.ModelError, match='hessian="exact".*a model with constraints'):
         problem.solve(guess, hessian="exact")
     with pytest.raises(kd.ModelError, match="hessian='newton'"):
         problem.solve(guess, hessian="newton")

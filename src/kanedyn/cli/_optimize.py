@@ -65,8 +65,8 @@ def add_parser(sub):
     p.add_argument("--hessian", choices=("limited-memory", "exact"), default=None,
                    help="the Hessian of the Lagrangian IPOPT uses: its limited-memory "
                         "approximation (default) or the exact one from the model's second "
-                        "derivatives (refused, with the reason, for problems it does not "
-                        "cover: constrained models, path constraints, free durations ...)")
+                        "derivatives (refused, with the reason, for models with constraints "
+                        "or contacts)")
     p.add_argument("--plot", default=None, metavar="FILE",
                    help="write the problem's figure (PNG)")
     p.add_argument("--output", default=None, metavar="CSV",

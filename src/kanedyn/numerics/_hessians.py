@@ -11,7 +11,10 @@ differentiating :math:`E(x, w(x)) = 0` twice gives
                   \begin{bmatrix} I \\ w_x \end{bmatrix},
     \qquad w_x = -M^{-1} E_x,
 
-with :math:`E''` the Hessian of :math:`E` in :math:`(x, w)`.  So for weights
+with :math:`E''` the Hessian of :math:`E` in :math:`(x, w)`.  The same
+holds with :math:`x` extended by chosen constants :math:`p` (free parameters
+of an optimal control problem) and the time :math:`t`; their columns of
+:math:`w_x`, :math:`-M^{-1} E_p` and :math:`-M^{-1} E_t`, are generated too.  So for weights
 :math:`\lambda = [\lambda_q; \lambda_u]` on the rows of :math:`f`, with
 :math:`\nu = M^{-T}\lambda_u`,
 
@@ -36,7 +39,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["hessians_unavailable", "weighted_hessians"]
+__all__ = ["hessians_unavailable", "weighted_hessians", "names_time"]
 
 
 def hessians_unavailable(model):
@@ -57,10 +60,22 @@ def hessians_unavailable(model):
     return None
 
 
-def _specification(model):
+def names_time(model):
+    """Whether the state derivative of ``model`` (a model :func:`weighted_hessians`
+    serves) depends on the time explicitly: whether the time is among the
+    leaves of its kinematic equations, mass matrix and forces."""
+    from ._inverse import _workspace
+    prog, _ = _workspace(model)
+    _, dynamics = model._functions["dynamics"]
+    return any(prog.t in prog.deps(e) for _, exprs in dynamics for e in exprs)
+
+
+def _specification(model, parameters=(), time=False):
     """``(program, arguments, outputs)``: arguments ``(t, y, p, r)`` with ``r``
     the inputs then :math:`w`; outputs ``M`` (o, o) and the second
-    derivatives of ``[g; E]`` in ``v = (y, r, w)``, ((n + o) * nv, nv)."""
+    derivatives of ``[g; E]`` in ``v = (y, r, e, w)``, ((n + o) * nv, nv),
+    ``e`` the constants of indices ``parameters`` then (``time``) t; with
+    ``e``, a third output: :math:`E_e`, (o, len(e))."""
     from ._inverse import _recursive_inertia_forces, _workspace
     import sympy as sm
     eom = model._eom
@@ -73,27 +88,37 @@ def _specification(model):
     if inertia is None:
         inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) for r in range(o)]
     rows = list(qdot) + [inertia[r] - force[r] for r in range(o)]
-    v = list(args["y"]) + list(args["r"]) + w
+    extra = [args["p"][i] for i in parameters] + ([prog.t] if time else [])
+    v = list(args["y"]) + list(args["r"]) + extra + w
     first = prog.jacobian(rows, v, guarded=True)
     second = prog.jacobian(list(first), v, guarded=True)
     outputs = [((o, o), list(mass)), ((len(rows) * len(v), len(v)), list(second))]
+    if extra:
+        start, n = len(v) - o - len(extra), len(rows) - o
+        outputs.append(((o, len(extra)), [first[n + i, start + j] for i in range(o)
+                                          for j in range(len(extra))]))
     return prog, dict(args, r=list(args["r"]) + w), outputs
 
 
-def _function(model):
-    """The generated NumPy function, made on first use and kept by the model."""
-    found = model.__dict__.get("_weighted_hessians")
+def _function(model, parameters=(), time=False):
+    """The generated NumPy function, made on first use and kept by the model
+    (and the copies :meth:`NumericModel.with_constants` makes), one per
+    choice of extra variables."""
+    kept = model.__dict__.setdefault("_weighted_hessians", {})
+    key = (tuple(int(i) for i in parameters), bool(time))
+    found = kept.get(key)
     if found is None:
         from .backends._python import compile_python, generate_python
-        prog, args, outputs = _specification(model)
+        prog, args, outputs = _specification(model, *key)
         source = generate_python(prog, "hessians", args, outputs, vectorized=True, cse=True)
-        found = model.__dict__["_weighted_hessians"] = compile_python(source, "hessians")
+        found = kept[key] = compile_python(source, "hessians")
     return found
 
 
-def weighted_hessians(model, t, Y, R, weights, jacobians=None):
+def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), time=False):
     r""":math:`\partial^2 (\lambda_k^T f)/\partial x^2` at each of N points,
-    :math:`x = (y, r)`.
+    :math:`x = (y, r)`, or :math:`x = (y, r, p, t)` with ``parameters`` or
+    ``time``.
 
     Parameters
     ----------
@@ -107,11 +132,18 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None):
         the Lagrangian over those of :math:`f`).
     jacobians : Jacobians, optional
         ``model.jacobians(t, Y, r=R)`` when already at hand.
+    parameters : sequence of int, optional
+        Indices (into :attr:`NumericModel.constants`) of constants :math:`p`
+        to differentiate in too.
+    time : bool, optional
+        Differentiate in the time too (the model's explicit dependence on it).
 
     Returns
     -------
-    ndarray, shape (N, n_states + n_inputs, n_states + n_inputs)
-        Symmetric; the columns are the states then the inputs.
+    ndarray, shape (N, nx, nx)
+        Symmetric; the columns are the states, the inputs, then the chosen
+        constants and the time (``nx = n_states + n_inputs +
+        len(parameters) + time``).
     """
     reason = hessians_unavailable(model)
     if reason:
@@ -119,13 +151,13 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None):
     Y = np.asarray(Y, dtype=float)
     R = np.asarray(R, dtype=float).reshape(len(Y), -1)
     N, n, o = len(Y), model.n_q, model.n_u
-    ns, nr = model.n_states, R.shape[1]
-    nx = ns + nr
+    ns, nr, ne = model.n_states, R.shape[1], len(parameters) + bool(time)
+    nx = ns + nr + ne
     J = jacobians if jacobians is not None else model.jacobians(t, Y, r=R)
-    fn = _function(model)
+    fn = _function(model, parameters, time)
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
-    mass, second = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
+    mass, second, *E_e = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
     # points on the last axis throughout: elementwise work on rows of length N
     mass = np.broadcast_to(np.asarray(mass, dtype=float), (o, o, N))
     nv = nx + o
@@ -136,8 +168,12 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None):
                          weights[:, n:, None])[..., 0]
     c = np.concatenate([weights[:, :n], -nu], axis=1).T  # (n + o, N)
     phi = np.einsum("ik,iabk->abk", c, second)
-    W = np.concatenate([np.moveaxis(J.state[:, n:, :], 0, -1),
-                        np.moveaxis(J.inputs[:, n:, :], 0, -1)], axis=1)  # w_x, (o, nx, N)
+    W = [np.moveaxis(J.state[:, n:, :], 0, -1), np.moveaxis(J.inputs[:, n:, :], 0, -1)]
+    if ne:  # w_e = -M^{-1} E_e
+        E_e = np.broadcast_to(np.asarray(E_e[0], dtype=float), (o, ne, N))
+        W.append(np.moveaxis(-np.linalg.solve(np.moveaxis(mass, -1, 0),
+                                              np.moveaxis(E_e, -1, 0)), 0, -1))
+    W = np.concatenate(W, axis=1)  # w_x, (o, nx, N)
     cross = np.einsum("abk,bjk->ajk", phi[:nx, nx:], W)
     H = phi[:nx, :nx] + cross + cross.transpose(1, 0, 2)
     H = H + np.einsum("bik,bck,cjk->ijk", W, phi[nx:, nx:], W, optimize=True)

@@ -11,6 +11,7 @@
                    Legendre-Gauss-Radau of any degree
 ``_nlp``           the nonlinear program: bounds, objective, constraints and
                    their sparse Jacobian from ``model.jacobians``
+``_hessian``       the exact Hessian of the NLP's Lagrangian (``hessian="exact"``)
 ``_solvers``       the NLP solvers behind one interface (IPOPT through cyipopt)
 ``_guess``         initial guesses: a straight line, a simulation, a solution
 ``_result``        ``OptimalControlResult``, the inputs as collocated, and the
@@ -18,6 +19,7 @@
 ``_multiphase``    ``MultiphaseProblem``: phases in sequence solved as one NLP
 ``_linkage``       ``Linkage``: how phases join, and the junctions' rows
 ``_multiphase_result`` ``MultiphaseResult``: each phase's trajectory, and joined
+``_multiphase_hessian`` the exact Hessian of a multiphase NLP's Lagrangian
 ``_records``       ``MeasuredRecord``: measured channels from arrays or a CSV file
 ``_identify``      ``identify``: constants and initial states fitted to records
                    (single and multiple shooting on the sensitivities)

@@ -1,28 +1,41 @@
 r"""The exact Hessian of the NLP's Lagrangian (``solve(hessian="exact")``).
 
-IPOPT's Lagrangian is :math:`\sigma J(z) + \sum_j \lambda_j g_j(z)`.  With
-the defect rows :math:`y_{k+1} - y_k - h \sum_s c_s f(t_s, y_s, r_s)` and the
-objective's quadrature :math:`h \sum_k \sum_s c_s L(t_s, y_s, r_s)` (plus a
-Mayer term at the last node), every stage point :math:`x_s = (y_s, r_s) =
-\sum_o a_{s,o}\,(y_{k+o}, r_{k+o})` contributes the block
+IPOPT's Lagrangian is :math:`\sigma J(z) + \sum_j \lambda_j g_j(z)`.  Every
+part of it that is not linear is a sum over points of a function of
 
 .. math::
 
-    a_s a_s^T \otimes \Bigl(\frac{\partial^2 (\lambda_s^T f)}{\partial x^2}
-    + \sigma h c_s L''\Bigr),\qquad \lambda_s = -h c_s\,\lambda_{k},
+    u = (x, p, t, T),\qquad x = (y, r) = \sum_o a_o\, x_{k+o},\qquad
+    t = t_0 + \tau T,
 
-on the variables of its interval's nodes: block diagonal per node for
-backward Euler and the trapezoid, two nodes wide for the midpoint rule.
-The second derivatives of :math:`f` are generated
-(:func:`kanedyn.numerics._hessians.weighted_hessians`), those of the
-objective are SymPy's.  Entries repeat where blocks overlap (IPOPT adds
-them); only the lower triangle is given.
+at each point: a stage point of a one-step method (:math:`a` its
+coefficients, two nodes wide for the midpoint rule) or a point of the layout
+(a node, or an interior point of Hermite-Simpson and LGR), :math:`\tau` its
+position as a fraction of the duration.  The map from the decision
+variables :math:`\xi = (x_{k+o}, p, T, t_0)` of a point to :math:`u` is
+linear, :math:`u = D\xi`, so a term :math:`h F(u)` (the dynamics' rows and
+the objective's quadrature carry the step :math:`h = T/(N-1)`) contributes
 
-For problems whose only constraints are the dynamics' defects and the bounds
-(the initial and final states are bounds): path constraints, instance
-constraints, free parameters, a free duration, a model with constraints, the
-interval methods (Hermite-Simpson, LGR) and a phase that starts at a free
-time are refused, naming the feature.
+.. math::
+
+    h\, D^T F''(u)\, D + \frac{1}{N-1}\bigl(e_T (D^T F')^T + (D^T F') e_T^T\bigr)
+
+(the last part with a free duration only), and a term without :math:`h`
+(path constraints, the Mayer term) :math:`D^T F'' D`.  For the dynamics
+:math:`F = \omega^T f`, :math:`\omega` the multipliers of the rows through
+the method's weights (:math:`-c_s \lambda_k` for a one-step method,
+:math:`\sum_i c_{ig} \lambda_{k,i}` for an interval method); its second
+derivatives in :math:`(y, r, p, t)` are generated
+(:func:`kanedyn.numerics.weighted_hessians`), its first are the NLP's
+(:math:`\partial f/\partial t` by differences, as in the constraint
+Jacobian).  The objective's, the path constraints' and the instance
+constraints' second derivatives are SymPy's.  Entries repeat where blocks
+overlap (IPOPT adds them); only the lower triangle is given.
+
+A phase of a multiphase problem whose start time is a variable has
+:math:`t_0` among each point's variables (:math:`\partial t/\partial t_0 =
+1`).  A model with constraints (its dependent states and the residual rows)
+is refused, naming the feature.
 """
 
 from __future__ import annotations
@@ -32,12 +45,24 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._transcription import INTERVAL_METHODS
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
 #: the values of ``solve(hessian=...)``
 HESSIANS = ("limited-memory", "exact")
+
+
+class _Points:
+    """Points of one kind: their decision variables ``V`` (K, m), the linear
+    map ``D`` (K, nu, m) from them to :math:`u`, the lower triangle's mask,
+    the column of a free duration among the m (or ``None``)."""
+
+    def __init__(self, V, D, duration=None):
+        self.V, self.D, self.duration = V, D, duration
+        r = np.broadcast_to(V[:, :, None], V.shape + V.shape[1:])
+        c = np.broadcast_to(V[:, None, :], r.shape)
+        self.mask = r >= c
+        self.rows, self.cols = r[self.mask], c[self.mask]
 
 
 class LagrangianHessian:
@@ -47,76 +72,187 @@ class LagrangianHessian:
     def __init__(self, nlp):
         from ..numerics import hessians_unavailable
         pb, L = nlp.problem, nlp.layout
-        refused = [what for what, present in (
-            ("path constraints", bool(pb.path)),
-            ("instance constraints", bool(pb.instances)),
-            ("free parameters", bool(L.n_free)),
-            ("a free duration", L.free_duration),
-            ("a model with constraints", bool(pb.n_residuals)),
-            (f"the {pb.method} method", pb.method in INTERVAL_METHODS),
-            ("a phase of a multiphase problem", L.free_start_time)) if present]
-        if refused:
-            raise ModelError(f'hessian="exact" is not available for {", ".join(refused)} '
+        if pb.n_residuals:
+            raise ModelError('hessian="exact" is not available for a model with constraints '
                              '(use hessian="limited-memory")')
         reason = hessians_unavailable(pb.model)
         if reason:
             raise ModelError(f'hessian="exact": {reason}')
         self.nlp = nlp
-        N, ns, nr = L.nodes, L.n_states, L.n_inputs
-        self.nx = nx = ns + nr
-        k = np.arange(N)[:, None]
-        node_vars = np.concatenate([k * ns + np.arange(ns),
-                                    L.input_start + k * nr + np.arange(nr)], axis=1)
-        self._blocks = []  # (variables (K, m), coefficients (m,), mask (K, m, m))
-        rows, cols = [], []
-        for s in nlp.defects.stages:
-            offsets = [o for o in (0, 1) if s.a[o]]
-            V = np.concatenate([node_vars[o:o + N - 1] for o in offsets], axis=1)
-            a = np.repeat([s.a[o] for o in offsets], nx)
-            self._add(V, a, rows, cols)
-        if pb.mayer is not None:
-            self._add(node_vars[-1:], np.ones(nx), rows, cols)
-        self.structure = (np.concatenate(rows), np.concatenate(cols))
+        self.nx = nx = L.n_states + L.n_inputs
+        self.nf = nf = L.n_free
+        self.nu = nx + nf + 2
+        self.time = L.free_duration or L.free_start_time
+        self.interval = not hasattr(nlp.defects, "stages")
+        N = L.nodes
+        y_cols, r_cols = L.point_columns()
+        point_vars = np.concatenate([y_cols, r_cols], axis=1)
+        self.stages = []
+        if not self.interval:
+            for s in nlp.defects.stages:
+                offsets = [o for o in (0, 1) if s.a[o]]
+                self.stages.append(self._points(
+                    [point_vars[o:o + N - 1] for o in offsets], [s.a[o] for o in offsets],
+                    (np.arange(N - 1) + s.position) / (N - 1)))
+        self.at_points = None
+        if self.interval or pb.path or pb.mayer is not None:
+            self.at_points = self._points([point_vars], [1.0], L.positions())
+        self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
+        parts = self.stages + [self.at_points] * (self.at_points is not None) + self.instances
+        self.structure = (np.concatenate([p.rows for p in parts]),
+                          np.concatenate([p.cols for p in parts]))
 
-    def _add(self, V, a, rows, cols):
-        r = np.broadcast_to(V[:, :, None], V.shape + V.shape[1:])
-        c = np.broadcast_to(V[:, None, :], r.shape)
-        mask = r >= c
-        rows.append(r[mask])
-        cols.append(c[mask])
-        self._blocks.append((V, a, mask))
+    def _points(self, blocks, a, tau):
+        """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each
+        (K, nx) columns) at the positions ``tau`` (K,)."""
+        L = self.nlp.layout
+        nx, nf, K, nb = self.nx, self.nf, len(tau), len(blocks)
+        shared = list(L.free_start + np.arange(nf))
+        if L.free_duration:
+            shared.append(L.duration_index)
+        if L.free_start_time:
+            shared.append(L.start_index)
+        shared = np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))
+        V = np.concatenate(blocks + [shared], axis=1)
+        D = np.zeros((K, self.nu, V.shape[1]))
+        i = np.arange(nx)
+        for b in range(nb):
+            D[:, i, b * nx + i] = a[b]
+        D[:, nx + np.arange(nf), nb * nx + np.arange(nf)] = 1.0
+        col = duration = nb * nx + nf
+        if L.free_duration:
+            D[:, nx + nf, col] = tau
+            D[:, nx + nf + 1, col] = 1.0
+            col += 1
+        if L.free_start_time:
+            D[:, nx + nf, col] = 1.0
+        return _Points(V, D, duration if L.free_duration else None)
 
+    # ---------------------------------------------------------- the parts
+    def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):
+        """``(F'', F')`` in :math:`u` of :math:`F = \\omega^T f` at K points,
+        ``W`` (K, n_states) the weights :math:`\\omega`."""
+        from ..numerics import weighted_hessians
+        pb = self.nlp.problem
+        f, A, B, Pf = evaluated
+        K, nx, nf = len(t), self.nx, self.nf
+        columns = pb.free_columns
+        H = weighted_hessians(e["model"], t, Ys, Rs, W,
+                              SimpleNamespace(f=f, state=A, inputs=B),
+                              parameters=columns, time=self.time)
+        index = list(range(nx + len(columns))) + [nx + nf] * self.time
+        Hu = np.zeros((K, self.nu, self.nu))
+        Hu[:, np.array(index)[:, None], np.array(index)[None, :]] = H
+        gu = np.zeros((K, self.nu))
+        gu[:, :nx] = np.einsum("ki,kij->kj", W, np.concatenate([A, B], axis=2))
+        if nf:
+            gu[:, nx:nx + nf] = np.einsum("ki,kij->kj", W, Pf)
+        if rate is not None:
+            gu[:, nx + nf] = np.sum(W * rate, axis=1)
+        return Hu, gu
+
+    @staticmethod
+    def _term(term, t, Y, R, P, T):
+        """``(F'', F')`` in :math:`u` of a user's term at K points."""
+        _, d_t, d_y, d_r, d_p, d_T = term(t, Y, R, P, T)
+        gu = np.concatenate([d_y, d_r, d_p, d_t[:, None], d_T[:, None]], axis=1)
+        return term.hessian(t, Y, R, P, T), gu
+
+    def _assemble(self, points, h, stepped=None, plain=None):
+        """The values of ``points``: ``stepped = (F'', F')`` of the terms
+        carrying the step h, ``plain`` :math:`F''` of the others."""
+        L = self.nlp.layout
+        Hu = 0.0
+        if stepped is not None:
+            Hu = h * stepped[0]
+        if plain is not None:
+            Hu = Hu + plain
+        D = points.D
+        H = np.swapaxes(D, 1, 2) @ (Hu @ D)
+        j = points.duration
+        if stepped is not None and j is not None:
+            g = (stepped[1][:, None, :] @ D)[:, 0] / (L.nodes - 1)
+            H[:, :, j] += g
+            H[:, j, :] += g
+        return H[points.mask]
+
+    # ------------------------------------------------------------- values
     def values(self, z, sigma, multipliers):
         """The Hessian's values in the order of :attr:`structure`."""
-        from ..numerics import weighted_hessians
         nlp = self.nlp
         e = nlp._evaluate(z)
         pb, L = nlp.problem, nlp.layout
-        N, ns, h = L.nodes, L.n_states, e["h"]
+        multipliers = np.asarray(multipliers, dtype=float)
+        N, ns, K = L.nodes, L.n_states, L.n_points
+        h, P, T = e["h"], e["P"], e["T"]
         defects = nlp.defects
-        rows = defects.rows
-        n_defects = (N - 1) * len(rows)
-        lam = np.zeros((N - 1, ns))
-        lam[:, rows] = np.asarray(multipliers[:n_defects]).reshape(N - 1, len(rows))
-        stages = defects._stage_values(e["evaluated"])
+        n_defects = defects.n_rows
+        t_points = e["t0"] + T * L.positions()
         out = []
-        for s, (f, A, B, _), (V, a, mask) in zip(defects.stages, stages, self._blocks):
-            t = pb.start_time + h * (np.arange(N - 1) + s.position)
-            Ys = s.a[0] * e["Y"][:-1] + s.a[1] * e["Y"][1:]
-            Rs = s.a[0] * e["R"][:-1] + s.a[1] * e["R"][1:]
-            H = weighted_hessians(e["model"], t, Ys, Rs, -h * s.c * lam,
-                                  SimpleNamespace(f=f, state=A, inputs=B))
-            if pb.lagrange is not None and sigma:
-                H = H + sigma * h * s.c * pb.lagrange.second(t, Ys, Rs, e["P"], e["T"])
-            out.append(self._spread(H, a, V, mask))
-        if pb.mayer is not None:
-            V, a, mask = self._blocks[-1]
-            tf = np.array([pb.start_time + e["T"]])
-            H = sigma * pb.mayer.second(tf, e["Y"][-1:], e["R"][-1:], e["P"], e["T"])
-            out.append(self._spread(H, a, V, mask))
+        stepped = None
+        if self.interval:
+            stepped = self._interval_parts(e, multipliers[:n_defects], sigma, t_points)
+        else:
+            rows = defects.rows
+            lam = np.zeros((N - 1, ns))
+            lam[:, rows] = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
+            stages = defects._stage_values(e["evaluated"])
+            rates = (defects._stage_values([(r,) for r in e["rates"]]) if e["rates"]
+                     else [None] * len(stages))
+            for s, values, rate, points in zip(defects.stages, stages, rates, self.stages):
+                t = e["t0"] + h * (np.arange(N - 1) + s.position)
+                Ys = s.a[0] * e["Y"][:-1] + s.a[1] * e["Y"][1:]
+                Rs = s.a[0] * e["R"][:-1] + s.a[1] * e["R"][1:]
+                Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam, values,
+                                        None if rate is None else rate[0])
+                if pb.lagrange is not None and sigma:
+                    HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
+                    Hu, gu = Hu + sigma * s.c * HL, gu + sigma * s.c * gL
+                out.append(self._assemble(points, h, stepped=(Hu, gu)))
+        if self.at_points is not None:
+            plain = np.zeros((K, self.nu, self.nu))
+            start = n_defects
+            for path in pb.path:
+                mu = multipliers[start:start + K]
+                plain += mu[:, None, None] * path.term.hessian(t_points, e["Yp"], e["Rp"], P, T)
+                start += K
+            if pb.mayer is not None and sigma:
+                last = slice(N - 1, N)
+                plain[last] += sigma * pb.mayer.hessian(t_points[last], e["Y"][-1:],
+                                                        e["R"][-1:], P, T)
+            out.append(self._assemble(self.at_points, h, stepped=stepped, plain=plain))
+        start = n_defects + K * (len(pb.path) + pb.n_residuals)
+        for inst, points, mu in zip(pb.instances, self.instances, multipliers[start:]):
+            H = np.zeros((1,) + points.mask.shape[1:])
+            if inst.hessian is not None:
+                full = inst.hessian(nlp._instance_arguments(inst, e))
+                n = points.mask.shape[1]
+                H[0] = mu * full[:n, :n]  # without T's row and column when T is fixed
+            out.append(H[points.mask])
         return np.concatenate(out)
 
-    def _spread(self, H, a, V, mask):
-        reps = V.shape[1] // self.nx
-        block = np.tile(H, (1, reps, reps)) * (a[:, None] * a[None, :])
-        return block[mask]
+    def _interval_parts(self, e, lam, sigma, t):
+        """``(F'', F')`` at every point of an interval method: the dynamics'
+        rows through the scheme's weights, and the objective's quadrature."""
+        nlp = self.nlp
+        pb, L, defects = nlp.problem, nlp.layout, nlp.defects
+        scheme, rows = defects.scheme, defects.rows
+        N, m, K = L.nodes, len(L.interior), L.n_points
+        n_kinds, nd = scheme.n_rows, len(rows)
+        lam = lam[:(N - 1) * n_kinds * nd].reshape(N - 1, n_kinds, nd)
+        k = np.arange(N - 1)
+        where = [k] + [N + k * m + g for g in range(m)] + [k + 1]
+        weights = np.zeros((K, nd))
+        quadrature = np.zeros(K)
+        for g, at in enumerate(where):
+            weights[at] += np.einsum("i,kid->kd", scheme.c[:, g], lam)
+            quadrature[at] += scheme.weights[g]
+        W = np.zeros((K, L.n_states))
+        W[:, rows] = weights
+        rate = e["rates"][0] if e["rates"] else None
+        Hu, gu = self._dynamics(e, t, e["Yp"], e["Rp"], W, e["evaluated"][0], rate)
+        if pb.lagrange is not None and sigma:
+            HL, gL = self._term(pb.lagrange, t, e["Yp"], e["Rp"], e["P"], e["T"])
+            Hu = Hu + sigma * quadrature[:, None, None] * HL
+            gu = gu + sigma * quadrature[:, None] * gL
+        return Hu, gu

@@ -90,10 +90,12 @@ class Linkage:
 
 class JunctionRow:
     """One row at a junction: ``columns`` (global) and ``function(z) ->
-    (value, gradient over columns)``."""
+    (value, gradient over columns)``; ``hessian(z)``, its second derivatives
+    over the columns, or ``None`` for a linear row."""
 
-    def __init__(self, columns, function):
+    def __init__(self, columns, function, hessian=None):
         self.columns, self.function = np.asarray(columns, dtype=int), function
+        self.hessian = hessian
 
 
 class _Side:
@@ -246,8 +248,19 @@ def _equation(value, i, before, after, where, end_cols, end_time):
     n = len(cols)
     columns = cols + end_cols
 
+    second = sm.lambdify(variables, [e.diff(a).diff(b) for a in variables for b in variables],
+                         modules="numpy")
+    # the junction time is the sum of the end columns (or fixed): d t_j / d column = 1
+    spread = np.zeros((n + 1, len(columns)))
+    spread[np.arange(n), np.arange(n)] = 1.0
+    spread[n, n:] = 1.0
+
     def function(z):
         out = fn(*z[cols], end_time(z))
         grad = np.array(out[1:], dtype=float)
         return float(out[0]), np.concatenate([grad[:n], np.full(len(end_cols), grad[n])])
-    return JunctionRow(columns, function)
+
+    def hessian(z):
+        H = np.array(second(*z[cols], end_time(z)), dtype=float).reshape(n + 1, n + 1)
+        return spread.T @ H @ spread
+    return JunctionRow(columns, function, hessian)

@@ -190,7 +190,8 @@ class MultiphaseProblem:
         return np.concatenate(parts), None
 
     # ------------------------------------------------------------ solve
-    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False):
+    def solve(self, guess, *, solver="ipopt", options=None, warm_start=False,
+              hessian="limited-memory"):
         """Solve all phases as one NLP from ``guess``.
 
         Parameters
@@ -199,9 +200,10 @@ class MultiphaseProblem:
             One guess per phase (a decision vector of that phase, its
             ``guess_line`` or ``guess_from``, or an :class:`OptimalControlResult`),
             the whole decision vector, or a previous solution.
-        solver, options, warm_start
+        solver, options, warm_start, hessian
             As :meth:`OptimalControlProblem.solve` (a warm start needs a
-            previous :class:`MultiphaseResult` of the same layout).
+            previous :class:`MultiphaseResult` of the same layout; the exact
+            Hessian, :mod:`._multiphase_hessian`, for phases it covers).
 
         Returns
         -------
@@ -210,8 +212,17 @@ class MultiphaseProblem:
         """
         from ._multiphase_result import build_multiphase_result
         from ._solvers import solve_nlp
+        from .._errors import ModelError
+        from ._hessian import HESSIANS
+        if hessian not in HESSIANS:
+            raise ModelError(f"hessian={hessian!r}: give one of {', '.join(HESSIANS)}")
+        nlp = self.nlp
+        if hessian == "exact":
+            nlp = self.__dict__.get("_exact_nlp")
+            if nlp is None:
+                nlp = self.__dict__["_exact_nlp"] = MultiphaseNLP(self, hessian="exact")
         x0, warm = self._vector(guess, warm_start)
-        solution, signal = solve_nlp(solver, self.nlp, x0, options, warm)
+        solution, signal = solve_nlp(solver, nlp, x0, options, warm)
         return build_multiphase_result(self, solution, signal)
 
     def __repr__(self):
@@ -222,15 +233,18 @@ class MultiphaseProblem:
 
 class MultiphaseNLP:
     """The NLP of a :class:`MultiphaseProblem`: the phases'
-    :class:`._nlp.CollocationNLP` side by side, then the junctions' rows."""
+    :class:`._nlp.CollocationNLP` side by side, then the junctions' rows
+    (``hessian="exact"``: with the Lagrangian's exact Hessian,
+    :mod:`._multiphase_hessian`)."""
 
-    def __init__(self, problem):
+    def __init__(self, problem, hessian="limited-memory"):
         from ._nlp import CollocationNLP
         self.problem = problem
         self.phase_nlps, self.offsets, self.row_offsets = [], [], []
         n = m = 0
         for phase, start in zip(problem.phases, problem.starts):
-            nlp = CollocationNLP(phase, start_time=start, free_start_time=start is None)
+            nlp = CollocationNLP(phase, start_time=start, free_start_time=start is None,
+                                 hessian=hessian)
             self.phase_nlps.append(nlp)
             self.offsets.append(n)
             self.row_offsets.append(m)
@@ -258,6 +272,19 @@ class MultiphaseNLP:
             rows.append(np.full(row.columns.size, m + i))
             cols.append(row.columns)
         self.structure = (np.concatenate(rows).astype(int), np.concatenate(cols).astype(int))
+        #: the exact Hessian of the Lagrangian, or ``None``
+        self.exact_hessian = None
+        if hessian == "exact":
+            from ._multiphase_hessian import MultiphaseHessian
+            self.exact_hessian = MultiphaseHessian(self)
+
+    def hessian_structure(self):
+        """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""
+        return self.exact_hessian.structure
+
+    def hessian(self, z, multipliers, objective_factor):
+        """The Hessian's values at ``z`` (IPOPT's ``obj_factor`` and ``lambda``)."""
+        return self.exact_hessian.values(z, objective_factor, multipliers)
 
     def parts(self, z):
         """Each phase's part of ``z``."""

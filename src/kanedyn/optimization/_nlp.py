@@ -18,7 +18,8 @@ point in one call) are evaluated once per decision vector and shared by the
 constraints, the Jacobian and the objective.  With a free duration the
 derivative :math:`\partial f/\partial t` of an explicitly time-dependent model
 is taken by central differences of ``f`` (the only derivative not generated;
-exactly zero for an autonomous model); so it is when the start time is a
+exactly zero for an autonomous model, which with ``hessian="exact"``, whose
+generated code tells, is not evaluated); so it is when the start time is a
 variable (a phase of a :class:`._multiphase.MultiphaseProblem` after a free
 duration).
 """
@@ -60,9 +61,13 @@ class CollocationNLP:
         self._bounds()
         #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
         self.exact_hessian = None
+        #: the model names no time: its df/dt is zero, not taken by differences
+        self._timeless = False
         if hessian == "exact":
+            from ..numerics import names_time
             from ._hessian import LagrangianHessian
             self.exact_hessian = LagrangianHessian(self)
+            self._timeless = not names_time(pb.model)
 
     # ------------------------------------------------------------ layout
     def _pattern(self):
@@ -189,7 +194,8 @@ class CollocationNLP:
                     Pf[..., :len(free_columns)] = J.parameters[:, :, free_columns]
             evaluated.append((J.f, J.state, J.inputs, Pf, J.constraints))
             if L.free_duration or L.free_start_time:
-                rates.append(self._time_rate(model, t, Ys, Rs, T))
+                rates.append(np.zeros_like(J.f) if self._timeless
+                             else self._time_rate(model, t, Ys, Rs, T))
             if pb.lagrange is not None:
                 lagrange.append(pb.lagrange(t, Ys, Rs, P, T))
         point_constraints = None

@@ -35,10 +35,12 @@ class _Path:
 
 class _Instance:
     """One instance constraint: ``value(args) = 0`` with ``args`` the named
-    values (``at``: ``(kind, index, node)`` each), the free parameters, T."""
+    values (``at``: ``(kind, index, node)`` each), the free parameters, T;
+    ``hessian(args)`` its second derivatives in them, or ``None`` (linear)."""
 
-    def __init__(self, at, value, gradient, text):
+    def __init__(self, at, value, gradient, text, hessian=None):
         self.at, self.value, self.gradient, self.text = at, value, gradient, text
+        self.hessian = hessian
         self.lower = self.upper = 0.0
 
 
@@ -413,8 +415,12 @@ class OptimalControlProblem:
         e = expr.xreplace(swap)
         variables = dummies + p + [T]
         fn = sm.lambdify(variables, [e] + [e.diff(v) for v in variables], modules="numpy")
+        second = sm.lambdify(variables, [e.diff(a).diff(b) for a in variables
+                                         for b in variables], modules="numpy")
+        n = len(variables)
         return _Instance(at, lambda a: float(fn(*a)[0]),
-                         lambda a: np.array(fn(*a)[1:], dtype=float), str(value))
+                         lambda a: np.array(fn(*a)[1:], dtype=float), str(value),
+                         lambda a: np.array(second(*a), dtype=float).reshape(n, n))
 
     def _periodic(self, state):
         s = self.symbols
@@ -491,8 +497,8 @@ class OptimalControlProblem:
             The Hessian of the Lagrangian IPOPT uses: its limited-memory
             quasi-Newton approximation, or the exact one (generated second
             derivatives of the model, :mod:`kanedyn.optimization._hessian`;
-            not for path or instance constraints, free parameters, a free
-            duration, models with constraints or Hermite-Simpson).
+            every method, constraint, free parameter and free duration, but
+            not models with constraints or contacts).
 
         Returns
         -------

@@ -122,23 +122,24 @@ class Term:
         outputs = [e] + [e.diff(v) for v in variables]
         self._fn = sm.lambdify(variables, outputs, modules="numpy", dummify=True)
         self._sizes = (ns, nr, nf)
-        self._expr, self._variables, self._xs = e, variables, y + r
+        self._expr, self._variables = e, variables
         self._second = None
 
-    def second(self, t, Y, R, P, T):
-        """The Hessian in ``x = (y, r)`` (SymPy's second derivatives), shape
-        (K, n_states + n_inputs, n_states + n_inputs)."""
+    def hessian(self, t, Y, R, P, T):
+        """The Hessian (SymPy's second derivatives) in ``u = (y, r, p, t, T)``
+        (this order), shape (K, nu, nu), ``nu = n_states + n_inputs + n_free
+        + 2``."""
         import sympy as sm
         if self._second is None:
-            xs = self._xs
-            entries = [self._expr.diff(a).diff(b) for a in xs for b in xs]
-            self._second = sm.lambdify(self._variables, entries, modules="numpy",
-                                       dummify=True)
+            us = self._variables[1:-1] + [self._variables[0], self._variables[-1]]
+            entries = [self._expr.diff(a).diff(b) for a in us for b in us]
+            self._second = (len(us), sm.lambdify(self._variables, entries, modules="numpy",
+                                                 dummify=True))
         t = np.asarray(t, dtype=float)
-        K, nx = t.size, len(self._xs)
-        out = self._second(t, *Y.T, *R.T, *np.asarray(P, dtype=float), T)
+        K, (nu, fn) = t.size, self._second
+        out = fn(t, *Y.T, *R.T, *np.asarray(P, dtype=float), T)
         out = [np.broadcast_to(np.asarray(o, dtype=float), (K,)) for o in out]
-        return np.stack(out, axis=1).reshape(K, nx, nx) if nx else np.zeros((K, 0, 0))
+        return np.stack(out, axis=1).reshape(K, nu, nu)
 
     def __call__(self, t, Y, R, P, T):
         t = np.asarray(t, dtype=float)
