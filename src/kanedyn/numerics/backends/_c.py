@@ -21,7 +21,7 @@ from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
-from sympy.printing.c import C99CodePrinter
+from sympy.printing.c import C99CodePrinter, get_math_macros
 
 from . import _c_contact, _c_ensemble, _c_integrator, _c_lanes, _c_runtime
 from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, CompilerError,
@@ -46,7 +46,13 @@ PIECE_MARK = "/* ---- kanedyn: next part ---- */"
 
 # ------------------------------------------------------------------ printing
 class _CPrinter(C99CodePrinter):
+    #: SymPy's table of math.h constants, made once (SymPy's printer makes it anew
+    #: for every printer, unless its class has one: 4 ms of a cold start at n = 10)
+    math_macros = None
+
     def __init__(self, names):
+        if _CPrinter.math_macros is None:
+            _CPrinter.math_macros = get_math_macros()
         super().__init__({"strict": True, "order": "none"})
         self._names = names
 
@@ -272,17 +278,18 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
     index = {s: k for k, s in enumerate(needed)}
     chunks = [needed[i:i + CHUNK] for i in range(0, len(needed), CHUNK)] or [[]]
     chunk_of = {s: c for c, members in enumerate(chunks) for s in members}
-    # the last chunk (len(chunks) = the output part) using each intermediate
+    split = len(chunks) > 1  # decided before any statement is emitted
+    # the last chunk (len(chunks) = the output part) using each intermediate: what
+    # a split function stores in the work array (one in a single chunk stores none)
     last_use = {}
-    for s in needed:
+    for s in needed if split else ():
         for parent in definition[s].free_symbols:
             if parent in index:
                 last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
-    for e in flat:
+    for e in flat if split else ():
         for s in e.free_symbols:
             if s in index:
                 last_use[s] = len(chunks)
-    split = len(chunks) > 1  # decided before any statement is emitted
     params = _PARAMS
     lines = []
     stored = set()
