@@ -21,7 +21,6 @@ from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
-from sympy.printing.c import C99CodePrinter, get_math_macros
 
 from . import _c_contact, _c_ensemble, _c_integrator, _c_lanes, _c_runtime
 from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, CompilerError,
@@ -45,62 +44,23 @@ PIECE_MARK = "/* ---- kanedyn: next part ---- */"
 
 
 # ------------------------------------------------------------------ printing
-class _CPrinter(C99CodePrinter):
-    #: SymPy's table of math.h constants, made once (SymPy's printer makes it anew
-    #: for every printer, unless its class has one: 4 ms of a cold start at n = 10)
-    math_macros = None
+class _CPrinter:
+    """C text of the expressions :func:`_direct` leaves to SymPy's C printer
+    (:class:`._c_printer.SymPyCPrinter`, imported and made on the first of them:
+    SymPy's printing and code generation modules are 5 ms of a cold start that
+    most models never use), with the names of symbols in ``names`` (read as it
+    grows)."""
 
     def __init__(self, names):
-        if _CPrinter.math_macros is None:
-            _CPrinter.math_macros = get_math_macros()
-        super().__init__({"strict": True, "order": "none"})
         self._names = names
+        self._printer = None
 
-    def _print_Symbol(self, expr):
-        try:
-            return self._names[expr]
-        except KeyError:
-            raise CodegenError(f"symbol {expr} has no value in the generated code") \
-                from None
-
-    _print_Dummy = _print_Symbol
-
-    def _print_Pow(self, expr):
-        base, exp = expr.args
-        b = self.parenthesize(base, 60)  # tighter than multiplication
-        if exp.is_Integer:
-            n = int(exp)
-            if n == 2:
-                return f"({b}*{b})"
-            if n == 3:
-                return f"({b}*{b}*{b})"
-            if n == -1:
-                return f"(1.0/{b})"
-            if n == -2:
-                return f"(1.0/({b}*{b}))"
-            return f"kd_powi({self._print(base)}, {n})"
-        if exp == sm.S.Half:
-            return f"sqrt({self._print(base)})"
-        if exp == -sm.S.Half:
-            return f"(1.0/sqrt({self._print(base)}))"
-        return f"pow({self._print(base)}, {self._print(exp)})"
-
-    def _print_sign(self, expr):
-        return f"kd_sign({self._print(expr.args[0])})"
-
-    def _print_kd_dpow(self, expr):
-        return f"kd_dpow({', '.join(self._print(a) for a in expr.args)})"
-
-    def _print_Rational(self, expr):
-        return _number_literal(expr)
-
-    # conditions folded to a constant (a Piecewise's derivative can hold them): C has no
-    # true/false without <stdbool.h>
-    def _print_BooleanTrue(self, expr):
-        return "1"
-
-    def _print_BooleanFalse(self, expr):
-        return "0"
+    def doprint(self, expr):
+        """C text of the SymPy expression ``expr``."""
+        if self._printer is None:
+            from ._c_printer import SymPyCPrinter
+            self._printer = SymPyCPrinter(self._names)
+        return self._printer.doprint(expr)
 
 
 class _Unusual(Exception):
@@ -231,6 +191,8 @@ def _number(expr):
         if value != value or abs(value) == float("inf"):
             raise _Unusual
         return value < 0, repr(abs(value)), _ATOM
+    if expr is sm.nan:  # an undeclared potential energy: as SymPy's C99 printer has it
+        return False, "NAN", _ATOM
     raise _Unusual
 
 
