@@ -248,6 +248,10 @@ def test_the_runtime_is_compiled_quickly_while_the_model_is_derived(fresh_cache,
 
     _c_build.prefetch(_c_build.LIGHT_UNIT + "int kd_probe(void) { return 1; }\n")
     ((_, _, folder),) = _c_quick._PREFETCHED.values()
+    old = time.time() - 3 * 3600  # as old as a stale build's folder: this process's, kept
+    os.utime(folder, (old, old))
+    _c_build._remove_stale_builds(fresh_cache, 600)
+    assert folder.exists()
     other = kd.models.build("pendulum")
     other.numeric(other.derive(), backend="c")  # equations given: nothing prefetched
     assert not _c_quick._PREFETCHED and not folder.exists()

@@ -66,7 +66,7 @@ from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, ope
                                open_trusted, private_directory, trusted_directory,
                                untrusted_entry)
 from ._c_quick import (compile_quick, drop_prefetched, optimize_later, prefetch_quick,
-                       quick_command)
+                       prefetched_folders, quick_command)
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
            "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
@@ -533,7 +533,7 @@ def _remove_stale_builds(directory, timeout):
     kanedyn gives them, and only where they hold nothing but files with the
     names kanedyn writes there (anything else is left as it is)."""
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
-    own = {made.parent for _, _, made, _ in _PREFETCHED.values()}
+    own = {made.parent for _, _, made, _ in _PREFETCHED.values()} | prefetched_folders()
     try:
         found = os.listdir(directory)
     except OSError:

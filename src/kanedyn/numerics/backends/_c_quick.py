@@ -10,7 +10,9 @@ module itself calls the optimized code from then on (a run under way included).
 Both compilers translate the same C into IEEE double arithmetic without fused
 multiply-adds (gcc is told ``-ffp-contract=off``; tcc never fuses) and call
 the same libm, so the two modules return the same numbers: the tests compare
-them to the bit.
+them to the bit.  A model's generic runtime unit, known from its sizes before it
+is derived, is compiled by the quick compiler alone meanwhile
+(:func:`prefetch_quick`), and the quick build links its object.
 
 The optimized build holds the build lock of :mod:`._c_build` while gcc runs: a
 module that another model of the process needs meanwhile and that is not
@@ -51,9 +53,9 @@ from pathlib import Path
 from ..._fork import after_fork_in_child, remove_at_exit, spawn
 from ..._trusted_files import PRIVATE_FILE
 
-__all__ = ["quick_command", "compile_quick", "prefetch_quick", "drop_prefetched",
-           "optimize_later", "when_optimized", "when_cached", "finish_compiling",
-           "QUICK_STATS"]
+__all__ = ["quick_command", "compile_quick", "prefetch_quick", "prefetched_folders",
+           "drop_prefetched", "optimize_later", "when_optimized", "when_cached",
+           "finish_compiling", "QUICK_STATS"]
 
 #: what this process did (read by tests): ``quick``, modules built by the quick
 #: compiler; ``failed``, units it could not translate (an optimized build ran
@@ -252,6 +254,13 @@ def _prefetched_object(command, includes, unit, timeout):
         return made
     _stop(found)
     return None
+
+
+def prefetched_folders():
+    """The folders of this process's units from :func:`prefetch_quick` (not
+    stale, however old: a long derivation may outlast the age of a stale build)."""
+    with _STATE:
+        return {folder for _, _, folder in _PREFETCHED.values()}
 
 
 def drop_prefetched():
