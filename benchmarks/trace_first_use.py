@@ -6,7 +6,9 @@ clock read at every stage (the imports of NumPy, SymPy and
 ``sympy.physics.mechanics``, the model's definition, the derivation, each
 translation unit as the code generation hands it over, the optimized module
 taking the quick one's place) and every compiler run's start and end (the quick
-compiler's, or the prefetched generic runtime's without it).  Seconds from before
+compiler's: the generic runtime's alone while the model is derived, then the
+module's; without it the optimizing compiler's prefetched generic runtime's; a
+run's end is when the build first sees it ended).  Seconds from before
 ``import numpy``, wall time and the process's own CPU time (which a loaded
 machine inflates far less; the compilers' CPU is not in it).  The machine is
 shared: compare traces of one hour only.
@@ -52,6 +54,8 @@ class Run(subprocess.Popen):
         sources = [part for part in cmd if part.endswith(".c")]
         flags = [part for part in cmd if part in ("-O0", "-O1", "-O2")]
         what = "link" if not sources else (
+            f"quick compiler ({{Path(cmd[0]).name}}), prefetched: {{Path(sources[0]).name}}"
+            if cmd[0] == (quick_command() or [None])[0] and "-c" in cmd else
             f"quick compiler ({{Path(cmd[0]).name}}): {{len(sources)}} units"
             if cmd[0] == (quick_command() or [None])[0] else
             ("prefetched " if "prefetch-" in sources[0] else "")

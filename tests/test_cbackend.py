@@ -751,7 +751,7 @@ def test_direct_printing_matches_sympys_printer():
              sm.sin(a) * sm.cos(b) - 0.25 * c, -(a + b), 2.5 * a ** 2 / b,
              a - sm.Rational(3, 4), a ** sm.Rational(3, 2), b / a ** sm.Rational(3, 2),
              sm.atan2(a, b), sm.Abs(a - b), sm.sign(c), a * (b - c) / (c + d) ** 2,
-             sm.exp(-a), sm.Integer(-3), (-a) ** 3, c ** -5, 0.1 * a - 1e-20 * b]
+             sm.exp(-a), sm.Integer(-3), (-a) ** 3, c ** -5, 0.1 * a - 1e-20 * b, sm.nan]
 
     def same_value_text(text):
         text = re.sub(r"\((\d+\.\d+(?:e[-+]?\d+)?)\)", r"\1", text)  # a leading rational

@@ -96,6 +96,44 @@ def test_second_process_and_new_constants_reuse_the_cache(tmp_path):
     assert f2 != pytest.approx(f1)
 
 
+_COLD = """
+import json, sys
+import kanedyn as kd
+d = kd.models.build("chain3d", n=3, style="positions")
+m = d.numeric(backend="c")
+f = m.rhs(0.0, d.initial(m))
+kd.numerics.finish_compiling()
+print(json.dumps([sorted(x for x in {modules!r} if x in sys.modules), list(f)]))
+"""
+
+
+@pytest.mark.slow
+def test_a_cold_start_imports_only_what_a_rigid_model_needs(tmp_path):
+    """A first process (nothing cached) derives and compiles a model of rigid
+    bodies without SymPy's C printer and code generation modules (every
+    statement is printed by the backend itself) or the finite elements of
+    flexible members (and NumPy's polynomials they import); asked for, each is
+    there, and the numbers are the numpy backend's."""
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    modules = ("sympy.printing.c", "sympy.codegen", "numpy.polynomial",
+               "kanedyn.numerics.backends._c_printer", "kanedyn.modeling.flexible._beam",
+               "kanedyn.modeling.flexible._member")
+    found, f = _run(_COLD.format(modules=modules), tmp_path)
+    assert found == []
+    out = _run("import json, sys\n"
+               "from kanedyn.modeling.flexible import BeamMember\n"
+               "from kanedyn.numerics.backends._c import _CPrinter\n"
+               "_CPrinter({}).doprint(1)\n"
+               f"print(json.dumps(sorted(x for x in {modules!r} if x in sys.modules)))")
+    assert out == sorted(modules)
+    import kanedyn as kd
+    d = kd.models.build("chain3d", n=3, style="positions")
+    ref = d.numeric(d.derive())
+    assert f == pytest.approx(list(ref.rhs(0.0, d.initial(ref))), rel=1e-12, abs=1e-12)
+
+
 _WARM = """
 import json, sys
 import kanedyn as kd

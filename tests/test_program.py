@@ -124,3 +124,51 @@ def test_shadow_jacobian_refuses_non_analytic_functions(program):
     c = prog.let(sm.Abs(a - 1) * u1, "c")
     assert prog.shadow_jacobian([c], (q1,), 101) is None
     assert prog.shadow_jacobian([b], (q1,), 101) is not None
+
+
+def _temporaries():
+    import itertools
+    return (sm.Dummy(f"kd_cse{i}", dummy_index=i) for i in itertools.count())
+
+
+def _sympys_elimination(exprs):
+    from sympy.core.parameters import evaluate
+    from sympy.simplify.cse_main import tree_cse
+    with evaluate(False):
+        return tree_cse(exprs, _temporaries(), opt_subs={}, order="none")
+
+
+def _same_elimination(ours, theirs):
+    """The same temporaries (names, trees node for node) and reduced expressions."""
+    (r1, e1), (r2, e2) = ours, theirs
+    assert [(s.name, t) for s, t in r1] == [(s.name, t) for s, t in r2]
+    assert [sm.srepr(t) for _, t in r1] == [sm.srepr(t) for _, t in r2]
+    assert [sm.srepr(e) for e in e1] == [sm.srepr(e) for e in e2]
+
+
+def test_listing_elimination_is_sympys_repeated_subtree_pass():
+    """The elimination of ``Program.listing`` gives what SymPy's ``tree_cse``
+    gives (no optimizations, ``order="none"``, unevaluated): on small cases
+    (a repeated product, a function, a Piecewise's pairs, a symbol named as a
+    temporary would be) and on the dynamics and energy of built-in models."""
+    from kanedyn.engine._cse import eliminate_repeated
+    a, b, c = sm.symbols("a b c")
+    taken = sm.Symbol("kd_cse0")
+    cases = [[a * b + sm.sin(a * b), sm.cos(a * b) * (a + c)],
+             [sm.Piecewise((a * b, c > a * b), (sm.sin(c) ** 2, True)), sm.sin(c) * a * b],
+             [taken * (a + b), (a + b) ** 2 + taken], [a, sm.Integer(3)], []]
+    for exprs in cases:
+        _same_elimination(eliminate_repeated(exprs, _temporaries()),
+                          _sympys_elimination(exprs))
+    import kanedyn as kd
+    for name, options in (("chain3d", {"n": 4}), ("four-bar", {}), ("rolling-disk", {})):
+        d = kd.models.build(name, lazy=False, **options)
+        eom = d.derive()
+        program = eom._program
+        dynamics = [e for row in eom._mass for e in row] + list(eom._active) \
+            + list(eom._remainder)
+        for outputs in (dynamics, [eom._kinetic]):
+            exprs = [program.definition(s) for s in program.needed(outputs)] + outputs
+            assert exprs, name
+            _same_elimination(eliminate_repeated(exprs, _temporaries()),
+                              _sympys_elimination(exprs))

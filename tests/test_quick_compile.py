@@ -207,9 +207,56 @@ def test_the_first_use_trace_with_the_quick_compiler(monkeypatch):
     at = dict((stage, s) for s, stage in marks)
     assert "optimized module in use" in at
     quick = [run for run in runs if run[2].startswith("quick compiler")]
-    assert len(quick) == 1 and quick[0][1] <= at["first rhs"]
+    # the generic runtime's run, started before the derivation, then the build's
+    assert [what.split(":")[0] for _, _, what in quick] == [
+        "quick compiler (tcc), prefetched", "quick compiler (tcc)"]
+    assert quick[0][0] <= at["derivation starts"]
+    assert all(end <= at["first rhs"] for _, end, _ in quick)
     assert not any(what.startswith("prefetched") for _, _, what in runs)
     assert sum(what == "link" for _, _, what in runs) == 1
+
+
+def test_the_runtime_is_compiled_quickly_while_the_model_is_derived(fresh_cache,
+                                                                    monkeypatch):
+    """With the quick compiler, a built-in model's generic runtime unit (predicted
+    before the derivation) is compiled by it alone meanwhile, and the quick build
+    links that object with the units it compiles itself (the module's numbers are
+    the numpy backend's); the prefetch's folder goes with the build, and a unit
+    that no build takes is stopped and removed by the next build."""
+    needs_tcc()
+    runs = []
+    spawn = _c_quick.spawn
+
+    def record(cmd, **options):
+        runs.append(list(cmd))
+        return spawn(cmd, **options)
+
+    monkeypatch.setattr(_c_quick, "spawn", record)
+    definition = kd.models.build("chain3d", n=4)
+    model = definition.numeric(backend="c")
+    early, build = runs
+    made = early[early.index("-o") + 1]
+    assert "-c" in early and "-c" not in build
+    assert made in build  # linked, not compiled again
+    compiled = [Path(part).name for part in build if part.endswith(".c")]
+    assert "unit0.c" not in compiled and "unit1.c" in compiled
+    assert not Path(made).parent.exists() and not _c_quick._PREFETCHED
+    reference = definition.numeric(definition.derive(), backend="numpy")
+    y = definition.initial(model) + 0.1
+    np.testing.assert_allclose(model.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-12,
+                               atol=1e-12)
+
+    _c_build.prefetch(_c_build.LIGHT_UNIT + "int kd_probe(void) { return 1; }\n")
+    ((_, _, folder),) = _c_quick._PREFETCHED.values()
+    old = time.time() - 3 * 3600  # as old as a stale build's folder: this process's, kept
+    os.utime(folder, (old, old))
+    _c_build._remove_stale_builds(fresh_cache, 600)
+    assert folder.exists()
+    other = kd.models.build("pendulum")
+    other.numeric(other.derive(), backend="c")  # equations given: nothing prefetched
+    assert not _c_quick._PREFETCHED and not folder.exists()
+    assert len(runs) == 4  # the probe, and the pendulum's build from its sources
+    assert not any(part.endswith(".o") for part in runs[-1])
 
 
 def chain_with_its_build_held_back(monkeypatch):

@@ -5,6 +5,7 @@ numerics or simulation; see ``docs/architecture.md``.
 
 ``_program``     straight-line programs: named intermediates, forward time
                  derivatives, random-point identity tests, listings for codegen
+``_cse``         the listings' common subexpressions: repeated subtrees named once
 ``_symbols``     the table between a model's SymPy symbols and internal ones
 ``_kinematics``  frames and points as intermediates: rotations, angular
                  velocities, velocities, partial velocities, inertias

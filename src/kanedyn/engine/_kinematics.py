@@ -52,6 +52,15 @@ def add(a, b):
     return tuple(x + y for x, y in zip(a, b))
 
 
+def _product(A, B):
+    """``A * B`` of two 3 x 3 SymPy matrices, each entry the sum of its products
+    as SymPy's product makes it (``Add`` of the nonzero ``A[i, k] * B[k, j]``), but
+    without its conversion to and from a domain matrix (0.45 against 0.07 ms:
+    4 ms of deriving a chain of ten links)."""
+    return sm.Matrix(3, 3, [sm.Add(*[A[i, k] * B[k, j] for k in range(3)])
+                            for i in range(3) for j in range(3)])
+
+
 class PartialVelocities(Sequence):
     r"""Partial derivatives of a vector with respect to each speed, formed when
     first read.
@@ -267,7 +276,7 @@ class Kinematics:
             local = parent._dcm_dict[f]  # parent.dcm(f): f components -> parent's
             where = f"orientation of {f}"
             local = local.applyfunc(lambda e, where=where: self.internal(e, where))
-            product = self._dcm[parent] * local
+            product = _product(self._dcm[parent], local)
             C = self.prog.let_matrix(product, f"C_{f}_")
             self._dcm[f] = C
             self._pending_hints.append(f)

@@ -80,12 +80,10 @@ class SymbolTable:
                              self.q + self.u + self.u_aux):
             self._int[ext] = int_
             self._ext[int_] = ext
-        for ext, int_ in zip(self.u_ext, self.udot):
-            self._int[ext.diff(t)] = int_
-            self._ext[int_] = ext.diff(t)
-        for ext, int_ in zip(self.q_ext, self.qdot_raw):
-            self._int[ext.diff(t)] = int_
-            self._ext[int_] = ext.diff(t)
+        for ext, int_ in zip(self.u_ext + self.q_ext, self.udot + self.qdot_raw):
+            derivative = ext.diff(t)  # once: SymPy builds it anew each time
+            self._int[derivative] = int_
+            self._ext[int_] = derivative
         self._qdot_value = {}  # raw q' symbol -> its expression in u
         self._replaced = {}  # external dynamic symbol -> why its derivatives are refused
         self.specified = {}  # external -> internal, in discovery order

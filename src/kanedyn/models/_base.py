@@ -278,15 +278,30 @@ def _source_stamp():
     (a changed model or code generator is a new cache entry)."""
     if not _SOURCE_STAMP:
         import hashlib
-        from pathlib import Path
-        root = Path(__file__).resolve().parents[1]
+        import os
         digest = hashlib.sha256()
-        for path in sorted(root.rglob("*.py")):
-            stat = path.stat()
-            digest.update(f"{path.relative_to(root)}:{stat.st_size}:{stat.st_mtime_ns}\n"
-                          .encode())
+        root = os.path.dirname(os.path.dirname(os.path.realpath(__file__)))
+        for parts, entry in sorted(_python_files(root, ())):
+            stat = entry.stat()
+            digest.update(f"{'/'.join(parts)}:{stat.st_size}:{stat.st_mtime_ns}\n".encode())
         _SOURCE_STAMP.append(digest.hexdigest())
     return _SOURCE_STAMP[0]
+
+
+def _python_files(folder, parts):
+    """``[(path parts below the package, directory entry)]`` of the ``.py`` files
+    in ``folder`` and its subfolders (``os.scandir``: a warm start reads some 270
+    of them, 1 ms where ``Path.rglob`` took 4 ms)."""
+    import os
+    found = []
+    with os.scandir(folder) as entries:
+        for entry in entries:
+            if entry.is_dir():
+                if entry.name != "__pycache__":
+                    found.extend(_python_files(entry.path, parts + (entry.name,)))
+            elif entry.name.endswith(".py"):
+                found.append((parts + (entry.name,), entry))
+    return found
 
 
 #: the content of a derivation-cache entry (a saved-data archive, see kanedyn.io)

@@ -14,12 +14,26 @@
                 inertia invariants
 """
 
-from ._beam import BeamElement, beam_element_matrices
-from ._body import FlexibleBody, InertiaInvariants
-from ._member import BeamMember, FEMember, NodeMass
-from ._reduced import ReducedMember
-from ._reduction import REDUCTIONS, craig_bampton, free_free, guyan
+from ..._lazy import lazy_attributes as _lazy_attributes
 
-__all__ = ["ReducedMember", "BeamMember", "FEMember", "NodeMass", "BeamElement",
-           "beam_element_matrices", "craig_bampton", "guyan", "free_free", "REDUCTIONS",
-           "FlexibleBody", "InertiaInvariants"]
+#: public name -> the module (in this package) that defines it; imported on first use
+#: (a model of rigid bodies is checked for flexible bodies: ``FlexibleBody`` alone,
+#: without the finite elements and NumPy's polynomials they import)
+_LAZY = {
+    "ReducedMember": "._reduced",
+    "BeamMember": "._member",
+    "FEMember": "._member",
+    "NodeMass": "._member",
+    "BeamElement": "._beam",
+    "beam_element_matrices": "._beam",
+    "craig_bampton": "._reduction",
+    "guyan": "._reduction",
+    "free_free": "._reduction",
+    "REDUCTIONS": "._reduction",
+    "FlexibleBody": "._body",
+    "InertiaInvariants": "._body",
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)

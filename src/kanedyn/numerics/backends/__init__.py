@@ -2,6 +2,7 @@
 
 ``_python``         NumPy source from a straight-line program (``backend="numpy"``)
 ``_c``              C source of an extension module (``backend="c"``)
+``_c_printer``      SymPy's C printer for the rare expressions ``_c`` does not print itself
 ``_c_build``        compiling (translation units in parallel) and caching the modules
 ``_c_quick``        a model's first module from TinyCC, the optimized one built meanwhile
 ``_c_runtime``      the C runtime every generated module carries

@@ -21,7 +21,6 @@ from typing import NamedTuple
 
 import numpy as np
 import sympy as sm
-from sympy.printing.c import C99CodePrinter
 
 from . import _c_contact, _c_ensemble, _c_integrator, _c_lanes, _c_runtime
 from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, CompilerError,
@@ -45,56 +44,23 @@ PIECE_MARK = "/* ---- kanedyn: next part ---- */"
 
 
 # ------------------------------------------------------------------ printing
-class _CPrinter(C99CodePrinter):
+class _CPrinter:
+    """C text of the expressions :func:`_direct` leaves to SymPy's C printer
+    (:class:`._c_printer.SymPyCPrinter`, imported and made on the first of them:
+    SymPy's printing and code generation modules are 5 ms of a cold start that
+    most models never use), with the names of symbols in ``names`` (read as it
+    grows)."""
+
     def __init__(self, names):
-        super().__init__({"strict": True, "order": "none"})
         self._names = names
+        self._printer = None
 
-    def _print_Symbol(self, expr):
-        try:
-            return self._names[expr]
-        except KeyError:
-            raise CodegenError(f"symbol {expr} has no value in the generated code") \
-                from None
-
-    _print_Dummy = _print_Symbol
-
-    def _print_Pow(self, expr):
-        base, exp = expr.args
-        b = self.parenthesize(base, 60)  # tighter than multiplication
-        if exp.is_Integer:
-            n = int(exp)
-            if n == 2:
-                return f"({b}*{b})"
-            if n == 3:
-                return f"({b}*{b}*{b})"
-            if n == -1:
-                return f"(1.0/{b})"
-            if n == -2:
-                return f"(1.0/({b}*{b}))"
-            return f"kd_powi({self._print(base)}, {n})"
-        if exp == sm.S.Half:
-            return f"sqrt({self._print(base)})"
-        if exp == -sm.S.Half:
-            return f"(1.0/sqrt({self._print(base)}))"
-        return f"pow({self._print(base)}, {self._print(exp)})"
-
-    def _print_sign(self, expr):
-        return f"kd_sign({self._print(expr.args[0])})"
-
-    def _print_kd_dpow(self, expr):
-        return f"kd_dpow({', '.join(self._print(a) for a in expr.args)})"
-
-    def _print_Rational(self, expr):
-        return _number_literal(expr)
-
-    # conditions folded to a constant (a Piecewise's derivative can hold them): C has no
-    # true/false without <stdbool.h>
-    def _print_BooleanTrue(self, expr):
-        return "1"
-
-    def _print_BooleanFalse(self, expr):
-        return "0"
+    def doprint(self, expr):
+        """C text of the SymPy expression ``expr``."""
+        if self._printer is None:
+            from ._c_printer import SymPyCPrinter
+            self._printer = SymPyCPrinter(self._names)
+        return self._printer.doprint(expr)
 
 
 class _Unusual(Exception):
@@ -225,6 +191,8 @@ def _number(expr):
         if value != value or abs(value) == float("inf"):
             raise _Unusual
         return value < 0, repr(abs(value)), _ATOM
+    if expr is sm.nan:  # an undeclared potential energy: as SymPy's C99 printer has it
+        return False, "NAN", _ATOM
     raise _Unusual
 
 
@@ -272,17 +240,18 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
     index = {s: k for k, s in enumerate(needed)}
     chunks = [needed[i:i + CHUNK] for i in range(0, len(needed), CHUNK)] or [[]]
     chunk_of = {s: c for c, members in enumerate(chunks) for s in members}
-    # the last chunk (len(chunks) = the output part) using each intermediate
+    split = len(chunks) > 1  # decided before any statement is emitted
+    # the last chunk (len(chunks) = the output part) using each intermediate: what
+    # a split function stores in the work array (one in a single chunk stores none)
     last_use = {}
-    for s in needed:
+    for s in needed if split else ():
         for parent in definition[s].free_symbols:
             if parent in index:
                 last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
-    for e in flat:
+    for e in flat if split else ():
         for s in e.free_symbols:
             if s in index:
                 last_use[s] = len(chunks)
-    split = len(chunks) > 1  # decided before any statement is emitted
     params = _PARAMS
     lines = []
     stored = set()

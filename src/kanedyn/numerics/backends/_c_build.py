@@ -65,7 +65,8 @@ from ..._fork import FileLock, after_fork_in_child, remove_at_exit, spawn
 from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, open_entry,
                                open_trusted, private_directory, trusted_directory,
                                untrusted_entry)
-from ._c_quick import compile_quick, optimize_later, quick_command
+from ._c_quick import (compile_quick, drop_prefetched, optimize_later, prefetch_quick,
+                       prefetched_folders, quick_command)
 
 __all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
            "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
@@ -532,7 +533,7 @@ def _remove_stale_builds(directory, timeout):
     kanedyn gives them, and only where they hold nothing but files with the
     names kanedyn writes there (anything else is left as it is)."""
     limit = time.time() - max(_STALE_BUILD, 2 * timeout)
-    own = {made.parent for _, _, made, _ in _PREFETCHED.values()}
+    own = {made.parent for _, _, made, _ in _PREFETCHED.values()} | prefetched_folders()
     try:
         found = os.listdir(directory)
     except OSError:
@@ -828,9 +829,12 @@ def prefetch(unit):
     on it while the equations are derived.  Nothing happens without a
     compiler, with a cache directory that cannot be written (or trusted: see
     :func:`_shared_cache`), while another
-    thread builds a module, when the object is cached already, or with a
-    quick compiler (:mod:`._c_quick`: the derivation then has both CPUs to
-    itself, and the first module comes from the quick compiler).  A unit the
+    thread builds a module, or when the object is cached already.  With a
+    quick compiler (:mod:`._c_quick`), the first module comes from it: the
+    quick compiler is started on the unit instead
+    (:func:`~._c_quick.prefetch_quick`: a few hundredths of a second of a
+    CPU, where the optimizing compiler would take the derivation's second CPU
+    for half a second).  A unit the
     next :func:`load_module` does not
     take (a wrong guess, or a module another process built meanwhile) is
     dropped by it (at once where its build starts with another unit), or
@@ -839,10 +843,14 @@ def prefetch(unit):
     previous one).
     """
     command = compiler_command()
-    if command is None or NAME_TOKEN in unit or quick_command() is not None:
-        return  # with a quick compiler, the derivation has both CPUs to itself
+    if command is None or NAME_TOKEN in unit:
+        return
     directory, unusable, unwritable = _shared_cache()
     if unusable is not None or unwritable is not None:
+        return
+    quick = quick_command()
+    if quick is not None:  # the optimizing compiler keeps off the derivation's CPUs
+        prefetch_quick(unit, quick, _includes(), directory)
         return
     flags, cached = _unit_object(unit, command, directory)
     if not _LOCK.acquire(blocking=False):  # another thread builds: no waiting for it
@@ -882,9 +890,11 @@ def _take_prefetched(key, first):
 
 
 def _drop_prefetched():
-    """Stop the prefetched compiles nobody took and remove their files."""
+    """Stop the prefetched compiles nobody took and remove their files (the quick
+    compiler's too)."""
     while _PREFETCHED:
         _stop(_PREFETCHED.popitem()[1])
+    drop_prefetched()
 
 
 def _stop(prefetched):
