@@ -166,6 +166,36 @@ def test_the_c_backend_gives_the_numpy_backends_numbers(name):
             assert relative(getattr(a, field), getattr(b, field)) < 1e-11, field
 
 
+
+@needs_compiler
+@pytest.mark.parametrize("name", ["chain3d", "n-link-pendulum-on-cart", "four-bar"])
+def test_repeated_one_state_calls_on_c(name):
+    """From the second call, one state on C takes the module's one-call path
+    (its work in a buffer the module keeps; on chain3d, without inputs or
+    multipliers, the solve in place in the result's own array): the numbers of
+    differences of ``model.rhs`` and of the NumPy backend, with and without the
+    constants' columns, and each result keeps its arrays through later calls."""
+    definition = kd.models.build(name)
+    eom = definition.derive()
+    fast = definition.numeric(eom, backend="c")
+    slow = definition.numeric(eom, backend="numpy")
+    states = [a_state(definition, slow, seed=seed) for seed in (3, 4)]
+    for parameters in (False, True):
+        first = [fast.jacobians(0.0, y, parameters=parameters) for y in states]
+        kept = [J.state.copy() for J in first]
+        again = [fast.jacobians(0.0, y, parameters=parameters) for y in states]
+        for y, J, K, copy in zip(states, first, again, kept):
+            np.testing.assert_array_equal(J.state, copy)  # not written by later calls
+            assert K.state is not J.state and K.f is not J.f
+            reference = slow.jacobians(0.0, y, parameters=parameters)
+            for field in ("f", "state", "inputs", "parameters", "multipliers", "constraints"):
+                mine, theirs = getattr(K, field), getattr(reference, field)
+                assert (mine is None) == (theirs is None), field
+                if theirs is not None and theirs.size:
+                    assert mine.shape == theirs.shape and relative(mine, theirs) < 1e-11, field
+            rhs = differences(lambda z: fast.rhs(0.0, z), y)
+            assert relative(K.state, rhs) < 1e-8
+
 def test_an_unconstrained_model_against_sympys_linearization():
     """For a model without constraints the full-state derivative is the A of
     the linearization about any state (here not an equilibrium): the symbolic

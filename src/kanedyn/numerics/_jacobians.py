@@ -58,7 +58,8 @@ constraints, are refused, naming the scheme.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
+from dataclasses import fields as dataclass_fields
 
 import numpy as np
 
@@ -74,7 +75,7 @@ EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "part
                  "null-space", "orthogonal-complement")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Jacobians:
     r"""Derivatives of the state derivative :math:`f(t, y)` at one state or many.
 
@@ -136,7 +137,8 @@ class Jacobians:
         """One made from all its fields without the checks of ``__init__`` (a
         Jacobian per step of an integrator: its construction counts)."""
         self = object.__new__(cls)
-        self.__dict__.update(fields)
+        for name, value in fields.items():
+            object.__setattr__(self, name, value)
         return self
 
 
@@ -677,7 +679,10 @@ def _keep_point(model, fns, parameters):
     if key in model.__dict__ or one is None or model.contacts or _parts(model) \
             or (parameters and not len(model._p)):
         return
-    fixed = dict(contact_forces=None, contact_forces_state=None, contact_forces_inputs=None,
+    fixed = dict.fromkeys(_SOLVED)
+    fixed.update((f.name, None if f.default is MISSING else f.default)
+                 for f in dataclass_fields(Jacobians) if f.name not in fixed)
+    fixed.update(contact_forces=None, contact_forces_state=None, contact_forces_inputs=None,
                  contact_forces_parameters=None, state_names=tuple(model.state_names),
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
@@ -688,7 +693,10 @@ def _keep_point(model, fns, parameters):
         if not min(shape):
             fixed[name] = np.empty(shape)
             fixed[name].flags.writeable = False
-    solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
+    # the C function fills the slots of a new Jacobians: its member descriptors
+    # (those of _SOLVED first) and the values of the fields it does not make
+    members = tuple(getattr(Jacobians, name) for name in fixed)
+    solved = partial(one, Jacobians, members, tuple(fixed.values()), model._p)
     model.__dict__[key + "_given_r"] = solved
     if not model._inputs:
         model.__dict__[key] = partial(solved, np.zeros(0))
