@@ -396,18 +396,14 @@ KD_VECTORIZED static void kd_tree_jacobian(const double *restrict F, double *res
         for (int c = 0; c < 3; ++c) G[c] = ga[c * n + i];
         double *restrict q = E + i * w, *restrict u = q + n;
 #if KD_TREE_CHAIN
-        /* i and the speeds above it: the coordinates' columns, then the speeds'
-           (a pass each: fewer coefficients held in registers at once; the
-           same sums in the same order) */
-        for (int j = 0; j <= i; ++j) {
-            double sq = 0.0;
-            for (int c = 0; c < 6; ++c) sq += A[c] * e[c * n + j] + B[c] * d[c * n + j];
+        for (int j = 0; j <= i; ++j) {  /* i and the speeds above it */
+            double sq = 0.0, su = 0.0;
+            for (int c = 0; c < 6; ++c) {
+                sq += A[c] * e[c * n + j] + B[c] * d[c * n + j];
+                su += B[c] * S[c * n + j] + A2[c] * d[c * n + j];
+            }
             for (int c = 0; c < 3; ++c) sq += G[c] * S[c * n + j];
             q[j] += sq;
-        }
-        for (int j = 0; j <= i; ++j) {
-            double su = 0.0;
-            for (int c = 0; c < 6; ++c) su += B[c] * S[c * n + j] + A2[c] * d[c * n + j];
             u[j] += su;
         }
         for (int k = i + 1; k < n; ++k) {  /* the speeds below i: S_i.Y_k, S_i.Z_k */
