@@ -1496,7 +1496,11 @@ done:
    buffer the module keeps (kd_point_work, guarded by the GIL) instead of one
    allocated per call; without inputs, constants or multipliers the solve runs
    in place in the state's array (the derivative block is all of D). */
+#ifdef Py_GIL_DISABLED  /* no GIL to guard a shared buffer: one per call */
+#define KD_POINT_WORK_MAX 0
+#else
 #define KD_POINT_WORK_MAX 32768
+#endif
 #define KD_POINT_IN_PLACE 1
 static double *kd_point_work = NULL;
 static size_t kd_point_capacity = 0;
