@@ -400,6 +400,48 @@ print(derivatives_built(model))
 """
 
 
+_MOVE_RUN = """
+import json, numpy as np, kanedyn as kd
+from kanedyn.numerics.backends._c_quick import quick_command
+definition = kd.models.build("chain3d")
+model = definition.numeric(backend="c")
+y = np.asarray(definition.initial(model), dtype=float) + 0.1
+first = [model.jacobians(0.0, y).state for _ in range(2)]  # the second: one-call path
+quick = model.__dict__["_jacobians_module"]
+kd.numerics.finish_compiling()
+later = [model.jacobians(0.0, y).state for _ in range(2)]
+final = model.__dict__["_jacobians_module"]
+step = 1e-6
+columns = [(model.rhs(0.0, y + step * e) - model.rhs(0.0, y - step * e)) / (2 * step)
+           for e in np.eye(y.size)]
+print(json.dumps({"quick": quick_command() is not None, "moved": final is not quick,
+                  "point": model.__dict__["_jacobian_point"].func.__self__ is final,
+                  "same": bool(all(np.array_equal(a, later[-1]) for a in first + later)),
+                  "differences": float(np.max(np.abs(later[-1] - np.array(columns).T)))}))
+"""
+
+
+@needs_compiler
+def test_the_derivatives_move_onto_the_optimized_module(tmp_path):
+    """Built in a fresh cache, the derivative module comes from the quick compiler
+    first (where there is one); once the optimized module is loaded the model
+    calls that module's entry points (the quick module's own code around the
+    evaluation is slower), with the same numbers, those of central differences
+    of ``model.rhs``."""
+    import json
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=str(Path(kd.__file__).resolve().parents[1]))
+    done = subprocess.run([sys.executable, "-c", _MOVE_RUN], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.split("\n")[-2])
+    assert found["same"] and found["differences"] < 1e-6
+    if found["quick"]:
+        assert found["moved"] and found["point"]
+
 @needs_compiler
 def test_a_c_model_never_waits_for_a_compilation_it_did_not_ask_for(tmp_path):
     """A stiff run on C uses the exact Jacobian when its module is in the compile
