@@ -166,6 +166,36 @@ def test_the_c_backend_gives_the_numpy_backends_numbers(name):
             assert relative(getattr(a, field), getattr(b, field)) < 1e-11, field
 
 
+
+@needs_compiler
+@pytest.mark.parametrize("name", ["chain3d", "n-link-pendulum-on-cart", "four-bar"])
+def test_repeated_one_state_calls_on_c(name):
+    """From the second call, one state on C takes the module's one-call path
+    (its work in a buffer the module keeps; on chain3d, without inputs or
+    multipliers, the solve in place in the result's own array): the numbers of
+    differences of ``model.rhs`` and of the NumPy backend, with and without the
+    constants' columns, and each result keeps its arrays through later calls."""
+    definition = kd.models.build(name)
+    eom = definition.derive()
+    fast = definition.numeric(eom, backend="c")
+    slow = definition.numeric(eom, backend="numpy")
+    states = [a_state(definition, slow, seed=seed) for seed in (3, 4)]
+    for parameters in (False, True):
+        first = [fast.jacobians(0.0, y, parameters=parameters) for y in states]
+        kept = [J.state.copy() for J in first]
+        again = [fast.jacobians(0.0, y, parameters=parameters) for y in states]
+        for y, J, K, copy in zip(states, first, again, kept):
+            np.testing.assert_array_equal(J.state, copy)  # not written by later calls
+            assert K.state is not J.state and K.f is not J.f
+            reference = slow.jacobians(0.0, y, parameters=parameters)
+            for field in ("f", "state", "inputs", "parameters", "multipliers", "constraints"):
+                mine, theirs = getattr(K, field), getattr(reference, field)
+                assert (mine is None) == (theirs is None), field
+                if theirs is not None and theirs.size:
+                    assert mine.shape == theirs.shape and relative(mine, theirs) < 1e-11, field
+            rhs = differences(lambda z: fast.rhs(0.0, z), y)
+            assert relative(K.state, rhs) < 1e-8
+
 def test_an_unconstrained_model_against_sympys_linearization():
     """For a model without constraints the full-state derivative is the A of
     the linearization about any state (here not an equilibrium): the symbolic
@@ -369,6 +399,48 @@ kd.simulate(model, (0.0, 0.05), definition.initial(model), method="Radau",
 print(derivatives_built(model))
 """
 
+
+_MOVE_RUN = """
+import json, numpy as np, kanedyn as kd
+from kanedyn.numerics.backends._c_quick import quick_command
+definition = kd.models.build("chain3d")
+model = definition.numeric(backend="c")
+y = np.asarray(definition.initial(model), dtype=float) + 0.1
+first = [model.jacobians(0.0, y).state for _ in range(2)]  # the second: one-call path
+quick = model.__dict__["_jacobians_module"]
+kd.numerics.finish_compiling()
+later = [model.jacobians(0.0, y).state for _ in range(2)]
+final = model.__dict__["_jacobians_module"]
+step = 1e-6
+columns = [(model.rhs(0.0, y + step * e) - model.rhs(0.0, y - step * e)) / (2 * step)
+           for e in np.eye(y.size)]
+print(json.dumps({"quick": quick_command() is not None, "moved": final is not quick,
+                  "point": model.__dict__["_jacobian_point"].func.__self__ is final,
+                  "same": bool(all(np.array_equal(a, later[-1]) for a in first + later)),
+                  "differences": float(np.max(np.abs(later[-1] - np.array(columns).T)))}))
+"""
+
+
+@needs_compiler
+def test_the_derivatives_move_onto_the_optimized_module(tmp_path):
+    """Built in a fresh cache, the derivative module comes from the quick compiler
+    first (where there is one); once the optimized module is loaded the model
+    calls that module's entry points (the quick module's own code around the
+    evaluation is slower), with the same numbers, those of central differences
+    of ``model.rhs``."""
+    import json
+    import os
+    import subprocess
+    import sys
+    env = dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "cache"),
+               PYTHONPATH=str(Path(kd.__file__).resolve().parents[1]))
+    done = subprocess.run([sys.executable, "-c", _MOVE_RUN], env=env, capture_output=True,
+                          text=True, timeout=600)
+    assert done.returncode == 0, done.stderr[-2000:]
+    found = json.loads(done.stdout.split("\n")[-2])
+    assert found["same"] and found["differences"] < 1e-6
+    if found["quick"]:
+        assert found["moved"] and found["point"]
 
 @needs_compiler
 def test_a_c_model_never_waits_for_a_compilation_it_did_not_ask_for(tmp_path):

@@ -58,7 +58,9 @@ constraints, are refused, naming the scheme.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import MISSING, dataclass
+from dataclasses import fields as dataclass_fields
+from functools import partial
 
 import numpy as np
 
@@ -74,7 +76,7 @@ EXACT_SCHEMES = ("elimination", "index-1", "projection", "udwadia-kalaba", "part
                  "null-space", "orthogonal-complement")
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, slots=True)
 class Jacobians:
     r"""Derivatives of the state derivative :math:`f(t, y)` at one state or many.
 
@@ -136,7 +138,8 @@ class Jacobians:
         """One made from all its fields without the checks of ``__init__`` (a
         Jacobian per step of an integrator: its construction counts)."""
         self = object.__new__(cls)
-        self.__dict__.update(fields)
+        for name, value in fields.items():
+            object.__setattr__(self, name, value)
         return self
 
 
@@ -343,10 +346,17 @@ def _functions(model, parameters):
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False)
         # first from the quick compiler where there is one: its functions move onto
-        # the optimized code (built in the background) by themselves
+        # the optimized code (built in the background) by themselves, and the model
+        # onto the optimized module's entry points once it is loaded
+        import weakref
+
+        from .backends._c_quick import when_optimized
         module = load_module(text, units, quick=True)
         model.__dict__["_" + key + "_module"] = module
         found = _entry_points(module)
+        model.__dict__["_" + key] = found
+        when_optimized(module, partial(_move_onto, weakref.ref(model), key, module))
+        return model.__dict__["_" + key]  # the optimized module's, if loaded already
     else:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
@@ -354,6 +364,23 @@ def _functions(model, parameters):
         found = (model._fn["dynamics"], compile_python(source, key), None, None, None, None)
     model.__dict__["_" + key] = found
     return found
+
+
+def _move_onto(model_ref, key, quick, optimized):
+    """Give the model (a weak reference) the entry points of the ``optimized``
+    derivative module where it still has those of the ``quick`` one: their
+    evaluation moved onto the optimized code already, but the quick compiler's
+    own code around it (the one-state call's arguments, arrays and result) cost
+    about 0.5 µs more per call (chain3d n = 7, the Panda).  The one-state paths
+    are made again on the next call (:func:`_keep_point`)."""
+    model = model_ref()
+    if model is None or model.__dict__.get("_" + key + "_module") is not quick:
+        return
+    model.__dict__["_" + key + "_module"] = optimized
+    model.__dict__["_" + key] = _entry_points(optimized)
+    point = "_jacobian_point_p" if key == "jacobians_p" else "_jacobian_point"
+    for name in (point, point + "_given_r"):
+        model.__dict__.pop(name, None)
 
 
 def _c_key(model, parameters):
@@ -671,13 +698,15 @@ def _keep_point(model, fns, parameters):
     asked for.  They return ``None`` for what they do not take as it comes
     (``y`` or ``r`` not an array of ``n_states`` or ``n_inputs`` floats, ``t``
     not a number), which :func:`jacobians` then checks and converts."""
-    from functools import partial
     key = "_jacobian_point_p" if parameters else "_jacobian_point"
     one = fns[5]
     if key in model.__dict__ or one is None or model.contacts or _parts(model) \
             or (parameters and not len(model._p)):
         return
-    fixed = dict(contact_forces=None, contact_forces_state=None, contact_forces_inputs=None,
+    fixed = dict.fromkeys(_SOLVED)
+    fixed.update((f.name, None if f.default is MISSING else f.default)
+                 for f in dataclass_fields(Jacobians) if f.name not in fixed)
+    fixed.update(contact_forces=None, contact_forces_state=None, contact_forces_inputs=None,
                  contact_forces_parameters=None, state_names=tuple(model.state_names),
                  input_names=tuple(model.input_names), parameter_names=tuple(model.constants),
                  multiplier_names=tuple(model.multiplier_names or ()), contact_names=())
@@ -688,7 +717,10 @@ def _keep_point(model, fns, parameters):
         if not min(shape):
             fixed[name] = np.empty(shape)
             fixed[name].flags.writeable = False
-    solved = partial(one, Jacobians, fixed, _SOLVED, model._p)
+    # the C function fills the slots of a new Jacobians: its member descriptors
+    # (those of _SOLVED first) and the values of the fields it does not make
+    members = tuple(getattr(Jacobians, name) for name in fixed)
+    solved = partial(one, Jacobians, members, tuple(fixed.values()), model._p)
     model.__dict__[key + "_given_r"] = solved
     if not model._inputs:
         model.__dict__[key] = partial(solved, np.zeros(0))

@@ -1003,12 +1003,13 @@ class NumericModel(StateLayout):
         (2, 2)
         """
         if modes is None:  # one state on C: one call, without the checks
-            key = "_jacobian_point_p" if parameters else "_jacobian_point"
             if r is None:
-                point = self.__dict__.get(key)
+                point = self.__dict__.get("_jacobian_point_p" if parameters
+                                          else "_jacobian_point")
                 found = point(t, y) if point is not None else None
             else:
-                point = self.__dict__.get(key + "_given_r")
+                point = self.__dict__.get("_jacobian_point_p_given_r" if parameters
+                                          else "_jacobian_point_given_r")
                 found = point(r, t, y) if point is not None else None
             if found is not None:
                 return found

@@ -21,6 +21,7 @@ from ._c_inputs import TABLE_INPUTS
 PYTHON_INCLUDES = r"""
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <structmember.h>
 #define NPY_NO_DEPRECATED_API NPY_1_7_API_VERSION
 #include <numpy/arrayobject.h>"""
 
@@ -1477,25 +1478,56 @@ done:
     return result;
 }
 
-/* solved_jacobian(cls, fields, keys, p, r, t, y): the exact derivatives at one
-   state as a new instance of `cls` (NumericModel.jacobians without checks),
-   whose __dict__ is a copy of the dict `fields` with the 8 `keys` set to f, C,
-   then the blocks of D (the rows of f, then those of the multipliers, each in
-   the columns of the state, the inputs and the constants), arrays of their own
-   or None (the constants where none are generated; the multipliers without
-   dependent speeds); C without constraints and the inputs' block without
-   inputs are not set (`fields` holds them: empty arrays, read-only).  p a vector; t a number, r and y arrays of n_r and n_x
-   doubles, exactly: None for anything else, which the caller then checks and
-   converts.  LinAlgError if singular */
+/* solved_jacobian(cls, members, fixed, p, r, t, y): the exact derivatives at one
+   state as a new instance of `cls` (NumericModel.jacobians without checks), a
+   class with slots: `members` its member descriptors (one per field), the
+   first 8 those of f, C, then the blocks of D (the rows of f, then those of
+   the multipliers, each in the columns of the state, the inputs and the
+   constants), `fixed` a tuple of the values of every field, taken where this
+   function does not make one: the fields after the 8, C without constraints
+   and the inputs' block without inputs (empty arrays, read-only).  The blocks
+   are arrays of their own or None (the constants where none are generated;
+   the multipliers without dependent speeds).  p a vector; t a number, r and y
+   arrays of n_r and n_x doubles, exactly: None for anything else, which the
+   caller then checks and converts.  LinAlgError if singular.
+
+   A call whose work fits in KD_POINT_WORK_MAX doubles keeps the GIL (its work,
+   a few microseconds, is shorter than handing the GIL over) and works in a
+   buffer the module keeps (kd_point_work, guarded by the GIL) instead of one
+   allocated per call; without inputs, constants or multipliers the solve runs
+   in place in the state's array (the derivative block is all of D). */
+#ifdef Py_GIL_DISABLED  /* no GIL to guard a shared buffer: one per call */
+#define KD_POINT_WORK_MAX 0
+#else
+#define KD_POINT_WORK_MAX 32768
+#endif
+#define KD_POINT_IN_PLACE 1
+static double *kd_point_work = NULL;
+static size_t kd_point_capacity = 0;
+
+/* whether `members` are object slots of `cls`, as many as `fixed` holds, at least 8 */
+static int kd_slots_of(PyObject *cls, PyObject *members, PyObject *fixed) {
+    if (!PyTuple_Check(members) || !PyTuple_Check(fixed)
+            || PyTuple_GET_SIZE(members) != PyTuple_GET_SIZE(fixed)
+            || PyTuple_GET_SIZE(members) < 8) return 0;
+    for (Py_ssize_t k = 0; k < PyTuple_GET_SIZE(members); ++k) {
+        PyObject *m = PyTuple_GET_ITEM(members, k);
+        if (!Py_IS_TYPE(m, &PyMemberDescr_Type)
+                || ((PyDescrObject *)m)->d_type != (PyTypeObject *)cls
+                || ((PyMemberDescrObject *)m)->d_member->type != T_OBJECT_EX) return 0;
+    }
+    return 1;
+}
+
 static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
                                        Py_ssize_t nargs) {
     (void)self;
     const KdJacobianInfo *info = kd_module_jacobians();
     if (info == NULL) return NULL;
-    if (nargs != 7 || !PyType_Check(args[0]) || !PyDict_Check(args[1])
-            || !PyTuple_Check(args[2]) || PyTuple_GET_SIZE(args[2]) != 8) {
-        PyErr_SetString(PyExc_TypeError, "solved_jacobian(cls, fields, keys, p, r, t, y): a "
-                        "class, a dict, a tuple of 8 names, then the arguments");
+    if (nargs != 7 || !PyType_Check(args[0]) || !kd_slots_of(args[0], args[1], args[2])) {
+        PyErr_SetString(PyExc_TypeError, "solved_jacobian(cls, members, fixed, p, r, t, y): "
+                        "a class with slots, its member descriptors and a value for each, "
+                        "then the arguments");
         return NULL;
     }
     const double *y = kd_in_place(args[6], KD_NX);
@@ -1504,64 +1536,85 @@ static PyObject *kd_py_solved_jacobian(PyObject *self, PyObject *const *args,
     const double t = PyFloat_AsDouble(args[5]);
     if (t == -1.0 && PyErr_Occurred()) return NULL;
     static const double empty[1] = {0.0};
-    static PyObject *dict_name = NULL;
-    if (dict_name == NULL && (dict_name = PyUnicode_InternFromString("__dict__")) == NULL)
-        return NULL;
     const double *r = kd_in_place(args[4], KD_NR);  /* no inputs: an empty array */
     if (r == NULL) Py_RETURN_NONE;
     if (KD_NR == 0) r = empty;
     PyObject *keep[2] = {NULL, NULL}, *values[8] = {NULL}, *result = NULL;
+    double *work = NULL, *D = NULL, *f = NULL, *C = NULL, *out[6] = {NULL};
     const double *p = KD_NP > 0 ? kd_vector(args[3], KD_NP, &keep[0], "p") : empty;
+    if (p == NULL) goto done;
     const int rows = KD_NX + KD_NUDEP, columns = info->columns;
     const int widths[3] = {KD_NX, KD_NR, columns - KD_NX - KD_NR};
-    double *work = p == NULL ? NULL : (double *)PyMem_Malloc(
-        sizeof(double) * (KD_SZ(KD_NW) + info->scratch + rows * columns));
-    if (work == NULL) {
-        if (p != NULL) PyErr_NoMemory();
-        goto done;
-    }
-    double *D = work + KD_SZ(KD_NW) + info->scratch, *f = NULL, *C = D;
+    const int whole = KD_POINT_IN_PLACE && rows == KD_NX && columns == KD_NX;  /* D: the state's block */
+    const size_t size = (size_t)KD_SZ(KD_NW) + info->scratch + (whole ? 0 : rows * columns);
+    const int keep_gil = size <= KD_POINT_WORK_MAX;
+    /* every array first: allocating may run Python code (a collection's
+       finalizers), which may call this function and move kd_point_work */
     if ((values[0] = kd_new_vector(KD_NX, &f)) == NULL
             || (info->constraint_rows > 0  /* else the empty array of `fields` */
                 && (values[1] = kd_new_matrix(info->constraint_rows, KD_NX, &C)) == NULL))
         goto done;
-    int bad;
-    Py_BEGIN_ALLOW_THREADS
-    bad = info->core(t, y, p, r, work, work + KD_SZ(KD_NW), f, D, C);
-    Py_END_ALLOW_THREADS
-    if (bad) {
-        PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
-        goto done;
-    }
     for (int b = 0; b < 6; ++b) {
-        const int group = b % 3, first = b < 3 ? 0 : KD_NX, height = b < 3 ? KD_NX : KD_NUDEP;
+        const int group = b % 3, height = b < 3 ? KD_NX : KD_NUDEP;
         if ((group == 2 && widths[2] == 0) || (b >= 3 && KD_NUDEP == 0)) {
             Py_INCREF(Py_None);
             values[2 + b] = Py_None;
             continue;
         }
         if (b == 1 && widths[1] == 0) continue;  /* no inputs: the empty array of `fields` */
+        if ((values[2 + b] = kd_new_matrix(height, widths[group], &out[b])) == NULL)
+            goto done;
+    }
+    if (keep_gil) {
+        if (kd_point_capacity < size) {
+            double *grown = (double *)PyMem_Realloc(kd_point_work, sizeof(double) * size);
+            if (grown == NULL) {
+                PyErr_NoMemory();
+                goto done;
+            }
+            kd_point_work = grown;
+            kd_point_capacity = size;
+        }
+        work = kd_point_work;
+    } else if ((work = (double *)PyMem_Malloc(sizeof(double) * size)) == NULL) {
+        PyErr_NoMemory();
+        goto done;
+    }
+    D = whole ? out[0] : work + KD_SZ(KD_NW) + info->scratch;
+    if (C == NULL) C = D;  /* no constraint rows: nothing is written there */
+    int bad;
+    if (keep_gil) {
+        bad = info->core(t, y, p, r, work, work + KD_SZ(KD_NW), f, D, C);
+    } else {
+        Py_BEGIN_ALLOW_THREADS
+        bad = info->core(t, y, p, r, work, work + KD_SZ(KD_NW), f, D, C);
+        Py_END_ALLOW_THREADS
+    }
+    if (bad) {
+        PyErr_SetString(kd_linalg_error, "singular matrix in the equations of motion");
+        goto done;
+    }
+    for (int b = whole; b < 6; ++b) {  /* the state's block: D itself where whole */
+        if (out[b] == NULL) continue;
+        const int group = b % 3, first = b < 3 ? 0 : KD_NX, height = b < 3 ? KD_NX : KD_NUDEP;
         const int at = group == 0 ? 0 : group == 1 ? KD_NX : KD_NX + KD_NR;
-        double *out;
-        if ((values[2 + b] = kd_new_matrix(height, widths[group], &out)) == NULL) goto done;
         for (int i = 0; i < height; ++i)
-            memcpy(out + i * widths[group], D + (first + i) * columns + at,
+            memcpy(out[b] + i * widths[group], D + (first + i) * columns + at,
                    sizeof(double) * widths[group]);
     }
-    PyObject *fields = PyDict_Copy(args[1]);
-    for (int k = 0; fields != NULL && k < 8; ++k)
-        if (values[k] != NULL
-                && PyDict_SetItem(fields, PyTuple_GET_ITEM(args[2], k), values[k]) != 0)
-            Py_CLEAR(fields);
     PyTypeObject *cls = (PyTypeObject *)args[0];
-    result = fields == NULL ? NULL : cls->tp_alloc(cls, 0);  /* object.__new__(cls) */
-    if (result != NULL && PyObject_GenericSetAttr(result, dict_name, fields) != 0)
-        Py_CLEAR(result);
-    Py_XDECREF(fields);
+    if ((result = cls->tp_alloc(cls, 0)) == NULL) goto done;  /* object.__new__(cls) */
+    for (Py_ssize_t k = 0; k < PyTuple_GET_SIZE(args[1]); ++k) {
+        PyObject *value = k < 8 && values[k] != NULL ? values[k] : PyTuple_GET_ITEM(args[2], k);
+        PyObject **slot = (PyObject **)((char *)result
+            + ((PyMemberDescrObject *)PyTuple_GET_ITEM(args[1], k))->d_member->offset);
+        Py_INCREF(value);
+        Py_XSETREF(*slot, value);
+    }
 done:
     for (int k = 0; k < 8; ++k) Py_XDECREF(values[k]);
     Py_XDECREF(keep[0]); Py_XDECREF(keep[1]);
-    PyMem_Free(work);
+    if (work != kd_point_work) PyMem_Free(work);
     return result;
 }
 
