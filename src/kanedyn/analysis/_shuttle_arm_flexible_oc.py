@@ -1,29 +1,38 @@
-r"""The Shuttle arm's least-effort manoeuvre on its flexible booms.
+r"""The Shuttle arm's least-effort manoeuvre for its flexible booms.
 
-``shuttle_arm_minimum_energy(booms="flexible")`` poses the rigid study's
-problem (:mod:`._shuttle_arm_oc`: the same two poses, 150 s, payload,
+``shuttle_arm_minimum_energy(booms="flexible")``: the rigid study's
+manoeuvre (:mod:`._shuttle_arm_oc`: the same two poses, 150 s, payload,
 joint-angle corridor and joint-torque limits, least
-:math:`\int\sum_i\tau_i^2dt`) on ``shuttle-arm`` with
-``flexible_booms=True``: each boom a Craig–Bampton tube with 4 modal
-coordinates (28 states in all).  The manoeuvre ends at rest with the booms
-undeformed: every modal coordinate and rate is zero at the final time, as
-every joint rate is.  After the final time the torques are off; in
-microgravity an arm at rest and undeformed then stays so, while one that
-ends deflected or moving vibrates (and drifts).
+:math:`\int\sum_i\tau_i^2dt`) for the arm with ``flexible_booms=True`` (each
+boom a Craig–Bampton tube, 4 modal coordinates; 28 states), ending at rest
+with the booms undeformed.
 
-What is reported:
+The booms' modes with the joints free lie at 7.1 to 65 Hz (damping ratios
+0.022 to 0.21, the slowest decaying in about 1 s), against a manoeuvre of
+150 s: the booms follow the loads quasi-statically, their deflection set by
+the joint torques of the moment.  An arm that ends at rest with torque on
+its joints ends with its booms bent, and when the torques stop they spring
+back and ring.  The rigid optimum's torques start and end away from zero,
+and so do that.  The manoeuvre posed here is the rigid arm's least-effort
+one with every joint torque starting and ending at zero (instance
+constraints), the stiff limit of the flexible problem; it is then checked
+on the flexible arm, not on the model it was solved on: its torques are
+simulated with ``kd.simulate`` (Radau) on the 28-state model to the final
+time and ``ring`` s beyond with the torques off, as are the rigid optimum's.
 
-- the rigid arm's optimum on the same mesh (its own study), and its torques
-  applied open loop to the flexible arm with ``kd.simulate`` (Radau): the
-  residual vibration they leave;
-- the flexible optimum, its effort against the rigid one, and its torques
-  replayed the same way (the defect from the collocated path, and the
-  residual vibration it leaves).
+Collocating the 28-state model itself (the booms' modal coordinates as
+states, their coordinates and rates zero at the final time) does not
+converge with IPOPT's limited-memory Hessian: with 21 to 101 nodes,
+Hermite–Simpson, the trapezoid, backward Euler and LGR of degree 3, from the
+quintic's or a rigid optimum's torques simulated on the flexible arm, it
+stops at its iteration limit with constraint violations of 0.1 to 50
+(``docs/optimal_control.md``); the mesh's steps, 1.5 to 7.5 s, are 10 to
+1,000 times the modes' periods.
 
 Residual vibration is measured by the end effector's elastic deflection,
-:math:`\delta(t) = p(q, \eta) - p(q, 0)`, the tip's position with the
-booms deflected minus its position with the same joint angles and straight
-booms (m): at the final time, and its largest size over ``ring`` seconds
+:math:`\delta(t) = p(q, \eta) - p(q, 0)`: the tip's position with the
+booms deflected less its position at the same joint angles with the booms
+straight (m), at the final time, and its largest size over ``ring`` seconds
 after it with the torques off.
 """
 
@@ -49,42 +58,46 @@ JOINTS = ("shoulder yaw", "shoulder pitch", "elbow pitch", "wrist pitch", "wrist
 
 @dataclass(frozen=True)
 class FlexibleArmManoeuvre:
-    """The least-effort manoeuvre on the flexible booms, against the rigid one.
+    """The least-effort manoeuvre with the torques from and to zero, checked
+    on the flexible booms against the rigid optimum.
 
     Attributes
     ----------
     result : OptimalControlResult
-        The flexible optimum (states ``q1 .. q6``, the booms' modal
-        coordinates ``eta_*`` and their rates).
+        The rigid arm's least-effort manoeuvre with every joint torque zero
+        at the start and the end (the study's limits otherwise).
     rigid : ArmManoeuvre
-        The rigid arm's study on the same mesh.
+        The rigid study on the same mesh (torques free at the ends).
     rigid_on_flexible, replay : SimulationResult
-        The rigid optimum's torques and the flexible optimum's simulated on
-        the flexible arm (Radau), from the start to ``ring`` s past the
-        final time, the torques zero after it (dense output).
+        The rigid optimum's and ``result``'s torques simulated on the arm
+        with flexible booms (Radau, rtol 1e-9, atol 1e-11) from the start to
+        ``ring`` s past the final time, the torques zero after it (dense
+        output; states: joint angles, the booms' modal coordinates, then
+        their rates).
     torque_limits : ndarray, shape (6,)
         N m, the rigid study's.
     ring : float
         s simulated after the final time.
     deflection : callable
         ``deflection(Y) -> ndarray (3, K)``: the end effector's elastic
-        deflection (m, in the orbiter's frame) at states Y (n, K).
+        deflection (m, in the orbiter's frame) at flexible-arm states Y (28, K).
     data : mapping
-        ``objective``, ``effort_flexible`` and ``effort_rigid`` (the
-        collocated objectives, N^2 m^2 s), ``effort_ratio`` (flexible over
-        rigid); ``torque_ratio`` (largest torque over its limit at the
-        nodes and interior points); for ``rigid_on_flexible`` (prefix
-        ``rigid_torques_``) and ``replay`` (prefix ``optimal_``):
-        ``deflection_end`` (m) and ``deflection_rate_end`` (m/s), the size of
-        the elastic tip deflection and its rate at the final time,
-        ``ring_peak`` (m, its largest size after the final time),
-        ``modal_end`` (the largest modal coordinate and rate at the final
-        time, m or m/s for the constraint modes, dimensionless for the
-        clamped modes), ``angle_end`` (rad, the largest joint-angle error at
-        the final time), ``speed_end`` (rad/s, the largest joint rate then);
-        ``defect_angle``, ``defect_modal`` and ``defect_tip`` (the flexible
-        optimum's replay against the collocated path at the nodes: joint
-        angles, rad; modal coordinates; the end effector, m).
+        ``objective`` and ``effort_ramped`` (``result``'s objective),
+        ``effort_rigid`` (the rigid optimum's), ``effort_quintic`` (all
+        N^2 m^2 s), ``effort_ratio`` (ramped over rigid); ``torque_ratio``
+        (the largest torque over its limit at the nodes and interior points),
+        ``torque_ends`` (N m, the largest torque at the two ends); for
+        ``rigid_on_flexible`` (prefix ``rigid_torques_``) and ``replay``
+        (prefix ``ramped_``): ``deflection_end`` (m) and
+        ``deflection_rate_end`` (m/s), the size of the elastic tip deflection
+        and of its rate at the final time, ``ring_peak`` (m, its largest
+        size after the final time), ``modal_end`` (the largest modal
+        coordinate or rate then: the constraint modes' in m and m/s),
+        ``angle_end`` (rad, the largest joint-angle error then),
+        ``speed_end`` (rad/s, the largest joint rate then);
+        ``defect_angle`` (rad) and ``defect_tip`` (m): ``replay`` at the
+        nodes against the collocated (rigid) path, joint angles and end
+        effector.
     """
 
     result: object
@@ -103,64 +116,66 @@ class FlexibleArmManoeuvre:
 
         def residual(prefix):
             return (f"elastic tip deflection {mm * d[prefix + 'deflection_end']:.3g} mm, "
-                    f"its rate {mm * d[prefix + 'deflection_rate_end']:.3g} mm/s, largest "
-                    f"modal coordinate or rate {d[prefix + 'modal_end']:.3g}, joint angles "
-                    f"off by {d[prefix + 'angle_end']:.3g} rad, joint rates "
-                    f"{d[prefix + 'speed_end']:.3g} rad/s; then {self.ring:g} s with the "
-                    f"torques off: the deflection up to {mm * d[prefix + 'ring_peak']:.3g} mm")
+                    f"its rate {mm * d[prefix + 'deflection_rate_end']:.3g} mm/s; joint "
+                    f"angles off by {d[prefix + 'angle_end']:.3g} rad, joint rates up to "
+                    f"{d[prefix + 'speed_end']:.3g} rad/s; in the {self.ring:g} s after, "
+                    f"torques off: deflection up to {mm * d[prefix + 'ring_peak']:.3g} mm")
         return "\n".join(result_lines(r) + [
-            f"flexible booms (Craig-Bampton, 4 modal coordinates each; "
-            f"{len(r.state_names)} states); {r.duration:g} s between the two poses, ending "
-            "at rest with every modal coordinate and rate zero; torque limits [N m]: "
+            f"booms: flexible (Craig-Bampton, 4 modal coordinates each, 28 states; modes "
+            f"7-65 Hz); the manoeuvre solved on the rigid arm with every torque zero at "
+            f"both ends (largest end torque {d['torque_ends']:.2g} N m), checked on the "
+            "flexible arm; torque limits [N m]: "
             + ", ".join(f"{v:.4g}" for v in self.torque_limits),
-            f"  effort, integral of sum tau_i^2 [N^2 m^2 s]: flexible {d['effort_flexible']:.7g}, "
-            f"rigid arm on the same mesh {d['effort_rigid']:.7g} (ratio "
-            f"{d['effort_ratio']:.6f}); largest torque over its limit {d['torque_ratio']:.6f}",
-            "check: torques simulated on the flexible arm (Radau), at the final time:",
-            "  the rigid optimum's:   " + residual("rigid_torques_"),
-            "  the flexible optimum's: " + residual("optimal_"),
-            f"  the flexible optimum's replay against the collocated path at the nodes: "
-            f"joint angles {d['defect_angle']:.3g} rad, modal coordinates "
-            f"{d['defect_modal']:.3g}, end effector {mm * d['defect_tip']:.3g} mm"])
+            f"  effort, integral of sum tau_i^2 [N^2 m^2 s]: torques from and to zero "
+            f"{d['effort_ramped']:.7g}, rigid optimum {d['effort_rigid']:.7g} (ratio "
+            f"{d['effort_ratio']:.5f}), quintic {d['effort_quintic']:.7g}; largest torque "
+            f"over its limit {d['torque_ratio']:.6f}",
+            "check: the torques simulated on the flexible arm (Radau), at the final time:",
+            "  rigid optimum's:             " + residual("rigid_torques_"),
+            "  torques from and to zero:    " + residual("ramped_"),
+            f"  the latter against the collocated path at the nodes: joint angles "
+            f"{d['defect_angle']:.3g} rad, end effector {mm * d['defect_tip']:.3g} mm"])
 
     def plot(self, path):
         """Torques of both optima over their limits, the elastic tip
-        deflection of both replays over the manoeuvre and after it, and the
-        effort as it accrues; returns the path written."""
+        deflection of both on the flexible arm over the manoeuvre and after
+        it, and the effort as it accrues; returns the path written."""
         from .._output_files import save_figure
         from ._plotting import pyplot
         plt = pyplot()
         r, d, T = self.result, self.data, self.result.duration
         fig, axes = plt.subplots(4, 1, figsize=(8, 12), constrained_layout=True)
         fine = np.linspace(r.t[0], r.t[-1], 3001)
-        flex = np.array([[f(t) for t in fine] for f in r.inputs().values()])
+        ramped = np.array([[f(t) for t in fine] for f in r.inputs().values()])
         rigid = np.array([[f(t) for t in fine] for f in self.rigid.result.inputs().values()])
         for i in range(6):
-            axes[0].plot(fine, flex[i] / self.torque_limits[i], color=f"C{i}",
+            axes[0].plot(fine, ramped[i] / self.torque_limits[i], color=f"C{i}",
                          label=f"tau{i + 1} {JOINTS[i]}")
             axes[0].plot(fine, rigid[i] / self.torque_limits[i], ":", color=f"C{i}")
         axes[0].plot([], [], "k:", label="rigid optimum")
-        axes[0].set_ylabel("joint torque / its limit\n(solid flexible, dotted rigid optimum)")
+        axes[0].set_ylabel("joint torque / its limit\n(solid: from and to zero,\n"
+                           "dotted: rigid optimum)")
         axes[0].set_xlabel("t [s]")
         axes[0].legend(ncol=4, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),
                        frameon=False)
-        tip = self.deflection
-        late = np.linspace(T - 5.0, T + self.ring, 3001)
         whole = np.linspace(0.0, T + self.ring, 6001)
-        for run, style, label in ((self.rigid_on_flexible, "-", "rigid optimum's torques"),
-                                  (self.replay, "--", "flexible optimum's torques")):
-            axes[1].plot(whole, 1e3 * np.linalg.norm(tip(run.sol(whole)), axis=0), style,
-                         label=label)
-            axes[2].plot(late - T, 1e3 * np.linalg.norm(tip(run.sol(late)), axis=0), style,
-                         label=label)
+        late = np.linspace(T - 5.0, T + self.ring, 3001)
+        for run, style, label in (
+                (self.rigid_on_flexible, "-", "rigid optimum's torques"),
+                (self.replay, "--", "torques from and to zero")):
+            axes[1].plot(whole, 1e3 * np.linalg.norm(self.deflection(run.sol(whole)), axis=0),
+                         style, label=label)
+            axes[2].plot(late - T, 1e3 * np.linalg.norm(self.deflection(run.sol(late)), axis=0),
+                         style, label=label)
         axes[1].set_ylabel("end effector's elastic\ndeflection |delta| [mm]")
-        axes[1].set_xlabel("t [s]")
+        axes[1].set_xlabel("t [s] (torques off after the dashed line)")
         axes[2].set_ylabel("|delta| [mm]")
-        axes[2].set_xlabel(f"t - {T:g} s [s] (torques off after the final time)")
-        for ax in axes[1:3]:
-            ax.axvline(T if ax is axes[1] else 0.0, color="0.4", lw=0.8, ls="--")
-            ax.legend(fontsize=8, title="on the flexible arm (Radau):", title_fontsize=8)
-        for u, style, label in ((flex, "-", f"flexible optimum: {d['effort_flexible']:.6g}"),
+        axes[2].set_xlabel(f"t - {T:g} s [s] (torques off after 0)")
+        for ax, at in ((axes[1], T), (axes[2], 0.0)):
+            ax.axvline(at, color="0.4", lw=0.8, ls="--")
+            ax.legend(fontsize=8, title="simulated on the flexible arm (Radau):",
+                      title_fontsize=8)
+        for u, style, label in ((ramped, "-", f"from and to zero: {d['effort_ramped']:.6g}"),
                                 (rigid, ":", f"rigid optimum: {d['effort_rigid']:.6g}")):
             rate = np.sum(u ** 2, axis=0)
             accrued = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1])
@@ -172,11 +187,12 @@ class FlexibleArmManoeuvre:
         for ax in axes:
             ax.grid(alpha=0.3)
         fig.suptitle(
-            f"Shuttle arm on flexible booms, 11 t payload, {T:g} s: least effort ending at "
-            f"rest, booms undeformed\nresidual deflection at the end: rigid optimum's torques "
-            f"{1e3 * d['rigid_torques_deflection_end']:.3g} mm, flexible optimum's "
-            f"{1e3 * d['optimal_deflection_end']:.2g} mm; effort +{100 * (d['effort_ratio'] - 1):.2g} %"
-            f" ({r.method}, {r.t.size} nodes)", fontsize=10)
+            f"Shuttle arm on flexible booms, 11 t payload, {T:g} s: end-effector deflection "
+            f"left at the end,\nrigid optimum's torques "
+            f"{1e3 * d['rigid_torques_deflection_end']:.3g} mm, torques from and to zero "
+            f"{1e3 * d['ramped_deflection_end']:.2g} mm (effort "
+            f"+{100 * (d['effort_ratio'] - 1):.2g} %; {r.method}, {r.t.size} nodes)",
+            fontsize=10)
         written = save_figure(fig, path, dpi=110)
         plt.close(fig)
         return written
@@ -236,7 +252,7 @@ def _residual(run, T, deflection, end, n_modal, prefix):
 
 def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_options,
                        backend, ipopt, degree, margin, torque_factor, ring=RING):
-    """The study on the flexible booms (``shuttle_arm_minimum_energy(booms=
+    """The study for the flexible booms (``shuttle_arm_minimum_energy(booms=
     "flexible")``; its parameters).
 
     Returns
@@ -246,67 +262,63 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     from ..models import SRMS_END_DEG, SRMS_START_DEG
     from ..optimization import OptimalControlProblem
     from ..simulation import simulate
-    from ._optimal_problems import merged_bounds, optimal_problem
     from ._shuttle_arm_oc import shuttle_arm_minimum_energy
-    spec = optimal_problem("shuttle-arm", "minimum-energy")
-    # the rigid arm on the same mesh: its limits, its optimum, its torques
+    # the rigid study on the same mesh: its limits, its optimum, its torques
     rigid = shuttle_arm_minimum_energy(
-        nodes=nodes, method=method, duration=duration, constants=constants,
+        nodes=nodes, method=method, duration=duration, bounds=bounds, constants=constants,
         model_options=model_options, backend=backend, ipopt=ipopt, degree=degree,
-        margin=margin, torque_factor=torque_factor,
-        bounds={k: v for k, v in (bounds or {}).items()
-                if str(k).removesuffix("(t)") in _RIGID_NAMES})
+        margin=margin, torque_factor=torque_factor)
     T = rigid.result.duration
-    definition = build_model("shuttle-arm", {**(model_options or {}), "flexible_booms": True},
-                             spec.required)
-    model = numeric_of(definition, constants, backend)
-    taus = definition.symbols["tau"]
-    n_modal = len(definition.kane_args["q_ind"]) - 6
+    definition_rigid = build_model("shuttle-arm", model_options, {"torque_input": True})
+    taus = definition_rigid.symbols["tau"]
     start, end = np.radians(SRMS_START_DEG), np.radians(SRMS_END_DEG)
-    defaults = {}
+    limits = {}
     for i in range(6):
         low, high = rigid.angle_limits[i]
         if np.isfinite(low) or np.isfinite(high):
-            defaults[f"q{i + 1}"] = (low if np.isfinite(low) else None,
-                                     high if np.isfinite(high) else None)
-        defaults[f"tau{i + 1}"] = (-rigid.torque_limits[i], rigid.torque_limits[i])
-    names = list(model.state_names) + [f"tau{i + 1}" for i in range(6)]
-    limits = merged_bounds(defaults, bounds, names)
-    rest = {name: 0.0 for name in model.state_names[6:]}  # modal, rates: zero
+            limits[f"q{i + 1}"] = (low if np.isfinite(low) else None,
+                                   high if np.isfinite(high) else None)
+        limits[f"tau{i + 1}"] = (-rigid.torque_limits[i], rigid.torque_limits[i])
+    rest = {f"u{i + 1}": 0.0 for i in range(6)}
     problem = OptimalControlProblem(
-        model, nodes=rigid.result.t.size, duration=T, lagrange=sum(x ** 2 for x in taus),
-        bounds=limits, method=rigid.result.method, degree=rigid.result.degree,
+        numeric_of(definition_rigid, constants, backend), nodes=rigid.result.t.size,
+        duration=T, lagrange=sum(x ** 2 for x in taus), bounds=limits,
+        method=rigid.result.method, degree=rigid.result.degree,
         initial={**{f"q{i + 1}": start[i] for i in range(6)}, **rest},
-        final={**{f"q{i + 1}": end[i] for i in range(6)}, **rest})
+        final={**{f"q{i + 1}": end[i] for i in range(6)}, **rest},
+        instance_constraints=[tau.func(0.0) for tau in taus] + [tau.func(T) for tau in taus])
+    result = solve(problem, problem.guess_from(rigid.result), ipopt)
 
-    # the rigid optimum's torques on the flexible arm: the residual, and the guess
-    optimal_rigid = rigid.result.inputs()
-    fed = {tau: optimal_rigid[str(tau.func)] for tau in taus}
+    # both optima's torques on the flexible arm, off after the final time
+    definition = build_model("shuttle-arm", {**(model_options or {}), "flexible_booms": True},
+                             {"torque_input": True})
+    model = numeric_of(definition, constants, backend)
+    n_modal = len(definition.kane_args["q_ind"]) - 6
     y0 = np.concatenate([start, np.zeros(len(model.state_names) - 6)])
-    rigid_on_flexible = simulate(model.with_inputs(_off_after(fed, T)), (0.0, T + ring), y0,
-                                 dense_output=True, **REPLAY)
-    result = solve(problem, problem.guess_from(rigid_on_flexible, inputs=fed), ipopt)
 
-    # the flexible optimum's torques on the flexible arm
-    optimal = result.inputs()
-    replay = simulate(result.model().with_inputs(
-        _off_after({tau: optimal[str(tau.func)] for tau in taus}, T)),
-        (0.0, T + ring), result.y[:, 0], dense_output=True, **REPLAY)
+    def on_flexible(found):
+        fed = found.inputs()
+        inputs = {tau: fed[str(tau.func)] for tau in definition.symbols["tau"]}
+        return simulate(model.with_inputs(_off_after(inputs, T)), (0.0, T + ring), y0,
+                        dense_output=True, **REPLAY)
+    rigid_on_flexible = on_flexible(rigid.result)
+    replay = on_flexible(result)
     deflection = _Deflection(definition)
-    tip = deflection.tip
     at_nodes = replay.sol(result.t)
-    bound = np.array([max(abs(v) for v in _sides(limits[f"tau{i + 1}"])) for i in range(6)])
+    rigid_tip = _tip(definition_rigid)
+    bound = np.array(rigid.torque_limits)
     data = dict(
-        objective=result.objective, effort_flexible=result.objective,
+        objective=result.objective, effort_ramped=result.objective,
         effort_rigid=rigid.result.objective,
         effort_ratio=result.objective / rigid.result.objective,
+        effort_quintic=rigid.data["effort_quintic"],
         torque_ratio=float(np.max(np.max(np.abs(result.points()[2]), axis=1) / bound)),
+        torque_ends=float(np.max(np.abs(result.points()[2][:, [0, -1]]))),
         defect_angle=float(np.max(np.abs(at_nodes[:6] - result.y[:6]))),
-        defect_modal=float(np.max(np.abs(at_nodes[6:6 + n_modal]
-                                         - result.y[6:6 + n_modal]))),
-        defect_tip=float(np.max(np.linalg.norm(tip(at_nodes) - tip(result.y), axis=0))),
+        defect_tip=float(np.max(np.linalg.norm(deflection.tip(at_nodes)
+                                               - rigid_tip(result.y), axis=0))),
         **_residual(rigid_on_flexible, T, deflection, end, n_modal, "rigid_torques_"),
-        **_residual(replay, T, deflection, end, n_modal, "optimal_"))
+        **_residual(replay, T, deflection, end, n_modal, "ramped_"))
     return FlexibleArmManoeuvre(
         result=result, rigid=rigid, rigid_on_flexible=rigid_on_flexible, replay=replay,
         torque_limits=bound, ring=float(ring), deflection=deflection,
@@ -317,6 +329,3 @@ def _sides(pair):
     return tuple(np.inf if v is None else float(v) for v in pair)
 
 
-#: the rigid arm's states and inputs (bounds on the modal states are the
-#: flexible problem's only)
-_RIGID_NAMES = {f"{k}{i}" for k in ("q", "u", "tau") for i in range(1, 7)}
