@@ -68,12 +68,13 @@ class FlexibleArmManoeuvre:
         at the start and the end (the study's limits otherwise).
     rigid : ArmManoeuvre
         The rigid study on the same mesh (torques free at the ends).
-    rigid_on_flexible, replay : SimulationResult
+    rigid_on_flexible, replay : object
         The rigid optimum's and ``result``'s torques simulated on the arm
-        with flexible booms (Radau, rtol 1e-9, atol 1e-11) from the start to
-        ``ring`` s past the final time, the torques zero after it (dense
-        output; states: joint angles, the booms' modal coordinates, then
-        their rates).
+        with flexible booms (Radau, rtol 1e-9, atol 1e-11) to the final
+        time, then ``ring`` s with the torques off from the state reached:
+        ``pieces`` (the two SimulationResults), ``t`` and ``sol(t)`` (dense
+        output of either; states: joint angles, the booms' modal
+        coordinates, then their rates).
     torque_limits : ndarray, shape (6,)
         N m, the rigid study's.
     ring : float
@@ -90,8 +91,8 @@ class FlexibleArmManoeuvre:
         ``rigid_on_flexible`` (prefix ``rigid_torques_``) and ``replay``
         (prefix ``ramped_``): ``deflection_end`` (m) and
         ``deflection_rate_end`` (m/s), the size of the elastic tip deflection
-        and of its rate at the final time, ``ring_peak`` (m, its largest
-        size after the final time), ``modal_end`` (the largest modal
+        and of its rate at the final time (torques on), ``ring_peak`` (m,
+        its largest size after the final time, torques off), ``modal_end`` (the largest modal
         coordinate or rate then: the constraint modes' in m and m/s),
         ``angle_end`` (rad, the largest joint-angle error then),
         ``speed_end`` (rad/s, the largest joint rate then);
@@ -165,11 +166,11 @@ class FlexibleArmManoeuvre:
                 (self.replay, "--", "torques from and to zero")):
             axes[1].plot(whole, 1e3 * np.linalg.norm(self.deflection(run.sol(whole)), axis=0),
                          style, label=label)
-            axes[2].plot(late - T, 1e3 * np.linalg.norm(self.deflection(run.sol(late)), axis=0),
-                         style, label=label)
+            axes[2].semilogy(late - T, np.maximum(1e3 * np.linalg.norm(
+                self.deflection(run.sol(late)), axis=0), 1e-9), style, label=label)
         axes[1].set_ylabel("end effector's elastic\ndeflection |delta| [mm]")
         axes[1].set_xlabel("t [s] (torques off after the dashed line)")
-        axes[2].set_ylabel("|delta| [mm]")
+        axes[2].set_ylabel("|delta| [mm], log scale")
         axes[2].set_xlabel(f"t - {T:g} s [s] (torques off after 0)")
         for ax, at in ((axes[1], T), (axes[2], 0.0)):
             ax.axvline(at, color="0.4", lw=0.8, ls="--")
@@ -187,12 +188,11 @@ class FlexibleArmManoeuvre:
         for ax in axes:
             ax.grid(alpha=0.3)
         fig.suptitle(
-            f"Shuttle arm on flexible booms, 11 t payload, {T:g} s: end-effector deflection "
-            f"left at the end,\nrigid optimum's torques "
-            f"{1e3 * d['rigid_torques_deflection_end']:.3g} mm, torques from and to zero "
-            f"{1e3 * d['ramped_deflection_end']:.2g} mm (effort "
-            f"+{100 * (d['effort_ratio'] - 1):.2g} %; {r.method}, {r.t.size} nodes)",
-            fontsize=10)
+            f"Shuttle arm, flexible booms, 11 t payload, {T:g} s ({r.method}, {r.t.size} "
+            f"nodes)\nend effector's deflection at the end: rigid optimum's torques "
+            f"{1e3 * d['rigid_torques_deflection_end']:.3g} mm,\ntorques from and to zero "
+            f"{1e3 * d['ramped_deflection_end']:.2g} mm at "
+            f"+{100 * (d['effort_ratio'] - 1):.2g} % effort", fontsize=10)
         written = save_figure(fig, path, dpi=110)
         plt.close(fig)
         return written
@@ -229,17 +229,36 @@ class _Deflection:
         return self.tip(Y) - self.tip(straight)
 
 
-def _off_after(inputs, T):
-    """The inputs, zero after ``T``: ``{symbol: f(t)}``."""
-    return {k: (lambda t, f=f: f(t) if t <= T else 0.0) for k, f in inputs.items()}
+class _Run:
+    """A run on the flexible arm in two pieces: the torques on to ``T``, then
+    off from the state reached (so no step crosses the switch).  ``sol(t)``
+    evaluates either piece's dense output, ``pieces`` holds both."""
+
+    def __init__(self, model, inputs, T, ring, y0):
+        from ..simulation import simulate
+        driven = simulate(model.with_inputs(inputs), (0.0, T), y0, dense_output=True,
+                          **REPLAY)
+        free = simulate(model.with_inputs({k: 0.0 for k in inputs}), (T, T + ring),
+                        driven.y[:, -1], dense_output=True, **REPLAY)
+        self.pieces, self.T = (driven, free), T
+        self.t = np.concatenate([driven.t, free.t[1:]])
+        self.success = driven.success and free.success
+
+    def sol(self, t):
+        t = np.asarray(t, float)
+        driven, free = self.pieces
+        if t.ndim == 0:
+            return driven.sol(t) if t <= self.T else free.sol(t)
+        return np.where(t <= self.T, driven.sol(np.minimum(t, self.T)),
+                        free.sol(np.maximum(t, self.T)))
 
 
 def _residual(run, T, deflection, end, n_modal, prefix):
-    """The residual vibration of ``run`` (dense, to T + ring): named numbers."""
+    """The residual vibration of ``run`` (a :class:`_Run`): named numbers."""
     yT = run.sol(T)
-    h = 1e-4  # s: the deflection's rate by a central difference of the dense output
-    rate = (deflection(run.sol(T + h)[:, None]) - deflection(run.sol(T - h)[:, None])) / (2 * h)
-    after = np.linspace(T, run.t[-1], 4001)
+    h = 1e-3  # s: the deflection's rate at T, backwards, torques still on
+    rate = (deflection(yT[:, None]) - deflection(run.sol(T - h)[:, None])) / h
+    after = np.linspace(T, run.t[-1], 8001)[1:]
     modal = np.concatenate([yT[6:6 + n_modal], yT[12 + n_modal:]])
     return {prefix + "deflection_end": float(np.linalg.norm(deflection(yT[:, None]))),
             prefix + "deflection_rate_end": float(np.linalg.norm(rate)),
@@ -261,7 +280,6 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     """
     from ..models import SRMS_END_DEG, SRMS_START_DEG
     from ..optimization import OptimalControlProblem
-    from ..simulation import simulate
     from ._shuttle_arm_oc import shuttle_arm_minimum_energy
     # the rigid study on the same mesh: its limits, its optimum, its torques
     rigid = shuttle_arm_minimum_energy(
@@ -298,9 +316,8 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
 
     def on_flexible(found):
         fed = found.inputs()
-        inputs = {tau: fed[str(tau.func)] for tau in definition.symbols["tau"]}
-        return simulate(model.with_inputs(_off_after(inputs, T)), (0.0, T + ring), y0,
-                        dense_output=True, **REPLAY)
+        return _Run(model, {tau: fed[str(tau.func)] for tau in definition.symbols["tau"]},
+                    T, ring, y0)
     rigid_on_flexible = on_flexible(rigid.result)
     replay = on_flexible(result)
     deflection = _Deflection(definition)
