@@ -247,7 +247,8 @@ def test_shuttle_arm_flexible_booms_end_still_with_torques_from_and_to_zero(tmp_
     the 28-state arm with flexible booms, end with the booms bent (the end
     effector's elastic deflection over 0.05 mm; they end away from zero),
     and ring after the torques stop; the manoeuvre with the torques from and
-    to zero leaves less than a tenth of that deflection and a smaller ring.  Its
+    to zero leaves less than a tenth of that deflection and a fifth of the
+    ring (from 0.5 s after, once the booms have sprung back).  Its
     effort is at least the rigid optimum's (the same mesh and limits, more
     constraints) and within 5 % of it; the limits hold at every point and
     the torques are zero at both ends; its simulation on the flexible arm
@@ -265,7 +266,7 @@ def test_shuttle_arm_flexible_booms_end_still_with_torques_from_and_to_zero(tmp_
     # the residual vibration on the flexible arm
     assert d["rigid_torques_deflection_end"] > 5e-5
     assert d["ramped_deflection_end"] < d["rigid_torques_deflection_end"] / 10
-    assert d["ramped_ring_peak"] < d["rigid_torques_ring_peak"]
+    assert d["ramped_ring_peak"] < d["rigid_torques_ring_peak"] / 5
     assert d["defect_angle"] < 2e-3
     end = s.replay.sol(r.duration)
     np.testing.assert_allclose(end[:6], r.y[:6, -1], atol=2e-3)
