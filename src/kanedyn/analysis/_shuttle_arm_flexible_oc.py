@@ -128,8 +128,8 @@ class FlexibleArmManoeuvre:
                     f"{self.ring:g} s after: deflection up to "
                     f"{mm * d[prefix + 'ring_peak']:.3g} mm")
         return "\n".join(result_lines(r) + [
-            f"booms: flexible (Craig-Bampton, 4 modal coordinates each, 28 states; modes "
-            f"7-65 Hz); the manoeuvre solved on the rigid arm with every torque zero at "
+            f"booms: flexible (Craig-Bampton, 4 modal coordinates each, 28 states); the "
+            f"manoeuvre solved on the rigid arm with every torque zero at "
             f"both ends (largest end torque {d['torque_ends']:.2g} N m), checked on the "
             "flexible arm; torque limits [N m]: "
             + ", ".join(f"{v:.4g}" for v in self.torque_limits),

@@ -35,6 +35,9 @@ nodes (node values and rates: Hermite-Simpson's own polynomial).  In
 microgravity nothing pulls the arm back to a path, so an open-loop replay
 drifts with any error (the collocation's); the tracking term removes the
 drift, and its size says how far the feedforward alone is from right.
+
+``booms="flexible"`` asks for the same manoeuvre for the arm with flexible
+booms (:mod:`._shuttle_arm_flexible_oc`).
 """
 
 from __future__ import annotations
