@@ -13,7 +13,7 @@ The booms' modes with the joints free lie at 7.1 to 65 Hz (damping ratios
 the joint torques of the moment.  An arm that ends at rest with torque on
 its joints ends with its booms bent, and when the torques stop they spring
 back and ring.  The rigid optimum's torques start and end away from zero,
-and so do that.  The manoeuvre posed here is the rigid arm's least-effort
+and so leave them bent.  The manoeuvre posed here is the rigid arm's least-effort
 one with every joint torque starting and ending at zero (instance
 constraints), the stiff limit of the flexible problem; it is then checked
 on the flexible arm, not on the model it was solved on: its torques are
@@ -32,8 +32,9 @@ stops at its iteration limit with constraint violations of 0.1 to 50
 Residual vibration is measured by the end effector's elastic deflection,
 :math:`\delta(t) = p(q, \eta) - p(q, 0)`: the tip's position with the
 booms deflected less its position at the same joint angles with the booms
-straight (m), at the final time, and its largest size over ``ring`` seconds
-after it with the torques off.
+straight (m), at the final time, and its largest size from ``SETTLE`` to
+``ring`` seconds after it with the torques off (once the booms have sprung
+back, the vibration that lasts).
 """
 
 from __future__ import annotations
@@ -346,9 +347,3 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
         result=result, rigid=rigid, rigid_on_flexible=rigid_on_flexible, replay=replay,
         torque_limits=bound, ring=float(ring), deflection=deflection,
         data=types.MappingProxyType(data))
-
-
-def _sides(pair):
-    return tuple(np.inf if v is None else float(v) for v in pair)
-
-
