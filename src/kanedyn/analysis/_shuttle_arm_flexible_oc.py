@@ -25,9 +25,10 @@ states, their coordinates and rates zero at the final time) does not
 converge with IPOPT's limited-memory Hessian: with 21 to 101 nodes,
 Hermite–Simpson, the trapezoid, backward Euler and LGR of degree 3, from the
 quintic's or a rigid optimum's torques simulated on the flexible arm, it
-stops at its iteration limit with constraint violations of 0.1 to 50
-(``docs/optimal_control.md``); the mesh's steps, 1.5 to 7.5 s, are 10 to
-1,000 times the modes' periods.
+stops at its iteration limit with constraint violations of 0.1 to 50, and
+with the exact Hessian (the trapezoid, 31 nodes) at a point of local
+infeasibility (``docs/optimal_control.md``); the mesh's steps, 1.5 to
+7.5 s, are 10 to 1,000 times the modes' periods.
 
 Residual vibration is measured by the end effector's elastic deflection,
 :math:`\delta(t) = p(q, \eta) - p(q, 0)`: the tip's position with the
