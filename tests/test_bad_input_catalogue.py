@@ -1847,9 +1847,13 @@ STUDY_OCP_CASES = {
     "shuttle arm: torque factor zero": (
         lambda: kd.studies.shuttle_arm_minimum_energy(torque_factor=0.0), kd.KanedynError,
         r"^torque_factor must be a positive number, got 0\.0$"),
-    "shuttle arm: flexible booms": (
+    "shuttle arm: flexible booms as a model option": (
         lambda: kd.studies.shuttle_arm_minimum_energy(model_options={"flexible_booms": True}),
-        kd.KanedynError, r"posed on the rigid arm; flexible_booms=True is not supported$"),
+        kd.KanedynError, r"^the model option flexible_booms is set by the study's option booms "
+                         r"\(booms='flexible', --set booms=flexible\), got flexible_booms=True$"),
+    "shuttle arm: unknown booms": (
+        lambda: kd.studies.shuttle_arm_minimum_energy(booms="elastic"),
+        kd.KanedynError, r"^booms must be one of rigid, flexible, got 'elastic'$"),
     "out-parallel: force limit not positive": (
         lambda: kd.studies.out_parallel_least_peak_force(force_limit=-200.0), kd.KanedynError,
         r"^force_limit must be a positive number \(N\), got -200\.0$"),
@@ -1873,6 +1877,15 @@ def test_study_option_from_the_command_line_is_one_line(capsys):
     assert main(["optimize", "shuttle-arm", "--set", "margin=-1", "--quiet"]) == 2
     err = capsys.readouterr().err
     assert "margin must be a number of degrees >= 0" in err and len(err.splitlines()) == 1
+
+
+def test_study_choice_from_the_command_line_names_the_option(capsys):
+    """``kanedyn optimize shuttle-arm --set booms=elastic``: exit 2, the option
+    and its choices named."""
+    pytest.importorskip("cyipopt", reason="optimal control needs cyipopt")
+    assert main(["optimize", "shuttle-arm", "--set", "booms=elastic", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "option booms must be one of rigid, flexible, got 'elastic'" in err
 
 
 # ---- issue 39: events of simulate_many (kd.Event)

@@ -185,3 +185,29 @@ def test_optimize_out_parallel_in_one_second_within_a_limit(tmp_path, capsys):
     forces = np.array([[float(row[f"F_carriage{j}"]) for j in range(1, 7)] for row in rows])
     assert 176.0 < np.max(np.abs(forces)) <= 180.0
     assert (tmp_path / "platform.png").stat().st_size > 0
+
+
+def test_optimize_passes_a_text_option_as_written(monkeypatch, capsys):
+    """``--set booms=flexible`` reaches the problem's function as the text
+    ``"flexible"`` (not parsed as a number), next to a numeric option and a
+    model option; the problem is replaced by a recorder (the real study is
+    ``tests/test_optimal_studies.py``'s)."""
+    import dataclasses
+    import types
+
+    from kanedyn.analysis import OPTIMAL_PROBLEMS, available_problems
+    available_problems()
+    seen = {}
+
+    def record(**kwargs):
+        seen.update(kwargs)
+        return types.SimpleNamespace(summary="recorded",
+                                     result=types.SimpleNamespace(success=True))
+    problem = OPTIMAL_PROBLEMS["shuttle-arm"]["minimum-energy"]
+    monkeypatch.setitem(OPTIMAL_PROBLEMS["shuttle-arm"], "minimum-energy",
+                        dataclasses.replace(problem, function=record))
+    assert main(["optimize", "shuttle-arm", "--set", "booms=flexible", "--set",
+                 "margin=20", "--set", "payload=false", "--quiet"]) == 0
+    assert seen["booms"] == "flexible" and seen["margin"] == 20.0
+    assert seen["model_options"] == {"payload": False}
+    assert "recorded" in capsys.readouterr().out

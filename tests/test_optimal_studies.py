@@ -15,6 +15,10 @@ shares none of its code:
 - the Shuttle arm's manoeuvre of least effort: the quintic's effort from the
   inverse dynamics of its closed form, the limits at every point, the
   optimal torques replayed by Radau open loop and with the servos' PD term;
+  for the flexible booms, the end effector's elastic deflection from the
+  flexible model's tip against the rigid model's (a separate build), the
+  torques simulated on the flexible model, and the rigid optimum's effort
+  (the same mesh, fewer constraints) as a lower bound;
 - the out-parallel manipulator's path of least peak force: the static
   forces in the two poses (the forward model does not accelerate under
   them), the quintic's peak and limit check from the inverse study, the
@@ -217,6 +221,57 @@ def test_shuttle_arm_least_effort_within_its_limits(tmp_path):
     assert d["tracking_ratio"] < 0.01
     assert "with the servos' PD term" in s.summary
     assert s.plot(tmp_path / "arm.png").stat().st_size > 0
+
+
+def test_shuttle_arm_flexible_tip_with_straight_booms_is_the_rigid_tip():
+    """The flexible booms' end effector with every modal coordinate zero is
+    the rigid arm's at the same joint angles (two separate builds), and the
+    deflection the flexible study measures is zero there and not elsewhere."""
+    from kanedyn.analysis._shuttle_arm_flexible_oc import _Deflection, _tip
+    flexible = kd.models.build("shuttle-arm", flexible_booms=True, torque_input=True)
+    rigid = kd.models.build("shuttle-arm", torque_input=True)
+    rng = np.random.default_rng(3)
+    Y = np.zeros((28, 5))
+    Y[:6] = rng.uniform(-1.0, 1.0, (6, 5))
+    np.testing.assert_allclose(_tip(flexible)(Y), _tip(rigid)(Y[np.r_[0:6, 14:20]]),
+                               atol=1e-12)
+    deflection = _Deflection(flexible)
+    assert np.max(np.abs(deflection(Y))) < 1e-12
+    Y[8] = 1e-3  # the upper boom's tip, 1 mm across (a constraint mode)
+    assert 1e-4 < np.max(np.linalg.norm(deflection(Y), axis=0)) < 1e-1
+
+
+@pytest.mark.slow
+def test_shuttle_arm_flexible_booms_end_still_with_torques_from_and_to_zero(tmp_path):
+    """booms="flexible" (31 nodes): the rigid optimum's torques, simulated on
+    the 28-state arm with flexible booms, end with the booms bent (the end
+    effector's elastic deflection over 0.05 mm; they end away from zero),
+    and ring after the torques stop; the manoeuvre with the torques from and
+    to zero leaves less than a tenth of that deflection and a fifth of the
+    ring (from 0.5 s after, once the booms have sprung back).  Its
+    effort is at least the rigid optimum's (the same mesh and limits, more
+    constraints) and within 5 % of it; the limits hold at every point and
+    the torques are zero at both ends; its simulation on the flexible arm
+    stays within 2e-3 rad of the collocated rigid path."""
+    s = kd.studies.shuttle_arm_minimum_energy(booms="flexible", nodes=31)
+    d, r = s.data, s.result
+    assert r.success and s.rigid.result.success, r.message
+    assert isinstance(s, kd.studies.FlexibleArmManoeuvre)
+    assert 1.0 <= d["effort_ratio"] < 1.05, dict(d)
+    assert d["effort_ramped"] >= s.rigid.result.objective * (1 - 1e-9)
+    t, y, torques = r.points()
+    assert np.all(np.abs(torques) <= s.torque_limits[:, None] * (1 + 1e-6))
+    assert np.max(np.abs(torques[:, [0, -1]])) < 1e-6 * np.max(s.torque_limits)
+    assert np.max(np.abs(s.rigid.result.points()[2][:, -1]) / s.torque_limits) > 0.1
+    # the residual vibration on the flexible arm
+    assert d["rigid_torques_deflection_end"] > 5e-5
+    assert d["ramped_deflection_end"] < d["rigid_torques_deflection_end"] / 10
+    assert d["ramped_ring_peak"] < d["rigid_torques_ring_peak"] / 5
+    assert d["defect_angle"] < 2e-3
+    end = s.replay.sol(r.duration)
+    np.testing.assert_allclose(end[:6], r.y[:6, -1], atol=2e-3)
+    assert "torques from and to zero" in s.summary
+    assert s.plot(tmp_path / "flexible.png").stat().st_size > 0
 
 
 # ------------------------------------------------ the out-parallel manipulator

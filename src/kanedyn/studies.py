@@ -25,6 +25,8 @@ behind some of them are public too::
     shuttle_arm_minimum_energy  the Shuttle arm's payload manoeuvre of least effort
                           within joint-angle and torque limits, against its quintic
     ArmManoeuvre          the optimum, its open-loop and PD-tracked replays
+    FlexibleArmManoeuvre  the same with booms="flexible": torques from and to zero,
+                          both optima's torques simulated on the flexible booms
     out_parallel_least_peak_force  the out-parallel manipulator's path of least peak
                           carriage force, against its quintic
     PeakForcePath         the optimum, the inverse dynamics of its path, its replay
@@ -59,6 +61,7 @@ _LAZY = {
     "LaneChange": ".analysis",
     "shuttle_arm_minimum_energy": ".analysis",
     "ArmManoeuvre": ".analysis",
+    "FlexibleArmManoeuvre": ".analysis",
     "out_parallel_least_peak_force": ".analysis",
     "PeakForcePath": ".analysis",
     "pendulum_swing_up": ".analysis",

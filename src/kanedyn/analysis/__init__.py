@@ -26,6 +26,8 @@
 ``_bicycle_lane_change`` the Whipple bicycle's lane change by steer torque
 ``_shuttle_arm_oc`` the Shuttle arm's payload manoeuvre of least effort with
                    joint-angle and torque limits, replayed open loop and PD-tracked
+``_shuttle_arm_flexible_oc`` the same for the flexible booms: torques from and
+                   to zero, checked on the 28-state model against the rigid optimum's
 ``_out_parallel_oc`` the out-parallel manipulator's platform path of least peak
                    carriage force (epigraph), checked by inverse dynamics
 ``_campbell``      Campbell diagrams: steady motions over rotor speed, modes
@@ -111,6 +113,7 @@ _LAZY = {
     'LaneChange': '._bicycle_lane_change',
     'shuttle_arm_minimum_energy': '._shuttle_arm_oc',
     'ArmManoeuvre': '._shuttle_arm_oc',
+    'FlexibleArmManoeuvre': '._shuttle_arm_flexible_oc',
     'out_parallel_least_peak_force': '._out_parallel_oc',
     'PeakForcePath': '._out_parallel_oc',
     'campbell': '._campbell',

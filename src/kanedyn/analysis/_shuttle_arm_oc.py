@@ -35,6 +35,9 @@ nodes (node values and rates: Hermite-Simpson's own polynomial).  In
 microgravity nothing pulls the arm back to a path, so an open-loop replay
 drifts with any error (the collocation's); the tracking term removes the
 drift, and its size says how far the feedforward alone is from right.
+
+``booms="flexible"`` asks for the same manoeuvre for the arm with flexible
+booms (:mod:`._shuttle_arm_flexible_oc`).
 """
 
 from __future__ import annotations
@@ -59,6 +62,8 @@ JOINTS = ("shoulder yaw", "shoulder pitch", "elbow pitch", "wrist pitch", "wrist
           "wrist roll")
 #: points of the quintic's inverse dynamics (its torques, effort and the guess)
 QUINTIC_POINTS = 1501
+#: the study's choices of booms
+BOOMS = ("rigid", "flexible")
 
 
 @dataclass(frozen=True)
@@ -237,28 +242,34 @@ class _Tracking:
 
 def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds=None,
                                constants=None, model_options=None, backend="c", ipopt=None,
-                               margin=10.0, torque_factor=1.0):
+                               degree=None, margin=10.0, torque_factor=1.0, booms="rigid"):
     r"""The Shuttle arm's manoeuvre of least :math:`\int\sum\tau_i^2dt` with
     joint-angle and joint-torque limits, against the quintic profile.
 
     Parameters
     ----------
-    nodes, method, duration :
-        Default 101 nodes, ``"hermite-simpson"``, 150 s (the model's quintic).
+    nodes, method, duration, degree :
+        Default 101 nodes, ``"hermite-simpson"``, 150 s (the model's quintic);
+        ``degree``: LGR's points per interval (``method="lgr"``).
     bounds, constants, model_options, backend, ipopt :
         As every named problem (:mod:`._optimal_problems`); ``bounds`` by
         joint (``q3``, ``tau1``) replace the limits below;
-        ``model_options`` of ``shuttle-arm`` (``payload``; the booms stay
-        rigid).
+        ``model_options`` of ``shuttle-arm`` (``payload``; the booms are
+        chosen by ``booms``).
     margin : float
         Each joint stays within the range its quintic sweeps widened by this
         on both sides, degrees (``inf``: no joint-angle limits).
     torque_factor : float
         Each joint's torque limit over the largest its quintic needs.
+    booms : {"rigid", "flexible"}
+        ``"flexible"``: the same manoeuvre, limits and payload on the
+        flexible booms (``flexible_booms=True``), ending at rest with the
+        booms undeformed, against the rigid optimum on the same mesh
+        (:mod:`._shuttle_arm_flexible_oc`).
 
     Returns
     -------
-    ArmManoeuvre
+    ArmManoeuvre, or FlexibleArmManoeuvre with ``booms="flexible"``
     """
     from ..models import SRMS_END_DEG, SRMS_START_DEG
     from ..optimization import OptimalControlProblem
@@ -268,9 +279,18 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
                            f"limits), got {margin!r}")
     if not np.isfinite(torque_factor) or torque_factor <= 0:
         raise KanedynError(f"torque_factor must be a positive number, got {torque_factor!r}")
-    if (model_options or {}).get("flexible_booms"):
-        raise KanedynError("the minimum-energy manoeuvre is posed on the rigid arm; "
-                           "flexible_booms=True is not supported")
+    if booms not in BOOMS:
+        raise KanedynError(f"booms must be one of {', '.join(BOOMS)}, got {booms!r}")
+    if "flexible_booms" in (model_options or {}):
+        raise KanedynError("the model option flexible_booms is set by the study's option "
+                           "booms (booms='flexible', --set booms=flexible), got "
+                           f"flexible_booms={model_options['flexible_booms']!r}")
+    if booms == "flexible":
+        from ._shuttle_arm_flexible_oc import flexible_manoeuvre
+        return flexible_manoeuvre(
+            nodes=nodes, method=method, duration=duration, bounds=bounds,
+            constants=constants, model_options=model_options, backend=backend, ipopt=ipopt,
+            degree=degree, margin=margin, torque_factor=torque_factor)
     spec = optimal_problem("shuttle-arm", "minimum-energy")
     nodes = nodes or spec.nodes
     method = method or spec.method
@@ -294,7 +314,7 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
     rest = {f"u{i + 1}": 0.0 for i in range(6)}
     problem = OptimalControlProblem(
         model, nodes=nodes, duration=T, lagrange=sum(tau ** 2 for tau in taus),
-        bounds=limits, method=method,
+        bounds=limits, method=method, degree=degree,
         initial={**{f"q{i + 1}": start[i] for i in range(6)}, **rest},
         final={**{f"q{i + 1}": end[i] for i in range(6)}, **rest})
     from scipy.interpolate import CubicSpline
@@ -370,4 +390,6 @@ register_problem(OptimalProblem(
     options={"margin": StudyOption(float, 10.0, "joint-angle margin beyond the quintic's "
                                                 "range [deg] (inf: no limits)"),
              "torque_factor": StudyOption(float, 1.0, "torque limits over the quintic's "
-                                                      "peak torques")}))
+                                                      "peak torques"),
+             "booms": StudyOption(str, "rigid", "rigid, or flexible (Craig-Bampton booms; "
+                                                "ends at rest, booms undeformed)", BOOMS)}))

@@ -100,6 +100,21 @@ def _bounds(items):
     return out
 
 
+def _text_options(problem, pairs):
+    """``--set`` pairs split into the problem's text options ``{name: text}``
+    (their choices checked by ``study_option_value``) and the other pairs
+    (model options, constants, the problem's numeric options)."""
+    texts, rest = {}, []
+    for pair in pairs or ():
+        key = pair.split("=", 1)[0].strip()
+        option = problem.options.get(key)
+        if "=" in pair and option is not None and option.type is str:
+            texts[key] = pair.split("=", 1)[1].strip()
+        else:
+            rest.append(pair)
+    return texts, rest
+
+
 def _list(problems):
     for model, named in problems.items():
         print(f"{model}:")
@@ -130,7 +145,9 @@ def cmd_optimize(args):
     if args.degree is not None and (args.method or problem.method) != "lgr":
         raise KanedynError(f"--degree is for --method lgr (the problem's method is "
                            f"{args.method or problem.method})")
-    model_options, values = parse_sets(args.model, args.set)
+    texts, numeric = _text_options(problem, args.set)
+    model_options, values = parse_sets(args.model, numeric)
+    values.update(texts)  # the problem's text options (booms=flexible), as written
     options, constants = {}, {}
     if args.degree is not None:  # only then: a problem may predate LGR's degree
         options["degree"] = args.degree
