@@ -139,14 +139,18 @@ def _named(prog, vec, name):
 
 
 def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordinates, speeds,
-                             rates, o, reference, loads=(), factors=False):
+                             rates, o, reference, loads=(), factors=False, entries=True):
     r"""``(dq, du)``: :math:`\partial\tau/\partial q` and :math:`\partial\tau/\partial
     u` (o x o nested lists of expressions) of a tree's inertia forces with the
     rates :math:`\dot u` held, by the spatial formulas of this module; or
     ``None`` without the structure.  With ``factors=True``, ``(dq, du, factors,
     parent)``: also the vectors of every speed the entries are formed from (45
     rows of o expressions, :data:`FACTOR_PARTS`) and the speed above each speed
-    (-1 at a root), for :func:`tree_jacobian_values`.
+    (-1 at a root), for :func:`tree_jacobian_values`; with ``entries=False``
+    too, ``dq`` and ``du`` are ``None``: their :math:`2o^2` expressions are not
+    formed (the comparison with ``reference`` takes the entries' numbers from
+    the factors', :func:`tree_jacobian_values`), so that the work grows with
+    the number of speeds, not its square.
 
     Parameters
     ----------
@@ -170,6 +174,9 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         :func:`_load_terms`).
     factors : bool, optional
         Also return the factors and the tree of speeds.
+    entries : bool, optional
+        Form the entries as expressions (with ``factors=True`` only, ``False``
+        leaves them out).
     """
     found = _structure(kin, bodies, body_terms, o) if len(coordinates) == o else None
     if found is None:
@@ -217,6 +224,19 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
                                  _applied(Id[j], d[j]), _force_cross(d[j], H[j]),
                                  _load_turn(L[j], S[j][:3])), f"Yq{j}")
         Z[j] = _named(prog, _sum(rate, turn, _scaled(_applied(Ic[j], d[j]), 2)), f"Zu{j}")
+    variables = list(coordinates[:o]) + list(speeds[:o])
+    above = tuple(parent[i] for i in range(o))
+    rows = None
+    if factors:
+        parts = {"alpha": alpha, "beta": beta, "gamma": gamma, "d": d, "e": e,
+                 "S": dict(enumerate(S)), "Y": Y, "Z": Z}
+        used = _used_components(parts, parent, o)
+        rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
+                for name, size in FACTOR_PARTS for c in range(size)]
+    if factors and not entries:
+        if not _factors_agree(prog, reference, variables, rows, above):
+            return None
+        return None, None, rows, above
     dq = [[sm.S.Zero] * o for _ in range(o)]
     du = [[sm.S.Zero] * o for _ in range(o)]
     for i in range(o):
@@ -228,16 +248,11 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
                 dq[j][i] = _dot(S[j], Y[i])
                 du[j][i] = _dot(S[j], Z[i])
             j = parent[j]
-    if not _agrees(prog, reference, list(coordinates[:o]) + list(speeds[:o]), dq, du):
+    if not _agrees(prog, reference, variables, dq, du):
         return None
     if not factors:
         return dq, du
-    parts = {"alpha": alpha, "beta": beta, "gamma": gamma, "d": d, "e": e,
-             "S": dict(enumerate(S)), "Y": Y, "Z": Z}
-    used = _used_components(parts, parent, o)
-    rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
-            for name, size in FACTOR_PARTS for c in range(size)]
-    return dq, du, rows, tuple(parent[i] for i in range(o))
+    return dq, du, rows, above
 
 
 #: which parts meet in the products of the formulas: (part of the speed below, part
@@ -254,14 +269,17 @@ def _used_components(parts, parent, o):
     expressions may name constants the equations do not keep)."""
     used = {(name, i, c): False for name, size in FACTOR_PARTS for i in range(o)
             for c in range(size)}
+    nonzero = {(name, i): tuple(x != 0 for x in parts[name][i])
+               for name, _ in FACTOR_PARTS for i in range(o)}  # compared once each
     for i in range(o):
         j = i
         while j >= 0:
             for low, high, size, itself in _PRODUCTS:
                 if j == i and not itself:
                     continue
+                a, b = nonzero[low, i], nonzero[high, j]
                 for c in range(size):
-                    if parts[low][i][c] != 0 and parts[high][j][c] != 0:
+                    if a[c] and b[c]:
                         used[low, i, c] = used[high, j, c] = True
             j = parent[j]
     return used
@@ -364,6 +382,28 @@ def _load_turn(load, w):
     return _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
 
 
+def _factors_agree(prog, reference, variables, rows, parent, rtol=1e-9):
+    """:func:`_agrees` with the entries formed from the numbers of the factors
+    ``rows`` (:func:`tree_jacobian_values`): no entry is an expression."""
+    o = len(parent)
+    exprs = [x for row in rows for x in row]
+    for seed in SAMPLE_SEEDS:
+        expected = prog.shadow_jacobian(reference, variables, seed)
+        if expected is None:
+            return False
+        values = np.array(prog.shadow(exprs, seed))
+        if not np.all(np.isfinite(values)) or np.any(values.imag != 0):
+            return False
+        mine = tree_jacobian_values(values.real.reshape(len(rows), o), parent)
+        if not _close(mine, expected, rtol):
+            return False
+    return True
+
+
+def _close(mine, expected, rtol):
+    return np.allclose(mine, expected, rtol=rtol, atol=rtol * max(1.0, np.abs(expected).max()))
+
+
 def _agrees(prog, reference, variables, dq, du, rtol=1e-9):
     """Whether ``dq, du`` equal the complex-step derivatives of ``reference``
     with respect to ``variables`` (coordinates, then speeds) at the sample
@@ -378,6 +418,6 @@ def _agrees(prog, reference, variables, dq, du, rtol=1e-9):
         if not np.all(np.isfinite(values)) or np.any(values.imag != 0):
             return False
         mine = np.hstack([values[:o * o].real.reshape(o, o), values[o * o:].real.reshape(o, o)])
-        if not np.allclose(mine, expected, rtol=rtol, atol=rtol * max(1.0, np.abs(expected).max())):
+        if not _close(mine, expected, rtol):
             return False
     return True
