@@ -214,6 +214,37 @@ def test_not_where_they_do_not_apply():
     wrong = [e + table.q[0] ** 2 * int(r == 1) for r, e in enumerate(inertia)]
     assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
                                     wrong) is None
+    # the same check where the entries are not formed (from the factors' numbers)
+    right = tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, inertia,
+                                     factors=True, entries=False)
+    assert right is not None and right[:2] == (None, None)
+    both = tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, inertia,
+                                    factors=True)
+    assert right[2:] == both[2:]
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, wrong,
+                                    factors=True, entries=False) is None
+
+
+def test_constant_loads_split_from_the_others():
+    """The gimbal's gravity and constant torque are taken as constant loads (their
+    generalized forces, checked by complex steps through the velocities, plus the
+    other loads' give the equations' active forces); a constant load changed is
+    found out, numerically as by the loads' partial velocities formed."""
+    model = gimbal_model()
+    prog, kin = _workspace(model)
+    found = _tree_bodies(model._eom, kin)
+    constants = set(model._functions["dynamics"][0]["p"])
+    constant, other, active = _jacobians._split_loads(model, prog, kin, found, constants)
+    assert len(constant) == 3 and other != active  # two weights, the torque
+    speeds = model._eom._table.u[:model.n_u]
+    assert _jacobians._sum_agrees(prog, constant, other, active, speeds)
+    k, kind, vec, part = constant[0]
+    changed = [(k, kind, tuple(2 * c for c in vec), part)] + constant[1:]
+    assert not _jacobians._sum_agrees(prog, changed, other, active, speeds)
+    formed = [(k, kind, vec, list(part)) for k, kind, vec, part in changed]  # no .vector
+    assert not _jacobians._sum_agrees(prog, formed, other, active, speeds)
+    formed = [(k, kind, vec, list(part)) for k, kind, vec, part in constant]
+    assert _jacobians._sum_agrees(prog, formed, other, active, speeds)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -382,19 +382,29 @@ def _load_turn(load, w):
     return _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
 
 
+#: random directions in which :func:`_factors_agree` compares the derivatives
+FACTOR_CHECK_DIRECTIONS = 4
+
+
 def _factors_agree(prog, reference, variables, rows, parent, rtol=1e-9):
-    """:func:`_agrees` with the entries formed from the numbers of the factors
-    ``rows`` (:func:`tree_jacobian_values`): no entry is an expression."""
+    r""":func:`_agrees` with the entries formed from the numbers of the factors
+    ``rows`` (:func:`tree_jacobian_values`): no entry is an expression.  The
+    derivatives are compared in :data:`FACTOR_CHECK_DIRECTIONS` random
+    directions of (q, u) (complex steps in one lane each, not one per
+    variable: the reference, :math:`M\dot u + n`, has :math:`O(n^2)`
+    intermediates), which a wrong formula fails as the full matrix does."""
     o = len(parent)
     exprs = [x for row in rows for x in row]
     for seed in SAMPLE_SEEDS:
-        expected = prog.shadow_jacobian(reference, variables, seed)
+        directions = np.random.default_rng(seed).uniform(
+            -1.0, 1.0, (FACTOR_CHECK_DIRECTIONS, len(variables)))
+        expected = prog.shadow_jacobian(reference, variables, seed, directions=directions)
         if expected is None:
             return False
         values = np.array(prog.shadow(exprs, seed))
         if not np.all(np.isfinite(values)) or np.any(values.imag != 0):
             return False
-        mine = tree_jacobian_values(values.real.reshape(len(rows), o), parent)
+        mine = tree_jacobian_values(values.real.reshape(len(rows), o), parent) @ directions.T
         if not _close(mine, expected, rtol):
             return False
     return True

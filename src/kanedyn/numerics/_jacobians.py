@@ -168,22 +168,27 @@ def _specification(model, parameters):
     prog, kin = _workspace(model)
     w = list(eom._table.udot)
     mu = [sm.Dummy(f"mu{k}") for k in range(m)]
-    inertia = _recursive_inertia_forces(eom, o, w, model._substitutions, kin)
-    if inertia is None:
-        inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) for r in range(o)]
-    E = [inertia[r] - force[r] - sm.Add(*[vel_B[c * o + r] * mu[c] for c in range(m)])
-         for r in range(o)]
-    a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
     columns = [args["y"], args["r"]] + ([args["p"]] if parameters else [])
     tree = _tree_state_rows(model, prog, kin, w, mass, args["y"], args["p"])
     model.__dict__["_jacobian_tree"] = None if tree is None else tree[2]
     factored = tree is not None and tree[1] is not None
+    E = None  # formed where some column needs it (not a tree's state columns alone)
+    if tree is None or any(len(variables) for variables in columns[1:]):
+        inertia = _recursive_inertia_forces(eom, o, w, model._substitutions, kin)
+        if inertia is None:
+            inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) for r in range(o)]
+        E = [inertia[r] - force[r] - sm.Add(*[vel_B[c * o + r] * mu[c] for c in range(m)])
+             for r in range(o)]
+    a = [sm.Add(*[acc_K[c * o + s] * w[s] for s in range(o)]) + acc_f[c] for c in range(m)]
     outputs = []
     for variables in columns:
-        for rows in (qdot, E, a):
-            jac = (tree[0] if rows is E and variables is args["y"] and tree is not None
-                   else list(prog.jacobian(rows, variables, guarded=True)))
-            outputs.append(((len(rows), len(variables)), jac))
+        for part, rows in enumerate((qdot, E, a)):
+            if part == 1 and tree is not None and variables is args["y"]:
+                outputs.append(((o, len(variables)), tree[0]))
+                continue
+            shape = (len(rows) if part != 1 else o, len(variables))
+            jac = list(prog.jacobian(rows, variables, guarded=True)) if shape[1] else []
+            outputs.append((shape, jac))
     _, constraints = model._functions["constraints"]
     for rows in (constraints[0][1], constraints[3][1]):  # h(q), c(q, u)
         jac = prog.jacobian(rows, args["y"], guarded=True)
