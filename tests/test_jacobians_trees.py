@@ -223,6 +223,14 @@ def test_not_where_they_do_not_apply():
     assert right[2:] == both[2:]
     assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, wrong,
                                     factors=True, entries=False) is None
+    # and with the reference as M's entries and the rest (no product formed)
+    rest = list(eom._remainder)
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    (list(mass), rest), factors=True,
+                                    entries=False)[2:] == both[2:]
+    rest[1] += table.q[0] ** 2
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    (list(mass), rest), factors=True, entries=False) is None
 
 
 def test_constant_loads_split_from_the_others():

@@ -162,11 +162,14 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         :math:`q`, :math:`u` (the first ``o``) and :math:`\dot u`.
     o : int
         Number of real speeds.
-    reference : sequence of o expressions
+    reference : sequence of o expressions, or (mass, rest)
         The inertia forces :math:`\tau` as the equations compute them
         (:math:`M\dot u + n`), less the generalized forces of ``loads``; the
         result is returned only where it agrees with their complex-step
-        derivatives at the sample points.
+        derivatives at the sample points.  It may be given as a pair: the
+        :math:`o^2` entries of :math:`M` (row-major) and the o expressions of
+        the rest; with ``entries=False`` the products with the rates are then
+        taken in numbers, not formed as expressions.
     loads : sequence of (int, str, tuple)
         Loads constant in inertial components, ``(k, "F", force)`` at the mass
         centre of body ``k`` or ``(k, "T", torque)`` on its frame: their
@@ -234,7 +237,7 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
                 for name, size in FACTOR_PARTS for c in range(size)]
     if factors and not entries:
-        if not _factors_agree(prog, reference, variables, rows, above):
+        if not _factors_agree(prog, reference, variables, rows, above, rates[:o]):
             return None
         return None, None, rows, above
     dq = [[sm.S.Zero] * o for _ in range(o)]
@@ -248,6 +251,10 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
                 dq[j][i] = _dot(S[j], Y[i])
                 du[j][i] = _dot(S[j], Z[i])
             j = parent[j]
+    if isinstance(reference, tuple):  # (mass, rest)
+        mass, rest = reference
+        reference = [sm.Add(*[mass[r * o + s] * rates[s] for s in range(o)]) + rest[r]
+                     for r in range(o)]
     if not _agrees(prog, reference, variables, dq, du):
         return None
     if not factors:
@@ -386,19 +393,21 @@ def _load_turn(load, w):
 FACTOR_CHECK_DIRECTIONS = 4
 
 
-def _factors_agree(prog, reference, variables, rows, parent, rtol=1e-9):
+def _factors_agree(prog, reference, variables, rows, parent, rates, rtol=1e-9):
     r""":func:`_agrees` with the entries formed from the numbers of the factors
     ``rows`` (:func:`tree_jacobian_values`): no entry is an expression.  The
     derivatives are compared in :data:`FACTOR_CHECK_DIRECTIONS` random
     directions of (q, u) (complex steps in one lane each, not one per
     variable: the reference, :math:`M\dot u + n`, has :math:`O(n^2)`
-    intermediates), which a wrong formula fails as the full matrix does."""
+    intermediates), which a wrong formula fails as the full matrix does.
+    ``reference`` as for :func:`tree_inertia_derivatives`; given as ``(mass,
+    rest)``, the derivatives of :math:`M` times the rates' values."""
     o = len(parent)
     exprs = [x for row in rows for x in row]
     for seed in SAMPLE_SEEDS:
         directions = np.random.default_rng(seed).uniform(
             -1.0, 1.0, (FACTOR_CHECK_DIRECTIONS, len(variables)))
-        expected = prog.shadow_jacobian(reference, variables, seed, directions=directions)
+        expected = _directional(prog, reference, variables, seed, directions, rates)
         if expected is None:
             return False
         values = np.array(prog.shadow(exprs, seed))
@@ -408,6 +417,21 @@ def _factors_agree(prog, reference, variables, rows, parent, rtol=1e-9):
         if not _close(mine, expected, rtol):
             return False
     return True
+
+
+def _directional(prog, reference, variables, seed, directions, rates):
+    """Complex-step derivatives of the reference in ``directions`` at ``seed``,
+    shape (o, k), or ``None`` where they cannot be trusted."""
+    if not isinstance(reference, tuple):
+        return prog.shadow_jacobian(reference, variables, seed, directions=directions)
+    mass, rest = reference
+    o = len(rest)
+    dm = prog.shadow_jacobian(mass, variables, seed, directions=directions)
+    dr = prog.shadow_jacobian(rest, variables, seed, directions=directions)
+    w = np.array(prog.shadow(rates, seed))
+    if dm is None or dr is None or np.any(w.imag != 0):
+        return None
+    return np.einsum("rsk,s->rk", dm.reshape(o, o, -1), w.real) + dr
 
 
 def _close(mine, expected, rtol):

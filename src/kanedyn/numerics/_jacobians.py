@@ -226,8 +226,6 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
     code runs (:func:`kanedyn.engine.tree_jacobian_values`, or the C runtime's
     ``kd_tree_jacobian``), so the generated code grows with n, not n^2; below,
     ``rows`` holds both parts and ``factors`` and ``parent`` are ``None``."""
-    import sympy as sm
-
     from ..engine import tree_inertia_derivatives
     from ._inverse import _tree_bodies
     eom, o = model._eom, model.n_u
@@ -240,10 +238,10 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
     constant, other, active = _split_loads(model, prog, kin, found, set(constants))
     remainder = [_substituted(model, prog, e) for e in eom._remainder]
     # less the constant loads' generalized forces: those of all loads less the others'
-    inertia = [sm.Add(*[mass[r * o + s] * w[s] for s in range(o)]) + remainder[r]
-               - (active[r] - other[r]) for r in range(o)]
+    rest = [remainder[r] - (active[r] - other[r]) for r in range(o)]
     entries = o < TREE_FACTOR_MIN_SPEEDS
-    spatial = tree_inertia_derivatives(kin, *found, table.q, table.u, w, o, inertia,
+    spatial = tree_inertia_derivatives(kin, *found, table.q, table.u, w, o,
+                                       (list(mass[:o * o]), rest),
                                        [(k, kind, vec) for k, kind, vec, _ in constant],
                                        factors=True, entries=entries)
     if spatial is None:
