@@ -141,6 +141,39 @@ def test_a_second_model_of_the_same_equations_waits_for_nothing(fresh_cache):
     assert Path(model._module.__file__).parent == fresh_cache
 
 
+def test_another_module_does_not_wait_for_an_optimized_build(fresh_cache, monkeypatch):
+    """The derivative module asked for while the model's optimized build holds the
+    build lock (gcc held back here) comes from the quick compiler at once; its
+    numbers equal those of gcc's module to the bit, and the NumPy backend's
+    derivatives to 1e-12."""
+    needs_tcc()
+    gate, build = threading.Event(), _c_build._build
+
+    def held_back(*args, **options):  # called under the build lock
+        gate.wait(300)
+        return build(*args, **options)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
+    definition = kd.models.build("chain3d", n=3)
+    model = definition.numeric(backend="c")
+    y = np.random.default_rng(3).uniform(-1.0, 1.0, (4, model.n_states))
+    before, found = dict(QUICK_STATS), []
+    asked = threading.Thread(target=lambda: found.append(model.jacobians(0.0, y)))
+    asked.start()
+    asked.join(120)
+    assert found, "the derivatives waited for the optimized build"
+    assert _c_build._LOCK.locked() and not gate.is_set()
+    assert QUICK_STATS["quick"] == before["quick"] + 1
+    gate.set()
+    assert _c_quick.finish_compiling(timeout=300)
+    assert QUICK_STATS["optimized"] >= before["optimized"] + 2  # the model's and this one
+    optimized = model.jacobians(0.0, y)
+    np.testing.assert_array_equal(found[0].state, optimized.state)
+    numpy = definition.numeric(backend="numpy").jacobians(0.0, y)
+    scale = np.abs(numpy.state).max()
+    assert np.abs(found[0].state - numpy.state).max() <= 1e-12 * scale
+
+
 @pytest.mark.parametrize("setting", ["", "none"])
 def test_quick_compiler_turned_off(fresh_cache, monkeypatch, setting):
     monkeypatch.setenv("KANEDYN_QUICK_CC", setting)
