@@ -12,9 +12,13 @@ multiply-adds (gcc is told ``-ffp-contract=off``; tcc never fuses) and call
 the same libm, so the two modules return the same numbers: the tests compare
 them to the bit.
 
-The optimized build holds the build lock of :mod:`._c_build` while gcc runs: a
-module that another model of the process needs meanwhile and that is not
-cached waits for it (as it would have waited for a build in the foreground).
+The optimized build holds the build lock of :mod:`._c_build` while gcc runs.
+Another module that the process needs meanwhile and that is not cached does
+not wait for it where it may come from the quick compiler too (a model's
+derivative module asked for while the model's own optimized build runs: its
+source is generated and compiled by tcc at once, its own optimized build
+queued behind the running one); otherwise it waits (as it would have waited
+for a build in the foreground).
 
 ``$KANEDYN_QUICK_CC`` chooses the quick compiler: unset, ``tcc`` when it is on
 the ``PATH``; empty (or ``none``), no quick builds; else the command of a
