@@ -163,6 +163,32 @@ def test_factors_formed_in_c(which, monkeypatch, tmp_path):
     assert factors_against_expressions(which, "c", monkeypatch, tmp_path) < 1e-12
 
 
+@needs_compiler
+def test_the_mass_matrix_listed_plain_gives_the_same_numbers(monkeypatch, tmp_path):
+    """The derivative module lists the model's M and forcing without common
+    subexpressions (``_jacobians._PLAIN``): its derivatives, multipliers and
+    all, equal to the bit those of a module with them eliminated (the
+    four-bar: its solve uses M; chain3d n = 12: the factors)."""
+    from kanedyn.numerics.backends import _c_build
+
+    def derivatives(build, plain, folder):
+        with monkeypatch.context() as patch:
+            patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
+            patch.setattr(_c_build, "_LOADED", {})
+            patch.setattr(_jacobians, "_PLAIN", plain)
+            definition = build()
+            model = definition.numeric(backend="c")
+            y = definition.initial(model) + 0.1
+            return model.jacobians(0.0, np.stack([y, 0.9 * y]), parameters=True)
+    for build in (lambda: kd.models.build("four-bar"),
+                  lambda: kd.models.build("chain3d", n=12, style="positions")):
+        mine = derivatives(build, ("dynamics",), "plain")
+        theirs = derivatives(build, (), "eliminated")
+        for part in ("f", "state", "parameters", "multipliers"):
+            a, b = getattr(mine, part), getattr(theirs, part)
+            assert (a is None and b is None) or np.array_equal(a, b), part
+
+
 def test_the_gimbal_against_differences():
     model = gimbal_model()
     assert spatial_rows(model) is not None

@@ -373,7 +373,7 @@ def _functions(model, parameters):
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
                                     dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
-                                    cse=model._cse, lanes=False)
+                                    cse=model._cse, lanes=False, plain=_PLAIN)
         # first from the quick compiler where there is one: its functions move onto
         # the optimized code (built in the background) by themselves
         module = load_module(text, units, quick=True)
@@ -386,6 +386,14 @@ def _functions(model, parameters):
         found = (model._fn["dynamics"], compile_python(source, key), None, None, None, None)
     model.__dict__["_" + key] = found
     return found
+
+
+#: the model's functions listed again in the derivative module without common
+#: subexpressions (the same numbers): ``dynamics``, M and the forcing, whose
+#: elimination over M's n^2 entries took 1.0 s of CPU at chain3d n = 100 (0.055 s
+#: without) for 2.8 % fewer operations (5 % at n = 30) in the derivative module's
+#: solve
+_PLAIN = ("dynamics",)
 
 
 def _c_key(model, parameters):
