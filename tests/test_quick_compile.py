@@ -174,6 +174,38 @@ def test_another_module_does_not_wait_for_an_optimized_build(fresh_cache, monkey
     assert np.abs(found[0].state - numpy.state).max() <= 1e-12 * scale
 
 
+def test_a_quick_compiler_failing_meanwhile_leaves_the_build_under_the_lock(fresh_cache,
+                                                                            monkeypatch):
+    """The quick compiler failing on a module asked for while another's optimized
+    build holds the lock: that module is built by gcc once the lock is free
+    (the quick compiler not run again on it), with the same numbers."""
+    needs_tcc()
+    gate, build = threading.Event(), _c_build._build
+
+    def held_back(*args, **options):
+        gate.wait(300)
+        return build(*args, **options)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
+    monkeypatch.setattr(_c_quick, "_WARNED", set())
+    definition = kd.models.build("chain3d", n=3)
+    model = definition.numeric(backend="c")  # from tcc; gcc's build held back
+    y = np.random.default_rng(5).uniform(-1.0, 1.0, (3, model.n_states))
+    monkeypatch.setenv("KANEDYN_QUICK_CC", "false")
+    assert _c_build._LOCK.locked()  # by the model's optimized build
+    before, found = dict(QUICK_STATS), []
+    asked = threading.Thread(target=lambda: found.append(model.jacobians(0.0, y)))
+    with pytest.warns(RuntimeWarning, match="could not build"):
+        asked.start()
+        time.sleep(0.5)
+        gate.set()
+        asked.join(300)
+    assert found and QUICK_STATS["failed"] == before["failed"] + 1
+    assert QUICK_STATS["quick"] == before["quick"]
+    numpy = definition.numeric(backend="numpy").jacobians(0.0, y)
+    assert np.abs(found[0].state - numpy.state).max() <= 1e-12 * np.abs(numpy.state).max()
+
+
 @pytest.mark.parametrize("setting", ["", "none"])
 def test_quick_compiler_turned_off(fresh_cache, monkeypatch, setting):
     monkeypatch.setenv("KANEDYN_QUICK_CC", setting)

@@ -258,8 +258,9 @@ def load_module(key_text, make_template, timeout=600, quick=False):
     module, later = None, None
     if quick and _LOCK.locked():  # an optimized build runs: a quick module need not wait
         with _QUICK_LOCK:
-            module, later = _quick_meanwhile(f"_kd_{key}", key, make_template, command,
-                                             timeout)
+            module, later, tried = _quick_meanwhile(f"_kd_{key}", key, make_template,
+                                                    command, timeout)
+        quick = not tried  # a quick compiler that failed is not run again
     if module is None:
         with _LOCK:
             try:
@@ -286,21 +287,22 @@ def _once(make_template):
 
 
 def _quick_meanwhile(name, key, make_template, command, timeout):
-    """``(module, later)`` as :func:`_load_or_build` for a module from the quick
-    compiler, made while another thread holds the build lock (the optimized
-    build of another module, which takes seconds of gcc: generating this
-    module's source and compiling it with tcc need not wait for it); ``(None,
-    None)`` where that is not possible as it comes (no quick compiler, a cache
-    directory that is not the shared one, writable and trusted, a quick
-    compiler that fails, a write that fails): the caller then builds under the
-    lock, with the template already made."""
+    """``(module, later, tried)``: ``(module, later)`` as :func:`_load_or_build`
+    for a module from the quick compiler, made while another thread holds the
+    build lock (the optimized build of another module, which takes seconds of
+    gcc: generating this module's source and compiling it with tcc need not
+    wait for it); ``(None, None)`` where that is not possible as it comes (no
+    quick compiler, a cache directory that is not the shared one, writable and
+    trusted, a quick compiler that fails, a write that fails): the caller then
+    builds under the lock, with the template already made, and without the
+    quick compiler where ``tried`` (it ran and failed)."""
     quick_cc = quick_command()
     directory, unusable, unwritable = _shared_cache()
     if quick_cc is None or unusable is not None or unwritable is not None:
-        return None, None
+        return None, None, False
     module = _LOADED.get(key)
     if module is not None:
-        return module, None
+        return module, None, False
     so_path, manifest = _entry(directory, name)
     try:
         with FileLock(directory / f"{name}.lock"):
@@ -310,16 +312,16 @@ def _quick_meanwhile(name, key, make_template, command, timeout):
                 module = compile_quick(name, units, quick_cc, _includes(), _load, directory,
                                        timeout)
                 if module is None:
-                    return None, None
+                    return None, None, True
                 later = (functools.partial(_optimized, name, key, units, command, timeout,
                                            _single(make_template()), directory),
                          functools.partial(_from_the_cache, name, key, directory))
             else:
                 later = None
     except OSError:  # a full disk, say: the build under the lock deals with it
-        return None, None
+        return None, None, False
     _LOADED[key] = module
-    return module, later
+    return module, later, False
 
 
 def _units(template):
