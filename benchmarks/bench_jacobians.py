@@ -21,7 +21,8 @@ state:
 - the time of the first call (generation and compilation: the quick compiler's
   module, gcc's built in the background) against that of the first right-hand
   side (derivation, generation, the first module), in a fresh process with a
-  fresh cache.
+  fresh cache, with the CPU time of each (the process's, and its compiler
+  children's) and the load average before the run.
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
 minimum, median and spread (median / min - 1).  Ratios are between numbers
@@ -31,13 +32,14 @@ Usage::
 
     python benchmarks/bench_jacobians.py [--sizes 7 12 30] [--large] [--rounds 7]
         [--style v2pt|positions]
-        [--no-robots] [--no-first-use]
+        [--no-robots] [--no-first-use | --first-use-only]
 """
 
 from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import tempfile
 from pathlib import Path
@@ -54,23 +56,30 @@ from bench_numerics import machine_info  # noqa: E402
 
 
 _FIRST_USE = """
-import time, json, numpy as np, kanedyn as kd
+import time, json, resource, numpy as np, kanedyn as kd
 from _peers import DEFAULTS
-start = time.perf_counter()
+def cpu():
+    return [sum(getattr(resource.getrusage(who), f) for f in ("ru_utime", "ru_stime"))
+            for who in (resource.RUSAGE_SELF, resource.RUSAGE_CHILDREN)]
+start, before = time.perf_counter(), cpu()
 model = kd.models.build("chain3d", n={n}, style={style!r}).numeric(constants=DEFAULTS,
                                                                   backend="c")
 model.rhs(0.0, np.zeros({x}))
-rhs = time.perf_counter() - start
+rhs, middle = time.perf_counter() - start, cpu()
 start = time.perf_counter()
 model.jacobians(0.0, np.zeros({x}))
-print(json.dumps([rhs, time.perf_counter() - start]))
+jac, after = time.perf_counter() - start, cpu()
+print(json.dumps([rhs, jac, [b - a for a, b in zip(before, middle)],
+                  [b - a for a, b in zip(middle, after)]]))
 """
 
 
 def first_use(n, style="v2pt"):
     """Seconds of the first rhs (derivation, generation and the first module
     included) and then of the first jacobians call, in a fresh process with a
-    fresh cache."""
+    fresh cache; then the CPU seconds of each, ``[process, compiler children
+    it waited for]`` (the optimized build of the rhs runs in the background
+    meanwhile: its gcc counts in the children of the jacobians call)."""
     with tempfile.TemporaryDirectory() as cache:
         code = f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r})\n" \
             + _FIRST_USE.format(n=n, x=2 * n, style=style)
@@ -187,6 +196,8 @@ def main():
     parser.add_argument("--rounds", type=int, default=7)
     parser.add_argument("--no-first-use", action="store_true",
                         help="only the timings per call (not the fresh-process builds)")
+    parser.add_argument("--first-use-only", action="store_true",
+                        help="only the fresh-process builds (not the timings per call)")
     parser.add_argument("--no-robots", action="store_true",
                         help="not the robots of example-robot-data")
     parser.add_argument("--style", choices=("v2pt", "positions"), default="v2pt",
@@ -202,6 +213,8 @@ def main():
     print("|---|---|---|---|---|---|---|")
     cases = [] if args.no_robots or robot_text("Panda") is None else list(ROBOTS)
     cases += sizes
+    if args.first_use_only:
+        cases = []
     with tempfile.TemporaryDirectory() as folder:
         for case in cases:
             robot = case if isinstance(case, str) else None
@@ -217,16 +230,19 @@ def main():
     if args.no_first_use:
         return
     print("\n| chain3d n | operations of the derivative code | first rhs, s | "
-          "first jacobians, s | jacobians / rhs |")
-    print("|---|---|---|---|---|")
+          "first jacobians, s | jacobians / rhs | CPU s, rhs: process + children | "
+          "the same, jacobians | CPU of the process, jacobians / rhs | load |")
+    print("|---|---|---|---|---|---|---|---|---|")
     ops, builds = [], []
     byte_compile_package()
     for n in sizes:
         count = operations(n, args.style)
         ops.append(count)
-        rhs, jac = first_use(n, args.style)
+        load = os.getloadavg()[0]
+        rhs, jac, (rp, rc), (jp, jc) = first_use(n, args.style)
         builds.append(jac)
-        print(f"| {n} | {count} | {rhs:.2f} | {jac:.2f} | {jac / rhs:.2f} |")
+        print(f"| {n} | {count} | {rhs:.2f} | {jac:.2f} | {jac / rhs:.2f} | "
+              f"{rp:.2f} + {rc:.2f} | {jp:.2f} + {jc:.2f} | {jp / rp:.2f} | {load:.1f} |")
     if len(sizes) > 1:
         for what, values in (("operations of the derivative code", ops),
                              ("first jacobians call", builds)):

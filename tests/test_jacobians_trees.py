@@ -163,6 +163,32 @@ def test_factors_formed_in_c(which, monkeypatch, tmp_path):
     assert factors_against_expressions(which, "c", monkeypatch, tmp_path) < 1e-12
 
 
+@needs_compiler
+def test_the_mass_matrix_listed_plain_gives_the_same_numbers(monkeypatch, tmp_path):
+    """The derivative module lists the model's M and forcing without common
+    subexpressions (``_jacobians._PLAIN``): its derivatives, multipliers and
+    all, equal to the bit those of a module with them eliminated (the
+    four-bar: its solve uses M; chain3d n = 12: the factors)."""
+    from kanedyn.numerics.backends import _c_build
+
+    def derivatives(build, plain, folder):
+        with monkeypatch.context() as patch:
+            patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
+            patch.setattr(_c_build, "_LOADED", {})
+            patch.setattr(_jacobians, "_PLAIN", plain)
+            definition = build()
+            model = definition.numeric(backend="c")
+            y = definition.initial(model) + 0.1
+            return model.jacobians(0.0, np.stack([y, 0.9 * y]), parameters=True)
+    for build in (lambda: kd.models.build("four-bar"),
+                  lambda: kd.models.build("chain3d", n=12, style="positions")):
+        mine = derivatives(build, ("dynamics",), "plain")
+        theirs = derivatives(build, (), "eliminated")
+        for part in ("f", "state", "parameters", "multipliers"):
+            a, b = getattr(mine, part), getattr(theirs, part)
+            assert (a is None and b is None) or np.array_equal(a, b), part
+
+
 def test_the_gimbal_against_differences():
     model = gimbal_model()
     assert spatial_rows(model) is not None
@@ -214,6 +240,45 @@ def test_not_where_they_do_not_apply():
     wrong = [e + table.q[0] ** 2 * int(r == 1) for r, e in enumerate(inertia)]
     assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
                                     wrong) is None
+    # the same check where the entries are not formed (from the factors' numbers)
+    right = tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, inertia,
+                                     factors=True, entries=False)
+    assert right is not None and right[:2] == (None, None)
+    both = tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, inertia,
+                                    factors=True)
+    assert right[2:] == both[2:]
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o, wrong,
+                                    factors=True, entries=False) is None
+    # and with the reference as M's entries and the rest (no product formed)
+    rest = list(eom._remainder)
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    (list(mass), rest), factors=True,
+                                    entries=False)[2:] == both[2:]
+    rest[1] += table.q[0] ** 2
+    assert tree_inertia_derivatives(kin, *found, table.q, table.u, table.udot, o,
+                                    (list(mass), rest), factors=True, entries=False) is None
+
+
+def test_constant_loads_split_from_the_others():
+    """The gimbal's gravity and constant torque are taken as constant loads (their
+    generalized forces, checked by complex steps through the velocities, plus the
+    other loads' give the equations' active forces); a constant load changed is
+    found out, numerically as by the loads' partial velocities formed."""
+    model = gimbal_model()
+    prog, kin = _workspace(model)
+    found = _tree_bodies(model._eom, kin)
+    constants = set(model._functions["dynamics"][0]["p"])
+    constant, other, active = _jacobians._split_loads(model, prog, kin, found, constants)
+    assert len(constant) == 3 and other != active  # two weights, the torque
+    speeds = model._eom._table.u[:model.n_u]
+    assert _jacobians._sum_agrees(prog, constant, other, active, speeds)
+    k, kind, vec, part = constant[0]
+    changed = [(k, kind, tuple(2 * c for c in vec), part)] + constant[1:]
+    assert not _jacobians._sum_agrees(prog, changed, other, active, speeds)
+    formed = [(k, kind, vec, list(part)) for k, kind, vec, part in changed]  # no .vector
+    assert not _jacobians._sum_agrees(prog, formed, other, active, speeds)
+    formed = [(k, kind, vec, list(part)) for k, kind, vec, part in constant]
+    assert _jacobians._sum_agrees(prog, formed, other, active, speeds)
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])

@@ -141,6 +141,71 @@ def test_a_second_model_of_the_same_equations_waits_for_nothing(fresh_cache):
     assert Path(model._module.__file__).parent == fresh_cache
 
 
+def test_another_module_does_not_wait_for_an_optimized_build(fresh_cache, monkeypatch):
+    """The derivative module asked for while the model's optimized build holds the
+    build lock (gcc held back here) comes from the quick compiler at once; its
+    numbers equal those of gcc's module to the bit, and the NumPy backend's
+    derivatives to 1e-12."""
+    needs_tcc()
+    gate, build = threading.Event(), _c_build._build
+
+    def held_back(*args, **options):  # called under the build lock
+        gate.wait(300)
+        return build(*args, **options)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
+    definition = kd.models.build("chain3d", n=3)
+    model = definition.numeric(backend="c")
+    y = np.random.default_rng(3).uniform(-1.0, 1.0, (4, model.n_states))
+    before, found = dict(QUICK_STATS), []
+    asked = threading.Thread(target=lambda: found.append(model.jacobians(0.0, y)))
+    asked.start()
+    asked.join(120)
+    assert found, "the derivatives waited for the optimized build"
+    assert _c_build._LOCK.locked() and not gate.is_set()
+    assert QUICK_STATS["quick"] == before["quick"] + 1
+    gate.set()
+    assert _c_quick.finish_compiling(timeout=300)
+    assert QUICK_STATS["optimized"] >= before["optimized"] + 2  # the model's and this one
+    optimized = model.jacobians(0.0, y)
+    np.testing.assert_array_equal(found[0].state, optimized.state)
+    numpy = definition.numeric(backend="numpy").jacobians(0.0, y)
+    scale = np.abs(numpy.state).max()
+    assert np.abs(found[0].state - numpy.state).max() <= 1e-12 * scale
+
+
+def test_a_quick_compiler_failing_meanwhile_leaves_the_build_under_the_lock(fresh_cache,
+                                                                            monkeypatch):
+    """The quick compiler failing on a module asked for while another's optimized
+    build holds the lock: that module is built by gcc once the lock is free
+    (the quick compiler not run again on it), with the same numbers."""
+    needs_tcc()
+    gate, build = threading.Event(), _c_build._build
+
+    def held_back(*args, **options):
+        gate.wait(300)
+        return build(*args, **options)
+
+    monkeypatch.setattr(_c_build, "_build", held_back)
+    monkeypatch.setattr(_c_quick, "_WARNED", set())
+    definition = kd.models.build("chain3d", n=3)
+    model = definition.numeric(backend="c")  # from tcc; gcc's build held back
+    y = np.random.default_rng(5).uniform(-1.0, 1.0, (3, model.n_states))
+    monkeypatch.setenv("KANEDYN_QUICK_CC", "false")
+    assert _c_build._LOCK.locked()  # by the model's optimized build
+    before, found = dict(QUICK_STATS), []
+    asked = threading.Thread(target=lambda: found.append(model.jacobians(0.0, y)))
+    with pytest.warns(RuntimeWarning, match="could not build"):
+        asked.start()
+        time.sleep(0.5)
+        gate.set()
+        asked.join(300)
+    assert found and QUICK_STATS["failed"] == before["failed"] + 1
+    assert QUICK_STATS["quick"] == before["quick"]
+    numpy = definition.numeric(backend="numpy").jacobians(0.0, y)
+    assert np.abs(found[0].state - numpy.state).max() <= 1e-12 * np.abs(numpy.state).max()
+
+
 @pytest.mark.parametrize("setting", ["", "none"])
 def test_quick_compiler_turned_off(fresh_cache, monkeypatch, setting):
     monkeypatch.setenv("KANEDYN_QUICK_CC", setting)

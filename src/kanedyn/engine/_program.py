@@ -411,7 +411,7 @@ class Program:
             values[s] = _evaluate(self._defs[s], value_of)
         return [_evaluate(e, value_of) for e in exprs]
 
-    def shadow_jacobian(self, exprs, variables, seed, step=1e-20):
+    def shadow_jacobian(self, exprs, variables, seed, step=1e-20, directions=None):
         r"""Values of :math:`\partial e_i/\partial x_j` at the random point ``seed``.
 
         Complex steps :math:`\operatorname{Im} e(x + ih\,e_j)/h` in every
@@ -423,22 +423,27 @@ class Program:
         ``Abs``, or a value that is not real at the point), so that the
         caller differentiates symbolically instead.
 
+        ``directions`` (shape ``(k, len(variables))``): the derivatives in
+        these directions instead, one lane per direction, :math:`J D^T`.
+
         Returns
         -------
         numpy.ndarray or None
-            Shape ``(len(exprs), len(variables))``.
+            Shape ``(len(exprs), len(variables))``, or ``(len(exprs), k)``
+            with ``directions``.
         """
         exprs = [sm.sympify(e, strict=True) for e in exprs]
         base = self.shadow(exprs, seed)
         values = self._shadow[seed]
-        out = np.zeros((len(exprs), len(variables)))
+        steps = (np.eye(len(variables)) if directions is None
+                 else np.asarray(directions, dtype=float).T)  # (variable, lane)
+        out = np.zeros((len(exprs), steps.shape[1]))
         moved = {}
         for j, x in enumerate(variables):
             if x in values:  # reached by some expression
                 if values[x].imag != 0:
                     return None
-                moved[x] = np.full(len(variables), values[x], dtype=complex)
-                moved[x][j] += 1j * step
+                moved[x] = values[x] + 1j * step * steps[j]
         if not moved:
             return out
         targets = frozenset(moved)

@@ -139,14 +139,18 @@ def _named(prog, vec, name):
 
 
 def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordinates, speeds,
-                             rates, o, reference, loads=(), factors=False):
+                             rates, o, reference, loads=(), factors=False, entries=True):
     r"""``(dq, du)``: :math:`\partial\tau/\partial q` and :math:`\partial\tau/\partial
     u` (o x o nested lists of expressions) of a tree's inertia forces with the
     rates :math:`\dot u` held, by the spatial formulas of this module; or
     ``None`` without the structure.  With ``factors=True``, ``(dq, du, factors,
     parent)``: also the vectors of every speed the entries are formed from (45
     rows of o expressions, :data:`FACTOR_PARTS`) and the speed above each speed
-    (-1 at a root), for :func:`tree_jacobian_values`.
+    (-1 at a root), for :func:`tree_jacobian_values`; with ``entries=False``
+    too, ``dq`` and ``du`` are ``None``: their :math:`2o^2` expressions are not
+    formed (the comparison with ``reference`` takes the entries' numbers from
+    the factors', :func:`tree_jacobian_values`), so that the work grows with
+    the number of speeds, not its square.
 
     Parameters
     ----------
@@ -158,11 +162,14 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         :math:`q`, :math:`u` (the first ``o``) and :math:`\dot u`.
     o : int
         Number of real speeds.
-    reference : sequence of o expressions
+    reference : sequence of o expressions, or (mass, rest)
         The inertia forces :math:`\tau` as the equations compute them
         (:math:`M\dot u + n`), less the generalized forces of ``loads``; the
         result is returned only where it agrees with their complex-step
-        derivatives at the sample points.
+        derivatives at the sample points.  It may be given as a pair: the
+        :math:`o^2` entries of :math:`M` (row-major) and the o expressions of
+        the rest; with ``entries=False`` the products with the rates are then
+        taken in numbers, not formed as expressions.
     loads : sequence of (int, str, tuple)
         Loads constant in inertial components, ``(k, "F", force)`` at the mass
         centre of body ``k`` or ``(k, "T", torque)`` on its frame: their
@@ -170,6 +177,9 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
         :func:`_load_terms`).
     factors : bool, optional
         Also return the factors and the tree of speeds.
+    entries : bool, optional
+        Form the entries as expressions (with ``factors=True`` only, ``False``
+        leaves them out).
     """
     found = _structure(kin, bodies, body_terms, o) if len(coordinates) == o else None
     if found is None:
@@ -217,6 +227,19 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
                                  _applied(Id[j], d[j]), _force_cross(d[j], H[j]),
                                  _load_turn(L[j], S[j][:3])), f"Yq{j}")
         Z[j] = _named(prog, _sum(rate, turn, _scaled(_applied(Ic[j], d[j]), 2)), f"Zu{j}")
+    variables = list(coordinates[:o]) + list(speeds[:o])
+    above = tuple(parent[i] for i in range(o))
+    rows = None
+    if factors:
+        parts = {"alpha": alpha, "beta": beta, "gamma": gamma, "d": d, "e": e,
+                 "S": dict(enumerate(S)), "Y": Y, "Z": Z}
+        used = _used_components(parts, parent, o)
+        rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
+                for name, size in FACTOR_PARTS for c in range(size)]
+    if factors and not entries:
+        if not _factors_agree(prog, reference, variables, rows, above, rates[:o]):
+            return None
+        return None, None, rows, above
     dq = [[sm.S.Zero] * o for _ in range(o)]
     du = [[sm.S.Zero] * o for _ in range(o)]
     for i in range(o):
@@ -228,16 +251,15 @@ def tree_inertia_derivatives(kin, bodies, body_terms, masses, inertias, coordina
                 dq[j][i] = _dot(S[j], Y[i])
                 du[j][i] = _dot(S[j], Z[i])
             j = parent[j]
-    if not _agrees(prog, reference, list(coordinates[:o]) + list(speeds[:o]), dq, du):
+    if isinstance(reference, tuple):  # (mass, rest)
+        mass, rest = reference
+        reference = [sm.Add(*[mass[r * o + s] * rates[s] for s in range(o)]) + rest[r]
+                     for r in range(o)]
+    if not _agrees(prog, reference, variables, dq, du):
         return None
     if not factors:
         return dq, du
-    parts = {"alpha": alpha, "beta": beta, "gamma": gamma, "d": d, "e": e,
-             "S": dict(enumerate(S)), "Y": Y, "Z": Z}
-    used = _used_components(parts, parent, o)
-    rows = [[parts[name][i][c] if used[name, i, c] else sm.S.Zero for i in range(o)]
-            for name, size in FACTOR_PARTS for c in range(size)]
-    return dq, du, rows, tuple(parent[i] for i in range(o))
+    return dq, du, rows, above
 
 
 #: which parts meet in the products of the formulas: (part of the speed below, part
@@ -254,14 +276,17 @@ def _used_components(parts, parent, o):
     expressions may name constants the equations do not keep)."""
     used = {(name, i, c): False for name, size in FACTOR_PARTS for i in range(o)
             for c in range(size)}
+    nonzero = {(name, i): tuple(x != 0 for x in parts[name][i])
+               for name, _ in FACTOR_PARTS for i in range(o)}  # compared once each
     for i in range(o):
         j = i
         while j >= 0:
             for low, high, size, itself in _PRODUCTS:
                 if j == i and not itself:
                     continue
+                a, b = nonzero[low, i], nonzero[high, j]
                 for c in range(size):
-                    if parts[low][i][c] != 0 and parts[high][j][c] != 0:
+                    if a[c] and b[c]:
                         used[low, i, c] = used[high, j, c] = True
             j = parent[j]
     return used
@@ -364,6 +389,55 @@ def _load_turn(load, w):
     return _sum(_scaled(w, sigma), _scaled(Gw, -1), cross(w, T)) + cross(w, force)
 
 
+#: random directions in which :func:`_factors_agree` compares the derivatives
+FACTOR_CHECK_DIRECTIONS = 4
+
+
+def _factors_agree(prog, reference, variables, rows, parent, rates, rtol=1e-9):
+    r""":func:`_agrees` with the entries formed from the numbers of the factors
+    ``rows`` (:func:`tree_jacobian_values`): no entry is an expression.  The
+    derivatives are compared in :data:`FACTOR_CHECK_DIRECTIONS` random
+    directions of (q, u) (complex steps in one lane each, not one per
+    variable: the reference, :math:`M\dot u + n`, has :math:`O(n^2)`
+    intermediates), which a wrong formula fails as the full matrix does.
+    ``reference`` as for :func:`tree_inertia_derivatives`; given as ``(mass,
+    rest)``, the derivatives of :math:`M` times the rates' values."""
+    o = len(parent)
+    exprs = [x for row in rows for x in row]
+    for seed in SAMPLE_SEEDS:
+        directions = np.random.default_rng(seed).uniform(
+            -1.0, 1.0, (FACTOR_CHECK_DIRECTIONS, len(variables)))
+        expected = _directional(prog, reference, variables, seed, directions, rates)
+        if expected is None:
+            return False
+        values = np.array(prog.shadow(exprs, seed))
+        if not np.all(np.isfinite(values)) or np.any(values.imag != 0):
+            return False
+        mine = tree_jacobian_values(values.real.reshape(len(rows), o), parent) @ directions.T
+        if not _close(mine, expected, rtol):
+            return False
+    return True
+
+
+def _directional(prog, reference, variables, seed, directions, rates):
+    """Complex-step derivatives of the reference in ``directions`` at ``seed``,
+    shape (o, k), or ``None`` where they cannot be trusted."""
+    if not isinstance(reference, tuple):
+        return prog.shadow_jacobian(reference, variables, seed, directions=directions)
+    mass, rest = reference
+    o = len(rest)
+    dm = prog.shadow_jacobian(mass, variables, seed, directions=directions)
+    dr = prog.shadow_jacobian(rest, variables, seed, directions=directions)
+    w = np.array(prog.shadow(rates, seed))
+    if dm is None or dr is None or np.any(w.imag != 0):
+        return None
+    return np.einsum("rsk,s->rk", dm.reshape(o, o, -1), w.real) + dr
+
+
+def _close(mine, expected, rtol):
+    return np.allclose(mine, expected, rtol=rtol, atol=rtol * max(1.0, np.abs(expected).max()))
+
+
 def _agrees(prog, reference, variables, dq, du, rtol=1e-9):
     """Whether ``dq, du`` equal the complex-step derivatives of ``reference``
     with respect to ``variables`` (coordinates, then speeds) at the sample
@@ -378,6 +452,6 @@ def _agrees(prog, reference, variables, dq, du, rtol=1e-9):
         if not np.all(np.isfinite(values)) or np.any(values.imag != 0):
             return False
         mine = np.hstack([values[:o * o].real.reshape(o, o), values[o * o:].real.reshape(o, o)])
-        if not np.allclose(mine, expected, rtol=rtol, atol=rtol * max(1.0, np.abs(expected).max())):
+        if not _close(mine, expected, rtol):
             return False
     return True

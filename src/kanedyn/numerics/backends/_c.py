@@ -570,7 +570,8 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
                       *generated, *generic.body, *model.body])
 
 
-def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True):
+def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True,
+                     plain=()):
     """The translation units of a module, each yielded as soon as it is made.
 
     The runtime is in two units: the generic one (the Python entry points,
@@ -592,14 +593,16 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     (:data:`_COLD_FUNCTIONS`) are compiled at -O0, their small parts in a unit
     of their own.  Passed to
     :func:`load_module`, the compiler starts on each unit as soon as it comes.
-    Arguments as for :func:`generate_c`.
+    Arguments as for :func:`generate_c`; ``plain``: names of functions listed
+    without common subexpressions whatever ``cse`` says (the same numbers:
+    each expression is evaluated as written, its repeated parts again).
     """
     lanes = lanes_wanted(functions, sizes, lanes)
     generic, model = _runtime_parts(functions, sizes, lanes)
     yield _runtime_unit(generic, sizes, lanes)
     small, small_preamble, cold, cold_preamble, work, lane_work = [], [], [], [], 0, 0
     for src, preamble, w, lw in _function_sources(program, functions, sizes, describe, cse,
-                                                  lanes):
+                                                  lanes, plain):
         work, lane_work = max(work, w), max(lane_work, lw)
         for piece in src.split(PIECE_MARK):
             if len(piece) >= UNIT_MIN_CHARS:
@@ -648,7 +651,7 @@ _STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
 _COLD_FUNCTIONS = ("energy", "auxiliary")
 
 
-def _function_sources(program, functions, sizes, describe, cse, lanes):
+def _function_sources(program, functions, sizes, describe, cse, lanes, plain=()):
     """Yield ``(source, preamble, work, lane work)`` per generated function, the
     largest kinds first (the tree pass, the dynamics and its lane-wise copy);
     ``preamble``: what a translation unit of the function needs before it;
@@ -658,7 +661,7 @@ def _function_sources(program, functions, sizes, describe, cse, lanes):
     first = [name for name in ("tree", "dynamics") if name in functions]
     for name in first + [name for name in functions if name not in first]:
         arguments, outputs = functions[name]
-        eliminate = _eliminates(name, cse)
+        eliminate = _eliminates(name, cse) and name not in plain
         listing = None
         if lanes and name == "dynamics":  # one listing for both versions
             flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]

@@ -85,6 +85,8 @@ LIGHT_UNIT = "/* kanedyn: compiled at -O1 */\n"
 COLD_UNIT = "/* kanedyn: compiled at -O0 */\n"
 _LOADED = {}  # hash -> module, per process
 _LOCK = threading.Lock()
+#: held by a quick build made while another thread holds _LOCK (:func:`_quick_meanwhile`)
+_QUICK_LOCK = threading.Lock()
 
 
 class CompilerError(KanedynError, RuntimeError):
@@ -253,15 +255,84 @@ def load_module(key_text, make_template, timeout=600, quick=False):
         module = _cached_meanwhile(key)     # a cached module need not wait for it
     if module is not None:
         return module
-    with _LOCK:
-        try:
-            module, later = _load_or_build(f"_kd_{key}", key, make_template, command,
-                                           timeout, quick)
-        finally:  # a prefetched unit is for this module: not wanted any longer
-            _drop_prefetched()
+    make_template = _once(make_template)
+    module, later = None, None
+    if quick and _LOCK.locked():  # an optimized build runs: a quick module need not wait
+        with _QUICK_LOCK:
+            module, later, tried = _quick_meanwhile(f"_kd_{key}", key, make_template,
+                                                    command, timeout)
+        quick = not tried  # a quick compiler that failed is not run again
+    if module is None:
+        with _LOCK:
+            try:
+                module, later = _load_or_build(f"_kd_{key}", key, make_template, command,
+                                               timeout, quick)
+            finally:  # a prefetched unit is for this module: not wanted any longer
+                _drop_prefetched()
     if later is not None:  # started once the lock is free: the build takes it
         optimize_later(module, *later)
     return module
+
+
+def _once(make_template):
+    """``make_template`` called at most once: a second call returns the first's
+    template (an iterator of units kept as they come, :class:`_Replayable`)."""
+    made = []
+
+    def template():
+        if not made:
+            found = make_template()
+            made.append(found if isinstance(found, str) else _Replayable(found))
+        return made[0]
+    return template
+
+
+def _quick_meanwhile(name, key, make_template, command, timeout):
+    """``(module, later, tried)``: ``(module, later)`` as :func:`_load_or_build`
+    for a module from the quick compiler, made while another thread holds the
+    build lock (the optimized build of another module, which takes seconds of
+    gcc: generating this module's source and compiling it with tcc need not
+    wait for it); ``(None, None)`` where that is not possible as it comes (no
+    quick compiler, a cache directory that is not the shared one, writable and
+    trusted, a quick compiler that fails, a write that fails): the caller then
+    builds under the lock, with the template already made, and without the
+    quick compiler where ``tried`` (it ran and failed)."""
+    quick_cc = quick_command()
+    directory, unusable, unwritable = _shared_cache()
+    if quick_cc is None or unusable is not None or unwritable is not None:
+        return None, None, False
+    module = _LOADED.get(key)
+    if module is not None:
+        return module, None, False
+    so_path, manifest = _entry(directory, name)
+    try:
+        with FileLock(directory / f"{name}.lock"):
+            module = _try_cached(name, so_path, manifest, repair=False)
+            if module is None:
+                units = [unit.replace(NAME_TOKEN, name) for unit in _units(make_template())]
+                module = compile_quick(name, units, quick_cc, _includes(), _load, directory,
+                                       timeout)
+                if module is None:
+                    return None, None, True
+                later = (functools.partial(_optimized, name, key, units, command, timeout,
+                                           _single(make_template()), directory),
+                         functools.partial(_from_the_cache, name, key, directory))
+            else:
+                later = None
+    except OSError:  # a full disk, say: the build under the lock deals with it
+        return None, None, False
+    _LOADED[key] = module
+    return module, later, False
+
+
+def _units(template):
+    """The translation units of a template (a string or an iterator of units)."""
+    return template.split(UNIT_MARK) if isinstance(template, str) else template
+
+
+def _single(template):
+    """Whether a template is one translation unit given as a string."""
+    return isinstance(template, str) and UNIT_MARK not in template
 
 
 def cached_module(key_text):
@@ -324,9 +395,9 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                 return module, None
             if units is None:
                 template = make_template()
-                single = isinstance(template, str) and UNIT_MARK not in template
-                units = _Replayable(unit.replace(NAME_TOKEN, name) for unit in (
-                    template.split(UNIT_MARK) if isinstance(template, str) else template))
+                single = _single(template)
+                units = _Replayable(unit.replace(NAME_TOKEN, name)
+                                    for unit in _units(template))
             quick_cc = quick_command() if quick else None
             if quick_cc is not None:
                 units = list(units)
@@ -810,10 +881,11 @@ _PREFETCHED = {}
 
 def _after_fork():
     """A forked child owns neither its parent's prefetched compiles nor the build
-    lock that a thread of the parent (an optimized build, :mod:`._c_quick`) held."""
-    global _LOCK
+    locks that a thread of the parent (an optimized build, :mod:`._c_quick`, or a
+    quick build meanwhile) held."""
+    global _LOCK, _QUICK_LOCK
     _PREFETCHED.clear()
-    _LOCK = threading.Lock()
+    _LOCK, _QUICK_LOCK = threading.Lock(), threading.Lock()
 
 
 after_fork_in_child(_after_fork)

@@ -14,9 +14,13 @@ them to the bit.  A model's generic runtime unit, known from its sizes before it
 is derived, is compiled by the quick compiler alone meanwhile
 (:func:`prefetch_quick`), and the quick build links its object.
 
-The optimized build holds the build lock of :mod:`._c_build` while gcc runs: a
-module that another model of the process needs meanwhile and that is not
-cached waits for it (as it would have waited for a build in the foreground).
+The optimized build holds the build lock of :mod:`._c_build` while gcc runs.
+Another module that the process needs meanwhile and that is not cached does
+not wait for it where it may come from the quick compiler too (a model's
+derivative module asked for while the model's own optimized build runs: its
+source is generated and compiled by tcc at once, its own optimized build
+queued behind the running one); otherwise it waits (as it would have waited
+for a build in the foreground).
 
 ``$KANEDYN_QUICK_CC`` chooses the quick compiler: unset, ``tcc`` when it is on
 the ``PATH``; empty (or ``none``), no quick builds; else the command of a
