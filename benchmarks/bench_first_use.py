@@ -182,10 +182,10 @@ def main(argv=None):
         peer = child(PEER.format(n=n), tempfile.gettempdir())
 
         def least(rows, k):
-            return f"{min(row[k] for row in rows):.2f}"
+            return f"{min(row[k] for row in rows):.3f}"
 
         print(f"| {n} | {least(cold, 0)} | {least(cold, 7)} | "
-              f"{min(c[0] - c[4] for c in cold):.2f} | "
+              f"{min(c[0] - c[4] for c in cold):.3f} | "
               f"{least(cold, 5)} | {least(slow, 0)} | {least(warm, 0)} | {least(warm, 3)} | "
               f"{least(warm, 7)} | {least(eager, 0)} | "
               f"{cold[-1][1]}/{warm[-1][1]} | {cold[-1][2]}/{warm[-1][2]} | "
