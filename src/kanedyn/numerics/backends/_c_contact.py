@@ -41,8 +41,9 @@ guard, by a ``KeyboardInterrupt`` at the signal check, or by its time limit,
 (N,) and ``z`` (N, n + 2) the accepted steps from ``t0`` (and the event point).
 Like the integration loop it lets Python's other threads work between its steps.
 
-:data:`SEGMENT` is the Python-free part (the solve, the event functions, Brent's
-method and the loop ``kd_seg_run``), shared with the standalone export's contact
+:data:`SEGMENT` is the Python-free part (the solve, the event functions located
+by :data:`._c_integrator.BRENT`, which must precede it, and the loop
+``kd_seg_run``), shared with the standalone export's contact
 loop (:mod:`._c_hybrid`); :data:`CONTACT` adds the module's entry point.
 """
 
@@ -398,40 +399,24 @@ static void kd_seg_dense(const KdSeg *S, double t, double *out) {
     }
 }
 
-/* Brent's method (SciPy's brentq, xtol = rtol = 4 eps) for event k on the
-   continuous extension in [a, b] */
+/* event k of the segment at time t on the continuous extension, for kd_brent
+   (_c_integrator.BRENT, which precedes this code); the events' status is kept */
+typedef struct { KdSeg *S; int k; int status; } KdSegEvent;
+
+static int kd_seg_event_at(void *ctx, double t, double *g) {
+    KdSegEvent *E = (KdSegEvent *)ctx;
+    double z[KD_NZ], all[KD_MAXEV];
+    kd_seg_dense(E->S, t, z);
+    E->status = kd_seg_events(E->S, t, z, all);
+    *g = all[E->k];
+    return E->status;
+}
+
+/* event k's zero in [a, b] by Brent's method; nonzero: the events' status */
 static int kd_seg_root(KdSeg *S, int k, double a, double b, double fa, double fb,
                        double *root) {
-    const double eps = 2.220446049250313e-16, xtol = 4 * eps, rtol = 4 * eps;
-    double z[KD_NZ], g[KD_MAXEV];
-    double c = a, fc = fa, d = b - a, e = d;
-    for (int iter = 0; iter < 200; ++iter) {
-        if ((fb > 0 && fc > 0) || (fb < 0 && fc < 0)) { c = a; fc = fa; d = e = b - a; }
-        if (fabs(fc) < fabs(fb)) { a = b; b = c; c = a; fa = fb; fb = fc; fc = fa; }
-        double tol = 2 * eps * fabs(b) + 0.5 * (xtol + rtol * fabs(b));
-        double m = 0.5 * (c - b);
-        if (fabs(m) <= tol || fb == 0.0) { *root = b; return 0; }
-        if (fabs(e) >= tol && fabs(fa) > fabs(fb)) {
-            double s = fb / fa, p, q;
-            if (a == c) { p = 2 * m * s; q = 1 - s; }
-            else {
-                double qq = fa / fc, rr = fb / fc;
-                p = s * (2 * m * qq * (qq - rr) - (b - a) * (rr - 1));
-                q = (qq - 1) * (rr - 1) * (s - 1);
-            }
-            if (p > 0) q = -q; else p = -p;
-            if (2 * p < fmin(3 * m * q - fabs(tol * q), fabs(e * q))) { e = d; d = p / q; }
-            else { d = m; e = m; }
-        } else { d = m; e = m; }
-        a = b; fa = fb;
-        b += fabs(d) > tol ? d : (m > 0 ? tol : -tol);
-        kd_seg_dense(S, b, z);
-        int st = kd_seg_events(S, b, z, g);
-        if (st) return st;
-        fb = g[k];
-    }
-    *root = b;
-    return 0;
+    KdSegEvent E = {S, k, 0};
+    return kd_brent(kd_seg_event_at, &E, a, b, fa, fb, root) != 0 ? E.status : 0;
 }
 
 static int kd_seg_f(KdSeg *S, double t, const double *z, double *zd) {

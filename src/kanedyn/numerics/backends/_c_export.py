@@ -287,8 +287,8 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         "parameters": _list([_c_string(s) for s in names], "NULL"),
         "values": _list([repr(float(parameters[k])) for k in names], "0.0"),
         "inputs": _list([_c_string(s.removesuffix("(t)")) for s in input_names], "NULL")}
-    tail = ([_contact_source(contacts), DENSE_OUTPUT, "#define KD_GENERAL_CONTACTS 1", SEGMENT,
-             GENERAL, IMPACTS, BRENT, SLIDE, HYBRID] if contacts else [])
+    tail = ([_contact_source(contacts), DENSE_OUTPUT, "#define KD_GENERAL_CONTACTS 1", BRENT,
+             SEGMENT, GENERAL, IMPACTS, SLIDE, HYBRID] if contacts else [])
     return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
                       *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
 
