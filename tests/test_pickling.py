@@ -78,3 +78,56 @@ def test_with_constants_updates_contact_coefficients():
     fresh = d.numeric(eom, constants={"mu": 0.1, "e": 0.2})
     assert changed._data["contacts"] == fresh._data["contacts"]
     assert changed._data["contacts"] != model._data["contacts"]
+
+
+_CACHED = """
+import json, pickle, sys
+import numpy as np
+import kanedyn as kd
+from kanedyn.models._base import DERIVE_STATS
+d = kd.models.build("chain3d", n=4, style="positions")
+model = d.numeric(backend="c").with_constants({"m": 1.5})
+open(sys.argv[1], "wb").write(pickle.dumps(model))
+y = d.initial(model) + 0.1
+print(json.dumps([DERIVE_STATS["derivations"], type(d).__name__,
+                  [float(v).hex() for v in model.rhs(0.25, y)], list(y)]))
+"""
+
+_UNPICKLED = """
+import json, pickle, sys
+import numpy as np
+from kanedyn.models._base import DERIVE_STATS
+import kanedyn as kd
+model = pickle.loads(open(sys.argv[1], "rb").read())
+f = model.rhs(0.25, np.array(json.loads(sys.argv[2])))
+kd.numerics.finish_compiling()
+print(json.dumps([DERIVE_STATS["derivations"], model.constants["m"],
+                  [float(v).hex() for v in f]]))
+"""
+
+
+@pytest.mark.slow
+def test_a_built_in_model_from_the_cache_pickles_without_being_derived(tmp_path):
+    """Read from the derivation cache, a built-in model pickles as its name and
+    options (no derivation, no source); unpickled where the cache holds its module
+    it is not derived either, and where the cache is empty it is derived and built
+    there: the same right-hand side, its new constants kept."""
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    cache, empty, path = tmp_path / "cache", tmp_path / "empty", tmp_path / "model.pkl"
+
+    def run(code, folder, *args):
+        out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True,
+                             text=True, env=dict(os.environ, KANEDYN_CACHE_DIR=str(folder)))
+        assert out.returncode == 0, out.stderr
+        return json.loads(out.stdout.strip().splitlines()[-1])
+
+    first = run(_CACHED + "kd.numerics.finish_compiling()\n", cache, str(path))
+    assert first[0] == 1 and first[1] == "ModelDefinition"  # derived: the cache was empty
+    derivations, kind, f, y = run(_CACHED, cache, str(path))
+    assert (derivations, kind) == (0, "PendingDefinition")  # from the cache, not derived
+    assert f == first[2]
+    assert b"c_source" in path.read_bytes() and b"int kd_" not in path.read_bytes()
+    assert run(_UNPICKLED, cache, str(path), json.dumps(y)) == [0, 1.5, f]
+    assert run(_UNPICKLED, empty, str(path), json.dumps(y)) == [1, 1.5, f]
+    assert any(empty.iterdir())  # its module built there

@@ -9,7 +9,7 @@ import numpy as np
 
 from .._errors import ModelError
 
-__all__ = ["ModelDefinition", "DERIVE_STATS"]
+__all__ = ["ModelDefinition", "DERIVE_STATS", "DeriveAgain"]
 
 #: what this process did (read by tests): ``derivations``, models derived
 DERIVE_STATS = {"derivations": 0}
@@ -461,6 +461,58 @@ def _write_cache(key, definition, model):
             return  # nothing is left of an entry not written
 
 
+class DeriveAgain:
+    """The numerical model derived again: what a model read from the derivation
+    cache calls when its equations are first needed
+    (``definition.numeric(definition.derive(), **options)``).
+
+    Parameters
+    ----------
+    definition : ModelDefinition or None
+        The model's definition; ``None`` in a process that unpickled this
+        (a built-in model is then built again there).
+    options : dict
+        The options of :meth:`ModelDefinition.numeric` (not the constants).
+    origin : tuple
+        ``(registry name, options)`` of a built-in model, or ``("description",
+        fingerprint)`` of a user's model.
+
+    A built-in model's (:attr:`portable`) pickles as its name and options, no
+    SymPy: a pickled :class:`~kanedyn.numerics.NumericModel` read from the cache
+    carries this instead of its C source, so that neither the process that
+    pickles it nor one whose cache holds its module derives it.
+    """
+
+    def __init__(self, definition, options, origin):
+        self.definition, self.options, self.origin = definition, dict(options), origin
+
+    @property
+    def portable(self):
+        """Whether this pickles without the definition (a built-in model)."""
+        return self.origin[0] != "description"
+
+    def __call__(self):
+        definition, origin = self.definition, self.origin
+        if definition is None:
+            from . import build
+            definition = build(origin[0], **dict(origin[1]))
+        elif not self.portable:
+            from ._fingerprint import description_fingerprint
+            if description_fingerprint(definition) != origin[1]:
+                raise ModelError(f"model {definition.name}: its description changed after "
+                                 "its numerical model was read from the derivation cache; "
+                                 "its equations cannot be derived for that model (make a "
+                                 "new numerical model with numeric())")
+        return definition.numeric(definition.derive(), **self.options)
+
+    def __reduce__(self):
+        if not self.portable:
+            import pickle
+            raise pickle.PicklingError("a user's model read from the derivation cache "
+                                       "pickles with its C source, not its definition")
+        return DeriveAgain, (None, self.options, self.origin)
+
+
 def _derivation_cache(definition, constants, options):
     """The numerical model from the derivation cache (built and stored on a miss),
     or ``None`` when the model or its options are not cacheable."""
@@ -474,18 +526,10 @@ def _derivation_cache(definition, constants, options):
     if key is None:
         return None
 
-    def derive_again():
-        if origin[0] == "description" and description_fingerprint(definition) != origin[1]:
-            raise ModelError(f"model {definition.name}: its description changed after its "
-                             "numerical model was read from the derivation cache; its "
-                             "equations cannot be derived for that model (make a new "
-                             "numerical model with numeric())")
-        return definition.numeric(definition.derive(), **options)
-
     found = _read_cache(key)
     if found is not None:
         model = found[0]
-        model._rederive = derive_again
+        model._rederive = DeriveAgain(definition, options, origin)
     else:
         definition.prefetch_runtime()
         model = definition.numeric(definition.derive(), **options)

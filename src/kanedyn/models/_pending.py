@@ -15,7 +15,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from ._base import ModelDefinition, _cache_path, _cacheable, _read_cache
+from ._base import DeriveAgain, ModelDefinition, _cache_path, _cacheable, _read_cache
 
 __all__ = ["PendingDefinition", "build_now"]
 
@@ -100,8 +100,7 @@ class PendingDefinition(ModelDefinition):
                 model, light = found
                 if set(constants or {}) <= set(light["constants"]):
                     object.__setattr__(self, "_light", light)
-                    model._rederive = lambda: _filled(self).numeric(self.derive(),
-                                                                    **options)
+                    model._rederive = DeriveAgain(self, options, self._origin)
                     if constants:
                         model = model.with_constants({k: float(v)
                                                       for k, v in constants.items()})

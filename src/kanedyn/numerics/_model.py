@@ -520,13 +520,32 @@ class NumericModel(StateLayout):
         self._body_parameters()  # read, not a function, in the pickle
         data = self._data
         if data["backend"] == "c" and data["c_source"] is None:
-            # carry the C source, so that another machine can build the module
-            data = dict(data, c_source=self._module_source())
+            rederive = self.__dict__.get("_rederive")
+            if getattr(rederive, "portable", False):
+                # a built-in model read from the derivation cache and not derived
+                # here: how to derive it (its name and options) instead of its source
+                data = dict(data, rederive=rederive)
+            else:
+                # the C source, so that another machine can build the module
+                data = dict(data, c_source=self._module_source())
         return data
 
     def __setstate__(self, data):
+        rederive = data.pop("rederive", None)
         self._data = data
-        self._compile()
+        if rederive is None:
+            self._compile()
+            return
+        from .backends._c_build import cached_module, load_module
+        module = cached_module(data["c_key"])
+        if module is None:  # not in this machine's cache: derived and built here
+            fresh = rederive()
+            for attr in NumericModel._DERIVED:
+                setattr(self, attr, getattr(fresh, attr))
+            module = load_module(data["c_key"], fresh._module_source, quick=True)
+        else:
+            self._rederive = rederive
+        self._compile(module)
 
     def _module_source(self):
         from .backends._c import eager_functions, generate_c
