@@ -131,3 +131,34 @@ def test_a_built_in_model_from_the_cache_pickles_without_being_derived(tmp_path)
     assert run(_UNPICKLED, cache, str(path), json.dumps(y)) == [0, 1.5, f]
     assert run(_UNPICKLED, empty, str(path), json.dumps(y)) == [1, 1.5, f]
     assert any(empty.iterdir())  # its module built there
+
+
+_OTHER_VERSION = """
+import pickle, sys
+import kanedyn as kd
+from kanedyn.numerics import NumericModel
+state = pickle.loads(open(sys.argv[1], "rb").read()).__getstate__()
+state["c_key"] += " (pickled by another version)"
+try:
+    NumericModel.__new__(NumericModel).__setstate__(state)
+except kd.ModelError as exc:
+    print(exc)
+"""
+
+
+@pytest.mark.slow
+def test_a_pickled_built_in_model_that_derives_differently_here_is_refused(tmp_path):
+    """Unpickled where the cache lacks its module, a built-in model is derived
+    there; if that gives another module than the pickled one names, it is refused
+    with a message naming the model (not built from the other code)."""
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    cache, path = tmp_path / "cache", tmp_path / "model.pkl"
+    env = dict(os.environ, KANEDYN_CACHE_DIR=str(cache))
+    for code in (_CACHED + "kd.numerics.finish_compiling()\n", _CACHED):
+        subprocess.run([sys.executable, "-c", code, str(path)], check=True, env=env,
+                       capture_output=True)
+    out = subprocess.run([sys.executable, "-c", _OTHER_VERSION, str(path)], env=env,
+                         capture_output=True, text=True)
+    assert out.returncode == 0, out.stderr
+    assert "'chain3d'" in out.stdout and "another version of kanedyn" in out.stdout

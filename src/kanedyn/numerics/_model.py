@@ -536,13 +536,18 @@ class NumericModel(StateLayout):
         if rederive is None:
             self._compile()
             return
-        from .backends._c_build import cached_module, load_module
+        from .backends._c_build import cached_module
         module = cached_module(data["c_key"])
         if module is None:  # not in this machine's cache: derived and built here
             fresh = rederive()
+            if fresh._data["c_key"] != data["c_key"]:
+                raise ModelError(
+                    f"a pickled model of {rederive.origin[0]!r}: derived here it computes "
+                    "something else than where it was pickled (another version of "
+                    "kanedyn or of its models?); pickle it with the same version")
             for attr in NumericModel._DERIVED:
                 setattr(self, attr, getattr(fresh, attr))
-            module = load_module(data["c_key"], fresh._module_source, quick=True)
+            module = fresh._module
         else:
             self._rederive = rederive
         self._compile(module)
