@@ -33,17 +33,16 @@ class _Held:
 
     ``"polynomial"``: on :math:`(t_k, t_{k+1}]` the polynomial through
     ``table[k]`` at the positions ``points`` (fractions of the interval),
-    evaluated in its Lagrange form.  A simulation calls it at every step and
-    for every column of a differenced Jacobian, so a call is plain float
-    arithmetic, no NumPy on scalars."""
+    evaluated in its Lagrange form in float arithmetic (no NumPy on scalars:
+    a simulation calls it at every step and for every column of a
+    differenced Jacobian)."""
 
     def __init__(self, t, values, kind, points=None, table=None):
         self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
-        self.points, self.table = points, table
+        # floats and lists of them, which the calls' arithmetic takes fastest
+        self.points = None if points is None else [float(p) for p in points]
+        self.table = None if table is None else np.asarray(table, dtype=float).tolist()
         self._start, self._span = float(self.t[0]), float(self.t[-1] - self.t[0])
-        if kind == "polynomial":
-            self._nodes = [float(p) for p in points]
-            self._rows = np.asarray(table, dtype=float).tolist()
 
     def __call__(self, t):
         n = self.t.size
@@ -53,7 +52,7 @@ class _Held:
         if self.kind == "polynomial":
             # s clamped first only so that math.ceil takes an infinite t
             k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
-            return _lagrange_value(self._nodes, self._rows[k], float(s - k))
+            return _lagrange_value(self.points, self.table[k], float(s - k))
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
@@ -62,8 +61,8 @@ class _Held:
 
 
 def _lagrange_value(nodes, values, x):
-    """The polynomial through ``values`` at ``nodes``, at ``x`` (floats):
-    :func:`lagrange_weights`' sum, one point, in Python arithmetic."""
+    """The polynomial through ``values`` at ``nodes``, at ``x`` (floats): the
+    Lagrange basis of ``_interval.lagrange_weights`` at one point, summed."""
     total = 0.0
     for j, (p, value) in enumerate(zip(nodes, values)):
         weight = 1.0
