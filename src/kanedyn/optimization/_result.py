@@ -16,11 +16,11 @@ the collocated ones at the nodes.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
 
-from ._interval import lagrange_weights
 from ._solvers import IPOPT_STATUS
 from ._transcription import interval_scheme
 
@@ -32,25 +32,45 @@ class _Held:
     """An input as the transcription saw it, a function of t (picklable).
 
     ``"polynomial"``: on :math:`(t_k, t_{k+1}]` the polynomial through
-    ``table[k]`` at the positions ``points`` (fractions of the interval)."""
+    ``table[k]`` at the positions ``points`` (fractions of the interval),
+    evaluated in its Lagrange form in float arithmetic (no NumPy on scalars:
+    a simulation calls it at every step and for every column of a
+    differenced Jacobian)."""
 
     def __init__(self, t, values, kind, points=None, table=None):
         self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
-        self.points, self.table = points, table
+        # floats and lists of them, which the calls' arithmetic takes fastest
+        self.points = None if points is None else [float(p) for p in points]
+        self.table = None if table is None else np.asarray(table, dtype=float).tolist()
+        self._start, self._span = float(self.t[0]), float(self.t[-1] - self.t[0])
 
     def __call__(self, t):
-        t0, tf, n = self.t[0], self.t[-1], self.t.size
+        n = self.t.size
         if self.kind == "linear":
             return float(np.interp(t, self.t, self.values))
-        s = (t - t0) / (tf - t0) * (n - 1)
+        s = (t - self._start) / self._span * (n - 1)
         if self.kind == "polynomial":
-            k = int(min(max(np.ceil(s - 1e-12) - 1, 0), n - 2))
-            return float(self.table[k] @ lagrange_weights(self.points, s - k)[0])
+            # s clamped first only so that math.ceil takes an infinite t
+            k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
+            return _lagrange_value(self.points, self.table[k], float(s - k))
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
         k = int(min(max(np.floor(s), 0), n - 2))  # midpoint: the average on [t_k, t_k+1)
         return float(0.5 * (self.values[k] + self.values[k + 1]))
+
+
+def _lagrange_value(nodes, values, x):
+    """The polynomial through ``values`` at ``nodes``, at ``x`` (floats): the
+    Lagrange basis of ``_interval.lagrange_weights`` at one point, summed."""
+    total = 0.0
+    for j, (p, value) in enumerate(zip(nodes, values)):
+        weight = 1.0
+        for m, q in enumerate(nodes):
+            if m != j:
+                weight *= (x - q) / (p - q)
+        total += value * weight
+    return total
 
 
 _HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"}
