@@ -128,6 +128,25 @@ def test_piecewise_polynomial_checks_its_data():
     assert ok(3.0) == 7.0  # 2 t + 1, continued
 
 
+def test_one_time_and_many_times_give_the_same_bits():
+    """A table asked at one time (Python floats, the numpy backend's per-step call)
+    and at many (NumPy arrays) evaluates the same operations: equal bit for bit,
+    at random times, at the breaks and just inside the accepted span; a time
+    outside it or NaN is refused the same way."""
+    rng = np.random.default_rng(7)
+    for k in (1, 2, 4, 8):
+        breaks = np.cumsum(rng.uniform(0.1, 1.0, 16))
+        table = PiecewisePolynomial(breaks, rng.normal(size=(15, k)), "r.csv: x")
+        times = np.concatenate([rng.uniform(breaks[0], breaks[-1], 500), breaks,
+                                table.limits()])
+        one = [table(t) for t in times.tolist()] + [table(t) for t in times[:20]]
+        assert all(type(v) is float for v in one)
+        np.testing.assert_array_equal(one, np.concatenate([table(times), table(times[:20])]))
+        for bad in (float("nan"), breaks[-1] + 1.0, int(breaks[0]) - 1):
+            with pytest.raises(kd.ModelError, match=r"r\.csv: x: defined for .* only"):
+                table(bad)
+
+
 def test_tabulate_refuses_what_it_cannot_reach():
     with pytest.raises(kd.ModelError, match=r"tabulate: jump: not within 1e-13 .* near "
                                             r"t = 0\.3"):

@@ -20,6 +20,7 @@ is halved.
 
 from __future__ import annotations
 
+import bisect
 import functools
 import math
 from dataclasses import dataclass
@@ -80,6 +81,9 @@ class PiecewisePolynomial:
         object.__setattr__(self, "breaks", x)
         object.__setattr__(self, "coefficients", c)
         object.__setattr__(self, "extrapolate", bool(self.extrapolate))
+        # one time at a time (a run of the numpy backend asks for one per step):
+        # Python floats, without NumPy's per-call cost on scalars
+        object.__setattr__(self, "_scalar", (x.tolist(), c.tolist(), self.limits()))
 
     @property
     def t_range(self):
@@ -96,12 +100,12 @@ class PiecewisePolynomial:
 
     def __call__(self, t):
         """Value at ``t`` (float for a scalar, else an array of the shape of ``t``)."""
+        if isinstance(t, (float, int, np.floating, np.integer)):
+            return self._at(float(t))
         tq = np.asarray(t, dtype=float)
         lo, hi = self.limits()
         if np.any(tq < lo) or np.any(tq > hi) or np.any(np.isnan(tq)):
-            a, b = self.t_range
-            raise ModelError(f"{self.name}: defined for {a:g} s <= t <= {b:g} s only "
-                             f"(asked at t = {np.min(tq):g} .. {np.max(tq):g} s)")
+            self._refuse(np.min(tq), np.max(tq))
         x, c = self.breaks, self.coefficients
         i = np.clip(np.searchsorted(x, tq, side="right") - 1, 0, x.size - 2)
         s = tq - x[i]
@@ -109,6 +113,24 @@ class PiecewisePolynomial:
         for j in range(1, c.shape[1]):
             value = value * s + c[i, j]
         return float(value) if np.ndim(value) == 0 else value
+
+    def _at(self, t):
+        """:meth:`__call__` at one time ``t`` (float): the same operations in the
+        same order on Python floats (the same value, bit for bit)."""
+        breaks, rows, (lo, hi) = self._scalar
+        if not lo <= t <= hi:  # NaN too
+            self._refuse(t, t)
+        i = min(max(bisect.bisect_right(breaks, t) - 1, 0), len(breaks) - 2)
+        row, s = rows[i], t - breaks[i]
+        value = row[0]
+        for coefficient in row[1:]:
+            value = value * s + coefficient
+        return value
+
+    def _refuse(self, first, last):
+        a, b = self.t_range
+        raise ModelError(f"{self.name}: defined for {a:g} s <= t <= {b:g} s only "
+                         f"(asked at t = {first:g} .. {last:g} s)")
 
     def packed(self):
         """The data the compiled module reads: ``[n, k, lo, hi, breaks, coefficients]``
