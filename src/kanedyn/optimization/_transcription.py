@@ -274,7 +274,6 @@ class Defects:
         self.stages = METHODS[method]
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
-        self.structure = self._structure()
 
     @property
     def n_rows(self):
@@ -334,7 +333,10 @@ class Defects:
             blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
         return blocks + L.shared_blocks()
 
-    def _structure(self):
+    def pattern(self):
+        """``(rows, cols)`` of the defect rows' Jacobian entries, in the order
+        of :meth:`jacobian`'s values (made when asked, not kept: the NLP
+        joins them into its own pattern)."""
         L = self.layout
         N, nd = L.nodes, len(self.rows)
         k = np.arange(N - 1)[:, None, None]
@@ -354,7 +356,7 @@ class Defects:
         return np.concatenate(rows), np.concatenate(cols)
 
     def jacobian(self, h, T, evaluated, time_rates):
-        """Values in the order of :attr:`structure`.
+        """Values in the order of :meth:`pattern`.
 
         ``evaluated``: per group ``(f, A, B, Pf)`` (Pf: the free parameters'
         columns, or None); ``time_rates``: per group :math:`\\partial
