@@ -286,8 +286,8 @@ class IntervalDefects:
         return np.broadcast_to(j[:, None], cols.shape).ravel(), cols.ravel()
 
     def pattern(self):
-        """``(rows, cols)`` of the Jacobian entries, in the order of
-        :meth:`jacobian`'s values (made when asked, not kept)."""
+        """``(rows, cols)``: lists of the pieces of the Jacobian pattern, in
+        the order of :meth:`jacobian`'s values (made when asked, not kept)."""
         N, nd = self.layout.nodes, len(self.rows)
         n_kinds = self.scheme.n_rows
         k = np.arange(N - 1)[:, None, None]
@@ -303,7 +303,7 @@ class IntervalDefects:
             r, c = self._tie_columns()
             rows.append((N - 1) * n_kinds * nd + r)
             cols.append(c)
-        return np.concatenate(rows), np.concatenate(cols)
+        return rows, cols
 
     def jacobian(self, h, T, evaluated, time_rates):
         """Values in the order of :meth:`pattern` (arguments as

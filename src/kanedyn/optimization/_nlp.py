@@ -97,8 +97,7 @@ class CollocationNLP:
     def _pattern(self):
         pb, L = self.problem, self.layout
         ns, nf, K = L.n_states, L.n_free, L.n_points
-        defect_rows, defect_cols = self.defects.pattern()
-        rows, cols = [defect_rows], [defect_cols]
+        rows, cols = self.defects.pattern()
         start = self.defects.n_rows
         point = np.arange(K)[:, None]
         y_cols, r_cols = L.point_columns()

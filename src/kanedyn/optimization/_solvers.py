@@ -99,10 +99,10 @@ class Ipopt:
     name = "ipopt"
     DEFAULTS = {"hessian_approximation": "limited-memory", "print_level": 0, "sb": "yes"}
     #: MUMPS's workspace: 100 % over its own estimate, where IPOPT reserves
-    #: 1000 %; IPOPT doubles the percentage and factorizes again whenever
-    #: MUMPS finds it too small, so the iterates are the same (docs/
-    #: optimal_control.md, "Memory"), and the reserved address space at
-    #: 100,000 nodes falls by about a gigabyte.  Skipped by an IPOPT built
+    #: 1000 %.  IPOPT doubles the percentage and factorizes again whenever
+    #: MUMPS finds it too small, so the iterates are the same, and the
+    #: reserved address space at 100,000 nodes falls by about a gigabyte
+    #: (docs/optimal_control.md, "Memory").  Not set for an IPOPT built
     #: without MUMPS, which has no such option.
     MUMPS_DEFAULTS = {"mumps_mem_percent": 100}
 

@@ -334,9 +334,9 @@ class Defects:
         return blocks + L.shared_blocks()
 
     def pattern(self):
-        """``(rows, cols)`` of the defect rows' Jacobian entries, in the order
-        of :meth:`jacobian`'s values (made when asked, not kept: the NLP
-        joins them into its own pattern)."""
+        """``(rows, cols)``: lists of the pieces of the defect rows' Jacobian
+        pattern, in the order of :meth:`jacobian`'s values (made when asked,
+        not kept: the NLP joins them into its own pattern)."""
         L = self.layout
         N, nd = L.nodes, len(self.rows)
         k = np.arange(N - 1)[:, None, None]
@@ -353,7 +353,7 @@ class Defects:
             shape = (N - 1, nd, c.shape[2])
             rows.append(np.broadcast_to(k * nd + i, shape).ravel())
             cols.append(np.broadcast_to(c, shape).ravel())
-        return np.concatenate(rows), np.concatenate(cols)
+        return rows, cols
 
     def jacobian(self, h, T, evaluated, time_rates):
         """Values in the order of :meth:`pattern`.
