@@ -306,10 +306,12 @@ def _within_budgets(rows, budgets, contenders):
                 counts.append((run, line))
             most[budget, label] = counts
             print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
-                f"{run:8d} [{line:9.0f}]" for run, line in counts))
+                f"{run:8d} [{line:9.0f}]" if np.isfinite(line) else f"{run:8d} [  no line]"
+                for run, line in counts))
         if {"kanedyn", "opty"} <= set(contenders):
             k, o = most[budget, "kanedyn"], most[budget, "opty"]
-            ratio = [f"{a[1] / b[1]:.2f}x" for a, b in zip(k, o)]
+            ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
+                     for a, b in zip(k, o)]
             print(f"    {budget:g} GiB  kanedyn / opty by the lines: {ratio[0]} resident, "
                   f"{ratio[1]} address space (goal: 10x)")
 
