@@ -214,7 +214,7 @@ else:
 out["total"] = time.perf_counter() - start
 with open("/proc/self/status") as status:
     out.update({{k: int(v.split()[0]) / 2 ** 20 for k, v in
-                (line.split(":", 1) for line in status) if k in ("VmHWM", "VmPeak")}})
+                (line.split(":", 1) for line in status) if k == "VmPeak"}})
 print("RESULT " + json.dumps(out))
 """
 
@@ -302,7 +302,8 @@ def _within_budgets(rows, budgets, contenders):
                 line = np.nan
                 if len(ok) >= 2:
                     (n0, m0), (n1, m1) = [(r["nodes"], r.get(key, np.nan)) for r in ok[-2:]]
-                    line = n0 + (budget - m0) * (n1 - n0) / (m1 - m0)
+                    if m1 > m0:  # else the memory did not grow: no line
+                        line = n0 + (budget - m0) * (n1 - n0) / (m1 - m0)
                 counts.append((run, line))
             most[budget, label] = counts
             print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
