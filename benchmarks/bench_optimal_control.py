@@ -28,17 +28,26 @@ Each is also restarted from the other's optimum, to check that both
 discrete problems have the same optima.
 
 Nodes against memory and time (``--scan``): the pendulum swing-up solved
-by each tool in a fresh child process per run, from the 501-node optimum
-interpolated, at growing node counts; the child's peak resident memory from
-``os.wait4`` (``ru_maxrss``) and its wall time from the model to the
-optimum.  A tool stops at the first node count whose run exceeds the memory
-budget (``--memory-budget``, GiB of peak resident memory) or the time
-budget (``--time-budget``, s; the child is then killed), or that IPOPT does
-not solve.  ``--address-cap`` (GiB) caps each child's address space
-(``RLIMIT_AS``) so that no run can take the machine's memory; by default
-there is no cap: MUMPS reserves far more address space than it touches, and
-with a cap of 8 or 12 GiB it failed to allocate its workspace at 10^6 nodes
-with 3.1 GiB resident, where without one the run stayed below 4 GiB.
+in a fresh child process per run, from the 501-node optimum interpolated,
+at growing node counts, by each of ``CONTENDERS``: kanedyn and opty as
+their users run them (kanedyn's defaults ask MUMPS for 100 % workspace over
+its estimate, opty leaves IPOPT's 1000 %), and each with the other's
+``mumps_mem_percent``, which tells the option's part of a difference.  Per
+run: the child's peak resident memory from ``os.wait4`` (``ru_maxrss``),
+its peak address space (``VmPeak``, which a cap such as ``ulimit -v``
+counts), its wall time from the model to the optimum.  A contender stops at
+the first node count whose run exceeds the memory budget
+(``--memory-budget``, GiB of peak resident memory) or the time budget
+(``--time-budget``, s; the child is then killed), or that IPOPT does not
+solve.  ``--scan-max-iter`` caps IPOPT's iterations (the same for all; the
+memory grows over the first ten or so, as the limited-memory Hessian fills
+its history, then hardly).  Then, per budget of ``--budgets`` (GiB), the
+most nodes each ran within it and where the line through its two largest
+runs reaches it, and kanedyn's count over opty's (the issue's goal: 10x).
+``--address-cap`` (GiB) caps each child's address space (``RLIMIT_AS``); by
+default there is no cap: with IPOPT's 1000 % MUMPS reserves far more
+address space than it touches, and with a cap of 8 or 12 GiB it failed to
+allocate its workspace at 10^6 nodes with 3.1 GiB resident.
 
 ``--hessian exact``: kanedyn with the exact Hessian of the Lagrangian
 (``solve(hessian="exact")``), opty with IPOPT's limited-memory one as always
@@ -51,7 +60,7 @@ Usage::
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
         [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
-        [--address-cap 12]
+        [--address-cap 12] [--scan-max-iter 15] [--budgets 1 2] [--contenders ...]
 """
 
 from __future__ import annotations
@@ -180,7 +189,8 @@ import json, os, resource, sys, time
 import numpy as np
 sys.path.insert(0, {bench!r})
 import _ocp_peers as peers
-tool, nodes, path = {tool!r}, {nodes}, {path!r}
+tool, nodes, path, extra = {tool!r}, {nodes}, {path!r}, {extra!r}
+options = dict(peers.IPOPT_OPTIONS, **extra)
 coarse = np.load(path)
 gallery = 501
 s_old, s_new = np.linspace(0, 1, gallery), np.linspace(0, 1, nodes)
@@ -188,21 +198,36 @@ Y = coarse[:2 * gallery].reshape(gallery, 2)
 guess = np.concatenate([
     np.stack([np.interp(s_new, s_old, Y[:, j]) for j in range(2)], axis=1).ravel(),
     np.interp(s_new, s_old, coarse[2 * gallery:3 * gallery])])
+del coarse, Y
 start = time.perf_counter()
 if tool == "kanedyn":
     problem, model = peers.pendulum_kanedyn(nodes)
-    result = problem.solve(guess, options=peers.IPOPT_OPTIONS)
+    result = problem.solve(guess, options=options)
     out = dict(objective=result.objective, status=result.status,
                iterations=result.iterations, solve=result.wall_time)
 else:
     problem = peers.pendulum_opty(nodes)
     built = time.perf_counter()
-    x, info, iterations = peers.solve_opty(problem, guess, 2, 1)
+    x, info, iterations = peers.solve_opty(problem, guess, 2, 1, options)
     out = dict(objective=float(info["obj_val"]), status=int(info["status"]),
                iterations=iterations, solve=time.perf_counter() - built)
 out["total"] = time.perf_counter() - start
+with open("/proc/self/status") as status:
+    out.update({{k: int(v.split()[0]) / 2 ** 20 for k, v in
+                (line.split(":", 1) for line in status) if k == "VmPeak"}})
 print("RESULT " + json.dumps(out))
 """
+
+#: who runs in the scan: label -> (tool, IPOPT options over ``IPOPT_OPTIONS``).
+#: Each as its user runs it (kanedyn with its own defaults, among them
+#: ``mumps_mem_percent = 100``; opty with IPOPT's 1000 %), and each with the
+#: other's MUMPS workspace, to tell the option's part of a difference
+CONTENDERS = {
+    "kanedyn": ("kanedyn", {}),
+    "kanedyn, mumps_mem_percent=1000": ("kanedyn", {"mumps_mem_percent": 1000}),
+    "opty": ("opty", {}),
+    "opty, mumps_mem_percent=100": ("opty", {"mumps_mem_percent": 100}),
+}
 
 
 def _limit_memory(cap_gib):
@@ -215,8 +240,11 @@ def _limit_memory(cap_gib):
     return apply
 
 
-def scan(nodes_list, memory_gib, time_s, address_cap=0.0):
-    """The pendulum swing-up at growing node counts, each run in a fresh process."""
+def scan(nodes_list, memory_gib, time_s, address_cap=0.0, max_iter=0, budgets=(1.0, 2.0),
+         contenders=tuple(CONTENDERS)):
+    """The pendulum swing-up at growing node counts, each run in a fresh
+    process; then, per memory budget, the most nodes each contender ran within
+    it (peak resident memory and peak address space)."""
     tmp = Path(tempfile.mkdtemp(prefix="kd-bench-ocp-scan-"))
     gallery_nodes = 501
     problem, _ = peers.pendulum_kanedyn(gallery_nodes)
@@ -224,31 +252,77 @@ def scan(nodes_list, memory_gib, time_s, address_cap=0.0):
                          options=peers.IPOPT_OPTIONS)
     np.save(tmp / "guess.npy", seed.x)
     env = dict(os.environ)
+    extra = {"max_iter": max_iter} if max_iter else {}
     print(f"nodes against memory and time: pendulum swing-up, budgets {memory_gib:g} GiB "
           f"peak resident memory, {time_s:g} s model->optimum; each run a fresh process "
           + (f"(address space capped at {address_cap:g} GiB)" if address_cap
-             else "(address space not capped)"))
-    print(f"  {'tool':8s} {'nodes':>8s} {'peak GiB':>9s} {'wall s':>8s} {'solve s':>8s} "
-          f"{'iter':>5s} {'status':>6s}  objective")
-    for tool in ("kanedyn", "opty"):
+             else "(address space not capped)")
+          + (f"; at most {max_iter} iterations, the peaks over those" if max_iter else ""))
+    print(f"  {'contender':34s} {'nodes':>8s} {'peak GiB':>9s} {'VmPeak':>7s} {'wall s':>8s} "
+          f"{'solve s':>8s} {'iter':>5s} {'status':>6s}  objective  (load)")
+    rows = []
+    for label in contenders:
+        tool, options = CONTENDERS[label]
         for nodes in nodes_list:
-            row = _measured(tool, nodes, tmp / "guess.npy", time_s, env, address_cap)
-            print(f"  {tool:8s} {nodes:8d} {row['peak_gib']:9.3f} {row['wall']:8.1f} "
+            row = _measured(tool, nodes, tmp / "guess.npy", time_s, env, address_cap,
+                            dict(options, **extra))
+            row["label"] = label
+            rows.append(row)
+            print(f"  {label:34s} {nodes:8d} {row['peak_gib']:9.3f} "
+                  f"{row.get('VmPeak', float('nan')):7.3f} {row['wall']:8.1f} "
                   f"{row.get('solve', float('nan')):8.1f} {row.get('iterations', -1):5d} "
                   f"{row.get('status', -999):6d}  {row.get('objective', float('nan')):.10g}"
+                  f"  ({os.getloadavg()[0]:.1f})"
                   + (f"  FAILED: {row['failed']}" if "failed" in row else ""), flush=True)
-            over = ("failed" in row or row["peak_gib"] > memory_gib or row["wall"] > time_s
-                    or row.get("status") not in (0, 1))
-            if over:
-                print(f"  {tool}: out of budget (or not solved) at {nodes} nodes")
+            solved = (0, 1, -1) if max_iter else (0, 1)
+            if ("failed" in row or row["peak_gib"] > memory_gib or row["wall"] > time_s
+                    or row.get("status") not in solved):
+                print(f"  {label}: out of budget (or not solved) at {nodes} nodes")
                 break
+    _within_budgets(rows, budgets, contenders)
 
 
-def _measured(tool, nodes, guess_path, time_s, env, address_cap):
-    """:func:`run_child` with the child's own peak resident memory, read by
-    ``os.wait4`` on the process (``ru_maxrss``, KiB on Linux)."""
+def _within_budgets(rows, budgets, contenders):
+    """Per budget (GiB) and contender, the most nodes of a run that ended
+    without failing and stayed within it, by peak resident memory and by
+    peak address space (``VmPeak``: what a cap such as ``ulimit -v``
+    counts); the node count where the line through the two largest runs
+    reaches the budget (memory grows linearly in the nodes here); and
+    kanedyn's counts over opty's."""
+    print("  nodes within a memory budget, resident / address space: the most run within "
+          "it; in brackets where the line through the two largest runs reaches it")
+    most = {}
+    for budget in budgets:
+        for label in contenders:
+            ok = sorted((r for r in rows if r["label"] == label and "failed" not in r),
+                        key=lambda r: r["nodes"])
+            counts = []
+            for key in ("peak_gib", "VmPeak"):
+                run = max((r["nodes"] for r in ok if r.get(key, np.inf) <= budget), default=0)
+                line = np.nan
+                if len(ok) >= 2:
+                    (n0, m0), (n1, m1) = [(r["nodes"], r.get(key, np.nan)) for r in ok[-2:]]
+                    if m1 > m0:  # else the memory did not grow: no line
+                        line = n0 + (budget - m0) * (n1 - n0) / (m1 - m0)
+                counts.append((run, line))
+            most[budget, label] = counts
+            print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
+                f"{run:8d} [{line:9.0f}]" if np.isfinite(line) else f"{run:8d} [  no line]"
+                for run, line in counts))
+        if {"kanedyn", "opty"} <= set(contenders):
+            k, o = most[budget, "kanedyn"], most[budget, "opty"]
+            ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
+                     for a, b in zip(k, o)]
+            print(f"    {budget:g} GiB  kanedyn / opty by the lines: {ratio[0]} resident, "
+                  f"{ratio[1]} address space (goal: 10x)")
+
+
+def _measured(tool, nodes, guess_path, time_s, env, address_cap, options):
+    """The child's run with its own peak resident memory, read by
+    ``os.wait4`` on the process (``ru_maxrss``, KiB on Linux), and its peak
+    address space (``VmPeak``, which the child reports)."""
     code = _CHILD.format(bench=str(Path(__file__).resolve().parent), tool=tool,
-                         nodes=nodes, path=str(guess_path))
+                         nodes=nodes, path=str(guess_path), extra=options)
     start = time.perf_counter()
     with tempfile.TemporaryFile("w+") as out, tempfile.TemporaryFile("w+") as err:
         proc = subprocess.Popen([sys.executable, "-c", code], stdout=out, stderr=err,
@@ -301,6 +375,12 @@ def main():
     parser.add_argument("--time-budget", type=float, default=600.0, help="s")
     parser.add_argument("--address-cap", type=float, default=0.0,
                         help="GiB of address space per child (0: no cap)")
+    parser.add_argument("--scan-max-iter", type=int, default=0,
+                        help="IPOPT's max_iter in the scan (0: to convergence)")
+    parser.add_argument("--budgets", type=float, nargs="*", default=[1.0, 2.0],
+                        help="GiB: the most nodes within each, printed after the scan")
+    parser.add_argument("--contenders", nargs="*", default=list(CONTENDERS),
+                        choices=list(CONTENDERS))
     args = parser.parse_args()
     HESSIAN["kind"] = args.hessian
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
@@ -317,7 +397,8 @@ def main():
         for nodes in args.gallery:
             double_pendulum_gallery(nodes)
         if args.scan:
-            scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap)
+            scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap,
+                 args.scan_max_iter, args.budgets, args.contenders)
         return
     # opty's gallery problem as published: 501 nodes from its random guess
     gallery = 501
@@ -342,7 +423,8 @@ def main():
     for nodes in args.gallery:
         double_pendulum_gallery(nodes)
     if args.scan:
-        scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap)
+        scan(args.scan_nodes, args.memory_budget, args.time_budget, args.address_cap,
+             args.scan_max_iter, args.budgets, args.contenders)
 
 
 if __name__ == "__main__":

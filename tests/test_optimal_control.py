@@ -20,6 +20,7 @@ IPOPT through cyipopt is needed; without it every test here is skipped,
 saying so.
 """
 
+import re
 import signal
 import sys
 import threading
@@ -754,3 +755,45 @@ def test_exact_hessian_refusals():
     with pytest.raises(ValueError, match="hessian_approximation"):
         plain.solve(peers.pendulum_guess(5), hessian="exact",
                     options={"hessian_approximation": "limited-memory"})
+
+
+def _ipopt_log(problem, guess, tmp_path, name, **options):
+    """The solve with IPOPT's log written to a file: ``(result, log text)``."""
+    path = tmp_path / f"{name}.txt"
+    result = problem.solve(guess, hessian="exact", options=dict(
+        options, output_file=str(path), file_print_level=4, print_user_options="yes"))
+    return result, path.read_text()
+
+
+def test_mumps_workspace_default_is_overridable_and_keeps_the_iterates(tmp_path):
+    """kanedyn asks MUMPS for 100 % workspace over its estimate (IPOPT's own
+    default: 1000 %) unless the options say otherwise; when MUMPS finds the
+    workspace too small IPOPT doubles it and factorizes again, so even 1 %
+    (forcing that here, as the log shows) leaves every iterate as with
+    1000 %: the same solution to the last bit, in the same iterations."""
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(1000, backend="numpy")
+    guess = peers.cart_pole_guess(1000)
+    ours, log = _ipopt_log(problem, guess, tmp_path, "default")
+    assert re.search(r"mumps_mem_percent\s*=\s*100\b", log)
+    lean, log_lean = _ipopt_log(problem, guess, tmp_path, "lean", mumps_mem_percent=1)
+    wide, log_wide = _ipopt_log(problem, guess, tmp_path, "wide", mumps_mem_percent=1000)
+    assert re.search(r"mumps_mem_percent\s*=\s*1000\b", log_wide)
+    assert "requires more memory" in log_lean and "requires more memory" not in log_wide
+    assert ours.success and lean.success and wide.success, (lean.message, wide.message)
+    assert lean.iterations == wide.iterations == ours.iterations
+    assert np.array_equal(lean.x, wide.x) and np.array_equal(ours.x, wide.x)
+
+
+def test_patterns_are_ipopt_indices():
+    """The Jacobian's and the Hessian's patterns are 32-bit (IPOPT's index
+    type), one copy each; a matrix too large for them is refused, naming
+    its size."""
+    import _ocp_peers as peers
+    from kanedyn.optimization._nlp import CollocationNLP, index_arrays
+    problem, _ = peers.pendulum_kanedyn(11, method="hermite-simpson", backend="numpy")
+    nlp = CollocationNLP(problem, hessian="exact")
+    for rows, cols in (nlp.jacobian_structure(), nlp.hessian_structure()):
+        assert rows.dtype == cols.dtype == np.int32
+    with pytest.raises(kd.ModelError, match="2147483648.*32-bit"):
+        index_arrays([np.arange(3)], [np.arange(3)], 5, 2 ** 31)

@@ -45,6 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
+from ._nlp import index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
@@ -59,10 +60,14 @@ class _Points:
 
     def __init__(self, V, D, duration=None):
         self.V, self.D, self.duration = V, D, duration
-        r = np.broadcast_to(V[:, :, None], V.shape + V.shape[1:])
-        c = np.broadcast_to(V[:, None, :], r.shape)
-        self.mask = r >= c
-        self.rows, self.cols = r[self.mask], c[self.mask]
+        self.mask = V[:, :, None] >= V[:, None, :]
+
+    def pattern(self):
+        """``(rows, cols)`` of its entries of the lower triangle (made when
+        asked, not kept)."""
+        shape = self.mask.shape
+        return (np.broadcast_to(self.V[:, :, None], shape)[self.mask],
+                np.broadcast_to(self.V[:, None, :], shape)[self.mask])
 
 
 class LagrangianHessian:
@@ -99,8 +104,9 @@ class LagrangianHessian:
             self.at_points = self._points([point_vars], [1.0], L.positions())
         self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
         parts = self.stages + [self.at_points] * (self.at_points is not None) + self.instances
-        self.structure = (np.concatenate([p.rows for p in parts]),
-                          np.concatenate([p.cols for p in parts]))
+        patterns = [p.pattern() for p in parts]
+        self.structure = index_arrays([r for r, _ in patterns], [c for _, c in patterns],
+                                      nlp.n, nlp.n)
 
     def _points(self, blocks, a, tau):
         """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each

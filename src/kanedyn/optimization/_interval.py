@@ -185,7 +185,6 @@ class IntervalDefects:
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
         self.tie_inputs = scheme.start_inputs is not None and layout.n_inputs > 0
-        self.structure = self._structure()
 
     @property
     def n_rows(self):
@@ -286,7 +285,9 @@ class IntervalDefects:
         cols = np.stack(cols, axis=1)
         return np.broadcast_to(j[:, None], cols.shape).ravel(), cols.ravel()
 
-    def _structure(self):
+    def pattern(self):
+        """``(rows, cols)``: lists of the pieces of the Jacobian pattern, in
+        the order of :meth:`jacobian`'s values (made when asked, not kept)."""
         N, nd = self.layout.nodes, len(self.rows)
         n_kinds = self.scheme.n_rows
         k = np.arange(N - 1)[:, None, None]
@@ -302,10 +303,10 @@ class IntervalDefects:
             r, c = self._tie_columns()
             rows.append((N - 1) * n_kinds * nd + r)
             cols.append(c)
-        return np.concatenate(rows), np.concatenate(cols)
+        return rows, cols
 
     def jacobian(self, h, T, evaluated, time_rates):
-        """Values in the order of :attr:`structure` (arguments as
+        """Values in the order of :meth:`pattern` (arguments as
         :meth:`._transcription.Defects.jacobian`)."""
         L = self.layout
         N, ns, rows = L.nodes, L.n_states, self.rows

@@ -24,7 +24,7 @@ import numpy as np
 
 from .._errors import ModelError
 from ._linkage import Linkage, _Side, junction_rows
-from ._nlp import largest_violation
+from ._nlp import index_arrays, largest_violation
 
 __all__ = ["MultiphaseProblem", "MultiphaseNLP"]
 
@@ -271,7 +271,7 @@ class MultiphaseNLP:
         for i, row in enumerate(self.rows):
             rows.append(np.full(row.columns.size, m + i))
             cols.append(row.columns)
-        self.structure = (np.concatenate(rows).astype(int), np.concatenate(cols).astype(int))
+        self.structure = index_arrays(rows, cols, self.m, self.n)
         #: the exact Hessian of the Lagrangian, or ``None``
         self.exact_hessian = None
         if hessian == "exact":

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._nlp import index_arrays
+
 __all__ = ["MultiphaseHessian"]
 
 
@@ -36,7 +38,7 @@ class MultiphaseHessian:
             self._masks.append(mask)
             rows.append(r[mask])
             cols.append(c[mask])
-        self.structure = (np.concatenate(rows).astype(int), np.concatenate(cols).astype(int))
+        self.structure = index_arrays(rows, cols, nlp.n, nlp.n)
 
     def values(self, z, sigma, multipliers):
         """The values in the order of :attr:`structure`."""

@@ -28,15 +28,39 @@ from __future__ import annotations
 
 import numpy as np
 
+from .._errors import ModelError
 from ._transcription import Layout, defects_for
 
-__all__ = ["CollocationNLP", "largest_violation"]
+__all__ = ["CollocationNLP", "largest_violation", "index_arrays"]
 
 INFINITY = 1e20  # IPOPT's "no bound" beyond 1e19
+
+#: the integer type of the sparse patterns' rows and columns: IPOPT's
+#: ``Index`` (a 32-bit C int), half the size of NumPy's default int64
+INDEX = np.int32
 
 
 def _finite(bound):
     return np.clip(np.asarray(bound, dtype=float), -INFINITY, INFINITY)
+
+
+def index_arrays(rows, cols, n_rows, n_cols):
+    """A sparse pattern ``(rows, cols)`` joined from pieces into arrays of
+    :data:`INDEX`, without a full-size int64 copy in between.
+
+    Parameters
+    ----------
+    rows, cols : sequence of integer arrays
+        The pieces, in order (each row piece as long as its column piece).
+    n_rows, n_cols : int
+        The matrix's shape, checked against the index type's range.
+    """
+    limit = int(np.iinfo(INDEX).max)
+    if max(n_rows, n_cols) > limit:
+        raise ModelError(f"the NLP's matrix of {n_rows} x {n_cols} is too large for IPOPT's "
+                         f"32-bit indices (at most {limit}); use fewer nodes")
+    return (np.concatenate(rows, dtype=INDEX, casting="same_kind"),
+            np.concatenate(cols, dtype=INDEX, casting="same_kind"))
 
 
 class CollocationNLP:
@@ -73,7 +97,7 @@ class CollocationNLP:
     def _pattern(self):
         pb, L = self.problem, self.layout
         ns, nf, K = L.n_states, L.n_free, L.n_points
-        rows, cols = [self.defects.structure[0]], [self.defects.structure[1]]
+        rows, cols = self.defects.pattern()
         start = self.defects.n_rows
         point = np.arange(K)[:, None]
         y_cols, r_cols = L.point_columns()
@@ -111,7 +135,7 @@ class CollocationNLP:
             cols.append(np.array(c))
             start += 1
         self.m = start
-        self.structure = (np.concatenate(rows).astype(int), np.concatenate(cols).astype(int))
+        self.structure = index_arrays(rows, cols, self.m, self.n)
 
     def _bounds(self):
         pb, L = self.problem, self.layout
@@ -208,7 +232,8 @@ class CollocationNLP:
                                                     r=R).constraints
         self._cache_key, self._cache = key, dict(
             z=z, Y=Y, R=R, P=P, T=T, t0=t0, h=h, model=model, Yi=Yi, Ri=Ri,
-            Yp=np.concatenate([Y, Yi]), Rp=np.concatenate([R, Ri]),
+            Yp=np.concatenate([Y, Yi]) if len(Yi) else Y,
+            Rp=np.concatenate([R, Ri]) if len(Ri) else R,
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
             point_constraints=point_constraints)
         return self._cache

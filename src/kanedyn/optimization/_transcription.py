@@ -274,7 +274,6 @@ class Defects:
         self.stages = METHODS[method]
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
-        self.structure = self._structure()
 
     @property
     def n_rows(self):
@@ -334,7 +333,10 @@ class Defects:
             blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
         return blocks + L.shared_blocks()
 
-    def _structure(self):
+    def pattern(self):
+        """``(rows, cols)``: lists of the pieces of the defect rows' Jacobian
+        pattern, in the order of :meth:`jacobian`'s values (made when asked,
+        not kept: the NLP joins them into its own pattern)."""
         L = self.layout
         N, nd = L.nodes, len(self.rows)
         k = np.arange(N - 1)[:, None, None]
@@ -351,10 +353,10 @@ class Defects:
             shape = (N - 1, nd, c.shape[2])
             rows.append(np.broadcast_to(k * nd + i, shape).ravel())
             cols.append(np.broadcast_to(c, shape).ravel())
-        return np.concatenate(rows), np.concatenate(cols)
+        return rows, cols
 
     def jacobian(self, h, T, evaluated, time_rates):
-        """Values in the order of :attr:`structure`.
+        """Values in the order of :meth:`pattern`.
 
         ``evaluated``: per group ``(f, A, B, Pf)`` (Pf: the free parameters'
         columns, or None); ``time_rates``: per group :math:`\\partial
