@@ -351,7 +351,7 @@ def _parts(model):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 4"
+_GENERATION = "jacobians 5"
 
 
 def _functions(model, parameters):
@@ -376,7 +376,8 @@ def _functions(model, parameters):
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
                                     dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
-                                    cse=model._cse, lanes=False, plain=_PLAIN)
+                                    cse=model._cse, lanes=False, plain=_plain(model),
+                                    share=("dynamics", "jacobians"))
         # first from the quick compiler where there is one: its functions move onto
         # the optimized code (built in the background) by themselves, and the model
         # onto the optimized module's entry points once it is loaded
@@ -416,11 +417,24 @@ def _move_onto(model_ref, key, quick, optimized):
 
 
 #: the model's functions listed again in the derivative module without common
-#: subexpressions (the same numbers): ``dynamics``, M and the forcing, whose
-#: elimination over M's n^2 entries took 1.0 s of CPU at chain3d n = 100 (0.055 s
-#: without) for 2.8 % fewer operations (5 % at n = 30) in the derivative module's
-#: solve
+#: subexpressions (the same numbers) from :data:`SHARED_CSE_MAX_SPEEDS` speeds:
+#: ``dynamics``, M and the forcing, whose elimination over M's n^2 entries took
+#: 1.0 s of CPU at chain3d n = 100 (0.055 s without) for 2.8 % fewer operations
+#: (5 % at n = 30) in the derivative module's solve
 _PLAIN = ("dynamics",)
+
+#: below this many speeds the derivative module lists M and the forcing together
+#: with the derivatives, their common subexpressions eliminated jointly (the
+#: derivatives then take every value the dynamics computed, not only the
+#: program's intermediates); from it the dynamics are listed plain
+#: (:data:`_PLAIN`), the derivatives taking the program's intermediates the
+#: dynamics computed (``kanedyn.numerics.backends._c._shared_sources``)
+SHARED_CSE_MAX_SPEEDS = 12
+
+
+def _plain(model):
+    """The functions the derivative module lists without common subexpressions."""
+    return () if model.n_u < SHARED_CSE_MAX_SPEEDS else _PLAIN
 
 
 def _c_key(model, parameters):

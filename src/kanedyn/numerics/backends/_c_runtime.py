@@ -352,6 +352,14 @@ JACOBIAN_SOLVE = r"""
 #define KD_NS (KD_NU + KD_NUDEP)           /* unknowns of the index-1 system */
 #define KD_JC (KD_NX + KD_NR + KD_JP)      /* derivative columns */
 #define KD_NCON (KD_NQDEP + KD_NUDEP)      /* constraint rows */
+#ifndef KD_JAC_SHARED
+#define KD_JAC_SHARED 0
+#endif
+#if KD_JAC_SHARED  /* the derivatives take what kd_eval_dynamics left in w */
+#define KD_JAC_EVAL kd_eval_jacobians_shared
+#else
+#define KD_JAC_EVAL kd_eval_jacobians
+#endif
 #ifndef KD_TREE_JAC
 #define KD_TREE_JAC 0
 #endif
@@ -658,11 +666,11 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
         a[k] = E[k] + KD_NU * cols[k];
     }
 #if KD_JP > 0
-    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #else
-    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #endif
 #if KD_TREE_JAC
     kd_tree_jacobian(TF, E[0]);
