@@ -373,11 +373,12 @@ def _functions(model, parameters):
         def units():
             prog, args, outputs = _specification(model, parameters)
             tree = {"jacobian_tree": model.__dict__["_jacobian_tree"]}
+            first = "tree" if "tree" in functions else "dynamics"
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
                                     dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
                                     cse=model._cse, lanes=False, plain=_plain(model),
-                                    share=("dynamics", "jacobians"))
+                                    share=(first, "jacobians"))
         # first from the quick compiler where there is one: its functions move onto
         # the optimized code (built in the background) by themselves, and the model
         # onto the optimized module's entry points once it is loaded
@@ -437,12 +438,42 @@ def _plain(model):
     return () if model.n_u < SHARED_CSE_MAX_SPEEDS else _PLAIN
 
 
+#: a tree whose right-hand side is solved by the articulated-body pass (the
+#: model's ``tree`` function, from 12 speeds) has its derivatives solved by that
+#: pass too where its speeds have on average this many speeds on their path to
+#: the root (themselves included) or more: its derivative module evaluates the
+#: pass instead of M and the forcing, and solves the derivative columns with the
+#: pass's factors (``kd_tree_apply`` of the C runtime, about 24 multiply-adds per
+#: speed and column, against two per speed on the path for M's factors).  On C,
+#: per state: chain3d (n = 12, 20, 30, 100; 6.5 to 50.5 on average) 0.93, 0.92,
+#: 0.85 and 0.38 the time of M's factors; Solo12 (4 legs of 3, 2 on average) 1.4
+TREE_SOLVE_MIN_DEPTH = 6
+
+
+def _tree_solve(model):
+    """Whether the derivative module of ``model`` is solved by the articulated-body
+    pass (:data:`TREE_SOLVE_MIN_DEPTH`) instead of M's factors."""
+    if "tree" not in model._functions or model.n_u_dep or model.contacts or _parts(model):
+        return False
+    parent = model._sizes["speed_tree"][0]
+    path = 0  # the speeds on the paths to the roots
+    for k in range(len(parent)):
+        while k >= 0:
+            path, k = path + 1, parent[k]
+    return path >= TREE_SOLVE_MIN_DEPTH * len(parent)
+
+
 def _c_key(model, parameters):
     """``(cache key text, functions, sizes)`` of a C model's derivative module:
-    the model's own functions (M included) and this generation."""
+    the model's own functions (M included; the tree pass instead where
+    :func:`_tree_solve`) and this generation."""
     from .backends._c import fingerprint
-    functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
-    sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
+    if _tree_solve(model):  # no M
+        functions = {k: v for k, v in model._functions.items() if k != "dynamics"}
+        sizes = dict(model._sizes)
+    else:
+        functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
+        sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
     text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
     parts = _parts(model)
     stabilized = f" stabilization={','.join(parts)}" if parts else ""
@@ -455,7 +486,8 @@ def _entry_points(module):
     """The C module's functions ``(dynamics, jacobians, dynamics_rows,
     jacobians_rows, solved_jacobians, solved_jacobian)`` (the last two: the whole
     evaluation in C, of many states and of one)."""
-    return (module.dynamics, module.jacobians, module.dynamics_rows, module.jacobians_rows,
+    return (getattr(module, "dynamics", None), module.jacobians,
+            getattr(module, "dynamics_rows", None), module.jacobians_rows,
             module.solved_jacobians, module.solved_jacobian)
 
 

@@ -884,6 +884,11 @@ def _runtime_parts(functions, sizes, lanes, share=None):
     if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
         defines.append(f"#define KD_JP {columns}")
         defines.extend(jacobian_tree_source(sizes))
+        if "tree" in functions and not sizes["n_u_dep"]:  # solved by the tree pass
+            parent, order = sizes["speed_tree"]
+            chain = (list(parent) == list(range(-1, len(parent) - 1))
+                     and list(order) == list(range(len(parent) - 1, -1, -1)))
+            defines += ["#define KD_JAC_TREE_SOLVE 1", f"#define KD_TSOLVE_CHAIN {int(chain)}"]
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
             *([_c_runtime.JACOBIAN_SOLVE] if columns is not None else []),
             _function_table(functions, rows), _c_runtime.MODULE_FOOTER]
