@@ -323,7 +323,8 @@ def _output_lines(table, target, codes):
     there are many, become a loop over a table of index pairs: thousands of
     single stores in one function cost the compiler's alias analysis time
     quadratic in their number (2.8 s of gcc for the 1000 outputs of the
-    tree pass at chain3d n = 100), for no gain at run time.
+    tree pass at chain3d n = 100), for no gain at run time.  An output with
+    as many zeros or more is cleared by a loop first.
     """
     copies = {}
     for j, code in enumerate(codes):
@@ -332,7 +333,14 @@ def _output_lines(table, target, codes):
             copies.setdefault(found.group(1), []).append((j, int(found.group(2))))
     looped = {a: pairs for a, pairs in copies.items() if len(pairs) >= _COPY_MIN}
     skip = {j for pairs in looped.values() for j, _ in pairs}
-    lines = [f"    {target}[{j}] = {code};" for j, code in enumerate(codes) if j not in skip]
+    zeros = [j for j, code in enumerate(codes) if code == "0"]
+    lines = []
+    if len(zeros) >= _COPY_MIN:  # the whole output cleared by a loop, then the rest set
+        # (the derivatives of a chain of 100 speeds: 40,000 entries, nearly all zero,
+        # were as many statements, a twelfth of the evaluation's time)
+        skip.update(zeros)
+        lines += [f"    for (int i = 0; i < {len(codes)}; i++)", f"        {target}[i] = 0;"]
+    lines += [f"    {target}[{j}] = {code};" for j, code in enumerate(codes) if j not in skip]
     for array, pairs in looped.items():
         entries = ", ".join(f"{{{j}, {i}}}" for j, i in pairs)
         lines += [f"    static const int {table}_{array}[{len(pairs)}][2] = {{{entries}}};",
