@@ -657,14 +657,15 @@ KD_VECTORIZED static void kd_jacobian_group(const double *restrict g, const doub
 #if KD_SOLVE != 3 || KD_NUDEP > 0
 #error "the articulated-body solve of the derivatives needs the tree pass (KD_SOLVE 3)"
 #endif
-/* The articulated-body factors of M (those of kd_tree_solve, without a
-   right-hand side): for each speed r, UD_r = U_r / D_r with U_r = IA_r S_r (6;
+/* The articulated-body factors of M and M x = b in place (kd_tree_solve's pass,
+   the factors kept): for each speed r, UD_r = U_r / D_r with U_r = IA_r S_r (6;
    IA_r the articulated inertia of the bodies at and below r) and 1 / D_r, D_r =
    S_r . U_r; S: 6 per speed, IO: 10 (kd_eval_tree).  1 if a D_r is not > 0. */
 KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *restrict IO,
-                                        double *restrict UD, double *restrict Dinv) {
+                                        double *restrict UD, double *restrict Dinv,
+                                        double *restrict b) {
     static const int sym[9] = {0, 1, 2, 1, 3, 4, 2, 4, 5};
-    double IA[KD_NU][36];
+    double IA[KD_NU][36], pa[KD_NU][6], A[KD_NU][6];
     for (int r = 0; r < KD_NU; ++r) {
         const double *g = IO + 10 * r;
         double *Ia = IA[r];
@@ -682,27 +683,42 @@ KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *
                 Ia[(j + 3) * 6 + i] = H[i * 3 + j];
             }
         }
+        for (int i = 0; i < 6; ++i) pa[r][i] = 0.0;
     }
     for (int k = 0; k < KD_NU; ++k) {  /* leaves to roots */
         const int r = kd_torder[k];
         const double *restrict s = S + 6 * r;
         const double *restrict Ia = IA[r];
-        double U[6], d = 0.0;
+        double U[6], d = 0.0, e = b[r];
         for (int i = 0; i < 6; ++i) {
             double v = 0.0;
             for (int j = 0; j < 6; ++j) v += Ia[i * 6 + j] * s[j];
             U[i] = v;
             d += s[i] * v;
+            e -= s[i] * pa[r][i];
         }
         if (!(d > 0.0)) return 1;
         const double inv = 1.0 / d;
         Dinv[r] = inv;
+        b[r] = e;
         for (int i = 0; i < 6; ++i) UD[6 * r + i] = U[i] * inv;
         const int up = kd_tparent[r];
         if (up < 0) continue;
         double *restrict P = IA[up];
-        for (int i = 0; i < 6; ++i)
-            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - UD[6 * r + i] * U[j];
+        for (int i = 0; i < 6; ++i) {
+            const double ui = UD[6 * r + i];
+            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[j];
+            pa[up][i] += pa[r][i] + ui * e;
+        }
+    }
+    for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves */
+        const int r = kd_torder[k], up = kd_tparent[r];
+        const double *restrict s = S + 6 * r;
+        double x = b[r] * Dinv[r];
+        if (up >= 0)
+            for (int i = 0; i < 6; ++i) x -= UD[6 * r + i] * A[up][i];
+        for (int i = 0; i < 6; ++i) A[r][i] = (up >= 0 ? A[up][i] : 0.0) + s[i] * x;
+        b[r] = x;
     }
     return 0;
 }
@@ -713,119 +729,13 @@ KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *
    P_r + UD_r c_r (P_r: 6 rows, the bias of the bodies below r); roots to
    leaves, x_r = c_r / D_r - UD_r . A_parent and A_r = A_parent + S_r x_r
    (A_r: 6 rows, the acceleration of r's body, in P_r's place).  About 24
-   multiply-adds per speed and column, against n for the factors of M.  Two
-   instances: kd_tree_apply1 (u', one column) and kd_tree_apply (the KD_JC
-   derivative columns: a number of columns known to the compiler, which then
-   vectorizes the rows; it did not for a number given at run time) */
-@TREE_APPLY@#endif
-
-#if KD_JAC_TREE_SOLVE
-/* kd_jacobian_core of a tree without M: the tree pass (kd_eval_tree: q', the
-   forcing, S, IO) and the articulated-body factors give u' and then the
-   derivative columns (kd_tree_apply); a factor not > 0: singular (1) */
-KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
-                            double *w, double *scratch, double *f, double *D, double *C) {
-    double *qd = scratch, *fv = qd + KD_NQ, *Sv = fv + KD_NU, *IO = Sv + 6 * KD_NU;
-    double *UD = IO + 10 * KD_NU, *Dinv = UD + 6 * KD_NU, *bias = Dinv + KD_NU;
-    double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU, *EA = G + KD_NQ * KD_JC;
-    double *TF = EA + KD_NU * KD_JC;
-    (void)TF;
-    double *X = D + KD_NQ * KD_JC;
-    kd_eval_tree(t, y, p, r, w, qd, fv, Sv, IO);
-    if (kd_tree_factor(Sv, IO, UD, Dinv) != 0) return 1;
-    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
-    double *ud = rx + KD_NR;
-    memcpy(ud, fv, sizeof(double) * KD_NU);
-    kd_tree_apply1(Sv, UD, Dinv, ud, bias);
-    double *g[3], *E[3], *a[3];
-    const int cols[3] = {KD_NX, KD_NR, KD_JP};
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = G + KD_NQ * at;
-        E[k] = EA + KD_NU * at;
-        a[k] = E[k] + KD_NU * cols[k];
-    }
-#if KD_JP > 0
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                C, C KD_TREE_OUT);
-#else
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], C, C KD_TREE_OUT);
-#endif
-#if KD_TREE_JAC
-    kd_tree_jacobian(TF, E[0]);
-#endif
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 1, D, X);
-    kd_tree_apply(Sv, UD, Dinv, X, bias);
-    memcpy(f, qd, sizeof(double) * KD_NQ);
-    memcpy(f + KD_NQ, ud, sizeof(double) * KD_NU);
-    return 0;
-}
-#else
-KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
-                            double *w, double *scratch, double *f, double *D, double *C) {
-    double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
-    double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
-    double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
-    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *TF = EA + KD_NS * KD_JC;
-    (void)TF;
-    double *X = D + KD_NQ * KD_JC;  /* the solve in place: the rows of u', then of lambda */
-    kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
-    int lu = 1;
-#if KD_JACOBIAN_LTDL
-    memcpy(sol, fv, sizeof(double) * KD_NU);
-    lu = KD_LTDL(M, sol) != 0;  /* M: its factors */
-    if (lu) kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);  /* not positive
-                                                 definite: M again, LU with pivoting */
-#endif
-    if (lu && kd_index1_lu(M, fv, B, Ka, fa, S, piv, sol) != 0) return 1;
-    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
-    for (int i = 0; i < KD_NS; ++i) rx[KD_NR + i] = sol[i];
-    /* the blocks g_x, E_x, a_x of each group, each at the start of its own rows of G
-       and EA (columns of that group only), then h_y, c_y into C */
-    double *g[3], *E[3], *a[3];
-    const int cols[3] = {KD_NX, KD_NR, KD_JP};
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = G + KD_NQ * at;
-        E[k] = EA + KD_NS * at;
-        a[k] = E[k] + KD_NU * cols[k];
-    }
-#if KD_JP > 0
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
-#else
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
-#endif
-#if KD_TREE_JAC
-    kd_tree_jacobian(TF, E[0]);
-#endif
-    int negate = 1;  /* kd_ltdl_apply negates by itself */
-#if KD_JACOBIAN_LTDL
-    negate = lu;
-#endif
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
-#if KD_JACOBIAN_LTDL
-    if (!lu) kd_ltdl_apply(M, X); else
-#endif
-    kd_lu_apply(KD_NS, S, piv, X, KD_JC);
-    memcpy(f, qd, sizeof(double) * KD_NQ);
-    memcpy(f + KD_NQ, sol, sizeof(double) * KD_NU);
-    return 0;
-}
-#endif
-
-static const KdJacobianInfo kd_jacobian_info = {kd_jacobian_core, KD_JC, KD_NCON,
-                                                KD_JAC_SCRATCH};
-#define KD_JACOBIAN_INFO (&kd_jacobian_info)
-"""
-
-#: kd_tree_apply of :data:`JACOBIAN_SOLVE`, one instance per number of columns
-_TREE_APPLY = r"""
-KD_VECTORIZED static void @NAME@(const double *restrict S, const double *restrict UD,
+   multiply-adds per speed and column, against n for the factors of M.  The
+   number of columns, KD_JC, is known to the compiler, which then vectorizes
+   the rows (it did not for a number given at run time) */
+KD_VECTORIZED static void kd_tree_apply(const double *restrict S, const double *restrict UD,
                                  const double *restrict Dinv, double *restrict X,
                                  double *restrict P) {
-    const int cols = @COLS@;
+    const int cols = KD_JC;
 #if KD_TSOLVE_CHAIN
     for (int c = 0; c < 6 * cols; ++c) P[c] = 0.0;
 #define KD_BIAS(r) P  /* one block: P of the speed below, then of r (in place) */
@@ -910,10 +820,108 @@ KD_VECTORIZED static void @NAME@(const double *restrict S, const double *restric
     }
 #undef KD_BIAS
 }
+#endif
+
+#if KD_JAC_TREE_SOLVE
+/* kd_jacobian_core of a tree without M: the tree pass (kd_eval_tree: q', the
+   forcing, S, IO) and the articulated-body factors give u' and then the
+   derivative columns (kd_tree_apply); a factor not > 0: singular (1) */
+KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
+                            double *w, double *scratch, double *f, double *D, double *C) {
+    double *qd = scratch, *fv = qd + KD_NQ, *Sv = fv + KD_NU, *IO = Sv + 6 * KD_NU;
+    double *UD = IO + 10 * KD_NU, *Dinv = UD + 6 * KD_NU, *bias = Dinv + KD_NU;
+    double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU, *EA = G + KD_NQ * KD_JC;
+    double *TF = EA + KD_NU * KD_JC;
+    (void)TF;
+    double *X = D + KD_NQ * KD_JC;
+    kd_eval_tree(t, y, p, r, w, qd, fv, Sv, IO);
+    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
+    double *ud = rx + KD_NR;
+    memcpy(ud, fv, sizeof(double) * KD_NU);
+    if (kd_tree_factor(Sv, IO, UD, Dinv, ud) != 0) return 1;
+    double *g[3], *E[3], *a[3];
+    const int cols[3] = {KD_NX, KD_NR, KD_JP};
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
+        g[k] = G + KD_NQ * at;
+        E[k] = EA + KD_NU * at;
+        a[k] = E[k] + KD_NU * cols[k];
+    }
+#if KD_JP > 0
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C KD_TREE_OUT);
+#else
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], C, C KD_TREE_OUT);
+#endif
+#if KD_TREE_JAC
+    kd_tree_jacobian(TF, E[0]);
+#endif
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 1, D, X);
+    kd_tree_apply(Sv, UD, Dinv, X, bias);
+    memcpy(f, qd, sizeof(double) * KD_NQ);
+    memcpy(f + KD_NQ, ud, sizeof(double) * KD_NU);
+    return 0;
+}
+#else
+KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
+                            double *w, double *scratch, double *f, double *D, double *C) {
+    double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
+    double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
+    double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
+    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *TF = EA + KD_NS * KD_JC;
+    (void)TF;
+    double *X = D + KD_NQ * KD_JC;  /* the solve in place: the rows of u', then of lambda */
+    kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
+    int lu = 1;
+#if KD_JACOBIAN_LTDL
+    memcpy(sol, fv, sizeof(double) * KD_NU);
+    lu = KD_LTDL(M, sol) != 0;  /* M: its factors */
+    if (lu) kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);  /* not positive
+                                                 definite: M again, LU with pivoting */
+#endif
+    if (lu && kd_index1_lu(M, fv, B, Ka, fa, S, piv, sol) != 0) return 1;
+    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
+    for (int i = 0; i < KD_NS; ++i) rx[KD_NR + i] = sol[i];
+    /* the blocks g_x, E_x, a_x of each group, each at the start of its own rows of G
+       and EA (columns of that group only), then h_y, c_y into C */
+    double *g[3], *E[3], *a[3];
+    const int cols[3] = {KD_NX, KD_NR, KD_JP};
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
+        g[k] = G + KD_NQ * at;
+        E[k] = EA + KD_NS * at;
+        a[k] = E[k] + KD_NU * cols[k];
+    }
+#if KD_JP > 0
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+#else
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+#endif
+#if KD_TREE_JAC
+    kd_tree_jacobian(TF, E[0]);
+#endif
+    int negate = 1;  /* kd_ltdl_apply negates by itself */
+#if KD_JACOBIAN_LTDL
+    negate = lu;
+#endif
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
+#if KD_JACOBIAN_LTDL
+    if (!lu) kd_ltdl_apply(M, X); else
+#endif
+    kd_lu_apply(KD_NS, S, piv, X, KD_JC);
+    memcpy(f, qd, sizeof(double) * KD_NQ);
+    memcpy(f + KD_NQ, sol, sizeof(double) * KD_NU);
+    return 0;
+}
+#endif
+
+static const KdJacobianInfo kd_jacobian_info = {kd_jacobian_core, KD_JC, KD_NCON,
+                                                KD_JAC_SCRATCH};
+#define KD_JACOBIAN_INFO (&kd_jacobian_info)
 """
-JACOBIAN_SOLVE = JACOBIAN_SOLVE.replace("@TREE_APPLY@", "".join(
-    _TREE_APPLY.replace("@NAME@", name).replace("@COLS@", cols)
-    for name, cols in (("kd_tree_apply1", "1"), ("kd_tree_apply", "KD_JC"))))
+
 
 #: the part of the runtime without Python: linear algebra and the right-hand
 #: side ``kd_rhs_core`` (the standalone C export)
