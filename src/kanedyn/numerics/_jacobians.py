@@ -37,7 +37,11 @@ their :math:`n^2` entries formed when the code runs from
 The linear solve is numerical, so dependent speeds (and coordinates) are
 differentiated through their elimination exactly.  One state on the C backend
 is then one call of the module, which also makes the :class:`Jacobians`
-(:func:`_keep_point`).
+(:func:`_keep_point`).  In C the derivatives take the values the dynamics
+computed for the accelerations (the kinematics, the sines and cosines:
+:data:`SHARED_CSE_MAX_SPEEDS`), and a tree of long paths solves for the
+accelerations and the derivative columns by the articulated-body pass instead
+of M's factors (:data:`TREE_SOLVE_MIN_DEPTH`).
 
 This is the derivative of the accelerations every index-1 scheme computes
 (elimination, index-1, projection, Udwadia-Kalaba, partitioning, null space,
@@ -445,8 +449,9 @@ def _plain(model):
 #: pass instead of M and the forcing, and solves the derivative columns with the
 #: pass's factors (``kd_tree_apply`` of the C runtime, about 24 multiply-adds per
 #: speed and column, against two per speed on the path for M's factors).  On C,
-#: per state: chain3d (n = 12, 20, 30, 100; 6.5 to 50.5 on average) 0.93, 0.92,
-#: 0.85 and 0.38 the time of M's factors; Solo12 (4 legs of 3, 2 on average) 1.4
+#: per state (both modules in one process): chain3d (n = 12, 20, 30, 100; 6.5 to
+#: 50.5 on average) 0.94, 0.95-0.99, 0.82 and 0.38 the time of M's factors;
+#: Solo12 (4 legs of 3 speeds, 2 on average) 1.3-1.45
 TREE_SOLVE_MIN_DEPTH = 6
 
 
