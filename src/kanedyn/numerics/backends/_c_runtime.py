@@ -352,6 +352,10 @@ JACOBIAN_SOLVE = r"""
 #define KD_NS (KD_NU + KD_NUDEP)           /* unknowns of the index-1 system */
 #define KD_JC (KD_NX + KD_NR + KD_JP)      /* derivative columns */
 #define KD_NCON (KD_NQDEP + KD_NUDEP)      /* constraint rows */
+/* only the state's columns (no inputs, no constants asked for): the generated
+   derivatives write their blocks g_y and [E_y; a_y] where they go, into the
+   rows of q' and of u' (and lambda) of D, and the solve runs on them there */
+#define KD_JAC_ONE_GROUP (KD_NR == 0 && KD_JP == 0)
 #ifndef KD_JAC_SHARED
 #define KD_JAC_SHARED 0
 #endif
@@ -723,12 +727,13 @@ KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *
     return 0;
 }
 
-/* X = M^-1 X in place (X: KD_NU rows of `cols`, a row per speed) from the
+/* X = -M^-1 X in place (X: KD_NU rows of `cols`, a row per speed) from the
    factors of kd_tree_factor, all columns at once along rows (the compiler
    vectorizes them): leaves to roots, c_r = x_r - S_r . P_r and P_parent +=
    P_r + UD_r c_r (P_r: 6 rows, the bias of the bodies below r); roots to
    leaves, x_r = c_r / D_r - UD_r . A_parent and A_r = A_parent + S_r x_r
-   (A_r: 6 rows, the acceleration of r's body, in P_r's place).  About 24
+   (A_r: 6 rows, the acceleration of r's body, in P_r's place), all of them
+   negated there (-c_r / D_r: the sign of the result taken in that pass).  About 24
    multiply-adds per speed and column, against n for the factors of M.  The
    number of columns, KD_JC, is known to the compiler, which then vectorizes
    the rows (it did not for a number given at run time) */
@@ -782,7 +787,7 @@ KD_VECTORIZED static void kd_tree_apply(const double *restrict S, const double *
         const int r = kd_torder[k], up = kd_tparent[r];
         const double s0 = S[6 * r], s1 = S[6 * r + 1], s2 = S[6 * r + 2], s3 = S[6 * r + 3],
                      s4 = S[6 * r + 4], s5 = S[6 * r + 5];
-        const double inv = Dinv[r];
+        const double inv = -Dinv[r];  /* -M^-1 X */
         double *restrict x = X + r * cols;
         double *restrict a0 = KD_BIAS(r), *restrict a1 = a0 + cols, *restrict a2 = a1 + cols,
                *restrict a3 = a2 + cols, *restrict a4 = a3 + cols, *restrict a5 = a4 + cols;
@@ -842,8 +847,8 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *g[3], *E[3], *a[3];
     const int cols[3] = {KD_NX, KD_NR, KD_JP};
     for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = G + KD_NQ * at;
-        E[k] = EA + KD_NU * at;
+        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
+        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NU * at;
         a[k] = E[k] + KD_NU * cols[k];
     }
 #if KD_JP > 0
@@ -855,9 +860,9 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
 #if KD_TREE_JAC
     kd_tree_jacobian(TF, E[0]);
 #endif
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 1, D, X);
-    kd_tree_apply(Sv, UD, Dinv, X, bias);
+    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 0, D, X);
+    kd_tree_apply(Sv, UD, Dinv, X, bias);  /* -M^-1 X: the sign in its last pass */
     memcpy(f, qd, sizeof(double) * KD_NQ);
     memcpy(f + KD_NQ, ud, sizeof(double) * KD_NU);
     return 0;
@@ -887,8 +892,8 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *g[3], *E[3], *a[3];
     const int cols[3] = {KD_NX, KD_NR, KD_JP};
     for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = G + KD_NQ * at;
-        E[k] = EA + KD_NS * at;
+        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
+        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NS * at;
         a[k] = E[k] + KD_NU * cols[k];
     }
 #if KD_JP > 0
@@ -905,8 +910,10 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
 #if KD_JACOBIAN_LTDL
     negate = lu;
 #endif
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
+    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
         if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
+    if (KD_JAC_ONE_GROUP && negate)  /* written in place: the sign here */
+        for (int i = 0; i < KD_NS * KD_JC; ++i) X[i] = -X[i];
 #if KD_JACOBIAN_LTDL
     if (!lu) kd_ltdl_apply(M, X); else
 #endif
