@@ -203,19 +203,19 @@ def test_the_listings_of_the_derivative_module_give_the_same_numbers(monkeypatch
 @pytest.mark.parametrize("which", ["chain3d", "urdf"])
 def test_solved_by_the_tree_pass(which, monkeypatch, tmp_path):
     """A tree whose right-hand side is solved by the articulated-body pass (from
-    12 speeds), its paths long enough (``TREE_SOLVE_MIN_DEPTH``), has its
-    derivative columns solved by that pass (``kd_tree_apply``, no M in the
-    module): the derivatives of M's factors to 1e-12, one state and several, on
-    chain3d n = 12 (a chain: one block of bias rows, updated in place) and on a
-    random tree of 12 joints in two branches from two roots (a block per
-    speed; taken here although its paths are short)."""
+    12 speeds), its paths long enough (``TREE_SOLVE_MIN_DEPTH``, lowered here),
+    has its derivative columns solved by that pass (``kd_tree_apply``, no M in
+    the module): the derivatives of M's factors to 1e-12, one state and
+    several, on chain3d n = 12 (a chain: one block of bias rows, updated in
+    place) and on a random tree of 12 joints in two branches from two roots (a
+    block per speed)."""
     def build():
         if which == "chain3d":
             return kd.models.build("chain3d", n=12, style="positions")
         parent = [-1, 0, 1, 2, 3, 4, 2, 6, 7, -1, 9, 10]
         return kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, 5))
-    settings = {} if which == "chain3d" else {"TREE_SOLVE_MIN_DEPTH": 0}
-    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "pass", build, 3, **settings)
+    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "pass", build, 3,
+                                           TREE_SOLVE_MIN_DEPTH=0)
     *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "M", build, 3,
                                           TREE_SOLVE_MIN_DEPTH=10**6)
     assert "function tree" in key and "function dynamics" not in key
@@ -224,6 +224,20 @@ def test_solved_by_the_tree_pass(which, monkeypatch, tmp_path):
         for part in ("f", "state", "inputs", "parameters"):
             a, b = getattr(mine, part), getattr(theirs, part)
             assert a.shape == b.shape and (not a.size or relative(a, b) < 1e-12), part
+
+
+def test_which_trees_are_solved_by_the_pass():
+    """The pass solves the derivatives of a chain from 19 speeds (on average 10
+    speeds on a path to the root), not below, nor a tree of short branches."""
+    def by_the_pass(parent):
+        model = type("Model", (), {})()
+        model._functions, model._sizes = {"tree": None}, {"speed_tree": (parent, None)}
+        model.n_u_dep, model.contacts = 0, ()
+        model.__dict__["_jacobian_parts"] = ()
+        return _jacobians._tree_solve(model)
+    assert not by_the_pass([k - 1 for k in range(18)])
+    assert by_the_pass([k - 1 for k in range(19)])
+    assert not by_the_pass([-1, 0, 1, -1, 3, 4, -1, 6, 7, -1, 9, 10])  # 4 legs of 3
 
 
 def test_the_gimbal_against_differences():

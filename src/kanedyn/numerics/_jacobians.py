@@ -449,10 +449,12 @@ def _plain(model):
 #: pass instead of M and the forcing, and solves the derivative columns with the
 #: pass's factors (``kd_tree_apply`` of the C runtime, about 24 multiply-adds per
 #: speed and column, against two per speed on the path for M's factors).  On C,
-#: per state (both modules in one process): chain3d (n = 12, 20, 30, 100; 6.5 to
-#: 50.5 on average) 0.94, 0.95-0.99, 0.82 and 0.38 the time of M's factors;
-#: Solo12 (4 legs of 3 speeds, 2 on average) 1.3-1.45
-TREE_SOLVE_MIN_DEPTH = 6
+#: per state, the time of the pass over that of M's factors (both modules built
+#: in one process; two builds each): chain3d n = 12, 16, 20 (6.5, 8.5, 10.5 on
+#: average) 0.93-1.00, 0.97-1.12, 0.94-1.03 (no consistent difference), n = 24,
+#: 30 (12.5, 15.5) 0.81-0.95, 0.82-0.94, n = 100 0.38; Solo12 on a floating
+#: base (6.5) 1.05-1.17, on a fixed one (4 legs of 3 speeds, 2) 1.3-1.45
+TREE_SOLVE_MIN_DEPTH = 10
 
 
 def _tree_solve(model):
