@@ -163,30 +163,81 @@ def test_factors_formed_in_c(which, monkeypatch, tmp_path):
     assert factors_against_expressions(which, "c", monkeypatch, tmp_path) < 1e-12
 
 
-@needs_compiler
-def test_the_mass_matrix_listed_plain_gives_the_same_numbers(monkeypatch, tmp_path):
-    """The derivative module lists the model's M and forcing without common
-    subexpressions (``_jacobians._PLAIN``): its derivatives, multipliers and
-    all, equal to the bit those of a module with them eliminated (the
-    four-bar: its solve uses M; chain3d n = 12: the factors)."""
+def derivatives_built_with(monkeypatch, tmp_path, folder, build, states=2, **settings):
+    """``model.jacobians`` at ``states`` states and at one (parameters included) of a
+    C model of ``build()`` whose derivative module is built in a fresh cache with
+    the settings of ``_jacobians`` given, and that module's cache key."""
     from kanedyn.numerics.backends import _c_build
+    with monkeypatch.context() as patch:
+        patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
+        patch.setattr(_c_build, "_LOADED", {})
+        for name, value in settings.items():
+            patch.setattr(_jacobians, name, value)
+        definition = build()
+        model = definition.numeric(backend="c")
+        y = np.resize(definition.initial(model), model.n_states) + 0.1
+        Y = np.stack([y * (1.0 - 0.1 * k) for k in range(states)])
+        return (model.jacobians(0.0, Y, parameters=True),
+                model.jacobians(0.0, Y[-1], parameters=True), _jacobians._c_key(model, True)[0])
 
-    def derivatives(build, plain, folder):
-        with monkeypatch.context() as patch:
-            patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
-            patch.setattr(_c_build, "_LOADED", {})
-            patch.setattr(_jacobians, "_PLAIN", plain)
-            definition = build()
-            model = definition.numeric(backend="c")
-            y = definition.initial(model) + 0.1
-            return model.jacobians(0.0, np.stack([y, 0.9 * y]), parameters=True)
-    for build in (lambda: kd.models.build("four-bar"),
-                  lambda: kd.models.build("chain3d", n=12, style="positions")):
-        mine = derivatives(build, ("dynamics",), "plain")
-        theirs = derivatives(build, (), "eliminated")
-        for part in ("f", "state", "parameters", "multipliers"):
+
+@needs_compiler
+def test_the_listings_of_the_derivative_module_give_the_same_numbers(monkeypatch, tmp_path):
+    """The derivative module takes the values the dynamics computed
+    (``_c._shared_sources``): below ``SHARED_CSE_MAX_SPEEDS`` M and the forcing
+    are listed with the derivatives, their common subexpressions eliminated
+    together; from there M and the forcing are listed plain.  Both give the
+    same derivatives, multipliers and all, to the bit (the four-bar: its solve
+    uses M with multipliers; chain3d n = 7: the entries as expressions)."""
+    for build in (lambda: kd.models.build("four-bar"), lambda: kd.models.build("chain3d", n=7)):
+        together = derivatives_built_with(monkeypatch, tmp_path, "together", build)
+        apart = derivatives_built_with(monkeypatch, tmp_path, "apart", build,
+                                       SHARED_CSE_MAX_SPEEDS=0)
+        for mine, theirs in zip(together[:2], apart[:2]):
+            for part in ("f", "state", "parameters", "multipliers"):
+                a, b = getattr(mine, part), getattr(theirs, part)
+                assert (a is None and b is None) or np.array_equal(a, b), part
+
+
+@needs_compiler
+@pytest.mark.parametrize("which", ["chain3d", "urdf"])
+def test_solved_by_the_tree_pass(which, monkeypatch, tmp_path):
+    """A tree whose right-hand side is solved by the articulated-body pass (from
+    12 speeds), its paths long enough (``TREE_SOLVE_MIN_DEPTH``, lowered here),
+    has its derivative columns solved by that pass (``kd_tree_apply``, no M in
+    the module): the derivatives of M's factors to 1e-12, one state and
+    several, on chain3d n = 12 (a chain: one block of bias rows, updated in
+    place) and on a random tree of 12 joints in two branches from two roots (a
+    block per speed)."""
+    def build():
+        if which == "chain3d":
+            return kd.models.build("chain3d", n=12, style="positions")
+        parent = [-1, 0, 1, 2, 3, 4, 2, 6, 7, -1, 9, 10]
+        return kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, 5))
+    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "pass", build, 3,
+                                           TREE_SOLVE_MIN_DEPTH=0)
+    *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "M", build, 3,
+                                          TREE_SOLVE_MIN_DEPTH=10**6)
+    assert "function tree" in key and "function dynamics" not in key
+    assert "function dynamics" in key_M and "function tree" not in key_M
+    for mine, theirs in zip(by_pass, by_M):
+        for part in ("f", "state", "inputs", "parameters"):
             a, b = getattr(mine, part), getattr(theirs, part)
-            assert (a is None and b is None) or np.array_equal(a, b), part
+            assert a.shape == b.shape and (not a.size or relative(a, b) < 1e-12), part
+
+
+def test_which_trees_are_solved_by_the_pass():
+    """The pass solves the derivatives of a chain from 19 speeds (on average 10
+    speeds on a path to the root), not below, nor a tree of short branches."""
+    def by_the_pass(parent):
+        model = type("Model", (), {})()
+        model._functions, model._sizes = {"tree": None}, {"speed_tree": (parent, None)}
+        model.n_u_dep, model.contacts = 0, ()
+        model.__dict__["_jacobian_parts"] = ()
+        return _jacobians._tree_solve(model)
+    assert not by_the_pass([k - 1 for k in range(18)])
+    assert by_the_pass([k - 1 for k in range(19)])
+    assert not by_the_pass([-1, 0, 1, -1, 3, 4, -1, 6, 7, -1, 9, 10])  # 4 legs of 3
 
 
 def test_the_gimbal_against_differences():

@@ -181,20 +181,41 @@ def _identifier(name, taken, what, source):
     return ident
 
 
+#: an entry of a rotation, an axis or an offset this close to an integer is that
+#: integer (the identity test of :func:`_rotation_frame` takes the same bound)
+_ROUND_OFF = 1e-15
+
+
+def _number(value):
+    """The SymPy number of a rotation's entry, an axis' or an offset's component:
+    the integer it is within :data:`_ROUND_OFF` of, else the float.  A rotation
+    by a multiple of pi/2, written in radians (``rpy="1.5707963267948966 0 0"``,
+    as the Panda's URDF has), has entries cos(pi/2) = 6.1e-17 and 1.0: as
+    floats they cost a product and a sum each wherever they enter the
+    generated code (276 times in the Panda's derivative module), and 1.0 is not
+    1 to SymPy, so the products they leave are not simplified."""
+    value = float(value)
+    whole = round(value)
+    if abs(value - whole) <= _ROUND_OFF:
+        return sm.Integer(whole)
+    return sm.Float(value)
+
+
 def _as_vector(frame, values):
     vec = me.Vector(0)
     for v, base in zip(values, (frame.x, frame.y, frame.z)):
-        if v != 0.0:
-            vec += sm.Float(float(v)) * base
+        v = _number(v)
+        if v != 0:
+            vec += v * base
     return vec
 
 
 def _rotation_frame(parent, R, name):
     """``parent`` itself when ``R`` is the identity, else a frame fixed in it."""
-    if np.allclose(R, np.eye(3), rtol=0, atol=1e-15):
+    if np.allclose(R, np.eye(3), rtol=0, atol=_ROUND_OFF):
         return parent
     frame = me.ReferenceFrame(name)
-    frame.orient_dcm(parent, sm.Matrix(R.T).applyfunc(sm.Float))
+    frame.orient_dcm(parent, sm.Matrix(R.T).applyfunc(_number))
     return frame
 
 

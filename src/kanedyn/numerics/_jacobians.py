@@ -37,7 +37,11 @@ their :math:`n^2` entries formed when the code runs from
 The linear solve is numerical, so dependent speeds (and coordinates) are
 differentiated through their elimination exactly.  One state on the C backend
 is then one call of the module, which also makes the :class:`Jacobians`
-(:func:`_keep_point`).
+(:func:`_keep_point`).  In C the derivatives take the values the dynamics
+computed for the accelerations (the kinematics, the sines and cosines:
+:data:`SHARED_CSE_MAX_SPEEDS`), and a tree of long paths solves for the
+accelerations and the derivative columns by the articulated-body pass instead
+of M's factors (:data:`TREE_SOLVE_MIN_DEPTH`).
 
 This is the derivative of the accelerations every index-1 scheme computes
 (elimination, index-1, projection, Udwadia-Kalaba, partitioning, null space,
@@ -351,7 +355,7 @@ def _parts(model):
 
 
 #: changes when the generated derivatives change (part of the C cache key)
-_GENERATION = "jacobians 4"
+_GENERATION = "jacobians 5"
 
 
 def _functions(model, parameters):
@@ -373,10 +377,12 @@ def _functions(model, parameters):
         def units():
             prog, args, outputs = _specification(model, parameters)
             tree = {"jacobian_tree": model.__dict__["_jacobian_tree"]}
+            first = "tree" if "tree" in functions else "dynamics"
             return generate_c_units(prog, dict(functions, jacobians=(args, outputs)),
                                     dict(sizes, **tree),
                                     describe=lambda e: str(table.external(e)),
-                                    cse=model._cse, lanes=False, plain=_PLAIN)
+                                    cse=model._cse, lanes=False, plain=_plain(model),
+                                    share=(first, "jacobians"))
         # first from the quick compiler where there is one: its functions move onto
         # the optimized code (built in the background) by themselves, and the model
         # onto the optimized module's entry points once it is loaded
@@ -416,19 +422,65 @@ def _move_onto(model_ref, key, quick, optimized):
 
 
 #: the model's functions listed again in the derivative module without common
-#: subexpressions (the same numbers): ``dynamics``, M and the forcing, whose
-#: elimination over M's n^2 entries took 1.0 s of CPU at chain3d n = 100 (0.055 s
-#: without) for 2.8 % fewer operations (5 % at n = 30) in the derivative module's
-#: solve
+#: subexpressions (the same numbers) from :data:`SHARED_CSE_MAX_SPEEDS` speeds:
+#: ``dynamics``, M and the forcing, whose elimination over M's n^2 entries took
+#: 1.0 s of CPU at chain3d n = 100 (0.055 s without) for 2.8 % fewer operations
+#: (5 % at n = 30) in the derivative module's solve
 _PLAIN = ("dynamics",)
+
+#: below this many speeds the derivative module lists M and the forcing together
+#: with the derivatives, their common subexpressions eliminated jointly (the
+#: derivatives then take every value the dynamics computed, not only the
+#: program's intermediates); from it the dynamics are listed plain
+#: (:data:`_PLAIN`), the derivatives taking the program's intermediates the
+#: dynamics computed (``kanedyn.numerics.backends._c._shared_sources``)
+SHARED_CSE_MAX_SPEEDS = 12
+
+
+def _plain(model):
+    """The functions the derivative module lists without common subexpressions."""
+    return () if model.n_u < SHARED_CSE_MAX_SPEEDS else _PLAIN
+
+
+#: a tree whose right-hand side is solved by the articulated-body pass (the
+#: model's ``tree`` function, from 12 speeds) has its derivatives solved by that
+#: pass too where its speeds have on average this many speeds on their path to
+#: the root (themselves included) or more: its derivative module evaluates the
+#: pass instead of M and the forcing, and solves the derivative columns with the
+#: pass's factors (``kd_tree_apply`` of the C runtime, about 24 multiply-adds per
+#: speed and column, against two per speed on the path for M's factors).  On C,
+#: per state, the time of the pass over that of M's factors (both modules built
+#: in one process; two builds each): chain3d n = 12, 16, 20 (6.5, 8.5, 10.5 on
+#: average) 0.93-1.00, 0.97-1.12, 0.94-1.03 (no consistent difference), n = 24,
+#: 30 (12.5, 15.5) 0.81-0.95, 0.82-0.94, n = 100 0.38; Solo12 on a floating
+#: base (6.5) 1.05-1.17, on a fixed one (4 legs of 3 speeds, 2) 1.3-1.45
+TREE_SOLVE_MIN_DEPTH = 10
+
+
+def _tree_solve(model):
+    """Whether the derivative module of ``model`` is solved by the articulated-body
+    pass (:data:`TREE_SOLVE_MIN_DEPTH`) instead of M's factors."""
+    if "tree" not in model._functions or model.n_u_dep or model.contacts or _parts(model):
+        return False
+    parent = model._sizes["speed_tree"][0]
+    path = 0  # the speeds on the paths to the roots
+    for k in range(len(parent)):
+        while k >= 0:
+            path, k = path + 1, parent[k]
+    return path >= TREE_SOLVE_MIN_DEPTH * len(parent)
 
 
 def _c_key(model, parameters):
     """``(cache key text, functions, sizes)`` of a C model's derivative module:
-    the model's own functions (M included) and this generation."""
+    the model's own functions (M included; the tree pass instead where
+    :func:`_tree_solve`) and this generation."""
     from .backends._c import fingerprint
-    functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
-    sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
+    if _tree_solve(model):  # no M
+        functions = {k: v for k, v in model._functions.items() if k != "dynamics"}
+        sizes = dict(model._sizes)
+    else:
+        functions = {k: v for k, v in model._functions.items() if k != "tree"}  # M needed
+        sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
     text = fingerprint(model._eom._program, functions, sizes, model._cse, lanes=False)
     parts = _parts(model)
     stabilized = f" stabilization={','.join(parts)}" if parts else ""
@@ -441,7 +493,8 @@ def _entry_points(module):
     """The C module's functions ``(dynamics, jacobians, dynamics_rows,
     jacobians_rows, solved_jacobians, solved_jacobian)`` (the last two: the whole
     evaluation in C, of many states and of one)."""
-    return (module.dynamics, module.jacobians, module.dynamics_rows, module.jacobians_rows,
+    return (getattr(module, "dynamics", None), module.jacobians,
+            getattr(module, "dynamics_rows", None), module.jacobians_rows,
             module.solved_jacobians, module.solved_jacobian)
 
 

@@ -223,16 +223,24 @@ def _signature(name, n_outputs):
     return f"KD_GEN void kd_eval_{name}({_PARAMS}{outputs})"
 
 
-def _function_source(program, name, arguments, outputs, describe, cse, listing=None):
+def _function_source(program, name, arguments, outputs, describe, cse, listing=None,
+                     external=None, export=None, offset=0):
     """C source of ``kd_eval_<name>`` and the number of work slots it needs.
 
     ``listing``: the result of ``program.listing`` of the flattened outputs,
-    when already computed (it is then not computed again).
+    when already computed (it is then not computed again).  ``external``:
+    ``{symbol: slot}`` of values another function left in the work array
+    (read as ``w[slot]``, not computed here); ``export``: ``{symbol: slot}``
+    of this function's values stored there for another function
+    (:func:`_shared_sources`); ``offset``: the first slot of the work array
+    this function's own parts may use.
     """
     base = {program.t: "t"}
     for arg, symbols in arguments.items():
         for i, s in enumerate(symbols):
             base[s] = f"{arg}[{i}]"
+    base.update((s, f"w[{slot}]") for s, slot in (external or {}).items())
+    export = export or {}
     flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]
     assignments, flat = listing if listing is not None else program.listing(flat, cse=cse)
     needed = [s for s, _ in assignments]
@@ -259,15 +267,17 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
         names = dict(base)
         for s in needed:
             if s in stored and chunk_of[s] < c:
-                names[s] = f"w[{index[s]}]"
+                names[s] = f"w[{offset + index[s]}]"
         body = []
         printer = _CPrinter(names)  # reads ``names`` as it grows
         for s in members:
             names[s] = f"z{index[s]}"
             code = _print_c(printer, definition[s], f"in the intermediate {s.name}", describe)
             body.append(f"    const double z{index[s]} = {code};")
+            if s in export:
+                body.append(f"    w[{export[s]}] = z{index[s]};")
             if split and last_use.get(s, c) > c:
-                body.append(f"    w[{index[s]}] = z{index[s]};")
+                body.append(f"    w[{offset + index[s]}] = z{index[s]};")
                 stored.add(s)
         if split:  # each part may go to a translation unit of its own
             lines.append(f"KD_GEN void kd_{name}_part{c}({params}) {{")
@@ -283,7 +293,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
         for c in range(len(chunks)):
             lines.append(f"    kd_{name}_part{c}(t, y, p, r, w);")
         for s in stored:
-            names[s] = f"w[{index[s]}]"
+            names[s] = f"w[{offset + index[s]}]"
     else:
         lines.extend(chunk_body)
         for s in needed:
@@ -298,7 +308,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
         lines.extend(_output_lines(f"kd_{name}_o{k}", f"o{k}", codes))
     lines.append("    (void)t; (void)y; (void)p; (void)r; (void)w;")
     lines.append("}")
-    work = len(needed) if split else 0
+    work = offset + (len(needed) if split else 0)
     return "\n".join(lines), work
 
 
@@ -313,7 +323,8 @@ def _output_lines(table, target, codes):
     there are many, become a loop over a table of index pairs: thousands of
     single stores in one function cost the compiler's alias analysis time
     quadratic in their number (2.8 s of gcc for the 1000 outputs of the
-    tree pass at chain3d n = 100), for no gain at run time.
+    tree pass at chain3d n = 100), for no gain at run time.  An output with
+    as many zeros or more is cleared by a loop first.
     """
     copies = {}
     for j, code in enumerate(codes):
@@ -322,7 +333,14 @@ def _output_lines(table, target, codes):
             copies.setdefault(found.group(1), []).append((j, int(found.group(2))))
     looped = {a: pairs for a, pairs in copies.items() if len(pairs) >= _COPY_MIN}
     skip = {j for pairs in looped.values() for j, _ in pairs}
-    lines = [f"    {target}[{j}] = {code};" for j, code in enumerate(codes) if j not in skip]
+    zeros = [j for j, code in enumerate(codes) if code == "0"]
+    lines = []
+    if len(zeros) >= _COPY_MIN:  # the whole output cleared by a loop, then the rest set
+        # (the derivatives of a chain of 100 speeds: 40,000 entries, nearly all zero,
+        # were as many statements, a twelfth of the evaluation's time)
+        skip.update(zeros)
+        lines += [f"    for (int i = 0; i < {len(codes)}; i++)", f"        {target}[i] = 0;"]
+    lines += [f"    {target}[{j}] = {code};" for j, code in enumerate(codes) if j not in skip]
     for array, pairs in looped.items():
         entries = ", ".join(f"{{{j}, {i}}}" for j, i in pairs)
         lines += [f"    static const int {table}_{array}[{len(pairs)}][2] = {{{entries}}};",
@@ -525,7 +543,8 @@ def _structure(expr, names, memo):
     return text
 
 
-def generate_c(program, functions, sizes, describe=str, cse=None, units=True, lanes=True):
+def generate_c(program, functions, sizes, describe=str, cse=None, units=True, lanes=True,
+               plain=(), share=None):
     """C source template of an extension module (see :func:`load_module`).
 
     Parameters
@@ -553,14 +572,16 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
     lanes : bool
         Add the lane-wise dynamics of ``rhs_batch`` where it applies
         (:func:`lanes_wanted`).
+    plain, share : see :func:`generate_c_units`
     """
     if units:
         return UNIT_MARK.join(generate_c_units(program, functions, sizes, describe, cse,
-                                               lanes))
+                                               lanes, plain, share))
     lanes = lanes_wanted(functions, sizes, lanes)
-    generic, model = _runtime_parts(functions, sizes, lanes)
+    generic, model = _runtime_parts(functions, sizes, lanes, share)
     generated, work, lane_work = [], 0, 0
-    for src, _, w, lw in _function_sources(program, functions, sizes, describe, cse, lanes):
+    for src, _, w, lw in _function_sources(program, functions, sizes, describe, cse, lanes,
+                                           plain, share):
         generated.append(src)
         work, lane_work = max(work, w), max(lane_work, lw)
     sizes_known = [f"#define KD_NW {work}"] + ([f"#define KD_NWL {lane_work}"] if lanes else [])
@@ -571,7 +592,7 @@ def generate_c(program, functions, sizes, describe=str, cse=None, units=True, la
 
 
 def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=True,
-                     plain=()):
+                     plain=(), share=None):
     """The translation units of a module, each yielded as soon as it is made.
 
     The runtime is in two units: the generic one (the Python entry points,
@@ -595,14 +616,17 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     :func:`load_module`, the compiler starts on each unit as soon as it comes.
     Arguments as for :func:`generate_c`; ``plain``: names of functions listed
     without common subexpressions whatever ``cse`` says (the same numbers:
-    each expression is evaluated as written, its repeated parts again).
+    each expression is evaluated as written, its repeated parts again);
+    ``share``: ``("dynamics", "jacobians")`` in a derivative module, whose
+    solve (``KD_JAC_SHARED``) calls the derivatives' part that takes what the
+    dynamics computed (:func:`_shared_sources`).
     """
     lanes = lanes_wanted(functions, sizes, lanes)
-    generic, model = _runtime_parts(functions, sizes, lanes)
+    generic, model = _runtime_parts(functions, sizes, lanes, share)
     yield _runtime_unit(generic, sizes, lanes)
     small, small_preamble, cold, cold_preamble, work, lane_work = [], [], [], [], 0, 0
     for src, preamble, w, lw in _function_sources(program, functions, sizes, describe, cse,
-                                                  lanes, plain):
+                                                  lanes, plain, share):
         work, lane_work = max(work, w), max(lane_work, lw)
         for piece in src.split(PIECE_MARK):
             if len(piece) >= UNIT_MIN_CHARS:
@@ -651,15 +675,27 @@ _STRAIGHT_LINE = ('#if defined(__GNUC__) && !defined(__clang__)\n'
 _COLD_FUNCTIONS = ("energy", "auxiliary")
 
 
-def _function_sources(program, functions, sizes, describe, cse, lanes, plain=()):
+def _function_sources(program, functions, sizes, describe, cse, lanes, plain=(),
+                      share=None):
     """Yield ``(source, preamble, work, lane work)`` per generated function, the
     largest kinds first (the tree pass, the dynamics and its lane-wise copy);
     ``preamble``: what a translation unit of the function needs before it;
     ``work``: doubles of work array it needs (``lane work`` for the lanes).
-    ``cse=None``: every function but the tree pass (:func:`_eliminates`)."""
+    ``cse=None``: every function but the tree pass (:func:`_eliminates`);
+    ``share``: a pair of functions listed together (:func:`_shared_sources`)."""
     preamble = ["#define KD_GEN", _c_runtime.PRELUDE, _STRAIGHT_LINE, *_size_defines(sizes)]
     first = [name for name in ("tree", "dynamics") if name in functions]
+    done = set()
     for name in first + [name for name in functions if name not in first]:
+        if name in done:
+            continue
+        if share is not None and name in share:
+            for src, w in _shared_sources(program, functions, share, describe,
+                                          [_eliminates(f, cse) and f not in plain
+                                           for f in share]):
+                yield src, preamble, w, 0
+            done.update(share)
+            continue
         arguments, outputs = functions[name]
         eliminate = _eliminates(name, cse) and name not in plain
         listing = None
@@ -672,6 +708,76 @@ def _function_sources(program, functions, sizes, describe, cse, lanes, plain=())
         src, w = _function_source(program, name, arguments, outputs, describe, eliminate,
                                   listing)
         yield src, [COLD_UNIT, *preamble] if name in _COLD_FUNCTIONS else preamble, w, 0
+
+
+def _shared_sources(program, functions, pair, describe, eliminate):
+    """``(source, work)`` of two functions whose second takes the values of the
+    first from the work array instead of computing them again: the model's
+    ``dynamics`` (M and the forcing, the accelerations solved from them) and the
+    derivatives at those accelerations (``jacobians``), which share the
+    kinematics, the sines and cosines.  Yields the first function
+    (``kd_eval_<first>``, which also stores the shared values), the second's
+    part after it (``kd_eval_<second>_shared``, to be called after the first
+    with the same work array and ``t, y, p`` and the first's ``r`` leading its
+    own), and ``kd_eval_<second>`` itself: both in turn, the first's outputs
+    on the stack.
+
+    ``eliminate``: whether each is listed with common subexpressions
+    eliminated.  Both: one listing of both (their common subexpressions shared
+    too); otherwise each listed on its own, sharing the program's
+    intermediates the first computes."""
+    one, two = pair
+    (first_arguments, first_outputs), (arguments, outputs) = functions[one], functions[two]
+    first_flat = [sm.sympify(e, strict=True) for _, exprs in first_outputs for e in exprs]
+    flat = [sm.sympify(e, strict=True) for _, exprs in outputs for e in exprs]
+    if all(eliminate):
+        assignments, both = program.listing(first_flat + flat, cse=True)
+        first_listing = (assignments, both[:len(first_flat)])
+        second_listing = (assignments, both[len(first_flat):])
+    else:  # no temporaries in common (kd_cseK of two listings would be equal symbols)
+        first_listing = program.listing(first_flat, cse=eliminate[0])
+        second_listing = program.listing(flat, cse=eliminate[1] and not eliminate[0])
+    first_needed = _needed(*first_listing)
+    needed = _needed(*second_listing, given=first_needed)
+    first_assignments = [(s, e) for s, e in first_listing[0] if s in first_needed]
+    assignments = [(s, e) for s, e in second_listing[0] if s in needed
+                   and s not in first_needed]
+    slots = {s: k for k, (s, _) in enumerate(
+        (s, e) for s, e in first_assignments if s in needed)}
+    src, first_work = _function_source(program, one, first_arguments, first_outputs, describe,
+                                       None, (first_assignments, first_listing[1]),
+                                       export=slots, offset=len(slots))
+    yield src, first_work
+    src, work = _function_source(program, two + "_shared", arguments, outputs, describe, None,
+                                 (assignments, second_listing[1]), external=slots,
+                                 offset=len(slots))
+    args = "t, y, p, r, w"
+    scratch = [f"a{k}" for k in range(len(first_outputs))]
+    lines = [_signature(one, len(first_outputs)) + ";",
+             _signature(two + "_shared", len(outputs)) + ";",
+             _signature(two, len(outputs)) + " {",
+             *(f"    double a{k}[{max(1, len(exprs))}];"
+               for k, (_, exprs) in enumerate(first_outputs)),
+             f"    kd_eval_{one}({args}{''.join(', ' + a for a in scratch)});",
+             f"    kd_eval_{two}_shared({args}"
+             f"{''.join(f', o{k}' for k in range(len(outputs)))});",
+             "}"]
+    yield src + "\n" + "\n".join(lines), max(first_work, work)
+
+
+def _needed(assignments, outputs, given=()):
+    """The symbols of ``assignments`` that ``outputs`` need, not looking past
+    those ``given`` (included where needed)."""
+    definition = dict(assignments)
+    found, stack = set(), [s for e in outputs for s in e.free_symbols if s in definition]
+    while stack:
+        s = stack.pop()
+        if s in found:
+            continue
+        found.add(s)
+        if s not in given:
+            stack.extend(x for x in definition[s].free_symbols if x in definition)
+    return found
 
 
 def _eliminates(name, cse):
@@ -751,7 +857,7 @@ def prefetch_runtime(sizes):
     prefetch(predicted_runtime_unit(sizes))
 
 
-def _runtime_parts(functions, sizes, lanes):
+def _runtime_parts(functions, sizes, lanes, share=None):
     """``(generic, model)``: the two runtime units of a module
     (:class:`_RuntimePart`), everything but the generated functions and the
     work-array sizes (``KD_NW``, ``KD_NWL``)."""
@@ -770,6 +876,10 @@ def _runtime_parts(functions, sizes, lanes):
                f"#define KD_INIT_FUNCTION PyInit_{NAME_TOKEN}",
                *solver_source(functions, sizes)]
     model_declarations = list(declarations.values())
+    if share is not None:  # the part of the second that takes the first's values
+        model_declarations.append(_signature(share[1] + "_shared",
+                                             len(functions[share[1]][1])) + ";")
+        defines.append("#define KD_JAC_SHARED 1")
     if lanes:
         model_declarations.append(_c_lanes.SIGNATURE + ";")
     # inverse dynamics of a trajectory: the function and the constraint terms at
@@ -782,6 +892,11 @@ def _runtime_parts(functions, sizes, lanes):
     if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
         defines.append(f"#define KD_JP {columns}")
         defines.extend(jacobian_tree_source(sizes))
+        if "tree" in functions and not sizes["n_u_dep"]:  # solved by the tree pass
+            parent, order = sizes["speed_tree"]
+            chain = (list(parent) == list(range(-1, len(parent) - 1))
+                     and list(order) == list(range(len(parent) - 1, -1, -1)))
+            defines += ["#define KD_JAC_TREE_SOLVE 1", f"#define KD_TSOLVE_CHAIN {int(chain)}"]
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
             *([_c_runtime.JACOBIAN_SOLVE] if columns is not None else []),
             _function_table(functions, rows), _c_runtime.MODULE_FOOTER]

@@ -352,6 +352,18 @@ JACOBIAN_SOLVE = r"""
 #define KD_NS (KD_NU + KD_NUDEP)           /* unknowns of the index-1 system */
 #define KD_JC (KD_NX + KD_NR + KD_JP)      /* derivative columns */
 #define KD_NCON (KD_NQDEP + KD_NUDEP)      /* constraint rows */
+/* only the state's columns (no inputs, no constants asked for): the generated
+   derivatives write their blocks g_y and [E_y; a_y] where they go, into the
+   rows of q' and of u' (and lambda) of D, and the solve runs on them there */
+#define KD_JAC_ONE_GROUP (KD_NR == 0 && KD_JP == 0)
+#ifndef KD_JAC_SHARED
+#define KD_JAC_SHARED 0
+#endif
+#if KD_JAC_SHARED  /* the derivatives take what kd_eval_dynamics left in w */
+#define KD_JAC_EVAL kd_eval_jacobians_shared
+#else
+#define KD_JAC_EVAL kd_eval_jacobians
+#endif
 #ifndef KD_TREE_JAC
 #define KD_TREE_JAC 0
 #endif
@@ -365,9 +377,25 @@ JACOBIAN_SOLVE = r"""
 /* scratch: the dynamics' outputs, the system and its pivots, the extended
    inputs, the derivative blocks (the solve is done in place in D) and the
    tree's factors */
+#ifndef KD_JAC_TREE_SOLVE
+#define KD_JAC_TREE_SOLVE 0
+#endif
+#if KD_JAC_TREE_SOLVE
+/* the articulated-body solve (kd_tree_apply): its bias rows, 6 x KD_JC for a
+   chain (one block, updated in place), 6 x KD_JC per speed for a tree */
+#if KD_TSOLVE_CHAIN
+#define KD_TREE_BIAS (6 * KD_JC)
+#else
+#define KD_TREE_BIAS (6 * KD_JC * KD_NU)
+#endif
+/* S (6 per speed), IO (10), U / D (6), 1 / D (1) */
+#define KD_TREE_SOLVE_SCRATCH (23 * KD_NU + KD_TREE_BIAS)
+#else
+#define KD_TREE_SOLVE_SCRATCH 0
+#endif
 #define KD_JAC_SCRATCH (KD_NQ + KD_NU * KD_NU + KD_NU + 2 * KD_NUDEP * KD_NU + KD_NUDEP \
     + KD_NS * KD_NS + 2 * KD_NS + KD_NR + KD_NS + KD_NQ * KD_JC + KD_NS * KD_JC \
-    + KD_TREE_FACTORS + 1)
+    + KD_TREE_FACTORS + KD_TREE_SOLVE_SCRATCH + 1)
 
 #if KD_TREE_JAC
 #if KD_NQ != KD_NU || KD_NUDEP != 0
@@ -629,6 +657,217 @@ KD_VECTORIZED static void kd_jacobian_group(const double *restrict g, const doub
     }
 }
 
+#if KD_JAC_TREE_SOLVE
+#if KD_SOLVE != 3 || KD_NUDEP > 0
+#error "the articulated-body solve of the derivatives needs the tree pass (KD_SOLVE 3)"
+#endif
+/* The articulated-body factors of M and M x = b in place (kd_tree_solve's pass,
+   the factors kept): for each speed r, UD_r = U_r / D_r with U_r = IA_r S_r (6;
+   IA_r the articulated inertia of the bodies at and below r) and 1 / D_r, D_r =
+   S_r . U_r; S: 6 per speed, IO: 10 (kd_eval_tree).  1 if a D_r is not > 0. */
+KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *restrict IO,
+                                        double *restrict UD, double *restrict Dinv,
+                                        double *restrict b) {
+    static const int sym[9] = {0, 1, 2, 1, 3, 4, 2, 4, 5};
+    double IA[KD_NU][36], pa[KD_NU][6], A[KD_NU][6];
+    for (int r = 0; r < KD_NU; ++r) {
+        const double *g = IO + 10 * r;
+        double *Ia = IA[r];
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                Ia[i * 6 + j] = g[sym[i * 3 + j]];
+                Ia[(i + 3) * 6 + j + 3] = i == j ? g[9] : 0.0;
+            }
+        }
+        const double hx = g[6], hy = g[7], hz = g[8];
+        const double H[9] = {0.0, -hz, hy, hz, 0.0, -hx, -hy, hx, 0.0};  /* h x . */
+        for (int i = 0; i < 3; ++i) {
+            for (int j = 0; j < 3; ++j) {
+                Ia[i * 6 + j + 3] = H[i * 3 + j];
+                Ia[(j + 3) * 6 + i] = H[i * 3 + j];
+            }
+        }
+        for (int i = 0; i < 6; ++i) pa[r][i] = 0.0;
+    }
+    for (int k = 0; k < KD_NU; ++k) {  /* leaves to roots */
+        const int r = kd_torder[k];
+        const double *restrict s = S + 6 * r;
+        const double *restrict Ia = IA[r];
+        double U[6], d = 0.0, e = b[r];
+        for (int i = 0; i < 6; ++i) {
+            double v = 0.0;
+            for (int j = 0; j < 6; ++j) v += Ia[i * 6 + j] * s[j];
+            U[i] = v;
+            d += s[i] * v;
+            e -= s[i] * pa[r][i];
+        }
+        if (!(d > 0.0)) return 1;
+        const double inv = 1.0 / d;
+        Dinv[r] = inv;
+        b[r] = e;
+        for (int i = 0; i < 6; ++i) UD[6 * r + i] = U[i] * inv;
+        const int up = kd_tparent[r];
+        if (up < 0) continue;
+        double *restrict P = IA[up];
+        for (int i = 0; i < 6; ++i) {
+            const double ui = UD[6 * r + i];
+            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[j];
+            pa[up][i] += pa[r][i] + ui * e;
+        }
+    }
+    for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves */
+        const int r = kd_torder[k], up = kd_tparent[r];
+        const double *restrict s = S + 6 * r;
+        double x = b[r] * Dinv[r];
+        if (up >= 0)
+            for (int i = 0; i < 6; ++i) x -= UD[6 * r + i] * A[up][i];
+        for (int i = 0; i < 6; ++i) A[r][i] = (up >= 0 ? A[up][i] : 0.0) + s[i] * x;
+        b[r] = x;
+    }
+    return 0;
+}
+
+/* X = -M^-1 X in place (X: KD_NU rows of `cols`, a row per speed) from the
+   factors of kd_tree_factor, all columns at once along rows (the compiler
+   vectorizes them): leaves to roots, c_r = x_r - S_r . P_r and P_parent +=
+   P_r + UD_r c_r (P_r: 6 rows, the bias of the bodies below r); roots to
+   leaves, x_r = c_r / D_r - UD_r . A_parent and A_r = A_parent + S_r x_r
+   (A_r: 6 rows, the acceleration of r's body, in P_r's place), all of them
+   negated there (-c_r / D_r: the sign of the result taken in that pass).  About 24
+   multiply-adds per speed and column, against n for the factors of M.  The
+   number of columns, KD_JC, is known to the compiler, which then vectorizes
+   the rows (it did not for a number given at run time) */
+KD_VECTORIZED static void kd_tree_apply(const double *restrict S, const double *restrict UD,
+                                 const double *restrict Dinv, double *restrict X,
+                                 double *restrict P) {
+    const int cols = KD_JC;
+#if KD_TSOLVE_CHAIN
+    for (int c = 0; c < 6 * cols; ++c) P[c] = 0.0;
+#define KD_BIAS(r) P  /* one block: P of the speed below, then of r (in place) */
+#else
+    for (int c = 0; c < 6 * cols * KD_NU; ++c) P[c] = 0.0;
+#define KD_BIAS(r) (P + (r) * 6 * cols)
+#endif
+    for (int k = 0; k < KD_NU; ++k) {  /* leaves to roots */
+        const int r = kd_torder[k], up = kd_tparent[r];
+        const double s0 = S[6 * r], s1 = S[6 * r + 1], s2 = S[6 * r + 2], s3 = S[6 * r + 3],
+                     s4 = S[6 * r + 4], s5 = S[6 * r + 5];
+        double *restrict x = X + r * cols;
+        double *restrict b0 = KD_BIAS(r), *restrict b1 = b0 + cols, *restrict b2 = b1 + cols,
+               *restrict b3 = b2 + cols, *restrict b4 = b3 + cols, *restrict b5 = b4 + cols;
+        if (up < 0) {
+            for (int j = 0; j < cols; ++j)
+                x[j] -= (s0 * b0[j] + s1 * b1[j]) + (s2 * b2[j] + s3 * b3[j])
+                        + (s4 * b4[j] + s5 * b5[j]);
+            continue;
+        }
+        const double u0 = UD[6 * r], u1 = UD[6 * r + 1], u2 = UD[6 * r + 2],
+                     u3 = UD[6 * r + 3], u4 = UD[6 * r + 4], u5 = UD[6 * r + 5];
+#if KD_TSOLVE_CHAIN
+        for (int j = 0; j < cols; ++j) {  /* the parent's P in place */
+            const double c = x[j] - ((s0 * b0[j] + s1 * b1[j]) + (s2 * b2[j] + s3 * b3[j])
+                                     + (s4 * b4[j] + s5 * b5[j]));
+            x[j] = c;
+            b0[j] += u0 * c; b1[j] += u1 * c; b2[j] += u2 * c;
+            b3[j] += u3 * c; b4[j] += u4 * c; b5[j] += u5 * c;
+        }
+#else
+        double *restrict a0 = KD_BIAS(up), *restrict a1 = a0 + cols, *restrict a2 = a1 + cols,
+               *restrict a3 = a2 + cols, *restrict a4 = a3 + cols, *restrict a5 = a4 + cols;
+        for (int j = 0; j < cols; ++j) {
+            const double c = x[j] - ((s0 * b0[j] + s1 * b1[j]) + (s2 * b2[j] + s3 * b3[j])
+                                     + (s4 * b4[j] + s5 * b5[j]));
+            x[j] = c;
+            a0[j] += b0[j] + u0 * c; a1[j] += b1[j] + u1 * c; a2[j] += b2[j] + u2 * c;
+            a3[j] += b3[j] + u3 * c; a4[j] += b4[j] + u4 * c; a5[j] += b5[j] + u5 * c;
+        }
+#endif
+    }
+    for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves: A in P's place */
+        const int r = kd_torder[k], up = kd_tparent[r];
+        const double s0 = S[6 * r], s1 = S[6 * r + 1], s2 = S[6 * r + 2], s3 = S[6 * r + 3],
+                     s4 = S[6 * r + 4], s5 = S[6 * r + 5];
+        const double inv = -Dinv[r];  /* -M^-1 X */
+        double *restrict x = X + r * cols;
+        double *restrict a0 = KD_BIAS(r), *restrict a1 = a0 + cols, *restrict a2 = a1 + cols,
+               *restrict a3 = a2 + cols, *restrict a4 = a3 + cols, *restrict a5 = a4 + cols;
+        if (up < 0) {
+            for (int j = 0; j < cols; ++j) {
+                const double v = x[j] * inv;
+                x[j] = v;
+                a0[j] = s0 * v; a1[j] = s1 * v; a2[j] = s2 * v;
+                a3[j] = s3 * v; a4[j] = s4 * v; a5[j] = s5 * v;
+            }
+            continue;
+        }
+        const double u0 = UD[6 * r], u1 = UD[6 * r + 1], u2 = UD[6 * r + 2],
+                     u3 = UD[6 * r + 3], u4 = UD[6 * r + 4], u5 = UD[6 * r + 5];
+#if KD_TSOLVE_CHAIN
+        for (int j = 0; j < cols; ++j) {  /* A of the speed above, then of r (in place) */
+            const double v = x[j] * inv - ((u0 * a0[j] + u1 * a1[j]) + (u2 * a2[j] + u3 * a3[j])
+                                           + (u4 * a4[j] + u5 * a5[j]));
+            x[j] = v;
+            a0[j] += s0 * v; a1[j] += s1 * v; a2[j] += s2 * v;
+            a3[j] += s3 * v; a4[j] += s4 * v; a5[j] += s5 * v;
+        }
+#else
+        const double *restrict g0 = KD_BIAS(up), *restrict g1 = g0 + cols,
+                     *restrict g2 = g1 + cols, *restrict g3 = g2 + cols,
+                     *restrict g4 = g3 + cols, *restrict g5 = g4 + cols;
+        for (int j = 0; j < cols; ++j) {
+            const double v = x[j] * inv - ((u0 * g0[j] + u1 * g1[j]) + (u2 * g2[j] + u3 * g3[j])
+                                           + (u4 * g4[j] + u5 * g5[j]));
+            x[j] = v;
+            a0[j] = g0[j] + s0 * v; a1[j] = g1[j] + s1 * v; a2[j] = g2[j] + s2 * v;
+            a3[j] = g3[j] + s3 * v; a4[j] = g4[j] + s4 * v; a5[j] = g5[j] + s5 * v;
+        }
+#endif
+    }
+#undef KD_BIAS
+}
+#endif
+
+#if KD_JAC_TREE_SOLVE
+/* kd_jacobian_core of a tree without M: the tree pass (kd_eval_tree: q', the
+   forcing, S, IO) and the articulated-body factors give u' and then the
+   derivative columns (kd_tree_apply); a factor not > 0: singular (1) */
+KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
+                            double *w, double *scratch, double *f, double *D, double *C) {
+    double *qd = scratch, *fv = qd + KD_NQ, *Sv = fv + KD_NU, *IO = Sv + 6 * KD_NU;
+    double *UD = IO + 10 * KD_NU, *Dinv = UD + 6 * KD_NU, *bias = Dinv + KD_NU;
+    double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU, *EA = G + KD_NQ * KD_JC;
+    double *TF = EA + KD_NU * KD_JC;
+    (void)TF;
+    double *X = D + KD_NQ * KD_JC;
+    kd_eval_tree(t, y, p, r, w, qd, fv, Sv, IO);
+    for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
+    double *ud = rx + KD_NR;
+    memcpy(ud, fv, sizeof(double) * KD_NU);
+    if (kd_tree_factor(Sv, IO, UD, Dinv, ud) != 0) return 1;
+    double *g[3], *E[3], *a[3];
+    const int cols[3] = {KD_NX, KD_NR, KD_JP};
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
+        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
+        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NU * at;
+        a[k] = E[k] + KD_NU * cols[k];
+    }
+#if KD_JP > 0
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C KD_TREE_OUT);
+#else
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], C, C KD_TREE_OUT);
+#endif
+#if KD_TREE_JAC
+    kd_tree_jacobian(TF, E[0]);
+#endif
+    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 0, D, X);
+    kd_tree_apply(Sv, UD, Dinv, X, bias);  /* -M^-1 X: the sign in its last pass */
+    memcpy(f, qd, sizeof(double) * KD_NQ);
+    memcpy(f + KD_NQ, ud, sizeof(double) * KD_NU);
+    return 0;
+}
+#else
 KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const double *r,
                             double *w, double *scratch, double *f, double *D, double *C) {
     double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
@@ -653,16 +892,16 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *g[3], *E[3], *a[3];
     const int cols[3] = {KD_NX, KD_NR, KD_JP};
     for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = G + KD_NQ * at;
-        E[k] = EA + KD_NS * at;
+        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
+        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NS * at;
         a[k] = E[k] + KD_NU * cols[k];
     }
 #if KD_JP > 0
-    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #else
-    kd_eval_jacobians(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                      C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #endif
 #if KD_TREE_JAC
     kd_tree_jacobian(TF, E[0]);
@@ -671,8 +910,10 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
 #if KD_JACOBIAN_LTDL
     negate = lu;
 #endif
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k)
+    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
         if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
+    if (KD_JAC_ONE_GROUP && negate)  /* written in place: the sign here */
+        for (int i = 0; i < KD_NS * KD_JC; ++i) X[i] = -X[i];
 #if KD_JACOBIAN_LTDL
     if (!lu) kd_ltdl_apply(M, X); else
 #endif
@@ -681,11 +922,13 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     memcpy(f + KD_NQ, sol, sizeof(double) * KD_NU);
     return 0;
 }
+#endif
 
 static const KdJacobianInfo kd_jacobian_info = {kd_jacobian_core, KD_JC, KD_NCON,
                                                 KD_JAC_SCRATCH};
 #define KD_JACOBIAN_INFO (&kd_jacobian_info)
 """
+
 
 #: the part of the runtime without Python: linear algebra and the right-hand
 #: side ``kd_rhs_core`` (the standalone C export)
