@@ -406,3 +406,27 @@ def test_one_state_with_multipliers_in_one_call():
         np.testing.assert_array_equal(getattr(again, part), getattr(first, part))
         np.testing.assert_array_equal(getattr(again, part), getattr(rows, part)[0])
     assert again.multiplier_names == first.multiplier_names
+
+
+@needs_compiler
+def test_the_pass_solves_one_state_in_place_as_the_numpy_backend(tmp_path, monkeypatch):
+    """chain3d n = 19, the smallest chain the pass solves by default: the state's
+    columns only (written in place in the result), called twice at one state
+    (the first call builds the module, the second is the one-state path), and a
+    batch, against the NumPy backend's derivatives (M and a dense solve, another
+    code path) and central differences of the right-hand side."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "cache"))
+    definition = kd.models.build("chain3d", n=19, style="positions", lazy=False)
+    eom = definition.derive()
+    c, ref = (definition.numeric(eom, backend=b) for b in ("c", "numpy"))
+    y = definition.initial(c) + np.linspace(0.1, 0.6, c.n_states)
+    first, second = c.jacobians(0.0, y), c.jacobians(0.0, y)
+    assert "function tree" in _jacobians._c_key(c, False)[0]  # solved by the pass
+    expected = ref.jacobians(0.0, y).state
+    for J in (first, second, c.jacobians(0.0, np.stack([y, y]))):
+        states = J.state if J.state.ndim == 2 else J.state[1]
+        assert relative(states, expected) < 1e-11
+    h = 1e-6
+    by_differences = np.stack([(c.rhs(0.0, y + h * e) - c.rhs(0.0, y - h * e)) / (2 * h)
+                            for e in np.eye(c.n_states)], axis=1)
+    assert relative(second.state, by_differences) < 1e-7

@@ -796,3 +796,42 @@ def test_built_in_model_shapes():
     assert (front.body.name, front.radius) == ("front_wheel", 0.35)
     np.testing.assert_allclose(rear.rotation[:, 1], [0, 1, 0])  # the spin axis
     assert kd.models.pendulum().shapes() == []
+
+
+_NEAR_INTEGERS = """<robot name="near">
+  <link name="base"/>
+  <link name="a"><inertial><origin xyz="0.1 0.02 -0.03" rpy="0.2 0 0.1"/><mass value="1.2"/>
+    <inertia ixx="0.02" ixy="0.001" ixz="0" iyy="0.03" iyz="0" izz="0.025"/></inertial></link>
+  <link name="b"><inertial><origin xyz="0 0.3 0" rpy="0 0 0"/><mass value="0.7"/>
+    <inertia ixx="0.01" ixy="0" ixz="0" iyy="0.004" iyz="0" izz="0.01"/></inertial></link>
+  <joint name="j1" type="revolute"><parent link="base"/><child link="a"/>
+    <origin xyz="0.5 1e-10 5.000000000000001" rpy="1.5707963267948966 0 0"/>
+    <axis xyz="0 0 1"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
+  <joint name="j2" type="revolute"><parent link="a"/><child link="b"/>
+    <origin xyz="0 0.4 -0.9999999999999999" rpy="0 -1.5707963267948966 3.141592653589793"/>
+    <axis xyz="1 0 0"/><limit effort="1" velocity="1" lower="-3" upper="3"/></joint>
+</robot>
+"""
+
+
+def test_entries_within_round_off_of_an_integer_are_that_integer(tmp_path):
+    """A rotation by pi/2 written in radians, an offset 1 ulp from an integer:
+    the URDF reader takes the integers (within 1e-15; 0.5 and 1e-10 are kept),
+    and the model still matches Pinocchio's, which reads the floats."""
+    import sympy as sm
+
+    from kanedyn.models._urdf import _number
+    for text, expected in (("6.123233995736766e-17", 0), ("1.0000000000000002", 1),
+                           ("-0.9999999999999999", -1), ("5.000000000000001", 5)):
+        value = _number(text)
+        assert isinstance(value, sm.Integer) and value == expected, text
+    for text in ("0.5", "1e-10", "1e-14", "8.000000000000002"):
+        value = _number(text)
+        assert isinstance(value, sm.Float) and float(value) == float(text), text
+    path = tmp_path / "near.urdf"
+    path.write_text(_NEAR_INTEGERS)
+    definition = kd.models.from_urdf(path)
+    numbers = {a for e in definition.derive().mass_matrix for a in e.atoms(sm.Float)}
+    assert not any(abs(float(a)) < 1e-12 for a in numbers)  # no cos(pi/2) left as a float
+    worst_a, worst_m = compare_with_pinocchio(definition, pin.buildModelFromUrdf(str(path)))
+    assert worst_a < 1e-13 and worst_m < 1e-14, (worst_a, worst_m)

@@ -187,8 +187,9 @@ _ROUND_OFF = 1e-15
 
 
 def _number(value):
-    """The SymPy number of a rotation's entry, an axis' or an offset's component:
-    the integer it is within :data:`_ROUND_OFF` of, else the float.  A rotation
+    """The SymPy number of a rotation's entry, an axis', an offset's or the gravity
+    direction's component: the integer it is within :data:`_ROUND_OFF` of, else
+    the float.  A rotation
     by a multiple of pi/2, written in radians (``rpy="1.5707963267948966 0 0"``,
     as the Panda's URDF has), has entries cos(pi/2) = 6.1e-17 and 1.0: as
     floats they cost a product and a sum each wherever they enter the
