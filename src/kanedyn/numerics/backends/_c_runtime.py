@@ -210,15 +210,15 @@ static int kd_ltdl_tree(double *restrict A, double *restrict b) {
     return 0;
 }
 #elif KD_SOLVE == 3
-/* M x = b for M_rs = S_r^T I(B_r & B_s) S_s (a tree of speeds, kd_tparent,
-   -1 at a root; kd_torder lists every speed before its parent): an
-   articulated-body pass, O(n).  S: 6 per speed (W, V about O); IO: the spatial
-   inertia about O of the bodies attached at each speed (J00 J01 J02 J11 J12 J22,
-   h, m).  b is overwritten by x.  Returns 1 if a pivot is not > 0. */
-KD_VECTORIZED static int kd_tree_solve(const double *restrict S, const double *restrict IO,
-                                       double *restrict b) {
+/* The articulated-body factors of M and M x = b in place (see kd_tree_solve):
+   for each speed r, UD_r = U_r / D_r with U_r = IA_r S_r (6; IA_r the
+   articulated inertia of the bodies at and below r) and 1 / D_r, D_r = S_r . U_r;
+   S: 6 per speed, IO: 10 (kd_eval_tree).  1 if a D_r is not > 0. */
+KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *restrict IO,
+                                        double *restrict UD, double *restrict Dinv,
+                                        double *restrict b) {
     static const int sym[9] = {0, 1, 2, 1, 3, 4, 2, 4, 5};
-    double IA[KD_NU][36], pa[KD_NU][6], U[KD_NU][6], c[KD_NU], Dinv[KD_NU], A[KD_NU][6];
+    double IA[KD_NU][36], pa[KD_NU][6], A[KD_NU][6];
     for (int r = 0; r < KD_NU; ++r) {
         const double *g = IO + 10 * r;
         double *Ia = IA[r];
@@ -242,40 +242,49 @@ KD_VECTORIZED static int kd_tree_solve(const double *restrict S, const double *r
         const int r = kd_torder[k];
         const double *restrict s = S + 6 * r;
         const double *restrict Ia = IA[r];
-        double d = 0.0, e = b[r];
+        double U[6], d = 0.0, e = b[r];
         for (int i = 0; i < 6; ++i) {
             double v = 0.0;
             for (int j = 0; j < 6; ++j) v += Ia[i * 6 + j] * s[j];
-            U[r][i] = v;
+            U[i] = v;
             d += s[i] * v;
             e -= s[i] * pa[r][i];
         }
         if (!(d > 0.0)) return 1;
         const double inv = 1.0 / d;
         Dinv[r] = inv;
-        c[r] = e;
+        b[r] = e;
+        for (int i = 0; i < 6; ++i) UD[6 * r + i] = U[i] * inv;
         const int up = kd_tparent[r];
         if (up < 0) continue;
         double *restrict P = IA[up];
         for (int i = 0; i < 6; ++i) {
-            const double ui = U[r][i] * inv;
-            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[r][j];
+            const double ui = U[i] * inv;
+            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[j];
             pa[up][i] += pa[r][i] + ui * e;
         }
     }
     for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves */
-        const int r = kd_torder[k];
-        const int up = kd_tparent[r];
+        const int r = kd_torder[k], up = kd_tparent[r];
         const double *restrict s = S + 6 * r;
-        double x = c[r];
-        if (up >= 0) {
-            for (int i = 0; i < 6; ++i) x -= U[r][i] * A[up][i];
-        }
-        x *= Dinv[r];
+        double x = b[r] * Dinv[r];
+        if (up >= 0)
+            for (int i = 0; i < 6; ++i) x -= UD[6 * r + i] * A[up][i];
         for (int i = 0; i < 6; ++i) A[r][i] = (up >= 0 ? A[up][i] : 0.0) + s[i] * x;
         b[r] = x;
     }
     return 0;
+}
+
+/* M x = b for M_rs = S_r^T I(B_r & B_s) S_s (a tree of speeds, kd_tparent,
+   -1 at a root; kd_torder lists every speed before its parent): an
+   articulated-body pass, O(n).  S: 6 per speed (W, V about O); IO: the spatial
+   inertia about O of the bodies attached at each speed (J00 J01 J02 J11 J12 J22,
+   h, m).  b is overwritten by x.  Returns 1 if a pivot is not > 0. */
+static int kd_tree_solve(const double *restrict S, const double *restrict IO,
+                         double *restrict b) {
+    double UD[6 * KD_NU], Dinv[KD_NU];
+    return kd_tree_factor(S, IO, UD, Dinv, b);
 }
 #endif
 
@@ -661,72 +670,6 @@ KD_VECTORIZED static void kd_jacobian_group(const double *restrict g, const doub
 #if KD_SOLVE != 3 || KD_NUDEP > 0
 #error "the articulated-body solve of the derivatives needs the tree pass (KD_SOLVE 3)"
 #endif
-/* The articulated-body factors of M and M x = b in place (kd_tree_solve's pass,
-   the factors kept): for each speed r, UD_r = U_r / D_r with U_r = IA_r S_r (6;
-   IA_r the articulated inertia of the bodies at and below r) and 1 / D_r, D_r =
-   S_r . U_r; S: 6 per speed, IO: 10 (kd_eval_tree).  1 if a D_r is not > 0. */
-KD_VECTORIZED static int kd_tree_factor(const double *restrict S, const double *restrict IO,
-                                        double *restrict UD, double *restrict Dinv,
-                                        double *restrict b) {
-    static const int sym[9] = {0, 1, 2, 1, 3, 4, 2, 4, 5};
-    double IA[KD_NU][36], pa[KD_NU][6], A[KD_NU][6];
-    for (int r = 0; r < KD_NU; ++r) {
-        const double *g = IO + 10 * r;
-        double *Ia = IA[r];
-        for (int i = 0; i < 3; ++i) {
-            for (int j = 0; j < 3; ++j) {
-                Ia[i * 6 + j] = g[sym[i * 3 + j]];
-                Ia[(i + 3) * 6 + j + 3] = i == j ? g[9] : 0.0;
-            }
-        }
-        const double hx = g[6], hy = g[7], hz = g[8];
-        const double H[9] = {0.0, -hz, hy, hz, 0.0, -hx, -hy, hx, 0.0};  /* h x . */
-        for (int i = 0; i < 3; ++i) {
-            for (int j = 0; j < 3; ++j) {
-                Ia[i * 6 + j + 3] = H[i * 3 + j];
-                Ia[(j + 3) * 6 + i] = H[i * 3 + j];
-            }
-        }
-        for (int i = 0; i < 6; ++i) pa[r][i] = 0.0;
-    }
-    for (int k = 0; k < KD_NU; ++k) {  /* leaves to roots */
-        const int r = kd_torder[k];
-        const double *restrict s = S + 6 * r;
-        const double *restrict Ia = IA[r];
-        double U[6], d = 0.0, e = b[r];
-        for (int i = 0; i < 6; ++i) {
-            double v = 0.0;
-            for (int j = 0; j < 6; ++j) v += Ia[i * 6 + j] * s[j];
-            U[i] = v;
-            d += s[i] * v;
-            e -= s[i] * pa[r][i];
-        }
-        if (!(d > 0.0)) return 1;
-        const double inv = 1.0 / d;
-        Dinv[r] = inv;
-        b[r] = e;
-        for (int i = 0; i < 6; ++i) UD[6 * r + i] = U[i] * inv;
-        const int up = kd_tparent[r];
-        if (up < 0) continue;
-        double *restrict P = IA[up];
-        for (int i = 0; i < 6; ++i) {
-            const double ui = UD[6 * r + i];
-            for (int j = 0; j < 6; ++j) P[i * 6 + j] += Ia[i * 6 + j] - ui * U[j];
-            pa[up][i] += pa[r][i] + ui * e;
-        }
-    }
-    for (int k = KD_NU - 1; k >= 0; --k) {  /* roots to leaves */
-        const int r = kd_torder[k], up = kd_tparent[r];
-        const double *restrict s = S + 6 * r;
-        double x = b[r] * Dinv[r];
-        if (up >= 0)
-            for (int i = 0; i < 6; ++i) x -= UD[6 * r + i] * A[up][i];
-        for (int i = 0; i < 6; ++i) A[r][i] = (up >= 0 ? A[up][i] : 0.0) + s[i] * x;
-        b[r] = x;
-    }
-    return 0;
-}
-
 /* X = -M^-1 X in place (X: KD_NU rows of `cols`, a row per speed) from the
    factors of kd_tree_factor, all columns at once along rows (the compiler
    vectorizes them): leaves to roots, c_r = x_r - S_r . P_r and P_parent +=
