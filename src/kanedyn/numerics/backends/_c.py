@@ -409,6 +409,15 @@ def elimination_tree(nonzero):
     return parent
 
 
+def _solving_tree(functions, sizes):
+    """``(parent, order)`` of the tree of speeds whose articulated-body pass solves
+    the model (a ``tree`` function, :func:`speed_tree_outputs`, and no dependent
+    speeds), else ``None``."""
+    if "tree" in functions and not sizes["n_u_dep"]:
+        return sizes["speed_tree"]
+    return None
+
+
 def solver_source(functions, sizes):
     """C definitions choosing the solve of ``M u' = f`` (``KD_SOLVE``).
 
@@ -421,8 +430,9 @@ def solver_source(functions, sizes):
     formed; an articulated-body pass over the tree of speeds solves for u'.
     """
     n = sizes["n_u"]
-    if "tree" in functions and not sizes["n_u_dep"]:  # see speed_tree_outputs
-        parent, order = sizes["speed_tree"]
+    tree = _solving_tree(functions, sizes)
+    if tree is not None:
+        parent, order = tree
         return ["#define KD_SOLVE 3",
                 f"static const int kd_tparent[{n}] = {{{', '.join(map(str, parent))}}};",
                 f"static const int kd_torder[{n}] = {{{', '.join(map(str, order))}}};"]
@@ -892,8 +902,9 @@ def _runtime_parts(functions, sizes, lanes, share=None):
     if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
         defines.append(f"#define KD_JP {columns}")
         defines.extend(jacobian_tree_source(sizes))
-        if "tree" in functions and not sizes["n_u_dep"]:  # solved by the tree pass
-            parent, order = sizes["speed_tree"]
+        tree = _solving_tree(functions, sizes)
+        if tree is not None:  # solved by the tree pass
+            parent, order = tree
             chain = (list(parent) == list(range(-1, len(parent) - 1))
                      and list(order) == list(range(len(parent) - 1, -1, -1)))
             defines += ["#define KD_JAC_TREE_SOLVE 1", f"#define KD_TSOLVE_CHAIN {int(chain)}"]

@@ -666,6 +666,38 @@ KD_VECTORIZED static void kd_jacobian_group(const double *restrict g, const doub
     }
 }
 
+/* The derivatives at the solution rx (its inputs, then u' and the multipliers):
+   the blocks g_x, E_x, a_x of each column group, each at the start of its own
+   rows of G and EA (columns of that group only; in D and X themselves when there
+   is one group), h_y and c_y into C, a tree's n^2 part added from TF
+   (kd_tree_jacobian); then each group's blocks copied to its columns of D and
+   X, negated where `negate`. */
+static void kd_jacobian_blocks(double t, const double *y, const double *p, double *rx,
+                               double *w, double *G, double *EA, double *TF, int negate,
+                               double *D, double *X, double *C) {
+    double *g[3], *E[3], *a[3];
+    const int cols[3] = {KD_NX, KD_NR, KD_JP};
+    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
+        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
+        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NS * at;
+        a[k] = E[k] + KD_NU * cols[k];
+    }
+#if KD_JP > 0
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+#else
+    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
+                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+#endif
+#if KD_TREE_JAC
+    kd_tree_jacobian(TF, E[0]);
+#else
+    (void)TF;
+#endif
+    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
+        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
+}
+
 #if KD_JAC_TREE_SOLVE
 #if KD_SOLVE != 3 || KD_NUDEP > 0
 #error "the articulated-body solve of the derivatives needs the tree pass (KD_SOLVE 3)"
@@ -780,31 +812,13 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *UD = IO + 10 * KD_NU, *Dinv = UD + 6 * KD_NU, *bias = Dinv + KD_NU;
     double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU, *EA = G + KD_NQ * KD_JC;
     double *TF = EA + KD_NU * KD_JC;
-    (void)TF;
     double *X = D + KD_NQ * KD_JC;
     kd_eval_tree(t, y, p, r, w, qd, fv, Sv, IO);
     for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
     double *ud = rx + KD_NR;
     memcpy(ud, fv, sizeof(double) * KD_NU);
     if (kd_tree_factor(Sv, IO, UD, Dinv, ud) != 0) return 1;
-    double *g[3], *E[3], *a[3];
-    const int cols[3] = {KD_NX, KD_NR, KD_JP};
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
-        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NU * at;
-        a[k] = E[k] + KD_NU * cols[k];
-    }
-#if KD_JP > 0
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                C, C KD_TREE_OUT);
-#else
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], C, C KD_TREE_OUT);
-#endif
-#if KD_TREE_JAC
-    kd_tree_jacobian(TF, E[0]);
-#endif
-    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, 0, D, X);
+    kd_jacobian_blocks(t, y, p, rx, w, G, EA, TF, 0, D, X, C);
     kd_tree_apply(Sv, UD, Dinv, X, bias);  /* -M^-1 X: the sign in its last pass */
     memcpy(f, qd, sizeof(double) * KD_NQ);
     memcpy(f + KD_NQ, ud, sizeof(double) * KD_NU);
@@ -817,7 +831,6 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
     double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
     double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *TF = EA + KD_NS * KD_JC;
-    (void)TF;
     double *X = D + KD_NQ * KD_JC;  /* the solve in place: the rows of u', then of lambda */
     kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
     int lu = 1;
@@ -830,31 +843,11 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     if (lu && kd_index1_lu(M, fv, B, Ka, fa, S, piv, sol) != 0) return 1;
     for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
     for (int i = 0; i < KD_NS; ++i) rx[KD_NR + i] = sol[i];
-    /* the blocks g_x, E_x, a_x of each group, each at the start of its own rows of G
-       and EA (columns of that group only), then h_y, c_y into C */
-    double *g[3], *E[3], *a[3];
-    const int cols[3] = {KD_NX, KD_NR, KD_JP};
-    for (int k = 0, at = 0; k < 3; at += cols[k], ++k) {
-        g[k] = KD_JAC_ONE_GROUP ? D : G + KD_NQ * at;
-        E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NS * at;
-        a[k] = E[k] + KD_NU * cols[k];
-    }
-#if KD_JP > 0
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
-#else
-    KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
-#endif
-#if KD_TREE_JAC
-    kd_tree_jacobian(TF, E[0]);
-#endif
     int negate = 1;  /* kd_ltdl_apply negates by itself */
 #if KD_JACOBIAN_LTDL
     negate = lu;
 #endif
-    for (int k = 0, at = 0; k < 3 && !KD_JAC_ONE_GROUP; at += cols[k], ++k)
-        if (cols[k] > 0) kd_jacobian_group(g[k], E[k], a[k], cols[k], at, negate, D, X);
+    kd_jacobian_blocks(t, y, p, rx, w, G, EA, TF, negate, D, X, C);
     if (KD_JAC_ONE_GROUP && negate)  /* written in place: the sign here */
         for (int i = 0; i < KD_NS * KD_JC; ++i) X[i] = -X[i];
 #if KD_JACOBIAN_LTDL
