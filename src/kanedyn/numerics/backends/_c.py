@@ -314,6 +314,7 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
 
 _COPY = re.compile(r"([wypr])\[(\d+)\]")
 _COPY_MIN = 16  # copies from one array in a table loop, not one statement each
+_ZEROS_MIN = 16  # zeros of an output cleared by one loop, not one statement each
 
 
 def _output_lines(table, target, codes):
@@ -335,7 +336,7 @@ def _output_lines(table, target, codes):
     skip = {j for pairs in looped.values() for j, _ in pairs}
     zeros = [j for j, code in enumerate(codes) if code == "0"]
     lines = []
-    if len(zeros) >= _COPY_MIN:  # the whole output cleared by a loop, then the rest set
+    if len(zeros) >= _ZEROS_MIN:  # the whole output cleared by a loop, then the rest set
         # (the derivatives of a chain of 100 speeds: 40,000 entries, nearly all zero,
         # were as many statements, a twelfth of the evaluation's time)
         skip.update(zeros)
@@ -627,9 +628,10 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     Arguments as for :func:`generate_c`; ``plain``: names of functions listed
     without common subexpressions whatever ``cse`` says (the same numbers:
     each expression is evaluated as written, its repeated parts again);
-    ``share``: ``("dynamics", "jacobians")`` in a derivative module, whose
+    ``share``: ``("dynamics", "jacobians")`` in a derivative module
+    (``("tree", "jacobians")`` where the articulated-body pass solves it), whose
     solve (``KD_JAC_SHARED``) calls the derivatives' part that takes what the
-    dynamics computed (:func:`_shared_sources`).
+    first computed (:func:`_shared_sources`).
     """
     lanes = lanes_wanted(functions, sizes, lanes)
     generic, model = _runtime_parts(functions, sizes, lanes, share)
