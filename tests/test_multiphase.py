@@ -22,7 +22,7 @@ import numpy as np
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
-from test_optimal_control import _lagrangian_gradient, check_against_differences
+from test_optimal_control import check_against_differences, hessian_and_differences
 
 import kanedyn as kd
 
@@ -217,34 +217,9 @@ def test_multiphase_derivatives_against_differences(method, degree):
     sides and the junction time.  The Jacobian and gradient against central
     differences."""
     from kanedyn.optimization._multiphase import MultiphaseNLP
-    cart, (x, v, F) = _cart([1.5])
-    forced, (x2, v2, F2) = _cart([0.7], time_force=True)
-    T1, T3 = sm.symbols("T1 T3")
-    L = kd.Linkage
-    first = kd.OptimalControlProblem(
-        cart, nodes=4, duration=T1, lagrange=F ** 2 + x * v, mayer=x ** 2,
-        bounds={T1: (0.1, 3)}, initial={x: 0}, method="trapezoid",
-        path_constraints=[(v ** 2 + F, -4, 4)])
-    second = kd.OptimalControlProblem(
-        forced, nodes=3, duration=0.7, lagrange=F2 ** 2 + sm.sin(t) * x2 + t * v2 ** 2,
-        mayer=t * x2, method=method, degree=degree, path_constraints=[(x2 * t + F2, -9, 9)])
-    third = kd.OptimalControlProblem(
-        cart, nodes=4, duration=T3, lagrange=F ** 2, mayer=T3 + v ** 2,
-        bounds={T3: (0.1, 3)}, method="hermite-simpson")
-    problem = kd.MultiphaseProblem([first, second, third], linkages=[
-        L(continuous=[], equations=[
-            x2.subs(t, L.after) - x.subs(t, L.before) ** 2 - L.before * 0.1,
-            v2.subs(t, L.after) * F.subs(t, L.before) - sm.cos(L.after)]),
-        L(continuous=[x], equations=[v.subs(t, L.after) - 2 * v2.subs(t, L.before)])])
-    nlp = MultiphaseNLP(problem)
+    nlp = MultiphaseNLP(_three_phases(method, degree, time_force=True))
     assert [sub.layout.free_start_time for sub in nlp.phase_nlps] == [False, True, True]
-    z = np.random.default_rng(1).normal(size=nlp.n)
-    for sub, offset in zip(nlp.phase_nlps, nlp.offsets):
-        L_ = sub.layout
-        if L_.free_duration:
-            z[offset + L_.duration_index] = 0.8
-        if L_.free_start_time:
-            z[offset + L_.start_index] = 1.3
+    z = _random_point(nlp)
     check_against_differences(nlp, z, 1e-6)
 
 
@@ -291,24 +266,12 @@ def test_multiphase_exact_hessian_against_differences(method, degree):
     Hessian: within 1e-7 of its largest entry of the central differences of
     the exact gradient of the Lagrangian, at a random point with random
     multipliers."""
-    import scipy.sparse as sp
-
     from kanedyn.optimization._multiphase import MultiphaseNLP
     nlp = MultiphaseNLP(_three_phases(method, degree), hessian="exact")
     z = _random_point(nlp)
     rng = np.random.default_rng(2)
     multipliers, sigma = rng.normal(size=nlp.m), 0.7
-    rows, cols = nlp.hessian_structure()
-    assert np.all(rows >= cols)
-    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
-                      shape=(nlp.n, nlp.n)).toarray()
-    H = H + np.tril(H, -1).T
-    H_fd = np.zeros_like(H)
-    for i in range(nlp.n):
-        e = np.zeros(nlp.n)
-        e[i] = 1e-6
-        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
-                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    H, H_fd = hessian_and_differences(nlp, z, multipliers, sigma)
     assert np.max(np.abs(H)) > 1.0
     assert np.max(np.abs(H - H_fd)) < 1e-7 * np.max(np.abs(H))
 

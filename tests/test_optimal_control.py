@@ -685,6 +685,24 @@ def _lagrangian_gradient(nlp, z, sigma, multipliers):
     return sigma * nlp.gradient(z) + jac.T @ multipliers
 
 
+def hessian_and_differences(nlp, z, multipliers, sigma):
+    """``(H, H_fd)``: the NLP's exact Hessian of the Lagrangian at ``z`` (both
+    triangles; its structure checked to be the lower triangle, as IPOPT takes
+    it) and the central differences of its exact gradient, dense."""
+    rows, cols = nlp.hessian_structure()
+    assert np.all(rows >= cols)  # the lower triangle, as IPOPT takes it
+    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
+                      shape=(nlp.n, nlp.n)).toarray()
+    H = H + np.tril(H, -1).T
+    H_fd = np.zeros_like(H)
+    for i in range(nlp.n):
+        e = np.zeros(nlp.n)
+        e[i] = 1e-6
+        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
+                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    return H, H_fd
+
+
 @pytest.mark.parametrize("system", ["pendulum", "cart-pole"])
 @pytest.mark.parametrize("method", ["backward-euler", "trapezoid", "midpoint"])
 def test_exact_hessian_against_differences(system, method):
@@ -708,17 +726,7 @@ def test_exact_hessian_against_differences(system, method):
     nlp = CollocationNLP(problem, hessian="exact")
     rng = np.random.default_rng(3)
     z, multipliers, sigma = rng.normal(size=nlp.n), rng.normal(size=nlp.m), 0.7
-    rows, cols = nlp.hessian_structure()
-    assert np.all(rows >= cols)  # the lower triangle, as IPOPT takes it
-    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
-                      shape=(nlp.n, nlp.n)).toarray()
-    H = H + np.tril(H, -1).T
-    H_fd = np.zeros_like(H)
-    for i in range(nlp.n):
-        e = np.zeros(nlp.n)
-        e[i] = 1e-6
-        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
-                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    H, H_fd = hessian_and_differences(nlp, z, multipliers, sigma)
     assert np.max(np.abs(H)) > 1.0  # the dynamics' curvature is there
     assert np.max(np.abs(H - H_fd)) < 1e-7 * max(1.0, np.max(np.abs(H)))
 

@@ -18,9 +18,9 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-import scipy.sparse as sp
 import sympy as sm
 import sympy.physics.mechanics as me
+from test_optimal_control import hessian_and_differences
 
 import kanedyn as kd
 
@@ -41,11 +41,6 @@ def pendulum():
     return definition.numeric(backend="numpy"), (q, u, tau)
 
 
-def _lagrangian_gradient(nlp, z, sigma, multipliers):
-    jac = sp.coo_matrix((nlp.jacobian(z), nlp.jacobian_structure()), shape=(nlp.m, nlp.n))
-    return sigma * nlp.gradient(z) + jac.T @ multipliers
-
-
 def _hessians(problem, seed=3):
     """``(exact, by differences, nlp)`` at a random point (positive free
     parameters, a duration of 1.5) with random multipliers."""
@@ -57,17 +52,7 @@ def _hessians(problem, seed=3):
     z[L.free_start:L.free_start + L.n_free] = 1.0 + 0.3 * rng.random(L.n_free)
     if L.free_duration:
         z[L.duration_index] = 1.5
-    rows, cols = nlp.hessian_structure()
-    assert np.all(rows >= cols)  # the lower triangle, as IPOPT takes it
-    H = sp.coo_matrix((nlp.hessian(z, multipliers, sigma), (rows, cols)),
-                      shape=(nlp.n, nlp.n)).toarray()
-    H = H + np.tril(H, -1).T
-    H_fd = np.zeros_like(H)
-    for i in range(nlp.n):
-        e = np.zeros(nlp.n)
-        e[i] = 1e-6
-        H_fd[:, i] = (_lagrangian_gradient(nlp, z + e, sigma, multipliers)
-                      - _lagrangian_gradient(nlp, z - e, sigma, multipliers)) / 2e-6
+    H, H_fd = hessian_and_differences(nlp, z, multipliers, sigma)
     return H, H_fd, nlp
 
 

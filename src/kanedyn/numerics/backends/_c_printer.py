@@ -11,7 +11,7 @@ import sympy as sm
 from sympy.printing.c import C99CodePrinter, get_math_macros
 
 from ._c import _number_literal
-from ._python import CodegenError
+from ._python import _Printer
 
 __all__ = ["SymPyCPrinter"]
 
@@ -30,14 +30,8 @@ class SymPyCPrinter(C99CodePrinter):
         super().__init__({"strict": True, "order": "none"})
         self._names = names
 
-    def _print_Symbol(self, expr):
-        try:
-            return self._names[expr]
-        except KeyError:
-            raise CodegenError(f"symbol {expr} has no value in the generated code") \
-                from None
-
-    _print_Dummy = _print_Symbol
+    _print_Symbol = _Printer._print_Symbol  # names, or a CodegenError
+    _print_Dummy = _Printer._print_Symbol
 
     def _print_Pow(self, expr):
         base, exp = expr.args
