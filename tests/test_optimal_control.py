@@ -371,6 +371,41 @@ def test_lgr_converges_on_a_closed_form():
     assert _order(defects, nodes[1:]) > 4.5, defects
 
 
+@pytest.mark.parametrize("method, extra", [("hermite-simpson", {}), ("lgr", {"degree": 3})])
+def test_interval_methods_on_a_model_without_inputs(method, extra):
+    """A model with no inputs (the interior points' input columns empty) on
+    the interval methods: the damping c of x'' = -4x - c x' (x(0) = 1, x'(0)
+    = 0) as the free parameter that brings x(1) to 0.3 (Mayer term; a
+    Lagrange term of the time alone adds a constant, and its quadrature's
+    gradient, which failed to reshape its empty input columns); against the
+    root of the underdamped closed form (scipy's brentq)."""
+    from scipy.optimize import brentq
+    x, v = me.dynamicsymbols("x v")
+    m, k, c = sm.symbols("m k c")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    P = O.locatenew("P", x * N.x)
+    P.set_vel(N, v * N.x)
+    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
+                  bodies=[me.Particle("P", P, m)], loads=[(P, (-k * x - c * v) * N.x)])
+    model = eom.numeric(constants={m: 1.0, k: 4.0, c: 1.0}, backend="numpy")
+
+    def x_at_1(damping):  # x(1) of the underdamped oscillator from (1, 0)
+        a, w = damping / 2, np.sqrt(4.0 - damping ** 2 / 4)
+        return np.exp(-a) * (np.cos(w) + a / w * np.sin(w))
+
+    exact = brentq(lambda d: x_at_1(d) - 0.3, 0.0, 3.9)
+    problem = kd.OptimalControlProblem(
+        model, nodes=21, duration=1.0, method=method, mayer=(x - 0.3) ** 2,
+        lagrange=me.dynamicsymbols._t,
+        parameters={c: (0.0, 3.9)}, initial={x: 1.0, v: 0.0}, **extra)
+    guess = problem.guess_from(kd.simulate(model, (0.0, 1.0), [1.0, 0.0]))
+    result = problem.solve(guess, options=TIGHT)
+    assert result.success, result.message
+    assert abs(result.parameters["c"] - exact) < 1e-5, (result.parameters, exact)
+
+
 def test_lgr_degree_one_is_backward_euler(integrator):
     """Degree 1 collocates at the right end of each interval: backward
     Euler's discrete problem, the same optimum and states (the first input,

@@ -377,5 +377,6 @@ class IntervalDefects:
             gT += w / (N - 1) * value[g].sum() + h * w * (np.sum(d_t[g] * self._positions(g))
                                                         + d_T[g].sum())
             gt0 += h * w * np.sum(d_t[g])
-        return (gY, gR, gYi.reshape(-1, L.n_states), gRi.reshape(-1, L.n_inputs), gP, gT,
-                gt0)
+        points = (N - 1) * m  # explicit: a model without inputs has no columns to infer
+        return (gY, gR, gYi.reshape(points, L.n_states), gRi.reshape(points, L.n_inputs), gP,
+                gT, gt0)
