@@ -100,14 +100,34 @@ def _specification(model, parameters=(), time=False):
     return prog, dict(args, r=list(args["r"]) + w), outputs
 
 
+def _c_specification(model, parameters, time):
+    """``(program, functions)`` of the C module (:mod:`.backends._c_hessians`):
+    ``hessian_mass`` (M, and E_e with extra columns) and ``hessians`` (the
+    contracted Hessian, its run-time inputs the inputs, w, the weights of the
+    rows of [g; E] and w_x, row-major)."""
+    from .backends._c_hessians import contracted_hessian
+    prog, args, (mass, (shape, second), *E_e) = _specification(model, parameters, time)
+    o = model.n_u
+    nv = shape[1]
+    weights, W, H = contracted_hessian(prog, second, shape[0] // nv, nv - o, o)
+    nx = nv - o
+    return prog, {"hessian_mass": (args, [mass, *E_e]),
+                  "hessians": (dict(args, r=args["r"] + weights + W), [((nx, nx), H)])}
+
+
 def _function(model, parameters=(), time=False):
-    """The generated NumPy function, made on first use and kept by the model
-    (and the copies :meth:`NumericModel.with_constants` makes), one per
-    choice of extra variables."""
+    """The generated code, made on first use and kept by the model (and the
+    copies :meth:`NumericModel.with_constants` makes), one per choice of extra
+    variables: on C, the module of :mod:`.backends._c_hessians`; otherwise the
+    NumPy function of M, the second derivatives (and E_e)."""
     kept = model.__dict__.setdefault("_weighted_hessians", {})
     key = (tuple(int(i) for i in parameters), bool(time))
     found = kept.get(key)
-    if found is None:
+    if found is None and model._data["backend"] == "c":
+        from .backends._c_hessians import hessian_module
+        found = kept[key] = hessian_module(model, f"parameters={key[0]} time={key[1]}",
+                                           lambda: _c_specification(model, *key))
+    elif found is None:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, *key)
         source = generate_python(prog, "hessians", args, outputs, vectorized=True, cse=True)
@@ -155,6 +175,9 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     nx = ns + nr + ne
     J = jacobians if jacobians is not None else model.jacobians(t, Y, r=R)
     fn = _function(model, parameters, time)
+    weights = np.asarray(weights, dtype=float).reshape(N, ns)
+    if not callable(fn):  # the C module
+        return _compiled(model, fn, t, Y, R, weights, J, ne)
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
     mass, second, *E_e = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
@@ -163,7 +186,6 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     nv = nx + o
     second = np.broadcast_to(np.asarray(second, dtype=float),
                              ((n + o) * nv, nv, N)).reshape(n + o, nv, nv, N)
-    weights = np.asarray(weights, dtype=float).reshape(N, ns)
     nu = np.linalg.solve(np.moveaxis(mass, -1, 0).swapaxes(1, 2),
                          weights[:, n:, None])[..., 0]
     c = np.concatenate([weights[:, :n], -nu], axis=1).T  # (n + o, N)
@@ -178,3 +200,21 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     H = phi[:nx, :nx] + cross + cross.transpose(1, 0, 2)
     H = H + np.einsum("bik,bck,cjk->ijk", W, phi[nx:, nx:], W, optimize=True)
     return np.ascontiguousarray(np.moveaxis(H, -1, 0))
+
+
+def _compiled(model, module, t, Y, R, weights, J, ne):
+    r""":func:`weighted_hessians` from the C module: M (and E_e) at every point,
+    the weights :math:`\nu` and :math:`w_e` solved from them, then the
+    contracted Hessian at every point, each in one call."""
+    N, n = len(Y), model.n_q
+    T = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
+    Y = np.ascontiguousarray(Y)
+    R_w = np.concatenate([R, J.f[:, n:]], axis=1)
+    mass, *E_e = module.hessian_mass_rows(T, Y, model._p, R_w)
+    nu = np.linalg.solve(mass.swapaxes(1, 2), weights[:, n:, None])[..., 0]
+    W = [J.state[:, n:, :], J.inputs[:, n:, :]]
+    if ne:  # w_e = -M^{-1} E_e
+        W.append(-np.linalg.solve(mass, E_e[0]))
+    inputs = np.concatenate([R_w, weights[:, :n], -nu, np.concatenate(W, axis=2).reshape(N, -1)],
+                            axis=1)
+    return module.hessians_rows(T, Y, model._p, inputs)[0]
