@@ -101,18 +101,16 @@ def _specification(model, parameters=(), time=False):
 
 
 def _c_specification(model, parameters, time):
-    """``(program, functions)`` of the C module (:mod:`.backends._c_hessians`):
-    ``hessian_mass`` (M, and E_e with extra columns) and ``hessians`` (the
-    contracted Hessian, its run-time inputs the inputs, w, the weights of the
-    rows of [g; E] and w_x, row-major)."""
+    """``(program, arguments, outputs)`` of the C module's ``hessians``
+    (:mod:`.backends._c_hessians`): its run-time inputs the inputs, w, the
+    weights and the columns of w_x of the states and inputs (row-major);
+    its output the contracted Hessian."""
     from .backends._c_hessians import contracted_hessian
-    prog, args, (mass, (shape, second), *E_e) = _specification(model, parameters, time)
-    o = model.n_u
-    nv = shape[1]
-    weights, W, H = contracted_hessian(prog, second, shape[0] // nv, nv - o, o)
-    nx = nv - o
-    return prog, {"hessian_mass": (args, [mass, *E_e]),
-                  "hessians": (dict(args, r=args["r"] + weights + W), [((nx, nx), H)])}
+    prog, args, ((_, mass), (shape, second), *E_e) = _specification(model, parameters, time)
+    o, nv = model.n_u, shape[1]
+    weights, W, H = contracted_hessian(prog, mass, second, E_e[0][1] if E_e else [],
+                                       model.n_q, o, nv - o)
+    return prog, dict(args, r=args["r"] + weights + W), [((nv - o, nv - o), H)]
 
 
 def _function(model, parameters=(), time=False):
@@ -177,7 +175,7 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     fn = _function(model, parameters, time)
     weights = np.asarray(weights, dtype=float).reshape(N, ns)
     if not callable(fn):  # the C module
-        return _compiled(model, fn, t, Y, R, weights, J, ne)
+        return _compiled(model, fn, t, Y, R, weights, J)
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
     mass, second, *E_e = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
@@ -202,19 +200,10 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     return np.ascontiguousarray(np.moveaxis(H, -1, 0))
 
 
-def _compiled(model, module, t, Y, R, weights, J, ne):
-    r""":func:`weighted_hessians` from the C module: M (and E_e) at every point,
-    the weights :math:`\nu` and :math:`w_e` solved from them, then the
-    contracted Hessian at every point, each in one call."""
+def _compiled(model, module, t, Y, R, weights, J):
+    """:func:`weighted_hessians` from the C module: every point in one call."""
     N, n = len(Y), model.n_q
     T = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
-    Y = np.ascontiguousarray(Y)
-    R_w = np.concatenate([R, J.f[:, n:]], axis=1)
-    mass, *E_e = module.hessian_mass_rows(T, Y, model._p, R_w)
-    nu = np.linalg.solve(mass.swapaxes(1, 2), weights[:, n:, None])[..., 0]
-    W = [J.state[:, n:, :], J.inputs[:, n:, :]]
-    if ne:  # w_e = -M^{-1} E_e
-        W.append(-np.linalg.solve(mass, E_e[0]))
-    inputs = np.concatenate([R_w, weights[:, :n], -nu, np.concatenate(W, axis=2).reshape(N, -1)],
-                            axis=1)
-    return module.hessians_rows(T, Y, model._p, inputs)[0]
+    W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
+    inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
+    return module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]

@@ -6,22 +6,25 @@ r"""The exact Hessian's weighted second derivatives as C (``backend="c"``).
 
     H = \begin{bmatrix} I \\ W \end{bmatrix}^T \Phi
         \begin{bmatrix} I \\ W \end{bmatrix},\qquad
-    \Phi = \sum_i c_i\, F_i'' ,
+    \Phi = \sum_i \lambda_{q,i}\, g_i'' - \sum_i \nu_i\, E_i'',\qquad
+    \nu = M^{-1} \lambda_u ,
 
-with :math:`F_i''` the second derivatives of the rows of :math:`[g; E]` in
-:math:`v = (x, w)` (``nv`` columns, the last ``o`` those of the
-accelerations :math:`w`), :math:`c` their weights and :math:`W` (o, nx) the
-derivatives :math:`w_x`.  Here the weights and :math:`W` are run-time inputs
-of a generated function that computes :math:`H` itself, the contraction
-included: :math:`\Phi` (its lower triangle), then :math:`Z = \Phi [I; W]`
-and :math:`H = Z_x + W^T Z_w` as intermediates of the straight-line program,
-their structural zeros left out, so that a module of the model evaluates it
-at every point of a trajectory in one call (``hessians_rows``) and NumPy only
-hands arrays over.  The same module gives the mass matrix :math:`M` and
-:math:`E_e` (``hessian_mass_rows``), from which the caller solves the weights
-:math:`\nu = M^{-T}\lambda_u` and the columns :math:`-M^{-1}E_e` of
-:math:`W`.  The module is built, cached and loaded like the model's others
-(:func:`~._c_build.load_module`, from the quick compiler first).
+with :math:`g_i''`, :math:`E_i''` the second derivatives of the rows of
+:math:`[g; E]` in :math:`v = (x, w)` (``nv`` columns, the last ``o`` those of
+the accelerations :math:`w`), :math:`M` the (symmetric) mass matrix and
+:math:`W = w_x` (o, nx), whose last ``ne`` columns (the chosen constants and
+the time) are :math:`-M^{-1} E_e`.  Here all of it is one generated function
+whose run-time inputs are the model's inputs, :math:`w`, the weights
+:math:`\lambda` and the first columns of :math:`W` (those of the states and
+inputs, which the caller has from :func:`~kanedyn.numerics.jacobians`): the
+solves with :math:`M` by its :math:`LDL^T` factors written out (no pivoting:
+:math:`M` is positive definite), then :math:`\Phi` (its lower triangle),
+:math:`Z = \Phi [I; W]` and :math:`H = Z_x + W^T Z_w`, all intermediates of
+the straight-line program, their structural zeros left out.  A module of the
+model evaluates it at every point of a trajectory in one call
+(``hessians_rows``), so NumPy only hands arrays over.  It is built, cached
+and loaded like the model's other modules (:func:`~._c_build.load_module`,
+from the quick compiler first).
 """
 
 from __future__ import annotations
@@ -36,41 +39,75 @@ __all__ = ["contracted_hessian", "hessian_module"]
 _GENERATION = "hessians 1"
 
 
-def contracted_hessian(program, second, n_rows, nx, o):
-    """``(weights, W, H)``: the symbols of the run-time weights :math:`c`
-    (``n_rows``) and of :math:`W` (``o * nx``, row-major), and the entries of
-    :math:`H` (``nx * nx``, row-major, symmetric), named in ``program``.
+def _solver(program, mass, o):
+    """``solve(columns)``: :math:`M^{-1} B` of columns ``B`` (lists of ``o``
+    expressions), from the :math:`LDL^T` factors of ``mass`` (``o * o``
+    entries, row-major; its lower triangle read) named in ``program``."""
+    L, inverse_D = {}, []
+    for j in range(o):
+        d = mass[j * o + j] - sm.Add(*[L[j, k] ** 2 / inverse_D[k] for k in range(j)])
+        inverse_D.append(program.let(1 / program.let(d)))
+        for i in range(j + 1, o):
+            L[i, j] = program.let((mass[i * o + j] - sm.Add(*[
+                L[i, k] * L[j, k] / inverse_D[k] for k in range(j)])) * inverse_D[j])
+
+    def solve(column):
+        y = []
+        for i in range(o):  # L y = b
+            y.append(program.let(column[i] - sm.Add(*[L[i, k] * y[k] for k in range(i)])))
+        x = [None] * o
+        for i in reversed(range(o)):  # L^T x = D^-1 y
+            x[i] = program.let(y[i] * inverse_D[i] - sm.Add(*[L[k, i] * x[k]
+                                                               for k in range(i + 1, o)]))
+        return x
+    return solve
+
+
+def contracted_hessian(program, mass, second, E_e, n, o, nx):
+    """``(weights, W, H)``: the symbols of the run-time weights :math:`\\lambda`
+    (``n + o``) and of the first columns of :math:`W` (``o * (nx - ne)``,
+    row-major), and the entries of :math:`H` (``nx * nx``, row-major,
+    symmetric), named in ``program``.
 
     Parameters
     ----------
     program : Program
-        Where the intermediates :math:`\\Phi` and :math:`Z` are added.
+        Where the intermediates are added.
+    mass : sequence of Expr
+        :math:`M`, ``o * o`` entries, row-major.
     second : sequence of Expr
-        The second derivatives of the rows in ``v``, ``n_rows * nv * nv``
-        entries (row, then the two columns), ``nv = nx + o``.
+        The second derivatives of the ``n + o`` rows of :math:`[g; E]` in
+        ``v``, ``(n + o) * nv * nv`` entries (row, then the two columns),
+        ``nv = nx + o``.
+    E_e : sequence of Expr
+        :math:`E_e`, ``o * ne`` entries, row-major (empty: ``ne = 0``).
     """
-    nv = nx + o
-    weights = [sm.Dummy(f"kd_hessian_c{i}") for i in range(n_rows)]
-    W = [sm.Dummy(f"kd_hessian_w{k}") for k in range(o * nx)]
+    nv, ne = nx + o, len(E_e) // o
+    weights = [sm.Dummy(f"kd_hessian_lambda{i}") for i in range(n + o)]
+    given = nx - ne
+    W = [[sm.Dummy(f"kd_hessian_w{c}_{b}") for b in range(given)] for c in range(o)]
+    solve = _solver(program, mass, o)
+    for j in range(ne):  # w_e = -M^-1 E_e
+        for c, value in enumerate(solve([-E_e[i * ne + j] for i in range(o)])):
+            W[c].append(value)
+    c = weights[:n] + [-nu for nu in solve(weights[n:])]
 
     def phi(a, b):  # the lower triangle: the derivatives' own symmetry
         a, b = max(a, b), min(a, b)
-        terms = [weights[i] * second[(i * nv + a) * nv + b] for i in range(n_rows)]
-        return program.let(sm.Add(*terms))
+        return program.let(sm.Add(*[c[i] * second[(i * nv + a) * nv + b]
+                                    for i in range(n + o)]))
 
     Phi = {(a, b): phi(a, b) for a in range(nv) for b in range(a + 1)}
 
     def Z(a, b):  # (Phi [I; W])_ab, a < nv, b < nx
         return program.let(Phi[max(a, b), min(a, b)] + sm.Add(*[
-            Phi[max(a, nx + c), min(a, nx + c)] * W[c * nx + b] for c in range(o)]))
+            Phi[max(a, nx + k), min(a, nx + k)] * W[k][b] for k in range(o)]))
 
-    Zw = {(c, b): Z(nx + c, b) for c in range(o) for b in range(nx)}
-    H = {}
-    for a in range(nx):
-        for b in range(a + 1):
-            H[a, b] = program.let(Z(a, b) + sm.Add(*[W[c * nx + a] * Zw[c, b]
-                                                     for c in range(o)]))
-    return weights, W, [H[max(a, b), min(a, b)] for a in range(nx) for b in range(nx)]
+    Zw = {(k, b): Z(nx + k, b) for k in range(o) for b in range(nx)}
+    H = {(a, b): program.let(Z(a, b) + sm.Add(*[W[k][a] * Zw[k, b] for k in range(o)]))
+         for a in range(nx) for b in range(a + 1)}
+    return (weights, [s for row in W for s in row[:given]],
+            [H[max(a, b), min(a, b)] for a in range(nx) for b in range(nx)])
 
 
 def hessian_module(model, variant, specification):
@@ -85,12 +122,12 @@ def hessian_module(model, variant, specification):
         What else sets the generated code (the extra columns chosen): part of
         the cache key.
     specification : callable
-        ``specification()``: ``(program, {name: (arguments, outputs)})`` of
-        the functions ``hessian_mass`` and ``hessians`` (evaluated at every
-        point by ``_c``'s runtime, ``name_rows``), called only when the module is
-        not cached (a cached one is loaded without differentiating anything).
-        The module also carries the model's ``dynamics`` and ``energy``
-        (which its runtime calls).
+        ``specification()``: ``(program, arguments, outputs)`` of the
+        function ``hessians`` (evaluated at every point by ``_c``'s runtime,
+        ``hessians_rows``), called only when the module is not cached (a
+        cached one is loaded without differentiating anything).  The module
+        also carries the model's ``dynamics`` and ``energy`` (which its
+        runtime calls).
     """
     functions = {name: model._functions[name] for name in ("dynamics", "energy")}
     sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
@@ -98,8 +135,8 @@ def hessian_module(model, variant, specification):
     table = model._eom._table
 
     def units():
-        program, generated = specification()
-        return generate_c_units(program, dict(functions, **generated), sizes,
-                                describe=lambda e: str(table.external(e)), cse=model._cse,
-                                lanes=False)
+        program, arguments, outputs = specification()
+        return generate_c_units(program, dict(functions, hessians=(arguments, outputs)),
+                                sizes, describe=lambda e: str(table.external(e)),
+                                cse=model._cse, lanes=False)
     return load_module(f"{key}\n{_GENERATION} {variant}", units, quick=True)
