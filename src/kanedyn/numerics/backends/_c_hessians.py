@@ -43,13 +43,14 @@ def _solver(program, mass, o):
     """``solve(columns)``: :math:`M^{-1} B` of columns ``B`` (lists of ``o``
     expressions), from the :math:`LDL^T` factors of ``mass`` (``o * o``
     entries, row-major; its lower triangle read) named in ``program``."""
-    L, inverse_D = {}, []
+    L, D, inverse_D = {}, [], []
     for j in range(o):
-        d = mass[j * o + j] - sm.Add(*[L[j, k] ** 2 / inverse_D[k] for k in range(j)])
-        inverse_D.append(program.let(1 / program.let(d)))
+        D.append(program.let(mass[j * o + j] - sm.Add(*[L[j, k] ** 2 * D[k]
+                                                        for k in range(j)])))
+        inverse_D.append(program.let(1 / D[j]))
         for i in range(j + 1, o):
             L[i, j] = program.let((mass[i * o + j] - sm.Add(*[
-                L[i, k] * L[j, k] / inverse_D[k] for k in range(j)])) * inverse_D[j])
+                L[i, k] * L[j, k] * D[k] for k in range(j)])) * inverse_D[j])
 
     def solve(column):
         y = []
@@ -85,16 +86,16 @@ def contracted_hessian(program, mass, second, E_e, n, o, nx):
     nv, ne = nx + o, len(E_e) // o
     weights = [sm.Dummy(f"kd_hessian_lambda{i}") for i in range(n + o)]
     given = nx - ne
-    W = [[sm.Dummy(f"kd_hessian_w{c}_{b}") for b in range(given)] for c in range(o)]
+    W = [[sm.Dummy(f"kd_hessian_w{k}_{b}") for b in range(given)] for k in range(o)]
     solve = _solver(program, mass, o)
     for j in range(ne):  # w_e = -M^-1 E_e
-        for c, value in enumerate(solve([-E_e[i * ne + j] for i in range(o)])):
-            W[c].append(value)
-    c = weights[:n] + [-nu for nu in solve(weights[n:])]
+        for k, value in enumerate(solve([-E_e[i * ne + j] for i in range(o)])):
+            W[k].append(value)
+    row_weights = weights[:n] + [-nu for nu in solve(weights[n:])]
 
     def phi(a, b):  # the lower triangle: the derivatives' own symmetry
         a, b = max(a, b), min(a, b)
-        return program.let(sm.Add(*[c[i] * second[(i * nv + a) * nv + b]
+        return program.let(sm.Add(*[row_weights[i] * second[(i * nv + a) * nv + b]
                                     for i in range(n + o)]))
 
     Phi = {(a, b): phi(a, b) for a in range(nv) for b in range(a + 1)}
