@@ -12,7 +12,7 @@ contraction with the weights and w_x, and the solves with M generated as C
 import numpy as np
 import pytest
 import sympy as sm
-import sympy.physics.mechanics as me
+from test_optimal_control_hessian import _forced as forced_model
 from test_optimal_control_hessian import _hessians
 
 import kanedyn as kd
@@ -47,19 +47,7 @@ def _chain(backend):
 
 
 def _forced(backend):
-    """A particle forced by sin 2t and damped by cos t: a model naming the time."""
-    x, v, F = me.dynamicsymbols("x v F")
-    t = me.dynamicsymbols._t
-    m, k = sm.symbols("m k")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", x * N.x)
-    P.set_vel(N, v * N.x)
-    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
-                  bodies=[me.Particle("P", P, m)],
-                  loads=[(P, (F + sm.sin(2 * t) * x - k * sm.cos(t) * v * x) * N.x)])
-    model = eom.numeric(constants={m: 1.0, k: 0.3}, specified={F: 0.0}, backend=backend)
+    model, (_, _, _, k) = forced_model(backend)
     return model, [k], 1
 
 

@@ -27,9 +27,12 @@ of an optimal control problem) and the time :math:`t`; their columns of
 
 The second derivatives :math:`g_i''` and :math:`E_i''` in :math:`(y, r, w)`
 are generated code: forward differentiation, twice, of the equations'
-straight-line program (:meth:`kanedyn.engine.Program.jacobian`), printed as
-NumPy code evaluated on every point at once; :math:`w_x` is that of
-:func:`~kanedyn.numerics.jacobians`.  For models without dependent speeds or
+straight-line program (:meth:`kanedyn.engine.Program.jacobian`).  On the
+NumPy backend they are printed as NumPy code evaluated on every point at
+once, the solves and the contraction done in NumPy; on the C backend the
+solves and the contraction are generated too, all of it one C function
+evaluated at every point in one call (:mod:`.backends._c_hessians`).
+:math:`w_x` is that of :func:`~kanedyn.numerics.jacobians`.  For models without dependent speeds or
 coordinates and without contacts (others are refused, saying why).
 """
 
