@@ -83,7 +83,8 @@ def main():
                   "(min, spread median/min - 1):")
             for part in rounds[0][1]:
                 values = np.array([r[1][part] for r in rounds])
-                print(f"  {part:10s} {values.min():9.3f}  {np.median(values) / values.min() - 1:5.0%}")
+                spread = np.median(values) / values.min() - 1
+                print(f"  {part:10s} {values.min():9.3f}  {spread:5.0%}")
 
 
 if __name__ == "__main__":

@@ -32,8 +32,9 @@ NumPy backend they are printed as NumPy code evaluated on every point at
 once, the solves and the contraction done in NumPy; on the C backend the
 solves and the contraction are generated too, all of it one C function
 evaluated at every point in one call (:mod:`.backends._c_hessians`).
-:math:`w_x` is that of :func:`~kanedyn.numerics.jacobians`.  For models without dependent speeds or
-coordinates and without contacts (others are refused, saying why).
+:math:`w_x` is that of :func:`~kanedyn.numerics.jacobians`.  For models
+without dependent speeds or coordinates and without contacts (others are
+refused, saying why).
 """
 
 from __future__ import annotations
@@ -177,7 +178,7 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     J = jacobians if jacobians is not None else model.jacobians(t, Y, r=R)
     fn = _function(model, parameters, time)
     weights = np.asarray(weights, dtype=float).reshape(N, ns)
-    if not callable(fn):  # the C module
+    if model._data["backend"] == "c":  # fn: the module of .backends._c_hessians
         return _compiled(model, fn, t, Y, R, weights, J)
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
