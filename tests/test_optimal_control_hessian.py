@@ -126,7 +126,7 @@ def test_exact_hessian_of_the_cart_pole_with_free_masses(method):
     assert np.max(np.abs(H - H_fd)) < 1e-7 * np.max(np.abs(H))
 
 
-def _forced():
+def _forced(backend="numpy"):
     """A particle forced by sin 2t and damped by cos t: a model naming the time."""
     x, v, F = me.dynamicsymbols("x v F")
     t = me.dynamicsymbols._t
@@ -139,7 +139,7 @@ def _forced():
     eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
                   bodies=[me.Particle("P", P, m)],
                   loads=[(P, (F + sm.sin(2 * t) * x - k * sm.cos(t) * v * x) * N.x)])
-    model = eom.numeric(constants={m: 1.0, k: 0.3}, specified={F: 0.0}, backend="numpy")
+    model = eom.numeric(constants={m: 1.0, k: 0.3}, specified={F: 0.0}, backend=backend)
     return model, (x, v, F, k)
 
 

@@ -27,10 +27,14 @@ of an optimal control problem) and the time :math:`t`; their columns of
 
 The second derivatives :math:`g_i''` and :math:`E_i''` in :math:`(y, r, w)`
 are generated code: forward differentiation, twice, of the equations'
-straight-line program (:meth:`kanedyn.engine.Program.jacobian`), printed as
-NumPy code evaluated on every point at once; :math:`w_x` is that of
-:func:`~kanedyn.numerics.jacobians`.  For models without dependent speeds or
-coordinates and without contacts (others are refused, saying why).
+straight-line program (:meth:`kanedyn.engine.Program.jacobian`).  On the
+NumPy backend they are printed as NumPy code evaluated on every point at
+once, the solves and the contraction done in NumPy; on the C backend the
+solves and the contraction are generated too, all of it one C function
+evaluated at every point in one call (:mod:`.backends._c_hessians`).
+:math:`w_x` is that of :func:`~kanedyn.numerics.jacobians`.  For models
+without dependent speeds or coordinates and without contacts (others are
+refused, saying why).
 """
 
 from __future__ import annotations
@@ -100,14 +104,32 @@ def _specification(model, parameters=(), time=False):
     return prog, dict(args, r=list(args["r"]) + w), outputs
 
 
+def _c_specification(model, parameters, time):
+    """``(program, arguments, outputs)`` of the C module's ``hessians``
+    (:mod:`.backends._c_hessians`): its run-time inputs the inputs, w, the
+    weights and the columns of w_x of the states and inputs (row-major);
+    its output the contracted Hessian."""
+    from .backends._c_hessians import contracted_hessian
+    prog, args, ((_, mass), (shape, second), *E_e) = _specification(model, parameters, time)
+    o, nv = model.n_u, shape[1]
+    weights, W, H = contracted_hessian(prog, mass, second, E_e[0][1] if E_e else [],
+                                       model.n_q, o, nv - o)
+    return prog, dict(args, r=args["r"] + weights + W), [((nv - o, nv - o), H)]
+
+
 def _function(model, parameters=(), time=False):
-    """The generated NumPy function, made on first use and kept by the model
-    (and the copies :meth:`NumericModel.with_constants` makes), one per
-    choice of extra variables."""
+    """The generated code, made on first use and kept by the model (and the
+    copies :meth:`NumericModel.with_constants` makes), one per choice of extra
+    variables: on C, the module of :mod:`.backends._c_hessians`; otherwise the
+    NumPy function of M, the second derivatives (and E_e)."""
     kept = model.__dict__.setdefault("_weighted_hessians", {})
     key = (tuple(int(i) for i in parameters), bool(time))
     found = kept.get(key)
-    if found is None:
+    if found is None and model._data["backend"] == "c":
+        from .backends._c_hessians import hessian_module
+        found = kept[key] = hessian_module(model, f"parameters={key[0]} time={key[1]}",
+                                           lambda: _c_specification(model, *key))
+    elif found is None:
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, *key)
         source = generate_python(prog, "hessians", args, outputs, vectorized=True, cse=True)
@@ -155,6 +177,9 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     nx = ns + nr + ne
     J = jacobians if jacobians is not None else model.jacobians(t, Y, r=R)
     fn = _function(model, parameters, time)
+    weights = np.asarray(weights, dtype=float).reshape(N, ns)
+    if model._data["backend"] == "c":  # fn: the module of .backends._c_hessians
+        return _compiled(model, fn, t, Y, R, weights, J)
     T = np.broadcast_to(np.asarray(t, dtype=float), (N,))
     r_args = [*R.T, *J.f[:, n:].T]
     mass, second, *E_e = fn(T, np.ascontiguousarray(Y.T), model._p, r_args)
@@ -163,7 +188,6 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     nv = nx + o
     second = np.broadcast_to(np.asarray(second, dtype=float),
                              ((n + o) * nv, nv, N)).reshape(n + o, nv, nv, N)
-    weights = np.asarray(weights, dtype=float).reshape(N, ns)
     nu = np.linalg.solve(np.moveaxis(mass, -1, 0).swapaxes(1, 2),
                          weights[:, n:, None])[..., 0]
     c = np.concatenate([weights[:, :n], -nu], axis=1).T  # (n + o, N)
@@ -178,3 +202,12 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
     H = phi[:nx, :nx] + cross + cross.transpose(1, 0, 2)
     H = H + np.einsum("bik,bck,cjk->ijk", W, phi[nx:, nx:], W, optimize=True)
     return np.ascontiguousarray(np.moveaxis(H, -1, 0))
+
+
+def _compiled(model, module, t, Y, R, weights, J):
+    """:func:`weighted_hessians` from the C module: every point in one call."""
+    N, n = len(Y), model.n_q
+    T = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
+    W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
+    inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
+    return module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]

@@ -416,7 +416,7 @@ def _share_generated(model, clone):
     exact derivatives take the constants and inputs as arguments (not the
     derivative module's integration loop, ``_exact_loop``: it holds the
     model's constants and inputs); the second derivatives' NumPy functions
-    (:mod:`._hessians`) likewise."""
+    or C modules (:mod:`._hessians`) likewise."""
     for attr in ("_linearization_fn", "_jacobians", "_jacobians_p", "_jacobians_module",
                  "_jacobians_p_module", "_weighted_hessians"):
         if attr in model.__dict__:

@@ -9,6 +9,7 @@
 ``_c_integrator``   the compiled integration loop (RK45, Rosenbrock23)
 ``_c_ensemble``     many trajectories of the loop's RK45 at once, on POSIX threads
 ``_c_events``       events given as expressions, compiled for the ensemble
+``_c_hessians``     the exact Hessian's second derivatives, solves and contraction
 ``_c_contact``      compiled contact segments (modes fixed, events located)
 ``_c_export``       the standalone C file (no Python) the FMU export compiles
 ``_c_hybrid``       the standalone file's contact loop: modes, events, impacts

@@ -900,6 +900,8 @@ def _runtime_parts(functions, sizes, lanes, share=None):
     rows = ("inverse", "constraints") if "inverse" in functions else ()
     if "jacobians" in functions:
         rows += ("jacobians", "dynamics")
+    if "hessians" in functions:  # the exact Hessian's (_c_hessians)
+        rows += ("hessians",)
     columns = _parameter_columns(functions, sizes)
     if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
         defines.append(f"#define KD_JP {columns}")
