@@ -420,8 +420,9 @@ def _read_cache(key):
         module = cached_module(data["c_key"])
         if module is None and compiler_command() is not None:
             # its module is not in the compile cache (removed, or made with other
-            # compiler flags: -mavx on another CPU): a miss, derived again, and the
-            # entry written again when the module is built
+            # compiler flags, which are part of a module's key: -mavx where the CPU
+            # runs AVX): a miss, derived again, and the entry written again when the
+            # module is built
             return None
         model = NumericModel(data, module)
     except Exception as exc:  # noqa: BLE001  damaged, stale or unloadable: derive again

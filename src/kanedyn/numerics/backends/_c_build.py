@@ -184,13 +184,14 @@ def _vex_flags():
         return []
 
 
+_VEX = _vex_flags()
 #: -ffp-contract=off: no fused multiply-adds where the target has them (aarch64), so
 #: that the quick compiler's module (:mod:`._c_quick`) gives the same numbers;
 #: :func:`_vex_flags` after the optimization level
-_FLAGS = ["-O2", *_vex_flags(), "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno",
+_FLAGS = ["-O2", *_VEX, "-fPIC", "-shared", "-std=gnu11", "-fno-math-errno",
           "-ffp-contract=off", "-w"]
 #: flags of one translation unit of a module built from several (linked with -shared)
-_UNIT_FLAGS = ["-O2", *_vex_flags(), "-fPIC", "-fvisibility=hidden", "-std=gnu11",
+_UNIT_FLAGS = ["-O2", *_VEX, "-fPIC", "-fvisibility=hidden", "-std=gnu11",
                "-fno-math-errno", "-ffp-contract=off", "-w"]
 _LIGHT_FLAGS = ["-O1"] + _UNIT_FLAGS[1:]
 _COLD_FLAGS = ["-O0"] + _UNIT_FLAGS[1:]
