@@ -767,3 +767,21 @@ def test_direct_printing_matches_sympys_printer():
     assert _cbackend._print_c(printer, unusual, "test") == printer.doprint(unusual)
     with pytest.raises(CodegenError, match="symbol x has no value"):
         _cbackend._print_c(printer, a + sm.Symbol("x"), "test")
+
+
+def test_avx_encoding_where_the_cpu_runs_it():
+    """On an x86-64 CPU with AVX (as NumPy's dispatch finds it), every unit is
+    compiled with -mavx after its optimization level (the same numbers in
+    fewer instructions), which is part of the build key; elsewhere nothing is
+    added."""
+    import sysconfig
+    vex = _c_build._vex_flags()
+    try:
+        from numpy._core._multiarray_umath import __cpu_features__ as features
+    except ImportError:
+        from numpy.core._multiarray_umath import __cpu_features__ as features
+    x86 = sysconfig.get_platform().endswith(("x86_64", "amd64"))
+    assert vex == (["-mavx"] if x86 and features.get("AVX") else [])
+    for flags in (_c_build._FLAGS, _c_build._UNIT_FLAGS, _c_build._LIGHT_FLAGS,
+                  _c_build._COLD_FLAGS):
+        assert flags[0].startswith("-O") and flags[1:1 + len(vex)] == vex

@@ -249,6 +249,32 @@ def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(tmp_path):
     assert _run(_CHAIN.format(mass=1.0), tmp_path)[:2] == [0, 0]
 
 
+@pytest.mark.slow
+def test_an_entry_whose_module_is_gone_is_a_miss(tmp_path):
+    """A derivation-cache entry whose module the compile cache no longer holds
+    (removed, or built with other compiler flags, as ``-mavx`` on another CPU)
+    is derived again without a warning, and written again for the next
+    process."""
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    derived, compiled, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    assert (derived, compiled) == (1, 1)
+    cache = tmp_path / "kanedyn"
+    for module in cache.glob("_kd_*"):
+        module.unlink()
+    env = dict(os.environ, PYTHONPATH=SRC, XDG_CACHE_HOME=str(tmp_path))
+    env.pop("KANEDYN_CACHE_DIR", None)
+    proc = subprocess.run([sys.executable, "-W", "error::RuntimeWarning", "-c",
+                           _CHAIN.format(mass=1.0)], capture_output=True, text=True, env=env,
+                          timeout=600)
+    assert proc.returncode == 0, proc.stderr
+    assert "cannot be used" not in proc.stderr
+    derived, compiled, again = json.loads(proc.stdout.strip().splitlines()[-1])
+    assert derived == 1 and again == f1
+    assert _run(_CHAIN.format(mass=1.0), tmp_path)[:2] == [0, 0]
+
+
 def test_a_chain_forms_only_the_partial_velocities_it_needs():
     """The composite pass reads one speed's partials per body (the speed's
     own body), not all n x n; inverse functions form theirs in a workspace,

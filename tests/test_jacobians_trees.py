@@ -184,7 +184,7 @@ def derivatives_built_with(monkeypatch, tmp_path, folder, build, states=2, **set
 @needs_compiler
 def test_the_listings_of_the_derivative_module_give_the_same_numbers(monkeypatch, tmp_path):
     """The derivative module takes the values the dynamics computed
-    (``_c._shared_sources``): below ``SHARED_CSE_MAX_SPEEDS`` M and the forcing
+    (``_c._shared_sources``): below ``PLAIN_DYNAMICS_MIN_SPEEDS`` M and the forcing
     are listed with the derivatives, their common subexpressions eliminated
     together; from there M and the forcing are listed plain.  Both give the
     same derivatives, multipliers and all, to the bit (the four-bar: its solve
@@ -192,7 +192,7 @@ def test_the_listings_of_the_derivative_module_give_the_same_numbers(monkeypatch
     for build in (lambda: kd.models.build("four-bar"), lambda: kd.models.build("chain3d", n=7)):
         together = derivatives_built_with(monkeypatch, tmp_path, "together", build)
         apart = derivatives_built_with(monkeypatch, tmp_path, "apart", build,
-                                       SHARED_CSE_MAX_SPEEDS=0)
+                                       PLAIN_DYNAMICS_MIN_SPEEDS=0)
         for mine, theirs in zip(together[:2], apart[:2]):
             for part in ("f", "state", "parameters", "multipliers"):
                 a, b = getattr(mine, part), getattr(theirs, part)

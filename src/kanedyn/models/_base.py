@@ -389,7 +389,8 @@ def _read_cache(key):
     none or it cannot be used.  The entry is a zip of JSON read by
     :func:`kanedyn.io.load_data` (nothing in it is evaluated or run); an entry
     that is damaged, changed, or carries source code (which would be compiled)
-    is reported with a warning, removed and rebuilt."""
+    is reported with a warning, removed and rebuilt; one whose module the compile
+    cache does not hold is a miss (``None``, no warning)."""
     import os
     import warnings
 
@@ -414,7 +415,16 @@ def _read_cache(key):
             if not _cache_path(key, "kdbody").exists():
                 raise SavedFileError(f"{path}: its body parameters are missing")
             data["body_parameters"] = lambda: _read_body_parameters(key)
-        model = NumericModel(data)
+        from ..numerics.backends import compiler_command
+        from ..numerics.backends._c_build import cached_module
+        module = cached_module(data["c_key"])
+        if module is None and compiler_command() is not None:
+            # its module is not in the compile cache (removed, or made with other
+            # compiler flags, which are part of a module's key: -mavx where the CPU
+            # runs AVX): a miss, derived again, and the entry written again when the
+            # module is built
+            return None
+        model = NumericModel(data, module)
     except Exception as exc:  # noqa: BLE001  damaged, stale or unloadable: derive again
         warnings.warn(f"derivation cache entry {path} cannot be used ({exc}); it is "
                       "removed and the model derived again", RuntimeWarning, stacklevel=4)

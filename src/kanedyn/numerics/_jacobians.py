@@ -39,7 +39,7 @@ differentiated through their elimination exactly.  One state on the C backend
 is then one call of the module, which also makes the :class:`Jacobians`
 (:func:`_keep_point`).  In C the derivatives take the values the dynamics
 computed for the accelerations (the kinematics, the sines and cosines:
-:data:`SHARED_CSE_MAX_SPEEDS`), and a tree of long paths solves for the
+:data:`PLAIN_DYNAMICS_MIN_SPEEDS`), and a tree of long paths solves for the
 accelerations and the derivative columns by the articulated-body pass instead
 of M's factors (:data:`TREE_SOLVE_MIN_DEPTH`).
 
@@ -422,24 +422,24 @@ def _move_onto(model_ref, key, quick, optimized):
 
 
 #: the model's functions listed again in the derivative module without common
-#: subexpressions (the same numbers) from :data:`SHARED_CSE_MAX_SPEEDS` speeds:
+#: subexpressions (the same numbers) from :data:`PLAIN_DYNAMICS_MIN_SPEEDS` speeds:
 #: ``dynamics``, M and the forcing, whose elimination over M's n^2 entries took
 #: 1.0 s of CPU at chain3d n = 100 (0.055 s without) for 2.8 % fewer operations
 #: (5 % at n = 30) in the derivative module's solve
 _PLAIN = ("dynamics",)
 
-#: below this many speeds the derivative module lists M and the forcing together
-#: with the derivatives, their common subexpressions eliminated jointly (the
-#: derivatives then take every value the dynamics computed, not only the
-#: program's intermediates); from it the dynamics are listed plain
-#: (:data:`_PLAIN`), the derivatives taking the program's intermediates the
-#: dynamics computed (``kanedyn.numerics.backends._c._shared_sources``)
-SHARED_CSE_MAX_SPEEDS = 12
+#: speeds from which (this many or more) the derivative module lists the dynamics
+#: plain (:data:`_PLAIN`), the derivatives taking the program's intermediates the
+#: dynamics computed (``kanedyn.numerics.backends._c._shared_sources``); below
+#: (at most 11 speeds) it lists M and the forcing together with the derivatives,
+#: their common subexpressions eliminated jointly (the derivatives then take
+#: every value the dynamics computed, not only the program's intermediates)
+PLAIN_DYNAMICS_MIN_SPEEDS = 12
 
 
 def _plain(model):
     """The functions the derivative module lists without common subexpressions."""
-    return () if model.n_u < SHARED_CSE_MAX_SPEEDS else _PLAIN
+    return () if model.n_u < PLAIN_DYNAMICS_MIN_SPEEDS else _PLAIN
 
 
 #: a tree whose right-hand side is solved by the articulated-body pass (the

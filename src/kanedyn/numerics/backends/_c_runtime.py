@@ -384,8 +384,10 @@ JACOBIAN_SOLVE = r"""
 #define KD_TREE_OUT
 #endif
 /* scratch: the dynamics' outputs, the system and its pivots, the extended
-   inputs, the derivative blocks (the solve is done in place in D) and the
-   tree's factors */
+   inputs, the derivative blocks of the column groups (none where there is one
+   group: they are written in D, where the solve is done in place) and the
+   tree's factors; where the articulated-body pass solves, only what that path
+   uses (no M, no index-1 system: the pass's vectors instead) */
 #ifndef KD_JAC_TREE_SOLVE
 #define KD_JAC_TREE_SOLVE 0
 #endif
@@ -402,9 +404,15 @@ JACOBIAN_SOLVE = r"""
 #else
 #define KD_TREE_SOLVE_SCRATCH 0
 #endif
+/* the blocks of the column groups apart from D (none with one group: in D) */
+#define KD_JAC_BLOCKS (KD_JAC_ONE_GROUP ? 0 : (KD_NQ + KD_NS) * KD_JC)
+#if KD_JAC_TREE_SOLVE  /* q', the forcing, the extended inputs: no M, no index-1 system */
+#define KD_JAC_SCRATCH (KD_NQ + KD_NU + KD_TREE_SOLVE_SCRATCH + KD_NR + KD_NU \
+    + KD_JAC_BLOCKS + KD_TREE_FACTORS + 1)
+#else
 #define KD_JAC_SCRATCH (KD_NQ + KD_NU * KD_NU + KD_NU + 2 * KD_NUDEP * KD_NU + KD_NUDEP \
-    + KD_NS * KD_NS + 2 * KD_NS + KD_NR + KD_NS + KD_NQ * KD_JC + KD_NS * KD_JC \
-    + KD_TREE_FACTORS + KD_TREE_SOLVE_SCRATCH + 1)
+    + KD_NS * KD_NS + 2 * KD_NS + KD_NR + KD_NS + KD_JAC_BLOCKS + KD_TREE_FACTORS + 1)
+#endif
 
 #if KD_TREE_JAC
 #if KD_NQ != KD_NU || KD_NUDEP != 0
@@ -810,8 +818,8 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
                             double *w, double *scratch, double *f, double *D, double *C) {
     double *qd = scratch, *fv = qd + KD_NQ, *Sv = fv + KD_NU, *IO = Sv + 6 * KD_NU;
     double *UD = IO + 10 * KD_NU, *Dinv = UD + 6 * KD_NU, *bias = Dinv + KD_NU;
-    double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU, *EA = G + KD_NQ * KD_JC;
-    double *TF = EA + KD_NU * KD_JC;
+    double *rx = bias + KD_TREE_BIAS, *G = rx + KD_NR + KD_NU;
+    double *EA = G + (KD_JAC_ONE_GROUP ? 0 : KD_NQ * KD_JC), *TF = G + KD_JAC_BLOCKS;
     double *X = D + KD_NQ * KD_JC;
     kd_eval_tree(t, y, p, r, w, qd, fv, Sv, IO);
     for (int i = 0; i < KD_NR; ++i) rx[i] = r[i];
@@ -830,7 +838,8 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     double *qd = scratch, *M = qd + KD_NQ, *fv = M + KD_NU * KD_NU, *B = fv + KD_NU;
     double *Ka = B + KD_NUDEP * KD_NU, *fa = Ka + KD_NUDEP * KD_NU, *S = fa + KD_NUDEP;
     double *piv = S + KD_NS * KD_NS, *sol = piv + KD_NS, *rx = sol + KD_NS;
-    double *G = rx + KD_NR + KD_NS, *EA = G + KD_NQ * KD_JC, *TF = EA + KD_NS * KD_JC;
+    double *G = rx + KD_NR + KD_NS, *EA = G + (KD_JAC_ONE_GROUP ? 0 : KD_NQ * KD_JC);
+    double *TF = G + KD_JAC_BLOCKS;
     double *X = D + KD_NQ * KD_JC;  /* the solve in place: the rows of u', then of lambda */
     kd_eval_dynamics(t, y, p, r, w, qd, M, fv, B, Ka, fa);
     int lu = 1;
