@@ -7,8 +7,10 @@ default ``"v2pt"`` has SymPy multiply out direction cosines while the model is b
 which did not finish in 25 minutes at n = 100):
 
 - the standalone file of ``model.c_source()`` (what ``kanedyn derive MODEL
-  --c`` writes), compiled with ``cc -O2 -shared -fPIC`` and called from C in
-  a loop of 1000 calls (so no Python in the time);
+  --c`` writes), compiled with ``cc -O2 -shared -fPIC`` and the instruction
+  flags kanedyn builds its own modules with (``-mavx`` on an x86-64 CPU with
+  AVX, as its header advises), called from C in a loop of 1000 calls (so no
+  Python in the time);
 - the compiled module's ``model.rhs`` (from Python);
 - ``pinocchio.aba`` (from Python).
 
@@ -38,6 +40,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
 from _timing import interleaved, optimized_modules_only  # noqa: E402
+from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 #: appended to the exported file: the calls timed in C
@@ -57,7 +60,7 @@ def exported(model, folder):
     source.write_text(model.c_source() + _LOOP)
     library = Path(folder) / "libmodel.so"
     cc = shutil.which("cc") or shutil.which("gcc")
-    subprocess.run([cc, "-O2", "-shared", "-fPIC", "-std=c99", str(source), "-o",
+    subprocess.run([cc, "-O2", *_VEX, "-shared", "-fPIC", "-std=c99", str(source), "-o",
                     str(library), "-lm"], check=True)
     lib = ctypes.CDLL(str(library))
     vec = ctypes.POINTER(ctypes.c_double)
