@@ -415,8 +415,7 @@ def _read_cache(key):
             if not _cache_path(key, "kdbody").exists():
                 raise SavedFileError(f"{path}: its body parameters are missing")
             data["body_parameters"] = lambda: _read_body_parameters(key)
-        from ..numerics.backends import compiler_command
-        from ..numerics.backends._c_build import cached_module
+        from ..numerics import cached_module, compiler_command
         module = cached_module(data["c_key"])
         if module is None and compiler_command() is not None:
             # its module is not in the compile cache (removed, or made with other

@@ -80,6 +80,7 @@ _LAZY = {
     'conditioning': '._singular',
     'cache_dir': '.backends._c_build',
     'compiler_command': '.backends._c_build',
+    'cached_module': '.backends._c_build',
     'finish_compiling': '.backends._c_quick',
     'prefetch_runtime': '.backends._c',
     'compile_python': '.backends._python',
