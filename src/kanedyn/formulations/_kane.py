@@ -285,8 +285,10 @@ def _inertia_remainder(kin, body, m, terms):
     v0, w0 = terms.velocity, terms.omega
     a0 = kin.dt_vector(v0)
     mdot = kin.dt(m)
-    force = kin.let_vector(add(tuple(m * c for c in a0), tuple(mdot * c for c in v0)),
-                           f"Fi_{body.name}")
+    force = tuple(m * c for c in a0)
+    if mdot != 0:
+        force = add(force, tuple(mdot * c for c in v0))
+    force = kin.let_vector(force, f"Fi_{body.name}")
     if not isinstance(body, me.RigidBody):
         zero = (sm.S.Zero,) * 3
         return force, zero, None, zero
