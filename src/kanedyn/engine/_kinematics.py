@@ -248,9 +248,9 @@ class Kinematics:
             given = [j for j in range(3) if comps[j] != 0]
             if not given:
                 continue
-            rows = self.dcm_rows(frame)
+            C = self.dcm(frame)
             for i in range(3):
-                terms[i].extend(rows[i][j] * comps[j] for j in given)
+                terms[i].extend(C[i, j] * comps[j] for j in given)
         return tuple(sm.Add(*t) for t in terms)
 
     def let_vector(self, vec, name):
@@ -282,16 +282,6 @@ class Kinematics:
             self._dcm[f] = C
             self._pending_hints.append(f)
         return self._dcm[frame]
-
-    def dcm_rows(self, frame):
-        """:meth:`dcm` as a tuple of three row tuples (entries read without a
-        SymPy matrix's indexing, which costs microseconds a read)."""
-        rows = vars(self).setdefault("_dcm_rows", {})  # absent from older pickles
-        found = rows.get(frame)
-        if found is None:
-            C = self.dcm(frame)
-            found = rows[frame] = tuple(tuple(C[i, j] for j in range(3)) for i in range(3))
-        return found
 
     def angular_velocity(self, frame):
         r"""Inertial components of :math:`{}^N\omega^F` (named intermediates)."""
@@ -518,12 +508,11 @@ def inertia_components(kin, body, where):
     I_B = dyadic_matrix(body.central_inertia, frame)
     I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
     C = kin.dcm(frame)
-    rows = kin.dcm_rows(frame)
     given = [(a, b, I_B[a, b]) for a in range(3) for b in range(3) if I_B[a, b] != 0]
     I_N = [[None] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i, 3):
-            value = sm.Add(*[rows[i][a] * I * rows[j][b] for a, b, I in given])
+            value = sm.Add(*[C[i, a] * I * C[j, b] for a, b, I in given])
             I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
     return I_B, I_N, C
 
