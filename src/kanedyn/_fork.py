@@ -98,8 +98,10 @@ def wait_for(process, timeout):
     except (AttributeError, OSError):  # not Linux 5.3 or later; or already reaped
         return process.wait(timeout=timeout)
     import select
-    try:
-        ended = select.select([descriptor], [], [], timeout)[0]
+    try:  # poll, not select: a descriptor numbered past 1023 is fine
+        waiting = select.poll()
+        waiting.register(descriptor, select.POLLIN)
+        ended = waiting.poll(None if timeout is None else timeout * 1000)
     finally:
         os.close(descriptor)
     if not ended:
