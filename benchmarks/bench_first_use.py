@@ -27,7 +27,12 @@ are timed too: a URDF tree read with ``from_urdf`` and chain3d written as a user
 own ``ModelDefinition``, warm from the description's digest against warm derived
 again (the compiled module in the cache either way).
 
+``--before SRC`` times only the cold process, of the package in the source folder
+``SRC`` (a clone of the repository at the commit before a change) and of this
+checkout's, in turns, and gives the minimum and median of each.
+
     python benchmarks/bench_first_use.py [--sizes 10,30,60,100] [--repeat 1] [--user]
+    python benchmarks/bench_first_use.py --sizes 10 --repeat 9 --before ../before/src
 """
 
 from __future__ import annotations
@@ -35,12 +40,13 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import statistics
 import sys
 import tempfile
 
 # _fresh_process lives next to this script (on sys.path when the script is run directly)
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from _fresh_process import byte_compile_package, run_python  # noqa: E402
+from _fresh_process import SRC, byte_compile_package, run_python  # noqa: E402
 
 CHILD = """
 import json, time
@@ -145,11 +151,35 @@ def user_models(repeat):
                   f"| {again[-1][1]}/{digest[-1][1]} |", flush=True)
 
 
-def child(code, cache, quick=None):
-    proc = run_python(code, cache, quick=quick)
+def child(code, cache, quick=None, src=SRC):
+    proc = run_python(code, cache, quick=quick, src=src)
     if proc.returncode != 0:
         return None
     return json.loads(proc.stdout.strip().splitlines()[-1])
+
+
+def before_and_after(sizes, repeat, before):
+    """The cold process of the code in the source folder ``before`` and of this
+    checkout's, in turns (the first by turns), each in an empty cache: the table
+    of their minima and medians."""
+    byte_compile_package(before)
+    print(f"\ncold, the code in {before} (before) and this checkout's (after), "
+          f"in turns, {repeat} rounds; minimum (median)")
+    print("\n| n | code | cold s | cold, its CPU s | cold after importing NumPy and SymPy s |")
+    print("|---|---|---|---|---|")
+    for n in sizes:
+        rows = {before: [], SRC: []}
+        for k in range(repeat):
+            for src in ((before, SRC) if k % 2 == 0 else (SRC, before)):
+                with tempfile.TemporaryDirectory() as cache:
+                    rows[src].append(child(CHILD.format(n=n, imports=MODEL_IMPORTS, eager=""),
+                                           cache, src=src))
+        for label, src in (("before", before), ("after", SRC)):
+            columns = [[r[0] for r in rows[src]], [r[7] for r in rows[src]],
+                       [r[0] - r[4] for r in rows[src]]]
+            print(f"| {n} | {label} | " + " | ".join(
+                f"{min(c):.3f} ({statistics.median(c):.3f})" for c in columns) + " |",
+                flush=True)
 
 
 def main(argv=None):
@@ -158,8 +188,16 @@ def main(argv=None):
     parser.add_argument("--repeat", type=int, default=1)
     parser.add_argument("--user", action="store_true",
                         help="also users' models (a URDF tree, a user's ModelDefinition)")
+    parser.add_argument("--before", metavar="SRC",
+                        help="only the cold process, of the package in the source folder "
+                             "SRC (a checkout of the code before a change) and of this "
+                             "checkout's, in turns")
     args = parser.parse_args(argv)
     byte_compile_package()
+    if args.before:
+        before_and_after([int(x) for x in args.sizes.split(",")], args.repeat,
+                         os.path.abspath(args.before))
+        return
     print("| n | cold s | cold, its CPU s | cold after importing NumPy and SymPy s | cold to "
           "the optimized module s | cold, optimizing compiler only s | warm s | warm to a 1 s "
           "simulation s | warm, its CPU s | warm with build(lazy=False) s "

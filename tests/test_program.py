@@ -172,3 +172,19 @@ def test_listing_elimination_is_sympys_repeated_subtree_pass():
             assert exprs, name
             _same_elimination(eliminate_repeated(exprs, _temporaries()),
                               _sympys_elimination(exprs))
+
+
+def test_time_derivative_is_sympys_derivative():
+    """``time_derivative`` builds a dynamic symbol's derivative without SymPy's
+    evaluation: the same object as ``diff``; other expressions go to ``diff``."""
+    import sympy.physics.mechanics as me
+
+    from kanedyn.engine import time_derivative
+    t = me.dynamicsymbols._t
+    q = me.dynamicsymbols("q")
+    f = sm.Function("f")
+    x = sm.Symbol("x")
+    for expr in (q, q.diff(t), sm.sin(q) * q, f(t, x), f(x), x, sm.Integer(2)):
+        made, expected = time_derivative(expr, t), expr.diff(t)
+        assert made == expected and made.args == expected.args
+        assert type(made) is type(expected) and hash(made) == hash(expected)

@@ -693,3 +693,21 @@ def test_a_child_removes_none_of_its_parents_folders(tmp_path):
                          env=dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "a-file")))
     assert run.stdout.split() == ["2" if _c_quick.quick_command() else "1", "True"], \
         run.stderr[-2000:]
+
+
+def test_wait_for_a_compiler_gives_its_status_or_times_out():
+    """``_fork.wait_for`` (the compilers' wait, without ``Popen.wait``'s polling)
+    returns a process's exit status when it ends, and raises
+    ``TimeoutExpired`` for one still running after the timeout, as ``Popen.wait``."""
+    from kanedyn._fork import spawn, wait_for
+    done = spawn([sys.executable, "-c", "import sys; sys.exit(3)"])
+    assert wait_for(done, 30) == 3 and done.returncode == 3
+    assert wait_for(done, 30) == 3  # already reaped: its status again
+    running = spawn([sys.executable, "-c", "import time; time.sleep(30)"])
+    try:
+        with pytest.raises(subprocess.TimeoutExpired):
+            wait_for(running, 0.05)
+        assert running.poll() is None
+    finally:
+        running.kill()
+        running.wait()

@@ -192,7 +192,8 @@ def _apply(kin, IC, twist, tag):
     J = ((J00, J01, J02), (J01, J11, J12), (J02, J12, J22))
     W, V = twist[:3], twist[3:]
     h = (hx, hy, hz)
-    ang = add(tuple(sum(J[i][j] * W[j] for j in range(3)) for i in range(3)), cross(h, V))
+    hV = cross(h, V)
+    ang = tuple(sm.Add(*[J[i][j] * W[j] for j in range(3)], hV[i]) for i in range(3))
     lin = add(cross(W, h), tuple(m * c for c in V))
     return kin.let_vector(ang, f"Fa{tag}") + kin.let_vector(lin, f"Fl{tag}")
 

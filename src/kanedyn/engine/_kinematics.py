@@ -45,7 +45,7 @@ def cross(a, b):
 
 
 def dot(a, b):
-    return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+    return sm.Add(a[0] * b[0], a[1] * b[1], a[2] * b[2])
 
 
 def add(a, b):
@@ -242,15 +242,16 @@ class Kinematics:
             return _ZERO3
         if not isinstance(vec, me.Vector):
             raise KinematicsError(f"{where} is not a sympy.physics.vector Vector: {vec!r}")
-        out = [sm.S.Zero] * 3
+        terms = ([], [], [])
         for measures, frame in vec.args:
             comps = [self.scalar(m, where) for m in measures]
-            if all(c == 0 for c in comps):
+            given = [j for j in range(3) if comps[j] != 0]
+            if not given:
                 continue
             C = self.dcm(frame)
             for i in range(3):
-                out[i] += sum(C[i, j] * comps[j] for j in range(3) if comps[j] != 0)
-        return tuple(out)
+                terms[i].extend(C[i, j] * comps[j] for j in given)
+        return tuple(sm.Add(*t) for t in terms)
 
     def let_vector(self, vec, name):
         return tuple(self.prog.let(c, f"{name}_{a}") for c, a in zip(vec, "xyz"))
@@ -507,15 +508,15 @@ def inertia_components(kin, body, where):
     I_B = dyadic_matrix(body.central_inertia, frame)
     I_B = I_B.applyfunc(lambda e: kin.internal(e, where))
     C = kin.dcm(frame)
+    given = [(a, b, I_B[a, b]) for a in range(3) for b in range(3) if I_B[a, b] != 0]
     I_N = [[None] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i, 3):
-            value = sum(C[i, a] * I_B[a, b] * C[j, b]
-                        for a in range(3) for b in range(3) if I_B[a, b] != 0)
+            value = sm.Add(*[C[i, a] * I * C[j, b] for a, b, I in given])
             I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
     return I_B, I_N, C
 
 
 def matvec(A, x):
     """A 3 x 3 matrix (nested sequences) times a 3-vector, as a tuple."""
-    return tuple(sum(A[i][j] * x[j] for j in range(3)) for i in range(3))
+    return tuple(sm.Add(*[A[i][j] * x[j] for j in range(3)]) for i in range(3))

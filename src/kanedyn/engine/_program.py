@@ -34,12 +34,35 @@ from sympy.core.function import AppliedUndef
 
 from ._cse import eliminate_repeated
 
-__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler", "kd_dpow"]
+__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler", "kd_dpow", "free_symbols_of"]
 
 SAMPLE_SEEDS = (101, 202)  # random points used for identity tests
 
 _ZERO = sm.S.Zero
 _ONE = sm.S.One
+#: ``Basic.free_symbols``, which classes binding variables (``Derivative``,
+#: ``Integral``, ``Lambda``, ``Subs``) override
+_UNION_OF_ARGUMENTS = sm.Basic.__dict__["free_symbols"]
+
+
+def free_symbols_of(expr):
+    """``expr.free_symbols``, by one walk over the tree: SymPy's property makes
+    a set at every node (2.4 against 1.1 ms for the 1088 intermediates of
+    chain3d n = 10, read some four times each on the way to the C code).  A
+    node of a class with a ``free_symbols`` of its own (one binding variables)
+    is asked for it."""
+    if expr.is_Symbol:
+        return {expr}
+    found, stack = set(), [expr]
+    while stack:
+        node = stack.pop()
+        if node.is_Symbol:
+            found.add(node)
+        elif type(node).free_symbols is _UNION_OF_ARGUMENTS:
+            stack.extend(node.args)
+        else:
+            found |= node.free_symbols
+    return found
 
 
 def _is_trivial(expr):
@@ -152,7 +175,7 @@ class Program:
         if found is not None:
             return found
         sym = sm.Dummy(name)
-        free = expr.free_symbols
+        free = free_symbols_of(expr)
         parents = frozenset(s for s in free if s in self._defs)
         deps = set(s for s in free if s not in self._defs)
         for p in parents:
@@ -241,7 +264,7 @@ class Program:
         return found
 
     def _free_intermediates(self, expr):
-        return [s for s in expr.free_symbols if s in self._defs]
+        return [s for s in free_symbols_of(expr) if s in self._defs]
 
     def needed(self, exprs, stop=None, leaf=None):
         """Intermediates ``exprs`` depend on, in definition order.
@@ -564,7 +587,7 @@ class Program:
                     ordered.append((node, nodes[node]))
                     continue
                 stack.append((node, True))
-                stack.extend((d, False) for d in nodes[node].free_symbols
+                stack.extend((d, False) for d in free_symbols_of(nodes[node])
                              if d in nodes and d not in done)
         return ordered, list(reduced[len(needed):])
 

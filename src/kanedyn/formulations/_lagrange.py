@@ -73,8 +73,8 @@ import sympy as sm
 
 from .._errors import ModelError
 from ._flexible import BLOCK_BODIES, flexible_block, flexible_bodies, project
-from ._kane import (_contact_terms, _pivot_rows, body_kinematics, given_velocity_constraints,
-                    linear_parts, load_terms)
+from ._kane import (EquationLabel, _contact_terms, _pivot_rows, body_kinematics,
+                    given_velocity_constraints, linear_parts, load_terms)
 from ..engine import (SAMPLE_SEEDS, Kinematics, Program, SymbolTable, dot, fast_eval, name_of,
                       random_sampler)
 from .._progress import NO_PROGRESS
@@ -146,7 +146,7 @@ def _speeds_from_rates(spec, table, prog, method):
     """
     tmp = {s: sm.Dummy(name_of(s)) for s in spec.u}
     eqs = sm.Matrix([table.internal(sm.sympify(e, strict=True).xreplace(tmp),
-                                    f"kinematic differential equation {i} ({e})")
+                                    EquationLabel(i, e))
                      for i, e in enumerate(spec.kd_eqs)])
     back = dict(zip(table.qdot_raw, (s.diff(table.t) for s in spec.q)))
     back.update({v: k for k, v in tmp.items()})

@@ -18,7 +18,7 @@ from .._expressions import as_expression
 from ._inertial_elements import InertialElement
 from .flexible import FlexibleBody
 from ._physical import check_declared_bodies
-from ..engine import name_of
+from ..engine import name_of, time_derivative
 
 __all__ = ["ModelSpec", "parse_model", "description_symbols"]
 
@@ -268,7 +268,7 @@ def _check_kd_symbols(kd_eqs, q, u, u_aux, inputs=()):
     if overlap:
         raise ModelError("kd_inputs holds " + ", ".join(sorted(name_of(s) for s in overlap))
                          + ", a generalized coordinate or speed; give specified inputs")
-    declared = set(q) | set(u) | {s.diff(t) for s in q} | set(inputs)
+    declared = set(q) | set(u) | {time_derivative(s, t) for s in q} | set(inputs)
     for i, eq in enumerate(kd_eqs):
         found = me.find_dynamicsymbols(eq)
         extra = [s for s in found if s not in declared and s not in u_aux]
@@ -279,7 +279,7 @@ def _check_kd_symbols(kd_eqs, q, u, u_aux, inputs=()):
                 "is neither a generalized coordinate, its derivative, nor a "
                 "generalized speed; add the missing speed to u_ind or u_dep")
     used = set().union(*(me.find_dynamicsymbols(eq) for eq in kd_eqs))
-    missing_q = [s for s in q if s.diff(t) not in used]
+    missing_q = [s for s in q if time_derivative(s, t) not in used]
     if missing_q:
         raise ModelError(
             "no kinematic differential equation contains the derivative of "

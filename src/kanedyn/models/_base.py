@@ -392,14 +392,14 @@ def _read_cache(key):
     is reported with a warning, removed and rebuilt; one whose module the compile
     cache does not hold is a miss (``None``, no warning)."""
     import os
+    path = _cache_path(key)
+    if not os.path.lexists(path):
+        return None
     import warnings
 
     from ..io import SavedFileError
     from ..numerics import NumericModel
     from ..numerics.schemes import SCHEMES
-    path = _cache_path(key)
-    if not os.path.lexists(path):
-        return None
     try:
         data, manifest = _load_entry(path)
         if not isinstance(data, dict) or data.get("backend") != "c" \
@@ -527,8 +527,8 @@ def _derivation_cache(definition, constants, options):
     or ``None`` when the model or its options are not cacheable."""
     overrides = definition._constant_overrides(constants or {})
     origin = getattr(definition, "_origin", None)
-    from ._fingerprint import description_fingerprint
     if origin is None and options.get("backend") == "c":  # a user's model: its description
+        from ._fingerprint import description_fingerprint
         fingerprint = description_fingerprint(definition)
         origin = None if fingerprint is None else ("description", fingerprint)
     key = _cacheable(origin, overrides, options)

@@ -27,7 +27,7 @@ from ._c_build import (COLD_UNIT, LIGHT_UNIT, NAME_TOKEN, STATS, UNIT_MARK, Comp
                        cache_dir, compiler_command, load_module, missing_compiler_text,
                        prefetch)
 from ._python import CodegenError
-from ...engine import kd_dpow
+from ...engine import free_symbols_of, kd_dpow
 
 __all__ = ["CompilerError", "generate_c", "generate_c_units", "eager_functions",
            "fingerprint", "load_module", "compiler_command", "missing_compiler_text",
@@ -253,11 +253,11 @@ def _function_source(program, name, arguments, outputs, describe, cse, listing=N
     # a split function stores in the work array (one in a single chunk stores none)
     last_use = {}
     for s in needed if split else ():
-        for parent in definition[s].free_symbols:
+        for parent in free_symbols_of(definition[s]):
             if parent in index:
                 last_use[parent] = max(last_use.get(parent, -1), chunk_of[s])
     for e in flat if split else ():
-        for s in e.free_symbols:
+        for s in free_symbols_of(e):
             if s in index:
                 last_use[s] = len(chunks)
     params = _PARAMS
@@ -781,14 +781,14 @@ def _needed(assignments, outputs, given=()):
     """The symbols of ``assignments`` that ``outputs`` need, not looking past
     those ``given`` (included where needed)."""
     definition = dict(assignments)
-    found, stack = set(), [s for e in outputs for s in e.free_symbols if s in definition]
+    found, stack = set(), [s for e in outputs for s in free_symbols_of(e) if s in definition]
     while stack:
         s = stack.pop()
         if s in found:
             continue
         found.add(s)
         if s not in given:
-            stack.extend(x for x in definition[s].free_symbols if x in definition)
+            stack.extend(x for x in free_symbols_of(definition[s]) if x in definition)
     return found
 
 

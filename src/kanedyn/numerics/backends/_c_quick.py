@@ -54,7 +54,7 @@ import time
 import warnings
 from pathlib import Path
 
-from ..._fork import after_fork_in_child, remove_at_exit, spawn
+from ..._fork import after_fork_in_child, remove_at_exit, spawn, wait_for
 from ..._trusted_files import PRIVATE_FILE
 
 __all__ = ["quick_command", "compile_quick", "prefetch_quick", "prefetched_folders",
@@ -168,7 +168,7 @@ def compile_quick(name, units, command, includes, loader, directory, timeout):
             run = spawn(command + _QUICK_FLAGS + includes + paths + ["-o", str(out), "-lm"],
                         stdout=output, stderr=subprocess.STDOUT)
             try:
-                run.wait(timeout=timeout)
+                wait_for(run, timeout)
             except BaseException:  # a timeout or Ctrl-C: the compiler does not run on
                 run.kill()
                 run.wait()
@@ -250,7 +250,7 @@ def _prefetched_object(command, includes, unit, timeout):
         return None
     run, made, folder = found
     try:
-        run.wait(timeout=timeout)
+        wait_for(run, timeout)
     except BaseException:  # a timeout or Ctrl-C: the compiler does not run on
         _stop(found)
         raise
