@@ -172,8 +172,12 @@ def before_and_after(sizes, repeat, before):
         for k in range(repeat):
             for src in ((before, SRC) if k % 2 == 0 else (SRC, before)):
                 with tempfile.TemporaryDirectory() as cache:
-                    rows[src].append(child(CHILD.format(n=n, imports=MODEL_IMPORTS, eager=""),
-                                           cache, src=src))
+                    row = child(CHILD.format(n=n, imports=MODEL_IMPORTS, eager=""), cache,
+                                src=src)
+                if row is None:
+                    print(f"(a run of {src} at n = {n} failed: left out)", flush=True)
+                else:
+                    rows[src].append(row)
         for label, src in (("before", before), ("after", SRC)):
             columns = [[r[0] for r in rows[src]], [r[7] for r in rows[src]],
                        [r[0] - r[4] for r in rows[src]]]

@@ -42,8 +42,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 TIGHT = {"tol": 1e-12, "max_iter": 500}
 
 
-def _double_integrator(backend="numpy", mass=1.0):
-    x, v, F = me.dynamicsymbols("x v F")
+def _particle_on_a_line(force):
+    """``(eom, x, v, m)``: a particle of mass m at x on a line, speed v, under
+    the force ``force(x, v)``."""
+    x, v = me.dynamicsymbols("x v")
     m = sm.Symbol("m")
     N = me.ReferenceFrame("N")
     O = me.Point("O")
@@ -51,7 +53,13 @@ def _double_integrator(backend="numpy", mass=1.0):
     P = O.locatenew("P", x * N.x)
     P.set_vel(N, v * N.x)
     eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
-                  bodies=[me.Particle("P", P, m)], loads=[(P, F * N.x)])
+                  bodies=[me.Particle("P", P, m)], loads=[(P, force(x, v) * N.x)])
+    return eom, x, v, m
+
+
+def _double_integrator(backend="numpy", mass=1.0):
+    F = me.dynamicsymbols("F")
+    eom, x, v, m = _particle_on_a_line(lambda x, v: F)
     model = eom.numeric(constants={m: mass}, specified={F: 0.0}, backend=backend)
     return model, (x, v, F, m)
 
@@ -380,15 +388,8 @@ def test_interval_methods_on_a_model_without_inputs(method, extra):
     gradient, which failed to reshape its empty input columns); against the
     root of the underdamped closed form (scipy's brentq)."""
     from scipy.optimize import brentq
-    x, v = me.dynamicsymbols("x v")
-    m, k, c = sm.symbols("m k c")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", x * N.x)
-    P.set_vel(N, v * N.x)
-    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
-                  bodies=[me.Particle("P", P, m)], loads=[(P, (-k * x - c * v) * N.x)])
+    k, c = sm.symbols("k c")
+    eom, x, v, m = _particle_on_a_line(lambda x, v: -k * x - c * v)
     model = eom.numeric(constants={m: 1.0, k: 4.0, c: 1.0}, backend="numpy")
 
     def x_at_1(damping):  # x(1) of the underdamped oscillator from (1, 0)

@@ -136,3 +136,33 @@ def test_c_exact_solve_is_the_numpy_exact_solve():
     assert found["c"].iterations == found["numpy"].iterations
     assert abs(found["c"].objective - found["numpy"].objective) < 1e-10
     assert np.max(np.abs(found["c"].x - found["numpy"].x)) < 1e-8
+
+
+def test_c_weighted_hessians_refuse_a_singular_mass_matrix():
+    """The C path's factors of M have no pivot check of their own: a point where
+    M is singular (a particle in polar coordinates at r = 0, M = diag(m, m r^2))
+    raises LinAlgError, as the NumPy path's solve does, rather than returning
+    numbers that are not finite (the derivatives of a regular point passed for
+    it, as a caller may)."""
+    import sympy.physics.mechanics as me
+    r, th, ur, uth = me.dynamicsymbols("r th ur uth")
+    m = sm.Symbol("m")
+    N = me.ReferenceFrame("N")
+    O = me.Point("O")
+    O.set_vel(N, 0)
+    A = N.orientnew("A", "Axis", [th, N.z])
+    A.set_ang_vel(N, uth * N.z)
+    P = O.locatenew("P", r * A.x)
+    P.set_vel(N, ur * A.x + r * uth * A.y)
+    eom = kd.kane(frame=N, q_ind=[r, th], u_ind=[ur, uth],
+                  kd_eqs=[r.diff() - ur, th.diff() - uth],
+                  bodies=[me.Particle("P", P, m)], loads=[(P, -r * A.x)])
+    regular = [1.0, 0.2, 0.1, 0.3]
+    for backend in ("c", "numpy"):
+        model = eom.numeric(constants={m: 1.0}, backend=backend)
+        J = model.jacobians(0.0, np.array([regular, regular]))
+        Y = np.array([regular, [0.0, 0.2, 0.1, 0.3]])
+        with pytest.raises(np.linalg.LinAlgError):
+            weighted_hessians(model, 0.0, Y, np.zeros((2, 0)), np.ones((2, 4)), jacobians=J)
+        assert np.isfinite(weighted_hessians(model, 0.0, Y[:1], np.zeros((1, 0)),
+                                             np.ones((1, 4)))).all()

@@ -707,6 +707,9 @@ def test_wait_for_a_compiler_gives_its_status_or_times_out():
     try:
         with pytest.raises(subprocess.TimeoutExpired):
             wait_for(running, 0.05)
+        for timeout in (0, -1):  # at once, as Popen.wait (poll would wait without end)
+            with pytest.raises(subprocess.TimeoutExpired):
+                wait_for(running, timeout)
         assert running.poll() is None
     finally:
         running.kill()

@@ -93,6 +93,8 @@ def wait_for(process, timeout):
     instead; elsewhere ``Popen.wait`` is called."""
     if process.returncode is not None:
         return process.returncode
+    if timeout is not None and not 0 < timeout < 2_000_000:  # poll's milliseconds
+        return process.wait(timeout=timeout)  # its own answer (at once, or no limit)
     try:
         descriptor = os.pidfd_open(process.pid)
     except (AttributeError, OSError):  # not Linux 5.3 or later; or already reaped

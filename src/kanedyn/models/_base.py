@@ -415,13 +415,13 @@ def _read_cache(key):
             if not _cache_path(key, "kdbody").exists():
                 raise SavedFileError(f"{path}: its body parameters are missing")
             data["body_parameters"] = lambda: _read_body_parameters(key)
-        from ..numerics import cached_module, compiler_command
+        from ..numerics import cached_module
         module = cached_module(data["c_key"])
-        if module is None and compiler_command() is not None:
+        if module is None:
             # its module is not in the compile cache (removed, or made with other
             # compiler flags, which are part of a module's key: -mavx where the CPU
-            # runs AVX): a miss, derived again, and the entry written again when the
-            # module is built
+            # runs AVX): a miss, derived again (and the entry written again when the
+            # module is built; without a compiler that says what is missing)
             return None
         model = NumericModel(data, module)
     except Exception as exc:  # noqa: BLE001  damaged, stale or unloadable: derive again

@@ -79,7 +79,9 @@ def _specification(model, parameters=(), time=False):
     the inputs then :math:`w`; outputs ``M`` (o, o) and the second
     derivatives of ``[g; E]`` in ``v = (y, r, e, w)``, ((n + o) * nv, nv),
     ``e`` the constants of indices ``parameters`` then (``time``) t; with
-    ``e``, a third output: :math:`E_e`, (o, len(e))."""
+    ``e``, a third output: :math:`E_e`, (o, len(e)).  A change here changes
+    the C module's code: bump :data:`.backends._c_hessians._GENERATION`,
+    part of its cache key."""
     from ._inverse import _recursive_inertia_forces, _workspace
     import sympy as sm
     eom = model._eom
@@ -210,4 +212,11 @@ def _compiled(model, module, t, Y, R, weights, J):
     T = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
     W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
     inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
-    return module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]
+    H = module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]
+    bad = np.flatnonzero(~np.isfinite(H).reshape(N, -1).all(axis=1))
+    if len(bad):  # M's factors are written out without a check of their pivots
+        raise np.linalg.LinAlgError(
+            f"the exact Hessian is not finite at {len(bad)} point(s) (the first at t = "
+            f"{T[bad[0]]:g}): the mass matrix is singular there, or the model's terms "
+            "are not finite")
+    return H
