@@ -661,3 +661,24 @@ def test_parallel_inverse_dynamics(tmp_path, monkeypatch):
     np.testing.assert_allclose(study.forces[:, [0, -1]], 0.0, atol=1e-12)
     assert np.max(np.abs(study.forces)) > 1e-2
     assert out["power_residual"] < 1e-10
+
+
+# ------------------------------------------------------- a large chain, two ways
+def test_large_chain(tmp_path, monkeypatch):
+    """The chain written from positions and with ``v2pt_theory`` gives one state
+    derivative, and at n = 3 that of SymPy's ``KanesMethod`` on the v2pt-written
+    chain (mass_matrix_full, forcing_full, solved numerically)."""
+    out, ns = run_example("large_chain", ["--sizes", "3", "6"], tmp_path, monkeypatch)
+    assert [r["n"] for r in out["rows"]] == [3, 6]
+    assert all(r["difference"] < 1e-10 for r in out["rows"]), out["rows"]
+    kane_args, s = ns["chain"](3, v2pt=True)
+    kane = me.KanesMethod(kane_args["frame"], q_ind=kane_args["q_ind"],
+                          u_ind=kane_args["u_ind"], kd_eqs=kane_args["kd_eqs"])
+    kane.kanes_equations(kane_args["bodies"], kane_args["loads"])
+    y = out["states"][3]
+    values = dict(zip(kane_args["q_ind"] + kane_args["u_ind"], y))
+    values.update({s[k]: v for k, v in ns["CONSTANTS"].items()})
+    M = np.array(kane.mass_matrix_full.subs(values), dtype=float)
+    F = np.array(kane.forcing_full.subs(values), dtype=float).ravel()
+    expected = np.linalg.solve(M, F)
+    assert np.max(np.abs(np.array(out["rhs"]["3 positions"]) - expected)) < 1e-10
