@@ -7,12 +7,17 @@ What it measures: the thread CPU time of one call of ``pinocchio::aba`` and of
 the time.
 
 How: :func:`build` writes a C++ timing program into a folder and compiles it
-once with the system ``g++ -O3 -DNDEBUG`` against the headers and
-``libpinocchio_default`` of the installed ``pin`` wheel (found from
-``pinocchio.__file__``; Eigen from the wheel's prefix, else from the one CasADi
-ships), with the compile definitions the wheel's CMake files give that
-library (``PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION``: the algorithms run are the
-wheel's own compiled ones).  :meth:`PinocchioCpp.run` passes a Pinocchio model
+once with the system ``g++ -O3 -DNDEBUG`` (plus the instruction flags it is
+given: the scripts pass the ones kanedyn builds its modules with) against the
+headers of the installed ``pin`` wheel (found from ``pinocchio.__file__``;
+Eigen from the wheel's prefix, else from the one CasADi ships), linked with its
+``libpinocchio_default``, with the compile definitions the wheel's CMake files
+give that library.  Two variants (``algorithms``): ``"here"`` (the default)
+compiles Pinocchio's algorithms from its headers in this program, with these
+flags; ``"wheel"`` defines ``PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION`` as the
+wheel's CMake target does, so the calls go to the wheel's own compiled
+instantiations (what its Python binding runs; the flags above do not reach
+them).  :meth:`PinocchioCpp.run` passes a Pinocchio model
 built in Python across as numbers in a text file (each joint's parent, axis,
 placement and body inertia; gravity), which the program reads with
 ``operator>>`` into a ``pinocchio::Model`` of revolute joints about x, y or z;
@@ -40,13 +45,14 @@ import numpy as np
 
 from _timing import Timing
 
-__all__ = ["PinocchioCpp", "CppResult", "build", "AXES"]
+__all__ = ["PinocchioCpp", "CppResult", "build", "add_option", "AXES"]
 
 #: Pinocchio's joint short name -> the axis index the program reads
 AXES = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2}
 
 #: the compile definitions the wheel's pinocchioTargets.cmake gives libpinocchio_default
-_DEFINITIONS = ("PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION", "BOOST_MPL_LIMIT_LIST_SIZE=30",
+#: (besides PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION, which ``algorithms="wheel"`` adds)
+_DEFINITIONS = ("BOOST_MPL_LIMIT_LIST_SIZE=30",
                 "BOOST_MPL_LIMIT_VECTOR_SIZE=30", "BOOST_MPL_CFG_NO_PREPROCESSED_HEADERS",
                 "BOOST_FUSION_INVOKE_MAX_ARITY=12")
 
@@ -212,10 +218,13 @@ class PinocchioCpp:
     ----------
     executable : pathlib.Path
         The program :func:`build` compiled.
+    description : str
+        How it was compiled, for the scripts' output.
     """
 
-    def __init__(self, executable):
+    def __init__(self, executable, description=""):
         self.executable = Path(executable)
+        self.description = description
 
     def run(self, pmodel, q, v, tau, rounds=7):
         """Time ``aba`` and ``computeABADerivatives`` in C++ on ``pmodel`` at
@@ -247,8 +256,18 @@ class PinocchioCpp:
                          difference)
 
 
-def build(folder):
+def build(folder, algorithms="here", flags=()):
     """Compile the timing program in ``folder``.
+
+    Parameters
+    ----------
+    folder : path-like
+        Where the source, the program and its model files go.
+    algorithms : {"here", "wheel"}
+        Pinocchio's algorithms compiled in this program from the headers
+        (``"here"``), or the wheel's compiled instantiations (``"wheel"``).
+    flags : sequence of str
+        Further compiler flags (instruction sets), e.g. ``("-mavx",)``.
 
     Returns
     -------
@@ -268,12 +287,25 @@ def build(folder):
     source.write_text(_PROGRAM)
     executable = Path(folder) / "pinocchio_timing"
     library = prefix / "lib"
-    command = [compiler, "-std=c++17", "-O3", "-DNDEBUG",
-               *(f"-D{d}" for d in _DEFINITIONS), f"-I{prefix / 'include'}", f"-I{eigen}",
+    definitions = _DEFINITIONS + (("PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",)
+                                  if algorithms == "wheel" else ())
+    command = [compiler, "-std=c++17", "-O3", "-DNDEBUG", *flags,
+               *(f"-D{d}" for d in definitions), f"-I{prefix / 'include'}", f"-I{eigen}",
                str(source), "-o", str(executable), f"-L{library}",
                f"-Wl,-rpath,{library}", "-lpinocchio_default"]
     done = subprocess.run(command, capture_output=True, text=True)
     if done.returncode:
         errors = [line for line in done.stderr.splitlines() if "error" in line]
         return None, "g++ failed: " + " | ".join(errors[:3] or done.stderr.splitlines()[-3:])
-    return PinocchioCpp(executable), ""
+    where = ("the wheel's compiled algorithms" if algorithms == "wheel" else
+             "its algorithms compiled from the headers here")
+    return PinocchioCpp(executable, f"{where}; g++ -O3 -DNDEBUG {' '.join(flags)}".strip()), ""
+
+
+def add_option(parser):
+    """Add ``--pinocchio-cpp {here,wheel}`` (the ``algorithms`` of :func:`build`)
+    to a script's argument parser."""
+    parser.add_argument("--pinocchio-cpp", choices=("here", "wheel"), default="here",
+                        help="Pinocchio in C++: its algorithms compiled from its headers "
+                             "with -O3 and kanedyn's instruction flags (here), or the "
+                             "pin wheel's compiled ones (wheel)")

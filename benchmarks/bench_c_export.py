@@ -14,10 +14,12 @@ which did not finish in 25 minutes at n = 100):
 - the compiled module's ``model.rhs`` (from Python);
 - ``pinocchio.aba`` (from Python);
 - ``pinocchio::aba`` called from a C++ loop on the same model at the same
-  state (:mod:`_pinocchio_cpp`: compiled once per run against the pin wheel,
-  timed in its own rounds after the others; its largest difference from the
-  Python binding's accelerations is printed).  Without pinocchio, or where the
-  program does not compile, its column says "n/a" and the reason is printed once.
+  state (:mod:`_pinocchio_cpp`: compiled once per run against the pin wheel's
+  headers, its algorithms compiled there with -O3 and the instruction flags
+  above, or with ``--pinocchio-cpp wheel`` the wheel's compiled ones; timed in
+  its own rounds after the others; its largest difference from the Python
+  binding's accelerations is printed).  Without pinocchio, or where the program
+  does not compile, its column says "n/a" and the reason is printed once.
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
 minimum and spread (median / min - 1).  The largest difference of the state
@@ -26,6 +28,7 @@ derivatives is printed too.
 Usage::
 
     python benchmarks/bench_c_export.py [--sizes 10 30 100] [--rounds 7]
+        [--pinocchio-cpp here|wheel]
 """
 
 from __future__ import annotations
@@ -44,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _pinocchio_cpp import build  # noqa: E402
+from _pinocchio_cpp import add_option, build  # noqa: E402
 from _timing import interleaved, optimized_modules_only  # noqa: E402
 from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
@@ -107,10 +110,13 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--sizes", type=int, nargs="+", default=[10, 30, 100])
     parser.add_argument("--rounds", type=int, default=7)
+    add_option(parser)
     args = parser.parse_args()
     print(machine_info())
     with tempfile.TemporaryDirectory() as folder:
-        cpp, reason = build(folder)
+        cpp, reason = build(folder, args.pinocchio_cpp, _VEX)
+        if cpp is not None:
+            print(f"\nPinocchio in C++: {cpp.description}")
         if cpp is None:
             print(f"\nPinocchio in C++: n/a ({reason})")
         print("\n| chain3d n | standalone export (C loop), us | compiled module rhs, us | "

@@ -17,8 +17,10 @@ state:
   :math:`\\partial\\ddot q/\\partial(q, v, \\tau)`;
 - ``pinocchio::computeABADerivatives`` called from a C++ loop on the same
   Pinocchio model at the same state (:mod:`_pinocchio_cpp`: compiled once per
-  run against the pin wheel, the model passed across as numbers, timed in its
-  own rounds after the others; its largest difference from the Python
+  run against the pin wheel's headers, its algorithms compiled there with -O3
+  and the instruction flags of kanedyn's modules, or with ``--pinocchio-cpp
+  wheel`` the wheel's compiled ones; the model passed across as numbers; timed
+  in its own rounds after the others; its largest difference from the Python
   binding's is printed).  Without pinocchio, or where the program does not
   compile, its column says "n/a" and the reason is printed once.  kanedyn's
   figure is a call from Python; this one is a call from C++;
@@ -39,7 +41,7 @@ Usage::
 
     python benchmarks/bench_jacobians.py [--sizes 7 12 30] [--large] [--rounds 7]
         [--style v2pt|positions]
-        [--no-robots] [--no-first-use | --first-use-only]
+        [--no-robots] [--no-first-use | --first-use-only] [--pinocchio-cpp here|wheel]
 """
 
 from __future__ import annotations
@@ -58,8 +60,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import kanedyn as kd  # noqa: E402
 from _fresh_process import byte_compile_package, run_python  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _pinocchio_cpp import build  # noqa: E402
+from _pinocchio_cpp import add_option, build  # noqa: E402
 from _timing import interleaved  # noqa: E402
+from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 
@@ -211,6 +214,7 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="+", default=[7, 12, 30])
     parser.add_argument("--large", action="store_true", help="also n = 100")
     parser.add_argument("--rounds", type=int, default=7)
+    add_option(parser)
     parser.add_argument("--no-first-use", action="store_true",
                         help="only the timings per call (not the fresh-process builds)")
     parser.add_argument("--first-use-only", action="store_true",
@@ -224,7 +228,10 @@ def main():
     sizes = args.sizes + ([100] if args.large else [])
     print(machine_info())
     with tempfile.TemporaryDirectory() as folder:
-        cpp, reason = build(folder) if not args.first_use_only else (None, "")
+        cpp, reason = (build(folder, args.pinocchio_cpp, _VEX) if not args.first_use_only
+                       else (None, ""))
+        if cpp is not None:
+            print(f"\nPinocchio in C++: {cpp.description}")
         if cpp is None and reason:
             print(f"\nPinocchio in C++: n/a ({reason})")
         print("\n| model (n) | kanedyn jacobians, us (median) | the same, 1000 states in one "
