@@ -16,8 +16,9 @@ give that library.  Two variants (``algorithms``): ``"here"`` (the default)
 compiles Pinocchio's algorithms from its headers in this program, with these
 flags; ``"wheel"`` defines ``PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION`` as the
 wheel's CMake target does, so the calls go to the wheel's own compiled
-instantiations (what its Python binding runs; the flags above do not reach
-them).  :meth:`PinocchioCpp.run` passes a Pinocchio model
+instantiations (what its Python binding runs), and leaves the instruction
+flags out (they would not reach that code, and would lay Eigen's types out
+with another alignment than the library's).  :meth:`PinocchioCpp.run` passes a Pinocchio model
 built in Python across as numbers in a text file (each joint's parent, axis,
 placement and body inertia; gravity), which the program reads with
 ``operator>>`` into a ``pinocchio::Model`` of revolute joints about x, y or z;
@@ -239,7 +240,10 @@ class PinocchioCpp:
         path = self.executable.parent / "model.txt"
         path.write_text(_model_text(pmodel, q, v, tau))
         done = subprocess.run([str(self.executable), str(path), str(rounds)],
-                              capture_output=True, text=True, check=True)
+                              capture_output=True, text=True)
+        if done.returncode:
+            raise RuntimeError(f"the C++ timing program failed ({done.returncode}): "
+                               f"{done.stderr[-500:]}")
         rows = {}
         for line in done.stdout.splitlines():
             name, *values = line.split()
@@ -267,7 +271,11 @@ def build(folder, algorithms="here", flags=()):
         Pinocchio's algorithms compiled in this program from the headers
         (``"here"``), or the wheel's compiled instantiations (``"wheel"``).
     flags : sequence of str
-        Further compiler flags (instruction sets), e.g. ``("-mavx",)``.
+        Further compiler flags (instruction sets), e.g. ``("-mavx",)``; not
+        used with ``"wheel"``: they would not reach the wheel's code, and
+        they change the alignment Eigen's types are laid out with, so the
+        program and the wheel's library would disagree on them (the program
+        aborted at n = 100 with ``-mavx``).
 
     Returns
     -------
@@ -287,8 +295,10 @@ def build(folder, algorithms="here", flags=()):
     source.write_text(_PROGRAM)
     executable = Path(folder) / "pinocchio_timing"
     library = prefix / "lib"
-    definitions = _DEFINITIONS + (("PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",)
-                                  if algorithms == "wheel" else ())
+    definitions = _DEFINITIONS
+    if algorithms == "wheel":
+        definitions += ("PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION",)
+        flags = ()
     command = [compiler, "-std=c++17", "-O3", "-DNDEBUG", *flags,
                *(f"-D{d}" for d in definitions), f"-I{prefix / 'include'}", f"-I{eigen}",
                str(source), "-o", str(executable), f"-L{library}",
