@@ -18,8 +18,10 @@ flags; ``"wheel"`` defines ``PINOCCHIO_ENABLE_TEMPLATE_INSTANTIATION`` as the
 wheel's CMake target does, so the calls go to the wheel's own compiled
 instantiations (what its Python binding runs), and leaves the instruction
 flags out (they would not reach that code, and would lay Eigen's types out
-with another alignment than the library's).  :meth:`PinocchioCpp.run` passes a Pinocchio model
-built in Python across as numbers in a text file (each joint's parent, axis,
+with another alignment than the library's).
+
+:meth:`PinocchioCpp.run` passes a Pinocchio model built in Python across as
+numbers in a text file (each joint's parent, axis,
 placement and body inertia; gravity), which the program reads with
 ``operator>>`` into a ``pinocchio::Model`` of revolute joints about x, y or z;
 the state follows in the same file.  The program times ``calls`` calls per
