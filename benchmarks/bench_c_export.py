@@ -1,7 +1,7 @@
 """The standalone C export against the compiled module and Pinocchio's ``aba``, same run.
 
 ``chain3d`` (the spatial chain; Pinocchio's twin from :func:`_peers.pinocchio_chain`)
-at n = 30 and 100 (``--sizes``), at a random state, built with ``style="positions"``
+at n = 10, 30 and 100 (``--sizes``), at a random state, built with ``style="positions"``
 (as ``bench_large.py`` and ``bench_numerics.py`` build it: the same equations; the
 default ``"v2pt"`` has SymPy multiply out direction cosines while the model is built,
 which did not finish in 25 minutes at n = 100):
@@ -12,7 +12,14 @@ which did not finish in 25 minutes at n = 100):
   AVX, as its header advises), called from C in a loop of 1000 calls (so no
   Python in the time);
 - the compiled module's ``model.rhs`` (from Python);
-- ``pinocchio.aba`` (from Python).
+- ``pinocchio.aba`` (from Python);
+- ``pinocchio::aba`` called from a C++ loop on the same model at the same
+  state (:mod:`_pinocchio_cpp`: compiled once per run against the pin wheel's
+  headers, its algorithms compiled there with -O3 and the instruction flags
+  above, or with ``--pinocchio-cpp wheel`` the wheel's compiled ones; timed in
+  its own rounds after the others; its largest difference from the Python
+  binding's accelerations is printed).  Without pinocchio, or where the program
+  does not compile, its column says "n/a" and the reason is printed once.
 
 Timings interleaved in rounds (:func:`_timing.interleaved`, thread CPU time);
 minimum and spread (median / min - 1).  The largest difference of the state
@@ -20,7 +27,8 @@ derivatives is printed too.
 
 Usage::
 
-    python benchmarks/bench_c_export.py [--sizes 30 100] [--rounds 7]
+    python benchmarks/bench_c_export.py [--sizes 10 30 100] [--rounds 7]
+        [--pinocchio-cpp here|wheel]
 """
 
 from __future__ import annotations
@@ -39,6 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
+from _pinocchio_cpp import add_option, build  # noqa: E402
 from _timing import interleaved, optimized_modules_only  # noqa: E402
 from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
@@ -69,7 +78,7 @@ def exported(model, folder):
     return lib, vec
 
 
-def measure(n, rounds, folder):
+def measure(n, rounds, folder, cpp=None):
     Path(folder).mkdir()
     import pinocchio as pin
 
@@ -92,27 +101,43 @@ def measure(n, rounds, folder):
                          "pinocchio": lambda: pin.aba(pmodel, pdata, q, u, tau)},
                         rounds=rounds)
     times["export"].times = [t / CALLS for t in times["export"].times]
-    return times, difference
+    in_cpp = None if cpp is None else cpp.run(pmodel, q, u, tau, rounds)
+    return times, difference, in_cpp
 
 
 def main():
     optimized_modules_only()  # the module timed is gcc's, not TinyCC's first one
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--sizes", type=int, nargs="+", default=[30, 100])
+    parser.add_argument("--sizes", type=int, nargs="+", default=[10, 30, 100])
     parser.add_argument("--rounds", type=int, default=7)
+    add_option(parser)
     args = parser.parse_args()
     print(machine_info())
-    print("\n| chain3d n | standalone export (C loop), us | compiled module rhs, us | "
-          "Pinocchio aba, us | export / module | export / Pinocchio | largest difference |")
-    print("|---|---|---|---|---|---|---|")
     with tempfile.TemporaryDirectory() as folder:
+        cpp, reason = build(folder, args.pinocchio_cpp, _VEX)
+        if cpp is not None:
+            print(f"\nPinocchio in C++: {cpp.description}")
+        if cpp is None:
+            print(f"\nPinocchio in C++: n/a ({reason})")
+        print("\n| chain3d n | standalone export (C loop), us | compiled module rhs, us | "
+              "Pinocchio aba (Python), us | Pinocchio aba in C++, us | export / module | "
+              "export / Pinocchio (Python) | export / Pinocchio C++ | largest difference "
+              "(export - module; C++ - Python aba) |")
+        print("|---|---|---|---|---|---|---|---|---|")
         for n in args.sizes:
-            times, difference = measure(n, args.rounds, Path(folder) / str(n))
+            times, difference, in_cpp = measure(n, args.rounds, Path(folder) / str(n), cpp)
             e, m, b = times["export"], times["module"], times["pinocchio"]
+            if in_cpp is None:
+                c_text, c_ratio, c_difference = "n/a", "n/a", "n/a"
+            else:
+                c = in_cpp.aba
+                c_text = f"{1e6 * c.best:.2f} (spread {c.spread:.0%})"
+                c_ratio = f"{e.best / c.best:.2f}"
+                c_difference = f"{in_cpp.difference:.1e}"
             print(f"| {n} | {1e6 * e.best:.2f} (spread {e.spread:.0%}) | {1e6 * m.best:.2f} "
                   f"(spread {m.spread:.0%}) | {1e6 * b.best:.2f} (spread {b.spread:.0%}) | "
-                  f"{e.best / m.best:.2f} | {e.best / b.best:.2f} | {difference:.1e} |")
-
+                  f"{c_text} | {e.best / m.best:.2f} | {e.best / b.best:.2f} | {c_ratio} | "
+                  f"{difference:.1e}; {c_difference} |")
 
 if __name__ == "__main__":
     main()

@@ -15,6 +15,15 @@ state:
   Python, and for 1000 states in one call (per state);
 - ``pinocchio.computeABADerivatives(model, data, q, v, tau)`` from Python:
   :math:`\\partial\\ddot q/\\partial(q, v, \\tau)`;
+- ``pinocchio::computeABADerivatives`` called from a C++ loop on the same
+  Pinocchio model at the same state (:mod:`_pinocchio_cpp`: compiled once per
+  run against the pin wheel's headers, its algorithms compiled there with -O3
+  and the instruction flags of kanedyn's modules, or with ``--pinocchio-cpp
+  wheel`` the wheel's compiled ones; the model passed across as numbers; timed
+  in its own rounds after the others; its largest difference from the Python
+  binding's is printed).  Without pinocchio, or where the program does not
+  compile, its column says "n/a" and the reason is printed once.  kanedyn's
+  figure is a call from Python; this one is a call from C++;
 - the largest difference of :math:`\\partial\\dot u/\\partial(q, u)` between them;
 - the size of the generated derivative code (its operations, after common
   subexpressions) and the exponent of its growth with n;
@@ -32,7 +41,7 @@ Usage::
 
     python benchmarks/bench_jacobians.py [--sizes 7 12 30] [--large] [--rounds 7]
         [--style v2pt|positions]
-        [--no-robots] [--no-first-use | --first-use-only]
+        [--no-robots] [--no-first-use | --first-use-only] [--pinocchio-cpp here|wheel]
 """
 
 from __future__ import annotations
@@ -51,7 +60,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import kanedyn as kd  # noqa: E402
 from _fresh_process import byte_compile_package, run_python  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
+from _pinocchio_cpp import add_option, build  # noqa: E402
 from _timing import interleaved  # noqa: E402
+from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 
@@ -149,9 +160,11 @@ def robot_models(name, folder):
     return model, pmodel, pdata, speeds, efforts
 
 
-def measure(n, rounds, robot=None, folder=None, style="v2pt"):
+def measure(n, rounds, robot=None, folder=None, style="v2pt", cpp=None):
     """Timings of kanedyn (one state, 1000 states) and Pinocchio, and the largest
-    difference of their derivatives, for ``chain3d`` at n or for ``robot``."""
+    difference of their derivatives, for ``chain3d`` at n or for ``robot``; with
+    ``cpp`` (:class:`_pinocchio_cpp.PinocchioCpp`) also Pinocchio in C++
+    (``None`` without it)."""
     import pinocchio as pin
 
     rng = np.random.default_rng(2)
@@ -192,7 +205,8 @@ def measure(n, rounds, robot=None, folder=None, style="v2pt"):
         "pinocchio": lambda: pin.computeABADerivatives(pmodel, pdata, qp, vp, tp)},
         rounds=rounds)
     times["batch"].times = [x / len(states) for x in times["batch"].times]
-    return times, float(error), n
+    in_cpp = None if cpp is None else cpp.run(pmodel, qp, vp, tp, rounds)
+    return times, float(error), n, in_cpp
 
 
 def main():
@@ -200,6 +214,7 @@ def main():
     parser.add_argument("--sizes", type=int, nargs="+", default=[7, 12, 30])
     parser.add_argument("--large", action="store_true", help="also n = 100")
     parser.add_argument("--rounds", type=int, default=7)
+    add_option(parser)
     parser.add_argument("--no-first-use", action="store_true",
                         help="only the timings per call (not the fresh-process builds)")
     parser.add_argument("--first-use-only", action="store_true",
@@ -212,27 +227,45 @@ def main():
     args = parser.parse_args()
     sizes = args.sizes + ([100] if args.large else [])
     print(machine_info())
-    print("\n| model (n) | kanedyn jacobians, us (median) | the same, 1000 states in one "
-          "call, us per state (median) | Pinocchio computeABADerivatives, us (median) | "
-          "kanedyn / Pinocchio, one (medians) | batch / Pinocchio (medians) | "
-          "largest difference |")
-    print("|---|---|---|---|---|---|---|")
-    cases = [] if args.no_robots or robot_text("Panda") is None else list(ROBOTS)
-    cases += sizes
-    if args.first_use_only:
-        cases = []
     with tempfile.TemporaryDirectory() as folder:
+        cpp, reason = (build(folder, args.pinocchio_cpp, _VEX) if not args.first_use_only
+                       else (None, ""))
+        if cpp is not None:
+            print(f"\nPinocchio in C++: {cpp.description}")
+        if cpp is None and reason:
+            print(f"\nPinocchio in C++: n/a ({reason})")
+        print("\n| model (n) | kanedyn jacobians, us (median) | the same, 1000 states in one "
+              "call, us per state (median) | Pinocchio computeABADerivatives, us (median) | "
+              "kanedyn / Pinocchio, one (medians) | batch / Pinocchio (medians) | "
+              "Pinocchio computeABADerivatives in C++, us (median) | kanedyn (Python call) / "
+              "Pinocchio C++ (medians) | batch / Pinocchio C++ (medians) | "
+              "largest difference (kanedyn - Pinocchio; C++ - Python Pinocchio) |")
+        print("|---|---|---|---|---|---|---|---|---|---|")
+        cases = [] if args.no_robots or robot_text("Panda") is None else list(ROBOTS)
+        cases += sizes
+        if args.first_use_only:
+            cases = []
         for case in cases:
             robot = case if isinstance(case, str) else None
-            times, error, n = measure(0 if robot else case, args.rounds, robot, folder,
-                                      args.style)
+            times, error, n, in_cpp = measure(0 if robot else case, args.rounds, robot,
+                                              folder, args.style, cpp)
             a, c, b = times["kanedyn"], times["batch"], times["pinocchio"]
+            if in_cpp is None:
+                cpp_text = "n/a | n/a | n/a"
+                cpp_difference = "n/a"
+            else:
+                d = in_cpp.derivatives
+                cpp_text = (f"{1e6 * d.best:.1f} ({1e6 * d.median:.1f}) | "
+                            f"{a.best / d.best:.2f} ({a.median / d.median:.2f}) | "
+                            f"{c.best / d.best:.2f} ({c.median / d.median:.2f})")
+                cpp_difference = f"{in_cpp.difference:.1e}"
             label = f"{robot} ({n})" if robot else f"chain3d ({n})"
             print(f"| {label} | {1e6 * a.best:.1f} ({1e6 * a.median:.1f}) | "
                   f"{1e6 * c.best:.1f} ({1e6 * c.median:.1f}) | "
                   f"{1e6 * b.best:.1f} ({1e6 * b.median:.1f}) | "
                   f"{a.best / b.best:.2f} ({a.median / b.median:.2f}) | "
-                  f"{c.best / b.best:.2f} ({c.median / b.median:.2f}) | {error:.1e} |")
+                  f"{c.best / b.best:.2f} ({c.median / b.median:.2f}) | {cpp_text} | "
+                  f"{error:.1e}; {cpp_difference} |")
     if args.no_first_use:
         return
     print("\n| chain3d n | operations of the derivative code | first rhs, s | "
