@@ -48,7 +48,7 @@ import numpy as np
 
 from _timing import Timing
 
-__all__ = ["PinocchioCpp", "CppResult", "build", "add_option", "AXES"]
+__all__ = ["PinocchioCpp", "CppResult", "build", "announced", "add_option", "AXES"]
 
 #: Pinocchio's joint short name -> the axis index the program reads
 AXES = {"JointModelRX": 0, "JointModelRY": 1, "JointModelRZ": 2}
@@ -312,6 +312,16 @@ def build(folder, algorithms="here", flags=()):
     where = ("the wheel's compiled algorithms" if algorithms == "wheel" else
              "its algorithms compiled from the headers here")
     return PinocchioCpp(executable, f"{where}; g++ -O3 -DNDEBUG {' '.join(flags)}".strip()), ""
+
+
+def announced(folder, algorithms="here"):
+    """:func:`build` with the instruction flags kanedyn builds its own modules
+    with, the outcome printed in a line (the program's description, or "n/a" and
+    the reason); the program, or ``None``."""
+    from kanedyn.numerics.backends._c_build import _VEX
+    cpp, reason = build(folder, algorithms, _VEX)
+    print(f"\nPinocchio in C++: {cpp.description if cpp is not None else f'n/a ({reason})'}")
+    return cpp
 
 
 def add_option(parser):

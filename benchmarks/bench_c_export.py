@@ -47,7 +47,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import kanedyn as kd  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _pinocchio_cpp import add_option, build  # noqa: E402
+from _pinocchio_cpp import add_option, announced  # noqa: E402
 from _timing import interleaved, optimized_modules_only  # noqa: E402
 from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
@@ -114,11 +114,7 @@ def main():
     args = parser.parse_args()
     print(machine_info())
     with tempfile.TemporaryDirectory() as folder:
-        cpp, reason = build(folder, args.pinocchio_cpp, _VEX)
-        if cpp is not None:
-            print(f"\nPinocchio in C++: {cpp.description}")
-        if cpp is None:
-            print(f"\nPinocchio in C++: n/a ({reason})")
+        cpp = announced(folder, args.pinocchio_cpp)
         print("\n| chain3d n | standalone export (C loop), us | compiled module rhs, us | "
               "Pinocchio aba (Python), us | Pinocchio aba in C++, us | export / module | "
               "export / Pinocchio (Python) | export / Pinocchio C++ | largest difference "
@@ -138,6 +134,7 @@ def main():
                   f"(spread {m.spread:.0%}) | {1e6 * b.best:.2f} (spread {b.spread:.0%}) | "
                   f"{c_text} | {e.best / m.best:.2f} | {e.best / b.best:.2f} | {c_ratio} | "
                   f"{difference:.1e}; {c_difference} |")
+
 
 if __name__ == "__main__":
     main()

@@ -60,9 +60,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import kanedyn as kd  # noqa: E402
 from _fresh_process import byte_compile_package, run_python  # noqa: E402
 from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
-from _pinocchio_cpp import add_option, build  # noqa: E402
+from _pinocchio_cpp import add_option, announced  # noqa: E402
 from _timing import interleaved  # noqa: E402
-from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
 
 
@@ -228,12 +227,7 @@ def main():
     sizes = args.sizes + ([100] if args.large else [])
     print(machine_info())
     with tempfile.TemporaryDirectory() as folder:
-        cpp, reason = (build(folder, args.pinocchio_cpp, _VEX) if not args.first_use_only
-                       else (None, ""))
-        if cpp is not None:
-            print(f"\nPinocchio in C++: {cpp.description}")
-        if cpp is None and reason:
-            print(f"\nPinocchio in C++: n/a ({reason})")
+        cpp = None if args.first_use_only else announced(folder, args.pinocchio_cpp)
         print("\n| model (n) | kanedyn jacobians, us (median) | the same, 1000 states in one "
               "call, us per state (median) | Pinocchio computeABADerivatives, us (median) | "
               "kanedyn / Pinocchio, one (medians) | batch / Pinocchio (medians) | "
