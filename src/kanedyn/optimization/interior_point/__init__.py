@@ -1,0 +1,32 @@
+"""kanedyn's own interior-point NLP solver (``solve(solver="interior-point")``).
+
+A primal-dual interior-point method of IPOPT's family (barrier, fraction to
+the boundary, filter line search, inertia correction) on the collocation
+NLP's sparse Jacobian and exact Hessian, its linear systems solved by a sparse
+LDLᵀ factorization compiled in C that reports the inertia.
+
+``_kkt_dense``   ``DenseKKT``: the reference factorization (SciPy's dense
+                 LDLᵀ), for tests and small problems
+``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ with its ordering and the
+                 compiled kernel
+``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
+                 ``optimization._solvers``
+
+Both factorizations take the same calls: ``KKT(n, m, hessian_structure,
+jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
+diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs)`` and
+``matvec(x)``.
+"""
+
+from ..._lazy import lazy_attributes as _lazy_attributes
+
+#: public name -> the module (in this package) that defines it; imported on first use
+_LAZY = {
+    "DenseKKT": "._kkt_dense",
+    "SparseKKT": "._kkt_sparse",
+    "InteriorPoint": "._solver",
+}
+
+__all__ = list(_LAZY)
+
+__getattr__, __dir__ = _lazy_attributes(__name__, _LAZY, globals(), __all__)
