@@ -61,6 +61,56 @@ class _Points:
     def __init__(self, V, D, duration=None):
         self.V, self.D, self.duration = V, D, duration
         self.mask = V[:, :, None] >= V[:, None, :]
+        self._maps = None
+
+    def maps(self, steps):
+        r"""``(second, first)``: sparse matrices that take the flattened
+        :math:`F''` (K, nu, nu) to :math:`D^T F'' D` and the flattened
+        :math:`F'` (K, nu) to the free duration's part
+        :math:`(e_T (D^T F')^T + (D^T F') e_T^T) / \mathrm{steps}`, both at the
+        entries of :meth:`pattern` (``first`` is ``None`` without a free
+        duration).  Made on first use: only D's nonzero entries take part."""
+        if self._maps is None:
+            self._maps = self._make_maps(steps)
+        return self._maps
+
+    def _make_maps(self, steps):
+        from scipy.sparse import csr_matrix
+        D, mask = self.D, self.mask
+        K, nu, m = D.shape
+        n_out = int(mask.sum())
+        place = np.full(mask.shape, -1, dtype=np.int64)
+        place[mask] = np.arange(n_out)
+        i, a = np.nonzero(np.any(D != 0.0, axis=0))  # D's pattern, shared by the points
+        rows, cols, coefficients = [], [], []
+        chunk = max(1, 2_000_000 // max(1, len(i) ** 2))
+        for k0 in range(0, K, chunk):
+            k = np.arange(k0, min(K, k0 + chunk))[:, None, None]
+            c = D[k, i[None, :, None], a[None, :, None]] * D[k, i[None, None, :], a[None, None, :]]
+            r = place[k, a[None, :, None], a[None, None, :]]
+            col = (k * nu + i[None, :, None]) * nu + i[None, None, :]
+            keep = (r >= 0) & (c != 0.0)
+            rows.append(r[keep]); cols.append(col[keep]); coefficients.append(c[keep])
+        second = csr_matrix((np.concatenate(coefficients),
+                             (np.concatenate(rows), np.concatenate(cols))),
+                            shape=(n_out, K * nu * nu))
+        first = None
+        j = self.duration
+        if j is not None:
+            rows, cols, coefficients = [], [], []
+            # row j of the point's block gets D^T F' in its columns, column j in its rows
+            for side in (0, 1):
+                k = np.arange(K)[:, None]
+                other = a[None, :]
+                r = place[k, j, other] if side == 0 else place[k, other, j]
+                c = np.broadcast_to(D[k, i[None, :], a[None, :]] / steps, r.shape)
+                col = np.broadcast_to(k * nu + i[None, :], r.shape)
+                keep = (r >= 0) & (c != 0.0)
+                rows.append(r[keep]); cols.append(col[keep]); coefficients.append(c[keep])
+            first = csr_matrix((np.concatenate(coefficients),
+                                (np.concatenate(rows), np.concatenate(cols))),
+                               shape=(n_out, K * nu))
+        return second, first
 
     def pattern(self):
         """``(rows, cols)`` of its entries of the lower triangle (made when
@@ -167,20 +217,16 @@ class LagrangianHessian:
     def _assemble(self, points, h, stepped=None, plain=None):
         """The values of ``points``: ``stepped = (F'', F')`` of the terms
         carrying the step h, ``plain`` :math:`F''` of the others."""
-        L = self.nlp.layout
+        second, first = points.maps(self.nlp.layout.nodes - 1)
         Hu = 0.0
         if stepped is not None:
             Hu = h * stepped[0]
         if plain is not None:
             Hu = Hu + plain
-        D = points.D
-        H = np.swapaxes(D, 1, 2) @ (Hu @ D)
-        j = points.duration
-        if stepped is not None and j is not None:
-            g = (stepped[1][:, None, :] @ D)[:, 0] / (L.nodes - 1)
-            H[:, :, j] += g
-            H[:, j, :] += g
-        return H[points.mask]
+        values = second @ Hu.reshape(-1)
+        if stepped is not None and first is not None:
+            values += first @ stepped[1].reshape(-1)
+        return values
 
     # ------------------------------------------------------------- values
     def values(self, z, sigma, multipliers):
@@ -193,7 +239,7 @@ class LagrangianHessian:
         h, P, T = e["h"], e["P"], e["T"]
         defects = nlp.defects
         n_defects = defects.n_rows
-        t_points = e["t0"] + T * L.positions()
+        t_points = e["t_points"]
         out = []
         stepped = None
         if self.interval:

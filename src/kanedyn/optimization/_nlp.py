@@ -235,7 +235,7 @@ class CollocationNLP:
             Yp=np.concatenate([Y, Yi]) if len(Yi) else Y,
             Rp=np.concatenate([R, Ri]) if len(Ri) else R,
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
-            point_constraints=point_constraints)
+            point_constraints=point_constraints, t_points=t0 + T * L.positions())
         return self._cache
 
     @staticmethod
@@ -245,8 +245,9 @@ class CollocationNLP:
         down = model.jacobians(t - delta, Y, r=R).f
         return (up - down) / (2 * delta)
 
-    def _point_times(self, e):
-        return e["t0"] + e["T"] * self.layout.positions()
+    @staticmethod
+    def _point_times(e):
+        return e["t_points"]
 
     # ---------------------------------------------------------- objective
     def objective(self, z):

@@ -9,7 +9,8 @@ Anything else is refused, naming the symbol.  Nothing is parsed from text:
 expressions go through :func:`kanedyn._expressions.as_expression`.
 
 The gradient is SymPy's derivative of the (small) expression; values and
-gradients are one NumPy function (``lambdify``) evaluated on all nodes at once.
+gradients are one NumPy function (``lambdify``) evaluated on all nodes at once,
+of the entries that are not constant (a zero derivative is not evaluated).
 """
 
 from __future__ import annotations
@@ -92,6 +93,33 @@ def _check_atoms(expr, symbols, what, instances=False):
     return expr.xreplace({k: sm.Float(v) for k, v in fixed.items()})
 
 
+class _Entries:
+    """Expressions of ``(t, y, r, p, T)`` evaluated on K points into the
+    columns of a (K, n) array: those that SymPy finds constant are stored as
+    numbers (a zero is not evaluated at all), the others are one NumPy
+    function (``lambdify``) of the points."""
+
+    def __init__(self, expressions, variables):
+        import sympy as sm
+        self.n = len(expressions)
+        self.constants = [(j, float(e)) for j, e in enumerate(expressions)
+                          if not e.free_symbols and e != 0]
+        varying = [(j, e) for j, e in enumerate(expressions) if e.free_symbols]
+        self.columns = [j for j, _ in varying]
+        self._fn = (sm.lambdify(variables, [e for _, e in varying], modules="numpy",
+                                dummify=True) if varying else None)
+
+    def __call__(self, K, arguments):
+        """The (K, n) array of the entries at the points of ``arguments``."""
+        out = np.zeros((K, self.n))
+        for j, value in self.constants:
+            out[:, j] = value
+        if self._fn is not None:
+            for j, value in zip(self.columns, self._fn(*arguments)):
+                out[:, j] = value
+        return out
+
+
 class Term:
     """A scalar expression of ``(t, y, r, p, T)`` and its gradient, on many nodes.
 
@@ -119,40 +147,34 @@ class Term:
             swap[atom] = y[k] if kind == "state" else r[k]
         e = expr.xreplace(swap)
         variables = [t] + y + r + p + [T]
-        outputs = [e] + [e.diff(v) for v in variables]
-        self._fn = sm.lambdify(variables, outputs, modules="numpy", dummify=True)
+        self._first = _Entries([e] + [e.diff(v) for v in variables], variables)
         self._sizes = (ns, nr, nf)
         self._expr, self._variables = e, variables
         self._second = None
+
+    @staticmethod
+    def _arguments(t, Y, R, P):
+        t = np.asarray(t, dtype=float)
+        return t.size, (t, *Y.T, *R.T, *np.asarray(P, dtype=float))
 
     def hessian(self, t, Y, R, P, T):
         """The Hessian (SymPy's second derivatives) in ``u = (y, r, p, t, T)``
         (this order), shape (K, nu, nu), ``nu = n_states + n_inputs + n_free
         + 2``."""
-        import sympy as sm
         if self._second is None:
             us = self._variables[1:-1] + [self._variables[0], self._variables[-1]]
-            entries = [self._expr.diff(a).diff(b) for a in us for b in us]
-            self._second = (len(us), sm.lambdify(self._variables, entries, modules="numpy",
-                                                 dummify=True))
-        t = np.asarray(t, dtype=float)
-        K, (nu, fn) = t.size, self._second
-        out = fn(t, *Y.T, *R.T, *np.asarray(P, dtype=float), T)
-        out = [np.broadcast_to(np.asarray(o, dtype=float), (K,)) for o in out]
-        return np.stack(out, axis=1).reshape(K, nu, nu)
+            self._second = _Entries([self._expr.diff(a).diff(b) for a in us for b in us],
+                                    self._variables)
+        K, arguments = self._arguments(t, Y, R, P)
+        nu = len(self._variables)
+        return self._second(K, arguments + (T,)).reshape(K, nu, nu)
 
     def __call__(self, t, Y, R, P, T):
-        t = np.asarray(t, dtype=float)
-        K = t.size
+        K, arguments = self._arguments(t, Y, R, P)
         ns, nr, nf = self._sizes
-        out = self._fn(t, *Y.T, *R.T, *np.asarray(P, dtype=float), T)
-        out = [np.broadcast_to(np.asarray(o, dtype=float), (K,)) for o in out]
-        value, d_t = out[0], out[1]
-        d_y = np.stack(out[2:2 + ns], axis=1) if ns else np.zeros((K, 0))
-        d_r = np.stack(out[2 + ns:2 + ns + nr], axis=1) if nr else np.zeros((K, 0))
-        d_p = (np.stack(out[2 + ns + nr:2 + ns + nr + nf], axis=1) if nf
-               else np.zeros((K, 0)))
-        return value, d_t, d_y, d_r, d_p, out[-1]
+        out = self._first(K, arguments + (T,))
+        return (out[:, 0], out[:, 1], out[:, 2:2 + ns], out[:, 2 + ns:2 + ns + nr],
+                out[:, 2 + ns + nr:2 + ns + nr + nf], out[:, -1])
 
 
 def compile_term(value, symbols, what):

@@ -42,6 +42,7 @@ dense blocks per interval (its pattern is fixed once).
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -176,10 +177,8 @@ class Layout:
 
     def positions(self):
         """Where each point lies, as a fraction of the duration: the nodes,
-        then the interior points."""
-        N = self.nodes
-        inner = (np.arange(N - 1)[:, None] + np.asarray(self.interior)[None, :]).ravel()
-        return np.concatenate([np.arange(N), inner]) / (N - 1)
+        then the interior points (one read-only array per layout)."""
+        return _positions(self.nodes, self.interior)
 
     def point_columns(self):
         """``(state columns (n_points, n_states), input columns (n_points,
@@ -262,6 +261,15 @@ class Layout:
         return np.concatenate(parts).astype(float)
 
 
+@functools.lru_cache(maxsize=32)
+def _positions(nodes, interior):
+    """:meth:`Layout.positions` of ``nodes`` and ``interior``, read-only."""
+    inner = (np.arange(nodes - 1)[:, None] + np.asarray(interior)[None, :]).ravel()
+    out = np.concatenate([np.arange(nodes), inner]) / (nodes - 1)
+    out.flags.writeable = False
+    return out
+
+
 class Defects:
     """The dynamics' defect rows of one method on one layout.
 
@@ -274,6 +282,25 @@ class Defects:
         self.stages = METHODS[method]
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
+        N, nd = layout.nodes, len(self.rows)
+        # where each stage's points are among the evaluated groups: a slice of
+        # the nodes' group, or a group of its own (see points)
+        interior = 1 if any(s.node is not None for s in self.stages) else 0
+        self._stage_groups = []
+        for s in self.stages:
+            if s.node is not None:
+                self._stage_groups.append((0, slice(s.node, s.node + N - 1)))
+            else:
+                self._stage_groups.append((interior, None))
+                interior += 1
+        #: each stage's point positions, fractions of the duration, (N - 1,)
+        self._stage_positions = [(np.arange(N - 1) + s.position) / (N - 1)
+                                 for s in self.stages]
+        eye = np.zeros((nd, layout.n_states))
+        eye[np.arange(nd), self.rows] = 1.0
+        #: d(defect)/d(y_k) and d(defect)/d(y_(k+1)) of the difference alone
+        self._difference = {o: np.broadcast_to((1.0 if o == 1 else -1.0) * eye,
+                                               (N - 1, nd, layout.n_states)) for o in (0, 1)}
 
     @property
     def n_rows(self):
@@ -303,16 +330,9 @@ class Defects:
     def _stage_values(self, evaluated):
         """Per stage, the arrays of its N - 1 points from the evaluated groups
         (each a tuple of arrays with a first axis over the group's points)."""
-        out = []
-        interior = 1 if any(s.node is not None for s in self.stages) else 0
-        for s in self.stages:
-            if s.node is not None:
-                sl = slice(s.node, s.node + self.layout.nodes - 1)
-                out.append(tuple(None if a is None else a[sl] for a in evaluated[0]))
-            else:
-                out.append(evaluated[interior])
-                interior += 1
-        return out
+        return [evaluated[g] if sl is None else
+                tuple(None if a is None else a[sl] for a in evaluated[g])
+                for g, sl in self._stage_groups]
 
     # values ------------------------------------------------------------
     def values(self, Y, h, evaluated, Yi=None, R=None, Ri=None):
@@ -368,8 +388,6 @@ class Defects:
         stages = self._stage_values(evaluated)
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
         values = []
-        eye = np.zeros((nd, L.n_states))
-        eye[np.arange(nd), rows] = 1.0
         for block in self._blocks():
             if block == "p":
                 v = sum(-h * s.c * Pf[:, rows] for s, (_, _, _, Pf) in zip(self.stages, stages))
@@ -379,7 +397,7 @@ class Defects:
                 for j, (s, (f, *_)) in enumerate(zip(self.stages, stages)):
                     v = v - dh * s.c * f[:, rows]
                     if rates is not None:
-                        position = (np.arange(N - 1) + s.position) * dh
+                        position = self._stage_positions[j]
                         v = v - h * s.c * rates[j][0][:, rows] * position[:, None]
                 v = v[:, :, None]
             elif block == "t0":
@@ -387,7 +405,7 @@ class Defects:
                 v = v[:, :, None]
             elif block[0] == "y":
                 o = block[1]
-                v = np.broadcast_to((1.0 if o == 1 else -1.0) * eye, (N - 1, nd, L.n_states))
+                v = self._difference[o]
                 for s, (_, A, _, _) in zip(self.stages, stages):
                     if s.a[o]:
                         v = v - h * s.c * s.a[o] * A[:, rows]
@@ -414,8 +432,8 @@ class Defects:
         N = L.nodes
         gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
         gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
-        for stage, (value, d_t, d_y, d_r, d_p, d_T) in zip(
-                self.stages, self._stage_values(evaluated_terms)):
+        for stage, position, (value, d_t, d_y, d_r, d_p, d_T) in zip(
+                self.stages, self._stage_positions, self._stage_values(evaluated_terms)):
             w = h * stage.c
             for o in (0, 1):
                 a = stage.a[o]
@@ -423,7 +441,6 @@ class Defects:
                     gY[o:o + N - 1] += w * a * d_y
                     gR[o:o + N - 1] += w * a * d_r
             gP += w * d_p.sum(axis=0)
-            position = (np.arange(N - 1) + stage.position) / (N - 1)
             gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) + w * d_T.sum()
             gt0 += w * np.sum(d_t)
         return gY, gR, None, None, gP, gT, gt0
