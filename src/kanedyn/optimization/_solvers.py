@@ -26,6 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import ModelError
+from .interior_point import InteriorPoint
 
 __all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
 
@@ -191,7 +192,7 @@ class Ipopt:
 
 
 #: solver name -> class
-SOLVERS = {"ipopt": Ipopt}
+SOLVERS = {"ipopt": Ipopt, "interior-point": InteriorPoint}
 
 
 def solver_named(solver):
