@@ -7,17 +7,21 @@ The matrix, of size :math:`(n + m) \times (n + m)`,
     K = \begin{bmatrix} H + \operatorname{diag}(d_x) & J^T \\
                         J & -\operatorname{diag}(d_c) \end{bmatrix},
 
-is assembled as a dense array and factorized by SciPy's symmetric
-indefinite :math:`LDL^T` (Bunch-Kaufman, :func:`scipy.linalg.ldl`).  Its
-inertia is Sylvester's: the signs of the eigenvalues of :math:`D`'s
-1 x 1 and 2 x 2 blocks.  Memory and time grow as :math:`(n + m)^2` and
+is assembled as a dense array and factorized by LAPACK's symmetric
+indefinite :math:`LDL^T` (Bunch-Kaufman, ``dsytrf`` through
+:mod:`scipy.linalg.lapack`, what :func:`scipy.linalg.ldl` calls, without
+its reconstruction of :math:`L`), solved by ``dsytrs``, after a symmetric
+scaling :math:`S K S` that brings each row's largest entry to one.  Its
+inertia is Sylvester's: the signs of the eigenvalues of :math:`D`'s 1 x 1
+and 2 x 2 blocks, one within :math:`(n + m)\,\epsilon` of zero counted as
+zero.  Memory and time grow as :math:`(n + m)^2` and
 :math:`(n + m)^3`: the reference for tests and small problems.
 """
 
 from __future__ import annotations
 
 import numpy as np
-import scipy.linalg
+import scipy.linalg.lapack
 
 __all__ = ["DenseKKT", "check_structure"]
 
@@ -49,7 +53,7 @@ def check_structure(name, structure, n_rows, n_cols, lower=False):
 
 
 class DenseKKT:
-    """The KKT matrix assembled dense and factorized by SciPy's ``ldl``.
+    """The KKT matrix assembled dense and factorized by LAPACK's ``dsytrf``.
 
     Parameters
     ----------
@@ -106,54 +110,54 @@ class DenseKKT:
         diagonal[:n] += diagonal_x
         diagonal[n:] -= diagonal_c
         self._matrix = K
+        self._factors = None
         if not np.all(np.isfinite(K)):
-            self._factors = None
             return (0, 0, size)
-        lu, d, perm = scipy.linalg.ldl(K, lower=True, hermitian=True)
-        self._factors = (lu[perm], perm)
-        return self._blocks(d, np.max(np.abs(K), initial=0.0))
-
-    def _blocks(self, d, scale):
-        """Inertia from D's blocks; D's inverse kept as its blocks' inverses."""
-        size = self.size
-        diag = np.diag(d).copy()
-        sub = np.diag(d, -1)
-        starts = np.flatnonzero(sub != 0.0)
-        single = np.ones(size, dtype=bool)
-        single[starts] = single[starts + 1] = False
-        a, c, b = diag[starts], diag[starts + 1], sub[starts]
-        mean, radius = (a + c) / 2, np.hypot((a - c) / 2, b)
-        eigenvalues = np.concatenate([diag[single], mean - radius, mean + radius])
-        tiny = np.finfo(float).eps * size * scale
-        positive = int(np.count_nonzero(eigenvalues > tiny))
-        negative = int(np.count_nonzero(eigenvalues < -tiny))
-        with np.errstate(divide="ignore", invalid="ignore"):
-            inverse_single = np.where(single, 1.0 / np.where(single, diag, 1.0), 0.0)
-            det = a * c - b * b
-            self._block_inverse = (starts, c / det, a / det, -b / det)
-        self._inverse_single = inverse_single
-        return positive, negative, size - positive - negative
+        # symmetric scaling S K S, rows' largest entries near one: the
+        # inertia is K's (Sylvester), a pivot's size relative to its rows
+        largest = np.max(np.abs(K), axis=1)
+        scale = 1.0 / np.sqrt(np.where(largest > 0, largest, 1.0))
+        factor, pivots, info = scipy.linalg.lapack.dsytrf(scale[:, None] * K * scale, lower=1)
+        if info < 0:
+            raise RuntimeError(f"LAPACK's dsytrf refused argument {-info}")
+        self._factors = (factor, pivots, scale)
+        return _inertia(factor, pivots)
 
     def solve(self, rhs):
         """``K^{-1} rhs`` with the last factorization; shape (n + m,).
         Non-finite entries when K was singular."""
         if self._factors is None:
             return np.full(self.size, np.nan)
-        lower, perm = self._factors
-        rhs = np.asarray(rhs, dtype=float)
-        first = scipy.linalg.solve_triangular(lower, rhs[perm], lower=True,
-                                              unit_diagonal=True, check_finite=False)
-        starts, ia, ic, ib = self._block_inverse
-        with np.errstate(divide="ignore", invalid="ignore", over="ignore"):
-            middle = self._inverse_single * first
-            middle[starts] = ia * first[starts] + ib * first[starts + 1]
-            middle[starts + 1] = ib * first[starts] + ic * first[starts + 1]
-        last = scipy.linalg.solve_triangular(lower, middle, lower=True, trans="T",
-                                             unit_diagonal=True, check_finite=False)
-        out = np.empty(self.size)
-        out[perm] = last
-        return out
+        factor, pivots, scale = self._factors
+        with np.errstate(all="ignore"):
+            x, info = scipy.linalg.lapack.dsytrs(factor, pivots,
+                                                 scale * np.asarray(rhs, dtype=float), lower=1)
+        return scale * x
 
     def matvec(self, x):
         """``K @ x`` with the last factored values; shape (n + m,)."""
         return self._matrix @ np.asarray(x, dtype=float)
+
+
+def _inertia(factor, pivots):
+    """``(n_positive, n_negative, n_zero)`` of D in LAPACK's ``dsytrf``
+    (lower) of the scaled matrix: a 1 x 1 block where the pivot index is
+    positive, a 2 x 2 block on two consecutive negative ones (paired from the
+    start of each run); a block's eigenvalue within ``size * eps`` of zero
+    counts as zero."""
+    size = factor.shape[0]
+    diag = np.diagonal(factor).copy()
+    sub = np.append(np.diagonal(factor, -1), 0.0)
+    negative = pivots < 0
+    # position of each entry in its run of negative pivot indices
+    run_start = np.maximum.accumulate(np.where(negative & ~np.r_[False, negative[:-1]],
+                                               np.arange(size), 0))
+    starts = np.flatnonzero(negative & ((np.arange(size) - run_start) % 2 == 0))
+    single = ~negative
+    a, c, b = diag[starts], diag[starts + 1], sub[starts]
+    mean, radius = (a + c) / 2, np.hypot((a - c) / 2, b)
+    eigenvalues = np.concatenate([diag[single], mean - radius, mean + radius])
+    tiny = np.finfo(float).eps * size
+    positive = int(np.count_nonzero(eigenvalues > tiny))
+    negative_count = int(np.count_nonzero(eigenvalues < -tiny))
+    return positive, negative_count, size - positive - negative_count
