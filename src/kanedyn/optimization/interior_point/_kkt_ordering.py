@@ -5,17 +5,36 @@ then the inputs of every node, then free parameters and the duration, then
 interior points) and its constraints by interval, so the KKT matrix in its own
 order has no band; ordered by node it has one, a few rows and columns wide,
 plus a few dense ones (a free duration or parameter is in every defect row;
-instance constraints join the first and the last node).  :func:`elimination_order`
-finds the band with SciPy's reverse Cuthill-McKee on the graph of K without its
-dense rows and columns, which go last (a dense row eliminated early would make
-every row it touches dense).
+instance constraints join the first and the last node).
+
+:func:`elimination_order`:
+
+1. rows whose degree in the graph of K exceeds :func:`dense_threshold` go
+   last (a dense row eliminated early would make every row it touches dense);
+2. every other constraint row is paired with a variable of its own, by a
+   maximum matching of the Jacobian's pattern (SciPy's
+   ``maximum_bipartite_matching``): a defect row with the state it advances;
+3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
+   and the unpaired rows (the band, found whatever the layout);
+4. each pair is eliminated variable first, then its constraint.
+
+Step 4 keeps a constraint row from being eliminated before all of its
+variables: with ``diagonal_c = 0`` its pivot would be exactly zero.  With the
+variable first, every leading block of the ordered K is nonsingular when
+``H + diag(diagonal_x)`` is positive definite and the paired entries of J are
+not zero (the pairs make J's rows in each leading block structurally
+independent).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["elimination_order", "dense_threshold"]
+__all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
+
+#: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above)
+#: and ``"rcm"`` (reverse Cuthill-McKee on the rows themselves, for comparison)
+ORDERINGS = ("pairs", "rcm")
 
 
 def dense_threshold(size):
@@ -25,42 +44,71 @@ def dense_threshold(size):
     return max(16.0, 10.0 * np.sqrt(size))
 
 
-def elimination_order(size, rows, cols):
-    """``(permutation, n_dense)``: the pivot order of a symmetric matrix.
+def _graph(size, rows, cols, shape=None):
+    """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
+    import scipy.sparse as sp
+    graph = sp.csr_matrix((np.ones(2 * rows.size, dtype=np.int8),
+                           (np.concatenate([rows, cols]), np.concatenate([cols, rows]))),
+                          shape=(size, size))
+    graph.sum_duplicates()
+    return graph
+
+
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
+    """``(permutation, n_dense)``: the pivot order of the KKT matrix.
 
     Parameters
     ----------
-    size : int
-        The matrix's order N.
-    rows, cols : ndarray of int, shape (e,)
-        Its off-diagonal pattern, each pair in either or both triangles
-        (repeats allowed).
+    n, m : int
+        Variables and constraints (K's order is N = n + m; row ``n + i`` of
+        K is constraint ``i``).
+    hessian_off : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Hessian's entries off its diagonal.
+    jacobian : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Jacobian's entries.
+    ordering : str
+        One of :data:`ORDERINGS`.
 
     Returns
     -------
     permutation : ndarray of int32, shape (N,)
-        ``permutation[k]``: the row eliminated ``k``-th.
+        ``permutation[k]``: the row of K eliminated ``k``-th.
     n_dense : int
         How many rows counted as dense (:func:`dense_threshold`): the last
-        ``n_dense`` of the order, in their own order.
+        ``n_dense`` of the order, the variables first.
     """
     import scipy.sparse as sp
-    from scipy.sparse.csgraph import reverse_cuthill_mckee
+    from scipy.sparse.csgraph import maximum_bipartite_matching, reverse_cuthill_mckee
 
-    rows = np.asarray(rows, dtype=np.int64)
-    cols = np.asarray(cols, dtype=np.int64)
-    both_rows = np.concatenate([rows, cols])
-    both_cols = np.concatenate([cols, rows])
-    graph = sp.csr_matrix((np.ones(both_rows.size, dtype=np.int8), (both_rows, both_cols)),
-                          shape=(size, size))
-    graph.sum_duplicates()
-    degree = np.diff(graph.indptr)
-    dense = degree > dense_threshold(size)
-    if dense.any():
-        keep = np.flatnonzero(~dense)
-        sparse_part = graph[keep][:, keep]
-        order = keep[reverse_cuthill_mckee(sparse_part.tocsr(), symmetric_mode=True)]
-        order = np.concatenate([order, np.flatnonzero(dense)])
-    else:
-        order = reverse_cuthill_mckee(graph, symmetric_mode=True)
-    return order.astype(np.int32), int(dense.sum())
+    if ordering not in ORDERINGS:
+        raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not {ordering!r}")
+    N = n + m
+    hr, hc = hessian_off
+    jr, jc = jacobian
+    graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
+    dense = np.diff(graph.indptr) > dense_threshold(N)
+    keep = np.flatnonzero(~dense)
+    block = np.arange(N)  # the node of the compressed graph each row belongs to
+    if ordering == "pairs" and m and jr.size:
+        inside = ~dense[n + jr] & ~dense[jc]
+        pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
+                                 (jr[inside], jc[inside])), shape=(m, n))
+        pattern.sum_duplicates()
+        partner = maximum_bipartite_matching(pattern, perm_type="column")
+        paired = np.flatnonzero(partner >= 0)
+        block[n + paired] = partner[paired]
+    # the compressed graph on the blocks of the rows that are not dense
+    nodes, compressed = np.unique(block[keep], return_inverse=True)
+    where = np.full(N, -1)
+    where[keep] = compressed
+    sub = graph[keep][:, keep].tocoo()
+    a, b = where[keep[sub.row]], where[keep[sub.col]]
+    distinct = a != b
+    order = reverse_cuthill_mckee(_graph(nodes.size, a[distinct], b[distinct]),
+                                  symmetric_mode=True)
+    # expand: each block's rows in their own order (the variable before its constraint)
+    rank = np.empty(nodes.size, dtype=np.int64)
+    rank[order] = np.arange(nodes.size)
+    sequence = np.lexsort((keep, rank[compressed]))
+    permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
+    return permutation.astype(np.int32), int(dense.sum())

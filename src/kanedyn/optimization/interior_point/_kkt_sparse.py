@@ -63,7 +63,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._kkt_kernel import kernel
-from ._kkt_ordering import elimination_order
+from ._kkt_ordering import ORDERINGS, elimination_order
 
 __all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT"]
 
@@ -165,6 +165,9 @@ class SparseKKT:
     zero_pivot : float
         The relative threshold :math:`\\tau` below which a pivot counts as
         zero (the module's docstring); default :data:`ZERO_PIVOT`.
+    ordering : str
+        The elimination order, one of
+        :data:`~._kkt_ordering.ORDERINGS` (:mod:`._kkt_ordering`).
 
     Raises
     ------
@@ -177,7 +180,7 @@ class SparseKKT:
     """
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, *,
-                 zero_pivot=ZERO_PIVOT):
+                 zero_pivot=ZERO_PIVOT, ordering="pairs"):
         n, m = _size(n, "n"), _size(m, "m")
         hr, hc = _structure(hessian_structure, "hessian_structure", n, n)
         upper = np.flatnonzero(hr < hc)
@@ -188,6 +191,9 @@ class SparseKKT:
         jr, jc = _structure(jacobian_structure, "jacobian_structure", m, n)
         if not (isinstance(zero_pivot, numbers.Real) and 0.0 <= zero_pivot < 1.0):
             raise ValueError(f"zero_pivot must be a number in [0, 1), not {zero_pivot!r}")
+        if ordering not in ORDERINGS:
+            raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not "
+                             f"{ordering!r}")
         N = n + m
         if N >= _LIMIT:
             raise ValueError(f"n + m = {N} is too large for 32-bit indices")
@@ -195,8 +201,8 @@ class SparseKKT:
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         off = hr != hc
-        permutation, n_dense = elimination_order(
-            N, np.concatenate([hr[off], n + jr]), np.concatenate([hc[off], jc]))
+        permutation, n_dense = elimination_order(n, m, (hr[off], hc[off]), (jr, jc),
+                                                 ordering)
         inverse = np.empty(N, dtype=np.int64)
         inverse[permutation] = np.arange(N)
         # every entry of K's upper triangle, in the permuted order
