@@ -10,7 +10,8 @@ instance constraints join the first and the last node).
 :func:`elimination_order`:
 
 1. rows whose degree in the graph of K exceeds :func:`dense_threshold` go
-   last (a dense row eliminated early would make every row it touches dense);
+   last (a dense row eliminated early would make every row it touches dense,
+   and it would spoil the band that step 3 looks for);
 2. every other constraint row is paired with a variable of its own, by a
    maximum matching of the Jacobian's pattern (SciPy's
    ``maximum_bipartite_matching``): a defect row with the state it advances;
@@ -37,11 +38,14 @@ __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 ORDERINGS = ("pairs", "rcm")
 
 
-def dense_threshold(size):
-    """The degree above which a row of a matrix of ``size`` rows counts as dense
-    and is ordered last: ``max(16, 10 sqrt(size))`` (the usual rule of the
-    minimum-degree orderings)."""
-    return max(16.0, 10.0 * np.sqrt(size))
+def dense_threshold(degrees):
+    """The degree above which a row counts as dense and is ordered last:
+    ``max(16, 10 x`` the mean degree ``)``, ``degrees`` the number of
+    off-diagonal entries of each row.  Cuthill-McKee numbers a graph by
+    levels of a breadth-first search; one row joined to most others puts
+    them all in two levels and the band is lost, so the rule is relative to
+    the typical row, not to the matrix's order."""
+    return max(16.0, 10.0 * float(np.mean(degrees))) if len(degrees) else 16.0
 
 
 def _graph(size, rows, cols, shape=None):
@@ -86,7 +90,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
     hr, hc = hessian_off
     jr, jc = jacobian
     graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
-    dense = np.diff(graph.indptr) > dense_threshold(N)
+    degrees = np.diff(graph.indptr)
+    dense = degrees > dense_threshold(degrees)
     keep = np.flatnonzero(~dense)
     block = np.arange(N)  # the node of the compressed graph each row belongs to
     if ordering == "pairs" and m and jr.size:

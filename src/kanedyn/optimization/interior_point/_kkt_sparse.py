@@ -275,7 +275,7 @@ class SparseKKT:
         dx = _values(diagonal_x, self.n, "diagonal_x")
         dc = _values(diagonal_c, self.m, "diagonal_c")
         if dc.size and dc.min() < 0.0:
-            raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {dc.min()!r} is negative")
+            raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
         self.inertia = None  # no factors while the kernel overwrites them
         inertia = self._kernel.factor(
             self._Ax, self._Lp, self._Li, self._Lx, self._D, self._Ap, self._Ai,
