@@ -1,0 +1,333 @@
+"""The C kernel of :class:`~._kkt_sparse.SparseKKT`: its source and its module.
+
+One fixed source (no generated part), compiled once and cached like the
+models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
+first :class:`~._kkt_sparse.SparseKKT`.  Its four functions take their arrays
+through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
+indices, ``int64`` column pointers; the caller makes them so) and release the
+GIL while they compute:
+
+``symbolic(parent, column_counts, Ap, Ai)``
+    the elimination tree and the number of entries of each column of ``L``
+    from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC).
+``factor(Ax, Lp, Li, Lx, D, Ap, Ai, parent, positive, maps..., values..., tolerance)``
+    scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
+    up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
+    elimination tree), returns ``(n_positive, n_negative, n_zero)``.
+``solve(x, Lp, Li, Lx, D, permutation, k)``
+    overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
+    in the original order) with the solutions.
+``matvec(y, x, Ap, Ai, Ax, permutation)``
+    ``y = K x`` from the stored (permuted, upper) values.
+"""
+
+from __future__ import annotations
+
+from ...numerics import NAME_TOKEN, load_module
+
+__all__ = ["kernel", "SOURCE"]
+
+#: changes whenever the source's meaning changes (part of the cache key)
+_GENERATION = "kanedyn sparse LDL 1"
+
+SOURCE = r"""
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* a buffer of `count` items of `size` bytes, C-contiguous */
+static int kd_view(PyObject *obj, Py_buffer *view, Py_ssize_t size, int writable,
+                   const char *name) {
+    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, view, flags) < 0) return -1;
+    if (view->itemsize != size) {
+        PyErr_Format(PyExc_ValueError, "%s: items of %zd bytes expected, not %zd", name,
+                     size, view->itemsize);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+#define KD_COUNT(view) ((view).len / (view).itemsize)
+
+static void kd_release(Py_buffer *views, int count) {
+    for (int i = 0; i < count; i++)
+        if (views[i].obj != NULL) PyBuffer_Release(&views[i]);
+}
+
+/* ---------------------------------------------------------------- symbolic */
+static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
+    PyObject *o[4];
+    if (!PyArg_ParseTuple(args, "OOOO", &o[0], &o[1], &o[2], &o[3])) return NULL;
+    Py_buffer v[4];
+    memset(v, 0, sizeof v);
+    static const Py_ssize_t size[4] = {4, 8, 8, 4};
+    static const int writable[4] = {1, 1, 0, 0};
+    static const char *names[4] = {"parent", "column_counts", "Ap", "Ai"};
+    for (int i = 0; i < 4; i++)
+        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
+            kd_release(v, i);
+            return NULL;
+        }
+    Py_ssize_t N = KD_COUNT(v[0]);
+    int32_t *parent = v[0].buf, *Ai = v[3].buf;
+    int64_t *counts = v[1].buf, *Ap = v[2].buf;
+    int32_t *flag = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    if (flag == NULL) {
+        kd_release(v, 4);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < N; k++) {
+        parent[k] = -1;
+        flag[k] = (int32_t)k;
+        counts[k] = 0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t i = Ai[p];
+            /* walk from i up the tree to the first node already marked for k */
+            for (; flag[i] != k; i = parent[i]) {
+                if (parent[i] == -1) parent[i] = (int32_t)k;
+                counts[i]++;
+                flag[i] = (int32_t)k;
+            }
+        }
+    }
+    Py_END_ALLOW_THREADS
+    free(flag);
+    kd_release(v, 4);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------ factor */
+enum {F_AX, F_LP, F_LI, F_LX, F_D, F_AP, F_AI, F_PARENT, F_POSITIVE, F_HMAP, F_HV,
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_COUNT};
+
+static PyObject *kd_factor(PyObject *self, PyObject *args) {
+    PyObject *o[F_COUNT];
+    double tolerance;
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOOOd", &o[0], &o[1], &o[2], &o[3], &o[4],
+                          &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
+                          &o[13], &o[14], &o[15], &tolerance))
+        return NULL;
+    static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4, 8,
+                                             8};
+    static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    static const char *names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "Ap", "Ai", "parent",
+                                         "positive", "hessian map", "hessian_values",
+                                         "jacobian map", "jacobian_values", "diagonal map",
+                                         "diagonal_x", "diagonal_c"};
+    Py_buffer v[F_COUNT];
+    memset(v, 0, sizeof v);
+    for (int i = 0; i < F_COUNT; i++)
+        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
+            kd_release(v, i);
+            return NULL;
+        }
+    double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf;
+    const int64_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
+    int32_t *Li = v[F_LI].buf;
+    const int32_t *Ai = v[F_AI].buf, *parent = v[F_PARENT].buf;
+    const int8_t *positive = v[F_POSITIVE].buf;
+    const int32_t *hmap = v[F_HMAP].buf, *jmap = v[F_JMAP].buf, *dmap = v[F_DMAP].buf;
+    const double *hv = v[F_HV].buf, *jv = v[F_JV].buf, *dx = v[F_DX].buf, *dc = v[F_DC].buf;
+    Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
+    Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
+    Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
+    size_t room = (size_t)(N > 0 ? N : 1);
+    double *Y = malloc(sizeof(double) * room), *rowmax = malloc(sizeof(double) * room);
+    int32_t *pattern = malloc(sizeof(int32_t) * room), *flag = malloc(sizeof(int32_t) * room);
+    int64_t *filled = malloc(sizeof(int64_t) * room);
+    if (!Y || !rowmax || !pattern || !flag || !filled) {
+        free(Y); free(rowmax); free(pattern); free(flag); free(filled);
+        kd_release(v, F_COUNT);
+        return PyErr_NoMemory();
+    }
+    Py_ssize_t n_positive = 0, n_negative = 0, n_zero = 0;
+    Py_BEGIN_ALLOW_THREADS
+    /* the values of K, summed into the permuted upper triangle */
+    memset(Ax, 0, sizeof(double) * (size_t)nnz);
+    for (Py_ssize_t e = 0; e < nh; e++) Ax[hmap[e]] += hv[e];
+    for (Py_ssize_t e = 0; e < nj; e++) Ax[jmap[e]] += jv[e];
+    for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += dx[j];
+    for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= dc[i];
+    /* the largest magnitude in each row of K (both triangles) */
+    for (Py_ssize_t k = 0; k < N; k++) rowmax[k] = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++)
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            double a = fabs(Ax[p]);
+            if (a > rowmax[k]) rowmax[k] = a;
+            if (a > rowmax[Ai[p]]) rowmax[Ai[p]] = a;
+        }
+    double largest = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
+    if (largest == 0.0) largest = 1.0;
+    /* up-looking L D L^T: row k of L solves L(0:k,0:k) D y = A(0:k, k) */
+    for (Py_ssize_t k = 0; k < N; k++) {
+        Py_ssize_t top = N;
+        Y[k] = 0.0;
+        flag[k] = (int32_t)k;
+        filled[k] = 0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t i = Ai[p];
+            Y[i] += Ax[p];
+            Py_ssize_t length = 0;
+            for (; flag[i] != k; i = parent[i]) {
+                pattern[length++] = i;
+                flag[i] = (int32_t)k;
+            }
+            while (length > 0) pattern[--top] = pattern[--length];
+        }
+        double d = Y[k], terms = fabs(Y[k]);
+        Y[k] = 0.0;
+        for (; top < N; top++) {
+            int32_t i = pattern[top];
+            double yi = Y[i];
+            Y[i] = 0.0;
+            int64_t end = Lp[i] + filled[i];
+            for (int64_t p = Lp[i]; p < end; p++) Y[Li[p]] -= Lx[p] * yi;
+            double l = yi / D[i];
+            d -= l * yi;
+            terms += fabs(l * yi);
+            Li[end] = (int32_t)k;
+            Lx[end] = l;
+            filled[i]++;
+        }
+        /* a zero pivot: small beside the terms it was summed from and beside
+           the largest entry of its row of K, or not finite */
+        double scale = terms > rowmax[k] ? terms : rowmax[k];
+        if (!(fabs(d) > tolerance * scale)) {
+            n_zero++;
+            double replacement = scale > 0.0 && isfinite(scale) ? scale : largest;
+            d = positive[k] ? replacement : -replacement;
+        } else if (d > 0.0) {
+            n_positive++;
+        } else {
+            n_negative++;
+        }
+        D[k] = d;
+    }
+    Py_END_ALLOW_THREADS
+    free(Y); free(rowmax); free(pattern); free(flag); free(filled);
+    kd_release(v, F_COUNT);
+    return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
+}
+
+/* ------------------------------------------------------------------- solve */
+static PyObject *kd_solve(PyObject *self, PyObject *args) {
+    PyObject *o[6];
+    Py_ssize_t columns;
+    if (!PyArg_ParseTuple(args, "OOOOOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5],
+                          &columns))
+        return NULL;
+    static const Py_ssize_t size[6] = {8, 8, 4, 8, 8, 4};
+    static const int writable[6] = {1, 0, 0, 0, 0, 0};
+    static const char *names[6] = {"rhs", "Lp", "Li", "Lx", "D", "permutation"};
+    Py_buffer v[6];
+    memset(v, 0, sizeof v);
+    for (int i = 0; i < 6; i++)
+        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
+            kd_release(v, i);
+            return NULL;
+        }
+    double *X = v[0].buf;
+    const int64_t *Lp = v[1].buf;
+    const int32_t *Li = v[2].buf, *perm = v[5].buf;
+    const double *Lx = v[3].buf, *D = v[4].buf;
+    Py_ssize_t N = KD_COUNT(v[4]);
+    if (columns < 0 || KD_COUNT(v[0]) != columns * N) {
+        kd_release(v, 6);
+        PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
+        return NULL;
+    }
+    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));
+    if (w == NULL) {
+        kd_release(v, 6);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t c = 0; c < columns; c++) {
+        double *x = X + c * N;
+        for (Py_ssize_t k = 0; k < N; k++) w[k] = x[perm[k]];
+        for (Py_ssize_t j = 0; j < N; j++) {  /* L z = b */
+            double wj = w[j];
+            for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) w[Li[p]] -= Lx[p] * wj;
+        }
+        for (Py_ssize_t j = 0; j < N; j++) w[j] /= D[j];
+        for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = D^-1 z */
+            double wj = w[j];
+            for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) wj -= Lx[p] * w[Li[p]];
+            w[j] = wj;
+        }
+        for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
+    }
+    Py_END_ALLOW_THREADS
+    free(w);
+    kd_release(v, 6);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------ matvec */
+static PyObject *kd_matvec(PyObject *self, PyObject *args) {
+    PyObject *o[6];
+    if (!PyArg_ParseTuple(args, "OOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5]))
+        return NULL;
+    static const Py_ssize_t size[6] = {8, 8, 8, 4, 8, 4};
+    static const int writable[6] = {1, 0, 0, 0, 0, 0};
+    static const char *names[6] = {"y", "x", "Ap", "Ai", "Ax", "permutation"};
+    Py_buffer v[6];
+    memset(v, 0, sizeof v);
+    for (int i = 0; i < 6; i++)
+        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
+            kd_release(v, i);
+            return NULL;
+        }
+    double *y = v[0].buf;
+    const double *x = v[1].buf, *Ax = v[4].buf;
+    const int64_t *Ap = v[2].buf;
+    const int32_t *Ai = v[3].buf, *perm = v[5].buf;
+    Py_ssize_t N = KD_COUNT(v[0]);
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < N; k++) y[k] = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int32_t ok = perm[k];
+        double xk = x[ok], yk = 0.0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t oi = perm[Ai[p]];
+            yk += Ax[p] * x[oi];
+            if (oi != ok) y[oi] += Ax[p] * xk;
+        }
+        y[ok] += yk;
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 6);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef kd_methods[] = {
+    {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
+    {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
+    {"solve", kd_solve, METH_VARARGS, "solve with the factors, in place"},
+    {"matvec", kd_matvec, METH_VARARGS, "y = K x from the stored values"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,
+                                       kd_methods};
+
+PyMODINIT_FUNC PyInit_@NAME@(void) { return PyModule_Create(&kd_module); }
+"""
+
+
+def kernel():
+    """The compiled kernel module (built on first use, then from the cache).
+
+    Raises
+    ------
+    CompilerError
+        No C compiler, or the compilation failed.
+    """
+    source = SOURCE.replace("@NAME@", NAME_TOKEN)
+    return load_module(f"{_GENERATION}\n{source}", lambda: source)

@@ -1,0 +1,119 @@
+"""The elimination order of :class:`~._kkt_sparse.SparseKKT`.
+
+The collocation NLP lays its variables out by kind (the states of every node,
+then the inputs of every node, then free parameters and the duration, then
+interior points) and its constraints by interval, so the KKT matrix in its own
+order has no band; ordered by node it has one, a few rows and columns wide,
+plus a few dense ones (a free duration or parameter is in every defect row;
+instance constraints join the first and the last node).
+
+:func:`elimination_order`:
+
+1. rows whose degree in the graph of K exceeds :func:`dense_threshold` go
+   last (a dense row eliminated early would make every row it touches dense,
+   and it would spoil the band that step 3 looks for);
+2. every other constraint row is paired with a variable of its own, by a
+   maximum matching of the Jacobian's pattern (SciPy's
+   ``maximum_bipartite_matching``): a defect row with the state it advances;
+3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
+   and the unpaired rows (the band, found whatever the layout);
+4. each pair is eliminated variable first, then its constraint.
+
+Step 4 keeps a constraint row from being eliminated before all of its
+variables: with ``diagonal_c = 0`` its pivot would be exactly zero.  With the
+variable first, every leading block of the ordered K is nonsingular when
+``H + diag(diagonal_x)`` is positive definite and the paired entries of J are
+not zero (the pairs make J's rows in each leading block structurally
+independent).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
+
+#: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above)
+#: and ``"rcm"`` (reverse Cuthill-McKee on the rows themselves, for comparison)
+ORDERINGS = ("pairs", "rcm")
+
+
+def dense_threshold(degrees):
+    """The degree above which a row counts as dense and is ordered last:
+    ``max(16, 10 x`` the mean degree ``)``, ``degrees`` the number of
+    off-diagonal entries of each row.  Cuthill-McKee numbers a graph by
+    levels of a breadth-first search; one row joined to most others puts
+    them all in two levels and the band is lost, so the rule is relative to
+    the typical row, not to the matrix's order."""
+    return max(16.0, 10.0 * float(np.mean(degrees))) if len(degrees) else 16.0
+
+
+def _graph(size, rows, cols, shape=None):
+    """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
+    import scipy.sparse as sp
+    graph = sp.csr_matrix((np.ones(2 * rows.size, dtype=np.int8),
+                           (np.concatenate([rows, cols]), np.concatenate([cols, rows]))),
+                          shape=(size, size))
+    graph.sum_duplicates()
+    return graph
+
+
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
+    """``(permutation, n_dense)``: the pivot order of the KKT matrix.
+
+    Parameters
+    ----------
+    n, m : int
+        Variables and constraints (K's order is N = n + m; row ``n + i`` of
+        K is constraint ``i``).
+    hessian_off : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Hessian's entries off its diagonal.
+    jacobian : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Jacobian's entries.
+    ordering : str
+        One of :data:`ORDERINGS`.
+
+    Returns
+    -------
+    permutation : ndarray of int32, shape (N,)
+        ``permutation[k]``: the row of K eliminated ``k``-th.
+    n_dense : int
+        How many rows counted as dense (:func:`dense_threshold`): the last
+        ``n_dense`` of the order, the variables first.
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import maximum_bipartite_matching, reverse_cuthill_mckee
+
+    if ordering not in ORDERINGS:
+        raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not {ordering!r}")
+    N = n + m
+    hr, hc = hessian_off
+    jr, jc = jacobian
+    graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
+    degrees = np.diff(graph.indptr)
+    dense = degrees > dense_threshold(degrees)
+    keep = np.flatnonzero(~dense)
+    block = np.arange(N)  # the node of the compressed graph each row belongs to
+    if ordering == "pairs" and m and jr.size:
+        inside = ~dense[n + jr] & ~dense[jc]
+        pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
+                                 (jr[inside], jc[inside])), shape=(m, n))
+        pattern.sum_duplicates()
+        partner = maximum_bipartite_matching(pattern, perm_type="column")
+        paired = np.flatnonzero(partner >= 0)
+        block[n + paired] = partner[paired]
+    # the compressed graph on the blocks of the rows that are not dense
+    nodes, compressed = np.unique(block[keep], return_inverse=True)
+    where = np.full(N, -1)
+    where[keep] = compressed
+    sub = graph[keep][:, keep].tocoo()
+    a, b = where[keep[sub.row]], where[keep[sub.col]]
+    distinct = a != b
+    order = reverse_cuthill_mckee(_graph(nodes.size, a[distinct], b[distinct]),
+                                  symmetric_mode=True)
+    # expand: each block's rows in their own order (the variable before its constraint)
+    rank = np.empty(nodes.size, dtype=np.int64)
+    rank[order] = np.arange(nodes.size)
+    sequence = np.lexsort((keep, rank[compressed]))
+    permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
+    return permutation.astype(np.int32), int(dense.sum())
