@@ -343,12 +343,13 @@ def test_dense_kkt_refuses_a_bad_structure():
 
 # ------------------------------------------------- optimal control problems
 def _same_optimum(problem, guess, objective_tolerance=1e-6, x_tolerance=1e-5, **options):
-    """The problem solved by both solvers (the exact Hessian, tol 1e-10):
-    ``(ours, IPOPT's)``, their optima compared."""
+    """The problem solved by both solvers (the exact Hessian, tol 1e-10;
+    ours with DenseKKT unless ``options`` say otherwise): ``(ours, IPOPT's)``,
+    their optima compared."""
     _ipopt_or_skip()
     tight = {"tol": 1e-10, "max_iter": 500}
     ours = problem.solve(guess, solver="interior-point", hessian="exact",
-                         options=dict(tight, **DENSE, **options))
+                         options=dict(tight, **dict(DENSE, **options)))
     theirs = problem.solve(guess, solver="ipopt", hessian="exact", options=tight)
     assert theirs.success, theirs.message
     assert ours.success, ours.message
@@ -484,3 +485,58 @@ def test_warm_start_from_ipopts_multipliers():
 def test_registered_and_named_in_the_result():
     assert SOLVERS["interior-point"] is InteriorPoint
     assert InteriorPoint.available() is None
+
+
+# ------------------------------------------------------------------ the CLI
+def test_cli_optimize_with_the_interior_point_solver(capsys):
+    """``kanedyn optimize pendulum --solver interior-point``: exit 0, IPOPT's
+    objective (``--hessian exact``) to 1e-6; with ``--hessian
+    limited-memory`` refused (exit 2), naming the options."""
+    _ipopt_or_skip()
+    from kanedyn.cli import main
+    found = {}
+    for solver in ("interior-point", "ipopt"):
+        argv = ["optimize", "pendulum", "--nodes", "51", "--solver", solver, "--hessian",
+                "exact", "--quiet", "--backend", "numpy"]
+        assert main(argv) == 0
+        text = capsys.readouterr().out
+        assert f"solved: {solver}:" in text
+        found[solver] = float(text.split("objective ")[1].split(";")[0])
+    assert found["interior-point"] == pytest.approx(found["ipopt"], rel=1e-6)
+    assert main(["optimize", "pendulum", "--solver", "interior-point", "--hessian",
+                 "limited-memory", "--quiet"]) == 2
+    assert "--solver interior-point takes the exact Hessian only" in capsys.readouterr().err
+
+
+# ------------------------------------------------------- the sparse factorization
+def _sparse_or_skip():
+    try:
+        from kanedyn.optimization.interior_point import SparseKKT  # noqa: F401
+    except ImportError as exc:
+        pytest.skip(f"SparseKKT does not import: {exc}")
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_sparse_factorization_reaches_ipopts_optimum(method):
+    """``linear_solver="sparse"`` (``SparseKKT``, the default when it
+    imports): the cart-pole's optimum of IPOPT, as with DenseKKT."""
+    _sparse_or_skip()
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(40, method, backend="numpy")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.0})
+    _same_optimum(problem, guess, linear_solver="sparse")
+
+
+def test_sparse_factorization_on_the_small_nlps():
+    """HS71 and the inequality problem with ``linear_solver="sparse"``: the
+    published optimum and the closed form."""
+    _sparse_or_skip()
+    found = InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]),
+                                  {"linear_solver": "sparse"})
+    assert found.status == 0, found.status_text
+    assert np.max(np.abs(found.x - HS71_X)) < 1e-6
+    nlp, Q, c, B, b = _equality_qp()
+    n, m = B.shape[1], B.shape[0]
+    exact = np.linalg.solve(np.block([[Q, B.T], [B, np.zeros((m, m))]]), np.r_[-c, b])
+    found = InteriorPoint().solve(nlp, np.zeros(n), {"linear_solver": "sparse"})
+    assert found.status == 0 and np.max(np.abs(found.x - exact[:n])) < 1e-9

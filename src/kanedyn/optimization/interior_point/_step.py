@@ -16,7 +16,11 @@ which leaves, with :math:`D_c = \delta_c` on the equality rows and
 residuals :math:`g_E - g_L` and :math:`g_I - s`).  The matrix must have n
 positive and m negative eigenvalues; else :math:`\delta_c = \bar\delta_c
 \mu^{\kappa_c}` when it is singular, and :math:`\delta_w` grows from its
-last value (IPOPT's rules).
+last value (IPOPT's rules).  When the first :data:`DEGENERATE_ITERATIONS`
+iterations all needed :math:`\delta_w > 0` (or found K singular), every
+later first factorization starts with :math:`\kappa_w^- \delta_w^{last}`
+(or :math:`\delta_c`) instead of zero; one iteration without settles the
+question the other way (IPOPT's ``degen_iters_max``).
 """
 
 from __future__ import annotations
@@ -25,7 +29,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["NewtonStep", "StepSolver"]
+__all__ = ["NewtonStep", "StepSolver", "DEGENERATE_ITERATIONS"]
+
+#: after this many consecutive iterations that needed a regularization, the
+#: first factorization of an iteration starts with it (IPOPT's degen_iters_max)
+DEGENERATE_ITERATIONS = 3
 
 
 @dataclass(frozen=True)
@@ -57,6 +65,10 @@ class StepSolver:
         self.inequality = inequality
         self.settings = settings
         self.last_delta_w = 0.0
+        #: whether every step takes delta_w > 0 / delta_c > 0 at once
+        #: (None: not decided yet, see _degenerate)
+        self.hessian_degenerate = self.jacobian_degenerate = None
+        self._counts = {"regularized": 0, "singular": 0}
         self.factorizations = 0
         self._state = None
 
@@ -86,32 +98,54 @@ class StepSolver:
         """
         s = self.settings
         right = (self.n, self.m, 0)
-        delta_w = delta_c = 0.0
-        inertia = self._factor(hessian_values, jacobian_values, sigma, 0.0, 0.0)
-        if inertia == right:
-            step = self.solve(residual_w, residual_c)
-            if step is not None:
-                return step
-            inertia = (0, 0, 1)  # numerically singular
-        if inertia[2] > 0:
-            delta_c = s.jacobian_regularization_value * mu ** s.jacobian_regularization_exponent
-            if self._factor(hessian_values, jacobian_values, sigma, 0.0, delta_c) == right:
-                step = self.solve(residual_w, residual_c)
-                if step is not None:
-                    return step
-        if self.last_delta_w == 0.0:
-            delta_w = s.first_hessian_perturbation
-        else:
+        jacobian_delta = s.jacobian_regularization_value * mu ** s.jacobian_regularization_exponent
+        delta_c = jacobian_delta if self.jacobian_degenerate else 0.0
+        delta_w = 0.0
+        if self.hessian_degenerate and self.last_delta_w > 0:
             delta_w = max(s.min_hessian_perturbation, s.perturb_dec_fact * self.last_delta_w)
-        while delta_w <= s.max_hessian_perturbation:
-            if self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c) == right:
-                step = self.solve(residual_w, residual_c)
-                if step is not None:
-                    self.last_delta_w = delta_w
-                    return step
-            delta_w *= (s.perturb_inc_fact_first if self.last_delta_w == 0.0
-                        else s.perturb_inc_fact)
-        return None
+        inertia = self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c)
+        step = self.solve(residual_w, residual_c) if inertia == right else None
+        if delta_c == 0.0:
+            singular = step is None and (inertia[2] > 0 or inertia == right)
+            self.jacobian_degenerate = self._degenerate("singular", singular,
+                                                        self.jacobian_degenerate)
+            if singular:
+                delta_c = jacobian_delta
+                if self._factor(hessian_values, jacobian_values, sigma, delta_w,
+                                delta_c) == right:
+                    step = self.solve(residual_w, residual_c)
+        if step is None:
+            if delta_w == 0.0:
+                delta_w = (s.first_hessian_perturbation if self.last_delta_w == 0.0 else
+                           max(s.min_hessian_perturbation,
+                               s.perturb_dec_fact * self.last_delta_w))
+            else:
+                delta_w *= s.perturb_inc_fact
+            while step is None and delta_w <= s.max_hessian_perturbation:
+                if self._factor(hessian_values, jacobian_values, sigma, delta_w,
+                                delta_c) == right:
+                    step = self.solve(residual_w, residual_c)
+                if step is None:
+                    delta_w *= (s.perturb_inc_fact_first if self.last_delta_w == 0.0
+                                else s.perturb_inc_fact)
+            if step is None:
+                return None
+        if step.delta_w > 0:
+            self.last_delta_w = step.delta_w
+        if self.hessian_degenerate is None:
+            self.hessian_degenerate = self._degenerate("regularized", step.delta_w > 0, None)
+        return step
+
+    def _degenerate(self, kind, happened, decided):
+        """IPOPT's rule: ``None`` (undecided) until the first iteration
+        without the regularization (``False`` from then on) or the
+        :data:`DEGENERATE_ITERATIONS`-th with it (``True``)."""
+        if decided is not None:
+            return decided
+        if not happened:
+            return False
+        self._counts[kind] += 1
+        return True if self._counts[kind] >= DEGENERATE_ITERATIONS else None
 
     def solve(self, residual_w, residual_c):
         """The step with the last factorization for these residuals (also the
