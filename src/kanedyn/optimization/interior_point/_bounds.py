@@ -100,7 +100,8 @@ def fraction_to_boundary(values, steps, tau):
     r"""The largest :math:`\alpha \in (0, 1]` with :math:`v + \alpha\,\Delta v
     \ge (1 - \tau) v` for positive ``values`` :math:`v` and ``steps``
     :math:`\Delta v`."""
-    shrinking = steps < 0
-    if not np.any(shrinking):
+    if not steps.size:
         return 1.0
-    return float(min(1.0, np.min(-tau * values[shrinking] / steps[shrinking])))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fastest = float(np.min(steps / values))
+    return 1.0 if not fastest < -tau else -tau / fastest

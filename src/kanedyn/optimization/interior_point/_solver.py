@@ -208,7 +208,7 @@ class _Run:
             return False
         R.scale_at(R.template, gradient, jacobian)
         x_lower, x_upper = R.variable_bounds()
-        g_lower, g_upper = R.row_bounds()
+        g_lower, g_upper = self.row_bounds = R.row_bounds()
         ineq = self.inequality
         self.row_target = np.where(R.equality, g_lower, 0.0)
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
@@ -307,8 +307,7 @@ class _Run:
         if m["unscaled"][1] <= self.s.constr_viol_tol:
             return False
         R, n = self.reduced, self.n
-        g_lower, g_upper = R.row_bounds()
-        v = e.rows - np.clip(e.rows, g_lower, g_upper)
+        v = e.rows - np.clip(e.rows, *self.row_bounds)
         grad = R.transpose_times(e.jacobian, v)
         B = self.bounds
         x = w[:n]
@@ -333,6 +332,7 @@ class _Run:
         theta = float(np.sum(np.abs(m["c"])))
         line_filter = Filter(theta)
         acceptable_count = infeasible_count = 0
+        last_primal_inf = np.inf
         force_barrier = False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
@@ -346,14 +346,18 @@ class _Run:
             acceptable_count = acceptable_count + 1 if acceptable else 0
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
-            infeasible_count = infeasible_count + 1 if self._stationary_violation(w, e, m) else 0
+            # the violation's stationarity, asked when it stalls (fell by < 10 %)
+            stalled = m["primal_inf"] > 0.9 * last_primal_inf
+            last_primal_inf = m["primal_inf"]
+            infeasible_count = (infeasible_count + 1 if stalled
+                                and self._stationary_violation(w, e, m) else 0)
             if infeasible_count >= INFEASIBLE_ITERATIONS:
                 return self._result(2, w, y, z_lower, z_upper, e)
             if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
                 return self._result(4, w, y, z_lower, z_upper, e)
             if self.iteration >= s.max_iter:
                 return self._result(-1, w, y, z_lower, z_upper, e)
-            if time.process_time() - self.start_cpu > s.max_cpu_time:
+            if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
                 return self._result(-4, w, y, z_lower, z_upper, e)
             if self.stop():
                 return self._result(5, w, y, z_lower, z_upper, e)
