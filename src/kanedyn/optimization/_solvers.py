@@ -16,6 +16,10 @@ of the Lagrangian is IPOPT's limited-memory quasi-Newton approximation
 (``hessian_approximation = "limited-memory"``) unless the NLP has an exact
 one (``nlp.exact_hessian``, ``solve(hessian="exact")``): then
 ``hessian_structure()`` and ``hessian(x, multipliers, objective_factor)``.
+
+``"interior-point"`` is kanedyn's own solver (:mod:`.interior_point`):
+IPOPT's algorithm on the exact Hessian, its KKT systems factorized by
+kanedyn (no cyipopt needed), its status codes and multipliers IPOPT's.
 """
 
 from __future__ import annotations

@@ -157,10 +157,14 @@ class StepSolver:
         rhs[:n] = -residual_w[:n]
         rhs[n:] = -residual_c
         rhs[n:][self.inequality] -= residual_s / slack_diagonal
+        if not np.all(np.isfinite(rhs)):
+            return None
         solution = self.kkt.solve(rhs)
         if self.settings.max_refinement_steps:
             scale = max(1.0, float(np.max(np.abs(rhs), initial=0.0)))
             for _ in range(int(self.settings.max_refinement_steps)):
+                if not np.all(np.isfinite(solution)):
+                    break
                 error = rhs - self.kkt.matvec(solution)
                 if not np.max(np.abs(error), initial=0.0) > self.settings.residual_ratio_max \
                         * scale:
