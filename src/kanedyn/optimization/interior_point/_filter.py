@@ -8,10 +8,12 @@ switching condition holds (:math:`\nabla\varphi^T d < 0` and
 :math:`\alpha(-\nabla\varphi^T d)^{s_\varphi} > \delta\,\theta^{s_\theta}`)
 and :math:`\theta \le \theta_{\min}`, the Armijo condition
 :math:`\varphi(\alpha) \le \varphi + \eta_\varphi \alpha \nabla\varphi^T d`
-decides (an "f-type" step, the filter unchanged); otherwise sufficient
-decrease in either measure, :math:`\theta(\alpha) \le (1 - \gamma_\theta)\theta`
-or :math:`\varphi(\alpha) \le \varphi - \gamma_\varphi\theta`, and the filter
-takes the pair :math:`((1 - \gamma_\theta)\theta, \varphi - \gamma_\varphi\theta)`.
+decides; otherwise sufficient decrease in either measure,
+:math:`\theta(\alpha) \le (1 - \gamma_\theta)\theta` or
+:math:`\varphi(\alpha) \le \varphi - \gamma_\varphi\theta`.  An accepted
+step for which the switching and Armijo conditions both hold is "f-type"
+and leaves the filter as it is; after any other the filter takes the pair
+:math:`((1 - \gamma_\theta)\theta, \varphi - \gamma_\varphi\theta)`.
 """
 
 from __future__ import annotations
@@ -70,7 +72,8 @@ class Filter:
         return slope < 0 and alpha * (-slope) ** S_PHI > DELTA * theta ** S_THETA
 
     def accepts(self, theta, phi, slope, alpha, trial_theta, trial_phi):
-        """``(accepted, f_type)`` for the trial point ``(trial_theta, trial_phi)``
+        """``(accepted, f_type)`` (f_type: the switching and Armijo
+        conditions both hold) for the trial point ``(trial_theta, trial_phi)``
         at step ``alpha`` from ``(theta, phi)`` with :math:`\\nabla\\varphi^T d`
         = ``slope``."""
         if not (np.isfinite(trial_theta) and np.isfinite(trial_phi)):
@@ -81,7 +84,9 @@ class Filter:
         if self._theta.size and np.any((trial_theta >= self._theta)
                                        & (trial_phi >= self._phi + margin)):
             return False, False
-        if theta <= self.theta_min and self.switching(theta, slope, alpha):
-            return trial_phi - phi <= ETA_PHI * alpha * slope + margin, True
+        switching = self.switching(theta, slope, alpha)
+        armijo = trial_phi - phi <= ETA_PHI * alpha * slope + margin
+        if theta <= self.theta_min and switching:
+            return armijo, True
         return (trial_theta <= (1 - GAMMA_THETA) * theta
-                or trial_phi - phi <= -GAMMA_PHI * theta + margin), False
+                or trial_phi - phi <= -GAMMA_PHI * theta + margin), switching and armijo
