@@ -10,8 +10,8 @@ against what shares none of its code:
 - kanedyn's optimal control problems against IPOPT's optimum of the same
   NLP (the exact Hessian for both): the pendulum and cart-pole swing-ups
   (trapezoid, Hermite-Simpson), a least-time problem, a free parameter at its
-  bound, an epigraph with path constraints (closed form 4), a multiphase
-  problem; and a warm start from IPOPT's multipliers.
+  bound, an epigraph with path constraints (closed form 4); a two-phase
+  problem against its closed form; a warm start from IPOPT's multipliers.
 
 The optimal control comparisons need cyipopt (IPOPT); without it they are
 skipped, saying so.
@@ -23,7 +23,6 @@ from pathlib import Path
 import numpy as np
 import pytest
 import sympy as sm
-import sympy.physics.mechanics as me
 
 import kanedyn as kd
 from kanedyn.optimization._solvers import SOLVERS
@@ -378,16 +377,11 @@ def test_cart_pole_swing_up_ipopts_optimum(method):
 
 
 def _double_integrator(mass=1.0):
-    x, v, F = me.dynamicsymbols("x v F")
-    m = sm.Symbol("m")
-    N = me.ReferenceFrame("N")
-    O = me.Point("O")
-    O.set_vel(N, 0)
-    P = O.locatenew("P", x * N.x)
-    P.set_vel(N, v * N.x)
-    eom = kd.kane(frame=N, q_ind=[x], u_ind=[v], kd_eqs=[x.diff() - v],
-                  bodies=[me.Particle("P", P, m)], loads=[(P, F * N.x)])
-    return eom.numeric(constants={m: mass}, specified={F: 0.0}), (x, v, F, m)
+    """``(model, (x, v, F, m))``: a particle on a line pushed by F
+    (``tests/test_optimal_control.py``'s)."""
+    _ipopt_or_skip()  # that module needs cyipopt
+    from test_optimal_control import _double_integrator as particle
+    return particle(mass=mass)
 
 
 def test_least_time_free_duration():
@@ -434,34 +428,28 @@ def test_epigraph_least_peak_force_closed_form():
     assert abs(found.parameters["s"] - 4.0) < 1e-7
 
 
-def test_multiphase_least_time_ipopts_optimum():
-    """A cart (2 kg with its payload) released at 0.5 m, then alone (1 kg)
-    to rest at 1 m, |F| <= 1, least total time with a small effort term,
-    both durations free, Hermite-Simpson 15 nodes a phase: IPOPT's optimum."""
-    _ipopt_or_skip()
-    from test_multiphase import _cart
+def test_multiphase_payload_released_closed_form():
+    """Two phases (``tests/test_multiphase.py``'s models): a 1 kg cart with
+    a 1 kg payload until 0.4 s, then alone, from rest at 0 to rest at 1 m in
+    1 s with the least integral of F^2, Hermite-Simpson: the closed form's
+    objective and positions (that module's ``_least_effort``)."""
+    _ipopt_or_skip()  # test_multiphase needs cyipopt
+    from test_multiphase import _cart, _least_effort
     loaded, (x, v, F) = _cart([1.0, 1.0])
     alone, _ = _cart([1.0])
-    T1, T2 = sm.symbols("T1 T2")
-    first = kd.OptimalControlProblem(
-        loaded, nodes=15, duration=T1, mayer=T1 + 1e-2 * v ** 2, lagrange=1e-2 * F ** 2,
-        bounds={F: (-1, 1), T1: (0.5, 3)}, initial={x: 0, v: 0}, final={x: 0.5},
-        method="hermite-simpson")
-    second = kd.OptimalControlProblem(
-        alone, nodes=15, duration=T2, mayer=T2, lagrange=1e-2 * F ** 2,
-        bounds={F: (-1, 1), T2: (0.5, 3)}, final={x: 1, v: 0}, method="hermite-simpson")
-    problem = kd.MultiphaseProblem([first, second])
-    guess = [first.guess_line(end={v: 0.7}, inputs={F: 1.0}, duration=1.5),
-             second.guess_line(start={x: 0.5, v: 0.7}, inputs={F: 0.0}, duration=1.0)]
-    tight = {"tol": 1e-10, "max_iter": 500}
-    ours = problem.solve(guess, solver="interior-point", hessian="exact",
-                         options=dict(tight, **DENSE))
-    theirs = problem.solve(guess, solver="ipopt", hessian="exact", options=tight)
-    assert ours.success and theirs.success, (ours.message, theirs.message)
-    assert abs(ours.objective - theirs.objective) < 1e-6 * abs(theirs.objective)
-    for mine, its in zip(ours.phases, theirs.phases):
-        assert np.max(np.abs(mine["x"] - its["x"])) < 1e-5
-        assert abs(mine.duration - its.duration) < 1e-5
+    first = kd.OptimalControlProblem(loaded, nodes=5, duration=0.4, lagrange=F ** 2,
+                                     initial={x: 0, v: 0}, method="hermite-simpson")
+    second = kd.OptimalControlProblem(alone, nodes=7, duration=0.6, lagrange=F ** 2,
+                                      final={x: 1, v: 0}, method="hermite-simpson")
+    result = kd.MultiphaseProblem([first, second]).solve(
+        [first.guess_line(end={x: 0.3, v: 1.0}, inputs={F: 0.0}),
+         second.guess_line(start={x: 0.3, v: 1.0}, inputs={F: 0.0})],
+        solver="interior-point", hessian="exact", options=dict(DENSE, tol=1e-12))
+    assert result.success, result.message
+    objective, position, _ = _least_effort([(0.0, 0.4, 2.0), (0.4, 1.0, 1.0)])
+    assert abs(result.objective - objective) < 1e-9 * objective
+    for phase in result.phases:
+        assert np.max(np.abs(phase["x"] - [position(s) for s in phase.t])) < 1e-9
 
 
 def test_warm_start_from_ipopts_multipliers():

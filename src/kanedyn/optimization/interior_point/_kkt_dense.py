@@ -130,7 +130,7 @@ class DenseKKT:
             return np.full(self.size, np.nan)
         factor, pivots, scale = self._factors
         with np.errstate(all="ignore"):
-            x, info = scipy.linalg.lapack.dsytrs(factor, pivots,
+            x, _ = scipy.linalg.lapack.dsytrs(factor, pivots,
                                                  scale * np.asarray(rhs, dtype=float), lower=1)
         return scale * x
 

@@ -422,7 +422,7 @@ class _Run:
                 if self._stationary_violation(w, e, m):
                     return self._result(2, w, y, z_lower, z_upper, e)
                 return self._result(-2, w, y, z_lower, z_upper, e)
-            (trial, w_trial, trial_theta, trial_phi), alpha, dy_used, f_type, trials = found
+            (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
             if not f_type and not tiny:
                 line_filter.add(theta, phi)
             # the new iterate
@@ -459,7 +459,7 @@ class _Run:
         """Backtracking from ``alpha_max`` (halving), a second-order correction
         after a first trial that raised the violation:
         ``(trial, alpha, dy, f_type, trials)`` or ``None``."""
-        s, B = self.s, self.bounds
+        s = self.s
         alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
         alpha = alpha_max
         trials = 0
