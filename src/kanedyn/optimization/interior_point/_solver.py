@@ -214,6 +214,10 @@ class _Run:
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
                                    np.concatenate([x_upper, g_upper[ineq]]),
                                    s.bound_relax_factor, s.kappa_d)
+        lower, upper = np.full(self.bounds.size, -np.inf), np.full(self.bounds.size, np.inf)
+        lower[self.bounds.lower_index] = self.bounds.lower
+        upper[self.bounds.upper_index] = self.bounds.upper
+        self.slack_bounds = (lower[n:], upper[n:])
         kkt_type, self.note = kkt_class(s.linear_solver)
         self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
         self.stepper = StepSolver(self.kkt, n, m, ineq, s)
@@ -283,12 +287,16 @@ class _Run:
         compl_mu = max(np.max(np.abs(compl_lower - mu), initial=0.0),
                        np.max(np.abs(compl_upper - mu), initial=0.0))
         sf = R.objective_scale
-        unscaled_c = np.abs(c) / R.row_scale if self.m else c
+        # IPOPT's unscaled violation: the inequality rows against their (relaxed) bounds
+        violation = c.copy()
+        rows = e.rows[self.inequality]
+        violation[self.inequality] = rows - np.clip(rows, *self.slack_bounds)
+        unscaled_violation = np.max(np.abs(violation) / R.row_scale, initial=0.0)
         return dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
                     c=c, dual_inf=dual_inf, primal_inf=primal_inf,
                     error=max(dual_inf / s_d, primal_inf, compl / s_c),
                     error_mu=max(dual_inf / s_d, primal_inf, compl_mu / s_c),
-                    unscaled=(dual_inf / sf, np.max(unscaled_c, initial=0.0), compl / sf))
+                    unscaled=(dual_inf / sf, unscaled_violation, compl / sf))
 
     def _converged(self, m, acceptable):
         s = self.s
@@ -517,8 +525,10 @@ def _print_header():
 
 
 def _print_row(iteration, objective, m, mu, row):
+    """IPOPT's columns: inf_pr the unscaled violation, inf_du the scaled
+    dual infeasibility."""
     rg = f"{np.log10(row['delta_w']):6.1f}" if row["delta_w"] > 0 else "     -"
-    print(f"{iteration:4d} {objective:14.7e} {m['primal_inf']:8.2e} {m['dual_inf']:8.2e} "
+    print(f"{iteration:4d} {objective:14.7e} {m['unscaled'][1]:8.2e} {m['dual_inf']:8.2e} "
           f"{np.log10(mu):5.1f} {row['step']:8.2e} {rg} {row['alpha_dual']:8.2e} "
           f"{row['alpha_primal']:8.2e}{row['kind']} {row['trials']:2d}", file=sys.stdout,
           flush=True)
