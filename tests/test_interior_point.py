@@ -528,3 +528,20 @@ def test_sparse_factorization_on_the_small_nlps():
     exact = np.linalg.solve(np.block([[Q, B.T], [B, np.zeros((m, m))]]), np.r_[-c, b])
     found = InteriorPoint().solve(nlp, np.zeros(n), {"linear_solver": "sparse"})
     assert found.status == 0 and np.max(np.abs(found.x - exact[:n])) < 1e-9
+
+
+def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
+    """``linear_solver="auto"`` takes SparseKKT when it imports, else
+    DenseKKT with a note (printed with print_level=1, the same solution);
+    ``"sparse"`` without it is refused, naming the option."""
+    from kanedyn.optimization.interior_point._solver import kkt_class
+    assert kkt_class("dense") == (DenseKKT, None)
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
+    chosen, note = kkt_class("auto")
+    assert chosen is DenseKKT and "SparseKKT does not import" in note
+    with pytest.raises(ImportError, match="linear_solver='sparse'.*linear_solver='dense'"):
+        kkt_class("sparse")
+    solver = InteriorPoint()
+    found = solver.solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]), {"print_level": 1})
+    assert "DenseKKT used" in solver.note and "DenseKKT used" in capsys.readouterr().out
+    assert found.status == 0 and np.max(np.abs(found.x - HS71_X)) < 1e-6

@@ -344,6 +344,8 @@ class _Run:
         force_barrier = False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
+            if self.note:
+                print(f"interior point: {self.note}", file=sys.stdout)
             _print_header()
         while True:
             if s.print_level:
