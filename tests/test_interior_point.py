@@ -545,3 +545,14 @@ def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
     found = solver.solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]), {"print_level": 1})
     assert "DenseKKT used" in solver.note and "DenseKKT used" in capsys.readouterr().out
     assert found.status == 0 and np.max(np.abs(found.x - HS71_X)) < 1e-6
+
+
+def test_unbounded_objective_diverges_with_status_4():
+    """min x1 with only x2 = 1 constrained: the iterates run off (|x| above
+    diverging_iterates_tol, 1e20), status 4."""
+    nlp = _NLP(2, 1, lambda x: x[0], lambda x: [1.0, 0.0], lambda x: [x[1]],
+               lambda x: [[0.0, 1.0]], lambda x, y, s: np.zeros((2, 2)), g_lower=[1.0],
+               g_upper=[1.0])
+    found = _solve(nlp, [0.0, 0.0])
+    assert found.status == 4 and "diverged" in found.status_text
+    assert found.x[0] < -1e20 and abs(found.x[1] - 1.0) < 1e-8

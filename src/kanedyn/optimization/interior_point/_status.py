@@ -12,7 +12,6 @@ STATUS = {
     2: "infeasible: the iterates reached a point that minimizes the constraints' "
        "violation locally without satisfying them (check the constraints and bounds, "
        "or give a better initial guess)",
-    3: "the search direction became too small to make progress",
     4: "the iterates diverged: the objective may be unbounded below (bound the "
        "variables it decreases along)",
     5: "stopped on request",
