@@ -7,9 +7,10 @@ through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices, ``int64`` column pointers; the caller makes them so) and release the
 GIL while they compute:
 
-``symbolic(parent, column_counts, Ap, Ai)``
+``symbolic(parent, column_counts, Ap, Ai, pair)``
     the elimination tree and the number of entries of each column of ``L``
-    from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC).
+    from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
+    columns of a 2 x 2 pivot given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, Ap, Ai, parent, positive, maps..., values..., tolerance)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
@@ -28,7 +29,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 1"
+_GENERATION = "kanedyn sparse LDL 2"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -61,14 +62,14 @@ static void kd_release(Py_buffer *views, int count) {
 
 /* ---------------------------------------------------------------- symbolic */
 static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
-    PyObject *o[4];
-    if (!PyArg_ParseTuple(args, "OOOO", &o[0], &o[1], &o[2], &o[3])) return NULL;
-    Py_buffer v[4];
+    PyObject *o[5];
+    if (!PyArg_ParseTuple(args, "OOOOO", &o[0], &o[1], &o[2], &o[3], &o[4])) return NULL;
+    Py_buffer v[5];
     memset(v, 0, sizeof v);
-    static const Py_ssize_t size[4] = {4, 8, 8, 4};
-    static const int writable[4] = {1, 1, 0, 0};
-    static const char *names[4] = {"parent", "column_counts", "Ap", "Ai"};
-    for (int i = 0; i < 4; i++)
+    static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
+    static const int writable[5] = {1, 1, 0, 0, 0};
+    static const char *names[5] = {"parent", "column_counts", "Ap", "Ai", "pair"};
+    for (int i = 0; i < 5; i++)
         if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
             kd_release(v, i);
             return NULL;
@@ -76,9 +77,10 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[0]);
     int32_t *parent = v[0].buf, *Ai = v[3].buf;
     int64_t *counts = v[1].buf, *Ap = v[2].buf;
+    const int8_t *pair = v[4].buf;
     int32_t *flag = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
     if (flag == NULL) {
-        kd_release(v, 4);
+        kd_release(v, 5);
         return PyErr_NoMemory();
     }
     Py_BEGIN_ALLOW_THREADS
@@ -90,6 +92,10 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
             int32_t i = Ai[p];
             /* walk from i up the tree to the first node already marked for k */
             for (; flag[i] != k; i = parent[i]) {
+                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+                    counts[i - 1]++;
+                    flag[i - 1] = (int32_t)k;
+                }
                 if (parent[i] == -1) parent[i] = (int32_t)k;
                 counts[i]++;
                 flag[i] = (int32_t)k;
@@ -98,26 +104,86 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     }
     Py_END_ALLOW_THREADS
     free(flag);
-    kd_release(v, 4);
+    kd_release(v, 5);
     Py_RETURN_NONE;
 }
 
 /* ------------------------------------------------------------------ factor */
-enum {F_AX, F_LP, F_LI, F_LX, F_D, F_AP, F_AI, F_PARENT, F_POSITIVE, F_HMAP, F_HV,
+/* pair[k]: 0 a 1 x 1 pivot of a variable, 3 one of a constraint; 1 the first row
+   of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
+   the off-diagonal entry of the 2 x 2 block starting at k */
+enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
       F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_COUNT};
+
+/* a zero pivot is replaced by this (its sign chosen by the caller) */
+static double kd_replacement(double scale, double largest) {
+    return scale > 0.0 && isfinite(scale) ? scale : largest;
+}
+
+/* the 2 x 2 pivot [[a, e], [e, d]] (a variable, then its constraint): its
+   eigenvalues counted, a zero one (|lambda| <= tolerance * scale, or not
+   finite) replaced so that the block has one positive and one negative
+   eigenvalue, magnitude `scale`; the block rewritten with the replacement */
+static void kd_block(double *a, double *e, double *d, double tolerance, double scale,
+                     double largest, Py_ssize_t *n_positive, Py_ssize_t *n_negative,
+                     Py_ssize_t *n_zero) {
+    double mean = 0.5 * (*a + *d), half = 0.5 * (*a - *d);
+    double radius = hypot(half, *e);
+    double big = mean >= 0.0 ? mean + radius : mean - radius;  /* the larger magnitude */
+    double small = big != 0.0 ? (*a * *d - *e * *e) / big : 0.0;
+    double limit = tolerance * scale;
+    int big_zero = !(fabs(big) > limit), small_zero = !(fabs(small) > limit);
+    if (!big_zero && !small_zero) {
+        if (big > 0.0) (*n_positive)++; else (*n_negative)++;
+        if (small > 0.0) (*n_positive)++; else (*n_negative)++;
+        return;
+    }
+    double r = kd_replacement(scale, largest);
+    /* the unit eigenvector of `big` (from the better conditioned of the two rows
+       of B - big I), the other one orthogonal to it */
+    double vx, vy;
+    if (fabs(big - *d) >= fabs(big - *a)) {
+        vx = big - *d;
+        vy = *e;
+    } else {
+        vx = *e;
+        vy = big - *a;
+    }
+    double norm = hypot(vx, vy);
+    if (!(norm > 0.0) || !isfinite(norm)) {
+        vx = 1.0;
+        vy = 0.0;
+    } else {
+        vx /= norm;
+        vy /= norm;
+    }
+    if (big_zero) {
+        *n_zero += 2;
+        big = r;
+        small = -r;
+    } else {
+        *n_zero += 1;
+        if (big > 0.0) (*n_positive)++; else (*n_negative)++;
+        small = big > 0.0 ? -r : r;
+    }
+    *a = big * vx * vx + small * vy * vy;
+    *d = big * vy * vy + small * vx * vx;
+    *e = (big - small) * vx * vy;
+}
 
 static PyObject *kd_factor(PyObject *self, PyObject *args) {
     PyObject *o[F_COUNT];
     double tolerance;
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOOOd", &o[0], &o[1], &o[2], &o[3], &o[4],
+    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOOOOd", &o[0], &o[1], &o[2], &o[3], &o[4],
                           &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
-                          &o[13], &o[14], &o[15], &tolerance))
+                          &o[13], &o[14], &o[15], &o[16], &tolerance))
         return NULL;
-    static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4, 8,
-                                             8};
-    static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-    static const char *names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "Ap", "Ai", "parent",
-                                         "positive", "hessian map", "hessian_values",
+    static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
+                                             8, 8};
+    static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                          0};
+    static const char *names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
+                                         "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
                                          "diagonal_x", "diagonal_c"};
     Py_buffer v[F_COUNT];
@@ -127,11 +193,11 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
             kd_release(v, i);
             return NULL;
         }
-    double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf;
+    double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
     const int64_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
     int32_t *Li = v[F_LI].buf;
     const int32_t *Ai = v[F_AI].buf, *parent = v[F_PARENT].buf;
-    const int8_t *positive = v[F_POSITIVE].buf;
+    const int8_t *pair = v[F_PAIR].buf;
     const int32_t *hmap = v[F_HMAP].buf, *jmap = v[F_JMAP].buf, *dmap = v[F_DMAP].buf;
     const double *hv = v[F_HV].buf, *jv = v[F_JV].buf, *dx = v[F_DX].buf, *dc = v[F_DC].buf;
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
@@ -155,7 +221,11 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += dx[j];
     for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= dc[i];
     /* the largest magnitude in each row of K (both triangles) */
-    for (Py_ssize_t k = 0; k < N; k++) rowmax[k] = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        rowmax[k] = 0.0;
+        Y[k] = 0.0;
+        E[k] = 0.0;
+    }
     for (Py_ssize_t k = 0; k < N; k++)
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
             double a = fabs(Ax[p]);
@@ -165,10 +235,11 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double largest = 0.0;
     for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
     if (largest == 0.0) largest = 1.0;
-    /* up-looking L D L^T: row k of L solves L(0:k,0:k) D y = A(0:k, k) */
+    double first_scale = 0.0;  /* the scale of the first row of the current 2 x 2 pivot */
+    /* up-looking block L D L^T: w = L(0:k,0:k)^-1 A(0:k, k), then row k of L is
+       D^-1 w (blockwise) and d_k = A(k, k) - (row k of L) w */
     for (Py_ssize_t k = 0; k < N; k++) {
         Py_ssize_t top = N;
-        Y[k] = 0.0;
         flag[k] = (int32_t)k;
         filled[k] = 0;
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
@@ -176,6 +247,10 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
             Y[i] += Ax[p];
             Py_ssize_t length = 0;
             for (; flag[i] != k; i = parent[i]) {
+                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+                    pattern[length++] = i - 1;
+                    flag[i - 1] = (int32_t)k;
+                }
                 pattern[length++] = i;
                 flag[i] = (int32_t)k;
             }
@@ -185,30 +260,62 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         Y[k] = 0.0;
         for (; top < N; top++) {
             int32_t i = pattern[top];
-            double yi = Y[i];
-            Y[i] = 0.0;
+            double wi = Y[i];
             int64_t end = Lp[i] + filled[i];
-            for (int64_t p = Lp[i]; p < end; p++) Y[Li[p]] -= Lx[p] * yi;
-            double l = yi / D[i];
-            d -= l * yi;
-            terms += fabs(l * yi);
-            Li[end] = (int32_t)k;
-            Lx[end] = l;
-            filled[i]++;
+            for (int64_t p = Lp[i]; p < end; p++) Y[Li[p]] -= Lx[p] * wi;
+            if (pair[i] == 1) {  /* kept in Y until its partner i + 1 comes */
+                if (i == k - 1) {  /* k's own partner: the block's off-diagonal entry */
+                    E[i] = wi;
+                    Y[i] = 0.0;
+                    Li[end] = (int32_t)k;
+                    Lx[end] = 0.0;
+                    filled[i]++;
+                }
+                continue;
+            }
+            Y[i] = 0.0;
+            if (pair[i] == 2) {  /* [l_{i-1}, l_i] = B^-1 [w_{i-1}, w_i] */
+                double w0 = Y[i - 1], a = D[i - 1], e = E[i - 1], b = D[i];
+                double det = a * b - e * e;
+                double l0 = (b * w0 - e * wi) / det, l1 = (a * wi - e * w0) / det;
+                Y[i - 1] = 0.0;
+                d -= l0 * w0 + l1 * wi;
+                terms += fabs(l0 * w0) + fabs(l1 * wi);
+                int64_t end0 = Lp[i - 1] + filled[i - 1];
+                Li[end0] = (int32_t)k;
+                Lx[end0] = l0;
+                filled[i - 1]++;
+                Li[end] = (int32_t)k;
+                Lx[end] = l1;
+                filled[i]++;
+            } else {
+                double l = wi / D[i];
+                d -= l * wi;
+                terms += fabs(l * wi);
+                Li[end] = (int32_t)k;
+                Lx[end] = l;
+                filled[i]++;
+            }
         }
         /* a zero pivot: small beside the terms it was summed from and beside
            the largest entry of its row of K, or not finite */
         double scale = terms > rowmax[k] ? terms : rowmax[k];
-        if (!(fabs(d) > tolerance * scale)) {
+        D[k] = d;
+        if (pair[k] == 1) {
+            first_scale = scale;
+        } else if (pair[k] == 2) {
+            kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
+                     scale > first_scale ? scale : first_scale, largest, &n_positive,
+                     &n_negative, &n_zero);
+        } else if (!(fabs(d) > tolerance * scale)) {
             n_zero++;
-            double replacement = scale > 0.0 && isfinite(scale) ? scale : largest;
-            d = positive[k] ? replacement : -replacement;
+            double r = kd_replacement(scale, largest);
+            D[k] = pair[k] == 3 ? -r : r;
         } else if (d > 0.0) {
             n_positive++;
         } else {
             n_negative++;
         }
-        D[k] = d;
     }
     Py_END_ALLOW_THREADS
     free(Y); free(rowmax); free(pattern); free(flag); free(filled);
@@ -218,34 +325,35 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
 
 /* ------------------------------------------------------------------- solve */
 static PyObject *kd_solve(PyObject *self, PyObject *args) {
-    PyObject *o[6];
+    PyObject *o[8];
     Py_ssize_t columns;
-    if (!PyArg_ParseTuple(args, "OOOOOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5],
-                          &columns))
+    if (!PyArg_ParseTuple(args, "OOOOOOOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5],
+                          &o[6], &o[7], &columns))
         return NULL;
-    static const Py_ssize_t size[6] = {8, 8, 4, 8, 8, 4};
-    static const int writable[6] = {1, 0, 0, 0, 0, 0};
-    static const char *names[6] = {"rhs", "Lp", "Li", "Lx", "D", "permutation"};
-    Py_buffer v[6];
+    static const Py_ssize_t size[8] = {8, 8, 4, 8, 8, 8, 1, 4};
+    static const int writable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
+    static const char *names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair", "permutation"};
+    Py_buffer v[8];
     memset(v, 0, sizeof v);
-    for (int i = 0; i < 6; i++)
+    for (int i = 0; i < 8; i++)
         if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
             kd_release(v, i);
             return NULL;
         }
     double *X = v[0].buf;
     const int64_t *Lp = v[1].buf;
-    const int32_t *Li = v[2].buf, *perm = v[5].buf;
-    const double *Lx = v[3].buf, *D = v[4].buf;
+    const int32_t *Li = v[2].buf, *perm = v[7].buf;
+    const double *Lx = v[3].buf, *D = v[4].buf, *E = v[5].buf;
+    const int8_t *pair = v[6].buf;
     Py_ssize_t N = KD_COUNT(v[4]);
     if (columns < 0 || KD_COUNT(v[0]) != columns * N) {
-        kd_release(v, 6);
+        kd_release(v, 8);
         PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
         return NULL;
     }
     double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));
     if (w == NULL) {
-        kd_release(v, 6);
+        kd_release(v, 8);
         return PyErr_NoMemory();
     }
     Py_BEGIN_ALLOW_THREADS
@@ -256,8 +364,18 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) w[Li[p]] -= Lx[p] * wj;
         }
-        for (Py_ssize_t j = 0; j < N; j++) w[j] /= D[j];
-        for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = D^-1 z */
+        for (Py_ssize_t j = 0; j < N; j++) {  /* D y = z, blockwise */
+            if (pair[j] == 1) {
+                double a = D[j], e = E[j], b = D[j + 1], det = a * b - e * e;
+                double w0 = w[j], w1 = w[j + 1];
+                w[j] = (b * w0 - e * w1) / det;
+                w[j + 1] = (a * w1 - e * w0) / det;
+                j++;
+            } else {
+                w[j] /= D[j];
+            }
+        }
+        for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = y */
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) wj -= Lx[p] * w[Li[p]];
             w[j] = wj;
@@ -266,7 +384,7 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
     }
     Py_END_ALLOW_THREADS
     free(w);
-    kd_release(v, 6);
+    kd_release(v, 8);
     Py_RETURN_NONE;
 }
 

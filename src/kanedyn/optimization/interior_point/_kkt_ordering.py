@@ -14,7 +14,9 @@ instance constraints join the first and the last node).
    and it would spoil the band that step 3 looks for);
 2. every other constraint row is paired with a variable of its own, by a
    maximum matching of the Jacobian's pattern (SciPy's
-   ``maximum_bipartite_matching``): a defect row with the state it advances;
+   ``maximum_bipartite_matching``; variables without a diagonal Hessian
+   entry matched first where that loses no row): a defect row with one of
+   the states it relates;
 3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
    and the unpaired rows (the band, found whatever the layout);
 4. each pair is eliminated variable first, then its constraint.
@@ -58,8 +60,28 @@ def _graph(size, rows, cols, shape=None):
     return graph
 
 
-def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
-    """``(permutation, n_dense)``: the pivot order of the KKT matrix.
+def _matching(pattern, preferred):
+    """``partner[i]``: the column matched to row ``i`` of ``pattern`` (m x n,
+    CSR), or -1: a maximum matching that matches as many of the ``preferred``
+    columns (a boolean mask) as it can first, where that loses no row."""
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    best = maximum_bipartite_matching(pattern, perm_type="column")
+    partner = np.full(pattern.shape[0], -1)
+    cols = np.flatnonzero(preferred)
+    if cols.size:
+        first = maximum_bipartite_matching(pattern[:, cols].tocsr(), perm_type="column")
+        partner = np.where(first >= 0, cols[np.maximum(first, 0)], -1)
+    rows, cols = np.flatnonzero(partner < 0), np.flatnonzero(~preferred)
+    if rows.size and cols.size:
+        second = maximum_bipartite_matching(pattern[rows][:, cols].tocsr(),
+                                            perm_type="column")
+        partner[rows] = np.where(second >= 0, cols[np.maximum(second, 0)], -1)
+    return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
+
+
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None):
+    """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
 
     Parameters
     ----------
@@ -72,6 +94,10 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
         ``(rows, cols)`` of the Jacobian's entries.
     ordering : str
         One of :data:`ORDERINGS`.
+    diagonal : ndarray of bool, shape (n,), optional
+        The variables whose Hessian has a diagonal entry: the pairing prefers
+        the others (a variable without one has a zero pivot of its own when
+        ``diagonal_x`` is zero there).
 
     Returns
     -------
@@ -80,9 +106,13 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
     n_dense : int
         How many rows counted as dense (:func:`dense_threshold`): the last
         ``n_dense`` of the order, the variables first.
+    kind : ndarray of int8, shape (N,)
+        Of each pivot in that order: 0 a variable's, 3 a constraint's, 1 and 2
+        the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
+        of :class:`~._kkt_sparse.SparseKKT`).  ``"rcm"`` makes no pairs.
     """
     import scipy.sparse as sp
-    from scipy.sparse.csgraph import maximum_bipartite_matching, reverse_cuthill_mckee
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     if ordering not in ORDERINGS:
         raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not {ordering!r}")
@@ -99,7 +129,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
         pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
                                  (jr[inside], jc[inside])), shape=(m, n))
         pattern.sum_duplicates()
-        partner = maximum_bipartite_matching(pattern, perm_type="column")
+        preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
+        partner = _matching(pattern, preferred & ~dense[:n])
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
     # the compressed graph on the blocks of the rows that are not dense
@@ -116,4 +147,10 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs"):
     rank[order] = np.arange(nodes.size)
     sequence = np.lexsort((keep, rank[compressed]))
     permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
-    return permutation.astype(np.int32), int(dense.sum())
+    # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
+    # variable (1) and the constraint (2) of a pair
+    kind = np.where(permutation < n, 0, 3).astype(np.int8)
+    follower = block[permutation[1:]] == block[permutation[:-1]]
+    kind[:-1][follower] = 1
+    kind[1:][follower] = 2
+    return permutation.astype(np.int32), int(dense.sum()), kind

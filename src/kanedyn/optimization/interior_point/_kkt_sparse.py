@@ -201,8 +201,10 @@ class SparseKKT:
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         off = hr != hc
-        permutation, n_dense = elimination_order(n, m, (hr[off], hc[off]), (jr, jc),
-                                                 ordering)
+        diagonal = np.zeros(n, dtype=bool)
+        diagonal[hr[~off]] = True
+        permutation, n_dense, kind = elimination_order(n, m, (hr[off], hc[off]),
+                                                       (jr, jc), ordering, diagonal)
         inverse = np.empty(N, dtype=np.int64)
         inverse[permutation] = np.arange(N)
         # every entry of K's upper triangle, in the permuted order
@@ -223,11 +225,11 @@ class SparseKKT:
         self._Ai = (unique % N).astype(_INDEX)
         self._Ax = np.zeros(unique.size)
         self._permutation = permutation
-        self._positive = (permutation < n).astype(np.int8)
+        self._kind = kind
         # elimination tree and the pattern's size, then L's storage
         self._parent = np.empty(N, dtype=_INDEX)
         counts = np.empty(N, dtype=np.int64)
-        self._kernel.symbolic(self._parent, counts, self._Ap, self._Ai)
+        self._kernel.symbolic(self._parent, counts, self._Ap, self._Ai, self._kind)
         self._Lp = np.zeros(N + 1, dtype=np.int64)
         np.cumsum(counts, out=self._Lp[1:])
         nnz = int(self._Lp[-1])
@@ -236,11 +238,13 @@ class SparseKKT:
         self._Li = np.zeros(nnz, dtype=_INDEX)
         self._Lx = np.zeros(nnz)
         self._D = np.zeros(N)
+        self._E = np.zeros(N)
         self.inertia = None
-        factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D))
+        factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
+                                              self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._positive, permutation))
+                                           self._parent, self._kind, permutation))
         self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(unique.size), nnz,
                                     factor_bytes, map_bytes)
 
@@ -278,8 +282,8 @@ class SparseKKT:
             raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
         self.inertia = None  # no factors while the kernel overwrites them
         inertia = self._kernel.factor(
-            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._Ap, self._Ai,
-            self._parent, self._positive, self._hessian_map, hv, self._jacobian_map, jv,
+            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
+            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
             self._diagonal_map, dx, dc, self.zero_pivot)
         self.inertia = inertia
         return inertia
@@ -309,8 +313,8 @@ class SparseKKT:
             raise ValueError("rhs holds a value that is not finite")
         x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
         columns = 1 if b.ndim == 1 else b.shape[1]
-        self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._permutation,
-                           columns)
+        self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
+                           self._permutation, columns)
         return x.T if b.ndim == 2 else x
 
     def matvec(self, x):
