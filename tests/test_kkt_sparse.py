@@ -158,6 +158,39 @@ def test_singular_reports_zero_pivots_and_solves_finitely():
     assert kkt.factor(hv, jv, dx, np.full(m, 1e-8)) == (n, m, 0)
 
 
+def test_two_by_two_pivots_of_a_zero_diagonal():
+    """K = [[0, Jᵀ], [J, 0]], J square and sparse: every diagonal entry is
+    zero, so 1 x 1 pivots in any order break down at the first one; the
+    paired order's 2 x 2 pivots give eigvalsh's inertia (n, n, 0) and
+    NumPy's solution; the rows' own order reports zero pivots."""
+    rng = np.random.default_rng(4)
+    n = 30
+    rows = np.arange(n)
+    jr = np.concatenate([rows, rows[:-1], rows[2:]])
+    jc = np.concatenate([rows, rows[1:], rows[:-2]])
+    jv = rng.normal(size=jr.size)
+    jv[:n] = rng.choice([-1.0, 1.0], n) * rng.uniform(3.0, 4.0, n)
+    none = np.zeros(0, int)
+    hessian, jacobian = (none, none, np.zeros(0)), (jr, jc, jv)
+    zeros = np.zeros(n)
+    _check(SparseKKT(n, n, (none, none), (jr, jc)), n, n, hessian, jacobian, zeros, zeros,
+           rng, inertia=(n, n, 0))
+    single = SparseKKT(n, n, (none, none), (jr, jc), ordering="rcm")
+    assert single.factor(np.zeros(0), jv, zeros, zeros)[2] > 0
+
+
+def test_two_by_two_pivot_with_a_zero_eigenvalue():
+    """The pair [[-1, 1], [1, -1]] is singular (eigenvalues 0 and -2): one
+    zero, one negative, and a finite solution."""
+    kkt = SparseKKT(1, 1, ([0], [0]), ([0], [0]))
+    assert kkt.factor([-1.0], [1.0], [0.0], [1.0]) == (0, 1, 1)
+    assert _eigen_inertia(np.array([[-1.0, 1.0], [1.0, -1.0]])) == (0, 1, 1)
+    assert np.isfinite(kkt.solve([1.0, 2.0])).all()
+    # nonsingular again: eigvalsh's inertia
+    assert kkt.factor([-1.0], [1.0], [0.0], [0.5]) == _eigen_inertia(
+        np.array([[-1.0, 1.0], [1.0, -0.5]]))
+
+
 def _pendulum_nlp(method, free_duration, nodes=11):
     from kanedyn.optimization._nlp import CollocationNLP
     definition = kd.models.build("pendulum", torque=True)
@@ -196,6 +229,13 @@ def test_pendulum_collocation_kkt(method, free_duration):
     shift = max(0.0, -np.linalg.eigvalsh(H).min()) + 1.0
     for dc in (np.zeros(m), np.full(m, 1e-8)):
         _check(kkt, n, m, hessian, jacobian, np.full(n, shift), dc, rng, inertia=(n, m, 0))
+    # no Hessian shift, no barrier, no regularization: where no pivot is zero,
+    # the inertia is eigvalsh's (the free-duration trapezoid has none zero)
+    K = _dense(n, m, hessian, jacobian, np.zeros(n), np.zeros(m))
+    plain = kkt.factor(hv, jv, np.zeros(n), np.zeros(m))
+    assert plain[2] > 0 or plain == _eigen_inertia(K)
+    if free_duration and method == "trapezoid":
+        _check(kkt, n, m, hessian, jacobian, np.zeros(n), np.zeros(m), rng)
     # the reduced Hessian not positive definite: more negative eigenvalues than m
     found = _check(kkt, n, m, hessian, jacobian, np.full(n, shift) - 2 * shift * (
         np.arange(n) % 3 == 0), np.zeros(m), rng)

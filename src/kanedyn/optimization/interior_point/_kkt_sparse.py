@@ -8,51 +8,60 @@ method's KKT matrix, with its inertia.
       = P^T L D L^T P
 
 with :math:`H` (n x n) the Hessian of the Lagrangian, :math:`J` (m x n) the
-constraints' Jacobian, :math:`L` unit lower triangular, :math:`D` diagonal
-and :math:`P` the elimination order (:mod:`._kkt_ordering`).  By Sylvester's
-law of inertia the signs of :math:`D` are :math:`K`'s inertia, whatever the
-order, as long as no pivot is zero.
+constraints' Jacobian, :math:`L` unit lower triangular, :math:`P` the
+elimination order (:mod:`._kkt_ordering`) and :math:`D` block diagonal: a
+2 x 2 block for each pair of a variable and a constraint that the order
+made (the constraint's row holds the variable: before fill-in the block is
+:math:`\begin{bmatrix} h & j \\ j & -c \end{bmatrix}` with :math:`j \ne 0`,
+nonsingular where :math:`h = c = 0`, as for a state without a Hessian or
+barrier term when ``diagonal_c = 0``, where a 1 x 1 pivot would be exactly
+zero), 1 x 1 elsewhere.  The blocks are fixed by the analysis: no pivoting at run time.
+By Sylvester's law of inertia the eigenvalues of :math:`D`'s blocks have
+:math:`K`'s inertia, whatever the order, as long as none is zero.
 
-**Analysis, once** (the constructor): the elimination order; the pattern of
-the permuted upper triangle of :math:`K` (CSC; every diagonal entry present);
-the maps of every Hessian entry, Jacobian entry and diagonal entry to its
-place there (repeated entries map to the same place and are summed); the
-elimination tree and the column counts of :math:`L` (compiled); and all the
-storage the numeric phase needs (:math:`L`'s indices and values, :math:`D`,
-the values of :math:`K`).
+**Analysis, once** (the constructor): the elimination order and its pairs;
+the pattern of the permuted upper triangle of :math:`K` (CSC; every diagonal
+entry present); the maps of every Hessian entry, Jacobian entry and diagonal
+entry to its place there (repeated entries map to the same place and are
+summed); the elimination tree and the column counts of :math:`L` (compiled;
+the two columns of a pair get the same rows); and all the storage the
+numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
+of :math:`K`).
 
 **Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
-released): the values scattered through the maps, then an up-looking
-:math:`LDL^T` without pivoting, row :math:`k` of :math:`L` from a sparse
-triangular solve whose pattern the elimination tree gives.
+released): the values scattered through the maps, then an up-looking block
+:math:`LDL^T`: row :math:`k` of :math:`L` from a sparse triangular solve
+:math:`w = L^{-1} K_{0:k,k}` whose pattern the elimination tree gives, then
+:math:`D^{-1} w` block by block, then the pivot
+:math:`d_k = K_{kk} - \sum_j L_{kj} w_j`.
 
-**Zero pivots.**  Without pivoting, a pivot :math:`d_k` close to zero would
-make the rows below it meaningless.  :math:`d_k` is the sum
-:math:`K_{kk} - \sum_j L_{kj}^2 d_j`; let :math:`s_k` be the larger of the
-sum of the magnitudes of its terms, :math:`|K_{kk}| + \sum_j L_{kj}^2 |d_j|`,
-and the largest magnitude in row :math:`k` of :math:`K`.  The pivot counts as
-*zero* when :math:`|d_k| \le \tau s_k` (:math:`\tau` the constructor's
-``zero_pivot``, default :data:`ZERO_PIVOT`), or when it is not finite; it is
-then replaced by :math:`\pm s_k` (by the largest magnitude in :math:`K`, or
-1, where :math:`s_k` is zero or not finite), ``+`` in a row of the primal
-variables (the first n), ``-`` in a row of the constraints, and the
-factorization goes on: :meth:`~SparseKKT.solve` returns finite numbers (the
-solution of :math:`K` with that one diagonal entry changed), and ``n_zero``
-counts the replaced pivots.  Every other pivot is counted by its sign,
-whichever block it belongs to: a negative pivot among the primal rows or a
-positive one among the constraints is reported as it is (it is part of
-:math:`K`'s inertia).
+**Zero pivots.**  Without pivoting, a pivot close to zero would make the
+rows below it meaningless.  Let :math:`s_k` be the larger of the sum of the
+magnitudes of the terms of :math:`d_k`, :math:`|K_{kk}| + \sum_j |L_{kj}
+w_j|`, and the largest magnitude in row :math:`k` of :math:`K` (of a 2 x 2
+block: the larger of its two rows').  A 1 x 1 pivot counts as *zero* when
+:math:`|d_k| \le \tau s_k` (:math:`\tau` the constructor's ``zero_pivot``,
+default :data:`ZERO_PIVOT`) or when it is not finite; so does an eigenvalue
+of a 2 x 2 block (the smaller one computed as the determinant over the
+larger).  A zero pivot is replaced by :math:`\pm s_k` (by the largest
+magnitude in :math:`K`, or 1, where :math:`s_k` is zero or not finite):
+``+`` in a variable's row, ``-`` in a constraint's; in a block, the zero
+eigenvalue takes the sign opposite to the other one (both zero: one of
+each), its eigenvectors kept.  The factorization goes on:
+:meth:`~SparseKKT.solve` returns finite numbers (the solution with those
+pivots changed), and ``n_zero`` counts the replaced eigenvalues.  Every
+other one is counted by its sign, whichever rows it belongs to: a negative
+pivot among the variables or a positive one among the constraints is
+reported as it is (it is part of :math:`K`'s inertia).
 
 So the reported inertia is :math:`K`'s when ``n_zero == 0`` (up to rounding
 in pivots that pass the test).  ``n_zero > 0`` says that :math:`K` is
-singular, or that a leading block of :math:`PKP^T` is: without pivoting a
-variable whose diagonal is zero (no Hessian term, no barrier term) eliminated
-before anything fills its diagonal, or a constraint row with ``diagonal_c =
-0`` eliminated before its variables, breaks down the same way.  The caller
-regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors again; a
-small ``diagonal_c > 0`` kept throughout, with iterative refinement on
-:meth:`~SparseKKT.matvec` (which multiplies by :math:`K` itself, never by
-the replaced pivots), avoids the second kind.
+singular, or that a leading block of :math:`PKP^T` is: a variable left
+unpaired whose diagonal is zero (no Hessian term, no barrier term)
+eliminated before anything fills its diagonal breaks down the same way.
+The caller regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors
+again; :meth:`~SparseKKT.matvec` multiplies by :math:`K` itself (never by a
+replaced pivot), for iterative refinement.
 """
 
 from __future__ import annotations
