@@ -22,11 +22,35 @@ instance constraints join the first and the last node).
 4. each pair is eliminated variable first, then its constraint.
 
 Step 4 keeps a constraint row from being eliminated before all of its
-variables: with ``diagonal_c = 0`` its pivot would be exactly zero.  With the
-variable first, every leading block of the ordered K is nonsingular when
-``H + diag(diagonal_x)`` is positive definite and the paired entries of J are
-not zero (the pairs make J's rows in each leading block structurally
-independent).
+variables (with ``diagonal_c = 0`` its 1 x 1 pivot would be exactly zero),
+and :class:`~._kkt_sparse.SparseKKT` eliminates each pair as one 2 x 2
+pivot, nonsingular where the variable's diagonal is zero too.
+
+Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
+pendulum swing-up's NLP with a free duration, exact Hessian at random
+multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29):
+
+- entries of L below the diagonal at 1,000 / 10,000 nodes: trapezoid 24,977
+  / 249,977 with the pairs, 20,985 / 209,985 by RCM on the rows themselves
+  (``ordering="rcm"``), 19,979 / 199,979 in SuperLU's minimum degree order on
+  Aᵀ + A (SciPy's ``splu``, ``permc_spec="MMD_AT_PLUS_A"``, no pivoting);
+  Hermite-Simpson 73,844 / 739,796, 54,951 / 549,951 and 47,275 / 473,385;
+  in the NLP's own order (the band not found) L had 3.96 times the entries
+  it has with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py``
+  checks more than 3);
+- ``factor`` with the pairs took 1.07x-1.42x the time of the rows' RCM order
+  (1,000 and 10,000 nodes, both methods, 5 interleaved rounds, load 1-2 on
+  2 cores), its fill the two columns of each pair sharing their rows;
+- in exchange, no breakdown where a diagonal is zero on both sides of a
+  pair: ``K = [[0, Jᵀ], [J, 0]]`` has zero pivots in the rows' RCM order and
+  eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
+  NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
+  (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
+  or barrier term can still meet a zero pivot (the fixed-duration
+  problems' end states, where ``diagonal_x = 0``).
+
+A minimum degree order on the pairs might save part of the fill that the
+minimum degree order on the rows saves; it is not written.
 """
 
 from __future__ import annotations
