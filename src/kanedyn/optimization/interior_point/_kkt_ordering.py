@@ -46,8 +46,7 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29):
   eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
   NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
   (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
-  or barrier term can still meet a zero pivot (the fixed-duration
-  problems' end states, where ``diagonal_x = 0``).
+  or barrier term can still meet a zero pivot.
 
 A minimum degree order on the pairs might save part of the fill that the
 minimum degree order on the rows saves; it is not written.
