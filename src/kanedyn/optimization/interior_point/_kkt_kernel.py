@@ -29,7 +29,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 2"
+_GENERATION = "kanedyn sparse LDL 3"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -60,20 +60,31 @@ static void kd_release(Py_buffer *views, int count) {
         if (views[i].obj != NULL) PyBuffer_Release(&views[i]);
 }
 
+/* the buffers of the first `count` arguments (item sizes, writability and names
+   given), all or none: -1 with the error set */
+static int kd_views(PyObject *args, int count, Py_buffer *views, const Py_ssize_t *size,
+                    const int *writable, const char *const *names) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) < count) {
+        PyErr_Format(PyExc_TypeError, "%d arrays expected", count);
+        return -1;
+    }
+    memset(views, 0, sizeof(Py_buffer) * (size_t)count);
+    for (int i = 0; i < count; i++)
+        if (kd_view(PyTuple_GET_ITEM(args, i), &views[i], size[i], writable[i],
+                    names[i]) < 0) {
+            kd_release(views, i);
+            return -1;
+        }
+    return 0;
+}
+
 /* ---------------------------------------------------------------- symbolic */
 static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
-    PyObject *o[5];
-    if (!PyArg_ParseTuple(args, "OOOOO", &o[0], &o[1], &o[2], &o[3], &o[4])) return NULL;
-    Py_buffer v[5];
-    memset(v, 0, sizeof v);
     static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
     static const int writable[5] = {1, 1, 0, 0, 0};
-    static const char *names[5] = {"parent", "column_counts", "Ap", "Ai", "pair"};
-    for (int i = 0; i < 5; i++)
-        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
-            kd_release(v, i);
-            return NULL;
-        }
+    static const char *const names[5] = {"parent", "column_counts", "Ap", "Ai", "pair"};
+    Py_buffer v[5];
+    if (kd_views(args, 5, v, size, writable, names) < 0) return NULL;
     Py_ssize_t N = KD_COUNT(v[0]);
     int32_t *parent = v[0].buf, *Ai = v[3].buf;
     int64_t *counts = v[1].buf, *Ap = v[2].buf;
@@ -172,27 +183,22 @@ static void kd_block(double *a, double *e, double *d, double tolerance, double s
 }
 
 static PyObject *kd_factor(PyObject *self, PyObject *args) {
-    PyObject *o[F_COUNT];
-    double tolerance;
-    if (!PyArg_ParseTuple(args, "OOOOOOOOOOOOOOOOOd", &o[0], &o[1], &o[2], &o[3], &o[4],
-                          &o[5], &o[6], &o[7], &o[8], &o[9], &o[10], &o[11], &o[12],
-                          &o[13], &o[14], &o[15], &o[16], &tolerance))
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != F_COUNT + 1) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", F_COUNT + 1);
         return NULL;
+    }
+    double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
+    if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
                                              8, 8};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                                           0};
-    static const char *names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
+    static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
                                          "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
                                          "diagonal_x", "diagonal_c"};
     Py_buffer v[F_COUNT];
-    memset(v, 0, sizeof v);
-    for (int i = 0; i < F_COUNT; i++)
-        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
-            kd_release(v, i);
-            return NULL;
-        }
+    if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
     const int64_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
     int32_t *Li = v[F_LI].buf;
@@ -325,21 +331,18 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
 
 /* ------------------------------------------------------------------- solve */
 static PyObject *kd_solve(PyObject *self, PyObject *args) {
-    PyObject *o[8];
-    Py_ssize_t columns;
-    if (!PyArg_ParseTuple(args, "OOOOOOOOn", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5],
-                          &o[6], &o[7], &columns))
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 9) {
+        PyErr_SetString(PyExc_TypeError, "9 arguments expected");
         return NULL;
+    }
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 8));
+    if (columns == -1 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[8] = {8, 8, 4, 8, 8, 8, 1, 4};
     static const int writable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
-    static const char *names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair", "permutation"};
+    static const char *const names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
+                                         "permutation"};
     Py_buffer v[8];
-    memset(v, 0, sizeof v);
-    for (int i = 0; i < 8; i++)
-        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
-            kd_release(v, i);
-            return NULL;
-        }
+    if (kd_views(args, 8, v, size, writable, names) < 0) return NULL;
     double *X = v[0].buf;
     const int64_t *Lp = v[1].buf;
     const int32_t *Li = v[2].buf, *perm = v[7].buf;
@@ -390,19 +393,11 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
 
 /* ------------------------------------------------------------------ matvec */
 static PyObject *kd_matvec(PyObject *self, PyObject *args) {
-    PyObject *o[6];
-    if (!PyArg_ParseTuple(args, "OOOOOO", &o[0], &o[1], &o[2], &o[3], &o[4], &o[5]))
-        return NULL;
     static const Py_ssize_t size[6] = {8, 8, 8, 4, 8, 4};
     static const int writable[6] = {1, 0, 0, 0, 0, 0};
-    static const char *names[6] = {"y", "x", "Ap", "Ai", "Ax", "permutation"};
+    static const char *const names[6] = {"y", "x", "Ap", "Ai", "Ax", "permutation"};
     Py_buffer v[6];
-    memset(v, 0, sizeof v);
-    for (int i = 0; i < 6; i++)
-        if (kd_view(o[i], &v[i], size[i], writable[i], names[i]) < 0) {
-            kd_release(v, i);
-            return NULL;
-        }
+    if (kd_views(args, 6, v, size, writable, names) < 0) return NULL;
     double *y = v[0].buf;
     const double *x = v[1].buf, *Ax = v[4].buf;
     const int64_t *Ap = v[2].buf;

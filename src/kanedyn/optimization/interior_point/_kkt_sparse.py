@@ -100,7 +100,7 @@ class KKTAnalysis:
     nnz_factor : int
         Entries of L below the diagonal.
     bytes_factor : int
-        Bytes of L (values, row indices, column pointers) and D.
+        Bytes of L (values, row indices, column pointers) and of D's blocks.
     bytes_maps : int
         Bytes of the maps of the values into K's storage, of K's pattern and
         values, and of the elimination tree.
@@ -178,6 +178,13 @@ class SparseKKT:
         The elimination order, one of
         :data:`~._kkt_ordering.ORDERINGS` (:mod:`._kkt_ordering`).
 
+    Attributes
+    ----------
+    analysis : KKTAnalysis
+        The order, the sizes of K and L and the bytes held.
+    inertia : (int, int, int) or None
+        What the last ``factor`` returned; ``None`` before the first.
+
     Raises
     ------
     ValueError
@@ -186,6 +193,12 @@ class SparseKKT:
         of the Hessian above the diagonal (each naming the argument).
     CompilerError
         No C compiler (the kernel is compiled once, then cached).
+
+    Notes
+    -----
+    ``factor`` and ``solve`` release the GIL while they compute, and
+    ``factor`` overwrites the object's storage: one call at a time per
+    object (another object of the same structure may factor meanwhile).
     """
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, *,
