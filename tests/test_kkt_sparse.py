@@ -78,7 +78,7 @@ def test_quasi_definite_random(seed):
     H = H + np.tril(H, -1).T
     dx = np.abs(H).sum(axis=1) + rng.uniform(0.1, 1.0, n)  # diagonally dominant
     dc = rng.uniform(1e-3, 1.0, m)
-    for ordering in ("pairs", "rcm"):
+    for ordering in ("pairs", "rcm", "pairs-mmd"):
         kkt = SparseKKT(n, m, (hr, hc), (jr, jc), ordering=ordering)
         _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng, inertia=(n, m, 0))
 

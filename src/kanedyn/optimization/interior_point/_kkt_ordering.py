@@ -58,9 +58,11 @@ import numpy as np
 
 __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 
-#: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above)
-#: and ``"rcm"`` (reverse Cuthill-McKee on the rows themselves, for comparison)
-ORDERINGS = ("pairs", "rcm")
+#: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above),
+#: and for comparison ``"rcm"`` (reverse Cuthill-McKee on the rows themselves, no
+#: pairs) and ``"pairs-mmd"`` (the pairs in SuperLU's multiple minimum degree
+#: order instead of RCM, :func:`_minimum_degree`)
+ORDERINGS = ("pairs", "rcm", "pairs-mmd")
 
 
 def dense_threshold(degrees):
@@ -73,7 +75,25 @@ def dense_threshold(degrees):
     return max(16.0, 10.0 * float(np.mean(degrees))) if len(degrees) else 16.0
 
 
-def _graph(size, rows, cols, shape=None):
+def _minimum_degree(graph):
+    """The order of the nodes of ``graph`` (symmetric CSR) by SuperLU's multiple
+    minimum degree on A + Aᵀ: SciPy's ``splu`` of a diagonally dominant matrix
+    of that pattern (no pivoting off the diagonal), its ``perm_c``."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    size = graph.shape[0]
+    if size == 0:
+        return np.zeros(0, dtype=np.int64)
+    pattern = sp.csc_matrix((-np.ones(graph.nnz), graph.indices, graph.indptr),
+                            shape=graph.shape)
+    matrix = pattern + sp.diags(np.diff(graph.indptr) + 1.0)
+    position = splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                    options={"SymmetricMode": True}).perm_c
+    return np.argsort(position)
+
+
+def _graph(size, rows, cols):
     """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
     import scipy.sparse as sp
     graph = sp.csr_matrix((np.ones(2 * rows.size, dtype=np.int8),
@@ -147,7 +167,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     dense = degrees > dense_threshold(degrees)
     keep = np.flatnonzero(~dense)
     block = np.arange(N)  # the node of the compressed graph each row belongs to
-    if ordering == "pairs" and m and jr.size:
+    if ordering != "rcm" and m and jr.size:
         inside = ~dense[n + jr] & ~dense[jc]
         pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
                                  (jr[inside], jc[inside])), shape=(m, n))
@@ -163,8 +183,11 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     sub = graph[keep][:, keep].tocoo()
     a, b = where[keep[sub.row]], where[keep[sub.col]]
     distinct = a != b
-    order = reverse_cuthill_mckee(_graph(nodes.size, a[distinct], b[distinct]),
-                                  symmetric_mode=True)
+    compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
+    if ordering == "pairs-mmd":
+        order = _minimum_degree(compressed_graph)
+    else:
+        order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
     # expand: each block's rows in their own order (the variable before its constraint)
     rank = np.empty(nodes.size, dtype=np.int64)
     rank[order] = np.arange(nodes.size)
