@@ -115,6 +115,17 @@ def test_empty_rows_and_no_constraints():
            inertia=(0, n, 0))
 
 
+def test_no_variables_or_nothing_at_all():
+    """K = -diag(d_c) without variables, and the empty K."""
+    none = np.zeros(0, int)
+    kkt = SparseKKT(0, 2, (none, none), (none, none))
+    assert kkt.factor(np.zeros(0), np.zeros(0), np.zeros(0), [2.0, 4.0]) == (0, 2, 0)
+    np.testing.assert_allclose(kkt.solve([1.0, 1.0]), [-0.5, -0.25])
+    empty = SparseKKT(0, 0, (none, none), (none, none))
+    assert empty.factor(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)) == (0, 0, 0)
+    assert empty.solve(np.zeros(0)).shape == (0,)
+
+
 def test_dense_rows_and_columns_go_last():
     """A variable in every constraint (a free duration) and one coupled to
     every variable in H: both counted dense, ordered last, and the

@@ -160,6 +160,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     if ordering not in ORDERINGS:
         raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not {ordering!r}")
     N = n + m
+    if N == 0:
+        return np.zeros(0, dtype=np.int32), 0, np.zeros(0, dtype=np.int8)
     hr, hc = hessian_off
     jr, jc = jacobian
     graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
