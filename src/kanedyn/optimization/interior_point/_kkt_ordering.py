@@ -28,28 +28,28 @@ pivot, nonsingular where the variable's diagonal is zero too.
 
 Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
 pendulum swing-up's NLP with a free duration, exact Hessian at random
-multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29):
+multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
+2-4 on 2 cores; ``docs/benchmarks.md``):
 
-- entries of L below the diagonal at 1,000 / 10,000 nodes: trapezoid 24,977
-  / 249,977 with the pairs, 20,985 / 209,985 by RCM on the rows themselves
-  (``ordering="rcm"``), 19,979 / 199,979 in SuperLU's minimum degree order on
-  Aᵀ + A (SciPy's ``splu``, ``permc_spec="MMD_AT_PLUS_A"``, no pivoting);
-  Hermite-Simpson 73,844 / 739,796, 54,951 / 549,951 and 47,275 / 473,385;
-  in the NLP's own order (the band not found) L had 3.96 times the entries
-  it has with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py``
-  checks more than 3);
-- ``factor`` with the pairs took 1.07x-1.42x the time of the rows' RCM order
-  (1,000 and 10,000 nodes, both methods, 5 interleaved rounds, load 1-2 on
-  2 cores), its fill the two columns of each pair sharing their rows;
+- entries of L below the diagonal at 1,000 / 10,000 nodes, trapezoid: 24,977
+  / 249,977 with the pairs by RCM; 28,963 / 289,963 with the pairs in
+  SuperLU's multiple minimum degree order (``ordering="pairs-mmd"``); 20,985
+  / 209,985 by RCM on the rows without pairs (``ordering="rcm"``); 19,979 /
+  199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
+  ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
+  739,796; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
+  NLP's own order (the band not found) L had 3.96 times the entries it has
+  with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
+  more than 3);
+- ``factor`` took 0.65x-0.97x the time in the rows' RCM order, 1.00x-1.53x
+  with the pairs by minimum degree (100 to 10,000 nodes, both methods):
+  the pairs' fill is the two columns of each pair sharing their rows;
 - in exchange, no breakdown where a diagonal is zero on both sides of a
   pair: ``K = [[0, Jᵀ], [J, 0]]`` has zero pivots in the rows' RCM order and
   eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
   NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
   (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
   or barrier term can still meet a zero pivot.
-
-A minimum degree order on the pairs might save part of the fill that the
-minimum degree order on the rows saves; it is not written.
 """
 
 from __future__ import annotations
