@@ -190,6 +190,45 @@ def test_two_by_two_pivots_of_a_zero_diagonal():
     assert single.factor(np.zeros(0), jv, zeros, zeros)[2] > 0
 
 
+def test_large_barrier_terms_are_not_zero_pivots():
+    """Barrier terms up to 1e14 on the variables, J square and nonsingular,
+    d_c = 0: K's inertia is (n, n, 0) (H positive definite, the Schur
+    complement -J H^-1 Jᵀ negative definite); the constraints' small pivots,
+    about -1/1e14, are counted by their sign, not as zero; the solve's
+    backward error is at rounding level."""
+    rng = np.random.default_rng(9)
+    n = 40
+    rows = np.arange(n)
+    jr, jc = np.concatenate([rows, rows[:-1]]), np.concatenate([rows, rows[1:]])
+    jv = np.concatenate([rng.uniform(1.0, 2.0, n), rng.uniform(-0.5, 0.5, n - 1)])
+    none = np.zeros(0, int)
+    barrier = 10.0 ** rng.uniform(0.0, 14.0, n)
+    kkt = SparseKKT(n, n, (none, none), (jr, jc))
+    assert kkt.factor(np.zeros(0), jv, barrier, np.zeros(n)) == (n, n, 0)
+    K = _dense(n, n, (none, none, np.zeros(0)), (jr, jc, jv), barrier, np.zeros(n))
+    rhs = rng.normal(size=2 * n)
+    x = kkt.solve(rhs)
+    backward = np.abs(K @ x - rhs).max() / (np.abs(K).max() * np.abs(x).max() + np.abs(rhs).max())
+    assert backward < 1e-14
+
+
+def test_tiny_pivot_beside_its_row_is_zero():
+    """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
+    cancellation, but the row below would grow by 1e20, so the pivot counts
+    as zero (and solve stays finite); with diagonal_x = 1e-2 there, the
+    inertia is eigvalsh's and the solution NumPy's."""
+    rng = np.random.default_rng(8)
+    none = np.zeros(0, int)
+    hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
+    kkt = SparseKKT(2, 0, (hr, hc), (none, none))
+    first = kkt.analysis.permutation[0]
+    hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
+    assert kkt.factor(hv, np.zeros(0), np.zeros(2), np.zeros(0))[2] == 1
+    assert np.isfinite(kkt.solve([1.0, 1.0])).all()
+    dx = np.where(np.arange(2) == first, 1e-2, 0.0)
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx, np.zeros(0), rng)
+
+
 def test_two_by_two_pivot_with_a_zero_eigenvalue():
     """The pair [[-1, 1], [1, -1]] is singular (eigenvalues 0 and -2): one
     zero, one negative, and a finite solution."""

@@ -29,11 +29,12 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 3"
+_GENERATION = "kanedyn sparse LDL 6"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
 #include <Python.h>
+#include <float.h>
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>
@@ -126,24 +127,38 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
       F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_COUNT};
 
-/* a zero pivot is replaced by this (its sign chosen by the caller) */
+/* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
+   times the larger of its scale and K's largest entry, so that the rows below
+   change about as little as if its row and column were left out (at most
+   1e300) */
 static double kd_replacement(double scale, double largest) {
-    return scale > 0.0 && isfinite(scale) ? scale : largest;
+    double base = scale > largest && isfinite(scale) ? scale : largest;
+    double r = base / sqrt(DBL_EPSILON);
+    return r < 1e300 ? r : 1e300;
 }
 
 /* the 2 x 2 pivot [[a, e], [e, d]] (a variable, then its constraint): its
-   eigenvalues counted, a zero one (|lambda| <= tolerance * scale, or not
-   finite) replaced so that the block has one positive and one negative
-   eigenvalue, magnitude `scale`; the block rewritten with the replacement */
+   eigenvalues counted, a zero one replaced so that the block has one positive
+   and one negative eigenvalue, magnitude `scale`; the block rewritten with the
+   replacement.  The larger eigenvalue is zero when |big| <= tolerance * scale;
+   the smaller, det / big, when the determinant cancels, |a d - e^2| <=
+   tolerance (|a d| + e^2), or when |small| <= tolerance * growth (growth: the
+   square of the largest entry of the two rows off the block over the largest
+   of K, the rows below growing by that over |small|); either when not
+   finite.  So [[S, 1], [1, 0]] with a barrier term S = 1e12, the largest
+   entry of K, is sound: its small eigenvalue -1/S has no cancellation, and
+   the rows below grow to S at most */
 static void kd_block(double *a, double *e, double *d, double tolerance, double scale,
-                     double largest, Py_ssize_t *n_positive, Py_ssize_t *n_negative,
-                     Py_ssize_t *n_zero) {
+                     double growth, double largest, Py_ssize_t *n_positive,
+                     Py_ssize_t *n_negative, Py_ssize_t *n_zero) {
     double mean = 0.5 * (*a + *d), half = 0.5 * (*a - *d);
     double radius = hypot(half, *e);
     double big = mean >= 0.0 ? mean + radius : mean - radius;  /* the larger magnitude */
     double small = big != 0.0 ? (*a * *d - *e * *e) / big : 0.0;
-    double limit = tolerance * scale;
-    int big_zero = !(fabs(big) > limit), small_zero = !(fabs(small) > limit);
+    double product = *a * *d, square = *e * *e;
+    int big_zero = !(fabs(big) > tolerance * scale);
+    int small_zero = big_zero || !(fabs(product - square) > tolerance * (fabs(product) + square))
+                     || !(fabs(small) > tolerance * growth) || !isfinite(small);
     if (!big_zero && !small_zero) {
         if (big > 0.0) (*n_positive)++; else (*n_negative)++;
         if (small > 0.0) (*n_positive)++; else (*n_negative)++;
@@ -211,10 +226,11 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
     size_t room = (size_t)(N > 0 ? N : 1);
     double *Y = malloc(sizeof(double) * room), *rowmax = malloc(sizeof(double) * room);
+    double *offmax = malloc(sizeof(double) * room);
     int32_t *pattern = malloc(sizeof(int32_t) * room), *flag = malloc(sizeof(int32_t) * room);
     int64_t *filled = malloc(sizeof(int64_t) * room);
-    if (!Y || !rowmax || !pattern || !flag || !filled) {
-        free(Y); free(rowmax); free(pattern); free(flag); free(filled);
+    if (!Y || !rowmax || !offmax || !pattern || !flag || !filled) {
+        free(Y); free(rowmax); free(offmax); free(pattern); free(flag); free(filled);
         kd_release(v, F_COUNT);
         return PyErr_NoMemory();
     }
@@ -226,17 +242,25 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     for (Py_ssize_t e = 0; e < nj; e++) Ax[jmap[e]] += jv[e];
     for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += dx[j];
     for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= dc[i];
-    /* the largest magnitude in each row of K (both triangles) */
+    /* the largest magnitude in each row of K (both triangles), and off the
+       diagonal (and off a pair's block) */
     for (Py_ssize_t k = 0; k < N; k++) {
         rowmax[k] = 0.0;
+        offmax[k] = 0.0;
         Y[k] = 0.0;
         E[k] = 0.0;
     }
     for (Py_ssize_t k = 0; k < N; k++)
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
             double a = fabs(Ax[p]);
+            int32_t i = Ai[p];
             if (a > rowmax[k]) rowmax[k] = a;
-            if (a > rowmax[Ai[p]]) rowmax[Ai[p]] = a;
+            if (a > rowmax[i]) rowmax[i] = a;
+            /* off the diagonal and off the 2 x 2 block of a pair */
+            if (i != k && !(pair[k] == 2 && i == k - 1)) {
+                if (a > offmax[k]) offmax[k] = a;
+                if (a > offmax[i]) offmax[i] = a;
+            }
         }
     double largest = 0.0;
     for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
@@ -303,17 +327,21 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                 filled[i]++;
             }
         }
-        /* a zero pivot: small beside the terms it was summed from and beside
-           the largest entry of its row of K, or not finite */
+        /* a zero pivot: small beside the terms it was summed from (cancelled),
+           or beside the square of the largest entry of its row of K off the
+           diagonal over the largest of K (the rows below would grow by that
+           over |d|), or not finite */
         double scale = terms > rowmax[k] ? terms : rowmax[k];
         D[k] = d;
         if (pair[k] == 1) {
             first_scale = scale;
         } else if (pair[k] == 2) {
+            double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
             kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
-                     scale > first_scale ? scale : first_scale, largest, &n_positive,
-                     &n_negative, &n_zero);
-        } else if (!(fabs(d) > tolerance * scale)) {
+                     scale > first_scale ? scale : first_scale, off * off / largest,
+                     largest, &n_positive, &n_negative, &n_zero);
+        } else if (!(fabs(d) > tolerance * terms)
+                   || !(fabs(d) > tolerance * offmax[k] * offmax[k] / largest)) {
             n_zero++;
             double r = kd_replacement(scale, largest);
             D[k] = pair[k] == 3 ? -r : r;
@@ -324,7 +352,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS
-    free(Y); free(rowmax); free(pattern); free(flag); free(filled);
+    free(Y); free(rowmax); free(offmax); free(pattern); free(flag); free(filled);
     kd_release(v, F_COUNT);
     return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
 }

@@ -36,29 +36,49 @@ released): the values scattered through the maps, then an up-looking block
 :math:`d_k = K_{kk} - \sum_j L_{kj} w_j`.
 
 **Zero pivots.**  Without pivoting, a pivot close to zero would make the
-rows below it meaningless.  Let :math:`s_k` be the larger of the sum of the
-magnitudes of the terms of :math:`d_k`, :math:`|K_{kk}| + \sum_j |L_{kj}
-w_j|`, and the largest magnitude in row :math:`k` of :math:`K` (of a 2 x 2
-block: the larger of its two rows').  A 1 x 1 pivot counts as *zero* when
-:math:`|d_k| \le \tau s_k` (:math:`\tau` the constructor's ``zero_pivot``,
-default :data:`ZERO_PIVOT`) or when it is not finite; so does an eigenvalue
-of a 2 x 2 block (the smaller one computed as the determinant over the
-larger).  A zero pivot is replaced by :math:`\pm s_k` (by the largest
-magnitude in :math:`K`, or 1, where :math:`s_k` is zero or not finite):
-``+`` in a variable's row, ``-`` in a constraint's; in a block, the zero
-eigenvalue takes the sign opposite to the other one (both zero: one of
-each), its eigenvectors kept.  The factorization goes on:
+rows below it meaningless.  With :math:`\tau` the constructor's
+``zero_pivot`` (default :data:`ZERO_PIVOT`), :math:`a` the largest magnitude
+in :math:`K` and :math:`r_k` the largest in row :math:`k` of :math:`K` off
+the diagonal, a 1 x 1 pivot :math:`d_k` counts as *zero* when
+
+- it cancelled: :math:`|d_k| \le \tau t_k`, with :math:`t_k = |K_{kk}| +
+  \sum_j |L_{kj} w_j|` the sum of the magnitudes of its terms (a singular
+  :math:`K`, a constraint row with ``diagonal_c = 0`` dependent on earlier
+  ones, an empty row);
+- or it would grow the rows below by more than :math:`1/\tau` times
+  :math:`K`'s largest entry: :math:`|d_k| \le \tau r_k^2 / a` (a diagonal of
+  1e-20 beside entries of 1);
+- or it is not finite.
+
+A 2 x 2 block :math:`B = \begin{bmatrix} b_1 & e \\ e & b_2 \end{bmatrix}`:
+its larger eigenvalue is zero when it is at most :math:`\tau` times the
+larger of :math:`t` and the largest magnitude of the block's two rows; the
+smaller one (:math:`\det B` over the larger) when the determinant cancelled,
+:math:`|b_1 b_2 - e^2| \le \tau (|b_1 b_2| + e^2)`, or by the growth test
+above with :math:`r` the largest entry of its two rows off the block.  So a
+variable with a barrier term :math:`\Sigma = 10^{12}` paired with its
+constraint, :math:`\begin{bmatrix} \Sigma & 1 \\ 1 & 0 \end{bmatrix}`, has
+the sound small eigenvalue :math:`-1/\Sigma` (a test: barrier terms up to
+1e14).
+
+A zero pivot is replaced by :math:`\pm \max(t_k, a)/\sqrt{\epsilon}`
+(:math:`\epsilon` the machine epsilon; at most 1e300): ``+`` in a
+variable's row, ``-`` in a constraint's; in a block, the zero eigenvalue
+takes that magnitude and the sign opposite to the other one (both zero: one
+of each), the eigenvectors kept.  So large, the rows below change about as
+little as if that row and column were left out.  The factorization goes on:
 :meth:`~SparseKKT.solve` returns finite numbers (the solution with those
-pivots changed), and ``n_zero`` counts the replaced eigenvalues.  Every
-other one is counted by its sign, whichever rows it belongs to: a negative
-pivot among the variables or a positive one among the constraints is
-reported as it is (it is part of :math:`K`'s inertia).
+pivots changed), and ``n_zero`` counts the replaced ones.  Every other pivot
+is counted by its sign, whichever rows it belongs to: a negative pivot among
+the variables or a positive one among the constraints is reported as it is
+(it is part of :math:`K`'s inertia).
 
 So the reported inertia is :math:`K`'s when ``n_zero == 0`` (up to rounding
-in pivots that pass the test).  ``n_zero > 0`` says that :math:`K` is
-singular, or that a leading block of :math:`PKP^T` is: a variable left
-unpaired whose diagonal is zero (no Hessian term, no barrier term)
-eliminated before anything fills its diagonal breaks down the same way.
+in pivots that pass the tests).  ``n_zero > 0`` says that :math:`K` is
+singular or nearly so, or that a leading block of :math:`PKP^T` is, or that
+a pivot was too small to eliminate without pivoting: a variable left
+unpaired whose diagonal is zero (no Hessian term, no barrier term) or tiny,
+eliminated before anything fills its diagonal.
 The caller regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors
 again; :meth:`~SparseKKT.matvec` multiplies by :math:`K` itself (never by a
 replaced pivot), for iterative refinement.
