@@ -178,6 +178,46 @@ def _values(value, size, name):
     return a
 
 
+def _permuted_pattern(n, permutation, hessian, jacobian):
+    """K's upper triangle in the elimination order, and where each value goes.
+
+    Returns
+    -------
+    Ap : ndarray of int64, shape (N + 1,)
+        Column pointers (CSC) of the permuted upper triangle, every diagonal
+        entry present.
+    Ai : ndarray of int32
+        Its row indices, sorted within each column.
+    hessian_map, jacobian_map : ndarray of int32
+        The place in ``Ai`` (and in the values) of each Hessian and Jacobian
+        entry, in the order of their structures (repeats share a place).
+    diagonal_map : ndarray of int32, shape (N,)
+        The place of K's diagonal entry of each row, in K's own order.
+
+    Raises
+    ------
+    ValueError
+        More entries than 32-bit indices reach.
+    """
+    (hr, hc), (jr, jc) = hessian, jacobian
+    N = permutation.size
+    inverse = np.empty(N, dtype=np.int64)
+    inverse[permutation] = np.arange(N)
+    every = np.arange(N)
+    first = inverse[np.concatenate([hr, n + jr, every])]
+    second = inverse[np.concatenate([hc, jc, every])]
+    keys = np.maximum(first, second) * N + np.minimum(first, second)
+    unique, places = np.unique(keys, return_inverse=True)
+    if unique.size >= _LIMIT:
+        raise ValueError(f"K has {unique.size} entries, too many for 32-bit indices")
+    places = places.astype(_INDEX)
+    Ap = np.zeros(N + 1, dtype=np.int64)
+    if N:
+        np.cumsum(np.bincount(unique // N, minlength=N), out=Ap[1:])
+    return (Ap, (unique % N).astype(_INDEX) if N else unique.astype(_INDEX),
+            places[:hr.size], places[hr.size:hr.size + jr.size], places[hr.size + jr.size:])
+
+
 class SparseKKT:
     """The sparse :math:`LDL^T` of the KKT matrix, its pattern analysed once.
 
@@ -243,29 +283,13 @@ class SparseKKT:
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         off = hr != hc
-        diagonal = np.zeros(n, dtype=bool)
-        diagonal[hr[~off]] = True
+        has_diagonal = np.zeros(n, dtype=bool)
+        has_diagonal[hr[~off]] = True
         permutation, n_dense, kind = elimination_order(n, m, (hr[off], hc[off]),
-                                                       (jr, jc), ordering, diagonal)
-        inverse = np.empty(N, dtype=np.int64)
-        inverse[permutation] = np.arange(N)
-        # every entry of K's upper triangle, in the permuted order
-        diagonal = np.arange(N)
-        first = inverse[np.concatenate([hr, n + jr, diagonal])]
-        second = inverse[np.concatenate([hc, jc, diagonal])]
-        column = np.maximum(first, second)
-        keys = column * N + np.minimum(first, second)
-        unique, places = np.unique(keys, return_inverse=True)
-        if unique.size >= _LIMIT:
-            raise ValueError(f"K has {unique.size} entries, too many for 32-bit indices")
-        places = places.astype(_INDEX)
-        self._hessian_map = places[:hr.size]
-        self._jacobian_map = places[hr.size:hr.size + jr.size]
-        self._diagonal_map = places[hr.size + jr.size:]
-        self._Ap = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(np.bincount(unique // N, minlength=N), out=self._Ap[1:])
-        self._Ai = (unique % N).astype(_INDEX)
-        self._Ax = np.zeros(unique.size)
+                                                       (jr, jc), ordering, has_diagonal)
+        (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
+         self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
+        self._Ax = np.zeros(self._Ai.size)
         self._permutation = permutation
         self._kind = kind
         # elimination tree and the pattern's size, then L's storage
@@ -275,8 +299,6 @@ class SparseKKT:
         self._Lp = np.zeros(N + 1, dtype=np.int64)
         np.cumsum(counts, out=self._Lp[1:])
         nnz = int(self._Lp[-1])
-        if nnz >= _LIMIT:
-            raise ValueError(f"L would have {nnz} entries, too many for this factorization")
         self._Li = np.zeros(nnz, dtype=_INDEX)
         self._Lx = np.zeros(nnz)
         self._D = np.zeros(N)
@@ -287,7 +309,7 @@ class SparseKKT:
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
                                            self._parent, self._kind, permutation))
-        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(unique.size), nnz,
+        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._Ai.size), nnz,
                                     factor_bytes, map_bytes)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
