@@ -11,11 +11,14 @@ GIL while they compute:
     the elimination tree and the number of entries of each column of ``L``
     from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
     columns of a 2 x 2 pivot given the same rows.
-``factor(Ax, Lp, Li, Lx, D, Ap, Ai, parent, positive, maps..., values..., tolerance)``
+``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
+jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, tolerance)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
-    elimination tree), returns ``(n_positive, n_negative, n_zero)``.
-``solve(x, Lp, Li, Lx, D, permutation, k)``
+    elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
+    its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
+    ``(n_positive, n_negative, n_zero)``.
+``solve(x, Lp, Li, Lx, D, E, pair, permutation, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
