@@ -292,6 +292,29 @@ def test_pendulum_collocation_kkt(method, free_duration):
     assert found[1] > m
 
 
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+@pytest.mark.parametrize("free_duration", [False, True])
+def test_pendulum_kkt_as_the_interior_point_method_builds_it(method, free_duration):
+    """Barrier terms (1e3) on the variables with a bound, none elsewhere (no
+    Hessian regularization), d_c = 0, the multipliers zero (a first
+    iteration) or random: no zero pivot, eigvalsh's inertia, NumPy's solve."""
+    nlp = _pendulum_nlp(method, free_duration, nodes=21)
+    rng = np.random.default_rng(6)
+    n, m = nlp.n, nlp.m
+    z = rng.normal(size=n)
+    if free_duration:
+        z[-1] = 3.0
+    jv = nlp.jacobian(z)
+    bounded = np.isfinite(nlp.x_lower) | np.isfinite(nlp.x_upper)
+    dx = np.where(bounded, 1e3, 0.0)
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    for multipliers in (np.zeros(m), rng.normal(size=m)):
+        hv = nlp.hessian(z, multipliers, 1.0)
+        found = _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, np.zeros(m), rng)
+        assert found[2] == 0
+
+
 def test_pendulum_order_finds_the_band():
     """The NLP's own layout has no band; the order gives L far fewer entries
     than the factor of the matrix in the NLP's own order would (the
