@@ -7,8 +7,8 @@ its exact Hessian at random multipliers, at 100, 1,000 and 10,000 nodes
 For each:
 
 - ``SparseKKT``'s analysis time (ordering, pattern, maps, elimination tree),
-  nnz(L) and the bytes per node of L (with D) and of the maps (with K's
-  pattern and values);
+  nnz(L) and the bytes per node of L (with D), of the maps (with K's
+  pattern and values) and of the kernel's scratch arrays;
 - its ``factor`` (the scatter of the values included) and ``solve`` (one
   right-hand side), timed interleaved in rounds (:func:`_timing.interleaved`,
   thread CPU time, minima);
@@ -131,7 +131,8 @@ def run(nodes, method, rounds, orders):
     best = {name: t.best for name, t in timings.items()}
     print(f"{method:15s} {nodes:6d} n={a.n:6d} m={a.m:6d} dense={a.n_dense} "
           f"nnz(K)={a.nnz_matrix:7d} nnz(L)={a.nnz_factor:8d} "
-          f"L {a.bytes_factor / nodes:6.0f} B/node, maps {a.bytes_maps / nodes:5.0f} B/node | "
+          f"L {a.bytes_factor / nodes:6.0f} B/node, maps {a.bytes_maps / nodes:5.0f} B/node, "
+          f"scratch {a.bytes_workspace / nodes:4.0f} B/node | "
           f"analysis {analysis_time * 1e3:7.1f} ms, factor {best['factor'] * 1e3:7.3f} ms "
           f"({best['factor'] / best['splu']:.3f} x splu), solve {best['solve'] * 1e3:6.3f} ms "
           f"({best['solve'] / best['splu solve']:.2f} x splu's) | splu nnz(L+U) "

@@ -12,15 +12,19 @@ GIL while they compute:
     from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
     columns of a 2 x 2 pivot given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
-jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, tolerance)``
+jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, workspace,
+tolerance)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
     elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
     its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
     ``(n_positive, n_negative, n_zero)``.
-``solve(x, Lp, Li, Lx, D, E, pair, permutation, k)``
+``solve(x, Lp, Li, Lx, D, E, pair, permutation, workspace, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
+
+The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``)
+are the caller's, allocated once with the factor.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
 """
@@ -32,7 +36,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 6"
+_GENERATION = "kanedyn sparse LDL 7"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -128,7 +132,7 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
    of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
    the off-diagonal entry of the 2 x 2 block starting at k */
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
-      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_COUNT};
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_WORK, F_COUNT};
 
 /* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
    times the larger of its scale and K's largest entry, so that the rows below
@@ -208,13 +212,13 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
-                                             8, 8};
+                                             8, 8, 8};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                          0};
+                                          0, 1};
     static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
                                          "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
-                                         "diagonal_x", "diagonal_c"};
+                                         "diagonal_x", "diagonal_c", "workspace"};
     Py_buffer v[F_COUNT];
     if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
@@ -227,16 +231,16 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
     Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
     Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
-    size_t room = (size_t)(N > 0 ? N : 1);
-    double *Y = malloc(sizeof(double) * room), *rowmax = malloc(sizeof(double) * room);
-    double *offmax = malloc(sizeof(double) * room);
-    int32_t *pattern = malloc(sizeof(int32_t) * room), *flag = malloc(sizeof(int32_t) * room);
-    int64_t *filled = malloc(sizeof(int64_t) * room);
-    if (!Y || !rowmax || !offmax || !pattern || !flag || !filled) {
-        free(Y); free(rowmax); free(offmax); free(pattern); free(flag); free(filled);
+    if (KD_COUNT(v[F_WORK]) < 5 * N) {
         kd_release(v, F_COUNT);
-        return PyErr_NoMemory();
+        PyErr_SetString(PyExc_ValueError, "workspace: fewer than 5 N entries");
+        return NULL;
     }
+    /* the workspace (5 N doubles, allocated with the factor's storage) */
+    double *work = v[F_WORK].buf;
+    double *Y = work, *rowmax = work + N, *offmax = work + 2 * N;
+    int64_t *filled = (int64_t *)(work + 3 * N);
+    int32_t *pattern = (int32_t *)(work + 4 * N), *flag = pattern + N;
     Py_ssize_t n_positive = 0, n_negative = 0, n_zero = 0;
     Py_BEGIN_ALLOW_THREADS
     /* the values of K, summed into the permuted upper triangle */
@@ -355,41 +359,36 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS
-    free(Y); free(rowmax); free(offmax); free(pattern); free(flag); free(filled);
     kd_release(v, F_COUNT);
     return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
 }
 
 /* ------------------------------------------------------------------- solve */
 static PyObject *kd_solve(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 9) {
-        PyErr_SetString(PyExc_TypeError, "9 arguments expected");
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 10) {
+        PyErr_SetString(PyExc_TypeError, "10 arguments expected");
         return NULL;
     }
-    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 8));
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 9));
     if (columns == -1 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[8] = {8, 8, 4, 8, 8, 8, 1, 4};
-    static const int writable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
-    static const char *const names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
-                                         "permutation"};
-    Py_buffer v[8];
-    if (kd_views(args, 8, v, size, writable, names) < 0) return NULL;
+    static const Py_ssize_t size[9] = {8, 8, 4, 8, 8, 8, 1, 4, 8};
+    static const int writable[9] = {1, 0, 0, 0, 0, 0, 0, 0, 1};
+    static const char *const names[9] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
+                                         "permutation", "workspace"};
+    Py_buffer v[9];
+    if (kd_views(args, 9, v, size, writable, names) < 0) return NULL;
     double *X = v[0].buf;
     const int64_t *Lp = v[1].buf;
     const int32_t *Li = v[2].buf, *perm = v[7].buf;
     const double *Lx = v[3].buf, *D = v[4].buf, *E = v[5].buf;
     const int8_t *pair = v[6].buf;
     Py_ssize_t N = KD_COUNT(v[4]);
-    if (columns < 0 || KD_COUNT(v[0]) != columns * N) {
-        kd_release(v, 8);
-        PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
+    if (columns < 0 || KD_COUNT(v[0]) != columns * N || KD_COUNT(v[8]) < N) {
+        kd_release(v, 9);
+        PyErr_SetString(PyExc_ValueError, "rhs or workspace: not of the factored size");
         return NULL;
     }
-    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));
-    if (w == NULL) {
-        kd_release(v, 8);
-        return PyErr_NoMemory();
-    }
+    double *w = v[8].buf;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t c = 0; c < columns; c++) {
         double *x = X + c * N;
@@ -417,8 +416,7 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
         for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
     }
     Py_END_ALLOW_THREADS
-    free(w);
-    kd_release(v, 8);
+    kd_release(v, 9);
     Py_RETURN_NONE;
 }
 

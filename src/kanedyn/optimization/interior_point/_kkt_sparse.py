@@ -26,7 +26,7 @@ entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows); and all the storage the
 numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
-of :math:`K`).
+of :math:`K`, the kernel's scratch arrays).
 
 **Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
 released): the values scattered through the maps, then an up-looking block
@@ -123,7 +123,10 @@ class KKTAnalysis:
         Bytes of L (values, row indices, column pointers) and of D's blocks.
     bytes_maps : int
         Bytes of the maps of the values into K's storage, of K's pattern and
-        values, and of the elimination tree.
+        values, of the elimination tree and of the order.
+    bytes_workspace : int
+        Bytes of the scratch arrays of ``factor`` and ``solve`` (48 per row
+        of K).
     """
 
     n: int
@@ -134,6 +137,7 @@ class KKTAnalysis:
     nnz_factor: int
     bytes_factor: int
     bytes_maps: int
+    bytes_workspace: int
 
 
 def _size(value, name):
@@ -256,9 +260,9 @@ class SparseKKT:
 
     Notes
     -----
-    ``factor`` and ``solve`` release the GIL while they compute, and
-    ``factor`` overwrites the object's storage: one call at a time per
-    object (another object of the same structure may factor meanwhile).
+    ``factor`` and ``solve`` release the GIL while they compute, and they
+    write the object's storage and scratch arrays: one call at a time per
+    object (another object of the same structure may work meanwhile).
     """
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, *,
@@ -303,6 +307,8 @@ class SparseKKT:
         self._Lx = np.zeros(nnz)
         self._D = np.zeros(N)
         self._E = np.zeros(N)
+        self._factor_work = np.zeros(5 * N)  # the kernel's scratch: kept, not reallocated
+        self._solve_work = np.zeros(N)
         self.inertia = None
         factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
                                               self._E))
@@ -310,7 +316,8 @@ class SparseKKT:
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
                                            self._parent, self._kind, permutation))
         self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._Ai.size), nnz,
-                                    factor_bytes, map_bytes)
+                                    factor_bytes, map_bytes,
+                                    self._factor_work.nbytes + self._solve_work.nbytes)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
         """Factor K with these values; return its inertia.
@@ -348,7 +355,7 @@ class SparseKKT:
         inertia = self._kernel.factor(
             self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
             self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
-            self._diagonal_map, dx, dc, self.zero_pivot)
+            self._diagonal_map, dx, dc, self._factor_work, self.zero_pivot)
         self.inertia = inertia
         return inertia
 
@@ -378,7 +385,7 @@ class SparseKKT:
         x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
         columns = 1 if b.ndim == 1 else b.shape[1]
         self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
-                           self._permutation, columns)
+                           self._permutation, self._solve_work, columns)
         return x.T if b.ndim == 2 else x
 
     def matvec(self, x):
