@@ -41,9 +41,9 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   NLP's own order (the band not found) L had 3.96 times the entries it has
   with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
   more than 3);
-- ``factor`` took 0.65x-0.97x the time in the rows' RCM order, 1.00x-1.53x
-  with the pairs by minimum degree (100 to 10,000 nodes, both methods, two
-  runs):
+- ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
+  with the pairs by minimum degree (100 to 10,000 nodes, both methods,
+  three runs):
   the pairs' fill is the two columns of each pair sharing their rows;
 - in exchange, no breakdown where a diagonal is zero on both sides of a
   pair: ``K = [[0, Jᵀ], [J, 0]]`` has zero pivots in the rows' RCM order and
