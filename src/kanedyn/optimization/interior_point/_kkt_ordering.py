@@ -29,7 +29,7 @@ pivot, nonsingular where the variable's diagonal is zero too.
 Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
 pendulum swing-up's NLP with a free duration, exact Hessian at random
 multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
-2-4 on 2 cores; ``docs/benchmarks.md``):
+1.7-4.4 on 2 cores; ``docs/benchmarks.md``):
 
 - entries of L below the diagonal at 1,000 / 10,000 nodes, trapezoid: 24,977
   / 249,977 with the pairs by RCM; 28,963 / 289,963 with the pairs in
