@@ -254,6 +254,17 @@ def _pendulum_nlp(method, free_duration, nodes=11):
     return CollocationNLP(problem, hessian="exact")
 
 
+def _pendulum_point(method, free_duration, nodes, seed):
+    """``(nlp, rng, z, jacobian_values)``: the NLP at a random point (the
+    duration 3 s when free)."""
+    nlp = _pendulum_nlp(method, free_duration, nodes=nodes)
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=nlp.n)
+    if free_duration:
+        z[-1] = 3.0
+    return nlp, rng, z, nlp.jacobian(z)
+
+
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
 @pytest.mark.parametrize("free_duration", [False, True])
 def test_pendulum_collocation_kkt(method, free_duration):
@@ -261,14 +272,8 @@ def test_pendulum_collocation_kkt(method, free_duration):
     multipliers): with a regularized Hessian the inertia is (n, m, 0) and
     the solve NumPy's, with d_c = 0 and with a small static d_c; with H
     made indefinite the negative pivots are eigvalsh's."""
-    pytest.importorskip("scipy")
-    nlp = _pendulum_nlp(method, free_duration)
-    rng = np.random.default_rng(5)
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 11, 5)
     n, m = nlp.n, nlp.m
-    z = rng.normal(size=n)
-    if free_duration:
-        z[-1] = 3.0
-    jv = nlp.jacobian(z)
     hv = nlp.hessian(z, rng.normal(size=m), 1.0)
     (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
@@ -298,13 +303,8 @@ def test_pendulum_kkt_as_the_interior_point_method_builds_it(method, free_durati
     """Barrier terms (1e3) on the variables with a bound, none elsewhere (no
     Hessian regularization), d_c = 0, the multipliers zero (a first
     iteration) or random: no zero pivot, eigvalsh's inertia, NumPy's solve."""
-    nlp = _pendulum_nlp(method, free_duration, nodes=21)
-    rng = np.random.default_rng(6)
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 21, 6)
     n, m = nlp.n, nlp.m
-    z = rng.normal(size=n)
-    if free_duration:
-        z[-1] = 3.0
-    jv = nlp.jacobian(z)
     bounded = np.isfinite(nlp.x_lower) | np.isfinite(nlp.x_upper)
     dx = np.where(bounded, 1e3, 0.0)
     (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
