@@ -78,7 +78,7 @@ def test_quasi_definite_random(seed):
     H = H + np.tril(H, -1).T
     dx = np.abs(H).sum(axis=1) + rng.uniform(0.1, 1.0, n)  # diagonally dominant
     dc = rng.uniform(1e-3, 1.0, m)
-    for ordering in ("pairs", "rcm"):
+    for ordering in ("pairs", "rcm", "pairs-mmd"):
         kkt = SparseKKT(n, m, (hr, hc), (jr, jc), ordering=ordering)
         _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng, inertia=(n, m, 0))
 
@@ -113,6 +113,17 @@ def test_empty_rows_and_no_constraints():
     kkt = SparseKKT(n, 0, (hr, hc), (none, none))
     _check(kkt, n, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx - 10.0, np.zeros(0), rng,
            inertia=(0, n, 0))
+
+
+def test_no_variables_or_nothing_at_all():
+    """K = -diag(d_c) without variables, and the empty K."""
+    none = np.zeros(0, int)
+    kkt = SparseKKT(0, 2, (none, none), (none, none))
+    assert kkt.factor(np.zeros(0), np.zeros(0), np.zeros(0), [2.0, 4.0]) == (0, 2, 0)
+    np.testing.assert_allclose(kkt.solve([1.0, 1.0]), [-0.5, -0.25])
+    empty = SparseKKT(0, 0, (none, none), (none, none))
+    assert empty.factor(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)) == (0, 0, 0)
+    assert empty.solve(np.zeros(0)).shape == (0,)
 
 
 def test_dense_rows_and_columns_go_last():
@@ -158,6 +169,78 @@ def test_singular_reports_zero_pivots_and_solves_finitely():
     assert kkt.factor(hv, jv, dx, np.full(m, 1e-8)) == (n, m, 0)
 
 
+def test_two_by_two_pivots_of_a_zero_diagonal():
+    """K = [[0, Jᵀ], [J, 0]], J square and sparse: every diagonal entry is
+    zero, so 1 x 1 pivots in any order break down at the first one; the
+    paired order's 2 x 2 pivots give eigvalsh's inertia (n, n, 0) and
+    NumPy's solution; the rows' own order reports zero pivots."""
+    rng = np.random.default_rng(4)
+    n = 30
+    rows = np.arange(n)
+    jr = np.concatenate([rows, rows[:-1], rows[2:]])
+    jc = np.concatenate([rows, rows[1:], rows[:-2]])
+    jv = rng.normal(size=jr.size)
+    jv[:n] = rng.choice([-1.0, 1.0], n) * rng.uniform(3.0, 4.0, n)
+    none = np.zeros(0, int)
+    hessian, jacobian = (none, none, np.zeros(0)), (jr, jc, jv)
+    zeros = np.zeros(n)
+    _check(SparseKKT(n, n, (none, none), (jr, jc)), n, n, hessian, jacobian, zeros, zeros,
+           rng, inertia=(n, n, 0))
+    single = SparseKKT(n, n, (none, none), (jr, jc), ordering="rcm")
+    assert single.factor(np.zeros(0), jv, zeros, zeros)[2] > 0
+
+
+def test_large_barrier_terms_are_not_zero_pivots():
+    """Barrier terms up to 1e14 on the variables, J square and nonsingular,
+    d_c = 0: K's inertia is (n, n, 0) (H positive definite, the Schur
+    complement -J H^-1 Jᵀ negative definite); the constraints' small pivots,
+    about -1/1e14, are counted by their sign, not as zero; the solve's
+    backward error is at rounding level."""
+    rng = np.random.default_rng(9)
+    n = 40
+    rows = np.arange(n)
+    jr, jc = np.concatenate([rows, rows[:-1]]), np.concatenate([rows, rows[1:]])
+    jv = np.concatenate([rng.uniform(1.0, 2.0, n), rng.uniform(-0.5, 0.5, n - 1)])
+    none = np.zeros(0, int)
+    barrier = 10.0 ** rng.uniform(0.0, 14.0, n)
+    kkt = SparseKKT(n, n, (none, none), (jr, jc))
+    assert kkt.factor(np.zeros(0), jv, barrier, np.zeros(n)) == (n, n, 0)
+    K = _dense(n, n, (none, none, np.zeros(0)), (jr, jc, jv), barrier, np.zeros(n))
+    rhs = rng.normal(size=2 * n)
+    x = kkt.solve(rhs)
+    backward = np.abs(K @ x - rhs).max() / (np.abs(K).max() * np.abs(x).max() + np.abs(rhs).max())
+    assert backward < 1e-14
+
+
+def test_tiny_pivot_beside_its_row_is_zero():
+    """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
+    cancellation, but the row below would grow by 1e20, so the pivot counts
+    as zero (and solve stays finite); with diagonal_x = 1e-2 there, the
+    inertia is eigvalsh's and the solution NumPy's."""
+    rng = np.random.default_rng(8)
+    none = np.zeros(0, int)
+    hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
+    kkt = SparseKKT(2, 0, (hr, hc), (none, none))
+    first = kkt.analysis.permutation[0]
+    hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
+    assert kkt.factor(hv, np.zeros(0), np.zeros(2), np.zeros(0))[2] == 1
+    assert np.isfinite(kkt.solve([1.0, 1.0])).all()
+    dx = np.where(np.arange(2) == first, 1e-2, 0.0)
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx, np.zeros(0), rng)
+
+
+def test_two_by_two_pivot_with_a_zero_eigenvalue():
+    """The pair [[-1, 1], [1, -1]] is singular (eigenvalues 0 and -2): one
+    zero, one negative, and a finite solution."""
+    kkt = SparseKKT(1, 1, ([0], [0]), ([0], [0]))
+    assert kkt.factor([-1.0], [1.0], [0.0], [1.0]) == (0, 1, 1)
+    assert _eigen_inertia(np.array([[-1.0, 1.0], [1.0, -1.0]])) == (0, 1, 1)
+    assert np.isfinite(kkt.solve([1.0, 2.0])).all()
+    # nonsingular again: eigvalsh's inertia
+    assert kkt.factor([-1.0], [1.0], [0.0], [0.5]) == _eigen_inertia(
+        np.array([[-1.0, 1.0], [1.0, -0.5]]))
+
+
 def _pendulum_nlp(method, free_duration, nodes=11):
     from kanedyn.optimization._nlp import CollocationNLP
     definition = kd.models.build("pendulum", torque=True)
@@ -171,6 +254,17 @@ def _pendulum_nlp(method, free_duration, nodes=11):
     return CollocationNLP(problem, hessian="exact")
 
 
+def _pendulum_point(method, free_duration, nodes, seed):
+    """``(nlp, rng, z, jacobian_values)``: the NLP at a random point (the
+    duration 3 s when free)."""
+    nlp = _pendulum_nlp(method, free_duration, nodes=nodes)
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=nlp.n)
+    if free_duration:
+        z[-1] = 3.0
+    return nlp, rng, z, nlp.jacobian(z)
+
+
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
 @pytest.mark.parametrize("free_duration", [False, True])
 def test_pendulum_collocation_kkt(method, free_duration):
@@ -178,14 +272,8 @@ def test_pendulum_collocation_kkt(method, free_duration):
     multipliers): with a regularized Hessian the inertia is (n, m, 0) and
     the solve NumPy's, with d_c = 0 and with a small static d_c; with H
     made indefinite the negative pivots are eigvalsh's."""
-    pytest.importorskip("scipy")
-    nlp = _pendulum_nlp(method, free_duration)
-    rng = np.random.default_rng(5)
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 11, 5)
     n, m = nlp.n, nlp.m
-    z = rng.normal(size=n)
-    if free_duration:
-        z[-1] = 3.0
-    jv = nlp.jacobian(z)
     hv = nlp.hessian(z, rng.normal(size=m), 1.0)
     (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
@@ -196,10 +284,35 @@ def test_pendulum_collocation_kkt(method, free_duration):
     shift = max(0.0, -np.linalg.eigvalsh(H).min()) + 1.0
     for dc in (np.zeros(m), np.full(m, 1e-8)):
         _check(kkt, n, m, hessian, jacobian, np.full(n, shift), dc, rng, inertia=(n, m, 0))
+    # no Hessian shift, no barrier, no regularization: where no pivot is zero,
+    # the inertia is eigvalsh's (the free-duration trapezoid has none zero)
+    K = _dense(n, m, hessian, jacobian, np.zeros(n), np.zeros(m))
+    plain = kkt.factor(hv, jv, np.zeros(n), np.zeros(m))
+    assert plain[2] > 0 or plain == _eigen_inertia(K)
+    if free_duration and method == "trapezoid":
+        _check(kkt, n, m, hessian, jacobian, np.zeros(n), np.zeros(m), rng)
     # the reduced Hessian not positive definite: more negative eigenvalues than m
     found = _check(kkt, n, m, hessian, jacobian, np.full(n, shift) - 2 * shift * (
         np.arange(n) % 3 == 0), np.zeros(m), rng)
     assert found[1] > m
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+@pytest.mark.parametrize("free_duration", [False, True])
+def test_pendulum_kkt_as_the_interior_point_method_builds_it(method, free_duration):
+    """Barrier terms (1e3) on the variables with a bound, none elsewhere (no
+    Hessian regularization), d_c = 0, the multipliers zero (a first
+    iteration) or random: no zero pivot, eigvalsh's inertia, NumPy's solve."""
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 21, 6)
+    n, m = nlp.n, nlp.m
+    bounded = np.isfinite(nlp.x_lower) | np.isfinite(nlp.x_upper)
+    dx = np.where(bounded, 1e3, 0.0)
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    for multipliers in (np.zeros(m), rng.normal(size=m)):
+        hv = nlp.hessian(z, multipliers, 1.0)
+        found = _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, np.zeros(m), rng)
+        assert found[2] == 0
 
 
 def test_pendulum_order_finds_the_band():

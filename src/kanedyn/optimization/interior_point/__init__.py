@@ -7,8 +7,9 @@ LDLᵀ factorization compiled in C that reports the inertia.
 
 ``_kkt_dense``   ``DenseKKT``: the reference factorization (SciPy's dense
                  LDLᵀ), for tests and small problems
-``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ with its ordering and the
-                 compiled kernel
+``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ (2 x 2 pivots on paired
+                 rows), its analysis and the inertia; its order in
+                 ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``
 ``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
                  ``optimization._solvers``
 
