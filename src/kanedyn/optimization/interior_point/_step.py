@@ -17,10 +17,12 @@ residuals :math:`g_E - g_L` and :math:`g_I - s`).  The matrix must have n
 positive and m negative eigenvalues; else :math:`\delta_c = \bar\delta_c
 \mu^{\kappa_c}` when it is singular, and :math:`\delta_w` grows from its
 last value (IPOPT's rules).  When the first :data:`DEGENERATE_ITERATIONS`
-iterations all needed :math:`\delta_w > 0` (or found K singular), every
-later first factorization starts with :math:`\kappa_w^- \delta_w^{last}`
-(or :math:`\delta_c`) instead of zero; one iteration without settles the
-question the other way (IPOPT's ``degen_iters_max``).
+iterations all found K singular (and, for the Hessian, still singular with
+:math:`\delta_c`), every later first factorization starts with
+:math:`\delta_c` (and :math:`\kappa_w^- \delta_w^{last}`) instead of zero;
+one iteration without settles the question the other way (IPOPT's
+``degen_iters_max``; wrong inertia without a zero eigenvalue is negative
+curvature, not degeneracy).
 """
 
 from __future__ import annotations
@@ -105,15 +107,22 @@ class StepSolver:
             delta_w = max(s.min_hessian_perturbation, s.perturb_dec_fact * self.last_delta_w)
         inertia = self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c)
         step = self.solve(residual_w, residual_c) if inertia == right else None
+        # singular even with delta_c: evidence that the Hessian is degenerate
+        still_singular = False
         if delta_c == 0.0:
             singular = step is None and (inertia[2] > 0 or inertia == right)
             self.jacobian_degenerate = self._degenerate("singular", singular,
                                                         self.jacobian_degenerate)
             if singular:
                 delta_c = jacobian_delta
-                if self._factor(hessian_values, jacobian_values, sigma, delta_w,
-                                delta_c) == right:
+                inertia = self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c)
+                if inertia == right:
                     step = self.solve(residual_w, residual_c)
+                still_singular = step is None and inertia[2] > 0
+        if self.hessian_degenerate is None and delta_w == 0.0:
+            # only a matrix singular without delta_w counts; wrong inertia
+            # (negative curvature) decides "not degenerate", as in IPOPT
+            self.hessian_degenerate = self._degenerate("regularized", still_singular, None)
         if step is None:
             if delta_w == 0.0:
                 delta_w = (s.first_hessian_perturbation if self.last_delta_w == 0.0 else
@@ -132,8 +141,6 @@ class StepSolver:
                 return None
         if step.delta_w > 0:
             self.last_delta_w = step.delta_w
-        if self.hessian_degenerate is None:
-            self.hessian_degenerate = self._degenerate("regularized", step.delta_w > 0, None)
         return step
 
     def _degenerate(self, kind, happened, decided):
