@@ -53,10 +53,21 @@ allocate its workspace at 10^6 nodes with 3.1 GiB resident.
 (``solve(hessian="exact")``), opty with IPOPT's limited-memory one as always
 (opty gives no Hessian).
 
+``--solvers ipopt interior-point``: kanedyn's NLP solvers, each a row per
+size beside opty's: IPOPT (with ``--hessian``'s Hessian) and kanedyn's own
+interior-point method (``solve(solver="interior-point")``, always the exact
+Hessian, ``tol = 1e-10`` as IPOPT's; ``--linear-solver`` picks its
+factorization, sparse by default, ``dense`` only for small sizes).  The
+interior-point rows also print where its time went per iteration: the
+callbacks (objective, constraints, their derivatives, trial points
+included), the Hessian's values, the factorizations and solves, and the
+rest (the algorithm's own work in Python).  The scan's contenders include
+``kanedyn, interior-point``.
+
 Usage::
 
     python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100] \
-        [--hessian exact]
+        [--hessian exact] [--solvers ipopt interior-point] [--linear-solver dense]
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
         [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
@@ -87,6 +98,17 @@ import _ocp_peers as peers  # noqa: E402
 #: approximation (as opty) or the exact one
 HESSIAN = {"kind": "limited-memory"}
 
+#: kanedyn's NLP solvers compared (``--solvers``) and the interior-point
+#: method's factorization (``--linear-solver``)
+SOLVERS = {"kanedyn": ["ipopt"], "linear_solver": "sparse"}
+
+
+def interior_point_options():
+    """The interior-point solver's options: IPOPT_OPTIONS' tolerance and
+    iteration limit (the others are IPOPT's own), the factorization."""
+    return {"tol": peers.IPOPT_OPTIONS["tol"], "max_iter": peers.IPOPT_OPTIONS["max_iter"],
+            "linear_solver": SOLVERS["linear_solver"]}
+
 
 def kanedyn_options():
     """IPOPT's options and ``solve``'s ``hessian`` for kanedyn."""
@@ -96,15 +118,32 @@ def kanedyn_options():
     return peers.IPOPT_OPTIONS, "limited-memory"
 
 
-def run_kanedyn(build, nodes, guess):
+def run_kanedyn(build, nodes, guess, solver="ipopt"):
     start = time.perf_counter()
     problem, model = build(nodes)
     model.jacobians(0.0, np.zeros(model.n_states), r=np.zeros(len(model.input_names)))
-    options, hessian = kanedyn_options()
-    result = problem.solve(guess, options=options, hessian=hessian)  # derivatives built above
+    timings = None
+    if solver == "interior-point":
+        from kanedyn.optimization.interior_point import InteriorPoint
+        chosen = InteriorPoint()
+        result = problem.solve(guess, solver=chosen, hessian="exact",
+                               options=interior_point_options())
+        timings = chosen.timings
+    else:
+        options, hessian = kanedyn_options()
+        result = problem.solve(guess, options=options, hessian=hessian)  # derivatives built above
     total = time.perf_counter() - start
     return dict(total=total, solve=result.wall_time, iterations=result.iterations,
-                objective=result.objective, status=result.status, x=result.x)
+                objective=result.objective, status=result.status, x=result.x,
+                timings=timings)
+
+
+def _phases(timings, iterations):
+    """The interior-point solve's time per iteration by phase, ms."""
+    per = {k: 1e3 * v / max(iterations, 1) for k, v in timings.items()}
+    own = per["total"] - per["callbacks"] - per["hessian"] - per["factor_solve"]
+    return (f"callbacks {per['callbacks']:.3f}, Hessian {per['hessian']:.3f}, factor and "
+            f"solve {per['factor_solve']:.3f}, the rest {own:.3f} ms")
 
 
 def run_opty(build, nodes, guess, ns, nr):
@@ -118,20 +157,26 @@ def run_opty(build, nodes, guess, ns, nr):
 
 
 def compare(label, kanedyn_build, opty_build, nodes, guess, ns, nr):
-    k = run_kanedyn(kanedyn_build, nodes, guess)
+    ours = {solver: run_kanedyn(kanedyn_build, nodes, guess, solver)
+            for solver in SOLVERS["kanedyn"]}
     o = run_opty(opty_build, nodes, guess, ns, nr)
-    rel = abs(k["objective"] - o["objective"]) / abs(o["objective"])
-    print(f"{label} N = {nodes}")
-    for name, r in (("kanedyn", k), ("opty", o)):
-        print(f"  {name:8s} model->optimum {r['total']:8.2f} s  solve {r['solve']:8.2f} s  "
+    print(f"{label} N = {nodes} (load {os.getloadavg()[0]:.1f})")
+    names = {"ipopt": "kanedyn+IPOPT", "interior-point": "kanedyn+IP"}
+    for name, r in [(names[s], r) for s, r in ours.items()] + [("opty+IPOPT", o)]:
+        print(f"  {name:13s} model->optimum {r['total']:8.2f} s  solve {r['solve']:8.2f} s  "
               f"iterations {r['iterations']:5d}  per iteration "
               f"{1e3 * r['solve'] / max(r['iterations'], 1):7.2f} ms  objective "
-              f"{r['objective']:.12g}  IPOPT status {r['status']}")
-    print(f"  objectives differ by {rel:.1e} (relative); solutions by "
-          f"{np.max(np.abs(k['x'] - o['x'])):.1e} at most")
-    print(f"  opty / kanedyn: model->optimum {o['total'] / k['total']:.1f}x, per iteration "
-          f"{(o['solve'] / max(o['iterations'], 1)) / (k['solve'] / max(k['iterations'], 1)):.2f}x")
-    return k, o
+              f"{r['objective']:.12g}  status {r['status']}")
+        if r.get("timings"):
+            print(f"  {'':13s} per iteration: {_phases(r['timings'], r['iterations'])}")
+    per_o = o["solve"] / max(o["iterations"], 1)
+    for solver, k in ours.items():
+        rel = abs(k["objective"] - o["objective"]) / abs(o["objective"])
+        print(f"  {names[solver]}: objectives differ from opty's by {rel:.1e} (relative); "
+              f"solutions by {np.max(np.abs(k['x'] - o['x'])):.1e} at most")
+        print(f"  opty / {names[solver]}: model->optimum {o['total'] / k['total']:.1f}x, "
+              f"per iteration {per_o / (k['solve'] / max(k['iterations'], 1)):.2f}x")
+    return ours[SOLVERS["kanedyn"][0]], o
 
 
 def double_pendulum_gallery(nodes):
@@ -205,6 +250,13 @@ if tool == "kanedyn":
     result = problem.solve(guess, options=options)
     out = dict(objective=result.objective, status=result.status,
                iterations=result.iterations, solve=result.wall_time)
+elif tool == "kanedyn-ip":
+    problem, model = peers.pendulum_kanedyn(nodes)
+    result = problem.solve(guess, solver="interior-point", hessian="exact", options=dict(
+        dict(tol=peers.IPOPT_OPTIONS["tol"], max_iter=peers.IPOPT_OPTIONS["max_iter"]),
+        **extra))
+    out = dict(objective=result.objective, status=result.status,
+               iterations=result.iterations, solve=result.wall_time)
 else:
     problem = peers.pendulum_opty(nodes)
     built = time.perf_counter()
@@ -227,6 +279,7 @@ CONTENDERS = {
     "kanedyn, mumps_mem_percent=1000": ("kanedyn", {"mumps_mem_percent": 1000}),
     "opty": ("opty", {}),
     "opty, mumps_mem_percent=100": ("opty", {"mumps_mem_percent": 100}),
+    "kanedyn, interior-point": ("kanedyn-ip", {}),
 }
 
 
@@ -309,12 +362,13 @@ def _within_budgets(rows, budgets, contenders):
             print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
                 f"{run:8d} [{line:9.0f}]" if np.isfinite(line) else f"{run:8d} [  no line]"
                 for run, line in counts))
-        if {"kanedyn", "opty"} <= set(contenders):
-            k, o = most[budget, "kanedyn"], most[budget, "opty"]
-            ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
-                     for a, b in zip(k, o)]
-            print(f"    {budget:g} GiB  kanedyn / opty by the lines: {ratio[0]} resident, "
-                  f"{ratio[1]} address space (goal: 10x)")
+        for ours in ("kanedyn", "kanedyn, interior-point"):
+            if {ours, "opty"} <= set(contenders):
+                k, o = most[budget, ours], most[budget, "opty"]
+                ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
+                         for a, b in zip(k, o)]
+                print(f"    {budget:g} GiB  {ours} / opty by the lines: {ratio[0]} resident, "
+                      f"{ratio[1]} address space (goal: 10x)")
 
 
 def _measured(tool, nodes, guess_path, time_s, env, address_cap, options):
@@ -367,6 +421,10 @@ def main():
     parser.add_argument("--hessian", choices=("limited-memory", "exact"),
                         default="limited-memory",
                         help="kanedyn's Hessian of the Lagrangian (opty: limited-memory)")
+    parser.add_argument("--solvers", nargs="+", choices=("ipopt", "interior-point"),
+                        default=["ipopt"], help="kanedyn's NLP solvers compared with opty")
+    parser.add_argument("--linear-solver", choices=("sparse", "dense"), default="sparse",
+                        help="the interior-point solver's factorization")
     parser.add_argument("--scan", action="store_true",
                         help="nodes against memory and time, one process per run")
     parser.add_argument("--scan-nodes", type=int, nargs="*",
@@ -379,10 +437,12 @@ def main():
                         help="IPOPT's max_iter in the scan (0: to convergence)")
     parser.add_argument("--budgets", type=float, nargs="*", default=[1.0, 2.0],
                         help="GiB: the most nodes within each, printed after the scan")
-    parser.add_argument("--contenders", nargs="*", default=list(CONTENDERS),
+    parser.add_argument("--contenders", nargs="*", default=list(CONTENDERS)[:4],
                         choices=list(CONTENDERS))
     args = parser.parse_args()
     HESSIAN["kind"] = args.hessian
+    SOLVERS["kanedyn"] = args.solvers
+    SOLVERS["linear_solver"] = args.linear_solver
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
     import cyipopt
     import opty

@@ -18,9 +18,11 @@ keywords, which ``kanedyn optimize`` fills from its options:
 ``backend``
     ``"c"``, ``"numpy"`` or ``"auto"``;
 ``ipopt``
-    IPOPT's options (``{"hessian_approximation": "exact"}`` solves with the
-    exact Hessian of the Lagrangian, ``OptimalControlProblem.solve(hessian=
-    "exact")``; the default is IPOPT's limited-memory approximation);
+    the NLP solver's options (``{"hessian_approximation": "exact"}`` solves
+    with the exact Hessian of the Lagrangian, ``OptimalControlProblem.solve(
+    hessian="exact")``; the default is IPOPT's limited-memory approximation;
+    ``{"solver": "interior-point"}`` picks kanedyn's own solver, which takes
+    the exact Hessian only, instead of IPOPT);
 ``degree``
     LGR's points per interval (``method="lgr"`` only; ``None``: 3);
 
@@ -166,10 +168,14 @@ def merged_bounds(defaults, bounds, names):
 
 def solve(problem, guess, ipopt):
     """Solve with the named problems' IPOPT defaults updated by ``ipopt``
-    (its ``hessian_approximation`` chooses the Hessian)."""
+    (its ``hessian_approximation`` chooses the Hessian, its ``solver`` the
+    NLP solver: ``"ipopt"`` unless given; ``"interior-point"`` with the exact
+    Hessian unless told otherwise)."""
     options = dict(IPOPT_DEFAULTS, **(ipopt or {}))
-    hessian = options.pop("hessian_approximation", "limited-memory")
-    return problem.solve(guess, options=options, hessian=hessian)
+    solver = options.pop("solver", "ipopt")
+    default = "exact" if solver == "interior-point" else "limited-memory"
+    hessian = options.pop("hessian_approximation", default)
+    return problem.solve(guess, solver=solver, options=options, hessian=hessian)
 
 
 class SplineInput:

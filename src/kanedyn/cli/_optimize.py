@@ -8,10 +8,13 @@
     kanedyn optimize whipple-bicycle --set offset=2 --duration 3 --output lane.csv
     kanedyn optimize pendulum --method lgr --degree 4 --nodes 41
     kanedyn optimize pendulum --hessian exact
+    kanedyn optimize pendulum --solver interior-point
 
-The problem is posed, solved by IPOPT and checked by simulation (each
-problem says how); the summary is printed.  Exit code 0 when IPOPT solved
-it, 1 when it did not (the last iterate is still written), 2 for bad input.
+The problem is posed, solved by IPOPT (or kanedyn's own interior-point
+solver, ``--solver interior-point``, with the exact Hessian) and checked by
+simulation (each problem says how); the summary is printed.  Exit code 0
+when the solver solved it, 1 when it did not (the last iterate is still
+written), 2 for bad input.
 """
 
 from __future__ import annotations
@@ -32,8 +35,9 @@ def add_parser(sub):
         "optimize", help="solve a named optimal-control problem on a built-in model; "
                          "without MODEL, list them",
         description="Direct collocation with the exact sparse Jacobian, solved by IPOPT "
-                    "(the optimal extra: pip install 'kanedyn[optimal]'), then checked by "
-                    "simulating the optimal inputs. Exit code 1 when IPOPT does not "
+                    "(the optimal extra: pip install 'kanedyn[optimal]') or kanedyn's own "
+                    "interior-point solver (--solver interior-point), then checked by "
+                    "simulating the optimal inputs. Exit code 1 when the solver does not "
                     "solve the problem (what it reached is still written).")
     p.add_argument("model", nargs="?", default=None,
                    help="a built-in model with named problems (kanedyn optimize lists them)")
@@ -58,15 +62,18 @@ def add_parser(sub):
     p.add_argument("--backend", choices=BACKENDS, default="auto",
                    help="numerical backend: auto (default: c when a C compiler is found), "
                         "numpy or c")
+    p.add_argument("--solver", choices=("ipopt", "interior-point"), default="ipopt",
+                   help="the NLP solver: IPOPT (default) or kanedyn's own interior-point "
+                        "method (exact Hessian only; no extra needed)")
     p.add_argument("--tol", type=positive_float, default=None,
-                   help="IPOPT's tolerance (default 1e-8)")
+                   help="the solver's tolerance (default 1e-8)")
     p.add_argument("--max-iter", type=whole_number(1, "iteration"), default=None,
-                   help="IPOPT's iteration limit (default 3000)")
+                   help="the solver's iteration limit (default 3000)")
     p.add_argument("--hessian", choices=("limited-memory", "exact"), default=None,
                    help="the Hessian of the Lagrangian IPOPT uses: its limited-memory "
                         "approximation (default) or the exact one from the model's second "
                         "derivatives (refused, with the reason, for models with constraints "
-                        "or contacts)")
+                        "or contacts; the interior-point solver's only one)")
     p.add_argument("--plot", default=None, metavar="FILE",
                    help="write the problem's figure (PNG)")
     p.add_argument("--output", default=None, metavar="CSV",
@@ -127,7 +134,7 @@ def _list(problems):
 
 
 def cmd_optimize(args):
-    """List the problems, or solve one; the exit code (1: IPOPT did not solve it)."""
+    """List the problems, or solve one; the exit code (1: the solver did not solve it)."""
     from ..analysis import available_problems, optimal_problem
     from ..analysis import study_option_value
     from ..optimization import COLLOCATION_METHODS, SOLVERS
@@ -135,9 +142,12 @@ def cmd_optimize(args):
     if args.model is None:
         _list(problems)
         return 0
-    missing = SOLVERS["ipopt"].available()
+    missing = SOLVERS[args.solver].available()
     if missing:
         raise KanedynError(missing)
+    if args.solver == "interior-point" and args.hessian == "limited-memory":
+        raise KanedynError("--solver interior-point takes the exact Hessian only: leave out "
+                           "--hessian limited-memory (or use --solver ipopt)")
     problem = optimal_problem(args.model, args.problem)
     if args.method is not None and args.method not in COLLOCATION_METHODS:
         raise KanedynError(f"--method {args.method!r}: available "
@@ -177,6 +187,8 @@ def cmd_optimize(args):
         ipopt["max_iter"] = args.max_iter
     if args.hessian is not None:
         ipopt["hessian_approximation"] = args.hessian
+    if args.solver != "ipopt":
+        ipopt["solver"] = args.solver
     progress = Progress(enabled=not args.quiet)
     progress.stage(f"{args.model} {problem.name}: building the model and its derivatives, "
                    "solving, checking by simulation")

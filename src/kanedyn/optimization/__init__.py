@@ -12,7 +12,11 @@
 ``_nlp``           the nonlinear program: bounds, objective, constraints and
                    their sparse Jacobian from ``model.jacobians``
 ``_hessian``       the exact Hessian of the NLP's Lagrangian (``hessian="exact"``)
-``_solvers``       the NLP solvers behind one interface (IPOPT through cyipopt)
+``_solvers``       the NLP solvers behind one interface (IPOPT through cyipopt,
+                   kanedyn's interior-point method)
+``interior_point`` ``InteriorPoint``: kanedyn's own primal-dual interior-point NLP
+                   solver (IPOPT's algorithm) and its KKT factorizations
+                   (``DenseKKT``, ``SparseKKT``)
 ``_guess``         initial guesses: a straight line, a simulation, a solution
 ``_result``        ``OptimalControlResult``, the inputs as collocated, and the
                    check of the optimal inputs by simulation

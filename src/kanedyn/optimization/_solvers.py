@@ -16,6 +16,10 @@ of the Lagrangian is IPOPT's limited-memory quasi-Newton approximation
 (``hessian_approximation = "limited-memory"``) unless the NLP has an exact
 one (``nlp.exact_hessian``, ``solve(hessian="exact")``): then
 ``hessian_structure()`` and ``hessian(x, multipliers, objective_factor)``.
+
+``"interior-point"`` is kanedyn's own solver (:mod:`.interior_point`):
+IPOPT's algorithm on the exact Hessian, its KKT systems factorized by
+kanedyn (no cyipopt needed), its status codes and multipliers IPOPT's.
 """
 
 from __future__ import annotations
@@ -26,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import ModelError
+from .interior_point import InteriorPoint
 
 __all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
 
@@ -191,7 +196,7 @@ class Ipopt:
 
 
 #: solver name -> class
-SOLVERS = {"ipopt": Ipopt}
+SOLVERS = {"ipopt": Ipopt, "interior-point": InteriorPoint}
 
 
 def solver_named(solver):

@@ -5,12 +5,20 @@ the boundary, filter line search, inertia correction) on the collocation
 NLP's sparse Jacobian and exact Hessian, its linear systems solved by a sparse
 LDLᵀ factorization compiled in C that reports the inertia.
 
-``_kkt_dense``   ``DenseKKT``: the reference factorization (SciPy's dense
-                 LDLᵀ), for tests and small problems
-``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ with its ordering and the
-                 compiled kernel
+``_kkt_dense``   ``DenseKKT``: the reference factorization (LAPACK's dense
+                 LDLᵀ through SciPy), for tests and small problems
+``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ (2 x 2 pivots on paired
+                 rows), its analysis and the inertia; its order in
+                 ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``
 ``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
-                 ``optimization._solvers``
+                 ``optimization._solvers``; what it uses, in the data flow:
+``_options``     the options (IPOPT's names and defaults), checked
+``_reduced``     the NLP without fixed variables and unbounded rows, scaled
+``_bounds``      the barrier, the bounds of the variables and slacks
+``_start``       the starting point and the first multipliers
+``_step``        the Newton step, regularized to the right inertia
+``_filter``      the filter line search's acceptance test
+``_status``      the return codes (IPOPT's numbers)
 
 Both factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,

@@ -1,0 +1,107 @@
+r"""The bounds of the primal vector :math:`w = (x, s)` (free variables, then
+the inequality rows' slacks) and what the barrier makes of them.
+
+The barrier function of the scaled problem, with :math:`\mu` the barrier
+parameter and :math:`\kappa_d` IPOPT's damping of the variables bounded on
+one side only,
+
+.. math::
+
+    \varphi_\mu(w) = f(x) - \mu \sum_{i \in L} \ln(w_i - w_{L,i})
+                          - \mu \sum_{i \in U} \ln(w_{U,i} - w_i)
+                   + \kappa_d \mu \Bigl(\sum_{i \in L \setminus U} (w_i - w_{L,i})
+                                       + \sum_{i \in U \setminus L} (w_{U,i} - w_i)\Bigr).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["PrimalBounds", "fraction_to_boundary"]
+
+
+class PrimalBounds:
+    """Bounds of ``w`` (length ``size``), infinite where absent, relaxed by
+    ``relax`` (IPOPT's ``bound_relax_factor``: each finite bound moved out
+    by ``relax * max(1, |bound|)``).
+
+    Attributes
+    ----------
+    lower_index, upper_index : ndarray of int
+        The entries with a finite lower / upper bound.
+    lower, upper : ndarray
+        Those bounds (relaxed), shapes as the index arrays.
+    """
+
+    def __init__(self, lower, upper, relax, kappa_d):
+        lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
+        self.size = lower.size
+        has_lower, has_upper = np.isfinite(lower), np.isfinite(upper)
+        self.lower_index = np.flatnonzero(has_lower)
+        self.upper_index = np.flatnonzero(has_upper)
+        lo, up = lower[has_lower], upper[has_upper]
+        self.lower = lo - relax * np.maximum(1.0, np.abs(lo))
+        self.upper = up + relax * np.maximum(1.0, np.abs(up))
+        self.kappa_d = kappa_d
+        # damping: +kappa_d on lower-only entries, -kappa_d on upper-only ones
+        self.damping = kappa_d * (has_lower & ~has_upper).astype(float) \
+            - kappa_d * (has_upper & ~has_lower).astype(float)
+        self._one_sided_lower = np.flatnonzero(has_lower[self.lower_index]
+                                               & ~has_upper[self.lower_index])
+        self._one_sided_upper = np.flatnonzero(has_upper[self.upper_index]
+                                               & ~has_lower[self.upper_index])
+
+    def gaps(self, w):
+        """``(w - w_L, w_U - w)`` on the bounded entries."""
+        return w[self.lower_index] - self.lower, self.upper - w[self.upper_index]
+
+    def barrier(self, objective, gap_lower, gap_upper, mu):
+        r""":math:`\varphi_\mu` from the objective and the gaps."""
+        with np.errstate(divide="ignore", invalid="ignore"):
+            logs = np.sum(np.log(gap_lower)) + np.sum(np.log(gap_upper))
+        damping = self.kappa_d * (np.sum(gap_lower[self._one_sided_lower])
+                                  + np.sum(gap_upper[self._one_sided_upper]))
+        return objective - mu * logs + mu * damping
+
+    def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
+        r""":math:`\nabla \varphi_\mu` from the objective's gradient in ``w``
+        (zero in the slacks)."""
+        out = gradient_w + mu * self.damping
+        out[self.lower_index] -= mu / gap_lower
+        out[self.upper_index] += mu / gap_upper
+        return out
+
+    def sigma(self, z_lower, z_upper, gap_lower, gap_upper):
+        r""":math:`\Sigma = Z_L (W - W_L)^{-1} + Z_U (W_U - W)^{-1}`, shape (size,)."""
+        out = np.zeros(self.size)
+        out[self.lower_index] = z_lower / gap_lower
+        out[self.upper_index] += z_upper / gap_upper
+        return out
+
+    def push(self, w, push, frac):
+        """``w`` moved into the bounds' interior (IPOPT's ``bound_push`` and
+        ``bound_frac``: at least ``min(push * max(1, |bound|), frac * (upper -
+        lower))`` from each bound)."""
+        w = np.array(w, dtype=float)
+        lower = np.full(self.size, -np.inf)
+        upper = np.full(self.size, np.inf)
+        lower[self.lower_index], upper[self.upper_index] = self.lower, self.upper
+        width = upper - lower
+        with np.errstate(invalid="ignore"):
+            p_lower = np.minimum(push * np.maximum(1.0, np.abs(lower)), frac * width)
+            p_upper = np.minimum(push * np.maximum(1.0, np.abs(upper)), frac * width)
+        i, j = self.lower_index, self.upper_index
+        w[i] = np.maximum(w[i], lower[i] + p_lower[i])
+        w[j] = np.minimum(w[j], upper[j] - p_upper[j])
+        return w
+
+
+def fraction_to_boundary(values, steps, tau):
+    r"""The largest :math:`\alpha \in (0, 1]` with :math:`v + \alpha\,\Delta v
+    \ge (1 - \tau) v` for positive ``values`` :math:`v` and ``steps``
+    :math:`\Delta v`."""
+    if not steps.size:
+        return 1.0
+    with np.errstate(divide="ignore", invalid="ignore"):
+        fastest = float(np.min(steps / values))
+    return 1.0 if not fastest < -tau else -tau / fastest

@@ -1,0 +1,475 @@
+"""The C kernel of :class:`~._kkt_sparse.SparseKKT`: its source and its module.
+
+One fixed source (no generated part), compiled once and cached like the
+models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
+first :class:`~._kkt_sparse.SparseKKT`.  Its four functions take their arrays
+through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
+indices, ``int64`` column pointers; the caller makes them so) and release the
+GIL while they compute:
+
+``symbolic(parent, column_counts, Ap, Ai, pair)``
+    the elimination tree and the number of entries of each column of ``L``
+    from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
+    columns of a 2 x 2 pivot given the same rows.
+``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
+jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, workspace,
+tolerance)``
+    scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
+    up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
+    elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
+    its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
+    ``(n_positive, n_negative, n_zero)``.
+``solve(x, Lp, Li, Lx, D, E, pair, permutation, workspace, k)``
+    overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
+    in the original order) with the solutions.
+
+The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``)
+are the caller's, allocated once with the factor.
+``matvec(y, x, Ap, Ai, Ax, permutation)``
+    ``y = K x`` from the stored (permuted, upper) values.
+"""
+
+from __future__ import annotations
+
+from ...numerics import NAME_TOKEN, load_module
+
+__all__ = ["kernel", "SOURCE"]
+
+#: changes whenever the source's meaning changes (part of the cache key)
+_GENERATION = "kanedyn sparse LDL 7"
+
+SOURCE = r"""
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <float.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* a buffer of `count` items of `size` bytes, C-contiguous */
+static int kd_view(PyObject *obj, Py_buffer *view, Py_ssize_t size, int writable,
+                   const char *name) {
+    int flags = PyBUF_C_CONTIGUOUS | (writable ? PyBUF_WRITABLE : 0);
+    if (PyObject_GetBuffer(obj, view, flags) < 0) return -1;
+    if (view->itemsize != size) {
+        PyErr_Format(PyExc_ValueError, "%s: items of %zd bytes expected, not %zd", name,
+                     size, view->itemsize);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+#define KD_COUNT(view) ((view).len / (view).itemsize)
+
+static void kd_release(Py_buffer *views, int count) {
+    for (int i = 0; i < count; i++)
+        if (views[i].obj != NULL) PyBuffer_Release(&views[i]);
+}
+
+/* the buffers of the first `count` arguments (item sizes, writability and names
+   given), all or none: -1 with the error set */
+static int kd_views(PyObject *args, int count, Py_buffer *views, const Py_ssize_t *size,
+                    const int *writable, const char *const *names) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) < count) {
+        PyErr_Format(PyExc_TypeError, "%d arrays expected", count);
+        return -1;
+    }
+    memset(views, 0, sizeof(Py_buffer) * (size_t)count);
+    for (int i = 0; i < count; i++)
+        if (kd_view(PyTuple_GET_ITEM(args, i), &views[i], size[i], writable[i],
+                    names[i]) < 0) {
+            kd_release(views, i);
+            return -1;
+        }
+    return 0;
+}
+
+/* ---------------------------------------------------------------- symbolic */
+static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
+    static const int writable[5] = {1, 1, 0, 0, 0};
+    static const char *const names[5] = {"parent", "column_counts", "Ap", "Ai", "pair"};
+    Py_buffer v[5];
+    if (kd_views(args, 5, v, size, writable, names) < 0) return NULL;
+    Py_ssize_t N = KD_COUNT(v[0]);
+    int32_t *parent = v[0].buf, *Ai = v[3].buf;
+    int64_t *counts = v[1].buf, *Ap = v[2].buf;
+    const int8_t *pair = v[4].buf;
+    int32_t *flag = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    if (flag == NULL) {
+        kd_release(v, 5);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < N; k++) {
+        parent[k] = -1;
+        flag[k] = (int32_t)k;
+        counts[k] = 0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t i = Ai[p];
+            /* walk from i up the tree to the first node already marked for k */
+            for (; flag[i] != k; i = parent[i]) {
+                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+                    counts[i - 1]++;
+                    flag[i - 1] = (int32_t)k;
+                }
+                if (parent[i] == -1) parent[i] = (int32_t)k;
+                counts[i]++;
+                flag[i] = (int32_t)k;
+            }
+        }
+    }
+    Py_END_ALLOW_THREADS
+    free(flag);
+    kd_release(v, 5);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------ factor */
+/* pair[k]: 0 a 1 x 1 pivot of a variable, 3 one of a constraint; 1 the first row
+   of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
+   the off-diagonal entry of the 2 x 2 block starting at k */
+enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_WORK, F_COUNT};
+
+/* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
+   times the larger of its scale and K's largest entry, so that the rows below
+   change about as little as if its row and column were left out (at most
+   1e300) */
+static double kd_replacement(double scale, double largest) {
+    double base = scale > largest && isfinite(scale) ? scale : largest;
+    double r = base / sqrt(DBL_EPSILON);
+    return r < 1e300 ? r : 1e300;
+}
+
+/* the 2 x 2 pivot [[a, e], [e, d]] (a variable, then its constraint): its
+   eigenvalues counted, a zero one replaced so that the block has one positive
+   and one negative eigenvalue, magnitude `scale`; the block rewritten with the
+   replacement.  The larger eigenvalue is zero when |big| <= tolerance * scale;
+   the smaller, det / big, when the determinant cancels, |a d - e^2| <=
+   tolerance (|a d| + e^2), or when |small| <= tolerance * growth (growth: the
+   square of the largest entry of the two rows off the block over the largest
+   of K, the rows below growing by that over |small|); either when not
+   finite.  So [[S, 1], [1, 0]] with a barrier term S = 1e12, the largest
+   entry of K, is sound: its small eigenvalue -1/S has no cancellation, and
+   the rows below grow to S at most */
+static void kd_block(double *a, double *e, double *d, double tolerance, double scale,
+                     double growth, double largest, Py_ssize_t *n_positive,
+                     Py_ssize_t *n_negative, Py_ssize_t *n_zero) {
+    double mean = 0.5 * (*a + *d), half = 0.5 * (*a - *d);
+    double radius = hypot(half, *e);
+    double big = mean >= 0.0 ? mean + radius : mean - radius;  /* the larger magnitude */
+    double small = big != 0.0 ? (*a * *d - *e * *e) / big : 0.0;
+    double product = *a * *d, square = *e * *e;
+    int big_zero = !(fabs(big) > tolerance * scale);
+    int small_zero = big_zero || !(fabs(product - square) > tolerance * (fabs(product) + square))
+                     || !(fabs(small) > tolerance * growth) || !isfinite(small);
+    if (!big_zero && !small_zero) {
+        if (big > 0.0) (*n_positive)++; else (*n_negative)++;
+        if (small > 0.0) (*n_positive)++; else (*n_negative)++;
+        return;
+    }
+    double r = kd_replacement(scale, largest);
+    /* the unit eigenvector of `big` (from the better conditioned of the two rows
+       of B - big I), the other one orthogonal to it */
+    double vx, vy;
+    if (fabs(big - *d) >= fabs(big - *a)) {
+        vx = big - *d;
+        vy = *e;
+    } else {
+        vx = *e;
+        vy = big - *a;
+    }
+    double norm = hypot(vx, vy);
+    if (!(norm > 0.0) || !isfinite(norm)) {
+        vx = 1.0;
+        vy = 0.0;
+    } else {
+        vx /= norm;
+        vy /= norm;
+    }
+    if (big_zero) {
+        *n_zero += 2;
+        big = r;
+        small = -r;
+    } else {
+        *n_zero += 1;
+        if (big > 0.0) (*n_positive)++; else (*n_negative)++;
+        small = big > 0.0 ? -r : r;
+    }
+    *a = big * vx * vx + small * vy * vy;
+    *d = big * vy * vy + small * vx * vx;
+    *e = (big - small) * vx * vy;
+}
+
+static PyObject *kd_factor(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != F_COUNT + 1) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", F_COUNT + 1);
+        return NULL;
+    }
+    double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
+    if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
+                                             8, 8, 8};
+    static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                          0, 1};
+    static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
+                                         "parent", "pair", "hessian map", "hessian_values",
+                                         "jacobian map", "jacobian_values", "diagonal map",
+                                         "diagonal_x", "diagonal_c", "workspace"};
+    Py_buffer v[F_COUNT];
+    if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
+    double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
+    const int64_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
+    int32_t *Li = v[F_LI].buf;
+    const int32_t *Ai = v[F_AI].buf, *parent = v[F_PARENT].buf;
+    const int8_t *pair = v[F_PAIR].buf;
+    const int32_t *hmap = v[F_HMAP].buf, *jmap = v[F_JMAP].buf, *dmap = v[F_DMAP].buf;
+    const double *hv = v[F_HV].buf, *jv = v[F_JV].buf, *dx = v[F_DX].buf, *dc = v[F_DC].buf;
+    Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
+    Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
+    Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
+    if (KD_COUNT(v[F_WORK]) < 5 * N) {
+        kd_release(v, F_COUNT);
+        PyErr_SetString(PyExc_ValueError, "workspace: fewer than 5 N entries");
+        return NULL;
+    }
+    /* the workspace (5 N doubles, allocated with the factor's storage) */
+    double *work = v[F_WORK].buf;
+    double *Y = work, *rowmax = work + N, *offmax = work + 2 * N;
+    int64_t *filled = (int64_t *)(work + 3 * N);
+    int32_t *pattern = (int32_t *)(work + 4 * N), *flag = pattern + N;
+    Py_ssize_t n_positive = 0, n_negative = 0, n_zero = 0;
+    Py_BEGIN_ALLOW_THREADS
+    /* the values of K, summed into the permuted upper triangle */
+    memset(Ax, 0, sizeof(double) * (size_t)nnz);
+    for (Py_ssize_t e = 0; e < nh; e++) Ax[hmap[e]] += hv[e];
+    for (Py_ssize_t e = 0; e < nj; e++) Ax[jmap[e]] += jv[e];
+    for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += dx[j];
+    for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= dc[i];
+    /* the largest magnitude in each row of K (both triangles), and off the
+       diagonal (and off a pair's block) */
+    for (Py_ssize_t k = 0; k < N; k++) {
+        rowmax[k] = 0.0;
+        offmax[k] = 0.0;
+        Y[k] = 0.0;
+        E[k] = 0.0;
+    }
+    for (Py_ssize_t k = 0; k < N; k++)
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            double a = fabs(Ax[p]);
+            int32_t i = Ai[p];
+            if (a > rowmax[k]) rowmax[k] = a;
+            if (a > rowmax[i]) rowmax[i] = a;
+            /* off the diagonal and off the 2 x 2 block of a pair */
+            if (i != k && !(pair[k] == 2 && i == k - 1)) {
+                if (a > offmax[k]) offmax[k] = a;
+                if (a > offmax[i]) offmax[i] = a;
+            }
+        }
+    double largest = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
+    if (largest == 0.0) largest = 1.0;
+    double first_scale = 0.0;  /* the scale of the first row of the current 2 x 2 pivot */
+    /* up-looking block L D L^T: w = L(0:k,0:k)^-1 A(0:k, k), then row k of L is
+       D^-1 w (blockwise) and d_k = A(k, k) - (row k of L) w */
+    for (Py_ssize_t k = 0; k < N; k++) {
+        Py_ssize_t top = N;
+        flag[k] = (int32_t)k;
+        filled[k] = 0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t i = Ai[p];
+            Y[i] += Ax[p];
+            Py_ssize_t length = 0;
+            for (; flag[i] != k; i = parent[i]) {
+                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+                    pattern[length++] = i - 1;
+                    flag[i - 1] = (int32_t)k;
+                }
+                pattern[length++] = i;
+                flag[i] = (int32_t)k;
+            }
+            while (length > 0) pattern[--top] = pattern[--length];
+        }
+        double d = Y[k], terms = fabs(Y[k]);
+        Y[k] = 0.0;
+        for (; top < N; top++) {
+            int32_t i = pattern[top];
+            double wi = Y[i];
+            int64_t end = Lp[i] + filled[i];
+            for (int64_t p = Lp[i]; p < end; p++) Y[Li[p]] -= Lx[p] * wi;
+            if (pair[i] == 1) {  /* kept in Y until its partner i + 1 comes */
+                if (i == k - 1) {  /* k's own partner: the block's off-diagonal entry */
+                    E[i] = wi;
+                    Y[i] = 0.0;
+                    Li[end] = (int32_t)k;
+                    Lx[end] = 0.0;
+                    filled[i]++;
+                }
+                continue;
+            }
+            Y[i] = 0.0;
+            if (pair[i] == 2) {  /* [l_{i-1}, l_i] = B^-1 [w_{i-1}, w_i] */
+                double w0 = Y[i - 1], a = D[i - 1], e = E[i - 1], b = D[i];
+                double det = a * b - e * e;
+                double l0 = (b * w0 - e * wi) / det, l1 = (a * wi - e * w0) / det;
+                Y[i - 1] = 0.0;
+                d -= l0 * w0 + l1 * wi;
+                terms += fabs(l0 * w0) + fabs(l1 * wi);
+                int64_t end0 = Lp[i - 1] + filled[i - 1];
+                Li[end0] = (int32_t)k;
+                Lx[end0] = l0;
+                filled[i - 1]++;
+                Li[end] = (int32_t)k;
+                Lx[end] = l1;
+                filled[i]++;
+            } else {
+                double l = wi / D[i];
+                d -= l * wi;
+                terms += fabs(l * wi);
+                Li[end] = (int32_t)k;
+                Lx[end] = l;
+                filled[i]++;
+            }
+        }
+        /* a zero pivot: small beside the terms it was summed from (cancelled),
+           or beside the square of the largest entry of its row of K off the
+           diagonal over the largest of K (the rows below would grow by that
+           over |d|), or not finite */
+        double scale = terms > rowmax[k] ? terms : rowmax[k];
+        D[k] = d;
+        if (pair[k] == 1) {
+            first_scale = scale;
+        } else if (pair[k] == 2) {
+            double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
+            kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
+                     scale > first_scale ? scale : first_scale, off * off / largest,
+                     largest, &n_positive, &n_negative, &n_zero);
+        } else if (!(fabs(d) > tolerance * terms)
+                   || !(fabs(d) > tolerance * offmax[k] * offmax[k] / largest)) {
+            n_zero++;
+            double r = kd_replacement(scale, largest);
+            D[k] = pair[k] == 3 ? -r : r;
+        } else if (d > 0.0) {
+            n_positive++;
+        } else {
+            n_negative++;
+        }
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, F_COUNT);
+    return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
+}
+
+/* ------------------------------------------------------------------- solve */
+static PyObject *kd_solve(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 10) {
+        PyErr_SetString(PyExc_TypeError, "10 arguments expected");
+        return NULL;
+    }
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 9));
+    if (columns == -1 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[9] = {8, 8, 4, 8, 8, 8, 1, 4, 8};
+    static const int writable[9] = {1, 0, 0, 0, 0, 0, 0, 0, 1};
+    static const char *const names[9] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
+                                         "permutation", "workspace"};
+    Py_buffer v[9];
+    if (kd_views(args, 9, v, size, writable, names) < 0) return NULL;
+    double *X = v[0].buf;
+    const int64_t *Lp = v[1].buf;
+    const int32_t *Li = v[2].buf, *perm = v[7].buf;
+    const double *Lx = v[3].buf, *D = v[4].buf, *E = v[5].buf;
+    const int8_t *pair = v[6].buf;
+    Py_ssize_t N = KD_COUNT(v[4]);
+    if (columns < 0 || KD_COUNT(v[0]) != columns * N || KD_COUNT(v[8]) < N) {
+        kd_release(v, 9);
+        PyErr_SetString(PyExc_ValueError, "rhs or workspace: not of the factored size");
+        return NULL;
+    }
+    double *w = v[8].buf;
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t c = 0; c < columns; c++) {
+        double *x = X + c * N;
+        for (Py_ssize_t k = 0; k < N; k++) w[k] = x[perm[k]];
+        for (Py_ssize_t j = 0; j < N; j++) {  /* L z = b */
+            double wj = w[j];
+            for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) w[Li[p]] -= Lx[p] * wj;
+        }
+        for (Py_ssize_t j = 0; j < N; j++) {  /* D y = z, blockwise */
+            if (pair[j] == 1) {
+                double a = D[j], e = E[j], b = D[j + 1], det = a * b - e * e;
+                double w0 = w[j], w1 = w[j + 1];
+                w[j] = (b * w0 - e * w1) / det;
+                w[j + 1] = (a * w1 - e * w0) / det;
+                j++;
+            } else {
+                w[j] /= D[j];
+            }
+        }
+        for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = y */
+            double wj = w[j];
+            for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) wj -= Lx[p] * w[Li[p]];
+            w[j] = wj;
+        }
+        for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 9);
+    Py_RETURN_NONE;
+}
+
+/* ------------------------------------------------------------------ matvec */
+static PyObject *kd_matvec(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[6] = {8, 8, 8, 4, 8, 4};
+    static const int writable[6] = {1, 0, 0, 0, 0, 0};
+    static const char *const names[6] = {"y", "x", "Ap", "Ai", "Ax", "permutation"};
+    Py_buffer v[6];
+    if (kd_views(args, 6, v, size, writable, names) < 0) return NULL;
+    double *y = v[0].buf;
+    const double *x = v[1].buf, *Ax = v[4].buf;
+    const int64_t *Ap = v[2].buf;
+    const int32_t *Ai = v[3].buf, *perm = v[5].buf;
+    Py_ssize_t N = KD_COUNT(v[0]);
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < N; k++) y[k] = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int32_t ok = perm[k];
+        double xk = x[ok], yk = 0.0;
+        for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
+            int32_t oi = perm[Ai[p]];
+            yk += Ax[p] * x[oi];
+            if (oi != ok) y[oi] += Ax[p] * xk;
+        }
+        y[ok] += yk;
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 6);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef kd_methods[] = {
+    {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
+    {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
+    {"solve", kd_solve, METH_VARARGS, "solve with the factors, in place"},
+    {"matvec", kd_matvec, METH_VARARGS, "y = K x from the stored values"},
+    {NULL, NULL, 0, NULL}};
+
+static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,
+                                       kd_methods};
+
+PyMODINIT_FUNC PyInit_@NAME@(void) { return PyModule_Create(&kd_module); }
+"""
+
+
+def kernel():
+    """The compiled kernel module (built on first use, then from the cache).
+
+    Raises
+    ------
+    CompilerError
+        No C compiler, or the compilation failed.
+    """
+    source = SOURCE.replace("@NAME@", NAME_TOKEN)
+    return load_module(f"{_GENERATION}\n{source}", lambda: source)

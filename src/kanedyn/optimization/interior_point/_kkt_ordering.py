@@ -1,0 +1,205 @@
+"""The elimination order of :class:`~._kkt_sparse.SparseKKT`.
+
+The collocation NLP lays its variables out by kind (the states of every node,
+then the inputs of every node, then free parameters and the duration, then
+interior points) and its constraints by interval, so the KKT matrix in its own
+order has no band; ordered by node it has one, a few rows and columns wide,
+plus a few dense ones (a free duration or parameter is in every defect row;
+instance constraints join the first and the last node).
+
+:func:`elimination_order`:
+
+1. rows whose degree in the graph of K exceeds :func:`dense_threshold` go
+   last (a dense row eliminated early would make every row it touches dense,
+   and it would spoil the band that step 3 looks for);
+2. every other constraint row is paired with a variable of its own, by a
+   maximum matching of the Jacobian's pattern (SciPy's
+   ``maximum_bipartite_matching``; variables without a diagonal Hessian
+   entry matched first where that loses no row): a defect row with one of
+   the states it relates;
+3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
+   and the unpaired rows (the band, found whatever the layout);
+4. each pair is eliminated variable first, then its constraint.
+
+Step 4 keeps a constraint row from being eliminated before all of its
+variables (with ``diagonal_c = 0`` its 1 x 1 pivot would be exactly zero),
+and :class:`~._kkt_sparse.SparseKKT` eliminates each pair as one 2 x 2
+pivot, nonsingular where the variable's diagonal is zero too.
+
+Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
+pendulum swing-up's NLP with a free duration, exact Hessian at random
+multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
+1.7-4.4 on 2 cores; ``docs/benchmarks.md``):
+
+- entries of L below the diagonal at 1,000 / 10,000 nodes, trapezoid: 24,977
+  / 249,977 with the pairs by RCM; 28,963 / 289,963 with the pairs in
+  SuperLU's multiple minimum degree order (``ordering="pairs-mmd"``); 20,985
+  / 209,985 by RCM on the rows without pairs (``ordering="rcm"``); 19,979 /
+  199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
+  ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
+  739,796; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
+  NLP's own order (the band not found) L had 3.96 times the entries it has
+  with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
+  more than 3);
+- ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
+  with the pairs by minimum degree (100 to 10,000 nodes, both methods,
+  three runs):
+  the pairs' fill is the two columns of each pair sharing their rows;
+- in exchange, no breakdown where a diagonal is zero on both sides of a
+  pair: ``K = [[0, Jᵀ], [J, 0]]`` has zero pivots in the rows' RCM order and
+  eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
+  NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
+  (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
+  or barrier term can still meet a zero pivot.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+__all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
+
+#: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above),
+#: and for comparison ``"rcm"`` (reverse Cuthill-McKee on the rows themselves, no
+#: pairs) and ``"pairs-mmd"`` (the pairs in SuperLU's multiple minimum degree
+#: order instead of RCM, :func:`_minimum_degree`)
+ORDERINGS = ("pairs", "rcm", "pairs-mmd")
+
+
+def dense_threshold(degrees):
+    """The degree above which a row counts as dense and is ordered last:
+    ``max(16, 10 x`` the mean degree ``)``, ``degrees`` the number of
+    off-diagonal entries of each row.  Cuthill-McKee numbers a graph by
+    levels of a breadth-first search; one row joined to most others puts
+    them all in two levels and the band is lost, so the rule is relative to
+    the typical row, not to the matrix's order."""
+    return max(16.0, 10.0 * float(np.mean(degrees))) if len(degrees) else 16.0
+
+
+def _minimum_degree(graph):
+    """The order of the nodes of ``graph`` (symmetric CSR) by SuperLU's multiple
+    minimum degree on A + Aᵀ: SciPy's ``splu`` of a diagonally dominant matrix
+    of that pattern (no pivoting off the diagonal), its ``perm_c``."""
+    import scipy.sparse as sp
+    from scipy.sparse.linalg import splu
+
+    size = graph.shape[0]
+    if size == 0:
+        return np.zeros(0, dtype=np.int64)
+    pattern = sp.csc_matrix((-np.ones(graph.nnz), graph.indices, graph.indptr),
+                            shape=graph.shape)
+    matrix = pattern + sp.diags(np.diff(graph.indptr) + 1.0)
+    position = splu(matrix.tocsc(), permc_spec="MMD_AT_PLUS_A", diag_pivot_thresh=0.0,
+                    options={"SymmetricMode": True}).perm_c
+    return np.argsort(position)
+
+
+def _graph(size, rows, cols):
+    """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
+    import scipy.sparse as sp
+    graph = sp.csr_matrix((np.ones(2 * rows.size, dtype=np.int8),
+                           (np.concatenate([rows, cols]), np.concatenate([cols, rows]))),
+                          shape=(size, size))
+    graph.sum_duplicates()
+    return graph
+
+
+def _matching(pattern, preferred):
+    """``partner[i]``: the column matched to row ``i`` of ``pattern`` (m x n,
+    CSR), or -1: a maximum matching that matches as many of the ``preferred``
+    columns (a boolean mask) as it can first, where that loses no row."""
+    from scipy.sparse.csgraph import maximum_bipartite_matching
+
+    best = maximum_bipartite_matching(pattern, perm_type="column")
+    partner = np.full(pattern.shape[0], -1)
+    cols = np.flatnonzero(preferred)
+    if cols.size:
+        first = maximum_bipartite_matching(pattern[:, cols].tocsr(), perm_type="column")
+        partner = np.where(first >= 0, cols[np.maximum(first, 0)], -1)
+    rows, cols = np.flatnonzero(partner < 0), np.flatnonzero(~preferred)
+    if rows.size and cols.size:
+        second = maximum_bipartite_matching(pattern[rows][:, cols].tocsr(),
+                                            perm_type="column")
+        partner[rows] = np.where(second >= 0, cols[np.maximum(second, 0)], -1)
+    return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
+
+
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None):
+    """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
+
+    Parameters
+    ----------
+    n, m : int
+        Variables and constraints (K's order is N = n + m; row ``n + i`` of
+        K is constraint ``i``).
+    hessian_off : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Hessian's entries off its diagonal.
+    jacobian : (ndarray of int64, ndarray of int64)
+        ``(rows, cols)`` of the Jacobian's entries.
+    ordering : str
+        One of :data:`ORDERINGS`.
+    diagonal : ndarray of bool, shape (n,), optional
+        The variables whose Hessian has a diagonal entry: the pairing prefers
+        the others (a variable without one has a zero pivot of its own when
+        ``diagonal_x`` is zero there).
+
+    Returns
+    -------
+    permutation : ndarray of int32, shape (N,)
+        ``permutation[k]``: the row of K eliminated ``k``-th.
+    n_dense : int
+        How many rows counted as dense (:func:`dense_threshold`): the last
+        ``n_dense`` of the order, the variables first.
+    kind : ndarray of int8, shape (N,)
+        Of each pivot in that order: 0 a variable's, 3 a constraint's, 1 and 2
+        the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
+        of :class:`~._kkt_sparse.SparseKKT`).  ``"rcm"`` makes no pairs.
+    """
+    import scipy.sparse as sp
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    if ordering not in ORDERINGS:
+        raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not {ordering!r}")
+    N = n + m
+    if N == 0:
+        return np.zeros(0, dtype=np.int32), 0, np.zeros(0, dtype=np.int8)
+    hr, hc = hessian_off
+    jr, jc = jacobian
+    graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
+    degrees = np.diff(graph.indptr)
+    dense = degrees > dense_threshold(degrees)
+    keep = np.flatnonzero(~dense)
+    block = np.arange(N)  # the node of the compressed graph each row belongs to
+    if ordering != "rcm" and m and jr.size:
+        inside = ~dense[n + jr] & ~dense[jc]
+        pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
+                                 (jr[inside], jc[inside])), shape=(m, n))
+        pattern.sum_duplicates()
+        preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
+        partner = _matching(pattern, preferred & ~dense[:n])
+        paired = np.flatnonzero(partner >= 0)
+        block[n + paired] = partner[paired]
+    # the compressed graph on the blocks of the rows that are not dense
+    nodes, compressed = np.unique(block[keep], return_inverse=True)
+    where = np.full(N, -1)
+    where[keep] = compressed
+    sub = graph[keep][:, keep].tocoo()
+    a, b = where[keep[sub.row]], where[keep[sub.col]]
+    distinct = a != b
+    compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
+    if ordering == "pairs-mmd":
+        order = _minimum_degree(compressed_graph)
+    else:
+        order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
+    # expand: each block's rows in their own order (the variable before its constraint)
+    rank = np.empty(nodes.size, dtype=np.int64)
+    rank[order] = np.arange(nodes.size)
+    sequence = np.lexsort((keep, rank[compressed]))
+    permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
+    # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
+    # variable (1) and the constraint (2) of a pair
+    kind = np.where(permutation < n, 0, 3).astype(np.int8)
+    follower = block[permutation[1:]] == block[permutation[:-1]]
+    kind[:-1][follower] = 1
+    kind[1:][follower] = 2
+    return permutation.astype(np.int32), int(dense.sum()), kind

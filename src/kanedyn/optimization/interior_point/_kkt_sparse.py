@@ -1,0 +1,409 @@
+r"""``SparseKKT``: the sparse :math:`LDL^T` factorization of the interior-point
+method's KKT matrix, with its inertia.
+
+.. math::
+
+    K = \begin{bmatrix} H + \operatorname{diag}(d_x) & J^T \\
+                        J & -\operatorname{diag}(d_c) \end{bmatrix}
+      = P^T L D L^T P
+
+with :math:`H` (n x n) the Hessian of the Lagrangian, :math:`J` (m x n) the
+constraints' Jacobian, :math:`L` unit lower triangular, :math:`P` the
+elimination order (:mod:`._kkt_ordering`) and :math:`D` block diagonal: a
+2 x 2 block for each pair of a variable and a constraint that the order
+made (the constraint's row holds the variable: before fill-in the block is
+:math:`\begin{bmatrix} h & j \\ j & -c \end{bmatrix}` with :math:`j \ne 0`,
+nonsingular where :math:`h = c = 0`, as for a state without a Hessian or
+barrier term when ``diagonal_c = 0``, where a 1 x 1 pivot would be exactly
+zero), 1 x 1 elsewhere.  The blocks are fixed by the analysis: no pivoting at run time.
+By Sylvester's law of inertia the eigenvalues of :math:`D`'s blocks have
+:math:`K`'s inertia, whatever the order, as long as none is zero.
+
+**Analysis, once** (the constructor): the elimination order and its pairs;
+the pattern of the permuted upper triangle of :math:`K` (CSC; every diagonal
+entry present); the maps of every Hessian entry, Jacobian entry and diagonal
+entry to its place there (repeated entries map to the same place and are
+summed); the elimination tree and the column counts of :math:`L` (compiled;
+the two columns of a pair get the same rows); and all the storage the
+numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
+of :math:`K`, the kernel's scratch arrays).
+
+**Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
+released): the values scattered through the maps, then an up-looking block
+:math:`LDL^T`: row :math:`k` of :math:`L` from a sparse triangular solve
+:math:`w = L^{-1} K_{0:k,k}` whose pattern the elimination tree gives, then
+:math:`D^{-1} w` block by block, then the pivot
+:math:`d_k = K_{kk} - \sum_j L_{kj} w_j`.
+
+**Zero pivots.**  Without pivoting, a pivot close to zero would make the
+rows below it meaningless.  With :math:`\tau` the constructor's
+``zero_pivot`` (default :data:`ZERO_PIVOT`), :math:`a` the largest magnitude
+in :math:`K` and :math:`r_k` the largest in row :math:`k` of :math:`K` off
+the diagonal, a 1 x 1 pivot :math:`d_k` counts as *zero* when
+
+- it cancelled: :math:`|d_k| \le \tau t_k`, with :math:`t_k = |K_{kk}| +
+  \sum_j |L_{kj} w_j|` the sum of the magnitudes of its terms (a singular
+  :math:`K`, a constraint row with ``diagonal_c = 0`` dependent on earlier
+  ones, an empty row);
+- or it would grow the rows below by more than :math:`1/\tau` times
+  :math:`K`'s largest entry: :math:`|d_k| \le \tau r_k^2 / a` (a diagonal of
+  1e-20 beside entries of 1);
+- or it is not finite.
+
+A 2 x 2 block :math:`B = \begin{bmatrix} b_1 & e \\ e & b_2 \end{bmatrix}`:
+its larger eigenvalue is zero when it is at most :math:`\tau` times the
+larger of :math:`t` and the largest magnitude of the block's two rows; the
+smaller one (:math:`\det B` over the larger) when the determinant cancelled,
+:math:`|b_1 b_2 - e^2| \le \tau (|b_1 b_2| + e^2)`, or by the growth test
+above with :math:`r` the largest entry of its two rows off the block.  So a
+variable with a barrier term :math:`\Sigma = 10^{12}` paired with its
+constraint, :math:`\begin{bmatrix} \Sigma & 1 \\ 1 & 0 \end{bmatrix}`, has
+the sound small eigenvalue :math:`-1/\Sigma` (a test: barrier terms up to
+1e14).
+
+A zero pivot is replaced by :math:`\pm \max(t_k, a)/\sqrt{\epsilon}`
+(:math:`\epsilon` the machine epsilon; at most 1e300): ``+`` in a
+variable's row, ``-`` in a constraint's; in a block, the zero eigenvalue
+takes that magnitude and the sign opposite to the other one (both zero: one
+of each), the eigenvectors kept.  So large, the rows below change about as
+little as if that row and column were left out.  The factorization goes on:
+:meth:`~SparseKKT.solve` returns finite numbers (the solution with those
+pivots changed), and ``n_zero`` counts the replaced ones.  Every other pivot
+is counted by its sign, whichever rows it belongs to: a negative pivot among
+the variables or a positive one among the constraints is reported as it is
+(it is part of :math:`K`'s inertia).
+
+So the reported inertia is :math:`K`'s when ``n_zero == 0`` (up to rounding
+in pivots that pass the tests).  ``n_zero > 0`` says that :math:`K` is
+singular or nearly so, or that a leading block of :math:`PKP^T` is, or that
+a pivot was too small to eliminate without pivoting: a variable left
+unpaired whose diagonal is zero (no Hessian term, no barrier term) or tiny,
+eliminated before anything fills its diagonal.
+The caller regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors
+again; :meth:`~SparseKKT.matvec` multiplies by :math:`K` itself (never by a
+replaced pivot), for iterative refinement.
+"""
+
+from __future__ import annotations
+
+import numbers
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._kkt_kernel import kernel
+from ._kkt_ordering import ORDERINGS, elimination_order
+
+__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT"]
+
+#: default relative threshold of a zero pivot (see the module's docstring)
+ZERO_PIVOT = 1e-12
+
+_INDEX = np.int32
+_LIMIT = np.iinfo(_INDEX).max
+
+
+@dataclass(frozen=True)
+class KKTAnalysis:
+    """What the symbolic analysis found.
+
+    Attributes
+    ----------
+    n, m : int
+        The primal variables and the constraints (K is (n + m) x (n + m)).
+    permutation : ndarray of int32, shape (n + m,)
+        ``permutation[k]``: the row of K eliminated ``k``-th.
+    n_dense : int
+        Rows counted as dense and ordered last.
+    nnz_matrix : int
+        Entries of K's upper triangle after repeats are summed, diagonal included.
+    nnz_factor : int
+        Entries of L below the diagonal.
+    bytes_factor : int
+        Bytes of L (values, row indices, column pointers) and of D's blocks.
+    bytes_maps : int
+        Bytes of the maps of the values into K's storage, of K's pattern and
+        values, of the elimination tree and of the order.
+    bytes_workspace : int
+        Bytes of the scratch arrays of ``factor`` and ``solve`` (48 per row
+        of K).
+    """
+
+    n: int
+    m: int
+    permutation: np.ndarray
+    n_dense: int
+    nnz_matrix: int
+    nnz_factor: int
+    bytes_factor: int
+    bytes_maps: int
+    bytes_workspace: int
+
+
+def _size(value, name):
+    if isinstance(value, bool) or not isinstance(value, numbers.Integral) or value < 0:
+        raise ValueError(f"{name} must be a non-negative integer, not {value!r}")
+    return int(value)
+
+
+def _structure(structure, name, n_rows, n_cols):
+    """``(rows, cols)`` of ``structure`` as int64 arrays, checked against the shape."""
+    try:
+        rows, cols = structure
+    except (TypeError, ValueError):
+        raise ValueError(f"{name} must be a pair (rows, cols) of integer arrays") from None
+    arrays = []
+    for label, value, bound in (("rows", rows, n_rows), ("cols", cols, n_cols)):
+        a = np.asarray(value)
+        if a.ndim != 1:
+            raise ValueError(f"{name}: {label} must be one-dimensional, not of shape "
+                             f"{a.shape}")
+        if a.size and not np.issubdtype(a.dtype, np.integer):
+            raise ValueError(f"{name}: {label} must hold integers, not {a.dtype}")
+        a = a.astype(np.int64)
+        bad = np.flatnonzero((a < 0) | (a >= bound))
+        if bad.size:
+            raise ValueError(f"{name}: {label}[{bad[0]}] = {a[bad[0]]} is outside "
+                             f"0..{bound - 1}")
+        arrays.append(a)
+    if arrays[0].shape != arrays[1].shape:
+        raise ValueError(f"{name}: rows and cols differ in length ({arrays[0].size} and "
+                         f"{arrays[1].size})")
+    return arrays
+
+
+def _values(value, size, name):
+    """``value`` as a C-contiguous float64 array of shape ``(size,)``, finite."""
+    a = np.ascontiguousarray(value, dtype=float)
+    if a.shape != (size,):
+        raise ValueError(f"{name} must have shape ({size},), not {a.shape}")
+    if not np.isfinite(a).all():
+        raise ValueError(f"{name}[{np.flatnonzero(~np.isfinite(a))[0]}] is not finite")
+    return a
+
+
+def _permuted_pattern(n, permutation, hessian, jacobian):
+    """K's upper triangle in the elimination order, and where each value goes.
+
+    Returns
+    -------
+    Ap : ndarray of int64, shape (N + 1,)
+        Column pointers (CSC) of the permuted upper triangle, every diagonal
+        entry present.
+    Ai : ndarray of int32
+        Its row indices, sorted within each column.
+    hessian_map, jacobian_map : ndarray of int32
+        The place in ``Ai`` (and in the values) of each Hessian and Jacobian
+        entry, in the order of their structures (repeats share a place).
+    diagonal_map : ndarray of int32, shape (N,)
+        The place of K's diagonal entry of each row, in K's own order.
+
+    Raises
+    ------
+    ValueError
+        More entries than 32-bit indices reach.
+    """
+    (hr, hc), (jr, jc) = hessian, jacobian
+    N = permutation.size
+    inverse = np.empty(N, dtype=np.int64)
+    inverse[permutation] = np.arange(N)
+    every = np.arange(N)
+    first = inverse[np.concatenate([hr, n + jr, every])]
+    second = inverse[np.concatenate([hc, jc, every])]
+    keys = np.maximum(first, second) * N + np.minimum(first, second)
+    unique, places = np.unique(keys, return_inverse=True)
+    if unique.size >= _LIMIT:
+        raise ValueError(f"K has {unique.size} entries, too many for 32-bit indices")
+    places = places.astype(_INDEX)
+    Ap = np.zeros(N + 1, dtype=np.int64)
+    if N:
+        np.cumsum(np.bincount(unique // N, minlength=N), out=Ap[1:])
+    return (Ap, (unique % N).astype(_INDEX) if N else unique.astype(_INDEX),
+            places[:hr.size], places[hr.size:hr.size + jr.size], places[hr.size + jr.size:])
+
+
+class SparseKKT:
+    """The sparse :math:`LDL^T` of the KKT matrix, its pattern analysed once.
+
+    Parameters
+    ----------
+    n, m : int
+        Primal variables and constraints.
+    hessian_structure : (ndarray of int, ndarray of int)
+        ``(rows, cols)`` of the lower triangle (``row >= col``) of the n x n
+        Hessian of the Lagrangian; repeated entries are summed.
+    jacobian_structure : (ndarray of int, ndarray of int)
+        ``(rows, cols)`` of the m x n constraint Jacobian; repeated entries
+        are summed.
+    zero_pivot : float
+        The relative threshold :math:`\\tau` below which a pivot counts as
+        zero (the module's docstring); default :data:`ZERO_PIVOT`.
+    ordering : str
+        The elimination order, one of
+        :data:`~._kkt_ordering.ORDERINGS` (:mod:`._kkt_ordering`).
+
+    Attributes
+    ----------
+    analysis : KKTAnalysis
+        The order, the sizes of K and L and the bytes held.
+    inertia : (int, int, int) or None
+        What the last ``factor`` returned; ``None`` before the first.
+
+    Raises
+    ------
+    ValueError
+        A size that is not a non-negative integer, a structure that is not a
+        pair of equal-length integer arrays, an index out of range, an entry
+        of the Hessian above the diagonal (each naming the argument).
+    CompilerError
+        No C compiler (the kernel is compiled once, then cached).
+
+    Notes
+    -----
+    ``factor`` and ``solve`` release the GIL while they compute, and they
+    write the object's storage and scratch arrays: one call at a time per
+    object (another object of the same structure may work meanwhile).
+    """
+
+    def __init__(self, n, m, hessian_structure, jacobian_structure, *,
+                 zero_pivot=ZERO_PIVOT, ordering="pairs"):
+        n, m = _size(n, "n"), _size(m, "m")
+        hr, hc = _structure(hessian_structure, "hessian_structure", n, n)
+        upper = np.flatnonzero(hr < hc)
+        if upper.size:
+            e = upper[0]
+            raise ValueError(f"hessian_structure: entry {e} (row {hr[e]}, col {hc[e]}) is "
+                             "above the diagonal; give the lower triangle (row >= col)")
+        jr, jc = _structure(jacobian_structure, "jacobian_structure", m, n)
+        if not (isinstance(zero_pivot, numbers.Real) and 0.0 <= zero_pivot < 1.0):
+            raise ValueError(f"zero_pivot must be a number in [0, 1), not {zero_pivot!r}")
+        if ordering not in ORDERINGS:
+            raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not "
+                             f"{ordering!r}")
+        N = n + m
+        if N >= _LIMIT:
+            raise ValueError(f"n + m = {N} is too large for 32-bit indices")
+        self._kernel = kernel()
+        self.n, self.m, self.size = n, m, N
+        self.zero_pivot = float(zero_pivot)
+        off = hr != hc
+        has_diagonal = np.zeros(n, dtype=bool)
+        has_diagonal[hr[~off]] = True
+        permutation, n_dense, kind = elimination_order(n, m, (hr[off], hc[off]),
+                                                       (jr, jc), ordering, has_diagonal)
+        (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
+         self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
+        self._Ax = np.zeros(self._Ai.size)
+        self._permutation = permutation
+        self._kind = kind
+        # elimination tree and the pattern's size, then L's storage
+        self._parent = np.empty(N, dtype=_INDEX)
+        counts = np.empty(N, dtype=np.int64)
+        self._kernel.symbolic(self._parent, counts, self._Ap, self._Ai, self._kind)
+        self._Lp = np.zeros(N + 1, dtype=np.int64)
+        np.cumsum(counts, out=self._Lp[1:])
+        nnz = int(self._Lp[-1])
+        self._Li = np.zeros(nnz, dtype=_INDEX)
+        self._Lx = np.zeros(nnz)
+        self._D = np.zeros(N)
+        self._E = np.zeros(N)
+        self._factor_work = np.zeros(5 * N)  # the kernel's scratch: kept, not reallocated
+        self._solve_work = np.zeros(N)
+        self.inertia = None
+        factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
+                                              self._E))
+        map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
+                                           self._diagonal_map, self._Ap, self._Ai, self._Ax,
+                                           self._parent, self._kind, permutation))
+        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._Ai.size), nnz,
+                                    factor_bytes, map_bytes,
+                                    self._factor_work.nbytes + self._solve_work.nbytes)
+
+    def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
+        """Factor K with these values; return its inertia.
+
+        Parameters
+        ----------
+        hessian_values : array_like, shape (len(hessian_structure[0]),)
+            The Hessian's entries, in the order of its structure.
+        jacobian_values : array_like, shape (len(jacobian_structure[0]),)
+            The Jacobian's entries, in the order of its structure.
+        diagonal_x : array_like, shape (n,)
+            Added to H's diagonal.
+        diagonal_c : array_like, shape (m,)
+            Its negative is the constraints' diagonal block; >= 0, may be 0.
+
+        Returns
+        -------
+        (int, int, int)
+            ``(n_positive, n_negative, n_zero)``: the pivots by sign, the zero
+            ones as the module's docstring defines them.
+
+        Raises
+        ------
+        ValueError
+            A shape that does not match, a value that is not finite, a
+            negative ``diagonal_c`` (naming the argument).
+        """
+        hv = _values(hessian_values, self._hessian_map.size, "hessian_values")
+        jv = _values(jacobian_values, self._jacobian_map.size, "jacobian_values")
+        dx = _values(diagonal_x, self.n, "diagonal_x")
+        dc = _values(diagonal_c, self.m, "diagonal_c")
+        if dc.size and dc.min() < 0.0:
+            raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
+        self.inertia = None  # no factors while the kernel overwrites them
+        inertia = self._kernel.factor(
+            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
+            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
+            self._diagonal_map, dx, dc, self._factor_work, self.zero_pivot)
+        self.inertia = inertia
+        return inertia
+
+    def _factored(self, what):
+        if self.inertia is None:
+            raise ValueError(f"{what}: nothing is factored yet; call factor first")
+
+    def solve(self, rhs):
+        """The solution of K x = rhs with the last factors.
+
+        Parameters
+        ----------
+        rhs : array_like, shape (n + m,) or (n + m, k)
+
+        Returns
+        -------
+        ndarray, the shape of ``rhs``
+            (Where pivots were replaced, the solution of that changed K.)
+        """
+        self._factored("solve")
+        b = np.asarray(rhs, dtype=float)
+        N = self.size
+        if b.ndim not in (1, 2) or b.shape[0] != N:
+            raise ValueError(f"rhs must have shape ({N},) or ({N}, k), not {b.shape}")
+        if not np.isfinite(b).all():
+            raise ValueError("rhs holds a value that is not finite")
+        x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
+        columns = 1 if b.ndim == 1 else b.shape[1]
+        self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
+                           self._permutation, self._solve_work, columns)
+        return x.T if b.ndim == 2 else x
+
+    def matvec(self, x):
+        """K x with the last factored values (the caller's diagonals, no
+        replaced pivot).
+
+        Parameters
+        ----------
+        x : array_like, shape (n + m,)
+
+        Returns
+        -------
+        ndarray, shape (n + m,)
+        """
+        self._factored("matvec")
+        v = np.ascontiguousarray(x, dtype=float)
+        if v.shape != (self.size,):
+            raise ValueError(f"x must have shape ({self.size},), not {v.shape}")
+        y = np.empty(self.size)
+        self._kernel.matvec(y, v, self._Ap, self._Ai, self._Ax, self._permutation)
+        return y

@@ -1,0 +1,122 @@
+"""The interior-point solver's options: IPOPT's names where IPOPT has the
+option, their defaults IPOPT's (Waechter & Biegler 2006; IPOPT's option
+list), checked before the solve."""
+
+from __future__ import annotations
+
+import math
+from types import SimpleNamespace
+
+from ..._errors import OptionError
+
+__all__ = ["DEFAULTS", "CHOICES", "settings"]
+
+#: option -> default
+DEFAULTS = {
+    # termination
+    "tol": 1e-8,                         # scaled optimality error
+    "max_iter": 3000,
+    "max_cpu_time": 1e20,                # s of process time
+    "dual_inf_tol": 1.0,                 # unscaled, for "solved"
+    "constr_viol_tol": 1e-4,
+    "compl_inf_tol": 1e-4,
+    "acceptable_tol": 1e-6,
+    "acceptable_iter": 15,               # consecutive acceptable iterates; 0: off
+    "acceptable_dual_inf_tol": 1e10,
+    "acceptable_constr_viol_tol": 1e-2,
+    "acceptable_compl_inf_tol": 1e-2,
+    "diverging_iterates_tol": 1e20,
+    "print_level": 0,                    # 0 silent, >= 1 a line per iteration
+    # barrier parameter (monotone, Fiacco-McCormick)
+    "mu_init": 0.1,
+    "mu_min": 1e-11,
+    "barrier_tol_factor": 10.0,          # kappa_epsilon
+    "mu_linear_decrease_factor": 0.2,    # kappa_mu
+    "mu_superlinear_decrease_power": 1.5,  # theta_mu
+    "tau_min": 0.99,
+    "kappa_d": 1e-5,                     # damping of single-bounded variables
+    # starting point
+    "bound_push": 1e-2,
+    "bound_frac": 1e-2,
+    "slack_bound_push": 1e-2,
+    "slack_bound_frac": 1e-2,
+    "bound_relax_factor": 1e-8,
+    "bound_mult_init_val": 1.0,
+    "constr_mult_init_max": 1e3,         # least-squares multipliers above: zero
+    "warm_start_bound_push": 1e-3,
+    "warm_start_bound_frac": 1e-3,
+    "warm_start_mult_bound_push": 1e-3,
+    # scaling
+    "nlp_scaling_method": "gradient-based",
+    "nlp_scaling_max_gradient": 100.0,
+    "nlp_scaling_min_value": 1e-8,
+    "obj_scaling_factor": 1.0,
+    # line search (filter)
+    "max_soc": 4,
+    "kappa_soc": 0.99,
+    "alpha_min_frac": 0.05,
+    # inertia correction
+    "first_hessian_perturbation": 1e-4,
+    "min_hessian_perturbation": 1e-20,
+    "max_hessian_perturbation": 1e20,
+    "perturb_inc_fact_first": 100.0,
+    "perturb_inc_fact": 8.0,
+    "perturb_dec_fact": 1.0 / 3.0,
+    "jacobian_regularization_value": 1e-8,
+    "jacobian_regularization_exponent": 0.25,
+    # linear algebra
+    "linear_solver": "auto",             # "sparse", "dense", or auto: sparse if it imports
+    "max_refinement_steps": 10,
+    "residual_ratio_max": 1e-10,
+    # accepted for IPOPT compatibility, one value only
+    "hessian_approximation": "exact",
+    "mu_strategy": "monotone",
+}
+
+#: options that take text -> the values accepted
+CHOICES = {
+    "nlp_scaling_method": ("gradient-based", "none"),
+    "linear_solver": ("auto", "sparse", "dense"),
+    "hessian_approximation": ("exact",),
+    "mu_strategy": ("monotone",),
+}
+
+_INTEGERS = {"max_iter", "acceptable_iter", "print_level", "max_soc", "max_refinement_steps"}
+
+
+def settings(options):
+    """The options over :data:`DEFAULTS`, checked: a namespace of values.
+
+    Raises
+    ------
+    OptionError
+        (a ``ValueError``) Naming an unknown option (and listing the known ones), or a value of
+        the wrong kind.
+    """
+    options = dict(options or {})
+    unknown = sorted(set(options) - set(DEFAULTS))
+    if unknown:
+        raise OptionError(f"unknown interior-point option(s) {', '.join(map(repr, unknown))}; "
+                         f"known: {', '.join(sorted(DEFAULTS))}")
+    merged = dict(DEFAULTS)
+    for key, value in options.items():
+        if key in CHOICES:
+            if value not in CHOICES[key]:
+                hint = (' (only the exact Hessian: solve(hessian="exact"))'
+                        if key == "hessian_approximation" else "")
+                raise OptionError(f"interior-point option {key}={value!r}: give one of "
+                                 f"{', '.join(map(repr, CHOICES[key]))}{hint}")
+        elif key in _INTEGERS:
+            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+                raise OptionError(f"interior-point option {key}={value!r}: give an "
+                                 "integer >= 0")
+        else:
+            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+                    or not math.isfinite(float(value)) or float(value) < 0:
+                raise OptionError(f"interior-point option {key}={value!r}: give a finite "
+                                 "number >= 0")
+            value = float(value)
+        merged[key] = value
+    if merged["tol"] <= 0:
+        raise OptionError(f"interior-point option tol={merged['tol']!r}: give a number > 0")
+    return SimpleNamespace(**merged)

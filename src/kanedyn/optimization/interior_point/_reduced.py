@@ -1,0 +1,196 @@
+r"""The NLP as the interior-point iterations see it: fixed variables taken
+out, rows without bounds dropped, objective and rows scaled.
+
+From ``nlp`` (the interface of :mod:`kanedyn.optimization._solvers`) with
+bounds :math:`x_L \le x \le x_U`, :math:`g_L \le g(x) \le g_U`:
+
+- a variable with :math:`x_L = x_U` is fixed at that value and leaves the
+  problem (IPOPT's ``fixed_variable_treatment = make_parameter``); its bound
+  multiplier is computed at the end from the Lagrangian's gradient;
+- a row with neither bound finite (beyond :math:`10^{19}`, IPOPT's
+  infinity) is dropped, its multiplier zero;
+- the kept rows are equalities (:math:`g_L = g_U`) or inequalities, the
+  latter given a slack :math:`s` with :math:`g_L \le s \le g_U` and the row
+  :math:`g(x) - s = 0`;
+- gradient-based scaling (IPOPT's ``nlp_scaling_method``): the objective
+  times :math:`s_f = \min(1, g_{\max}/\|\nabla f(x_0)\|_\infty)`, row j
+  times :math:`\min(1, g_{\max}/\|\nabla g_j(x_0)\|_\infty)` (at least
+  ``nlp_scaling_min_value``), :math:`g_{\max}` = ``nlp_scaling_max_gradient``.
+
+Every array here is of the reduced, scaled problem unless its name says
+``full``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ._kkt_dense import check_structure
+
+__all__ = ["ReducedNLP", "INFINITE_BOUND"]
+
+#: a bound at or beyond this magnitude is no bound (IPOPT's nlp_upper_bound_inf)
+INFINITE_BOUND = 1e19
+
+
+class ReducedNLP:
+    """``nlp`` without its fixed variables and unbounded rows, scaled.
+
+    Parameters
+    ----------
+    nlp : object
+        The NLP interface (``n``, ``m``, bounds, callbacks, ``exact_hessian``).
+    x0 : ndarray, shape (nlp.n,)
+        The starting point (its fixed entries replaced by their values).
+    settings : namespace
+        The solver's options (:func:`._options.settings`).
+
+    Attributes
+    ----------
+    n, m : int
+        Free variables and kept rows.
+    free : ndarray of int
+        The free variables' indices in the full vector.
+    equality : ndarray of bool, shape (m,)
+        Which kept rows are equalities; the others have a slack each.
+    row_scale : ndarray, shape (m,)
+    objective_scale : float
+    """
+
+    def __init__(self, nlp, x0, settings):
+        self.nlp = nlp
+        n_full, m_full = int(nlp.n), int(nlp.m)
+        self.n_full, self.m_full = n_full, m_full
+        x_lower = np.asarray(nlp.x_lower, dtype=float).reshape(n_full)
+        x_upper = np.asarray(nlp.x_upper, dtype=float).reshape(n_full)
+        g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
+        g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
+        self.x_lower_full, self.x_upper_full = x_lower, x_upper
+        fixed = x_lower == x_upper
+        self.fixed = np.flatnonzero(fixed)
+        self.free = np.flatnonzero(~fixed)
+        self.n = self.free.size
+        kept = ~((g_lower <= -INFINITE_BOUND) & (g_upper >= INFINITE_BOUND))
+        self.rows = np.flatnonzero(kept)
+        self.m = self.rows.size
+        self.equality = g_lower[kept] == g_upper[kept]
+        self.inequality = np.flatnonzero(~self.equality)
+        self.template = np.asarray(x0, dtype=float).reshape(n_full).copy()
+        self.template[fixed] = x_lower[fixed]
+        column_of = np.full(n_full, -1)
+        column_of[self.free] = np.arange(self.n)
+        row_of = np.full(m_full, -1)
+        row_of[self.rows] = np.arange(self.m)
+        jr, jc = check_structure("the NLP's jacobian_structure", nlp.jacobian_structure(),
+                                 m_full, n_full)
+        self.jacobian_full = (jr, jc)
+        use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
+        self.jacobian_entries = np.flatnonzero(use)
+        self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
+        hr, hc = check_structure("the NLP's hessian_structure", nlp.hessian_structure(),
+                                 n_full, n_full, lower=True)
+        use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
+        self.hessian_entries = np.flatnonzero(use)
+        self.hessian_structure = (column_of[hr[use]], column_of[hc[use]])
+        self._g_lower, self._g_upper = g_lower[kept], g_upper[kept]
+        self._x_lower, self._x_upper = x_lower[self.free], x_upper[self.free]
+        self.objective_scale = 1.0
+        self.row_scale = np.ones(self.m)
+        self._entry_scale = np.ones(self.jacobian_entries.size)
+        self._settings = settings
+
+    # ----------------------------------------------------------- scaling
+    def scale_at(self, x_full, gradient_full, jacobian_full):
+        """Gradient-based scaling from the unscaled derivatives at the start."""
+        s = self._settings
+        factor = s.obj_scaling_factor
+        if s.nlp_scaling_method == "gradient-based":
+            limit, floor = s.nlp_scaling_max_gradient, s.nlp_scaling_min_value
+            largest = np.max(np.abs(gradient_full[self.free]), initial=0.0)
+            if largest > limit:
+                factor *= max(limit / largest, floor)
+            rows = self.jacobian_structure[0]
+            values = np.abs(jacobian_full[self.jacobian_entries])
+            row_max = np.zeros(self.m)
+            np.maximum.at(row_max, rows, values)
+            self.row_scale = np.where(row_max > limit,
+                                      np.maximum(limit / np.maximum(row_max, 1e-300), floor),
+                                      1.0)
+            self._entry_scale = self.row_scale[rows]
+        self.objective_scale = float(factor)
+
+    # ------------------------------------------------------------ bounds
+    def variable_bounds(self):
+        """``(lower, upper)`` of the free variables (infinite beyond 1e19)."""
+        return _infinite(self._x_lower), _infinite(self._x_upper)
+
+    def row_bounds(self):
+        """``(lower, upper)`` of the kept rows, scaled (infinite beyond 1e19)."""
+        return (_infinite(self._g_lower) * self.row_scale,
+                _infinite(self._g_upper) * self.row_scale)
+
+    # -------------------------------------------------------- evaluation
+    def full(self, x):
+        """The full decision vector of the free variables ``x``."""
+        out = self.template.copy()
+        out[self.free] = x
+        return out
+
+    def objective(self, x_full):
+        return self.objective_scale * float(self.nlp.objective(x_full))
+
+    def constraints(self, x_full):
+        return np.asarray(self.nlp.constraints(x_full), dtype=float)[self.rows] * self.row_scale
+
+    def gradient(self, x_full):
+        return self.objective_scale * np.asarray(self.nlp.gradient(x_full),
+                                                 dtype=float)[self.free]
+
+    def jacobian(self, x_full):
+        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
+        return values[self.jacobian_entries] * self._entry_scale
+
+    def hessian(self, x_full, multipliers, objective_factor=1.0):
+        """The scaled Lagrangian's Hessian (lower triangle, reduced pattern's
+        order) at ``x_full`` with the scaled rows' multipliers."""
+        full = np.zeros(self.m_full)
+        full[self.rows] = multipliers * self.row_scale
+        values = self.nlp.hessian(x_full, full, objective_factor * self.objective_scale)
+        return np.asarray(values, dtype=float)[self.hessian_entries]
+
+    def transpose_times(self, jacobian_values, y):
+        """:math:`J^T y`, shape (n,)."""
+        rows, cols = self.jacobian_structure
+        return np.bincount(cols, weights=jacobian_values * y[rows], minlength=self.n)
+
+    # ---------------------------------------------------------- unscaling
+    def multipliers_full(self, x_full, y, z_lower, z_upper):
+        """IPOPT's unscaled multipliers ``{"g", "x_lower", "x_upper"}`` of the
+        full problem; a fixed variable's from the Lagrangian's gradient."""
+        sf = self.objective_scale
+        g = np.zeros(self.m_full)
+        g[self.rows] = y * self.row_scale / sf
+        zl, zu = np.zeros(self.n_full), np.zeros(self.n_full)
+        zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
+        if self.fixed.size:
+            jr, jc = self.jacobian_full
+            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
+            stationarity = np.asarray(self.nlp.gradient(x_full), dtype=float) + np.bincount(
+                jc, weights=values * g[jr], minlength=self.n_full)
+            r = stationarity[self.fixed]
+            zl[self.fixed], zu[self.fixed] = np.maximum(r, 0.0), np.maximum(-r, 0.0)
+        return {"g": g, "x_lower": zl, "x_upper": zu}
+
+    def scaled_multipliers(self, warm):
+        """A warm start's ``(y, z_lower, z_upper)`` (IPOPT's unscaled
+        multipliers of the full problem) for the reduced, scaled one."""
+        sf = self.objective_scale
+        g = np.asarray(warm["g"], dtype=float).reshape(self.m_full)
+        zl = np.asarray(warm["x_lower"], dtype=float).reshape(self.n_full)
+        zu = np.asarray(warm["x_upper"], dtype=float).reshape(self.n_full)
+        return g[self.rows] * sf / self.row_scale, zl[self.free] * sf, zu[self.free] * sf
+
+
+def _infinite(bound):
+    return np.where(bound <= -INFINITE_BOUND, -np.inf,
+                    np.where(bound >= INFINITE_BOUND, np.inf, bound))

@@ -1,0 +1,536 @@
+r"""``InteriorPoint``: kanedyn's primal-dual interior-point NLP solver.
+
+The method of IPOPT (Waechter & Biegler, "On the implementation of an
+interior-point filter line-search algorithm for large-scale nonlinear
+programming", Math. Program. 106(1), 2006) on the scaled, reduced problem
+of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
+:math:`g_I(x) - s = 0` with bounded slacks :math:`s`):
+
+1. the barrier problem :math:`\min \varphi_\mu(x, s)` (:mod:`._bounds`) for a
+   falling :math:`\mu` (monotone, Fiacco-McCormick: :math:`\mu \leftarrow
+   \max(\epsilon/(\kappa_\epsilon + 1), \min(\kappa_\mu\mu, \mu^{\theta_\mu}))`
+   once the barrier problem's optimality error is below
+   :math:`\kappa_\epsilon\mu`);
+2. per iteration one Newton step of the primal-dual equations with the
+   exact Hessian of the Lagrangian, its linear system regularized to the
+   right inertia (:mod:`._step`);
+3. fraction to the boundary (:math:`\tau = \max(\tau_{\min}, 1 - \mu)`) for
+   the primal variables and, separately, the bound multipliers;
+4. the filter line search with the switching and Armijo conditions and up
+   to ``max_soc`` second-order corrections (:mod:`._filter`); the bound
+   multipliers are then kept within :math:`[\mu/(\kappa_\Sigma\,
+   \text{gap}), \kappa_\Sigma\mu/\text{gap}]`, :math:`\kappa_\Sigma = 10^{10}`;
+5. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
+   unscaled checks ``dual_inf_tol``, ``constr_viol_tol``,
+   ``compl_inf_tol``), and ``acceptable_iter`` consecutive iterates within
+   the ``acceptable_`` tolerances.
+
+What it lacks against IPOPT: the feasibility restoration phase (when the
+line search finds no step it stops with status -2, or 2 when the point
+locally minimizes the constraints' violation, or 1 when it is acceptable),
+the watchdog, the adaptive barrier strategies, the quasi-Newton Hessian.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+import numpy as np
+
+from ..._errors import ModelError
+from ._bounds import PrimalBounds, fraction_to_boundary
+from ._filter import Filter
+from ._options import settings as checked_settings
+from ._reduced import ReducedNLP
+from ._start import least_squares_multipliers, primal_start, warm_multipliers
+from ._status import STATUS
+from ._step import StepSolver
+
+__all__ = ["InteriorPoint", "kkt_class"]
+
+KAPPA_SIGMA = 1e10
+S_MAX = 100.0
+#: consecutive iterates at a stationary point of the violation before status 2
+INFEASIBLE_ITERATIONS = 5
+
+
+def kkt_class(choice):
+    """``(KKT class, note)`` for the option ``linear_solver``: ``"sparse"``
+    (``SparseKKT``), ``"dense"`` (``DenseKKT``), ``"auto"`` (sparse when it
+    imports, else dense, the note saying why)."""
+    from ._kkt_dense import DenseKKT
+    if choice == "dense":
+        return DenseKKT, None
+    try:
+        from ._kkt_sparse import SparseKKT
+    except ImportError as exc:
+        if choice == "sparse":
+            raise ImportError(f"interior-point option linear_solver='sparse': SparseKKT "
+                              f"does not import ({exc}); use linear_solver='dense'") from exc
+        return DenseKKT, f"SparseKKT does not import ({exc}): DenseKKT used"
+    return SparseKKT, None
+
+
+class _Evaluation:
+    """The scaled NLP's values at one point."""
+
+    __slots__ = ("x_full", "objective", "rows", "gradient", "jacobian")
+
+    def __init__(self, x_full, objective, rows):
+        self.x_full, self.objective, self.rows = x_full, objective, rows
+        self.gradient = self.jacobian = None
+
+    def finite(self):
+        return bool(np.isfinite(self.objective) and np.all(np.isfinite(self.rows)))
+
+
+class InteriorPoint:
+    """kanedyn's interior-point NLP solver (``solve(solver="interior-point",
+    hessian="exact")``).
+
+    Options are IPOPT's names where IPOPT has them
+    (:data:`._options.DEFAULTS`), plus ``linear_solver``: ``"sparse"``,
+    ``"dense"`` or ``"auto"``.  After a solve, :attr:`timings` holds the
+    seconds spent per phase and :attr:`note` what the solver chose.
+    """
+
+    name = "interior-point"
+
+    def __init__(self):
+        self.timings = {}
+        self.note = None
+
+    @staticmethod
+    def available():
+        """``None``: the solver needs NumPy and SciPy only."""
+        return None
+
+    def solve(self, nlp, x0, options=None, warm=None, stop=lambda: False):
+        """Solve ``nlp`` from ``x0``: an :class:`~kanedyn.optimization.NLPSolution`.
+
+        Parameters
+        ----------
+        nlp : object
+            The NLP interface of :mod:`kanedyn.optimization._solvers`, with the
+            exact Hessian (``nlp.exact_hessian`` not ``None``).
+        x0 : ndarray, shape (nlp.n,)
+        options : dict, optional
+            See :data:`._options.DEFAULTS`; an unknown name raises ``ValueError``.
+        warm : dict, optional
+            IPOPT's multipliers ``{"g", "x_lower", "x_upper"}`` of an earlier solve.
+        stop : callable
+            Asked once per iteration; ``True`` ends the solve (status 5).
+        """
+        s = checked_settings(options)
+        if getattr(nlp, "exact_hessian", None) is None:
+            raise ModelError('the interior-point solver needs the exact Hessian of the '
+                             'Lagrangian: pass hessian="exact" to solve()')
+        run = _Run(nlp, x0, s, warm, stop)
+        solution = run.solve()
+        self.timings, self.note = run.timings, run.note
+        return solution
+
+
+class _Run:
+    """One solve: the iterates and the algorithm's state."""
+
+    def __init__(self, nlp, x0, settings, warm, stop):
+        self.nlp, self.s, self.warm, self.stop = nlp, settings, warm, stop
+        self.x0 = np.asarray(x0, dtype=float).reshape(int(nlp.n)).copy()
+        self.timings = dict(callbacks=0.0, hessian=0.0, factor_solve=0.0, line_search=0.0,
+                            total=0.0)
+        self.note = None
+        self.iteration = 0
+        self.start_wall = time.perf_counter()
+        self.start_cpu = time.process_time()
+
+    # ------------------------------------------------------------ helpers
+    def _evaluate(self, x):
+        """Objective and rows at the free variables ``x`` (scaled)."""
+        t = time.perf_counter()
+        R = self.reduced
+        x_full = R.full(x)
+        with np.errstate(all="ignore"):
+            e = _Evaluation(x_full, R.objective(x_full), R.constraints(x_full))
+        self.timings["callbacks"] += time.perf_counter() - t
+        return e
+
+    def _derivatives(self, e):
+        t = time.perf_counter()
+        with np.errstate(all="ignore"):
+            e.gradient = self.reduced.gradient(e.x_full)
+            e.jacobian = self.reduced.jacobian(e.x_full)
+        self.timings["callbacks"] += time.perf_counter() - t
+        return bool(np.all(np.isfinite(e.gradient)) and np.all(np.isfinite(e.jacobian)))
+
+    def _row_residuals(self, rows, w):
+        """:math:`c`: equality rows minus their value, inequality rows minus
+        their slacks (scaled)."""
+        c = rows - self.row_target
+        c[self.inequality] = rows[self.inequality] - w[self.n:]
+        return c
+
+    def _result(self, status, w, y, z_lower, z_upper, e):
+        from .._solvers import NLPSolution
+        R, n = self.reduced, self.n
+        x_full = R.full(w[:n]) if w is not None else self.x0
+        if w is None:
+            multipliers = {"g": np.zeros(R.m_full), "x_lower": np.zeros(R.n_full),
+                           "x_upper": np.zeros(R.n_full)}
+            objective = float("nan") if e is None else e.objective / R.objective_scale
+        else:
+            zl, zu = np.zeros(n), np.zeros(n)
+            lo, up = self.bounds.lower_index, self.bounds.upper_index
+            zl[lo[lo < n]] = z_lower[lo < n]
+            zu[up[up < n]] = z_upper[up < n]
+            with np.errstate(all="ignore"):
+                multipliers = R.multipliers_full(x_full, y, zl, zu)
+            objective = e.objective / R.objective_scale
+        self.timings["total"] = time.perf_counter() - self.start_wall
+        return NLPSolution(
+            x=x_full, objective=float(objective), status=status, status_text=STATUS[status],
+            iterations=self.iteration, wall_time=self.timings["total"],
+            multipliers=multipliers, solver=InteriorPoint.name)
+
+    # ------------------------------------------------------------- start
+    def _setup(self):
+        s = self.s
+        self.reduced = R = ReducedNLP(self.nlp, self.x0, s)
+        self.n, self.m = n, m = R.n, R.m
+        self.inequality = R.inequality
+        t = time.perf_counter()
+        with np.errstate(all="ignore"):
+            gradient = np.asarray(self.nlp.gradient(R.template), dtype=float)
+            jacobian = np.asarray(self.nlp.jacobian(R.template), dtype=float)
+        self.timings["callbacks"] += time.perf_counter() - t
+        if not (np.all(np.isfinite(gradient)) and np.all(np.isfinite(jacobian))):
+            return False
+        R.scale_at(R.template, gradient, jacobian)
+        x_lower, x_upper = R.variable_bounds()
+        g_lower, g_upper = self.row_bounds = R.row_bounds()
+        ineq = self.inequality
+        self.row_target = np.where(R.equality, g_lower, 0.0)
+        self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
+                                   np.concatenate([x_upper, g_upper[ineq]]),
+                                   s.bound_relax_factor, s.kappa_d)
+        lower, upper = np.full(self.bounds.size, -np.inf), np.full(self.bounds.size, np.inf)
+        lower[self.bounds.lower_index] = self.bounds.lower
+        upper[self.bounds.upper_index] = self.bounds.upper
+        self.slack_bounds = (lower[n:], upper[n:])
+        kkt_type, self.note = kkt_class(s.linear_solver)
+        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        self.stepper = StepSolver(self.kkt, n, m, ineq, s)
+        return True
+
+    def _start(self):
+        """``(w, y, z_lower, z_upper, evaluation)`` or ``None`` (not finite)."""
+        s, n, R = self.s, self.n, self.reduced
+        warm = self.warm is not None
+        x = self.bounds.push(np.concatenate([self.x0[R.free], np.zeros(len(self.inequality))]),
+                             s.warm_start_bound_push if warm else s.bound_push,
+                             s.warm_start_bound_frac if warm else s.bound_frac)[:n]
+        e = self._evaluate(x)
+        if not (e.finite() and self._derivatives(e)):
+            return None
+        w = primal_start(self.bounds, n, x, e.rows, self.inequality, s, warm)
+        if warm:
+            y, zl_x, zu_x = R.scaled_multipliers(self.warm)
+            z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
+                                                s.warm_start_mult_bound_push)
+            return w, y, z_lower, z_upper, e
+        z_lower = np.full(self.bounds.lower_index.size, s.bound_mult_init_val)
+        z_upper = np.full(self.bounds.upper_index.size, s.bound_mult_init_val)
+        gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
+        gradient_w[self.bounds.lower_index] -= z_lower
+        gradient_w[self.bounds.upper_index] += z_upper
+        t = time.perf_counter()
+        y = least_squares_multipliers(self.kkt, n, self.m, self.inequality, e.jacobian,
+                                      R.hessian_entries.size, gradient_w,
+                                      s.constr_mult_init_max)
+        self.timings["factor_solve"] += time.perf_counter() - t
+        return w, y, z_lower, z_upper, e
+
+    # ------------------------------------------------------------- solve
+    def solve(self):
+        if not self._setup():
+            return self._result(-13, None, None, None, None, None)
+        R = self.reduced
+        if np.count_nonzero(R.equality) > self.n:
+            return self._result(-10, None, None, None, None, None)
+        started = self._start()
+        if started is None:
+            return self._result(-13, None, None, None, None, None)
+        status = self._iterate(*started)
+        return status
+
+    def _measures(self, w, y, z_lower, z_upper, e, mu):
+        """Residuals and optimality errors at the current iterate."""
+        n, B, R = self.n, self.bounds, self.reduced
+        gap_lower, gap_upper = B.gaps(w)
+        jty = R.transpose_times(e.jacobian, y)
+        lagrangian = np.zeros(B.size)  # grad of f + y^T c in w
+        lagrangian[:n] = e.gradient + jty
+        lagrangian[n:] = -y[self.inequality]
+        dual = lagrangian.copy()
+        dual[B.lower_index] -= z_lower
+        dual[B.upper_index] += z_upper
+        c = self._row_residuals(e.rows, w)
+        compl_lower, compl_upper = z_lower * gap_lower, z_upper * gap_upper
+        n_z = z_lower.size + z_upper.size
+        z_sum = np.sum(np.abs(z_lower)) + np.sum(np.abs(z_upper))
+        s_d = max(S_MAX, (np.sum(np.abs(y)) + z_sum) / max(self.m + n_z, 1)) / S_MAX
+        s_c = max(S_MAX, z_sum / max(n_z, 1)) / S_MAX
+        dual_inf = np.max(np.abs(dual), initial=0.0)
+        primal_inf = np.max(np.abs(c), initial=0.0)
+        compl = max(np.max(compl_lower, initial=0.0), np.max(compl_upper, initial=0.0))
+        compl_mu = max(np.max(np.abs(compl_lower - mu), initial=0.0),
+                       np.max(np.abs(compl_upper - mu), initial=0.0))
+        sf = R.objective_scale
+        # IPOPT's unscaled violation: the inequality rows against their (relaxed) bounds
+        violation = c.copy()
+        rows = e.rows[self.inequality]
+        violation[self.inequality] = rows - np.clip(rows, *self.slack_bounds)
+        unscaled_violation = np.max(np.abs(violation) / R.row_scale, initial=0.0)
+        return dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
+                    c=c, dual_inf=dual_inf, primal_inf=primal_inf,
+                    error=max(dual_inf / s_d, primal_inf, compl / s_c),
+                    error_mu=max(dual_inf / s_d, primal_inf, compl_mu / s_c),
+                    unscaled=(dual_inf / sf, unscaled_violation, compl / sf))
+
+    def _converged(self, m, acceptable):
+        s = self.s
+        dual, primal, compl = m["unscaled"]
+        if acceptable:
+            return (m["error"] <= s.acceptable_tol and dual <= s.acceptable_dual_inf_tol
+                    and primal <= s.acceptable_constr_viol_tol
+                    and compl <= s.acceptable_compl_inf_tol)
+        return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
+                and compl <= s.compl_inf_tol)
+
+    def _stationary_violation(self, w, e, m):
+        """The point locally minimizes the rows' violation (its projected
+        gradient :math:`J^T v` vanishes) while violating them beyond
+        ``constr_viol_tol``."""
+        if m["unscaled"][1] <= self.s.constr_viol_tol:
+            return False
+        R, n = self.reduced, self.n
+        v = e.rows - np.clip(e.rows, *self.row_bounds)
+        grad = R.transpose_times(e.jacobian, v)
+        B = self.bounds
+        x = w[:n]
+        near = 1e-6 * (1.0 + np.abs(x))
+        lo = B.lower_index[B.lower_index < n]
+        up = B.upper_index[B.upper_index < n]
+        lower = B.lower[B.lower_index < n]
+        upper = B.upper[B.upper_index < n]
+        blocked = np.zeros(n, dtype=bool)
+        blocked[lo] = (x[lo] - lower <= near[lo]) & (grad[lo] > 0)
+        blocked[up] |= (upper - x[up] <= near[up]) & (grad[up] < 0)
+        grad[blocked] = 0.0
+        scale = max(1.0, np.max(np.abs(e.jacobian), initial=0.0))
+        return np.max(np.abs(grad), initial=0.0) <= 1e-6 * scale * np.sum(np.abs(v))
+
+    def _iterate(self, w, y, z_lower, z_upper, e):
+        s, n, B = self.s, self.n, self.bounds
+        mu = s.mu_init
+        tau = max(s.tau_min, 1.0 - mu)
+        mu_floor = max(s.mu_min, min(s.tol, s.compl_inf_tol) / (s.barrier_tol_factor + 1.0))
+        m = self._measures(w, y, z_lower, z_upper, e, mu)
+        theta = float(np.sum(np.abs(m["c"])))
+        line_filter = Filter(theta)
+        acceptable_count = infeasible_count = 0
+        last_primal_inf = np.inf
+        force_barrier = False
+        row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
+        if s.print_level:
+            if self.note:
+                print(f"interior point: {self.note}", file=sys.stdout)
+            _print_header()
+        while True:
+            if s.print_level:
+                _print_row(self.iteration, e.objective / self.reduced.objective_scale, m, mu, row)
+            if self._converged(m, acceptable=False):
+                return self._result(0, w, y, z_lower, z_upper, e)
+            acceptable = self._converged(m, acceptable=True)
+            acceptable_count = acceptable_count + 1 if acceptable else 0
+            if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
+                return self._result(1, w, y, z_lower, z_upper, e)
+            # the violation's stationarity, asked when it stalls (fell by < 10 %)
+            stalled = m["primal_inf"] > 0.9 * last_primal_inf
+            last_primal_inf = m["primal_inf"]
+            infeasible_count = (infeasible_count + 1 if stalled
+                                and self._stationary_violation(w, e, m) else 0)
+            if infeasible_count >= INFEASIBLE_ITERATIONS:
+                return self._result(2, w, y, z_lower, z_upper, e)
+            if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
+                return self._result(4, w, y, z_lower, z_upper, e)
+            if self.iteration >= s.max_iter:
+                return self._result(-1, w, y, z_lower, z_upper, e)
+            if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
+                return self._result(-4, w, y, z_lower, z_upper, e)
+            if self.stop():
+                return self._result(5, w, y, z_lower, z_upper, e)
+            # the barrier parameter (monotone)
+            while force_barrier or m["error_mu"] <= s.barrier_tol_factor * mu:
+                force_barrier = False
+                new_mu = max(mu_floor, min(s.mu_linear_decrease_factor * mu,
+                                           mu ** s.mu_superlinear_decrease_power))
+                if new_mu >= mu:
+                    break
+                mu = new_mu
+                tau = max(s.tau_min, 1.0 - mu)
+                line_filter.reset()
+                m = self._measures(w, y, z_lower, z_upper, e, mu)
+            # the Newton step
+            t = time.perf_counter()
+            with np.errstate(all="ignore"):
+                hessian = self.reduced.hessian(e.x_full, y, 1.0)
+            self.timings["hessian"] += time.perf_counter() - t
+            if not np.all(np.isfinite(hessian)):
+                return self._result(-13, w, y, z_lower, z_upper, e)
+            gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
+            sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
+            gradient_w = np.zeros(B.size)
+            gradient_w[:n] = e.gradient
+            barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
+            residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
+            t = time.perf_counter()
+            step = self.stepper.compute(hessian, e.jacobian, sigma, residual_w, m["c"], mu)
+            self.timings["factor_solve"] += time.perf_counter() - t
+            if step is None:
+                return self._result(-3, w, y, z_lower, z_upper, e)
+            dw, dy = step.primal, step.rows
+            lo, up = B.lower_index, B.upper_index
+            dz_lower = (mu - z_lower * gap_lower - z_lower * dw[lo]) / gap_lower
+            dz_upper = (mu - z_upper * gap_upper + z_upper * dw[up]) / gap_upper
+            alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
+                            fraction_to_boundary(gap_upper, -dw[up], tau))
+            alpha_z = min(fraction_to_boundary(z_lower, dz_lower, tau),
+                          fraction_to_boundary(z_upper, dz_upper, tau))
+            # the line search
+            t = time.perf_counter()
+            theta = float(np.sum(np.abs(m["c"])))
+            phi = B.barrier(e.objective, gap_lower, gap_upper, mu)
+            slope = float(barrier_gradient @ dw)
+            tiny = (np.max(np.abs(dw) / (1.0 + np.abs(w)), initial=0.0)
+                    < 10 * np.finfo(float).eps
+                    and np.max(np.abs(dy) / (1.0 + np.abs(y)), initial=0.0) < 1e-2)
+            if tiny:
+                found = self._trial(w + alpha_max * dw, mu)
+                accepted = found is not None
+                if accepted:
+                    found = (found, alpha_max, dy, True, 1)
+                force_barrier = True
+            else:
+                found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
+                                          line_filter, residual_w, m["c"])
+            self.timings["line_search"] += time.perf_counter() - t
+            if found is None:
+                if self._converged(m, acceptable=True):
+                    return self._result(1, w, y, z_lower, z_upper, e)
+                if self._stationary_violation(w, e, m):
+                    return self._result(2, w, y, z_lower, z_upper, e)
+                return self._result(-2, w, y, z_lower, z_upper, e)
+            (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
+            if not f_type and not tiny:
+                line_filter.add(theta, phi)
+            # the new iterate
+            w = w_trial
+            y = y + alpha * dy_used
+            z_lower = z_lower + alpha_z * dz_lower
+            z_upper = z_upper + alpha_z * dz_upper
+            e = trial
+            if not self._derivatives(e):
+                self.iteration += 1
+                return self._result(-13, w, y, z_lower, z_upper, e)
+            gap_lower, gap_upper = B.gaps(w)
+            z_lower = np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower)
+            z_upper = np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper)
+            self.iteration += 1
+            m = self._measures(w, y, z_lower, z_upper, e, mu)
+            row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                       step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
+                       trials=trials, kind="f" if f_type else "h")
+
+    def _trial(self, w_trial, mu):
+        """``(evaluation, w, theta, phi)`` at a trial point, or ``None`` when
+        a value is not finite."""
+        e = self._evaluate(w_trial[:self.n])
+        if not e.finite():
+            return None
+        gap_lower, gap_upper = self.bounds.gaps(w_trial)
+        theta = float(np.sum(np.abs(self._row_residuals(e.rows, w_trial))))
+        phi = self.bounds.barrier(e.objective, gap_lower, gap_upper, mu)
+        return e, w_trial, theta, phi
+
+    def _line_search(self, w, dw, step, alpha_max, theta, phi, slope, mu, tau, line_filter,
+                     residual_w, c):
+        """Backtracking from ``alpha_max`` (halving), a second-order correction
+        after a first trial that raised the violation:
+        ``(trial, alpha, dy, f_type, trials)`` or ``None``."""
+        s = self.s
+        alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
+        alpha = alpha_max
+        trials = 0
+        while alpha >= alpha_min:
+            trials += 1
+            trial = self._trial(w + alpha * dw, mu)
+            if trial is not None:
+                accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, trial[2],
+                                                       trial[3])
+                if accepted:
+                    return trial, alpha, step.rows, f_type, trials
+                if trials == 1 and trial[2] >= theta and s.max_soc:
+                    corrected = self._second_order(w, alpha, trial, theta, phi, slope, mu,
+                                                   tau, line_filter, residual_w, c)
+                    if corrected is not None:
+                        return corrected + (trials,)
+            alpha /= 2
+        return None
+
+    def _second_order(self, w, alpha, trial, theta, phi, slope, mu, tau, line_filter,
+                      residual_w, c):
+        """Second-order corrections of a rejected full step (up to
+        ``max_soc``, while each cuts the violation by ``kappa_soc``)."""
+        s, B = self.s, self.bounds
+        c_soc = alpha * c + self._row_residuals(trial[0].rows, trial[1])
+        theta_old = trial[2]
+        gap_lower, gap_upper = B.gaps(w)
+        lo, up = B.lower_index, B.upper_index
+        for _ in range(int(s.max_soc)):
+            t = time.perf_counter()
+            corrected = self.stepper.solve(residual_w, c_soc)
+            self.timings["factor_solve"] += time.perf_counter() - t
+            if corrected is None:
+                return None
+            dw = corrected.primal
+            alpha_soc = min(fraction_to_boundary(gap_lower, dw[lo], tau),
+                            fraction_to_boundary(gap_upper, -dw[up], tau))
+            soc_trial = self._trial(w + alpha_soc * dw, mu)
+            if soc_trial is None:
+                return None
+            accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, soc_trial[2],
+                                                   soc_trial[3])
+            if accepted:
+                return soc_trial, alpha_soc, corrected.rows, f_type
+            if soc_trial[2] > s.kappa_soc * theta_old:
+                return None
+            theta_old = soc_trial[2]
+            c_soc = alpha_soc * c_soc + self._row_residuals(soc_trial[0].rows, soc_trial[1])
+        return None
+
+
+def _print_header():
+    print("iter    objective    inf_pr   inf_du lg(mu)  ||d||  lg(rg) alpha_du alpha_pr  ls",
+          file=sys.stdout)
+
+
+def _print_row(iteration, objective, m, mu, row):
+    """IPOPT's columns: inf_pr the unscaled violation, inf_du the scaled
+    dual infeasibility."""
+    rg = f"{np.log10(row['delta_w']):6.1f}" if row["delta_w"] > 0 else "     -"
+    print(f"{iteration:4d} {objective:14.7e} {m['unscaled'][1]:8.2e} {m['dual_inf']:8.2e} "
+          f"{np.log10(mu):5.1f} {row['step']:8.2e} {rg} {row['alpha_dual']:8.2e} "
+          f"{row['alpha_primal']:8.2e}{row['kind']} {row['trials']:2d}", file=sys.stdout,
+          flush=True)

@@ -1,0 +1,184 @@
+r"""The primal-dual Newton step, its linear system regularized until its
+inertia is right (Waechter & Biegler 2006, section 3.1).
+
+Unknowns :math:`(\Delta x, \Delta s, \Delta y)`; the slacks' rows
+:math:`(\Sigma_s + \delta_w)\,\Delta s - \Delta y_I = -r_s` are eliminated,
+which leaves, with :math:`D_c = \delta_c` on the equality rows and
+:math:`(\Sigma_s + \delta_w)^{-1} + \delta_c` on the inequality rows,
+
+.. math::
+
+    \begin{bmatrix} W + \Sigma_x + \delta_w I & J^T \\ J & -D_c \end{bmatrix}
+    \begin{bmatrix} \Delta x \\ \Delta y \end{bmatrix} =
+    -\begin{bmatrix} r_x \\ c - [0;\ (\Sigma_s + \delta_w)^{-1} r_s] \end{bmatrix}
+
+(:math:`r = \nabla\varphi_\mu + (J^T y, -y_I)`, :math:`c` the rows'
+residuals :math:`g_E - g_L` and :math:`g_I - s`).  The matrix must have n
+positive and m negative eigenvalues; else :math:`\delta_c = \bar\delta_c
+\mu^{\kappa_c}` when it is singular, and :math:`\delta_w` grows from its
+last value (IPOPT's rules).  When the first :data:`DEGENERATE_ITERATIONS`
+iterations all found K singular (and, for the Hessian, still singular with
+:math:`\delta_c`), every later first factorization starts with
+:math:`\delta_c` (and :math:`\kappa_w^- \delta_w^{last}`) instead of zero;
+one iteration without settles the question the other way (IPOPT's
+``degen_iters_max``; wrong inertia without a zero eigenvalue is negative
+curvature, not degeneracy).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["NewtonStep", "StepSolver", "DEGENERATE_ITERATIONS"]
+
+#: after this many consecutive iterations that needed a regularization, the
+#: first factorization of an iteration starts with it (IPOPT's degen_iters_max)
+DEGENERATE_ITERATIONS = 3
+
+
+@dataclass(frozen=True)
+class NewtonStep:
+    """A search direction.
+
+    Attributes
+    ----------
+    primal : ndarray, shape (n + n_slacks,)
+        :math:`\\Delta w = (\\Delta x, \\Delta s)`.
+    rows : ndarray, shape (m,)
+        :math:`\\Delta y`.
+    delta_w, delta_c : float
+        The regularization it took.
+    """
+
+    primal: np.ndarray
+    rows: np.ndarray
+    delta_w: float
+    delta_c: float
+
+
+class StepSolver:
+    """Newton steps through a KKT factorization (``kkt``: the interface of
+    :mod:`._kkt_dense`), remembering the last Hessian regularization."""
+
+    def __init__(self, kkt, n, m, inequality, settings):
+        self.kkt, self.n, self.m = kkt, n, m
+        self.inequality = inequality
+        self.settings = settings
+        self.last_delta_w = 0.0
+        #: whether every step takes delta_w > 0 / delta_c > 0 at once
+        #: (None: not decided yet, see _degenerate)
+        self.hessian_degenerate = self.jacobian_degenerate = None
+        self._counts = {"regularized": 0, "singular": 0}
+        self.factorizations = 0
+        self._state = None
+
+    def _factor(self, hessian_values, jacobian_values, sigma, delta_w, delta_c):
+        n = self.n
+        slack_diagonal = sigma[n:] + delta_w
+        diagonal_c = np.full(self.m, delta_c)
+        diagonal_c[self.inequality] += 1.0 / slack_diagonal
+        self.factorizations += 1
+        inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
+                                  diagonal_c)
+        self._state = (slack_diagonal, delta_w, delta_c)
+        return tuple(int(v) for v in inertia)
+
+    def compute(self, hessian_values, jacobian_values, sigma, residual_w, residual_c, mu):
+        """The regularized Newton step, or ``None`` when no regularization up
+        to ``max_hessian_perturbation`` gave the right inertia.
+
+        Parameters
+        ----------
+        sigma : ndarray, shape (n + n_slacks,)
+            :math:`\\Sigma` of the bounds.
+        residual_w : ndarray, shape (n + n_slacks,)
+            :math:`\\nabla\\varphi_\\mu + (J^T y, -y_I)`.
+        residual_c : ndarray, shape (m,)
+            The rows' residuals.
+        """
+        s = self.settings
+        right = (self.n, self.m, 0)
+        jacobian_delta = s.jacobian_regularization_value * mu ** s.jacobian_regularization_exponent
+        delta_c = jacobian_delta if self.jacobian_degenerate else 0.0
+        delta_w = 0.0
+        if self.hessian_degenerate and self.last_delta_w > 0:
+            delta_w = max(s.min_hessian_perturbation, s.perturb_dec_fact * self.last_delta_w)
+        inertia = self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c)
+        step = self.solve(residual_w, residual_c) if inertia == right else None
+        # singular even with delta_c: evidence that the Hessian is degenerate
+        still_singular = False
+        if delta_c == 0.0:
+            singular = step is None and (inertia[2] > 0 or inertia == right)
+            self.jacobian_degenerate = self._degenerate("singular", singular,
+                                                        self.jacobian_degenerate)
+            if singular:
+                delta_c = jacobian_delta
+                inertia = self._factor(hessian_values, jacobian_values, sigma, delta_w, delta_c)
+                if inertia == right:
+                    step = self.solve(residual_w, residual_c)
+                still_singular = step is None and inertia[2] > 0
+        if self.hessian_degenerate is None and delta_w == 0.0:
+            # only a matrix singular without delta_w counts; wrong inertia
+            # (negative curvature) decides "not degenerate", as in IPOPT
+            self.hessian_degenerate = self._degenerate("regularized", still_singular, None)
+        if step is None:
+            if delta_w == 0.0:
+                delta_w = (s.first_hessian_perturbation if self.last_delta_w == 0.0 else
+                           max(s.min_hessian_perturbation,
+                               s.perturb_dec_fact * self.last_delta_w))
+            else:
+                delta_w *= s.perturb_inc_fact
+            while step is None and delta_w <= s.max_hessian_perturbation:
+                if self._factor(hessian_values, jacobian_values, sigma, delta_w,
+                                delta_c) == right:
+                    step = self.solve(residual_w, residual_c)
+                if step is None:
+                    delta_w *= (s.perturb_inc_fact_first if self.last_delta_w == 0.0
+                                else s.perturb_inc_fact)
+            if step is None:
+                return None
+        if step.delta_w > 0:
+            self.last_delta_w = step.delta_w
+        return step
+
+    def _degenerate(self, kind, happened, decided):
+        """IPOPT's rule: ``None`` (undecided) until the first iteration
+        without the regularization (``False`` from then on) or the
+        :data:`DEGENERATE_ITERATIONS`-th with it (``True``)."""
+        if decided is not None:
+            return decided
+        if not happened:
+            return False
+        self._counts[kind] += 1
+        return True if self._counts[kind] >= DEGENERATE_ITERATIONS else None
+
+    def solve(self, residual_w, residual_c):
+        """The step with the last factorization for these residuals (also the
+        second-order correction's), refined iteratively; ``None`` if not finite."""
+        n = self.n
+        slack_diagonal, delta_w, delta_c = self._state
+        residual_s = residual_w[n:]
+        rhs = np.empty(n + self.m)
+        rhs[:n] = -residual_w[:n]
+        rhs[n:] = -residual_c
+        rhs[n:][self.inequality] -= residual_s / slack_diagonal
+        if not np.all(np.isfinite(rhs)):
+            return None
+        solution = self.kkt.solve(rhs)
+        if self.settings.max_refinement_steps:
+            scale = max(1.0, float(np.max(np.abs(rhs), initial=0.0)))
+            for _ in range(int(self.settings.max_refinement_steps)):
+                if not np.all(np.isfinite(solution)):
+                    break
+                error = rhs - self.kkt.matvec(solution)
+                if not np.max(np.abs(error), initial=0.0) > self.settings.residual_ratio_max \
+                        * scale:
+                    break
+                solution = solution + self.kkt.solve(error)
+        if not np.all(np.isfinite(solution)):
+            return None
+        dx, dy = solution[:n], solution[n:]
+        ds = (dy[self.inequality] - residual_s) / slack_diagonal
+        return NewtonStep(np.concatenate([dx, ds]), dy, delta_w, delta_c)

@@ -1,0 +1,558 @@
+"""kanedyn's interior-point NLP solver (``solver="interior-point"``), checked
+against what shares none of its code:
+
+- small NLPs written here as tiny objects of the solver interface: an
+  equality-constrained QP against its KKT system solved by NumPy,
+  Hock-Schittkowski 71 against its published optimum, a problem with
+  inequality rows and an active bound against its closed form, infeasible
+  constraints, a stop request, a non-finite value, the options' refusals;
+- ``DenseKKT``'s inertia and solves against NumPy's eigenvalues and solve;
+- kanedyn's optimal control problems against IPOPT's optimum of the same
+  NLP (the exact Hessian for both): the pendulum and cart-pole swing-ups
+  (trapezoid, Hermite-Simpson), a least-time problem, a free parameter at its
+  bound, an epigraph with path constraints (closed form 4); a two-phase
+  problem against its closed form; a warm start from IPOPT's multipliers.
+
+The optimal control comparisons need cyipopt (IPOPT); without it they are
+skipped, saying so.
+"""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import sympy as sm
+
+import kanedyn as kd
+from kanedyn.optimization._solvers import SOLVERS
+from kanedyn.optimization.interior_point import DenseKKT, InteriorPoint
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+
+DENSE = {"linear_solver": "dense"}
+NO_BOUND = 2e19
+
+
+def _ipopt_or_skip():
+    pytest.importorskip("cyipopt", reason="the comparison with IPOPT needs cyipopt "
+                        "(pip install 'kanedyn[optimal]', part of the test extra)")
+
+
+class _NLP:
+    """An NLP of the solver interface from plain functions; the Hessian's
+    lower triangle dense."""
+
+    exact_hessian = True
+
+    def __init__(self, n, m, f, grad, g, jac, hess, x_lower=None, x_upper=None,
+                 g_lower=(), g_upper=()):
+        self.n, self.m = n, m
+        self.x_lower = np.full(n, -NO_BOUND) if x_lower is None else np.asarray(x_lower, float)
+        self.x_upper = np.full(n, NO_BOUND) if x_upper is None else np.asarray(x_upper, float)
+        self.g_lower, self.g_upper = np.asarray(g_lower, float), np.asarray(g_upper, float)
+        self._f, self._grad, self._g, self._jac, self._hess = f, grad, g, jac, hess
+        self.calls = 0
+
+    def objective(self, x):
+        self.calls += 1
+        return self._f(x)
+
+    def gradient(self, x):
+        return np.asarray(self._grad(x), float)
+
+    def constraints(self, x):
+        return np.asarray(self._g(x), float)
+
+    def jacobian_structure(self):
+        return np.repeat(np.arange(self.m), self.n), np.tile(np.arange(self.n), self.m)
+
+    def jacobian(self, x):
+        return np.asarray(self._jac(x), float).ravel()
+
+    def hessian_structure(self):
+        return np.tril_indices(self.n)
+
+    def hessian(self, x, multipliers, objective_factor):
+        return np.asarray(self._hess(x, multipliers, objective_factor), float)[
+            np.tril_indices(self.n)]
+
+
+def _solve(nlp, x0, options=None, **keywords):
+    return InteriorPoint().solve(nlp, np.asarray(x0, float), dict(DENSE, **(options or {})),
+                                 **keywords)
+
+
+# ------------------------------------------------------------ small NLPs
+def _equality_qp(seed=0, n=6, m=2):
+    rng = np.random.default_rng(seed)
+    A = rng.normal(size=(n, n))
+    Q = A @ A.T + n * np.eye(n)
+    c = rng.normal(size=n)
+    B = rng.normal(size=(m, n))
+    b = rng.normal(size=m)
+    nlp = _NLP(n, m, lambda x: 0.5 * x @ Q @ x + c @ x, lambda x: Q @ x + c,
+               lambda x: B @ x, lambda x: B, lambda x, y, s: s * Q, g_lower=b, g_upper=b)
+    return nlp, Q, c, B, b
+
+
+def test_equality_qp_closed_form():
+    """min x'Qx/2 + c'x subject to Bx = b: the KKT system [[Q, B'], [B, 0]]
+    solved by NumPy gives x and IPOPT's multipliers (Qx + c + B'y = 0)."""
+    nlp, Q, c, B, b = _equality_qp()
+    n, m = B.shape[1], B.shape[0]
+    exact = np.linalg.solve(np.block([[Q, B.T], [B, np.zeros((m, m))]]), np.r_[-c, b])
+    found = _solve(nlp, np.zeros(n))
+    assert found.status == 0 and found.status_text == "solved"
+    assert np.max(np.abs(found.x - exact[:n])) < 1e-9
+    assert np.max(np.abs(found.multipliers["g"] - exact[n:])) < 1e-8
+    assert found.iterations <= 3  # a QP without bounds: Newton's step is exact
+    assert found.solver == "interior-point" and found.wall_time > 0
+
+
+def _hs71():
+    def hessian(x, y, s):
+        H = s * np.array([[2 * x[3], x[3], x[3], 2 * x[0] + x[1] + x[2]],
+                          [x[3], 0, 0, x[0]], [x[3], 0, 0, x[0]],
+                          [2 * x[0] + x[1] + x[2], x[0], x[0], 0]])
+        p = np.prod(x)
+        H = H + y[0] * np.array([[0 if i == j else p / (x[i] * x[j]) for j in range(4)]
+                                 for i in range(4)])
+        return H + 2 * y[1] * np.eye(4)
+    return _NLP(
+        4, 2, lambda x: x[0] * x[3] * np.sum(x[:3]) + x[2],
+        lambda x: [x[3] * (2 * x[0] + x[1] + x[2]), x[0] * x[3], x[0] * x[3] + 1,
+                   x[0] * np.sum(x[:3])],
+        lambda x: [np.prod(x), x @ x], lambda x: np.vstack([np.prod(x) / x, 2 * x]), hessian,
+        x_lower=np.ones(4), x_upper=np.full(4, 5.0), g_lower=[25.0, 40.0],
+        g_upper=[NO_BOUND, 40.0])
+
+
+#: Hock & Schittkowski (1981), problem 71: the published optimum
+HS71_OBJECTIVE = 17.0140173
+HS71_X = np.array([1.0, 4.7429994, 3.8211503, 1.3794082])
+
+
+def test_hock_schittkowski_71_published_optimum():
+    """HS71 from (1, 5, 5, 1): the published f* = 17.0140173 and x*; the
+    product row active (its multiplier negative in IPOPT's convention), x_1
+    at its lower bound (its multiplier positive).  With the bounds relaxed
+    by 1e-8 (IPOPT's default ``bound_relax_factor``) x_1 sits 1e-8 below 1
+    and the objective (df/dx_1 = 14) 1.5e-7 below f*; without, within the
+    published digits."""
+    exact = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0], {"bound_relax_factor": 0.0})
+    assert exact.status == 0, exact.status_text
+    assert abs(exact.objective - HS71_OBJECTIVE) < 1e-7
+    found = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0])
+    assert found.status == 0, found.status_text
+    assert abs(found.objective - HS71_OBJECTIVE) < 3e-7
+    assert np.max(np.abs(found.x - HS71_X)) < 1e-6
+    assert found.multipliers["g"][0] < 0 < found.multipliers["x_lower"][0]
+    assert np.all(found.multipliers["x_upper"] < 1e-6)
+
+
+def test_hock_schittkowski_71_same_as_ipopt():
+    """The same optimum and multipliers as IPOPT's, in as many iterations
+    (the same algorithm: the counts are IPOPT's)."""
+    cyipopt = pytest.importorskip("cyipopt")
+    nlp = _hs71()
+
+    class Callbacks:
+        objective, gradient = staticmethod(nlp.objective), staticmethod(nlp.gradient)
+        constraints, jacobian = staticmethod(nlp.constraints), staticmethod(nlp.jacobian)
+        hessian = staticmethod(nlp.hessian)
+
+        def jacobianstructure(self):
+            return nlp.jacobian_structure()
+
+        def hessianstructure(self):
+            return nlp.hessian_structure()
+
+    problem = cyipopt.Problem(n=4, m=2, problem_obj=Callbacks(), lb=nlp.x_lower,
+                              ub=nlp.x_upper, cl=nlp.g_lower, cu=nlp.g_upper)
+    problem.add_option("print_level", 0)
+    problem.add_option("sb", "yes")
+    x, info = problem.solve(np.array([1.0, 5.0, 5.0, 1.0]))
+    found = _solve(nlp, [1.0, 5.0, 5.0, 1.0])
+    assert np.max(np.abs(found.x - x)) < 1e-8
+    assert np.max(np.abs(found.multipliers["g"] - info["mult_g"])) < 1e-7
+    assert np.max(np.abs(found.multipliers["x_lower"] - info["mult_x_L"])) < 1e-7
+    assert found.iterations == 8  # IPOPT 3.14's count on HS71
+
+
+def test_inequality_rows_and_an_active_bound_closed_form():
+    """min (x1-3)^2 + (x2-2)^2 + (x3+1)^2 with x1 + x2 + x3 <= 2 (an
+    inequality row), 0.5 <= x1 - x2 <= 10 (inactive), x3 >= 0 (active): x =
+    (1.5, 0.5, 0), the row's multiplier 3, x3's bound multiplier 5, the
+    objective 5.5 (1e-7 below with the bounds relaxed by 1e-8, IPOPT's
+    default ``bound_relax_factor``)."""
+    target = np.array([3.0, 2.0, -1.0])
+    J = np.array([[1.0, 1.0, 1.0], [1.0, -1.0, 0.0]])
+    nlp = _NLP(3, 2, lambda x: np.sum((x - target) ** 2), lambda x: 2 * (x - target),
+               lambda x: J @ x, lambda x: J, lambda x, y, s: 2 * s * np.eye(3),
+               x_lower=[-NO_BOUND, -NO_BOUND, 0.0], g_lower=[-NO_BOUND, 0.5],
+               g_upper=[2.0, 10.0])
+    found = _solve(nlp, [0.0, 0.0, 0.0])
+    assert found.status == 0, found.status_text
+    assert np.max(np.abs(found.x - [1.5, 0.5, 0.0])) < 1e-7
+    assert abs(found.multipliers["g"][0] - 3.0) < 1e-6
+    assert abs(found.multipliers["g"][1]) < 1e-7
+    assert abs(found.multipliers["x_lower"][2] - 5.0) < 1e-6
+    assert abs(found.objective - 5.5) < 2e-7
+
+
+def test_fixed_variable_and_its_multiplier():
+    """A variable with equal bounds leaves the problem: min x1^2 + x2^2 with
+    x2 = 1 fixed by its bounds and x1 + x2 >= 0: x = (0, 1), the fixed
+    variable's multiplier the objective's gradient there (2, on its lower
+    bound in IPOPT's convention)."""
+    nlp = _NLP(2, 1, lambda x: x @ x, lambda x: 2 * x, lambda x: [x[0] + x[1]],
+               lambda x: [[1.0, 1.0]], lambda x, y, s: 2 * s * np.eye(2),
+               x_lower=[-NO_BOUND, 1.0], x_upper=[NO_BOUND, 1.0], g_lower=[0.0],
+               g_upper=[NO_BOUND])
+    found = _solve(nlp, [3.0, 0.0])
+    assert found.status == 0
+    assert found.x[1] == 1.0 and abs(found.x[0]) < 1e-7
+    assert abs(found.multipliers["x_lower"][1] - 2.0) < 1e-6
+
+
+def test_infeasible_constraints_are_reported():
+    """x1 + x2 = 1 and x1 + x2 = 2 together: status 2 (infeasible), not a
+    solution."""
+    J = np.array([[1.0, 1.0], [1.0, 1.0]])
+    nlp = _NLP(2, 2, lambda x: x @ x, lambda x: 2 * x, lambda x: J @ x, lambda x: J,
+               lambda x, y, s: 2 * s * np.eye(2), g_lower=[1.0, 2.0], g_upper=[1.0, 2.0])
+    found = _solve(nlp, [0.0, 0.0])
+    assert found.status == 2, (found.status, found.status_text)
+    assert "infeasible" in found.status_text
+    # bounds that forbid the row: x <= 1 with x1 + x2 >= 3
+    bounded = _NLP(2, 1, lambda x: x @ x, lambda x: 2 * x, lambda x: [x[0] + x[1]],
+                   lambda x: [[1.0, 1.0]], lambda x, y, s: 2 * s * np.eye(2),
+                   x_upper=[1.0, 1.0], g_lower=[3.0], g_upper=[NO_BOUND])
+    found = _solve(bounded, [0.0, 0.0])
+    assert found.status == 2, (found.status, found.status_text)
+
+
+def test_stop_request_returns_the_current_iterate():
+    """``stop()`` answering True at its fourth question: status 5 after
+    three iterations, the iterate those three reach (as with max_iter=3)."""
+    asked = []
+
+    def stop():
+        asked.append(1)
+        return len(asked) >= 4
+    stopped = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0], stop=stop)
+    assert stopped.status == 5 and stopped.status_text == "stopped on request"
+    assert stopped.iterations == 3
+    limited = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0], {"max_iter": 3})
+    assert limited.status == -1 and "maximum number of iterations" in limited.status_text
+    assert np.array_equal(stopped.x, limited.x)
+    assert not np.allclose(stopped.x, [1.0, 5.0, 5.0, 1.0])
+
+
+def test_non_finite_values_are_status_minus_13():
+    """nan from the objective at the start, or from the Hessian later: -13."""
+    nlp, *_ = _equality_qp()
+    bad = _NLP(nlp.n, nlp.m, lambda x: np.nan, nlp.gradient, nlp.constraints,
+               lambda x: nlp.jacobian(x).reshape(nlp.m, nlp.n), lambda x, y, s: np.eye(nlp.n),
+               g_lower=nlp.g_lower, g_upper=nlp.g_upper)
+    found = _solve(bad, np.zeros(nlp.n))
+    assert found.status == -13 and "invalid number" in found.status_text
+    hs = _hs71()
+    hs._hess = lambda x, y, s: np.full((4, 4), np.inf)
+    found = _solve(hs, [1.0, 5.0, 5.0, 1.0])
+    assert found.status == -13
+
+
+def test_options_and_hessian_refused_with_their_names():
+    nlp, *_ = _equality_qp()
+    with pytest.raises(kd.OptionError, match="'tolerance'.*known:.*acceptable_tol"):
+        _solve(nlp, np.zeros(nlp.n), {"tolerance": 1e-6})
+    with pytest.raises(ValueError, match="linear_solver='mumps'"):
+        _solve(nlp, np.zeros(nlp.n), {"linear_solver": "mumps"})
+    with pytest.raises(ValueError, match="hessian_approximation"):
+        _solve(nlp, np.zeros(nlp.n), {"hessian_approximation": "limited-memory"})
+    with pytest.raises(ValueError, match="max_iter"):
+        _solve(nlp, np.zeros(nlp.n), {"max_iter": 2.5})
+    nlp.exact_hessian = None
+    with pytest.raises(kd.ModelError, match='hessian="exact"'):
+        _solve(nlp, np.zeros(nlp.n))
+
+
+def test_print_level_prints_a_line_per_iteration(capsys):
+    found = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0], {"print_level": 1})
+    lines = capsys.readouterr().out.strip().splitlines()
+    assert lines[0].split()[:3] == ["iter", "objective", "inf_pr"]
+    assert len(lines) == found.iterations + 2  # header, iterate 0 ... last
+    assert float(lines[-1].split()[1]) == pytest.approx(HS71_OBJECTIVE, rel=1e-7)
+
+
+def test_warm_start_from_its_own_multipliers():
+    """From HS71's optimum and its multipliers (IPOPT's convention, as a
+    solve returns them) the warm start converges at once to the same point."""
+    cold = _solve(_hs71(), [1.0, 5.0, 5.0, 1.0])
+    warm = _solve(_hs71(), cold.x, {"mu_init": 1e-9}, warm=cold.multipliers)
+    assert warm.status == 0
+    assert warm.iterations < cold.iterations / 2
+    assert np.max(np.abs(warm.x - cold.x)) < 1e-7
+
+
+# ------------------------------------------------------------- DenseKKT
+@pytest.mark.parametrize("seed", range(6))
+def test_dense_kkt_inertia_and_solve_against_numpy(seed):
+    """Random KKT matrices (repeated entries summed, some rows of J
+    repeated to make K singular): the inertia from NumPy's eigenvalues,
+    the solve from NumPy's, ``matvec`` the product."""
+    rng = np.random.default_rng(seed)
+    n, m = 8, 4
+    H = rng.normal(size=(n, n))
+    H = H + H.T
+    J = rng.normal(size=(m, n))
+    singular = seed % 2 == 1
+    if singular:
+        J[-1] = J[0]
+    hr, hc = np.tril_indices(n)
+    h_values = H[hr, hc]
+    hr, hc = np.r_[hr, 3], np.r_[hc, 1]  # a repeated entry
+    h_values = np.r_[h_values - np.where((np.tril_indices(n)[0] == 3)
+                                         & (np.tril_indices(n)[1] == 1), 0.25, 0.0), 0.25]
+    jr, jc = np.nonzero(np.ones((m, n)))
+    dx = rng.uniform(0.0, 2.0, n)
+    dc = np.zeros(m) if singular else rng.uniform(0.0, 0.1, m)
+    K = np.block([[H + np.diag(dx), J.T], [J, -np.diag(dc)]])
+    kkt = DenseKKT(n, m, (hr, hc), (jr, jc))
+    inertia = kkt.factor(h_values, J[jr, jc], dx, dc)
+    eigenvalues = np.linalg.eigvalsh(K)
+    scale = 1e-10 * np.max(np.abs(eigenvalues))
+    expected = (int(np.sum(eigenvalues > scale)), int(np.sum(eigenvalues < -scale)),
+                int(np.sum(np.abs(eigenvalues) <= scale)))
+    assert inertia == expected
+    b = rng.normal(size=n + m)
+    assert np.allclose(kkt.matvec(b), K @ b, rtol=1e-13, atol=1e-13)
+    if not singular:
+        assert np.allclose(kkt.solve(b), np.linalg.solve(K, b), rtol=1e-9, atol=1e-9)
+
+
+def test_dense_kkt_refuses_a_bad_structure():
+    with pytest.raises(ValueError, match="hessian_structure.*above the diagonal"):
+        DenseKKT(3, 1, ([0], [2]), ([0], [0]))
+    with pytest.raises(ValueError, match="jacobian_structure.*outside the 1 x 3"):
+        DenseKKT(3, 1, ([0], [0]), ([1], [0]))
+
+
+# ------------------------------------------------- optimal control problems
+def _same_optimum(problem, guess, objective_tolerance=1e-6, x_tolerance=1e-5, **options):
+    """The problem solved by both solvers (the exact Hessian, tol 1e-10;
+    ours with DenseKKT unless ``options`` say otherwise): ``(ours, IPOPT's)``,
+    their optima compared."""
+    _ipopt_or_skip()
+    tight = {"tol": 1e-10, "max_iter": 500}
+    ours = problem.solve(guess, solver="interior-point", hessian="exact",
+                         options=dict(tight, **dict(DENSE, **options)))
+    theirs = problem.solve(guess, solver="ipopt", hessian="exact", options=tight)
+    assert theirs.success, theirs.message
+    assert ours.success, ours.message
+    assert ours.solver == "interior-point"
+    assert abs(ours.objective - theirs.objective) <= objective_tolerance * max(
+        1.0, abs(theirs.objective))
+    assert np.max(np.abs(ours.x - theirs.x)) < x_tolerance
+    return ours, theirs
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_pendulum_swing_up_ipopts_optimum(method):
+    """opty's gallery swing-up (10 s, |torque| <= 2) at 50 nodes from a
+    straight line: IPOPT's optimum."""
+    import _ocp_peers as peers
+    problem, _ = peers.pendulum_kanedyn(50, method, backend="numpy")
+    _same_optimum(problem, problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1}))
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_cart_pole_swing_up_ipopts_optimum(method):
+    """The cart-pole swing-up (|F| <= 20 N, |x| <= 1.5 m) at 40 nodes."""
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(40, method, backend="numpy")
+    _same_optimum(problem, problem.guess_line(inputs={problem.symbols.inputs[0]: 0.0}))
+
+
+def _double_integrator(mass=1.0):
+    """``(model, (x, v, F, m))``: a particle on a line pushed by F
+    (``tests/test_optimal_control.py``'s)."""
+    _ipopt_or_skip()  # that module needs cyipopt
+    from test_optimal_control import _double_integrator as particle
+    return particle(mass=mass)
+
+
+def test_least_time_free_duration():
+    """|F| <= 1 from rest to rest over 1 m in the least time (bang-bang,
+    T = 2 in the limit), trapezoid, 41 nodes: IPOPT's optimum, within 0.02
+    of 2."""
+    model, (x, v, F, _) = _double_integrator()
+    T = sm.Symbol("T")
+    problem = kd.OptimalControlProblem(
+        model, nodes=41, duration=T, mayer=T, bounds={F: (-1, 1), T: (0.5, 5)},
+        initial={x: 0, v: 0}, final={x: 1, v: 0}, method="trapezoid")
+    ours, _ = _same_optimum(problem, problem.guess_line(inputs={F: 0.0}, duration=3.0))
+    assert abs(ours.duration - 2.0) < 0.02
+
+
+def test_free_parameter_at_its_bound_and_a_path_constraint():
+    """The mass free in [0.5, 2] (least effort drives it to 0.5) and an
+    auxiliary peak s with -s <= F <= s (two path constraints) weighted in
+    the objective, Hermite-Simpson, 21 nodes: IPOPT's optimum, the mass at
+    its bound."""
+    model, (x, v, F, m) = _double_integrator(mass=1.3)
+    s = sm.Symbol("s")
+    problem = kd.OptimalControlProblem(
+        model, nodes=21, duration=1.0, lagrange=F ** 2, mayer=s, parameters=[m],
+        auxiliary={s: 10.0}, bounds={m: (0.5, 2.0), s: (0, None)},
+        path_constraints=[(F - s, None, 0), (F + s, 0, None)],
+        initial={x: 0, v: 0}, final={x: 1, v: 0}, method="hermite-simpson")
+    ours, _ = _same_optimum(problem, problem.guess_line(inputs={F: 0.0}))
+    assert abs(ours.parameters["m"] - 0.5) < 1e-7
+
+
+def test_epigraph_least_peak_force_closed_form():
+    """The least peak |F| of the unit rest-to-rest move in 1 s is 4
+    (bang-bang); Hermite-Simpson on 21 nodes finds it (the switch is a node)."""
+    model, (x, v, F, _) = _double_integrator()
+    s = sm.Symbol("s")
+    problem = kd.OptimalControlProblem(
+        model, nodes=21, duration=1.0, mayer=s, auxiliary={s: 10.0}, bounds={s: (0, None)},
+        path_constraints=[(F - s, None, 0), (F + s, 0, None)],
+        initial={x: 0, v: 0}, final={x: 1, v: 0}, method="hermite-simpson")
+    found = problem.solve(problem.guess_line(inputs={F: 0.0}), solver="interior-point",
+                          hessian="exact", options=dict(DENSE, tol=1e-10))
+    assert found.success, found.message
+    assert abs(found.parameters["s"] - 4.0) < 1e-7
+
+
+def test_multiphase_payload_released_closed_form():
+    """Two phases (``tests/test_multiphase.py``'s models): a 1 kg cart with
+    a 1 kg payload until 0.4 s, then alone, from rest at 0 to rest at 1 m in
+    1 s with the least integral of F^2, Hermite-Simpson: the closed form's
+    objective and positions (that module's ``_least_effort``)."""
+    _ipopt_or_skip()  # test_multiphase needs cyipopt
+    from test_multiphase import _cart, _least_effort
+    loaded, (x, v, F) = _cart([1.0, 1.0])
+    alone, _ = _cart([1.0])
+    first = kd.OptimalControlProblem(loaded, nodes=5, duration=0.4, lagrange=F ** 2,
+                                     initial={x: 0, v: 0}, method="hermite-simpson")
+    second = kd.OptimalControlProblem(alone, nodes=7, duration=0.6, lagrange=F ** 2,
+                                      final={x: 1, v: 0}, method="hermite-simpson")
+    result = kd.MultiphaseProblem([first, second]).solve(
+        [first.guess_line(end={x: 0.3, v: 1.0}, inputs={F: 0.0}),
+         second.guess_line(start={x: 0.3, v: 1.0}, inputs={F: 0.0})],
+        solver="interior-point", hessian="exact", options=dict(DENSE, tol=1e-12))
+    assert result.success, result.message
+    objective, position, _ = _least_effort([(0.0, 0.4, 2.0), (0.4, 1.0, 1.0)])
+    assert abs(result.objective - objective) < 1e-9 * objective
+    for phase in result.phases:
+        assert np.max(np.abs(phase["x"] - [position(s) for s in phase.t])) < 1e-9
+
+
+def test_warm_start_from_ipopts_multipliers():
+    """The cart-pole solved by IPOPT, then by the interior-point solver from
+    IPOPT's result and multipliers (``warm_start=True``): the same optimum in
+    a handful of iterations, against many from the cold guess."""
+    _ipopt_or_skip()
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(30, "trapezoid", backend="numpy")
+    guess = peers.cart_pole_guess(30)
+    theirs = problem.solve(guess, solver="ipopt", hessian="exact", options={"tol": 1e-10})
+    warm = problem.solve(theirs, solver="interior-point", hessian="exact", warm_start=True,
+                         options=dict(DENSE, tol=1e-10, mu_init=1e-9))
+    cold = problem.solve(guess, solver="interior-point", hessian="exact",
+                         options=dict(DENSE, tol=1e-10))
+    assert warm.success and cold.success, (warm.message, cold.message)
+    assert abs(warm.objective - theirs.objective) < 1e-8 * abs(theirs.objective)
+    assert warm.iterations < cold.iterations / 3
+
+
+def test_registered_and_named_in_the_result():
+    assert SOLVERS["interior-point"] is InteriorPoint
+    assert InteriorPoint.available() is None
+
+
+# ------------------------------------------------------------------ the CLI
+def test_cli_optimize_with_the_interior_point_solver(capsys):
+    """``kanedyn optimize pendulum --solver interior-point``: exit 0, IPOPT's
+    objective (``--hessian exact``) to 1e-6; with ``--hessian
+    limited-memory`` refused (exit 2), naming the options."""
+    _ipopt_or_skip()
+    from kanedyn.cli import main
+    found = {}
+    for solver in ("interior-point", "ipopt"):
+        argv = ["optimize", "pendulum", "--nodes", "51", "--solver", solver, "--hessian",
+                "exact", "--quiet", "--backend", "numpy"]
+        assert main(argv) == 0
+        text = capsys.readouterr().out
+        assert f"solved: {solver}:" in text
+        found[solver] = float(text.split("objective ")[1].split(";")[0])
+    assert found["interior-point"] == pytest.approx(found["ipopt"], rel=1e-6)
+    assert main(["optimize", "pendulum", "--solver", "interior-point", "--hessian",
+                 "limited-memory", "--quiet"]) == 2
+    assert "--solver interior-point takes the exact Hessian only" in capsys.readouterr().err
+
+
+# ------------------------------------------------------- the sparse factorization
+def _sparse_or_skip():
+    try:
+        from kanedyn.optimization.interior_point import SparseKKT  # noqa: F401
+    except ImportError as exc:
+        pytest.skip(f"SparseKKT does not import: {exc}")
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_sparse_factorization_reaches_ipopts_optimum(method):
+    """``linear_solver="sparse"`` (``SparseKKT``, the default when it
+    imports): the cart-pole's optimum of IPOPT, as with DenseKKT."""
+    _sparse_or_skip()
+    import _ocp_peers as peers
+    problem, _ = peers.cart_pole_kanedyn(40, method, backend="numpy")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.0})
+    _same_optimum(problem, guess, linear_solver="sparse")
+
+
+def test_sparse_factorization_on_the_small_nlps():
+    """HS71 and the inequality problem with ``linear_solver="sparse"``: the
+    published optimum and the closed form."""
+    _sparse_or_skip()
+    found = InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]),
+                                  {"linear_solver": "sparse"})
+    assert found.status == 0, found.status_text
+    assert np.max(np.abs(found.x - HS71_X)) < 1e-6
+    nlp, Q, c, B, b = _equality_qp()
+    n, m = B.shape[1], B.shape[0]
+    exact = np.linalg.solve(np.block([[Q, B.T], [B, np.zeros((m, m))]]), np.r_[-c, b])
+    found = InteriorPoint().solve(nlp, np.zeros(n), {"linear_solver": "sparse"})
+    assert found.status == 0 and np.max(np.abs(found.x - exact[:n])) < 1e-9
+
+
+def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
+    """``linear_solver="auto"`` takes SparseKKT when it imports, else
+    DenseKKT with a note (printed with print_level=1, the same solution);
+    ``"sparse"`` without it is refused, naming the option."""
+    from kanedyn.optimization.interior_point._solver import kkt_class
+    assert kkt_class("dense") == (DenseKKT, None)
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
+    chosen, note = kkt_class("auto")
+    assert chosen is DenseKKT and "SparseKKT does not import" in note
+    with pytest.raises(ImportError, match="linear_solver='sparse'.*linear_solver='dense'"):
+        kkt_class("sparse")
+    solver = InteriorPoint()
+    found = solver.solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]), {"print_level": 1})
+    assert "DenseKKT used" in solver.note and "DenseKKT used" in capsys.readouterr().out
+    assert found.status == 0 and np.max(np.abs(found.x - HS71_X)) < 1e-6
+
+
+def test_unbounded_objective_diverges_with_status_4():
+    """min x1 with only x2 = 1 constrained: the iterates run off (|x| above
+    diverging_iterates_tol, 1e20), status 4."""
+    nlp = _NLP(2, 1, lambda x: x[0], lambda x: [1.0, 0.0], lambda x: [x[1]],
+               lambda x: [[0.0, 1.0]], lambda x, y, s: np.zeros((2, 2)), g_lower=[1.0],
+               g_upper=[1.0])
+    found = _solve(nlp, [0.0, 0.0])
+    assert found.status == 4 and "diverged" in found.status_text
+    assert found.x[0] < -1e20 and abs(found.x[1] - 1.0) < 1e-8

@@ -1,0 +1,393 @@
+"""``SparseKKT`` (kanedyn's compiled sparse LDLᵀ of the interior-point KKT
+matrix) against dense NumPy on the same matrix: ``numpy.linalg.solve`` for the
+solutions, ``numpy.linalg.eigvalsh`` for the inertia, the dense product for
+``matvec``.  Random quasi-definite and indefinite matrices (repeated entries,
+empty rows, no constraints, dense rows and columns, singular ones), the KKT
+matrices of a pendulum swing-up's collocation NLP (trapezoid and
+Hermite-Simpson, fixed and free duration), and bad input.
+"""
+
+import numpy as np
+import pytest
+import sympy as sm
+
+import kanedyn as kd
+from kanedyn.numerics import CompilerError
+from kanedyn.optimization.interior_point import SparseKKT
+
+RTOL = 1e-10
+
+
+def _dense(n, m, hessian, jacobian, diagonal_x, diagonal_c):
+    """K as a dense array: H from its lower triangle, J, repeats summed."""
+    (hr, hc, hv), (jr, jc, jv) = hessian, jacobian
+    H = np.zeros((n, n))
+    np.add.at(H, (hr, hc), hv)
+    H = H + np.tril(H, -1).T + np.diag(diagonal_x)
+    J = np.zeros((m, n))
+    np.add.at(J, (jr, jc), jv)
+    return np.block([[H, J.T], [J, -np.diag(diagonal_c)]])
+
+
+def _eigen_inertia(K, relative=1e-9):
+    eigenvalues = np.linalg.eigvalsh(K)
+    zero = np.abs(eigenvalues) <= relative * np.abs(eigenvalues).max()
+    return (int(np.sum((eigenvalues > 0) & ~zero)), int(np.sum((eigenvalues < 0) & ~zero)),
+            int(zero.sum()))
+
+
+def _random_kkt(rng, n, m, per_row=3, repeats=True):
+    """Random structures (lower triangle of H, J) with repeated entries."""
+    a, b = rng.integers(0, n, per_row * n), rng.integers(0, n, per_row * n)
+    hr, hc = np.maximum(a, b), np.minimum(a, b)
+    jr = rng.integers(0, m, per_row * m) if m else np.zeros(0, int)
+    jc = rng.integers(0, n, jr.size)
+    if repeats:  # some entries twice, summed
+        hr, hc = np.concatenate([hr, hr[:3]]), np.concatenate([hc, hc[:3]])
+        jr, jc = np.concatenate([jr, jr[:3]]), np.concatenate([jc, jc[:3]])
+    return hr, hc, jr, jc
+
+
+def _check(kkt, n, m, hessian, jacobian, dx, dc, rng, inertia=None):
+    """Factor, then compare the inertia, two solves and matvec with NumPy."""
+    found = kkt.factor(hessian[2], jacobian[2], dx, dc)
+    K = _dense(n, m, hessian, jacobian, dx, dc)
+    assert found == (inertia if inertia is not None else _eigen_inertia(K))
+    rhs = rng.normal(size=(n + m, 2))
+    x = kkt.solve(rhs)
+    expected = np.linalg.solve(K, rhs)
+    assert np.linalg.norm(x - expected) <= RTOL * np.linalg.norm(expected)
+    x0 = kkt.solve(rhs[:, 0])
+    assert x0.shape == (n + m,)
+    assert np.linalg.norm(x0 - expected[:, 0]) <= RTOL * np.linalg.norm(expected[:, 0])
+    np.testing.assert_allclose(kkt.matvec(rhs[:, 1]), K @ rhs[:, 1], rtol=1e-13,
+                               atol=1e-13 * np.abs(K).max())
+    return found
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_quasi_definite_random(seed):
+    """H + diag(d_x) positive definite, d_c > 0: inertia (n, m, 0) in every
+    order, and the solve to 1e-10."""
+    rng = np.random.default_rng(seed)
+    n, m = int(rng.integers(5, 40)), int(rng.integers(0, 30))
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    H = np.zeros((n, n))
+    np.add.at(H, (hr, hc), hv)
+    H = H + np.tril(H, -1).T
+    dx = np.abs(H).sum(axis=1) + rng.uniform(0.1, 1.0, n)  # diagonally dominant
+    dc = rng.uniform(1e-3, 1.0, m)
+    for ordering in ("pairs", "rcm", "pairs-mmd"):
+        kkt = SparseKKT(n, m, (hr, hc), (jr, jc), ordering=ordering)
+        _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng, inertia=(n, m, 0))
+
+
+@pytest.mark.parametrize("seed", range(8))
+def test_indefinite_random(seed):
+    """An indefinite H, some d_c exactly 0: the pivots' signs are K's inertia
+    (negative ones among the variables reported, not hidden)."""
+    rng = np.random.default_rng(100 + seed)
+    n, m = int(rng.integers(8, 40)), int(rng.integers(1, 8))
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    dx = rng.choice([-1.0, 1.0], n) * rng.uniform(1.0, 3.0, n)
+    dc = np.where(rng.random(m) < 0.5, 0.0, rng.uniform(0.1, 1.0, m))
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    positive, negative, zero = _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng)
+    assert zero == 0 and negative > m  # more negative pivots than constraints
+
+
+def test_empty_rows_and_no_constraints():
+    """Variables without Hessian entries, a constraint without Jacobian
+    entries (its diagonal only), and m = 0."""
+    rng = np.random.default_rng(7)
+    n, m = 12, 4
+    hr, hc = np.array([3, 5, 5, 9]), np.array([3, 2, 5, 0])
+    jr, jc = np.array([0, 0, 1, 3, 3, 3]), np.array([1, 4, 4, 7, 8, 7])  # row 2 empty
+    hv, jv = rng.normal(size=4), rng.normal(size=6)
+    dx, dc = rng.uniform(5.0, 6.0, n), rng.uniform(0.1, 1.0, m)
+    _check(SparseKKT(n, m, (hr, hc), (jr, jc)), n, m, (hr, hc, hv), (jr, jc, jv), dx, dc,
+           rng, inertia=(n, m, 0))
+    none = np.zeros(0, int)
+    kkt = SparseKKT(n, 0, (hr, hc), (none, none))
+    _check(kkt, n, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx - 10.0, np.zeros(0), rng,
+           inertia=(0, n, 0))
+
+
+def test_no_variables_or_nothing_at_all():
+    """K = -diag(d_c) without variables, and the empty K."""
+    none = np.zeros(0, int)
+    kkt = SparseKKT(0, 2, (none, none), (none, none))
+    assert kkt.factor(np.zeros(0), np.zeros(0), np.zeros(0), [2.0, 4.0]) == (0, 2, 0)
+    np.testing.assert_allclose(kkt.solve([1.0, 1.0]), [-0.5, -0.25])
+    empty = SparseKKT(0, 0, (none, none), (none, none))
+    assert empty.factor(np.zeros(0), np.zeros(0), np.zeros(0), np.zeros(0)) == (0, 0, 0)
+    assert empty.solve(np.zeros(0)).shape == (0,)
+
+
+def test_dense_rows_and_columns_go_last():
+    """A variable in every constraint (a free duration) and one coupled to
+    every variable in H: both counted dense, ordered last, and the
+    factorization the same as NumPy's."""
+    rng = np.random.default_rng(3)
+    n, m = 160, 120
+    chain = np.arange(n - 2)
+    hr = np.concatenate([chain, chain[1:], np.full(n - 1, n - 1)])
+    hc = np.concatenate([chain, chain[:-1], np.arange(n - 1)])
+    rows = np.arange(m)
+    jr = np.concatenate([rows, rows, rows])
+    jc = np.concatenate([rows, rows + 1, np.full(m, n - 2)])
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    jv[:m] += 4.0  # J well conditioned (a random bidiagonal one need not be)
+    dx, dc = np.full(n, 200.0), np.zeros(m)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    assert kkt.analysis.n_dense == 2
+    assert set(kkt.analysis.permutation[-2:]) == {n - 2, n - 1}
+    _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng, inertia=(n, m, 0))
+
+
+def test_singular_reports_zero_pivots_and_solves_finitely():
+    """A constraint with no entries and d_c = 0, and two equal constraint
+    rows: K is singular (eigvalsh: two zero eigenvalues); the factorization
+    reports them as zero pivots, the other pivots as K's inertia, and solve
+    still returns finite numbers."""
+    rng = np.random.default_rng(11)
+    n, m = 10, 5
+    hr = hc = np.arange(n)
+    jr, jc = np.array([0, 0, 1, 1, 3, 3, 4]), np.array([0, 1, 0, 1, 5, 6, 9])  # row 2 empty
+    hv = rng.uniform(1.0, 2.0, n)
+    jv = np.array([1.0, 2.0, 1.0, 2.0, 0.5, -1.0, 3.0])  # rows 0 and 1 equal
+    dx, dc = np.zeros(n), np.zeros(m)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    K = _dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc)
+    assert _eigen_inertia(K) == (n, m - 2, 2)
+    assert kkt.factor(hv, jv, dx, dc) == (n, m - 2, 2)
+    assert np.isfinite(kkt.solve(rng.normal(size=n + m))).all()
+    np.testing.assert_allclose(kkt.matvec(np.arange(n + m)), K @ np.arange(n + m))
+    # a tiny d_c on those rows makes K nonsingular again: inertia (n, m, 0)
+    assert kkt.factor(hv, jv, dx, np.full(m, 1e-8)) == (n, m, 0)
+
+
+def test_two_by_two_pivots_of_a_zero_diagonal():
+    """K = [[0, Jᵀ], [J, 0]], J square and sparse: every diagonal entry is
+    zero, so 1 x 1 pivots in any order break down at the first one; the
+    paired order's 2 x 2 pivots give eigvalsh's inertia (n, n, 0) and
+    NumPy's solution; the rows' own order reports zero pivots."""
+    rng = np.random.default_rng(4)
+    n = 30
+    rows = np.arange(n)
+    jr = np.concatenate([rows, rows[:-1], rows[2:]])
+    jc = np.concatenate([rows, rows[1:], rows[:-2]])
+    jv = rng.normal(size=jr.size)
+    jv[:n] = rng.choice([-1.0, 1.0], n) * rng.uniform(3.0, 4.0, n)
+    none = np.zeros(0, int)
+    hessian, jacobian = (none, none, np.zeros(0)), (jr, jc, jv)
+    zeros = np.zeros(n)
+    _check(SparseKKT(n, n, (none, none), (jr, jc)), n, n, hessian, jacobian, zeros, zeros,
+           rng, inertia=(n, n, 0))
+    single = SparseKKT(n, n, (none, none), (jr, jc), ordering="rcm")
+    assert single.factor(np.zeros(0), jv, zeros, zeros)[2] > 0
+
+
+def test_large_barrier_terms_are_not_zero_pivots():
+    """Barrier terms up to 1e14 on the variables, J square and nonsingular,
+    d_c = 0: K's inertia is (n, n, 0) (H positive definite, the Schur
+    complement -J H^-1 Jᵀ negative definite); the constraints' small pivots,
+    about -1/1e14, are counted by their sign, not as zero; the solve's
+    backward error is at rounding level."""
+    rng = np.random.default_rng(9)
+    n = 40
+    rows = np.arange(n)
+    jr, jc = np.concatenate([rows, rows[:-1]]), np.concatenate([rows, rows[1:]])
+    jv = np.concatenate([rng.uniform(1.0, 2.0, n), rng.uniform(-0.5, 0.5, n - 1)])
+    none = np.zeros(0, int)
+    barrier = 10.0 ** rng.uniform(0.0, 14.0, n)
+    kkt = SparseKKT(n, n, (none, none), (jr, jc))
+    assert kkt.factor(np.zeros(0), jv, barrier, np.zeros(n)) == (n, n, 0)
+    K = _dense(n, n, (none, none, np.zeros(0)), (jr, jc, jv), barrier, np.zeros(n))
+    rhs = rng.normal(size=2 * n)
+    x = kkt.solve(rhs)
+    backward = np.abs(K @ x - rhs).max() / (np.abs(K).max() * np.abs(x).max() + np.abs(rhs).max())
+    assert backward < 1e-14
+
+
+def test_tiny_pivot_beside_its_row_is_zero():
+    """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
+    cancellation, but the row below would grow by 1e20, so the pivot counts
+    as zero (and solve stays finite); with diagonal_x = 1e-2 there, the
+    inertia is eigvalsh's and the solution NumPy's."""
+    rng = np.random.default_rng(8)
+    none = np.zeros(0, int)
+    hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
+    kkt = SparseKKT(2, 0, (hr, hc), (none, none))
+    first = kkt.analysis.permutation[0]
+    hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
+    assert kkt.factor(hv, np.zeros(0), np.zeros(2), np.zeros(0))[2] == 1
+    assert np.isfinite(kkt.solve([1.0, 1.0])).all()
+    dx = np.where(np.arange(2) == first, 1e-2, 0.0)
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx, np.zeros(0), rng)
+
+
+def test_two_by_two_pivot_with_a_zero_eigenvalue():
+    """The pair [[-1, 1], [1, -1]] is singular (eigenvalues 0 and -2): one
+    zero, one negative, and a finite solution."""
+    kkt = SparseKKT(1, 1, ([0], [0]), ([0], [0]))
+    assert kkt.factor([-1.0], [1.0], [0.0], [1.0]) == (0, 1, 1)
+    assert _eigen_inertia(np.array([[-1.0, 1.0], [1.0, -1.0]])) == (0, 1, 1)
+    assert np.isfinite(kkt.solve([1.0, 2.0])).all()
+    # nonsingular again: eigvalsh's inertia
+    assert kkt.factor([-1.0], [1.0], [0.0], [0.5]) == _eigen_inertia(
+        np.array([[-1.0, 1.0], [1.0, -0.5]]))
+
+
+def _pendulum_nlp(method, free_duration, nodes=11):
+    from kanedyn.optimization._nlp import CollocationNLP
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    T = sm.Symbol("T") if free_duration else 3.0
+    problem = kd.OptimalControlProblem(
+        model, nodes=nodes, duration=T, lagrange=tau ** 2, initial={q: 0, u: 0},
+        final={q: 2.0, u: 0}, method=method,
+        **({"bounds": {T: (0.5, 10.0)}} if free_duration else {}))
+    return CollocationNLP(problem, hessian="exact")
+
+
+def _pendulum_point(method, free_duration, nodes, seed):
+    """``(nlp, rng, z, jacobian_values)``: the NLP at a random point (the
+    duration 3 s when free)."""
+    nlp = _pendulum_nlp(method, free_duration, nodes=nodes)
+    rng = np.random.default_rng(seed)
+    z = rng.normal(size=nlp.n)
+    if free_duration:
+        z[-1] = 3.0
+    return nlp, rng, z, nlp.jacobian(z)
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+@pytest.mark.parametrize("free_duration", [False, True])
+def test_pendulum_collocation_kkt(method, free_duration):
+    """The KKT matrix of a pendulum swing-up's NLP (exact Hessian at random
+    multipliers): with a regularized Hessian the inertia is (n, m, 0) and
+    the solve NumPy's, with d_c = 0 and with a small static d_c; with H
+    made indefinite the negative pivots are eigvalsh's."""
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 11, 5)
+    n, m = nlp.n, nlp.m
+    hv = nlp.hessian(z, rng.normal(size=m), 1.0)
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    if free_duration and method == "hermite-simpson":
+        assert kkt.analysis.n_dense >= 1  # the duration's column
+    hessian, jacobian = (hr, hc, hv), (jr, jc, jv)
+    H = _dense(n, 0, hessian, (jr[:0], jc[:0], jv[:0]), np.zeros(n), np.zeros(0))
+    shift = max(0.0, -np.linalg.eigvalsh(H).min()) + 1.0
+    for dc in (np.zeros(m), np.full(m, 1e-8)):
+        _check(kkt, n, m, hessian, jacobian, np.full(n, shift), dc, rng, inertia=(n, m, 0))
+    # no Hessian shift, no barrier, no regularization: where no pivot is zero,
+    # the inertia is eigvalsh's (the free-duration trapezoid has none zero)
+    K = _dense(n, m, hessian, jacobian, np.zeros(n), np.zeros(m))
+    plain = kkt.factor(hv, jv, np.zeros(n), np.zeros(m))
+    assert plain[2] > 0 or plain == _eigen_inertia(K)
+    if free_duration and method == "trapezoid":
+        _check(kkt, n, m, hessian, jacobian, np.zeros(n), np.zeros(m), rng)
+    # the reduced Hessian not positive definite: more negative eigenvalues than m
+    found = _check(kkt, n, m, hessian, jacobian, np.full(n, shift) - 2 * shift * (
+        np.arange(n) % 3 == 0), np.zeros(m), rng)
+    assert found[1] > m
+
+
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+@pytest.mark.parametrize("free_duration", [False, True])
+def test_pendulum_kkt_as_the_interior_point_method_builds_it(method, free_duration):
+    """Barrier terms (1e3) on the variables with a bound, none elsewhere (no
+    Hessian regularization), d_c = 0, the multipliers zero (a first
+    iteration) or random: no zero pivot, eigvalsh's inertia, NumPy's solve."""
+    nlp, rng, z, jv = _pendulum_point(method, free_duration, 21, 6)
+    n, m = nlp.n, nlp.m
+    bounded = np.isfinite(nlp.x_lower) | np.isfinite(nlp.x_upper)
+    dx = np.where(bounded, 1e3, 0.0)
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    for multipliers in (np.zeros(m), rng.normal(size=m)):
+        hv = nlp.hessian(z, multipliers, 1.0)
+        found = _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, np.zeros(m), rng)
+        assert found[2] == 0
+
+
+def test_pendulum_order_finds_the_band():
+    """The NLP's own layout has no band; the order gives L far fewer entries
+    than the factor of the matrix in the NLP's own order would (the
+    column counts of L in the identity order, from SciPy's dense LDLᵀ
+    pattern of a quasi-definite matrix)."""
+    import scipy.linalg
+    nlp = _pendulum_nlp("trapezoid", True, nodes=41)
+    n, m = nlp.n, nlp.m
+    rng = np.random.default_rng(2)
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    K = _dense(n, m, (hr, hc, hv), (jr, jc, jv), np.full(n, 50.0), np.ones(m))
+    lower, _, _ = scipy.linalg.ldl(K)
+    in_own_order = int(np.sum(np.abs(np.tril(lower, -1)) > 0))
+    assert kkt.analysis.nnz_factor < in_own_order / 3
+
+
+def _simple():
+    return SparseKKT(3, 2, ([0, 1, 2, 2], [0, 0, 2, 1]), ([0, 1, 1], [0, 1, 2]))
+
+
+@pytest.mark.parametrize("arguments, message", [
+    ((-1, 2, ([0], [0]), ([0], [0])), "n must be"),
+    ((3, 2.5, ([0], [0]), ([0], [0])), "m must be"),
+    ((3, 2, ([0, 1], [0]), ([0], [0])), "hessian_structure: rows and cols differ"),
+    ((3, 2, ([0], [-1]), ([0], [0])), r"hessian_structure: cols\[0\] = -1"),
+    ((3, 2, ([3], [0]), ([0], [0])), r"hessian_structure: rows\[0\] = 3"),
+    ((3, 2, ([0, 1], [0, 2]), ([0], [0])), "hessian_structure: entry 1 .* above the diag"),
+    ((3, 2, ([0], [0]), ([2], [0])), r"jacobian_structure: rows\[0\] = 2"),
+    ((3, 2, ([0], [0]), ([0], [3])), r"jacobian_structure: cols\[0\] = 3"),
+    ((3, 2, ([0.5], [0]), ([0], [0])), "hessian_structure: rows must hold integers"),
+    ((3, 2, [[[0]], [[0]]], ([0], [0])), "hessian_structure: rows must be one-dim"),
+    ((3, 2, ([0], [0], [0]), ([0], [0])), "hessian_structure must be a pair"),
+])
+def test_bad_structure(arguments, message):
+    with pytest.raises(ValueError, match=message):
+        SparseKKT(*arguments)
+
+
+def test_bad_values_and_calls():
+    kkt = _simple()
+    good = (np.ones(4), np.ones(3), np.ones(3), np.ones(2))
+    with pytest.raises(ValueError, match="solve: nothing is factored"):
+        kkt.solve(np.ones(5))
+    with pytest.raises(ValueError, match="matvec: nothing is factored"):
+        kkt.matvec(np.ones(5))
+    for k, name in enumerate(("hessian_values", "jacobian_values", "diagonal_x",
+                              "diagonal_c")):
+        wrong = list(good)
+        wrong[k] = np.ones(good[k].size + 1)
+        with pytest.raises(ValueError, match=f"{name} must have shape"):
+            kkt.factor(*wrong)
+        wrong[k] = np.where(np.arange(good[k].size) == 1, np.nan, 1.0)
+        with pytest.raises(ValueError, match=rf"{name}\[1\] is not finite"):
+            kkt.factor(*wrong)
+    with pytest.raises(ValueError, match=r"diagonal_c\[1\] = -0.5 is negative"):
+        kkt.factor(good[0], good[1], good[2], [1.0, -0.5])
+    kkt.factor(*good)
+    with pytest.raises(ValueError, match="rhs must have shape"):
+        kkt.solve(np.ones(4))
+    with pytest.raises(ValueError, match="rhs holds a value that is not finite"):
+        kkt.solve(np.array([1.0, np.inf, 0, 0, 0]))
+    with pytest.raises(ValueError, match="x must have shape"):
+        kkt.matvec(np.ones((5, 1)))
+    with pytest.raises(ValueError, match="ordering must be one of"):
+        SparseKKT(3, 2, ([0], [0]), ([0], [0]), ordering="amd")
+    with pytest.raises(ValueError, match="zero_pivot must be"):
+        SparseKKT(3, 2, ([0], [0]), ([0], [0]), zero_pivot=-1.0)
+
+
+def test_no_compiler(monkeypatch):
+    """Without a C compiler the kernel cannot be built: CompilerError."""
+    monkeypatch.setenv("CC", "kanedyn-no-such-compiler")
+    with pytest.raises(CompilerError, match="kanedyn-no-such-compiler"):
+        _simple()
