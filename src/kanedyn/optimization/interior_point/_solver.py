@@ -41,16 +41,16 @@ import numpy as np
 from ..._errors import ModelError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
+from ._optimality import optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._reduced import ReducedNLP
+from ._restoration import Restoration
 from ._start import least_squares_multipliers, primal_start, warm_multipliers
 from ._status import STATUS
 from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
 
-KAPPA_SIGMA = 1e10
-S_MAX = 100.0
 #: consecutive iterates at a stationary point of the violation before status 2
 INFEASIBLE_ITERATIONS = 5
 
@@ -142,6 +142,7 @@ class _Run:
                             total=0.0)
         self.note = None
         self.iteration = 0
+        self.restoration = None
         self.start_wall = time.perf_counter()
         self.start_cpu = time.process_time()
 
@@ -276,27 +277,33 @@ class _Run:
         dual[B.lower_index] -= z_lower
         dual[B.upper_index] += z_upper
         c = self._row_residuals(e.rows, w)
-        compl_lower, compl_upper = z_lower * gap_lower, z_upper * gap_upper
-        n_z = z_lower.size + z_upper.size
-        z_sum = np.sum(np.abs(z_lower)) + np.sum(np.abs(z_upper))
-        s_d = max(S_MAX, (np.sum(np.abs(y)) + z_sum) / max(self.m + n_z, 1)) / S_MAX
-        s_c = max(S_MAX, z_sum / max(n_z, 1)) / S_MAX
-        dual_inf = np.max(np.abs(dual), initial=0.0)
-        primal_inf = np.max(np.abs(c), initial=0.0)
-        compl = max(np.max(compl_lower, initial=0.0), np.max(compl_upper, initial=0.0))
-        compl_mu = max(np.max(np.abs(compl_lower - mu), initial=0.0),
-                       np.max(np.abs(compl_upper - mu), initial=0.0))
+        errors = optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu)
         sf = R.objective_scale
-        # IPOPT's unscaled violation: the inequality rows against their (relaxed) bounds
-        violation = c.copy()
-        rows = e.rows[self.inequality]
-        violation[self.inequality] = rows - np.clip(rows, *self.slack_bounds)
-        unscaled_violation = np.max(np.abs(violation) / R.row_scale, initial=0.0)
         return dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
-                    c=c, dual_inf=dual_inf, primal_inf=primal_inf,
-                    error=max(dual_inf / s_d, primal_inf, compl / s_c),
-                    error_mu=max(dual_inf / s_d, primal_inf, compl_mu / s_c),
-                    unscaled=(dual_inf / sf, unscaled_violation, compl / sf))
+                    c=c, dual_inf=errors.dual_inf, primal_inf=errors.primal_inf,
+                    error=errors.error, error_mu=errors.error_mu,
+                    unscaled=(errors.dual_inf / sf, self.unscaled_violation(e.rows, c),
+                              errors.compl / sf))
+
+    def unscaled_violation(self, rows, c):
+        """IPOPT's unscaled violation :math:`\\|\\cdot\\|_\\infty`: the
+        equality rows' residuals ``c``, the inequality rows (values ``rows``)
+        against their (relaxed) bounds."""
+        violation = c.copy()
+        values = rows[self.inequality]
+        violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
+        return float(np.max(np.abs(violation) / self.reduced.row_scale, initial=0.0))
+
+    def stopping_status(self):
+        """-1 (``max_iter``), -4 (``max_cpu_time``), 5 (a stop request) or ``None``."""
+        s = self.s
+        if self.iteration >= s.max_iter:
+            return -1
+        if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
+            return -4
+        if self.stop():
+            return 5
+        return None
 
     def _converged(self, m, acceptable):
         s = self.s
@@ -349,7 +356,8 @@ class _Run:
             _print_header()
         while True:
             if s.print_level:
-                _print_row(self.iteration, e.objective / self.reduced.objective_scale, m, mu, row)
+                _print_row(self.iteration, e.objective / self.reduced.objective_scale,
+                           m["unscaled"][1], m["dual_inf"], mu, row)
             if self._converged(m, acceptable=False):
                 return self._result(0, w, y, z_lower, z_upper, e)
             acceptable = self._converged(m, acceptable=True)
@@ -365,12 +373,9 @@ class _Run:
                 return self._result(2, w, y, z_lower, z_upper, e)
             if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
                 return self._result(4, w, y, z_lower, z_upper, e)
-            if self.iteration >= s.max_iter:
-                return self._result(-1, w, y, z_lower, z_upper, e)
-            if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
-                return self._result(-4, w, y, z_lower, z_upper, e)
-            if self.stop():
-                return self._result(5, w, y, z_lower, z_upper, e)
+            stopping = self.stopping_status()
+            if stopping is not None:
+                return self._result(stopping, w, y, z_lower, z_upper, e)
             # the barrier parameter (monotone)
             while force_barrier or m["error_mu"] <= s.barrier_tol_factor * mu:
                 force_barrier = False
@@ -429,9 +434,18 @@ class _Run:
             if found is None:
                 if self._converged(m, acceptable=True):
                     return self._result(1, w, y, z_lower, z_upper, e)
-                if self._stationary_violation(w, e, m):
-                    return self._result(2, w, y, z_lower, z_upper, e)
-                return self._result(-2, w, y, z_lower, z_upper, e)
+                # the feasibility restoration phase, the point in the filter
+                line_filter.add(theta, phi)
+                if self.restoration is None:
+                    self.restoration = Restoration(self)
+                restored = self.restoration.solve(w, z_lower, z_upper, e, mu, line_filter,
+                                                  _print_row if s.print_level else None)
+                if restored.status is not None:
+                    return self._result(restored.status, *restored.point)
+                w, y, z_lower, z_upper, e = restored.point
+                m = self._measures(w, y, z_lower, z_upper, e, mu)
+                row = dict(row, kind="r")
+                continue
             (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
             if not f_type and not tiny:
                 line_filter.add(theta, phi)
@@ -445,8 +459,7 @@ class _Run:
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = B.gaps(w)
-            z_lower = np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower)
-            z_upper = np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper)
+            z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu)
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu)
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
@@ -526,11 +539,12 @@ def _print_header():
           file=sys.stdout)
 
 
-def _print_row(iteration, objective, m, mu, row):
-    """IPOPT's columns: inf_pr the unscaled violation, inf_du the scaled
-    dual infeasibility."""
+def _print_row(iteration, objective, violation, dual_inf, mu, row):
+    """IPOPT's columns: ``iteration`` (a restoration iteration's ends in
+    ``r``), inf_pr the unscaled violation, inf_du the scaled dual
+    infeasibility."""
     rg = f"{np.log10(row['delta_w']):6.1f}" if row["delta_w"] > 0 else "     -"
-    print(f"{iteration:4d} {objective:14.7e} {m['unscaled'][1]:8.2e} {m['dual_inf']:8.2e} "
+    print(f"{str(iteration):>4} {objective:14.7e} {violation:8.2e} {dual_inf:8.2e} "
           f"{np.log10(mu):5.1f} {row['step']:8.2e} {rg} {row['alpha_dual']:8.2e} "
           f"{row['alpha_primal']:8.2e}{row['kind']} {row['trials']:2d}", file=sys.stdout,
           flush=True)
