@@ -176,7 +176,8 @@ class Restoration:
         resto_filter = Filter(theta_start, THETA_MAX_FACTOR)
         tau = max(s.tau_min, 1.0 - mu_r)
         acceptable_count = 0
-        first = True
+        largest_start = float(np.max(np.abs(c_start), initial=0.0))
+        first, reprint = True, False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         while True:
             zeta = np.sqrt(mu_r)
@@ -193,26 +194,26 @@ class Restoration:
             dual[BR.upper_index] += zu
             errors = optimality_errors(dual, c_r, y, zl, zu, gap_lower, gap_upper, mu_r)
             violation = run.unscaled_violation(e.rows, c)
-            if print_row is not None:
-                print_row(f"{run.iteration}r", self._objective(wr, zeta), violation,
-                          errors.dual_inf, mu_r, row)
-            if not first:
-                # back to the NLP?
-                theta = float(np.sum(np.abs(c)))
-                phi = B.barrier(e.objective, *B.gaps(wr[:size]), mu)
-                if theta <= REQUIRED_REDUCTION * theta_start and line_filter.acceptable(theta,
-                                                                                        phi):
+            if print_row is not None and not reprint:
+                print_row(f"{run.iteration}r", e.objective / run.reduced.objective_scale,
+                          violation, errors.dual_inf, mu_r, row)
+            if not first and not reprint:
+                # back to the NLP: the rows' largest residual cut by kappa_resto
+                # and the point acceptable to the NLP's filter
+                if (float(np.max(np.abs(c), initial=0.0)) <= REQUIRED_REDUCTION * largest_start
+                        and self._acceptable(line_filter, e, wr, c, mu)):
                     return Restored(None, self._back(entry, wr[:size], e, mu))
-            first = False
+            first = reprint = False
             acceptable_count = acceptable_count + 1 if errors.error <= s.acceptable_tol else 0
             if errors.error <= s.tol or (s.acceptable_iter
                                          and acceptable_count >= s.acceptable_iter):
-                # the restoration problem converged
-                status = None if violation <= s.constr_viol_tol else 2
-                if status is None and line_filter.acceptable(
-                        float(np.sum(np.abs(c))), B.barrier(e.objective, *B.gaps(wr[:size]), mu)):
+                # the restoration problem converged: feasible (then back to
+                # the NLP, if its filter accepts the point) or locally infeasible
+                if violation > s.constr_viol_tol:
+                    return self._failed(2, wr, e)
+                if self._acceptable(line_filter, e, wr, c, mu):
                     return Restored(None, self._back(entry, wr[:size], e, mu))
-                return self._failed(2 if status == 2 else -2, wr, e)
+                return self._failed(-2, wr, e)
             status = run.stopping_status()
             if status is not None:
                 return self._failed(status, wr, e)
@@ -224,6 +225,7 @@ class Restoration:
                     mu_r = new_mu
                     tau = max(s.tau_min, 1.0 - mu_r)
                     resto_filter.reset()
+                    reprint = True
                     continue
             # the Newton step
             t = time.perf_counter()
@@ -282,6 +284,12 @@ class Restoration:
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                        step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
                        trials=trials, kind="f" if f_type else "h")
+
+    def _acceptable(self, line_filter, e, w, c, mu):
+        """The NLP's filter accepts the NLP's part of ``w`` (rows' residuals ``c``)."""
+        B, size = self.run.bounds, self.size
+        return line_filter.acceptable(float(np.sum(np.abs(c))),
+                                      B.barrier(e.objective, *B.gaps(w[:size]), mu))
 
     def _back(self, entry, w, e, mu):
         """The NLP's ``(w, y, z_lower, z_upper, e)`` at the restored ``w``."""
