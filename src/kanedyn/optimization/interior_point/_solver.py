@@ -20,15 +20,18 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    to ``max_soc`` second-order corrections (:mod:`._filter`); the bound
    multipliers are then kept within :math:`[\mu/(\kappa_\Sigma\,
    \text{gap}), \kappa_\Sigma\mu/\text{gap}]`, :math:`\kappa_\Sigma = 10^{10}`;
-5. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
+5. when the line search finds no step (and the point is not acceptable,
+   status 1), the feasibility restoration phase (:mod:`._restoration`):
+   back with a less infeasible point the filter accepts, or status 2
+   (locally infeasible) or -2 (the restoration failed);
+6. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
    unscaled checks ``dual_inf_tol``, ``constr_viol_tol``,
    ``compl_inf_tol``), and ``acceptable_iter`` consecutive iterates within
    the ``acceptable_`` tolerances.
 
-What it lacks against IPOPT: the feasibility restoration phase (when the
-line search finds no step it stops with status -2, or 2 when the point
-locally minimizes the constraints' violation, or 1 when it is acceptable),
-the watchdog, the adaptive barrier strategies, the quasi-Newton Hessian.
+What it lacks against IPOPT: the watchdog, the adaptive barrier
+strategies, the quasi-Newton Hessian; the restoration phase's
+simplifications are listed in :mod:`._restoration`.
 """
 
 from __future__ import annotations
@@ -51,8 +54,6 @@ from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
 
-#: consecutive iterates at a stationary point of the violation before status 2
-INFEASIBLE_ITERATIONS = 5
 
 
 def kkt_class(choice):
@@ -209,7 +210,7 @@ class _Run:
             return False
         R.scale_at(R.template, gradient, jacobian)
         x_lower, x_upper = R.variable_bounds()
-        g_lower, g_upper = self.row_bounds = R.row_bounds()
+        g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
         self.row_target = np.where(R.equality, g_lower, 0.0)
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
@@ -315,29 +316,6 @@ class _Run:
         return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
                 and compl <= s.compl_inf_tol)
 
-    def _stationary_violation(self, w, e, m):
-        """The point locally minimizes the rows' violation (its projected
-        gradient :math:`J^T v` vanishes) while violating them beyond
-        ``constr_viol_tol``."""
-        if m["unscaled"][1] <= self.s.constr_viol_tol:
-            return False
-        R, n = self.reduced, self.n
-        v = e.rows - np.clip(e.rows, *self.row_bounds)
-        grad = R.transpose_times(e.jacobian, v)
-        B = self.bounds
-        x = w[:n]
-        near = 1e-6 * (1.0 + np.abs(x))
-        lo = B.lower_index[B.lower_index < n]
-        up = B.upper_index[B.upper_index < n]
-        lower = B.lower[B.lower_index < n]
-        upper = B.upper[B.upper_index < n]
-        blocked = np.zeros(n, dtype=bool)
-        blocked[lo] = (x[lo] - lower <= near[lo]) & (grad[lo] > 0)
-        blocked[up] |= (upper - x[up] <= near[up]) & (grad[up] < 0)
-        grad[blocked] = 0.0
-        scale = max(1.0, np.max(np.abs(e.jacobian), initial=0.0))
-        return np.max(np.abs(grad), initial=0.0) <= 1e-6 * scale * np.sum(np.abs(v))
-
     def _iterate(self, w, y, z_lower, z_upper, e):
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
@@ -346,8 +324,7 @@ class _Run:
         m = self._measures(w, y, z_lower, z_upper, e, mu)
         theta = float(np.sum(np.abs(m["c"])))
         line_filter = Filter(theta)
-        acceptable_count = infeasible_count = 0
-        last_primal_inf = np.inf
+        acceptable_count = 0
         force_barrier = False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
@@ -364,13 +341,6 @@ class _Run:
             acceptable_count = acceptable_count + 1 if acceptable else 0
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
-            # the violation's stationarity, asked when it stalls (fell by < 10 %)
-            stalled = m["primal_inf"] > 0.9 * last_primal_inf
-            last_primal_inf = m["primal_inf"]
-            infeasible_count = (infeasible_count + 1 if stalled
-                                and self._stationary_violation(w, e, m) else 0)
-            if infeasible_count >= INFEASIBLE_ITERATIONS:
-                return self._result(2, w, y, z_lower, z_upper, e)
             if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
                 return self._result(4, w, y, z_lower, z_upper, e)
             stopping = self.stopping_status()
