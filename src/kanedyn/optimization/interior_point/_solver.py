@@ -325,16 +325,17 @@ class _Run:
         theta = float(np.sum(np.abs(m["c"])))
         line_filter = Filter(theta)
         acceptable_count = 0
-        force_barrier = False
+        force_barrier = restored_row = False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
             if self.note:
                 print(f"interior point: {self.note}", file=sys.stdout)
             _print_header()
         while True:
-            if s.print_level:
+            if s.print_level and not restored_row:  # a restored point was printed
                 _print_row(self.iteration, e.objective / self.reduced.objective_scale,
                            m["unscaled"][1], m["dual_inf"], mu, row)
+            restored_row = False
             if self._converged(m, acceptable=False):
                 return self._result(0, w, y, z_lower, z_upper, e)
             acceptable = self._converged(m, acceptable=True)
@@ -408,13 +409,14 @@ class _Run:
                 line_filter.add(theta, phi)
                 if self.restoration is None:
                     self.restoration = Restoration(self)
+                self.iteration += 1  # IPOPT counts the entry as an iteration
                 restored = self.restoration.solve(w, z_lower, z_upper, e, mu, line_filter,
                                                   _print_row if s.print_level else None)
                 if restored.status is not None:
                     return self._result(restored.status, *restored.point)
                 w, y, z_lower, z_upper, e = restored.point
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
-                row = dict(row, kind="r")
+                restored_row = True
                 continue
             (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
             if not f_type and not tiny:
