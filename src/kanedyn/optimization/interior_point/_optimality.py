@@ -20,7 +20,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["Errors", "optimality_errors", "safeguard_multipliers", "KAPPA_SIGMA", "S_MAX"]
+__all__ = ["Errors", "optimality_errors", "safeguard_multipliers", "next_barrier",
+           "KAPPA_SIGMA", "S_MAX"]
 
 #: the bound multipliers stay within [mu / (KAPPA_SIGMA gap), KAPPA_SIGMA mu / gap]
 KAPPA_SIGMA = 1e10
@@ -83,3 +84,13 @@ def safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu):
     \\text{gap}), \\kappa_\\Sigma\\mu/\\text{gap}]`: ``(z_lower, z_upper)``."""
     return (np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower),
             np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper))
+
+
+def next_barrier(mu, settings):
+    r"""The monotone (Fiacco-McCormick) update :math:`\max(\epsilon/(\kappa_\epsilon
+    + 1), \min(\kappa_\mu\mu, \mu^{\theta_\mu}))`, :math:`\epsilon =
+    \min(` ``tol``, ``compl_inf_tol`` :math:`)`, at least ``mu_min``."""
+    s = settings
+    floor = max(s.mu_min, min(s.tol, s.compl_inf_tol) / (s.barrier_tol_factor + 1.0))
+    return max(floor, min(s.mu_linear_decrease_factor * mu,
+                          mu ** s.mu_superlinear_decrease_power))

@@ -53,7 +53,7 @@ import numpy as np
 
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
-from ._optimality import optimality_errors, safeguard_multipliers
+from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._step import StepSolver
 
 __all__ = ["Restoration", "Restored", "PENALTY", "REQUIRED_REDUCTION",
@@ -172,7 +172,6 @@ class Restoration:
         zl = np.concatenate([np.minimum(PENALTY, z_lower), mu_r / p, mu_r / nn])
         zu = np.minimum(PENALTY, z_upper)
         y = np.zeros(m)
-        mu_floor = max(s.mu_min, min(s.tol, s.compl_inf_tol) / (s.barrier_tol_factor + 1.0))
         resto_filter = Filter(theta_start, THETA_MAX_FACTOR)
         tau = max(s.tau_min, 1.0 - mu_r)
         acceptable_count = 0
@@ -219,8 +218,7 @@ class Restoration:
                 return self._failed(status, wr, e)
             # the barrier parameter (monotone)
             if errors.error_mu <= s.barrier_tol_factor * mu_r:
-                new_mu = max(mu_floor, min(s.mu_linear_decrease_factor * mu_r,
-                                           mu_r ** s.mu_superlinear_decrease_power))
+                new_mu = next_barrier(mu_r, s)
                 if new_mu < mu_r:
                     mu_r = new_mu
                     tau = max(s.tau_min, 1.0 - mu_r)
@@ -244,13 +242,8 @@ class Restoration:
             if step is None:
                 return self._failed(-3, wr, e)
             dw, dy = step.primal, step.rows
-            lo, up = BR.lower_index, BR.upper_index
-            dz_lower = (mu_r - zl * gap_lower - zl * dw[lo]) / gap_lower
-            dz_upper = (mu_r - zu * gap_upper + zu * dw[up]) / gap_upper
-            alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                            fraction_to_boundary(gap_upper, -dw[up], tau))
-            alpha_z = min(fraction_to_boundary(zl, dz_lower, tau),
-                          fraction_to_boundary(zu, dz_upper, tau))
+            dz_lower, dz_upper, alpha_max, alpha_z = BR.step_lengths(
+                zl, zu, gap_lower, gap_upper, dw, mu_r, tau)
             # the line search (backtracking, no second-order correction)
             t = time.perf_counter()
             theta = float(np.sum(np.abs(c_r)))

@@ -44,7 +44,7 @@ import numpy as np
 from ..._errors import ModelError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
-from ._optimality import optimality_errors, safeguard_multipliers
+from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._reduced import ReducedNLP
 from ._restoration import Restoration
@@ -320,7 +320,6 @@ class _Run:
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
-        mu_floor = max(s.mu_min, min(s.tol, s.compl_inf_tol) / (s.barrier_tol_factor + 1.0))
         m = self._measures(w, y, z_lower, z_upper, e, mu)
         theta = float(np.sum(np.abs(m["c"])))
         line_filter = Filter(theta)
@@ -350,8 +349,7 @@ class _Run:
             # the barrier parameter (monotone)
             while force_barrier or m["error_mu"] <= s.barrier_tol_factor * mu:
                 force_barrier = False
-                new_mu = max(mu_floor, min(s.mu_linear_decrease_factor * mu,
-                                           mu ** s.mu_superlinear_decrease_power))
+                new_mu = next_barrier(mu, s)
                 if new_mu >= mu:
                     break
                 mu = new_mu
@@ -377,13 +375,8 @@ class _Run:
             if step is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
             dw, dy = step.primal, step.rows
-            lo, up = B.lower_index, B.upper_index
-            dz_lower = (mu - z_lower * gap_lower - z_lower * dw[lo]) / gap_lower
-            dz_upper = (mu - z_upper * gap_upper + z_upper * dw[up]) / gap_upper
-            alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                            fraction_to_boundary(gap_upper, -dw[up], tau))
-            alpha_z = min(fraction_to_boundary(z_lower, dz_lower, tau),
-                          fraction_to_boundary(z_upper, dz_upper, tau))
+            dz_lower, dz_upper, alpha_max, alpha_z = B.step_lengths(
+                z_lower, z_upper, gap_lower, gap_upper, dw, mu, tau)
             # the line search
             t = time.perf_counter()
             theta = float(np.sum(np.abs(m["c"])))
