@@ -163,7 +163,7 @@ class Restoration:
         n, m, size = run.n, run.m, self.size
         c_start = run._row_residuals(e.rows, w)
         theta_start = float(np.sum(np.abs(c_start)))
-        entry = (w, z_lower, z_upper, B.gaps(w))
+        entry = (z_lower, z_upper, B.gaps(w))
         self.reference = w[:n].copy()
         self.scale2 = np.minimum(1.0, 1.0 / np.maximum(np.abs(self.reference), 1e-300)) ** 2
         mu_r = max(mu, float(np.max(np.abs(c_start), initial=0.0)))
@@ -209,13 +209,13 @@ class Restoration:
                 # the restoration problem converged: feasible (then back to
                 # the NLP, if its filter accepts the point) or locally infeasible
                 if violation > s.constr_viol_tol:
-                    return self._failed(2, wr, e)
+                    return self._failed(2, wr, y, zl, zu, e)
                 if self._acceptable(line_filter, e, wr, c, mu):
                     return Restored(None, self._back(entry, wr[:size], e, mu))
-                return self._failed(-2, wr, e)
+                return self._failed(-2, wr, y, zl, zu, e)
             status = run.stopping_status()
             if status is not None:
-                return self._failed(status, wr, e)
+                return self._failed(status, wr, y, zl, zu, e)
             # the barrier parameter (monotone)
             if errors.error_mu <= s.barrier_tol_factor * mu_r:
                 new_mu = next_barrier(mu_r, s)
@@ -231,7 +231,7 @@ class Restoration:
                 hessian = run.reduced.hessian(e.x_full, y, 0.0)
             run.timings["hessian"] += time.perf_counter() - t
             if not np.all(np.isfinite(hessian)):
-                return self._failed(-13, wr, e)
+                return self._failed(-13, wr, y, zl, zu, e)
             sigma = BR.sigma(zl, zu, gap_lower, gap_upper)
             sigma[:n] += zeta * self.scale2
             barrier_gradient = BR.barrier_gradient(gradient, gap_lower, gap_upper, mu_r)
@@ -240,7 +240,7 @@ class Restoration:
             step = self.stepper.compute(hessian, e.jacobian, sigma, residual_w, c_r, mu_r)
             run.timings["factor_solve"] += time.perf_counter() - t
             if step is None:
-                return self._failed(-3, wr, e)
+                return self._failed(-3, wr, y, zl, zu, e)
             dw, dy = step.primal, step.rows
             dz_lower, dz_upper, alpha_max, alpha_z = BR.step_lengths(
                 zl, zu, gap_lower, gap_upper, dw, mu_r, tau)
@@ -263,7 +263,7 @@ class Restoration:
                 alpha /= 2
             run.timings["line_search"] += time.perf_counter() - t
             if found is None:
-                return self._failed(-2, wr, e)
+                return self._failed(-2, wr, y, zl, zu, e)
             if not f_type:
                 resto_filter.add(theta, phi)
             e, wr = found[0], found[1]
@@ -272,7 +272,7 @@ class Restoration:
             zu = zu + alpha_z * dz_upper
             run.iteration += 1
             if not run._derivatives(e):
-                return self._failed(-13, wr, e)
+                return self._failed(-13, wr, y, zl, zu, e)
             zl, zu = safeguard_multipliers(zl, zu, *BR.gaps(wr), mu_r)
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                        step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
@@ -287,7 +287,7 @@ class Restoration:
     def _back(self, entry, w, e, mu):
         """The NLP's ``(w, y, z_lower, z_upper, e)`` at the restored ``w``."""
         run = self.run
-        w_entry, z_lower, z_upper, (gap_lower, gap_upper) = entry
+        z_lower, z_upper, (gap_lower, gap_upper) = entry
         new_lower, new_upper = run.bounds.gaps(w)
         tau = max(run.s.tau_min, 1.0 - mu)
         z_lower = multiplier_step(z_lower, gap_lower, new_lower, mu, tau)
@@ -297,12 +297,9 @@ class Restoration:
             z_lower, z_upper = np.ones_like(z_lower), np.ones_like(z_upper)
         return w.copy(), np.zeros(run.m), z_lower, z_upper, e
 
-    def _failed(self, status, w, e):
-        """A status with the NLP's part of the restoration's iterate."""
-        run = self.run
-        size = self.size
-        B = run.bounds
-        gap_lower, gap_upper = B.gaps(w[:size])
-        mu = run.s.mu_min
-        return Restored(status, (w[:size].copy(), np.zeros(run.m),
-                                 mu / gap_lower, mu / gap_upper, e))
+    def _failed(self, status, w, y, z_lower, z_upper, e):
+        """A status with the NLP's part of the restoration's iterate and
+        multipliers (those of the rows, of the bounds of ``w``)."""
+        size, n_lower = self.size, self.run.bounds.lower_index.size
+        return Restored(status, (w[:size].copy(), y.copy(), z_lower[:n_lower].copy(),
+                                 z_upper.copy(), e))
