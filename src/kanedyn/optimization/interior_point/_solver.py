@@ -389,7 +389,7 @@ class _Run:
                 found = self._trial(w + alpha_max * dw, mu)
                 accepted = found is not None
                 if accepted:
-                    found = (found, alpha_max, dy, True, 1)
+                    found = (found, alpha_max, step, True, 1)
                 force_barrier = True
             else:
                 found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
@@ -411,12 +411,17 @@ class _Run:
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
                 restored_row = True
                 continue
-            (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
+            (trial, w_trial, _, _), alpha, step_used, f_type, trials = found
+            corrected = step_used is not step
+            if corrected:
+                # a second-order correction: the bound multipliers step along it
+                dz_lower, dz_upper, _, alpha_z = B.step_lengths(
+                    z_lower, z_upper, gap_lower, gap_upper, step_used.primal, mu, tau)
             if not f_type and not tiny:
                 line_filter.add(theta, phi)
             # the new iterate
             w = w_trial
-            y = y + alpha * dy_used
+            y = y + alpha * step_used.rows
             z_lower = z_lower + alpha_z * dz_lower
             z_upper = z_upper + alpha_z * dz_upper
             e = trial
@@ -429,7 +434,8 @@ class _Run:
             m = self._measures(w, y, z_lower, z_upper, e, mu)
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                        step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind="f" if f_type else "h")
+                       trials=trials, kind=("F" if f_type else "H") if corrected
+                       else ("f" if f_type else "h"))
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi)`` at a trial point, or ``None`` when
@@ -446,7 +452,8 @@ class _Run:
                      residual_w, c):
         """Backtracking from ``alpha_max`` (halving), a second-order correction
         after a first trial that raised the violation:
-        ``(trial, alpha, dy, f_type, trials)`` or ``None``."""
+        ``(trial, alpha, step, f_type, trials)`` (``step`` the corrected one
+        after a second-order correction) or ``None``."""
         s = self.s
         alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
         alpha = alpha_max
@@ -458,7 +465,7 @@ class _Run:
                 accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, trial[2],
                                                        trial[3])
                 if accepted:
-                    return trial, alpha, step.rows, f_type, trials
+                    return trial, alpha, step, f_type, trials
                 if trials == 1 and trial[2] >= theta and s.max_soc:
                     corrected = self._second_order(w, alpha, trial, theta, phi, slope, mu,
                                                    tau, line_filter, residual_w, c)
@@ -491,7 +498,7 @@ class _Run:
             accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, soc_trial[2],
                                                    soc_trial[3])
             if accepted:
-                return soc_trial, alpha_soc, corrected.rows, f_type
+                return soc_trial, alpha_soc, corrected, f_type
             if soc_trial[2] > s.kappa_soc * theta_old:
                 return None
             theta_old = soc_trial[2]
