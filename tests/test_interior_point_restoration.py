@@ -199,7 +199,8 @@ def _ipopt_or_skip():
 def test_pendulum_random_guess_reaches_ipopts_objective():
     """opty's gallery swing-up at 501 nodes (backward Euler) from opty's
     random guess (normal, seed 0), the default factorization: IPOPT's
-    objective to 1e-6 relative (without a restoration phase: status -2)."""
+    objective to 1e-6 relative (before the restoration phase and the bound
+    multipliers' step along second-order corrections: status -2)."""
     _ipopt_or_skip()
     import _ocp_peers as peers
     problem, _ = peers.pendulum_kanedyn(501, backend="numpy")
