@@ -55,7 +55,6 @@ from ._step import StepSolver
 __all__ = ["InteriorPoint", "kkt_class"]
 
 
-
 def kkt_class(choice):
     """``(KKT class, note)`` for the option ``linear_solver``: ``"sparse"``
     (``SparseKKT``), ``"dense"`` (``DenseKKT``), ``"auto"`` (sparse when it
