@@ -32,7 +32,7 @@ from kanedyn.optimization.interior_point._step import StepSolver
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 
-from test_interior_point import NO_BOUND, _NLP  # noqa: E402
+from test_interior_point import NO_BOUND, _NLP, ipopt_problem  # noqa: E402
 
 #: a restoration iteration's line in the printed table: "  12r ..." (ours), "  12r-1.0..." (IPOPT's)
 RESTORATION_ROW = re.compile(r"^\s*\d+r", re.MULTILINE)
@@ -113,21 +113,7 @@ START = np.array([-2.0, 1.0, 1.0])
 
 def _ipopt_table(nlp, x0, tmp_path):
     """IPOPT (print_level 5) on ``nlp``: ``(x, status, printed table)``."""
-    cyipopt = pytest.importorskip("cyipopt", reason="the comparison needs cyipopt (IPOPT)")
-
-    class Callbacks:
-        objective, gradient = staticmethod(nlp.objective), staticmethod(nlp.gradient)
-        constraints, jacobian = staticmethod(nlp.constraints), staticmethod(nlp.jacobian)
-        hessian = staticmethod(nlp.hessian)
-
-        def jacobianstructure(self):
-            return nlp.jacobian_structure()
-
-        def hessianstructure(self):
-            return nlp.hessian_structure()
-
-    problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(), lb=nlp.x_lower,
-                              ub=nlp.x_upper, cl=nlp.g_lower, cu=nlp.g_upper)
+    problem = ipopt_problem(nlp)
     log = tmp_path / "ipopt.txt"
     problem.add_option("print_level", 0)
     problem.add_option("sb", "yes")

@@ -236,14 +236,12 @@ class Restoration:
             sigma[:n] += zeta * self.scale2
             barrier_gradient = BR.barrier_gradient(gradient, gap_lower, gap_upper, mu_r)
             residual_w = barrier_gradient + (lagrangian - gradient)
-            t = time.perf_counter()
-            step = self.stepper.compute(hessian, e.jacobian, sigma, residual_w, c_r, mu_r)
-            run.timings["factor_solve"] += time.perf_counter() - t
-            if step is None:
+            direction = run.direction(self.stepper, BR, hessian, e.jacobian, sigma, residual_w,
+                                      c_r, zl, zu, gap_lower, gap_upper, mu_r, tau)
+            if direction is None:
                 return self._failed(-3, wr, y, zl, zu, e)
+            step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows
-            dz_lower, dz_upper, alpha_max, alpha_z = BR.step_lengths(
-                zl, zu, gap_lower, gap_upper, dw, mu_r, tau)
             # the line search (backtracking, no second-order correction)
             t = time.perf_counter()
             theta = float(np.sum(np.abs(c_r)))

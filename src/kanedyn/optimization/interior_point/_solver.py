@@ -294,6 +294,21 @@ class _Run:
         violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
         return float(np.max(np.abs(violation) / self.reduced.row_scale, initial=0.0))
 
+    def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
+                  z_upper, gap_lower, gap_upper, mu, tau):
+        """The Newton step (:meth:`._step.StepSolver.compute`) and the bound
+        multipliers' steps and step lengths
+        (:meth:`._bounds.PrimalBounds.step_lengths`): ``(step, dz_lower,
+        dz_upper, alpha_primal_max, alpha_dual)``, or ``None`` when no
+        regularization gave the right inertia."""
+        t = time.perf_counter()
+        step = stepper.compute(hessian, jacobian, sigma, residual_w, c, mu)
+        self.timings["factor_solve"] += time.perf_counter() - t
+        if step is None:
+            return None
+        return (step,) + bounds.step_lengths(z_lower, z_upper, gap_lower, gap_upper,
+                                             step.primal, mu, tau)
+
     def stopping_status(self):
         """-1 (``max_iter``), -4 (``max_cpu_time``), 5 (a stop request) or ``None``."""
         s = self.s
@@ -368,14 +383,12 @@ class _Run:
             gradient_w[:n] = e.gradient
             barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
-            t = time.perf_counter()
-            step = self.stepper.compute(hessian, e.jacobian, sigma, residual_w, m["c"], mu)
-            self.timings["factor_solve"] += time.perf_counter() - t
-            if step is None:
+            direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
+                                       m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
+            if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
+            step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows
-            dz_lower, dz_upper, alpha_max, alpha_z = B.step_lengths(
-                z_lower, z_upper, gap_lower, gap_upper, dw, mu, tau)
             # the line search
             t = time.perf_counter()
             theta = float(np.sum(np.abs(m["c"])))
