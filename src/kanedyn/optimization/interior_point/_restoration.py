@@ -226,11 +226,8 @@ class Restoration:
                     reprint = True
                     continue
             # the Newton step
-            t = time.perf_counter()
-            with np.errstate(all="ignore"):
-                hessian = run.reduced.hessian(e.x_full, y, 0.0)
-            run.timings["hessian"] += time.perf_counter() - t
-            if not np.all(np.isfinite(hessian)):
+            hessian = run.hessian_values(e, y, 0.0)  # the rows' part only
+            if hessian is None:
                 return self._failed(-13, wr, y, zl, zu, e)
             sigma = BR.sigma(zl, zu, gap_lower, gap_upper)
             sigma[:n] += zeta * self.scale2

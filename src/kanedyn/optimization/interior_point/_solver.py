@@ -294,6 +294,16 @@ class _Run:
         violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
         return float(np.max(np.abs(violation) / self.reduced.row_scale, initial=0.0))
 
+    def hessian_values(self, e, y, objective_factor):
+        """The scaled Lagrangian's Hessian at ``e`` with the rows'
+        multipliers ``y`` and the objective times ``objective_factor``, or
+        ``None`` when a value is not finite."""
+        t = time.perf_counter()
+        with np.errstate(all="ignore"):
+            hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+        self.timings["hessian"] += time.perf_counter() - t
+        return hessian if np.all(np.isfinite(hessian)) else None
+
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
                   z_upper, gap_lower, gap_upper, mu, tau):
         """The Newton step (:meth:`._step.StepSolver.compute`) and the bound
@@ -371,11 +381,8 @@ class _Run:
                 line_filter.reset()
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
             # the Newton step
-            t = time.perf_counter()
-            with np.errstate(all="ignore"):
-                hessian = self.reduced.hessian(e.x_full, y, 1.0)
-            self.timings["hessian"] += time.perf_counter() - t
-            if not np.all(np.isfinite(hessian)):
+            hessian = self.hessian_values(e, y, 1.0)
+            if hessian is None:
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
