@@ -151,11 +151,10 @@ def test_hock_schittkowski_71_published_optimum():
     assert np.all(found.multipliers["x_upper"] < 1e-6)
 
 
-def test_hock_schittkowski_71_same_as_ipopt():
-    """The same optimum and multipliers as IPOPT's, in as many iterations
-    (the same algorithm: the counts are IPOPT's)."""
-    cyipopt = pytest.importorskip("cyipopt")
-    nlp = _hs71()
+def ipopt_problem(nlp):
+    """cyipopt's ``Problem`` of an NLP of the solver interface (skipped
+    without cyipopt)."""
+    cyipopt = pytest.importorskip("cyipopt", reason="the comparison needs cyipopt (IPOPT)")
 
     class Callbacks:
         objective, gradient = staticmethod(nlp.objective), staticmethod(nlp.gradient)
@@ -168,8 +167,15 @@ def test_hock_schittkowski_71_same_as_ipopt():
         def hessianstructure(self):
             return nlp.hessian_structure()
 
-    problem = cyipopt.Problem(n=4, m=2, problem_obj=Callbacks(), lb=nlp.x_lower,
-                              ub=nlp.x_upper, cl=nlp.g_lower, cu=nlp.g_upper)
+    return cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(), lb=nlp.x_lower,
+                           ub=nlp.x_upper, cl=nlp.g_lower, cu=nlp.g_upper)
+
+
+def test_hock_schittkowski_71_same_as_ipopt():
+    """The same optimum and multipliers as IPOPT's, in as many iterations
+    (the same algorithm: the counts are IPOPT's)."""
+    nlp = _hs71()
+    problem = ipopt_problem(nlp)
     problem.add_option("print_level", 0)
     problem.add_option("sb", "yes")
     x, info = problem.solve(np.array([1.0, 5.0, 5.0, 1.0]))

@@ -18,6 +18,8 @@ LDLᵀ factorization compiled in C that reports the inertia.
 ``_start``       the starting point and the first multipliers
 ``_step``        the Newton step, regularized to the right inertia
 ``_filter``      the filter line search's acceptance test
+``_restoration`` the feasibility restoration phase
+``_optimality``  the optimality error, the bound multipliers' safeguard
 ``_status``      the return codes (IPOPT's numbers)
 
 Both factorizations take the same calls: ``KKT(n, m, hessian_structure,

@@ -40,10 +40,13 @@ class Filter:
     theta_start : float
         :math:`\\theta` at the starting point: :math:`\\theta_{\\max} =
         10^4 \\max(1, \\theta_0)`, :math:`\\theta_{\\min} = 10^{-4} \\max(1, \\theta_0)`.
+    theta_max_factor : float
+        :math:`10^4` above; the restoration phase's filter takes :math:`10^8`
+        (IPOPT's ``resto.theta_max_fact``).
     """
 
-    def __init__(self, theta_start):
-        self.theta_max = 1e4 * max(1.0, theta_start)
+    def __init__(self, theta_start, theta_max_factor=1e4):
+        self.theta_max = theta_max_factor * max(1.0, theta_start)
         self.theta_min = 1e-4 * max(1.0, theta_start)
         self.reset()
 
@@ -54,6 +57,17 @@ class Filter:
     def add(self, theta, phi):
         self._theta = np.append(self._theta, (1 - GAMMA_THETA) * theta)
         self._phi = np.append(self._phi, phi - GAMMA_PHI * theta)
+
+    def acceptable(self, theta, phi, reference_phi=None):
+        """The pair ``(theta, phi)`` lies below :math:`\\theta_{\\max}` and
+        outside the filter's forbidden region (no pair of the filter is
+        improved on by neither measure; the roundoff margin relative to
+        ``reference_phi``, by default ``phi``)."""
+        if not (np.isfinite(theta) and np.isfinite(phi)) or theta > self.theta_max:
+            return False
+        margin = MARGIN * max(1.0, abs(phi if reference_phi is None else reference_phi))
+        return not (self._theta.size and np.any((theta >= self._theta)
+                                                & (phi >= self._phi + margin)))
 
     def smallest_step(self, theta, slope, fraction):
         r""":math:`\alpha_{\min}`: below it the line search gives up
@@ -76,14 +90,9 @@ class Filter:
         conditions both hold) for the trial point ``(trial_theta, trial_phi)``
         at step ``alpha`` from ``(theta, phi)`` with :math:`\\nabla\\varphi^T d`
         = ``slope``."""
-        if not (np.isfinite(trial_theta) and np.isfinite(trial_phi)):
-            return False, False
-        if trial_theta > self.theta_max:
+        if not self.acceptable(trial_theta, trial_phi, phi):
             return False, False
         margin = MARGIN * max(1.0, abs(phi))
-        if self._theta.size and np.any((trial_theta >= self._theta)
-                                       & (trial_phi >= self._phi + margin)):
-            return False, False
         switching = self.switching(theta, slope, alpha)
         armijo = trial_phi - phi <= ETA_PHI * alpha * slope + margin
         if theta <= self.theta_min and switching:

@@ -20,15 +20,18 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    to ``max_soc`` second-order corrections (:mod:`._filter`); the bound
    multipliers are then kept within :math:`[\mu/(\kappa_\Sigma\,
    \text{gap}), \kappa_\Sigma\mu/\text{gap}]`, :math:`\kappa_\Sigma = 10^{10}`;
-5. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
+5. when the line search finds no step (and the point is not acceptable,
+   status 1), the feasibility restoration phase (:mod:`._restoration`):
+   back with a less infeasible point the filter accepts, or status 2
+   (locally infeasible) or -2 (the restoration failed);
+6. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
    unscaled checks ``dual_inf_tol``, ``constr_viol_tol``,
    ``compl_inf_tol``), and ``acceptable_iter`` consecutive iterates within
    the ``acceptable_`` tolerances.
 
-What it lacks against IPOPT: the feasibility restoration phase (when the
-line search finds no step it stops with status -2, or 2 when the point
-locally minimizes the constraints' violation, or 1 when it is acceptable),
-the watchdog, the adaptive barrier strategies, the quasi-Newton Hessian.
+What it lacks against IPOPT: the watchdog, the adaptive barrier
+strategies, the quasi-Newton Hessian; the restoration phase's
+simplifications are listed in :mod:`._restoration`.
 """
 
 from __future__ import annotations
@@ -41,18 +44,15 @@ import numpy as np
 from ..._errors import ModelError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
+from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._reduced import ReducedNLP
+from ._restoration import Restoration
 from ._start import least_squares_multipliers, primal_start, warm_multipliers
 from ._status import STATUS
 from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
-
-KAPPA_SIGMA = 1e10
-S_MAX = 100.0
-#: consecutive iterates at a stationary point of the violation before status 2
-INFEASIBLE_ITERATIONS = 5
 
 
 def kkt_class(choice):
@@ -142,6 +142,7 @@ class _Run:
                             total=0.0)
         self.note = None
         self.iteration = 0
+        self.restoration = None
         self.start_wall = time.perf_counter()
         self.start_cpu = time.process_time()
 
@@ -208,7 +209,7 @@ class _Run:
             return False
         R.scale_at(R.template, gradient, jacobian)
         x_lower, x_upper = R.variable_bounds()
-        g_lower, g_upper = self.row_bounds = R.row_bounds()
+        g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
         self.row_target = np.where(R.equality, g_lower, 0.0)
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
@@ -276,27 +277,58 @@ class _Run:
         dual[B.lower_index] -= z_lower
         dual[B.upper_index] += z_upper
         c = self._row_residuals(e.rows, w)
-        compl_lower, compl_upper = z_lower * gap_lower, z_upper * gap_upper
-        n_z = z_lower.size + z_upper.size
-        z_sum = np.sum(np.abs(z_lower)) + np.sum(np.abs(z_upper))
-        s_d = max(S_MAX, (np.sum(np.abs(y)) + z_sum) / max(self.m + n_z, 1)) / S_MAX
-        s_c = max(S_MAX, z_sum / max(n_z, 1)) / S_MAX
-        dual_inf = np.max(np.abs(dual), initial=0.0)
-        primal_inf = np.max(np.abs(c), initial=0.0)
-        compl = max(np.max(compl_lower, initial=0.0), np.max(compl_upper, initial=0.0))
-        compl_mu = max(np.max(np.abs(compl_lower - mu), initial=0.0),
-                       np.max(np.abs(compl_upper - mu), initial=0.0))
+        errors = optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu)
         sf = R.objective_scale
-        # IPOPT's unscaled violation: the inequality rows against their (relaxed) bounds
-        violation = c.copy()
-        rows = e.rows[self.inequality]
-        violation[self.inequality] = rows - np.clip(rows, *self.slack_bounds)
-        unscaled_violation = np.max(np.abs(violation) / R.row_scale, initial=0.0)
         return dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
-                    c=c, dual_inf=dual_inf, primal_inf=primal_inf,
-                    error=max(dual_inf / s_d, primal_inf, compl / s_c),
-                    error_mu=max(dual_inf / s_d, primal_inf, compl_mu / s_c),
-                    unscaled=(dual_inf / sf, unscaled_violation, compl / sf))
+                    c=c, dual_inf=errors.dual_inf, primal_inf=errors.primal_inf,
+                    error=errors.error, error_mu=errors.error_mu,
+                    unscaled=(errors.dual_inf / sf, self.unscaled_violation(e.rows, c),
+                              errors.compl / sf))
+
+    def unscaled_violation(self, rows, c):
+        """IPOPT's unscaled violation :math:`\\|\\cdot\\|_\\infty`: the
+        equality rows' residuals ``c``, the inequality rows (values ``rows``)
+        against their (relaxed) bounds."""
+        violation = c.copy()
+        values = rows[self.inequality]
+        violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
+        return float(np.max(np.abs(violation) / self.reduced.row_scale, initial=0.0))
+
+    def hessian_values(self, e, y, objective_factor):
+        """The scaled Lagrangian's Hessian at ``e`` with the rows'
+        multipliers ``y`` and the objective times ``objective_factor``, or
+        ``None`` when a value is not finite."""
+        t = time.perf_counter()
+        with np.errstate(all="ignore"):
+            hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+        self.timings["hessian"] += time.perf_counter() - t
+        return hessian if np.all(np.isfinite(hessian)) else None
+
+    def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
+                  z_upper, gap_lower, gap_upper, mu, tau):
+        """The Newton step (:meth:`._step.StepSolver.compute`) and the bound
+        multipliers' steps and step lengths
+        (:meth:`._bounds.PrimalBounds.step_lengths`): ``(step, dz_lower,
+        dz_upper, alpha_primal_max, alpha_dual)``, or ``None`` when no
+        regularization gave the right inertia."""
+        t = time.perf_counter()
+        step = stepper.compute(hessian, jacobian, sigma, residual_w, c, mu)
+        self.timings["factor_solve"] += time.perf_counter() - t
+        if step is None:
+            return None
+        return (step,) + bounds.step_lengths(z_lower, z_upper, gap_lower, gap_upper,
+                                             step.primal, mu, tau)
+
+    def stopping_status(self):
+        """-1 (``max_iter``), -4 (``max_cpu_time``), 5 (a stop request) or ``None``."""
+        s = self.s
+        if self.iteration >= s.max_iter:
+            return -1
+        if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
+            return -4
+        if self.stop():
+            return 5
+        return None
 
     def _converged(self, m, acceptable):
         s = self.s
@@ -308,74 +340,40 @@ class _Run:
         return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
                 and compl <= s.compl_inf_tol)
 
-    def _stationary_violation(self, w, e, m):
-        """The point locally minimizes the rows' violation (its projected
-        gradient :math:`J^T v` vanishes) while violating them beyond
-        ``constr_viol_tol``."""
-        if m["unscaled"][1] <= self.s.constr_viol_tol:
-            return False
-        R, n = self.reduced, self.n
-        v = e.rows - np.clip(e.rows, *self.row_bounds)
-        grad = R.transpose_times(e.jacobian, v)
-        B = self.bounds
-        x = w[:n]
-        near = 1e-6 * (1.0 + np.abs(x))
-        lo = B.lower_index[B.lower_index < n]
-        up = B.upper_index[B.upper_index < n]
-        lower = B.lower[B.lower_index < n]
-        upper = B.upper[B.upper_index < n]
-        blocked = np.zeros(n, dtype=bool)
-        blocked[lo] = (x[lo] - lower <= near[lo]) & (grad[lo] > 0)
-        blocked[up] |= (upper - x[up] <= near[up]) & (grad[up] < 0)
-        grad[blocked] = 0.0
-        scale = max(1.0, np.max(np.abs(e.jacobian), initial=0.0))
-        return np.max(np.abs(grad), initial=0.0) <= 1e-6 * scale * np.sum(np.abs(v))
-
     def _iterate(self, w, y, z_lower, z_upper, e):
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
-        mu_floor = max(s.mu_min, min(s.tol, s.compl_inf_tol) / (s.barrier_tol_factor + 1.0))
         m = self._measures(w, y, z_lower, z_upper, e, mu)
         theta = float(np.sum(np.abs(m["c"])))
         line_filter = Filter(theta)
-        acceptable_count = infeasible_count = 0
-        last_primal_inf = np.inf
-        force_barrier = False
+        acceptable_count = 0
+        force_barrier = restored_row = False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
             if self.note:
                 print(f"interior point: {self.note}", file=sys.stdout)
             _print_header()
         while True:
-            if s.print_level:
-                _print_row(self.iteration, e.objective / self.reduced.objective_scale, m, mu, row)
+            if s.print_level and not restored_row:  # a restored point was printed
+                _print_row(self.iteration, e.objective / self.reduced.objective_scale,
+                           m["unscaled"][1], m["dual_inf"], mu, row)
+            restored_row = False
             if self._converged(m, acceptable=False):
                 return self._result(0, w, y, z_lower, z_upper, e)
             acceptable = self._converged(m, acceptable=True)
             acceptable_count = acceptable_count + 1 if acceptable else 0
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
-            # the violation's stationarity, asked when it stalls (fell by < 10 %)
-            stalled = m["primal_inf"] > 0.9 * last_primal_inf
-            last_primal_inf = m["primal_inf"]
-            infeasible_count = (infeasible_count + 1 if stalled
-                                and self._stationary_violation(w, e, m) else 0)
-            if infeasible_count >= INFEASIBLE_ITERATIONS:
-                return self._result(2, w, y, z_lower, z_upper, e)
             if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
                 return self._result(4, w, y, z_lower, z_upper, e)
-            if self.iteration >= s.max_iter:
-                return self._result(-1, w, y, z_lower, z_upper, e)
-            if s.max_cpu_time < 1e20 and time.process_time() - self.start_cpu > s.max_cpu_time:
-                return self._result(-4, w, y, z_lower, z_upper, e)
-            if self.stop():
-                return self._result(5, w, y, z_lower, z_upper, e)
+            stopping = self.stopping_status()
+            if stopping is not None:
+                return self._result(stopping, w, y, z_lower, z_upper, e)
             # the barrier parameter (monotone)
             while force_barrier or m["error_mu"] <= s.barrier_tol_factor * mu:
                 force_barrier = False
-                new_mu = max(mu_floor, min(s.mu_linear_decrease_factor * mu,
-                                           mu ** s.mu_superlinear_decrease_power))
+                new_mu = next_barrier(mu, s)
                 if new_mu >= mu:
                     break
                 mu = new_mu
@@ -383,11 +381,8 @@ class _Run:
                 line_filter.reset()
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
             # the Newton step
-            t = time.perf_counter()
-            with np.errstate(all="ignore"):
-                hessian = self.reduced.hessian(e.x_full, y, 1.0)
-            self.timings["hessian"] += time.perf_counter() - t
-            if not np.all(np.isfinite(hessian)):
+            hessian = self.hessian_values(e, y, 1.0)
+            if hessian is None:
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
@@ -395,19 +390,12 @@ class _Run:
             gradient_w[:n] = e.gradient
             barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
-            t = time.perf_counter()
-            step = self.stepper.compute(hessian, e.jacobian, sigma, residual_w, m["c"], mu)
-            self.timings["factor_solve"] += time.perf_counter() - t
-            if step is None:
+            direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
+                                       m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
+            if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
+            step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows
-            lo, up = B.lower_index, B.upper_index
-            dz_lower = (mu - z_lower * gap_lower - z_lower * dw[lo]) / gap_lower
-            dz_upper = (mu - z_upper * gap_upper + z_upper * dw[up]) / gap_upper
-            alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                            fraction_to_boundary(gap_upper, -dw[up], tau))
-            alpha_z = min(fraction_to_boundary(z_lower, dz_lower, tau),
-                          fraction_to_boundary(z_upper, dz_upper, tau))
             # the line search
             t = time.perf_counter()
             theta = float(np.sum(np.abs(m["c"])))
@@ -420,7 +408,7 @@ class _Run:
                 found = self._trial(w + alpha_max * dw, mu)
                 accepted = found is not None
                 if accepted:
-                    found = (found, alpha_max, dy, True, 1)
+                    found = (found, alpha_max, step, True, 1)
                 force_barrier = True
             else:
                 found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
@@ -429,15 +417,30 @@ class _Run:
             if found is None:
                 if self._converged(m, acceptable=True):
                     return self._result(1, w, y, z_lower, z_upper, e)
-                if self._stationary_violation(w, e, m):
-                    return self._result(2, w, y, z_lower, z_upper, e)
-                return self._result(-2, w, y, z_lower, z_upper, e)
-            (trial, w_trial, _, _), alpha, dy_used, f_type, trials = found
+                # the feasibility restoration phase, the point in the filter
+                line_filter.add(theta, phi)
+                if self.restoration is None:
+                    self.restoration = Restoration(self)
+                self.iteration += 1  # IPOPT counts the entry as an iteration
+                restored = self.restoration.solve(w, z_lower, z_upper, e, mu, line_filter,
+                                                  _print_row if s.print_level else None)
+                if restored.status is not None:
+                    return self._result(restored.status, *restored.point)
+                w, y, z_lower, z_upper, e = restored.point
+                m = self._measures(w, y, z_lower, z_upper, e, mu)
+                restored_row = True
+                continue
+            (trial, w_trial, _, _), alpha, step_used, f_type, trials = found
+            corrected = step_used is not step
+            if corrected:
+                # a second-order correction: the bound multipliers step along it
+                dz_lower, dz_upper, _, alpha_z = B.step_lengths(
+                    z_lower, z_upper, gap_lower, gap_upper, step_used.primal, mu, tau)
             if not f_type and not tiny:
                 line_filter.add(theta, phi)
             # the new iterate
             w = w_trial
-            y = y + alpha * dy_used
+            y = y + alpha * step_used.rows
             z_lower = z_lower + alpha_z * dz_lower
             z_upper = z_upper + alpha_z * dz_upper
             e = trial
@@ -445,13 +448,13 @@ class _Run:
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = B.gaps(w)
-            z_lower = np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower)
-            z_upper = np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper)
+            z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu)
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu)
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                        step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind="f" if f_type else "h")
+                       trials=trials, kind=("F" if f_type else "H") if corrected
+                       else ("f" if f_type else "h"))
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi)`` at a trial point, or ``None`` when
@@ -468,7 +471,8 @@ class _Run:
                      residual_w, c):
         """Backtracking from ``alpha_max`` (halving), a second-order correction
         after a first trial that raised the violation:
-        ``(trial, alpha, dy, f_type, trials)`` or ``None``."""
+        ``(trial, alpha, step, f_type, trials)`` (``step`` the corrected one
+        after a second-order correction) or ``None``."""
         s = self.s
         alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
         alpha = alpha_max
@@ -480,7 +484,7 @@ class _Run:
                 accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, trial[2],
                                                        trial[3])
                 if accepted:
-                    return trial, alpha, step.rows, f_type, trials
+                    return trial, alpha, step, f_type, trials
                 if trials == 1 and trial[2] >= theta and s.max_soc:
                     corrected = self._second_order(w, alpha, trial, theta, phi, slope, mu,
                                                    tau, line_filter, residual_w, c)
@@ -513,7 +517,7 @@ class _Run:
             accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, soc_trial[2],
                                                    soc_trial[3])
             if accepted:
-                return soc_trial, alpha_soc, corrected.rows, f_type
+                return soc_trial, alpha_soc, corrected, f_type
             if soc_trial[2] > s.kappa_soc * theta_old:
                 return None
             theta_old = soc_trial[2]
@@ -526,11 +530,12 @@ def _print_header():
           file=sys.stdout)
 
 
-def _print_row(iteration, objective, m, mu, row):
-    """IPOPT's columns: inf_pr the unscaled violation, inf_du the scaled
-    dual infeasibility."""
+def _print_row(iteration, objective, violation, dual_inf, mu, row):
+    """IPOPT's columns: ``iteration`` (a restoration iteration's ends in
+    ``r``), inf_pr the unscaled violation, inf_du the scaled dual
+    infeasibility."""
     rg = f"{np.log10(row['delta_w']):6.1f}" if row["delta_w"] > 0 else "     -"
-    print(f"{iteration:4d} {objective:14.7e} {m['unscaled'][1]:8.2e} {m['dual_inf']:8.2e} "
+    print(f"{str(iteration):>4} {objective:14.7e} {violation:8.2e} {dual_inf:8.2e} "
           f"{np.log10(mu):5.1f} {row['step']:8.2e} {rg} {row['alpha_dual']:8.2e} "
           f"{row['alpha_primal']:8.2e}{row['kind']} {row['trials']:2d}", file=sys.stdout,
           flush=True)

@@ -9,15 +9,16 @@ __all__ = ["STATUS"]
 STATUS = {
     0: "solved",
     1: "solved to an acceptable level (options acceptable_tol, acceptable_iter)",
-    2: "infeasible: the iterates reached a point that minimizes the constraints' "
-       "violation locally without satisfying them (check the constraints and bounds, "
-       "or give a better initial guess)",
+    2: "infeasible: converged to a point of local infeasibility (the restoration phase "
+       "found a local minimizer of the constraints' violation that does not satisfy "
+       "them; check the constraints and bounds, or give a better initial guess)",
     4: "the iterates diverged: the objective may be unbounded below (bound the "
        "variables it decreases along)",
     5: "stopped on request",
     -1: "the maximum number of iterations was reached (options={'max_iter': ...})",
-    -2: "the line search found no acceptable step (this solver has no feasibility "
-        "restoration phase; try another initial guess, or solver='ipopt')",
+    -2: "the restoration phase failed: its line search found no acceptable step, or "
+        "it converged to a feasible point the filter refuses (try another initial "
+        "guess, or solver='ipopt')",
     -3: "error in the step computation: no regularization gave the step's linear "
         "system the right inertia",
     -4: "the maximum CPU time was reached (options={'max_cpu_time': ...})",

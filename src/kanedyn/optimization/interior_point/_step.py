@@ -60,11 +60,29 @@ class NewtonStep:
 
 class StepSolver:
     """Newton steps through a KKT factorization (``kkt``: the interface of
-    :mod:`._kkt_dense`), remembering the last Hessian regularization."""
+    :mod:`._kkt_dense`), remembering the last Hessian regularization.
 
-    def __init__(self, kkt, n, m, inequality, settings):
+    Parameters
+    ----------
+    kkt : DenseKKT or SparseKKT
+        Of n variables and m rows.
+    n, m : int
+    inequality : ndarray of int, shape (n_slacks,)
+        The row of each eliminated variable :math:`w_{n+k}` (the inequality
+        rows' slacks; the restoration phase's :math:`p, n` too, so a row may
+        repeat).
+    settings : namespace
+        The solver's options.
+    signs : ndarray, shape (n_slacks,), optional
+        Each eliminated variable's coefficient in its row: -1 (a slack, the
+        default) or +1.
+    """
+
+    def __init__(self, kkt, n, m, inequality, settings, signs=None):
         self.kkt, self.n, self.m = kkt, n, m
-        self.inequality = inequality
+        self.inequality = np.asarray(inequality, dtype=np.int64)
+        self.signs = (np.full(self.inequality.size, -1.0) if signs is None
+                      else np.asarray(signs, dtype=float))
         self.settings = settings
         self.last_delta_w = 0.0
         #: whether every step takes delta_w > 0 / delta_c > 0 at once
@@ -77,8 +95,8 @@ class StepSolver:
     def _factor(self, hessian_values, jacobian_values, sigma, delta_w, delta_c):
         n = self.n
         slack_diagonal = sigma[n:] + delta_w
-        diagonal_c = np.full(self.m, delta_c)
-        diagonal_c[self.inequality] += 1.0 / slack_diagonal
+        diagonal_c = delta_c + np.bincount(self.inequality, weights=1.0 / slack_diagonal,
+                                           minlength=self.m)
         self.factorizations += 1
         inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
                                   diagonal_c)
@@ -163,7 +181,8 @@ class StepSolver:
         rhs = np.empty(n + self.m)
         rhs[:n] = -residual_w[:n]
         rhs[n:] = -residual_c
-        rhs[n:][self.inequality] -= residual_s / slack_diagonal
+        rhs[n:] += np.bincount(self.inequality, weights=self.signs * residual_s / slack_diagonal,
+                               minlength=self.m)
         if not np.all(np.isfinite(rhs)):
             return None
         solution = self.kkt.solve(rhs)
@@ -180,5 +199,5 @@ class StepSolver:
         if not np.all(np.isfinite(solution)):
             return None
         dx, dy = solution[:n], solution[n:]
-        ds = (dy[self.inequality] - residual_s) / slack_diagonal
+        ds = (-self.signs * dy[self.inequality] - residual_s) / slack_diagonal
         return NewtonStep(np.concatenate([dx, ds]), dy, delta_w, delta_c)
