@@ -212,21 +212,26 @@ def test_large_barrier_terms_are_not_zero_pivots():
     assert backward < 1e-14
 
 
-def test_tiny_pivot_beside_its_row_is_zero():
+def test_tiny_pivot_beside_its_row_is_delayed():
     """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
     cancellation, but the row below would grow by 1e20, so the pivot counts
-    as zero (and solve stays finite); with diagonal_x = 1e-2 there, the
-    inertia is eigvalsh's and the solution NumPy's."""
+    as zero; the factorization orders again with that row last (K's true
+    inertia (1, 1, 0), eigvalsh's, and NumPy's solution); the later
+    factorizations keep that order, and diagonal_x = 1e-2 there changes
+    nothing."""
     rng = np.random.default_rng(8)
     none = np.zeros(0, int)
     hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
     kkt = SparseKKT(2, 0, (hr, hc), (none, none))
     first = kkt.analysis.permutation[0]
     hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
-    assert kkt.factor(hv, np.zeros(0), np.zeros(2), np.zeros(0))[2] == 1
-    assert np.isfinite(kkt.solve([1.0, 1.0])).all()
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(2), np.zeros(0),
+           rng, inertia=(1, 1, 0))
+    assert kkt.analysis.n_delayed == 1 and kkt.analysis.permutation[-1] == first
+    assert kkt.reanalyses == 2  # the pairs made again (none here), then the delay
     dx = np.where(np.arange(2) == first, 1e-2, 0.0)
     _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx, np.zeros(0), rng)
+    assert kkt.reanalyses == 2
 
 
 def test_two_by_two_pivot_with_a_zero_eigenvalue():

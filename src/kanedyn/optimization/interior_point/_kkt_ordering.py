@@ -104,13 +104,16 @@ def _graph(size, rows, cols):
     return graph
 
 
-def _matching(pattern, preferred):
+def _matching(pattern, preferred, full=None):
     """``partner[i]``: the column matched to row ``i`` of ``pattern`` (m x n,
     CSR), or -1: a maximum matching that matches as many of the ``preferred``
-    columns (a boolean mask) as it can first, where that loses no row."""
+    columns (a boolean mask) as it can first, where that loses no row; with
+    ``full`` (a pattern that holds ``pattern``), one of ``full`` when
+    ``pattern`` alone matches fewer rows."""
     from scipy.sparse.csgraph import maximum_bipartite_matching
 
-    best = maximum_bipartite_matching(pattern, perm_type="column")
+    best = maximum_bipartite_matching(pattern if full is None else full,
+                                      perm_type="column")
     partner = np.full(pattern.shape[0], -1)
     cols = np.flatnonzero(preferred)
     if cols.size:
@@ -124,7 +127,8 @@ def _matching(pattern, preferred):
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
-def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None):
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
+                      pairable=None, delayed=None):
     """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
 
     Parameters
@@ -142,6 +146,13 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         The variables whose Hessian has a diagonal entry: the pairing prefers
         the others (a variable without one has a zero pivot of its own when
         ``diagonal_x`` is zero there).
+    pairable : ndarray of bool, shape (len(jacobian[0]),), optional
+        The Jacobian's entries a pair may be made of (the others only where
+        they alone match more rows); default all.
+    delayed : ndarray of bool, shape (N,), optional
+        Rows eliminated after all others but the dense ones, unpaired, in
+        their own order (pivots that a factorization found zero in an
+        earlier order, :class:`~._kkt_sparse.SparseKKT`).
 
     Returns
     -------
@@ -149,7 +160,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         ``permutation[k]``: the row of K eliminated ``k``-th.
     n_dense : int
         How many rows counted as dense (:func:`dense_threshold`): the last
-        ``n_dense`` of the order, the variables first.
+        ``n_dense`` of the order, the variables first; the ``delayed`` rows
+        (not dense) just before them.
     kind : ndarray of int8, shape (N,)
         Of each pivot in that order: 0 a variable's, 3 a constraint's, 1 and 2
         the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
@@ -168,15 +180,23 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
     degrees = np.diff(graph.indptr)
     dense = degrees > dense_threshold(degrees)
-    keep = np.flatnonzero(~dense)
+    late = dense if delayed is None else dense | delayed
+    keep = np.flatnonzero(~late)
     block = np.arange(N)  # the node of the compressed graph each row belongs to
     if ordering != "rcm" and m and jr.size:
-        inside = ~dense[n + jr] & ~dense[jc]
-        pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
-                                 (jr[inside], jc[inside])), shape=(m, n))
-        pattern.sum_duplicates()
+        inside = ~late[n + jr] & ~late[jc]
+
+        def pattern_of(entries):
+            pattern = sp.csr_matrix((np.ones(int(entries.sum()), dtype=np.int8),
+                                     (jr[entries], jc[entries])), shape=(m, n))
+            pattern.sum_duplicates()
+            return pattern
+        full = pattern_of(inside)
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
-        partner = _matching(pattern, preferred & ~dense[:n])
+        if pairable is None:
+            partner = _matching(full, preferred & ~late[:n])
+        else:
+            partner = _matching(pattern_of(inside & pairable), preferred & ~late[:n], full)
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
     # the compressed graph on the blocks of the rows that are not dense
@@ -187,7 +207,9 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     a, b = where[keep[sub.row]], where[keep[sub.col]]
     distinct = a != b
     compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
-    if ordering == "pairs-mmd":
+    if nodes.size == 0:  # every row delayed or dense
+        order = np.zeros(0, dtype=np.int64)
+    elif ordering == "pairs-mmd":
         order = _minimum_degree(compressed_graph)
     else:
         order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
@@ -195,7 +217,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     rank = np.empty(nodes.size, dtype=np.int64)
     rank[order] = np.arange(nodes.size)
     sequence = np.lexsort((keep, rank[compressed]))
-    permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
+    permutation = np.concatenate([keep[sequence], np.flatnonzero(late & ~dense),
+                                  np.flatnonzero(dense)])
     # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
     # variable (1) and the constraint (2) of a pair
     kind = np.where(permutation < n, 0, 3).astype(np.int8)

@@ -94,10 +94,14 @@ import numpy as np
 from ._kkt_kernel import kernel
 from ._kkt_ordering import ORDERINGS, elimination_order
 
-__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT"]
+__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES"]
 
 #: default relative threshold of a zero pivot (see the module's docstring)
 ZERO_PIVOT = 1e-12
+
+#: at most this many analyses after the constructor's, over an object's life
+#: (the module's docstring, *Zero pivots that the order made*)
+MAX_REANALYSES = 4
 
 _INDEX = np.int32
 _LIMIT = np.iinfo(_INDEX).max
@@ -115,6 +119,9 @@ class KKTAnalysis:
         ``permutation[k]``: the row of K eliminated ``k``-th.
     n_dense : int
         Rows counted as dense and ordered last.
+    n_delayed : int
+        Rows whose pivot a factorization found zero, ordered just before the
+        dense ones (0 until then).
     nnz_matrix : int
         Entries of K's upper triangle after repeats are summed, diagonal included.
     nnz_factor : int
@@ -133,6 +140,7 @@ class KKTAnalysis:
     m: int
     permutation: np.ndarray
     n_dense: int
+    n_delayed: int
     nnz_matrix: int
     nnz_factor: int
     bytes_factor: int
@@ -286,11 +294,27 @@ class SparseKKT:
         self._kernel = kernel()
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
-        off = hr != hc
+        self.ordering = ordering
+        self._hessian_structure = (hr.astype(_INDEX), hc.astype(_INDEX))
+        self._jacobian_structure = (jr.astype(_INDEX), jc.astype(_INDEX))
+        self._delayed = np.zeros(N, dtype=bool)
+        self.reanalyses = 0
         has_diagonal = np.zeros(n, dtype=bool)
-        has_diagonal[hr[~off]] = True
-        permutation, n_dense, kind = elimination_order(n, m, (hr[off], hc[off]),
-                                                       (jr, jc), ordering, has_diagonal)
+        has_diagonal[hr[hr == hc]] = True
+        self._analyse(has_diagonal, None)
+        self.inertia = None
+
+    def _analyse(self, has_diagonal, pairable):
+        """The order (pairs by :func:`elimination_order`, ``self._delayed``
+        last), K's permuted pattern and maps, the elimination tree and the
+        storage of the factors; ``has_diagonal`` and ``pairable`` as
+        :func:`elimination_order` takes them."""
+        n, m, N = self.n, self.m, self.size
+        (hr, hc), (jr, jc) = self._hessian_structure, self._jacobian_structure
+        off = hr != hc
+        permutation, n_dense, kind = elimination_order(
+            n, m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
+            self._delayed)
         (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
          self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
         self._Ax = np.zeros(self._Ai.size)
@@ -309,15 +333,18 @@ class SparseKKT:
         self._E = np.zeros(N)
         self._factor_work = np.zeros(5 * N)  # the kernel's scratch: kept, not reallocated
         self._solve_work = np.zeros(N)
-        self.inertia = None
+        self._zero = np.zeros(N, dtype=np.int8)
         factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
                                               self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._kind, permutation))
-        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._Ai.size), nnz,
-                                    factor_bytes, map_bytes,
-                                    self._factor_work.nbytes + self._solve_work.nbytes)
+                                           self._parent, self._kind, permutation,
+                                           *self._hessian_structure,
+                                           *self._jacobian_structure))
+        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._delayed.sum()),
+                                    int(self._Ai.size), nnz, factor_bytes, map_bytes,
+                                    self._factor_work.nbytes + self._solve_work.nbytes
+                                    + self._zero.nbytes)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
         """Factor K with these values; return its inertia.
@@ -352,12 +379,50 @@ class SparseKKT:
         if dc.size and dc.min() < 0.0:
             raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
         self.inertia = None  # no factors while the kernel overwrites them
-        inertia = self._kernel.factor(
-            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
-            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
-            self._diagonal_map, dx, dc, self._factor_work, self.zero_pivot)
+        inertia = self._factor(hv, jv, dx, dc)
+        if inertia[2] and self.reanalyses < MAX_REANALYSES:
+            inertia = self._reanalyse(hv, jv, dx, dc, inertia)
         self.inertia = inertia
         return inertia
+
+    def _factor(self, hv, jv, dx, dc):
+        return self._kernel.factor(
+            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
+            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
+            self._diagonal_map, dx, dc, self._factor_work, self._zero, self.zero_pivot)
+
+    def _reanalyse(self, hv, jv, dx, dc, inertia):
+        """The inertia after the order is made again for these values (the
+        module's docstring, *Zero pivots that the order made*), or
+        ``inertia`` when there is nothing new to try."""
+        n, m, N = self.n, self.m, self.size
+        failed = np.zeros(N, dtype=bool)
+        failed[self._permutation[self._zero.astype(bool)]] = True
+        if not (failed & ~self._delayed).any():
+            return inertia  # zero where it was already delayed: K's own
+        (hr, hc), (jr, jc) = self._hessian_structure, self._jacobian_structure
+        largest = max(np.abs(self._Ax).max(initial=0.0), 1e-300)
+        diagonal = dx.copy()
+        on = hr == hc
+        np.add.at(diagonal, hr[on], hv[on])
+        row_largest = np.zeros(m)
+        np.maximum.at(row_largest, jr, np.abs(jv))
+        pairable = np.abs(jv) > self.zero_pivot * row_largest[jr]
+        has_diagonal = np.abs(diagonal) > self.zero_pivot * largest
+        # first the pairs made again; then what still fails, delayed to the end
+        for delay in (False, True):
+            if delay:
+                self._delayed |= failed
+            self.reanalyses += 1
+            self._analyse(has_diagonal, pairable)
+            found = self._factor(hv, jv, dx, dc)
+            if not found[2] or self.reanalyses >= MAX_REANALYSES:
+                return found
+            failed = np.zeros(N, dtype=bool)
+            failed[self._permutation[self._zero.astype(bool)]] = True
+            if not (failed & ~self._delayed).any():
+                return found
+        return found
 
     def _factored(self, what):
         if self.inertia is None:
