@@ -127,6 +127,31 @@ def _matching(pattern, preferred, full=None):
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
+def _pairs_before_their_rows(order, node, n, block, jr, jc):
+    """``order`` (of the compressed graph's nodes), or ``order`` reversed
+    when that puts more of the paired constraints' other variables after
+    their pair than before it.
+
+    A band order runs along the collocation's nodes one way or the other.
+    With a defect row paired with the state it defines, eliminating the pairs
+    before the states and inputs that define them sweeps backward in time,
+    as the Riccati recursion does, and the pivots stay bounded; the other way
+    is forward shooting, and the constraint rows' pivots grow like the
+    dynamics' unstable modes (the pendulum near upright: by 1e12 over 60
+    pairs).  ``node``: the node of each row of K (-1 for the rows left
+    out); ``block``: the row each row is paired into (itself when
+    unpaired)."""
+    rows = n + jr
+    partner = block[rows]
+    use = (partner != rows) & (jc != partner) & (node[rows] >= 0) & (node[jc] >= 0)
+    if not use.any():
+        return order
+    rank = np.empty(order.size, dtype=np.int64)
+    rank[order] = np.arange(order.size)
+    before = int(np.count_nonzero(rank[node[jc[use]]] < rank[node[rows[use]]]))
+    return order[::-1].copy() if 2 * before > int(use.sum()) else order
+
+
 def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
                       pairable=None, delayed=None):
     """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
@@ -213,6 +238,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         order = _minimum_degree(compressed_graph)
     else:
         order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
+        if m and jr.size:
+            order = _pairs_before_their_rows(order, where, n, block, jr, jc)
     # expand: each block's rows in their own order (the variable before its constraint)
     rank = np.empty(nodes.size, dtype=np.int64)
     rank[order] = np.arange(nodes.size)
