@@ -396,3 +396,110 @@ def test_no_compiler(monkeypatch):
     monkeypatch.setenv("CC", "kanedyn-no-such-compiler")
     with pytest.raises(CompilerError, match="kanedyn-no-such-compiler"):
         _simple()
+
+
+# ------------------------------------------ the matrices the solver factors
+def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
+    """Every ``(n, m, structures, values)`` the interior-point solver gave
+    ``SparseKKT.factor`` in ``max_iter`` iterations of ``problem`` (the
+    exact Hessian, ``linear_solver="sparse"``), in order."""
+    from kanedyn.optimization.interior_point import _kkt_sparse
+    seen = []
+    factor = _kkt_sparse.SparseKKT.factor
+
+    def recording(self, *values):
+        seen.append((self.n, self.m, (self._hessian_structure, self._jacobian_structure),
+                     tuple(np.array(v, dtype=float) for v in values)))
+        return factor(self, *values)
+    monkeypatch.setattr(_kkt_sparse.SparseKKT, "factor", recording)
+    problem.solve(guess, solver="interior-point", hessian="exact",
+                  options={"max_iter": max_iter, "linear_solver": "sparse"})
+    monkeypatch.undo()
+    return seen
+
+
+def _numpy_inertia(n, m, structures, values):
+    (hr, hc), (jr, jc) = structures
+    hv, jv, dx, dc = values
+    return _eigen_inertia(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+
+
+def _swing_up(nodes, method):
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import _ocp_peers as peers
+    problem, _ = peers.pendulum_kanedyn(nodes, method, backend="numpy")
+    return problem
+
+
+def test_first_matrices_of_the_hermite_simpson_swing_up(monkeypatch):
+    """The 50-node Hermite-Simpson swing-up from the straight line (the
+    solver's test problem): its first KKT matrices, each factored by a new
+    ``SparseKKT``, have eigvalsh's inertia, no zero pivot (the first
+    Newton step's matrix had one in the order made before the values were
+    known: a state left unpaired whose Hessian diagonal is 0 there)."""
+    problem = _swing_up(50, "hermite-simpson")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    seen = _factored_by_the_solver(problem, guess, 2, monkeypatch)
+    assert len(seen) >= 3
+    for n, m, structures, values in seen:
+        expected = _numpy_inertia(n, m, structures, values)
+        assert expected[2] == 0
+        assert SparseKKT(n, m, *structures).factor(*values) == expected
+
+
+@pytest.mark.slow
+def test_first_matrices_of_the_gallery_swing_up_from_a_random_guess(monkeypatch):
+    """The 501-node backward-Euler swing-up from opty's random guess
+    (``benchmarks/bench_optimal_control.py``): its first KKT matrices have
+    eigvalsh's inertia (the first had a zero pivot: a pair made through a
+    Jacobian entry of the pattern whose value is 0)."""
+    problem = _swing_up(501, "backward-euler")
+    guess = np.random.default_rng(0).normal(size=3 * 501)
+    seen = _factored_by_the_solver(problem, guess, 1, monkeypatch)
+    assert np.any(seen[0][3][1] == 0.0)  # the pattern's zeros
+    for n, m, structures, values in seen:
+        expected = _numpy_inertia(n, m, structures, values)
+        assert expected[2] == 0
+        assert SparseKKT(n, m, *structures).factor(*values) == expected
+
+
+@pytest.mark.slow
+def test_every_matrix_of_a_trapezoid_swing_up_solve(monkeypatch):
+    """Every KKT matrix the solver factors on the 100-node trapezoid
+    swing-up to its optimum, factored by one ``SparseKKT`` as the solver
+    does: the signs of eigvalsh's eigenvalues each time (with the band swept forward in time
+    the constraint rows' pivots grew by 1e12 near the upright end and one
+    counted as zero at the 41st)."""
+    problem = _swing_up(100, "trapezoid")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    seen = _factored_by_the_solver(problem, guess, 100, monkeypatch)
+    assert len(seen) > 50
+    n, m, ((hr, hc), (jr, jc)), _ = seen[0]
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    for *_, (hv, jv, dx, dc) in seen:
+        eigenvalues = np.linalg.eigvalsh(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+        # some as small as 1e-11 of the largest: signs still far above rounding
+        assert np.abs(eigenvalues).min() > 1e-13 * np.abs(eigenvalues).max()
+        expected = (int(np.sum(eigenvalues > 0)), int(np.sum(eigenvalues < 0)), 0)
+        assert kkt.factor(hv, jv, dx, dc) == expected
+
+
+def test_the_band_sweeps_each_pair_before_its_rows_other_variables():
+    """The pendulum's trapezoid NLP (41 nodes, fixed duration): most of the
+    other variables of the paired constraint rows come after their pair in
+    the order (a backward sweep, as the Riccati recursion), whichever way
+    reverse Cuthill-McKee ran."""
+    nlp = _pendulum_nlp("trapezoid", False, nodes=41)
+    n, m = nlp.n, nlp.m
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    permutation, kind = kkt.analysis.permutation, kkt._kind
+    position = np.empty(n + m, dtype=int)
+    position[permutation] = np.arange(n + m)
+    partner = {int(permutation[k]) - n: int(permutation[k - 1])
+               for k in np.flatnonzero(kind == 2)}
+    assert len(partner) == m
+    after = [position[c] > position[n + r] for r, c in zip(jr, jc) if c != partner[r]]
+    assert np.mean(after) > 0.6  # 0.7: a row's state and input at the later node come first

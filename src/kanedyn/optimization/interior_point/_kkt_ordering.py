@@ -127,10 +127,9 @@ def _matching(pattern, preferred, full=None):
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
-def _pairs_before_their_rows(order, node, n, block, jr, jc):
-    """``order`` (of the compressed graph's nodes), or ``order`` reversed
-    when that puts more of the paired constraints' other variables after
-    their pair than before it.
+def _sweeps_backward(order, node, n, block, jr, jc):
+    """Whether ``order`` (of the compressed graph's nodes) puts at least half
+    of the paired constraints' other variables after their pair.
 
     A band order runs along the collocation's nodes one way or the other.
     With a defect row paired with the state it defines, eliminating the pairs
@@ -144,12 +143,31 @@ def _pairs_before_their_rows(order, node, n, block, jr, jc):
     rows = n + jr
     partner = block[rows]
     use = (partner != rows) & (jc != partner) & (node[rows] >= 0) & (node[jc] >= 0)
-    if not use.any():
-        return order
     rank = np.empty(order.size, dtype=np.int64)
     rank[order] = np.arange(order.size)
     before = int(np.count_nonzero(rank[node[jc[use]]] < rank[node[rows[use]]]))
-    return order[::-1].copy() if 2 * before > int(use.sum()) else order
+    return 2 * before <= int(use.sum())
+
+
+def _backward_band(graph, node, n, block, jr, jc):
+    """Reverse Cuthill-McKee's order of ``graph`` that sweeps backward
+    (:func:`_sweeps_backward`): SciPy's; else SciPy's started from the
+    other end of the first (a node of degree one joined there, then left
+    out: SciPy starts from a node of least degree); else the first one
+    reversed (Cuthill-McKee's, whose profile may be larger)."""
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    order = reverse_cuthill_mckee(graph, symmetric_mode=True)
+    if _sweeps_backward(order, node, n, block, jr, jc):
+        return order
+    size = graph.shape[0]
+    edges = graph.tocoo()
+    pendant = _graph(size + 1, np.append(edges.row, size), np.append(edges.col, order[0]))
+    other = reverse_cuthill_mckee(pendant, symmetric_mode=True)
+    other = other[other != size]
+    if _sweeps_backward(other, node, n, block, jr, jc):
+        return other
+    return order[::-1].copy()
 
 
 def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
@@ -236,10 +254,10 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         order = np.zeros(0, dtype=np.int64)
     elif ordering == "pairs-mmd":
         order = _minimum_degree(compressed_graph)
+    elif ordering == "pairs" and m and jr.size:
+        order = _backward_band(compressed_graph, where, n, block, jr, jc)
     else:
         order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
-        if m and jr.size:
-            order = _pairs_before_their_rows(order, where, n, block, jr, jc)
     # expand: each block's rows in their own order (the variable before its constraint)
     rank = np.empty(nodes.size, dtype=np.int64)
     rank[order] = np.arange(nodes.size)
