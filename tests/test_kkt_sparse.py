@@ -408,7 +408,7 @@ def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
     factor = _kkt_sparse.SparseKKT.factor
 
     def recording(self, *values):
-        seen.append((self.n, self.m, (self._hessian_structure, self._jacobian_structure),
+        seen.append((self.n, self.m, self._structures(),
                      tuple(np.array(v, dtype=float) for v in values)))
         return factor(self, *values)
     monkeypatch.setattr(_kkt_sparse.SparseKKT, "factor", recording)
@@ -503,3 +503,15 @@ def test_the_band_sweeps_each_pair_before_its_rows_other_variables():
     assert len(partner) == m
     after = [position[c] > position[n + r] for r, c in zip(jr, jc) if c != partner[r]]
     assert np.mean(after) > 0.6  # 0.7: a row's state and input at the later node come first
+
+
+def test_structures_recovered_from_the_maps():
+    """An analysis again takes the structures from the maps (they are not
+    kept): the constructor's, repeats included, entry for entry."""
+    rng = np.random.default_rng(12)
+    n, m = 25, 9
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    (hr2, hc2), (jr2, jc2) = kkt._structures()
+    for found, given in ((hr2, hr), (hc2, hc), (jr2, jr), (jc2, jc)):
+        np.testing.assert_array_equal(found, given)

@@ -19,7 +19,8 @@ zero), 1 x 1 elsewhere.  The blocks are fixed by the analysis: no pivoting at ru
 By Sylvester's law of inertia the eigenvalues of :math:`D`'s blocks have
 :math:`K`'s inertia, whatever the order, as long as none is zero.
 
-**Analysis, once** (the constructor): the elimination order and its pairs;
+**Analysis, once** (the constructor; again at a zero pivot, below): the
+elimination order and its pairs;
 the pattern of the permuted upper triangle of :math:`K` (CSC; every diagonal
 entry present); the maps of every Hessian entry, Jacobian entry and diagonal
 entry to its place there (repeated entries map to the same place and are
@@ -73,12 +74,39 @@ is counted by its sign, whichever rows it belongs to: a negative pivot among
 the variables or a positive one among the constraints is reported as it is
 (it is part of :math:`K`'s inertia).
 
+**Zero pivots that the order made.**  The order is made from the
+patterns alone, so a factorization can meet a zero pivot that :math:`K`
+has not: a pair made through a Jacobian entry of the pattern whose value
+is 0 (the pendulum's backward-Euler NLP has such entries: a defect row's
+derivative by an input it does not hold), or a variable left unpaired
+whose Hessian diagonal is 0 at these values, eliminated before its rows.
+So when ``factor`` finds a zero pivot outside the rows already delayed, it
+analyses again, once or twice, and factors again with the same values:
+
+1. the pairs made again for these values: a pair only through a Jacobian
+   entry above ``zero_pivot`` times the largest of its row, the variables
+   whose diagonal (Hessian and ``diagonal_x``) is at most ``zero_pivot``
+   times :math:`K`'s largest entry paired first (where either loses no
+   row);
+2. if a pivot is still zero: its rows (both of a pair) *delayed*,
+   eliminated after all others but the dense ones, unpaired; at the end
+   the pivot is the Schur complement of everything before it, zero only
+   where :math:`K` (or :math:`K` without the dense rows) is singular or
+   nearly so.
+
+The new order is kept for the later factorizations (the delayed rows stay
+delayed: each makes its row of :math:`L` as long as the band behind its
+first neighbour), at most :data:`MAX_REANALYSES` analyses in all
+(``reanalyses`` counts them; ``analysis.n_delayed`` the delayed rows).
+The first matrix of the 50-node Hermite-Simpson swing-up (a state with a
+zero Hessian diagonal) and of the 501-node backward-Euler one from a random
+guess (a pair through a zero entry) take step 1 alone, then eigvalsh's
+inertia (``tests/test_kkt_sparse.py``).
+
 So the reported inertia is :math:`K`'s when ``n_zero == 0`` (up to rounding
 in pivots that pass the tests).  ``n_zero > 0`` says that :math:`K` is
-singular or nearly so, or that a leading block of :math:`PKP^T` is, or that
-a pivot was too small to eliminate without pivoting: a variable left
-unpaired whose diagonal is zero (no Hessian term, no barrier term) or tiny,
-eliminated before anything fills its diagonal.
+singular or nearly so, or that a leading block of :math:`PKP^T` is even
+after the new order (or the analyses ran out).
 The caller regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors
 again; :meth:`~SparseKKT.matvec` multiplies by :math:`K` itself (never by a
 replaced pivot), for iterative refinement.
@@ -253,7 +281,11 @@ class SparseKKT:
     Attributes
     ----------
     analysis : KKTAnalysis
-        The order, the sizes of K and L and the bytes held.
+        The order, the sizes of K and L and the bytes held (the last
+        analysis's).
+    reanalyses : int
+        The analyses made after the constructor's, for zero pivots that the
+        order made (the module's docstring), at most :data:`MAX_REANALYSES`.
     inertia : (int, int, int) or None
         What the last ``factor`` returned; ``None`` before the first.
 
@@ -295,22 +327,30 @@ class SparseKKT:
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         self.ordering = ordering
-        self._hessian_structure = (hr.astype(_INDEX), hc.astype(_INDEX))
-        self._jacobian_structure = (jr.astype(_INDEX), jc.astype(_INDEX))
         self._delayed = np.zeros(N, dtype=bool)
         self.reanalyses = 0
         has_diagonal = np.zeros(n, dtype=bool)
         has_diagonal[hr[hr == hc]] = True
-        self._analyse(has_diagonal, None)
+        self._analyse((hr, hc), (jr, jc), has_diagonal, None)
         self.inertia = None
 
-    def _analyse(self, has_diagonal, pairable):
+    def _structures(self):
+        """``((hr, hc), (jr, jc))``, the constructor's structures, from the
+        maps (not kept: an analysis again is rare)."""
+        column = np.repeat(np.arange(self.size), np.diff(self._Ap))
+        first = self._permutation[self._Ai].astype(np.int64)
+        second = self._permutation[column].astype(np.int64)
+        high, low = np.maximum(first, second), np.minimum(first, second)
+        h, j = self._hessian_map, self._jacobian_map
+        return (high[h], low[h]), (high[j] - self.n, low[j])
+
+    def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (pairs by :func:`elimination_order`, ``self._delayed``
         last), K's permuted pattern and maps, the elimination tree and the
         storage of the factors; ``has_diagonal`` and ``pairable`` as
         :func:`elimination_order` takes them."""
         n, m, N = self.n, self.m, self.size
-        (hr, hc), (jr, jc) = self._hessian_structure, self._jacobian_structure
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         off = hr != hc
         permutation, n_dense, kind = elimination_order(
             n, m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
@@ -338,9 +378,7 @@ class SparseKKT:
                                               self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._kind, permutation,
-                                           *self._hessian_structure,
-                                           *self._jacobian_structure))
+                                           self._parent, self._kind, permutation))
         self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._delayed.sum()),
                                     int(self._Ai.size), nnz, factor_bytes, map_bytes,
                                     self._factor_work.nbytes + self._solve_work.nbytes
@@ -364,7 +402,8 @@ class SparseKKT:
         -------
         (int, int, int)
             ``(n_positive, n_negative, n_zero)``: the pivots by sign, the zero
-            ones as the module's docstring defines them.
+            ones as the module's docstring defines them (after the new order
+            that a zero pivot may bring, *Zero pivots that the order made*).
 
         Raises
         ------
@@ -400,7 +439,7 @@ class SparseKKT:
         failed[self._permutation[self._zero.astype(bool)]] = True
         if not (failed & ~self._delayed).any():
             return inertia  # zero where it was already delayed: K's own
-        (hr, hc), (jr, jc) = self._hessian_structure, self._jacobian_structure
+        (hr, hc), (jr, jc) = structures = self._structures()
         largest = max(np.abs(self._Ax).max(initial=0.0), 1e-300)
         diagonal = dx.copy()
         on = hr == hc
@@ -414,7 +453,7 @@ class SparseKKT:
             if delay:
                 self._delayed |= failed
             self.reanalyses += 1
-            self._analyse(has_diagonal, pairable)
+            self._analyse(*structures, has_diagonal, pairable)
             found = self._factor(hv, jv, dx, dc)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
