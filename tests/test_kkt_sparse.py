@@ -424,6 +424,15 @@ def _numpy_inertia(n, m, structures, values):
     return _eigen_inertia(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
 
 
+def _each_by_a_new_factorization(seen):
+    """Each matrix of ``seen`` (:func:`_factored_by_the_solver`) factored by
+    a new ``SparseKKT``: eigvalsh's inertia, no zero eigenvalue."""
+    for n, m, structures, values in seen:
+        expected = _numpy_inertia(n, m, structures, values)
+        assert expected[2] == 0
+        assert SparseKKT(n, m, *structures).factor(*values) == expected
+
+
 def _swing_up(nodes, method):
     import sys
     from pathlib import Path
@@ -443,10 +452,7 @@ def test_first_matrices_of_the_hermite_simpson_swing_up(monkeypatch):
     guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
     seen = _factored_by_the_solver(problem, guess, 2, monkeypatch)
     assert len(seen) >= 3
-    for n, m, structures, values in seen:
-        expected = _numpy_inertia(n, m, structures, values)
-        assert expected[2] == 0
-        assert SparseKKT(n, m, *structures).factor(*values) == expected
+    _each_by_a_new_factorization(seen)
 
 
 @pytest.mark.slow
@@ -459,19 +465,16 @@ def test_first_matrices_of_the_gallery_swing_up_from_a_random_guess(monkeypatch)
     guess = np.random.default_rng(0).normal(size=3 * 501)
     seen = _factored_by_the_solver(problem, guess, 1, monkeypatch)
     assert np.any(seen[0][3][1] == 0.0)  # the pattern's zeros
-    for n, m, structures, values in seen:
-        expected = _numpy_inertia(n, m, structures, values)
-        assert expected[2] == 0
-        assert SparseKKT(n, m, *structures).factor(*values) == expected
+    _each_by_a_new_factorization(seen)
 
 
 @pytest.mark.slow
 def test_every_matrix_of_a_trapezoid_swing_up_solve(monkeypatch):
     """Every KKT matrix the solver factors on the 100-node trapezoid
     swing-up to its optimum, factored by one ``SparseKKT`` as the solver
-    does: the signs of eigvalsh's eigenvalues each time (with the band swept forward in time
-    the constraint rows' pivots grew by 1e12 near the upright end and one
-    counted as zero at the 41st)."""
+    does: the signs of eigvalsh's eigenvalues each time (with the band swept
+    forward in time the constraint rows' pivots grew by 1e12 near the
+    upright end and one counted as zero at the 41st)."""
     problem = _swing_up(100, "trapezoid")
     guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
     seen = _factored_by_the_solver(problem, guess, 100, monkeypatch)

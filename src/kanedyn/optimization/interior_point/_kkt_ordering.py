@@ -18,13 +18,33 @@ instance constraints join the first and the last node).
    entry matched first where that loses no row): a defect row with one of
    the states it relates;
 3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
-   and the unpaired rows (the band, found whatever the layout);
-4. each pair is eliminated variable first, then its constraint.
+   and the unpaired rows (the band, found whatever the layout), in the
+   direction that sweeps backward (:func:`_backward_band`): most of the
+   other variables of a paired row after its pair;
+4. each pair is eliminated variable first, then its constraint; rows that
+   a factorization delayed (``delayed``) and the dense rows last.
 
 Step 4 keeps a constraint row from being eliminated before all of its
 variables (with ``diagonal_c = 0`` its 1 x 1 pivot would be exactly zero),
 and :class:`~._kkt_sparse.SparseKKT` eliminates each pair as one 2 x 2
 pivot, nonsingular where the variable's diagonal is zero too.
+
+The direction of step 3 matters because nothing pivots at run time: a
+defect row paired with the state at the later node of its interval,
+eliminated after the earlier node's state and input, carries the Schur
+complement of everything before it forward in time, which grows like the
+dynamics' unstable modes (forward shooting).  On the 100-node trapezoid
+swing-up the constraint rows' pivots so grew by about 2 per interval near
+the upright end, to 2e13 beside entries of 21, until one counted as zero
+at the solver's 41st factorization (a spurious regularization; then one
+iteration more than with ``DenseKKT``).  Swept backward, each pair is
+eliminated before the variables its row holds, as the Riccati recursion
+eliminates the later stage first: the constraint rows' pivots stay
+bounded, and every matrix of that solve has eigvalsh's inertia
+(``tests/test_kkt_sparse.py``).  SciPy's RCM starts from a node of least
+degree; to run the other way it starts from the far end of its first
+order (where the two ends of the band differ in degree, the first order
+can run either way).
 
 Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
 pendulum swing-up's NLP with a free duration, exact Hessian at random
@@ -32,12 +52,14 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
 1.7-4.4 on 2 cores; ``docs/benchmarks.md``):
 
 - entries of L below the diagonal at 1,000 / 10,000 nodes, trapezoid: 24,977
-  / 249,977 with the pairs by RCM; 28,963 / 289,963 with the pairs in
+  / 249,977 with the pairs by RCM run forward (before the backward sweep),
+  26,979 / 269,979 swept backward (from the other end of the band: 8 % more);
+  28,963 / 289,963 with the pairs in
   SuperLU's multiple minimum degree order (``ordering="pairs-mmd"``); 20,985
   / 209,985 by RCM on the rows without pairs (``ordering="rcm"``); 19,979 /
   199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
   ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
-  739,796; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
+  739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
   NLP's own order (the band not found) L had 3.96 times the entries it has
   with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
   more than 3);
@@ -50,7 +72,9 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
   NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
   (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
-  or barrier term can still meet a zero pivot.
+  or barrier term can still meet a zero pivot, and a pair made through a
+  Jacobian entry whose value is 0; ``SparseKKT`` then orders again for the
+  values (its module's docstring).
 """
 
 from __future__ import annotations
