@@ -37,7 +37,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 8"
+_GENERATION = "kanedyn sparse LDL 9"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -87,6 +87,25 @@ static int kd_views(PyObject *args, int count, Py_buffer *views, const Py_ssize_
     return 0;
 }
 
+/* the walk from i up the elimination tree to the first node marked for row k:
+   the nodes passed (the first row of a pair with its second) appended to `out`
+   and marked; with `build`, a node without a parent gets k (the tree made as
+   the rows come, symbolic); returns how many were appended */
+static Py_ssize_t kd_walk(int32_t i, Py_ssize_t k, int32_t *flag, int32_t *parent,
+                          const int8_t *pair, int32_t *out, int build) {
+    Py_ssize_t length = 0;
+    for (; flag[i] != k; i = parent[i]) {
+        if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+            out[length++] = i - 1;
+            flag[i - 1] = (int32_t)k;
+        }
+        if (build && parent[i] == -1) parent[i] = (int32_t)k;
+        out[length++] = i;
+        flag[i] = (int32_t)k;
+    }
+    return length;
+}
+
 /* ---------------------------------------------------------------- symbolic */
 static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
@@ -98,28 +117,21 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     int32_t *parent = v[0].buf, *Ai = v[3].buf;
     int64_t *counts = v[1].buf, *Ap = v[2].buf;
     const int8_t *pair = v[4].buf;
-    int32_t *flag = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    int32_t *flag = malloc(sizeof(int32_t) * 2 * (size_t)(N > 0 ? N : 1));
     if (flag == NULL) {
         kd_release(v, 5);
         return PyErr_NoMemory();
     }
+    int32_t *passed = flag + N;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < N; k++) {
         parent[k] = -1;
         flag[k] = (int32_t)k;
         counts[k] = 0;
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
-            int32_t i = Ai[p];
-            /* walk from i up the tree to the first node already marked for k */
-            for (; flag[i] != k; i = parent[i]) {
-                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
-                    counts[i - 1]++;
-                    flag[i - 1] = (int32_t)k;
-                }
-                if (parent[i] == -1) parent[i] = (int32_t)k;
-                counts[i]++;
-                flag[i] = (int32_t)k;
-            }
+            /* each node passed has an entry in row k of L */
+            Py_ssize_t length = kd_walk(Ai[p], k, flag, parent, pair, passed, 1);
+            for (Py_ssize_t j = 0; j < length; j++) counts[passed[j]]++;
         }
     }
     Py_END_ALLOW_THREADS
@@ -284,17 +296,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         flag[k] = (int32_t)k;
         filled[k] = 0;
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
-            int32_t i = Ai[p];
-            Y[i] += Ax[p];
-            Py_ssize_t length = 0;
-            for (; flag[i] != k; i = parent[i]) {
-                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
-                    pattern[length++] = i - 1;
-                    flag[i - 1] = (int32_t)k;
-                }
-                pattern[length++] = i;
-                flag[i] = (int32_t)k;
-            }
+            Y[Ai[p]] += Ax[p];
+            Py_ssize_t length = kd_walk(Ai[p], k, flag, (int32_t *)parent, pair, pattern, 0);
             while (length > 0) pattern[--top] = pattern[--length];
         }
         double d = Y[k], terms = fabs(Y[k]);
