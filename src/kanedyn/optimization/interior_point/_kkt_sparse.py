@@ -89,10 +89,10 @@ analyses again, once or twice, and factors again with the same values:
    times :math:`K`'s largest entry paired first (where either loses no
    row);
 2. if a pivot is still zero: its rows (both of a pair) *delayed*,
-   eliminated after all others but the dense ones, unpaired; at the end
-   the pivot is the Schur complement of everything before it, zero only
-   where :math:`K` (or :math:`K` without the dense rows) is singular or
-   nearly so.
+   eliminated after all others but the dense ones, unpaired; there the
+   pivots are the Schur complement of everything before them, zero only
+   where :math:`K` without its dense rows is singular or nearly so (or a
+   delayed row before them made it so).
 
 The new order is kept for the later factorizations (the delayed rows stay
 delayed: each makes its row of :math:`L` as long as the band behind its
