@@ -518,3 +518,21 @@ def test_structures_recovered_from_the_maps():
     (hr2, hc2), (jr2, jc2) = kkt._structures()
     for found, given in ((hr2, hr), (hc2, hc), (jr2, jr), (jc2, jc)):
         np.testing.assert_array_equal(found, given)
+
+
+def test_many_zero_pivots_are_not_delayed():
+    """K = 0 (100 variables, no Hessian value, no constraint): eigvalsh's
+    inertia (0, 0, 100); more zero pivots than ``MAX_DELAYED``, so none is
+    delayed (each would make a long row of L) and the order stays."""
+    from kanedyn.optimization.interior_point._kkt_sparse import MAX_DELAYED
+    n = 100
+    assert n > MAX_DELAYED
+    none = np.zeros(0, int)
+    chain = np.arange(n - 1)
+    hr, hc = np.concatenate([chain + 1, np.arange(n)]), np.concatenate([chain, np.arange(n)])
+    kkt = SparseKKT(n, 0, (hr, hc), (none, none))
+    hv = np.zeros(hr.size)
+    K = _dense(n, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(n), np.zeros(0))
+    assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
+        == (0, 0, n)
+    assert kkt.analysis.n_delayed == 0

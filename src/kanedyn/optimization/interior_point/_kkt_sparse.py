@@ -96,8 +96,9 @@ analyses again, once or twice, and factors again with the same values:
 
 The new order is kept for the later factorizations (the delayed rows stay
 delayed: each makes its row of :math:`L` as long as the band behind its
-first neighbour), at most :data:`MAX_REANALYSES` analyses in all
-(``reanalyses`` counts them; ``analysis.n_delayed`` the delayed rows).
+first neighbour, so at most :data:`MAX_DELAYED` rows are), at most
+:data:`MAX_REANALYSES` analyses in all (``reanalyses`` counts them;
+``analysis.n_delayed`` the delayed rows).
 The first matrix of the 50-node Hermite-Simpson swing-up (a state with a
 zero Hessian diagonal) and of the 501-node backward-Euler one from a random
 guess (a pair through a zero entry) take step 1 alone, then eigvalsh's
@@ -122,7 +123,7 @@ import numpy as np
 from ._kkt_kernel import kernel
 from ._kkt_ordering import ORDERINGS, elimination_order
 
-__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES"]
+__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED"]
 
 #: default relative threshold of a zero pivot (see the module's docstring)
 ZERO_PIVOT = 1e-12
@@ -130,6 +131,10 @@ ZERO_PIVOT = 1e-12
 #: at most this many analyses after the constructor's, over an object's life
 #: (the module's docstring, *Zero pivots that the order made*)
 MAX_REANALYSES = 4
+
+#: at most this many rows delayed (the module's docstring, *Zero pivots that
+#: the order made*): each makes its row of L as long as the band behind it
+MAX_DELAYED = 64
 
 _INDEX = np.int32
 _LIMIT = np.iinfo(_INDEX).max
@@ -451,6 +456,8 @@ class SparseKKT:
         # first the pairs made again; then what still fails, delayed to the end
         for delay in (False, True):
             if delay:
+                if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:
+                    return found  # each makes a long row of L: not for many
                 self._delayed |= failed
             self.reanalyses += 1
             self._analyse(*structures, has_diagonal, pairable)
