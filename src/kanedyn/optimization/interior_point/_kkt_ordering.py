@@ -59,8 +59,8 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   / 209,985 by RCM on the rows without pairs (``ordering="rcm"``); 19,979 /
   199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
   ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
-  739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
-  NLP's own order (the band not found) L had 3.96 times the entries it has
+  739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 /
+  549,951; 47,275 / 473,385.  In the NLP's own order (the band not found) L had 3.96 times the entries it has
   with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
   more than 3);
 - ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x

@@ -430,21 +430,28 @@ class SparseKKT:
         return inertia
 
     def _factor(self, hv, jv, dx, dc):
+        """The kernel's factorization in the current order: its inertia."""
         return self._kernel.factor(
             self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
             self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
             self._diagonal_map, dx, dc, self._factor_work, self._zero, self.zero_pivot)
 
+    def _zero_rows(self):
+        """Which rows of K (its own order, a mask) had a zero pivot in the
+        last factorization."""
+        failed = np.zeros(self.size, dtype=bool)
+        failed[self._permutation[self._zero.astype(bool)]] = True
+        return failed
+
     def _reanalyse(self, hv, jv, dx, dc, inertia):
         """The inertia after the order is made again for these values (the
         module's docstring, *Zero pivots that the order made*), or
         ``inertia`` when there is nothing new to try."""
-        n, m, N = self.n, self.m, self.size
-        failed = np.zeros(N, dtype=bool)
-        failed[self._permutation[self._zero.astype(bool)]] = True
+        m = self.m
+        failed = self._zero_rows()
         if not (failed & ~self._delayed).any():
             return inertia  # zero where it was already delayed: K's own
-        (hr, hc), (jr, jc) = structures = self._structures()
+        (hr, hc), (jr, _) = structures = self._structures()
         largest = max(np.abs(self._Ax).max(initial=0.0), 1e-300)
         diagonal = dx.copy()
         on = hr == hc
@@ -464,8 +471,7 @@ class SparseKKT:
             found = self._factor(hv, jv, dx, dc)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
-            failed = np.zeros(N, dtype=bool)
-            failed[self._permutation[self._zero.astype(bool)]] = True
+            failed = self._zero_rows()
             if not (failed & ~self._delayed).any():
                 return found
         return found
