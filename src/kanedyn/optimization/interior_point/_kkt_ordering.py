@@ -36,8 +36,8 @@ complement of everything before it forward in time, which grows like the
 dynamics' unstable modes (forward shooting).  On the 100-node trapezoid
 swing-up the constraint rows' pivots so grew by about 2 per interval near
 the upright end, to 2e13 beside entries of 21, until one counted as zero
-at the solver's 41st factorization (a spurious regularization; then one
-iteration more than with ``DenseKKT``).  Swept backward, each pair is
+at the 41st factorization of a Newton step (a spurious regularization;
+then one iteration more than with ``DenseKKT``).  Swept backward, each pair is
 eliminated before the variables its row holds, as the Riccati recursion
 eliminates the later stage first: the constraint rows' pivots stay
 bounded, and every matrix of that solve has eigvalsh's inertia
@@ -160,8 +160,8 @@ def _sweeps_backward(order, node, n, block, jr, jc):
     before the states and inputs that define them sweeps backward in time,
     as the Riccati recursion does, and the pivots stay bounded; the other way
     is forward shooting, and the constraint rows' pivots grow like the
-    dynamics' unstable modes (the pendulum near upright: by 1e12 over 60
-    pairs).  ``node``: the node of each row of K (-1 for the rows left
+    dynamics' unstable modes (the pendulum near upright: doubling at each
+    interval, to 2e13 beside entries of 21).  ``node``: the node of each row of K (-1 for the rows left
     out); ``block``: the row each row is paired into (itself when
     unpaired)."""
     rows = n + jr
