@@ -473,8 +473,9 @@ def test_every_matrix_of_a_trapezoid_swing_up_solve(monkeypatch):
     """Every KKT matrix the solver factors on the 100-node trapezoid
     swing-up to its optimum, factored by one ``SparseKKT`` as the solver
     does: the signs of eigvalsh's eigenvalues each time (with the band swept
-    forward in time the constraint rows' pivots grew by 1e12 near the
-    upright end and one counted as zero at the 41st Newton step's)."""
+    forward in time the constraint rows' pivots grew to 2e13 beside entries
+    of 21 near the upright end, and one counted as zero at the 41st Newton
+    step's)."""
     problem = _swing_up(100, "trapezoid")
     guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
     seen = _factored_by_the_solver(problem, guess, 100, monkeypatch)
