@@ -84,10 +84,11 @@ So when ``factor`` finds a zero pivot outside the rows already delayed, it
 analyses again, once or twice, and factors again with the same values:
 
 1. the pairs made again for these values: a pair only through a Jacobian
-   entry above ``zero_pivot`` times the largest of its row, the variables
-   whose diagonal (Hessian and ``diagonal_x``) is at most ``zero_pivot``
-   times :math:`K`'s largest entry paired first (where either loses no
-   row);
+   entry above ``zero_pivot`` times the largest of its row, and paired
+   first the variables without a Hessian diagonal in the pattern (as the
+   constructor's order) and those whose diagonal (Hessian and
+   ``diagonal_x``) is at most ``zero_pivot`` times :math:`K`'s largest
+   entry here (where either loses no row);
 2. if a pivot is still zero: its rows (both of a pair) *delayed*,
    eliminated after all others but the dense ones, unpaired; there the
    pivots are the Schur complement of everything before them, zero only
@@ -459,7 +460,11 @@ class SparseKKT:
         row_largest = np.zeros(m)
         np.maximum.at(row_largest, jr, np.abs(jv))
         pairable = np.abs(jv) > self.zero_pivot * row_largest[jr]
-        has_diagonal = np.abs(diagonal) > self.zero_pivot * largest
+        # a Hessian diagonal in the pattern, not zero at these values (the
+        # others have a zero diagonal at least where diagonal_x is zero)
+        has_diagonal = np.zeros(self.n, dtype=bool)
+        has_diagonal[hr[on]] = True
+        has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
         # first the pairs made again; then what still fails, delayed to the end
         for delay in (False, True):
             if delay:
