@@ -537,3 +537,19 @@ def test_many_zero_pivots_are_not_delayed():
     assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
         == (0, 0, n)
     assert kkt.analysis.n_delayed == 0
+
+
+def test_variable_pivot_that_would_grow_its_rows_a_millionfold_is_delayed():
+    """H = [[1e-9, 1], [1, 1]] with the small diagonal first: no
+    cancellation, but the row below would grow by 1e9 (more than 1e6, the
+    bound for a variable's 1 x 1 pivot), so the row is delayed: eigvalsh's
+    inertia (1, 1, 0) and NumPy's solution."""
+    rng = np.random.default_rng(13)
+    none = np.zeros(0, int)
+    hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
+    kkt = SparseKKT(2, 0, (hr, hc), (none, none))
+    first = kkt.analysis.permutation[0]
+    hv = np.array([1e-9 if first == 0 else 1.0, 1.0, 1e-9 if first == 1 else 1.0])
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(2), np.zeros(0),
+           rng, inertia=(1, 1, 0))
+    assert kkt.analysis.n_delayed == 1 and kkt.analysis.permutation[-1] == first

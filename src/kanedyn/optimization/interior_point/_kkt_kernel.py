@@ -37,7 +37,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 9"
+_GENERATION = "kanedyn sparse LDL 10"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -357,7 +357,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                          largest, &n_positive, &n_negative, &n_zero))
                 zero[k - 1] = zero[k] = 1;
         } else if (!(fabs(d) > tolerance * terms)
-                   || !(fabs(d) > tolerance * offmax[k] * offmax[k] / largest)) {
+                   || !(fabs(d) > (pair[k] == 0 ? sqrt(tolerance) : tolerance) * offmax[k]
+                                    * offmax[k] / largest)) {
             n_zero++;
             zero[k] = 1;
             double r = kd_replacement(scale, largest);
