@@ -344,7 +344,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         /* a zero pivot: small beside the terms it was summed from (cancelled),
            or beside the square of the largest entry of its row of K off the
            diagonal over the largest of K (the rows below would grow by that
-           over |d|), or not finite */
+           over |d|; by more than 1 / tolerance, or 1 / sqrt(tolerance) for a
+           variable's), or not finite */
         double scale = terms > rowmax[k] ? terms : rowmax[k];
         D[k] = d;
         zero[k] = 0;

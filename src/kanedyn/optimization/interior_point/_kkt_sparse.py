@@ -48,7 +48,14 @@ the diagonal, a 1 x 1 pivot :math:`d_k` counts as *zero* when
   ones, an empty row);
 - or it would grow the rows below by more than :math:`1/\tau` times
   :math:`K`'s largest entry: :math:`|d_k| \le \tau r_k^2 / a` (a diagonal of
-  1e-20 beside entries of 1);
+  1e-20 beside entries of 1); for a variable's pivot (an unpaired one) by
+  more than :math:`1/\sqrt{\tau}` (1e6): :math:`|d_k| \le \sqrt{\tau}
+  r_k^2 / a`.  On the 100-node Hermite-Simpson swing-up a state's diagonal
+  of 9.6e-12 beside entries of 1 passed the first bound, made entries of
+  L of 1e11, and a later pivot, summed from terms of 2e11, cancelled: zero
+  there, not where the growth began.  The constraints' pivots keep the
+  first bound: a dependent row regularized by ``diagonal_c = 1e-8`` has a
+  pivot of about -1e-8 that is :math:`K`'s own;
 - or it is not finite.
 
 A 2 x 2 block :math:`B = \begin{bmatrix} b_1 & e \\ e & b_2 \end{bmatrix}`:
