@@ -517,7 +517,7 @@ def test_sparse_factorization_reaches_ipopts_optimum(method):
 
 @pytest.mark.slow
 @pytest.mark.parametrize("nodes, method", [(50, "hermite-simpson"), (100, "trapezoid"),
-                                           (100, "midpoint")])
+                                           (100, "midpoint"), (100, "hermite-simpson")])
 def test_sparse_factorization_on_the_pendulum_swing_ups(nodes, method):
     """The pendulum swing-up from the straight line with
     ``linear_solver="sparse"``: IPOPT's optimum (objective to 1e-6
