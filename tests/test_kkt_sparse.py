@@ -212,19 +212,29 @@ def test_large_barrier_terms_are_not_zero_pivots():
     assert backward < 1e-14
 
 
-def test_tiny_pivot_beside_its_row_is_delayed():
-    """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
-    cancellation, but the row below would grow by 1e20, so the pivot counts
-    as zero; the factorization orders again with that row last (K's true
-    inertia (1, 1, 0), eigvalsh's, and NumPy's solution); the later
-    factorizations keep that order, and diagonal_x = 1e-2 there changes
-    nothing."""
-    rng = np.random.default_rng(8)
+def _small_diagonal_first(small):
+    """``(kkt, (hr, hc), hv, first)``: H = [[small, 1], [1, 1]] with the
+    small diagonal in the row eliminated first (``first``)."""
     none = np.zeros(0, int)
     hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
     kkt = SparseKKT(2, 0, (hr, hc), (none, none))
     first = kkt.analysis.permutation[0]
-    hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
+    hv = np.array([small if first == 0 else 1.0, 1.0, small if first == 1 else 1.0])
+    return kkt, (hr, hc), hv, first
+
+
+@pytest.mark.parametrize("small", [1e-20, 1e-9])
+def test_small_pivot_beside_its_row_is_delayed(small):
+    """H = [[small, 1], [1, 1]] with the small diagonal eliminated first: no
+    cancellation, but the row below would grow by 1 / small, beyond 1e12
+    (1e-20) or 1e6 (1e-9, the bound for a variable's pivot), so the pivot
+    counts as zero; the factorization orders again with that row last (K's
+    true inertia (1, 1, 0), eigvalsh's, and NumPy's solution); the later
+    factorizations keep that order, and diagonal_x = 1e-2 there changes
+    nothing."""
+    rng = np.random.default_rng(8)
+    none = np.zeros(0, int)
+    kkt, (hr, hc), hv, first = _small_diagonal_first(small)
     _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(2), np.zeros(0),
            rng, inertia=(1, 1, 0))
     assert kkt.analysis.n_delayed == 1 and kkt.analysis.permutation[-1] == first
@@ -537,19 +547,3 @@ def test_many_zero_pivots_are_not_delayed():
     assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
         == (0, 0, n)
     assert kkt.analysis.n_delayed == 0
-
-
-def test_variable_pivot_that_would_grow_its_rows_a_millionfold_is_delayed():
-    """H = [[1e-9, 1], [1, 1]] with the small diagonal first: no
-    cancellation, but the row below would grow by 1e9 (more than 1e6, the
-    bound for a variable's 1 x 1 pivot), so the row is delayed: eigvalsh's
-    inertia (1, 1, 0) and NumPy's solution."""
-    rng = np.random.default_rng(13)
-    none = np.zeros(0, int)
-    hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
-    kkt = SparseKKT(2, 0, (hr, hc), (none, none))
-    first = kkt.analysis.permutation[0]
-    hv = np.array([1e-9 if first == 0 else 1.0, 1.0, 1e-9 if first == 1 else 1.0])
-    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(2), np.zeros(0),
-           rng, inertia=(1, 1, 0))
-    assert kkt.analysis.n_delayed == 1 and kkt.analysis.permutation[-1] == first
