@@ -212,21 +212,36 @@ def test_large_barrier_terms_are_not_zero_pivots():
     assert backward < 1e-14
 
 
-def test_tiny_pivot_beside_its_row_is_zero():
-    """H = [[1e-20, 1], [1, 1]] with the tiny diagonal eliminated first: no
-    cancellation, but the row below would grow by 1e20, so the pivot counts
-    as zero (and solve stays finite); with diagonal_x = 1e-2 there, the
-    inertia is eigvalsh's and the solution NumPy's."""
-    rng = np.random.default_rng(8)
+def _small_diagonal_first(small):
+    """``(kkt, (hr, hc), hv, first)``: H = [[small, 1], [1, 1]] with the
+    small diagonal in the row eliminated first (``first``)."""
     none = np.zeros(0, int)
     hr, hc = np.array([0, 1, 1]), np.array([0, 0, 1])
     kkt = SparseKKT(2, 0, (hr, hc), (none, none))
     first = kkt.analysis.permutation[0]
-    hv = np.array([1e-20 if first == 0 else 1.0, 1.0, 1e-20 if first == 1 else 1.0])
-    assert kkt.factor(hv, np.zeros(0), np.zeros(2), np.zeros(0))[2] == 1
-    assert np.isfinite(kkt.solve([1.0, 1.0])).all()
+    hv = np.array([small if first == 0 else 1.0, 1.0, small if first == 1 else 1.0])
+    return kkt, (hr, hc), hv, first
+
+
+@pytest.mark.parametrize("small", [1e-20, 1e-9])
+def test_small_pivot_beside_its_row_is_delayed(small):
+    """H = [[small, 1], [1, 1]] with the small diagonal eliminated first: no
+    cancellation, but the row below would grow by 1 / small, beyond 1e12
+    (1e-20) or 1e6 (1e-9, the bound for a variable's pivot), so the pivot
+    counts as zero; the factorization orders again with that row last (K's
+    true inertia (1, 1, 0), eigvalsh's, and NumPy's solution); the later
+    factorizations keep that order, and diagonal_x = 1e-2 there changes
+    nothing."""
+    rng = np.random.default_rng(8)
+    none = np.zeros(0, int)
+    kkt, (hr, hc), hv, first = _small_diagonal_first(small)
+    _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(2), np.zeros(0),
+           rng, inertia=(1, 1, 0))
+    assert kkt.analysis.n_delayed == 1 and kkt.analysis.permutation[-1] == first
+    assert kkt.reanalyses == 2  # the pairs made again (none here), then the delay
     dx = np.where(np.arange(2) == first, 1e-2, 0.0)
     _check(kkt, 2, 0, (hr, hc, hv), (none, none, np.zeros(0)), dx, np.zeros(0), rng)
+    assert kkt.reanalyses == 2
 
 
 def test_two_by_two_pivot_with_a_zero_eigenvalue():
@@ -391,3 +406,144 @@ def test_no_compiler(monkeypatch):
     monkeypatch.setenv("CC", "kanedyn-no-such-compiler")
     with pytest.raises(CompilerError, match="kanedyn-no-such-compiler"):
         _simple()
+
+
+# ------------------------------------------ the matrices the solver factors
+def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
+    """Every ``(n, m, structures, values)`` the interior-point solver gave
+    ``SparseKKT.factor`` in ``max_iter`` iterations of ``problem`` (the
+    exact Hessian, ``linear_solver="sparse"``), in order."""
+    from kanedyn.optimization.interior_point import _kkt_sparse
+    seen = []
+    factor = _kkt_sparse.SparseKKT.factor
+
+    def recording(self, *values):
+        seen.append((self.n, self.m, self._structures(),
+                     tuple(np.array(v, dtype=float) for v in values)))
+        return factor(self, *values)
+    monkeypatch.setattr(_kkt_sparse.SparseKKT, "factor", recording)
+    problem.solve(guess, solver="interior-point", hessian="exact",
+                  options={"max_iter": max_iter, "linear_solver": "sparse"})
+    monkeypatch.undo()
+    return seen
+
+
+def _numpy_inertia(n, m, structures, values):
+    (hr, hc), (jr, jc) = structures
+    hv, jv, dx, dc = values
+    return _eigen_inertia(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+
+
+def _each_by_a_new_factorization(seen):
+    """Each matrix of ``seen`` (:func:`_factored_by_the_solver`) factored by
+    a new ``SparseKKT``: eigvalsh's inertia, no zero eigenvalue."""
+    for n, m, structures, values in seen:
+        expected = _numpy_inertia(n, m, structures, values)
+        assert expected[2] == 0
+        assert SparseKKT(n, m, *structures).factor(*values) == expected
+
+
+def _swing_up(nodes, method):
+    import sys
+    from pathlib import Path
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import _ocp_peers as peers
+    problem, _ = peers.pendulum_kanedyn(nodes, method, backend="numpy")
+    return problem
+
+
+def test_first_matrices_of_the_hermite_simpson_swing_up(monkeypatch):
+    """The 50-node Hermite-Simpson swing-up from the straight line (the
+    solver's test problem): its first KKT matrices, each factored by a new
+    ``SparseKKT``, have eigvalsh's inertia, no zero pivot (the first
+    Newton step's matrix had one in the order made before the values were
+    known: a state left unpaired whose Hessian diagonal is 0 there)."""
+    problem = _swing_up(50, "hermite-simpson")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    seen = _factored_by_the_solver(problem, guess, 2, monkeypatch)
+    assert len(seen) >= 3
+    _each_by_a_new_factorization(seen)
+
+
+@pytest.mark.slow
+def test_first_matrices_of_the_gallery_swing_up_from_a_random_guess(monkeypatch):
+    """The 501-node backward-Euler swing-up from opty's random guess
+    (``benchmarks/bench_optimal_control.py``): its first KKT matrices have
+    eigvalsh's inertia (the first had a zero pivot: a pair made through a
+    Jacobian entry of the pattern whose value is 0)."""
+    problem = _swing_up(501, "backward-euler")
+    guess = np.random.default_rng(0).normal(size=3 * 501)
+    seen = _factored_by_the_solver(problem, guess, 1, monkeypatch)
+    assert np.any(seen[0][3][1] == 0.0)  # the pattern's zeros
+    _each_by_a_new_factorization(seen)
+
+
+@pytest.mark.slow
+def test_every_matrix_of_a_trapezoid_swing_up_solve(monkeypatch):
+    """Every KKT matrix the solver factors on the 100-node trapezoid
+    swing-up to its optimum, factored by one ``SparseKKT`` as the solver
+    does: the signs of eigvalsh's eigenvalues each time (with the band swept
+    forward in time the constraint rows' pivots grew to 2e13 beside entries
+    of 21 near the upright end, and one counted as zero at the 41st Newton
+    step's)."""
+    problem = _swing_up(100, "trapezoid")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    seen = _factored_by_the_solver(problem, guess, 100, monkeypatch)
+    assert len(seen) > 50
+    n, m, ((hr, hc), (jr, jc)), _ = seen[0]
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    for *_, (hv, jv, dx, dc) in seen:
+        eigenvalues = np.linalg.eigvalsh(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+        # some as small as 1e-11 of the largest: signs still far above rounding
+        assert np.abs(eigenvalues).min() > 1e-13 * np.abs(eigenvalues).max()
+        expected = (int(np.sum(eigenvalues > 0)), int(np.sum(eigenvalues < 0)), 0)
+        assert kkt.factor(hv, jv, dx, dc) == expected
+
+
+def test_the_band_sweeps_each_pair_before_its_rows_other_variables():
+    """The pendulum's trapezoid NLP (41 nodes, fixed duration): most of the
+    other variables of the paired constraint rows come after their pair in
+    the order (a backward sweep, as the Riccati recursion), whichever way
+    reverse Cuthill-McKee ran."""
+    nlp = _pendulum_nlp("trapezoid", False, nodes=41)
+    n, m = nlp.n, nlp.m
+    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    permutation, kind = kkt.analysis.permutation, kkt._kind
+    position = np.empty(n + m, dtype=int)
+    position[permutation] = np.arange(n + m)
+    partner = {int(permutation[k]) - n: int(permutation[k - 1])
+               for k in np.flatnonzero(kind == 2)}
+    assert len(partner) == m
+    after = [position[c] > position[n + r] for r, c in zip(jr, jc) if c != partner[r]]
+    assert np.mean(after) > 0.6  # 0.7: a row's state and input at the later node come first
+
+
+def test_structures_recovered_from_the_maps():
+    """An analysis again takes the structures from the maps (they are not
+    kept): the constructor's, repeats included, entry for entry."""
+    rng = np.random.default_rng(12)
+    n, m = 25, 9
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    (hr2, hc2), (jr2, jc2) = kkt._structures()
+    for found, given in ((hr2, hr), (hc2, hc), (jr2, jr), (jc2, jc)):
+        np.testing.assert_array_equal(found, given)
+
+
+def test_many_zero_pivots_are_not_delayed():
+    """K = 0 (100 variables, no Hessian value, no constraint): eigvalsh's
+    inertia (0, 0, 100); more zero pivots than ``MAX_DELAYED``, so none is
+    delayed (each would make a long row of L) and the order stays."""
+    from kanedyn.optimization.interior_point._kkt_sparse import MAX_DELAYED
+    n = 100
+    assert n > MAX_DELAYED
+    none = np.zeros(0, int)
+    chain = np.arange(n - 1)
+    hr, hc = np.concatenate([chain + 1, np.arange(n)]), np.concatenate([chain, np.arange(n)])
+    kkt = SparseKKT(n, 0, (hr, hc), (none, none))
+    hv = np.zeros(hr.size)
+    K = _dense(n, 0, (hr, hc, hv), (none, none, np.zeros(0)), np.zeros(n), np.zeros(0))
+    assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
+        == (0, 0, n)
+    assert kkt.analysis.n_delayed == 0

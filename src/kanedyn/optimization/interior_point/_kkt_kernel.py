@@ -13,17 +13,18 @@ GIL while they compute:
     columns of a 2 x 2 pivot given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
 jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, workspace,
-tolerance)``
+zero, tolerance)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
     elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
     its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
-    ``(n_positive, n_negative, n_zero)``.
+    ``(n_positive, n_negative, n_zero)`` and sets ``zero[k]`` (``int8``, N) to
+    1 where the pivot ``k`` was zero (both rows of a 2 x 2 block), else 0.
 ``solve(x, Lp, Li, Lx, D, E, pair, permutation, workspace, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
 
-The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``)
+The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``; ``zero``)
 are the caller's, allocated once with the factor.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
@@ -36,7 +37,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 7"
+_GENERATION = "kanedyn sparse LDL 10"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -86,6 +87,25 @@ static int kd_views(PyObject *args, int count, Py_buffer *views, const Py_ssize_
     return 0;
 }
 
+/* the walk from i up the elimination tree to the first node marked for row k:
+   the nodes passed (the first row of a pair with its second) appended to `out`
+   and marked; with `build`, a node without a parent gets k (the tree made as
+   the rows come, symbolic); returns how many were appended */
+static Py_ssize_t kd_walk(int32_t i, Py_ssize_t k, int32_t *flag, int32_t *parent,
+                          const int8_t *pair, int32_t *out, int build) {
+    Py_ssize_t length = 0;
+    for (; flag[i] != k; i = parent[i]) {
+        if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
+            out[length++] = i - 1;
+            flag[i - 1] = (int32_t)k;
+        }
+        if (build && parent[i] == -1) parent[i] = (int32_t)k;
+        out[length++] = i;
+        flag[i] = (int32_t)k;
+    }
+    return length;
+}
+
 /* ---------------------------------------------------------------- symbolic */
 static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
@@ -97,28 +117,21 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     int32_t *parent = v[0].buf, *Ai = v[3].buf;
     int64_t *counts = v[1].buf, *Ap = v[2].buf;
     const int8_t *pair = v[4].buf;
-    int32_t *flag = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    int32_t *flag = malloc(sizeof(int32_t) * 2 * (size_t)(N > 0 ? N : 1));
     if (flag == NULL) {
         kd_release(v, 5);
         return PyErr_NoMemory();
     }
+    int32_t *passed = flag + N;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < N; k++) {
         parent[k] = -1;
         flag[k] = (int32_t)k;
         counts[k] = 0;
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
-            int32_t i = Ai[p];
-            /* walk from i up the tree to the first node already marked for k */
-            for (; flag[i] != k; i = parent[i]) {
-                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
-                    counts[i - 1]++;
-                    flag[i - 1] = (int32_t)k;
-                }
-                if (parent[i] == -1) parent[i] = (int32_t)k;
-                counts[i]++;
-                flag[i] = (int32_t)k;
-            }
+            /* each node passed has an entry in row k of L */
+            Py_ssize_t length = kd_walk(Ai[p], k, flag, parent, pair, passed, 1);
+            for (Py_ssize_t j = 0; j < length; j++) counts[passed[j]]++;
         }
     }
     Py_END_ALLOW_THREADS
@@ -132,7 +145,7 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
    of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
    the off-diagonal entry of the 2 x 2 block starting at k */
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
-      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_WORK, F_COUNT};
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_WORK, F_ZERO, F_COUNT};
 
 /* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
    times the larger of its scale and K's largest entry, so that the rows below
@@ -154,8 +167,8 @@ static double kd_replacement(double scale, double largest) {
    of K, the rows below growing by that over |small|); either when not
    finite.  So [[S, 1], [1, 0]] with a barrier term S = 1e12, the largest
    entry of K, is sound: its small eigenvalue -1/S has no cancellation, and
-   the rows below grow to S at most */
-static void kd_block(double *a, double *e, double *d, double tolerance, double scale,
+   the rows below grow to S at most.  Returns how many eigenvalues were zero */
+static int kd_block(double *a, double *e, double *d, double tolerance, double scale,
                      double growth, double largest, Py_ssize_t *n_positive,
                      Py_ssize_t *n_negative, Py_ssize_t *n_zero) {
     double mean = 0.5 * (*a + *d), half = 0.5 * (*a - *d);
@@ -169,7 +182,7 @@ static void kd_block(double *a, double *e, double *d, double tolerance, double s
     if (!big_zero && !small_zero) {
         if (big > 0.0) (*n_positive)++; else (*n_negative)++;
         if (small > 0.0) (*n_positive)++; else (*n_negative)++;
-        return;
+        return 0;
     }
     double r = kd_replacement(scale, largest);
     /* the unit eigenvector of `big` (from the better conditioned of the two rows
@@ -202,6 +215,7 @@ static void kd_block(double *a, double *e, double *d, double tolerance, double s
     *a = big * vx * vx + small * vy * vy;
     *d = big * vy * vy + small * vx * vx;
     *e = (big - small) * vx * vy;
+    return big_zero ? 2 : 1;
 }
 
 static PyObject *kd_factor(PyObject *self, PyObject *args) {
@@ -212,13 +226,14 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
-                                             8, 8, 8};
+                                             8, 8, 8, 1};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                          0, 1};
+                                          0, 1, 1};
     static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
                                          "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
-                                         "diagonal_x", "diagonal_c", "workspace"};
+                                         "diagonal_x", "diagonal_c", "workspace",
+                                         "zero"};
     Py_buffer v[F_COUNT];
     if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
@@ -231,9 +246,9 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
     Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
     Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
-    if (KD_COUNT(v[F_WORK]) < 5 * N) {
+    if (KD_COUNT(v[F_WORK]) < 5 * N || KD_COUNT(v[F_ZERO]) < N) {
         kd_release(v, F_COUNT);
-        PyErr_SetString(PyExc_ValueError, "workspace: fewer than 5 N entries");
+        PyErr_SetString(PyExc_ValueError, "workspace, zero: fewer than 5 N, N entries");
         return NULL;
     }
     /* the workspace (5 N doubles, allocated with the factor's storage) */
@@ -241,6 +256,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double *Y = work, *rowmax = work + N, *offmax = work + 2 * N;
     int64_t *filled = (int64_t *)(work + 3 * N);
     int32_t *pattern = (int32_t *)(work + 4 * N), *flag = pattern + N;
+    int8_t *zero = v[F_ZERO].buf;
     Py_ssize_t n_positive = 0, n_negative = 0, n_zero = 0;
     Py_BEGIN_ALLOW_THREADS
     /* the values of K, summed into the permuted upper triangle */
@@ -280,17 +296,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         flag[k] = (int32_t)k;
         filled[k] = 0;
         for (int64_t p = Ap[k]; p < Ap[k + 1]; p++) {
-            int32_t i = Ai[p];
-            Y[i] += Ax[p];
-            Py_ssize_t length = 0;
-            for (; flag[i] != k; i = parent[i]) {
-                if (pair[i] == 2 && flag[i - 1] != k) {  /* a pair's rows: both */
-                    pattern[length++] = i - 1;
-                    flag[i - 1] = (int32_t)k;
-                }
-                pattern[length++] = i;
-                flag[i] = (int32_t)k;
-            }
+            Y[Ai[p]] += Ax[p];
+            Py_ssize_t length = kd_walk(Ai[p], k, flag, (int32_t *)parent, pair, pattern, 0);
             while (length > 0) pattern[--top] = pattern[--length];
         }
         double d = Y[k], terms = fabs(Y[k]);
@@ -337,19 +344,24 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         /* a zero pivot: small beside the terms it was summed from (cancelled),
            or beside the square of the largest entry of its row of K off the
            diagonal over the largest of K (the rows below would grow by that
-           over |d|), or not finite */
+           over |d|; by more than 1 / tolerance, or 1 / sqrt(tolerance) for a
+           variable's), or not finite */
         double scale = terms > rowmax[k] ? terms : rowmax[k];
         D[k] = d;
+        zero[k] = 0;
         if (pair[k] == 1) {
             first_scale = scale;
         } else if (pair[k] == 2) {
             double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
-            kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
-                     scale > first_scale ? scale : first_scale, off * off / largest,
-                     largest, &n_positive, &n_negative, &n_zero);
+            if (kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
+                         scale > first_scale ? scale : first_scale, off * off / largest,
+                         largest, &n_positive, &n_negative, &n_zero))
+                zero[k - 1] = zero[k] = 1;
         } else if (!(fabs(d) > tolerance * terms)
-                   || !(fabs(d) > tolerance * offmax[k] * offmax[k] / largest)) {
+                   || !(fabs(d) > (pair[k] == 0 ? sqrt(tolerance) : tolerance) * offmax[k]
+                                    * offmax[k] / largest)) {
             n_zero++;
+            zero[k] = 1;
             double r = kd_replacement(scale, largest);
             D[k] = pair[k] == 3 ? -r : r;
         } else if (d > 0.0) {

@@ -18,13 +18,33 @@ instance constraints join the first and the last node).
    entry matched first where that loses no row): a defect row with one of
    the states it relates;
 3. SciPy's reverse Cuthill-McKee orders the graph whose nodes are the pairs
-   and the unpaired rows (the band, found whatever the layout);
-4. each pair is eliminated variable first, then its constraint.
+   and the unpaired rows (the band, found whatever the layout), in the
+   direction that sweeps backward (:func:`_backward_band`): most of the
+   other variables of a paired row after its pair;
+4. each pair is eliminated variable first, then its constraint; rows that
+   a factorization delayed (``delayed``) and the dense rows last.
 
 Step 4 keeps a constraint row from being eliminated before all of its
 variables (with ``diagonal_c = 0`` its 1 x 1 pivot would be exactly zero),
 and :class:`~._kkt_sparse.SparseKKT` eliminates each pair as one 2 x 2
 pivot, nonsingular where the variable's diagonal is zero too.
+
+The direction of step 3 matters because nothing pivots at run time: a
+defect row paired with the state at the later node of its interval,
+eliminated after the earlier node's state and input, carries the Schur
+complement of everything before it forward in time, which grows like the
+dynamics' unstable modes (forward shooting).  On the 100-node trapezoid
+swing-up the constraint rows' pivots so grew by about 2 per interval near
+the upright end, to 2e13 beside entries of 21, until one counted as zero
+at the 41st factorization of a Newton step (a spurious regularization;
+then one iteration more than with ``DenseKKT``).  Swept backward, each pair is
+eliminated before the variables its row holds, as the Riccati recursion
+eliminates the later stage first: the constraint rows' pivots stay
+bounded, and every matrix of that solve has eigvalsh's inertia
+(``tests/test_kkt_sparse.py``).  SciPy's RCM starts from a node of least
+degree; to run the other way it starts from the far end of its first
+order (where the two ends of the band differ in degree, the first order
+can run either way).
 
 Chosen by measurement (``benchmarks/bench_kkt_factor.py --orders``, the
 pendulum swing-up's NLP with a free duration, exact Hessian at random
@@ -32,13 +52,15 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
 1.7-4.4 on 2 cores; ``docs/benchmarks.md``):
 
 - entries of L below the diagonal at 1,000 / 10,000 nodes, trapezoid: 24,977
-  / 249,977 with the pairs by RCM; 28,963 / 289,963 with the pairs in
+  / 249,977 with the pairs by RCM run forward (before the backward sweep),
+  26,979 / 269,979 swept backward (from the other end of the band: 8 % more);
+  28,963 / 289,963 with the pairs in
   SuperLU's multiple minimum degree order (``ordering="pairs-mmd"``); 20,985
   / 209,985 by RCM on the rows without pairs (``ordering="rcm"``); 19,979 /
   199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
   ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
-  739,796; 78,869 / 789,869; 54,951 / 549,951; 47,275 / 473,385.  In the
-  NLP's own order (the band not found) L had 3.96 times the entries it has
+  739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 /
+  549,951; 47,275 / 473,385.  In the NLP's own order (the band not found) L had 3.96 times the entries it has
   with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
   more than 3);
 - ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
@@ -50,7 +72,9 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   eigvalsh's inertia with the pairs, and so has the free-duration trapezoid
   NLP at 11 nodes with ``diagonal_x = 0`` and ``diagonal_c = 0``
   (``tests/test_kkt_sparse.py``).  An unpaired variable without a Hessian
-  or barrier term can still meet a zero pivot.
+  or barrier term can still meet a zero pivot, and a pair made through a
+  Jacobian entry whose value is 0; ``SparseKKT`` then orders again for the
+  values (its module's docstring).
 """
 
 from __future__ import annotations
@@ -104,13 +128,16 @@ def _graph(size, rows, cols):
     return graph
 
 
-def _matching(pattern, preferred):
+def _matching(pattern, preferred, full=None):
     """``partner[i]``: the column matched to row ``i`` of ``pattern`` (m x n,
     CSR), or -1: a maximum matching that matches as many of the ``preferred``
-    columns (a boolean mask) as it can first, where that loses no row."""
+    columns (a boolean mask) as it can first, where that loses no row; with
+    ``full`` (a pattern that holds ``pattern``), one of ``full`` when
+    ``pattern`` alone matches fewer rows."""
     from scipy.sparse.csgraph import maximum_bipartite_matching
 
-    best = maximum_bipartite_matching(pattern, perm_type="column")
+    best = maximum_bipartite_matching(pattern if full is None else full,
+                                      perm_type="column")
     partner = np.full(pattern.shape[0], -1)
     cols = np.flatnonzero(preferred)
     if cols.size:
@@ -124,7 +151,51 @@ def _matching(pattern, preferred):
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
-def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None):
+def _sweeps_backward(order, node, n, block, jr, jc):
+    """Whether ``order`` (of the compressed graph's nodes) puts at least half
+    of the paired constraints' other variables after their pair.
+
+    A band order runs along the collocation's nodes one way or the other.
+    With a defect row paired with the state it defines, eliminating the pairs
+    before the states and inputs that define them sweeps backward in time,
+    as the Riccati recursion does, and the pivots stay bounded; the other way
+    is forward shooting, and the constraint rows' pivots grow like the
+    dynamics' unstable modes (the pendulum near upright: doubling at each
+    interval, to 2e13 beside entries of 21).  ``node``: the node of each row of K (-1 for the rows left
+    out); ``block``: the row each row is paired into (itself when
+    unpaired)."""
+    rows = n + jr
+    partner = block[rows]
+    use = (partner != rows) & (jc != partner) & (node[rows] >= 0) & (node[jc] >= 0)
+    rank = np.empty(order.size, dtype=np.int64)
+    rank[order] = np.arange(order.size)
+    before = int(np.count_nonzero(rank[node[jc[use]]] < rank[node[rows[use]]]))
+    return 2 * before <= int(use.sum())
+
+
+def _backward_band(graph, node, n, block, jr, jc):
+    """Reverse Cuthill-McKee's order of ``graph`` that sweeps backward
+    (:func:`_sweeps_backward`): SciPy's; else SciPy's started from the
+    other end of the first (a node of degree one joined there, then left
+    out: SciPy starts from a node of least degree); else the first one
+    reversed (Cuthill-McKee's, whose profile may be larger)."""
+    from scipy.sparse.csgraph import reverse_cuthill_mckee
+
+    order = reverse_cuthill_mckee(graph, symmetric_mode=True)
+    if _sweeps_backward(order, node, n, block, jr, jc):
+        return order
+    size = graph.shape[0]
+    edges = graph.tocoo()
+    pendant = _graph(size + 1, np.append(edges.row, size), np.append(edges.col, order[0]))
+    other = reverse_cuthill_mckee(pendant, symmetric_mode=True)
+    other = other[other != size]
+    if _sweeps_backward(other, node, n, block, jr, jc):
+        return other
+    return order[::-1].copy()
+
+
+def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
+                      pairable=None, delayed=None):
     """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
 
     Parameters
@@ -142,6 +213,13 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         The variables whose Hessian has a diagonal entry: the pairing prefers
         the others (a variable without one has a zero pivot of its own when
         ``diagonal_x`` is zero there).
+    pairable : ndarray of bool, shape (len(jacobian[0]),), optional
+        The Jacobian's entries a pair may be made of (the others only where
+        they alone match more rows); default all.
+    delayed : ndarray of bool, shape (N,), optional
+        Rows eliminated after all others but the dense ones, unpaired, in
+        their own order (pivots that a factorization found zero in an
+        earlier order, :class:`~._kkt_sparse.SparseKKT`).
 
     Returns
     -------
@@ -149,7 +227,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         ``permutation[k]``: the row of K eliminated ``k``-th.
     n_dense : int
         How many rows counted as dense (:func:`dense_threshold`): the last
-        ``n_dense`` of the order, the variables first.
+        ``n_dense`` of the order, the variables first; the ``delayed`` rows
+        (not dense) just before them.
     kind : ndarray of int8, shape (N,)
         Of each pivot in that order: 0 a variable's, 3 a constraint's, 1 and 2
         the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
@@ -168,15 +247,23 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
     degrees = np.diff(graph.indptr)
     dense = degrees > dense_threshold(degrees)
-    keep = np.flatnonzero(~dense)
+    late = dense if delayed is None else dense | delayed
+    keep = np.flatnonzero(~late)
     block = np.arange(N)  # the node of the compressed graph each row belongs to
     if ordering != "rcm" and m and jr.size:
-        inside = ~dense[n + jr] & ~dense[jc]
-        pattern = sp.csr_matrix((np.ones(int(inside.sum()), dtype=np.int8),
-                                 (jr[inside], jc[inside])), shape=(m, n))
-        pattern.sum_duplicates()
+        inside = ~late[n + jr] & ~late[jc]
+
+        def pattern_of(entries):
+            pattern = sp.csr_matrix((np.ones(int(entries.sum()), dtype=np.int8),
+                                     (jr[entries], jc[entries])), shape=(m, n))
+            pattern.sum_duplicates()
+            return pattern
+        full = pattern_of(inside)
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
-        partner = _matching(pattern, preferred & ~dense[:n])
+        if pairable is None:
+            partner = _matching(full, preferred & ~late[:n])
+        else:
+            partner = _matching(pattern_of(inside & pairable), preferred & ~late[:n], full)
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
     # the compressed graph on the blocks of the rows that are not dense
@@ -187,15 +274,20 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     a, b = where[keep[sub.row]], where[keep[sub.col]]
     distinct = a != b
     compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
-    if ordering == "pairs-mmd":
+    if nodes.size == 0:  # every row delayed or dense
+        order = np.zeros(0, dtype=np.int64)
+    elif ordering == "pairs-mmd":
         order = _minimum_degree(compressed_graph)
+    elif ordering == "pairs" and m and jr.size:
+        order = _backward_band(compressed_graph, where, n, block, jr, jc)
     else:
         order = reverse_cuthill_mckee(compressed_graph, symmetric_mode=True)
     # expand: each block's rows in their own order (the variable before its constraint)
     rank = np.empty(nodes.size, dtype=np.int64)
     rank[order] = np.arange(nodes.size)
     sequence = np.lexsort((keep, rank[compressed]))
-    permutation = np.concatenate([keep[sequence], np.flatnonzero(dense)])
+    permutation = np.concatenate([keep[sequence], np.flatnonzero(late & ~dense),
+                                  np.flatnonzero(dense)])
     # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
     # variable (1) and the constraint (2) of a pair
     kind = np.where(permutation < n, 0, 3).astype(np.int8)

@@ -19,7 +19,8 @@ zero), 1 x 1 elsewhere.  The blocks are fixed by the analysis: no pivoting at ru
 By Sylvester's law of inertia the eigenvalues of :math:`D`'s blocks have
 :math:`K`'s inertia, whatever the order, as long as none is zero.
 
-**Analysis, once** (the constructor): the elimination order and its pairs;
+**Analysis, once** (the constructor; again at a zero pivot, below): the
+elimination order and its pairs;
 the pattern of the permuted upper triangle of :math:`K` (CSC; every diagonal
 entry present); the maps of every Hessian entry, Jacobian entry and diagonal
 entry to its place there (repeated entries map to the same place and are
@@ -47,7 +48,14 @@ the diagonal, a 1 x 1 pivot :math:`d_k` counts as *zero* when
   ones, an empty row);
 - or it would grow the rows below by more than :math:`1/\tau` times
   :math:`K`'s largest entry: :math:`|d_k| \le \tau r_k^2 / a` (a diagonal of
-  1e-20 beside entries of 1);
+  1e-20 beside entries of 1); for a variable's pivot (an unpaired one) by
+  more than :math:`1/\sqrt{\tau}` (1e6): :math:`|d_k| \le \sqrt{\tau}
+  r_k^2 / a`.  On the 100-node Hermite-Simpson swing-up a state's diagonal
+  of 9.6e-12 beside entries of 1 passed the first bound, made entries of
+  L of 1e11, and a later pivot, summed from terms of 2e11, cancelled: zero
+  there, not where the growth began.  The constraints' pivots keep the
+  first bound: a dependent row regularized by ``diagonal_c = 1e-8`` has a
+  pivot of about -1e-8 that is :math:`K`'s own;
 - or it is not finite.
 
 A 2 x 2 block :math:`B = \begin{bmatrix} b_1 & e \\ e & b_2 \end{bmatrix}`:
@@ -73,12 +81,41 @@ is counted by its sign, whichever rows it belongs to: a negative pivot among
 the variables or a positive one among the constraints is reported as it is
 (it is part of :math:`K`'s inertia).
 
+**Zero pivots that the order made.**  The order is made from the
+patterns alone, so a factorization can meet a zero pivot that :math:`K`
+has not: a pair made through a Jacobian entry of the pattern whose value
+is 0 (the pendulum's backward-Euler NLP has such entries: a defect row's
+derivative by an input it does not hold), or a variable left unpaired
+whose Hessian diagonal is 0 at these values, eliminated before its rows.
+So when ``factor`` finds a zero pivot outside the rows already delayed, it
+analyses again, once or twice, and factors again with the same values:
+
+1. the pairs made again for these values: a pair only through a Jacobian
+   entry above ``zero_pivot`` times the largest of its row, and paired
+   first the variables without a Hessian diagonal in the pattern (as the
+   constructor's order) and those whose diagonal (Hessian and
+   ``diagonal_x``) is at most ``zero_pivot`` times :math:`K`'s largest
+   entry here (where either loses no row);
+2. if a pivot is still zero: its rows (both of a pair) *delayed*,
+   eliminated after all others but the dense ones, unpaired; there the
+   pivots are the Schur complement of everything before them, zero only
+   where :math:`K` without its dense rows is singular or nearly so (or a
+   delayed row before them made it so).
+
+The new order is kept for the later factorizations (the delayed rows stay
+delayed: each makes its row of :math:`L` as long as the band behind its
+first neighbour, so at most :data:`MAX_DELAYED` rows are), at most
+:data:`MAX_REANALYSES` analyses in all (``reanalyses`` counts them;
+``analysis.n_delayed`` the delayed rows).
+The first matrix of the 50-node Hermite-Simpson swing-up (a state with a
+zero Hessian diagonal) and of the 501-node backward-Euler one from a random
+guess (a pair through a zero entry) take step 1 alone, then eigvalsh's
+inertia (``tests/test_kkt_sparse.py``).
+
 So the reported inertia is :math:`K`'s when ``n_zero == 0`` (up to rounding
 in pivots that pass the tests).  ``n_zero > 0`` says that :math:`K` is
-singular or nearly so, or that a leading block of :math:`PKP^T` is, or that
-a pivot was too small to eliminate without pivoting: a variable left
-unpaired whose diagonal is zero (no Hessian term, no barrier term) or tiny,
-eliminated before anything fills its diagonal.
+singular or nearly so, or that a leading block of :math:`PKP^T` is even
+after the new order (or the analyses ran out).
 The caller regularizes (raises ``diagonal_x`` or ``diagonal_c``) and factors
 again; :meth:`~SparseKKT.matvec` multiplies by :math:`K` itself (never by a
 replaced pivot), for iterative refinement.
@@ -94,10 +131,18 @@ import numpy as np
 from ._kkt_kernel import kernel
 from ._kkt_ordering import ORDERINGS, elimination_order
 
-__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT"]
+__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED"]
 
 #: default relative threshold of a zero pivot (see the module's docstring)
 ZERO_PIVOT = 1e-12
+
+#: at most this many analyses after the constructor's, over an object's life
+#: (the module's docstring, *Zero pivots that the order made*)
+MAX_REANALYSES = 4
+
+#: at most this many rows delayed (the module's docstring, *Zero pivots that
+#: the order made*): each makes its row of L as long as the band behind it
+MAX_DELAYED = 64
 
 _INDEX = np.int32
 _LIMIT = np.iinfo(_INDEX).max
@@ -115,6 +160,9 @@ class KKTAnalysis:
         ``permutation[k]``: the row of K eliminated ``k``-th.
     n_dense : int
         Rows counted as dense and ordered last.
+    n_delayed : int
+        Rows whose pivot a factorization found zero, ordered just before the
+        dense ones (0 until then).
     nnz_matrix : int
         Entries of K's upper triangle after repeats are summed, diagonal included.
     nnz_factor : int
@@ -133,6 +181,7 @@ class KKTAnalysis:
     m: int
     permutation: np.ndarray
     n_dense: int
+    n_delayed: int
     nnz_matrix: int
     nnz_factor: int
     bytes_factor: int
@@ -245,7 +294,11 @@ class SparseKKT:
     Attributes
     ----------
     analysis : KKTAnalysis
-        The order, the sizes of K and L and the bytes held.
+        The order, the sizes of K and L and the bytes held (the last
+        analysis's).
+    reanalyses : int
+        The analyses made after the constructor's, for zero pivots that the
+        order made (the module's docstring), at most :data:`MAX_REANALYSES`.
     inertia : (int, int, int) or None
         What the last ``factor`` returned; ``None`` before the first.
 
@@ -286,11 +339,35 @@ class SparseKKT:
         self._kernel = kernel()
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
-        off = hr != hc
+        self.ordering = ordering
+        self._delayed = np.zeros(N, dtype=bool)
+        self.reanalyses = 0
         has_diagonal = np.zeros(n, dtype=bool)
-        has_diagonal[hr[~off]] = True
-        permutation, n_dense, kind = elimination_order(n, m, (hr[off], hc[off]),
-                                                       (jr, jc), ordering, has_diagonal)
+        has_diagonal[hr[hr == hc]] = True
+        self._analyse((hr, hc), (jr, jc), has_diagonal, None)
+        self.inertia = None
+
+    def _structures(self):
+        """``((hr, hc), (jr, jc))``, the constructor's structures, from the
+        maps (not kept: an analysis again is rare)."""
+        column = np.repeat(np.arange(self.size), np.diff(self._Ap))
+        first = self._permutation[self._Ai].astype(np.int64)
+        second = self._permutation[column].astype(np.int64)
+        high, low = np.maximum(first, second), np.minimum(first, second)
+        h, j = self._hessian_map, self._jacobian_map
+        return (high[h], low[h]), (high[j] - self.n, low[j])
+
+    def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """The order (pairs by :func:`elimination_order`, ``self._delayed``
+        last), K's permuted pattern and maps, the elimination tree and the
+        storage of the factors; ``has_diagonal`` and ``pairable`` as
+        :func:`elimination_order` takes them."""
+        n, m, N = self.n, self.m, self.size
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        off = hr != hc
+        permutation, n_dense, kind = elimination_order(
+            n, m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
+            self._delayed)
         (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
          self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
         self._Ax = np.zeros(self._Ai.size)
@@ -309,15 +386,16 @@ class SparseKKT:
         self._E = np.zeros(N)
         self._factor_work = np.zeros(5 * N)  # the kernel's scratch: kept, not reallocated
         self._solve_work = np.zeros(N)
-        self.inertia = None
+        self._zero = np.zeros(N, dtype=np.int8)
         factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
                                               self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
                                            self._parent, self._kind, permutation))
-        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._Ai.size), nnz,
-                                    factor_bytes, map_bytes,
-                                    self._factor_work.nbytes + self._solve_work.nbytes)
+        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._delayed.sum()),
+                                    int(self._Ai.size), nnz, factor_bytes, map_bytes,
+                                    self._factor_work.nbytes + self._solve_work.nbytes
+                                    + self._zero.nbytes)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
         """Factor K with these values; return its inertia.
@@ -337,7 +415,8 @@ class SparseKKT:
         -------
         (int, int, int)
             ``(n_positive, n_negative, n_zero)``: the pivots by sign, the zero
-            ones as the module's docstring defines them.
+            ones as the module's docstring defines them (after the new order
+            that a zero pivot may bring, *Zero pivots that the order made*).
 
         Raises
         ------
@@ -352,12 +431,62 @@ class SparseKKT:
         if dc.size and dc.min() < 0.0:
             raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
         self.inertia = None  # no factors while the kernel overwrites them
-        inertia = self._kernel.factor(
-            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
-            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
-            self._diagonal_map, dx, dc, self._factor_work, self.zero_pivot)
+        inertia = self._factor(hv, jv, dx, dc)
+        if inertia[2] and self.reanalyses < MAX_REANALYSES:
+            inertia = self._reanalyse(hv, jv, dx, dc, inertia)
         self.inertia = inertia
         return inertia
+
+    def _factor(self, hv, jv, dx, dc):
+        """The kernel's factorization in the current order: its inertia."""
+        return self._kernel.factor(
+            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
+            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
+            self._diagonal_map, dx, dc, self._factor_work, self._zero, self.zero_pivot)
+
+    def _zero_rows(self):
+        """Which rows of K (its own order, a mask) had a zero pivot in the
+        last factorization."""
+        failed = np.zeros(self.size, dtype=bool)
+        failed[self._permutation[self._zero.astype(bool)]] = True
+        return failed
+
+    def _reanalyse(self, hv, jv, dx, dc, inertia):
+        """The inertia after the order is made again for these values (the
+        module's docstring, *Zero pivots that the order made*), or
+        ``inertia`` when there is nothing new to try."""
+        m = self.m
+        failed = self._zero_rows()
+        if not (failed & ~self._delayed).any():
+            return inertia  # zero where it was already delayed: K's own
+        (hr, hc), (jr, _) = structures = self._structures()
+        largest = max(np.abs(self._Ax).max(initial=0.0), 1e-300)
+        diagonal = dx.copy()
+        on = hr == hc
+        np.add.at(diagonal, hr[on], hv[on])
+        row_largest = np.zeros(m)
+        np.maximum.at(row_largest, jr, np.abs(jv))
+        pairable = np.abs(jv) > self.zero_pivot * row_largest[jr]
+        # a Hessian diagonal in the pattern, not zero at these values (the
+        # others have a zero diagonal at least where diagonal_x is zero)
+        has_diagonal = np.zeros(self.n, dtype=bool)
+        has_diagonal[hr[on]] = True
+        has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
+        # first the pairs made again; then what still fails, delayed to the end
+        for delay in (False, True):
+            if delay:
+                if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:
+                    return found  # each makes a long row of L: not for many
+                self._delayed |= failed
+            self.reanalyses += 1
+            self._analyse(*structures, has_diagonal, pairable)
+            found = self._factor(hv, jv, dx, dc)
+            if not found[2] or self.reanalyses >= MAX_REANALYSES:
+                return found
+            failed = self._zero_rows()
+            if not (failed & ~self._delayed).any():
+                return found
+        return found
 
     def _factored(self, what):
         if self.inertia is None:
