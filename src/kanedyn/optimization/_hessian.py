@@ -249,6 +249,8 @@ class LagrangianHessian:
         defects = nlp.defects
         n_defects = defects.n_rows
         t_points = e["t_points"]
+        for points in self.stages + [self.at_points] * (self.at_points is not None):
+            points.maps(N - 1)  # made on the first call, before the (K, nu, nu) arrays
         out = []
         stepped = None
         if self.interval:
