@@ -45,7 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._nlp import index_arrays
+from ._nlp import INDEX, index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
@@ -170,7 +170,7 @@ class LagrangianHessian:
         if L.free_start_time:
             shared.append(L.start_index)
         shared = np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))
-        V = np.concatenate(blocks + [shared], axis=1)
+        V = np.concatenate(blocks + [shared], axis=1, dtype=INDEX, casting="same_kind")
         # the same map at every point but for a free duration's column (tau):
         # one point's, broadcast to all, else one per point
         D = np.zeros((1, self.nu, V.shape[1]))
