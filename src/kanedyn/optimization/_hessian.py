@@ -45,7 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._nlp import index_arrays
+from ._nlp import INDEX, index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
@@ -55,7 +55,8 @@ HESSIANS = ("limited-memory", "exact")
 
 class _Points:
     """Points of one kind: their decision variables ``V`` (K, m), the linear
-    map ``D`` (K, nu, m) from them to :math:`u`, the lower triangle's mask,
+    map ``D`` (K, nu, m) from them to :math:`u` (a read-only broadcast of one
+    point's when it is the same at every point), the lower triangle's mask,
     the column of a free duration among the m (or ``None``)."""
 
     def __init__(self, V, D, duration=None):
@@ -169,19 +170,24 @@ class LagrangianHessian:
         if L.free_start_time:
             shared.append(L.start_index)
         shared = np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))
-        V = np.concatenate(blocks + [shared], axis=1)
-        D = np.zeros((K, self.nu, V.shape[1]))
+        V = np.concatenate(blocks + [shared], axis=1, dtype=INDEX, casting="same_kind")
+        # the same map at every point but for a free duration's column (tau):
+        # one point's, broadcast to all, else one per point
+        D = np.zeros((1, self.nu, V.shape[1]))
         i = np.arange(nx)
         for b in range(nb):
             D[:, i, b * nx + i] = a[b]
         D[:, nx + np.arange(nf), nb * nx + np.arange(nf)] = 1.0
         col = duration = nb * nx + nf
         if L.free_duration:
+            D = np.repeat(D, K, axis=0)
             D[:, nx + nf, col] = tau
             D[:, nx + nf + 1, col] = 1.0
             col += 1
         if L.free_start_time:
             D[:, nx + nf, col] = 1.0
+        if not L.free_duration:
+            D = np.broadcast_to(D, (K,) + D.shape[1:])
         return _Points(V, D, duration if L.free_duration else None)
 
     # ---------------------------------------------------------- the parts
@@ -216,13 +222,16 @@ class LagrangianHessian:
 
     def _assemble(self, points, h, stepped=None, plain=None):
         """The values of ``points``: ``stepped = (F'', F')`` of the terms
-        carrying the step h, ``plain`` :math:`F''` of the others."""
+        carrying the step h, ``plain`` :math:`F''` of the others (the
+        caller's arrays, overwritten: scaled and summed in place)."""
         second, first = points.maps(self.nlp.layout.nodes - 1)
-        Hu = 0.0
         if stepped is not None:
-            Hu = h * stepped[0]
-        if plain is not None:
-            Hu = Hu + plain
+            Hu = stepped[0]
+            Hu *= h
+            if plain is not None:
+                Hu += plain
+        else:
+            Hu = plain
         values = second @ Hu.reshape(-1)
         if stepped is not None and first is not None:
             values += first @ stepped[1].reshape(-1)
@@ -240,6 +249,8 @@ class LagrangianHessian:
         defects = nlp.defects
         n_defects = defects.n_rows
         t_points = e["t_points"]
+        for points in self.stages + [self.at_points] * (self.at_points is not None):
+            points.maps(N - 1)  # made on the first call, before the (K, nu, nu) arrays
         out = []
         stepped = None
         if self.interval:
@@ -259,7 +270,10 @@ class LagrangianHessian:
                                         None if rate is None else rate[0])
                 if pb.lagrange is not None and sigma:
                     HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
-                    Hu, gu = Hu + sigma * s.c * HL, gu + sigma * s.c * gL
+                    HL *= sigma * s.c  # in place: one (K, nu, nu) array less at a time
+                    Hu += HL
+                    gu += sigma * s.c * gL
+                    del HL
                 out.append(self._assemble(points, h, stepped=(Hu, gu)))
         if self.at_points is not None:
             plain = np.zeros((K, self.nu, self.nu))
@@ -305,6 +319,7 @@ class LagrangianHessian:
         Hu, gu = self._dynamics(e, t, e["Yp"], e["Rp"], W, e["evaluated"][0], rate)
         if pb.lagrange is not None and sigma:
             HL, gL = self._term(pb.lagrange, t, e["Yp"], e["Rp"], e["P"], e["T"])
-            Hu = Hu + sigma * quadrature[:, None, None] * HL
-            gu = gu + sigma * quadrature[:, None] * gL
+            HL *= sigma * quadrature[:, None, None]  # in place, as for the one-step methods
+            Hu += HL
+            gu += sigma * quadrature[:, None] * gL
         return Hu, gu

@@ -63,6 +63,12 @@ def index_arrays(rows, cols, n_rows, n_cols):
             np.concatenate(cols, dtype=INDEX, casting="same_kind"))
 
 
+def _joined(parts):
+    """The pieces of a callback's vector joined, a single piece as it is
+    (each piece a new array: not copied once more)."""
+    return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+
 class CollocationNLP:
     """The NLP of ``problem`` (an :class:`OptimalControlProblem`).
 
@@ -299,7 +305,7 @@ class CollocationNLP:
                                          for tk, yk in zip(t, e["Yp"])]))
         for inst in pb.instances:
             parts.append([inst.value(self._instance_arguments(inst, e))])
-        return np.concatenate(parts)
+        return _joined(parts)
 
     def _instance_arguments(self, inst, e):
         values = [e["Y"][k, j] if kind == "state" else e["R"][k, j] for kind, j, k in inst.at]
@@ -328,7 +334,7 @@ class CollocationNLP:
             if not L.free_duration:
                 grad = grad[:-1]
             parts.append(grad)
-        return np.concatenate(parts)
+        return _joined(parts)
 
     def hessian_structure(self):
         """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""

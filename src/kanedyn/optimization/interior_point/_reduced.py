@@ -27,7 +27,7 @@ import numpy as np
 
 from ._kkt_dense import check_structure
 
-__all__ = ["ReducedNLP", "INFINITE_BOUND"]
+__all__ = ["ReducedNLP", "INFINITE_BOUND", "compact_index_type"]
 
 #: a bound at or beyond this magnitude is no bound (IPOPT's nlp_upper_bound_inf)
 INFINITE_BOUND = 1e19
@@ -53,6 +53,10 @@ class ReducedNLP:
         The free variables' indices in the full vector.
     equality : ndarray of bool, shape (m,)
         Which kept rows are equalities; the others have a slack each.
+    jacobian_structure, hessian_structure : (rows, cols)
+        The reduced patterns (the Hessian's lower triangle), ``int32``
+        (``int64`` beyond its range), as are ``jacobian_entries`` and
+        ``hessian_entries``, the full patterns' entries they keep.
     row_scale : ndarray, shape (m,)
     objective_scale : float
     """
@@ -77,26 +81,29 @@ class ReducedNLP:
         self.inequality = np.flatnonzero(~self.equality)
         self.template = np.asarray(x0, dtype=float).reshape(n_full).copy()
         self.template[fixed] = x_lower[fixed]
-        column_of = np.full(n_full, -1)
+        index = compact_index_type(max(n_full, m_full))
+        column_of = np.full(n_full, -1, dtype=index)
         column_of[self.free] = np.arange(self.n)
-        row_of = np.full(m_full, -1)
+        row_of = np.full(m_full, -1, dtype=index)
         row_of[self.rows] = np.arange(self.m)
-        jr, jc = check_structure("the NLP's jacobian_structure", nlp.jacobian_structure(),
-                                 m_full, n_full)
-        self.jacobian_full = (jr, jc)
+        # the patterns are checked, then held in the compact type (the full
+        # Jacobian's is asked of the NLP again when fixed variables need it)
+        jr, jc = (a.astype(index) for a in check_structure(
+            "the NLP's jacobian_structure", nlp.jacobian_structure(), m_full, n_full))
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
-        self.jacobian_entries = np.flatnonzero(use)
+        self.jacobian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
-        hr, hc = check_structure("the NLP's hessian_structure", nlp.hessian_structure(),
-                                 n_full, n_full, lower=True)
+        hr, hc = (a.astype(index) for a in check_structure(
+            "the NLP's hessian_structure", nlp.hessian_structure(), n_full, n_full, lower=True))
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
-        self.hessian_entries = np.flatnonzero(use)
+        self.hessian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.hessian_structure = (column_of[hr[use]], column_of[hc[use]])
         self._g_lower, self._g_upper = g_lower[kept], g_upper[kept]
         self._x_lower, self._x_upper = x_lower[self.free], x_upper[self.free]
         self.objective_scale = 1.0
         self.row_scale = np.ones(self.m)
-        self._entry_scale = np.ones(self.jacobian_entries.size)
+        #: each Jacobian entry's row scale, or ``None`` while every row's is 1
+        self._entry_scale = None
         self._settings = settings
 
     # ----------------------------------------------------------- scaling
@@ -116,7 +123,8 @@ class ReducedNLP:
             self.row_scale = np.where(row_max > limit,
                                       np.maximum(limit / np.maximum(row_max, 1e-300), floor),
                                       1.0)
-            self._entry_scale = self.row_scale[rows]
+            self._entry_scale = (None if np.all(self.row_scale == 1.0)
+                                 else self.row_scale[rows])
         self.objective_scale = float(factor)
 
     # ------------------------------------------------------------ bounds
@@ -147,8 +155,10 @@ class ReducedNLP:
                                                  dtype=float)[self.free]
 
     def jacobian(self, x_full):
-        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
-        return values[self.jacobian_entries] * self._entry_scale
+        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)[self.jacobian_entries]
+        if self._entry_scale is not None:
+            values *= self._entry_scale
+        return values
 
     def hessian(self, x_full, multipliers, objective_factor=1.0):
         """The scaled Lagrangian's Hessian (lower triangle, reduced pattern's
@@ -173,7 +183,7 @@ class ReducedNLP:
         zl, zu = np.zeros(self.n_full), np.zeros(self.n_full)
         zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
         if self.fixed.size:
-            jr, jc = self.jacobian_full
+            jr, jc = (np.asarray(a).ravel() for a in self.nlp.jacobian_structure())
             values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
             stationarity = np.asarray(self.nlp.gradient(x_full), dtype=float) + np.bincount(
                 jc, weights=values * g[jr], minlength=self.n_full)
@@ -189,6 +199,12 @@ class ReducedNLP:
         zl = np.asarray(warm["x_lower"], dtype=float).reshape(self.n_full)
         zu = np.asarray(warm["x_upper"], dtype=float).reshape(self.n_full)
         return g[self.rows] * sf / self.row_scale, zl[self.free] * sf, zu[self.free] * sf
+
+
+def compact_index_type(count):
+    """The integer type of indices below ``count``: ``int32`` when they fit
+    (half the bytes of NumPy's default), else ``int64``."""
+    return np.int32 if count <= np.iinfo(np.int32).max else np.int64
 
 
 def _infinite(bound):
