@@ -17,7 +17,9 @@ construction generates and compiles its code, and the solve), the solve
 alone, the iterations, the time per iteration, the objectives and their
 relative difference, and the ratios opty / kanedyn.  The C module and opty's
 compiled code are built anew in a fresh temporary cache for each run of the
-script, so the first size includes compilation for both.
+script, so the first size includes compilation for both (in model->optimum;
+kanedyn's derivatives, its Hessian's module and SparseKKT's are built before
+its solve is timed, as opty's code is compiled before its solve).
 
 A problem of opty's gallery with six states (``--gallery``): "Upright a
 double pendulum" (a cart and two rods from hanging to upright in the least
@@ -123,10 +125,15 @@ def run_kanedyn(build, nodes, guess, solver="ipopt"):
     start = time.perf_counter()
     problem, model = build(nodes)
     model.jacobians(0.0, np.zeros(model.n_states), r=np.zeros(len(model.input_names)))
+    if HESSIAN["kind"] == "exact" or solver == "interior-point":
+        from kanedyn.numerics import weighted_hessians  # the Hessian's module too
+        weighted_hessians(model, np.zeros(1), np.zeros((1, model.n_states)),
+                          np.zeros((1, len(model.input_names))), np.zeros((1, model.n_states)))
     timings = None
     if solver == "interior-point":
-        from kanedyn.optimization.interior_point import InteriorPoint
-        chosen = InteriorPoint()
+        from kanedyn.optimization.interior_point import InteriorPoint, SparseKKT
+        SparseKKT(1, 0, ([0], [0]), ([], []))  # its module built beforehand, as the
+        chosen = InteriorPoint()                # derivatives' above
         result = problem.solve(guess, solver=chosen, hessian="exact",
                                options=interior_point_options())
         timings = chosen.timings
