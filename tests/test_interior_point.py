@@ -553,6 +553,46 @@ def test_sparse_factorization_on_the_small_nlps():
     assert found.status == 0 and np.max(np.abs(found.x - exact[:n])) < 1e-9
 
 
+def test_linear_solver_fallback_without_a_compiler(monkeypatch):
+    """No C compiler: ``linear_solver="auto"`` (the default) solves with
+    DenseKKT and says why; ``"sparse"`` is refused with the compiler's
+    reason and the option's name."""
+    from kanedyn.numerics import CompilerError
+    from kanedyn.optimization.interior_point import _kkt_kernel
+    from kanedyn.optimization.interior_point import _kkt_sparse  # noqa: F401
+    from kanedyn.optimization.interior_point._solver import kkt_class
+    # _kkt_sparse imported before the patch: it keeps the real kernel for later tests
+
+    def no_compiler():
+        raise CompilerError("no C compiler on this machine")
+    monkeypatch.setattr(_kkt_kernel, "kernel", no_compiler)
+    chosen, note = kkt_class("auto")
+    assert chosen is DenseKKT and "no C compiler" in note
+    with pytest.raises(CompilerError, match="linear_solver='sparse'.*no C compiler"):
+        kkt_class("sparse")
+    solver = InteriorPoint()
+    found = solver.solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]))
+    assert "DenseKKT used" in solver.note
+    assert found.status == 0 and np.max(np.abs(found.x - HS71_X)) < 1e-6
+
+
+@pytest.mark.parametrize("option, value", [
+    ("perturb_inc_fact_first", 0.0), ("perturb_inc_fact", 1.0), ("mu_init", 0.0),
+    ("tau_min", 2.0), ("bound_frac", 0.0), ("bound_frac", 0.6),
+    ("mu_superlinear_decrease_power", 0.5), ("perturb_dec_fact", 1.0)])
+def test_options_outside_ipopts_ranges_are_refused(option, value):
+    """A value outside IPOPT's range (a perturbation factor of 0 would never
+    end the inertia correction) is refused before the solve, naming it."""
+    with pytest.raises(ValueError, match=f"{option}={value!r}: give a number in"):
+        InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]), {option: value})
+
+
+def test_integer_options_take_numpy_integers():
+    found = InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]),
+                                  {"max_iter": np.int64(50), "print_level": np.int32(0)})
+    assert found.status == 0 and np.max(np.abs(found.x - HS71_X)) < 1e-6
+
+
 def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
     """``linear_solver="auto"`` takes SparseKKT when it imports, else
     DenseKKT with a note (printed with print_level=1, the same solution);
@@ -561,7 +601,7 @@ def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
     assert kkt_class("dense") == (DenseKKT, None)
     monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
     chosen, note = kkt_class("auto")
-    assert chosen is DenseKKT and "SparseKKT does not import" in note
+    assert chosen is DenseKKT and "SparseKKT is not available" in note
     with pytest.raises(ImportError, match="linear_solver='sparse'.*linear_solver='dense'"):
         kkt_class("sparse")
     solver = InteriorPoint()

@@ -5,11 +5,12 @@ list), checked before the solve."""
 from __future__ import annotations
 
 import math
+import numbers
 from types import SimpleNamespace
 
 from ..._errors import OptionError
 
-__all__ = ["DEFAULTS", "CHOICES", "settings"]
+__all__ = ["DEFAULTS", "CHOICES", "RANGES", "settings"]
 
 #: option -> default
 DEFAULTS = {
@@ -65,7 +66,7 @@ DEFAULTS = {
     "jacobian_regularization_value": 1e-8,
     "jacobian_regularization_exponent": 0.25,
     # linear algebra
-    "linear_solver": "auto",             # "sparse", "dense", or auto: sparse if it imports
+    "linear_solver": "auto",             # "sparse", "dense", or auto: sparse if it builds
     "max_refinement_steps": 10,
     "residual_ratio_max": 1e-10,
     # accepted for IPOPT compatibility, one value only
@@ -82,6 +83,34 @@ CHOICES = {
 }
 
 _INTEGERS = {"max_iter", "acceptable_iter", "print_level", "max_soc", "max_refinement_steps"}
+
+
+#: option -> (low, high, whether ``high`` itself is allowed): IPOPT's ranges,
+#: ``low`` excluded, where a value outside would stall or break the iterations
+#: (a perturbation factor of 0 would never end the inertia correction's loop)
+RANGES = {
+    "mu_init": (0.0, math.inf, False),
+    "bound_push": (0.0, math.inf, False),
+    "slack_bound_push": (0.0, math.inf, False),
+    "bound_frac": (0.0, 0.5, True),
+    "slack_bound_frac": (0.0, 0.5, True),
+    "tau_min": (0.0, 1.0, False),
+    "kappa_soc": (0.0, math.inf, False),
+    "mu_linear_decrease_factor": (0.0, 1.0, False),
+    "mu_superlinear_decrease_power": (1.0, 2.0, False),
+    "first_hessian_perturbation": (0.0, math.inf, False),
+    "perturb_dec_fact": (0.0, 1.0, False),
+    "perturb_inc_fact": (1.0, math.inf, False),
+    "perturb_inc_fact_first": (1.0, math.inf, False),
+}
+
+
+def _in_range(key, value):
+    """Refuse ``value`` of ``key`` outside :data:`RANGES`, naming both."""
+    low, high, high_allowed = RANGES[key]
+    if not (value > low and (value <= high if high_allowed else value < high)):
+        raise OptionError(f"interior-point option {key}={value!r}: give a number in "
+                          f"({low:g}, {high:g}{']' if high_allowed else ')'}")
 
 
 def settings(options):
@@ -107,15 +136,18 @@ def settings(options):
                 raise OptionError(f"interior-point option {key}={value!r}: give one of "
                                  f"{', '.join(map(repr, CHOICES[key]))}{hint}")
         elif key in _INTEGERS:
-            if isinstance(value, bool) or not isinstance(value, int) or value < 0:
+            if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
+                    or value < 0:
                 raise OptionError(f"interior-point option {key}={value!r}: give an "
                                  "integer >= 0")
         else:
-            if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            if isinstance(value, bool) or not isinstance(value, numbers.Real) \
                     or not math.isfinite(float(value)) or float(value) < 0:
                 raise OptionError(f"interior-point option {key}={value!r}: give a finite "
                                  "number >= 0")
             value = float(value)
+            if key in RANGES:
+                _in_range(key, value)
         merged[key] = value
     if merged["tol"] <= 0:
         raise OptionError(f"interior-point option tol={merged['tol']!r}: give a number > 0")

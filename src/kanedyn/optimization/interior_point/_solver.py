@@ -57,18 +57,21 @@ __all__ = ["InteriorPoint", "kkt_class"]
 
 def kkt_class(choice):
     """``(KKT class, note)`` for the option ``linear_solver``: ``"sparse"``
-    (``SparseKKT``), ``"dense"`` (``DenseKKT``), ``"auto"`` (sparse when it
-    imports, else dense, the note saying why)."""
+    (``SparseKKT``), ``"dense"`` (``DenseKKT``), ``"auto"`` (sparse when its
+    C kernel builds or is cached, else dense, the note saying why)."""
     from ._kkt_dense import DenseKKT
     if choice == "dense":
         return DenseKKT, None
+    from ...numerics import CompilerError
     try:
+        from ._kkt_kernel import kernel
         from ._kkt_sparse import SparseKKT
-    except ImportError as exc:
+        kernel()  # compiled (or taken from the cache) here: no compiler, no SparseKKT
+    except (ImportError, CompilerError) as exc:
         if choice == "sparse":
-            raise ImportError(f"interior-point option linear_solver='sparse': SparseKKT "
-                              f"does not import ({exc}); use linear_solver='dense'") from exc
-        return DenseKKT, f"SparseKKT does not import ({exc}): DenseKKT used"
+            raise type(exc)(f"interior-point option linear_solver='sparse': SparseKKT is "
+                            f"not available ({exc}); use linear_solver='dense'") from exc
+        return DenseKKT, f"SparseKKT is not available ({exc}): DenseKKT used"
     return SparseKKT, None
 
 
