@@ -106,8 +106,8 @@ def test_augmented_lagrangian_solves_are_exact(name):
     """The index-3 scheme's right-hand side and the augmented Lagrangian without
     its stabilization give the accelerations and multipliers of the index-1
     solve to round-off, at six random consistent states of every constrained
-    built-in model: within 1e-13 relative, as the direct solves (elimination,
-    null space) do (the issue asks 1e-11).  ``al_solve`` computes each iterate
+    built-in model: within 1e-13 relative, and the null-space solve within
+    1e-12 (the issue asks 1e-11).  ``al_solve`` computes each iterate
     as a correction, so the condition number of the penalized system (about
     the penalty factor, 1e6 for the index-3 scheme) does not reach them (it
     left 7e-9 in the accelerations on Andrews' squeezer, 2e-9 on the Whipple
@@ -140,7 +140,10 @@ def test_augmented_lagrangian_solves_are_exact(name):
             worst[key] = max(worst[key], np.max(np.abs(b - a)) / np.max(np.abs(a)),
                              np.max(np.abs(mu - lam)) / np.max(np.abs(lam), initial=1e-300)
                              if lam.size else 0.0)
-    assert max(worst.values()) < 1e-13, (name, worst)
+    # the null-space solve's round-off depends on the BLAS and on the conditioning
+    # of its basis: 1.05e-13 on the Whipple bicycle on one CI host
+    assert max(worst["index-3"], worst["augmented-lagrangian"]) < 1e-13, (name, worst)
+    assert max(worst.values()) < 1e-12, (name, worst)
 
 
 def test_schemes_match_kane_where_speeds_are_rates():
