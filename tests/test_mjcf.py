@@ -133,7 +133,11 @@ def test_manipulator_gripper_coupled_by_a_tendon_equality():
     """dm_control's manipulator: an arm, a gripper whose two fingers a fixed-tendon
     equality couples (a loop closure), and free objects; along kanedyn's motion
     MuJoCo's qacc (its equality made as stiff as it allows, contacts and limits
-    off) is the same, the coupling holds."""
+    off) is the same, the coupling holds.
+
+    The motion is stiff: RK45 took 8308 steps (58078 right-hand sides, 16 s CPU)
+    over the 0.2 s, LSODA takes 145 (0.4 s) and ends at RK45's state to 5.8e-12
+    (largest entry 1.96; measured), so the comparison runs along LSODA's motion."""
     path = suite_folder() / "manipulator.xml"
     definition = kd.models.from_mjcf(path)
     assert definition.equalities == ("tendon coupling = polynomial of a constant "
@@ -141,7 +145,8 @@ def test_manipulator_gripper_coupled_by_a_tendon_equality():
     mj = mujoco.MjModel.from_xml_path(str(path))
     mj.eq_solimp[:, :3] = [0.9999, 0.9999, 0.001]
     mj.eq_solref[:] = [1e-4, 1.0]
-    residual, worst = _loop_run(path, t_end=0.2, definition=definition, mj=mj)[1:]
+    residual, worst = _loop_run(path, t_end=0.2, definition=definition, mj=mj,
+                                method="LSODA")[1:]
     assert residual < 1e-9, residual
     assert worst < 1e-9, worst
 
@@ -412,11 +417,11 @@ def _stiff_mujoco(path):
                 | mujoco.mjtDisableBit.mjDSBL_REFSAFE)
 
 
-def _loop_run(path, t_end=1.5, specified=None, definition=None, mj=None):
+def _loop_run(path, t_end=1.5, specified=None, definition=None, mj=None, method="RK45"):
     definition = definition or kd.models.from_mjcf(path)
     model = definition.numeric(definition.derive(), specified=specified)
     res = kd.simulate(model, (0.0, t_end), definition.initial(model), rtol=1e-11,
-                      atol=1e-11)
+                      atol=1e-11, method=method)
     assert res.success, res.message
     step = max(1, len(res.t) // 40)  # about 40 states along the motion, and the last
     residual = max(np.max(np.abs(model.constraint_residuals(t, y)))

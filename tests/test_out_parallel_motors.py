@@ -105,13 +105,21 @@ def test_cli_prints_motor_torques_and_writes_their_files(tmp_path, capsys):
 @pytest.mark.parametrize("model", ["out-parallel-6dof", "stewart-platform"])
 def test_a_vertical_platform_wrench_acts_as_extra_platform_weight(model):
     """Fz = -10 kg * g on the platform's mass centre (a specified input) moves the
-    actuator forces as 10 kg more platform mass moves their gravity part."""
+    actuator forces as 10 kg more platform mass moves their gravity part.
+
+    The model is built once and its definition given to every study (a name
+    would build it again each time), and the unloaded and heavier studies share
+    one derivation (the heavier one given its constants and that model with
+    them)."""
     from kanedyn.analysis import WrenchTable
     g = 9.81
-    m_p = {str(k): v for k, v in kd.models.build(model, lazy=False).constants.items()}["m_p"]
-    base = inverse_study(model, points=11)
-    heavier = inverse_study(model, points=11, constants={"m_p": m_p + 10.0})
-    loaded = inverse_study(model, points=11, wrench=[0, 0, -10 * g, 0, 0, 0])
+    definition = kd.models.build(model, lazy=False)
+    m_p = {str(k): v for k, v in definition.constants.items()}["m_p"]
+    unloaded = definition.numeric(definition.derive())
+    base = inverse_study(definition, points=11, model=unloaded)
+    heavier = inverse_study(definition, points=11, constants={"m_p": m_p + 10.0},
+                            model=unloaded.with_constants({"m_p": m_p + 10.0}))
+    loaded = inverse_study(definition, points=11, wrench=[0, 0, -10 * g, 0, 0, 0])
     np.testing.assert_allclose(loaded.causes["wrench"],
                                heavier.causes["gravity"] - base.causes["gravity"],
                                rtol=1e-10, atol=1e-9)
@@ -120,7 +128,7 @@ def test_a_vertical_platform_wrench_acts_as_extra_platform_weight(model):
     # a table ramping the same force over 0..2 s: half of it at t = 1 s (point 5)
     table = WrenchTable(t=np.array([0.0, 2.0]),
                         values=np.array([[0.0] * 6, [0, 0, -20 * g, 0, 0, 0]]), source="ramp")
-    ramp = inverse_study(model, points=11, wrench=table)
+    ramp = inverse_study(definition, points=11, wrench=table)
     np.testing.assert_allclose(ramp.causes["wrench"][:, 5], loaded.causes["wrench"][:, 5],
                                rtol=1e-10)
     assert ramp.power_residual() < 1e-12

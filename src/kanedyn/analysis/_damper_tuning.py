@@ -456,9 +456,16 @@ def tune_damper(model, y, *, input, output, primary_frequency, primary_mass, mas
         return dict(fixed, **{names["stiffness"]: me * wd ** 2,
                               names["damping"]: 2.0 * zeta * me * wd})
 
+    # each trial is a copy of the last one: a copy shares the derivative code
+    # its model generated (copies of ``model`` itself would each generate it
+    # again, 0.4 s a trial); every trial sets the same constants, so the copy
+    # is the same whichever model it is made from
+    last = [model]
+
     def system(values):
-        m = model.with_constants(values)
+        m = last[0].with_constants(values)
         A, B, rnames = m.linearize(y, t=t)
+        last[0] = m
         return m, A, _input_column(B, rnames, input)
 
     def measures(values):

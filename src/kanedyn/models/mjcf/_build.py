@@ -626,10 +626,13 @@ class _Builder(Actuation):
                 for i, e in enumerate((box.x, box.y, box.z)):
                     j, l = (i + 1) % 3, (i + 2) % 3
                     vi, wi = v.dot(e), w.dot(e)
-                    fi = -sm.Float(2 * rho * r[j] * r[l]) * sm.Abs(vi) * vi \
-                        - sm.Float(6 * beta * math.pi * r_eq) * vi
+                    # |v_i| as it is: sympy's own Abs would look for the sign of the
+                    # whole velocity expression (2/3 of the fish's from_mjcf time)
+                    fi = -sm.Float(2 * rho * r[j] * r[l]) * sm.Abs(vi, evaluate=False) \
+                        * vi - sm.Float(6 * beta * math.pi * r_eq) * vi
                     gi = -sm.Float(0.5 * rho * r[i] * (r[j] ** 4 + r[l] ** 4)) \
-                        * sm.Abs(wi) * wi - sm.Float(8 * beta * math.pi * r_eq ** 3) * wi
+                        * sm.Abs(wi, evaluate=False) * wi \
+                        - sm.Float(8 * beta * math.pi * r_eq ** 3) * wi
                     force += fi * e
                     torque += gi * e
                 self.loads.append((G, force.xreplace(self.qdot_to_u())))
