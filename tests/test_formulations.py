@@ -36,15 +36,37 @@ def _random_states(definition, model, count, seed, spread=0.4, speed=1.0):
         yield model.state(y)
 
 
+@pytest.fixture(scope="module")
+def models():
+    """``models(name, **options)``: the built-in model's definition, its Lagrange
+    equations and its Kane model, built and derived once per module (per xdist
+    worker); the tests only make numerical models of them and evaluate those.
+    ``models.definition(name, **options)``: the definition alone."""
+    definitions, derivations = {}, {}
+
+    def definition(name, **options):
+        key = (name, tuple(sorted(options.items())))
+        if key not in definitions:
+            definitions[key] = kd.models.build(name, **options)
+        return definitions[key]
+
+    def get(name, **options):
+        found = definition(name, **options)
+        key = (name, tuple(sorted(options.items())))
+        if key not in derivations:
+            derivations[key] = (found.derive(method="lagrange"), found.numeric(found.derive()))
+        return (found, *derivations[key])
+    get.definition = definition
+    return get
+
+
 @pytest.fixture(scope="module", params=["pendulum", "four-bar", "rolling-disk", "knife-edge",
                                         "snake", "shuttle-arm"])
-def derived(request):
+def derived(request, models):
     name = request.param
     if name not in kd.models.REGISTRY:
         pytest.skip(f"model {name} not available")
-    definition = kd.models.build(name)
-    lagrange = definition.derive(method="lagrange")
-    kane = definition.numeric(definition.derive())
+    definition, lagrange, kane = models(name)
     return name, definition, kane, lagrange
 
 
@@ -91,9 +113,9 @@ CONSTRAINED = {
 
 
 @pytest.mark.slow  # builds every model
-def test_every_constrained_built_in_model_is_checked():
+def test_every_constrained_built_in_model_is_checked(models):
     constrained = {name for name in kd.models.REGISTRY
-                   if any(kd.models.build(name).kane_args.get(key)
+                   if any(models.definition(name).kane_args.get(key)
                           for key in ("q_dep", "u_dep"))}
     assert constrained == set(CONSTRAINED)
 
@@ -102,7 +124,7 @@ def test_every_constrained_built_in_model_is_checked():
     pytest.param(name, marks=pytest.mark.slow) if name in ("stewart-platform",
                                                            "out-parallel-6dof") else name
     for name in CONSTRAINED])
-def test_augmented_lagrangian_solves_are_exact(name):
+def test_augmented_lagrangian_solves_are_exact(name, models):
     """The index-3 scheme's right-hand side and the augmented Lagrangian without
     its stabilization give the accelerations and multipliers of the index-1
     solve to round-off, at six random consistent states of every constrained
@@ -117,24 +139,22 @@ def test_augmented_lagrangian_solves_are_exact(name):
     2.8e-14, on Andrews' squeezer, where the null-space solve differs by
     2.6e-14)."""
     options, spread, speed = CONSTRAINED[name]
-    definition = kd.models.build(name, **options)
-    lagrange = definition.derive(method="lagrange")
-    kane = definition.numeric(definition.derive())
+    definition, lagrange, kane = models(name, **options)
     reference = definition.numeric(lagrange, scheme="index-1")
-    models = {"lagrange": definition.numeric(lagrange),
+    solvers = {"lagrange": definition.numeric(lagrange),
               "null-space": definition.numeric(lagrange, scheme="null-space"),
               "index-3": definition.numeric(lagrange,
                                             scheme=kd.schemes.AugmentedLagrangianIndex3()),
               "augmented-lagrangian": definition.numeric(
                   lagrange, scheme=kd.schemes.AugmentedLagrangian(xi=0.0, omega=0.0))}
-    worst = dict.fromkeys(models, 0.0)
+    worst = dict.fromkeys(solvers, 0.0)
     states = list(_random_states(definition, kane, 3, seed=5, spread=spread, speed=speed))
     states += _random_states(definition, kane, 3, seed=6, spread=spread, speed=10 * speed)
     for y in states:
         y_l = _initial_state(reference, kane, y, kane.rhs(0.0, y)[:kane.n_q])
         a = reference.rhs(0.0, y_l)[reference.n_q:]
         lam = np.array(list(reference.multipliers(0.0, y_l).values()))
-        for key, model in models.items():
+        for key, model in solvers.items():
             b = model.rhs(0.0, y_l)[reference.n_q:]
             mu = np.array(list(model.multipliers(0.0, y_l).values()))
             worst[key] = max(worst[key], np.max(np.abs(b - a)) / np.max(np.abs(a)),
@@ -146,12 +166,11 @@ def test_augmented_lagrangian_solves_are_exact(name):
     assert max(worst.values()) < 1e-12, (name, worst)
 
 
-def test_schemes_match_kane_where_speeds_are_rates():
+def test_schemes_match_kane_where_speeds_are_rates(models):
     """Four-bar and pendulum: Kane's speeds are the angles' rates, so the
     right-hand sides compare entry by entry, with no finite differences."""
     for name in ("pendulum", "four-bar"):
-        definition = kd.models.build(name)
-        kane = definition.numeric(definition.derive())
+        definition, _, kane = models(name)
         for method in SCHEME_METHODS:
             model = definition.numeric(definition.derive(method=method))
             assert model.scheme.name != "elimination"
@@ -167,11 +186,9 @@ def test_schemes_match_kane_where_speeds_are_rates():
                                                                                     method)
 
 
-def test_penalty_error_falls_like_one_over_alpha():
-    definition = kd.models.build("four-bar")
-    lagrange = definition.derive(method="lagrange")
+def test_penalty_error_falls_like_one_over_alpha(models):
+    definition, lagrange, kane = models("four-bar")
     exact = definition.numeric(lagrange)
-    kane = definition.numeric(definition.derive())
     y = next(_random_states(definition, kane, 1, seed=11))
     y_l = _initial_state(exact, kane, y, kane.rhs(0.0, y)[:kane.n_q])
     a = exact.rhs(0.0, y_l)

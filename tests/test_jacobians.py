@@ -59,13 +59,29 @@ def a_state(definition, model, seed=0):
 MODELS = sorted(name for name in kd.models.REGISTRY if not with_contacts(name))
 
 
+@pytest.fixture(scope="module")
+def numpy_models():
+    """``numpy_models(name)``: the built-in model's definition, its equations and
+    its NumPy model, derived once per module (per xdist worker): the tests only
+    evaluate them, so the derivative functions a model generates on its first
+    ``jacobians`` call are generated once for all the tests that take it."""
+    built = {}
+
+    def get(name):
+        if name not in built:
+            definition = kd.models.build(name)
+            eom = definition.derive()
+            built[name] = (definition, eom, definition.numeric(eom, backend="numpy"))
+        return built[name]
+    return get
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", MODELS)
-def test_every_builtin_model_matches_differences_of_its_rhs(name):
+def test_every_builtin_model_matches_differences_of_its_rhs(name, numpy_models):
     """State, inputs and constants, at a state of the model (off the constraint
     manifold where the differences step: the full-state derivative)."""
-    definition = kd.models.build(name)
-    model = definition.numeric(backend="numpy")
+    definition, _, model = numpy_models(name)
     y = a_state(definition, model)
     J = model.jacobians(0.0, y, parameters=True)
     assert J.state.shape == (y.size, y.size)
@@ -84,12 +100,11 @@ def test_every_builtin_model_matches_differences_of_its_rhs(name):
         assert relative(J.parameters, fp) < 1e-8
 
 
-def test_a_model_at_rest_with_quadratic_drag_and_a_power_law_stop():
+def test_a_model_at_rest_with_quadratic_drag_and_a_power_law_stop(numpy_models):
     """|v| v at v = 0 and a stop's force (theta - theta_lim)_+ ** p_lim out of
     contact: the chain rule gave 0 * inf (a ZeroDivisionError, or nan in C);
     the derivatives are finite and those of the differences."""
-    definition = kd.models.build("seatbelt-sensor")
-    model = definition.numeric(backend="numpy")
+    definition, _, model = numpy_models("seatbelt-sensor")
     y = np.asarray(definition.initial(model), dtype=float)
     assert not np.any(y)  # at rest
     J = model.jacobians(0.0, y, parameters=True)
@@ -137,10 +152,9 @@ def test_many_states_at_once(backend):
             assert relative(getattr(batch, field)[k], getattr(one, field)) < 1e-12, field
 
 
-def test_the_multipliers_derivatives():
+def test_the_multipliers_derivatives(numpy_models):
     """d lambda / dy of the four-bar against differences of model.multipliers."""
-    definition = kd.models.build("four-bar")
-    model = definition.numeric(backend="numpy")
+    definition, _, model = numpy_models("four-bar")
     y = np.asarray(definition.initial(model), dtype=float)
     J = model.jacobians(0.0, y)
     assert J.multiplier_names == tuple(model.multiplier_names)
@@ -153,11 +167,9 @@ def test_the_multipliers_derivatives():
 @needs_compiler
 @pytest.mark.parametrize("name", ["pendulum", "four-bar", "whipple-bicycle", "chain3d",
                                   "seatbelt-sensor", "n-link-pendulum-on-cart"])
-def test_the_c_backend_gives_the_numpy_backends_numbers(name):
-    definition = kd.models.build(name)
-    eom = definition.derive()
+def test_the_c_backend_gives_the_numpy_backends_numbers(name, numpy_models):
+    definition, eom, slow = numpy_models(name)
     fast = definition.numeric(eom, backend="c")
-    slow = definition.numeric(eom, backend="numpy")
     y = a_state(definition, slow, seed=3)
     a, b = fast.jacobians(0.0, y, parameters=True), slow.jacobians(0.0, y, parameters=True)
     for field in ("f", "state", "inputs", "parameters"):
@@ -169,16 +181,14 @@ def test_the_c_backend_gives_the_numpy_backends_numbers(name):
 
 @needs_compiler
 @pytest.mark.parametrize("name", ["chain3d", "n-link-pendulum-on-cart", "four-bar"])
-def test_repeated_one_state_calls_on_c(name):
+def test_repeated_one_state_calls_on_c(name, numpy_models):
     """From the second call, one state on C takes the module's one-call path
     (its work in a buffer the module keeps; on chain3d, without inputs or
     multipliers, the solve in place in the result's own array): the numbers of
     differences of ``model.rhs`` and of the NumPy backend, with and without the
     constants' columns, and each result keeps its arrays through later calls."""
-    definition = kd.models.build(name)
-    eom = definition.derive()
-    fast = definition.numeric(eom, backend="c")
-    slow = definition.numeric(eom, backend="numpy")
+    definition, eom, slow = numpy_models(name)
+    fast = definition.numeric(eom, backend="c")  # its own: the first calls are checked
     states = [a_state(definition, slow, seed=seed) for seed in (3, 4)]
     for parameters in (False, True):
         first = [fast.jacobians(0.0, y, parameters=parameters) for y in states]
@@ -196,13 +206,11 @@ def test_repeated_one_state_calls_on_c(name):
             rhs = differences(lambda z: fast.rhs(0.0, z), y)
             assert relative(K.state, rhs) < 1e-8
 
-def test_an_unconstrained_model_against_sympys_linearization():
+def test_an_unconstrained_model_against_sympys_linearization(numpy_models):
     """For a model without constraints the full-state derivative is the A of
     the linearization about any state (here not an equilibrium): the symbolic
     one (constants substituted afterwards) and the numerical one."""
-    definition = kd.models.build("n-link-pendulum-on-cart")
-    eom = definition.derive()
-    model = definition.numeric(eom, backend="numpy")
+    definition, eom, model = numpy_models("n-link-pendulum-on-cart")
     y = a_state(definition, model, seed=5)
     J = model.jacobians(0.0, y, r=[1.5])
     op_point = dict(zip([*eom.q, *eom.u], y)) | {eom.specified[0]: 1.5}
@@ -354,13 +362,12 @@ def test_jac_options():
 @pytest.mark.parametrize("name", ["four-bar", "whipple-bicycle", "rolling-disk", "n-four-bar",
                                   "andrews-squeezer", "pin-slot", "stewart-platform", "snake",
                                   "n-link-pendulum-on-cart", "knife-edge"])
-def test_linearize_through_the_derivatives_agrees_with_its_own_jacobians(name):
+def test_linearize_through_the_derivatives_agrees_with_its_own_jacobians(name, numpy_models):
     """model.linearize now reduces the full-state derivative with the constraint
     rows; the linearization's own generated Jacobians (a second formulation of
     the reduction) agree to round-off, away from equilibrium."""
     from kanedyn.numerics import linearize_numeric
-    definition = kd.models.build(name)
-    model = definition.numeric(backend="numpy")
+    definition, _, model = numpy_models(name)
     y = np.asarray(definition.initial(model), dtype=float)
     y = model.consistent_state(0.0, y + 0.05 * np.random.default_rng(1).standard_normal(y.size))
     A, B, r = model.linearize(y)
