@@ -269,3 +269,34 @@ def test_oc3_spar_flexible_blades_bem_controller_energy_balance_closes():
     V = np.array([float(own(c)[0]) for c in r.y.T])
     W = sum(twice.terms.values())
     assert np.max(np.abs(T - T[0] + V - V[0] - W)) < 1e-6 * twice.scale
+
+
+@pytest.mark.parametrize("name, backend", [("four-bar", "numpy"), ("four-bar", "c"),
+                                           ("n-link-pendulum-on-cart", "numpy")])
+def test_load_powers_from_one_batch_equal_those_state_by_state(name, backend, monkeypatch):
+    """The accelerations the load powers take from one ``rhs_batch`` (dependent
+    speeds, a C module, an input's function) against ``rhs`` state by state, the
+    way they were taken before: equal to 1e-12 of their scale, and so are the
+    powers; where a state's system is singular, ``rhs``'s error as before."""
+    from kanedyn.numerics import _load_powers
+    definition = kd.models.build(name)
+    specified = {s: np.sin for s in definition.specified}
+    model = definition.numeric(definition.derive(), backend=backend, specified=specified)
+    y0 = definition.initial(model)
+    run = kd.simulate(model, (0.0, 1.0), y0, t_eval=np.linspace(0.0, 1.0, 41))
+    ts, Y = run.t, run.y
+    one_by_one = np.array([model.rhs(t, y)[model.n_q:] for t, y in zip(ts, Y.T)])
+    batch = _load_powers._accelerations(model, ts, Y)
+    scale = np.abs(one_by_one).max()
+    assert np.abs(batch - one_by_one).max() <= 1e-12 * scale
+    new = _load_powers.load_powers(model, ts, Y, gravity=sm.Symbol("g"))
+    monkeypatch.setattr(_load_powers, "_accelerations", lambda model, ts, Y: one_by_one)
+    old = _load_powers.load_powers(model, ts, Y, gravity=sm.Symbol("g"))
+    for a, b in ((new.loads, old.loads), (new.gravity, old.gravity)):
+        assert np.abs(a - b).max() <= 1e-12 * max(np.abs(b).max(), 1.0)
+    monkeypatch.undo()
+    pendulum = kd.models.build("pendulum")
+    massless = pendulum.numeric(backend="numpy").with_constants({"m": 0.0})
+    y = np.array(pendulum.initial(massless), dtype=float)[:, None]
+    with pytest.raises(np.linalg.LinAlgError):
+        _load_powers._accelerations(massless, np.array([0.0]), y)

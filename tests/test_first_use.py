@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -77,13 +78,29 @@ print(json.dumps([DERIVE_STATS["derivations"], COMPILE_STATS["compiles"], list(f
 """
 
 
-@pytest.mark.slow
-def test_second_process_and_new_constants_reuse_the_cache(tmp_path):
+@pytest.fixture(scope="module")
+def chain_cached(tmp_path_factory):
+    """``(first, copy)``: the report of a first process of ``_CHAIN`` (m = 1, the cache
+    empty) and ``copy(folder)``, which copies the cache it filled to
+    ``folder/kanedyn`` (``folder`` as ``XDG_CACHE_HOME``), for a test to read or
+    change.  The tests below start from it instead of each running that first
+    process (a derivation and a build) again."""
     from kanedyn.numerics import compiler_command
     if compiler_command() is None:
         pytest.skip("no C compiler")
-    derived, compiled, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    shared = tmp_path_factory.mktemp("chain-cached")
+    first = _run(_CHAIN.format(mass=1.0), shared)
+
+    def copy(folder):
+        shutil.copytree(shared / "kanedyn", folder / "kanedyn", symlinks=True)
+    return first, copy
+
+
+@pytest.mark.slow
+def test_second_process_and_new_constants_reuse_the_cache(chain_cached, tmp_path):
+    (derived, compiled, f1), copy = chain_cached
     assert (derived, compiled) == (1, 1)
+    copy(tmp_path)
     derived, compiled, again = _run(_CHAIN.format(mass=1.0), tmp_path)
     assert (derived, compiled) == (0, 0)
     assert again == f1
@@ -188,11 +205,8 @@ def test_command_line_run_on_the_compiled_loop_imports_no_scipy(tmp_path):
 
 
 @pytest.mark.slow
-def test_cached_model_derives_its_equations_when_asked(tmp_path):
-    from kanedyn.numerics import compiler_command
-    if compiler_command() is None:
-        pytest.skip("no C compiler")
-    _run(_CHAIN.format(mass=1.0), tmp_path)
+def test_cached_model_derives_its_equations_when_asked(chain_cached, tmp_path):
+    chain_cached[1](tmp_path)
     out = _run("import json, pickle, kanedyn as kd\n"
                "from kanedyn.models._base import DERIVE_STATS\n"
                "d = kd.models.build('chain3d', n=3, style='positions')\n"
@@ -216,12 +230,10 @@ def test_cached_model_derives_its_equations_when_asked(tmp_path):
 
 
 @pytest.mark.slow
-def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(tmp_path):
+def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(chain_cached, tmp_path):
     import zipfile
-    from kanedyn.numerics import compiler_command
-    if compiler_command() is None:
-        pytest.skip("no C compiler")
-    _, _, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    (_, _, f1), copy = chain_cached
+    copy(tmp_path)
     entries = list((tmp_path / "kanedyn" / "derived").glob("*.kdnum"))
     assert len(entries) == 1 and not list((tmp_path / "kanedyn" / "derived").glob("*.pkl"))
     with zipfile.ZipFile(entries[0]) as archive:
@@ -250,16 +262,14 @@ def test_cache_entry_is_json_and_a_tampered_one_is_rebuilt_not_run(tmp_path):
 
 
 @pytest.mark.slow
-def test_an_entry_whose_module_is_gone_is_a_miss(tmp_path):
+def test_an_entry_whose_module_is_gone_is_a_miss(chain_cached, tmp_path):
     """A derivation-cache entry whose module the compile cache no longer holds
     (removed, or built with other compiler flags, as ``-mavx`` on another CPU)
     is derived again without a warning, and written again for the next
     process."""
-    from kanedyn.numerics import compiler_command
-    if compiler_command() is None:
-        pytest.skip("no C compiler")
-    derived, compiled, f1 = _run(_CHAIN.format(mass=1.0), tmp_path)
+    (derived, compiled, f1), copy = chain_cached
     assert (derived, compiled) == (1, 1)
+    copy(tmp_path)
     cache = tmp_path / "kanedyn"
     for module in cache.glob("_kd_*"):
         module.unlink()

@@ -5,6 +5,7 @@ same right-hand side; a lambda input is named when it cannot be pickled."""
 import json
 import os
 import pickle
+import shutil
 import subprocess
 import sys
 
@@ -106,30 +107,45 @@ print(json.dumps([DERIVE_STATS["derivations"], model.constants["m"],
 """
 
 
+def _run(code, folder, *args):
+    """``code`` in another interpreter with the cache ``folder``: its last line, read
+    as JSON."""
+    out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True,
+                         text=True, env=dict(os.environ, KANEDYN_CACHE_DIR=str(folder)))
+    assert out.returncode == 0, out.stderr
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def pickled_from_the_cache(tmp_path_factory):
+    """``(cache, path, first, second)``: chain3d pickled by a first process (the cache
+    empty: derived and built) and by a second (read from the cache), whose pickle
+    is at ``path``; ``first`` and ``second`` their reports.  Shared by the tests
+    below, which copy the cache before they change it."""
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    tmp = tmp_path_factory.mktemp("pickled")
+    cache, path = tmp / "cache", tmp / "model.pkl"
+    first = _run(_CACHED + "kd.numerics.finish_compiling()\n", cache, str(path))
+    second = _run(_CACHED, cache, str(path))
+    return cache, path, first, second
+
+
 @pytest.mark.slow
-def test_a_built_in_model_from_the_cache_pickles_without_being_derived(tmp_path):
+def test_a_built_in_model_from_the_cache_pickles_without_being_derived(
+        pickled_from_the_cache, tmp_path):
     """Read from the derivation cache, a built-in model pickles as its name and
     options (no derivation, no source); unpickled where the cache holds its module
     it is not derived either, and where the cache is empty it is derived and built
     there: the same right-hand side, its new constants kept."""
-    if compiler_command() is None:
-        pytest.skip("no C compiler")
-    cache, empty, path = tmp_path / "cache", tmp_path / "empty", tmp_path / "model.pkl"
-
-    def run(code, folder, *args):
-        out = subprocess.run([sys.executable, "-c", code, *args], capture_output=True,
-                             text=True, env=dict(os.environ, KANEDYN_CACHE_DIR=str(folder)))
-        assert out.returncode == 0, out.stderr
-        return json.loads(out.stdout.strip().splitlines()[-1])
-
-    first = run(_CACHED + "kd.numerics.finish_compiling()\n", cache, str(path))
+    cache, path, first, (derivations, kind, f, y) = pickled_from_the_cache
+    empty = tmp_path / "empty"
     assert first[0] == 1 and first[1] == "ModelDefinition"  # derived: the cache was empty
-    derivations, kind, f, y = run(_CACHED, cache, str(path))
     assert (derivations, kind) == (0, "PendingDefinition")  # from the cache, not derived
     assert f == first[2]
     assert b"c_source" in path.read_bytes() and b"int kd_" not in path.read_bytes()
-    assert run(_UNPICKLED, cache, str(path), json.dumps(y)) == [0, 1.5, f]
-    assert run(_UNPICKLED, empty, str(path), json.dumps(y)) == [1, 1.5, f]
+    assert _run(_UNPICKLED, cache, str(path), json.dumps(y)) == [0, 1.5, f]
+    assert _run(_UNPICKLED, empty, str(path), json.dumps(y)) == [1, 1.5, f]
     assert any(empty.iterdir())  # its module built there
 
 
@@ -147,17 +163,16 @@ except kd.ModelError as exc:
 
 
 @pytest.mark.slow
-def test_a_pickled_built_in_model_that_derives_differently_here_is_refused(tmp_path):
+def test_a_pickled_built_in_model_that_derives_differently_here_is_refused(
+        pickled_from_the_cache, tmp_path):
     """Unpickled where the cache lacks its module, a built-in model is derived
     there; if that gives another module than the pickled one names, it is refused
-    with a message naming the model (not built from the other code)."""
-    if compiler_command() is None:
-        pytest.skip("no C compiler")
-    cache, path = tmp_path / "cache", tmp_path / "model.pkl"
+    with a message naming the model (not built from the other code).  (The pickle
+    of the second process of ``pickled_from_the_cache``, in a copy of its cache.)"""
+    shared, path, _, _ = pickled_from_the_cache
+    cache = tmp_path / "cache"
+    shutil.copytree(shared, cache)
     env = dict(os.environ, KANEDYN_CACHE_DIR=str(cache))
-    for code in (_CACHED + "kd.numerics.finish_compiling()\n", _CACHED):
-        subprocess.run([sys.executable, "-c", code, str(path)], check=True, env=env,
-                       capture_output=True)
     out = subprocess.run([sys.executable, "-c", _OTHER_VERSION, str(path)], env=env,
                          capture_output=True, text=True)
     assert out.returncode == 0, out.stderr

@@ -355,35 +355,42 @@ def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
     quick = model._module
     y = definition.initial(model) + 0.1
     read, write = os.pipe()
+    hold, release = os.pipe()  # the child lives until the parent closes ``release``
     pid = os.fork()
-    if pid == 0:  # the child: its answer through the pipe, a normal exit's hooks, a while alive
+    if pid == 0:  # the child: its answer through the pipe, a normal exit's hooks, alive on
         code = 1
         try:
+            os.close(release)
             other = kd.models.build("pendulum").numeric(backend="c")
             ok = np.all(np.isfinite(other.rhs(0.0, [0.3, 0.0])))
             answer = model.rhs(0.0, y).tobytes() if ok else b""
             atexit._run_exitfuncs()
             os.write(write, answer)
             os.close(write)
-            time.sleep(10)
+            os.read(hold, 1)  # until the parent has checked (end of file), not a set time
             code = 0
         finally:
             os._exit(code)
     os.close(write)
-    with os.fdopen(read, "rb") as pipe:
-        answer = np.frombuffer(pipe.read(), dtype=float)
-    np.testing.assert_array_equal(answer, model.rhs(0.0, y))
-    assert Path(quick.__file__).exists()
-    gate.set()
-    assert _c_quick.finish_compiling(timeout=300)
-    assert Path(model._module.__file__).parent == fresh_cache
-    third = subprocess.run(
-        [sys.executable, "-c", "import kanedyn as kd\n"
-         "m = kd.models.build('chain3d', n=4).numeric(backend='c')\nprint(m._module.__file__)"],
-        capture_output=True, text=True, timeout=120,
-        env=dict(os.environ, KANEDYN_CACHE_DIR=str(fresh_cache)))
-    assert third.stdout.strip() == model._module.__file__, third.stderr[-2000:]
-    assert os.waitpid(pid, os.WNOHANG) == (0, 0)  # the child lives on
+    os.close(hold)
+    try:
+        with os.fdopen(read, "rb") as pipe:
+            answer = np.frombuffer(pipe.read(), dtype=float)
+        np.testing.assert_array_equal(answer, model.rhs(0.0, y))
+        assert Path(quick.__file__).exists()
+        gate.set()
+        assert _c_quick.finish_compiling(timeout=300)
+        assert Path(model._module.__file__).parent == fresh_cache
+        third = subprocess.run(
+            [sys.executable, "-c", "import kanedyn as kd\n"
+             "m = kd.models.build('chain3d', n=4).numeric(backend='c')\n"
+             "print(m._module.__file__)"],
+            capture_output=True, text=True, timeout=120,
+            env=dict(os.environ, KANEDYN_CACHE_DIR=str(fresh_cache)))
+        assert third.stdout.strip() == model._module.__file__, third.stderr[-2000:]
+        assert os.waitpid(pid, os.WNOHANG) == (0, 0)  # the child lives on
+    finally:
+        os.close(release)  # its end: it exits
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
 

@@ -199,17 +199,32 @@ def load_powers(model, t, y, gravity=None):
     ts = np.atleast_1d(np.asarray(t, dtype=float))
     Y = np.asarray(y, dtype=float).reshape(model.n_states, ts.size)
     n, k = model.n_q, len(model.aux_names)
+    udot = _accelerations(model, ts, Y) if not k else None
     rows = []
     for i in range(ts.size):
         inputs = list(model._input_values(ts[i], Y[:, i])) if model._inputs else []
-        forces = list(model.auxiliary(ts[i], Y[:, i]).values()) if k else []
-        rows.append(inputs + forces + list(model.rhs(ts[i], Y[:, i])[n:]))
+        if k:
+            forces = list(model.auxiliary(ts[i], Y[:, i]).values())
+            rows.append(inputs + forces + list(model.rhs(ts[i], Y[:, i])[n:]))
+        else:
+            rows.append(inputs + list(udot[i]))
     R = np.array(rows, dtype=float).T.reshape(-1, ts.size)
     out = fn(ts, Y, model._p, R)
     loads = np.broadcast_to(out[0], (len(out[0]), ts.size)).astype(float)
     grav = np.broadcast_to(out[1], (len(out[1]), ts.size)).astype(float)
     prescribed = np.broadcast_to(out[2], ts.shape).astype(float) if len(out) > 2 else None
     return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y), moved)
+
+
+def _accelerations(model, ts, Y):
+    r""":math:`\dot u` at each state, shape (N, n_u): from one vectorized evaluation
+    (:meth:`NumericModel.rhs_batch`), or state by state (:meth:`NumericModel.rhs`)
+    where that gives a value that is not finite (a singular system: ``rhs`` raises
+    there, as it did here before)."""
+    udot = model.rhs_batch(ts, Y.T)[:, model.n_q:]
+    if not np.all(np.isfinite(udot)):
+        udot = np.array([model.rhs(ts[i], Y[:, i])[model.n_q:] for i in range(ts.size)])
+    return udot.reshape(ts.size, -1)
 
 
 def _damping_powers(model, Y):
