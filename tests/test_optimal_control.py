@@ -476,49 +476,6 @@ def test_lgr_result_inputs_guesses_and_table(tmp_path):
     assert again.success and again.iterations <= result.iterations
 
 
-@pytest.mark.parametrize("method, degree", [("hermite-simpson", None), ("lgr", 3)])
-def test_collocated_inputs_are_functions_of_t_alone(method, degree):
-    """The inputs of one result share the interval and Lagrange weights found
-    at the last t asked (a simulation asks each input at the same t, and
-    again for its differenced Jacobian): each input's value at t is the one
-    it gives with nothing asked before, to the bit, whatever the order of
-    the calls (the inputs in turn at each t, or all (t, input) pairs
-    shuffled), after pickling too; and it is the polynomial through the
-    interval's collocated values (NumPy's polyfit) to 1e-12."""
-    import pickle
-
-    from kanedyn.optimization._result import input_functions
-    from kanedyn.optimization._transcription import interval_scheme
-    scheme = interval_scheme(method, degree)
-    rng = np.random.default_rng(7)
-    n, m, names = 9, len(scheme.interior), ["a", "b", "c"]
-    t = np.linspace(0.5, 2.5, n)
-    r, r_mid = rng.normal(size=(3, n)), rng.normal(size=(3, (n - 1) * m))
-    times = np.concatenate([t, rng.uniform(0.0, 3.0, 40), t[3:5], [-np.inf, np.inf]])
-
-    def alone(name, time):
-        return input_functions(method, t, r, names, r_mid, degree)[name](time)
-    expected = {(i, name): alone(name, time) for i, time in enumerate(times) for name in names}
-    shared = input_functions(method, t, r, names, r_mid, degree)
-    in_turn = {(i, name): shared[name](time) for i, time in enumerate(times) for name in names}
-    pairs = list(expected)
-    again = pickle.loads(pickle.dumps(shared))
-    shuffled = {pairs[j]: again[pairs[j][1]](times[pairs[j][0]])
-                for j in rng.permutation(len(pairs))}
-    for found in (in_turn, shuffled):  # nan beyond an infinite t, as before
-        np.testing.assert_array_equal([found[p] for p in pairs], [expected[p] for p in pairs])
-    g = list(scheme.input_positions)
-    points = np.array(scheme.positions)[g]
-    h = t[1] - t[0]
-    for i, time in enumerate(times[:-2]):
-        k = min(max(int(np.ceil((time - t[0]) / h - 1e-12)) - 1, 0), n - 2)
-        for j, name in enumerate(names):
-            values = np.concatenate([[r[j, k]], r_mid[j, k * m:(k + 1) * m], [r[j, k + 1]]])
-            polynomial = np.polyfit(points, values[g], len(g) - 1)
-            assert abs(np.polyval(polynomial, (time - t[k]) / h)
-                       - expected[i, name]) < 1e-12 * max(1.0, abs(expected[i, name]))
-
-
 @pytest.mark.parametrize("method, degree", [
     ("backward-euler", None), ("trapezoid", None), ("midpoint", None),
     ("hermite-simpson", None), ("lgr", 1), ("lgr", 3)])

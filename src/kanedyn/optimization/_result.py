@@ -35,28 +35,24 @@ class _Held:
     ``table[k]`` at the positions ``points`` (fractions of the interval),
     evaluated in its Lagrange form in float arithmetic (no NumPy on scalars:
     a simulation calls it at every step and for every column of a
-    differenced Jacobian).  ``weights``: the :class:`_Weights` of its mesh,
-    which the other inputs of the same result share (a simulation asks for
-    every input at the same t)."""
+    differenced Jacobian)."""
 
-    def __init__(self, t, values, kind, points=None, table=None, weights=None):
+    def __init__(self, t, values, kind, points=None, table=None):
         self.t, self.values, self.kind = np.asarray(t), np.asarray(values), kind
         # floats and lists of them, which the calls' arithmetic takes fastest
         self.points = None if points is None else [float(p) for p in points]
         self.table = None if table is None else np.asarray(table, dtype=float).tolist()
         self._start, self._span = float(self.t[0]), float(self.t[-1] - self.t[0])
-        if kind == "polynomial" and weights is None:
-            weights = _Weights(self.t, self.points)
-        self.weights = weights
 
     def __call__(self, t):
-        if self.kind == "polynomial":
-            k, weights = self.weights(t)
-            return _weighted_sum(weights, self.table[k])
         n = self.t.size
         if self.kind == "linear":
             return float(np.interp(t, self.t, self.values))
         s = (t - self._start) / self._span * (n - 1)
+        if self.kind == "polynomial":
+            # s clamped first only so that math.ceil takes an infinite t
+            k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
+            return _lagrange_value(self.points, self.table[k], float(s - k))
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
@@ -64,53 +60,15 @@ class _Held:
         return float(0.5 * (self.values[k] + self.values[k + 1]))
 
 
-class _Weights:
-    """The interval and the Lagrange weights at ``t`` of the polynomial inputs
-    on one mesh: ``(k, [weight at each of points])`` for :math:`(t_k,
-    t_{k+1}]` (the first or last interval beyond the mesh).  The last t's
-    are kept: the inputs of a result asked one after the other at the same t
-    find them once.  Each call's answer depends on its t alone."""
-
-    def __init__(self, t, points):
-        self.n, self.points = int(np.size(t)), points
-        self._start, self._span = float(t[0]), float(t[-1] - t[0])
-        self._t, self._found = None, None
-
-    def __call__(self, t):
-        if t != self._t:
-            n = self.n
-            s = (t - self._start) / self._span * (n - 1)
-            # s clamped first only so that math.ceil takes an infinite t
-            k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
-            self._found = (k, _lagrange_weights(self.points, float(s - k)))
-            self._t = t
-        return self._found
-
-    def __getstate__(self):
-        return self.n, self.points, self._start, self._span
-
-    def __setstate__(self, state):
-        self.n, self.points, self._start, self._span = state
-        self._t, self._found = None, None
-
-
-def _lagrange_weights(nodes, x):
-    """The Lagrange basis of ``_interval.lagrange_weights`` through ``nodes``
-    at one point ``x`` (floats): a list."""
-    weights = []
-    for j, p in enumerate(nodes):
+def _lagrange_value(nodes, values, x):
+    """The polynomial through ``values`` at ``nodes``, at ``x`` (floats): the
+    Lagrange basis of ``_interval.lagrange_weights`` at one point, summed."""
+    total = 0.0
+    for j, (p, value) in enumerate(zip(nodes, values)):
         weight = 1.0
         for m, q in enumerate(nodes):
             if m != j:
                 weight *= (x - q) / (p - q)
-        weights.append(weight)
-    return weights
-
-
-def _weighted_sum(weights, values):
-    """``sum(w * v)`` in float arithmetic, in order."""
-    total = 0.0
-    for weight, value in zip(weights, values):
         total += value * weight
     return total
 
@@ -126,13 +84,11 @@ def input_functions(method, t, r, names, r_mid=None, degree=None):
     if scheme is None:
         return {name: _Held(t, row, _HOLD[method]) for name, row in zip(names, r)}
     m = len(scheme.interior)
-    g = list(scheme.input_positions)
-    points = [float(p) for p in np.array(scheme.positions)[g]]
-    weights = _Weights(np.asarray(t), points)  # shared: found once per t for all
     out = {}
     for name, row, inner in zip(names, r, r_mid if m else [()] * len(names)):
         every = np.column_stack([row[:-1], np.reshape(inner, (t.size - 1, m)), row[1:]])
-        out[name] = _Held(t, row, "polynomial", points, every[:, g], weights)
+        g = list(scheme.input_positions)
+        out[name] = _Held(t, row, "polynomial", np.array(scheme.positions)[g], every[:, g])
     return out
 
 
