@@ -59,8 +59,10 @@ def pendulum_kanedyn(nodes, method="backward-euler", backend="c"):
     return problem, model
 
 
-def pendulum_opty(nodes, method="backward-euler"):
-    """opty's ``Problem`` of the same swing-up (equations written by hand)."""
+def pendulum_opty(nodes, method="backward-euler", backend="cython"):
+    """opty's ``Problem`` of the same swing-up (equations written by hand);
+    ``backend``: opty's, ``"cython"`` (compiled, as timed) or ``"numpy"``
+    (the same expressions evaluated by NumPy, nothing to compile)."""
     from opty import Problem, create_objective_function
     I, m, g, d, t = sm.symbols("I, m, g, d, t")
     theta, omega, T = sm.symbols("theta, omega, T", cls=sm.Function)
@@ -79,7 +81,7 @@ def pendulum_opty(nodes, method="backward-euler"):
         instance_constraints=(theta(0.0), theta(duration) - np.pi, omega(0.0),
                               omega(duration)),
         bounds={T(t): (-p["torque"], p["torque"])}, time_symbol=t,
-        integration_method=OPTY_METHODS[method])
+        integration_method=OPTY_METHODS[method], backend=backend)
     return problem
 
 
@@ -117,8 +119,9 @@ def cart_pole_kanedyn(nodes, method="backward-euler", backend="c"):
     return problem, model
 
 
-def cart_pole_opty(nodes, method="backward-euler"):
-    """opty's ``Problem`` of the cart-pole, its equations by SymPy's KanesMethod."""
+def cart_pole_opty(nodes, method="backward-euler", backend="cython"):
+    """opty's ``Problem`` of the cart-pole, its equations by SymPy's KanesMethod
+    (``backend`` as for :func:`pendulum_opty`)."""
     from opty import Problem, create_objective_function
     t = me.dynamicsymbols._t
     x, th, v, w, F = me.dynamicsymbols("x theta v omega F")
@@ -150,7 +153,7 @@ def cart_pole_opty(nodes, method="backward-euler"):
         instance_constraints=(x.func(0.0), th.func(0.0), v.func(0.0), w.func(0.0),
                               x.func(end), th.func(end) - np.pi, v.func(end), w.func(end)),
         bounds={F: (-c["force"], c["force"]), x: (-c["track"], c["track"])},
-        time_symbol=t, integration_method=OPTY_METHODS[method])
+        time_symbol=t, integration_method=OPTY_METHODS[method], backend=backend)
     return problem
 
 

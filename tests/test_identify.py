@@ -94,8 +94,13 @@ def test_intervals_cover_the_truth_as_often_as_they_claim(oscillator):
     on the closed form: each 95 % interval (k, c, q(t0)) holds the truth in
     95 % of the draws within 3 binomial standard deviations (1.5 %); the
     standard errors match the scatter of the estimates; the noise estimate
-    is unbiased."""
-    model, _ = oscillator
+    is unbiased.  The fits start from the truth: what is checked is the
+    optimum's intervals, not the way there (the fits from the fixture's
+    guesses, k = 30, c = 2, q(t0) = 0.09, reach the same estimates to 1.1e-7,
+    standard errors to 8.3e-8 and noise estimates to 6e-14, relative,
+    measured over the 200 draws, in 2.2x the time; convergence from off
+    guesses, q(t0) among them: ``test_several_records_each_with_its_initial_state``)."""
+    model = oscillator[0].with_constants({"k": K, "c": C})
     t = np.linspace(0.0, 4.0, 81)
     x = free_decay(t)[0]
     truth = {"k": K, "c": C, "q(t0)": X0}
@@ -107,7 +112,7 @@ def test_intervals_cover_the_truth_as_often_as_they_claim(oscillator):
     for seed in range(runs):
         rng = np.random.default_rng(seed)
         fit = kd.identify(model, (t, {"q": x + rng.normal(0.0, sigma, t.size)}), ["k", "c"],
-                          initial=["q"], y0={"q": 0.09, "u": 0.0}, rtol=1e-8, atol=1e-10)
+                          initial=["q"], y0={"q": X0, "u": 0.0}, rtol=1e-8, atol=1e-10)
         assert fit.success, (seed, fit.message)
         for name, value in truth.items():
             lo, hi = fit.intervals[name]
