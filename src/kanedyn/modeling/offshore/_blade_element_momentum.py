@@ -176,7 +176,7 @@ class BladeElementMomentum:
         angles, the value at the interval's start plus its slope times the offset."""
         alpha = np.mod(alpha + np.pi, 2 * np.pi) - np.pi
         grid = self._alpha
-        i = np.clip(np.searchsorted(grid, alpha) - 1, 0, grid.size - 2)
+        i = np.minimum(np.maximum(np.searchsorted(grid, alpha) - 1, 0), grid.size - 2)
         j = i + self._row
         return self._table.take(j) + self._slope.take(j) * (alpha - grid.take(i))
 
@@ -347,9 +347,13 @@ def _illinois(residual, lo, hi, flo, fhi):
     side = np.zeros(lo.shape, int)
     x = np.where(flo == 0, lo, hi)
     for _ in range(_MAX_ITERATIONS):
-        x = np.where(fhi != flo, (lo * fhi - hi * flo) / np.where(fhi != flo, fhi - flo, 1.0),
-                     (lo + hi) / 2)
-        x = np.clip(x, np.minimum(lo, hi), np.maximum(lo, hi))
+        step = fhi - flo
+        if step.all():
+            x = (lo * fhi - hi * flo) / step
+        else:
+            x = np.where(step != 0, (lo * fhi - hi * flo) / np.where(step != 0, step, 1.0),
+                         (lo + hi) / 2)
+        x = np.minimum(np.maximum(x, np.minimum(lo, hi)), np.maximum(lo, hi))
         fx = residual(x)
         left = flo * fx > 0                    # root in (x, hi): x replaces lo
         lo, flo = np.where(left, x, lo), np.where(left, fx, flo)
