@@ -119,6 +119,79 @@ def test_annuli_satisfy_momentum_balance():
                                rtol=1e-8)
 
 
+def _independent_inflow_angle(bem, polars, ids, k, vx, vy, theta):
+    """Annulus ``k``'s inflow angle by SciPy's brentq on Ning's residual written out from
+    the module's equations, the polars interpolated by np.interp (degrees)."""
+    from scipy.optimize import brentq
+    r, sigma, B = bem.radius[k], bem.solidity[k], bem.blades
+    polar = polars[ids[k]]
+
+    def residual(phi):
+        alpha = math.degrees((phi - theta + math.pi) % (2 * math.pi) - math.pi)
+        cl = np.interp(alpha, polar.angle_of_attack, polar.lift)
+        cd = np.interp(alpha, polar.angle_of_attack, polar.drag)
+        s, c = math.sin(phi), math.cos(phi)
+        cn, ct = cl * c + cd * s, cl * s - cd * c
+        F = (2 / math.pi) ** 2 * math.acos(math.exp(-B / 2 * (bem.tip_radius - r) / (r * abs(s)))) \
+            * math.acos(math.exp(-B / 2 * (r - bem.hub_radius) / (bem.hub_radius * abs(s))))
+        kk, kp = sigma * cn / (4 * F * s * s), sigma * ct / (4 * F * s * c)
+        if phi < 0:
+            return s * (1 - kk) - vx / vy * c * (1 - kp)
+        if kk <= 2 / 3:
+            a = kk / (1 + kk)
+        else:
+            g1, g2 = 2 * F * kk - (10 / 9 - F), max(2 * F * kk - F * (4 / 3 - F), 0.0)
+            a = (g1 - math.sqrt(g2)) / (2 * F * kk - (25 / 9 - 2 * F))
+        return s / (1 - a) - vx / vy * c * (1 - kp)
+    for lo, hi in ((1e-6, math.pi / 2), (-math.pi / 4, -1e-6), (math.pi / 2, math.pi - 1e-6)):
+        if residual(lo) * residual(hi) <= 0:
+            return brentq(residual, lo, hi, xtol=1e-13, rtol=1e-15)
+    raise AssertionError("no bracket")
+
+
+def test_inflow_angles_against_an_independent_solve_and_without_history():
+    """The vectorized solver (flattened lift-drag table, regula falsi, warm start) against
+    brentq on the residual written out annulus by annulus with np.interp on the polars,
+    at 20 random inflows around the operating range (wind 3-25 m/s with +-3 m/s axial
+    gusts, 5-13 rpm with +-1 m/s in-plane ones, pitch -2 to 20 deg): the inflow angles agree within 1e-9 rad (measured
+    1.0e-12, the same before the solver was sped up).  A warm start from another state's
+    angles (an integrator's previous call) gives the cold answer within 1e-9 rad too
+    (measured 1.6e-12): a function of the state alone.  The table lookup equals np.interp on the polars to 1e-12."""
+    bem = nrel5mw_bem()
+    blade, polars = nrel5mw_blade()
+    keep = (bem.hub_radius + blade.span > bem.hub_radius) & (bem.hub_radius + blade.span
+                                                               < bem.tip_radius - 1e-3)
+    ids = np.asarray(blade.airfoil)[keep] - 1
+    alpha = np.linspace(-np.pi, np.pi, 1001)[:, None] + 0 * bem.radius
+    cl, cd = bem.airfoil_coefficients(alpha)
+    for k, i in enumerate(ids):
+        a = np.degrees(alpha[:, k])
+        np.testing.assert_allclose(cl[:, k], np.interp(a, polars[i].angle_of_attack,
+                                                       polars[i].lift), rtol=0, atol=1e-12)
+        np.testing.assert_allclose(cd[:, k], np.interp(a, polars[i].angle_of_attack,
+                                                       polars[i].drag), rtol=0, atol=1e-12)
+    rng = np.random.default_rng(5)
+    previous = None
+    worst_independent = worst_history = 0.0
+    for _ in range(20):
+        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
+        pitch = math.radians(rng.uniform(-2.0, 20.0))
+        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) + 0 * bem.radius
+        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        cold = bem.solve(vx, vy, pitch).inflow_angle
+        if previous is not None:
+            warm = bem.solve(vx, vy, pitch, guess=previous).inflow_angle
+            worst_history = max(worst_history, np.abs(warm - cold).max())
+        previous = cold
+        b = rng.integers(3)
+        for k in range(bem.radius.size):
+            phi = _independent_inflow_angle(bem, polars, ids, k, vx[b, k], vy[b, k],
+                                            bem.twist[k] + pitch)
+            worst_independent = max(worst_independent, abs(phi - cold[b, k]))
+    assert worst_independent < 1e-9
+    assert worst_history < 1e-9
+
+
 def test_solver_refuses_a_rotor_turning_backwards():
     bem = nrel5mw_bem()
     with pytest.raises(kd.ModelError, match="tangential_speed must be positive"):

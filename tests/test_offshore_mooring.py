@@ -156,6 +156,38 @@ def test_catenary_line_warm_start_and_bad_span():
         kd.offshore.CatenaryLine([0, 0, -320], N, 1.0, W_OC3, EA_OC3)
 
 
+def test_catenary_warm_newton_equals_the_cold_scipy_solve():
+    """The warm-started Newton path (analytic Jacobian) against SciPy's hybr from Peyrot
+    and Goulois's guess, at 200 random OC3 spans (horizontal -40 to +25 m, vertical
+    +-15 m about the anchor-fairlead spans, both branches), each warm-started from the
+    tensions of another span (up to ~3 sigma of 2 m, 1 m away): H and V agree to
+    1e-11 relative (measured 3.4e-14).  The Jacobian equals central differences of
+    the spans to 1e-6 relative on both branches."""
+    from kanedyn.modeling.offshore._catenary import _newton, catenary_jacobian
+    from kanedyn.modeling.offshore._catenary import catenary_spans
+    d = OC3_MOORING
+    L, w, EA = d["length"], d["weight_in_water"], d["EA"]
+    x0, z0 = d["anchor_radius"] - d["fairlead_radius"], d["anchor_depth"] - d["fairlead_depth"]
+    rng = np.random.default_rng(0)
+    for x, z in zip(x0 + rng.uniform(-40, 25, 200), z0 + rng.uniform(-15, 15, 200)):
+        H, V = solve_catenary(x, z, L, w, EA)
+        guess = solve_catenary(x + rng.normal(0, 2), z + rng.normal(0, 1), L, w, EA)
+        found = _newton(x, z, L, w, EA, True, *guess)
+        assert found is not None
+        assert found == pytest.approx((H, V), rel=1e-11)
+        assert solve_catenary(x, z, L, w, EA, guess=guess) == pytest.approx((H, V),
+                                                                            rel=1e-11)
+    for H, V in ((6.5e5, 4.8e5), (6.5e5, 1.2 * w * L)):     # on the seabed, suspended
+        J = np.array(catenary_jacobian(H, V, L, w, EA))
+        dH, dV = 1e-5 * H, 1e-5 * V
+        numeric = np.column_stack([
+            (np.array(catenary_spans(H + dH, V, L, w, EA))
+             - np.array(catenary_spans(H - dH, V, L, w, EA))) / (2 * dH),
+            (np.array(catenary_spans(H, V + dV, L, w, EA))
+             - np.array(catenary_spans(H, V - dV, L, w, EA))) / (2 * dV)])
+        np.testing.assert_allclose(J, numeric, rtol=1e-6)
+
+
 def oc3_mooring():
     N, O = me.ReferenceFrame("N"), me.Point("O")
     d = OC3_MOORING

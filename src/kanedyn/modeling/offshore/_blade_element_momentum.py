@@ -154,46 +154,66 @@ class BladeElementMomentum:
                                for i in ids])
         self._drag = np.array([np.interp(grid, polars[i].angle_of_attack, polars[i].drag)
                                for i in ids])
+        # the same tables for the solver's lookups: C_l + i C_d and its slope per rad on
+        # each interval, flattened, one row of grid.size per annulus
+        table = self._lift + 1j * self._drag
+        slope = np.diff(table, axis=1) / np.diff(self._alpha)
+        self._table = table.ravel()
+        self._slope = np.concatenate([slope, slope[:, -1:]], axis=1).ravel()
+        self._row = np.arange(self.radius.size) * grid.size
+        # Prandtl's exponents times |sin(phi)|
+        self._tip_exponent = blades / 2 * (self.tip_radius - self.radius) / self.radius
+        self._hub_exponent = blades / 2 * (self.radius - self.hub_radius) / self.hub_radius
 
     # ------------------------------------------------------------------ annuli
     def airfoil_coefficients(self, angle_of_attack):
         r"""``(C_l, C_d)`` of each annulus's airfoil at ``angle_of_attack`` (rad, (..., n))."""
-        alpha = np.mod(np.asarray(angle_of_attack, float) + np.pi, 2 * np.pi) - np.pi
+        value = self._coefficients(np.asarray(angle_of_attack, float))
+        return value.real, value.imag
+
+    def _coefficients(self, alpha):
+        """:math:`C_l + i C_d` at ``alpha`` (rad, (..., n)): linear between the grid's
+        angles, the value at the interval's start plus its slope times the offset."""
+        alpha = np.mod(alpha + np.pi, 2 * np.pi) - np.pi
         grid = self._alpha
-        i = np.clip(np.searchsorted(grid, alpha) - 1, 0, grid.size - 2)
-        f = (alpha - grid[i]) / (grid[i + 1] - grid[i])
-        rows = np.broadcast_to(np.arange(self.radius.size), alpha.shape)
-        lift = self._lift[rows, i] * (1 - f) + self._lift[rows, i + 1] * f
-        drag = self._drag[rows, i] * (1 - f) + self._drag[rows, i + 1] * f
-        return lift, drag
+        i = np.minimum(np.maximum(np.searchsorted(grid, alpha) - 1, 0), grid.size - 2)
+        j = i + self._row
+        return self._table.take(j) + self._slope.take(j) * (alpha - grid.take(i))
 
     def _state(self, phi, ratio, theta):
         """Inductions, loss factor and coefficients at inflow angle ``phi`` (all (..., n))."""
         s, c = np.sin(phi), np.cos(phi)
-        cl, cd = self.airfoil_coefficients(phi - theta)
+        coefficients = self._coefficients(phi - theta)
+        cl, cd = coefficients.real, coefficients.imag
         cn, ct = cl * c + cd * s, cl * s - cd * c
-        abs_s = np.maximum(np.abs(s), 1e-12)
-        F = np.ones_like(phi)
-        if self.tip_loss:
-            x = self.blades / 2 * (self.tip_radius - self.radius) / (self.radius * abs_s)
-            F = F * 2 / np.pi * np.arccos(np.exp(-x))
-        if self.hub_loss:
-            x = self.blades / 2 * (self.radius - self.hub_radius) / (self.hub_radius * abs_s)
-            F = F * 2 / np.pi * np.arccos(np.exp(-x))
-        F = np.maximum(F, 1e-12)
+        F = 1.0
+        if self.tip_loss or self.hub_loss:
+            inverse = 1 / np.maximum(np.abs(s), 1e-12)
+            if self.tip_loss:
+                F = 2 / np.pi * np.arccos(np.exp(-self._tip_exponent * inverse))
+            if self.hub_loss:
+                F = F * (2 / np.pi) * np.arccos(np.exp(-self._hub_exponent * inverse))
+            F = np.maximum(F, 1e-12)
         k = self.solidity * cn / (4 * F * s * s)
         kp = self.solidity * ct / (4 * F * s * c)
-        # Buhl's empirical thrust above a = 0.4 (k = 2/3)
-        g1 = 2 * F * k - (10 / 9 - F)
-        g2 = np.maximum(2 * F * k - F * (4 / 3 - F), 0.0)
-        g3 = 2 * F * k - (25 / 9 - 2 * F)
-        near = np.abs(g3) < 1e-6
-        buhl = np.where(near, 1 - 1 / (2 * np.sqrt(np.maximum(g2, 1e-12))),
-                        (g1 - np.sqrt(g2)) / np.where(near, 1.0, g3))
-        windmill = np.where(k <= 2 / 3, k / (1 + k), buhl)
-        brake = np.where(k > 1, k / np.where(k > 1, k - 1, 1.0), 0.0)
-        a = np.where(phi > 0, windmill, brake)
-        residual = np.where(phi > 0, s / (1 - a), s * (1 - k)) - ratio * c * (1 - kp)
+        a = k / (1 + k)
+        high = k > 2 / 3
+        if high.any():
+            # Buhl's empirical thrust above a = 0.4 (k = 2/3)
+            g1 = 2 * F * k - (10 / 9 - F)
+            g2 = np.maximum(2 * F * k - F * (4 / 3 - F), 0.0)
+            g3 = 2 * F * k - (25 / 9 - 2 * F)
+            near = np.abs(g3) < 1e-6
+            buhl = np.where(near, 1 - 1 / (2 * np.sqrt(np.maximum(g2, 1e-12))),
+                            (g1 - np.sqrt(g2)) / np.where(near, 1.0, g3))
+            a = np.where(high, buhl, a)
+        windmill = phi > 0
+        if windmill.all():
+            residual = s / (1 - a) - ratio * c * (1 - kp)
+        else:
+            brake = np.where(k > 1, k / np.where(k > 1, k - 1, 1.0), 0.0)
+            a = np.where(windmill, a, brake)
+            residual = np.where(windmill, s / (1 - a), s * (1 - k)) - ratio * c * (1 - kp)
         return residual, a, kp, cn, ct
 
     def solve(self, axial_speed, tangential_speed, pitch, guess=None):
@@ -229,12 +249,16 @@ class BladeElementMomentum:
         theta = self.twist + np.asarray(pitch, float)
         ratio = Vx / Vy
 
-        def residual(phi):
-            return self._state(phi, ratio, theta)[0]
+        last = {}
 
-        lo, hi = _bracket(residual, Vx.shape, guess)
-        phi = _illinois(residual, lo, hi)
-        _, a, kp, cn, ct = self._state(phi, ratio, theta)
+        def residual(phi):
+            last["phi"], last["state"] = phi, self._state(phi, ratio, theta)
+            return last["state"][0]
+
+        phi = _illinois(residual, *_bracket(residual, Vx.shape, guess))
+        # the solver's last evaluation is at its answer
+        state = last["state"] if last["phi"] is phi else self._state(phi, ratio, theta)
+        _, a, kp, cn, ct = state
         a = np.where(Vx == 0, 0.0, a)
         ap = kp / (1 - kp)
         w2 = (Vx * (1 - a)) ** 2 + (Vy * (1 + ap)) ** 2
@@ -295,6 +319,7 @@ def _bracket(residual, shape, guess=None):
     sign; with a guess, first the guess's neighbourhood within the guess's interval."""
     intervals = [(_EPS, np.pi / 2), (-np.pi / 4, -_EPS), (np.pi / 2, np.pi - _EPS)]
     lo, hi = np.full(shape, np.nan), np.full(shape, np.nan)
+    flo, fhi = np.full(shape, np.nan), np.full(shape, np.nan)
     if guess is not None and np.shape(guess) == shape:
         g = np.asarray(guess, float)
         # stay on the guess's side of 0 and pi/2: the branches differ there
@@ -306,23 +331,29 @@ def _bracket(residual, shape, guess=None):
         fresh = np.isnan(lo)
         if not fresh.any():
             break
-        fresh &= residual(a) * residual(b) <= 0
+        fa, fb = residual(a), residual(b)
+        fresh &= fa * fb <= 0
         lo[fresh], hi[fresh] = a[fresh], b[fresh]
+        flo[fresh], fhi[fresh] = fa[fresh], fb[fresh]
     if np.isnan(lo).any():
         raise ModelError("BladeElementMomentum: no bracket of the inflow angle found for "
                          f"{int(np.isnan(lo).sum())} annuli")
-    return lo, hi
+    return lo, hi, flo, fhi
 
 
-def _illinois(residual, lo, hi):
-    """Regula falsi with the Illinois modification on arrays of brackets, to _TOLERANCE."""
-    flo, fhi = residual(lo), residual(hi)
+def _illinois(residual, lo, hi, flo, fhi):
+    """Regula falsi with the Illinois modification on arrays of brackets (their ends'
+    residuals ``flo``, ``fhi``), to _TOLERANCE."""
     side = np.zeros(lo.shape, int)
     x = np.where(flo == 0, lo, hi)
     for _ in range(_MAX_ITERATIONS):
-        x = np.where(fhi != flo, (lo * fhi - hi * flo) / np.where(fhi != flo, fhi - flo, 1.0),
-                     (lo + hi) / 2)
-        x = np.clip(x, np.minimum(lo, hi), np.maximum(lo, hi))
+        step = fhi - flo
+        if step.all():
+            x = (lo * fhi - hi * flo) / step
+        else:
+            x = np.where(step != 0, (lo * fhi - hi * flo) / np.where(step != 0, step, 1.0),
+                         (lo + hi) / 2)
+        x = np.minimum(np.maximum(x, np.minimum(lo, hi)), np.maximum(lo, hi))
         fx = residual(x)
         left = flo * fx > 0                    # root in (x, hi): x replaces lo
         lo, flo = np.where(left, x, lo), np.where(left, fx, flo)

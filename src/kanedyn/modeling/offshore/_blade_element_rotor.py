@@ -158,12 +158,12 @@ class BladeElementRotor:
         p = bem.radius[:, None] * e_r                                         # (B, n, 3)
         spin = np.asarray(rate, float) + np.array([rotor_speed, 0.0, 0.0])
         air = wind_speed * np.asarray(direction, float) - np.asarray(velocity, float) \
-            - np.cross(spin, p)
+            - _cross(spin, p)
         solution = bem.solve(air[..., 0], -np.sum(air * e_t, axis=-1), pitch, guess)
         element = (solution.normal_load[..., None] * np.array([1.0, 0.0, 0.0])
                    + solution.tangential_load[..., None] * e_t) * bem.weights[:, None]
         force = element.sum(axis=(0, 1))
-        moment = np.cross(p, element).sum(axis=(0, 1))
+        moment = _cross(p, element).sum(axis=(0, 1))
         return force, moment, solution
 
     def specified(self, states, constants=None):
@@ -186,6 +186,14 @@ class BladeElementRotor:
 
     def __repr__(self):
         return f"BladeElementRotor({self.name!r}, {self.bem!r})"
+
+
+def _cross(a, b):
+    """``np.cross(a, b)`` of vectors along the last axis (without its axis handling)."""
+    a, b = np.asarray(a), np.asarray(b)
+    return np.stack([a[..., 1] * b[..., 2] - a[..., 2] * b[..., 1],
+                     a[..., 2] * b[..., 0] - a[..., 0] * b[..., 2],
+                     a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
 def warm_started_inputs(symbols, solve):
