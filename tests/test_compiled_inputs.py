@@ -38,15 +38,17 @@ def _python_inputs(definition):
             kept = last[kind, order] = (t, motion.evaluate(kind, order, t))
         return float(kept[1][index])
 
-    out = {}
-    for key in definition.specified:
-        base = key.expr if isinstance(key, sm.Derivative) else key
-        order = len(key.variables) if isinstance(key, sm.Derivative) else 0
-        i = motion.symbols.index(base)
-        kind, index = ("position", i) if i < 3 else ("angles", i - 3)
-        out[key] = (lambda t, kind=kind, order=order, index=index:
-                    component(kind, order, index, t))
-    return out
+    return {key: (lambda t, where=_component(motion, key): component(*where, t))
+            for key in definition.specified}
+
+
+def _component(motion, key):
+    """``(kind, order, index)`` of an input ``key`` in ``motion.evaluate``."""
+    base = key.expr if isinstance(key, sm.Derivative) else key
+    order = len(key.variables) if isinstance(key, sm.Derivative) else 0
+    i = motion.symbols.index(base)
+    kind, index = ("position", i) if i < 3 else ("angles", i - 3)
+    return kind, order, index
 
 
 @pytest.fixture(scope="module")
@@ -75,10 +77,7 @@ def test_the_python_inputs_do_not_depend_on_the_calls_before(sensor):
     for t in times:
         for key in rng.permutation(len(inputs)):
             key = list(inputs)[key]
-            base = key.expr if isinstance(key, sm.Derivative) else key
-            order = len(key.variables) if isinstance(key, sm.Derivative) else 0
-            i = motion.symbols.index(base)
-            kind, index = ("position", i) if i < 3 else ("angles", i - 3)
+            kind, order, index = _component(motion, key)
             fresh = float(motion.evaluate(kind, order, float(t))[index])
             assert inputs[key](float(t)) == fresh and inputs[key](float(t)) == fresh
 

@@ -345,7 +345,6 @@ def _illinois(residual, lo, hi, flo, fhi):
     """Regula falsi with the Illinois modification on arrays of brackets (their ends'
     residuals ``flo``, ``fhi``), to _TOLERANCE."""
     side = np.zeros(lo.shape, int)
-    x = np.where(flo == 0, lo, hi)
     for _ in range(_MAX_ITERATIONS):
         step = fhi - flo
         if step.all():

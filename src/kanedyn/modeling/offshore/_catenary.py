@@ -140,9 +140,10 @@ def solve_catenary(x, z, length, w, EA, seabed=True, guess=None, name="line"):
     if x < 0:
         raise ModelError(f"catenary {name}: the horizontal span must not be negative")
     scale = w * length
+    largest = 1e6 * scale * max(1.0, EA / scale)  # H beyond it: no finite solution
     if guess is not None:
         found = _newton(x, z, length, w, EA, seabed, *guess)
-        if found is not None and found[0] <= 1e6 * scale * max(1.0, EA / scale):
+        if found is not None and found[0] <= largest:
             return found
     h0, v0 = guess if guess is not None else _first_guess(x, z, length, w)
 
@@ -159,7 +160,7 @@ def solve_catenary(x, z, length, w, EA, seabed=True, guess=None, name="line"):
         raise ModelError(f"catenary {name}: no solution for spans x = {x:g} m, z = {z:g} m "
                          f"(length {length:g} m): {sol.message}")
     H, V = np.exp(sol.x)
-    if not (np.isfinite(H) and np.isfinite(V)) or H > 1e6 * scale * max(1.0, EA / scale):
+    if not (np.isfinite(H) and np.isfinite(V)) or H > largest:
         raise ModelError(f"catenary {name}: no finite solution for spans x = {x:g} m, "
                          f"z = {z:g} m")
     return float(H), float(V)
