@@ -67,29 +67,41 @@ def _say(quiet, text):
 # ------------------------------------------------------------------ models
 @functools.lru_cache(maxsize=16)
 def _built(backend, options):
-    from ..models import oc3_settle, oc3_spar
+    """``(definition, eom, numeric model)`` of ``oc3_spar(**dict(options))``."""
+    from ..models import oc3_spar
     d = oc3_spar(**dict(options))
     eom = d.derive()
     needed = {str(x) for x in eom.specified}
     # inputs the equations do not contain (the strips' velocities without drag) are left out
     inputs = {k: v for k, v in d.specified.items() if str(k) in needed}
     model = eom.numeric(constants=dict(d.constants), specified=inputs, backend=backend)
-    return d, eom, model, oc3_settle(d, model)
+    return d, eom, model
+
+
+@functools.lru_cache(maxsize=16)
+def _settled(backend, options):
+    """The still-water equilibrium state of ``_built(backend, options)``."""
+    from ..models import oc3_settle
+    d, _, model = _built(backend, options)
+    return oc3_settle(d, model)
+
+
+#: the options of a still sea, and their defaults in ``oc3_spar``
+_STILL = dict(sea="still", wave_height=0.0, turbulence=0.0)
 
 
 def _model(backend="c", **options):
     """``(definition, eom, numeric model, equilibrium state)``, cached by options.
 
     The equilibrium is found in still water (a model with waves settles at
-    its still-water twin's state).
+    its still-water twin's state, which is built for it; a model in still
+    water at its own).
     """
     key = tuple(sorted(options.items()))
-    d, eom, model, _ = _built(backend, key)
-    still = dict(options, sea="still", wave_height=0.0, turbulence=0.0)
-    if still != options:
-        _, _, m_still, y_eq = _built(backend, tuple(sorted(still.items())))
-        return d, eom, model, y_eq
-    return d, eom, model, _built(backend, key)[3]
+    d, eom, model = _built(backend, key)
+    if all(options.get(name, value) == value for name, value in _STILL.items()):
+        return d, eom, model, _settled(backend, key)
+    return d, eom, model, _settled(backend, tuple(sorted({**options, **_STILL}.items())))
 
 
 def _name(q):
@@ -734,7 +746,7 @@ def _time_inputs_model(backend, options):
     that reads the state or the time otherwise (a turbulent wind, catenary lines, a
     spinning rotor's aerodynamics and controller)."""
     from ..modeling import RotorThrust
-    d, eom, model, _ = _built(backend, options)
+    d, eom, model = _built(backend, options)
     morison = d.symbols["elements"].get("morison")
     if getattr(model, "_c", None) is None or morison is None:
         return None
