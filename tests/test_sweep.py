@@ -323,16 +323,19 @@ def _within(seconds, call):
     return box.get("error")
 
 
-def test_scheduler_addresses_are_checked_before_use(pendulum, http_address):
+def test_scheduler_addresses_are_checked_before_use(pendulum, http_address, monkeypatch):
     """Malformed, unknown scheme, nothing listening, an HTTP server: one-line
     OptionErrors within seconds (an HTTP server kept Client() waiting over 180
-    s), before any run; the library's sweep refuses them too."""
+    s), before any run; the library's sweep refuses them too.  The wait for an
+    answer is 1 s here (5 s by default): the HTTP server's two cases waited it
+    out in full."""
+    monkeypatch.setattr(_sweep, "_CONNECT_SECONDS", 1.0)
     d, model = pendulum
     cases = {"garbage": "is not a Dask scheduler address .*missing port",
              "tcp://127.0.0.1": "missing port",
              "foo://x:1": "unknown scheme 'foo'",
              f"tcp://127.0.0.1:{_closed_port()}": "no Dask scheduler answered within",
-             http_address: "accepted the connection but did not answer"}
+             http_address: "within 1 s .*accepted the connection but did not answer"}
     for address, pattern in cases.items():
         error = _within(30, lambda: _sweep.check_scheduler(address))
         assert isinstance(error, kd.OptionError) and re.search(pattern, str(error)), error
