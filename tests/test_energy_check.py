@@ -187,6 +187,12 @@ _WITH_CONTACTS = {"sphere-slug", "slug-ellipsoid", "block-on-incline", "bead-in-
                   "bouncing-ball", "ladder", "falling-rod"}
 
 
+#: the end of a run short of a model's first singular position, s: n-four-bar's
+#: runs to its t_end all stop at one (the first near t = 0.717 s), and no
+#: balance is judged in a run that did not succeed
+_REGULAR_SPAN = {"n-four-bar": 0.7}
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", _built_in_without_contacts())
 def test_built_in_models_are_not_flagged(name):
@@ -194,19 +200,19 @@ def test_built_in_models_are_not_flagged(name):
     model without contacts, 501 output times, on the compiled loop at its
     default tolerance (1e-8) and at 1e-3 with RK45 and Rosenbrock23: never
     flagged, the judged ratios within a factor of 4 of 1 (within 5 % at the
-    default tolerance)."""
+    default tolerance).  Each run to the model's ``t_end``, or short of its
+    first singular position (``_REGULAR_SPAN``)."""
     definition = kd.models.build(name)
     model = definition.numeric(backend="c")
     assert not model.contacts
-    t_eval = np.linspace(0.0, definition.t_end, 501)
+    t_end = _REGULAR_SPAN.get(name, definition.t_end)
+    t_eval = np.linspace(0.0, t_end, 501)
     for method, tol in (("RK45", 1e-8), ("RK45", 1e-3), ("Rosenbrock23", 1e-3)):
         with warnings.catch_warnings():
             warnings.simplefilter("error", kd.TrustWarning)
-            warnings.simplefilter("ignore", kd.SingularConfigurationWarning)  # n-four-bar
-            res = kd.simulate(model, (0.0, definition.t_end), definition.initial(model),
+            res = kd.simulate(model, (0.0, t_end), definition.initial(model),
                               method=method, rtol=tol, atol=tol, t_eval=t_eval)
-        if not res.success:  # n-four-bar stops at its singular position: not judged
-            continue
+        assert res.success, (method, tol, res.message)
         b = res._balance
         high, low = _energy_check.balance_ratios(b.energy, b.potential, b.work, b.error,
                                                  b.flow)
