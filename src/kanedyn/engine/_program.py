@@ -27,9 +27,11 @@ import copy
 import itertools
 import math
 import random
+from bisect import insort
 
 import numpy as np
 import sympy as sm
+from sympy.core.basic import _args_sortkey
 from sympy.core.function import AppliedUndef
 
 from ._cse import eliminate_repeated
@@ -677,6 +679,132 @@ class kd_dpow(sm.Function):  # noqa: N801  (its name is what the generated code 
         return None
 
 
+def _is_zero(x):
+    """``x == 0`` (a SymPy expression other than a number is not 0)."""
+    if isinstance(x, sm.Basic):
+        return x is _ZERO or (x.is_Number and x == 0)
+    return x == 0
+
+
+def _finite_coefficient(c):
+    """Whether the number ``c`` is one SymPy keeps as a product's coefficient
+    as it is: a nonzero rational, or a nonzero finite float."""
+    if c.is_Rational:
+        return c is not _ZERO
+    if not c.is_Float:
+        return False
+    value = float(c)
+    return value != 0.0 and math.isfinite(value)
+
+
+def _plain_product(args):
+    """``(coefficient, factors, bases)`` of the arguments of a product as
+    SymPy's ``Mul`` makes them, or ``False`` where :func:`_replaced_factor`
+    cannot rebuild a product of them.
+
+    ``args`` are taken as SymPy's canonical ones where they are: a finite
+    nonzero number first or none, then commutative factors in SymPy's sort
+    order, no two with the same base (:meth:`~sympy.core.expr.Expr.as_base_exp`,
+    so ``exp(x)`` has the base ``E``), none a number, a product or a power
+    of a number or of ``I``.  ``bases`` maps each factor's base to its
+    position in ``factors``.
+    """
+    if args[0].is_Number:
+        coefficient, factors = args[0], args[1:]
+        if not _finite_coefficient(coefficient):
+            return False
+    else:
+        coefficient, factors = _ONE, args
+    bases = {}
+    for k, f in enumerate(factors):
+        if f.is_Number or f.is_Mul or f.is_commutative is not True:
+            return False
+        b = f.as_base_exp()[0]
+        if b.is_Number or b is sm.I or b in bases:
+            return False
+        bases[b] = k
+        if k and factors[k - 1].compare(f) >= 0:
+            return False
+    return coefficient, factors, bases
+
+
+def _replaced_factor(product, i, da):
+    r"""``Mul(*args)`` with ``args[i]`` replaced by ``da``, built without
+    SymPy's ``Mul.flatten`` where the result is the plain product: a term
+    :math:`\partial a_i \prod_{k \neq i} a_k` of the product rule.
+
+    ``product`` is :func:`_plain_product` of ``args``; ``da`` a number, a
+    symbol or a number times a symbol (what :meth:`Program.let` gives).  The
+    new coefficient is the product of the two numbers (in ``flatten``'s
+    order), the symbol is put where SymPy's sort puts it.  ``None`` where
+    ``flatten`` would do more: a zero or infinite coefficient, a symbol that
+    is the base of another factor (``x * x = x**2``), a number times a sum
+    (which SymPy distributes); the caller then calls ``Mul``.
+    """
+    coefficient, factors, bases = product
+    if i == 0 and coefficient is not _ONE:
+        return None  # the coefficient itself (its derivative is 0)
+    k = i - 1 if coefficient is not _ONE else i
+    if da.is_Number:
+        number, symbol = da, None
+    elif da.is_Symbol:
+        number, symbol = _ONE, da
+    elif da.is_Mul and len(da.args) == 2 and da.args[0].is_Number and da.args[1].is_Symbol:
+        number, symbol = da.args
+    else:
+        return None  # (a Python number from a caller's derivative_of, too)
+    c = number if coefficient is _ONE else coefficient * number if number is not _ONE \
+        else coefficient
+    if not _finite_coefficient(c):
+        return None
+    rest = list(factors[:k] + factors[k + 1:])
+    if symbol is not None:
+        at = bases.get(symbol)
+        if (at is not None and at != k) or symbol.is_commutative is not True:
+            return None
+        insort(rest, symbol, key=_args_sortkey)
+    if c is not _ONE:
+        if len(rest) == 1 and rest[0].is_Add:
+            return None  # 2*(x + y) is distributed
+        rest.insert(0, c)
+    return sm.Mul._exec_constructor_postprocessors(sm.Mul._from_args(rest, True))
+
+
+def _sum(terms):
+    """``Add(*terms)``, built without SymPy's ``Add.flatten`` where the
+    result is the plain sum of the terms (and of those of any sum among
+    them) in SymPy's sort order: no numbers, no two like terms (equal but
+    for their numerical coefficients), each a commutative product, power,
+    symbol or function, no power of a number.  ``Add`` otherwise."""
+    flat = []
+    for t in terms:
+        if t is _ZERO:
+            continue
+        if t.is_Add:
+            flat.extend(t.args)
+        else:
+            flat.append(t)
+    if len(flat) < 2:
+        return sm.Add(*terms)
+    seen = set()
+    for t in flat:
+        if t.is_Mul:
+            args = t.args
+            if args[0].is_Number:
+                if not _finite_coefficient(args[0]):
+                    return sm.Add(*terms)
+                args = args[1:]
+        elif t.is_Symbol or t.is_Function or (t.is_Pow and not t.args[0].is_Number):
+            args = (t,)
+        else:
+            return sm.Add(*terms)
+        if args in seen or t.is_commutative is not True:
+            return sm.Add(*terms)
+        seen.add(args)
+    flat.sort(key=_args_sortkey)
+    return sm.Add._exec_constructor_postprocessors(sm.Add._from_args(flat, True))
+
+
 def total_derivative(expr, derivative_of, guarded=False):
     r"""Total derivative :math:`\sum_s \partial e/\partial s\; ds` in one pass.
 
@@ -693,16 +821,20 @@ def total_derivative(expr, derivative_of, guarded=False):
     if expr.is_Number or expr.is_NumberSymbol:
         return _ZERO
     if expr.is_Add:
-        return sm.Add(*[total_derivative(a, derivative_of, guarded) for a in expr.args])
+        return _sum([total_derivative(a, derivative_of, guarded) for a in expr.args])
     if expr.is_Mul:
         args = expr.args
+        product = None  # (coefficient, factors, bases) once a term is formed
         terms = []
         for i, a in enumerate(args):
             da = total_derivative(a, derivative_of, guarded)
-            if da is _ZERO or da == 0:
+            if _is_zero(da):
                 continue
-            terms.append(sm.Mul(*(args[:i] + (da,) + args[i + 1:])))
-        return sm.Add(*terms)
+            if product is None:
+                product = _plain_product(args)
+            term = None if product is False else _replaced_factor(product, i, da)
+            terms.append(sm.Mul(*(args[:i] + (da,) + args[i + 1:])) if term is None else term)
+        return _sum(terms)
     if expr.is_Pow:
         base, exponent = expr.args
         db = total_derivative(base, derivative_of, guarded)
