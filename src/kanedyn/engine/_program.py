@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import cmath
 import copy
+import functools
 import itertools
 import math
 import random
@@ -309,11 +310,9 @@ class Program:
         tag = (name or f"d{var}") + ("g" if guarded else "")
 
         def d_of(s):
-            if s == var:
-                return _ONE
-            if s in self._defs:
+            if s in self._defs:  # var is a leaf, never an intermediate
                 return memo.get(s, _ZERO)
-            return _ZERO
+            return _ONE if s == var else _ZERO
 
         for s in todo:
             memo[s] = self.let(self._chain(self._defs[s], d_of, guarded), f"{s.name}_{tag}")
@@ -691,23 +690,23 @@ def _finite_coefficient(c):
     as it is: a nonzero rational, or a nonzero finite float."""
     if c.is_Rational:
         return c is not _ZERO
-    if not c.is_Float:
-        return False
-    value = float(c)
-    return value != 0.0 and math.isfinite(value)
+    # a float's mantissa is 0 for zero, infinities and nan only
+    return c.is_Float and bool(c._mpf_[1])
 
 
+@functools.lru_cache(maxsize=1 << 14)
 def _plain_product(args):
     """``(coefficient, factors, bases)`` of the arguments of a product as
     SymPy's ``Mul`` makes them, or ``False`` where :func:`_replaced_factor`
     cannot rebuild a product of them.
 
     ``args`` are taken as SymPy's canonical ones where they are: a finite
-    nonzero number first or none, then commutative factors in SymPy's sort
-    order, no two with the same base (:meth:`~sympy.core.expr.Expr.as_base_exp`,
-    so ``exp(x)`` has the base ``E``), none a number, a product or a power
-    of a number or of ``I``.  ``bases`` maps each factor's base to its
-    position in ``factors``.
+    nonzero number first or none, then commutative symbols, functions,
+    powers or sums in SymPy's sort order, no two with the same base
+    (:meth:`~sympy.core.expr.Expr.as_base_exp`, so ``exp(x)`` has the base
+    ``E``), none a power of a number or of ``I``.  ``bases`` maps each
+    factor's base to its position in ``factors``.  Kept for the last
+    products seen (a definition's products are met once per variable).
     """
     if args[0].is_Number:
         coefficient, factors = args[0], args[1:]
@@ -717,10 +716,8 @@ def _plain_product(args):
         coefficient, factors = _ONE, args
     bases = {}
     for k, f in enumerate(factors):
-        if f.is_Number or f.is_Mul or f.is_commutative is not True:
-            return False
-        b = f.as_base_exp()[0]
-        if b.is_Number or b is sm.I or b in bases:
+        b = _factor_base(f)
+        if b is None or b in bases:
             return False
         bases[b] = k
         if k and factors[k - 1].compare(f) >= 0:
@@ -728,45 +725,62 @@ def _plain_product(args):
     return coefficient, factors, bases
 
 
+def _factor_base(f):
+    """The base of ``f`` as a factor :func:`_replaced_factor` places
+    (a commutative symbol, function, power or sum whose base is not a number
+    or ``I``), else ``None``."""
+    if not (f.is_Symbol or f.is_Function or f.is_Pow or f.is_Add) or f.is_commutative is not True:
+        return None
+    b = f.as_base_exp()[0]
+    return None if b.is_Number or b is sm.I else b
+
+
 def _replaced_factor(product, i, da):
     r"""``Mul(*args)`` with ``args[i]`` replaced by ``da``, built without
     SymPy's ``Mul.flatten`` where the result is the plain product: a term
     :math:`\partial a_i \prod_{k \neq i} a_k` of the product rule.
 
-    ``product`` is :func:`_plain_product` of ``args``; ``da`` a number, a
-    symbol or a number times a symbol (what :meth:`Program.let` gives).  The
-    new coefficient is the product of the two numbers (in ``flatten``'s
-    order), the symbol is put where SymPy's sort puts it.  ``None`` where
-    ``flatten`` would do more: a zero or infinite coefficient, a symbol that
-    is the base of another factor (``x * x = x**2``), a number times a sum
-    (which SymPy distributes); the caller then calls ``Mul``.
+    ``product`` is :func:`_plain_product` of ``args``.  The new coefficient
+    is the product of the two numbers (in ``flatten``'s order), the factors
+    of ``da`` are put where SymPy's sort puts them.  ``None`` where
+    ``flatten`` would do more: a zero or infinite coefficient, a factor of
+    ``da`` with the base of another factor (``x * x = x**2``), a product of
+    a number and a sum (which SymPy distributes), ``da`` not a number, a
+    factor or a product of them; the caller then calls ``Mul``.
     """
     coefficient, factors, bases = product
     if i == 0 and coefficient is not _ONE:
         return None  # the coefficient itself (its derivative is 0)
     k = i - 1 if coefficient is not _ONE else i
+    if not isinstance(da, sm.Basic):
+        return None  # a Python number from a caller's derivative_of
     if da.is_Number:
-        number, symbol = da, None
-    elif da.is_Symbol:
-        number, symbol = _ONE, da
-    elif da.is_Mul and len(da.args) == 2 and da.args[0].is_Number and da.args[1].is_Symbol:
-        number, symbol = da.args
+        number, new, new_bases = da, (), ()
+    elif da.is_Mul:
+        inner = _plain_product(da.args)
+        if inner is False:
+            return None
+        number, new, new_bases = inner
     else:
-        return None  # (a Python number from a caller's derivative_of, too)
+        b = _factor_base(da)
+        if b is None:
+            return None
+        number, new, new_bases = _ONE, (da,), (b,)
     c = number if coefficient is _ONE else coefficient * number if number is not _ONE \
         else coefficient
     if not _finite_coefficient(c):
         return None
     rest = list(factors[:k] + factors[k + 1:])
-    if symbol is not None:
-        at = bases.get(symbol)
-        if (at is not None and at != k) or symbol.is_commutative is not True:
+    for b in new_bases:
+        at = bases.get(b)
+        if at is not None and at != k:
             return None
-        insort(rest, symbol, key=_args_sortkey)
+    for f in new:
+        insort(rest, f, key=_args_sortkey)
     if c is not _ONE:
-        if len(rest) == 1 and rest[0].is_Add:
-            return None  # 2*(x + y) is distributed
         rest.insert(0, c)
+    if len(rest) <= 2 and any(f.is_Add for f in rest):
+        return None  # 2*(x + y) is distributed (and the two-factor rules of flatten)
     return sm.Mul._exec_constructor_postprocessors(sm.Mul._from_args(rest, True))
 
 
@@ -780,12 +794,14 @@ def _sum(terms):
     for t in terms:
         if t is _ZERO:
             continue
+        if not isinstance(t, sm.Basic):
+            return sm.Add(*terms)
         if t.is_Add:
             flat.extend(t.args)
         else:
             flat.append(t)
     if len(flat) < 2:
-        return sm.Add(*terms)
+        return flat[0] if flat else _ZERO
     seen = set()
     for t in flat:
         if t.is_Mul:
