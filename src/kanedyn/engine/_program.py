@@ -694,19 +694,14 @@ def _finite_coefficient(c):
     return c.is_Float and bool(c._mpf_[1])
 
 
-@functools.lru_cache(maxsize=1 << 14)
 def _plain_product(args):
     """``(coefficient, factors, bases)`` of the arguments of a product as
     SymPy's ``Mul`` makes them, or ``False`` where :func:`_replaced_factor`
     cannot rebuild a product of them.
 
     ``args`` are taken as SymPy's canonical ones where they are: a finite
-    nonzero number first or none, then commutative symbols, functions,
-    powers or sums in SymPy's sort order, no two with the same base
-    (:meth:`~sympy.core.expr.Expr.as_base_exp`, so ``exp(x)`` has the base
-    ``E``), none a power of a number or of ``I``.  ``bases`` maps each
-    factor's base to its position in ``factors``.  Kept for the last
-    products seen (a definition's products are met once per variable).
+    nonzero number first or none, then factors as :func:`_plain_factors`
+    accepts them.
     """
     if args[0].is_Number:
         coefficient, factors = args[0], args[1:]
@@ -714,15 +709,28 @@ def _plain_product(args):
             return False
     else:
         coefficient, factors = _ONE, args
+    bases = _plain_factors(factors)
+    return False if bases is None else (coefficient, factors, bases)
+
+
+@functools.lru_cache(maxsize=1 << 14)
+def _plain_factors(factors):
+    """``{base: position}`` of the factors of a product, or ``None`` unless
+    they are commutative symbols, functions, powers or sums in SymPy's sort
+    order, no two with the same base (:meth:`~sympy.core.expr.Expr.as_base_exp`,
+    so ``exp(x)`` has the base ``E``), none a power of a number or of ``I``.
+    Kept for the last products seen (a definition's products are met once
+    per variable; numbers, whose hash SymPy computes anew each time, are
+    not part of the key)."""
     bases = {}
     for k, f in enumerate(factors):
         b = _factor_base(f)
         if b is None or b in bases:
-            return False
+            return None
         bases[b] = k
         if k and factors[k - 1].compare(f) >= 0:
-            return False
-    return coefficient, factors, bases
+            return None
+    return bases
 
 
 def _factor_base(f):
