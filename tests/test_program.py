@@ -245,36 +245,48 @@ def test_sums_are_sympys_sums():
 
 @pytest.mark.parametrize("name", ["chain3d", "four-bar", "snake"])
 def test_model_derivatives_built_as_sympy_builds_them(name, monkeypatch):
-    """Every product-rule term and sum ``total_derivative`` builds without
+    """Every product-rule term, sum, product and difference built without
     ``Mul`` and ``Add`` while a model's exact derivatives are formed
-    (``_specification``, with the parameter columns) is the tree those give:
-    chain3d 1517 products and 3095 sums, the four-bar 375 and 739, the snake
-    (inputs) 2439 and 6278, all the same (so are the Whipple bicycle's 12977
-    and 28806, spin-up-beam's 2114 and 5323 and those of the OC3 spar
-    variants, checked apart: 8 s and 6 s here)."""
+    (``_specification``, with the parameter columns: ``total_derivative``
+    and, for chain3d, the tree's spatial formulas) is the tree SymPy's
+    constructors and operators give: chain3d 1517 product-rule terms, 4894
+    sums, 2529 products, 450 sums and 720 differences of two, the four-bar
+    375 terms and 739 sums, the snake (inputs) 2439 and 6278, all the same (so are those of the Panda,
+    the shuttle arm, chain3d at n = 10 and the OC3 spar variants, checked
+    apart: some seconds each)."""
     import kanedyn as kd
-    from kanedyn.engine import _program
+    from kanedyn.engine import _program, _tree_derivatives
     from kanedyn.numerics._jacobians import _specification
-    real_factor, real_sum = _program._replaced_factor, _program._sum
-    counts = {"products": 0, "sums": 0}
+    real = {name: getattr(_program, name) for name in ("_replaced_factor", "_sum", "_times",
+                                                       "_plus", "_minus")}
+    counts = dict.fromkeys(real, 0)
 
     def factor(product, i, da):
-        got = real_factor(product, i, da)
+        got = real["_replaced_factor"](product, i, da)
         if got is not None:
             coefficient, factors, _ = product
             args = ((coefficient,) if coefficient is not sm.S.One else ()) + tuple(factors)
             assert _same(got, sm.Mul(*(args[:i] + (da,) + args[i + 1:])))
-            counts["products"] += 1
+            counts["_replaced_factor"] += 1
         return got
 
-    def add(terms):
-        got = real_sum(terms)
-        assert _same(got, sm.Add(*terms))
-        counts["sums"] += 1
-        return got
+    def checked(key, expected):
+        def built(*args):
+            got = real[key](*args)
+            want = expected(*args)
+            assert _same(got, want) if isinstance(want, sm.Basic) else got == want
+            counts[key] += 1
+            return got
+        return built
 
     monkeypatch.setattr(_program, "_replaced_factor", factor)
-    monkeypatch.setattr(_program, "_sum", add)
+    monkeypatch.setattr(_program, "_sum", checked("_sum", lambda terms: sm.Add(*terms)))
+    monkeypatch.setattr(_tree_derivatives, "_plain_sum", _program._sum)
+    for key, operator in (("_times", lambda a, b: a * b), ("_plus", lambda a, b: a + b),
+                          ("_minus", lambda a, b: a - b)):
+        monkeypatch.setattr(_tree_derivatives, key, checked(key, operator))
     model = kd.models.build(name).numeric(backend="numpy")
     _specification(model, True)
-    assert counts["products"] > 300 and counts["sums"] > 500, counts
+    assert counts["_replaced_factor"] > 300 and counts["_sum"] > 500, counts
+    if name == "chain3d":
+        assert counts["_times"] > 2000 and counts["_minus"] > 500, counts

@@ -748,18 +748,43 @@ def _replaced_factor(product, i, da):
     SymPy's ``Mul.flatten`` where the result is the plain product: a term
     :math:`\partial a_i \prod_{k \neq i} a_k` of the product rule.
 
-    ``product`` is :func:`_plain_product` of ``args``.  The new coefficient
-    is the product of the two numbers (in ``flatten``'s order), the factors
-    of ``da`` are put where SymPy's sort puts them.  ``None`` where
-    ``flatten`` would do more: a zero or infinite coefficient, a factor of
-    ``da`` with the base of another factor (``x * x = x**2``), a product of
-    a number and a sum (which SymPy distributes), ``da`` not a number, a
-    factor or a product of them; the caller then calls ``Mul``.
+    ``product`` is :func:`_plain_product` of ``args``; see :func:`_merged`.
     """
     coefficient, factors, bases = product
     if i == 0 and coefficient is not _ONE:
         return None  # the coefficient itself (its derivative is 0)
-    k = i - 1 if coefficient is not _ONE else i
+    return _merged(product, i - 1 if coefficient is not _ONE else i, da)
+
+
+def _times(a, b):
+    """``a * b`` (``Mul(a, b)`` of SymPy expressions, a Python integer taken as
+    SymPy's), built as :func:`_merged` builds products where it can."""
+    if type(a) is int:
+        a = sm.Integer(a)
+    if type(b) is int:
+        b = sm.Integer(b)
+    if not (isinstance(a, sm.Expr) and isinstance(b, sm.Expr)) or (a.is_Number and b.is_Number) \
+            or a is _ZERO or b is _ZERO:
+        return a * b
+    product = _plain_product(a.args if a.is_Mul else (a,))
+    found = None if product is False else _merged(product, None, b)
+    return a * b if found is None else found
+
+
+def _merged(product, k, da):
+    r"""The product ``product`` (:func:`_plain_product`) without its factor
+    ``k`` (``None``: none left out) times ``da``, built without SymPy's
+    ``Mul.flatten`` where the result is the plain product; ``None`` where it
+    is not.
+
+    The new coefficient is the product of the two numbers (in ``flatten``'s
+    order), the factors of ``da`` are put where SymPy's sort puts them.
+    ``None`` where ``flatten`` would do more: a zero or infinite coefficient,
+    a factor of ``da`` with the base of another factor (``x * x = x**2``), a
+    product of a number and a sum (which SymPy distributes), ``da`` not a
+    number, a factor or a product of them; the caller then calls ``Mul``.
+    """
+    coefficient, factors, bases = product
     if not isinstance(da, sm.Basic):
         return None  # a Python number from a caller's derivative_of
     if da.is_Number:
@@ -778,7 +803,7 @@ def _replaced_factor(product, i, da):
         else coefficient
     if not _finite_coefficient(c):
         return None
-    rest = list(factors[:k] + factors[k + 1:])
+    rest = list(factors) if k is None else list(factors[:k] + factors[k + 1:])
     for b in new_bases:
         at = bases.get(b)
         if at is not None and at != k:
@@ -790,6 +815,22 @@ def _replaced_factor(product, i, da):
     if len(rest) <= 2 and any(f.is_Add for f in rest):
         return None  # 2*(x + y) is distributed (and the two-factor rules of flatten)
     return sm.Mul._exec_constructor_postprocessors(sm.Mul._from_args(rest, True))
+
+
+def _plus(a, b):
+    """``a + b`` (``Add(a, b)`` of SymPy expressions), built by :func:`_sum`
+    where it can."""
+    if not (isinstance(a, sm.Expr) and isinstance(b, sm.Expr)) or (a.is_Number and b.is_Number):
+        return a + b
+    return _sum([a, b])
+
+
+def _minus(a, b):
+    """``a - b`` (``Add(a, -b)`` of SymPy expressions), built by :func:`_sum`
+    where it can."""
+    if not (isinstance(a, sm.Expr) and isinstance(b, sm.Expr)) or (a.is_Number and b.is_Number):
+        return a - b
+    return _sum([a, -b])
 
 
 def _sum(terms):
@@ -929,7 +970,12 @@ def _lane_eval(expr, value_of, memo):
     arrays of complex lanes (``value_of(symbol)``); ``memo`` by node."""
     if expr.is_Symbol:
         return value_of(expr)
-    if expr.is_Number or expr.is_NumberSymbol or expr is sm.I:
+    if expr.is_Number:
+        value = _NUMBERS.get(expr)  # the value complex() gives, found again
+        if value is None:
+            value = _NUMBERS[expr] = complex(expr)
+        return value
+    if expr.is_NumberSymbol or expr is sm.I:
         return complex(expr)
     found = memo.get(expr)
     if found is not None:
