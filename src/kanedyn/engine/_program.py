@@ -249,7 +249,7 @@ class Program:
     def deps(self, expr):
         """Leaf symbols (base variables and constants) ``expr`` depends on."""
         out = set()
-        for s in sm.sympify(expr, strict=True).free_symbols:
+        for s in free_symbols_of(sm.sympify(expr, strict=True)):
             d = self._deps.get(s)
             if d is not None:
                 out |= d
