@@ -231,8 +231,10 @@ def test_product_rule_terms_are_sympys_products():
 
 def test_sums_are_sympys_sums():
     """``_sum`` gives the tree ``Add(*terms)`` gives, sums among the terms
-    flattened, like terms and numbers left to ``Add``."""
-    from kanedyn.engine._program import _sum
+    flattened, like terms and numbers left to ``Add``; ``_times``, ``_plus``
+    and ``_minus`` give what ``*``, ``+`` and ``-`` give (Python integers
+    too: ``2 * 3`` stays an int)."""
+    from kanedyn.engine._program import _minus, _plus, _sum, _times
     x, y, z = sm.symbols("x y z")
     a = sm.Dummy("a")
     pool = [x, 2 * x, x * y, sm.Float(-0.5) * x * y, sm.sin(a), a ** 2, sm.exp(z), y + z,
@@ -241,6 +243,11 @@ def test_sums_are_sympys_sums():
     for n in range(1, 4):
         for terms in itertools.product(pool, repeat=n):
             assert _same(_sum(list(terms)), sm.Add(*terms)), terms
+    for a, b in itertools.product(pool + [2, -1], repeat=2):
+        for mine, operator in ((_times, a * b), (_plus, a + b), (_minus, a - b)):
+            got = mine(a, b)
+            assert type(got) is type(operator) and got == operator, (mine, a, b)
+            assert not isinstance(got, sm.Basic) or _same(got, operator), (mine, a, b)
 
 
 @pytest.mark.parametrize("name", ["chain3d", "four-bar", "snake"])

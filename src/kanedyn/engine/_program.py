@@ -759,9 +759,9 @@ def _replaced_factor(product, i, da):
 def _times(a, b):
     """``a * b`` (``Mul(a, b)`` of SymPy expressions, a Python integer taken as
     SymPy's), built as :func:`_merged` builds products where it can."""
-    if type(a) is int:
+    if type(a) is int and isinstance(b, sm.Expr):
         a = sm.Integer(a)
-    if type(b) is int:
+    elif type(b) is int and isinstance(a, sm.Expr):
         b = sm.Integer(b)
     if not (isinstance(a, sm.Expr) and isinstance(b, sm.Expr)) or (a.is_Number and b.is_Number) \
             or a is _ZERO or b is _ZERO:
