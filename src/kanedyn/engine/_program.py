@@ -880,6 +880,11 @@ def total_derivative(expr, derivative_of, guarded=False):
     exponent are :class:`kd_dpow` (0 where their base's derivative is, with no
     division by the base), and those of two-argument ``Max`` and ``Min`` are
     taken branch by branch, so that no singular factor is left unguarded.
+
+    The product rule's terms and the sums are the expressions ``Mul`` and
+    ``Add`` make, built directly where they are plain products and sums
+    (:func:`_replaced_factor`, :func:`_sum`; most are): a third of the time
+    the derivatives of the OC3 spar take.
     """
     if expr.is_Symbol:
         return derivative_of(expr)
