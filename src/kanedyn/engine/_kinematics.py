@@ -29,7 +29,7 @@ import sympy as sm
 import sympy.physics.mechanics as me
 
 from .._errors import KinematicsError
-from ._program import SAMPLE_SEEDS, fast_eval
+from ._program import SAMPLE_SEEDS, _sum, _times, fast_eval
 
 __all__ = ["Kinematics", "PartialVelocities", "cross", "dot", "add", "matvec",
            "dyadic_matrix", "inertia_components"]
@@ -512,7 +512,8 @@ def inertia_components(kin, body, where):
     I_N = [[None] * 3 for _ in range(3)]
     for i in range(3):
         for j in range(i, 3):
-            value = sm.Add(*[C[i, a] * I * C[j, b] for a, b, I in given])
+            # C[i, a] * I * C[j, b] summed, without SymPy's flatten where it can
+            value = _sum([_times(_times(C[i, a], I), C[j, b]) for a, b, I in given])
             I_N[i][j] = I_N[j][i] = prog.let(value, f"I_{body.name}_{i}{j}")
     return I_B, I_N, C
 
