@@ -232,9 +232,9 @@ def test_product_rule_terms_are_sympys_products():
 def test_sums_are_sympys_sums():
     """``_sum`` gives the tree ``Add(*terms)`` gives, sums among the terms
     flattened, like terms and numbers left to ``Add``; ``_times``, ``_plus``
-    and ``_minus`` give what ``*``, ``+`` and ``-`` give (Python integers
+    and ``difference`` give what ``*``, ``+`` and ``-`` give (Python integers
     too: ``2 * 3`` stays an int)."""
-    from kanedyn.engine._program import _minus, _plus, _sum, _times
+    from kanedyn.engine._program import difference, _plus, _sum, _times
     x, y, z = sm.symbols("x y z")
     a = sm.Dummy("a")
     pool = [x, 2 * x, x * y, sm.Float(-0.5) * x * y, sm.sin(a), a ** 2, sm.exp(z), y + z,
@@ -244,7 +244,7 @@ def test_sums_are_sympys_sums():
         for terms in itertools.product(pool, repeat=n):
             assert _same(_sum(list(terms)), sm.Add(*terms)), terms
     for a, b in itertools.product(pool + [2, -1], repeat=2):
-        for mine, operator in ((_times, a * b), (_plus, a + b), (_minus, a - b)):
+        for mine, operator in ((_times, a * b), (_plus, a + b), (difference, a - b)):
             got = mine(a, b)
             assert type(got) is type(operator) and got == operator, (mine, a, b)
             assert not isinstance(got, sm.Basic) or _same(got, operator), (mine, a, b)
@@ -265,7 +265,7 @@ def test_model_derivatives_built_as_sympy_builds_them(name, monkeypatch):
     from kanedyn.engine import _program, _tree_derivatives
     from kanedyn.numerics._jacobians import _specification
     real = {name: getattr(_program, name) for name in ("_replaced_factor", "_sum", "_times",
-                                                       "_plus", "_minus")}
+                                                       "_plus", "difference")}
     counts = dict.fromkeys(real, 0)
 
     def factor(product, i, da):
@@ -290,10 +290,10 @@ def test_model_derivatives_built_as_sympy_builds_them(name, monkeypatch):
     monkeypatch.setattr(_program, "_sum", checked("_sum", lambda terms: sm.Add(*terms)))
     monkeypatch.setattr(_tree_derivatives, "_plain_sum", _program._sum)
     for key, operator in (("_times", lambda a, b: a * b), ("_plus", lambda a, b: a + b),
-                          ("_minus", lambda a, b: a - b)):
+                          ("difference", lambda a, b: a - b)):
         monkeypatch.setattr(_tree_derivatives, key, checked(key, operator))
     model = kd.models.build(name).numeric(backend="numpy")
     _specification(model, True)
     assert counts["_replaced_factor"] > 300 and counts["_sum"] > 500, counts
     if name == "chain3d":
-        assert counts["_times"] > 2000 and counts["_minus"] > 500, counts
+        assert counts["_times"] > 2000 and counts["difference"] > 500, counts

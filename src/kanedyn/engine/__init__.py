@@ -17,8 +17,8 @@ numerics or simulation; see ``docs/architecture.md``.
 from ._composite import composite_equations, composite_inertia_forces
 from ._kinematics import (Kinematics, PartialVelocities, add, cross, dot, dyadic_matrix,
                           inertia_components, is_small, matvec)
-from ._program import (SAMPLE_SEEDS, Program, fast_eval, free_symbols_of, kd_dpow,
-                       random_sampler, total_derivative)
+from ._program import (SAMPLE_SEEDS, Program, difference, fast_eval, free_symbols_of,
+                       kd_dpow, random_sampler, total_derivative)
 from ._symbols import SymbolTable, name_of, time_derivative
 from ._tree_derivatives import FACTOR_PARTS, tree_inertia_derivatives, tree_jacobian_values
 
@@ -26,4 +26,4 @@ __all__ = ["Program", "SAMPLE_SEEDS", "fast_eval", "random_sampler", "total_deri
            "SymbolTable", "name_of", "Kinematics", "PartialVelocities", "add", "cross", "dot",
            "matvec", "dyadic_matrix", "inertia_components", "is_small", "composite_equations",
            "composite_inertia_forces", "tree_inertia_derivatives", "tree_jacobian_values",
-           "FACTOR_PARTS", "time_derivative", "free_symbols_of"]
+           "FACTOR_PARTS", "time_derivative", "free_symbols_of", "difference"]

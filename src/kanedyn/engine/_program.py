@@ -37,7 +37,7 @@ from sympy.core.function import AppliedUndef
 
 from ._cse import eliminate_repeated
 
-__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler", "kd_dpow", "free_symbols_of"]
+__all__ = ["Program", "SAMPLE_SEEDS", "random_sampler", "kd_dpow", "free_symbols_of", "difference"]
 
 SAMPLE_SEEDS = (101, 202)  # random points used for identity tests
 
@@ -825,7 +825,7 @@ def _plus(a, b):
     return _sum([a, b])
 
 
-def _minus(a, b):
+def difference(a, b):
     """``a - b`` (``Add(a, -b)`` of SymPy expressions), built by :func:`_sum`
     where it can."""
     if not (isinstance(a, sm.Expr) and isinstance(b, sm.Expr)) or (a.is_Number and b.is_Number):

@@ -75,7 +75,7 @@ import numpy as np
 import sympy as sm
 
 from ._composite import _Composite, _spatial_inertias, _speed_tree, _structure
-from ._program import SAMPLE_SEEDS, _is_zero, _minus, _plus, _sum as _plain_sum, _times
+from ._program import SAMPLE_SEEDS, _is_zero, difference, _plus, _sum as _plain_sum, _times
 
 __all__ = ["tree_inertia_derivatives", "tree_jacobian_values", "FACTOR_PARTS"]
 
@@ -94,9 +94,9 @@ _ZERO6 = (sm.S.Zero,) * 6
 # product or sum (4x less time forming chain3d's factors at n = 30).
 def cross(a, b):
     """``_kinematics.cross``: :math:`a \\times b` of two 3-vectors."""
-    return (_minus(_times(a[1], b[2]), _times(a[2], b[1])),
-            _minus(_times(a[2], b[0]), _times(a[0], b[2])),
-            _minus(_times(a[0], b[1]), _times(a[1], b[0])))
+    return (difference(_times(a[1], b[2]), _times(a[2], b[1])),
+            difference(_times(a[2], b[0]), _times(a[0], b[2])),
+            difference(_times(a[0], b[1]), _times(a[1], b[0])))
 
 
 def add(a, b):
@@ -140,7 +140,7 @@ def _rate(inertia, v):
     w, vo, h = v[:3], v[3:], (hx, hy, hz)
     A = [cross(w, (J[0][j], J[1][j], J[2][j])) for j in range(3)]  # A[j][i] = (w x J)_ij
     hv = _plain_sum([_times(a, b) for a, b in zip(h, vo)])
-    rate = [_plus(_minus(_minus(_plus(A[j][i], A[i][j]), _times(h[i], vo[j])),
+    rate = [_plus(difference(difference(_plus(A[j][i], A[i][j]), _times(h[i], vo[j])),
                          _times(vo[i], h[j])), _times(2, hv) if i == j else 0)
             for i in range(3) for j in range(i, 3)]
     return tuple(rate) + add(cross(w, h), _scaled(vo, m)) + (sm.S.Zero,)

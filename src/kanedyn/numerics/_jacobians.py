@@ -234,7 +234,7 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
     ``kd_tree_jacobian``), so the generated code grows with n, not n^2; below,
     ``rows`` holds both parts and ``factors`` and ``parent`` are ``None``."""
     from ..engine import tree_inertia_derivatives
-    from ..engine._program import _minus
+    from ..engine import difference
     from ._inverse import _tree_bodies
     eom, o = model._eom, model.n_u
     if model.n_u_dep or model.n_q_dep or model.contacts or kin is None:
@@ -257,7 +257,7 @@ def _tree_state_rows(model, prog, kin, w, mass, y, constants):
     dq, du, factors, parent = spatial
     moved = prog.jacobian(other, y, guarded=True)
     if entries:  # the entries as expressions (a - b, without SymPy's flatten where it can)
-        return [_minus(dq[r][c] if c < o else du[r][c - o], moved[r, c])
+        return [difference(dq[r][c] if c < o else du[r][c - o], moved[r, c])
                 for r in range(o) for c in range(len(y))], None, None
     return [-moved[r, c] for r in range(o) for c in range(len(y))], factors, parent
 
