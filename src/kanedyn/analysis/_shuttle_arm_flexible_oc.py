@@ -49,12 +49,11 @@ from ._optimal_problems import build_model, numeric_of, result_lines, solve
 
 __all__ = ["FlexibleArmManoeuvre", "flexible_manoeuvre"]
 
-#: the replays' integrator (stiff: the booms' modes are at 7 to 65 Hz), with
-#: the model's exact Jacobian: about half the right-hand sides and half the
-#: time per run of solve_ivp's differences (28 columns), the compilation of
-#: the derivatives included once per cache; the replays' states agree with the
-#: differenced runs' to 2e-10 (measured, 31 nodes)
-REPLAY = {"method": "Radau", "rtol": 1e-9, "atol": 1e-11, "jac": "exact"}
+#: the replays' integrator (stiff: the booms' modes are at 7 to 65 Hz); the
+#: differences of solve_ivp for its Jacobian: the exact one (``jac="exact"``)
+#: halves a warm run's time, but compiling the 28-state arm's derivatives costs
+#: more CPU time, cold, than it saves in a study's two runs (measured)
+REPLAY = {"method": "Radau", "rtol": 1e-9, "atol": 1e-11}
 #: seconds simulated after the final time with the torques off
 RING = 10.0
 #: seconds after the final time the ring is measured from: the booms spring
@@ -79,8 +78,7 @@ class FlexibleArmManoeuvre:
         The rigid study on the same mesh (torques free at the ends).
     rigid_on_flexible, replay : object
         The rigid optimum's and ``result``'s torques simulated on the arm
-        with flexible booms (Radau, rtol 1e-9, atol 1e-11, the exact
-        Jacobian) to the final
+        with flexible booms (Radau, rtol 1e-9, atol 1e-11) to the final
         time, then ``ring`` s with the torques off from the state reached:
         ``pieces`` (the two SimulationResults), ``t`` and ``sol(t)`` (dense
         output of either; states: joint angles, the booms' modal
