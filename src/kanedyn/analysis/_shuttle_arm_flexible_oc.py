@@ -321,8 +321,10 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
                                    high if np.isfinite(high) else None)
         limits[f"tau{i + 1}"] = (-rigid.torque_limits[i], rigid.torque_limits[i])
     rest = {f"u{i + 1}": 0.0 for i in range(6)}
+    # the rigid study's numerical model (the same definition, options and
+    # constants): not derived a second time
     problem = OptimalControlProblem(
-        numeric_of(definition_rigid, constants, backend), nodes=rigid.result.t.size,
+        rigid.result.problem.model, nodes=rigid.result.t.size,
         duration=T, lagrange=sum(x ** 2 for x in taus), bounds=limits,
         method=rigid.result.method, degree=rigid.result.degree,
         initial={**{f"q{i + 1}": start[i] for i in range(6)}, **rest},
