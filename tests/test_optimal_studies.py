@@ -46,7 +46,12 @@ ANGLE = np.pi / 2
 
 @pytest.fixture(scope="module")
 def least_effort():
-    return kd.studies.flexible_robot_rest_to_rest(model_options={"n_modes": 2})
+    """The link left free 0.5 s after the manoeuvre (the study's default: 2 s):
+    the largest tip deflection after it comes 0.049 s after the optimal
+    torque ends (0.045 s after the pulse), so both residuals are those of
+    the 2-s run to the last digit (3.0392653e-05 and 4.9352271e-03 m), and
+    the hub ends within 5.2e-5 rad of 90 deg either way (measured)."""
+    return kd.studies.flexible_robot_rest_to_rest(model_options={"n_modes": 2}, after=0.5)
 
 
 @pytest.mark.slow
