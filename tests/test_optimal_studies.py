@@ -345,7 +345,8 @@ def test_inputs_at_time_are_the_input_functions(method, degree):
     of a result's inputs, as the flexible Shuttle-arm study feeds its runs)
     gives exactly the numbers of each input function called alone, inside
     the mesh, at its nodes and beyond both ends."""
-    from kanedyn.optimization._result import InputsAtTime, input_functions
+    from kanedyn.optimization import InputsAtTime
+    from kanedyn.optimization._result import input_functions
     rng = np.random.default_rng(5)
     t = np.linspace(0.0, 150.0, 11)
     interior = {"hermite-simpson": 1, "lgr": 2, "trapezoid": 0}[method]

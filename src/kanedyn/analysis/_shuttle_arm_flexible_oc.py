@@ -241,8 +241,8 @@ class _Deflection:
 
 
 class _Component:
-    """Input ``name`` of an :class:`~kanedyn.optimization._result.InputsAtTime`,
-    a function of t (picklable)."""
+    """Input ``name`` of an :class:`~kanedyn.optimization.InputsAtTime`, a
+    function of t (picklable)."""
 
     def __init__(self, inputs, name):
         self.inputs, self.name = inputs, name
@@ -301,8 +301,7 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     FlexibleArmManoeuvre
     """
     from ..models import SRMS_END_DEG, SRMS_START_DEG
-    from ..optimization import OptimalControlProblem
-    from ..optimization._result import InputsAtTime
+    from ..optimization import InputsAtTime, OptimalControlProblem
     from ._shuttle_arm_oc import shuttle_arm_minimum_energy
     # the rigid study on the same mesh: its limits, its optimum, its torques
     rigid = shuttle_arm_minimum_energy(
