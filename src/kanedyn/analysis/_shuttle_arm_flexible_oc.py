@@ -49,7 +49,10 @@ from ._optimal_problems import build_model, numeric_of, result_lines, solve
 
 __all__ = ["FlexibleArmManoeuvre", "flexible_manoeuvre"]
 
-#: the replays' integrator (stiff: the booms' modes are at 7 to 65 Hz)
+#: the replays' integrator (stiff: the booms' modes are at 7 to 65 Hz); the
+#: differences of solve_ivp for its Jacobian: the exact one (``jac="exact"``)
+#: halves a warm run's time, but compiling the 28-state arm's derivatives costs
+#: more CPU time, cold, than it saves in a study's two runs (measured)
 REPLAY = {"method": "Radau", "rtol": 1e-9, "atol": 1e-11}
 #: seconds simulated after the final time with the torques off
 RING = 10.0
@@ -237,30 +240,15 @@ class _Deflection:
         return self.tip(Y) - self.tip(straight)
 
 
-class _AtTime:
-    """An optimum's inputs as a run asks for them: one by one, all at the same
-    t, and again at that t for every column of Radau's differenced Jacobian;
-    the values at the last t asked are kept, so each t's are computed once."""
-
-    def __init__(self, functions):
-        self.functions = dict(functions)
-        self._t, self._values = None, None
-
-    def values(self, t):
-        if t != self._t:
-            self._values = {name: f(t) for name, f in self.functions.items()}
-            self._t = t
-        return self._values
-
-
 class _Component:
-    """Input ``name`` of an :class:`_AtTime`, a function of t (picklable)."""
+    """Input ``name`` of an :class:`~kanedyn.optimization.InputsAtTime`, a
+    function of t (picklable)."""
 
     def __init__(self, inputs, name):
         self.inputs, self.name = inputs, name
 
     def __call__(self, t):
-        return self.inputs.values(t)[self.name]
+        return self.inputs(t)[self.name]
 
 
 class _Run:
@@ -313,7 +301,7 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     FlexibleArmManoeuvre
     """
     from ..models import SRMS_END_DEG, SRMS_START_DEG
-    from ..optimization import OptimalControlProblem
+    from ..optimization import InputsAtTime, OptimalControlProblem
     from ._shuttle_arm_oc import shuttle_arm_minimum_energy
     # the rigid study on the same mesh: its limits, its optimum, its torques
     rigid = shuttle_arm_minimum_energy(
@@ -321,8 +309,9 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
         model_options=model_options, backend=backend, ipopt=ipopt, degree=degree,
         margin=margin, torque_factor=torque_factor)
     T = rigid.result.duration
-    definition_rigid = build_model("shuttle-arm", model_options, {"torque_input": True})
-    taus = definition_rigid.symbols["tau"]
+    definition = build_model("shuttle-arm", {**(model_options or {}), "flexible_booms": True},
+                             {"torque_input": True})
+    taus = definition.symbols["tau"]  # the rigid arm's inputs too (tau1(t) ... tau6(t))
     start, end = np.radians(SRMS_START_DEG), np.radians(SRMS_END_DEG)
     limits = {}
     for i in range(6):
@@ -332,8 +321,10 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
                                    high if np.isfinite(high) else None)
         limits[f"tau{i + 1}"] = (-rigid.torque_limits[i], rigid.torque_limits[i])
     rest = {f"u{i + 1}": 0.0 for i in range(6)}
+    # the rigid study's numerical model (the same definition, options and
+    # constants): not derived a second time
     problem = OptimalControlProblem(
-        numeric_of(definition_rigid, constants, backend), nodes=rigid.result.t.size,
+        rigid.result.problem.model, nodes=rigid.result.t.size,
         duration=T, lagrange=sum(x ** 2 for x in taus), bounds=limits,
         method=rigid.result.method, degree=rigid.result.degree,
         initial={**{f"q{i + 1}": start[i] for i in range(6)}, **rest},
@@ -342,21 +333,22 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     result = solve(problem, problem.guess_from(rigid.result), ipopt)
 
     # both optima's torques on the flexible arm, off after the final time
-    definition = build_model("shuttle-arm", {**(model_options or {}), "flexible_booms": True},
-                             {"torque_input": True})
     model = numeric_of(definition, constants, backend)
     n_modal = len(definition.kane_args["q_ind"]) - 6
     y0 = np.concatenate([start, np.zeros(len(model.state_names) - 6)])
 
     def on_flexible(found):
-        fed = _AtTime(found.inputs())
-        return _Run(model, {tau: _Component(fed, str(tau.func))
-                            for tau in definition.symbols["tau"]}, T, ring, y0)
+        fed = InputsAtTime(found.inputs())
+        return _Run(model, {tau: _Component(fed, str(tau.func)) for tau in taus}, T, ring,
+                    y0)
     rigid_on_flexible = on_flexible(rigid.result)
     replay = on_flexible(result)
     deflection = _Deflection(definition)
     at_nodes = replay.sol(result.t)
-    rigid_tip = _tip(definition_rigid)
+    # the collocated (rigid) path's end effector: the flexible arm's with the
+    # booms straight (the same to 1e-12, test_optimal_studies)
+    collocated = np.zeros((len(model.state_names), result.t.size))
+    collocated[:6] = result.y[:6]
     bound = np.array(rigid.torque_limits)
     data = dict(
         objective=result.objective, effort_ramped=result.objective,
@@ -367,7 +359,7 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
         torque_ends=float(np.max(np.abs(result.points()[2][:, [0, -1]]))),
         defect_angle=float(np.max(np.abs(at_nodes[:6] - result.y[:6]))),
         defect_tip=float(np.max(np.linalg.norm(deflection.tip(at_nodes)
-                                               - rigid_tip(result.y), axis=0))),
+                                               - deflection.tip(collocated), axis=0))),
         **_residual(rigid_on_flexible, T, deflection, end, n_modal, "rigid_torques_"),
         **_residual(replay, T, deflection, end, n_modal, "ramped_"))
     return FlexibleArmManoeuvre(

@@ -93,7 +93,7 @@ def sensitivity(model, t_span, y0, parameters=True, t_eval=None, method="RK45", 
     """
     from scipy.integrate import solve_ivp
 
-    from ..numerics import derivatives_unavailable, through_inputs
+    from ..numerics import derivatives_unavailable, inputs_follow_state, through_inputs
     reason = derivatives_unavailable(model)
     if reason:
         raise ModelError(f"sensitivity: {reason}")
@@ -113,15 +113,20 @@ def sensitivity(model, t_span, y0, parameters=True, t_eval=None, method="RK45", 
     t0, t1 = (float(v) for v in t_span)
     y_start = model.state(y0, t0)
     nx, k = model.n_states, model.n_states + len(names)
+    follows = bool(inputs_follow_state(model))  # else the inputs add nothing to d f/d y
 
     def augmented(t, z):
         y = z[:nx]
         S = z[nx:].reshape(nx, k)
         J = model.jacobians(t, y, parameters=bool(names))
-        dS = (J.state + through_inputs(model, t, y, J.inputs)) @ S
+        state = J.state + through_inputs(model, t, y, J.inputs) if follows else J.state
+        out = np.empty(nx + nx * k)  # [f, dS] written in place, no copies
+        out[:nx] = J.f
+        dS = out[nx:].reshape(nx, k)
+        np.matmul(state, S, out=dS)
         if names:
             dS[:, nx:] += J.parameters[:, columns]
-        return np.concatenate([J.f, dS.ravel()])
+        return out
 
     z0 = np.concatenate([y_start, np.hstack([np.eye(nx), np.zeros((nx, len(names)))]).ravel()])
     sol = solve_ivp(augmented, (t0, t1), z0, method=method, t_eval=t_eval, rtol=rtol,
