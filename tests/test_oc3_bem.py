@@ -366,3 +366,42 @@ def test_spinning_rotor_damps_the_platform_pitch():
     estimate = 1 + moment / (slope * 89.2 ** 2)
     assert estimate == pytest.approx(1.10, abs=0.02)
     assert ratios["off"] == pytest.approx(estimate, abs=0.12)
+
+
+def test_inputs_shared_by_many_symbols_are_read_together_as_one_by_one():
+    """A model reads the inputs that are entries of one shared array (the Morison
+    strips' wave kinematics, the catenary's fairlead forces, the BEM rotor's loads)
+    with one call of that array's function per read: the values equal those of the
+    inputs called one by one, exactly, at states and times taken in any order
+    (each shared function caches its last time or state); a shared function's error
+    names an input, as one input's does."""
+    from kanedyn.numerics._model import _Input, _input_reader
+    d = oc3_spar(tower_modes=0, rotor="spinning", controller="on", wind_speed=18.0,
+                 aero="bem", sea="irregular", wave_height=4.0, mooring="catenary")
+    inputs = [(s, _Input(str(s), f)) for s, f in d.specified.items()]
+    kinds = {type(inp.value).__name__ for _, inp in inputs
+             if hasattr(inp.value, "input_source")}
+    assert kinds == {"_Pick", "_Component", "_Entry"}
+    read = _input_reader(inputs)
+    states = [*d.symbols["q"], *d.symbols["u"]]
+    rng = np.random.default_rng(2)
+    y0 = np.array([1.2 if str(s).startswith(("rotor_speed", "gen_speed")) else 0.0
+                   for s in states])
+    points = [(t, y0 + rng.normal(0.0, 0.02, y0.size)) for t in (3.0, 0.5, 0.5, 7.25)]
+    for t, y in points + points[::-1]:
+        together = read(t, y)
+        alone = [inp(t, y) for _, inp in inputs]
+        assert together == alone and all(type(v) is float for v in together)
+        assert len(set(together)) > len(inputs) // 2    # not all zero: waves, loads
+
+    class Broken:
+        input_index = (0,)
+
+        def input_source(self, t):
+            raise ValueError("no data")
+
+        def __call__(self, t):
+            return self.input_source(t)
+    with pytest.raises(kd.ModelError, match="specified input x: its function raised "
+                                            "ValueError at t=1: no data"):
+        _input_reader([("x", _Input("x", Broken()))])(1.0, None)
