@@ -93,7 +93,7 @@ def sensitivity(model, t_span, y0, parameters=True, t_eval=None, method="RK45", 
     """
     from scipy.integrate import solve_ivp
 
-    from ..numerics import derivatives_unavailable, through_inputs
+    from ..numerics import derivatives_unavailable, inputs_follow_state, through_inputs
     reason = derivatives_unavailable(model)
     if reason:
         raise ModelError(f"sensitivity: {reason}")
@@ -113,12 +113,14 @@ def sensitivity(model, t_span, y0, parameters=True, t_eval=None, method="RK45", 
     t0, t1 = (float(v) for v in t_span)
     y_start = model.state(y0, t0)
     nx, k = model.n_states, model.n_states + len(names)
+    following = bool(inputs_follow_state(model))  # else through_inputs is zero
 
     def augmented(t, z):
         y = z[:nx]
         S = z[nx:].reshape(nx, k)
         J = model.jacobians(t, y, parameters=bool(names))
-        dS = (J.state + through_inputs(model, t, y, J.inputs)) @ S
+        dS = ((J.state + through_inputs(model, t, y, J.inputs)) if following
+              else J.state) @ S
         if names:
             dS[:, nx:] += J.parameters[:, columns]
         return np.concatenate([J.f, dS.ravel()])

@@ -102,7 +102,8 @@ class _StripKinematics:
 
     def __call__(self, t):
         t = float(t)
-        if t != self._t:
+        if t != self._t and (self._values is None or self.waves is not None):
+            # (without waves the kinematics do not depend on t: made once)
             vel = np.zeros((self.n, 3))
             acc = np.zeros((self.n, 3))
             if self.waves is not None:
