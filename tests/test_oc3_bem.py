@@ -306,7 +306,7 @@ def _pitch_decay(wind, aero, controller="on", duration=130.0):
     t = np.linspace(0.0, duration, 2601)
     res = kd.simulate(m, (0.0, duration), y0, rtol=1e-7, atol=1e-7, t_eval=t)
     assert res.success, res.message
-    return t, res["pitch"] - mean
+    return t, res["pitch"] - mean, d
 
 
 def _damping_ratio(t, x):
@@ -316,17 +316,16 @@ def _damping_ratio(t, x):
     return delta / math.hypot(2 * math.pi, delta)
 
 
-def _linear_damping_estimates(wind=18.0):
+def _linear_damping_estimates(rotor, wind=18.0):
     """dT/dV (N s/m) of the table at the table's operating point (constant rotor speed
-    and pitch), and the BEM's hub pitch moment per nacelle pitch rate (N m s/rad)."""
+    and pitch), and the BEM's hub pitch moment per nacelle pitch rate (N m s/rad) of
+    ``rotor`` (the BEM rotor element of an oc3-spar at ``wind``)."""
     surface, op = oc3_performance_surface(), oc3_operating_point(wind)
 
     def thrust(v):
         ct = float(surface.coefficients(op.rotor_speed * 63.0 / v, op.pitch)[1])
         return 0.5 * 1.225 * math.pi * 63.0 ** 2 * v ** 2 * ct
     slope = (thrust(wind + 0.01) - thrust(wind - 0.01)) / 0.02
-    rotor = oc3_spar(tower_modes=0, rotor="spinning", wind_speed=wind,
-                     aero="bem").symbols["elements"]["rotor"]
     bem_op, tilt = oc3_operating_point(wind, "bem"), math.radians(5.0)
     direction = np.array([math.cos(tilt), 0.0, math.sin(tilt)])   # N.x in the shaft frame
 
@@ -353,16 +352,58 @@ def test_spinning_rotor_damps_the_platform_pitch():
     the late peaks are small), near that 1.10; with it on, the two rotors' different
     pitch sensitivities give 1.55.
     """
-    calm = _damping_ratio(*_pitch_decay(0.0, "thrust"))
+    calm = _damping_ratio(*_pitch_decay(0.0, "thrust")[:2])
     assert 0.03 < calm < 0.06
     ratios = {}
     for controller in ("on", "off"):
-        bem = _damping_ratio(*_pitch_decay(18.0, "bem", controller))
-        table = _damping_ratio(*_pitch_decay(18.0, "thrust", controller))
+        t, x, bem_turbine = _pitch_decay(18.0, "bem", controller)
+        bem = _damping_ratio(t, x)
+        table = _damping_ratio(*_pitch_decay(18.0, "thrust", controller)[:2])
         assert table > calm + 0.02 and bem > table
         ratios[controller] = (bem - calm) / (table - calm)
-    slope, moment = _linear_damping_estimates()
+    # the rotor of the last BEM turbine run (controller off): the oc3-spar the
+    # estimate needs, built once
+    slope, moment = _linear_damping_estimates(bem_turbine.symbols["elements"]["rotor"])
     assert slope == pytest.approx(76.8e3, rel=0.01)
     estimate = 1 + moment / (slope * 89.2 ** 2)
     assert estimate == pytest.approx(1.10, abs=0.02)
     assert ratios["off"] == pytest.approx(estimate, abs=0.12)
+
+
+def test_inputs_shared_by_many_symbols_are_read_together_as_one_by_one():
+    """A model reads the inputs that are entries of one shared array (the Morison
+    strips' wave kinematics, the catenary's fairlead forces, the BEM rotor's loads)
+    with one call of that array's function per read: the values equal those of the
+    inputs called one by one, exactly, at states and times taken in any order
+    (each shared function caches its last time or state); a shared function's error
+    names an input, as one input's does."""
+    from kanedyn.numerics._model import _Input, _input_reader
+    d = oc3_spar(tower_modes=0, rotor="spinning", controller="on", wind_speed=18.0,
+                 aero="bem", sea="irregular", wave_height=4.0, mooring="catenary")
+    inputs = [(s, _Input(str(s), f)) for s, f in d.specified.items()]
+    kinds = {type(inp.value).__name__ for _, inp in inputs
+             if hasattr(inp.value, "input_source")}
+    assert kinds == {"_Pick", "_Component", "_Entry"}
+    read = _input_reader(inputs)
+    states = [*d.symbols["q"], *d.symbols["u"]]
+    rng = np.random.default_rng(2)
+    y0 = np.array([1.2 if str(s).startswith(("rotor_speed", "gen_speed")) else 0.0
+                   for s in states])
+    points = [(t, y0 + rng.normal(0.0, 0.02, y0.size)) for t in (3.0, 0.5, 0.5, 7.25)]
+    for t, y in points + points[::-1]:
+        together = read(t, y)
+        alone = [inp(t, y) for _, inp in inputs]
+        assert together == alone and all(type(v) is float for v in together)
+        assert len(set(together)) > len(inputs) // 2    # not all zero: waves, loads
+
+    class Broken:
+        input_index = (0,)
+
+        def input_source(self, t):
+            raise ValueError("no data")
+
+        def __call__(self, t):
+            return self.input_source(t)
+    with pytest.raises(kd.ModelError, match="specified input x: its function raised "
+                                            "ValueError at t=1: no data"):
+        _input_reader([("x", _Input("x", Broken()))])(1.0, None)

@@ -47,6 +47,7 @@ import sympy.physics.mechanics as me
 from .._errors import ModelError
 from ..engine import dot, inertia_components, matvec, name_of
 from ._inverse import _equations, _workspace
+from ._jacobians import inputs_follow_state
 from .backends._python import compile_python, generate_python
 
 __all__ = ["LoadPowers", "load_powers"]
@@ -199,9 +200,17 @@ def load_powers(model, t, y, gravity=None):
     ts = np.atleast_1d(np.asarray(t, dtype=float))
     Y = np.asarray(y, dtype=float).reshape(model.n_states, ts.size)
     n, k = model.n_q, len(model.aux_names)
-    udot = _accelerations(model, ts, Y) if not k else None
+    # inputs that follow the state (a rotor's BEM, a catenary: solved per state, each
+    # keeping its last state) are read once per row where the rhs reads them too,
+    # rather than once more after all the rows' accelerations
+    by_row = bool(k or inputs_follow_state(model))
+    udot = _accelerations(model, ts, Y) if not by_row else None
     rows = []
     for i in range(ts.size):
+        if by_row and not k:
+            rows.append(list(model._input_values(ts[i], Y[:, i]))
+                        + list(model.rhs(ts[i], Y[:, i])[n:]))
+            continue
         inputs = list(model._input_values(ts[i], Y[:, i])) if model._inputs else []
         if k:
             forces = list(model.auxiliary(ts[i], Y[:, i]).values())
@@ -220,8 +229,10 @@ def _accelerations(model, ts, Y):
     r""":math:`\dot u` at each state, shape (N, n_u): from one vectorized evaluation
     (:meth:`NumericModel.rhs_batch`), or state by state (:meth:`NumericModel.rhs`)
     where that gives a value that is not finite (a singular system: ``rhs`` raises
-    there, as it did here before)."""
-    udot = model.rhs_batch(ts, Y.T)[:, model.n_q:]
+    there, as it did here before).  One row at a time in C (``lanes=False``, the
+    same values): a run's few thousand rows take milliseconds so, where loading
+    the lane-wise code would first compile the whole module again (seconds)."""
+    udot = model.rhs_batch(ts, Y.T, lanes=False)[:, model.n_q:]
     if not np.all(np.isfinite(udot)):
         udot = np.array([model.rhs(ts[i], Y[:, i])[model.n_q:] for i in range(ts.size)])
     return udot.reshape(ts.size, -1)

@@ -197,6 +197,52 @@ class _Input:
         self.name, self.value, self.arity = state
 
 
+def _input_reader(inputs):
+    """``read(t, y)``: the values of ``inputs`` (``[(internal, _Input)]``), a list
+    in their order, as ``[inp(t, y) for _, inp in inputs]`` gives them.
+
+    Inputs whose functions are entries of one shared array (a wave field's
+    kinematics at all strips, a rotor's loads at all nodes) say so by two
+    attributes: ``input_source``, the shared function (of ``t``, or of
+    ``(t, y)`` as the entry itself), and ``input_index``, the entry's index (a
+    tuple) in that function's array.  Each shared function is then called once
+    per read and its entries taken together, instead of one Python call per
+    entry; the values are the same floats.
+    """
+    if not inputs:
+        return lambda t, y: ()
+    groups, singles = {}, []
+    for k, (_, inp) in enumerate(inputs):
+        source = getattr(inp.value, "input_source", None) if inp.arity else None
+        if source is None:
+            singles.append((k, inp))
+        else:
+            groups.setdefault((source, inp.arity), []).append((k, inp))
+    if not groups:
+        providers = [inp for _, inp in inputs]
+        return lambda t, y: [inp(t, y) for inp in providers]
+    plans = [(source, arity, np.array([k for k, _ in members]),
+              tuple(np.array(column) for column in zip(*(tuple(inp.value.input_index)
+                                                         for _, inp in members))),
+              members[0][1].name)
+             for (source, arity), members in groups.items()]
+    size = len(inputs)
+
+    def read(t, y):
+        out = np.empty(size)
+        for k, inp in singles:
+            out[k] = inp(t, y)
+        for source, arity, rows, index, name in plans:
+            try:
+                values = source(t) if arity == 1 else source(t, y)
+                out[rows] = np.asarray(values, dtype=float)[index]
+            except Exception as exc:  # named as _Input names it
+                raise ModelError(f"specified input {name}: its function raised "
+                                 f"{type(exc).__name__} at t={t:g}: {exc}") from exc
+        return out.tolist()
+    return read
+
+
 def _input_table(inputs):
     """``(table, names)`` for a compiled module when every input of ``inputs``
     (``[(internal, _Input)]``) is a piecewise polynomial or a number (each
@@ -566,6 +612,7 @@ class NumericModel(StateLayout):
         d = self._data
         self._p = np.asarray(d["p"], dtype=float)
         self._inputs = d["inputs"]
+        self._read_inputs = _input_reader(self._inputs)
         if d["backend"] == "c":
             if module is None:
                 from .backends._c_build import load_module
@@ -693,10 +740,10 @@ class NumericModel(StateLayout):
         return y
 
     def _r(self, t, y):
-        return [inp(t, y) for _, inp in self._inputs] if self._inputs else ()
+        return self._read_inputs(t, y)
 
     def _input_values(self, t, y):
-        return [inp(t, y) for _, inp in self._inputs]
+        return self._read_inputs(t, y)
 
     def input_values(self, t, y):
         """The specified inputs' values at ``(t, y)``, in the order of

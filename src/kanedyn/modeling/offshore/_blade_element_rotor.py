@@ -227,3 +227,13 @@ class _Entry:
 
     def __call__(self, t, y):
         return float(self.function(t, y)[self.i])
+
+    @property
+    def input_source(self):
+        """The shared function: a model reads its entries with one call of it."""
+        return self.function
+
+    @property
+    def input_index(self):
+        """This entry's index in :attr:`input_source`'s vector."""
+        return (self.i,)

@@ -249,3 +249,13 @@ class _Component:
 
     def __call__(self, t, y):
         return float(self.function(t, y)[self.i, self.j])
+
+    @property
+    def input_source(self):
+        """The shared function: a model reads its entries with one call of it."""
+        return self.function
+
+    @property
+    def input_index(self):
+        """This entry's index in :attr:`input_source`'s array."""
+        return (self.i, self.j)

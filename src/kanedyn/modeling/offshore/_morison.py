@@ -72,7 +72,7 @@ class _StripKinematics:
         self.strip_of, self.n = strip_of, n
         self.wet_rows, self.z_lo, self.z_hi, self.xy_mid = wet_rows, z_lo, z_hi, xy_mid
         self._t = None
-        self._values = None
+        self._values = self._flat = None
 
     def series(self, times, waves):
         """``(velocity (T, n, 3), acceleration (T, n, 3), wetted fraction (T, n))`` at
@@ -102,7 +102,8 @@ class _StripKinematics:
 
     def __call__(self, t):
         t = float(t)
-        if t != self._t:
+        if t != self._t and (self._values is None or self.waves is not None):
+            # (without waves the kinematics do not depend on t: made once)
             vel = np.zeros((self.n, 3))
             acc = np.zeros((self.n, 3))
             if self.waves is not None:
@@ -122,7 +123,14 @@ class _StripKinematics:
                 lo, hi = self.z_lo[self.wet_rows], self.z_hi[self.wet_rows]
                 wet[self.wet_rows] = np.clip((eta - lo) / (hi - lo), 0.0, 1.0)
             self._t, self._values = t, (vel, acc, wet)
+            self._flat = np.concatenate([vel.ravel(), acc.ravel(), wet])
         return self._values
+
+    def flat(self, t):
+        """The kinematics at ``t`` in one array: the velocities and the
+        accelerations strip by strip (x, y, z each), then the wetted fractions."""
+        self(t)
+        return self._flat
 
 
 class _Pick:
@@ -136,6 +144,20 @@ class _Pick:
     def __call__(self, t):
         values = self.cache(t)[self.kind]
         return float(values[self.row] if self.col is None else values[self.row, self.col])
+
+    @property
+    def input_source(self):
+        """The strips' kinematics in one array (:meth:`_StripKinematics.flat`): a
+        model reads all the strips' inputs with one call of it."""
+        return self.cache.flat
+
+    @property
+    def input_index(self):
+        """This component's index in :attr:`input_source`'s array."""
+        n = self.cache.n
+        if self.kind == 2:
+            return (6 * n + self.row,)
+        return (3 * n * self.kind + 3 * self.row + self.col,)
 
 
 class MorisonCylinder:
