@@ -337,21 +337,3 @@ def test_out_parallel_in_one_second_the_quintic_breaks_the_limit():
     assert np.max(np.abs(forces)) <= d["peak_optimal"] * (1 + 1e-6) < 200
     assert d["defect"] < 1e-4
 
-
-@pytest.mark.parametrize("method, degree", [("hermite-simpson", None), ("lgr", 3),
-                                            ("trapezoid", None)])
-def test_inputs_at_time_are_the_input_functions(method, degree):
-    """InputsAtTime (one interval and one set of Lagrange weights per t for all
-    of a result's inputs, as the flexible Shuttle-arm study feeds its runs)
-    gives exactly the numbers of each input function called alone, inside
-    the mesh, at its nodes and beyond both ends."""
-    from kanedyn.optimization import InputsAtTime
-    from kanedyn.optimization._result import input_functions
-    rng = np.random.default_rng(5)
-    t = np.linspace(0.0, 150.0, 11)
-    interior = {"hermite-simpson": 1, "lgr": 2, "trapezoid": 0}[method]
-    functions = input_functions(method, t, rng.normal(size=(3, t.size)), ["a", "b", "c"],
-                                rng.normal(size=(3, (t.size - 1) * interior)), degree)
-    together = InputsAtTime(functions)
-    for at in np.concatenate([rng.uniform(-5.0, 155.0, 200), t]):
-        assert together(float(at)) == {name: f(float(at)) for name, f in functions.items()}

@@ -240,15 +240,30 @@ class _Deflection:
         return self.tip(Y) - self.tip(straight)
 
 
+class _AtTime:
+    """An optimum's inputs as a run asks for them: one by one, all at the same
+    t, and again at that t for every column of Radau's differenced Jacobian;
+    the values at the last t asked are kept, so each t's are computed once."""
+
+    def __init__(self, functions):
+        self.functions = dict(functions)
+        self._t, self._values = None, None
+
+    def values(self, t):
+        if t != self._t:
+            self._values = {name: f(t) for name, f in self.functions.items()}
+            self._t = t
+        return self._values
+
+
 class _Component:
-    """Input ``name`` of an :class:`~kanedyn.optimization.InputsAtTime`, a
-    function of t (picklable)."""
+    """Input ``name`` of an :class:`_AtTime`, a function of t (picklable)."""
 
     def __init__(self, inputs, name):
         self.inputs, self.name = inputs, name
 
     def __call__(self, t):
-        return self.inputs(t)[self.name]
+        return self.inputs.values(t)[self.name]
 
 
 class _Run:
@@ -301,7 +316,7 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     FlexibleArmManoeuvre
     """
     from ..models import SRMS_END_DEG, SRMS_START_DEG
-    from ..optimization import InputsAtTime, OptimalControlProblem
+    from ..optimization import OptimalControlProblem
     from ._shuttle_arm_oc import shuttle_arm_minimum_energy
     # the rigid study on the same mesh: its limits, its optimum, its torques
     rigid = shuttle_arm_minimum_energy(
@@ -338,7 +353,7 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     y0 = np.concatenate([start, np.zeros(len(model.state_names) - 6)])
 
     def on_flexible(found):
-        fed = InputsAtTime(found.inputs())
+        fed = _AtTime(found.inputs())
         return _Run(model, {tau: _Component(fed, str(tau.func)) for tau in taus}, T, ring,
                     y0)
     rigid_on_flexible = on_flexible(rigid.result)

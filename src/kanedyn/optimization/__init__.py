@@ -18,9 +18,8 @@
                    solver (IPOPT's algorithm) and its KKT factorizations
                    (``DenseKKT``, ``SparseKKT``)
 ``_guess``         initial guesses: a straight line, a simulation, a solution
-``_result``        ``OptimalControlResult``, the inputs as collocated (all of
-                   them at one t: ``InputsAtTime``), and the check of the
-                   optimal inputs by simulation
+``_result``        ``OptimalControlResult``, the inputs as collocated, and the
+                   check of the optimal inputs by simulation
 ``_multiphase``    ``MultiphaseProblem``: phases in sequence solved as one NLP
 ``_linkage``       ``Linkage``: how phases join, and the junctions' rows
 ``_multiphase_result`` ``MultiphaseResult``: each phase's trajectory, and joined
@@ -45,7 +44,6 @@ _LAZY = {
     "MultiphaseResult": "._multiphase_result",
     "Linkage": "._linkage",
     "Resimulation": "._result",
-    "InputsAtTime": "._result",
     "NLPSolution": "._solvers",
     "SOLVERS": "._solvers",
     "COLLOCATION_METHODS": "._transcription",

@@ -24,8 +24,8 @@ import numpy as np
 from ._solvers import IPOPT_STATUS
 from ._transcription import interval_scheme
 
-__all__ = ["InputsAtTime", "OptimalControlResult", "Resimulation", "build_result",
-           "input_functions", "status_text", "write_csv"]
+__all__ = ["OptimalControlResult", "Resimulation", "build_result", "input_functions",
+           "status_text", "write_csv"]
 
 
 class _Held:
@@ -48,90 +48,29 @@ class _Held:
         n = self.t.size
         if self.kind == "linear":
             return float(np.interp(t, self.t, self.values))
-        if self.kind == "polynomial":
-            k, x = self.interval(t)
-            return _weighted(self.table[k], _lagrange_weights(self.points, x))
         s = (t - self._start) / self._span * (n - 1)
+        if self.kind == "polynomial":
+            # s clamped first only so that math.ceil takes an infinite t
+            k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
+            return _lagrange_value(self.points, self.table[k], float(s - k))
         if self.kind == "right":  # r_{k+1} on (t_k, t_{k+1}]
             k = int(min(max(np.ceil(s - 1e-12), 1), n - 1))
             return float(self.values[k])
         k = int(min(max(np.floor(s), 0), n - 2))  # midpoint: the average on [t_k, t_k+1)
         return float(0.5 * (self.values[k] + self.values[k + 1]))
 
-    def interval(self, t):
-        """``(k, x)``: the interval ``(t_k, t_{k+1}]`` a polynomial input takes
-        ``t`` in, and ``t``'s position in it (0 to 1, beyond outside the mesh)."""
-        n = self.t.size
-        s = (t - self._start) / self._span * (n - 1)
-        # s clamped first only so that math.ceil takes an infinite t
-        k = min(max(math.ceil(min(max(s, -1.0), n) - 1e-12) - 1, 0), n - 2)
-        return k, float(s - k)
 
-
-def _lagrange_weights(nodes, x):
-    """The Lagrange basis through ``nodes`` at ``x`` (floats; that of
-    ``_interval.lagrange_weights`` at one point)."""
-    weights = []
-    for j, p in enumerate(nodes):
+def _lagrange_value(nodes, values, x):
+    """The polynomial through ``values`` at ``nodes``, at ``x`` (floats): the
+    Lagrange basis of ``_interval.lagrange_weights`` at one point, summed."""
+    total = 0.0
+    for j, (p, value) in enumerate(zip(nodes, values)):
         weight = 1.0
         for m, q in enumerate(nodes):
             if m != j:
                 weight *= (x - q) / (p - q)
-        weights.append(weight)
-    return weights
-
-
-def _weighted(values, weights):
-    """The sum of ``values`` times ``weights`` (floats, in order)."""
-    total = 0.0
-    for value, weight in zip(values, weights):
         total += value * weight
     return total
-
-
-class InputsAtTime:
-    """``f(t) -> {name: value}``: every function of :func:`input_functions` at
-    one ``t``, the same numbers as calling each; the polynomial inputs of one
-    mesh (all of one result) share their interval and Lagrange weights, found
-    once per ``t``.  The values at the last ``t`` asked are kept: a run asks
-    for the inputs one by one at the same ``t`` (and again for every column of
-    a differenced Jacobian).
-
-    Parameters
-    ----------
-    functions : mapping
-        ``{name: f(t)}``, as :meth:`OptimalControlResult.inputs` gives them
-        (other callables are called as they are).
-    """
-
-    def __init__(self, functions):
-        self.functions = dict(functions)
-        polynomial = [name for name, f in self.functions.items()
-                      if isinstance(f, _Held) and f.kind == "polynomial"]
-        first = self.functions[polynomial[0]] if polynomial else None
-        self._shared = [name for name in polynomial
-                        if _same_mesh(self.functions[name], first)]
-        self._t, self._values = None, None
-
-    def __call__(self, t):
-        if t != self._t:
-            values = {}
-            if self._shared:
-                first = self.functions[self._shared[0]]
-                k, x = first.interval(t)
-                weights = _lagrange_weights(first.points, x)
-                values = {name: _weighted(self.functions[name].table[k], weights)
-                          for name in self._shared}
-            self._values = {name: values[name] if name in values else f(t)
-                            for name, f in self.functions.items()}
-            self._t = t
-        return self._values
-
-
-def _same_mesh(f, g):
-    """Whether two polynomial :class:`_Held` inputs share nodes and positions."""
-    return (f.points == g.points and f.t.shape == g.t.shape
-            and (f.t is g.t or np.array_equal(f.t, g.t)))
 
 
 _HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"}
