@@ -13,6 +13,12 @@ state:
   y)`` (the chain): the full :math:`\\partial f/\\partial y` (kinematic rows
   included) and :math:`\\partial f/\\partial\\tau`, called for one state from
   Python, and for 1000 states in one call (per state);
+- the same derivatives from the standalone C file of
+  ``model.c_source(jacobians=True)`` (what ``kanedyn derive MODEL --c FILE
+  --jacobians`` writes: ``kanedyn_jacobians``, no Python), compiled with the
+  flags kanedyn compiles its own modules with (``-O2``, ``-mavx`` on an x86-64
+  CPU with AVX, ``-fno-math-errno -ffp-contract=off``) and called in a C loop
+  of 1000 calls: the call to set beside Pinocchio's from C++;
 - ``pinocchio.computeABADerivatives(model, data, q, v, tau)`` from Python:
   :math:`\\partial\\ddot q/\\partial(q, v, \\tau)`;
 - ``pinocchio::computeABADerivatives`` called from a C++ loop on the same
@@ -47,8 +53,11 @@ Usage::
 from __future__ import annotations
 
 import argparse
+import ctypes
 import json
 import os
+import shutil
+import subprocess
 import sys
 import tempfile
 from pathlib import Path
@@ -63,6 +72,36 @@ from _peers import DEFAULTS, pinocchio_chain  # noqa: E402
 from _pinocchio_cpp import add_option, announced  # noqa: E402
 from _timing import interleaved  # noqa: E402
 from bench_numerics import machine_info  # noqa: E402
+from kanedyn.numerics.backends._c_build import _VEX  # noqa: E402
+
+#: appended to the exported file: the calls timed in C
+_LOOP = r"""
+int kanedyn_bench(int calls, const double *y, const double *p, const double *r,
+                  double *ydot, double *jacobian) {
+    int status = 0;
+    for (int k = 0; k < calls; ++k)
+        status |= kanedyn_jacobians(0.0, y, p, r, ydot, jacobian, NULL);
+    return status;
+}
+"""
+CALLS = 1000
+
+
+def exported(model, folder):
+    """``kanedyn_bench`` of the model's standalone file with the exact derivatives,
+    compiled as a library (ctypes) with the flags of kanedyn's own modules."""
+    folder = Path(tempfile.mkdtemp(dir=folder))
+    source = folder / "model.c"
+    source.write_text(model.c_source(jacobians=True) + _LOOP)
+    library = folder / "libmodel.so"
+    cc = shutil.which("cc") or shutil.which("gcc")
+    subprocess.run([cc, "-O2", *_VEX, "-fno-math-errno", "-ffp-contract=off", "-shared",
+                    "-fPIC", "-std=c99", str(source), "-o", str(library), "-lm"], check=True)
+    lib = ctypes.CDLL(str(library))
+    vec = ctypes.POINTER(ctypes.c_double)
+    lib.kanedyn_bench.argtypes = [ctypes.c_int, vec, vec, vec, vec, vec]
+    lib.kanedyn_bench.restype = ctypes.c_int
+    return lib, vec
 
 
 _FIRST_USE = """
@@ -160,8 +199,10 @@ def robot_models(name, folder):
 
 
 def measure(n, rounds, robot=None, folder=None, style="v2pt", cpp=None):
-    """Timings of kanedyn (one state, 1000 states) and Pinocchio, and the largest
-    difference of their derivatives, for ``chain3d`` at n or for ``robot``; with
+    """Timings of kanedyn (one state, 1000 states, the standalone file from C)
+    and Pinocchio, and the largest differences of the derivatives (kanedyn's
+    from Pinocchio's, the file's from kanedyn's), for ``chain3d`` at n or for
+    ``robot``; with
     ``cpp`` (:class:`_pinocchio_cpp.PinocchioCpp`) also Pinocchio in C++
     (``None`` without it)."""
     import pinocchio as pin
@@ -195,17 +236,28 @@ def measure(n, rounds, robot=None, folder=None, style="v2pt", cpp=None):
     pick = np.ix_(speeds, speeds)
     error = max(np.max(np.abs(J.state[n:, :n] - dq[pick])),
                 np.max(np.abs(J.state[n:, n:] - dv[pick])))
+    lib, vec = exported(model, folder)
+    p = np.array(list(model.constants.values()), dtype=float)
+    f_out, D_out = np.zeros(2 * n), np.zeros((2 * n, 2 * n + len(r)))
+    arguments = [a.ctypes.data_as(vec) if a.size else None for a in (y, p, r, f_out, D_out)]
+
+    def export():
+        return lib.kanedyn_bench(CALLS, *arguments)
+    assert export() == 0
+    export_difference = float(np.max(np.abs(D_out[:, :2 * n] - J.state)))
     states = rng.uniform(-1.5, 1.5, (1000, 2 * n))
     inputs = np.broadcast_to(r, (len(states), len(r)))
     times = interleaved({
         "kanedyn": one,
+        "export": export,
         "batch": lambda: model.jacobians(np.zeros(len(states)), states,
                                          r=inputs if efforts else None),
         "pinocchio": lambda: pin.computeABADerivatives(pmodel, pdata, qp, vp, tp)},
         rounds=rounds)
     times["batch"].times = [x / len(states) for x in times["batch"].times]
+    times["export"].times = [x / CALLS for x in times["export"].times]
     in_cpp = None if cpp is None else cpp.run(pmodel, qp, vp, tp, rounds)
-    return times, float(error), n, in_cpp
+    return times, (float(error), export_difference), n, in_cpp
 
 
 def main():
@@ -233,25 +285,30 @@ def main():
               "kanedyn / Pinocchio, one (medians) | batch / Pinocchio (medians) | "
               "Pinocchio computeABADerivatives in C++, us (median) | kanedyn (Python call) / "
               "Pinocchio C++ (medians) | batch / Pinocchio C++ (medians) | "
-              "largest difference (kanedyn - Pinocchio; C++ - Python Pinocchio) |")
-        print("|---|---|---|---|---|---|---|---|---|---|")
+              "kanedyn's standalone C from a C loop, us (median) | standalone C / "
+              "Pinocchio C++ (medians) | largest difference (kanedyn - Pinocchio; "
+              "C++ - Python Pinocchio; standalone C - kanedyn) |")
+        print("|---|---|---|---|---|---|---|---|---|---|---|---|")
         cases = [] if args.no_robots or robot_text("Panda") is None else list(ROBOTS)
         cases += sizes
         if args.first_use_only:
             cases = []
         for case in cases:
             robot = case if isinstance(case, str) else None
-            times, error, n, in_cpp = measure(0 if robot else case, args.rounds, robot,
-                                              folder, args.style, cpp)
-            a, c, b = times["kanedyn"], times["batch"], times["pinocchio"]
+            times, (error, export_error), n, in_cpp = measure(
+                0 if robot else case, args.rounds, robot, folder, args.style, cpp)
+            a, c, b, e = times["kanedyn"], times["batch"], times["pinocchio"], times["export"]
+            export_text = f"{1e6 * e.best:.2f} ({1e6 * e.median:.2f})"
             if in_cpp is None:
-                cpp_text = "n/a | n/a | n/a"
+                cpp_text = f"n/a | n/a | n/a | {export_text} | n/a"
                 cpp_difference = "n/a"
             else:
                 d = in_cpp.derivatives
                 cpp_text = (f"{1e6 * d.best:.1f} ({1e6 * d.median:.1f}) | "
                             f"{a.best / d.best:.2f} ({a.median / d.median:.2f}) | "
-                            f"{c.best / d.best:.2f} ({c.median / d.median:.2f})")
+                            f"{c.best / d.best:.2f} ({c.median / d.median:.2f}) | "
+                            f"{export_text} | "
+                            f"{e.best / d.best:.2f} ({e.median / d.median:.2f})")
                 cpp_difference = f"{in_cpp.difference:.1e}"
             label = f"{robot} ({n})" if robot else f"chain3d ({n})"
             print(f"| {label} | {1e6 * a.best:.1f} ({1e6 * a.median:.1f}) | "
@@ -259,7 +316,7 @@ def main():
                   f"{1e6 * b.best:.1f} ({1e6 * b.median:.1f}) | "
                   f"{a.best / b.best:.2f} ({a.median / b.median:.2f}) | "
                   f"{c.best / b.best:.2f} ({c.median / b.median:.2f}) | {cpp_text} | "
-                  f"{error:.1e}; {cpp_difference} |")
+                  f"{error:.1e}; {cpp_difference}; {export_error:.1e} |")
     if args.no_first_use:
         return
     print("\n| chain3d n | operations of the derivative code | first rhs, s | "

@@ -32,6 +32,10 @@ def add_parser(sub):
                    help="also write the model as a standalone C99 file (kanedyn_rhs, "
                         "kanedyn_constraints, kanedyn_energy; the header comment documents "
                         "the interface, states and parameters with their default values)")
+    p.add_argument("--jacobians", action="store_true",
+                   help="with --c: the file also holds kanedyn_jacobians, the exact "
+                        "derivatives of the state derivative by the state and the inputs "
+                        "(as model.jacobians)")
     p.add_argument("--set", action="append", metavar="NAME=VALUE",
                    help="model option, e.g. n=8")
     p.add_argument("--quiet", action="store_true", help="no progress output")
@@ -46,6 +50,9 @@ def cmd_derive(args):
     definition = build(args.model, **options)  # checks the options
     if args.c is not None:
         check_output_file(args.c, "--c")
+    elif args.jacobians:
+        raise KanedynError("--jacobians: the exact derivatives go into the C file of --c "
+                           "FILE, which was not given")
     progress = Progress(enabled=not args.quiet)
     t0 = time.perf_counter()
     eom = definition.derive(progress=progress)
@@ -53,7 +60,8 @@ def cmd_derive(args):
     written = None
     if args.c is not None:  # first: the file is there even if the printout is cut short
         written = definition.numeric(eom).export_c(args.c, title=f"{definition.name}: "
-                                                   f"{definition.title}")
+                                                   f"{definition.title}",
+                                                   jacobians=args.jacobians)
     counts = eom.operation_counts()
     print(f"# {definition.title}")
     if written is not None:

@@ -405,6 +405,33 @@ def _functions(model, parameters):
     return found
 
 
+def standalone_derivatives(model, parameters=False):
+    """What the standalone C file needs for the exact derivatives
+    (:meth:`NumericModel.c_source` with ``jacobians=True``): the functions and
+    sizes of the model's derivative module, its program, and how it lists them
+    (``program, functions, sizes, plain, share, cse``), for
+    :func:`kanedyn.numerics.backends._c_export.standalone_c`.
+
+    The standalone file takes models of the elimination scheme only (its
+    right-hand side is the generated one), whose derivatives the module solves
+    in C whole (no stabilization parts solved in NumPy).
+
+    Raises
+    ------
+    ModelError
+        Where the model has no exact derivatives, naming why.
+    """
+    _check_available(model)
+    _, functions, sizes = _c_key(model, parameters)
+    prog, args, outputs = _specification(model, parameters)
+    first = "tree" if "tree" in functions else "dynamics"
+    # the pass's fallback where a pivot is not positive: M (not in the module)
+    functions = dict(functions, dynamics=model._functions["dynamics"], jacobians=(args, outputs))
+    return dict(program=prog, functions=functions,
+                sizes=dict(sizes, jacobian_tree=model.__dict__["_jacobian_tree"]),
+                plain=_plain(model), share=(first, "jacobians"), cse=model._cse)
+
+
 def _move_onto(model_ref, key, quick, optimized):
     """Give the model (a weak reference) the entry points of the ``optimized``
     derivative module where it still has those of the ``quick`` one: their

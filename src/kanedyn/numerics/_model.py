@@ -1325,7 +1325,8 @@ class NumericModel(StateLayout):
         return solve_modes(self, t, self._check_y(y), modes, directions, stabilization)
 
     # ------------------------------------------------------------ C export
-    def c_source(self, standalone=True, module_name="kanedyn_model", title=None):
+    def c_source(self, standalone=True, module_name="kanedyn_model", title=None,
+                 jacobians=False, parameters=False):
         """C source of this model's numerical functions.
 
         Parameters
@@ -1342,6 +1343,16 @@ class NumericModel(StateLayout):
             Name of the extension module (``standalone=False`` only).
         title : str, optional
             First line of the standalone file's header comment.
+        jacobians : bool
+            The standalone file also holds ``kanedyn_jacobians``, the exact
+            derivatives of :meth:`jacobians` (of the state derivative and of the
+            multipliers, by the state and the inputs; the constraint rows by
+            the state), generated and solved as the compiled derivative module
+            does.  Its functions are then that module's: ``kanedyn_rhs`` gives
+            the state derivative ``jacobians`` gives (equal to :meth:`rhs` to
+            rounding).
+        parameters : bool
+            With ``jacobians``: also the columns of the named constants.
 
         Returns
         -------
@@ -1352,22 +1363,35 @@ class NumericModel(StateLayout):
         ModelError
             When the equations are not available (a model restored by
             unpickling), or the model's constraint scheme or formulation is
-            not what the generated right-hand side computes.
+            not what the generated right-hand side computes; with
+            ``jacobians``, where the model has no exact derivatives solved in
+            C (see :meth:`jacobians`).
+        ValueError
+            ``jacobians`` with ``standalone=False``, or ``parameters`` without
+            ``jacobians``.
         """
+        if not standalone and jacobians:
+            raise ValueError("jacobians: only in the standalone file (standalone=True); "
+                             "the extension module's derivatives are model.jacobians")
+        if parameters and not jacobians:
+            raise ValueError("parameters: the constants' columns of the exact derivatives, "
+                             "which need jacobians=True")
         if standalone and self.contacts:
             names = ", ".join(c["name"] for c in self.contacts)
             raise ModelError(f"cannot export standalone C of a model with contacts "
                              f"({names}): the file would hold the right-hand side without "
                              "them (their modes, events and impacts are followed by "
                              "kd.simulate); export the model without its contacts")
-        return self._c_text(standalone, module_name, title)
+        return self._c_text(standalone, module_name, title,
+                            derivatives=jacobians and (parameters,))
 
     def _c_text(self, standalone=True, module_name="kanedyn_model", title=None,
-                contacts=False):
+                contacts=False, derivatives=False):
         """:meth:`c_source` without its refusal of contacts; ``contacts=True``: the
         standalone file with the contact kinematics and the contact loop
         (:mod:`kanedyn.numerics.backends._c_hybrid`), what an FMU of a model with
-        contacts compiles."""
+        contacts compiles; ``derivatives=(parameters,)``: with the exact
+        derivatives (:meth:`c_source`'s ``jacobians``)."""
         from .backends._c import NAME_TOKEN, generate_c
         from .backends._c_export import standalone_c
         eom = getattr(self, "_eom", None)
@@ -1388,12 +1412,16 @@ class NumericModel(StateLayout):
                                 describe=lambda e: str(table.external(e)), cse=cse,
                                 units=False)
             return source.replace(NAME_TOKEN, module_name)
+        if derivatives:
+            from ._jacobians import standalone_derivatives
+            derivatives = standalone_derivatives(self, *derivatives)
         return standalone_c(eom._program, self._functions, self._sizes, self.state_names,
                             dict(zip(self.constants, map(float, self._p))),
                             input_names=self.input_names,
                             title=title or f"{self!r}", cse=cse is not False,
                             describe=lambda e: str(table.external(e)),
-                            contacts=self._contact_c() if contacts else None)
+                            contacts=self._contact_c() if contacts else None,
+                            derivatives=derivatives or None)
 
     def _contact_c(self):
         """Per contact: its name, law and the C expressions (of ``p[i]``) of its
@@ -1420,15 +1448,18 @@ class NumericModel(StateLayout):
             out.append(item)
         return out
 
-    def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None):
-        """Write :meth:`c_source` to ``path``; returns the path (a ``Path``).
+    def export_c(self, path, standalone=True, module_name="kanedyn_model", title=None,
+                 jacobians=False, parameters=False):
+        """Write :meth:`c_source` to ``path`` (arguments as there); returns the
+        path (a ``Path``).
 
         Raises :class:`~kanedyn.OutputFileError` when it cannot be written (nothing
         is left behind, an earlier file is as it was).
         """
         from pathlib import Path
         path = Path(path)
-        source = self.c_source(standalone=standalone, module_name=module_name, title=title)
+        source = self.c_source(standalone=standalone, module_name=module_name, title=title,
+                               jacobians=jacobians, parameters=parameters)
         with replacing(path) as handle:
             handle.write(source)
         return path

@@ -491,7 +491,8 @@ _TEMPLATES_DIGEST = hashlib.sha256("".join(
      _c_integrator.INTEGRATOR, _c_ensemble.ENSEMBLE, _c_contact.CONTACT,
      _c_runtime.RUNTIME_FOOTER,
      _c_runtime.MODEL_SOLVE, _c_runtime.LANE_RUNTIME, _c_runtime.LANE_SOLVE,
-     _c_runtime.INVERSE_POINT, _c_runtime.JACOBIAN_SOLVE, _c_runtime.MODULE_FOOTER)
+     _c_runtime.INVERSE_POINT, _c_runtime.JACOBIAN_SOLVE, _c_runtime.JACOBIAN_INFO,
+     _c_runtime.MODULE_FOOTER)
 ).encode()).hexdigest()[:16]
 
 
@@ -902,18 +903,11 @@ def _runtime_parts(functions, sizes, lanes, share=None):
         rows += ("jacobians", "dynamics")
     if "hessians" in functions:  # the exact Hessian's (_c_hessians)
         rows += ("hessians",)
-    columns = _parameter_columns(functions, sizes)
-    if columns is not None:  # its exact derivatives solved in C (solved_jacobians)
-        defines.append(f"#define KD_JP {columns}")
-        defines.extend(jacobian_tree_source(sizes))
-        tree = _solving_tree(functions, sizes)
-        if tree is not None:  # solved by the tree pass
-            parent, order = tree
-            chain = (list(parent) == list(range(-1, len(parent) - 1))
-                     and list(order) == list(range(len(parent) - 1, -1, -1)))
-            defines += ["#define KD_JAC_TREE_SOLVE 1", f"#define KD_TSOLVE_CHAIN {int(chain)}"]
+    solved = _parameter_columns(functions, sizes) is not None
+    if solved:  # its exact derivatives solved in C (solved_jacobians)
+        defines.extend(jacobian_solve_defines(functions, sizes))
     body = [_c_runtime.MODEL_SOLVE, _c_runtime.LANE_SOLVE,
-            *([_c_runtime.JACOBIAN_SOLVE] if columns is not None else []),
+            *([_c_runtime.JACOBIAN_SOLVE, _c_runtime.JACOBIAN_INFO] if solved else []),
             _function_table(functions, rows), _c_runtime.MODULE_FOOTER]
     model = _RuntimePart(defines, model_declarations, body, not lanes, True)
     return generic, model
@@ -928,6 +922,22 @@ def _parameter_columns(functions, sizes):
     _, outputs = functions.get("jacobians", (None, ()))
     count = len(outputs) - (sizes.get("jacobian_tree") is not None)  # the tree's factors
     return {8: 0, 11: sizes["n_p"]}.get(count)
+
+
+def jacobian_solve_defines(functions, sizes):
+    """C definitions of the solve of a derivative module's exact derivatives
+    (:data:`_c_runtime.JACOBIAN_SOLVE`): the constants' columns ``KD_JP``, the
+    tree whose derivatives come from their factors (:func:`jacobian_tree_source`)
+    and, where the articulated-body pass solves them, ``KD_JAC_TREE_SOLVE``."""
+    defines = [f"#define KD_JP {_parameter_columns(functions, sizes)}",
+               *jacobian_tree_source(sizes)]
+    tree = _solving_tree(functions, sizes)
+    if tree is not None:  # solved by the tree pass
+        parent, order = tree
+        chain = (list(parent) == list(range(-1, len(parent) - 1))
+                 and list(order) == list(range(len(parent) - 1, -1, -1)))
+        defines += ["#define KD_JAC_TREE_SOLVE 1", f"#define KD_TSOLVE_CHAIN {int(chain)}"]
+    return defines
 
 
 def jacobian_tree_source(sizes):

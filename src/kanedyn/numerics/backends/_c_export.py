@@ -31,7 +31,8 @@ from __future__ import annotations
 
 from ..._version import __version__
 from . import _c_runtime
-from ._c import _function_source, solver_source
+from ._c import (PIECE_MARK, _function_source, _function_sources, _parameter_columns,
+                 jacobian_solve_defines, solver_source)
 from ._c_contact import SEGMENT
 from ._c_contact_general import GENERAL
 from ._c_hybrid import HYBRID
@@ -191,6 +192,38 @@ int kanedyn_energy(double t, const double *y, const double *p, const double *r,
 """
 
 
+#: the exact derivatives in the standalone file (``c_source(jacobians=True)``):
+#: :data:`_c_runtime.JACOBIAN_SOLVE`'s ``kd_jacobian_core`` behind a public function
+_JACOBIANS = r"""
+/* ------------------------------------------------------------ exact derivatives */
+#define KANEDYN_JROWS (KD_NX + KD_NUDEP)
+#define KANEDYN_JCOLS KD_JC
+#define KANEDYN_NCON KD_NCON
+
+int kanedyn_jacobians(double t, const double *y, const double *p, const double *r,
+                      double *ydot, double *jacobian, double *constraint_jacobian) {
+    static const double none[1] = {0.0};
+    double *w = (double *)malloc(sizeof(double) * (KD_SZ(KD_NW) + KD_JAC_SCRATCH
+                                                   + KD_SZ(KD_NCON * KD_NX)));
+    if (w == NULL) return 2;
+    double *C = w + KD_SZ(KD_NW) + KD_JAC_SCRATCH;
+    (void)kd_eval_jacobians;  /* the derivatives without the dynamics: unused here */
+#if KD_JAC_TREE_SOLVE
+    (void)kd_index1_lu; (void)kd_lu_apply;
+#endif
+#if KD_TREE_JAC
+    (void)kd_jparent;  /* not on a chain */
+#endif
+    int status = kd_jacobian_core(t, y, p, r != NULL ? r : none, w, w + KD_SZ(KD_NW), ydot,
+                                  jacobian, C);
+    if (status == 0 && constraint_jacobian != NULL)
+        memcpy(constraint_jacobian, C, sizeof(double) * KD_NCON * KD_NX);
+    free(w);
+    return status;
+}
+"""
+
+
 def _c_string(text):
     return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
 
@@ -218,7 +251,7 @@ def _contact_source(contacts):
 
 
 def standalone_c(program, functions, sizes, state_names, parameters, input_names=(),
-                 title="", describe=str, cse=True, contacts=None):
+                 title="", describe=str, cse=True, contacts=None, derivatives=None):
     """C99 source of a model's right-hand side, constraints and energies.
 
     Parameters
@@ -247,34 +280,46 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
         Poisson's) and the C expressions (of ``p[i]``) of ``mu_k``, ``mu_s``,
         ``viscous``, ``restitution``; the file then holds the contact kinematics
         and the contact loop (:mod:`._c_hybrid`: ``kanedyn_contact_*``).
+    derivatives : dict, optional
+        The model's derivative module as
+        :func:`kanedyn.numerics._jacobians.standalone_derivatives` gives it; the
+        file then adds ``kanedyn_jacobians``, the exact derivatives, and its
+        functions are those of that module (``program``, ``functions`` and
+        ``sizes`` are taken from it; ``cse`` is its own), so that the file
+        computes what ``model.jacobians`` computes.  Not with ``contacts``.
 
     Returns
     -------
     str
     """
+    if derivatives is not None:
+        program, functions, sizes = (derivatives[key] for key in
+                                     ("program", "functions", "sizes"))
     n, o = sizes["n_q"], sizes["n_u"]
     l, m = sizes["n_q_dep"], sizes["n_u_dep"]
     n_p, n_r = sizes["n_p"], sizes["n_r"]
-    args, dynamics = functions["dynamics"]
-    c_args, c_outputs = functions["constraints"]
-    selected = {"dynamics": (args, dynamics),
-                "constraints": (c_args, c_outputs),
-                "energy": functions["energy"]}
-    if "tree" in functions and not m:  # what the module runs: the articulated-body pass
-        selected = {"tree": functions["tree"], **selected}
-    if contacts:
-        selected["contacts"] = functions["contacts"]
-    parts, work = [], 0
-    for name, (arguments, outputs) in selected.items():
-        # the tree pass's statements are its composite sums: no elimination (as in the
-        # module, see _c._eliminates)
-        src, w = _function_source(program, name, arguments, outputs, describe,
-                                  cse and name != "tree")
-        parts.append(src)
-        work = max(work, w)
+    if derivatives is not None:
+        parts, work, selected = _derivative_parts(program, functions, sizes, describe,
+                                                  derivatives)
+    else:
+        selected = {name: functions[name] for name in ("dynamics", "constraints", "energy")}
+        if "tree" in functions and not m:  # what the module runs: the articulated-body pass
+            selected = {"tree": functions["tree"], **selected}
+        if contacts:
+            selected["contacts"] = functions["contacts"]
+        parts, work = [], 0
+        for name, (arguments, outputs) in selected.items():
+            # the tree pass's statements are its composite sums: no elimination (as in
+            # the module, see _c._eliminates)
+            src, w = _function_source(program, name, arguments, outputs, describe,
+                                      cse and name != "tree")
+            parts.append(src)
+            work = max(work, w)
     names = list(parameters)
     header = _header(title, state_names, parameters, input_names, sizes,
-                     [c["name"] for c in contacts or ()])
+                     [c["name"] for c in contacts or ()],
+                     None if derivatives is None
+                     else bool(_parameter_columns(selected, sizes)))
     defines = [f"#define KD_NQ {n}", f"#define KD_NU {o}", f"#define KD_NQDEP {l}",
                f"#define KD_NUDEP {m}", f"#define KD_NP {n_p}", f"#define KD_NR {n_r}",
                f"#define KD_NW {work}",
@@ -282,6 +327,10 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
                f"#define KANEDYN_NQDEP {l}", f"#define KANEDYN_NUDEP {m}",
                f"#define KANEDYN_NSTATES {n + o}", f"#define KANEDYN_NP {n_p}",
                f"#define KANEDYN_NR {n_r}", *solver_source(selected, sizes)]
+    solve = []
+    if derivatives is not None:  # after the model's solve, on which it builds
+        defines += ["#define KD_JAC_SHARED 1", *jacobian_solve_defines(selected, sizes)]
+        solve = [_c_runtime.JACOBIAN_SOLVE, _JACOBIANS]
     public = _PUBLIC % {
         "states": _list([_c_string(s) for s in state_names], '""'),
         "parameters": _list([_c_string(s) for s in names], "NULL"),
@@ -290,10 +339,47 @@ def standalone_c(program, functions, sizes, state_names, parameters, input_names
     tail = ([_contact_source(contacts), DENSE_OUTPUT, "#define KD_GENERAL_CONTACTS 1", BRENT,
              SEGMENT, GENERAL, IMPACTS, SLIDE, HYBRID] if contacts else [])
     return "\n".join([header, _c_runtime.PRELUDE, "#include <stdlib.h>", _PI, *defines,
-                      *parts, _c_runtime.LINALG, DORMAND_PRINCE, PROJECTION, public, *tail])
+                      *parts, _c_runtime.LINALG, *solve, DORMAND_PRINCE, PROJECTION, public,
+                      *tail])
 
 
-def _header(title, state_names, parameters, input_names, sizes, contacts=()):
+def _derivative_parts(program, functions, sizes, describe, derivatives):
+    """``(sources, work, selected)``: the generated functions of the file with the
+    exact derivatives, listed as the derivative module lists them
+    (:func:`~._c._function_sources`: the dynamics, or the articulated-body pass,
+    with the derivatives that take its values), the work-array doubles they
+    need and the functions selected (``{name: (arguments, outputs)}``)."""
+    first = derivatives["share"][0]
+    selected = {name: functions[name] for name in dict.fromkeys(
+        (first, "jacobians", "dynamics", "constraints", "energy"))}
+    parts, work = [], 0
+    for src, _, w, _ in _function_sources(program, selected, sizes, describe,
+                                          derivatives["cse"], False, derivatives["plain"],
+                                          derivatives["share"]):
+        parts.append(src.replace(PIECE_MARK, ""))
+        work = max(work, w)
+    return parts, work, selected
+
+
+def _jacobian_lines(constants):
+    """The header's description of ``kanedyn_jacobians`` (``constants``: whether
+    its columns include the parameters')."""
+    return ["  int kanedyn_jacobians(double t, const double *y, const double *p,",
+            "                        const double *r, double *ydot, double *jacobian,",
+            "                        double *constraint_jacobian);",
+            "      The exact derivatives of ydot (as kanedyn's model.jacobians): ydot",
+            "      itself, and jacobian, KANEDYN_JROWS x KANEDYN_JCOLS row by row: the",
+            "      rows of ydot, then those of the KANEDYN_NUDEP multipliers of the",
+            "      velocity constraints; the columns of the KANEDYN_NSTATES states,",
+            "      then of the KANEDYN_NR inputs r"
+            + (", then of the KANEDYN_NP parameters p." if constants else "."),
+            "      constraint_jacobian (NULL: not wanted): the KANEDYN_NCON constraint",
+            "      rows of kanedyn_constraints by the state, KANEDYN_NCON x",
+            "      KANEDYN_NSTATES.", ""]
+
+
+def _header(title, state_names, parameters, input_names, sizes, contacts=(),
+            jacobian_parameters=None):
     n, o = sizes["n_q"], sizes["n_u"]
     l, m = sizes["n_q_dep"], sizes["n_u_dep"]
     lines = [f"{title or 'a kanedyn model'}", "",
@@ -332,6 +418,7 @@ def _header(title, state_names, parameters, input_names, sizes, contacts=()):
              "      exceeds project_tol (0: never) the state is projected as by",
              "      kanedyn_project.  *step: the step to try first (0: chosen), on",
              "      return the next one; *steps is increased by the steps taken.", "",
+             *([] if jacobian_parameters is None else _jacobian_lines(jacobian_parameters)),
              "  p: the KANEDYN_NP parameters (kanedyn_default_parameters holds the",
              "     values the model was built with); r: the KANEDYN_NR specified",
              "     inputs at time t (NULL when KANEDYN_NR is 0).",

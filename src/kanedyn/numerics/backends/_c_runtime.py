@@ -690,12 +690,16 @@ static void kd_jacobian_blocks(double t, const double *y, const double *p, doubl
         E[k] = KD_JAC_ONE_GROUP ? X : EA + KD_NS * at;
         a[k] = E[k] + KD_NU * cols[k];
     }
+    /* h_y, then c_y; without configuration constraints h_y has no entries: a
+       pointer of its own, not aliasing c_y's (restrict) */
+    static double no_rows[1];
+    double *h = KD_NQDEP > 0 ? C : no_rows;
 #if KD_JP > 0
     KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+                h, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #else
     KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1],
-                C, C + KD_NQDEP * KD_NX KD_TREE_OUT);
+                h, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #endif
 #if KD_TREE_JAC
     kd_tree_jacobian(TF, E[0]);
@@ -868,7 +872,11 @@ KD_GEN int kd_jacobian_core(double t, const double *y, const double *p, const do
     return 0;
 }
 #endif
+"""
 
+#: the exact derivatives of :data:`JACOBIAN_SOLVE` as the Python entry points of
+#: the module take them (``KdJacobianInfo``, declared in :data:`SHARED`)
+JACOBIAN_INFO = r"""
 static const KdJacobianInfo kd_jacobian_info = {kd_jacobian_core, KD_JC, KD_NCON,
                                                 KD_JAC_SCRATCH};
 #define KD_JACOBIAN_INFO (&kd_jacobian_info)
