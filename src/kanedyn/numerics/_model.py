@@ -1382,16 +1382,15 @@ class NumericModel(StateLayout):
                              f"({names}): the file would hold the right-hand side without "
                              "them (their modes, events and impacts are followed by "
                              "kd.simulate); export the model without its contacts")
-        return self._c_text(standalone, module_name, title,
-                            derivatives=jacobians and (parameters,))
+        return self._c_text(standalone, module_name, title, jacobians=jacobians,
+                            parameters=parameters)
 
     def _c_text(self, standalone=True, module_name="kanedyn_model", title=None,
-                contacts=False, derivatives=False):
+                contacts=False, jacobians=False, parameters=False):
         """:meth:`c_source` without its refusal of contacts; ``contacts=True``: the
         standalone file with the contact kinematics and the contact loop
         (:mod:`kanedyn.numerics.backends._c_hybrid`), what an FMU of a model with
-        contacts compiles; ``derivatives=(parameters,)``: with the exact
-        derivatives (:meth:`c_source`'s ``jacobians``)."""
+        contacts compiles; ``jacobians``, ``parameters``: as for :meth:`c_source`."""
         from .backends._c import NAME_TOKEN, generate_c
         from .backends._c_export import standalone_c
         eom = getattr(self, "_eom", None)
@@ -1412,16 +1411,17 @@ class NumericModel(StateLayout):
                                 describe=lambda e: str(table.external(e)), cse=cse,
                                 units=False)
             return source.replace(NAME_TOKEN, module_name)
-        if derivatives:
+        derivatives = None
+        if jacobians:
             from ._jacobians import standalone_derivatives
-            derivatives = standalone_derivatives(self, *derivatives)
+            derivatives = standalone_derivatives(self, parameters)
         return standalone_c(eom._program, self._functions, self._sizes, self.state_names,
                             dict(zip(self.constants, map(float, self._p))),
                             input_names=self.input_names,
                             title=title or f"{self!r}", cse=cse is not False,
                             describe=lambda e: str(table.external(e)),
                             contacts=self._contact_c() if contacts else None,
-                            derivatives=derivatives or None)
+                            derivatives=derivatives)
 
     def _contact_c(self):
         """Per contact: its name, law and the C expressions (of ``p[i]``) of its
