@@ -56,11 +56,12 @@ class PrimalBounds:
         return w[self.lower_index] - self.lower, self.upper - w[self.upper_index]
 
     def barrier(self, objective, gap_lower, gap_upper, mu):
-        r""":math:`\varphi_\mu` from the objective and the gaps."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            logs = np.sum(np.log(gap_lower)) + np.sum(np.log(gap_upper))
-        damping = self.kappa_d * (np.sum(gap_lower[self._one_sided_lower])
-                                  + np.sum(gap_upper[self._one_sided_upper]))
+        r""":math:`\varphi_\mu` from the objective and the gaps (a gap that is not
+        positive gives NaN or infinity: the solver runs under
+        ``np.errstate(all="ignore")`` and tests for them)."""
+        logs = np.log(gap_lower).sum() + np.log(gap_upper).sum()
+        damping = self.kappa_d * (gap_lower[self._one_sided_lower].sum()
+                                  + gap_upper[self._one_sided_upper].sum())
         return objective - mu * logs + mu * damping
 
     def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
@@ -112,9 +113,8 @@ class PrimalBounds:
 def fraction_to_boundary(values, steps, tau):
     r"""The largest :math:`\alpha \in (0, 1]` with :math:`v + \alpha\,\Delta v
     \ge (1 - \tau) v` for positive ``values`` :math:`v` and ``steps``
-    :math:`\Delta v`."""
+    :math:`\Delta v` (called under the solver's ``np.errstate``)."""
     if not steps.size:
         return 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fastest = float(np.min(steps / values))
+    fastest = float((steps / values).min())
     return 1.0 if not fastest < -tau else -tau / fastest

@@ -66,8 +66,8 @@ class Filter:
         if not (np.isfinite(theta) and np.isfinite(phi)) or theta > self.theta_max:
             return False
         margin = MARGIN * max(1.0, abs(phi if reference_phi is None else reference_phi))
-        return not (self._theta.size and np.any((theta >= self._theta)
-                                                & (phi >= self._phi + margin)))
+        return not (self._theta.size and ((theta >= self._theta)
+                                          & (phi >= self._phi + margin)).any())
 
     def smallest_step(self, theta, slope, fraction):
         r""":math:`\alpha_{\min}`: below it the line search gives up
