@@ -126,7 +126,7 @@ class LagrangianHessian:
     :class:`._nlp.CollocationNLP`)."""
 
     def __init__(self, nlp):
-        from ..numerics import hessians_unavailable
+        from ..numerics import hessians_unavailable, weighted_hessians
         pb, L = nlp.problem, nlp.layout
         if pb.n_residuals:
             raise ModelError('hessian="exact" is not available for a model with constraints '
@@ -139,6 +139,12 @@ class LagrangianHessian:
         self.nf = nf = L.n_free
         self.nu = nx + nf + 2
         self.time = L.free_duration or L.free_start_time
+        self._weighted_hessians = weighted_hessians  # imported once, not per call
+        # where the generated Hessian's rows and columns go in u: a leading
+        # block (a slice) unless the time follows free parameters it lacks
+        index = list(range(nx + len(pb.free_columns))) + [nx + nf] * bool(self.time)
+        self._h_index = (slice(0, len(index)) if index == list(range(len(index)))
+                         else (np.array(index)[:, None], np.array(index)[None, :]))
         self.interval = not hasattr(nlp.defects, "stages")
         N = L.nodes
         y_cols, r_cols = L.point_columns()
@@ -194,17 +200,18 @@ class LagrangianHessian:
     def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):
         """``(F'', F')`` in :math:`u` of :math:`F = \\omega^T f` at K points,
         ``W`` (K, n_states) the weights :math:`\\omega`."""
-        from ..numerics import weighted_hessians
         pb = self.nlp.problem
         f, A, B, Pf = evaluated
         K, nx, nf = len(t), self.nx, self.nf
         columns = pb.free_columns
-        H = weighted_hessians(e["model"], t, Ys, Rs, W,
-                              SimpleNamespace(f=f, state=A, inputs=B),
-                              parameters=columns, time=self.time)
-        index = list(range(nx + len(columns))) + [nx + nf] * self.time
+        H = self._weighted_hessians(e["model"], t, Ys, Rs, W,
+                                    SimpleNamespace(f=f, state=A, inputs=B),
+                                    parameters=columns, time=self.time)
         Hu = np.zeros((K, self.nu, self.nu))
-        Hu[:, np.array(index)[:, None], np.array(index)[None, :]] = H
+        if isinstance(self._h_index, slice):
+            Hu[:, self._h_index, self._h_index] = H
+        else:
+            Hu[:, self._h_index[0], self._h_index[1]] = H
         gu = np.zeros((K, self.nu))
         gu[:, :nx] = np.einsum("ki,kij->kj", W, np.concatenate([A, B], axis=2))
         if nf:
@@ -257,13 +264,16 @@ class LagrangianHessian:
             stepped = self._interval_parts(e, multipliers[:n_defects], sigma, t_points)
         else:
             rows = defects.rows
-            lam = np.zeros((N - 1, ns))
-            lam[:, rows] = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
+            lam = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
+            if not isinstance(defects._take, slice):  # not every state, in order
+                lam, collocated = np.zeros((N - 1, ns)), lam
+                lam[:, rows] = collocated
             stages = defects._stage_values(e["evaluated"])
             rates = (defects._stage_values([(r,) for r in e["rates"]]) if e["rates"]
                      else [None] * len(stages))
-            for s, values, rate, points in zip(defects.stages, stages, rates, self.stages):
-                t = e["t0"] + h * (np.arange(N - 1) + s.position)
+            for s, steps, values, rate, points in zip(defects.stages, defects._stage_steps,
+                                                      stages, rates, self.stages):
+                t = e["t0"] + h * steps
                 Ys = s.a[0] * e["Y"][:-1] + s.a[1] * e["Y"][1:]
                 Rs = s.a[0] * e["R"][:-1] + s.a[1] * e["R"][1:]
                 Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam, values,

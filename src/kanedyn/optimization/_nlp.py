@@ -85,6 +85,10 @@ class CollocationNLP:
         self.layout = L = Layout.of(pb, free_start_time)
         self.defects = defects_for(pb.method, L, pb.collocated_rows, pb.degree)
         self.n = L.n_variables
+        #: split_interior's empty arrays when the layout has no interior points
+        self._no_interior = (np.zeros((0, L.n_states)), np.zeros((0, L.n_inputs)))
+        for a in self._no_interior:
+            a.flags.writeable = False
         self._cache_key = None
         self._models = {}
         self._pattern()
@@ -209,7 +213,7 @@ class CollocationNLP:
             return self._cache
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
-        Yi, Ri = L.split_interior(z)
+        Yi, Ri = L.split_interior(z) if L.interior else self._no_interior
         t0 = L.start_time(z, self.start_time)
         h = T / (L.nodes - 1)
         model = self._model(P)

@@ -258,7 +258,7 @@ class Layout:
             if t0 is None:
                 raise ValueError("this layout needs the start time")
             parts.append([t0])
-        return np.concatenate(parts).astype(float)
+        return np.concatenate(parts).astype(float, copy=False)
 
 
 @functools.lru_cache(maxsize=32)
@@ -283,9 +283,18 @@ class Defects:
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
         N, nd = layout.nodes, len(self.rows)
+        #: how the rows are taken from a (..., n_states) array: a slice when
+        #: they are all the states in order (a view, not a copy by fancy index)
+        self._take = (slice(None) if np.array_equal(self.rows, np.arange(layout.n_states))
+                      else self.rows)
         # where each stage's points are among the evaluated groups: a slice of
         # the nodes' group, or a group of its own (see points)
         interior = 1 if any(s.node is not None for s in self.stages) else 0
+        #: whether the nodes are a group of their own (some stage is a node)
+        self._node_group = bool(interior)
+        #: the nodes' and each interior stage's steps from t0, in units of h
+        self._node_steps = np.arange(N)
+        self._stage_steps = [np.arange(N - 1) + s.position for s in self.stages]
         self._stage_groups = []
         for s in self.stages:
             if s.node is not None:
@@ -317,14 +326,13 @@ class Defects:
         """``[(t, Y, R)]`` of the distinct evaluation groups: all nodes (when
         some stage is a node), then each interior stage's points."""
         groups = []
-        N = self.layout.nodes
-        if any(s.node is not None for s in self.stages):
-            groups.append((t0 + h * np.arange(N), Y, R))
-        for s in self.stages:
+        if self._node_group:
+            groups.append((t0 + h * self._node_steps, Y, R))
+        for s, steps in zip(self.stages, self._stage_steps):
             if s.node is None:
                 a0, a1 = s.a
-                groups.append((t0 + h * (np.arange(N - 1) + s.position),
-                               a0 * Y[:-1] + a1 * Y[1:], a0 * R[:-1] + a1 * R[1:]))
+                groups.append((t0 + h * steps, a0 * Y[:-1] + a1 * Y[1:],
+                               a0 * R[:-1] + a1 * R[1:]))
         return groups
 
     def _stage_values(self, evaluated):
@@ -337,7 +345,7 @@ class Defects:
     # values ------------------------------------------------------------
     def values(self, Y, h, evaluated, Yi=None, R=None, Ri=None):
         """Defects, shape ((N - 1) * len(rows),)."""
-        rows = self.rows
+        rows = self._take
         E = Y[1:, rows] - Y[:-1, rows]
         for s, (f, *_) in zip(self.stages, self._stage_values(evaluated)):
             E = E - h * s.c * f[:, rows]
@@ -383,8 +391,7 @@ class Defects:
         f/\\partial t` (free duration or start time) or ``None``.
         """
         L = self.layout
-        N, rows = L.nodes, self.rows
-        nd = len(rows)
+        N, rows = L.nodes, self._take
         stages = self._stage_values(evaluated)
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
         values = []
