@@ -348,8 +348,9 @@ def test_pendulum_order_finds_the_band():
     assert kkt.analysis.nnz_factor < in_own_order / 3
 
 
-@pytest.mark.parametrize("shape", [(7, 5), (5, 7), (6, 0), (0, 4)])
-def test_ordering_patterns_are_scipys(shape):
+@pytest.mark.parametrize("shape, size", [((7, 5), 30), ((5, 7), 30), ((6, 0), 0),
+                                         ((0, 4), 0), ((400, 300), 60_000)])
+def test_ordering_patterns_are_scipys(shape, size):
     """The order's patterns, built directly, hold the arrays of SciPy's own
     COO to CSR conversion (repeats summed, indices sorted) and of its
     slicing, on which the matching and RCM depend."""
@@ -357,9 +358,8 @@ def test_ordering_patterns_are_scipys(shape):
     from kanedyn.optimization.interior_point._kkt_ordering import _pattern, _submatrix
     rng = np.random.default_rng(7)
     m, n = shape
-    size = 30 if m and n else 0
     rows, cols = rng.integers(0, max(m, 1), size), rng.integers(0, max(n, 1), size)
-    ours = _pattern(shape, rows, cols)
+    ours = _pattern(shape, rows, cols)  # the largest by SciPy's conversion
     theirs = sp.csr_matrix((np.ones(size, dtype=np.int8), (rows, cols)), shape=shape)
     theirs.sum_duplicates()
     assert np.array_equal(ours.indptr, theirs.indptr)

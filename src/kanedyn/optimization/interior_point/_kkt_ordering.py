@@ -132,15 +132,30 @@ def _canonical(shape, rows, cols):
                          shape=shape)
 
 
+#: above this many entries :func:`_pattern` leaves the sorting to SciPy's
+#: conversion, which is linear (a sort of the keys is faster below: no
+#: conversion's overhead)
+SORTED_ENTRIES = 50_000
+
+
 def _pattern(shape, rows, cols):
     """The 0/1 pattern (CSR, int8) of the entries ``(rows, cols)``, repeats
     merged (:func:`_canonical`)."""
     if not rows.size or not shape[1]:
         return _canonical(shape, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    if rows.size > SORTED_ENTRIES:
+        import scipy.sparse as sp
+        pattern = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)),
+                                shape=shape)
+        pattern.sum_duplicates()
+        return pattern
     keys = rows.astype(np.int64) * shape[1] + cols
-    keys.sort()  # then the repeats out (np.unique's hashing is slower here)
+    keys.sort(kind="stable")  # timsort: the entries come in long sorted runs
+    # then the repeats out (faster than np.unique's hashing)
     keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
-    return _canonical(shape, keys // shape[1], keys % shape[1])
+    rows = keys // shape[1]
+    keys -= rows * shape[1]  # the columns (cheaper than a second division)
+    return _canonical(shape, rows, keys)
 
 
 def _entries(pattern):
