@@ -55,6 +55,9 @@ from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
 
+#: a step below this relative to its variables is tiny (IPOPT's 10 eps)
+_TINY_STEP = 10 * float(np.finfo(float).eps)
+
 
 def kkt_class(choice):
     """``(KKT class, note)`` for the option ``linear_solver``: ``"sparse"``
@@ -427,7 +430,7 @@ class _Run:
             phi = B.barrier(e.objective, gap_lower, gap_upper, mu)
             slope = float(barrier_gradient @ dw)
             tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
-                    < 10 * np.finfo(float).eps
+                    < _TINY_STEP
                     and (np.abs(dy) / (1.0 + np.abs(y))).max(initial=0.0) < 1e-2)
             if tiny:
                 found = self._trial(w + alpha_max * dw, mu)
