@@ -278,14 +278,14 @@ class CollocationNLP:
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
         N, ns, nr, K = L.nodes, L.n_states, L.n_inputs, L.n_interior
-        gY, gR = np.zeros((N, ns)), np.zeros((N, nr))
-        gYi, gRi = np.zeros((K, ns)), np.zeros((K, nr))
-        gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
         if pb.lagrange is not None:
-            gY, gR, gYi_q, gRi_q, gP, gT, gt0 = self.defects.quadrature_gradient(
+            gY, gR, gYi, gRi, gP, gT, gt0 = self.defects.quadrature_gradient(
                 e["h"], e["lagrange"])
-            if gYi_q is not None:
-                gYi, gRi = gYi_q, gRi_q
+        else:
+            gY, gR, gYi, gRi = np.zeros((N, ns)), np.zeros((N, nr)), None, None
+            gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
+        if gYi is None and K:
+            gYi, gRi = np.zeros((K, ns)), np.zeros((K, nr))
         if pb.mayer is not None:
             _, d_t, d_y, d_r, d_p, d_T = self._mayer(e)
             gY[-1] += d_y[0]

@@ -434,7 +434,8 @@ class Defects:
     def quadrature_gradient(self, h, evaluated_terms):
         """The gradient of :meth:`quadrature`: ``(gY, gR, gYi, gRi, gP, gT,
         gt0)`` (no interior points here: ``gYi = gRi = None``; ``gt0`` the
-        start time's)."""
+        start time's).  ``gT`` and ``gt0`` are left 0.0 where the layout has
+        no free duration or start time (no variable takes them)."""
         L = self.layout
         N = L.nodes
         gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
@@ -447,7 +448,11 @@ class Defects:
                 if a:
                     gY[o:o + N - 1] += w * a * d_y
                     gR[o:o + N - 1] += w * a * d_r
-            gP += w * d_p.sum(axis=0)
-            gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) + w * d_T.sum()
-            gt0 += w * np.sum(d_t)
+            if L.n_free:
+                gP += w * d_p.sum(axis=0)
+            if L.free_duration:
+                gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) \
+                    + w * d_T.sum()
+            if L.free_start_time:
+                gt0 += w * np.sum(d_t)
         return gY, gR, None, None, gP, gT, gt0
