@@ -45,7 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._nlp import INDEX, index_arrays
+from ._nlp import INDEX, _joined, index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
@@ -305,7 +305,7 @@ class LagrangianHessian:
                 n = points.mask.shape[1]
                 H[0] = mu * full[:n, :n]  # without T's row and column when T is fixed
             out.append(H[points.mask])
-        return np.concatenate(out)
+        return _joined(out)
 
     def _interval_parts(self, e, lam, sigma, t):
         """``(F'', F')`` at every point of an interval method: the dynamics'

@@ -181,6 +181,7 @@ class Restoration:
         first, reprint = True, False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         (gap_lower, gap_upper), (c_r, c) = BR.gaps(wr), self._residuals(e, wr)
+        last = None  # (mu, theta, phi) of the last accepted trial point
         while True:
             zeta = np.sqrt(mu_r)
             gradient = self._gradient(wr, zeta)
@@ -243,8 +244,11 @@ class Restoration:
             dw, dy = step.primal, step.rows
             # the line search (backtracking, no second-order correction)
             t = time.perf_counter()
-            theta = float(np.abs(c_r).sum())
-            phi = BR.barrier(self._objective(wr, zeta), gap_lower, gap_upper, mu_r)
+            if last is not None and last[0] == mu_r:  # as the line search found them
+                theta, phi = last[1:]
+            else:
+                theta = float(np.abs(c_r).sum())
+                phi = BR.barrier(self._objective(wr, zeta), gap_lower, gap_upper, mu_r)
             slope = float(barrier_gradient @ dw)
             alpha_min = resto_filter.smallest_step(theta, slope, s.alpha_min_frac)
             alpha, found, trials = alpha_max, None, 0
@@ -263,7 +267,8 @@ class Restoration:
                 return self._failed(-2, wr, y, zl, zu, e)
             if not f_type:
                 resto_filter.add(theta, phi)
-            e, wr, _, _, (gap_lower, gap_upper), (c_r, c) = found
+            e, wr, theta, phi, (gap_lower, gap_upper), (c_r, c) = found
+            last = (mu_r, theta, phi)
             y = y + alpha * dy
             zl = zl + alpha_z * dz_lower
             zu = zu + alpha_z * dz_upper

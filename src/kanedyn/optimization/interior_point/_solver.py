@@ -426,8 +426,11 @@ class _Run:
             dw, dy = step.primal, step.rows
             # the line search
             t = time.perf_counter()
-            theta = float(np.abs(m["c"]).sum())
-            phi = B.barrier(e.objective, gap_lower, gap_upper, mu)
+            # theta and phi of an accepted trial point (phi at the same mu) as
+            # the line search found them, else computed here
+            theta = m["theta"] if "theta" in m else float(np.abs(m["c"]).sum())
+            phi = m["phi"][1] if "phi" in m and m["phi"][0] == mu else \
+                B.barrier(e.objective, gap_lower, gap_upper, mu)
             slope = float(barrier_gradient @ dw)
             tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
                     < _TINY_STEP
@@ -458,7 +461,8 @@ class _Run:
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
                 restored_row = True
                 continue
-            (trial, w_trial, _, _, gaps, c), alpha, step_used, f_type, trials = found
+            (trial, w_trial, theta_trial, phi_trial, gaps, c), alpha, step_used, f_type, \
+                trials = found
             corrected = step_used is not step
             if corrected:
                 # a second-order correction: the bound multipliers step along it
@@ -478,6 +482,7 @@ class _Run:
             z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, *gaps, mu)
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu, gaps, c)
+            m.update(theta=theta_trial, phi=(mu, phi_trial))
             row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                        step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
                        trials=trials, kind=("F" if f_type else "H") if corrected
