@@ -140,6 +140,9 @@ class LagrangianHessian:
         self.nu = nx + nf + 2
         self.time = L.free_duration or L.free_start_time
         self._weighted_hessians = weighted_hessians  # imported once, not per call
+        #: F' is needed (by the free duration's part, :meth:`_Points.maps`) only
+        #: with a free duration: without one it is not computed
+        self._first = bool(L.free_duration)
         # where the generated Hessian's rows and columns go in u: a leading
         # block (a slice) unless the time follows free parameters it lacks
         index = list(range(nx + len(pb.free_columns))) + [nx + nf] * bool(self.time)
@@ -199,7 +202,8 @@ class LagrangianHessian:
     # ---------------------------------------------------------- the parts
     def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):
         """``(F'', F')`` in :math:`u` of :math:`F = \\omega^T f` at K points,
-        ``W`` (K, n_states) the weights :math:`\\omega`."""
+        ``W`` (K, n_states) the weights :math:`\\omega` (``F'`` ``None``
+        without a free duration, which alone takes it)."""
         pb = self.nlp.problem
         f, A, B, Pf = evaluated
         K, nx, nf = len(t), self.nx, self.nf
@@ -212,6 +216,8 @@ class LagrangianHessian:
             Hu[:, self._h_index, self._h_index] = H
         else:
             Hu[:, self._h_index[0], self._h_index[1]] = H
+        if not self._first:
+            return Hu, None
         gu = np.zeros((K, self.nu))
         gu[:, :nx] = np.einsum("ki,kij->kj", W, np.concatenate([A, B], axis=2))
         if nf:
@@ -220,9 +226,11 @@ class LagrangianHessian:
             gu[:, nx + nf] = np.sum(W * rate, axis=1)
         return Hu, gu
 
-    @staticmethod
-    def _term(term, t, Y, R, P, T):
-        """``(F'', F')`` in :math:`u` of a user's term at K points."""
+    def _term(self, term, t, Y, R, P, T):
+        """``(F'', F')`` in :math:`u` of a user's term at K points (``F'``
+        ``None`` without a free duration, as in :meth:`_dynamics`)."""
+        if not self._first:
+            return term.hessian(t, Y, R, P, T), None
         _, d_t, d_y, d_r, d_p, d_T = term(t, Y, R, P, T)
         gu = np.concatenate([d_y, d_r, d_p, d_t[:, None], d_T[:, None]], axis=1)
         return term.hessian(t, Y, R, P, T), gu
@@ -282,7 +290,8 @@ class LagrangianHessian:
                     HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
                     HL *= sigma * s.c  # in place: one (K, nu, nu) array less at a time
                     Hu += HL
-                    gu += sigma * s.c * gL
+                    if gu is not None:
+                        gu += sigma * s.c * gL
                     del HL
                 out.append(self._assemble(points, h, stepped=(Hu, gu)))
         if self.at_points is not None:
@@ -331,5 +340,6 @@ class LagrangianHessian:
             HL, gL = self._term(pb.lagrange, t, e["Yp"], e["Rp"], e["P"], e["T"])
             HL *= sigma * quadrature[:, None, None]  # in place, as for the one-step methods
             Hu += HL
-            gu += sigma * quadrature[:, None] * gL
+            if gu is not None:
+                gu += sigma * quadrature[:, None] * gL
         return Hu, gu

@@ -290,6 +290,7 @@ class Defects:
         # where each stage's points are among the evaluated groups: a slice of
         # the nodes' group, or a group of its own (see points)
         interior = 1 if any(s.node is not None for s in self.stages) else 0
+        self._block_list = None  # see _blocks
         #: whether the nodes are a group of their own (some stage is a node)
         self._node_group = bool(interior)
         #: the nodes' and each interior stage's steps from t0, in units of h
@@ -353,13 +354,15 @@ class Defects:
 
     def _blocks(self):
         """The column groups of each interval's rows: ``("y", o)``, ``("r",
-        o)``, ``"p"``, ``"T"``, ``"t0"``."""
-        L = self.layout
-        offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
-        blocks = [("y", o) for o in offsets]
-        if L.n_inputs:
-            blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
-        return blocks + L.shared_blocks()
+        o)``, ``"p"``, ``"T"``, ``"t0"`` (made once: the layout is fixed)."""
+        if self._block_list is None:
+            L = self.layout
+            offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
+            blocks = [("y", o) for o in offsets]
+            if L.n_inputs:
+                blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
+            self._block_list = tuple(blocks + L.shared_blocks())
+        return self._block_list
 
     def pattern(self):
         """``(rows, cols)``: lists of the pieces of the defect rows' Jacobian
