@@ -46,6 +46,7 @@ class PrimalBounds:
         # damping: +kappa_d on lower-only entries, -kappa_d on upper-only ones
         self.damping = kappa_d * (has_lower & ~has_upper).astype(float) \
             - kappa_d * (has_upper & ~has_lower).astype(float)
+        self._damping_mu = (None, None)
         self._one_sided_lower = np.flatnonzero(has_lower[self.lower_index]
                                                & ~has_upper[self.lower_index])
         self._one_sided_upper = np.flatnonzero(has_upper[self.upper_index]
@@ -67,7 +68,9 @@ class PrimalBounds:
     def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
         r""":math:`\nabla \varphi_\mu` from the objective's gradient in ``w``
         (zero in the slacks)."""
-        out = gradient_w + mu * self.damping
+        if self._damping_mu[0] != mu:  # mu times the damping, kept while mu is
+            self._damping_mu = (mu, mu * self.damping)
+        out = gradient_w + self._damping_mu[1]
         out[self.lower_index] -= mu / gap_lower
         out[self.upper_index] += mu / gap_upper
         return out

@@ -276,9 +276,10 @@ class Restoration:
             if not run._derivatives(e):
                 return self._failed(-13, wr, y, zl, zu, e)
             zl, zu = safeguard_multipliers(zl, zu, gap_lower, gap_upper, mu_r)
-            row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                       step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind="f" if f_type else "h")
+            if print_row is not None:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind="f" if f_type else "h")
 
     def _acceptable(self, line_filter, e, w, c, mu):
         """The NLP's filter accepts the NLP's part of ``w`` (rows' residuals ``c``)."""

@@ -483,10 +483,11 @@ class _Run:
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu, gaps, c)
             m.update(theta=theta_trial, phi=(mu, phi_trial))
-            row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                       step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind=("F" if f_type else "H") if corrected
-                       else ("f" if f_type else "h"))
+            if s.print_level:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind=("F" if f_type else "H") if corrected
+                           else ("f" if f_type else "h"))
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi, gaps, c)`` at a trial point (``gaps``
