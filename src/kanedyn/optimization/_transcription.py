@@ -432,7 +432,7 @@ class Defects:
         """:math:`h \\sum_k \\sum_s c_s L_s`, from the terms evaluated on the
         groups of :meth:`points` (each ``(value, d_t, d_y, d_r, d_p, d_T)``)."""
         stages = self._stage_values(evaluated_terms)
-        return sum(h * s.c * float(np.sum(term[0])) for s, term in zip(self.stages, stages))
+        return sum(h * s.c * float(term[0].sum()) for s, term in zip(self.stages, stages))
 
     def quadrature_gradient(self, h, evaluated_terms):
         """The gradient of :meth:`quadrature`: ``(gY, gR, gYi, gRi, gP, gT,

@@ -82,8 +82,8 @@ def optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu):
 def safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu):
     """The bound multipliers clipped to :math:`[\\mu/(\\kappa_\\Sigma\\,
     \\text{gap}), \\kappa_\\Sigma\\mu/\\text{gap}]`: ``(z_lower, z_upper)``."""
-    return (np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower),
-            np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper))
+    return (z_lower.clip(mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower),
+            z_upper.clip(mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper))
 
 
 def next_barrier(mu, settings):
