@@ -61,8 +61,11 @@ class PrimalBounds:
         positive gives NaN or infinity: the solver runs under
         ``np.errstate(all="ignore")`` and tests for them)."""
         logs = np.log(gap_lower).sum() + np.log(gap_upper).sum()
-        damping = self.kappa_d * (gap_lower[self._one_sided_lower].sum()
-                                  + gap_upper[self._one_sided_upper].sum())
+        if self._one_sided_lower.size or self._one_sided_upper.size:
+            damping = self.kappa_d * (gap_lower[self._one_sided_lower].sum()
+                                      + gap_upper[self._one_sided_upper].sum())
+        else:  # the same: both sums would be 0.0
+            damping = self.kappa_d * 0.0
         return objective - mu * logs + mu * damping
 
     def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
