@@ -89,11 +89,11 @@ class PrimalBounds:
         r"""The bound multipliers' Newton steps of :math:`z\,\text{gap} = \mu`
         along the primal step ``dw`` and the fractions to the boundary:
         ``(dz_lower, dz_upper, alpha_primal_max, alpha_dual)``."""
-        lo, up = self.lower_index, self.upper_index
-        dz_lower = (mu - z_lower * gap_lower - z_lower * dw[lo]) / gap_lower
-        dz_upper = (mu - z_upper * gap_upper + z_upper * dw[up]) / gap_upper
-        alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                        fraction_to_boundary(gap_upper, -dw[up], tau))
+        dw_lower, dw_upper = dw[self.lower_index], dw[self.upper_index]
+        dz_lower = (mu - z_lower * gap_lower - z_lower * dw_lower) / gap_lower
+        dz_upper = (mu - z_upper * gap_upper + z_upper * dw_upper) / gap_upper
+        alpha_max = min(fraction_to_boundary(gap_lower, dw_lower, tau),
+                        fraction_to_boundary(gap_upper, -dw_upper, tau))
         alpha_z = min(fraction_to_boundary(z_lower, dz_lower, tau),
                       fraction_to_boundary(z_upper, dz_upper, tau))
         return dz_lower, dz_upper, alpha_max, alpha_z

@@ -104,7 +104,7 @@ class StepSolver:
         inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
                                   diagonal_c)
         self._state = (slack_diagonal, delta_w, delta_c)
-        return tuple(int(v) for v in inertia)
+        return int(inertia[0]), int(inertia[1]), int(inertia[2])
 
     def compute(self, hessian_values, jacobian_values, sigma, residual_w, residual_c, mu):
         """The regularized Newton step, or ``None`` when no regularization up
