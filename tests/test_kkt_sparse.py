@@ -348,6 +348,32 @@ def test_pendulum_order_finds_the_band():
     assert kkt.analysis.nnz_factor < in_own_order / 3
 
 
+@pytest.mark.parametrize("shape, size", [((7, 5), 30), ((5, 7), 30), ((6, 0), 0),
+                                         ((0, 4), 0), ((400, 300), 60_000)])
+def test_ordering_patterns_are_scipys(shape, size):
+    """The order's patterns, built directly, hold the arrays of SciPy's own
+    COO to CSR conversion (repeats summed, indices sorted) and of its
+    slicing, on which the matching and RCM depend."""
+    import scipy.sparse as sp
+    from kanedyn.optimization.interior_point._kkt_ordering import _pattern, _submatrix
+    rng = np.random.default_rng(7)
+    m, n = shape
+    rows, cols = rng.integers(0, max(m, 1), size), rng.integers(0, max(n, 1), size)
+    ours = _pattern(shape, rows, cols)  # the largest by SciPy's conversion
+    theirs = sp.csr_matrix((np.ones(size, dtype=np.int8), (rows, cols)), shape=shape)
+    theirs.sum_duplicates()
+    assert np.array_equal(ours.indptr, theirs.indptr)
+    assert np.array_equal(ours.indices, theirs.indices)
+    keep_rows, keep_cols = np.flatnonzero(rng.random(m) < 0.6), np.flatnonzero(
+        rng.random(n) < 0.6)
+    for r, expected in ((None, theirs[:, keep_cols].tocsr()),
+                        (keep_rows, theirs[keep_rows][:, keep_cols].tocsr())):
+        sub = _submatrix(ours, r, keep_cols)
+        assert sub.shape == expected.shape
+        assert np.array_equal(sub.indptr, expected.indptr)
+        assert np.array_equal(sub.indices, expected.indices)
+
+
 def _simple():
     return SparseKKT(3, 2, ([0, 1, 2, 2], [0, 0, 2, 1]), ([0, 1, 1], [0, 1, 2]))
 

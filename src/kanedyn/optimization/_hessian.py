@@ -45,7 +45,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._nlp import INDEX, index_arrays
+from ._nlp import INDEX, _joined, index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
@@ -126,7 +126,7 @@ class LagrangianHessian:
     :class:`._nlp.CollocationNLP`)."""
 
     def __init__(self, nlp):
-        from ..numerics import hessians_unavailable
+        from ..numerics import hessians_unavailable, weighted_hessians
         pb, L = nlp.problem, nlp.layout
         if pb.n_residuals:
             raise ModelError('hessian="exact" is not available for a model with constraints '
@@ -139,6 +139,15 @@ class LagrangianHessian:
         self.nf = nf = L.n_free
         self.nu = nx + nf + 2
         self.time = L.free_duration or L.free_start_time
+        self._weighted_hessians = weighted_hessians  # imported once, not per call
+        #: F' is needed (by the free duration's part, :meth:`_Points.maps`) only
+        #: with a free duration: without one it is not computed
+        self._first = bool(L.free_duration)
+        # where the generated Hessian's rows and columns go in u: a leading
+        # block (a slice) unless the time follows free parameters it lacks
+        index = list(range(nx + len(pb.free_columns))) + [nx + nf] * bool(self.time)
+        self._h_index = (slice(0, len(index)) if index == list(range(len(index)))
+                         else (np.array(index)[:, None], np.array(index)[None, :]))
         self.interval = not hasattr(nlp.defects, "stages")
         N = L.nodes
         y_cols, r_cols = L.point_columns()
@@ -193,18 +202,22 @@ class LagrangianHessian:
     # ---------------------------------------------------------- the parts
     def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):
         """``(F'', F')`` in :math:`u` of :math:`F = \\omega^T f` at K points,
-        ``W`` (K, n_states) the weights :math:`\\omega`."""
-        from ..numerics import weighted_hessians
+        ``W`` (K, n_states) the weights :math:`\\omega` (``F'`` ``None``
+        without a free duration, which alone takes it)."""
         pb = self.nlp.problem
         f, A, B, Pf = evaluated
         K, nx, nf = len(t), self.nx, self.nf
         columns = pb.free_columns
-        H = weighted_hessians(e["model"], t, Ys, Rs, W,
-                              SimpleNamespace(f=f, state=A, inputs=B),
-                              parameters=columns, time=self.time)
-        index = list(range(nx + len(columns))) + [nx + nf] * self.time
+        H = self._weighted_hessians(e["model"], t, Ys, Rs, W,
+                                    SimpleNamespace(f=f, state=A, inputs=B),
+                                    parameters=columns, time=self.time)
         Hu = np.zeros((K, self.nu, self.nu))
-        Hu[:, np.array(index)[:, None], np.array(index)[None, :]] = H
+        if isinstance(self._h_index, slice):
+            Hu[:, self._h_index, self._h_index] = H
+        else:
+            Hu[:, self._h_index[0], self._h_index[1]] = H
+        if not self._first:
+            return Hu, None
         gu = np.zeros((K, self.nu))
         gu[:, :nx] = np.einsum("ki,kij->kj", W, np.concatenate([A, B], axis=2))
         if nf:
@@ -213,9 +226,11 @@ class LagrangianHessian:
             gu[:, nx + nf] = np.sum(W * rate, axis=1)
         return Hu, gu
 
-    @staticmethod
-    def _term(term, t, Y, R, P, T):
-        """``(F'', F')`` in :math:`u` of a user's term at K points."""
+    def _term(self, term, t, Y, R, P, T):
+        """``(F'', F')`` in :math:`u` of a user's term at K points (``F'``
+        ``None`` without a free duration, as in :meth:`_dynamics`)."""
+        if not self._first:
+            return term.hessian(t, Y, R, P, T), None
         _, d_t, d_y, d_r, d_p, d_T = term(t, Y, R, P, T)
         gu = np.concatenate([d_y, d_r, d_p, d_t[:, None], d_T[:, None]], axis=1)
         return term.hessian(t, Y, R, P, T), gu
@@ -257,13 +272,16 @@ class LagrangianHessian:
             stepped = self._interval_parts(e, multipliers[:n_defects], sigma, t_points)
         else:
             rows = defects.rows
-            lam = np.zeros((N - 1, ns))
-            lam[:, rows] = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
+            lam = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
+            if not isinstance(defects._take, slice):  # not every state, in order
+                lam, collocated = np.zeros((N - 1, ns)), lam
+                lam[:, rows] = collocated
             stages = defects._stage_values(e["evaluated"])
             rates = (defects._stage_values([(r,) for r in e["rates"]]) if e["rates"]
                      else [None] * len(stages))
-            for s, values, rate, points in zip(defects.stages, stages, rates, self.stages):
-                t = e["t0"] + h * (np.arange(N - 1) + s.position)
+            for s, steps, values, rate, points in zip(defects.stages, defects._stage_steps,
+                                                      stages, rates, self.stages):
+                t = e["t0"] + h * steps
                 Ys = s.a[0] * e["Y"][:-1] + s.a[1] * e["Y"][1:]
                 Rs = s.a[0] * e["R"][:-1] + s.a[1] * e["R"][1:]
                 Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam, values,
@@ -272,7 +290,8 @@ class LagrangianHessian:
                     HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
                     HL *= sigma * s.c  # in place: one (K, nu, nu) array less at a time
                     Hu += HL
-                    gu += sigma * s.c * gL
+                    if gu is not None:
+                        gu += sigma * s.c * gL
                     del HL
                 out.append(self._assemble(points, h, stepped=(Hu, gu)))
         if self.at_points is not None:
@@ -295,7 +314,7 @@ class LagrangianHessian:
                 n = points.mask.shape[1]
                 H[0] = mu * full[:n, :n]  # without T's row and column when T is fixed
             out.append(H[points.mask])
-        return np.concatenate(out)
+        return _joined(out)
 
     def _interval_parts(self, e, lam, sigma, t):
         """``(F'', F')`` at every point of an interval method: the dynamics'
@@ -321,5 +340,6 @@ class LagrangianHessian:
             HL, gL = self._term(pb.lagrange, t, e["Yp"], e["Rp"], e["P"], e["T"])
             HL *= sigma * quadrature[:, None, None]  # in place, as for the one-step methods
             Hu += HL
-            gu += sigma * quadrature[:, None] * gL
+            if gu is not None:
+                gu += sigma * quadrature[:, None] * gL
         return Hu, gu

@@ -85,6 +85,10 @@ class CollocationNLP:
         self.layout = L = Layout.of(pb, free_start_time)
         self.defects = defects_for(pb.method, L, pb.collocated_rows, pb.degree)
         self.n = L.n_variables
+        #: split_interior's empty arrays when the layout has no interior points
+        self._no_interior = (np.zeros((0, L.n_states)), np.zeros((0, L.n_inputs)))
+        for a in self._no_interior:
+            a.flags.writeable = False
         self._cache_key = None
         self._models = {}
         self._pattern()
@@ -209,7 +213,7 @@ class CollocationNLP:
             return self._cache
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
-        Yi, Ri = L.split_interior(z)
+        Yi, Ri = L.split_interior(z) if L.interior else self._no_interior
         t0 = L.start_time(z, self.start_time)
         h = T / (L.nodes - 1)
         model = self._model(P)
@@ -274,14 +278,14 @@ class CollocationNLP:
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
         N, ns, nr, K = L.nodes, L.n_states, L.n_inputs, L.n_interior
-        gY, gR = np.zeros((N, ns)), np.zeros((N, nr))
-        gYi, gRi = np.zeros((K, ns)), np.zeros((K, nr))
-        gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
         if pb.lagrange is not None:
-            gY, gR, gYi_q, gRi_q, gP, gT, gt0 = self.defects.quadrature_gradient(
+            gY, gR, gYi, gRi, gP, gT, gt0 = self.defects.quadrature_gradient(
                 e["h"], e["lagrange"])
-            if gYi_q is not None:
-                gYi, gRi = gYi_q, gRi_q
+        else:
+            gY, gR, gYi, gRi = np.zeros((N, ns)), np.zeros((N, nr)), None, None
+            gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
+        if gYi is None and K:
+            gYi, gRi = np.zeros((K, ns)), np.zeros((K, nr))
         if pb.mayer is not None:
             _, d_t, d_y, d_r, d_p, d_T = self._mayer(e)
             gY[-1] += d_y[0]

@@ -258,7 +258,7 @@ class Layout:
             if t0 is None:
                 raise ValueError("this layout needs the start time")
             parts.append([t0])
-        return np.concatenate(parts).astype(float)
+        return np.concatenate(parts).astype(float, copy=False)
 
 
 @functools.lru_cache(maxsize=32)
@@ -283,9 +283,19 @@ class Defects:
         self.layout = layout
         self.rows = np.asarray(rows, dtype=int)
         N, nd = layout.nodes, len(self.rows)
+        #: how the rows are taken from a (..., n_states) array: a slice when
+        #: they are all the states in order (a view, not a copy by fancy index)
+        self._take = (slice(None) if np.array_equal(self.rows, np.arange(layout.n_states))
+                      else self.rows)
         # where each stage's points are among the evaluated groups: a slice of
         # the nodes' group, or a group of its own (see points)
         interior = 1 if any(s.node is not None for s in self.stages) else 0
+        self._block_list = None  # see _blocks
+        #: whether the nodes are a group of their own (some stage is a node)
+        self._node_group = bool(interior)
+        #: the nodes' and each interior stage's steps from t0, in units of h
+        self._node_steps = np.arange(N)
+        self._stage_steps = [np.arange(N - 1) + s.position for s in self.stages]
         self._stage_groups = []
         for s in self.stages:
             if s.node is not None:
@@ -317,14 +327,13 @@ class Defects:
         """``[(t, Y, R)]`` of the distinct evaluation groups: all nodes (when
         some stage is a node), then each interior stage's points."""
         groups = []
-        N = self.layout.nodes
-        if any(s.node is not None for s in self.stages):
-            groups.append((t0 + h * np.arange(N), Y, R))
-        for s in self.stages:
+        if self._node_group:
+            groups.append((t0 + h * self._node_steps, Y, R))
+        for s, steps in zip(self.stages, self._stage_steps):
             if s.node is None:
                 a0, a1 = s.a
-                groups.append((t0 + h * (np.arange(N - 1) + s.position),
-                               a0 * Y[:-1] + a1 * Y[1:], a0 * R[:-1] + a1 * R[1:]))
+                groups.append((t0 + h * steps, a0 * Y[:-1] + a1 * Y[1:],
+                               a0 * R[:-1] + a1 * R[1:]))
         return groups
 
     def _stage_values(self, evaluated):
@@ -337,7 +346,7 @@ class Defects:
     # values ------------------------------------------------------------
     def values(self, Y, h, evaluated, Yi=None, R=None, Ri=None):
         """Defects, shape ((N - 1) * len(rows),)."""
-        rows = self.rows
+        rows = self._take
         E = Y[1:, rows] - Y[:-1, rows]
         for s, (f, *_) in zip(self.stages, self._stage_values(evaluated)):
             E = E - h * s.c * f[:, rows]
@@ -345,13 +354,15 @@ class Defects:
 
     def _blocks(self):
         """The column groups of each interval's rows: ``("y", o)``, ``("r",
-        o)``, ``"p"``, ``"T"``, ``"t0"``."""
-        L = self.layout
-        offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
-        blocks = [("y", o) for o in offsets]
-        if L.n_inputs:
-            blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
-        return blocks + L.shared_blocks()
+        o)``, ``"p"``, ``"T"``, ``"t0"`` (made once: the layout is fixed)."""
+        if self._block_list is None:
+            L = self.layout
+            offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
+            blocks = [("y", o) for o in offsets]
+            if L.n_inputs:
+                blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
+            self._block_list = tuple(blocks + L.shared_blocks())
+        return self._block_list
 
     def pattern(self):
         """``(rows, cols)``: lists of the pieces of the defect rows' Jacobian
@@ -383,8 +394,7 @@ class Defects:
         f/\\partial t` (free duration or start time) or ``None``.
         """
         L = self.layout
-        N, rows = L.nodes, self.rows
-        nd = len(rows)
+        N, rows = L.nodes, self._take
         stages = self._stage_values(evaluated)
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
         values = []
@@ -422,12 +432,13 @@ class Defects:
         """:math:`h \\sum_k \\sum_s c_s L_s`, from the terms evaluated on the
         groups of :meth:`points` (each ``(value, d_t, d_y, d_r, d_p, d_T)``)."""
         stages = self._stage_values(evaluated_terms)
-        return sum(h * s.c * float(np.sum(term[0])) for s, term in zip(self.stages, stages))
+        return sum(h * s.c * float(term[0].sum()) for s, term in zip(self.stages, stages))
 
     def quadrature_gradient(self, h, evaluated_terms):
         """The gradient of :meth:`quadrature`: ``(gY, gR, gYi, gRi, gP, gT,
         gt0)`` (no interior points here: ``gYi = gRi = None``; ``gt0`` the
-        start time's)."""
+        start time's).  ``gT`` and ``gt0`` are left 0.0 where the layout has
+        no free duration or start time (no variable takes them)."""
         L = self.layout
         N = L.nodes
         gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
@@ -440,7 +451,11 @@ class Defects:
                 if a:
                     gY[o:o + N - 1] += w * a * d_y
                     gR[o:o + N - 1] += w * a * d_r
-            gP += w * d_p.sum(axis=0)
-            gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) + w * d_T.sum()
-            gt0 += w * np.sum(d_t)
+            if L.n_free:
+                gP += w * d_p.sum(axis=0)
+            if L.free_duration:
+                gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) \
+                    + w * d_T.sum()
+            if L.free_start_time:
+                gt0 += w * np.sum(d_t)
         return gY, gR, None, None, gP, gT, gt0

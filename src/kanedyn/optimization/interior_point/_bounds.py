@@ -46,6 +46,7 @@ class PrimalBounds:
         # damping: +kappa_d on lower-only entries, -kappa_d on upper-only ones
         self.damping = kappa_d * (has_lower & ~has_upper).astype(float) \
             - kappa_d * (has_upper & ~has_lower).astype(float)
+        self._damping_mu = (None, None)
         self._one_sided_lower = np.flatnonzero(has_lower[self.lower_index]
                                                & ~has_upper[self.lower_index])
         self._one_sided_upper = np.flatnonzero(has_upper[self.upper_index]
@@ -56,17 +57,23 @@ class PrimalBounds:
         return w[self.lower_index] - self.lower, self.upper - w[self.upper_index]
 
     def barrier(self, objective, gap_lower, gap_upper, mu):
-        r""":math:`\varphi_\mu` from the objective and the gaps."""
-        with np.errstate(divide="ignore", invalid="ignore"):
-            logs = np.sum(np.log(gap_lower)) + np.sum(np.log(gap_upper))
-        damping = self.kappa_d * (np.sum(gap_lower[self._one_sided_lower])
-                                  + np.sum(gap_upper[self._one_sided_upper]))
+        r""":math:`\varphi_\mu` from the objective and the gaps (a gap that is not
+        positive gives NaN or infinity: the solver runs under
+        ``np.errstate(all="ignore")`` and tests for them)."""
+        logs = np.log(gap_lower).sum() + np.log(gap_upper).sum()
+        if self._one_sided_lower.size or self._one_sided_upper.size:
+            damping = self.kappa_d * (gap_lower[self._one_sided_lower].sum()
+                                      + gap_upper[self._one_sided_upper].sum())
+        else:  # the same: both sums would be 0.0
+            damping = self.kappa_d * 0.0
         return objective - mu * logs + mu * damping
 
     def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
         r""":math:`\nabla \varphi_\mu` from the objective's gradient in ``w``
         (zero in the slacks)."""
-        out = gradient_w + mu * self.damping
+        if self._damping_mu[0] != mu:  # mu times the damping, kept while mu is
+            self._damping_mu = (mu, mu * self.damping)
+        out = gradient_w + self._damping_mu[1]
         out[self.lower_index] -= mu / gap_lower
         out[self.upper_index] += mu / gap_upper
         return out
@@ -82,11 +89,11 @@ class PrimalBounds:
         r"""The bound multipliers' Newton steps of :math:`z\,\text{gap} = \mu`
         along the primal step ``dw`` and the fractions to the boundary:
         ``(dz_lower, dz_upper, alpha_primal_max, alpha_dual)``."""
-        lo, up = self.lower_index, self.upper_index
-        dz_lower = (mu - z_lower * gap_lower - z_lower * dw[lo]) / gap_lower
-        dz_upper = (mu - z_upper * gap_upper + z_upper * dw[up]) / gap_upper
-        alpha_max = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                        fraction_to_boundary(gap_upper, -dw[up], tau))
+        dw_lower, dw_upper = dw[self.lower_index], dw[self.upper_index]
+        dz_lower = (mu - z_lower * gap_lower - z_lower * dw_lower) / gap_lower
+        dz_upper = (mu - z_upper * gap_upper + z_upper * dw_upper) / gap_upper
+        alpha_max = min(fraction_to_boundary(gap_lower, dw_lower, tau),
+                        fraction_to_boundary(gap_upper, -dw_upper, tau))
         alpha_z = min(fraction_to_boundary(z_lower, dz_lower, tau),
                       fraction_to_boundary(z_upper, dz_upper, tau))
         return dz_lower, dz_upper, alpha_max, alpha_z
@@ -112,9 +119,8 @@ class PrimalBounds:
 def fraction_to_boundary(values, steps, tau):
     r"""The largest :math:`\alpha \in (0, 1]` with :math:`v + \alpha\,\Delta v
     \ge (1 - \tau) v` for positive ``values`` :math:`v` and ``steps``
-    :math:`\Delta v`."""
+    :math:`\Delta v` (called under the solver's ``np.errstate``)."""
     if not steps.size:
         return 1.0
-    with np.errstate(divide="ignore", invalid="ignore"):
-        fastest = float(np.min(steps / values))
+    fastest = float((steps / values).min())
     return 1.0 if not fastest < -tau else -tau / fastest

@@ -18,6 +18,8 @@ and leaves the filter as it is; after any other the filter takes the pair
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 __all__ = ["Filter"]
@@ -30,6 +32,7 @@ S_PHI = 2.3
 S_THETA = 1.1
 #: a relative margin for roundoff in the comparisons (IPOPT's Compare_le)
 MARGIN = 10 * np.finfo(float).eps
+_EPS = float(np.finfo(float).eps)
 
 
 class Filter:
@@ -63,11 +66,11 @@ class Filter:
         outside the filter's forbidden region (no pair of the filter is
         improved on by neither measure; the roundoff margin relative to
         ``reference_phi``, by default ``phi``)."""
-        if not (np.isfinite(theta) and np.isfinite(phi)) or theta > self.theta_max:
+        if not (math.isfinite(theta) and math.isfinite(phi)) or theta > self.theta_max:
             return False
         margin = MARGIN * max(1.0, abs(phi if reference_phi is None else reference_phi))
-        return not (self._theta.size and np.any((theta >= self._theta)
-                                                & (phi >= self._phi + margin)))
+        return not (self._theta.size and ((theta >= self._theta)
+                                          & (phi >= self._phi + margin)).any())
 
     def smallest_step(self, theta, slope, fraction):
         r""":math:`\alpha_{\min}`: below it the line search gives up
@@ -80,7 +83,7 @@ class Filter:
                 bound = min(GAMMA_THETA, GAMMA_PHI * theta / -slope)
         else:
             bound = GAMMA_THETA
-        return max(fraction * bound, np.finfo(float).eps)
+        return max(fraction * bound, _EPS)
 
     def switching(self, theta, slope, alpha):
         return slope < 0 and alpha * (-slope) ** S_PHI > DELTA * theta ** S_THETA

@@ -118,14 +118,71 @@ def _minimum_degree(graph):
     return np.argsort(position)
 
 
+def _canonical(shape, rows, cols):
+    """The 0/1 pattern (CSR, int8) of the entries ``(rows, cols)``, already
+    unique and in row-major order: the arrays that SciPy's COO to CSR
+    conversion with ``sum_duplicates`` makes of them (sorted column indices;
+    ``int32`` where they fit, as SciPy chooses), built without it."""
+    import scipy.sparse as sp
+    index = np.int32 if max(shape[0], shape[1], rows.size) < np.iinfo(np.int32).max \
+        else np.int64
+    indptr = np.zeros(shape[0] + 1, dtype=index)
+    np.cumsum(np.bincount(rows, minlength=shape[0]), out=indptr[1:])
+    return sp.csr_matrix((np.ones(rows.size, dtype=np.int8), cols.astype(index), indptr),
+                         shape=shape)
+
+
+#: above this many entries :func:`_pattern` leaves the sorting to SciPy's
+#: conversion, which is linear (a sort of the keys is faster below: no
+#: conversion's overhead)
+SORTED_ENTRIES = 50_000
+
+
+def _pattern(shape, rows, cols):
+    """The 0/1 pattern (CSR, int8) of the entries ``(rows, cols)``, repeats
+    merged (:func:`_canonical`)."""
+    if not rows.size or not shape[1]:
+        return _canonical(shape, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
+    if rows.size > SORTED_ENTRIES:
+        import scipy.sparse as sp
+        pattern = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)),
+                                shape=shape)
+        pattern.sum_duplicates()
+        return pattern
+    keys = rows.astype(np.int64) * shape[1] + cols
+    keys.sort(kind="stable")  # timsort: the entries come in long sorted runs
+    # then the repeats out (faster than np.unique's hashing)
+    keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
+    rows = keys // shape[1]
+    keys -= rows * shape[1]  # the columns (cheaper than a second division)
+    return _canonical(shape, rows, keys)
+
+
+def _entries(pattern):
+    """``(rows, cols)`` of a CSR pattern's entries, in its order."""
+    return (np.repeat(np.arange(pattern.shape[0]), np.diff(pattern.indptr)),
+            pattern.indices)
+
+
 def _graph(size, rows, cols):
     """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
-    import scipy.sparse as sp
-    graph = sp.csr_matrix((np.ones(2 * rows.size, dtype=np.int8),
-                           (np.concatenate([rows, cols]), np.concatenate([cols, rows]))),
-                          shape=(size, size))
-    graph.sum_duplicates()
-    return graph
+    return _pattern((size, size), np.concatenate([rows, cols]), np.concatenate([cols, rows]))
+
+
+def _submatrix(pattern, rows, cols):
+    """``pattern[rows][:, cols]`` (CSR) for sorted index arrays ``rows`` (or
+    ``None``: all) and ``cols``: the entries kept in their order, renumbered
+    (increasingly, so still in :func:`_canonical`'s order)."""
+    m, n = pattern.shape
+    r, c = _entries(pattern)
+    row_place = np.full(m, -1)
+    row_place[np.arange(m) if rows is None else rows] = np.arange(
+        m if rows is None else rows.size)
+    col_place = np.full(n, -1)
+    col_place[cols] = np.arange(cols.size)
+    r, c = row_place[r], col_place[c]
+    keep = (r >= 0) & (c >= 0)
+    return _canonical((m if rows is None else rows.size, cols.size), r[keep], c[keep])
 
 
 def _matching(pattern, preferred, full=None):
@@ -141,11 +198,12 @@ def _matching(pattern, preferred, full=None):
     partner = np.full(pattern.shape[0], -1)
     cols = np.flatnonzero(preferred)
     if cols.size:
-        first = maximum_bipartite_matching(pattern[:, cols].tocsr(), perm_type="column")
+        first = maximum_bipartite_matching(_submatrix(pattern, None, cols),
+                                           perm_type="column")
         partner = np.where(first >= 0, cols[np.maximum(first, 0)], -1)
     rows, cols = np.flatnonzero(partner < 0), np.flatnonzero(~preferred)
     if rows.size and cols.size:
-        second = maximum_bipartite_matching(pattern[rows][:, cols].tocsr(),
+        second = maximum_bipartite_matching(_submatrix(pattern, rows, cols),
                                             perm_type="column")
         partner[rows] = np.where(second >= 0, cols[np.maximum(second, 0)], -1)
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
@@ -185,8 +243,8 @@ def _backward_band(graph, node, n, block, jr, jc):
     if _sweeps_backward(order, node, n, block, jr, jc):
         return order
     size = graph.shape[0]
-    edges = graph.tocoo()
-    pendant = _graph(size + 1, np.append(edges.row, size), np.append(edges.col, order[0]))
+    rows, cols = _entries(graph)
+    pendant = _graph(size + 1, np.append(rows, size), np.append(cols, order[0]))
     other = reverse_cuthill_mckee(pendant, symmetric_mode=True)
     other = other[other != size]
     if _sweeps_backward(other, node, n, block, jr, jc):
@@ -234,7 +292,6 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
         of :class:`~._kkt_sparse.SparseKKT`).  ``"rcm"`` makes no pairs.
     """
-    import scipy.sparse as sp
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 
     if ordering not in ORDERINGS:
@@ -254,10 +311,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         inside = ~late[n + jr] & ~late[jc]
 
         def pattern_of(entries):
-            pattern = sp.csr_matrix((np.ones(int(entries.sum()), dtype=np.int8),
-                                     (jr[entries], jc[entries])), shape=(m, n))
-            pattern.sum_duplicates()
-            return pattern
+            return _pattern((m, n), jr[entries], jc[entries])
         full = pattern_of(inside)
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
         if pairable is None:
@@ -270,9 +324,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     nodes, compressed = np.unique(block[keep], return_inverse=True)
     where = np.full(N, -1)
     where[keep] = compressed
-    sub = graph[keep][:, keep].tocoo()
-    a, b = where[keep[sub.row]], where[keep[sub.col]]
-    distinct = a != b
+    a, b = (where[i] for i in _entries(graph))  # -1 for a row left out
+    distinct = (a != b) & (a >= 0) & (b >= 0)
     compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
     if nodes.size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)

@@ -66,14 +66,14 @@ def optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu):
     """
     compl_lower, compl_upper = z_lower * gap_lower, z_upper * gap_upper
     n_z = z_lower.size + z_upper.size
-    z_sum = np.sum(np.abs(z_lower)) + np.sum(np.abs(z_upper))
-    s_d = max(S_MAX, (np.sum(np.abs(y)) + z_sum) / max(c.size + n_z, 1)) / S_MAX
+    z_sum = np.abs(z_lower).sum() + np.abs(z_upper).sum()
+    s_d = max(S_MAX, (np.abs(y).sum() + z_sum) / max(c.size + n_z, 1)) / S_MAX
     s_c = max(S_MAX, z_sum / max(n_z, 1)) / S_MAX
-    dual_inf = float(np.max(np.abs(dual), initial=0.0))
-    primal_inf = float(np.max(np.abs(c), initial=0.0))
-    compl = float(max(np.max(compl_lower, initial=0.0), np.max(compl_upper, initial=0.0)))
-    compl_mu = max(np.max(np.abs(compl_lower - mu), initial=0.0),
-                   np.max(np.abs(compl_upper - mu), initial=0.0))
+    dual_inf = float(np.abs(dual).max(initial=0.0))
+    primal_inf = float(np.abs(c).max(initial=0.0))
+    compl = float(max(compl_lower.max(initial=0.0), compl_upper.max(initial=0.0)))
+    compl_mu = max(np.abs(compl_lower - mu).max(initial=0.0),
+                   np.abs(compl_upper - mu).max(initial=0.0))
     return Errors(dual_inf, primal_inf, compl,
                   error=max(dual_inf / s_d, primal_inf, compl / s_c),
                   error_mu=max(dual_inf / s_d, primal_inf, compl_mu / s_c))
@@ -82,8 +82,8 @@ def optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu):
 def safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu):
     """The bound multipliers clipped to :math:`[\\mu/(\\kappa_\\Sigma\\,
     \\text{gap}), \\kappa_\\Sigma\\mu/\\text{gap}]`: ``(z_lower, z_upper)``."""
-    return (np.clip(z_lower, mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower),
-            np.clip(z_upper, mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper))
+    return (z_lower.clip(mu / (KAPPA_SIGMA * gap_lower), KAPPA_SIGMA * mu / gap_lower),
+            z_upper.clip(mu / (KAPPA_SIGMA * gap_upper), KAPPA_SIGMA * mu / gap_upper))
 
 
 def next_barrier(mu, settings):

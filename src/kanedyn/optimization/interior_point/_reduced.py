@@ -98,6 +98,11 @@ class ReducedNLP:
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
         self.hessian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.hessian_structure = (column_of[hr[use]], column_of[hc[use]])
+        #: every row kept, every variable free, every Jacobian or Hessian entry
+        #: kept: the full arrays are taken as they are (no index)
+        self._all_rows = self.m == m_full
+        self._all_jacobian = self.jacobian_entries.size == jr.size
+        self._all_hessian = self.hessian_entries.size == hr.size
         self._g_lower, self._g_upper = g_lower[kept], g_upper[kept]
         self._x_lower, self._x_upper = x_lower[self.free], x_upper[self.free]
         self.objective_scale = 1.0
@@ -144,18 +149,25 @@ class ReducedNLP:
         out[self.free] = x
         return out
 
+    # Where every row (entry) is kept and scaled by 1, and the objective by 1,
+    # the index and the product by 1.0 are left out: a copy of the NLP's
+    # array (it may reuse its own), the same numbers.
     def objective(self, x_full):
         return self.objective_scale * float(self.nlp.objective(x_full))
 
     def constraints(self, x_full):
-        return np.asarray(self.nlp.constraints(x_full), dtype=float)[self.rows] * self.row_scale
+        if self._all_rows and self._entry_scale is None:
+            return np.array(self.nlp.constraints(x_full), dtype=float)
+        return np.asarray(self.nlp.constraints(x_full), dtype=float)[self.rows] \
+            * self.row_scale
 
     def gradient(self, x_full):
-        return self.objective_scale * np.asarray(self.nlp.gradient(x_full),
-                                                 dtype=float)[self.free]
+        values = np.asarray(self.nlp.gradient(x_full), dtype=float)[self.free]
+        return values if self.objective_scale == 1.0 else self.objective_scale * values
 
     def jacobian(self, x_full):
-        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)[self.jacobian_entries]
+        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
+        values = values[self.jacobian_entries] if not self._all_jacobian else values.copy()
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values
@@ -163,10 +175,15 @@ class ReducedNLP:
     def hessian(self, x_full, multipliers, objective_factor=1.0):
         """The scaled Lagrangian's Hessian (lower triangle, reduced pattern's
         order) at ``x_full`` with the scaled rows' multipliers."""
-        full = np.zeros(self.m_full)
-        full[self.rows] = multipliers * self.row_scale
-        values = self.nlp.hessian(x_full, full, objective_factor * self.objective_scale)
-        return np.asarray(values, dtype=float)[self.hessian_entries]
+        if self._all_rows and self._entry_scale is None:
+            full = multipliers  # the NLP's callbacks do not write their arguments
+        else:
+            full = np.zeros(self.m_full)
+            full[self.rows] = multipliers * self.row_scale
+        values = np.asarray(self.nlp.hessian(x_full, full,
+                                              objective_factor * self.objective_scale),
+                            dtype=float)
+        return values.copy() if self._all_hessian else values[self.hessian_entries]
 
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""

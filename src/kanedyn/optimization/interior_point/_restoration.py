@@ -129,8 +129,8 @@ class Restoration:
     def _objective(self, w, zeta):
         x = w[:self.run.n]
         _, p, n = self._split(w)
-        return PENALTY * (np.sum(p) + np.sum(n)) + 0.5 * zeta * np.sum(
-            self.scale2 * (x - self.reference) ** 2)
+        return PENALTY * (p.sum() + n.sum()) + 0.5 * zeta * (
+            self.scale2 * (x - self.reference) ** 2).sum()
 
     def _gradient(self, w, zeta):
         g = np.full(w.size, PENALTY)
@@ -145,14 +145,16 @@ class Restoration:
         return c - p + n, c
 
     def _trial(self, w, mu, zeta):
-        """``(evaluation, w, theta, phi)`` at a trial point, or ``None``."""
+        """``(evaluation, w, theta, phi, gaps, residuals)`` at a trial point
+        (``gaps`` of the bounds, ``residuals`` :meth:`_residuals`'), or ``None``."""
         e = self.run._evaluate(w[:self.run.n])
         if not e.finite():
             return None
-        gap_lower, gap_upper = self.bounds.gaps(w)
-        theta = float(np.sum(np.abs(self._residuals(e, w)[0])))
-        phi = self.bounds.barrier(self._objective(w, zeta), gap_lower, gap_upper, mu)
-        return e, w, theta, phi
+        gaps = self.bounds.gaps(w)
+        residuals = self._residuals(e, w)
+        theta = float(np.abs(residuals[0]).sum())
+        phi = self.bounds.barrier(self._objective(w, zeta), *gaps, mu)
+        return e, w, theta, phi, gaps, residuals
 
     # -------------------------------------------------------------- the phase
     def solve(self, w, z_lower, z_upper, e, mu, line_filter, print_row):
@@ -162,11 +164,11 @@ class Restoration:
         run, s, B, BR = self.run, self.run.s, self.run.bounds, self.bounds
         n, m, size = run.n, run.m, self.size
         c_start = run._row_residuals(e.rows, w)
-        theta_start = float(np.sum(np.abs(c_start)))
+        theta_start = float(np.abs(c_start).sum())
         entry = (z_lower, z_upper, B.gaps(w))
         self.reference = w[:n].copy()
         self.scale2 = np.minimum(1.0, 1.0 / np.maximum(np.abs(self.reference), 1e-300)) ** 2
-        mu_r = max(mu, float(np.max(np.abs(c_start), initial=0.0)))
+        mu_r = max(mu, float(np.abs(c_start).max(initial=0.0)))
         p, nn = starting_pairs(c_start, mu_r)
         wr = np.concatenate([w, p, nn])
         zl = np.concatenate([np.minimum(PENALTY, z_lower), mu_r / p, mu_r / nn])
@@ -175,17 +177,18 @@ class Restoration:
         resto_filter = Filter(theta_start, THETA_MAX_FACTOR)
         tau = max(s.tau_min, 1.0 - mu_r)
         acceptable_count = 0
-        largest_start = float(np.max(np.abs(c_start), initial=0.0))
+        largest_start = float(np.abs(c_start).max(initial=0.0))
         first, reprint = True, False
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
+        (gap_lower, gap_upper), (c_r, c) = BR.gaps(wr), self._residuals(e, wr)
+        last = None  # (mu, theta, phi) of the last accepted trial point
         while True:
             zeta = np.sqrt(mu_r)
-            gap_lower, gap_upper = BR.gaps(wr)
-            c_r, c = self._residuals(e, wr)
             gradient = self._gradient(wr, zeta)
             lagrangian = gradient.copy()
             lagrangian[:n] += run.reduced.transpose_times(e.jacobian, y)
-            lagrangian[n:size] -= y[run.inequality]
+            if size > n:
+                lagrangian[n:size] -= y[run.inequality]
             lagrangian[size:size + m] -= y
             lagrangian[size + m:] += y
             dual = lagrangian.copy()
@@ -199,7 +202,7 @@ class Restoration:
             if not first and not reprint:
                 # back to the NLP: the rows' largest residual cut by kappa_resto
                 # and the point acceptable to the NLP's filter
-                if (float(np.max(np.abs(c), initial=0.0)) <= REQUIRED_REDUCTION * largest_start
+                if (float(np.abs(c).max(initial=0.0)) <= REQUIRED_REDUCTION * largest_start
                         and self._acceptable(line_filter, e, wr, c, mu)):
                     return Restored(None, self._back(entry, wr[:size], e, mu))
             first = reprint = False
@@ -241,8 +244,11 @@ class Restoration:
             dw, dy = step.primal, step.rows
             # the line search (backtracking, no second-order correction)
             t = time.perf_counter()
-            theta = float(np.sum(np.abs(c_r)))
-            phi = BR.barrier(self._objective(wr, zeta), gap_lower, gap_upper, mu_r)
+            if last is not None and last[0] == mu_r:  # as the line search found them
+                theta, phi = last[1:]
+            else:
+                theta = float(np.abs(c_r).sum())
+                phi = BR.barrier(self._objective(wr, zeta), gap_lower, gap_upper, mu_r)
             slope = float(barrier_gradient @ dw)
             alpha_min = resto_filter.smallest_step(theta, slope, s.alpha_min_frac)
             alpha, found, trials = alpha_max, None, 0
@@ -261,22 +267,24 @@ class Restoration:
                 return self._failed(-2, wr, y, zl, zu, e)
             if not f_type:
                 resto_filter.add(theta, phi)
-            e, wr = found[0], found[1]
+            e, wr, theta, phi, (gap_lower, gap_upper), (c_r, c) = found
+            last = (mu_r, theta, phi)
             y = y + alpha * dy
             zl = zl + alpha_z * dz_lower
             zu = zu + alpha_z * dz_upper
             run.iteration += 1
             if not run._derivatives(e):
                 return self._failed(-13, wr, y, zl, zu, e)
-            zl, zu = safeguard_multipliers(zl, zu, *BR.gaps(wr), mu_r)
-            row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                       step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind="f" if f_type else "h")
+            zl, zu = safeguard_multipliers(zl, zu, gap_lower, gap_upper, mu_r)
+            if print_row is not None:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind="f" if f_type else "h")
 
     def _acceptable(self, line_filter, e, w, c, mu):
         """The NLP's filter accepts the NLP's part of ``w`` (rows' residuals ``c``)."""
         B, size = self.run.bounds, self.size
-        return line_filter.acceptable(float(np.sum(np.abs(c))),
+        return line_filter.acceptable(float(np.abs(c).sum()),
                                       B.barrier(e.objective, *B.gaps(w[:size]), mu))
 
     def _back(self, entry, w, e, mu):
@@ -287,7 +295,7 @@ class Restoration:
         tau = max(run.s.tau_min, 1.0 - mu)
         z_lower = multiplier_step(z_lower, gap_lower, new_lower, mu, tau)
         z_upper = multiplier_step(z_upper, gap_upper, new_upper, mu, tau)
-        if max(np.max(z_lower, initial=0.0), np.max(z_upper, initial=0.0)) \
+        if max(z_lower.max(initial=0.0), z_upper.max(initial=0.0)) \
                 > BOUND_MULTIPLIER_RESET:
             z_lower, z_upper = np.ones_like(z_lower), np.ones_like(z_upper)
         return w.copy(), np.zeros(run.m), z_lower, z_upper, e

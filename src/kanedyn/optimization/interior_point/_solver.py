@@ -36,6 +36,7 @@ simplifications are listed in :mod:`._restoration`.
 
 from __future__ import annotations
 
+import math
 import sys
 import time
 
@@ -53,6 +54,9 @@ from ._status import STATUS
 from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
+
+#: a step below this relative to its variables is tiny (IPOPT's 10 eps)
+_TINY_STEP = 10 * float(np.finfo(float).eps)
 
 
 def kkt_class(choice):
@@ -85,7 +89,7 @@ class _Evaluation:
         self.gradient = self.jacobian = None
 
     def finite(self):
-        return bool(np.isfinite(self.objective) and np.all(np.isfinite(self.rows)))
+        return bool(math.isfinite(self.objective) and np.isfinite(self.rows).all())
 
 
 class InteriorPoint:
@@ -130,7 +134,11 @@ class InteriorPoint:
             raise ModelError('the interior-point solver needs the exact Hessian of the '
                              'Lagrangian: pass hessian="exact" to solve()')
         run = _Run(nlp, x0, s, warm, stop)
-        solution = run.solve()
+        # the callbacks and the iterations meet infinities and NaNs (a trial
+        # point outside the model's domain, log of a zero gap): they are
+        # tested for, not warned about (one context for the whole solve)
+        with np.errstate(all="ignore"):
+            solution = run.solve()
         self.timings, self.note = run.timings, run.note
         return solution
 
@@ -155,25 +163,33 @@ class _Run:
         t = time.perf_counter()
         R = self.reduced
         x_full = R.full(x)
-        with np.errstate(all="ignore"):
-            e = _Evaluation(x_full, R.objective(x_full), R.constraints(x_full))
+        e = _Evaluation(x_full, R.objective(x_full), R.constraints(x_full))
         self.timings["callbacks"] += time.perf_counter() - t
         return e
 
     def _derivatives(self, e):
         t = time.perf_counter()
-        with np.errstate(all="ignore"):
-            e.gradient = self.reduced.gradient(e.x_full)
-            e.jacobian = self.reduced.jacobian(e.x_full)
+        e.gradient = self.reduced.gradient(e.x_full)
+        e.jacobian = self.reduced.jacobian(e.x_full)
         self.timings["callbacks"] += time.perf_counter() - t
-        return bool(np.all(np.isfinite(e.gradient)) and np.all(np.isfinite(e.jacobian)))
+        return bool(np.isfinite(e.gradient).all() and np.isfinite(e.jacobian).all())
 
     def _row_residuals(self, rows, w):
         """:math:`c`: equality rows minus their value, inequality rows minus
         their slacks (scaled)."""
         c = rows - self.row_target
-        c[self.inequality] = rows[self.inequality] - w[self.n:]
+        if self.inequality.size:
+            c[self.inequality] = rows[self.inequality] - w[self.n:]
         return c
+
+    def _in_w(self, v):
+        """A vector ``v`` of the variables (n,) as one of ``w`` (zeros in the
+        slacks; ``v`` itself when there are none, not to be written)."""
+        if not self.inequality.size:
+            return v
+        out = np.zeros(self.bounds.size)
+        out[:self.n] = v
+        return out
 
     def _result(self, status, w, y, z_lower, z_upper, e):
         from .._solvers import NLPSolution
@@ -208,7 +224,7 @@ class _Run:
             gradient = np.asarray(self.nlp.gradient(R.template), dtype=float)
             jacobian = np.asarray(self.nlp.jacobian(R.template), dtype=float)
         self.timings["callbacks"] += time.perf_counter() - t
-        if not (np.all(np.isfinite(gradient)) and np.all(np.isfinite(jacobian))):
+        if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
         R.scale_at(R.template, gradient, jacobian)
         x_lower, x_upper = R.variable_bounds()
@@ -268,44 +284,54 @@ class _Run:
         status = self._iterate(*started)
         return status
 
-    def _measures(self, w, y, z_lower, z_upper, e, mu):
-        """Residuals and optimality errors at the current iterate."""
+    def _measures(self, w, y, z_lower, z_upper, e, mu, gaps=None, c=None):
+        """Residuals and optimality errors at the current iterate (``gaps``
+        and the rows' residuals ``c`` at ``w`` when the caller has them)."""
         n, B, R = self.n, self.bounds, self.reduced
-        gap_lower, gap_upper = B.gaps(w)
+        gap_lower, gap_upper = B.gaps(w) if gaps is None else gaps
         jty = R.transpose_times(e.jacobian, y)
-        lagrangian = np.zeros(B.size)  # grad of f + y^T c in w
-        lagrangian[:n] = e.gradient + jty
-        lagrangian[n:] = -y[self.inequality]
+        lagrangian = self._in_w(e.gradient + jty)  # grad of f + y^T c in w
+        if self.inequality.size:
+            lagrangian[n:] = -y[self.inequality]
         dual = lagrangian.copy()
         dual[B.lower_index] -= z_lower
         dual[B.upper_index] += z_upper
-        c = self._row_residuals(e.rows, w)
-        errors = optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu)
-        sf = R.objective_scale
-        return dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
-                    c=c, dual_inf=errors.dual_inf, primal_inf=errors.primal_inf,
-                    error=errors.error, error_mu=errors.error_mu,
-                    unscaled=(errors.dual_inf / sf, self.unscaled_violation(e.rows, c),
-                              errors.compl / sf))
+        if c is None:
+            c = self._row_residuals(e.rows, w)
+        m = dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
+                 c=c, dual=dual, violation=self.unscaled_violation(e.rows, c))
+        return self._errors(m, y, z_lower, z_upper, mu)
+
+    def _errors(self, m, y, z_lower, z_upper, mu):
+        """``m`` of :meth:`_measures` with the optimality errors at the barrier
+        parameter ``mu`` (after a new ``mu`` only these change)."""
+        errors = optimality_errors(m["dual"], m["c"], y, z_lower, z_upper, m["gap_lower"],
+                                   m["gap_upper"], mu)
+        sf = self.reduced.objective_scale
+        m.update(dual_inf=errors.dual_inf, primal_inf=errors.primal_inf, error=errors.error,
+                 error_mu=errors.error_mu,
+                 unscaled=(errors.dual_inf / sf, m["violation"], errors.compl / sf))
+        return m
 
     def unscaled_violation(self, rows, c):
         """IPOPT's unscaled violation :math:`\\|\\cdot\\|_\\infty`: the
         equality rows' residuals ``c``, the inequality rows (values ``rows``)
         against their (relaxed) bounds."""
-        violation = c.copy()
-        values = rows[self.inequality]
-        violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
-        return float(np.max(np.abs(violation) / self.reduced.row_scale, initial=0.0))
+        violation = c
+        if self.inequality.size:
+            violation = c.copy()
+            values = rows[self.inequality]
+            violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
+        return float((np.abs(violation) / self.reduced.row_scale).max(initial=0.0))
 
     def hessian_values(self, e, y, objective_factor):
         """The scaled Lagrangian's Hessian at ``e`` with the rows'
         multipliers ``y`` and the objective times ``objective_factor``, or
         ``None`` when a value is not finite."""
         t = time.perf_counter()
-        with np.errstate(all="ignore"):
-            hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+        hessian = self.reduced.hessian(e.x_full, y, objective_factor)
         self.timings["hessian"] += time.perf_counter() - t
-        return hessian if np.all(np.isfinite(hessian)) else None
+        return hessian if np.isfinite(hessian).all() else None
 
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
                   z_upper, gap_lower, gap_upper, mu, tau):
@@ -348,7 +374,7 @@ class _Run:
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
         m = self._measures(w, y, z_lower, z_upper, e, mu)
-        theta = float(np.sum(np.abs(m["c"])))
+        theta = float(np.abs(m["c"]).sum())
         line_filter = Filter(theta)
         acceptable_count = 0
         force_barrier = restored_row = False
@@ -368,7 +394,7 @@ class _Run:
             acceptable_count = acceptable_count + 1 if acceptable else 0
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
-            if np.max(np.abs(w[:n]), initial=0.0) > s.diverging_iterates_tol:
+            if np.abs(w[:n]).max(initial=0.0) > s.diverging_iterates_tol:
                 return self._result(4, w, y, z_lower, z_upper, e)
             stopping = self.stopping_status()
             if stopping is not None:
@@ -382,15 +408,14 @@ class _Run:
                 mu = new_mu
                 tau = max(s.tau_min, 1.0 - mu)
                 line_filter.reset()
-                m = self._measures(w, y, z_lower, z_upper, e, mu)
+                m = self._errors(m, y, z_lower, z_upper, mu)
             # the Newton step
             hessian = self.hessian_values(e, y, 1.0)
             if hessian is None:
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
-            gradient_w = np.zeros(B.size)
-            gradient_w[:n] = e.gradient
+            gradient_w = self._in_w(e.gradient)
             barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
@@ -401,12 +426,15 @@ class _Run:
             dw, dy = step.primal, step.rows
             # the line search
             t = time.perf_counter()
-            theta = float(np.sum(np.abs(m["c"])))
-            phi = B.barrier(e.objective, gap_lower, gap_upper, mu)
+            # theta and phi of an accepted trial point (phi at the same mu) as
+            # the line search found them, else computed here
+            theta = m["theta"] if "theta" in m else float(np.abs(m["c"]).sum())
+            phi = m["phi"][1] if "phi" in m and m["phi"][0] == mu else \
+                B.barrier(e.objective, gap_lower, gap_upper, mu)
             slope = float(barrier_gradient @ dw)
-            tiny = (np.max(np.abs(dw) / (1.0 + np.abs(w)), initial=0.0)
-                    < 10 * np.finfo(float).eps
-                    and np.max(np.abs(dy) / (1.0 + np.abs(y)), initial=0.0) < 1e-2)
+            tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
+                    < _TINY_STEP
+                    and (np.abs(dy) / (1.0 + np.abs(y))).max(initial=0.0) < 1e-2)
             if tiny:
                 found = self._trial(w + alpha_max * dw, mu)
                 accepted = found is not None
@@ -415,7 +443,7 @@ class _Run:
                 force_barrier = True
             else:
                 found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
-                                          line_filter, residual_w, m["c"])
+                                          line_filter, residual_w, m)
             self.timings["line_search"] += time.perf_counter() - t
             if found is None:
                 if self._converged(m, acceptable=True):
@@ -433,7 +461,8 @@ class _Run:
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
                 restored_row = True
                 continue
-            (trial, w_trial, _, _), alpha, step_used, f_type, trials = found
+            (trial, w_trial, theta_trial, phi_trial, gaps, c), alpha, step_used, f_type, \
+                trials = found
             corrected = step_used is not step
             if corrected:
                 # a second-order correction: the bound multipliers step along it
@@ -450,32 +479,36 @@ class _Run:
             if not self._derivatives(e):
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
-            gap_lower, gap_upper = B.gaps(w)
-            z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, gap_lower, gap_upper, mu)
+            z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, *gaps, mu)
             self.iteration += 1
-            m = self._measures(w, y, z_lower, z_upper, e, mu)
-            row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                       step=float(np.max(np.abs(dw), initial=0.0)), delta_w=step.delta_w,
-                       trials=trials, kind=("F" if f_type else "H") if corrected
-                       else ("f" if f_type else "h"))
+            m = self._measures(w, y, z_lower, z_upper, e, mu, gaps, c)
+            m.update(theta=theta_trial, phi=(mu, phi_trial))
+            if s.print_level:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind=("F" if f_type else "H") if corrected
+                           else ("f" if f_type else "h"))
 
     def _trial(self, w_trial, mu):
-        """``(evaluation, w, theta, phi)`` at a trial point, or ``None`` when
-        a value is not finite."""
+        """``(evaluation, w, theta, phi, gaps, c)`` at a trial point (``gaps``
+        of the bounds, ``c`` the rows' residuals), or ``None`` when a value is
+        not finite."""
         e = self._evaluate(w_trial[:self.n])
         if not e.finite():
             return None
-        gap_lower, gap_upper = self.bounds.gaps(w_trial)
-        theta = float(np.sum(np.abs(self._row_residuals(e.rows, w_trial))))
-        phi = self.bounds.barrier(e.objective, gap_lower, gap_upper, mu)
-        return e, w_trial, theta, phi
+        gaps = self.bounds.gaps(w_trial)
+        c = self._row_residuals(e.rows, w_trial)
+        theta = float(np.abs(c).sum())
+        phi = self.bounds.barrier(e.objective, *gaps, mu)
+        return e, w_trial, theta, phi, gaps, c
 
     def _line_search(self, w, dw, step, alpha_max, theta, phi, slope, mu, tau, line_filter,
-                     residual_w, c):
+                     residual_w, m):
         """Backtracking from ``alpha_max`` (halving), a second-order correction
         after a first trial that raised the violation:
         ``(trial, alpha, step, f_type, trials)`` (``step`` the corrected one
-        after a second-order correction) or ``None``."""
+        after a second-order correction) or ``None``; ``m`` the current
+        iterate's :meth:`_measures`."""
         s = self.s
         alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
         alpha = alpha_max
@@ -490,20 +523,20 @@ class _Run:
                     return trial, alpha, step, f_type, trials
                 if trials == 1 and trial[2] >= theta and s.max_soc:
                     corrected = self._second_order(w, alpha, trial, theta, phi, slope, mu,
-                                                   tau, line_filter, residual_w, c)
+                                                   tau, line_filter, residual_w, m)
                     if corrected is not None:
                         return corrected + (trials,)
             alpha /= 2
         return None
 
     def _second_order(self, w, alpha, trial, theta, phi, slope, mu, tau, line_filter,
-                      residual_w, c):
+                      residual_w, m):
         """Second-order corrections of a rejected full step (up to
         ``max_soc``, while each cuts the violation by ``kappa_soc``)."""
         s, B = self.s, self.bounds
-        c_soc = alpha * c + self._row_residuals(trial[0].rows, trial[1])
+        c_soc = alpha * m["c"] + trial[5]
         theta_old = trial[2]
-        gap_lower, gap_upper = B.gaps(w)
+        gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
         lo, up = B.lower_index, B.upper_index
         for _ in range(int(s.max_soc)):
             t = time.perf_counter()
@@ -524,7 +557,7 @@ class _Run:
             if soc_trial[2] > s.kappa_soc * theta_old:
                 return None
             theta_old = soc_trial[2]
-            c_soc = alpha_soc * c_soc + self._row_residuals(soc_trial[0].rows, soc_trial[1])
+            c_soc = alpha_soc * c_soc + soc_trial[5]
         return None
 
 

@@ -55,7 +55,7 @@ def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_si
     rhs[n:] = 0.0
     rhs[n:][inequality] = -gradient_w[n:]
     y = kkt.solve(rhs)[n:]
-    if not np.all(np.isfinite(y)) or np.max(np.abs(y), initial=0.0) > limit:
+    if not np.isfinite(y).all() or np.abs(y).max(initial=0.0) > limit:
         return np.zeros(m)
     return y
 

@@ -95,13 +95,16 @@ class StepSolver:
     def _factor(self, hessian_values, jacobian_values, sigma, delta_w, delta_c):
         n = self.n
         slack_diagonal = sigma[n:] + delta_w
-        diagonal_c = delta_c + np.bincount(self.inequality, weights=1.0 / slack_diagonal,
-                                           minlength=self.m)
+        if self.inequality.size:
+            diagonal_c = delta_c + np.bincount(self.inequality, weights=1.0 / slack_diagonal,
+                                               minlength=self.m)
+        else:  # delta_c + 0.0, as the sum above
+            diagonal_c = np.full(self.m, delta_c + 0.0)
         self.factorizations += 1
         inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
                                   diagonal_c)
         self._state = (slack_diagonal, delta_w, delta_c)
-        return tuple(int(v) for v in inertia)
+        return int(inertia[0]), int(inertia[1]), int(inertia[2])
 
     def compute(self, hessian_values, jacobian_values, sigma, residual_w, residual_c, mu):
         """The regularized Newton step, or ``None`` when no regularization up
@@ -179,25 +182,34 @@ class StepSolver:
         slack_diagonal, delta_w, delta_c = self._state
         residual_s = residual_w[n:]
         rhs = np.empty(n + self.m)
-        rhs[:n] = -residual_w[:n]
-        rhs[n:] = -residual_c
-        rhs[n:] += np.bincount(self.inequality, weights=self.signs * residual_s / slack_diagonal,
-                               minlength=self.m)
-        if not np.all(np.isfinite(rhs)):
+        np.negative(residual_w[:n], out=rhs[:n])
+        if self.inequality.size:
+            rhs[n:] = -residual_c
+            rhs[n:] += np.bincount(self.inequality,
+                                   weights=self.signs * residual_s / slack_diagonal,
+                                   minlength=self.m)
+        else:  # -residual_c + 0.0 (as the sum above, a zero's sign too)
+            np.subtract(0.0, residual_c, out=rhs[n:])
+        if not np.isfinite(rhs).all():
             return None
         solution = self.kkt.solve(rhs)
+        finite = None  # not yet tested
         if self.settings.max_refinement_steps:
-            scale = max(1.0, float(np.max(np.abs(rhs), initial=0.0)))
+            scale = max(1.0, float(np.abs(rhs).max(initial=0.0)))
             for _ in range(int(self.settings.max_refinement_steps)):
-                if not np.all(np.isfinite(solution)):
+                finite = bool(np.isfinite(solution).all())
+                if not finite:
                     break
                 error = rhs - self.kkt.matvec(solution)
-                if not np.max(np.abs(error), initial=0.0) > self.settings.residual_ratio_max \
+                if not np.abs(error).max(initial=0.0) > self.settings.residual_ratio_max \
                         * scale:
                     break
                 solution = solution + self.kkt.solve(error)
-        if not np.all(np.isfinite(solution)):
+                finite = None
+        if not (np.isfinite(solution).all() if finite is None else finite):
             return None
         dx, dy = solution[:n], solution[n:]
+        if not self.inequality.size:
+            return NewtonStep(dx.copy(), dy, delta_w, delta_c)
         ds = (-self.signs * dy[self.inequality] - residual_s) / slack_diagonal
         return NewtonStep(np.concatenate([dx, ds]), dy, delta_w, delta_c)
