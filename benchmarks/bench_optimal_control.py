@@ -11,6 +11,15 @@ opty's gallery's (normal random numbers, seed 0) at its 501 nodes, then the
 501-node optimum interpolated for the other sizes.  Both call the same IPOPT
 library (cyipopt on Debian's libipopt).
 
+With ``--repeat K`` each tool then solves its problem again K times from the
+same guess, the tools in turn (kanedyn's solvers, opty, and again), and the
+time per iteration is also printed as the minimum over those solves (wall
+time of the solve over its iterations; kanedyn's interior point with its
+phases from the fastest solve): the cost of an iteration without what a
+first solve does once (the first calls into each module, kanedyn's
+Hessian terms differentiated on first use, the KKT analysis, warming the
+caches), and less of the machine's other work.
+
 Printed per size: the wall time from the model to the optimum (kanedyn: the
 numerical model, the problem, the solve; opty: the problem, whose
 construction generates and compiles its code, and the solve), the solve
@@ -69,7 +78,8 @@ rest (the algorithm's own work in Python).  The scan's contenders include
 Usage::
 
     python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100] \
-        [--hessian exact] [--solvers ipopt interior-point] [--linear-solver dense]
+        [--hessian exact] [--solvers ipopt interior-point] [--linear-solver dense] \
+        [--repeat 5]
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
         [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
@@ -105,6 +115,9 @@ HESSIAN = {"kind": "limited-memory"}
 #: method's factorization (``--linear-solver``)
 SOLVERS = {"kanedyn": ["ipopt"], "linear_solver": "sparse"}
 
+#: repeated solves of each built problem (``--repeat``)
+REPEAT = {"solves": 0}
+
 
 def interior_point_options():
     """The interior-point solver's options: IPOPT_OPTIONS' tolerance and
@@ -129,21 +142,30 @@ def run_kanedyn(build, nodes, guess, solver="ipopt"):
         from kanedyn.numerics import weighted_hessians  # the Hessian's module too
         weighted_hessians(model, np.zeros(1), np.zeros((1, model.n_states)),
                           np.zeros((1, len(model.input_names))), np.zeros((1, model.n_states)))
-    timings = None
     if solver == "interior-point":
-        from kanedyn.optimization.interior_point import InteriorPoint, SparseKKT
+        from kanedyn.optimization.interior_point import SparseKKT
         SparseKKT(1, 0, ([0], [0]), ([], []))  # its module built beforehand, as the
-        chosen = InteriorPoint()                # derivatives' above
-        result = problem.solve(guess, solver=chosen, hessian="exact",
-                               options=interior_point_options())
-        timings = chosen.timings
-    else:
+                                                # derivatives' above
+
+    def solve():
+        """``(result, timings)`` of one solve from ``guess``."""
+        if solver == "interior-point":
+            from kanedyn.optimization.interior_point import InteriorPoint
+            chosen = InteriorPoint()
+            result = problem.solve(guess, solver=chosen, hessian="exact",
+                                   options=interior_point_options())
+            return result, chosen.timings
         options, hessian = kanedyn_options()
-        result = problem.solve(guess, options=options, hessian=hessian)  # derivatives built above
+        return problem.solve(guess, options=options, hessian=hessian), None
+    result, timings = solve()  # derivatives built above
     total = time.perf_counter() - start
+
+    def again():
+        result, timings = solve()
+        return result.wall_time, result.iterations, timings
     return dict(total=total, solve=result.wall_time, iterations=result.iterations,
                 objective=result.objective, status=result.status, x=result.x,
-                timings=timings)
+                timings=timings, again=again)
 
 
 def _phases(timings, iterations):
@@ -160,8 +182,30 @@ def run_opty(build, nodes, guess, ns, nr):
     built = time.perf_counter()
     x, info, iterations = peers.solve_opty(problem, guess, ns, nr)
     end = time.perf_counter()
+
+    def again():
+        problem.obj_value.clear()  # opty appends each iteration's objective there
+        begin = time.perf_counter()
+        _, _, count = peers.solve_opty(problem, guess, ns, nr)
+        return time.perf_counter() - begin, count, None
     return dict(total=end - start, solve=end - built, iterations=iterations,
-                objective=float(info["obj_val"]), status=int(info["status"]), x=x)
+                objective=float(info["obj_val"]), status=int(info["status"]), x=x,
+                again=again)
+
+
+def repeated(runs, rounds):
+    """Per run (``{name: run}`` of :func:`run_kanedyn` / :func:`run_opty`): the
+    least seconds per iteration over ``rounds`` more solves, the runs in
+    turn, and the timings of that solve (``(per iteration, iterations,
+    timings)``)."""
+    best = {}
+    for _ in range(rounds):
+        for name, run in runs.items():
+            seconds, iterations, timings = run["again"]()
+            per = seconds / max(iterations, 1)
+            if name not in best or per < best[name][0]:
+                best[name] = (per, iterations, timings)
+    return best
 
 
 def compare(label, kanedyn_build, opty_build, nodes, guess, ns, nr):
@@ -184,6 +228,19 @@ def compare(label, kanedyn_build, opty_build, nodes, guess, ns, nr):
               f"solutions by {np.max(np.abs(k['x'] - o['x'])):.1e} at most")
         print(f"  opty / {names[solver]}: model->optimum {o['total'] / k['total']:.1f}x, "
               f"per iteration {per_o / (k['solve'] / max(k['iterations'], 1)):.2f}x")
+    if REPEAT["solves"]:
+        best = repeated({**{names[s]: r for s, r in ours.items()}, "opty+IPOPT": o},
+                        REPEAT["solves"])
+        print(f"  per iteration, least of {REPEAT['solves']} more solves each, in turn "
+              f"(load {os.getloadavg()[0]:.1f}):")
+        for name, (per, iterations, timings) in best.items():
+            print(f"  {name:13s} {1e3 * per:7.3f} ms ({iterations} iterations)")
+            if timings:
+                print(f"  {'':13s} {_phases(timings, iterations)}")
+        for name in best:
+            if name != "opty+IPOPT":
+                print(f"  opty / {name}: per iteration "
+                      f"{best['opty+IPOPT'][0] / best[name][0]:.2f}x")
     return ours[SOLVERS["kanedyn"][0]], o
 
 
@@ -438,6 +495,9 @@ def main():
                         help="the pendulum's collocation for both tools (not the scan's): "
                              "backward Euler is opty's default; at 100 and 200 nodes the "
                              "swing-up is infeasible with it, and with the midpoint rule not")
+    parser.add_argument("--repeat", type=int, default=0,
+                        help="solve each built problem this many more times, the tools in "
+                             "turn, and print the least time per iteration")
     parser.add_argument("--scan", action="store_true",
                         help="nodes against memory and time, one process per run")
     parser.add_argument("--scan-nodes", type=int, nargs="*",
@@ -456,6 +516,7 @@ def main():
     HESSIAN["kind"] = args.hessian
     SOLVERS["kanedyn"] = args.solvers
     SOLVERS["linear_solver"] = args.linear_solver
+    REPEAT["solves"] = args.repeat
     pendulum_kanedyn = functools.partial(peers.pendulum_kanedyn, method=args.method)
     pendulum_opty = functools.partial(peers.pendulum_opty, method=args.method)
     os.environ.setdefault("KANEDYN_CACHE_DIR", tempfile.mkdtemp(prefix="kd-bench-ocp-"))
