@@ -742,8 +742,7 @@ class NumericModel(StateLayout):
     def _r(self, t, y):
         return self._read_inputs(t, y)
 
-    def _input_values(self, t, y):
-        return self._read_inputs(t, y)
+    _input_values = _r  # the same values (an older name some callers use)
 
     def input_values(self, t, y):
         """The specified inputs' values at ``(t, y)``, in the order of

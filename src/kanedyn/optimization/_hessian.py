@@ -144,9 +144,9 @@ class LagrangianHessian:
         #: with a free duration: without one it is not computed
         self._first = bool(L.free_duration)
         # where the generated Hessian's rows and columns go in u: a leading
-        # block (a slice) unless the time follows free parameters it lacks
+        # block (slices) unless the time follows free parameters it lacks
         index = list(range(nx + len(pb.free_columns))) + [nx + nf] * bool(self.time)
-        self._h_index = (slice(0, len(index)) if index == list(range(len(index)))
+        self._h_index = ((slice(0, len(index)),) * 2 if index == list(range(len(index)))
                          else (np.array(index)[:, None], np.array(index)[None, :]))
         self.interval = not hasattr(nlp.defects, "stages")
         N = L.nodes
@@ -212,10 +212,7 @@ class LagrangianHessian:
                                     SimpleNamespace(f=f, state=A, inputs=B),
                                     parameters=columns, time=self.time)
         Hu = np.zeros((K, self.nu, self.nu))
-        if isinstance(self._h_index, slice):
-            Hu[:, self._h_index, self._h_index] = H
-        else:
-            Hu[:, self._h_index[0], self._h_index[1]] = H
+        Hu[:, self._h_index[0], self._h_index[1]] = H
         if not self._first:
             return Hu, None
         gu = np.zeros((K, self.nu))

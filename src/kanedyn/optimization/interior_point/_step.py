@@ -193,20 +193,17 @@ class StepSolver:
         if not np.isfinite(rhs).all():
             return None
         solution = self.kkt.solve(rhs)
-        finite = None  # not yet tested
         if self.settings.max_refinement_steps:
             scale = max(1.0, float(np.abs(rhs).max(initial=0.0)))
             for _ in range(int(self.settings.max_refinement_steps)):
-                finite = bool(np.isfinite(solution).all())
-                if not finite:
+                if not np.isfinite(solution).all():
                     break
                 error = rhs - self.kkt.matvec(solution)
                 if not np.abs(error).max(initial=0.0) > self.settings.residual_ratio_max \
                         * scale:
                     break
                 solution = solution + self.kkt.solve(error)
-                finite = None
-        if not (np.isfinite(solution).all() if finite is None else finite):
+        if not np.isfinite(solution).all():
             return None
         dx, dy = solution[:n], solution[n:]
         if not self.inequality.size:
