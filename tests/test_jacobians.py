@@ -507,3 +507,20 @@ def test_the_compiled_loop_refuses_what_its_jacobian_lacks():
     with pytest.raises(kd.OptionError, match="Rosenbrock23 loop takes jac='exact' or "
                                              "'differences'"):
         kd.simulate(model, (0.0, 0.1), y0, method="Rosenbrock23", jac=np.eye(model.n_states))
+
+
+@needs_compiler
+def test_constants_asked_of_a_model_without_any(line_particle):
+    """A model whose constants are all numbers (the OC3 spar's built-in form):
+    ``parameters=True`` gives an empty block beside the same derivatives.  The C
+    module asked for them once failed to compile (its generated function had
+    the constants' outputs, their call site not, with no columns to fill)."""
+    eom, _q, _u = line_particle(2.0, lambda q, u: -3.0 * q ** 3 - 0.5 * u)
+    y = [0.4, -0.3]
+    numpy = eom.numeric(backend="numpy").jacobians(0.0, y)
+    model = eom.numeric(backend="c")
+    assert not model.constants
+    asked = model.jacobians(0.0, y, parameters=True)
+    assert asked.parameters.shape == (2, 0)
+    np.testing.assert_allclose(asked.state, numpy.state, rtol=1e-14, atol=0.0)
+    np.testing.assert_allclose(asked.state, [[0.0, 1.0], [-4.5 * 0.4 ** 2, -0.25]], rtol=1e-14)

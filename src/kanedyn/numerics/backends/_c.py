@@ -913,15 +913,23 @@ def _runtime_parts(functions, sizes, lanes, share=None):
     return generic, model
 
 
-def _parameter_columns(functions, sizes):
-    """Columns of the constants in the outputs of the ``jacobians`` function whose
-    derivatives the module solves in C: its outputs ``g_x, E_x, a_x`` per column
-    group (state, inputs, and the constants when asked for), then ``h_y, c_y``.
-    ``None`` without that function, or with more outputs (a stabilized scheme's
-    parts: its derivatives are solved in NumPy)."""
+def _jacobian_groups(functions, sizes):
+    """Column groups in the outputs of the ``jacobians`` function whose
+    derivatives the module solves in C: its outputs ``g_x, E_x, a_x`` per group
+    (the state, the inputs, and the constants when asked for: 2 or 3), then
+    ``h_y, c_y``.  ``None`` without that function, or with more outputs (a
+    stabilized scheme's parts: its derivatives are solved in NumPy)."""
     _, outputs = functions.get("jacobians", (None, ()))
     count = len(outputs) - (sizes.get("jacobian_tree") is not None)  # the tree's factors
-    return {8: 0, 11: sizes["n_p"]}.get(count)
+    return {8: 2, 11: 3}.get(count)
+
+
+def _parameter_columns(functions, sizes):
+    """Columns of the constants in the outputs of the ``jacobians`` function
+    (:func:`_jacobian_groups`; 0 where they were not asked for, or the model
+    has none); ``None`` where the module does not solve its derivatives."""
+    groups = _jacobian_groups(functions, sizes)
+    return None if groups is None else (sizes["n_p"] if groups == 3 else 0)
 
 
 def jacobian_solve_defines(functions, sizes):
@@ -930,6 +938,7 @@ def jacobian_solve_defines(functions, sizes):
     tree whose derivatives come from their factors (:func:`jacobian_tree_source`)
     and, where the articulated-body pass solves them, ``KD_JAC_TREE_SOLVE``."""
     defines = [f"#define KD_JP {_parameter_columns(functions, sizes)}",
+               f"#define KD_JAC_GROUPS {_jacobian_groups(functions, sizes)}",
                *jacobian_tree_source(sizes)]
     tree = _solving_tree(functions, sizes)
     if tree is not None:  # solved by the tree pass

@@ -354,7 +354,7 @@ KD_GEN int kd_rhs_core(double t, const double *y, const double *p, const double 
 
 #: the exact derivatives of a module with the generated ``jacobians`` function
 #: (``kanedyn.numerics._jacobians``): its outputs, ``g_x, E_x, a_x`` per column
-#: group (state, inputs, constants when ``KD_JP`` > 0), then ``h_y, c_y``, at the
+#: group (state, inputs, constants when ``KD_JAC_GROUPS`` is 3), then ``h_y, c_y``, at the
 #: accelerations and multipliers of the index-1 system, and the solve of that
 #: system for the derivatives; part of the model's unit (no Python)
 JACOBIAN_SOLVE = r"""
@@ -694,7 +694,7 @@ static void kd_jacobian_blocks(double t, const double *y, const double *p, doubl
        pointer of its own, not aliasing c_y's (restrict) */
     static double no_rows[1];
     double *h = KD_NQDEP > 0 ? C : no_rows;
-#if KD_JP > 0
+#if KD_JAC_GROUPS == 3  /* the constants' outputs, of no columns where there are none */
     KD_JAC_EVAL(t, y, p, rx, w, g[0], E[0], a[0], g[1], E[1], a[1], g[2], E[2], a[2],
                 h, C + KD_NQDEP * KD_NX KD_TREE_OUT);
 #else
