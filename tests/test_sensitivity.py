@@ -61,6 +61,29 @@ def test_a_chain_against_differences_of_whole_runs():
         np.testing.assert_allclose(s.parameters[-1][:, k], column, rtol=1e-5, atol=1e-6)
 
 
+def test_directions_of_the_initial_state_against_the_closed_form(oscillator):
+    """``directions``: the columns are d x / d y0 times the directions given
+    (the closed form's cos(w t) and sin(w t) / w combined), the parameters'
+    columns as without them; a bad shape is refused."""
+    model = oscillator
+    w = np.sqrt(50.0 / 2.0)
+    t = np.linspace(0.0, 3.0, 7)
+    V = np.array([[1.0, 0.5], [0.0, -2.0]])
+    s = kd.sensitivity(model, (0.0, 3.0), [0.3, -1.2], t_eval=t, rtol=1e-11, atol=1e-12,
+                       directions=V)
+    full = kd.sensitivity(model, (0.0, 3.0), [0.3, -1.2], t_eval=t, rtol=1e-11, atol=1e-12)
+    assert s.initial.shape == (t.size, 2, 2)
+    np.testing.assert_allclose(s.initial[:, 0, 0], np.cos(w * t), atol=1e-8)
+    np.testing.assert_allclose(s.initial[:, 0, 1], 0.5 * np.cos(w * t) - 2.0 * np.sin(w * t) / w,
+                               atol=1e-8)
+    np.testing.assert_allclose(s.parameters, full.parameters, atol=1e-8)
+    none = kd.sensitivity(model, (0.0, 3.0), [0.3, -1.2], t_eval=t, directions=np.zeros((2, 0)))
+    assert none.initial.shape == (t.size, 2, 0) and none.parameters.shape == (t.size, 2, 2)
+    with pytest.raises(kd.OptionError, match=r"directions must be a finite array of shape "
+                                             r"\(2, m\)"):
+        kd.sensitivity(model, (0.0, 1.0), [0.1, 0.0], directions=[1.0, 0.0])
+
+
 def test_bad_requests(oscillator):
     model = oscillator
     with pytest.raises(kd.OptionError, match="'c' is not a constant of this model; its "

@@ -90,7 +90,7 @@ class _Problem:
     """The unknowns, the records and the evaluation of residuals and Jacobian."""
 
     def __init__(self, model, records, parameters, initial, y0, sigma, bounds, method,
-                 rtol, atol):
+                 rtol, atol, growth=True):
         from ..numerics import derivatives_unavailable
         if not (hasattr(model, "jacobians") and hasattr(model, "state_names")):
             raise ModelError(f"identify needs a NumericModel, got {type(model).__name__} "
@@ -131,7 +131,8 @@ class _Problem:
         self.scales = self._scales()
         self.lower, self.upper = self._bounds(bounds or {})
         self._cache = {}
-        self.growth = 0.0
+        # the growth (segments="auto"): from the first evaluation, at the initial guess
+        self.growth = None if growth else math.nan
 
     # ------------------------------------------------------------ checks
     @staticmethod
@@ -327,17 +328,29 @@ class _Problem:
         return D
 
     # ----------------------------------------------------- evaluation
-    def _integrate(self, model, rec, k, y_start, t_span, t_eval):
+    def _integrate(self, model, rec, k, y_start, t_span, t_eval, D0=None):
+        """The run and its sensitivities; given ``D0`` (``d y_start / d unknowns``),
+        also ``dY``, ``d y(t_eval) / d unknowns`` (shape (N, n_states, D0's
+        columns)), from the sensitivities along the columns of ``D0`` that are not
+        zero only (all of ``d y / d y_start`` without ``D0``)."""
         from ..simulation import sensitivity
+        used = None if D0 is None else np.flatnonzero(np.any(D0 != 0, axis=0))
         try:
             s = sensitivity(model, t_span, y_start, parameters=list(self.pnames),
-                            t_eval=t_eval, method=self.method, rtol=self.rtol, atol=self.atol)
+                            t_eval=t_eval, method=self.method, rtol=self.rtol, atol=self.atol,
+                            directions=None if used is None else D0[:, used])
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             raise _Failed(f"{self._label(k)}: the integration failed ({exc})") from None
         if not s.success or s.t.size != len(t_eval) or not np.all(np.isfinite(s.y)):
             raise _Failed(f"{self._label(k)}: the integration stopped at t = "
                           f"{(s.t[-1] if s.t.size else t_span[0]):g} s ({s.message})")
-        return s
+        if D0 is None:
+            return s, None
+        dY = np.zeros(s.initial.shape[:2] + (D0.shape[1],))
+        dY[:, :, used] = s.initial
+        if self.n_p:
+            dY[:, :, :self.n_p] += s.parameters * self.scales[:self.n_p]
+        return s, dY
 
     def _predict(self, model, k, rec, idx, Y, dY):
         """Predictions and their derivatives (rows: channels, then samples ``idx``)."""
@@ -378,20 +391,27 @@ class _Problem:
             return self._cache[key]
         model = self.fitted_model(x)
         es, Es = [], []
+        first, growth = self.growth is None, 0.0
         for k, rec in enumerate(self.records):
             m = model.with_inputs(rec.inputs) if rec.inputs else model
             y = self.initial_state(m, k, x)
             D0 = self._start_derivative(m, k, x, y)
-            s = self._integrate(m, rec, k, y, (rec.t0, float(rec.t[-1])), rec.t)
-            dY = s.initial @ D0
-            if self.n_p:
-                dY[:, :, :self.n_p] += s.parameters * self.scales[:self.n_p]
-            self.growth = max(self.growth, _growth(s))
+            span = (rec.t0, float(rec.t[-1]))
+            if first:  # all of d y / d y_start, for the growth
+                s, _ = self._integrate(m, rec, k, y, span, rec.t)
+                dY = s.initial @ D0
+                if self.n_p:
+                    dY[:, :, :self.n_p] += s.parameters * self.scales[:self.n_p]
+                growth = max(growth, _growth(s))
+            else:
+                s, dY = self._integrate(m, rec, k, y, span, rec.t, D0)
             preds, derivs = self._predict(m, k, rec, np.arange(rec.t.size), s.y.T, dY)
             for c, pred, d in zip(self.channels[k], preds, derivs):
                 es.append(pred - c.data)
                 Es.append(d)
         out = (np.concatenate(es), np.vstack(Es))
+        if first:
+            self.growth = growth
         self._cache.clear()
         self._cache[key] = out
         return out
@@ -489,10 +509,7 @@ class _Shooting:
                     t0 = float(rec.t[first])
                 t_end = float(rec.t[idx[-1]] if j == n_seg - 1 else rec.t[last])
                 t_eval = rec.t[idx] if j == n_seg - 1 else np.append(rec.t[idx], t_end)
-                s = p._integrate(m, rec, k, y, (t0, t_end), t_eval)
-                dY = s.initial @ D0
-                if p.n_p:
-                    dY[:, :, :p.n_p] += s.parameters * p.scales[:p.n_p]
+                s, dY = p._integrate(m, rec, k, y, (t0, t_end), t_eval, D0)
                 preds, derivs = p._predict(m, k, rec, idx, s.y.T[:idx.size], dY[:idx.size])
                 for c, pred, d in zip(p.channels[k], preds, derivs):
                     rows[c.name][0].append(pred - c.data[idx])
@@ -638,7 +655,7 @@ def identify(model, data, parameters=(), *, initial=(), y0=None, sigma=None, bou
                               + f", got {value!r}")
     records = as_records(data)
     problem = _Problem(model, records, parameters, initial, y0, sigma, bounds, method,
-                       rtol, atol)
+                       rtol, atol, growth=segments == "auto")
     if segments != "auto" and segments > 1 and problem.constrained:
         raise OptionError("identify: segments > 1 (multiple shooting) is for models "
                           "without constraints; use segments=1")
