@@ -180,8 +180,10 @@ def derived(definition):
 def derivatives_built_with(monkeypatch, tmp_path, folder, built, states=2, **settings):
     """``model.jacobians`` at ``states`` states and at one (parameters included) of a
     new C model of ``built``, ``(definition, eom)``, whose derivative module is
-    built in a fresh cache with the settings of ``_jacobians`` given, and that
-    module's cache key."""
+    built with the settings of ``_jacobians`` given in the cache ``folder`` of
+    ``tmp_path`` (a fresh one, or one that holds no derivative module of that
+    module's key: the caller asserts the keys differ), and that module's cache
+    key."""
     from kanedyn.numerics.backends import _c_build
     with monkeypatch.context() as patch:
         patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
@@ -231,9 +233,11 @@ def test_solved_by_the_tree_pass(which, monkeypatch, tmp_path):
         parent = [-1, 0, 1, 2, 3, 4, 2, 6, 7, -1, 9, 10]
         definition = kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, 5))
     built = derived(definition)
-    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "pass", built, 3,
+    # one cache for both: the model's own module is compiled once, and the two
+    # derivative modules have different keys (asserted), so each is built here
+    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "cache", built, 3,
                                            TREE_SOLVE_MIN_DEPTH=0)
-    *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "M", built, 3,
+    *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "cache", built, 3,
                                           TREE_SOLVE_MIN_DEPTH=10**6)
     assert "function tree" in key and "function dynamics" not in key
     assert "function dynamics" in key_M and "function tree" not in key_M
