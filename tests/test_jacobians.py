@@ -6,6 +6,8 @@ every built-in model, Pinocchio's ``computeABADerivatives`` on random trees and
 real robots, and SymPy's linearization of the same equations.
 """
 
+import functools
+import tempfile
 from importlib.metadata import PackageNotFoundError, distribution
 from pathlib import Path
 
@@ -87,9 +89,13 @@ def test_every_builtin_model_matches_differences_of_its_rhs(name, numpy_models):
     assert J.state.shape == (y.size, y.size)
     np.testing.assert_allclose(J.f, model.rhs(0.0, y), rtol=1e-12, atol=1e-12)
     assert relative(J.state, differences(lambda z: model.rhs(0.0, z), y)) < 1e-8
-    if model.input_names:
+    if model.input_names:  # differences of rhs with the inputs' values changed (each
+        # with_inputs copy shares the model's code): on oc3-spar (60 inputs, 240 calls)
+        # 0.8 ms a call, where the derivatives' own f at each r took 3 ms after a first
+        # call of 2 s
         r0 = np.array([inp(0.0, y) for _, inp in model._inputs])
-        fr = differences(lambda r: model.jacobians(0.0, y, r=r).f, r0)
+        names = model.input_names
+        fr = differences(lambda r: model.with_inputs(dict(zip(names, r))).rhs(0.0, y), r0)
         assert relative(J.inputs, fr) < 1e-8
     names = list(model.constants)
     p0 = np.array([model.constants[k] for k in names])
@@ -259,11 +265,15 @@ def pinocchio_derivatives(pmodel, definition, q, u, tau):
     return dq[pick], dv[pick], dtau[pick]
 
 
-def compare_with_pinocchio(path, states=3, seed=0, backend="numpy"):
-    """Worst relative difference of d(u')/d(q, u, tau) over random states."""
-    definition = kd.models.from_urdf(path)
-    pmodel = pinocchio().buildModelFromUrdf(str(path))
-    model = definition.numeric(backend=backend)
+def compare_with_pinocchio(path, states=3, seed=0, backend="numpy", built=None):
+    """Worst relative difference of d(u')/d(q, u, tau) over random states;
+    ``built``: ``(definition, Pinocchio's model, numeric model)`` of ``path``
+    already made (else made here, the numeric model on ``backend``)."""
+    if built is None:
+        definition = kd.models.from_urdf(path)
+        built = (definition, pinocchio().buildModelFromUrdf(str(path)),
+                 definition.numeric(backend=backend))
+    definition, pmodel, model = built
     n = len(definition.joints)
     efforts = [model.input_names.index(str(j.effort_input)) for j in definition.joints]
     rng = np.random.default_rng(seed)
@@ -280,12 +290,31 @@ def compare_with_pinocchio(path, states=3, seed=0, backend="numpy"):
     return worst
 
 
-@pytest.mark.parametrize("seed", [0, 1, 2])
-def test_random_trees_match_pinocchio(tmp_path, seed):
+@functools.cache
+def random_tree(seed):
+    """``(definition, Pinocchio's model, NumPy model)`` of the random tree of seven
+    joints of ``seed``, made once per process: test_jacobians_trees.py asserts
+    on the same model that its derivatives come from the spatial formulas."""
     rng = np.random.default_rng(seed)
     parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]
-    path = random_tree_urdf(tmp_path / "tree.urdf", parent, seed)
-    assert compare_with_pinocchio(path, seed=seed) < 1e-9
+    with tempfile.TemporaryDirectory() as folder:
+        path = random_tree_urdf(Path(folder) / "tree.urdf", parent, seed)
+        definition = kd.models.from_urdf(path)
+        return definition, pinocchio().buildModelFromUrdf(str(path)), definition.numeric(
+            backend="numpy")
+
+
+@functools.cache
+def random_tree_against_pinocchio(seed):
+    """Worst relative difference between the derivatives of :func:`random_tree`
+    ``(seed)`` and Pinocchio's, over three random states, computed once per
+    process for this file's test and test_jacobians_trees.py's."""
+    return compare_with_pinocchio(None, seed=seed, built=random_tree(seed))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_random_trees_match_pinocchio(seed):
+    assert random_tree_against_pinocchio(seed) < 1e-9
 
 
 def robot_file(relative_path):

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 import sympy as sm
 import sympy.physics.mechanics as me
-from test_jacobians import (a_state, compare_with_pinocchio, differences, needs_compiler,
-                            relative, robot_file)
+from test_jacobians import (a_state, differences, needs_compiler, random_tree,
+                            random_tree_against_pinocchio, relative, robot_file)
 from test_tree_factor import random_tree_urdf
 
 import kanedyn as kd
@@ -89,11 +89,25 @@ def chain(n=4):
     return definition, definition.numeric(backend="numpy")
 
 
-def urdf_tree(tmp_path, seed=1):
+def urdf_tree_file(tmp_path, seed=1):
     rng = np.random.default_rng(seed)
     parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]  # several roots
-    definition = kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, seed))
-    return definition.numeric(backend="numpy")
+    return random_tree_urdf(tmp_path / "tree.urdf", parent, seed)
+
+
+def one_derivation(which, urdf=None):
+    """``new(backend="numpy")``: a new numeric model of the tree ``which`` (the gimbal,
+    chain3d n = 4, or the URDF file ``urdf``) at each call, every one from the
+    same derivation: a model keeps its own derivatives and workspace (the
+    equations stay as derived), so each call's model starts as a first one."""
+    if which == "gimbal":
+        eom, constants, F = gimbal()
+        return lambda backend="numpy": eom.numeric(constants=constants, specified={F: 0.8},
+                                                   backend=backend)
+    definition = (kd.models.build("chain3d", n=4) if which == "chain3d"
+                  else kd.models.from_urdf(urdf))
+    eom = definition.derive()
+    return lambda backend="numpy": definition.numeric(eom, backend=backend)
 
 
 def a_tree_state(model, seed=3):
@@ -104,10 +118,7 @@ def a_tree_state(model, seed=3):
 def test_trees_agree_with_the_derivatives_of_the_program(which, monkeypatch, tmp_path):
     """State, inputs and constants, the same to round-off whichever way the state
     columns of the inertia forces were formed."""
-    def build():
-        if which == "gimbal":
-            return gimbal_model()
-        return chain()[1] if which == "chain3d" else urdf_tree(tmp_path)
+    build = one_derivation(which, urdf_tree_file(tmp_path) if which == "urdf" else None)
     model, general = build(), build()
     assert spatial_rows(model) is not None
     y = a_tree_state(model)
@@ -122,18 +133,14 @@ def factors_against_expressions(which, backend, monkeypatch, tmp_path):
     """Worst relative difference between the derivatives of a tree whose entries
     are formed from its factors when the code runs and those written as
     expressions, over three states at once, parameters included, and one."""
-    def build():
-        if which == "gimbal":
-            return gimbal_model(backend)
-        if which == "chain3d":
-            return chain()[0].numeric(backend=backend)
-        return kd.models.from_urdf(random_tree_urdf(
-            tmp_path / "tree.urdf", [-1, 0, 1, -1, 3, 3, 0], 4)).numeric(backend=backend)
-    expressions = build()
+    new = one_derivation(which, random_tree_urdf(tmp_path / "tree.urdf",
+                                                 [-1, 0, 1, -1, 3, 3, 0], 4)
+                         if which == "urdf" else None)
+    expressions = new(backend)
     Y = np.random.default_rng(8).uniform(-1.2, 1.2, (3, expressions.n_states))
     theirs = expressions.jacobians(0.0, Y, parameters=True)
     monkeypatch.setattr(_jacobians, "TREE_FACTOR_MIN_SPEEDS", 1)
-    factored = build()
+    factored = new(backend)
     mine = factored.jacobians(0.0, Y, parameters=True)
     if backend == "numpy":
         assert factored.__dict__["_jacobian_tree"] is not None
@@ -163,18 +170,28 @@ def test_factors_formed_in_c(which, monkeypatch, tmp_path):
     assert factors_against_expressions(which, "c", monkeypatch, tmp_path) < 1e-12
 
 
-def derivatives_built_with(monkeypatch, tmp_path, folder, build, states=2, **settings):
+def derived(definition):
+    """``(definition, its equations)``: derived once for the several C models a
+    test builds from them (the settings of ``_jacobians`` those tests change act
+    on the derivative modules, not on the derivation)."""
+    return definition, definition.derive()
+
+
+def derivatives_built_with(monkeypatch, tmp_path, folder, built, states=2, **settings):
     """``model.jacobians`` at ``states`` states and at one (parameters included) of a
-    C model of ``build()`` whose derivative module is built in a fresh cache with
-    the settings of ``_jacobians`` given, and that module's cache key."""
+    new C model of ``built``, ``(definition, eom)``, whose derivative module is
+    built with the settings of ``_jacobians`` given in the cache ``folder`` of
+    ``tmp_path`` (a fresh one, or one that holds no derivative module of that
+    module's key: the caller asserts the keys differ), and that module's cache
+    key."""
     from kanedyn.numerics.backends import _c_build
     with monkeypatch.context() as patch:
         patch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / folder))
         patch.setattr(_c_build, "_LOADED", {})
         for name, value in settings.items():
             patch.setattr(_jacobians, name, value)
-        definition = build()
-        model = definition.numeric(backend="c")
+        definition, eom = built
+        model = definition.numeric(eom, backend="c")
         y = np.resize(definition.initial(model), model.n_states) + 0.1
         Y = np.stack([y * (1.0 - 0.1 * k) for k in range(states)])
         return (model.jacobians(0.0, Y, parameters=True),
@@ -189,9 +206,10 @@ def test_the_listings_of_the_derivative_module_give_the_same_numbers(monkeypatch
     together; from there M and the forcing are listed plain.  Both give the
     same derivatives, multipliers and all, to the bit (the four-bar: its solve
     uses M with multipliers; chain3d n = 7: the entries as expressions)."""
-    for build in (lambda: kd.models.build("four-bar"), lambda: kd.models.build("chain3d", n=7)):
-        together = derivatives_built_with(monkeypatch, tmp_path, "together", build)
-        apart = derivatives_built_with(monkeypatch, tmp_path, "apart", build,
+    for definition in (kd.models.build("four-bar"), kd.models.build("chain3d", n=7)):
+        built = derived(definition)
+        together = derivatives_built_with(monkeypatch, tmp_path, "together", built)
+        apart = derivatives_built_with(monkeypatch, tmp_path, "apart", built,
                                        PLAIN_DYNAMICS_MIN_SPEEDS=0)
         for mine, theirs in zip(together[:2], apart[:2]):
             for part in ("f", "state", "parameters", "multipliers"):
@@ -209,14 +227,17 @@ def test_solved_by_the_tree_pass(which, monkeypatch, tmp_path):
     several, on chain3d n = 12 (a chain: one block of bias rows, updated in
     place) and on a random tree of 12 joints in two branches from two roots (a
     block per speed)."""
-    def build():
-        if which == "chain3d":
-            return kd.models.build("chain3d", n=12, style="positions")
+    if which == "chain3d":
+        definition = kd.models.build("chain3d", n=12, style="positions")
+    else:
         parent = [-1, 0, 1, 2, 3, 4, 2, 6, 7, -1, 9, 10]
-        return kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, 5))
-    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "pass", build, 3,
+        definition = kd.models.from_urdf(random_tree_urdf(tmp_path / "tree.urdf", parent, 5))
+    built = derived(definition)
+    # one cache for both: the model's own module is compiled once, and the two
+    # derivative modules have different keys (asserted), so each is built here
+    *by_pass, key = derivatives_built_with(monkeypatch, tmp_path, "cache", built, 3,
                                            TREE_SOLVE_MIN_DEPTH=0)
-    *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "M", build, 3,
+    *by_M, key_M = derivatives_built_with(monkeypatch, tmp_path, "cache", built, 3,
                                           TREE_SOLVE_MIN_DEPTH=10**6)
     assert "function tree" in key and "function dynamics" not in key
     assert "function dynamics" in key_M and "function tree" not in key_M
@@ -333,14 +354,13 @@ def test_constant_loads_split_from_the_others():
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
-def test_pinocchio_compares_the_spatial_formulas(tmp_path, seed):
+def test_pinocchio_compares_the_spatial_formulas(seed):
     """test_jacobians.py compares these trees with Pinocchio: through the
-    spatial formulas."""
-    rng = np.random.default_rng(seed)
-    parent = [-1] + [int(rng.integers(-1, k)) for k in range(6)]
-    path = random_tree_urdf(tmp_path / "tree.urdf", parent, seed)
-    assert spatial_rows(kd.models.from_urdf(path).numeric(backend="numpy")) is not None
-    assert compare_with_pinocchio(path, seed=seed) < 1e-9
+    spatial formulas (the same model, and its comparison made once per process
+    for both files)."""
+    _, _, model = random_tree(seed)
+    assert spatial_rows(model) is not None
+    assert random_tree_against_pinocchio(seed) < 1e-9
 
 
 @pytest.mark.slow
