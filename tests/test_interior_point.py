@@ -17,6 +17,7 @@ The optimal control comparisons need cyipopt (IPOPT); without it they are
 skipped, saying so.
 """
 
+import functools
 import sys
 from pathlib import Path
 
@@ -347,15 +348,47 @@ def test_dense_kkt_refuses_a_bad_structure():
 
 
 # ------------------------------------------------- optimal control problems
+#: the tolerances of both solvers in the comparisons
+TIGHT = {"tol": 1e-10, "max_iter": 500}
+
+
+@functools.cache
+def _swing_up(peer, nodes, method, start):
+    """``(problem, guess)``: ``_ocp_peers.<peer>_kanedyn(nodes, method)`` on
+    the NumPy backend from the straight line with the input at ``start``,
+    built once for the module (the dense and the sparse factorizations are
+    compared with IPOPT on the same problems)."""
+    import _ocp_peers as peers
+    problem, _ = getattr(peers, f"{peer}_kanedyn")(nodes, method, backend="numpy")
+    return problem, problem.guess_line(inputs={problem.symbols.inputs[0]: start})
+
+
+#: IPOPT's optima, ``{id(problem): (problem, guess, result)}``
+_IPOPT_OPTIMA = {}
+
+
+def _ipopt_optimum(problem, guess):
+    """IPOPT's optimum of ``problem`` from ``guess`` (the exact Hessian,
+    :data:`TIGHT`), solved once for the same problem and guess objects (the
+    swing-ups of :func:`_swing_up`, which the dense and the sparse
+    factorizations' tests both compare with; the entry holds them, so an id
+    is not reused while it is kept)."""
+    kept = _IPOPT_OPTIMA.get(id(problem))
+    if kept is not None and kept[0] is problem and kept[1] is guess:
+        return kept[2]
+    result = problem.solve(guess, solver="ipopt", hessian="exact", options=TIGHT)
+    _IPOPT_OPTIMA[id(problem)] = (problem, guess, result)
+    return result
+
+
 def _same_optimum(problem, guess, objective_tolerance=1e-6, x_tolerance=1e-5, **options):
     """The problem solved by both solvers (the exact Hessian, tol 1e-10;
     ours with DenseKKT unless ``options`` say otherwise): ``(ours, IPOPT's)``,
     their optima compared."""
     _ipopt_or_skip()
-    tight = {"tol": 1e-10, "max_iter": 500}
     ours = problem.solve(guess, solver="interior-point", hessian="exact",
-                         options=dict(tight, **dict(DENSE, **options)))
-    theirs = problem.solve(guess, solver="ipopt", hessian="exact", options=tight)
+                         options=dict(TIGHT, **dict(DENSE, **options)))
+    theirs = _ipopt_optimum(problem, guess)
     assert theirs.success, theirs.message
     assert ours.success, ours.message
     assert ours.solver == "interior-point"
@@ -369,17 +402,13 @@ def _same_optimum(problem, guess, objective_tolerance=1e-6, x_tolerance=1e-5, **
 def test_pendulum_swing_up_ipopts_optimum(method):
     """opty's gallery swing-up (10 s, |torque| <= 2) at 50 nodes from a
     straight line: IPOPT's optimum."""
-    import _ocp_peers as peers
-    problem, _ = peers.pendulum_kanedyn(50, method, backend="numpy")
-    _same_optimum(problem, problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1}))
+    _same_optimum(*_swing_up("pendulum", 50, method, 0.1))
 
 
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
 def test_cart_pole_swing_up_ipopts_optimum(method):
     """The cart-pole swing-up (|F| <= 20 N, |x| <= 1.5 m) at 40 nodes."""
-    import _ocp_peers as peers
-    problem, _ = peers.cart_pole_kanedyn(40, method, backend="numpy")
-    _same_optimum(problem, problem.guess_line(inputs={problem.symbols.inputs[0]: 0.0}))
+    _same_optimum(*_swing_up("cart_pole", 40, method, 0.0))
 
 
 def _double_integrator(mass=1.0):
@@ -515,10 +544,7 @@ def test_sparse_factorization_reaches_ipopts_optimum(method):
     """``linear_solver="sparse"`` (``SparseKKT``, the default when it
     imports): the cart-pole's optimum of IPOPT, as with DenseKKT."""
     _sparse_or_skip()
-    import _ocp_peers as peers
-    problem, _ = peers.cart_pole_kanedyn(40, method, backend="numpy")
-    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.0})
-    _same_optimum(problem, guess, linear_solver="sparse")
+    _same_optimum(*_swing_up("cart_pole", 40, method, 0.0), linear_solver="sparse")
 
 
 @pytest.mark.slow
@@ -531,10 +557,8 @@ def test_sparse_factorization_on_the_pendulum_swing_ups(nodes, method):
     Hermite-Simpson one ended at the iteration limit, objective 12.286,
     when ``SparseKKT`` reported zero pivots that K has not)."""
     _sparse_or_skip()
-    import _ocp_peers as peers
-    problem, _ = peers.pendulum_kanedyn(nodes, method, backend="numpy")
-    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
-    ours, theirs = _same_optimum(problem, guess, linear_solver="sparse")
+    ours, theirs = _same_optimum(*_swing_up("pendulum", nodes, method, 0.1),
+                                 linear_solver="sparse")
     assert ours.iterations <= theirs.iterations + 10
 
 

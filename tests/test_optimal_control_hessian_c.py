@@ -9,6 +9,8 @@ contraction with the weights and w_x, and the solves with M generated as C
 - the NumPy backend's exact-Hessian solve: the same iterations and optimum.
 """
 
+import functools
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -51,8 +53,19 @@ def _forced(backend):
     return model, [k], 1
 
 
-MODELS = {"pendulum": _pendulum, "cart-pole": _cart_pole, "chain3d n=3": _chain,
-          "forced": _forced}
+BUILDERS = {"pendulum": _pendulum, "cart-pole": _cart_pole, "chain3d n=3": _chain,
+            "forced": _forced}
+
+
+@functools.cache
+def _built(name, backend):
+    """``BUILDERS[name](backend)``, derived once for the module: a model keeps
+    its generated second derivatives (one per choice of extra variables), so
+    the tests that share a model and a choice generate them once."""
+    return BUILDERS[name](backend)
+
+
+MODELS = {name: functools.partial(_built, name) for name in BUILDERS}
 
 
 @pytest.mark.parametrize("name", list(MODELS))

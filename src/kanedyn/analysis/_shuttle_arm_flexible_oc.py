@@ -240,32 +240,6 @@ class _Deflection:
         return self.tip(Y) - self.tip(straight)
 
 
-class _AtTime:
-    """An optimum's inputs as a run asks for them: one by one, all at the same
-    t, and again at that t for every column of Radau's differenced Jacobian;
-    the values at the last t asked are kept, so each t's are computed once."""
-
-    def __init__(self, functions):
-        self.functions = dict(functions)
-        self._t, self._values = None, None
-
-    def values(self, t):
-        if t != self._t:
-            self._values = {name: f(t) for name, f in self.functions.items()}
-            self._t = t
-        return self._values
-
-
-class _Component:
-    """Input ``name`` of an :class:`_AtTime`, a function of t (picklable)."""
-
-    def __init__(self, inputs, name):
-        self.inputs, self.name = inputs, name
-
-    def __call__(self, t):
-        return self.inputs.values(t)[self.name]
-
-
 class _Run:
     """A run on the flexible arm in two pieces: the torques on to ``T``, then
     off from the state reached (so no step crosses the switch).  ``sol(t)``
@@ -353,9 +327,9 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
     y0 = np.concatenate([start, np.zeros(len(model.state_names) - 6)])
 
     def on_flexible(found):
-        fed = _AtTime(found.inputs())
-        return _Run(model, {tau: _Component(fed, str(tau.func)) for tau in taus}, T, ring,
-                    y0)
+        # piecewise polynomials: a compiled model evaluates them itself
+        inputs = found.inputs()
+        return _Run(model, {tau: inputs[str(tau.func)] for tau in taus}, T, ring, y0)
     rigid_on_flexible = on_flexible(rigid.result)
     replay = on_flexible(result)
     deflection = _Deflection(definition)

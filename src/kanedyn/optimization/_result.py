@@ -8,7 +8,10 @@ trapezoid interpolates linearly, Hermite-Simpson quadratically through
 :math:`r_k`, the midpoint's :math:`\bar r_k` and :math:`r_{k+1}`, LGR of
 degree d by the polynomial of degree d - 1 through the inputs at the
 interval's d Radau points (its interior points and :math:`r_{k+1}`) over
-:math:`(t_k, t_{k+1}]`.
+:math:`(t_k, t_{k+1}]`.  Those continuous at the nodes or held on
+:math:`[t_k, t_{k+1})` (Hermite-Simpson's, the midpoint rule's) are
+:class:`~kanedyn.modeling.PiecewisePolynomial` objects, which a compiled
+model evaluates in C (a run with them calls no Python for its inputs).
 :meth:`OptimalControlResult.resimulate` integrates the model with those
 inputs by ``kd.simulate`` and reports how far the simulated states end from
 the collocated ones at the nodes.
@@ -79,17 +82,52 @@ _HOLD = {"backward-euler": "right", "midpoint": "average", "trapezoid": "linear"
 def input_functions(method, t, r, names, r_mid=None, degree=None):
     """``{input name: f(t)}`` of the inputs as collocated by ``method``
     (``r_mid``: the inputs at the interior points, (n_inputs, (N - 1) m),
-    for Hermite-Simpson and LGR)."""
+    for Hermite-Simpson and LGR): piecewise polynomials for Hermite-Simpson
+    and the midpoint rule, :class:`_Held` otherwise."""
     scheme = interval_scheme(method, degree)
     if scheme is None:
+        if method == "midpoint":  # held on [t_k, t_k+1), as a piecewise polynomial's
+            return {name: _piecewise(name, t, 0.5 * (row[:-1] + row[1:])[:, None])
+                    for name, row in zip(names, r)}
         return {name: _Held(t, row, _HOLD[method]) for name, row in zip(names, r)}
     m = len(scheme.interior)
+    g = list(scheme.input_positions)
+    points = np.array(scheme.positions)[g]
+    # through both ends of each interval (Hermite-Simpson): continuous at the
+    # nodes, so a piecewise polynomial's [t_k, t_k+1) is the held (t_k, t_k+1]
+    continuous = points[0] == 0.0 and points[-1] == 1.0
     out = {}
     for name, row, inner in zip(names, r, r_mid if m else [()] * len(names)):
         every = np.column_stack([row[:-1], np.reshape(inner, (t.size - 1, m)), row[1:]])
-        g = list(scheme.input_positions)
-        out[name] = _Held(t, row, "polynomial", np.array(scheme.positions)[g], every[:, g])
+        if continuous:
+            out[name] = _piecewise(name, t, every[:, g] @ _power_basis(points, t))
+        else:
+            out[name] = _Held(t, row, "polynomial", points, every[:, g])
     return out
+
+
+def _power_basis(points, t):
+    """``B`` (d, d): the values of a polynomial at ``points`` (fractions of
+    an interval of the uniform mesh ``t``) times ``B`` are its coefficients in
+    powers of the time since the interval's start, highest first (the
+    Lagrange basis in power form)."""
+    d = len(points)
+    basis = np.zeros((d, d))
+    for j in range(d):
+        others = [p for m, p in enumerate(points) if m != j]
+        ascending = np.polynomial.polynomial.polyfromroots(others) if others else np.ones(1)
+        basis[j] = ascending / np.prod([points[j] - p for p in others])
+    h = (t[-1] - t[0]) / (t.size - 1)
+    return (basis / h ** np.arange(d))[:, ::-1]
+
+
+def _piecewise(name, t, coefficients):
+    """Input ``name`` on the nodes ``t`` as a
+    :class:`~kanedyn.modeling.PiecewisePolynomial` (extrapolating its end
+    pieces, as :class:`_Held` does): a compiled model evaluates it in C, a run
+    on it calls no Python for its inputs."""
+    from ..modeling import PiecewisePolynomial
+    return PiecewisePolynomial(t, coefficients, f"optimal input {name}", extrapolate=True)
 
 
 @dataclass(frozen=True)
