@@ -257,7 +257,7 @@ class BladeElementMomentum:
             last["points"], last["state"] = points, self._state(points, ratio, theta)
             return last["state"][0]
 
-        phi, pick = _illinois(residual, *_bracket(residual, Vx.shape, guess))
+        phi, pick = _safeguarded_newton(residual, *_bracket(residual, Vx.shape, guess))
         # the solver's last evaluation holds its answer: each angle's state from the
         # point picked
         _, a, kp, cn, ct = (np.take_along_axis(v, pick[None], axis=0)[0]
@@ -344,7 +344,7 @@ def _bracket(residual, shape, guess=None):
     return lo, hi, flo, fhi
 
 
-def _illinois(residual, lo, hi, flo, fhi):
+def _safeguarded_newton(residual, lo, hi, flo, fhi):
     """Safeguarded Newton on arrays of brackets (their ends' residuals ``flo``,
     ``fhi``), to _TOLERANCE; returns the angles and the index (0 or 1) of the
     residual's last evaluation that holds each.
