@@ -121,12 +121,23 @@ def jupyterlab(tmp_path):
 def _run_cell(page, index, timeout=90.0):
     """Run cell ``index`` as a user does: click into it, press Shift+Enter.  The
     key is pressed again while the cell's prompt shows no run (``[ ]:``): a
-    notebook page still starting under load may not take the first one."""
+    notebook page still starting under load may not take the first one.  A
+    "Select Kernel" dialog (JupyterLab asks when the notebook's kernel session is
+    not yet made, seen once under load) is answered as a user does: Select, the
+    preselected Python 3."""
+    from playwright import sync_api
     cell = page.locator(".jp-Notebook .jp-Cell").nth(index)
     prompt = cell.locator(".jp-InputPrompt")
+    dialog = page.locator(".jp-Dialog", has_text="Select Kernel")
     end = time.monotonic() + timeout
     while time.monotonic() < end:
-        cell.locator(".cm-content").click()
+        if dialog.count():
+            dialog.locator(".jp-mod-accept").click()
+            dialog.wait_for(state="detached", timeout=30_000)
+        try:
+            cell.locator(".cm-content").click(timeout=10_000)
+        except sync_api.TimeoutError:  # a dialog came up meanwhile: answered above
+            continue
         page.keyboard.press("Shift+Enter")
         for _ in range(40):
             if re.search(r"\[(\*|\d+)\]", prompt.inner_text()):
