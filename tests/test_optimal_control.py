@@ -222,6 +222,34 @@ def _oscillator_solve(model, symbols, nodes, method):
     return result
 
 
+def test_hermite_simpson_and_midpoint_inputs_are_piecewise_polynomials():
+    """The optimum's inputs of Hermite-Simpson and of the midpoint rule are
+    ``PiecewisePolynomial`` objects (which a C model compiles): Hermite-Simpson's
+    the quadratic through the collocated inputs at each interval's ends and
+    midpoint, the midpoint rule's the average of the ends, held; both
+    extrapolate their end pieces."""
+    from kanedyn.modeling import PiecewisePolynomial
+    model, symbols, _ = _oscillator()
+    hs = _oscillator_solve(model, symbols, 11, "hermite-simpson")
+    f = hs.inputs()["F"]
+    assert isinstance(f, PiecewisePolynomial)
+    F, F_mid = hs.r[0], hs.r_mid[0]
+    np.testing.assert_allclose([f(t) for t in hs.t], F, rtol=0, atol=1e-12 * np.abs(F).max())
+    np.testing.assert_allclose([f(t) for t in hs.t_mid], F_mid, rtol=0,
+                               atol=1e-12 * np.abs(F).max())
+    h = hs.t[1] - hs.t[0]  # beyond the end: the last interval's quadratic
+    quadratic = np.polyfit([hs.t[-2], hs.t_mid[-1], hs.t[-1]], [F[-2], F_mid[-1], F[-1]], 2)
+    assert f(hs.t[-1] + 0.5 * h) == pytest.approx(np.polyval(quadratic, hs.t[-1] + 0.5 * h),
+                                                  rel=1e-9)
+    mid = _oscillator_solve(model, symbols, 11, "midpoint")
+    g = mid.inputs()["F"]
+    assert isinstance(g, PiecewisePolynomial)
+    held = 0.5 * (mid.r[0][:-1] + mid.r[0][1:])
+    inside = mid.t[:-1] + 0.3 * (mid.t[1] - mid.t[0])
+    np.testing.assert_allclose([g(t) for t in inside], held, rtol=1e-14, atol=1e-14)
+    assert g(mid.t[-1] + 0.1) == pytest.approx(held[-1], rel=1e-14)
+
+
 def test_hermite_simpson_fourth_order_on_a_closed_form():
     """The oscillator's least-effort move (closed form above, objective
     17.1998...): Hermite-Simpson's states, objective and re-simulation defect

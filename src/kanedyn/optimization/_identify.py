@@ -328,26 +328,27 @@ class _Problem:
         return D
 
     # ----------------------------------------------------- evaluation
-    def _integrate(self, model, rec, k, y_start, t_span, t_eval, D0=None):
-        """The run and its sensitivities; given ``D0`` (``d y_start / d unknowns``),
-        also ``dY``, ``d y(t_eval) / d unknowns`` (shape (N, n_states, D0's
-        columns)), from the sensitivities along the columns of ``D0`` that are not
-        zero only (all of ``d y / d y_start`` without ``D0``)."""
+    def _integrate(self, model, rec, k, y_start, t_span, t_eval, D0, every=False):
+        """``(run and its sensitivities, dY)``: ``dY = d y(t_eval) / d unknowns``
+        (shape (N, n_states, D0's columns)) from ``D0 = d y_start / d unknowns``,
+        the sensitivities integrated along the columns of ``D0`` that are not zero
+        only, or, with ``every``, all of ``d y / d y_start`` (the growth's)."""
         from ..simulation import sensitivity
-        used = None if D0 is None else np.flatnonzero(np.any(D0 != 0, axis=0))
+        used = np.flatnonzero(np.any(D0 != 0, axis=0))
         try:
             s = sensitivity(model, t_span, y_start, parameters=list(self.pnames),
                             t_eval=t_eval, method=self.method, rtol=self.rtol, atol=self.atol,
-                            directions=None if used is None else D0[:, used])
+                            directions=None if every else D0[:, used])
         except (ValueError, ArithmeticError, np.linalg.LinAlgError) as exc:
             raise _Failed(f"{self._label(k)}: the integration failed ({exc})") from None
         if not s.success or s.t.size != len(t_eval) or not np.all(np.isfinite(s.y)):
             raise _Failed(f"{self._label(k)}: the integration stopped at t = "
                           f"{(s.t[-1] if s.t.size else t_span[0]):g} s ({s.message})")
-        if D0 is None:
-            return s, None
-        dY = np.zeros(s.initial.shape[:2] + (D0.shape[1],))
-        dY[:, :, used] = s.initial
+        if every:
+            dY = s.initial @ D0
+        else:
+            dY = np.zeros(s.initial.shape[:2] + (D0.shape[1],))
+            dY[:, :, used] = s.initial
         if self.n_p:
             dY[:, :, :self.n_p] += s.parameters * self.scales[:self.n_p]
         return s, dY
@@ -396,15 +397,11 @@ class _Problem:
             m = model.with_inputs(rec.inputs) if rec.inputs else model
             y = self.initial_state(m, k, x)
             D0 = self._start_derivative(m, k, x, y)
-            span = (rec.t0, float(rec.t[-1]))
-            if first:  # all of d y / d y_start, for the growth
-                s, _ = self._integrate(m, rec, k, y, span, rec.t)
-                dY = s.initial @ D0
-                if self.n_p:
-                    dY[:, :, :self.n_p] += s.parameters * self.scales[:self.n_p]
+            # the first evaluation integrates all of d y / d y_start, for the growth
+            s, dY = self._integrate(m, rec, k, y, (rec.t0, float(rec.t[-1])), rec.t, D0,
+                                    every=first)
+            if first:
                 growth = max(growth, _growth(s))
-            else:
-                s, dY = self._integrate(m, rec, k, y, span, rec.t, D0)
             preds, derivs = self._predict(m, k, rec, np.arange(rec.t.size), s.y.T, dY)
             for c, pred, d in zip(self.channels[k], preds, derivs):
                 es.append(pred - c.data)

@@ -11,7 +11,7 @@ interval's d Radau points (its interior points and :math:`r_{k+1}`) over
 :math:`(t_k, t_{k+1}]`.  Those continuous at the nodes or held on
 :math:`[t_k, t_{k+1})` (Hermite-Simpson's, the midpoint rule's) are
 :class:`~kanedyn.modeling.PiecewisePolynomial` objects, which a compiled
-model evaluates in C (a run with them calls no Python for its inputs).
+model compiles into its module as it does any such input.
 :meth:`OptimalControlResult.resimulate` integrates the model with those
 inputs by ``kd.simulate`` and reports how far the simulated states end from
 the collocated ones at the nodes.
@@ -96,11 +96,12 @@ def input_functions(method, t, r, names, r_mid=None, degree=None):
     # through both ends of each interval (Hermite-Simpson): continuous at the
     # nodes, so a piecewise polynomial's [t_k, t_k+1) is the held (t_k, t_k+1]
     continuous = points[0] == 0.0 and points[-1] == 1.0
+    basis = _power_basis(points, t) if continuous else None
     out = {}
     for name, row, inner in zip(names, r, r_mid if m else [()] * len(names)):
         every = np.column_stack([row[:-1], np.reshape(inner, (t.size - 1, m)), row[1:]])
         if continuous:
-            out[name] = _piecewise(name, t, every[:, g] @ _power_basis(points, t))
+            out[name] = _piecewise(name, t, every[:, g] @ basis)
         else:
             out[name] = _Held(t, row, "polynomial", points, every[:, g])
     return out
@@ -124,8 +125,7 @@ def _power_basis(points, t):
 def _piecewise(name, t, coefficients):
     """Input ``name`` on the nodes ``t`` as a
     :class:`~kanedyn.modeling.PiecewisePolynomial` (extrapolating its end
-    pieces, as :class:`_Held` does): a compiled model evaluates it in C, a run
-    on it calls no Python for its inputs."""
+    pieces, as :class:`_Held` does), which a C model compiles into its module."""
     from ..modeling import PiecewisePolynomial
     return PiecewisePolynomial(t, coefficients, f"optimal input {name}", extrapolate=True)
 
