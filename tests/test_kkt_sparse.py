@@ -573,3 +573,27 @@ def test_many_zero_pivots_are_not_delayed():
     assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
         == (0, 0, n)
     assert kkt.analysis.n_delayed == 0
+
+
+def test_an_analysis_is_kept_for_the_same_structure():
+    """A second ``SparseKKT`` of the same structure takes the first one's
+    analysis (the same read-only arrays, ``_kkt_analyses``), also the one
+    after a zero pivot's new order, and factors to the same numbers; a
+    different structure makes its own."""
+    rng = np.random.default_rng(13)
+    n, m = 30, 12
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    dx, dc = np.zeros(n), np.zeros(m)
+    hv[hr == hc] = 0.0  # zero diagonals: zero pivots, two analyses again
+    first, second = SparseKKT(n, m, (hr, hc), (jr, jc)), SparseKKT(n, m, (hr, hc), (jr, jc))
+    assert second.analysis.permutation is first.analysis.permutation
+    assert not first.analysis.permutation.flags.writeable
+    inertia = first.factor(hv, jv, dx, dc)
+    assert second.factor(hv, jv, dx, dc) == inertia
+    assert second.reanalyses == first.reanalyses
+    assert second.analysis.permutation is first.analysis.permutation
+    rhs = rng.normal(size=n + m)
+    assert np.array_equal(second.solve(rhs), first.solve(rhs))
+    other = SparseKKT(n, m, (hr, hc), (jr[:-1], jc[:-1]))
+    assert other.analysis.permutation is not first.analysis.permutation

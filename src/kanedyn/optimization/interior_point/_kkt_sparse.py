@@ -27,7 +27,9 @@ entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows); and all the storage the
 numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
-of :math:`K`, the kernel's scratch arrays).
+of :math:`K`, the kernel's scratch arrays).  All but the storage is kept for
+the next object of the same inputs (:mod:`._kkt_analyses`: a problem solved
+again makes the same analyses).
 
 **Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
 released): the values scattered through the maps, then an up-looking block
@@ -128,6 +130,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._kkt_analyses import SymbolicAnalysis, cached_analysis
 from ._kkt_kernel import kernel
 from ._kkt_ordering import ORDERINGS, elimination_order
 
@@ -359,26 +362,22 @@ class SparseKKT:
 
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (pairs by :func:`elimination_order`, ``self._delayed``
-        last), K's permuted pattern and maps, the elimination tree and the
-        storage of the factors; ``has_diagonal`` and ``pairable`` as
+        last), K's permuted pattern and maps, the elimination tree (those
+        kept for the next object of the same inputs,
+        :func:`~._kkt_analyses.cached_analysis`) and the storage of the
+        factors; ``has_diagonal`` and ``pairable`` as
         :func:`elimination_order` takes them."""
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
-        off = hr != hc
-        permutation, n_dense, kind = elimination_order(
-            n, m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
-            self._delayed)
-        (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
-         self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
+        symbolic = cached_analysis(
+            N, (n, m, self.ordering), (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
+            lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
+        self._permutation, self._kind = symbolic.permutation, symbolic.kind
+        self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
+        self._hessian_map, self._jacobian_map = symbolic.hessian_map, symbolic.jacobian_map
+        self._diagonal_map, self._parent = symbolic.diagonal_map, symbolic.parent
         self._Ax = np.zeros(self._Ai.size)
-        self._permutation = permutation
-        self._kind = kind
-        # elimination tree and the pattern's size, then L's storage
-        self._parent = np.empty(N, dtype=_INDEX)
-        counts = np.empty(N, dtype=np.int64)
-        self._kernel.symbolic(self._parent, counts, self._Ap, self._Ai, self._kind)
-        self._Lp = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(counts, out=self._Lp[1:])
+        # L's storage
         nnz = int(self._Lp[-1])
         self._Li = np.zeros(nnz, dtype=_INDEX)
         self._Lx = np.zeros(nnz)
@@ -391,11 +390,33 @@ class SparseKKT:
                                               self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._kind, permutation))
-        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._delayed.sum()),
-                                    int(self._Ai.size), nnz, factor_bytes, map_bytes,
+                                           self._parent, self._kind, self._permutation))
+        self.analysis = KKTAnalysis(n, m, self._permutation, symbolic.n_dense,
+                                    int(self._delayed.sum()), int(self._Ai.size), nnz,
+                                    factor_bytes, map_bytes,
                                     self._factor_work.nbytes + self._solve_work.nbytes
                                     + self._zero.nbytes)
+
+    def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
+        order, K's permuted pattern and maps, the elimination tree and L's
+        column pointers."""
+        n, N = self.n, self.size
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        off = hr != hc
+        permutation, n_dense, kind = elimination_order(
+            n, self.m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
+            self._delayed)
+        Ap, Ai, hessian_map, jacobian_map, diagonal_map = _permuted_pattern(
+            n, permutation, (hr, hc), (jr, jc))
+        # elimination tree and the pattern's size, then L's column pointers
+        parent = np.empty(N, dtype=_INDEX)
+        counts = np.empty(N, dtype=np.int64)
+        self._kernel.symbolic(parent, counts, Ap, Ai, kind)
+        Lp = np.zeros(N + 1, dtype=np.int64)
+        np.cumsum(counts, out=Lp[1:])
+        return SymbolicAnalysis(permutation, n_dense, kind, Ap, Ai, hessian_map, jacobian_map,
+                                diagonal_map, parent, Lp)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
         """Factor K with these values; return its inertia.
