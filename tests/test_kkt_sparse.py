@@ -597,3 +597,31 @@ def test_an_analysis_is_kept_for_the_same_structure():
     assert np.array_equal(second.solve(rhs), first.solve(rhs))
     other = SparseKKT(n, m, (hr, hc), (jr[:-1], jc[:-1]))
     assert other.analysis.permutation is not first.analysis.permutation
+
+
+def test_the_kernels_check_of_values_is_numpys():
+    """The kernel's ``invalid`` (``factor``'s and ``solve``'s checks in one
+    call) against NumPy: the first entry not finite, the arrays in turn,
+    else the first negative one in the arrays from ``nonnegative`` on, else
+    ``None``."""
+    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+
+    def numpys(arrays, nonnegative):
+        for k, a in enumerate(arrays):
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                return k, int(bad[0])
+        for k, a in enumerate(arrays[nonnegative:], start=nonnegative):
+            bad = np.flatnonzero(a < 0.0)
+            if bad.size:
+                return k, int(bad[0])
+        return None
+    rng = np.random.default_rng(14)
+    for _ in range(300):
+        arrays = [rng.uniform(-0.2, 1.0, rng.integers(0, 6)) for _ in range(rng.integers(1, 5))]
+        for a in arrays:
+            a[rng.random(a.size) < 0.1] = rng.choice([np.nan, np.inf, -np.inf])
+        nonnegative = int(rng.integers(0, len(arrays) + 1))
+        assert kernel().invalid(*arrays, nonnegative) == numpys(arrays, nonnegative)
+    assert kernel().invalid(np.ones((2, 3)), np.zeros(0), 0) is None
+    assert kernel().invalid(np.array([[1.0, 2.0], [np.nan, 0.0]]), 1) == (0, 2)

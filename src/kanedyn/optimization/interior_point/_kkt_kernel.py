@@ -2,7 +2,7 @@
 
 One fixed source (no generated part), compiled once and cached like the
 models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
-first :class:`~._kkt_sparse.SparseKKT`.  Its four functions take their arrays
+first :class:`~._kkt_sparse.SparseKKT`.  Its five functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices, ``int64`` column pointers; the caller makes them so) and release the
 GIL while they compute:
@@ -28,6 +28,12 @@ The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``; ``zero
 are the caller's, allocated once with the factor.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
+``invalid(a_0, ..., a_k, nonnegative)``
+    the first entry of the ``float64`` arrays ``a_0, ..., a_k`` that is not
+    finite (the arrays in turn), else the first that is negative in
+    ``a_nonnegative, ..., a_k``: ``(array, entry)``, or ``None`` when there is
+    none (the checks of ``factor``'s and ``solve``'s arguments in one call,
+    in place of NumPy's ``isfinite``, ``all`` and ``min`` on each).
 """
 
 from __future__ import annotations
@@ -37,7 +43,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 10"
+_GENERATION = "kanedyn sparse LDL 11"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -461,11 +467,47 @@ static PyObject *kd_matvec(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* ----------------------------------------------------------------- invalid */
+static PyObject *kd_invalid(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) < 1 || PyTuple_GET_SIZE(args) > 9) {
+        PyErr_SetString(PyExc_TypeError, "1 to 8 arrays and a count expected");
+        return NULL;
+    }
+    int count = (int)PyTuple_GET_SIZE(args) - 1;
+    Py_ssize_t nonnegative = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, count));
+    if (nonnegative == -1 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[8] = {8, 8, 8, 8, 8, 8, 8, 8};
+    static const int writable[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[8] = {"array", "array", "array", "array", "array",
+                                         "array", "array", "array"};
+    Py_buffer v[8];
+    if (kd_views(args, count, v, size, writable, names) < 0) return NULL;
+    Py_ssize_t which = -1, entry = -1;
+    Py_BEGIN_ALLOW_THREADS
+    for (int a = 0; a < count && which < 0; a++) {
+        const double *x = v[a].buf;
+        Py_ssize_t n = KD_COUNT(v[a]);
+        for (Py_ssize_t i = 0; i < n; i++)
+            if (!isfinite(x[i])) { which = a; entry = i; break; }
+    }
+    for (int a = (int)(nonnegative < 0 ? count : nonnegative); a < count && which < 0; a++) {
+        const double *x = v[a].buf;
+        Py_ssize_t n = KD_COUNT(v[a]);
+        for (Py_ssize_t i = 0; i < n; i++)
+            if (x[i] < 0.0) { which = a; entry = i; break; }
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, count);
+    if (which < 0) Py_RETURN_NONE;
+    return Py_BuildValue("nn", which, entry);
+}
+
 static PyMethodDef kd_methods[] = {
     {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
     {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
     {"solve", kd_solve, METH_VARARGS, "solve with the factors, in place"},
     {"matvec", kd_matvec, METH_VARARGS, "y = K x from the stored values"},
+    {"invalid", kd_invalid, METH_VARARGS, "the first entry not finite, or negative"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,

@@ -150,6 +150,9 @@ MAX_DELAYED = 64
 _INDEX = np.int32
 _LIMIT = np.iinfo(_INDEX).max
 
+#: the names of ``factor``'s arguments, in their order
+_FACTOR_ARGUMENTS = ("hessian_values", "jacobian_values", "diagonal_x", "diagonal_c")
+
 
 @dataclass(frozen=True)
 class KKTAnalysis:
@@ -225,13 +228,28 @@ def _structure(structure, name, n_rows, n_cols):
 
 
 def _values(value, size, name):
-    """``value`` as a C-contiguous float64 array of shape ``(size,)``, finite."""
+    """``value`` as a C-contiguous float64 array of shape ``(size,)`` (its
+    values checked by :func:`_check_values`)."""
     a = np.ascontiguousarray(value, dtype=float)
     if a.shape != (size,):
         raise ValueError(f"{name} must have shape ({size},), not {a.shape}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name}[{np.flatnonzero(~np.isfinite(a))[0]}] is not finite")
     return a
+
+
+def _check_values(kernel, arrays, names, nonnegative=None):
+    """Raise ``ValueError`` at the first entry of ``arrays`` (float64,
+    C-contiguous) that is not finite, else at the most negative of the array
+    named ``nonnegative`` (the kernel's ``invalid``: one call, not NumPy's
+    three per array)."""
+    last = len(arrays) if nonnegative is None else names.index(nonnegative)
+    found = kernel.invalid(*arrays, last)
+    if found is None:
+        return
+    which, entry = found
+    a, name = arrays[which], names[which]
+    if not np.isfinite(a[entry]):
+        raise ValueError(f"{name}[{entry}] is not finite")
+    raise ValueError(f"{name}[{int(np.argmin(a))}] = {float(a.min())!r} is negative")
 
 
 def _permuted_pattern(n, permutation, hessian, jacobian):
@@ -449,8 +467,7 @@ class SparseKKT:
         jv = _values(jacobian_values, self._jacobian_map.size, "jacobian_values")
         dx = _values(diagonal_x, self.n, "diagonal_x")
         dc = _values(diagonal_c, self.m, "diagonal_c")
-        if dc.size and dc.min() < 0.0:
-            raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
+        _check_values(self._kernel, (hv, jv, dx, dc), _FACTOR_ARGUMENTS, "diagonal_c")
         self.inertia = None  # no factors while the kernel overwrites them
         inertia = self._factor(hv, jv, dx, dc)
         if inertia[2] and self.reanalyses < MAX_REANALYSES:
@@ -530,9 +547,9 @@ class SparseKKT:
         N = self.size
         if b.ndim not in (1, 2) or b.shape[0] != N:
             raise ValueError(f"rhs must have shape ({N},) or ({N}, k), not {b.shape}")
-        if not np.isfinite(b).all():
-            raise ValueError("rhs holds a value that is not finite")
         x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
+        if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
+            raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]
         self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
                            self._permutation, self._solve_work, columns)
