@@ -625,3 +625,38 @@ def test_the_kernels_check_of_values_is_numpys():
         assert kernel().invalid(*arrays, nonnegative) == numpys(arrays, nonnegative)
     assert kernel().invalid(np.ones((2, 3)), np.zeros(0), 0) is None
     assert kernel().invalid(np.array([[1.0, 2.0], [np.nan, 0.0]]), 1) == (0, 2)
+
+
+def test_the_kernels_error_reductions_are_numpys_to_the_bit():
+    """The kernel's ``error_reductions`` (the interior point's optimality
+    error's sums and maxima in one call) against
+    ``_optimality.numpy_error_reductions``, bit for bit: lengths across
+    NumPy's pairwise blocks (up to 128 entries, halves beyond), magnitudes
+    over ten decades, empty arrays, a NaN, infinities; and the errors
+    ``optimality_errors`` makes of either the same."""
+    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+    from kanedyn.optimization.interior_point._optimality import (numpy_error_reductions,
+                                                                 optimality_errors)
+    rng = np.random.default_rng(15)
+
+    def values(size):
+        return rng.normal(size=size) * 10.0 ** rng.integers(-5, 5, size=size)
+    for trial in range(400):
+        sizes = rng.integers(0, 700, size=5)
+        dual, c, y = values(sizes[0]), values(sizes[1]), values(sizes[2])
+        z_lower, z_upper = np.abs(values(sizes[3])), np.abs(values(sizes[4]))
+        gap_lower, gap_upper = np.abs(values(sizes[3])), np.abs(values(sizes[4]))
+        if trial % 7 == 0 and dual.size and z_lower.size:
+            dual[rng.integers(dual.size)] = np.nan
+            z_lower[rng.integers(z_lower.size)] = np.inf
+        arguments = (dual, c, y, z_lower, z_upper, gap_lower, gap_upper,
+                     float(rng.uniform(1e-11, 0.1)))
+        with np.errstate(all="ignore"):  # the solver's (an infinity times 0)
+            pairs = [(kernel().error_reductions(*arguments),
+                      numpy_error_reductions(*arguments)),
+                     (vars(optimality_errors(*arguments, kernel().error_reductions)).values(),
+                      vars(optimality_errors(*arguments)).values())]
+        for found, expected in pairs:
+            found, expected = np.array(list(found)), np.array(list(expected), dtype=float)
+            assert np.array_equal(found, expected, equal_nan=True), trial
+            assert np.array_equal(np.signbit(found), np.signbit(expected)), trial

@@ -16,7 +16,8 @@ factorizations are the same to the last bit.
 
 Only analyses of K of order at most :data:`CACHED_ROWS` are kept (beyond, an
 analysis is a small part of a solve and its arrays are large), the
-:data:`CACHED_ANALYSES` used last.  The arrays kept are read-only: the
+:data:`CACHED_ANALYSES` used last (two problems solved in turn, as the
+pendulum's four and the cart-pole's three).  The arrays kept are read-only: the
 objects share them.
 """
 
@@ -31,8 +32,9 @@ import numpy as np
 
 __all__ = ["SymbolicAnalysis", "cached_analysis", "CACHED_ROWS", "CACHED_ANALYSES"]
 
-#: analyses of K of order (n + m) at most this are kept
-CACHED_ROWS = 100_000
+#: analyses of K of order (n + m) at most this are kept (about 3 MB each at
+#: this order for the pendulum's collocation NLP, 10,000 nodes)
+CACHED_ROWS = 50_000
 
 #: at most this many analyses are kept, the ones used last
 CACHED_ANALYSES = 8
