@@ -9,7 +9,7 @@ diagonal and which rows are delayed: never on values.  Every interior-point
 solve makes a new ``SparseKKT``; a problem solved again (a warm start, a
 sweep of parameters, a benchmark's repeats) asks for the same analyses in
 the same sequence.  On the 100-node pendulum swing-up an analysis took
-about 1.5 ms and a solve made four (the constructor's and three after zero
+1.5–1.8 ms and a solve made four (the constructor's and three after zero
 pivots), an eighth of its time; a kept one is found by a digest of those
 inputs in a few microseconds, and it holds the same arrays, so the
 factorizations are the same to the last bit.
