@@ -573,3 +573,90 @@ def test_many_zero_pivots_are_not_delayed():
     assert kkt.factor(hv, np.zeros(0), np.zeros(n), np.zeros(0)) == _eigen_inertia(K) \
         == (0, 0, n)
     assert kkt.analysis.n_delayed == 0
+
+
+def test_an_analysis_is_kept_for_the_same_structure():
+    """A second ``SparseKKT`` of the same structure takes the first one's
+    analysis (the same read-only arrays, ``_kkt_analyses``), also the one
+    after a zero pivot's new order, and factors to the same numbers; a
+    different structure makes its own."""
+    rng = np.random.default_rng(13)
+    n, m = 30, 12
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    dx, dc = np.zeros(n), np.zeros(m)
+    hv[hr == hc] = 0.0  # zero diagonals: zero pivots, two analyses again
+    first, second = SparseKKT(n, m, (hr, hc), (jr, jc)), SparseKKT(n, m, (hr, hc), (jr, jc))
+    assert second.analysis.permutation is first.analysis.permutation
+    assert not first.analysis.permutation.flags.writeable
+    inertia = first.factor(hv, jv, dx, dc)
+    assert second.factor(hv, jv, dx, dc) == inertia
+    assert second.reanalyses == first.reanalyses
+    assert second.analysis.permutation is first.analysis.permutation
+    rhs = rng.normal(size=n + m)
+    assert np.array_equal(second.solve(rhs), first.solve(rhs))
+    other = SparseKKT(n, m, (hr, hc), (jr[:-1], jc[:-1]))
+    assert other.analysis.permutation is not first.analysis.permutation
+
+
+def test_the_kernels_check_of_values_is_numpys():
+    """The kernel's ``invalid`` (``factor``'s and ``solve``'s checks in one
+    call) against NumPy: the first entry not finite, the arrays in turn,
+    else the first negative one in the arrays from ``nonnegative`` on, else
+    ``None``."""
+    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+
+    def numpys(arrays, nonnegative):
+        for k, a in enumerate(arrays):
+            bad = np.flatnonzero(~np.isfinite(a))
+            if bad.size:
+                return k, int(bad[0])
+        for k, a in enumerate(arrays[nonnegative:], start=nonnegative):
+            bad = np.flatnonzero(a < 0.0)
+            if bad.size:
+                return k, int(bad[0])
+        return None
+    rng = np.random.default_rng(14)
+    for _ in range(300):
+        arrays = [rng.uniform(-0.2, 1.0, rng.integers(0, 6)) for _ in range(rng.integers(1, 5))]
+        for a in arrays:
+            a[rng.random(a.size) < 0.1] = rng.choice([np.nan, np.inf, -np.inf])
+        nonnegative = int(rng.integers(0, len(arrays) + 1))
+        assert kernel().invalid(*arrays, nonnegative) == numpys(arrays, nonnegative)
+    assert kernel().invalid(np.ones((2, 3)), np.zeros(0), 0) is None
+    assert kernel().invalid(np.array([[1.0, 2.0], [np.nan, 0.0]]), 1) == (0, 2)
+
+
+def test_the_kernels_error_reductions_are_numpys_to_the_bit():
+    """The kernel's ``error_reductions`` (the interior point's optimality
+    error's sums and maxima in one call) against
+    ``_optimality.numpy_error_reductions``, bit for bit: lengths across
+    NumPy's pairwise blocks (up to 128 entries, halves beyond), magnitudes
+    over ten decades, empty arrays, a NaN, infinities; and the errors
+    ``optimality_errors`` makes of either the same."""
+    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+    from kanedyn.optimization.interior_point._optimality import (numpy_error_reductions,
+                                                                 optimality_errors)
+    rng = np.random.default_rng(15)
+
+    def values(size):
+        return rng.normal(size=size) * 10.0 ** rng.integers(-5, 5, size=size)
+    for trial in range(400):
+        sizes = rng.integers(0, 700, size=5)
+        dual, c, y = values(sizes[0]), values(sizes[1]), values(sizes[2])
+        z_lower, z_upper = np.abs(values(sizes[3])), np.abs(values(sizes[4]))
+        gap_lower, gap_upper = np.abs(values(sizes[3])), np.abs(values(sizes[4]))
+        if trial % 7 == 0 and dual.size and z_lower.size:
+            dual[rng.integers(dual.size)] = np.nan
+            z_lower[rng.integers(z_lower.size)] = np.inf
+        arguments = (dual, c, y, z_lower, z_upper, gap_lower, gap_upper,
+                     float(rng.uniform(1e-11, 0.1)))
+        with np.errstate(all="ignore"):  # the solver's (an infinity times 0)
+            pairs = [(kernel().error_reductions(*arguments),
+                      numpy_error_reductions(*arguments)),
+                     (vars(optimality_errors(*arguments, kernel().error_reductions)).values(),
+                      vars(optimality_errors(*arguments)).values())]
+        for found, expected in pairs:
+            found, expected = np.array(list(found)), np.array(list(expected), dtype=float)
+            assert np.array_equal(found, expected, equal_nan=True), trial
+            assert np.array_equal(np.signbit(found), np.signbit(expected)), trial

@@ -42,6 +42,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._errors import ModelError
+from ._jacobians import broadcast_rows
 
 __all__ = ["hessians_unavailable", "weighted_hessians", "names_time"]
 
@@ -209,7 +210,7 @@ def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), ti
 def _compiled(model, module, t, Y, R, weights, J):
     """:func:`weighted_hessians` from the C module: every point in one call."""
     N, n = len(Y), model.n_q
-    T = np.ascontiguousarray(np.broadcast_to(np.asarray(t, dtype=float), (N,)))
+    T = np.ascontiguousarray(broadcast_rows(np.asarray(t, dtype=float), (N,)))
     W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
     inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
     H = module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]

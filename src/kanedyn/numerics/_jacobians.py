@@ -72,7 +72,7 @@ from .._errors import ModelError
 
 __all__ = ["Jacobians", "jacobians", "EXACT_SCHEMES", "derivatives_unavailable",
            "state_jacobian", "through_inputs", "derivatives_built", "exact_loop",
-           "inputs_follow_state"]
+           "inputs_follow_state", "broadcast_rows"]
 
 #: the constraint schemes whose accelerations are the exact index-1 ones (Udwadia-Kalaba
 #: without its optional stabilization gains)
@@ -746,6 +746,14 @@ def _index1_matrices(mass, vel_B, acc_K, alpha=None):
     return S
 
 
+def broadcast_rows(values, shape):
+    """``values`` (an ndarray) as an array of ``shape``: ``values`` itself when
+    it has that shape, else ``np.broadcast_to``'s read-only view (which costs
+    microseconds per call, a part of each evaluation of a collocation NLP's
+    derivatives at 100 nodes; the callers only read it)."""
+    return values if values.shape == shape else np.broadcast_to(values, shape)
+
+
 def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None,
               stabilization=10.0):
     r"""Exact :math:`\partial f/\partial(y, r, p)` of ``model.rhs`` at ``y`` (of
@@ -768,13 +776,13 @@ def jacobians(model, t, y, r=None, parameters=False, modes=None, directions=None
         raise ValueError(f"y must have shape (N, {model.n_states}) for many states, "
                          f"got {Y.shape}")
     T = np.full(len(rows), t, dtype=float) if isinstance(t, (int, float)) or \
-        np.ndim(t) == 0 else np.broadcast_to(np.asarray(t, dtype=float), (len(rows),))
+        np.ndim(t) == 0 else broadcast_rows(np.asarray(t, dtype=float), (len(rows),))
     if r is not None:
         r = np.atleast_1d(np.asarray(r, dtype=float))
         if r.shape[-1] != len(model.input_names):
             raise ValueError(f"r must have {len(model.input_names)} entries "
                              f"({', '.join(model.input_names) or 'the model has no inputs'})")
-        R = np.broadcast_to(r, (len(rows), r.shape[-1]))
+        R = broadcast_rows(r, (len(rows), r.shape[-1]))
     contact = {}
     if modes is not None:
         f, groups, constraints, contact = _evaluate_in_modes(

@@ -9,7 +9,8 @@ LDLᵀ factorization compiled in C that reports the inertia.
                  LDLᵀ through SciPy), for tests and small problems
 ``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ (2 x 2 pivots on paired
                  rows), its analysis and the inertia; its order in
-                 ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``
+                 ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``,
+                 its analyses kept for the next solve in ``_kkt_analyses``
 ``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
                  ``optimization._solvers``; what it uses, in the data flow:
 ``_options``     the options (IPOPT's names and defaults), checked

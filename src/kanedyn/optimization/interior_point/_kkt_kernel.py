@@ -2,7 +2,7 @@
 
 One fixed source (no generated part), compiled once and cached like the
 models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
-first :class:`~._kkt_sparse.SparseKKT`.  Its four functions take their arrays
+first :class:`~._kkt_sparse.SparseKKT`.  Its six functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices, ``int64`` column pointers; the caller makes them so) and release the
 GIL while they compute:
@@ -28,6 +28,17 @@ The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``; ``zero
 are the caller's, allocated once with the factor.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
+``invalid(a_0, ..., a_k, nonnegative)``
+    the first entry of the ``float64`` arrays ``a_0, ..., a_k`` that is not
+    finite (the arrays in turn), else the first that is negative in
+    ``a_nonnegative, ..., a_k``: ``(array, entry)``, or ``None`` when there is
+    none (the checks of ``factor``'s and ``solve``'s arguments in one call,
+    in place of NumPy's ``isfinite``, ``all`` and ``min`` on each).
+``error_reductions(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu)``
+    the sums and maxima of the interior point's optimality error, the numbers
+    of :func:`~._optimality.numpy_error_reductions` to the last bit (the sums
+    by NumPy's pairwise summation, the maxima from 0.0, a NaN kept): 20 NumPy
+    calls in one.
 """
 
 from __future__ import annotations
@@ -37,7 +48,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 10"
+_GENERATION = "kanedyn sparse LDL 12"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -461,11 +472,122 @@ static PyObject *kd_matvec(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
+/* ----------------------------------------------------------------- invalid */
+static PyObject *kd_invalid(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) < 1 || PyTuple_GET_SIZE(args) > 9) {
+        PyErr_SetString(PyExc_TypeError, "1 to 8 arrays and a count expected");
+        return NULL;
+    }
+    int count = (int)PyTuple_GET_SIZE(args) - 1;
+    Py_ssize_t nonnegative = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, count));
+    if (nonnegative == -1 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[8] = {8, 8, 8, 8, 8, 8, 8, 8};
+    static const int writable[8] = {0, 0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[8] = {"array", "array", "array", "array", "array",
+                                         "array", "array", "array"};
+    Py_buffer v[8];
+    if (kd_views(args, count, v, size, writable, names) < 0) return NULL;
+    Py_ssize_t which = -1, entry = -1;
+    Py_BEGIN_ALLOW_THREADS
+    for (int a = 0; a < count && which < 0; a++) {
+        const double *x = v[a].buf;
+        Py_ssize_t n = KD_COUNT(v[a]);
+        for (Py_ssize_t i = 0; i < n; i++)
+            if (!isfinite(x[i])) { which = a; entry = i; break; }
+    }
+    for (int a = (int)(nonnegative < 0 ? count : nonnegative); a < count && which < 0; a++) {
+        const double *x = v[a].buf;
+        Py_ssize_t n = KD_COUNT(v[a]);
+        for (Py_ssize_t i = 0; i < n; i++)
+            if (x[i] < 0.0) { which = a; entry = i; break; }
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, count);
+    if (which < 0) Py_RETURN_NONE;
+    return Py_BuildValue("nn", which, entry);
+}
+
+/* ------------------------------------------------------ error_reductions */
+/* sum |a_i| as np.abs(a).sum() makes it: 0.0 plus NumPy's pairwise sum
+   (eight accumulators in blocks of up to 128, halves beyond; its
+   pairwise_sum of numpy/_core/src/umath/loops_utils.h.src) */
+static double kd_pairwise_abs(const double *a, Py_ssize_t n) {
+    if (n < 8) {
+        double res = 0.;
+        for (Py_ssize_t i = 0; i < n; i++) res += fabs(a[i]);
+        return res;
+    }
+    if (n <= 128) {
+        double r[8], res;
+        Py_ssize_t i;
+        for (int j = 0; j < 8; j++) r[j] = fabs(a[j]);
+        for (i = 8; i < n - (n % 8); i += 8)
+            for (int j = 0; j < 8; j++) r[j] += fabs(a[i + j]);
+        res = ((r[0] + r[1]) + (r[2] + r[3])) + ((r[4] + r[5]) + (r[6] + r[7]));
+        for (; i < n; i++) res += fabs(a[i]);
+        return res;
+    }
+    Py_ssize_t n2 = n / 2;
+    n2 -= n2 % 8;
+    return kd_pairwise_abs(a, n2) + kd_pairwise_abs(a + n2, n - n2);
+}
+
+/* the larger of m and v as np.maximum's reduction keeps it: a NaN stays */
+#define KD_MAX(m, v) do { double kd_v = (v); if (kd_v > (m) || isnan(kd_v)) (m) = kd_v; } while (0)
+
+static PyObject *kd_error_reductions(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 8) {
+        PyErr_SetString(PyExc_TypeError, "7 arrays and mu expected");
+        return NULL;
+    }
+    double mu = PyFloat_AsDouble(PyTuple_GET_ITEM(args, 7));
+    if (mu == -1.0 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[7] = {8, 8, 8, 8, 8, 8, 8};
+    static const int writable[7] = {0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[7] = {"dual", "c", "y", "z_lower", "z_upper",
+                                         "gap_lower", "gap_upper"};
+    Py_buffer v[7];
+    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    const double *dual = v[0].buf, *c = v[1].buf, *y = v[2].buf, *zl = v[3].buf,
+                 *zu = v[4].buf, *gl = v[5].buf, *gu = v[6].buf;
+    Py_ssize_t n_lower = KD_COUNT(v[3]), n_upper = KD_COUNT(v[4]);
+    if (KD_COUNT(v[5]) != n_lower || KD_COUNT(v[6]) != n_upper) {
+        kd_release(v, 7);
+        PyErr_SetString(PyExc_ValueError, "the gaps and the multipliers differ in length");
+        return NULL;
+    }
+    double y_sum, zl_sum, zu_sum, dual_max = 0.0, c_max = 0.0, cl_max = 0.0, cu_max = 0.0,
+           cl_mu = 0.0, cu_mu = 0.0;
+    Py_BEGIN_ALLOW_THREADS
+    y_sum = 0.0 + kd_pairwise_abs(y, KD_COUNT(v[2]));
+    zl_sum = 0.0 + kd_pairwise_abs(zl, n_lower);
+    zu_sum = 0.0 + kd_pairwise_abs(zu, n_upper);
+    for (Py_ssize_t i = 0; i < KD_COUNT(v[0]); i++) KD_MAX(dual_max, fabs(dual[i]));
+    for (Py_ssize_t i = 0; i < KD_COUNT(v[1]); i++) KD_MAX(c_max, fabs(c[i]));
+    for (Py_ssize_t i = 0; i < n_lower; i++) {
+        double product = zl[i] * gl[i];
+        KD_MAX(cl_max, product);
+        KD_MAX(cl_mu, fabs(product - mu));
+    }
+    for (Py_ssize_t i = 0; i < n_upper; i++) {
+        double product = zu[i] * gu[i];
+        KD_MAX(cu_max, product);
+        KD_MAX(cu_mu, fabs(product - mu));
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 7);
+    return Py_BuildValue("ddddddddd", y_sum, zl_sum, zu_sum, dual_max, c_max, cl_max,
+                         cu_max, cl_mu, cu_mu);
+}
+
 static PyMethodDef kd_methods[] = {
     {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
     {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
     {"solve", kd_solve, METH_VARARGS, "solve with the factors, in place"},
     {"matvec", kd_matvec, METH_VARARGS, "y = K x from the stored values"},
+    {"invalid", kd_invalid, METH_VARARGS, "the first entry not finite, or negative"},
+    {"error_reductions", kd_error_reductions, METH_VARARGS,
+     "the optimality error's sums and maxima"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,

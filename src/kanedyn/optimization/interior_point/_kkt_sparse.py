@@ -27,7 +27,9 @@ entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows); and all the storage the
 numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
-of :math:`K`, the kernel's scratch arrays).
+of :math:`K`, the kernel's scratch arrays).  All but the storage is kept for
+the next object of the same inputs (:mod:`._kkt_analyses`: a problem solved
+again makes the same analyses).
 
 **Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
 released): the values scattered through the maps, then an up-looking block
@@ -128,6 +130,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._kkt_analyses import SymbolicAnalysis, cached_analysis
 from ._kkt_kernel import kernel
 from ._kkt_ordering import ORDERINGS, elimination_order
 
@@ -146,6 +149,9 @@ MAX_DELAYED = 64
 
 _INDEX = np.int32
 _LIMIT = np.iinfo(_INDEX).max
+
+#: the names of ``factor``'s arguments, in their order
+_FACTOR_ARGUMENTS = ("hessian_values", "jacobian_values", "diagonal_x", "diagonal_c")
 
 
 @dataclass(frozen=True)
@@ -222,13 +228,28 @@ def _structure(structure, name, n_rows, n_cols):
 
 
 def _values(value, size, name):
-    """``value`` as a C-contiguous float64 array of shape ``(size,)``, finite."""
+    """``value`` as a C-contiguous float64 array of shape ``(size,)`` (its
+    values checked by :func:`_check_values`)."""
     a = np.ascontiguousarray(value, dtype=float)
     if a.shape != (size,):
         raise ValueError(f"{name} must have shape ({size},), not {a.shape}")
-    if not np.isfinite(a).all():
-        raise ValueError(f"{name}[{np.flatnonzero(~np.isfinite(a))[0]}] is not finite")
     return a
+
+
+def _check_values(kernel, arrays, names, nonnegative=None):
+    """Raise ``ValueError`` at the first entry of ``arrays`` (float64,
+    C-contiguous) that is not finite, else at the most negative of the array
+    named ``nonnegative`` (the kernel's ``invalid``: one call, not NumPy's
+    three per array)."""
+    last = len(arrays) if nonnegative is None else names.index(nonnegative)
+    found = kernel.invalid(*arrays, last)
+    if found is None:
+        return
+    which, entry = found
+    a, name = arrays[which], names[which]
+    if not np.isfinite(a[entry]):
+        raise ValueError(f"{name}[{entry}] is not finite")
+    raise ValueError(f"{name}[{int(np.argmin(a))}] = {float(a.min())!r} is negative")
 
 
 def _permuted_pattern(n, permutation, hessian, jacobian):
@@ -359,26 +380,22 @@ class SparseKKT:
 
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (pairs by :func:`elimination_order`, ``self._delayed``
-        last), K's permuted pattern and maps, the elimination tree and the
-        storage of the factors; ``has_diagonal`` and ``pairable`` as
+        last), K's permuted pattern and maps, the elimination tree (those
+        kept for the next object of the same inputs,
+        :func:`~._kkt_analyses.cached_analysis`) and the storage of the
+        factors; ``has_diagonal`` and ``pairable`` as
         :func:`elimination_order` takes them."""
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
-        off = hr != hc
-        permutation, n_dense, kind = elimination_order(
-            n, m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
-            self._delayed)
-        (self._Ap, self._Ai, self._hessian_map, self._jacobian_map,
-         self._diagonal_map) = _permuted_pattern(n, permutation, (hr, hc), (jr, jc))
+        symbolic = cached_analysis(
+            N, (n, m, self.ordering), (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
+            lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
+        self._permutation, self._kind = symbolic.permutation, symbolic.kind
+        self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
+        self._hessian_map, self._jacobian_map = symbolic.hessian_map, symbolic.jacobian_map
+        self._diagonal_map, self._parent = symbolic.diagonal_map, symbolic.parent
         self._Ax = np.zeros(self._Ai.size)
-        self._permutation = permutation
-        self._kind = kind
-        # elimination tree and the pattern's size, then L's storage
-        self._parent = np.empty(N, dtype=_INDEX)
-        counts = np.empty(N, dtype=np.int64)
-        self._kernel.symbolic(self._parent, counts, self._Ap, self._Ai, self._kind)
-        self._Lp = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(counts, out=self._Lp[1:])
+        # L's storage
         nnz = int(self._Lp[-1])
         self._Li = np.zeros(nnz, dtype=_INDEX)
         self._Lx = np.zeros(nnz)
@@ -391,11 +408,33 @@ class SparseKKT:
                                               self._E))
         map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
                                            self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._kind, permutation))
-        self.analysis = KKTAnalysis(n, m, permutation, n_dense, int(self._delayed.sum()),
-                                    int(self._Ai.size), nnz, factor_bytes, map_bytes,
+                                           self._parent, self._kind, self._permutation))
+        self.analysis = KKTAnalysis(n, m, self._permutation, symbolic.n_dense,
+                                    int(self._delayed.sum()), int(self._Ai.size), nnz,
+                                    factor_bytes, map_bytes,
                                     self._factor_work.nbytes + self._solve_work.nbytes
                                     + self._zero.nbytes)
+
+    def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
+        order, K's permuted pattern and maps, the elimination tree and L's
+        column pointers."""
+        n, N = self.n, self.size
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        off = hr != hc
+        permutation, n_dense, kind = elimination_order(
+            n, self.m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
+            self._delayed)
+        Ap, Ai, hessian_map, jacobian_map, diagonal_map = _permuted_pattern(
+            n, permutation, (hr, hc), (jr, jc))
+        # elimination tree and the pattern's size, then L's column pointers
+        parent = np.empty(N, dtype=_INDEX)
+        counts = np.empty(N, dtype=np.int64)
+        self._kernel.symbolic(parent, counts, Ap, Ai, kind)
+        Lp = np.zeros(N + 1, dtype=np.int64)
+        np.cumsum(counts, out=Lp[1:])
+        return SymbolicAnalysis(permutation, n_dense, kind, Ap, Ai, hessian_map, jacobian_map,
+                                diagonal_map, parent, Lp)
 
     def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
         """Factor K with these values; return its inertia.
@@ -428,8 +467,7 @@ class SparseKKT:
         jv = _values(jacobian_values, self._jacobian_map.size, "jacobian_values")
         dx = _values(diagonal_x, self.n, "diagonal_x")
         dc = _values(diagonal_c, self.m, "diagonal_c")
-        if dc.size and dc.min() < 0.0:
-            raise ValueError(f"diagonal_c[{int(np.argmin(dc))}] = {float(dc.min())!r} is negative")
+        _check_values(self._kernel, (hv, jv, dx, dc), _FACTOR_ARGUMENTS, "diagonal_c")
         self.inertia = None  # no factors while the kernel overwrites them
         inertia = self._factor(hv, jv, dx, dc)
         if inertia[2] and self.reanalyses < MAX_REANALYSES:
@@ -509,9 +547,9 @@ class SparseKKT:
         N = self.size
         if b.ndim not in (1, 2) or b.shape[0] != N:
             raise ValueError(f"rhs must have shape ({N},) or ({N}, k), not {b.shape}")
-        if not np.isfinite(b).all():
-            raise ValueError("rhs holds a value that is not finite")
         x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
+        if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
+            raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]
         self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
                            self._permutation, self._solve_work, columns)

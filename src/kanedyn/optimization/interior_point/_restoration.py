@@ -194,7 +194,8 @@ class Restoration:
             dual = lagrangian.copy()
             dual[BR.lower_index] -= zl
             dual[BR.upper_index] += zu
-            errors = optimality_errors(dual, c_r, y, zl, zu, gap_lower, gap_upper, mu_r)
+            errors = optimality_errors(dual, c_r, y, zl, zu, gap_lower, gap_upper, mu_r,
+                                       run.error_reductions)
             violation = run.unscaled_violation(e.rows, c)
             if print_row is not None and not reprint:
                 print_row(f"{run.iteration}r", e.objective / run.reduced.objective_scale,

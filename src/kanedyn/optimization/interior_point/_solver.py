@@ -240,6 +240,10 @@ class _Run:
         self.slack_bounds = (lower[n:], upper[n:])
         kkt_type, self.note = kkt_class(s.linear_solver)
         self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        #: the optimality errors' sums and maxima: SparseKKT's kernel's, one
+        #: call (the same numbers as NumPy's, which DenseKKT's solves take)
+        self.error_reductions = getattr(getattr(self.kkt, "_kernel", None),
+                                        "error_reductions", None)
         self.stepper = StepSolver(self.kkt, n, m, ineq, s)
         return True
 
@@ -306,7 +310,7 @@ class _Run:
         """``m`` of :meth:`_measures` with the optimality errors at the barrier
         parameter ``mu`` (after a new ``mu`` only these change)."""
         errors = optimality_errors(m["dual"], m["c"], y, z_lower, z_upper, m["gap_lower"],
-                                   m["gap_upper"], mu)
+                                   m["gap_upper"], mu, self.error_reductions)
         sf = self.reduced.objective_scale
         m.update(dual_inf=errors.dual_inf, primal_inf=errors.primal_inf, error=errors.error,
                  error_mu=errors.error_mu,
