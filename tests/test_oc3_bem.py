@@ -349,15 +349,16 @@ def test_spinning_rotor_damps_the_platform_pitch():
     with BEM aerodynamics against the rotor without wind (the platform's linear damping
     and drag only) and against the performance-table rotor (aero="thrust").
 
-    Measured damping ratios: 4.7 % without wind; controller on, 9.2 % (BEM) and 7.6 %
-    (table); pitch and generator torque held (controller off), 13.6 % and 12.6 %.  The
+    Measured damping ratios (2026-11-29): 4.85 % without wind; controller on, 8.88 % (BEM)
+    and 7.28 % (table); pitch and generator torque held (controller off), 14.45 % and
+    12.93 %.  The
     linear estimate: the thrust's slope at constant rotor speed and pitch, dT/dV =
     76.8 kN s/m (table; the BEM's 76.6), is the damping both share; the BEM adds the
     hub pitch moment of the blades' unequal inflow, 6.5e7 N m s/rad, about 10 % of
     dT/dV times the hub's 89.2 m lever squared.  With the controller off the BEM's
     increment over no wind is 1.19 times the table's over these 130 s (1.13 over 150 s:
     the late peaks are small), near that 1.10; with it on, the two rotors' different
-    pitch sensitivities give 1.55.
+    pitch sensitivities give 1.66.
     """
     calm = _damping_ratio(*_pitch_decay(0.0, "thrust")[:2])
     assert 0.03 < calm < 0.06
