@@ -40,7 +40,7 @@ import sympy.physics.mechanics as me
 from ..._errors import ModelError
 from ..flexible import FlexibleBody
 from ._blade_element_momentum import BladeElementMomentum
-from ._blade_element_rotor import warm_started_inputs
+from ._blade_element_rotor import _cross, warm_started_inputs
 from ._mooring import state_function
 
 __all__ = ["FlexibleBladeElementRotor"]
@@ -118,6 +118,9 @@ class FlexibleBladeElementRotor:
         self.hub, self.shaft_frame, self.radial, self.frame = hub, shaft_frame, radial, frame
         self.pitch, self.wind = pitch, wind
         self.wind_direction = frame.x if wind_direction is None else wind_direction
+        # each blade's annulus nodes: undeflected offsets from the root, modes and
+        # second-order shapes (constants of every solve), by the blade's identity
+        self._node_shapes = {id(blade): _node_shapes(blade, nodes) for blade in blades}
         t = me.dynamicsymbols._t
         n = len(nodes)
         self.normal_symbols = tuple(tuple(sm.Function(f"F{name}_n_{k + 1}_{i + 1}")(t)
@@ -174,18 +177,15 @@ class FlexibleBladeElementRotor:
 
     def node_motion(self, blade, root, root_velocity, rate, rotation, eta, zeta):
         r"""Positions from the hub and velocities of the annuli's nodes, :math:`S` comps, (n, 3)."""
-        member = blade.member
-        x = member.nodes[self.nodes] - member.nodes[member.reference_node]     # (n, 3)
-        Phi = np.stack([member.node_modes(k)[0] for k in self.nodes])          # (n, 3, m)
+        x, Phi, G = self._node_shapes[id(blade)]
         local = x + Phi @ eta
         slope = Phi
-        if blade.stiffening and member.second_order is not None:
-            G = member.second_order[self.nodes]                               # (n, 3, m, m)
+        if G is not None:
             local = local + 0.5 * np.einsum("naij,i,j->na", G, eta, eta)
             slope = Phi + np.einsum("naij,j->nai", G, eta)
         arm = local @ rotation.T
         position = root + arm
-        velocity = root_velocity + np.cross(rate, arm) + (slope @ zeta) @ rotation.T
+        velocity = root_velocity + _cross(rate, arm) + (slope @ zeta) @ rotation.T
         return position, velocity
 
     def node_loads(self, state, direction, pitch, wind_speed, guess=None):
@@ -213,7 +213,7 @@ class FlexibleBladeElementRotor:
             root = kin[0]
             position, velocity = self.node_motion(blade, *kin)
             e_r = root / np.linalg.norm(root)
-            e_t = np.cross(x_axis, e_r)
+            e_t = _cross(x_axis, e_r)
             air = wind_speed * np.asarray(direction, float) - velocity
             axial.append(air[:, 0])
             tangential.append(-air @ e_t)
@@ -241,3 +241,15 @@ class FlexibleBladeElementRotor:
     def __repr__(self):
         return (f"FlexibleBladeElementRotor({self.name!r}, {len(self.blades)} flexible blades, "
                 f"{len(self.nodes)} annuli)")
+
+
+def _node_shapes(blade, nodes):
+    """``(x, Phi, G)`` of ``blade``'s nodes ``nodes``: their undeflected offsets
+    from the root (m, shape (n, 3)), their translation per mode (shape (n, 3, m))
+    and, for a blade with geometric stiffening, their second-order shapes
+    (shape (n, 3, m, m); else ``None``), member-frame components."""
+    member = blade.member
+    x = member.nodes[nodes] - member.nodes[member.reference_node]
+    Phi = np.stack([member.node_modes(k)[0] for k in nodes])
+    stiffened = blade.stiffening and member.second_order is not None
+    return x, Phi, member.second_order[nodes] if stiffened else None
