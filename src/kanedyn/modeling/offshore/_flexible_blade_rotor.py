@@ -207,6 +207,13 @@ class FlexibleBladeElementRotor:
         (ndarray, ndarray, AnnulusSolution)
             Normal and tangential forces, shape (B, n) each, and the solution.
         """
+        solution = self.bem.solve(*self._inflow(state, direction, wind_speed), pitch, guess)
+        w = self.bem.weights
+        return solution.normal_load * w, solution.tangential_load * w, solution
+
+    def _inflow(self, state, direction, wind_speed):
+        """The annuli's axial and tangential inflow (m/s, shape (B, n) each) at the
+        blades' ``state`` (:meth:`node_loads`)."""
         axial, tangential = [], []
         x_axis = np.array([1.0, 0.0, 0.0])
         for blade, kin in zip(self.blades, state):
@@ -217,9 +224,7 @@ class FlexibleBladeElementRotor:
             air = wind_speed * np.asarray(direction, float) - velocity
             axial.append(air[:, 0])
             tangential.append(-air @ e_t)
-        solution = self.bem.solve(np.array(axial), np.array(tangential), pitch, guess)
-        w = self.bem.weights
-        return solution.normal_load * w, solution.tangential_load * w, solution
+        return np.array(axial), np.array(tangential)
 
     def wind_speed(self, t):
         """Free wind speed (m/s) at time ``t``."""
@@ -234,9 +239,30 @@ class FlexibleBladeElementRotor:
             normal, tangential, solution = self.node_loads(state, direction, pitch,
                                                            self.wind_speed(t), guess=guess)
             return np.concatenate([normal.ravel(), tangential.ravel()]), solution.inflow_angle
+
+        def solve_many(ts, Y):
+            # each state's inflow as solve's; then every annulus of every state at
+            # once, started from the first state's angles (solved alone: half the
+            # iterations of a start from Ning's intervals)
+            axial, tangential, pitches = [], [], []
+            for t, y in zip(ts, Y.T):
+                state, direction, pitch = kinematics(y)
+                inflow = self._inflow(state, direction, self.wind_speed(t))
+                axial.append(inflow[0])
+                tangential.append(inflow[1])
+                pitches.append(pitch)
+            axial, tangential = np.array(axial), np.array(tangential)
+            pitches = np.reshape(pitches, (-1, 1, 1))
+            first = self.bem.solve(axial[:1], tangential[:1], pitches[:1])
+            solution = self.bem.solve(axial, tangential, pitches,
+                                      np.broadcast_to(first.inflow_angle, axial.shape))
+            w = self.bem.weights
+            return np.concatenate([(solution.normal_load * w).reshape(len(axial), -1),
+                                   (solution.tangential_load * w).reshape(len(axial), -1)],
+                                  axis=1)
         symbols = [s for row in self.normal_symbols for s in row]
         symbols += [s for row in self.tangential_symbols for s in row]
-        return warm_started_inputs(symbols, solve)
+        return warm_started_inputs(symbols, solve, solve_many)
 
     def __repr__(self):
         return (f"FlexibleBladeElementRotor({self.name!r}, {len(self.blades)} flexible blades, "
