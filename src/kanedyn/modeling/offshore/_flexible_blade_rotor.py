@@ -27,7 +27,9 @@ They enter the equations as two specified inputs per node and blade
 (``F{name}_n_{k}_{i}(t)`` and ``F{name}_t_{k}_{i}(t)``, N);
 :meth:`FlexibleBladeElementRotor.specified` computes them from ``(t, y)`` by one
 solve of every annulus of every blade per state, shared by all the inputs and
-warm-started from the last solution.  With undeflected, still blades the loads
+warm-started from the last solution; a caller that reads many states at once
+(the energy balance's quadrature points) has them solved together
+(:func:`~kanedyn.modeling.offshore._blade_element_rotor.warm_started_inputs`).  With undeflected, still blades the loads
 add up to :class:`~kanedyn.offshore.BladeElementRotor`'s force and moment.
 """
 
