@@ -232,8 +232,8 @@ def _solved_together(model, ts, Y):
     """The inputs that follow the state and whose shared function solves many
     states at once (``solved_at``: a rotor's BEM loads on its blades' nodes), each
     solved once for all the states ``Y`` (shape (n_states, N)) at the times ``ts``
-    while the context holds, rather than state by state (the same values to the
-    solver's tolerance: no warm start)."""
+    while the context holds, rather than state by state, each warm-started from
+    the last (the same values, to the solver's tolerance)."""
     sources = {}
     for _, inp in model._inputs:
         source = getattr(inp.value, "input_source", None) if inp.arity == 2 else None

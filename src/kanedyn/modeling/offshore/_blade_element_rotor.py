@@ -210,10 +210,10 @@ def warm_started_inputs(symbols, solve, solve_many=None):
         solve's inflow angles (None at first).
     solve_many : callable, optional
         ``solve_many(ts, Y) -> values``, shape (N, len(symbols)): the values at
-        many states, the states the columns of ``Y`` (shape (n_states, N)), in
-        one solve that no guess starts (the same roots, to the solver's
-        tolerance).  The entries' shared function then offers
-        :meth:`_WarmStarted.solved_at`.
+        the times ``ts`` (s, shape (N,)) and the states that are the columns of
+        ``Y`` (shape (n_states, N)), all in one solve (not warm-started from
+        state to state: the same roots, to the solver's tolerance).  The
+        entries' shared function then offers :meth:`_WarmStarted.solved_at`.
     """
     function = _WarmStarted(solve, solve_many)
     return {s: _Entry(function, i) for i, s in enumerate(symbols)}
@@ -221,7 +221,8 @@ def warm_started_inputs(symbols, solve, solve_many=None):
 
 class _WarmStarted:
     """The inputs' values at ``(t, y)``: one solve per state, warm-started from the
-    last one's inflow angles; the last state's values kept."""
+    last one's inflow angles; the last state's values kept (and, while
+    :meth:`solved_at` holds, those of its states)."""
 
     def __init__(self, solve, solve_many):
         self._solve, self._solve_many = solve, solve_many
@@ -241,12 +242,19 @@ class _WarmStarted:
 
     @contextlib.contextmanager
     def solved_at(self, ts, Y):
-        """Within this context the values at the states ``Y`` (shape (n_states,
-        N)) at times ``ts`` (shape (N,)) are those of one solve of them all
-        (``solve_many``; without it each state is solved when asked, as
-        outside).  A caller that reads many states at once, not along a
-        motion, saves the solves' per-call cost (the energy balance's
-        quadrature points)."""
+        """A context within which the values at the given states are those of
+        one solve of them all (``solve_many``; without it each state is solved
+        when asked, as outside): for a caller that reads many states at once,
+        not along a motion (the energy balance's quadrature points), without
+        each solve's per-call cost.
+
+        Parameters
+        ----------
+        ts : array_like, shape (N,)
+            Times, s.
+        Y : array_like, shape (n_states, N)
+            The states, one per column.
+        """
         Y = np.asarray(Y, dtype=float)
         if self._solve_many is None or not Y.size:
             yield
