@@ -33,6 +33,7 @@ import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
 from sympy.core.function import AppliedUndef
+from sympy.core.traversal import iterargs
 
 from ..engine import is_small, name_of
 
@@ -141,11 +142,12 @@ class _Evidence:
 def _linear_terms(expr, variables):
     """``[(variable, coefficient)]`` of the terms of ``expr`` linear in one variable."""
     expr = sm.sympify(expr, strict=True)
-    if not is_small(expr, _MAX_NODES):
-        return []
+    if not is_small(expr, _MAX_NODES) or not expr.has(*variables):
+        return []  # (without a variable, no term of the expansion holds one)
     out = []
     for term in sm.Add.make_args(sm.expand(expr)):
-        present = [v for v in variables if term.has(v)]
+        nodes = set(iterargs(term))  # what term.has(v) looks through, read once
+        present = [v for v in variables if v in nodes]
         if len(present) != 1:
             continue
         v = present[0]

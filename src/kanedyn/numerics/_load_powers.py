@@ -38,6 +38,7 @@ energy, that is taken to be theirs (as :func:`power_balance` does).
 
 from __future__ import annotations
 
+import contextlib
 from dataclasses import dataclass
 
 import numpy as np
@@ -206,23 +207,42 @@ def load_powers(model, t, y, gravity=None):
     by_row = bool(k or inputs_follow_state(model))
     udot = _accelerations(model, ts, Y) if not by_row else None
     rows = []
-    for i in range(ts.size):
-        if by_row and not k:
-            rows.append(list(model._input_values(ts[i], Y[:, i]))
-                        + list(model.rhs(ts[i], Y[:, i])[n:]))
-            continue
-        inputs = list(model._input_values(ts[i], Y[:, i])) if model._inputs else []
-        if k:
-            forces = list(model.auxiliary(ts[i], Y[:, i]).values())
-            rows.append(inputs + forces + list(model.rhs(ts[i], Y[:, i])[n:]))
-        else:
-            rows.append(inputs + list(udot[i]))
+    with _solved_together(model, ts, Y):
+        for i in range(ts.size):
+            if by_row and not k:
+                rows.append(list(model._input_values(ts[i], Y[:, i]))
+                            + list(model.rhs(ts[i], Y[:, i])[n:]))
+                continue
+            inputs = list(model._input_values(ts[i], Y[:, i])) if model._inputs else []
+            if k:
+                forces = list(model.auxiliary(ts[i], Y[:, i]).values())
+                rows.append(inputs + forces + list(model.rhs(ts[i], Y[:, i])[n:]))
+            else:
+                rows.append(inputs + list(udot[i]))
     R = np.array(rows, dtype=float).T.reshape(-1, ts.size)
     out = fn(ts, Y, model._p, R)
     loads = np.broadcast_to(out[0], (len(out[0]), ts.size)).astype(float)
     grav = np.broadcast_to(out[1], (len(out[1]), ts.size)).astype(float)
     prescribed = np.broadcast_to(out[2], ts.shape).astype(float) if len(out) > 2 else None
     return LoadPowers(loads, grav, prescribed, _damping_powers(model, Y), moved)
+
+
+@contextlib.contextmanager
+def _solved_together(model, ts, Y):
+    """The inputs that follow the state and whose shared function solves many
+    states at once (``solved_at``: a rotor's BEM loads on its blades' nodes), each
+    solved once for all the states ``Y`` (shape (n_states, N)) at the times ``ts``
+    while the context holds, rather than state by state, each warm-started from
+    the last (the same values, to the solver's tolerance)."""
+    sources = {}
+    for _, inp in model._inputs:
+        source = getattr(inp.value, "input_source", None) if inp.arity == 2 else None
+        if source is not None and hasattr(source, "solved_at"):
+            sources[id(source)] = source
+    with contextlib.ExitStack() as stack:
+        for source in sources.values():
+            stack.enter_context(source.solved_at(ts, Y))
+        yield
 
 
 def _accelerations(model, ts, Y):

@@ -163,9 +163,9 @@ class BladeElementMomentum:
         self._table = table.ravel()
         self._slope = np.concatenate([slope, slope[:, -1:]], axis=1).ravel()
         self._row = np.arange(self.radius.size) * grid.size
-        # Prandtl's exponents times |sin(phi)|
-        self._tip_exponent = blades / 2 * (self.tip_radius - self.radius) / self.radius
-        self._hub_exponent = blades / 2 * (self.radius - self.hub_radius) / self.hub_radius
+        # Prandtl's exponents times |sin(phi)|, negated
+        self._tip_exponent = -(blades / 2 * (self.tip_radius - self.radius) / self.radius)
+        self._hub_exponent = -(blades / 2 * (self.radius - self.hub_radius) / self.hub_radius)
 
     # ------------------------------------------------------------------ annuli
     def airfoil_coefficients(self, angle_of_attack):
@@ -192,12 +192,13 @@ class BladeElementMomentum:
         if self.tip_loss or self.hub_loss:
             inverse = 1 / np.maximum(np.abs(s), 1e-12)
             if self.tip_loss:
-                F = 2 / np.pi * np.arccos(np.exp(-self._tip_exponent * inverse))
+                F = 2 / np.pi * np.arccos(np.exp(self._tip_exponent * inverse))
             if self.hub_loss:
-                F = F * (2 / np.pi) * np.arccos(np.exp(-self._hub_exponent * inverse))
+                F = F * (2 / np.pi) * np.arccos(np.exp(self._hub_exponent * inverse))
             F = np.maximum(F, 1e-12)
-        k = self.solidity * cn / (4 * F * s * s)
-        kp = self.solidity * ct / (4 * F * s * c)
+        four_fs = 4 * F * s
+        k = self.solidity * cn / (four_fs * s)
+        kp = self.solidity * ct / (four_fs * c)
         a = k / (1 + k)
         high = k > 2 / 3
         if high.any():
@@ -260,8 +261,7 @@ class BladeElementMomentum:
         phi, pick = _safeguarded_newton(residual, *_bracket(residual, Vx.shape, guess))
         # the solver's last evaluation holds its answer: each angle's state from the
         # point picked
-        _, a, kp, cn, ct = (np.take_along_axis(v, pick[None], axis=0)[0]
-                            for v in last["state"])
+        _, a, kp, cn, ct = (np.where(pick, v[1], v[0]) for v in last["state"])
         a = np.where(Vx == 0, 0.0, a)
         ap = kp / (1 - kp)
         w2 = (Vx * (1 - a)) ** 2 + (Vy * (1 + ap)) ** 2
@@ -346,8 +346,8 @@ def _bracket(residual, shape, guess=None):
 
 def _safeguarded_newton(residual, lo, hi, flo, fhi):
     """Safeguarded Newton on arrays of brackets (their ends' residuals ``flo``,
-    ``fhi``), to _TOLERANCE; returns the angles and the index (0 or 1) of the
-    residual's last evaluation that holds each.
+    ``fhi``), to _TOLERANCE; returns the angles and, for each, which point of the
+    residual's last evaluation holds it (``True``: the second, ``False``: the first).
 
     Each step evaluates the residual at two points around the new point ``x``,
     ``x -+ 0.4 _TOLERANCE``, in one call (the evaluation's cost is mostly per call,
@@ -389,5 +389,5 @@ def _safeguarded_newton(residual, lo, hi, flo, fhi):
         side = np.where(left, 1, -1)
         with np.errstate(divide="ignore", invalid="ignore"):
             newton = below - fbelow * (above - below) / (fabove - fbelow)
-    pick = (np.abs(fabove) < np.abs(fbelow)).astype(int)
-    return np.where(pick == 1, above, below), pick
+    pick = np.abs(fabove) < np.abs(fbelow)
+    return np.where(pick, above, below), pick

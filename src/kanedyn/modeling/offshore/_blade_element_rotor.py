@@ -26,6 +26,8 @@ warm-started from the last solution).
 
 from __future__ import annotations
 
+import contextlib
+
 import numpy as np
 import sympy as sm
 import sympy.physics.mechanics as me
@@ -196,7 +198,7 @@ def _cross(a, b):
                      a[..., 0] * b[..., 1] - a[..., 1] * b[..., 0]], axis=-1)
 
 
-def warm_started_inputs(symbols, solve):
+def warm_started_inputs(symbols, solve, solve_many=None):
     """``{symbol: callable(t, y)}`` sharing one solve per state, each warm-started.
 
     Parameters
@@ -206,17 +208,63 @@ def warm_started_inputs(symbols, solve):
     solve : callable
         ``solve(t, y, guess) -> (values, inflow angles)``; ``guess`` the last
         solve's inflow angles (None at first).
+    solve_many : callable, optional
+        ``solve_many(ts, Y) -> values``, shape (N, len(symbols)): the values at
+        the times ``ts`` (s, shape (N,)) and the states that are the columns of
+        ``Y`` (shape (n_states, N)), all in one solve (not warm-started from
+        state to state: the same roots, to the solver's tolerance).  The
+        entries' shared function then offers :meth:`_WarmStarted.solved_at`.
     """
-    cache = {"key": None, "values": None, "phi": None}
+    function = _WarmStarted(solve, solve_many)
+    return {s: _Entry(function, i) for i, s in enumerate(symbols)}
 
-    def values(t, y):
+
+class _WarmStarted:
+    """The inputs' values at ``(t, y)``: one solve per state, warm-started from the
+    last one's inflow angles; the last state's values kept (and, while
+    :meth:`solved_at` holds, those of its states)."""
+
+    def __init__(self, solve, solve_many):
+        self._solve, self._solve_many = solve, solve_many
+        self._key = self._values = self._phi = None
+        self._known = {}  # (t, y bytes) -> values, while solved_at holds
+
+    def __call__(self, t, y):
         y = np.asarray(y, dtype=float)
         key = (float(t), y.tobytes())
-        if cache["key"] != key:
-            cache["values"], cache["phi"] = solve(t, y, cache["phi"])
-            cache["key"] = key
-        return cache["values"]
-    return {s: _Entry(values, i) for i, s in enumerate(symbols)}
+        known = self._known.get(key)
+        if known is not None:
+            return known
+        if self._key != key:
+            self._values, self._phi = self._solve(t, y, self._phi)
+            self._key = key
+        return self._values
+
+    @contextlib.contextmanager
+    def solved_at(self, ts, Y):
+        """A context within which the values at the given states are those of
+        one solve of them all (``solve_many``; without it each state is solved
+        when asked, as outside): for a caller that reads many states at once,
+        not along a motion (the energy balance's quadrature points), without
+        each solve's per-call cost.
+
+        Parameters
+        ----------
+        ts : array_like, shape (N,)
+            Times, s.
+        Y : array_like, shape (n_states, N)
+            The states, one per column.
+        """
+        Y = np.asarray(Y, dtype=float)
+        if self._solve_many is None or not Y.size:
+            yield
+            return
+        values = self._solve_many(ts, Y)
+        self._known = {(float(t), y.tobytes()): v for t, y, v in zip(ts, Y.T, values)}
+        try:
+            yield
+        finally:
+            self._known = {}
 
 
 class _Entry:

@@ -27,7 +27,9 @@ They enter the equations as two specified inputs per node and blade
 (``F{name}_n_{k}_{i}(t)`` and ``F{name}_t_{k}_{i}(t)``, N);
 :meth:`FlexibleBladeElementRotor.specified` computes them from ``(t, y)`` by one
 solve of every annulus of every blade per state, shared by all the inputs and
-warm-started from the last solution.  With undeflected, still blades the loads
+warm-started from the last solution; a caller that reads many states at once
+(the energy balance's quadrature points) has them solved together
+(:func:`~kanedyn.modeling.offshore._blade_element_rotor.warm_started_inputs`).  With undeflected, still blades the loads
 add up to :class:`~kanedyn.offshore.BladeElementRotor`'s force and moment.
 """
 
@@ -40,7 +42,7 @@ import sympy.physics.mechanics as me
 from ..._errors import ModelError
 from ..flexible import FlexibleBody
 from ._blade_element_momentum import BladeElementMomentum
-from ._blade_element_rotor import warm_started_inputs
+from ._blade_element_rotor import _cross, warm_started_inputs
 from ._mooring import state_function
 
 __all__ = ["FlexibleBladeElementRotor"]
@@ -118,6 +120,9 @@ class FlexibleBladeElementRotor:
         self.hub, self.shaft_frame, self.radial, self.frame = hub, shaft_frame, radial, frame
         self.pitch, self.wind = pitch, wind
         self.wind_direction = frame.x if wind_direction is None else wind_direction
+        # each blade's annulus nodes: undeflected offsets from the root, modes and
+        # second-order shapes (constants of every solve), by the blade's identity
+        self._node_shapes = {id(blade): _node_shapes(blade, nodes) for blade in blades}
         t = me.dynamicsymbols._t
         n = len(nodes)
         self.normal_symbols = tuple(tuple(sm.Function(f"F{name}_n_{k + 1}_{i + 1}")(t)
@@ -174,18 +179,15 @@ class FlexibleBladeElementRotor:
 
     def node_motion(self, blade, root, root_velocity, rate, rotation, eta, zeta):
         r"""Positions from the hub and velocities of the annuli's nodes, :math:`S` comps, (n, 3)."""
-        member = blade.member
-        x = member.nodes[self.nodes] - member.nodes[member.reference_node]     # (n, 3)
-        Phi = np.stack([member.node_modes(k)[0] for k in self.nodes])          # (n, 3, m)
+        x, Phi, G = self._node_shapes[id(blade)]
         local = x + Phi @ eta
         slope = Phi
-        if blade.stiffening and member.second_order is not None:
-            G = member.second_order[self.nodes]                               # (n, 3, m, m)
+        if G is not None:
             local = local + 0.5 * np.einsum("naij,i,j->na", G, eta, eta)
             slope = Phi + np.einsum("naij,j->nai", G, eta)
         arm = local @ rotation.T
         position = root + arm
-        velocity = root_velocity + np.cross(rate, arm) + (slope @ zeta) @ rotation.T
+        velocity = root_velocity + _cross(rate, arm) + (slope @ zeta) @ rotation.T
         return position, velocity
 
     def node_loads(self, state, direction, pitch, wind_speed, guess=None):
@@ -207,19 +209,24 @@ class FlexibleBladeElementRotor:
         (ndarray, ndarray, AnnulusSolution)
             Normal and tangential forces, shape (B, n) each, and the solution.
         """
+        solution = self.bem.solve(*self._inflow(state, direction, wind_speed), pitch, guess)
+        w = self.bem.weights
+        return solution.normal_load * w, solution.tangential_load * w, solution
+
+    def _inflow(self, state, direction, wind_speed):
+        """The annuli's axial and tangential inflow (m/s, shape (B, n) each) at the
+        blades' ``state`` (:meth:`node_loads`)."""
         axial, tangential = [], []
         x_axis = np.array([1.0, 0.0, 0.0])
         for blade, kin in zip(self.blades, state):
             root = kin[0]
             position, velocity = self.node_motion(blade, *kin)
             e_r = root / np.linalg.norm(root)
-            e_t = np.cross(x_axis, e_r)
+            e_t = _cross(x_axis, e_r)
             air = wind_speed * np.asarray(direction, float) - velocity
             axial.append(air[:, 0])
             tangential.append(-air @ e_t)
-        solution = self.bem.solve(np.array(axial), np.array(tangential), pitch, guess)
-        w = self.bem.weights
-        return solution.normal_load * w, solution.tangential_load * w, solution
+        return np.array(axial), np.array(tangential)
 
     def wind_speed(self, t):
         """Free wind speed (m/s) at time ``t``."""
@@ -234,10 +241,43 @@ class FlexibleBladeElementRotor:
             normal, tangential, solution = self.node_loads(state, direction, pitch,
                                                            self.wind_speed(t), guess=guess)
             return np.concatenate([normal.ravel(), tangential.ravel()]), solution.inflow_angle
+
+        def solve_many(ts, Y):
+            # each state's inflow as solve's; then every annulus of every state at
+            # once, started from the first state's angles (solved alone: half the
+            # iterations of a start from Ning's intervals)
+            axial, tangential, pitches = [], [], []
+            for t, y in zip(ts, Y.T):
+                state, direction, pitch = kinematics(y)
+                inflow = self._inflow(state, direction, self.wind_speed(t))
+                axial.append(inflow[0])
+                tangential.append(inflow[1])
+                pitches.append(pitch)
+            axial, tangential = np.array(axial), np.array(tangential)
+            pitches = np.reshape(pitches, (-1, 1, 1))
+            first = self.bem.solve(axial[:1], tangential[:1], pitches[:1])
+            solution = self.bem.solve(axial, tangential, pitches,
+                                      np.broadcast_to(first.inflow_angle, axial.shape))
+            w = self.bem.weights
+            return np.concatenate([(solution.normal_load * w).reshape(len(axial), -1),
+                                   (solution.tangential_load * w).reshape(len(axial), -1)],
+                                  axis=1)
         symbols = [s for row in self.normal_symbols for s in row]
         symbols += [s for row in self.tangential_symbols for s in row]
-        return warm_started_inputs(symbols, solve)
+        return warm_started_inputs(symbols, solve, solve_many)
 
     def __repr__(self):
         return (f"FlexibleBladeElementRotor({self.name!r}, {len(self.blades)} flexible blades, "
                 f"{len(self.nodes)} annuli)")
+
+
+def _node_shapes(blade, nodes):
+    """``(x, Phi, G)`` of ``blade``'s nodes ``nodes``: their undeflected offsets
+    from the root (m, shape (n, 3)), their translation per mode (shape (n, 3, m))
+    and, for a blade with geometric stiffening, their second-order shapes
+    (shape (n, 3, m, m); else ``None``), member-frame components."""
+    member = blade.member
+    x = member.nodes[nodes] - member.nodes[member.reference_node]
+    Phi = np.stack([member.node_modes(k)[0] for k in nodes])
+    stiffened = blade.stiffening and member.second_order is not None
+    return x, Phi, member.second_order[nodes] if stiffened else None
