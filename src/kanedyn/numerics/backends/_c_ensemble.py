@@ -57,7 +57,7 @@ typedef struct {
 
 /* the inputs at t: linear between the record's samples (np.interp's formula) */
 static void kd_ens_inputs(const KdEnsRhs *c, double t, double *r) {
-#if KD_NR > 0
+#if KD_HAS_R
     const double *T = c->r_times, *R = c->r_values;
     npy_intp k = c->r_count;
     if (T == NULL || k == 1 || t <= T[0]) { memcpy(r, R, sizeof(double) * KD_NR); return; }
@@ -169,7 +169,7 @@ typedef struct {
 static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double *out,
                        double *y_end, KdEnsFound *found, KdEnsOutcome *o) {
     const double dir = s->t1 >= s->t0 ? 1.0 : -1.0;
-    double t = s->t0, y[KD_NX], f[KD_NX], y_new[KD_NX], K[7][KD_NX], Q[KD_NX * 4];
+    double t = s->t0, y[KD_NX], f[KD_NX], y_new[KD_NX], K[7 * KD_NX], Q[KD_NX * 4];
     double B[KD_SZ(KD_NUDEP * KD_NU)], r[KD_SZ(KD_NR)], before[KD_NX];
     npy_intp next = 0;
     unsigned long count = 0;
@@ -263,7 +263,7 @@ static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
         t = t_new;
         memcpy(y, y_new, sizeof(y));
-        memcpy(f, K[6], sizeof(f));
+        memcpy(f, K + 6 * KD_NX, sizeof(f));
         if (n_ev > 0) memcpy(g_old, g_new, sizeof(double) * (size_t)n_ev);
         o->steps++;
         if (finite && s->project_tol > 0 && KD_NQDEP + KD_NUDEP > 0) {

@@ -55,7 +55,7 @@ PROJECTION = r"""
    velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
 static double kd_residual_at(double t, const double *y, const double *p, const double *r,
                              double *w, double *B) {
-#if KD_NQDEP + KD_NUDEP > 0
+#if KD_HAS_DEP
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_SZ(KD_NUDEP)];
     kd_eval_constraints(t, y, p, r, w, h, J, B, b);
     double worst = 0.0;
@@ -71,7 +71,7 @@ static double kd_residual_at(double t, const double *y, const double *p, const d
 /* dependent coordinates, then dependent speeds, by Newton's method with the
    independent ones fixed (as NumericModel.consistent_state): 0, or 1 if singular */
 static int kd_project_at(double t, double *y, const double *p, const double *r, double *w) {
-#if KD_NQDEP + KD_NUDEP > 0
+#if KD_HAS_DEP
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
     double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)];
     for (int it = 0; it < 50 && KD_NQDEP > 0; ++it) {
@@ -147,23 +147,23 @@ typedef int (*KdRhsFn)(void *ctx, double t, const double *y, double *out);
    err / (atol + max(|y|, |y_new|) rtol) */
 static inline int kd_dopri_attempt(KdRhsFn fn, void *ctx, double t, const double *y,
                                    const double *f, double h, double rtol,
-                                   const double *atol, double K[7][KD_NX], double *y_new,
+                                   const double *atol, double *K, double *y_new,
                                    double *err_norm) {
     double ytmp[KD_NX], err[KD_NX], scale[KD_NX];
-    memcpy(K[0], f, sizeof(double) * KD_NX);
+    memcpy(K, f, sizeof(double) * KD_NX);
     for (int s = 1; s < 7; ++s) {
         for (int i = 0; i < KD_NX; ++i) {
             double acc = 0.0;
-            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
+            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j * KD_NX + i];
             ytmp[i] = y[i] + h * acc;
         }
         if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
-        int status = fn(ctx, t + kd_C[s] * h, ytmp, K[s]);
+        int status = fn(ctx, t + kd_C[s] * h, ytmp, K + s * KD_NX);
         if (status != 0) return status;
     }
     for (int i = 0; i < KD_NX; ++i) {
         double e = 0.0;
-        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s * KD_NX + i];
         err[i] = e * h;
         scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
     }
@@ -312,14 +312,14 @@ typedef struct {
     int method;              /* 0 RK45, 1 Rosenbrock23 */
     int singular;            /* the derivative failed (singular, not finite) at t_singular */
     double t_singular;
-    double y_singular[KD_NX];
+    double *y_singular;      /* KD_NX (the caller's) */
     double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
     double *exact;           /* the module's exact derivatives: their work (heap), or NULL */
     const KdJacobianInfo *jacobians;  /* and those derivatives (one for the whole run) */
     /* continuous extension of the last step */
     double t_old, h;
-    double y_old[KD_NX];
-    double Q[KD_NX * 4];     /* RK45: y = y_old + h Q [x, x^2, x^3, x^4]; R23: Q[:,0]=k1, Q[:,1]=k2 */
+    double *y_old;           /* KD_NX (the caller's) */
+    double *Q;               /* KD_NX * 4 (the caller's): RK45: y = y_old + h Q [x, x^2, x^3, x^4]; R23: Q[:,0]=k1, Q[:,1]=k2 */
 } KdIntegrator;
 
 static const double kd_r23_d = 0.29289321881345248; /* 1 / (2 + sqrt(2)) */
@@ -558,16 +558,16 @@ typedef struct {
     double dir;                      /* direction of integration */
     KdBuf t, y;                      /* minima found: times and states */
     long examined;                   /* steps the screen did not clear */
-    double t_at, y_at[KD_NX];        /* the start of the current step */
-#if KD_NUDEP > 0
-    double B[KD_NUDEP * KD_NU];      /* B there */
+    double t_at, *y_at;              /* the start of the current step (KD_NX, the caller's) */
+#if KD_HAS_UDEP
+    double *B;                       /* B there (KD_NUDEP * KD_NU, the caller's) */
     double lo, fro;                  /* sigma_min >= lo, sigma_max <= fro there */
     int known;                       /* the rate there computed */
     double rate, ratio;              /* the rate there; the ratio (nan: not yet) */
 #endif
 } KdMonitor;
 
-#if KD_NUDEP > 0
+#if KD_HAS_UDEP
 /* sigma_min / sigma_max of B (m x o, m <= o) by one-sided Jacobi rotations of its
    rows (singular values to high relative accuracy); 0 for B = 0, nan if not finite */
 static double kd_sv_ratio(const double *B) {
@@ -699,7 +699,7 @@ static int kd_monitor_start(KdIntegrator *ig, KdMonitor *mon, double t, const do
     if (kd_constraint_matrix(ig->model, t, y, mon->B) != 0) return -1;
     kd_sv_bounds(mon->B, &mon->lo, &mon->fro);
     mon->t_at = t;
-    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    memcpy(mon->y_at, y, sizeof(double) * KD_NX);
     mon->known = 0;
     mon->ratio = NAN;
     return 0;
@@ -759,7 +759,7 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
     }
     memcpy(mon->B, B, sizeof(B));
     mon->t_at = t;
-    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    memcpy(mon->y_at, y, sizeof(double) * KD_NX);
     mon->lo = lo; mon->fro = fro;
     mon->known = known; mon->rate = rate; mon->ratio = ratio;
     return 0;
@@ -789,11 +789,11 @@ static int kd_f_stepper(void *ctx, double t, const double *y, double *out) {
 
 /* the continuous extension of an accepted Dormand-Prince step from its stages:
    y = y_old + h Q [x, x^2, x^3, x^4] (Q row-major, 4 per component) */
-static void kd_dopri_extension(double K[7][KD_NX], double *Q) {
+static void kd_dopri_extension(const double *K, double *Q) {
     for (int i = 0; i < KD_NX; ++i)
         for (int j = 0; j < 4; ++j) {
             double s = 0.0;
-            for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
+            for (int k = 0; k < 7; ++k) s += K[k * KD_NX + i] * kd_P[k][j];
             Q[4 * i + j] = s;
         }
 }
@@ -920,6 +920,15 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     int dense, energy = 1;
     KdMonitor mon;
     memset(&mon, 0, sizeof(mon));
+    /* the state-sized storage (before any jump past it: variable sizes) */
+    double mon_y_at[KD_NX], ig_y_singular[KD_NX], ig_y_old[KD_NX], ig_Q[KD_NX * 4];
+    double y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7 * KD_NX];
+    double T[KD_NX], k1[KD_NX], k2[KD_NX], atol[KD_NX];
+    mon.y_at = mon_y_at;
+#if KD_HAS_UDEP
+    double mon_B[KD_NUDEP * KD_NU];
+    mon.B = mon_B;
+#endif
     mon.displacement = 1e-7;
     if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddOdp", &t0, &t1, &y0obj, &tevalobj, &rtol,
                           &atolobj, &max_step, &first_step, &method_obj, &events, &project_tol,
@@ -935,6 +944,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KdIntegrator ig;
     memset(&ig, 0, sizeof(ig));
     ig.model = self;
+    ig.y_singular = ig_y_singular;
+    ig.y_old = ig_y_old;
+    ig.Q = ig_Q;
     if (strcmp(method_name, "RK45") == 0) ig.method = 0;
     else if (strcmp(method_name, "Rosenbrock23") == 0) ig.method = 1;
     else { PyErr_Format(PyExc_ValueError, "unknown compiled method %s", method_name); return NULL; }
@@ -942,7 +954,6 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     PyObject *keep_y = NULL, *keep_a = NULL;
     const double *y0 = kd_vector(y0obj, KD_NX, &keep_y, "y0");
     if (y0 == NULL) return NULL;
-    double atol[KD_NX];
     const double *av = kd_vector(atolobj, KD_NX, &keep_a, "atol");
     if (av == NULL) { Py_XDECREF(keep_y); return NULL; }
     memcpy(atol, av, sizeof(atol));
@@ -994,8 +1005,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double dir = t1 >= t0 ? 1.0 : -1.0;
     mon.dir = dir;
     work.t_lo = fmin(t0, t1); work.t_hi = fmax(t0, t1);
-    double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
-    double T[KD_NX], k1[KD_NX], k2[KD_NX];
+    double t = t0;
     J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
     if (J == NULL) { PyErr_NoMemory(); goto done; }
     ig.W = J + KD_NX * KD_NX;
@@ -1066,7 +1076,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             if (ig.method == 0) {
                 if (kd_dopri_attempt(kd_f_stepper, &ig, t, y, f, h, rtol, atol, K, y_new,
                                      &err_norm) != 0) KD_FAIL;
-                memcpy(f_new, K[6], sizeof(f_new));
+                memcpy(f_new, K + 6 * KD_NX, sizeof(f_new));
             } else {
                 int singular;
                 if (kd_r23_try(&ig, t, y, f, h, J, T, rtol, atol, y_new, f_new, k1, k2,

@@ -63,11 +63,18 @@ static const KdJacobianInfo *kd_jacobians = NULL;
 #endif
 """
 
-#: sizes derived from the ``KD_*`` sizes (every unit of a module)
+#: sizes derived from the ``KD_*`` sizes (every unit of a module), and what
+#: the preprocessor decides on them (``KD_HAS_*``: given with the sizes in the
+#: generic runtime unit, whose sizes are run-time constants)
 SIZE_MACROS = r"""
 #define KD_NX (KD_NQ + KD_NU)
 #define KD_NUI (KD_NU - KD_NUDEP)
 #define KD_SZ(x) ((x) > 0 ? (x) : 1)
+#ifndef KD_HAS_R
+#define KD_HAS_R (KD_NR > 0)
+#define KD_HAS_DEP (KD_NQDEP + KD_NUDEP > 0)
+#define KD_HAS_UDEP (KD_NUDEP > 0)
+#endif
 """
 
 #: dense LU with partial pivoting (no Python): part of the generic runtime
@@ -1125,11 +1132,11 @@ static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
 /* ---------------------------------------------------------- Model type */
 typedef struct {
     PyObject_HEAD
-    double p[KD_SZ(KD_NP)];
+    double *p;         /* KD_NP constants (heap: the sizes are run-time constants) */
     PyObject *inputs;  /* the inputs' Python callable, or None with a table */
     double *work;
     double *table;     /* inputs as polynomial pieces (kd_pieces_parse), or NULL */
-    KdPiece pieces[KD_SZ(KD_NR)];
+    KdPiece *pieces;   /* KD_NR (heap) */
     PyObject *input_names;  /* with a table: tuple of the inputs' names */
 } KdModel;
 
@@ -1138,13 +1145,27 @@ static void KdModel_dealloc(KdModel *self) {
     Py_XDECREF(self->input_names);
     PyMem_Free(self->work);
     PyMem_Free(self->table);
+    PyMem_Free(self->p);
+    PyMem_Free(self->pieces);
     Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *KdModel_new(PyTypeObject *type, PyObject *args, PyObject *kwds) {
+    KdModel *self = (KdModel *)PyType_GenericNew(type, args, kwds);
+    if (self == NULL) return NULL;
+    self->p = (double *)PyMem_Calloc((size_t)KD_SZ(KD_NP), sizeof(double));
+    self->pieces = (KdPiece *)PyMem_Calloc((size_t)KD_SZ(KD_NR), sizeof(KdPiece));
+    if (self->p == NULL || self->pieces == NULL) {
+        Py_DECREF(self);
+        return PyErr_NoMemory();
+    }
+    return (PyObject *)self;
 }
 
 /* the specified inputs at (t, y): from the table in C, else from the Python callable
    inputs(t, y) (y a NumPy array); -1 with a Python error */
 static int kd_inputs(KdModel *self, double t, PyObject *y, double *r) {
-#if KD_NR > 0
+#if KD_HAS_R
     if (self->table != NULL) return kd_pieces_eval(self->pieces, KD_NR, self->input_names, t, r);
     PyObject *inputs = self->inputs;
     PyObject *args[2];
@@ -1957,7 +1978,7 @@ static PyTypeObject KdModelType = {
     .tp_name = "kanedyn_generated.Model",
     .tp_basicsize = sizeof(KdModel),
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_new = PyType_GenericNew,
+    .tp_new = KdModel_new,
     .tp_init = (initproc)KdModel_init,
     .tp_dealloc = (destructor)KdModel_dealloc,
     .tp_methods = KdModel_methods,
