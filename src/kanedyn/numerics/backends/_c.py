@@ -608,14 +608,17 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     """The translation units of a module, each yielded as soon as it is made.
 
     The runtime is in two units: the generic one (the Python entry points,
-    batches, the integrator: it depends on the model's sizes only, see
-    :func:`predicted_runtime_unit`), first, and the model's (the solve of its
-    mass matrix, the table of its functions, the module's entry point), after
-    the long parts of the functions (it compiles in a fraction of their time).
-    They need nothing of the generated code but its declarations (the
-    work-array sizes are variables, ``kd_nw`` and ``kd_nwl``, defined by the
-    last unit), so the compiler works on the first while the functions are
-    generated; at -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
+    batches, the integrator, see :func:`_generic_part`), first, and the
+    model's (the solve of its mass matrix, the table of its functions, the
+    module's entry point), after the long parts of the functions (it compiles
+    in a fraction of their time).  The generic unit's text does not depend on
+    the model's sizes (without contacts): it takes them as constants that the
+    model's unit defines (``kd_nq`` ... ``kd_nr``, :func:`_size_variables`), so
+    its object, cached under the hash of its text, is compiled once per
+    variant and linked again into every later module of any size.  They need
+    nothing of the generated code but its declarations (the work-array sizes
+    are variables too, ``kd_nw`` and ``kd_nwl``, defined by the last unit), so
+    the compiler works on the first while the functions are generated; at -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
     solve or the contact loop, whose loops the vectorizer of -O2 speeds up (the
     entry points and the integrator run as fast at -O1: chain3d n = 3 to 30,
     the pendulum, within 3 %, and compile in 0.46 s instead of 0.68 s at
@@ -858,9 +861,13 @@ def _runtime_unit(part, sizes, lanes):
 
 
 def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False):
-    """The generic runtime of a module: what depends on its sizes (and on its
-    lanes, contacts and ``inverse_point``) only.  ``declarations``: of the
-    generated functions it calls (``constraints`` with dependent coordinates
+    """The generic runtime of a module: the same text for every model of the
+    same variant, whatever its sizes (they are run-time constants there, see
+    :func:`_size_variables`): its lanes, ``inverse_point``, whether it has
+    inputs, dependent coordinates, dependent speeds, and the generated
+    functions it calls.  With contacts (few models) the sizes and the number
+    of contacts are compile-time constants in it, as in the model's unit.
+    ``declarations``: of the generated functions it calls (``constraints`` with dependent coordinates
     or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
     ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
@@ -884,7 +891,9 @@ def predicted_runtime_unit(sizes):
     the model is derived, so that it can compile meanwhile
     (:func:`~._c_build.prefetch`).  The same text as :func:`generate_c_units`
     makes for such a model (a guess that turns out wrong costs only the
-    compiler's time)."""
+    compiler's time); it depends on ``sizes`` only through whether there are
+    inputs, dependent coordinates and dependent speeds, so that a model of
+    other sizes finds it compiled already."""
     dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
     declarations = [_signature("constraints", _CONSTRAINT_OUTPUTS) + ";"] if dependent else []
     declarations.append(_signature("energy", _ENERGY_OUTPUTS) + ";")

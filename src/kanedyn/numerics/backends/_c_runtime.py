@@ -9,8 +9,14 @@ directly: a ``ctypes`` call alone would cost more than the whole evaluation.
 
 A module built from translation units carries the runtime in two: the generic
 one (:data:`RUNTIME`, the integrator, the contact loop, :data:`RUNTIME_FOOTER`),
-which depends on the model's sizes only and can be compiled before the model
-is derived, and the model's own, in C without Python (:data:`MODEL_SOLVE`,
+which takes the sizes as run-time constants (``KD_NQ`` is ``kd_nq`` there,
+defined by the model's unit; block-scope arrays sized by them are variable
+length, the state-sized storage of ``KdModel`` is on the heap, that of the
+integrator on its caller's stack; only ``KD_HAS_R``, ``KD_HAS_DEP`` and
+``KD_HAS_UDEP`` decide at compile time), so that its text is the same for
+every model of a variant, can be compiled before the model is derived and is
+compiled once for models of any size (with contacts, the sizes are
+compile-time constants in it as everywhere else), and the model's own, in C without Python (:data:`MODEL_SOLVE`,
 :data:`LANE_SOLVE`, the table of its functions, which the generic unit turns
 into Python functions, and :data:`MODULE_FOOTER`); :data:`SHARED` declares what
 each calls of the other.
@@ -1948,8 +1954,9 @@ PYTHON_GLUE = PYTHON_GLUE.replace(
     "@ENTRIES@", "\n".join(f"KD_ENTRY({k})" for k in range(MAX_FUNCTIONS))).replace(
     "@ENTRY_LIST@", ", ".join(f"kd_py_function{k}" for k in range(MAX_FUNCTIONS)))
 
-#: the generic runtime: what depends on the model's sizes only (entry points
-#: of the Model type, batches, the integrator; the contact loop with contacts)
+#: the generic runtime: what the model's sizes (run-time constants in its own
+#: unit) parametrize only (entry points of the Model type, batches, the
+#: integrator; the contact loop with contacts)
 RUNTIME = RUNTIME_ERRORS + LU_SOLVE + TABLE_INPUTS + PYTHON_GLUE
 
 #: end of the generic runtime: the Model type and the module's creation
