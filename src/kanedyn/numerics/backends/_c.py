@@ -679,7 +679,8 @@ def _size_variables(sizes):
     what the preprocessor decides on them, whether there are inputs, dependent
     coordinates or speeds, and dependent speeds (``KD_HAS_R``, ``KD_HAS_DEP``,
     ``KD_HAS_UDEP``), stays in the text (a handful of variants)."""
-    return [f"extern const int {', '.join(name for _, _, name in _SIZES)};",
+    return ["#if defined(__GNUC__)\n__attribute__((visibility(\"hidden\")))\n#endif",
+            f"extern const int {', '.join(name for _, _, name in _SIZES)};",
             *(f"#define {macro} {name}" for macro, _, name in _SIZES),
             f"#define KD_HAS_R {int(sizes['n_r'] > 0)}",
             f"#define KD_HAS_DEP {int(sizes['n_q_dep'] + sizes['n_u_dep'] > 0)}",

@@ -108,6 +108,11 @@ static int kd_project_at(double t, double *y, const double *p, const double *r, 
 #: Python-free C shared by the compiled loop and the standalone export: the RMS
 #: norm of the step-size control and the Dormand-Prince 5(4) tableau
 DORMAND_PRINCE = r"""
+/* y = x, n doubles: a loop (with a run-time n, memcpy is a call; a state is short) */
+static inline void kd_copy(double *y, const double *x, int n) {
+    for (int i = 0; i < n; ++i) y[i] = x[i];
+}
+
 static double kd_rms(const double *x, const double *scale, int n) {
     double s = 0.0;
     for (int i = 0; i < n; ++i) { double v = x[i] / scale[i]; s += v * v; }
@@ -150,14 +155,14 @@ static inline int kd_dopri_attempt(KdRhsFn fn, void *ctx, double t, const double
                                    const double *atol, double *K, double *y_new,
                                    double *err_norm) {
     double ytmp[KD_NX], err[KD_NX], scale[KD_NX];
-    memcpy(K, f, sizeof(double) * KD_NX);
+    kd_copy(K, f, KD_NX);
     for (int s = 1; s < 7; ++s) {
         for (int i = 0; i < KD_NX; ++i) {
             double acc = 0.0;
             for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j * KD_NX + i];
             ytmp[i] = y[i] + h * acc;
         }
-        if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
+        if (s == 6) kd_copy(y_new, ytmp, KD_NX);
         int status = fn(ctx, t + kd_C[s] * h, ytmp, K + s * KD_NX);
         if (status != 0) return status;
     }
@@ -357,7 +362,7 @@ static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
    is declared: the function's NAN) */
 static int kd_stored_energy(KdModel *model, double t, const double *y, double *e,
                             double *potential) {
-    double r[KD_SZ(KD_NR)], kinetic;
+    double r[KD_SZ_R], kinetic;
     if (kd_inputs_at(model, t, y, r) != 0) return -1;
     kd_eval_energy(t, y, model->p, r, model->work, &kinetic, potential);
     if (isnan(*potential)) *potential = 0.0;
@@ -456,7 +461,7 @@ static int kd_work_end(KdModel *model, KdWork *w, double t, const double *y, con
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
     ig->nfev++;
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
     int bad = KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out) != 0;
     for (int i = 0; i < KD_NX && !bad; ++i) bad = !isfinite(out[i]);
@@ -524,14 +529,14 @@ static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, d
 /* largest constraint residual (-1 on a Python error in the inputs); the
    velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
 static double kd_residual(KdModel *model, double t, const double *y, double *B) {
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1.0;
     return kd_residual_at(t, y, model->p, r, model->work, B);
 }
 
 /* kd_project_at with the inputs at (t, y): 0, 1 if singular, -1 on a Python error */
 static int kd_project(KdModel *model, double t, double *y) {
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1;
     return kd_project_at(t, y, model->p, r, model->work);
 }
@@ -651,7 +656,7 @@ static void kd_sv_bounds(const double *B, double *lo, double *fro) {
 
 /* B = dc/du at (t, y); -1 on a Python error (inputs) */
 static int kd_constraint_matrix(KdModel *model, double t, const double *y, double *B) {
-    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_NUDEP], r[KD_SZ(KD_NR)];
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_NUDEP], r[KD_SZ_R];
     if (kd_inputs_at(model, t, y, r) != 0) return -1;
     kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
     return 0;
@@ -668,7 +673,7 @@ static int kd_monitor_rate(KdIntegrator *ig, KdMonitor *mon, double t, const dou
     double qd[KD_NQ];
     if (f != NULL) memcpy(qd, f, sizeof(qd));
     else {
-        double r[KD_SZ(KD_NR)], out[KD_NX];
+        double r[KD_SZ_R], out[KD_NX];
         if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
         (void)KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out);
         memcpy(qd, out, sizeof(qd));
@@ -809,7 +814,7 @@ static int kd_jacobian(KdIntegrator *ig, double t, const double *y, const double
     const KdJacobianInfo *info = ig->jacobians;
     int exact = ig->exact != NULL;
     if (exact) {
-        double r[KD_SZ(KD_NR)];
+        double r[KD_SZ_R];
         if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
         double *D = ig->exact + info->scratch, *C = D + (KD_NX + KD_NUDEP) * info->columns;
         /* a singular system: the differences (their non-finite values reject the step) */
@@ -1076,7 +1081,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             if (ig.method == 0) {
                 if (kd_dopri_attempt(kd_f_stepper, &ig, t, y, f, h, rtol, atol, K, y_new,
                                      &err_norm) != 0) KD_FAIL;
-                memcpy(f_new, K + 6 * KD_NX, sizeof(f_new));
+                kd_copy(f_new, K + 6 * KD_NX, KD_NX);
             } else {
                 int singular;
                 if (kd_r23_try(&ig, t, y, f, h, J, T, rtol, atol, y_new, f_new, k1, k2,
@@ -1099,7 +1104,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (failed) break;
         /* continuous extension of this step */
         ig.t_old = t; ig.h = h;
-        memcpy(ig.y_old, y, sizeof(y));
+        kd_copy(ig.y_old, y, KD_NX);
         if (ig.method == 0) {
             kd_dopri_extension(K, ig.Q);
         } else {
@@ -1166,8 +1171,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
         t = t_new;
-        memcpy(y, y_new, sizeof(y));
-        memcpy(f, f_new, sizeof(f));
+        kd_copy(y, y_new, KD_NX);
+        kd_copy(f, f_new, KD_NX);
         memcpy(g_old, g_new, sizeof(double) * KD_SZ(ig.n_events));
         /* constraint drift, then singular configurations in the step (the
            matrix B of the drift check: no evaluation of its own) */

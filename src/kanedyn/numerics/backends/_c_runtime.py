@@ -81,6 +81,12 @@ SIZE_MACROS = r"""
 #define KD_HAS_DEP (KD_NQDEP + KD_NUDEP > 0)
 #define KD_HAS_UDEP (KD_NUDEP > 0)
 #endif
+/* length of an array of the inputs: a constant without (no variable length) */
+#if KD_HAS_R
+#define KD_SZ_R KD_SZ(KD_NR)
+#else
+#define KD_SZ_R 1
+#endif
 """
 
 #: dense LU with partial pivoting (no Python): part of the generic runtime
@@ -1253,7 +1259,7 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
     PyObject *keep = NULL;
     const double *y = kd_vector(args[1], KD_NX, &keep, "the state y");
     if (y == NULL) return NULL;
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (kd_inputs(self, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
     double *out;
     PyObject *result = kd_new_vector(KD_NX, &out);
