@@ -519,7 +519,7 @@ def test_units_shared_by_two_modules_compile_once(tmp_path, monkeypatch):
     np.testing.assert_allclose(model.mass_matrix(0.0, y), reference.mass_matrix(0.0, y),
                                rtol=1e-12, atol=1e-12)
     reused = _c_build.STATS["reused"] - first["reused"]
-    assert reused >= 2  # the pass and the energy at least; the runtime differs
+    assert reused >= 2  # the pass and the energy at least (the generic runtime without lanes)
     assert _c_build.STATS["units"] - first["units"] >= 1  # M itself is new
     # every cached object damaged (garbage, or empty as a crash can leave it), the
     # modules gone: the rebuild compiles again, and keeps good objects again
@@ -540,6 +540,49 @@ def test_units_shared_by_two_modules_compile_once(tmp_path, monkeypatch):
         assert _c_build.STATS["units"] - before["units"] >= first["units"]
         np.testing.assert_allclose(again.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-11,
                                    atol=1e-11)
+
+
+def test_generic_runtime_reused_by_a_model_of_other_sizes(tmp_path, monkeypatch):
+    """The generic runtime unit holds no sizes (the model's unit defines them as
+    constants): the module of a model of other sizes links its object from the
+    object cache instead of compiling it, and computes what the NumPy backend
+    does; its first unit differs from the first module's only where the
+    variant does (inputs, dependent coordinates, dependent speeds)."""
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    monkeypatch.setattr(_c_build, "_LOADED", {})
+    monkeypatch.setattr(_c_build, "STATS", {"compiles": 0, "units": 0, "reused": 0})
+    sizes = {"n_q": 3, "n_u": 3, "n_q_dep": 0, "n_u_dep": 0, "n_p": 4, "n_r": 0}
+    other = dict(sizes, n_q=7, n_u=6, n_p=11)
+    assert _cbackend.predicted_runtime_unit(sizes) == _cbackend.predicted_runtime_unit(other)
+    assert _cbackend.predicted_runtime_unit(sizes) != _cbackend.predicted_runtime_unit(
+        dict(sizes, n_r=1))
+    firsts, reuses, build, reuse = [], [], _c_build._build, _c_build._reuse
+
+    def record_build(units, *args, **kwargs):
+        units = list(units)
+        firsts.append(units[0])
+        return build(iter(units), *args, **kwargs)
+
+    def record_reuse(cached, target):
+        reuses.append(reuse(cached, target))
+        return reuses[-1]
+
+    monkeypatch.setattr(_c_build, "_build", record_build)
+    monkeypatch.setattr(_c_build, "_reuse", record_reuse)
+    for n in (3, 5):
+        d = kd.models.build("chain3d", n=n)
+        eom = d.derive()
+        before, reuses[:] = dict(_c_build.STATS), []
+        model, reference = d.numeric(eom, backend="c"), d.numeric(eom)
+        y = np.random.default_rng(n).uniform(-1, 1, model.n_states)
+        np.testing.assert_allclose(model.rhs(0.0, y), reference.rhs(0.0, y), rtol=1e-12,
+                                   atol=1e-12)
+        if n == 3:
+            assert not any(reuses) and _c_build.STATS["reused"] == 0
+    assert len(firsts) == 2 and firsts[0] == firsts[1]
+    assert reuses[0]  # the generic runtime, the build's first unit, linked from the cache
+    assert _c_build.STATS["reused"] - before["reused"] >= 1
+    assert _c_build.STATS["units"] - before["units"] == len(reuses) - sum(reuses)
 
 
 @pytest.mark.parametrize("name, options", [

@@ -608,14 +608,17 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     """The translation units of a module, each yielded as soon as it is made.
 
     The runtime is in two units: the generic one (the Python entry points,
-    batches, the integrator: it depends on the model's sizes only, see
-    :func:`predicted_runtime_unit`), first, and the model's (the solve of its
-    mass matrix, the table of its functions, the module's entry point), after
-    the long parts of the functions (it compiles in a fraction of their time).
-    They need nothing of the generated code but its declarations (the
-    work-array sizes are variables, ``kd_nw`` and ``kd_nwl``, defined by the
-    last unit), so the compiler works on the first while the functions are
-    generated; at -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
+    batches, the integrator, see :func:`_generic_part`), first, and the
+    model's (the solve of its mass matrix, the table of its functions, the
+    module's entry point), after the long parts of the functions (it compiles
+    in a fraction of their time).  The generic unit's text does not depend on
+    the model's sizes (without contacts): it takes them as constants that the
+    model's unit defines (``kd_nq`` ... ``kd_nr``, :func:`_size_variables`), so
+    its object, cached under the hash of its text, is compiled once per
+    variant and linked again into every later module of any size.  They need
+    nothing of the generated code but its declarations (the work-array sizes
+    are variables too, ``kd_nw`` and ``kd_nwl``, defined by the last unit), so
+    the compiler works on the first while the functions are generated; at -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
     solve or the contact loop, whose loops the vectorizer of -O2 speeds up (the
     entry points and the integrator run as fast at -O1: chain3d n = 3 to 30,
     the pendulum, within 3 %, and compile in 0.46 s instead of 0.68 s at
@@ -657,10 +660,35 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
                      f"const int kd_nw = {work}, kd_nwl = {lane_work};"])
 
 
+#: the sizes: their macros, keys in ``sizes`` and names of the constants the
+#: model's unit defines for the generic one (:func:`_size_variables`)
+_SIZES = (("KD_NQ", "n_q", "kd_nq"), ("KD_NU", "n_u", "kd_nu"),
+          ("KD_NQDEP", "n_q_dep", "kd_nqdep"), ("KD_NUDEP", "n_u_dep", "kd_nudep"),
+          ("KD_NP", "n_p", "kd_np"), ("KD_NR", "n_r", "kd_nr"))
+
+
 def _size_defines(sizes):
-    return [f"#define KD_NQ {sizes['n_q']}", f"#define KD_NU {sizes['n_u']}",
-            f"#define KD_NQDEP {sizes['n_q_dep']}", f"#define KD_NUDEP {sizes['n_u_dep']}",
-            f"#define KD_NP {sizes['n_p']}", f"#define KD_NR {sizes['n_r']}"]
+    """The sizes as compile-time constants (the generated functions, the
+    model's unit, the one-unit source)."""
+    return [f"#define {macro} {sizes[key]}" for macro, key, _ in _SIZES]
+
+
+def _size_variables(sizes):
+    """The sizes in the generic runtime unit: constants defined by the model's
+    unit (:func:`_size_constants`), so that its text is the same for every size;
+    what the preprocessor decides on them, whether there are inputs, dependent
+    coordinates or speeds, and dependent speeds (``KD_HAS_R``, ``KD_HAS_DEP``,
+    ``KD_HAS_UDEP``), stays in the text (a handful of variants)."""
+    return ["#if defined(__GNUC__)\n__attribute__((visibility(\"hidden\")))\n#endif",
+            f"extern const int {', '.join(name for _, _, name in _SIZES)};",
+            *(f"#define {macro} {name}" for macro, _, name in _SIZES),
+            f"#define KD_HAS_R {int(sizes['n_r'] > 0)}",
+            f"#define KD_HAS_DEP {int(sizes['n_q_dep'] + sizes['n_u_dep'] > 0)}",
+            f"#define KD_HAS_UDEP {int(sizes['n_u_dep'] > 0)}"]
+
+
+#: the definitions of :func:`_size_variables`' constants (the model's unit)
+_SIZE_CONSTANTS = "const int " + ", ".join(f"{name} = {macro}" for macro, _, name in _SIZES) + ";"
 
 
 def _lane_runtime(lanes):
@@ -811,6 +839,7 @@ class _RuntimePart(NamedTuple):
     body: list
     light: bool
     model: bool  # the model's unit (C alone: no Python)
+    generic_sizes: bool = False  # the sizes as run-time constants (_size_variables)
 
 
 #: the work-array sizes, defined by the last unit of a module
@@ -820,18 +849,26 @@ _WORK_VARIABLES = ["extern const int kd_nw, kd_nwl;", "#define KD_NW kd_nw",
 
 def _runtime_unit(part, sizes, lanes):
     """Text of a runtime unit (:func:`generate_c_units`); shared symbols
-    hidden (``KD_GEN`` empty); the model's without Python's headers."""
+    hidden (``KD_GEN`` empty); the model's without Python's headers, defining
+    the sizes the generic unit takes as constants (:func:`_size_variables`;
+    one with contacts takes them as compile-time constants too)."""
+    sizes_known = _size_variables(sizes) if part.generic_sizes else _size_defines(sizes)
     return "\n".join([*([LIGHT_UNIT] if part.light else []), "#define KD_GEN",
                       _c_runtime.PRELUDE if part.model else _c_runtime.HEADER,
-                      *_size_defines(sizes), *part.defines, *_WORK_VARIABLES,
+                      *sizes_known, *part.defines, *_WORK_VARIABLES,
                       *_lane_runtime(lanes), _c_runtime.SIZE_MACROS, _c_runtime.SHARED,
+                      *([_SIZE_CONSTANTS] if part.model else []),
                       *part.declarations, *part.body])
 
 
 def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False):
-    """The generic runtime of a module: what depends on its sizes (and on its
-    lanes, contacts and ``inverse_point``) only.  ``declarations``: of the
-    generated functions it calls (``constraints`` with dependent coordinates
+    """The generic runtime of a module: the same text for every model of the
+    same variant, whatever its sizes (they are run-time constants there, see
+    :func:`_size_variables`): its lanes, ``inverse_point``, whether it has
+    inputs, dependent coordinates, dependent speeds, and the generated
+    functions it calls.  With contacts (few models) the sizes and the number
+    of contacts are compile-time constants in it, as in the model's unit.
+    ``declarations``: of the generated functions it calls (``constraints`` with dependent coordinates
     or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
     ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
@@ -839,7 +876,8 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_ensemble.ENSEMBLE,
             *([_c_contact.CONTACT] if n_contacts else []),
             *([_c_runtime.INVERSE_POINT] if inverse_point else []), _c_runtime.RUNTIME_FOOTER]
-    return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False)
+    return _RuntimePart(defines, declarations, body, not (lanes or n_contacts), False,
+                        not n_contacts)
 
 
 #: outputs of the ``constraints`` and ``energy`` functions (built by
@@ -854,7 +892,9 @@ def predicted_runtime_unit(sizes):
     the model is derived, so that it can compile meanwhile
     (:func:`~._c_build.prefetch`).  The same text as :func:`generate_c_units`
     makes for such a model (a guess that turns out wrong costs only the
-    compiler's time)."""
+    compiler's time); it depends on ``sizes`` only through whether there are
+    inputs, dependent coordinates and dependent speeds, so that a model of
+    other sizes finds it compiled already."""
     dependent = sizes["n_q_dep"] + sizes["n_u_dep"]
     declarations = [_signature("constraints", _CONSTRAINT_OUTPUTS) + ";"] if dependent else []
     declarations.append(_signature("energy", _ENERGY_OUTPUTS) + ";")

@@ -26,7 +26,7 @@ per CPU, and linked into one module (large generated functions dominate the
 build, and a compiler works on one unit with one core).  The object of every
 unit is cached too, under the hash of its text and flags, and linked again
 wherever the same unit comes back.  A unit known before its module (the
-generic runtime, which depends on a model's sizes only) can be started early
+generic runtime, the same for models of any size) can be started early
 with :func:`prefetch`: the build that meets it takes the running compiler
 over.
 

@@ -57,7 +57,7 @@ typedef struct {
 
 /* the inputs at t: linear between the record's samples (np.interp's formula) */
 static void kd_ens_inputs(const KdEnsRhs *c, double t, double *r) {
-#if KD_NR > 0
+#if KD_HAS_R
     const double *T = c->r_times, *R = c->r_values;
     npy_intp k = c->r_count;
     if (T == NULL || k == 1 || t <= T[0]) { memcpy(r, R, sizeof(double) * KD_NR); return; }
@@ -79,7 +79,7 @@ static void kd_ens_inputs(const KdEnsRhs *c, double t, double *r) {
 /* the trajectory's derivative (a KdRhsFn): non-finite values reject the step */
 static int kd_ens_f(void *ctx, double t, const double *y, double *out) {
     KdEnsRhs *c = (KdEnsRhs *)ctx;
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     c->nfev++;
     kd_ens_inputs(c, t, r);
     int bad = KD_RHS_CORE(t, y, c->p, r, c->work, out) != 0;
@@ -129,7 +129,7 @@ static int kd_ens_found_push(KdEnsFound *f, double t, const double *y, int k) {
 /* the values of the events at (t, y) into g, the trajectory's inputs at t */
 static void kd_ens_events_at(const KdEnsSpec *s, const KdEnsRhs *c, double t, const double *y,
                              double *g) {
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     kd_ens_inputs(c, t, r);
     s->events->fn(t, y, c->p, r, g);
 }
@@ -169,8 +169,8 @@ typedef struct {
 static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double *out,
                        double *y_end, KdEnsFound *found, KdEnsOutcome *o) {
     const double dir = s->t1 >= s->t0 ? 1.0 : -1.0;
-    double t = s->t0, y[KD_NX], f[KD_NX], y_new[KD_NX], K[7][KD_NX], Q[KD_NX * 4];
-    double B[KD_SZ(KD_NUDEP * KD_NU)], r[KD_SZ(KD_NR)], before[KD_NX];
+    double t = s->t0, y[KD_NX], f[KD_NX], y_new[KD_NX], K[7 * KD_NX], Q[KD_NX * 4];
+    double B[KD_SZ(KD_NUDEP * KD_NU)], r[KD_SZ_R], before[KD_NX];
     npy_intp next = 0;
     unsigned long count = 0;
     const int n_ev = s->events != NULL ? s->events->count : 0;
@@ -262,8 +262,8 @@ static void kd_ens_run(const KdEnsSpec *s, KdEnsRhs *c, const double *y0, double
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
         t = t_new;
-        memcpy(y, y_new, sizeof(y));
-        memcpy(f, K[6], sizeof(f));
+        kd_copy(y, y_new, KD_NX);
+        kd_copy(f, K + 6 * KD_NX, KD_NX);
         if (n_ev > 0) memcpy(g_old, g_new, sizeof(double) * (size_t)n_ev);
         o->steps++;
         if (finite && s->project_tol > 0 && KD_NQDEP + KD_NUDEP > 0) {

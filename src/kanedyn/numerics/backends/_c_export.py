@@ -122,7 +122,7 @@ static int kd_derivative(void *ctx, double t, const double *y, double *f) {
 static int kd_advance(double t0, double t1, double *y, const double *p, const double *r,
                       const double *r_rate, double rtol, double atol, double project_tol,
                       double *step, long *steps, double *w) {
-    double f[KD_NX], K[7][KD_NX], y_new[KD_NX], atols[KD_NX];
+    double f[KD_NX], K[7 * KD_NX], y_new[KD_NX], atols[KD_NX];
     double B[KD_SZ(KD_NUDEP * KD_NU)];
     KdAlong along = {p, r, r_rate, t0, w};
     for (int i = 0; i < KD_NX; ++i) atols[i] = atol;
@@ -153,7 +153,7 @@ static int kd_advance(double t0, double t1, double *y, const double *p, const do
         t = clipped ? t1 : t + hs;
         h = clipped ? fmax(h, hs * factor) : hs * factor;
         memcpy(y, y_new, sizeof(double) * KD_NX);
-        memcpy(f, K[6], sizeof(double) * KD_NX);
+        memcpy(f, K + 6 * KD_NX, sizeof(double) * KD_NX);
         ++*steps;
         if (project_tol > 0.0 && KD_NQDEP + KD_NUDEP > 0) {
             double ri[KD_SZ(KD_NR)];

@@ -55,7 +55,7 @@ PROJECTION = r"""
    velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
 static double kd_residual_at(double t, const double *y, const double *p, const double *r,
                              double *w, double *B) {
-#if KD_NQDEP + KD_NUDEP > 0
+#if KD_HAS_DEP
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_SZ(KD_NUDEP)];
     kd_eval_constraints(t, y, p, r, w, h, J, B, b);
     double worst = 0.0;
@@ -71,7 +71,7 @@ static double kd_residual_at(double t, const double *y, const double *p, const d
 /* dependent coordinates, then dependent speeds, by Newton's method with the
    independent ones fixed (as NumericModel.consistent_state): 0, or 1 if singular */
 static int kd_project_at(double t, double *y, const double *p, const double *r, double *w) {
-#if KD_NQDEP + KD_NUDEP > 0
+#if KD_HAS_DEP
     double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)];
     double B[KD_SZ(KD_NUDEP * KD_NU)], b[KD_SZ(KD_NUDEP)];
     for (int it = 0; it < 50 && KD_NQDEP > 0; ++it) {
@@ -108,6 +108,11 @@ static int kd_project_at(double t, double *y, const double *p, const double *r, 
 #: Python-free C shared by the compiled loop and the standalone export: the RMS
 #: norm of the step-size control and the Dormand-Prince 5(4) tableau
 DORMAND_PRINCE = r"""
+/* y = x, n doubles: a loop (with a run-time n, memcpy is a call; a state is short) */
+static inline void kd_copy(double *y, const double *x, int n) {
+    for (int i = 0; i < n; ++i) y[i] = x[i];
+}
+
 static double kd_rms(const double *x, const double *scale, int n) {
     double s = 0.0;
     for (int i = 0; i < n; ++i) { double v = x[i] / scale[i]; s += v * v; }
@@ -147,23 +152,23 @@ typedef int (*KdRhsFn)(void *ctx, double t, const double *y, double *out);
    err / (atol + max(|y|, |y_new|) rtol) */
 static inline int kd_dopri_attempt(KdRhsFn fn, void *ctx, double t, const double *y,
                                    const double *f, double h, double rtol,
-                                   const double *atol, double K[7][KD_NX], double *y_new,
+                                   const double *atol, double *K, double *y_new,
                                    double *err_norm) {
     double ytmp[KD_NX], err[KD_NX], scale[KD_NX];
-    memcpy(K[0], f, sizeof(double) * KD_NX);
+    kd_copy(K, f, KD_NX);
     for (int s = 1; s < 7; ++s) {
         for (int i = 0; i < KD_NX; ++i) {
             double acc = 0.0;
-            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j][i];
+            for (int j = 0; j < s; ++j) acc += kd_A[s][j] * K[j * KD_NX + i];
             ytmp[i] = y[i] + h * acc;
         }
-        if (s == 6) memcpy(y_new, ytmp, sizeof(double) * KD_NX);
-        int status = fn(ctx, t + kd_C[s] * h, ytmp, K[s]);
+        if (s == 6) kd_copy(y_new, ytmp, KD_NX);
+        int status = fn(ctx, t + kd_C[s] * h, ytmp, K + s * KD_NX);
         if (status != 0) return status;
     }
     for (int i = 0; i < KD_NX; ++i) {
         double e = 0.0;
-        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s][i];
+        for (int s = 0; s < 7; ++s) e += kd_E[s] * K[s * KD_NX + i];
         err[i] = e * h;
         scale[i] = atol[i] + fmax(fabs(y[i]), fabs(y_new[i])) * rtol;
     }
@@ -312,14 +317,14 @@ typedef struct {
     int method;              /* 0 RK45, 1 Rosenbrock23 */
     int singular;            /* the derivative failed (singular, not finite) at t_singular */
     double t_singular;
-    double y_singular[KD_NX];
+    double *y_singular;      /* KD_NX (the caller's) */
     double *W, *LU;          /* Rosenbrock iteration matrices (heap) */
     double *exact;           /* the module's exact derivatives: their work (heap), or NULL */
     const KdJacobianInfo *jacobians;  /* and those derivatives (one for the whole run) */
     /* continuous extension of the last step */
     double t_old, h;
-    double y_old[KD_NX];
-    double Q[KD_NX * 4];     /* RK45: y = y_old + h Q [x, x^2, x^3, x^4]; R23: Q[:,0]=k1, Q[:,1]=k2 */
+    double *y_old;           /* KD_NX (the caller's) */
+    double *Q;               /* KD_NX * 4 (the caller's): RK45: y = y_old + h Q [x, x^2, x^3, x^4]; R23: Q[:,0]=k1, Q[:,1]=k2 */
 } KdIntegrator;
 
 static const double kd_r23_d = 0.29289321881345248; /* 1 / (2 + sqrt(2)) */
@@ -357,7 +362,7 @@ static int kd_inputs_at(KdModel *model, double t, const double *y, double *r) {
    is declared: the function's NAN) */
 static int kd_stored_energy(KdModel *model, double t, const double *y, double *e,
                             double *potential) {
-    double r[KD_SZ(KD_NR)], kinetic;
+    double r[KD_SZ_R], kinetic;
     if (kd_inputs_at(model, t, y, r) != 0) return -1;
     kd_eval_energy(t, y, model->p, r, model->work, &kinetic, potential);
     if (isnan(*potential)) *potential = 0.0;
@@ -456,7 +461,7 @@ static int kd_work_end(KdModel *model, KdWork *w, double t, const double *y, con
 
 static int kd_f(KdIntegrator *ig, double t, const double *y, double *out) {
     ig->nfev++;
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
     int bad = KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out) != 0;
     for (int i = 0; i < KD_NX && !bad; ++i) bad = !isfinite(out[i]);
@@ -524,14 +529,14 @@ static int kd_event_at(KdIntegrator *ig, void *ctx, double t, const double *y, d
 /* largest constraint residual (-1 on a Python error in the inputs); the
    velocity-constraint matrix B = dc/du there into B (m x o, row-major) */
 static double kd_residual(KdModel *model, double t, const double *y, double *B) {
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1.0;
     return kd_residual_at(t, y, model->p, r, model->work, B);
 }
 
 /* kd_project_at with the inputs at (t, y): 0, 1 if singular, -1 on a Python error */
 static int kd_project(KdModel *model, double t, double *y) {
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (KD_NQDEP + KD_NUDEP > 0 && kd_inputs_at(model, t, y, r) != 0) return -1;
     return kd_project_at(t, y, model->p, r, model->work);
 }
@@ -558,16 +563,16 @@ typedef struct {
     double dir;                      /* direction of integration */
     KdBuf t, y;                      /* minima found: times and states */
     long examined;                   /* steps the screen did not clear */
-    double t_at, y_at[KD_NX];        /* the start of the current step */
-#if KD_NUDEP > 0
-    double B[KD_NUDEP * KD_NU];      /* B there */
+    double t_at, *y_at;              /* the start of the current step (KD_NX, the caller's) */
+#if KD_HAS_UDEP
+    double *B;                       /* B there (KD_NUDEP * KD_NU, the caller's) */
     double lo, fro;                  /* sigma_min >= lo, sigma_max <= fro there */
     int known;                       /* the rate there computed */
     double rate, ratio;              /* the rate there; the ratio (nan: not yet) */
 #endif
 } KdMonitor;
 
-#if KD_NUDEP > 0
+#if KD_HAS_UDEP
 /* sigma_min / sigma_max of B (m x o, m <= o) by one-sided Jacobi rotations of its
    rows (singular values to high relative accuracy); 0 for B = 0, nan if not finite */
 static double kd_sv_ratio(const double *B) {
@@ -651,7 +656,7 @@ static void kd_sv_bounds(const double *B, double *lo, double *fro) {
 
 /* B = dc/du at (t, y); -1 on a Python error (inputs) */
 static int kd_constraint_matrix(KdModel *model, double t, const double *y, double *B) {
-    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_NUDEP], r[KD_SZ(KD_NR)];
+    double h[KD_SZ(KD_NQDEP)], J[KD_SZ(KD_NQDEP * KD_NQ)], b[KD_NUDEP], r[KD_SZ_R];
     if (kd_inputs_at(model, t, y, r) != 0) return -1;
     kd_eval_constraints(t, y, model->p, r, model->work, h, J, B, b);
     return 0;
@@ -668,7 +673,7 @@ static int kd_monitor_rate(KdIntegrator *ig, KdMonitor *mon, double t, const dou
     double qd[KD_NQ];
     if (f != NULL) memcpy(qd, f, sizeof(qd));
     else {
-        double r[KD_SZ(KD_NR)], out[KD_NX];
+        double r[KD_SZ_R], out[KD_NX];
         if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
         (void)KD_RHS_CORE(t, y, ig->model->p, r, ig->model->work, out);
         memcpy(qd, out, sizeof(qd));
@@ -699,7 +704,7 @@ static int kd_monitor_start(KdIntegrator *ig, KdMonitor *mon, double t, const do
     if (kd_constraint_matrix(ig->model, t, y, mon->B) != 0) return -1;
     kd_sv_bounds(mon->B, &mon->lo, &mon->fro);
     mon->t_at = t;
-    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    memcpy(mon->y_at, y, sizeof(double) * KD_NX);
     mon->known = 0;
     mon->ratio = NAN;
     return 0;
@@ -759,7 +764,7 @@ static int kd_monitor_step(KdIntegrator *ig, KdMonitor *mon, double t, const dou
     }
     memcpy(mon->B, B, sizeof(B));
     mon->t_at = t;
-    memcpy(mon->y_at, y, sizeof(mon->y_at));
+    memcpy(mon->y_at, y, sizeof(double) * KD_NX);
     mon->lo = lo; mon->fro = fro;
     mon->known = known; mon->rate = rate; mon->ratio = ratio;
     return 0;
@@ -789,11 +794,11 @@ static int kd_f_stepper(void *ctx, double t, const double *y, double *out) {
 
 /* the continuous extension of an accepted Dormand-Prince step from its stages:
    y = y_old + h Q [x, x^2, x^3, x^4] (Q row-major, 4 per component) */
-static void kd_dopri_extension(double K[7][KD_NX], double *Q) {
+static void kd_dopri_extension(const double *K, double *Q) {
     for (int i = 0; i < KD_NX; ++i)
         for (int j = 0; j < 4; ++j) {
             double s = 0.0;
-            for (int k = 0; k < 7; ++k) s += K[k][i] * kd_P[k][j];
+            for (int k = 0; k < 7; ++k) s += K[k * KD_NX + i] * kd_P[k][j];
             Q[4 * i + j] = s;
         }
 }
@@ -809,7 +814,7 @@ static int kd_jacobian(KdIntegrator *ig, double t, const double *y, const double
     const KdJacobianInfo *info = ig->jacobians;
     int exact = ig->exact != NULL;
     if (exact) {
-        double r[KD_SZ(KD_NR)];
+        double r[KD_SZ_R];
         if (kd_inputs_at(ig->model, t, y, r) != 0) return -1;
         double *D = ig->exact + info->scratch, *C = D + (KD_NX + KD_NUDEP) * info->columns;
         /* a singular system: the differences (their non-finite values reject the step) */
@@ -920,6 +925,15 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     int dense, energy = 1;
     KdMonitor mon;
     memset(&mon, 0, sizeof(mon));
+    /* the state-sized storage (before any jump past it: variable sizes) */
+    double mon_y_at[KD_NX], ig_y_singular[KD_NX], ig_y_old[KD_NX], ig_Q[KD_NX * 4];
+    double y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7 * KD_NX];
+    double T[KD_NX], k1[KD_NX], k2[KD_NX], atol[KD_NX];
+    mon.y_at = mon_y_at;
+#if KD_HAS_UDEP
+    double mon_B[KD_NUDEP * KD_NU];
+    mon.B = mon_B;
+#endif
     mon.displacement = 1e-7;
     if (!PyArg_ParseTuple(args, "ddOOdOddOOdp|ddOdp", &t0, &t1, &y0obj, &tevalobj, &rtol,
                           &atolobj, &max_step, &first_step, &method_obj, &events, &project_tol,
@@ -935,6 +949,9 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     KdIntegrator ig;
     memset(&ig, 0, sizeof(ig));
     ig.model = self;
+    ig.y_singular = ig_y_singular;
+    ig.y_old = ig_y_old;
+    ig.Q = ig_Q;
     if (strcmp(method_name, "RK45") == 0) ig.method = 0;
     else if (strcmp(method_name, "Rosenbrock23") == 0) ig.method = 1;
     else { PyErr_Format(PyExc_ValueError, "unknown compiled method %s", method_name); return NULL; }
@@ -942,7 +959,6 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     PyObject *keep_y = NULL, *keep_a = NULL;
     const double *y0 = kd_vector(y0obj, KD_NX, &keep_y, "y0");
     if (y0 == NULL) return NULL;
-    double atol[KD_NX];
     const double *av = kd_vector(atolobj, KD_NX, &keep_a, "atol");
     if (av == NULL) { Py_XDECREF(keep_y); return NULL; }
     memcpy(atol, av, sizeof(atol));
@@ -994,8 +1010,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
     double dir = t1 >= t0 ? 1.0 : -1.0;
     mon.dir = dir;
     work.t_lo = fmin(t0, t1); work.t_hi = fmax(t0, t1);
-    double t = t0, y[KD_NX], f[KD_NX], y_new[KD_NX], f_new[KD_NX], K[7][KD_NX];
-    double T[KD_NX], k1[KD_NX], k2[KD_NX];
+    double t = t0;
     J = (double *)PyMem_Malloc(sizeof(double) * KD_NX * KD_NX * 3);
     if (J == NULL) { PyErr_NoMemory(); goto done; }
     ig.W = J + KD_NX * KD_NX;
@@ -1066,7 +1081,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
             if (ig.method == 0) {
                 if (kd_dopri_attempt(kd_f_stepper, &ig, t, y, f, h, rtol, atol, K, y_new,
                                      &err_norm) != 0) KD_FAIL;
-                memcpy(f_new, K[6], sizeof(f_new));
+                kd_copy(f_new, K + 6 * KD_NX, KD_NX);
             } else {
                 int singular;
                 if (kd_r23_try(&ig, t, y, f, h, J, T, rtol, atol, y_new, f_new, k1, k2,
@@ -1089,7 +1104,7 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         if (failed) break;
         /* continuous extension of this step */
         ig.t_old = t; ig.h = h;
-        memcpy(ig.y_old, y, sizeof(y));
+        kd_copy(ig.y_old, y, KD_NX);
         if (ig.method == 0) {
             kd_dopri_extension(K, ig.Q);
         } else {
@@ -1156,8 +1171,8 @@ static PyObject *KdModel_integrate(KdModel *self, PyObject *args) {
         int finite = 1;
         for (int i = 0; i < KD_NX; ++i) if (!isfinite(y_new[i])) finite = 0;
         t = t_new;
-        memcpy(y, y_new, sizeof(y));
-        memcpy(f, f_new, sizeof(f));
+        kd_copy(y, y_new, KD_NX);
+        kd_copy(f, f_new, KD_NX);
         memcpy(g_old, g_new, sizeof(double) * KD_SZ(ig.n_events));
         /* constraint drift, then singular configurations in the step (the
            matrix B of the drift check: no evaluation of its own) */

@@ -9,8 +9,14 @@ directly: a ``ctypes`` call alone would cost more than the whole evaluation.
 
 A module built from translation units carries the runtime in two: the generic
 one (:data:`RUNTIME`, the integrator, the contact loop, :data:`RUNTIME_FOOTER`),
-which depends on the model's sizes only and can be compiled before the model
-is derived, and the model's own, in C without Python (:data:`MODEL_SOLVE`,
+which takes the sizes as run-time constants (``KD_NQ`` is ``kd_nq`` there,
+defined by the model's unit; block-scope arrays sized by them are variable
+length, the state-sized storage of ``KdModel`` is on the heap, that of the
+integrator on its caller's stack; only ``KD_HAS_R``, ``KD_HAS_DEP`` and
+``KD_HAS_UDEP`` decide at compile time), so that its text is the same for
+every model of a variant, can be compiled before the model is derived and is
+compiled once for models of any size (with contacts, the sizes are
+compile-time constants in it as everywhere else), and the model's own, in C without Python (:data:`MODEL_SOLVE`,
 :data:`LANE_SOLVE`, the table of its functions, which the generic unit turns
 into Python functions, and :data:`MODULE_FOOTER`); :data:`SHARED` declares what
 each calls of the other.
@@ -63,11 +69,24 @@ static const KdJacobianInfo *kd_jacobians = NULL;
 #endif
 """
 
-#: sizes derived from the ``KD_*`` sizes (every unit of a module)
+#: sizes derived from the ``KD_*`` sizes (every unit of a module), and what
+#: the preprocessor decides on them (``KD_HAS_*``: given with the sizes in the
+#: generic runtime unit, whose sizes are run-time constants)
 SIZE_MACROS = r"""
 #define KD_NX (KD_NQ + KD_NU)
 #define KD_NUI (KD_NU - KD_NUDEP)
 #define KD_SZ(x) ((x) > 0 ? (x) : 1)
+#ifndef KD_HAS_R
+#define KD_HAS_R (KD_NR > 0)
+#define KD_HAS_DEP (KD_NQDEP + KD_NUDEP > 0)
+#define KD_HAS_UDEP (KD_NUDEP > 0)
+#endif
+/* length of an array of the inputs: a constant without (no variable length) */
+#if KD_HAS_R
+#define KD_SZ_R KD_SZ(KD_NR)
+#else
+#define KD_SZ_R 1
+#endif
 """
 
 #: dense LU with partial pivoting (no Python): part of the generic runtime
@@ -1125,11 +1144,11 @@ static PyObject *kd_new_matrix(npy_intp rows, npy_intp cols, double **data) {
 /* ---------------------------------------------------------- Model type */
 typedef struct {
     PyObject_HEAD
-    double p[KD_SZ(KD_NP)];
+    double *p;         /* KD_NP constants (heap: the sizes are run-time constants) */
     PyObject *inputs;  /* the inputs' Python callable, or None with a table */
     double *work;
     double *table;     /* inputs as polynomial pieces (kd_pieces_parse), or NULL */
-    KdPiece pieces[KD_SZ(KD_NR)];
+    KdPiece *pieces;   /* KD_NR (heap) */
     PyObject *input_names;  /* with a table: tuple of the inputs' names */
 } KdModel;
 
@@ -1138,13 +1157,27 @@ static void KdModel_dealloc(KdModel *self) {
     Py_XDECREF(self->input_names);
     PyMem_Free(self->work);
     PyMem_Free(self->table);
+    PyMem_Free(self->p);
+    PyMem_Free(self->pieces);
     Py_TYPE(self)->tp_free((PyObject *)self);
+}
+
+static PyObject *KdModel_new(PyTypeObject *type, PyObject *args, PyObject *kwds) {
+    KdModel *self = (KdModel *)PyType_GenericNew(type, args, kwds);
+    if (self == NULL) return NULL;
+    self->p = (double *)PyMem_Calloc((size_t)KD_SZ(KD_NP), sizeof(double));
+    self->pieces = (KdPiece *)PyMem_Calloc((size_t)KD_SZ(KD_NR), sizeof(KdPiece));
+    if (self->p == NULL || self->pieces == NULL) {
+        Py_DECREF(self);
+        return PyErr_NoMemory();
+    }
+    return (PyObject *)self;
 }
 
 /* the specified inputs at (t, y): from the table in C, else from the Python callable
    inputs(t, y) (y a NumPy array); -1 with a Python error */
 static int kd_inputs(KdModel *self, double t, PyObject *y, double *r) {
-#if KD_NR > 0
+#if KD_HAS_R
     if (self->table != NULL) return kd_pieces_eval(self->pieces, KD_NR, self->input_names, t, r);
     PyObject *inputs = self->inputs;
     PyObject *args[2];
@@ -1226,7 +1259,7 @@ static PyObject *KdModel_rhs(KdModel *self, PyObject *const *args, Py_ssize_t na
     PyObject *keep = NULL;
     const double *y = kd_vector(args[1], KD_NX, &keep, "the state y");
     if (y == NULL) return NULL;
-    double r[KD_SZ(KD_NR)];
+    double r[KD_SZ_R];
     if (kd_inputs(self, t, args[1], r) != 0) { Py_XDECREF(keep); return NULL; }
     double *out;
     PyObject *result = kd_new_vector(KD_NX, &out);
@@ -1927,8 +1960,9 @@ PYTHON_GLUE = PYTHON_GLUE.replace(
     "@ENTRIES@", "\n".join(f"KD_ENTRY({k})" for k in range(MAX_FUNCTIONS))).replace(
     "@ENTRY_LIST@", ", ".join(f"kd_py_function{k}" for k in range(MAX_FUNCTIONS)))
 
-#: the generic runtime: what depends on the model's sizes only (entry points
-#: of the Model type, batches, the integrator; the contact loop with contacts)
+#: the generic runtime: what the model's sizes (run-time constants in its own
+#: unit) parametrize only (entry points of the Model type, batches, the
+#: integrator; the contact loop with contacts)
 RUNTIME = RUNTIME_ERRORS + LU_SOLVE + TABLE_INPUTS + PYTHON_GLUE
 
 #: end of the generic runtime: the Model type and the module's creation
@@ -1957,7 +1991,7 @@ static PyTypeObject KdModelType = {
     .tp_name = "kanedyn_generated.Model",
     .tp_basicsize = sizeof(KdModel),
     .tp_flags = Py_TPFLAGS_DEFAULT,
-    .tp_new = PyType_GenericNew,
+    .tp_new = KdModel_new,
     .tp_init = (initproc)KdModel_init,
     .tp_dealloc = (destructor)KdModel_dealloc,
     .tp_methods = KdModel_methods,
