@@ -322,6 +322,10 @@ class SparseKKT:
         order made (the module's docstring), at most :data:`MAX_REANALYSES`.
     inertia : (int, int, int) or None
         What the last ``factor`` returned; ``None`` before the first.
+    error_reductions : callable
+        The kernel's sums and maxima of the interior point's optimality error
+        (:mod:`._kkt_kernel`), the numbers of
+        :func:`~._optimality.numpy_error_reductions` in one call.
 
     Raises
     ------
@@ -358,6 +362,7 @@ class SparseKKT:
         if N >= _LIMIT:
             raise ValueError(f"n + m = {N} is too large for 32-bit indices")
         self._kernel = kernel()
+        self.error_reductions = self._kernel.error_reductions
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         self.ordering = ordering

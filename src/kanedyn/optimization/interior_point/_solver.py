@@ -240,10 +240,9 @@ class _Run:
         self.slack_bounds = (lower[n:], upper[n:])
         kkt_type, self.note = kkt_class(s.linear_solver)
         self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
-        #: the optimality errors' sums and maxima: SparseKKT's kernel's, one
-        #: call (the same numbers as NumPy's, which DenseKKT's solves take)
-        self.error_reductions = getattr(getattr(self.kkt, "_kernel", None),
-                                        "error_reductions", None)
+        #: the optimality errors' sums and maxima: SparseKKT's, one call (the
+        #: same numbers as NumPy's, which DenseKKT's solves take)
+        self.error_reductions = getattr(self.kkt, "error_reductions", None)
         self.stepper = StepSolver(self.kkt, n, m, ineq, s)
         return True
 
