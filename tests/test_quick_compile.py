@@ -22,6 +22,9 @@ import kanedyn as kd
 from kanedyn.numerics.backends import _c_build, _c_quick
 from kanedyn.numerics.backends._c_quick import QUICK_STATS
 
+#: the rule of when an optimized build pays, as the library has it (the fixture
+#: below sets it to "at once" for the other tests)
+USE_PER_CHARACTER = _c_quick.USE_PER_CHARACTER
 QUICK_MISSING = ("TinyCC (tcc) is not installed, so every model is compiled by the "
                  "optimizing compiler alone (install it with 'apt install tcc')")
 
@@ -38,6 +41,9 @@ def fresh_cache(tmp_path, monkeypatch):
     monkeypatch.delenv("KANEDYN_QUICK_CC", raising=False)
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
+    # every optimized build starts at once (when it pays otherwise: the tests of
+    # that rule set it back)
+    monkeypatch.setattr(_c_quick, "USE_PER_CHARACTER", 0.0)
     yield tmp_path
     _c_quick.finish_compiling()
 
@@ -86,8 +92,9 @@ def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, 
     needs_tcc()
     gate = threading.Event()  # gcc's build waits for it
 
-    def held_back(module, build, fetch):
-        _c_quick.optimize_later(module, lambda **locked: gate.wait(300) and build(**locked), fetch)
+    def held_back(module, build, *rest):
+        _c_quick.optimize_later(module, lambda **locked: gate.wait(300) and build(**locked),
+                                *rest)
 
     monkeypatch.setattr(_c_build, "optimize_later", held_back)
     definition = kd.models.build(name, **options)
@@ -106,6 +113,66 @@ def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, 
     then = evaluations(definition, model)
     for what in first:
         np.testing.assert_array_equal(first[what], then[what], err_msg=what)
+
+
+def test_the_optimized_build_starts_once_the_quick_module_has_paid_for_it(fresh_cache,
+                                                                          monkeypatch):
+    """A model whose module nothing wants in the cache (equations derived by the
+    caller) runs on TinyCC's module; gcc's build starts once the quick module's
+    entry points have taken about what the build costs (``USE_PER_CHARACTER``
+    s per character compiled), not before; the model then moves onto gcc's module
+    and its numbers do not change."""
+    needs_tcc()
+    monkeypatch.setattr(_c_quick, "USE_PER_CHARACTER", USE_PER_CHARACTER)
+    definition = kd.models.build("chain3d", n=4)
+    before = dict(QUICK_STATS)
+    model = definition.numeric(definition.derive(), backend="c")
+    quick = model._module
+    upgrade = _c_quick._UPGRADES[quick]
+    # what gcc would compile (the units whose objects are not cached), about a second
+    # per 100,000 characters
+    assert 0.1 < upgrade.use_to_start < 5.0
+    y = definition.initial(model) + 0.1
+    first = model.rhs(0.0, y)
+    time.sleep(3 * _c_quick._LOOK_EVERY)
+    assert 0.0 < quick._quick_use() < upgrade.use_to_start
+    assert QUICK_STATS["started"] == before["started"] and model._module is quick
+    while quick._quick_use() < upgrade.use_to_start:
+        kd.simulate(model, (0.0, 50.0), y)
+    deadline = time.monotonic() + 60
+    while QUICK_STATS["started"] == before["started"] and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert QUICK_STATS["started"] == before["started"] + 1
+    assert _c_quick.finish_compiling(timeout=600)
+    assert model._module is not quick and len(cached_modules(fresh_cache)) == 1
+    assert model.rhs(0.0, y).tobytes() == first.tobytes()
+
+
+_SHORT_USE = """
+import json, kanedyn as kd
+from kanedyn.numerics.backends._c_quick import QUICK_STATS
+cached = kd.models.build("pendulum").numeric(backend="c")  # for the derivation cache
+definition = kd.models.build("chain3d", n=3)
+model = definition.numeric(definition.derive(), backend="c")
+model.rhs(0.0, definition.initial(model))
+print(json.dumps(QUICK_STATS))
+"""
+
+
+def test_a_build_that_never_paid_is_not_made_at_exit(fresh_cache):
+    """A process that used a quick module for less than its build costs exits
+    without building it (the next one compiles it with TinyCC again); a module
+    the derivation cache names is built at once and cached, and that entry
+    written."""
+    needs_tcc()
+    done = subprocess.run([sys.executable, "-c", _SHORT_USE], capture_output=True, text=True,
+                          timeout=600, env=dict(os.environ, KANEDYN_CACHE_DIR=str(fresh_cache)))
+    assert done.returncode == 0, done.stderr[-2000:]
+    stats = json.loads(done.stdout.splitlines()[-1])
+    assert stats["quick"] == 2 and stats["started"] == 1
+    assert len(cached_modules(fresh_cache)) == 1  # the pendulum's
+    assert len(list(fresh_cache.glob("derived/*.kdnum"))) == 1
+    assert not list(fresh_cache.glob("quick-*"))  # the quick modules' folders removed
 
 
 def test_copies_made_before_the_optimized_build_move_on_too(fresh_cache):
@@ -454,7 +521,7 @@ def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tm
     _c_quick.finish_compiling()
     optimized = model._module
     # a quick module of the same model that no optimized build moves over
-    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, fetch: None)
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, *rest: None)
     monkeypatch.setattr(_c_build, "_LOADED", {})
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path / "second"))
     replay = definition.numeric(backend="c")
@@ -516,8 +583,8 @@ def test_rational_constants_are_one_correctly_rounded_literal(fresh_cache, monke
     literal, both modules give p/q correctly rounded."""
     needs_tcc()
     gate = threading.Event()
-    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, fetch: (
-        _c_quick.optimize_later(module, lambda **lock: gate.wait(300) and build(**lock), fetch)))
+    monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, *rest: (
+        _c_quick.optimize_later(module, lambda **lock: gate.wait(300) and build(**lock), *rest)))
     q, u = me.dynamicsymbols("q u")
     mass = sm.symbols("m", positive=True)
     frame = me.ReferenceFrame("N")

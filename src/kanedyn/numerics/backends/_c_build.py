@@ -346,7 +346,8 @@ def _quick_meanwhile(name, key, make_template, command, timeout):
                     return None, None, True
                 later = (functools.partial(_optimized, name, key, units, command, timeout,
                                            _single(make_template()), directory),
-                         functools.partial(_from_the_cache, name, key, directory))
+                         functools.partial(_from_the_cache, name, key, directory),
+                         _build_effort(units, command, directory))
             else:
                 later = None
     except OSError:  # a full disk, say: the build under the lock deals with it
@@ -437,7 +438,8 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                 return module, (
                     functools.partial(_optimized, name, key, units, command, timeout,
                                       single, directory),
-                    functools.partial(_from_the_cache, name, key, directory))
+                    functools.partial(_from_the_cache, name, key, directory),
+                    _build_effort(units, command, directory))
             _build(units, command, so_path, manifest, timeout, single=single)
             return _load(name, so_path), None
 
@@ -803,6 +805,18 @@ def unit_flags(text):
     -O0 for a :data:`COLD_UNIT`, else -O2 (the optimization level first)."""
     return _LIGHT_FLAGS if text.startswith(LIGHT_UNIT) else \
         _COLD_FLAGS if text.startswith(COLD_UNIT) else _UNIT_FLAGS
+
+
+def _build_effort(units, command, directory):
+    """What the optimized build of ``units`` costs, in characters compiled at
+    -O2 (:data:`_EFFORT`): those whose object the cache of ``directory`` holds
+    are linked, not compiled."""
+    effort = 0.0
+    for text in units:
+        flags, cached = _unit_object(text, command, directory)
+        if not cached.exists():
+            effort += _EFFORT[flags[0]] * len(text)
+    return effort
 
 
 def _unit_object(text, command, directory):

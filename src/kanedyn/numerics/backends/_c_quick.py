@@ -3,8 +3,10 @@
 TinyCC (``tcc``) compiles the generated C of a model in a few hundredths of a
 second where gcc needs a second of CPU or more (chain3d n = 10: 0.05 s against
 1.2 s).  When it is installed, a model's first module is built with it and
-used at once, while the optimizing compiler builds the module that goes into
-the cache in a background thread; the optimized module then takes the quick
+used at once, and the optimizing compiler builds the module that goes into
+the cache in a background thread once that pays (:func:`optimize_later`: once
+the quick module has run about as long as the build takes, or at once where
+the module is wanted in the cache); the optimized module then takes the quick
 one's place in every model bound to it (:func:`when_optimized`), and the quick
 module itself calls the optimized code from then on (a run under way included).
 Both compilers translate the same C into IEEE double arithmetic without fused
@@ -43,6 +45,7 @@ correctly rounded literals, so that no compiler folds a division of two.
 from __future__ import annotations
 
 import atexit
+import functools
 import os
 import shlex
 import shutil
@@ -63,9 +66,18 @@ __all__ = ["quick_command", "compile_quick", "prefetch_quick", "prefetched_folde
 
 #: what this process did (read by tests): ``quick``, modules built by the quick
 #: compiler; ``failed``, units it could not translate (an optimized build ran
-#: instead); ``optimized``, background builds finished; ``swaps``, models moved
-#: onto an optimized module
-QUICK_STATS = {"quick": 0, "failed": 0, "optimized": 0, "swaps": 0}
+#: instead); ``started``, optimized builds started (:func:`optimize_later`);
+#: ``optimized``, background builds finished; ``swaps``, models moved onto an
+#: optimized module
+QUICK_STATS = {"quick": 0, "failed": 0, "started": 0, "optimized": 0, "swaps": 0}
+
+#: s of a quick module's use (the time its entry points took) per character of its
+#: C before its optimized build starts: gcc -O2 takes about a second per 100,000
+#: characters of generated C (the build's CPU, which then runs beside the model)
+USE_PER_CHARACTER = 1e-5
+#: s between two looks at the quick modules whose optimized build waits
+_LOOK_EVERY = 0.1
+_WATCHER = None  # the thread of _start_those_that_pay
 
 #: tcc has no complex arithmetic: NumPy's headers declare complex types that the
 #: runtime never uses, through glibc's <complex.h>; keep that header out and make
@@ -92,6 +104,8 @@ class _Upgrade:
 
     def __init__(self, folder=None):
         self.thread = None
+        self.start = None  # () -> None: starts the build not started yet (see optimize_later)
+        self.use_to_start = 0.0  # s of the quick module's use at which it starts
         self.final = None
         self.callbacks = []
         self.cache_callbacks = []  # of when_cached: the building process's own
@@ -288,19 +302,28 @@ def _stop(prefetched):
     shutil.rmtree(folder, ignore_errors=True)
 
 
-def optimize_later(module, build, fetch=None):
+def optimize_later(module, build, fetch=None, effort=0.0):
     """Build the optimized replacement of the quick ``module`` (from
-    :func:`compile_quick`) in a background thread: ``build(when_locked=f)``
-    returns it and calls ``f()`` once it holds the cache entry's file lock,
-    which this function waits for (briefly: a child forked after it returns
-    then waits for the module; ``build`` may take locks, which the caller must
-    not hold).  The quick module then runs the optimized code and the callbacks
-    of :func:`when_optimized` are called.  A build that fails leaves the quick
-    module in place, with a warning.  ``fetch()``, when given, returns the
-    optimized module once this process has built it (or ``None``): a child
-    forked during the build calls it (see :func:`_catch_up_after_fork`).  While
-    the interpreter shuts down (a model built in an ``atexit`` function) the
-    build runs at once, in this thread."""
+    :func:`compile_quick`) in a background thread once it pays (see below):
+    ``build(when_locked=f)`` returns it and calls ``f()`` once it holds the
+    cache entry's file lock, which the start waits for (briefly: a child forked
+    after it then waits for the module; ``build`` may take locks, which the
+    caller must not hold).  The quick module then runs the optimized code and
+    the callbacks of :func:`when_optimized` are called.  A build that fails
+    leaves the quick module in place, with a warning.  ``fetch()``, when given,
+    returns the optimized module once this process has built it (or ``None``):
+    a child forked during the build calls it (see :func:`_catch_up_after_fork`).
+
+    The build starts once the quick module's entry points have taken
+    :data:`USE_PER_CHARACTER` s per character the build compiles at -O2 (or
+    the like: ``effort``), about the CPU time gcc takes to build it: from then
+    on, TinyCC's slower code would cost more than the build; at once when something asks for the module in the
+    cache (:func:`when_cached`: the derivation cache), when
+    :func:`finish_compiling` is called, or for a module that does not time
+    its use.  A build not started when the process exits never is: the next
+    process compiles the module again with the quick compiler (a few
+    hundredths of a second).  While the interpreter shuts down (a model built
+    in an ``atexit`` function) the build runs at once, in this thread."""
     with _STATE:
         upgrade = _UPGRADES.setdefault(module, _Upgrade())
         upgrade.fetch = fetch
@@ -309,6 +332,53 @@ def optimize_later(module, build, fetch=None):
         if upgrade.folder is not None:  # exit hooks registered now would not run
             shutil.rmtree(upgrade.folder, ignore_errors=True)
         return
+    upgrade.start = functools.partial(_start, module, upgrade, build)
+    upgrade.use_to_start = USE_PER_CHARACTER * effort
+    if upgrade.use_to_start <= 0 or not hasattr(module, "_quick_use"):
+        _start_now(upgrade)
+        return
+    _watch()
+
+
+def _start_now(upgrade):
+    """Start ``upgrade``'s build where it has not started yet."""
+    with _STATE:
+        start, upgrade.start = upgrade.start, None
+    if start is not None:
+        QUICK_STATS["started"] += 1
+        start()
+
+
+def _watch():
+    """Make sure the thread that starts the builds whose use pays runs."""
+    global _WATCHER
+    with _STATE:
+        if _WATCHER is not None and _WATCHER.is_alive():
+            return
+        _WATCHER = threading.Thread(target=_start_those_that_pay, daemon=True,
+                                    name="kanedyn-optimized-when-it-pays")
+        _WATCHER.start()
+
+
+def _start_those_that_pay():
+    """Every :data:`_LOOK_EVERY` s, start the builds whose quick module has been
+    used :attr:`_Upgrade.use_to_start` s; ends when none waits (or the
+    interpreter shuts down: no build starts then)."""
+    while threading.main_thread().is_alive():
+        time.sleep(_LOOK_EVERY)
+        with _STATE:
+            waiting = [(module, upgrade) for module, upgrade in _UPGRADES.items()
+                       if upgrade.start is not None]
+        if not waiting:
+            return
+        for module, upgrade in waiting:
+            if module._quick_use() >= upgrade.use_to_start \
+                    and threading.main_thread().is_alive():
+                _start_now(upgrade)
+
+
+def _start(module, upgrade, build):
+    """Start the optimized build of the quick ``module`` (see :func:`optimize_later`)."""
     locked = threading.Event()
     upgrade.thread = threading.Thread(
         target=_upgrade, args=(module, upgrade, lambda: build(when_locked=locked.set)),
@@ -363,6 +433,9 @@ def when_cached(module, callback):
 
 
 def _when(module, callback, at_once_if_final):
+    upgrade = _UPGRADES.get(module) if module is not None else None
+    if at_once_if_final and upgrade is not None:  # wanted in the cache: built now
+        _start_now(upgrade)
     with _STATE:
         upgrade = _UPGRADES.get(module) if module is not None else None
         if upgrade is not None and upgrade.final is None:
@@ -375,8 +448,9 @@ def _when(module, callback, at_once_if_final):
 
 
 def finish_compiling(timeout=None):
-    """Wait for the optimized builds that run in the background (and for the
-    models bound to their quick modules to move onto them).
+    """Start the optimized builds that wait for their quick module's use to
+    pay (:func:`optimize_later`) and wait for those that run in the background
+    (and for the models bound to their quick modules to move onto them).
 
     Parameters
     ----------
@@ -389,6 +463,8 @@ def finish_compiling(timeout=None):
         ``True`` when none runs any longer.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
+    for upgrade in list(_UPGRADES.values()):
+        _start_now(upgrade)
     with _STATE:
         threads = [u.thread for u in _UPGRADES.values() if u.thread is not None]
     for thread in threads:
@@ -403,18 +479,25 @@ def _catch_up_after_fork():
     child onto it (the child's exit does not wait for it; what waits for the
     module to be cached is left to the parent); a quick module without
     ``fetch`` stays."""
-    global _STATE
+    global _STATE, _WATCHER
     _STATE = threading.Lock()
+    _WATCHER = None
+    waiting = False
     for module, upgrade in list(_UPGRADES.items()):
         if upgrade.final is not None:
             continue
         upgrade.cache_callbacks = []
+        if upgrade.start is not None:  # not started: the child's own use decides
+            waiting = True
+            continue
         if upgrade.fetch is None:
             del _UPGRADES[module]
             continue
         upgrade.thread = threading.Thread(target=_upgrade, args=(module, upgrade, upgrade.fetch),
                                           name="kanedyn-optimized-fetch", daemon=True)
         upgrade.thread.start()
+    if waiting:
+        _watch()
 
 
 after_fork_in_child(_catch_up_after_fork, starts_threads=True)

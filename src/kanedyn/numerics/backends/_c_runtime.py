@@ -1085,6 +1085,42 @@ KD_LANES_FN KD_GEN void kd_lanes_rows(const double *t, int t_scalar, const doubl
 """
 
 PYTHON_GLUE = r"""
+/* ------------------------------------------------------------ the quick module's use */
+/* A module from the quick compiler (TinyCC, which defines __TINYC__; see
+   kanedyn's _c_quick) adds up the time its Python entry points take, s, read by
+   `_quick_use()`: its optimized build starts once that use pays for it.  The
+   optimizing compiler's module has none of this. */
+#ifdef __TINYC__
+#include <time.h>
+static double kd_quick_use = 0.0;  /* added to with the GIL held */
+static double kd_use_clock(void) {
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+#define KD_USE_START double kd_use_start = kd_use_clock();
+#define KD_USE_END kd_quick_use += kd_use_clock() - kd_use_start;
+/* f's Python entry point timed: f_timed, of f's arguments */
+#define KD_TIMED(f, PARAMS, ARGS) \
+    static PyObject *f##_timed PARAMS { \
+        KD_USE_START PyObject *result = f ARGS; KD_USE_END return result; \
+    }
+#define KD_METHOD(f) f##_timed
+static PyObject *kd_py_quick_use(PyObject *self, PyObject *unused) {
+    (void)self; (void)unused;
+    return PyFloat_FromDouble(kd_quick_use);
+}
+#else
+#define KD_USE_START
+#define KD_USE_END
+#define KD_TIMED(f, PARAMS, ARGS)
+#define KD_METHOD(f) f
+#endif
+/* the signatures of the entry points: METH_FASTCALL, METH_VARARGS (with keywords) */
+#define KD_FAST(T) (T *self, PyObject *const *args, Py_ssize_t nargs)
+#define KD_ARGS(T) (T *self, PyObject *args)
+#define KD_KEYWORDS(T) (T *self, PyObject *args, PyObject *kwds)
+
 /* ------------------------------------------------------------ the model's code */
 /* The model's right-hand side is called through this pointer (and its table of
    functions through kd_table): kd_py_adopt points both at the optimized build of
@@ -1854,8 +1890,11 @@ static const KdFunction *kd_table = NULL;
     static PyObject *kd_py_function##k(PyObject *self, PyObject *const *args, \
                                        Py_ssize_t nargs) { \
         (void)self; \
-        return kd_table[k].rows ? kd_function_rows(&kd_table[k], args, nargs) \
-                                : kd_function_call(&kd_table[k], args, nargs); \
+        KD_USE_START \
+        PyObject *result = kd_table[k].rows ? kd_function_rows(&kd_table[k], args, nargs) \
+                                            : kd_function_call(&kd_table[k], args, nargs); \
+        KD_USE_END \
+        return result; \
     }
 @ENTRIES@
 static PyObject *(*const kd_entries[KD_MAX_FUNCTIONS])(PyObject *, PyObject *const *,
@@ -1967,20 +2006,33 @@ RUNTIME = RUNTIME_ERRORS + LU_SOLVE + TABLE_INPUTS + PYTHON_GLUE
 
 #: end of the generic runtime: the Model type and the module's creation
 RUNTIME_FOOTER = r"""
+KD_TIMED(KdModel_rhs, KD_FAST(KdModel), (self, args, nargs))
+KD_TIMED(KdModel_rhs_batch, KD_KEYWORDS(KdModel), (self, args, kwds))
+KD_TIMED(KdModel_integrate, KD_ARGS(KdModel), (self, args))
+KD_TIMED(KdModel_integrate_many, KD_ARGS(KdModel), (self, args))
+KD_TIMED(kd_py_solved_jacobians, KD_FAST(PyObject), (self, args, nargs))
+KD_TIMED(kd_py_solved_jacobian, KD_FAST(PyObject), (self, args, nargs))
+#ifdef KD_NC
+KD_TIMED(kd_py_contact_segment, KD_ARGS(PyObject), (self, args))
+#endif
+#ifdef KD_INVERSE_POINT
+KD_TIMED(kd_py_inverse_point, KD_FAST(PyObject), (self, args, nargs))
+#endif
+
 static PyMethodDef KdModel_methods[] = {
-    {"rhs", (PyCFunction)(void (*)(void))KdModel_rhs, METH_FASTCALL,
+    {"rhs", (PyCFunction)(void (*)(void))KD_METHOD(KdModel_rhs), METH_FASTCALL,
      "rhs(t, y): the state derivative (a new array)"},
-    {"rhs_batch", (PyCFunction)(void (*)(void))KdModel_rhs_batch,
+    {"rhs_batch", (PyCFunction)(void (*)(void))KD_METHOD(KdModel_rhs_batch),
      METH_VARARGS | METH_KEYWORDS,
      "rhs_batch(t, Y, P=None, threads=None, lanes=None): state derivatives of many states "
      "(rows of Y), on `threads` threads (None: every CPU the process may use), several "
      "rows at once in SIMD lanes unless lanes=False"},
     {"set_parameters", (PyCFunction)(void (*)(void))KdModel_set_parameters, METH_FASTCALL,
      "set_parameters(p): replace the constants"},
-    {"integrate", (PyCFunction)KdModel_integrate, METH_VARARGS,
+    {"integrate", (PyCFunction)KD_METHOD(KdModel_integrate), METH_VARARGS,
      "integrate(t0, t1, y0, t_eval, rtol, atol, max_step, first_step, method, events, "
      "project_tol, dense): the compiled integration loop"},
-    {"integrate_many", (PyCFunction)KdModel_integrate_many, METH_VARARGS,
+    {"integrate_many", (PyCFunction)KD_METHOD(KdModel_integrate_many), METH_VARARGS,
      "integrate_many(t0, t1, Y0, P, r_times, R, t_eval, rtol, atol, max_step, first_step, "
      "project_tol, threads, stop, timeout): many trajectories of RK45 in threads"},
     {NULL, NULL, 0, NULL}
@@ -2034,15 +2086,19 @@ static PyObject *kd_py_adopt(PyObject *self, PyObject *capsule) {
 
 static PyMethodDef kd_runtime_functions[] = {
 #ifdef KD_NC
-    {"contact_segment", (PyCFunction)kd_py_contact_segment, METH_VARARGS, NULL},
+    {"contact_segment", (PyCFunction)KD_METHOD(kd_py_contact_segment), METH_VARARGS, NULL},
 #endif
     {"_adopt", (PyCFunction)kd_py_adopt, METH_O, NULL},
-    {"solved_jacobians", (PyCFunction)(void (*)(void))kd_py_solved_jacobians, METH_FASTCALL,
-     NULL},
-    {"solved_jacobian", (PyCFunction)(void (*)(void))kd_py_solved_jacobian, METH_FASTCALL,
-     NULL},
+#ifdef __TINYC__
+    {"_quick_use", (PyCFunction)kd_py_quick_use, METH_NOARGS, NULL},
+#endif
+    {"solved_jacobians", (PyCFunction)(void (*)(void))KD_METHOD(kd_py_solved_jacobians),
+     METH_FASTCALL, NULL},
+    {"solved_jacobian", (PyCFunction)(void (*)(void))KD_METHOD(kd_py_solved_jacobian),
+     METH_FASTCALL, NULL},
 #ifdef KD_INVERSE_POINT
-    {"inverse_point", (PyCFunction)(void (*)(void))kd_py_inverse_point, METH_FASTCALL, NULL},
+    {"inverse_point", (PyCFunction)(void (*)(void))KD_METHOD(kd_py_inverse_point),
+     METH_FASTCALL, NULL},
 #endif
     {NULL, NULL, 0, NULL}
 };
