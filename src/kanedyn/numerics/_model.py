@@ -440,7 +440,9 @@ def _move_onto(model_ref, quick, optimized):
 
 
 def _full_module(model):
-    """The C module with every function of ``model`` (its first one left M out)."""
+    """The C module with every function of ``model`` (its first one left M out);
+    from the quick compiler first where it is not cached, as the first one
+    (its optimized build starts when its use pays for it)."""
     from .backends._c import fingerprint, generate_c_units
     from .backends._c_build import load_module
     try:
@@ -453,7 +455,8 @@ def _full_module(model):
                          "in this process for the mass matrix or linearization") from None
     prog, table = eom._program, eom._table
     return load_module(fingerprint(prog, functions, sizes, cse), lambda: generate_c_units(
-        prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse))
+        prog, functions, sizes, describe=lambda e: str(table.external(e)), cse=cse),
+        quick=True)
 
 
 def _share_generated(model, clone):
