@@ -31,9 +31,12 @@ DURATION, ANGLE, AFTER = 1.0, np.pi / 2, 2.0     # s, rad, s left free afterward
 
 
 def simulate(model, y0, t_end):
-    """Radau at 2000 samples per second (the tip's vibration is tens of hertz)."""
+    """Radau at 2000 samples per second (the tip's vibration is tens of hertz);
+    rtol = atol = 1e-8: the numbers printed are those of 1e-10 to 1e-4 (the
+    optimal torque's residual of 3e-5 m, the collocation's error, is 3,000
+    times the tolerance), in half the CPU time (measured)."""
     t = np.linspace(0.0, t_end, int(2000 * t_end) + 1)
-    return kd.simulate(model, (0.0, t_end), y0, method="Radau", rtol=1e-10, atol=1e-10,
+    return kd.simulate(model, (0.0, t_end), y0, method="Radau", rtol=1e-8, atol=1e-8,
                        t_eval=t)
 
 

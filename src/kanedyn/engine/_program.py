@@ -593,14 +593,23 @@ class Program:
         return ordered, list(reduced[len(needed):])
 
     # ----------------------------------------------------------------- sizes
-    def count_ops(self, exprs, cse=False):
+    def count_ops(self, exprs, cse=False, memo=None):
         """Operations in ``exprs`` and all intermediates they need.
 
         ``cse=True`` counts after the joint elimination of :meth:`listing`.
+        ``memo``: a dict of the counts of expressions already counted, kept
+        across calls (the intermediates that several counts share are counted
+        by SymPy once; ``sm.count_ops`` is most of the time of a count).
         """
         assignments, outputs = self.listing(exprs, cse=cse)
-        total = sum(sm.count_ops(e) for _, e in assignments)
-        return int(total + sum(sm.count_ops(e) for e in outputs))
+        memo = {} if memo is None else memo
+        total = 0
+        for e in [e for _, e in assignments] + list(outputs):
+            n = memo.get(e)
+            if n is None:
+                n = memo[e] = int(sm.count_ops(e))
+            total += n
+        return int(total)
 
     def operation_kinds(self, exprs, cse=False):
         """Operations of :meth:`count_ops` by kind.
@@ -610,7 +619,8 @@ class Program:
         dict
             ``multiplications`` (products, quotients, negations),
             ``additions`` (sums, differences), ``powers`` and
-            ``functions`` (calls of sin, cos, sqrt, ...).
+            ``functions`` (calls of sin, cos, sqrt, ...); their sum is
+            :meth:`count_ops` (every operation is of one kind).
         """
         assignments, outputs = self.listing(exprs, cse=cse)
         counts = {"multiplications": 0, "additions": 0, "powers": 0, "functions": 0}
