@@ -297,13 +297,14 @@ def _pitch_decay(wind, aero, controller="on", duration=130.0):
     the model definition."""
     d = oc3_spar(tower_modes=0, rotor="spinning", controller=controller if wind else "off",
                  wind_speed=wind, aero=aero)
-    m = d.numeric(backend="c")
+    eom = d.derive()    # derived once for both backends
+    m = d.numeric(eom, backend="c")
     y0 = np.array(d.initial(m), float)
     if wind:
         # the steady state on the NumPy model of the same equations (exact derivatives
         # too, the same state to 1e-11): four Newton steps need no compiled derivative
         # module (its gcc build took more CPU than the rest of the run)
-        twin = d.numeric(backend="numpy")
+        twin = d.numeric(eom, backend="numpy")
         assert list(twin.state_names) == list(m.state_names)
         found = kd.equilibrium(twin, y0, moving=["azimuth"])
         assert found.converged, found.message

@@ -158,7 +158,12 @@ def _linear_cached(backend, key):
     options = dict(key)
     lin = dict(options, drag=False, sea="regular", wave_height=1.0, wave_period=10.0,
                turbulence=0.0)
-    d, _, model, _ = _model(backend, **lin)
+    # the twin is linearized at the state of ``options``: built, not settled (settling it
+    # built its own still-water twin, a third model, for a state never used); on the
+    # NumPy backend whatever the study's: it is linearized once, and a C twin cost more
+    # CPU (its module and its derivatives' module, for gcc) for the same matrices (to
+    # 1e-15, measured on the default oc3-decay options)
+    d, _, model = _built("numpy", tuple(sorted(lin.items())))
     _, _, _, y_eq = _model(backend, **options)
     A, B, r = oc3_linear_system(model, y_eq)
     return d, model, y_eq, A, B, r
@@ -169,7 +174,8 @@ def _linear(backend="c", **options):
 
     Quadratic drag has no linear part at rest (its Jacobian there is 0/0 in
     the generated code), so the linear twin is built with ``drag=False`` and
-    with Morison strips whose fluid kinematics are the inputs ``B``.
+    with Morison strips whose fluid kinematics are the inputs ``B``; it is a
+    NumPy model whatever ``backend`` (the equilibrium's model) is.
 
     Returns
     -------

@@ -632,14 +632,18 @@ def through_inputs(model, t, y, inputs):
     following = [k for k, (_, inp) in enumerate(model._inputs) if inp.arity == 2]
     if not following:
         return 0.0
+
+    def values(state):   # every input at one state, then the next state: inputs that
+        # share one solve (a rotor's loads) keep its last state's values, one solve each
+        return np.array([model._inputs[k][1](t, state) for k in following], dtype=float)
+
     columns = []
     for j in range(y.size):
         h = 1e-7 * max(1.0, abs(y[j]))
         up, down = y.copy(), y.copy()
         up[j] += h
         down[j] -= h
-        columns.append([(model._inputs[k][1](t, up) - model._inputs[k][1](t, down)) / (2 * h)
-                        for k in following])
+        columns.append((values(up) - values(down)) / (2 * h))
     return inputs[:, following] @ np.array(columns).T
 
 

@@ -157,7 +157,10 @@ class RotorAerodynamics:
         self.hub, self.shaft, self.frame, self.rotor_frame = hub, shaft, frame, rotor_frame
         self.relative_wind = wind - hub.vel(frame).dot(shaft)
         # the floor keeps lambda finite when the hub runs with the wind (clamped anyway)
-        self.tip_speed_ratio = rotor_speed * radius / sm.Max(self.relative_wind, 0.1)
+        # unevaluated, as _clamp's: SymPy's search for comparable arguments took half a
+        # second of each turbine's build, and the bound is a number
+        self.tip_speed_ratio = rotor_speed * radius / sm.Max(self.relative_wind, 0.1,
+                                                             evaluate=False)
         cq, ct = surface.expressions(self.tip_speed_ratio, pitch)
         q = sm.Float(air_density * np.pi * radius ** 2 / 2) * self.relative_wind ** 2
         self.thrust = q * ct
