@@ -3,18 +3,13 @@
 The generated function evaluates only the intermediates its outputs need, one
 assignment per intermediate, with scalar ``math`` functions, and returns NumPy
 arrays.  Its arguments are ``(t, y, p, r)``: time, state, constants and
-specified inputs, each an indexable sequence.  The sums, products, powers,
-numbers and elementary functions of nearly all statements are printed by the C
-backend's own printer (:func:`._c._direct`), whose text is Python too with
-the C runtime's function names bound in the generated code's namespace;
-anything else by SymPy's printer.
+specified inputs, each an indexable sequence.
 """
 
 from __future__ import annotations
 
 import functools
 import math
-import operator
 
 import numpy as np
 from sympy.printing.numpy import SciPyPrinter
@@ -74,23 +69,6 @@ class _VectorPrinter(SciPyPrinter):
 
     def _print_kd_dpow(self, expr):
         return f"_kd_dpow_lanes({', '.join(self._print(a) for a in expr.args)})"
-
-
-def _print(printer, expr, names):
-    """Python text of ``expr``: the C backend's direct text (without SymPy's
-    printing machinery, whose precedence rules ask SymPy's assumptions of every
-    operand: most of the cost of a NumPy model's code), or the printer's where
-    that printer leaves the expression to SymPy's."""
-    from ._c import _direct, _Unusual
-    try:
-        return _direct(expr, names)[0]
-    except _Unusual:
-        return printer.doprint(expr)
-
-
-def _kd_sign(x):
-    """The C runtime's ``kd_sign``: -1, 0 or 1."""
-    return float((x > 0) - (x < 0))
 
 
 def _kd_dpow(b, e, db):
@@ -154,7 +132,7 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
     for k, (s, expr) in enumerate(assignments):
         local = f"_z{k}"
         try:
-            code = printer.doprint(expr) if vectorized else _print(printer, expr, names)
+            code = printer.doprint(expr)
         except CodegenError as exc:
             raise CodegenError(f"{exc} (in the intermediate {s.name}"
                                f"{origin(s) if origin else ''})") from None
@@ -167,8 +145,7 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
     position = 0
     for k, (shape, exprs) in enumerate(outputs):
         count = len(exprs)
-        codes = [printer.doprint(e) if vectorized else _print(printer, e, names)
-                 for e in flat[position:position + count]]
+        codes = [printer.doprint(e) for e in flat[position:position + count]]
         position += count
         if vectorized:
             lines.append(f"    _out{k} = _stack([{', '.join(codes)}], {tuple(shape)}, _k)")
@@ -202,13 +179,7 @@ class _LazySciPy:
 #: arrays as functools.reduce over numpy.maximum/minimum)
 _NAMESPACE = {"functools": functools, "math": math, "numpy": np, "scipy": _LazySciPy(),
               "_array": np.array, "_zeros": np.zeros, "_stack": _stack, "_kd_dpow": _kd_dpow,
-              "_kd_dpow_lanes": _kd_dpow_lanes,
-              # the names of the C backend's direct text (:func:`_print`), as its runtime's
-              **{name: getattr(math, name) for name in (
-                  "sin", "cos", "tan", "exp", "log", "asin", "acos", "atan", "sinh", "cosh",
-                  "tanh", "fabs", "atan2", "sqrt")},
-              "pow": operator.pow, "kd_powi": operator.pow, "kd_sign": _kd_sign,
-              "kd_dpow": _kd_dpow, "NAN": math.nan}
+              "_kd_dpow_lanes": _kd_dpow_lanes}
 
 
 def compile_python(source, name):
