@@ -54,7 +54,7 @@ def test_locked_generator_modes_against_the_published_full_system():
     against 0.6993; edge 1 asymmetric 1.085 and 1.098 against 1.0793 and 1.0898; flap 2
     asymmetric 1.947 and 1.951 against 1.9223 and 1.9337, collective 1.977 against
     2.0205); no precone, the OC3 tower.  On the NumPy backend (one linearization each:
-    the same frequencies as C's to 1e-14, measured, in 17 s of CPU against C's 16 s and
+    the same frequencies as C's to 1e-14, measured, in 25 s of CPU against C's 16 s and
     25 s of gcc; the C backend's equilibria and linearizations of the
     flexible-blade turbine are the Campbell study's, below)."""
     from kanedyn.analysis._oc3_campbell_study import oc3_locked_generator_modes
@@ -80,7 +80,7 @@ def test_oc3_campbell_with_flexible_blades_in_multiblade_coordinates(tmp_path):
     multiblade coordinates, the generator free: at rated speed the edgewise and second
     flapwise whirls sit 2 Omega apart (within 3 %), the collective edge mode with the
     twisting shaft (the free-free drivetrain) at 1.75 Hz, below the rigid blades'
-    2.22 Hz.  On the NumPy backend: the same modes as C's to 1e-14 (measured), in 13 s
+    2.22 Hz.  On the NumPy backend: the same modes as C's to 1e-14 (measured), in 17 s
     of CPU where C's took 77 s on a cold cache, 2.5 MB of generated C for gcc (the C
     path of the study is the rigid-blade test's above)."""
     code = main(["study", "oc3-campbell", "--set", "n_speeds=4", "--set", "blades=flexible",

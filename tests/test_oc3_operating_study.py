@@ -30,7 +30,7 @@ def test_oc3_operating_study_tabulates_parked_and_operating_runs(tmp_path):
     # the NumPy backend: the study's code is the same on both, and its table is C's to
     # every digit tabulated (measured); on C a cold cache made the run cost 139 s of CPU,
     # 93 s of them gcc's (eight model modules and five derivative modules, each of these
-    # used for a few Newton steps or one linearization), against 51 s on NumPy
+    # used for a few Newton steps or one linearization), against 53 s on NumPy
     result = kd.studies.run_study("oc3-operating", out=tmp_path, wind_speeds="18",
                                   duration=20.0, settle=5.0, backend="numpy")
     columns, rows = result.table("statistics")

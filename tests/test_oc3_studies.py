@@ -87,7 +87,7 @@ def test_tuned_tmd_and_tmdi_reduce_the_tower_peak():
     # coupled mode then damped by the platform's linear damping alone) it is higher by
     # about the ratio of the mode's damping ratios (0.64 % / 0.26 %).  On the NumPy
     # backend: the same peaks as C's to 1e-14 (measured), without compiling three more
-    # models and their derivatives (10 s of CPU against 32 s, 22 of them gcc's)
+    # models and their derivatives (13 s of CPU against 32 s, 22 of them gcc's)
     undamped = run_study("oc3-tmdi", None, tower_damping=0.0, backend="numpy").data
     assert 2.0 < undamped["peak_without"] / d["peak_without"] < 3.0
     assert undamped["tmd_peak"] > d["tmd_peak"]
