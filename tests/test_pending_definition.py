@@ -29,7 +29,8 @@ def cache(tmp_path_factory):
         first = kd.models.build("chain3d", **OPTIONS)
         assert type(first) is ModelDefinition  # not in the cache: built by build()
         first.numeric(backend="c")
-        kd.numerics.finish_compiling()  # the entry is written once its module is cached
+        # the entry is written once its module is cached (started at once)
+        kd.numerics.finish_compiling(start_waiting=False)
     return path
 
 

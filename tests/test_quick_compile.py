@@ -36,8 +36,10 @@ def fresh_cache(tmp_path, monkeypatch):
     if _c_build.compiler_command() is None:
         pytest.skip("no C compiler")
     # optimized builds an earlier test started in the background (a model's
-    # derivatives, say) end first: they would count in QUICK_STATS here
-    assert _c_quick.finish_compiling(timeout=600)
+    # derivatives, say) end first: they would count in QUICK_STATS here (those
+    # still waiting for their use to pay are not started here nor by the tests'
+    # finish_compiling, as in a process of their own)
+    assert _c_quick.finish_compiling(timeout=600, start_waiting=False)
     monkeypatch.delenv("KANEDYN_QUICK_CC", raising=False)
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
@@ -45,7 +47,7 @@ def fresh_cache(tmp_path, monkeypatch):
     # that rule set it back)
     monkeypatch.setattr(_c_quick, "USE_PER_CHARACTER", 0.0)
     yield tmp_path
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
 
 
 def needs_tcc():
@@ -106,7 +108,7 @@ def test_quick_module_then_the_optimized_one_give_the_same_numbers(fresh_cache, 
     first = evaluations(definition, model)
     assert QUICK_STATS["optimized"] == before["optimized"]
     gate.set()
-    assert _c_quick.finish_compiling(timeout=300)
+    assert _c_quick.finish_compiling(timeout=300, start_waiting=False)
     assert model._module is not quick
     assert Path(model._module.__file__).parent == fresh_cache
     assert QUICK_STATS["swaps"] >= before["swaps"] + 1
@@ -143,7 +145,7 @@ def test_the_optimized_build_starts_once_the_quick_module_has_paid_for_it(fresh_
     while QUICK_STATS["started"] == before["started"] and time.monotonic() < deadline:
         time.sleep(0.05)
     assert QUICK_STATS["started"] == before["started"] + 1
-    assert _c_quick.finish_compiling(timeout=600)
+    assert _c_quick.finish_compiling(timeout=600, start_waiting=False)
     assert model._module is not quick and len(cached_modules(fresh_cache)) == 1
     assert model.rhs(0.0, y).tobytes() == first.tobytes()
 
@@ -185,7 +187,7 @@ def test_copies_made_before_the_optimized_build_move_on_too(fresh_cache):
     y = definition.initial(model) + 0.2
     expected = heavier.rhs(0.0, y)
     assert heavier._module is model._module
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     assert heavier._module is model._module
     assert Path(heavier._module.__file__).parent == fresh_cache
     np.testing.assert_array_equal(heavier.rhs(0.0, y), expected)
@@ -201,7 +203,7 @@ def test_a_second_model_of_the_same_equations_waits_for_nothing(fresh_cache):
     quick, compiles = QUICK_STATS["quick"], _c_build.STATS["compiles"]
     model = definition.numeric(eom, backend="c")
     again = definition.numeric(eom, backend="c")
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     assert QUICK_STATS["quick"] == quick + 1
     assert _c_build.STATS["compiles"] == compiles + 1
     assert model._module is again._module
@@ -232,7 +234,7 @@ def test_another_module_does_not_wait_for_an_optimized_build(fresh_cache, monkey
     assert _c_build._LOCK.locked() and not gate.is_set()
     assert QUICK_STATS["quick"] == before["quick"] + 1
     gate.set()
-    assert _c_quick.finish_compiling(timeout=300)
+    assert _c_quick.finish_compiling(timeout=300, start_waiting=False)
     assert QUICK_STATS["optimized"] >= before["optimized"] + 2  # the model's and this one
     optimized = model.jacobians(0.0, y)
     np.testing.assert_array_equal(found[0].state, optimized.state)
@@ -319,7 +321,7 @@ def test_a_failed_optimized_build_keeps_the_quick_module(fresh_cache, monkeypatc
         warnings.simplefilter("always")
         model = definition.numeric(backend="c")
         quick = model._module
-        _c_quick.finish_compiling()
+        _c_quick.finish_compiling(start_waiting=False)
     assert any("optimized build of a compiled model failed" in str(w.message)
                and "exit status 1" in str(w.message) for w in caught)
     assert model._module is quick
@@ -446,7 +448,7 @@ def test_a_child_forked_during_the_optimized_build(fresh_cache, monkeypatch):
         np.testing.assert_array_equal(answer, model.rhs(0.0, y))
         assert Path(quick.__file__).exists()
         gate.set()
-        assert _c_quick.finish_compiling(timeout=300)
+        assert _c_quick.finish_compiling(timeout=300, start_waiting=False)
         assert Path(model._module.__file__).parent == fresh_cache
         third = subprocess.run(
             [sys.executable, "-c", "import kanedyn as kd\n"
@@ -483,7 +485,7 @@ def test_a_child_forked_during_the_optimized_build_moves_onto_it(fresh_cache, mo
                       model.with_constants({"m": 2.0})]
             before = [copy._module is quick for copy in copies]
             os.write(ready_write, b"r")
-            done = _c_quick.finish_compiling(timeout=120)
+            done = _c_quick.finish_compiling(timeout=120, start_waiting=False)
             report = {"before": before, "done": done,
                       "moved": [copy._module is not quick for copy in copies],
                       "cached": [str(Path(copy._module.__file__).parent) for copy in copies],
@@ -501,7 +503,7 @@ def test_a_child_forked_during_the_optimized_build_moves_onto_it(fresh_cache, mo
         report = pickle.loads(pipe.read())
     _, status = os.waitpid(pid, 0)
     assert os.waitstatus_to_exitcode(status) == 0
-    assert _c_quick.finish_compiling(timeout=300)
+    assert _c_quick.finish_compiling(timeout=300, start_waiting=False)
     assert report["before"] == [True, True, True]
     assert report["done"] and report["moved"] == [True, True, True]
     assert report["cached"] == [str(fresh_cache)] * 3 and report["same module"]
@@ -518,7 +520,7 @@ def test_a_run_under_way_moves_onto_the_optimized_code_unchanged(fresh_cache, tm
     needs_tcc()
     definition = kd.models.build("chain3d", n=4)
     model = definition.numeric(backend="c")
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     optimized = model._module
     # a quick module of the same model that no optimized build moves over
     monkeypatch.setattr(_c_build, "optimize_later", lambda module, build, *rest: None)
@@ -554,7 +556,7 @@ def test_a_long_compiled_run_lets_other_threads_work(fresh_cache):
     through, the loop would keep it waiting for the whole run)."""
     definition = kd.models.build("pendulum")
     model = definition.numeric(backend="c")
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     stamps, stop = [], threading.Event()
 
     def note():
@@ -599,7 +601,7 @@ def test_rational_constants_are_one_correctly_rounded_literal(fresh_cache, monke
     model = eom.numeric(backend="c", constants={mass: 1.0})
     quick = model.rhs(0.0, [0.0, 1.0])
     gate.set()
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     optimized = model.rhs(0.0, [0.0, 1.0])
     assert quick[1] == optimized[1] == -542719210271983 / 10**9 + 1 / 3
 
@@ -617,13 +619,13 @@ def test_the_derivation_cache_names_only_a_module_in_the_cache(fresh_cache, monk
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", RuntimeWarning)
         kd.models.build("pendulum", lazy=True).numeric(backend="c")
-        _c_quick.finish_compiling()
+        _c_quick.finish_compiling(start_waiting=False)
     assert list(fresh_cache.glob("derived/*.kdnum")) == []
     monkeypatch.undo()
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(fresh_cache))
     monkeypatch.setattr(_c_build, "_LOADED", {})
     kd.models.build("pendulum", lazy=True).numeric(backend="c")
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
     assert len(list(fresh_cache.glob("derived/*.kdnum"))) == 1
 
 
@@ -635,7 +637,7 @@ def test_the_quick_module_lives_in_the_cache_directory(fresh_cache):
     model = kd.models.build("pendulum").numeric(backend="c")
     folder = Path(model._module.__file__).parent
     assert folder.parent == fresh_cache and folder.name.startswith("quick-")
-    _c_quick.finish_compiling()
+    _c_quick.finish_compiling(start_waiting=False)
 
 
 def test_a_quick_module_that_does_not_load_leaves_the_optimized_build(fresh_cache,

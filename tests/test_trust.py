@@ -352,6 +352,9 @@ _CACHE_RUN = textwrap.dedent("""
         try:
             model = eom.numeric(constants={c: 1.0}, backend="c")
             print("built", model.rhs(0.0, [1.0, 0.0])[1])
+            # the optimized module into the cache (a use this short would not start
+            # its build; tests/test_quick_compile.py)
+            kd.numerics.finish_compiling()
         except kd.KanedynError as exc:
             print("error", type(exc).__name__, exc)
     for w in caught:

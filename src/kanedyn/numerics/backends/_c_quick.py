@@ -88,6 +88,9 @@ _QUICK_FLAGS = ["-shared", "-fPIC", "-w", "-D_COMPLEX_H", "-D_Complex="]
 _OBJECT_FLAGS = ["-c"] + _QUICK_FLAGS[1:]
 
 _STATE = threading.Lock()  # guards _UPGRADES
+#: held while a build is started (:func:`_start_now`), by the thread that starts the
+#: builds that pay and by :func:`finish_compiling`, which then finds every build started
+_STARTS = threading.Lock()
 #: s: longest wait of optimize_later for its build to hold the entry's file lock
 _LOCKED_WITHIN = 0.2
 _UPGRADES = {}  # quick module -> _Upgrade
@@ -341,12 +344,14 @@ def optimize_later(module, build, fetch=None, effort=0.0):
 
 
 def _start_now(upgrade):
-    """Start ``upgrade``'s build where it has not started yet."""
-    with _STATE:
-        start, upgrade.start = upgrade.start, None
-    if start is not None:
-        QUICK_STATS["started"] += 1
-        start()
+    """Start ``upgrade``'s build where it has not started yet (under
+    :data:`_STARTS`: its thread is running and recorded once that is free)."""
+    with _STARTS:
+        with _STATE:
+            start, upgrade.start = upgrade.start, None
+        if start is not None:
+            QUICK_STATS["started"] += 1
+            start()
 
 
 def _watch():
@@ -447,7 +452,7 @@ def _when(module, callback, at_once_if_final):
         callback(module)
 
 
-def finish_compiling(timeout=None):
+def finish_compiling(timeout=None, start_waiting=True):
     """Start the optimized builds that wait for their quick module's use to
     pay (:func:`optimize_later`) and wait for those that run in the background
     (and for the models bound to their quick modules to move onto them).
@@ -456,6 +461,9 @@ def finish_compiling(timeout=None):
     ----------
     timeout : float or None
         Longest wait, s (``None``: until they end).
+    start_waiting : bool
+        Whether the builds that wait for their use to pay are started too
+        (``False``: only those running are waited for).
 
     Returns
     -------
@@ -463,9 +471,9 @@ def finish_compiling(timeout=None):
         ``True`` when none runs any longer.
     """
     deadline = None if timeout is None else time.monotonic() + timeout
-    for upgrade in list(_UPGRADES.values()):
+    for upgrade in list(_UPGRADES.values()) if start_waiting else ():
         _start_now(upgrade)
-    with _STATE:
+    with _STARTS, _STATE:  # a start under way elsewhere has recorded its thread
         threads = [u.thread for u in _UPGRADES.values() if u.thread is not None]
     for thread in threads:
         thread.join(None if deadline is None else max(0.0, deadline - time.monotonic()))
@@ -479,8 +487,9 @@ def _catch_up_after_fork():
     child onto it (the child's exit does not wait for it; what waits for the
     module to be cached is left to the parent); a quick module without
     ``fetch`` stays."""
-    global _STATE, _WATCHER
+    global _STATE, _STARTS, _WATCHER
     _STATE = threading.Lock()
+    _STARTS = threading.Lock()
     _WATCHER = None
     waiting = False
     for module, upgrade in list(_UPGRADES.items()):
