@@ -344,10 +344,8 @@ def _quick_meanwhile(name, key, make_template, command, timeout):
                                        timeout)
                 if module is None:
                     return None, None, True
-                later = (functools.partial(_optimized, name, key, units, command, timeout,
-                                           _single(make_template()), directory),
-                         functools.partial(_from_the_cache, name, key, directory),
-                         _build_effort(units, command, directory))
+                later = _later(name, key, units, command, timeout, _single(make_template()),
+                               directory)
             else:
                 later = None
     except OSError:  # a full disk, say: the build under the lock deals with it
@@ -435,17 +433,24 @@ def _load_or_build(name, key, make_template, command, timeout, quick=False):
                 module = compile_quick(name, units, quick_cc, _includes(), _load,
                                        directory, timeout)
             if module is not None:
-                return module, (
-                    functools.partial(_optimized, name, key, units, command, timeout,
-                                      single, directory),
-                    functools.partial(_from_the_cache, name, key, directory),
-                    _build_effort(units, command, directory))
+                return module, _later(name, key, units, command, timeout, single,
+                                      directory)
             _build(units, command, so_path, manifest, timeout, single=single)
             return _load(name, so_path), None
 
     module, later = _with_room(directory, load_or_build)
     _LOADED[key] = module
     return module, later
+
+
+def _later(name, key, units, command, timeout, single, directory):
+    """The arguments of :func:`~._c_quick.optimize_later` for the quick module
+    ``name`` of the translation units ``units``: its optimized build, its load
+    from the cache (a forked child's) and the build's effort."""
+    return (functools.partial(_optimized, name, key, units, command, timeout, single,
+                              directory),
+            functools.partial(_from_the_cache, name, key, directory),
+            _build_effort(units, command, directory))
 
 
 def _optimized(name, key, units, command, timeout, single, directory, when_locked=None):

@@ -320,10 +320,10 @@ def optimize_later(module, build, fetch=None, effort=0.0):
     The build starts once the quick module's entry points have taken
     :data:`USE_PER_CHARACTER` s per character the build compiles at -O2 (or
     the like: ``effort``), about the CPU time gcc takes to build it: from then
-    on, TinyCC's slower code would cost more than the build; at once when something asks for the module in the
-    cache (:func:`when_cached`: the derivation cache), when
-    :func:`finish_compiling` is called, or for a module that does not time
-    its use.  A build not started when the process exits never is: the next
+    on, TinyCC's slower code would cost more than the build.  It starts at
+    once when something asks for the module in the cache (:func:`when_cached`:
+    the derivation cache), when :func:`finish_compiling` is called, or for a
+    module that does not time its use.  A build not started when the process exits never is: the next
     process compiles the module again with the quick compiler (a few
     hundredths of a second).  While the interpreter shuts down (a model built
     in an ``atexit`` function) the build runs at once, in this thread."""
@@ -442,7 +442,6 @@ def _when(module, callback, at_once_if_final):
     if at_once_if_final and upgrade is not None:  # wanted in the cache: built now
         _start_now(upgrade)
     with _STATE:
-        upgrade = _UPGRADES.get(module) if module is not None else None
         if upgrade is not None and upgrade.final is None:
             (upgrade.cache_callbacks if at_once_if_final else upgrade.callbacks).append(callback)
             return
