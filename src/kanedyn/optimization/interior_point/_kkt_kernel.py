@@ -2,7 +2,7 @@
 
 One fixed source (no generated part), compiled once and cached like the
 models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
-first :class:`~._kkt_sparse.SparseKKT`.  Its six functions take their arrays
+first :class:`~._kkt_sparse.SparseKKT`.  Its functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices, ``int64`` column pointers; the caller makes them so) and release the
 GIL while they compute:
@@ -12,20 +12,21 @@ GIL while they compute:
     from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
     columns of a 2 x 2 pivot given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
-jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, workspace,
-zero, tolerance)``
+jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, zero,
+tolerance)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
     elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
     its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
     ``(n_positive, n_negative, n_zero)`` and sets ``zero[k]`` (``int8``, N) to
     1 where the pivot ``k`` was zero (both rows of a 2 x 2 block), else 0.
-``solve(x, Lp, Li, Lx, D, E, pair, permutation, workspace, k)``
+``solve(x, Lp, Li, Lx, D, E, pair, permutation, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
 
-The workspaces (``float64``: 5 N entries for ``factor``, N for ``solve``; ``zero``)
-are the caller's, allocated once with the factor.
+``factor`` and ``solve`` allocate their scratch (5 N and N doubles) for the
+call, so that it is not held between factorizations (40 bytes a row of K);
+``zero`` is the caller's, allocated once with the factor.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
 ``invalid(a_0, ..., a_k, nonnegative)``
@@ -39,6 +40,25 @@ are the caller's, allocated once with the factor.
     of :func:`~._optimality.numpy_error_reductions` to the last bit (the sums
     by NumPy's pairwise summation, the maxima from 0.0, a NaN kept): 20 NumPy
     calls in one.
+
+Three more make the analysis's patterns in int32 with no larger scratch than
+two int32 entries per entry (SciPy's conversions of ``int64`` coordinates
+held about six times that at 100,000 nodes):
+
+``csr(n_rows, n_cols, symmetric, rows, cols, row_offset[, rows, cols, row_offset])``
+    the CSR pattern of the entries ``(rows + row_offset, cols)`` of one or two
+    parts (with ``symmetric`` their mirror images too), repeats merged, each
+    row's columns increasing (SciPy's canonical form), as two bytearrays of
+    int32 ``(indptr, indices)``.
+``compressed(indptr, indices, node, n_nodes)``
+    the same of the graph that joins ``node[i]`` and ``node[j]`` for each
+    entry ``(i, j)`` of the pattern where both are ``>= 0`` and differ (the
+    pairs' graph of :func:`~._kkt_ordering.elimination_order`).
+``permuted(Ap, hessian_map, jacobian_map, diagonal_map, inverse, hessian_rows,
+hessian_cols, jacobian_rows, jacobian_cols, n)``
+    K's upper triangle in the elimination order as CSC: fills ``Ap`` and the
+    maps of every entry to its place, returns the row indices as a bytearray
+    of int32.
 """
 
 from __future__ import annotations
@@ -48,7 +68,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 12"
+_GENERATION = "kanedyn sparse LDL 13"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -156,7 +176,7 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
    of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
    the off-diagonal entry of the 2 x 2 block starting at k */
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
-      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_WORK, F_ZERO, F_COUNT};
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_ZERO, F_COUNT};
 
 /* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
    times the larger of its scale and K's largest entry, so that the rows below
@@ -237,14 +257,13 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
-                                             8, 8, 8, 1};
+                                             8, 8, 1};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                          0, 1, 1};
+                                          0, 1};
     static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
                                          "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
-                                         "diagonal_x", "diagonal_c", "workspace",
-                                         "zero"};
+                                         "diagonal_x", "diagonal_c", "zero"};
     Py_buffer v[F_COUNT];
     if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
@@ -257,13 +276,17 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
     Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
     Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
-    if (KD_COUNT(v[F_WORK]) < 5 * N || KD_COUNT(v[F_ZERO]) < N) {
+    if (KD_COUNT(v[F_ZERO]) < N) {
         kd_release(v, F_COUNT);
-        PyErr_SetString(PyExc_ValueError, "workspace, zero: fewer than 5 N, N entries");
+        PyErr_SetString(PyExc_ValueError, "zero: fewer than N entries");
         return NULL;
     }
-    /* the workspace (5 N doubles, allocated with the factor's storage) */
-    double *work = v[F_WORK].buf;
+    /* the workspace, 5 N doubles: held only while this call runs */
+    double *work = malloc(sizeof(double) * 5 * (size_t)(N > 0 ? N : 1));
+    if (work == NULL) {
+        kd_release(v, F_COUNT);
+        return PyErr_NoMemory();
+    }
     double *Y = work, *rowmax = work + N, *offmax = work + 2 * N;
     int64_t *filled = (int64_t *)(work + 3 * N);
     int32_t *pattern = (int32_t *)(work + 4 * N), *flag = pattern + N;
@@ -382,36 +405,41 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS
+    free(work);
     kd_release(v, F_COUNT);
     return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
 }
 
 /* ------------------------------------------------------------------- solve */
 static PyObject *kd_solve(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 10) {
-        PyErr_SetString(PyExc_TypeError, "10 arguments expected");
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 9) {
+        PyErr_SetString(PyExc_TypeError, "9 arguments expected");
         return NULL;
     }
-    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 9));
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 8));
     if (columns == -1 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[9] = {8, 8, 4, 8, 8, 8, 1, 4, 8};
-    static const int writable[9] = {1, 0, 0, 0, 0, 0, 0, 0, 1};
-    static const char *const names[9] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
-                                         "permutation", "workspace"};
-    Py_buffer v[9];
-    if (kd_views(args, 9, v, size, writable, names) < 0) return NULL;
+    static const Py_ssize_t size[8] = {8, 8, 4, 8, 8, 8, 1, 4};
+    static const int writable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
+                                         "permutation"};
+    Py_buffer v[8];
+    if (kd_views(args, 8, v, size, writable, names) < 0) return NULL;
     double *X = v[0].buf;
     const int64_t *Lp = v[1].buf;
     const int32_t *Li = v[2].buf, *perm = v[7].buf;
     const double *Lx = v[3].buf, *D = v[4].buf, *E = v[5].buf;
     const int8_t *pair = v[6].buf;
     Py_ssize_t N = KD_COUNT(v[4]);
-    if (columns < 0 || KD_COUNT(v[0]) != columns * N || KD_COUNT(v[8]) < N) {
-        kd_release(v, 9);
-        PyErr_SetString(PyExc_ValueError, "rhs or workspace: not of the factored size");
+    if (columns < 0 || KD_COUNT(v[0]) != columns * N) {
+        kd_release(v, 8);
+        PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
         return NULL;
     }
-    double *w = v[8].buf;
+    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));  /* for this call */
+    if (w == NULL) {
+        kd_release(v, 8);
+        return PyErr_NoMemory();
+    }
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t c = 0; c < columns; c++) {
         double *x = X + c * N;
@@ -439,7 +467,8 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
         for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
     }
     Py_END_ALLOW_THREADS
-    kd_release(v, 9);
+    free(w);
+    kd_release(v, 8);
     Py_RETURN_NONE;
 }
 
@@ -580,6 +609,324 @@ static PyObject *kd_error_reductions(PyObject *self, PyObject *args) {
                          cu_max, cl_mu, cu_mu);
 }
 
+/* ---------------------------------------------------------------- patterns */
+/* pairs (r[e] + offset, c[e]), e < count: a part of a pattern's entries */
+typedef struct {
+    const int32_t *r, *c;
+    Py_ssize_t count;
+    int64_t offset;
+} kd_part;
+
+/* a new bytearray holding `count` int32 items of `data` (NULL with the error set) */
+static PyObject *kd_int32_bytes(const int32_t *data, Py_ssize_t count) {
+    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)sizeof(int32_t) * count);
+    if (out != NULL && count > 0)
+        memcpy(PyByteArray_AS_STRING(out), data, sizeof(int32_t) * (size_t)count);
+    return out;
+}
+
+/* pointers advanced by a bucket fill (ptr[j] the end of bucket j) back to the starts */
+static void kd_unshift(int64_t *ptr, Py_ssize_t n) {
+    for (Py_ssize_t j = n; j > 0; j--) ptr[j] = ptr[j - 1];
+    ptr[0] = 0;
+}
+
+/* the CSR pattern of an n_rows x n_cols matrix with the entries of `parts` (with
+   `symmetric` their mirror images too), repeats merged and each row's columns
+   increasing: the entries bucketed by column, then moved into their rows column by
+   column.  Two bytearrays of int32, (indptr, indices), or NULL with the error set. */
+static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *parts,
+                           int n_parts, int symmetric) {
+    Py_ssize_t total = 0;
+    for (int p = 0; p < n_parts; p++) {
+        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
+            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
+            if (i < 0 || i >= n_rows || j < 0 || j >= n_cols ||
+                    (symmetric && (j >= n_rows || i >= n_cols))) {
+                PyErr_Format(PyExc_ValueError, "entry (%lld, %lld) outside a %zd x %zd "
+                             "pattern", (long long)i, (long long)j, n_rows, n_cols);
+                return NULL;
+            }
+        }
+        total += parts[p].count * (symmetric ? 2 : 1);
+    }
+    if (total >= INT32_MAX || n_rows >= INT32_MAX || n_cols >= INT32_MAX) {
+        PyErr_SetString(PyExc_ValueError, "a pattern too large for 32-bit indices");
+        return NULL;
+    }
+    size_t room = (size_t)(total > 0 ? total : 1);
+    int64_t *colptr = calloc((size_t)n_cols + 1, sizeof(int64_t));
+    int64_t *rowptr = calloc((size_t)n_rows + 1, sizeof(int64_t));
+    int32_t *by_col = malloc(sizeof(int32_t) * room), *by_row = malloc(sizeof(int32_t) * room);
+    PyObject *pointers = PyByteArray_FromStringAndSize(
+        NULL, (Py_ssize_t)sizeof(int32_t) * (n_rows + 1));
+    if (colptr == NULL || rowptr == NULL || by_col == NULL || by_row == NULL ||
+            pointers == NULL) {
+        free(colptr); free(rowptr); free(by_col); free(by_row);
+        if (pointers == NULL) return NULL;
+        Py_DECREF(pointers);
+        return PyErr_NoMemory();
+    }
+    int32_t *indptr = (int32_t *)PyByteArray_AS_STRING(pointers);
+    int64_t kept = 0;
+    Py_BEGIN_ALLOW_THREADS
+    for (int p = 0; p < n_parts; p++)
+        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
+            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
+            colptr[j + 1]++;
+            rowptr[i + 1]++;
+            if (symmetric) { colptr[i + 1]++; rowptr[j + 1]++; }
+        }
+    for (Py_ssize_t j = 0; j < n_cols; j++) colptr[j + 1] += colptr[j];
+    for (Py_ssize_t i = 0; i < n_rows; i++) rowptr[i + 1] += rowptr[i];
+    for (int p = 0; p < n_parts; p++)
+        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
+            int32_t i = (int32_t)(parts[p].r[e] + parts[p].offset), j = parts[p].c[e];
+            by_col[colptr[j]++] = i;
+            if (symmetric) by_col[colptr[i]++] = j;
+        }
+    kd_unshift(colptr, n_cols);
+    for (Py_ssize_t j = 0; j < n_cols; j++)
+        for (int64_t q = colptr[j]; q < colptr[j + 1]; q++)
+            by_row[rowptr[by_col[q]]++] = (int32_t)j;
+    kd_unshift(rowptr, n_rows);
+    /* a row's repeats are next to each other: merged, the rows compacted */
+    int64_t begin = 0;
+    for (Py_ssize_t i = 0; i < n_rows; i++) {
+        int64_t end = rowptr[i + 1], first = kept;
+        for (int64_t q = begin; q < end; q++)
+            if (kept == first || by_row[kept - 1] != by_row[q]) by_row[kept++] = by_row[q];
+        indptr[i] = (int32_t)first;
+        begin = end;
+    }
+    indptr[n_rows] = (int32_t)kept;
+    Py_END_ALLOW_THREADS
+    free(by_col);
+    free(colptr);
+    free(rowptr);
+    PyObject *indices = kd_int32_bytes(by_row, (Py_ssize_t)kept);
+    free(by_row);
+    if (indices == NULL) {
+        Py_DECREF(pointers);
+        return NULL;
+    }
+    return Py_BuildValue("(NN)", pointers, indices);
+}
+
+/* csr(n_rows, n_cols, symmetric, rows, cols, row_offset[, rows, cols, row_offset]):
+   the pattern of kd_csr_of with the entries (rows + row_offset, cols) of one or two
+   parts (int32 arrays) */
+static PyObject *kd_csr(PyObject *self, PyObject *args) {
+    Py_ssize_t count = PyTuple_Check(args) ? PyTuple_GET_SIZE(args) : 0;
+    if (count != 6 && count != 9) {
+        PyErr_SetString(PyExc_TypeError, "n_rows, n_cols, symmetric and one or two "
+                        "(rows, cols, row_offset) expected");
+        return NULL;
+    }
+    Py_ssize_t n_rows = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 0));
+    Py_ssize_t n_cols = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 1));
+    int symmetric = PyObject_IsTrue(PyTuple_GET_ITEM(args, 2));
+    if (PyErr_Occurred()) return NULL;
+    int n_parts = (int)(count - 3) / 3;
+    kd_part parts[2];
+    Py_buffer v[4];
+    memset(v, 0, sizeof(v));
+    PyObject *result = NULL;
+    for (int p = 0; p < n_parts; p++) {
+        if (kd_view(PyTuple_GET_ITEM(args, 3 + 3 * p), &v[2 * p], 4, 0, "rows") < 0 ||
+                kd_view(PyTuple_GET_ITEM(args, 4 + 3 * p), &v[2 * p + 1], 4, 0, "cols") < 0)
+            goto done;
+        parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(args, 5 + 3 * p));
+        if (PyErr_Occurred()) goto done;
+        parts[p].r = v[2 * p].buf;
+        parts[p].c = v[2 * p + 1].buf;
+        parts[p].count = KD_COUNT(v[2 * p]);
+        if (KD_COUNT(v[2 * p + 1]) != parts[p].count) {
+            PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
+            goto done;
+        }
+    }
+    result = kd_csr_of(n_rows, n_cols, parts, n_parts, symmetric);
+done:
+    kd_release(v, 4);
+    return result;
+}
+
+/* compressed(indptr, indices, node, n_nodes): the pattern of kd_csr_of of the graph
+   on n_nodes nodes that joins node[i] and node[j] for each entry (i, j) of the
+   pattern (indptr, indices) (int32) where both are >= 0 and they differ */
+static PyObject *kd_compressed(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[3] = {4, 4, 4};
+    static const int writable[3] = {0, 0, 0};
+    static const char *const names[3] = {"indptr", "indices", "node"};
+    Py_buffer v[3];
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 4) {
+        PyErr_SetString(PyExc_TypeError, "indptr, indices, node and n_nodes expected");
+        return NULL;
+    }
+    Py_ssize_t n_nodes = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 3));
+    if (n_nodes == -1 && PyErr_Occurred()) return NULL;
+    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
+    const int32_t *indptr = v[0].buf, *indices = v[1].buf, *node = v[2].buf;
+    Py_ssize_t N = KD_COUNT(v[2]), nnz = KD_COUNT(v[1]);
+    if (KD_COUNT(v[0]) != N + 1 || (N > 0 && (indptr[0] != 0 || indptr[N] != nnz))) {
+        kd_release(v, 3);
+        PyErr_SetString(PyExc_ValueError, "indptr does not fit indices and node");
+        return NULL;
+    }
+    Py_ssize_t count = 0;
+    for (Py_ssize_t i = 0; i < N; i++)
+        for (int32_t q = indptr[i]; q < indptr[i + 1]; q++) {
+            int32_t j = indices[q];
+            if (q < 0 || q >= nnz || j < 0 || j >= N) {
+                kd_release(v, 3);
+                PyErr_SetString(PyExc_ValueError, "an entry outside the pattern");
+                return NULL;
+            }
+            if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) count++;
+        }
+    kd_part part = {NULL, NULL, count, 0};
+    int32_t *a = malloc(sizeof(int32_t) * (size_t)(count > 0 ? count : 1));
+    int32_t *b = malloc(sizeof(int32_t) * (size_t)(count > 0 ? count : 1));
+    PyObject *result = NULL;
+    if (a == NULL || b == NULL) {
+        PyErr_NoMemory();
+    } else {
+        Py_ssize_t e = 0;
+        for (Py_ssize_t i = 0; i < N; i++)
+            for (int32_t q = indptr[i]; q < indptr[i + 1]; q++) {
+                int32_t j = indices[q];
+                if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) {
+                    a[e] = node[i];
+                    b[e++] = node[j];
+                }
+            }
+        part.r = a;
+        part.c = b;
+        result = kd_csr_of(n_nodes, n_nodes, &part, 1, 0);
+    }
+    free(a);
+    free(b);
+    kd_release(v, 3);
+    return result;
+}
+
+/* permuted(Ap, hessian_map, jacobian_map, diagonal_map, inverse, hessian_rows,
+   hessian_cols, jacobian_rows, jacobian_cols, n): the pattern of K's upper
+   triangle in the elimination order (`inverse[i]`: the place of row i of K in
+   it), CSC: the Hessian's entries, the Jacobian's (rows n + i) and every
+   diagonal entry, repeats merged and each column's rows increasing.  Fills the
+   column pointers Ap (int64, N + 1) and the maps (the place of each entry,
+   int32), returns the row indices as a bytearray of int32. */
+enum {P_AP, P_HMAP, P_JMAP, P_DMAP, P_INVERSE, P_HR, P_HC, P_JR, P_JC, P_COUNT};
+
+static PyObject *kd_permuted(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[P_COUNT] = {8, 4, 4, 4, 4, 4, 4, 4, 4};
+    static const int writable[P_COUNT] = {1, 1, 1, 1, 0, 0, 0, 0, 0};
+    static const char *const names[P_COUNT] = {"Ap", "hessian_map", "jacobian_map",
+                                               "diagonal_map", "inverse", "hessian rows",
+                                               "hessian cols", "jacobian rows",
+                                               "jacobian cols"};
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != P_COUNT + 1) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", P_COUNT + 1);
+        return NULL;
+    }
+    Py_ssize_t n = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, P_COUNT));
+    if (n == -1 && PyErr_Occurred()) return NULL;
+    Py_buffer v[P_COUNT];
+    if (kd_views(args, P_COUNT, v, size, writable, names) < 0) return NULL;
+    int64_t *Ap = v[P_AP].buf;
+    int32_t *hmap = v[P_HMAP].buf, *jmap = v[P_JMAP].buf, *dmap = v[P_DMAP].buf;
+    const int32_t *inverse = v[P_INVERSE].buf, *hr = v[P_HR].buf, *hc = v[P_HC].buf;
+    const int32_t *jr = v[P_JR].buf, *jc = v[P_JC].buf;
+    Py_ssize_t N = KD_COUNT(v[P_INVERSE]), nh = KD_COUNT(v[P_HR]), nj = KD_COUNT(v[P_JR]);
+    int fits = KD_COUNT(v[P_AP]) == N + 1 && KD_COUNT(v[P_DMAP]) == N && n >= 0 && n <= N
+        && KD_COUNT(v[P_HC]) == nh && KD_COUNT(v[P_HMAP]) == nh
+        && KD_COUNT(v[P_JC]) == nj && KD_COUNT(v[P_JMAP]) == nj;
+    for (Py_ssize_t i = 0; fits && i < N; i++) fits = inverse[i] >= 0 && inverse[i] < N;
+    for (Py_ssize_t e = 0; fits && e < nh; e++)
+        fits = hr[e] >= 0 && hr[e] < n && hc[e] >= 0 && hc[e] < n;
+    for (Py_ssize_t e = 0; fits && e < nj; e++)
+        fits = jr[e] >= 0 && jr[e] < N - n && jc[e] >= 0 && jc[e] < n;
+    if (!fits) {
+        kd_release(v, P_COUNT);
+        PyErr_SetString(PyExc_ValueError, "permuted: sizes or indices that do not fit");
+        return NULL;
+    }
+    Py_ssize_t total = nh + nj + N;
+    if (total >= INT32_MAX) {
+        kd_release(v, P_COUNT);
+        PyErr_SetString(PyExc_ValueError, "K has too many entries for 32-bit indices");
+        return NULL;
+    }
+    size_t room = (size_t)(total > 0 ? total : 1);
+    int64_t *rowptr = calloc((size_t)N + 1, sizeof(int64_t));
+    int32_t *by_row = malloc(sizeof(int32_t) * room), *by_col = malloc(sizeof(int32_t) * room);
+    if (rowptr == NULL || by_row == NULL || by_col == NULL) {
+        free(rowptr); free(by_row); free(by_col);
+        kd_release(v, P_COUNT);
+        return PyErr_NoMemory();
+    }
+    int64_t kept = 0;
+    Py_BEGIN_ALLOW_THREADS
+/* entry e's two places in the order: the Hessian's, the Jacobian's, the diagonal's */
+#define KD_ENDS(e, a, b) do {                                                      \
+        if ((e) < nh) { a = inverse[hr[e]]; b = inverse[hc[e]]; }                  \
+        else if ((e) < nh + nj) { a = inverse[n + jr[(e) - nh]];                   \
+                                  b = inverse[jc[(e) - nh]]; }                     \
+        else { a = b = inverse[(e) - nh - nj]; }                                   \
+        if (a > b) { int32_t t_ = a; a = b; b = t_; }                              \
+    } while (0)
+    for (Py_ssize_t k = 0; k <= N; k++) Ap[k] = 0;
+    for (Py_ssize_t e = 0; e < total; e++) {
+        int32_t low, high;
+        KD_ENDS(e, low, high);
+        rowptr[low + 1]++;
+        Ap[high + 1]++;
+    }
+    for (Py_ssize_t k = 0; k < N; k++) {
+        rowptr[k + 1] += rowptr[k];
+        Ap[k + 1] += Ap[k];
+    }
+    for (Py_ssize_t e = 0; e < total; e++) {  /* by row (the lower end) */
+        int32_t low, high;
+        KD_ENDS(e, low, high);
+        by_row[rowptr[low]++] = (int32_t)e;
+    }
+    for (Py_ssize_t q = 0; q < total; q++) {  /* then by column, rows increasing */
+        int32_t low, high, e = by_row[q];
+        KD_ENDS(e, low, high);
+        by_col[Ap[high]++] = e;
+    }
+    kd_unshift(Ap, N);
+    /* a column's repeats are next to each other: one place each; the rows of the
+       places written over by_row (no longer needed) */
+    int64_t begin = 0;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int64_t end = Ap[k + 1], first = kept;
+        for (int64_t q = begin; q < end; q++) {
+            int32_t low, high, e = by_col[q];
+            KD_ENDS(e, low, high);
+            if (kept == first || by_row[kept - 1] != low) by_row[kept++] = low;
+            int32_t place = (int32_t)(kept - 1);
+            if (e < nh) hmap[e] = place;
+            else if (e < nh + nj) jmap[e - nh] = place;
+            else dmap[e - nh - nj] = place;
+        }
+        Ap[k] = first;
+        begin = end;
+    }
+    Ap[N] = kept;
+#undef KD_ENDS
+    Py_END_ALLOW_THREADS
+    free(rowptr);
+    free(by_col);
+    PyObject *rows = kd_int32_bytes(by_row, (Py_ssize_t)kept);
+    free(by_row);
+    kd_release(v, P_COUNT);
+    return rows;
+}
+
 static PyMethodDef kd_methods[] = {
     {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
     {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
@@ -588,6 +935,9 @@ static PyMethodDef kd_methods[] = {
     {"invalid", kd_invalid, METH_VARARGS, "the first entry not finite, or negative"},
     {"error_reductions", kd_error_reductions, METH_VARARGS,
      "the optimality error's sums and maxima"},
+    {"csr", kd_csr, METH_VARARGS, "a CSR pattern from entries, repeats merged"},
+    {"compressed", kd_compressed, METH_VARARGS, "a graph's pattern on groups of its nodes"},
+    {"permuted", kd_permuted, METH_VARARGS, "K's permuted upper triangle and its maps"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,

@@ -81,6 +81,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._kkt_kernel import kernel
+
 __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 
 #: the orders :func:`elimination_order` knows: ``"pairs"`` (the default, above),
@@ -118,71 +120,64 @@ def _minimum_degree(graph):
     return np.argsort(position)
 
 
-def _canonical(shape, rows, cols):
-    """The 0/1 pattern (CSR, int8) of the entries ``(rows, cols)``, already
-    unique and in row-major order: the arrays that SciPy's COO to CSR
-    conversion with ``sum_duplicates`` makes of them (sorted column indices;
-    ``int32`` where they fit, as SciPy chooses), built without it."""
+def _indices(a):
+    """``a`` as a C-contiguous int32 array (the kernel's index type; a copy
+    only when it is not one)."""
+    return np.ascontiguousarray(a, dtype=np.int32)
+
+
+def _csr(shape, made):
+    """The 0/1 pattern (CSR, int8 ones) of the kernel's ``(indptr, indices)``
+    bytearrays ``made``, without a copy."""
     import scipy.sparse as sp
-    index = np.int32 if max(shape[0], shape[1], rows.size) < np.iinfo(np.int32).max \
-        else np.int64
-    indptr = np.zeros(shape[0] + 1, dtype=index)
-    np.cumsum(np.bincount(rows, minlength=shape[0]), out=indptr[1:])
-    return sp.csr_matrix((np.ones(rows.size, dtype=np.int8), cols.astype(index), indptr),
+    indptr, indices = (np.frombuffer(b, dtype=np.int32) for b in made)
+    return sp.csr_matrix((np.ones(indices.size, dtype=np.int8), indices, indptr),
                          shape=shape)
 
 
-#: above this many entries :func:`_pattern` leaves the sorting to SciPy's
-#: conversion, which is linear (a sort of the keys is faster below: no
-#: conversion's overhead)
-SORTED_ENTRIES = 50_000
+def _made(shape, parts, symmetric):
+    """The 0/1 pattern (CSR, int8 ones, int32 indices) of a ``shape`` matrix
+    with the entries of ``parts``, each ``(rows, cols, row_offset)`` for the
+    entries ``(rows + row_offset, cols)``, and with ``symmetric`` their mirror
+    images: repeats merged, each row's columns increasing, as SciPy's COO to
+    CSR conversion with ``sum_duplicates`` makes them (the kernel's ``csr``,
+    no int64 copy of the entries)."""
+    arguments = [shape[0], shape[1], bool(symmetric)]
+    for rows, cols, row_offset in parts:
+        arguments += [_indices(rows), _indices(cols), int(row_offset)]
+    return _csr(shape, kernel().csr(*arguments))
 
 
 def _pattern(shape, rows, cols):
-    """The 0/1 pattern (CSR, int8) of the entries ``(rows, cols)``, repeats
-    merged (:func:`_canonical`)."""
-    if not rows.size or not shape[1]:
-        return _canonical(shape, np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64))
-    if rows.size > SORTED_ENTRIES:
-        import scipy.sparse as sp
-        pattern = sp.csr_matrix((np.ones(rows.size, dtype=np.int8), (rows, cols)),
-                                shape=shape)
-        pattern.sum_duplicates()
-        return pattern
-    keys = rows.astype(np.int64) * shape[1] + cols
-    keys.sort(kind="stable")  # timsort: the entries come in long sorted runs
-    # then the repeats out (faster than np.unique's hashing)
-    keys = keys[np.concatenate([[True], keys[1:] != keys[:-1]])]
-    rows = keys // shape[1]
-    keys -= rows * shape[1]  # the columns (cheaper than a second division)
-    return _canonical(shape, rows, keys)
+    """The 0/1 pattern (CSR) of the entries ``(rows, cols)`` (:func:`_made`)."""
+    return _made(shape, [(rows, cols, 0)], False)
+
+
+def _graph(size, rows, cols):
+    """The symmetric 0/1 pattern (CSR) of the pairs ``(rows, cols)`` (:func:`_made`)."""
+    return _made((size, size), [(rows, cols, 0)], True)
 
 
 def _entries(pattern):
     """``(rows, cols)`` of a CSR pattern's entries, in its order."""
-    return (np.repeat(np.arange(pattern.shape[0]), np.diff(pattern.indptr)),
+    return (np.repeat(np.arange(pattern.shape[0], dtype=np.int32), np.diff(pattern.indptr)),
             pattern.indices)
-
-
-def _graph(size, rows, cols):
-    """The symmetric 0/1 pattern of the pairs ``(rows, cols)`` (CSR, int8)."""
-    return _pattern((size, size), np.concatenate([rows, cols]), np.concatenate([cols, rows]))
 
 
 def _submatrix(pattern, rows, cols):
     """``pattern[rows][:, cols]`` (CSR) for sorted index arrays ``rows`` (or
     ``None``: all) and ``cols``: the entries kept in their order, renumbered
-    (increasingly, so still in :func:`_canonical`'s order)."""
+    (increasingly, so still in :func:`_pattern`'s order)."""
     m, n = pattern.shape
     r, c = _entries(pattern)
-    row_place = np.full(m, -1)
+    row_place = np.full(m, -1, dtype=np.int32)
     row_place[np.arange(m) if rows is None else rows] = np.arange(
         m if rows is None else rows.size)
-    col_place = np.full(n, -1)
+    col_place = np.full(n, -1, dtype=np.int32)
     col_place[cols] = np.arange(cols.size)
     r, c = row_place[r], col_place[c]
     keep = (r >= 0) & (c >= 0)
-    return _canonical((m if rows is None else rows.size, cols.size), r[keep], c[keep])
+    return _pattern((m if rows is None else rows.size, cols.size), r[keep], c[keep])
 
 
 def _matching(pattern, preferred, full=None):
@@ -301,7 +296,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         return np.zeros(0, dtype=np.int32), 0, np.zeros(0, dtype=np.int8)
     hr, hc = hessian_off
     jr, jc = jacobian
-    graph = _graph(N, np.concatenate([hr, n + jr]), np.concatenate([hc, jc]))
+    graph = _made((N, N), [(hr, hc, 0), (jr, jc, n)], True)
     degrees = np.diff(graph.indptr)
     dense = degrees > dense_threshold(degrees)
     late = dense if delayed is None else dense | delayed
@@ -322,11 +317,11 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         block[n + paired] = partner[paired]
     # the compressed graph on the blocks of the rows that are not dense
     nodes, compressed = np.unique(block[keep], return_inverse=True)
-    where = np.full(N, -1)
+    where = np.full(N, -1, dtype=np.int32)  # -1 for a row left out
     where[keep] = compressed
-    a, b = (where[i] for i in _entries(graph))  # -1 for a row left out
-    distinct = (a != b) & (a >= 0) & (b >= 0)
-    compressed_graph = _graph(nodes.size, a[distinct], b[distinct])
+    compressed_graph = _csr((nodes.size,) * 2, kernel().compressed(
+        graph.indptr, graph.indices, where, nodes.size))
+    del graph
     if nodes.size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)
     elif ordering == "pairs-mmd":

@@ -27,7 +27,9 @@ entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows); and all the storage the
 numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
-of :math:`K`, the kernel's scratch arrays).  All but the storage is kept for
+of :math:`K`; the kernel's scratch is allocated by each call).  The patterns
+are made in int32 by the kernel (:mod:`._kkt_kernel`), with no int64 copy of
+the entries.  All but the storage is kept for
 the next object of the same inputs (:mod:`._kkt_analyses`: a problem solved
 again makes the same analyses).
 
@@ -179,8 +181,9 @@ class KKTAnalysis:
         Bytes of the maps of the values into K's storage, of K's pattern and
         values, of the elimination tree and of the order.
     bytes_workspace : int
-        Bytes of the scratch arrays of ``factor`` and ``solve`` (48 per row
-        of K).
+        Bytes of the scratch of ``factor`` and ``solve`` (48 per row of K,
+        allocated by each call for its duration) and of the zero pivots' flags
+        (1 per row, held).
     """
 
     n: int
@@ -202,7 +205,8 @@ def _size(value, name):
 
 
 def _structure(structure, name, n_rows, n_cols):
-    """``(rows, cols)`` of ``structure`` as int64 arrays, checked against the shape."""
+    """``(rows, cols)`` of ``structure`` as int32 arrays (the kernel's index
+    type; no copy of arrays that are int32 already), checked against the shape."""
     try:
         rows, cols = structure
     except (TypeError, ValueError):
@@ -215,12 +219,11 @@ def _structure(structure, name, n_rows, n_cols):
                              f"{a.shape}")
         if a.size and not np.issubdtype(a.dtype, np.integer):
             raise ValueError(f"{name}: {label} must hold integers, not {a.dtype}")
-        a = a.astype(np.int64)
         bad = np.flatnonzero((a < 0) | (a >= bound))
         if bad.size:
             raise ValueError(f"{name}: {label}[{bad[0]}] = {a[bad[0]]} is outside "
                              f"0..{bound - 1}")
-        arrays.append(a)
+        arrays.append(np.ascontiguousarray(a, dtype=_INDEX))
     if arrays[0].shape != arrays[1].shape:
         raise ValueError(f"{name}: rows and cols differ in length ({arrays[0].size} and "
                          f"{arrays[1].size})")
@@ -253,7 +256,8 @@ def _check_values(kernel, arrays, names, nonnegative=None):
 
 
 def _permuted_pattern(n, permutation, hessian, jacobian):
-    """K's upper triangle in the elimination order, and where each value goes.
+    """K's upper triangle in the elimination order, and where each value goes
+    (the kernel's ``permuted``).
 
     Returns
     -------
@@ -275,21 +279,15 @@ def _permuted_pattern(n, permutation, hessian, jacobian):
     """
     (hr, hc), (jr, jc) = hessian, jacobian
     N = permutation.size
-    inverse = np.empty(N, dtype=np.int64)
-    inverse[permutation] = np.arange(N)
-    every = np.arange(N)
-    first = inverse[np.concatenate([hr, n + jr, every])]
-    second = inverse[np.concatenate([hc, jc, every])]
-    keys = np.maximum(first, second) * N + np.minimum(first, second)
-    unique, places = np.unique(keys, return_inverse=True)
-    if unique.size >= _LIMIT:
-        raise ValueError(f"K has {unique.size} entries, too many for 32-bit indices")
-    places = places.astype(_INDEX)
-    Ap = np.zeros(N + 1, dtype=np.int64)
-    if N:
-        np.cumsum(np.bincount(unique // N, minlength=N), out=Ap[1:])
-    return (Ap, (unique % N).astype(_INDEX) if N else unique.astype(_INDEX),
-            places[:hr.size], places[hr.size:hr.size + jr.size], places[hr.size + jr.size:])
+    inverse = np.empty(N, dtype=_INDEX)
+    inverse[permutation] = np.arange(N, dtype=_INDEX)
+    Ap = np.empty(N + 1, dtype=np.int64)
+    maps = (np.empty(hr.size, dtype=_INDEX), np.empty(jr.size, dtype=_INDEX),
+            np.empty(N, dtype=_INDEX))
+    rows = kernel().permuted(Ap, *maps, inverse,
+                             *(np.ascontiguousarray(a, dtype=_INDEX) for a in (hr, hc, jr, jc)),
+                             n)
+    return (Ap, np.frombuffer(rows, dtype=_INDEX)) + maps
 
 
 class SparseKKT:
@@ -339,7 +337,7 @@ class SparseKKT:
     Notes
     -----
     ``factor`` and ``solve`` release the GIL while they compute, and they
-    write the object's storage and scratch arrays: one call at a time per
+    write the object's storage: one call at a time per
     object (another object of the same structure may work meanwhile).
     """
 
@@ -406,8 +404,6 @@ class SparseKKT:
         self._Lx = np.zeros(nnz)
         self._D = np.zeros(N)
         self._E = np.zeros(N)
-        self._factor_work = np.zeros(5 * N)  # the kernel's scratch: kept, not reallocated
-        self._solve_work = np.zeros(N)
         self._zero = np.zeros(N, dtype=np.int8)
         factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
                                               self._E))
@@ -417,8 +413,7 @@ class SparseKKT:
         self.analysis = KKTAnalysis(n, m, self._permutation, symbolic.n_dense,
                                     int(self._delayed.sum()), int(self._Ai.size), nnz,
                                     factor_bytes, map_bytes,
-                                    self._factor_work.nbytes + self._solve_work.nbytes
-                                    + self._zero.nbytes)
+                                    48 * N + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
@@ -485,7 +480,7 @@ class SparseKKT:
         return self._kernel.factor(
             self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
             self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
-            self._diagonal_map, dx, dc, self._factor_work, self._zero, self.zero_pivot)
+            self._diagonal_map, dx, dc, self._zero, self.zero_pivot)
 
     def _zero_rows(self):
         """Which rows of K (its own order, a mask) had a zero pivot in the
@@ -557,7 +552,7 @@ class SparseKKT:
             raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]
         self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
-                           self._permutation, self._solve_work, columns)
+                           self._permutation, columns)
         return x.T if b.ndim == 2 else x
 
     def matvec(self, x):
