@@ -25,8 +25,9 @@ LDLᵀ factorization compiled in C that reports the inertia.
 
 Both factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
-diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs)`` and
-``matvec(x)``.
+diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs)``,
+``matvec(x)`` and ``release()`` (the factors dropped until the next
+``factor``: the solver calls it at each new point).
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes

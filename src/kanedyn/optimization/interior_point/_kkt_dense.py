@@ -138,6 +138,10 @@ class DenseKKT:
         """``K @ x`` with the last factored values; shape (n + m,)."""
         return self._matrix @ np.asarray(x, dtype=float)
 
+    def release(self):
+        """Drop K and its factors until the next :meth:`factor`."""
+        self._matrix = self._factors = None
+
 
 def _inertia(factor, pivots):
     """``(n_positive, n_negative, n_zero)`` of D in LAPACK's ``dsytrf``

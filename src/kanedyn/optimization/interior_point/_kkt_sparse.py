@@ -176,10 +176,13 @@ class KKTAnalysis:
     nnz_factor : int
         Entries of L below the diagonal.
     bytes_factor : int
-        Bytes of L (values, row indices, column pointers) and of D's blocks.
+        Bytes of L (values, row indices, column pointers) and of D's blocks
+        (L's values and row indices and D held from a ``factor`` to the next
+        ``release``).
     bytes_maps : int
         Bytes of the maps of the values into K's storage, of K's pattern and
-        values, of the elimination tree and of the order.
+        values (held as L's values are), of the elimination tree and of the
+        order.
     bytes_workspace : int
         Bytes of the scratch of ``factor`` and ``solve`` (48 per row of K,
         allocated by each call for its duration) and of the zero pivots' flags
@@ -397,19 +400,14 @@ class SparseKKT:
         self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
         self._hessian_map, self._jacobian_map = symbolic.hessian_map, symbolic.jacobian_map
         self._diagonal_map, self._parent = symbolic.diagonal_map, symbolic.parent
-        self._Ax = np.zeros(self._Ai.size)
-        # L's storage
-        nnz = int(self._Lp[-1])
-        self._Li = np.zeros(nnz, dtype=_INDEX)
-        self._Lx = np.zeros(nnz)
-        self._D = np.zeros(N)
-        self._E = np.zeros(N)
+        self._numeric = None  # made by the next factor (_storage)
         self._zero = np.zeros(N, dtype=np.int8)
-        factor_bytes = sum(a.nbytes for a in (self._Li, self._Lx, self._Lp, self._D,
-                                              self._E))
-        map_bytes = sum(a.nbytes for a in (self._hessian_map, self._jacobian_map,
-                                           self._diagonal_map, self._Ap, self._Ai, self._Ax,
-                                           self._parent, self._kind, self._permutation))
+        nnz = int(self._Lp[-1])
+        factor_bytes = 12 * nnz + self._Lp.nbytes + 16 * N  # Li, Lx, Lp, D, E
+        map_bytes = 8 * self._Ai.size + sum(  # Ax and the maps
+            a.nbytes for a in (self._hessian_map, self._jacobian_map, self._diagonal_map,
+                               self._Ap, self._Ai, self._parent, self._kind,
+                               self._permutation))
         self.analysis = KKTAnalysis(n, m, self._permutation, symbolic.n_dense,
                                     int(self._delayed.sum()), int(self._Ai.size), nnz,
                                     factor_bytes, map_bytes,
@@ -475,12 +473,33 @@ class SparseKKT:
         self.inertia = inertia
         return inertia
 
+    def _storage(self):
+        """``(Ax, Li, Lx, D, E)``: K's values and the storage of L and D,
+        made when a factorization first needs them after an analysis or
+        :meth:`release`."""
+        if self._numeric is None:
+            nnz, N = int(self._Lp[-1]), self.size
+            self._numeric = (np.zeros(self._Ai.size), np.zeros(nnz, dtype=_INDEX),
+                             np.zeros(nnz), np.zeros(N), np.zeros(N))
+        return self._numeric
+
+    def release(self):
+        """Drop K's values and the factors (``bytes_factor`` and K's values
+        of :attr:`analysis`) until the next :meth:`factor`, which makes them
+        again; :meth:`solve` and :meth:`matvec` refuse until then.  The
+        interior point calls it at each new point, so that the last step's
+        factors are not held while the derivatives and the next Hessian are
+        evaluated."""
+        self._numeric = None
+        self.inertia = None
+
     def _factor(self, hv, jv, dx, dc):
         """The kernel's factorization in the current order: its inertia."""
+        Ax, Li, Lx, D, E = self._storage()
         return self._kernel.factor(
-            self._Ax, self._Lp, self._Li, self._Lx, self._D, self._E, self._Ap, self._Ai,
-            self._parent, self._kind, self._hessian_map, hv, self._jacobian_map, jv,
-            self._diagonal_map, dx, dc, self._zero, self.zero_pivot)
+            Ax, self._Lp, Li, Lx, D, E, self._Ap, self._Ai, self._parent, self._kind,
+            self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, dx, dc,
+            self._zero, self.zero_pivot)
 
     def _zero_rows(self):
         """Which rows of K (its own order, a mask) had a zero pivot in the
@@ -498,7 +517,7 @@ class SparseKKT:
         if not (failed & ~self._delayed).any():
             return inertia  # zero where it was already delayed: K's own
         (hr, hc), (jr, _) = structures = self._structures()
-        largest = max(np.abs(self._Ax).max(initial=0.0), 1e-300)
+        largest = max(np.abs(self._numeric[0]).max(initial=0.0), 1e-300)
         diagonal = dx.copy()
         on = hr == hc
         np.add.at(diagonal, hr[on], hv[on])
@@ -551,7 +570,8 @@ class SparseKKT:
         if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
             raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]
-        self._kernel.solve(x, self._Lp, self._Li, self._Lx, self._D, self._E, self._kind,
+        _, Li, Lx, D, E = self._numeric
+        self._kernel.solve(x, self._Lp, Li, Lx, D, E, self._kind,
                            self._permutation, columns)
         return x.T if b.ndim == 2 else x
 
@@ -572,5 +592,5 @@ class SparseKKT:
         if v.shape != (self.size,):
             raise ValueError(f"x must have shape ({self.size},), not {v.shape}")
         y = np.empty(self.size)
-        self._kernel.matvec(y, v, self._Ap, self._Ai, self._Ax, self._permutation)
+        self._kernel.matvec(y, v, self._Ap, self._Ai, self._numeric[0], self._permutation)
         return y

@@ -168,6 +168,11 @@ class _Run:
         return e
 
     def _derivatives(self, e):
+        """The gradient and the Jacobian at a new point ``e``: whether they
+        are finite.  The last step's factors are dropped first (the new point
+        needs new ones): not held while the derivatives and the next Hessian
+        are made."""
+        self.kkt.release()
         t = time.perf_counter()
         e.gradient = self.reduced.gradient(e.x_full)
         e.jacobian = self.reduced.jacobian(e.x_full)
