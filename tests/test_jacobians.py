@@ -141,8 +141,9 @@ def test_quadratic_drag_on_a_particle_at_rest():
 
 @pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=needs_compiler)])
 def test_many_states_at_once(backend):
-    """One state per row; on C every row in one call of each generated function
-    and the linear algebra stacked (the same numbers to round-off)."""
+    """One state per row; every row in one call of each generated function (on
+    C; with NumPy, vectorized over the rows) and the linear algebra stacked (the
+    same numbers to round-off)."""
     definition = kd.models.build("four-bar")
     model = definition.numeric(backend=backend)
     y0 = np.asarray(definition.initial(model), dtype=float)

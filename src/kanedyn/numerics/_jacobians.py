@@ -400,9 +400,38 @@ def _functions(model, parameters):
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
         source = generate_python(prog, key, args, outputs, cse=True)
-        found = (model._fn["dynamics"], compile_python(source, key), None, None, None, None)
+        found = (model._fn["dynamics"], compile_python(source, key),
+                 *_numpy_rows(model, key, (prog, args, outputs)), None, None)
     model.__dict__["_" + key] = found
     return found
+
+
+def _numpy_rows(model, key, specification):
+    """``(dynamics_rows, jacobians_rows)`` of a NumPy model: the dynamics and the
+    generated derivatives of many states at once (``(T, Y, p, R)``, states in
+    rows, every output with a first axis of length N, as the C module's), each
+    vectorized function generated on its first call (:func:`_evaluate` takes
+    them for more than one state: the derivatives of a collocation NLP's nodes
+    in one call, not state by state)."""
+    from .backends._python import compile_python, generate_python
+    made = {}
+
+    def rows(fn, T, Y, p, R):
+        return [np.moveaxis(x, -1, 0) for x in fn(T, Y.T, p, R.T)]
+
+    def dynamics_rows(T, Y, p, R):
+        return rows(model._batch_function(), T, Y, p, R)
+
+    def jacobians_rows(T, Y, p, R):
+        fn = made.get(key)
+        if fn is None:
+            prog, args, outputs = specification
+            source = generate_python(prog, key + "_rows", args, outputs, vectorized=True,
+                                     cse=True)
+            fn = made[key] = compile_python(source, key + "_rows")
+        return rows(fn, T, Y, p, R)
+
+    return dynamics_rows, jacobians_rows
 
 
 def standalone_derivatives(model, parameters=False):
@@ -668,9 +697,10 @@ def _evaluate(model, fns, T, Y, R):
     per column group (state, inputs, constants).
 
     The accelerations are those of ``model.rhs`` (the scheme's), the
-    multipliers those of :meth:`NumericModel.multipliers`; on C, for many
-    states, both from the index-1 system that every exact scheme solves, and
-    every state in one call of each generated function.  A stabilized scheme's
+    multipliers those of :meth:`NumericModel.multipliers`; for many states,
+    both from the index-1 system that every exact scheme solves, and every
+    state in one call of each generated function (on C; with NumPy, vectorized
+    over the states: :func:`_numpy_rows`).  A stabilized scheme's
     accelerations come from its :class:`AccelerationSystem`, with the inputs
     ``R`` (:func:`_stabilization_derivatives.accelerations`).  The derivatives
     then solve the stacked systems.
