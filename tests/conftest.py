@@ -62,7 +62,8 @@ def generic_runtime_object(tmp_path_factory):
 
     def seed(cache):
         objects = cache / "objects"
-        objects.mkdir(mode=0o700, parents=True, exist_ok=True)
+        for folder in (cache, objects):  # private, as kanedyn makes them
+            folder.mkdir(mode=0o700, exist_ok=True)
         target = objects / made.name
         shutil.copyfile(made, target)
         target.chmod(0o600)
