@@ -16,6 +16,7 @@ for _threads in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import contextlib  # noqa: E402
 import hashlib  # noqa: E402
 import json  # noqa: E402
+import shutil  # noqa: E402
 import subprocess  # noqa: E402
 import zipfile  # noqa: E402
 
@@ -32,6 +33,42 @@ def bicycle():
     definition = kd.models.build("whipple-bicycle")
     eom = definition.derive()
     return definition, eom, definition.numeric(eom)
+
+
+@pytest.fixture(scope="session")
+def generic_runtime_object(tmp_path_factory):
+    """``seed(cache)``: put the optimizing compiler's object of the generic C
+    runtime unit of a model without inputs or dependent coordinates and speeds
+    (chain3d, the pendulum: :func:`~kanedyn.numerics.backends._c.predicted_runtime_unit`)
+    into the object cache of the cache directory ``cache``, compiled once per
+    session, as a model built earlier in that cache would have left it.  About
+    1.2 s of gcc at -O1 per cache that then links it instead of compiling it:
+    for the tests whose subject is not that compile (those of the compile itself,
+    of the object cache and of prefetching start from an empty cache)."""
+    from kanedyn.numerics.backends import _c_build
+    from kanedyn.numerics.backends._c import predicted_runtime_unit
+    command = _c_build.compiler_command()
+    if command is None:  # nothing to link: the tests that need a compiler skip
+        return lambda cache: None
+    folder = tmp_path_factory.mktemp("generic-runtime")
+    unit = predicted_runtime_unit({"n_q": 1, "n_u": 1, "n_q_dep": 0, "n_u_dep": 0,
+                                   "n_p": 0, "n_r": 0})
+    flags, made = _c_build._unit_object(unit, command, folder)
+    source = folder / "unit.c"
+    source.write_text(unit)
+    made.parent.mkdir()
+    subprocess.run(command + flags + _c_build._includes()
+                   + ["-c", str(source), "-o", str(made)], check=True)
+
+    def seed(cache):
+        objects = cache / "objects"
+        for folder in (cache, objects):  # private, as kanedyn makes them
+            folder.mkdir(mode=0o700, exist_ok=True)
+        target = objects / made.name
+        shutil.copyfile(made, target)
+        target.chmod(0o600)
+
+    return seed
 
 
 @pytest.fixture(scope="session")

@@ -158,7 +158,10 @@ def test_concurrent_builds(tmp_path):
     assert not list(tmp_path.glob("build-*"))  # temporary directories removed
 
 
-def test_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch):
+def test_corrupt_cache_entry_is_rebuilt(tmp_path, monkeypatch, generic_runtime_object):
+    """A damaged module in the cache is built again, with the same numbers (the
+    generic runtime's object in the cache: the module is what is rebuilt)."""
+    generic_runtime_object(tmp_path)
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
     d = kd.models.build("pendulum")
@@ -466,10 +469,13 @@ def test_batch_threads_with_parameters_and_singular_rows():
 
 
 # ------------------------------------------------ what the first module holds
-def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeypatch):
+def test_first_module_leaves_out_the_mass_matrix_and_the_lanes(tmp_path, monkeypatch,
+                                                              generic_runtime_object):
     """The module built first has what rhs needs; M (a tree solved by the
     articulated-body pass) and the lane-wise batch come in a second module, built
-    when first asked for, with the same numbers."""
+    when first asked for, with the same numbers (modules counted, not units: the
+    generic runtime's object is in the cache from the start)."""
+    generic_runtime_object(tmp_path)
     monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
     monkeypatch.setattr(_c_build, "_LOADED", {})
     rng = np.random.default_rng(5)

@@ -141,8 +141,9 @@ def test_quadratic_drag_on_a_particle_at_rest():
 
 @pytest.mark.parametrize("backend", ["numpy", pytest.param("c", marks=needs_compiler)])
 def test_many_states_at_once(backend):
-    """One state per row; on C every row in one call of each generated function
-    and the linear algebra stacked (the same numbers to round-off)."""
+    """One state per row; every row in one call of each generated function (on
+    C; with NumPy, vectorized over the rows) and the linear algebra stacked (the
+    same numbers to round-off)."""
     definition = kd.models.build("four-bar")
     model = definition.numeric(backend=backend)
     y0 = np.asarray(definition.initial(model), dtype=float)
@@ -461,16 +462,18 @@ print(json.dumps({"quick": quick_command() is not None, "moved": final is not qu
 
 
 @needs_compiler
-def test_the_derivatives_move_onto_the_optimized_module(tmp_path):
+def test_the_derivatives_move_onto_the_optimized_module(tmp_path, generic_runtime_object):
     """Built in a fresh cache, the derivative module comes from the quick compiler
     first (where there is one); once the optimized module is loaded the model
     calls that module's entry points (the quick module's own code around the
     evaluation is slower), with the same numbers, those of central differences
-    of ``model.rhs``."""
+    of ``model.rhs``.  (The cache holds the generic runtime's object, as in
+    tests/test_quick_compile.py: the modules are what is built.)"""
     import json
     import os
     import subprocess
     import sys
+    generic_runtime_object(tmp_path / "cache")
     env = dict(os.environ, KANEDYN_CACHE_DIR=str(tmp_path / "cache"),
                PYTHONPATH=str(Path(kd.__file__).resolve().parents[1]))
     done = subprocess.run([sys.executable, "-c", _MOVE_RUN], env=env, capture_output=True,

@@ -117,15 +117,17 @@ def _run(code, folder, *args):
 
 
 @pytest.fixture(scope="module")
-def pickled_from_the_cache(tmp_path_factory):
+def pickled_from_the_cache(tmp_path_factory, generic_runtime_object):
     """``(cache, path, first, second)``: chain3d pickled by a first process (the cache
-    empty: derived and built) and by a second (read from the cache), whose pickle
-    is at ``path``; ``first`` and ``second`` their reports.  Shared by the tests
-    below, which copy the cache before they change it."""
+    without a derivation or a module, the generic runtime's object in it: derived
+    and built) and by a second (read from the cache), whose pickle is at ``path``;
+    ``first`` and ``second`` their reports.  Shared by the tests below, which copy
+    the cache before they change it."""
     if compiler_command() is None:
         pytest.skip("no C compiler")
     tmp = tmp_path_factory.mktemp("pickled")
     cache, path = tmp / "cache", tmp / "model.pkl"
+    generic_runtime_object(cache)
     first = _run(_CACHED + "kd.numerics.finish_compiling()\n", cache, str(path))
     second = _run(_CACHED, cache, str(path))
     return cache, path, first, second

@@ -30,11 +30,17 @@ QUICK_MISSING = ("TinyCC (tcc) is not installed, so every model is compiled by t
 
 
 @pytest.fixture()
-def fresh_cache(tmp_path, monkeypatch):
-    """An empty cache directory, nothing loaded in this process, the quick
-    compiler as the environment has it (tcc on the PATH)."""
+def fresh_cache(tmp_path, monkeypatch, generic_runtime_object):
+    """A new cache directory, nothing loaded in this process, the quick
+    compiler as the environment has it (tcc on the PATH).  Its object cache holds
+    gcc's object of the generic runtime of chain3d and the pendulum (as a first
+    model would have left it): these tests are about the quick module and the
+    move onto the optimized one, whose build still compiles the model's own
+    units; the runtime's compile, its prefetch and the object cache are
+    tested from empty caches (test_cbackend.py, test_cache_safety.py)."""
     if _c_build.compiler_command() is None:
         pytest.skip("no C compiler")
+    generic_runtime_object(tmp_path)
     # optimized builds an earlier test started in the background (a model's
     # derivatives, say) end first: they would count in QUICK_STATS here (those
     # still waiting for their use to pay are not started here nor by the tests'

@@ -400,9 +400,46 @@ def _functions(model, parameters):
         from .backends._python import compile_python, generate_python
         prog, args, outputs = _specification(model, parameters)
         source = generate_python(prog, key, args, outputs, cse=True)
-        found = (model._fn["dynamics"], compile_python(source, key), None, None, None, None)
+        found = (model._fn["dynamics"], compile_python(source, key),
+                 *_numpy_rows(model, key, (prog, args, outputs)), None, None)
     model.__dict__["_" + key] = found
     return found
+
+
+def _numpy_rows(model, key, specification):
+    """``(dynamics_rows, jacobians_rows)`` of a NumPy model: the dynamics and the
+    generated derivatives of many states at once (``(T, Y, p, R)``, states in
+    rows, every output with a first axis of length N, as the C module's), each
+    vectorized function generated on its first call (:func:`_evaluate` takes
+    them for more than one state: the derivatives of a collocation NLP's nodes
+    in one call, not state by state).  They give ``None`` where a value is not
+    finite: the vectorized code evaluates both sides of a conditional (the
+    derivative of ``x**p`` by ``p`` where ``x`` is 0, say), where the code of one
+    state evaluates the side it takes and raises on a value ``math`` does not
+    take, so the states of such a call are evaluated one by one, as before."""
+    from .backends._python import compile_python, generate_python
+    made = {}
+
+    def rows(fn, T, Y, p, R):
+        with np.errstate(all="ignore"):
+            values = fn(T, Y.T, p, R.T)
+        if not all(np.isfinite(x).all() for x in values):
+            return None
+        return [np.moveaxis(x, -1, 0) for x in values]
+
+    def dynamics_rows(T, Y, p, R):
+        return rows(model._batch_function(), T, Y, p, R)
+
+    def jacobians_rows(T, Y, p, R):
+        fn = made.get(key)
+        if fn is None:
+            prog, args, outputs = specification
+            source = generate_python(prog, key + "_rows", args, outputs, vectorized=True,
+                                     cse=True)
+            fn = made[key] = compile_python(source, key + "_rows")
+        return rows(fn, T, Y, p, R)
+
+    return dynamics_rows, jacobians_rows
 
 
 def standalone_derivatives(model, parameters=False):
@@ -668,9 +705,10 @@ def _evaluate(model, fns, T, Y, R):
     per column group (state, inputs, constants).
 
     The accelerations are those of ``model.rhs`` (the scheme's), the
-    multipliers those of :meth:`NumericModel.multipliers`; on C, for many
-    states, both from the index-1 system that every exact scheme solves, and
-    every state in one call of each generated function.  A stabilized scheme's
+    multipliers those of :meth:`NumericModel.multipliers`; for many states,
+    both from the index-1 system that every exact scheme solves, and every
+    state in one call of each generated function (on C; with NumPy, vectorized
+    over the states: :func:`_numpy_rows`).  A stabilized scheme's
     accelerations come from its :class:`AccelerationSystem`, with the inputs
     ``R`` (:func:`_stabilization_derivatives.accelerations`).  The derivatives
     then solve the stacked systems.
@@ -691,13 +729,12 @@ def _evaluate(model, fns, T, Y, R):
         return f, groups, constraints
     from . import _stabilization_derivatives as stab
     system, values = _system(model), {}
+    stacked = None
     if dynamics_rows is not None and N > 1 and not names:
         T, Y = np.ascontiguousarray(T, dtype=float), np.ascontiguousarray(Y, dtype=float)
-        qd, mass, force, vel_B, acc_K, acc_f = dynamics_rows(T, Y, model._p, R)
-        S = _index1_matrices(mass, vel_B, acc_K)
-        solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
-        udot, lam = solved[:, :o], solved[:, o:]
-        outputs = list(derivative_rows(T, Y, model._p, np.hstack([R, udot, lam])))
+        stacked = _stacked(model, dynamics_rows, derivative_rows, T, Y, R)
+    if stacked is not None:
+        qd, udot, lam, S, outputs = stacked
     else:
         at = []
         for t, y, r in zip(T, Y, R):
@@ -733,6 +770,22 @@ def _evaluate(model, fns, T, Y, R):
         groups.append((np.concatenate([g_x.reshape(N, n, -1), solved[:, :o]], axis=1),
                        solved[:, o:] if m else None))
     return np.hstack([qd, udot]), groups, np.concatenate([h_y, c_y], axis=1)
+
+
+def _stacked(model, dynamics_rows, derivative_rows, T, Y, R):
+    """``(qd, udot, lam, S, outputs)`` of the states ``Y`` from the functions of
+    many states, the index-1 systems ``S`` solved stacked; ``None`` where a NumPy
+    model's vectorized code met a value that is not finite (:func:`_numpy_rows`:
+    the states are then evaluated one by one)."""
+    terms = dynamics_rows(T, Y, model._p, R)
+    if terms is None:
+        return None
+    qd, mass, force, vel_B, acc_K, acc_f = terms
+    S = _index1_matrices(mass, vel_B, acc_K)
+    solved = np.linalg.solve(S, np.concatenate([force, -acc_f], axis=1)[..., None])[..., 0]
+    udot, lam = solved[:, :model.n_u], solved[:, model.n_u:]
+    outputs = derivative_rows(T, Y, model._p, np.hstack([R, udot, lam]))
+    return None if outputs is None else (qd, udot, lam, S, list(outputs))
 
 
 def _index1_matrices(mass, vel_B, acc_K, alpha=None):
