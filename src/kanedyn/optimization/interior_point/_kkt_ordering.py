@@ -239,7 +239,7 @@ def _backward_band(graph, node, n, block, jr, jc):
         return order
     size = graph.shape[0]
     rows, cols = _entries(graph)
-    pendant = _graph(size + 1, np.append(rows, size), np.append(cols, order[0]))
+    pendant = _made((size + 1, size + 1), [(rows, cols, 0), ([size], order[:1], 0)], True)
     other = reverse_cuthill_mckee(pendant, symmetric_mode=True)
     other = other[other != size]
     if _sweeps_backward(other, node, n, block, jr, jc):
@@ -301,7 +301,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     dense = degrees > dense_threshold(degrees)
     late = dense if delayed is None else dense | delayed
     keep = np.flatnonzero(~late)
-    block = np.arange(N)  # the node of the compressed graph each row belongs to
+    block = np.arange(N, dtype=np.int32)  # the node of the compressed graph of each row
     if ordering != "rcm" and m and jr.size:
         inside = ~late[n + jr] & ~late[jc]
 
