@@ -50,11 +50,12 @@ def small():
 def test_reduced_patterns_int32_and_as_computed_in_int64(small):
     nlp, reduced = small
     free = np.flatnonzero(nlp.x_lower != nlp.x_upper)
-    for structure, held, entries in (
-            (nlp.jacobian_structure(), reduced.jacobian_structure, reduced.jacobian_entries),
-            (nlp.hessian_structure(), reduced.hessian_structure, reduced.hessian_entries)):
+    for is_jacobian, structure, held, entries in (
+            (True, nlp.jacobian_structure(), reduced.jacobian_structure,
+             reduced.jacobian_entries),
+            (False, nlp.hessian_structure(), reduced.hessian_structure,
+             reduced.hessian_entries)):
         rows, cols = (np.asarray(a, dtype=np.int64) for a in structure)
-        is_jacobian = structure is nlp.structure
         keep = np.isin(cols, free) & (True if is_jacobian else np.isin(rows, free))
         expected_rows = rows[keep] if is_jacobian else np.searchsorted(free, rows[keep])
         expected_cols = np.searchsorted(free, cols[keep])

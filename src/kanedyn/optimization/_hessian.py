@@ -163,10 +163,14 @@ class LagrangianHessian:
         if self.interval or pb.path or pb.mayer is not None:
             self.at_points = self._points([point_vars], [1.0], L.positions())
         self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
+
+    def structure(self):
+        """``(rows, cols)`` of the lower triangle's entries, :data:`._nlp.INDEX`
+        (made when asked, not held: a solver keeps its own)."""
         parts = self.stages + [self.at_points] * (self.at_points is not None) + self.instances
         patterns = [p.pattern() for p in parts]
-        self.structure = index_arrays([r for r, _ in patterns], [c for _, c in patterns],
-                                      nlp.n, nlp.n)
+        return index_arrays([r for r, _ in patterns], [c for _, c in patterns],
+                            self.nlp.n, self.nlp.n)
 
     def _points(self, blocks, a, tau):
         """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each
@@ -251,7 +255,7 @@ class LagrangianHessian:
 
     # ------------------------------------------------------------- values
     def values(self, z, sigma, multipliers):
-        """The Hessian's values in the order of :attr:`structure`."""
+        """The Hessian's values in the order of :meth:`structure`."""
         nlp = self.nlp
         e = nlp._evaluate(z)
         pb, L = nlp.problem, nlp.layout

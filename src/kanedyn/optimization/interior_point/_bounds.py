@@ -98,14 +98,23 @@ class PrimalBounds:
                       fraction_to_boundary(z_upper, dz_upper, tau))
         return dz_lower, dz_upper, alpha_max, alpha_z
 
+    def dense(self, start=0):
+        """``(lower, upper)`` of the entries from ``start`` on, relaxed,
+        infinite where absent, shapes (size - start,)."""
+        lower = np.full(self.size - start, -np.inf)
+        upper = np.full(self.size - start, np.inf)
+        for out, index, values in ((lower, self.lower_index, self.lower),
+                                   (upper, self.upper_index, self.upper)):
+            at = index >= start
+            out[index[at] - start] = values[at]
+        return lower, upper
+
     def push(self, w, push, frac):
         """``w`` moved into the bounds' interior (IPOPT's ``bound_push`` and
         ``bound_frac``: at least ``min(push * max(1, |bound|), frac * (upper -
         lower))`` from each bound)."""
         w = np.array(w, dtype=float)
-        lower = np.full(self.size, -np.inf)
-        upper = np.full(self.size, np.inf)
-        lower[self.lower_index], upper[self.upper_index] = self.lower, self.upper
+        lower, upper = self.dense()
         width = upper - lower
         with np.errstate(invalid="ignore"):
             p_lower = np.minimum(push * np.maximum(1.0, np.abs(lower)), frac * width)

@@ -69,7 +69,9 @@ class ReducedNLP:
         x_upper = np.asarray(nlp.x_upper, dtype=float).reshape(n_full)
         g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
         g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
+        #: the full bounds, the NLP's own arrays when they are of floats (not copied)
         self.x_lower_full, self.x_upper_full = x_lower, x_upper
+        self.g_lower_full, self.g_upper_full = g_lower, g_upper
         fixed = x_lower == x_upper
         self.fixed = np.flatnonzero(fixed)
         self.free = np.flatnonzero(~fixed)
@@ -103,8 +105,6 @@ class ReducedNLP:
         self._all_rows = self.m == m_full
         self._all_jacobian = self.jacobian_entries.size == jr.size
         self._all_hessian = self.hessian_entries.size == hr.size
-        self._g_lower, self._g_upper = g_lower[kept], g_upper[kept]
-        self._x_lower, self._x_upper = x_lower[self.free], x_upper[self.free]
         self.objective_scale = 1.0
         self.row_scale = np.ones(self.m)
         #: each Jacobian entry's row scale, or ``None`` while every row's is 1
@@ -135,12 +135,13 @@ class ReducedNLP:
     # ------------------------------------------------------------ bounds
     def variable_bounds(self):
         """``(lower, upper)`` of the free variables (infinite beyond 1e19)."""
-        return _infinite(self._x_lower), _infinite(self._x_upper)
+        return (_infinite(self.x_lower_full[self.free]),
+                _infinite(self.x_upper_full[self.free]))
 
     def row_bounds(self):
         """``(lower, upper)`` of the kept rows, scaled (infinite beyond 1e19)."""
-        return (_infinite(self._g_lower) * self.row_scale,
-                _infinite(self._g_upper) * self.row_scale)
+        return (_infinite(self.g_lower_full[self.rows]) * self.row_scale,
+                _infinite(self.g_upper_full[self.rows]) * self.row_scale)
 
     # -------------------------------------------------------- evaluation
     def full(self, x):

@@ -148,7 +148,7 @@ class _Run:
 
     def __init__(self, nlp, x0, settings, warm, stop):
         self.nlp, self.s, self.warm, self.stop = nlp, settings, warm, stop
-        self.x0 = np.asarray(x0, dtype=float).reshape(int(nlp.n)).copy()
+        self.x0 = np.asarray(x0, dtype=float).reshape(int(nlp.n))  # read, never written
         self.timings = dict(callbacks=0.0, hessian=0.0, factor_solve=0.0, line_search=0.0,
                             total=0.0)
         self.note = None
@@ -194,7 +194,7 @@ class _Run:
     def _result(self, status, w, y, z_lower, z_upper, e):
         from .._solvers import NLPSolution
         R, n = self.reduced, self.n
-        x_full = R.full(w[:n]) if w is not None else self.x0
+        x_full = R.full(w[:n]) if w is not None else self.x0.copy()
         if w is None:
             multipliers = {"g": np.zeros(R.m_full), "x_lower": np.zeros(R.n_full),
                            "x_upper": np.zeros(R.n_full)}
@@ -227,6 +227,12 @@ class _Run:
         if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
         R.scale_at(R.template, gradient, jacobian)
+        # neither these values nor the NLP's evaluation behind them are held
+        # while the KKT system is set up (the start point evaluates again)
+        del gradient, jacobian
+        forget = getattr(self.nlp, "forget_evaluation", None)
+        if forget is not None:
+            forget()
         x_lower, x_upper = R.variable_bounds()
         g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
@@ -234,10 +240,7 @@ class _Run:
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
                                    np.concatenate([x_upper, g_upper[ineq]]),
                                    s.bound_relax_factor, s.kappa_d)
-        lower, upper = np.full(self.bounds.size, -np.inf), np.full(self.bounds.size, np.inf)
-        lower[self.bounds.lower_index] = self.bounds.lower
-        upper[self.bounds.upper_index] = self.bounds.upper
-        self.slack_bounds = (lower[n:], upper[n:])
+        self.slack_bounds = self.bounds.dense(start=n)
         kkt_type, self.note = kkt_class(s.linear_solver)
         self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
         #: the optimality errors' sums and maxima: SparseKKT's, one call (the
