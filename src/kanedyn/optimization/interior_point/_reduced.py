@@ -88,10 +88,15 @@ class ReducedNLP:
         column_of[self.free] = np.arange(self.n)
         row_of = np.full(m_full, -1, dtype=index)
         row_of[self.rows] = np.arange(self.m)
-        # the patterns are checked, then held in the compact type (the full
-        # Jacobian's is asked of the NLP again when fixed variables need it)
+        # the patterns are checked, then held in the compact type (of the full
+        # Jacobian's only its entries in the fixed variables' columns)
         jr, jc = (a.astype(index) for a in check_structure(
             "the NLP's jacobian_structure", nlp.jacobian_structure(), m_full, n_full))
+        # the entries in the fixed variables' columns: their multipliers at the end
+        in_fixed = np.flatnonzero(column_of[jc] < 0)
+        fixed_of = np.zeros(n_full, dtype=index)
+        fixed_of[self.fixed] = np.arange(self.fixed.size)
+        self._fixed_jacobian = (in_fixed, jr[in_fixed], fixed_of[jc[in_fixed]])
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
         self.jacobian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
@@ -200,12 +205,11 @@ class ReducedNLP:
         g[self.rows] = y * self.row_scale / sf
         zl, zu = np.zeros(self.n_full), np.zeros(self.n_full)
         zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
-        if self.fixed.size:
-            jr, jc = (np.asarray(a).ravel() for a in self.nlp.jacobian_structure())
-            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
-            stationarity = np.asarray(self.nlp.gradient(x_full), dtype=float) + np.bincount(
-                jc, weights=values * g[jr], minlength=self.n_full)
-            r = stationarity[self.fixed]
+        if self.fixed.size:  # the Lagrangian's gradient in their columns
+            entries, rows, columns = self._fixed_jacobian
+            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)[entries]
+            r = np.asarray(self.nlp.gradient(x_full), dtype=float)[self.fixed] + np.bincount(
+                columns, weights=values * g[rows], minlength=self.fixed.size)
             zl[self.fixed], zu[self.fixed] = np.maximum(r, 0.0), np.maximum(-r, 0.0)
         return {"g": g, "x_lower": zl, "x_upper": zu}
 

@@ -250,7 +250,7 @@ class _Run:
         return True
 
     def _start(self):
-        """``(w, y, z_lower, z_upper, evaluation)`` or ``None`` (not finite)."""
+        """``[w, y, z_lower, z_upper, evaluation]`` or ``None`` (not finite)."""
         s, n, R = self.s, self.n, self.reduced
         warm = self.warm is not None
         x = self.bounds.push(np.concatenate([self.x0[R.free], np.zeros(len(self.inequality))]),
@@ -264,7 +264,7 @@ class _Run:
             y, zl_x, zu_x = R.scaled_multipliers(self.warm)
             z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
                                                 s.warm_start_mult_bound_push)
-            return w, y, z_lower, z_upper, e
+            return [w, y, z_lower, z_upper, e]
         z_lower = np.full(self.bounds.lower_index.size, s.bound_mult_init_val)
         z_upper = np.full(self.bounds.upper_index.size, s.bound_mult_init_val)
         gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
@@ -275,7 +275,7 @@ class _Run:
                                       R.hessian_entries.size, gradient_w,
                                       s.constr_mult_init_max)
         self.timings["factor_solve"] += time.perf_counter() - t
-        return w, y, z_lower, z_upper, e
+        return [w, y, z_lower, z_upper, e]
 
     # ------------------------------------------------------------- solve
     def solve(self):
@@ -287,8 +287,7 @@ class _Run:
         started = self._start()
         if started is None:
             return self._result(-13, None, None, None, None, None)
-        status = self._iterate(*started)
-        return status
+        return self._iterate(started)
 
     def _measures(self, w, y, z_lower, z_upper, e, mu, gaps=None, c=None):
         """Residuals and optimality errors at the current iterate (``gaps``
@@ -375,7 +374,11 @@ class _Run:
         return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
                 and compl <= s.compl_inf_tol)
 
-    def _iterate(self, w, y, z_lower, z_upper, e):
+    def _iterate(self, started):
+        """The iterations from ``started`` (of :meth:`_start`, the caller's
+        tuple emptied: the start point is not kept past the first step)."""
+        w, y, z_lower, z_upper, e = started
+        started.clear()
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
@@ -494,6 +497,9 @@ class _Run:
                            step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
                            trials=trials, kind=("F" if f_type else "H") if corrected
                            else ("f" if f_type else "h"))
+            # this step's arrays are not held into the next one's Hessian and factorization
+            del hessian, sigma, gradient_w, barrier_gradient, residual_w, direction, step, \
+                step_used, found, dw, dy, dz_lower, dz_upper
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi, gaps, c)`` at a trial point (``gaps``
