@@ -225,6 +225,7 @@ class CollocationNLP:
         key = z.tobytes()
         if key == self._cache_key:
             return self._cache
+        self.forget_evaluation()  # the last point's arrays not held with the new ones
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
         Yi, Ri = L.split_interior(z) if L.interior else self._no_interior

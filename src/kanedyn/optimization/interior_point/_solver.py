@@ -219,6 +219,25 @@ class _Run:
         self.reduced = R = ReducedNLP(self.nlp, self.x0, s)
         self.n, self.m = n, m = R.n, R.m
         self.inequality = R.inequality
+        # (each in a method of its own: what it computes from is not held
+        # while the KKT system is set up)
+        if not self._scale():
+            return False
+        self._set_bounds()
+        kkt_type, self.note = kkt_class(s.linear_solver)
+        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        #: the optimality errors' sums and maxima: SparseKKT's, one call (the
+        #: same numbers as NumPy's, which DenseKKT's solves take)
+        self.error_reductions = getattr(self.kkt, "error_reductions", None)
+        self.stepper = StepSolver(self.kkt, n, m, self.inequality, s)
+        return True
+
+    def _scale(self):
+        """The reduced NLP's scaling from the derivatives at the start point
+        (:meth:`._reduced.ReducedNLP.scale_at`); ``False`` when one is not
+        finite.  The NLP's evaluation there is then dropped (the start point
+        evaluates again)."""
+        R = self.reduced
         t = time.perf_counter()
         with np.errstate(all="ignore"):
             gradient = np.asarray(self.nlp.gradient(R.template), dtype=float)
@@ -227,12 +246,15 @@ class _Run:
         if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
         R.scale_at(R.template, gradient, jacobian)
-        # neither these values nor the NLP's evaluation behind them are held
-        # while the KKT system is set up (the start point evaluates again)
-        del gradient, jacobian
         forget = getattr(self.nlp, "forget_evaluation", None)
         if forget is not None:
             forget()
+        return True
+
+    def _set_bounds(self):
+        """The primal bounds (:class:`._bounds.PrimalBounds`), the rows'
+        targets and the slacks' bounds, scaled."""
+        R, s = self.reduced, self.s
         x_lower, x_upper = R.variable_bounds()
         g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
@@ -240,14 +262,7 @@ class _Run:
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
                                    np.concatenate([x_upper, g_upper[ineq]]),
                                    s.bound_relax_factor, s.kappa_d)
-        self.slack_bounds = self.bounds.dense(start=n)
-        kkt_type, self.note = kkt_class(s.linear_solver)
-        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
-        #: the optimality errors' sums and maxima: SparseKKT's, one call (the
-        #: same numbers as NumPy's, which DenseKKT's solves take)
-        self.error_reductions = getattr(self.kkt, "error_reductions", None)
-        self.stepper = StepSolver(self.kkt, n, m, ineq, s)
-        return True
+        self.slack_bounds = self.bounds.dense(start=self.n)
 
     def _start(self):
         """``[w, y, z_lower, z_upper, evaluation]`` or ``None`` (not finite)."""
