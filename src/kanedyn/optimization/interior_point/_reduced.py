@@ -194,7 +194,9 @@ class ReducedNLP:
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""
         rows, cols = self.jacobian_structure
-        return np.bincount(cols, weights=jacobian_values * y[rows], minlength=self.n)
+        weights = y[rows]
+        weights *= jacobian_values  # in place: one (nnz,) array less
+        return np.bincount(cols, weights=weights, minlength=self.n)
 
     # ---------------------------------------------------------- unscaling
     def multipliers_full(self, x_full, y, z_lower, z_upper):

@@ -309,8 +309,9 @@ class _Run:
         and the rows' residuals ``c`` at ``w`` when the caller has them)."""
         n, B, R = self.n, self.bounds, self.reduced
         gap_lower, gap_upper = B.gaps(w) if gaps is None else gaps
-        jty = R.transpose_times(e.jacobian, y)
-        lagrangian = self._in_w(e.gradient + jty)  # grad of f + y^T c in w
+        lagrangian = R.transpose_times(e.jacobian, y)
+        lagrangian += e.gradient  # grad of f + y^T c (summed in place), then in w
+        lagrangian = self._in_w(lagrangian)
         if self.inequality.size:
             lagrangian[n:] = -y[self.inequality]
         dual = lagrangian.copy()
@@ -318,7 +319,7 @@ class _Run:
         dual[B.upper_index] += z_upper
         if c is None:
             c = self._row_residuals(e.rows, w)
-        m = dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
+        m = dict(gap_lower=gap_lower, gap_upper=gap_upper, lagrangian=lagrangian,
                  c=c, dual=dual, violation=self.unscaled_violation(e.rows, c))
         return self._errors(m, y, z_lower, z_upper, mu)
 
