@@ -501,6 +501,15 @@ class _Run:
             z_lower = z_lower + alpha_z * dz_lower
             z_upper = z_upper + alpha_z * dz_upper
             e = trial
+            if s.print_level:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind=("F" if f_type else "H") if corrected
+                           else ("f" if f_type else "h"))
+            # this step's arrays are not held into the new point's derivatives,
+            # measures, Hessian and factorization
+            del hessian, sigma, gradient_w, barrier_gradient, residual_w, direction, step, \
+                step_used, found, dw, dy, dz_lower, dz_upper
             if not self._derivatives(e):
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
@@ -508,14 +517,6 @@ class _Run:
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu, gaps, c)
             m.update(theta=theta_trial, phi=(mu, phi_trial))
-            if s.print_level:  # the printed row's columns
-                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
-                           trials=trials, kind=("F" if f_type else "H") if corrected
-                           else ("f" if f_type else "h"))
-            # this step's arrays are not held into the next one's Hessian and factorization
-            del hessian, sigma, gradient_w, barrier_gradient, residual_w, direction, step, \
-                step_used, found, dw, dy, dz_lower, dz_upper
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi, gaps, c)`` at a trial point (``gaps``
