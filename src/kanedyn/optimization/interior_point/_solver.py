@@ -204,6 +204,8 @@ class _Run:
             lo, up = self.bounds.lower_index, self.bounds.upper_index
             zl[lo[lo < n]] = z_lower[lo < n]
             zu[up[up < n]] = z_upper[up < n]
+            if e is not None:  # the run ends: its derivatives not held with the NLP's last
+                e.gradient = e.jacobian = None
             with np.errstate(all="ignore"):
                 multipliers = R.multipliers_full(x_full, y, zl, zu)
             objective = e.objective / R.objective_scale
@@ -445,6 +447,7 @@ class _Run:
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
+            del hessian, sigma  # factored: not held through the line search
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
             step, dz_lower, dz_upper, alpha_max, alpha_z = direction
@@ -508,8 +511,8 @@ class _Run:
                            else ("f" if f_type else "h"))
             # this step's arrays are not held into the new point's derivatives,
             # measures, Hessian and factorization
-            del hessian, sigma, gradient_w, barrier_gradient, residual_w, direction, step, \
-                step_used, found, dw, dy, dz_lower, dz_upper
+            del gradient_w, barrier_gradient, residual_w, direction, step, step_used, found, \
+                dw, dy, dz_lower, dz_upper
             if not self._derivatives(e):
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
