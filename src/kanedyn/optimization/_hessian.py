@@ -45,12 +45,39 @@ from types import SimpleNamespace
 import numpy as np
 
 from .._errors import ModelError
-from ._nlp import INDEX, _joined, index_arrays
+from ._nlp import INDEX, index_arrays
 
 __all__ = ["LagrangianHessian", "HESSIANS"]
 
 #: the values of ``solve(hessian=...)``
 HESSIANS = ("limited-memory", "exact")
+
+#: the points whose second derivatives are evaluated at once: the values'
+#: intermediates (arrays of (points, nu, nu)) are bounded by this many
+#: points, not by the nodes
+CHUNK_POINTS = 4096
+
+
+def _chunks(K):
+    """``[(k0, k1)]``: the points ``0..K-1`` in runs of :data:`CHUNK_POINTS`."""
+    return [(k0, min(K, k0 + CHUNK_POINTS)) for k0 in range(0, K, CHUNK_POINTS)]
+
+
+def _run(arrays, at):
+    """The points ``at`` (a slice) of each array of ``arrays`` (``None`` kept)."""
+    return tuple(None if a is None else a[at] for a in arrays)
+
+
+def _row_block(matrix, p0, p1, c0, c1):
+    """Rows ``p0:p1`` of the CSR ``matrix`` whose entries all lie in columns
+    ``c0:c1``, as a CSR matrix of shape (p1 - p0, c1 - c0) (its values
+    shared, the block's column indices shifted: a copy of the block's)."""
+    from scipy.sparse import csr_matrix
+    if p0 == 0 and p1 == matrix.shape[0] and c0 == 0 and c1 == matrix.shape[1]:
+        return matrix
+    a, b = matrix.indptr[p0], matrix.indptr[p1]
+    return csr_matrix((matrix.data[a:b], matrix.indices[a:b] - c0,
+                       matrix.indptr[p0:p1 + 1] - a), shape=(p1 - p0, c1 - c0))
 
 
 class _Points:
@@ -62,6 +89,10 @@ class _Points:
     def __init__(self, V, D, duration=None):
         self.V, self.D, self.duration = V, D, duration
         self.mask = V[:, :, None] >= V[:, None, :]
+        #: where each point's entries start among the points' (K + 1,): a
+        #: point's entries follow the previous point's
+        self.starts = np.concatenate([[0], np.cumsum(np.count_nonzero(self.mask, axis=(1, 2)))])
+        self.size = int(self.starts[-1])
         self._maps = None
 
     def maps(self, steps):
@@ -76,42 +107,62 @@ class _Points:
         return self._maps
 
     def _make_maps(self, steps):
-        from scipy.sparse import csr_matrix
-        D, mask = self.D, self.mask
+        D = self.D
         K, nu, m = D.shape
-        n_out = int(mask.sum())
-        place = np.full(mask.shape, -1, dtype=np.int64)
-        place[mask] = np.arange(n_out)
         i, a = np.nonzero(np.any(D != 0.0, axis=0))  # D's pattern, shared by the points
-        rows, cols, coefficients = [], [], []
-        chunk = max(1, 2_000_000 // max(1, len(i) ** 2))
-        for k0 in range(0, K, chunk):
-            k = np.arange(k0, min(K, k0 + chunk))[:, None, None]
-            c = D[k, i[None, :, None], a[None, :, None]] * D[k, i[None, None, :], a[None, None, :]]
+        run = max(1, min(CHUNK_POINTS, 2_000_000 // max(1, len(i) ** 2)))
+
+        def second(k0, k1, place):
+            k = np.arange(k1 - k0)[:, None, None]
+            c = (D[k0 + k, i[None, :, None], a[None, :, None]]
+                 * D[k0 + k, i[None, None, :], a[None, None, :]])
             r = place[k, a[None, :, None], a[None, None, :]]
             col = (k * nu + i[None, :, None]) * nu + i[None, None, :]
             keep = (r >= 0) & (c != 0.0)
-            rows.append(r[keep]); cols.append(col[keep]); coefficients.append(c[keep])
-        second = csr_matrix((np.concatenate(coefficients),
-                             (np.concatenate(rows), np.concatenate(cols))),
-                            shape=(n_out, K * nu * nu))
-        first = None
-        j = self.duration
-        if j is not None:
-            rows, cols, coefficients = [], [], []
+            return r[keep], col[keep], c[keep]
+
+        def first(k0, k1, place):
             # row j of the point's block gets D^T F' in its columns, column j in its rows
+            rows, cols, coefficients = [], [], []
+            j = self.duration
             for side in (0, 1):
-                k = np.arange(K)[:, None]
+                k = np.arange(k1 - k0)[:, None]
                 other = a[None, :]
                 r = place[k, j, other] if side == 0 else place[k, other, j]
-                c = np.broadcast_to(D[k, i[None, :], a[None, :]] / steps, r.shape)
+                c = np.broadcast_to(D[k0 + k, i[None, :], a[None, :]] / steps, r.shape)
                 col = np.broadcast_to(k * nu + i[None, :], r.shape)
                 keep = (r >= 0) & (c != 0.0)
                 rows.append(r[keep]); cols.append(col[keep]); coefficients.append(c[keep])
-            first = csr_matrix((np.concatenate(coefficients),
-                                (np.concatenate(rows), np.concatenate(cols))),
-                               shape=(n_out, K * nu))
-        return second, first
+            return np.concatenate(rows), np.concatenate(cols), np.concatenate(coefficients)
+
+        return (self._by_runs(nu * nu, run, second),
+                None if self.duration is None else self._by_runs(nu, run, first))
+
+    def _by_runs(self, width, run, entries):
+        """The CSR matrix (size, K * width) whose entries at the points
+        ``k0:k1`` are ``entries(k0, k1, place)``: ``(rows, cols, values)``
+        relative to those points' (their rows numbered by ``place``, (k1 -
+        k0, m, m), -1 off the lower triangle; their columns from ``k0 *
+        width``).  Made ``run`` points at a time, each run's rows a block of
+        their own: the matrix SciPy makes of all the entries at once (rows
+        in order, each row's columns sorted), without every entry's indices
+        in 64 bits at once."""
+        from scipy.sparse import csr_matrix
+        K = self.mask.shape[0]
+        index = np.int32 if 2 * K * width < np.iinfo(np.int32).max else np.int64
+        data, indices, indptr = [], [], [np.zeros(1, dtype=index)]
+        for k0 in range(0, K, run):
+            k1 = min(K, k0 + run)
+            p0, p1 = self.starts[k0], self.starts[k1]
+            place = np.full(self.mask[k0:k1].shape, -1, dtype=np.int64)
+            place[self.mask[k0:k1]] = np.arange(p1 - p0)
+            rows, cols, values = entries(k0, k1, place)
+            block = csr_matrix((values, (rows, cols)), shape=(p1 - p0, (k1 - k0) * width))
+            data.append(block.data)
+            indices.append(block.indices.astype(index) + k0 * width)
+            indptr.append(block.indptr[1:].astype(index) + indptr[-1][-1])
+        return csr_matrix((np.concatenate(data), np.concatenate(indices),
+                           np.concatenate(indptr)), shape=(self.size, K * width))
 
     def pattern(self):
         """``(rows, cols)`` of its entries of the lower triangle (made when
@@ -163,10 +214,14 @@ class LagrangianHessian:
         if self.interval or pb.path or pb.mayer is not None:
             self.at_points = self._points([point_vars], [1.0], L.positions())
         self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
+
+    def structure(self):
+        """``(rows, cols)`` of the lower triangle's entries, :data:`._nlp.INDEX`
+        (made when asked, not held: a solver keeps its own)."""
         parts = self.stages + [self.at_points] * (self.at_points is not None) + self.instances
         patterns = [p.pattern() for p in parts]
-        self.structure = index_arrays([r for r, _ in patterns], [c for _, c in patterns],
-                                      nlp.n, nlp.n)
+        return index_arrays([r for r, _ in patterns], [c for _, c in patterns],
+                            self.nlp.n, self.nlp.n)
 
     def _points(self, blocks, a, tau):
         """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each
@@ -232,10 +287,11 @@ class LagrangianHessian:
         gu = np.concatenate([d_y, d_r, d_p, d_t[:, None], d_T[:, None]], axis=1)
         return term.hessian(t, Y, R, P, T), gu
 
-    def _assemble(self, points, h, stepped=None, plain=None):
-        """The values of ``points``: ``stepped = (F'', F')`` of the terms
-        carrying the step h, ``plain`` :math:`F''` of the others (the
-        caller's arrays, overwritten: scaled and summed in place)."""
+    def _assemble(self, points, k0, k1, h, out, stepped=None, plain=None):
+        """The values of the points ``k0:k1`` of ``points`` into ``out`` (their
+        entries, in order): ``stepped = (F'', F')`` of the terms carrying the
+        step h, ``plain`` :math:`F''` of the others, both of those points
+        (the caller's arrays, overwritten: scaled and summed in place)."""
         second, first = points.maps(self.nlp.layout.nodes - 1)
         if stepped is not None:
             Hu = stepped[0]
@@ -244,14 +300,16 @@ class LagrangianHessian:
                 Hu += plain
         else:
             Hu = plain
-        values = second @ Hu.reshape(-1)
+        p0, p1 = points.starts[k0], points.starts[k1]
+        nu = self.nu
+        values = out[p0:p1]
+        values[...] = _row_block(second, p0, p1, k0 * nu * nu, k1 * nu * nu) @ Hu.reshape(-1)
         if stepped is not None and first is not None:
-            values += first @ stepped[1].reshape(-1)
-        return values
+            values += _row_block(first, p0, p1, k0 * nu, k1 * nu) @ stepped[1].reshape(-1)
 
     # ------------------------------------------------------------- values
     def values(self, z, sigma, multipliers):
-        """The Hessian's values in the order of :attr:`structure`."""
+        """The Hessian's values in the order of :meth:`structure`."""
         nlp = self.nlp
         e = nlp._evaluate(z)
         pb, L = nlp.problem, nlp.layout
@@ -261,13 +319,12 @@ class LagrangianHessian:
         defects = nlp.defects
         n_defects = defects.n_rows
         t_points = e["t_points"]
-        for points in self.stages + [self.at_points] * (self.at_points is not None):
+        kinds = self.stages + [self.at_points] * (self.at_points is not None)
+        for points in kinds:
             points.maps(N - 1)  # made on the first call, before the (K, nu, nu) arrays
-        out = []
-        stepped = None
-        if self.interval:
-            stepped = self._interval_parts(e, multipliers[:n_defects], sigma, t_points)
-        else:
+        out = np.empty(sum(p.size for p in kinds + self.instances))
+        offset = 0
+        if not self.interval:
             rows = defects.rows
             lam = multipliers[:(N - 1) * len(rows)].reshape(N - 1, len(rows))
             if not isinstance(defects._take, slice):  # not every state, in order
@@ -278,31 +335,44 @@ class LagrangianHessian:
                      else [None] * len(stages))
             for s, steps, values, rate, points in zip(defects.stages, defects._stage_steps,
                                                       stages, rates, self.stages):
-                t = e["t0"] + h * steps
-                Ys = s.a[0] * e["Y"][:-1] + s.a[1] * e["Y"][1:]
-                Rs = s.a[0] * e["R"][:-1] + s.a[1] * e["R"][1:]
-                Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam, values,
-                                        None if rate is None else rate[0])
-                if pb.lagrange is not None and sigma:
-                    HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
-                    HL *= sigma * s.c  # in place: one (K, nu, nu) array less at a time
-                    Hu += HL
-                    if gu is not None:
-                        gu += sigma * s.c * gL
-                    del HL
-                out.append(self._assemble(points, h, stepped=(Hu, gu)))
+                for k0, k1 in _chunks(N - 1):
+                    at = slice(k0, k1)
+                    t = e["t0"] + h * steps[at]
+                    Ys = s.a[0] * e["Y"][k0:k1] + s.a[1] * e["Y"][k0 + 1:k1 + 1]
+                    Rs = s.a[0] * e["R"][k0:k1] + s.a[1] * e["R"][k0 + 1:k1 + 1]
+                    Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam[at], _run(values, at),
+                                            None if rate is None else rate[0][at])
+                    if pb.lagrange is not None and sigma:
+                        HL, gL = self._term(pb.lagrange, t, Ys, Rs, P, T)
+                        HL *= sigma * s.c  # in place: one (K, nu, nu) array less at a time
+                        Hu += HL
+                        if gu is not None:
+                            gu += sigma * s.c * gL
+                        del HL
+                    self._assemble(points, k0, k1, h, out[offset:], stepped=(Hu, gu))
+                offset += points.size
         if self.at_points is not None:
-            plain = np.zeros((K, self.nu, self.nu))
-            start = n_defects
-            for path in pb.path:
-                mu = multipliers[start:start + K]
-                plain += mu[:, None, None] * path.term.hessian(t_points, e["Yp"], e["Rp"], P, T)
-                start += K
-            if pb.mayer is not None and sigma:
-                last = slice(N - 1, N)
-                plain[last] += sigma * pb.mayer.hessian(t_points[last], e["Y"][-1:],
-                                                        e["R"][-1:], P, T)
-            out.append(self._assemble(self.at_points, h, stepped=stepped, plain=plain))
+            weights = (self._interval_weights(multipliers[:n_defects]) if self.interval
+                       else None)
+            for k0, k1 in _chunks(K):
+                at = slice(k0, k1)
+                stepped = None
+                if self.interval:
+                    stepped = self._interval_parts(e, weights, sigma, at)
+                plain = np.zeros((k1 - k0, self.nu, self.nu))
+                start = n_defects
+                for path in pb.path:
+                    mu = multipliers[start + k0:start + k1]
+                    plain += mu[:, None, None] * path.term.hessian(
+                        t_points[at], e["Yp"][at], e["Rp"][at], P, T)
+                    start += K
+                if pb.mayer is not None and sigma and k0 <= N - 1 < k1:
+                    last = slice(N - 1 - k0, N - k0)
+                    plain[last] += sigma * pb.mayer.hessian(t_points[N - 1:N], e["Y"][-1:],
+                                                            e["R"][-1:], P, T)
+                self._assemble(self.at_points, k0, k1, h, out[offset:], stepped=stepped,
+                               plain=plain)
+            offset += self.at_points.size
         start = n_defects + K * (len(pb.path) + pb.n_residuals)
         for inst, points, mu in zip(pb.instances, self.instances, multipliers[start:]):
             H = np.zeros((1,) + points.mask.shape[1:])
@@ -310,14 +380,16 @@ class LagrangianHessian:
                 full = inst.hessian(nlp._instance_arguments(inst, e))
                 n = points.mask.shape[1]
                 H[0] = mu * full[:n, :n]  # without T's row and column when T is fixed
-            out.append(H[points.mask])
-        return _joined(out)
+            out[offset:offset + points.size] = H[points.mask]
+            offset += points.size
+        return out
 
-    def _interval_parts(self, e, lam, sigma, t):
-        """``(F'', F')`` at every point of an interval method: the dynamics'
-        rows through the scheme's weights, and the objective's quadrature."""
+    def _interval_weights(self, lam):
+        """``(W, quadrature)`` of an interval method at every point: the
+        weights (K, n_states) of the dynamics' rows through the scheme, and
+        the objective's quadrature weights (K,)."""
         nlp = self.nlp
-        pb, L, defects = nlp.problem, nlp.layout, nlp.defects
+        L, defects = nlp.layout, nlp.defects
         scheme, rows = defects.scheme, defects.rows
         N, m, K = L.nodes, len(L.interior), L.n_points
         n_kinds, nd = scheme.n_rows, len(rows)
@@ -331,12 +403,22 @@ class LagrangianHessian:
             quadrature[at] += scheme.weights[g]
         W = np.zeros((K, L.n_states))
         W[:, rows] = weights
-        rate = e["rates"][0] if e["rates"] else None
-        Hu, gu = self._dynamics(e, t, e["Yp"], e["Rp"], W, e["evaluated"][0], rate)
+        return W, quadrature
+
+    def _interval_parts(self, e, weights, sigma, at):
+        """``(F'', F')`` at the points ``at`` (a slice) of an interval method:
+        the dynamics' rows through the scheme's ``weights``
+        (:meth:`_interval_weights`), and the objective's quadrature."""
+        pb = self.nlp.problem
+        W, quadrature = weights
+        t = e["t_points"][at]
+        rate = e["rates"][0][at] if e["rates"] else None
+        Hu, gu = self._dynamics(e, t, e["Yp"][at], e["Rp"][at], W[at],
+                                _run(e["evaluated"][0], at), rate)
         if pb.lagrange is not None and sigma:
-            HL, gL = self._term(pb.lagrange, t, e["Yp"], e["Rp"], e["P"], e["T"])
-            HL *= sigma * quadrature[:, None, None]  # in place, as for the one-step methods
+            HL, gL = self._term(pb.lagrange, t, e["Yp"][at], e["Rp"][at], e["P"], e["T"])
+            HL *= sigma * quadrature[at, None, None]  # in place, as for the one-step methods
             Hu += HL
             if gu is not None:
-                gu += sigma * quadrature[:, None] * gL
+                gu += sigma * quadrature[at, None] * gL
         return Hu, gu

@@ -44,6 +44,15 @@ def _finite(bound):
     return np.clip(np.asarray(bound, dtype=float), -INFINITY, INFINITY)
 
 
+def check_index_range(n_rows, n_cols):
+    """Refuse a matrix of ``n_rows`` x ``n_cols`` whose indices do not fit
+    :data:`INDEX` (:class:`ModelError`, naming its size)."""
+    limit = int(np.iinfo(INDEX).max)
+    if max(n_rows, n_cols) > limit:
+        raise ModelError(f"the NLP's matrix of {n_rows} x {n_cols} is too large for IPOPT's "
+                         f"32-bit indices (at most {limit}); use fewer nodes")
+
+
 def index_arrays(rows, cols, n_rows, n_cols):
     """A sparse pattern ``(rows, cols)`` joined from pieces into arrays of
     :data:`INDEX`, without a full-size int64 copy in between.
@@ -55,10 +64,7 @@ def index_arrays(rows, cols, n_rows, n_cols):
     n_rows, n_cols : int
         The matrix's shape, checked against the index type's range.
     """
-    limit = int(np.iinfo(INDEX).max)
-    if max(n_rows, n_cols) > limit:
-        raise ModelError(f"the NLP's matrix of {n_rows} x {n_cols} is too large for IPOPT's "
-                         f"32-bit indices (at most {limit}); use fewer nodes")
+    check_index_range(n_rows, n_cols)
     return (np.concatenate(rows, dtype=INDEX, casting="same_kind"),
             np.concatenate(cols, dtype=INDEX, casting="same_kind"))
 
@@ -91,7 +97,11 @@ class CollocationNLP:
             a.flags.writeable = False
         self._cache_key = None
         self._models = {}
-        self._pattern()
+        self.n_residuals = pb.n_residuals
+        self._instance_columns = [self._instance_column_indices(inst) for inst in pb.instances]
+        self.m = (self.defects.n_rows + L.n_points * (len(pb.path) + pb.n_residuals)
+                  + len(pb.instances))
+        check_index_range(self.m, self.n)  # refused here, not when a solver asks
         self._bounds()
         #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
         self.exact_hessian = None
@@ -104,7 +114,20 @@ class CollocationNLP:
             self._timeless = not names_time(pb.model)
 
     # ------------------------------------------------------------ layout
-    def _pattern(self):
+    def _instance_column_indices(self, inst):
+        """The decision variables an instance constraint names: its points'
+        states and inputs, the free parameters, a free duration."""
+        L = self.layout
+        c = [L.state_index(k, j) if kind == "state" else L.input_index(k, j)
+             for kind, j, k in inst.at]
+        c += [L.free_start + j for j in range(L.n_free)]
+        if L.free_duration:
+            c.append(L.duration_index)
+        return np.array(c)
+
+    def jacobian_structure(self):
+        """``(rows, cols)`` of the constraint Jacobian's entries, :data:`INDEX`
+        (made when asked, not held: a solver keeps its own)."""
         pb, L = self.problem, self.layout
         ns, nf, K = L.n_states, L.n_free, L.n_points
         rows, cols = self.defects.pattern()
@@ -123,7 +146,6 @@ class CollocationNLP:
             cols.append(c.ravel())
             start += K
         # constraint residuals at every point: dense in y_k
-        self.n_residuals = pb.n_residuals
         if pb.n_residuals:
             nc = pb.n_residuals
             r = start + point[:, :, None] * nc + np.arange(nc)[None, :, None]
@@ -133,19 +155,11 @@ class CollocationNLP:
             cols.append(np.broadcast_to(c, shape).ravel())
             start += K * nc
         # instance constraints
-        self._instance_columns = []
-        for inst in pb.instances:
-            c = [L.state_index(k, j) if kind == "state" else L.input_index(k, j)
-                 for kind, j, k in inst.at]
-            c += [L.free_start + j for j in range(nf)]
-            if L.free_duration:
-                c.append(L.duration_index)
-            self._instance_columns.append(np.array(c))
+        for c in self._instance_columns:
             rows.append(np.full(len(c), start))
-            cols.append(np.array(c))
+            cols.append(c)
             start += 1
-        self.m = start
-        self.structure = index_arrays(rows, cols, self.m, self.n)
+        return index_arrays(rows, cols, self.m, self.n)
 
     def _bounds(self):
         pb, L = self.problem, self.layout
@@ -211,6 +225,7 @@ class CollocationNLP:
         key = z.tobytes()
         if key == self._cache_key:
             return self._cache
+        self.forget_evaluation()  # the last point's arrays not held with the new ones
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
         Yi, Ri = L.split_interior(z) if L.interior else self._no_interior
@@ -247,6 +262,11 @@ class CollocationNLP:
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
             point_constraints=point_constraints, t_points=t0 + T * L.positions())
         return self._cache
+
+    def forget_evaluation(self):
+        """Drop what :meth:`_evaluate` keeps of the last decision vector (a
+        few arrays per point; the next call evaluates again)."""
+        self._cache_key = self._cache = None
 
     @staticmethod
     def _time_rate(model, t, Y, R, T):
@@ -315,9 +335,6 @@ class CollocationNLP:
         values = [e["Y"][k, j] if kind == "state" else e["R"][k, j] for kind, j, k in inst.at]
         return np.concatenate([values, e["P"], [e["T"]]])
 
-    def jacobian_structure(self):
-        return self.structure
-
     def jacobian(self, z):
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
@@ -342,7 +359,7 @@ class CollocationNLP:
 
     def hessian_structure(self):
         """Lower triangle of the Lagrangian's Hessian (``hessian="exact"``)."""
-        return self.exact_hessian.structure
+        return self.exact_hessian.structure()
 
     def hessian(self, z, multipliers, objective_factor):
         """The Hessian's values at ``z`` (IPOPT's ``obj_factor`` and ``lambda``)."""

@@ -397,7 +397,10 @@ class Defects:
         N, rows = L.nodes, self._take
         stages = self._stage_values(evaluated)
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
-        values = []
+        shape = (N - 1, len(self.rows))  # each block's values: shape + (its width,)
+        size = shape[0] * shape[1]
+        values = np.empty(size * sum(self._block_width(b) for b in self._blocks()))
+        start = 0
         for block in self._blocks():
             if block == "p":
                 v = sum(-h * s.c * Pf[:, rows] for s, (_, _, _, Pf) in zip(self.stages, stages))
@@ -425,8 +428,17 @@ class Defects:
                 for s, (_, _, B, _) in zip(self.stages, stages):
                     if s.a[o]:
                         v = v - h * s.c * s.a[o] * B[:, rows]
-            values.append(np.ravel(v))
-        return np.concatenate(values)
+            width = self._block_width(block)  # written in place: the blocks not joined
+            values[start:start + size * width].reshape(shape + (width,))[...] = v
+            start += size * width
+        return values
+
+    def _block_width(self, block):
+        """The columns of a :meth:`_blocks` group in each row."""
+        L = self.layout
+        if isinstance(block, str):
+            return L.shared_columns(block).shape[2]
+        return L.n_states if block[0] == "y" else L.n_inputs
 
     def quadrature(self, h, evaluated_terms):
         """:math:`h \\sum_k \\sum_s c_s L_s`, from the terms evaluated on the

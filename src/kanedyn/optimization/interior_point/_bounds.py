@@ -43,14 +43,12 @@ class PrimalBounds:
         self.lower = lo - relax * np.maximum(1.0, np.abs(lo))
         self.upper = up + relax * np.maximum(1.0, np.abs(up))
         self.kappa_d = kappa_d
-        # damping: +kappa_d on lower-only entries, -kappa_d on upper-only ones
-        self.damping = kappa_d * (has_lower & ~has_upper).astype(float) \
-            - kappa_d * (has_upper & ~has_lower).astype(float)
-        self._damping_mu = (None, None)
-        self._one_sided_lower = np.flatnonzero(has_lower[self.lower_index]
-                                               & ~has_upper[self.lower_index])
-        self._one_sided_upper = np.flatnonzero(has_upper[self.upper_index]
-                                               & ~has_lower[self.upper_index])
+        # the damped entries (bounded on one side only), in w and among the bounds'
+        lower_only, upper_only = has_lower & ~has_upper, has_upper & ~has_lower
+        self._damped_lower = np.flatnonzero(lower_only)
+        self._damped_upper = np.flatnonzero(upper_only)
+        self._one_sided_lower = np.flatnonzero(lower_only[self.lower_index])
+        self._one_sided_upper = np.flatnonzero(upper_only[self.upper_index])
 
     def gaps(self, w):
         """``(w - w_L, w_U - w)`` on the bounded entries."""
@@ -71,9 +69,12 @@ class PrimalBounds:
     def barrier_gradient(self, gradient_w, gap_lower, gap_upper, mu):
         r""":math:`\nabla \varphi_\mu` from the objective's gradient in ``w``
         (zero in the slacks)."""
-        if self._damping_mu[0] != mu:  # mu times the damping, kept while mu is
-            self._damping_mu = (mu, mu * self.damping)
-        out = gradient_w + self._damping_mu[1]
+        # + mu kappa_d on the lower-only entries, - on the upper-only ones, + 0.0
+        # elsewhere (the sums of a full damping vector's, a zero's sign too)
+        out = gradient_w + 0.0
+        damping = mu * self.kappa_d
+        out[self._damped_lower] += damping
+        out[self._damped_upper] -= damping
         out[self.lower_index] -= mu / gap_lower
         out[self.upper_index] += mu / gap_upper
         return out
@@ -98,14 +99,23 @@ class PrimalBounds:
                       fraction_to_boundary(z_upper, dz_upper, tau))
         return dz_lower, dz_upper, alpha_max, alpha_z
 
+    def dense(self, start=0):
+        """``(lower, upper)`` of the entries from ``start`` on, relaxed,
+        infinite where absent, shapes (size - start,)."""
+        lower = np.full(self.size - start, -np.inf)
+        upper = np.full(self.size - start, np.inf)
+        for out, index, values in ((lower, self.lower_index, self.lower),
+                                   (upper, self.upper_index, self.upper)):
+            at = index >= start
+            out[index[at] - start] = values[at]
+        return lower, upper
+
     def push(self, w, push, frac):
         """``w`` moved into the bounds' interior (IPOPT's ``bound_push`` and
         ``bound_frac``: at least ``min(push * max(1, |bound|), frac * (upper -
         lower))`` from each bound)."""
         w = np.array(w, dtype=float)
-        lower = np.full(self.size, -np.inf)
-        upper = np.full(self.size, np.inf)
-        lower[self.lower_index], upper[self.upper_index] = self.lower, self.upper
+        lower, upper = self.dense()
         width = upper - lower
         with np.errstate(invalid="ignore"):
             p_lower = np.minimum(push * np.maximum(1.0, np.abs(lower)), frac * width)

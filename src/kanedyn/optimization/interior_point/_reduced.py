@@ -69,7 +69,9 @@ class ReducedNLP:
         x_upper = np.asarray(nlp.x_upper, dtype=float).reshape(n_full)
         g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
         g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
+        #: the full bounds, the NLP's own arrays when they are of floats (not copied)
         self.x_lower_full, self.x_upper_full = x_lower, x_upper
+        self.g_lower_full, self.g_upper_full = g_lower, g_upper
         fixed = x_lower == x_upper
         self.fixed = np.flatnonzero(fixed)
         self.free = np.flatnonzero(~fixed)
@@ -86,10 +88,15 @@ class ReducedNLP:
         column_of[self.free] = np.arange(self.n)
         row_of = np.full(m_full, -1, dtype=index)
         row_of[self.rows] = np.arange(self.m)
-        # the patterns are checked, then held in the compact type (the full
-        # Jacobian's is asked of the NLP again when fixed variables need it)
+        # the patterns are checked, then held in the compact type (of the full
+        # Jacobian's only its entries in the fixed variables' columns)
         jr, jc = (a.astype(index) for a in check_structure(
             "the NLP's jacobian_structure", nlp.jacobian_structure(), m_full, n_full))
+        # the entries in the fixed variables' columns: their multipliers at the end
+        in_fixed = np.flatnonzero(column_of[jc] < 0)
+        fixed_of = np.zeros(n_full, dtype=index)
+        fixed_of[self.fixed] = np.arange(self.fixed.size)
+        self._fixed_jacobian = (in_fixed, jr[in_fixed], fixed_of[jc[in_fixed]])
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
         self.jacobian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
@@ -103,8 +110,6 @@ class ReducedNLP:
         self._all_rows = self.m == m_full
         self._all_jacobian = self.jacobian_entries.size == jr.size
         self._all_hessian = self.hessian_entries.size == hr.size
-        self._g_lower, self._g_upper = g_lower[kept], g_upper[kept]
-        self._x_lower, self._x_upper = x_lower[self.free], x_upper[self.free]
         self.objective_scale = 1.0
         self.row_scale = np.ones(self.m)
         #: each Jacobian entry's row scale, or ``None`` while every row's is 1
@@ -135,12 +140,13 @@ class ReducedNLP:
     # ------------------------------------------------------------ bounds
     def variable_bounds(self):
         """``(lower, upper)`` of the free variables (infinite beyond 1e19)."""
-        return _infinite(self._x_lower), _infinite(self._x_upper)
+        return (_infinite(self.x_lower_full[self.free]),
+                _infinite(self.x_upper_full[self.free]))
 
     def row_bounds(self):
         """``(lower, upper)`` of the kept rows, scaled (infinite beyond 1e19)."""
-        return (_infinite(self._g_lower) * self.row_scale,
-                _infinite(self._g_upper) * self.row_scale)
+        return (_infinite(self.g_lower_full[self.rows]) * self.row_scale,
+                _infinite(self.g_upper_full[self.rows]) * self.row_scale)
 
     # -------------------------------------------------------- evaluation
     def full(self, x):
@@ -188,7 +194,9 @@ class ReducedNLP:
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""
         rows, cols = self.jacobian_structure
-        return np.bincount(cols, weights=jacobian_values * y[rows], minlength=self.n)
+        weights = y[rows]
+        weights *= jacobian_values  # in place: one (nnz,) array less
+        return np.bincount(cols, weights=weights, minlength=self.n)
 
     # ---------------------------------------------------------- unscaling
     def multipliers_full(self, x_full, y, z_lower, z_upper):
@@ -199,12 +207,11 @@ class ReducedNLP:
         g[self.rows] = y * self.row_scale / sf
         zl, zu = np.zeros(self.n_full), np.zeros(self.n_full)
         zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
-        if self.fixed.size:
-            jr, jc = (np.asarray(a).ravel() for a in self.nlp.jacobian_structure())
-            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
-            stationarity = np.asarray(self.nlp.gradient(x_full), dtype=float) + np.bincount(
-                jc, weights=values * g[jr], minlength=self.n_full)
-            r = stationarity[self.fixed]
+        if self.fixed.size:  # the Lagrangian's gradient in their columns
+            entries, rows, columns = self._fixed_jacobian
+            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)[entries]
+            r = np.asarray(self.nlp.gradient(x_full), dtype=float)[self.fixed] + np.bincount(
+                columns, weights=values * g[rows], minlength=self.fixed.size)
             zl[self.fixed], zu[self.fixed] = np.maximum(r, 0.0), np.maximum(-r, 0.0)
         return {"g": g, "x_lower": zl, "x_upper": zu}
 

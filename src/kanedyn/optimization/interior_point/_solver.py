@@ -148,7 +148,7 @@ class _Run:
 
     def __init__(self, nlp, x0, settings, warm, stop):
         self.nlp, self.s, self.warm, self.stop = nlp, settings, warm, stop
-        self.x0 = np.asarray(x0, dtype=float).reshape(int(nlp.n)).copy()
+        self.x0 = np.asarray(x0, dtype=float).reshape(int(nlp.n))  # read, never written
         self.timings = dict(callbacks=0.0, hessian=0.0, factor_solve=0.0, line_search=0.0,
                             total=0.0)
         self.note = None
@@ -199,7 +199,7 @@ class _Run:
     def _result(self, status, w, y, z_lower, z_upper, e):
         from .._solvers import NLPSolution
         R, n = self.reduced, self.n
-        x_full = R.full(w[:n]) if w is not None else self.x0
+        x_full = R.full(w[:n]) if w is not None else self.x0.copy()
         if w is None:
             multipliers = {"g": np.zeros(R.m_full), "x_lower": np.zeros(R.n_full),
                            "x_upper": np.zeros(R.n_full)}
@@ -209,6 +209,8 @@ class _Run:
             lo, up = self.bounds.lower_index, self.bounds.upper_index
             zl[lo[lo < n]] = z_lower[lo < n]
             zu[up[up < n]] = z_upper[up < n]
+            if e is not None:  # the run ends: its derivatives not held with the NLP's last
+                e.gradient = e.jacobian = None
             with np.errstate(all="ignore"):
                 multipliers = R.multipliers_full(x_full, y, zl, zu)
             objective = e.objective / R.objective_scale
@@ -224,6 +226,25 @@ class _Run:
         self.reduced = R = ReducedNLP(self.nlp, self.x0, s)
         self.n, self.m = n, m = R.n, R.m
         self.inequality = R.inequality
+        # (each in a method of its own: what it computes from is not held
+        # while the KKT system is set up)
+        if not self._scale():
+            return False
+        self._set_bounds()
+        kkt_type, self.note = kkt_class(s.linear_solver)
+        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        #: the optimality errors' sums and maxima: SparseKKT's, one call (the
+        #: same numbers as NumPy's, which DenseKKT's solves take)
+        self.error_reductions = getattr(self.kkt, "error_reductions", None)
+        self.stepper = StepSolver(self.kkt, n, m, self.inequality, s)
+        return True
+
+    def _scale(self):
+        """The reduced NLP's scaling from the derivatives at the start point
+        (:meth:`._reduced.ReducedNLP.scale_at`); ``False`` when one is not
+        finite.  The NLP's evaluation there is then dropped (the start point
+        evaluates again)."""
+        R = self.reduced
         t = time.perf_counter()
         with np.errstate(all="ignore"):
             gradient = np.asarray(self.nlp.gradient(R.template), dtype=float)
@@ -232,6 +253,15 @@ class _Run:
         if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
         R.scale_at(R.template, gradient, jacobian)
+        forget = getattr(self.nlp, "forget_evaluation", None)
+        if forget is not None:
+            forget()
+        return True
+
+    def _set_bounds(self):
+        """The primal bounds (:class:`._bounds.PrimalBounds`), the rows'
+        targets and the slacks' bounds, scaled."""
+        R, s = self.reduced, self.s
         x_lower, x_upper = R.variable_bounds()
         g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
@@ -239,20 +269,10 @@ class _Run:
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
                                    np.concatenate([x_upper, g_upper[ineq]]),
                                    s.bound_relax_factor, s.kappa_d)
-        lower, upper = np.full(self.bounds.size, -np.inf), np.full(self.bounds.size, np.inf)
-        lower[self.bounds.lower_index] = self.bounds.lower
-        upper[self.bounds.upper_index] = self.bounds.upper
-        self.slack_bounds = (lower[n:], upper[n:])
-        kkt_type, self.note = kkt_class(s.linear_solver)
-        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
-        #: the optimality errors' sums and maxima: SparseKKT's, one call (the
-        #: same numbers as NumPy's, which DenseKKT's solves take)
-        self.error_reductions = getattr(self.kkt, "error_reductions", None)
-        self.stepper = StepSolver(self.kkt, n, m, ineq, s)
-        return True
+        self.slack_bounds = self.bounds.dense(start=self.n)
 
     def _start(self):
-        """``(w, y, z_lower, z_upper, evaluation)`` or ``None`` (not finite)."""
+        """``[w, y, z_lower, z_upper, evaluation]`` or ``None`` (not finite)."""
         s, n, R = self.s, self.n, self.reduced
         warm = self.warm is not None
         x = self.bounds.push(np.concatenate([self.x0[R.free], np.zeros(len(self.inequality))]),
@@ -266,7 +286,7 @@ class _Run:
             y, zl_x, zu_x = R.scaled_multipliers(self.warm)
             z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
                                                 s.warm_start_mult_bound_push)
-            return w, y, z_lower, z_upper, e
+            return [w, y, z_lower, z_upper, e]
         z_lower = np.full(self.bounds.lower_index.size, s.bound_mult_init_val)
         z_upper = np.full(self.bounds.upper_index.size, s.bound_mult_init_val)
         gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
@@ -277,7 +297,7 @@ class _Run:
                                       R.hessian_entries.size, gradient_w,
                                       s.constr_mult_init_max)
         self.timings["factor_solve"] += time.perf_counter() - t
-        return w, y, z_lower, z_upper, e
+        return [w, y, z_lower, z_upper, e]
 
     # ------------------------------------------------------------- solve
     def solve(self):
@@ -289,16 +309,16 @@ class _Run:
         started = self._start()
         if started is None:
             return self._result(-13, None, None, None, None, None)
-        status = self._iterate(*started)
-        return status
+        return self._iterate(started)
 
     def _measures(self, w, y, z_lower, z_upper, e, mu, gaps=None, c=None):
         """Residuals and optimality errors at the current iterate (``gaps``
         and the rows' residuals ``c`` at ``w`` when the caller has them)."""
         n, B, R = self.n, self.bounds, self.reduced
         gap_lower, gap_upper = B.gaps(w) if gaps is None else gaps
-        jty = R.transpose_times(e.jacobian, y)
-        lagrangian = self._in_w(e.gradient + jty)  # grad of f + y^T c in w
+        lagrangian = R.transpose_times(e.jacobian, y)
+        lagrangian += e.gradient  # grad of f + y^T c (summed in place), then in w
+        lagrangian = self._in_w(lagrangian)
         if self.inequality.size:
             lagrangian[n:] = -y[self.inequality]
         dual = lagrangian.copy()
@@ -306,7 +326,7 @@ class _Run:
         dual[B.upper_index] += z_upper
         if c is None:
             c = self._row_residuals(e.rows, w)
-        m = dict(gap_lower=gap_lower, gap_upper=gap_upper, jty=jty, lagrangian=lagrangian,
+        m = dict(gap_lower=gap_lower, gap_upper=gap_upper, lagrangian=lagrangian,
                  c=c, dual=dual, violation=self.unscaled_violation(e.rows, c))
         return self._errors(m, y, z_lower, z_upper, mu)
 
@@ -377,7 +397,11 @@ class _Run:
         return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
                 and compl <= s.compl_inf_tol)
 
-    def _iterate(self, w, y, z_lower, z_upper, e):
+    def _iterate(self, started):
+        """The iterations from ``started`` (of :meth:`_start`, the caller's
+        tuple emptied: the start point is not kept past the first step)."""
+        w, y, z_lower, z_upper, e = started
+        started.clear()
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
@@ -428,6 +452,7 @@ class _Run:
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
+            del hessian, sigma  # factored: not held through the line search
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
             step, dz_lower, dz_upper, alpha_max, alpha_z = direction
@@ -484,6 +509,15 @@ class _Run:
             z_lower = z_lower + alpha_z * dz_lower
             z_upper = z_upper + alpha_z * dz_upper
             e = trial
+            if s.print_level:  # the printed row's columns
+                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
+                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
+                           trials=trials, kind=("F" if f_type else "H") if corrected
+                           else ("f" if f_type else "h"))
+            # this step's arrays are not held into the new point's derivatives,
+            # measures, Hessian and factorization
+            del gradient_w, barrier_gradient, residual_w, direction, step, step_used, found, \
+                dw, dy, dz_lower, dz_upper
             if not self._derivatives(e):
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
@@ -491,11 +525,6 @@ class _Run:
             self.iteration += 1
             m = self._measures(w, y, z_lower, z_upper, e, mu, gaps, c)
             m.update(theta=theta_trial, phi=(mu, phi_trial))
-            if s.print_level:  # the printed row's columns
-                row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
-                           step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
-                           trials=trials, kind=("F" if f_type else "H") if corrected
-                           else ("f" if f_type else "h"))
 
     def _trial(self, w_trial, mu):
         """``(evaluation, w, theta, phi, gaps, c)`` at a trial point (``gaps``

@@ -198,11 +198,12 @@ class StepSolver:
             for _ in range(int(self.settings.max_refinement_steps)):
                 if not np.isfinite(solution).all():
                     break
-                error = rhs - self.kkt.matvec(solution)
+                error = self.kkt.matvec(solution)  # a new array, as the solves'
+                np.subtract(rhs, error, out=error)
                 if not np.abs(error).max(initial=0.0) > self.settings.residual_ratio_max \
                         * scale:
                     break
-                solution = solution + self.kkt.solve(error)
+                solution += self.kkt.solve(error)  # in place: the same sum
         if not np.isfinite(solution).all():
             return None
         dx, dy = solution[:n], solution[n:]
