@@ -87,7 +87,7 @@ def kkt_matrix(nlp, values):
     """K as a SciPy CSC matrix (both triangles)."""
     hv, jv, dx, dc = values
     n, m = nlp.n, nlp.m
-    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    (hr, hc), (jr, jc) = nlp.hessian_structure(), nlp.jacobian_structure()
     H = sp.coo_matrix((hv, (hr, hc)), shape=(n, n)).tocsc()
     H = H + sp.tril(H, -1).T + sp.diags(dx)
     J = sp.coo_matrix((jv, (jr, jc)), shape=(m, n)).tocsc()
@@ -105,7 +105,7 @@ def minimum_degree_fill(K):
 def run(nodes, method, rounds, orders):
     nlp = pendulum_nlp(nodes, method)
     values = kkt_values(nlp)
-    structures = (nlp.exact_hessian.structure, nlp.structure)
+    structures = (nlp.hessian_structure(), nlp.jacobian_structure())
     start = time.perf_counter()
     kkt = SparseKKT(nlp.n, nlp.m, *structures)
     analysis_time = time.perf_counter() - start

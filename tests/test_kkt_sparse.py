@@ -290,7 +290,7 @@ def test_pendulum_collocation_kkt(method, free_duration):
     nlp, rng, z, jv = _pendulum_point(method, free_duration, 11, 5)
     n, m = nlp.n, nlp.m
     hv = nlp.hessian(z, rng.normal(size=m), 1.0)
-    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    (hr, hc), (jr, jc) = nlp.hessian_structure(), nlp.jacobian_structure()
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
     if free_duration and method == "hermite-simpson":
         assert kkt.analysis.n_dense >= 1  # the duration's column
@@ -322,7 +322,7 @@ def test_pendulum_kkt_as_the_interior_point_method_builds_it(method, free_durati
     n, m = nlp.n, nlp.m
     bounded = np.isfinite(nlp.x_lower) | np.isfinite(nlp.x_upper)
     dx = np.where(bounded, 1e3, 0.0)
-    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    (hr, hc), (jr, jc) = nlp.hessian_structure(), nlp.jacobian_structure()
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
     for multipliers in (np.zeros(m), rng.normal(size=m)):
         hv = nlp.hessian(z, multipliers, 1.0)
@@ -339,7 +339,7 @@ def test_pendulum_order_finds_the_band():
     nlp = _pendulum_nlp("trapezoid", True, nodes=41)
     n, m = nlp.n, nlp.m
     rng = np.random.default_rng(2)
-    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    (hr, hc), (jr, jc) = nlp.hessian_structure(), nlp.jacobian_structure()
     hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
     K = _dense(n, m, (hr, hc, hv), (jr, jc, jv), np.full(n, 50.0), np.ones(m))
@@ -533,7 +533,7 @@ def test_the_band_sweeps_each_pair_before_its_rows_other_variables():
     reverse Cuthill-McKee ran."""
     nlp = _pendulum_nlp("trapezoid", False, nodes=41)
     n, m = nlp.n, nlp.m
-    (hr, hc), (jr, jc) = nlp.exact_hessian.structure, nlp.structure
+    (hr, hc), (jr, jc) = nlp.hessian_structure(), nlp.jacobian_structure()
     kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
     permutation, kind = kkt.analysis.permutation, kkt._kind
     position = np.empty(n + m, dtype=int)

@@ -153,11 +153,6 @@ def _pattern(shape, rows, cols):
     return _made(shape, [(rows, cols, 0)], False)
 
 
-def _graph(size, rows, cols):
-    """The symmetric 0/1 pattern (CSR) of the pairs ``(rows, cols)`` (:func:`_made`)."""
-    return _made((size, size), [(rows, cols, 0)], True)
-
-
 def _entries(pattern):
     """``(rows, cols)`` of a CSR pattern's entries, in its order."""
     return (np.repeat(np.arange(pattern.shape[0], dtype=np.int32), np.diff(pattern.indptr)),

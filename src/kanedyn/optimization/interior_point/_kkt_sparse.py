@@ -25,13 +25,13 @@ the pattern of the permuted upper triangle of :math:`K` (CSC; every diagonal
 entry present); the maps of every Hessian entry, Jacobian entry and diagonal
 entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
-the two columns of a pair get the same rows); and all the storage the
-numeric phase needs (:math:`L`'s indices and values, :math:`D`, the values
-of :math:`K`; the kernel's scratch is allocated by each call).  The patterns
-are made in int32 by the kernel (:mod:`._kkt_kernel`), with no int64 copy of
-the entries.  All but the storage is kept for
-the next object of the same inputs (:mod:`._kkt_analyses`: a problem solved
-again makes the same analyses).
+the two columns of a pair get the same rows).  The patterns are made in
+int32 by the kernel (:mod:`._kkt_kernel`), with no int64 copy of the
+entries.  The analysis is kept for the next object of the same inputs
+(:mod:`._kkt_analyses`: a problem solved again makes the same analyses).
+The numeric storage (the values of :math:`K`, :math:`L`'s indices and
+values, :math:`D`) is made by the first :meth:`~SparseKKT.factor` and held
+until :meth:`~SparseKKT.release`; the kernel's scratch by each call.
 
 **Factorization, per call** (:meth:`SparseKKT.factor`, compiled, the GIL
 released): the values scattered through the maps, then an up-looking block
