@@ -272,7 +272,7 @@ class _Run:
         self.slack_bounds = self.bounds.dense(start=self.n)
 
     def _start(self):
-        """``[w, y, z_lower, z_upper, evaluation]`` or ``None`` (not finite)."""
+        """``(w, y, z_lower, z_upper, evaluation)`` or ``None`` (not finite)."""
         s, n, R = self.s, self.n, self.reduced
         warm = self.warm is not None
         x = self.bounds.push(np.concatenate([self.x0[R.free], np.zeros(len(self.inequality))]),
@@ -286,7 +286,7 @@ class _Run:
             y, zl_x, zu_x = R.scaled_multipliers(self.warm)
             z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
                                                 s.warm_start_mult_bound_push)
-            return [w, y, z_lower, z_upper, e]
+            return w, y, z_lower, z_upper, e
         z_lower = np.full(self.bounds.lower_index.size, s.bound_mult_init_val)
         z_upper = np.full(self.bounds.upper_index.size, s.bound_mult_init_val)
         gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
@@ -297,7 +297,7 @@ class _Run:
                                       R.hessian_entries.size, gradient_w,
                                       s.constr_mult_init_max)
         self.timings["factor_solve"] += time.perf_counter() - t
-        return [w, y, z_lower, z_upper, e]
+        return w, y, z_lower, z_upper, e
 
     # ------------------------------------------------------------- solve
     def solve(self):
@@ -306,10 +306,7 @@ class _Run:
         R = self.reduced
         if np.count_nonzero(R.equality) > self.n:
             return self._result(-10, None, None, None, None, None)
-        started = self._start()
-        if started is None:
-            return self._result(-13, None, None, None, None, None)
-        return self._iterate(started)
+        return self._iterate()
 
     def _measures(self, w, y, z_lower, z_upper, e, mu, gaps=None, c=None):
         """Residuals and optimality errors at the current iterate (``gaps``
@@ -397,11 +394,14 @@ class _Run:
         return (m["error"] <= s.tol and dual <= s.dual_inf_tol and primal <= s.constr_viol_tol
                 and compl <= s.compl_inf_tol)
 
-    def _iterate(self, started):
-        """The iterations from ``started`` (of :meth:`_start`, the caller's
-        tuple emptied: the start point is not kept past the first step)."""
+    def _iterate(self):
+        """The iterations from :meth:`_start`'s point (held by no other frame:
+        not kept past the first step)."""
+        started = self._start()
+        if started is None:
+            return self._result(-13, None, None, None, None, None)
         w, y, z_lower, z_upper, e = started
-        started.clear()
+        del started
         s, n, B = self.s, self.n, self.bounds
         mu = s.mu_init
         tau = max(s.tau_min, 1.0 - mu)
