@@ -36,7 +36,11 @@ time, ``_ocp_peers.DOUBLE_PENDULUM_CART``), posed as the gallery poses it
 (300 nodes, backward Euler, its own initial guess), opty's equations by
 SymPy's KanesMethod, kanedyn's by ``kd.kane`` on the same SymPy objects.
 Each is also restarted from the other's optimum, to check that both
-discrete problems have the same optima.
+discrete problems have the same optima.  With ``--solvers ... interior-point``
+kanedyn's interior point solves it too, with its limited-memory Hessian
+(the exact one stalls there, and IPOPT's exact one ends infeasible): IPOPT's
+update and Powell's damped one, each from the gallery's guess and from
+opty's optimum.
 
 Nodes against memory and time (``--scan``): the pendulum swing-up solved
 in a fresh child process per run, from the 501-node optimum interpolated,
@@ -80,7 +84,8 @@ Usage::
     python benchmarks/bench_optimal_control.py [--nodes 100 1000 10000] [--cart-pole 100] \
         [--hessian exact] [--solvers ipopt interior-point] [--linear-solver dense] \
         [--repeat 5]
-    python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300
+    python benchmarks/bench_optimal_control.py --nodes --cart-pole --gallery 300 \
+        [--solvers ipopt interior-point]
     python benchmarks/bench_optimal_control.py --nodes --cart-pole --scan \
         [--scan-nodes 1000 3000 ...] [--memory-budget 4] [--time-budget 600] \
         [--address-cap 12] [--scan-max-iter 15] [--budgets 1 2] [--contenders ...]
@@ -255,6 +260,7 @@ def double_pendulum_gallery(nodes):
     guess = peers.double_pendulum_cart_guess(N)
     start = time.perf_counter()
     problem, _ = peers.double_pendulum_cart_kanedyn(N)
+    k_build = time.perf_counter() - start
     ours = problem.solve(guess, options=peers.IPOPT_OPTIONS)
     k_total = time.perf_counter() - start
     start = time.perf_counter()
@@ -295,6 +301,39 @@ def double_pendulum_gallery(nodes):
     print(f"  kanedyn from the gallery's guess (acceptable_iter=0): h "
           f"{ours_strict.objective:.10g} in {ours_strict.iterations} iterations "
           f"({ours_strict.wall_time:.1f} s), status {ours_strict.status}")
+    if "interior-point" in SOLVERS["kanedyn"]:
+        _gallery_interior_point(problem, guess, theirs, k_build, o_total, o_solve,
+                                o_iterations, float(info["obj_val"]))
+
+
+def _gallery_interior_point(problem, guess, theirs, build, o_total, o_solve, o_iterations,
+                            o_h):
+    """The gallery problem by kanedyn's interior point with its limited-memory
+    Hessian, IPOPT's update (skipping pairs of negative curvature) and
+    Powell's damped one: from the gallery's guess (the acceptable stop, then
+    without it) and from opty's optimum ``theirs``.  Model -> optimum is the
+    first build's time (``build``, the cold one, before IPOPT's solve) plus
+    the solve."""
+    N = problem.nodes
+    for update in ("bfgs", "damped-bfgs"):
+        options = dict(interior_point_options(), limited_memory_update_type=update)
+        found = problem.solve(guess, solver="interior-point", options=options)
+        per = found.wall_time / max(found.iterations, 1)
+        total = build + found.wall_time
+        print(f"  interior point, limited memory ({update}): model->optimum {total:6.2f} s  "
+              f"solve {found.wall_time:6.2f} s  iterations {found.iterations:5d}  per "
+              f"iteration {1e3 * per:6.2f} ms  h {found.objective:.10g} s (duration "
+              f"{found.objective * (N - 1):.6g} s)  status {found.status}")
+        print(f"    opty / interior point: model->optimum {o_total / total:.2f}x, per "
+              f"iteration {(o_solve / max(o_iterations, 1)) / per:.2f}x; h "
+              f"{abs(found.objective / o_h - 1):.1e} from opty's")
+        strict = dict(options, acceptable_iter=0)
+        for name, start in (("the gallery's guess", guess), ("opty's optimum", theirs)):
+            again = problem.solve(start, solver="interior-point", options=strict)
+            print(f"    from {name} (acceptable_iter=0): h {again.objective:.10g} "
+                  f"({abs(again.objective / o_h - 1):.1e} from opty's) in "
+                  f"{again.iterations} iterations ({again.wall_time:.2f} s), status "
+                  f"{again.status}")
 
 
 # -------------------------------------------------- nodes against memory and time

@@ -9,9 +9,11 @@
     kanedyn optimize pendulum --method lgr --degree 4 --nodes 41
     kanedyn optimize pendulum --hessian exact
     kanedyn optimize pendulum --solver interior-point
+    kanedyn optimize pendulum --solver interior-point --hessian limited-memory
 
 The problem is posed, solved by IPOPT (or kanedyn's own interior-point
-solver, ``--solver interior-point``, with the exact Hessian) and checked by
+solver, ``--solver interior-point``, with the exact Hessian unless
+``--hessian limited-memory``) and checked by
 simulation (each problem says how); the summary is printed.  Exit code 0
 when the solver solved it, 1 when it did not (the last iterate is still
 written), 2 for bad input.
@@ -64,16 +66,16 @@ def add_parser(sub):
                         "numpy or c")
     p.add_argument("--solver", choices=("ipopt", "interior-point"), default="ipopt",
                    help="the NLP solver: IPOPT (default) or kanedyn's own interior-point "
-                        "method (exact Hessian only; no extra needed)")
+                        "method (no extra needed)")
     p.add_argument("--tol", type=positive_float, default=None,
                    help="the solver's tolerance (default 1e-8)")
     p.add_argument("--max-iter", type=whole_number(1, "iteration"), default=None,
                    help="the solver's iteration limit (default 3000)")
     p.add_argument("--hessian", choices=("limited-memory", "exact"), default=None,
-                   help="the Hessian of the Lagrangian IPOPT uses: its limited-memory "
-                        "approximation (default) or the exact one from the model's second "
-                        "derivatives (refused, with the reason, for models with constraints "
-                        "or contacts; the interior-point solver's only one)")
+                   help="the Hessian of the Lagrangian: the limited-memory (BFGS) "
+                        "approximation (IPOPT's default) or the exact one from the model's "
+                        "second derivatives (the interior-point solver's default; refused, "
+                        "with the reason, for models with constraints or contacts)")
     p.add_argument("--plot", default=None, metavar="FILE",
                    help="write the problem's figure (PNG)")
     p.add_argument("--output", default=None, metavar="CSV",
@@ -145,9 +147,6 @@ def cmd_optimize(args):
     missing = SOLVERS[args.solver].available()
     if missing:
         raise KanedynError(missing)
-    if args.solver == "interior-point" and args.hessian == "limited-memory":
-        raise KanedynError("--solver interior-point takes the exact Hessian only: leave out "
-                           "--hessian limited-memory (or use --solver ipopt)")
     problem = optimal_problem(args.model, args.problem)
     if args.method is not None and args.method not in COLLOCATION_METHODS:
         raise KanedynError(f"--method {args.method!r}: available "

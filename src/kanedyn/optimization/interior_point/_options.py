@@ -69,8 +69,17 @@ DEFAULTS = {
     "linear_solver": "auto",             # "sparse", "dense", or auto: sparse if it builds
     "max_refinement_steps": 10,
     "residual_ratio_max": 1e-10,
+    # the Hessian: None follows solve(hessian=...) (exact when the NLP has
+    # it); "limited-memory" BFGS (._quasi_newton), IPOPT's defaults
+    "hessian_approximation": None,
+    "limited_memory_max_history": 6,
+    "limited_memory_init_val": 1.0,
+    "limited_memory_init_val_min": 1e-8,
+    "limited_memory_init_val_max": 1e8,
+    "limited_memory_max_skipping": 2,
+    # Powell's damping (._quasi_newton); "bfgs": IPOPT's update, skipping pairs
+    "limited_memory_update_type": "damped-bfgs",
     # accepted for IPOPT compatibility, one value only
-    "hessian_approximation": "exact",
     "mu_strategy": "monotone",
 }
 
@@ -78,11 +87,13 @@ DEFAULTS = {
 CHOICES = {
     "nlp_scaling_method": ("gradient-based", "none"),
     "linear_solver": ("auto", "sparse", "dense"),
-    "hessian_approximation": ("exact",),
+    "hessian_approximation": ("exact", "limited-memory"),
+    "limited_memory_update_type": ("bfgs", "damped-bfgs"),
     "mu_strategy": ("monotone",),
 }
 
-_INTEGERS = {"max_iter", "acceptable_iter", "print_level", "max_soc", "max_refinement_steps"}
+_INTEGERS = {"max_iter", "acceptable_iter", "print_level", "max_soc", "max_refinement_steps",
+             "limited_memory_max_history", "limited_memory_max_skipping"}
 
 
 #: option -> (low, high, whether ``high`` itself is allowed): IPOPT's ranges,
@@ -102,6 +113,9 @@ RANGES = {
     "perturb_dec_fact": (0.0, 1.0, False),
     "perturb_inc_fact": (1.0, math.inf, False),
     "perturb_inc_fact_first": (1.0, math.inf, False),
+    "limited_memory_init_val": (0.0, math.inf, False),
+    "limited_memory_init_val_min": (0.0, math.inf, False),
+    "limited_memory_init_val_max": (0.0, math.inf, False),
 }
 
 
@@ -131,10 +145,8 @@ def settings(options):
     for key, value in options.items():
         if key in CHOICES:
             if value not in CHOICES[key]:
-                hint = (' (only the exact Hessian: solve(hessian="exact"))'
-                        if key == "hessian_approximation" else "")
                 raise OptionError(f"interior-point option {key}={value!r}: give one of "
-                                 f"{', '.join(map(repr, CHOICES[key]))}{hint}")
+                                 f"{', '.join(map(repr, CHOICES[key]))}")
         elif key in _INTEGERS:
             if isinstance(value, bool) or not isinstance(value, numbers.Integral) \
                     or value < 0:
@@ -149,6 +161,10 @@ def settings(options):
             if key in RANGES:
                 _in_range(key, value)
         merged[key] = value
+    if merged["limited_memory_init_val_min"] > merged["limited_memory_init_val_max"]:
+        raise OptionError("interior-point options limited_memory_init_val_min="
+                          f"{merged['limited_memory_init_val_min']!r} > "
+                          f"limited_memory_init_val_max={merged['limited_memory_init_val_max']!r}")
     if merged["tol"] <= 0:
         raise OptionError(f"interior-point option tol={merged['tol']!r}: give a number > 0")
     return SimpleNamespace(**merged)

@@ -44,6 +44,9 @@ class ReducedNLP:
         The starting point (its fixed entries replaced by their values).
     settings : namespace
         The solver's options (:func:`._options.settings`).
+    exact_hessian : bool
+        Whether the NLP's Hessian is used; if not, the Hessian's pattern is
+        empty (the limited-memory approximation, :mod:`._quasi_newton`).
 
     Attributes
     ----------
@@ -61,7 +64,7 @@ class ReducedNLP:
     objective_scale : float
     """
 
-    def __init__(self, nlp, x0, settings):
+    def __init__(self, nlp, x0, settings, exact_hessian=True):
         self.nlp = nlp
         n_full, m_full = int(nlp.n), int(nlp.m)
         self.n_full, self.m_full = n_full, m_full
@@ -100,8 +103,9 @@ class ReducedNLP:
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
         self.jacobian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
+        hessian_structure = nlp.hessian_structure() if exact_hessian else ([], [])
         hr, hc = (a.astype(index) for a in check_structure(
-            "the NLP's hessian_structure", nlp.hessian_structure(), n_full, n_full, lower=True))
+            "the NLP's hessian_structure", hessian_structure, n_full, n_full, lower=True))
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
         self.hessian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
         self.hessian_structure = (column_of[hr[use]], column_of[hc[use]])

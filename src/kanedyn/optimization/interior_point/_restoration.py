@@ -54,6 +54,7 @@ import numpy as np
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
+from ._quasi_newton import LimitedMemoryBFGS
 from ._step import StepSolver
 
 __all__ = ["Restoration", "Restored", "PENALTY", "REQUIRED_REDUCTION",
@@ -182,6 +183,8 @@ class Restoration:
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         (gap_lower, gap_upper), (c_r, c) = BR.gaps(wr), self._residuals(e, wr)
         last = None  # (mu, theta, phi) of the last accepted trial point
+        # the limited-memory approximation of the rows' part, its own pairs
+        quasi_newton = None if run.quasi_newton is None else LimitedMemoryBFGS(s)
         while True:
             zeta = np.sqrt(mu_r)
             gradient = self._gradient(wr, zeta)
@@ -230,7 +233,7 @@ class Restoration:
                     reprint = True
                     continue
             # the Newton step
-            hessian = run.hessian_values(e, y, 0.0)  # the rows' part only
+            hessian = run.hessian_values(e, y, 0.0, quasi_newton)  # the rows' part only
             if hessian is None:
                 return self._failed(-13, wr, y, zl, zu, e)
             sigma = BR.sigma(zl, zu, gap_lower, gap_upper)

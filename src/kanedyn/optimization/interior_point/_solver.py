@@ -12,8 +12,10 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    once the barrier problem's optimality error is below
    :math:`\kappa_\epsilon\mu`);
 2. per iteration one Newton step of the primal-dual equations with the
-   exact Hessian of the Lagrangian, its linear system regularized to the
-   right inertia (:mod:`._step`);
+   exact Hessian of the Lagrangian or its limited-memory BFGS approximation
+   (``hessian_approximation="limited-memory"``, :mod:`._quasi_newton`,
+   factored through :mod:`._kkt_low_rank`), its linear system regularized
+   to the right inertia (:mod:`._step`);
 3. fraction to the boundary (:math:`\tau = \max(\tau_{\min}, 1 - \mu)`) for
    the primal variables and, separately, the bound multipliers;
 4. the filter line search with the switching and Armijo conditions and up
@@ -30,8 +32,10 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    the ``acceptable_`` tolerances.
 
 What it lacks against IPOPT: the watchdog, the adaptive barrier
-strategies, the quasi-Newton Hessian; the restoration phase's
-simplifications are listed in :mod:`._restoration`.
+strategies, the SR1 update; the restoration phase's simplifications are
+listed in :mod:`._restoration` (with the limited-memory Hessian it keeps a
+memory of its own, of the rows' part, emptied on entering; the NLP's is
+emptied after it).
 """
 
 from __future__ import annotations
@@ -45,8 +49,10 @@ import numpy as np
 from ..._errors import ModelError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
+from ._kkt_low_rank import LowRankKKT
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
+from ._quasi_newton import LimitedMemoryBFGS
 from ._reduced import ReducedNLP
 from ._restoration import Restoration
 from ._start import least_squares_multipliers, primal_start, warm_multipliers
@@ -93,8 +99,9 @@ class _Evaluation:
 
 
 class InteriorPoint:
-    """kanedyn's interior-point NLP solver (``solve(solver="interior-point",
-    hessian="exact")``).
+    """kanedyn's interior-point NLP solver (``solve(solver="interior-point")``:
+    with ``hessian="exact"`` the exact Hessian of the Lagrangian, else its
+    limited-memory BFGS approximation).
 
     Options are IPOPT's names where IPOPT has them
     (:data:`._options.DEFAULTS`), plus ``linear_solver``: ``"sparse"``,
@@ -119,8 +126,10 @@ class InteriorPoint:
         Parameters
         ----------
         nlp : object
-            The NLP interface of :mod:`kanedyn.optimization._solvers`, with the
-            exact Hessian (``nlp.exact_hessian`` not ``None``).
+            The NLP interface of :mod:`kanedyn.optimization._solvers`; its
+            exact Hessian (``nlp.exact_hessian``, ``None`` when it has none) is
+            used unless the option ``hessian_approximation`` is
+            ``"limited-memory"``.
         x0 : ndarray, shape (nlp.n,)
         options : dict, optional
             See :data:`._options.DEFAULTS`; an unknown name raises ``ValueError``.
@@ -130,9 +139,12 @@ class InteriorPoint:
             Asked once per iteration; ``True`` ends the solve (status 5).
         """
         s = checked_settings(options)
-        if getattr(nlp, "exact_hessian", None) is None:
-            raise ModelError('the interior-point solver needs the exact Hessian of the '
-                             'Lagrangian: pass hessian="exact" to solve()')
+        has_exact = getattr(nlp, "exact_hessian", None) is not None
+        if s.hessian_approximation == "exact" and not has_exact:
+            raise ModelError("interior-point option hessian_approximation='exact': this NLP "
+                             'has no exact Hessian; pass hessian="exact" to solve()')
+        if s.hessian_approximation is None:
+            s.hessian_approximation = "exact" if has_exact else "limited-memory"
         run = _Run(nlp, x0, s, warm, stop)
         # the callbacks and the iterations meet infinities and NaNs (a trial
         # point outside the model's domain, log of a zero gap): they are
@@ -223,7 +235,8 @@ class _Run:
     # ------------------------------------------------------------- start
     def _setup(self):
         s = self.s
-        self.reduced = R = ReducedNLP(self.nlp, self.x0, s)
+        exact = s.hessian_approximation == "exact"
+        self.reduced = R = ReducedNLP(self.nlp, self.x0, s, exact_hessian=exact)
         self.n, self.m = n, m = R.n, R.m
         self.inequality = R.inequality
         # (each in a method of its own: what it computes from is not held
@@ -233,6 +246,11 @@ class _Run:
         self._set_bounds()
         kkt_type, self.note = kkt_class(s.linear_solver)
         self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        #: the NLP's limited-memory approximation, or ``None`` (exact)
+        self.quasi_newton = None
+        if not exact:
+            self.kkt = LowRankKKT(self.kkt)
+            self.quasi_newton = LimitedMemoryBFGS(s)
         #: the optimality errors' sums and maxima: SparseKKT's, one call (the
         #: same numbers as NumPy's, which DenseKKT's solves take)
         self.error_reductions = getattr(self.kkt, "error_reductions", None)
@@ -349,14 +367,29 @@ class _Run:
             violation[self.inequality] = values - np.clip(values, *self.slack_bounds)
         return float((np.abs(violation) / self.reduced.row_scale).max(initial=0.0))
 
-    def hessian_values(self, e, y, objective_factor):
+    def hessian_values(self, e, y, objective_factor, quasi_newton=None):
         """The scaled Lagrangian's Hessian at ``e`` with the rows'
         multipliers ``y`` and the objective times ``objective_factor``, or
-        ``None`` when a value is not finite."""
+        ``None`` when a value is not finite; with ``quasi_newton`` (a
+        :class:`._quasi_newton.LimitedMemoryBFGS`) its approximation after
+        the pair from the last point it saw to ``e``."""
         t = time.perf_counter()
-        hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+        if quasi_newton is None:
+            hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+            finite = np.isfinite(hessian).all()
+        else:
+            x = e.x_full[self.reduced.free]
+            if quasi_newton.last is not None:
+                x_last, gradient_last, jacobian_last = quasi_newton.last
+                change = self.reduced.transpose_times(e.jacobian - jacobian_last, y)
+                if objective_factor:
+                    change += objective_factor * (e.gradient - gradient_last)
+                quasi_newton.update(x - x_last, change)
+            quasi_newton.last = (x, e.gradient, e.jacobian)
+            hessian = quasi_newton.compact(self.n)
+            finite = np.isfinite(hessian.V).all()
         self.timings["hessian"] += time.perf_counter() - t
-        return hessian if np.isfinite(hessian).all() else None
+        return hessian if finite else None
 
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
                   z_upper, gap_lower, gap_upper, mu, tau):
@@ -442,7 +475,7 @@ class _Run:
                 line_filter.reset()
                 m = self._errors(m, y, z_lower, z_upper, mu)
             # the Newton step
-            hessian = self.hessian_values(e, y, 1.0)
+            hessian = self.hessian_values(e, y, 1.0, self.quasi_newton)
             if hessian is None:
                 return self._result(-13, w, y, z_lower, z_upper, e)
             gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
@@ -491,6 +524,8 @@ class _Run:
                 if restored.status is not None:
                     return self._result(restored.status, *restored.point)
                 w, y, z_lower, z_upper, e = restored.point
+                if self.quasi_newton is not None:  # no pair across the restoration
+                    self.quasi_newton.reset()
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
                 restored_row = True
                 continue
