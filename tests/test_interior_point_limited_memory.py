@@ -292,3 +292,27 @@ def test_infeasible_swing_up_ends_as_ipopts_with_the_exact_hessian():
     ours = problem.solve(guess, solver="interior-point", options={"tol": 1e-10})
     assert theirs.status == 2 and ours.status == 2, (theirs.message, ours.message)
     assert "infeasib" in ours.message
+
+
+def test_closed_loop_which_the_exact_hessian_refuses():
+    """A model with constraints (the pendulum in Cartesian coordinates, the
+    circle at every node), for which ``hessian="exact"`` is refused: the
+    interior point with the approximation reaches IPOPT's optimum (IPOPT
+    with its own limited-memory Hessian) and keeps the constraints; the
+    swing to 0.5 rad in 2 s of least effort, Hermite-Simpson, 41 nodes."""
+    pytest.importorskip("cyipopt", reason="the comparison needs cyipopt (IPOPT)")
+    from test_optimal_control import _circle_pendulum
+    model, (x, y, vx, vy, tau) = _circle_pendulum()
+    problem = kd.OptimalControlProblem(
+        model, nodes=41, duration=2.0, lagrange=tau ** 2, initial={x: 0, vx: 0},
+        final={x: np.sin(0.5), vx: 0}, method="hermite-simpson")
+    guess = problem.guess_line(start={y: -1, vy: 0}, end={y: -np.cos(0.5), vy: 0},
+                               inputs={tau: 0.0})
+    with pytest.raises(kd.ModelError, match="a model with constraints"):
+        problem.solve(guess, solver="interior-point", hessian="exact")
+    ours = problem.solve(guess, solver="interior-point", options={"tol": 1e-10})
+    theirs = problem.solve(guess, options={"tol": 1e-10, "print_level": 0})
+    assert ours.success and theirs.success, (ours.message, theirs.message)
+    assert ours.objective == pytest.approx(theirs.objective, rel=1e-8)
+    residuals = np.array([model.constraint_residuals(0.0, yk) for yk in ours.y.T])
+    assert np.max(np.abs(residuals)) < 1e-9

@@ -36,10 +36,11 @@ procedure 18.2): where :math:`s^T y < 0.2\, s^T B s`, :math:`y` becomes
 Lagrangian is not convex the memory then keeps curvature that skipping
 throws away: with skipping, the steps of opty's least-time double pendulum
 shrink to gradient steps of :math:`B = I` (the memory emptied again and
-again) and the iterations stall short of the optimum; damped, they reach it
-(``docs/benchmarks.md``), and on the swing-ups that are infeasible with 40
-nodes the iterations end in local infeasibility (status 2) as IPOPT's with
-the exact Hessian do, where with skipping they run to ``max_iter``.
+again) and the iterations stall short of the optimum; damped, they converge
+to a local optimum (``docs/benchmarks.md``).  On the pendulum swing-ups that
+are infeasible with 40 nodes the damped iterations end in local
+infeasibility (status 2) as IPOPT's with the exact Hessian do; with
+skipping they run to ``max_iter``.
 
 :class:`._kkt_low_rank.LowRankKKT` factors the Newton system with
 :math:`\sigma I` on the diagonal and adds :math:`-V M^{-1} V^T` by the
