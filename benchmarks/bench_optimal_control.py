@@ -70,8 +70,8 @@ allocate its workspace at 10^6 nodes with 3.1 GiB resident.
 
 ``--solvers ipopt interior-point``: kanedyn's NLP solvers, each a row per
 size beside opty's: IPOPT (with ``--hessian``'s Hessian) and kanedyn's own
-interior-point method (``solve(solver="interior-point")``, always the exact
-Hessian, ``tol = 1e-10`` as IPOPT's; ``--linear-solver`` picks its
+interior-point method (``solve(solver="interior-point")``, the exact Hessian
+in these rows, ``tol = 1e-10`` as IPOPT's; ``--linear-solver`` picks its
 factorization, sparse by default, ``dense`` only for small sizes).  The
 interior-point rows also print where its time went per iteration: the
 callbacks (objective, constraints, their derivatives, trial points

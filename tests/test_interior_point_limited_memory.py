@@ -43,6 +43,13 @@ IPOPTS = dict(LIMITED, limited_memory_update_type="bfgs")
 ROW = re.compile(r"^\s*(\d+r?)\s*(-?\d\.\d{7}e[+-]\d\d) (\S+) +(\S+) +(\S+)", re.MULTILINE)
 
 
+def _without_hessian(nlp):
+    """``nlp`` (of ``test_interior_point``) without its exact Hessian, as
+    ``solve(hessian="limited-memory")`` makes the NLP."""
+    nlp.exact_hessian = None
+    return nlp
+
+
 def _pairs(rng, n, count):
     """``count`` pairs with s'y > 0: y = A s for a random positive definite A."""
     A = rng.normal(size=(n, n))
@@ -197,7 +204,7 @@ def test_hock_schittkowski_71_follows_ipopts_iterations(capsys, tmp_path):
     """HS71 from (1, 5, 5, 1): IPOPT's printed rows up to iteration 6 (the
     paths then part by less than the printed digits of the objective), the
     same optimum and multipliers."""
-    found = InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]),
+    found = InteriorPoint().solve(_without_hessian(_hs71()), np.array([1.0, 5.0, 5.0, 1.0]),
                                   dict(IPOPTS, linear_solver="dense", print_level=1))
     ours = _rows(capsys.readouterr().out)
     x, status, theirs = _ipopt_limited_memory(_hs71(), [1.0, 5.0, 5.0, 1.0], tmp_path)
@@ -239,10 +246,12 @@ def test_restoration_with_the_approximation(linear_solver):
     if linear_solver == "sparse" and len(_kkt_classes()) == 1:
         pytest.skip("SparseKKT's kernel does not build here (no C compiler)")
     options = dict(LIMITED, linear_solver=linear_solver)
-    found = InteriorPoint().solve(_wachter_biegler(0.0, 1.0), START, options)
+    found = InteriorPoint().solve(_without_hessian(_wachter_biegler(0.0, 1.0)), START,
+                                  options)
     assert found.status == 0, found.status_text
     assert np.max(np.abs(found.x - [1.0, 1.0, 0.0])) < 1e-7
-    infeasible = InteriorPoint().solve(_wachter_biegler(-1.0, 0.5), START, options)
+    infeasible = InteriorPoint().solve(_without_hessian(_wachter_biegler(-1.0, 0.5)), START,
+                                       options)
     assert infeasible.status == 2, infeasible.status_text
     assert np.max(np.abs(infeasible.x - [-1.0, 0.0, 0.0])) < 1e-6
 
@@ -266,7 +275,9 @@ def test_cart_pole_without_the_exact_hessian_reaches_ipopts_optimum():
 
 
 def test_limited_memory_options_refused_with_their_names():
-    nlp = _hs71()
+    with pytest.raises(ValueError, match='hessian="exact" and .*contradict'):
+        InteriorPoint().solve(_hs71(), np.ones(4), LIMITED)
+    nlp = _without_hessian(_hs71())
     with pytest.raises(kd.OptionError, match="limited_memory_update_type='sr1'.*damped-bfgs"):
         InteriorPoint().solve(nlp, np.ones(4), {"limited_memory_update_type": "sr1"})
     with pytest.raises(kd.OptionError, match="limited_memory_max_history=-1"):

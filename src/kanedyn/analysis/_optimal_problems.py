@@ -21,8 +21,9 @@ keywords, which ``kanedyn optimize`` fills from its options:
     the NLP solver's options (``{"hessian_approximation": "exact"}`` solves
     with the exact Hessian of the Lagrangian, ``OptimalControlProblem.solve(
     hessian="exact")``; the default is IPOPT's limited-memory approximation;
-    ``{"solver": "interior-point"}`` picks kanedyn's own solver, which takes
-    the exact Hessian only, instead of IPOPT);
+    ``{"solver": "interior-point"}`` picks kanedyn's own solver instead of
+    IPOPT, with the exact Hessian unless ``hessian_approximation`` is
+    ``"limited-memory"``);
 ``degree``
     LGR's points per interval (``method="lgr"`` only; ``None``: 3);
 

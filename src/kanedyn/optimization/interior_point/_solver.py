@@ -126,10 +126,11 @@ class InteriorPoint:
         Parameters
         ----------
         nlp : object
-            The NLP interface of :mod:`kanedyn.optimization._solvers`; its
-            exact Hessian (``nlp.exact_hessian``, ``None`` when it has none) is
-            used unless the option ``hessian_approximation`` is
-            ``"limited-memory"``.
+            The NLP interface of :mod:`kanedyn.optimization._solvers`: with an
+            exact Hessian (``nlp.exact_hessian`` not ``None``, as
+            ``solve(hessian="exact")`` makes it) that Hessian is used, else
+            the limited-memory approximation; the option
+            ``hessian_approximation``, when given, must agree.
         x0 : ndarray, shape (nlp.n,)
         options : dict, optional
             See :data:`._options.DEFAULTS`; an unknown name raises ``ValueError``.
@@ -143,6 +144,10 @@ class InteriorPoint:
         if s.hessian_approximation == "exact" and not has_exact:
             raise ModelError("interior-point option hessian_approximation='exact': this NLP "
                              'has no exact Hessian; pass hessian="exact" to solve()')
+        if s.hessian_approximation == "limited-memory" and has_exact:
+            raise ValueError('hessian="exact" and the interior-point option '
+                             "hessian_approximation='limited-memory' contradict each other; "
+                             "give one")
         if s.hessian_approximation is None:
             s.hessian_approximation = "exact" if has_exact else "limited-memory"
         run = _Run(nlp, x0, s, warm, stop)
