@@ -327,3 +327,21 @@ def test_closed_loop_which_the_exact_hessian_refuses():
     assert ours.objective == pytest.approx(theirs.objective, rel=1e-8)
     residuals = np.array([model.constraint_residuals(0.0, yk) for yk in ours.y.T])
     assert np.max(np.abs(residuals)) < 1e-9
+
+
+def test_line_search_failing_near_the_optimum_returns_the_acceptable_iterate():
+    """The pendulum swing-up, 200 nodes, midpoint rule: near the optimum the
+    approximation's directions stop being accepted at a point feasible to
+    1e-15; as IPOPT does at an almost feasible point, the solve ends with
+    the last iterate within the acceptable tolerances (status 1, IPOPT's
+    objective with the exact Hessian to 1e-6), not with a failed
+    restoration (status -2, before)."""
+    pytest.importorskip("cyipopt", reason="the comparison needs cyipopt (IPOPT)")
+    import _ocp_peers as peers
+    problem, _ = peers.pendulum_kanedyn(200, "midpoint", backend="numpy")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    ours = problem.solve(guess, solver="interior-point", options={"tol": 1e-10})
+    theirs = problem.solve(guess, solver="ipopt", hessian="exact",
+                           options={"tol": 1e-10, "print_level": 0})
+    assert theirs.status == 0 and ours.status == 1, (theirs.message, ours.message)
+    assert ours.objective == pytest.approx(theirs.objective, rel=1e-6)

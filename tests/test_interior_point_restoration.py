@@ -213,3 +213,30 @@ def test_pendulum_backward_euler_infeasible_like_ipopt(linear_solver):
                          options={"linear_solver": linear_solver})
     assert theirs.status == 2, theirs.message
     assert ours.status == 2, ours.message
+
+
+def test_soft_restoration_steps_cut_the_primal_dual_error(capsys):
+    """The pendulum swing-up in free time (Hermite-Simpson, 30 nodes, the
+    exact Hessian, infeasible: IPOPT ends with status 2): where the line
+    search fails, steps of the soft restoration phase are taken (printed
+    ``s``), each with one step length for the primal and the dual variables
+    (the row's two step lengths equal), before the restoration phase; the
+    solve ends locally infeasible, as IPOPT's."""
+    import sympy as sm
+    import kanedyn as kd
+    definition = kd.models.build("pendulum", torque=True)
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    T = sm.Symbol("T")
+    problem = kd.OptimalControlProblem(
+        definition.numeric(backend="numpy"), nodes=30, duration=T,
+        lagrange=tau ** 2 + T * q ** 2, mayer=T, bounds={tau: (-2, 2), T: (0.5, 15)},
+        initial={q: 0, u: 0}, final={q: np.pi, u: 0}, method="hermite-simpson")
+    guess = problem.guess_line(inputs={tau: 0.0}, duration=8.0)
+    found = problem.solve(guess, solver="interior-point", hessian="exact",
+                          options={"tol": 1e-10, "print_level": 1})
+    printed = capsys.readouterr().out
+    soft = re.findall(r"^\s*\d+ .* (\S+) (\S+)s\s+1$", printed, re.MULTILINE)
+    assert len(soft) >= 5
+    assert all(dual == primal for dual, primal in soft)
+    assert RESTORATION_ROW.search(printed)
+    assert found.status == 2, found.status_text

@@ -22,10 +22,18 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    to ``max_soc`` second-order corrections (:mod:`._filter`); the bound
    multipliers are then kept within :math:`[\mu/(\kappa_\Sigma\,
    \text{gap}), \kappa_\Sigma\mu/\text{gap}]`, :math:`\kappa_\Sigma = 10^{10}`;
-5. when the line search finds no step (and the point is not acceptable,
-   status 1), the feasibility restoration phase (:mod:`._restoration`):
-   back with a less infeasible point the filter accepts, or status 2
-   (locally infeasible) or -2 (the restoration failed);
+5. when the line search finds no step, IPOPT's soft restoration phase:
+   primal and dual variables along the step by one step length
+   :math:`\min(\alpha^{\max}, \alpha_z^{\max})`, taken while the filter
+   accepts the point or the primal-dual system error
+   (:math:`\|\nabla L - z_L + z_U\|_1 + \|c\|_1 + \|Z\,\text{gap} -
+   \mu\|_1`) falls by the factor :data:`SOFT_REDUCTION`, for at most
+   :data:`SOFT_ITERATIONS` iterations; else (the point not acceptable,
+   status 1, nor almost feasible, :data:`ALMOST_FEASIBLE`) the feasibility
+   restoration phase (:mod:`._restoration`): back with a less infeasible
+   point the filter accepts, or status 2 (locally infeasible) or -2 (the
+   restoration failed; status 1 at the last acceptable iterate, as IPOPT
+   returns it, when there was one);
 6. the scaled optimality error :math:`E_0` against ``tol`` (with IPOPT's
    unscaled checks ``dual_inf_tol``, ``constr_viol_tol``,
    ``compl_inf_tol``), and ``acceptable_iter`` consecutive iterates within
@@ -63,6 +71,14 @@ __all__ = ["InteriorPoint", "kkt_class"]
 
 #: a step below this relative to its variables is tiny (IPOPT's 10 eps)
 _TINY_STEP = 10 * float(np.finfo(float).eps)
+#: the soft restoration phase: a step is taken when it cuts the primal-dual
+#: system error to this fraction (IPOPT's soft_resto_pderror_reduction_factor),
+#: for at most this many iterations (IPOPT's max_soft_resto_iters)
+SOFT_REDUCTION = 0.9999
+SOFT_ITERATIONS = 10
+#: below this violation times ``tol`` the restoration phase is not entered
+#: (IPOPT's almost feasible point)
+ALMOST_FEASIBLE = 1e-2
 
 
 def kkt_class(choice):
@@ -448,6 +464,9 @@ class _Run:
         line_filter = Filter(theta)
         acceptable_count = 0
         force_barrier = restored_row = False
+        #: iterations in the soft restoration phase (0: not in it); the last
+        #: iterate within the acceptable tolerances, or None
+        soft, last_acceptable = 0, None
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
             if self.note:
@@ -462,6 +481,8 @@ class _Run:
                 return self._result(0, w, y, z_lower, z_upper, e)
             acceptable = self._converged(m, acceptable=True)
             acceptable_count = acceptable_count + 1 if acceptable else 0
+            if acceptable:
+                last_acceptable = (w, y, z_lower, z_upper, e)
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
             if np.abs(w[:n]).max(initial=0.0) > s.diverging_iterates_tol:
@@ -478,6 +499,7 @@ class _Run:
                 mu = new_mu
                 tau = max(s.tau_min, 1.0 - mu)
                 line_filter.reset()
+                soft = 0
                 m = self._errors(m, y, z_lower, z_upper, mu)
             # the Newton step
             hessian = self.hessian_values(e, y, 1.0, self.quasi_newton)
@@ -506,26 +528,52 @@ class _Run:
             tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
                     < _TINY_STEP
                     and (np.abs(dy) / (1.0 + np.abs(y))).max(initial=0.0) < 1e-2)
+            in_filter = soft > 0  # the point that began the soft phase is in it
+            soft_kind = None  # a soft restoration step: "s", or "S" the filter's
             if tiny:
                 found = self._trial(w + alpha_max * dw, mu)
                 accepted = found is not None
                 if accepted:
                     found = (found, alpha_max, step, True, 1)
                 force_barrier = True
+            elif soft:
+                soft += 1
+                found = None
+                if soft <= SOFT_ITERATIONS:
+                    found, soft_kind = self._soft_step(w, y, z_lower, z_upper, m, step,
+                                                       dz_lower, dz_upper, alpha_max, alpha_z,
+                                                       theta, phi, mu, line_filter)
             else:
                 found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
                                           line_filter, residual_w, m)
+                if found is None:  # the soft restoration phase, the point in the filter
+                    line_filter.add(theta, phi)
+                    in_filter = True
+                    found, soft_kind = self._soft_step(w, y, z_lower, z_upper, m, step,
+                                                       dz_lower, dz_upper, alpha_max, alpha_z,
+                                                       theta, phi, mu, line_filter)
+                    soft = 1 if soft_kind == "s" else 0
+            if soft_kind == "S":  # the filter accepts: the soft phase ends
+                soft = 0
             self.timings["line_search"] += time.perf_counter() - t
             if found is None:
+                soft = 0
                 if self._converged(m, acceptable=True):
                     return self._result(1, w, y, z_lower, z_upper, e)
                 # the feasibility restoration phase, the point in the filter
-                line_filter.add(theta, phi)
+                if not in_filter:
+                    line_filter.add(theta, phi)
+                if theta <= ALMOST_FEASIBLE * s.tol:  # almost feasible: not restored
+                    self.iteration += 1
+                    return self._result(*((1,) + last_acceptable if last_acceptable else
+                                          (-2, w, y, z_lower, z_upper, e)))
                 if self.restoration is None:
                     self.restoration = Restoration(self)
                 self.iteration += 1  # IPOPT counts the entry as an iteration
                 restored = self.restoration.solve(w, z_lower, z_upper, e, mu, line_filter,
                                                   _print_row if s.print_level else None)
+                if restored.status == -2 and last_acceptable is not None:
+                    return self._result(1, *last_acceptable)
                 if restored.status is not None:
                     return self._result(restored.status, *restored.point)
                 w, y, z_lower, z_upper, e = restored.point
@@ -541,7 +589,9 @@ class _Run:
                 # a second-order correction: the bound multipliers step along it
                 dz_lower, dz_upper, _, alpha_z = B.step_lengths(
                     z_lower, z_upper, gap_lower, gap_upper, step_used.primal, mu, tau)
-            if not f_type and not tiny:
+            if soft_kind is not None:  # one step length for all, the filter as it is
+                alpha_z = alpha
+            elif not f_type and not tiny:
                 line_filter.add(theta, phi)
             # the new iterate
             w = w_trial
@@ -552,13 +602,14 @@ class _Run:
             if s.print_level:  # the printed row's columns
                 row = dict(alpha_dual=alpha_z, alpha_primal=alpha,
                            step=float(np.abs(dw).max(initial=0.0)), delta_w=step.delta_w,
-                           trials=trials, kind=("F" if f_type else "H") if corrected
-                           else ("f" if f_type else "h"))
+                           trials=trials, kind=soft_kind or (("F" if f_type else "H")
+                                                            if corrected
+                                                            else ("f" if f_type else "h")))
             # this step's arrays are not held into the new point's derivatives,
             # measures, Hessian and factorization
             del gradient_w, barrier_gradient, residual_w, direction, step, step_used, found, \
                 dw, dy, dz_lower, dz_upper
-            if not self._derivatives(e):
+            if e.gradient is None and not self._derivatives(e):  # (a soft step's has them)
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)
             z_lower, z_upper = safeguard_multipliers(z_lower, z_upper, *gaps, mu)
@@ -578,6 +629,30 @@ class _Run:
         theta = float(np.abs(c).sum())
         phi = self.bounds.barrier(e.objective, *gaps, mu)
         return e, w_trial, theta, phi, gaps, c
+
+    def _soft_step(self, w, y, z_lower, z_upper, m, step, dz_lower, dz_upper, alpha_max,
+                   alpha_z, theta, phi, mu, line_filter):
+        """A step of the soft restoration phase (the module's item 5): ``(found,
+        kind)`` with ``found`` as :meth:`_line_search` gives it and ``kind``
+        ``"S"`` (the filter accepts the point) or ``"s"`` (the primal-dual
+        system error fell), or ``(None, None)``; ``m`` the current iterate's
+        :meth:`_measures`."""
+        alpha = min(alpha_max, alpha_z)
+        trial = self._trial(w + alpha * step.primal, mu)
+        if trial is None:
+            return None, None
+        e, w_trial, trial_theta, trial_phi, gaps, c = trial
+        if line_filter.accepts(theta, phi, 0.0, 0.0, trial_theta, trial_phi)[0]:
+            return (trial, alpha, step, False, 1), "S"
+        if not self._derivatives(e):
+            return None, None
+        trial_lower, trial_upper = z_lower + alpha * dz_lower, z_upper + alpha * dz_upper
+        trial_m = self._measures(w_trial, y + alpha * step.rows, trial_lower, trial_upper, e,
+                                 mu, gaps, c)
+        if _system_error(trial_m, trial_lower, trial_upper, mu) \
+                <= SOFT_REDUCTION * _system_error(m, z_lower, z_upper, mu):
+            return (trial, alpha, step, False, 1), "s"
+        return None, None
 
     def _line_search(self, w, dw, step, alpha_max, theta, phi, slope, mu, tau, line_filter,
                      residual_w, m):
@@ -636,6 +711,16 @@ class _Run:
             theta_old = soc_trial[2]
             c_soc = alpha_soc * c_soc + soc_trial[5]
         return None
+
+
+def _system_error(m, z_lower, z_upper, mu):
+    r"""The primal-dual system error of :meth:`_Run._measures`' ``m``:
+    :math:`\|\nabla L - z_L + z_U\|_1 + \|c\|_1 + \|Z\,\text{gap} - \mu\|_1`
+    (IPOPT's, whose division by the entries' count does not change its
+    comparisons)."""
+    return float(np.abs(m["dual"]).sum() + np.abs(m["c"]).sum()
+                 + np.abs(z_lower * m["gap_lower"] - mu).sum()
+                 + np.abs(z_upper * m["gap_upper"] - mu).sum())
 
 
 def _print_header():
