@@ -345,3 +345,21 @@ def test_line_search_failing_near_the_optimum_returns_the_acceptable_iterate():
                            options={"tol": 1e-10, "print_level": 0})
     assert theirs.status == 0 and ours.status == 1, (theirs.message, ours.message)
     assert ours.objective == pytest.approx(theirs.objective, rel=1e-6)
+
+
+def test_nonholonomic_bicycle_lane_change_from_the_command_line(capsys):
+    """``kanedyn optimize whipple-bicycle --solver interior-point --hessian
+    limited-memory``: the Whipple bicycle's lane change (nonholonomic, which
+    the exact Hessian refuses) solved (exit 0) to IPOPT's objective (its
+    limited-memory Hessian) to 1e-8."""
+    pytest.importorskip("cyipopt", reason="the comparison needs cyipopt (IPOPT)")
+    from kanedyn.cli import main
+    objectives = {}
+    for solver in ("interior-point", "ipopt"):
+        argv = ["optimize", "whipple-bicycle", "--solver", solver, "--hessian",
+                "limited-memory", "--quiet"]
+        assert main(argv) == 0
+        text = capsys.readouterr().out
+        assert f"solved: {solver}:" in text
+        objectives[solver] = float(text.split("objective ")[1].split(";")[0])
+    assert objectives["interior-point"] == pytest.approx(objectives["ipopt"], rel=1e-8)

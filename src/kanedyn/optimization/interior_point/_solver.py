@@ -28,7 +28,7 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    accepts the point or the primal-dual system error
    (:math:`\|\nabla L - z_L + z_U\|_1 + \|c\|_1 + \|Z\,\text{gap} -
    \mu\|_1`) falls by the factor :data:`SOFT_REDUCTION`, for at most
-   :data:`SOFT_ITERATIONS` iterations; else (the point not acceptable,
+   :data:`SOFT_ITERATIONS` iterations after the first; else (the point not acceptable,
    status 1, nor almost feasible, :data:`ALMOST_FEASIBLE`) the feasibility
    restoration phase (:mod:`._restoration`): back with a less infeasible
    point the filter accepts, or status 2 (locally infeasible) or -2 (the
@@ -73,7 +73,7 @@ __all__ = ["InteriorPoint", "kkt_class"]
 _TINY_STEP = 10 * float(np.finfo(float).eps)
 #: the soft restoration phase: a step is taken when it cuts the primal-dual
 #: system error to this fraction (IPOPT's soft_resto_pderror_reduction_factor),
-#: for at most this many iterations (IPOPT's max_soft_resto_iters)
+#: for at most this many iterations after its first (IPOPT's max_soft_resto_iters)
 SOFT_REDUCTION = 0.9999
 SOFT_ITERATIONS = 10
 #: below this violation times ``tol`` the restoration phase is not entered
@@ -464,9 +464,9 @@ class _Run:
         line_filter = Filter(theta)
         acceptable_count = 0
         force_barrier = restored_row = False
-        #: iterations in the soft restoration phase (0: not in it); the last
-        #: iterate within the acceptable tolerances, or None
-        soft, last_acceptable = 0, None
+        #: iterations in the soft restoration phase after its first (None: not
+        #: in it); the last iterate within the acceptable tolerances, or None
+        soft, last_acceptable = None, None
         row = dict(alpha_dual=0.0, alpha_primal=0.0, step=0.0, delta_w=0.0, trials=0, kind=" ")
         if s.print_level:
             if self.note:
@@ -499,7 +499,7 @@ class _Run:
                 mu = new_mu
                 tau = max(s.tau_min, 1.0 - mu)
                 line_filter.reset()
-                soft = 0
+                soft = None
                 m = self._errors(m, y, z_lower, z_upper, mu)
             # the Newton step
             hessian = self.hessian_values(e, y, 1.0, self.quasi_newton)
@@ -528,7 +528,7 @@ class _Run:
             tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
                     < _TINY_STEP
                     and (np.abs(dy) / (1.0 + np.abs(y))).max(initial=0.0) < 1e-2)
-            in_filter = soft > 0  # the point that began the soft phase is in it
+            in_filter = soft is not None  # the soft phase's first point is in it
             soft_kind = None  # a soft restoration step: "s", or "S" the filter's
             if tiny:
                 found = self._trial(w + alpha_max * dw, mu)
@@ -536,7 +536,7 @@ class _Run:
                 if accepted:
                     found = (found, alpha_max, step, True, 1)
                 force_barrier = True
-            elif soft:
+            elif soft is not None:
                 soft += 1
                 found = None
                 if soft <= SOFT_ITERATIONS:
@@ -552,12 +552,12 @@ class _Run:
                     found, soft_kind = self._soft_step(w, y, z_lower, z_upper, m, step,
                                                        dz_lower, dz_upper, alpha_max, alpha_z,
                                                        theta, phi, mu, line_filter)
-                    soft = 1 if soft_kind == "s" else 0
+                    soft = 0 if soft_kind == "s" else None
             if soft_kind == "S":  # the filter accepts: the soft phase ends
-                soft = 0
+                soft = None
             self.timings["line_search"] += time.perf_counter() - t
             if found is None:
-                soft = 0
+                soft = None
                 if self._converged(m, acceptable=True):
                     return self._result(1, w, y, z_lower, z_upper, e)
                 # the feasibility restoration phase, the point in the filter
