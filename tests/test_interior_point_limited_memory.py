@@ -174,6 +174,35 @@ def test_low_rank_kkt_against_the_assembled_matrix(kkt_class, curvature):
     assert np.max(np.abs(kkt.solve(b) - np.linalg.solve(K0, b))) < 1e-9
 
 
+@pytest.mark.parametrize("kkt_class", _kkt_classes(), ids=lambda c: c.__name__)
+def test_low_rank_inertia_with_steps_of_very_different_lengths(kkt_class):
+    """Six pairs, the last step 1e-7 times the others' length (a step after
+    heavy backtracking): B stays positive definite and J has full rank, so
+    K's inertia is (n, m, 0), as NumPy's eigenvalues of the assembled K say;
+    the small eigenvalues of M and G are not taken for zeros (20 random
+    problems)."""
+    for seed in range(20):
+        rng = np.random.default_rng(100 + seed)
+        n, m = 10, 3
+        Q = np.linalg.qr(rng.normal(size=(n, n)))[0]
+        A = Q @ np.diag(10.0 ** rng.uniform(-2, 2, n)) @ Q.T
+        S = rng.normal(size=(6, n))
+        S[-1] *= 1e-7
+        memory = LimitedMemoryBFGS(settings(IPOPTS))
+        for s in S:
+            memory.update(s, A @ s)
+        B = memory.compact(n)
+        assert B.M.shape == (12, 12)
+        J = rng.normal(size=(m, n))
+        rows, cols = np.nonzero(J)
+        dx, dc = rng.random(n) * 1e-3, np.zeros(m)
+        K = np.block([[B.dense() + np.diag(dx), J.T], [J, np.zeros((m, m))]])
+        eigenvalues = np.linalg.eigvalsh(0.5 * (K + K.T))
+        assert (int(np.sum(eigenvalues > 0)), int(np.sum(eigenvalues < 0))) == (n, m)
+        kkt = LowRankKKT(kkt_class(n, m, ([], []), (rows, cols)))
+        assert kkt.factor(B, J[rows, cols], dx, dc) == (n, m, 0), seed
+
+
 def _rows(text):
     return [m.groups() for m in ROW.finditer(text)]
 

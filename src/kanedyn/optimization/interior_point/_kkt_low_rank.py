@@ -20,7 +20,11 @@ and Haynsworth's inertia additivity on :math:`\begin{bmatrix} K_0 & U \\ U^T
 & M \end{bmatrix}`, whose Schur complements are :math:`-G` (of :math:`K_0`)
 and :math:`K` (of :math:`M`), the inertia
 :math:`\operatorname{In}(K) = \operatorname{In}(K_0) + \operatorname{In}(-G)
-- \operatorname{In}(M)` from two small symmetric eigenvalue problems.
+- \operatorname{In}(M)` from two small symmetric eigenvalue problems, each
+of the matrix scaled by its diagonal's square roots on both sides (the same
+inertia, Sylvester's law): the pairs' steps may differ in length by many
+orders, and so would the eigenvalues of :math:`M` and :math:`G` unscaled,
+below one threshold for zero in one and above it in the other.
 """
 
 from __future__ import annotations
@@ -106,9 +110,13 @@ class LowRankKKT:
 
 
 def _inertia(matrix):
-    """``(n_positive, n_negative, n_zero)`` of a small symmetric matrix, an
-    eigenvalue within ``k eps`` of the largest magnitude counting as zero."""
-    eigenvalues = np.linalg.eigvalsh(matrix)
+    """``(n_positive, n_negative, n_zero)`` of a small symmetric matrix: the
+    eigenvalues of ``D^-1 matrix D^-1`` (``D`` the square roots of its
+    diagonal's magnitudes, 1 where zero), one within ``k eps`` of the largest
+    magnitude counting as zero."""
+    scale = np.sqrt(np.abs(np.diagonal(matrix)))
+    scale[scale == 0.0] = 1.0
+    eigenvalues = np.linalg.eigvalsh(matrix / np.outer(scale, scale))
     tiny = matrix.shape[0] * np.finfo(float).eps * np.abs(eigenvalues).max(initial=0.0)
     positive = int(np.count_nonzero(eigenvalues > tiny))
     negative = int(np.count_nonzero(eigenvalues < -tiny))

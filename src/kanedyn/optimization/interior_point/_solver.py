@@ -24,7 +24,9 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
    \text{gap}), \kappa_\Sigma\mu/\text{gap}]`, :math:`\kappa_\Sigma = 10^{10}`;
 5. when the line search finds no step, IPOPT's soft restoration phase:
    primal and dual variables along the step by one step length
-   :math:`\min(\alpha^{\max}, \alpha_z^{\max})`, taken while the filter
+   :math:`\min(\alpha^{\max}, \alpha_z^{\max})` (IPOPT, after a step the
+   filter accepts, moves the bound multipliers by their own fraction to the
+   boundary and :math:`y` by the line search's last step), taken while the filter
    accepts the point or the primal-dual system error
    (:math:`\|\nabla L - z_L + z_U\|_1 + \|c\|_1 + \|Z\,\text{gap} -
    \mu\|_1`) falls by the factor :data:`SOFT_REDUCTION`, for at most
@@ -481,8 +483,9 @@ class _Run:
                 return self._result(0, w, y, z_lower, z_upper, e)
             acceptable = self._converged(m, acceptable=True)
             acceptable_count = acceptable_count + 1 if acceptable else 0
-            if acceptable:
-                last_acceptable = (w, y, z_lower, z_upper, e)
+            if acceptable:  # (its values without the derivatives: not held)
+                last_acceptable = (w, y, z_lower, z_upper,
+                                   _Evaluation(e.x_full, e.objective, e.rows))
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
             if np.abs(w[:n]).max(initial=0.0) > s.diverging_iterates_tol:
@@ -569,6 +572,8 @@ class _Run:
                                           (-2, w, y, z_lower, z_upper, e)))
                 if self.restoration is None:
                     self.restoration = Restoration(self)
+                if self.quasi_newton is not None:  # no pair across the restoration
+                    self.quasi_newton.reset()
                 self.iteration += 1  # IPOPT counts the entry as an iteration
                 restored = self.restoration.solve(w, z_lower, z_upper, e, mu, line_filter,
                                                   _print_row if s.print_level else None)
@@ -577,8 +582,6 @@ class _Run:
                 if restored.status is not None:
                     return self._result(restored.status, *restored.point)
                 w, y, z_lower, z_upper, e = restored.point
-                if self.quasi_newton is not None:  # no pair across the restoration
-                    self.quasi_newton.reset()
                 m = self._measures(w, y, z_lower, z_upper, e, mu)
                 restored_row = True
                 continue
