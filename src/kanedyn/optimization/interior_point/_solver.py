@@ -668,7 +668,7 @@ class _Run:
         alpha_min = line_filter.smallest_step(theta, slope, s.alpha_min_frac)
         alpha = alpha_max
         trials = 0
-        while alpha >= alpha_min:
+        while alpha >= alpha_min or not trials:  # the first step always tried (IPOPT)
             trials += 1
             trial = self._trial(w + alpha * dw, mu)
             if trial is not None:
