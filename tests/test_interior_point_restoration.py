@@ -238,3 +238,32 @@ def test_soft_restoration_steps_cut_the_primal_dual_error(capsys):
     assert len(soft) >= 5
     assert RESTORATION_ROW.search(printed)
     assert found.status == 2, found.status_text
+
+
+def test_first_step_tried_below_the_smallest_step_as_ipopt(tmp_path, capsys):
+    """The 40-node backward-Euler swing-up from the straight line (infeasible
+    with so few nodes), the exact Hessian, the default factorization: at
+    iteration 17 the step to the boundary (4.6e-7) is below the line
+    search's smallest step; IPOPT still tries it and takes it, and so does
+    this solver now (before, it made no trial: rows equal to IPOPT's up to
+    iteration 17 only).  At least the first 25 printed rows are IPOPT's (30
+    measured, into the restoration phase), and both end locally infeasible."""
+    _ipopt_or_skip()
+    import _ocp_peers as peers
+    problem, _ = peers.pendulum_kanedyn(40, backend="numpy")
+    guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
+    log = tmp_path / "ipopt.txt"
+    theirs = problem.solve(guess, solver="ipopt", hessian="exact",
+                           options={"tol": 1e-10, "print_level": 0,
+                                    "output_file": str(log), "file_print_level": 5})
+    ours = problem.solve(guess, solver="interior-point", hessian="exact",
+                         options={"tol": 1e-10, "print_level": 1})
+    printed = capsys.readouterr().out
+    pattern = re.compile(r"^\s*(\d+r?)\s*(-?\d\.\d{7}e[+-]\d\d) (\S+) +(\S+) +(\S+)",
+                         re.MULTILINE)
+    rows = [m.groups() for m in pattern.finditer(printed)]
+    theirs_rows = [m.groups() for m in pattern.finditer(log.read_text())]
+    equal = next((k for k, (a, b) in enumerate(zip(rows, theirs_rows)) if a != b),
+                 min(len(rows), len(theirs_rows)))
+    assert equal >= 25
+    assert theirs.status == 2 and ours.status == 2, (theirs.message, ours.message)
