@@ -45,7 +45,7 @@ What it lacks against IPOPT: the watchdog, the adaptive barrier
 strategies, the SR1 update; the restoration phase's simplifications are
 listed in :mod:`._restoration` (with the limited-memory Hessian it keeps a
 memory of its own, of the rows' part, emptied on entering; the NLP's is
-emptied after it).
+emptied as it begins).
 """
 
 from __future__ import annotations
