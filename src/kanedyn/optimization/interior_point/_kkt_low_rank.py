@@ -50,7 +50,7 @@ class LowRankKKT:
         self.base = base
         self.n, self.m, self.size = base.n, base.m, base.n + base.m
         self.error_reductions = getattr(base, "error_reductions", None)
-        self._low_rank = None  # (V, M, Z, G) of the last factorization with h > 0
+        self._low_rank = None  # (hessian, Z, G) of the last factorization with h > 0
 
     def factor(self, hessian, jacobian_values, diagonal_x, diagonal_c):
         """Factor K; return its inertia ``(n_positive, n_negative, n_zero)``.
@@ -82,7 +82,7 @@ class LowRankKKT:
         G = 0.5 * (G + G.T)
         if not (np.isfinite(Z).all() and np.isfinite(G).all()):
             return (0, 0, self.size)
-        self._low_rank = (V, M, Z, G)
+        self._low_rank = (hessian, Z, G)
         with_g, with_m = _inertia(-G), _inertia(M)
         return tuple(int(a + b - c) for a, b, c in zip(inertia, with_g, with_m))
 
@@ -91,16 +91,15 @@ class LowRankKKT:
         x = self.base.solve(rhs)
         if self._low_rank is None:
             return x
-        V, _, Z, G = self._low_rank
-        return x - Z @ np.linalg.solve(G, V.T @ x[:self.n])
+        hessian, Z, G = self._low_rank
+        return x - Z @ np.linalg.solve(G, hessian.V.T @ x[:self.n])
 
     def matvec(self, x):
         """``K @ x`` with the last factored values; shape (n + m,)."""
         out = self.base.matvec(x)
         if self._low_rank is None:
             return out
-        V, M, _, _ = self._low_rank
-        out[:self.n] -= V @ np.linalg.solve(M, V.T @ np.asarray(x, dtype=float)[:self.n])
+        out[:self.n] -= self._low_rank[0].correction(np.asarray(x, dtype=float)[:self.n])
         return out
 
     def release(self):

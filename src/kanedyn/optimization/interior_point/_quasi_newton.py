@@ -76,12 +76,15 @@ class CompactHessian:
     V: np.ndarray
     M: np.ndarray
 
+    def correction(self, v):
+        r""":math:`V M^{-1} V^T v`, shape (n,): :math:`\sigma v - B v`."""
+        if not self.M.size:
+            return np.zeros(self.V.shape[0])
+        return self.V @ np.linalg.solve(self.M, self.V.T @ v)
+
     def times(self, v):
         """:math:`B v`, shape (n,)."""
-        out = self.sigma * np.asarray(v, dtype=float)
-        if self.M.size:
-            out -= self.V @ np.linalg.solve(self.M, self.V.T @ v)
-        return out
+        return self.sigma * np.asarray(v, dtype=float) - self.correction(v)
 
     def dense(self):
         """:math:`B` as an (n, n) array (for checks; n small)."""
@@ -113,6 +116,7 @@ class LimitedMemoryBFGS:
         self.skipped = 0
         #: ``(x, gradient, jacobian_values)`` of the last point, or ``None``
         self.last = None
+        self._compact = None  # compact()'s, until the pairs or sigma change
 
     def update(self, s, y):
         """Add the pair ``(s, y)`` (or skip it, see the module)."""
@@ -131,6 +135,7 @@ class LimitedMemoryBFGS:
                 self.reset()
             return
         self.skipped = 0
+        self._compact = None
         keep = int(st.limited_memory_max_history)
         if keep:  # the newest ``keep`` pairs
             s_row, y_row = np.array(s, dtype=float)[None, :], np.array(y, dtype=float)[None, :]
@@ -140,7 +145,14 @@ class LimitedMemoryBFGS:
                                    st.limited_memory_init_val_max))
 
     def compact(self, n):
-        """The :class:`CompactHessian` of the pairs held (``n`` variables)."""
+        """The :class:`CompactHessian` of the pairs held (``n`` variables),
+        made once per change of the pairs (the damping asks for it before an
+        update, the step after it)."""
+        if self._compact is None:
+            self._compact = self._made(n)
+        return self._compact
+
+    def _made(self, n):
         sigma = self.sigma
         if self.S is None:
             return CompactHessian(sigma, np.zeros((n, 0)), np.zeros((0, 0)))

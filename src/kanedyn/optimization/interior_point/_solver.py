@@ -539,25 +539,21 @@ class _Run:
                 if accepted:
                     found = (found, alpha_max, step, True, 1)
                 force_barrier = True
-            elif soft is not None:
-                soft += 1
-                found = None
-                if soft <= SOFT_ITERATIONS:
-                    found, soft_kind = self._soft_step(w, y, z_lower, z_upper, m, step,
-                                                       dz_lower, dz_upper, alpha_max, alpha_z,
-                                                       theta, phi, mu, line_filter)
             else:
-                found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu, tau,
-                                          line_filter, residual_w, m)
-                if found is None:  # the soft restoration phase, the point in the filter
-                    line_filter.add(theta, phi)
-                    in_filter = True
+                found = None
+                if soft is None:
+                    found = self._line_search(w, dw, step, alpha_max, theta, phi, slope, mu,
+                                              tau, line_filter, residual_w, m)
+                    if found is None:  # the soft restoration phase, the point in the filter
+                        line_filter.add(theta, phi)
+                        in_filter, soft = True, -1
+                if found is None and soft < SOFT_ITERATIONS:
+                    soft += 1
                     found, soft_kind = self._soft_step(w, y, z_lower, z_upper, m, step,
                                                        dz_lower, dz_upper, alpha_max, alpha_z,
                                                        theta, phi, mu, line_filter)
-                    soft = 0 if soft_kind == "s" else None
-            if soft_kind == "S":  # the filter accepts: the soft phase ends
-                soft = None
+                if soft_kind != "s":  # the filter accepts, or no step: the soft phase ends
+                    soft = None
             self.timings["line_search"] += time.perf_counter() - t
             if found is None:
                 soft = None
@@ -568,8 +564,9 @@ class _Run:
                     line_filter.add(theta, phi)
                 if theta <= ALMOST_FEASIBLE * s.tol:  # almost feasible: not restored
                     self.iteration += 1
-                    return self._result(*((1,) + last_acceptable if last_acceptable else
-                                          (-2, w, y, z_lower, z_upper, e)))
+                    if last_acceptable is not None:
+                        return self._result(1, *last_acceptable)
+                    return self._result(-2, w, y, z_lower, z_upper, e)
                 if self.restoration is None:
                     self.restoration = Restoration(self)
                 if self.quasi_newton is not None:  # no pair across the restoration
