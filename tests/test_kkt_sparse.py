@@ -702,7 +702,7 @@ def _traced_analysis(nodes):
         final={q: np.pi, u: 0.0}, method="backward-euler")
     reduced = ReducedNLP(CollocationNLP(problem, hessian="exact"),
                          np.zeros(problem.n_variables), settings({}))
-    structures = (reduced.n, reduced.m, reduced.hessian_structure,
+    structures = (reduced.n, reduced.m, reduced.hessian_structure(),
                   reduced.jacobian_structure)
     tracemalloc.start()
     try:

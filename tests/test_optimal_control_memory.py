@@ -2,17 +2,19 @@
 node, and that holding less left their values alone.
 
 - The reduced NLP's patterns (``interior_point._reduced.ReducedNLP``) are
-  held in ``int32`` and equal what an independent ``int64`` computation of
-  the same reduction gives (the free variables' ranks by ``searchsorted``);
+  in ``int32`` and equal what an independent ``int64`` computation of
+  the same reduction gives (the free variables' ranks by ``searchsorted``),
+  and of the full patterns only the few entries left out are held;
   its scaled Jacobian values equal the full values times the rows' scales,
   with scales of one and with scales below one.
-- The NLP with the exact Hessian holds at most 180 bytes per node of the
+- The NLP with the exact Hessian holds at most 80 bytes per node of the
   pendulum swing-up (backward Euler, NumPy backend) after construction,
   and one Hessian evaluation (its first, which makes the sparse maps)
-  peaks at most 300 bytes per node above what is held (traced by
+  peaks at most 120 bytes per node above what is held (traced by
   ``tracemalloc``, a difference of two node counts, so the fixed part
   cancels, with runs of 500 points (``_hessian.CHUNK_POINTS``) so that
-  both counts are several runs; measured 133 and 164; with the patterns
+  both counts are several runs; measured 53 and 65; with the bounds held
+  and a map of every point's entries, 133 and 164; with the patterns
   held and the Hessian evaluated over all points at once, 237 and 904;
   with the per-point linear map held in full and the temporaries not
   summed in place, 369 held).
@@ -51,22 +53,36 @@ def small():
 
 
 def test_reduced_patterns_int32_and_as_computed_in_int64(small):
+    """The reduced patterns (the Hessian's made when asked) and the entries
+    left out of the full ones (in the fixed variables' columns: the only
+    ones held) against a reduction in int64 by ``searchsorted``; the
+    reduced values are the full ones at the kept entries."""
     nlp, reduced = small
+    x = _guess(30)
     free = np.flatnonzero(nlp.x_lower != nlp.x_upper)
-    for is_jacobian, structure, held, entries in (
+    for is_jacobian, structure, held, dropped, full, values in (
             (True, nlp.jacobian_structure(), reduced.jacobian_structure,
-             reduced.jacobian_entries),
-            (False, nlp.hessian_structure(), reduced.hessian_structure,
-             reduced.hessian_entries)):
+             reduced._jacobian_dropped, nlp.jacobian(x), reduced.jacobian(x)),
+            (False, nlp.hessian_structure(), reduced.hessian_structure(),
+             reduced._hessian_dropped, nlp.hessian(x, np.ones(nlp.m), 1.0),
+             reduced.hessian(x, np.ones(reduced.m)))):
         rows, cols = (np.asarray(a, dtype=np.int64) for a in structure)
         keep = np.isin(cols, free) & (True if is_jacobian else np.isin(rows, free))
         expected_rows = rows[keep] if is_jacobian else np.searchsorted(free, rows[keep])
         expected_cols = np.searchsorted(free, cols[keep])
-        assert held[0].dtype == held[1].dtype == entries.dtype == np.int32
-        np.testing.assert_array_equal(entries, np.flatnonzero(keep))
+        assert held[0].dtype == held[1].dtype == dropped.dtype == np.int32
+        np.testing.assert_array_equal(dropped, np.flatnonzero(~keep))
+        assert 0 < dropped.size < 12  # the four fixed states' entries, not all kept ones
         np.testing.assert_array_equal(held[0], expected_rows)
         np.testing.assert_array_equal(held[1], expected_cols)
+        np.testing.assert_array_equal(values, np.asarray(full)[keep])
+    assert reduced.hessian_size == reduced.hessian_structure()[0].size
     assert reduced.m == nlp.m  # every row kept: the Jacobian's rows are the full ones
+    # the full start vector: the guess with the fixed states at their values
+    start = reduced.start_full()
+    fixed = nlp.x_lower == nlp.x_upper
+    np.testing.assert_array_equal(start[~fixed], x[~fixed])
+    np.testing.assert_array_equal(start[fixed], nlp.x_lower[fixed])
 
 
 def test_reduced_jacobian_values_with_and_without_row_scales(small):
@@ -117,5 +133,33 @@ def test_exact_hessian_nlp_bytes_per_node(monkeypatch):
     monkeypatch.setattr(_hessian, "CHUNK_POINTS", 500)
     (held_1, peak_1), (held_2, peak_2) = _traced(2000), _traced(6000)
     held, peak = (held_2 - held_1) / 4000, (peak_2 - peak_1) / 4000
-    assert 60 < held <= 180  # the bounds alone are 80 bytes a node
-    assert 60 < peak <= 300  # the values alone are 48 bytes a node
+    assert 20 < held <= 80  # the points' variables, masks and starts alone are 29 a node
+    assert 48 < peak <= 120  # the values alone are 48 bytes a node
+
+
+@pytest.mark.parametrize("method", ["backward-euler", "midpoint", "trapezoid",
+                                    "hermite-simpson"])
+def test_one_points_hessian_map_gives_every_points_sums(method):
+    """Where every point has the same map and mask (no free duration), the
+    Hessian's sparse map is one point's, applied to all: its values equal to
+    the bit those of the map of every point's entries (the sums in the same
+    order), and it holds a single point's entries."""
+    definition = kd.models.build("pendulum", torque=True)
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(
+        definition.numeric(backend="numpy"), nodes=40, duration=10.0, lagrange=tau ** 2,
+        bounds={tau: (-2.0, 2.0)}, initial={q: 0.0, u: 0.0}, final={q: np.pi, u: 0.0},
+        method=method)
+    nlp = CollocationNLP(problem, hessian="exact")
+    z = np.random.default_rng(1).normal(size=nlp.n)
+    multipliers = np.random.default_rng(2).normal(size=nlp.m)
+    alike = nlp.hessian(z, multipliers, 0.7)
+    hessian = nlp.exact_hessian
+    kinds = hessian.stages + [hessian.at_points] * (hessian.at_points is not None)
+    assert all(p.alike for p in kinds)
+    assert all(p.maps(39)[0].shape[0] == p.alike for p in kinds)
+    for p in kinds:  # every point's map, as without the shortcut
+        p.alike, p._maps = None, None
+    every = nlp.hessian(z, multipliers, 0.7)
+    assert all(p.maps(39)[0].shape[0] == p.size for p in kinds)
+    np.testing.assert_array_equal(alike, every)

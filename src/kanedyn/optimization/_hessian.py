@@ -84,7 +84,11 @@ class _Points:
     """Points of one kind: their decision variables ``V`` (K, m), the linear
     map ``D`` (K, nu, m) from them to :math:`u` (a read-only broadcast of one
     point's when it is the same at every point), the lower triangle's mask,
-    the column of a free duration among the m (or ``None``)."""
+    the column of a free duration among the m (or ``None``).
+
+    ``alike`` (the number of entries of a point, else ``None``) when every
+    point has the same map and the same mask: then :meth:`maps` are one
+    point's, applied to every point."""
 
     def __init__(self, V, D, duration=None):
         self.V, self.D, self.duration = V, D, duration
@@ -93,6 +97,9 @@ class _Points:
         #: point's entries follow the previous point's
         self.starts = np.concatenate([[0], np.cumsum(np.count_nonzero(self.mask, axis=(1, 2)))])
         self.size = int(self.starts[-1])
+        same_map = D is not None and D.shape[0] > 0 and D.strides[0] == 0
+        self.alike = (int(self.starts[1]) if same_map and (self.mask == self.mask[:1]).all()
+                      else None)
         self._maps = None
 
     def maps(self, steps):
@@ -101,7 +108,9 @@ class _Points:
         :math:`F'` (K, nu) to the free duration's part
         :math:`(e_T (D^T F')^T + (D^T F') e_T^T) / \mathrm{steps}`, both at the
         entries of :meth:`pattern` (``first`` is ``None`` without a free
-        duration).  Made on first use: only D's nonzero entries take part."""
+        duration); of the first point alone when the points are ``alike``
+        (no free duration then).  Made on first use: only D's nonzero entries
+        take part."""
         if self._maps is None:
             self._maps = self._make_maps(steps)
         return self._maps
@@ -146,9 +155,10 @@ class _Points:
         width``).  Made ``run`` points at a time, each run's rows a block of
         their own: the matrix SciPy makes of all the entries at once (rows
         in order, each row's columns sorted), without every entry's indices
-        in 64 bits at once."""
+        in 64 bits at once.  Of the first point alone (its entries, its
+        columns) when the points are ``alike``."""
         from scipy.sparse import csr_matrix
-        K = self.mask.shape[0]
+        K = 1 if self.alike is not None else self.mask.shape[0]
         index = np.int32 if 2 * K * width < np.iinfo(np.int32).max else np.int64
         data, indices, indptr = [], [], [np.zeros(1, dtype=index)]
         for k0 in range(0, K, run):
@@ -162,7 +172,7 @@ class _Points:
             indices.append(block.indices.astype(index) + k0 * width)
             indptr.append(block.indptr[1:].astype(index) + indptr[-1][-1])
         return csr_matrix((np.concatenate(data), np.concatenate(indices),
-                           np.concatenate(indptr)), shape=(self.size, K * width))
+                           np.concatenate(indptr)), shape=(int(self.starts[K]), K * width))
 
     def pattern(self):
         """``(rows, cols)`` of its entries of the lower triangle (made when
@@ -303,6 +313,10 @@ class LagrangianHessian:
         p0, p1 = points.starts[k0], points.starts[k1]
         nu = self.nu
         values = out[p0:p1]
+        if points.alike is not None:  # one point's map, each point's sums as the whole map's
+            values.reshape(k1 - k0, points.alike)[...] = \
+                (second @ Hu.reshape(k1 - k0, nu * nu).T).T
+            return
         values[...] = _row_block(second, p0, p1, k0 * nu * nu, k1 * nu * nu) @ Hu.reshape(-1)
         if stepped is not None and first is not None:
             values += _row_block(first, p0, p1, k0 * nu, k1 * nu) @ stepped[1].reshape(-1)

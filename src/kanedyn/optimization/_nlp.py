@@ -82,6 +82,10 @@ class CollocationNLP:
     ``free_start_time`` the start time is the decision vector's last entry
     instead (a phase of a multiphase problem). ``hessian``: ``"exact"`` for
     the Lagrangian's Hessian from the second derivatives (:mod:`._hessian`).
+
+    The bounds ``x_lower``, ``x_upper`` (n,) and ``g_lower``, ``g_upper``
+    (m,) (beyond 1e19 none, as IPOPT reads them) are made when read, not
+    held: a solver reads them once and keeps what it needs.
     """
 
     def __init__(self, problem, start_time=None, free_start_time=False,
@@ -102,7 +106,6 @@ class CollocationNLP:
         self.m = (self.defects.n_rows + L.n_points * (len(pb.path) + pb.n_residuals)
                   + len(pb.instances))
         check_index_range(self.m, self.n)  # refused here, not when a solver asks
-        self._bounds()
         #: the exact Hessian of the Lagrangian (:mod:`._hessian`), or ``None``
         self.exact_hessian = None
         #: the model names no time: its df/dt is zero, not taken by differences
@@ -161,7 +164,24 @@ class CollocationNLP:
             start += 1
         return index_arrays(rows, cols, self.m, self.n)
 
-    def _bounds(self):
+    @property
+    def x_lower(self):
+        return self._variable_bounds()[0]
+
+    @property
+    def x_upper(self):
+        return self._variable_bounds()[1]
+
+    @property
+    def g_lower(self):
+        return self._row_bounds()[0]
+
+    @property
+    def g_upper(self):
+        return self._row_bounds()[1]
+
+    def _variable_bounds(self):
+        """``(lower, upper)`` of the decision variables, shapes (n,)."""
         pb, L = self.problem, self.layout
         N = L.nodes
         lo = np.empty(self.n)
@@ -187,7 +207,11 @@ class CollocationNLP:
         for k, values in ((0, pb.initial), (N - 1, pb.final)):
             for j, value in values.items():
                 lo[L.state_index(k, j)] = hi[L.state_index(k, j)] = value
-        self.x_lower, self.x_upper = _finite(lo), _finite(hi)
+        return _finite(lo), _finite(hi)
+
+    def _row_bounds(self):
+        """``(lower, upper)`` of the rows, shapes (m,)."""
+        pb, L = self.problem, self.layout
         n_defects = self.defects.n_rows
         g_lo, g_hi = [np.zeros(n_defects)], [np.zeros(n_defects)]
         K = L.n_points
@@ -199,8 +223,7 @@ class CollocationNLP:
         for inst in pb.instances:
             g_lo.append([inst.lower])
             g_hi.append([inst.upper])
-        self.g_lower = _finite(np.concatenate(g_lo))
-        self.g_upper = _finite(np.concatenate(g_hi))
+        return _finite(np.concatenate(g_lo)), _finite(np.concatenate(g_hi))
 
     # --------------------------------------------------------- evaluation
     def _model(self, P):

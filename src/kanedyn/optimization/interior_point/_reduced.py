@@ -52,16 +52,26 @@ class ReducedNLP:
     ----------
     n, m : int
         Free variables and kept rows.
-    free : ndarray of int
-        The free variables' indices in the full vector.
+    free, fixed, rows : ndarray of int
+        The free and the fixed variables' indices in the full vector, the
+        kept rows' in the full rows, ``int32`` (``int64`` beyond its range).
     equality : ndarray of bool, shape (m,)
         Which kept rows are equalities; the others have a slack each.
-    jacobian_structure, hessian_structure : (rows, cols)
-        The reduced patterns (the Hessian's lower triangle), ``int32``
-        (``int64`` beyond its range), as are ``jacobian_entries`` and
-        ``hessian_entries``, the full patterns' entries they keep.
+    jacobian_structure : (rows, cols)
+        The reduced Jacobian's pattern, ``int32`` (``int64`` beyond its
+        range); the Hessian's is made when asked (:meth:`hessian_structure`),
+        not held.
+    hessian_size : int
+        The reduced Hessian's entries.
     row_scale : ndarray, shape (m,)
     objective_scale : float
+
+    Notes
+    -----
+    Of the full patterns only the entries left out are held (in fixed
+    variables' columns, or in dropped rows: few, often none), not the
+    entries kept; nor a full start vector (:meth:`start_full` makes it from
+    the caller's ``x0``).
     """
 
     def __init__(self, nlp, x0, settings, exact_hessian=True):
@@ -72,21 +82,19 @@ class ReducedNLP:
         x_upper = np.asarray(nlp.x_upper, dtype=float).reshape(n_full)
         g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
         g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
-        #: the full bounds, the NLP's own arrays when they are of floats (not copied)
-        self.x_lower_full, self.x_upper_full = x_lower, x_upper
-        self.g_lower_full, self.g_upper_full = g_lower, g_upper
+        index = compact_index_type(max(n_full, m_full))
         fixed = x_lower == x_upper
-        self.fixed = np.flatnonzero(fixed)
-        self.free = np.flatnonzero(~fixed)
+        self.fixed = np.flatnonzero(fixed).astype(index)
+        self.free = np.flatnonzero(~fixed).astype(index)
         self.n = self.free.size
         kept = ~((g_lower <= -INFINITE_BOUND) & (g_upper >= INFINITE_BOUND))
-        self.rows = np.flatnonzero(kept)
+        self.rows = np.flatnonzero(kept).astype(index)
         self.m = self.rows.size
         self.equality = g_lower[kept] == g_upper[kept]
         self.inequality = np.flatnonzero(~self.equality)
-        self.template = np.asarray(x0, dtype=float).reshape(n_full).copy()
-        self.template[fixed] = x_lower[fixed]
-        index = compact_index_type(max(n_full, m_full))
+        #: the caller's start (read, not copied) and the fixed variables' values
+        self._x0 = np.asarray(x0, dtype=float).reshape(n_full)
+        self._fixed_values = x_lower[self.fixed]
         column_of = np.full(n_full, -1, dtype=index)
         column_of[self.free] = np.arange(self.n)
         row_of = np.full(m_full, -1, dtype=index)
@@ -101,19 +109,16 @@ class ReducedNLP:
         fixed_of[self.fixed] = np.arange(self.fixed.size)
         self._fixed_jacobian = (in_fixed, jr[in_fixed], fixed_of[jc[in_fixed]])
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
-        self.jacobian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
+        #: the full patterns' entries left out, ``None`` where none is
+        self._jacobian_dropped = _dropped(use)
         self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
-        hessian_structure = nlp.hessian_structure() if exact_hessian else ([], [])
-        hr, hc = (a.astype(index) for a in check_structure(
-            "the NLP's hessian_structure", hessian_structure, n_full, n_full, lower=True))
+        self._exact_hessian = exact_hessian
+        hr, hc = self._full_hessian_structure()
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
-        self.hessian_entries = np.flatnonzero(use).astype(compact_index_type(use.size))
-        self.hessian_structure = (column_of[hr[use]], column_of[hc[use]])
-        #: every row kept, every variable free, every Jacobian or Hessian entry
-        #: kept: the full arrays are taken as they are (no index)
+        self._hessian_dropped = _dropped(use)
+        self.hessian_size = int(np.count_nonzero(use))
+        #: every row kept: the full rows are taken as they are (no index)
         self._all_rows = self.m == m_full
-        self._all_jacobian = self.jacobian_entries.size == jr.size
-        self._all_hessian = self.hessian_entries.size == hr.size
         self.objective_scale = 1.0
         self.row_scale = np.ones(self.m)
         #: each Jacobian entry's row scale, or ``None`` while every row's is 1
@@ -131,7 +136,7 @@ class ReducedNLP:
             if largest > limit:
                 factor *= max(limit / largest, floor)
             rows = self.jacobian_structure[0]
-            values = np.abs(jacobian_full[self.jacobian_entries])
+            values = np.abs(_kept(jacobian_full, self._jacobian_dropped))
             row_max = np.zeros(self.m)
             np.maximum.at(row_max, rows, values)
             self.row_scale = np.where(row_max > limit,
@@ -143,21 +148,54 @@ class ReducedNLP:
 
     # ------------------------------------------------------------ bounds
     def variable_bounds(self):
-        """``(lower, upper)`` of the free variables (infinite beyond 1e19)."""
-        return (_infinite(self.x_lower_full[self.free]),
-                _infinite(self.x_upper_full[self.free]))
+        """``(lower, upper)`` of the free variables (infinite beyond 1e19;
+        the NLP's bounds read again, not held)."""
+        nlp = self.nlp
+        return (_infinite(np.asarray(nlp.x_lower, dtype=float).reshape(self.n_full)[self.free]),
+                _infinite(np.asarray(nlp.x_upper, dtype=float).reshape(self.n_full)[self.free]))
 
     def row_bounds(self):
-        """``(lower, upper)`` of the kept rows, scaled (infinite beyond 1e19)."""
-        return (_infinite(self.g_lower_full[self.rows]) * self.row_scale,
-                _infinite(self.g_upper_full[self.rows]) * self.row_scale)
+        """``(lower, upper)`` of the kept rows, scaled (infinite beyond 1e19;
+        the NLP's bounds read again, not held)."""
+        nlp = self.nlp
+        return (_infinite(np.asarray(nlp.g_lower, dtype=float).reshape(self.m_full)[self.rows])
+                * self.row_scale,
+                _infinite(np.asarray(nlp.g_upper, dtype=float).reshape(self.m_full)[self.rows])
+                * self.row_scale)
+
+    # --------------------------------------------------------- patterns
+    def _full_hessian_structure(self):
+        """The NLP's Hessian pattern, checked, in the compact index type
+        (empty without the exact Hessian)."""
+        n_full = self.n_full
+        structure = self.nlp.hessian_structure() if self._exact_hessian else ([], [])
+        index = compact_index_type(max(n_full, self.m_full))
+        return (a.astype(index) for a in check_structure(
+            "the NLP's hessian_structure", structure, n_full, n_full, lower=True))
+
+    def hessian_structure(self):
+        """``(rows, cols)`` of the reduced Hessian's lower triangle, made from
+        the NLP's pattern when asked (for the KKT system's analysis; not
+        held), the compact index type."""
+        hr, hc = self._full_hessian_structure()
+        column_of = np.full(self.n_full, -1, dtype=self.free.dtype)
+        column_of[self.free] = np.arange(self.n)
+        hr, hc = column_of[hr], column_of[hc]
+        use = (hr >= 0) & (hc >= 0)
+        return hr[use], hc[use]
 
     # -------------------------------------------------------- evaluation
     def full(self, x):
         """The full decision vector of the free variables ``x``."""
-        out = self.template.copy()
+        out = np.empty(self.n_full)
+        out[self.fixed] = self._fixed_values
         out[self.free] = x
         return out
+
+    def start_full(self):
+        """The full decision vector of the start ``x0``, its fixed variables
+        at their values."""
+        return self.full(self._x0[self.free])
 
     # Where every row (entry) is kept and scaled by 1, and the objective by 1,
     # the index and the product by 1.0 are left out: a copy of the NLP's
@@ -177,7 +215,8 @@ class ReducedNLP:
 
     def jacobian(self, x_full):
         values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
-        values = values[self.jacobian_entries] if not self._all_jacobian else values.copy()
+        values = values.copy() if self._jacobian_dropped is None else \
+            np.delete(values, self._jacobian_dropped)
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values
@@ -193,7 +232,8 @@ class ReducedNLP:
         values = np.asarray(self.nlp.hessian(x_full, full,
                                               objective_factor * self.objective_scale),
                             dtype=float)
-        return values.copy() if self._all_hessian else values[self.hessian_entries]
+        return values.copy() if self._hessian_dropped is None else \
+            np.delete(values, self._hessian_dropped)
 
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""
@@ -233,6 +273,19 @@ def compact_index_type(count):
     """The integer type of indices below ``count``: ``int32`` when they fit
     (half the bytes of NumPy's default), else ``int64``."""
     return np.int32 if count <= np.iinfo(np.int32).max else np.int64
+
+
+def _dropped(use):
+    """The entries that ``use`` (a mask) leaves out, in the compact index
+    type, or ``None`` when it keeps every entry."""
+    dropped = np.flatnonzero(~use)
+    return dropped.astype(compact_index_type(use.size)) if dropped.size else None
+
+
+def _kept(values, dropped):
+    """``values`` without the entries ``dropped`` (:func:`_dropped`): the
+    same array when none is."""
+    return values if dropped is None else np.delete(values, dropped)
 
 
 def _infinite(bound):

@@ -268,7 +268,7 @@ class _Run:
             return False
         self._set_bounds()
         kkt_type, self.note = kkt_class(s.linear_solver)
-        self.kkt = kkt_type(n, m, R.hessian_structure, R.jacobian_structure)
+        self.kkt = kkt_type(n, m, R.hessian_structure(), R.jacobian_structure)
         #: the NLP's limited-memory approximation, or ``None`` (exact)
         self.quasi_newton = None
         if not exact:
@@ -286,18 +286,25 @@ class _Run:
         finite.  The NLP's evaluation there is then dropped (the start point
         evaluates again)."""
         R = self.reduced
+        x_full = R.start_full()
         t = time.perf_counter()
         with np.errstate(all="ignore"):
-            gradient = np.asarray(self.nlp.gradient(R.template), dtype=float)
-            jacobian = np.asarray(self.nlp.jacobian(R.template), dtype=float)
+            gradient = np.asarray(self.nlp.gradient(x_full), dtype=float)
+            jacobian = np.asarray(self.nlp.jacobian(x_full), dtype=float)
         self.timings["callbacks"] += time.perf_counter() - t
         if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
-        R.scale_at(R.template, gradient, jacobian)
+        R.scale_at(x_full, gradient, jacobian)
+        self._drop_nlp_evaluation()
+        return True
+
+    def _drop_nlp_evaluation(self):
+        """The NLP's last evaluation dropped, where it keeps one
+        (``forget_evaluation``: the model's derivatives at every point), when
+        the point's callbacks are done: not held through a factorization."""
         forget = getattr(self.nlp, "forget_evaluation", None)
         if forget is not None:
             forget()
-        return True
 
     def _set_bounds(self):
         """The primal bounds (:class:`._bounds.PrimalBounds`), the rows'
@@ -335,7 +342,7 @@ class _Run:
         gradient_w[self.bounds.upper_index] += z_upper
         t = time.perf_counter()
         y = least_squares_multipliers(self.kkt, n, self.m, self.inequality, e.jacobian,
-                                      R.hessian_entries.size, gradient_w,
+                                      R.hessian_size, gradient_w,
                                       s.constr_mult_init_max)
         self.timings["factor_solve"] += time.perf_counter() - t
         return w, y, z_lower, z_upper, e
@@ -420,7 +427,9 @@ class _Run:
         multipliers' steps and step lengths
         (:meth:`._bounds.PrimalBounds.step_lengths`): ``(step, dz_lower,
         dz_upper, alpha_primal_max, alpha_dual)``, or ``None`` when no
-        regularization gave the right inertia."""
+        regularization gave the right inertia.  The point's callbacks are
+        done (the Hessian made): the NLP's evaluation is dropped first."""
+        self._drop_nlp_evaluation()
         t = time.perf_counter()
         step = stepper.compute(hessian, jacobian, sigma, residual_w, c, mu)
         self.timings["factor_solve"] += time.perf_counter() - t

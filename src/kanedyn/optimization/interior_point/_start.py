@@ -54,7 +54,7 @@ def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_si
     rhs[:n] = -gradient_w[:n]
     rhs[n:] = 0.0
     rhs[n:][inequality] = -gradient_w[n:]
-    y = kkt.solve(rhs)[n:]
+    y = kkt.solve(rhs)[n:].copy()  # not a view that holds the whole solution
     if not np.isfinite(y).all() or np.abs(y).max(initial=0.0) > limit:
         return np.zeros(m)
     return y
