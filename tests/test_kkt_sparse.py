@@ -696,6 +696,28 @@ def _factored(seed, n=40, m=15):
     return kkt, rng
 
 
+def test_solve_in_place_is_the_copying_solve():
+    """``solve(rhs, overwrite=True)`` (the iterative refinement's) solves in
+    ``rhs``'s storage and returns it, the copying solve's numbers to the bit;
+    an ``rhs`` it cannot take (another dtype, not contiguous, 2-D, read-only)
+    is copied and left as it was."""
+    kkt, rng = _factored(7)
+    rhs = rng.normal(size=kkt.size)
+    expected = kkt.solve(rhs)
+    b = rhs.copy()
+    x = kkt.solve(b, overwrite=True)
+    assert x is b
+    assert np.array_equal(x, expected)
+    read_only = rhs.copy()
+    read_only.flags.writeable = False
+    for other in (rhs.astype(np.float32), np.repeat(rhs, 2)[::2], rhs[:, None], read_only):
+        before = other.copy()
+        x = kkt.solve(other, overwrite=True)
+        assert x is not other
+        assert np.array_equal(other, before)
+        assert np.array_equal(x, kkt.solve(other))
+
+
 def test_column_pointers_are_int32_and_counted(monkeypatch):
     """K's and L's column pointers are int32 (4 bytes a row each), CSC of the
     entries that ``analysis`` counts, and ``bytes_factor`` is what the

@@ -558,12 +558,16 @@ class SparseKKT:
         if self.inertia is None:
             raise ValueError(f"{what}: nothing is factored yet; call factor first")
 
-    def solve(self, rhs):
+    def solve(self, rhs, overwrite=False):
         """The solution of K x = rhs with the last factors.
 
         Parameters
         ----------
         rhs : array_like, shape (n + m,) or (n + m, k)
+        overwrite : bool
+            Solve in ``rhs``'s own storage and return it, when ``rhs`` is a
+            writeable C-contiguous float64 ndarray of shape (n + m,) (else,
+            or by default, in a copy; the same numbers either way).
 
         Returns
         -------
@@ -575,7 +579,10 @@ class SparseKKT:
         N = self.size
         if b.ndim not in (1, 2) or b.shape[0] != N:
             raise ValueError(f"rhs must have shape ({N},) or ({N}, k), not {b.shape}")
-        x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
+        in_place = (overwrite and b is rhs and b.ndim == 1 and b.flags.c_contiguous
+                    and b.flags.writeable)
+        # rhs's own storage, or a copy: (k, N) or (N,)
+        x = b if in_place else np.array(b.T, dtype=float, order="C")
         if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
             raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]
