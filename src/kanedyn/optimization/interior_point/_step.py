@@ -200,8 +200,9 @@ class StepSolver:
                     break
                 error = self.kkt.matvec(solution)  # a new array: ours to overwrite
                 np.subtract(rhs, error, out=error)
-                if not np.abs(error).max(initial=0.0) > self.settings.residual_ratio_max \
-                        * scale:
+                # the largest |error| without an array of them (NaN either way)
+                largest = max(error.max(initial=0.0), -error.min(initial=0.0))
+                if not largest > self.settings.residual_ratio_max * scale:
                     break
                 # the correction solved in error's storage, then added in place;
                 # error not held through the next matvec's new array
