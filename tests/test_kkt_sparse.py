@@ -686,6 +686,63 @@ def test_release_drops_the_factors_until_the_next_factor():
     assert np.array_equal(kkt.matvec(rhs), product)
 
 
+def _factored(seed, n=40, m=15):
+    """A ``SparseKKT`` of a random structure, factored, and its random generator."""
+    rng = np.random.default_rng(seed)
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    kkt = SparseKKT(n, m, (hr, hc), (jr, jc))
+    kkt.factor(rng.normal(size=hr.size), rng.normal(size=jr.size), np.full(n, 2.0),
+               np.full(m, 0.5))
+    return kkt, rng
+
+
+def test_solve_in_place_is_the_copying_solve():
+    """``solve(rhs, overwrite=True)`` (the iterative refinement's) solves in
+    ``rhs``'s storage and returns it, the copying solve's numbers to the bit;
+    an ``rhs`` it cannot take (another dtype, not contiguous, 2-D, read-only)
+    is copied and left as it was."""
+    kkt, rng = _factored(7)
+    rhs = rng.normal(size=kkt.size)
+    expected = kkt.solve(rhs)
+    b = rhs.copy()
+    x = kkt.solve(b, overwrite=True)
+    assert x is b
+    assert np.array_equal(x, expected)
+    read_only = rhs.copy()
+    read_only.flags.writeable = False
+    for other in (rhs.astype(np.float32), np.repeat(rhs, 2)[::2], rhs[:, None], read_only):
+        before = other.copy()
+        x = kkt.solve(other, overwrite=True)
+        assert x is not other
+        assert np.array_equal(other, before)
+        assert np.array_equal(x, kkt.solve(other))
+
+
+def test_column_pointers_are_int32_and_counted(monkeypatch):
+    """K's and L's column pointers are int32 (4 bytes a row each), CSC of the
+    entries that ``analysis`` counts, and ``bytes_factor`` is what the
+    factor's arrays hold; an L with more entries than they reach is refused
+    by its size (here a limit lowered to the size of a 12 x 12 dense L)."""
+    from collections import OrderedDict
+
+    from kanedyn.optimization.interior_point import _kkt_analyses, _kkt_sparse
+    kkt, _ = _factored(11)
+    a, N = kkt.analysis, kkt.size
+    for pointers, entries in ((kkt._Ap, a.nnz_matrix), (kkt._Lp, a.nnz_factor)):
+        assert pointers.dtype == np.int32 and pointers.shape == (N + 1,)
+        assert pointers[0] == 0 and pointers[-1] == entries
+        assert (np.diff(pointers) >= 0).all()
+    _, Li, Lx, D, E = kkt._numeric
+    assert a.bytes_factor == sum(x.nbytes for x in (Li, Lx, kkt._Lp, D, E))
+    monkeypatch.setattr(_kkt_analyses, "_KEPT", OrderedDict())  # no kept analysis
+    monkeypatch.setattr(_kkt_sparse, "_LIMIT", 66)
+    hr, hc = np.tril_indices(12)
+    with pytest.raises(ValueError, match="L would have 66 entries, too many for 32-bit"):
+        SparseKKT(12, 0, (hr, hc), ([], []))
+    monkeypatch.setattr(_kkt_sparse, "_LIMIT", 67)
+    assert SparseKKT(12, 0, (hr, hc), ([], [])).analysis.nnz_factor == 66
+
+
 def _traced_analysis(nodes):
     """``(held, peak)``, bytes traced by ``tracemalloc`` above the start, of
     a ``SparseKKT`` of the backward-Euler swing-up's KKT pattern at
@@ -718,12 +775,14 @@ def _traced_analysis(nodes):
 def test_the_analysis_holds_little_and_makes_no_larger_temporaries():
     """The analysis of the swing-up's KKT pattern (5 rows a node) holds at most
     450 bytes a node (the order, K's pattern and maps, L's column pointers,
-    the elimination tree: measured 291; K's values, L and D come with the
-    first factor) and allocates at most 800 bytes a node above that while it
-    works (traced by ``tracemalloc``, the difference of two node counts;
-    measured 530; 1,121 held and 1,860 above when the patterns were made
-    through int64 copies and SciPy's COO conversions and K's values and the
-    factors were allocated here)."""
+    the elimination tree: measured 251, 291 with int64 column pointers; K's
+    values, L and D come with the first factor) and allocates at most 800
+    bytes a node above that while it works (traced by ``tracemalloc``, the
+    difference of two node counts; measured 570, 530 with int64 pointers:
+    the peak, in the order, is the same, 821 bytes a node, and less is held
+    after it; 1,121 held and 1,860 above when the patterns were made through
+    int64 copies and SciPy's COO conversions and K's values and the factors
+    were allocated here)."""
     _traced_analysis(50)  # the kernel loaded, imports done
     (held_1, peak_1), (held_2, peak_2) = _traced_analysis(2000), _traced_analysis(6000)
     held, above = (held_2 - held_1) / 4000, ((peak_2 - held_2) - (peak_1 - held_1)) / 4000

@@ -25,7 +25,11 @@ LDLᵀ factorization compiled in C that reports the inertia.
 
 Both factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
-diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs)``,
+diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs,
+overwrite=False)`` (with ``overwrite=True`` the solution may be written over
+``rhs``, a writeable C-contiguous float64 vector, and returned, so the caller
+uses only what is returned: ``SparseKKT`` does so, ``DenseKKT`` makes a new
+array; ``LowRankKKT`` passes it to its base),
 ``matvec(x)`` and ``release()`` (the factors dropped until the next
 ``factor``: the solver calls it at each new point).
 """

@@ -55,7 +55,7 @@ class SymbolicAnalysis:
         Rows counted as dense and ordered last.
     kind : ndarray of int8, shape (N,)
         Each pivot's kind (:func:`~._kkt_ordering.elimination_order`).
-    Ap : ndarray of int64, shape (N + 1,)
+    Ap : ndarray of int32, shape (N + 1,)
         Column pointers of K's permuted upper triangle (CSC).
     Ai : ndarray of int32
         Its row indices.
@@ -64,7 +64,7 @@ class SymbolicAnalysis:
         diagonal entry.
     parent : ndarray of int32, shape (N,)
         The elimination tree.
-    Lp : ndarray of int64, shape (N + 1,)
+    Lp : ndarray of int32, shape (N + 1,)
         Column pointers of L.
     """
 

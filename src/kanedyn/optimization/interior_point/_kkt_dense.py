@@ -123,9 +123,10 @@ class DenseKKT:
         self._factors = (factor, pivots, scale)
         return _inertia(factor, pivots)
 
-    def solve(self, rhs):
+    def solve(self, rhs, overwrite=False):
         """``K^{-1} rhs`` with the last factorization; shape (n + m,).
-        Non-finite entries when K was singular."""
+        Non-finite entries when K was singular.  ``overwrite`` is ignored
+        (the interface's; the scaling makes a new array anyway)."""
         if self._factors is None:
             return np.full(self.size, np.nan)
         factor, pivots, scale = self._factors

@@ -4,13 +4,14 @@ One fixed source (no generated part), compiled once and cached like the
 models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
 first :class:`~._kkt_sparse.SparseKKT`.  Its functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
-indices, ``int64`` column pointers; the caller makes them so) and release the
-GIL while they compute:
+indices and column pointers, so at most 2^31 - 2 entries in ``K`` and in
+``L``; the caller makes them so) and release the GIL while they compute:
 
 ``symbolic(parent, column_counts, Ap, Ai, pair)``
     the elimination tree and the number of entries of each column of ``L``
-    from the pattern of the permuted upper triangle ``Ap, Ai`` (CSC), the two
-    columns of a 2 x 2 pivot given the same rows.
+    (``int32``; their sum is the caller's to check) from the pattern of the
+    permuted upper triangle ``Ap, Ai`` (CSC), the two columns of a 2 x 2 pivot
+    given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
 jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, zero,
 tolerance)``
@@ -69,7 +70,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 13"
+_GENERATION = "kanedyn sparse LDL 14"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -140,14 +141,13 @@ static Py_ssize_t kd_walk(int32_t i, Py_ssize_t k, int32_t *flag, int32_t *paren
 
 /* ---------------------------------------------------------------- symbolic */
 static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[5] = {4, 8, 8, 4, 1};
+    static const Py_ssize_t size[5] = {4, 4, 4, 4, 1};
     static const int writable[5] = {1, 1, 0, 0, 0};
     static const char *const names[5] = {"parent", "column_counts", "Ap", "Ai", "pair"};
     Py_buffer v[5];
     if (kd_views(args, 5, v, size, writable, names) < 0) return NULL;
     Py_ssize_t N = KD_COUNT(v[0]);
-    int32_t *parent = v[0].buf, *Ai = v[3].buf;
-    int64_t *counts = v[1].buf, *Ap = v[2].buf;
+    int32_t *parent = v[0].buf, *counts = v[1].buf, *Ap = v[2].buf, *Ai = v[3].buf;
     const int8_t *pair = v[4].buf;
     int32_t *flag = malloc(sizeof(int32_t) * 2 * (size_t)(N > 0 ? N : 1));
     if (flag == NULL) {
@@ -257,7 +257,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[F_COUNT] = {8, 8, 4, 8, 8, 8, 8, 4, 4, 1, 4, 8, 4, 8, 4,
+    static const Py_ssize_t size[F_COUNT] = {8, 4, 4, 8, 8, 8, 4, 4, 4, 1, 4, 8, 4, 8, 4,
                                              8, 8, 1};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
                                           0, 1};
@@ -268,7 +268,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_buffer v[F_COUNT];
     if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
-    const int64_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
+    const int32_t *Lp = v[F_LP].buf, *Ap = v[F_AP].buf;
     int32_t *Li = v[F_LI].buf;
     const int32_t *Ai = v[F_AI].buf, *parent = v[F_PARENT].buf;
     const int8_t *pair = v[F_PAIR].buf;
@@ -419,15 +419,14 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
     }
     Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 8));
     if (columns == -1 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[8] = {8, 8, 4, 8, 8, 8, 1, 4};
+    static const Py_ssize_t size[8] = {8, 4, 4, 8, 8, 8, 1, 4};
     static const int writable[8] = {1, 0, 0, 0, 0, 0, 0, 0};
     static const char *const names[8] = {"rhs", "Lp", "Li", "Lx", "D", "E", "pair",
                                          "permutation"};
     Py_buffer v[8];
     if (kd_views(args, 8, v, size, writable, names) < 0) return NULL;
     double *X = v[0].buf;
-    const int64_t *Lp = v[1].buf;
-    const int32_t *Li = v[2].buf, *perm = v[7].buf;
+    const int32_t *Lp = v[1].buf, *Li = v[2].buf, *perm = v[7].buf;
     const double *Lx = v[3].buf, *D = v[4].buf, *E = v[5].buf;
     const int8_t *pair = v[6].buf;
     Py_ssize_t N = KD_COUNT(v[4]);
@@ -475,15 +474,14 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
 
 /* ------------------------------------------------------------------ matvec */
 static PyObject *kd_matvec(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[6] = {8, 8, 8, 4, 8, 4};
+    static const Py_ssize_t size[6] = {8, 8, 4, 4, 8, 4};
     static const int writable[6] = {1, 0, 0, 0, 0, 0};
     static const char *const names[6] = {"y", "x", "Ap", "Ai", "Ax", "permutation"};
     Py_buffer v[6];
     if (kd_views(args, 6, v, size, writable, names) < 0) return NULL;
     double *y = v[0].buf;
     const double *x = v[1].buf, *Ax = v[4].buf;
-    const int64_t *Ap = v[2].buf;
-    const int32_t *Ai = v[3].buf, *perm = v[5].buf;
+    const int32_t *Ap = v[2].buf, *Ai = v[3].buf, *perm = v[5].buf;
     Py_ssize_t N = KD_COUNT(v[0]);
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < N; k++) y[k] = 0.0;
@@ -817,12 +815,12 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
    triangle in the elimination order (`inverse[i]`: the place of row i of K in
    it), CSC: the Hessian's entries, the Jacobian's (rows n + i) and every
    diagonal entry, repeats merged and each column's rows increasing.  Fills the
-   column pointers Ap (int64, N + 1) and the maps (the place of each entry,
+   column pointers Ap (int32, N + 1) and the maps (the place of each entry,
    int32), returns the row indices as a bytearray of int32. */
 enum {P_AP, P_HMAP, P_JMAP, P_DMAP, P_INVERSE, P_HR, P_HC, P_JR, P_JC, P_COUNT};
 
 static PyObject *kd_permuted(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[P_COUNT] = {8, 4, 4, 4, 4, 4, 4, 4, 4};
+    static const Py_ssize_t size[P_COUNT] = {4, 4, 4, 4, 4, 4, 4, 4, 4};
     static const int writable[P_COUNT] = {1, 1, 1, 1, 0, 0, 0, 0, 0};
     static const char *const names[P_COUNT] = {"Ap", "hessian_map", "jacobian_map",
                                                "diagonal_map", "inverse", "hessian rows",
@@ -836,8 +834,7 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
     if (n == -1 && PyErr_Occurred()) return NULL;
     Py_buffer v[P_COUNT];
     if (kd_views(args, P_COUNT, v, size, writable, names) < 0) return NULL;
-    int64_t *Ap = v[P_AP].buf;
-    int32_t *hmap = v[P_HMAP].buf, *jmap = v[P_JMAP].buf, *dmap = v[P_DMAP].buf;
+    int32_t *Ap = v[P_AP].buf, *hmap = v[P_HMAP].buf, *jmap = v[P_JMAP].buf, *dmap = v[P_DMAP].buf;
     const int32_t *inverse = v[P_INVERSE].buf, *hr = v[P_HR].buf, *hc = v[P_HC].buf;
     const int32_t *jr = v[P_JR].buf, *jc = v[P_JC].buf;
     Py_ssize_t N = KD_COUNT(v[P_INVERSE]), nh = KD_COUNT(v[P_HR]), nj = KD_COUNT(v[P_JR]);
@@ -899,12 +896,12 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
         KD_ENDS(e, low, high);
         by_col[Ap[high]++] = e;
     }
-    kd_unshift(Ap, N);
-    /* a column's repeats are next to each other: one place each; the rows of the
+    /* Ap[k], advanced by the fill, is the end of column k's entries in by_col; a
+       column's repeats are next to each other: one place each; the rows of the
        places written over by_row (no longer needed) */
     int64_t begin = 0;
     for (Py_ssize_t k = 0; k < N; k++) {
-        int64_t end = Ap[k + 1], first = kept;
+        int64_t end = Ap[k], first = kept;
         for (int64_t q = begin; q < end; q++) {
             int32_t low, high, e = by_col[q];
             KD_ENDS(e, low, high);
@@ -914,10 +911,10 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
             else if (e < nh + nj) jmap[e - nh] = place;
             else dmap[e - nh - nj] = place;
         }
-        Ap[k] = first;
+        Ap[k] = (int32_t)first;
         begin = end;
     }
-    Ap[N] = kept;
+    Ap[N] = (int32_t)kept;
 #undef KD_ENDS
     Py_END_ALLOW_THREADS
     free(rowptr);

@@ -86,13 +86,17 @@ class LowRankKKT:
         with_g, with_m = _inertia(-G), _inertia(M)
         return tuple(int(a + b - c) for a, b, c in zip(inertia, with_g, with_m))
 
-    def solve(self, rhs):
-        """``K^{-1} rhs`` with the last factorization; shape (n + m,)."""
-        x = self.base.solve(rhs)
+    def solve(self, rhs, overwrite=False):
+        """``K^{-1} rhs`` with the last factorization; shape (n + m,).
+        ``overwrite`` is passed to the base object; the correction is
+        subtracted in place from its solution (new, or ``rhs`` itself when
+        the base took it)."""
+        x = self.base.solve(rhs, overwrite=overwrite)
         if self._low_rank is None:
             return x
         hessian, Z, G = self._low_rank
-        return x - Z @ np.linalg.solve(G, hessian.V.T @ x[:self.n])
+        x -= Z @ np.linalg.solve(G, hessian.V.T @ x[:self.n])
+        return x
 
     def matvec(self, x):
         """``K @ x`` with the last factored values; shape (n + m,)."""

@@ -27,8 +27,10 @@ entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows).  The patterns are made in
 int32 by the kernel (:mod:`._kkt_kernel`), with no int64 copy of the
-entries.  The analysis is kept for the next object of the same inputs
-(:mod:`._kkt_analyses`: a problem solved again makes the same analyses).
+entries; their indices and the column pointers of K and L are int32 (K and
+L of at most 2^31 - 2 entries each).  The analysis is kept for the next
+object of the same inputs (:mod:`._kkt_analyses`: a problem solved again
+makes the same analyses).
 The numeric storage (the values of :math:`K`, :math:`L`'s indices and
 values, :math:`D`) is made by the first :meth:`~SparseKKT.factor` and held
 until :meth:`~SparseKKT.release`; the kernel's scratch by each call.
@@ -264,7 +266,7 @@ def _permuted_pattern(n, permutation, hessian, jacobian):
 
     Returns
     -------
-    Ap : ndarray of int64, shape (N + 1,)
+    Ap : ndarray of int32, shape (N + 1,)
         Column pointers (CSC) of the permuted upper triangle, every diagonal
         entry present.
     Ai : ndarray of int32
@@ -284,7 +286,7 @@ def _permuted_pattern(n, permutation, hessian, jacobian):
     N = permutation.size
     inverse = np.empty(N, dtype=_INDEX)
     inverse[permutation] = np.arange(N, dtype=_INDEX)
-    Ap = np.empty(N + 1, dtype=np.int64)
+    Ap = np.empty(N + 1, dtype=_INDEX)
     maps = (np.empty(hr.size, dtype=_INDEX), np.empty(jr.size, dtype=_INDEX),
             np.empty(N, dtype=_INDEX))
     rows = kernel().permuted(Ap, *maps, inverse,
@@ -333,7 +335,8 @@ class SparseKKT:
     ValueError
         A size that is not a non-negative integer, a structure that is not a
         pair of equal-length integer arrays, an index out of range, an entry
-        of the Hessian above the diagonal (each naming the argument).
+        of the Hessian above the diagonal (each naming the argument); K or L
+        with more entries than 32-bit indices and column pointers reach.
     CompilerError
         No C compiler (the kernel is compiled once, then cached).
 
@@ -416,7 +419,8 @@ class SparseKKT:
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
         order, K's permuted pattern and maps, the elimination tree and L's
-        column pointers."""
+        column pointers (``ValueError`` when K or L has more entries than
+        int32 reaches)."""
         n, N = self.n, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         off = hr != hc
@@ -427,10 +431,14 @@ class SparseKKT:
             n, permutation, (hr, hc), (jr, jc))
         # elimination tree and the pattern's size, then L's column pointers
         parent = np.empty(N, dtype=_INDEX)
-        counts = np.empty(N, dtype=np.int64)
+        counts = np.empty(N, dtype=_INDEX)  # each below N
         self._kernel.symbolic(parent, counts, Ap, Ai, kind)
-        Lp = np.zeros(N + 1, dtype=np.int64)
-        np.cumsum(counts, out=Lp[1:])
+        nnz = int(counts.sum(dtype=np.int64))
+        if nnz >= _LIMIT:
+            raise ValueError(f"L would have {nnz} entries, too many for 32-bit column "
+                             "pointers")
+        Lp = np.zeros(N + 1, dtype=_INDEX)
+        np.cumsum(counts, dtype=_INDEX, out=Lp[1:])
         return SymbolicAnalysis(permutation, n_dense, kind, Ap, Ai, hessian_map, jacobian_map,
                                 diagonal_map, parent, Lp)
 
@@ -459,7 +467,8 @@ class SparseKKT:
         ------
         ValueError
             A shape that does not match, a value that is not finite, a
-            negative ``diagonal_c`` (naming the argument).
+            negative ``diagonal_c`` (naming the argument); a new order after
+            a zero pivot whose L has more entries than int32 reaches.
         """
         hv = _values(hessian_values, self._hessian_map.size, "hessian_values")
         jv = _values(jacobian_values, self._jacobian_map.size, "jacobian_values")
@@ -549,12 +558,16 @@ class SparseKKT:
         if self.inertia is None:
             raise ValueError(f"{what}: nothing is factored yet; call factor first")
 
-    def solve(self, rhs):
+    def solve(self, rhs, overwrite=False):
         """The solution of K x = rhs with the last factors.
 
         Parameters
         ----------
         rhs : array_like, shape (n + m,) or (n + m, k)
+        overwrite : bool
+            Solve in ``rhs``'s own storage and return it, when ``rhs`` is a
+            writeable C-contiguous float64 ndarray of shape (n + m,) (else,
+            or by default, in a copy; the same numbers either way).
 
         Returns
         -------
@@ -566,7 +579,10 @@ class SparseKKT:
         N = self.size
         if b.ndim not in (1, 2) or b.shape[0] != N:
             raise ValueError(f"rhs must have shape ({N},) or ({N}, k), not {b.shape}")
-        x = np.array(b.T, dtype=float, order="C")  # a copy: (k, N) or (N,)
+        in_place = (overwrite and b is rhs and b.ndim == 1 and b.flags.c_contiguous
+                    and b.flags.writeable)
+        # rhs's own storage, or a copy: (k, N) or (N,)
+        x = b if in_place else np.array(b.T, dtype=float, order="C")
         if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
             raise ValueError("rhs holds a value that is not finite")
         columns = 1 if b.ndim == 1 else b.shape[1]

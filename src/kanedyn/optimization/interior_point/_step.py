@@ -198,12 +198,16 @@ class StepSolver:
             for _ in range(int(self.settings.max_refinement_steps)):
                 if not np.isfinite(solution).all():
                     break
-                error = self.kkt.matvec(solution)  # a new array, as the solves'
+                error = self.kkt.matvec(solution)  # a new array: ours to overwrite
                 np.subtract(rhs, error, out=error)
-                if not np.abs(error).max(initial=0.0) > self.settings.residual_ratio_max \
-                        * scale:
+                # the largest |error| without an array of them (NaN either way)
+                largest = max(error.max(initial=0.0), -error.min(initial=0.0))
+                if not largest > self.settings.residual_ratio_max * scale:
                     break
-                solution += self.kkt.solve(error)  # in place: the same sum
+                # the correction solved in error's storage, then added in place;
+                # error not held through the next matvec's new array
+                solution += self.kkt.solve(error, overwrite=True)
+                del error
         if not np.isfinite(solution).all():
             return None
         dx, dy = solution[:n], solution[n:]
