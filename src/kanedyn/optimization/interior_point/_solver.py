@@ -207,7 +207,7 @@ class _Run:
         are finite.  The last step's factors are dropped first (the new point
         needs new ones): not held while the derivatives and the next Hessian
         are made."""
-        self.kkt.release()
+        self.stepper.release()
         t = time.perf_counter()
         e.gradient = self.reduced.gradient(e.x_full)
         e.jacobian = self.reduced.jacobian(e.x_full)
@@ -344,6 +344,7 @@ class _Run:
         y = least_squares_multipliers(self.kkt, n, self.m, self.inequality, e.jacobian,
                                       R.hessian_size, gradient_w,
                                       s.constr_mult_init_max)
+        self.kkt.release()  # its factors not held through the first Hessian
         self.timings["factor_solve"] += time.perf_counter() - t
         return w, y, z_lower, z_upper, e
 
@@ -524,9 +525,12 @@ class _Run:
             residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
-            del hessian, sigma  # factored: not held through the line search
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
+            # the factors not held through the line search (a second-order
+            # correction factors the same matrix again)
+            self.stepper.release(again=(hessian, e.jacobian, sigma))
+            del hessian, sigma
             step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows
             # the line search

@@ -91,6 +91,9 @@ class StepSolver:
         self._counts = {"regularized": 0, "singular": 0}
         self.factorizations = 0
         self._state = None
+        #: the last matrix's inputs while its factors are released to be made
+        #: again (:meth:`release`), else ``None``
+        self._again = None
 
     def _factor(self, hessian_values, jacobian_values, sigma, delta_w, delta_c):
         n = self.n
@@ -104,7 +107,17 @@ class StepSolver:
         inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
                                   diagonal_c)
         self._state = (slack_diagonal, delta_w, delta_c)
+        self._again = None
         return int(inertia[0]), int(inertia[1]), int(inertia[2])
+
+    def release(self, again=None):
+        """Drop the factors (the KKT's ``release``).  ``again``: the last
+        matrix's ``(hessian_values, jacobian_values, sigma)``, kept so that
+        :meth:`solve` factors it again when asked (the same numbers): the
+        line search holds no factors through its trial points for its rare
+        second-order corrections."""
+        self.kkt.release()
+        self._again = again
 
     def compute(self, hessian_values, jacobian_values, sigma, residual_w, residual_c, mu):
         """The regularized Newton step, or ``None`` when no regularization up
@@ -175,11 +188,34 @@ class StepSolver:
         self._counts[kind] += 1
         return True if self._counts[kind] >= DEGENERATE_ITERATIONS else None
 
+    def _refined(self, solution, rhs):
+        """``solution`` of K x = ``rhs`` after iterative refinement (in place;
+        its residuals not held after it)."""
+        if not self.settings.max_refinement_steps:
+            return solution
+        scale = max(1.0, float(rhs.max(initial=0.0)), -float(rhs.min(initial=0.0)))  # |rhs|
+        for _ in range(int(self.settings.max_refinement_steps)):
+            if not np.isfinite(solution).all():
+                break
+            error = self.kkt.matvec(solution)  # a new array: ours to overwrite
+            np.subtract(rhs, error, out=error)
+            # the largest |error| without an array of them (NaN either way)
+            largest = max(error.max(initial=0.0), -error.min(initial=0.0))
+            if not largest > self.settings.residual_ratio_max * scale:
+                break
+            # the correction solved in error's storage, then added in place;
+            # error not held through the next matvec's new array
+            solution += self.kkt.solve(error, overwrite=True)
+            del error
+        return solution
+
     def solve(self, residual_w, residual_c):
         """The step with the last factorization for these residuals (also the
         second-order correction's), refined iteratively; ``None`` if not finite."""
         n = self.n
         slack_diagonal, delta_w, delta_c = self._state
+        if self._again is not None:  # released: the same matrix factored again
+            self._factor(*self._again, delta_w, delta_c)
         residual_s = residual_w[n:]
         rhs = np.empty(n + self.m)
         np.negative(residual_w[:n], out=rhs[:n])
@@ -192,26 +228,12 @@ class StepSolver:
             np.subtract(0.0, residual_c, out=rhs[n:])
         if not np.isfinite(rhs).all():
             return None
-        solution = self.kkt.solve(rhs)
-        if self.settings.max_refinement_steps:
-            scale = max(1.0, float(np.abs(rhs).max(initial=0.0)))
-            for _ in range(int(self.settings.max_refinement_steps)):
-                if not np.isfinite(solution).all():
-                    break
-                error = self.kkt.matvec(solution)  # a new array: ours to overwrite
-                np.subtract(rhs, error, out=error)
-                # the largest |error| without an array of them (NaN either way)
-                largest = max(error.max(initial=0.0), -error.min(initial=0.0))
-                if not largest > self.settings.residual_ratio_max * scale:
-                    break
-                # the correction solved in error's storage, then added in place;
-                # error not held through the next matvec's new array
-                solution += self.kkt.solve(error, overwrite=True)
-                del error
+        solution = self._refined(self.kkt.solve(rhs), rhs)
+        del rhs  # not held with the step
         if not np.isfinite(solution).all():
             return None
         dx, dy = solution[:n], solution[n:]
-        if not self.inequality.size:
-            return NewtonStep(dx.copy(), dy, delta_w, delta_c)
+        if not self.inequality.size:  # both views of the solution: no copy
+            return NewtonStep(dx, dy, delta_w, delta_c)
         ds = (-self.signs * dy[self.inequality] - residual_s) / slack_diagonal
         return NewtonStep(np.concatenate([dx, ds]), dy, delta_w, delta_c)
