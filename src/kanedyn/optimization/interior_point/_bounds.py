@@ -17,6 +17,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from ._reduced import compact_index_type
+
 __all__ = ["PrimalBounds", "fraction_to_boundary"]
 
 
@@ -28,7 +30,8 @@ class PrimalBounds:
     Attributes
     ----------
     lower_index, upper_index : ndarray of int
-        The entries with a finite lower / upper bound.
+        The entries with a finite lower / upper bound (``int32`` where
+        ``size`` allows).
     lower, upper : ndarray
         Those bounds (relaxed), shapes as the index arrays.
     """
@@ -37,8 +40,9 @@ class PrimalBounds:
         lower, upper = np.asarray(lower, dtype=float), np.asarray(upper, dtype=float)
         self.size = lower.size
         has_lower, has_upper = np.isfinite(lower), np.isfinite(upper)
-        self.lower_index = np.flatnonzero(has_lower)
-        self.upper_index = np.flatnonzero(has_upper)
+        index = compact_index_type(self.size)
+        self.lower_index = np.flatnonzero(has_lower).astype(index)
+        self.upper_index = np.flatnonzero(has_upper).astype(index)
         lo, up = lower[has_lower], upper[has_upper]
         self.lower = lo - relax * np.maximum(1.0, np.abs(lo))
         self.upper = up + relax * np.maximum(1.0, np.abs(up))

@@ -217,7 +217,7 @@ class _Run:
     def _row_residuals(self, rows, w):
         """:math:`c`: equality rows minus their value, inequality rows minus
         their slacks (scaled)."""
-        c = rows - self.row_target
+        c = rows - self.row_target if self.row_target is not None else rows.copy()
         if self.inequality.size:
             c[self.inequality] = rows[self.inequality] - w[self.n:]
         return c
@@ -313,7 +313,11 @@ class _Run:
         x_lower, x_upper = R.variable_bounds()
         g_lower, g_upper = R.row_bounds()
         ineq = self.inequality
+        #: the rows' targets (equality rows' values), ``None`` where all are
+        #: +0.0 (``rows - 0.0`` is ``rows``, bit for bit)
         self.row_target = np.where(R.equality, g_lower, 0.0)
+        if not (self.row_target.any() or np.signbit(self.row_target).any()):
+            self.row_target = None
         self.bounds = PrimalBounds(np.concatenate([x_lower, g_lower[ineq]]),
                                    np.concatenate([x_upper, g_upper[ineq]]),
                                    s.bound_relax_factor, s.kappa_d)
@@ -522,7 +526,8 @@ class _Run:
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
             gradient_w = self._in_w(e.gradient)
             barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
-            residual_w = barrier_gradient + (m["lagrangian"] - gradient_w)
+            # (the Lagrangian's gradient not held further: only this needs it)
+            residual_w = barrier_gradient + (m.pop("lagrangian") - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
             if direction is None:
