@@ -344,6 +344,7 @@ class _Run:
         gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
         gradient_w[self.bounds.lower_index] -= z_lower
         gradient_w[self.bounds.upper_index] += z_upper
+        self._drop_nlp_evaluation()  # before each factorization (the Hessian evaluates again)
         t = time.perf_counter()
         y = least_squares_multipliers(self.kkt, n, self.m, self.inequality, e.jacobian,
                                       R.hessian_size, gradient_w,
