@@ -81,6 +81,41 @@ def test_reduced_step_equals_the_full_system():
     assert np.max(np.abs(step.rows - exact[n + k:])) < 1e-10
 
 
+@pytest.mark.parametrize("linear_solver", _linear_solvers())
+def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
+    """The solver releases the factors after the step (not held through the
+    line search); a second-order correction's solve then factors the same
+    matrix again: the same solution to the bit, one factorization more.
+    Released without the inputs (a new point), a solve has no factors."""
+    from kanedyn.optimization.interior_point import SparseKKT
+    rng = np.random.default_rng(5)
+    n, m = 6, 3
+    B = rng.normal(size=(n, n))
+    W = B @ B.T + n * np.eye(n)
+    J = rng.normal(size=(m, n))
+    hr, hc = np.tril_indices(n)
+    kind = DenseKKT if linear_solver == "dense" else SparseKKT
+    kkt = kind(n, m, (hr, hc), (np.repeat(np.arange(m), n), np.tile(np.arange(n), m)))
+    stepper = StepSolver(kkt, n, m, np.array([], dtype=int), settings({}))
+    sigma = rng.uniform(0.5, 2.0, size=n)
+    inputs = (W[hr, hc], J.ravel(), sigma)
+    stepper.compute(*inputs, rng.normal(size=n), rng.normal(size=m), mu=0.1)
+    residual_w, residual_c = rng.normal(size=n), rng.normal(size=m)
+    held = stepper.solve(residual_w, residual_c)
+    count = stepper.factorizations
+    stepper.release(again=inputs)
+    again = stepper.solve(residual_w, residual_c)
+    assert stepper.factorizations == count + 1
+    np.testing.assert_array_equal(again.primal, held.primal)
+    np.testing.assert_array_equal(again.rows, held.rows)
+    assert stepper.solve(residual_w, residual_c).primal.tolist() == held.primal.tolist()
+    assert stepper.factorizations == count + 1  # factored once, then held again
+    stepper.release()
+    if linear_solver == "sparse":
+        with pytest.raises(ValueError, match="nothing is factored"):
+            stepper.solve(residual_w, residual_c)
+
+
 def test_starting_pairs_solve_their_optimality_conditions():
     """p, n of the paper's (33) satisfy c - p + n = 0, p, n > 0 and the
     barrier problem's stationarity rho - mu/p = lambda = -(rho - mu/n)."""
