@@ -214,9 +214,8 @@ class ReducedNLP:
         return values if self.objective_scale == 1.0 else self.objective_scale * values
 
     def jacobian(self, x_full):
-        values = np.asarray(self.nlp.jacobian(x_full), dtype=float)
-        values = values.copy() if self._jacobian_dropped is None else \
-            np.delete(values, self._jacobian_dropped)
+        values = _kept(np.asarray(self.nlp.jacobian(x_full), dtype=float),
+                       self._jacobian_dropped, copy=True)
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values
@@ -232,8 +231,7 @@ class ReducedNLP:
         values = np.asarray(self.nlp.hessian(x_full, full,
                                               objective_factor * self.objective_scale),
                             dtype=float)
-        return values.copy() if self._hessian_dropped is None else \
-            np.delete(values, self._hessian_dropped)
+        return _kept(values, self._hessian_dropped, copy=True)
 
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""
@@ -282,10 +280,12 @@ def _dropped(use):
     return dropped.astype(compact_index_type(use.size)) if dropped.size else None
 
 
-def _kept(values, dropped):
-    """``values`` without the entries ``dropped`` (:func:`_dropped`): the
-    same array when none is."""
-    return values if dropped is None else np.delete(values, dropped)
+def _kept(values, dropped, copy=False):
+    """``values`` without the entries ``dropped`` (:func:`_dropped`), a new
+    array; when none is, ``values`` itself, or its copy with ``copy``."""
+    if dropped is None:
+        return values.copy() if copy else values
+    return np.delete(values, dropped)
 
 
 def _infinite(bound):
