@@ -284,6 +284,24 @@ def test_the_command_line(tmp_path, capsys):
         assert len(err.strip().splitlines()) == 1 and named in err, err
 
 
+def test_a_constant_that_an_option_adds_is_named_with_the_option(tmp_path, capsys):
+    """``--fit c_h`` on flexible-robot without ``--set hub_damping=...``: the
+    error says which model option adds c_h (found by building the model with
+    its switches and unset options, not a list kept for c_h); a constant no
+    option adds gets no such hint."""
+    from kanedyn.cli import main
+    path = tmp_path / "robot.csv"
+    path.write_text("t,theta\n0,0\n0.1,0.01\n")
+    assert main(["identify", "flexible-robot", "--data", str(path), "--fit", "c_h",
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "--fit c_h: not a constant of flexible-robot; its constants: J_h, T_m" in err
+    assert err.strip().endswith("; c_h exists only with the model option hub_damping "
+                                "(--set hub_damping=VALUE)"), err
+    assert kd.models.options_adding("flexible-robot", "c_h", {"hub_damping": 0.1}) == []
+    assert kd.models.options_adding("pendulum", "mass") == []
+
+
 def test_multiple_shooting_agrees_with_single_shooting(oscillator):
     """On a well-behaved record (noise, the initial position fitted, positions and
     accelerations measured) both reach the same optimum: the continuity of the

@@ -275,6 +275,8 @@ def test_options_and_hessian_refused_with_their_names():
     nlp, *_ = _equality_qp()
     with pytest.raises(kd.OptionError, match="'tolerance'.*known:.*acceptable_tol"):
         _solve(nlp, np.zeros(nlp.n), {"tolerance": 1e-6})
+    with pytest.raises(kd.OptionError, match=r"'max_itr' \(did you mean 'max_iter'\?\); known"):
+        _solve(nlp, np.zeros(nlp.n), {"max_itr": 5})
     with pytest.raises(ValueError, match="linear_solver='mumps'"):
         _solve(nlp, np.zeros(nlp.n), {"linear_solver": "mumps"})
     with pytest.raises(ValueError, match="hessian_approximation='sr1'.*'limited-memory'"):

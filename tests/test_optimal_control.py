@@ -749,6 +749,83 @@ def test_failures_are_reported_in_the_result(integrator):
     assert result.status in (4, -1)
 
 
+@pytest.mark.parametrize("solver", ["ipopt", "interior-point"])
+def test_an_unsolved_run_names_what_is_violated_and_an_unbounded_objective(integrator,
+                                                                           solver):
+    """Both solvers: an infeasible problem's message names its most violated
+    row (a defect: which state's dynamics, between which nodes); an unbounded
+    one (x's final value maximized, nothing holding it) ends unsolved with the
+    objective fallen by more than 1e8 from the guess's, and the message says
+    the problem may be unbounded, naming what grew; a bounded problem stopped
+    by max_iter says neither."""
+    model, (x, v, F, _) = integrator
+    infeasible = kd.OptimalControlProblem(model, nodes=21, duration=1.0, lagrange=F ** 2,
+                                          bounds={F: (-1, 1)}, initial={x: 0, v: 0},
+                                          final={x: 1, v: 0})
+    result = infeasible.solve(infeasible.guess_line(inputs={F: 0.0}), solver=solver)
+    assert result.status == 2, result.message
+    assert re.search(r"largest constraint violation \S+, of the dynamics of [xv] between "
+                     r"nodes \d+ and \d+ \(t = \S+ to \S+ s\)$", result.message), result.message
+    unbounded = kd.OptimalControlProblem(model, nodes=11, duration=1.0, mayer=-x,
+                                         initial={x: 0, v: 0})
+    result = unbounded.solve(unbounded.guess_line(end={x: 1, v: 0}, inputs={F: 0.0}),
+                             solver=solver, options={"max_iter": 50})
+    assert not result.success and result.objective < -1e8
+    assert re.search(r"the objective fell to -\S+ from -1 and F grew to \S+, v to \S+, "
+                     r"x to \S+: the problem may be unbounded below \(bound F, v, x, or add "
+                     r"final conditions", result.message), result.message
+    bounded = kd.OptimalControlProblem(model, nodes=11, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0})
+    result = bounded.solve(bounded.guess_line(inputs={F: 0.0}), solver=solver,
+                           options={"max_iter": 1})
+    assert result.status == -1, result.message
+    assert "unbounded" not in result.message
+
+
+def test_the_most_violated_row_is_named_in_the_problems_terms(integrator):
+    """The rows and bounds named at a chosen vector: a defect, a path
+    constraint at a node, an instance constraint, a bound; the largest wins."""
+    from kanedyn.optimization._diagnosis import _point_times, _row_text, worst_violation
+    from kanedyn.optimization._nlp import CollocationNLP, violations
+    model, (x, v, F, _) = integrator
+    t = sm.Symbol("t")
+    problem = kd.OptimalControlProblem(
+        model, nodes=11, duration=1.0, lagrange=F ** 2, bounds={F: (-1, 1)},
+        path_constraints=[(x + v, -1.0, 1.0)],
+        instance_constraints=[x.subs(t, 1.0) - 2 * x.subs(t, 0.0) - 0.5])
+    nlp = CollocationNLP(problem)
+    L = nlp.layout
+    z = np.zeros(nlp.n)
+    assert worst_violation(nlp, z) == (0.5, "the instance constraint " +
+                                       problem.instances[0].text + " = 0")
+    z[L.state_index(3, 0)] = 3.0  # x at node 3: its defects by 3, its path row by 2
+    assert worst_violation(nlp, z.copy()) == (3.0, "the dynamics of x between nodes 2 and 3 (t = "
+                                            "0.2 to 0.3 s)")
+    z[L.state_index(3, 0)] = 0.0
+    z[L.state_index(4, 1)] = 2.5  # v at node 4: its path row by 1.5, its defect by 2.5
+    z[L.input_index(5, 0)] = -9.0  # F at node 5: its bound by 8
+    assert worst_violation(nlp, z.copy()) == (8.0, "the bound of F at node 5 (t = 0.5 s)")
+    rows, _ = violations(nlp, z.copy())
+    path_row = nlp.defects.n_rows + 4  # the path constraint's row at node 4
+    assert rows[path_row] == pytest.approx(1.5)
+    assert _row_text(nlp, path_row, _point_times(nlp, z)) == (
+        "the path constraint v(t) + x(t) in [-1, 1] at node 4 (t = 0.4 s)")
+
+
+def test_an_option_ipopt_refuses_is_an_option_error_with_the_close_names(integrator):
+    """A misspelt option: an OptionError (a ValueError), suggesting the known
+    name; a known name's bad value: said to be the value."""
+    model, (x, v, F, _) = integrator
+    problem = kd.OptimalControlProblem(model, nodes=5, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0})
+    guess = problem.guess_line(inputs={F: 0.0})
+    with pytest.raises(kd.OptionError, match=r"IPOPT refused the option max_itr=5 \(.*an "
+                                             r"unknown name .*did you mean 'max_iter'\?"):
+        problem.solve(guess, options={"max_itr": 5})
+    with pytest.raises(ValueError, match=r"max_iter=-5 \(.*: a value it does not take\)"):
+        problem.solve(guess, options={"max_iter": -5})
+
+
 # ------------------------------------------------- the exact Hessian (issue 35)
 def _lagrangian_gradient(nlp, z, sigma, multipliers):
     """sigma grad J + J_g^T lambda, from the NLP's exact first derivatives."""

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 from .._errors import KanedynError
 from .._progress import Progress
-from ..models import build
+from ..models import build, options_adding
 from ._options import (add_backend_argument, add_model_argument, derived_model, parse_sets,
                        positive_pairs, split_values)
 from ._table import table
@@ -87,8 +87,11 @@ def cmd_identify(args):
     const_names = {str(s) for s in definition.constants}
     unknown = [n for n in args.fit if n not in const_names]
     if unknown:
+        adding = options_adding(args.model, unknown[0], options)
+        hint = (f"; {unknown[0]} exists only with the model option "
+                f"{' or '.join(adding)} (--set {adding[0]}=VALUE)" if adding else "")
         raise KanedynError(f"--fit {unknown[0]}: not a constant of {definition.name}; its "
-                           f"constants: {', '.join(sorted(const_names))}")
+                           f"constants: {', '.join(sorted(const_names))}{hint}")
     records = [MeasuredRecord.from_csv(path, columns=columns) for path in args.data]
     progress = Progress(enabled=not args.quiet)
     model = derived_model(definition, args.backend, constants, progress)

@@ -102,7 +102,7 @@ _LAZY = {
 
 
 __all__ = ["ModelDefinition", "PendingDefinition", "REGISTRY", "OPTION_UNITS", "build",
-           "available", "similar_models", "unknown_model_text", "pendulum",
+           "available", "similar_models", "unknown_model_text", "options_adding", "pendulum",
            "n_link_pendulum_on_cart", "chain3d", "chaplygin_sleigh", "four_bar",
            "rolling_disk", "whipple_bicycle", "MEIJAARD_2007", "sphere_slug",
            "slug_ellipsoid", "block_on_incline", "bead_in_tube", "bouncing_ball", "ladder",
@@ -285,6 +285,61 @@ def unknown_model_text(name):
     similar = similar_models(name)
     hint = f"; did you mean {' or '.join(similar)}?" if similar else ""
     return f"unknown model {name!r}{hint}"
+
+
+def options_adding(name, constant, options=None):
+    """The options of built-in model ``name`` that would give it the constant
+    named ``constant``, which it lacks with ``options``.
+
+    Each option not in ``options`` that is a switch (``bool``: its other
+    value) or off by default (``None``: the value 1.0 or 1) is tried by
+    building the model with it (the SymPy definition, not its derivation);
+    an option whose trial value the model refuses is passed over.
+
+    Parameters
+    ----------
+    name : str
+        One of :data:`REGISTRY`.
+    constant : str
+        The constant's name, e.g. ``"c_h"``.
+    options : dict, optional
+        The options given (those are not tried).
+
+    Returns
+    -------
+    list of str
+        ``["hub_damping"]``; empty when no such option adds it, or the
+        model has it with ``options``.
+    """
+    import inspect
+
+    from ._pending import build_now
+    builder, allowed = REGISTRY[name]
+    options = dict(options or {})
+    defaults = inspect.signature(builder).parameters
+
+    def has_it(chosen):
+        return constant in {str(c) for c in build_now(name, chosen, builder).constants}
+
+    if has_it(options):
+        return []
+    found = []
+    for option, kind in allowed.items():
+        default = defaults[option].default
+        if option in options:
+            continue
+        if kind is bool:
+            trial = not default
+        elif default is None and kind in (int, float):
+            trial = kind(1)
+        else:
+            continue
+        try:
+            if has_it(dict(options, **{option: trial})):
+                found.append(option)
+        except (ModelError, ValueError, TypeError):  # the trial value refused
+            continue
+    return found
 
 
 def build(name, lazy=True, **options):

@@ -31,7 +31,7 @@ import numpy as np
 from .._errors import ModelError
 from ._transcription import Layout, defects_for
 
-__all__ = ["CollocationNLP", "largest_violation", "index_arrays"]
+__all__ = ["CollocationNLP", "largest_violation", "violations", "index_arrays"]
 
 INFINITY = 1e20  # IPOPT's "no bound" beyond 1e19
 
@@ -394,10 +394,18 @@ class CollocationNLP:
         return largest_violation(self, z)
 
 
-def largest_violation(nlp, z):
-    """Largest violation of a constraint or a bound of ``nlp`` at ``z``."""
+def violations(nlp, z):
+    """``(rows, bounds)``: each row's and each variable's violation of its
+    bounds at ``z`` (0 where satisfied), shapes (m,) and (n,), in the units
+    of the row or the variable."""
     z = np.asarray(z, dtype=float)
     g = nlp.constraints(z)
-    worst = [np.max(np.maximum(nlp.g_lower - g, g - nlp.g_upper), initial=0.0),
-             np.max(np.maximum(nlp.x_lower - z, z - nlp.x_upper), initial=0.0)]
-    return float(max(worst))
+    rows = np.maximum(np.maximum(nlp.g_lower - g, g - nlp.g_upper), 0.0)
+    bounds = np.maximum(np.maximum(nlp.x_lower - z, z - nlp.x_upper), 0.0)
+    return rows, bounds
+
+
+def largest_violation(nlp, z):
+    """Largest violation of a constraint or a bound of ``nlp`` at ``z``."""
+    rows, bounds = violations(nlp, z)
+    return float(max(np.max(rows, initial=0.0), np.max(bounds, initial=0.0)))

@@ -517,7 +517,9 @@ class OptimalControlProblem:
         x0, warm = vector(self, guess, warm_start)
         nlp = CollocationNLP(self, hessian=hessian)
         solution, signal = solve_nlp(solver, nlp, x0, options, warm)
-        return build_result(self, nlp, solution, signal)
+        from .interior_point._options import DEFAULTS
+        tolerance = (options or {}).get("constr_viol_tol", DEFAULTS["constr_viol_tol"])
+        return build_result(self, nlp, solution, signal, start=x0, tolerance=tolerance)
 
     def __repr__(self):
         free = " free duration," if self.free_duration else ""

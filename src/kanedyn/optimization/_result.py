@@ -344,9 +344,11 @@ def write_csv(path, columns, rows):
     return path
 
 
-def status_text(solution, interrupted, violation):
+def status_text(solution, interrupted, violation, worst=None, hint=None):
     """The result's message: the solver's status and its meaning, an
-    interruption, the largest violation."""
+    interruption, the largest violation (``worst``: what is violated most,
+    :func:`._diagnosis.worst_violation`'s text) and ``hint`` (e.g. that the
+    problem may be unbounded below, :func:`._diagnosis.unbounded_hint`)."""
     from .._signals import interruption
     meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
     text = f"{solution.solver}: {solution.status_text} (status {solution.status}"
@@ -356,21 +358,42 @@ def status_text(solution, interrupted, violation):
                 f"iterate is returned; " + text)
     text += (f" after {solution.iterations} iterations; largest constraint violation "
              f"{violation:.2e}")
+    if worst:
+        text += f", of {worst}"
+    if hint:
+        text += f"; {hint}"
     return text
 
 
-def build_result(problem, nlp, solution, interrupted, x=None, violation=None):
+def build_result(problem, nlp, solution, interrupted, x=None, violation=None, start=None,
+                 tolerance=1e-4):
     """The :class:`OptimalControlResult` of ``problem`` from the solver's
     ``solution``; ``x``, ``violation``: a phase's part of a multiphase
-    solution and the whole problem's violation (default: the solution's)."""
+    solution and the whole problem's violation (default: the solution's).
+
+    When the run ended unsolved, the message of a whole problem (no ``x``
+    given) names its most violated row or bound when the violation exceeds
+    ``tolerance`` (the solvers' ``constr_viol_tol``, IPOPT's default 1e-4,
+    units of the row), and with ``start`` (the solver's starting vector)
+    says when the problem may be unbounded below (:mod:`._diagnosis`)."""
+    from ._diagnosis import unbounded_hint, worst_violation
     L = nlp.layout
+    whole = x is None
     x = solution.x if x is None else x
     Y, R, P, T = L.split(x, problem.duration_value)
     Yi, Ri = L.split_interior(x)
     t0 = float(L.start_time(x, nlp.start_time))
-    violation = nlp.violation(x) if violation is None else violation
+    success = solution.status in (0, 1) and interrupted is None
+    worst = hint = None
+    if whole and not success:
+        violation, worst = worst_violation(nlp, x)
+        worst = worst if violation > tolerance else None
+    elif violation is None:
+        violation = nlp.violation(x)
     objective = float(nlp.objective(x))
-    text = status_text(solution, interrupted, violation)
+    if whole and not success and start is not None:
+        hint = unbounded_hint(nlp, x, start, solution.status, objective)
+    text = status_text(solution, interrupted, violation, worst, hint)
     positions = float(T) * L.positions()
     t = t0 + positions[:L.nodes]
     mid = {}
@@ -385,7 +408,7 @@ def build_result(problem, nlp, solution, interrupted, x=None, violation=None):
         input_names=problem.symbols.inputs,
         parameters=dict(zip(problem.symbols.free, map(float, P))), duration=float(T),
         objective=objective, constraint_violation=violation,
-        success=solution.status in (0, 1) and interrupted is None, status=solution.status,
+        success=success, status=solution.status,
         message=text, iterations=solution.iterations, wall_time=solution.wall_time,
         method=problem.method, solver=solution.solver, x=x,
         multipliers=multipliers, problem=problem, degree=problem.degree, **mid)

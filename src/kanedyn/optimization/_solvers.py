@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .._errors import ModelError
+from .._errors import ModelError, OptionError
 from .interior_point import InteriorPoint
 
 __all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
@@ -98,7 +98,11 @@ class Ipopt:
     The options kanedyn sets unless given: ``hessian_approximation =
     "limited-memory"``, ``print_level = 0``, ``sb = "yes"``, and with MUMPS
     (IPOPT's linear solver unless ``linear_solver`` names another)
-    ``mumps_mem_percent = 100`` (:data:`MUMPS_DEFAULTS`).
+    ``mumps_mem_percent = 100`` (:data:`MUMPS_DEFAULTS`).  An option IPOPT
+    refuses raises :class:`~kanedyn.OptionError` (a ``ValueError``), with the
+    known names spelled like it; IPOPT itself prints a line about it to
+    standard output first (before its ``print_level`` takes effect: not
+    kept out).
     """
 
     name = "ipopt"
@@ -110,6 +114,17 @@ class Ipopt:
     #: (docs/optimal_control.md, "Memory").  Not set for an IPOPT built
     #: without MUMPS, which has no such option.
     MUMPS_DEFAULTS = {"mumps_mem_percent": 100}
+
+    def _refused(self, key, value, exc):
+        """The :class:`OptionError` of an option IPOPT refused: an unknown name
+        or a value it does not take (IPOPT does not tell which), with the
+        names kanedyn knows that are spelled like ``key``."""
+        from .interior_point._options import DEFAULTS, similar_option
+        known = {*DEFAULTS, *self.DEFAULTS, *self.MUMPS_DEFAULTS}
+        why = ("a value it does not take" if key in known else
+               f"an unknown name or a value it does not take{similar_option(key, known)}")
+        return OptionError(f"IPOPT refused the option {key}={value!r} ({exc}: {why}); see "
+                           "IPOPT's list of options (https://coin-or.github.io/Ipopt/OPTIONS.html)")
 
     @staticmethod
     def available():
@@ -166,8 +181,7 @@ class Ipopt:
             try:
                 problem.add_option(key, value)
             except (TypeError, ValueError) as exc:
-                raise ValueError(f"IPOPT option {key}={value!r} was refused ({exc}); see "
-                                 "IPOPT's list of options") from None
+                raise self._refused(key, value, exc) from None
         if merged.get("linear_solver", "mumps") == "mumps":
             for key, value in self.MUMPS_DEFAULTS.items():
                 if key not in merged:

@@ -127,6 +127,14 @@ def _in_range(key, value):
                           f"({low:g}, {high:g}{']' if high_allowed else ')'}")
 
 
+def similar_option(name, known):
+    """``"; did you mean 'max_iter'?"`` for an option ``name`` not among the
+    names ``known`` when some are spelled like it (difflib), else ``""``."""
+    import difflib
+    close = difflib.get_close_matches(str(name), sorted(known), n=2, cutoff=0.6)
+    return f" (did you mean {' or '.join(map(repr, close))}?)" if close else ""
+
+
 def settings(options):
     """The options over :data:`DEFAULTS`, checked: a namespace of values.
 
@@ -139,8 +147,9 @@ def settings(options):
     options = dict(options or {})
     unknown = sorted(set(options) - set(DEFAULTS))
     if unknown:
-        raise OptionError(f"unknown interior-point option(s) {', '.join(map(repr, unknown))}; "
-                         f"known: {', '.join(sorted(DEFAULTS))}")
+        hints = "".join(similar_option(name, DEFAULTS) for name in unknown)
+        raise OptionError(f"unknown interior-point option(s) {', '.join(map(repr, unknown))}"
+                          f"{hints}; known: {', '.join(sorted(DEFAULTS))}")
     merged = dict(DEFAULTS)
     for key, value in options.items():
         if key in CHOICES:
