@@ -90,7 +90,8 @@ class LaneChange:
             f"check: the {solution_word(self.result)} torque simulated (Radau) ends "
             f"{d['lateral']:.6g} m aside, heading {np.degrees(d['heading']):.2g} deg, lean "
             f"{np.degrees(d['lean']):.2g} deg, steer {np.degrees(d['steer']):.2g} deg; "
-            "largest difference from the collocated states at the nodes, of each unit: "
+            "largest difference from the collocated states at the nodes (the largest of "
+            "each unit): "
             + defect_text(self.defects, units)])
 
     def plot(self, path):

@@ -63,8 +63,8 @@ class RestToRest:
         ``residual_optimal``, ``residual_pulse`` (the peak of the tip
         deflection's magnitude after the manoeuvre, m), ``effort_optimal``,
         ``effort_pulse`` (integral of the torque squared, N^2 m^2 s),
-        ``peak_optimal`` (N m, the largest torque of the optimal run as
-        replayed, sampled at the run's 2000 points per second),
+        ``peak_optimal`` (N m, the largest torque as replayed, the same as
+        ``peak_replayed``),
         ``peak_pulse`` (N m), ``duration_optimal``, ``duration_pulse`` (s),
         ``final_angle`` (the simulated hub angle at the end of the optimal
         run, rad), ``rigid_effort`` and ``rigid_time`` (the rigid robot's
@@ -105,16 +105,17 @@ class RestToRest:
         objective = (("integral of tau^2", "N^2 m^2 s") if self.objective_kind == "effort"
                      else (f"duration + {d['regularization']:g} x integral of tau^2", "s"))
         word = solution_word(self.result)
-        w = max(14, len(word) + 2)
+        w = max(14, len(word) + 2)  # the result's column
         return "\n".join(result_lines(self.result, objective) + [
             f"{np.degrees(self.angle):.6g} deg rest to rest, {what}; simulated (Radau) and "
             "left free:",
-            f"  {'':26s}{word:>{w}s}{'sine pulse':>14s}",
-            f"  {'duration [s]':26s}{d['duration_optimal']:{w}.4f}{d['duration_pulse']:14.4f}",
-            f"  {'integral tau^2 [N^2m^2s]':26s}{d['effort_optimal']:{w}.5g}"
+            f"  {'':28s}{word:>{w}s}{'sine pulse':>14s}",
+            f"  {'duration [s]':28s}{d['duration_optimal']:{w}.4f}{d['duration_pulse']:14.4f}",
+            f"  {'integral tau^2 [N^2m^2s]':28s}{d['effort_optimal']:{w}.5g}"
             f"{d['effort_pulse']:14.5g}",
-            f"  {'peak torque [N m]':26s}{d['peak_optimal']:{w}.5g}{d['peak_pulse']:14.5g}",
-            f"  {'residual tip, peak [mm]':26s}{1e3 * d['residual_optimal']:{w}.4g}"
+            f"  {'peak torque, replayed [N m]':28s}{d['peak_optimal']:{w}.5g}"
+            f"{d['peak_pulse']:14.5g}",
+            f"  {'residual tip, peak [mm]':28s}{1e3 * d['residual_optimal']:{w}.4g}"
             f"{1e3 * d['residual_pulse']:14.4g}",
             "  (residual tip: the largest tip deflection after the manoeuvre, the link free)",
             self.input_peaks.line("torque", "N m"),
@@ -159,6 +160,12 @@ class RestToRest:
         axes[0].set_ylabel("hub angle [deg]")
         axes[1].set_ylabel("tip deflection [mm]")
         axes[2].set_ylabel("motor torque [N m]")
+        limit = self.input_peaks.limits[0]
+        if np.isfinite(limit):
+            for side in (-1, 1):
+                axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
+                                label=f"limits +-{limit:.4g} N m" if side > 0 else None)
+            axes[2].legend(fontsize=8, loc="upper right")
         axes[3].set_ylabel("|tip deflection| after\nthe manoeuvre [mm]")
         low = max(1e-3 * min(d["residual_optimal"], d["residual_pulse"]) * 1e3, 1e-6)
         axes[3].set_ylim(low, 3e3 * max(d["residual_optimal"], d["residual_pulse"]))
@@ -307,7 +314,7 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
         residual_pulse=float(np.max(np.abs(tip_p[pulse_run.t > T_pulse]))),
         effort_optimal=float(np.trapezoid([fn(t) ** 2 for t in fine], fine)),
         effort_pulse=tau_0 ** 2 * T_pulse / 2,
-        peak_optimal=float(np.max(np.abs(torque_o))), peak_pulse=tau_0,
+        peak_pulse=tau_0,
         duration_optimal=T_opt, duration_pulse=T_pulse,
         final_angle=float(y_o[index["theta"], -1]), inertia=inertia,
         rigid_effort=12 * inertia ** 2 * theta_f ** 2 / T_opt ** 3,
@@ -315,6 +322,7 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
         regularization=float(regularization) if objective == "time" else 0.0)
     peaks = input_peaks(result, limits)
     data.update(peaks.data)
+    data["peak_optimal"] = float(np.max(peaks.peak_replayed))
     return RestToRest(
         result=result, objective_kind=objective, angle=theta_f, t_optimal=t_o,
         t_pulse=pulse_run.t, duration_optimal=T_opt, duration_pulse=T_pulse,

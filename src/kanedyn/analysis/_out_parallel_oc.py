@@ -136,8 +136,8 @@ class PeakForcePath:
             f"check: inverse dynamics of the {word} path (kd.studies.inverse_study, "
             f"{self.inverse.ik_method}): peak {d['peak_inverse']:.6g} N, at most "
             f"{d['force_difference']:.3g} N from the collocated forces; the forces simulated "
-            "(Radau) stay within the collocated states at the nodes by, largest of each "
-            "unit: " + defect_text(self.defects, units)])
+            "(Radau) differ from the collocated states at the nodes by at most (the largest "
+            "of each unit) " + defect_text(self.defects, units)])
 
     def plot(self, path):
         """Carriage forces (optimal, quintic, the optimal path's inverse

@@ -146,6 +146,7 @@ class FlexibleArmManoeuvre:
         d, r = self.data, self.result
         mm = 1e3
         rigid = self._rigid_name
+        rigid_torques = f"{rigid}'s:"
         solved = ("solved" if r.success else
                   f"posed (the {solution_word(r)} reported)")
 
@@ -169,7 +170,7 @@ class FlexibleArmManoeuvre:
             f"{d['effort_ratio']:.5f}), quintic {d['effort_quintic']:.7g}",
             self.input_peaks.line("joint torque (from and to zero)", "N m"),
             "check: the torques simulated on the flexible arm (Radau), at the final time:",
-            f"  {rigid + chr(39) + 's:':29s}" + residual("rigid_torques_"),
+            f"  {rigid_torques:29s}" + residual("rigid_torques_"),
             "  torques from and to zero:    " + residual("ramped_"),
             f"  the latter against the collocated path at the nodes: joint angles "
             f"{d['defect_angle']:.3g} rad, end effector {mm * d['defect_tip']:.3g} mm"])
