@@ -88,6 +88,7 @@ def test_optimize_exit_1_when_ipopt_fails(capsys):
     assert "optimal" not in text and "last-iterate (not solved) torque simulated" in text
 
 
+@pytest.mark.slow
 def test_optimize_unsolved_flexible_robot_table_is_not_optimal(tmp_path, capsys):
     """``--max-iter 3`` on the minimum-time rotation (few nodes): the table's
     column is the last iterate's, and no line calls it optimal."""

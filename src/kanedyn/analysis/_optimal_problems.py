@@ -493,7 +493,7 @@ class SwingUp:
             for side in (-1, 1):
                 axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
                                 label=f"limits +-{limit:g} N m" if side > 0 else None)
-        axes[2].legend(fontsize=8, loc="lower right")
+        axes[2].legend(fontsize=8, loc="upper right")
         axes[2].set_ylabel("torque tau [N m]")
         axes[2].set_xlabel("t [s]")
         axes[0].legend(fontsize=8)
