@@ -38,7 +38,7 @@ def test_optimize_pendulum_bound_files_and_the_printed_objective(tmp_path, capsy
     t, q, u, tau = (np.array([float(r[k]) for r in rows[1:]]) for k in (0, 2, 3, 4))
     assert np.max(np.abs(tau)) <= 1.8 + 1e-7 and np.max(np.abs(tau)) > 1.79
     np.testing.assert_allclose([q[0], u[0], q[-1], u[-1]], [0, 0, np.pi, 0], atol=1e-7)
-    printed = float(text.split("objective ")[1].split(";")[0])
+    printed = float(text.split("objective ")[1].split()[0].rstrip(";"))
     assert abs(printed - np.trapezoid(tau ** 2, t)) < 1e-6 * printed
     assert figure.stat().st_size > 0
     assert "follows the collocated angle" in text
@@ -84,6 +84,23 @@ def test_optimize_exit_1_when_ipopt_fails(capsys):
     text = capsys.readouterr().out
     assert code == 1
     assert "NOT solved" in text and "maximum number of iterations" in text
+    # the last iterate is not called optimal anywhere in the summary
+    assert "optimal" not in text and "last-iterate (not solved) torque simulated" in text
+
+
+@pytest.mark.slow
+def test_optimize_unsolved_flexible_robot_table_is_not_optimal(tmp_path, capsys):
+    """``--max-iter 3`` on the minimum-time rotation (few nodes): the table's
+    column is the last iterate's, and no line calls it optimal."""
+    code = main(["optimize", "flexible-robot", "--problem", "minimum-time", "--nodes", "21",
+                 "--max-iter", "3", "--set", "n_modes=1", "--set", "after=0.2", "--quiet",
+                 "--plot", str(tmp_path / "robot.png")])
+    text = capsys.readouterr().out
+    assert code == 1, text
+    assert "optimal" not in text, text
+    header = next(line for line in text.splitlines() if "sine pulse" in line)
+    assert "last-iterate (not solved)" in header
+    assert (tmp_path / "robot.png").stat().st_size > 0
 
 
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
@@ -96,7 +113,7 @@ def test_optimize_exact_hessian_reaches_the_same_optimum(method, capsys):
         assert main(["optimize", "pendulum", "--nodes", "101", "--hessian", hessian,
                      "--method", method, "--quiet", "--backend", "numpy"]) == 0
         text = capsys.readouterr().out
-        objective = float(text.split("objective ")[1].split(";")[0])
+        objective = float(text.split("objective ")[1].split()[0].rstrip(";"))
         iterations = int(text.split(" iterations in ")[0].rsplit(" ", 1)[1])
         found[hessian] = objective, iterations
     assert found["exact"][0] == pytest.approx(found["limited-memory"][0], rel=1e-6)
@@ -117,6 +134,12 @@ def test_optimize_exact_hessian_reaches_the_same_optimum(method, capsys):
      'hessian="exact" is not available for a model with constraints'),
     (["optimize", "flexible-robot", "--set", "torque_input=false", "--quiet"],
      "torque_input"),
+    (["optimize", "pendulum", "--set", "limit=-1", "--quiet"],
+     "option limit must be a positive number, not -1"),
+    (["optimize", "flexible-robot", "--problem", "minimum-time", "--set",
+      "pulse_duration=0", "--quiet"], "option pulse_duration must be a positive number, not 0"),
+    (["optimize", "out-parallel-6dof", "--set", "force_limit=-200", "--quiet"],
+     "option force_limit must be a positive number, not -200"),
 ])
 def test_optimize_bad_arguments_are_one_line_exit_2(argv, what, capsys):
     assert main(argv) == 2

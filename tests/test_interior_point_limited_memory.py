@@ -393,5 +393,5 @@ def test_nonholonomic_bicycle_lane_change_from_the_command_line(capsys):
         assert main(argv) == 0
         text = capsys.readouterr().out
         assert f"solved: {solver}:" in text
-        objectives[solver] = float(text.split("objective ")[1].split(";")[0])
+        objectives[solver] = float(text.split("objective ")[1].split()[0].rstrip(";"))
     assert objectives["interior-point"] == pytest.approx(objectives["ipopt"], rel=1e-8)

@@ -99,6 +99,54 @@ def test_robot_minimum_time_at_the_pulses_peak_torque():
     assert np.max(np.abs(np.concatenate([r["tau"], r.r_mid[0]]))) <= tau_0 * (1 + 1e-6)
 
 
+# ------------------------------------- inputs at the nodes and as replayed
+def test_summary_reports_the_replayed_input_over_its_limit():
+    """The swing-up on 21 nodes, Hermite-Simpson: the torque is at its limit
+    (2 N m) at the nodes and midpoints, and the quadratic between them, which
+    the check simulation replays, goes over it.  The summary says both, with
+    the replayed peak found here by sampling ``result.inputs()`` apart (as
+    replayed 1.0906 times the limit at t = 2.375 s, measured)."""
+    s = kd.studies.pendulum_swing_up(nodes=21, method="hermite-simpson", backend="numpy")
+    d, r = s.data, s.result
+    assert r.success
+    torque = r.inputs()["tau"]
+    t = np.linspace(r.t[0], r.t[-1], 100001)
+    replayed = np.abs([torque(x) for x in t])
+    assert d["limit_ratio_replayed"] == pytest.approx(np.max(replayed) / 2.0, rel=1e-5)
+    assert d["limit_ratio_replayed"] > 1.05
+    assert d["limit_ratio_points"] == pytest.approx(1.0, abs=1e-6)
+    assert np.max(np.abs(r.points()[2])) <= 2.0 * (1 + 1e-6)
+    assert d["peak_replayed_time"] == pytest.approx(t[np.argmax(replayed)], abs=0.01)
+    line = next(x for x in s.summary.splitlines() if "ratio to its limit" in x)
+    assert f"{d['limit_ratio_replayed']:.6f}" in line and "1.000000" in line
+    assert "the limits hold at the nodes and midpoints only" in line
+    assert f"tau at t = {d['peak_replayed_time']:.4g} s" in line
+
+
+def test_trapezoid_replays_its_nodes_peak():
+    """The trapezoid's inputs are linear between the nodes: as replayed they
+    peak at a node, and the summary does not report an overshoot."""
+    s = kd.studies.pendulum_swing_up(nodes=51, backend="numpy")
+    d = s.data
+    assert d["limit_ratio_replayed"] == pytest.approx(d["limit_ratio_points"], rel=1e-12)
+    assert "hold at the nodes only" not in s.summary
+
+
+def test_unsolved_swing_up_is_not_called_optimal(tmp_path):
+    """Stopped after 3 iterations: the summary and the figure's title call
+    the result the last iterate, not optimal."""
+    s = kd.studies.pendulum_swing_up(nodes=31, backend="numpy", ipopt={"max_iter": 3})
+    assert not s.result.success
+    assert "optimal" not in s.summary and "last-iterate (not solved)" in s.summary
+    assert s.plot(tmp_path / "swing.png").stat().st_size > 0
+
+
+def test_positive_study_options_are_refused_by_the_function():
+    with pytest.raises(kd.KanedynError, match=r"^limit must be a positive number \(N m\), "
+                                              r"got -1\.0$"):
+        kd.studies.pendulum_swing_up(limit=-1.0)
+
+
 # ---------------------------------------------------------------- the bicycle
 #: Meijaard et al. (2007), the benchmark's published matrices and geometry
 M = np.array([[80.81722, 2.31941332208709], [2.31941332208709, 0.29784188199686]])
@@ -257,7 +305,9 @@ def test_shuttle_arm_flexible_booms_end_still_with_torques_from_and_to_zero(tmp_
     effort is at least the rigid optimum's (the same mesh and limits, more
     constraints) and within 5 % of it; the limits hold at every point and
     the torques are zero at both ends; its simulation on the flexible arm
-    stays within 2e-3 rad of the collocated rigid path."""
+    stays within 2e-3 rad of the collocated rigid path.  As replayed (the
+    quadratic between the points) the torques pass their limits near the
+    ends, and the summary says so."""
     s = kd.studies.shuttle_arm_minimum_energy(booms="flexible", nodes=31)
     d, r = s.data, s.result
     assert r.success and s.rigid.result.success, r.message
@@ -276,6 +326,16 @@ def test_shuttle_arm_flexible_booms_end_still_with_torques_from_and_to_zero(tmp_
     end = s.replay.sol(r.duration)
     np.testing.assert_allclose(end[:6], r.y[:6, -1], atol=2e-3)
     assert "torques from and to zero" in s.summary
+    # the torques from and to zero as replayed: the quadratic from the limit
+    # at a node and a midpoint to zero at the last node passes the limit; the
+    # summary says so, with the ratio found here by sampling apart
+    inputs = r.inputs()
+    fine = np.linspace(r.t[0], r.t[-1], 30001)
+    replayed = max(np.max(np.abs([inputs[f"tau{i + 1}"](x) for x in fine]))
+                   / s.torque_limits[i] for i in range(6))
+    assert d["limit_ratio_replayed"] == pytest.approx(replayed, rel=1e-4)
+    assert d["limit_ratio_replayed"] > 1.05 and d["limit_ratio_points"] < 1 + 1e-6
+    assert "the limits hold at the nodes and midpoints only" in s.summary
     assert s.plot(tmp_path / "flexible.png").stat().st_size > 0
 
 

@@ -32,6 +32,8 @@ behind some of them are public too::
     PeakForcePath         the optimum, the inverse dynamics of its path, its replay
     pendulum_swing_up     the pendulum's swing-up (opty's gallery problem)
     SwingUp               the optimum and its simulation
+    InputPeaks            a study's inputs at the collocation points and as replayed,
+                          against their limits (``.input_peaks`` of each result above)
     OPTIMAL_PROBLEMS      model -> named optimal-control problems (``kanedyn optimize``;
                           also studies named MODEL-PROBLEM)
     OptimalProblem        one of them, with its defaults and options
@@ -66,6 +68,7 @@ _LAZY = {
     "PeakForcePath": ".analysis",
     "pendulum_swing_up": ".analysis",
     "SwingUp": ".analysis",
+    "InputPeaks": ".analysis",
     "OPTIMAL_PROBLEMS": ".analysis",
     "OptimalProblem": ".analysis",
 }

@@ -103,6 +103,7 @@ _LAZY = {
     'PULSE_SHAPES': '._seatbelt_studies',
     'pendulum_swing_up': '._optimal_problems',
     'SwingUp': '._optimal_problems',
+    'InputPeaks': '._optimal_problems',
     'OptimalProblem': '._optimal_problems',
     'OPTIMAL_PROBLEMS': '._optimal_problems',
     'available_problems': '._optimal_problems',

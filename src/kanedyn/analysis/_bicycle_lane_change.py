@@ -23,8 +23,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import KanedynError
-from ._optimal_problems import (OptimalProblem, build_model, merged_bounds, numeric_of,
-                                optimal_problem, register_problem, result_lines, solve)
+from ._optimal_problems import (InputPeaks, OptimalProblem, build_model, defect_text,
+                                input_peaks, merged_bounds, numeric_of, optimal_problem,
+                                register_problem, replayed_inputs, result_lines,
+                                solution_word, solve)
 from ._studies import StudyOption
 
 __all__ = ["bicycle_lane_change", "LaneChange"]
@@ -47,12 +49,23 @@ class LaneChange:
     offset, speed, duration : float
         m, m/s, s.
     data : mapping
-        ``objective``; ``peak_torque`` (N m), ``peak_lean``, ``peak_steer``
-        (rad); ``speed_min``, ``speed_max`` (m/s, of the rear wheel's centre
-        over the nodes); and, where the simulation ends, ``lateral`` (m),
+        ``objective`` (the integral of T_delta^2, N^2 m^2 s); ``peak_torque``
+        (N m, at the nodes), ``peak_lean``, ``peak_steer`` (rad);
+        ``speed_min``, ``speed_max`` (m/s, of the rear wheel's centre over
+        the nodes); and, where the simulation ends, ``lateral`` (m),
         ``heading``, ``lean``, ``steer`` (rad), ``lean_rate``,
         ``steer_rate`` (rad/s); ``defect``, the largest difference between
-        the simulated and collocated states at the nodes.
+        the simulated and collocated states at the nodes (in the unit of the
+        state it is of; the summary gives the largest of each unit); and of
+        :class:`InputPeaks`: ``limit_ratio_points``,
+        ``limit_ratio_replayed`` (the steer torque over its limit at the
+        nodes and midpoints and as replayed; nan without a limit, the
+        default), ``peak_replayed`` (N m, the steer torque's largest as
+        replayed) and ``peak_replayed_time`` (s).
+    input_peaks : InputPeaks
+        The steer torque at the collocation points and as replayed.
+    defects : dict
+        ``{state name: largest |simulated - collocated| at the nodes}``.
     """
 
     result: object
@@ -61,19 +74,25 @@ class LaneChange:
     speed: float
     duration: float
     data: types.MappingProxyType
+    input_peaks: InputPeaks
+    defects: dict
 
     @property
     def summary(self):
         d = self.data
-        return "\n".join(result_lines(self.result) + [
+        units = self.result.problem.model.state_units
+        return "\n".join(result_lines(self.result, ("integral of T_delta^2", "N^2 m^2 s")) + [
             f"lane change of {self.offset:g} m at {self.speed:g} m/s in {self.duration:g} s: "
             f"peak steer torque {d['peak_torque']:.4g} N m, lean "
             f"{np.degrees(d['peak_lean']):.3g} deg, steer {np.degrees(d['peak_steer']):.3g} "
-            f"deg; speed {d['speed_min']:.4g} to {d['speed_max']:.4g} m/s",
-            f"check: the optimal torque simulated (Radau) ends {d['lateral']:.6g} m aside, "
-            f"heading {np.degrees(d['heading']):.2g} deg, lean {np.degrees(d['lean']):.2g} "
-            f"deg, steer {np.degrees(d['steer']):.2g} deg; largest difference from the "
-            f"collocated states {d['defect']:.2g}"])
+            f"deg; speed {d['speed_min']:.4g} to {d['speed_max']:.4g} m/s (at the nodes)",
+            self.input_peaks.line("steer torque", "N m"),
+            f"check: the {solution_word(self.result)} torque simulated (Radau) ends "
+            f"{d['lateral']:.6g} m aside, heading {np.degrees(d['heading']):.2g} deg, lean "
+            f"{np.degrees(d['lean']):.2g} deg, steer {np.degrees(d['steer']):.2g} deg; "
+            "largest difference from the collocated states at the nodes (the largest of "
+            "each unit): "
+            + defect_text(self.defects, units)])
 
     def plot(self, path):
         """Path of the rear contact, lean and steer, steer torque; returns the path."""
@@ -82,6 +101,7 @@ class LaneChange:
         plt = pyplot()
         r, run = self.result, self.simulation
         fig, axes = plt.subplots(4, 1, figsize=(8, 10), constrained_layout=True)
+        word = solution_word(r)
         axes[0].plot(r["q1"], r["q2"], "o", ms=3, label="collocated (nodes)")
         axes[0].plot(run["q1"], run["q2"], "-", label="simulated (Radau)")
         axes[0].set_xlabel("forward x [m]")
@@ -95,10 +115,9 @@ class LaneChange:
         axes[1].set_ylabel("angle [deg]")
         axes[1].legend(fontsize=8, ncol=3, title="lines: simulated; dots: collocated",
                        title_fontsize=8)
-        torque = r.inputs()["T_delta"]
-        fine = np.linspace(r.t[0], r.t[-1], 40 * r.t.size)
-        axes[2].plot(fine, [torque(t) for t in fine], lw=0.9,
-                     label=f"as collocated ({r.method}: quadratic between nodes)")
+        fine, torque = replayed_inputs(r)
+        axes[2].plot(fine, torque[r.input_names.index("T_delta")], lw=0.9,
+                     label=f"as replayed ({self.input_peaks.between})")
         axes[2].plot(r.t, r["T_delta"], "o", ms=2, color="C0", label="nodes")
         axes[2].set_ylabel("steer torque\nT_delta [N m]")
         axes[2].legend(fontsize=8)
@@ -111,7 +130,8 @@ class LaneChange:
             ax.grid(alpha=0.3)
         fig.suptitle(f"Whipple bicycle: lane change of {self.offset:g} m at {self.speed:g} "
                      f"m/s in {self.duration:g} s, least integral of steer torque^2\n"
-                     f"({r.method}, {r.t.size} nodes; steer torque the only input)",
+                     f"({r.method}, {r.t.size} nodes; steer torque the only input"
+                     f"{'' if r.success else '; ' + word})",
                      fontsize=10)
         written = save_figure(fig, path, dpi=110)
         plt.close(fig)
@@ -181,8 +201,10 @@ def bicycle_lane_change(*, nodes=None, method=None, duration=None, bounds=None,
                 speed_max=float(np.max(-result["u6"] * rR)),
                 lateral=end["q2"], heading=end["q3"], lean=end["q4"], steer=end["q7"],
                 lean_rate=end["u4"], steer_rate=end["u7"], defect=check.max_defect)
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
     return LaneChange(result, run, float(offset), float(speed), T,
-                      types.MappingProxyType(data))
+                      types.MappingProxyType(data), peaks, dict(check.defect))
 
 
 register_problem(OptimalProblem(
@@ -192,4 +214,5 @@ register_problem(OptimalProblem(
     nodes=61, method="hermite-simpson", duration=4.0, required={"steer_torque": True},
     options={
         "offset": StudyOption(float, 3.0, "sideways displacement of the rear contact [m]"),
-        "speed": StudyOption(float, 5.0, "forward speed at the start [m/s]")}))
+        "speed": StudyOption(float, 5.0, "forward speed at the start [m/s]",
+                             positive=True)}))

@@ -28,8 +28,9 @@ from functools import partial
 import numpy as np
 
 from .._errors import KanedynError
-from ._optimal_problems import (OptimalProblem, build_model, merged_bounds, numeric_of,
-                                register_problem, result_lines, solve)
+from ._optimal_problems import (InputPeaks, OptimalProblem, build_model, input_peaks,
+                                merged_bounds, numeric_of, register_problem, result_lines,
+                                solution_word, solve)
 from ._studies import StudyOption
 
 __all__ = ["flexible_robot_rest_to_rest", "RestToRest"]
@@ -59,14 +60,25 @@ class RestToRest:
         Hub angle (rad), tip deflection across the link (m) and motor torque
         (N m) along the runs.
     data : mapping
-        ``residual_optimal``, ``residual_pulse`` (largest tip deflection after
-        the manoeuvre, m), ``effort_optimal``, ``effort_pulse`` (integral of
-        the torque squared, N^2 m^2 s), ``peak_optimal``, ``peak_pulse``
-        (N m), ``duration_optimal``, ``duration_pulse`` (s), ``final_angle``
-        (the simulated hub angle at the end of the optimal run, rad),
-        ``rigid_effort`` and ``rigid_time`` (the rigid robot's least effort
-        in the optimal's duration and least time with its peak torque),
-        ``inertia`` (J_0, kg m^2), ``objective``.
+        ``residual_optimal``, ``residual_pulse`` (the peak of the tip
+        deflection's magnitude after the manoeuvre, m), ``effort_optimal``,
+        ``effort_pulse`` (integral of the torque squared, N^2 m^2 s),
+        ``peak_optimal`` (N m, the largest torque as replayed, the same as
+        ``peak_replayed``),
+        ``peak_pulse`` (N m), ``duration_optimal``, ``duration_pulse`` (s),
+        ``final_angle`` (the simulated hub angle at the end of the optimal
+        run, rad), ``rigid_effort`` and ``rigid_time`` (the rigid robot's
+        least effort in the optimal's duration and least time with its peak
+        torque), ``inertia`` (J_0, kg m^2), ``objective`` (N^2 m^2 s for
+        ``"effort"``; s for ``"time"``: the duration plus ``regularization``
+        times the integral of the torque squared), ``regularization`` (that
+        weight, 1/(N^2 m^2); 0 for ``"effort"``), and of
+        :class:`InputPeaks`: ``limit_ratio_points``, ``limit_ratio_replayed``
+        (the torque's peak over its limit at the nodes and midpoints and as
+        replayed; nan without a limit), ``peak_replayed`` (N m) and
+        ``peak_replayed_time`` (s).
+    input_peaks : InputPeaks
+        The torque at the collocation points and as replayed against its limit.
     """
 
     result: object
@@ -83,22 +95,30 @@ class RestToRest:
     torque_optimal: np.ndarray
     torque_pulse: np.ndarray
     data: types.MappingProxyType
+    input_peaks: InputPeaks
 
     @property
     def summary(self):
         d = self.data
         what = ("least integral of torque^2" if self.objective_kind == "effort"
                 else "least time")
-        return "\n".join(result_lines(self.result) + [
+        objective = (("integral of tau^2", "N^2 m^2 s") if self.objective_kind == "effort"
+                     else (f"duration + {d['regularization']:g} x integral of tau^2", "s"))
+        word = solution_word(self.result)
+        w = max(14, len(word) + 2)  # the result's column
+        return "\n".join(result_lines(self.result, objective) + [
             f"{np.degrees(self.angle):.6g} deg rest to rest, {what}; simulated (Radau) and "
             "left free:",
-            f"  {'':24s}{'optimal':>14s}{'sine pulse':>14s}",
-            f"  {'duration [s]':24s}{d['duration_optimal']:14.4f}{d['duration_pulse']:14.4f}",
-            f"  {'integral tau^2 [N^2m^2s]':24s}{d['effort_optimal']:14.5g}"
+            f"  {'':28s}{word:>{w}s}{'sine pulse':>14s}",
+            f"  {'duration [s]':28s}{d['duration_optimal']:{w}.4f}{d['duration_pulse']:14.4f}",
+            f"  {'integral tau^2 [N^2m^2s]':28s}{d['effort_optimal']:{w}.5g}"
             f"{d['effort_pulse']:14.5g}",
-            f"  {'peak torque [N m]':24s}{d['peak_optimal']:14.5g}{d['peak_pulse']:14.5g}",
-            f"  {'residual tip [mm]':24s}{1e3 * d['residual_optimal']:14.4g}"
+            f"  {'peak torque, replayed [N m]':28s}{d['peak_optimal']:{w}.5g}"
+            f"{d['peak_pulse']:14.5g}",
+            f"  {'residual tip, peak [mm]':28s}{1e3 * d['residual_optimal']:{w}.4g}"
             f"{1e3 * d['residual_pulse']:14.4g}",
+            "  (residual tip: the largest tip deflection after the manoeuvre, the link free)",
+            self.input_peaks.line("torque", "N m"),
             f"residual vibration {d['residual_pulse'] / d['residual_optimal']:.3g}x smaller; "
             f"simulated final hub angle {np.degrees(d['final_angle']):.5f} deg; the rigid "
             f"robot's least {'effort' if self.objective_kind == 'effort' else 'time'} "
@@ -112,9 +132,10 @@ class RestToRest:
         from ._plotting import pyplot
         plt = pyplot()
         d = self.data
+        word = solution_word(self.result)
         fig, axes = plt.subplots(4, 1, figsize=(8, 10), sharex=True, constrained_layout=True)
-        label_o = ("optimal: least integral of torque^2" if self.objective_kind == "effort"
-                   else "optimal: least time") + f" ({self.result.method}, " \
+        label_o = (f"{word}: least integral of torque^2" if self.objective_kind == "effort"
+                   else f"{word}: least time") + f" ({self.result.method}, " \
             f"{self.result.t.size} nodes)"
         label_p = f"sine pulse (today's model), {d['duration_pulse']:g} s"
         curves = ((self.t_optimal, self.hub_optimal, self.tip_optimal, self.torque_optimal,
@@ -130,14 +151,21 @@ class RestToRest:
                 (self.t_pulse, self.tip_pulse, d["duration_pulse"], "C3", "--", "pulse")):
             late = t >= end
             residual = d[f"residual_{which}"]
+            name = word if which == "optimal" else which
             axes[3].semilogy(t[late], np.maximum(1e3 * np.abs(tip[late]), 1e-9), style,
                              color=color, lw=0.6,
-                             label=f"{which}: residual {1e3 * residual:.3g} mm")
+                             label=f"{name}: residual peak {1e3 * residual:.3g} mm")
             for ax in axes:
                 ax.axvline(end, color=color, ls=":", lw=0.8)
         axes[0].set_ylabel("hub angle [deg]")
         axes[1].set_ylabel("tip deflection [mm]")
         axes[2].set_ylabel("motor torque [N m]")
+        limit = self.input_peaks.limits[0]
+        if np.isfinite(limit):
+            for side in (-1, 1):
+                axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
+                                label=f"limits +-{limit:.4g} N m" if side > 0 else None)
+            axes[2].legend(fontsize=8, loc="upper right")
         axes[3].set_ylabel("|tip deflection| after\nthe manoeuvre [mm]")
         low = max(1e-3 * min(d["residual_optimal"], d["residual_pulse"]) * 1e3, 1e-6)
         axes[3].set_ylim(low, 3e3 * max(d["residual_optimal"], d["residual_pulse"]))
@@ -147,7 +175,7 @@ class RestToRest:
         for ax in axes:
             ax.grid(alpha=0.3)
         fig.suptitle(f"Elastic robot, {np.degrees(self.angle):.4g} deg rest to rest: the "
-                     f"optimal torque leaves {d['residual_pulse'] / d['residual_optimal']:.3g}x "
+                     f"{word} torque leaves {d['residual_pulse'] / d['residual_optimal']:.3g}x "
                      "less vibration than the pulse\n(both simulated with Radau, then left "
                      "free)", fontsize=10)
         written = save_figure(fig, path, dpi=110)
@@ -221,6 +249,9 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
     for name, value in (("angle", angle), ("after", after), ("pulse_duration", pulse_duration)):
         if not np.isfinite(value) or value <= 0:
             raise KanedynError(f"{name} must be a positive number, got {value!r}")
+    if not np.isfinite(torque_limit) or torque_limit < 0:
+        raise KanedynError(f"torque_limit must be a number >= 0 (0: the pulse's peak), got "
+                           f"{torque_limit!r}")
     spec = _spec(objective)
     nodes = nodes or spec.nodes
     method = method or spec.method
@@ -283,17 +314,21 @@ def flexible_robot_rest_to_rest(*, nodes=None, method=None, duration=None, bound
         residual_pulse=float(np.max(np.abs(tip_p[pulse_run.t > T_pulse]))),
         effort_optimal=float(np.trapezoid([fn(t) ** 2 for t in fine], fine)),
         effort_pulse=tau_0 ** 2 * T_pulse / 2,
-        peak_optimal=float(np.max(np.abs(torque_o))), peak_pulse=tau_0,
+        peak_pulse=tau_0,
         duration_optimal=T_opt, duration_pulse=T_pulse,
         final_angle=float(y_o[index["theta"], -1]), inertia=inertia,
         rigid_effort=12 * inertia ** 2 * theta_f ** 2 / T_opt ** 3,
-        rigid_time=2 * np.sqrt(theta_f * inertia / (torque_limit or tau_0)))
+        rigid_time=2 * np.sqrt(theta_f * inertia / (torque_limit or tau_0)),
+        regularization=float(regularization) if objective == "time" else 0.0)
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
+    data["peak_optimal"] = float(np.max(peaks.peak_replayed))
     return RestToRest(
         result=result, objective_kind=objective, angle=theta_f, t_optimal=t_o,
         t_pulse=pulse_run.t, duration_optimal=T_opt, duration_pulse=T_pulse,
         hub_optimal=y_o[index["theta"]], hub_pulse=pulse_run["theta"], tip_optimal=tip_o,
         tip_pulse=tip_p, torque_optimal=torque_o, torque_pulse=torque_p,
-        data=types.MappingProxyType(data))
+        data=types.MappingProxyType(data), input_peaks=peaks)
 
 
 def _spec(objective):
@@ -303,8 +338,9 @@ def _spec(objective):
 
 
 _COMMON = {
-    "angle": StudyOption(float, 90.0, "rotation [deg]"),
-    "after": StudyOption(float, 2.0, "time the link is left free after the manoeuvre [s]"),
+    "angle": StudyOption(float, 90.0, "rotation [deg]", positive=True),
+    "after": StudyOption(float, 2.0, "time the link is left free after the manoeuvre [s]",
+                         positive=True),
 }
 register_problem(OptimalProblem(
     model="flexible-robot", name="rest-to-rest",
@@ -322,6 +358,7 @@ register_problem(OptimalProblem(
     options=dict(
         _COMMON,
         torque_limit=StudyOption(float, 0.0, "torque limit [N m] (0: the pulse's peak)"),
-        pulse_duration=StudyOption(float, 1.0, "duration of the pulse compared [s]"),
+        pulse_duration=StudyOption(float, 1.0, "duration of the pulse compared [s]",
+                                   positive=True),
         regularization=StudyOption(float, 1e-3, "weight of the integral of torque^2 "
                                                 "added to the time [1/(N^2 m^2)]"))))

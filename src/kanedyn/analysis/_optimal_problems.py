@@ -46,10 +46,23 @@ from .._errors import KanedynError
 from ._studies import StudyOption, register_study
 
 __all__ = ["OptimalProblem", "OPTIMAL_PROBLEMS", "register_problem", "available_problems",
-           "optimal_problem", "pendulum_swing_up", "SwingUp", "IPOPT_DEFAULTS"]
+           "optimal_problem", "pendulum_swing_up", "SwingUp", "IPOPT_DEFAULTS",
+           "InputPeaks", "input_peaks", "solution_word"]
 
 #: IPOPT's options of the named problems unless given (``ipopt=``)
 IPOPT_DEFAULTS = {"tol": 1e-8, "max_iter": 3000}
+#: samples per mesh interval at which the summaries and figures evaluate the
+#: inputs as replayed (the transcription's polynomial between the nodes)
+SAMPLES_PER_INTERVAL = 40
+#: a ratio to a limit above 1 by more than this is reported as over the limit
+#: (IPOPT holds bounds to about 1e-8 relative)
+LIMIT_TOLERANCE = 1e-6
+#: the inputs between the nodes, by method (``OptimalControlResult.inputs``)
+_BETWEEN = {"trapezoid": "linear between the nodes",
+            "hermite-simpson": "Hermite-Simpson's quadratic between the nodes",
+            "backward-euler": "held between the nodes",
+            "midpoint": "held between the nodes",
+            "lgr": "LGR's polynomial on each interval"}
 
 
 @dataclass(frozen=True)
@@ -190,15 +203,184 @@ class SplineInput:
         return float(self.spline(t))
 
 
-def result_lines(result):
-    """The summary lines every named problem prints about its solve."""
+def solution_word(result):
+    """What the summaries, tables, titles and legends call ``result``'s
+    inputs and path: ``"optimal"`` when the solver solved the problem, else
+    ``"last-iterate (not solved)"`` (an interrupted or failed solve)."""
+    return "optimal" if result.success else "last-iterate (not solved)"
+
+
+def result_lines(result, objective=None):
+    """The summary lines every named problem prints about its solve.
+
+    Parameters
+    ----------
+    result : OptimalControlResult
+    objective : tuple of str, optional
+        ``(what it is, unit)`` of the objective, which the study knows and
+        this function does not (``("integral of tau^2", "N^2 m^2 s")``).
+    """
     status = "solved" if result.success else "NOT solved"
     method = result.method if result.degree is None else (
         f"{result.method} of degree {result.degree}")
+    value = (f"objective {result.objective:.10g}" if objective is None else
+             f"objective {result.objective:.10g} {objective[1]} ({objective[0]})")
     return [f"{status}: {result.message}",
-            f"objective {result.objective:.10g}; {result.t.size} nodes, {method}, "
-            f"duration {result.duration:.6g} s; {result.iterations} iterations in "
-            f"{result.wall_time:.2f} s"]
+            f"{value}; {result.t.size} nodes, {method}, duration {result.duration:.6g} s; "
+            f"{result.iterations} iterations in {result.wall_time:.2f} s"]
+
+
+def replayed_inputs(result):
+    """``(t, values)``: the inputs as replayed (``result.inputs()``, the
+    transcription's polynomial between the nodes) at
+    :data:`SAMPLES_PER_INTERVAL` points per mesh interval, the nodes among
+    them; shapes (K,) in s and (n_inputs, K) in the inputs' units."""
+    t = np.linspace(result.t[0], result.t[-1],
+                    SAMPLES_PER_INTERVAL * (result.t.size - 1) + 1)
+    values = [np.array([f(x) for x in t], dtype=float) for f in result.inputs().values()]
+    return t, np.array(values).reshape(len(values), t.size)
+
+
+def collocation_points_text(result):
+    """Where the NLP holds the inputs' bounds: ``"the nodes"``, ``"the nodes
+    and midpoints"`` or ``"the nodes and interior points"``."""
+    if result.t_mid is None:
+        return "the nodes"
+    return ("the nodes and midpoints" if result.method == "hermite-simpson"
+            else "the nodes and interior points")
+
+
+@dataclass(frozen=True)
+class InputPeaks:
+    """The inputs' peaks at the collocation points (what the NLP bounds) and
+    as replayed between them (what a simulation of ``result.inputs()``
+    applies), against their limits.
+
+    Attributes
+    ----------
+    names : tuple of str
+        The inputs.
+    limits : ndarray, shape (n,)
+        Each input's limit, the larger magnitude of its finite bounds
+        (``inf``: unbounded), in the input's unit.
+    peak_points : ndarray, shape (n,)
+        Each input's largest magnitude at the collocation points.
+    peak_replayed, time_replayed : ndarray, shape (n,)
+        Each input's largest magnitude as replayed, sampled at
+        :data:`SAMPLES_PER_INTERVAL` points per mesh interval, and when (s).
+    between : str
+        What the inputs are between the nodes (``"linear between the nodes"``).
+    points : str
+        Where the NLP holds the bounds (``"the nodes and midpoints"``).
+    """
+
+    names: tuple
+    limits: np.ndarray
+    peak_points: np.ndarray
+    peak_replayed: np.ndarray
+    time_replayed: np.ndarray
+    between: str
+    points: str
+
+    @property
+    def _limited(self):
+        """Which inputs have a limit (finite, above zero)."""
+        return np.isfinite(self.limits) & (self.limits > 0)
+
+    def _ratio(self, peaks):
+        limited = self._limited
+        return float(np.max(peaks[limited] / self.limits[limited])) if limited.any() else np.nan
+
+    @property
+    def ratio_points(self):
+        """The largest peak over its limit at the collocation points (nan: no limits)."""
+        return self._ratio(self.peak_points)
+
+    @property
+    def ratio_replayed(self):
+        """The largest peak over its limit as replayed (nan: no limits)."""
+        return self._ratio(self.peak_replayed)
+
+    @property
+    def worst(self):
+        """Index of the input of the largest replayed ratio to its limit (of
+        the largest replayed peak when none is limited)."""
+        limited = self._limited
+        if not limited.any():
+            return int(np.argmax(self.peak_replayed))
+        ratios = np.where(limited, self.peak_replayed / np.where(limited, self.limits, 1.0),
+                          -np.inf)
+        return int(np.argmax(ratios))
+
+    @property
+    def over(self):
+        """Whether a replayed input goes over its limit (beyond
+        :data:`LIMIT_TOLERANCE`)."""
+        return bool(self.ratio_replayed > 1 + LIMIT_TOLERANCE)
+
+    @property
+    def data(self):
+        """Named numbers: ``limit_ratio_points``, ``limit_ratio_replayed``
+        (nan without limits), ``peak_replayed`` (the worst input's replayed
+        peak, its unit) and ``peak_replayed_time`` (s)."""
+        k = self.worst
+        return dict(limit_ratio_points=self.ratio_points,
+                    limit_ratio_replayed=self.ratio_replayed,
+                    peak_replayed=float(self.peak_replayed[k]),
+                    peak_replayed_time=float(self.time_replayed[k]))
+
+    def line(self, what, unit):
+        """One summary line about ``what`` (``"joint torque"``) in ``unit``:
+        the largest ratio to its limit (or, none limited, the largest
+        magnitude) at the collocation points and as replayed, naming the
+        worst input and when; over 1, that the limits hold at the
+        collocation points only."""
+        k = self.worst
+        where = f"({self.names[k]} at t = {self.time_replayed[k]:.4g} s)"
+        if np.isnan(self.ratio_points):
+            return (f"  largest |{what}| [{unit}], no limit: at {self.points} "
+                    f"{np.max(self.peak_points):.6g}; as replayed ({self.between}) "
+                    f"{self.peak_replayed[k]:.6g} {where}")
+        text = (f"  largest {what} as a ratio to its limit: at {self.points} (where the NLP "
+                f"bounds it) {self.ratio_points:.6f}; as replayed ({self.between}) "
+                f"{self.ratio_replayed:.6f} {where}")
+        if self.over:
+            text += (f": the limits hold at {self.points} only; the replayed "
+                     f"{self.names[k]} peaks at {self.peak_replayed[k]:.6g} {unit} against "
+                     f"its limit {self.limits[k]:.6g} {unit}")
+        return text
+
+
+def input_peaks(result, limits):
+    """The :class:`InputPeaks` of ``result`` with ``limits`` ``{input name
+    or symbol: (lower, upper)}`` (a missing side ``None`` or infinite; other
+    names ignored)."""
+    bounds = {str(k).removesuffix("(t)"): v for k, v in limits.items()}
+    limit = []
+    for name in result.input_names:
+        sides = [abs(float(v)) for v in bounds.get(name, (None, None))
+                 if v is not None and np.isfinite(float(v))]
+        limit.append(max(sides) if sides else np.inf)
+    peak_points = np.max(np.abs(result.points()[2]), axis=1)
+    t, values = replayed_inputs(result)
+    at = np.argmax(np.abs(values), axis=1)
+    return InputPeaks(
+        names=tuple(result.input_names), limits=np.array(limit), peak_points=peak_points,
+        peak_replayed=np.abs(values[np.arange(values.shape[0]), at]), time_replayed=t[at],
+        between=_BETWEEN.get(result.method, "the transcription's polynomial"),
+        points=collocation_points_text(result))
+
+
+def defect_text(defect, units):
+    """``{state: largest difference}`` as text, the largest for each unit
+    and the state it is of (``"1.5e-04 m (q2), 3e-05 rad (q4)"``)."""
+    by_unit = {}
+    for name, value in defect.items():
+        unit = units.get(name) or "(unit unknown)"
+        if unit not in by_unit or value > by_unit[unit][1]:
+            by_unit[unit] = (name, value)
+    return ", ".join(f"{value:.2g} {unit} ({name})"
+                     for unit, (name, value) in sorted(by_unit.items()))
 
 
 # ----------------------------------------------- the problems as studies too
@@ -258,8 +440,14 @@ class SwingUp:
         open-loop torque replays the optimum there only until the
         collocation's error grows.
     data : mapping
-        Named numbers: ``objective``, ``peak_torque``, ``swing_time``,
-        ``swing_difference``.
+        Named numbers: ``objective`` (the integral of tau^2, N^2 m^2 s),
+        ``peak_torque`` (N m, the largest at the nodes), ``swing_time`` (s),
+        ``swing_difference`` (rad), and of :class:`InputPeaks`:
+        ``limit_ratio_points``, ``limit_ratio_replayed`` (the torque's peak
+        over its limit at the nodes and as replayed), ``peak_replayed`` (N m)
+        and ``peak_replayed_time`` (s).
+    input_peaks : InputPeaks
+        The torque at the nodes and as replayed against its limit.
     """
 
     result: object
@@ -267,15 +455,19 @@ class SwingUp:
     swing_time: float
     swing_difference: float
     data: types.MappingProxyType
+    input_peaks: InputPeaks
 
     @property
     def summary(self):
         r = self.result
-        lines = result_lines(r) + [
-            f"peak torque {self.data['peak_torque']:.6g} N m; final angle "
+        lines = result_lines(r, ("integral of tau^2", "N^2 m^2 s")) + [
+            f"peak torque at the nodes {self.data['peak_torque']:.6g} N m; final angle "
             f"{r['q'][-1]:.8g} rad, rate {r['u'][-1]:.3g} rad/s",
-            f"check: the optimal torque simulated (DOP853) follows the collocated angle "
-            f"within {self.swing_difference:.2g} rad until it nears upright (t = "
+            self.input_peaks.line("torque", "N m"),
+            f"check: the {solution_word(r)} torque simulated (DOP853) "
+            + ("follows the collocated angle within" if r.success else
+               "differs from the collocated angle by up to")
+            + f" {self.swing_difference:.2g} rad until it nears upright (t = "
             f"{self.swing_time:.3g} s), where the pendulum is unstable"]
         return "\n".join(lines)
 
@@ -294,13 +486,21 @@ class SwingUp:
         axes[0].set_ylabel("angle q [rad]")
         axes[1].plot(r.t, r["u"])
         axes[1].set_ylabel("rate u [rad/s]")
-        axes[2].plot(r.t, r["tau"])
+        fine, torque = replayed_inputs(r)
+        axes[2].plot(fine, torque[0], label=f"as replayed ({self.input_peaks.between})")
+        limit = self.input_peaks.limits[0]
+        if np.isfinite(limit):
+            for side in (-1, 1):
+                axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
+                                label=f"limits +-{limit:g} N m" if side > 0 else None)
+        axes[2].legend(fontsize=8, loc="upper right")
         axes[2].set_ylabel("torque tau [N m]")
         axes[2].set_xlabel("t [s]")
         axes[0].legend(fontsize=8)
         for ax in axes:
             ax.grid(alpha=0.3)
-        fig.suptitle(f"pendulum swing-up of least integral of tau^2: {r.t.size} nodes, "
+        word = "" if r.success else f", {solution_word(r)}"
+        fig.suptitle(f"pendulum swing-up of least integral of tau^2{word}\n{r.t.size} nodes, "
                      f"{r.method}, objective {r.objective:.5g} N^2 m^2 s", fontsize=10)
         written = save_figure(fig, path, dpi=110)
         plt.close(fig)
@@ -321,6 +521,8 @@ def pendulum_swing_up(*, nodes=None, method=None, duration=None, bounds=None,
     -------
     SwingUp
     """
+    if not np.isfinite(limit) or limit <= 0:
+        raise KanedynError(f"limit must be a positive number (N m), got {limit!r}")
     spec = optimal_problem("pendulum", "swing-up")
     nodes = nodes or spec.nodes
     method = method or spec.method
@@ -345,8 +547,10 @@ def pendulum_swing_up(*, nodes=None, method=None, duration=None, bounds=None,
     difference = float(np.max(np.abs(run["q"][:k + 1] - result["q"][:k + 1])))
     data = dict(objective=result.objective, peak_torque=float(np.max(np.abs(result["tau"]))),
                 swing_time=float(result.t[k]), swing_difference=difference)
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
     return SwingUp(result, check, float(result.t[k]), difference,
-                   types.MappingProxyType(data))
+                   types.MappingProxyType(data), peaks)
 
 
 register_problem(OptimalProblem(
@@ -354,5 +558,5 @@ register_problem(OptimalProblem(
     description="from hanging to upright at rest in 10 s, |tau| <= 2 N m, least "
                 "integral of tau^2 (opty's gallery problem)",
     nodes=201, method="trapezoid", duration=10.0, required={"torque": True},
-    options={"limit": StudyOption(float, 2.0, "torque limit [N m]")}))
+    options={"limit": StudyOption(float, 2.0, "torque limit [N m]", positive=True)}))
 

@@ -40,9 +40,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import KanedynError
-from ._optimal_problems import (OptimalProblem, SplineInput, build_model, merged_bounds,
-                                numeric_of, optimal_problem, register_problem, result_lines,
-                                solve)
+from ._optimal_problems import (InputPeaks, OptimalProblem, SplineInput, build_model,
+                                defect_text, input_peaks, merged_bounds, numeric_of,
+                                optimal_problem, register_problem, replayed_inputs,
+                                result_lines, solution_word, solve)
 from ._studies import StudyOption
 
 __all__ = ["out_parallel_least_peak_force", "PeakForcePath"]
@@ -84,9 +85,21 @@ class PeakForcePath:
         actuators over the limit in each inverse study),
         ``first_violation_quintic`` (its time, s; nan when none),
         ``defect`` (the largest difference of the simulated states from
-        the collocated ones at the nodes, m and rad), ``objective``,
-        ``effort`` (the integral of the summed squared forces as
-        collocated, N^2 s), ``regularization``, ``force_limit``.
+        the collocated ones at the nodes, in the units of the state it is
+        of: m, rad, m/s or rad/s; the summary gives the largest of each
+        unit), ``objective`` (N: the peak s plus ``regularization`` times
+        the integral of the summed squared forces), ``effort`` (that
+        integral of the forces as replayed, N^2 s), ``regularization``
+        (1/(N s)), ``force_limit`` (N), and of :class:`InputPeaks`:
+        ``limit_ratio_points``, ``limit_ratio_replayed`` (the largest force
+        over its limit at the nodes and midpoints and as replayed: the
+        epigraph's bound s, too, holds at those points only),
+        ``peak_replayed`` (N, the largest force as replayed) and
+        ``peak_replayed_time`` (s).
+    input_peaks : InputPeaks
+        The forces at the collocation points and as replayed against their limits.
+    defects : dict
+        ``{state name: largest |simulated - collocated| at the nodes}``.
     """
 
     result: object
@@ -95,26 +108,36 @@ class PeakForcePath:
     simulation: object
     force_limit: float
     data: types.MappingProxyType
+    input_peaks: InputPeaks
+    defects: dict
 
     @property
     def summary(self):
         d, r = self.data, self.result
+        word = solution_word(r)
         first = ("never" if np.isnan(d["first_violation_quintic"])
                  else f"first at t = {d['first_violation_quintic']:.4g} s")
-        return "\n".join(result_lines(r) + [
+        objective = (f"peak s + {d['regularization']:g} x integral of sum F_i^2", "N")
+        units = r.problem.model.state_units
+        return "\n".join(result_lines(r, objective) + [
+            f"  of it the regularization term (the integral as collocated) "
+            f"{r.objective - d['peak_optimal']:.6g} N, the peak s {d['peak_optimal']:.6g} N",
             f"platform rest to rest in {r.duration:g} s, home to home + 5 cm and 10 deg in "
             f"every axis; carriage forces within +-{self.force_limit:g} N",
-            f"  peak carriage force [N]: optimal {d['peak_optimal']:.6g}, quintic "
+            f"  peak carriage force [N] (s, at the nodes and midpoints): {word} "
+            f"{d['peak_optimal']:.6g}, quintic "
             f"{d['peak_quintic']:.6g} ({100 * d['reduction']:.3g} % less); the largest "
             f"static force in the two poses, which no path goes below: "
             f"{d['static_bound']:.6g}",
             f"  limit {self.force_limit:g} N: the quintic exceeds it at "
-            f"{d['violations_quintic']:g} (point, carriage) pairs ({first}); the optimal "
+            f"{d['violations_quintic']:g} (point, carriage) pairs ({first}); the {word} "
             f"path's inverse dynamics at {d['violations_optimal']:g}",
-            "check: inverse dynamics of the optimal path (kd.analysis.inverse_study, "
+            self.input_peaks.line("carriage force", "N"),
+            f"check: inverse dynamics of the {word} path (kd.studies.inverse_study, "
             f"{self.inverse.ik_method}): peak {d['peak_inverse']:.6g} N, at most "
             f"{d['force_difference']:.3g} N from the collocated forces; the forces simulated "
-            f"(Radau) stay within {d['defect']:.3g} (m, rad) of the collocated states"])
+            "(Radau) differ from the collocated states at the nodes by at most (the largest "
+            "of each unit) " + defect_text(self.defects, units)])
 
     def plot(self, path):
         """Carriage forces (optimal, quintic, the optimal path's inverse
@@ -124,10 +147,10 @@ class PeakForcePath:
         from ._plotting import pyplot
         plt = pyplot()
         r, d, q = self.result, self.data, self.quintic
+        word = solution_word(r)
         fig, axes = plt.subplots(4, 1, figsize=(8, 11), sharex=True, constrained_layout=True,
                                  gridspec_kw={"height_ratios": [3, 1.2, 1.5, 1.5]})
-        fine = np.linspace(r.t[0], r.t[-1], 20 * r.t.size)
-        forces = np.array([[f(t) for t in fine] for f in r.inputs().values()])
+        fine, forces = replayed_inputs(r)
         inv = self.inverse
         for i in range(forces.shape[0]):
             color = f"C{i}"
@@ -144,9 +167,9 @@ class PeakForcePath:
                         label=f"limit {self.force_limit:g} N")
         axes[0].axhline(d["peak_optimal"], color="k", lw=0.8,
                         label=f"least peak s = {d['peak_optimal']:.5g} N")
-        axes[0].plot([], [], "k-", label="optimal (collocated)")
+        axes[0].plot([], [], "k-", label=f"{word} (as replayed)")
         axes[0].plot([], [], "k:", label=f"quintic, peak {d['peak_quintic']:.5g} N")
-        axes[0].plot([], [], "k.", label="inverse dynamics of the optimal path")
+        axes[0].plot([], [], "k.", label=f"inverse dynamics of the {word} path")
         axes[0].set_ylabel("carriage force [N]")
         axes[0].legend(fontsize=7, ncol=3, loc="lower center", bbox_to_anchor=(0.5, 1.0),
                        frameon=False)
@@ -162,14 +185,15 @@ class PeakForcePath:
         axes[3].set_ylabel("platform angles [deg]")
         axes[3].set_xlabel("t [s]")
         for ax in axes[2:]:
-            ax.legend(fontsize=8, ncol=3, title="solid optimal, dotted quintic",
+            ax.legend(fontsize=8, ncol=3, title=f"solid {word}, dotted quintic",
                       title_fontsize=8)
         for ax in axes:
             ax.grid(alpha=0.3)
-        fig.suptitle(f"Out-parallel manipulator, rest to rest in {r.duration:g} s: the path of "
+        what = "the path" if r.success else f"the {word} path towards that"
+        fig.suptitle(f"Out-parallel manipulator, rest to rest in {r.duration:g} s: {what} of "
                      f"least peak carriage force, {100 * d['reduction']:.3g} % below the "
                      f"quintic's\n({r.method}, {r.t.size} nodes; dots: kanedyn's inverse "
-                     "dynamics of the optimal path)", fontsize=10)
+                     f"dynamics of the {word} path)", fontsize=10)
         written = save_figure(fig, path, dpi=110)
         plt.close(fig)
         return written
@@ -296,9 +320,12 @@ def out_parallel_least_peak_force(*, nodes=None, method=None, duration=None, bou
         defect=check.max_defect, effort=effort, regularization=float(regularization),
         force_limit=float(force_limit))
     data["reduction"] = 1.0 - peak / data["peak_quintic"]
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
     return PeakForcePath(result=result, quintic=quintic, inverse=inverse,
                          simulation=check.simulation, force_limit=float(force_limit),
-                         data=types.MappingProxyType(data))
+                         data=types.MappingProxyType(data), input_peaks=peaks,
+                         defects=dict(check.defect))
 
 
 register_problem(OptimalProblem(
@@ -308,6 +335,6 @@ register_problem(OptimalProblem(
                 "by inverse dynamics and simulation",
     nodes=41, method="hermite-simpson", duration=2.0, required={"force_input": True},
     options={"force_limit": StudyOption(float, 200.0, "ball-screw force limit on every "
-                                                      "carriage [N]"),
+                                                      "carriage [N]", positive=True),
              "regularization": StudyOption(float, 1e-5, "weight of the integral of the "
                                                         "summed squared forces [1/(N s)]")}))

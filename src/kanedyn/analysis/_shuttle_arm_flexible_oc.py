@@ -45,7 +45,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._optimal_problems import build_model, numeric_of, result_lines, solve
+from ._optimal_problems import (InputPeaks, build_model, input_peaks, numeric_of,
+                                replayed_inputs, result_lines, solution_word, solve)
 
 __all__ = ["FlexibleArmManoeuvre", "flexible_manoeuvre"]
 
@@ -98,7 +99,13 @@ class FlexibleArmManoeuvre:
         ``objective`` and ``effort_ramped`` (``result``'s objective),
         ``effort_rigid`` (the rigid optimum's), ``effort_quintic`` (all
         N^2 m^2 s), ``effort_ratio`` (ramped over rigid); ``torque_ratio``
-        (the largest torque over its limit at the nodes and interior points),
+        (the largest torque over its limit at the nodes and interior points,
+        the same as ``limit_ratio_points``); ``limit_ratio_points``,
+        ``limit_ratio_replayed`` (that ratio at the collocation points and
+        as replayed: Hermite-Simpson's quadratic between the nodes
+        overshoots the nodes' and midpoints' values), ``peak_replayed`` (N m,
+        the worst joint's replayed peak) and ``peak_replayed_time`` (s, when;
+        :class:`InputPeaks`),
         ``torque_ends`` (N m, the largest torque at the two ends); for
         ``rigid_on_flexible`` (prefix ``rigid_torques_``) and ``replay``
         (prefix ``ramped_``): ``deflection_end`` (m) and
@@ -113,6 +120,9 @@ class FlexibleArmManoeuvre:
         ``defect_angle`` (rad) and ``defect_tip`` (m): ``replay`` at the
         nodes against the collocated (rigid) path, joint angles and end
         effector.
+    input_peaks : InputPeaks
+        ``result``'s torques at the collocation points and as replayed
+        against their limits.
     """
 
     result: object
@@ -123,11 +133,22 @@ class FlexibleArmManoeuvre:
     ring: float
     deflection: object
     data: types.MappingProxyType
+    input_peaks: InputPeaks
+
+    @property
+    def _rigid_name(self):
+        """What the summary and figure call the rigid study's result."""
+        word = solution_word(self.rigid.result)
+        return "rigid optimum" if word == "optimal" else f"rigid {word}"
 
     @property
     def summary(self):
         d, r = self.data, self.result
         mm = 1e3
+        rigid = self._rigid_name
+        rigid_torques = f"{rigid}'s:"
+        solved = ("solved" if r.success else
+                  f"posed (the {solution_word(r)} reported)")
 
         def residual(prefix):
             return (f"elastic tip deflection {mm * d[prefix + 'deflection_end']:.3g} mm, "
@@ -136,18 +157,20 @@ class FlexibleArmManoeuvre:
                     f"{d[prefix + 'speed_end']:.3g} rad/s; torques off, from {SETTLE:g} to "
                     f"{self.ring:g} s after: deflection up to "
                     f"{mm * d[prefix + 'ring_peak']:.3g} mm")
-        return "\n".join(result_lines(r) + [
+        status = [] if self.rigid.result.success else [
+            f"the rigid study on the same mesh: NOT solved: {self.rigid.result.message}"]
+        return "\n".join(result_lines(r, ("integral of sum tau_i^2", "N^2 m^2 s")) + status + [
             f"booms: flexible (Craig-Bampton, 4 modal coordinates each, 28 states); the "
-            f"manoeuvre solved on the rigid arm with every torque zero at "
+            f"manoeuvre {solved} on the rigid arm with every torque zero at "
             f"both ends (largest end torque {d['torque_ends']:.2g} N m), checked on the "
             "flexible arm; torque limits [N m]: "
             + ", ".join(f"{v:.4g}" for v in self.torque_limits),
             f"  effort, integral of sum tau_i^2 [N^2 m^2 s]: torques from and to zero "
-            f"{d['effort_ramped']:.7g}, rigid optimum {d['effort_rigid']:.7g} (ratio "
-            f"{d['effort_ratio']:.5f}), quintic {d['effort_quintic']:.7g}; largest torque "
-            f"over its limit {d['torque_ratio']:.6f}",
+            f"{d['effort_ramped']:.7g}, {rigid} {d['effort_rigid']:.7g} (ratio "
+            f"{d['effort_ratio']:.5f}), quintic {d['effort_quintic']:.7g}",
+            self.input_peaks.line("joint torque (from and to zero)", "N m"),
             "check: the torques simulated on the flexible arm (Radau), at the final time:",
-            "  rigid optimum's:             " + residual("rigid_torques_"),
+            f"  {rigid_torques:29s}" + residual("rigid_torques_"),
             "  torques from and to zero:    " + residual("ramped_"),
             f"  the latter against the collocated path at the nodes: joint angles "
             f"{d['defect_angle']:.3g} rad, end effector {mm * d['defect_tip']:.3g} mm"])
@@ -160,24 +183,24 @@ class FlexibleArmManoeuvre:
         from ._plotting import pyplot
         plt = pyplot()
         r, d, T = self.result, self.data, self.result.duration
+        rigid_name = self._rigid_name
         fig, axes = plt.subplots(4, 1, figsize=(8, 12), constrained_layout=True)
-        fine = np.linspace(r.t[0], r.t[-1], 3001)
-        ramped = np.array([[f(t) for t in fine] for f in r.inputs().values()])
+        fine, ramped = replayed_inputs(r)
         rigid = np.array([[f(t) for t in fine] for f in self.rigid.result.inputs().values()])
         for i in range(6):
             axes[0].plot(fine, ramped[i] / self.torque_limits[i], color=f"C{i}",
                          label=f"tau{i + 1} {JOINTS[i]}")
             axes[0].plot(fine, rigid[i] / self.torque_limits[i], ":", color=f"C{i}")
-        axes[0].plot([], [], "k:", label="rigid optimum")
+        axes[0].plot([], [], "k:", label=rigid_name)
         axes[0].set_ylabel("joint torque / its limit\n(solid: from and to zero,\n"
-                           "dotted: rigid optimum)")
+                           f"dotted: {rigid_name})")
         axes[0].set_xlabel("t [s]")
         axes[0].legend(ncol=4, fontsize=7, loc="lower center", bbox_to_anchor=(0.5, 1.0),
                        frameon=False)
         whole = np.linspace(0.0, T + self.ring, 6001)
         late = np.linspace(T - 5.0, T + self.ring, 3001)
         for run, style, label in (
-                (self.rigid_on_flexible, "-", "rigid optimum's torques"),
+                (self.rigid_on_flexible, "-", f"{rigid_name}'s torques"),
                 (self.replay, "--", "torques from and to zero")):
             axes[1].plot(whole, 1e3 * np.linalg.norm(self.deflection(run.sol(whole)), axis=0),
                          style, label=label)
@@ -192,7 +215,7 @@ class FlexibleArmManoeuvre:
             ax.legend(fontsize=8, title="simulated on the flexible arm (Radau):",
                       title_fontsize=8)
         for u, style, label in ((ramped, "-", f"from and to zero: {d['effort_ramped']:.6g}"),
-                                (rigid, ":", f"rigid optimum: {d['effort_rigid']:.6g}")):
+                                (rigid, ":", f"{rigid_name}: {d['effort_rigid']:.6g}")):
             rate = np.sum(u ** 2, axis=0)
             accrued = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1])
                                                        * np.diff(fine))])
@@ -204,7 +227,8 @@ class FlexibleArmManoeuvre:
             ax.grid(alpha=0.3)
         fig.suptitle(
             f"Shuttle arm, flexible booms, 11 t payload, {T:g} s ({r.method}, {r.t.size} "
-            f"nodes)\nend effector's deflection at the end: rigid optimum's torques "
+            f"nodes{'' if r.success else ', ' + solution_word(r)})\nend effector's "
+            f"deflection at the end: {rigid_name}'s torques "
             f"{1e3 * d['rigid_torques_deflection_end']:.3g} mm,\ntorques from and to zero "
             f"{1e3 * d['ramped_deflection_end']:.2g} mm at "
             f"+{100 * (d['effort_ratio'] - 1):.2g} % effort", fontsize=10)
@@ -355,7 +379,9 @@ def flexible_manoeuvre(*, nodes, method, duration, bounds, constants, model_opti
                                                - deflection.tip(collocated), axis=0))),
         **_residual(rigid_on_flexible, T, deflection, end, n_modal, "rigid_torques_"),
         **_residual(replay, T, deflection, end, n_modal, "ramped_"))
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
     return FlexibleArmManoeuvre(
         result=result, rigid=rigid, rigid_on_flexible=rigid_on_flexible, replay=replay,
         torque_limits=bound, ring=float(ring), deflection=deflection,
-        data=types.MappingProxyType(data))
+        data=types.MappingProxyType(data), input_peaks=peaks)

@@ -48,9 +48,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from .._errors import KanedynError
-from ._optimal_problems import (OptimalProblem, SplineInput, build_model, merged_bounds,
-                                numeric_of, optimal_problem, register_problem, result_lines,
-                                solve)
+from ._optimal_problems import (InputPeaks, OptimalProblem, SplineInput, build_model,
+                                input_peaks, merged_bounds, numeric_of, optimal_problem,
+                                register_problem, replayed_inputs, result_lines,
+                                solution_word, solve)
 from ._studies import StudyOption
 
 __all__ = ["shuttle_arm_minimum_energy", "ArmManoeuvre"]
@@ -94,13 +95,21 @@ class ArmManoeuvre:
         integral of the summed squared torques, N^2 m^2 s, of the optimal
         torques as collocated and of the quintic's), ``effort_ratio``;
         ``torque_ratio`` (the largest peak torque over its limit at the
-        nodes and midpoints); ``angle_excess`` (how far, deg, the optimum
-        goes beyond a joint's start-to-end range); ``margin`` (deg);
+        collocation points, the same as ``limit_ratio_points``);
+        ``limit_ratio_points``, ``limit_ratio_replayed`` (that ratio at the
+        collocation points and as replayed: Hermite-Simpson's quadratic
+        between the nodes overshoots the nodes' and midpoints' values),
+        ``peak_replayed`` (N m, the worst joint's replayed peak) and
+        ``peak_replayed_time`` (s, when; :class:`InputPeaks`);
+        ``angle_excess`` (how far, deg, the optimum goes beyond a joint's
+        start-to-end range); ``margin`` (deg);
         ``defect_angle_open``, ``defect_angle_tracked`` (the largest
         joint-angle difference from the collocation at the nodes, rad),
         ``defect_tip_open``, ``defect_tip_tracked`` (the end effector's, m),
         ``tracking_peak`` (the largest PD term, N m) and ``tracking_ratio``
         (over its joint's limit).
+    input_peaks : InputPeaks
+        The torques at the collocation points and as replayed against their limits.
     """
 
     result: object
@@ -115,22 +124,26 @@ class ArmManoeuvre:
     tip_difference_open: np.ndarray
     tip_difference_tracked: np.ndarray
     data: types.MappingProxyType
+    input_peaks: InputPeaks
 
     @property
     def summary(self):
         d, r = self.data, self.result
+        word = solution_word(r)
         margin = ("none" if not np.isfinite(d["margin"])
                   else f"each joint within its start-to-end range +- {d['margin']:g} deg")
-        peaks = np.max(np.abs(r.points()[2]), axis=1)
-        return "\n".join(result_lines(r) + [
+        peaks = self.input_peaks
+        return "\n".join(result_lines(r, ("integral of sum tau_i^2", "N^2 m^2 s")) + [
             f"{r.duration:g} s between the two poses at rest; joint-angle limits: {margin}; "
             "torque limits [N m]: " + ", ".join(f"{v:.4g}" for v in self.torque_limits),
-            f"  effort, integral of sum tau_i^2 [N^2 m^2 s]: optimal {d['effort_optimal']:.6g}, "
+            f"  effort, integral of sum tau_i^2 [N^2 m^2 s]: {word} {d['effort_optimal']:.6g}, "
             f"quintic {d['effort_quintic']:.6g} (ratio {d['effort_ratio']:.4f})",
-            "  peak torques [N m]: optimal " + ", ".join(f"{v:.4g}" for v in peaks)
-            + f"; largest over its limit {d['torque_ratio']:.6f}",
+            f"  peak torques [N m], {word}: at {peaks.points} "
+            + ", ".join(f"{v:.4g}" for v in peaks.peak_points) + "; as replayed "
+            + ", ".join(f"{v:.4g}" for v in peaks.peak_replayed),
+            peaks.line("joint torque", "N m"),
             f"  beyond a joint's start-to-end range by at most {d['angle_excess']:.3g} deg",
-            "check: the optimal torques simulated (Radau) from the start, largest difference "
+            f"check: the {word} torques simulated (Radau) from the start, largest difference "
             "from the collocated path at the nodes:",
             f"  open loop:                  joint angles {d['defect_angle_open']:.3g} rad, "
             f"end effector {1e3 * d['defect_tip_open']:.3g} mm",
@@ -146,10 +159,10 @@ class ArmManoeuvre:
         from ._plotting import pyplot
         plt = pyplot()
         r, d = self.result, self.data
+        word = solution_word(r)
         fig, axes = plt.subplots(4, 1, figsize=(8, 11), sharex=True, constrained_layout=True)
         tq = self.t_quintic
-        fine = np.linspace(r.t[0], r.t[-1], 20 * r.t.size)
-        torque = np.array([[f(t) for t in fine] for f in r.inputs().values()])
+        fine, torque = replayed_inputs(r)
         for i in range(6):
             color = f"C{i}"
             axes[0].plot(r.t, np.degrees(r.y[i]), color=color, label=f"q{i + 1} {JOINTS[i]}")
@@ -163,9 +176,9 @@ class ArmManoeuvre:
                        frameon=False)
         for side in (-1, 1):
             axes[1].axhline(side, color="0.4", lw=0.8, ls="--")
-        axes[1].set_ylabel("joint torque / its limit\n(solid optimal, dotted quintic)")
+        axes[1].set_ylabel(f"joint torque / its limit\n(solid {word},\ndotted quintic)")
         for t, tau, style, label in (
-                (fine, torque, "-", f"optimal: {d['effort_optimal']:.4g}"),
+                (fine, torque, "-", f"{word}: {d['effort_optimal']:.4g}"),
                 (tq, self.torques_quintic, ":", f"quintic: {d['effort_quintic']:.4g}")):
             rate = np.sum(tau ** 2, axis=0)
             accrued = np.concatenate([[0.0], np.cumsum(0.5 * (rate[1:] + rate[:-1])
@@ -175,7 +188,7 @@ class ArmManoeuvre:
         axes[2].legend(fontsize=8)
         floor = 1e-9
         for diff, style, label in (
-                (self.tip_difference_open, "-", "optimal torques open loop"),
+                (self.tip_difference_open, "-", f"{word} torques open loop"),
                 (self.tip_difference_tracked, "--", "with the servos' PD term on top")):
             axes[3].semilogy(r.t[1:], np.maximum(1e3 * diff[1:], floor), style, label=label)
         axes[3].set_ylabel("end effector off the\ncollocated path [mm]\n(Radau replays)")
@@ -185,7 +198,8 @@ class ArmManoeuvre:
             ax.grid(alpha=0.3)
         margin = ("no joint-angle limits" if not np.isfinite(d["margin"])
                   else f"joints: the quintic's range +- {d['margin']:g} deg")
-        fig.suptitle(f"Shuttle arm, Hubble-class payload, {r.duration:g} s: least effort, "
+        what = "least effort" if r.success else f"towards least effort, {word}"
+        fig.suptitle(f"Shuttle arm, Hubble-class payload, {r.duration:g} s: {what}, "
                      f"{100 * (1 - d['effort_ratio']):.3g} % below the quintic's\n({margin}; "
                      f"torques: the quintic's peaks; {r.method}, {r.t.size} nodes)",
                      fontsize=10)
@@ -363,12 +377,15 @@ def shuttle_arm_minimum_energy(*, nodes=None, method=None, duration=None, bounds
         defect_tip_tracked=float(np.max(tip_tracked)),
         tracking_peak=float(np.max(np.abs(pd))),
         tracking_ratio=float(np.max(np.max(np.abs(pd), axis=1) / bound)))
+    peaks = input_peaks(result, limits)
+    data.update(peaks.data)
     angle_limits = np.array([_pair(limits.get(f"q{i + 1}", (None, None))) for i in range(6)])
     return ArmManoeuvre(
         result=result, t_quintic=tq, angles_quintic=q_quintic, torques_quintic=tau_quintic,
         open_loop=open_loop, tracked=tracked, tracking_torque=pd,
         angle_limits=angle_limits, torque_limits=bound, tip_difference_open=tip_open,
-        tip_difference_tracked=tip_tracked, data=types.MappingProxyType(data))
+        tip_difference_tracked=tip_tracked, data=types.MappingProxyType(data),
+        input_peaks=peaks)
 
 
 class _Sum:
@@ -390,6 +407,6 @@ register_problem(OptimalProblem(
     options={"margin": StudyOption(float, 10.0, "joint-angle margin beyond the quintic's "
                                                 "range [deg] (inf: no limits)"),
              "torque_factor": StudyOption(float, 1.0, "torque limits over the quintic's "
-                                                      "peak torques"),
+                                                      "peak torques", positive=True),
              "booms": StudyOption(str, "rigid", "rigid, or flexible (Craig-Bampton booms; "
                                                 "ends at rest, booms undeformed)", BOOMS)}))

@@ -10,6 +10,7 @@ is the command-line front end.
 from __future__ import annotations
 
 import csv
+import math
 import types
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -35,12 +36,15 @@ class StudyOption:
         What it means, with its unit.
     choices : tuple
         Allowed values (strings), empty when any value of ``type`` is allowed.
+    positive : bool
+        A number that must be finite and above zero (a limit, a duration).
     """
 
     type: type
     default: object
     help: str = ""
     choices: tuple = ()
+    positive: bool = False
 
 
 @dataclass(frozen=True)
@@ -143,6 +147,9 @@ def study_option_value(study_name, name, option, value):
     except (TypeError, ValueError):
         raise KanedynError(f"study {study_name}: option {name} must be "
                            f"{kind.__name__}, got {value!r}") from None
+    if option.positive and not (math.isfinite(value) and value > 0):
+        raise KanedynError(f"study {study_name}: option {name} must be a positive number, "
+                           f"not {value:g}")
     if option.choices and value not in option.choices:
         raise KanedynError(f"study {study_name}: option {name} must be one of "
                            f"{', '.join(map(str, option.choices))}, got {value!r}")
