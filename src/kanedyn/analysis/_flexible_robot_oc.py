@@ -29,8 +29,8 @@ import numpy as np
 
 from .._errors import KanedynError
 from ._optimal_problems import (InputPeaks, OptimalProblem, build_model, input_peaks,
-                                merged_bounds, numeric_of, register_problem, result_lines,
-                                solution_word, solve)
+                                limit_lines, merged_bounds, numeric_of, register_problem,
+                                result_lines, solution_word, solve)
 from ._studies import StudyOption
 
 __all__ = ["flexible_robot_rest_to_rest", "RestToRest"]
@@ -160,11 +160,8 @@ class RestToRest:
         axes[0].set_ylabel("hub angle [deg]")
         axes[1].set_ylabel("tip deflection [mm]")
         axes[2].set_ylabel("motor torque [N m]")
-        limit = self.input_peaks.limits[0]
-        if np.isfinite(limit):
-            for side in (-1, 1):
-                axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
-                                label=f"limits +-{limit:.4g} N m" if side > 0 else None)
+        if np.isfinite(self.input_peaks.limits[0]):
+            limit_lines(axes[2], self.input_peaks.limits[0], "N m")
             axes[2].legend(fontsize=8, loc="upper right")
         axes[3].set_ylabel("|tip deflection| after\nthe manoeuvre [mm]")
         low = max(1e-3 * min(d["residual_optimal"], d["residual_pulse"]) * 1e3, 1e-6)

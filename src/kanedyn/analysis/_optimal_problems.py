@@ -47,7 +47,7 @@ from ._studies import StudyOption, register_study
 
 __all__ = ["OptimalProblem", "OPTIMAL_PROBLEMS", "register_problem", "available_problems",
            "optimal_problem", "pendulum_swing_up", "SwingUp", "IPOPT_DEFAULTS",
-           "InputPeaks", "input_peaks", "solution_word"]
+           "InputPeaks", "input_peaks", "solution_word", "limit_lines"]
 
 #: IPOPT's options of the named problems unless given (``ipopt=``)
 IPOPT_DEFAULTS = {"tol": 1e-8, "max_iter": 3000}
@@ -371,6 +371,15 @@ def input_peaks(result, limits):
         points=collocation_points_text(result))
 
 
+def limit_lines(ax, limit, unit):
+    """Dashed lines at ``+-limit`` on ``ax``, the upper one labelled (none
+    when ``limit`` is infinite)."""
+    if np.isfinite(limit):
+        for side in (-1, 1):
+            ax.axhline(side * limit, color="0.4", ls="--", lw=0.8,
+                       label=f"limits +-{limit:.4g} {unit}" if side > 0 else None)
+
+
 def defect_text(defect, units):
     """``{state: largest difference}`` as text, the largest for each unit
     and the state it is of (``"1.5e-04 m (q2), 3e-05 rad (q4)"``)."""
@@ -488,11 +497,7 @@ class SwingUp:
         axes[1].set_ylabel("rate u [rad/s]")
         fine, torque = replayed_inputs(r)
         axes[2].plot(fine, torque[0], label=f"as replayed ({self.input_peaks.between})")
-        limit = self.input_peaks.limits[0]
-        if np.isfinite(limit):
-            for side in (-1, 1):
-                axes[2].axhline(side * limit, color="0.4", ls="--", lw=0.8,
-                                label=f"limits +-{limit:g} N m" if side > 0 else None)
+        limit_lines(axes[2], self.input_peaks.limits[0], "N m")
         axes[2].legend(fontsize=8, loc="upper right")
         axes[2].set_ylabel("torque tau [N m]")
         axes[2].set_xlabel("t [s]")
