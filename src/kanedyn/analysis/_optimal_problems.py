@@ -471,7 +471,9 @@ class SwingUp:
         r = self.result
         lines = result_lines(r, ("integral of tau^2", "N^2 m^2 s")) + [
             f"peak torque at the nodes {self.data['peak_torque']:.6g} N m; final angle "
-            f"{r['q'][-1]:.8g} rad, rate {r['u'][-1]:.3g} rad/s",
+            f"{r['q'][-1]:.8g} rad, rate {r['u'][-1]:.3g} rad/s"
+            + ("" if r.success else " (the final conditions, held as bounds by every "
+               "iterate: not a sign of success)"),
             self.input_peaks.line("torque", "N m"),
             f"check: the {solution_word(r)} torque simulated (DOP853) "
             + ("follows the collocated angle within" if r.success else
