@@ -42,7 +42,6 @@ dense blocks per interval (its pattern is fixed once).
 
 from __future__ import annotations
 
-import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -177,7 +176,8 @@ class Layout:
 
     def positions(self):
         """Where each point lies, as a fraction of the duration: the nodes,
-        then the interior points (one read-only array per layout)."""
+        then the interior points (a read-only array, made when asked: not
+        held)."""
         return _positions(self.nodes, self.interior)
 
     def point_columns(self):
@@ -261,7 +261,6 @@ class Layout:
         return np.concatenate(parts).astype(float, copy=False)
 
 
-@functools.lru_cache(maxsize=32)
 def _positions(nodes, interior):
     """:meth:`Layout.positions` of ``nodes`` and ``interior``, read-only."""
     inner = (np.arange(nodes - 1)[:, None] + np.asarray(interior)[None, :]).ravel()
@@ -293,9 +292,6 @@ class Defects:
         self._block_list = None  # see _blocks
         #: whether the nodes are a group of their own (some stage is a node)
         self._node_group = bool(interior)
-        #: the nodes' and each interior stage's steps from t0, in units of h
-        self._node_steps = np.arange(N)
-        self._stage_steps = [np.arange(N - 1) + s.position for s in self.stages]
         self._stage_groups = []
         for s in self.stages:
             if s.node is not None:
@@ -303,14 +299,28 @@ class Defects:
             else:
                 self._stage_groups.append((interior, None))
                 interior += 1
-        #: each stage's point positions, fractions of the duration, (N - 1,)
-        self._stage_positions = [(np.arange(N - 1) + s.position) / (N - 1)
-                                 for s in self.stages]
         eye = np.zeros((nd, layout.n_states))
         eye[np.arange(nd), self.rows] = 1.0
         #: d(defect)/d(y_k) and d(defect)/d(y_(k+1)) of the difference alone
         self._difference = {o: np.broadcast_to((1.0 if o == 1 else -1.0) * eye,
                                                (N - 1, nd, layout.n_states)) for o in (0, 1)}
+
+    # (made when asked, not held: arrays of the nodes' length)
+    @property
+    def _node_steps(self):
+        """The nodes' steps from t0, in units of h, (N,)."""
+        return np.arange(self.layout.nodes)
+
+    @property
+    def _stage_steps(self):
+        """Each stage's points' steps from t0, in units of h, (N - 1,) each."""
+        return [np.arange(self.layout.nodes - 1) + s.position for s in self.stages]
+
+    @property
+    def _stage_positions(self):
+        """Each stage's point positions, fractions of the duration, (N - 1,) each."""
+        N = self.layout.nodes
+        return [(np.arange(N - 1) + s.position) / (N - 1) for s in self.stages]
 
     @property
     def n_rows(self):
