@@ -63,7 +63,9 @@ class ReducedNLP:
         not held.
     hessian_size : int
         The reduced Hessian's entries.
-    row_scale : ndarray, shape (m,)
+    row_scale : ndarray, shape (m,), or float
+        Each row's scale; ``1.0`` (not an array: the same products and
+        quotients) while every row's is 1.
     objective_scale : float
 
     Notes
@@ -120,7 +122,7 @@ class ReducedNLP:
         #: every row kept: the full rows are taken as they are (no index)
         self._all_rows = self.m == m_full
         self.objective_scale = 1.0
-        self.row_scale = np.ones(self.m)
+        self.row_scale = 1.0
         #: each Jacobian entry's row scale, or ``None`` while every row's is 1
         self._entry_scale = None
         self._settings = settings
@@ -139,11 +141,12 @@ class ReducedNLP:
             values = np.abs(_kept(jacobian_full, self._jacobian_dropped))
             row_max = np.zeros(self.m)
             np.maximum.at(row_max, rows, values)
-            self.row_scale = np.where(row_max > limit,
-                                      np.maximum(limit / np.maximum(row_max, 1e-300), floor),
-                                      1.0)
-            self._entry_scale = (None if np.all(self.row_scale == 1.0)
-                                 else self.row_scale[rows])
+            row_scale = np.where(row_max > limit,
+                                 np.maximum(limit / np.maximum(row_max, 1e-300), floor), 1.0)
+            if np.all(row_scale == 1.0):
+                self.row_scale, self._entry_scale = 1.0, None
+            else:
+                self.row_scale, self._entry_scale = row_scale, row_scale[rows]
         self.objective_scale = float(factor)
 
     # ------------------------------------------------------------ bounds
