@@ -7,6 +7,8 @@ matrices of a pendulum swing-up's collocation NLP (trapezoid and
 Hermite-Simpson, fixed and free duration), and bad input.
 """
 
+import os
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -684,6 +686,51 @@ def test_release_drops_the_factors_until_the_next_factor():
     assert kkt.factor(*values) == inertia
     assert np.array_equal(kkt.solve(rhs), solution)
     assert np.array_equal(kkt.matvec(rhs), product)
+
+
+def test_large_storage_is_made_after_the_freed_memory_is_handed_back(monkeypatch):
+    """Numeric storage of at least ``RETURN_FREED_BYTES`` is made after the
+    process's freed heap memory is handed back (once per storage made: not
+    again for a factorization that reuses it); smaller storage is not."""
+    from kanedyn.optimization.interior_point import _kkt_sparse
+    calls = []
+    monkeypatch.setattr(_kkt_sparse, "_malloc_trim", lambda: lambda pad: calls.append(pad))
+    kkt, rng = _factored(4)
+    assert calls == []  # a few KB: below the threshold
+    monkeypatch.setattr(_kkt_sparse, "RETURN_FREED_BYTES", 0)
+    values = (rng.normal(size=kkt._hessian_map.size), rng.normal(size=kkt._jacobian_map.size),
+              np.full(kkt.n, 2.0), np.full(kkt.m, 0.5))
+    kkt.factor(*values)  # the storage of the first factor reused
+    assert calls == []
+    kkt.release()
+    kkt.factor(*values)
+    kkt.factor(*values)
+    assert calls == [0]
+
+
+def _resident_bytes():
+    with open("/proc/self/statm") as statm:
+        return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
+
+def test_freed_heap_memory_is_handed_back_to_the_system():
+    """What the interior point relies on (glibc): arrays of 2 MB made after
+    glibc's mmap threshold rose past them come from the heap, and when freed
+    below one still held their pages stay resident until
+    ``_return_freed_memory`` hands them back (80 MB freed: at least 40
+    handed back)."""
+    from kanedyn.optimization.interior_point import _kkt_sparse
+    if _kkt_sparse._malloc_trim() is None or not os.path.exists("/proc/self/statm"):
+        pytest.skip("glibc's malloc_trim and /proc are needed (Linux with glibc)")
+    big = np.ones(2 ** 20)  # 8 MB, mapped; freed, it raises the mmap threshold past 2 MB
+    del big
+    arrays = [np.ones(2 ** 18) for _ in range(41)]  # 2 MB each, from the heap
+    held = arrays.pop()  # the last one keeps the heap's top in place
+    del arrays
+    before = _resident_bytes()
+    _kkt_sparse._return_freed_memory()
+    assert before - _resident_bytes() > 40 * 2 ** 20
+    del held
 
 
 def _factored(seed, n=40, m=15):
