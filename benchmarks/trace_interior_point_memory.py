@@ -1,0 +1,95 @@
+"""Where the interior point's memory goes at its peak: one traced solve.
+
+The pendulum swing-up of ``bench_optimal_control.py``'s scan (backward Euler,
+opty's problem, the straight-line guess of ``_ocp_peers.pendulum_guess``)
+solved by ``solve(solver="interior-point", hessian="exact")`` with at most
+``--max-iter`` iterations, traced by ``tracemalloc`` from after the problem
+is built.  Prints the highest traced memory of the solve in bytes per node
+(NumPy's arrays included; the C kernel's own scratch and the allocator's
+overhead not), where it was reached (the call stack at the highest traced
+memory seen on a function's return; ``--at NAME`` looks only at returns of
+functions named so), the allocations alive then by source line, and the
+process's ``VmHWM`` and ``VmPeak``.  Bytes per node of one node count
+include the fixed part (imports made during the solve): compare two counts
+for a slope.  ``docs/benchmarks.md`` ("A fourth round: what the iterations
+hold") gives its figures.
+
+    python benchmarks/trace_interior_point_memory.py [--nodes 100000] [--max-iter 15]
+        [--at NAME] [--lines 30] [--limited-memory]
+"""
+
+from __future__ import annotations
+
+import argparse
+import linecache
+import os
+import sys
+import tracemalloc
+
+# _ocp_peers lives next to this script (on sys.path when the script is run directly)
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+import _ocp_peers as peers  # noqa: E402
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--nodes", type=int, default=100_000)
+    parser.add_argument("--max-iter", type=int, default=15)
+    parser.add_argument("--at", default=None,
+                        help="look only at returns of functions of this name (e.g. _factor)")
+    parser.add_argument("--lines", type=int, default=30, help="allocations listed")
+    parser.add_argument("--limited-memory", action="store_true",
+                        help="the limited-memory Hessian (the solver's default) instead of "
+                             "the exact one")
+    args = parser.parse_args()
+    nodes = args.nodes
+    problem, _ = peers.pendulum_kanedyn(nodes)
+    guess = peers.pendulum_guess(nodes)
+    highest = {"bytes": -1, "snapshot": None, "stack": ""}
+
+    def on_return(frame, event, _arg):
+        if event != "return" or "kanedyn" not in frame.f_code.co_filename:
+            return
+        if args.at and frame.f_code.co_name != args.at:
+            return
+        now = tracemalloc.get_traced_memory()[0]
+        if now > highest["bytes"] * 1.01:
+            names, f = [], frame
+            while f is not None and len(names) < 6:
+                names.append(f.f_code.co_name)
+                f = f.f_back
+            highest.update(bytes=now, snapshot=tracemalloc.take_snapshot(),
+                           stack=" < ".join(names))
+
+    options = dict(max_iter=args.max_iter, tol=1e-10)
+    hessian = "limited-memory" if args.limited_memory else "exact"
+    tracemalloc.start(1)
+    start = tracemalloc.get_traced_memory()[0]
+    sys.setprofile(on_return)
+    try:
+        result = problem.solve(guess, solver="interior-point", hessian=hessian,
+                               options=options)
+    finally:
+        sys.setprofile(None)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    print(f"pendulum swing-up, {nodes} nodes, backward Euler, {hessian} Hessian: status "
+          f"{result.status} after {result.iterations} iterations, objective "
+          f"{result.objective:.10g}")
+    print(f"highest traced memory of the solve: {(peak - start) / nodes:.0f} B a node; the "
+          f"highest seen on a return{f' of {args.at}' if args.at else ''}: "
+          f"{(highest['bytes'] - start) / nodes:.0f} B a node, in {highest['stack']}")
+    print("alive then, B a node, by the line that allocated it:")
+    for stat in highest["snapshot"].statistics("lineno")[:args.lines]:
+        frame = stat.traceback[0]
+        code = linecache.getline(frame.filename, frame.lineno).strip()
+        print(f"  {stat.size / nodes:7.0f}  {os.path.basename(frame.filename)}:{frame.lineno}"
+              f"  {code[:80]}")
+    with open("/proc/self/status") as status:
+        for line in status:
+            if line.startswith(("VmHWM", "VmPeak")):
+                print(line.strip())
+
+
+if __name__ == "__main__":
+    main()
