@@ -139,8 +139,8 @@ class LimitedMemoryBFGS:
         keep = int(st.limited_memory_max_history)
         if keep:  # the newest ``keep`` pairs
             s_row, y_row = np.array(s, dtype=float)[None, :], np.array(y, dtype=float)[None, :]
-            self.S = s_row if self.S is None else np.concatenate([self.S, s_row])[-keep:]
-            self.Y = y_row if self.Y is None else np.concatenate([self.Y, y_row])[-keep:]
+            self.S = s_row if self.S is None else _newest(self.S, s_row, keep)
+            self.Y = y_row if self.Y is None else _newest(self.Y, y_row, keep)
         self.sigma = float(np.clip(sy / float(s @ s), st.limited_memory_init_val_min,
                                    st.limited_memory_init_val_max))
 
@@ -166,3 +166,10 @@ class LimitedMemoryBFGS:
         M[h:, :h] = L.T
         M[h:, h:] = -np.diag(np.diag(SY))
         return CompactHessian(sigma, np.concatenate([sigma * S, Y]).T, M)
+
+
+def _newest(rows, row, keep):
+    """``rows`` (h, n) with ``row`` (1, n) after them, the newest ``keep``
+    kept: a new array of at most ``keep`` rows (a slice of a longer one would
+    hold all its rows)."""
+    return np.concatenate([rows[max(len(rows) - keep + 1, 0):], row])
