@@ -826,6 +826,27 @@ def test_an_option_ipopt_refuses_is_an_option_error_with_the_close_names(integra
         problem.solve(guess, options={"max_iter": -5})
 
 
+@pytest.mark.parametrize("solver", ["ipopt", "interior-point"])
+def test_a_hessian_option_against_the_hessian_asked_is_an_option_error(integrator, solver):
+    """solve(hessian=...) and the option hessian_approximation naming the other
+    Hessian: an OptionError before any iteration, both ways, for both solvers
+    (IPOPT asked for an exact Hessian the NLP lacks ran and failed with "an
+    invalid number" before)."""
+    model, (x, v, F, _) = integrator
+    problem = kd.OptimalControlProblem(model, nodes=5, duration=1.0, lagrange=F ** 2,
+                                       initial={x: 0, v: 0}, final={x: 1, v: 0})
+    guess = problem.guess_line(inputs={F: 0.0})
+    with pytest.raises(kd.OptionError, match=r"hessian=\"exact\" and the .* option "
+                                             r"hessian_approximation='limited-memory' "
+                                             r"contradict each other"):
+        problem.solve(guess, solver=solver, hessian="exact",
+                      options={"hessian_approximation": "limited-memory"})
+    with pytest.raises(kd.OptionError, match=r"hessian_approximation='exact': this NLP has "
+                                             r"no exact Hessian; pass hessian=\"exact\""):
+        problem.solve(guess, solver=solver, hessian="limited-memory",
+                      options={"hessian_approximation": "exact"})
+
+
 # ------------------------------------------------- the exact Hessian (issue 35)
 def _lagrangian_gradient(nlp, z, sigma, multipliers):
     """sigma grad J + J_g^T lambda, from the NLP's exact first derivatives."""

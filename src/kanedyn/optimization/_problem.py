@@ -486,15 +486,18 @@ class OptimalControlProblem:
             The decision vector (:meth:`guess_line`, :meth:`guess_from`), or a
             previous solution of a problem with the same layout.
         solver : str or object
-            ``"ipopt"`` (cyipopt) or an object of the solver interface
-            (:mod:`kanedyn.optimization._solvers`).
+            ``"ipopt"`` (IPOPT through cyipopt), ``"interior-point"``
+            (kanedyn's own, :mod:`kanedyn.optimization.interior_point`, which
+            takes IPOPT's names for the options it shares) or an object of the
+            solver interface (:mod:`kanedyn.optimization._solvers`).
         options : dict, optional
             Passed to the solver (IPOPT's options: ``{"tol": 1e-10,
-            "max_iter": 500}``).
+            "max_iter": 500}``); a name or value the solver refuses is a
+            :class:`~kanedyn.OptionError`.
         warm_start : bool
             With a previous result as ``guess``: start from its multipliers too.
         hessian : {"limited-memory", "exact"}
-            The Hessian of the Lagrangian IPOPT uses: its limited-memory
+            The Hessian of the Lagrangian the solver uses: its limited-memory
             quasi-Newton approximation, or the exact one (generated second
             derivatives of the model, :mod:`kanedyn.optimization._hessian`;
             every method, constraint, free parameter and free duration, but

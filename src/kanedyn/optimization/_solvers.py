@@ -167,12 +167,16 @@ class Ipopt:
                                   lb=nlp.x_lower, ub=nlp.x_upper,
                                   cl=nlp.g_lower, cu=nlp.g_upper)
         merged = dict(self.DEFAULTS, **(options or {}))
+        asked = (options or {}).get("hessian_approximation")
         if exact:
-            if (options or {}).get("hessian_approximation", "exact") != "exact":
-                raise ValueError('hessian="exact" and the IPOPT option '
-                                 f'hessian_approximation={options["hessian_approximation"]!r} '
-                                 'contradict each other; give one')
+            if asked not in (None, "exact"):
+                raise OptionError('hessian="exact" and the IPOPT option '
+                                  f'hessian_approximation={asked!r} contradict each other; '
+                                  'give one')
             merged["hessian_approximation"] = "exact"
+        elif asked == "exact":
+            raise OptionError("IPOPT option hessian_approximation='exact': this NLP has no "
+                              'exact Hessian; pass hessian="exact" to solve()')
         if warm is not None:
             merged.setdefault("warm_start_init_point", "yes")
         for key, value in merged.items():

@@ -56,7 +56,7 @@ import time
 
 import numpy as np
 
-from ..._errors import ModelError
+from ..._errors import ModelError, OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from ._kkt_low_rank import LowRankKKT
@@ -160,10 +160,10 @@ class InteriorPoint:
         s = checked_settings(options)
         has_exact = getattr(nlp, "exact_hessian", None) is not None
         if s.hessian_approximation == "exact" and not has_exact:
-            raise ModelError("interior-point option hessian_approximation='exact': this NLP "
+            raise OptionError("interior-point option hessian_approximation='exact': this NLP "
                              'has no exact Hessian; pass hessian="exact" to solve()')
         if s.hessian_approximation == "limited-memory" and has_exact:
-            raise ValueError('hessian="exact" and the interior-point option '
+            raise OptionError('hessian="exact" and the interior-point option '
                              "hessian_approximation='limited-memory' contradict each other; "
                              "give one")
         if s.hessian_approximation is None:
