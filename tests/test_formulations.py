@@ -221,9 +221,12 @@ def test_drift_behaviour_along_a_motion():
 
 
 def test_trajectories_agree_to_the_tolerance():
+    """Four-bar, 1 s at rtol 1e-10 (2 s took twice the CPU): the deviations
+    measured are at most 7.4e-10 (Baumgarte, augmented Lagrangian), the
+    penalty's 4.2e-7; g off by 0.1 % moves the angles by 1.1e-2 in that time."""
     methods = ("kane",) + SCHEME_METHODS + ("penalty",)
-    cmp = compare_formulations("four-bar", methods, t_end=2.0, rtol=1e-10, atol=1e-12,
-                               n_points=41)
+    cmp = compare_formulations("four-bar", methods, t_end=1.0, rtol=1e-10, atol=1e-12,
+                               n_points=21)
     for m in methods[1:-1]:
         assert cmp.deviation[m] < 1e-6, m
     assert cmp.deviation["penalty"] < 1e-3  # O(1 / alpha)

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import functools
 import math
+import weakref
 
 import numpy as np
 from sympy.printing.numpy import SciPyPrinter
@@ -116,7 +117,37 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
     Returns
     -------
     str
+
+    Notes
+    -----
+    The source is kept for the program (while it lives), under everything it
+    is made from: a program gives the same listing of the same expressions
+    every time (:meth:`Program.listing`), so a function asked for again (a
+    second numerical model of the same equations: other constants, another
+    constraint scheme) is that text, not printed again (SymPy's printer took
+    93 % of making a model of the Stewart platform's Lagrange equations).
     """
+    key = (name, vectorized, bool(cse),
+           tuple((arg, tuple(symbols)) for arg, symbols in arguments.items()),
+           tuple((tuple(shape), tuple(exprs)) for shape, exprs in outputs))
+    try:
+        hash(key)
+    except TypeError:  # an output not a SymPy expression or a number: made each time
+        return _generate_python(program, name, arguments, outputs, origin, vectorized, cse)
+    made = _SOURCES.setdefault(program, {})
+    source = made.get(key)
+    if source is None:
+        source = made[key] = _generate_python(program, name, arguments, outputs, origin,
+                                              vectorized, cse)
+    return source
+
+
+#: program -> {what a function is made from: its source} (see generate_python)
+_SOURCES = weakref.WeakKeyDictionary()
+
+
+def _generate_python(program, name, arguments, outputs, origin, vectorized, cse):
+    """:func:`generate_python` itself, without the kept sources."""
     names = {program.t: "t"}
     lines = [f"def {name}(t, y, p, r):"]
     if vectorized:
@@ -183,7 +214,15 @@ _NAMESPACE = {"functools": functools, "math": math, "numpy": np, "scipy": _LazyS
 
 
 def compile_python(source, name):
-    """Execute generated source and return the function called ``name``."""
+    """Execute generated source and return the function called ``name`` (a new
+    function each call; the compiled code of a source met again is reused)."""
     namespace = dict(_NAMESPACE)
-    exec(compile(source, f"<kanedyn:{name}>", "exec"), namespace)
+    exec(_compiled(source, name), namespace)
     return namespace[name]
+
+
+@functools.lru_cache(maxsize=32)
+def _compiled(source, name):
+    """The code object of ``source``: the same source, the same code (a model
+    made again of the same equations, :func:`generate_python`)."""
+    return compile(source, f"<kanedyn:{name}>", "exec")
