@@ -212,3 +212,29 @@ def test_kinematic_equations_pivot_away_from_vanishing_factors():
     perm = [names.index(n) for n in model.state_names]
     np.testing.assert_allclose(model.rhs(0.0, y), reference.rhs(0.0, y_ref)[perm],
                                atol=1e-12)
+
+
+
+def test_a_second_model_of_the_same_equations_reuses_their_source(cart, monkeypatch):
+    """A second numerical model of the same equations gets the sources its
+    functions were printed to for the first (no new print: SymPy's printer
+    was most of making it) and the same state derivative to the bit; the
+    sources kept per program are bounded (each model made with numbers
+    substituted for an input's expression would add one)."""
+    from kanedyn.numerics.backends import _python
+    d, eom = cart
+    first = d.numeric(eom, backend="numpy")
+    printed = []
+    make = _python._generate_python
+    monkeypatch.setattr(_python, "_generate_python",
+                        lambda *args: printed.append(args[1]) or make(*args))
+    again = d.numeric(eom, backend="numpy")
+    assert printed == []
+    y = np.linspace(0.1, 0.4, first.n_states)
+    assert np.array_equal(again.rhs(0.0, y), first.rhs(0.0, y))
+    t = sm.Symbol("t")
+    for k in range(_python.SOURCES_PER_PROGRAM + 5):   # a new text each
+        _python.generate_python(eom._program, "f", {"y": [], "p": [], "r": []},
+                                [((), [t * (k + 1)])])
+    assert len(printed) == _python.SOURCES_PER_PROGRAM + 5
+    assert len(_python._SOURCES[eom._program]) == _python.SOURCES_PER_PROGRAM

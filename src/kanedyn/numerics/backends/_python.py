@@ -137,13 +137,20 @@ def generate_python(program, name, arguments, outputs, origin=None, vectorized=F
     made = _SOURCES.setdefault(program, {})
     source = made.get(key)
     if source is None:
-        source = made[key] = _generate_python(program, name, arguments, outputs, origin,
-                                              vectorized, cse)
+        source = _generate_python(program, name, arguments, outputs, origin, vectorized,
+                                  cse)
+        if len(made) >= SOURCES_PER_PROGRAM:  # bounded: the oldest goes
+            made.pop(next(iter(made)))
+        made[key] = source
     return source
 
 
 #: program -> {what a function is made from: its source} (see generate_python)
 _SOURCES = weakref.WeakKeyDictionary()
+#: the sources kept per program: a model's functions and its derivatives' with
+#: room to spare; models made with numbers substituted for inputs (a new text
+#: each) do not grow it without bound
+SOURCES_PER_PROGRAM = 32
 
 
 def _generate_python(program, name, arguments, outputs, origin, vectorized, cse):
