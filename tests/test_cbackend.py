@@ -297,12 +297,17 @@ def test_rosenbrock_on_a_stiff_problem():
     model = eom.numeric(constants={k: 1e4, c: 1e3}, backend="c")
     ours = kd.simulate(model, (0, 2), [1.0, 0.0], method="Rosenbrock23", rtol=1e-6,
                        atol=1e-9)
-    # the closed form of this linear system, exp(2 A) y0 (SciPy's Radau at rtol
-    # 1e-12, 2 s of CPU, agreed with it to 1e-17)
-    exact = expm(2.0 * np.array([[0.0, 1.0], [-1e4, -1e3]])) @ [1.0, 0.0]
+    # the closed form of this linear system, exp(t A) y0 (SciPy's Radau at rtol
+    # 1e-12, 2 s of CPU, agreed with it to 1e-17 at t = 2)
+    A = np.array([[0.0, 1.0], [-1e4, -1e3]])
+    exact = np.array([expm(t * A) @ [1.0, 0.0] for t in ours.t]).T
     assert ours.success and ours.njev > 0
     assert ours.t.size < 1000  # an explicit method would need ~1e5 steps here
-    np.testing.assert_allclose(ours.y[:, -1], exact, atol=1e-8)
+    # along the run (the end alone, 2e-9 of the start, would pass a damping 1 %
+    # off): 1.5e-4 at most measured (in the fast transient, where u peaks at
+    # 9.6), against 9e-2 with c 1 % off; and the end to 1e-8
+    np.testing.assert_allclose(ours.y, exact, rtol=0, atol=1e-3)
+    np.testing.assert_allclose(ours.y[:, -1], exact[:, -1], atol=1e-8)
 
 
 def test_compiled_failure_returns_what_was_computed():
