@@ -26,6 +26,7 @@ from scipy.integrate import cumulative_simpson
 
 import kanedyn as kd
 from kanedyn._errors import ModelError
+from kanedyn.numerics import compiler_command
 
 t = me.dynamicsymbols._t
 
@@ -346,6 +347,11 @@ def test_shuttle_arm_with_flexible_booms_by_kane_and_orthogonal_complement():
         time = rng.uniform(0.0, 150.0)
         a, b = kane.rhs(time, y), noc.rhs(time, y)
         assert np.max(np.abs(a - b)) <= 1e-10 * np.max(np.abs(a))
+    # Kane's run compiled (the NOC has no C backend): the same equations, 2.4 s of CPU
+    # with the NumPy backend, 0.4 s in C; it ends 4.7e-10 from the NOC's run either way,
+    # against the 1e-7 below
+    if compiler_command() is not None:
+        models["kane"] = definition.numeric(kane._eom, backend="c")
     runs = {name: kd.simulate(model, (0.0, 5.0), y0, method="BDF", rtol=1e-9, atol=1e-11,
                               t_eval=np.linspace(0.0, 5.0, 11))
             for name, model in models.items()}
