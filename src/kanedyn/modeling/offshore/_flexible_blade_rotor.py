@@ -161,7 +161,10 @@ class FlexibleBladeElementRotor:
         except TypeError:       # a constant's value that cannot be a key: not kept
             return self._make_kinematics(states, constants)
         if found is None:
-            found = self._kinematics[key] = self._make_kinematics(states, constants)
+            found = self._make_kinematics(states, constants)
+            if len(self._kinematics) >= 4:  # bounded: the oldest goes
+                self._kinematics.pop(next(iter(self._kinematics)))
+            self._kinematics[key] = found
         return found
 
     def _make_kinematics(self, states, constants):
