@@ -167,7 +167,7 @@ class Integrand:
         except ModelError as exc:  # e.g. an input's function raised: its message
             self.guard.fail(t, y, str(exc))
             return np.full(self.n, np.nan)
-        if not np.all(np.isfinite(out)):
+        if not np.isfinite(out).all():  # the method: np.all's dispatch is most of its cost
             self.guard.fail(t, y)
         if self.progress.enabled and self.t1 != self.t0:
             self.progress.update("simulating", (t - self.t0) / (self.t1 - self.t0))
