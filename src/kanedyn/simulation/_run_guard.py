@@ -235,7 +235,8 @@ def guarded_method(method, guard):
     class Guarded(base):
         def __init__(self, *args, **kwargs):
             super().__init__(*args, **kwargs)
-            if getattr(self, "solve_lu", None) is not None and isinstance(self.J, np.ndarray):
+            if getattr(self, "solve_lu", None) is not None \
+                    and isinstance(getattr(self, "J", None), np.ndarray):  # dense: Radau, BDF
                 self.lu, self.solve_lu = _direct_lu(self)
 
         def _step_impl(self):
