@@ -109,10 +109,15 @@ def test_intervals_cover_the_truth_as_often_as_they_claim(oscillator):
     estimates = {n: [] for n in truth}
     errors = {n: [] for n in truth}
     noise = []
+    # integrated to rtol 1e-6, atol 1e-8 (the noise is 5e-2 of the amplitude):
+    # measured over the 200 draws against rtol 1e-8, atol 1e-10, the same
+    # coverage counts (k 93.0 %, c 97.5 %, q(t0) 96.0 %), the mean standard
+    # errors over the spread to 1e-6 and the mean noise estimate to 4e-8,
+    # relative, in 0.7x the time
     for seed in range(runs):
         rng = np.random.default_rng(seed)
         fit = kd.identify(model, (t, {"q": x + rng.normal(0.0, sigma, t.size)}), ["k", "c"],
-                          initial=["q"], y0={"q": X0, "u": 0.0}, rtol=1e-8, atol=1e-10)
+                          initial=["q"], y0={"q": X0, "u": 0.0}, rtol=1e-6, atol=1e-8)
         assert fit.success, (seed, fit.message)
         for name, value in truth.items():
             lo, hi = fit.intervals[name]

@@ -134,18 +134,22 @@ def sensitivity(model, t_span, y0, parameters=True, t_eval=None, method="RK45", 
     m = start.shape[1]
     k = m + len(names)
     follows = bool(inputs_follow_state(model))  # else the inputs add nothing to d f/d y
+    # looked up once, not at every evaluation: the method, whether constants are
+    # asked for, their columns as an index array (the same entries as the list's)
+    jacobians, with_parameters = model.jacobians, bool(names)
+    take = np.array(columns, dtype=np.intp)
 
     def augmented(t, z):
         y = z[:nx]
         S = z[nx:].reshape(nx, k)
-        J = model.jacobians(t, y, parameters=bool(names))
+        J = jacobians(t, y, parameters=with_parameters)
         state = J.state + through_inputs(model, t, y, J.inputs) if follows else J.state
         out = np.empty(nx + nx * k)  # [f, dS] written in place, no copies
         out[:nx] = J.f
         dS = out[nx:].reshape(nx, k)
         np.matmul(state, S, out=dS)
-        if names:
-            dS[:, m:] += J.parameters[:, columns]
+        if with_parameters:
+            dS[:, m:] += J.parameters[:, take]
         return out
 
     z0 = np.concatenate([y_start, np.hstack([start, np.zeros((nx, len(names)))]).ravel()])
