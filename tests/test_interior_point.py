@@ -284,7 +284,7 @@ def test_options_and_hessian_refused_with_their_names():
     with pytest.raises(ValueError, match="max_iter"):
         _solve(nlp, np.zeros(nlp.n), {"max_iter": 2.5})
     nlp.exact_hessian = None
-    with pytest.raises(kd.ModelError, match='hessian_approximation=.exact.*hessian="exact"'):
+    with pytest.raises(kd.OptionError, match='hessian_approximation=.exact.*hessian="exact"'):
         _solve(nlp, np.zeros(nlp.n), {"hessian_approximation": "exact"})
 
 
