@@ -27,18 +27,6 @@ import sympy.physics.mechanics as me  # noqa: E402
 import kanedyn as kd  # noqa: E402
 
 
-def pytest_collection_modifyitems(config, items):
-    """The files that hold slow validation tests first, each file's tests
-    together and in their order: ``pytest -n 2`` then ends on short tests,
-    not with one process running a minute-long validation while the other
-    waits (a run in file order took 1,266 s, 51 s over half its tests' 2,430
-    s on two processes, collection included).  The order the
-    tests run in changes nothing they check (nor module fixtures: a file stays
-    one block)."""
-    slow_files = {item.path for item in items if item.get_closest_marker("slow")}
-    items.sort(key=lambda item: item.path not in slow_files)   # stable
-
-
 @pytest.fixture(scope="session")
 def bicycle():
     """(definition, eom, numeric model) of the Whipple bicycle, benchmark parameters."""
