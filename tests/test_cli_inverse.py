@@ -55,6 +55,24 @@ def test_inverse_bad_arguments_are_one_line(argv, what, capsys):
     assert err.count("\n") == 1 and what in err
 
 
+def test_inverse_unwritable_out_is_refused_before_the_model_is_built(tmp_path, capsys,
+                                                                     monkeypatch):
+    """``--out`` through a file: one line naming ``--out``, before the model's
+    build (the Stewart platform's takes seconds)."""
+    import kanedyn.cli._inverse as inverse
+
+    def not_built(*args, **kwargs):
+        raise AssertionError("the model was built before --out was checked")
+
+    monkeypatch.setattr(inverse, "build", not_built)
+    blocker = tmp_path / "a-file"
+    blocker.write_text("")
+    assert main(["inverse", "stewart-platform", "--out", str(blocker / "sub"),
+                 "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert err.count("\n") == 1 and "--out" in err and "is a file" in err
+
+
 def test_inverse_set_changes_the_forces(capsys):
     """A heavier platform: the closed form still applies (masses are no geometry)."""
     assert main(["inverse", "3rrr", "--points", "11", "--quiet"]) == 0

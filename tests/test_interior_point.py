@@ -516,7 +516,8 @@ def test_registered_and_named_in_the_result():
 def test_cli_optimize_with_the_interior_point_solver(capsys):
     """``kanedyn optimize pendulum --solver interior-point``: exit 0, IPOPT's
     objective (``--hessian exact``) to 1e-6; so with ``--hessian
-    limited-memory`` (the solver's BFGS approximation)."""
+    limited-memory`` (the solver's BFGS approximation); the summary names
+    the Hessian used."""
     _ipopt_or_skip()
     from kanedyn.cli import main
     found = {}
@@ -525,13 +526,13 @@ def test_cli_optimize_with_the_interior_point_solver(capsys):
                 "exact", "--quiet", "--backend", "numpy"]
         assert main(argv) == 0
         text = capsys.readouterr().out
-        assert f"solved: {solver}:" in text
+        assert f"solved: {solver} (exact Hessian):" in text
         found[solver] = float(text.split("objective ")[1].split()[0].rstrip(";"))
     assert found["interior-point"] == pytest.approx(found["ipopt"], rel=1e-6)
     assert main(["optimize", "pendulum", "--nodes", "51", "--solver", "interior-point",
                  "--hessian", "limited-memory", "--quiet", "--backend", "numpy"]) == 0
     text = capsys.readouterr().out
-    assert "solved: interior-point:" in text
+    assert "solved: interior-point (limited-memory Hessian):" in text
     assert float(text.split("objective ")[1].split()[0].rstrip(";")) == pytest.approx(
         found["ipopt"], rel=1e-6)
 

@@ -304,6 +304,9 @@ def test_cart_pole_without_the_exact_hessian_reaches_ipopts_optimum():
     assert ours.success and theirs.success, (ours.message, theirs.message)
     assert ours.objective == pytest.approx(theirs.objective, rel=1e-7)
     assert np.max(np.abs(ours.x - theirs.x)) < 1e-4
+    # each message names the Hessian its solver used
+    assert ours.message.startswith("interior-point (limited-memory Hessian): ")
+    assert theirs.message.startswith("ipopt (exact Hessian): ")
 
 
 def test_limited_memory_options_refused_with_their_names():

@@ -18,6 +18,8 @@ checked against what shares none of its code:
 IPOPT through cyipopt is needed; without it every test here is skipped.
 """
 
+import re
+
 import numpy as np
 import pytest
 import sympy as sm
@@ -353,3 +355,36 @@ def test_result_joined_table_plot_guesses_and_warm_start(tmp_path):
         joined.plot()
     with pytest.raises(KeyError, match="no phase"):
         joined["z"]
+
+
+def test_unsolved_message_names_the_phase_row_or_the_junction_violated_most():
+    """An infeasible multiphase problem's message names what is violated
+    most in the problem's terms: a phase's defect with its phase and times
+    (|F| <= 0.1 N cannot move 1 kg by 1 m in 1 s: 0.025 m at most), or a
+    linkage's equation (x jumps by 5 m at the junction, but x is bounded to
+    [0, 1] m on both sides: 4 m at least)."""
+    model, (x, v, F) = _cart([1.0])
+    L = kd.Linkage
+
+    def phases(**kwargs):
+        first = kd.OptimalControlProblem(model, nodes=11, duration=0.5, lagrange=F ** 2,
+                                         initial={x: 0, v: 0}, **kwargs)
+        second = kd.OptimalControlProblem(model, nodes=11, duration=0.5, lagrange=F ** 2,
+                                          final={x: 1, v: 0}, **kwargs)
+        guess = [first.guess_line(end={x: 0.5, v: 0}, inputs={F: 0.0}),
+                 second.guess_line(start={x: 0.5, v: 0}, inputs={F: 0.0})]
+        return first, second, guess
+
+    first, second, guess = phases(bounds={F: (-0.1, 0.1)})
+    weak = kd.MultiphaseProblem([first, second]).solve(guess, solver="interior-point")
+    assert weak.status == 2 and not weak.success
+    assert re.search(r"largest constraint violation [0-9.e+-]+, of phase [12]: the dynamics "
+                     r"of [xv] between nodes \d+ and \d+ \(t = [0-9.]+ to [0-9.]+ s\)$",
+                     weak.message), weak.message
+    first, second, guess = phases(bounds={x: (0, 1)})
+    jump = kd.MultiphaseProblem([first, second], linkages=[L(
+        continuous=[v], equations=[x.subs(t, L.after) - x.subs(t, L.before) - 5])])
+    apart = jump.solve(guess, solver="interior-point")
+    assert apart.status == 2 and apart.constraint_violation >= 4.0 - 1e-6
+    assert apart.message.endswith(", of linkage 1 (phases 1 and 2), equation 0 "
+                                  "(x(t_j^+) - x(t_j^-) - 5)"), apart.message

@@ -59,6 +59,8 @@ def cmd_inverse(args):
 
     from ..analysis import inverse_study
     options, values = parse_sets(args.model, args.set)
+    # the folder first: building the model takes seconds (the Stewart platform's 6)
+    out = check_output_dir(args.out) if args.out is not None else None
     definition = build(args.model, **options)  # checks the options
     if not definition.actuators:
         raise KanedynError(f"model {args.model!r} declares no actuators; "
@@ -69,7 +71,6 @@ def cmd_inverse(args):
     if unknown:
         raise KanedynError(f"--set {unknown[0]}: not an option or parameter of "
                            f"{definition.name}; parameters: {', '.join(sorted(names))}")
-    out = check_output_dir(args.out) if args.out is not None else None
     limits = {}
     if args.machine is not None:
         definition, limits = _machine_option(args.machine, definition)

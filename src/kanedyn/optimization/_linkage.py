@@ -91,11 +91,12 @@ class Linkage:
 class JunctionRow:
     """One row at a junction: ``columns`` (global) and ``function(z) ->
     (value, gradient over columns)``; ``hessian(z)``, its second derivatives
-    over the columns, or ``None`` for a linear row."""
+    over the columns, or ``None`` for a linear row; ``label``, what the row
+    says in the problem's terms (an unsolved run's message names it)."""
 
-    def __init__(self, columns, function, hessian=None):
+    def __init__(self, columns, function, hessian=None, label=""):
         self.columns, self.function = np.asarray(columns, dtype=int), function
-        self.hessian = hessian
+        self.hessian, self.label = hessian, label
 
 
 class _Side:
@@ -149,7 +150,9 @@ def junction_rows(k, linkage, before, after):
     if after.layout.free_start_time:
         start = after.offset + after.layout.start_index
         grad = np.array([1.0] + [-1.0] * len(end_cols))
-        rows.append(JunctionRow([start] + end_cols, lambda z: (z[start] - end_time(z), grad)))
+        rows.append(JunctionRow([start] + end_cols, lambda z: (z[start] - end_time(z), grad),
+                                label=f"{where}: phase {after.number} starts as phase "
+                                      f"{before.number} ends"))
     names = _continuous_names(linkage, before, after, where)
     if not names and not linkage.equations:
         raise ModelError(f"{where} joins nothing: give it continuous states or equations "
@@ -206,7 +209,8 @@ def _continuous(names, before, after, where):
             continue  # both ends fixed to the same value: nothing to impose
         cols = [before.column(kind_a, ja), after.column(kind_b, jb)]
         grad = np.array([1.0, -1.0])
-        rows.append(JunctionRow(cols, lambda z, c=cols: (z[c[0]] - z[c[1]], grad)))
+        rows.append(JunctionRow(cols, lambda z, c=cols: (z[c[0]] - z[c[1]], grad),
+                                label=f"{where}: {name} continuous"))
     return rows
 
 
@@ -263,4 +267,4 @@ def _equation(value, i, before, after, where, end_cols, end_time):
     def hessian(z):
         H = np.array(second(*z[cols], end_time(z)), dtype=float).reshape(n + 1, n + 1)
         return spread.T @ H @ spread
-    return JunctionRow(columns, function, hessian)
+    return JunctionRow(columns, function, hessian, label=what)

@@ -144,16 +144,40 @@ class MultiphaseResult:
                 f"{self.message}>")
 
 
-def build_multiphase_result(problem, solution, interrupted):
+def worst_multiphase_violation(nlp, z):
+    """``(violation, text)``: the largest violation at ``z`` of a phase's row
+    or bound (named as :func:`._diagnosis.worst_violation` names it, after
+    its phase's number) or of a junction's row (its label); ``text`` is
+    ``None`` when nothing is violated."""
+    from ._diagnosis import worst_violation
+    found = [(0.0, None)]
+    for number, (sub, part) in enumerate(zip(nlp.phase_nlps, nlp.parts(z)), start=1):
+        violation, text = worst_violation(sub, part)
+        found.append((violation, text and f"phase {number}: {text}"))
+    z = np.asarray(z, dtype=float)
+    found += [(abs(row.function(z)[0]), row.label) for row in nlp.rows]
+    return max(found, key=lambda pair: pair[0])
+
+
+def build_multiphase_result(problem, solution, interrupted, tolerance=1e-4):
+    """The :class:`MultiphaseResult` of ``problem`` from the solver's
+    ``solution``; when the run ended unsolved, its message names the row or
+    bound violated most when the violation exceeds ``tolerance`` (as
+    :func:`._result.build_result`'s)."""
     nlp = problem.nlp
     violation = nlp.violation(solution.x)
+    success = solution.status in (0, 1) and interrupted is None
+    worst = None
+    if not success:
+        largest, worst = worst_multiphase_violation(nlp, solution.x)
+        worst = worst if largest > tolerance else None
     phases = tuple(build_result(phase, sub, solution, interrupted, x=part, violation=violation)
                    for phase, sub, part in zip(problem.phases, nlp.phase_nlps,
                                                nlp.parts(solution.x)))
     return MultiphaseResult(
         phases=phases, objective=float(sum(p.objective for p in phases)),
         constraint_violation=violation,
-        success=solution.status in (0, 1) and interrupted is None, status=solution.status,
-        message=status_text(solution, interrupted, violation),
+        success=success, status=solution.status,
+        message=status_text(solution, interrupted, violation, worst),
         iterations=solution.iterations, wall_time=solution.wall_time, solver=solution.solver,
         x=solution.x, multipliers=solution.multipliers, problem=problem)

@@ -351,7 +351,10 @@ def status_text(solution, interrupted, violation, worst=None, hint=None):
     problem may be unbounded below, :func:`._diagnosis.unbounded_hint`)."""
     from .._signals import interruption
     meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
-    text = f"{solution.solver}: {solution.status_text} (status {solution.status}"
+    solver = solution.solver
+    if solution.hessian:
+        solver += f" ({solution.hessian} Hessian)"
+    text = f"{solver}: {solution.status_text} (status {solution.status}"
     text += f": {meaning})" if meaning else ")"
     if interrupted is not None:
         text = (f"{interruption(interrupted)} at iteration {solution.iterations}: the last "

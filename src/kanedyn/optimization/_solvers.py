@@ -80,6 +80,9 @@ class NLPSolution:
     multipliers : dict
         ``{"g": ..., "x_lower": ..., "x_upper": ...}`` for a warm start.
     solver : str
+    hessian : str or None
+        The Hessian of the Lagrangian the solver used: ``"exact"`` or
+        ``"limited-memory"`` (``None``: a solver that does not say).
     """
 
     x: np.ndarray
@@ -90,6 +93,7 @@ class NLPSolution:
     wall_time: float
     multipliers: dict
     solver: str
+    hessian: str | None = None
 
 
 class Ipopt:
@@ -210,7 +214,7 @@ class Ipopt:
             multipliers={"g": np.asarray(info["mult_g"]),
                          "x_lower": np.asarray(info["mult_x_L"]),
                          "x_upper": np.asarray(info["mult_x_U"])},
-            solver=self.name)
+            solver=self.name, hessian=merged["hessian_approximation"])
 
 
 #: solver name -> class

@@ -253,7 +253,8 @@ class _Run:
         return NLPSolution(
             x=x_full, objective=float(objective), status=status, status_text=STATUS[status],
             iterations=self.iteration, wall_time=self.timings["total"],
-            multipliers=multipliers, solver=InteriorPoint.name)
+            multipliers=multipliers, solver=InteriorPoint.name,
+            hessian=self.s.hessian_approximation)
 
     # ------------------------------------------------------------- start
     def _setup(self):
