@@ -167,9 +167,6 @@ class Ipopt:
             Callbacks.hessianstructure = lambda self: nlp.hessian_structure()
             Callbacks.hessian = staticmethod(nlp.hessian)
 
-        problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(),
-                                  lb=nlp.x_lower, ub=nlp.x_upper,
-                                  cl=nlp.g_lower, cu=nlp.g_upper)
         merged = dict(self.DEFAULTS, **(options or {}))
         asked = (options or {}).get("hessian_approximation")
         if exact:
@@ -181,6 +178,9 @@ class Ipopt:
         elif asked == "exact":
             raise OptionError("IPOPT option hessian_approximation='exact': this NLP has no "
                               'exact Hessian; pass hessian="exact" to solve()')
+        problem = cyipopt.Problem(n=nlp.n, m=nlp.m, problem_obj=Callbacks(),
+                                  lb=nlp.x_lower, ub=nlp.x_upper,
+                                  cl=nlp.g_lower, cu=nlp.g_upper)
         if warm is not None:
             merged.setdefault("warm_start_init_point", "yes")
         for key, value in merged.items():
