@@ -395,6 +395,6 @@ def test_nonholonomic_bicycle_lane_change_from_the_command_line(capsys):
                 "limited-memory", "--quiet"]
         assert main(argv) == 0
         text = capsys.readouterr().out
-        assert f"solved: {solver}:" in text
+        assert f"solved: {solver} (limited-memory Hessian):" in text
         objectives[solver] = float(text.split("objective ")[1].split()[0].rstrip(";"))
     assert objectives["interior-point"] == pytest.approx(objectives["ipopt"], rel=1e-8)
