@@ -43,8 +43,12 @@ def main(argv=None):
     args = parser.parse_args(argv)
     T = args.duration
 
-    # today's quintic and its forces; at its ends the platform is at rest
-    quintic = inverse_study("out-parallel-6dof", t_end=T, points=401)
+    # today's quintic and its forces; at its ends the platform is at rest.  The
+    # inverse model is built once, for the quintic and for the check below (each
+    # study would derive it and generate its functions again)
+    machine = kd.models.build("out-parallel-6dof")
+    inverse = machine.numeric(machine.derive())
+    quintic = inverse_study(machine, t_end=T, points=401, model=inverse)
     held = float(np.max(np.abs(quintic.forces[:, [0, -1]])))    # static, held still
 
     definition = kd.models.build("out-parallel-6dof", force_input=True)
@@ -78,7 +82,7 @@ def main(argv=None):
     t, y, collocated = result.points()
     table = PoseTable(t, y[[names.index(n) for n in POSE]].T,
                                   "the optimal path", "xyz angles")
-    check = inverse_study("out-parallel-6dof", poses=table, points=t.size)
+    check = inverse_study(machine, poses=table, points=t.size, model=inverse)
     difference = float(np.max(np.abs(check.forces - collocated)))
     print(f"inverse dynamics of the optimal path: peak {np.max(np.abs(check.forces)):.5g} N, "
           f"at most {difference:.3g} N from the collocated forces")

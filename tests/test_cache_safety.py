@@ -83,15 +83,17 @@ def _victim(cache, **extra):
 
 
 @pytest.fixture(scope="module")
-def world():
+def world(generic_runtime_object):
     """A folder in the system's temporary directory that another user can enter
     (``tmp_path`` cannot be), a module built in a cache of its own (the names a
-    planter needs), and the attacker's module and object, whose constructor
-    writes ``marker``."""
+    planter needs; the cache starts with the generic runtime's object, as a
+    model built in it earlier would have left it), and the attacker's module
+    and object, whose constructor writes ``marker``."""
     base = Path(tempfile.mkdtemp(prefix="kd-cache-safety-"))
     base.chmod(0o755)
     try:
         good = base / "good"
+        generic_runtime_object(good)
         out = _victim(good)
         assert "built -1.0" in out, out
         (so_path,) = good.glob("_kd_*.so")
@@ -199,11 +201,14 @@ def test_a_directory_above_the_cache_that_another_user_owns(world, place):
 
 @needs_root
 @pytest.mark.slow
-def test_an_entry_of_another_user_in_a_trusted_directory(world, place):
+def test_an_entry_of_another_user_in_a_trusted_directory(world, place,
+                                                        generic_runtime_object):
     """A module and manifest owned by another user in the victim's own 0700
-    directory: not loaded, reported, removed and built again (root's own)."""
+    directory: not loaded, reported, removed and built again (root's own; the
+    generic runtime's object linked from the cache, as a model built there
+    earlier would have left it: the subject is the entry, not that compile)."""
     cache = place / "cache"
-    cache.mkdir(mode=0o700)
+    generic_runtime_object(cache)
     so_path = cache / world["so"]
     manifest = cache / (world["so"].split(".")[0] + ".json")
     shutil.copy(world["payload"], so_path)
@@ -221,10 +226,11 @@ def test_an_entry_of_another_user_in_a_trusted_directory(world, place):
 
 
 @pytest.mark.slow
-def test_an_entry_others_can_write(world, place):
-    """This user's own module, but writable by everyone: not loaded."""
+def test_an_entry_others_can_write(world, place, generic_runtime_object):
+    """This user's own module, but writable by everyone: not loaded (the module
+    built again in the cache, the generic runtime's object linked from it)."""
     cache = place / "cache"
-    cache.mkdir(mode=0o700)
+    generic_runtime_object(cache)
     so_path = cache / world["so"]
     shutil.copy(world["payload"], so_path)
     (cache / (world["so"].split(".")[0] + ".json")).write_text(
@@ -290,10 +296,14 @@ def test_lock_file_does_not_follow_a_symbolic_link(tmp_path):
 
 @needs_root
 @pytest.mark.slow
-def test_a_derivation_cache_entry_of_another_user_is_not_read(tmp_path):
+def test_a_derivation_cache_entry_of_another_user_is_not_read(tmp_path,
+                                                               generic_runtime_object):
     """A built-in model's derivation-cache entry given to another user: not
-    read (the model is derived again), and reported."""
+    read (the model is derived again), and reported.  The cache starts with the
+    generic runtime's object (the pendulum's module links it: the subject is the
+    derivation cache, not that compile)."""
     cache = tmp_path / "cache"
+    generic_runtime_object(cache)
     script = textwrap.dedent("""
         import warnings
         warnings.simplefilter("always")
