@@ -272,8 +272,11 @@ def compare_with_pinocchio(path, states=3, seed=0, backend="numpy", built=None):
     already made (else made here, the numeric model on ``backend``)."""
     if built is None:
         definition = kd.models.from_urdf(path)
+        # the equations given: no derivation-cache entry, for which gcc would build
+        # the C module at once (the first module's numbers are its to the bit,
+        # tests/test_quick_compile.py; 3.3 s of gcc for the Panda)
         built = (definition, pinocchio().buildModelFromUrdf(str(path)),
-                 definition.numeric(backend=backend))
+                 definition.numeric(definition.derive(), backend=backend))
     definition, pmodel, model = built
     n = len(definition.joints)
     efforts = [model.input_names.index(str(j.effort_input)) for j in definition.joints]
