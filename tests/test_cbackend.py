@@ -42,7 +42,8 @@ def quick_first(monkeypatch):
     derivation-cache entry wants start at once, and are waited for at the end).
     The quick module gives the optimized one's numbers to the bit
     (tests/test_quick_compile.py: rhs, batches, energies, constraint residuals
-    and runs of seven built-in models, those of MODELS among them), so the
+    and runs of the seven models of MODELS, the pendulum there without its
+    tension output and chain3d with six links), so the
     comparisons with the NumPy backend hold for both; the lane-wise code, which
     gcc vectorizes, and the builds themselves stay on the optimizing compiler.
     The tests that take this fixture had 21.5 s of the file's 81 s of gcc CPU
