@@ -766,12 +766,15 @@ def test_workers_forked_at_once_move_onto_the_optimized_module(tmp_path, how,
 def test_a_child_removes_none_of_its_parents_folders(tmp_path):
     """A child that exits normally (its parent's exit hooks inherited) leaves the
     parent's private cache directory (the cache directory given is a file) and
-    quick-* folder in place."""
+    quick-* folder in place.  (The model from its equations: no derivation-cache
+    entry, so no optimized build the parent would wait for at exit; a child
+    forked during one is test_a_child_forked_during_the_optimized_build's.)"""
     (tmp_path / "a-file").write_text("not a directory")
     code = ("import os, sys, warnings\nimport kanedyn as kd\n"
             "from kanedyn.numerics.backends import _c_build\n"
             "warnings.simplefilter('ignore')\n"
-            "model = kd.models.build('pendulum').numeric(backend='c')\n"
+            "definition = kd.models.build('pendulum')\n"
+            "model = definition.numeric(definition.derive(), backend='c')\n"
             "folders = [_c_build._PRIVATE[0], *_c_build._PRIVATE[0].glob('quick-*')]\n"
             "pid = os.fork()\n"
             "if pid == 0:\n"
