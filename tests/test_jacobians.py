@@ -272,8 +272,11 @@ def compare_with_pinocchio(path, states=3, seed=0, backend="numpy", built=None):
     already made (else made here, the numeric model on ``backend``)."""
     if built is None:
         definition = kd.models.from_urdf(path)
+        # the equations given: no derivation-cache entry, for which gcc would build
+        # the C module at once (the first module's numbers are its to the bit,
+        # tests/test_quick_compile.py; 3.3 s of gcc for the Panda)
         built = (definition, pinocchio().buildModelFromUrdf(str(path)),
-                 definition.numeric(backend=backend))
+                 definition.numeric(definition.derive(), backend=backend))
     definition, pmodel, model = built
     n = len(definition.joints)
     efforts = [model.input_names.index(str(j.effort_input)) for j in definition.joints]
@@ -559,3 +562,48 @@ def test_constants_asked_of_a_model_without_any(line_particle):
     assert asked.parameters.shape == (2, 0)
     np.testing.assert_allclose(asked.state, numpy.state, rtol=1e-14, atol=0.0)
     np.testing.assert_allclose(asked.state, [[0.0, 1.0], [-4.5 * 0.4 ** 2, -0.25]], rtol=1e-14)
+
+
+# ------------------------------------------------------- the Python printer
+def test_the_python_printers_text_is_sympys(numpy_models, monkeypatch):
+    """The NumPy backend's scalar code is printed without SymPy's printer where
+    a statement is made of symbols, numbers, sums, products, powers and
+    ``math`` functions (``backends._python._direct``): the same text as SymPy's
+    ``PythonCodePrinter`` gives, so the same code and numbers.  Checked on
+    expressions that take each of its rules, and on every statement of the
+    functions of the Whipple bicycle and of the Stewart platform (floats,
+    rationals, roots; compared whole, printed both ways)."""
+    from kanedyn.engine import kd_dpow
+    from kanedyn.numerics.backends import _python
+    a, b, c, d = sm.symbols("a b c d")
+    printer = _python._Printer({a: "y[0]", b: "y[1]", c: "p[2]", d: "r[3]"})
+    half, third = sm.Rational(1, 2), sm.Rational(1, 3)
+    expressions = [
+        a * b - c * d, -2 * a * (b + c), half * d * a - b, -half * d * a - b, a / (b * c),
+        (a + b) ** 2, a ** -3, sm.sqrt(a + b), 1 / sm.sqrt(a), -a / sm.sqrt(b + c),
+        sm.sin(a) * sm.cos(b) - 0.25 * c, -(a + b), 2.5 * a ** 2 / b, a - sm.Rational(3, 4),
+        a ** sm.Rational(3, 2), b / a ** sm.Rational(3, 2), sm.atan2(a, b), sm.Abs(a - b),
+        a * (b - c) / (c + d) ** 2, sm.exp(-a), sm.Integer(-3), third, (-a) ** 3, c ** -5,
+        0.1 * a - 1e-20 * b, 1 / (a + b), -1 / a, -2 / a, -a / (b * c), -0.5 * a, a ** 0.5,
+        a ** -0.5, a ** b, a ** -b, -sm.Rational(3, 2) * a ** 2 / (b + c), -sm.sin(a),
+        sm.sin(a) ** 2, c / ((a + 1) * (b + 2)), 1.5 * a ** sm.Rational(-3, 2),
+        sm.Float(-2.0) * a * b, sm.log(a) * sm.tanh(b), kd_dpow(a, 2.5, b) + sm.asin(c),
+        a, sm.Integer(0), sm.Float(0.1), sm.sign(a) * b]
+    for e in expressions:
+        assert _python._print_python(printer, e) == printer.doprint(e), e
+    with pytest.raises(_python.CodegenError, match="symbol x has no value"):
+        _python._print_python(printer, a + sm.Symbol("x"))
+
+    def by_sympy(expr, printer):
+        raise _python._Unusual
+    for name in ("whipple-bicycle", "stewart-platform"):
+        _, _, model = numpy_models(name)
+        program = model._eom._program
+        for function, (arguments, outputs) in model._functions.items():
+            direct = _python._generate_python(program, function, arguments, outputs, None,
+                                              False, model._cse)
+            with monkeypatch.context() as patch:
+                patch.setattr(_python, "_direct", by_sympy)
+                printed = _python._generate_python(program, function, arguments, outputs,
+                                                   None, False, model._cse)
+            assert direct == printed, (name, function)

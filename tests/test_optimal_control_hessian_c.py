@@ -31,13 +31,13 @@ T = sm.Symbol("T")
 def _pendulum(backend):
     definition = kd.models.build("pendulum", torque=True)
     s = definition.symbols
-    return definition.numeric(backend=backend), [s["m"], s["l"]], 1
+    return definition.numeric(definition.derive(), backend=backend), [s["m"], s["l"]], 1
 
 
 def _cart_pole(backend):
     definition = kd.models.build("n-link-pendulum-on-cart", n=1)
     s = definition.symbols
-    model = definition.numeric(backend=backend, constants={
+    model = definition.numeric(definition.derive(), backend=backend, constants={
         s["m_c"]: 1.0, s["m"]: 0.5, s["l"]: 0.8, s["g"]: 9.81})
     return model, [s["m"], s["l"], s["m_c"]], 1
 
@@ -45,7 +45,7 @@ def _cart_pole(backend):
 def _chain(backend):
     definition = kd.models.build("chain3d", n=3)
     s = definition.symbols
-    return definition.numeric(backend=backend), [s["m"], s["l"]], 0
+    return definition.numeric(definition.derive(), backend=backend), [s["m"], s["l"]], 0
 
 
 def _forced(backend):
@@ -61,7 +61,11 @@ BUILDERS = {"pendulum": _pendulum, "cart-pole": _cart_pole, "chain3d n=3": _chai
 def _built(name, backend):
     """``BUILDERS[name](backend)``, derived once for the module: a model keeps
     its generated second derivatives (one per choice of extra variables), so
-    the tests that share a model and a choice generate them once."""
+    the tests that share a model and a choice generate them once.  The
+    builders give the equations to ``numeric``: a C model then makes no
+    derivation-cache entry, whose module gcc would build at once (3 s of the
+    file's CPU); its quick module gives gcc's numbers to the bit
+    (tests/test_quick_compile.py)."""
     return BUILDERS[name](backend)
 
 

@@ -680,10 +680,13 @@ def test_a_quick_compiler_setting_that_is_no_command_is_named(fresh_cache, monke
     assert Path(model._module.__file__).parent == fresh_cache
 
 
-def test_a_model_built_while_the_interpreter_exits(tmp_path):
+def test_a_model_built_while_the_interpreter_exits(tmp_path, generic_runtime_object):
     """Built in an exit hook (no thread would be joined any longer): the optimized
-    build runs at once, the model moves onto it, and no quick-* folder is left."""
+    build runs at once, the model moves onto it, and no quick-* folder is left.
+    (The cache holds gcc's object of the generic runtime, as in ``fresh_cache``:
+    the build in the hook still compiles the model's own units.)"""
     needs_tcc()
+    generic_runtime_object(tmp_path)
     code = ("import atexit\nimport kanedyn as kd\n"
             "def late():\n"
             "    m = kd.models.build('pendulum').numeric(backend='c')\n"
@@ -737,14 +740,19 @@ print(json.dumps({"children": children, "parent": report()}))
 @pytest.mark.slow
 @pytest.mark.skipif(not hasattr(os, "fork"), reason="fork is POSIX only")
 @pytest.mark.parametrize("how", ["pool", "fork"])
-def test_workers_forked_at_once_move_onto_the_optimized_module(tmp_path, how):
+def test_workers_forked_at_once_move_onto_the_optimized_module(tmp_path, how,
+                                                               generic_runtime_object):
     """Forks right after ``numeric(backend="c")``, while the optimized build opens
     its lock file and starts its compilers: no child holds the parent's lock or
     the pipe on which the parent waits for a compiler's start, so a pool whose
     workers wait for the optimized module finishes, and every worker (every
-    child forked at once) runs the optimized module, with the parent's numbers."""
+    child forked at once) runs the optimized module, with the parent's numbers.
+    (Each cache holds gcc's object of the generic runtime, as in ``fresh_cache``:
+    the build under way at the forks compiles the model's own units, about 1.2 s
+    of gcc less for each of the four runs.)"""
     needs_tcc()
     for attempt in range(2):  # fresh caches: a build under way at each fork
+        generic_runtime_object(tmp_path / f"{attempt}")
         run = subprocess.run([sys.executable, "-c", _FORKED_AT_ONCE, how], capture_output=True,
                              text=True, timeout=300, env=dict(
                                  os.environ, KANEDYN_CACHE_DIR=str(tmp_path / f"{attempt}")))
@@ -758,12 +766,15 @@ def test_workers_forked_at_once_move_onto_the_optimized_module(tmp_path, how):
 def test_a_child_removes_none_of_its_parents_folders(tmp_path):
     """A child that exits normally (its parent's exit hooks inherited) leaves the
     parent's private cache directory (the cache directory given is a file) and
-    quick-* folder in place."""
+    quick-* folder in place.  (The model from its equations: no derivation-cache
+    entry, so no optimized build the parent would wait for at exit; a child
+    forked during one is test_a_child_forked_during_the_optimized_build's.)"""
     (tmp_path / "a-file").write_text("not a directory")
     code = ("import os, sys, warnings\nimport kanedyn as kd\n"
             "from kanedyn.numerics.backends import _c_build\n"
             "warnings.simplefilter('ignore')\n"
-            "model = kd.models.build('pendulum').numeric(backend='c')\n"
+            "definition = kd.models.build('pendulum')\n"
+            "model = definition.numeric(definition.derive(), backend='c')\n"
             "folders = [_c_build._PRIVATE[0], *_c_build._PRIVATE[0].glob('quick-*')]\n"
             "pid = os.fork()\n"
             "if pid == 0:\n"

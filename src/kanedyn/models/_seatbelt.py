@@ -32,6 +32,8 @@ touched by the pendulum's rim at r = 12 mm from the pivot.
 
 from __future__ import annotations
 
+import copy
+import functools
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -75,6 +77,9 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
     name = str(pulse)
     if (isinstance(pulse, Path) or name in _EXAMPLES or name.lower().endswith((".csv", ".mme"))
             or name not in _SHAPES and Path(name).is_dir()):
+        if name in _EXAMPLES and isinstance(filter, (type(None), str, int)):
+            motion, end = _example_motion(name, filter)
+            return copy.copy(motion), end  # its own symbols (moving_frame sets them)
         path = example_pulse(name) if name in _EXAMPLES else Path(name)
         if path.is_dir() or path.suffix.lower() == ".mme":  # an ISO-MME test
             if not path.exists():
@@ -108,6 +113,17 @@ def seatbelt_motion(pulse="halfsine", peak_g=20.0, duration=0.1, direction=0.0,
     motion = VehicleMotion.from_pulse(shape, direction=float(direction),
                                       roll_rate=float(roll_rate))
     return motion, duration + 0.1
+
+
+@functools.lru_cache(maxsize=8)
+def _example_motion(name, filter):
+    """``(motion, end time)`` of the example pulse ``name``, read once per process:
+    a record with rotation integrates its angles when read (oblique-30deg: 2 s of
+    CPU; a sensor built again, with another limit, read it again), and the file
+    is the package's own.  Callers take a shallow copy: the functions of time
+    are shared (pure), the attributes a use sets are each copy's own."""
+    motion = VehicleMotion.from_csv(example_pulse(name), filter=filter)
+    return motion, float(motion.t_range[1])
 
 
 def seatbelt_sensor(limit="penalty", pulse="halfsine", peak_g=20.0, duration=0.1,
