@@ -82,7 +82,10 @@ def test_oc3_campbell_with_flexible_blades_in_multiblade_coordinates(tmp_path):
     twisting shaft (the free-free drivetrain) at 1.75 Hz, below the rigid blades'
     2.22 Hz.  On the NumPy backend: the same modes as C's to 1e-14 (measured), in 17 s
     of CPU where C's took 77 s on a cold cache, 2.5 MB of generated C for gcc (the C
-    path of the study is the rigid-blade test's above)."""
+    path of the study is the rigid-blade test's above).  Its turbine is that of the
+    locked-generator modes above (the same options): the analyses of one turbine share
+    its numerical model and derivatives, which that test made when it ran first in the
+    process (and this one makes when it runs alone)."""
     code = main(["study", "oc3-campbell", "--set", "n_speeds=4", "--set", "blades=flexible",
                  "--set", "backend=numpy", "--out", str(tmp_path), "--quiet"])
     assert code == 0

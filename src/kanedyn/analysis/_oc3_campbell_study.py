@@ -16,6 +16,8 @@ definition's full-system frequencies (its table 9-1, for a land-based tower).
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
 from dataclasses import dataclass
 
@@ -55,16 +57,37 @@ def oc3_campbell_diagram(max_rpm=12.1, n_speeds=12, backend="c", **options):
     CampbellDiagram
         Speeds in rad/s, frequencies in Hz.
     """
-    from ..models import oc3_spar
     from ._campbell import campbell
     _check_speeds(max_rpm, n_speeds)
-    d = oc3_spar(rotor="spinning", controller="off", wind_speed=0.0, **options)
-    model = d.numeric(backend=backend)
+    d, model = _turbine(backend, rotor="spinning", controller="off", wind_speed=0.0,
+                        **options)
     speeds = np.linspace(0.0, max_rpm, n_speeds) * math.pi / 30
     blades = d.symbols["rotor"]["blades"]
     rotating = None if not blades else [[name_of(q) for q in b.q] for b in blades]
     return campbell(model, speeds, d.initial(model), speed="rotor_speed", azimuth="azimuth",
                     rotating=rotating, tol=_STEADY_TOLERANCE)
+
+
+def _turbine(backend, **options):
+    """``(definition, numeric model)`` of ``oc3_spar(**options)`` on ``backend``, kept
+    for the turbine's other analyses (:func:`_built_turbine`)."""
+    from ..models import oc3_spar
+    bound = inspect.signature(oc3_spar).bind(**options)
+    bound.apply_defaults()
+    return _built_turbine(backend, tuple(sorted(bound.arguments.items())))
+
+
+@functools.lru_cache(maxsize=4)
+def _built_turbine(backend, options):
+    """``(definition, numeric model)`` of ``oc3_spar(**dict(options))`` (every option
+    given, defaults included, so that the same turbine asked for in other words is
+    one entry): the Campbell diagram and the locked-generator modes of one turbine
+    share its derivation and, on the NumPy backend, the derivatives its equilibria
+    and linearizations generate (the flexible-blade turbine's: half of the CPU time
+    of each analysis).  Neither changes the model."""
+    from ..models import oc3_spar
+    d = oc3_spar(**dict(options))
+    return d, d.numeric(backend=backend)
 
 
 def _check_speeds(max_rpm, n_speeds):
@@ -190,11 +213,9 @@ def oc3_locked_generator_modes(backend="c", **options):
     -------
     LockedGeneratorModes
     """
-    from ..models import oc3_spar
     from ..numerics import equilibrium
-    d = oc3_spar(rotor="spinning", controller="off", wind_speed=0.0, drivetrain="flexible",
-                 **options)
-    model = d.numeric(backend=backend)
+    d, model = _turbine(backend, rotor="spinning", controller="off", wind_speed=0.0,
+                        drivetrain="flexible", **options)
     found = equilibrium(model, d.initial(model), hold=["rotor_speed", "azimuth"],
                         tol=_STEADY_TOLERANCE)
     if not found.converged:

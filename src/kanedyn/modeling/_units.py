@@ -115,7 +115,8 @@ class _Evidence:
         if sym in self.seen:
             self.seen[sym].add(unit)
 
-    def resolve(self, declared):
+    def _groups(self):
+        """The symbols joined by :attr:`links`, a list per group."""
         parent = {s: s for s in self.seen}
 
         def find(s):
@@ -129,8 +130,17 @@ class _Evidence:
         groups = {}
         for s in self.seen:
             groups.setdefault(find(s), []).append(s)
+        return groups.values()
+
+    def told(self, declared, wanted):
+        """Whether each symbol of ``wanted`` shares its group with a declared one:
+        :meth:`resolve` then takes the declared units, whatever the evidence."""
+        return all(any(s in declared for s in members) or not any(s in wanted for s in members)
+                   for members in self._groups())
+
+    def resolve(self, declared):
         out = {}
-        for members in groups.values():
+        for members in self._groups():
             said = {declared[s] for s in members if s in declared}
             units = said if said else set().union(*(self.seen[s] for s in members))
             unit = next(iter(units)) if len(units) == 1 else None
@@ -211,6 +221,25 @@ def state_units(spec, declared=None):
             declared_exact[sym] = unit
     # speeds are tracked by the unit of their time integral ("m" for m/s)
     ev = _Evidence(q + u)
+    for eq in spec.kd_eqs:
+        terms = [qdot.get(var, var) for var, _ in _linear_terms(eq, list(qdot) + list(u))]
+        ev.links.extend(zip(terms, terms[1:]))
+    # a unit read from the kinematics decides nothing where each coordinate, and each
+    # speed not declared itself, is joined to a declared one: they are not read then
+    # (the flexible-blade OC3 spar's many node points: a third of its run's plot)
+    if not ev.told(declared_base, set(q) | (set(u) - set(declared_exact))):
+        _read_kinematics(spec, ev, q, u, qdot)
+    base = ev.resolve(declared_base)
+    out = {}
+    for s in q:
+        out[name_of(s)] = base[s]
+    for s in u:
+        out[name_of(s)] = declared_exact.get(s, speed_unit(base[s]))
+    return out
+
+
+def _read_kinematics(spec, ev, q, u, qdot):
+    """Add to ``ev`` the units that the kinematics of ``spec`` tell (module text)."""
     frames, points = _frames_and_points(spec.frame, spec.bodies, spec.loads)
     qset = set(q)
 
@@ -244,22 +273,12 @@ def state_units(spec, declared=None):
                     ev.add(qdot.get(var, var), "m")
     for expr in tuple(spec.configuration_constraints) + tuple(spec.kd_eqs):
         scan_trig(expr)
-    for eq in spec.kd_eqs:
-        terms = [qdot.get(var, var) for var, _ in _linear_terms(eq, list(qdot) + list(u))]
-        ev.links.extend(zip(terms, terms[1:]))
     from .flexible import FlexibleBody
     for body in spec.bodies:
         if isinstance(body, FlexibleBody):
             for qi, unit in zip(body.q, _modal_units(body)):
                 if unit is not None:
                     ev.add(qi, unit)
-    base = ev.resolve(declared_base)
-    out = {}
-    for s in q:
-        out[name_of(s)] = base[s]
-    for s in u:
-        out[name_of(s)] = declared_exact.get(s, speed_unit(base[s]))
-    return out
 
 
 _DIMENSIONS = {"m": (1, 0), "rad": (0, 0), "m/s": (1, -1), "rad/s": (0, -1)}
