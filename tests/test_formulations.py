@@ -199,12 +199,15 @@ def test_penalty_error_falls_like_one_over_alpha(models):
 
 
 def test_drift_behaviour_along_a_motion():
-    """Four-bar, 10 s at rtol 1e-6: index 1 drifts, Baumgarte bounds the error,
-    projection and partitioning hold it at the projection tolerance."""
+    """Four-bar, 4 s at rtol 1e-6: index 1 drifts, Baumgarte bounds the error,
+    projection and partitioning hold it at the projection tolerance.  Measured
+    over 4 s: index 1 (and Maggi's, equal) 2.5e-5, Baumgarte 7.0e-8 (356 times
+    less; 2,233 over 10 s, which took twice the CPU), the projecting schemes
+    2.4e-7 after 22 projections each."""
     methods = ("kane", "lagrange-index1", "lagrange-baumgarte", "lagrange-projection",
                "partitioning", "maggi")
-    cmp = compare_formulations("four-bar", methods, t_end=10.0, rtol=1e-6, atol=1e-8,
-                               n_points=101)
+    cmp = compare_formulations("four-bar", methods, t_end=4.0, rtol=1e-6, atol=1e-8,
+                               n_points=41)
     h = cmp.position_residual
     assert h["lagrange-index1"] > 30 * h["lagrange-baumgarte"]
     assert h["maggi"] == pytest.approx(h["lagrange-index1"], rel=0.5)  # no stabilization

@@ -110,8 +110,10 @@ def test_a_vertical_platform_wrench_acts_as_extra_platform_weight(model):
     The model is built once and its definition given to every study (a name
     would build it again each time), and the unloaded and heavier studies share
     one derivation (the heavier one given its constants and that model with
-    them)."""
-    from kanedyn.analysis import WrenchTable
+    them), as do the constant and the ramped wrench (the ramp's definition from
+    ``with_platform_wrench``, its model the constant one's with the table's
+    inputs: the way ``inverse_study`` asks for a wrench with a model)."""
+    from kanedyn.analysis import WrenchTable, with_platform_wrench
     g = 9.81
     definition = kd.models.build(model, lazy=False)
     m_p = {str(k): v for k, v in definition.constants.items()}["m_p"]
@@ -128,9 +130,13 @@ def test_a_vertical_platform_wrench_acts_as_extra_platform_weight(model):
     # a table ramping the same force over 0..2 s: half of it at t = 1 s (point 5)
     table = WrenchTable(t=np.array([0.0, 2.0]),
                         values=np.array([[0.0] * 6, [0, 0, -20 * g, 0, 0, 0]]), source="ramp")
-    ramp = inverse_study(definition, points=11, wrench=table)
+    ramped = with_platform_wrench(definition, table)
+    ramp = inverse_study(ramped, points=11,
+                         model=loaded.extra["model"].with_inputs(ramped.specified))
     np.testing.assert_allclose(ramp.causes["wrench"][:, 5], loaded.causes["wrench"][:, 5],
                                rtol=1e-10)
+    # and none of it at the start: the model runs the table's inputs, not the constant's
+    np.testing.assert_allclose(ramp.causes["wrench"][:, 0], 0.0, atol=1e-9)
     assert ramp.power_residual() < 1e-12
 
 

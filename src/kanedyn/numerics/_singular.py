@@ -164,7 +164,7 @@ class SingularityMonitor:
         y = np.array(y, dtype=float)
         n = model.n_q
         qdot = y[n:] if getattr(model, "rates_are_speeds", False) else model._dynamics(t, y)[0]
-        speed = np.max(np.abs(qdot)) if np.all(np.isfinite(qdot)) else 0.0
+        speed = np.abs(qdot).max() if np.isfinite(qdot).all() else 0.0
         if not speed > 0.0:
             return 1.0  # at rest: not approaching anything
         dt = self.displacement / speed

@@ -397,72 +397,97 @@ def _norm(v):
     return math.sqrt(v.dot(v))
 
 
-def _state_residual(L, w0, targets, mu, states, x, eps, jacobian=True):
-    """Residual and Jacobian of the equations of :func:`_enumerated` at ``x``
-    (``jacobian=False``: the residual alone, and None for the Jacobian)."""
-    k = len(states)
-    w = w0 + L @ x
-    F = np.zeros(3 * k)
-    G = np.zeros((3 * k, 3 * k)) if jacobian else None
+_EYE2 = np.eye(2)
+
+
+def _state_equations(L, w0, targets, mu, states, eps):
+    """``(residual, jacobian)``: the equations of :func:`_enumerated` for one
+    assignment of contact states, as functions of the impulses ``x``.
+
+    ``residual(x)`` is ``F`` (3k), or None where a sliding contact's slip is
+    within ``eps`` of zero; ``jacobian(x)`` is ``dF/dx`` (3k x 3k) where the
+    residual is not None.  The rows of free contacts are ``x``, those of
+    sticking ones the velocities after, ``w = w0 + L x``, and the normal rows
+    of sliding ones ``w``, less the targets on the normal rows; the tangential
+    rows of sliding contacts are :math:`p_t + \\mu p_n \\hat v_t`.  Everything
+    but the sliding contacts' tangential rows is sorted once per assignment:
+    the Newton iterations of :func:`_newton_states` evaluate these tens of
+    thousands of times over a drop of a legged robot.
+    """
+    states = np.asarray(states)
+    free = np.repeat(states == FREE_STATE, 3)
+    shift = np.zeros(3 * len(states))
+    bound = np.flatnonzero(states != FREE_STATE)
+    shift[3 * bound] = np.asarray(targets)[bound]  # x - 0.0 and w - 0.0: x and w
+    slides = [(3 * c, slice(3 * c + 1, 3 * c + 3), mu[c])
+              for c in np.flatnonzero(states == SLIDE_STATE)]
+    G0 = np.zeros((3 * len(states), 3 * len(states)))
     for c, state in enumerate(states):
         r = slice(3 * c, 3 * c + 3)
         if state == FREE_STATE:
-            F[r] = x[r]
-            if jacobian:
-                G[r, r] = np.eye(3)
+            G0[r, r] = np.eye(3)
         elif state == STICK_STATE:
-            F[r] = w[r]
-            F[3 * c] -= targets[c]
-            if jacobian:
-                G[r] = L[r]
+            G0[r] = L[r]
         else:
-            vt = w[3 * c + 1:3 * c + 3]
+            G0[3 * c] = L[3 * c]
+
+    def residual(x):
+        w = w0 + L @ x
+        F = np.where(free, x, w)
+        F -= shift
+        for n, t, mu_c in slides:
+            vt = w[t]
             speed = _norm(vt)
             if speed <= eps:
-                return None, None
+                return None
+            F[t] = x[t] + mu_c * x[n] * (vt / speed)
+        return F
+
+    def jacobian(x):
+        w = w0 + L @ x
+        G = G0.copy()
+        for n, t, mu_c in slides:
+            vt = w[t]
+            speed = _norm(vt)
             d = vt / speed
-            F[3 * c] = w[3 * c] - targets[c]
-            t = slice(3 * c + 1, 3 * c + 3)
-            F[t] = x[t] + mu[c] * x[3 * c] * d
-            if jacobian:
-                G[3 * c] = L[3 * c]
-                G[t] = mu[c] * x[3 * c] * ((np.eye(2) - np.outer(d, d)) / speed) @ L[t]
-                G[t, t] += np.eye(2)
-                G[t, 3 * c] += mu[c] * d
-    return F, G
+            G[t] = mu_c * x[n] * ((_EYE2 - np.outer(d, d)) / speed) @ L[t]
+            G[t, t] += _EYE2
+            G[t, n] += mu_c * d
+        return G
+    return residual, jacobian
 
 
 def _newton_states(L, w0, targets, mu, states, x, eps, iterations=50):
     """Impulses for given contact states by Newton's method from ``x``.
 
-    The equations of :func:`_enumerated` with the slip directions taken from
-    the velocities after the impact (:math:`p_t + \\mu p_n \\hat v_t = 0`),
-    linearized in the impulses; least-norm steps, halved while they do not
-    reduce the residual.  ``None`` if it does not converge or a sliding
-    contact's slip vanishes.  The halvings evaluate the residual alone, the
-    Jacobian only at the step taken: most calls are the 30 halvings of a state
-    assignment with no root (of the 130,454 residuals of the locked Solo12's
-    drop in ``tests/test_ground.py``, 126,624 were of Newton runs that failed).
+    The equations of :func:`_enumerated` (:func:`_state_equations`) with the
+    slip directions taken from the velocities after the impact (:math:`p_t +
+    \\mu p_n \\hat v_t = 0`), linearized in the impulses; least-norm steps,
+    halved while they do not reduce the residual.  ``None`` if it does not
+    converge or a sliding contact's slip vanishes.  The halvings evaluate the
+    residual alone, the Jacobian only at the step taken: most residuals are the
+    30 halvings of a state assignment with no root (of the 153,570 residuals of
+    the locked Solo12's drop in ``tests/test_ground.py``, 130,536 were
+    halvings, and 691 of its 1,135 Newton runs ended in 30 of them).
     """
     scale = max(float(np.max(np.abs(x))), float(np.max(np.abs(w0))), 1e-300)
-    F, G = _state_residual(L, w0, targets, mu, states, x, eps)
+    residual, jacobian = _state_equations(L, w0, targets, mu, states, eps)
+    F = residual(x)
     for _ in range(iterations):
         if F is None:
             return None
         norm = _norm(F)
         if norm <= 1e-13 * scale:
             return x
-        step = np.linalg.lstsq(G, -F, rcond=1e-12)[0]
+        step = np.linalg.lstsq(jacobian(x), -F, rcond=1e-12)[0]
         for _ in range(30):
-            F_new = _state_residual(L, w0, targets, mu, states, x + step, eps,
-                                    jacobian=False)[0]
-            if F_new is not None and _norm(F_new) < norm:
+            F = residual(x + step)
+            if F is not None and _norm(F) < norm:
                 break
             step = 0.5 * step
         else:
             return None
         x = x + step
-        F, G = _state_residual(L, w0, targets, mu, states, x, eps)
     return None
 
 

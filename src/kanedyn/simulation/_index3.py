@@ -152,6 +152,7 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
     quarter = h * h / 4.0
     constrained = bool(model.n_q_dep)
     alpha = None
+    terms = None  # the constraint terms at the current q, from the last update
 
     def residual(q):
         nonlocal alpha
@@ -160,7 +161,8 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
         _, mass, force, _, _, _ = dynamics(t, q, v)
         if not constrained:
             return quarter * (mass @ a - force), mass, None
-        phi, J, _, _ = model._constraint_terms(t, np.concatenate([q, v]))
+        phi, J, _, _ = terms if terms is not None else model._constraint_terms(
+            t, np.concatenate([q, v]))
         if alpha is None:
             alpha = scheme.position_penalty(mass, J, h)
         return quarter * (mass @ a + J.T @ (alpha * phi + lam) - force), mass, J
@@ -176,15 +178,17 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
         except np.linalg.LinAlgError:
             return q, lam, False
         q = q + dq
-        if not np.all(np.isfinite(q)):
+        if not np.isfinite(q).all():
             return q, lam, False
-        size = np.max(np.abs(dq))
-        scale = 1.0 + np.max(np.abs(q))
+        size = np.abs(dq).max()
+        scale = 1.0 + np.abs(q).max()
         done = size <= scheme.tol * scale
         if constrained:
-            phi = model._constraint_terms(t, np.concatenate([q, (2.0 / h) * q - v_hat]))[0]
+            # the residual at the next iteration takes these terms (the same q and v)
+            terms = model._constraint_terms(t, np.concatenate([q, (2.0 / h) * q - v_hat]))
+            phi = terms[0]
             lam = lam + alpha * phi
-            done = done and np.max(np.abs(phi)) <= scheme.tol * scale
+            done = done and np.abs(phi).max() <= scheme.tol * scale
         if done:
             return q, lam, True
         if constrained and iteration >= 2 and size > 0.25 * previous and boost < 1e4:
@@ -301,8 +305,8 @@ def integrate_index3(scheme, model, t_span, y0, t_eval=None, events=(), dense_ou
             a_new = a_new + al_solve(mass, np.zeros_like(a_new), acc_K,
                                      -(acc_K @ a_new + acc_f), weight,
                                      max_iterations=scheme.projection_iterations,
-                                     scale=np.max(np.abs(a_new)))
-        if not (np.all(np.isfinite(y_new)) and np.all(np.isfinite(a_new))):
+                                     scale=np.abs(a_new).max())
+        if not (np.isfinite(y_new).all() and np.isfinite(a_new).all()):
             status = -1
             message = f"non-finite state at t={t_new:.6g}"
             break

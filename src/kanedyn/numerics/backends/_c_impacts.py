@@ -76,7 +76,7 @@ static void kd_imp_after(int k, const double *L, const double *w0, const double 
     }
 }
 
-/* _state_residual: F (3k) and its Jacobian G (3k x 3k); 0, or 1 where a sliding
+/* _state_equations: F (3k) and its Jacobian G (3k x 3k); 0, or 1 where a sliding
    contact's slip vanishes */
 static int kd_imp_residual(int k, const double *L, const double *w0, const double *targets,
                            const double *mu, const int *states, const double *x, double eps,
