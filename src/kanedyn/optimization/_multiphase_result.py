@@ -144,7 +144,7 @@ class MultiphaseResult:
                 f"{self.message}>")
 
 
-def worst_multiphase_violation(nlp, z):
+def _worst_violation(nlp, z):
     """``(violation, text)``: the largest violation at ``z`` of a phase's row
     or bound (named as :func:`._diagnosis.worst_violation` names it, after
     its phase's number) or of a junction's row (its label); ``text`` is
@@ -169,7 +169,7 @@ def build_multiphase_result(problem, solution, interrupted, tolerance=1e-4):
     success = solution.status in (0, 1) and interrupted is None
     worst = None
     if not success:
-        largest, worst = worst_multiphase_violation(nlp, solution.x)
+        largest, worst = _worst_violation(nlp, solution.x)
         worst = worst if largest > tolerance else None
     phases = tuple(build_result(phase, sub, solution, interrupted, x=part, violation=violation)
                    for phase, sub, part in zip(problem.phases, nlp.phase_nlps,
