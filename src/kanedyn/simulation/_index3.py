@@ -152,24 +152,25 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
     quarter = h * h / 4.0
     constrained = bool(model.n_q_dep)
     alpha = None
-    terms = None  # the constraint terms at the current q, from the last update
+    terms = None  # the constraint terms at q, made by the last update (None: not yet)
 
-    def residual(q):
+    def residual(q, terms):
         nonlocal alpha
         v = (2.0 / h) * q - v_hat
         a = (4.0 / h ** 2) * q - a_hat
         _, mass, force, _, _, _ = dynamics(t, q, v)
         if not constrained:
             return quarter * (mass @ a - force), mass, None
-        phi, J, _, _ = terms if terms is not None else model._constraint_terms(
-            t, np.concatenate([q, v]))
+        if terms is None:
+            terms = model._constraint_terms(t, np.concatenate([q, v]))
+        phi, J, _, _ = terms
         if alpha is None:
             alpha = scheme.position_penalty(mass, J, h)
         return quarter * (mass @ a + J.T @ (alpha * phi + lam) - force), mass, J
 
     previous, boost = np.inf, 1.0
     for iteration in range(scheme.max_iterations):
-        r, mass, J = residual(q)
+        r, mass, J = residual(q, terms)
         W = mass + (quarter * alpha) * (J.T @ J) if constrained else mass
         counters["njev"] += 1
         counters["nlu"] += 1
@@ -184,7 +185,7 @@ def _solve_step(model, scheme, dynamics, counters, t, h, q, v_hat, a_hat, lam):
         scale = 1.0 + np.abs(q).max()
         done = size <= scheme.tol * scale
         if constrained:
-            # the residual at the next iteration takes these terms (the same q and v)
+            # the next iteration's residual takes these terms (the same q and v)
             terms = model._constraint_terms(t, np.concatenate([q, (2.0 / h) * q - v_hat]))
             phi = terms[0]
             lam = lam + alpha * phi
