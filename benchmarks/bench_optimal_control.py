@@ -392,6 +392,7 @@ CONTENDERS = {
     "opty": ("opty", {}),
     "opty, mumps_mem_percent=100": ("opty", {"mumps_mem_percent": 100}),
     "kanedyn, interior-point": ("kanedyn-ip", {}),
+    "kanedyn, interior-point, envelope": ("kanedyn-ip", {"linear_solver": "envelope"}),
 }
 
 
@@ -474,7 +475,7 @@ def _within_budgets(rows, budgets, contenders):
             print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
                 f"{run:8d} [{line:9.0f}]" if np.isfinite(line) else f"{run:8d} [  no line]"
                 for run, line in counts))
-        for ours in ("kanedyn", "kanedyn, interior-point"):
+        for ours in ("kanedyn", "kanedyn, interior-point", "kanedyn, interior-point, envelope"):
             if {ours, "opty"} <= set(contenders):
                 k, o = most[budget, ours], most[budget, "opty"]
                 ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
@@ -535,7 +536,8 @@ def main():
                         help="kanedyn's Hessian of the Lagrangian (opty: limited-memory)")
     parser.add_argument("--solvers", nargs="+", choices=("ipopt", "interior-point"),
                         default=["ipopt"], help="kanedyn's NLP solvers compared with opty")
-    parser.add_argument("--linear-solver", choices=("sparse", "dense"), default="sparse",
+    parser.add_argument("--linear-solver", choices=("sparse", "envelope", "dense"),
+                        default="sparse",
                         help="the interior-point solver's factorization")
     parser.add_argument("--method", choices=("backward-euler", "midpoint"),
                         default="backward-euler",

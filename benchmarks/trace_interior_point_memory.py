@@ -15,7 +15,7 @@ for a slope.  ``docs/benchmarks.md`` ("A fourth round: what the iterations
 hold") gives its figures.
 
     python benchmarks/trace_interior_point_memory.py [--nodes 100000] [--max-iter 15]
-        [--at NAME] [--lines 30] [--limited-memory]
+        [--at NAME] [--lines 30] [--limited-memory] [--linear-solver envelope]
 """
 
 from __future__ import annotations
@@ -41,6 +41,9 @@ def main():
     parser.add_argument("--limited-memory", action="store_true",
                         help="the limited-memory Hessian (the solver's default) instead of "
                              "the exact one")
+    parser.add_argument("--linear-solver", default="sparse",
+                        choices=("sparse", "envelope", "dense"),
+                        help="the interior point's factorization (its option linear_solver)")
     args = parser.parse_args()
     nodes = args.nodes
     problem, _ = peers.pendulum_kanedyn(nodes)
@@ -61,7 +64,7 @@ def main():
             highest.update(bytes=now, snapshot=tracemalloc.take_snapshot(),
                            stack=" < ".join(names))
 
-    options = dict(max_iter=args.max_iter, tol=1e-10)
+    options = dict(max_iter=args.max_iter, tol=1e-10, linear_solver=args.linear_solver)
     hessian = "limited-memory" if args.limited_memory else "exact"
     tracemalloc.start(1)
     start = tracemalloc.get_traced_memory()[0]
@@ -73,7 +76,8 @@ def main():
         sys.setprofile(None)
     peak = tracemalloc.get_traced_memory()[1]
     tracemalloc.stop()
-    print(f"pendulum swing-up, {nodes} nodes, backward Euler, {hessian} Hessian: status "
+    print(f"pendulum swing-up, {nodes} nodes, backward Euler, {hessian} Hessian, "
+          f"{args.linear_solver} factorization: status "
           f"{result.status} after {result.iterations} iterations, objective "
           f"{result.objective:.10g}")
     print(f"highest traced memory of the solve: {(peak - start) / nodes:.0f} B a node; the "

@@ -537,49 +537,73 @@ def test_cli_optimize_with_the_interior_point_solver(capsys):
         found["ipopt"], rel=1e-6)
 
 
-# ------------------------------------------------------- the sparse factorization
-def _sparse_or_skip():
+# ------------------------------------------- the compiled factorizations
+def _compiled_or_skip():
     try:
-        from kanedyn.optimization.interior_point import SparseKKT  # noqa: F401
+        from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT  # noqa: F401
     except ImportError as exc:
-        pytest.skip(f"SparseKKT does not import: {exc}")
+        pytest.skip(f"the compiled factorizations do not import: {exc}")
 
 
+COMPILED = ["envelope", "sparse"]
+
+
+@pytest.mark.parametrize("linear_solver", COMPILED)
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
-def test_sparse_factorization_reaches_ipopts_optimum(method):
-    """``linear_solver="sparse"`` (``SparseKKT``, the default when it
-    imports): the cart-pole's optimum of IPOPT, as with DenseKKT."""
-    _sparse_or_skip()
-    _same_optimum(*_swing_up("cart_pole", 40, method, 0.0), linear_solver="sparse")
+def test_compiled_factorizations_reach_ipopts_optimum(method, linear_solver):
+    """``linear_solver="envelope"`` (``EnvelopeKKT``, the default when it
+    imports) and ``"sparse"`` (``SparseKKT``): the cart-pole's optimum of
+    IPOPT, as with DenseKKT."""
+    _compiled_or_skip()
+    _same_optimum(*_swing_up("cart_pole", 40, method, 0.0), linear_solver=linear_solver)
 
 
 @pytest.mark.slow
+@pytest.mark.parametrize("linear_solver", COMPILED)
 @pytest.mark.parametrize("nodes, method", [(50, "hermite-simpson"), (100, "trapezoid"),
                                            (100, "midpoint"), (100, "hermite-simpson")])
-def test_sparse_factorization_on_the_pendulum_swing_ups(nodes, method):
-    """The pendulum swing-up from the straight line with
-    ``linear_solver="sparse"``: IPOPT's optimum (objective to 1e-6
-    relative), in at most ten iterations more than IPOPT (the 50-node
-    Hermite-Simpson one ended at the iteration limit, objective 12.286,
-    when ``SparseKKT`` reported zero pivots that K has not)."""
-    _sparse_or_skip()
+def test_compiled_factorizations_on_the_pendulum_swing_ups(nodes, method, linear_solver):
+    """The pendulum swing-up from the straight line with either compiled
+    factorization: IPOPT's optimum (objective to 1e-6 relative), in at most
+    ten iterations more than IPOPT (the 50-node Hermite-Simpson one ended
+    at the iteration limit, objective 12.286, when ``SparseKKT`` reported
+    zero pivots that K has not)."""
+    _compiled_or_skip()
     ours, theirs = _same_optimum(*_swing_up("pendulum", nodes, method, 0.1),
-                                 linear_solver="sparse")
+                                 linear_solver=linear_solver)
     assert ours.iterations <= theirs.iterations + 10
 
 
-def test_sparse_factorization_on_the_small_nlps():
-    """HS71 and the inequality problem with ``linear_solver="sparse"``: the
-    published optimum and the closed form."""
-    _sparse_or_skip()
+@pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
+def test_the_envelope_takes_the_sparse_factorizations_steps(method):
+    """The same matrices factored with L stored by its envelope: the
+    100-node swing-up from the straight line takes the same number of
+    iterations to the same optimum as with the sparse L (the sums in another
+    order: the same factors up to rounding)."""
+    _compiled_or_skip()
+    problem, guess = _swing_up("pendulum", 100, method, 0.1)
+    found = {ls: problem.solve(guess, solver="interior-point", hessian="exact",
+                               options=dict(TIGHT, linear_solver=ls)) for ls in COMPILED}
+    envelope, sparse = found["envelope"], found["sparse"]
+    assert envelope.status == sparse.status == 0
+    assert envelope.iterations == sparse.iterations
+    assert envelope.objective == pytest.approx(sparse.objective, rel=1e-12)
+    assert np.max(np.abs(envelope.x - sparse.x)) < 1e-9
+
+
+@pytest.mark.parametrize("linear_solver", COMPILED)
+def test_compiled_factorizations_on_the_small_nlps(linear_solver):
+    """HS71 and the inequality problem with either compiled factorization:
+    the published optimum and the closed form."""
+    _compiled_or_skip()
     found = InteriorPoint().solve(_hs71(), np.array([1.0, 5.0, 5.0, 1.0]),
-                                  {"linear_solver": "sparse"})
+                                  {"linear_solver": linear_solver})
     assert found.status == 0, found.status_text
     assert np.max(np.abs(found.x - HS71_X)) < 1e-6
     nlp, Q, c, B, b = _equality_qp()
     n, m = B.shape[1], B.shape[0]
     exact = np.linalg.solve(np.block([[Q, B.T], [B, np.zeros((m, m))]]), np.r_[-c, b])
-    found = InteriorPoint().solve(nlp, np.zeros(n), {"linear_solver": "sparse"})
+    found = InteriorPoint().solve(nlp, np.zeros(n), {"linear_solver": linear_solver})
     assert found.status == 0 and np.max(np.abs(found.x - exact[:n])) < 1e-9
 
 
@@ -624,14 +648,23 @@ def test_integer_options_take_numpy_integers():
 
 
 def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
-    """``linear_solver="auto"`` takes SparseKKT when it imports, else
+    """``linear_solver="auto"`` takes EnvelopeKKT when it imports, else
     DenseKKT with a note (printed with print_level=1, the same solution);
-    ``"sparse"`` without it is refused, naming the option."""
+    ``"envelope"`` or ``"sparse"`` without its module is refused, naming the
+    option."""
+    from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT
     from kanedyn.optimization.interior_point._solver import kkt_class
     assert kkt_class("dense") == (DenseKKT, None)
-    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
+    assert kkt_class("auto") == (EnvelopeKKT, None) == kkt_class("envelope")
+    assert kkt_class("sparse") == (SparseKKT, None)
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_envelope",
+                        None)
     chosen, note = kkt_class("auto")
-    assert chosen is DenseKKT and "SparseKKT is not available" in note
+    assert chosen is DenseKKT and "EnvelopeKKT is not available" in note
+    with pytest.raises(ImportError, match="linear_solver='envelope'.*linear_solver='dense'"):
+        kkt_class("envelope")
+    assert kkt_class("sparse") == (SparseKKT, None)
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
     with pytest.raises(ImportError, match="linear_solver='sparse'.*linear_solver='dense'"):
         kkt_class("sparse")
     solver = InteriorPoint()

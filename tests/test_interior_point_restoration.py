@@ -41,8 +41,8 @@ RESTORATION_ROW = re.compile(r"^\s*\d+r", re.MULTILINE)
 def _linear_solvers():
     solvers = ["dense"]
     try:
-        from kanedyn.optimization.interior_point import SparseKKT  # noqa: F401
-        solvers.append("sparse")
+        from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT  # noqa: F401
+        solvers += ["sparse", "envelope"]
     except ImportError:
         pass
     return solvers
@@ -87,14 +87,14 @@ def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     line search); a second-order correction's solve then factors the same
     matrix again: the same solution to the bit, one factorization more.
     Released without the inputs (a new point), a solve has no factors."""
-    from kanedyn.optimization.interior_point import SparseKKT
+    from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT
     rng = np.random.default_rng(5)
     n, m = 6, 3
     B = rng.normal(size=(n, n))
     W = B @ B.T + n * np.eye(n)
     J = rng.normal(size=(m, n))
     hr, hc = np.tril_indices(n)
-    kind = DenseKKT if linear_solver == "dense" else SparseKKT
+    kind = {"dense": DenseKKT, "sparse": SparseKKT, "envelope": EnvelopeKKT}[linear_solver]
     kkt = kind(n, m, (hr, hc), (np.repeat(np.arange(m), n), np.tile(np.arange(n), m)))
     stepper = StepSolver(kkt, n, m, np.array([], dtype=int), settings({}))
     sigma = rng.uniform(0.5, 2.0, size=n)
@@ -111,7 +111,7 @@ def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     assert stepper.solve(residual_w, residual_c).primal.tolist() == held.primal.tolist()
     assert stepper.factorizations == count + 1  # factored once, then held again
     stepper.release()
-    if linear_solver == "sparse":
+    if linear_solver != "dense":
         with pytest.raises(ValueError, match="nothing is factored"):
             stepper.solve(residual_w, residual_c)
 

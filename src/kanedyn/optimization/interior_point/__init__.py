@@ -11,6 +11,8 @@ LDLᵀ factorization compiled in C that reports the inertia.
                  rows), its analysis and the inertia; its order in
                  ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``,
                  its analyses kept for the next solve in ``_kkt_analyses``
+``_kkt_envelope`` ``EnvelopeKKT`` (the default): the same LDLᵀ with L
+                 stored by its envelope, values only, and no copy of K
 ``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
                  ``optimization._solvers``; what it uses, in the data flow:
 ``_options``     the options (IPOPT's names and defaults), checked
@@ -28,7 +30,8 @@ jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
 diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs,
 overwrite=False)`` (with ``overwrite=True`` the solution may be written over
 ``rhs``, a writeable C-contiguous float64 vector, and returned, so the caller
-uses only what is returned: ``SparseKKT`` does so, ``DenseKKT`` makes a new
+uses only what is returned: ``SparseKKT`` and ``EnvelopeKKT`` do so,
+``DenseKKT`` makes a new
 array; ``LowRankKKT`` passes it to its base),
 ``matvec(x)`` and ``release()`` (the factors dropped until the next
 ``factor``: the solver calls it at each new point).
@@ -40,6 +43,7 @@ from ..._lazy import lazy_attributes as _lazy_attributes
 _LAZY = {
     "DenseKKT": "._kkt_dense",
     "SparseKKT": "._kkt_sparse",
+    "EnvelopeKKT": "._kkt_envelope",
     "InteriorPoint": "._solver",
 }
 

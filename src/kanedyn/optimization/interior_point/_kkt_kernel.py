@@ -70,7 +70,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 14"
+_GENERATION = "kanedyn sparse LDL 15"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -250,6 +250,65 @@ static int kd_block(double *a, double *e, double *d, double tolerance, double sc
     return big_zero ? 2 : 1;
 }
 
+/* the pivots of a factorization so far: their counts by sign, the scale of the
+   first row of the current 2 x 2 pivot, and the threshold and K's largest
+   magnitude (1 for an empty K) that judge them */
+typedef struct {
+    double tolerance, largest, first_scale;
+    Py_ssize_t n_positive, n_negative, n_zero;
+} kd_pivots;
+
+/* pivot k, d = K(k, k) - l . w summed from terms of total magnitude `terms`:
+   D[k] set (a zero one replaced), zero[k] (both rows of a 2 x 2 block) set to
+   1 or 0, counted.  A zero pivot: small beside the terms it was summed from
+   (cancelled), or beside the square of the largest entry of its row of K off
+   the diagonal over the largest of K (the rows below would grow by that over
+   |d|; by more than 1 / tolerance, or 1 / sqrt(tolerance) for a variable's),
+   or not finite */
+static void kd_judge(kd_pivots *p, Py_ssize_t k, double d, double terms,
+                     const int8_t *pair, double *D, double *E, const double *rowmax,
+                     const double *offmax, int8_t *zero) {
+    double scale = terms > rowmax[k] ? terms : rowmax[k], largest = p->largest;
+    D[k] = d;
+    zero[k] = 0;
+    if (pair[k] == 1) {
+        p->first_scale = scale;
+    } else if (pair[k] == 2) {
+        double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
+        if (kd_block(&D[k - 1], &E[k - 1], &D[k], p->tolerance,
+                     scale > p->first_scale ? scale : p->first_scale, off * off / largest,
+                     largest, &p->n_positive, &p->n_negative, &p->n_zero))
+            zero[k - 1] = zero[k] = 1;
+    } else if (!(fabs(d) > p->tolerance * terms)
+               || !(fabs(d) > (pair[k] == 0 ? sqrt(p->tolerance) : p->tolerance) * offmax[k]
+                                * offmax[k] / largest)) {
+        p->n_zero++;
+        zero[k] = 1;
+        double r = kd_replacement(scale, largest);
+        D[k] = pair[k] == 3 ? -r : r;
+    } else if (d > 0.0) {
+        p->n_positive++;
+    } else {
+        p->n_negative++;
+    }
+}
+
+/* D y = z in place, blockwise */
+static void kd_divide(double *w, const double *D, const double *E, const int8_t *pair,
+                      Py_ssize_t N) {
+    for (Py_ssize_t j = 0; j < N; j++) {
+        if (pair[j] == 1) {
+            double a = D[j], e = E[j], b = D[j + 1], det = a * b - e * e;
+            double w0 = w[j], w1 = w[j + 1];
+            w[j] = (b * w0 - e * w1) / det;
+            w[j + 1] = (a * w1 - e * w0) / det;
+            j++;
+        } else {
+            w[j] /= D[j];
+        }
+    }
+}
+
 static PyObject *kd_factor(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != F_COUNT + 1) {
         PyErr_Format(PyExc_TypeError, "%d arguments expected", F_COUNT + 1);
@@ -292,7 +351,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     int64_t *filled = (int64_t *)(work + 3 * N);
     int32_t *pattern = (int32_t *)(work + 4 * N), *flag = pattern + N;
     int8_t *zero = v[F_ZERO].buf;
-    Py_ssize_t n_positive = 0, n_negative = 0, n_zero = 0;
+    kd_pivots pivots = {tolerance, 1.0, 0.0, 0, 0, 0};
     Py_BEGIN_ALLOW_THREADS
     /* the values of K, summed into the permuted upper triangle */
     memset(Ax, 0, sizeof(double) * (size_t)nnz);
@@ -322,8 +381,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         }
     double largest = 0.0;
     for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
-    if (largest == 0.0) largest = 1.0;
-    double first_scale = 0.0;  /* the scale of the first row of the current 2 x 2 pivot */
+    pivots.largest = largest == 0.0 ? 1.0 : largest;
     /* up-looking block L D L^T: w = L(0:k,0:k)^-1 A(0:k, k), then row k of L is
        D^-1 w (blockwise) and d_k = A(k, k) - (row k of L) w */
     for (Py_ssize_t k = 0; k < N; k++) {
@@ -376,39 +434,12 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                 filled[i]++;
             }
         }
-        /* a zero pivot: small beside the terms it was summed from (cancelled),
-           or beside the square of the largest entry of its row of K off the
-           diagonal over the largest of K (the rows below would grow by that
-           over |d|; by more than 1 / tolerance, or 1 / sqrt(tolerance) for a
-           variable's), or not finite */
-        double scale = terms > rowmax[k] ? terms : rowmax[k];
-        D[k] = d;
-        zero[k] = 0;
-        if (pair[k] == 1) {
-            first_scale = scale;
-        } else if (pair[k] == 2) {
-            double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
-            if (kd_block(&D[k - 1], &E[k - 1], &D[k], tolerance,
-                         scale > first_scale ? scale : first_scale, off * off / largest,
-                         largest, &n_positive, &n_negative, &n_zero))
-                zero[k - 1] = zero[k] = 1;
-        } else if (!(fabs(d) > tolerance * terms)
-                   || !(fabs(d) > (pair[k] == 0 ? sqrt(tolerance) : tolerance) * offmax[k]
-                                    * offmax[k] / largest)) {
-            n_zero++;
-            zero[k] = 1;
-            double r = kd_replacement(scale, largest);
-            D[k] = pair[k] == 3 ? -r : r;
-        } else if (d > 0.0) {
-            n_positive++;
-        } else {
-            n_negative++;
-        }
+        kd_judge(&pivots, k, d, terms, pair, D, E, rowmax, offmax, zero);
     }
     Py_END_ALLOW_THREADS
     free(work);
     kd_release(v, F_COUNT);
-    return Py_BuildValue("nnn", n_positive, n_negative, n_zero);
+    return Py_BuildValue("nnn", pivots.n_positive, pivots.n_negative, pivots.n_zero);
 }
 
 /* ------------------------------------------------------------------- solve */
@@ -448,17 +479,7 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) w[Li[p]] -= Lx[p] * wj;
         }
-        for (Py_ssize_t j = 0; j < N; j++) {  /* D y = z, blockwise */
-            if (pair[j] == 1) {
-                double a = D[j], e = E[j], b = D[j + 1], det = a * b - e * e;
-                double w0 = w[j], w1 = w[j + 1];
-                w[j] = (b * w0 - e * w1) / det;
-                w[j + 1] = (a * w1 - e * w0) / det;
-                j++;
-            } else {
-                w[j] /= D[j];
-            }
-        }
+        kd_divide(w, D, E, pair, N);  /* D y = z */
         for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = y */
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) wj -= Lx[p] * w[Li[p]];
@@ -925,6 +946,325 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
     return rows;
 }
 
+/* ---------------------------------------------------------------- envelope */
+/* Envelope (profile) storage of L in the elimination order: row k holds its
+   columns first_k .. k - 1 at Lx[rowptr[k] ...] (column j at rowptr[k + 1] -
+   (k - j)), first_k = k - (rowptr[k + 1] - rowptr[k]); no row indices.  No
+   pivoting keeps L's entries in K's envelope (the columns left of row k's
+   first entry of K stay zero); a 2 x 2 pivot's rows are one column of the
+   envelope's rows, so a row whose first entry is a pair's second column
+   starts at the pair's first. */
+#define KD_FIRST(rowptr, k) ((int64_t)(k) - ((int64_t)(rowptr)[(k) + 1] - (rowptr)[k]))
+
+/* the place in Lx of the entry (i, j) of the permuted K, i != j */
+#define KD_PLACE(rowptr, i, j) ((i) > (j) ? (int64_t)(rowptr)[(i) + 1] - ((i) - (j)) \
+                                          : (int64_t)(rowptr)[(j) + 1] - ((j) - (i)))
+
+/* envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
+   jacobian_cols, n): the envelope of the permuted K's lower triangle
+   (inverse[r] the place of K's row r; row n + i the constraint i): fills
+   rowptr (int32, N + 1) when the total is below 2^31 - 1; returns (total,
+   K's distinct entries off the diagonal) */
+static PyObject *kd_envelope(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 8) {
+        PyErr_SetString(PyExc_TypeError, "8 arguments expected");
+        return NULL;
+    }
+    Py_ssize_t n = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 7));
+    if (n == -1 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[7] = {4, 4, 1, 4, 4, 4, 4};
+    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
+    static const char *const names[7] = {"rowptr", "inverse", "pair", "hessian rows",
+                                         "hessian cols", "jacobian rows", "jacobian cols"};
+    Py_buffer v[7];
+    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    int32_t *rowptr = v[0].buf;
+    const int32_t *inv = v[1].buf, *hr = v[3].buf, *hc = v[4].buf, *jr = v[5].buf,
+                  *jc = v[6].buf;
+    const int8_t *pair = v[2].buf;
+    Py_ssize_t N = KD_COUNT(v[1]), nh = KD_COUNT(v[3]), nj = KD_COUNT(v[5]);
+    if (KD_COUNT(v[0]) != N + 1 || KD_COUNT(v[2]) != N || KD_COUNT(v[4]) != nh
+        || KD_COUNT(v[6]) != nj || n < 0 || n > N) {
+        kd_release(v, 7);
+        PyErr_SetString(PyExc_ValueError, "envelope: arrays of inconsistent sizes");
+        return NULL;
+    }
+    int64_t total = 0, distinct = 0;
+    int fits = 1;
+    Py_BEGIN_ALLOW_THREADS
+    /* each row's first column, in rowptr[k + 1] until the widths are summed */
+    for (Py_ssize_t k = 0; k < N; k++) rowptr[k + 1] = (int32_t)k;
+    for (Py_ssize_t e = 0; e < nh + nj; e++) {
+        int32_t a = e < nh ? inv[hr[e]] : inv[n + jr[e - nh]];
+        int32_t b = e < nh ? inv[hc[e]] : inv[jc[e - nh]];
+        int32_t high = a > b ? a : b, low = a > b ? b : a;
+        if (low < rowptr[high + 1]) rowptr[high + 1] = low;
+    }
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int32_t f = rowptr[k + 1];
+        if (pair[k] == 2 && f > k - 1) f = (int32_t)(k - 1);  /* the block's own entry */
+        if (f < k && pair[f] == 2) f--;  /* not half a pair's columns */
+        rowptr[k + 1] = f;
+    }
+    rowptr[0] = 0;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        total += (int64_t)k - rowptr[k + 1];
+        if (total >= INT32_MAX) fits = 0;
+        if (fits) rowptr[k + 1] = (int32_t)total;
+    }
+    Py_END_ALLOW_THREADS
+    if (fits && total > 0) {  /* K's distinct places off the diagonal */
+        uint8_t *mark = calloc((size_t)total, 1);
+        if (mark == NULL) {
+            kd_release(v, 7);
+            return PyErr_NoMemory();
+        }
+        for (Py_ssize_t e = 0; e < nh + nj; e++) {
+            int32_t a = e < nh ? inv[hr[e]] : inv[n + jr[e - nh]];
+            int32_t b = e < nh ? inv[hc[e]] : inv[jc[e - nh]];
+            if (a == b) continue;
+            int64_t p = KD_PLACE(rowptr, a, b);
+            distinct += !mark[p];
+            mark[p] = 1;
+        }
+        free(mark);
+    }
+    kd_release(v, 7);
+    return Py_BuildValue("LL", (long long)total, (long long)distinct);
+}
+
+/* envelope_factor(Lx, rowptr, D, E, pair, inverse, hessian_rows, hessian_cols,
+   hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
+   diagonal_c, zero, tolerance): the values summed into the envelope (as
+   factor sums them into Ax: the Hessian's, the Jacobian's, diagonal_x, minus
+   diagonal_c) and factored in place, row by row: w = L(f:k, f:k)^-1 K(f:k, k)
+   by a dot product per column, then row k of L is D^-1 w (blockwise) and
+   d_k = K(k, k) - (row k of L) w; the pivots judged as factor judges them.
+   Returns (n_positive, n_negative, n_zero, K's largest magnitude) */
+enum {V_LX, V_ROWPTR, V_D, V_E, V_PAIR, V_INV, V_HR, V_HC, V_HV, V_JR, V_JC, V_JV, V_DX,
+      V_DC, V_ZERO, V_COUNT};
+
+static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 1) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 1);
+        return NULL;
+    }
+    double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT));
+    if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 8, 1, 4, 4, 4, 8, 4, 4, 8, 8, 8, 1};
+    static const int writable[V_COUNT] = {1, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+    static const char *const names[V_COUNT] = {
+        "Lx", "rowptr", "D", "E", "pair", "inverse", "hessian rows", "hessian cols",
+        "hessian_values", "jacobian rows", "jacobian cols", "jacobian_values", "diagonal_x",
+        "diagonal_c", "zero"};
+    Py_buffer v[V_COUNT];
+    if (kd_views(args, V_COUNT, v, size, writable, names) < 0) return NULL;
+    double *Lx = v[V_LX].buf, *D = v[V_D].buf, *E = v[V_E].buf;
+    const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
+    const int32_t *hr = v[V_HR].buf, *hc = v[V_HC].buf, *jr = v[V_JR].buf, *jc = v[V_JC].buf;
+    const int8_t *pair = v[V_PAIR].buf;
+    const double *hv = v[V_HV].buf, *jv = v[V_JV].buf, *dx = v[V_DX].buf, *dc = v[V_DC].buf;
+    int8_t *zero = v[V_ZERO].buf;
+    Py_ssize_t N = KD_COUNT(v[V_D]), nh = KD_COUNT(v[V_HV]), nj = KD_COUNT(v[V_JV]);
+    Py_ssize_t nx = KD_COUNT(v[V_DX]), nc = KD_COUNT(v[V_DC]);
+    if (nx + nc != N || KD_COUNT(v[V_E]) != N || KD_COUNT(v[V_PAIR]) != N
+        || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
+        || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_HR]) != nh || KD_COUNT(v[V_HC]) != nh
+        || KD_COUNT(v[V_JR]) != nj || KD_COUNT(v[V_JC]) != nj
+        || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)) {
+        kd_release(v, V_COUNT);
+        PyErr_SetString(PyExc_ValueError, "envelope_factor: arrays of inconsistent sizes");
+        return NULL;
+    }
+    /* the workspace, 2 N doubles: held only while this call runs */
+    double *rowmax = malloc(sizeof(double) * 2 * (size_t)(N > 0 ? N : 1));
+    if (rowmax == NULL) {
+        kd_release(v, V_COUNT);
+        return PyErr_NoMemory();
+    }
+    double *offmax = rowmax + N;
+    double largest = 0.0;
+    kd_pivots pivots = {tolerance, 1.0, 0.0, 0, 0, 0};
+    Py_BEGIN_ALLOW_THREADS
+    memset(Lx, 0, sizeof(double) * (size_t)(N ? rowptr[N] : 0));
+    for (Py_ssize_t k = 0; k < N; k++) D[k] = E[k] = 0.0;
+    for (Py_ssize_t e = 0; e < nh; e++) {
+        int32_t a = inv[hr[e]], b = inv[hc[e]];
+        if (a == b) D[a] += hv[e];
+        else Lx[KD_PLACE(rowptr, a, b)] += hv[e];
+    }
+    for (Py_ssize_t e = 0; e < nj; e++) {
+        int32_t a = inv[nx + jr[e]], b = inv[jc[e]];
+        Lx[KD_PLACE(rowptr, a, b)] += jv[e];
+    }
+    for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += dx[j];
+    for (Py_ssize_t i = 0; i < nc; i++) D[inv[nx + i]] -= dc[i];
+    /* the largest magnitude in each row of K (both triangles), and off the
+       diagonal (and off a pair's block) */
+    for (Py_ssize_t k = 0; k < N; k++) {
+        rowmax[k] = fabs(D[k]);
+        offmax[k] = 0.0;
+    }
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int64_t f = KD_FIRST(rowptr, k);
+        const double *R = Lx + rowptr[k];
+        for (int64_t j = f; j < k; j++) {
+            double a = fabs(R[j - f]);
+            if (a > rowmax[k]) rowmax[k] = a;
+            if (a > rowmax[j]) rowmax[j] = a;
+            if (!(pair[k] == 2 && j == k - 1)) {
+                if (a > offmax[k]) offmax[k] = a;
+                if (a > offmax[j]) offmax[j] = a;
+            }
+        }
+    }
+    for (Py_ssize_t k = 0; k < N; k++) if (rowmax[k] > largest) largest = rowmax[k];
+    pivots.largest = largest == 0.0 ? 1.0 : largest;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int64_t f = KD_FIRST(rowptr, k), width = k - f;
+        double *R = Lx + rowptr[k];
+        /* w = L(f:k, f:k)^-1 K(f:k, k), in place of K's row */
+        for (int64_t t = 0; t < width; t++) {
+            int64_t j = f + t, fj = KD_FIRST(rowptr, j), s = fj > f ? fj : f;
+            const double *Rj = Lx + rowptr[j] + (s - fj), *ws = R + (s - f);
+            double sum = R[t];
+            for (int64_t q = 0, count = j - s; q < count; q++) sum -= Rj[q] * ws[q];
+            R[t] = sum;
+        }
+        /* row k of L = D^-1 w, blockwise; the pivot d = K(k, k) - l . w */
+        double d = D[k], terms = fabs(D[k]);
+        for (int64_t t = 0; t < width; t++) {
+            int64_t j = f + t;
+            double wj = R[t];
+            if (pair[j] == 1) {
+                if (j == k - 1) {  /* k's own partner: the block's off-diagonal entry */
+                    E[j] = wj;
+                    R[t] = 0.0;
+                    continue;
+                }
+                /* [l_j, l_{j+1}] = B^-1 [w_j, w_{j+1}] */
+                double w1 = R[t + 1], a = D[j], e = E[j], b = D[j + 1];
+                double det = a * b - e * e;
+                double l0 = (b * wj - e * w1) / det, l1 = (a * w1 - e * wj) / det;
+                d -= l0 * wj + l1 * w1;
+                terms += fabs(l0 * wj) + fabs(l1 * w1);
+                R[t] = l0;
+                R[++t] = l1;
+            } else {
+                double l = wj / D[j];
+                d -= l * wj;
+                terms += fabs(l * wj);
+                R[t] = l;
+            }
+        }
+        kd_judge(&pivots, k, d, terms, pair, D, E, rowmax, offmax, zero);
+    }
+    Py_END_ALLOW_THREADS
+    free(rowmax);
+    kd_release(v, V_COUNT);
+    return Py_BuildValue("nnnd", pivots.n_positive, pivots.n_negative, pivots.n_zero,
+                         largest);
+}
+
+/* envelope_solve(x, rowptr, Lx, D, E, pair, permutation, k): solve's solution
+   of the k right-hand sides in x with envelope factors */
+static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 8) {
+        PyErr_SetString(PyExc_TypeError, "8 arguments expected");
+        return NULL;
+    }
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 7));
+    if (columns == -1 && PyErr_Occurred()) return NULL;
+    static const Py_ssize_t size[7] = {8, 4, 8, 8, 8, 1, 4};
+    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
+    static const char *const names[7] = {"rhs", "rowptr", "Lx", "D", "E", "pair",
+                                         "permutation"};
+    Py_buffer v[7];
+    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    double *X = v[0].buf;
+    const int32_t *rowptr = v[1].buf, *perm = v[6].buf;
+    const double *Lx = v[2].buf, *D = v[3].buf, *E = v[4].buf;
+    const int8_t *pair = v[5].buf;
+    Py_ssize_t N = KD_COUNT(v[3]);
+    if (columns < 0 || KD_COUNT(v[0]) != columns * N || KD_COUNT(v[1]) != N + 1
+        || KD_COUNT(v[2]) != (N ? rowptr[N] : 0) || KD_COUNT(v[4]) != N
+        || KD_COUNT(v[5]) != N || KD_COUNT(v[6]) != N) {
+        kd_release(v, 7);
+        PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
+        return NULL;
+    }
+    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));  /* for this call */
+    if (w == NULL) {
+        kd_release(v, 7);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t c = 0; c < columns; c++) {
+        double *x = X + c * N;
+        for (Py_ssize_t k = 0; k < N; k++) w[k] = x[perm[k]];
+        for (Py_ssize_t k = 0; k < N; k++) {  /* L z = b, row by row */
+            int64_t f = KD_FIRST(rowptr, k);
+            const double *R = Lx + rowptr[k];
+            double sum = w[k];
+            for (int64_t t = 0, width = k - f; t < width; t++) sum -= R[t] * w[f + t];
+            w[k] = sum;
+        }
+        kd_divide(w, D, E, pair, N);  /* D y = z */
+        for (Py_ssize_t k = N - 1; k >= 0; k--) {  /* L^T x = y, row k's part at once */
+            int64_t f = KD_FIRST(rowptr, k);
+            const double *R = Lx + rowptr[k];
+            double wk = w[k];
+            for (int64_t t = 0, width = k - f; t < width; t++) w[f + t] -= R[t] * wk;
+        }
+        for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
+    }
+    Py_END_ALLOW_THREADS
+    free(w);
+    kd_release(v, 7);
+    Py_RETURN_NONE;
+}
+
+/* structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
+   jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c):
+   y = K x from the values as factor_envelope took them (K's own order) */
+static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[10] = {8, 8, 4, 4, 8, 4, 4, 8, 8, 8};
+    static const int writable[10] = {1, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[10] = {"y", "x", "hessian rows", "hessian cols",
+                                          "hessian_values", "jacobian rows", "jacobian cols",
+                                          "jacobian_values", "diagonal_x", "diagonal_c"};
+    Py_buffer v[10];
+    if (kd_views(args, 10, v, size, writable, names) < 0) return NULL;
+    double *y = v[0].buf;
+    const double *x = v[1].buf, *hv = v[4].buf, *jv = v[7].buf, *dx = v[8].buf,
+                 *dc = v[9].buf;
+    const int32_t *hr = v[2].buf, *hc = v[3].buf, *jr = v[5].buf, *jc = v[6].buf;
+    Py_ssize_t N = KD_COUNT(v[0]), nh = KD_COUNT(v[4]), nj = KD_COUNT(v[7]);
+    Py_ssize_t nx = KD_COUNT(v[8]), nc = KD_COUNT(v[9]);
+    if (KD_COUNT(v[1]) != N || nx + nc != N || KD_COUNT(v[2]) != nh || KD_COUNT(v[3]) != nh
+        || KD_COUNT(v[5]) != nj || KD_COUNT(v[6]) != nj) {
+        kd_release(v, 10);
+        PyErr_SetString(PyExc_ValueError, "structured_matvec: arrays of inconsistent sizes");
+        return NULL;
+    }
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < nx; k++) y[k] = dx[k] * x[k];
+    for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -dc[i] * x[nx + i];
+    for (Py_ssize_t e = 0; e < nh; e++) {
+        int32_t r = hr[e], c = hc[e];
+        y[r] += hv[e] * x[c];
+        if (r != c) y[c] += hv[e] * x[r];
+    }
+    for (Py_ssize_t e = 0; e < nj; e++) {
+        int32_t r = (int32_t)nx + jr[e], c = jc[e];
+        y[r] += jv[e] * x[c];
+        y[c] += jv[e] * x[r];
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 10);
+    Py_RETURN_NONE;
+}
+
 static PyMethodDef kd_methods[] = {
     {"symbolic", kd_symbolic, METH_VARARGS, "elimination tree and column counts"},
     {"factor", kd_factor, METH_VARARGS, "scatter the values, factor L D L^T, the inertia"},
@@ -936,6 +1276,12 @@ static PyMethodDef kd_methods[] = {
     {"csr", kd_csr, METH_VARARGS, "a CSR pattern from entries, repeats merged"},
     {"compressed", kd_compressed, METH_VARARGS, "a graph's pattern on groups of its nodes"},
     {"permuted", kd_permuted, METH_VARARGS, "K's permuted upper triangle and its maps"},
+    {"envelope", kd_envelope, METH_VARARGS, "the envelope of K's permuted lower triangle"},
+    {"envelope_factor", kd_envelope_factor, METH_VARARGS,
+     "scatter the values into the envelope, factor L D L^T in place, the inertia"},
+    {"envelope_solve", kd_envelope_solve, METH_VARARGS, "solve with envelope factors"},
+    {"structured_matvec", kd_structured_matvec, METH_VARARGS,
+     "y = K x from the structures and values"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,

@@ -404,6 +404,7 @@ class SparseKKT:
         self.ordering = ordering
         self._delayed = np.zeros(N, dtype=bool)
         self.reanalyses = 0
+        self._entries = (hr.size, jr.size)  # of the Hessian and the Jacobian
         has_diagonal = np.zeros(n, dtype=bool)
         has_diagonal[hr[hr == hc]] = True
         self._analyse((hr, hc), (jr, jc), has_diagonal, None)
@@ -448,6 +449,14 @@ class SparseKKT:
                                     factor_bytes, map_bytes,
                                     48 * N + self._zero.nbytes)
 
+    def _order(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """``(permutation, n_dense, kind)`` of :func:`elimination_order` for
+        these structures (``self._delayed`` last)."""
+        (hr, hc), jacobian = hessian_structure, jacobian_structure
+        off = hr != hc
+        return elimination_order(self.n, self.m, (hr[off], hc[off]), jacobian, self.ordering,
+                                 has_diagonal, pairable, self._delayed)
+
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
         order, K's permuted pattern and maps, the elimination tree and L's
@@ -455,10 +464,7 @@ class SparseKKT:
         int32 reaches)."""
         n, N = self.n, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
-        off = hr != hc
-        permutation, n_dense, kind = elimination_order(
-            n, self.m, (hr[off], hc[off]), (jr, jc), self.ordering, has_diagonal, pairable,
-            self._delayed)
+        permutation, n_dense, kind = self._order((hr, hc), (jr, jc), has_diagonal, pairable)
         Ap, Ai, hessian_map, jacobian_map, diagonal_map = _permuted_pattern(
             n, permutation, (hr, hc), (jr, jc))
         # elimination tree and the pattern's size, then L's column pointers
@@ -502,8 +508,8 @@ class SparseKKT:
             negative ``diagonal_c`` (naming the argument); a new order after
             a zero pivot whose L has more entries than int32 reaches.
         """
-        hv = _values(hessian_values, self._hessian_map.size, "hessian_values")
-        jv = _values(jacobian_values, self._jacobian_map.size, "jacobian_values")
+        hv = _values(hessian_values, self._entries[0], "hessian_values")
+        jv = _values(jacobian_values, self._entries[1], "jacobian_values")
         dx = _values(diagonal_x, self.n, "diagonal_x")
         dc = _values(diagonal_c, self.m, "diagonal_c")
         _check_values(self._kernel, (hv, jv, dx, dc), _FACTOR_ARGUMENTS, "diagonal_c")
@@ -544,6 +550,10 @@ class SparseKKT:
             self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, dx, dc,
             self._zero, self.zero_pivot)
 
+    def _largest_entry(self):
+        """The largest magnitude in K's last factored values."""
+        return float(np.abs(self._numeric[0]).max(initial=0.0))
+
     def _zero_rows(self):
         """Which rows of K (its own order, a mask) had a zero pivot in the
         last factorization."""
@@ -560,7 +570,7 @@ class SparseKKT:
         if not (failed & ~self._delayed).any():
             return inertia  # zero where it was already delayed: K's own
         (hr, hc), (jr, _) = structures = self._structures()
-        largest = max(np.abs(self._numeric[0]).max(initial=0.0), 1e-300)
+        largest = max(self._largest_entry(), 1e-300)
         diagonal = dx.copy()
         on = hr == hc
         np.add.at(diagonal, hr[on], hv[on])
@@ -608,6 +618,12 @@ class SparseKKT:
         ndarray, the shape of ``rhs``
             (Where pivots were replaced, the solution of that changed K.)
         """
+        return self._solved(rhs, overwrite, lambda x, columns: self._kernel.solve(
+            x, self._Lp, *self._numeric[1:], self._kind, self._permutation, columns))
+
+    def _solved(self, rhs, overwrite, kernel_solve):
+        """:meth:`solve` with ``kernel_solve(x, columns)``, which overwrites
+        ``x`` (``columns`` rows of length n + m) with the solutions."""
         self._factored("solve")
         b = np.asarray(rhs, dtype=float)
         N = self.size
@@ -619,10 +635,7 @@ class SparseKKT:
         x = b if in_place else np.array(b.T, dtype=float, order="C")
         if self._kernel.invalid(x, 1) is not None:  # (1: no array to be >= 0)
             raise ValueError("rhs holds a value that is not finite")
-        columns = 1 if b.ndim == 1 else b.shape[1]
-        _, Li, Lx, D, E = self._numeric
-        self._kernel.solve(x, self._Lp, Li, Lx, D, E, self._kind,
-                           self._permutation, columns)
+        kernel_solve(x, 1 if b.ndim == 1 else b.shape[1])
         return x.T if b.ndim == 2 else x
 
     def matvec(self, x):
@@ -637,10 +650,15 @@ class SparseKKT:
         -------
         ndarray, shape (n + m,)
         """
+        return self._multiplied(x, lambda y, v: self._kernel.matvec(
+            y, v, self._Ap, self._Ai, self._numeric[0], self._permutation))
+
+    def _multiplied(self, x, kernel_matvec):
+        """:meth:`matvec` with ``kernel_matvec(y, x)``, which writes K x in ``y``."""
         self._factored("matvec")
         v = np.ascontiguousarray(x, dtype=float)
         if v.shape != (self.size,):
             raise ValueError(f"x must have shape ({self.size},), not {v.shape}")
         y = np.empty(self.size)
-        self._kernel.matvec(y, v, self._Ap, self._Ai, self._numeric[0], self._permutation)
+        kernel_matvec(y, v)
         return y

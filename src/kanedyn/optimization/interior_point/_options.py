@@ -66,7 +66,7 @@ DEFAULTS = {
     "jacobian_regularization_value": 1e-8,
     "jacobian_regularization_exponent": 0.25,
     # linear algebra
-    "linear_solver": "auto",             # "sparse", "dense", or auto: sparse if it builds
+    "linear_solver": "auto",  # "envelope", "sparse", "dense"; auto: envelope if it builds
     "max_refinement_steps": 10,
     "residual_ratio_max": 1e-10,
     # the Hessian: None follows solve(hessian=...) (exact when the NLP has
@@ -86,7 +86,7 @@ DEFAULTS = {
 #: options that take text -> the values accepted
 CHOICES = {
     "nlp_scaling_method": ("gradient-based", "none"),
-    "linear_solver": ("auto", "sparse", "dense"),
+    "linear_solver": ("auto", "sparse", "envelope", "dense"),
     "hessian_approximation": ("exact", "limited-memory"),
     "limited_memory_update_type": ("bfgs", "damped-bfgs"),
     "mu_strategy": ("monotone",),

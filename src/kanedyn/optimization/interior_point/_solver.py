@@ -84,23 +84,31 @@ ALMOST_FEASIBLE = 1e-2
 
 
 def kkt_class(choice):
-    """``(KKT class, note)`` for the option ``linear_solver``: ``"sparse"``
-    (``SparseKKT``), ``"dense"`` (``DenseKKT``), ``"auto"`` (sparse when its
-    C kernel builds or is cached, else dense, the note saying why)."""
+    """``(KKT class, note)`` for the option ``linear_solver``: ``"envelope"``
+    (``EnvelopeKKT``), ``"sparse"`` (``SparseKKT``), ``"dense"``
+    (``DenseKKT``), ``"auto"`` (envelope when the C kernel builds or is
+    cached, else dense, the note saying why).  The envelope's L held 1.00 to
+    1.24 times the sparse L's entries on every matrix the solver's tests
+    factor, at 8 bytes an entry against 12, and no copy of K
+    (``docs/benchmarks.md``)."""
     from ._kkt_dense import DenseKKT
     if choice == "dense":
         return DenseKKT, None
     from ...numerics import CompilerError
     try:
         from ._kkt_kernel import kernel
-        from ._kkt_sparse import SparseKKT
-        kernel()  # compiled (or taken from the cache) here: no compiler, no SparseKKT
-    except (ImportError, CompilerError) as exc:
         if choice == "sparse":
-            raise type(exc)(f"interior-point option linear_solver='sparse': SparseKKT is "
-                            f"not available ({exc}); use linear_solver='dense'") from exc
-        return DenseKKT, f"SparseKKT is not available ({exc}): DenseKKT used"
-    return SparseKKT, None
+            from ._kkt_sparse import SparseKKT as chosen
+        else:
+            from ._kkt_envelope import EnvelopeKKT as chosen
+        kernel()  # compiled (or taken from the cache) here: no compiler, neither class
+    except (ImportError, CompilerError) as exc:
+        if choice != "auto":
+            raise type(exc)(f"interior-point option linear_solver={choice!r}: the compiled "
+                            f"factorization is not available ({exc}); use "
+                            "linear_solver='dense'") from exc
+        return DenseKKT, f"EnvelopeKKT is not available ({exc}): DenseKKT used"
+    return chosen, None
 
 
 class _Evaluation:
@@ -122,8 +130,8 @@ class InteriorPoint:
     limited-memory BFGS approximation).
 
     Options are IPOPT's names where IPOPT has them
-    (:data:`._options.DEFAULTS`), plus ``linear_solver``: ``"sparse"``,
-    ``"dense"`` or ``"auto"``.  After a solve, :attr:`timings` holds the
+    (:data:`._options.DEFAULTS`), plus ``linear_solver``: ``"envelope"``,
+    ``"sparse"``, ``"dense"`` or ``"auto"``.  After a solve, :attr:`timings` holds the
     seconds spent per phase and :attr:`note` what the solver chose.
     """
 

@@ -1,0 +1,163 @@
+r"""``EnvelopeKKT``: the :math:`LDL^T` of :class:`~._kkt_sparse.SparseKKT`
+with :math:`L` stored by its envelope, for less memory.
+
+The same matrix, order, pivots, zero-pivot rules, new orders after a zero
+pivot and inertia as :class:`~._kkt_sparse.SparseKKT` (its module's
+docstring); only the storage and the loops differ:
+
+- **L by rows, its envelope** (profile): row :math:`k` of :math:`L` holds
+  every column from its first entry to :math:`k - 1`, values only, with one
+  int32 pointer per row.  Without pivoting the fill stays in the envelope of
+  :math:`K`'s lower triangle in the order, so that envelope is computed from
+  the patterns (one pass over the entries) and no elimination tree, row index
+  or count of L is made.  A row that begins at the second column of a pair
+  begins at its first (the 2 x 2 pivot mixes the two).  In a band, as the
+  collocation's order makes (:mod:`._kkt_ordering`), the envelope fills:
+  on the backward-Euler pendulum swing-up it has as many entries as the
+  sparse :math:`L` (29.1 a node), at 8 bytes each instead of 12.
+- **No copy of K**: the values are scattered straight into :math:`L`'s
+  storage, which the factorization overwrites row by row
+  (:math:`w = L^{-1} K_{f:k,k}` by one dot product per column, then
+  :math:`D^{-1} w` block by block and the pivot), and :meth:`matvec`
+  multiplies by :math:`K` from the arrays ``factor`` was given, kept by
+  reference, not copied: the caller must not change them until the next
+  ``factor`` or :meth:`release` (the interior point never does; it keeps
+  them to factor again).
+- **Scratch** of 2 doubles a row for ``factor`` (each row's largest entries
+  of K) and 1 for ``solve``, for the call's duration (the sparse kernel's is
+  5 and 1).
+
+Held per row of K: the order and the kinds of the pivots, the envelope's
+pointers, :math:`D` and the off-diagonal entries of the 2 x 2 blocks, the
+zero pivots' flags; and the Hessian's structure (the caller keeps the
+Jacobian's).  The sums of the factorization differ in their order from the
+sparse kernel's (dot products, not scatters): the same factors up to
+rounding.  Where the order has no band (many rows joined to distant ones)
+the envelope holds zeros that a sparse :math:`L` leaves out; the analysis
+reports both sizes (``analysis.nnz_factor`` is the envelope's).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ._kkt_analyses import cached_analysis
+from ._kkt_sparse import (_INDEX, _LIMIT, RETURN_FREED_BYTES, KKTAnalysis, SparseKKT,
+                          _return_freed_memory)
+
+__all__ = ["EnvelopeKKT", "EnvelopeAnalysis"]
+
+
+@dataclass(frozen=True)
+class EnvelopeAnalysis:
+    """The arrays of one envelope analysis (read-only once kept), K of order N.
+
+    Attributes
+    ----------
+    permutation : ndarray of int32, shape (N,)
+        ``permutation[k]``: the row of K eliminated ``k``-th.
+    inverse : ndarray of int32, shape (N,)
+        The place of each row of K in the order.
+    n_dense : int
+        Rows counted as dense and ordered last.
+    kind : ndarray of int8, shape (N,)
+        Each pivot's kind (:func:`~._kkt_ordering.elimination_order`).
+    rowptr : ndarray of int32, shape (N + 1,)
+        Row ``k`` of L at ``rowptr[k]:rowptr[k + 1]``, its columns ending at
+        ``k - 1``.
+    nnz_matrix : int
+        K's distinct entries in the upper triangle, diagonal included.
+    """
+
+    permutation: np.ndarray
+    inverse: np.ndarray
+    n_dense: int
+    kind: np.ndarray
+    rowptr: np.ndarray
+    nnz_matrix: int
+
+
+class EnvelopeKKT(SparseKKT):
+    """The :math:`LDL^T` of the KKT matrix with L stored by its envelope:
+    :class:`~._kkt_sparse.SparseKKT`'s parameters, attributes, methods and
+    errors (the module's docstring says what differs)."""
+
+    def _structures(self):
+        return self._hessian_structure, self._jacobian_structure
+
+    def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """The order (:func:`elimination_order`, ``self._delayed`` last), the
+        envelope's pointers (kept for the next object of the same inputs,
+        :func:`~._kkt_analyses.cached_analysis`) and the storage of the
+        factors."""
+        n, m, N = self.n, self.m, self.size
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        self._hessian_structure, self._jacobian_structure = (hr, hc), (jr, jc)
+        symbolic = cached_analysis(
+            N, (n, m, self.ordering, "envelope"),
+            (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
+            lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
+        self._permutation, self._kind = symbolic.permutation, symbolic.kind
+        self._inverse, self._rowptr = symbolic.inverse, symbolic.rowptr
+        self._numeric = None  # made by the next factor (_storage)
+        self._values = None  # factor's arguments, for matvec
+        self._zero = np.zeros(N, dtype=np.int8)
+        size = int(self._rowptr[-1])
+        self.analysis = KKTAnalysis(
+            n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
+            symbolic.nnz_matrix, size, 8 * size + self._rowptr.nbytes + 16 * N,
+            sum(a.nbytes for a in (self._permutation, self._inverse, self._kind, hr, hc)),
+            24 * N + self._zero.nbytes)
+
+    def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
+        """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
+        the envelope has more entries than int32 reaches)."""
+        n, N = self.n, self.size
+        (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        permutation, n_dense, kind = self._order((hr, hc), (jr, jc), has_diagonal, pairable)
+        inverse = np.empty(N, dtype=_INDEX)
+        inverse[permutation] = np.arange(N, dtype=_INDEX)
+        rowptr = np.empty(N + 1, dtype=_INDEX)
+        total, distinct = self._kernel.envelope(rowptr, inverse, kind, hr, hc, jr, jc, n)
+        if total >= _LIMIT:
+            raise ValueError(f"L's envelope would have {total} entries, too many for 32-bit "
+                             "row pointers")
+        return EnvelopeAnalysis(permutation, inverse, n_dense, kind, rowptr, N + distinct)
+
+    def _storage(self):
+        """``(Lx, D, E)``, made when a factorization first needs them after an
+        analysis or :meth:`release`."""
+        if self._numeric is None:
+            size, N = int(self._rowptr[-1]), self.size
+            if 8 * size + 16 * N >= RETURN_FREED_BYTES:
+                _return_freed_memory()
+            self._numeric = (np.zeros(size), np.zeros(N), np.zeros(N))
+        return self._numeric
+
+    def release(self):
+        super().release()
+        self._values = None
+
+    def _factor(self, hv, jv, dx, dc):
+        """The kernel's factorization in the current order: its inertia."""
+        Lx, D, E = self._storage()
+        (hr, hc), (jr, jc) = self._structures()
+        self._values = (hv, jv, dx, dc)
+        *inertia, self._largest = self._kernel.envelope_factor(
+            Lx, self._rowptr, D, E, self._kind, self._inverse, hr, hc, hv, jr, jc, jv, dx, dc,
+            self._zero, self.zero_pivot)
+        return tuple(inertia)
+
+    def _largest_entry(self):
+        return self._largest
+
+    def solve(self, rhs, overwrite=False):
+        return self._solved(rhs, overwrite, lambda x, columns: self._kernel.envelope_solve(
+            x, self._rowptr, *self._numeric, self._kind, self._permutation, columns))
+
+    def matvec(self, x):
+        return self._multiplied(x, lambda y, v: self._kernel.structured_matvec(
+            y, v, *self._hessian_structure, self._values[0], *self._jacobian_structure,
+            *self._values[1:]))
