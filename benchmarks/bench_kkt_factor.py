@@ -1,4 +1,5 @@
-"""The interior-point method's KKT factorization (``SparseKKT``) on a pendulum swing-up.
+"""The interior-point method's KKT factorizations (``SparseKKT``, ``EnvelopeKKT``) on a
+pendulum swing-up.
 
 The NLP of the torque-driven pendulum swung to 2 rad and stopped in 3 s
 (least effort, as in ``tests/test_optimal_control.py``), free duration, with
@@ -6,12 +7,14 @@ its exact Hessian at random multipliers, at 100, 1,000 and 10,000 nodes
 (``--nodes``), trapezoid and Hermite-Simpson.  K = [[H + 1e-4 I, Jᵀ], [J, 0]].
 For each:
 
-- ``SparseKKT``'s analysis time (ordering, pattern, maps, elimination tree),
-  nnz(L) and the bytes per node of L (with D), of the maps (with K's
-  pattern and values) and of the kernel's scratch arrays;
-- its ``factor`` (the scatter of the values included) and ``solve`` (one
+- ``SparseKKT``'s and ``EnvelopeKKT``'s analysis time (ordering, pattern,
+  maps, elimination tree; the envelope), nnz(L) (the envelope's entries)
+  and the bytes per node of L (with D), of the maps (with K's pattern and
+  values; the envelope's order and the Hessian's structure) and of the
+  kernel's scratch arrays;
+- their ``factor`` (the scatter of the values included) and ``solve`` (one
   right-hand side), timed interleaved in rounds (:func:`_timing.interleaved`,
-  thread CPU time, minima);
+  thread CPU time, minima), and the envelope's times over the sparse ones;
 - SciPy's ``splu`` on the same matrix (a general sparse LU), for reference:
   SuperLU's default order (COLAMD) with threshold partial pivoting that
   prefers the diagonal (``diag_pivot_thresh=0.01``: with its default, 1.0,
@@ -54,7 +57,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import kanedyn as kd  # noqa: E402
 from _timing import interleaved  # noqa: E402
 from kanedyn.optimization._nlp import CollocationNLP  # noqa: E402
-from kanedyn.optimization.interior_point import SparseKKT  # noqa: E402
+from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT  # noqa: E402
+
+#: the two storages of L, each analysed, factored and timed
+STORAGES = {"sparse": SparseKKT, "envelope": EnvelopeKKT}
 
 
 #: SuperLU's options for the reference LU (the module's docstring)
@@ -106,20 +112,21 @@ def run(nodes, method, rounds, orders):
     nlp = pendulum_nlp(nodes, method)
     values = kkt_values(nlp)
     structures = (nlp.hessian_structure(), nlp.jacobian_structure())
-    start = time.perf_counter()
-    kkt = SparseKKT(nlp.n, nlp.m, *structures)
-    analysis_time = time.perf_counter() - start
+    kkts, analysis_time = {}, {}
+    for name, KKT in STORAGES.items():
+        start = time.perf_counter()
+        kkts[name] = KKT(nlp.n, nlp.m, *structures)
+        analysis_time[name] = time.perf_counter() - start
     K = kkt_matrix(nlp, values)
     rhs = np.random.default_rng(1).normal(size=K.shape[0])
-    inertia = kkt.factor(*values)
-    residual = np.abs(K @ kkt.solve(rhs) - rhs).max() / np.abs(rhs).max()
+    inertia = {name: kkt.factor(*values) for name, kkt in kkts.items()}
+    residual = {name: np.abs(K @ kkt.solve(rhs) - rhs).max() / np.abs(rhs).max()
+                for name, kkt in kkts.items()}
     lu = spla.splu(K, **REFERENCE)
-    contenders = {
-        "factor": lambda: kkt.factor(*values),
-        "solve": lambda: kkt.solve(rhs),
-        "splu": lambda: spla.splu(K, **REFERENCE),
-        "splu solve": lambda: lu.solve(rhs),
-    }
+    contenders = {"splu": lambda: spla.splu(K, **REFERENCE), "splu solve": lambda: lu.solve(rhs)}
+    for name, kkt in kkts.items():
+        contenders[f"factor {name}"] = lambda k=kkt: k.factor(*values)
+        contenders[f"solve {name}"] = lambda k=kkt: k.solve(rhs)
     others = {}
     if orders:
         others = {o: SparseKKT(nlp.n, nlp.m, *structures, ordering=o)
@@ -127,23 +134,30 @@ def run(nodes, method, rounds, orders):
         contenders.update({f"factor {o}": (lambda k=k: k.factor(*values))
                            for o, k in others.items()})
     timings = interleaved(contenders, rounds=rounds, min_time=0.05)
-    a = kkt.analysis
     best = {name: t.best for name, t in timings.items()}
-    print(f"{method:15s} {nodes:6d} n={a.n:6d} m={a.m:6d} dense={a.n_dense} "
-          f"nnz(K)={a.nnz_matrix:7d} nnz(L)={a.nnz_factor:8d} "
-          f"L {a.bytes_factor / nodes:6.0f} B/node, maps {a.bytes_maps / nodes:5.0f} B/node, "
-          f"scratch {a.bytes_workspace / nodes:4.0f} B/node | "
-          f"analysis {analysis_time * 1e3:7.1f} ms, factor {best['factor'] * 1e3:7.3f} ms "
-          f"({best['factor'] / best['splu']:.3f} x splu), solve {best['solve'] * 1e3:6.3f} ms "
-          f"({best['solve'] / best['splu solve']:.2f} x splu's) | splu nnz(L+U) "
-          f"{lu.L.nnz + lu.U.nnz:8d} | inertia {inertia} residual {residual:.1e}")
+    for name, kkt in kkts.items():
+        a = kkt.analysis
+        print(f"{method:15s} {nodes:6d} {name:8s} n={a.n:6d} m={a.m:6d} dense={a.n_dense} "
+              f"nnz(K)={a.nnz_matrix:7d} nnz(L)={a.nnz_factor:8d} "
+              f"L {a.bytes_factor / nodes:6.0f} B/node, maps {a.bytes_maps / nodes:5.0f} "
+              f"B/node, scratch {a.bytes_workspace / nodes:4.0f} B/node | analysis "
+              f"{analysis_time[name] * 1e3:7.1f} ms, factor {best[f'factor {name}'] * 1e3:7.3f}"
+              f" ms ({best[f'factor {name}'] / best['splu']:.3f} x splu), solve "
+              f"{best[f'solve {name}'] * 1e3:6.3f} ms "
+              f"({best[f'solve {name}'] / best['splu solve']:.2f} x splu's) | inertia "
+              f"{inertia[name]} residual {residual[name]:.1e}")
+    print(f"{'':22s} envelope / sparse: factor "
+          f"{best['factor envelope'] / best['factor sparse']:.2f}, solve "
+          f"{best['solve envelope'] / best['solve sparse']:.2f}; splu nnz(L+U) "
+          f"{lu.L.nnz + lu.U.nnz}")
     if orders:
+        a = kkts["sparse"].analysis
         rcm, mmd = (others[o].analysis.nnz_factor for o in ("rcm", "pairs-mmd"))
         print(f"{'':22s} fill: ours (pairs by RCM) {a.nnz_factor}, pairs by minimum "
               f"degree {mmd}, rows by RCM {rcm}, SuperLU's minimum degree on A'+A "
               f"{minimum_degree_fill(K)}; factor time / ours: pairs by minimum degree "
-              f"{best['factor pairs-mmd'] / best['factor']:.2f}, rows by RCM "
-              f"{best['factor rcm'] / best['factor']:.2f}")
+              f"{best['factor pairs-mmd'] / best['factor sparse']:.2f}, rows by RCM "
+              f"{best['factor rcm'] / best['factor sparse']:.2f}")
 
 
 def main():

@@ -72,12 +72,15 @@ allocate its workspace at 10^6 nodes with 3.1 GiB resident.
 size beside opty's: IPOPT (with ``--hessian``'s Hessian) and kanedyn's own
 interior-point method (``solve(solver="interior-point")``, the exact Hessian
 in these rows, ``tol = 1e-10`` as IPOPT's; ``--linear-solver`` picks its
-factorization, sparse by default, ``dense`` only for small sizes).  The
+factorization: by default the solver's own choice (``"auto"``, the
+envelope since 2026-11-30; the sparse one in the figures recorded before),
+``sparse``, ``envelope``, or ``dense`` only for small sizes).  The
 interior-point rows also print where its time went per iteration: the
 callbacks (objective, constraints, their derivatives, trial points
 included), the Hessian's values, the factorizations and solves, and the
 rest (the algorithm's own work in Python).  The scan's contenders include
-``kanedyn, interior-point``.
+``kanedyn, interior-point`` (the solver's default factorization) and ``kanedyn,
+interior-point, sparse``.
 
 Usage::
 
@@ -118,7 +121,7 @@ HESSIAN = {"kind": "limited-memory"}
 
 #: kanedyn's NLP solvers compared (``--solvers``) and the interior-point
 #: method's factorization (``--linear-solver``)
-SOLVERS = {"kanedyn": ["ipopt"], "linear_solver": "sparse"}
+SOLVERS = {"kanedyn": ["ipopt"], "linear_solver": "auto"}
 
 #: repeated solves of each built problem (``--repeat``)
 REPEAT = {"solves": 0}
@@ -392,7 +395,7 @@ CONTENDERS = {
     "opty": ("opty", {}),
     "opty, mumps_mem_percent=100": ("opty", {"mumps_mem_percent": 100}),
     "kanedyn, interior-point": ("kanedyn-ip", {}),
-    "kanedyn, interior-point, envelope": ("kanedyn-ip", {"linear_solver": "envelope"}),
+    "kanedyn, interior-point, sparse": ("kanedyn-ip", {"linear_solver": "sparse"}),
 }
 
 
@@ -475,7 +478,7 @@ def _within_budgets(rows, budgets, contenders):
             print(f"    {budget:g} GiB  {label:34s} " + " / ".join(
                 f"{run:8d} [{line:9.0f}]" if np.isfinite(line) else f"{run:8d} [  no line]"
                 for run, line in counts))
-        for ours in ("kanedyn", "kanedyn, interior-point", "kanedyn, interior-point, envelope"):
+        for ours in ("kanedyn", "kanedyn, interior-point", "kanedyn, interior-point, sparse"):
             if {ours, "opty"} <= set(contenders):
                 k, o = most[budget, ours], most[budget, "opty"]
                 ratio = [f"{a[1] / b[1]:.2f}x" if np.isfinite(a[1] / b[1]) else "n/a"
@@ -536,8 +539,8 @@ def main():
                         help="kanedyn's Hessian of the Lagrangian (opty: limited-memory)")
     parser.add_argument("--solvers", nargs="+", choices=("ipopt", "interior-point"),
                         default=["ipopt"], help="kanedyn's NLP solvers compared with opty")
-    parser.add_argument("--linear-solver", choices=("sparse", "envelope", "dense"),
-                        default="sparse",
+    parser.add_argument("--linear-solver", choices=("auto", "sparse", "envelope", "dense"),
+                        default="auto",
                         help="the interior-point solver's factorization")
     parser.add_argument("--method", choices=("backward-euler", "midpoint"),
                         default="backward-euler",

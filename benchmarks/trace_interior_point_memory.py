@@ -15,7 +15,7 @@ for a slope.  ``docs/benchmarks.md`` ("A fourth round: what the iterations
 hold") gives its figures.
 
     python benchmarks/trace_interior_point_memory.py [--nodes 100000] [--max-iter 15]
-        [--at NAME] [--lines 30] [--limited-memory] [--linear-solver envelope]
+        [--at NAME] [--lines 30] [--limited-memory] [--linear-solver sparse]
 """
 
 from __future__ import annotations
@@ -41,8 +41,8 @@ def main():
     parser.add_argument("--limited-memory", action="store_true",
                         help="the limited-memory Hessian (the solver's default) instead of "
                              "the exact one")
-    parser.add_argument("--linear-solver", default="sparse",
-                        choices=("sparse", "envelope", "dense"),
+    parser.add_argument("--linear-solver", default="auto",
+                        choices=("auto", "sparse", "envelope", "dense"),
                         help="the interior point's factorization (its option linear_solver)")
     args = parser.parse_args()
     nodes = args.nodes

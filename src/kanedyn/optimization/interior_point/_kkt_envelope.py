@@ -23,14 +23,17 @@ docstring); only the storage and the loops differ:
   reference, not copied: the caller must not change them until the next
   ``factor`` or :meth:`release` (the interior point never does; it keeps
   them to factor again).
+- **The 2 x 2 blocks' off-diagonal entries in the envelope**: the second
+  row of a pair has no entry of :math:`L` in its own block's column (the
+  sparse kernel stores a zero there); that place holds the block's entry.
 - **Scratch** of 2 doubles a row for ``factor`` (each row's largest entries
-  of K) and 1 for ``solve``, for the call's duration (the sparse kernel's is
-  5 and 1).
+  of K) and 1 bit a row for ``solve``, which permutes the right-hand side
+  in place along the order's cycles, for the call's duration (the sparse
+  kernel's is 5 doubles and 1).
 
 Held per row of K: the order and the kinds of the pivots, the envelope's
-pointers, :math:`D` and the off-diagonal entries of the 2 x 2 blocks, the
-zero pivots' flags; and the Hessian's structure (the caller keeps the
-Jacobian's).  The sums of the factorization differ in their order from the
+pointers, :math:`D`, the zero pivots' flags; and the Hessian's structure
+(the caller keeps the Jacobian's).  The sums of the factorization differ in their order from the
 sparse kernel's (dot products, not scatters): the same factors up to
 rounding.  Where the order has no band (many rows joined to distant ones)
 the envelope holds zeros that a sparse :math:`L` leaves out; the analysis
@@ -107,9 +110,9 @@ class EnvelopeKKT(SparseKKT):
         size = int(self._rowptr[-1])
         self.analysis = KKTAnalysis(
             n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
-            symbolic.nnz_matrix, size, 8 * size + self._rowptr.nbytes + 16 * N,
+            symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
             sum(a.nbytes for a in (self._permutation, self._inverse, self._kind, hr, hc)),
-            24 * N + self._zero.nbytes)
+            16 * N + N // 8 + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
@@ -127,13 +130,13 @@ class EnvelopeKKT(SparseKKT):
         return EnvelopeAnalysis(permutation, inverse, n_dense, kind, rowptr, N + distinct)
 
     def _storage(self):
-        """``(Lx, D, E)``, made when a factorization first needs them after an
+        """``(Lx, D)``, made when a factorization first needs them after an
         analysis or :meth:`release`."""
         if self._numeric is None:
             size, N = int(self._rowptr[-1]), self.size
-            if 8 * size + 16 * N >= RETURN_FREED_BYTES:
+            if 8 * (size + N) >= RETURN_FREED_BYTES:
                 _return_freed_memory()
-            self._numeric = (np.zeros(size), np.zeros(N), np.zeros(N))
+            self._numeric = (np.zeros(size), np.zeros(N))
         return self._numeric
 
     def release(self):
@@ -142,11 +145,11 @@ class EnvelopeKKT(SparseKKT):
 
     def _factor(self, hv, jv, dx, dc):
         """The kernel's factorization in the current order: its inertia."""
-        Lx, D, E = self._storage()
+        Lx, D = self._storage()
         (hr, hc), (jr, jc) = self._structures()
         self._values = (hv, jv, dx, dc)
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, E, self._kind, self._inverse, hr, hc, hv, jr, jc, jv, dx, dc,
+            Lx, self._rowptr, D, self._kind, self._inverse, hr, hc, hv, jr, jc, jv, dx, dc,
             self._zero, self.zero_pivot)
         return tuple(inertia)
 

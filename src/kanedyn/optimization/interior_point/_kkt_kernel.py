@@ -28,6 +28,26 @@ tolerance)``
 ``factor`` and ``solve`` allocate their scratch (5 N and N doubles) for the
 call, so that it is not held between factorizations (40 and 8 bytes a row of K);
 ``zero`` is the caller's, allocated once with the factor.
+
+The envelope storage of :class:`~._kkt_envelope.EnvelopeKKT` (L by rows,
+every column from a row's first entry, values only):
+
+``envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
+jacobian_cols, n)``
+    the envelope's row pointers (int32) of K's lower triangle in the order
+    (``inverse``: the place of each row of K); returns the envelope's size
+    and K's distinct entries off the diagonal.
+``envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
+hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
+diagonal_c, zero, tolerance)``
+    the values summed into the envelope (as ``factor`` sums them) and
+    factored in place, the pivots judged as ``factor`` judges them; returns
+    ``(n_positive, n_negative, n_zero, largest)``.
+``envelope_solve(x, rowptr, Lx, D, pair, permutation, k)``
+    ``solve`` with those factors, the right-hand sides permuted in place.
+``structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
+jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c)``
+    ``y = K x`` from the structures and values (K's own order).
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
 ``invalid(a_0, ..., a_k, nonnegative)``
@@ -250,6 +270,28 @@ static int kd_block(double *a, double *e, double *d, double tolerance, double sc
     return big_zero ? 2 : 1;
 }
 
+/* Envelope (profile) storage of L in the elimination order: row k holds its
+   columns first_k .. k - 1 at Lx[rowptr[k] ...] (column j at rowptr[k + 1] -
+   (k - j)), first_k = k - (rowptr[k + 1] - rowptr[k]); no row indices.  No
+   pivoting keeps L's entries in K's envelope (the columns left of row k's
+   first entry of K stay zero); a 2 x 2 pivot's rows are one column of the
+   envelope's rows, so a row whose first entry is a pair's second column
+   starts at the pair's first.  L of a pair's second row k has no entry in
+   column k - 1 (its own block): that place holds the block's off-diagonal
+   entry (KD_SLOT of k - 1), and the row's entries of L are its first
+   KD_WIDTH. */
+#define KD_FIRST(rowptr, k) ((int64_t)(k) - ((int64_t)(rowptr)[(k) + 1] - (rowptr)[k]))
+
+/* the place in Lx of the entry (i, j) of the permuted K, i != j */
+#define KD_PLACE(rowptr, i, j) ((i) > (j) ? (int64_t)(rowptr)[(i) + 1] - ((i) - (j)) \
+                                          : (int64_t)(rowptr)[(j) + 1] - ((j) - (i)))
+
+/* the place of the off-diagonal entry of the 2 x 2 block of rows j, j + 1 */
+#define KD_SLOT(rowptr, j) ((int64_t)(rowptr)[(j) + 2] - 1)
+
+/* how many of row k's places, from its first, hold entries of L */
+#define KD_WIDTH(rowptr, pair, k) ((int64_t)(rowptr)[(k) + 1] - (rowptr)[k] - ((pair)[k] == 2))
+
 /* the pivots of a factorization so far: their counts by sign, the scale of the
    first row of the current 2 x 2 pivot, and the threshold and K's largest
    magnitude (1 for an empty K) that judge them */
@@ -259,14 +301,15 @@ typedef struct {
 } kd_pivots;
 
 /* pivot k, d = K(k, k) - l . w summed from terms of total magnitude `terms`:
-   D[k] set (a zero one replaced), zero[k] (both rows of a 2 x 2 block) set to
-   1 or 0, counted.  A zero pivot: small beside the terms it was summed from
+   D[k] set (a zero one replaced; for a pair's second row, with D[k - 1] and
+   the block's off-diagonal entry *e), zero[k] (both rows of a 2 x 2 block)
+   set to 1 or 0, counted.  A zero pivot: small beside the terms it was summed from
    (cancelled), or beside the square of the largest entry of its row of K off
    the diagonal over the largest of K (the rows below would grow by that over
    |d|; by more than 1 / tolerance, or 1 / sqrt(tolerance) for a variable's),
    or not finite */
 static void kd_judge(kd_pivots *p, Py_ssize_t k, double d, double terms,
-                     const int8_t *pair, double *D, double *E, const double *rowmax,
+                     const int8_t *pair, double *D, double *e, const double *rowmax,
                      const double *offmax, int8_t *zero) {
     double scale = terms > rowmax[k] ? terms : rowmax[k], largest = p->largest;
     D[k] = d;
@@ -275,7 +318,7 @@ static void kd_judge(kd_pivots *p, Py_ssize_t k, double d, double terms,
         p->first_scale = scale;
     } else if (pair[k] == 2) {
         double off = offmax[k] > offmax[k - 1] ? offmax[k] : offmax[k - 1];
-        if (kd_block(&D[k - 1], &E[k - 1], &D[k], p->tolerance,
+        if (kd_block(&D[k - 1], e, &D[k], p->tolerance,
                      scale > p->first_scale ? scale : p->first_scale, off * off / largest,
                      largest, &p->n_positive, &p->n_negative, &p->n_zero))
             zero[k - 1] = zero[k] = 1;
@@ -293,12 +336,14 @@ static void kd_judge(kd_pivots *p, Py_ssize_t k, double d, double terms,
     }
 }
 
-/* D y = z in place, blockwise */
-static void kd_divide(double *w, const double *D, const double *E, const int8_t *pair,
-                      Py_ssize_t N) {
+/* D y = z in place, blockwise: the 2 x 2 blocks' off-diagonal entries in E,
+   or (E NULL) in the envelope's slots */
+static void kd_divide(double *w, const double *D, const double *E, const double *Lx,
+                      const int32_t *rowptr, const int8_t *pair, Py_ssize_t N) {
     for (Py_ssize_t j = 0; j < N; j++) {
         if (pair[j] == 1) {
-            double a = D[j], e = E[j], b = D[j + 1], det = a * b - e * e;
+            double e = E != NULL ? E[j] : Lx[KD_SLOT(rowptr, j)];
+            double a = D[j], b = D[j + 1], det = a * b - e * e;
             double w0 = w[j], w1 = w[j + 1];
             w[j] = (b * w0 - e * w1) / det;
             w[j + 1] = (a * w1 - e * w0) / det;
@@ -434,7 +479,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                 filled[i]++;
             }
         }
-        kd_judge(&pivots, k, d, terms, pair, D, E, rowmax, offmax, zero);
+        kd_judge(&pivots, k, d, terms, pair, D, E + (k > 0 ? k - 1 : 0), rowmax, offmax,
+                 zero);
     }
     Py_END_ALLOW_THREADS
     free(work);
@@ -479,7 +525,7 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) w[Li[p]] -= Lx[p] * wj;
         }
-        kd_divide(w, D, E, pair, N);  /* D y = z */
+        kd_divide(w, D, E, NULL, NULL, pair, N);  /* D y = z */
         for (Py_ssize_t j = N - 1; j >= 0; j--) {  /* L^T x = y */
             double wj = w[j];
             for (int64_t p = Lp[j]; p < Lp[j + 1]; p++) wj -= Lx[p] * w[Li[p]];
@@ -947,18 +993,6 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
 }
 
 /* ---------------------------------------------------------------- envelope */
-/* Envelope (profile) storage of L in the elimination order: row k holds its
-   columns first_k .. k - 1 at Lx[rowptr[k] ...] (column j at rowptr[k + 1] -
-   (k - j)), first_k = k - (rowptr[k + 1] - rowptr[k]); no row indices.  No
-   pivoting keeps L's entries in K's envelope (the columns left of row k's
-   first entry of K stay zero); a 2 x 2 pivot's rows are one column of the
-   envelope's rows, so a row whose first entry is a pair's second column
-   starts at the pair's first. */
-#define KD_FIRST(rowptr, k) ((int64_t)(k) - ((int64_t)(rowptr)[(k) + 1] - (rowptr)[k]))
-
-/* the place in Lx of the entry (i, j) of the permuted K, i != j */
-#define KD_PLACE(rowptr, i, j) ((i) > (j) ? (int64_t)(rowptr)[(i) + 1] - ((i) - (j)) \
-                                          : (int64_t)(rowptr)[(j) + 1] - ((j) - (i)))
 
 /* envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
    jacobian_cols, n): the envelope of the permuted K's lower triangle
@@ -1033,7 +1067,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     return Py_BuildValue("LL", (long long)total, (long long)distinct);
 }
 
-/* envelope_factor(Lx, rowptr, D, E, pair, inverse, hessian_rows, hessian_cols,
+/* envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
    hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
    diagonal_c, zero, tolerance): the values summed into the envelope (as
    factor sums them into Ax: the Hessian's, the Jacobian's, diagonal_x, minus
@@ -1041,8 +1075,8 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
    by a dot product per column, then row k of L is D^-1 w (blockwise) and
    d_k = K(k, k) - (row k of L) w; the pivots judged as factor judges them.
    Returns (n_positive, n_negative, n_zero, K's largest magnitude) */
-enum {V_LX, V_ROWPTR, V_D, V_E, V_PAIR, V_INV, V_HR, V_HC, V_HV, V_JR, V_JC, V_JV, V_DX,
-      V_DC, V_ZERO, V_COUNT};
+enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HR, V_HC, V_HV, V_JR, V_JC, V_JV, V_DX, V_DC,
+      V_ZERO, V_COUNT};
 
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 1) {
@@ -1051,15 +1085,15 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 8, 1, 4, 4, 4, 8, 4, 4, 8, 8, 8, 1};
-    static const int writable[V_COUNT] = {1, 0, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 4, 4, 8, 4, 4, 8, 8, 8, 1};
+    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
     static const char *const names[V_COUNT] = {
-        "Lx", "rowptr", "D", "E", "pair", "inverse", "hessian rows", "hessian cols",
+        "Lx", "rowptr", "D", "pair", "inverse", "hessian rows", "hessian cols",
         "hessian_values", "jacobian rows", "jacobian cols", "jacobian_values", "diagonal_x",
         "diagonal_c", "zero"};
     Py_buffer v[V_COUNT];
     if (kd_views(args, V_COUNT, v, size, writable, names) < 0) return NULL;
-    double *Lx = v[V_LX].buf, *D = v[V_D].buf, *E = v[V_E].buf;
+    double *Lx = v[V_LX].buf, *D = v[V_D].buf;
     const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
     const int32_t *hr = v[V_HR].buf, *hc = v[V_HC].buf, *jr = v[V_JR].buf, *jc = v[V_JC].buf;
     const int8_t *pair = v[V_PAIR].buf;
@@ -1067,7 +1101,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     int8_t *zero = v[V_ZERO].buf;
     Py_ssize_t N = KD_COUNT(v[V_D]), nh = KD_COUNT(v[V_HV]), nj = KD_COUNT(v[V_JV]);
     Py_ssize_t nx = KD_COUNT(v[V_DX]), nc = KD_COUNT(v[V_DC]);
-    if (nx + nc != N || KD_COUNT(v[V_E]) != N || KD_COUNT(v[V_PAIR]) != N
+    if (nx + nc != N || KD_COUNT(v[V_PAIR]) != N
         || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
         || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_HR]) != nh || KD_COUNT(v[V_HC]) != nh
         || KD_COUNT(v[V_JR]) != nj || KD_COUNT(v[V_JC]) != nj
@@ -1087,7 +1121,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     kd_pivots pivots = {tolerance, 1.0, 0.0, 0, 0, 0};
     Py_BEGIN_ALLOW_THREADS
     memset(Lx, 0, sizeof(double) * (size_t)(N ? rowptr[N] : 0));
-    for (Py_ssize_t k = 0; k < N; k++) D[k] = E[k] = 0.0;
+    for (Py_ssize_t k = 0; k < N; k++) D[k] = 0.0;
     for (Py_ssize_t e = 0; e < nh; e++) {
         int32_t a = inv[hr[e]], b = inv[hc[e]];
         if (a == b) D[a] += hv[e];
@@ -1128,7 +1162,9 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
             int64_t j = f + t, fj = KD_FIRST(rowptr, j), s = fj > f ? fj : f;
             const double *Rj = Lx + rowptr[j] + (s - fj), *ws = R + (s - f);
             double sum = R[t];
-            for (int64_t q = 0, count = j - s; q < count; q++) sum -= Rj[q] * ws[q];
+            /* row j's entries of L from column s (not its block's slot) */
+            int64_t count = fj + KD_WIDTH(rowptr, pair, j) - s;
+            for (int64_t q = 0; q < count; q++) sum -= Rj[q] * ws[q];
             R[t] = sum;
         }
         /* row k of L = D^-1 w, blockwise; the pivot d = K(k, k) - l . w */
@@ -1137,13 +1173,9 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
             int64_t j = f + t;
             double wj = R[t];
             if (pair[j] == 1) {
-                if (j == k - 1) {  /* k's own partner: the block's off-diagonal entry */
-                    E[j] = wj;
-                    R[t] = 0.0;
-                    continue;
-                }
+                if (j == k - 1) continue;  /* k's own partner: w_j is the block's entry */
                 /* [l_j, l_{j+1}] = B^-1 [w_j, w_{j+1}] */
-                double w1 = R[t + 1], a = D[j], e = E[j], b = D[j + 1];
+                double w1 = R[t + 1], a = D[j], e = Lx[KD_SLOT(rowptr, j)], b = D[j + 1];
                 double det = a * b - e * e;
                 double l0 = (b * wj - e * w1) / det, l1 = (a * w1 - e * wj) / det;
                 d -= l0 * wj + l1 * w1;
@@ -1157,7 +1189,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
                 R[t] = l;
             }
         }
-        kd_judge(&pivots, k, d, terms, pair, D, E, rowmax, offmax, zero);
+        kd_judge(&pivots, k, d, terms, pair, D, R + width - 1, rowmax, offmax, zero);
     }
     Py_END_ALLOW_THREADS
     free(rowmax);
@@ -1166,61 +1198,85 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
                          largest);
 }
 
-/* envelope_solve(x, rowptr, Lx, D, E, pair, permutation, k): solve's solution
-   of the k right-hand sides in x with envelope factors */
+/* x[k] = x[perm[k]] for every k (forward), or x[perm[k]] = x[k] (not), in
+   place along the permutation's cycles; `seen`: N bits of scratch */
+static void kd_permute(double *x, const int32_t *perm, Py_ssize_t N, uint8_t *seen,
+                       int forward) {
+    memset(seen, 0, (size_t)(N + 7) / 8);
+    for (Py_ssize_t start = 0; start < N; start++) {
+        if (seen[start >> 3] & (1 << (start & 7))) continue;
+        double carried = x[start];
+        for (Py_ssize_t k = start;;) {
+            Py_ssize_t j = perm[k];
+            if (forward) {  /* x[k] from x[j], the start's value last */
+                seen[k >> 3] |= (uint8_t)(1 << (k & 7));
+                x[k] = j == start ? carried : x[j];
+            } else {  /* x[j] takes x[k]'s value, carried */
+                seen[j >> 3] |= (uint8_t)(1 << (j & 7));
+                double next = x[j];
+                x[j] = carried;
+                carried = next;
+            }
+            if (j == start) break;
+            k = j;
+        }
+    }
+}
+
+/* envelope_solve(x, rowptr, Lx, D, pair, permutation, k): solve's solution
+   of the k right-hand sides in x with envelope factors, in x's storage */
 static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 8) {
-        PyErr_SetString(PyExc_TypeError, "8 arguments expected");
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 7) {
+        PyErr_SetString(PyExc_TypeError, "7 arguments expected");
         return NULL;
     }
-    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 7));
+    Py_ssize_t columns = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 6));
     if (columns == -1 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[7] = {8, 4, 8, 8, 8, 1, 4};
-    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
-    static const char *const names[7] = {"rhs", "rowptr", "Lx", "D", "E", "pair",
-                                         "permutation"};
-    Py_buffer v[7];
-    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    static const Py_ssize_t size[6] = {8, 4, 8, 8, 1, 4};
+    static const int writable[6] = {1, 0, 0, 0, 0, 0};
+    static const char *const names[6] = {"rhs", "rowptr", "Lx", "D", "pair", "permutation"};
+    Py_buffer v[6];
+    if (kd_views(args, 6, v, size, writable, names) < 0) return NULL;
     double *X = v[0].buf;
-    const int32_t *rowptr = v[1].buf, *perm = v[6].buf;
-    const double *Lx = v[2].buf, *D = v[3].buf, *E = v[4].buf;
-    const int8_t *pair = v[5].buf;
+    const int32_t *rowptr = v[1].buf, *perm = v[5].buf;
+    const double *Lx = v[2].buf, *D = v[3].buf;
+    const int8_t *pair = v[4].buf;
     Py_ssize_t N = KD_COUNT(v[3]);
     if (columns < 0 || KD_COUNT(v[0]) != columns * N || KD_COUNT(v[1]) != N + 1
         || KD_COUNT(v[2]) != (N ? rowptr[N] : 0) || KD_COUNT(v[4]) != N
-        || KD_COUNT(v[5]) != N || KD_COUNT(v[6]) != N) {
-        kd_release(v, 7);
+        || KD_COUNT(v[5]) != N) {
+        kd_release(v, 6);
         PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
         return NULL;
     }
-    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));  /* for this call */
-    if (w == NULL) {
-        kd_release(v, 7);
+    uint8_t *seen = malloc((size_t)(N + 7) / 8 + 1);  /* for this call */
+    if (seen == NULL) {
+        kd_release(v, 6);
         return PyErr_NoMemory();
     }
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t c = 0; c < columns; c++) {
-        double *x = X + c * N;
-        for (Py_ssize_t k = 0; k < N; k++) w[k] = x[perm[k]];
+        double *w = X + c * N;
+        kd_permute(w, perm, N, seen, 1);
         for (Py_ssize_t k = 0; k < N; k++) {  /* L z = b, row by row */
-            int64_t f = KD_FIRST(rowptr, k);
+            int64_t f = KD_FIRST(rowptr, k), width = KD_WIDTH(rowptr, pair, k);
             const double *R = Lx + rowptr[k];
             double sum = w[k];
-            for (int64_t t = 0, width = k - f; t < width; t++) sum -= R[t] * w[f + t];
+            for (int64_t t = 0; t < width; t++) sum -= R[t] * w[f + t];
             w[k] = sum;
         }
-        kd_divide(w, D, E, pair, N);  /* D y = z */
+        kd_divide(w, D, NULL, Lx, rowptr, pair, N);  /* D y = z */
         for (Py_ssize_t k = N - 1; k >= 0; k--) {  /* L^T x = y, row k's part at once */
-            int64_t f = KD_FIRST(rowptr, k);
+            int64_t f = KD_FIRST(rowptr, k), width = KD_WIDTH(rowptr, pair, k);
             const double *R = Lx + rowptr[k];
             double wk = w[k];
-            for (int64_t t = 0, width = k - f; t < width; t++) w[f + t] -= R[t] * wk;
+            for (int64_t t = 0; t < width; t++) w[f + t] -= R[t] * wk;
         }
-        for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
+        kd_permute(w, perm, N, seen, 0);
     }
     Py_END_ALLOW_THREADS
-    free(w);
-    kd_release(v, 7);
+    free(seen);
+    kd_release(v, 6);
     Py_RETURN_NONE;
 }
 
