@@ -27,9 +27,8 @@ docstring); only the storage and the loops differ:
   row of a pair has no entry of :math:`L` in its own block's column (the
   sparse kernel stores a zero there); that place holds the block's entry.
 - **Scratch** of 2 doubles a row for ``factor`` (each row's largest entries
-  of K) and 1 bit a row for ``solve``, which permutes the right-hand side
-  in place along the order's cycles, for the call's duration (the sparse
-  kernel's is 5 doubles and 1).
+  of K) and 1 for ``solve``, for the call's duration (the sparse kernel's
+  is 5 and 1).
 
 Held per row of K: the order and the kinds of the pivots, the envelope's
 pointers, :math:`D`, the zero pivots' flags; and the Hessian's structure
@@ -112,7 +111,7 @@ class EnvelopeKKT(SparseKKT):
             n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
             symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
             sum(a.nbytes for a in (self._permutation, self._inverse, self._kind, hr, hc)),
-            16 * N + N // 8 + self._zero.nbytes)
+            24 * N + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
