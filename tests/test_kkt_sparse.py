@@ -731,17 +731,18 @@ def test_release_drops_the_factors_until_the_next_factor(KKT):
     assert np.array_equal(kkt.matvec(rhs), product)
 
 
-def test_large_storage_is_made_after_the_freed_memory_is_handed_back(monkeypatch):
+@BOTH
+def test_large_storage_is_made_after_the_freed_memory_is_handed_back(monkeypatch, KKT):
     """Numeric storage of at least ``RETURN_FREED_BYTES`` is made after the
     process's freed heap memory is handed back (once per storage made: not
     again for a factorization that reuses it); smaller storage is not."""
     from kanedyn.optimization.interior_point import _kkt_sparse
     calls = []
     monkeypatch.setattr(_kkt_sparse, "_malloc_trim", lambda: lambda pad: calls.append(pad))
-    kkt, rng = _factored(4)
+    kkt, rng = _factored(4, KKT=KKT)
     assert calls == []  # a few KB: below the threshold
     monkeypatch.setattr(_kkt_sparse, "RETURN_FREED_BYTES", 0)
-    values = (rng.normal(size=kkt._hessian_map.size), rng.normal(size=kkt._jacobian_map.size),
+    values = (rng.normal(size=kkt._entries[0]), rng.normal(size=kkt._entries[1]),
               np.full(kkt.n, 2.0), np.full(kkt.m, 0.5))
     kkt.factor(*values)  # the storage of the first factor reused
     assert calls == []

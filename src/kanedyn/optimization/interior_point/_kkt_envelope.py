@@ -30,13 +30,21 @@ docstring); only the storage and the loops differ:
   of K) and 1 for ``solve``, for the call's duration (the sparse kernel's
   is 5 and 1).
 
-Held per row of K: the order and the kinds of the pivots, the envelope's
-pointers, :math:`D`, the zero pivots' flags; and the Hessian's structure
-(the caller keeps the Jacobian's).  The sums of the factorization differ in their order from the
-sparse kernel's (dot products, not scatters): the same factors up to
-rounding.  Where the order has no band (many rows joined to distant ones)
-the envelope holds zeros that a sparse :math:`L` leaves out; the analysis
-reports both sizes (``analysis.nnz_factor`` is the envelope's).
+Held per row of K: the order, its inverse and the kinds of the pivots, the
+envelope's pointers, :math:`D`, the zero pivots' flags; and the Hessian's
+structure (the caller keeps the Jacobian's).  The sums of the
+factorization differ in their order from the sparse kernel's (dot
+products, not scatters): the same factors up to rounding.  Where the order
+has no band (many rows joined to distant ones) the envelope holds zeros
+that a sparse :math:`L` leaves out: on every matrix that the interior
+point's tests factor it held 1.00 to 1.24 times the sparse L's entries
+(``docs/benchmarks.md``).
+
+:attr:`~._kkt_sparse.SparseKKT.analysis` counts, for this storage:
+``nnz_factor`` the envelope's entries; ``bytes_factor`` L's values, the
+row pointers and D; ``bytes_maps`` the order, its inverse, the kinds and
+the Hessian's structure; ``bytes_workspace`` the scratch (24 bytes a row)
+and the zero pivots' flags.
 """
 
 from __future__ import annotations
@@ -45,9 +53,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from . import _kkt_sparse
 from ._kkt_analyses import cached_analysis
-from ._kkt_sparse import (_INDEX, _LIMIT, RETURN_FREED_BYTES, KKTAnalysis, SparseKKT,
-                          _return_freed_memory)
+from ._kkt_sparse import _INDEX, _LIMIT, KKTAnalysis, SparseKKT
 
 __all__ = ["EnvelopeKKT", "EnvelopeAnalysis"]
 
@@ -133,12 +141,14 @@ class EnvelopeKKT(SparseKKT):
         analysis or :meth:`release`."""
         if self._numeric is None:
             size, N = int(self._rowptr[-1]), self.size
-            if 8 * (size + N) >= RETURN_FREED_BYTES:
-                _return_freed_memory()
+            if 8 * (size + N) >= _kkt_sparse.RETURN_FREED_BYTES:
+                _kkt_sparse._return_freed_memory()
             self._numeric = (np.zeros(size), np.zeros(N))
         return self._numeric
 
     def release(self):
+        """:meth:`~._kkt_sparse.SparseKKT.release`, and the values ``factor``
+        was given let go."""
         super().release()
         self._values = None
 
