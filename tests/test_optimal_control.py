@@ -782,6 +782,26 @@ def test_an_unsolved_run_names_what_is_violated_and_an_unbounded_objective(integ
     assert "unbounded" not in result.message
 
 
+def test_a_status_advice_gives_way_to_the_unbounded_hint():
+    """The interior point's advice after a failed restoration phase (another
+    guess, or IPOPT) is in the message, but not beside the hint that the
+    problem may be unbounded below, which another solver or guess would not
+    change: there the hint's own advice stands alone."""
+    from kanedyn.optimization._result import status_text
+    from kanedyn.optimization._solvers import NLPSolution
+    from kanedyn.optimization.interior_point._status import ADVICE, STATUS
+    solution = NLPSolution(x=np.zeros(2), objective=-1e9, status=-2, status_text=STATUS[-2],
+                           iterations=7, wall_time=0.1, multipliers={},
+                           solver="interior-point", hessian="exact", advice=ADVICE[-2])
+    plain = status_text(solution, None, 1e-3)
+    assert plain.startswith(f"interior-point (exact Hessian): {STATUS[-2]} "
+                            f"(try another initial guess, or solver='ipopt') (status -2)")
+    hint = "the objective fell to -1e+09 from -1: the problem may be unbounded below (bound x)"
+    hinted = status_text(solution, None, 1e-3, hint=hint)
+    assert "solver='ipopt'" not in hinted and hinted.endswith(hint)
+    assert hinted.startswith(f"interior-point (exact Hessian): {STATUS[-2]} (status -2)")
+
+
 def test_the_most_violated_row_is_named_in_the_problems_terms(integrator):
     """The rows and bounds named at a chosen vector: a defect, a path
     constraint at a node, an instance constraint, a bound; the largest wins."""

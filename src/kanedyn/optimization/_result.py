@@ -345,16 +345,21 @@ def write_csv(path, columns, rows):
 
 
 def status_text(solution, interrupted, violation, worst=None, hint=None):
-    """The result's message: the solver's status and its meaning, an
-    interruption, the largest violation (``worst``: what is violated most,
-    :func:`._diagnosis.worst_violation`'s text) and ``hint`` (e.g. that the
-    problem may be unbounded below, :func:`._diagnosis.unbounded_hint`)."""
+    """The result's message: the solver's status and its meaning, its advice
+    (:attr:`._solvers.NLPSolution.advice`, left out with a ``hint``, which
+    advises itself), an interruption, the largest violation (``worst``: what
+    is violated most, :func:`._diagnosis.worst_violation`'s text) and
+    ``hint`` (e.g. that the problem may be unbounded below,
+    :func:`._diagnosis.unbounded_hint`)."""
     from .._signals import interruption
     meaning = IPOPT_STATUS.get(solution.status, "") if solution.solver == "ipopt" else ""
     solver = solution.solver
     if solution.hessian:
         solver += f" ({solution.hessian} Hessian)"
-    text = f"{solver}: {solution.status_text} (status {solution.status}"
+    text = f"{solver}: {solution.status_text}"
+    if solution.advice and not hint:
+        text += f" ({solution.advice})"
+    text += f" (status {solution.status}"
     text += f": {meaning})" if meaning else ")"
     if interrupted is not None:
         text = (f"{interruption(interrupted)} at iteration {solution.iterations}: the last "

@@ -83,6 +83,10 @@ class NLPSolution:
     hessian : str or None
         The Hessian of the Lagrangian the solver used: ``"exact"`` or
         ``"limited-memory"`` (``None``: a solver that does not say).
+    advice : str or None
+        What the solver suggests to try after this status (``None``: nothing
+        of its own); a result's message gives it unless its diagnosis says
+        more (:func:`._result.status_text`).
     """
 
     x: np.ndarray
@@ -94,6 +98,7 @@ class NLPSolution:
     multipliers: dict
     solver: str
     hessian: str | None = None
+    advice: str | None = None
 
 
 class Ipopt:

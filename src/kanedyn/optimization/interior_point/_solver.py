@@ -66,7 +66,7 @@ from ._quasi_newton import LimitedMemoryBFGS
 from ._reduced import ReducedNLP
 from ._restoration import Restoration
 from ._start import least_squares_multipliers, primal_start, warm_multipliers
-from ._status import STATUS
+from ._status import ADVICE, STATUS
 from ._step import StepSolver
 
 __all__ = ["InteriorPoint", "kkt_class"]
@@ -260,6 +260,7 @@ class _Run:
         self.timings["total"] = time.perf_counter() - self.start_wall
         return NLPSolution(
             x=x_full, objective=float(objective), status=status, status_text=STATUS[status],
+            advice=ADVICE.get(status),
             iterations=self.iteration, wall_time=self.timings["total"],
             multipliers=multipliers, solver=InteriorPoint.name,
             hessian=self.s.hessian_approximation)
