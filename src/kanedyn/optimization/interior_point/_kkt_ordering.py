@@ -60,9 +60,9 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
   ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
   739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 /
-  549,951; 47,275 / 473,385.  In the NLP's own order (the band not found) L had 3.96 times the entries it has
-  with the pairs at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks
-  more than 3);
+  549,951; 47,275 / 473,385.  In the NLP's own order (the band not found)
+  L had 3.96 times the entries it has with the pairs at 41 trapezoid nodes
+  (``tests/test_kkt_sparse.py`` checks more than 3);
 - ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
   with the pairs by minimum degree (100 to 10,000 nodes, both methods,
   three runs):
@@ -209,9 +209,9 @@ def _sweeps_backward(order, node, n, block, jr, jc):
     as the Riccati recursion does, and the pivots stay bounded; the other way
     is forward shooting, and the constraint rows' pivots grow like the
     dynamics' unstable modes (the pendulum near upright: doubling at each
-    interval, to 2e13 beside entries of 21).  ``node``: the node of each row of K (-1 for the rows left
-    out); ``block``: the row each row is paired into (itself when
-    unpaired)."""
+    interval, to 2e13 beside entries of 21).  ``node``: the node of each row
+    of K (-1 for the rows left out); ``block``: the row each row is paired
+    into (itself when unpaired)."""
     rows = n + jr
     partner = block[rows]
     use = (partner != rows) & (jc != partner) & (node[rows] >= 0) & (node[jc] >= 0)

@@ -583,6 +583,7 @@ class SparseKKT:
         has_diagonal[hr[on]] = True
         has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
         # first the pairs made again; then what still fails, delayed to the end
+        found = inertia
         for delay in (False, True):
             if delay:
                 if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:

@@ -56,7 +56,7 @@ import time
 
 import numpy as np
 
-from ..._errors import ModelError, OptionError
+from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from ._kkt_low_rank import LowRankKKT
