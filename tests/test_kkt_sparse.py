@@ -383,10 +383,90 @@ def test_the_envelope_holds_the_band_in_less_memory():
     assert held[1] < 0.6 * held[0]
     dx = np.full(n, 10.0)
     assert sparse.factor(hv, jv, dx, np.zeros(m)) == envelope.factor(hv, jv, dx, np.zeros(m))
+    assert b.bytes_factor == sum(x.nbytes for x in envelope._numeric + (envelope._rowptr,))
     rhs = rng.normal(size=n + m)
     expected = sparse.solve(rhs)
     np.testing.assert_allclose(envelope.solve(rhs), expected, rtol=0,
                                atol=1e-12 * np.abs(expected).max())
+
+
+def _random_case(seed):
+    """A small random KKT with what makes new orders: dense rows, zero
+    diagonals or Jacobian values, tiny or negative diagonals, any order."""
+    rng = np.random.default_rng(seed)
+    n = int(rng.integers(2, 25))
+    m = int(rng.integers(0, min(n, 15) + 1))
+    hr, hc, jr, jc = _random_kkt(rng, n, max(m, 1), per_row=int(rng.integers(1, 4)))
+    if not m:
+        jr = jc = np.zeros(0, int)
+    if rng.random() < 0.3:  # a dense Hessian row
+        hr = np.concatenate([hr, np.full(n - 1, n - 1)])
+        hc = np.concatenate([hc, np.arange(n - 1)])
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    mode = rng.integers(0, 3)
+    if mode == 1:
+        hv[hr == hc] = 0.0
+    elif mode == 2:
+        jv[rng.random(jv.size) < 0.3] = 0.0
+    dx = rng.choice([0.0, 1.0, -1.0, 1e-20], n) * rng.uniform(0.5, 2.0, n)
+    dc = rng.choice([0.0, 1e-3, 1.0], m)
+    ordering = ("pairs", "rcm", "pairs-mmd")[int(rng.integers(0, 3))]
+    return n, m, (hr, hc), (jr, jc), (hv, jv, dx, dc), ordering, rng
+
+
+def test_the_envelope_makes_the_sparse_factorizations_decisions():
+    """On 150 random KKTs, many singular or made so by the order (zero
+    diagonals and Jacobian values, dense rows, all three orders): the
+    envelope storage reports the sparse one's inertia, new analyses,
+    delayed rows and final order, K's own product, and the same solution
+    where no pivot was zero (to 1e-8 of its size: the sums' order differs)."""
+    counts = {"reanalysed": 0, "delayed": 0, "zero": 0}
+    for seed in range(150):
+        n, m, hessian, jacobian, values, ordering, rng = _random_case(seed)
+        sparse, envelope = (KKT(n, m, hessian, jacobian, ordering=ordering)
+                            for KKT in (SparseKKT, EnvelopeKKT))
+        inertia = sparse.factor(*values)
+        assert envelope.factor(*values) == inertia, seed
+        assert envelope.reanalyses == sparse.reanalyses, seed
+        assert envelope.analysis.n_delayed == sparse.analysis.n_delayed, seed
+        assert np.array_equal(envelope.analysis.permutation, sparse.analysis.permutation)
+        rhs = rng.normal(size=n + m)
+        K = _dense(n, m, hessian + values[:1], jacobian + values[1:2], *values[2:])
+        np.testing.assert_allclose(envelope.matvec(rhs), K @ rhs, rtol=1e-13,
+                                   atol=1e-13 * np.abs(K).max())
+        x, expected = envelope.solve(rhs), sparse.solve(rhs)
+        assert np.isfinite(x).all()
+        if not inertia[2]:
+            assert np.linalg.norm(x - expected) <= 1e-8 * np.linalg.norm(expected), seed
+        counts["reanalysed"] += sparse.reanalyses > 0
+        counts["delayed"] += sparse.analysis.n_delayed > 0
+        counts["zero"] += inertia[2] > 0
+    assert min(counts.values()) >= 10, counts  # the cases this test is for
+
+
+def test_the_envelope_keeps_structures_that_cannot_change():
+    """The envelope indexes its storage by the structures at every call, so
+    it keeps them read-only: a caller's writeable arrays are copied (changing
+    them afterwards changes nothing), read-only int32 ones, as the interior
+    point's reduced NLP makes them, are kept as they are (no copy)."""
+    n = 6
+    hr, hc = np.arange(n, dtype=np.int32), np.arange(n, dtype=np.int32)
+    none = np.zeros(0, np.int32)
+    kkt = EnvelopeKKT(n, 0, (hr, hc), (none, none))
+    assert kkt.analysis.nnz_factor == 0  # a diagonal H: an empty envelope
+    hr[0] = 5  # the caller reuses its array: (5, 0) would lie outside the envelope
+    assert kkt.factor(np.ones(n), np.zeros(0), np.full(n, 2.0), np.zeros(0)) == (n, 0, 0)
+    np.testing.assert_array_equal(kkt.matvec(np.ones(n)), np.full(n, 3.0))
+    kept = kkt._hessian_structure
+    assert kept[0] is not hr and not any(a.flags.writeable for a in kept)
+    nlp = _pendulum_nlp("trapezoid", False, nodes=5)
+    from kanedyn.optimization.interior_point._reduced import ReducedNLP
+    from kanedyn.optimization.interior_point._options import settings
+    reduced = ReducedNLP(nlp, np.zeros(nlp.n), settings({}), exact_hessian=True)
+    hessian, jacobian = reduced.hessian_structure(), reduced.jacobian_structure
+    kkt = EnvelopeKKT(reduced.n, reduced.m, hessian, jacobian)
+    assert all(kept is given for ours, theirs in zip(kkt._structures(), (hessian, jacobian))
+               for kept, given in zip(ours, theirs))
 
 
 @pytest.mark.parametrize("shape, size", [((7, 5), 30), ((5, 7), 30), ((6, 0), 0),
@@ -619,8 +699,9 @@ def test_many_zero_pivots_are_not_delayed(KKT):
     assert kkt.analysis.n_delayed == 0
 
 
-def test_an_analysis_is_kept_for_the_same_structure():
-    """A second ``SparseKKT`` of the same structure takes the first one's
+@BOTH
+def test_an_analysis_is_kept_for_the_same_structure(KKT):
+    """A second ``KKT`` of the same structure takes the first one's
     analysis (the same read-only arrays, ``_kkt_analyses``), also the one
     after a zero pivot's new order, and factors to the same numbers; a
     different structure makes its own."""
@@ -630,7 +711,7 @@ def test_an_analysis_is_kept_for_the_same_structure():
     hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
     dx, dc = np.zeros(n), np.zeros(m)
     hv[hr == hc] = 0.0  # zero diagonals: zero pivots, two analyses again
-    first, second = SparseKKT(n, m, (hr, hc), (jr, jc)), SparseKKT(n, m, (hr, hc), (jr, jc))
+    first, second = KKT(n, m, (hr, hc), (jr, jc)), KKT(n, m, (hr, hc), (jr, jc))
     assert second.analysis.permutation is first.analysis.permutation
     assert not first.analysis.permutation.flags.writeable
     inertia = first.factor(hv, jv, dx, dc)
@@ -639,7 +720,7 @@ def test_an_analysis_is_kept_for_the_same_structure():
     assert second.analysis.permutation is first.analysis.permutation
     rhs = rng.normal(size=n + m)
     assert np.array_equal(second.solve(rhs), first.solve(rhs))
-    other = SparseKKT(n, m, (hr, hc), (jr[:-1], jc[:-1]))
+    other = KKT(n, m, (hr, hc), (jr[:-1], jc[:-1]))
     assert other.analysis.permutation is not first.analysis.permutation
 
 
@@ -831,8 +912,11 @@ def test_column_pointers_are_int32_and_counted(monkeypatch):
     hr, hc = np.tril_indices(12)
     with pytest.raises(ValueError, match="L would have 66 entries, too many for 32-bit"):
         SparseKKT(12, 0, (hr, hc), ([], []))
+    with pytest.raises(ValueError, match="envelope would have 66 entries, too many"):
+        EnvelopeKKT(12, 0, (hr, hc), ([], []))
     monkeypatch.setattr(_kkt_sparse, "_LIMIT", 67)
     assert SparseKKT(12, 0, (hr, hc), ([], [])).analysis.nnz_factor == 66
+    assert EnvelopeKKT(12, 0, (hr, hc), ([], [])).analysis.nnz_factor == 66
 
 
 def _traced_analysis(nodes):

@@ -90,7 +90,7 @@ from ...numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 15"
+_GENERATION = "kanedyn sparse LDL 16"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -1189,7 +1189,8 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
                 R[t] = l;
             }
         }
-        kd_judge(&pivots, k, d, terms, pair, D, R + width - 1, rowmax, offmax, zero);
+        kd_judge(&pivots, k, d, terms, pair, D, pair[k] == 2 ? R + width - 1 : NULL, rowmax,
+                 offmax, zero);
     }
     Py_END_ALLOW_THREADS
     free(rowmax);
@@ -1281,6 +1282,7 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
         PyErr_SetString(PyExc_ValueError, "structured_matvec: arrays of inconsistent sizes");
         return NULL;
     }
+
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < nx; k++) y[k] = dx[k] * x[k];
     for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -dc[i] * x[nx + i];

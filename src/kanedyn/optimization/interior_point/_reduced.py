@@ -59,8 +59,8 @@ class ReducedNLP:
         Which kept rows are equalities; the others have a slack each.
     jacobian_structure : (rows, cols)
         The reduced Jacobian's pattern, ``int32`` (``int64`` beyond its
-        range); the Hessian's is made when asked (:meth:`hessian_structure`),
-        not held.
+        range), read-only (a KKT factorization may keep it); the Hessian's is
+        made when asked (:meth:`hessian_structure`), not held.
     hessian_size : int
         The reduced Hessian's entries.
     row_scale : ndarray, shape (m,), or float
@@ -113,7 +113,7 @@ class ReducedNLP:
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
         #: the full patterns' entries left out, ``None`` where none is
         self._jacobian_dropped = _dropped(use)
-        self.jacobian_structure = (row_of[jr[use]], column_of[jc[use]])
+        self.jacobian_structure = _read_only(row_of[jr[use]], column_of[jc[use]])
         self._exact_hessian = exact_hessian
         hr, hc = self._full_hessian_structure()
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
@@ -179,13 +179,14 @@ class ReducedNLP:
     def hessian_structure(self):
         """``(rows, cols)`` of the reduced Hessian's lower triangle, made from
         the NLP's pattern when asked (for the KKT system's analysis; not
-        held), the compact index type."""
+        held), the compact index type, read-only (the KKT factorization may
+        keep them)."""
         hr, hc = self._full_hessian_structure()
         column_of = np.full(self.n_full, -1, dtype=self.free.dtype)
         column_of[self.free] = np.arange(self.n)
         hr, hc = column_of[hr], column_of[hc]
         use = (hr >= 0) & (hc >= 0)
-        return hr[use], hc[use]
+        return _read_only(hr[use], hc[use])
 
     # -------------------------------------------------------- evaluation
     def full(self, x):
@@ -274,6 +275,13 @@ def compact_index_type(count):
     """The integer type of indices below ``count``: ``int32`` when they fit
     (half the bytes of NumPy's default), else ``int64``."""
     return np.int32 if count <= np.iinfo(np.int32).max else np.int64
+
+
+def _read_only(*arrays):
+    """``arrays``, each made read-only (a pattern that others may keep)."""
+    for a in arrays:
+        a.flags.writeable = False
+    return arrays
 
 
 def _dropped(use):

@@ -88,8 +88,8 @@ def kkt_class(choice):
     (``EnvelopeKKT``), ``"sparse"`` (``SparseKKT``), ``"dense"``
     (``DenseKKT``), ``"auto"`` (envelope when the C kernel builds or is
     cached, else dense, the note saying why).  The envelope's L held 1.00 to
-    1.24 times the sparse L's entries on every matrix the solver's tests
-    factor, at 8 bytes an entry against 12, and no copy of K
+    1.30 times the sparse L's entries in the analyses of the solver's tests,
+    at 8 bytes an entry against 12, and no copy of K
     (``docs/benchmarks.md``)."""
     from ._kkt_dense import DenseKKT
     if choice == "dense":
