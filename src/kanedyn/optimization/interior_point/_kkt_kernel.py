@@ -993,6 +993,7 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
 }
 
 /* ---------------------------------------------------------------- envelope */
+/* (the storage of EnvelopeKKT's L: the comment of KD_FIRST, above) */
 
 /* envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
    jacobian_cols, n): the envelope of the permuted K's lower triangle
