@@ -612,8 +612,8 @@ def test_linear_solver_fallback_without_a_compiler(monkeypatch):
     DenseKKT and says why; ``"sparse"`` is refused with the compiler's
     reason and the option's name."""
     from kanedyn.numerics import CompilerError
-    from kanedyn.optimization.interior_point import _kkt_kernel
-    from kanedyn.optimization.interior_point import _kkt_sparse  # noqa: F401
+    from kanedyn.optimization.interior_point.kkt import _kernel as _kkt_kernel
+    from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse  # noqa: F401
     from kanedyn.optimization.interior_point._solver import kkt_class
     # _kkt_sparse imported before the patch: it keeps the real kernel for later tests
 
@@ -657,14 +657,14 @@ def test_linear_solver_choice_and_fallback(monkeypatch, capsys):
     assert kkt_class("dense") == (DenseKKT, None)
     assert kkt_class("auto") == (EnvelopeKKT, None) == kkt_class("envelope")
     assert kkt_class("sparse") == (SparseKKT, None)
-    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_envelope",
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point.kkt._envelope",
                         None)
     chosen, note = kkt_class("auto")
     assert chosen is DenseKKT and "EnvelopeKKT is not available" in note
     with pytest.raises(ImportError, match="linear_solver='envelope'.*linear_solver='dense'"):
         kkt_class("envelope")
     assert kkt_class("sparse") == (SparseKKT, None)
-    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point._kkt_sparse", None)
+    monkeypatch.setitem(sys.modules, "kanedyn.optimization.interior_point.kkt._sparse", None)
     with pytest.raises(ImportError, match="linear_solver='sparse'.*linear_solver='dense'"):
         kkt_class("sparse")
     solver = InteriorPoint()

@@ -27,7 +27,7 @@ import pytest
 
 import kanedyn as kd
 from kanedyn.optimization.interior_point import DenseKKT, InteriorPoint
-from kanedyn.optimization.interior_point._kkt_low_rank import LowRankKKT
+from kanedyn.optimization.interior_point.kkt._low_rank import LowRankKKT
 from kanedyn.optimization.interior_point._options import settings
 from kanedyn.optimization.interior_point._quasi_newton import LimitedMemoryBFGS
 
@@ -126,7 +126,7 @@ def _kkt_classes():
     classes = [DenseKKT]
     try:
         from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT
-        from kanedyn.optimization.interior_point._kkt_kernel import kernel
+        from kanedyn.optimization.interior_point.kkt._kernel import kernel
         kernel()
         classes += [SparseKKT, EnvelopeKKT]
     except Exception as exc:  # no compiler: DenseKKT only, said in the output

@@ -476,7 +476,7 @@ def test_ordering_patterns_are_scipys(shape, size):
     COO to CSR conversion (repeats summed, indices sorted) and of its
     slicing, on which the matching and RCM depend."""
     import scipy.sparse as sp
-    from kanedyn.optimization.interior_point._kkt_ordering import _pattern, _submatrix
+    from kanedyn.optimization.interior_point.kkt._ordering import _pattern, _submatrix
     rng = np.random.default_rng(7)
     m, n = shape
     rows, cols = rng.integers(0, max(m, 1), size), rng.integers(0, max(n, 1), size)
@@ -560,7 +560,7 @@ def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
     """Every ``(n, m, structures, values)`` the interior-point solver gave
     ``SparseKKT.factor`` in ``max_iter`` iterations of ``problem`` (the
     exact Hessian, ``linear_solver="sparse"``), in order."""
-    from kanedyn.optimization.interior_point import _kkt_sparse
+    from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse
     seen = []
     factor = _kkt_sparse.SparseKKT.factor
 
@@ -685,7 +685,7 @@ def test_many_zero_pivots_are_not_delayed(KKT):
     """K = 0 (100 variables, no Hessian value, no constraint): eigvalsh's
     inertia (0, 0, 100); more zero pivots than ``MAX_DELAYED``, so none is
     delayed (each would make a long row of L) and the order stays."""
-    from kanedyn.optimization.interior_point._kkt_sparse import MAX_DELAYED
+    from kanedyn.optimization.interior_point.kkt._sparse import MAX_DELAYED
     n = 100
     assert n > MAX_DELAYED
     none = np.zeros(0, int)
@@ -702,7 +702,7 @@ def test_many_zero_pivots_are_not_delayed(KKT):
 @BOTH
 def test_an_analysis_is_kept_for_the_same_structure(KKT):
     """A second ``KKT`` of the same structure takes the first one's
-    analysis (the same read-only arrays, ``_kkt_analyses``), also the one
+    analysis (the same read-only arrays, ``kkt._analyses``), also the one
     after a zero pivot's new order, and factors to the same numbers; a
     different structure makes its own."""
     rng = np.random.default_rng(13)
@@ -729,7 +729,7 @@ def test_the_kernels_check_of_values_is_numpys():
     call) against NumPy: the first entry not finite, the arrays in turn,
     else the first negative one in the arrays from ``nonnegative`` on, else
     ``None``."""
-    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+    from kanedyn.optimization.interior_point.kkt._kernel import kernel
 
     def numpys(arrays, nonnegative):
         for k, a in enumerate(arrays):
@@ -759,7 +759,7 @@ def test_the_kernels_error_reductions_are_numpys_to_the_bit():
     NumPy's pairwise blocks (up to 128 entries, halves beyond), magnitudes
     over ten decades, empty arrays, a NaN, infinities; and the errors
     ``optimality_errors`` makes of either the same."""
-    from kanedyn.optimization.interior_point._kkt_kernel import kernel
+    from kanedyn.optimization.interior_point.kkt._kernel import kernel
     from kanedyn.optimization.interior_point._optimality import (numpy_error_reductions,
                                                                  optimality_errors)
     rng = np.random.default_rng(15)
@@ -817,7 +817,7 @@ def test_large_storage_is_made_after_the_freed_memory_is_handed_back(monkeypatch
     """Numeric storage of at least ``RETURN_FREED_BYTES`` is made after the
     process's freed heap memory is handed back (once per storage made: not
     again for a factorization that reuses it); smaller storage is not."""
-    from kanedyn.optimization.interior_point import _kkt_sparse
+    from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse
     calls = []
     monkeypatch.setattr(_kkt_sparse, "_malloc_trim", lambda: lambda pad: calls.append(pad))
     kkt, rng = _factored(4, KKT=KKT)
@@ -844,7 +844,7 @@ def test_freed_heap_memory_is_handed_back_to_the_system():
     below one still held their pages stay resident until
     ``_return_freed_memory`` hands them back (80 MB freed: at least 40
     handed back)."""
-    from kanedyn.optimization.interior_point import _kkt_sparse
+    from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse
     if _kkt_sparse._malloc_trim() is None or not os.path.exists("/proc/self/statm"):
         pytest.skip("glibc's malloc_trim and /proc are needed (Linux with glibc)")
     big = np.ones(2 ** 20)  # 8 MB, mapped; freed, it raises the mmap threshold past 2 MB
@@ -898,7 +898,8 @@ def test_column_pointers_are_int32_and_counted(monkeypatch):
     by its size (here a limit lowered to the size of a 12 x 12 dense L)."""
     from collections import OrderedDict
 
-    from kanedyn.optimization.interior_point import _kkt_analyses, _kkt_sparse
+    from kanedyn.optimization.interior_point.kkt import _analyses as _kkt_analyses
+    from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse
     kkt, _ = _factored(11)
     a, N = kkt.analysis, kkt.size
     for pointers, entries in ((kkt._Ap, a.nnz_matrix), (kkt._Lp, a.nnz_factor)):

@@ -5,14 +5,13 @@ the boundary, filter line search, inertia correction) on the collocation
 NLP's sparse Jacobian and exact Hessian, its linear systems solved by a sparse
 LDLᵀ factorization compiled in C that reports the inertia.
 
-``_kkt_dense``   ``DenseKKT``: the reference factorization (LAPACK's dense
-                 LDLᵀ through SciPy), for tests and small problems
-``_kkt_sparse``  ``SparseKKT``: the sparse LDLᵀ (2 x 2 pivots on paired
-                 rows), its analysis and the inertia; its order in
-                 ``_kkt_ordering``, its compiled kernel in ``_kkt_kernel``,
-                 its analyses kept for the next solve in ``_kkt_analyses``
-``_kkt_envelope`` ``EnvelopeKKT`` (the default): the same LDLᵀ with L
-                 stored by its envelope, values only, and no copy of K
+``kkt/``         the Newton step's linear system, factorized with its inertia
+                 (the module list in ``kkt/__init__``): ``DenseKKT``, the
+                 reference (LAPACK's dense LDLᵀ through SciPy); ``SparseKKT``,
+                 a sparse LDLᵀ with 2 x 2 pivots on paired rows, compiled;
+                 ``EnvelopeKKT`` (the default), the same LDLᵀ with L stored
+                 by its envelope; ``LowRankKKT``, a limited-memory Hessian's
+                 rank-2h part on any of them
 ``_solver``      ``InteriorPoint``: the algorithm, behind the interface of
                  ``optimization._solvers``; what it uses, in the data flow:
 ``_options``     the options (IPOPT's names and defaults), checked
@@ -25,14 +24,13 @@ LDLᵀ factorization compiled in C that reports the inertia.
 ``_optimality``  the optimality error, the bound multipliers' safeguard
 ``_status``      the return codes (IPOPT's numbers)
 
-Both factorizations take the same calls: ``KKT(n, m, hessian_structure,
+The factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
 diagonal_c) -> (n_positive, n_negative, n_zero)``, ``solve(rhs,
 overwrite=False)`` (with ``overwrite=True`` the solution may be written over
 ``rhs``, a writeable C-contiguous float64 vector, and returned, so the caller
 uses only what is returned: ``SparseKKT`` and ``EnvelopeKKT`` do so,
-``DenseKKT`` makes a new
-array; ``LowRankKKT`` passes it to its base),
+``DenseKKT`` makes a new array; ``LowRankKKT`` passes it to its base),
 ``matvec(x)`` and ``release()`` (the factors dropped until the next
 ``factor``: the solver calls it at each new point).
 """
@@ -41,9 +39,9 @@ from ..._lazy import lazy_attributes as _lazy_attributes
 
 #: public name -> the module (in this package) that defines it; imported on first use
 _LAZY = {
-    "DenseKKT": "._kkt_dense",
-    "SparseKKT": "._kkt_sparse",
-    "EnvelopeKKT": "._kkt_envelope",
+    "DenseKKT": ".kkt._dense",
+    "SparseKKT": ".kkt._sparse",
+    "EnvelopeKKT": ".kkt._envelope",
     "InteriorPoint": "._solver",
 }
 

@@ -67,7 +67,7 @@ def optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu,
     reductions : callable, optional
         The sums and maxima of :func:`numpy_error_reductions` (the default),
         or a function of the same arguments giving the same numbers (the
-        compiled kernel's ``error_reductions``, :mod:`._kkt_kernel`: one call
+        compiled kernel's ``error_reductions``, :mod:`.kkt._kernel`: one call
         in place of NumPy's twenty).  All arrays float64, C-contiguous.
     """
     (y_sum, z_lower_sum, z_upper_sum, dual_inf, primal_inf, compl_lower, compl_upper,

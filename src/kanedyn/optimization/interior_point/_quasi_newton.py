@@ -42,7 +42,7 @@ are infeasible with 40 nodes the damped iterations end in local
 infeasibility (status 2) as IPOPT's with the exact Hessian do; with
 skipping they run to ``max_iter``.
 
-:class:`._kkt_low_rank.LowRankKKT` factors the Newton system with
+:class:`.kkt._low_rank.LowRankKKT` factors the Newton system with
 :math:`\sigma I` on the diagonal and adds :math:`-V M^{-1} V^T` by the
 Sherman-Morrison-Woodbury formula.
 """

@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kkt_dense import check_structure
+from .kkt._dense import check_structure
 
 __all__ = ["ReducedNLP", "INFINITE_BOUND", "compact_index_type"]
 

@@ -14,7 +14,7 @@ of :mod:`._reduced` (equality rows :math:`c_E(x) = 0`, inequality rows
 2. per iteration one Newton step of the primal-dual equations with the
    exact Hessian of the Lagrangian or its limited-memory BFGS approximation
    (``hessian_approximation="limited-memory"``, :mod:`._quasi_newton`,
-   factored through :mod:`._kkt_low_rank`), its linear system regularized
+   factored through :mod:`.kkt._low_rank`), its linear system regularized
    to the right inertia (:mod:`._step`);
 3. fraction to the boundary (:math:`\tau = \max(\tau_{\min}, 1 - \mu)`) for
    the primal variables and, separately, the bound multipliers;
@@ -59,7 +59,7 @@ import numpy as np
 from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
-from ._kkt_low_rank import LowRankKKT
+from .kkt._low_rank import LowRankKKT
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._quasi_newton import LimitedMemoryBFGS
@@ -91,16 +91,16 @@ def kkt_class(choice):
     1.30 times the sparse L's entries in the analyses of the solver's tests,
     at 8 bytes an entry against 12, and no copy of K
     (``docs/benchmarks.md``)."""
-    from ._kkt_dense import DenseKKT
+    from .kkt._dense import DenseKKT
     if choice == "dense":
         return DenseKKT, None
     from ...numerics import CompilerError
     try:
-        from ._kkt_kernel import kernel
+        from .kkt._kernel import kernel
         if choice == "sparse":
-            from ._kkt_sparse import SparseKKT as chosen
+            from .kkt._sparse import SparseKKT as chosen
         else:
-            from ._kkt_envelope import EnvelopeKKT as chosen
+            from .kkt._envelope import EnvelopeKKT as chosen
         kernel()  # compiled (or taken from the cache) here: no compiler, neither class
     except (ImportError, CompilerError) as exc:
         if choice != "auto":

@@ -60,7 +60,7 @@ class NewtonStep:
 
 class StepSolver:
     """Newton steps through a KKT factorization (``kkt``: the interface of
-    :mod:`._kkt_dense`), remembering the last Hessian regularization.
+    :mod:`.kkt._dense`), remembering the last Hessian regularization.
 
     Parameters
     ----------

@@ -1,4 +1,4 @@
-"""The elimination order of :class:`~._kkt_sparse.SparseKKT`.
+"""The elimination order of :class:`~._sparse.SparseKKT`.
 
 The collocation NLP lays its variables out by kind (the states of every node,
 then the inputs of every node, then free parameters and the duration, then
@@ -26,7 +26,7 @@ instance constraints join the first and the last node).
 
 Step 4 keeps a constraint row from being eliminated before all of its
 variables (with ``diagonal_c = 0`` its 1 x 1 pivot would be exactly zero),
-and :class:`~._kkt_sparse.SparseKKT` eliminates each pair as one 2 x 2
+and :class:`~._sparse.SparseKKT` eliminates each pair as one 2 x 2
 pivot, nonsingular where the variable's diagonal is zero too.
 
 The direction of step 3 matters because nothing pivots at run time: a
@@ -81,7 +81,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._kkt_kernel import kernel
+from ._kernel import kernel
 
 __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 
@@ -267,7 +267,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     delayed : ndarray of bool, shape (N,), optional
         Rows eliminated after all others but the dense ones, unpaired, in
         their own order (pivots that a factorization found zero in an
-        earlier order, :class:`~._kkt_sparse.SparseKKT`).
+        earlier order, :class:`~._sparse.SparseKKT`).
 
     Returns
     -------
@@ -280,7 +280,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     kind : ndarray of int8, shape (N,)
         Of each pivot in that order: 0 a variable's, 3 a constraint's, 1 and 2
         the variable and the constraint of a pair (consecutive; a 2 x 2 pivot
-        of :class:`~._kkt_sparse.SparseKKT`).  ``"rcm"`` makes no pairs.
+        of :class:`~._sparse.SparseKKT`).  ``"rcm"`` makes no pairs.
     """
     from scipy.sparse.csgraph import reverse_cuthill_mckee
 

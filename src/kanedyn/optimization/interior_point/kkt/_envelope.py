@@ -1,8 +1,8 @@
-r"""``EnvelopeKKT``: the :math:`LDL^T` of :class:`~._kkt_sparse.SparseKKT`
+r"""``EnvelopeKKT``: the :math:`LDL^T` of :class:`~._sparse.SparseKKT`
 with :math:`L` stored by its envelope, for less memory.
 
 The same matrix, order, pivots, zero-pivot rules, new orders after a zero
-pivot and inertia as :class:`~._kkt_sparse.SparseKKT` (its module's
+pivot and inertia as :class:`~._sparse.SparseKKT` (its module's
 docstring); only the storage and the loops differ:
 
 - **L by rows, its envelope** (profile): row :math:`k` of :math:`L` holds
@@ -12,7 +12,7 @@ docstring); only the storage and the loops differ:
   the patterns (one pass over the entries) and no elimination tree, row index
   or count of L is made.  A row that begins at the second column of a pair
   begins at its first (the 2 x 2 pivot mixes the two).  In a band, as the
-  collocation's order makes (:mod:`._kkt_ordering`), the envelope fills:
+  collocation's order makes (:mod:`._ordering`), the envelope fills:
   on the backward-Euler pendulum swing-up it has as many entries as the
   sparse :math:`L` (29.1 a node), at 8 bytes each instead of 12.
 - **No copy of K**: the values are scattered straight into :math:`L`'s
@@ -41,7 +41,7 @@ interior-point and optimal-control tests (new orders after zero pivots
 included) it held 1.00 to 1.30 times the sparse L's entries
 (``docs/benchmarks.md``).
 
-:attr:`~._kkt_sparse.SparseKKT.analysis` counts, for this storage:
+:attr:`~._sparse.SparseKKT.analysis` counts, for this storage:
 ``nnz_factor`` the envelope's entries; ``bytes_factor`` L's values, the
 row pointers and D; ``bytes_maps`` the order, its inverse, the kinds and
 the Hessian's structure; ``bytes_workspace`` the scratch (24 bytes a row)
@@ -54,9 +54,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import _kkt_sparse
-from ._kkt_analyses import cached_analysis
-from ._kkt_sparse import _INDEX, KKTAnalysis, SparseKKT, _structure
+from . import _sparse
+from ._analyses import cached_analysis
+from ._sparse import _INDEX, KKTAnalysis, SparseKKT, _structure
 
 __all__ = ["EnvelopeKKT", "EnvelopeAnalysis"]
 
@@ -74,7 +74,7 @@ class EnvelopeAnalysis:
     n_dense : int
         Rows counted as dense and ordered last.
     kind : ndarray of int8, shape (N,)
-        Each pivot's kind (:func:`~._kkt_ordering.elimination_order`).
+        Each pivot's kind (:func:`~._ordering.elimination_order`).
     rowptr : ndarray of int32, shape (N + 1,)
         Row ``k`` of L at ``rowptr[k]:rowptr[k + 1]``, its columns ending at
         ``k - 1``.
@@ -93,7 +93,7 @@ class EnvelopeAnalysis:
 def _read_only(structure, name, n_rows, n_cols):
     """``structure``'s arrays, checked, as int32 arrays that cannot be
     written: the given ones when they are so already (the interior point's,
-    :mod:`._reduced`), else copies.  The factorization indexes its storage
+    :mod:`.._reduced`), else copies.  The factorization indexes its storage
     by them at every call, so they must not change after the analysis."""
     arrays = _structure(structure, name, n_rows, n_cols)
     kept = []
@@ -109,13 +109,13 @@ def _read_only(structure, name, n_rows, n_cols):
 
 class EnvelopeKKT(SparseKKT):
     """The :math:`LDL^T` of the KKT matrix with L stored by its envelope:
-    :class:`~._kkt_sparse.SparseKKT`'s parameters, attributes, methods and
+    :class:`~._sparse.SparseKKT`'s parameters, attributes, methods and
     errors (the module's docstring says what differs).  It keeps the
     structures, read-only: arrays that a caller could still write are
     copied."""
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, **options):
-        n, m = _kkt_sparse._size(n, "n"), _kkt_sparse._size(m, "m")
+        n, m = _sparse._size(n, "n"), _sparse._size(m, "m")
         super().__init__(n, m, _read_only(hessian_structure, "hessian_structure", n, n),
                          _read_only(jacobian_structure, "jacobian_structure", m, n),
                          **options)
@@ -126,7 +126,7 @@ class EnvelopeKKT(SparseKKT):
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (:func:`elimination_order`, ``self._delayed`` last), the
         envelope's pointers (kept for the next object of the same inputs,
-        :func:`~._kkt_analyses.cached_analysis`) and the storage of the
+        :func:`~._analyses.cached_analysis`) and the storage of the
         factors."""
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
@@ -157,7 +157,7 @@ class EnvelopeKKT(SparseKKT):
         inverse[permutation] = np.arange(N, dtype=_INDEX)
         rowptr = np.empty(N + 1, dtype=_INDEX)
         total, distinct = self._kernel.envelope(rowptr, inverse, kind, hr, hc, jr, jc, n)
-        if total >= _kkt_sparse._LIMIT:
+        if total >= _sparse._LIMIT:
             raise ValueError(f"L's envelope would have {total} entries, too many for 32-bit "
                              "row pointers")
         return EnvelopeAnalysis(permutation, inverse, n_dense, kind, rowptr, N + distinct)
@@ -167,13 +167,13 @@ class EnvelopeKKT(SparseKKT):
         analysis or :meth:`release`."""
         if self._numeric is None:
             size, N = int(self._rowptr[-1]), self.size
-            if 8 * (size + N) >= _kkt_sparse.RETURN_FREED_BYTES:
-                _kkt_sparse._return_freed_memory()
+            if 8 * (size + N) >= _sparse.RETURN_FREED_BYTES:
+                _sparse._return_freed_memory()
             self._numeric = (np.zeros(size), np.zeros(N))
         return self._numeric
 
     def release(self):
-        """:meth:`~._kkt_sparse.SparseKKT.release`, and the values ``factor``
+        """:meth:`~._sparse.SparseKKT.release`, and the values ``factor``
         was given let go."""
         super().release()
         self._values = None

@@ -1,8 +1,8 @@
-"""The C kernel of :class:`~._kkt_sparse.SparseKKT`: its source and its module.
+"""The C kernel of :class:`~._sparse.SparseKKT`: its source and its module.
 
 One fixed source (no generated part), compiled once and cached like the
 models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
-first :class:`~._kkt_sparse.SparseKKT`.  Its functions take their arrays
+first :class:`~._sparse.SparseKKT`.  Its functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices and column pointers, so at most 2^31 - 2 entries in ``K`` and in
 ``L``; the caller makes them so) and release the GIL while they compute:
@@ -29,7 +29,7 @@ tolerance)``
 call, so that it is not held between factorizations (40 and 8 bytes a row of K);
 ``zero`` is the caller's, allocated once with the factor.
 
-The envelope storage of :class:`~._kkt_envelope.EnvelopeKKT` (L by rows,
+The envelope storage of :class:`~._envelope.EnvelopeKKT` (L by rows,
 every column from a row's first entry, values only):
 
 ``envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
@@ -58,7 +58,7 @@ jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c)``
     in place of NumPy's ``isfinite``, ``all`` and ``min`` on each).
 ``error_reductions(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu)``
     the sums and maxima of the interior point's optimality error, the numbers
-    of :func:`~._optimality.numpy_error_reductions` to the last bit (the sums
+    of :func:`~.._optimality.numpy_error_reductions` to the last bit (the sums
     by NumPy's pairwise summation, the maxima from 0.0, a NaN kept): 20 NumPy
     calls in one.
 
@@ -75,7 +75,7 @@ temporaries on the 100,000-node swing-up):
 ``compressed(indptr, indices, node, n_nodes)``
     the same of the graph that joins ``node[i]`` and ``node[j]`` for each
     entry ``(i, j)`` of the pattern where both are ``>= 0`` and differ (the
-    pairs' graph of :func:`~._kkt_ordering.elimination_order`).
+    pairs' graph of :func:`~._ordering.elimination_order`).
 ``permuted(Ap, hessian_map, jacobian_map, diagonal_map, inverse, hessian_rows,
 hessian_cols, jacobian_rows, jacobian_cols, n)``
     K's upper triangle in the elimination order as CSC: fills ``Ap`` and the
@@ -85,7 +85,7 @@ hessian_cols, jacobian_rows, jacobian_cols, n)``
 
 from __future__ import annotations
 
-from ...numerics import NAME_TOKEN, load_module
+from ....numerics import NAME_TOKEN, load_module
 
 __all__ = ["kernel", "SOURCE"]
 

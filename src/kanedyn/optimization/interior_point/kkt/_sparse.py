@@ -9,7 +9,7 @@ method's KKT matrix, with its inertia.
 
 with :math:`H` (n x n) the Hessian of the Lagrangian, :math:`J` (m x n) the
 constraints' Jacobian, :math:`L` unit lower triangular, :math:`P` the
-elimination order (:mod:`._kkt_ordering`) and :math:`D` block diagonal: a
+elimination order (:mod:`._ordering`) and :math:`D` block diagonal: a
 2 x 2 block for each pair of a variable and a constraint that the order
 made (the constraint's row holds the variable: before fill-in the block is
 :math:`\begin{bmatrix} h & j \\ j & -c \end{bmatrix}` with :math:`j \ne 0`,
@@ -26,10 +26,10 @@ entry present); the maps of every Hessian entry, Jacobian entry and diagonal
 entry to its place there (repeated entries map to the same place and are
 summed); the elimination tree and the column counts of :math:`L` (compiled;
 the two columns of a pair get the same rows).  The patterns are made in
-int32 by the kernel (:mod:`._kkt_kernel`), with no int64 copy of the
+int32 by the kernel (:mod:`._kernel`), with no int64 copy of the
 entries; their indices and the column pointers of K and L are int32 (K and
 L of at most 2^31 - 2 entries each).  The analysis is kept for the next
-object of the same inputs (:mod:`._kkt_analyses`: a problem solved again
+object of the same inputs (:mod:`._analyses`: a problem solved again
 makes the same analyses).
 The numeric storage (the values of :math:`K`, :math:`L`'s indices and
 values, :math:`D`) is made by the first :meth:`~SparseKKT.factor` and held
@@ -135,9 +135,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._kkt_analyses import SymbolicAnalysis, cached_analysis
-from ._kkt_kernel import kernel
-from ._kkt_ordering import ORDERINGS, elimination_order
+from ._analyses import SymbolicAnalysis, cached_analysis
+from ._kernel import kernel
+from ._ordering import ORDERINGS, elimination_order
 
 __all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED"]
 
@@ -345,7 +345,7 @@ class SparseKKT:
         zero (the module's docstring); default :data:`ZERO_PIVOT`.
     ordering : str
         The elimination order, one of
-        :data:`~._kkt_ordering.ORDERINGS` (:mod:`._kkt_ordering`).
+        :data:`~._ordering.ORDERINGS` (:mod:`._ordering`).
 
     Attributes
     ----------
@@ -359,8 +359,8 @@ class SparseKKT:
         What the last ``factor`` returned; ``None`` before the first.
     error_reductions : callable
         The kernel's sums and maxima of the interior point's optimality error
-        (:mod:`._kkt_kernel`), the numbers of
-        :func:`~._optimality.numpy_error_reductions` in one call.
+        (:mod:`._kernel`), the numbers of
+        :func:`~.._optimality.numpy_error_reductions` in one call.
 
     Raises
     ------
@@ -424,7 +424,7 @@ class SparseKKT:
         """The order (pairs by :func:`elimination_order`, ``self._delayed``
         last), K's permuted pattern and maps, the elimination tree (those
         kept for the next object of the same inputs,
-        :func:`~._kkt_analyses.cached_analysis`) and the storage of the
+        :func:`~._analyses.cached_analysis`) and the storage of the
         factors; ``has_diagonal`` and ``pairable`` as
         :func:`elimination_order` takes them."""
         n, m, N = self.n, self.m, self.size
@@ -458,7 +458,7 @@ class SparseKKT:
                                  has_diagonal, pairable, self._delayed)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
-        """The :class:`~._kkt_analyses.SymbolicAnalysis` of these inputs: the
+        """The :class:`~._analyses.SymbolicAnalysis` of these inputs: the
         order, K's permuted pattern and maps, the elimination tree and L's
         column pointers (``ValueError`` when K or L has more entries than
         int32 reaches)."""

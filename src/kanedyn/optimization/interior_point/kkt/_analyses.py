@@ -1,7 +1,7 @@
-"""The symbolic analyses of :class:`~._kkt_sparse.SparseKKT`, kept for the
+"""The symbolic analyses of :class:`~._sparse.SparseKKT`, kept for the
 next object of the same structure.
 
-An analysis (the elimination order of :mod:`._kkt_ordering`, K's permuted
+An analysis (the elimination order of :mod:`._ordering`, K's permuted
 pattern and the maps of the values into it, the elimination tree and the
 column pointers of L) depends on the patterns, the order's name and, after a
 zero pivot, on which Jacobian entries may pair, which variables have a
@@ -54,7 +54,7 @@ class SymbolicAnalysis:
     n_dense : int
         Rows counted as dense and ordered last.
     kind : ndarray of int8, shape (N,)
-        Each pivot's kind (:func:`~._kkt_ordering.elimination_order`).
+        Each pivot's kind (:func:`~._ordering.elimination_order`).
     Ap : ndarray of int32, shape (N + 1,)
         Column pointers of K's permuted upper triangle (CSC).
     Ai : ndarray of int32

@@ -1,5 +1,5 @@
 r"""``LowRankKKT``: the Newton system with a limited-memory Hessian
-:math:`B = \sigma I - V M^{-1} V^T` (:mod:`._quasi_newton`).
+:math:`B = \sigma I - V M^{-1} V^T` (:mod:`.._quasi_newton`).
 
 .. math::
 
@@ -31,14 +31,14 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._quasi_newton import CompactHessian
+from .._quasi_newton import CompactHessian
 
 __all__ = ["LowRankKKT"]
 
 
 class LowRankKKT:
-    """The interface of :class:`._kkt_dense.DenseKKT` (``factor``, ``solve``,
-    ``matvec``, ``release``) for a :class:`~._quasi_newton.CompactHessian`.
+    """The interface of :class:`._dense.DenseKKT` (``factor``, ``solve``,
+    ``matvec``, ``release``) for a :class:`~.._quasi_newton.CompactHessian`.
 
     Parameters
     ----------
