@@ -479,8 +479,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                 filled[i]++;
             }
         }
-        kd_judge(&pivots, k, d, terms, pair, D, E + (k > 0 ? k - 1 : 0), rowmax, offmax,
-                 zero);
+        kd_judge(&pivots, k, d, terms, pair, D, pair[k] == 2 ? E + k - 1 : NULL, rowmax,
+                 offmax, zero);
     }
     Py_END_ALLOW_THREADS
     free(work);
