@@ -131,13 +131,14 @@ class EnvelopeKKT(SparseKKT):
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         self._hessian_structure, self._jacobian_structure = (hr, hc), (jr, jc)
+        self._numeric = None  # not held while a new order is made; the next factor
+        # makes it again (_storage)
         symbolic = cached_analysis(
             N, (n, m, self.ordering, "envelope"),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
             lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
         self._permutation, self._kind = symbolic.permutation, symbolic.kind
         self._inverse, self._rowptr = symbolic.inverse, symbolic.rowptr
-        self._numeric = None  # made by the next factor (_storage)
         self._values = None  # factor's arguments, for matvec
         self._zero = np.zeros(N, dtype=np.int8)
         size = int(self._rowptr[-1])

@@ -90,7 +90,7 @@ from ....numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 16"
+_GENERATION = "kanedyn sparse LDL 17"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -992,6 +992,129 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
     return rows;
 }
 
+/* a breadth-first search of root's component, queued into q from 0 and marked
+   `mark` in `seen`: returns the component's size and sets *last to the place in
+   q of the first node of the last level and *depth to the number of levels */
+static Py_ssize_t kd_levels(int32_t root, const int32_t *indptr, const int32_t *indices,
+                            int64_t *seen, int64_t mark, int32_t *q, Py_ssize_t *last,
+                            Py_ssize_t *depth) {
+    Py_ssize_t head = 0, tail = 1;
+    q[0] = root;
+    seen[root] = mark;
+    *depth = 0;
+    while (head < tail) {
+        Py_ssize_t end = tail;
+        *last = head;
+        (*depth)++;
+        for (; head < end; head++)
+            for (int32_t p = indptr[q[head]]; p < indptr[q[head] + 1]; p++)
+                if (seen[indices[p]] != mark) {
+                    seen[indices[p]] = mark;
+                    q[tail++] = indices[p];
+                }
+    }
+    return tail;
+}
+
+/* cuthill_mckee(order, indptr, indices, start): fills order (int32, N) with the
+   Cuthill-McKee order of the symmetric pattern (indptr, indices) (int32, no
+   diagonal needed): each component numbered by levels of a breadth-first search,
+   every node's new neighbours by increasing degree (then index), from a
+   pseudo-peripheral node (George and Liu's: from the component's node of least
+   degree, then the least-degree node of the last level while that adds levels),
+   or from `start` (>= 0) for its own component, which comes first.  The other
+   components follow by their least-degree node. */
+static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[3] = {4, 4, 4};
+    static const int writable[3] = {1, 0, 0};
+    static const char *const names[3] = {"order", "indptr", "indices"};
+    Py_buffer v[3];
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 4) {
+        PyErr_SetString(PyExc_TypeError, "order, indptr, indices and start expected");
+        return NULL;
+    }
+    Py_ssize_t start = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 3));
+    if (start == -1 && PyErr_Occurred()) return NULL;
+    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
+    int32_t *order = v[0].buf;
+    const int32_t *indptr = v[1].buf, *indices = v[2].buf;
+    Py_ssize_t N = KD_COUNT(v[0]), nnz = KD_COUNT(v[2]);
+    int bad = KD_COUNT(v[1]) != N + 1 || start >= N || indptr[0] != 0 || indptr[N] != nnz;
+    for (Py_ssize_t i = 0; i < N && !bad; i++) bad = indptr[i + 1] < indptr[i];
+    for (Py_ssize_t p = 0; p < nnz && !bad; p++) bad = indices[p] < 0 || indices[p] >= N;
+    if (bad) {
+        kd_release(v, 3);
+        PyErr_SetString(PyExc_ValueError, "cuthill_mckee: a pattern of N nodes and a start "
+                        "below N expected");
+        return NULL;
+    }
+    int64_t *seen = malloc(sizeof(int64_t) * (size_t)(N > 0 ? N : 1));
+    int32_t *seeds = malloc(sizeof(int32_t) * (size_t)(N + 1));
+    Py_ssize_t *count = calloc((size_t)(N + 1), sizeof(Py_ssize_t));
+    if (seen == NULL || seeds == NULL || count == NULL) {
+        free(seen);
+        free(seeds);
+        free(count);
+        kd_release(v, 3);
+        return PyErr_NoMemory();
+    }
+    Py_BEGIN_ALLOW_THREADS
+#define KD_DEGREE(i) (indptr[(i) + 1] - indptr[i])
+    /* the nodes by degree, then index (a counting sort), as the seeds */
+    for (Py_ssize_t i = 0; i < N; i++) count[KD_DEGREE(i)]++;
+    for (Py_ssize_t d = 0, sum = 0; d <= N; d++) {
+        Py_ssize_t c = count[d];
+        count[d] = sum;
+        sum += c;
+    }
+    for (Py_ssize_t i = 0; i < N; i++) seeds[count[KD_DEGREE(i)]++] = (int32_t)i;
+    for (Py_ssize_t i = 0; i < N; i++) seen[i] = -1;
+    int64_t mark = 0;
+    Py_ssize_t placed = 0;
+    for (Py_ssize_t s = -1; s < N; s++) {
+        int32_t root = (int32_t)(s < 0 ? start : seeds[s]);
+        if (root < 0 || seen[root] >= 0) continue;
+        int32_t *q = order + placed;
+        Py_ssize_t last, depth, members;
+        members = kd_levels(root, indptr, indices, seen, ++mark, q, &last, &depth);
+        for (int tries = 0; s >= 0 && tries < 32; tries++) {  /* George and Liu */
+            int32_t best = q[last];
+            for (Py_ssize_t p = last + 1; p < members; p++)
+                if (KD_DEGREE(q[p]) < KD_DEGREE(best)) best = q[p];
+            Py_ssize_t best_last, best_depth;
+            kd_levels(best, indptr, indices, seen, ++mark, q, &best_last, &best_depth);
+            if (best_depth <= depth) break;
+            root = best;
+            last = best_last;
+            depth = best_depth;
+        }
+        /* Cuthill-McKee from root: each node's new neighbours by degree */
+        int64_t visit = ++mark;
+        Py_ssize_t tail = 1;
+        q[0] = root;
+        seen[root] = visit;
+        for (Py_ssize_t head = 0; head < tail; head++) {
+            Py_ssize_t first = tail;
+            for (int32_t p = indptr[q[head]]; p < indptr[q[head] + 1]; p++)
+                if (seen[indices[p]] != visit) {
+                    seen[indices[p]] = visit;
+                    int32_t j = indices[p];
+                    Py_ssize_t t = tail++;
+                    for (; t > first && KD_DEGREE(q[t - 1]) > KD_DEGREE(j); t--) q[t] = q[t - 1];
+                    q[t] = j;
+                }
+        }
+        placed += tail;
+    }
+#undef KD_DEGREE
+    Py_END_ALLOW_THREADS
+    free(seen);
+    free(seeds);
+    free(count);
+    kd_release(v, 3);
+    Py_RETURN_NONE;
+}
+
 /* ---------------------------------------------------------------- envelope */
 /* (the storage of EnvelopeKKT's L: the comment of KD_FIRST, above) */
 
@@ -1312,6 +1435,8 @@ static PyMethodDef kd_methods[] = {
      "the optimality error's sums and maxima"},
     {"csr", kd_csr, METH_VARARGS, "a CSR pattern from entries, repeats merged"},
     {"compressed", kd_compressed, METH_VARARGS, "a graph's pattern on groups of its nodes"},
+    {"cuthill_mckee", kd_cuthill_mckee, METH_VARARGS,
+     "Cuthill-McKee's order from pseudo-peripheral nodes"},
     {"permuted", kd_permuted, METH_VARARGS, "K's permuted upper triangle and its maps"},
     {"envelope", kd_envelope, METH_VARARGS, "the envelope of K's permuted lower triangle"},
     {"envelope_factor", kd_envelope_factor, METH_VARARGS,

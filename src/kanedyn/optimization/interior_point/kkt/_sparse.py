@@ -429,6 +429,8 @@ class SparseKKT:
         :func:`elimination_order` takes them."""
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
+        self._numeric = None  # not held while a new order is made; the next factor
+        # makes it again (_storage)
         symbolic = cached_analysis(
             N, (n, m, self.ordering), (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
             lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
@@ -436,7 +438,6 @@ class SparseKKT:
         self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
         self._hessian_map, self._jacobian_map = symbolic.hessian_map, symbolic.jacobian_map
         self._diagonal_map, self._parent = symbolic.diagonal_map, symbolic.parent
-        self._numeric = None  # made by the next factor (_storage)
         self._zero = np.zeros(N, dtype=np.int8)
         nnz = int(self._Lp[-1])
         factor_bytes = 12 * nnz + self._Lp.nbytes + 16 * N  # Li, Lx, Lp, D, E
