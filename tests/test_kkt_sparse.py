@@ -422,6 +422,36 @@ def test_the_band_is_as_narrow_at_many_nodes_as_at_few():
     assert per_node[1] < 1.02 * per_node[0]
 
 
+@BOTH
+def test_pairs_made_only_through_entries_not_zero_at_the_start(KKT):
+    """The backward-Euler swing-up's defect rows hold their derivatives by
+    every state and input of their node, some zero whatever the point (the
+    angle's row by the torque).  At 200 nodes, with the interior point's
+    start system (no Hessian, unit diagonal), the order made from the
+    pattern alone pairs a row through such an entry and meets its zero
+    pivot (a new order); made from the entries not zero at the start
+    (``pairable_entries``) it does not, and the inertia is the same."""
+    from kanedyn.optimization.interior_point._options import settings
+    from kanedyn.optimization.interior_point._reduced import ReducedNLP
+    from kanedyn.optimization.interior_point.kkt._sparse import pairable_entries
+    nlp = _pendulum_nlp("backward-euler", False, nodes=200)
+    x = np.random.default_rng(3).normal(size=nlp.n)
+    reduced = ReducedNLP(nlp, x, settings({}))
+    n, m = reduced.n, reduced.m
+    hessian, jacobian = reduced.hessian_structure(), reduced.jacobian_structure
+    jv = reduced.kept_jacobian(np.asarray(nlp.jacobian(x), dtype=float))
+    pairable = pairable_entries(m, jacobian[0], jv)
+    assert 0 < np.count_nonzero(~pairable) < jv.size
+    inertia = []
+    for given in ({}, {"pairable": pairable}):
+        kkt = KKT(n, m, hessian, jacobian, **given)
+        inertia.append(kkt.factor(np.zeros(hessian[0].size), jv, np.ones(n), np.zeros(m)))
+        assert kkt.reanalyses == (0 if given else 1)
+    assert inertia == [(n, m, 0)] * 2
+    with pytest.raises(ValueError, match="pairable must be a boolean array of shape"):
+        KKT(n, m, hessian, jacobian, pairable=pairable[:-1])
+
+
 def test_the_envelope_holds_the_band_in_less_memory():
     """The backward-Euler swing-up's KKT matrix in the pairs' order is a
     band that L fills: its envelope has the sparse L's entries, K the same

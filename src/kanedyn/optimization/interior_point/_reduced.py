@@ -128,6 +128,12 @@ class ReducedNLP:
         self._settings = settings
 
     # ----------------------------------------------------------- scaling
+    def kept_jacobian(self, jacobian_full):
+        """The full Jacobian's values (unscaled) in the order of
+        :attr:`jacobian_structure`: ``jacobian_full`` itself where no entry
+        is left out, else a new array."""
+        return _kept(jacobian_full, self._jacobian_dropped)
+
     def scale_at(self, x_full, gradient_full, jacobian_full):
         """Gradient-based scaling from the unscaled derivatives at the start."""
         s = self._settings
@@ -138,7 +144,7 @@ class ReducedNLP:
             if largest > limit:
                 factor *= max(limit / largest, floor)
             rows = self.jacobian_structure[0]
-            values = np.abs(_kept(jacobian_full, self._jacobian_dropped))
+            values = np.abs(self.kept_jacobian(jacobian_full))
             row_max = np.zeros(self.m)
             np.maximum.at(row_max, rows, values)
             row_scale = np.where(row_max > limit,

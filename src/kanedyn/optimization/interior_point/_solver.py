@@ -60,6 +60,7 @@ from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from .kkt._low_rank import LowRankKKT
+from .kkt._sparse import pairable_entries
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._quasi_newton import LimitedMemoryBFGS
@@ -278,7 +279,11 @@ class _Run:
             return False
         self._set_bounds()
         kkt_type, self.note = kkt_class(s.linear_solver)
-        self.kkt = kkt_type(n, m, R.hessian_structure(), R.jacobian_structure)
+        # no pair through an entry that is zero at the start (a structural
+        # zero): the first factorization would meet its zero pivot
+        paired = {} if kkt_type.__name__ == "DenseKKT" else {"pairable": self.pairable}
+        self.kkt = kkt_type(n, m, R.hessian_structure(), R.jacobian_structure, **paired)
+        self.pairable = None
         #: the NLP's limited-memory approximation, or ``None`` (exact)
         self.quasi_newton = None
         if not exact:
@@ -305,6 +310,10 @@ class _Run:
         if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
             return False
         R.scale_at(x_full, gradient, jacobian)
+        #: the Jacobian's entries that are not (relatively) zero at the start,
+        #: those the sparse factorizations' order may pair (until it is made)
+        self.pairable = pairable_entries(R.m, R.jacobian_structure[0],
+                                         R.kept_jacobian(jacobian))
         self._drop_nlp_evaluation()
         return True
 

@@ -72,10 +72,11 @@ temporaries on the 100,000-node swing-up):
     parts (with ``symmetric`` their mirror images too), repeats merged, each
     row's columns increasing (SciPy's canonical form), as two bytearrays of
     int32 ``(indptr, indices)``.
-``compressed(indptr, indices, node, n_nodes)``
-    the same of the graph that joins ``node[i]`` and ``node[j]`` for each
-    entry ``(i, j)`` of the pattern where both are ``>= 0`` and differ (the
-    pairs' graph of :func:`~._ordering.elimination_order`).
+``compressed(node, n_nodes, rows, cols, row_offset[, rows, cols, row_offset])``
+    the same (symmetric) of the graph that joins ``node[i]`` and ``node[j]``
+    for each entry ``(i, j)`` of the parts where both are ``>= 0`` and
+    differ (the pairs' graph of :func:`~._ordering.elimination_order`, made
+    from K's entries without K's own pattern).
 ``permuted(Ap, hessian_map, jacobian_map, diagonal_map, inverse, hessian_rows,
 hessian_cols, jacobian_rows, jacobian_cols, n)``
     K's upper triangle in the elimination order as CSC: fills ``Ap`` and the
@@ -90,7 +91,7 @@ from ....numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 17"
+_GENERATION = "kanedyn sparse LDL 18"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -818,62 +819,78 @@ done:
     return result;
 }
 
-/* compressed(indptr, indices, node, n_nodes): the pattern of kd_csr_of of the graph
-   on n_nodes nodes that joins node[i] and node[j] for each entry (i, j) of the
-   pattern (indptr, indices) (int32) where both are >= 0 and they differ */
+/* compressed(node, n_nodes, rows, cols, row_offset[, rows, cols, row_offset]): the
+   pattern of kd_csr_of of the graph on n_nodes nodes that joins node[i] and node[j]
+   (and node[j] and node[i]) for each entry (i, j) = (rows + row_offset, cols) of the
+   parts (int32) where both are >= 0 and they differ: the graph of a symmetric
+   matrix given by its entries, its rows grouped, without the matrix's own pattern */
 static PyObject *kd_compressed(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[3] = {4, 4, 4};
-    static const int writable[3] = {0, 0, 0};
-    static const char *const names[3] = {"indptr", "indices", "node"};
-    Py_buffer v[3];
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 4) {
-        PyErr_SetString(PyExc_TypeError, "indptr, indices, node and n_nodes expected");
+    Py_ssize_t count = PyTuple_Check(args) ? PyTuple_GET_SIZE(args) : 0;
+    if (count != 5 && count != 8) {
+        PyErr_SetString(PyExc_TypeError, "node, n_nodes and one or two (rows, cols, "
+                        "row_offset) expected");
         return NULL;
     }
-    Py_ssize_t n_nodes = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 3));
+    Py_ssize_t n_nodes = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 1));
     if (n_nodes == -1 && PyErr_Occurred()) return NULL;
-    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
-    const int32_t *indptr = v[0].buf, *indices = v[1].buf, *node = v[2].buf;
-    Py_ssize_t N = KD_COUNT(v[2]), nnz = KD_COUNT(v[1]);
-    if (KD_COUNT(v[0]) != N + 1 || (N > 0 && (indptr[0] != 0 || indptr[N] != nnz))) {
-        kd_release(v, 3);
-        PyErr_SetString(PyExc_ValueError, "indptr does not fit indices and node");
-        return NULL;
-    }
-    Py_ssize_t count = 0;
-    for (Py_ssize_t i = 0; i < N; i++)
-        for (int32_t q = indptr[i]; q < indptr[i + 1]; q++) {
-            int32_t j = indices[q];
-            if (q < 0 || q >= nnz || j < 0 || j >= N) {
-                kd_release(v, 3);
-                PyErr_SetString(PyExc_ValueError, "an entry outside the pattern");
-                return NULL;
-            }
-            if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) count++;
-        }
-    kd_part part = {NULL, NULL, count, 0};
-    int32_t *a = malloc(sizeof(int32_t) * (size_t)(count > 0 ? count : 1));
-    int32_t *b = malloc(sizeof(int32_t) * (size_t)(count > 0 ? count : 1));
+    int n_parts = (int)(count - 2) / 3;
+    Py_buffer v[5];
+    memset(v, 0, sizeof(v));
+    const int32_t *r[2], *c[2];
+    int64_t offset[2];
+    Py_ssize_t length[2], total = 0;
     PyObject *result = NULL;
+    int32_t *a = NULL, *b = NULL;
+    if (kd_view(PyTuple_GET_ITEM(args, 0), &v[4], 4, 0, "node") < 0) return NULL;
+    const int32_t *node = v[4].buf;
+    Py_ssize_t N = KD_COUNT(v[4]);
+    for (int p = 0; p < n_parts; p++) {
+        if (kd_view(PyTuple_GET_ITEM(args, 2 + 3 * p), &v[2 * p], 4, 0, "rows") < 0 ||
+                kd_view(PyTuple_GET_ITEM(args, 3 + 3 * p), &v[2 * p + 1], 4, 0, "cols") < 0)
+            goto done;
+        offset[p] = PyLong_AsLongLong(PyTuple_GET_ITEM(args, 4 + 3 * p));
+        if (PyErr_Occurred()) goto done;
+        r[p] = v[2 * p].buf;
+        c[p] = v[2 * p + 1].buf;
+        length[p] = KD_COUNT(v[2 * p]);
+        if (KD_COUNT(v[2 * p + 1]) != length[p]) {
+            PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
+            goto done;
+        }
+        for (Py_ssize_t e = 0; e < length[p]; e++) {
+            int64_t i = r[p][e] + offset[p], j = c[p][e];
+            if (i < 0 || i >= N || j < 0 || j >= N) {
+                PyErr_SetString(PyExc_ValueError, "an entry outside the node array");
+                goto done;
+            }
+            if (node[i] >= n_nodes || node[j] >= n_nodes) {
+                PyErr_SetString(PyExc_ValueError, "a node number beyond n_nodes");
+                goto done;
+            }
+            if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) total++;
+        }
+    }
+    a = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
+    b = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
     if (a == NULL || b == NULL) {
         PyErr_NoMemory();
-    } else {
-        Py_ssize_t e = 0;
-        for (Py_ssize_t i = 0; i < N; i++)
-            for (int32_t q = indptr[i]; q < indptr[i + 1]; q++) {
-                int32_t j = indices[q];
-                if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) {
-                    a[e] = node[i];
-                    b[e++] = node[j];
-                }
-            }
-        part.r = a;
-        part.c = b;
-        result = kd_csr_of(n_nodes, n_nodes, &part, 1, 0);
+        goto done;
     }
+    Py_ssize_t k = 0;
+    for (int p = 0; p < n_parts; p++)
+        for (Py_ssize_t e = 0; e < length[p]; e++) {
+            int32_t i = node[r[p][e] + offset[p]], j = node[c[p][e]];
+            if (i >= 0 && j >= 0 && i != j) {
+                a[k] = i;
+                b[k++] = j;
+            }
+        }
+    kd_part part = {a, b, total, 0};
+    result = kd_csr_of(n_nodes, n_nodes, &part, 1, 1);
+done:
     free(a);
     free(b);
-    kd_release(v, 3);
+    kd_release(v, 5);
     return result;
 }
 

@@ -92,6 +92,10 @@ __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 ORDERINGS = ("pairs", "rcm", "pairs-mmd")
 
 
+#: Jacobian entries taken at a time where a pass over them makes temporaries
+_CHUNK = 1 << 18
+
+
 def dense_threshold(degrees):
     """The degree above which a row counts as dense and is ordered last:
     ``max(16, 10 x`` the mean degree ``)``, ``degrees`` the number of
@@ -170,9 +174,14 @@ def _submatrix(pattern, rows, cols):
         m if rows is None else rows.size)
     col_place = np.full(n, -1, dtype=np.int32)
     col_place[cols] = np.arange(cols.size)
-    r, c = row_place[r], col_place[c]
+    # one temporary at a time (the entries' arrays are the largest here)
+    r = row_place[r]
+    c = col_place[c]
     keep = (r >= 0) & (c >= 0)
-    return _pattern((m if rows is None else rows.size, cols.size), r[keep], c[keep])
+    r = r[keep]
+    c = c[keep]
+    del keep
+    return _pattern((m if rows is None else rows.size, cols.size), r, c)
 
 
 def _matching(pattern, preferred, full=None):
@@ -212,13 +221,18 @@ def _sweeps_backward(order, node, n, block, jr, jc):
     interval, to 2e13 beside entries of 21).  ``node``: the node of each row
     of K (-1 for the rows left out); ``block``: the row each row is paired
     into (itself when unpaired)."""
-    rows = n + jr
-    partner = block[rows]
-    use = (partner != rows) & (jc != partner) & (node[rows] >= 0) & (node[jc] >= 0)
-    rank = np.empty(order.size, dtype=np.int64)
-    rank[order] = np.arange(order.size)
-    before = int(np.count_nonzero(rank[node[jc[use]]] < rank[node[rows[use]]]))
-    return 2 * before <= int(use.sum())
+    rank = np.empty(order.size, dtype=np.int32)
+    rank[order] = np.arange(order.size, dtype=np.int32)
+    row_rank = np.where(node >= 0, rank[np.maximum(node, 0)], -1)  # of each row of K
+    before = counted = 0
+    for start in range(0, jr.size, _CHUNK):  # (the temporaries of a chunk only)
+        rows, cols = n + jr[start:start + _CHUNK], jc[start:start + _CHUNK]
+        partner = block[rows]
+        use = (partner != rows) & (cols != partner) & (row_rank[rows] >= 0) & (
+            row_rank[cols] >= 0)
+        before += int(np.count_nonzero(row_rank[cols[use]] < row_rank[rows[use]]))
+        counted += int(np.count_nonzero(use))
+    return 2 * before <= counted
 
 
 def reverse_cuthill_mckee(graph, start=-1):
@@ -300,11 +314,10 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         return np.zeros(0, dtype=np.int32), 0, np.zeros(0, dtype=np.int8)
     hr, hc = hessian_off
     jr, jc = jacobian
-    graph = _made((N, N), [(hr, hc, 0), (jr, jc, n)], True)
-    degrees = np.diff(graph.indptr)
+    degrees = np.diff(_made((N, N), [(hr, hc, 0), (jr, jc, n)], True).indptr)
     dense = degrees > dense_threshold(degrees)
     late = dense if delayed is None else dense | delayed
-    keep = np.flatnonzero(~late)
+    keep = np.flatnonzero(~late).astype(np.int32)
     block = np.arange(N, dtype=np.int32)  # the node of the compressed graph of each row
     if ordering != "rcm" and m and jr.size:
         inside = ~late[n + jr] & ~late[jc]
@@ -320,12 +333,18 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
     # the compressed graph on the blocks of the rows that are not dense
-    nodes, compressed = np.unique(block[keep], return_inverse=True)
+    # (numbered in int32 by marks, not np.unique's int64 sort)
+    used = np.zeros(N, dtype=bool)
+    used[block[keep]] = True
+    nodes = np.flatnonzero(used)
+    number = np.cumsum(used, dtype=np.int32) - 1
+    del used
+    compressed = number[block[keep]]
+    del number
     where = np.full(N, -1, dtype=np.int32)  # -1 for a row left out
     where[keep] = compressed
     compressed_graph = _csr((nodes.size,) * 2, kernel().compressed(
-        graph.indptr, graph.indices, where, nodes.size))
-    del graph
+        where, nodes.size, _indices(hr), _indices(hc), 0, _indices(jr), _indices(jc), n))
     if nodes.size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)
     elif ordering == "pairs-mmd":
@@ -335,15 +354,16 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     else:
         order = reverse_cuthill_mckee(compressed_graph)
     # expand: each block's rows in their own order (the variable before its constraint)
-    rank = np.empty(nodes.size, dtype=np.int64)
-    rank[order] = np.arange(nodes.size)
-    sequence = np.lexsort((keep, rank[compressed]))
+    # (keep increases: a stable sort by block keeps each block's rows in order)
+    rank = np.empty(nodes.size, dtype=np.int32)
+    rank[order] = np.arange(nodes.size, dtype=np.int32)
+    sequence = np.argsort(rank[compressed], kind="stable")
     permutation = np.concatenate([keep[sequence], np.flatnonzero(late & ~dense),
-                                  np.flatnonzero(dense)])
+                                  np.flatnonzero(dense)], dtype=np.int32, casting="same_kind")
     # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
     # variable (1) and the constraint (2) of a pair
     kind = np.where(permutation < n, 0, 3).astype(np.int8)
     follower = block[permutation[1:]] == block[permutation[:-1]]
     kind[:-1][follower] = 1
     kind[1:][follower] = 2
-    return permutation.astype(np.int32), int(dense.sum()), kind
+    return permutation, int(dense.sum()), kind

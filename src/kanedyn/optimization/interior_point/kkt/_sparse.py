@@ -139,7 +139,8 @@ from ._analyses import SymbolicAnalysis, cached_analysis
 from ._kernel import kernel
 from ._ordering import ORDERINGS, elimination_order
 
-__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED"]
+__all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED",
+           "pairable_entries"]
 
 #: default relative threshold of a zero pivot (see the module's docstring)
 ZERO_PIVOT = 1e-12
@@ -249,6 +250,20 @@ def _values(value, size, name):
     return a
 
 
+def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
+    """The Jacobian's entries a 2 x 2 pivot may be made of at these values:
+    those above ``zero_pivot`` times the largest magnitude of their row
+    (boolean, shape ``(len(jacobian_rows),)``; a zero row has none).  An
+    entry of the pattern that is zero here (a structural zero: the
+    collocation's Jacobian holds each defect row's derivative by every state
+    and input of its node) would make a pair whose pivot is zero where the
+    variable's diagonal is."""
+    magnitude = np.abs(jacobian_values)
+    row_largest = np.zeros(m)
+    np.maximum.at(row_largest, jacobian_rows, magnitude)
+    return magnitude > zero_pivot * row_largest[jacobian_rows]
+
+
 def _check_values(kernel, arrays, names, nonnegative=None):
     """Raise ``ValueError`` at the first entry of ``arrays`` (float64,
     C-contiguous) that is not finite, else at the most negative of the array
@@ -346,6 +361,12 @@ class SparseKKT:
     ordering : str
         The elimination order, one of
         :data:`~._ordering.ORDERINGS` (:mod:`._ordering`).
+    pairable : ndarray of bool, shape (len(jacobian_structure[0]),), optional
+        The Jacobian's entries the order may make a 2 x 2 pivot of (the
+        others only where they alone match more rows); default all.  The
+        interior point gives :func:`pairable_entries` at its start point,
+        so that no pair is made through a structural zero (which the first
+        ``factor`` would meet as a zero pivot, and analyse again).
 
     Attributes
     ----------
@@ -380,7 +401,7 @@ class SparseKKT:
     """
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, *,
-                 zero_pivot=ZERO_PIVOT, ordering="pairs"):
+                 zero_pivot=ZERO_PIVOT, ordering="pairs", pairable=None):
         n, m = _size(n, "n"), _size(m, "m")
         hr, hc = _structure(hessian_structure, "hessian_structure", n, n)
         upper = np.flatnonzero(hr < hc)
@@ -394,6 +415,12 @@ class SparseKKT:
         if ordering not in ORDERINGS:
             raise ValueError(f"ordering must be one of {', '.join(ORDERINGS)}, not "
                              f"{ordering!r}")
+        if pairable is not None:
+            pairable = np.asarray(pairable)
+            if pairable.dtype != bool or pairable.shape != jr.shape:
+                raise ValueError(f"pairable must be a boolean array of shape {jr.shape} (one "
+                                 f"for each Jacobian entry), not {pairable.dtype} of shape "
+                                 f"{pairable.shape}")
         N = n + m
         if N >= _LIMIT:
             raise ValueError(f"n + m = {N} is too large for 32-bit indices")
@@ -407,7 +434,7 @@ class SparseKKT:
         self._entries = (hr.size, jr.size)  # of the Hessian and the Jacobian
         has_diagonal = np.zeros(n, dtype=bool)
         has_diagonal[hr[hr == hc]] = True
-        self._analyse((hr, hc), (jr, jc), has_diagonal, None)
+        self._analyse((hr, hc), (jr, jc), has_diagonal, pairable)
         self.inertia = None
 
     def _structures(self):
@@ -575,9 +602,7 @@ class SparseKKT:
         diagonal = dx.copy()
         on = hr == hc
         np.add.at(diagonal, hr[on], hv[on])
-        row_largest = np.zeros(m)
-        np.maximum.at(row_largest, jr, np.abs(jv))
-        pairable = np.abs(jv) > self.zero_pivot * row_largest[jr]
+        pairable = pairable_entries(m, jr, jv, self.zero_pivot)
         # a Hessian diagonal in the pattern, not zero at these values (the
         # others have a zero diagonal at least where diagonal_x is zero)
         has_diagonal = np.zeros(self.n, dtype=bool)
