@@ -95,6 +95,29 @@ def pendulum_guess(nodes):
     return np.concatenate([np.stack([theta, omega], axis=1).ravel(), torque])
 
 
+#: the node count of the swing-up whose optimum seeds the memory scan's guesses
+GALLERY_NODES = 501
+
+
+def pendulum_gallery_optimum():
+    """kanedyn's optimum of the swing-up at :data:`GALLERY_NODES` nodes (IPOPT
+    from a random guess, seed 0): the decision vector."""
+    problem, _ = pendulum_kanedyn(GALLERY_NODES)
+    return problem.solve(np.random.default_rng(0).normal(size=3 * GALLERY_NODES),
+                         options=IPOPT_OPTIONS).x
+
+
+def pendulum_interpolated(coarse, nodes):
+    """The guess at ``nodes`` nodes interpolated from ``coarse``, a decision
+    vector at :data:`GALLERY_NODES` nodes (angle, rate, torque linearly in
+    time)."""
+    s_old, s_new = np.linspace(0, 1, GALLERY_NODES), np.linspace(0, 1, nodes)
+    Y = coarse[:2 * GALLERY_NODES].reshape(GALLERY_NODES, 2)
+    return np.concatenate([
+        np.stack([np.interp(s_new, s_old, Y[:, j]) for j in range(2)], axis=1).ravel(),
+        np.interp(s_new, s_old, coarse[2 * GALLERY_NODES:3 * GALLERY_NODES])])
+
+
 # ------------------------------------------------------------ cart-pole swing-up
 #: kanedyn's n-link-pendulum-on-cart with n = 1 (cart 2 kg, bob 0.5 kg on 0.6 m):
 #: from hanging at rest to upright at rest with the cart back at 0 in 3 s,

@@ -351,14 +351,7 @@ sys.path.insert(0, {bench!r})
 import _ocp_peers as peers
 tool, nodes, path, extra = {tool!r}, {nodes}, {path!r}, {extra!r}
 options = dict(peers.IPOPT_OPTIONS, **extra)
-coarse = np.load(path)
-gallery = 501
-s_old, s_new = np.linspace(0, 1, gallery), np.linspace(0, 1, nodes)
-Y = coarse[:2 * gallery].reshape(gallery, 2)
-guess = np.concatenate([
-    np.stack([np.interp(s_new, s_old, Y[:, j]) for j in range(2)], axis=1).ravel(),
-    np.interp(s_new, s_old, coarse[2 * gallery:3 * gallery])])
-del coarse, Y
+guess = peers.pendulum_interpolated(np.load(path), nodes)
 start = time.perf_counter()
 if tool == "kanedyn":
     problem, model = peers.pendulum_kanedyn(nodes)
@@ -415,11 +408,7 @@ def scan(nodes_list, memory_gib, time_s, address_cap=0.0, max_iter=0, budgets=(1
     process; then, per memory budget, the most nodes each contender ran within
     it (peak resident memory and peak address space)."""
     tmp = Path(tempfile.mkdtemp(prefix="kd-bench-ocp-scan-"))
-    gallery_nodes = 501
-    problem, _ = peers.pendulum_kanedyn(gallery_nodes)
-    seed = problem.solve(np.random.default_rng(0).normal(size=3 * gallery_nodes),
-                         options=peers.IPOPT_OPTIONS)
-    np.save(tmp / "guess.npy", seed.x)
+    np.save(tmp / "guess.npy", peers.pendulum_gallery_optimum())
     env = dict(os.environ)
     extra = {"max_iter": max_iter} if max_iter else {}
     print(f"nodes against memory and time: pendulum swing-up, budgets {memory_gib:g} GiB "
@@ -590,20 +579,14 @@ def main():
                  args.scan_max_iter, args.budgets, args.contenders)
         return
     # opty's gallery problem as published: 501 nodes from its random guess
-    gallery = 501
+    gallery = peers.GALLERY_NODES
     k, _ = compare("pendulum swing-up (opty's gallery: random guess)", pendulum_kanedyn,
                    pendulum_opty, gallery, np.random.default_rng(0).normal(
                        size=3 * gallery), 2, 1)
     # the other sizes from that solution, interpolated (the random guess fails
     # for both at 100 nodes)
-    coarse = k["x"]
     for nodes in args.nodes:
-        s_old, s_new = np.linspace(0, 1, gallery), np.linspace(0, 1, nodes)
-        Y = coarse[:2 * gallery].reshape(gallery, 2)
-        R = coarse[2 * gallery:3 * gallery]
-        guess = np.concatenate([
-            np.stack([np.interp(s_new, s_old, Y[:, j]) for j in range(2)], axis=1).ravel(),
-            np.interp(s_new, s_old, R)])
+        guess = peers.pendulum_interpolated(k["x"], nodes)
         compare("pendulum swing-up (guess: the 501-node optimum interpolated)",
                 pendulum_kanedyn, pendulum_opty, nodes, guess, 2, 1)
     for nodes in args.cart_pole:

@@ -1,7 +1,8 @@
 """Where the interior point's memory goes at its peak: one traced solve.
 
 The pendulum swing-up of ``bench_optimal_control.py``'s scan (backward Euler,
-opty's problem, the straight-line guess of ``_ocp_peers.pendulum_guess``)
+opty's problem; the straight-line guess of ``_ocp_peers.pendulum_guess``, or
+with ``--guess gallery`` the scan's own, the 501-node optimum interpolated)
 solved by ``solve(solver="interior-point", hessian="exact")`` with at most
 ``--max-iter`` iterations, traced by ``tracemalloc`` from after the problem
 is built.  Prints the highest traced memory of the solve in bytes per node
@@ -16,6 +17,7 @@ hold") gives its figures.
 
     python benchmarks/trace_interior_point_memory.py [--nodes 100000] [--max-iter 15]
         [--at NAME] [--lines 30] [--limited-memory] [--linear-solver sparse]
+        [--guess gallery]
 """
 
 from __future__ import annotations
@@ -41,13 +43,18 @@ def main():
     parser.add_argument("--limited-memory", action="store_true",
                         help="the limited-memory Hessian (the solver's default) instead of "
                              "the exact one")
+    parser.add_argument("--guess", default="line", choices=("line", "gallery"),
+                        help="the straight line (_ocp_peers.pendulum_guess) or, as "
+                             "bench_optimal_control.py's scan starts, the 501-node optimum "
+                             "interpolated")
     parser.add_argument("--linear-solver", default="auto",
                         choices=("auto", "sparse", "envelope", "dense"),
                         help="the interior point's factorization (its option linear_solver)")
     args = parser.parse_args()
     nodes = args.nodes
     problem, _ = peers.pendulum_kanedyn(nodes)
-    guess = peers.pendulum_guess(nodes)
+    guess = (peers.pendulum_guess(nodes) if args.guess == "line" else
+             peers.pendulum_interpolated(peers.pendulum_gallery_optimum(), nodes))
     highest = {"bytes": -1, "snapshot": None, "stack": ""}
 
     def on_return(frame, event, _arg):

@@ -251,26 +251,28 @@ def test_pendulum_backward_euler_infeasible_like_ipopt(linear_solver):
 
 
 def test_soft_restoration_steps_cut_the_primal_dual_error(capsys):
-    """The pendulum swing-up in free time (Hermite-Simpson, 30 nodes, the
+    """The pendulum swing-up in free time (backward Euler, 50 nodes, the
     exact Hessian, infeasible: IPOPT ends with status 2): where the line
     search fails, steps of the soft restoration phase are taken (printed
-    ``s``: the primal-dual system error fell), then the restoration phase;
-    the solve ends locally infeasible, as IPOPT's."""
+    ``s``: the primal-dual system error fell; 4 on this path, which the
+    factorizations' rounding decides: on Hermite-Simpson at 30 nodes there
+    were 5 until the band's order changed, now none), then the restoration
+    phase; the solve ends locally infeasible, as IPOPT's."""
     import sympy as sm
     import kanedyn as kd
     definition = kd.models.build("pendulum", torque=True)
     q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
     T = sm.Symbol("T")
     problem = kd.OptimalControlProblem(
-        definition.numeric(backend="numpy"), nodes=30, duration=T,
+        definition.numeric(backend="numpy"), nodes=50, duration=T,
         lagrange=tau ** 2 + T * q ** 2, mayer=T, bounds={tau: (-2, 2), T: (0.5, 15)},
-        initial={q: 0, u: 0}, final={q: np.pi, u: 0}, method="hermite-simpson")
+        initial={q: 0, u: 0}, final={q: np.pi, u: 0}, method="backward-euler")
     guess = problem.guess_line(inputs={tau: 0.0}, duration=8.0)
     found = problem.solve(guess, solver="interior-point", hessian="exact",
                           options={"tol": 1e-10, "print_level": 1})
     printed = capsys.readouterr().out
     soft = re.findall(r"^\s*\d+ .* (\S+) (\S+)s\s+1$", printed, re.MULTILINE)
-    assert len(soft) >= 5
+    assert len(soft) >= 3
     assert RESTORATION_ROW.search(printed)
     assert found.status == 2, found.status_text
 

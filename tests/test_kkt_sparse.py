@@ -452,6 +452,30 @@ def test_pairs_made_only_through_entries_not_zero_at_the_start(KKT):
         KKT(n, m, hessian, jacobian, pairable=pairable[:-1])
 
 
+@BOTH
+def test_a_zero_pivot_of_the_backward_sweep_is_swept_forward(KKT):
+    """The backward-Euler swing-up at 20,000 nodes, its final state fixed:
+    the interior point's start system (no Hessian, unit diagonal), swept
+    backward, meets a zero pivot at the last nodes (the last rate's defect
+    paired through the torque's entry h, 1/h^2 on the last free rate).  The
+    pairs made again do not help; the band swept forward does: K's inertia
+    (n positive, m negative: J has full row rank), no row delayed, and the
+    envelope no longer than before (delayed to the end, the two rows would
+    have made it 28 entries a node)."""
+    from kanedyn.optimization.interior_point._options import settings
+    from kanedyn.optimization.interior_point._reduced import ReducedNLP
+    nodes = 20_000
+    nlp = _pendulum_nlp("backward-euler", False, nodes=nodes)
+    reduced = ReducedNLP(nlp, np.zeros(nlp.n), settings({}))
+    n, m = reduced.n, reduced.m
+    jv = reduced.kept_jacobian(np.asarray(nlp.jacobian(reduced.start_full()), dtype=float))
+    kkt = KKT(n, m, reduced.hessian_structure(), reduced.jacobian_structure)
+    swept_backward = kkt.analysis.nnz_factor
+    assert kkt.factor(np.zeros(reduced.hessian_size), jv, np.ones(n), np.zeros(m)) == (n, m, 0)
+    assert kkt.reanalyses == 2 and kkt.analysis.n_delayed == 0
+    assert kkt.analysis.nnz_factor <= 1.001 * swept_backward < 18.1 * nodes
+
+
 def test_the_envelope_holds_the_band_in_less_memory():
     """The backward-Euler swing-up's KKT matrix in the pairs' order is a
     band that L fills: its envelope has the sparse L's entries, K the same

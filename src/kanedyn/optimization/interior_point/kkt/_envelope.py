@@ -134,7 +134,7 @@ class EnvelopeKKT(SparseKKT):
         self._numeric = None  # not held while a new order is made; the next factor
         # makes it again (_storage)
         symbolic = cached_analysis(
-            N, (n, m, self.ordering, "envelope"),
+            N, (n, m, self.ordering, self._forward, "envelope"),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
             lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
         self._permutation, self._kind = symbolic.permutation, symbolic.kind

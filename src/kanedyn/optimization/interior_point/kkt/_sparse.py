@@ -94,7 +94,7 @@ is 0 (the pendulum's backward-Euler NLP has such entries: a defect row's
 derivative by an input it does not hold), or a variable left unpaired
 whose Hessian diagonal is 0 at these values, eliminated before its rows.
 So when ``factor`` finds a zero pivot outside the rows already delayed, it
-analyses again, once or twice, and factors again with the same values:
+analyses again, up to three times, and factors again with the same values:
 
 1. the pairs made again for these values: a pair only through a Jacobian
    entry above ``zero_pivot`` times the largest of its row, and paired
@@ -102,7 +102,10 @@ analyses again, once or twice, and factors again with the same values:
    constructor's order) and those whose diagonal (Hessian and
    ``diagonal_x``) is at most ``zero_pivot`` times :math:`K`'s largest
    entry here (where either loses no row);
-2. if a pivot is still zero: its rows (both of a pair) *delayed*,
+2. if a pivot is still zero (and the order is ``"pairs"``'s): the band
+   swept forward instead (:mod:`._ordering`: neither way suits every
+   problem);
+3. if a pivot is still zero: its rows (both of a pair) *delayed*,
    eliminated after all others but the dense ones, unpaired; there the
    pivots are the Schur complement of everything before them, zero only
    where :math:`K` without its dense rows is singular or nearly so (or a
@@ -430,6 +433,7 @@ class SparseKKT:
         self.zero_pivot = float(zero_pivot)
         self.ordering = ordering
         self._delayed = np.zeros(N, dtype=bool)
+        self._forward = False  # the band swept forward (after a zero pivot)
         self.reanalyses = 0
         self._entries = (hr.size, jr.size)  # of the Hessian and the Jacobian
         has_diagonal = np.zeros(n, dtype=bool)
@@ -459,7 +463,8 @@ class SparseKKT:
         self._numeric = None  # not held while a new order is made; the next factor
         # makes it again (_storage)
         symbolic = cached_analysis(
-            N, (n, m, self.ordering), (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
+            N, (n, m, self.ordering, self._forward),
+            (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
             lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
         self._permutation, self._kind = symbolic.permutation, symbolic.kind
         self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
@@ -483,7 +488,7 @@ class SparseKKT:
         (hr, hc), jacobian = hessian_structure, jacobian_structure
         off = hr != hc
         return elimination_order(self.n, self.m, (hr[off], hc[off]), jacobian, self.ordering,
-                                 has_diagonal, pairable, self._delayed)
+                                 has_diagonal, pairable, self._delayed, not self._forward)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`~._analyses.SymbolicAnalysis` of these inputs: the
@@ -608,10 +613,15 @@ class SparseKKT:
         has_diagonal = np.zeros(self.n, dtype=bool)
         has_diagonal[hr[on]] = True
         has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
-        # first the pairs made again; then what still fails, delayed to the end
+        # first the pairs made again; then the band swept the other way; then
+        # what still fails, delayed to the end
         found = inertia
-        for delay in (False, True):
-            if delay:
+        for step in ("pairs", "forward", "delay"):
+            if step == "forward":  # (no band of pairs without constraints)
+                if self._forward or self.ordering != "pairs" or not self._entries[1]:
+                    continue
+                self._forward = True
+            if step == "delay":
                 if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:
                     return found  # each makes a long row of L: not for many
                 self._delayed |= failed
