@@ -132,7 +132,8 @@ class EnvelopeKKT(SparseKKT):
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         self._hessian_structure, self._jacobian_structure = (hr, hc), (jr, jc)
         self._numeric = None  # not held while a new order is made; the next factor
-        # makes it again (_storage)
+        # makes it again (_storage); nor the last analysis's pointers
+        self._rowptr = self._inverse = None
         symbolic = cached_analysis(
             N, (n, m, self.ordering, self._forward, "envelope"),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),

@@ -444,12 +444,15 @@ class SparseKKT:
     def _structures(self):
         """``((hr, hc), (jr, jc))``, the constructor's structures, from the
         maps (not kept: an analysis again is rare)."""
-        column = np.repeat(np.arange(self.size), np.diff(self._Ap))
-        first = self._permutation[self._Ai].astype(np.int64)
-        second = self._permutation[column].astype(np.int64)
-        high, low = np.maximum(first, second), np.minimum(first, second)
+        column = np.repeat(np.arange(self.size, dtype=_INDEX), np.diff(self._Ap))
+        first = self._permutation[self._Ai]
+        second = self._permutation[column]
+        del column
+        high = np.maximum(first, second)
+        np.minimum(first, second, out=first)
+        del second
         h, j = self._hessian_map, self._jacobian_map
-        return (high[h], low[h]), (high[j] - self.n, low[j])
+        return (high[h], first[h]), (high[j] - _INDEX(self.n), first[j])
 
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (pairs by :func:`elimination_order`, ``self._delayed``
@@ -461,7 +464,9 @@ class SparseKKT:
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         self._numeric = None  # not held while a new order is made; the next factor
-        # makes it again (_storage)
+        # makes it again (_storage); nor the last analysis's arrays
+        self._Ap = self._Ai = self._hessian_map = self._jacobian_map = None
+        self._diagonal_map = self._parent = None
         symbolic = cached_analysis(
             N, (n, m, self.ordering, self._forward),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
@@ -602,8 +607,9 @@ class SparseKKT:
         failed = self._zero_rows()
         if not (failed & ~self._delayed).any():
             return inertia  # zero where it was already delayed: K's own
-        (hr, hc), (jr, _) = structures = self._structures()
         largest = max(self._largest_entry(), 1e-300)
+        self._numeric = None  # (made again by the next factor) not held meanwhile
+        (hr, hc), (jr, _) = structures = self._structures()
         diagonal = dx.copy()
         on = hr == hc
         np.add.at(diagonal, hr[on], hv[on])
