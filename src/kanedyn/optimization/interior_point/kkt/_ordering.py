@@ -198,19 +198,22 @@ def _matching(pattern, preferred, full=None):
     ``pattern`` alone matches fewer rows."""
     from scipy.sparse.csgraph import maximum_bipartite_matching
 
-    best = maximum_bipartite_matching(pattern if full is None else full,
-                                      perm_type="column")
-    partner = np.full(pattern.shape[0], -1)
+    partner = np.full(pattern.shape[0], -1, dtype=np.int32)
     cols = np.flatnonzero(preferred)
     if cols.size:
         first = maximum_bipartite_matching(_submatrix(pattern, None, cols),
                                            perm_type="column")
-        partner = np.where(first >= 0, cols[np.maximum(first, 0)], -1)
+        partner = np.where(first >= 0, cols[np.maximum(first, 0)], -1).astype(np.int32)
+        del first
     rows, cols = np.flatnonzero(partner < 0), np.flatnonzero(~preferred)
     if rows.size and cols.size:
         second = maximum_bipartite_matching(_submatrix(pattern, rows, cols),
                                             perm_type="column")
         partner[rows] = np.where(second >= 0, cols[np.maximum(second, 0)], -1)
+        del second
+    del rows, cols  # (then a maximum matching, for the count: one at a time)
+    best = maximum_bipartite_matching(pattern if full is None else full,
+                                      perm_type="column")
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
@@ -342,6 +345,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
             partner = _matching(pattern_of(inside & pairable), preferred & ~late[:n], full)
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
+        del full, inside, partner, paired  # (each step's temporaries let go: a new
+        # order after a zero pivot is made beside the solver's arrays)
     # the compressed graph on the blocks of the rows that are not dense
     # (numbered in int32 by marks, not np.unique's int64 sort)
     used = np.zeros(N, dtype=bool)
@@ -363,13 +368,16 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
         order = _band(compressed_graph, where, n, block, jr, jc, backward)
     else:
         order = reverse_cuthill_mckee(compressed_graph)
+    del compressed_graph, where
     # expand: each block's rows in their own order (the variable before its constraint)
     # (keep increases: a stable sort by block keeps each block's rows in order)
     rank = np.empty(nodes.size, dtype=np.int32)
     rank[order] = np.arange(nodes.size, dtype=np.int32)
     sequence = np.argsort(rank[compressed], kind="stable")
+    del rank, compressed
     permutation = np.concatenate([keep[sequence], np.flatnonzero(late & ~dense),
                                   np.flatnonzero(dense)], dtype=np.int32, casting="same_kind")
+    del sequence, keep
     # the kind of each pivot: a 1 x 1 of a variable (0) or a constraint (3), the
     # variable (1) and the constraint (2) of a pair
     kind = np.where(permutation < n, 0, 3).astype(np.int8)
