@@ -217,9 +217,10 @@ def _matching(pattern, preferred, full=None):
     return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
 
 
-def _sweeps_backward(order, node, n, block, jr, jc):
-    """Whether ``order`` (of the compressed graph's nodes) puts at least half
-    of the paired constraints' other variables after their pair.
+def _backward_share(order, node, n, block, jr, jc):
+    """The share of the paired constraints' other variables that ``order``
+    (of the compressed graph's nodes) puts after their pair (1 where there
+    are none): at least half, it sweeps backward.
 
     A band order runs along the collocation's nodes one way or the other.
     With a defect row paired with the state it defines, eliminating the pairs
@@ -241,7 +242,7 @@ def _sweeps_backward(order, node, n, block, jr, jc):
             row_rank[cols] >= 0)
         before += int(np.count_nonzero(row_rank[cols[use]] < row_rank[rows[use]]))
         counted += int(np.count_nonzero(use))
-    return 2 * before <= counted
+    return 1.0 - before / counted if counted else 1.0
 
 
 def reverse_cuthill_mckee(graph, start=-1):
@@ -264,17 +265,19 @@ def reverse_cuthill_mckee(graph, start=-1):
 
 def _band(graph, node, n, block, jr, jc, backward=True):
     """Reverse Cuthill-McKee's order of ``graph`` (:func:`reverse_cuthill_mckee`)
-    that sweeps backward (:func:`_sweeps_backward`; with ``backward=False``
-    forward): from a pseudo-peripheral node; else from the other end of that
-    order; else the first one reversed (Cuthill-McKee's, whose profile may
-    be larger)."""
+    that sweeps backward (:func:`_backward_share` at least a half; with
+    ``backward=False`` forward, below a half): from a pseudo-peripheral
+    node; else from the other end of that order, where that sweeps further
+    that way (pairs whose other variables lie at their own node, as the
+    interior points' of Hermite-Simpson after the pairs are made again for
+    the values, can leave both below a half)."""
     order = reverse_cuthill_mckee(graph)
-    if _sweeps_backward(order, node, n, block, jr, jc) == backward:
+    share = _backward_share(order, node, n, block, jr, jc)
+    if (share >= 0.5) == backward:
         return order
     other = reverse_cuthill_mckee(graph, start=order[0])
-    if _sweeps_backward(other, node, n, block, jr, jc) == backward:
-        return other
-    return order[::-1].copy()
+    other_share = _backward_share(other, node, n, block, jr, jc)
+    return other if (other_share > share) == backward else order
 
 
 def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
