@@ -60,7 +60,7 @@ from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from .kkt._low_rank import LowRankKKT
-from .kkt._sparse import pairable_entries
+from .kkt._sparse import SparseKKT, pairable_entries
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
 from ._options import settings as checked_settings
 from ._quasi_newton import LimitedMemoryBFGS
@@ -281,7 +281,7 @@ class _Run:
         kkt_type, self.note = kkt_class(s.linear_solver)
         # no pair through an entry that is zero at the start (a structural
         # zero): the first factorization would meet its zero pivot
-        paired = {} if kkt_type.__name__ == "DenseKKT" else {"pairable": self.pairable}
+        paired = {"pairable": self.pairable} if issubclass(kkt_type, SparseKKT) else {}
         self.kkt = kkt_type(n, m, R.hessian_structure(), R.jacobian_structure, **paired)
         self.pairable = None
         #: the NLP's limited-memory approximation, or ``None`` (exact)

@@ -66,9 +66,16 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   199,979 in SuperLU's minimum degree order on the rows (SciPy's ``splu``,
   ``permc_spec="MMD_AT_PLUS_A"``, no pivoting).  Hermite-Simpson: 73,844 /
   739,796 forward, 70,928 / 709,928 backward; 78,869 / 789,869; 54,951 /
-  549,951; 47,275 / 473,385.  In the NLP's own order (the band not found)
-  L had 3.96 times the entries it has with the pairs at 41 trapezoid nodes
-  (``tests/test_kkt_sparse.py`` checks more than 3);
+  549,951; 47,275 / 473,385.  With the band started at a pseudo-peripheral
+  node (2026-11-30) the same but at 10,000 Hermite-Simpson nodes after the
+  first factorization's new pairs: 699,929 swept backward (699,934 before),
+  and by the rows' RCM 549,951 until its factorizations delayed rows with
+  zero pivots, then 1,103,377 (its orders without those rows).  On the
+  backward-Euler swing-up (its fixed initial and final states left out)
+  SciPy's RCM had started in the middle of the band: 30.1 entries a node at
+  2,000 nodes, 18.0 now (17.8 at 200 nodes both).  In the NLP's own order
+  (the band not found) L had 3.96 times the entries it has with the pairs
+  at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks more than 3);
 - ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
   with the pairs by minimum degree (100 to 10,000 nodes, both methods,
   three runs):
