@@ -404,6 +404,25 @@ def test_reverse_cuthill_mckee_starts_at_an_end_of_the_band():
         assert reverse_cuthill_mckee(graph, start=middle)[-1] == middle
 
 
+def test_the_order_kernels_refuse_patterns_that_do_not_fit():
+    """The kernel's ``cuthill_mckee`` and ``compressed`` check their
+    patterns before they index by them (a row longer than the node count,
+    pointers that do not fit, a start or an entry out of range)."""
+    from kanedyn.optimization.interior_point.kkt._kernel import kernel
+    k, i32 = kernel(), (lambda *a: np.array(a, dtype=np.int32))
+    order = np.empty(2, dtype=np.int32)
+    for indptr, indices, start in (((0, 1, 2), (1, 0), 2), ((0, 1), (1,), -1),
+                                   ((0, 3, 3), (1, 1, 1), -1), ((0, 1, 2), (1, 5), -1)):
+        with pytest.raises(ValueError, match="cuthill_mckee"):
+            k.cuthill_mckee(order, i32(*indptr), i32(*indices), start)
+    k.cuthill_mckee(order, i32(0, 1, 2), i32(1, 0), 1)
+    assert order.tolist() == [1, 0]
+    with pytest.raises(ValueError, match="outside the node array"):
+        k.compressed(i32(0, 1), 2, i32(0), i32(2), 0)
+    with pytest.raises(ValueError, match="beyond n_nodes"):
+        k.compressed(i32(0, 3), 2, i32(0), i32(1), 0)
+
+
 def test_the_band_is_as_narrow_at_many_nodes_as_at_few():
     """The backward-Euler swing-up's envelope, as the interior point sees
     the NLP (its fixed initial and final states left out), has as many
