@@ -386,9 +386,9 @@ def _caterpillar(spine, seed):
 def test_reverse_cuthill_mckee_starts_at_an_end_of_the_band():
     """On a tree whose nodes all but the path's have degree 1 (so that a
     node of least degree may lie anywhere along it), the order runs from
-    one end of the path to the other (bandwidth 3, numbered from the
-    middle it would be about twice that), every node once (the isolated
-    ones too); from ``start`` the order ends there."""
+    one end of the path to the other (bandwidth 3; SciPy's order, started
+    at a leaf along the path, has 4), every node once (the isolated ones
+    too); from ``start`` the order ends there."""
     from kanedyn.optimization.interior_point.kkt._ordering import reverse_cuthill_mckee
     for seed in range(5):
         graph, place = _caterpillar(200, seed)
