@@ -535,6 +535,26 @@ def test_nlp_derivatives_against_differences(method, degree, free):
     check_against_differences(nlp, z, 1e-7)
 
 
+def test_backward_euler_pattern_holds_one_entry_a_row_at_the_earlier_node():
+    """Backward Euler's defect rows hold the earlier node's states through
+    the difference alone: one entry a row there (-1, the row's own state),
+    not the node's whole state block (the pattern holds no structural
+    zeros there; the rest against differences above)."""
+    from kanedyn.optimization._nlp import CollocationNLP
+    definition = kd.models.build("pendulum", torque=True)
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(
+        definition.numeric(backend="numpy"), nodes=5, duration=2.0, lagrange=tau ** 2,
+        initial={q: 0, u: 0}, final={q: 1.0}, method="backward-euler")
+    nlp = CollocationNLP(problem)
+    rows, cols = nlp.jacobian_structure()
+    values = nlp.jacobian(np.random.default_rng(1).normal(size=nlp.n))
+    for k in range(4):  # interval k: rows 2k, 2k + 1; node k's states: columns 2k, 2k + 1
+        earlier = (rows // 2 == k) & (rows < 8) & (cols // 2 == k) & (cols < 10)
+        assert sorted(zip(rows[earlier] - 2 * k, cols[earlier] - 2 * k)) == [(0, 0), (1, 1)]
+        assert np.all(values[earlier] == -1.0)
+
+
 def check_against_differences(nlp, z, tolerance):
     """The NLP's sparse Jacobian and gradient at ``z`` against central
     differences of its constraints and objective; no nonzero difference

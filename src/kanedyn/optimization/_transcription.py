@@ -386,6 +386,8 @@ class Defects:
         for block in self._blocks():
             if isinstance(block, str):
                 c = L.shared_columns(block)
+            elif block[0] == "y" and self._difference_only(block[1]):
+                c = (k + block[1]) * L.n_states + np.asarray(self.rows)[None, :, None]
             elif block[0] == "y":
                 c = (k + block[1]) * L.n_states + np.arange(L.n_states)[None, None, :]
             else:
@@ -426,6 +428,8 @@ class Defects:
             elif block == "t0":
                 v = sum(-h * s.c * rates[j][0][:, rows] for j, s in enumerate(self.stages))
                 v = v[:, :, None]
+            elif block[0] == "y" and self._difference_only(block[1]):
+                v = 1.0 if block[1] == 1 else -1.0  # each row's own state
             elif block[0] == "y":
                 o = block[1]
                 v = self._difference[o]
@@ -443,12 +447,21 @@ class Defects:
             start += size * width
         return values
 
+    def _difference_only(self, o):
+        """Whether the states at offset ``o`` of an interval enter its rows
+        through the difference alone (no stage there: backward Euler's
+        earlier node): their block is then each row's own state, one entry a
+        row (the pattern holds no structural zeros there)."""
+        return not any(s.a[o] for s in self.stages)
+
     def _block_width(self, block):
         """The columns of a :meth:`_blocks` group in each row."""
         L = self.layout
         if isinstance(block, str):
             return L.shared_columns(block).shape[2]
-        return L.n_states if block[0] == "y" else L.n_inputs
+        if block[0] == "y":
+            return 1 if self._difference_only(block[1]) else L.n_states
+        return L.n_inputs
 
     def quadrature(self, h, evaluated_terms):
         """:math:`h \\sum_k \\sum_s c_s L_s`, from the terms evaluated on the

@@ -14,7 +14,7 @@ docstring); only the storage and the loops differ:
   begins at its first (the 2 x 2 pivot mixes the two).  In a band, as the
   collocation's order makes (:mod:`._ordering`), the envelope fills:
   on the backward-Euler pendulum swing-up it has as many entries as the
-  sparse :math:`L` (18.0 a node), at 8 bytes each instead of 12.
+  sparse :math:`L` (16.0 a node), at 8 bytes each instead of 12.
 - **No copy of K**: the values are scattered straight into :math:`L`'s
   storage, which the factorization overwrites row by row
   (:math:`w = L^{-1} K_{f:k,k}` by one dot product per column, then

@@ -73,7 +73,8 @@ multipliers, ``diagonal_x = 1e-4``, ``diagonal_c = 0``; 2026-11-29, load
   zero pivots, then 1,103,377 (its orders without those rows).  On the
   backward-Euler swing-up (its fixed initial and final states left out)
   SciPy's RCM had started in the middle of the band: 30.1 entries a node at
-  2,000 nodes, 18.0 now (17.8 at 200 nodes both).  In the NLP's own order
+  2,000 nodes, 18.0 now (17.8 at 200 nodes both); 16.0 since the earlier
+  node's states hold one entry a row of the pattern (27.8 from the middle).  In the NLP's own order
   (the band not found) L had 3.96 times the entries it has with the pairs
   at 41 trapezoid nodes (``tests/test_kkt_sparse.py`` checks more than 3);
 - ``factor`` took 0.61x-0.97x the time in the rows' RCM order, 0.87x-1.53x
