@@ -141,7 +141,9 @@ class _Points:
                 c = np.broadcast_to(D[k0 + k, i[None, :], a[None, :]] / steps, r.shape)
                 col = np.broadcast_to(k * nu + i[None, :], r.shape)
                 keep = (r >= 0) & (c != 0.0)
-                rows.append(r[keep]); cols.append(col[keep]); coefficients.append(c[keep])
+                rows.append(r[keep])
+                cols.append(col[keep])
+                coefficients.append(c[keep])
             return np.concatenate(rows), np.concatenate(cols), np.concatenate(coefficients)
 
         return (self._by_runs(nu * nu, run, second),
