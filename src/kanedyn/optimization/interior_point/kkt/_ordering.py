@@ -202,8 +202,9 @@ def _matching(pattern, preferred, full=None):
     """``partner[i]``: the column matched to row ``i`` of ``pattern`` (m x n,
     CSR), or -1: a maximum matching that matches as many of the ``preferred``
     columns (a boolean mask) as it can first, where that loses no row; with
-    ``full`` (a pattern that holds ``pattern``), one of ``full`` when
-    ``pattern`` alone matches fewer rows."""
+    ``full`` (a callable that makes a pattern holding ``pattern``, called
+    only where ``pattern``'s matching leaves a row unmatched), one of
+    ``full``'s when ``pattern`` alone matches fewer rows."""
     from scipy.sparse.csgraph import maximum_bipartite_matching
 
     partner = np.full(pattern.shape[0], -1, dtype=np.int32)
@@ -219,10 +220,13 @@ def _matching(pattern, preferred, full=None):
                                             perm_type="column")
         partner[rows] = np.where(second >= 0, cols[np.maximum(second, 0)], -1)
         del second
-    del rows, cols  # (then a maximum matching, for the count: one at a time)
-    best = maximum_bipartite_matching(pattern if full is None else full,
+    del rows, cols
+    matched = int(np.count_nonzero(partner >= 0))
+    if matched == pattern.shape[0]:
+        return partner  # every row: a maximum matching (``full`` not made)
+    best = maximum_bipartite_matching(pattern if full is None else full(),
                                       perm_type="column")
-    return partner if (partner >= 0).sum() >= (best >= 0).sum() else best
+    return partner if matched >= (best >= 0).sum() else best
 
 
 def _backward_share(order, node, n, block, jr, jc):
@@ -348,15 +352,15 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
 
         def pattern_of(entries):
             return _pattern((m, n), jr[entries], jc[entries])
-        full = pattern_of(inside)
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
         if pairable is None:
-            partner = _matching(full, preferred & ~late[:n])
-        else:
-            partner = _matching(pattern_of(inside & pairable), preferred & ~late[:n], full)
+            partner = _matching(pattern_of(inside), preferred & ~late[:n])
+        else:  # (the whole pattern made only where the pairable entries leave a row)
+            partner = _matching(pattern_of(inside & pairable), preferred & ~late[:n],
+                                lambda: pattern_of(inside))
         paired = np.flatnonzero(partner >= 0)
         block[n + paired] = partner[paired]
-        del full, inside, partner, paired  # (each step's temporaries let go: a new
+        del inside, partner, paired  # (each step's temporaries let go: a new
         # order after a zero pivot is made beside the solver's arrays)
     # the compressed graph on the blocks of the rows that are not dense
     # (numbered in int32 by marks, not np.unique's int64 sort)
