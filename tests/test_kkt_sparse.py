@@ -366,6 +366,17 @@ def test_pendulum_order_finds_the_band():
     assert kkt.analysis.nnz_factor < in_own_order / 3
 
 
+def _reduced_pendulum(nodes, seed=None):
+    """``(nlp, reduced, x)``: the backward-Euler swing-up's NLP, the reduced
+    NLP the interior point sees (its fixed initial and final states left
+    out) and the point ``x`` it was made at (zeros, or normal with ``seed``)."""
+    from kanedyn.optimization.interior_point._options import settings
+    from kanedyn.optimization.interior_point._reduced import ReducedNLP
+    nlp = _pendulum_nlp("backward-euler", False, nodes=nodes)
+    x = np.zeros(nlp.n) if seed is None else np.random.default_rng(seed).normal(size=nlp.n)
+    return nlp, ReducedNLP(nlp, x, settings({})), x
+
+
 def _caterpillar(spine, seed):
     """A randomly numbered tree: a path of ``spine`` nodes, a leaf on each,
     and 3 isolated nodes (the pattern, symmetric CSR, and each node's place
@@ -429,12 +440,9 @@ def test_the_band_is_as_narrow_at_many_nodes_as_at_few():
     entries a node at 2,000 nodes as at 200: the band runs from an end
     (SciPy's RCM, started at a node of least degree in the middle, gives
     27.8 a node at 2,000 and 15.9 at 200)."""
-    from kanedyn.optimization.interior_point._options import settings
-    from kanedyn.optimization.interior_point._reduced import ReducedNLP
     per_node = []
     for nodes in (200, 2000):
-        nlp = _pendulum_nlp("backward-euler", False, nodes=nodes)
-        reduced = ReducedNLP(nlp, np.zeros(nlp.n), settings({}))
+        _, reduced, _ = _reduced_pendulum(nodes)
         kkt = EnvelopeKKT(reduced.n, reduced.m, reduced.hessian_structure(),
                           reduced.jacobian_structure)
         per_node.append(kkt.analysis.nnz_factor / nodes)
@@ -450,12 +458,8 @@ def test_pairs_made_only_through_entries_not_zero_at_the_start(KKT):
     pattern alone pairs a row through such an entry and meets its zero
     pivot (a new order); made from the entries not zero at the start
     (``pairable_entries``) it does not, and the inertia is the same."""
-    from kanedyn.optimization.interior_point._options import settings
-    from kanedyn.optimization.interior_point._reduced import ReducedNLP
     from kanedyn.optimization.interior_point.kkt._sparse import pairable_entries
-    nlp = _pendulum_nlp("backward-euler", False, nodes=200)
-    x = np.random.default_rng(3).normal(size=nlp.n)
-    reduced = ReducedNLP(nlp, x, settings({}))
+    nlp, reduced, x = _reduced_pendulum(200, seed=3)
     n, m = reduced.n, reduced.m
     hessian, jacobian = reduced.hessian_structure(), reduced.jacobian_structure
     jv = reduced.kept_jacobian(np.asarray(nlp.jacobian(x), dtype=float))
@@ -481,11 +485,8 @@ def test_a_zero_pivot_of_the_backward_sweep_is_swept_forward(KKT):
     (n positive, m negative: J has full row rank), no row delayed, and the
     envelope no longer than before (delayed to the end, each of the two
     rows would span the band: 10 entries a node more)."""
-    from kanedyn.optimization.interior_point._options import settings
-    from kanedyn.optimization.interior_point._reduced import ReducedNLP
     nodes = 20_000
-    nlp = _pendulum_nlp("backward-euler", False, nodes=nodes)
-    reduced = ReducedNLP(nlp, np.zeros(nlp.n), settings({}))
+    nlp, reduced, _ = _reduced_pendulum(nodes)
     n, m = reduced.n, reduced.m
     jv = reduced.kept_jacobian(np.asarray(nlp.jacobian(reduced.start_full()), dtype=float))
     kkt = KKT(n, m, reduced.hessian_structure(), reduced.jacobian_structure)

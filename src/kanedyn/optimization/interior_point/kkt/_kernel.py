@@ -100,7 +100,7 @@ from ....numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 19"
+_GENERATION = "kanedyn sparse LDL 20"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -789,6 +789,29 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
     return Py_BuildValue("(NN)", pointers, indices);
 }
 
+/* the `n_parts` (rows, cols, row_offset) parts of args from item `first` (int32
+   arrays of one length): their buffers in views (two a part; released by the
+   caller) and `parts`; -1 with the error set */
+static int kd_parts(PyObject *args, Py_ssize_t first, int n_parts, Py_buffer *views,
+                    kd_part *parts) {
+    for (int p = 0; p < n_parts; p++) {
+        Py_ssize_t at = first + 3 * p;
+        if (kd_view(PyTuple_GET_ITEM(args, at), &views[2 * p], 4, 0, "rows") < 0 ||
+                kd_view(PyTuple_GET_ITEM(args, at + 1), &views[2 * p + 1], 4, 0, "cols") < 0)
+            return -1;
+        parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(args, at + 2));
+        if (PyErr_Occurred()) return -1;
+        parts[p].r = views[2 * p].buf;
+        parts[p].c = views[2 * p + 1].buf;
+        parts[p].count = KD_COUNT(views[2 * p]);
+        if (KD_COUNT(views[2 * p + 1]) != parts[p].count) {
+            PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
+            return -1;
+        }
+    }
+    return 0;
+}
+
 /* csr(n_rows, n_cols, symmetric, rows, cols, row_offset[, rows, cols, row_offset]):
    the pattern of kd_csr_of with the entries (rows + row_offset, cols) of one or two
    parts (int32 arrays) */
@@ -808,22 +831,8 @@ static PyObject *kd_csr(PyObject *self, PyObject *args) {
     Py_buffer v[4];
     memset(v, 0, sizeof(v));
     PyObject *result = NULL;
-    for (int p = 0; p < n_parts; p++) {
-        if (kd_view(PyTuple_GET_ITEM(args, 3 + 3 * p), &v[2 * p], 4, 0, "rows") < 0 ||
-                kd_view(PyTuple_GET_ITEM(args, 4 + 3 * p), &v[2 * p + 1], 4, 0, "cols") < 0)
-            goto done;
-        parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(args, 5 + 3 * p));
-        if (PyErr_Occurred()) goto done;
-        parts[p].r = v[2 * p].buf;
-        parts[p].c = v[2 * p + 1].buf;
-        parts[p].count = KD_COUNT(v[2 * p]);
-        if (KD_COUNT(v[2 * p + 1]) != parts[p].count) {
-            PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
-            goto done;
-        }
-    }
-    result = kd_csr_of(n_rows, n_cols, parts, n_parts, symmetric);
-done:
+    if (kd_parts(args, 3, n_parts, v, parts) == 0)
+        result = kd_csr_of(n_rows, n_cols, parts, n_parts, symmetric);
     kd_release(v, 4);
     return result;
 }
@@ -843,31 +852,19 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
     Py_ssize_t n_nodes = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 1));
     if (n_nodes == -1 && PyErr_Occurred()) return NULL;
     int n_parts = (int)(count - 2) / 3;
+    kd_part parts[2];
     Py_buffer v[5];
     memset(v, 0, sizeof(v));
-    const int32_t *r[2], *c[2];
-    int64_t offset[2];
-    Py_ssize_t length[2], total = 0;
+    Py_ssize_t total = 0;
     PyObject *result = NULL;
     int32_t *a = NULL, *b = NULL;
     if (kd_view(PyTuple_GET_ITEM(args, 0), &v[4], 4, 0, "node") < 0) return NULL;
     const int32_t *node = v[4].buf;
     Py_ssize_t N = KD_COUNT(v[4]);
-    for (int p = 0; p < n_parts; p++) {
-        if (kd_view(PyTuple_GET_ITEM(args, 2 + 3 * p), &v[2 * p], 4, 0, "rows") < 0 ||
-                kd_view(PyTuple_GET_ITEM(args, 3 + 3 * p), &v[2 * p + 1], 4, 0, "cols") < 0)
-            goto done;
-        offset[p] = PyLong_AsLongLong(PyTuple_GET_ITEM(args, 4 + 3 * p));
-        if (PyErr_Occurred()) goto done;
-        r[p] = v[2 * p].buf;
-        c[p] = v[2 * p + 1].buf;
-        length[p] = KD_COUNT(v[2 * p]);
-        if (KD_COUNT(v[2 * p + 1]) != length[p]) {
-            PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
-            goto done;
-        }
-        for (Py_ssize_t e = 0; e < length[p]; e++) {
-            int64_t i = r[p][e] + offset[p], j = c[p][e];
+    if (kd_parts(args, 2, n_parts, v, parts) < 0) goto done;
+    for (int p = 0; p < n_parts; p++)
+        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
+            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
             if (i < 0 || i >= N || j < 0 || j >= N) {
                 PyErr_SetString(PyExc_ValueError, "an entry outside the node array");
                 goto done;
@@ -878,7 +875,6 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
             }
             if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) total++;
         }
-    }
     a = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
     b = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
     if (a == NULL || b == NULL) {
@@ -887,15 +883,15 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
     }
     Py_ssize_t k = 0;
     for (int p = 0; p < n_parts; p++)
-        for (Py_ssize_t e = 0; e < length[p]; e++) {
-            int32_t i = node[r[p][e] + offset[p]], j = node[c[p][e]];
+        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
+            int32_t i = node[parts[p].r[e] + parts[p].offset], j = node[parts[p].c[e]];
             if (i >= 0 && j >= 0 && i != j) {
                 a[k] = i;
                 b[k++] = j;
             }
         }
-    kd_part part = {a, b, total, 0};
-    result = kd_csr_of(n_nodes, n_nodes, &part, 1, 1);
+    kd_part graph = {a, b, total, 0};
+    result = kd_csr_of(n_nodes, n_nodes, &graph, 1, 1);
 done:
     free(a);
     free(b);
