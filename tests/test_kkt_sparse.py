@@ -498,7 +498,9 @@ def test_a_zero_pivot_of_the_backward_sweep_is_swept_forward(KKT):
 
 def test_the_envelope_holds_the_band_in_less_memory():
     """The backward-Euler swing-up's KKT matrix in the pairs' order is a
-    band that L fills: its envelope has the sparse L's entries, K the same
+    band that L nearly fills: its envelope holds the sparse L's entries and
+    an eighth more at most (L's zeros inside the band, where the Hessian's
+    pattern leaves out second derivatives identically zero), K the same
     entries counted both ways, and the envelope's storage (values only, no
     copy of K, no maps or tree) under 0.6 of the sparse one's; the
     solutions agree to rounding."""
@@ -508,7 +510,8 @@ def test_the_envelope_holds_the_band_in_less_memory():
     hv = nlp.hessian(z, rng.normal(size=m), 1.0)
     sparse, envelope = (KKT(n, m, (hr, hc), (jr, jc)) for KKT in (SparseKKT, EnvelopeKKT))
     a, b = sparse.analysis, envelope.analysis
-    assert b.nnz_factor == a.nnz_factor and b.nnz_matrix == a.nnz_matrix
+    assert a.nnz_factor <= b.nnz_factor <= 1.125 * a.nnz_factor
+    assert b.nnz_matrix == a.nnz_matrix
     held = [x.bytes_factor + x.bytes_maps + x.bytes_workspace for x in (a, b)]
     assert held[1] < 0.6 * held[0]
     dx = np.full(n, 10.0)

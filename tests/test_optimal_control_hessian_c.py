@@ -18,7 +18,7 @@ from test_optimal_control_hessian import _forced as forced_model
 from test_optimal_control_hessian import _hessians
 
 import kanedyn as kd
-from kanedyn.numerics import weighted_hessians
+from kanedyn.numerics import weighted_hessian_pattern, weighted_hessians
 from kanedyn.numerics.backends._c_build import compiler_command
 
 pytest.importorskip("cyipopt", reason="optimal control needs cyipopt (pip install "
@@ -93,6 +93,39 @@ def test_c_weighted_hessians_equal_numpy(name, extra):
     scale = np.max(np.abs(found["numpy"]))
     assert scale > 0.1
     assert np.max(np.abs(found["c"] - found["numpy"])) < 1e-12 * scale
+
+
+@pytest.mark.parametrize("name", list(MODELS))
+@pytest.mark.parametrize("extra", ["none", "parameters and time"])
+def test_weighted_hessian_pattern_holds_every_nonzero(name, extra):
+    """``weighted_hessian_pattern``: the same on C (read from the module) and
+    NumPy, symmetric; every entry outside it exactly zero at random points
+    with random weights, the entries inside it not all zero.  The pendulum's
+    torque and the cart's force enter linearly and not through the mass
+    matrix, so the input's diagonal entry is outside it; the pendulum's mass
+    matrix is constant without its constants among the columns, so then the
+    torque's whole row is."""
+    (c, symbols, nr), (numpy, _, _) = MODELS[name]("c"), MODELS[name]("numpy")
+    names = list(c.constants)
+    parameters = [names.index(str(s)) for s in symbols] if extra != "none" else []
+    time = extra != "none"
+    patterns = [weighted_hessian_pattern(m, parameters, time) for m in (c, numpy)]
+    np.testing.assert_array_equal(patterns[0], patterns[1])
+    pattern = patterns[0]
+    np.testing.assert_array_equal(pattern, pattern.T)
+    rng = np.random.default_rng(6)
+    N = 9
+    t, Y = rng.random(N), rng.normal(size=(N, c.n_states))
+    R, weights = rng.normal(size=(N, nr)), rng.normal(size=(N, c.n_states))
+    H = weighted_hessians(c, t, Y, R, weights, parameters=parameters, time=time)
+    assert pattern.shape == H.shape[1:]
+    assert np.all(H[:, ~pattern] == 0.0)
+    assert np.abs(H[:, pattern]).max() > 0.1
+    r = c.n_states  # the input's row and column
+    if name in ("pendulum", "cart-pole"):
+        assert not pattern[r, r]
+    if name == "pendulum" and extra == "none":
+        assert not pattern[r].any() and pattern[0, 0]
 
 
 def _chain_problem(model, symbols, method):

@@ -55,6 +55,7 @@ _LAZY = {
     'Jacobians': '._jacobians',
     'hessians_unavailable': '._hessians',
     'weighted_hessians': '._hessians',
+    'weighted_hessian_pattern': '._hessians',
     'names_time': '._hessians',
     'EXACT_SCHEMES': '._jacobians',
     'derivatives_unavailable': '._jacobians',

@@ -44,7 +44,8 @@ import numpy as np
 from .._errors import ModelError
 from ._jacobians import broadcast_rows
 
-__all__ = ["hessians_unavailable", "weighted_hessians", "names_time"]
+__all__ = ["hessians_unavailable", "weighted_hessians", "weighted_hessian_pattern",
+           "names_time"]
 
 
 def hessians_unavailable(model):
@@ -76,11 +77,12 @@ def names_time(model):
 
 
 def _specification(model, parameters=(), time=False):
-    """``(program, arguments, outputs)``: arguments ``(t, y, p, r)`` with ``r``
-    the inputs then :math:`w`; outputs ``M`` (o, o) and the second
+    """``(program, arguments, outputs, pattern)``: arguments ``(t, y, p, r)``
+    with ``r`` the inputs then :math:`w`; outputs ``M`` (o, o) and the second
     derivatives of ``[g; E]`` in ``v = (y, r, e, w)``, ((n + o) * nv, nv),
     ``e`` the constants of indices ``parameters`` then (``time``) t; with
-    ``e``, a third output: :math:`E_e`, (o, len(e)).  A change here changes
+    ``e``, a third output: :math:`E_e`, (o, len(e)); ``pattern`` that of the
+    contracted Hessian (:func:`_contracted_pattern`).  A change here changes
     the C module's code: bump :data:`.backends._c_hessians._GENERATION`,
     part of its cache key."""
     from ._inverse import _recursive_inertia_forces, _workspace
@@ -104,7 +106,33 @@ def _specification(model, parameters=(), time=False):
         start, n = len(v) - o - len(extra), len(rows) - o
         outputs.append(((o, len(extra)), [first[n + i, start + j] for i in range(o)
                                           for j in range(len(extra))]))
-    return prog, dict(args, r=list(args["r"]) + w), outputs
+    pattern = _contracted_pattern(np.array([e != 0 for e in first], dtype=bool),
+                                  np.array([e != 0 for e in second], dtype=bool),
+                                  len(rows), o)
+    return prog, dict(args, r=list(args["r"]) + w), outputs, pattern
+
+
+def _contracted_pattern(first, second, rows, o):
+    r"""Where :math:`\partial^2 (\lambda^T f)/\partial x^2` can be nonzero for
+    some weights and point: (nx, nx) bool, symmetric.
+
+    ``first`` ((rows * nv,) bool) and ``second`` ((rows * nv * nv,)) say which
+    first and second derivatives of the rows of ``[g; E]`` in ``v = (x, w)``
+    are not identically zero (the last ``o`` rows :math:`E`).  Then
+    :math:`\Phi` is nonzero where any row's second derivative is (in either
+    order),
+    :math:`W = -M^{-1} E_x` in each column where any row of :math:`E_x` is
+    (:math:`M^{-1}` taken as full), and the Hessian
+    :math:`\Phi_{xx} + \Phi_{xw} W + W^T \Phi_{wx} + W^T \Phi_{ww} W`
+    where any of its terms is."""
+    nv = first.size // rows
+    nx = nv - o
+    Phi = second.reshape(rows, nv, nv).any(axis=0)
+    Phi = (Phi | Phi.T).astype(int)  # each derivative's two orders: either may look nonzero
+    W = np.broadcast_to(first.reshape(rows, nv)[rows - o:, :nx].any(axis=0), (o, nx))
+    W = W.astype(int)
+    cross = Phi[:nx, nx:] @ W
+    return (Phi[:nx, :nx] + cross + cross.T + W.T @ Phi[nx:, nx:] @ W) > 0
 
 
 def _c_specification(model, parameters, time):
@@ -113,11 +141,12 @@ def _c_specification(model, parameters, time):
     weights and the columns of w_x of the states and inputs (row-major);
     its output the contracted Hessian."""
     from .backends._c_hessians import contracted_hessian
-    prog, args, ((_, mass), (shape, second), *E_e) = _specification(model, parameters, time)
+    prog, args, ((_, mass), (shape, second), *E_e), pattern = _specification(
+        model, parameters, time)
     o, nv = model.n_u, shape[1]
     weights, W, H = contracted_hessian(prog, mass, second, E_e[0][1] if E_e else [],
                                        model.n_q, o, nv - o)
-    return prog, dict(args, r=args["r"] + weights + W), [((nv - o, nv - o), H)]
+    return prog, dict(args, r=args["r"] + weights + W), [((nv - o, nv - o), H)], pattern
 
 
 def _function(model, parameters=(), time=False):
@@ -134,10 +163,40 @@ def _function(model, parameters=(), time=False):
                                            lambda: _c_specification(model, *key))
     elif found is None:
         from .backends._python import compile_python, generate_python
-        prog, args, outputs = _specification(model, *key)
+        prog, args, outputs, pattern = _specification(model, *key)
         source = generate_python(prog, "hessians", args, outputs, vectorized=True, cse=True)
         found = kept[key] = compile_python(source, "hessians")
+        model.__dict__.setdefault("_weighted_hessian_patterns", {})[key] = pattern
     return found
+
+
+def weighted_hessian_pattern(model, parameters=(), time=False):
+    """Where :func:`weighted_hessians` can be nonzero, at any point and for any
+    weights: the entries of its result not identically zero.
+
+    Parameters
+    ----------
+    model, parameters, time
+        As for :func:`weighted_hessians`.
+
+    Returns
+    -------
+    ndarray of bool, shape (nx, nx)
+        Symmetric, in the columns of :func:`weighted_hessians`.  Made from
+        the structure of the model's first and second derivatives, where
+        they are not identically zero (the mass matrix's inverse taken as
+        full); on the C backend it is part of the Hessian's module (a cached
+        module is loaded without differentiating anything).
+    """
+    reason = hessians_unavailable(model)
+    if reason:
+        raise ModelError(reason)
+    fn = _function(model, parameters, time)
+    if model._data["backend"] == "c":
+        found = fn.hessian_pattern(0.0, np.zeros(model.n_states), model._p, np.zeros(0))[0]
+        return np.asarray(found) != 0
+    key = (tuple(int(i) for i in parameters), bool(time))
+    return model.__dict__["_weighted_hessian_patterns"][key].copy()
 
 
 def weighted_hessians(model, t, Y, R, weights, jacobians=None, parameters=(), time=False):

@@ -30,7 +30,11 @@ derivatives in :math:`(y, r, p, t)` are generated
 (:math:`\partial f/\partial t` by differences, as in the constraint
 Jacobian).  The objective's, the path constraints' and the instance
 constraints' second derivatives are SymPy's.  Entries repeat where blocks
-overlap (IPOPT adds them); only the lower triangle is given.
+overlap (IPOPT adds them); only the lower triangle is given, and of it only
+the entries where some part can be nonzero: where :math:`F''` is not
+identically zero (the model's, :func:`kanedyn.numerics.weighted_hessian_pattern`;
+the terms', SymPy's) through each point's :math:`D` (a free duration's row
+and column whole).  The swing-up's backward-Euler point holds 4 of its 6.
 
 A phase of a multiphase problem whose start time is a variable has
 :math:`t_0` among each point's variables (:math:`\partial t/\partial t_0 =
@@ -83,24 +87,53 @@ def _row_block(matrix, p0, p1, c0, c1):
 class _Points:
     """Points of one kind: their decision variables ``V`` (K, m), the linear
     map ``D`` (K, nu, m) from them to :math:`u` (a read-only broadcast of one
-    point's when it is the same at every point), the lower triangle's mask,
-    the column of a free duration among the m (or ``None``).
+    point's when it is the same at every point), the mask of each point's
+    entries (K, m, m): the lower triangle where ``pattern`` ((nu, nu) bool,
+    where :math:`F''` can be nonzero; ``None``: anywhere) through ``D`` can
+    be nonzero (a read-only broadcast of one point's when the same at every
+    point), the column of a free duration among the m (or ``None``).
 
     ``alike`` (the number of entries of a point, else ``None``) when every
     point has the same map and the same mask: then :meth:`maps` are one
     point's, applied to every point."""
 
-    def __init__(self, V, D, duration=None):
+    def __init__(self, V, D, duration=None, pattern=None):
         self.V, self.D, self.duration = V, D, duration
-        self.mask = V[:, :, None] >= V[:, None, :]
-        #: where each point's entries start among the points' (K + 1,): a
-        #: point's entries follow the previous point's
-        self.starts = np.concatenate([[0], np.cumsum(np.count_nonzero(self.mask, axis=(1, 2)))])
-        self.size = int(self.starts[-1])
+        K, m = V.shape
+        kept = (np.ones((m, m), dtype=bool) if pattern is None
+                else self._point_pattern(D, pattern, duration))
+        first = (V[:1, :, None] >= V[:1, None, :]) & kept
+        if all((((V[k0:k1, :, None] >= V[k0:k1, None, :]) & kept) == first).all()
+               for k0, k1 in _chunks(K)):
+            # one point's, broadcast: its entries start at multiples of one count
+            self.mask = np.broadcast_to(first, (K, m, m))
+            self._count, self._starts = int(np.count_nonzero(first)), None
+        else:
+            self.mask = (V[:, :, None] >= V[:, None, :]) & kept
+            self._count = None
+            #: where each point's entries start among the points' (K + 1,): a
+            #: point's entries follow the previous point's
+            self._starts = np.concatenate([[0], np.cumsum(np.count_nonzero(self.mask,
+                                                                           axis=(1, 2)))])
+        self.size = self.start(K)
         same_map = D is not None and D.shape[0] > 0 and D.strides[0] == 0
-        self.alike = (int(self.starts[1]) if same_map and (self.mask == self.mask[:1]).all()
-                      else None)
+        self.alike = self._count if same_map else None
         self._maps = None
+
+    @staticmethod
+    def _point_pattern(D, pattern, duration):
+        """(m, m) bool: where :math:`D^T F'' D` (and a free duration's part,
+        its whole row and column) can be nonzero at any point."""
+        used = np.any(D != 0.0, axis=0).astype(int)  # (nu, m)
+        kept = (used.T @ pattern.astype(int) @ used) > 0
+        if duration is not None:
+            kept[duration, :] = kept[:, duration] = True
+        return kept
+
+    def start(self, k):
+        """Where the entries of point ``k`` start among the points' (``k =
+        K``: their number)."""
+        return k * self._count if self._starts is None else int(self._starts[k])
 
     def maps(self, steps):
         r"""``(second, first)``: sparse matrices that take the flattened
@@ -165,7 +198,7 @@ class _Points:
         data, indices, indptr = [], [], [np.zeros(1, dtype=index)]
         for k0 in range(0, K, run):
             k1 = min(K, k0 + run)
-            p0, p1 = self.starts[k0], self.starts[k1]
+            p0, p1 = self.start(k0), self.start(k1)
             place = np.full(self.mask[k0:k1].shape, -1, dtype=np.int64)
             place[self.mask[k0:k1]] = np.arange(p1 - p0)
             rows, cols, values = entries(k0, k1, place)
@@ -174,7 +207,7 @@ class _Points:
             indices.append(block.indices.astype(index) + k0 * width)
             indptr.append(block.indptr[1:].astype(index) + indptr[-1][-1])
         return csr_matrix((np.concatenate(data), np.concatenate(indices),
-                           np.concatenate(indptr)), shape=(int(self.starts[K]), K * width))
+                           np.concatenate(indptr)), shape=(self.start(K), K * width))
 
     def pattern(self):
         """``(rows, cols)`` of its entries of the lower triangle (made when
@@ -189,7 +222,7 @@ class LagrangianHessian:
     :class:`._nlp.CollocationNLP`)."""
 
     def __init__(self, nlp):
-        from ..numerics import hessians_unavailable, weighted_hessians
+        from ..numerics import hessians_unavailable, weighted_hessian_pattern, weighted_hessians
         pb, L = nlp.problem, nlp.layout
         if pb.n_residuals:
             raise ModelError('hessian="exact" is not available for a model with constraints '
@@ -212,6 +245,13 @@ class LagrangianHessian:
         self._h_index = ((slice(0, len(index)),) * 2 if index == list(range(len(index)))
                          else (np.array(index)[:, None], np.array(index)[None, :]))
         self.interval = not hasattr(nlp.defects, "stages")
+        # where F'' can be nonzero in u: the dynamics' (the model's structure),
+        # with the objective's integrand where it is added
+        dynamics = np.zeros((self.nu, self.nu), dtype=bool)
+        dynamics[self._h_index] = weighted_hessian_pattern(pb.model, pb.free_columns,
+                                                           self.time)
+        if pb.lagrange is not None:
+            dynamics |= pb.lagrange.hessian_pattern()
         N = L.nodes
         y_cols, r_cols = L.point_columns()
         point_vars = np.concatenate([y_cols, r_cols], axis=1)
@@ -221,10 +261,13 @@ class LagrangianHessian:
                 offsets = [o for o in (0, 1) if s.a[o]]
                 self.stages.append(self._points(
                     [point_vars[o:o + N - 1] for o in offsets], [s.a[o] for o in offsets],
-                    (np.arange(N - 1) + s.position) / (N - 1)))
+                    (np.arange(N - 1) + s.position) / (N - 1), dynamics))
         self.at_points = None
         if self.interval or pb.path or pb.mayer is not None:
-            self.at_points = self._points([point_vars], [1.0], L.positions())
+            at_points = dynamics.copy() if self.interval else np.zeros_like(dynamics)
+            for term in [path.term for path in pb.path] + [pb.mayer] * (pb.mayer is not None):
+                at_points |= term.hessian_pattern()
+            self.at_points = self._points([point_vars], [1.0], L.positions(), at_points)
         self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
 
     def structure(self):
@@ -235,9 +278,10 @@ class LagrangianHessian:
         return index_arrays([r for r, _ in patterns], [c for _, c in patterns],
                             self.nlp.n, self.nlp.n)
 
-    def _points(self, blocks, a, tau):
+    def _points(self, blocks, a, tau, pattern):
         """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each
-        (K, nx) columns) at the positions ``tau`` (K,)."""
+        (K, nx) columns) at the positions ``tau`` (K,), where :math:`F''` in
+        u can be nonzero ``pattern`` ((nu, nu) bool)."""
         L = self.nlp.layout
         nx, nf, K, nb = self.nx, self.nf, len(tau), len(blocks)
         shared = list(L.free_start + np.arange(nf))
@@ -264,7 +308,7 @@ class LagrangianHessian:
             D[:, nx + nf, col] = 1.0
         if not L.free_duration:
             D = np.broadcast_to(D, (K,) + D.shape[1:])
-        return _Points(V, D, duration if L.free_duration else None)
+        return _Points(V, D, duration if L.free_duration else None, pattern)
 
     # ---------------------------------------------------------- the parts
     def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):
@@ -312,7 +356,7 @@ class LagrangianHessian:
                 Hu += plain
         else:
             Hu = plain
-        p0, p1 = points.starts[k0], points.starts[k1]
+        p0, p1 = points.start(k0), points.start(k1)
         nu = self.nu
         values = out[p0:p1]
         if points.alike is not None:  # one point's map, each point's sums as the whole map's

@@ -109,6 +109,12 @@ class _Entries:
         self._fn = (sm.lambdify(variables, [e for _, e in varying], modules="numpy",
                                 dummify=True) if varying else None)
 
+    def nonzero(self):
+        """(n,) bool: the entries not identically zero."""
+        out = np.zeros(self.n, dtype=bool)
+        out[[j for j, _ in self.constants] + self.columns] = True
+        return out
+
     def __call__(self, K, arguments):
         """The (K, n) array of the entries at the points of ``arguments``."""
         out = np.zeros((K, self.n))
@@ -157,17 +163,27 @@ class Term:
         t = np.asarray(t, dtype=float)
         return t.size, (t, *Y.T, *R.T, *np.asarray(P, dtype=float))
 
-    def hessian(self, t, Y, R, P, T):
-        """The Hessian (SymPy's second derivatives) in ``u = (y, r, p, t, T)``
-        (this order), shape (K, nu, nu), ``nu = n_states + n_inputs + n_free
-        + 2``."""
+    def _second_derivatives(self):
+        """The :class:`_Entries` of the Hessian (made on first use)."""
         if self._second is None:
             us = self._variables[1:-1] + [self._variables[0], self._variables[-1]]
             self._second = _Entries([self._expr.diff(a).diff(b) for a in us for b in us],
                                     self._variables)
+        return self._second
+
+    def hessian(self, t, Y, R, P, T):
+        """The Hessian (SymPy's second derivatives) in ``u = (y, r, p, t, T)``
+        (this order), shape (K, nu, nu), ``nu = n_states + n_inputs + n_free
+        + 2``."""
         K, arguments = self._arguments(t, Y, R, P)
         nu = len(self._variables)
-        return self._second(K, arguments + (T,)).reshape(K, nu, nu)
+        return self._second_derivatives()(K, arguments + (T,)).reshape(K, nu, nu)
+
+    def hessian_pattern(self):
+        """(nu, nu) bool: where :meth:`hessian` can be nonzero (SymPy's second
+        derivatives that are not identically zero)."""
+        nu = len(self._variables)
+        return self._second_derivatives().nonzero().reshape(nu, nu)
 
     def __call__(self, t, Y, R, P, T):
         K, arguments = self._arguments(t, Y, R, P)

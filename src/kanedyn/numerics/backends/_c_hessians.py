@@ -36,7 +36,7 @@ from ._c import fingerprint, generate_c_units, load_module
 __all__ = ["contracted_hessian", "hessian_module"]
 
 #: changes when the generated Hessian changes (part of the cache key)
-_GENERATION = "hessians 1"
+_GENERATION = "hessians 2"
 
 
 def _solver(program, mass, o):
@@ -123,12 +123,14 @@ def hessian_module(model, variant, specification):
         What else sets the generated code (the extra columns chosen): part of
         the cache key.
     specification : callable
-        ``specification()``: ``(program, arguments, outputs)`` of the
-        function ``hessians`` (evaluated at every point by ``_c``'s runtime,
-        ``hessians_rows``), called only when the module is not cached (a
-        cached one is loaded without differentiating anything).  The module
-        also carries the model's ``dynamics`` and ``energy`` (which its
-        runtime calls).
+        ``specification()``: ``(program, arguments, outputs, pattern)`` of
+        the function ``hessians`` (evaluated at every point by ``_c``'s
+        runtime, ``hessians_rows``) and where its result can be nonzero
+        ((nx, nx) bool, given back by the module's function
+        ``hessian_pattern``, a table of constants), called only when the
+        module is not cached (a cached one is loaded without differentiating
+        anything).  The module also carries the model's ``dynamics`` and
+        ``energy`` (which its runtime calls).
     """
     functions = {name: model._functions[name] for name in ("dynamics", "energy")}
     sizes = {k: v for k, v in model._sizes.items() if k != "speed_tree"}
@@ -136,8 +138,11 @@ def hessian_module(model, variant, specification):
     table = model._eom._table
 
     def units():
-        program, arguments, outputs = specification()
-        return generate_c_units(program, dict(functions, hessians=(arguments, outputs)),
+        program, arguments, outputs, pattern = specification()
+        shown = (pattern.shape, [sm.Integer(int(v)) for v in pattern.ravel()])
+        return generate_c_units(program, dict(functions, hessians=(arguments, outputs),
+                                              hessian_pattern=(dict(arguments, r=[]),
+                                                               [shown])),
                                 sizes, describe=lambda e: str(table.external(e)),
                                 cse=model._cse, lanes=False)
     return load_module(f"{key}\n{_GENERATION} {variant}", units, quick=True)
