@@ -56,7 +56,8 @@ def optimality_errors(dual, c, y, z_lower, z_upper, gap_lower, gap_upper, mu,
     Parameters
     ----------
     dual : ndarray, shape (n_w,)
-        :math:`\\nabla L - z_L + z_U` in the primal variables.
+        :math:`\\nabla L - z_L + z_U` in the primal variables (only its
+        largest magnitude is taken: an array holding that alone gives the same).
     c : ndarray, shape (m,)
         The rows' residuals.
     y : ndarray, shape (m,)

@@ -394,17 +394,22 @@ class _Run:
         dual = lagrangian.copy()
         dual[B.lower_index] -= z_lower
         dual[B.upper_index] += z_upper
+        np.abs(dual, out=dual)
         if c is None:
             c = self._row_residuals(e.rows, w)
+        # of the dual residual only its largest magnitude (as a one-entry array:
+        # the errors take its maximum) and its sum (the system error) are held
         m = dict(gap_lower=gap_lower, gap_upper=gap_upper, lagrangian=lagrangian,
-                 c=c, dual=dual, violation=self.unscaled_violation(e.rows, c))
+                 c=c, dual_largest=np.array([dual.max(initial=0.0)]), dual_sum=dual.sum(),
+                 violation=self.unscaled_violation(e.rows, c))
+        del dual
         return self._errors(m, y, z_lower, z_upper, mu)
 
     def _errors(self, m, y, z_lower, z_upper, mu):
         """``m`` of :meth:`_measures` with the optimality errors at the barrier
         parameter ``mu`` (after a new ``mu`` only these change)."""
-        errors = optimality_errors(m["dual"], m["c"], y, z_lower, z_upper, m["gap_lower"],
-                                   m["gap_upper"], mu, self.error_reductions)
+        errors = optimality_errors(m["dual_largest"], m["c"], y, z_lower, z_upper,
+                                   m["gap_lower"], m["gap_upper"], mu, self.error_reductions)
         sf = self.reduced.objective_scale
         m.update(dual_inf=errors.dual_inf, primal_inf=errors.primal_inf, error=errors.error,
                  error_mu=errors.error_mu,
@@ -545,9 +550,11 @@ class _Run:
             gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
             gradient_w = self._in_w(e.gradient)
-            barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
-            # (the Lagrangian's gradient not held further: only this needs it)
-            residual_w = barrier_gradient + (m.pop("lagrangian") - gradient_w)
+            # (the Lagrangian's gradient and the barrier's not held through the
+            # step: only this needs the first, the slope below the second, made
+            # again from the same numbers)
+            residual_w = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu) \
+                + (m.pop("lagrangian") - gradient_w)
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
             if direction is None:
@@ -565,7 +572,9 @@ class _Run:
             theta = m["theta"] if "theta" in m else float(np.abs(m["c"]).sum())
             phi = m["phi"][1] if "phi" in m and m["phi"][0] == mu else \
                 B.barrier(e.objective, gap_lower, gap_upper, mu)
+            barrier_gradient = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu)
             slope = float(barrier_gradient @ dw)
+            del barrier_gradient
             tiny = ((np.abs(dw) / (1.0 + np.abs(w))).max(initial=0.0)
                     < _TINY_STEP
                     and (np.abs(dy) / (1.0 + np.abs(y))).max(initial=0.0) < 1e-2)
@@ -645,7 +654,7 @@ class _Run:
                                                             else ("f" if f_type else "h")))
             # this step's arrays are not held into the new point's derivatives,
             # measures, Hessian and factorization
-            del gradient_w, barrier_gradient, residual_w, direction, step, step_used, found, \
+            del gradient_w, residual_w, direction, step, step_used, found, \
                 dw, dy, dz_lower, dz_upper
             if e.gradient is None and not self._derivatives(e):  # (a soft step's has them)
                 self.iteration += 1
@@ -712,23 +721,30 @@ class _Run:
                 if accepted:
                     return trial, alpha, step, f_type, trials
                 if trials == 1 and trial[2] >= theta and s.max_soc:
-                    corrected = self._second_order(w, alpha, trial, theta, phi, slope, mu,
-                                                   tau, line_filter, residual_w, m)
+                    # of the rejected point only its violation and its rows'
+                    # residuals are held through the corrections
+                    theta_trial, c_trial, trial = trial[2], trial[5], None
+                    corrected = self._second_order(w, alpha, theta_trial, c_trial, theta, phi,
+                                                   slope, mu, tau, line_filter, residual_w, m)
                     if corrected is not None:
                         return corrected + (trials,)
             alpha /= 2
         return None
 
-    def _second_order(self, w, alpha, trial, theta, phi, slope, mu, tau, line_filter,
-                      residual_w, m):
-        """Second-order corrections of a rejected full step (up to
-        ``max_soc``, while each cuts the violation by ``kappa_soc``)."""
+    def _second_order(self, w, alpha, theta_trial, c_trial, theta, phi, slope, mu, tau,
+                      line_filter, residual_w, m):
+        """Second-order corrections of a rejected full step (its violation
+        ``theta_trial`` and rows' residuals ``c_trial``; up to ``max_soc``,
+        while each cuts the violation by ``kappa_soc``)."""
         s, B = self.s, self.bounds
-        c_soc = alpha * m["c"] + trial[5]
-        theta_old = trial[2]
+        c_soc = alpha * m["c"] + c_trial
+        theta_old = theta_trial
+        del c_trial
         gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
         lo, up = B.lower_index, B.upper_index
         for _ in range(int(s.max_soc)):
+            # the rejected point's evaluation is not held through the factorization
+            self._drop_nlp_evaluation()
             t = time.perf_counter()
             corrected = self.stepper.solve(residual_w, c_soc)
             self.timings["factor_solve"] += time.perf_counter() - t
@@ -756,7 +772,7 @@ def _system_error(m, z_lower, z_upper, mu):
     :math:`\|\nabla L - z_L + z_U\|_1 + \|c\|_1 + \|Z\,\text{gap} - \mu\|_1`
     (IPOPT's, whose division by the entries' count does not change its
     comparisons)."""
-    return float(np.abs(m["dual"]).sum() + np.abs(m["c"]).sum()
+    return float(m["dual_sum"] + np.abs(m["c"]).sum()
                  + np.abs(z_lower * m["gap_lower"] - mu).sum()
                  + np.abs(z_upper * m["gap_upper"] - mu).sum())
 

@@ -104,8 +104,10 @@ class StepSolver:
         else:  # delta_c + 0.0, as the sum above
             diagonal_c = np.full(self.m, delta_c + 0.0)
         self.factorizations += 1
-        inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n] + delta_w,
-                                  diagonal_c)
+        # sigma's own entries (a view, which the KKT may hold for its products)
+        # where delta_w is zero: the same numbers as sigma + 0.0 (sigma is not -0.0)
+        diagonal_x = sigma[:n] + delta_w if delta_w else sigma[:n]
+        inertia = self.kkt.factor(hessian_values, jacobian_values, diagonal_x, diagonal_c)
         self._state = (slack_diagonal, delta_w, delta_c)
         self._again = None
         return int(inertia[0]), int(inertia[1]), int(inertia[2])
