@@ -113,12 +113,14 @@ def kkt_class(choice):
 
 
 class _Evaluation:
-    """The scaled NLP's values at one point."""
+    """The scaled NLP's values at one point: ``x`` its free variables (the
+    caller's array, not a copy; the full vector is made again when a
+    callback needs it: not held)."""
 
-    __slots__ = ("x_full", "objective", "rows", "gradient", "jacobian")
+    __slots__ = ("x", "objective", "rows", "gradient", "jacobian")
 
-    def __init__(self, x_full, objective, rows):
-        self.x_full, self.objective, self.rows = x_full, objective, rows
+    def __init__(self, x, objective, rows):
+        self.x, self.objective, self.rows = x, objective, rows
         self.gradient = self.jacobian = None
 
     def finite(self):
@@ -207,7 +209,7 @@ class _Run:
         t = time.perf_counter()
         R = self.reduced
         x_full = R.full(x)
-        e = _Evaluation(x_full, R.objective(x_full), R.constraints(x_full))
+        e = _Evaluation(x, R.objective(x_full), R.constraints(x_full))
         self.timings["callbacks"] += time.perf_counter() - t
         return e
 
@@ -218,14 +220,18 @@ class _Run:
         are made."""
         self.stepper.release()
         t = time.perf_counter()
-        e.gradient = self.reduced.gradient(e.x_full)
-        e.jacobian = self.reduced.jacobian(e.x_full)
+        x_full = self.reduced.full(e.x)
+        e.gradient = self.reduced.gradient(x_full)
+        e.jacobian = self.reduced.jacobian(x_full)
         self.timings["callbacks"] += time.perf_counter() - t
         return bool(np.isfinite(e.gradient).all() and np.isfinite(e.jacobian).all())
 
     def _row_residuals(self, rows, w):
         """:math:`c`: equality rows minus their value, inequality rows minus
-        their slacks (scaled)."""
+        their slacks (scaled); ``rows`` itself where nothing is subtracted
+        (neither is written)."""
+        if self.row_target is None and not self.inequality.size:
+            return rows
         c = rows - self.row_target if self.row_target is not None else rows.copy()
         if self.inequality.size:
             c[self.inequality] = rows[self.inequality] - w[self.n:]
@@ -255,6 +261,9 @@ class _Run:
             zu[up[up < n]] = z_upper[up < n]
             if e is not None:  # the run ends: its derivatives not held with the NLP's last
                 e.gradient = e.jacobian = None
+            # nor its KKT system (the order, the structures): the multipliers of
+            # the fixed variables evaluate the NLP's Jacobian
+            self.stepper = self.kkt = self.restoration = self.error_reductions = None
             with np.errstate(all="ignore"):
                 multipliers = R.multipliers_full(x_full, y, zl, zu)
             objective = e.objective / R.objective_scale
@@ -435,10 +444,10 @@ class _Run:
         the pair from the last point it saw to ``e``."""
         t = time.perf_counter()
         if quasi_newton is None:
-            hessian = self.reduced.hessian(e.x_full, y, objective_factor)
+            hessian = self.reduced.hessian(self.reduced.full(e.x), y, objective_factor)
             finite = np.isfinite(hessian).all()
         else:
-            x = e.x_full[self.reduced.free]
+            x = e.x
             if quasi_newton.last is not None:
                 x_last, gradient_last, jacobian_last = quasi_newton.last
                 change = self.reduced.transpose_times(e.jacobian - jacobian_last, y)
@@ -524,7 +533,7 @@ class _Run:
             acceptable_count = acceptable_count + 1 if acceptable else 0
             if acceptable:  # (its values without the derivatives: not held)
                 last_acceptable = (w, y, z_lower, z_upper,
-                                   _Evaluation(e.x_full, e.objective, e.rows))
+                                   _Evaluation(e.x, e.objective, e.rows))
             if s.acceptable_iter and acceptable_count >= s.acceptable_iter:
                 return self._result(1, w, y, z_lower, z_upper, e)
             if np.abs(w[:n]).max(initial=0.0) > s.diverging_iterates_tol:
