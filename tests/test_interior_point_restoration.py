@@ -81,6 +81,33 @@ def test_reduced_step_equals_the_full_system():
     assert np.max(np.abs(step.rows - exact[n + k:])) < 1e-10
 
 
+def test_refinement_makes_the_right_hand_side_again_in_chunks(monkeypatch):
+    """The refinement makes rhs again a chunk at a time (rhs is solved in
+    its own storage): with chunks of 2 entries and every refinement step
+    taken (``residual_ratio_max`` tiny), the step equals the one made with
+    the whole rhs at once to the bit, the inequality rows' part included."""
+    from kanedyn.optimization.interior_point import _step
+    rng = np.random.default_rng(4)
+    n, m = 5, 4
+    rows = np.array([0, 2])
+    signs = np.array([-1.0, 1.0])
+    B = rng.normal(size=(n, n))
+    W = B @ B.T + n * np.eye(n)
+    J = rng.normal(size=(m, n))
+    hr, hc = np.tril_indices(n)
+    inputs = (W[hr, hc], J.ravel(), rng.uniform(0.5, 2.0, size=n + rows.size),
+              rng.normal(size=n + rows.size), rng.normal(size=m))
+    steps = []
+    for chunk in (_step._CHUNK, 2):
+        monkeypatch.setattr(_step, "_CHUNK", chunk)
+        kkt = DenseKKT(n, m, (hr, hc), (np.repeat(np.arange(m), n), np.tile(np.arange(n), m)))
+        stepper = StepSolver(kkt, n, m, rows, settings({"residual_ratio_max": 1e-300}),
+                             signs=signs)
+        steps.append(stepper.compute(*inputs, mu=0.1))
+    np.testing.assert_array_equal(steps[1].primal, steps[0].primal)
+    np.testing.assert_array_equal(steps[1].rows, steps[0].rows)
+
+
 @pytest.mark.parametrize("linear_solver", _linear_solvers())
 def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     """The solver releases the factors after the step (not held through the

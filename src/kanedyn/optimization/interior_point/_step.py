@@ -37,6 +37,9 @@ __all__ = ["NewtonStep", "StepSolver", "DEGENERATE_ITERATIONS"]
 #: first factorization of an iteration starts with it (IPOPT's degen_iters_max)
 DEGENERATE_ITERATIONS = 3
 
+#: the entries of the right-hand side made at a time in the refinement
+_CHUNK = 1 << 16
+
 
 @dataclass(frozen=True)
 class NewtonStep:
@@ -190,17 +193,21 @@ class StepSolver:
         self._counts[kind] += 1
         return True if self._counts[kind] >= DEGENERATE_ITERATIONS else None
 
-    def _refined(self, solution, rhs):
-        """``solution`` of K x = ``rhs`` after iterative refinement (in place;
-        its residuals not held after it)."""
+    def _refined(self, solution, rhs_part, scale):
+        """``solution`` of K x = rhs after iterative refinement (in place),
+        ``rhs_part(k0, k1)`` the entries ``k0:k1`` of rhs (made again, so
+        that rhs is not held beside the solution and K's product), ``scale``
+        :math:`\\max(1, \\|rhs\\|_\\infty)`."""
         if not self.settings.max_refinement_steps:
             return solution
-        scale = max(1.0, float(rhs.max(initial=0.0)), -float(rhs.min(initial=0.0)))  # |rhs|
+        size = solution.size
         for _ in range(int(self.settings.max_refinement_steps)):
             if not np.isfinite(solution).all():
                 break
             error = self.kkt.matvec(solution)  # a new array: ours to overwrite
-            np.subtract(rhs, error, out=error)
+            for k0 in range(0, size, _CHUNK):  # rhs - K x, rhs a chunk at a time
+                k1 = min(size, k0 + _CHUNK)
+                np.subtract(rhs_part(k0, k1), error[k0:k1], out=error[k0:k1])
             # the largest |error| without an array of them (NaN either way)
             largest = max(error.max(initial=0.0), -error.min(initial=0.0))
             if not largest > self.settings.residual_ratio_max * scale:
@@ -219,19 +226,31 @@ class StepSolver:
         if self._again is not None:  # released: the same matrix factored again
             self._factor(*self._again, delta_w, delta_c)
         residual_s = residual_w[n:]
-        rhs = np.empty(n + self.m)
-        np.negative(residual_w[:n], out=rhs[:n])
-        if self.inequality.size:
-            rhs[n:] = -residual_c
-            rhs[n:] += np.bincount(self.inequality,
-                                   weights=self.signs * residual_s / slack_diagonal,
-                                   minlength=self.m)
-        else:  # -residual_c + 0.0 (as the sum above, a zero's sign too)
-            np.subtract(0.0, residual_c, out=rhs[n:])
+        # the inequality rows' part of rhs (held: rhs is made again in parts)
+        slacks = (np.bincount(self.inequality, weights=self.signs * residual_s / slack_diagonal,
+                              minlength=self.m) if self.inequality.size else None)
+
+        def rhs_part(k0, k1):
+            """Entries ``k0:k1`` of rhs, a new array."""
+            out = np.empty(k1 - k0)
+            a, b = min(k0, n), min(k1, n)  # the primal part's, then the rows'
+            r0, r1 = max(k0, n) - n, max(k1, n) - n
+            np.negative(residual_w[a:b], out=out[:b - a])
+            rows = out[b - a:]
+            if slacks is not None:
+                rows[...] = -residual_c[r0:r1]
+                rows += slacks[r0:r1]
+            else:  # -residual_c + 0.0 (as the sum above, a zero's sign too)
+                np.subtract(0.0, residual_c[r0:r1], out=rows)
+            return out
+
+        rhs = rhs_part(0, n + self.m)
         if not np.isfinite(rhs).all():
             return None
-        solution = self._refined(self.kkt.solve(rhs), rhs)
-        del rhs  # not held with the step
+        scale = max(1.0, float(rhs.max(initial=0.0)), -float(rhs.min(initial=0.0)))  # |rhs|
+        # solved in rhs's own storage: rhs is made again in parts where needed
+        solution = self._refined(self.kkt.solve(rhs, overwrite=True), rhs_part, scale)
+        del rhs
         if not np.isfinite(solution).all():
             return None
         dx, dy = solution[:n], solution[n:]
