@@ -607,25 +607,29 @@ def test_the_envelope_keeps_structures_that_cannot_change():
 def test_ordering_patterns_are_scipys(shape, size):
     """The order's patterns, built directly, hold the arrays of SciPy's own
     COO to CSR conversion (repeats summed, indices sorted) and of its
-    slicing, on which the matching and RCM depend."""
+    slicing, on which the matching and RCM depend: columns kept at random,
+    all but an empty one (the entries renumbered in place) and all."""
     import scipy.sparse as sp
     from kanedyn.optimization.interior_point.kkt._ordering import _pattern, _submatrix
     rng = np.random.default_rng(7)
     m, n = shape
-    rows, cols = rng.integers(0, max(m, 1), size), rng.integers(0, max(n, 1), size)
+    rows, cols = rng.integers(0, max(m, 1), size), rng.integers(0, max(n - 1, 1), size)
     ours = _pattern(shape, rows, cols)  # the largest by SciPy's conversion
     theirs = sp.csr_matrix((np.ones(size, dtype=np.int8), (rows, cols)), shape=shape)
     theirs.sum_duplicates()
     assert np.array_equal(ours.indptr, theirs.indptr)
     assert np.array_equal(ours.indices, theirs.indices)
-    keep_rows, keep_cols = np.flatnonzero(rng.random(m) < 0.6), np.flatnonzero(
-        rng.random(n) < 0.6)
-    for r, expected in ((None, theirs[:, keep_cols].tocsr()),
-                        (keep_rows, theirs[keep_rows][:, keep_cols].tocsr())):
-        sub = _submatrix(ours, r, keep_cols)
-        assert sub.shape == expected.shape
-        assert np.array_equal(sub.indptr, expected.indptr)
-        assert np.array_equal(sub.indices, expected.indices)
+    keep_rows = np.flatnonzero(rng.random(m) < 0.6)
+    # the last column is empty (when there are two or more)
+    for keep_cols in (np.flatnonzero(rng.random(n) < 0.6), np.arange(max(n - 1, 0)),
+                      np.arange(n)):
+        for r, expected in ((None, theirs[:, keep_cols].tocsr()),
+                            (np.arange(m), theirs[:, keep_cols].tocsr()),
+                            (keep_rows, theirs[keep_rows][:, keep_cols].tocsr())):
+            sub = _submatrix(ours, r, keep_cols)
+            assert sub.shape == expected.shape
+            assert np.array_equal(sub.indptr, expected.indptr)
+            assert np.array_equal(sub.indices, expected.indices)
 
 
 def _simple():

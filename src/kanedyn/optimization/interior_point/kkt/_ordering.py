@@ -171,31 +171,30 @@ def _pattern(shape, rows, cols):
     return _made(shape, [(rows, cols, 0)], False)
 
 
-def _entries(pattern):
-    """``(rows, cols)`` of a CSR pattern's entries, in its order."""
-    return (np.repeat(np.arange(pattern.shape[0], dtype=np.int32), np.diff(pattern.indptr)),
-            pattern.indices)
-
-
 def _submatrix(pattern, rows, cols):
     """``pattern[rows][:, cols]`` (CSR) for sorted index arrays ``rows`` (or
     ``None``: all) and ``cols``: the entries kept in their order, renumbered
-    (increasingly, so still in :func:`_pattern`'s order)."""
+    (increasingly, so still in :func:`_pattern`'s order).  Only the kept
+    rows' entries are read (SciPy's rows); ``pattern`` itself where ``rows``
+    and ``cols`` are all of them, and its rows with their columns renumbered
+    where no entry lies in a column left out."""
+    import scipy.sparse as sp
     m, n = pattern.shape
-    r, c = _entries(pattern)
-    row_place = np.full(m, -1, dtype=np.int32)
-    row_place[np.arange(m) if rows is None else rows] = np.arange(
-        m if rows is None else rows.size)
+    if rows is not None and rows.size < m:
+        pattern, m = pattern[rows], rows.size
+    if cols.size == n:
+        return pattern
     col_place = np.full(n, -1, dtype=np.int32)
-    col_place[cols] = np.arange(cols.size)
-    # one temporary at a time (the entries' arrays are the largest here)
-    r = row_place[r]
-    c = col_place[c]
-    keep = (r >= 0) & (c >= 0)
-    r = r[keep]
-    c = c[keep]
-    del keep
-    return _pattern((m if rows is None else rows.size, cols.size), r, c)
+    col_place[cols] = np.arange(cols.size, dtype=np.int32)
+    c = col_place[pattern.indices]
+    del col_place
+    if (c >= 0).all():  # the same entries: only their columns' numbers change
+        return sp.csr_matrix((pattern.data, c, pattern.indptr), shape=(m, cols.size))
+    at = np.flatnonzero(c >= 0)
+    r = np.searchsorted(pattern.indptr, at, side="right").astype(np.int32) - 1
+    c = c[at]
+    del at
+    return _pattern((m, cols.size), r, c)
 
 
 def _matching(pattern, preferred, full=None):
