@@ -106,6 +106,20 @@ def test_reduced_jacobian_values_with_and_without_row_scales(small):
     np.testing.assert_array_equal(reduced.jacobian(x), full[keep] * scale[rows[keep]])
 
 
+@pytest.mark.parametrize("dropped", [[0], [9], [2, 3, 4], [0, 5, 9], [1, 3, 6, 7]])
+def test_entries_left_out_in_place_as_numpy_deletes_them(monkeypatch, dropped):
+    """The reduced NLP takes the fixed variables' entries out of an array the
+    NLP gave it in that array's own storage (moved a chunk at a time: chunks
+    of 2 here): the same values as NumPy's ``delete``, in a view of it."""
+    from kanedyn.optimization.interior_point import _reduced
+    monkeypatch.setattr(_reduced, "_CHUNK", 2)
+    values = np.random.default_rng(1).normal(size=10)
+    expected = np.delete(values, dropped)
+    kept = _reduced._kept(values, np.array(dropped, dtype=np.int32), owned=True)
+    np.testing.assert_array_equal(kept, expected)
+    assert kept.base is values
+
+
 def _traced(nodes):
     """``(held after construction, peak of one Hessian evaluation above
     what is held)``, bytes, of the exact-Hessian NLP at ``nodes``."""

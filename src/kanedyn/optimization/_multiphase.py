@@ -237,6 +237,10 @@ class MultiphaseNLP:
     (``hessian="exact"``: with the Lagrangian's exact Hessian,
     :mod:`._multiphase_hessian`)."""
 
+    #: as :attr:`._nlp.CollocationNLP.returns_new_arrays` (their values joined
+    #: into a new array)
+    returns_new_arrays = True
+
     def __init__(self, problem, hessian="limited-memory"):
         from ._nlp import CollocationNLP
         self.problem = problem

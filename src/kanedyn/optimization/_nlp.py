@@ -88,6 +88,10 @@ class CollocationNLP:
     held: a solver reads them once and keeps what it needs.
     """
 
+    #: ``jacobian`` and ``hessian`` give a new array at each call (the
+    #: interior point takes the fixed variables' entries out of it in place)
+    returns_new_arrays = True
+
     def __init__(self, problem, start_time=None, free_start_time=False,
                  hessian="limited-memory"):
         self.problem = pb = problem
@@ -245,10 +249,14 @@ class CollocationNLP:
     def _evaluate(self, z):
         """Everything at ``z``, computed once per decision vector."""
         z = np.asarray(z, dtype=float)
-        key = z.tobytes()
-        if key == self._cache_key:
+        held = self._cache_key
+        # the same point to the bit (its own copy is the key: the caller may
+        # write to its array later)
+        if held is not None and held.shape == z.shape and np.array_equal(
+                held.view(np.uint64), z.view(np.uint64)):
             return self._cache
         self.forget_evaluation()  # the last point's arrays not held with the new ones
+        z = z.copy()  # the key, and the views below
         pb, L = self.problem, self.layout
         Y, R, P, T = L.split(z, pb.duration_value)
         Yi, Ri = L.split_interior(z) if L.interior else self._no_interior
@@ -278,7 +286,7 @@ class CollocationNLP:
             else:
                 point_constraints = model.jacobians(t0 + h * np.arange(L.nodes), Y,
                                                     r=R).constraints
-        self._cache_key, self._cache = key, dict(
+        self._cache_key, self._cache = z, dict(
             z=z, Y=Y, R=R, P=P, T=T, t0=t0, h=h, model=model, Yi=Yi, Ri=Ri,
             Yp=np.concatenate([Y, Yi]) if len(Yi) else Y,
             Rp=np.concatenate([R, Ri]) if len(Ri) else R,

@@ -125,6 +125,27 @@ class _Entries:
                 out[:, j] = value
         return out
 
+    def blocks(self, K, arguments, spans):
+        """The entries at the points of ``arguments`` by blocks of columns:
+        per ``(start, stop, flat)`` of ``spans`` a (K, stop - start) array,
+        (K,) with ``flat`` (one column); a block whose entries are all
+        identically zero a read-only broadcast of 0.0 (no memory)."""
+        found = dict(self.constants)
+        if self._fn is not None:
+            found.update(zip(self.columns, self._fn(*arguments)))
+        out = []
+        for start, stop, flat in spans:
+            shape = (K,) if flat else (K, stop - start)
+            if not any(j in found for j in range(start, stop)):
+                out.append(np.broadcast_to(0.0, shape))
+                continue
+            block = np.zeros((K, stop - start))
+            for j in range(start, stop):
+                if j in found:
+                    block[:, j - start] = found[j]
+            out.append(block.reshape(shape))
+        return out
+
 
 class Term:
     """A scalar expression of ``(t, y, r, p, T)`` and its gradient, on many nodes.
@@ -132,7 +153,8 @@ class Term:
     ``__call__(t, Y, R, P, T)`` with ``t`` (K,), ``Y`` (K, n_states), ``R``
     (K, n_inputs), ``P`` (n_free,), ``T`` (float) returns ``(value, d_t, d_y,
     d_r, d_p, d_T)``: shapes (K,), (K,), (K, n_states), (K, n_inputs), (K,
-    n_free), (K,).
+    n_free), (K,); a part that is identically zero a read-only broadcast of
+    0.0 (not to be written).
     """
 
     def __init__(self, expr, symbols):
@@ -188,9 +210,10 @@ class Term:
     def __call__(self, t, Y, R, P, T):
         K, arguments = self._arguments(t, Y, R, P)
         ns, nr, nf = self._sizes
-        out = self._first(K, arguments + (T,))
-        return (out[:, 0], out[:, 1], out[:, 2:2 + ns], out[:, 2 + ns:2 + ns + nr],
-                out[:, 2 + ns + nr:2 + ns + nr + nf], out[:, -1])
+        edges = np.cumsum([0, 1, 1, ns, nr, nf, 1])
+        flat = (True, True, False, False, False, True)  # value, d_t, ..., d_T
+        return tuple(self._first.blocks(K, arguments + (T,),
+                                        zip(edges[:-1], edges[1:], flat)))
 
 
 def compile_term(value, symbols, what):

@@ -32,6 +32,9 @@ __all__ = ["ReducedNLP", "INFINITE_BOUND", "compact_index_type"]
 #: a bound at or beyond this magnitude is no bound (IPOPT's nlp_upper_bound_inf)
 INFINITE_BOUND = 1e19
 
+#: the entries moved at a time where the left-out ones are taken out in place
+_CHUNK = 1 << 16
+
 
 class ReducedNLP:
     """``nlp`` without its fixed variables and unbounded rows, scaled.
@@ -115,6 +118,9 @@ class ReducedNLP:
         self._jacobian_dropped = _dropped(use)
         self.jacobian_structure = _read_only(row_of[jr[use]], column_of[jc[use]])
         self._exact_hessian = exact_hessian
+        #: the NLP's jacobian() and hessian() give a new array at each call,
+        #: which the entries left out are then taken out of in place
+        self._owned = bool(getattr(nlp, "returns_new_arrays", False))
         hr, hc = self._full_hessian_structure()
         use = (column_of[hr] >= 0) & (column_of[hc] >= 0)
         self._hessian_dropped = _dropped(use)
@@ -225,7 +231,7 @@ class ReducedNLP:
 
     def jacobian(self, x_full):
         values = _kept(np.asarray(self.nlp.jacobian(x_full), dtype=float),
-                       self._jacobian_dropped, copy=True)
+                       self._jacobian_dropped, copy=True, owned=self._owned)
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values
@@ -241,7 +247,7 @@ class ReducedNLP:
         values = np.asarray(self.nlp.hessian(x_full, full,
                                               objective_factor * self.objective_scale),
                             dtype=float)
-        return _kept(values, self._hessian_dropped, copy=True)
+        return _kept(values, self._hessian_dropped, copy=True, owned=self._owned)
 
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,)."""
@@ -297,9 +303,21 @@ def _dropped(use):
     return dropped.astype(compact_index_type(use.size)) if dropped.size else None
 
 
-def _kept(values, dropped, copy=False):
+def _kept(values, dropped, copy=False, owned=False):
     """``values`` without the entries ``dropped`` (:func:`_dropped`), a new
-    array; when none is, ``values`` itself, or its copy with ``copy``."""
+    array; when none is, ``values`` itself, or its copy with ``copy``.  With
+    ``owned`` (``values`` the caller's to overwrite) in its own storage
+    instead: the kept entries moved forward over the dropped ones (a chunk
+    at a time), their leading part returned (a view)."""
+    if owned:
+        if dropped is not None:
+            for i, start in enumerate(dropped):  # the entries after it, i + 1 places back
+                stop = dropped[i + 1] if i + 1 < dropped.size else values.size
+                for k0 in range(int(start) + 1, int(stop), _CHUNK):
+                    k1 = min(int(stop), k0 + _CHUNK)
+                    values[k0 - i - 1:k1 - i - 1] = values[k0:k1]
+            values = values[:values.size - dropped.size]
+        return values
     if dropped is None:
         return values.copy() if copy else values
     return np.delete(values, dropped)
