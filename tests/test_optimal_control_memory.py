@@ -106,6 +106,24 @@ def test_reduced_jacobian_values_with_and_without_row_scales(small):
     np.testing.assert_array_equal(reduced.jacobian(x), full[keep] * scale[rows[keep]])
 
 
+def test_reduced_transpose_product_sums_as_bincount(small):
+    """J^T y of the reduced NLP (SciPy's product of the entries, no array of
+    their products) equals NumPy's ``bincount`` of the products to the bit,
+    and the dense product to rounding."""
+    nlp, _ = small
+    x = _guess(30)
+    reduced = ReducedNLP(nlp, x, settings({}))
+    values = reduced.jacobian(x)
+    y = np.random.default_rng(2).normal(size=reduced.m)
+    rows, cols = reduced.jacobian_structure
+    found = reduced.transpose_times(values, y)
+    expected = np.bincount(cols, weights=y[rows] * values, minlength=reduced.n)
+    np.testing.assert_array_equal(found.view(np.uint64), expected.view(np.uint64))
+    dense = np.zeros((reduced.m, reduced.n))
+    np.add.at(dense, (rows, cols), values)
+    np.testing.assert_allclose(found, dense.T @ y, rtol=1e-12, atol=1e-12)
+
+
 @pytest.mark.parametrize("dropped", [[0], [9], [2, 3, 4], [0, 5, 9], [1, 3, 6, 7]])
 def test_entries_left_out_in_place_as_numpy_deletes_them(monkeypatch, dropped):
     """The reduced NLP takes the fixed variables' entries out of an array the

@@ -414,8 +414,13 @@ class Defects:
         values = np.empty(size * sum(self._block_width(b) for b in self._blocks()))
         start = 0
         for block in self._blocks():
+            # each block written in place: the blocks not joined
+            width = self._block_width(block)
+            out = values[start:start + size * width].reshape(shape + (width,))
+            start += size * width
             if block == "p":
-                v = sum(-h * s.c * Pf[:, rows] for s, (_, _, _, Pf) in zip(self.stages, stages))
+                out[...] = sum(-h * s.c * Pf[:, rows]
+                               for s, (_, _, _, Pf) in zip(self.stages, stages))
             elif block == "T":
                 dh = 1.0 / (N - 1)
                 v = 0.0
@@ -424,27 +429,18 @@ class Defects:
                     if rates is not None:
                         position = self._stage_positions[j]
                         v = v - h * s.c * rates[j][0][:, rows] * position[:, None]
-                v = v[:, :, None]
+                out[...] = v[:, :, None]
             elif block == "t0":
-                v = sum(-h * s.c * rates[j][0][:, rows] for j, s in enumerate(self.stages))
-                v = v[:, :, None]
+                out[...] = sum(-h * s.c * rates[j][0][:, rows]
+                               for j, s in enumerate(self.stages))[:, :, None]
             elif block[0] == "y" and self._difference_only(block[1]):
-                v = 1.0 if block[1] == 1 else -1.0  # each row's own state
-            elif block[0] == "y":
-                o = block[1]
-                v = self._difference[o]
-                for s, (_, A, _, _) in zip(self.stages, stages):
+                out[...] = 1.0 if block[1] == 1 else -1.0  # each row's own state
+            else:  # the states' (A) or the inputs' (B) block, summed where it is written
+                o, which = block[1], 1 if block[0] == "y" else 2
+                out[...] = self._difference[o] if which == 1 else 0.0
+                for s, parts in zip(self.stages, stages):
                     if s.a[o]:
-                        v = v - h * s.c * s.a[o] * A[:, rows]
-            else:
-                o = block[1]
-                v = 0.0
-                for s, (_, _, B, _) in zip(self.stages, stages):
-                    if s.a[o]:
-                        v = v - h * s.c * s.a[o] * B[:, rows]
-            width = self._block_width(block)  # written in place: the blocks not joined
-            values[start:start + size * width].reshape(shape + (width,))[...] = v
-            start += size * width
+                        out -= h * s.c * s.a[o] * parts[which][:, rows]
         return values
 
     def _difference_only(self, o):

@@ -250,11 +250,12 @@ class ReducedNLP:
         return _kept(values, self._hessian_dropped, copy=True, owned=self._owned)
 
     def transpose_times(self, jacobian_values, y):
-        """:math:`J^T y`, shape (n,)."""
+        """:math:`J^T y`, shape (n,): SciPy's product of the entries as they
+        are (no array of the entries' products; the same sums, in the
+        entries' order, as ``np.bincount`` of them)."""
+        import scipy.sparse as sp
         rows, cols = self.jacobian_structure
-        weights = y[rows]
-        weights *= jacobian_values  # in place: one (nnz,) array less
-        return np.bincount(cols, weights=weights, minlength=self.n)
+        return sp.coo_matrix((jacobian_values, (cols, rows)), shape=(self.n, self.m)) @ y
 
     # ---------------------------------------------------------- unscaling
     def multipliers_full(self, x_full, y, z_lower, z_upper):
