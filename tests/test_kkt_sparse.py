@@ -481,7 +481,9 @@ def test_a_zero_pivot_of_the_backward_sweep_is_swept_forward(KKT):
     the interior point's start system (no Hessian, unit diagonal), swept
     backward, meets a zero pivot at the last nodes (the last rate's defect
     paired through the torque's entry h, 1/h^2 on the last free rate).  The
-    pairs made again do not help; the band swept forward does: K's inertia
+    pairs made again do not help (made of the same entries as the
+    constructor's, given them, they are not made again); the band swept
+    forward does: K's inertia
     (n positive, m negative: J has full row rank), no row delayed, and the
     envelope no longer than before (delayed to the end, each of the two
     rows would span the band: 10 entries a node more)."""
@@ -494,6 +496,15 @@ def test_a_zero_pivot_of_the_backward_sweep_is_swept_forward(KKT):
     assert kkt.factor(np.zeros(reduced.hessian_size), jv, np.ones(n), np.zeros(m)) == (n, m, 0)
     assert kkt.reanalyses == 2 and kkt.analysis.n_delayed == 0
     assert kkt.analysis.nnz_factor <= 1.001 * swept_backward < 16.1 * nodes
+    # given the start's pairable entries, as the interior point gives them, the
+    # pairs made again would be the constructor's: not made, swept forward at once
+    from kanedyn.optimization.interior_point.kkt._sparse import pairable_entries
+    given = KKT(n, m, reduced.hessian_structure(), reduced.jacobian_structure,
+                pairable=pairable_entries(m, reduced.jacobian_structure[0], jv))
+    assert given.factor(np.zeros(reduced.hessian_size), jv, np.ones(n), np.zeros(m)) == \
+        (n, m, 0)
+    assert given.reanalyses == 1 and given.analysis.n_delayed == 0
+    assert given.analysis.nnz_factor < 16.1 * nodes
 
 
 def test_the_envelope_holds_the_band_in_less_memory():

@@ -134,6 +134,7 @@ class EnvelopeKKT(SparseKKT):
         self._numeric = None  # not held while a new order is made; the next factor
         # makes it again (_storage); nor the last analysis's pointers
         self._rowptr = self._inverse = None
+        self._permutation = self._kind = self._zero = self.analysis = None
         symbolic = cached_analysis(
             N, (n, m, self.ordering, self._forward, "envelope"),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),

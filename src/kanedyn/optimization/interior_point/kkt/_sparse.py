@@ -138,7 +138,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ._analyses import SymbolicAnalysis, cached_analysis
+from ._analyses import SymbolicAnalysis, _digest, cached_analysis
 from ._kernel import kernel
 from ._ordering import ORDERINGS, elimination_order
 
@@ -439,7 +439,13 @@ class SparseKKT:
         has_diagonal = np.zeros(n, dtype=bool)
         has_diagonal[hr[hr == hc]] = True
         self._analyse((hr, hc), (jr, jc), has_diagonal, pairable)
+        self._order_key = self._order_inputs(has_diagonal, pairable)
         self.inertia = None
+
+    def _order_inputs(self, has_diagonal, pairable):
+        """A digest of what the order is made of beside the structures (the
+        same digest: the same order)."""
+        return _digest((self._forward,), (has_diagonal, pairable, self._delayed))
 
     def _structures(self):
         """``((hr, hc), (jr, jc))``, the constructor's structures, from the
@@ -467,6 +473,7 @@ class SparseKKT:
         # makes it again (_storage); nor the last analysis's arrays
         self._Ap = self._Ai = self._hessian_map = self._jacobian_map = None
         self._diagonal_map = self._parent = None
+        self._permutation = self._kind = self._zero = self.analysis = None
         symbolic = cached_analysis(
             N, (n, m, self.ordering, self._forward),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
@@ -619,10 +626,14 @@ class SparseKKT:
         has_diagonal = np.zeros(self.n, dtype=bool)
         has_diagonal[hr[on]] = True
         has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
+        del diagonal, on
         # first the pairs made again; then the band swept the other way; then
         # what still fails, delayed to the end
         found = inertia
         for step in ("pairs", "forward", "delay"):
+            if step == "pairs" and self._order_inputs(has_diagonal, pairable) == \
+                    self._order_key:
+                continue  # the same pairs again: the same order (not made)
             if step == "forward":  # (no band of pairs without constraints)
                 if self._forward or self.ordering != "pairs" or not self._entries[1]:
                     continue
@@ -633,6 +644,7 @@ class SparseKKT:
                 self._delayed |= failed
             self.reanalyses += 1
             self._analyse(*structures, has_diagonal, pairable)
+            self._order_key = self._order_inputs(has_diagonal, pairable)
             found = self._factor(hv, jv, dx, dc)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
