@@ -362,6 +362,8 @@ class _Run:
         if not (e.finite() and self._derivatives(e)):
             return None
         w = primal_start(self.bounds, n, x, e.rows, self.inequality, s, warm)
+        if np.array_equal(w[:n].view(np.uint64), x.view(np.uint64)):
+            e.x = w[:n]  # the same numbers: the pushed start not held beside w
         if warm:
             y, zl_x, zu_x = R.scaled_multipliers(self.warm)
             z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
@@ -445,6 +447,7 @@ class _Run:
         t = time.perf_counter()
         if quasi_newton is None:
             hessian = self.reduced.hessian(self.reduced.full(e.x), y, objective_factor)
+            self._drop_nlp_evaluation()  # the point's last callback
             finite = np.isfinite(hessian).all()
         else:
             x = e.x
