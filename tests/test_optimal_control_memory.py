@@ -106,10 +106,14 @@ def test_reduced_jacobian_values_with_and_without_row_scales(small):
     np.testing.assert_array_equal(reduced.jacobian(x), full[keep] * scale[rows[keep]])
 
 
-def test_reduced_transpose_product_sums_as_bincount(small):
-    """J^T y of the reduced NLP (SciPy's product of the entries, no array of
-    their products) equals NumPy's ``bincount`` of the products to the bit,
-    and the dense product to rounding."""
+@pytest.mark.parametrize("chunk", [1 << 16, 1])
+def test_reduced_transpose_product_sums_as_bincount(small, monkeypatch, chunk):
+    """J^T y of the reduced NLP equals NumPy's ``bincount`` of the entries'
+    products to the bit, and the dense product to rounding: for few entries
+    by that ``bincount``, for more than ``_CHUNK`` (1 here) by SciPy's
+    product of the entries (no array of their products)."""
+    from kanedyn.optimization.interior_point import _reduced
+    monkeypatch.setattr(_reduced, "_CHUNK", chunk)
     nlp, _ = small
     x = _guess(30)
     reduced = ReducedNLP(nlp, x, settings({}))

@@ -252,8 +252,8 @@ class CollocationNLP:
         held = self._cache_key
         # the same point to the bit (its own copy is the key: the caller may
         # write to its array later)
-        if held is not None and held.shape == z.shape and np.array_equal(
-                held.view(np.uint64), z.view(np.uint64)):
+        if held is not None and held.shape == z.shape and (
+                held.view(np.uint64) == z.view(np.uint64)).all():
             return self._cache
         self.forget_evaluation()  # the last point's arrays not held with the new ones
         z = z.copy()  # the key, and the views below

@@ -93,6 +93,11 @@ def _check_atoms(expr, symbols, what, instances=False):
     return expr.xreplace({k: sm.Float(v) for k, v in fixed.items()})
 
 
+#: the 0.0 that a block of identically zero entries is a broadcast of
+_ZERO = np.zeros(1)
+_ZERO.flags.writeable = False
+
+
 class _Entries:
     """Expressions of ``(t, y, r, p, T)`` evaluated on K points into the
     columns of a (K, n) array: those that SymPy finds constant are stored as
@@ -108,6 +113,8 @@ class _Entries:
         self.columns = [j for j, _ in varying]
         self._fn = (sm.lambdify(variables, [e for _, e in varying], modules="numpy",
                                 dummify=True) if varying else None)
+        self._plans = {}  # of blocks(), per spans
+        self._zeros = {}  # its broadcasts of 0.0, per shape
 
     def nonzero(self):
         """(n,) bool: the entries not identically zero."""
@@ -127,22 +134,31 @@ class _Entries:
 
     def blocks(self, K, arguments, spans):
         """The entries at the points of ``arguments`` by blocks of columns:
-        per ``(start, stop, flat)`` of ``spans`` a (K, stop - start) array,
-        (K,) with ``flat`` (one column); a block whose entries are all
-        identically zero a read-only broadcast of 0.0 (no memory)."""
-        found = dict(self.constants)
-        if self._fn is not None:
-            found.update(zip(self.columns, self._fn(*arguments)))
+        per ``(start, stop, flat)`` of ``spans`` (a tuple) a (K, stop -
+        start) array, (K,) with ``flat`` (one column); a block whose entries
+        are all identically zero a read-only broadcast of 0.0 (no memory)."""
+        plan = self._plans.get(spans)
+        if plan is None:  # per block: its columns' places in constants / values
+            constant, varying = dict(self.constants), {j: k for k, j in enumerate(self.columns)}
+            plan = self._plans[spans] = [
+                (start, stop, flat, [(j - start, constant.get(j), varying.get(j))
+                                     for j in range(start, stop)
+                                     if j in constant or j in varying])
+                for start, stop, flat in spans]
+        values = self._fn(*arguments) if self._fn is not None else ()
         out = []
-        for start, stop, flat in spans:
+        for start, stop, flat, columns in plan:
             shape = (K,) if flat else (K, stop - start)
-            if not any(j in found for j in range(start, stop)):
-                out.append(np.broadcast_to(0.0, shape))
+            if not columns:
+                zero = self._zeros.get(shape)
+                if zero is None:
+                    zero = self._zeros[shape] = np.lib.stride_tricks.as_strided(
+                        _ZERO, shape, (0,) * len(shape), writeable=False)
+                out.append(zero)
                 continue
             block = np.zeros((K, stop - start))
-            for j in range(start, stop):
-                if j in found:
-                    block[:, j - start] = found[j]
+            for column, constant, k in columns:
+                block[:, column] = constant if k is None else values[k]
             out.append(block.reshape(shape))
         return out
 
@@ -177,6 +193,10 @@ class Term:
         variables = [t] + y + r + p + [T]
         self._first = _Entries([e] + [e.diff(v) for v in variables], variables)
         self._sizes = (ns, nr, nf)
+        edges = np.cumsum([0, 1, 1, ns, nr, nf, 1]).tolist()
+        flat = (True, True, False, False, False, True)  # value, d_t, ..., d_T
+        #: the parts of __call__'s result among the first derivatives' columns
+        self._spans = tuple(zip(edges[:-1], edges[1:], flat))
         self._expr, self._variables = e, variables
         self._second = None
 
@@ -209,11 +229,7 @@ class Term:
 
     def __call__(self, t, Y, R, P, T):
         K, arguments = self._arguments(t, Y, R, P)
-        ns, nr, nf = self._sizes
-        edges = np.cumsum([0, 1, 1, ns, nr, nf, 1])
-        flat = (True, True, False, False, False, True)  # value, d_t, ..., d_T
-        return tuple(self._first.blocks(K, arguments + (T,),
-                                        zip(edges[:-1], edges[1:], flat)))
+        return tuple(self._first.blocks(K, arguments + (T,), self._spans))
 
 
 def compile_term(value, symbols, what):

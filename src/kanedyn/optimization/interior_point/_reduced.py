@@ -250,11 +250,16 @@ class ReducedNLP:
         return _kept(values, self._hessian_dropped, copy=True, owned=self._owned)
 
     def transpose_times(self, jacobian_values, y):
-        """:math:`J^T y`, shape (n,): SciPy's product of the entries as they
-        are (no array of the entries' products; the same sums, in the
-        entries' order, as ``np.bincount`` of them)."""
-        import scipy.sparse as sp
+        """:math:`J^T y`, shape (n,): the entries' products summed by
+        ``np.bincount``, or for more than :data:`_CHUNK` entries by SciPy's
+        product of the entries as they are (no array of their products; the
+        same sums in the same order, slower to set up)."""
         rows, cols = self.jacobian_structure
+        if jacobian_values.size <= _CHUNK:
+            weights = y[rows]
+            weights *= jacobian_values
+            return np.bincount(cols, weights=weights, minlength=self.n)
+        import scipy.sparse as sp
         return sp.coo_matrix((jacobian_values, (cols, rows)), shape=(self.n, self.m)) @ y
 
     # ---------------------------------------------------------- unscaling

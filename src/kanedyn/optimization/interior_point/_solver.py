@@ -733,25 +733,26 @@ class _Run:
                 if accepted:
                     return trial, alpha, step, f_type, trials
                 if trials == 1 and trial[2] >= theta and s.max_soc:
-                    # of the rejected point only its violation and its rows'
-                    # residuals are held through the corrections
-                    theta_trial, c_trial, trial = trial[2], trial[5], None
-                    corrected = self._second_order(w, alpha, theta_trial, c_trial, theta, phi,
+                    # of the rejected point only its violation is held through the
+                    # corrections (and the first correction's rows)
+                    theta_trial, c_soc = trial[2], alpha * m["c"] + trial[5]
+                    trial = None
+                    corrected = self._second_order(w, alpha, theta_trial, c_soc, theta, phi,
                                                    slope, mu, tau, line_filter, residual_w, m)
                     if corrected is not None:
                         return corrected + (trials,)
             alpha /= 2
         return None
 
-    def _second_order(self, w, alpha, theta_trial, c_trial, theta, phi, slope, mu, tau,
+    def _second_order(self, w, alpha, theta_trial, c_soc, theta, phi, slope, mu, tau,
                       line_filter, residual_w, m):
         """Second-order corrections of a rejected full step (its violation
-        ``theta_trial`` and rows' residuals ``c_trial``; up to ``max_soc``,
-        while each cuts the violation by ``kappa_soc``)."""
+        ``theta_trial``; ``c_soc`` the first correction's rows, the step
+        length times the current point's residuals plus the rejected
+        point's; up to ``max_soc``, while each cuts the violation by
+        ``kappa_soc``)."""
         s, B = self.s, self.bounds
-        c_soc = alpha * m["c"] + c_trial
         theta_old = theta_trial
-        del c_trial
         gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
         lo, up = B.lower_index, B.upper_index
         for _ in range(int(s.max_soc)):
