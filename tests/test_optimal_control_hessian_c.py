@@ -126,6 +126,9 @@ def test_weighted_hessian_pattern_holds_every_nonzero(name, extra):
         assert not pattern[r, r]
     if name == "pendulum" and extra == "none":
         assert not pattern[r].any() and pattern[0, 0]
+    # a copy (new constants) shares the generated code, and its pattern
+    clone = numpy.with_constants({names[0]: numpy.constants[names[0]]})
+    np.testing.assert_array_equal(weighted_hessian_pattern(clone, parameters, time), pattern)
 
 
 def _chain_problem(model, symbols, method):

@@ -465,9 +465,9 @@ def _share_generated(model, clone):
     exact derivatives take the constants and inputs as arguments (not the
     derivative module's integration loop, ``_exact_loop``: it holds the
     model's constants and inputs); the second derivatives' NumPy functions
-    or C modules (:mod:`._hessians`) likewise."""
+    (and their patterns) or C modules (:mod:`._hessians`) likewise."""
     for attr in ("_linearization_fn", "_jacobians", "_jacobians_p", "_jacobians_module",
-                 "_jacobians_p_module", "_weighted_hessians"):
+                 "_jacobians_p_module", "_weighted_hessians", "_weighted_hessian_patterns"):
         if attr in model.__dict__:
             clone.__dict__[attr] = model.__dict__[attr]
 
