@@ -110,10 +110,10 @@ def test_reduced_jacobian_values_with_and_without_row_scales(small):
 def test_reduced_transpose_product_sums_as_bincount(small, monkeypatch, chunk):
     """J^T y of the reduced NLP equals NumPy's ``bincount`` of the entries'
     products to the bit, and the dense product to rounding: for few entries
-    by that ``bincount``, for more than ``_CHUNK`` (1 here) by SciPy's
-    product of the entries (no array of their products)."""
+    by that ``bincount``, for more than ``PRODUCTS_ARRAY_ENTRIES`` (1 here)
+    by SciPy's product of the entries (no array of their products)."""
     from kanedyn.optimization.interior_point import _reduced
-    monkeypatch.setattr(_reduced, "_CHUNK", chunk)
+    monkeypatch.setattr(_reduced, "PRODUCTS_ARRAY_ENTRIES", chunk)
     nlp, _ = small
     x = _guess(30)
     reduced = ReducedNLP(nlp, x, settings({}))

@@ -35,6 +35,10 @@ INFINITE_BOUND = 1e19
 #: the entries moved at a time where the left-out ones are taken out in place
 _CHUNK = 1 << 16
 
+#: J^T y of at most this many entries sums an array of their products
+#: (``np.bincount``); beyond, SciPy's product, which makes none
+PRODUCTS_ARRAY_ENTRIES = 1 << 16
+
 
 class ReducedNLP:
     """``nlp`` without its fixed variables and unbounded rows, scaled.
@@ -251,11 +255,11 @@ class ReducedNLP:
 
     def transpose_times(self, jacobian_values, y):
         """:math:`J^T y`, shape (n,): the entries' products summed by
-        ``np.bincount``, or for more than :data:`_CHUNK` entries by SciPy's
-        product of the entries as they are (no array of their products; the
-        same sums in the same order, slower to set up)."""
+        ``np.bincount``, or for more than :data:`PRODUCTS_ARRAY_ENTRIES`
+        entries by SciPy's product of the entries as they are (no array of
+        their products; the same sums in the same order, slower to set up)."""
         rows, cols = self.jacobian_structure
-        if jacobian_values.size <= _CHUNK:
+        if jacobian_values.size <= PRODUCTS_ARRAY_ENTRIES:
             weights = y[rows]
             weights *= jacobian_values
             return np.bincount(cols, weights=weights, minlength=self.n)
