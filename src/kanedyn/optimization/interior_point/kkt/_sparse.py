@@ -101,7 +101,8 @@ analyses again, up to three times, and factors again with the same values:
    first the variables without a Hessian diagonal in the pattern (as the
    constructor's order) and those whose diagonal (Hessian and
    ``diagonal_x``) is at most ``zero_pivot`` times :math:`K`'s largest
-   entry here (where either loses no row);
+   entry here (where either loses no row); not made where these are the
+   current order's own inputs (a digest of them is held): that order again;
 2. if a pivot is still zero (and the order is ``"pairs"``'s): the band
    swept forward instead (:mod:`._ordering`: neither way suits every
    problem);
