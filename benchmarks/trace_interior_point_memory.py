@@ -10,14 +10,16 @@ is built.  Prints the highest traced memory of the solve in bytes per node
 overhead not), where it was reached (the call stack at the highest traced
 memory seen on a function's return; ``--at NAME`` looks only at returns of
 functions named so), the allocations alive then by source line, and the
-process's ``VmHWM`` and ``VmPeak``.  Bytes per node of one node count
+process's ``VmHWM`` and ``VmPeak``; with ``--resident`` also the highest
+resident memory read on a return (``/proc/self/statm``), the traced memory
+then, and where.  Bytes per node of one node count
 include the fixed part (imports made during the solve): compare two counts
 for a slope.  ``docs/benchmarks.md`` ("A fourth round: what the iterations
 hold") gives its figures.
 
     python benchmarks/trace_interior_point_memory.py [--nodes 100000] [--max-iter 15]
         [--at NAME] [--lines 30] [--limited-memory] [--linear-solver sparse]
-        [--guess gallery]
+        [--guess gallery] [--resident]
 """
 
 from __future__ import annotations
@@ -47,6 +49,10 @@ def main():
                         help="the straight line (_ocp_peers.pendulum_guess) or, as "
                              "bench_optimal_control.py's scan starts, the 501-node optimum "
                              "interpolated")
+    parser.add_argument("--resident", action="store_true",
+                        help="also read the resident memory (/proc/self/statm) at each "
+                             "return: its highest, the traced memory then, and where "
+                             "(tracemalloc's own memory included)")
     parser.add_argument("--linear-solver", default="auto",
                         choices=("auto", "sparse", "envelope", "dense"),
                         help="the interior point's factorization (its option linear_solver)")
@@ -56,6 +62,17 @@ def main():
     guess = (peers.pendulum_guess(nodes) if args.guess == "line" else
              peers.pendulum_interpolated(peers.pendulum_gallery_optimum(), nodes))
     highest = {"bytes": -1, "snapshot": None, "stack": ""}
+    # with --resident: the highest resident memory seen on a return, the
+    # traced memory then, and where
+    statm = os.open("/proc/self/statm", os.O_RDONLY) if args.resident else None
+    resident = {"bytes": -1, "traced": 0, "stack": ""}
+
+    def stack_of(frame):
+        names, f = [], frame
+        while f is not None and len(names) < 6:
+            names.append(f.f_code.co_name)
+            f = f.f_back
+        return " < ".join(names)
 
     def on_return(frame, event, _arg):
         if event != "return" or "kanedyn" not in frame.f_code.co_filename:
@@ -63,18 +80,20 @@ def main():
         if args.at and frame.f_code.co_name != args.at:
             return
         now = tracemalloc.get_traced_memory()[0]
+        if statm is not None:
+            rss = int(os.pread(statm, 64, 0).split()[1]) * os.sysconf("SC_PAGE_SIZE")
+            if rss > resident["bytes"]:
+                resident.update(bytes=rss, traced=now, stack=stack_of(frame))
         if now > highest["bytes"] * 1.01:
-            names, f = [], frame
-            while f is not None and len(names) < 6:
-                names.append(f.f_code.co_name)
-                f = f.f_back
             highest.update(bytes=now, snapshot=tracemalloc.take_snapshot(),
-                           stack=" < ".join(names))
+                           stack=stack_of(frame))
 
     options = dict(max_iter=args.max_iter, tol=1e-10, linear_solver=args.linear_solver)
     hessian = "limited-memory" if args.limited_memory else "exact"
     tracemalloc.start(1)
     start = tracemalloc.get_traced_memory()[0]
+    if statm is not None:
+        start_rss = int(os.pread(statm, 64, 0).split()[1]) * os.sysconf("SC_PAGE_SIZE")
     sys.setprofile(on_return)
     try:
         result = problem.solve(guess, solver="interior-point", hessian=hessian,
@@ -90,6 +109,11 @@ def main():
     print(f"highest traced memory of the solve: {(peak - start) / nodes:.0f} B a node; the "
           f"highest seen on a return{f' of {args.at}' if args.at else ''}: "
           f"{(highest['bytes'] - start) / nodes:.0f} B a node, in {highest['stack']}")
+    if statm is not None:
+        above = (resident["bytes"] - start_rss) / nodes
+        print(f"highest resident memory seen on a return: {above:.0f} B a node above the "
+              f"start's (traced then: {(resident['traced'] - start) / nodes:.0f}), in "
+              f"{resident['stack']}")
     print("alive then, B a node, by the line that allocated it:")
     for stat in highest["snapshot"].statistics("lineno")[:args.lines]:
         frame = stat.traceback[0]
