@@ -632,9 +632,6 @@ class SparseKKT:
         # what still fails, delayed to the end
         found = inertia
         for step in ("pairs", "forward", "delay"):
-            if step == "pairs" and self._order_inputs(has_diagonal, pairable) == \
-                    self._order_key:
-                continue  # the same pairs again: the same order (not made)
             if step == "forward":  # (no band of pairs without constraints)
                 if self._forward or self.ordering != "pairs" or not self._entries[1]:
                     continue
@@ -643,9 +640,12 @@ class SparseKKT:
                 if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:
                     return found  # each makes a long row of L: not for many
                 self._delayed |= failed
+            key = self._order_inputs(has_diagonal, pairable)
+            if step == "pairs" and key == self._order_key:
+                continue  # the same pairs again: the same order (not made)
             self.reanalyses += 1
             self._analyse(*structures, has_diagonal, pairable)
-            self._order_key = self._order_inputs(has_diagonal, pairable)
+            self._order_key = key
             found = self._factor(hv, jv, dx, dc)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
