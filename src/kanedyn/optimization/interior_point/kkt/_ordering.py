@@ -245,6 +245,7 @@ def _backward_share(order, node, n, block, jr, jc):
     rank = np.empty(order.size, dtype=np.int32)
     rank[order] = np.arange(order.size, dtype=np.int32)
     row_rank = np.where(node >= 0, rank[np.maximum(node, 0)], -1)  # of each row of K
+    del rank
     before = counted = 0
     for start in range(0, jr.size, _CHUNK):  # (the temporaries of a chunk only)
         rows, cols = n + jr[start:start + _CHUNK], jc[start:start + _CHUNK]
@@ -343,6 +344,7 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     jr, jc = jacobian
     degrees = np.diff(_made((N, N), [(hr, hc, 0), (jr, jc, n)], True).indptr)
     dense = degrees > dense_threshold(degrees)
+    del degrees
     late = dense if delayed is None else dense | delayed
     keep = np.flatnonzero(~late).astype(np.int32)
     block = np.arange(N, dtype=np.int32)  # the node of the compressed graph of each row
@@ -365,16 +367,16 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     # (numbered in int32 by marks, not np.unique's int64 sort)
     used = np.zeros(N, dtype=bool)
     used[block[keep]] = True
-    nodes = np.flatnonzero(used)
     number = np.cumsum(used, dtype=np.int32) - 1
     del used
+    size = int(number[-1]) + 1  # the compressed graph's nodes
     compressed = number[block[keep]]
     del number
     where = np.full(N, -1, dtype=np.int32)  # -1 for a row left out
     where[keep] = compressed
-    compressed_graph = _csr((nodes.size,) * 2, kernel().compressed(
-        where, nodes.size, _indices(hr), _indices(hc), 0, _indices(jr), _indices(jc), n))
-    if nodes.size == 0:  # every row delayed or dense
+    compressed_graph = _csr((size,) * 2, kernel().compressed(
+        where, size, _indices(hr), _indices(hc), 0, _indices(jr), _indices(jc), n))
+    if size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)
     elif ordering == "pairs-mmd":
         order = _minimum_degree(compressed_graph)
@@ -385,8 +387,8 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     del compressed_graph, where
     # expand: each block's rows in their own order (the variable before its constraint)
     # (keep increases: a stable sort by block keeps each block's rows in order)
-    rank = np.empty(nodes.size, dtype=np.int32)
-    rank[order] = np.arange(nodes.size, dtype=np.int32)
+    rank = np.empty(size, dtype=np.int32)
+    rank[order] = np.arange(size, dtype=np.int32)
     sequence = np.argsort(rank[compressed], kind="stable")
     del rank, compressed
     permutation = np.concatenate([keep[sequence], np.flatnonzero(late & ~dense),
