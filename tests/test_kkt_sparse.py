@@ -16,7 +16,7 @@ import sympy as sm
 
 import kanedyn as kd
 from kanedyn.numerics import CompilerError
-from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT
+from kanedyn.optimization.interior_point import DenseKKT, EnvelopeKKT, SparseKKT
 
 RTOL = 1e-10
 
@@ -104,6 +104,34 @@ def test_indefinite_random(seed, KKT):
     kkt = KKT(n, m, (hr, hc), (jr, jc))
     positive, negative, zero = _check(kkt, n, m, (hr, hc, hv), (jr, jc, jv), dx, dc, rng)
     assert zero == 0 and negative > m  # more negative pivots than constraints
+
+
+@pytest.mark.parametrize("KKT", [SparseKKT, EnvelopeKKT, DenseKKT],
+                         ids=["sparse", "envelope", "dense"])
+def test_diagonals_as_numbers_and_added_x_are_the_arrays_sums(KKT):
+    """A diagonal given as one number and ``added_x`` (the interior point's
+    delta_w, no array of the sums) factor, solve and multiply to the bit as
+    the arrays ``np.full(n, d)`` and ``diagonal_x + added_x`` do (zero
+    pivots and the new orders they bring included), and K's product is
+    NumPy's."""
+    rng = np.random.default_rng(11)
+    n, m = 30, 12
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    sigma = np.where(rng.random(n) < 0.5, 0.0, rng.uniform(0.1, 2.0, n))
+    rhs = rng.normal(size=n + m)
+    for dx, dc, added in ((sigma, 1e-8, 0.0), (sigma, 0.0, 0.37), (2.5, 0.25, 1e-4),
+                          (-3.0, 0.0, 0.0)):
+        as_arrays = KKT(n, m, (hr, hc), (jr, jc))
+        full_x = np.broadcast_to(dx, (n,)) + added if added else np.broadcast_to(dx, (n,))
+        expected = as_arrays.factor(hv, jv, np.array(full_x), np.full(m, dc))
+        kkt = KKT(n, m, (hr, hc), (jr, jc))
+        assert kkt.factor(hv, jv, dx, dc, added) == expected
+        np.testing.assert_array_equal(kkt.solve(rhs), as_arrays.solve(rhs))
+        np.testing.assert_array_equal(kkt.matvec(rhs), as_arrays.matvec(rhs))
+        K = _dense(n, m, (hr, hc, hv), (jr, jc, jv), full_x, np.full(m, dc))
+        np.testing.assert_allclose(kkt.matvec(rhs), K @ rhs, rtol=1e-13,
+                                   atol=1e-13 * np.abs(K).max())
 
 
 @BOTH
@@ -683,6 +711,18 @@ def test_bad_values_and_calls():
             kkt.factor(*wrong)
     with pytest.raises(ValueError, match=r"diagonal_c\[1\] = -0.5 is negative"):
         kkt.factor(good[0], good[1], good[2], [1.0, -0.5])
+    # the diagonals as numbers, and added_x
+    with pytest.raises(ValueError, match="diagonal_c = -0.5 is negative"):
+        kkt.factor(good[0], good[1], good[2], -0.5)
+    for k, name in ((2, "diagonal_x"), (3, "diagonal_c")):
+        for wrong in (np.inf, "1.0", True):
+            arguments = list(good)
+            arguments[k] = wrong
+            with pytest.raises(ValueError, match=f"{name} must be a finite number, not"):
+                kkt.factor(*arguments)
+    for wrong in (np.nan, [1.0], None):
+        with pytest.raises(ValueError, match="added_x must be a finite number, not"):
+            kkt.factor(*good, added_x=wrong)
     kkt.factor(*good)
     with pytest.raises(ValueError, match="rhs must have shape"):
         kkt.solve(np.ones(4))
@@ -723,10 +763,17 @@ def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
     return seen
 
 
-def _numpy_inertia(n, m, structures, values):
+def _dense_of_factored(n, m, structures, values):
+    """K as a dense array from ``factor``'s arguments ``values`` (the
+    diagonals may be numbers, delta_w given after them)."""
     (hr, hc), (jr, jc) = structures
-    hv, jv, dx, dc = values
-    return _eigen_inertia(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+    hv, jv, dx, dc, *added_x = values
+    dx = np.broadcast_to(dx, (n,)) + sum(added_x)
+    return _dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, np.broadcast_to(dc, (m,)))
+
+
+def _numpy_inertia(n, m, structures, values):
+    return _eigen_inertia(_dense_of_factored(n, m, structures, values))
 
 
 def _each_by_a_new_factorization(seen):
@@ -787,14 +834,14 @@ def test_every_matrix_of_a_trapezoid_swing_up_solve(monkeypatch):
     guess = problem.guess_line(inputs={problem.symbols.inputs[0]: 0.1})
     seen = _factored_by_the_solver(problem, guess, 100, monkeypatch)
     assert len(seen) > 50
-    n, m, ((hr, hc), (jr, jc)), _ = seen[0]
-    kkts = [KKT(n, m, (hr, hc), (jr, jc)) for KKT in (SparseKKT, EnvelopeKKT)]
-    for *_, (hv, jv, dx, dc) in seen:
-        eigenvalues = np.linalg.eigvalsh(_dense(n, m, (hr, hc, hv), (jr, jc, jv), dx, dc))
+    n, m, structures, _ = seen[0]
+    kkts = [KKT(n, m, *structures) for KKT in (SparseKKT, EnvelopeKKT)]
+    for *_, values in seen:
+        eigenvalues = np.linalg.eigvalsh(_dense_of_factored(n, m, structures, values))
         # some as small as 1e-11 of the largest: signs still far above rounding
         assert np.abs(eigenvalues).min() > 1e-13 * np.abs(eigenvalues).max()
         expected = (int(np.sum(eigenvalues > 0)), int(np.sum(eigenvalues < 0)), 0)
-        assert [kkt.factor(hv, jv, dx, dc) for kkt in kkts] == [expected] * 2
+        assert [kkt.factor(*values) for kkt in kkts] == [expected] * 2
 
 
 def test_the_band_sweeps_each_pair_before_its_rows_other_variables():

@@ -45,9 +45,12 @@ def primal_start(bounds, n, x, row_values, inequality, settings, warm):
 def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_size,
                               gradient_w, limit):
     """The rows' multipliers by least squares (see the module), or zeros."""
-    diagonal_c = np.zeros(m)
-    diagonal_c[inequality] = 1.0
-    inertia = kkt.factor(np.zeros(hessian_size), jacobian_values, np.ones(n), diagonal_c)
+    if len(inequality):
+        diagonal_c = np.zeros(m)
+        diagonal_c[inequality] = 1.0
+    else:  # zero on every row: a number, no array
+        diagonal_c = 0.0
+    inertia = kkt.factor(np.zeros(hessian_size), jacobian_values, 1.0, diagonal_c)
     if m == 0 or int(inertia[2]) > 0:
         return np.zeros(m)
     rhs = np.empty(n + m)

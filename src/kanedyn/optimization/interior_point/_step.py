@@ -104,13 +104,13 @@ class StepSolver:
         if self.inequality.size:
             diagonal_c = delta_c + np.bincount(self.inequality, weights=1.0 / slack_diagonal,
                                                minlength=self.m)
-        else:  # delta_c + 0.0, as the sum above
-            diagonal_c = np.full(self.m, delta_c + 0.0)
+        else:  # delta_c + 0.0, as the sum above, on every row: a number, no array
+            diagonal_c = delta_c + 0.0
         self.factorizations += 1
-        # sigma's own entries (a view, which the KKT may hold for its products)
-        # where delta_w is zero: the same numbers as sigma + 0.0 (sigma is not -0.0)
-        diagonal_x = sigma[:n] + delta_w if delta_w else sigma[:n]
-        inertia = self.kkt.factor(hessian_values, jacobian_values, diagonal_x, diagonal_c)
+        # sigma's own entries (a view, which the KKT may hold for its products),
+        # delta_w added by the KKT (the same sums, no array of them)
+        inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n], diagonal_c,
+                                  delta_w)
         self._state = (slack_diagonal, delta_w, delta_c)
         self._again = None
         return int(inertia[0]), int(inertia[1]), int(inertia[2])

@@ -82,7 +82,7 @@ class DenseKKT:
                                           self._jacobian_lower, self._jacobian_upper])
         self._matrix = None
 
-    def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
+    def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c, added_x=0.0):
         """Factorize K with these values.
 
         Parameters
@@ -90,10 +90,13 @@ class DenseKKT:
         hessian_values : ndarray, shape (nnz_H,)
             In the order of ``hessian_structure``.
         jacobian_values : ndarray, shape (nnz_J,)
-        diagonal_x : ndarray, shape (n,)
-            Added to H's diagonal.
-        diagonal_c : ndarray, shape (m,)
+        diagonal_x : ndarray, shape (n,), or float
+            Added to H's diagonal (a number: on every entry).
+        diagonal_c : ndarray, shape (m,), or float
             ``>= 0``; :math:`-d_c` is K's lower right diagonal.
+        added_x : float
+            Added to ``diagonal_x`` where not 0 (the interior point's
+            :math:`\\delta_w`).
 
         Returns
         -------
@@ -107,7 +110,7 @@ class DenseKKT:
         K = np.bincount(self._positions, weights=weights, minlength=size * size)
         K = K.reshape(size, size)
         diagonal = np.einsum("ii->i", K)
-        diagonal[:n] += diagonal_x
+        diagonal[:n] += np.add(diagonal_x, added_x) if added_x else diagonal_x
         diagonal[n:] -= diagonal_c
         self._matrix = K
         self._factors = None

@@ -181,14 +181,15 @@ class EnvelopeKKT(SparseKKT):
         super().release()
         self._values = None
 
-    def _factor(self, hv, jv, dx, dc):
+    def _factor(self, hv, jv, diagonals):
         """The kernel's factorization in the current order: its inertia."""
         Lx, D = self._storage()
         (hr, hc), (jr, jc) = self._structures()
-        self._values = (hv, jv, dx, dc)
+        self._values = (hv, jv, diagonals)
+        dx, dc, constants = diagonals
         *inertia, self._largest = self._kernel.envelope_factor(
             Lx, self._rowptr, D, self._kind, self._inverse, hr, hc, hv, jr, jc, jv, dx, dc,
-            self._zero, self.zero_pivot)
+            self._zero, self.zero_pivot, *constants)
         return tuple(inertia)
 
     def _largest_entry(self):
@@ -199,6 +200,8 @@ class EnvelopeKKT(SparseKKT):
             x, self._rowptr, *self._numeric, self._kind, self._permutation, columns))
 
     def matvec(self, x):
-        return self._multiplied(x, lambda y, v: self._kernel.structured_matvec(
-            y, v, *self._hessian_structure, self._values[0], *self._jacobian_structure,
-            *self._values[1:]))
+        def product(y, v):
+            hv, jv, (dx, dc, constants) = self._values
+            self._kernel.structured_matvec(y, v, *self._hessian_structure, hv,
+                                           *self._jacobian_structure, jv, dx, dc, *constants)
+        return self._multiplied(x, product)

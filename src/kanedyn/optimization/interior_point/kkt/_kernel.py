@@ -14,13 +14,18 @@ indices and column pointers, so at most 2^31 - 2 entries in ``K`` and in
     given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
 jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, zero,
-tolerance)``
+tolerance, n, x_constant, x_added, c_constant)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
     elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
     its 2 x 2 blocks, ``pair`` the kind of each pivot), returns
     ``(n_positive, n_negative, n_zero)`` and sets ``zero[k]`` (``int8``, N) to
     1 where the pivot ``k`` was zero (both rows of a 2 x 2 block), else 0.
+    K's diagonal beside H's entries: ``diagonal_x`` (n entries, or none for
+    ``x_constant`` on each) plus ``x_added`` where that is not 0 (the sums as
+    NumPy's ``diagonal_x + x_added``); below it ``-diagonal_c`` (N - n
+    entries, or none for ``c_constant`` on each).  So a constant diagonal,
+    or the interior point's regularization, needs no array.
 ``solve(x, Lp, Li, Lx, D, E, pair, permutation, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
@@ -39,15 +44,17 @@ jacobian_cols, n)``
     and K's distinct entries off the diagonal.
 ``envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
 hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
-diagonal_c, zero, tolerance)``
+diagonal_c, zero, tolerance, n, x_constant, x_added, c_constant)``
     the values summed into the envelope (as ``factor`` sums them) and
     factored in place, the pivots judged as ``factor`` judges them; returns
     ``(n_positive, n_negative, n_zero, largest)``.
 ``envelope_solve(x, rowptr, Lx, D, pair, permutation, k)``
     ``solve`` with those factors (N doubles of scratch).
 ``structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
-jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c)``
-    ``y = K x`` from the structures and values (K's own order).
+jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
+x_constant, x_added, c_constant)``
+    ``y = K x`` from the structures and values (K's own order; the diagonals
+    as ``factor`` takes them).
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
 ``invalid(a_0, ..., a_k, nonnegative)``
@@ -100,7 +107,7 @@ from ....numerics import NAME_TOKEN, load_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 20"
+_GENERATION = "kanedyn sparse LDL 21"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -208,6 +215,51 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
    the off-diagonal entry of the 2 x 2 block starting at k */
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
       F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_ZERO, F_COUNT};
+
+/* K's diagonals beside H's and the Jacobian's entries: the variables' diagonal_x
+   (an array of n, or NULL for one constant) plus added_x (where not 0), the
+   rows' diagonal_c (an array of N - n, or NULL for one constant) */
+typedef struct {
+    Py_ssize_t n;
+    const double *x, *c;
+    double x_constant, x_added, c_constant;
+} kd_diagonals;
+
+/* the diagonals from the buffers `dx`, `dc` (n or 0 entries, N - n or 0) and the
+   arguments args[at:at + 4] = (n, x_constant, x_added, c_constant): -1 with the
+   error set when they do not fit K's order N */
+static int kd_diagonals_of(PyObject *args, Py_ssize_t at, const Py_buffer *dx,
+                           const Py_buffer *dc, Py_ssize_t N, kd_diagonals *d) {
+    if (PyTuple_GET_SIZE(args) != at + 4) {
+        PyErr_Format(PyExc_TypeError, "%zd arguments expected", at + 4);
+        return -1;
+    }
+    d->n = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, at));
+    if (d->n == -1 && PyErr_Occurred()) return -1;
+    d->x_constant = PyFloat_AsDouble(PyTuple_GET_ITEM(args, at + 1));
+    d->x_added = PyFloat_AsDouble(PyTuple_GET_ITEM(args, at + 2));
+    d->c_constant = PyFloat_AsDouble(PyTuple_GET_ITEM(args, at + 3));
+    if (PyErr_Occurred()) return -1;
+    Py_ssize_t nx = KD_COUNT(*dx), nc = KD_COUNT(*dc);
+    if (d->n < 0 || d->n > N || (nx != 0 && nx != d->n) || (nc != 0 && nc != N - d->n)) {
+        PyErr_SetString(PyExc_ValueError, "diagonals of inconsistent sizes");
+        return -1;
+    }
+    d->x = nx ? dx->buf : NULL;
+    d->c = nc ? dc->buf : NULL;
+    return 0;
+}
+
+/* the variable j's diagonal entry beside H's (the sum as NumPy's array + added_x) */
+static inline double kd_dx(const kd_diagonals *d, Py_ssize_t j) {
+    double value = d->x != NULL ? d->x[j] : d->x_constant;
+    return d->x_added != 0.0 ? value + d->x_added : value;
+}
+
+/* the row i's diagonal_c */
+static inline double kd_dc(const kd_diagonals *d, Py_ssize_t i) {
+    return d->c != NULL ? d->c[i] : d->c_constant;
+}
 
 /* a zero pivot is replaced by this (its sign chosen by the caller): 1 / sqrt(eps)
    times the larger of its scale and K's largest entry, so that the rows below
@@ -365,8 +417,8 @@ static void kd_divide(double *w, const double *D, const double *E, const double 
 }
 
 static PyObject *kd_factor(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != F_COUNT + 1) {
-        PyErr_Format(PyExc_TypeError, "%d arguments expected", F_COUNT + 1);
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != F_COUNT + 5) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", F_COUNT + 5);
         return NULL;
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
@@ -387,10 +439,15 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     const int32_t *Ai = v[F_AI].buf, *parent = v[F_PARENT].buf;
     const int8_t *pair = v[F_PAIR].buf;
     const int32_t *hmap = v[F_HMAP].buf, *jmap = v[F_JMAP].buf, *dmap = v[F_DMAP].buf;
-    const double *hv = v[F_HV].buf, *jv = v[F_JV].buf, *dx = v[F_DX].buf, *dc = v[F_DC].buf;
+    const double *hv = v[F_HV].buf, *jv = v[F_JV].buf;
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
     Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
-    Py_ssize_t nx = KD_COUNT(v[F_DX]), nc = KD_COUNT(v[F_DC]);
+    kd_diagonals diagonals;
+    if (kd_diagonals_of(args, F_COUNT + 1, &v[F_DX], &v[F_DC], N, &diagonals) < 0) {
+        kd_release(v, F_COUNT);
+        return NULL;
+    }
+    Py_ssize_t nx = diagonals.n, nc = N - nx;
     if (KD_COUNT(v[F_ZERO]) < N) {
         kd_release(v, F_COUNT);
         PyErr_SetString(PyExc_ValueError, "zero: fewer than N entries");
@@ -412,8 +469,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     memset(Ax, 0, sizeof(double) * (size_t)nnz);
     for (Py_ssize_t e = 0; e < nh; e++) Ax[hmap[e]] += hv[e];
     for (Py_ssize_t e = 0; e < nj; e++) Ax[jmap[e]] += jv[e];
-    for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += dx[j];
-    for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= dc[i];
+    for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += kd_dx(&diagonals, j);
+    for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= kd_dc(&diagonals, i);
     /* the largest magnitude in each row of K (both triangles), and off the
        diagonal (and off a pair's block) */
     for (Py_ssize_t k = 0; k < N; k++) {
@@ -1226,8 +1283,8 @@ enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HR, V_HC, V_HV, V_JR, V_JC, V_JV, V_
       V_ZERO, V_COUNT};
 
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 1) {
-        PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 1);
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 5) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 5);
         return NULL;
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT));
@@ -1244,11 +1301,16 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
     const int32_t *hr = v[V_HR].buf, *hc = v[V_HC].buf, *jr = v[V_JR].buf, *jc = v[V_JC].buf;
     const int8_t *pair = v[V_PAIR].buf;
-    const double *hv = v[V_HV].buf, *jv = v[V_JV].buf, *dx = v[V_DX].buf, *dc = v[V_DC].buf;
+    const double *hv = v[V_HV].buf, *jv = v[V_JV].buf;
     int8_t *zero = v[V_ZERO].buf;
     Py_ssize_t N = KD_COUNT(v[V_D]), nh = KD_COUNT(v[V_HV]), nj = KD_COUNT(v[V_JV]);
-    Py_ssize_t nx = KD_COUNT(v[V_DX]), nc = KD_COUNT(v[V_DC]);
-    if (nx + nc != N || KD_COUNT(v[V_PAIR]) != N
+    kd_diagonals diagonals;
+    if (kd_diagonals_of(args, V_COUNT + 1, &v[V_DX], &v[V_DC], N, &diagonals) < 0) {
+        kd_release(v, V_COUNT);
+        return NULL;
+    }
+    Py_ssize_t nx = diagonals.n, nc = N - nx;
+    if (KD_COUNT(v[V_PAIR]) != N
         || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
         || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_HR]) != nh || KD_COUNT(v[V_HC]) != nh
         || KD_COUNT(v[V_JR]) != nj || KD_COUNT(v[V_JC]) != nj
@@ -1278,8 +1340,8 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
         int32_t a = inv[nx + jr[e]], b = inv[jc[e]];
         Lx[KD_PLACE(rowptr, a, b)] += jv[e];
     }
-    for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += dx[j];
-    for (Py_ssize_t i = 0; i < nc; i++) D[inv[nx + i]] -= dc[i];
+    for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += kd_dx(&diagonals, j);
+    for (Py_ssize_t i = 0; i < nc; i++) D[inv[nx + i]] -= kd_dc(&diagonals, i);
     /* the largest magnitude in each row of K (both triangles), and off the
        diagonal (and off a pair's block) */
     for (Py_ssize_t k = 0; k < N; k++) {
@@ -1407,7 +1469,8 @@ static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
 }
 
 /* structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
-   jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c):
+   jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
+   x_constant, x_added, c_constant):
    y = K x from the values as factor_envelope took them (K's own order) */
 static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     static const Py_ssize_t size[10] = {8, 8, 4, 4, 8, 4, 4, 8, 8, 8};
@@ -1418,12 +1481,16 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     Py_buffer v[10];
     if (kd_views(args, 10, v, size, writable, names) < 0) return NULL;
     double *y = v[0].buf;
-    const double *x = v[1].buf, *hv = v[4].buf, *jv = v[7].buf, *dx = v[8].buf,
-                 *dc = v[9].buf;
+    const double *x = v[1].buf, *hv = v[4].buf, *jv = v[7].buf;
     const int32_t *hr = v[2].buf, *hc = v[3].buf, *jr = v[5].buf, *jc = v[6].buf;
     Py_ssize_t N = KD_COUNT(v[0]), nh = KD_COUNT(v[4]), nj = KD_COUNT(v[7]);
-    Py_ssize_t nx = KD_COUNT(v[8]), nc = KD_COUNT(v[9]);
-    if (KD_COUNT(v[1]) != N || nx + nc != N || KD_COUNT(v[2]) != nh || KD_COUNT(v[3]) != nh
+    kd_diagonals diagonals;
+    if (kd_diagonals_of(args, 10, &v[8], &v[9], N, &diagonals) < 0) {
+        kd_release(v, 10);
+        return NULL;
+    }
+    Py_ssize_t nx = diagonals.n, nc = N - nx;
+    if (KD_COUNT(v[1]) != N || KD_COUNT(v[2]) != nh || KD_COUNT(v[3]) != nh
         || KD_COUNT(v[5]) != nj || KD_COUNT(v[6]) != nj) {
         kd_release(v, 10);
         PyErr_SetString(PyExc_ValueError, "structured_matvec: arrays of inconsistent sizes");
@@ -1431,8 +1498,8 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     }
 
     Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t k = 0; k < nx; k++) y[k] = dx[k] * x[k];
-    for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -dc[i] * x[nx + i];
+    for (Py_ssize_t k = 0; k < nx; k++) y[k] = kd_dx(&diagonals, k) * x[k];
+    for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -kd_dc(&diagonals, i) * x[nx + i];
     for (Py_ssize_t e = 0; e < nh; e++) {
         int32_t r = hr[e], c = hc[e];
         y[r] += hv[e] * x[c];

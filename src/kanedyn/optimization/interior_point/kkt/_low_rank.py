@@ -52,7 +52,7 @@ class LowRankKKT:
         self.error_reductions = getattr(base, "error_reductions", None)
         self._low_rank = None  # (hessian, Z, G) of the last factorization with h > 0
 
-    def factor(self, hessian, jacobian_values, diagonal_x, diagonal_c):
+    def factor(self, hessian, jacobian_values, diagonal_x, diagonal_c, added_x=0.0):
         """Factor K; return its inertia ``(n_positive, n_negative, n_zero)``.
 
         Parameters
@@ -60,14 +60,16 @@ class LowRankKKT:
         hessian : CompactHessian or ndarray of size 0
             The approximation (an empty array: no Hessian, as the start's
             least-squares multipliers take it).
-        jacobian_values, diagonal_x, diagonal_c
+        jacobian_values, diagonal_x, diagonal_c, added_x
             As the base object takes them.
         """
         self._low_rank = None
         if not isinstance(hessian, CompactHessian):
-            return self.base.factor(hessian, jacobian_values, diagonal_x, diagonal_c)
-        inertia = self.base.factor(np.zeros(0), jacobian_values,
-                                   np.asarray(diagonal_x, dtype=float) + hessian.sigma,
+            return self.base.factor(hessian, jacobian_values, diagonal_x, diagonal_c,
+                                    added_x)
+        diagonal = np.add(diagonal_x, added_x) if added_x else np.asarray(diagonal_x,
+                                                                          dtype=float)
+        inertia = self.base.factor(np.zeros(0), jacobian_values, diagonal + hessian.sigma,
                                    diagonal_c)
         V, M = hessian.V, hessian.M
         if not M.size or inertia[2]:

@@ -134,6 +134,7 @@ replaced pivot), for iterative refinement.
 from __future__ import annotations
 
 import functools
+import math
 import numbers
 from dataclasses import dataclass
 
@@ -252,6 +253,42 @@ def _values(value, size, name):
     if a.shape != (size,):
         raise ValueError(f"{name} must have shape ({size},), not {a.shape}")
     return a
+
+
+_NO_ENTRIES = np.zeros(0)
+_NO_ENTRIES.flags.writeable = False
+
+
+def _number(value, name):
+    """``value`` (a real number, a 0-d array too) as a finite float."""
+    try:
+        number = float(value) if not isinstance(value, (bool, np.bool_, str)) else None
+    except (TypeError, ValueError):
+        number = None
+    if number is None or not math.isfinite(number):
+        raise ValueError(f"{name} must be a finite number, not {value!r}")
+    return number
+
+
+def _diagonal(value, size, name):
+    """``(array, constant)`` of a diagonal given as an array of shape
+    ``(size,)`` (its values checked by :func:`_check_values`; the constant
+    0.0) or as one number for every entry (no entries; the number,
+    :func:`_number`)."""
+    if np.ndim(value) != 0:
+        return _values(value, size, name), 0.0
+    return _NO_ENTRIES, _number(value, name)
+
+
+def _diagonals(n, m, diagonal_x, diagonal_c, added_x):
+    """The kernel's diagonals of n variables and m rows (:func:`_diagonal`;
+    ``added_x`` a finite number, a constant ``diagonal_c`` not negative):
+    ``(dx, dc, (n, x_constant, added_x, c_constant))``."""
+    dx, x_constant = _diagonal(diagonal_x, n, "diagonal_x")
+    dc, c_constant = _diagonal(diagonal_c, m, "diagonal_c")
+    if c_constant < 0.0:
+        raise ValueError(f"diagonal_c = {c_constant!r} is negative")
+    return dx, dc, (n, x_constant, _number(added_x, "added_x"), c_constant)
 
 
 def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
@@ -526,7 +563,7 @@ class SparseKKT:
         return SymbolicAnalysis(permutation, n_dense, kind, Ap, Ai, hessian_map, jacobian_map,
                                 diagonal_map, parent, Lp)
 
-    def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c):
+    def factor(self, hessian_values, jacobian_values, diagonal_x, diagonal_c, added_x=0.0):
         """Factor K with these values; return its inertia.
 
         Parameters
@@ -535,10 +572,16 @@ class SparseKKT:
             The Hessian's entries, in the order of its structure.
         jacobian_values : array_like, shape (len(jacobian_structure[0]),)
             The Jacobian's entries, in the order of its structure.
-        diagonal_x : array_like, shape (n,)
-            Added to H's diagonal.
-        diagonal_c : array_like, shape (m,)
-            Its negative is the constraints' diagonal block; >= 0, may be 0.
+        diagonal_x : array_like, shape (n,), or float
+            Added to H's diagonal (a number: the same on every entry, no
+            array made).
+        diagonal_c : array_like, shape (m,), or float
+            Its negative is the constraints' diagonal block; >= 0, may be 0
+            (a number: the same on every row).
+        added_x : float
+            Added to each entry of ``diagonal_x`` where not 0 (the interior
+            point's :math:`\\delta_w`: the same sums as ``diagonal_x +
+            added_x``, without their array).
 
         Returns
         -------
@@ -556,13 +599,13 @@ class SparseKKT:
         """
         hv = _values(hessian_values, self._entries[0], "hessian_values")
         jv = _values(jacobian_values, self._entries[1], "jacobian_values")
-        dx = _values(diagonal_x, self.n, "diagonal_x")
-        dc = _values(diagonal_c, self.m, "diagonal_c")
-        _check_values(self._kernel, (hv, jv, dx, dc), _FACTOR_ARGUMENTS, "diagonal_c")
+        diagonals = _diagonals(self.n, self.m, diagonal_x, diagonal_c, added_x)
+        _check_values(self._kernel, (hv, jv) + diagonals[:2], _FACTOR_ARGUMENTS,
+                      "diagonal_c")
         self.inertia = None  # no factors while the kernel overwrites them
-        inertia = self._factor(hv, jv, dx, dc)
+        inertia = self._factor(hv, jv, diagonals)
         if inertia[2] and self.reanalyses < MAX_REANALYSES:
-            inertia = self._reanalyse(hv, jv, dx, dc, inertia)
+            inertia = self._reanalyse(hv, jv, diagonals, inertia)
         self.inertia = inertia
         return inertia
 
@@ -588,13 +631,15 @@ class SparseKKT:
         self._numeric = None
         self.inertia = None
 
-    def _factor(self, hv, jv, dx, dc):
-        """The kernel's factorization in the current order: its inertia."""
+    def _factor(self, hv, jv, diagonals):
+        """The kernel's factorization in the current order (``diagonals`` of
+        :func:`_diagonals`): its inertia."""
         Ax, Li, Lx, D, E = self._storage()
+        dx, dc, constants = diagonals
         return self._kernel.factor(
             Ax, self._Lp, Li, Lx, D, E, self._Ap, self._Ai, self._parent, self._kind,
             self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, dx, dc,
-            self._zero, self.zero_pivot)
+            self._zero, self.zero_pivot, *constants)
 
     def _largest_entry(self):
         """The largest magnitude in K's last factored values."""
@@ -607,7 +652,7 @@ class SparseKKT:
         failed[self._permutation[self._zero.astype(bool)]] = True
         return failed
 
-    def _reanalyse(self, hv, jv, dx, dc, inertia):
+    def _reanalyse(self, hv, jv, diagonals, inertia):
         """The inertia after the order is made again for these values (the
         module's docstring, *Zero pivots that the order made*), or
         ``inertia`` when there is nothing new to try."""
@@ -618,7 +663,10 @@ class SparseKKT:
         largest = max(self._largest_entry(), 1e-300)
         self._numeric = None  # (made again by the next factor) not held meanwhile
         (hr, hc), (jr, _) = structures = self._structures()
-        diagonal = dx.copy()
+        dx, _, (_, x_constant, added_x, _) = diagonals
+        diagonal = dx.copy() if dx.size else np.full(self.n, x_constant)
+        if added_x:
+            diagonal += added_x
         on = hr == hc
         np.add.at(diagonal, hr[on], hv[on])
         pairable = pairable_entries(m, jr, jv, self.zero_pivot)
@@ -646,7 +694,7 @@ class SparseKKT:
             self.reanalyses += 1
             self._analyse(*structures, has_diagonal, pairable)
             self._order_key = key
-            found = self._factor(hv, jv, dx, dc)
+            found = self._factor(hv, jv, diagonals)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
             failed = self._zero_rows()
