@@ -407,6 +407,50 @@ def test_pendulum_swing_up_ipopts_optimum(method):
     _same_optimum(*_swing_up("pendulum", 50, method, 0.1))
 
 
+@pytest.mark.parametrize("hessian, peer", [("exact", "pendulum"),
+                                           ("limited-memory", "cart_pole")])
+def test_a_second_order_correction_factors_the_steps_matrix_again(hessian, peer,
+                                                                  monkeypatch):
+    """The line search holds neither the step's factors nor its Hessian and
+    sigma: a second-order correction makes them again (the exact Hessian
+    evaluated again at the point; the limited-memory one held, not updated
+    twice).  On the 50-node Hermite-Simpson swing-up of the pendulum (exact)
+    and the 40-node one of the cart-pole (limited-memory), both with many
+    corrections: each matrix factored again for a correction has the step's
+    values to the bit, its diagonals as the step's last factorization took
+    them."""
+    from kanedyn.optimization.interior_point import _step
+    problem, guess = {"pendulum": _swing_up("pendulum", 50, "hermite-simpson", 0.1),
+                      "cart_pole": _swing_up("cart_pole", 40, "hermite-simpson", 0.0)}[peer]
+    factored, again = [], []
+    factor, solve = _step.StepSolver._factor, _step.StepSolver.solve
+
+    def _copy(value):
+        return np.array(value, copy=True) if isinstance(value, np.ndarray) else value
+
+    def recording_factor(self, *inputs):
+        factored.append(tuple(_copy(v) for v in inputs))
+        return factor(self, *inputs)
+
+    def recording_solve(self, residual_w, residual_c):
+        if self._again is not None:  # the next factorization is the one made again
+            again.append(len(factored))
+        return solve(self, residual_w, residual_c)
+    monkeypatch.setattr(_step.StepSolver, "_factor", recording_factor)
+    monkeypatch.setattr(_step.StepSolver, "solve", recording_solve)
+    result = problem.solve(guess, solver="interior-point", hessian=hessian,
+                           options={"max_iter": 40})
+    assert result.iterations > 5
+    assert len(again) >= 3
+    for k in again:
+        step, made = factored[k - 1], factored[k]
+        for a, b in zip(step, made):
+            if hasattr(a, "V"):  # the limited-memory approximation: the same object
+                assert a is b
+            else:
+                np.testing.assert_array_equal(a, b)
+
+
 @pytest.mark.parametrize("method", ["trapezoid", "hermite-simpson"])
 def test_cart_pole_swing_up_ipopts_optimum(method):
     """The cart-pole swing-up (|F| <= 20 N, |x| <= 1.5 m) at 40 nodes."""

@@ -130,7 +130,7 @@ def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     residual_w, residual_c = rng.normal(size=n), rng.normal(size=m)
     held = stepper.solve(residual_w, residual_c)
     count = stepper.factorizations
-    stepper.release(again=inputs)
+    stepper.release(again=lambda: inputs)
     again = stepper.solve(residual_w, residual_c)
     assert stepper.factorizations == count + 1
     np.testing.assert_array_equal(again.primal, held.primal)

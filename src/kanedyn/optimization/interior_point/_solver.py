@@ -463,6 +463,18 @@ class _Run:
         self.timings["hessian"] += time.perf_counter() - t
         return hessian if finite else None
 
+    def _matrix_again(self, e, y, hessian, z_lower, z_upper, gap_lower, gap_upper):
+        """A callable that makes the Newton step's ``(hessian, jacobian,
+        sigma)`` at ``e`` again (:meth:`._step.StepSolver.release`): the exact
+        Hessian evaluated again (the same numbers), a limited-memory one
+        held (its next update must not run twice)."""
+        held = None if self.quasi_newton is None else hessian
+
+        def again():
+            made = held if held is not None else self.hessian_values(e, y, 1.0)
+            return made, e.jacobian, self.bounds.sigma(z_lower, z_upper, gap_lower, gap_upper)
+        return again
+
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
                   z_upper, gap_lower, gap_upper, mu, tau):
         """The Newton step (:meth:`._step.StepSolver.compute`) and the bound
@@ -571,9 +583,11 @@ class _Run:
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
-            # the factors not held through the line search (a second-order
-            # correction factors the same matrix again)
-            self.stepper.release(again=(hessian, e.jacobian, sigma))
+            # the factors not held through the line search, nor the Hessian and
+            # sigma (a second-order correction makes them again, the same
+            # numbers, and factors the same matrix again)
+            self.stepper.release(again=self._matrix_again(e, y, hessian, z_lower, z_upper,
+                                                          gap_lower, gap_upper))
             del hessian, sigma
             step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows

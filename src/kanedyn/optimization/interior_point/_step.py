@@ -116,10 +116,11 @@ class StepSolver:
         return int(inertia[0]), int(inertia[1]), int(inertia[2])
 
     def release(self, again=None):
-        """Drop the factors (the KKT's ``release``).  ``again``: the last
-        matrix's ``(hessian_values, jacobian_values, sigma)``, kept so that
-        :meth:`solve` factors it again when asked (the same numbers): the
-        line search holds no factors through its trial points for its rare
+        """Drop the factors (the KKT's ``release``).  ``again``: a callable
+        that makes the last matrix's ``(hessian_values, jacobian_values,
+        sigma)`` again (the same numbers), kept so that :meth:`solve` factors
+        it again when asked: the line search holds neither the factors nor
+        the matrix's values through its trial points for its rare
         second-order corrections."""
         self.kkt.release()
         self._again = again
@@ -224,7 +225,7 @@ class StepSolver:
         n = self.n
         slack_diagonal, delta_w, delta_c = self._state
         if self._again is not None:  # released: the same matrix factored again
-            self._factor(*self._again, delta_w, delta_c)
+            self._factor(*self._again(), delta_w, delta_c)
         residual_s = residual_w[n:]
         # the inequality rows' part of rhs (held: rhs is made again in parts)
         slacks = (np.bincount(self.inequality, weights=self.signs * residual_s / slack_diagonal,
