@@ -482,10 +482,13 @@ class _Run:
         (:meth:`._bounds.PrimalBounds.step_lengths`): ``(step, dz_lower,
         dz_upper, alpha_primal_max, alpha_dual)``, or ``None`` when no
         regularization gave the right inertia.  The point's callbacks are
-        done (the Hessian made): the NLP's evaluation is dropped first."""
+        done (the Hessian made): the NLP's evaluation is dropped first; the
+        factors once the step is solved (not held through the step lengths
+        and the line search)."""
         self._drop_nlp_evaluation()
         t = time.perf_counter()
         step = stepper.compute(hessian, jacobian, sigma, residual_w, c, mu)
+        stepper.release()
         self.timings["factor_solve"] += time.perf_counter() - t
         if step is None:
             return None
@@ -583,9 +586,9 @@ class _Run:
                                        m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
-            # the factors not held through the line search, nor the Hessian and
-            # sigma (a second-order correction makes them again, the same
-            # numbers, and factors the same matrix again)
+            # the factors are not held through the line search (direction let
+            # them go), nor the Hessian and sigma: a second-order correction
+            # makes them again (the same numbers) and factors them again
             self.stepper.release(again=self._matrix_again(e, y, hessian, z_lower, z_upper,
                                                           gap_lower, gap_upper))
             del hessian, sigma
