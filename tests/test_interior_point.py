@@ -342,6 +342,38 @@ def test_dense_kkt_inertia_and_solve_against_numpy(seed):
         assert np.allclose(kkt.solve(b), np.linalg.solve(K, b), rtol=1e-9, atol=1e-9)
 
 
+@pytest.mark.parametrize("seed", range(4))
+def test_the_start_pushed_into_the_bounds_as_ipopt_pushes_it(seed):
+    """``PrimalBounds.push`` (computed on the bounded entries alone) moves
+    each entry to at least ``min(push max(1, |bound|), frac (upper -
+    lower))`` inside its bounds, to the bit as the formula on full arrays
+    (infinite where a bound is absent): entries with two bounds, one, none,
+    inside, outside and on a bound."""
+    from kanedyn.optimization.interior_point._bounds import PrimalBounds
+    rng = np.random.default_rng(seed)
+    size = 60
+    kind = rng.integers(0, 4, size)  # none, lower, upper, both
+    lower = np.where((kind == 1) | (kind == 3), rng.normal(size=size) * 10, -np.inf)
+    upper = np.where(kind >= 2, np.where(kind == 3, lower, 0.0) + rng.uniform(1e-3, 5, size),
+                     np.inf)
+    bounds = PrimalBounds(lower, upper, 1e-8, 1e-5)
+    w = rng.normal(size=size) * 10
+    w[:5] = np.where(np.isfinite(lower[:5]), bounds.dense()[0][:5], w[:5])  # on a bound
+    push, frac = 1e-2, 1e-2
+    lo, up = bounds.dense()
+    expected = w.copy()
+    with np.errstate(invalid="ignore"):
+        p_lower = np.minimum(push * np.maximum(1.0, np.abs(lo)), frac * (up - lo))
+        p_upper = np.minimum(push * np.maximum(1.0, np.abs(up)), frac * (up - lo))
+    i, j = np.isfinite(lo), np.isfinite(up)
+    expected[i] = np.maximum(expected[i], lo[i] + p_lower[i])
+    expected[j] = np.minimum(expected[j], up[j] - p_upper[j])
+    pushed = bounds.push(w, push, frac)
+    assert pushed.tobytes() == expected.tobytes()
+    assert np.all(pushed[i] > lo[i]) and np.all(pushed[j] < up[j])
+    assert np.array_equal(pushed[kind == 0], w[kind == 0])
+
+
 def test_dense_kkt_refuses_a_bad_structure():
     with pytest.raises(ValueError, match="hessian_structure.*above the diagonal"):
         DenseKKT(3, 1, ([0], [2]), ([0], [0]))

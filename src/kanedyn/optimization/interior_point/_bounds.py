@@ -117,17 +117,31 @@ class PrimalBounds:
     def push(self, w, push, frac):
         """``w`` moved into the bounds' interior (IPOPT's ``bound_push`` and
         ``bound_frac``: at least ``min(push * max(1, |bound|), frac * (upper -
-        lower))`` from each bound)."""
+        lower))`` from each bound), computed on the bounded entries alone."""
         w = np.array(w, dtype=float)
-        lower, upper = self.dense()
-        width = upper - lower
-        with np.errstate(invalid="ignore"):
-            p_lower = np.minimum(push * np.maximum(1.0, np.abs(lower)), frac * width)
-            p_upper = np.minimum(push * np.maximum(1.0, np.abs(upper)), frac * width)
         i, j = self.lower_index, self.upper_index
-        w[i] = np.maximum(w[i], lower[i] + p_lower[i])
-        w[j] = np.minimum(w[j], upper[j] - p_upper[j])
+        # the width of each bounded entry (infinite where it has one bound)
+        upper_at_i = _values_at(i, j, self.upper, np.inf)
+        lower_at_j = _values_at(j, i, self.lower, -np.inf)
+        with np.errstate(invalid="ignore"):
+            p_lower = np.minimum(push * np.maximum(1.0, np.abs(self.lower)),
+                                 frac * (upper_at_i - self.lower))
+            p_upper = np.minimum(push * np.maximum(1.0, np.abs(self.upper)),
+                                 frac * (self.upper - lower_at_j))
+        w[i] = np.maximum(w[i], self.lower + p_lower)
+        w[j] = np.minimum(w[j], self.upper - p_upper)
         return w
+
+
+def _values_at(index, other_index, other_values, absent):
+    """``other_values`` (of the entries ``other_index``) at the entries
+    ``index``, ``absent`` where ``other_index`` lacks one (both sorted)."""
+    place = np.searchsorted(other_index, index)
+    found = place < other_index.size
+    found[found] = other_index[place[found]] == index[found]
+    out = np.full(index.size, absent)
+    out[found] = other_values[place[found]]
+    return out
 
 
 def fraction_to_boundary(values, steps, tau):
