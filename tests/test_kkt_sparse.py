@@ -720,7 +720,7 @@ def test_bad_values_and_calls():
             arguments[k] = wrong
             with pytest.raises(ValueError, match=f"{name} must be a finite number, not"):
                 kkt.factor(*arguments)
-    for wrong in (np.nan, [1.0], None):
+    for wrong in (np.nan, [1.0], np.ones(1), None):
         with pytest.raises(ValueError, match="added_x must be a finite number, not"):
             kkt.factor(*good, added_x=wrong)
     kkt.factor(*good)

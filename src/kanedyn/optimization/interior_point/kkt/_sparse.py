@@ -262,7 +262,8 @@ _NO_ENTRIES.flags.writeable = False
 def _number(value, name):
     """``value`` (a real number, a 0-d array too) as a finite float."""
     try:
-        number = float(value) if not isinstance(value, (bool, np.bool_, str)) else None
+        number = (float(value) if np.ndim(value) == 0
+                  and not isinstance(value, (bool, np.bool_, str)) else None)
     except (TypeError, ValueError):
         number = None
     if number is None or not math.isfinite(number):
