@@ -29,8 +29,9 @@ They enter the equations as two specified inputs per node and blade
 solve of every annulus of every blade per state, shared by all the inputs and
 warm-started from the last solution; a caller that reads many states at once
 (the energy balance's quadrature points) has them solved together
-(:func:`~kanedyn.modeling.offshore._blade_element_rotor.warm_started_inputs`).  With undeflected, still blades the loads
-add up to :class:`~kanedyn.offshore.BladeElementRotor`'s force and moment.
+(:func:`~kanedyn.modeling.offshore._blade_element_rotor.warm_started_inputs`).
+With undeflected, still blades the loads add up to
+:class:`~kanedyn.offshore.BladeElementRotor`'s force and moment.
 """
 
 from __future__ import annotations

@@ -618,7 +618,8 @@ def generate_c_units(program, functions, sizes, describe=str, cse=None, lanes=Tr
     variant and linked again into every later module of any size.  They need
     nothing of the generated code but its declarations (the work-array sizes
     are variables too, ``kd_nw`` and ``kd_nwl``, defined by the last unit), so
-    the compiler works on the first while the functions are generated; at -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
+    the compiler works on the first while the functions are generated; at
+    -O1 (:data:`~._c_build.LIGHT_UNIT`) unless they hold the lane-wise
     solve or the contact loop, whose loops the vectorizer of -O2 speeds up (the
     entry points and the integrator run as fast at -O1: chain3d n = 3 to 30,
     the pendulum, within 3 %, and compile in 0.46 s instead of 0.68 s at
@@ -868,7 +869,8 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     inputs, dependent coordinates, dependent speeds, and the generated
     functions it calls.  With contacts (few models) the sizes and the number
     of contacts are compile-time constants in it, as in the model's unit.
-    ``declarations``: of the generated functions it calls (``constraints`` with dependent coordinates
+    ``declarations``: of the generated functions it calls (``constraints``
+    with dependent coordinates
     or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
     ``inverse_point``; ``energy`` always, for the integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
