@@ -59,9 +59,14 @@ class ReducedNLP:
     ----------
     n, m : int
         Free variables and kept rows.
-    free, fixed, rows : ndarray of int
-        The free and the fixed variables' indices in the full vector, the
-        kept rows' in the full rows, ``int32`` (``int64`` beyond its range).
+    free : ndarray of bool, shape (n_full,)
+        Which variables of the full vector are free (a mask: a byte each,
+        where an index took four or eight).
+    fixed : ndarray of int
+        The fixed variables' indices in the full vector, ``int32``
+        (``int64`` beyond its range).
+    rows : ndarray of bool, shape (m_full,)
+        Which of the full rows are kept (a mask).
     equality : ndarray of bool, shape (m,)
         Which kept rows are equalities; the others have a slack each.
     jacobian_structure : (rows, cols)
@@ -92,13 +97,14 @@ class ReducedNLP:
         g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
         g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
         index = compact_index_type(max(n_full, m_full))
+        self._index_type = index
         fixed = x_lower == x_upper
         self.fixed = np.flatnonzero(fixed).astype(index)
-        self.free = np.flatnonzero(~fixed).astype(index)
-        self.n = self.free.size
+        self.free = ~fixed
+        self.n = int(np.count_nonzero(self.free))
         kept = ~((g_lower <= -INFINITE_BOUND) & (g_upper >= INFINITE_BOUND))
-        self.rows = np.flatnonzero(kept).astype(index)
-        self.m = self.rows.size
+        self.rows = kept
+        self.m = int(np.count_nonzero(kept))
         self.equality = g_lower[kept] == g_upper[kept]
         self.inequality = np.flatnonzero(~self.equality)
         #: the caller's start (read, not copied) and the fixed variables' values
@@ -198,7 +204,7 @@ class ReducedNLP:
         held), the compact index type, read-only (the KKT factorization may
         keep them)."""
         hr, hc = self._full_hessian_structure()
-        column_of = np.full(self.n_full, -1, dtype=self.free.dtype)
+        column_of = np.full(self.n_full, -1, dtype=self._index_type)
         column_of[self.free] = np.arange(self.n)
         hr, hc = column_of[hr], column_of[hc]
         use = (hr >= 0) & (hc >= 0)
