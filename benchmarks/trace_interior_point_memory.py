@@ -67,6 +67,9 @@ def main():
     statm = os.open("/proc/self/statm", os.O_RDONLY) if args.resident else None
     resident = {"bytes": -1, "traced": 0, "stack": ""}
 
+    def resident_bytes():
+        return int(os.pread(statm, 64, 0).split()[1]) * os.sysconf("SC_PAGE_SIZE")
+
     def stack_of(frame):
         names, f = [], frame
         while f is not None and len(names) < 6:
@@ -81,7 +84,7 @@ def main():
             return
         now = tracemalloc.get_traced_memory()[0]
         if statm is not None:
-            rss = int(os.pread(statm, 64, 0).split()[1]) * os.sysconf("SC_PAGE_SIZE")
+            rss = resident_bytes()
             if rss > resident["bytes"]:
                 resident.update(bytes=rss, traced=now, stack=stack_of(frame))
         if now > highest["bytes"] * 1.01:
@@ -93,7 +96,7 @@ def main():
     tracemalloc.start(1)
     start = tracemalloc.get_traced_memory()[0]
     if statm is not None:
-        start_rss = int(os.pread(statm, 64, 0).split()[1]) * os.sysconf("SC_PAGE_SIZE")
+        start_rss = resident_bytes()
     sys.setprofile(on_return)
     try:
         result = problem.solve(guess, solver="interior-point", hessian=hessian,

@@ -97,7 +97,6 @@ class ReducedNLP:
         g_lower = np.asarray(nlp.g_lower, dtype=float).reshape(m_full)
         g_upper = np.asarray(nlp.g_upper, dtype=float).reshape(m_full)
         index = compact_index_type(max(n_full, m_full))
-        self._index_type = index
         fixed = x_lower == x_upper
         self.fixed = np.flatnonzero(fixed).astype(index)
         self.free = ~fixed
@@ -110,8 +109,7 @@ class ReducedNLP:
         #: the caller's start (read, not copied) and the fixed variables' values
         self._x0 = np.asarray(x0, dtype=float).reshape(n_full)
         self._fixed_values = x_lower[self.fixed]
-        column_of = np.full(n_full, -1, dtype=index)
-        column_of[self.free] = np.arange(self.n)
+        column_of = self._column_of()
         row_of = np.full(m_full, -1, dtype=index)
         row_of[self.rows] = np.arange(self.m)
         # the patterns are checked, then held in the compact type (of the full
@@ -189,6 +187,14 @@ class ReducedNLP:
                 * self.row_scale)
 
     # --------------------------------------------------------- patterns
+    def _column_of(self):
+        """Each full variable's column among the free ones, -1 for a fixed
+        one (the compact index type)."""
+        column_of = np.full(self.n_full, -1,
+                            dtype=compact_index_type(max(self.n_full, self.m_full)))
+        column_of[self.free] = np.arange(self.n)
+        return column_of
+
     def _full_hessian_structure(self):
         """The NLP's Hessian pattern, checked, in the compact index type
         (empty without the exact Hessian)."""
@@ -204,8 +210,7 @@ class ReducedNLP:
         held), the compact index type, read-only (the KKT factorization may
         keep them)."""
         hr, hc = self._full_hessian_structure()
-        column_of = np.full(self.n_full, -1, dtype=self._index_type)
-        column_of[self.free] = np.arange(self.n)
+        column_of = self._column_of()
         hr, hc = column_of[hr], column_of[hc]
         use = (hr >= 0) & (hc >= 0)
         return _read_only(hr[use], hc[use])
