@@ -35,7 +35,7 @@ def pytest_sessionfinish(session):
     worker holds by then (SymPy's expressions, the derived models): 21 s of the
     two workers' CPU in a full run, sampled with py-spy.  The one collection
     here still finalizes what is garbage, with pytest's hook in place to report
-    any exception it raises; the five after it find nothing left to walk."""
+    any exception it raises; the five after it walk only what was made since."""
     import gc
     gc.collect()
     gc.freeze()

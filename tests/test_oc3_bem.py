@@ -154,9 +154,9 @@ def test_inflow_angles_against_an_independent_solve_and_without_history():
     brentq on the residual written out annulus by annulus with np.interp on the polars,
     at 20 random inflows around the operating range (wind 3-25 m/s with +-3 m/s axial
     gusts, 5-13 rpm with +-1 m/s in-plane ones, pitch -2 to 20 deg): the inflow
-    angles agree within 1e-9 rad (measured
-    4.0e-11 since the solver ends on two points 0.8e-10 rad apart, its safeguarded Newton
-    steps; 1.0e-12 when regula falsi closed the bracket from both sides).  A warm start
+    angles agree within 1e-9 rad (measured 4.0e-11 since the solver ends on two points
+    0.8e-10 rad apart, its safeguarded Newton steps; 1.0e-12 when regula falsi closed
+    the bracket from both sides).  A warm start
     from another state's angles (an integrator's previous call) gives the cold answer
     within 1e-9 rad too (measured 8.0e-11, before 1.6e-12): a function of the state
     alone.  The table lookup equals np.interp on the polars to 1e-12."""

@@ -259,9 +259,8 @@ def test_model_derivatives_built_as_sympy_builds_them(name, monkeypatch):
     constructors and operators give: chain3d 1517 product-rule terms, 4894
     sums, 2529 products, 450 sums and 720 differences of two, the four-bar
     375 terms and 739 sums, the snake (inputs) 2439 and 6278, all the same (so
-    are those of the Panda,
-    the shuttle arm, chain3d at n = 10 and the OC3 spar variants, checked
-    apart: some seconds each)."""
+    are those of the Panda, the shuttle arm, chain3d at n = 10 and the OC3
+    spar variants, checked apart: some seconds each)."""
     import kanedyn as kd
     from kanedyn.engine import _program, _tree_derivatives
     from kanedyn.numerics._jacobians import _specification

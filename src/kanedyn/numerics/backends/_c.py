@@ -870,9 +870,9 @@ def _generic_part(sizes, lanes, declarations, n_contacts=0, inverse_point=False)
     functions it calls.  With contacts (few models) the sizes and the number
     of contacts are compile-time constants in it, as in the model's unit.
     ``declarations``: of the generated functions it calls (``constraints``
-    with dependent coordinates
-    or speeds; ``dynamics`` and ``contacts`` with contacts; ``inverse`` with
-    ``inverse_point``; ``energy`` always, for the integration loop's work)."""
+    with dependent coordinates or speeds; ``dynamics`` and ``contacts`` with
+    contacts; ``inverse`` with ``inverse_point``; ``energy`` always, for the
+    integration loop's work)."""
     defines = ([f"#define KD_NC {n_contacts}"] if n_contacts else []) \
         + (["#define KD_INVERSE_POINT 1"] if inverse_point else [])
     body = [_c_runtime.RUNTIME, _c_integrator.INTEGRATOR, _c_ensemble.ENSEMBLE,
