@@ -67,6 +67,28 @@ def test_let_tree_shares_repeated_subtrees():
     assert sum(1 for d in defs if d.func == sm.cos) == 1
 
 
+def test_let_tree_keeps_min_and_max_without_evaluating_them_again(monkeypatch):
+    """A ``Min``/``Max`` whose arguments become names is rebuilt unevaluated (the
+    same values): evaluated again, SymPy would compare its new arguments by
+    factoring their differences, milliseconds a node."""
+    prog = Program(sm.Symbol("t"))
+    q, w = sm.symbols("q0:3"), sm.Symbol("w", positive=True)
+    speed = sm.Max(sm.sqrt((q[0] * q[1] + sm.cos(q[2])) ** 2 + w), 0.1)
+    clipped = sm.Min(speed * sm.sin(q[2] + q[0] * q[1]), 3 * w)
+    calls = []
+    for kind in (sm.Min, sm.Max):
+        find = kind._find_localzeros.__func__
+        monkeypatch.setattr(kind, "_find_localzeros", classmethod(
+            lambda cls, values, **kw: calls.append(cls) or find(cls, values, **kw)))
+    compact = prog.let_tree(clipped, "w", threshold=3)
+    assert calls == []
+    kinds = [type(prog.definition(s)) for s in prog.needed([compact])]
+    assert sm.Min in kinds and sm.Max in kinds
+    values = {q[0]: 0.7, q[1]: -1.3, q[2]: 0.4, w: 0.02}
+    assert float(prog.expand(compact).subs(values)) == pytest.approx(
+        float(clipped.subs(values)), rel=1e-15)
+
+
 def test_total_derivative_special_functions():
     x, y = sm.symbols("x y", real=True)
     dx, dy = sm.symbols("dx dy")

@@ -78,6 +78,21 @@ def _is_trivial(expr):
     return False
 
 
+def _rebuilt(expr, args):
+    """``expr``'s node on new ``args`` (each a name of the argument it replaces):
+    a ``Min`` or ``Max`` unevaluated, the same function of the same values.
+    Evaluated, each would look for arguments it can prove no larger (smaller)
+    than another, SymPy factoring their differences, several milliseconds a
+    node: most of the derivation of a turbine whose 153 blade nodes each clip
+    a speed (docs/benchmarks.md)."""
+    if isinstance(expr, _MIN_MAX):
+        return expr.func(*args, evaluate=False)
+    return expr.func(*args)
+
+
+_MIN_MAX = (sm.Min, sm.Max)
+
+
 class Program:
     """An ordered set of named intermediates with forward differentiation.
 
@@ -216,7 +231,7 @@ class Program:
             else:
                 parts = [visit(a) for a in e.args]
                 new_args = [p for p, _ in parts]
-                new = e if all(a is b for a, b in zip(new_args, e.args)) else e.func(*new_args)
+                new = e if all(a is b for a, b in zip(new_args, e.args)) else _rebuilt(e, new_args)
                 size = 1 + sum(k for _, k in parts)
                 if size >= threshold or e.is_Function:
                     new, size = self.let(new, name), 0
