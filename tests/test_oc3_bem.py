@@ -195,6 +195,33 @@ def test_inflow_angles_against_an_independent_solve_and_without_history():
     assert worst_history < 1e-9
 
 
+def test_a_guess_near_the_root_takes_newtons_step_from_it(monkeypatch):
+    """An integrator's next call guesses the last call's angles, near the root: the
+    first evaluation (the guess's neighbourhood and two points at the guess, one call)
+    gives Newton's first step, and the solve takes at most three evaluations for a
+    guess up to 1e-4 rad away (two for 1e-7; the bracket alone took four or five),
+    every angle within 1e-9 rad of the solve without a guess."""
+    from kanedyn.modeling.offshore._blade_element_momentum import BladeElementMomentum
+    bem = nrel5mw_bem()
+    calls = []
+    state = BladeElementMomentum._state
+    monkeypatch.setattr(BladeElementMomentum, "_state",
+                        lambda self, *args: calls.append(1) or state(self, *args))
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
+        pitch = math.radians(rng.uniform(-2.0, 20.0))
+        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) + 0 * bem.radius
+        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        cold = bem.solve(vx, vy, pitch).inflow_angle
+        for away, most in ((1e-7, 2), (1e-5, 3), (1e-4, 3)):
+            calls.clear()
+            guess = cold + away * rng.standard_normal(cold.shape)
+            warm = bem.solve(vx, vy, pitch, guess=guess).inflow_angle
+            assert len(calls) <= most, (away, len(calls))
+            assert np.abs(warm - cold).max() < 1e-9
+
+
 def test_solver_refuses_a_rotor_turning_backwards():
     bem = nrel5mw_bem()
     with pytest.raises(kd.ModelError, match="tangential_speed must be positive"):
@@ -272,6 +299,24 @@ def test_the_option_is_checked():
         oc3_spar(tower_modes=0, aero="bem", wind_speed=11.4)
     with pytest.raises(kd.ModelError, match="aero must be one of"):
         oc3_operating_point(11.4, aero="blade")
+
+
+def test_the_periodic_wind_series_is_numpys_periodic_interpolation():
+    """The turbulent wind's series, padded once across the period's ends, gives
+    ``np.interp(t % period, ..., period=period)`` to the bit (which sorts and pads the
+    samples at every call): at random times over several periods, before zero, at
+    every sample and at the period's ends."""
+    from kanedyn.models._oc3_spar import _PeriodicSeries
+    rng = np.random.default_rng(0)
+    t = np.arange(0.0, 600.0, 0.05)
+    v = 12.0 + rng.standard_normal(t.size)
+    series = _PeriodicSeries(t, v)
+    times = np.concatenate([rng.uniform(-100.0, 2000.0, 5000), t, t + 600.0,
+                            [599.95, 599.97, 600.0, 0.0, -0.01, 1e-17, 599.999999999]])
+    got = np.array([series(x) for x in times])
+    expected = np.array([np.interp(x % series.period, t, v, period=series.period)
+                         for x in times])
+    np.testing.assert_array_equal(got, expected)
 
 
 def test_turbulent_wind_reaches_the_bem_rotor():

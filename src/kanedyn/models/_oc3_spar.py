@@ -605,14 +605,21 @@ def _inertia(A, I):
 
 
 class _PeriodicSeries:
-    """A sampled series as a function of time, repeated beyond its length."""
+    """A sampled series as a function of time, repeated beyond its length.
+
+    The samples padded once with their neighbours across the period's ends, as
+    ``np.interp(..., period=...)`` pads them (after sorting them) at every call:
+    the same numbers, without a sort of the whole series per call (a turbulent
+    wind's, at every right-hand side)."""
 
     def __init__(self, t, v):
         self.t, self.v = np.asarray(t, float), np.asarray(v, float)
         self.period = self.t[-1] + (self.t[1] - self.t[0])
+        self._t = np.concatenate([self.t[-1:] - self.period, self.t, self.t[:1] + self.period])
+        self._v = np.concatenate([self.v[-1:], self.v, self.v[:1]])
 
     def __call__(self, t):
-        return float(np.interp(t % self.period, self.t, self.v, period=self.period))
+        return float(np.interp(t % self.period, self._t, self._v))
 
 
 def _conservative_spring(K, P, O, B, N):
