@@ -200,8 +200,11 @@ def test_a_guess_near_the_root_takes_newtons_step_from_it(monkeypatch):
     first evaluation (the guess's neighbourhood and two points at the guess, one call)
     gives Newton's first step, and the solve takes at most three evaluations for a
     guess up to 1e-4 rad away (two for 1e-7; the bracket alone took four or five),
-    every angle within 1e-9 rad of the solve without a guess."""
+    every angle within 1e-9 rad of the solve without a guess.  Counted on NumPy's
+    solve (the compiled kernel takes the same steps: below)."""
+    from kanedyn.modeling.offshore import _blade_element_momentum as module
     from kanedyn.modeling.offshore._blade_element_momentum import BladeElementMomentum
+    monkeypatch.setitem(module._KERNEL, "module", None)
     bem = nrel5mw_bem()
     calls = []
     state = BladeElementMomentum._state
@@ -220,6 +223,93 @@ def test_a_guess_near_the_root_takes_newtons_step_from_it(monkeypatch):
             warm = bem.solve(vx, vy, pitch, guess=guess).inflow_angle
             assert len(calls) <= most, (away, len(calls))
             assert np.abs(warm - cold).max() < 1e-9
+
+
+def _numpy_and_compiled(monkeypatch):
+    """``solve(bem, *args, **kw) -> (NumPy's solution, the compiled kernel's)``."""
+    from kanedyn.modeling.offshore import _blade_element_momentum as module
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler: the solve runs in NumPy only")
+    compiled = module._compiled_kernel()
+    assert compiled is not None
+
+    def solve(bem, *args, **kwargs):
+        monkeypatch.setitem(module._KERNEL, "module", None)
+        numpy = bem.solve(*args, **kwargs)
+        monkeypatch.setitem(module._KERNEL, "module", compiled)
+        return numpy, bem.solve(*args, **kwargs)
+    return solve
+
+
+def test_the_compiled_solve_is_numpys(monkeypatch):
+    """The compiled kernel runs NumPy's steps an annulus at a time: at 20 random
+    inflows around the operating range (as above), without a guess and from guesses
+    1e-5 and 0.03 rad away, and on the propeller-brake branch (a wind against the
+    rotor's plane, inflow angles below zero), every angle within 1e-10 rad of
+    NumPy's (measured: equal) and every load within 1e-9 of the largest; the
+    momentum balance's high-induction region (Buhl's) is among them (a > 0.4)."""
+    solve = _numpy_and_compiled(monkeypatch)
+    bem = nrel5mw_bem()
+    rng = np.random.default_rng(11)
+    worst, brake, buhl = 0.0, 0, 0
+    for trial in range(24):
+        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
+        if trial >= 20:   # the air through the rotor against the shaft: phi < 0
+            wind = -rng.uniform(0.5, 3.0)
+        pitch = math.radians(rng.uniform(-2.0, 20.0))
+        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) * (trial < 20) + 0 * bem.radius
+        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        cold, _ = solve(bem, vx, vy, pitch)
+        for away in (None, 1e-5, 0.03):
+            guess = None if away is None else (
+                cold.inflow_angle + away * rng.standard_normal(cold.inflow_angle.shape))
+            numpy, compiled = solve(bem, vx, vy, pitch, guess=guess)
+            assert np.abs(compiled.inflow_angle - numpy.inflow_angle).max() < 1e-10
+            for field in ("axial_induction", "tangential_induction", "normal_load",
+                          "tangential_load"):
+                a, b = getattr(numpy, field), getattr(compiled, field)
+                worst = max(worst, np.abs(a - b).max() / max(np.abs(a).max(), 1e-300))
+        brake += int((cold.inflow_angle < 0).sum())
+        buhl += int((cold.axial_induction > 0.4).sum())
+    assert worst < 1e-9
+    assert brake > 0 and buhl > 0
+
+
+def test_the_compiled_kernel_refuses_arrays_of_the_wrong_size(monkeypatch):
+    """The kernel names an array whose size is not the inflows' (or the annuli's)."""
+    _numpy_and_compiled(monkeypatch)
+    from kanedyn.modeling.offshore._bem_kernel import kernel
+    bem = nrel5mw_bem()
+    n, M = bem.radius.size, 2 * bem.radius.size
+    arrays = [np.empty(M) for _ in range(5)] + [np.ones(M), np.zeros(M), np.zeros(M),
+                                                np.tile(np.arange(n, dtype=np.int32), 2)]
+    tables = [np.ones(n)] * 3 + [np.linspace(-3, 3, 7)] + [np.zeros(7 * n)] * 4
+    assert kernel().solve(*arrays, *tables, 3) == 0
+    with pytest.raises(ValueError, match="theta"):
+        kernel().solve(*arrays[:6], np.zeros(M - 1), *arrays[7:], *tables, 3)
+    with pytest.raises(ValueError, match="annulus"):
+        kernel().solve(*arrays[:8], np.arange(M, dtype=np.int64), *tables, 3)
+    with pytest.raises(ValueError, match="annulus"):
+        kernel().solve(*arrays[:8], np.full(M, n, dtype=np.int32), *tables, 3)
+    with pytest.raises(ValueError, match="drag_slope"):
+        kernel().solve(*arrays, *tables[:7], np.zeros(7 * n - 1), 3)
+
+
+def test_without_a_compiler_the_solve_runs_in_numpy(monkeypatch):
+    """No C compiler: the solve is NumPy's (the same numbers, above), no error."""
+    from kanedyn.modeling.offshore import _blade_element_momentum as module
+    from kanedyn.modeling.offshore import _bem_kernel
+    from kanedyn.numerics.backends import CompilerError
+
+    def no_compiler():
+        raise CompilerError("no C compiler found")
+    monkeypatch.setattr(_bem_kernel, "kernel", no_compiler)
+    monkeypatch.setitem(module._KERNEL, "module", module._UNSET)
+    bem = nrel5mw_bem()
+    thrust, torque = bem.steady_loads(11.4, 12.1 * math.pi / 30, 0.0)
+    assert module._KERNEL["module"] is None
+    assert 6e5 < float(thrust) < 9e5 and float(torque) > 0
 
 
 def test_solver_refuses_a_rotor_turning_backwards():

@@ -168,6 +168,7 @@ class BladeElementMomentum:
         # Prandtl's exponents times |sin(phi)|, negated
         self._tip_exponent = -(blades / 2 * (self.tip_radius - self.radius) / self.radius)
         self._hub_exponent = -(blades / 2 * (self.radius - self.hub_radius) / self.hub_radius)
+        self._polars = None   # the compiled kernel's copies of the tables, when first used
 
     # ------------------------------------------------------------------ annuli
     def airfoil_coefficients(self, angle_of_attack):
@@ -253,22 +254,52 @@ class BladeElementMomentum:
                              f"{np.min(Vy):g} m/s")
         theta = self.twist + np.asarray(pitch, float)
         ratio = Vx / Vy
-
-        last = {}
-
-        def residual(points):   # points: (k, *shape), several angles per annulus at once
-            last["points"], last["state"] = points, self._state(points, ratio, theta)
-            return last["state"][0]
-
-        phi, pick = _safeguarded_newton(residual, *_bracket(residual, Vx.shape, guess))
-        # the solver's last evaluation holds its answer: each angle's state from the
-        # point picked
-        _, a, kp, cn, ct = (np.where(pick, v[1], v[0]) for v in last["state"])
+        if guess is not None and np.shape(guess) != Vx.shape:
+            guess = None   # not one angle per inflow: solved without it
+        compiled = _compiled_kernel()
+        solve = self._numpy_solve if compiled is None else self._compiled_solve
+        phi, a, kp, cn, ct = solve(ratio, theta, guess)
         a = np.where(Vx == 0, 0.0, a)
         ap = kp / (1 - kp)
         w2 = (Vx * (1 - a)) ** 2 + (Vy * (1 + ap)) ** 2
         q = 0.5 * self.air_density * w2 * self.chord
         return AnnulusSolution(phi, phi - theta, a, ap, q * cn, q * ct)
+
+    def _numpy_solve(self, ratio, theta, guess):
+        """``(phi, a, kp, cn, ct)`` of every inflow, all annuli at once in NumPy."""
+        last = {}
+
+        def residual(points):   # points: (k, *shape), several angles per annulus at once
+            last["state"] = self._state(points, ratio, theta)
+            return last["state"][0]
+
+        phi, pick = _safeguarded_newton(residual, *_bracket(residual, ratio.shape, guess))
+        # the solver's last evaluation holds its answer: each angle's state from the
+        # point picked
+        return (phi, *(np.where(pick, v[1], v[0]) for v in last["state"][1:]))
+
+    def _compiled_solve(self, ratio, theta, guess):
+        """``(phi, a, kp, cn, ct)`` of every inflow, by the compiled kernel
+        (:mod:`._bem_kernel`): the same steps, an annulus at a time."""
+        shape = ratio.shape
+        n = self.radius.size
+        if self._polars is None:   # the kernel's tables (flat, C order), made once
+            slope = self._slope.reshape(n, self._alpha.size)
+            self._polars = tuple(np.ascontiguousarray(v, dtype=float).ravel() for v in (
+                self.solidity, self._tip_exponent, self._hub_exponent, self._alpha,
+                self._lift, self._drag, slope.real, slope.imag))
+
+        def flat(values, dtype=float):
+            return np.ascontiguousarray(np.broadcast_to(values, shape), dtype=dtype).ravel()
+        out = [np.empty(ratio.size) for _ in range(5)]
+        flags = self.tip_loss | 2 * self.hub_loss | 4 * (guess is not None)
+        lost = _compiled_kernel().solve(
+            *out, flat(ratio), flat(theta), flat(ratio if guess is None else guess),
+            flat(np.arange(n), np.int32), *self._polars, flags)
+        if lost:
+            raise ModelError("BladeElementMomentum: no bracket of the inflow angle found "
+                             f"for {lost} annuli")
+        return tuple(v.reshape(shape) for v in out)
 
     # ---------------------------------------------------------------- rotor
     def steady_loads(self, wind_speed, rotor_speed, pitch):
@@ -317,6 +348,23 @@ class BladeElementMomentum:
     def __repr__(self):
         return (f"BladeElementMomentum({self.blades} blades, R={self.tip_radius} m, "
                 f"{self.radius.size} annuli)")
+
+
+_UNSET = object()
+_KERNEL = {"module": _UNSET}   # the compiled kernel, once looked for
+
+
+def _compiled_kernel():
+    """The compiled solve (:mod:`._bem_kernel`, built on the first solve), or
+    ``None`` without a C compiler (NumPy solves then: the same steps)."""
+    if _KERNEL["module"] is _UNSET:
+        from ...numerics.backends import CompilerError
+        from ._bem_kernel import kernel
+        try:
+            _KERNEL["module"] = kernel()
+        except CompilerError:
+            _KERNEL["module"] = None
+    return _KERNEL["module"]
 
 
 def _bracket(residual, shape, guess=None):
