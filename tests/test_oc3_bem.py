@@ -149,6 +149,20 @@ def _independent_inflow_angle(bem, polars, ids, k, vx, vy, theta):
     raise AssertionError("no bracket")
 
 
+def _random_inflow(bem, rng, brake=False):
+    """Axial and tangential inflows (m/s, 3 blades x the annuli) and a pitch (rad)
+    around the operating range: wind 3-25 m/s with +-3 m/s axial gusts, 5-13 rpm
+    with +-1 m/s in-plane ones, pitch -2 to 20 deg; ``brake``: a wind of 0.5-3 m/s
+    against the shaft and no gusts (the propeller brake, inflow angles below 0)."""
+    wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
+    if brake:
+        wind = -rng.uniform(0.5, 3.0)
+    pitch = math.radians(rng.uniform(-2.0, 20.0))
+    vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) * (not brake) + 0 * bem.radius
+    vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+    return vx, vy, pitch
+
+
 def test_inflow_angles_against_an_independent_solve_and_without_history():
     """The vectorized solver (flattened lift-drag table, regula falsi, warm start) against
     brentq on the residual written out annulus by annulus with np.interp on the polars,
@@ -177,10 +191,7 @@ def test_inflow_angles_against_an_independent_solve_and_without_history():
     previous = None
     worst_independent = worst_history = 0.0
     for _ in range(20):
-        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
-        pitch = math.radians(rng.uniform(-2.0, 20.0))
-        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) + 0 * bem.radius
-        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        vx, vy, pitch = _random_inflow(bem, rng)
         cold = bem.solve(vx, vy, pitch).inflow_angle
         if previous is not None:
             warm = bem.solve(vx, vy, pitch, guess=previous).inflow_angle
@@ -212,10 +223,7 @@ def test_a_guess_near_the_root_takes_newtons_step_from_it(monkeypatch):
                         lambda self, *args: calls.append(1) or state(self, *args))
     rng = np.random.default_rng(3)
     for _ in range(5):
-        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
-        pitch = math.radians(rng.uniform(-2.0, 20.0))
-        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) + 0 * bem.radius
-        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        vx, vy, pitch = _random_inflow(bem, rng)
         cold = bem.solve(vx, vy, pitch).inflow_angle
         for away, most in ((1e-7, 2), (1e-5, 3), (1e-4, 3)):
             calls.clear()
@@ -254,12 +262,7 @@ def test_the_compiled_solve_is_numpys(monkeypatch):
     rng = np.random.default_rng(11)
     worst, brake, buhl = 0.0, 0, 0
     for trial in range(24):
-        wind, rpm = rng.uniform(3.0, 25.0), rng.uniform(5.0, 13.0)
-        if trial >= 20:   # the air through the rotor against the shaft: phi < 0
-            wind = -rng.uniform(0.5, 3.0)
-        pitch = math.radians(rng.uniform(-2.0, 20.0))
-        vx = wind + rng.uniform(-3.0, 3.0, (3, 1)) * (trial < 20) + 0 * bem.radius
-        vy = rpm * math.pi / 30 * bem.radius + rng.uniform(-1.0, 1.0, (3, 1))
+        vx, vy, pitch = _random_inflow(bem, rng, brake=trial >= 20)
         cold, _ = solve(bem, vx, vy, pitch)
         for away in (None, 1e-5, 0.03):
             guess = None if away is None else (

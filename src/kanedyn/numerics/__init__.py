@@ -83,6 +83,7 @@ _LAZY = {
     'compiler_command': '.backends._c_build',
     'cached_module': '.backends._c_build',
     'load_module': '.backends._c_build',
+    'load_fixed_module': '.backends._c_build',
     'NAME_TOKEN': '.backends._c_build',
     'CompilerError': '.backends._c_build',
     'finish_compiling': '.backends._c_quick',

@@ -1,7 +1,7 @@
 """The compiled kernel of :class:`~._blade_element_momentum.BladeElementMomentum`'s solve.
 
 One fixed source, compiled once and cached like the models' modules
-(``load_module`` of :mod:`kanedyn.numerics`), loaded on the first solve.  It
+(``load_fixed_module`` of :mod:`kanedyn.numerics`), loaded on the first solve.  It
 runs the solver of ``_blade_element_momentum`` (the residual of Ning's one
 equation, the brackets, the safeguarded Newton steps) on each annulus in turn
 as scalars, where NumPy runs it on all annuli at once: the same steps, one
@@ -27,7 +27,7 @@ tip_exponent, hub_exponent, grid, lift, drag, lift_slope, drag_slope, flags)``
 
 from __future__ import annotations
 
-from ...numerics import NAME_TOKEN, load_module
+from ...numerics import load_fixed_module
 
 __all__ = ["kernel"]
 
@@ -255,5 +255,4 @@ def kernel():
     CompilerError
         No C compiler, or the compilation failed.
     """
-    source = _SOURCE.replace("@NAME@", NAME_TOKEN)
-    return load_module(f"{_GENERATION}\n{source}", lambda: source)
+    return load_fixed_module(_GENERATION, _SOURCE)

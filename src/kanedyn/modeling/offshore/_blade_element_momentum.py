@@ -34,7 +34,9 @@ bracketed (after a neighbourhood of a guess, if given) first on
 and found by a safeguarded Newton iteration (regula falsi, Illinois, where
 Newton's point leaves the bracket) on all annuli at once, each step evaluating
 two points :math:`0.8\cdot10^{-10}` rad apart (their sign change ends it); from
-a guess, Newton's first step takes the slope at the guess.
+a guess, Newton's first step takes the slope at the guess.  Those steps run in a
+compiled kernel (:mod:`._bem_kernel`), an annulus at a time, where a C compiler
+is found, and in NumPy otherwise: the same angles.
 The loads per unit length are
 :math:`N' = \tfrac12\rho W^2 c\,c_n` (along the shaft) and
 :math:`T' = \tfrac12\rho W^2 c\,c_t` (along the blade's motion), with

@@ -68,7 +68,8 @@ from ..._trusted_files import (PRIVATE_FILE, UntrustedFile, descriptor_path, ope
 from ._c_quick import (compile_quick, drop_prefetched, optimize_later, prefetch_quick,
                        prefetched_folders, quick_command)
 
-__all__ = ["CompilerError", "load_module", "compiler_command", "missing_compiler_text",
+__all__ = ["CompilerError", "load_module", "load_fixed_module", "compiler_command",
+           "missing_compiler_text",
            "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
            "UNIT_MARK", "LIGHT_UNIT", "COLD_UNIT"]
 
@@ -302,6 +303,26 @@ def load_module(key_text, make_template, timeout=600, quick=False):
     if later is not None:  # started once the lock is free: the build takes it
         optimize_later(module, *later)
     return module
+
+
+def load_fixed_module(generation, source):
+    """A compiled kernel of one fixed source (no generated part): built on
+    first use, then from the cache (:func:`load_module`).
+
+    Parameters
+    ----------
+    generation : str
+        Changes whenever the source's meaning changes (the cache key holds it).
+    source : str
+        The C source, in which ``@NAME@`` stands for the module name.
+
+    Raises
+    ------
+    CompilerError
+        No C compiler, or the compilation failed.
+    """
+    named = source.replace("@NAME@", NAME_TOKEN)
+    return load_module(f"{generation}\n{named}", lambda: named)
 
 
 def _once(make_template):

@@ -1,7 +1,7 @@
 """The C kernel of :class:`~._sparse.SparseKKT`: its source and its module.
 
 One fixed source (no generated part), compiled once and cached like the
-models' modules (``load_module`` of :mod:`kanedyn.numerics`), loaded on the
+models' modules (``load_fixed_module`` of :mod:`kanedyn.numerics`), loaded on the
 first :class:`~._sparse.SparseKKT`.  Its functions take their arrays
 through the buffer protocol (C-contiguous, ``float64`` values, ``int32``
 indices and column pointers, so at most 2^31 - 2 entries in ``K`` and in
@@ -102,7 +102,7 @@ And one orders that graph:
 
 from __future__ import annotations
 
-from ....numerics import NAME_TOKEN, load_module
+from ....numerics import load_fixed_module
 
 __all__ = ["kernel", "SOURCE"]
 
@@ -1551,5 +1551,4 @@ def kernel():
     CompilerError
         No C compiler, or the compilation failed.
     """
-    source = SOURCE.replace("@NAME@", NAME_TOKEN)
-    return load_module(f"{_GENERATION}\n{source}", lambda: source)
+    return load_fixed_module(_GENERATION, SOURCE)
