@@ -41,6 +41,10 @@ FACADES = {
     ("numerics._model", "io"):
         "NumericModel.export_fmu: the public API puts FMU export on the numerical model "
         "(the FMU's files and build live in io/fmu/)",
+    ("modeling.offshore._blade_element_momentum", "numerics"):
+        "BladeElementMomentum's solve: its compiled kernel (numerics/backends/"
+        "_bem_kernel.py) is built by numerics' compiler on the first solve (NumPy's "
+        "steps without a compiler)",
     ("models._base", "io"):
         "the derivation cache stores numerical models in the saved-file format "
         "(io/_saved.py: a zip of JSON, nothing evaluated on loading)",

@@ -282,7 +282,7 @@ def test_the_compiled_solve_is_numpys(monkeypatch):
 def test_the_compiled_kernel_refuses_arrays_of_the_wrong_size(monkeypatch):
     """The kernel names an array whose size is not the inflows' (or the annuli's)."""
     _numpy_and_compiled(monkeypatch)
-    from kanedyn.modeling.offshore._bem_kernel import kernel
+    from kanedyn.numerics.backends import bem_kernel as kernel
     bem = nrel5mw_bem()
     n, M = bem.radius.size, 2 * bem.radius.size
     arrays = [np.empty(M) for _ in range(5)] + [np.ones(M), np.zeros(M), np.zeros(M),
@@ -302,12 +302,12 @@ def test_the_compiled_kernel_refuses_arrays_of_the_wrong_size(monkeypatch):
 def test_without_a_compiler_the_solve_runs_in_numpy(monkeypatch):
     """No C compiler: the solve is NumPy's (the same numbers, above), no error."""
     from kanedyn.modeling.offshore import _blade_element_momentum as module
-    from kanedyn.modeling.offshore import _bem_kernel
+    from kanedyn.numerics import backends
     from kanedyn.numerics.backends import CompilerError
 
     def no_compiler():
         raise CompilerError("no C compiler found")
-    monkeypatch.setattr(_bem_kernel, "kernel", no_compiler)
+    monkeypatch.setattr(backends, "bem_kernel", no_compiler)
     monkeypatch.setitem(module._KERNEL, "module", module._UNSET)
     bem = nrel5mw_bem()
     thrust, torque = bem.steady_loads(11.4, 12.1 * math.pi / 30, 0.0)

@@ -11,7 +11,6 @@
 ``_aerodyn_tables``  airfoil polars and blade tables read from AeroDyn 15 files
 ``_openfast_input``  OpenFAST's text input and summary files: values by name, tables
 ``_blade_element_momentum``  a rotor's annuli solved by blade-element momentum theory
-``_bem_kernel``    its solve compiled (C, built and cached on first use)
 ``_blade_element_rotor``  BEM loads on a spinning rotor from the bodies' motion
 ``_flexible_blade_rotor``  BEM loads on the nodes of flexible blades as they deflect
 ``_drivetrain``    the spinning rotor on a tilted shaft, gearbox, generator, shaft twist

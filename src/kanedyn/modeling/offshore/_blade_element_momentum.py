@@ -35,8 +35,8 @@ and found by a safeguarded Newton iteration (regula falsi, Illinois, where
 Newton's point leaves the bracket) on all annuli at once, each step evaluating
 two points :math:`0.8\cdot10^{-10}` rad apart (their sign change ends it); from
 a guess, Newton's first step takes the slope at the guess.  Those steps run in a
-compiled kernel (:mod:`._bem_kernel`), an annulus at a time, where a C compiler
-is found, and in NumPy otherwise: the same angles.
+compiled kernel (``numerics/backends/_bem_kernel.py``), an annulus at a time,
+where a C compiler is found, and in NumPy otherwise: the same angles.
 The loads per unit length are
 :math:`N' = \tfrac12\rho W^2 c\,c_n` (along the shaft) and
 :math:`T' = \tfrac12\rho W^2 c\,c_t` (along the blade's motion), with
@@ -282,7 +282,8 @@ class BladeElementMomentum:
 
     def _compiled_solve(self, ratio, theta, guess):
         """``(phi, a, kp, cn, ct)`` of every inflow, by the compiled kernel
-        (:mod:`._bem_kernel`): the same steps, an annulus at a time."""
+        (``numerics/backends/_bem_kernel.py``): the same steps, an annulus at a
+        time."""
         shape = ratio.shape
         n = self.radius.size
         if self._polars is None:   # the kernel's tables (flat, C order), made once
@@ -295,9 +296,9 @@ class BladeElementMomentum:
             return np.ascontiguousarray(np.broadcast_to(values, shape), dtype=dtype).ravel()
         out = [np.empty(ratio.size) for _ in range(5)]
         flags = self.tip_loss | 2 * self.hub_loss | 4 * (guess is not None)
-        lost = _compiled_kernel().solve(
-            *out, flat(ratio), flat(theta), flat(ratio if guess is None else guess),
-            flat(np.arange(n), np.int32), *self._polars, flags)
+        guesses = flat(guess) if guess is not None else out[0]   # read only with a guess
+        lost = _compiled_kernel().solve(*out, flat(ratio), flat(theta), guesses,
+                                        flat(np.arange(n), np.int32), *self._polars, flags)
         if lost:
             raise ModelError("BladeElementMomentum: no bracket of the inflow angle found "
                              f"for {lost} annuli")
@@ -357,13 +358,13 @@ _KERNEL = {"module": _UNSET}   # the compiled kernel, once looked for
 
 
 def _compiled_kernel():
-    """The compiled solve (:mod:`._bem_kernel`, built on the first solve), or
-    ``None`` without a C compiler (NumPy solves then: the same steps)."""
+    """The compiled solve (``numerics/backends/_bem_kernel.py``, built on the first
+    solve), or ``None`` without a C compiler (NumPy solves then: the same steps)."""
     if _KERNEL["module"] is _UNSET:
-        from ...numerics.backends import CompilerError
-        from ._bem_kernel import kernel
+        # up into numerics, whose compiler builds it (FACADES, tests/test_architecture.py)
+        from ...numerics.backends import CompilerError, bem_kernel
         try:
-            _KERNEL["module"] = kernel()
+            _KERNEL["module"] = bem_kernel()
         except CompilerError:
             _KERNEL["module"] = None
     return _KERNEL["module"]
@@ -420,14 +421,13 @@ def _safeguarded_newton(residual, lo, hi, flo, fhi, newton):
     (``True``: the second, ``False``: the first).
 
     Each step evaluates the residual at two points around the new point ``x``,
-    ``x -+ 0.4 _TOLERANCE``, in one call (the evaluation's cost is mostly per call,
-    not per angle).  Where the two differ in sign the root lies between them and
-    the annulus is done, at the one with the smaller residual (within 0.8
-    _TOLERANCE of the root).  Elsewhere the point beyond which the root lies
-    replaces the bracket's end on its side, and the next ``x`` is Newton's, with the
-    slope between the two points, where it falls inside the bracket, else regula
-    falsi's with the Illinois modification (an end kept twice in a row has its
-    residual halved)."""
+    ``x -+ _HALF_GAP`` (0.4 _TOLERANCE), in one call (the evaluation's cost is mostly
+    per call, not per angle).  Where the two differ in sign the root lies between them and the
+    annulus is done, at the one with the smaller residual (within 0.8 _TOLERANCE of the
+    root).  Elsewhere the point beyond which the root lies replaces the bracket's end on
+    its side, and the next ``x`` is Newton's, with the slope between the two points,
+    where it falls inside the bracket, else regula falsi's with the Illinois
+    modification (an end kept twice in a row has its residual halved)."""
     side = np.zeros(lo.shape, int)
     done = np.zeros(lo.shape, bool)
     x = lo

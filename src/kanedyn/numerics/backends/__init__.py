@@ -16,9 +16,12 @@
 ``_c_contact_general``  its solve of several active contacts with friction
 ``_c_impacts``      its impacts of several contacts at once
 ``_c_impact_slide`` its impacts whose slip turns (integrated over the impulse)
+``_bem_kernel``     the compiled solve of ``modeling``'s blade-element momentum
+                    (``BladeElementMomentum``: its steps in C, an annulus at a time)
 """
 
 from ..._lazy import lazy_attributes as _lazy_attributes
+from ._bem_kernel import kernel as bem_kernel
 from ._c_build import (STATS, CompilerError, cache_dir, compiler_command, load_module,
                        missing_compiler_text, trusted_cache_dir)
 
@@ -28,6 +31,7 @@ _LAZY = {"fingerprint": "._c", "generate_c": "._c", "CodegenError": "._python",
          "compiled_events": "._c_events"}
 
 __all__ = ["compile_python", "generate_python", "CodegenError", "generate_c", "load_module",
+           "bem_kernel",
            "fingerprint", "compiler_command", "CompilerError", "STATS", "cache_dir",
            "trusted_cache_dir", "missing_compiler_text", "compiled_events"]
 

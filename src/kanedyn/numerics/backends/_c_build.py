@@ -69,9 +69,8 @@ from ._c_quick import (compile_quick, drop_prefetched, optimize_later, prefetch_
                        prefetched_folders, quick_command)
 
 __all__ = ["CompilerError", "load_module", "load_fixed_module", "compiler_command",
-           "missing_compiler_text",
-           "cache_dir", "trusted_cache_dir", "prefetch", "unit_flags", "STATS", "NAME_TOKEN",
-           "UNIT_MARK", "LIGHT_UNIT", "COLD_UNIT"]
+           "missing_compiler_text", "cache_dir", "trusted_cache_dir", "prefetch",
+           "unit_flags", "STATS", "NAME_TOKEN", "UNIT_MARK", "LIGHT_UNIT", "COLD_UNIT"]
 
 NAME_TOKEN = "KDMODULENAME"  # stands for the module name in generated templates
 #: separates the translation units of a module source (see :func:`load_module`)

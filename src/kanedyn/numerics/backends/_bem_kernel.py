@@ -1,8 +1,10 @@
-"""The compiled kernel of :class:`~._blade_element_momentum.BladeElementMomentum`'s solve.
+"""The compiled kernel of the solve of
+:class:`~kanedyn.modeling.offshore.BladeElementMomentum` (``modeling`` calls up into
+this layer for it, on its first solve: ``FACADES`` in ``tests/test_architecture.py``).
 
 One fixed source, compiled once and cached like the models' modules
-(``load_fixed_module`` of :mod:`kanedyn.numerics`), loaded on the first solve.  It
-runs the solver of ``_blade_element_momentum`` (the residual of Ning's one
+(:func:`~._c_build.load_fixed_module`), loaded on the first solve.  It runs the
+solver of ``modeling/offshore/_blade_element_momentum.py`` (the residual of Ning's one
 equation, the brackets, the safeguarded Newton steps) on each annulus in turn
 as scalars, where NumPy runs it on all annuli at once: the same steps, one
 call instead of a NumPy call per operation and step (the cost of a solve in an
@@ -27,7 +29,7 @@ tip_exponent, hub_exponent, grid, lift, drag, lift_slope, drag_slope, flags)``
 
 from __future__ import annotations
 
-from ...numerics import load_fixed_module
+from ._c_build import load_fixed_module
 
 __all__ = ["kernel"]
 
