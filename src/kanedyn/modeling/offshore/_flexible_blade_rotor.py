@@ -124,6 +124,9 @@ class FlexibleBladeElementRotor:
         # each blade's annulus nodes: undeflected offsets from the root, modes and
         # second-order shapes (constants of every solve), by the blade's identity
         self._node_shapes = {id(blade): _node_shapes(blade, nodes) for blade in blades}
+        # and stacked over the blades, for the inflow of all of them at once (None
+        # where the blades differ in modes or stiffening)
+        self._stacked_shapes = _stacked(list(self._node_shapes.values()))
         self._kinematics = {}   # kinematics(states, constants), by its arguments
         t = me.dynamicsymbols._t
         n = len(nodes)
@@ -233,7 +236,11 @@ class FlexibleBladeElementRotor:
 
     def _inflow(self, state, direction, wind_speed):
         """The annuli's axial and tangential inflow (m/s, shape (B, n) each) at the
-        blades' ``state`` (:meth:`node_loads`)."""
+        blades' ``state`` (:meth:`node_loads`): every blade at once where their
+        nodes' shapes stack (:meth:`node_motion`'s sums over a leading axis), else
+        a blade at a time."""
+        if self._stacked_shapes is not None:
+            return self._stacked_inflow(state, direction, wind_speed)
         axial, tangential = [], []
         x_axis = np.array([1.0, 0.0, 0.0])
         for blade, kin in zip(self.blades, state):
@@ -245,6 +252,26 @@ class FlexibleBladeElementRotor:
             axial.append(air[:, 0])
             tangential.append(-air @ e_t)
         return np.array(axial), np.array(tangential)
+
+    def _stacked_inflow(self, state, direction, wind_speed):
+        """:meth:`_inflow` of every blade at once (leading axis: the blade)."""
+        x, Phi, G = self._stacked_shapes
+        root, root_velocity, rate, rotation, eta, zeta = (np.array(v) for v in zip(*state))
+        eta_, zeta_ = eta[:, None, :, None], zeta[:, None, :, None]   # (B, 1, m, 1)
+        local = x + (Phi @ eta_)[..., 0]
+        slope = Phi
+        if G is not None:   # G eta (B, n, 3, m): the slope's part and, times eta, the offset's
+            g = (G @ eta_[:, :, None])[..., 0]
+            local = local + 0.5 * (g @ eta_)[..., 0]
+            slope = Phi + g
+        turn = rotation.transpose(0, 2, 1)  # components S <- B_k, row vectors on the left
+        arm = local @ turn
+        elastic = (slope @ zeta_)[..., 0] @ turn
+        velocity = root_velocity[:, None] + _cross(rate[:, None], arm) + elastic
+        e_r = root / np.linalg.norm(root, axis=1, keepdims=True)
+        e_t = _cross(np.array([1.0, 0.0, 0.0]), e_r)
+        air = wind_speed * np.asarray(direction, float) - velocity
+        return air[..., 0], -(air @ e_t[:, :, None])[..., 0]
 
     def wind_speed(self, t):
         """Free wind speed (m/s) at time ``t``."""
@@ -287,6 +314,14 @@ class FlexibleBladeElementRotor:
     def __repr__(self):
         return (f"FlexibleBladeElementRotor({self.name!r}, {len(self.blades)} flexible blades, "
                 f"{len(self.nodes)} annuli)")
+
+
+def _stacked(shapes):
+    """``(x, Phi, G)`` of :func:`_node_shapes` stacked over the blades (leading
+    axis), or ``None`` where the blades' shapes differ in size or stiffening."""
+    if len({tuple(a.shape if a is not None else None for a in s) for s in shapes}) != 1:
+        return None
+    return tuple(None if parts[0] is None else np.stack(parts) for parts in zip(*shapes))
 
 
 def _node_shapes(blade, nodes):
