@@ -126,7 +126,7 @@ class FlexibleBladeElementRotor:
         self._node_shapes = {id(blade): _node_shapes(blade, nodes) for blade in blades}
         # and stacked over the blades, for the inflow of all of them at once (None
         # where the blades differ in modes or stiffening)
-        self._stacked_shapes = _stacked(list(self._node_shapes.values()))
+        self._stacked_shapes = _stacked([self._node_shapes[id(b)] for b in blades])
         self._kinematics = {}   # kinematics(states, constants), by its arguments
         t = me.dynamicsymbols._t
         n = len(nodes)
