@@ -170,7 +170,11 @@ class BladeElementMomentum:
         # Prandtl's exponents times |sin(phi)|, negated
         self._tip_exponent = -(blades / 2 * (self.tip_radius - self.radius) / self.radius)
         self._hub_exponent = -(blades / 2 * (self.radius - self.hub_radius) / self.hub_radius)
-        self._polars = None   # the compiled kernel's copies of the tables, when first used
+        # the compiled kernel's tables (flat, C order: slopes of G per annulus, as above)
+        slopes = self._slope.reshape(self.radius.size, grid.size)
+        self._polars = tuple(np.ascontiguousarray(v, dtype=float).ravel() for v in (
+            self.solidity, self._tip_exponent, self._hub_exponent, self._alpha, self._lift,
+            self._drag, slopes.real, slopes.imag))
 
     # ------------------------------------------------------------------ annuli
     def airfoil_coefficients(self, angle_of_attack):
@@ -285,20 +289,15 @@ class BladeElementMomentum:
         (``numerics/backends/_bem_kernel.py``): the same steps, an annulus at a
         time."""
         shape = ratio.shape
-        n = self.radius.size
-        if self._polars is None:   # the kernel's tables (flat, C order), made once
-            slope = self._slope.reshape(n, self._alpha.size)
-            self._polars = tuple(np.ascontiguousarray(v, dtype=float).ravel() for v in (
-                self.solidity, self._tip_exponent, self._hub_exponent, self._alpha,
-                self._lift, self._drag, slope.real, slope.imag))
 
         def flat(values, dtype=float):
             return np.ascontiguousarray(np.broadcast_to(values, shape), dtype=dtype).ravel()
         out = [np.empty(ratio.size) for _ in range(5)]
         flags = self.tip_loss | 2 * self.hub_loss | 4 * (guess is not None)
         guesses = flat(guess) if guess is not None else out[0]   # read only with a guess
-        lost = _compiled_kernel().solve(*out, flat(ratio), flat(theta), guesses,
-                                        flat(np.arange(n), np.int32), *self._polars, flags)
+        annulus = flat(np.arange(self.radius.size), np.int32)
+        lost = _compiled_kernel().solve(*out, flat(ratio), flat(theta), guesses, annulus,
+                                        *self._polars, flags)
         if lost:
             raise ModelError("BladeElementMomentum: no bracket of the inflow angle found "
                              f"for {lost} annuli")
