@@ -444,14 +444,15 @@ def test_pendulum_swing_up_ipopts_optimum(method):
 def test_a_second_order_correction_factors_the_steps_matrix_again(hessian, peer,
                                                                   monkeypatch):
     """The line search holds neither the step's factors nor its Hessian and
-    sigma: a second-order correction makes them again (the exact Hessian
-    evaluated again at the point; the limited-memory one held, not updated
-    twice).  On the 50-node Hermite-Simpson swing-up of the pendulum (exact)
-    and the 40-node one of the cart-pole (limited-memory), both with many
-    corrections: each matrix factored again for a correction has the step's
-    values to the bit, its diagonals as the step's last factorization took
-    them."""
-    from kanedyn.optimization.interior_point import _step
+    sigma, nor with the exact Hessian the point's Jacobian: a second-order
+    correction makes them again (the exact Hessian and the Jacobian
+    evaluated again at the point; the limited-memory Hessian held, not
+    updated twice, and the Jacobian with it).  On the 50-node
+    Hermite-Simpson swing-up of the pendulum (exact) and the 40-node one of
+    the cart-pole (limited-memory), both with many corrections: each matrix
+    factored again for a correction has the step's values to the bit, its
+    diagonals as the step's last factorization took them."""
+    from kanedyn.optimization.interior_point import _solver, _step
     problem, guess = {"pendulum": _swing_up("pendulum", 50, "hermite-simpson", 0.1),
                       "cart_pole": _swing_up("cart_pole", 40, "hermite-simpson", 0.0)}[peer]
     factored, again = [], []
@@ -468,12 +469,21 @@ def test_a_second_order_correction_factors_the_steps_matrix_again(hessian, peer,
         if self._again is not None:  # the next factorization is the one made again
             again.append(len(factored))
         return solve(self, residual_w, residual_c)
+    evaluated_again = []
+    jacobian_at = _solver._Run.jacobian_at
+
+    def recording_jacobian_at(self, e):
+        evaluated_again.append(e.jacobian is None)
+        return jacobian_at(self, e)
     monkeypatch.setattr(_step.StepSolver, "_factor", recording_factor)
     monkeypatch.setattr(_step.StepSolver, "solve", recording_solve)
+    monkeypatch.setattr(_solver._Run, "jacobian_at", recording_jacobian_at)
     result = problem.solve(guess, solver="interior-point", hessian=hessian,
                            options={"max_iter": 40})
     assert result.iterations > 5
     assert len(again) >= 3
+    # the Jacobian let go by every exact line search, held by the limited-memory one
+    assert evaluated_again == [hessian == "exact"] * len(again)
     for k in again:
         step, made = factored[k - 1], factored[k]
         for a, b in zip(step, made):

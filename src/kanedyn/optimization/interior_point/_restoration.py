@@ -164,6 +164,7 @@ class Restoration:
         holding this point: a :class:`Restored`."""
         run, s, B, BR = self.run, self.run.s, self.run.bounds, self.bounds
         n, m, size = run.n, run.m, self.size
+        run.jacobian_at(e)  # (let go by the NLP's line search)
         c_start = run._row_residuals(e.rows, w)
         theta_start = float(np.abs(c_start).sum())
         entry = (z_lower, z_upper, B.gaps(w))

@@ -226,6 +226,16 @@ class _Run:
         self.timings["callbacks"] += time.perf_counter() - t
         return bool(np.isfinite(e.gradient).all() and np.isfinite(e.jacobian).all())
 
+    def jacobian_at(self, e):
+        """The Jacobian at ``e``: evaluated again where the line search let
+        it go (the same numbers), the NLP's evaluation behind it then dropped."""
+        if e.jacobian is None:
+            t = time.perf_counter()
+            e.jacobian = self.reduced.jacobian(self.reduced.full(e.x))
+            self._drop_nlp_evaluation()
+            self.timings["callbacks"] += time.perf_counter() - t
+        return e.jacobian
+
     def _row_residuals(self, rows, w):
         """:math:`c`: equality rows minus their value, inequality rows minus
         their slacks (scaled); ``rows`` itself where nothing is subtracted
@@ -472,7 +482,8 @@ class _Run:
 
         def again():
             made = held if held is not None else self.hessian_values(e, y, 1.0)
-            return made, e.jacobian, self.bounds.sigma(z_lower, z_upper, gap_lower, gap_upper)
+            return made, self.jacobian_at(e), self.bounds.sigma(z_lower, z_upper, gap_lower,
+                                                                 gap_upper)
         return again
 
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
@@ -587,11 +598,16 @@ class _Run:
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
             # the factors are not held through the line search (direction let
-            # them go), nor the Hessian and sigma: a second-order correction
-            # makes them again (the same numbers) and factors them again
+            # them go), nor the Hessian and sigma, nor (with the exact Hessian)
+            # the Jacobian, while the trial points are evaluated: a
+            # second-order correction or the restoration phase makes them
+            # again (the same numbers); the limited-memory update holds the
+            # Jacobian for its next pair anyway
             self.stepper.release(again=self._matrix_again(e, y, hessian, z_lower, z_upper,
                                                           gap_lower, gap_upper))
             del hessian, sigma
+            if self.quasi_newton is None:
+                e.jacobian = None
             step, dz_lower, dz_upper, alpha_max, alpha_z = direction
             dw, dy = step.primal, step.rows
             # the line search
