@@ -140,3 +140,25 @@ def test_command_line_derive_of_a_cached_model_prints_what_the_eager_path_prints
         return [line for line in text.splitlines() if "derived in" not in line]
     assert equations(warm) == equations(capsys.readouterr().out)
     assert any(line.startswith("mass_matrix") for line in equations(warm))
+
+
+def test_a_model_that_cannot_be_stored_leaves_no_part_of_its_entry(tmp_path, monkeypatch):
+    """An entry's body parameters are written first, its numerical model
+    last (the entry is complete once that exists): a model whose data cannot
+    be saved (as one holding a Python function) leaves neither part; one
+    that can leaves both."""
+    from kanedyn.models import _base
+    from kanedyn.numerics import compiler_command
+    if compiler_command() is None:
+        pytest.skip("no C compiler")
+    tmp_path.chmod(0o700)
+    monkeypatch.setenv("KANEDYN_CACHE_DIR", str(tmp_path))
+    definition = kd.models.build("pendulum", lazy=False)
+    model = definition.numeric(backend="c")
+    _base._write_cache("stored", definition, model)
+    assert _base._cache_path("stored").exists()
+    assert _base._cache_path("stored", "kdbody").exists()
+    monkeypatch.setattr(model, "_data", {**model._data, "held": lambda t: t})
+    _base._write_cache("unstorable", definition, model)
+    assert not _base._cache_path("unstorable").exists()
+    assert not _base._cache_path("unstorable", "kdbody").exists()

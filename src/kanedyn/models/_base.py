@@ -467,7 +467,12 @@ def _write_cache(key, definition, model):
             save_data(value, path, what=f"the numerical model of {definition.name}",
                       format=CACHE_FORMAT, permissions=0o600, **manifest)
         except (OSError, SavedFileError, TypeError, ValueError):
-            return  # nothing is left of an entry not written
+            # nothing is left of an entry not written (save_data writes a
+            # part whole or not at all; the body parameters go with a model
+            # that cannot be stored, such as one holding a Python input)
+            if part == "kdnum":
+                _cache_path(key, "kdbody").unlink(missing_ok=True)
+            return
 
 
 class DeriveAgain:
