@@ -378,7 +378,6 @@ class LagrangianHessian:
         h, P, T = e["h"], e["P"], e["T"]
         defects = nlp.defects
         n_defects = defects.n_rows
-        t_points = e["t_points"]
         kinds = self.stages + [self.at_points] * (self.at_points is not None)
         for points in kinds:
             points.maps(N - 1)  # made on the first call, before the (K, nu, nu) arrays
@@ -412,6 +411,7 @@ class LagrangianHessian:
                     self._assemble(points, k0, k1, h, out[offset:], stepped=(Hu, gu))
                 offset += points.size
         if self.at_points is not None:
+            t_points = nlp._point_times(e)
             weights = (self._interval_weights(multipliers[:n_defects]) if self.interval
                        else None)
             for k0, k1 in _chunks(K):
@@ -471,7 +471,7 @@ class LagrangianHessian:
         (:meth:`_interval_weights`), and the objective's quadrature."""
         pb = self.nlp.problem
         W, quadrature = weights
-        t = e["t_points"][at]
+        t = self.nlp._point_times(e)[at]
         rate = e["rates"][0][at] if e["rates"] else None
         Hu, gu = self._dynamics(e, t, e["Yp"][at], e["Rp"][at], W[at],
                                 _run(e["evaluated"][0], at), rate)

@@ -291,7 +291,7 @@ class CollocationNLP:
             Yp=np.concatenate([Y, Yi]) if len(Yi) else Y,
             Rp=np.concatenate([R, Ri]) if len(Ri) else R,
             evaluated=[e[:4] for e in evaluated], rates=rates or None, lagrange=lagrange,
-            point_constraints=point_constraints, t_points=t0 + T * L.positions())
+            point_constraints=point_constraints)
         return self._cache
 
     def forget_evaluation(self):
@@ -306,9 +306,13 @@ class CollocationNLP:
         down = model.jacobians(t - delta, Y, r=R).f
         return (up - down) / (2 * delta)
 
-    @staticmethod
-    def _point_times(e):
-        return e["t_points"]
+    def _point_times(self, e):
+        """Every point's time, (n_points,), of the evaluation ``e`` (made on
+        the first call and kept with it)."""
+        t = e.get("t_points")
+        if t is None:
+            t = e["t_points"] = e["t0"] + e["T"] * self.layout.positions()
+        return t
 
     # ---------------------------------------------------------- objective
     def objective(self, z):
@@ -351,7 +355,7 @@ class CollocationNLP:
         e = self._evaluate(z)
         pb = self.problem
         parts = [self.defects.values(e["Y"], e["h"], e["evaluated"], e["Yi"], e["R"], e["Ri"])]
-        t = self._point_times(e)
+        t = self._point_times(e) if pb.path or pb.n_residuals else None
         for path in pb.path:
             parts.append(path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])[0])
         if pb.n_residuals:
@@ -370,7 +374,7 @@ class CollocationNLP:
         e = self._evaluate(z)
         pb, L = self.problem, self.layout
         parts = [self.defects.jacobian(e["h"], e["T"], e["evaluated"], e["rates"])]
-        t = self._point_times(e)
+        t = self._point_times(e) if pb.path else None
         for path in pb.path:
             _, d_t, d_y, d_r, d_p, d_T = path.term(t, e["Yp"], e["Rp"], e["P"], e["T"])
             block = [d_y, d_r, d_p]
