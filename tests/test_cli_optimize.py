@@ -23,9 +23,12 @@ def test_optimize_lists_the_problems(capsys):
 
 def test_optimize_pendulum_bound_files_and_the_printed_objective(tmp_path, capsys):
     """The swing-up with the torque bound replaced: the CSV holds the nodes,
-    the bound holds at each, the ends are those asked for, and the printed
-    objective is the trapezoid rule of the CSV's torque squared (what the
-    trapezoidal collocation minimizes), computed here."""
+    the bound holds at each and is the one the printed ratio is to, the ends
+    are those asked for, and the printed objective is the trapezoid rule of
+    the CSV's torque squared (what the trapezoidal collocation minimizes),
+    computed here.  (Which local optimum IPOPT reaches depends on the BLAS
+    kernels: one with the bound active, 18.12, and one below it, 9.50, with
+    a peak of 1.488, were both seen.)"""
     out, figure = tmp_path / "swing.csv", tmp_path / "swing.png"
     code = main(["optimize", "pendulum", "--nodes", "101", "--bound", "tau=-1.8:1.8",
                  "--output", str(out), "--plot", str(figure), "--quiet", "--backend",
@@ -36,7 +39,9 @@ def test_optimize_pendulum_bound_files_and_the_printed_objective(tmp_path, capsy
     assert rows[0] == ["t", "point", "q", "u", "tau"]
     assert len(rows) == 102 and {r[1] for r in rows[1:]} == {"node"}
     t, q, u, tau = (np.array([float(r[k]) for r in rows[1:]]) for k in (0, 2, 3, 4))
-    assert np.max(np.abs(tau)) <= 1.8 + 1e-7 and np.max(np.abs(tau)) > 1.79
+    assert np.max(np.abs(tau)) <= 1.8 + 1e-7
+    ratio = float(text.split("(where the NLP bounds it) ")[1].split()[0].rstrip(";"))
+    assert abs(ratio - np.max(np.abs(tau)) / 1.8) < 1e-5
     np.testing.assert_allclose([q[0], u[0], q[-1], u[-1]], [0, 0, np.pi, 0], atol=1e-7)
     printed = float(text.split("objective ")[1].split()[0].rstrip(";"))
     assert abs(printed - np.trapezoid(tau ** 2, t)) < 1e-6 * printed
