@@ -254,9 +254,12 @@ def test_the_compiled_solve_is_numpys(monkeypatch):
     """The compiled kernel runs NumPy's steps an annulus at a time: at 20 random
     inflows around the operating range (as above), without a guess and from guesses
     1e-5 and 0.03 rad away, and on the propeller-brake branch (a wind against the
-    rotor's plane, inflow angles below zero), every angle within 1e-10 rad of
-    NumPy's (measured: equal) and every load within 1e-9 of the largest; the
-    momentum balance's high-induction region (Buhl's) is among them (a > 0.4)."""
+    rotor's plane, inflow angles below zero), every angle within 1e-9 rad of
+    NumPy's and every induction and load within 2e-8 of the largest; the
+    momentum balance's high-induction region (Buhl's) is among them (a > 0.4).
+    Measured: equal where NumPy's sin, cos, exp and arccos agree with the C
+    library's (its AVX2 code); with its AVX-512 code, a few units in the last
+    place apart, 8.0e-11 rad and 4.1e-9 (the axial induction)."""
     solve = _numpy_and_compiled(monkeypatch)
     bem = nrel5mw_bem()
     rng = np.random.default_rng(11)
@@ -268,14 +271,14 @@ def test_the_compiled_solve_is_numpys(monkeypatch):
             guess = None if away is None else (
                 cold.inflow_angle + away * rng.standard_normal(cold.inflow_angle.shape))
             numpy, compiled = solve(bem, vx, vy, pitch, guess=guess)
-            assert np.abs(compiled.inflow_angle - numpy.inflow_angle).max() < 1e-10
+            assert np.abs(compiled.inflow_angle - numpy.inflow_angle).max() < 1e-9
             for field in ("axial_induction", "tangential_induction", "normal_load",
                           "tangential_load"):
                 a, b = getattr(numpy, field), getattr(compiled, field)
                 worst = max(worst, np.abs(a - b).max() / max(np.abs(a).max(), 1e-300))
         brake += int((cold.inflow_angle < 0).sum())
         buhl += int((cold.axial_induction > 0.4).sum())
-    assert worst < 1e-9
+    assert worst < 2e-8
     assert brake > 0 and buhl > 0
 
 
