@@ -39,6 +39,8 @@ refused, saying why).
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .._errors import ModelError
@@ -49,7 +51,16 @@ __all__ = ["hessians_unavailable", "weighted_hessians", "weighted_hessian_patter
 
 
 def hessians_unavailable(model):
-    """Why :func:`weighted_hessians` cannot serve ``model`` (text), or ``None``."""
+    """Why :func:`weighted_hessians` cannot serve ``model`` (text), or ``None``
+    (found once, then kept by the model: what it asks of the model does not
+    change)."""
+    kept = getattr(model, "__dict__", {})
+    if "_hessians_unavailable" not in kept:
+        kept["_hessians_unavailable"] = _hessians_unavailable(model)
+    return kept["_hessians_unavailable"]
+
+
+def _hessians_unavailable(model):
     from ._jacobians import derivatives_unavailable
     reason = derivatives_unavailable(model)
     if reason:
@@ -273,6 +284,8 @@ def _compiled(model, module, t, Y, R, weights, J):
     W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
     inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
     H = module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]
+    if math.isfinite(np.add.reduce(H, axis=None)):  # (every entry finite, as a rule)
+        return H
     bad = np.flatnonzero(~np.isfinite(H).reshape(N, -1).all(axis=1))
     if len(bad):  # M's factors are written out without a check of their pivots
         raise np.linalg.LinAlgError(

@@ -392,11 +392,10 @@ class LagrangianHessian:
             stages = defects._stage_values(e["evaluated"])
             rates = (defects._stage_values([(r,) for r in e["rates"]]) if e["rates"]
                      else [None] * len(stages))
-            for s, steps, values, rate, points in zip(defects.stages, defects._stage_steps,
-                                                      stages, rates, self.stages):
+            for s, values, rate, points in zip(defects.stages, stages, rates, self.stages):
                 for k0, k1 in _chunks(N - 1):
                     at = slice(k0, k1)
-                    t = e["t0"] + h * steps[at]
+                    t = defects.stage_times(s, e["t0"], h, k0, k1)
                     Ys = s.a[0] * e["Y"][k0:k1] + s.a[1] * e["Y"][k0 + 1:k1 + 1]
                     Rs = s.a[0] * e["R"][k0:k1] + s.a[1] * e["R"][k0 + 1:k1 + 1]
                     Hu, gu = self._dynamics(e, t, Ys, Rs, -s.c * lam[at], _run(values, at),

@@ -35,6 +35,10 @@ __all__ = ["CollocationNLP", "largest_violation", "violations", "index_arrays"]
 
 INFINITY = 1e20  # IPOPT's "no bound" beyond 1e19
 
+#: a decision vector of at most this many bytes is compared with the held
+#: one as bytes (two copies: quicker at this size than an array of entries)
+KEY_BYTES_COMPARED = 1 << 16
+
 #: the integer type of the sparse patterns' rows and columns: IPOPT's
 #: ``Index`` (a 32-bit C int), half the size of NumPy's default int64
 INDEX = np.int32
@@ -251,9 +255,11 @@ class CollocationNLP:
         z = np.asarray(z, dtype=float)
         held = self._cache_key
         # the same point to the bit (its own copy is the key: the caller may
-        # write to its array later)
+        # write to its array later); a short vector's bytes are compared (no
+        # array of the entries' comparisons), a long one's without copies
         if held is not None and held.shape == z.shape and (
-                held.view(np.uint64) == z.view(np.uint64)).all():
+                held.tobytes() == z.tobytes() if z.nbytes <= KEY_BYTES_COMPARED
+                else (held.view(np.uint64) == z.view(np.uint64)).all()):
             return self._cache
         self.forget_evaluation()  # the last point's arrays not held with the new ones
         z = z.copy()  # the key, and the views below

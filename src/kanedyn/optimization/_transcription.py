@@ -306,21 +306,16 @@ class Defects:
                                                (N - 1, nd, layout.n_states)) for o in (0, 1)}
 
     # (made when asked, not held: arrays of the nodes' length)
-    @property
-    def _node_steps(self):
-        """The nodes' steps from t0, in units of h, (N,)."""
-        return np.arange(self.layout.nodes)
+    def stage_times(self, stage, t0, h, k0=0, k1=None):
+        """The times of ``stage``'s points in the intervals ``k0`` to ``k1``
+        (all by default), s, shape (k1 - k0,)."""
+        k1 = self.layout.nodes - 1 if k1 is None else k1
+        return t0 + h * (np.arange(k0, k1) + stage.position)
 
-    @property
-    def _stage_steps(self):
-        """Each stage's points' steps from t0, in units of h, (N - 1,) each."""
-        return [np.arange(self.layout.nodes - 1) + s.position for s in self.stages]
-
-    @property
-    def _stage_positions(self):
-        """Each stage's point positions, fractions of the duration, (N - 1,) each."""
+    def _stage_positions(self, stage):
+        """``stage``'s point positions, fractions of the duration, (N - 1,)."""
         N = self.layout.nodes
-        return [(np.arange(N - 1) + s.position) / (N - 1) for s in self.stages]
+        return (np.arange(N - 1) + stage.position) / (N - 1)
 
     @property
     def n_rows(self):
@@ -338,11 +333,11 @@ class Defects:
         some stage is a node), then each interior stage's points."""
         groups = []
         if self._node_group:
-            groups.append((t0 + h * self._node_steps, Y, R))
-        for s, steps in zip(self.stages, self._stage_steps):
+            groups.append((t0 + h * np.arange(self.layout.nodes), Y, R))
+        for s in self.stages:
             if s.node is None:
                 a0, a1 = s.a
-                groups.append((t0 + h * steps, a0 * Y[:-1] + a1 * Y[1:],
+                groups.append((self.stage_times(s, t0, h), a0 * Y[:-1] + a1 * Y[1:],
                                a0 * R[:-1] + a1 * R[1:]))
         return groups
 
@@ -427,7 +422,7 @@ class Defects:
                 for j, (s, (f, *_)) in enumerate(zip(self.stages, stages)):
                     v = v - dh * s.c * f[:, rows]
                     if rates is not None:
-                        position = self._stage_positions[j]
+                        position = self._stage_positions(s)
                         v = v - h * s.c * rates[j][0][:, rows] * position[:, None]
                 out[...] = v[:, :, None]
             elif block == "t0":
@@ -474,8 +469,8 @@ class Defects:
         N = L.nodes
         gY, gR = np.zeros((N, L.n_states)), np.zeros((N, L.n_inputs))
         gP, gT, gt0 = np.zeros(L.n_free), 0.0, 0.0
-        for stage, position, (value, d_t, d_y, d_r, d_p, d_T) in zip(
-                self.stages, self._stage_positions, self._stage_values(evaluated_terms)):
+        for stage, (value, d_t, d_y, d_r, d_p, d_T) in zip(
+                self.stages, self._stage_values(evaluated_terms)):
             w = h * stage.c
             for o in (0, 1):
                 a = stage.a[o]
@@ -485,8 +480,8 @@ class Defects:
             if L.n_free:
                 gP += w * d_p.sum(axis=0)
             if L.free_duration:
-                gT += stage.c / (N - 1) * value.sum() + w * np.sum(d_t * position) \
-                    + w * d_T.sum()
+                gT += stage.c / (N - 1) * value.sum() \
+                    + w * np.sum(d_t * self._stage_positions(stage)) + w * d_T.sum()
             if L.free_start_time:
                 gt0 += w * np.sum(d_t)
         return gY, gR, None, None, gP, gT, gt0
