@@ -59,6 +59,7 @@ import numpy as np
 from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
+from ._finite import all_finite
 from .kkt._low_rank import LowRankKKT
 from .kkt._sparse import SparseKKT, pairable_entries
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
@@ -124,7 +125,7 @@ class _Evaluation:
         self.gradient = self.jacobian = None
 
     def finite(self):
-        return bool(math.isfinite(self.objective) and np.isfinite(self.rows).all())
+        return math.isfinite(self.objective) and all_finite(self.rows)
 
 
 class InteriorPoint:
@@ -224,7 +225,7 @@ class _Run:
         e.gradient = self.reduced.gradient(x_full)
         e.jacobian = self.reduced.jacobian(x_full)
         self.timings["callbacks"] += time.perf_counter() - t
-        return bool(np.isfinite(e.gradient).all() and np.isfinite(e.jacobian).all())
+        return all_finite(e.gradient) and all_finite(e.jacobian)
 
     def jacobian_at(self, e):
         """The Jacobian at ``e``: evaluated again where the line search let
@@ -458,7 +459,7 @@ class _Run:
         if quasi_newton is None:
             hessian = self.reduced.hessian(self.reduced.full(e.x), y, objective_factor)
             self._drop_nlp_evaluation()  # the point's last callback
-            finite = np.isfinite(hessian).all()
+            finite = all_finite(hessian)
         else:
             x = e.x
             if quasi_newton.last is not None:

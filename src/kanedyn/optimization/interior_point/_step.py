@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._finite import all_finite
+
 __all__ = ["NewtonStep", "StepSolver", "DEGENERATE_ITERATIONS"]
 
 #: after this many consecutive iterations that needed a regularization, the
@@ -203,7 +205,7 @@ class StepSolver:
             return solution
         size = solution.size
         for _ in range(int(self.settings.max_refinement_steps)):
-            if not np.isfinite(solution).all():
+            if not all_finite(solution):
                 break
             error = self.kkt.matvec(solution)  # a new array: ours to overwrite
             for k0 in range(0, size, _CHUNK):  # rhs - K x, rhs a chunk at a time
@@ -246,13 +248,13 @@ class StepSolver:
             return out
 
         rhs = rhs_part(0, n + self.m)
-        if not np.isfinite(rhs).all():
+        if not all_finite(rhs):
             return None
         scale = max(1.0, float(rhs.max(initial=0.0)), -float(rhs.min(initial=0.0)))  # |rhs|
         # solved in rhs's own storage: rhs is made again in parts where needed
         solution = self._refined(self.kkt.solve(rhs, overwrite=True), rhs_part, scale)
         del rhs
-        if not np.isfinite(solution).all():
+        if not all_finite(solution):
             return None
         dx, dy = solution[:n], solution[n:]
         if not self.inequality.size:  # both views of the solution: no copy

@@ -261,6 +261,8 @@ _NO_ENTRIES.flags.writeable = False
 
 def _number(value, name):
     """``value`` (a real number, a 0-d array too) as a finite float."""
+    if type(value) is float and math.isfinite(value):  # (the usual case, at once)
+        return value
     try:
         number = (float(value) if np.ndim(value) == 0
                   and not isinstance(value, (bool, np.bool_, str)) else None)
@@ -276,7 +278,7 @@ def _diagonal(value, size, name):
     ``(size,)`` (its values checked by :func:`_check_values`; the constant
     0.0) or as one number for every entry (no entries; the number,
     :func:`_number`)."""
-    if np.ndim(value) != 0:
+    if type(value) is not float and np.ndim(value) != 0:
         return _values(value, size, name), 0.0
     return _NO_ENTRIES, _number(value, name)
 
