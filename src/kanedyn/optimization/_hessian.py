@@ -57,6 +57,10 @@ __all__ = ["LagrangianHessian", "HESSIANS"]
 HESSIANS = ("limited-memory", "exact")
 
 #: the points whose second derivatives are evaluated at once: the values'
+#: a map of the points alike (:meth:`_Points.maps`) of at most this many
+#: entries, zeros too, is held dense (its product made by BLAS, not SciPy)
+DENSE_MAP_SIZE = 1 << 12
+
 #: intermediates (arrays of (points, nu, nu)) are bounded by this many
 #: points, not by the nodes
 CHUNK_POINTS = 4096
@@ -142,10 +146,14 @@ class _Points:
         :math:`(e_T (D^T F')^T + (D^T F') e_T^T) / \mathrm{steps}`, both at the
         entries of :meth:`pattern` (``first`` is ``None`` without a free
         duration); of the first point alone when the points are ``alike``
-        (no free duration then).  Made on first use: only D's nonzero entries
-        take part."""
+        (no free duration then), ``second`` then a dense array where it holds
+        at most :data:`DENSE_MAP_SIZE` entries.  Made on first use: only D's
+        nonzero entries take part."""
         if self._maps is None:
-            self._maps = self._make_maps(steps)
+            second, first = self._make_maps(steps)
+            if self.alike is not None and second.shape[0] * second.shape[1] <= DENSE_MAP_SIZE:
+                second = second.toarray()  # (a dense product is quicker at this size)
+            self._maps = second, first
         return self._maps
 
     def _make_maps(self, steps):
@@ -360,8 +368,7 @@ class LagrangianHessian:
         nu = self.nu
         values = out[p0:p1]
         if points.alike is not None:  # one point's map, each point's sums as the whole map's
-            values.reshape(k1 - k0, points.alike)[...] = \
-                (second @ Hu.reshape(k1 - k0, nu * nu).T).T
+            values.reshape(k1 - k0, points.alike)[...] = Hu.reshape(k1 - k0, nu * nu) @ second.T
             return
         values[...] = _row_block(second, p0, p1, k0 * nu * nu, k1 * nu * nu) @ Hu.reshape(-1)
         if stepped is not None and first is not None:
