@@ -289,7 +289,7 @@ class Defects:
         # where each stage's points are among the evaluated groups: a slice of
         # the nodes' group, or a group of its own (see points)
         interior = 1 if any(s.node is not None for s in self.stages) else 0
-        self._block_list = None  # see _blocks
+        self._block_list = self._widths = None  # see _blocks
         #: whether the nodes are a group of their own (some stage is a node)
         self._node_group = bool(interior)
         self._stage_groups = []
@@ -359,7 +359,8 @@ class Defects:
 
     def _blocks(self):
         """The column groups of each interval's rows: ``("y", o)``, ``("r",
-        o)``, ``"p"``, ``"T"``, ``"t0"`` (made once: the layout is fixed)."""
+        o)``, ``"p"``, ``"T"``, ``"t0"`` (made once: the layout is fixed), and
+        their widths in ``self._widths`` (:meth:`_block_width`)."""
         if self._block_list is None:
             L = self.layout
             offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
@@ -367,6 +368,7 @@ class Defects:
             if L.n_inputs:
                 blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
             self._block_list = tuple(blocks + L.shared_blocks())
+            self._widths = tuple(self._block_width(b) for b in self._block_list)
         return self._block_list
 
     def pattern(self):
@@ -406,11 +408,11 @@ class Defects:
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
         shape = (N - 1, len(self.rows))  # each block's values: shape + (its width,)
         size = shape[0] * shape[1]
-        values = np.empty(size * sum(self._block_width(b) for b in self._blocks()))
+        blocks = self._blocks()
+        values = np.empty(size * sum(self._widths))
         start = 0
-        for block in self._blocks():
+        for block, width in zip(blocks, self._widths):
             # each block written in place: the blocks not joined
-            width = self._block_width(block)
             out = values[start:start + size * width].reshape(shape + (width,))
             start += size * width
             if block == "p":
