@@ -221,3 +221,27 @@ def test_instance_constraints_reach_the_limited_memory_optimum(pendulum):
         bounds={tau: (-5, 5), q: (-1, 4)}, method="hermite-simpson")
     _both(problem, problem.guess_line(start={q: 0, u: 0}, end={q: np.pi, u: 0},
                                       inputs={tau: 0.0}))
+
+
+def test_second_derivatives_no_variable_moves_are_left_out(pendulum):
+    """The integrand's second derivative in the time, infinite at t = 0 (the
+    trapezoid's first point) for sqrt(t), takes no part where the duration
+    is fixed: no decision variable moves the time.  The Hessian's values are
+    those of the integrand without the root (a constant in the variables),
+    to the bit."""
+    from kanedyn.optimization._nlp import CollocationNLP
+    model, (q, u, tau) = pendulum
+    t = me.dynamicsymbols._t
+
+    def nlp(lagrange):
+        return CollocationNLP(kd.OptimalControlProblem(
+            model, nodes=6, duration=2.0, lagrange=lagrange, bounds={tau: (-2, 2)},
+            initial={q: 0, u: 0}, method="trapezoid"), hessian="exact")
+
+    with_root, without = nlp(tau ** 2 * sm.cos(q) + sm.sqrt(t)), nlp(tau ** 2 * sm.cos(q))
+    rng = np.random.default_rng(5)
+    z, multipliers = rng.normal(size=with_root.n), rng.normal(size=with_root.m)
+    with np.errstate(divide="ignore"):  # sqrt(t)'' at t = 0
+        values = with_root.hessian(z, multipliers, 0.7)
+    assert np.isfinite(values).all()
+    np.testing.assert_array_equal(values, without.hessian(z, multipliers, 0.7))

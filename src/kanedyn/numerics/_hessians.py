@@ -284,7 +284,9 @@ def _compiled(model, module, t, Y, R, weights, J):
     W = np.concatenate([J.state[:, n:, :], J.inputs[:, n:, :]], axis=2).reshape(N, -1)
     inputs = np.concatenate([R, J.f[:, n:], weights, W], axis=1)
     H = module.hessians_rows(T, np.ascontiguousarray(Y), model._p, inputs)[0]
-    if math.isfinite(np.add.reduce(H, axis=None)):  # (every entry finite, as a rule)
+    with np.errstate(over="ignore", invalid="ignore"):  # (a sum of large entries)
+        total = np.add.reduce(H, axis=None)
+    if math.isfinite(total):  # every entry finite (as a rule, found so at once)
         return H
     bad = np.flatnonzero(~np.isfinite(H).reshape(N, -1).all(axis=1))
     if len(bad):  # M's factors are written out without a check of their pivots

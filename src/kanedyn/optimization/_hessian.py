@@ -56,11 +56,11 @@ __all__ = ["LagrangianHessian", "HESSIANS"]
 #: the values of ``solve(hessian=...)``
 HESSIANS = ("limited-memory", "exact")
 
-#: the points whose second derivatives are evaluated at once: the values'
 #: a map of the points alike (:meth:`_Points.maps`) of at most this many
 #: entries, zeros too, is held dense (its product made by BLAS, not SciPy)
 DENSE_MAP_SIZE = 1 << 12
 
+#: the points whose second derivatives are evaluated at once: the values'
 #: intermediates (arrays of (points, nu, nu)) are bounded by this many
 #: points, not by the nodes
 CHUNK_POINTS = 4096
@@ -123,6 +123,8 @@ class _Points:
         same_map = D is not None and D.shape[0] > 0 and D.strides[0] == 0
         self.alike = self._count if same_map else None
         self._maps = None
+        #: the columns of the flattened F'' that a dense map takes (see maps)
+        self.dense_columns = None
 
     @staticmethod
     def _point_pattern(D, pattern, duration):
@@ -147,12 +149,16 @@ class _Points:
         entries of :meth:`pattern` (``first`` is ``None`` without a free
         duration); of the first point alone when the points are ``alike``
         (no free duration then), ``second`` then a dense array where it holds
-        at most :data:`DENSE_MAP_SIZE` entries.  Made on first use: only D's
-        nonzero entries take part."""
+        at most :data:`DENSE_MAP_SIZE` entries, of the columns
+        ``dense_columns`` of the flattened :math:`F''` alone.  Made on first
+        use: only D's nonzero entries take part."""
         if self._maps is None:
             second, first = self._make_maps(steps)
             if self.alike is not None and second.shape[0] * second.shape[1] <= DENSE_MAP_SIZE:
-                second = second.toarray()  # (a dense product is quicker at this size)
+                # (a dense product is quicker at this size) over the columns
+                # it uses: another entry of F'' (not finite, say) takes no part
+                self.dense_columns = np.unique(second.indices)
+                second = second[:, self.dense_columns].toarray()
             self._maps = second, first
         return self._maps
 
@@ -368,7 +374,10 @@ class LagrangianHessian:
         nu = self.nu
         values = out[p0:p1]
         if points.alike is not None:  # one point's map, each point's sums as the whole map's
-            values.reshape(k1 - k0, points.alike)[...] = Hu.reshape(k1 - k0, nu * nu) @ second.T
+            flat = Hu.reshape(k1 - k0, nu * nu)
+            if points.dense_columns is not None:
+                flat = flat[:, points.dense_columns]
+            values.reshape(k1 - k0, points.alike)[...] = flat @ second.T
             return
         values[...] = _row_block(second, p0, p1, k0 * nu * nu, k1 * nu * nu) @ Hu.reshape(-1)
         if stepped is not None and first is not None:

@@ -289,7 +289,7 @@ class Defects:
         # where each stage's points are among the evaluated groups: a slice of
         # the nodes' group, or a group of its own (see points)
         interior = 1 if any(s.node is not None for s in self.stages) else 0
-        self._block_list = self._widths = None  # see _blocks
+        self._block_list = None  # see _blocks
         #: whether the nodes are a group of their own (some stage is a node)
         self._node_group = bool(interior)
         self._stage_groups = []
@@ -358,17 +358,18 @@ class Defects:
         return E.ravel()
 
     def _blocks(self):
-        """The column groups of each interval's rows: ``("y", o)``, ``("r",
-        o)``, ``"p"``, ``"T"``, ``"t0"`` (made once: the layout is fixed), and
-        their widths in ``self._widths`` (:meth:`_block_width`)."""
+        """``(block, width)`` of the column groups of each interval's rows:
+        ``("y", o)``, ``("r", o)``, ``"p"``, ``"T"``, ``"t0"``, and their
+        columns in each row (:meth:`_block_width`) (made once: the layout is
+        fixed)."""
         if self._block_list is None:
             L = self.layout
             offsets = sorted({o for s in self.stages for o in (0, 1) if s.a[o]} | {0, 1})
             blocks = [("y", o) for o in offsets]
             if L.n_inputs:
                 blocks += [("r", o) for o in offsets if any(s.a[o] for s in self.stages)]
-            self._block_list = tuple(blocks + L.shared_blocks())
-            self._widths = tuple(self._block_width(b) for b in self._block_list)
+            self._block_list = tuple((b, self._block_width(b))
+                                     for b in blocks + L.shared_blocks())
         return self._block_list
 
     def pattern(self):
@@ -380,7 +381,7 @@ class Defects:
         k = np.arange(N - 1)[:, None, None]
         i = np.arange(nd)[None, :, None]
         rows, cols = [], []
-        for block in self._blocks():
+        for block, _ in self._blocks():
             if isinstance(block, str):
                 c = L.shared_columns(block)
             elif block[0] == "y" and self._difference_only(block[1]):
@@ -408,10 +409,9 @@ class Defects:
         rates = self._stage_values([(r,) for r in time_rates]) if time_rates else None
         shape = (N - 1, len(self.rows))  # each block's values: shape + (its width,)
         size = shape[0] * shape[1]
-        blocks = self._blocks()
-        values = np.empty(size * sum(self._widths))
+        values = np.empty(size * sum(width for _, width in self._blocks()))
         start = 0
-        for block, width in zip(blocks, self._widths):
+        for block, width in self._blocks():
             # each block written in place: the blocks not joined
             out = values[start:start + size * width].reshape(shape + (width,))
             start += size * width

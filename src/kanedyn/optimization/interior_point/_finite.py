@@ -16,5 +16,7 @@ def all_finite(values):
     Their sum decides at once when it is finite (a term that is infinite or
     NaN makes it so too); only when it is not (an infinite or NaN entry, or
     finite entries whose sum overflows) are the entries tested one by one.
+    Called under the solver's ``np.errstate(all="ignore")`` (the sum may
+    overflow, or meet infinities of both signs).
     """
     return math.isfinite(np.add.reduce(values, axis=None)) or bool(np.isfinite(values).all())

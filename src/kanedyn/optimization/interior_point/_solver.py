@@ -327,7 +327,7 @@ class _Run:
             gradient = np.asarray(self.nlp.gradient(x_full), dtype=float)
             jacobian = np.asarray(self.nlp.jacobian(x_full), dtype=float)
         self.timings["callbacks"] += time.perf_counter() - t
-        if not (np.isfinite(gradient).all() and np.isfinite(jacobian).all()):
+        if not (all_finite(gradient) and all_finite(jacobian)):
             return False
         R.scale_at(x_full, gradient, jacobian)
         #: the Jacobian's entries that are not (relatively) zero at the start,
@@ -470,7 +470,7 @@ class _Run:
                 quasi_newton.update(x - x_last, change)
             quasi_newton.last = (x, e.gradient, e.jacobian)
             hessian = quasi_newton.compact(self.n)
-            finite = np.isfinite(hessian.V).all()
+            finite = all_finite(hessian.V)
         self.timings["hessian"] += time.perf_counter() - t
         return hessian if finite else None
 
