@@ -51,16 +51,7 @@ __all__ = ["hessians_unavailable", "weighted_hessians", "weighted_hessian_patter
 
 
 def hessians_unavailable(model):
-    """Why :func:`weighted_hessians` cannot serve ``model`` (text), or ``None``
-    (found once, then kept by the model: what it asks of the model does not
-    change)."""
-    kept = getattr(model, "__dict__", {})
-    if "_hessians_unavailable" not in kept:
-        kept["_hessians_unavailable"] = _hessians_unavailable(model)
-    return kept["_hessians_unavailable"]
-
-
-def _hessians_unavailable(model):
+    """Why :func:`weighted_hessians` cannot serve ``model`` (text), or ``None``."""
     from ._jacobians import derivatives_unavailable
     reason = derivatives_unavailable(model)
     if reason:

@@ -606,7 +606,16 @@ def derivatives_unavailable(model, modes_given=False):
     """Why ``model`` has no exact derivatives (text), or ``None``.
 
     A model with contacts has them within given contact modes only
-    (``modes_given``: asked for so)."""
+    (``modes_given``: asked for so).  Found once, then kept by the model
+    (what it asks of the model does not change)."""
+    kept = getattr(model, "__dict__", {})
+    key = "_jacobian_reason_modes" if modes_given else "_jacobian_reason"
+    if key not in kept:
+        kept[key] = _derivatives_unavailable(model, modes_given)
+    return kept[key]
+
+
+def _derivatives_unavailable(model, modes_given):
     if not hasattr(model, "jacobians"):
         return f"a {type(model).__name__} has no exact derivatives"
     name = getattr(getattr(model, "scheme", None), "name", None)
@@ -645,12 +654,8 @@ def _constraint_rows_are_velocity_rows(model):
 
 
 def _check_available(model, modes_given=False):
-    """Raise why ``model`` has no exact derivatives; what was found is kept by the
-    model (it does not change)."""
-    key = "_jacobian_reason_modes" if modes_given else "_jacobian_reason"
-    reason = model.__dict__.get(key)
-    if reason is None:
-        reason = model.__dict__[key] = derivatives_unavailable(model, modes_given) or ""
+    """Raise why ``model`` has no exact derivatives (:func:`derivatives_unavailable`)."""
+    reason = derivatives_unavailable(model, modes_given)
     if reason:
         raise ModelError(reason)
 
