@@ -26,6 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .kkt._dense import check_structure
+from .kkt._periodic import PeriodicIndex, index_arguments, periodic
 
 __all__ = ["ReducedNLP", "INFINITE_BOUND", "compact_index_type"]
 
@@ -36,7 +37,8 @@ INFINITE_BOUND = 1e19
 _CHUNK = 1 << 16
 
 #: J^T y of at most this many entries sums an array of their products
-#: (``np.bincount``); beyond, SciPy's product, which makes none
+#: (``np.bincount``); beyond, SciPy's product, which makes none (or, of
+#: patterns held as runs, the KKT kernel's, the same sums in the same order)
 PRODUCTS_ARRAY_ENTRIES = 1 << 16
 
 
@@ -71,8 +73,10 @@ class ReducedNLP:
         Which kept rows are equalities; the others have a slack each.
     jacobian_structure : (rows, cols)
         The reduced Jacobian's pattern, ``int32`` (``int64`` beyond its
-        range), read-only (a KKT factorization may keep it); the Hessian's is
-        made when asked (:meth:`hessian_structure`), not held.
+        range), read-only (a KKT factorization may keep it), or after
+        :meth:`hold_periodic` each as a
+        :class:`~.kkt._periodic.PeriodicIndex` where that holds less; the
+        Hessian's is made when asked (:meth:`hessian_structure`), not held.
     hessian_size : int
         The reduced Hessian's entries.
     row_scale : ndarray, shape (m,), or float
@@ -135,6 +139,8 @@ class ReducedNLP:
         self.hessian_size = int(np.count_nonzero(use))
         #: every row kept: the full rows are taken as they are (no index)
         self._all_rows = self.m == m_full
+        #: the patterns held and given as runs where they repeat (hold_periodic)
+        self._periodic = False
         self.objective_scale = 1.0
         self.row_scale = 1.0
         #: each Jacobian entry's row scale, or ``None`` while every row's is 1
@@ -213,7 +219,17 @@ class ReducedNLP:
         column_of = self._column_of()
         hr, hc = column_of[hr], column_of[hc]
         use = (hr >= 0) & (hc >= 0)
-        return _read_only(hr[use], hc[use])
+        structure = _read_only(hr[use], hc[use])
+        return tuple(periodic(index) for index in structure) if self._periodic else structure
+
+    def hold_periodic(self):
+        """Hold the Jacobian's pattern, and give the Hessian's, as
+        :class:`~.kkt._periodic.PeriodicIndex` runs where they repeat (large
+        collocation patterns: no index arrays held while the solver
+        iterates).  Only where the KKT kernel is available: the products
+        with the pattern are then the kernel's (:meth:`transpose_times`)."""
+        self._periodic = True
+        self.jacobian_structure = tuple(periodic(index) for index in self.jacobian_structure)
 
     # -------------------------------------------------------- evaluation
     def full(self, x):
@@ -270,6 +286,13 @@ class ReducedNLP:
         entries by SciPy's product of the entries as they are (no array of
         their products; the same sums in the same order, slower to set up)."""
         rows, cols = self.jacobian_structure
+        if isinstance(rows, PeriodicIndex) or isinstance(cols, PeriodicIndex):
+            from .kkt._kernel import kernel
+            out = np.empty(self.n)
+            values = np.ascontiguousarray(jacobian_values, dtype=float)
+            kernel().transpose_product(out, values, np.ascontiguousarray(y, dtype=float),
+                                       *index_arguments(rows), *index_arguments(cols))
+            return out
         if jacobian_values.size <= PRODUCTS_ARRAY_ENTRIES:
             weights = y[rows]
             weights *= jacobian_values

@@ -299,6 +299,8 @@ class _Run:
             return False
         self._set_bounds()
         kkt_type, self.note = kkt_class(s.linear_solver)
+        if issubclass(kkt_type, SparseKKT):  # the kernel is there: patterns as runs
+            R.hold_periodic()
         # no pair through an entry that is zero at the start (a structural
         # zero): the first factorization would meet its zero pivot
         paired = {"pairable": self.pairable} if issubclass(kkt_type, SparseKKT) else {}

@@ -8,6 +8,8 @@
                and pivots with L stored by its envelope, values only
 ``_ordering``  the elimination order of both (the pairs, the band)
 ``_analyses``  their symbolic analyses, kept for the next solve
+``_periodic``  index arrays held as periodic runs (the collocation's patterns
+               without their index arrays), which the kernel walks
 ``_kernel``    their compiled C kernel
 ``_low_rank``  ``LowRankKKT``: a limited-memory Hessian's low-rank part on
                any of them (Sherman–Morrison–Woodbury, Haynsworth's inertia)

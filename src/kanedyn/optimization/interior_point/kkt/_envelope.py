@@ -31,8 +31,10 @@ docstring); only the storage and the loops differ:
   is 5 and 1).
 
 Held per row of K: the order, its inverse and the kinds of the pivots, the
-envelope's pointers, :math:`D`, the zero pivots' flags; and the Hessian's
-structure (the caller keeps the Jacobian's).  The sums of the
+envelope's pointers, :math:`D`, the zero pivots' flags; and the structures
+as given (read-only arrays, or :class:`~._periodic.PeriodicIndex` runs,
+which the kernel walks in the same entry order: the interior point gives
+its patterns so, and then holds no index array of them).  The sums of the
 factorization differ in their order from the sparse kernel's (dot
 products, not scatters): the same factors up to rounding.  Where the order
 has no band (many rows joined to distant ones) the envelope holds zeros
@@ -56,6 +58,7 @@ import numpy as np
 
 from . import _sparse
 from ._analyses import cached_analysis
+from ._periodic import PeriodicIndex, index_arguments
 from ._sparse import _INDEX, KKTAnalysis, SparseKKT, _structure
 
 __all__ = ["EnvelopeKKT", "EnvelopeAnalysis"]
@@ -91,20 +94,24 @@ class EnvelopeAnalysis:
 
 
 def _read_only(structure, name, n_rows, n_cols):
-    """``structure``'s arrays, checked, as int32 arrays that cannot be
-    written: the given ones when they are so already (the interior point's,
-    :mod:`.._reduced`), else copies.  The factorization indexes its storage
-    by them at every call, so they must not change after the analysis."""
+    """``(checked, kept)``: ``structure``'s arrays checked, as int32 arrays
+    (for the analysis), and what the object keeps of them: a given
+    :class:`~._periodic.PeriodicIndex` (its array checked, not kept) or an
+    int32 array that cannot be written, the given one when it is so already
+    (the interior point's, :mod:`.._reduced`), else a copy.  The
+    factorization indexes its storage by them at every call, so they must
+    not change after the analysis."""
     arrays = _structure(structure, name, n_rows, n_cols)
     kept = []
     for given, checked in zip(structure, arrays):
-        if checked is given and not checked.flags.writeable:
-            kept.append(checked)
+        if isinstance(given, PeriodicIndex) or (checked is given
+                                                and not checked.flags.writeable):
+            kept.append(given)
             continue
         copy = checked.copy()
         copy.flags.writeable = False
         kept.append(copy)
-    return tuple(kept)
+    return tuple(arrays), tuple(kept)
 
 
 class EnvelopeKKT(SparseKKT):
@@ -116,12 +123,19 @@ class EnvelopeKKT(SparseKKT):
 
     def __init__(self, n, m, hessian_structure, jacobian_structure, **options):
         n, m = _sparse._size(n, "n"), _sparse._size(m, "m")
-        super().__init__(n, m, _read_only(hessian_structure, "hessian_structure", n, n),
-                         _read_only(jacobian_structure, "jacobian_structure", m, n),
-                         **options)
+        hessian, kept_hessian = _read_only(hessian_structure, "hessian_structure", n, n)
+        jacobian, kept_jacobian = _read_only(jacobian_structure, "jacobian_structure", m, n)
+        self._hessian_structure, self._jacobian_structure = kept_hessian, kept_jacobian
+        #: the kernel's arguments of the four index arrays (kd_index's runs and table)
+        self._indices = tuple(arg for index in kept_hessian + kept_jacobian
+                              for arg in index_arguments(index))
+        super().__init__(n, m, hessian, jacobian, **options)
 
     def _structures(self):
-        return self._hessian_structure, self._jacobian_structure
+        """The structures as arrays (made from runs where they are held so:
+        an analysis again is rare)."""
+        return tuple(tuple(np.asarray(index) for index in structure)
+                     for structure in (self._hessian_structure, self._jacobian_structure))
 
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (:func:`elimination_order`, ``self._delayed`` last), the
@@ -130,7 +144,6 @@ class EnvelopeKKT(SparseKKT):
         factors."""
         n, m, N = self.n, self.m, self.size
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
-        self._hessian_structure, self._jacobian_structure = (hr, hc), (jr, jc)
         self._numeric = None  # not held while a new order is made; the next factor
         # makes it again (_storage); nor the last analysis's pointers
         self._rowptr = self._inverse = None
@@ -147,7 +160,8 @@ class EnvelopeKKT(SparseKKT):
         self.analysis = KKTAnalysis(
             n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
             symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
-            sum(a.nbytes for a in (self._permutation, self._inverse, self._kind, hr, hc)),
+            sum(a.nbytes for a in (self._permutation, self._inverse, self._kind,
+                                   *self._hessian_structure)),
             24 * N + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
@@ -184,11 +198,11 @@ class EnvelopeKKT(SparseKKT):
     def _factor(self, hv, jv, diagonals):
         """The kernel's factorization in the current order: its inertia."""
         Lx, D = self._storage()
-        (hr, hc), (jr, jc) = self._structures()
+        hessian, jacobian = self._indices[:4], self._indices[4:]
         self._values = (hv, jv, diagonals)
         dx, dc, constants = diagonals
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, self._kind, self._inverse, hr, hc, hv, jr, jc, jv, dx, dc,
+            Lx, self._rowptr, D, self._kind, self._inverse, *hessian, hv, *jacobian, jv, dx, dc,
             self._zero, self.zero_pivot, *constants)
         return tuple(inertia)
 
@@ -202,6 +216,7 @@ class EnvelopeKKT(SparseKKT):
     def matvec(self, x):
         def product(y, v):
             hv, jv, (dx, dc, constants) = self._values
-            self._kernel.structured_matvec(y, v, *self._hessian_structure, hv,
-                                           *self._jacobian_structure, jv, dx, dc, *constants)
+            hessian, jacobian = self._indices[:4], self._indices[4:]
+            self._kernel.structured_matvec(y, v, *hessian, hv, *jacobian, jv, dx, dc,
+                                           *constants)
         return self._multiplied(x, product)

@@ -47,14 +47,25 @@ hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
 diagonal_c, zero, tolerance, n, x_constant, x_added, c_constant)``
     the values summed into the envelope (as ``factor`` sums them) and
     factored in place, the pivots judged as ``factor`` judges them; returns
-    ``(n_positive, n_negative, n_zero, largest)``.
+    ``(n_positive, n_negative, n_zero, largest)``.  Each of the four index
+    arrays is given as two arguments, its runs (int64, three a run) and
+    their table (int32): a :class:`~._periodic.PeriodicIndex`'s, or one run
+    of one repeat whose table is the array
+    (:func:`~._periodic.index_arguments`); the entries are walked in the
+    array's order.
 ``envelope_solve(x, rowptr, Lx, D, pair, permutation, k)``
     ``solve`` with those factors (N doubles of scratch).
 ``structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
 jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
 x_constant, x_added, c_constant)``
     ``y = K x`` from the structures and values (K's own order; the diagonals
-    as ``factor`` takes them).
+    as ``factor`` takes them; the index arrays as ``envelope_factor`` takes
+    them).
+``transpose_product(out, values, y, rows, cols)``
+    ``out = Jᵀ y`` of the entries ``(rows, cols, values)`` (the index arrays
+    as ``envelope_factor`` takes them, checked to lie in the matrix), summed
+    entry by entry in their order, as SciPy's product of a COO matrix sums
+    them.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
     ``y = K x`` from the stored (permuted, upper) values.
 ``invalid(a_0, ..., a_k, nonnegative)``
@@ -107,7 +118,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 21"
+_GENERATION = "kanedyn sparse LDL 23"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -155,6 +166,67 @@ static int kd_views(PyObject *args, int count, Py_buffer *views, const Py_ssize_
             return -1;
         }
     return 0;
+}
+
+/* an index array held as runs (PeriodicIndex of kkt/_periodic.py), walked
+   in entry order: runs of (period, repeats, first) over an int32 table; a
+   run of one repeat holds its entries at table[first:], one of more its bases
+   there and their steps after them, its entry s * period + j at
+   base[j] + s * step[j].  An int32 array is one run of one repeat. */
+typedef struct {
+    const int64_t *runs;
+    const int32_t *table;
+    Py_ssize_t run;
+    int64_t j, s;
+} kd_index;
+
+/* the index of the buffers `runs` (int64) and `table` (int32), checked to
+   hold `count` entries whose runs lie in the table: -1 with the error set
+   (the entries' values are the caller's to have checked) */
+static int kd_index_of(const Py_buffer *runs, const Py_buffer *table, Py_ssize_t count,
+                       const char *name, kd_index *x) {
+    const int64_t *r = runs->buf;
+    Py_ssize_t n_runs = KD_COUNT(*runs) / 3, size = KD_COUNT(*table);
+    int64_t total = 0;
+    int ok = KD_COUNT(*runs) % 3 == 0;
+    for (Py_ssize_t i = 0; ok && i < n_runs; i++) {
+        int64_t period = r[3 * i], repeats = r[3 * i + 1], first = r[3 * i + 2];
+        int64_t held = repeats > 1 ? 2 * period : period;
+        ok = period > 0 && repeats > 0 && first >= 0 && first <= size - held;
+        total += period * repeats;
+    }
+    if (!ok || total != count) {
+        PyErr_Format(PyExc_ValueError, "%s: runs that do not make %zd entries of their table",
+                     name, count);
+        return -1;
+    }
+    x->runs = r;
+    x->table = table->buf;
+    x->run = 0;
+    x->j = x->s = 0;
+    return 0;
+}
+
+/* the entries themselves where the index is an array (one run of one
+   repeat), else NULL: the loops over an array take its entries directly */
+static inline const int32_t *kd_plain(const kd_index *x, Py_ssize_t count) {
+    if (count == 0) return x->table;
+    return x->runs[1] == 1 && x->runs[0] == count ? x->table + x->runs[2] : NULL;
+}
+
+/* the index's next entry */
+static inline int32_t kd_next(kd_index *x) {
+    const int64_t *r = x->runs + 3 * x->run;
+    const int32_t *at = x->table + r[2] + x->j;
+    int32_t value = x->s ? (int32_t)(at[0] + x->s * (int64_t)at[r[0]]) : at[0];
+    if (++x->j == r[0]) {
+        x->j = 0;
+        if (++x->s == r[1]) {
+            x->s = 0;
+            x->run++;
+        }
+    }
+    return value;
 }
 
 /* the walk from i up the elimination tree to the first node marked for row k:
@@ -1273,14 +1345,15 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
 
 /* envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
    hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
-   diagonal_c, zero, tolerance): the values summed into the envelope (as
+   diagonal_c, zero, tolerance), each index as its runs and table (kd_index):
+   the values summed into the envelope (as
    factor sums them into Ax: the Hessian's, the Jacobian's, diagonal_x, minus
    diagonal_c) and factored in place, row by row: w = L(f:k, f:k)^-1 K(f:k, k)
    by a dot product per column, then row k of L is D^-1 w (blockwise) and
    d_k = K(k, k) - (row k of L) w; the pivots judged as factor judges them.
    Returns (n_positive, n_negative, n_zero, K's largest magnitude) */
-enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HR, V_HC, V_HV, V_JR, V_JC, V_JV, V_DX, V_DC,
-      V_ZERO, V_COUNT};
+enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HR_RUNS, V_HR, V_HC_RUNS, V_HC, V_HV,
+      V_JR_RUNS, V_JR, V_JC_RUNS, V_JC, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
 
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 5) {
@@ -1289,17 +1362,19 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 4, 4, 8, 4, 4, 8, 8, 8, 1};
-    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 1};
+    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 4, 8, 4, 8, 8, 4, 8, 4, 8, 8, 8,
+                                             1};
+    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
+                                          1};
     static const char *const names[V_COUNT] = {
-        "Lx", "rowptr", "D", "pair", "inverse", "hessian rows", "hessian cols",
-        "hessian_values", "jacobian rows", "jacobian cols", "jacobian_values", "diagonal_x",
-        "diagonal_c", "zero"};
+        "Lx", "rowptr", "D", "pair", "inverse", "hessian rows' runs", "hessian rows",
+        "hessian cols' runs", "hessian cols", "hessian_values", "jacobian rows' runs",
+        "jacobian rows", "jacobian cols' runs", "jacobian cols", "jacobian_values",
+        "diagonal_x", "diagonal_c", "zero"};
     Py_buffer v[V_COUNT];
     if (kd_views(args, V_COUNT, v, size, writable, names) < 0) return NULL;
     double *Lx = v[V_LX].buf, *D = v[V_D].buf;
     const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
-    const int32_t *hr = v[V_HR].buf, *hc = v[V_HC].buf, *jr = v[V_JR].buf, *jc = v[V_JC].buf;
     const int8_t *pair = v[V_PAIR].buf;
     const double *hv = v[V_HV].buf, *jv = v[V_JV].buf;
     int8_t *zero = v[V_ZERO].buf;
@@ -1310,11 +1385,17 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
         return NULL;
     }
     Py_ssize_t nx = diagonals.n, nc = N - nx;
+    kd_index hr, hc, jr, jc;
+    if (kd_index_of(&v[V_HR_RUNS], &v[V_HR], nh, "hessian rows", &hr) < 0
+        || kd_index_of(&v[V_HC_RUNS], &v[V_HC], nh, "hessian cols", &hc) < 0
+        || kd_index_of(&v[V_JR_RUNS], &v[V_JR], nj, "jacobian rows", &jr) < 0
+        || kd_index_of(&v[V_JC_RUNS], &v[V_JC], nj, "jacobian cols", &jc) < 0) {
+        kd_release(v, V_COUNT);
+        return NULL;
+    }
     if (KD_COUNT(v[V_PAIR]) != N
         || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
-        || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_HR]) != nh || KD_COUNT(v[V_HC]) != nh
-        || KD_COUNT(v[V_JR]) != nj || KD_COUNT(v[V_JC]) != nj
-        || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)) {
+        || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)) {
         kd_release(v, V_COUNT);
         PyErr_SetString(PyExc_ValueError, "envelope_factor: arrays of inconsistent sizes");
         return NULL;
@@ -1331,13 +1412,16 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     memset(Lx, 0, sizeof(double) * (size_t)(N ? rowptr[N] : 0));
     for (Py_ssize_t k = 0; k < N; k++) D[k] = 0.0;
+    const int32_t *phr = kd_plain(&hr, nh), *phc = kd_plain(&hc, nh);
+    const int32_t *pjr = kd_plain(&jr, nj), *pjc = kd_plain(&jc, nj);
     for (Py_ssize_t e = 0; e < nh; e++) {
-        int32_t a = inv[hr[e]], b = inv[hc[e]];
+        int32_t a = inv[phr ? phr[e] : kd_next(&hr)], b = inv[phc ? phc[e] : kd_next(&hc)];
         if (a == b) D[a] += hv[e];
         else Lx[KD_PLACE(rowptr, a, b)] += hv[e];
     }
     for (Py_ssize_t e = 0; e < nj; e++) {
-        int32_t a = inv[nx + jr[e]], b = inv[jc[e]];
+        int32_t a = inv[nx + (pjr ? pjr[e] : kd_next(&jr))];
+        int32_t b = inv[pjc ? pjc[e] : kd_next(&jc)];
         Lx[KD_PLACE(rowptr, a, b)] += jv[e];
     }
     for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += kd_dx(&diagonals, j);
@@ -1470,29 +1554,40 @@ static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
 
 /* structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
    jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
-   x_constant, x_added, c_constant):
-   y = K x from the values as factor_envelope took them (K's own order) */
+   x_constant, x_added, c_constant), each index as its runs and table
+   (kd_index): y = K x from the values as factor_envelope took them (K's own
+   order) */
+enum {M_Y, M_X, M_HR_RUNS, M_HR, M_HC_RUNS, M_HC, M_HV, M_JR_RUNS, M_JR, M_JC_RUNS, M_JC,
+      M_JV, M_DX, M_DC, M_COUNT};
+
 static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[10] = {8, 8, 4, 4, 8, 4, 4, 8, 8, 8};
-    static const int writable[10] = {1, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-    static const char *const names[10] = {"y", "x", "hessian rows", "hessian cols",
-                                          "hessian_values", "jacobian rows", "jacobian cols",
-                                          "jacobian_values", "diagonal_x", "diagonal_c"};
-    Py_buffer v[10];
-    if (kd_views(args, 10, v, size, writable, names) < 0) return NULL;
-    double *y = v[0].buf;
-    const double *x = v[1].buf, *hv = v[4].buf, *jv = v[7].buf;
-    const int32_t *hr = v[2].buf, *hc = v[3].buf, *jr = v[5].buf, *jc = v[6].buf;
-    Py_ssize_t N = KD_COUNT(v[0]), nh = KD_COUNT(v[4]), nj = KD_COUNT(v[7]);
+    static const Py_ssize_t size[M_COUNT] = {8, 8, 8, 4, 8, 4, 8, 8, 4, 8, 4, 8, 8, 8};
+    static const int writable[M_COUNT] = {1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
+    static const char *const names[M_COUNT] = {
+        "y", "x", "hessian rows' runs", "hessian rows", "hessian cols' runs", "hessian cols",
+        "hessian_values", "jacobian rows' runs", "jacobian rows", "jacobian cols' runs",
+        "jacobian cols", "jacobian_values", "diagonal_x", "diagonal_c"};
+    Py_buffer v[M_COUNT];
+    if (kd_views(args, M_COUNT, v, size, writable, names) < 0) return NULL;
+    double *y = v[M_Y].buf;
+    const double *x = v[M_X].buf, *hv = v[M_HV].buf, *jv = v[M_JV].buf;
+    Py_ssize_t N = KD_COUNT(v[M_Y]), nh = KD_COUNT(v[M_HV]), nj = KD_COUNT(v[M_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, 10, &v[8], &v[9], N, &diagonals) < 0) {
-        kd_release(v, 10);
+    if (kd_diagonals_of(args, M_COUNT, &v[M_DX], &v[M_DC], N, &diagonals) < 0) {
+        kd_release(v, M_COUNT);
         return NULL;
     }
     Py_ssize_t nx = diagonals.n, nc = N - nx;
-    if (KD_COUNT(v[1]) != N || KD_COUNT(v[2]) != nh || KD_COUNT(v[3]) != nh
-        || KD_COUNT(v[5]) != nj || KD_COUNT(v[6]) != nj) {
-        kd_release(v, 10);
+    kd_index hr, hc, jr, jc;
+    if (kd_index_of(&v[M_HR_RUNS], &v[M_HR], nh, "hessian rows", &hr) < 0
+        || kd_index_of(&v[M_HC_RUNS], &v[M_HC], nh, "hessian cols", &hc) < 0
+        || kd_index_of(&v[M_JR_RUNS], &v[M_JR], nj, "jacobian rows", &jr) < 0
+        || kd_index_of(&v[M_JC_RUNS], &v[M_JC], nj, "jacobian cols", &jc) < 0) {
+        kd_release(v, M_COUNT);
+        return NULL;
+    }
+    if (KD_COUNT(v[M_X]) != N) {
+        kd_release(v, M_COUNT);
         PyErr_SetString(PyExc_ValueError, "structured_matvec: arrays of inconsistent sizes");
         return NULL;
     }
@@ -1500,18 +1595,68 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < nx; k++) y[k] = kd_dx(&diagonals, k) * x[k];
     for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -kd_dc(&diagonals, i) * x[nx + i];
+    const int32_t *phr = kd_plain(&hr, nh), *phc = kd_plain(&hc, nh);
+    const int32_t *pjr = kd_plain(&jr, nj), *pjc = kd_plain(&jc, nj);
     for (Py_ssize_t e = 0; e < nh; e++) {
-        int32_t r = hr[e], c = hc[e];
+        int32_t r = phr ? phr[e] : kd_next(&hr), c = phc ? phc[e] : kd_next(&hc);
         y[r] += hv[e] * x[c];
         if (r != c) y[c] += hv[e] * x[r];
     }
     for (Py_ssize_t e = 0; e < nj; e++) {
-        int32_t r = (int32_t)nx + jr[e], c = jc[e];
+        int32_t r = (int32_t)nx + (pjr ? pjr[e] : kd_next(&jr));
+        int32_t c = pjc ? pjc[e] : kd_next(&jc);
         y[r] += jv[e] * x[c];
         y[c] += jv[e] * x[r];
     }
     Py_END_ALLOW_THREADS
-    kd_release(v, 10);
+    kd_release(v, M_COUNT);
+    Py_RETURN_NONE;
+}
+
+/* transpose_product(out, values, y, rows' runs, rows, cols' runs, cols):
+   out = J^T y, J's entries (rows, cols, values) as kd_index and values,
+   out set to zero, then out[cols[e]] += values[e] * y[rows[e]] entry by entry
+   (SciPy's product of a COO matrix, the same sums in the same order) */
+static PyObject *kd_transpose_product(PyObject *self, PyObject *args) {
+    static const Py_ssize_t size[7] = {8, 8, 8, 8, 4, 8, 4};
+    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
+    static const char *const names[7] = {"out", "values", "y", "rows' runs", "rows",
+                                         "cols' runs", "cols"};
+    Py_buffer v[7];
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 7) {
+        PyErr_SetString(PyExc_TypeError, "7 arguments expected");
+        return NULL;
+    }
+    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    double *out = v[0].buf;
+    const double *values = v[1].buf, *y = v[2].buf;
+    Py_ssize_t n = KD_COUNT(v[0]), m = KD_COUNT(v[2]), nnz = KD_COUNT(v[1]);
+    kd_index rows, cols;
+    if (kd_index_of(&v[3], &v[4], nnz, "rows", &rows) < 0
+        || kd_index_of(&v[5], &v[6], nnz, "cols", &cols) < 0) {
+        kd_release(v, 7);
+        return NULL;
+    }
+    /* the entries' values checked here: this product takes no other check */
+    for (Py_ssize_t e = 0; e < nnz; e++) {
+        int32_t r = kd_next(&rows), c = kd_next(&cols);
+        if (r < 0 || r >= m || c < 0 || c >= n) {
+            kd_release(v, 7);
+            PyErr_Format(PyExc_ValueError, "transpose_product: entry %zd (%d, %d) outside "
+                         "the %zd x %zd matrix", e, (int)r, (int)c, m, n);
+            return NULL;
+        }
+    }
+    kd_index_of(&v[3], &v[4], nnz, "rows", &rows);
+    kd_index_of(&v[5], &v[6], nnz, "cols", &cols);
+    Py_BEGIN_ALLOW_THREADS
+    for (Py_ssize_t k = 0; k < n; k++) out[k] = 0.0;
+    for (Py_ssize_t e = 0; e < nnz; e++) {
+        int32_t r = kd_next(&rows), c = kd_next(&cols);
+        out[c] += values[e] * y[r];
+    }
+    Py_END_ALLOW_THREADS
+    kd_release(v, 7);
     Py_RETURN_NONE;
 }
 
@@ -1534,6 +1679,8 @@ static PyMethodDef kd_methods[] = {
     {"envelope_solve", kd_envelope_solve, METH_VARARGS, "solve with envelope factors"},
     {"structured_matvec", kd_structured_matvec, METH_VARARGS,
      "y = K x from the structures and values"},
+    {"transpose_product", kd_transpose_product, METH_VARARGS,
+     "J^T y from J's entries, in their order"},
     {NULL, NULL, 0, NULL}};
 
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,

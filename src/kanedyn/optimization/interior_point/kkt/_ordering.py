@@ -351,7 +351,9 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     if ordering != "rcm" and m and jr.size:
         inside = ~late[n + jr] & ~late[jc]
 
-        def pattern_of(entries):
+        def pattern_of(entries):  # (no copy of the entries where all are taken)
+            if entries.all():
+                return _pattern((m, n), jr, jc)
             return _pattern((m, n), jr[entries], jc[entries])
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
         if pairable is None:

@@ -165,6 +165,9 @@ _LIMIT = np.iinfo(_INDEX).max
 #: freed memory is handed back to the system (:func:`_return_freed_memory`)
 RETURN_FREED_BYTES = 16 * 2 ** 20
 
+#: the Jacobian's entries judged at a time by :func:`pairable_entries`
+PAIRABLE_CHUNK = 1 << 16
+
 #: the names of ``factor``'s arguments, in their order
 _FACTOR_ARGUMENTS = ("hessian_values", "jacobian_values", "diagonal_x", "diagonal_c")
 
@@ -301,11 +304,20 @@ def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
     entry of the pattern that is zero here (a structural zero: the
     collocation's Jacobian holds each defect row's derivative by every state
     and input of its node) would make a pair whose pivot is zero where the
-    variable's diagonal is."""
-    magnitude = np.abs(jacobian_values)
+    variable's diagonal is.  (Made a chunk of :data:`PAIRABLE_CHUNK` entries
+    at a time: no array of the entries' magnitudes, as of the bytes of each
+    entry of the Jacobian, beside the solver's.)"""
+    rows, values = np.asarray(jacobian_rows), np.asarray(jacobian_values)
     row_largest = np.zeros(m)
-    np.maximum.at(row_largest, jacobian_rows, magnitude)
-    return magnitude > zero_pivot * row_largest[jacobian_rows]
+    for k0 in range(0, values.size, PAIRABLE_CHUNK):
+        k1 = k0 + PAIRABLE_CHUNK
+        np.maximum.at(row_largest, rows[k0:k1], np.abs(values[k0:k1]))
+    out = np.empty(values.size, dtype=bool)
+    for k0 in range(0, values.size, PAIRABLE_CHUNK):
+        k1 = k0 + PAIRABLE_CHUNK
+        np.greater(np.abs(values[k0:k1]), zero_pivot * row_largest[rows[k0:k1]],
+                   out=out[k0:k1])
+    return out
 
 
 def _check_values(kernel, arrays, names, nonnegative=None):
@@ -665,7 +677,7 @@ class SparseKKT:
             return inertia  # zero where it was already delayed: K's own
         largest = max(self._largest_entry(), 1e-300)
         self._numeric = None  # (made again by the next factor) not held meanwhile
-        (hr, hc), (jr, _) = structures = self._structures()
+        (hr, hc), (jr, _) = self._structures()
         dx, _, (_, x_constant, added_x, _) = diagonals
         diagonal = dx.copy() if dx.size else np.full(self.n, x_constant)
         if added_x:
@@ -678,7 +690,9 @@ class SparseKKT:
         has_diagonal = np.zeros(self.n, dtype=bool)
         has_diagonal[hr[on]] = True
         has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
-        del diagonal, on
+        # the structures made again for each new order: not held through the
+        # factorizations between them
+        del diagonal, on, hr, hc, jr
         # first the pairs made again; then the band swept the other way; then
         # what still fails, delayed to the end
         found = inertia
@@ -695,7 +709,7 @@ class SparseKKT:
             if step == "pairs" and key == self._order_key:
                 continue  # the same pairs again: the same order (not made)
             self.reanalyses += 1
-            self._analyse(*structures, has_diagonal, pairable)
+            self._analyse(*self._structures(), has_diagonal, pairable)
             self._order_key = key
             found = self._factor(hv, jv, diagonals)
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
