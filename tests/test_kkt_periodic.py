@@ -17,7 +17,7 @@ import kanedyn as kd
 from kanedyn.optimization._nlp import CollocationNLP
 from kanedyn.optimization.interior_point.kkt import _periodic
 from kanedyn.optimization.interior_point.kkt._periodic import (
-    PeriodicIndex, index_arguments, periodic)
+    PeriodicIndex, entries, kernel_index, periodic)
 
 
 @pytest.fixture
@@ -67,13 +67,14 @@ def test_arrays_with_and_without_runs(small_runs):
     index = periodic(mixed)
     assert isinstance(index, PeriodicIndex) and len(index.runs) >= 3
     np.testing.assert_array_equal(np.asarray(index), mixed)
-    # the kernel's arguments: the runs and the table, or one run for an array
-    runs, table = index_arguments(index)
+    # the kernel's argument: the runs and the table, or the array itself
+    runs, table = kernel_index(index)
     assert runs is index.runs and table is index.table
-    runs, table = index_arguments(mixed)
-    np.testing.assert_array_equal(runs, [[mixed.size, 1, 0]])
-    assert table is mixed
-    assert index_arguments(np.zeros(0, dtype=np.int32))[0].shape == (0, 3)
+    assert kernel_index(mixed) is mixed
+    # any stretch of entries, made from the runs that hold it
+    for start, stop in ((0, 0), (0, 1), (5, 1203), (1199, 1338), (1300, 1837), (0, 1837)):
+        np.testing.assert_array_equal(entries(index, start, stop), mixed[start:stop])
+        np.testing.assert_array_equal(entries(mixed, start, stop), mixed[start:stop])
     noise = rng.integers(0, 1000, 5000).astype(np.int32)
     for plain in (noise, np.arange(1000), np.arange(10, dtype=np.int32)):
         assert periodic(plain) is plain
@@ -155,17 +156,16 @@ def test_transpose_product_of_runs_sums_as_the_arrays(small_runs):
     np.testing.assert_array_equal(found.view(np.uint64), expected.view(np.uint64))
 
     out = np.empty(reduced.n)
-    row_runs, row_table = index_arguments(reduced.jacobian_structure[0])
-    col_args = index_arguments(reduced.jacobian_structure[1])
+    row_runs, row_table = kernel_index(reduced.jacobian_structure[0])
+    col_index = kernel_index(reduced.jacobian_structure[1])
     beyond = row_runs.copy()
     beyond[-1, 2] = row_table.size  # a run's place past the table's end
     with pytest.raises(ValueError, match="rows: runs that do not make"):
-        kernel().transpose_product(out, values, y, beyond, row_table, *col_args)
-    with pytest.raises(ValueError, match="cols: runs that do not make"):
-        kernel().transpose_product(out, values[:-1], y, *index_arguments(rows[:-1]),
-                                   *col_args)
+        kernel().transpose_product(out, values, y, (beyond, row_table), col_index)
+    with pytest.raises(ValueError, match="not of the values' length"):
+        kernel().transpose_product(out, values[:-1], y, rows[:-1], col_index)
     with pytest.raises(ValueError, match="outside"):
-        kernel().transpose_product(out, values, y[:-1], row_runs, row_table, *col_args)
+        kernel().transpose_product(out, values, y[:-1], (row_runs, row_table), col_index)
 
 
 def test_envelope_factors_the_same_with_patterns_as_runs():

@@ -457,9 +457,13 @@ def test_the_order_kernels_refuse_patterns_that_do_not_fit():
     k.cuthill_mckee(order, i32(0, 1, 2), i32(1, 0), 1)
     assert order.tolist() == [1, 0]
     with pytest.raises(ValueError, match="outside the node array"):
-        k.compressed(i32(0, 1), 2, i32(0), i32(2), 0)
+        k.compressed(i32(0, 1), 2, (i32(0), i32(2), 0))
     with pytest.raises(ValueError, match="beyond n_nodes"):
-        k.compressed(i32(0, 3), 2, i32(0), i32(1), 0)
+        k.compressed(i32(0, 3), 2, (i32(0), i32(1), 0))
+    with pytest.raises(ValueError, match="mask not of the entries' length"):
+        k.compressed(i32(0, 1), 2, (i32(0), i32(1), 0, np.ones(2, dtype=bool)))
+    with pytest.raises(ValueError, match="rows: runs that do not make"):
+        k.csr(2, 2, False, ((np.array([[2, 2, 0]]), i32(0, 1)), i32(0, 1, 0, 1), 0))
 
 
 def test_the_band_is_as_narrow_at_many_nodes_as_at_few():

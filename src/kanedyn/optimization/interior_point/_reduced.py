@@ -26,7 +26,7 @@ from __future__ import annotations
 import numpy as np
 
 from .kkt._dense import check_structure
-from .kkt._periodic import PeriodicIndex, index_arguments, periodic
+from .kkt._periodic import PeriodicIndex, kernel_index, periodic
 
 __all__ = ["ReducedNLP", "INFINITE_BOUND", "compact_index_type"]
 
@@ -291,7 +291,7 @@ class ReducedNLP:
             out = np.empty(self.n)
             values = np.ascontiguousarray(jacobian_values, dtype=float)
             kernel().transpose_product(out, values, np.ascontiguousarray(y, dtype=float),
-                                       *index_arguments(rows), *index_arguments(cols))
+                                       kernel_index(rows), kernel_index(cols))
             return out
         if jacobian_values.size <= PRODUCTS_ARRAY_ENTRIES:
             weights = y[rows]

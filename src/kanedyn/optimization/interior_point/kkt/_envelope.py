@@ -58,7 +58,7 @@ import numpy as np
 
 from . import _sparse
 from ._analyses import cached_analysis
-from ._periodic import PeriodicIndex, index_arguments
+from ._periodic import PeriodicIndex, kernel_index
 from ._sparse import _INDEX, KKTAnalysis, SparseKKT, _structure
 
 __all__ = ["EnvelopeKKT", "EnvelopeAnalysis"]
@@ -126,16 +126,14 @@ class EnvelopeKKT(SparseKKT):
         hessian, kept_hessian = _read_only(hessian_structure, "hessian_structure", n, n)
         jacobian, kept_jacobian = _read_only(jacobian_structure, "jacobian_structure", m, n)
         self._hessian_structure, self._jacobian_structure = kept_hessian, kept_jacobian
-        #: the kernel's arguments of the four index arrays (kd_index's runs and table)
-        self._indices = tuple(arg for index in kept_hessian + kept_jacobian
-                              for arg in index_arguments(index))
+        #: the four index arrays as the kernel takes them (arrays, or runs and table)
+        self._indices = tuple(map(kernel_index, kept_hessian + kept_jacobian))
         super().__init__(n, m, hessian, jacobian, **options)
 
     def _structures(self):
-        """The structures as arrays (made from runs where they are held so:
-        an analysis again is rare)."""
-        return tuple(tuple(np.asarray(index) for index in structure)
-                     for structure in (self._hessian_structure, self._jacobian_structure))
+        """The structures as held (arrays, or runs that the new order reads a
+        chunk at a time)."""
+        return self._hessian_structure, self._jacobian_structure
 
     def _analyse(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The order (:func:`elimination_order`, ``self._delayed`` last), the
@@ -173,7 +171,8 @@ class EnvelopeKKT(SparseKKT):
         inverse = np.empty(N, dtype=_INDEX)
         inverse[permutation] = np.arange(N, dtype=_INDEX)
         rowptr = np.empty(N + 1, dtype=_INDEX)
-        total, distinct = self._kernel.envelope(rowptr, inverse, kind, hr, hc, jr, jc, n)
+        total, distinct = self._kernel.envelope(rowptr, inverse, kind, *map(kernel_index,
+                                                                            (hr, hc, jr, jc)), n)
         if total >= _sparse._LIMIT:
             raise ValueError(f"L's envelope would have {total} entries, too many for 32-bit "
                              "row pointers")
@@ -198,12 +197,11 @@ class EnvelopeKKT(SparseKKT):
     def _factor(self, hv, jv, diagonals):
         """The kernel's factorization in the current order: its inertia."""
         Lx, D = self._storage()
-        hessian, jacobian = self._indices[:4], self._indices[4:]
         self._values = (hv, jv, diagonals)
         dx, dc, constants = diagonals
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, self._kind, self._inverse, *hessian, hv, *jacobian, jv, dx, dc,
-            self._zero, self.zero_pivot, *constants)
+            Lx, self._rowptr, D, self._kind, self._inverse, hv, jv, dx, dc, self._zero,
+            *self._indices, self.zero_pivot, *constants)
         return tuple(inertia)
 
     def _largest_entry(self):
@@ -216,7 +214,5 @@ class EnvelopeKKT(SparseKKT):
     def matvec(self, x):
         def product(y, v):
             hv, jv, (dx, dc, constants) = self._values
-            hessian, jacobian = self._indices[:4], self._indices[4:]
-            self._kernel.structured_matvec(y, v, *hessian, hv, *jacobian, jv, dx, dc,
-                                           *constants)
+            self._kernel.structured_matvec(y, v, hv, jv, dx, dc, *self._indices, *constants)
         return self._multiplied(x, product)

@@ -37,33 +37,32 @@ call, so that it is not held between factorizations (40 and 8 bytes a row of K);
 The envelope storage of :class:`~._envelope.EnvelopeKKT` (L by rows,
 every column from a row's first entry, values only):
 
+An index argument (the patterns' rows and columns below) is an int32 array
+or the ``(runs, table)`` of a :class:`~._periodic.PeriodicIndex`
+(:func:`~._periodic.kernel_index`), whose entries are walked in the array's
+order without it being made.
+
 ``envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
 jacobian_cols, n)``
     the envelope's row pointers (int32) of K's lower triangle in the order
     (``inverse``: the place of each row of K); returns the envelope's size
     and K's distinct entries off the diagonal.
-``envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
-hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
-diagonal_c, zero, tolerance, n, x_constant, x_added, c_constant)``
+``envelope_factor(Lx, rowptr, D, pair, inverse, hessian_values,
+jacobian_values, diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols,
+jacobian_rows, jacobian_cols, tolerance, n, x_constant, x_added, c_constant)``
     the values summed into the envelope (as ``factor`` sums them) and
     factored in place, the pivots judged as ``factor`` judges them; returns
-    ``(n_positive, n_negative, n_zero, largest)``.  Each of the four index
-    arrays is given as two arguments, its runs (int64, three a run) and
-    their table (int32): a :class:`~._periodic.PeriodicIndex`'s, or one run
-    of one repeat whose table is the array
-    (:func:`~._periodic.index_arguments`); the entries are walked in the
-    array's order.
+    ``(n_positive, n_negative, n_zero, largest)``.
 ``envelope_solve(x, rowptr, Lx, D, pair, permutation, k)``
     ``solve`` with those factors (N doubles of scratch).
-``structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
-jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
+``structured_matvec(y, x, hessian_values, jacobian_values, diagonal_x,
+diagonal_c, hessian_rows, hessian_cols, jacobian_rows, jacobian_cols, n,
 x_constant, x_added, c_constant)``
     ``y = K x`` from the structures and values (K's own order; the diagonals
-    as ``factor`` takes them; the index arrays as ``envelope_factor`` takes
-    them).
+    as ``factor`` takes them).
 ``transpose_product(out, values, y, rows, cols)``
-    ``out = Jᵀ y`` of the entries ``(rows, cols, values)`` (the index arrays
-    as ``envelope_factor`` takes them, checked to lie in the matrix), summed
+    ``out = Jᵀ y`` of the entries ``(rows, cols, values)`` (checked to lie
+    in the matrix), summed
     entry by entry in their order, as SciPy's product of a COO matrix sums
     them.
 ``matvec(y, x, Ap, Ai, Ax, permutation)``
@@ -85,12 +84,14 @@ two int32 entries per entry (the NumPy and SciPy construction they replace,
 through ``int64`` copies and COO conversions, held 2.9 KiB a node of
 temporaries on the 100,000-node swing-up):
 
-``csr(n_rows, n_cols, symmetric, rows, cols, row_offset[, rows, cols, row_offset])``
+``csr(n_rows, n_cols, symmetric, part[, part])``
     the CSR pattern of the entries ``(rows + row_offset, cols)`` of one or two
-    parts (with ``symmetric`` their mirror images too), repeats merged, each
-    row's columns increasing (SciPy's canonical form), as two bytearrays of
-    int32 ``(indptr, indices)``.
-``compressed(node, n_nodes, rows, cols, row_offset[, rows, cols, row_offset])``
+    parts, each a tuple ``(rows, cols, row_offset[, mask])`` (index
+    arguments; the entries where the boolean ``mask`` is true, all where it is
+    ``None`` or absent), with ``symmetric`` their mirror images too, repeats
+    merged, each row's columns increasing (SciPy's canonical form), as two
+    bytearrays of int32 ``(indptr, indices)``.
+``compressed(node, n_nodes, part[, part])``
     the same (symmetric) of the graph that joins ``node[i]`` and ``node[j]``
     for each entry ``(i, j)`` of the parts where both are ``>= 0`` and
     differ (the pairs' graph of :func:`~._ordering.elimination_order`, made
@@ -118,7 +119,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 23"
+_GENERATION = "kanedyn sparse LDL 25"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -815,12 +816,68 @@ static PyObject *kd_error_reductions(PyObject *self, PyObject *args) {
 }
 
 /* ---------------------------------------------------------------- patterns */
-/* pairs (r[e] + offset, c[e]), e < count: a part of a pattern's entries */
+/* an index argument of the pattern functions, `obj`: an int32 array, or a
+   (runs, table) pair of a PeriodicIndex; its index in *x, its entries in
+   *count, its buffers in views[0] and views[1] (released by the caller; an
+   array's in views[1]), an array's one run in `run` (the caller's, kept
+   while x is walked): -1 with the error set */
+static int kd_arg_of(PyObject *obj, const char *name, Py_buffer *views, int64_t *run,
+                     kd_index *x, Py_ssize_t *count) {
+    if (PyTuple_Check(obj)) {
+        if (PyTuple_GET_SIZE(obj) != 2) {
+            PyErr_Format(PyExc_TypeError, "%s: an int32 array or (runs, table) expected",
+                         name);
+            return -1;
+        }
+        if (kd_view(PyTuple_GET_ITEM(obj, 0), &views[0], 8, 0, name) < 0
+            || kd_view(PyTuple_GET_ITEM(obj, 1), &views[1], 4, 0, name) < 0) return -1;
+        const int64_t *r = views[0].buf;
+        int64_t total = 0;
+        for (Py_ssize_t i = 0; i + 2 < KD_COUNT(views[0]); i += 3) total += r[i] * r[i + 1];
+        *count = (Py_ssize_t)total;
+        return kd_index_of(&views[0], &views[1], *count, name, x);
+    }
+    if (kd_view(obj, &views[1], 4, 0, name) < 0) return -1;
+    *count = KD_COUNT(views[1]);
+    run[0] = *count;
+    run[1] = 1;
+    run[2] = 0;
+    x->runs = run;
+    x->table = views[1].buf;
+    x->run = 0;
+    x->j = x->s = 0;
+    return 0;
+}
+
+/* the `count` index arguments (kd_arg_of) of args from item `at`, named
+   `names`: their indexes in x, their entries in counts, their buffers in
+   views (two each, released by the caller), arrays' runs in runs (three
+   each): -1 with the error set */
+static int kd_index_args(PyObject *args, Py_ssize_t at, int count, const char *const *names,
+                         Py_buffer *views, int64_t *runs, kd_index *x, Py_ssize_t *counts) {
+    for (int a = 0; a < count; a++)
+        if (kd_arg_of(PyTuple_GET_ITEM(args, at + a), names[a], views + 2 * a, runs + 3 * a,
+                      &x[a], &counts[a]) < 0) return -1;
+    return 0;
+}
+
+/* pairs (r[e] + offset, c[e]), e < count, where mask[e] (all where mask is
+   NULL): a part of a pattern's entries, r and c walked from their start
+   (copies of the part walk it again; `runs` holds an array's one run) */
 typedef struct {
-    const int32_t *r, *c;
+    kd_index r, c;
     Py_ssize_t count;
     int64_t offset;
+    const uint8_t *mask;
+    int64_t runs[6];
 } kd_part;
+
+/* the part's next entry, in *i and *j: 0 where the mask leaves it out */
+static inline int kd_part_next(kd_part *p, Py_ssize_t e, int64_t *i, int64_t *j) {
+    *i = kd_next(&p->r) + p->offset;
+    *j = kd_next(&p->c);
+    return p->mask == NULL || p->mask[e];
+}
 
 /* a new bytearray holding `count` int32 items of `data` (NULL with the error set) */
 static PyObject *kd_int32_bytes(const int32_t *data, Py_ssize_t count) {
@@ -844,16 +901,18 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
                            int n_parts, int symmetric) {
     Py_ssize_t total = 0;
     for (int p = 0; p < n_parts; p++) {
-        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
-            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
+        kd_part part = parts[p];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t i, j;
+            if (!kd_part_next(&part, e, &i, &j)) continue;
             if (i < 0 || i >= n_rows || j < 0 || j >= n_cols ||
                     (symmetric && (j >= n_rows || i >= n_cols))) {
                 PyErr_Format(PyExc_ValueError, "entry (%lld, %lld) outside a %zd x %zd "
                              "pattern", (long long)i, (long long)j, n_rows, n_cols);
                 return NULL;
             }
+            total += symmetric ? 2 : 1;
         }
-        total += parts[p].count * (symmetric ? 2 : 1);
     }
     if (total >= INT32_MAX || n_rows >= INT32_MAX || n_cols >= INT32_MAX) {
         PyErr_SetString(PyExc_ValueError, "a pattern too large for 32-bit indices");
@@ -875,21 +934,27 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
     int32_t *indptr = (int32_t *)PyByteArray_AS_STRING(pointers);
     int64_t kept = 0;
     Py_BEGIN_ALLOW_THREADS
-    for (int p = 0; p < n_parts; p++)
-        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
-            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
+    for (int p = 0; p < n_parts; p++) {
+        kd_part part = parts[p];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t i, j;
+            if (!kd_part_next(&part, e, &i, &j)) continue;
             colptr[j + 1]++;
             rowptr[i + 1]++;
             if (symmetric) { colptr[i + 1]++; rowptr[j + 1]++; }
         }
+    }
     for (Py_ssize_t j = 0; j < n_cols; j++) colptr[j + 1] += colptr[j];
     for (Py_ssize_t i = 0; i < n_rows; i++) rowptr[i + 1] += rowptr[i];
-    for (int p = 0; p < n_parts; p++)
-        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
-            int32_t i = (int32_t)(parts[p].r[e] + parts[p].offset), j = parts[p].c[e];
-            by_col[colptr[j]++] = i;
-            if (symmetric) by_col[colptr[i]++] = j;
+    for (int p = 0; p < n_parts; p++) {
+        kd_part part = parts[p];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t i, j;
+            if (!kd_part_next(&part, e, &i, &j)) continue;
+            by_col[colptr[j]++] = (int32_t)i;
+            if (symmetric) by_col[colptr[i]++] = (int32_t)j;
         }
+    }
     kd_unshift(colptr, n_cols);
     for (Py_ssize_t j = 0; j < n_cols; j++)
         for (int64_t q = colptr[j]; q < colptr[j + 1]; q++)
@@ -918,82 +983,100 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
     return Py_BuildValue("(NN)", pointers, indices);
 }
 
-/* the `n_parts` (rows, cols, row_offset) parts of args from item `first` (int32
-   arrays of one length): their buffers in views (two a part; released by the
-   caller) and `parts`; -1 with the error set */
+/* the `n_parts` parts of args from item `first`, each a tuple (rows, cols,
+   row_offset[, mask]): rows and cols kd_arg arguments of one length, mask
+   None or a bool array of that length; their buffers in views (five a part;
+   released by the caller) and `parts`; -1 with the error set */
 static int kd_parts(PyObject *args, Py_ssize_t first, int n_parts, Py_buffer *views,
                     kd_part *parts) {
     for (int p = 0; p < n_parts; p++) {
-        Py_ssize_t at = first + 3 * p;
-        if (kd_view(PyTuple_GET_ITEM(args, at), &views[2 * p], 4, 0, "rows") < 0 ||
-                kd_view(PyTuple_GET_ITEM(args, at + 1), &views[2 * p + 1], 4, 0, "cols") < 0)
+        PyObject *part = PyTuple_GET_ITEM(args, first + p);
+        Py_ssize_t size = PyTuple_Check(part) ? PyTuple_GET_SIZE(part) : 0;
+        if (size != 3 && size != 4) {
+            PyErr_SetString(PyExc_TypeError, "a part (rows, cols, row_offset[, mask]) "
+                            "expected");
             return -1;
-        parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(args, at + 2));
-        if (PyErr_Occurred()) return -1;
-        parts[p].r = views[2 * p].buf;
-        parts[p].c = views[2 * p + 1].buf;
-        parts[p].count = KD_COUNT(views[2 * p]);
-        if (KD_COUNT(views[2 * p + 1]) != parts[p].count) {
+        }
+        Py_buffer *v = views + 5 * p;
+        Py_ssize_t count_r, count_c;
+        if (kd_arg_of(PyTuple_GET_ITEM(part, 0), "rows", v, parts[p].runs, &parts[p].r,
+                      &count_r) < 0
+            || kd_arg_of(PyTuple_GET_ITEM(part, 1), "cols", v + 2, parts[p].runs + 3,
+                         &parts[p].c, &count_c) < 0) return -1;
+        if (count_r != count_c) {
             PyErr_SetString(PyExc_ValueError, "rows and cols differ in length");
             return -1;
+        }
+        parts[p].count = count_r;
+        parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(part, 2));
+        if (PyErr_Occurred()) return -1;
+        parts[p].mask = NULL;
+        if (size == 4 && PyTuple_GET_ITEM(part, 3) != Py_None) {
+            if (kd_view(PyTuple_GET_ITEM(part, 3), v + 4, 1, 0, "mask") < 0) return -1;
+            if (KD_COUNT(v[4]) != count_r) {
+                PyErr_SetString(PyExc_ValueError, "a mask not of the entries' length");
+                return -1;
+            }
+            parts[p].mask = v[4].buf;
         }
     }
     return 0;
 }
 
-/* csr(n_rows, n_cols, symmetric, rows, cols, row_offset[, rows, cols, row_offset]):
-   the pattern of kd_csr_of with the entries (rows + row_offset, cols) of one or two
-   parts (int32 arrays) */
+/* csr(n_rows, n_cols, symmetric, part[, part]): the pattern of kd_csr_of with the
+   entries (rows + row_offset, cols) of one or two parts (kd_parts) */
 static PyObject *kd_csr(PyObject *self, PyObject *args) {
     Py_ssize_t count = PyTuple_Check(args) ? PyTuple_GET_SIZE(args) : 0;
-    if (count != 6 && count != 9) {
+    if (count != 4 && count != 5) {
         PyErr_SetString(PyExc_TypeError, "n_rows, n_cols, symmetric and one or two "
-                        "(rows, cols, row_offset) expected");
+                        "(rows, cols, row_offset[, mask]) expected");
         return NULL;
     }
     Py_ssize_t n_rows = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 0));
     Py_ssize_t n_cols = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 1));
     int symmetric = PyObject_IsTrue(PyTuple_GET_ITEM(args, 2));
     if (PyErr_Occurred()) return NULL;
-    int n_parts = (int)(count - 3) / 3;
+    int n_parts = (int)count - 3;
     kd_part parts[2];
-    Py_buffer v[4];
+    Py_buffer v[10];
     memset(v, 0, sizeof(v));
     PyObject *result = NULL;
     if (kd_parts(args, 3, n_parts, v, parts) == 0)
         result = kd_csr_of(n_rows, n_cols, parts, n_parts, symmetric);
-    kd_release(v, 4);
+    kd_release(v, 10);
     return result;
 }
 
-/* compressed(node, n_nodes, rows, cols, row_offset[, rows, cols, row_offset]): the
-   pattern of kd_csr_of of the graph on n_nodes nodes that joins node[i] and node[j]
-   (and node[j] and node[i]) for each entry (i, j) = (rows + row_offset, cols) of the
-   parts (int32) where both are >= 0 and they differ: the graph of a symmetric
-   matrix given by its entries, its rows grouped, without the matrix's own pattern */
+/* compressed(node, n_nodes, part[, part]): the pattern of kd_csr_of of the graph
+   on n_nodes nodes that joins node[i] and node[j] (and node[j] and node[i]) for
+   each entry (i, j) = (rows + row_offset, cols) of the parts (kd_parts) where both
+   are >= 0 and they differ: the graph of a symmetric matrix given by its entries,
+   its rows grouped, without the matrix's own pattern */
 static PyObject *kd_compressed(PyObject *self, PyObject *args) {
     Py_ssize_t count = PyTuple_Check(args) ? PyTuple_GET_SIZE(args) : 0;
-    if (count != 5 && count != 8) {
+    if (count != 3 && count != 4) {
         PyErr_SetString(PyExc_TypeError, "node, n_nodes and one or two (rows, cols, "
-                        "row_offset) expected");
+                        "row_offset[, mask]) expected");
         return NULL;
     }
     Py_ssize_t n_nodes = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 1));
     if (n_nodes == -1 && PyErr_Occurred()) return NULL;
-    int n_parts = (int)(count - 2) / 3;
+    int n_parts = (int)count - 2;
     kd_part parts[2];
-    Py_buffer v[5];
+    Py_buffer v[11];
     memset(v, 0, sizeof(v));
     Py_ssize_t total = 0;
     PyObject *result = NULL;
     int32_t *a = NULL, *b = NULL;
-    if (kd_view(PyTuple_GET_ITEM(args, 0), &v[4], 4, 0, "node") < 0) return NULL;
-    const int32_t *node = v[4].buf;
-    Py_ssize_t N = KD_COUNT(v[4]);
+    if (kd_view(PyTuple_GET_ITEM(args, 0), &v[10], 4, 0, "node") < 0) return NULL;
+    const int32_t *node = v[10].buf;
+    Py_ssize_t N = KD_COUNT(v[10]);
     if (kd_parts(args, 2, n_parts, v, parts) < 0) goto done;
-    for (int p = 0; p < n_parts; p++)
-        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
-            int64_t i = parts[p].r[e] + parts[p].offset, j = parts[p].c[e];
+    for (int p = 0; p < n_parts; p++) {
+        kd_part part = parts[p];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t i, j;
+            if (!kd_part_next(&part, e, &i, &j)) continue;
             if (i < 0 || i >= N || j < 0 || j >= N) {
                 PyErr_SetString(PyExc_ValueError, "an entry outside the node array");
                 goto done;
@@ -1004,6 +1087,7 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
             }
             if (node[i] >= 0 && node[j] >= 0 && node[i] != node[j]) total++;
         }
+    }
     a = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
     b = malloc(sizeof(int32_t) * (size_t)(total > 0 ? total : 1));
     if (a == NULL || b == NULL) {
@@ -1011,20 +1095,38 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
         goto done;
     }
     Py_ssize_t k = 0;
-    for (int p = 0; p < n_parts; p++)
-        for (Py_ssize_t e = 0; e < parts[p].count; e++) {
-            int32_t i = node[parts[p].r[e] + parts[p].offset], j = node[parts[p].c[e]];
+    for (int p = 0; p < n_parts; p++) {
+        kd_part part = parts[p];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t r, c;
+            if (!kd_part_next(&part, e, &r, &c)) continue;
+            int32_t i = node[r], j = node[c];
             if (i >= 0 && j >= 0 && i != j) {
                 a[k] = i;
                 b[k++] = j;
             }
         }
-    kd_part graph = {a, b, total, 0};
-    result = kd_csr_of(n_nodes, n_nodes, &graph, 1, 1);
+    }
+    {
+        kd_part graph;
+        graph.runs[0] = graph.runs[3] = total;
+        graph.runs[1] = graph.runs[4] = 1;
+        graph.runs[2] = graph.runs[5] = 0;
+        graph.r.runs = graph.runs;
+        graph.c.runs = graph.runs + 3;
+        graph.r.table = a;
+        graph.c.table = b;
+        graph.r.run = graph.c.run = 0;
+        graph.r.j = graph.r.s = graph.c.j = graph.c.s = 0;
+        graph.count = total;
+        graph.offset = 0;
+        graph.mask = NULL;
+        result = kd_csr_of(n_nodes, n_nodes, &graph, 1, 1);
+    }
 done:
     free(a);
     free(b);
-    kd_release(v, 5);
+    kd_release(v, 11);
     return result;
 }
 
@@ -1282,20 +1384,30 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     }
     Py_ssize_t n = PyLong_AsSsize_t(PyTuple_GET_ITEM(args, 7));
     if (n == -1 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[7] = {4, 4, 1, 4, 4, 4, 4};
-    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
-    static const char *const names[7] = {"rowptr", "inverse", "pair", "hessian rows",
-                                         "hessian cols", "jacobian rows", "jacobian cols"};
-    Py_buffer v[7];
-    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
+    static const Py_ssize_t size[3] = {4, 4, 1};
+    static const int writable[3] = {1, 0, 0};
+    static const char *const names[3] = {"rowptr", "inverse", "pair"};
+    static const char *const index_names[4] = {"hessian rows", "hessian cols",
+                                               "jacobian rows", "jacobian cols"};
+    Py_buffer v[11];
+    memset(v, 0, sizeof(v));
+    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
+    kd_index start[4];
+    int64_t runs[12];
+    Py_ssize_t counts[4];
+    for (int a = 0; a < 4; a++)
+        if (kd_arg_of(PyTuple_GET_ITEM(args, 3 + a), index_names[a], v + 3 + 2 * a,
+                      runs + 3 * a, &start[a], &counts[a]) < 0) {
+            kd_release(v, 11);
+            return NULL;
+        }
     int32_t *rowptr = v[0].buf;
-    const int32_t *inv = v[1].buf, *hr = v[3].buf, *hc = v[4].buf, *jr = v[5].buf,
-                  *jc = v[6].buf;
+    const int32_t *inv = v[1].buf;
     const int8_t *pair = v[2].buf;
-    Py_ssize_t N = KD_COUNT(v[1]), nh = KD_COUNT(v[3]), nj = KD_COUNT(v[5]);
-    if (KD_COUNT(v[0]) != N + 1 || KD_COUNT(v[2]) != N || KD_COUNT(v[4]) != nh
-        || KD_COUNT(v[6]) != nj || n < 0 || n > N) {
-        kd_release(v, 7);
+    Py_ssize_t N = KD_COUNT(v[1]), nh = counts[0], nj = counts[2];
+    if (KD_COUNT(v[0]) != N + 1 || KD_COUNT(v[2]) != N || counts[1] != nh
+        || counts[3] != nj || n < 0 || n > N) {
+        kd_release(v, 11);
         PyErr_SetString(PyExc_ValueError, "envelope: arrays of inconsistent sizes");
         return NULL;
     }
@@ -1304,9 +1416,10 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     /* each row's first column, in rowptr[k + 1] until the widths are summed */
     for (Py_ssize_t k = 0; k < N; k++) rowptr[k + 1] = (int32_t)k;
+    kd_index hr = start[0], hc = start[1], jr = start[2], jc = start[3];
     for (Py_ssize_t e = 0; e < nh + nj; e++) {
-        int32_t a = e < nh ? inv[hr[e]] : inv[n + jr[e - nh]];
-        int32_t b = e < nh ? inv[hc[e]] : inv[jc[e - nh]];
+        int32_t a = e < nh ? inv[kd_next(&hr)] : inv[n + kd_next(&jr)];
+        int32_t b = e < nh ? inv[kd_next(&hc)] : inv[kd_next(&jc)];
         int32_t high = a > b ? a : b, low = a > b ? b : a;
         if (low < rowptr[high + 1]) rowptr[high + 1] = low;
     }
@@ -1326,12 +1439,13 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     if (fits && total > 0) {  /* K's distinct places off the diagonal */
         uint8_t *mark = calloc((size_t)total, 1);
         if (mark == NULL) {
-            kd_release(v, 7);
+            kd_release(v, 11);
             return PyErr_NoMemory();
         }
+        kd_index hr = start[0], hc = start[1], jr = start[2], jc = start[3];
         for (Py_ssize_t e = 0; e < nh + nj; e++) {
-            int32_t a = e < nh ? inv[hr[e]] : inv[n + jr[e - nh]];
-            int32_t b = e < nh ? inv[hc[e]] : inv[jc[e - nh]];
+            int32_t a = e < nh ? inv[kd_next(&hr)] : inv[n + kd_next(&jr)];
+            int32_t b = e < nh ? inv[kd_next(&hc)] : inv[kd_next(&jc)];
             if (a == b) continue;
             int64_t p = KD_PLACE(rowptr, a, b);
             distinct += !mark[p];
@@ -1339,40 +1453,48 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
         }
         free(mark);
     }
-    kd_release(v, 7);
+    kd_release(v, 11);
     return Py_BuildValue("LL", (long long)total, (long long)distinct);
 }
 
-/* envelope_factor(Lx, rowptr, D, pair, inverse, hessian_rows, hessian_cols,
-   hessian_values, jacobian_rows, jacobian_cols, jacobian_values, diagonal_x,
-   diagonal_c, zero, tolerance), each index as its runs and table (kd_index):
-   the values summed into the envelope (as
-   factor sums them into Ax: the Hessian's, the Jacobian's, diagonal_x, minus
-   diagonal_c) and factored in place, row by row: w = L(f:k, f:k)^-1 K(f:k, k)
-   by a dot product per column, then row k of L is D^-1 w (blockwise) and
-   d_k = K(k, k) - (row k of L) w; the pivots judged as factor judges them.
-   Returns (n_positive, n_negative, n_zero, K's largest magnitude) */
-enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HR_RUNS, V_HR, V_HC_RUNS, V_HC, V_HV,
-      V_JR_RUNS, V_JR, V_JC_RUNS, V_JC, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
+/* envelope_factor(Lx, rowptr, D, pair, inverse, hessian_values, jacobian_values,
+   diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols, jacobian_rows,
+   jacobian_cols, tolerance, n, x_constant, x_added, c_constant), the indices
+   each an int32 array or (runs, table) (kd_arg_of): the values
+   summed into the envelope (as factor sums them into Ax: the Hessian's, the
+   Jacobian's, diagonal_x, minus diagonal_c) and factored in place, row by
+   row: w = L(f:k, f:k)^-1 K(f:k, k) by a dot product per column, then row k
+   of L is D^-1 w (blockwise) and d_k = K(k, k) - (row k of L) w; the pivots
+   judged as factor judges them.  Returns (n_positive, n_negative, n_zero,
+   K's largest magnitude) */
+enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HV, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
+
+static const char *const kd_structure_names[4] = {"hessian rows", "hessian cols",
+                                                  "jacobian rows", "jacobian cols"};
 
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 5) {
-        PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 5);
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 9) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 9);
         return NULL;
     }
-    double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT));
+    double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT + 4));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 4, 8, 4, 8, 8, 4, 8, 4, 8, 8, 8,
-                                             1};
-    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                          1};
+    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 8, 8, 8, 1};
+    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 1};
     static const char *const names[V_COUNT] = {
-        "Lx", "rowptr", "D", "pair", "inverse", "hessian rows' runs", "hessian rows",
-        "hessian cols' runs", "hessian cols", "hessian_values", "jacobian rows' runs",
-        "jacobian rows", "jacobian cols' runs", "jacobian cols", "jacobian_values",
+        "Lx", "rowptr", "D", "pair", "inverse", "hessian_values", "jacobian_values",
         "diagonal_x", "diagonal_c", "zero"};
-    Py_buffer v[V_COUNT];
+    Py_buffer v[V_COUNT + 8];
+    memset(v, 0, sizeof(v));
     if (kd_views(args, V_COUNT, v, size, writable, names) < 0) return NULL;
+    kd_index index[4];
+    int64_t runs[12];
+    Py_ssize_t counts[4];
+    if (kd_index_args(args, V_COUNT, 4, kd_structure_names, v + V_COUNT, runs, index,
+                      counts) < 0) {
+        kd_release(v, V_COUNT + 8);
+        return NULL;
+    }
     double *Lx = v[V_LX].buf, *D = v[V_D].buf;
     const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
     const int8_t *pair = v[V_PAIR].buf;
@@ -1380,30 +1502,24 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     int8_t *zero = v[V_ZERO].buf;
     Py_ssize_t N = KD_COUNT(v[V_D]), nh = KD_COUNT(v[V_HV]), nj = KD_COUNT(v[V_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, V_COUNT + 1, &v[V_DX], &v[V_DC], N, &diagonals) < 0) {
-        kd_release(v, V_COUNT);
+    if (kd_diagonals_of(args, V_COUNT + 5, &v[V_DX], &v[V_DC], N, &diagonals) < 0) {
+        kd_release(v, V_COUNT + 8);
         return NULL;
     }
     Py_ssize_t nx = diagonals.n, nc = N - nx;
-    kd_index hr, hc, jr, jc;
-    if (kd_index_of(&v[V_HR_RUNS], &v[V_HR], nh, "hessian rows", &hr) < 0
-        || kd_index_of(&v[V_HC_RUNS], &v[V_HC], nh, "hessian cols", &hc) < 0
-        || kd_index_of(&v[V_JR_RUNS], &v[V_JR], nj, "jacobian rows", &jr) < 0
-        || kd_index_of(&v[V_JC_RUNS], &v[V_JC], nj, "jacobian cols", &jc) < 0) {
-        kd_release(v, V_COUNT);
-        return NULL;
-    }
+    kd_index hr = index[0], hc = index[1], jr = index[2], jc = index[3];
     if (KD_COUNT(v[V_PAIR]) != N
         || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
-        || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)) {
-        kd_release(v, V_COUNT);
+        || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)
+        || counts[0] != nh || counts[1] != nh || counts[2] != nj || counts[3] != nj) {
+        kd_release(v, V_COUNT + 8);
         PyErr_SetString(PyExc_ValueError, "envelope_factor: arrays of inconsistent sizes");
         return NULL;
     }
     /* the workspace, 2 N doubles: held only while this call runs */
     double *rowmax = malloc(sizeof(double) * 2 * (size_t)(N > 0 ? N : 1));
     if (rowmax == NULL) {
-        kd_release(v, V_COUNT);
+        kd_release(v, V_COUNT + 8);
         return PyErr_NoMemory();
     }
     double *offmax = rowmax + N;
@@ -1487,7 +1603,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     }
     Py_END_ALLOW_THREADS
     free(rowmax);
-    kd_release(v, V_COUNT);
+    kd_release(v, V_COUNT + 8);
     return Py_BuildValue("nnnd", pivots.n_positive, pivots.n_negative, pivots.n_zero,
                          largest);
 }
@@ -1552,42 +1668,46 @@ static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
     Py_RETURN_NONE;
 }
 
-/* structured_matvec(y, x, hessian_rows, hessian_cols, hessian_values,
-   jacobian_rows, jacobian_cols, jacobian_values, diagonal_x, diagonal_c, n,
-   x_constant, x_added, c_constant), each index as its runs and table
-   (kd_index): y = K x from the values as factor_envelope took them (K's own
+/* structured_matvec(y, x, hessian_values, jacobian_values, diagonal_x,
+   diagonal_c, hessian_rows, hessian_cols, jacobian_rows, jacobian_cols, n,
+   x_constant, x_added, c_constant), the indices as envelope_factor takes
+   them: y = K x from the values as envelope_factor took them (K's own
    order) */
-enum {M_Y, M_X, M_HR_RUNS, M_HR, M_HC_RUNS, M_HC, M_HV, M_JR_RUNS, M_JR, M_JC_RUNS, M_JC,
-      M_JV, M_DX, M_DC, M_COUNT};
+enum {M_Y, M_X, M_HV, M_JV, M_DX, M_DC, M_COUNT};
 
 static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[M_COUNT] = {8, 8, 8, 4, 8, 4, 8, 8, 4, 8, 4, 8, 8, 8};
-    static const int writable[M_COUNT] = {1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0};
-    static const char *const names[M_COUNT] = {
-        "y", "x", "hessian rows' runs", "hessian rows", "hessian cols' runs", "hessian cols",
-        "hessian_values", "jacobian rows' runs", "jacobian rows", "jacobian cols' runs",
-        "jacobian cols", "jacobian_values", "diagonal_x", "diagonal_c"};
-    Py_buffer v[M_COUNT];
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != M_COUNT + 8) {
+        PyErr_Format(PyExc_TypeError, "%d arguments expected", M_COUNT + 8);
+        return NULL;
+    }
+    static const Py_ssize_t size[M_COUNT] = {8, 8, 8, 8, 8, 8};
+    static const int writable[M_COUNT] = {1, 0, 0, 0, 0, 0};
+    static const char *const names[M_COUNT] = {"y", "x", "hessian_values", "jacobian_values",
+                                               "diagonal_x", "diagonal_c"};
+    Py_buffer v[M_COUNT + 8];
+    memset(v, 0, sizeof(v));
     if (kd_views(args, M_COUNT, v, size, writable, names) < 0) return NULL;
+    kd_index index[4];
+    int64_t runs[12];
+    Py_ssize_t counts[4];
+    if (kd_index_args(args, M_COUNT, 4, kd_structure_names, v + M_COUNT, runs, index,
+                      counts) < 0) {
+        kd_release(v, M_COUNT + 8);
+        return NULL;
+    }
     double *y = v[M_Y].buf;
     const double *x = v[M_X].buf, *hv = v[M_HV].buf, *jv = v[M_JV].buf;
     Py_ssize_t N = KD_COUNT(v[M_Y]), nh = KD_COUNT(v[M_HV]), nj = KD_COUNT(v[M_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, M_COUNT, &v[M_DX], &v[M_DC], N, &diagonals) < 0) {
-        kd_release(v, M_COUNT);
+    if (kd_diagonals_of(args, M_COUNT + 4, &v[M_DX], &v[M_DC], N, &diagonals) < 0) {
+        kd_release(v, M_COUNT + 8);
         return NULL;
     }
     Py_ssize_t nx = diagonals.n, nc = N - nx;
-    kd_index hr, hc, jr, jc;
-    if (kd_index_of(&v[M_HR_RUNS], &v[M_HR], nh, "hessian rows", &hr) < 0
-        || kd_index_of(&v[M_HC_RUNS], &v[M_HC], nh, "hessian cols", &hc) < 0
-        || kd_index_of(&v[M_JR_RUNS], &v[M_JR], nj, "jacobian rows", &jr) < 0
-        || kd_index_of(&v[M_JC_RUNS], &v[M_JC], nj, "jacobian cols", &jc) < 0) {
-        kd_release(v, M_COUNT);
-        return NULL;
-    }
-    if (KD_COUNT(v[M_X]) != N) {
-        kd_release(v, M_COUNT);
+    kd_index hr = index[0], hc = index[1], jr = index[2], jc = index[3];
+    if (KD_COUNT(v[M_X]) != N || counts[0] != nh || counts[1] != nh || counts[2] != nj
+        || counts[3] != nj) {
+        kd_release(v, M_COUNT + 8);
         PyErr_SetString(PyExc_ValueError, "structured_matvec: arrays of inconsistent sizes");
         return NULL;
     }
@@ -1609,34 +1729,43 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
         y[c] += jv[e] * x[r];
     }
     Py_END_ALLOW_THREADS
-    kd_release(v, M_COUNT);
+    kd_release(v, M_COUNT + 8);
     Py_RETURN_NONE;
 }
 
-/* transpose_product(out, values, y, rows' runs, rows, cols' runs, cols):
-   out = J^T y, J's entries (rows, cols, values) as kd_index and values,
+/* transpose_product(out, values, y, rows, cols), the indices as
+   envelope_factor takes them: out = J^T y, J's entries (rows, cols, values),
    out set to zero, then out[cols[e]] += values[e] * y[rows[e]] entry by entry
    (SciPy's product of a COO matrix, the same sums in the same order) */
 static PyObject *kd_transpose_product(PyObject *self, PyObject *args) {
-    static const Py_ssize_t size[7] = {8, 8, 8, 8, 4, 8, 4};
-    static const int writable[7] = {1, 0, 0, 0, 0, 0, 0};
-    static const char *const names[7] = {"out", "values", "y", "rows' runs", "rows",
-                                         "cols' runs", "cols"};
-    Py_buffer v[7];
-    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 7) {
-        PyErr_SetString(PyExc_TypeError, "7 arguments expected");
+    static const Py_ssize_t size[3] = {8, 8, 8};
+    static const int writable[3] = {1, 0, 0};
+    static const char *const names[3] = {"out", "values", "y"};
+    static const char *const index_names[2] = {"rows", "cols"};
+    if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != 5) {
+        PyErr_SetString(PyExc_TypeError, "5 arguments expected");
         return NULL;
     }
-    if (kd_views(args, 7, v, size, writable, names) < 0) return NULL;
-    double *out = v[0].buf;
-    const double *values = v[1].buf, *y = v[2].buf;
-    Py_ssize_t n = KD_COUNT(v[0]), m = KD_COUNT(v[2]), nnz = KD_COUNT(v[1]);
-    kd_index rows, cols;
-    if (kd_index_of(&v[3], &v[4], nnz, "rows", &rows) < 0
-        || kd_index_of(&v[5], &v[6], nnz, "cols", &cols) < 0) {
+    Py_buffer v[7];
+    memset(v, 0, sizeof(v));
+    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
+    kd_index index[2];
+    int64_t runs[6];
+    Py_ssize_t counts[2];
+    if (kd_index_args(args, 3, 2, index_names, v + 3, runs, index, counts) < 0) {
         kd_release(v, 7);
         return NULL;
     }
+    double *out = v[0].buf;
+    const double *values = v[1].buf, *y = v[2].buf;
+    Py_ssize_t n = KD_COUNT(v[0]), m = KD_COUNT(v[2]), nnz = KD_COUNT(v[1]);
+    if (counts[0] != nnz || counts[1] != nnz) {
+        kd_release(v, 7);
+        PyErr_SetString(PyExc_ValueError, "transpose_product: indices not of the values' "
+                        "length");
+        return NULL;
+    }
+    kd_index rows = index[0], cols = index[1];
     /* the entries' values checked here: this product takes no other check */
     for (Py_ssize_t e = 0; e < nnz; e++) {
         int32_t r = kd_next(&rows), c = kd_next(&cols);
@@ -1647,8 +1776,8 @@ static PyObject *kd_transpose_product(PyObject *self, PyObject *args) {
             return NULL;
         }
     }
-    kd_index_of(&v[3], &v[4], nnz, "rows", &rows);
-    kd_index_of(&v[5], &v[6], nnz, "cols", &cols);
+    rows = index[0];
+    cols = index[1];
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < n; k++) out[k] = 0.0;
     for (Py_ssize_t e = 0; e < nnz; e++) {

@@ -96,6 +96,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._kernel import kernel
+from ._periodic import entries, kernel_index
 
 __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 
@@ -153,17 +154,34 @@ def _csr(shape, made):
                          shape=shape)
 
 
+def _part(rows, cols, row_offset, mask=None):
+    """A part of a pattern's entries as the kernel takes it: ``(rows + row_offset,
+    cols)`` where ``mask`` (all where ``None``); rows and cols int32 arrays or
+    :class:`~._periodic.PeriodicIndex` runs, walked, not made whole."""
+    return (kernel_index(rows), kernel_index(cols), int(row_offset),
+            None if mask is None else np.ascontiguousarray(mask, dtype=bool))
+
+
 def _made(shape, parts, symmetric):
     """The 0/1 pattern (CSR, int8 ones, int32 indices) of a ``shape`` matrix
-    with the entries of ``parts``, each ``(rows, cols, row_offset)`` for the
-    entries ``(rows + row_offset, cols)``, and with ``symmetric`` their mirror
-    images: repeats merged, each row's columns increasing, as SciPy's COO to
-    CSR conversion with ``sum_duplicates`` makes them (the kernel's ``csr``,
-    no int64 copy of the entries)."""
-    arguments = [shape[0], shape[1], bool(symmetric)]
-    for rows, cols, row_offset in parts:
-        arguments += [_indices(rows), _indices(cols), int(row_offset)]
-    return _csr(shape, kernel().csr(*arguments))
+    with the entries of ``parts``, each ``(rows, cols, row_offset[, mask])``
+    for the entries ``(rows + row_offset, cols)`` (where ``mask``), and with
+    ``symmetric`` their mirror images: repeats merged, each row's columns
+    increasing, as SciPy's COO to CSR conversion with ``sum_duplicates`` makes
+    them (the kernel's ``csr``, no int64 copy of the entries)."""
+    return _csr(shape, kernel().csr(shape[0], shape[1], bool(symmetric),
+                                    *(_part(*part) for part in parts)))
+
+
+def _mask(rows, cols, keep):
+    """``keep(rows, cols)`` (a boolean of each entry's row and column) for
+    every entry, made a chunk of :data:`_CHUNK` entries at a time (no index
+    array made whole)."""
+    out = np.empty(len(rows), dtype=bool)
+    for start in range(0, out.size, _CHUNK):
+        stop = min(out.size, start + _CHUNK)
+        out[start:stop] = keep(entries(rows, start, stop), entries(cols, start, stop))
+    return out
 
 
 def _pattern(shape, rows, cols):
@@ -247,8 +265,9 @@ def _backward_share(order, node, n, block, jr, jc):
     row_rank = np.where(node >= 0, rank[np.maximum(node, 0)], -1)  # of each row of K
     del rank
     before = counted = 0
-    for start in range(0, jr.size, _CHUNK):  # (the temporaries of a chunk only)
-        rows, cols = n + jr[start:start + _CHUNK], jc[start:start + _CHUNK]
+    for start in range(0, len(jr), _CHUNK):  # (the temporaries of a chunk only)
+        rows = n + entries(jr, start, start + _CHUNK)
+        cols = entries(jc, start, start + _CHUNK)
         partner = block[rows]
         use = (partner != rows) & (cols != partner) & (row_rank[rows] >= 0) & (
             row_rank[cols] >= 0)
@@ -292,7 +311,7 @@ def _band(graph, node, n, block, jr, jc, backward=True):
     return other if (other_share > share) == backward else order
 
 
-def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=None,
+def elimination_order(n, m, hessian, jacobian, ordering="pairs", diagonal=None,
                       pairable=None, delayed=None, backward=True):
     """``(permutation, n_dense, kind)``: the pivot order of the KKT matrix.
 
@@ -301,10 +320,12 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     n, m : int
         Variables and constraints (K's order is N = n + m; row ``n + i`` of
         K is constraint ``i``).
-    hessian_off : (ndarray of int64, ndarray of int64)
-        ``(rows, cols)`` of the Hessian's entries off its diagonal.
-    jacobian : (ndarray of int64, ndarray of int64)
-        ``(rows, cols)`` of the Jacobian's entries.
+    hessian : (index, index)
+        ``(rows, cols)`` of the Hessian's entries (those on its diagonal
+        left out here); each an integer array or a
+        :class:`~._periodic.PeriodicIndex`, read a chunk at a time.
+    jacobian : (index, index)
+        ``(rows, cols)`` of the Jacobian's entries, the same.
     ordering : str
         One of :data:`ORDERINGS`.
     diagonal : ndarray of bool, shape (n,), optional
@@ -340,21 +361,21 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     N = n + m
     if N == 0:
         return np.zeros(0, dtype=np.int32), 0, np.zeros(0, dtype=np.int8)
-    hr, hc = hessian_off
+    hr, hc = hessian
     jr, jc = jacobian
-    degrees = np.diff(_made((N, N), [(hr, hc, 0), (jr, jc, n)], True).indptr)
+    off = _mask(hr, hc, np.not_equal)  # the Hessian's entries off its diagonal
+    degrees = np.diff(_made((N, N), [(hr, hc, 0, off), (jr, jc, n)], True).indptr)
+    del off
     dense = degrees > dense_threshold(degrees)
     del degrees
     late = dense if delayed is None else dense | delayed
     keep = np.flatnonzero(~late).astype(np.int32)
     block = np.arange(N, dtype=np.int32)  # the node of the compressed graph of each row
-    if ordering != "rcm" and m and jr.size:
-        inside = ~late[n + jr] & ~late[jc]
+    if ordering != "rcm" and m and len(jr):
+        inside = _mask(jr, jc, lambda rows, cols: ~late[n + rows] & ~late[cols])
 
-        def pattern_of(entries):  # (no copy of the entries where all are taken)
-            if entries.all():
-                return _pattern((m, n), jr, jc)
-            return _pattern((m, n), jr[entries], jc[entries])
+        def pattern_of(taken):  # (the entries walked where taken, not copied)
+            return _made((m, n), [(jr, jc, 0, None if taken.all() else taken)], False)
         preferred = np.ones(n, dtype=bool) if diagonal is None else ~diagonal
         if pairable is None:
             partner = _matching(pattern_of(inside), preferred & ~late[:n])
@@ -376,13 +397,14 @@ def elimination_order(n, m, hessian_off, jacobian, ordering="pairs", diagonal=No
     del number
     where = np.full(N, -1, dtype=np.int32)  # -1 for a row left out
     where[keep] = compressed
+    # (the Hessian's diagonal entries join a block to itself: left out)
     compressed_graph = _csr((size,) * 2, kernel().compressed(
-        where, size, _indices(hr), _indices(hc), 0, _indices(jr), _indices(jc), n))
+        where, size, _part(hr, hc, 0), _part(jr, jc, n)))
     if size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)
     elif ordering == "pairs-mmd":
         order = _minimum_degree(compressed_graph)
-    elif ordering == "pairs" and m and jr.size:
+    elif ordering == "pairs" and m and len(jr):
         order = _band(compressed_graph, where, n, block, jr, jc, backward)
     else:
         order = reverse_cuthill_mckee(compressed_graph)

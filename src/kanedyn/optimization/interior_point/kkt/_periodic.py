@@ -31,8 +31,8 @@ from __future__ import annotations
 
 import numpy as np
 
-__all__ = ["PeriodicIndex", "periodic", "index_arguments", "PERIODIC_ENTRIES",
-           "MAX_PERIOD", "PROBE_ENTRIES"]
+__all__ = ["PeriodicIndex", "periodic", "kernel_index", "entries",
+           "PERIODIC_ENTRIES", "MAX_PERIOD", "PROBE_ENTRIES"]
 
 #: arrays of fewer entries are kept as they are (their bytes matter little,
 #: and the interior point's small problems keep the arrays' own code paths)
@@ -109,19 +109,30 @@ class PeriodicIndex:
     def __array__(self, dtype=None, copy=None):
         if copy is False:
             raise ValueError("a PeriodicIndex is made into an array by a copy")
-        out = np.empty(self.size, dtype=_INDEX)
-        at = 0
-        for period, repeats, first in self.runs.tolist():
-            bases = self.table[first:first + period]
-            if repeats == 1:
-                out[at:at + period] = bases
-            else:
-                steps = self.table[first + period:first + 2 * period].astype(np.int64)
-                np.add(bases, np.multiply.outer(np.arange(repeats, dtype=np.int64), steps),
-                       out=out[at:at + period * repeats].reshape(repeats, period),
-                       casting="unsafe")
-            at += period * repeats
+        out = self.take(0, self.size)
         return out if dtype is None else out.astype(dtype, copy=False)
+
+    def take(self, start, stop):
+        """The entries ``start:stop`` (``0 <= start <= stop <= size``), a new
+        int32 array made from the runs that hold them."""
+        out = np.empty(stop - start, dtype=_INDEX)
+        at = 0  # the first entry of the run
+        for period, repeats, first in self.runs.tolist():
+            length = period * repeats
+            lo, hi = max(start, at), min(stop, at + length)
+            if lo < hi:
+                # the run's entries lo - at .. hi - at, by whole repeats
+                s0, s1 = (lo - at) // period, (hi - at - 1) // period + 1
+                bases = self.table[first:first + period].astype(np.int64)
+                steps = (self.table[first + period:first + 2 * period].astype(np.int64)
+                         if repeats > 1 else np.zeros(period, dtype=np.int64))
+                block = bases + np.multiply.outer(np.arange(s0, s1, dtype=np.int64), steps)
+                skip = lo - at - s0 * period
+                out[lo - start:hi - start] = block.ravel()[skip:skip + hi - lo]
+            at += length
+            if at >= stop:
+                break
+        return out
 
     def _refused(self, *_args):
         raise TypeError("a PeriodicIndex is not an array: compare, compute or index with "
@@ -216,11 +227,19 @@ def _merged(runs):
     return out
 
 
-def index_arguments(index):
-    """``(runs, table)`` of ``index`` as the kernel takes an index array: a
-    :class:`PeriodicIndex`'s own, or one run of one repeat (the array as its
-    table) for an int32 array (none for an empty one)."""
+def entries(index, start, stop):
+    """The entries ``start:stop`` of ``index`` (an array, a slice of it; a
+    :class:`PeriodicIndex`, made from its runs): the chunks in which the
+    analysis reads an index without making it whole."""
+    if isinstance(index, PeriodicIndex):
+        return index.take(start, min(stop, index.size))
+    return np.asarray(index)[start:stop]
+
+
+def kernel_index(index):
+    """``index`` as the kernel takes an index argument: a
+    :class:`PeriodicIndex` as ``(runs, table)``, else a C-contiguous int32
+    array (a copy only where it is not one)."""
     if isinstance(index, PeriodicIndex):
         return index.runs, index.table
-    a = np.ascontiguousarray(index, dtype=_INDEX)
-    return np.array([[a.size, 1, 0]] if a.size else [], dtype=np.int64).reshape(-1, 3), a
+    return np.ascontiguousarray(index, dtype=_INDEX)

@@ -143,6 +143,7 @@ import numpy as np
 from ._analyses import SymbolicAnalysis, _digest, cached_analysis
 from ._kernel import kernel
 from ._ordering import ORDERINGS, elimination_order
+from ._periodic import entries
 
 __all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED",
            "pairable_entries"]
@@ -165,8 +166,9 @@ _LIMIT = np.iinfo(_INDEX).max
 #: freed memory is handed back to the system (:func:`_return_freed_memory`)
 RETURN_FREED_BYTES = 16 * 2 ** 20
 
-#: the Jacobian's entries judged at a time by :func:`pairable_entries`
-PAIRABLE_CHUNK = 1 << 16
+#: the entries read at a time where a pass over a pattern makes temporaries
+#: (:func:`pairable_entries`, a new order's diagonal)
+ENTRIES_CHUNK = 1 << 16
 
 #: the names of ``factor``'s arguments, in their order
 _FACTOR_ARGUMENTS = ("hessian_values", "jacobian_values", "diagonal_x", "diagonal_c")
@@ -304,19 +306,19 @@ def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
     entry of the pattern that is zero here (a structural zero: the
     collocation's Jacobian holds each defect row's derivative by every state
     and input of its node) would make a pair whose pivot is zero where the
-    variable's diagonal is.  (Made a chunk of :data:`PAIRABLE_CHUNK` entries
-    at a time: no array of the entries' magnitudes, as of the bytes of each
-    entry of the Jacobian, beside the solver's.)"""
-    rows, values = np.asarray(jacobian_rows), np.asarray(jacobian_values)
+    variable's diagonal is.  (Made a chunk of :data:`ENTRIES_CHUNK` entries
+    at a time: no array of the entries' magnitudes beside the solver's;
+    ``jacobian_rows`` may be a :class:`~._periodic.PeriodicIndex`.)"""
+    values = np.asarray(jacobian_values)
     row_largest = np.zeros(m)
-    for k0 in range(0, values.size, PAIRABLE_CHUNK):
-        k1 = k0 + PAIRABLE_CHUNK
-        np.maximum.at(row_largest, rows[k0:k1], np.abs(values[k0:k1]))
+    for k0 in range(0, values.size, ENTRIES_CHUNK):
+        k1 = k0 + ENTRIES_CHUNK
+        np.maximum.at(row_largest, entries(jacobian_rows, k0, k1), np.abs(values[k0:k1]))
     out = np.empty(values.size, dtype=bool)
-    for k0 in range(0, values.size, PAIRABLE_CHUNK):
-        k1 = k0 + PAIRABLE_CHUNK
-        np.greater(np.abs(values[k0:k1]), zero_pivot * row_largest[rows[k0:k1]],
-                   out=out[k0:k1])
+    for k0 in range(0, values.size, ENTRIES_CHUNK):
+        k1 = k0 + ENTRIES_CHUNK
+        np.greater(np.abs(values[k0:k1]),
+                   zero_pivot * row_largest[entries(jacobian_rows, k0, k1)], out=out[k0:k1])
     return out
 
 
@@ -550,9 +552,8 @@ class SparseKKT:
     def _order(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """``(permutation, n_dense, kind)`` of :func:`elimination_order` for
         these structures (``self._delayed`` last)."""
-        (hr, hc), jacobian = hessian_structure, jacobian_structure
-        off = hr != hc
-        return elimination_order(self.n, self.m, (hr[off], hc[off]), jacobian, self.ordering,
+        return elimination_order(self.n, self.m, hessian_structure, jacobian_structure,
+                                 self.ordering,
                                  has_diagonal, pairable, self._delayed, not self._forward)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
@@ -682,17 +683,21 @@ class SparseKKT:
         diagonal = dx.copy() if dx.size else np.full(self.n, x_constant)
         if added_x:
             diagonal += added_x
-        on = hr == hc
-        np.add.at(diagonal, hr[on], hv[on])
-        pairable = pairable_entries(m, jr, jv, self.zero_pivot)
         # a Hessian diagonal in the pattern, not zero at these values (the
-        # others have a zero diagonal at least where diagonal_x is zero)
+        # others have a zero diagonal at least where diagonal_x is zero); the
+        # structures read a chunk at a time (runs are not made whole)
         has_diagonal = np.zeros(self.n, dtype=bool)
-        has_diagonal[hr[on]] = True
+        for k0 in range(0, len(hr), ENTRIES_CHUNK):
+            k1 = k0 + ENTRIES_CHUNK
+            rows = entries(hr, k0, k1)
+            on = rows == entries(hc, k0, k1)
+            np.add.at(diagonal, rows[on], hv[k0:k1][on])
+            has_diagonal[rows[on]] = True
         has_diagonal &= np.abs(diagonal) > self.zero_pivot * largest
-        # the structures made again for each new order: not held through the
+        pairable = pairable_entries(m, jr, jv, self.zero_pivot)
+        # the structures asked again for each new order: not held through the
         # factorizations between them
-        del diagonal, on, hr, hc, jr
+        del diagonal, hr, hc, jr
         # first the pairs made again; then the band swept the other way; then
         # what still fails, delayed to the end
         found = inertia
