@@ -26,11 +26,12 @@ docstring); only the storage and the loops differ:
 - **The 2 x 2 blocks' off-diagonal entries in the envelope**: the second
   row of a pair has no entry of :math:`L` in its own block's column (the
   sparse kernel stores a zero there); that place holds the block's entry.
-- **Scratch** of 2 doubles a row for ``factor`` (each row's largest entries
-  of K) and 1 for ``solve``, for the call's duration (the sparse kernel's
-  is 5 and 1).
+- **Scratch** of 2 doubles and an int32 a row for ``factor`` (each row's
+  largest entries of K, and the order's inverse, made from the order at
+  each call rather than held) and 1 double for ``solve``, for the call's
+  duration (the sparse kernel's is 5 and 1 doubles).
 
-Held per row of K: the order, its inverse and the kinds of the pivots, the
+Held per row of K: the order and the kinds of the pivots, the
 envelope's pointers, :math:`D`, the zero pivots' flags; and the structures
 as given (read-only arrays, or :class:`~._periodic.PeriodicIndex` runs,
 which the kernel walks in the same entry order: the interior point gives
@@ -45,9 +46,9 @@ included) it held 1.00 to 1.30 times the sparse L's entries
 
 :attr:`~._sparse.SparseKKT.analysis` counts, for this storage:
 ``nnz_factor`` the envelope's entries; ``bytes_factor`` L's values, the
-row pointers and D; ``bytes_maps`` the order, its inverse, the kinds and
-the Hessian's structure; ``bytes_workspace`` the scratch (24 bytes a row)
-and the zero pivots' flags.
+row pointers and D; ``bytes_maps`` the order, the kinds and the Hessian's
+structure; ``bytes_workspace`` the scratch (28 bytes a row) and the zero
+pivots' flags.
 """
 
 from __future__ import annotations
@@ -72,8 +73,6 @@ class EnvelopeAnalysis:
     ----------
     permutation : ndarray of int32, shape (N,)
         ``permutation[k]``: the row of K eliminated ``k``-th.
-    inverse : ndarray of int32, shape (N,)
-        The place of each row of K in the order.
     n_dense : int
         Rows counted as dense and ordered last.
     kind : ndarray of int8, shape (N,)
@@ -86,7 +85,6 @@ class EnvelopeAnalysis:
     """
 
     permutation: np.ndarray
-    inverse: np.ndarray
     n_dense: int
     kind: np.ndarray
     rowptr: np.ndarray
@@ -144,23 +142,23 @@ class EnvelopeKKT(SparseKKT):
         (hr, hc), (jr, jc) = hessian_structure, jacobian_structure
         self._numeric = None  # not held while a new order is made; the next factor
         # makes it again (_storage); nor the last analysis's pointers
-        self._rowptr = self._inverse = None
+        self._rowptr = None
         self._permutation = self._kind = self._zero = self.analysis = None
         symbolic = cached_analysis(
             N, (n, m, self.ordering, self._forward, "envelope"),
             (hr, hc, jr, jc, has_diagonal, pairable, self._delayed),
             lambda: self._symbolic((hr, hc), (jr, jc), has_diagonal, pairable))
         self._permutation, self._kind = symbolic.permutation, symbolic.kind
-        self._inverse, self._rowptr = symbolic.inverse, symbolic.rowptr
+        self._rowptr = symbolic.rowptr
         self._values = None  # factor's arguments, for matvec
         self._zero = np.zeros(N, dtype=np.int8)
         size = int(self._rowptr[-1])
         self.analysis = KKTAnalysis(
             n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
             symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
-            sum(a.nbytes for a in (self._permutation, self._inverse, self._kind,
+            sum(a.nbytes for a in (self._permutation, self._kind,
                                    *self._hessian_structure)),
-            24 * N + self._zero.nbytes)
+            28 * N + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
@@ -176,7 +174,7 @@ class EnvelopeKKT(SparseKKT):
         if total >= _sparse._LIMIT:
             raise ValueError(f"L's envelope would have {total} entries, too many for 32-bit "
                              "row pointers")
-        return EnvelopeAnalysis(permutation, inverse, n_dense, kind, rowptr, N + distinct)
+        return EnvelopeAnalysis(permutation, n_dense, kind, rowptr, N + distinct)
 
     def _storage(self):
         """``(Lx, D)``, made when a factorization first needs them after an
@@ -200,7 +198,7 @@ class EnvelopeKKT(SparseKKT):
         self._values = (hv, jv, diagonals)
         dx, dc, constants = diagonals
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, self._kind, self._inverse, hv, jv, dx, dc, self._zero,
+            Lx, self._rowptr, D, self._kind, self._permutation, hv, jv, dx, dc, self._zero,
             *self._indices, self.zero_pivot, *constants)
         return tuple(inertia)
 

@@ -47,12 +47,13 @@ jacobian_cols, n)``
     the envelope's row pointers (int32) of K's lower triangle in the order
     (``inverse``: the place of each row of K); returns the envelope's size
     and K's distinct entries off the diagonal.
-``envelope_factor(Lx, rowptr, D, pair, inverse, hessian_values,
+``envelope_factor(Lx, rowptr, D, pair, permutation, hessian_values,
 jacobian_values, diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols,
 jacobian_rows, jacobian_cols, tolerance, n, x_constant, x_added, c_constant)``
     the values summed into the envelope (as ``factor`` sums them) and
     factored in place, the pivots judged as ``factor`` judges them; returns
-    ``(n_positive, n_negative, n_zero, largest)``.
+    ``(n_positive, n_negative, n_zero, largest)``.  Scratch: 2 doubles and
+    the order's inverse (an int32) a row.
 ``envelope_solve(x, rowptr, Lx, D, pair, permutation, k)``
     ``solve`` with those factors (N doubles of scratch).
 ``structured_matvec(y, x, hessian_values, jacobian_values, diagonal_x,
@@ -119,7 +120,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 25"
+_GENERATION = "kanedyn sparse LDL 26"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -1457,7 +1458,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     return Py_BuildValue("LL", (long long)total, (long long)distinct);
 }
 
-/* envelope_factor(Lx, rowptr, D, pair, inverse, hessian_values, jacobian_values,
+/* envelope_factor(Lx, rowptr, D, pair, permutation, hessian_values, jacobian_values,
    diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols, jacobian_rows,
    jacobian_cols, tolerance, n, x_constant, x_added, c_constant), the indices
    each an int32 array or (runs, table) (kd_arg_of): the values
@@ -1467,7 +1468,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
    of L is D^-1 w (blockwise) and d_k = K(k, k) - (row k of L) w; the pivots
    judged as factor judges them.  Returns (n_positive, n_negative, n_zero,
    K's largest magnitude) */
-enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_INV, V_HV, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
+enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_PERM, V_HV, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
 
 static const char *const kd_structure_names[4] = {"hessian rows", "hessian cols",
                                                   "jacobian rows", "jacobian cols"};
@@ -1482,7 +1483,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 8, 8, 8, 1};
     static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 1};
     static const char *const names[V_COUNT] = {
-        "Lx", "rowptr", "D", "pair", "inverse", "hessian_values", "jacobian_values",
+        "Lx", "rowptr", "D", "pair", "permutation", "hessian_values", "jacobian_values",
         "diagonal_x", "diagonal_c", "zero"};
     Py_buffer v[V_COUNT + 8];
     memset(v, 0, sizeof(v));
@@ -1496,7 +1497,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
         return NULL;
     }
     double *Lx = v[V_LX].buf, *D = v[V_D].buf;
-    const int32_t *rowptr = v[V_ROWPTR].buf, *inv = v[V_INV].buf;
+    const int32_t *rowptr = v[V_ROWPTR].buf, *perm = v[V_PERM].buf;
     const int8_t *pair = v[V_PAIR].buf;
     const double *hv = v[V_HV].buf, *jv = v[V_JV].buf;
     int8_t *zero = v[V_ZERO].buf;
@@ -1509,18 +1510,34 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     Py_ssize_t nx = diagonals.n, nc = N - nx;
     kd_index hr = index[0], hc = index[1], jr = index[2], jc = index[3];
     if (KD_COUNT(v[V_PAIR]) != N
-        || KD_COUNT(v[V_INV]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
+        || KD_COUNT(v[V_PERM]) != N || KD_COUNT(v[V_ROWPTR]) != N + 1
         || KD_COUNT(v[V_ZERO]) < N || KD_COUNT(v[V_LX]) != (N ? rowptr[N] : 0)
         || counts[0] != nh || counts[1] != nh || counts[2] != nj || counts[3] != nj) {
         kd_release(v, V_COUNT + 8);
         PyErr_SetString(PyExc_ValueError, "envelope_factor: arrays of inconsistent sizes");
         return NULL;
     }
-    /* the workspace, 2 N doubles: held only while this call runs */
+    /* the workspace, 2 N doubles and the order's inverse (the place of each
+       row of K in it, N int32): held only while this call runs */
     double *rowmax = malloc(sizeof(double) * 2 * (size_t)(N > 0 ? N : 1));
-    if (rowmax == NULL) {
+    int32_t *inv = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    if (rowmax == NULL || inv == NULL) {
+        free(rowmax);
+        free(inv);
         kd_release(v, V_COUNT + 8);
         return PyErr_NoMemory();
+    }
+    for (Py_ssize_t k = 0; k < N; k++) inv[k] = -1;
+    for (Py_ssize_t k = 0; k < N; k++) {
+        int32_t row = perm[k];
+        if (row < 0 || row >= N || inv[row] >= 0) {
+            free(rowmax);
+            free(inv);
+            kd_release(v, V_COUNT + 8);
+            PyErr_SetString(PyExc_ValueError, "envelope_factor: permutation is not one");
+            return NULL;
+        }
+        inv[row] = (int32_t)k;
     }
     double *offmax = rowmax + N;
     double largest = 0.0;
@@ -1603,6 +1620,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     }
     Py_END_ALLOW_THREADS
     free(rowmax);
+    free(inv);
     kd_release(v, V_COUNT + 8);
     return Py_BuildValue("nnnd", pivots.n_positive, pivots.n_negative, pivots.n_zero,
                          largest);
