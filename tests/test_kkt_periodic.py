@@ -209,3 +209,36 @@ def test_envelope_factors_the_same_with_patterns_as_runs():
             np.testing.assert_array_equal(a.view(np.uint8), b.view(np.uint8))
         else:
             assert a == b
+
+
+def test_the_kernel_walks_runs_across_its_blocks(small_runs):
+    """The kernel takes an index's entries 1,024 at a time: runs of periods
+    1, 3 and 7 (a period cut by a block's end), stretches without a period
+    and runs of one repeat, in rows and columns laid out differently.  Its
+    J^T y from the runs equals NumPy's ``bincount`` from the arrays, bit for
+    bit."""
+    from kanedyn.optimization.interior_point.kkt._kernel import kernel
+
+    rng = np.random.default_rng(6)
+
+    def run(period, repeats, steps, bases):
+        return (np.asarray(bases, dtype=np.int64)[None, :]
+                + np.arange(repeats)[:, None] * np.asarray(steps)[None, :]).ravel()
+    rows = np.concatenate([run(3, 1001, [1, 1, 2], [0, 5, 9]), rng.integers(0, 900, 333),
+                           run(1, 2500, [1], [7]), run(7, 400, [2] * 7, range(7)),
+                           rng.integers(0, 900, 5)]).astype(np.int32)
+    cols = np.concatenate([run(1, 3003, [1], [0]), rng.integers(0, 3000, 333),
+                           run(5, 500, [3] * 5, [1, 0, 4, 2, 3]),
+                           run(2, 1400, [1, 2], [0, 1]), rng.integers(0, 3000, 5)]
+                          ).astype(np.int32)
+    assert rows.size == cols.size
+    n, m = int(cols.max()) + 1, int(rows.max()) + 1
+    index_rows, index_cols = periodic(rows), periodic(cols)
+    assert isinstance(index_rows, PeriodicIndex) and isinstance(index_cols, PeriodicIndex)
+    assert {1, 3, 7} <= set(index_rows.runs[:, 0].tolist())
+    values, y = rng.normal(size=rows.size), rng.normal(size=m)
+    out = np.empty(n)
+    kernel().transpose_product(out, values, y, kernel_index(index_rows),
+                               kernel_index(index_cols))
+    expected = np.bincount(cols, weights=y[rows] * values, minlength=n)
+    np.testing.assert_array_equal(out.view(np.uint64), expected.view(np.uint64))

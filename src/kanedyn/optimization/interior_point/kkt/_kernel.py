@@ -120,7 +120,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 26"
+_GENERATION = "kanedyn sparse LDL 29"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -209,11 +209,63 @@ static int kd_index_of(const Py_buffer *runs, const Py_buffer *table, Py_ssize_t
     return 0;
 }
 
-/* the entries themselves where the index is an array (one run of one
-   repeat), else NULL: the loops over an array take its entries directly */
-static inline const int32_t *kd_plain(const kd_index *x, Py_ssize_t count) {
-    if (count == 0) return x->table;
-    return x->runs[1] == 1 && x->runs[0] == count ? x->table + x->runs[2] : NULL;
+/* the entries taken at a time by kd_take */
+#define KD_BLOCK 1024
+
+/* the index's next `count` entries (count <= KD_BLOCK): a pointer into the
+   table where they are stored as they are (a run of one repeat: an array's
+   entries), else made in `buf` from their runs' bases and steps */
+static const int32_t *kd_take(kd_index *x, int32_t *buf, Py_ssize_t count) {
+    if (count == 0) return buf;
+    const int64_t *r = x->runs + 3 * x->run;
+    if (r[1] == 1 && r[0] - x->j >= count) {  /* within a run of one repeat */
+        const int32_t *at = x->table + r[2] + x->j;
+        x->j += count;
+        if (x->j == r[0]) {
+            x->j = 0;
+            x->run++;
+        }
+        return at;
+    }
+    Py_ssize_t k = 0;
+    while (k < count) {
+        r = x->runs + 3 * x->run;
+        int64_t period = r[0], j = x->j, s = x->s;
+        const int32_t *base = x->table + r[2], *step = base + period;
+        if (j == 0 && r[1] > 1 && period <= count - k) {  /* whole repeats at once */
+            int64_t repeats = (count - k) / period;
+            if (repeats > r[1] - s) repeats = r[1] - s;
+            for (int64_t t = 0; t < period; t++) {  /* each place of the period in turn */
+                int64_t value = base[t] + s * (int64_t)step[t], d = step[t];
+                int32_t *out = buf + k + t;
+                for (int64_t q = 0; q < repeats; q++, value += d) out[q * period] = (int32_t)value;
+            }
+            s += repeats;
+            k += repeats * period;
+            x->s = s;
+            if (s == r[1]) {
+                x->s = 0;
+                x->run++;
+            }
+            continue;
+        }
+        int64_t n = period - j < count - k ? period - j : count - k;
+        if (s == 0)
+            for (int64_t t = 0; t < n; t++) buf[k + t] = base[j + t];
+        else
+            for (int64_t t = 0; t < n; t++)
+                buf[k + t] = (int32_t)(base[j + t] + s * (int64_t)step[j + t]);
+        k += n;
+        x->j += n;
+        if (x->j == period) {
+            x->j = 0;
+            if (++x->s == r[1]) {
+                x->s = 0;
+                x->run++;
+            }
+        }
+    }
+    return buf;
 }
 
 /* the index's next entry */
@@ -1545,17 +1597,25 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     memset(Lx, 0, sizeof(double) * (size_t)(N ? rowptr[N] : 0));
     for (Py_ssize_t k = 0; k < N; k++) D[k] = 0.0;
-    const int32_t *phr = kd_plain(&hr, nh), *phc = kd_plain(&hc, nh);
-    const int32_t *pjr = kd_plain(&jr, nj), *pjc = kd_plain(&jc, nj);
-    for (Py_ssize_t e = 0; e < nh; e++) {
-        int32_t a = inv[phr ? phr[e] : kd_next(&hr)], b = inv[phc ? phc[e] : kd_next(&hc)];
-        if (a == b) D[a] += hv[e];
-        else Lx[KD_PLACE(rowptr, a, b)] += hv[e];
+    int32_t rbuf[KD_BLOCK], cbuf[KD_BLOCK];
+    for (Py_ssize_t e0 = 0; e0 < nh; e0 += KD_BLOCK) {
+        Py_ssize_t count = nh - e0 < KD_BLOCK ? nh - e0 : KD_BLOCK;
+        const int32_t *R = kd_take(&hr, rbuf, count), *C = kd_take(&hc, cbuf, count);
+        const double *values = hv + e0;
+        for (Py_ssize_t t = 0; t < count; t++) {
+            int32_t a = inv[R[t]], b = inv[C[t]];
+            if (a == b) D[a] += values[t];
+            else Lx[KD_PLACE(rowptr, a, b)] += values[t];
+        }
     }
-    for (Py_ssize_t e = 0; e < nj; e++) {
-        int32_t a = inv[nx + (pjr ? pjr[e] : kd_next(&jr))];
-        int32_t b = inv[pjc ? pjc[e] : kd_next(&jc)];
-        Lx[KD_PLACE(rowptr, a, b)] += jv[e];
+    for (Py_ssize_t e0 = 0; e0 < nj; e0 += KD_BLOCK) {
+        Py_ssize_t count = nj - e0 < KD_BLOCK ? nj - e0 : KD_BLOCK;
+        const int32_t *R = kd_take(&jr, rbuf, count), *C = kd_take(&jc, cbuf, count);
+        const double *values = jv + e0;
+        for (Py_ssize_t t = 0; t < count; t++) {
+            int32_t a = inv[nx + R[t]], b = inv[C[t]];
+            Lx[KD_PLACE(rowptr, a, b)] += values[t];
+        }
     }
     for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += kd_dx(&diagonals, j);
     for (Py_ssize_t i = 0; i < nc; i++) D[inv[nx + i]] -= kd_dc(&diagonals, i);
@@ -1733,18 +1793,26 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < nx; k++) y[k] = kd_dx(&diagonals, k) * x[k];
     for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -kd_dc(&diagonals, i) * x[nx + i];
-    const int32_t *phr = kd_plain(&hr, nh), *phc = kd_plain(&hc, nh);
-    const int32_t *pjr = kd_plain(&jr, nj), *pjc = kd_plain(&jc, nj);
-    for (Py_ssize_t e = 0; e < nh; e++) {
-        int32_t r = phr ? phr[e] : kd_next(&hr), c = phc ? phc[e] : kd_next(&hc);
-        y[r] += hv[e] * x[c];
-        if (r != c) y[c] += hv[e] * x[r];
+    int32_t rbuf[KD_BLOCK], cbuf[KD_BLOCK];
+    for (Py_ssize_t e0 = 0; e0 < nh; e0 += KD_BLOCK) {
+        Py_ssize_t count = nh - e0 < KD_BLOCK ? nh - e0 : KD_BLOCK;
+        const int32_t *R = kd_take(&hr, rbuf, count), *C = kd_take(&hc, cbuf, count);
+        const double *values = hv + e0;
+        for (Py_ssize_t t = 0; t < count; t++) {
+            int32_t r = R[t], c = C[t];
+            y[r] += values[t] * x[c];
+            if (r != c) y[c] += values[t] * x[r];
+        }
     }
-    for (Py_ssize_t e = 0; e < nj; e++) {
-        int32_t r = (int32_t)nx + (pjr ? pjr[e] : kd_next(&jr));
-        int32_t c = pjc ? pjc[e] : kd_next(&jc);
-        y[r] += jv[e] * x[c];
-        y[c] += jv[e] * x[r];
+    for (Py_ssize_t e0 = 0; e0 < nj; e0 += KD_BLOCK) {
+        Py_ssize_t count = nj - e0 < KD_BLOCK ? nj - e0 : KD_BLOCK;
+        const int32_t *R = kd_take(&jr, rbuf, count), *C = kd_take(&jc, cbuf, count);
+        const double *values = jv + e0;
+        for (Py_ssize_t t = 0; t < count; t++) {
+            int32_t r = (int32_t)nx + R[t], c = C[t];
+            y[r] += values[t] * x[c];
+            y[c] += values[t] * x[r];
+        }
     }
     Py_END_ALLOW_THREADS
     kd_release(v, M_COUNT + 8);
@@ -1784,25 +1852,28 @@ static PyObject *kd_transpose_product(PyObject *self, PyObject *args) {
         return NULL;
     }
     kd_index rows = index[0], cols = index[1];
-    /* the entries' values checked here: this product takes no other check */
-    for (Py_ssize_t e = 0; e < nnz; e++) {
-        int32_t r = kd_next(&rows), c = kd_next(&cols);
-        if (r < 0 || r >= m || c < 0 || c >= n) {
-            kd_release(v, 7);
-            PyErr_Format(PyExc_ValueError, "transpose_product: entry %zd (%d, %d) outside "
-                         "the %zd x %zd matrix", e, (int)r, (int)c, m, n);
-            return NULL;
-        }
-    }
-    rows = index[0];
-    cols = index[1];
+    int32_t rbuf[KD_BLOCK], cbuf[KD_BLOCK];
+    int outside = 0;
     Py_BEGIN_ALLOW_THREADS
     for (Py_ssize_t k = 0; k < n; k++) out[k] = 0.0;
-    for (Py_ssize_t e = 0; e < nnz; e++) {
-        int32_t r = kd_next(&rows), c = kd_next(&cols);
-        out[c] += values[e] * y[r];
+    /* the entries checked as they come, a block before its products (this
+       product takes no other check) */
+    for (Py_ssize_t e0 = 0; e0 < nnz && !outside; e0 += KD_BLOCK) {
+        Py_ssize_t count = nnz - e0 < KD_BLOCK ? nnz - e0 : KD_BLOCK;
+        const int32_t *R = kd_take(&rows, rbuf, count), *C = kd_take(&cols, cbuf, count);
+        for (Py_ssize_t t = 0; t < count; t++)
+            outside |= R[t] < 0 || R[t] >= m || C[t] < 0 || C[t] >= n;
+        if (outside) break;
+        const double *vals = values + e0;
+        for (Py_ssize_t t = 0; t < count; t++) out[C[t]] += vals[t] * y[R[t]];
     }
     Py_END_ALLOW_THREADS
+    if (outside) {
+        kd_release(v, 7);
+        PyErr_Format(PyExc_ValueError, "transpose_product: an entry outside the %zd x %zd "
+                     "matrix", m, n);
+        return NULL;
+    }
     kd_release(v, 7);
     Py_RETURN_NONE;
 }
