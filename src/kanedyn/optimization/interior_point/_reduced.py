@@ -284,7 +284,9 @@ class ReducedNLP:
         """:math:`J^T y`, shape (n,): the entries' products summed by
         ``np.bincount``, or for more than :data:`PRODUCTS_ARRAY_ENTRIES`
         entries by SciPy's product of the entries as they are (no array of
-        their products; the same sums in the same order, slower to set up)."""
+        their products; the same sums in the same order, slower to set up);
+        a pattern held as runs (:meth:`hold_periodic`) by the KKT kernel's
+        ``transpose_product``, which sums as SciPy does."""
         rows, cols = self.jacobian_structure
         if isinstance(rows, PeriodicIndex) or isinstance(cols, PeriodicIndex):
             from .kkt._kernel import kernel

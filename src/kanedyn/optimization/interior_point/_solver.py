@@ -299,11 +299,13 @@ class _Run:
             return False
         self._set_bounds()
         kkt_type, self.note = kkt_class(s.linear_solver)
-        if issubclass(kkt_type, SparseKKT):  # the kernel is there: patterns as runs
+        paired = {}
+        if issubclass(kkt_type, SparseKKT):
+            # the kernel is there: the patterns held as runs where they repeat;
+            # no pair through an entry that is zero at the start (a structural
+            # zero): the first factorization would meet its zero pivot
             R.hold_periodic()
-        # no pair through an entry that is zero at the start (a structural
-        # zero): the first factorization would meet its zero pivot
-        paired = {"pairable": self.pairable} if issubclass(kkt_type, SparseKKT) else {}
+            paired = {"pairable": self.pairable}
         self.kkt = kkt_type(n, m, R.hessian_structure(), R.jacobian_structure, **paired)
         self.pairable = None
         #: the NLP's limited-memory approximation, or ``None`` (exact)

@@ -169,8 +169,8 @@ class EnvelopeKKT(SparseKKT):
         inverse = np.empty(N, dtype=_INDEX)
         inverse[permutation] = np.arange(N, dtype=_INDEX)
         rowptr = np.empty(N + 1, dtype=_INDEX)
-        total, distinct = self._kernel.envelope(rowptr, inverse, kind, *map(kernel_index,
-                                                                            (hr, hc, jr, jc)), n)
+        indices = (kernel_index(index) for index in (hr, hc, jr, jc))
+        total, distinct = self._kernel.envelope(rowptr, inverse, kind, *indices, n)
         if total >= _sparse._LIMIT:
             raise ValueError(f"L's envelope would have {total} entries, too many for 32-bit "
                              "row pointers")

@@ -553,8 +553,8 @@ class SparseKKT:
         """``(permutation, n_dense, kind)`` of :func:`elimination_order` for
         these structures (``self._delayed`` last)."""
         return elimination_order(self.n, self.m, hessian_structure, jacobian_structure,
-                                 self.ordering,
-                                 has_diagonal, pairable, self._delayed, not self._forward)
+                                 self.ordering, has_diagonal, pairable, self._delayed,
+                                 not self._forward)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`~._analyses.SymbolicAnalysis` of these inputs: the
