@@ -120,12 +120,13 @@ class PeriodicIndex:
         for period, repeats, first in self.runs.tolist():
             length = period * repeats
             lo, hi = max(start, at), min(stop, at + length)
-            if lo < hi:
+            if lo < hi and repeats == 1:  # its entries as they are
+                out[lo - start:hi - start] = self.table[first + lo - at:first + hi - at]
+            elif lo < hi:
                 # the run's entries lo - at .. hi - at, by whole repeats
                 s0, s1 = (lo - at) // period, (hi - at - 1) // period + 1
                 bases = self.table[first:first + period].astype(np.int64)
-                steps = (self.table[first + period:first + 2 * period].astype(np.int64)
-                         if repeats > 1 else np.zeros(period, dtype=np.int64))
+                steps = self.table[first + period:first + 2 * period].astype(np.int64)
                 block = bases + np.multiply.outer(np.arange(s0, s1, dtype=np.int64), steps)
                 skip = lo - at - s0 * period
                 out[lo - start:hi - start] = block.ravel()[skip:skip + hi - lo]
