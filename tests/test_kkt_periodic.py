@@ -94,6 +94,8 @@ def test_a_periodic_index_is_not_an_array(small_runs):
             else index.__array__(copy=False)
     with pytest.raises(ValueError, match="table of 4"):
         PeriodicIndex([[3, 2, 0]], [0, 1, 2, 3])  # bases and steps: 6 places
+    with pytest.raises(ValueError, match="runs whose"):
+        PeriodicIndex([[1, 2 ** 40, 0]], [0, 1])  # more entries than int32 indexes
 
 
 def _solve(nodes, method, hessian):

@@ -87,8 +87,11 @@ class PeriodicIndex:
         table = np.array(table, dtype=_INDEX).ravel()
         period, repeats, first = runs.T
         held = np.where(repeats > 1, 2 * period, period)
+        limit = np.iinfo(_INDEX).max  # (an int32 array's entries, so no product overflows)
         if runs.size and ((period <= 0).any() or (repeats <= 0).any() or (first < 0).any()
-                          or (first + held > table.size).any()):
+                          or (period > limit).any() or (repeats > limit).any()
+                          or (first + held > table.size).any()
+                          or float((period.astype(float) * repeats).sum()) > limit):
             raise ValueError("PeriodicIndex: runs whose periods, repeats or places do not "
                              f"fit a table of {table.size}")
         runs.flags.writeable = table.flags.writeable = False
