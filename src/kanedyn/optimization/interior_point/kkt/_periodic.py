@@ -93,7 +93,8 @@ class PeriodicIndex:
                           or (first + held > table.size).any()
                           or float((period.astype(float) * repeats).sum()) > limit):
             raise ValueError("PeriodicIndex: runs whose periods, repeats or places do not "
-                             f"fit a table of {table.size}")
+                             f"fit a table of {table.size}, or more entries than int32 "
+                             "indexes")
         runs.flags.writeable = table.flags.writeable = False
         self.runs, self.table = runs, table
         self.size = int((period * repeats).sum())
