@@ -120,7 +120,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 29"
+_GENERATION = "kanedyn sparse LDL 31"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -268,20 +268,6 @@ static const int32_t *kd_take(kd_index *x, int32_t *buf, Py_ssize_t count) {
     return buf;
 }
 
-/* the index's next entry */
-static inline int32_t kd_next(kd_index *x) {
-    const int64_t *r = x->runs + 3 * x->run;
-    const int32_t *at = x->table + r[2] + x->j;
-    int32_t value = x->s ? (int32_t)(at[0] + x->s * (int64_t)at[r[0]]) : at[0];
-    if (++x->j == r[0]) {
-        x->j = 0;
-        if (++x->s == r[1]) {
-            x->s = 0;
-            x->run++;
-        }
-    }
-    return value;
-}
 
 /* the walk from i up the elimination tree to the first node marked for row k:
    the nodes passed (the first row of a pair with its second) appended to `out`
@@ -915,20 +901,46 @@ static int kd_index_args(PyObject *args, Py_ssize_t at, int count, const char *c
 }
 
 /* pairs (r[e] + offset, c[e]), e < count, where mask[e] (all where mask is
-   NULL): a part of a pattern's entries, r and c walked from their start
-   (copies of the part walk it again; `runs` holds an array's one run) */
+   NULL): a part of a pattern's entries, r and c walked from their start a
+   block at a time (kd_take; a copy of a part not yet walked walks it again
+   in its own buffers; `runs` holds an array's one run) */
 typedef struct {
     kd_index r, c;
     Py_ssize_t count;
     int64_t offset;
     const uint8_t *mask;
     int64_t runs[6];
+    const int32_t *R, *C;  /* the block's entries, `left` of them from `at` */
+    Py_ssize_t at, left;
+    int32_t rbuf[KD_BLOCK], cbuf[KD_BLOCK];
 } kd_part;
 
-/* the part's next entry, in *i and *j: 0 where the mask leaves it out */
+/* a part of the entries of indices r and c (count of them, rows moved by
+   offset), walked from their start */
+static kd_part kd_part_of(kd_index r, kd_index c, Py_ssize_t count, int64_t offset) {
+    kd_part part;
+    part.r = r;
+    part.c = c;
+    part.count = count;
+    part.offset = offset;
+    part.mask = NULL;
+    part.at = part.left = 0;
+    return part;
+}
+
+/* the part's entry e (each in turn, from 0), in *i and *j: 0 where the mask
+   leaves it out */
 static inline int kd_part_next(kd_part *p, Py_ssize_t e, int64_t *i, int64_t *j) {
-    *i = kd_next(&p->r) + p->offset;
-    *j = kd_next(&p->c);
+    if (p->left == 0) {
+        Py_ssize_t n = p->count - e < KD_BLOCK ? p->count - e : KD_BLOCK;
+        p->R = kd_take(&p->r, p->rbuf, n);
+        p->C = kd_take(&p->c, p->cbuf, n);
+        p->at = 0;
+        p->left = n;
+    }
+    *i = p->R[p->at] + p->offset;
+    *j = p->C[p->at++];
+    p->left--;
     return p->mask == NULL || p->mask[e];
 }
 
@@ -1061,6 +1073,7 @@ static int kd_parts(PyObject *args, Py_ssize_t first, int n_parts, Py_buffer *vi
             return -1;
         }
         parts[p].count = count_r;
+        parts[p].at = parts[p].left = 0;
         parts[p].offset = PyLong_AsLongLong(PyTuple_GET_ITEM(part, 2));
         if (PyErr_Occurred()) return -1;
         parts[p].mask = NULL;
@@ -1161,19 +1174,9 @@ static PyObject *kd_compressed(PyObject *self, PyObject *args) {
         }
     }
     {
-        kd_part graph;
-        graph.runs[0] = graph.runs[3] = total;
-        graph.runs[1] = graph.runs[4] = 1;
-        graph.runs[2] = graph.runs[5] = 0;
-        graph.r.runs = graph.runs;
-        graph.c.runs = graph.runs + 3;
-        graph.r.table = a;
-        graph.c.table = b;
-        graph.r.run = graph.c.run = 0;
-        graph.r.j = graph.r.s = graph.c.j = graph.c.s = 0;
-        graph.count = total;
-        graph.offset = 0;
-        graph.mask = NULL;
+        int64_t run[3] = {total, 1, 0};  /* the arrays a and b: one run each */
+        kd_index ra = {run, a, 0, 0, 0}, rb = {run, b, 0, 0, 0};
+        kd_part graph = kd_part_of(ra, rb, total, 0);
         result = kd_csr_of(n_nodes, n_nodes, &graph, 1, 1);
     }
 done:
@@ -1425,6 +1428,26 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
 /* ---------------------------------------------------------------- envelope */
 /* (the storage of EnvelopeKKT's L: the comment of KD_FIRST, above) */
 
+static const char *const kd_structure_names[4] = {"hessian rows", "hessian cols",
+                                                  "jacobian rows", "jacobian cols"};
+
+/* the buffers of the first `n_buffers` arguments (kd_views) and the four
+   structure indices after them (kd_index_args) in v (n_buffers + 8 views,
+   released here on an error), the indices' arrays' runs in runs (12): -1
+   with the error set */
+static int kd_structure_views(PyObject *args, int n_buffers, const Py_ssize_t *size,
+                              const int *writable, const char *const *names, Py_buffer *v,
+                              int64_t *runs, kd_index *index, Py_ssize_t *counts) {
+    memset(v, 0, sizeof(Py_buffer) * (size_t)(n_buffers + 8));
+    if (kd_views(args, n_buffers, v, size, writable, names) < 0) return -1;
+    if (kd_index_args(args, n_buffers, 4, kd_structure_names, v + n_buffers, runs, index,
+                      counts) < 0) {
+        kd_release(v, n_buffers + 8);
+        return -1;
+    }
+    return 0;
+}
+
 /* envelope(rowptr, inverse, pair, hessian_rows, hessian_cols, jacobian_rows,
    jacobian_cols, n): the envelope of the permuted K's lower triangle
    (inverse[r] the place of K's row r; row n + i the constraint i): fills
@@ -1440,20 +1463,12 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     static const Py_ssize_t size[3] = {4, 4, 1};
     static const int writable[3] = {1, 0, 0};
     static const char *const names[3] = {"rowptr", "inverse", "pair"};
-    static const char *const index_names[4] = {"hessian rows", "hessian cols",
-                                               "jacobian rows", "jacobian cols"};
     Py_buffer v[11];
-    memset(v, 0, sizeof(v));
-    if (kd_views(args, 3, v, size, writable, names) < 0) return NULL;
     kd_index start[4];
     int64_t runs[12];
     Py_ssize_t counts[4];
-    for (int a = 0; a < 4; a++)
-        if (kd_arg_of(PyTuple_GET_ITEM(args, 3 + a), index_names[a], v + 3 + 2 * a,
-                      runs + 3 * a, &start[a], &counts[a]) < 0) {
-            kd_release(v, 11);
-            return NULL;
-        }
+    if (kd_structure_views(args, 3, size, writable, names, v, runs, start, counts) < 0)
+        return NULL;
     int32_t *rowptr = v[0].buf;
     const int32_t *inv = v[1].buf;
     const int8_t *pair = v[2].buf;
@@ -1466,15 +1481,21 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     }
     int64_t total = 0, distinct = 0;
     int fits = 1;
+    /* K's entries: the Hessian's, then the Jacobian's (rows n + i) */
+    kd_part entries[2] = {kd_part_of(start[0], start[1], nh, 0),
+                          kd_part_of(start[2], start[3], nj, n)};
     Py_BEGIN_ALLOW_THREADS
     /* each row's first column, in rowptr[k + 1] until the widths are summed */
     for (Py_ssize_t k = 0; k < N; k++) rowptr[k + 1] = (int32_t)k;
-    kd_index hr = start[0], hc = start[1], jr = start[2], jc = start[3];
-    for (Py_ssize_t e = 0; e < nh + nj; e++) {
-        int32_t a = e < nh ? inv[kd_next(&hr)] : inv[n + kd_next(&jr)];
-        int32_t b = e < nh ? inv[kd_next(&hc)] : inv[kd_next(&jc)];
-        int32_t high = a > b ? a : b, low = a > b ? b : a;
-        if (low < rowptr[high + 1]) rowptr[high + 1] = low;
+    for (int q = 0; q < 2; q++) {
+        kd_part part = entries[q];
+        for (Py_ssize_t e = 0; e < part.count; e++) {
+            int64_t i, j;
+            kd_part_next(&part, e, &i, &j);
+            int32_t a = inv[i], b = inv[j];
+            int32_t high = a > b ? a : b, low = a > b ? b : a;
+            if (low < rowptr[high + 1]) rowptr[high + 1] = low;
+        }
     }
     for (Py_ssize_t k = 0; k < N; k++) {
         int32_t f = rowptr[k + 1];
@@ -1495,14 +1516,17 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
             kd_release(v, 11);
             return PyErr_NoMemory();
         }
-        kd_index hr = start[0], hc = start[1], jr = start[2], jc = start[3];
-        for (Py_ssize_t e = 0; e < nh + nj; e++) {
-            int32_t a = e < nh ? inv[kd_next(&hr)] : inv[n + kd_next(&jr)];
-            int32_t b = e < nh ? inv[kd_next(&hc)] : inv[kd_next(&jc)];
-            if (a == b) continue;
-            int64_t p = KD_PLACE(rowptr, a, b);
-            distinct += !mark[p];
-            mark[p] = 1;
+        for (int q = 0; q < 2; q++) {
+            kd_part part = entries[q];
+            for (Py_ssize_t e = 0; e < part.count; e++) {
+                int64_t i, j;
+                kd_part_next(&part, e, &i, &j);
+                int32_t a = inv[i], b = inv[j];
+                if (a == b) continue;
+                int64_t p = KD_PLACE(rowptr, a, b);
+                distinct += !mark[p];
+                mark[p] = 1;
+            }
         }
         free(mark);
     }
@@ -1522,9 +1546,6 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
    K's largest magnitude) */
 enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_PERM, V_HV, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
 
-static const char *const kd_structure_names[4] = {"hessian rows", "hessian cols",
-                                                  "jacobian rows", "jacobian cols"};
-
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 9) {
         PyErr_Format(PyExc_TypeError, "%d arguments expected", V_COUNT + 9);
@@ -1538,16 +1559,11 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
         "Lx", "rowptr", "D", "pair", "permutation", "hessian_values", "jacobian_values",
         "diagonal_x", "diagonal_c", "zero"};
     Py_buffer v[V_COUNT + 8];
-    memset(v, 0, sizeof(v));
-    if (kd_views(args, V_COUNT, v, size, writable, names) < 0) return NULL;
     kd_index index[4];
     int64_t runs[12];
     Py_ssize_t counts[4];
-    if (kd_index_args(args, V_COUNT, 4, kd_structure_names, v + V_COUNT, runs, index,
-                      counts) < 0) {
-        kd_release(v, V_COUNT + 8);
+    if (kd_structure_views(args, V_COUNT, size, writable, names, v, runs, index, counts) < 0)
         return NULL;
-    }
     double *Lx = v[V_LX].buf, *D = v[V_D].buf;
     const int32_t *rowptr = v[V_ROWPTR].buf, *perm = v[V_PERM].buf;
     const int8_t *pair = v[V_PAIR].buf;
@@ -1763,16 +1779,11 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     static const char *const names[M_COUNT] = {"y", "x", "hessian_values", "jacobian_values",
                                                "diagonal_x", "diagonal_c"};
     Py_buffer v[M_COUNT + 8];
-    memset(v, 0, sizeof(v));
-    if (kd_views(args, M_COUNT, v, size, writable, names) < 0) return NULL;
     kd_index index[4];
     int64_t runs[12];
     Py_ssize_t counts[4];
-    if (kd_index_args(args, M_COUNT, 4, kd_structure_names, v + M_COUNT, runs, index,
-                      counts) < 0) {
-        kd_release(v, M_COUNT + 8);
+    if (kd_structure_views(args, M_COUNT, size, writable, names, v, runs, index, counts) < 0)
         return NULL;
-    }
     double *y = v[M_Y].buf;
     const double *x = v[M_X].buf, *hv = v[M_HV].buf, *jv = v[M_JV].buf;
     Py_ssize_t N = KD_COUNT(v[M_Y]), nh = KD_COUNT(v[M_HV]), nj = KD_COUNT(v[M_JV]);

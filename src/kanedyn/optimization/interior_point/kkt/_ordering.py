@@ -96,7 +96,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._kernel import kernel
-from ._periodic import entries, kernel_index
+from ._periodic import ENTRIES_CHUNK, entries, kernel_index
 
 __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 
@@ -105,10 +105,6 @@ __all__ = ["elimination_order", "dense_threshold", "ORDERINGS"]
 #: pairs) and ``"pairs-mmd"`` (the pairs in SuperLU's multiple minimum degree
 #: order instead of RCM, :func:`_minimum_degree`)
 ORDERINGS = ("pairs", "rcm", "pairs-mmd")
-
-
-#: Jacobian entries taken at a time where a pass over them makes temporaries
-_CHUNK = 1 << 18
 
 
 def dense_threshold(degrees):
@@ -175,11 +171,11 @@ def _made(shape, parts, symmetric):
 
 def _mask(rows, cols, keep):
     """``keep(rows, cols)`` (a boolean of each entry's row and column) for
-    every entry, made a chunk of :data:`_CHUNK` entries at a time (no index
+    every entry, made a chunk of :data:`~._periodic.ENTRIES_CHUNK` entries at a time (no index
     array made whole)."""
     out = np.empty(len(rows), dtype=bool)
-    for start in range(0, out.size, _CHUNK):
-        stop = min(out.size, start + _CHUNK)
+    for start in range(0, out.size, ENTRIES_CHUNK):
+        stop = min(out.size, start + ENTRIES_CHUNK)
         out[start:stop] = keep(entries(rows, start, stop), entries(cols, start, stop))
     return out
 
@@ -265,9 +261,9 @@ def _backward_share(order, node, n, block, jr, jc):
     row_rank = np.where(node >= 0, rank[np.maximum(node, 0)], -1)  # of each row of K
     del rank
     before = counted = 0
-    for start in range(0, len(jr), _CHUNK):  # (the temporaries of a chunk only)
-        rows = n + entries(jr, start, start + _CHUNK)
-        cols = entries(jc, start, start + _CHUNK)
+    for start in range(0, len(jr), ENTRIES_CHUNK):  # (the temporaries of a chunk only)
+        rows = n + entries(jr, start, start + ENTRIES_CHUNK)
+        cols = entries(jc, start, start + ENTRIES_CHUNK)
         partner = block[rows]
         use = (partner != rows) & (cols != partner) & (row_rank[rows] >= 0) & (
             row_rank[cols] >= 0)

@@ -32,7 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 __all__ = ["PeriodicIndex", "periodic", "kernel_index", "entries",
-           "PERIODIC_ENTRIES", "MAX_PERIOD", "PROBE_ENTRIES"]
+           "PERIODIC_ENTRIES", "MAX_PERIOD", "PROBE_ENTRIES", "ENTRIES_CHUNK"]
 
 #: arrays of fewer entries are kept as they are (their bytes matter little,
 #: and the interior point's small problems keep the arrays' own code paths)
@@ -44,6 +44,10 @@ MAX_PERIOD = 64
 #: the window in which a period is looked for, and the fewest entries a run
 #: of more than one repeat covers
 PROBE_ENTRIES = 512
+
+#: the entries read at a time (:func:`entries`) where a pass over a pattern in
+#: NumPy makes temporaries of its entries
+ENTRIES_CHUNK = 1 << 16
 
 _INDEX = np.int32
 

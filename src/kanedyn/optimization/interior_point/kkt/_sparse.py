@@ -143,7 +143,7 @@ import numpy as np
 from ._analyses import SymbolicAnalysis, _digest, cached_analysis
 from ._kernel import kernel
 from ._ordering import ORDERINGS, elimination_order
-from ._periodic import entries
+from ._periodic import ENTRIES_CHUNK, entries
 
 __all__ = ["SparseKKT", "KKTAnalysis", "ZERO_PIVOT", "MAX_REANALYSES", "MAX_DELAYED",
            "pairable_entries"]
@@ -165,10 +165,6 @@ _LIMIT = np.iinfo(_INDEX).max
 #: numeric storage of at least this many bytes is made after the process's
 #: freed memory is handed back to the system (:func:`_return_freed_memory`)
 RETURN_FREED_BYTES = 16 * 2 ** 20
-
-#: the entries read at a time where a pass over a pattern makes temporaries
-#: (:func:`pairable_entries`, a new order's diagonal)
-ENTRIES_CHUNK = 1 << 16
 
 #: the names of ``factor``'s arguments, in their order
 _FACTOR_ARGUMENTS = ("hessian_values", "jacobian_values", "diagonal_x", "diagonal_c")
@@ -306,7 +302,7 @@ def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
     entry of the pattern that is zero here (a structural zero: the
     collocation's Jacobian holds each defect row's derivative by every state
     and input of its node) would make a pair whose pivot is zero where the
-    variable's diagonal is.  (Made a chunk of :data:`ENTRIES_CHUNK` entries
+    variable's diagonal is.  (Made a chunk of :data:`~._periodic.ENTRIES_CHUNK` entries
     at a time: no array of the entries' magnitudes beside the solver's;
     ``jacobian_rows`` may be a :class:`~._periodic.PeriodicIndex`.)"""
     values = np.asarray(jacobian_values)
