@@ -26,10 +26,12 @@ docstring); only the storage and the loops differ:
 - **The 2 x 2 blocks' off-diagonal entries in the envelope**: the second
   row of a pair has no entry of :math:`L` in its own block's column (the
   sparse kernel stores a zero there); that place holds the block's entry.
-- **Scratch** of 2 doubles and an int32 a row for ``factor`` (each row's
-  largest entries of K, and the order's inverse, made from the order at
-  each call rather than held) and 1 double for ``solve``, for the call's
-  duration (the sparse kernel's is 5 and 1 doubles).
+- **Scratch** of a double and an int32 a row for ``factor`` (each
+  column's largest entry of K below the diagonal, each row's own read at
+  its step; and the order's inverse, made from the order at each call
+  rather than held), for the call's duration (the sparse kernel's is 5
+  doubles, and 1 for its ``solve``); ``solve`` works in the right-hand
+  side's storage through the order, with none.
 
 Held per row of K: the order and the kinds of the pivots, the
 envelope's pointers, :math:`D`, the zero pivots' flags; and the structures
@@ -47,7 +49,7 @@ included) it held 1.00 to 1.30 times the sparse L's entries
 :attr:`~._sparse.SparseKKT.analysis` counts, for this storage:
 ``nnz_factor`` the envelope's entries; ``bytes_factor`` L's values, the
 row pointers and D; ``bytes_maps`` the order, the kinds and the Hessian's
-structure; ``bytes_workspace`` the scratch (28 bytes a row) and the zero
+structure; ``bytes_workspace`` the scratch (12 bytes a row) and the zero
 pivots' flags.
 """
 
@@ -158,7 +160,7 @@ class EnvelopeKKT(SparseKKT):
             symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
             sum(a.nbytes for a in (self._permutation, self._kind,
                                    *self._hessian_structure)),
-            28 * N + self._zero.nbytes)
+            12 * N + self._zero.nbytes)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
