@@ -389,6 +389,7 @@ CONTENDERS = {
     "opty, mumps_mem_percent=100": ("opty", {"mumps_mem_percent": 100}),
     "kanedyn, interior-point": ("kanedyn-ip", {}),
     "kanedyn, interior-point, sparse": ("kanedyn-ip", {"linear_solver": "sparse"}),
+    "kanedyn, interior-point, NumPy's allocator": ("kanedyn-ip", {"large_arrays": "numpy"}),
 }
 
 

@@ -211,7 +211,7 @@ class MultiphaseProblem:
             Also when the solver fails or is interrupted.
         """
         from ._multiphase_result import build_multiphase_result
-        from ._solvers import solve_nlp
+        from ._solvers import solve_nlp, solver_arrays
         from .._errors import ModelError
         from ._hessian import HESSIANS
         if hessian not in HESSIANS:
@@ -221,9 +221,10 @@ class MultiphaseProblem:
             nlp = self.__dict__.get("_exact_nlp")
             if nlp is None:
                 nlp = self.__dict__["_exact_nlp"] = MultiphaseNLP(self, hessian="exact")
-        x0, warm = self._vector(guess, warm_start)
-        solution, signal = solve_nlp(solver, nlp, x0, options, warm)
-        return build_multiphase_result(self, solution, signal)
+        with solver_arrays(solver, options):
+            x0, warm = self._vector(guess, warm_start)
+            solution, signal = solve_nlp(solver, nlp, x0, options, warm)
+            return build_multiphase_result(self, solution, signal)
 
     def __repr__(self):
         return (f"<MultiphaseProblem of {len(self.phases)} phases: "

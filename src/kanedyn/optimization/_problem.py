@@ -513,16 +513,17 @@ class OptimalControlProblem:
         from ._nlp import CollocationNLP
         from ._result import build_result
         from ._hessian import HESSIANS
-        from ._solvers import solve_nlp, solver_named
+        from ._solvers import solve_nlp, solver_arrays, solver_named
         solver_named(solver)
         if hessian not in HESSIANS:
             raise ModelError(f"hessian={hessian!r}: give one of {', '.join(HESSIANS)}")
-        x0, warm = vector(self, guess, warm_start)
-        nlp = CollocationNLP(self, hessian=hessian)
-        solution, signal = solve_nlp(solver, nlp, x0, options, warm)
         from .interior_point._options import DEFAULTS
         tolerance = (options or {}).get("constr_viol_tol", DEFAULTS["constr_viol_tol"])
-        return build_result(self, nlp, solution, signal, start=x0, tolerance=tolerance)
+        with solver_arrays(solver, options):  # (the NLP's own arrays too)
+            x0, warm = vector(self, guess, warm_start)
+            nlp = CollocationNLP(self, hessian=hessian)
+            solution, signal = solve_nlp(solver, nlp, x0, options, warm)
+            return build_result(self, nlp, solution, signal, start=x0, tolerance=tolerance)
 
     def __repr__(self):
         free = " free duration," if self.free_duration else ""

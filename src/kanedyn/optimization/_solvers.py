@@ -32,7 +32,8 @@ import numpy as np
 from .._errors import ModelError, OptionError
 from .interior_point import InteriorPoint
 
-__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "IPOPT_STATUS"]
+__all__ = ["NLPSolution", "Ipopt", "SOLVERS", "solver_named", "solve_nlp", "solver_arrays",
+           "IPOPT_STATUS"]
 
 #: IPOPT's return codes and what they mean for the user
 IPOPT_STATUS = {
@@ -238,6 +239,15 @@ def solver_named(solver):
         raise ModelError(f"solver must be a name ({', '.join(SOLVERS)}) or an object with "
                          f"solve(nlp, x0, options, warm, stop), not {solver!r}")
     return solver
+
+
+def solver_arrays(solver, options):
+    """The context in which ``solver`` (a name or an object) has an NLP built,
+    solved and its result made: its ``arrays(options)`` where it has one (the
+    interior point's large arrays mapped), else none."""
+    import contextlib
+    arrays = getattr(solver_named(solver), "arrays", None)
+    return arrays(options) if arrays is not None else contextlib.nullcontext()
 
 
 def solve_nlp(solver, nlp, x0, options, warm):

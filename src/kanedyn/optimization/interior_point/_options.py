@@ -81,6 +81,9 @@ DEFAULTS = {
     "limited_memory_update_type": "damped-bfgs",
     # accepted for IPOPT compatibility, one value only
     "mu_strategy": "monotone",
+    # memory: NumPy's arrays of 4 MiB or more each in a mapping of their own
+    # while the solver runs ("mapped", ._mapped), or NumPy's handler's ("numpy")
+    "large_arrays": "mapped",
 }
 
 #: options that take text -> the values accepted
@@ -90,6 +93,7 @@ CHOICES = {
     "hessian_approximation": ("exact", "limited-memory"),
     "limited_memory_update_type": ("bfgs", "damped-bfgs"),
     "mu_strategy": ("monotone",),
+    "large_arrays": ("mapped", "numpy"),
 }
 
 _INTEGERS = {"max_iter", "acceptable_iter", "print_level", "max_soc", "max_refinement_steps",

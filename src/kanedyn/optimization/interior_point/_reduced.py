@@ -125,6 +125,9 @@ class ReducedNLP:
         fixed_of = np.zeros(n_full, dtype=index)
         fixed_of[self.fixed] = np.arange(self.fixed.size)
         self._fixed_jacobian = (in_fixed, jr[in_fixed], fixed_of[jc[in_fixed]])
+        #: the last :meth:`jacobian`'s entries in the fixed columns (``None``
+        #: before one, or without fixed variables)
+        self.fixed_jacobian = None
         use = (column_of[jc] >= 0) & (row_of[jr] >= 0)
         #: the full patterns' entries left out, ``None`` where none is
         self._jacobian_dropped = _dropped(use)
@@ -261,8 +264,14 @@ class ReducedNLP:
         return values if self.objective_scale == 1.0 else self.objective_scale * values
 
     def jacobian(self, x_full):
-        values = _kept(np.asarray(self.nlp.jacobian(x_full), dtype=float),
-                       self._jacobian_dropped, copy=True, owned=self._owned)
+        """The scaled Jacobian's values in the reduced pattern; the NLP's
+        entries in the fixed variables' columns kept in :attr:`fixed_jacobian`
+        (the multipliers of :meth:`multipliers_full` at this point, without
+        the Jacobian evaluated again)."""
+        full = np.asarray(self.nlp.jacobian(x_full), dtype=float)
+        self.fixed_jacobian = full[self._fixed_jacobian[0]] if self.fixed.size else None
+        values = _kept(full, self._jacobian_dropped, copy=True, owned=self._owned)
+        del full
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values
@@ -303,9 +312,11 @@ class ReducedNLP:
         return sp.coo_matrix((jacobian_values, (cols, rows)), shape=(self.n, self.m)) @ y
 
     # ---------------------------------------------------------- unscaling
-    def multipliers_full(self, x_full, y, z_lower, z_upper):
+    def multipliers_full(self, x_full, y, z_lower, z_upper, fixed_jacobian=None):
         """IPOPT's unscaled multipliers ``{"g", "x_lower", "x_upper"}`` of the
-        full problem; a fixed variable's from the Lagrangian's gradient."""
+        full problem; a fixed variable's from the Lagrangian's gradient, with
+        ``fixed_jacobian`` (:attr:`fixed_jacobian` of a Jacobian at
+        ``x_full``) or else the NLP's Jacobian evaluated at ``x_full``."""
         sf = self.objective_scale
         g = np.zeros(self.m_full)
         g[self.rows] = y * self.row_scale / sf
@@ -313,7 +324,8 @@ class ReducedNLP:
         zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
         if self.fixed.size:  # the Lagrangian's gradient in their columns
             entries, rows, columns = self._fixed_jacobian
-            values = np.asarray(self.nlp.jacobian(x_full), dtype=float)[entries]
+            values = (fixed_jacobian if fixed_jacobian is not None else
+                      np.asarray(self.nlp.jacobian(x_full), dtype=float)[entries])
             r = np.asarray(self.nlp.gradient(x_full), dtype=float)[self.fixed] + np.bincount(
                 columns, weights=values * g[rows], minlength=self.fixed.size)
             zl[self.fixed], zu[self.fixed] = np.maximum(r, 0.0), np.maximum(-r, 0.0)

@@ -60,6 +60,7 @@ from ..._errors import OptionError
 from ._bounds import PrimalBounds, fraction_to_boundary
 from ._filter import Filter
 from ._finite import all_finite
+from ._mapped import mapped_large_arrays
 from .kkt._low_rank import LowRankKKT
 from .kkt._sparse import SparseKKT, pairable_entries
 from ._optimality import next_barrier, optimality_errors, safeguard_multipliers
@@ -118,11 +119,13 @@ class _Evaluation:
     caller's array, not a copy; the full vector is made again when a
     callback needs it: not held)."""
 
-    __slots__ = ("x", "objective", "rows", "gradient", "jacobian")
+    __slots__ = ("x", "objective", "rows", "gradient", "jacobian", "fixed_jacobian")
 
     def __init__(self, x, objective, rows):
         self.x, self.objective, self.rows = x, objective, rows
-        self.gradient = self.jacobian = None
+        #: with the Jacobian: the NLP's entries in the fixed variables' columns
+        #: (:attr:`._reduced.ReducedNLP.fixed_jacobian`), kept when it is let go
+        self.gradient = self.jacobian = self.fixed_jacobian = None
 
     def finite(self):
         return math.isfinite(self.objective) and all_finite(self.rows)
@@ -149,6 +152,16 @@ class InteriorPoint:
     def available():
         """``None``: the solver needs NumPy and SciPy only."""
         return None
+
+    @staticmethod
+    def arrays(options=None):
+        """The context in which an NLP for these options is best built,
+        solved and its result made: NumPy's large arrays each in a mapping of
+        their own (:mod:`._mapped`) unless the option ``large_arrays`` is
+        ``"numpy"`` (:meth:`solve` opens it too, around the iterations)."""
+        from ._options import DEFAULTS
+        choice = (options or {}).get("large_arrays", DEFAULTS["large_arrays"])
+        return mapped_large_arrays(choice == "mapped")
 
     def solve(self, nlp, x0, options=None, warm=None, stop=lambda: False):
         """Solve ``nlp`` from ``x0``: an :class:`~kanedyn.optimization.NLPSolution`.
@@ -183,8 +196,9 @@ class InteriorPoint:
         run = _Run(nlp, x0, s, warm, stop)
         # the callbacks and the iterations meet infinities and NaNs (a trial
         # point outside the model's domain, log of a zero gap): they are
-        # tested for, not warned about (one context for the whole solve)
-        with np.errstate(all="ignore"):
+        # tested for, not warned about (one context for the whole solve);
+        # the large arrays in mappings of their own (._mapped)
+        with np.errstate(all="ignore"), self.arrays(options):
             solution = run.solve()
         self.timings, self.note = run.timings, run.note
         return solution
@@ -224,6 +238,7 @@ class _Run:
         x_full = self.reduced.full(e.x)
         e.gradient = self.reduced.gradient(x_full)
         e.jacobian = self.reduced.jacobian(x_full)
+        e.fixed_jacobian = self.reduced.fixed_jacobian
         self.timings["callbacks"] += time.perf_counter() - t
         return all_finite(e.gradient) and all_finite(e.jacobian)
 
@@ -233,6 +248,7 @@ class _Run:
         if e.jacobian is None:
             t = time.perf_counter()
             e.jacobian = self.reduced.jacobian(self.reduced.full(e.x))
+            e.fixed_jacobian = self.reduced.fixed_jacobian
             self._drop_nlp_evaluation()
             self.timings["callbacks"] += time.perf_counter() - t
         return e.jacobian
@@ -273,10 +289,16 @@ class _Run:
             if e is not None:  # the run ends: its derivatives not held with the NLP's last
                 e.gradient = e.jacobian = None
             # nor its KKT system (the order, the structures): the multipliers of
-            # the fixed variables evaluate the NLP's Jacobian
+            # the fixed variables take the Jacobian's entries in their columns,
+            # the last evaluation's where it was made at this point (bit for
+            # bit), else the NLP's Jacobian evaluated
             self.stepper = self.kkt = self.restoration = self.error_reductions = None
+            fixed = None if e is None else e.fixed_jacobian
+            if fixed is not None and not np.array_equal(
+                    np.asarray(e.x).view(np.uint64), w[:n].view(np.uint64)):
+                fixed = None
             with np.errstate(all="ignore"):
-                multipliers = R.multipliers_full(x_full, y, zl, zu)
+                multipliers = R.multipliers_full(x_full, y, zl, zu, fixed)
             objective = e.objective / R.objective_scale
         self.timings["total"] = time.perf_counter() - self.start_wall
         return NLPSolution(

@@ -57,7 +57,8 @@ def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_si
     rhs[:n] = -gradient_w[:n]
     rhs[n:] = 0.0
     rhs[n:][inequality] = -gradient_w[n:]
-    y = kkt.solve(rhs)[n:].copy()  # not a view that holds the whole solution
+    # solved in rhs's own storage; y not a view that holds the whole solution
+    y = kkt.solve(rhs, overwrite=True)[n:].copy()
     if not np.isfinite(y).all() or np.abs(y).max(initial=0.0) > limit:
         return np.zeros(m)
     return y

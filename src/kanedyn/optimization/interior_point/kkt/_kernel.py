@@ -32,7 +32,14 @@ tolerance, n, x_constant, x_added, c_constant)``
 
 ``factor`` and ``solve`` allocate their scratch (5 N and N doubles) for the
 call, so that it is not held between factorizations (40 and 8 bytes a row of K);
-``zero`` is the caller's, allocated once with the factor.
+``zero`` is the caller's, allocated once with the factor.  Every function's
+scratch and result of 4 MiB or more is an anonymous mapping of its own,
+handed back to the system when freed (``mmap``; ``malloc`` below that, and
+everywhere off POSIX): glibc serves a freed block of a few MB again from its
+heap once its mmap threshold has risen past that size, and a heap shrinks
+only from its top, so such blocks stayed resident under later arrays
+(``optimization/interior_point/_mapped.py`` does the same for NumPy's
+arrays).  Results are buffers that ``numpy.frombuffer`` reads.
 
 The envelope storage of :class:`~._envelope.EnvelopeKKT` (L by rows,
 every column from a row's first entry, values only):
@@ -94,7 +101,7 @@ holds the entries before their repeats are merged:
     arguments; the entries where the boolean ``mask`` is true, all where it is
     ``None`` or absent), with ``symmetric`` their mirror images too, repeats
     merged, each row's columns increasing (SciPy's canonical form), as two
-    bytearrays of int32 ``(indptr, indices)``.
+    buffers of int32 ``(indptr, indices)`` (``numpy.frombuffer`` reads them).
 ``compressed(node, n_nodes, part[, part])``
     the same (symmetric) of the graph that joins ``node[i]`` and ``node[j]``
     for each entry ``(i, j)`` of the parts where both are ``>= 0`` and
@@ -103,7 +110,7 @@ holds the entries before their repeats are merged:
 ``permuted(Ap, hessian_map, jacobian_map, diagonal_map, inverse, hessian_rows,
 hessian_cols, jacobian_rows, jacobian_cols, n)``
     K's upper triangle in the elimination order as CSC: fills ``Ap`` and the
-    maps of every entry to its place, returns the row indices as a bytearray
+    maps of every entry to its place, returns the row indices as a buffer
     of int32.
 
 And one orders that graph:
@@ -123,7 +130,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 33"
+_GENERATION = "kanedyn sparse LDL 34"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -133,6 +140,117 @@ SOURCE = r"""
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
+#if defined(__unix__) || defined(__APPLE__)
+#include <sys/mman.h>
+#include <unistd.h>
+#define KD_MMAP 1
+#endif
+
+/* scratch and results of KD_MAPPED bytes or more each in an anonymous mapping of
+   its own, handed back to the system when freed (glibc serves a freed block of
+   a few MB again from its heap once its mmap threshold has risen past that
+   size, and holds it resident while anything above it in the heap lives);
+   smaller ones from malloc.  kd_unscratch takes the size kd_scratch was given. */
+#define KD_MAPPED ((size_t)1 << 22)
+
+static void *kd_scratch(size_t size, int zero) {
+    if (size == 0) size = 1;
+#ifdef KD_MMAP
+    if (size >= KD_MAPPED) {
+        void *p = mmap(NULL, size, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS, -1, 0);
+        if (p == MAP_FAILED) return NULL;
+#ifdef MADV_HUGEPAGE
+        madvise(p, size, MADV_HUGEPAGE);
+#endif
+        return p;  /* zero */
+    }
+#endif
+    return zero ? calloc(size, 1) : malloc(size);
+}
+
+static void kd_unscratch(void *p, size_t size) {
+    if (p == NULL) return;
+    if (size == 0) size = 1;
+#ifdef KD_MMAP
+    if (size >= KD_MAPPED) {
+        munmap(p, size);
+        return;
+    }
+#endif
+    free(p);
+}
+
+/* a result's storage (kd_scratch's), read by NumPy through the buffer
+   protocol (numpy.frombuffer); `length` bytes of `held` */
+typedef struct {
+    PyObject_HEAD
+    char *data;
+    Py_ssize_t length;
+    size_t held;
+} kd_buffer;
+
+static int kd_buffer_view(PyObject *self, Py_buffer *view, int flags) {
+    kd_buffer *b = (kd_buffer *)self;
+    return PyBuffer_FillInfo(view, self, b->data, b->length, 0, flags);
+}
+
+static void kd_buffer_dealloc(PyObject *self) {
+    kd_buffer *b = (kd_buffer *)self;
+    kd_unscratch(b->data, b->held);
+    Py_TYPE(self)->tp_free(self);
+}
+
+static PyBufferProcs kd_buffer_procs = {kd_buffer_view, NULL};
+
+static PyTypeObject kd_buffer_type = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "kanedyn_kkt_buffer",
+    .tp_basicsize = sizeof(kd_buffer),
+    .tp_dealloc = kd_buffer_dealloc,
+    .tp_as_buffer = &kd_buffer_procs,
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_doc = "a kernel result's storage (a buffer of bytes)",
+};
+
+/* a new buffer of `length` bytes (NULL with the error set) */
+static PyObject *kd_buffer_new(Py_ssize_t length) {
+    kd_buffer *b = PyObject_New(kd_buffer, &kd_buffer_type);
+    if (b == NULL) return NULL;
+    b->held = (size_t)(length > 0 ? length : 1);
+    b->length = length;
+    b->data = kd_scratch(b->held, 0);
+    if (b->data == NULL) {
+        b->held = 0;
+        Py_DECREF(b);
+        return PyErr_NoMemory();
+    }
+    return (PyObject *)b;
+}
+
+/* a buffer's first `length` bytes kept, the rest handed back where it is its
+   own (a mapping's whole pages past them, or a copy made smaller): before
+   anything reads it */
+static void kd_buffer_shrink(PyObject *self, Py_ssize_t length) {
+    kd_buffer *b = (kd_buffer *)self;
+    size_t want = (size_t)(length > 0 ? length : 1);
+    b->length = length;
+    if (b->held >= KD_MAPPED) {
+#ifdef KD_MMAP
+        size_t page = (size_t)sysconf(_SC_PAGESIZE), keep = (want + page - 1) / page * page;
+        if (keep < KD_MAPPED) keep = KD_MAPPED;  /* freed as a mapping: one still */
+        if (keep < b->held) {
+            munmap(b->data + keep, b->held - keep);
+            b->held = keep;
+        }
+#endif
+    } else if (want < b->held) {
+        char *smaller = realloc(b->data, want);
+        if (smaller != NULL) {
+            b->data = smaller;
+            b->held = want;
+        }
+    }
+}
 
 /* a buffer of `count` items of `size` bytes, C-contiguous */
 static int kd_view(PyObject *obj, Py_buffer *view, Py_ssize_t size, int writable,
@@ -301,7 +419,8 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[0]);
     int32_t *parent = v[0].buf, *counts = v[1].buf, *Ap = v[2].buf, *Ai = v[3].buf;
     const int8_t *pair = v[4].buf;
-    int32_t *flag = malloc(sizeof(int32_t) * 2 * (size_t)(N > 0 ? N : 1));
+    size_t flag_bytes = sizeof(int32_t) * 2 * (size_t)(N > 0 ? N : 1);
+    int32_t *flag = kd_scratch(flag_bytes, 0);
     if (flag == NULL) {
         kd_release(v, 5);
         return PyErr_NoMemory();
@@ -319,7 +438,7 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
         }
     }
     Py_END_ALLOW_THREADS
-    free(flag);
+    kd_unscratch(flag, flag_bytes);
     kd_release(v, 5);
     Py_RETURN_NONE;
 }
@@ -568,7 +687,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
         return NULL;
     }
     /* the workspace, 5 N doubles: held only while this call runs */
-    double *work = malloc(sizeof(double) * 5 * (size_t)(N > 0 ? N : 1));
+    size_t work_bytes = sizeof(double) * 5 * (size_t)(N > 0 ? N : 1);
+    double *work = kd_scratch(work_bytes, 0);
     if (work == NULL) {
         kd_release(v, F_COUNT);
         return PyErr_NoMemory();
@@ -664,7 +784,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
                  offmax[k], k > 0 ? offmax[k - 1] : 0.0, zero);
     }
     Py_END_ALLOW_THREADS
-    free(work);
+    kd_unscratch(work, work_bytes);
     kd_release(v, F_COUNT);
     return Py_BuildValue("nnn", pivots.n_positive, pivots.n_negative, pivots.n_zero);
 }
@@ -693,7 +813,8 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
         PyErr_SetString(PyExc_ValueError, "rhs: not of the factored size");
         return NULL;
     }
-    double *w = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));  /* for this call */
+    size_t w_bytes = sizeof(double) * (size_t)(N > 0 ? N : 1);
+    double *w = kd_scratch(w_bytes, 0);  /* for this call */
     if (w == NULL) {
         kd_release(v, 8);
         return PyErr_NoMemory();
@@ -715,7 +836,7 @@ static PyObject *kd_solve(PyObject *self, PyObject *args) {
         for (Py_ssize_t k = 0; k < N; k++) x[perm[k]] = w[k];
     }
     Py_END_ALLOW_THREADS
-    free(w);
+    kd_unscratch(w, w_bytes);
     kd_release(v, 8);
     Py_RETURN_NONE;
 }
@@ -954,11 +1075,11 @@ static inline int kd_part_next(kd_part *p, Py_ssize_t e, int64_t *i, int64_t *j)
     return *i >= 0 && *j >= 0 && *i != *j;
 }
 
-/* a new bytearray holding `count` int32 items of `data` (NULL with the error set) */
+/* a new buffer holding `count` int32 items of `data` (NULL with the error set) */
 static PyObject *kd_int32_bytes(const int32_t *data, Py_ssize_t count) {
-    PyObject *out = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)sizeof(int32_t) * count);
+    PyObject *out = kd_buffer_new((Py_ssize_t)sizeof(int32_t) * count);
     if (out != NULL && count > 0)
-        memcpy(PyByteArray_AS_STRING(out), data, sizeof(int32_t) * (size_t)count);
+        memcpy(((kd_buffer *)out)->data, data, sizeof(int32_t) * (size_t)count);
     return out;
 }
 
@@ -991,10 +1112,10 @@ static void kd_sort_int32(int32_t *a, int64_t n) {
 /* the CSR pattern of an n_rows x n_cols matrix with the entries of `parts` (with
    `symmetric` their mirror images too), repeats merged and each row's columns
    increasing: the entries bucketed by row in the result's own storage, each row
-   then sorted and its repeats merged, the rows compacted.  Two bytearrays of
-   int32, (indptr, indices), or NULL with the error set.  Scratch: none beyond
-   the result (the indices' bytearray holds the entries before their repeats
-   are merged). */
+   then sorted and its repeats merged, the rows compacted.  Two buffers of int32,
+   (indptr, indices), or NULL with the error set.  Scratch: none beyond the
+   result (the indices' buffer holds the entries before their repeats are
+   merged, then gives back the rest). */
 static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *parts,
                            int n_parts, int symmetric) {
     Py_ssize_t total = 0;
@@ -1016,16 +1137,15 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
         PyErr_SetString(PyExc_ValueError, "a pattern too large for 32-bit indices");
         return NULL;
     }
-    PyObject *pointers = PyByteArray_FromStringAndSize(
-        NULL, (Py_ssize_t)sizeof(int32_t) * (n_rows + 1));
-    PyObject *indices = PyByteArray_FromStringAndSize(NULL, (Py_ssize_t)sizeof(int32_t) * total);
-    if (pointers == NULL || indices == NULL) {
+    PyObject *pointers = kd_buffer_new((Py_ssize_t)sizeof(int32_t) * (n_rows + 1));
+    PyObject *indices = pointers == NULL ? NULL
+                        : kd_buffer_new((Py_ssize_t)sizeof(int32_t) * total);
+    if (indices == NULL) {
         Py_XDECREF(pointers);
-        Py_XDECREF(indices);
         return NULL;
     }
-    int32_t *indptr = (int32_t *)PyByteArray_AS_STRING(pointers);
-    int32_t *by_row = (int32_t *)PyByteArray_AS_STRING(indices);
+    int32_t *indptr = (int32_t *)((kd_buffer *)pointers)->data;
+    int32_t *by_row = (int32_t *)((kd_buffer *)indices)->data;
     int64_t kept = 0;
     Py_BEGIN_ALLOW_THREADS
     memset(indptr, 0, sizeof(int32_t) * (size_t)(n_rows + 1));
@@ -1061,11 +1181,7 @@ static PyObject *kd_csr_of(Py_ssize_t n_rows, Py_ssize_t n_cols, const kd_part *
     }
     indptr[n_rows] = (int32_t)kept;
     Py_END_ALLOW_THREADS
-    if (PyByteArray_Resize(indices, (Py_ssize_t)sizeof(int32_t) * kept) < 0) {
-        Py_DECREF(pointers);
-        Py_DECREF(indices);
-        return NULL;
-    }
+    kd_buffer_shrink(indices, (Py_ssize_t)sizeof(int32_t) * kept);
     return Py_BuildValue("(NN)", pointers, indices);
 }
 
@@ -1186,7 +1302,7 @@ done:
    it), CSC: the Hessian's entries, the Jacobian's (rows n + i) and every
    diagonal entry, repeats merged and each column's rows increasing.  Fills the
    column pointers Ap (int32, N + 1) and the maps (the place of each entry,
-   int32), returns the row indices as a bytearray of int32. */
+   int32), returns the row indices as a buffer of int32. */
 enum {P_AP, P_HMAP, P_JMAP, P_DMAP, P_INVERSE, P_HR, P_HC, P_JR, P_JC, P_COUNT};
 
 static PyObject *kd_permuted(PyObject *self, PyObject *args) {
@@ -1228,10 +1344,13 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
         return NULL;
     }
     size_t room = (size_t)(total > 0 ? total : 1);
-    int64_t *rowptr = calloc((size_t)N + 1, sizeof(int64_t));
-    int32_t *by_row = malloc(sizeof(int32_t) * room), *by_col = malloc(sizeof(int32_t) * room);
+    size_t rowptr_bytes = sizeof(int64_t) * ((size_t)N + 1), room_bytes = sizeof(int32_t) * room;
+    int64_t *rowptr = kd_scratch(rowptr_bytes, 1);
+    int32_t *by_row = kd_scratch(room_bytes, 0), *by_col = kd_scratch(room_bytes, 0);
     if (rowptr == NULL || by_row == NULL || by_col == NULL) {
-        free(rowptr); free(by_row); free(by_col);
+        kd_unscratch(rowptr, rowptr_bytes);
+        kd_unscratch(by_row, room_bytes);
+        kd_unscratch(by_col, room_bytes);
         kd_release(v, P_COUNT);
         return PyErr_NoMemory();
     }
@@ -1287,10 +1406,10 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
     Ap[N] = (int32_t)kept;
 #undef KD_ENDS
     Py_END_ALLOW_THREADS
-    free(rowptr);
-    free(by_col);
+    kd_unscratch(rowptr, rowptr_bytes);
+    kd_unscratch(by_col, room_bytes);
     PyObject *rows = kd_int32_bytes(by_row, (Py_ssize_t)kept);
-    free(by_row);
+    kd_unscratch(by_row, room_bytes);
     kd_release(v, P_COUNT);
     return rows;
 }
@@ -1352,13 +1471,16 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
                         "longer than N) and a start below N expected");
         return NULL;
     }
-    int64_t *seen = malloc(sizeof(int64_t) * (size_t)(N > 0 ? N : 1));
-    int32_t *seeds = malloc(sizeof(int32_t) * (size_t)(N + 1));
-    Py_ssize_t *count = calloc((size_t)(N + 1), sizeof(Py_ssize_t));
+    size_t seen_bytes = sizeof(int64_t) * (size_t)(N > 0 ? N : 1);
+    size_t seeds_bytes = sizeof(int32_t) * (size_t)(N + 1);
+    size_t count_bytes = sizeof(Py_ssize_t) * (size_t)(N + 1);
+    int64_t *seen = kd_scratch(seen_bytes, 0);
+    int32_t *seeds = kd_scratch(seeds_bytes, 0);
+    Py_ssize_t *count = kd_scratch(count_bytes, 1);
     if (seen == NULL || seeds == NULL || count == NULL) {
-        free(seen);
-        free(seeds);
-        free(count);
+        kd_unscratch(seen, seen_bytes);
+        kd_unscratch(seeds, seeds_bytes);
+        kd_unscratch(count, count_bytes);
         kd_release(v, 3);
         return PyErr_NoMemory();
     }
@@ -1412,9 +1534,9 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
     }
 #undef KD_DEGREE
     Py_END_ALLOW_THREADS
-    free(seen);
-    free(seeds);
-    free(count);
+    kd_unscratch(seen, seen_bytes);
+    kd_unscratch(seeds, seeds_bytes);
+    kd_unscratch(count, count_bytes);
     kd_release(v, 3);
     Py_RETURN_NONE;
 }
@@ -1505,7 +1627,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
     }
     Py_END_ALLOW_THREADS
     if (fits && total > 0) {  /* K's distinct places off the diagonal */
-        uint8_t *mark = calloc((size_t)total, 1);
+        uint8_t *mark = kd_scratch((size_t)total, 1);
         if (mark == NULL) {
             kd_release(v, 11);
             return PyErr_NoMemory();
@@ -1522,7 +1644,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
                 mark[p] = 1;
             }
         }
-        free(mark);
+        kd_unscratch(mark, (size_t)total);
     }
     kd_release(v, 11);
     return Py_BuildValue("LL", (long long)total, (long long)distinct);
@@ -1582,11 +1704,13 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     /* the workspace, N doubles (each column's largest magnitude below the
        diagonal) and the order's inverse (the place of each row of K in it, N
        int32): held only while this call runs */
-    double *colmax = malloc(sizeof(double) * (size_t)(N > 0 ? N : 1));
-    int32_t *inv = malloc(sizeof(int32_t) * (size_t)(N > 0 ? N : 1));
+    size_t colmax_bytes = sizeof(double) * (size_t)(N > 0 ? N : 1);
+    size_t inv_bytes = sizeof(int32_t) * (size_t)(N > 0 ? N : 1);
+    double *colmax = kd_scratch(colmax_bytes, 0);
+    int32_t *inv = kd_scratch(inv_bytes, 0);
     if (colmax == NULL || inv == NULL) {
-        free(colmax);
-        free(inv);
+        kd_unscratch(colmax, colmax_bytes);
+        kd_unscratch(inv, inv_bytes);
         kd_release(v, V_COUNT + 8);
         return PyErr_NoMemory();
     }
@@ -1594,8 +1718,8 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     for (Py_ssize_t k = 0; k < N; k++) {
         int32_t row = perm[k];
         if (row < 0 || row >= N || inv[row] >= 0) {
-            free(colmax);
-            free(inv);
+            kd_unscratch(colmax, colmax_bytes);
+            kd_unscratch(inv, inv_bytes);
             kd_release(v, V_COUNT + 8);
             PyErr_SetString(PyExc_ValueError, "envelope_factor: permutation is not one");
             return NULL;
@@ -1698,8 +1822,8 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
         off_before = off_max;
     }
     Py_END_ALLOW_THREADS
-    free(colmax);
-    free(inv);
+    kd_unscratch(colmax, colmax_bytes);
+    kd_unscratch(inv, inv_bytes);
     kd_release(v, V_COUNT + 8);
     return Py_BuildValue("nnnd", pivots.n_positive, pivots.n_negative, pivots.n_zero,
                          largest);
@@ -1926,7 +2050,10 @@ static PyMethodDef kd_methods[] = {
 static struct PyModuleDef kd_module = {PyModuleDef_HEAD_INIT, "@NAME@", NULL, -1,
                                        kd_methods};
 
-PyMODINIT_FUNC PyInit_@NAME@(void) { return PyModule_Create(&kd_module); }
+PyMODINIT_FUNC PyInit_@NAME@(void) {
+    if (PyType_Ready(&kd_buffer_type) < 0) return NULL;
+    return PyModule_Create(&kd_module);
+}
 """
 
 

@@ -143,7 +143,7 @@ def _indices(a):
 
 def _csr(shape, made):
     """The 0/1 pattern (CSR, int8 ones) of the kernel's ``(indptr, indices)``
-    bytearrays ``made``, without a copy."""
+    buffers ``made``, without a copy."""
     import scipy.sparse as sp
     indptr, indices = (np.frombuffer(b, dtype=np.int32) for b in made)
     return sp.csr_matrix((np.ones(indices.size, dtype=np.int8), indices, indptr),
