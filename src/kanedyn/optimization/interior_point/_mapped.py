@@ -17,11 +17,12 @@ A mapping made afresh is faulted in page by page (the kernel zeroes each
 page): the interior point makes and frees arrays of the same sizes every
 iteration, so freed mappings are kept (up to :data:`CACHED_BLOCKS`) and a
 new array of the same mapped length takes one; a new array that finds none
-first hands every kept mapping back, then maps its own.  So the resident
-memory at a new mapping is the arrays alive and the new one, never a kept
-one on top: the peak is the arrays' own, and the mappings are faulted in
-only where the sizes change.  Mappings are advised as huge pages where
-NumPy advises its own (``_get_madvise_hugepage`` of NumPy's core).
+first hands back kept mappings, the oldest first, until as many bytes as
+its own are (or none is left), then maps its own.  So the resident memory
+(the arrays alive and the mappings kept) does not grow at a new mapping
+unless the arrays alive need it: its peak is theirs, while most arrays
+take a mapping already faulted in.  Mappings are advised as huge pages
+where NumPy advises its own (``_get_madvise_hugepage`` of NumPy's core).
 
 :func:`mapped_large_arrays` is the context; it does nothing without a C
 compiler or on a NumPy without the handler API (before 1.22), or off
@@ -46,7 +47,7 @@ CACHED_BLOCKS = 8
 HANDLER_NAME = "kanedyn_mapped_large_arrays"
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn mapped arrays 1"
+_GENERATION = "kanedyn mapped arrays 2"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -133,15 +134,32 @@ static size_t kd_length(size_t size) {
     return (size + KD_HEADER + page - 1) / page * page;
 }
 
-/* every kept mapping handed back: under kd_lock */
-static void kd_release_kept(void) {
-    for (int k = 0; k < kd_n_kept; k++) munmap(kd_kept[k], kd_kept_length[k]);
-    kd_n_kept = 0;
+/* kept mapping k taken out of the list (the others keep their order, the
+   oldest first): under kd_lock */
+static void kd_take_kept(int k) {
+    for (int j = k + 1; j < kd_n_kept; j++) {
+        kd_kept[j - 1] = kd_kept[j];
+        kd_kept_length[j - 1] = kd_kept_length[j];
+    }
+    kd_n_kept--;
 }
 
-/* an array of `size` bytes in a mapping of its own (a kept one of the same
-   length, else a new one after the kept ones are handed back); *fresh: 1 if
-   new (its pages zero).  NULL if none could be made or registered. */
+/* the oldest kept mappings handed back until `need` bytes are (or none is
+   left): under kd_lock */
+static void kd_release_kept(size_t need) {
+    size_t released = 0;
+    while (kd_n_kept > 0 && released < need) {
+        munmap(kd_kept[0], kd_kept_length[0]);
+        released += kd_kept_length[0];
+        kd_take_kept(0);
+    }
+}
+
+/* an array of `size` bytes in a mapping of its own: a kept one of the same
+   length, else a new one after kept ones of as many bytes (the oldest) are
+   handed back, so that the resident memory does not grow unless the arrays
+   alive need it; *fresh: 1 if new (its pages zero).  NULL if none could be
+   made or registered. */
 static void *kd_map(kd_context *c, size_t size, int *fresh) {
     size_t length = kd_length(size);
     char *start = NULL;
@@ -149,15 +167,13 @@ static void *kd_map(kd_context *c, size_t size, int *fresh) {
     for (int k = 0; k < kd_n_kept; k++) {
         if (kd_kept_length[k] == length) {
             start = kd_kept[k];
-            kd_kept[k] = kd_kept[kd_n_kept - 1];
-            kd_kept_length[k] = kd_kept_length[kd_n_kept - 1];
-            kd_n_kept--;
+            kd_take_kept(k);
             *fresh = 0;
             break;
         }
     }
     if (start == NULL) {
-        kd_release_kept();
+        kd_release_kept(length);
         void *m = mmap(NULL, length, PROT_READ | PROT_WRITE, MAP_PRIVATE | MAP_ANONYMOUS,
                        -1, 0);
         if (m != MAP_FAILED) {
@@ -191,12 +207,7 @@ static int kd_unmap(void *p) {
             pthread_mutex_unlock(&kd_lock);
             return 1;
         }
-        if (kd_n_kept == KD_CACHED) {
-            munmap(kd_kept[0], kd_kept_length[0]);
-            kd_kept[0] = kd_kept[kd_n_kept - 1];
-            kd_kept_length[0] = kd_kept_length[kd_n_kept - 1];
-            kd_n_kept--;
-        }
+        if (kd_n_kept == KD_CACHED) kd_release_kept(1);  /* the oldest */
         kd_kept[kd_n_kept] = start;
         kd_kept_length[kd_n_kept++] = length;
     }
@@ -318,7 +329,7 @@ static PyObject *kd_begin(PyObject *self, PyObject *args) {
 static PyObject *kd_end(PyObject *self, PyObject *args) {
     pthread_mutex_lock(&kd_lock);
     if (kd_open > 0) kd_open--;
-    if (kd_open == 0) kd_release_kept();
+    if (kd_open == 0) kd_release_kept((size_t)-1);
     pthread_mutex_unlock(&kd_lock);
     Py_RETURN_NONE;
 }
