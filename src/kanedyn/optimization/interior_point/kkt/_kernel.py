@@ -119,7 +119,7 @@ And one orders that graph:
     fills ``order`` (int32) with Cuthill-McKee's order of a symmetric
     pattern, each component from a pseudo-peripheral node (George and Liu's
     search), or from ``start`` for its own; new neighbours by increasing
-    degree (:func:`~._ordering.reverse_cuthill_mckee`).  Scratch: 20 bytes a
+    degree (:func:`~._ordering.reverse_cuthill_mckee`).  Scratch: 12 bytes a
     node.
 """
 
@@ -130,7 +130,7 @@ from ....numerics import load_fixed_module
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 34"
+_GENERATION = "kanedyn sparse LDL 35"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -1418,7 +1418,7 @@ static PyObject *kd_permuted(PyObject *self, PyObject *args) {
    `mark` in `seen`: returns the component's size and sets *last to the place in
    q of the first node of the last level and *depth to the number of levels */
 static Py_ssize_t kd_levels(int32_t root, const int32_t *indptr, const int32_t *indices,
-                            int64_t *seen, int64_t mark, int32_t *q, Py_ssize_t *last,
+                            int32_t *seen, int32_t mark, int32_t *q, Py_ssize_t *last,
                             Py_ssize_t *depth) {
     Py_ssize_t head = 0, tail = 1;
     q[0] = root;
@@ -1471,12 +1471,13 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
                         "longer than N) and a start below N expected");
         return NULL;
     }
-    size_t seen_bytes = sizeof(int64_t) * (size_t)(N > 0 ? N : 1);
+    /* (int32: N < 2^31 and the marks start again before they would pass it) */
+    size_t seen_bytes = sizeof(int32_t) * (size_t)(N > 0 ? N : 1);
     size_t seeds_bytes = sizeof(int32_t) * (size_t)(N + 1);
-    size_t count_bytes = sizeof(Py_ssize_t) * (size_t)(N + 1);
-    int64_t *seen = kd_scratch(seen_bytes, 0);
+    size_t count_bytes = sizeof(int32_t) * (size_t)(N + 1);
+    int32_t *seen = kd_scratch(seen_bytes, 0);
     int32_t *seeds = kd_scratch(seeds_bytes, 0);
-    Py_ssize_t *count = kd_scratch(count_bytes, 1);
+    int32_t *count = kd_scratch(count_bytes, 1);
     if (seen == NULL || seeds == NULL || count == NULL) {
         kd_unscratch(seen, seen_bytes);
         kd_unscratch(seeds, seeds_bytes);
@@ -1489,17 +1490,22 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
     /* the nodes by degree, then index (a counting sort), as the seeds */
     for (Py_ssize_t i = 0; i < N; i++) count[KD_DEGREE(i)]++;
     for (Py_ssize_t d = 0, sum = 0; d <= N; d++) {
-        Py_ssize_t c = count[d];
-        count[d] = sum;
+        int32_t c = count[d];
+        count[d] = (int32_t)sum;
         sum += c;
     }
     for (Py_ssize_t i = 0; i < N; i++) seeds[count[KD_DEGREE(i)]++] = (int32_t)i;
     for (Py_ssize_t i = 0; i < N; i++) seen[i] = -1;
-    int64_t mark = 0;
+    int32_t mark = 0;  /* each search's; a node placed keeps one >= 0 */
     Py_ssize_t placed = 0;
     for (Py_ssize_t s = -1; s < N; s++) {
         int32_t root = (int32_t)(s < 0 ? start : seeds[s]);
         if (root < 0 || seen[root] >= 0) continue;
+        if (mark > INT32_MAX - 64) {  /* (a component takes at most 34 marks) */
+            for (Py_ssize_t i = 0; i < N; i++)
+                if (seen[i] > 0) seen[i] = 0;  /* placed: still >= 0 */
+            mark = 0;
+        }
         int32_t *q = order + placed;
         Py_ssize_t last, depth, members;
         members = kd_levels(root, indptr, indices, seen, ++mark, q, &last, &depth);
@@ -1515,7 +1521,7 @@ static PyObject *kd_cuthill_mckee(PyObject *self, PyObject *args) {
             depth = best_depth;
         }
         /* Cuthill-McKee from root: each node's new neighbours by degree */
-        int64_t visit = ++mark;
+        int32_t visit = ++mark;
         Py_ssize_t tail = 1;
         q[0] = root;
         seen[root] = visit;
