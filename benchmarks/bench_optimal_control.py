@@ -79,8 +79,10 @@ interior-point rows also print where its time went per iteration: the
 callbacks (objective, constraints, their derivatives, trial points
 included), the Hessian's values, the factorizations and solves, and the
 rest (the algorithm's own work in Python).  The scan's contenders include
-``kanedyn, interior-point`` (the solver's default factorization) and ``kanedyn,
-interior-point, sparse``.
+``kanedyn, interior-point`` (the solver's defaults), ``kanedyn,
+interior-point, sparse`` and ``kanedyn, interior-point, NumPy's allocator``
+(``large_arrays="numpy"``: NumPy's large arrays not in mappings of their
+own).
 
 Usage::
 

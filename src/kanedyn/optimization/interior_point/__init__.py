@@ -23,6 +23,8 @@ LDLᵀ factorization compiled in C that reports the inertia.
 ``_restoration`` the feasibility restoration phase
 ``_optimality``  the optimality error, the bound multipliers' safeguard
 ``_status``      the return codes (IPOPT's numbers)
+``_mapped``      NumPy's large arrays in mappings of their own during a solve
+                 (resident memory that follows the arrays alive)
 
 The factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
