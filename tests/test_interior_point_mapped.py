@@ -79,23 +79,24 @@ def test_freed_arrays_go_back_to_the_system():
     resident memory does not grow; all go back when the context closes; an
     array that outlives the context hands its own back when it goes."""
     compiled = _mapped.module()
+    alive, _ = compiled.counts()  # (mappings of arrays other tests may hold)
     start = _resident_bytes()
     with _mapped.mapped_large_arrays():
         arrays = [np.ones(5 * MIB) for _ in range(10)]  # 40 MB each
         assert _resident_bytes() - start > 380 * MIB
         del arrays
-        assert compiled.counts() == (0, _mapped.CACHED_BLOCKS)
+        assert compiled.counts() == (alive, _mapped.CACHED_BLOCKS)
         before = _resident_bytes()
         other = np.ones(6 * MIB)  # 48 MB, another length: two kept ones handed back
-        assert compiled.counts() == (1, _mapped.CACHED_BLOCKS - 2)
+        assert compiled.counts() == (alive + 1, _mapped.CACHED_BLOCKS - 2)
         assert _resident_bytes() <= before + MIB
         del other
         outliving = np.ones(40 * MIB)  # 320 MB
-    assert compiled.counts() == (1, 0)
+    assert compiled.counts() == (alive + 1, 0)
     assert _resident_bytes() - start > 300 * MIB
     del outliving
     assert _resident_bytes() - start < 100 * MIB
-    assert compiled.counts() == (0, 0)
+    assert compiled.counts() == (alive, 0)
 
 
 def test_the_kernel_s_large_results_are_scipy_s_patterns():
