@@ -768,3 +768,44 @@ def test_unbounded_objective_diverges_with_status_4():
     found = _solve(nlp, [0.0, 0.0])
     assert found.status == 4 and "diverged" in found.status_text
     assert found.x[0] < -1e20 and abs(found.x[1] - 1.0) < 1e-8
+
+
+@pytest.mark.parametrize("inequality", [False, True])
+def test_the_gradient_evaluated_again_after_the_step_gives_the_same_iterates(
+        monkeypatch, inequality):
+    """A large problem's objective gradient is let go through the Newton step
+    and evaluated again after it (``GRADIENT_AGAIN_BYTES``): with the size
+    lowered to 0 a swing-up (with a path inequality, whose slacks make the
+    gradient in w a copy) takes the same iterates to the bit as without, and
+    the gradient is evaluated once more an iteration."""
+    from kanedyn.optimization.interior_point import _reduced, _solver
+    definition = kd.models.build("pendulum", torque=True)
+    model = definition.numeric(backend="numpy")
+    q, u, tau = (definition.symbols[k] for k in ("q", "u", "tau"))
+    problem = kd.OptimalControlProblem(
+        model, nodes=40, duration=2.0, lagrange=tau ** 2, bounds={tau: (-20.0, 20.0)},
+        initial={q: 0.0, u: 0.0}, final={q: 1.0, u: 0.0},
+        path_constraints=[(u ** 2, 0.0, 9.0)] if inequality else ())
+    guess = problem.guess_line(inputs={tau: 0.0})
+    calls = []
+    gradient = _reduced.ReducedNLP.gradient
+
+    def counted(self, x_full):
+        calls.append(1)
+        return gradient(self, x_full)
+    monkeypatch.setattr(_reduced.ReducedNLP, "gradient", counted)
+
+    def solved():
+        calls.clear()
+        result = problem.solve(guess, solver="interior-point", hessian="exact")
+        return result, len(calls)
+    held, evaluations = solved()
+    monkeypatch.setattr(_solver, "GRADIENT_AGAIN_BYTES", 0)
+    again, more = solved()
+    assert held.status == again.status == 0
+    assert held.iterations == again.iterations
+    assert more == evaluations + held.iterations
+    assert held.x.tobytes() == again.x.tobytes()
+    for key in held.multipliers:
+        assert np.asarray(held.multipliers[key]).tobytes() == \
+            np.asarray(again.multipliers[key]).tobytes()
