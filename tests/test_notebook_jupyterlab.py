@@ -165,8 +165,10 @@ def test_widget_in_a_jupyterlab_session(jupyterlab, tmp_path):
             page.wait_for_function(f"{SCENE} && {SCENE}.ready", polling=250, timeout=180_000)
             drawn = page.evaluate(f"({{...{SCENE}}})")
             _run_cell(page, 1)                           # view.time = 1.5
-            page.wait_for_function(f"Math.abs({SCENE}.time - 1.5) < 1e-9", polling=250,
-                                   timeout=60_000)
+            # (the scene may be missing for a moment while the output area is
+            # drawn again: not yet, rather than an error)
+            page.wait_for_function(f"{SCENE} && Math.abs({SCENE}.time - 1.5) < 1e-9",
+                                   polling=250, timeout=60_000)
             # scrubbed to the end and let go in the browser ...
             page.evaluate("""(() => { const s = document.querySelector('.kd-slider');
                 s.value = s.max; s.dispatchEvent(new Event('input'));
