@@ -22,14 +22,6 @@ MIB = 2 ** 20
 LARGE = _mapped.MAPPED_BYTES // 8  # float64 entries of a mapped array
 
 
-def _core():
-    try:
-        from numpy._core import _multiarray_umath as core
-    except ImportError:  # NumPy 1.x
-        from numpy.core import _multiarray_umath as core
-    return core
-
-
 def _resident_bytes():
     with open("/proc/self/statm") as statm:
         return int(statm.read().split()[1]) * os.sysconf("SC_PAGE_SIZE")
@@ -38,7 +30,7 @@ def _resident_bytes():
 def test_the_handler_is_in_force_only_inside_the_context():
     """Arrays made inside keep the handler (also past the context); outside,
     NumPy's own is in force again; a context inside another changes nothing."""
-    core = _core()
+    core = _mapped._core()
     before = core.get_handler_name()
     with _mapped.mapped_large_arrays():
         assert core.get_handler_name() == _mapped.HANDLER_NAME

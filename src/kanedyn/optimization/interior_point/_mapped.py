@@ -4,10 +4,11 @@ arrays alive.
 glibc serves a freed array of a few MB again from its heap once its mmap
 threshold has risen past that size (it rises to the largest block freed,
 up to 32 MiB), and a heap shrinks only from its top: arrays still alive
-above freed ones keep those resident.  On the swing-up at 1 and 2 million
-nodes that held 75 bytes a node of freed arrays at the solve's peak
-(`docs/benchmarks.md`).  So, while the interior point runs, NumPy's arrays
-of :data:`MAPPED_BYTES` or more are given a memory handler of their own
+above freed ones keep those resident.  On the swing-up between 1 and 2
+million nodes the resident memory grew by 45–61 bytes a node more with
+NumPy's allocator than with this module (`docs/benchmarks.md`).  So, while
+the interior point runs, NumPy's arrays of :data:`MAPPED_BYTES` or more are
+given a memory handler of their own
 (NumPy's ``PyDataMem_SetHandler``, scoped to the calling context; each array
 keeps the handler it was made with, and frees through it when it goes):
 each such array its own anonymous mapping, handed back to the system when
@@ -112,9 +113,15 @@ static int kd_register(void *p) {
     return 1;
 }
 
-static int kd_unregister(void *p) {
+/* the place of p in the registry, or of the empty one where its probe ends */
+static size_t kd_find(void *p) {
     size_t i = kd_slot(p);
     while (kd_alive[i] != NULL && kd_alive[i] != p) i = (i + 1) & (KD_REGISTRY - 1);
+    return i;
+}
+
+static int kd_unregister(void *p) {
+    size_t i = kd_find(p);
     if (kd_alive[i] == NULL) return 0;
     kd_alive[i] = NULL;
     kd_n_alive--;
@@ -243,9 +250,8 @@ static void *kd_realloc(void *ctx, void *p, size_t new_size) {
     kd_context *c = ctx;
     if (p == NULL) return kd_malloc(ctx, new_size);
     pthread_mutex_lock(&kd_lock);
-    size_t i = kd_slot(p);
-    while (kd_alive[i] != NULL && kd_alive[i] != p) i = (i + 1) & (KD_REGISTRY - 1);
-    size_t held = kd_alive[i] == NULL ? 0 : *(size_t *)((char *)p - KD_HEADER) - KD_HEADER;
+    size_t held = kd_alive[kd_find(p)] == NULL ? 0
+                  : *(size_t *)((char *)p - KD_HEADER) - KD_HEADER;
     pthread_mutex_unlock(&kd_lock);
     if (held == 0) return c->base.realloc(c->base.ctx, p, new_size);
     if (new_size <= held && new_size >= KD_MAPPED) return p;

@@ -271,7 +271,6 @@ class ReducedNLP:
         full = np.asarray(self.nlp.jacobian(x_full), dtype=float)
         self.fixed_jacobian = full[self._fixed_jacobian[0]] if self.fixed.size else None
         values = _kept(full, self._jacobian_dropped, copy=True, owned=self._owned)
-        del full
         if self._entry_scale is not None:
             values *= self._entry_scale
         return values

@@ -126,6 +126,7 @@ And one orders that graph:
 from __future__ import annotations
 
 from ....numerics import load_fixed_module
+from .._mapped import MAPPED_BYTES
 
 __all__ = ["kernel", "SOURCE"]
 
@@ -151,7 +152,7 @@ SOURCE = r"""
    a few MB again from its heap once its mmap threshold has risen past that
    size, and holds it resident while anything above it in the heap lives);
    smaller ones from malloc.  kd_unscratch takes the size kd_scratch was given. */
-#define KD_MAPPED ((size_t)1 << 22)
+#define KD_MAPPED ((size_t)@MAPPED@)
 
 static void *kd_scratch(size_t size, int zero) {
     if (size == 0) size = 1;
@@ -388,7 +389,6 @@ static const int32_t *kd_take(kd_index *x, int32_t *buf, Py_ssize_t count) {
     }
     return buf;
 }
-
 
 /* the walk from i up the elimination tree to the first node marked for row k:
    the nodes passed (the first row of a pair with its second) appended to `out`
@@ -2060,7 +2060,7 @@ PyMODINIT_FUNC PyInit_@NAME@(void) {
     if (PyType_Ready(&kd_buffer_type) < 0) return NULL;
     return PyModule_Create(&kd_module);
 }
-"""
+""".replace("@MAPPED@", str(MAPPED_BYTES))
 
 
 def kernel():
