@@ -171,10 +171,11 @@ def test_transpose_product_of_runs_sums_as_the_arrays(small_runs):
 
 
 def test_envelope_factors_the_same_with_patterns_as_runs():
-    """The backward-Euler swing-up at 20,000 nodes (its Jacobian 160,000
-    entries: held as runs at the default thresholds), the interior point's
-    start system, whose factorization makes two new orders (the band swept
-    forward after a zero pivot; the structures made again from the runs):
+    """The backward-Euler swing-up at 40,000 nodes (its Jacobian 320,000
+    entries, its Hessian 80,000: held as runs at the default thresholds), the
+    interior point's start system, whose factorization makes two new orders
+    (the band swept forward after a zero pivot; the structures made again
+    from the runs):
     ``EnvelopeKKT`` given the runs holds a few hundred bytes of them, and
     gives the same inertia, orders, solution and product, bit for bit, as
     given the arrays; then with Hessian values too."""
@@ -182,7 +183,7 @@ def test_envelope_factors_the_same_with_patterns_as_runs():
     from kanedyn.optimization.interior_point._reduced import ReducedNLP
     from kanedyn.optimization.interior_point.kkt._envelope import EnvelopeKKT
 
-    nodes = 20_000
+    nodes = 40_000
     problem = _swing_up(nodes)
     nlp = CollocationNLP(problem, hessian="exact")
     reduced = ReducedNLP(nlp, problem.guess_line(inputs={"tau": 0.1}), settings({}))

@@ -108,10 +108,29 @@ def _specification(model, parameters=(), time=False):
         start, n = len(v) - o - len(extra), len(rows) - o
         outputs.append(((o, len(extra)), [first[n + i, start + j] for i in range(o)
                                           for j in range(len(extra))]))
-    pattern = _contracted_pattern(np.array([e != 0 for e in first], dtype=bool),
-                                  np.array([e != 0 for e in second], dtype=bool),
-                                  len(rows), o)
+    pattern = _contracted_pattern(_nonzero(prog, first), _nonzero(prog, second), len(rows), o)
     return prog, dict(args, r=list(args["r"]) + w), outputs, pattern
+
+
+#: a derivative whose explicit expression has at most this many nodes is
+#: expanded to tell whether it is identically zero (larger ones are taken as
+#: nonzero unless they are SymPy's zero)
+EXPANDED_NODES = 400
+
+
+def _nonzero(prog, derivatives):
+    """(len(derivatives),) bool: the derivatives (of ``prog``) not identically
+    zero.  Beside SymPy's zero, one whose explicit expression (of at most
+    :data:`EXPANDED_NODES` nodes) expands to zero is zero: terms of the
+    model's forces that cancel (a point's centripetal acceleration along the
+    normal of its partial velocity) otherwise keep entries of the Hessian
+    that are zero at every point."""
+    import sympy as sm
+    sizes, out = {}, np.zeros(len(derivatives), dtype=bool)
+    for k, e in enumerate(derivatives):
+        out[k] = e != 0 and (prog.tree_size(e, sizes) > EXPANDED_NODES
+                             or sm.expand(prog.expand(e)) != 0)
+    return out
 
 
 def _contracted_pattern(first, second, rows, o):
@@ -186,8 +205,9 @@ def weighted_hessian_pattern(model, parameters=(), time=False):
     ndarray of bool, shape (nx, nx)
         Symmetric, in the columns of :func:`weighted_hessians`.  Made from
         the structure of the model's first and second derivatives, where
-        they are not identically zero (the mass matrix's inverse taken as
-        full); on the C backend it is part of the Hessian's module (a cached
+        they are not identically zero (SymPy's zero, or a small one that
+        expands to zero: :data:`EXPANDED_NODES`; the mass matrix's inverse
+        taken as full); on the C backend it is part of the Hessian's module (a cached
         module is loaded without differentiating anything).
     """
     reason = hessians_unavailable(model)

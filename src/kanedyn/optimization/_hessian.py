@@ -34,7 +34,9 @@ overlap (IPOPT adds them); only the lower triangle is given, and of it only
 the entries where some part can be nonzero: where :math:`F''` is not
 identically zero (the model's, :func:`kanedyn.numerics.weighted_hessian_pattern`;
 the terms', SymPy's) through each point's :math:`D` (a free duration's row
-and column whole).  The swing-up's backward-Euler point holds 4 of its 6.
+and column whole).  The swing-up's backward-Euler point holds 2 of its 6
+(the angle's and the torque's: the model's forces' terms in the rate cancel,
+:func:`kanedyn.numerics.weighted_hessian_pattern`).
 
 A phase of a multiphase problem whose start time is a variable has
 :math:`t_0` among each point's variables (:math:`\partial t/\partial t_0 =
@@ -89,7 +91,8 @@ def _row_block(matrix, p0, p1, c0, c1):
 
 
 class _Points:
-    """Points of one kind: their decision variables ``V`` (K, m), the linear
+    """Points of one kind: their decision variables ``variables()`` (K, m;
+    made when asked, not held), the linear
     map ``D`` (K, nu, m) from them to :math:`u` (a read-only broadcast of one
     point's when it is the same at every point), the mask of each point's
     entries (K, m, m): the lower triangle where ``pattern`` ((nu, nu) bool,
@@ -101,8 +104,9 @@ class _Points:
     point has the same map and the same mask: then :meth:`maps` are one
     point's, applied to every point."""
 
-    def __init__(self, V, D, duration=None, pattern=None):
-        self.V, self.D, self.duration = V, D, duration
+    def __init__(self, variables, D, duration=None, pattern=None):
+        self.variables, self.D, self.duration = variables, D, duration
+        V = variables()
         K, m = V.shape
         kept = (np.ones((m, m), dtype=bool) if pattern is None
                 else self._point_pattern(D, pattern, duration))
@@ -226,9 +230,9 @@ class _Points:
     def pattern(self):
         """``(rows, cols)`` of its entries of the lower triangle (made when
         asked, not kept)."""
-        shape = self.mask.shape
-        return (np.broadcast_to(self.V[:, :, None], shape)[self.mask],
-                np.broadcast_to(self.V[:, None, :], shape)[self.mask])
+        shape, V = self.mask.shape, self.variables()
+        return (np.broadcast_to(V[:, :, None], shape)[self.mask],
+                np.broadcast_to(V[:, None, :], shape)[self.mask])
 
 
 class LagrangianHessian:
@@ -267,22 +271,25 @@ class LagrangianHessian:
         if pb.lagrange is not None:
             dynamics |= pb.lagrange.hessian_pattern()
         N = L.nodes
-        y_cols, r_cols = L.point_columns()
-        point_vars = np.concatenate([y_cols, r_cols], axis=1)
+
+        def point_vars():  # (N, nx): each node's states and inputs
+            return np.concatenate(L.point_columns(), axis=1)
         self.stages = []
         if not self.interval:
             for s in nlp.defects.stages:
                 offsets = [o for o in (0, 1) if s.a[o]]
                 self.stages.append(self._points(
-                    [point_vars[o:o + N - 1] for o in offsets], [s.a[o] for o in offsets],
+                    lambda offsets=offsets: [point_vars()[o:o + N - 1] for o in offsets],
+                    [s.a[o] for o in offsets],
                     (np.arange(N - 1) + s.position) / (N - 1), dynamics))
         self.at_points = None
         if self.interval or pb.path or pb.mayer is not None:
             at_points = dynamics.copy() if self.interval else np.zeros_like(dynamics)
             for term in [path.term for path in pb.path] + [pb.mayer] * (pb.mayer is not None):
                 at_points |= term.hessian_pattern()
-            self.at_points = self._points([point_vars], [1.0], L.positions(), at_points)
-        self.instances = [_Points(c[None, :], None) for c in nlp._instance_columns]
+            self.at_points = self._points(lambda: [point_vars()], [1.0], L.positions(),
+                                          at_points)
+        self.instances = [_Points(lambda c=c: c[None, :], None) for c in nlp._instance_columns]
 
     def structure(self):
         """``(rows, cols)`` of the lower triangle's entries, :data:`._nlp.INDEX`
@@ -293,21 +300,23 @@ class LagrangianHessian:
                             self.nlp.n, self.nlp.n)
 
     def _points(self, blocks, a, tau, pattern):
-        """:class:`_Points` of the combinations ``sum_b a_b blocks[b]`` (each
-        (K, nx) columns) at the positions ``tau`` (K,), where :math:`F''` in
-        u can be nonzero ``pattern`` ((nu, nu) bool)."""
+        """:class:`_Points` of the combinations ``sum_b a_b blocks()[b]`` (each
+        (K, nx) columns, made when asked) at the positions ``tau`` (K,), where
+        :math:`F''` in u can be nonzero ``pattern`` ((nu, nu) bool)."""
         L = self.nlp.layout
-        nx, nf, K, nb = self.nx, self.nf, len(tau), len(blocks)
+        nx, nf, K, nb = self.nx, self.nf, len(tau), len(a)
         shared = list(L.free_start + np.arange(nf))
         if L.free_duration:
             shared.append(L.duration_index)
         if L.free_start_time:
             shared.append(L.start_index)
         shared = np.broadcast_to(np.array(shared, dtype=int), (K, len(shared)))
-        V = np.concatenate(blocks + [shared], axis=1, dtype=INDEX, casting="same_kind")
+
+        def variables():
+            return np.concatenate(blocks() + [shared], axis=1, dtype=INDEX, casting="same_kind")
         # the same map at every point but for a free duration's column (tau):
         # one point's, broadcast to all, else one per point
-        D = np.zeros((1, self.nu, V.shape[1]))
+        D = np.zeros((1, self.nu, nb * nx + shared.shape[1]))
         i = np.arange(nx)
         for b in range(nb):
             D[:, i, b * nx + i] = a[b]
@@ -322,7 +331,7 @@ class LagrangianHessian:
             D[:, nx + nf, col] = 1.0
         if not L.free_duration:
             D = np.broadcast_to(D, (K,) + D.shape[1:])
-        return _Points(V, D, duration if L.free_duration else None, pattern)
+        return _Points(variables, D, duration if L.free_duration else None, pattern)
 
     # ---------------------------------------------------------- the parts
     def _dynamics(self, e, t, Ys, Rs, W, evaluated, rate):

@@ -36,7 +36,7 @@ from ._c import fingerprint, generate_c_units, load_module
 __all__ = ["contracted_hessian", "hessian_module"]
 
 #: changes when the generated Hessian changes (part of the cache key)
-_GENERATION = "hessians 2"
+_GENERATION = "hessians 3"
 
 
 def _solver(program, mass, o):

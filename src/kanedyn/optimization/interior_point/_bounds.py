@@ -33,7 +33,8 @@ class PrimalBounds:
         The entries with a finite lower / upper bound (``int32`` where
         ``size`` allows).
     lower, upper : ndarray
-        Those bounds (relaxed), shapes as the index arrays.
+        Those bounds (relaxed), shapes as the index arrays (a read-only
+        broadcast of one number where every entry has the same).
     """
 
     def __init__(self, lower, upper, relax, kappa_d):
@@ -43,9 +44,11 @@ class PrimalBounds:
         index = compact_index_type(self.size)
         self.lower_index = np.flatnonzero(has_lower).astype(index)
         self.upper_index = np.flatnonzero(has_upper).astype(index)
+        if np.array_equal(self.upper_index, self.lower_index):  # (one array, read only)
+            self.upper_index = self.lower_index
         lo, up = lower[has_lower], upper[has_upper]
-        self.lower = lo - relax * np.maximum(1.0, np.abs(lo))
-        self.upper = up + relax * np.maximum(1.0, np.abs(up))
+        self.lower = _held(lo - relax * np.maximum(1.0, np.abs(lo)))
+        self.upper = _held(up + relax * np.maximum(1.0, np.abs(up)))
         self.kappa_d = kappa_d
         # the damped entries (bounded on one side only), in w and among the bounds'
         lower_only, upper_only = has_lower & ~has_upper, has_upper & ~has_lower
@@ -131,6 +134,16 @@ class PrimalBounds:
         w[i] = np.maximum(w[i], self.lower + p_lower)
         w[j] = np.minimum(w[j], self.upper - p_upper)
         return w
+
+
+def _held(values):
+    """``values``, or a read-only broadcast of their one value when they are
+    all the same to the bit (a bound on an input at every node: no array of
+    it)."""
+    bits = values.view(np.int64)
+    if values.size > 1 and (bits == bits[0]).all():
+        return np.broadcast_to(values[:1].copy(), values.shape)
+    return values
 
 
 def _values_at(index, other_index, other_values, absent):

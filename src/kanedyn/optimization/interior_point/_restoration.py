@@ -242,7 +242,7 @@ class Restoration:
             barrier_gradient = BR.barrier_gradient(gradient, gap_lower, gap_upper, mu_r)
             residual_w = barrier_gradient + (lagrangian - gradient)
             direction = run.direction(self.stepper, BR, hessian, e.jacobian, sigma, residual_w,
-                                      c_r, zl, zu, gap_lower, gap_upper, mu_r, tau)
+                                      c_r, zl, zu, lambda: (gap_lower, gap_upper), mu_r, tau)
             del hessian, sigma  # (the factors let go by direction) not held further
             if direction is None:
                 return self._failed(-3, wr, y, zl, zu, e)

@@ -520,7 +520,7 @@ class _Run:
         return again
 
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
-                  z_upper, gap_lower, gap_upper, mu, tau):
+                  z_upper, gaps, mu, tau):
         """The Newton step (:meth:`._step.StepSolver.compute`) and the bound
         multipliers' steps and step lengths
         (:meth:`._bounds.PrimalBounds.step_lengths`): ``(step, dz_lower,
@@ -528,7 +528,9 @@ class _Run:
         regularization gave the right inertia.  The point's callbacks are
         done (the Hessian made): the NLP's evaluation is dropped first; the
         factors once the step is solved (not held through the step lengths
-        and the line search)."""
+        and the line search).  ``gaps()`` gives ``(gap_lower, gap_upper)``
+        after the step is solved (the caller's to make again, not held
+        through it)."""
         self._drop_nlp_evaluation()
         t = time.perf_counter()
         step = stepper.compute(hessian, jacobian, sigma, residual_w, c, mu)
@@ -536,8 +538,7 @@ class _Run:
         self.timings["factor_solve"] += time.perf_counter() - t
         if step is None:
             return None
-        return (step,) + bounds.step_lengths(z_lower, z_upper, gap_lower, gap_upper,
-                                             step.primal, mu, tau)
+        return (step,) + bounds.step_lengths(z_lower, z_upper, *gaps(), step.primal, mu, tau)
 
     def stopping_status(self):
         """-1 (``max_iter``), -4 (``max_cpu_time``), 5 (a stop request) or ``None``."""
@@ -618,7 +619,9 @@ class _Run:
             hessian = self.hessian_values(e, y, 1.0, self.quasi_newton)
             if hessian is None:
                 return self._result(-13, w, y, z_lower, z_upper, e)
-            gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
+            # (the gaps are w's, B.gaps(w): not held through the step but made
+            # again after it, the same numbers)
+            gap_lower, gap_upper = m.pop("gap_lower"), m.pop("gap_upper")
             sigma = B.sigma(z_lower, z_upper, gap_lower, gap_upper)
             gradient_w = self._in_w(e.gradient)
             # (the Lagrangian's gradient and the barrier's not held through the
@@ -626,13 +629,19 @@ class _Run:
             # again from the same numbers)
             residual_w = B.barrier_gradient(gradient_w, gap_lower, gap_upper, mu) \
                 + (m.pop("lagrangian") - gradient_w)
+            del gap_lower, gap_upper
+
+            def gaps():  # made again after the step, kept in m
+                m["gap_lower"], m["gap_upper"] = B.gaps(w)
+                return m["gap_lower"], m["gap_upper"]
             again = self.quasi_newton is None and e.gradient.nbytes >= GRADIENT_AGAIN_BYTES
             if again:  # not held through the step (GRADIENT_AGAIN_BYTES)
                 e.gradient = gradient_w = None
             direction = self.direction(self.stepper, B, hessian, e.jacobian, sigma, residual_w,
-                                       m["c"], z_lower, z_upper, gap_lower, gap_upper, mu, tau)
+                                       m["c"], z_lower, z_upper, gaps, mu, tau)
             if direction is None:
                 return self._result(-3, w, y, z_lower, z_upper, e)
+            gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
             if again:
                 t = time.perf_counter()
                 e.gradient = self.reduced.gradient(self.reduced.full(e.x))

@@ -153,14 +153,13 @@ class EnvelopeKKT(SparseKKT):
         self._permutation, self._kind = symbolic.permutation, symbolic.kind
         self._rowptr = symbolic.rowptr
         self._values = None  # factor's arguments, for matvec
-        self._zero = np.zeros(N, dtype=np.int8)
         size = int(self._rowptr[-1])
         self.analysis = KKTAnalysis(
-            n, m, self._permutation, symbolic.n_dense, int(self._delayed.sum()),
+            n, m, self._permutation, symbolic.n_dense, self._n_delayed(),
             symbolic.nnz_matrix, size, 8 * (size + N) + self._rowptr.nbytes,
             sum(a.nbytes for a in (self._permutation, self._kind,
                                    *self._hessian_structure)),
-            12 * N + self._zero.nbytes)
+            13 * N)
 
     def _symbolic(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """The :class:`EnvelopeAnalysis` of these inputs (``ValueError`` when
@@ -199,10 +198,11 @@ class EnvelopeKKT(SparseKKT):
         Lx, D = self._storage()
         self._values = (hv, jv, diagonals)
         dx, dc, constants = diagonals
+        zero = self._zero_flags()
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, self._kind, self._permutation, hv, jv, dx, dc, self._zero,
+            Lx, self._rowptr, D, self._kind, self._permutation, hv, jv, dx, dc, zero,
             *self._indices, self.zero_pivot, *constants)
-        return tuple(inertia)
+        return self._kept_zero(zero, tuple(inertia))
 
     def _largest_entry(self):
         return self._largest

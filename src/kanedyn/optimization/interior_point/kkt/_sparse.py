@@ -200,7 +200,8 @@ class KKTAnalysis:
     bytes_workspace : int
         Bytes of the scratch of ``factor`` and ``solve`` (48 per row of K,
         allocated by each call for its duration) and of the zero pivots' flags
-        (1 per row, held).
+        (1 per row, made for each factorization, held only when a pivot was
+        zero).
     """
 
     n: int
@@ -483,7 +484,8 @@ class SparseKKT:
         self.n, self.m, self.size = n, m, N
         self.zero_pivot = float(zero_pivot)
         self.ordering = ordering
-        self._delayed = np.zeros(N, dtype=bool)
+        #: the rows delayed to the end of the order (a mask), ``None`` while none is
+        self._delayed = None
         self._forward = False  # the band swept forward (after a zero pivot)
         self.reanalyses = 0
         self._entries = (hr.size, jr.size)  # of the Hessian and the Jacobian
@@ -533,7 +535,6 @@ class SparseKKT:
         self._Ap, self._Ai, self._Lp = symbolic.Ap, symbolic.Ai, symbolic.Lp
         self._hessian_map, self._jacobian_map = symbolic.hessian_map, symbolic.jacobian_map
         self._diagonal_map, self._parent = symbolic.diagonal_map, symbolic.parent
-        self._zero = np.zeros(N, dtype=np.int8)
         nnz = int(self._Lp[-1])
         factor_bytes = 12 * nnz + self._Lp.nbytes + 16 * N  # Li, Lx, Lp, D, E
         map_bytes = 8 * self._Ai.size + sum(  # Ax and the maps
@@ -541,9 +542,8 @@ class SparseKKT:
                                self._Ap, self._Ai, self._parent, self._kind,
                                self._permutation))
         self.analysis = KKTAnalysis(n, m, self._permutation, symbolic.n_dense,
-                                    int(self._delayed.sum()), int(self._Ai.size), nnz,
-                                    factor_bytes, map_bytes,
-                                    48 * N + self._zero.nbytes)
+                                    self._n_delayed(), int(self._Ai.size), nnz,
+                                    factor_bytes, map_bytes, 49 * N)
 
     def _order(self, hessian_structure, jacobian_structure, has_diagonal, pairable):
         """``(permutation, n_dense, kind)`` of :func:`elimination_order` for
@@ -648,10 +648,30 @@ class SparseKKT:
         :func:`_diagonals`): its inertia."""
         Ax, Li, Lx, D, E = self._storage()
         dx, dc, constants = diagonals
-        return self._kernel.factor(
+        zero = self._zero_flags()
+        return self._kept_zero(zero, self._kernel.factor(
             Ax, self._Lp, Li, Lx, D, E, self._Ap, self._Ai, self._parent, self._kind,
             self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, dx, dc,
-            self._zero, self.zero_pivot, *constants)
+            zero, self.zero_pivot, *constants))
+
+    def _zero_flags(self):
+        """(N,) int8 for a factorization to flag its zero pivots in (made for
+        each: held only when one was zero, :meth:`_kept_zero`)."""
+        self._zero = None
+        return np.zeros(self.size, dtype=np.int8)
+
+    def _kept_zero(self, zero, result):
+        """``result`` (the kernel's, its third entry the zero pivots), ``zero``
+        kept for :meth:`_zero_rows` when a pivot was zero."""
+        self._zero = zero if result[2] else None
+        return result
+
+    def _n_delayed(self):
+        return 0 if self._delayed is None else int(np.count_nonzero(self._delayed))
+
+    def _delayed_mask(self):
+        """(N,) bool: the rows delayed to the end of the order."""
+        return np.zeros(self.size, dtype=bool) if self._delayed is None else self._delayed
 
     def _largest_entry(self):
         """The largest magnitude in K's last factored values."""
@@ -661,7 +681,8 @@ class SparseKKT:
         """Which rows of K (its own order, a mask) had a zero pivot in the
         last factorization."""
         failed = np.zeros(self.size, dtype=bool)
-        failed[self._permutation[self._zero.astype(bool)]] = True
+        if self._zero is not None:
+            failed[self._permutation[self._zero.astype(bool)]] = True
         return failed
 
     def _reanalyse(self, hv, jv, diagonals, inertia):
@@ -670,7 +691,7 @@ class SparseKKT:
         ``inertia`` when there is nothing new to try."""
         m = self.m
         failed = self._zero_rows()
-        if not (failed & ~self._delayed).any():
+        if not (failed & ~self._delayed_mask()).any():
             return inertia  # zero where it was already delayed: K's own
         largest = max(self._largest_entry(), 1e-300)
         self._numeric = None  # (made again by the next factor) not held meanwhile
@@ -703,9 +724,10 @@ class SparseKKT:
                     continue
                 self._forward = True
             if step == "delay":
-                if np.count_nonzero(self._delayed | failed) > MAX_DELAYED:
+                delayed = self._delayed_mask() | failed
+                if np.count_nonzero(delayed) > MAX_DELAYED:
                     return found  # each makes a long row of L: not for many
-                self._delayed |= failed
+                self._delayed = delayed
             key = self._order_inputs(has_diagonal, pairable)
             if step == "pairs" and key == self._order_key:
                 continue  # the same pairs again: the same order (not made)
@@ -716,7 +738,7 @@ class SparseKKT:
             if not found[2] or self.reanalyses >= MAX_REANALYSES:
                 return found
             failed = self._zero_rows()
-            if not (failed & ~self._delayed).any():
+            if not (failed & ~self._delayed_mask()).any():
                 return found
         return found
 
