@@ -763,14 +763,16 @@ def test_no_compiler(monkeypatch):
 def _factored_by_the_solver(problem, guess, max_iter, monkeypatch):
     """Every ``(n, m, structures, values)`` the interior-point solver gave
     ``SparseKKT.factor`` in ``max_iter`` iterations of ``problem`` (the
-    exact Hessian, ``linear_solver="sparse"``), in order."""
+    exact Hessian, ``linear_solver="sparse"``), in order (a diagonal given
+    by its entries made dense)."""
     from kanedyn.optimization.interior_point.kkt import _sparse as _kkt_sparse
+    from kanedyn.optimization.interior_point.kkt._diagonal import dense_diagonal
     seen = []
     factor = _kkt_sparse.SparseKKT.factor
 
     def recording(self, *values):
         seen.append((self.n, self.m, self._structures(),
-                     tuple(np.array(v, dtype=float) for v in values)))
+                     tuple(np.array(dense_diagonal(v), dtype=float) for v in values)))
         return factor(self, *values)
     monkeypatch.setattr(_kkt_sparse.SparseKKT, "factor", recording)
     problem.solve(guess, solver="interior-point", hessian="exact",

@@ -22,7 +22,7 @@ import numpy as np
 from .._errors import ModelError
 from .._expressions import as_expression
 
-__all__ = ["Symbols", "Term", "compile_term", "instance_atoms"]
+__all__ = ["Symbols", "Term", "compile_term", "identically_zero", "instance_atoms"]
 
 
 @dataclass(frozen=True)
@@ -230,6 +230,14 @@ class Term:
     def __call__(self, t, Y, R, P, T):
         K, arguments = self._arguments(t, Y, R, P)
         return tuple(self._first.blocks(K, arguments + (T,), self._spans))
+
+
+def identically_zero(part):
+    """Whether ``part`` (an array of a :class:`Term`'s result, or a slice of
+    one) is a part that is identically zero: its read-only broadcast of 0.0
+    (nothing to add)."""
+    return (part.size > 0 and not any(part.strides) and not part.flags.writeable
+            and part.flat[0] == 0.0)
 
 
 def compile_term(value, symbols, what):

@@ -46,6 +46,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from ._terms import identically_zero
+
 __all__ = ["METHODS", "COLLOCATION_METHODS", "ORDERS", "Stage", "Layout", "Defects",
            "defects_for", "INTERVAL_METHODS", "interval_scheme"]
 
@@ -476,8 +478,11 @@ class Defects:
             w = h * stage.c
             for o in (0, 1):
                 a = stage.a[o]
-                if a:
+                # (a part identically zero adds nothing: the sums from 0.0 are
+                # never -0.0, so the same numbers without its array of zeros)
+                if a and not identically_zero(d_y):
                     gY[o:o + N - 1] += w * a * d_y
+                if a and not identically_zero(d_r):
                     gR[o:o + N - 1] += w * a * d_r
             if L.n_free:
                 gP += w * d_p.sum(axis=0)

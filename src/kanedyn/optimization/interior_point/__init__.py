@@ -29,7 +29,8 @@ LDLᵀ factorization compiled in C that reports the inertia.
 The factorizations take the same calls: ``KKT(n, m, hessian_structure,
 jacobian_structure)``, ``factor(hessian_values, jacobian_values, diagonal_x,
 diagonal_c, added_x=0.0) -> (n_positive, n_negative, n_zero)`` (each diagonal
-an array or one number for every entry; ``added_x``, the solver's
+an array or one number for every entry, ``diagonal_x`` also a
+``kkt._diagonal.DiagonalEntries``; ``added_x``, the solver's
 :math:`\\delta_w`, added to ``diagonal_x`` where not 0), ``solve(rhs,
 overwrite=False)`` (with ``overwrite=True`` the solution may be written over
 ``rhs``, a writeable C-contiguous float64 vector, and returned, so the caller

@@ -18,6 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ._reduced import compact_index_type
+from .kkt._diagonal import DiagonalEntries
 
 __all__ = ["PrimalBounds", "fraction_to_boundary"]
 
@@ -46,6 +47,11 @@ class PrimalBounds:
         self.upper_index = np.flatnonzero(has_upper).astype(index)
         if np.array_equal(self.upper_index, self.lower_index):  # (one array, read only)
             self.upper_index = self.lower_index
+            self._bounded = None  # the entries bounded on either side: lower_index
+        else:  # those entries, and where each bound's are among them
+            self._bounded = np.union1d(self.lower_index, self.upper_index).astype(index)
+            self._lower_at = np.searchsorted(self._bounded, self.lower_index).astype(index)
+            self._upper_at = np.searchsorted(self._bounded, self.upper_index).astype(index)
         lo, up = lower[has_lower], upper[has_upper]
         self.lower = _held(lo - relax * np.maximum(1.0, np.abs(lo)))
         self.upper = _held(up + relax * np.maximum(1.0, np.abs(up)))
@@ -87,11 +93,18 @@ class PrimalBounds:
         return out
 
     def sigma(self, z_lower, z_upper, gap_lower, gap_upper):
-        r""":math:`\Sigma = Z_L (W - W_L)^{-1} + Z_U (W_U - W)^{-1}`, shape (size,)."""
-        out = np.zeros(self.size)
-        out[self.lower_index] = z_lower / gap_lower
-        out[self.upper_index] += z_upper / gap_upper
-        return out
+        r""":math:`\Sigma = Z_L (W - W_L)^{-1} + Z_U (W_U - W)^{-1}` of the
+        ``size`` entries, a :class:`~.kkt._diagonal.DiagonalEntries` (its
+        values at the bounded entries alone: the sums of an array of every
+        entry, without it)."""
+        if self._bounded is None:
+            values = z_lower / gap_lower
+            values += z_upper / gap_upper
+            return DiagonalEntries(self.lower_index, values, self.size)
+        values = np.zeros(self._bounded.size)
+        values[self._lower_at] = z_lower / gap_lower
+        values[self._upper_at] += z_upper / gap_upper
+        return DiagonalEntries(self._bounded, values, self.size)
 
     def step_lengths(self, z_lower, z_upper, gap_lower, gap_upper, dw, mu, tau):
         r"""The bound multipliers' Newton steps of :math:`z\,\text{gap} = \mu`

@@ -313,14 +313,22 @@ class ReducedNLP:
     # ---------------------------------------------------------- unscaling
     def multipliers_full(self, x_full, y, z_lower, z_upper, fixed_jacobian=None):
         """IPOPT's unscaled multipliers ``{"g", "x_lower", "x_upper"}`` of the
-        full problem; a fixed variable's from the Lagrangian's gradient, with
+        full problem from the rows' ``y`` and the free variables' bound
+        multipliers ``z_lower``, ``z_upper`` (each ``(index, values)``: the
+        free variables that have one, among them, and its values; the others
+        0); a fixed variable's from the Lagrangian's gradient, with
         ``fixed_jacobian`` (:attr:`fixed_jacobian` of a Jacobian at
         ``x_full``) or else the NLP's Jacobian evaluated at ``x_full``."""
         sf = self.objective_scale
         g = np.zeros(self.m_full)
         g[self.rows] = y * self.row_scale / sf
         zl, zu = np.zeros(self.n_full), np.zeros(self.n_full)
-        zl[self.free], zu[self.free] = z_lower / sf, z_upper / sf
+        for out, (index, values) in ((zl, z_lower), (zu, z_upper)):  # (one at a time)
+            free = np.zeros(self.n)
+            free[index] = values
+            free /= sf
+            out[self.free] = free
+            del free
         if self.fixed.size:  # the Lagrangian's gradient in their columns
             entries, rows, columns = self._fixed_jacobian
             values = (fixed_jacobian if fixed_jacobian is not None else

@@ -237,7 +237,7 @@ class Restoration:
             hessian = run.hessian_values(e, y, 0.0, quasi_newton)  # the rows' part only
             if hessian is None:
                 return self._failed(-13, wr, y, zl, zu, e)
-            sigma = BR.sigma(zl, zu, gap_lower, gap_upper)
+            sigma = BR.sigma(zl, zu, gap_lower, gap_upper).dense()
             sigma[:n] += zeta * self.scale2
             barrier_gradient = BR.barrier_gradient(gradient, gap_lower, gap_upper, mu_r)
             residual_w = barrier_gradient + (lagrangian - gradient)

@@ -282,16 +282,12 @@ class _Run:
     def _result(self, status, w, y, z_lower, z_upper, e):
         from .._solvers import NLPSolution
         R, n = self.reduced, self.n
-        x_full = R.full(w[:n]) if w is not None else self.x0.copy()
         if w is None:
+            x_full = self.x0.copy()
             multipliers = {"g": np.zeros(R.m_full), "x_lower": np.zeros(R.n_full),
                            "x_upper": np.zeros(R.n_full)}
             objective = float("nan") if e is None else e.objective / R.objective_scale
         else:
-            zl, zu = np.zeros(n), np.zeros(n)
-            lo, up = self.bounds.lower_index, self.bounds.upper_index
-            zl[lo[lo < n]] = z_lower[lo < n]
-            zu[up[up < n]] = z_upper[up < n]
             if e is not None:  # the run ends: its derivatives not held with the NLP's last
                 e.gradient = e.jacobian = None
             # nor its KKT system (the order, the structures): the multipliers of
@@ -299,12 +295,18 @@ class _Run:
             # the last evaluation's where it was made at this point (bit for
             # bit), else the NLP's Jacobian evaluated
             self.stepper = self.kkt = self.restoration = self.error_reductions = None
+            x_full = R.full(w[:n])
             fixed = None if e is None else e.fixed_jacobian
             if fixed is not None and not np.array_equal(
                     np.asarray(e.x).view(np.uint64), w[:n].view(np.uint64)):
                 fixed = None
+            # the variables' bound multipliers (of w's entries below n)
+            lo, up = self.bounds.lower_index, self.bounds.upper_index
+            in_lower, in_upper = lo < n, up < n
             with np.errstate(all="ignore"):
-                multipliers = R.multipliers_full(x_full, y, zl, zu, fixed)
+                multipliers = R.multipliers_full(
+                    x_full, y, (lo[in_lower], z_lower[in_lower]),
+                    (up[in_upper], z_upper[in_upper]), fixed)
             objective = e.objective / R.objective_scale
         self.timings["total"] = time.perf_counter() - self.start_wall
         return NLPSolution(
@@ -407,6 +409,7 @@ class _Run:
         w = primal_start(self.bounds, n, x, e.rows, self.inequality, s, warm)
         if np.array_equal(w[:n].view(np.uint64), x.view(np.uint64)):
             e.x = w[:n]  # the same numbers: the pushed start not held beside w
+        del x
         if warm:
             y, zl_x, zu_x = R.scaled_multipliers(self.warm)
             z_lower, z_upper = warm_multipliers(self.bounds, n, y[self.inequality], zl_x, zu_x,
@@ -414,9 +417,12 @@ class _Run:
             return w, y, z_lower, z_upper, e
         z_lower = np.full(self.bounds.lower_index.size, s.bound_mult_init_val)
         z_upper = np.full(self.bounds.upper_index.size, s.bound_mult_init_val)
-        gradient_w = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
-        gradient_w[self.bounds.lower_index] -= z_lower
-        gradient_w[self.bounds.upper_index] += z_upper
+
+        def gradient_w():  # (made once the matrix is factored: not held through it)
+            out = np.concatenate([e.gradient, np.zeros(len(self.inequality))])
+            out[self.bounds.lower_index] -= z_lower
+            out[self.bounds.upper_index] += z_upper
+            return out
         self._drop_nlp_evaluation()  # before each factorization (the Hessian evaluates again)
         t = time.perf_counter()
         y = least_squares_multipliers(self.kkt, n, self.m, self.inequality, e.jacobian,

@@ -44,7 +44,9 @@ def primal_start(bounds, n, x, row_values, inequality, settings, warm):
 
 def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_size,
                               gradient_w, limit):
-    """The rows' multipliers by least squares (see the module), or zeros."""
+    """The rows' multipliers by least squares (see the module), or zeros;
+    ``gradient_w()`` makes the right-hand side's gradient (of ``w``: the
+    objective's less the bound multipliers') once the matrix is factored."""
     if len(inequality):
         diagonal_c = np.zeros(m)
         diagonal_c[inequality] = 1.0
@@ -53,10 +55,12 @@ def least_squares_multipliers(kkt, n, m, inequality, jacobian_values, hessian_si
     inertia = kkt.factor(np.zeros(hessian_size), jacobian_values, 1.0, diagonal_c)
     if m == 0 or int(inertia[2]) > 0:
         return np.zeros(m)
+    gradient = gradient_w()
     rhs = np.empty(n + m)
-    rhs[:n] = -gradient_w[:n]
+    rhs[:n] = -gradient[:n]
     rhs[n:] = 0.0
-    rhs[n:][inequality] = -gradient_w[n:]
+    rhs[n:][inequality] = -gradient[n:]
+    del gradient
     # solved in rhs's own storage; y not a view that holds the whole solution
     y = kkt.solve(rhs, overwrite=True)[n:].copy()
     if not np.isfinite(y).all() or np.abs(y).max(initial=0.0) > limit:

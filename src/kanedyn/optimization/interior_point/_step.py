@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._finite import all_finite
+from .kkt._diagonal import DiagonalEntries
 
 __all__ = ["NewtonStep", "StepSolver", "DEGENERATE_ITERATIONS"]
 
@@ -102,16 +103,20 @@ class StepSolver:
 
     def _factor(self, hessian_values, jacobian_values, sigma, delta_w, delta_c):
         n = self.n
-        slack_diagonal = sigma[n:] + delta_w
+        if isinstance(sigma, DiagonalEntries):  # the variables' entries, the slacks'
+            sigma_x, sigma_s = sigma.split(n)
+        else:
+            sigma_x, sigma_s = sigma[:n], sigma[n:]
+        slack_diagonal = sigma_s + delta_w
         if self.inequality.size:
             diagonal_c = delta_c + np.bincount(self.inequality, weights=1.0 / slack_diagonal,
                                                minlength=self.m)
         else:  # delta_c + 0.0, as the sum above, on every row: a number, no array
             diagonal_c = delta_c + 0.0
         self.factorizations += 1
-        # sigma's own entries (a view, which the KKT may hold for its products),
+        # sigma's own entries (views, which the KKT may hold for its products),
         # delta_w added by the KKT (the same sums, no array of them)
-        inertia = self.kkt.factor(hessian_values, jacobian_values, sigma[:n], diagonal_c,
+        inertia = self.kkt.factor(hessian_values, jacobian_values, sigma_x, diagonal_c,
                                   delta_w)
         self._state = (slack_diagonal, delta_w, delta_c)
         self._again = None
@@ -133,7 +138,7 @@ class StepSolver:
 
         Parameters
         ----------
-        sigma : ndarray, shape (n + n_slacks,)
+        sigma : ndarray, shape (n + n_slacks,), or DiagonalEntries of that size
             :math:`\\Sigma` of the bounds.
         residual_w : ndarray, shape (n + n_slacks,)
             :math:`\\nabla\\varphi_\\mu + (J^T y, -y_I)`.

@@ -10,6 +10,8 @@
 ``_analyses``  their symbolic analyses, kept for the next solve
 ``_periodic``  index arrays held as periodic runs (the collocation's patterns
                without their index arrays), which the kernel walks
+``_diagonal``  ``DiagonalEntries``: a diagonal zero but at some entries (the
+               barrier's, nonzero where a variable is bounded)
 ``_kernel``    their compiled C kernel
 ``_low_rank``  ``LowRankKKT``: a limited-memory Hessian's low-rank part on
                any of them (Sherman–Morrison–Woodbury, Haynsworth's inertia)

@@ -23,6 +23,8 @@ from __future__ import annotations
 import numpy as np
 import scipy.linalg.lapack
 
+from ._diagonal import dense_diagonal
+
 __all__ = ["DenseKKT", "check_structure"]
 
 
@@ -90,7 +92,7 @@ class DenseKKT:
         hessian_values : ndarray, shape (nnz_H,)
             In the order of ``hessian_structure``.
         jacobian_values : ndarray, shape (nnz_J,)
-        diagonal_x : ndarray, shape (n,), or float
+        diagonal_x : ndarray, shape (n,), float, or DiagonalEntries
             Added to H's diagonal (a number: on every entry).
         diagonal_c : ndarray, shape (m,), or float
             ``>= 0``; :math:`-d_c` is K's lower right diagonal.
@@ -104,6 +106,7 @@ class DenseKKT:
             K's inertia.
         """
         n, size = self.n, self.size
+        diagonal_x = dense_diagonal(diagonal_x)
         h = np.asarray(hessian_values, dtype=float)
         j = np.asarray(jacobian_values, dtype=float)
         weights = np.concatenate([h, h[self._hessian_off], j, j])

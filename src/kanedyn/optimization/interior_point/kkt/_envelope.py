@@ -197,11 +197,10 @@ class EnvelopeKKT(SparseKKT):
         """The kernel's factorization in the current order: its inertia."""
         Lx, D = self._storage()
         self._values = (hv, jv, diagonals)
-        dx, dc, constants = diagonals
         zero = self._zero_flags()
         *inertia, self._largest = self._kernel.envelope_factor(
-            Lx, self._rowptr, D, self._kind, self._permutation, hv, jv, dx, dc, zero,
-            *self._indices, self.zero_pivot, *constants)
+            Lx, self._rowptr, D, self._kind, self._permutation, hv, jv, *diagonals[:3], zero,
+            *self._indices, self.zero_pivot, *diagonals[3])
         return self._kept_zero(zero, tuple(inertia))
 
     def _largest_entry(self):
@@ -213,6 +212,7 @@ class EnvelopeKKT(SparseKKT):
 
     def matvec(self, x):
         def product(y, v):
-            hv, jv, (dx, dc, constants) = self._values
-            self._kernel.structured_matvec(y, v, hv, jv, dx, dc, *self._indices, *constants)
+            hv, jv, diagonals = self._values
+            self._kernel.structured_matvec(y, v, hv, jv, *diagonals[:3], *self._indices,
+                                           *diagonals[3])
         return self._multiplied(x, product)

@@ -13,8 +13,8 @@ indices and column pointers, so at most 2^31 - 2 entries in ``K`` and in
     permuted upper triangle ``Ap, Ai`` (CSC), the two columns of a 2 x 2 pivot
     given the same rows.
 ``factor(Ax, Lp, Li, Lx, D, E, Ap, Ai, parent, pair, hessian_map, hessian_values,
-jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_c, zero,
-tolerance, n, x_constant, x_added, c_constant)``
+jacobian_map, jacobian_values, diagonal_map, diagonal_x, diagonal_x_index,
+diagonal_c, zero, tolerance, n, x_constant, x_added, c_constant)``
     scatters the values into ``Ax`` through the maps, factors ``A = L D Lᵀ``
     up-looking (row ``k`` of ``L`` by a sparse triangular solve on the
     elimination tree; ``D`` block diagonal, ``E`` the off-diagonal entries of
@@ -22,10 +22,13 @@ tolerance, n, x_constant, x_added, c_constant)``
     ``(n_positive, n_negative, n_zero)`` and sets ``zero[k]`` (``int8``, N) to
     1 where the pivot ``k`` was zero (both rows of a 2 x 2 block), else 0.
     K's diagonal beside H's entries: ``diagonal_x`` (n entries, or none for
-    ``x_constant`` on each) plus ``x_added`` where that is not 0 (the sums as
-    NumPy's ``diagonal_x + x_added``); below it ``-diagonal_c`` (N - n
-    entries, or none for ``c_constant`` on each).  So a constant diagonal,
-    or the interior point's regularization, needs no array.
+    ``x_constant`` on each, or those of the increasing entries
+    ``diagonal_x_index`` (int32; none: no index), ``x_constant`` on the
+    others) plus ``x_added`` where that is not 0 (the sums as NumPy's
+    ``diagonal_x + x_added``); below it ``-diagonal_c`` (N - n entries, or
+    none for ``c_constant`` on each).  So a constant diagonal, the interior
+    point's regularization, or its barrier's (on the bounded variables)
+    needs no array of every variable's.
 ``solve(x, Lp, Li, Lx, D, E, pair, permutation, k)``
     overwrites the ``k`` right-hand sides in ``x`` (``k`` rows of length N,
     in the original order) with the solutions.
@@ -55,8 +58,9 @@ jacobian_cols, n)``
     (``inverse``: the place of each row of K); returns the envelope's size
     and K's distinct entries off the diagonal.
 ``envelope_factor(Lx, rowptr, D, pair, permutation, hessian_values,
-jacobian_values, diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols,
-jacobian_rows, jacobian_cols, tolerance, n, x_constant, x_added, c_constant)``
+jacobian_values, diagonal_x, diagonal_x_index, diagonal_c, zero, hessian_rows,
+hessian_cols, jacobian_rows, jacobian_cols, tolerance, n, x_constant, x_added,
+c_constant)``
     the values summed into the envelope (as ``factor`` sums them) and
     factored in place, the pivots judged as ``factor`` judges them; returns
     ``(n_positive, n_negative, n_zero, largest)``.  Scratch: a double (each
@@ -66,8 +70,8 @@ jacobian_rows, jacobian_cols, tolerance, n, x_constant, x_added, c_constant)``
     ``solve`` with those factors, in ``x``'s storage through the order (no
     scratch).
 ``structured_matvec(y, x, hessian_values, jacobian_values, diagonal_x,
-diagonal_c, hessian_rows, hessian_cols, jacobian_rows, jacobian_cols, n,
-x_constant, x_added, c_constant)``
+diagonal_x_index, diagonal_c, hessian_rows, hessian_cols, jacobian_rows,
+jacobian_cols, n, x_constant, x_added, c_constant)``
     ``y = K x`` from the structures and values (K's own order; the diagonals
     as ``factor`` takes them).
 ``transpose_product(out, values, y, rows, cols)``
@@ -131,7 +135,7 @@ from .._mapped import MAPPED_BYTES
 __all__ = ["kernel", "SOURCE"]
 
 #: changes whenever the source's meaning changes (part of the cache key)
-_GENERATION = "kanedyn sparse LDL 35"
+_GENERATION = "kanedyn sparse LDL 36"
 
 SOURCE = r"""
 #define PY_SSIZE_T_CLEAN
@@ -448,22 +452,27 @@ static PyObject *kd_symbolic(PyObject *self, PyObject *args) {
    of a 2 x 2 pivot (a variable), 2 its second (the variable's constraint); E[k]
    the off-diagonal entry of the 2 x 2 block starting at k */
 enum {F_AX, F_LP, F_LI, F_LX, F_D, F_E, F_AP, F_AI, F_PARENT, F_PAIR, F_HMAP, F_HV,
-      F_JMAP, F_JV, F_DMAP, F_DX, F_DC, F_ZERO, F_COUNT};
+      F_JMAP, F_JV, F_DMAP, F_DX, F_DXI, F_DC, F_ZERO, F_COUNT};
 
 /* K's diagonals beside H's and the Jacobian's entries: the variables' diagonal_x
-   (an array of n, or NULL for one constant) plus added_x (where not 0), the
-   rows' diagonal_c (an array of N - n, or NULL for one constant) */
+   (an array of n, or NULL for one constant, or x_count values at the entries
+   x_index, the constant elsewhere) plus added_x (where not 0), the rows'
+   diagonal_c (an array of N - n, or NULL for one constant) */
 typedef struct {
-    Py_ssize_t n;
+    Py_ssize_t n, x_count;
     const double *x, *c;
+    const int32_t *x_index;
     double x_constant, x_added, c_constant;
 } kd_diagonals;
 
-/* the diagonals from the buffers `dx`, `dc` (n or 0 entries, N - n or 0) and the
-   arguments args[at:at + 4] = (n, x_constant, x_added, c_constant): -1 with the
-   error set when they do not fit K's order N */
+/* the diagonals from the buffers `dx`, `dx_index`, `dc` (dx: n or 0 entries, or
+   as many as dx_index, the increasing entries below n that dx holds, the others
+   x_constant; dc: N - n or 0) and the arguments args[at:at + 4] = (n,
+   x_constant, x_added, c_constant): -1 with the error set when they do not fit
+   K's order N */
 static int kd_diagonals_of(PyObject *args, Py_ssize_t at, const Py_buffer *dx,
-                           const Py_buffer *dc, Py_ssize_t N, kd_diagonals *d) {
+                           const Py_buffer *dx_index, const Py_buffer *dc, Py_ssize_t N,
+                           kd_diagonals *d) {
     if (PyTuple_GET_SIZE(args) != at + 4) {
         PyErr_Format(PyExc_TypeError, "%zd arguments expected", at + 4);
         return -1;
@@ -474,19 +483,35 @@ static int kd_diagonals_of(PyObject *args, Py_ssize_t at, const Py_buffer *dx,
     d->x_added = PyFloat_AsDouble(PyTuple_GET_ITEM(args, at + 2));
     d->c_constant = PyFloat_AsDouble(PyTuple_GET_ITEM(args, at + 3));
     if (PyErr_Occurred()) return -1;
-    Py_ssize_t nx = KD_COUNT(*dx), nc = KD_COUNT(*dc);
-    if (d->n < 0 || d->n > N || (nx != 0 && nx != d->n) || (nc != 0 && nc != N - d->n)) {
+    Py_ssize_t nx = KD_COUNT(*dx), ni = KD_COUNT(*dx_index), nc = KD_COUNT(*dc);
+    if (d->n < 0 || d->n > N || (ni == 0 && nx != 0 && nx != d->n) || (ni != 0 && nx != ni)
+        || (nc != 0 && nc != N - d->n)) {
         PyErr_SetString(PyExc_ValueError, "diagonals of inconsistent sizes");
         return -1;
     }
     d->x = nx ? dx->buf : NULL;
+    d->x_index = ni ? dx_index->buf : NULL;
+    d->x_count = ni;
+    for (Py_ssize_t k = 0; k < ni; k++) {
+        int32_t j = d->x_index[k];
+        if (j < 0 || j >= d->n || (k > 0 && j <= d->x_index[k - 1])) {
+            PyErr_Format(PyExc_ValueError, "diagonal_x's index: entry %zd (%d) is not "
+                         "increasing within 0..n - 1", k, (int)j);
+            return -1;
+        }
+    }
     d->c = nc ? dc->buf : NULL;
     return 0;
 }
 
-/* the variable j's diagonal entry beside H's (the sum as NumPy's array + added_x) */
-static inline double kd_dx(const kd_diagonals *d, Py_ssize_t j) {
-    double value = d->x != NULL ? d->x[j] : d->x_constant;
+/* the variable j's diagonal entry beside H's (the sum as NumPy's array +
+   added_x), the variables taken in turn (j = 0, 1, ...) with `at` (0 at the
+   first) the place in an index */
+static inline double kd_dx(const kd_diagonals *d, Py_ssize_t j, Py_ssize_t *at) {
+    double value;
+    if (d->x_index == NULL) value = d->x != NULL ? d->x[j] : d->x_constant;
+    else if (*at < d->x_count && d->x_index[*at] == j) value = d->x[(*at)++];
+    else value = d->x_constant;
     return d->x_added != 0.0 ? value + d->x_added : value;
 }
 
@@ -657,13 +682,14 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, F_COUNT));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
     static const Py_ssize_t size[F_COUNT] = {8, 4, 4, 8, 8, 8, 4, 4, 4, 1, 4, 8, 4, 8, 4,
-                                             8, 8, 1};
+                                             8, 4, 8, 1};
     static const int writable[F_COUNT] = {1, 0, 1, 1, 1, 1, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0,
-                                          0, 1};
+                                          0, 0, 1};
     static const char *const names[F_COUNT] = {"Ax", "Lp", "Li", "Lx", "D", "E", "Ap", "Ai",
                                          "parent", "pair", "hessian map", "hessian_values",
                                          "jacobian map", "jacobian_values", "diagonal map",
-                                         "diagonal_x", "diagonal_c", "zero"};
+                                         "diagonal_x", "diagonal_x index", "diagonal_c",
+                                         "zero"};
     Py_buffer v[F_COUNT];
     if (kd_views(args, F_COUNT, v, size, writable, names) < 0) return NULL;
     double *Ax = v[F_AX].buf, *Lx = v[F_LX].buf, *D = v[F_D].buf, *E = v[F_E].buf;
@@ -676,7 +702,8 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     Py_ssize_t N = KD_COUNT(v[F_D]), nnz = KD_COUNT(v[F_AX]);
     Py_ssize_t nh = KD_COUNT(v[F_HV]), nj = KD_COUNT(v[F_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, F_COUNT + 1, &v[F_DX], &v[F_DC], N, &diagonals) < 0) {
+    if (kd_diagonals_of(args, F_COUNT + 1, &v[F_DX], &v[F_DXI], &v[F_DC], N,
+                        &diagonals) < 0) {
         kd_release(v, F_COUNT);
         return NULL;
     }
@@ -703,7 +730,7 @@ static PyObject *kd_factor(PyObject *self, PyObject *args) {
     memset(Ax, 0, sizeof(double) * (size_t)nnz);
     for (Py_ssize_t e = 0; e < nh; e++) Ax[hmap[e]] += hv[e];
     for (Py_ssize_t e = 0; e < nj; e++) Ax[jmap[e]] += jv[e];
-    for (Py_ssize_t j = 0; j < nx; j++) Ax[dmap[j]] += kd_dx(&diagonals, j);
+    for (Py_ssize_t j = 0, at = 0; j < nx; j++) Ax[dmap[j]] += kd_dx(&diagonals, j, &at);
     for (Py_ssize_t i = 0; i < nc; i++) Ax[dmap[nx + i]] -= kd_dc(&diagonals, i);
     /* the largest magnitude in each row of K (both triangles), and off the
        diagonal (and off a pair's block) */
@@ -1657,7 +1684,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
 }
 
 /* envelope_factor(Lx, rowptr, D, pair, permutation, hessian_values, jacobian_values,
-   diagonal_x, diagonal_c, zero, hessian_rows, hessian_cols, jacobian_rows,
+   diagonal_x, diagonal_x_index, diagonal_c, zero, hessian_rows, hessian_cols, jacobian_rows,
    jacobian_cols, tolerance, n, x_constant, x_added, c_constant), the indices
    each an int32 array or (runs, table) (kd_arg_of): the values
    summed into the envelope (as factor sums them into Ax: the Hessian's, the
@@ -1666,7 +1693,7 @@ static PyObject *kd_envelope(PyObject *self, PyObject *args) {
    of L is D^-1 w (blockwise) and d_k = K(k, k) - (row k of L) w; the pivots
    judged as factor judges them.  Returns (n_positive, n_negative, n_zero,
    K's largest magnitude) */
-enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_PERM, V_HV, V_JV, V_DX, V_DC, V_ZERO, V_COUNT};
+enum {V_LX, V_ROWPTR, V_D, V_PAIR, V_PERM, V_HV, V_JV, V_DX, V_DXI, V_DC, V_ZERO, V_COUNT};
 
 static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != V_COUNT + 9) {
@@ -1675,11 +1702,11 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     }
     double tolerance = PyFloat_AsDouble(PyTuple_GET_ITEM(args, V_COUNT + 4));
     if (tolerance == -1.0 && PyErr_Occurred()) return NULL;
-    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 8, 8, 8, 1};
-    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 1};
+    static const Py_ssize_t size[V_COUNT] = {8, 4, 8, 1, 4, 8, 8, 8, 4, 8, 1};
+    static const int writable[V_COUNT] = {1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 1};
     static const char *const names[V_COUNT] = {
         "Lx", "rowptr", "D", "pair", "permutation", "hessian_values", "jacobian_values",
-        "diagonal_x", "diagonal_c", "zero"};
+        "diagonal_x", "diagonal_x index", "diagonal_c", "zero"};
     Py_buffer v[V_COUNT + 8];
     kd_index index[4];
     int64_t runs[12];
@@ -1693,7 +1720,8 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
     int8_t *zero = v[V_ZERO].buf;
     Py_ssize_t N = KD_COUNT(v[V_D]), nh = KD_COUNT(v[V_HV]), nj = KD_COUNT(v[V_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, V_COUNT + 5, &v[V_DX], &v[V_DC], N, &diagonals) < 0) {
+    if (kd_diagonals_of(args, V_COUNT + 5, &v[V_DX], &v[V_DXI], &v[V_DC], N,
+                        &diagonals) < 0) {
         kd_release(v, V_COUNT + 8);
         return NULL;
     }
@@ -1757,7 +1785,7 @@ static PyObject *kd_envelope_factor(PyObject *self, PyObject *args) {
             Lx[KD_PLACE(rowptr, a, b)] += values[t];
         }
     }
-    for (Py_ssize_t j = 0; j < nx; j++) D[inv[j]] += kd_dx(&diagonals, j);
+    for (Py_ssize_t j = 0, at = 0; j < nx; j++) D[inv[j]] += kd_dx(&diagonals, j, &at);
     for (Py_ssize_t i = 0; i < nc; i++) D[inv[nx + i]] -= kd_dc(&diagonals, i);
     /* K's largest magnitude, and each column's below the diagonal off a pair's
        block (a row's own part is read at its step, before it is overwritten:
@@ -1904,21 +1932,22 @@ static PyObject *kd_envelope_solve(PyObject *self, PyObject *args) {
 }
 
 /* structured_matvec(y, x, hessian_values, jacobian_values, diagonal_x,
-   diagonal_c, hessian_rows, hessian_cols, jacobian_rows, jacobian_cols, n,
+   diagonal_x_index, diagonal_c, hessian_rows, hessian_cols, jacobian_rows, jacobian_cols, n,
    x_constant, x_added, c_constant), the indices as envelope_factor takes
    them: y = K x from the values as envelope_factor took them (K's own
    order) */
-enum {M_Y, M_X, M_HV, M_JV, M_DX, M_DC, M_COUNT};
+enum {M_Y, M_X, M_HV, M_JV, M_DX, M_DXI, M_DC, M_COUNT};
 
 static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     if (!PyTuple_Check(args) || PyTuple_GET_SIZE(args) != M_COUNT + 8) {
         PyErr_Format(PyExc_TypeError, "%d arguments expected", M_COUNT + 8);
         return NULL;
     }
-    static const Py_ssize_t size[M_COUNT] = {8, 8, 8, 8, 8, 8};
-    static const int writable[M_COUNT] = {1, 0, 0, 0, 0, 0};
+    static const Py_ssize_t size[M_COUNT] = {8, 8, 8, 8, 8, 4, 8};
+    static const int writable[M_COUNT] = {1, 0, 0, 0, 0, 0, 0};
     static const char *const names[M_COUNT] = {"y", "x", "hessian_values", "jacobian_values",
-                                               "diagonal_x", "diagonal_c"};
+                                               "diagonal_x", "diagonal_x index",
+                                               "diagonal_c"};
     Py_buffer v[M_COUNT + 8];
     kd_index index[4];
     int64_t runs[12];
@@ -1929,7 +1958,8 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     const double *x = v[M_X].buf, *hv = v[M_HV].buf, *jv = v[M_JV].buf;
     Py_ssize_t N = KD_COUNT(v[M_Y]), nh = KD_COUNT(v[M_HV]), nj = KD_COUNT(v[M_JV]);
     kd_diagonals diagonals;
-    if (kd_diagonals_of(args, M_COUNT + 4, &v[M_DX], &v[M_DC], N, &diagonals) < 0) {
+    if (kd_diagonals_of(args, M_COUNT + 4, &v[M_DX], &v[M_DXI], &v[M_DC], N,
+                        &diagonals) < 0) {
         kd_release(v, M_COUNT + 8);
         return NULL;
     }
@@ -1943,7 +1973,7 @@ static PyObject *kd_structured_matvec(PyObject *self, PyObject *args) {
     }
 
     Py_BEGIN_ALLOW_THREADS
-    for (Py_ssize_t k = 0; k < nx; k++) y[k] = kd_dx(&diagonals, k) * x[k];
+    for (Py_ssize_t k = 0, at = 0; k < nx; k++) y[k] = kd_dx(&diagonals, k, &at) * x[k];
     for (Py_ssize_t i = 0; i < nc; i++) y[nx + i] = -kd_dc(&diagonals, i) * x[nx + i];
     int32_t rbuf[KD_BLOCK], cbuf[KD_BLOCK];
     for (Py_ssize_t e0 = 0; e0 < nh; e0 += KD_BLOCK) {

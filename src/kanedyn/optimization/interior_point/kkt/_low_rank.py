@@ -32,6 +32,7 @@ from __future__ import annotations
 import numpy as np
 
 from .._quasi_newton import CompactHessian
+from ._diagonal import dense_diagonal
 
 __all__ = ["LowRankKKT"]
 
@@ -67,6 +68,7 @@ class LowRankKKT:
         if not isinstance(hessian, CompactHessian):
             return self.base.factor(hessian, jacobian_values, diagonal_x, diagonal_c,
                                     added_x)
+        diagonal_x = dense_diagonal(diagonal_x)
         diagonal = np.add(diagonal_x, added_x) if added_x else np.asarray(diagonal_x,
                                                                           dtype=float)
         inertia = self.base.factor(np.zeros(0), jacobian_values, diagonal + hessian.sigma,

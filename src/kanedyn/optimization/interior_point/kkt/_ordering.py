@@ -158,6 +158,18 @@ def _part(rows, cols, row_offset, mask=None):
             None if mask is None else np.ascontiguousarray(mask, dtype=bool))
 
 
+class _Pattern:
+    """A symmetric pattern's CSR arrays alone, ``indptr`` and ``indices``
+    (int32, read from the kernel's buffers without a copy), with ``shape``
+    and ``nnz``: what the orders read of the compressed graph (no array of
+    ones beside them, as SciPy's matrix holds)."""
+
+    def __init__(self, shape, made):
+        self.shape = shape
+        self.indptr, self.indices = (np.frombuffer(b, dtype=np.int32) for b in made)
+        self.nnz = self.indices.size
+
+
 def _made(shape, parts, symmetric):
     """The 0/1 pattern (CSR, int8 ones, int32 indices) of a ``shape`` matrix
     with the entries of ``parts``, each ``(rows, cols, row_offset[, mask])``
@@ -394,7 +406,7 @@ def elimination_order(n, m, hessian, jacobian, ordering="pairs", diagonal=None,
     where = np.full(N, -1, dtype=np.int32)  # -1 for a row left out
     where[keep] = compressed
     # (the Hessian's diagonal entries join a block to itself: left out)
-    compressed_graph = _csr((size,) * 2, kernel().compressed(
+    compressed_graph = _Pattern((size,) * 2, kernel().compressed(
         where, size, _part(hr, hc, 0), _part(jr, jc, n)))
     if size == 0:  # every row delayed or dense
         order = np.zeros(0, dtype=np.int64)

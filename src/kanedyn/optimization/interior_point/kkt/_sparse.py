@@ -141,6 +141,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ._analyses import SymbolicAnalysis, _digest, cached_analysis
+from ._diagonal import DiagonalEntries
 from ._kernel import kernel
 from ._ordering import ORDERINGS, elimination_order
 from ._periodic import ENTRIES_CHUNK, entries
@@ -259,6 +260,8 @@ def _values(value, size, name):
 
 _NO_ENTRIES = np.zeros(0)
 _NO_ENTRIES.flags.writeable = False
+_NO_INDEX = np.zeros(0, dtype=_INDEX)
+_NO_INDEX.flags.writeable = False
 
 
 def _number(value, name):
@@ -287,13 +290,22 @@ def _diagonal(value, size, name):
 
 def _diagonals(n, m, diagonal_x, diagonal_c, added_x):
     """The kernel's diagonals of n variables and m rows (:func:`_diagonal`;
-    ``added_x`` a finite number, a constant ``diagonal_c`` not negative):
-    ``(dx, dc, (n, x_constant, added_x, c_constant))``."""
-    dx, x_constant = _diagonal(diagonal_x, n, "diagonal_x")
+    ``diagonal_x`` also a :class:`~._diagonal.DiagonalEntries`, its index
+    the kernel's to check; ``added_x`` a finite number, a constant
+    ``diagonal_c`` not negative): ``(dx, dx_index, dc, (n, x_constant,
+    added_x, c_constant))`` (``dx_index`` without entries unless
+    ``diagonal_x`` has an index)."""
+    if isinstance(diagonal_x, DiagonalEntries):
+        if diagonal_x.size != n:
+            raise ValueError(f"diagonal_x must have {n} entries, not {diagonal_x.size}")
+        dx_index = np.ascontiguousarray(diagonal_x.index, dtype=_INDEX)
+        dx, x_constant = _values(diagonal_x.values, dx_index.size, "diagonal_x"), 0.0
+    else:
+        (dx, x_constant), dx_index = _diagonal(diagonal_x, n, "diagonal_x"), _NO_INDEX
     dc, c_constant = _diagonal(diagonal_c, m, "diagonal_c")
     if c_constant < 0.0:
         raise ValueError(f"diagonal_c = {c_constant!r} is negative")
-    return dx, dc, (n, x_constant, _number(added_x, "added_x"), c_constant)
+    return dx, dx_index, dc, (n, x_constant, _number(added_x, "added_x"), c_constant)
 
 
 def pairable_entries(m, jacobian_rows, jacobian_values, zero_pivot=ZERO_PIVOT):
@@ -584,9 +596,10 @@ class SparseKKT:
             The Hessian's entries, in the order of its structure.
         jacobian_values : array_like, shape (len(jacobian_structure[0]),)
             The Jacobian's entries, in the order of its structure.
-        diagonal_x : array_like, shape (n,), or float
+        diagonal_x : array_like, shape (n,), float, or DiagonalEntries
             Added to H's diagonal (a number: the same on every entry, no
-            array made).
+            array made; :class:`~._diagonal.DiagonalEntries`: its values at
+            its entries, 0 elsewhere, no array of every entry).
         diagonal_c : array_like, shape (m,), or float
             Its negative is the constraints' diagonal block; >= 0, may be 0
             (a number: the same on every row).
@@ -612,7 +625,7 @@ class SparseKKT:
         hv = _values(hessian_values, self._entries[0], "hessian_values")
         jv = _values(jacobian_values, self._entries[1], "jacobian_values")
         diagonals = _diagonals(self.n, self.m, diagonal_x, diagonal_c, added_x)
-        _check_values(self._kernel, (hv, jv) + diagonals[:2], _FACTOR_ARGUMENTS,
+        _check_values(self._kernel, (hv, jv, diagonals[0], diagonals[2]), _FACTOR_ARGUMENTS,
                       "diagonal_c")
         self.inertia = None  # no factors while the kernel overwrites them
         inertia = self._factor(hv, jv, diagonals)
@@ -647,12 +660,11 @@ class SparseKKT:
         """The kernel's factorization in the current order (``diagonals`` of
         :func:`_diagonals`): its inertia."""
         Ax, Li, Lx, D, E = self._storage()
-        dx, dc, constants = diagonals
         zero = self._zero_flags()
         return self._kept_zero(zero, self._kernel.factor(
             Ax, self._Lp, Li, Lx, D, E, self._Ap, self._Ai, self._parent, self._kind,
-            self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, dx, dc,
-            zero, self.zero_pivot, *constants))
+            self._hessian_map, hv, self._jacobian_map, jv, self._diagonal_map, *diagonals[:3],
+            zero, self.zero_pivot, *diagonals[3]))
 
     def _zero_flags(self):
         """(N,) int8 for a factorization to flag its zero pivots in (made for
@@ -696,8 +708,11 @@ class SparseKKT:
         largest = max(self._largest_entry(), 1e-300)
         self._numeric = None  # (made again by the next factor) not held meanwhile
         (hr, hc), (jr, _) = self._structures()
-        dx, _, (_, x_constant, added_x, _) = diagonals
-        diagonal = dx.copy() if dx.size else np.full(self.n, x_constant)
+        dx, dx_index, _, (_, x_constant, added_x, _) = diagonals
+        if dx_index.size:
+            diagonal = DiagonalEntries(dx_index, dx, self.n).dense()
+        else:
+            diagonal = dx.copy() if dx.size else np.full(self.n, x_constant)
         if added_x:
             diagonal += added_x
         # a Hessian diagonal in the pattern, not zero at these values (the
