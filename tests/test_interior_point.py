@@ -375,6 +375,40 @@ def test_the_start_pushed_into_the_bounds_as_ipopt_pushes_it(seed):
     assert np.array_equal(pushed[kind == 0], w[kind == 0])
 
 
+@pytest.mark.parametrize("kinds", ["both", "mixed"])
+def test_sigma_of_the_bounded_entries_alone_to_the_bit(kinds):
+    """``PrimalBounds.sigma`` gives :math:`\\Sigma` at the bounded entries
+    alone (one index array where every bounded entry has both bounds, else
+    their union), to the bit the sums on an array of every entry; its split
+    at n gives the variables' entries and the slacks' array.  A bound the
+    same (to the bit) on all its entries is held as one number, read only;
+    ``-0.0`` beside ``0.0`` is not the same."""
+    from kanedyn.optimization.interior_point._bounds import PrimalBounds
+    rng = np.random.default_rng(7)
+    size, n = 50, 40
+    kind = np.full(size, 3) if kinds == "both" else rng.integers(0, 4, size)
+    kind[::7] = 0 if kinds == "mixed" else 3
+    lower = np.where((kind == 1) | (kind == 3), -2.0, -np.inf)
+    upper = np.where(kind >= 2, 2.0, np.inf)
+    bounds = PrimalBounds(lower, upper, 1e-8, 1e-5)
+    assert (bounds.upper_index is bounds.lower_index) == (kinds == "both")
+    assert not bounds.lower.flags.writeable and bounds.lower.strides == (0,)
+    w = rng.uniform(-1.5, 1.5, size)
+    gaps = bounds.gaps(w)
+    z = [rng.uniform(0.1, 3.0, i.size) for i in (bounds.lower_index, bounds.upper_index)]
+    expected = np.zeros(size)
+    expected[bounds.lower_index] = z[0] / gaps[0]
+    expected[bounds.upper_index] += z[1] / gaps[1]
+    sigma = bounds.sigma(z[0], z[1], *gaps)
+    assert sigma.size == size and np.all(np.diff(sigma.index) > 0)
+    assert sigma.dense().tobytes() == expected.tobytes()
+    first, rest = sigma.split(n)
+    assert first.size == n and first.dense().tobytes() == expected[:n].tobytes()
+    assert rest.tobytes() == expected[n:].tobytes()
+    signed = PrimalBounds(np.array([0.0, -0.0]), np.full(2, np.inf), 0.0, 1e-5)
+    assert signed.lower.strides != (0,)
+
+
 def test_dense_kkt_refuses_a_bad_structure():
     with pytest.raises(ValueError, match="hessian_structure.*above the diagonal"):
         DenseKKT(3, 1, ([0], [2]), ([0], [0]))

@@ -1182,3 +1182,52 @@ def test_the_analysis_holds_little_and_makes_no_larger_temporaries():
     held, above = (held_2 - held_1) / 4000, ((peak_2 - held_2) - (peak_1 - held_1)) / 4000
     assert 100 < held <= 450
     assert above <= 800
+
+
+def test_a_diagonal_given_by_its_entries_factors_as_its_array():
+    """On 60 random KKTs (singular ones too, all three orders), a
+    ``diagonal_x`` given as :class:`DiagonalEntries` (its nonzero entries,
+    the interior point's barrier on the bounded variables) gives the
+    inertia, the new orders, the solution and K's product of its array to
+    the bit, with and without ``added_x``, on both storages and on
+    ``DenseKKT``."""
+    from kanedyn.optimization.interior_point.kkt._diagonal import DiagonalEntries
+    for seed in range(60):
+        n, m, hessian, jacobian, (hv, jv, dx, dc), ordering, rng = _random_case(seed)
+        index = np.flatnonzero(dx).astype(np.int32)
+        entries = DiagonalEntries(index, dx[index], n)
+        np.testing.assert_array_equal(entries.dense(), dx)
+        added = float(rng.choice([0.0, 1e-4]))
+        rhs = rng.normal(size=n + m)
+        for KKT in (SparseKKT, EnvelopeKKT):
+            given, dense = (KKT(n, m, hessian, jacobian, ordering=ordering) for _ in range(2))
+            assert given.factor(hv, jv, entries, dc, added) == \
+                dense.factor(hv, jv, dx, dc, added), seed
+            assert given.reanalyses == dense.reanalyses
+            assert np.array_equal(given.analysis.permutation, dense.analysis.permutation)
+            assert np.array_equal(given.solve(rhs), dense.solve(rhs), equal_nan=True), seed
+            assert np.array_equal(given.matvec(rhs), dense.matvec(rhs), equal_nan=True), seed
+        reference = DenseKKT(n, m, hessian, jacobian)
+        assert reference.factor(hv, jv, entries, dc, added) == \
+            DenseKKT(n, m, hessian, jacobian).factor(hv, jv, dx, dc, added)
+
+
+@BOTH
+def test_a_diagonals_entries_must_increase_within_the_variables(KKT):
+    """An index of ``DiagonalEntries`` that repeats, decreases or leaves
+    0..n - 1, or a size other than n, is refused, naming diagonal_x."""
+    from kanedyn.optimization.interior_point.kkt._diagonal import DiagonalEntries
+    rng = np.random.default_rng(4)
+    n, m = 6, 2
+    hr, hc, jr, jc = _random_kkt(rng, n, m)
+    kkt = KKT(n, m, (hr, hc), (jr, jc))
+    hv, jv = rng.normal(size=hr.size), rng.normal(size=jr.size)
+    for index in ([1, 1], [3, 2], [0, 6], [-1, 2]):
+        entries = DiagonalEntries(np.array(index, dtype=np.int32), np.ones(2), n)
+        with pytest.raises(ValueError, match="diagonal_x's index"):
+            kkt.factor(hv, jv, entries, 0.0)
+    with pytest.raises(ValueError, match="diagonal_x must have 6 entries, not 7"):
+        kkt.factor(hv, jv, DiagonalEntries(np.array([1], np.int32), np.ones(1), 7), 0.0)
+    with pytest.raises(ValueError, match=r"diagonal_x\[1\] is not finite"):
+        kkt.factor(hv, jv, DiagonalEntries(np.array([1, 2], np.int32),
+                                           np.array([1.0, np.nan]), n), 0.0)

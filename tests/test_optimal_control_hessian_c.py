@@ -131,6 +131,24 @@ def test_weighted_hessian_pattern_holds_every_nonzero(name, extra):
     np.testing.assert_array_equal(weighted_hessian_pattern(clone, parameters, time), pattern)
 
 
+def test_hessian_pattern_leaves_out_terms_that_cancel():
+    """The pendulum's forces hold centripetal terms in the rate that cancel
+    (its bob's acceleration along the rod dotted with a partial velocity
+    across it): written, their second derivatives are not SymPy's zero, so a
+    pattern of the derivatives as written (``EXPANDED_NODES = 0``: none
+    expanded) holds the rate's row; expanded they are zero, and the pattern
+    holds the angle's entry alone, on both backends."""
+    from unittest import mock
+    from kanedyn.numerics import _hessians
+    definition = kd.models.build("pendulum", torque=True)
+    for backend in ("numpy", "c"):
+        pattern = weighted_hessian_pattern(definition.numeric(backend=backend))
+        assert np.argwhere(pattern).tolist() == [[0, 0]], backend
+    with mock.patch.object(_hessians, "EXPANDED_NODES", 0):
+        written = weighted_hessian_pattern(definition.numeric(backend="numpy"))
+    assert np.argwhere(written).tolist() == [[0, 0], [0, 1], [1, 0], [1, 1]]
+
+
 def _chain_problem(model, symbols, method):
     """chain3d n = 3: the mass and the length of its links and the duration free."""
     definition = kd.models.build("chain3d", n=3)

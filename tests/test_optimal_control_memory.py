@@ -204,3 +204,24 @@ def test_one_points_hessian_map_gives_every_points_sums(method):
     every = nlp.hessian(z, multipliers, 0.7)
     assert all(p.maps(39)[0].shape[0] == p.size for p in kinds)
     np.testing.assert_array_equal(alike, every)
+
+
+
+def test_a_terms_zero_part_adds_nothing_to_the_gradient():
+    """The swing-up's integrand tau^2 has no derivative in the states: its
+    part is a read-only broadcast of 0.0 (``identically_zero``, unlike an
+    array of zeros, or a slice of one), which the gradient skips (no array
+    of zeros made and added): the gradient is still h * 2 tau at each later
+    node of an interval (backward Euler), 0 elsewhere, to the bit."""
+    from kanedyn.optimization._terms import identically_zero
+    problem = _swing_up(50)
+    t, Y, R = np.linspace(0, 1, 50), np.ones((50, 2)), np.ones((50, 1))
+    _, _, d_y, d_r, _, _ = problem.lagrange(t, Y, R, np.zeros(0), 10.0)
+    assert identically_zero(d_y) and identically_zero(d_y[1:])
+    assert not identically_zero(d_r) and not identically_zero(np.zeros(3))
+    nodes = 600
+    z, h = _guess(nodes), 10.0 / (nodes - 1)
+    gradient = CollocationNLP(_swing_up(nodes)).gradient(z)
+    expected = np.zeros_like(z)
+    expected[2 * nodes + 1:] = h * 2.0 * z[2 * nodes + 1:]
+    assert gradient.tobytes() == expected.tobytes()
