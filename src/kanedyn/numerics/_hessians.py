@@ -108,7 +108,16 @@ def _specification(model, parameters=(), time=False):
         start, n = len(v) - o - len(extra), len(rows) - o
         outputs.append(((o, len(extra)), [first[n + i, start + j] for i in range(o)
                                           for j in range(len(extra))]))
-    pattern = _contracted_pattern(_nonzero(prog, first), _nonzero(prog, second), len(rows), o)
+    nr, nv = len(rows), len(v)
+    # the groups of entries whose any() the contracted pattern takes: of the
+    # first derivatives E_x by column (g's rows and w's columns unused), of
+    # the second by unordered pair of variables
+    r, c = np.divmod(np.arange(nr * nv), nv)
+    first_groups = np.where((r >= nr - o) & (c < nv - o), c, -1)
+    i, j = np.divmod(np.arange(nr * nv * nv) % (nv * nv), nv)
+    second_groups = np.minimum(i, j) * nv + np.maximum(i, j)
+    pattern = _contracted_pattern(_nonzero(prog, list(first), first_groups),
+                                  _nonzero(prog, list(second), second_groups), nr, o)
     return prog, dict(args, r=list(args["r"]) + w), outputs, pattern
 
 
@@ -117,19 +126,40 @@ def _specification(model, parameters=(), time=False):
 #: nonzero unless they are SymPy's zero)
 EXPANDED_NODES = 400
 
+#: a derivative of this magnitude or more at a random point (its leaves in
+#: [0.5, 1.5)) is not identically zero (terms that cancel leave rounding)
+_SHOWN_NONZERO = 1e-8
 
-def _nonzero(prog, derivatives):
-    """(len(derivatives),) bool: the derivatives (of ``prog``) not identically
-    zero.  Beside SymPy's zero, one whose explicit expression (of at most
-    :data:`EXPANDED_NODES` nodes) expands to zero is zero: terms of the
+
+def _nonzero(prog, derivatives, groups):
+    """(len(derivatives),) bool: where the derivatives (of ``prog``) can be
+    nonzero, as the pattern reads them: whether any entry of each group
+    (``groups``: the group of each entry, -1 for one the pattern does not
+    read) is.  Beside SymPy's zero, one whose explicit expression (of at
+    most :data:`EXPANDED_NODES` nodes) expands to zero is zero: terms of the
     model's forces that cancel (a point's centripetal acceleration along the
     normal of its partial velocity) otherwise keep entries of the Hessian
-    that are zero at every point."""
+    that are zero at every point.  A group with an entry whose value at a
+    random point (the program's ``shadow``) is clearly not zero is not
+    zero; the others' entries are expanded the smallest first, until one is
+    not zero (the rest need not be)."""
     import sympy as sm
-    sizes, out = {}, np.zeros(len(derivatives), dtype=bool)
-    for k, e in enumerate(derivatives):
-        out[k] = e != 0 and (prog.tree_size(e, sizes) > EXPANDED_NODES
-                             or sm.expand(prog.expand(e)) != 0)
+    from ..engine import SAMPLE_SEEDS
+    out = np.array([e != 0 for e in derivatives], dtype=bool)
+    candidates = np.flatnonzero(out & (groups >= 0))
+    sampled = np.abs(np.array(prog.shadow([derivatives[k] for k in candidates],
+                                          SAMPLE_SEEDS[0]), dtype=complex))
+    members, sizes, shown = {}, {}, set()
+    for k, value in zip(candidates, sampled):
+        members.setdefault(int(groups[k]), []).append(int(k))
+        if value > _SHOWN_NONZERO:  # (NaN is not: the evaluation failed)
+            shown.add(int(groups[k]))
+    for group in (g for g in members if g not in shown):
+        for k in sorted(members[group], key=lambda k: prog.tree_size(derivatives[k], sizes)):
+            e = derivatives[k]
+            if prog.tree_size(e, sizes) > EXPANDED_NODES or sm.expand(prog.expand(e)) != 0:
+                break  # the group can be nonzero
+            out[k] = False
     return out
 
 
