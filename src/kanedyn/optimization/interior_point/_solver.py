@@ -521,8 +521,10 @@ class _Run:
 
         def again():
             made = held if held is not None else self.hessian_values(e, y, 1.0)
-            return made, self.jacobian_at(e), self.bounds.sigma(z_lower, z_upper, gap_lower,
-                                                                 gap_upper)
+            jacobian = self.jacobian_at(e)
+            if held is None:  # (exact) not held by the point through the correction's trial
+                e.jacobian = None
+            return made, jacobian, self.bounds.sigma(z_lower, z_upper, gap_lower, gap_upper)
         return again
 
     def direction(self, stepper, bounds, hessian, jacobian, sigma, residual_w, c, z_lower,
@@ -754,9 +756,10 @@ class _Run:
                                                             if corrected
                                                             else ("f" if f_type else "h")))
             # this step's arrays are not held into the new point's derivatives,
-            # measures, Hessian and factorization
+            # measures, Hessian and factorization, nor its matrix's inputs
             del gradient_w, residual_w, direction, step, step_used, found, \
                 dw, dy, dz_lower, dz_upper
+            self.stepper.release()
             if e.gradient is None and not self._derivatives(e):  # (a soft step's has them)
                 self.iteration += 1
                 return self._result(-13, w, y, z_lower, z_upper, e)

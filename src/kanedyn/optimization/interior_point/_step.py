@@ -231,8 +231,9 @@ class StepSolver:
         second-order correction's), refined iteratively; ``None`` if not finite."""
         n = self.n
         slack_diagonal, delta_w, delta_c = self._state
-        if self._again is not None:  # released: the same matrix factored again
-            self._factor(*self._again(), delta_w, delta_c)
+        again = self._again
+        if again is not None:  # released: the same matrix factored again
+            self._factor(*again(), delta_w, delta_c)
         residual_s = residual_w[n:]
         # the inequality rows' part of rhs (held: rhs is made again in parts)
         slacks = (np.bincount(self.inequality, weights=self.signs * residual_s / slack_diagonal,
@@ -259,6 +260,8 @@ class StepSolver:
         # solved in rhs's own storage: rhs is made again in parts where needed
         solution = self._refined(self.kkt.solve(rhs, overwrite=True), rhs_part, scale)
         del rhs
+        if again is not None:  # and let go again (a correction's trial point next)
+            self.release(again)
         if not all_finite(solution):
             return None
         dx, dy = solution[:n], solution[n:]
