@@ -500,10 +500,10 @@ def test_a_second_order_correction_factors_the_steps_matrix_again(hessian, peer,
         factored.append(tuple(_copy(v) for v in inputs))
         return factor(self, *inputs)
 
-    def recording_solve(self, residual_w, residual_c):
+    def recording_solve(self, residual_w, residual_c, **options):
         if self._again is not None:  # the next factorization is the one made again
             again.append(len(factored))
-        return solve(self, residual_w, residual_c)
+        return solve(self, residual_w, residual_c, **options)
     evaluated_again = []
     jacobian_at = _solver._Run.jacobian_at
 
@@ -848,3 +848,42 @@ def test_the_gradient_evaluated_again_after_the_step_gives_the_same_iterates(
     for key in held.multipliers:
         assert np.asarray(held.multipliers[key]).tobytes() == \
             np.asarray(again.multipliers[key]).tobytes()
+
+
+def test_corrections_factored_again_each_give_the_same_iterates(monkeypatch):
+    """A large problem's second-order correction lets its factors go once it
+    is solved (not held through its trial point) and makes them again for a
+    further correction (``CORRECTION_AGAIN_BYTES``): with the size lowered to
+    0, the 50-node Hermite-Simpson swing-up of the pendulum, whose line
+    searches make several corrections in a row, takes the same iterates to
+    the bit, with one factorization more for each correction after a line
+    search's first; after the corrections no factors are held."""
+    from kanedyn.optimization.interior_point import _solver, _step
+    problem, guess = _swing_up("pendulum", 50, "hermite-simpson", 0.1)
+    solves, held_after = [], []
+    solve, second_order = _step.StepSolver.solve, _solver._Run._second_order
+
+    def counted_solve(self, residual_w, residual_c, **options):
+        solves.append(self._again is not None)
+        return solve(self, residual_w, residual_c, **options)
+
+    def watched(self, *args):
+        found = second_order(self, *args)
+        held_after.append(self.stepper.kkt.inertia is not None)  # (released: None)
+        return found
+    monkeypatch.setattr(_step.StepSolver, "solve", counted_solve)
+    monkeypatch.setattr(_solver._Run, "_second_order", watched)
+
+    def solved():
+        solves.clear()
+        result = problem.solve(guess, solver="interior-point", hessian="exact",
+                               options={"max_iter": 40})
+        return result, list(solves)
+    once, made_once = solved()
+    monkeypatch.setattr(_solver, "CORRECTION_AGAIN_BYTES", 0)
+    each, made_each = solved()
+    assert once.iterations == each.iterations
+    assert once.x.tobytes() == each.x.tobytes()
+    corrections = len(made_once) - made_once.count(False)  # solves after a release
+    assert len(made_each) == len(made_once) and made_each.count(True) > corrections > 0
+    assert held_after and not any(held_after)

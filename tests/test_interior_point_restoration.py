@@ -112,10 +112,9 @@ def test_refinement_makes_the_right_hand_side_again_in_chunks(monkeypatch):
 def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     """The solver releases the factors after the step (not held through the
     line search); a second-order correction's solve then factors the same
-    matrix again: the same solution to the bit, one factorization more, and
-    lets the factors go again (not held through the correction's trial
-    point): a further correction factors again.  Released without the inputs
-    (a new point), a solve has no factors."""
+    matrix again: the same solution to the bit, one factorization more (and
+    with ``release`` let go again after the solve, made again for the
+    next).  Released without the inputs (a new point), a solve has no factors."""
     from kanedyn.optimization.interior_point import EnvelopeKKT, SparseKKT
     rng = np.random.default_rng(5)
     n, m = 6, 3
@@ -138,7 +137,13 @@ def test_released_factors_are_made_again_for_a_later_solve(linear_solver):
     np.testing.assert_array_equal(again.primal, held.primal)
     np.testing.assert_array_equal(again.rows, held.rows)
     assert stepper.solve(residual_w, residual_c).primal.tolist() == held.primal.tolist()
-    assert stepper.factorizations == count + 2  # factored again, let go again
+    assert stepper.factorizations == count + 1  # factored once, then held again
+    # released after each solve (a large problem's corrections): made again each time
+    stepper.release(again=lambda: inputs)
+    for k in (2, 3):
+        assert stepper.solve(residual_w, residual_c, release=True).primal.tolist() == \
+            held.primal.tolist()
+        assert stepper.factorizations == count + k
     stepper.release()
     if linear_solver != "dense":
         with pytest.raises(ValueError, match="nothing is factored"):

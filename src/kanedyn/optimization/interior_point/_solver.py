@@ -90,6 +90,11 @@ ALMOST_FEASIBLE = 1e-2
 #: an iteration at 100 and 10,000 swing-up nodes, so only for large problems)
 #: for 8 bytes a variable at the peak
 GRADIENT_AGAIN_BYTES = 1 << 22
+#: with a primal vector of this many bytes or more, a second-order
+#: correction's factors, made again for it, are let go once it is solved
+#: (not held through its trial point's evaluation) and made again for a
+#: further correction; below, one factorization serves them all
+CORRECTION_AGAIN_BYTES = 1 << 22
 
 
 def kkt_class(choice):
@@ -847,29 +852,33 @@ class _Run:
         theta_old = theta_trial
         gap_lower, gap_upper = m["gap_lower"], m["gap_upper"]
         lo, up = B.lower_index, B.upper_index
-        for _ in range(int(s.max_soc)):
-            # the rejected point's evaluation is not held through the factorization
-            self._drop_nlp_evaluation()
-            t = time.perf_counter()
-            corrected = self.stepper.solve(residual_w, c_soc)
-            self.timings["factor_solve"] += time.perf_counter() - t
-            if corrected is None:
-                return None
-            dw = corrected.primal
-            alpha_soc = min(fraction_to_boundary(gap_lower, dw[lo], tau),
-                            fraction_to_boundary(gap_upper, -dw[up], tau))
-            soc_trial = self._trial(w + alpha_soc * dw, mu)
-            if soc_trial is None:
-                return None
-            accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, soc_trial[2],
-                                                   soc_trial[3])
-            if accepted:
-                return soc_trial, alpha_soc, corrected, f_type
-            if soc_trial[2] > s.kappa_soc * theta_old:
-                return None
-            theta_old = soc_trial[2]
-            c_soc = alpha_soc * c_soc + soc_trial[5]
-        return None
+        again = w.nbytes >= CORRECTION_AGAIN_BYTES
+        try:
+            for _ in range(int(s.max_soc)):
+                # the rejected point's evaluation is not held through the factorization
+                self._drop_nlp_evaluation()
+                t = time.perf_counter()
+                corrected = self.stepper.solve(residual_w, c_soc, release=again)
+                self.timings["factor_solve"] += time.perf_counter() - t
+                if corrected is None:
+                    return None
+                dw = corrected.primal
+                alpha_soc = min(fraction_to_boundary(gap_lower, dw[lo], tau),
+                                fraction_to_boundary(gap_upper, -dw[up], tau))
+                soc_trial = self._trial(w + alpha_soc * dw, mu)
+                if soc_trial is None:
+                    return None
+                accepted, f_type = line_filter.accepts(theta, phi, slope, alpha, soc_trial[2],
+                                                       soc_trial[3])
+                if accepted:
+                    return soc_trial, alpha_soc, corrected, f_type
+                if soc_trial[2] > s.kappa_soc * theta_old:
+                    return None
+                theta_old = soc_trial[2]
+                c_soc = alpha_soc * c_soc + soc_trial[5]
+            return None
+        finally:  # the factors made again (for all the corrections) not held past them
+            self.stepper.release()
 
 
 def _system_error(m, z_lower, z_upper, mu):

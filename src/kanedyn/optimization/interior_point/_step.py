@@ -226,9 +226,11 @@ class StepSolver:
             del error
         return solution
 
-    def solve(self, residual_w, residual_c):
+    def solve(self, residual_w, residual_c, release=False):
         """The step with the last factorization for these residuals (also the
-        second-order correction's), refined iteratively; ``None`` if not finite."""
+        second-order correction's), refined iteratively; ``None`` if not finite.
+        ``release``: factors made again for this solve (:meth:`release`) are
+        let go again after it, kept to be made again."""
         n = self.n
         slack_diagonal, delta_w, delta_c = self._state
         again = self._again
@@ -260,7 +262,7 @@ class StepSolver:
         # solved in rhs's own storage: rhs is made again in parts where needed
         solution = self._refined(self.kkt.solve(rhs, overwrite=True), rhs_part, scale)
         del rhs
-        if again is not None:  # and let go again (a correction's trial point next)
+        if release and again is not None:
             self.release(again)
         if not all_finite(solution):
             return None
