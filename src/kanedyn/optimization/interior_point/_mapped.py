@@ -5,7 +5,7 @@ glibc serves a freed array of a few MB again from its heap once its mmap
 threshold has risen past that size (it rises to the largest block freed,
 up to 32 MiB), and a heap shrinks only from its top: arrays still alive
 above freed ones keep those resident.  On the swing-up between 1 and 2
-million nodes the resident memory grew by 45–61 bytes a node more with
+million nodes the resident memory grew by 29–61 bytes a node more with
 NumPy's allocator than with this module (`docs/benchmarks.md`).  So, while
 the interior point runs, NumPy's arrays of :data:`MAPPED_BYTES` or more are
 given a memory handler of their own
